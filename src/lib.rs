@@ -6,6 +6,7 @@
 
 pub mod backends;
 pub mod diag;
+pub mod io;
 pub mod ir;
 pub mod parser;
 pub mod span;
