@@ -1,7 +1,25 @@
 //! The `shadec` CLI: argument parsing in `args.rs`, one module per subcommand.
+//!
+//! Exit status everywhere: 0 success, 1 errors in the user's source, 2 usage
+//! or I/O errors.
+
+mod args;
+mod check;
+mod fmt;
 
 use std::process::ExitCode;
 
+use clap::Parser as _;
+
+pub use args::{Cli, Command};
+
+pub const EXIT_SOURCE_ERRORS: u8 = 1;
+pub const EXIT_USAGE_OR_IO: u8 = 2;
+
 pub fn main() -> ExitCode {
-    ExitCode::SUCCESS
+    let cli = Cli::parse();
+    match cli.command {
+        Command::Check(args) => check::run(&args),
+        Command::Fmt(args) => fmt::run(&args),
+    }
 }

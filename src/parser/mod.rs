@@ -1,1 +1,69 @@
-//! The front end: `.shd` text → AST with spans (grammar in `grammar/shade.pest`).
+//! The front end: `.shd` text → AST with spans, plus every syntax error.
+//!
+//! Parsing never fails: `parse` returns the items it could read and the
+//! diagnostics for the rest (after rust-analyzer's invariant). Recovery is by
+//! item: the text is split at each top-level `;` (and after a top-level
+//! `{ … }` block), and each piece is parsed with the `item` rule of
+//! `grammar/shade.pest`, so one error never hides the next. Bracket nesting is
+//! bounded before pest sees a piece, and expression depth while the tree is
+//! built, so no input can overflow the stack.
+
+pub mod ast;
+mod build;
+mod errors;
+pub mod print;
+pub mod resolve;
+mod split;
+
+use pest::Parser as _;
+
+use crate::diag::Diagnostic;
+
+/// The pest parser generated from `grammar/shade.pest`.
+#[derive(pest_derive::Parser)]
+#[grammar = "../grammar/shade.pest"]
+pub(crate) struct ShadeParser;
+
+/// Deepest bracket nesting accepted: `(((…)))` beyond this is an error.
+pub const MAX_NESTING: usize = 64;
+/// Deepest expression tree accepted (operator chains, application chains).
+pub const MAX_EXPR_DEPTH: usize = 1000;
+
+/// Parses a whole program. Items with errors are left out of the AST.
+pub fn parse(source: &str) -> (ast::Program, Vec<Diagnostic>) {
+    let mut program = ast::Program::default();
+    let mut diagnostics = Vec::new();
+    for piece in split::split_items(source) {
+        if let Some(d) = piece.error {
+            diagnostics.push(d);
+            continue;
+        }
+        let text = &source[piece.range.clone()];
+        if is_blank(text) {
+            continue;
+        }
+        match ShadeParser::parse(Rule::item, text) {
+            Ok(mut pairs) => {
+                let item = pairs.next().expect("the item rule produces one pair");
+                match build::item(item, piece.range.start) {
+                    Ok(item) => program.items.push(item),
+                    Err(errs) => diagnostics.extend(errs),
+                }
+            }
+            Err(err) => diagnostics.push(errors::from_pest(err, text, piece.range.start)),
+        }
+    }
+    (program, diagnostics)
+}
+
+/// Parses and resolves names: every diagnostic `shadec check` reports.
+pub fn check(source: &str) -> (ast::Program, Vec<Diagnostic>) {
+    let (program, mut diagnostics) = parse(source);
+    diagnostics.extend(resolve::resolve(&program));
+    diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
+    (program, diagnostics)
+}
+
+fn is_blank(text: &str) -> bool {
+    ShadeParser::parse(Rule::blank, text).is_ok()
+}

@@ -1,0 +1,60 @@
+//! Every command-line argument of `shadec` (clap derive; doc comments are the help text).
+
+use std::path::PathBuf;
+
+use clap::{Parser, Subcommand, ValueEnum};
+
+/// shadec — compile shading pipelines written in the notation of "A graphics
+/// pipeline grammar" to register combiners and WGSL.
+#[derive(Debug, Parser)]
+#[command(name = "shadec", version, about, max_term_width = 100)]
+pub struct Cli {
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Parse and check programs; report every error with file:line:col.
+    ///
+    /// Exit status: 0 when every file is clean (warnings allowed), 1 when a
+    /// file has errors, 2 on usage or I/O errors.
+    Check(CheckArgs),
+    /// Print a program in canonical form (Unicode, or ASCII with --ascii).
+    Fmt(FmtArgs),
+}
+
+#[derive(Debug, clap::Args)]
+pub struct CheckArgs {
+    /// Files or folders (searched recursively for `*.shd`).
+    #[arg(required = true, value_name = "FILE|DIR")]
+    pub paths: Vec<PathBuf>,
+    /// How to print diagnostics.
+    #[arg(long, value_enum, default_value_t = Format::Human)]
+    pub format: Format,
+    /// Treat warnings as errors.
+    #[arg(long)]
+    pub deny_warnings: bool,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct FmtArgs {
+    /// The program to print.
+    pub file: PathBuf,
+    /// Spell every symbol in ASCII (`delta`, `pi`, `<-`, `(+)`, `(.)`).
+    #[arg(long)]
+    pub ascii: bool,
+    /// Write here (atomically) instead of standard output.
+    #[arg(short, long, value_name = "OUT")]
+    pub output: Option<PathBuf>,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Format {
+    /// rustc-like: the source line, the span underlined, a help line.
+    Human,
+    /// One line per diagnostic: `file:line:col: error[code]: message`.
+    Short,
+    /// One JSON document with LSP `Diagnostic` objects per file.
+    Json,
+}

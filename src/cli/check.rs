@@ -1,0 +1,162 @@
+//! `shadec check FILE|DIR…`: every diagnostic of every file, then a summary.
+
+use std::io::IsTerminal as _;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+use serde::Serialize;
+use shadec::diag::{LspDiagnostic, Severity, SourceFile};
+
+use super::args::{CheckArgs, Format};
+use super::{EXIT_SOURCE_ERRORS, EXIT_USAGE_OR_IO};
+
+/// The JSON document `--format json` prints: one per run.
+#[derive(Serialize)]
+#[serde(rename_all = "camelCase")]
+struct Report {
+    files: Vec<FileReport>,
+    io_errors: Vec<String>,
+    summary: Summary,
+}
+
+#[derive(Serialize)]
+struct FileReport {
+    uri: String,
+    path: String,
+    diagnostics: Vec<LspDiagnostic>,
+}
+
+#[derive(Serialize, Default)]
+struct Summary {
+    files: usize,
+    clean: usize,
+    errors: usize,
+    warnings: usize,
+}
+
+pub fn color_stderr() -> bool {
+    std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none()
+}
+
+pub fn run(args: &CheckArgs) -> ExitCode {
+    let mut io_errors = Vec::new();
+    let files = collect_files(&args.paths, &mut io_errors);
+    let mut report = Report { files: Vec::new(), io_errors: Vec::new(), summary: Summary::default() };
+    let color = color_stderr();
+    for path in &files {
+        let text = match shadec::io::read_text(path) {
+            Ok(t) => t,
+            Err(e) => {
+                io_errors.push(e.to_string());
+                continue;
+            }
+        };
+        let (program, diagnostics) = shadec::parser::check(&text);
+        let file = SourceFile::new(path.display().to_string(), text);
+        let n_errors = diagnostics.iter().filter(|d| d.severity == Severity::Error).count();
+        let n_warnings = diagnostics.iter().filter(|d| d.severity == Severity::Warning).count();
+        report.summary.files += 1;
+        report.summary.errors += n_errors;
+        report.summary.warnings += n_warnings;
+        if n_errors == 0 && (n_warnings == 0 || !args.deny_warnings) {
+            report.summary.clean += 1;
+        }
+        match args.format {
+            Format::Human => {
+                eprint!("{}", file.render(&diagnostics, color));
+                let status = match (n_errors, n_warnings) {
+                    (0, 0) => "ok".to_string(),
+                    (0, w) => format!("ok, {w} warning{}", plural(w)),
+                    (e, w) => format!("{e} error{}, {w} warning{}", plural(e), plural(w)),
+                };
+                println!("{:<48} {status:<22} {} items", path.display(), program.items.len());
+            }
+            Format::Short => print!("{}", file.render_short(&diagnostics)),
+            Format::Json => report.files.push(FileReport {
+                uri: file_uri(path),
+                path: path.display().to_string(),
+                diagnostics: file.to_lsp(&file_uri(path), &diagnostics),
+            }),
+        }
+    }
+    let s = &report.summary;
+    match args.format {
+        Format::Json => {
+            report.io_errors = io_errors.clone();
+            println!("{}", serde_json::to_string_pretty(&report).expect("the report serializes"));
+        }
+        _ => {
+            for e in &io_errors {
+                eprintln!("error: {e}");
+            }
+            println!(
+                "checked {} file{}: {} clean, {} error{}, {} warning{}",
+                s.files,
+                plural(s.files),
+                s.clean,
+                s.errors,
+                plural(s.errors),
+                s.warnings,
+                plural(s.warnings)
+            );
+        }
+    }
+    if !io_errors.is_empty() {
+        ExitCode::from(EXIT_USAGE_OR_IO)
+    } else if s.errors > 0 || (args.deny_warnings && s.warnings > 0) {
+        ExitCode::from(EXIT_SOURCE_ERRORS)
+    } else {
+        ExitCode::SUCCESS
+    }
+}
+
+fn plural(n: usize) -> &'static str {
+    if n == 1 {
+        ""
+    } else {
+        "s"
+    }
+}
+
+/// The `.shd` files named, folders searched recursively, in sorted order.
+fn collect_files(paths: &[PathBuf], io_errors: &mut Vec<String>) -> Vec<PathBuf> {
+    let mut files = Vec::new();
+    for path in paths {
+        if path.is_dir() {
+            let before = files.len();
+            walk(path, &mut files, io_errors);
+            if files.len() == before {
+                io_errors.push(format!("{}: no `.shd` files in this folder", path.display()));
+            }
+        } else if path.exists() {
+            files.push(path.clone());
+        } else {
+            io_errors.push(format!("{}: no such file or folder", path.display()));
+        }
+    }
+    files
+}
+
+fn walk(dir: &Path, files: &mut Vec<PathBuf>, io_errors: &mut Vec<String>) {
+    let entries = match std::fs::read_dir(dir) {
+        Ok(e) => e,
+        Err(e) => {
+            io_errors.push(format!("{}: cannot read folder: {e}", dir.display()));
+            return;
+        }
+    };
+    let mut paths: Vec<PathBuf> = entries.filter_map(|e| e.ok().map(|e| e.path())).collect();
+    paths.sort();
+    for p in paths {
+        if p.is_dir() {
+            walk(&p, files, io_errors);
+        } else if p.extension().is_some_and(|e| e == "shd") {
+            files.push(p);
+        }
+    }
+}
+
+fn file_uri(path: &Path) -> String {
+    let abs = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
+    format!("file://{}", abs.display())
+}

@@ -1,0 +1,399 @@
+//! The syntax tree of a `.shd` program: owned, every node with its byte span.
+//!
+//! It mirrors the notation of seeds/001 Section 2 (Figure 2): application is
+//! right to left (`T δ u x` is `T(δ(u(x)))`), δ marks rasterization
+//! (interpolate, then sample), π the projection, ⊕ a colour combination, and
+//! the left side of `←` a table (framebuffer C, texture T, or a vertex
+//! attribute such as `u`) indexed by pixel, texel or vertex.
+
+use crate::span::Span;
+
+/// A whole program: declarations and statements in source order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Program {
+    pub items: Vec<Item>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Item {
+    pub kind: ItemKind,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum ItemKind {
+    Target(TargetDecl),
+    Texture(TextureDecl),
+    Framebuffer(FramebufferDecl),
+    Vector(VectorDecl),
+    Params(ParamsDecl),
+    Const(ConstDecl),
+    Uniform(UniformDecl),
+    Let(LetDecl),
+    Shader(ShaderDecl),
+    Statement(Statement),
+}
+
+/// A name as the paper writes it: a base, primes (`T'''`, `u′`) and an
+/// optional star mark for per-pass operators (`s*`, `T*`, seeds/001 (9)).
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct Name {
+    pub base: String,
+    pub primes: u8,
+    pub star: bool,
+    pub span: Span,
+}
+
+impl Name {
+    /// The name as written in ASCII (`T'''`, `s*`): the key names are resolved by.
+    pub fn key(&self) -> String {
+        let mut s = self.base.clone();
+        s.extend(std::iter::repeat_n('\'', self.primes as usize));
+        if self.star {
+            s.push('*');
+        }
+        s
+    }
+}
+
+/// A word with its span, already classified into `T` (a kind, format, mode…).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Word<T> {
+    pub value: T,
+    pub span: Span,
+}
+
+/// `target geforce256;` — the profile whose limits the program must fit.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TargetDecl {
+    pub profile: Word<String>,
+}
+
+/// `texture T, T' : 2d rgba8 mipmap = image("brick.png");`
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextureDecl {
+    pub names: Vec<Name>,
+    pub kind: Word<TextureKind>,
+    pub format: Option<Word<TextureFormat>>,
+    pub attrs: Vec<Word<TextureAttr>>,
+    /// An image file, a generator (`normalize_cube(32)`), or nothing when
+    /// statements render into it (texture shading, seeds/001 (13)).
+    pub source: Option<Expr>,
+}
+
+/// `framebuffer Cl : depth;` — a table indexed by screen position.
+#[derive(Clone, Debug, PartialEq)]
+pub struct FramebufferDecl {
+    pub names: Vec<Name>,
+    /// Empty means the default: `rgba8, depth, stencil`.
+    pub channels: Vec<Word<FramebufferChannel>>,
+}
+
+/// `vector L : light(0) in tangent;` or `vector H = normalize(L + V);` —
+/// the shading vectors of seeds/001 Figure 3.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VectorDecl {
+    pub names: Vec<Name>,
+    pub role: Option<VectorRole>,
+    pub value: Option<Expr>,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct VectorRole {
+    pub kind: Word<VectorKind>,
+    /// Which light, for `light(i)`, `half(i)`, `reflection(i)`.
+    pub index: Option<Word<u32>>,
+    pub space: Option<Word<Space>>,
+}
+
+/// `params s : N, L, H;` — which shading vectors the parameter vector s bundles.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ParamsDecl {
+    pub name: Name,
+    pub members: Vec<Name>,
+}
+
+/// `const kd : rgb = (0.8, 0.6, 0.4);` — folded at compile time.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ConstDecl {
+    pub name: Name,
+    pub ty: Option<Word<Type>>,
+    pub value: Expr,
+}
+
+/// `uniform ks : rgb = (1, 1, 1);` — set per object by the scene (a material).
+#[derive(Clone, Debug, PartialEq)]
+pub struct UniformDecl {
+    pub name: Name,
+    pub ty: Option<Word<Type>>,
+    pub default: Option<Expr>,
+}
+
+/// `let s_self = …;` — a named subexpression.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LetDecl {
+    pub name: Name,
+    pub value: Expr,
+}
+
+/// `shader p(n: scalar = 32) : s → c = …;` — the map p: s → c of seeds/001 Section 2.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShaderDecl {
+    pub name: Name,
+    pub params: Vec<ShaderParam>,
+    /// The shading-parameter vector the shader takes (`s`).
+    pub input: Name,
+    pub output: Word<Type>,
+    /// `{ let a = …; … }` bindings before the result; empty for `= expr`.
+    pub lets: Vec<LetDecl>,
+    pub body: Expr,
+    /// Whether it was written as a `{ … }` block.
+    pub block: bool,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct ShaderParam {
+    pub name: Name,
+    pub ty: Option<Word<Type>>,
+    pub default: Option<Expr>,
+}
+
+/// `C δπx ← T δu x;` — an assignment into a table.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Statement {
+    pub target: Target,
+    pub value: Expr,
+}
+
+/// The left side of `←`: `[channel] table index`, e.g. `α C xs`, `T δu`,
+/// `u x` (texgen, seeds/001 (7)), `Cl δ πl x`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Target {
+    pub channel: Option<Word<Channel>>,
+    pub table: Name,
+    pub index: Expr,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Expr {
+    pub kind: ExprKind,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum ExprKind {
+    Number(f64),
+    String(String),
+    Name(Name),
+    /// `(a, b, c)`: a vector or colour literal, or the arguments of a call.
+    Tuple(Vec<Expr>),
+    /// `f arg`: right-to-left application, e.g. `T δu x`, `max(0, N·L)`.
+    Apply { func: Func, arg: Box<Expr> },
+    /// `L.z`, `(T δu x).a`.
+    Swizzle { base: Box<Expr>, components: String },
+    Unary { op: UnaryOp, operand: Box<Expr> },
+    Binary { op: BinaryOp, lhs: Box<Expr>, rhs: Box<Expr> },
+    /// `a ⊕ b` or `a ⊕[add] b`; no mode means modulate (seeds/001 (3)).
+    Combine { mode: Option<Word<CombineMode>>, lhs: Box<Expr>, rhs: Box<Expr> },
+    /// `c ? a : b`, or `c ? a` — write a only where c holds (shadow volumes).
+    Select { cond: Box<Expr>, then: Box<Expr>, otherwise: Option<Box<Expr>> },
+}
+
+/// What stands in function position of an application.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Func {
+    pub kind: FuncKind,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum FuncKind {
+    /// δ: rasterization — interpolate across the primitive, then sample.
+    Delta,
+    /// π, πl, π*, π⁻¹.
+    Projection(Projection),
+    /// α, z, σ: a framebuffer's alpha, depth or stencil channel.
+    Channel(Channel),
+    Name(Name),
+}
+
+#[derive(Clone, Debug, PartialEq, Eq, Default)]
+pub struct Projection {
+    /// `l` in πl (the light's projection), `R` in πR (spheremap texgen).
+    pub subscript: Option<String>,
+    /// π*: perturbed projection (accumulation buffer, seeds/001 (11)).
+    pub star: bool,
+    /// π⁻¹: from screen back to model space.
+    pub inverse: bool,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Channel {
+    Alpha,
+    Depth,
+    Stencil,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum UnaryOp {
+    Neg,
+    Not,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum BinaryOp {
+    Or,
+    And,
+    Lt,
+    Le,
+    Gt,
+    Ge,
+    Eq,
+    Ne,
+    Add,
+    Sub,
+    Mul,
+    Div,
+    /// `·`: dot product.
+    Dot,
+    Pow,
+}
+
+/// Declares a closed set of words: the enum, its canonical spelling, and
+/// accepted aliases — one table drives parsing, printing and suggestions.
+macro_rules! words {
+    ($(#[$doc:meta])* $name:ident { $($variant:ident => $canon:literal $(| $alias:literal)*),+ $(,)? }) => {
+        $(#[$doc])*
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+        pub enum $name { $($variant),+ }
+
+        impl $name {
+            /// Every canonical spelling, for "expected one of" and suggestions.
+            pub const ALL: &'static [&'static str] = &[$($canon),+];
+
+            pub fn from_word(word: &str) -> Option<$name> {
+                match word {
+                    $($canon $(| $alias)* => Some($name::$variant),)+
+                    _ => None,
+                }
+            }
+
+            pub fn as_str(self) -> &'static str {
+                match self { $($name::$variant => $canon),+ }
+            }
+        }
+    };
+}
+
+words! {
+    /// The ⊕ modes: OpenGL 1.2.1 texture environment and its combine extension.
+    CombineMode {
+        Modulate => "modulate",
+        Add => "add",
+        AddSigned => "add_signed" | "signed_add",
+        Subtract => "subtract",
+        Decal => "decal",
+        Blend => "blend",
+        Replace => "replace",
+        Interpolate => "interpolate",
+        Dot3Rgb => "dot3" | "dot3_rgb",
+        Dot3Rgba => "dot3_rgba",
+    }
+}
+
+words! {
+    TextureKind { Tex1d => "1d", Tex2d => "2d", Tex3d => "3d", Cube => "cube" }
+}
+
+words! {
+    /// Texel formats: 8-bit unsigned, signed (HILO/DSDT-style), 16-bit, float.
+    TextureFormat {
+        Rgba8 => "rgba8",
+        Rgb8 => "rgb8",
+        R8 => "r8",
+        Signed8 => "signed8" | "signed",
+        Rgba16 => "rgba16",
+        Signed16 => "signed16",
+        Rgba16f => "rgba16f",
+        Rgba32f => "rgba32f",
+    }
+}
+
+words! {
+    TextureAttr {
+        Mipmap => "mipmap",
+        Nearest => "nearest",
+        Bilinear => "bilinear",
+        Trilinear => "trilinear",
+        Clamp => "clamp",
+        Repeat => "repeat",
+    }
+}
+
+words! {
+    FramebufferChannel {
+        Rgba8 => "rgba8",
+        Rgb8 => "rgb8",
+        Rgba16f => "rgba16f",
+        Rgba32f => "rgba32f",
+        Depth => "depth",
+        Stencil => "stencil",
+    }
+}
+
+words! {
+    /// Shading vectors of seeds/001 Figure 3 (and B, the binormal of seeds/003).
+    VectorKind {
+        Normal => "normal",
+        Tangent => "tangent",
+        Binormal => "binormal",
+        Light => "light",
+        View => "view",
+        Half => "half",
+        Reflection => "reflection",
+        Position => "position",
+    }
+}
+
+words! {
+    Space { Object => "object", World => "world", Eye => "eye", Tangent => "tangent" }
+}
+
+words! {
+    /// Value types; `c` is the paper's colour (R, G, B).
+    Type {
+        Scalar => "scalar",
+        Vec2 => "vec2",
+        Vec3 => "vec3",
+        Vec4 => "vec4",
+        Rgb => "rgb",
+        Rgba => "rgba",
+        Color => "c",
+    }
+}
+
+impl Expr {
+    /// Visits every expression below and including this one (pre-order).
+    pub fn walk(&self, f: &mut dyn FnMut(&Expr)) {
+        f(self);
+        match &self.kind {
+            ExprKind::Number(_) | ExprKind::String(_) | ExprKind::Name(_) => {}
+            ExprKind::Tuple(items) => items.iter().for_each(|e| e.walk(f)),
+            ExprKind::Apply { arg, .. } => arg.walk(f),
+            ExprKind::Swizzle { base, .. } => base.walk(f),
+            ExprKind::Unary { operand, .. } => operand.walk(f),
+            ExprKind::Binary { lhs, rhs, .. } | ExprKind::Combine { lhs, rhs, .. } => {
+                lhs.walk(f);
+                rhs.walk(f);
+            }
+            ExprKind::Select { cond, then, otherwise } => {
+                cond.walk(f);
+                then.walk(f);
+                if let Some(e) = otherwise {
+                    e.walk(f);
+                }
+            }
+        }
+    }
+}

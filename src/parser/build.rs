@@ -1,0 +1,623 @@
+//! pest pairs of one item → AST, with spans shifted to file offsets.
+//!
+//! Words with a closed vocabulary (texture kinds, formats, ⊕ modes, …) are
+//! classified here, with "did you mean" suggestions. Operator chains are folded
+//! iteratively and refused beyond `MAX_EXPR_DEPTH`, so the tree handed on is
+//! shallow enough for every recursive pass (and for `Drop`).
+
+use pest::iterators::Pair;
+
+use super::ast::*;
+use super::{Rule, MAX_EXPR_DEPTH};
+use crate::diag::{did_you_mean, Diagnostic};
+use crate::span::Span;
+
+type Errors = Vec<Diagnostic>;
+
+/// An expression and the depth of its tree.
+struct Deep {
+    expr: Expr,
+    depth: usize,
+}
+
+pub fn item(pair: Pair<'_, Rule>, offset: usize) -> Result<Item, Errors> {
+    let mut b = Builder { offset, errors: Vec::new() };
+    let span = b.span(&pair);
+    let inner = pair.into_inner().next().expect("item holds a declaration or statement");
+    let kind = b.item_kind(inner);
+    match kind {
+        Some(kind) if b.errors.is_empty() => Ok(Item { kind, span }),
+        _ => Err(b.errors),
+    }
+}
+
+struct Builder {
+    offset: usize,
+    errors: Errors,
+}
+
+impl Builder {
+    fn span(&self, pair: &Pair<'_, Rule>) -> Span {
+        let s = pair.as_span();
+        Span::new(s.start() + self.offset, s.end() + self.offset)
+    }
+
+    fn item_kind(&mut self, pair: Pair<'_, Rule>) -> Option<ItemKind> {
+        let rule = pair.as_rule();
+        let mut it = pair.into_inner().filter(|p| !is_keyword(p.as_rule())).peekable();
+        Some(match rule {
+            Rule::target_decl => {
+                let word = it.next()?;
+                ItemKind::Target(TargetDecl { profile: Word { value: word.as_str().to_string(), span: self.span(&word) } })
+            }
+            Rule::texture_decl => {
+                let names = self.name_list(it.next()?);
+                let mut words = Vec::new();
+                while let Some(p) = it.next_if(|p| p.as_rule() == Rule::word) {
+                    words.push(p);
+                }
+                let source = match it.next() {
+                    Some(e) => Some(self.expr(e)?.expr),
+                    None => None,
+                };
+                let mut words = words.into_iter();
+                let kind = self.classify::<TextureKind>(&words.next()?, "texture kind", TextureKind::from_word, TextureKind::ALL)?;
+                let (mut format, mut attrs) = (None, Vec::new());
+                for w in words {
+                    if let Some(f) = TextureFormat::from_word(w.as_str()) {
+                        if format.is_some() {
+                            self.errors.push(Diagnostic::error(
+                                "duplicate-format",
+                                "a texture has one format",
+                                self.span(&w),
+                                "second format",
+                            ).with_help("keep one of the formats"));
+                        }
+                        format = Some(Word { value: f, span: self.span(&w) });
+                    } else if let Some(a) = TextureAttr::from_word(w.as_str()) {
+                        attrs.push(Word { value: a, span: self.span(&w) });
+                    } else {
+                        let all: Vec<&str> = TextureFormat::ALL.iter().chain(TextureAttr::ALL).copied().collect();
+                        self.unknown_word(&w, "texture format or attribute", &all);
+                    }
+                }
+                ItemKind::Texture(TextureDecl { names, kind, format, attrs, source })
+            }
+            Rule::framebuffer_decl => {
+                let names = self.name_list(it.next()?);
+                let channels = it
+                    .filter_map(|w| self.classify(&w, "framebuffer channel", FramebufferChannel::from_word, FramebufferChannel::ALL))
+                    .collect();
+                ItemKind::Framebuffer(FramebufferDecl { names, channels })
+            }
+            Rule::vector_decl => {
+                let names = self.name_list(it.next()?);
+                let role = match it.next_if(|p| p.as_rule() == Rule::vector_kind) {
+                    Some(k) => Some(self.vector_role(k)?),
+                    None => None,
+                };
+                let value = match it.next() {
+                    Some(e) => Some(self.expr(e)?.expr),
+                    None => None,
+                };
+                ItemKind::Vector(VectorDecl { names, role, value })
+            }
+            Rule::params_decl => {
+                let name = self.name(it.next()?);
+                let members = self.name_list(it.next()?);
+                ItemKind::Params(ParamsDecl { name, members })
+            }
+            Rule::const_decl => {
+                let name = self.name(it.next()?);
+                let ty = self.opt_type(&mut it)?;
+                let value = self.expr(it.next()?)?.expr;
+                ItemKind::Const(ConstDecl { name, ty, value })
+            }
+            Rule::uniform_decl => {
+                let name = self.name(it.next()?);
+                let ty = self.opt_type(&mut it)?;
+                let default = match it.next() {
+                    Some(e) => Some(self.expr(e)?.expr),
+                    None => None,
+                };
+                ItemKind::Uniform(UniformDecl { name, ty, default })
+            }
+            Rule::let_decl => ItemKind::Let(self.let_decl(it)?),
+            Rule::shader_decl => {
+                let name = self.name(it.next()?);
+                let mut params = Vec::new();
+                if let Some(ps) = it.next_if(|p| p.as_rule() == Rule::shader_params) {
+                    for p in ps.into_inner() {
+                        let mut parts = p.into_inner().peekable();
+                        let name = self.name(parts.next()?);
+                        let ty = self.opt_type(&mut parts)?;
+                        let default = match parts.next() {
+                            Some(e) => Some(self.expr(e)?.expr),
+                            None => None,
+                        };
+                        params.push(ShaderParam { name, ty, default });
+                    }
+                }
+                let input = self.name(it.next()?);
+                it.next_if(|p| p.as_rule() == Rule::arrow);
+                let output = self.classify(&it.next()?, "type", Type::from_word, Type::ALL)?;
+                let body = it.next()?;
+                let block = body.as_str().trim_start().starts_with('{');
+                let mut lets = Vec::new();
+                let mut result = None;
+                for p in body.into_inner() {
+                    match p.as_rule() {
+                        Rule::let_decl => {
+                            let inner = p.into_inner().filter(|p| !is_keyword(p.as_rule())).peekable();
+                            lets.push(self.let_decl(inner)?);
+                        }
+                        Rule::expr => result = Some(self.expr(p)?.expr),
+                        _ => {}
+                    }
+                }
+                ItemKind::Shader(ShaderDecl { name, params, input, output, lets, body: result?, block })
+            }
+            Rule::statement => {
+                let lhs = it.next()?;
+                it.next_if(|p| p.as_rule() == Rule::assign);
+                let target = self.target(lhs)?;
+                let value = self.expr(it.next()?)?.expr;
+                ItemKind::Statement(Statement { target, value })
+            }
+            other => unreachable!("not an item: {other:?}"),
+        })
+    }
+
+    fn let_decl<'a>(&mut self, mut it: impl Iterator<Item = Pair<'a, Rule>>) -> Option<LetDecl> {
+        let name = self.name(it.next()?);
+        let value = self.expr(it.next()?)?.expr;
+        Some(LetDecl { name, value })
+    }
+
+    fn opt_type<'a>(&mut self, it: &mut std::iter::Peekable<impl Iterator<Item = Pair<'a, Rule>>>) -> Option<Option<Word<Type>>> {
+        match it.next_if(|p| p.as_rule() == Rule::word) {
+            Some(w) => Some(Some(self.classify(&w, "type", Type::from_word, Type::ALL)?)),
+            None => Some(None),
+        }
+    }
+
+    fn vector_role(&mut self, pair: Pair<'_, Rule>) -> Option<VectorRole> {
+        let mut it = pair.into_inner().filter(|p| !is_keyword(p.as_rule()));
+        let kind = self.classify(&it.next()?, "vector kind", VectorKind::from_word, VectorKind::ALL)?;
+        let (mut index, mut space) = (None, None);
+        for p in it {
+            match p.as_rule() {
+                Rule::number => match p.as_str().parse::<u32>() {
+                    Ok(i) => index = Some(Word { value: i, span: self.span(&p) }),
+                    Err(_) => {
+                        self.errors.push(
+                            Diagnostic::error("bad-index", "a light index is a whole number", self.span(&p), "not a whole number")
+                                .with_help("write `light(0)`, `light(1)`, …"),
+                        );
+                        return None;
+                    }
+                },
+                _ => space = Some(self.classify(&p, "space", Space::from_word, Space::ALL)?),
+            }
+        }
+        Some(VectorRole { kind, index, space })
+    }
+
+    fn classify<T>(&mut self, pair: &Pair<'_, Rule>, what: &str, from: fn(&str) -> Option<T>, all: &[&str]) -> Option<Word<T>> {
+        match from(pair.as_str()) {
+            Some(value) => Some(Word { value, span: self.span(pair) }),
+            None => {
+                self.unknown_word(pair, what, all);
+                None
+            }
+        }
+    }
+
+    fn unknown_word(&mut self, pair: &Pair<'_, Rule>, what: &str, all: &[&str]) {
+        let word = pair.as_str();
+        let help = match did_you_mean(word, all.iter().copied()) {
+            Some(s) => format!("did you mean `{s}`? (expected one of: {})", all.join(", ")),
+            None => format!("expected one of: {}", all.join(", ")),
+        };
+        self.errors.push(
+            Diagnostic::error("unknown-word", format!("unknown {what} `{word}`"), self.span(pair), format!("not a {what}"))
+                .with_help(help),
+        );
+    }
+
+    fn name_list(&mut self, pair: Pair<'_, Rule>) -> Vec<Name> {
+        pair.into_inner().map(|p| self.name(p)).collect()
+    }
+
+    fn name(&mut self, pair: Pair<'_, Rule>) -> Name {
+        let span = self.span(&pair);
+        let text = pair.as_str();
+        let mut primes = 0u8;
+        let mut star = false;
+        let mut base_end = text.len();
+        for p in pair.into_inner() {
+            match p.as_rule() {
+                Rule::primes => {
+                    base_end = base_end.min(p.as_span().start() - (span.start as usize - self.offset));
+                    primes = p.as_str().chars().map(|c| match c {
+                        '″' => 2,
+                        '‴' => 3,
+                        _ => 1,
+                    }).sum::<u8>();
+                }
+                Rule::star_mark => star = true,
+                _ => {}
+            }
+        }
+        Name { base: text[..base_end].to_string(), primes, star, span }
+    }
+
+    fn target(&mut self, pair: Pair<'_, Rule>) -> Option<Target> {
+        let span = self.span(&pair);
+        let mut parts: Vec<Pair<'_, Rule>> = pair.into_inner().collect();
+        let arg = parts.pop()?;
+        let mut funcs = parts.into_iter();
+        let help = "the left of `←` is a table and its index: `C δπx` (a pixel of framebuffer C), `C xs`, `T δu` (texels of T), `u x` (a vertex attribute), `α C xs` (a channel)";
+        let mut first = match funcs.next() {
+            Some(f) => f,
+            None => {
+                self.errors.push(
+                    Diagnostic::error("bad-target", "nothing to assign into: the left of `←` has no index", span, "a table needs an index")
+                        .with_help(help),
+                );
+                return None;
+            }
+        };
+        let channel = if first.as_rule() == Rule::channel {
+            let c = Word { value: channel_of(first.as_str()), span: self.span(&first) };
+            first = match funcs.next() {
+                Some(f) => f,
+                None => {
+                    self.errors.push(
+                        Diagnostic::error("bad-target", "a channel selector needs a framebuffer and an index", span, "incomplete target")
+                            .with_help(help),
+                    );
+                    return None;
+                }
+            };
+            Some(c)
+        } else {
+            None
+        };
+        if first.as_rule() != Rule::name {
+            let what = describe_func(first.as_rule());
+            self.errors.push(
+                Diagnostic::error("bad-target", format!("cannot assign into {what}"), self.span(&first), "expected a framebuffer, texture or attribute name")
+                    .with_help(help),
+            );
+            return None;
+        }
+        let table = self.name(first);
+        let rest: Vec<Pair<'_, Rule>> = funcs.collect();
+        let index = self.fold_application(rest, arg)?.expr;
+        Some(Target { channel, table, index, span })
+    }
+
+    fn expr(&mut self, pair: Pair<'_, Rule>) -> Option<Deep> {
+        match pair.as_rule() {
+            Rule::expr => self.select(pair),
+            Rule::or_expr | Rule::and_expr | Rule::cmp_expr | Rule::sum | Rule::product | Rule::dotted => self.binary_chain(pair),
+            Rule::combine => self.binary_chain(pair),
+            Rule::unary => self.unary(pair),
+            Rule::power => self.power(pair),
+            Rule::application => {
+                let mut parts: Vec<Pair<'_, Rule>> = pair.into_inner().collect();
+                let arg = parts.pop()?;
+                self.fold_application(parts, arg)
+            }
+            Rule::postfix => self.postfix(pair),
+            other => unreachable!("not an expression: {other:?}"),
+        }
+    }
+
+    fn check_depth(&mut self, depth: usize, span: Span) -> Option<()> {
+        if depth > MAX_EXPR_DEPTH {
+            self.errors.push(
+                Diagnostic::error(
+                    "nesting-too-deep",
+                    format!("expression nests more than {MAX_EXPR_DEPTH} levels deep"),
+                    span,
+                    "this expression",
+                )
+                .with_help("split it into `let` bindings or several statements"),
+            );
+            return None;
+        }
+        Some(())
+    }
+
+    /// `c0 ? t0 : c1 ? t1 : e` is `c0 ? t0 : (c1 ? t1 : e)`; a last `? t` with
+    /// no `:` is a conditional write (seeds/001, shadow volumes).
+    fn select(&mut self, pair: Pair<'_, Rule>) -> Option<Deep> {
+        let span = self.span(&pair);
+        let mut iter = pair.into_inner();
+        let mut current = Some(self.expr(iter.next()?)?);
+        let mut pending: Vec<(Deep, Deep)> = Vec::new();
+        while let Some(sep) = iter.next() {
+            let operand = self.expr(iter.next()?)?;
+            if sep.as_rule() == Rule::question {
+                let Some(cond) = current.take() else {
+                    self.errors.push(
+                        Diagnostic::error("ambiguous-select", "a `?` without `:` must come last", operand.expr.span, "this follows a `?` with no `:`")
+                            .with_help("add `: else-value`, or put parentheses around the inner select"),
+                    );
+                    return None;
+                };
+                pending.push((cond, operand));
+            } else {
+                current = Some(operand);
+            }
+        }
+        if pending.is_empty() {
+            return current;
+        }
+        let max_child = pending.iter().map(|(c, t)| c.depth.max(t.depth)).max().unwrap_or(0);
+        self.check_depth(max_child.max(current.as_ref().map_or(0, |d| d.depth)) + pending.len(), span)?;
+        let mut acc = current;
+        while let Some((cond, then)) = pending.pop() {
+            let depth = 1 + cond.depth.max(then.depth).max(acc.as_ref().map_or(0, |d| d.depth));
+            let span = cond.expr.span.join(acc.as_ref().map_or(then.expr.span, |d| d.expr.span));
+            let otherwise = acc.take().map(|d| Box::new(d.expr));
+            acc = Some(Deep {
+                expr: Expr { kind: ExprKind::Select { cond: Box::new(cond.expr), then: Box::new(then.expr), otherwise }, span },
+                depth,
+            });
+        }
+        acc
+    }
+
+    fn binary_chain(&mut self, pair: Pair<'_, Rule>) -> Option<Deep> {
+        let span = self.span(&pair);
+        let mut iter = pair.into_inner();
+        let first = self.expr(iter.next()?)?;
+        let mut rest = Vec::new();
+        while let Some(op) = iter.next() {
+            let rhs = self.expr(iter.next()?)?;
+            rest.push((op, rhs));
+        }
+        if rest.is_empty() {
+            return Some(first);
+        }
+        let max_child = rest.iter().map(|(_, d)| d.depth).max().unwrap_or(0).max(first.depth);
+        self.check_depth(max_child + rest.len(), span)?;
+        let mut acc = first;
+        for (op, rhs) in rest {
+            let span = acc.expr.span.join(rhs.expr.span);
+            let depth = 1 + acc.depth.max(rhs.depth);
+            let (lhs, rhs) = (Box::new(acc.expr), Box::new(rhs.expr));
+            let kind = if op.as_rule() == Rule::op_combine {
+                let mode = match op.into_inner().next() {
+                    Some(m) => {
+                        let word = m.into_inner().next()?;
+                        Some(self.classify(&word, "⊕ mode", CombineMode::from_word, CombineMode::ALL)?)
+                    }
+                    None => None,
+                };
+                ExprKind::Combine { mode, lhs, rhs }
+            } else {
+                ExprKind::Binary { op: binary_op(&op), lhs, rhs }
+            };
+            acc = Deep { expr: Expr { kind, span }, depth };
+        }
+        Some(acc)
+    }
+
+    fn unary(&mut self, pair: Pair<'_, Rule>) -> Option<Deep> {
+        let span = self.span(&pair);
+        let mut parts: Vec<Pair<'_, Rule>> = pair.into_inner().collect();
+        let operand = self.expr(parts.pop()?)?;
+        self.wrap_unary(parts, operand, span)
+    }
+
+    fn wrap_unary(&mut self, ops: Vec<Pair<'_, Rule>>, operand: Deep, span: Span) -> Option<Deep> {
+        if ops.is_empty() {
+            return Some(operand);
+        }
+        self.check_depth(operand.depth + ops.len(), span)?;
+        let mut acc = operand;
+        for op in ops.into_iter().rev() {
+            let op_span = self.span(&op);
+            let op = if op.as_rule() == Rule::op_not { UnaryOp::Not } else { UnaryOp::Neg };
+            let span = op_span.join(acc.expr.span);
+            acc = Deep { expr: Expr { kind: ExprKind::Unary { op, operand: Box::new(acc.expr) }, span }, depth: acc.depth + 1 };
+        }
+        Some(acc)
+    }
+
+    /// `a ^ b ^ c` is `a ^ (b ^ c)`; an exponent may carry its own minus signs.
+    fn power(&mut self, pair: Pair<'_, Rule>) -> Option<Deep> {
+        let span = self.span(&pair);
+        let mut operands: Vec<Deep> = Vec::new();
+        let mut negs: Vec<Pair<'_, Rule>> = Vec::new();
+        for p in pair.into_inner() {
+            match p.as_rule() {
+                Rule::op_pow => {}
+                Rule::op_neg => negs.push(p),
+                _ => {
+                    let d = self.expr(p)?;
+                    let d_span = d.expr.span;
+                    let d = self.wrap_unary(std::mem::take(&mut negs), d, d_span)?;
+                    operands.push(d);
+                }
+            }
+        }
+        if operands.len() > 1 {
+            let max_child = operands.iter().map(|d| d.depth).max().unwrap_or(0);
+            self.check_depth(max_child + operands.len(), span)?;
+        }
+        let mut acc = operands.pop()?;
+        while let Some(base) = operands.pop() {
+            let span = base.expr.span.join(acc.expr.span);
+            let depth = 1 + base.depth.max(acc.depth);
+            acc = Deep {
+                expr: Expr { kind: ExprKind::Binary { op: BinaryOp::Pow, lhs: Box::new(base.expr), rhs: Box::new(acc.expr) }, span },
+                depth,
+            };
+        }
+        Some(acc)
+    }
+
+    /// `f g h x` → f(g(h(x))).
+    fn fold_application(&mut self, funcs: Vec<Pair<'_, Rule>>, arg: Pair<'_, Rule>) -> Option<Deep> {
+        let mut acc = self.expr(arg)?;
+        if funcs.is_empty() {
+            return Some(acc);
+        }
+        let first_span = self.span(&funcs[0]);
+        self.check_depth(acc.depth + funcs.len(), first_span.join(acc.expr.span))?;
+        for f in funcs.into_iter().rev() {
+            let func = self.func(f);
+            let span = func.span.join(acc.expr.span);
+            acc = Deep { expr: Expr { kind: ExprKind::Apply { func, arg: Box::new(acc.expr) }, span }, depth: acc.depth + 1 };
+        }
+        Some(acc)
+    }
+
+    fn func(&mut self, pair: Pair<'_, Rule>) -> Func {
+        let span = self.span(&pair);
+        let kind = match pair.as_rule() {
+            Rule::delta => FuncKind::Delta,
+            Rule::channel => FuncKind::Channel(channel_of(pair.as_str())),
+            Rule::projection => {
+                let mut proj = Projection::default();
+                for p in pair.into_inner() {
+                    match p.as_rule() {
+                        Rule::proj_sub => proj.subscript = Some(p.as_str().to_string()),
+                        Rule::proj_star => proj.star = true,
+                        Rule::proj_inverse => proj.inverse = true,
+                        _ => {}
+                    }
+                }
+                FuncKind::Projection(proj)
+            }
+            Rule::name => FuncKind::Name(self.name(pair)),
+            other => unreachable!("not a function atom: {other:?}"),
+        };
+        Func { kind, span }
+    }
+
+    fn postfix(&mut self, pair: Pair<'_, Rule>) -> Option<Deep> {
+        let mut iter = pair.into_inner();
+        let primary = iter.next()?.into_inner().next()?;
+        let mut acc = self.primary(primary)?;
+        for sw in iter {
+            let span = acc.expr.span.join(self.span(&sw));
+            acc = Deep {
+                expr: Expr { kind: ExprKind::Swizzle { base: Box::new(acc.expr), components: sw.as_str()[1..].to_string() }, span },
+                depth: acc.depth + 1,
+            };
+        }
+        Some(acc)
+    }
+
+    fn primary(&mut self, pair: Pair<'_, Rule>) -> Option<Deep> {
+        let span = self.span(&pair);
+        let leaf = |kind| Some(Deep { expr: Expr { kind, span }, depth: 1 });
+        match pair.as_rule() {
+            Rule::number => match pair.as_str().parse::<f64>() {
+                Ok(v) if v.is_finite() => leaf(ExprKind::Number(v)),
+                _ => {
+                    self.errors.push(
+                        Diagnostic::error("bad-number", format!("number `{}` is out of range", pair.as_str()), span, "too large for a 64-bit float")
+                            .with_help("shading values lie far inside ±1e308; check the exponent"),
+                    );
+                    None
+                }
+            },
+            Rule::string => leaf(ExprKind::String(unescape(pair.as_str()))),
+            Rule::name => {
+                let name = self.name(pair);
+                leaf(ExprKind::Name(name))
+            }
+            Rule::tuple => {
+                let mut items = Vec::new();
+                for p in pair.into_inner() {
+                    items.push(self.expr(p)?);
+                }
+                if items.len() == 1 {
+                    // `(e)` is grouping only.
+                    return items.pop();
+                }
+                let depth = 1 + items.iter().map(|d| d.depth).max().unwrap_or(0);
+                leaf(ExprKind::Tuple(items.into_iter().map(|d| d.expr).collect())).map(|d| Deep { depth, ..d })
+            }
+            other => unreachable!("not a primary: {other:?}"),
+        }
+    }
+}
+
+fn is_keyword(rule: Rule) -> bool {
+    matches!(
+        rule,
+        Rule::kw_target
+            | Rule::kw_texture
+            | Rule::kw_framebuffer
+            | Rule::kw_vector
+            | Rule::kw_params
+            | Rule::kw_const
+            | Rule::kw_uniform
+            | Rule::kw_shader
+            | Rule::kw_let
+            | Rule::kw_in
+            | Rule::semi
+    )
+}
+
+fn channel_of(text: &str) -> Channel {
+    match text {
+        "α" | "alpha" => Channel::Alpha,
+        "σ" | "stencil" => Channel::Stencil,
+        _ => Channel::Depth,
+    }
+}
+
+fn describe_func(rule: Rule) -> &'static str {
+    match rule {
+        Rule::delta => "δ (rasterization is an operation, not a table)",
+        Rule::projection => "π (the projection is an operation, not a table)",
+        _ => "this",
+    }
+}
+
+fn binary_op(pair: &Pair<'_, Rule>) -> BinaryOp {
+    match (pair.as_rule(), pair.as_str()) {
+        (Rule::op_or, _) => BinaryOp::Or,
+        (Rule::op_and, _) => BinaryOp::And,
+        (Rule::op_cmp, ">=" | "≥") => BinaryOp::Ge,
+        (Rule::op_cmp, "<=" | "≤") => BinaryOp::Le,
+        (Rule::op_cmp, "==") => BinaryOp::Eq,
+        (Rule::op_cmp, "!=" | "≠") => BinaryOp::Ne,
+        (Rule::op_cmp, ">") => BinaryOp::Gt,
+        (Rule::op_cmp, _) => BinaryOp::Lt,
+        (Rule::op_add, _) => BinaryOp::Add,
+        (Rule::op_sub, _) => BinaryOp::Sub,
+        (Rule::op_mul, _) => BinaryOp::Mul,
+        (Rule::op_div, _) => BinaryOp::Div,
+        (Rule::op_dot, _) => BinaryOp::Dot,
+        (other, text) => unreachable!("not a binary operator: {other:?} `{text}`"),
+    }
+}
+
+fn unescape(quoted: &str) -> String {
+    let inner = &quoted[1..quoted.len() - 1];
+    let mut out = String::with_capacity(inner.len());
+    let mut chars = inner.chars();
+    while let Some(c) = chars.next() {
+        if c == '\\' {
+            match chars.next() {
+                Some('n') => out.push('\n'),
+                Some('t') => out.push('\t'),
+                Some(other) => out.push(other),
+                None => {}
+            }
+        } else {
+            out.push(c);
+        }
+    }
+    out
+}

@@ -1,0 +1,123 @@
+//! pest's syntax errors → diagnostics: rule names become words a person uses
+//! ("an expression", "`;`"), the found token is named, and common slips get a
+//! targeted help line (`=` for `←`, `×` for `*`, a missing `;`).
+
+use pest::error::{ErrorVariant, InputLocation};
+
+use super::Rule;
+use crate::diag::Diagnostic;
+use crate::span::Span;
+
+pub fn from_pest(err: pest::error::Error<Rule>, text: &str, offset: usize) -> Diagnostic {
+    let pos = match err.location {
+        InputLocation::Pos(p) => p,
+        InputLocation::Span((s, _)) => s,
+    };
+    let found = token_at(text, pos);
+    let span = Span::new(offset + pos, offset + pos + found.len());
+    let mut expected: Vec<&'static str> = match &err.variant {
+        ErrorVariant::ParsingError { positives, .. } => positives.iter().filter_map(|r| describe(*r)).collect(),
+        ErrorVariant::CustomError { .. } => Vec::new(),
+    };
+    expected.sort_unstable();
+    expected.dedup();
+    let expected_text = join_or(&expected);
+    let found_text = describe_found(found);
+    let message = if expected.is_empty() {
+        format!("unexpected {found_text}")
+    } else {
+        format!("expected {expected_text}, found {found_text}")
+    };
+    let label = if expected.is_empty() { "unexpected here".to_string() } else { format!("expected {expected_text}") };
+    Diagnostic::error("syntax", message, span, label).with_help(help_for(found, &expected))
+}
+
+/// The token starting at `pos`: a word, a known multi-character symbol, or one character.
+fn token_at(text: &str, pos: usize) -> &str {
+    let rest = &text[pos.min(text.len())..];
+    if rest.is_empty() {
+        return rest;
+    }
+    for symbol in ["<-", "->", "(+)", "(.)", ">=", "<=", "==", "!=", "||", "&&", "⁻¹"] {
+        if rest.starts_with(symbol) {
+            return &rest[..symbol.len()];
+        }
+    }
+    let first = rest.chars().next().unwrap_or(' ');
+    if first.is_alphanumeric() || first == '_' {
+        let end = rest.find(|c: char| !(c.is_alphanumeric() || c == '_' || c == '\'')).unwrap_or(rest.len());
+        &rest[..end.min(64)]
+    } else {
+        &rest[..first.len_utf8()]
+    }
+}
+
+fn describe_found(found: &str) -> String {
+    match found {
+        "" => "the end of the file".to_string(),
+        ";" => "`;` (the end of the statement)".to_string(),
+        "\n" | "\r" => "the end of the line".to_string(),
+        f => format!("`{f}`"),
+    }
+}
+
+fn describe(rule: Rule) -> Option<&'static str> {
+    Some(match rule {
+        Rule::item | Rule::statement => "a declaration or a statement",
+        Rule::kw_target | Rule::kw_texture | Rule::kw_framebuffer | Rule::kw_vector | Rule::kw_params | Rule::kw_const
+        | Rule::kw_uniform | Rule::kw_shader | Rule::kw_let | Rule::target_decl | Rule::texture_decl | Rule::framebuffer_decl
+        | Rule::vector_decl | Rule::params_decl | Rule::const_decl | Rule::uniform_decl | Rule::let_decl | Rule::shader_decl => {
+            "a declaration or a statement"
+        }
+        Rule::semi => "`;`",
+        Rule::assign => "`←` (or `<-`)",
+        Rule::arrow => "`→` (or `->`)",
+        Rule::name | Rule::name_list => "a name",
+        Rule::word | Rule::vector_kind => "a word",
+        Rule::number => "a number",
+        Rule::string => "a string",
+        Rule::expr | Rule::or_expr | Rule::and_expr | Rule::cmp_expr | Rule::combine | Rule::sum | Rule::product
+        | Rule::dotted | Rule::unary | Rule::power | Rule::application | Rule::postfix | Rule::primary | Rule::tuple => {
+            "an expression"
+        }
+        Rule::delta | Rule::projection | Rule::channel => "an expression",
+        Rule::op_or | Rule::op_and | Rule::op_cmp | Rule::op_combine | Rule::op_add | Rule::op_sub | Rule::op_mul
+        | Rule::op_div | Rule::op_dot | Rule::op_pow | Rule::question | Rule::colon => "an operator",
+        Rule::op_neg | Rule::op_not => "an expression",
+        Rule::swizzle => "a swizzle such as `.xyz` or `.a`",
+        Rule::shader_params | Rule::shader_param => "shader parameters",
+        Rule::shader_body => "`=` or `{` (the shader's body)",
+        Rule::combine_mode => "a ⊕ mode in brackets, such as `[add]`",
+        Rule::EOI => "the end of the statement",
+        _ => return None,
+    })
+}
+
+fn join_or(items: &[&str]) -> String {
+    match items {
+        [] => String::new(),
+        [one] => one.to_string(),
+        [init @ .., last] => format!("{} or {last}", init.join(", ")),
+    }
+}
+
+fn help_for(found: &str, expected: &[&str]) -> String {
+    let expects = |what: &str| expected.contains(&what);
+    match found {
+        "=" if expects("`←` (or `<-`)") => "assign with `←` (ASCII `<-`): `C δπx ← T δu x;`".into(),
+        "=" => "`=` only gives a declaration its value; statements assign with `←` (ASCII `<-`)".into(),
+        "←" | "<-" => "a statement has one `←`; if the previous statement lacks its `;`, add it there".into(),
+        "×" | "⊗" => "multiply with `*`; take a dot product with `·` (ASCII `(.)`)".into(),
+        "." => "swizzles are glued to a value (`L.z`); a dot product is `·` (ASCII `(.)`)".into(),
+        "" if expects("`;`") => "end every statement and declaration with `;`".into(),
+        "" => "the file ends in the middle of a statement; complete it and end it with `;`".into(),
+        ")" | "]" | "}" => "this closing bracket has no matching opening bracket".into(),
+        f if f.chars().next().is_some_and(|c| !c.is_ascii() && !c.is_alphanumeric()) => format!(
+            "`{f}` is not a symbol of the language; the symbols are δ π ← ⊕ · ′ α σ ⁻¹ → and their ASCII spellings (see docs/language.md)"
+        ),
+        _ if expects("`;`") && expects("an operator") => {
+            "the expression ends here: add an operator to continue it, or `;` to end the statement".into()
+        }
+        _ => "see docs/language.md for the grammar, with an example of every construct".into(),
+    }
+}

@@ -1,0 +1,320 @@
+//! Name resolution: every name a program uses is declared, built in, or a
+//! member of the paper's families (Figure 2 of seeds/001: `x` vertices, `xs`
+//! pixels, `u` texture coordinates, `s` shading parameters, `C` framebuffers,
+//! each with primes and stars); no name is declared twice; the left of `←` is
+//! a table. Unknown names get a "did you mean" from what is in scope.
+
+use std::collections::HashMap;
+
+use super::ast::*;
+use crate::diag::{did_you_mean, Diagnostic};
+use crate::span::Span;
+
+/// Built-in functions, usable in any expression.
+pub const FUNCTIONS: &[&str] = &[
+    "normalize", "length", "dot", "cross", "reflect", "max", "min", "clamp", "saturate", "abs", "sign", "sqrt", "rsqrt",
+    "pow", "exp", "log", "sin", "cos", "floor", "fract", "step", "smoothstep", "lerp", "mix",
+    // Range mappings of the register combiners (seeds/003 Table 3): 2x−1 and x−½, and back.
+    "expand", "half_bias", "compress",
+    "rgb", "rgba", "vec2", "vec3", "vec4",
+];
+
+/// Texture sources (generators), usable only after `texture … =`.
+pub const GENERATORS: &[&str] = &[
+    "image", "normalize_cube", "normal_map", "height", "bumps", "dual_paraboloid", "brdf_fd", "brdf_g",
+    "exponent_table", "bake",
+];
+
+/// Target profiles the compiler knows.
+pub const PROFILES: &[&str] = &["geforce256", "geforce3", "multitexture", "wgsl"];
+
+/// What a declared or built-in name stands for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Entity {
+    Texture,
+    Framebuffer,
+    Vector,
+    Params,
+    Const,
+    Uniform,
+    Let,
+    Shader,
+    /// `x`, `x'`: model-space vertices.
+    Vertex,
+    /// `xs`: a pixel in viewport coordinates.
+    Pixel,
+    /// `u`, `u'''`, `u*`: texture-coordinate sets, a vertex attribute.
+    TexCoords,
+    ShaderParam,
+    Function,
+}
+
+impl Entity {
+    fn describe(self) -> &'static str {
+        match self {
+            Entity::Texture => "texture",
+            Entity::Framebuffer => "framebuffer",
+            Entity::Vector => "shading vector",
+            Entity::Params => "shading-parameter vector",
+            Entity::Const => "constant",
+            Entity::Uniform => "uniform",
+            Entity::Let => "`let` binding",
+            Entity::Shader => "shader",
+            Entity::Vertex => "vertex",
+            Entity::Pixel => "pixel position",
+            Entity::TexCoords => "texture-coordinate set",
+            Entity::ShaderParam => "shader parameter",
+            Entity::Function => "built-in function",
+        }
+    }
+}
+
+/// The entity a name belongs to by the paper's conventions, if undeclared.
+pub fn family(name: &Name) -> Option<Entity> {
+    match name.base.as_str() {
+        "x" => Some(Entity::Vertex),
+        "xs" => Some(Entity::Pixel),
+        "u" => Some(Entity::TexCoords),
+        "s" => Some(Entity::Params),
+        "C" => Some(Entity::Framebuffer),
+        _ => None,
+    }
+}
+
+struct Declared {
+    entity: Entity,
+    span: Span,
+    used: bool,
+}
+
+#[derive(Default)]
+struct Resolver {
+    globals: HashMap<String, Declared>,
+    order: Vec<String>,
+    diagnostics: Vec<Diagnostic>,
+}
+
+pub fn resolve(program: &Program) -> Vec<Diagnostic> {
+    let mut r = Resolver::default();
+    let mut target: Option<Span> = None;
+    for item in &program.items {
+        match &item.kind {
+            ItemKind::Target(t) => {
+                if let Some(first) = target {
+                    r.diagnostics.push(
+                        Diagnostic::error("duplicate-target", "the target profile is chosen twice", t.profile.span, "second choice")
+                            .with_label(first, "first chosen here")
+                            .with_help("keep one `target` line, or choose on the command line with `--target`"),
+                    );
+                }
+                target = Some(t.profile.span);
+                if !PROFILES.contains(&t.profile.value.as_str()) {
+                    let help = match did_you_mean(&t.profile.value, PROFILES.iter().copied()) {
+                        Some(s) => format!("did you mean `{s}`? (profiles: {})", PROFILES.join(", ")),
+                        None => format!("the profiles are: {}", PROFILES.join(", ")),
+                    };
+                    r.diagnostics.push(
+                        Diagnostic::error("unknown-profile", format!("unknown target profile `{}`", t.profile.value), t.profile.span, "no such profile")
+                            .with_help(help),
+                    );
+                }
+            }
+            ItemKind::Texture(t) => t.names.iter().for_each(|n| r.declare(n, Entity::Texture)),
+            ItemKind::Framebuffer(f) => f.names.iter().for_each(|n| r.declare(n, Entity::Framebuffer)),
+            ItemKind::Vector(v) => v.names.iter().for_each(|n| r.declare(n, Entity::Vector)),
+            ItemKind::Params(p) => r.declare(&p.name, Entity::Params),
+            ItemKind::Const(c) => r.declare(&c.name, Entity::Const),
+            ItemKind::Uniform(u) => r.declare(&u.name, Entity::Uniform),
+            ItemKind::Let(l) => r.declare(&l.name, Entity::Let),
+            ItemKind::Shader(s) => r.declare(&s.name, Entity::Shader),
+            ItemKind::Statement(_) => {}
+        }
+    }
+    for item in &program.items {
+        match &item.kind {
+            ItemKind::Target(_) | ItemKind::Framebuffer(_) => {}
+            ItemKind::Texture(t) => {
+                if let Some(src) = &t.source {
+                    r.expr(src, &[], true);
+                }
+            }
+            ItemKind::Vector(v) => {
+                if let Some(value) = &v.value {
+                    r.expr(value, &[], false);
+                }
+            }
+            ItemKind::Params(p) => p.members.iter().for_each(|m| r.use_name(m, &[], false)),
+            ItemKind::Const(c) => r.expr(&c.value, &[], false),
+            ItemKind::Uniform(u) => {
+                if let Some(d) = &u.default {
+                    r.expr(d, &[], false);
+                }
+            }
+            ItemKind::Let(l) => r.expr(&l.value, &[], false),
+            ItemKind::Shader(s) => r.shader(s),
+            ItemKind::Statement(st) => {
+                r.target(&st.target);
+                r.expr(&st.value, &[], false);
+            }
+        }
+    }
+    for key in &r.order {
+        let d = &r.globals[key];
+        if !d.used && d.entity != Entity::Framebuffer {
+            r.diagnostics.push(
+                Diagnostic::warning("unused", format!("{} `{key}` is never used", d.entity.describe()), d.span, "declared here")
+                    .with_help("remove the declaration, or use it in a statement"),
+            );
+        }
+    }
+    r.diagnostics
+}
+
+impl Resolver {
+    fn declare(&mut self, name: &Name, entity: Entity) {
+        let key = name.key();
+        if let Some(prev) = self.globals.get(&key) {
+            self.diagnostics.push(
+                Diagnostic::error("duplicate-name", format!("`{key}` is declared twice"), name.span, "declared again here")
+                    .with_label(prev.span, format!("first declared here as a {}", prev.entity.describe()))
+                    .with_help("rename one of them (primes make new names: `T'`, `T''`)"),
+            );
+            return;
+        }
+        if let Some(fam) = family(name) {
+            if fam != entity && !(fam == Entity::Params && entity == Entity::Params) {
+                self.diagnostics.push(
+                    Diagnostic::error(
+                        "reserved-name",
+                        format!("`{key}` names a {} in the pipeline grammar", fam.describe()),
+                        name.span,
+                        format!("cannot be a {}", entity.describe()),
+                    )
+                    .with_help("x, xs, u, s and C (with primes and stars) keep their meaning from seeds/001 Figure 2; pick another name"),
+                );
+                return;
+            }
+        }
+        self.globals.insert(key.clone(), Declared { entity, span: name.span, used: false });
+        self.order.push(key);
+    }
+
+    fn shader(&mut self, s: &ShaderDecl) {
+        let mut locals: Vec<(String, Entity)> = vec![(s.input.key(), Entity::Params)];
+        for p in &s.params {
+            if let Some(d) = &p.default {
+                self.expr(d, &locals, false);
+            }
+            locals.push((p.name.key(), Entity::ShaderParam));
+        }
+        for l in &s.lets {
+            self.expr(&l.value, &locals, false);
+            locals.push((l.name.key(), Entity::Let));
+        }
+        self.expr(&s.body, &locals, false);
+    }
+
+    fn target(&mut self, t: &Target) {
+        let key = t.table.key();
+        let entity = self.lookup(&t.table, &[]);
+        match entity {
+            Some(Entity::Framebuffer | Entity::Texture | Entity::TexCoords | Entity::Params) => {}
+            Some(other) => self.diagnostics.push(
+                Diagnostic::error("bad-target", format!("cannot assign into the {} `{key}`", other.describe()), t.table.span, "not a table")
+                    .with_help("assign into a framebuffer (`C δπx`), a texture (`T δu`) or a vertex attribute (`u x`)"),
+            ),
+            None => self.unknown(&t.table, &[], false),
+        }
+        if let Some(c) = &t.channel {
+            if entity.is_some_and(|e| e != Entity::Framebuffer) {
+                self.diagnostics.push(
+                    Diagnostic::error("bad-channel", "channel selectors apply to framebuffers", c.span, "selects a framebuffer channel")
+                        .with_help(format!("`{key}` is not a framebuffer; declare it with `framebuffer {key};`")),
+                );
+            }
+        }
+        self.expr(&t.index, &[], false);
+    }
+
+    fn lookup(&mut self, name: &Name, locals: &[(String, Entity)]) -> Option<Entity> {
+        let key = name.key();
+        if let Some((_, e)) = locals.iter().rev().find(|(k, _)| *k == key) {
+            return Some(*e);
+        }
+        if let Some(d) = self.globals.get_mut(&key) {
+            d.used = true;
+            return Some(d.entity);
+        }
+        family(name)
+    }
+
+    fn use_name(&mut self, name: &Name, locals: &[(String, Entity)], in_source: bool) {
+        if self.lookup(name, locals).is_none() {
+            self.unknown(name, locals, in_source);
+        }
+    }
+
+    fn unknown(&mut self, name: &Name, locals: &[(String, Entity)], in_source: bool) {
+        let key = name.key();
+        let mut candidates: Vec<&str> = self.globals.keys().map(String::as_str).collect();
+        candidates.extend(locals.iter().map(|(k, _)| k.as_str()));
+        candidates.extend(FUNCTIONS);
+        if in_source {
+            candidates.extend(GENERATORS);
+        }
+        let help = match did_you_mean(&key, candidates) {
+            Some(s) => format!("did you mean `{s}`?"),
+            None if GENERATORS.contains(&key.as_str()) => format!("`{key}` is a texture generator: use it after `texture … =`"),
+            None => format!("declare it first, e.g. `vector {key} : normal;`, `const {key} = 1;` or `texture {key} : 2d rgba8 = image(\"file.png\");`"),
+        };
+        self.diagnostics.push(
+            Diagnostic::error("unknown-name", format!("unknown name `{key}`"), name.span, "not declared").with_help(help),
+        );
+    }
+
+    /// Resolves every name in `e`. Names in function position may also be
+    /// built-in functions (and generators inside a texture source).
+    fn expr(&mut self, e: &Expr, locals: &[(String, Entity)], in_source: bool) {
+        let mut stack = vec![e];
+        while let Some(e) = stack.pop() {
+            match &e.kind {
+                ExprKind::Number(_) | ExprKind::String(_) => {}
+                ExprKind::Name(n) => self.use_name(n, locals, in_source),
+                ExprKind::Tuple(items) => stack.extend(items),
+                ExprKind::Apply { func, arg } => {
+                    if let FuncKind::Name(n) = &func.kind {
+                        self.func_name(n, locals, in_source);
+                    }
+                    stack.push(arg);
+                }
+                ExprKind::Swizzle { base, .. } => stack.push(base),
+                ExprKind::Unary { operand, .. } => stack.push(operand),
+                ExprKind::Binary { lhs, rhs, .. } | ExprKind::Combine { lhs, rhs, .. } => {
+                    stack.push(rhs);
+                    stack.push(lhs);
+                }
+                ExprKind::Select { cond, then, otherwise } => {
+                    stack.extend(otherwise.as_deref());
+                    stack.push(then);
+                    stack.push(cond);
+                }
+            }
+        }
+    }
+
+    fn func_name(&mut self, n: &Name, locals: &[(String, Entity)], in_source: bool) {
+        let key = n.key();
+        let builtin = FUNCTIONS.contains(&key.as_str()) || (in_source && GENERATORS.contains(&key.as_str()));
+        if builtin && self.globals.get(&key).is_none() && !locals.iter().any(|(k, _)| *k == key) {
+            return;
+        }
+        match self.lookup(n, locals) {
+            Some(e @ (Entity::Const | Entity::Uniform | Entity::ShaderParam | Entity::Pixel)) => self.diagnostics.push(
+                Diagnostic::error("not-a-function", format!("the {} `{key}` cannot be applied to a value", e.describe()), n.span, "applied here")
+                    .with_help(format!("to multiply, write `{key} * …`")),
+            ),
+            Some(_) => {}
+            None => self.unknown(n, locals, in_source),
+        }
+    }
+}

@@ -1,0 +1,134 @@
+//! Splits a source text into items for recovery: at each `;` outside
+//! brackets, strings and comments, and after a top-level `{ … }` block (with
+//! its optional `;`). Also enforces the bracket nesting limit, so pest never
+//! recurses deeper than `MAX_NESTING` levels.
+
+use std::ops::Range;
+
+use crate::diag::Diagnostic;
+use crate::span::Span;
+
+use super::MAX_NESTING;
+
+pub struct Piece {
+    pub range: Range<usize>,
+    /// Set when the piece cannot be parsed at all (nesting too deep).
+    pub error: Option<Diagnostic>,
+}
+
+pub fn split_items(source: &str) -> Vec<Piece> {
+    let bytes = source.as_bytes();
+    let mut pieces = Vec::new();
+    let mut start = 0;
+    let mut depth = 0usize;
+    let mut brace_open_at_top = false;
+    let mut error: Option<Diagnostic> = None;
+    let mut i = 0;
+    while i < bytes.len() {
+        match bytes[i] {
+            b'"' => {
+                i += 1;
+                while i < bytes.len() && bytes[i] != b'"' && bytes[i] != b'\n' {
+                    i += if bytes[i] == b'\\' { 2 } else { 1 };
+                }
+            }
+            b'#' => i = skip_line(bytes, i),
+            b'/' if bytes.get(i + 1) == Some(&b'/') => i = skip_line(bytes, i),
+            b'/' if bytes.get(i + 1) == Some(&b'*') => {
+                i = match source[i + 2..].find("*/") {
+                    Some(end) => i + 2 + end + 1,
+                    None => bytes.len(),
+                };
+            }
+            open @ (b'(' | b'[' | b'{') => {
+                if depth == 0 && open == b'{' {
+                    brace_open_at_top = true;
+                }
+                depth += 1;
+                if depth > MAX_NESTING && error.is_none() {
+                    error = Some(
+                        Diagnostic::error(
+                            "nesting-too-deep",
+                            format!("brackets nest more than {MAX_NESTING} levels deep"),
+                            Span::new(i, i + 1),
+                            format!("level {} opens here", MAX_NESTING + 1),
+                        )
+                        .with_help("split the expression with `let` bindings; no shading expression needs this depth"),
+                    );
+                }
+            }
+            b')' | b']' | b'}' => {
+                depth = depth.saturating_sub(1);
+                if depth == 0 && bytes[i] == b'}' && brace_open_at_top {
+                    brace_open_at_top = false;
+                    let mut end = i + 1;
+                    if let Some(semi) = next_significant(source, end).filter(|&j| bytes[j] == b';') {
+                        end = semi + 1;
+                    }
+                    pieces.push(Piece { range: start..end, error: error.take() });
+                    start = end;
+                    i = end;
+                    continue;
+                }
+            }
+            b';' if depth == 0 => {
+                pieces.push(Piece { range: start..i + 1, error: error.take() });
+                start = i + 1;
+            }
+            _ => {}
+        }
+        i += 1;
+    }
+    if start < bytes.len() || error.is_some() {
+        pieces.push(Piece { range: start..bytes.len(), error });
+    }
+    pieces
+}
+
+fn skip_line(bytes: &[u8], mut i: usize) -> usize {
+    while i < bytes.len() && bytes[i] != b'\n' {
+        i += 1;
+    }
+    i
+}
+
+/// The offset of the next character that is neither white space nor comment.
+fn next_significant(source: &str, mut i: usize) -> Option<usize> {
+    let bytes = source.as_bytes();
+    loop {
+        while i < bytes.len() && bytes[i].is_ascii_whitespace() {
+            i += 1;
+        }
+        if i >= bytes.len() {
+            return None;
+        }
+        if bytes[i] == b'#' || source[i..].starts_with("//") {
+            i = skip_line(bytes, i);
+        } else {
+            return Some(i);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn texts(source: &str) -> Vec<&str> {
+        split_items(source).into_iter().map(|p| &source[p.range]).collect()
+    }
+
+    #[test]
+    fn splits_at_top_level_semicolons_only() {
+        let src = "a ← f(x; y); // c; d\nshader p : s → c { let a = 1; a }\nb ← \"x;y\";";
+        assert_eq!(texts(src), ["a ← f(x; y);", " // c; d\nshader p : s → c { let a = 1; a }", "\nb ← \"x;y\";"]);
+    }
+
+    #[test]
+    fn deep_nesting_is_reported_once_without_recursion() {
+        let src = "(".repeat(100_000);
+        let pieces = split_items(&src);
+        assert_eq!(pieces.len(), 1);
+        assert_eq!(pieces[0].error.as_ref().unwrap().code, "nesting-too-deep");
+    }
+}
