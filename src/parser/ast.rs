@@ -397,3 +397,135 @@ impl Expr {
         }
     }
 }
+
+/// Span erasure, so two trees can be compared for structure alone (the
+/// printer round trip: print, re-parse, compare).
+impl Program {
+    pub fn erase_spans(&mut self) {
+        for item in &mut self.items {
+            item.erase_spans();
+        }
+    }
+}
+
+impl Item {
+    pub fn erase_spans(&mut self) {
+        self.span = Span::DETACHED;
+        let names = |names: &mut Vec<Name>| names.iter_mut().for_each(|n| n.span = Span::DETACHED);
+        fn word<T>(w: &mut Word<T>) {
+            w.span = Span::DETACHED;
+        }
+        fn opt_word<T>(w: &mut Option<Word<T>>) {
+            if let Some(w) = w {
+                w.span = Span::DETACHED;
+            }
+        }
+        fn opt_expr(e: &mut Option<Expr>) {
+            if let Some(e) = e {
+                e.erase_spans();
+            }
+        }
+        match &mut self.kind {
+            ItemKind::Target(t) => word(&mut t.profile),
+            ItemKind::Texture(t) => {
+                names(&mut t.names);
+                word(&mut t.kind);
+                opt_word(&mut t.format);
+                t.attrs.iter_mut().for_each(word);
+                opt_expr(&mut t.source);
+            }
+            ItemKind::Framebuffer(f) => {
+                names(&mut f.names);
+                f.channels.iter_mut().for_each(word);
+            }
+            ItemKind::Vector(v) => {
+                names(&mut v.names);
+                if let Some(r) = &mut v.role {
+                    word(&mut r.kind);
+                    opt_word(&mut r.index);
+                    opt_word(&mut r.space);
+                }
+                opt_expr(&mut v.value);
+            }
+            ItemKind::Params(p) => {
+                p.name.span = Span::DETACHED;
+                names(&mut p.members);
+            }
+            ItemKind::Const(c) => {
+                c.name.span = Span::DETACHED;
+                opt_word(&mut c.ty);
+                c.value.erase_spans();
+            }
+            ItemKind::Uniform(u) => {
+                u.name.span = Span::DETACHED;
+                opt_word(&mut u.ty);
+                opt_expr(&mut u.default);
+            }
+            ItemKind::Let(l) => {
+                l.name.span = Span::DETACHED;
+                l.value.erase_spans();
+            }
+            ItemKind::Shader(s) => {
+                s.name.span = Span::DETACHED;
+                s.input.span = Span::DETACHED;
+                word(&mut s.output);
+                for p in &mut s.params {
+                    p.name.span = Span::DETACHED;
+                    opt_word(&mut p.ty);
+                    opt_expr(&mut p.default);
+                }
+                for l in &mut s.lets {
+                    l.name.span = Span::DETACHED;
+                    l.value.erase_spans();
+                }
+                s.body.erase_spans();
+            }
+            ItemKind::Statement(st) => {
+                let t = &mut st.target;
+                t.span = Span::DETACHED;
+                t.table.span = Span::DETACHED;
+                opt_word(&mut t.channel);
+                t.index.erase_spans();
+                st.value.erase_spans();
+            }
+        }
+    }
+}
+
+impl Expr {
+    pub fn erase_spans(&mut self) {
+        self.span = Span::DETACHED;
+        match &mut self.kind {
+            ExprKind::Number(_) | ExprKind::String(_) => {}
+            ExprKind::Name(n) => n.span = Span::DETACHED,
+            ExprKind::Tuple(items) => items.iter_mut().for_each(Expr::erase_spans),
+            ExprKind::Apply { func, arg } => {
+                func.span = Span::DETACHED;
+                if let FuncKind::Name(n) = &mut func.kind {
+                    n.span = Span::DETACHED;
+                }
+                arg.erase_spans();
+            }
+            ExprKind::Swizzle { base, .. } => base.erase_spans(),
+            ExprKind::Unary { operand, .. } => operand.erase_spans(),
+            ExprKind::Binary { lhs, rhs, .. } => {
+                lhs.erase_spans();
+                rhs.erase_spans();
+            }
+            ExprKind::Combine { mode, lhs, rhs } => {
+                if let Some(m) = mode {
+                    m.span = Span::DETACHED;
+                }
+                lhs.erase_spans();
+                rhs.erase_spans();
+            }
+            ExprKind::Select { cond, then, otherwise } => {
+                cond.erase_spans();
+                then.erase_spans();
+                if let Some(o) = otherwise {
+                    o.erase_spans();
+                }
+            }
+        }
+    }
+}

@@ -22,8 +22,9 @@ struct Deep {
 
 pub fn item(pair: Pair<'_, Rule>, offset: usize) -> Result<Item, Errors> {
     let mut b = Builder { offset, errors: Vec::new() };
-    let span = b.span(&pair);
-    let inner = pair.into_inner().next().expect("item holds a declaration or statement");
+    let children: Vec<Pair<'_, Rule>> = pair.into_inner().filter(|p| p.as_rule() != Rule::EOI).collect();
+    let span = b.span(&children[0]).join(b.span(children.last().expect("an item has children")));
+    let inner = children.into_iter().next().expect("item holds a declaration or statement");
     let kind = b.item_kind(inner);
     match kind {
         Some(kind) if b.errors.is_empty() => Ok(Item { kind, span }),

@@ -19,8 +19,14 @@ pub fn from_pest(err: pest::error::Error<Rule>, text: &str, offset: usize) -> Di
         ErrorVariant::ParsingError { positives, .. } => positives.iter().filter_map(|r| describe(*r)).collect(),
         ErrorVariant::CustomError { .. } => Vec::new(),
     };
-    expected.sort_unstable();
+    // The most useful words first; "an expression" covers names and numbers.
+    const ORDER: &[&str] = &["an operator", "an expression", "a name", "a number", "a string"];
+    let rank = |e: &&str| ORDER.iter().position(|o| o == e).unwrap_or(ORDER.len());
+    expected.sort_by_key(|e| (rank(e), *e == "`;`", *e));
     expected.dedup();
+    if expected.contains(&"an expression") {
+        expected.retain(|e| !matches!(*e, "a name" | "a number" | "a string"));
+    }
     let expected_text = join_or(&expected);
     let found_text = describe_found(found);
     let message = if expected.is_empty() {

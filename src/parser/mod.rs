@@ -67,3 +67,6 @@ pub fn check(source: &str) -> (ast::Program, Vec<Diagnostic>) {
 fn is_blank(text: &str) -> bool {
     ShadeParser::parse(Rule::blank, text).is_ok()
 }
+
+#[cfg(test)]
+mod tests;

@@ -350,3 +350,43 @@ fn next(p: Prec) -> Prec {
         Prec::Apply | Prec::Atom => Prec::Atom,
     }
 }
+
+/// A fully parenthesized prefix form that shows the tree's shape:
+/// `T δu x` → `(T (δ (u x)))`. Used by tests and `shadec fmt --tree`.
+pub fn sexpr(e: &Expr) -> String {
+    let p = Printer { style: Style::Unicode };
+    match &e.kind {
+        ExprKind::Number(_) | ExprKind::String(_) | ExprKind::Name(_) => p.expr(e),
+        ExprKind::Tuple(items) => format!("(tuple {})", items.iter().map(sexpr).collect::<Vec<_>>().join(" ")),
+        ExprKind::Apply { func, arg } => format!("({} {})", p.func(func), sexpr(arg)),
+        ExprKind::Swizzle { base, components } => format!("(.{components} {})", sexpr(base)),
+        ExprKind::Unary { op, operand } => format!("({} {})", if *op == UnaryOp::Neg { "neg" } else { "not" }, sexpr(operand)),
+        ExprKind::Binary { op, lhs, rhs } => format!("({} {} {})", p.binary(*op).1, sexpr(lhs), sexpr(rhs)),
+        ExprKind::Combine { mode, lhs, rhs } => {
+            let m = mode.as_ref().map_or("⊕".to_string(), |m| format!("⊕[{}]", m.value.as_str()));
+            format!("({m} {} {})", sexpr(lhs), sexpr(rhs))
+        }
+        ExprKind::Select { cond, then, otherwise } => match otherwise {
+            Some(o) => format!("(? {} {} {})", sexpr(cond), sexpr(then), sexpr(o)),
+            None => format!("(? {} {})", sexpr(cond), sexpr(then)),
+        },
+    }
+}
+
+/// The tree form of a whole program, one item per line.
+pub fn program_tree(p: &Program) -> String {
+    let mut out = String::new();
+    for item in &p.items {
+        match &item.kind {
+            ItemKind::Statement(st) => {
+                let t = &st.target;
+                let channel = t.channel.as_ref().map_or(String::new(), |c| format!("{:?} ", c.value).to_lowercase());
+                let _ = writeln!(out, "(← ({channel}{} {}) {})", Printer { style: Style::Unicode }.name(&t.table), sexpr(&t.index), sexpr(&st.value));
+            }
+            _ => {
+                let _ = writeln!(out, "{}", self::item(item, Style::Unicode));
+            }
+        }
+    }
+    out
+}
