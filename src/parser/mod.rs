@@ -60,6 +60,14 @@ pub fn parse(source: &str) -> (ast::Program, Vec<Diagnostic>) {
 pub fn check(source: &str) -> (ast::Program, Vec<Diagnostic>) {
     let (program, mut diagnostics) = parse(source);
     diagnostics.extend(resolve::resolve(&program));
+    let has_statement = program.items.iter().any(|i| matches!(i.kind, ast::ItemKind::Statement(_)));
+    if !has_statement && diagnostics.iter().all(|d| !d.is_error()) {
+        let end = crate::span::Span::new(source.len(), source.len());
+        diagnostics.push(
+            crate::diag::Diagnostic::error("no-statement", "the program has no statement: nothing is drawn", end, "the file ends here")
+                .with_help("add a statement, such as `C δπx ← T δu x;` (seeds/001 equation (2))"),
+        );
+    }
     diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
     (program, diagnostics)
 }

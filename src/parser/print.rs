@@ -212,16 +212,23 @@ impl Printer {
     fn bare(&self, e: &Expr) -> (Prec, String) {
         match &e.kind {
             ExprKind::Number(v) => (Prec::Atom, format!("{v}")),
-            ExprKind::String(s) => (Prec::Atom, format!("{s:?}")),
+            ExprKind::String(s) => (Prec::Atom, quote(s)),
             ExprKind::Name(n) => (Prec::Atom, self.name(n)),
             ExprKind::Tuple(items) => {
                 let items: Vec<String> = items.iter().map(|i| self.expr(i)).collect();
                 (Prec::Atom, format!("({})", items.join(", ")))
             }
-            ExprKind::Swizzle { base, components } => (Prec::Atom, format!("{}.{components}", self.at(base, Prec::Atom))),
+            ExprKind::Swizzle { base, components } => {
+                // `(2).x`: a number would swallow the dot.
+                let b = if matches!(base.kind, ExprKind::Number(_)) { format!("({})", self.expr(base)) } else { self.at(base, Prec::Atom) };
+                (Prec::Atom, format!("{b}.{components}"))
+            }
             ExprKind::Apply { func, arg } => {
                 let a = self.at(arg, Prec::Apply);
-                let sep = if self.glued(func, arg) || (matches!(func.kind, FuncKind::Name(_)) && a.starts_with('(')) { "" } else { " " };
+                // A call glues its arguments (`max(0, x)`), but not after a star mark,
+                // which would read as a product (`s* (a)` vs `s*(a)`).
+                let call = matches!(&func.kind, FuncKind::Name(n) if !n.star) && a.starts_with('(');
+                let sep = if self.glued(func, arg) || call { "" } else { " " };
                 (Prec::Apply, format!("{}{sep}{a}", self.func(func)))
             }
             ExprKind::Unary { op, operand } => {
@@ -332,6 +339,23 @@ impl Printer {
             }
         }
     }
+}
+
+/// A string literal with the escapes the grammar reads back: `\"`, `\\`, `\n`, `\t`.
+fn quote(s: &str) -> String {
+    let mut out = String::with_capacity(s.len() + 2);
+    out.push('"');
+    for c in s.chars() {
+        match c {
+            '"' => out.push_str("\\\""),
+            '\\' => out.push_str("\\\\"),
+            '\n' => out.push_str("\\n"),
+            '\t' => out.push_str("\\t"),
+            c => out.push(c),
+        }
+    }
+    out.push('"');
+    out
 }
 
 /// The strength needed on the right of a left-associative operator.

@@ -223,7 +223,7 @@ fn unknown_profiles_and_words_are_suggested() {
 
 #[test]
 fn unused_declarations_warn() {
-    let (_, d) = check("const k = 1;");
+    let (_, d) = check("const k = 1;\nC xs ← 0;");
     assert_eq!(d.len(), 1);
     assert!(!d[0].is_error());
     assert_eq!(d[0].message, "constant `k` is never used");
