@@ -125,6 +125,10 @@ impl SourceFile {
         let config = term::Config::default();
         let mut out = String::new();
         for d in diagnostics {
+            if self.touches_long_line(d) {
+                out.push_str(&self.render_excerpt(d));
+                continue;
+            }
             let rendered = if color {
                 let mut buffer = termcolor_buffer();
                 let _ = term::emit_to_write_style(&mut buffer, &config, &file, &self.to_codespan(d));
@@ -136,6 +140,38 @@ impl SourceFile {
             };
             out.push_str(&rendered);
         }
+        out
+    }
+
+    fn touches_long_line(&self, d: &Diagnostic) -> bool {
+        std::iter::once(&d.primary).chain(&d.secondary).any(|l| self.line_around(l.span.start as usize).len() > MAX_SHOWN_LINE)
+    }
+
+    /// The whole line that holds byte `offset`.
+    fn line_around(&self, offset: usize) -> &str {
+        let offset = offset.min(self.text.len());
+        let start = self.text[..offset].rfind('\n').map_or(0, |i| i + 1);
+        let end = self.text[offset..].find('\n').map_or(self.text.len(), |i| offset + i);
+        &self.text[start..end]
+    }
+
+    /// A diagnostic on a line too long to echo: 80 characters around the span.
+    fn render_excerpt(&self, d: &Diagnostic) -> String {
+        let at = d.primary.span.start as usize;
+        let line = self.line_around(at);
+        let line_start = line.as_ptr() as usize - self.text.as_ptr() as usize;
+        let before: String = self.text[line_start..at.min(self.text.len())].chars().rev().take(40).collect::<Vec<_>>().into_iter().rev().collect();
+        let after: String = self.text[at.min(self.text.len())..line_start + line.len()].chars().take(40).collect();
+        let mut out = String::new();
+        let _ = writeln!(out, "{}[{}]: {}", severity_word(d.severity), d.code, d.message);
+        let _ = writeln!(out, "  ┌─ {}", self.location(d.primary.span.start));
+        let _ = writeln!(out, "  │ (this line has {} characters; showing the 80 around the error)", line.chars().count());
+        let _ = writeln!(out, "  │ …{before}{after}…");
+        let _ = writeln!(out, "  │  {}^ {}", " ".repeat(before.chars().count()), d.primary.message);
+        if let Some(help) = &d.help {
+            let _ = writeln!(out, "  = help: {help}");
+        }
+        out.push('\n');
         out
     }
 
@@ -167,12 +203,7 @@ impl SourceFile {
     pub fn render_short(&self, diagnostics: &[Diagnostic]) -> String {
         let mut out = String::new();
         for d in diagnostics {
-            let sev = match d.severity {
-                Severity::Error => "error",
-                Severity::Warning => "warning",
-                Severity::Info => "info",
-                Severity::Hint => "hint",
-            };
+            let sev = severity_word(d.severity);
             let _ = writeln!(out, "{}: {sev}[{}]: {}", self.location(d.primary.span.start), d.code, d.message);
         }
         out
@@ -213,6 +244,18 @@ impl SourceFile {
             LspPosition { line, character }
         };
         LspRange { start: pos(span.start), end: pos(span.end) }
+    }
+}
+
+/// Lines longer than this are shown as an excerpt, not echoed whole.
+const MAX_SHOWN_LINE: usize = 400;
+
+fn severity_word(s: Severity) -> &'static str {
+    match s {
+        Severity::Error => "error",
+        Severity::Warning => "warning",
+        Severity::Info => "info",
+        Severity::Hint => "hint",
     }
 }
 

@@ -59,7 +59,9 @@ pub fn parse(source: &str) -> (ast::Program, Vec<Diagnostic>) {
 /// Parses and resolves names: every diagnostic `shadec check` reports.
 pub fn check(source: &str) -> (ast::Program, Vec<Diagnostic>) {
     let (program, mut diagnostics) = parse(source);
-    diagnostics.extend(resolve::resolve(&program));
+    // Names used only by items that failed to parse would look unused.
+    let syntax_ok = diagnostics.iter().all(|d| !d.is_error());
+    diagnostics.extend(resolve::resolve(&program).into_iter().filter(|d| syntax_ok || d.code != "unused"));
     let has_statement = program.items.iter().any(|i| matches!(i.kind, ast::ItemKind::Statement(_)));
     if !has_statement && diagnostics.iter().all(|d| !d.is_error()) {
         let end = crate::span::Span::new(source.len(), source.len());
