@@ -9,4 +9,5 @@ pub mod diag;
 pub mod io;
 pub mod ir;
 pub mod parser;
+pub mod renderer;
 pub mod span;
