@@ -10,4 +10,5 @@ pub mod io;
 pub mod ir;
 pub mod parser;
 pub mod renderer;
+pub mod textures;
 pub mod span;
