@@ -10,5 +10,6 @@ pub mod io;
 pub mod ir;
 pub mod parser;
 pub mod renderer;
+pub mod scene;
 pub mod textures;
 pub mod span;
