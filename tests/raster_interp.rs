@@ -2,7 +2,7 @@
 mod common;
 
 use common::{ClipVertices, Constant, VaryingsAsColor};
-use glam::{Mat4, Vec3, Vec4};
+use glam::{Vec3, Vec4};
 use shadec::scene::camera::perspective_gl;
 use shadec::renderer::{
     draw, BlendState, ColorFormat, CompareFunc, CullMode, DepthState, Fragment, FragmentResult, FragmentStage,
