@@ -161,6 +161,9 @@ struct SetupCtx<'a> {
     cull: CullMode,
 }
 
+/// Window coordinates are clamped to ±this many pixels (edge functions then fit in i64).
+const MAX_WINDOW: f64 = 32768.0;
+
 /// Smallest w kept by clipping, so 1/w stays finite.
 const W_EPSILON: f64 = 1e-6;
 
@@ -241,12 +244,24 @@ impl SetupCtx<'_> {
         let mut z = [0f32; 3];
         let mut inv_w = [0f32; 3];
         for (k, v) in verts.iter().enumerate() {
-            let iw = 1.0 / v[3];
-            let sx = (v[0] * iw * 0.5 + 0.5) * self.width;
-            let sy = (0.5 - v[1] * iw * 0.5) * self.height;
+            // Clipping keeps w ≥ ε and |x|, |y| ≤ g·w, but with extreme inputs
+            // (|coordinates| ~ 1e30) the intersection arithmetic cancels; clamp
+            // to the fixed-point range so nothing overflows.
+            if !(v[3] > 0.0) {
+                out.degenerate += 1;
+                return;
+            }
+            let iw = 1.0 / v[3].max(W_EPSILON);
+            let sx = ((v[0] * iw * 0.5 + 0.5) * self.width).clamp(-MAX_WINDOW, MAX_WINDOW);
+            let sy = ((0.5 - v[1] * iw * 0.5) * self.height).clamp(-MAX_WINDOW, MAX_WINDOW);
+            if !(sx.is_finite() && sy.is_finite()) {
+                out.degenerate += 1;
+                return;
+            }
             fx[k] = (sx * SUB as f64).round() as i64;
             fy[k] = (sy * SUB as f64).round() as i64;
-            z[k] = ((v[2] * iw * 0.5 + 0.5).clamp(0.0, 1.0)) as f32;
+            let depth = v[2] * iw * 0.5 + 0.5;
+            z[k] = if depth.is_nan() { 0.5 } else { depth.clamp(0.0, 1.0) as f32 };
             inv_w[k] = iw as f32;
         }
         let area = (fx[1] - fx[0]) * (fy[2] - fy[0]) - (fy[1] - fy[0]) * (fx[2] - fx[0]);
@@ -319,7 +334,7 @@ impl SetupCtx<'_> {
         let sx = px.map(|v| v as f64 / SUB as f64);
         let sy = py.map(|v| v as f64 / SUB as f64);
         let area_px = area as f64 / (SUB * SUB) as f64;
-        let iw = order.map(|k| 1.0 / verts[k][3]);
+        let iw = order.map(|k| 1.0 / verts[k][3].max(W_EPSILON));
         let mut plane = |q: [f64; 3]| {
             let ddx = ((q[1] - q[0]) * (sy[2] - sy[0]) - (q[2] - q[0]) * (sy[1] - sy[0])) / area_px;
             let ddy = ((q[2] - q[0]) * (sx[1] - sx[0]) - (q[1] - q[0]) * (sx[2] - sx[0])) / area_px;
