@@ -1,4 +1,5 @@
-//! Helpers shared by the integration tests: run the `shadec` binary.
+//! Helpers shared by the integration tests: run the `shadec` binary; drive
+//! the rasterizer with explicit clip-space vertices.
 
 #![allow(dead_code)]
 
@@ -38,4 +39,92 @@ pub fn examples() -> Vec<std::path::PathBuf> {
         .collect();
     v.sort();
     v
+}
+
+// ---------------------------------------------------------------- rasterizer helpers
+// A vertex stage over explicit clip positions and varyings, and small fragment stages.
+
+use shadec::renderer::{
+    draw, ColorFormat, CullMode, DepthState, DrawStats, Fragment, FragmentResult, FragmentStage, Framebuffer, Pass,
+    RenderState, VertexStage,
+};
+
+/// Vertices given directly in clip space, each with `n` varyings.
+pub struct ClipVertices {
+    pub clip: Vec<[f32; 4]>,
+    pub varyings: Vec<f32>,
+    pub n: usize,
+}
+
+impl ClipVertices {
+    /// Vertices at pixel positions (w = 1, z = 0) on a `width`×`height` target.
+    pub fn from_pixels(points: &[[f32; 2]], width: u32, height: u32) -> ClipVertices {
+        let clip = points.iter().map(|p| pixel_to_clip(*p, width, height, 0.0, 1.0)).collect();
+        ClipVertices { clip, varyings: Vec::new(), n: 0 }
+    }
+}
+
+/// Pixel coordinates (x right, y down; pixel centres at +0.5) to clip space.
+pub fn pixel_to_clip(p: [f32; 2], width: u32, height: u32, z: f32, w: f32) -> [f32; 4] {
+    let x = 2.0 * p[0] / width as f32 - 1.0;
+    let y = 1.0 - 2.0 * p[1] / height as f32;
+    [x * w, y * w, z * w, w]
+}
+
+impl VertexStage for ClipVertices {
+    fn n_vertices(&self) -> usize {
+        self.clip.len()
+    }
+    fn n_varyings(&self) -> usize {
+        self.n
+    }
+    fn shade_vertex(&self, index: u32, varyings: &mut [f32]) -> [f32; 4] {
+        let i = index as usize;
+        varyings.copy_from_slice(&self.varyings[i * self.n..(i + 1) * self.n]);
+        self.clip[i]
+    }
+}
+
+/// Writes a constant colour.
+pub struct Constant(pub [f32; 4]);
+
+impl FragmentStage for Constant {
+    fn shade(&self, _: &Fragment, _: &[f32], out: &mut [f32; 4]) -> FragmentResult {
+        *out = self.0;
+        FragmentResult::Keep
+    }
+}
+
+/// Writes the first four varyings (missing ones are 0).
+pub struct VaryingsAsColor;
+
+impl FragmentStage for VaryingsAsColor {
+    fn shade(&self, _: &Fragment, varyings: &[f32], out: &mut [f32; 4]) -> FragmentResult {
+        *out = [0.0; 4];
+        for (o, v) in out.iter_mut().zip(varyings) {
+            *o = *v;
+        }
+        FragmentResult::Keep
+    }
+}
+
+/// State that counts hits: additive blending, no depth, no culling.
+pub fn counting_state() -> RenderState {
+    RenderState {
+        cull: CullMode::None,
+        depth: DepthState::DISABLED,
+        blend: shadec::renderer::BlendState::ADD,
+        ..RenderState::default()
+    }
+}
+
+/// Draws `triangles` with a +1 additive count per fragment; returns the count image.
+pub fn hit_counts(vertices: &ClipVertices, triangles: &[[u32; 3]], width: u32, height: u32) -> (Vec<f32>, DrawStats) {
+    let mut fb = Framebuffer::new(width, height, ColorFormat::F32).unwrap();
+    let stats = draw(
+        &mut fb,
+        &Pass { triangles, vertex: vertices, fragment: &Constant([1.0, 0.0, 0.0, 0.0]), state: counting_state() },
+    )
+    .unwrap();
+    (fb.to_rgba_f32().iter().map(|c| c[0]).collect(), stats)
 }

@@ -1,0 +1,513 @@
+//! Framebuffers (colour RGBA8 or f32, depth f32, stencil u8) and the
+//! per-fragment operations of the GL pipeline that the pass planner relies on
+//! (seeds/001 Section 3, multipass (9)-(10): C ← C ⊕ …): stencil test, depth
+//! test, blending with the GL blend-factor pairs, and a colour write mask.
+//!
+//! Storage is tiled: the image is cut into `TILE`×`TILE` tiles and every tile
+//! owns its colour, depth and stencil texels contiguously, so the rasterizer
+//! can hand each tile to one rayon task with no sharing.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use super::RenderError;
+
+/// Edge length of a framebuffer tile in pixels.
+pub const TILE: usize = 64;
+
+/// How colour is stored.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ColorFormat {
+    /// 8 bits per channel, unsigned normalized: values clamp to [0, 1] and
+    /// round to the nearest 1/255 on every write (GL fixed-point framebuffer).
+    Rgba8,
+    /// 32-bit float per channel, no clamping.
+    F32,
+}
+
+/// A GL comparison function, used by the depth and stencil tests.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum CompareFunc {
+    Never,
+    Less,
+    LessEqual,
+    Equal,
+    Greater,
+    GreaterEqual,
+    NotEqual,
+    Always,
+}
+
+impl CompareFunc {
+    /// `incoming FUNC stored`, as GL defines it.
+    #[inline]
+    pub fn test<T: PartialOrd>(self, incoming: T, stored: T) -> bool {
+        match self {
+            CompareFunc::Never => false,
+            CompareFunc::Less => incoming < stored,
+            CompareFunc::LessEqual => incoming <= stored,
+            CompareFunc::Equal => incoming == stored,
+            CompareFunc::Greater => incoming > stored,
+            CompareFunc::GreaterEqual => incoming >= stored,
+            CompareFunc::NotEqual => incoming != stored,
+            CompareFunc::Always => true,
+        }
+    }
+}
+
+/// Depth test and depth write. `func: Equal` with `write: false` is the state
+/// for re-rendering the same geometry in a later pass (seeds/003 Section 5:
+/// the diffuse and specular passes are drawn over the ambient pass).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct DepthState {
+    pub func: CompareFunc,
+    pub write: bool,
+}
+
+impl DepthState {
+    /// No test, no write.
+    pub const DISABLED: DepthState = DepthState { func: CompareFunc::Always, write: false };
+    /// The usual first pass: `Less`, write.
+    pub const LESS_WRITE: DepthState = DepthState { func: CompareFunc::Less, write: true };
+    /// Later passes over the same geometry: `Equal`, no write.
+    pub const EQUAL_NO_WRITE: DepthState = DepthState { func: CompareFunc::Equal, write: false };
+}
+
+/// What the stencil buffer does on a test outcome.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum StencilOp {
+    Keep,
+    Zero,
+    Replace,
+    /// Increment, saturating at 255.
+    Incr,
+    /// Decrement, saturating at 0.
+    Decr,
+    Invert,
+    IncrWrap,
+    DecrWrap,
+}
+
+impl StencilOp {
+    #[inline]
+    fn apply(self, stored: u8, reference: u8) -> u8 {
+        match self {
+            StencilOp::Keep => stored,
+            StencilOp::Zero => 0,
+            StencilOp::Replace => reference,
+            StencilOp::Incr => stored.saturating_add(1),
+            StencilOp::Decr => stored.saturating_sub(1),
+            StencilOp::Invert => !stored,
+            StencilOp::IncrWrap => stored.wrapping_add(1),
+            StencilOp::DecrWrap => stored.wrapping_sub(1),
+        }
+    }
+}
+
+/// The GL stencil state (one face; draw twice with opposite culling for
+/// two-sided techniques such as shadow volumes).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct StencilState {
+    pub enabled: bool,
+    /// Compares `reference & read_mask` with `stored & read_mask`.
+    pub func: CompareFunc,
+    pub reference: u8,
+    pub read_mask: u8,
+    pub write_mask: u8,
+    /// Stencil test failed.
+    pub fail: StencilOp,
+    /// Stencil passed, depth failed.
+    pub depth_fail: StencilOp,
+    /// Both passed.
+    pub pass: StencilOp,
+}
+
+impl StencilState {
+    pub const DISABLED: StencilState = StencilState {
+        enabled: false,
+        func: CompareFunc::Always,
+        reference: 0,
+        read_mask: 0xff,
+        write_mask: 0xff,
+        fail: StencilOp::Keep,
+        depth_fail: StencilOp::Keep,
+        pass: StencilOp::Keep,
+    };
+
+    #[inline]
+    pub(crate) fn test(&self, stored: u8) -> bool {
+        !self.enabled || self.func.test(self.reference & self.read_mask, stored & self.read_mask)
+    }
+
+    #[inline]
+    pub(crate) fn update(&self, stored: &mut u8, op: StencilOp) {
+        if self.enabled && op != StencilOp::Keep {
+            let new = op.apply(*stored, self.reference);
+            *stored = (*stored & !self.write_mask) | (new & self.write_mask);
+        }
+    }
+}
+
+/// A GL blend factor (`glBlendFunc`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum BlendFactor {
+    Zero,
+    One,
+    SrcColor,
+    OneMinusSrcColor,
+    DstColor,
+    OneMinusDstColor,
+    SrcAlpha,
+    OneMinusSrcAlpha,
+    DstAlpha,
+    OneMinusDstAlpha,
+    /// The blend state's `constant` colour.
+    ConstantColor,
+    OneMinusConstantColor,
+    /// min(As, 1 − Ad) for RGB, 1 for alpha.
+    SrcAlphaSaturate,
+}
+
+/// A GL blend equation (`glBlendEquation`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum BlendEquation {
+    /// src·Fs + dst·Fd
+    Add,
+    /// src·Fs − dst·Fd
+    Subtract,
+    /// dst·Fd − src·Fs
+    ReverseSubtract,
+    Min,
+    Max,
+}
+
+/// Framebuffer blending: `C ← src·Fs (eq) C·Fd`, separately for RGB and alpha,
+/// plus a per-channel write mask.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BlendState {
+    pub src_rgb: BlendFactor,
+    pub dst_rgb: BlendFactor,
+    pub src_alpha: BlendFactor,
+    pub dst_alpha: BlendFactor,
+    pub equation: BlendEquation,
+    pub constant: [f32; 4],
+    /// Which of R, G, B, A are written.
+    pub write_mask: [bool; 4],
+}
+
+impl BlendState {
+    /// The same factor pair for RGB and alpha.
+    pub const fn factors(src: BlendFactor, dst: BlendFactor) -> BlendState {
+        BlendState {
+            src_rgb: src,
+            dst_rgb: dst,
+            src_alpha: src,
+            dst_alpha: dst,
+            equation: BlendEquation::Add,
+            constant: [0.0; 4],
+            write_mask: [true; 4],
+        }
+    }
+    /// No blending: `C ← src`.
+    pub const REPLACE: BlendState = BlendState::factors(BlendFactor::One, BlendFactor::Zero);
+    /// `C ← C + src` (ONE, ONE).
+    pub const ADD: BlendState = BlendState::factors(BlendFactor::One, BlendFactor::One);
+    /// `C ← C · src` (DST_COLOR, ZERO).
+    pub const MODULATE: BlendState = BlendState::factors(BlendFactor::DstColor, BlendFactor::Zero);
+    /// `C ← src·As + C·(1 − As)`.
+    pub const ALPHA_BLEND: BlendState = BlendState::factors(BlendFactor::SrcAlpha, BlendFactor::OneMinusSrcAlpha);
+    /// `C ← src · Ad` (DST_ALPHA, ZERO): modulate by a term stashed in destination alpha.
+    pub const DEST_ALPHA_MODULATE: BlendState = BlendState::factors(BlendFactor::DstAlpha, BlendFactor::Zero);
+    /// `C ← C + src · Ad` (DST_ALPHA, ONE): seeds/003 Section 5.5, the specular
+    /// pass added under the self-shadowing term kept in destination alpha.
+    pub const DEST_ALPHA_ADD: BlendState = BlendState::factors(BlendFactor::DstAlpha, BlendFactor::One);
+
+    /// This state with another write mask.
+    pub const fn with_write_mask(mut self, mask: [bool; 4]) -> BlendState {
+        self.write_mask = mask;
+        self
+    }
+
+    #[inline]
+    fn factor(&self, factor: BlendFactor, src: &[f32; 4], dst: &[f32; 4], channel: usize) -> f32 {
+        match factor {
+            BlendFactor::Zero => 0.0,
+            BlendFactor::One => 1.0,
+            BlendFactor::SrcColor => src[channel],
+            BlendFactor::OneMinusSrcColor => 1.0 - src[channel],
+            BlendFactor::DstColor => dst[channel],
+            BlendFactor::OneMinusDstColor => 1.0 - dst[channel],
+            BlendFactor::SrcAlpha => src[3],
+            BlendFactor::OneMinusSrcAlpha => 1.0 - src[3],
+            BlendFactor::DstAlpha => dst[3],
+            BlendFactor::OneMinusDstAlpha => 1.0 - dst[3],
+            BlendFactor::ConstantColor => self.constant[channel],
+            BlendFactor::OneMinusConstantColor => 1.0 - self.constant[channel],
+            BlendFactor::SrcAlphaSaturate => {
+                if channel == 3 {
+                    1.0
+                } else {
+                    src[3].min(1.0 - dst[3])
+                }
+            }
+        }
+    }
+
+    /// The blended colour (before the write mask and before storage rounding).
+    #[inline]
+    pub fn blend(&self, src: &[f32; 4], dst: &[f32; 4]) -> [f32; 4] {
+        if *self == BlendState::REPLACE {
+            return *src;
+        }
+        let mut out = [0.0f32; 4];
+        for c in 0..4 {
+            let (fs, fd) = if c == 3 {
+                (self.factor(self.src_alpha, src, dst, c), self.factor(self.dst_alpha, src, dst, c))
+            } else {
+                (self.factor(self.src_rgb, src, dst, c), self.factor(self.dst_rgb, src, dst, c))
+            };
+            out[c] = match self.equation {
+                BlendEquation::Add => src[c] * fs + dst[c] * fd,
+                BlendEquation::Subtract => src[c] * fs - dst[c] * fd,
+                BlendEquation::ReverseSubtract => dst[c] * fd - src[c] * fs,
+                BlendEquation::Min => src[c].min(dst[c]),
+                BlendEquation::Max => src[c].max(dst[c]),
+            };
+        }
+        out
+    }
+}
+
+/// Colour texels of one tile.
+#[derive(Clone, Debug)]
+pub(crate) enum ColorTile {
+    Rgba8(Vec<[u8; 4]>),
+    F32(Vec<[f32; 4]>),
+}
+
+/// One tile's buffers, `TILE*TILE` texels each, row-major inside the tile.
+#[derive(Clone, Debug)]
+pub(crate) struct TileBuffers {
+    pub(crate) color: ColorTile,
+    pub(crate) depth: Vec<f32>,
+    pub(crate) stencil: Vec<u8>,
+}
+
+#[inline]
+pub(crate) fn quantize_unorm8(v: f32) -> u8 {
+    // NaN maps to 0 (`as` saturates NaN to 0).
+    (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
+}
+
+impl TileBuffers {
+    #[inline]
+    pub(crate) fn read_color(&self, idx: usize) -> [f32; 4] {
+        match &self.color {
+            ColorTile::Rgba8(c) => {
+                let p = c[idx];
+                [p[0] as f32 / 255.0, p[1] as f32 / 255.0, p[2] as f32 / 255.0, p[3] as f32 / 255.0]
+            }
+            ColorTile::F32(c) => c[idx],
+        }
+    }
+
+    /// Blends `src` into texel `idx` (src is clamped first for RGBA8 targets,
+    /// as GL clamps fragment colours for fixed-point buffers).
+    #[inline]
+    pub(crate) fn blend_color(&mut self, idx: usize, src: &[f32; 4], blend: &BlendState) {
+        match &mut self.color {
+            ColorTile::Rgba8(c) => {
+                let s = [src[0].clamp(0.0, 1.0), src[1].clamp(0.0, 1.0), src[2].clamp(0.0, 1.0), src[3].clamp(0.0, 1.0)];
+                let p = c[idx];
+                let d = [p[0] as f32 / 255.0, p[1] as f32 / 255.0, p[2] as f32 / 255.0, p[3] as f32 / 255.0];
+                let out = blend.blend(&s, &d);
+                for ch in 0..4 {
+                    if blend.write_mask[ch] {
+                        c[idx][ch] = quantize_unorm8(out[ch]);
+                    }
+                }
+            }
+            ColorTile::F32(c) => {
+                let out = blend.blend(src, &c[idx]);
+                for ch in 0..4 {
+                    if blend.write_mask[ch] {
+                        c[idx][ch] = out[ch];
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A render target: colour, depth and stencil of the same size.
+#[derive(Clone, Debug)]
+pub struct Framebuffer {
+    width: u32,
+    height: u32,
+    format: ColorFormat,
+    tiles_x: usize,
+    tiles_y: usize,
+    pub(crate) tiles: Vec<TileBuffers>,
+}
+
+impl Framebuffer {
+    /// A cleared framebuffer: colour 0, depth 1, stencil 0.
+    /// Errors on a zero or absurd size (more than 16384 on a side).
+    pub fn new(width: u32, height: u32, format: ColorFormat) -> Result<Framebuffer, RenderError> {
+        if width == 0 || height == 0 || width > 16384 || height > 16384 {
+            return Err(RenderError::BadSize { width, height });
+        }
+        let tiles_x = (width as usize).div_ceil(TILE);
+        let tiles_y = (height as usize).div_ceil(TILE);
+        let n = TILE * TILE;
+        let color = match format {
+            ColorFormat::Rgba8 => ColorTile::Rgba8(vec![[0; 4]; n]),
+            ColorFormat::F32 => ColorTile::F32(vec![[0.0; 4]; n]),
+        };
+        let tile = TileBuffers { color, depth: vec![1.0; n], stencil: vec![0; n] };
+        Ok(Framebuffer { width, height, format, tiles_x, tiles_y, tiles: vec![tile; tiles_x * tiles_y] })
+    }
+
+    pub fn width(&self) -> u32 {
+        self.width
+    }
+    pub fn height(&self) -> u32 {
+        self.height
+    }
+    pub fn format(&self) -> ColorFormat {
+        self.format
+    }
+    pub(crate) fn tiles_x(&self) -> usize {
+        self.tiles_x
+    }
+    pub(crate) fn tiles_y(&self) -> usize {
+        self.tiles_y
+    }
+
+    #[inline]
+    fn locate(&self, x: u32, y: u32) -> Option<(usize, usize)> {
+        if x >= self.width || y >= self.height {
+            return None;
+        }
+        let (x, y) = (x as usize, y as usize);
+        Some(((y / TILE) * self.tiles_x + x / TILE, (y % TILE) * TILE + x % TILE))
+    }
+
+    /// Colour at pixel (x, y) (row 0 is the top), as f32; `None` outside.
+    pub fn color(&self, x: u32, y: u32) -> Option<[f32; 4]> {
+        self.locate(x, y).map(|(t, i)| self.tiles[t].read_color(i))
+    }
+    pub fn depth(&self, x: u32, y: u32) -> Option<f32> {
+        self.locate(x, y).map(|(t, i)| self.tiles[t].depth[i])
+    }
+    pub fn stencil(&self, x: u32, y: u32) -> Option<u8> {
+        self.locate(x, y).map(|(t, i)| self.tiles[t].stencil[i])
+    }
+
+    /// Writes a colour (rounded for RGBA8); ignores pixels outside.
+    pub fn set_color(&mut self, x: u32, y: u32, c: [f32; 4]) {
+        if let Some((t, i)) = self.locate(x, y) {
+            self.tiles[t].blend_color(i, &c, &BlendState::REPLACE);
+        }
+    }
+    pub fn set_stencil(&mut self, x: u32, y: u32, s: u8) {
+        if let Some((t, i)) = self.locate(x, y) {
+            self.tiles[t].stencil[i] = s;
+        }
+    }
+
+    pub fn clear_color(&mut self, c: [f32; 4]) {
+        for tile in &mut self.tiles {
+            match &mut tile.color {
+                ColorTile::Rgba8(v) => v.fill(c.map(quantize_unorm8)),
+                ColorTile::F32(v) => v.fill(c),
+            }
+        }
+    }
+    pub fn clear_depth(&mut self, d: f32) {
+        self.tiles.iter_mut().for_each(|t| t.depth.fill(d));
+    }
+    pub fn clear_stencil(&mut self, s: u8) {
+        self.tiles.iter_mut().for_each(|t| t.stencil.fill(s));
+    }
+
+    /// Row-major colour, top row first, as f32 RGBA.
+    pub fn to_rgba_f32(&self) -> Vec<[f32; 4]> {
+        let mut out = Vec::with_capacity(self.width as usize * self.height as usize);
+        for y in 0..self.height {
+            for x in 0..self.width {
+                let (t, i) = self.locate(x, y).expect("in range");
+                out.push(self.tiles[t].read_color(i));
+            }
+        }
+        out
+    }
+
+    /// Row-major colour as RGBA8 bytes (f32 buffers are clamped and rounded).
+    pub fn to_rgba8(&self) -> Vec<u8> {
+        let mut out = Vec::with_capacity(self.width as usize * self.height as usize * 4);
+        for y in 0..self.height {
+            for x in 0..self.width {
+                let (t, i) = self.locate(x, y).expect("in range");
+                match &self.tiles[t].color {
+                    ColorTile::Rgba8(c) => out.extend_from_slice(&c[i]),
+                    ColorTile::F32(c) => out.extend(c[i].map(quantize_unorm8)),
+                }
+            }
+        }
+        out
+    }
+
+    /// Saves the colour buffer as an RGBA8 PNG, atomically.
+    pub fn save_png(&self, path: &Path) -> Result<(), RenderError> {
+        let mut bytes = Vec::new();
+        let encoder = image::codecs::png::PngEncoder::new(&mut bytes);
+        image::ImageEncoder::write_image(encoder, &self.to_rgba8(), self.width, self.height, image::ExtendedColorType::Rgba8)
+            .map_err(|e| RenderError::Encode { path: path.display().to_string(), message: e.to_string() })?;
+        crate::io::write_atomic(path, &bytes).map_err(|e| RenderError::Io(e.to_string()))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn blend_modes_compute_gl_formulas() {
+        let src = [0.5, 0.25, 1.0, 0.5];
+        let dst = [0.2, 0.4, 0.6, 0.8];
+        let close = |a: [f32; 4], b: [f32; 4]| a.iter().zip(b).all(|(x, y)| (x - y).abs() < 1e-6);
+        assert!(close(BlendState::REPLACE.blend(&src, &dst), src));
+        assert!(close(BlendState::ADD.blend(&src, &dst), [0.7, 0.65, 1.6, 1.3]));
+        assert!(close(BlendState::MODULATE.blend(&src, &dst), [0.1, 0.1, 0.6, 0.4]));
+        assert!(close(BlendState::ALPHA_BLEND.blend(&src, &dst), [0.35, 0.325, 0.8, 0.65]));
+        assert!(close(BlendState::DEST_ALPHA_MODULATE.blend(&src, &dst), [0.4, 0.2, 0.8, 0.4]));
+        assert!(close(BlendState::DEST_ALPHA_ADD.blend(&src, &dst), [0.6, 0.6, 1.4, 1.2]));
+        let sub = BlendState { equation: BlendEquation::ReverseSubtract, ..BlendState::ADD };
+        assert!(close(sub.blend(&src, &dst), [-0.3, 0.15, -0.4, 0.3]));
+    }
+
+    #[test]
+    fn rgba8_clamps_and_rounds() {
+        let mut fb = Framebuffer::new(3, 2, ColorFormat::Rgba8).unwrap();
+        fb.set_color(1, 1, [2.0, -1.0, 0.5, f32::NAN]);
+        assert_eq!(fb.to_rgba8()[(1 * 3 + 1) * 4..(1 * 3 + 2) * 4], [255, 0, 128, 0]);
+    }
+
+    #[test]
+    fn stencil_ops_respect_write_mask() {
+        let s = StencilState { enabled: true, reference: 0xf0, write_mask: 0x0f, ..StencilState::DISABLED };
+        let mut v = 0x33u8;
+        s.update(&mut v, StencilOp::Replace);
+        assert_eq!(v, 0x30);
+        s.update(&mut v, StencilOp::Invert);
+        assert_eq!(v, 0x3f);
+    }
+
+    #[test]
+    fn bad_sizes_are_errors() {
+        assert!(Framebuffer::new(0, 10, ColorFormat::F32).is_err());
+        assert!(Framebuffer::new(10, 100_000, ColorFormat::F32).is_err());
+    }
+}

@@ -1,0 +1,136 @@
+//! The CPU rasterizer — the δπx of the pipeline grammar (seeds/001 Section 2:
+//! δ interpolates per-vertex values across a primitive, π projects it, x is
+//! the pixel): clipping (near/far plane and a guard band), a fixed-point
+//! top-left fill rule, perspective-correct interpolation of N varyings,
+//! back-face culling, stencil and depth tests (including the `Equal` test
+//! that re-rendering passes use, seeds/003 Section 5), GL blending into RGBA8
+//! or f32 colour, tiled (`TILE`×`TILE`) and parallel over tiles with rayon.
+//!
+//! A pass is a [`Pass`]: triangle indices, a [`VertexStage`] that turns a
+//! vertex index into a clip-space position plus N f32 varyings, a
+//! [`FragmentStage`] that turns the interpolated varyings of one pixel into an
+//! RGBA colour or a discard, and the fixed-function [`RenderState`]. The
+//! fragment interface is allocation-free: varyings arrive as a `&[f32]` slice
+//! owned by the tile's worker.
+
+mod framebuffer;
+mod raster;
+mod tile;
+
+pub use framebuffer::{
+    BlendEquation, BlendFactor, BlendState, ColorFormat, CompareFunc, DepthState, Framebuffer, StencilOp, StencilState,
+    TILE,
+};
+pub use raster::{Fragment, SUBPIXEL_BITS};
+
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+#[derive(Debug, Error)]
+pub enum RenderError {
+    #[error("framebuffer size {width}x{height} is not usable; use 1..=16384 pixels on each side")]
+    BadSize { width: u32, height: u32 },
+    #[error("triangle {triangle} uses vertex {index}, but the vertex stage has only {n_vertices} vertices; check the mesh's index buffer")]
+    IndexOutOfRange { triangle: usize, index: u32, n_vertices: usize },
+    #[error("{path}: cannot encode image: {message}")]
+    Encode { path: String, message: String },
+    #[error("{0}")]
+    Io(String),
+}
+
+/// The per-vertex stage of a pass: `clip position + N varyings` per vertex.
+pub trait VertexStage: Sync {
+    /// How many vertices may be referenced by the pass's indices.
+    fn n_vertices(&self) -> usize;
+    /// How many f32 varyings each vertex produces (and each fragment receives).
+    fn n_varyings(&self) -> usize;
+    /// Writes the varyings of vertex `index` into `varyings` (length
+    /// `n_varyings()`) and returns its clip-space position (x, y, z, w), GL
+    /// conventions: visible where −w ≤ x, y, z ≤ w.
+    fn shade_vertex(&self, index: u32, varyings: &mut [f32]) -> [f32; 4];
+}
+
+/// What a fragment stage decided for one pixel.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FragmentResult {
+    /// Write (blend) the colour left in `out`.
+    Keep,
+    /// Drop the fragment: no colour, depth or stencil update.
+    Discard,
+}
+
+/// The per-fragment stage of a pass.
+pub trait FragmentStage: Sync {
+    /// Shades one pixel: `varyings` are the perspective-correct interpolated
+    /// vertex varyings; `fragment` gives the pixel position, depth, facing and
+    /// screen-space derivatives; `out` receives RGBA.
+    fn shade(&self, fragment: &Fragment, varyings: &[f32], out: &mut [f32; 4]) -> FragmentResult;
+}
+
+/// Which faces are culled. Front faces are counter-clockwise in normalized
+/// device coordinates (y up), as in GL's default `glFrontFace(GL_CCW)`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum CullMode {
+    None,
+    Back,
+    Front,
+}
+
+/// The fixed-function state of a pass.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RenderState {
+    pub cull: CullMode,
+    pub depth: DepthState,
+    pub stencil: StencilState,
+    pub blend: BlendState,
+}
+
+impl Default for RenderState {
+    /// Back-face culling, depth `Less` with write, no stencil, replace.
+    fn default() -> RenderState {
+        RenderState {
+            cull: CullMode::Back,
+            depth: DepthState::LESS_WRITE,
+            stencil: StencilState::DISABLED,
+            blend: BlendState::REPLACE,
+        }
+    }
+}
+
+/// One rendering pass over one mesh.
+pub struct Pass<'a> {
+    /// Triangle list: three vertex indices per triangle.
+    pub triangles: &'a [[u32; 3]],
+    pub vertex: &'a dyn VertexStage,
+    pub fragment: &'a dyn FragmentStage,
+    pub state: RenderState,
+}
+
+/// Counters of one draw, for tests and the speed report.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct DrawStats {
+    pub triangles_in: usize,
+    /// Triangles after clipping (a clipped triangle may become several).
+    pub triangles_setup: usize,
+    pub culled: usize,
+    /// Zero-area after snapping, or non-finite positions.
+    pub degenerate: usize,
+    /// Fragments that passed coverage and reached the tests.
+    pub fragments: u64,
+    /// Fragments whose fragment stage ran.
+    pub shaded: u64,
+    /// Fragments that passed all tests and were written.
+    pub written: u64,
+}
+
+/// Draws one pass into `target` using the current rayon thread pool
+/// (wrap in `ThreadPool::install` to choose the thread count).
+pub fn draw(target: &mut Framebuffer, pass: &Pass) -> Result<DrawStats, RenderError> {
+    let setup = raster::setup_pass(pass, target.width(), target.height())?;
+    let mut stats = tile::rasterize(target, pass, &setup);
+    stats.triangles_in = pass.triangles.len();
+    stats.triangles_setup = setup.n_triangles();
+    stats.culled = setup.culled;
+    stats.degenerate = setup.degenerate;
+    Ok(stats)
+}

@@ -1,0 +1,365 @@
+//! Triangle setup: vertex stage, homogeneous clipping, snapping to a
+//! fixed-point grid, culling, and the edge functions of the top-left fill rule.
+//!
+//! **Fill rule.** Vertices snap to 1/2^`SUBPIXEL_BITS` pixel; edge functions
+//! are exact `i64`s, so two triangles sharing an edge compute the same edge
+//! function with opposite sign, and the top-left rule (a pixel centre exactly
+//! on an edge belongs to the triangle for which that edge is a top or left
+//! edge) gives every pixel to exactly one of them: no cracks, no double hits.
+//!
+//! **Clipping.** Polygons are clipped in homogeneous space against w ≥ ε, the
+//! near and far planes, and a guard band (|x|, |y| ≤ g·w) that keeps snapped
+//! coordinates inside ±2^15 pixels. An intersection is always computed from
+//! the inside vertex towards the outside one, so an edge shared by two
+//! triangles is cut at bit-identical points.
+
+use rayon::prelude::*;
+
+use super::{CullMode, Pass, RenderError};
+
+/// Sub-pixel precision of snapped vertex positions.
+pub const SUBPIXEL_BITS: u32 = 8;
+pub(crate) const SUB: i64 = 1 << SUBPIXEL_BITS;
+const HALF: i64 = SUB / 2;
+
+/// One pixel being shaded, as the fragment stage sees it.
+pub struct Fragment<'a> {
+    /// Pixel column (0 = left).
+    pub x: u32,
+    /// Pixel row (0 = top).
+    pub y: u32,
+    /// Window depth in [0, 1].
+    pub depth: f32,
+    /// Counter-clockwise in normalized device coordinates.
+    pub front_facing: bool,
+    /// Interpolated 1/w (perspective-correct weights divide by it).
+    pub(crate) inv_w: f32,
+    /// d(v/w)/dx, d(v/w)/dy for every varying, then d(1/w)/dx, d(1/w)/dy.
+    pub(crate) gradients: &'a [f32],
+}
+
+impl Fragment<'_> {
+    /// Screen-space derivatives [d/dx, d/dy] (per pixel) of varying `index`
+    /// whose interpolated value at this pixel is `value` — what a GPU gets
+    /// from its 2×2 quads, computed here analytically from the triangle's
+    /// planes: v = A/Q with A = v/w and Q = 1/w affine in screen space, so
+    /// dv/dx = (dA/dx − v·dQ/dx)/Q. Used to choose a mipmap level.
+    pub fn derivatives(&self, index: usize, value: f32) -> [f32; 2] {
+        let n = self.gradients.len() / 2 - 1;
+        if index >= n || self.inv_w == 0.0 {
+            return [0.0, 0.0];
+        }
+        let (ax, ay) = (self.gradients[2 * index], self.gradients[2 * index + 1]);
+        let (qx, qy) = (self.gradients[2 * n], self.gradients[2 * n + 1]);
+        [(ax - value * qx) / self.inv_w, (ay - value * qy) / self.inv_w]
+    }
+}
+
+/// A snapped, oriented screen-space triangle ready for scan conversion.
+#[derive(Clone, Debug)]
+pub(crate) struct Tri {
+    /// Edge k is opposite vertex k: E_k(p) = dx_k·(p.y − ya_k) − dy_k·(p.x − xa_k).
+    pub(crate) dx: [i64; 3],
+    pub(crate) dy: [i64; 3],
+    pub(crate) xa: [i64; 3],
+    pub(crate) ya: [i64; 3],
+    /// 0 for top or left edges, 1 otherwise (pixels exactly on the edge are out).
+    pub(crate) bias: [i64; 3],
+    pub(crate) inv_area: f32,
+    /// Window depth per vertex.
+    pub(crate) z: [f32; 3],
+    /// 1/w per vertex.
+    pub(crate) inv_w: [f32; 3],
+    /// Inclusive pixel bounds, clamped to the target.
+    pub(crate) x0: i32,
+    pub(crate) y0: i32,
+    pub(crate) x1: i32,
+    pub(crate) y1: i32,
+    pub(crate) front_facing: bool,
+    /// Start of this triangle's 3·N varyings in `PassSetup::varyings`.
+    pub(crate) varying_offset: usize,
+    /// Start of its 2·(N+1) gradients in `PassSetup::gradients`.
+    pub(crate) gradient_offset: usize,
+}
+
+#[derive(Default)]
+pub(crate) struct PassSetup {
+    pub(crate) tris: Vec<Tri>,
+    pub(crate) varyings: Vec<f32>,
+    pub(crate) gradients: Vec<f32>,
+    pub(crate) n_varyings: usize,
+    pub(crate) culled: usize,
+    pub(crate) degenerate: usize,
+}
+
+impl PassSetup {
+    pub(crate) fn n_triangles(&self) -> usize {
+        self.tris.len()
+    }
+}
+
+/// Runs the vertex stage and sets up every triangle of the pass.
+pub(crate) fn setup_pass(pass: &Pass, width: u32, height: u32) -> Result<PassSetup, RenderError> {
+    let n_vertices = pass.vertex.n_vertices();
+    for (triangle, tri) in pass.triangles.iter().enumerate() {
+        for &index in tri {
+            if index as usize >= n_vertices {
+                return Err(RenderError::IndexOutOfRange { triangle, index, n_vertices });
+            }
+        }
+    }
+    let n = pass.vertex.n_varyings();
+    let mut clip = vec![[0.0f32; 4]; n_vertices];
+    let mut vary = vec![0.0f32; n_vertices * n];
+    if n == 0 {
+        clip.par_iter_mut().enumerate().for_each(|(i, c)| *c = pass.vertex.shade_vertex(i as u32, &mut []));
+    } else {
+        clip.par_iter_mut().zip(vary.par_chunks_mut(n)).enumerate().for_each(|(i, (c, v))| {
+            *c = pass.vertex.shade_vertex(i as u32, v);
+        });
+    }
+
+    let ctx = SetupCtx {
+        clip: &clip,
+        vary: &vary,
+        n,
+        width: width as f64,
+        height: height as f64,
+        guard: guard_band(width, height),
+        cull: pass.state.cull,
+    };
+    let parts: Vec<PassSetup> = pass.triangles.par_chunks(1024).map(|chunk| ctx.setup_chunk(chunk)).collect();
+    let mut out = PassSetup { n_varyings: n, ..PassSetup::default() };
+    for part in parts {
+        let (vo, go) = (out.varyings.len(), out.gradients.len());
+        out.tris.extend(part.tris.into_iter().map(|mut t| {
+            t.varying_offset += vo;
+            t.gradient_offset += go;
+            t
+        }));
+        out.varyings.extend_from_slice(&part.varyings);
+        out.gradients.extend_from_slice(&part.gradients);
+        out.culled += part.culled;
+        out.degenerate += part.degenerate;
+    }
+    Ok(out)
+}
+
+/// The guard-band factor g: |x/w| ≤ g keeps window coordinates within ±30000 pixels.
+fn guard_band(width: u32, height: u32) -> f64 {
+    let size = width.max(height) as f64;
+    (2.0 * 30000.0 / size - 1.0).clamp(1.0, 64.0)
+}
+
+struct SetupCtx<'a> {
+    clip: &'a [[f32; 4]],
+    vary: &'a [f32],
+    n: usize,
+    width: f64,
+    height: f64,
+    guard: f64,
+    cull: CullMode,
+}
+
+/// Window coordinates are clamped to ±this many pixels (edge functions then fit in i64).
+const MAX_WINDOW: f64 = 32768.0;
+
+/// Smallest w kept by clipping, so 1/w stays finite.
+const W_EPSILON: f64 = 1e-6;
+
+impl SetupCtx<'_> {
+    fn setup_chunk(&self, chunk: &[[u32; 3]]) -> PassSetup {
+        let mut out = PassSetup { n_varyings: self.n, ..PassSetup::default() };
+        // Polygon scratch: each vertex is [x, y, z, w, varyings...] in f64.
+        let stride = 4 + self.n;
+        let mut poly: Vec<f64> = Vec::with_capacity(12 * stride);
+        let mut next: Vec<f64> = Vec::with_capacity(12 * stride);
+        for tri in chunk {
+            let positions = tri.map(|i| self.clip[i as usize]);
+            if positions.iter().flatten().any(|c| !c.is_finite()) {
+                out.degenerate += 1;
+                continue;
+            }
+            poly.clear();
+            for &i in tri {
+                poly.extend(self.clip[i as usize].iter().map(|&c| c as f64));
+                poly.extend(self.vary[i as usize * self.n..(i as usize + 1) * self.n].iter().map(|&c| c as f64));
+            }
+            let g = self.guard;
+            let planes: [fn(&[f64], f64) -> f64; 7] = [
+                |v, _| v[3] - W_EPSILON,
+                |v, _| v[2] + v[3],
+                |v, _| v[3] - v[2],
+                |v, g| g * v[3] - v[0],
+                |v, g| g * v[3] + v[0],
+                |v, g| g * v[3] - v[1],
+                |v, g| g * v[3] + v[1],
+            ];
+            let mut outside = false;
+            for plane in planes {
+                let count = poly.len() / stride;
+                let all_in = (0..count).all(|k| plane(&poly[k * stride..(k + 1) * stride], g) >= 0.0);
+                if all_in {
+                    continue;
+                }
+                next.clear();
+                for k in 0..count {
+                    let a = &poly[k * stride..(k + 1) * stride];
+                    let b = &poly[((k + 1) % count) * stride..((k + 1) % count + 1) * stride];
+                    let (da, db) = (plane(a, g), plane(b, g));
+                    if da >= 0.0 {
+                        next.extend_from_slice(a);
+                    }
+                    if (da >= 0.0) != (db >= 0.0) {
+                        // From the inside vertex towards the outside one.
+                        let (inside, outside_v, di, d_o) = if da >= 0.0 { (a, b, da, db) } else { (b, a, db, da) };
+                        let t = di / (di - d_o);
+                        for c in 0..stride {
+                            next.push(inside[c] + t * (outside_v[c] - inside[c]));
+                        }
+                    }
+                }
+                std::mem::swap(&mut poly, &mut next);
+                if poly.len() / stride < 3 {
+                    outside = true;
+                    break;
+                }
+            }
+            if outside {
+                continue;
+            }
+            let count = poly.len() / stride;
+            for k in 1..count - 1 {
+                self.emit(&mut out, &poly[0..stride], &poly[k * stride..(k + 1) * stride], &poly[(k + 1) * stride..(k + 2) * stride]);
+            }
+        }
+        out
+    }
+
+    /// Projects, snaps, culls and sets up one clipped triangle.
+    fn emit(&self, out: &mut PassSetup, a: &[f64], b: &[f64], c: &[f64]) {
+        let verts = [a, b, c];
+        let mut fx = [0i64; 3];
+        let mut fy = [0i64; 3];
+        let mut z = [0f32; 3];
+        let mut inv_w = [0f32; 3];
+        for (k, v) in verts.iter().enumerate() {
+            // Clipping keeps w ≥ ε and |x|, |y| ≤ g·w, but with extreme inputs
+            // (|coordinates| ~ 1e30) the intersection arithmetic cancels; clamp
+            // to the fixed-point range so nothing overflows.
+            if !(v[3] > 0.0) {
+                out.degenerate += 1;
+                return;
+            }
+            let iw = 1.0 / v[3].max(W_EPSILON);
+            let sx = ((v[0] * iw * 0.5 + 0.5) * self.width).clamp(-MAX_WINDOW, MAX_WINDOW);
+            let sy = ((0.5 - v[1] * iw * 0.5) * self.height).clamp(-MAX_WINDOW, MAX_WINDOW);
+            if !(sx.is_finite() && sy.is_finite()) {
+                out.degenerate += 1;
+                return;
+            }
+            fx[k] = (sx * SUB as f64).round() as i64;
+            fy[k] = (sy * SUB as f64).round() as i64;
+            let depth = v[2] * iw * 0.5 + 0.5;
+            z[k] = if depth.is_nan() { 0.5 } else { depth.clamp(0.0, 1.0) as f32 };
+            inv_w[k] = iw as f32;
+        }
+        let area = (fx[1] - fx[0]) * (fy[2] - fy[0]) - (fy[1] - fy[0]) * (fx[2] - fx[0]);
+        if area == 0 {
+            out.degenerate += 1;
+            return;
+        }
+        // y points down in window space, so counter-clockwise in NDC is negative here.
+        let front_facing = area < 0;
+        let culled = match self.cull {
+            CullMode::None => false,
+            CullMode::Back => !front_facing,
+            CullMode::Front => front_facing,
+        };
+        if culled {
+            out.culled += 1;
+            return;
+        }
+        let mut order = [0usize, 1, 2];
+        if area < 0 {
+            order = [0, 2, 1];
+        }
+        let area = area.abs();
+        let px = order.map(|k| fx[k]);
+        let py = order.map(|k| fy[k]);
+
+        let min_x = px.iter().min().copied().unwrap_or(0);
+        let max_x = px.iter().max().copied().unwrap_or(0);
+        let min_y = py.iter().min().copied().unwrap_or(0);
+        let max_y = py.iter().max().copied().unwrap_or(0);
+        let x0 = ((min_x - HALF + SUB - 1).div_euclid(SUB)).max(0);
+        let y0 = ((min_y - HALF + SUB - 1).div_euclid(SUB)).max(0);
+        let x1 = ((max_x - HALF).div_euclid(SUB)).min(self.width as i64 - 1);
+        let y1 = ((max_y - HALF).div_euclid(SUB)).min(self.height as i64 - 1);
+        if x0 > x1 || y0 > y1 {
+            return;
+        }
+
+        let mut tri = Tri {
+            dx: [0; 3],
+            dy: [0; 3],
+            xa: [0; 3],
+            ya: [0; 3],
+            bias: [0; 3],
+            inv_area: 1.0 / area as f32,
+            z: order.map(|k| z[k]),
+            inv_w: order.map(|k| inv_w[k]),
+            x0: x0 as i32,
+            y0: y0 as i32,
+            x1: x1 as i32,
+            y1: y1 as i32,
+            front_facing,
+            varying_offset: out.varyings.len(),
+            gradient_offset: out.gradients.len(),
+        };
+        for k in 0..3 {
+            let (ia, ib) = ((k + 1) % 3, (k + 2) % 3);
+            let (dx, dy) = (px[ib] - px[ia], py[ib] - py[ia]);
+            tri.dx[k] = dx;
+            tri.dy[k] = dy;
+            tri.xa[k] = px[ia];
+            tri.ya[k] = py[ia];
+            let top_left = (dy == 0 && dx > 0) || dy < 0;
+            tri.bias[k] = if top_left { 0 } else { 1 };
+        }
+        for &k in &order {
+            out.varyings.extend(verts[k][4..].iter().map(|&v| v as f32));
+        }
+        // Screen-space gradients (per pixel) of v/w and of 1/w.
+        let sx = px.map(|v| v as f64 / SUB as f64);
+        let sy = py.map(|v| v as f64 / SUB as f64);
+        let area_px = area as f64 / (SUB * SUB) as f64;
+        let iw = order.map(|k| 1.0 / verts[k][3].max(W_EPSILON));
+        let mut plane = |q: [f64; 3]| {
+            let ddx = ((q[1] - q[0]) * (sy[2] - sy[0]) - (q[2] - q[0]) * (sy[1] - sy[0])) / area_px;
+            let ddy = ((q[2] - q[0]) * (sx[1] - sx[0]) - (q[1] - q[0]) * (sx[2] - sx[0])) / area_px;
+            out.gradients.push(ddx as f32);
+            out.gradients.push(ddy as f32);
+        };
+        for i in 0..self.n {
+            plane([0, 1, 2].map(|j| verts[order[j]][4 + i] * iw[j]));
+        }
+        plane(iw);
+        out.tris.push(tri);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn guard_band_keeps_coordinates_in_fixed_point_range() {
+        for size in [1u32, 64, 1024, 4096, 16384] {
+            let g = guard_band(size, size);
+            let extent = (0.5 + g / 2.0) * size as f64;
+            assert!(extent <= 32768.0, "size {size}: extent {extent}");
+            assert!(g >= 1.0);
+        }
+    }
+}

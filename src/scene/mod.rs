@@ -1,0 +1,425 @@
+//! Scenes for the renderer, written in RON (issue 6, part 1): meshes
+//! (procedural or OBJ) with transforms and materials, a perspective camera
+//! with a local or infinite viewer, lights (directional, point, spot with
+//! cut-off, exponent and attenuation), named constants of the shading
+//! program, and textures — image files or the generators of the papers
+//! (seeds/003 Appendices D-F, seeds/002 Sections 3.1 and 4.1-4.2, seeds/000
+//! Section 5.2; see [`crate::textures::generators`]).
+//!
+//! [`Scene::load`] parses and checks a scene (RON errors carry the path and
+//! line:col; references to unknown materials/textures and missing files are
+//! named); [`Scene::build`] then creates meshes and textures.
+
+pub mod camera;
+pub mod light;
+pub mod mesh;
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use glam::{Mat4, Quat, Vec3};
+use serde::{Deserialize, Serialize};
+use thiserror::Error;
+
+pub use camera::{Camera, Viewer};
+pub use light::{Attenuation, Light};
+pub use mesh::{Mesh, MeshError};
+
+use crate::textures::{self, generators, CubeBits, NormalMapFormat, TexelFormat, Texture, TextureError, Wrap};
+
+#[derive(Debug, Error)]
+pub enum SceneError {
+    #[error("{0}")]
+    Io(#[from] crate::io::IoError),
+    #[error("{path}:{line}:{col}: {message}\n  help: check the RON syntax and field names against scenes/bump_torus.ron")]
+    Syntax { path: String, line: usize, col: usize, message: String },
+    #[error("{path}: {what} '{name}' is not defined; {help}")]
+    Unknown { path: String, what: &'static str, name: String, help: String },
+    #[error("{path}: {what} refers to '{file}', which does not exist (looked for {resolved}); fix the path, relative to the scene file")]
+    MissingFile { path: String, what: String, file: String, resolved: String },
+    #[error("{path}: {what}: {message}")]
+    Invalid { path: String, what: String, message: String },
+    #[error(transparent)]
+    Mesh(#[from] MeshError),
+    #[error(transparent)]
+    Texture(#[from] TextureError),
+}
+
+/// A scene file.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Scene {
+    /// Output size in pixels.
+    #[serde(default = "default_resolution")]
+    pub resolution: (u32, u32),
+    pub camera: Camera,
+    #[serde(default)]
+    pub lights: Vec<Light>,
+    #[serde(default)]
+    pub ambient: Vec3,
+    pub objects: Vec<Object>,
+    #[serde(default)]
+    pub materials: BTreeMap<String, Material>,
+    #[serde(default)]
+    pub textures: BTreeMap<String, TextureDesc>,
+    /// Values of the program's named constants (1 to 4 components).
+    #[serde(default)]
+    pub constants: BTreeMap<String, Vec<f32>>,
+    /// Where the scene was loaded from (relative paths resolve against its folder).
+    #[serde(skip)]
+    pub path: PathBuf,
+}
+
+fn default_resolution() -> (u32, u32) {
+    (512, 512)
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Object {
+    pub mesh: MeshDesc,
+    #[serde(default)]
+    pub transform: Transform,
+    pub material: String,
+}
+
+/// Scale, then rotate (Euler XYZ, degrees), then translate.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Transform {
+    #[serde(default)]
+    pub translate: Vec3,
+    #[serde(default)]
+    pub rotate_deg: Vec3,
+    #[serde(default = "one")]
+    pub scale: Vec3,
+}
+
+fn one() -> Vec3 {
+    Vec3::ONE
+}
+
+impl Default for Transform {
+    fn default() -> Transform {
+        Transform { translate: Vec3::ZERO, rotate_deg: Vec3::ZERO, scale: Vec3::ONE }
+    }
+}
+
+impl Transform {
+    pub fn matrix(&self) -> Mat4 {
+        let r = self.rotate_deg * (std::f32::consts::PI / 180.0);
+        Mat4::from_scale_rotation_translation(self.scale, Quat::from_euler(glam::EulerRot::XYZ, r.x, r.y, r.z), self.translate)
+    }
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum MeshDesc {
+    Sphere { radius: f32, slices: u32, stacks: u32 },
+    Torus { major: f32, minor: f32, rings: u32, sides: u32 },
+    Plane { size: f32, subdivisions: u32 },
+    Cube { size: f32, subdivisions: u32 },
+    Obj(String),
+}
+
+/// Material parameters; `textures` binds texture names to roles (e.g.
+/// `"normal_map": "bumps"`) that the shading program refers to.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Material {
+    #[serde(default)]
+    pub ambient: Vec3,
+    #[serde(default)]
+    pub diffuse: Vec3,
+    #[serde(default)]
+    pub specular: Vec3,
+    #[serde(default = "default_shininess")]
+    pub shininess: f32,
+    #[serde(default)]
+    pub textures: BTreeMap<String, String>,
+}
+
+fn default_shininess() -> f32 {
+    32.0
+}
+
+/// Where a height field comes from.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum HeightDesc {
+    /// A grayscale image.
+    File(String),
+    /// Procedural golf-ball dimples: `cells` pits per side.
+    Dimples { size: u32, cells: u32 },
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum TextureDesc {
+    /// PNG, JPEG or Radiance HDR.
+    File {
+        path: String,
+        #[serde(default = "default_format")]
+        format: TexelFormat,
+        #[serde(default = "default_wrap")]
+        wrap: Wrap,
+        #[serde(default)]
+        mipmaps: bool,
+    },
+    /// seeds/003 Appendix D.
+    NormalizeCube { size: u32, bits: CubeBits },
+    /// seeds/003 Appendices E-F.
+    NormalMap {
+        height: HeightDesc,
+        scale: f32,
+        #[serde(default = "default_nm_format")]
+        format: NormalMapFormat,
+    },
+    /// seeds/002 Section 4.1-4.2, of a procedural sky with a sun in direction `sun`.
+    DualParaboloid { size: u32, sun: Vec3, #[serde(default = "default_format")] format: TexelFormat },
+    /// seeds/002 Section 3.1: F(cos θ)·D(cos δ).
+    HsFresnelDistribution { size: u32, roughness: f32, index: f32, #[serde(default = "default_format")] format: TexelFormat },
+    /// seeds/002 Section 3.1: G(cos α, cos β)/(π cos β), stored divided by `scale`.
+    HsGeometry { size: u32, roughness: f32, scale: f32, #[serde(default = "default_format")] format: TexelFormat },
+    /// seeds/000 Section 5.2: x^exponent.
+    ExponentLut { size: u32, exponent: f32, #[serde(default = "default_format")] format: TexelFormat },
+}
+
+fn default_format() -> TexelFormat {
+    TexelFormat::Rgba8
+}
+fn default_wrap() -> Wrap {
+    Wrap::Repeat
+}
+fn default_nm_format() -> NormalMapFormat {
+    NormalMapFormat::Rgba8
+}
+
+/// Meshes (in object space, with their object → world matrices) and textures of a scene.
+#[derive(Clone, Debug)]
+pub struct SceneAssets {
+    pub meshes: Vec<(Mesh, Mat4)>,
+    pub textures: BTreeMap<String, Texture>,
+}
+
+const MAX_TEXTURE: u32 = 8192;
+
+impl Scene {
+    /// Reads, parses and checks a scene file.
+    pub fn load(path: &Path) -> Result<Scene, SceneError> {
+        let text = crate::io::read_text(path)?;
+        Scene::parse(&text, path)
+    }
+
+    /// Parses and checks scene text; `path` names it in errors and anchors relative paths.
+    pub fn parse(text: &str, path: &Path) -> Result<Scene, SceneError> {
+        let display = path.display().to_string();
+        let mut scene: Scene = ron::from_str(text).map_err(|e| SceneError::Syntax {
+            path: display.clone(),
+            line: e.span.start.line,
+            col: e.span.start.col,
+            message: e.code.to_string(),
+        })?;
+        scene.path = path.to_path_buf();
+        scene.check()?;
+        Ok(scene)
+    }
+
+    fn base_dir(&self) -> PathBuf {
+        self.path.parent().map(Path::to_path_buf).unwrap_or_default()
+    }
+
+    /// A path in the scene, resolved against the scene's folder.
+    pub fn resolve(&self, file: &str) -> PathBuf {
+        let p = Path::new(file);
+        if p.is_absolute() {
+            p.to_path_buf()
+        } else {
+            self.base_dir().join(p)
+        }
+    }
+
+    fn check(&self) -> Result<(), SceneError> {
+        let path = self.path.display().to_string();
+        let invalid = |what: String, message: String| SceneError::Invalid { path: path.clone(), what, message };
+        let (w, h) = self.resolution;
+        if w == 0 || h == 0 || w > 16384 || h > 16384 {
+            return Err(invalid("resolution".into(), format!("{w}x{h} is not usable; use 1..=16384 per side")));
+        }
+        if let Some(problem) = self.camera.problem() {
+            return Err(invalid("camera".into(), problem));
+        }
+        for (i, light) in self.lights.iter().enumerate() {
+            if let Some(problem) = light.problem() {
+                return Err(invalid(format!("light {i}"), problem));
+            }
+        }
+        let file_exists = |what: String, file: &str| {
+            let resolved = self.resolve(file);
+            if resolved.is_file() {
+                Ok(())
+            } else {
+                Err(SceneError::MissingFile { path: path.clone(), what, file: file.into(), resolved: resolved.display().to_string() })
+            }
+        };
+        let names = |map: Vec<&String>| map.into_iter().cloned().collect::<Vec<_>>().join(", ");
+        for (i, object) in self.objects.iter().enumerate() {
+            if !self.materials.contains_key(&object.material) {
+                return Err(SceneError::Unknown {
+                    path: path.clone(),
+                    what: "material",
+                    name: object.material.clone(),
+                    help: format!("object {i} uses it; defined materials: [{}]", names(self.materials.keys().collect())),
+                });
+            }
+            if let MeshDesc::Obj(file) = &object.mesh {
+                file_exists(format!("object {i}"), file)?;
+            }
+            let t = &object.transform;
+            if !(t.translate.is_finite() && t.rotate_deg.is_finite() && t.scale.is_finite()) {
+                return Err(invalid(format!("object {i}"), "transform values must be finite".into()));
+            }
+        }
+        for (name, material) in &self.materials {
+            for (role, texture) in &material.textures {
+                if !self.textures.contains_key(texture) {
+                    return Err(SceneError::Unknown {
+                        path: path.clone(),
+                        what: "texture",
+                        name: texture.clone(),
+                        help: format!(
+                            "material '{name}' binds it as '{role}'; defined textures: [{}]",
+                            names(self.textures.keys().collect())
+                        ),
+                    });
+                }
+            }
+        }
+        for (name, texture) in &self.textures {
+            let what = format!("texture '{name}'");
+            let size_ok = |size: u32| {
+                if (1..=MAX_TEXTURE).contains(&size) {
+                    Ok(())
+                } else {
+                    Err(invalid(what.clone(), format!("size {size} is out of range; use 1..={MAX_TEXTURE}")))
+                }
+            };
+            match texture {
+                TextureDesc::File { path: file, .. } => file_exists(what.clone(), file)?,
+                TextureDesc::NormalMap { height: HeightDesc::File(file), .. } => file_exists(what.clone(), file)?,
+                TextureDesc::NormalMap { height: HeightDesc::Dimples { size, .. }, .. } => size_ok(*size)?,
+                TextureDesc::NormalizeCube { size, .. }
+                | TextureDesc::DualParaboloid { size, .. }
+                | TextureDesc::HsFresnelDistribution { size, .. }
+                | TextureDesc::HsGeometry { size, .. }
+                | TextureDesc::ExponentLut { size, .. } => size_ok(*size)?,
+            }
+        }
+        for (name, value) in &self.constants {
+            if value.is_empty() || value.len() > 4 || value.iter().any(|v| !v.is_finite()) {
+                return Err(invalid(format!("constant '{name}'"), "needs 1 to 4 finite numbers".into()));
+            }
+        }
+        Ok(())
+    }
+
+    /// Builds the meshes and generates or loads the textures.
+    pub fn build(&self) -> Result<SceneAssets, SceneError> {
+        let mut meshes = Vec::with_capacity(self.objects.len());
+        for object in &self.objects {
+            let mesh = match &object.mesh {
+                MeshDesc::Sphere { radius, slices, stacks } => Mesh::sphere(*radius, *slices, *stacks)?,
+                MeshDesc::Torus { major, minor, rings, sides } => Mesh::torus(*major, *minor, *rings, *sides)?,
+                MeshDesc::Plane { size, subdivisions } => Mesh::plane(*size, *subdivisions)?,
+                MeshDesc::Cube { size, subdivisions } => Mesh::cube(*size, *subdivisions)?,
+                MeshDesc::Obj(file) => Mesh::load_obj(&self.resolve(file))?,
+            };
+            meshes.push((mesh, object.transform.matrix()));
+        }
+        let mut built = BTreeMap::new();
+        for (name, desc) in &self.textures {
+            let texture = match desc {
+                TextureDesc::File { path, format, wrap, mipmaps } => {
+                    let t = textures::load_image(&self.resolve(path), *format, *wrap)?;
+                    Texture::Flat(if *mipmaps { t.with_box_mipmaps() } else { t })
+                }
+                TextureDesc::NormalizeCube { size, bits } => Texture::Cube(generators::normalize_cube(*size, *bits)),
+                TextureDesc::NormalMap { height, scale, format } => {
+                    let hf = match height {
+                        HeightDesc::File(file) => textures::load_height_field(&self.resolve(file))?,
+                        HeightDesc::Dimples { size, cells } => generators::HeightField::dimples(*size, *cells),
+                    };
+                    Texture::Flat(generators::normal_map(&hf, *scale, *format))
+                }
+                TextureDesc::DualParaboloid { size, sun, format } => {
+                    let sun = sun.to_array();
+                    Texture::DualParaboloid(generators::dual_paraboloid(*size, *format, &|d| generators::sky(d, sun)))
+                }
+                TextureDesc::HsFresnelDistribution { size, roughness, index, format } => {
+                    Texture::Flat(generators::hs_fresnel_distribution(*size, *roughness, *index, *format))
+                }
+                TextureDesc::HsGeometry { size, roughness, scale, format } => {
+                    Texture::Flat(generators::hs_geometry(*size, *roughness, *scale, *format))
+                }
+                TextureDesc::ExponentLut { size, exponent, format } => {
+                    Texture::Flat(generators::exponent_lut(*size, *exponent, *format))
+                }
+            };
+            built.insert(name.clone(), texture);
+        }
+        Ok(SceneAssets { meshes, textures: built })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn example() -> String {
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/bump_torus.ron")).unwrap()
+    }
+
+    #[test]
+    fn example_scene_loads_and_builds() {
+        let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/bump_torus.ron"));
+        let scene = Scene::load(path).unwrap();
+        assert_eq!(scene.lights.len(), 1);
+        let assets = scene.build().unwrap();
+        assert_eq!(assets.meshes.len(), 1);
+        let Some(Texture::Flat(nm)) = assets.textures.get("bumps") else { panic!("normal map missing") };
+        assert!(nm.levels.len() > 1);
+    }
+
+    #[test]
+    fn syntax_errors_name_path_line_and_column() {
+        let text = example().replacen("camera:", "camera::", 1);
+        let err = Scene::parse(&text, Path::new("scenes/x.ron")).unwrap_err();
+        let msg = err.to_string();
+        assert!(msg.starts_with("scenes/x.ron:"), "{msg}");
+        let SceneError::Syntax { line, col, .. } = err else { panic!("{msg}") };
+        assert!(line > 1 && col > 1, "{msg}");
+    }
+
+    #[test]
+    fn unknown_references_and_missing_files_are_named() {
+        let text = example().replacen("material: \"bumpy\"", "material: \"shiny\"", 1);
+        let err = Scene::parse(&text, Path::new("s.ron")).unwrap_err().to_string();
+        assert!(err.contains("material 'shiny' is not defined") && err.contains("bumpy"), "{err}");
+
+        let text = example().replacen("Torus(", "Obj(\"nowhere/teapot.obj\"), _unused: Torus(", 1);
+        let err = Scene::parse(&text, Path::new("s.ron")).unwrap_err().to_string();
+        assert!(!err.is_empty());
+
+        let text = example().replacen("mesh: Torus(major: 1.0, minor: 0.35, rings: 64, sides: 32)", "mesh: Obj(\"nowhere/teapot.obj\")", 1);
+        let err = Scene::parse(&text, Path::new("/tmp/s.ron")).unwrap_err().to_string();
+        assert!(err.contains("nowhere/teapot.obj") && err.contains("/tmp/nowhere/teapot.obj"), "{err}");
+
+        let err = Scene::load(Path::new("/nonexistent/scene.ron")).unwrap_err().to_string();
+        assert!(err.contains("/nonexistent/scene.ron"), "{err}");
+    }
+
+    #[test]
+    fn bad_values_are_errors_not_panics() {
+        let text = example().replacen("rings: 64", "rings: 1", 1);
+        let scene = Scene::parse(&text, Path::new("s.ron")).unwrap();
+        let err = scene.build().unwrap_err().to_string();
+        assert!(err.contains("torus rings"), "{err}");
+        let text = example().replacen("fov_y_deg: 40.0", "fov_y_deg: 0.0", 1);
+        assert!(Scene::parse(&text, Path::new("s.ron")).unwrap_err().to_string().contains("fov_y_deg"));
+        assert!(Scene::parse("", Path::new("s.ron")).is_err());
+        assert!(Scene::parse("(((((", Path::new("s.ron")).is_err());
+    }
+}
