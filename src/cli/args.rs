@@ -22,6 +22,9 @@ pub enum Command {
     Check(CheckArgs),
     /// Print a program in canonical form (Unicode, or ASCII with --ascii).
     Fmt(FmtArgs),
+    /// Run a register-combiner setup (`!!RC1.0` or RON) on images, as the
+    /// hardware would (seeds/003 Section 4.2, Appendix B).
+    Emulate(super::emulate::EmulateArgs),
 }
 
 #[derive(Debug, clap::Args)]

@@ -5,6 +5,7 @@
 
 mod args;
 mod check;
+mod emulate;
 mod fmt;
 
 use std::process::ExitCode;
@@ -21,5 +22,6 @@ pub fn main() -> ExitCode {
     match cli.command {
         Command::Check(args) => check::run(&args),
         Command::Fmt(args) => fmt::run(&args),
+        Command::Emulate(args) => emulate::run(&args),
     }
 }

@@ -1,0 +1,665 @@
+//! A CPU emulator of the register-combiner machine (seeds/003 Section 4.2,
+//! Figures 7-10): every pixel runs the general stages in order, then the
+//! final combiner.
+//!
+//! Two precision models ([`Precision`]): `Fixed9`, the hardware's 8 bits +
+//! sign (seeds/000 Section 5.2: range [−255, 255]/255) with one rounding per
+//! register write, and `F32`. docs/combiners.md states each rule.
+//!
+//! Speed: pixels are processed in tiles of [`TILE`] with the register file
+//! as a structure of arrays (one slice per register channel), the per-tile
+//! buffers are allocated once per worker, and tiles run on all cores with
+//! rayon. Inner loops are branch-free per input mapping so they vectorise.
+
+use rayon::prelude::*;
+use thiserror::Error;
+
+use super::config::{
+    Bias, Color, CombinerConfig, CombinerLimits, ComponentUsage, FinalSource, GeneralInput, InputMapping, PortionKind,
+    Register, Scale,
+};
+use super::validate::{validate, ValidationError};
+
+/// Pixels per tile.
+pub const TILE: usize = 256;
+
+/// The arithmetic the emulator runs.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum Precision {
+    /// 8 bits + sign inside the combiners, as the hardware does.
+    #[default]
+    Fixed9,
+    /// 32-bit floats inside the combiners.
+    F32,
+}
+
+impl Precision {
+    pub fn by_name(name: &str) -> Option<Precision> {
+        match name {
+            "fixed9" => Some(Precision::Fixed9),
+            "f32" => Some(Precision::F32),
+            _ => None,
+        }
+    }
+}
+
+/// Per-pixel inputs (RGBA8, `width * height * 4` bytes, row-major) and the
+/// uniform ones. A missing image reads as (0, 0, 0, 0).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct Inputs<'a> {
+    pub width: usize,
+    pub height: usize,
+    pub textures: [Option<&'a [u8]>; 4],
+    pub primary: Option<&'a [u8]>,
+    pub secondary: Option<&'a [u8]>,
+    /// Fog colour (rgb) and fog factor (alpha).
+    pub fog: Color,
+    /// Constant colours used when the config does not set them (its own
+    /// constants override these, as in nvparse).
+    pub constant0: Color,
+    pub constant1: Color,
+}
+
+#[derive(Debug, Error, PartialEq)]
+pub enum EmulateError {
+    #[error("{what} has {got} bytes, but a {width}x{height} RGBA8 image has {expected}")]
+    SizeMismatch { what: String, got: usize, expected: usize, width: usize, height: usize },
+    #[error("output buffer has {got} bytes, expected {expected}")]
+    OutputSize { got: usize, expected: usize },
+    #[error("the combiner setup is invalid: {}", .0.first().map(ToString::to_string).unwrap_or_default())]
+    Invalid(Vec<ValidationError>),
+}
+
+/// Runs `config` on every pixel; returns the final combiner's RGBA as RGBA8.
+pub fn emulate(config: &CombinerConfig, inputs: &Inputs, precision: Precision) -> Result<Vec<u8>, EmulateError> {
+    let len = inputs.width.checked_mul(inputs.height).and_then(|n| n.checked_mul(4)).unwrap_or(usize::MAX);
+    if len == usize::MAX {
+        return Err(EmulateError::OutputSize { got: 0, expected: len });
+    }
+    let mut out = vec![0u8; len];
+    emulate_into(config, inputs, precision, &mut out)?;
+    Ok(out)
+}
+
+/// Like [`emulate`], writing into `out` (`width * height * 4` bytes).
+pub fn emulate_into(config: &CombinerConfig, inputs: &Inputs, precision: Precision, out: &mut [u8]) -> Result<(), EmulateError> {
+    // The emulator runs anything a geforce3 accepts; the caller checks its own profile.
+    validate(config, &CombinerLimits::GEFORCE3).map_err(EmulateError::Invalid)?;
+    let expected = inputs.width.saturating_mul(inputs.height).saturating_mul(4);
+    if out.len() != expected {
+        return Err(EmulateError::OutputSize { got: out.len(), expected });
+    }
+    let images = [
+        ("texture0", inputs.textures[0]),
+        ("texture1", inputs.textures[1]),
+        ("texture2", inputs.textures[2]),
+        ("texture3", inputs.textures[3]),
+        ("primary", inputs.primary),
+        ("secondary", inputs.secondary),
+    ];
+    for (what, image) in images {
+        if let Some(image) = image {
+            if image.len() != expected {
+                return Err(EmulateError::SizeMismatch { what: what.into(), got: image.len(), expected, width: inputs.width, height: inputs.height });
+            }
+        }
+    }
+    let plan = Plan::new(config, inputs);
+    match precision {
+        Precision::Fixed9 => run::<Fixed9>(&plan, inputs, out),
+        Precision::F32 => run::<F32>(&plan, inputs, out),
+    }
+    Ok(())
+}
+
+// ---------------------------------------------------------------------------
+// The plan: the config with constants resolved and dead work marked.
+
+struct PortionPlan {
+    inputs: [GeneralInput; 4],
+    outputs: [Option<Register>; 3],
+    ab_dot: bool,
+    cd_dot: bool,
+    mux: bool,
+    scale: Scale,
+    bias: Bias,
+    need_ab: bool,
+    need_cd: bool,
+}
+
+struct StagePlan {
+    rgb: PortionPlan,
+    alpha: PortionPlan,
+    constants: [Color; 2],
+}
+
+struct Plan {
+    stages: Vec<StagePlan>,
+    global_constants: [Color; 2],
+    final_combiner: super::config::FinalCombiner,
+}
+
+impl Plan {
+    fn new(config: &CombinerConfig, inputs: &Inputs) -> Plan {
+        let global_constants = [config.constant0.unwrap_or(inputs.constant0), config.constant1.unwrap_or(inputs.constant1)];
+        let portion = |p: &super::config::GeneralPortion| {
+            let sum = p.sum_output.is_some();
+            PortionPlan {
+                inputs: [p.a, p.b, p.c, p.d],
+                outputs: [p.ab_output, p.cd_output, p.sum_output],
+                ab_dot: p.ab_dot,
+                cd_dot: p.cd_dot,
+                mux: p.mux_sum,
+                scale: p.scale,
+                bias: p.bias,
+                need_ab: p.ab_output.is_some() || sum,
+                need_cd: p.cd_output.is_some() || sum,
+            }
+        };
+        let stages = config
+            .general
+            .iter()
+            .map(|s| StagePlan {
+                rgb: portion(&s.rgb),
+                alpha: portion(&s.alpha),
+                constants: [s.constant0.unwrap_or(global_constants[0]), s.constant1.unwrap_or(global_constants[1])],
+            })
+            .collect();
+        Plan { stages, global_constants, final_combiner: config.final_combiner }
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Precision models.
+
+trait Model {
+    /// A register component.
+    type R: Copy + Default + Send + Sync;
+    /// A mapped input, product or sum, before the output scale and bias.
+    type W: Copy + Default + Send + Sync;
+    fn from_u8(v: u8) -> Self::R;
+    fn from_unit(v: f32) -> Self::R;
+    fn map(m: InputMapping, src: &[Self::R], dst: &mut [Self::W]);
+    fn mul(a: &[Self::W], b: &[Self::W], dst: &mut [Self::W]);
+    fn mul_add(a: &[Self::W], b: &[Self::W], dst: &mut [Self::W]);
+    fn add(a: &[Self::W], b: &[Self::W], dst: &mut [Self::W]);
+    /// spare0.a < ½ → AB, else CD.
+    fn mux(spare0_alpha: &[Self::R], ab: &[Self::W], cd: &[Self::W], dst: &mut [Self::W]);
+    /// Bias, scale, clamp to [−1, 1], store in a register.
+    fn output(src: &[Self::W], scale: Scale, bias: Bias, dst: &mut [Self::R]);
+    /// Final-combiner input mapping (unsigned identity or invert, after the
+    /// clamp of negative values to zero).
+    fn final_map(m: InputMapping, src: &[Self::R], dst: &mut [Self::R]);
+    fn ef(e: &[Self::R], f: &[Self::R], dst: &mut [Self::R]);
+    fn color_sum(spare0: &[Self::R], secondary: &[Self::R], clamp: bool, dst: &mut [Self::R]);
+    /// A·B + (1 − A)·C + D, clamped to [0, 1].
+    fn lerp_add(a: &[Self::R], b: &[Self::R], c: &[Self::R], d: &[Self::R], dst: &mut [Self::R]);
+    fn to_u8(v: Self::R) -> u8;
+}
+
+/// 8 bits + sign: registers hold integers in [−255, 255] (units of 1/255).
+/// Mapped inputs are exact in units of 1/510, products and sums exact in
+/// units of 1/260100; the output scale and bias are exact, and the single
+/// rounding (to nearest, ties toward +∞) happens on the register write.
+struct Fixed9;
+
+/// Floor of `t / 2040` rounded to nearest with ties up, for |t| < 8.3e6:
+/// turns a scaled product sum (units of 1/520200) into units of 1/255.
+#[inline(always)]
+fn round_2040(t: i32) -> i32 {
+    const K: i32 = 4096;
+    (((t + 1020 + 2040 * K) as u32) / 2040) as i32 - K
+}
+
+impl Model for Fixed9 {
+    type R = i16;
+    type W = i32;
+
+    fn from_u8(v: u8) -> i16 {
+        v as i16
+    }
+
+    fn from_unit(v: f32) -> i16 {
+        let v = if v.is_nan() { 0.0 } else { v.clamp(0.0, 1.0) };
+        (v * 255.0 + 0.5).floor() as i16
+    }
+
+    fn map(m: InputMapping, src: &[i16], dst: &mut [i32]) {
+        let it = dst.iter_mut().zip(src);
+        match m {
+            InputMapping::UnsignedIdentity => it.for_each(|(d, &s)| *d = 2 * (s as i32).max(0)),
+            InputMapping::UnsignedInvert => it.for_each(|(d, &s)| *d = 2 * (255 - (s as i32).clamp(0, 255))),
+            InputMapping::ExpandNormal => it.for_each(|(d, &s)| *d = 4 * (s as i32).max(0) - 510),
+            InputMapping::ExpandNegate => it.for_each(|(d, &s)| *d = 510 - 4 * (s as i32).max(0)),
+            InputMapping::HalfBiasNormal => it.for_each(|(d, &s)| *d = 2 * (s as i32).max(0) - 255),
+            InputMapping::HalfBiasNegate => it.for_each(|(d, &s)| *d = 255 - 2 * (s as i32).max(0)),
+            InputMapping::SignedIdentity => it.for_each(|(d, &s)| *d = 2 * s as i32),
+            InputMapping::SignedNegate => it.for_each(|(d, &s)| *d = -2 * s as i32),
+        }
+    }
+
+    fn mul(a: &[i32], b: &[i32], dst: &mut [i32]) {
+        dst.iter_mut().zip(a.iter().zip(b)).for_each(|(d, (&a, &b))| *d = a * b);
+    }
+
+    fn mul_add(a: &[i32], b: &[i32], dst: &mut [i32]) {
+        dst.iter_mut().zip(a.iter().zip(b)).for_each(|(d, (&a, &b))| *d += a * b);
+    }
+
+    fn add(a: &[i32], b: &[i32], dst: &mut [i32]) {
+        dst.iter_mut().zip(a.iter().zip(b)).for_each(|(d, (&a, &b))| *d = a + b);
+    }
+
+    fn mux(spare0_alpha: &[i16], ab: &[i32], cd: &[i32], dst: &mut [i32]) {
+        // ½ lies between 127/255 and 128/255.
+        dst.iter_mut()
+            .zip(spare0_alpha.iter().zip(ab.iter().zip(cd)))
+            .for_each(|(d, (&s, (&ab, &cd)))| *d = if s < 128 { ab } else { cd });
+    }
+
+    fn output(src: &[i32], scale: Scale, bias: Bias, dst: &mut [i16]) {
+        // (v + bias) · scale in units of 1/520200 = 2 · 260100.
+        let b = match bias {
+            Bias::Zero => 0,
+            Bias::NegativeOneHalf => -130_050,
+        };
+        let s = match scale {
+            Scale::OneHalf => 1,
+            Scale::One => 2,
+            Scale::Two => 4,
+            Scale::Four => 8,
+        };
+        dst.iter_mut().zip(src).for_each(|(d, &v)| *d = round_2040((v + b) * s).clamp(-255, 255) as i16);
+    }
+
+    fn final_map(m: InputMapping, src: &[i16], dst: &mut [i16]) {
+        let it = dst.iter_mut().zip(src);
+        match m {
+            InputMapping::UnsignedInvert => it.for_each(|(d, &s)| *d = 255 - s.clamp(0, 255)),
+            _ => it.for_each(|(d, &s)| *d = s.max(0)),
+        }
+    }
+
+    fn ef(e: &[i16], f: &[i16], dst: &mut [i16]) {
+        dst.iter_mut()
+            .zip(e.iter().zip(f))
+            .for_each(|(d, (&e, &f))| *d = ((2 * e as i32 * f as i32 + 255) / 510) as i16);
+    }
+
+    fn color_sum(spare0: &[i16], secondary: &[i16], clamp: bool, dst: &mut [i16]) {
+        let max = if clamp { 255 } else { 510 };
+        dst.iter_mut()
+            .zip(spare0.iter().zip(secondary))
+            .for_each(|(d, (&a, &b))| *d = (a.max(0) + b.max(0)).min(max));
+    }
+
+    fn lerp_add(a: &[i16], b: &[i16], c: &[i16], d: &[i16], dst: &mut [i16]) {
+        for (i, o) in dst.iter_mut().enumerate() {
+            let (a, b, c, d) = (a[i] as i32, b[i] as i32, c[i] as i32, d[i] as i32);
+            let num = a * b + (255 - a) * c + 255 * d;
+            *o = ((2 * num + 255) / 510).min(255) as i16;
+        }
+    }
+
+    fn to_u8(v: i16) -> u8 {
+        v.clamp(0, 255) as u8
+    }
+}
+
+/// f32 inside the combiners: Table 3 on reals, outputs clamped to [−1, 1].
+struct F32;
+
+impl Model for F32 {
+    type R = f32;
+    type W = f32;
+
+    fn from_u8(v: u8) -> f32 {
+        v as f32 * (1.0 / 255.0)
+    }
+
+    fn from_unit(v: f32) -> f32 {
+        if v.is_nan() {
+            0.0
+        } else {
+            v.clamp(0.0, 1.0)
+        }
+    }
+
+    fn map(m: InputMapping, src: &[f32], dst: &mut [f32]) {
+        let it = dst.iter_mut().zip(src);
+        match m {
+            InputMapping::UnsignedIdentity => it.for_each(|(d, &s)| *d = s.max(0.0)),
+            InputMapping::UnsignedInvert => it.for_each(|(d, &s)| *d = 1.0 - s.clamp(0.0, 1.0)),
+            InputMapping::ExpandNormal => it.for_each(|(d, &s)| *d = 2.0 * s.max(0.0) - 1.0),
+            InputMapping::ExpandNegate => it.for_each(|(d, &s)| *d = 1.0 - 2.0 * s.max(0.0)),
+            InputMapping::HalfBiasNormal => it.for_each(|(d, &s)| *d = s.max(0.0) - 0.5),
+            InputMapping::HalfBiasNegate => it.for_each(|(d, &s)| *d = 0.5 - s.max(0.0)),
+            InputMapping::SignedIdentity => it.for_each(|(d, &s)| *d = s),
+            InputMapping::SignedNegate => it.for_each(|(d, &s)| *d = -s),
+        }
+    }
+
+    fn mul(a: &[f32], b: &[f32], dst: &mut [f32]) {
+        dst.iter_mut().zip(a.iter().zip(b)).for_each(|(d, (&a, &b))| *d = a * b);
+    }
+
+    fn mul_add(a: &[f32], b: &[f32], dst: &mut [f32]) {
+        dst.iter_mut().zip(a.iter().zip(b)).for_each(|(d, (&a, &b))| *d += a * b);
+    }
+
+    fn add(a: &[f32], b: &[f32], dst: &mut [f32]) {
+        dst.iter_mut().zip(a.iter().zip(b)).for_each(|(d, (&a, &b))| *d = a + b);
+    }
+
+    fn mux(spare0_alpha: &[f32], ab: &[f32], cd: &[f32], dst: &mut [f32]) {
+        dst.iter_mut()
+            .zip(spare0_alpha.iter().zip(ab.iter().zip(cd)))
+            .for_each(|(d, (&s, (&ab, &cd)))| *d = if s < 0.5 { ab } else { cd });
+    }
+
+    fn output(src: &[f32], scale: Scale, bias: Bias, dst: &mut [f32]) {
+        let (s, b) = (scale.factor(), bias.offset());
+        dst.iter_mut().zip(src).for_each(|(d, &v)| *d = ((v + b) * s).clamp(-1.0, 1.0));
+    }
+
+    fn final_map(m: InputMapping, src: &[f32], dst: &mut [f32]) {
+        let it = dst.iter_mut().zip(src);
+        match m {
+            InputMapping::UnsignedInvert => it.for_each(|(d, &s)| *d = 1.0 - s.clamp(0.0, 1.0)),
+            _ => it.for_each(|(d, &s)| *d = s.max(0.0)),
+        }
+    }
+
+    fn ef(e: &[f32], f: &[f32], dst: &mut [f32]) {
+        dst.iter_mut().zip(e.iter().zip(f)).for_each(|(d, (&e, &f))| *d = e * f);
+    }
+
+    fn color_sum(spare0: &[f32], secondary: &[f32], clamp: bool, dst: &mut [f32]) {
+        let max = if clamp { 1.0 } else { 2.0 };
+        dst.iter_mut()
+            .zip(spare0.iter().zip(secondary))
+            .for_each(|(d, (&a, &b))| *d = (a.max(0.0) + b.max(0.0)).min(max));
+    }
+
+    fn lerp_add(a: &[f32], b: &[f32], c: &[f32], d: &[f32], dst: &mut [f32]) {
+        for (i, o) in dst.iter_mut().enumerate() {
+            let (a, b, c, d) = (a[i], b[i], c[i], d[i]);
+            *o = (a * b + (1.0 - a) * c + d).min(1.0);
+        }
+    }
+
+    fn to_u8(v: f32) -> u8 {
+        (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
+    }
+}
+
+// ---------------------------------------------------------------------------
+// The tile engine.
+
+const N_REGS: usize = 12;
+
+/// Per-worker buffers, allocated once and reused for every tile.
+struct Scratch<M: Model> {
+    /// `N_REGS × 4` channel slices of `TILE`.
+    regs: Vec<M::R>,
+    /// Mapped A-D, 3 channels each.
+    mapped: Vec<M::W>,
+    ab: Vec<M::W>,
+    cd: Vec<M::W>,
+    sum: Vec<M::W>,
+    /// Stage results before they are written: rgb 3 slots × 3 channels, alpha 3 slots.
+    staged_rgb: Vec<M::R>,
+    staged_alpha: Vec<M::R>,
+    /// Final combiner: A-G (3 channels each), EF, colour sum, result.
+    fin: Vec<M::R>,
+    ef: Vec<M::R>,
+    cs: Vec<M::R>,
+    rgb: Vec<M::R>,
+    /// Which constants the constant registers hold now.
+    constants: Option<[Color; 2]>,
+}
+
+impl<M: Model> Scratch<M> {
+    fn new(fog: Color) -> Scratch<M> {
+        let mut s = Scratch {
+            regs: vec![M::R::default(); N_REGS * 4 * TILE],
+            mapped: vec![M::W::default(); 4 * 3 * TILE],
+            ab: vec![M::W::default(); 3 * TILE],
+            cd: vec![M::W::default(); 3 * TILE],
+            sum: vec![M::W::default(); 3 * TILE],
+            staged_rgb: vec![M::R::default(); 3 * 3 * TILE],
+            staged_alpha: vec![M::R::default(); 3 * TILE],
+            fin: vec![M::R::default(); 7 * 3 * TILE],
+            ef: vec![M::R::default(); 3 * TILE],
+            cs: vec![M::R::default(); 3 * TILE],
+            rgb: vec![M::R::default(); 3 * TILE],
+            constants: None,
+        };
+        s.fill(Register::Zero, [0.0; 4]);
+        s.fill(Register::Fog, fog);
+        s
+    }
+
+    fn fill(&mut self, r: Register, c: Color) {
+        for (ch, &v) in c.iter().enumerate() {
+            let v = M::from_unit(v);
+            self.reg_mut(r.index(), ch).fill(v);
+        }
+    }
+
+    fn set_constants(&mut self, c: [Color; 2]) {
+        if self.constants != Some(c) {
+            self.fill(Register::Constant0, c[0]);
+            self.fill(Register::Constant1, c[1]);
+            self.constants = Some(c);
+        }
+    }
+
+    fn reg_mut(&mut self, r: usize, ch: usize) -> &mut [M::R] {
+        &mut self.regs[(r * 4 + ch) * TILE..][..TILE]
+    }
+}
+
+fn reg<M: Model>(regs: &[M::R], r: usize, ch: usize, n: usize) -> &[M::R] {
+    &regs[(r * 4 + ch) * TILE..][..n]
+}
+
+fn run<M: Model>(plan: &Plan, inputs: &Inputs, out: &mut [u8]) {
+    out.par_chunks_mut(TILE * 4).enumerate().for_each_init(
+        || Scratch::<M>::new(inputs.fog),
+        |scratch, (tile_idx, out)| tile::<M>(plan, inputs, scratch, tile_idx * TILE, out),
+    );
+}
+
+fn tile<M: Model>(plan: &Plan, inputs: &Inputs, s: &mut Scratch<M>, first: usize, out: &mut [u8]) {
+    let n = out.len() / 4;
+    // Load the per-pixel registers (Section 4.2.1).
+    let images = [
+        (Register::Texture0, inputs.textures[0]),
+        (Register::Texture1, inputs.textures[1]),
+        (Register::Texture2, inputs.textures[2]),
+        (Register::Texture3, inputs.textures[3]),
+        (Register::Primary, inputs.primary),
+        (Register::Secondary, inputs.secondary),
+    ];
+    for (r, image) in images {
+        match image {
+            Some(image) => {
+                let src = &image[first * 4..(first + n) * 4];
+                for ch in 0..4 {
+                    let dst = s.reg_mut(r.index(), ch);
+                    for (d, px) in dst[..n].iter_mut().zip(src.chunks_exact(4)) {
+                        *d = M::from_u8(px[ch]);
+                    }
+                }
+            }
+            None => (0..4).for_each(|ch| s.reg_mut(r.index(), ch).fill(M::R::default())),
+        }
+    }
+    // spare0: RGB undefined (zero here), alpha = texture 0 alpha; spare1 undefined (zero).
+    for ch in 0..3 {
+        s.reg_mut(Register::Spare0.index(), ch).fill(M::R::default());
+    }
+    let (t0a, spare0a) = (Register::Texture0.index() * 4 + 3, Register::Spare0.index() * 4 + 3);
+    s.regs.copy_within(t0a * TILE..(t0a + 1) * TILE, spare0a * TILE);
+    for ch in 0..4 {
+        s.reg_mut(Register::Spare1.index(), ch).fill(M::R::default());
+    }
+
+    for stage in &plan.stages {
+        s.set_constants(stage.constants);
+        portion::<M>(s, &stage.rgb, PortionKind::Rgb, n);
+        portion::<M>(s, &stage.alpha, PortionKind::Alpha, n);
+        // Both portions read the registers as the stage found them; write now.
+        for (slot, r) in stage.rgb.outputs.iter().enumerate() {
+            if let Some(r) = r {
+                for ch in 0..3 {
+                    let at = (r.index() * 4 + ch) * TILE;
+                    s.regs[at..at + n].copy_from_slice(&s.staged_rgb[(slot * 3 + ch) * TILE..][..n]);
+                }
+            }
+        }
+        for (slot, r) in stage.alpha.outputs.iter().enumerate() {
+            if let Some(r) = r {
+                let at = (r.index() * 4 + 3) * TILE;
+                s.regs[at..at + n].copy_from_slice(&s.staged_alpha[slot * TILE..][..n]);
+            }
+        }
+    }
+    s.set_constants(plan.global_constants);
+    final_combiner::<M>(s, &plan.final_combiner, n, out);
+}
+
+/// One portion of a general stage, into `staged_rgb` / `staged_alpha`.
+fn portion<M: Model>(s: &mut Scratch<M>, p: &PortionPlan, kind: PortionKind, n: usize) {
+    if !p.need_ab && !p.need_cd {
+        return;
+    }
+    let channels = if kind == PortionKind::Rgb { 3 } else { 1 };
+    // Map the variables that are needed.
+    for (v, input) in p.inputs.iter().enumerate() {
+        if (v < 2 && !p.need_ab) || (v >= 2 && !p.need_cd) {
+            continue;
+        }
+        for ch in 0..channels {
+            let src_ch = match (kind, input.usage) {
+                (PortionKind::Rgb, ComponentUsage::Rgb) => ch,
+                (_, ComponentUsage::Alpha) => 3,
+                (_, ComponentUsage::Blue) => 2,
+                // Invalid (rejected by validation); read alpha.
+                (PortionKind::Alpha, ComponentUsage::Rgb) => 3,
+            };
+            let src = reg::<M>(&s.regs, input.register.index(), src_ch, n);
+            M::map(input.mapping, src, &mut s.mapped[(v * 3 + ch) * TILE..][..n]);
+        }
+    }
+    let mapped = &s.mapped;
+    let var = |v: usize, ch: usize| &mapped[(v * 3 + ch) * TILE..][..n];
+    let product = |a: usize, dot: bool, dst: &mut [M::W]| {
+        if dot {
+            let dst = &mut dst[..n];
+            M::mul(var(a, 0), var(a + 1, 0), dst);
+            M::mul_add(var(a, 1), var(a + 1, 1), dst);
+            M::mul_add(var(a, 2), var(a + 1, 2), dst);
+        } else {
+            for ch in 0..channels {
+                M::mul(var(a, ch), var(a + 1, ch), &mut dst[ch * TILE..][..n]);
+            }
+        }
+    };
+    if p.need_ab {
+        product(0, p.ab_dot, &mut s.ab);
+        if p.ab_dot {
+            smear::<M>(&mut s.ab, n);
+        }
+    }
+    if p.need_cd {
+        product(2, p.cd_dot, &mut s.cd);
+        if p.cd_dot {
+            smear::<M>(&mut s.cd, n);
+        }
+    }
+    if p.outputs[2].is_some() {
+        let spare0_alpha = reg::<M>(&s.regs, Register::Spare0.index(), 3, n);
+        for ch in 0..channels {
+            let (ab, cd) = (&s.ab[ch * TILE..][..n], &s.cd[ch * TILE..][..n]);
+            let dst = &mut s.sum[ch * TILE..][..n];
+            if p.mux {
+                M::mux(spare0_alpha, ab, cd, dst);
+            } else {
+                M::add(ab, cd, dst);
+            }
+        }
+    }
+    let sources = [&s.ab, &s.cd, &s.sum];
+    for (slot, out) in p.outputs.iter().enumerate() {
+        if out.is_none() {
+            continue;
+        }
+        for ch in 0..channels {
+            let src = &sources[slot][ch * TILE..][..n];
+            let dst = match kind {
+                PortionKind::Rgb => &mut s.staged_rgb[(slot * 3 + ch) * TILE..][..n],
+                PortionKind::Alpha => &mut s.staged_alpha[slot * TILE..][..n],
+            };
+            M::output(src, p.scale, p.bias, dst);
+        }
+    }
+}
+
+/// Copies a dot product (channel 0) to channels 1 and 2 (Section 4.2.2:
+/// "the dot product result is a scalar so it is smeared across RGB").
+fn smear<M: Model>(buf: &mut [M::W], n: usize) {
+    let (first, rest) = buf.split_at_mut(TILE);
+    rest[..n].copy_from_slice(&first[..n]);
+    rest[TILE..TILE + n].copy_from_slice(&first[..n]);
+}
+
+fn final_combiner<M: Model>(s: &mut Scratch<M>, fc: &super::config::FinalCombiner, n: usize, out: &mut [u8]) {
+    // Pseudo-registers first: EF needs E and F, spare0+secondary needs nothing.
+    let vars = [fc.a, fc.b, fc.c, fc.d, fc.e, fc.f, fc.g];
+    let load = |s: &mut Scratch<M>, v: usize, ch: usize| {
+        let input = vars[v];
+        let dst = &mut s.fin[(v * 3 + ch) * TILE..][..n];
+        match input.source {
+            FinalSource::Register(r) => {
+                let src_ch = if v == 6 || input.usage == ComponentUsage::Alpha { 3 } else { ch };
+                M::final_map(input.mapping, reg::<M>(&s.regs, r.index(), src_ch, n), dst);
+            }
+            FinalSource::EfProduct => M::final_map(input.mapping, &s.ef[ch * TILE..][..n], dst),
+            FinalSource::Spare0PlusSecondary => M::final_map(input.mapping, &s.cs[ch * TILE..][..n], dst),
+        }
+    };
+    let uses = |src: FinalSource| vars[..4].iter().any(|v| v.source == src);
+    if uses(FinalSource::EfProduct) {
+        for ch in 0..3 {
+            load(s, 4, ch);
+            load(s, 5, ch);
+            let (e, f) = (&s.fin[(4 * 3 + ch) * TILE..][..n], &s.fin[(5 * 3 + ch) * TILE..][..n]);
+            M::ef(e, f, &mut s.ef[ch * TILE..][..n]);
+        }
+    }
+    if uses(FinalSource::Spare0PlusSecondary) {
+        for ch in 0..3 {
+            let spare0 = reg::<M>(&s.regs, Register::Spare0.index(), ch, n);
+            let secondary = reg::<M>(&s.regs, Register::Secondary.index(), ch, n);
+            M::color_sum(spare0, secondary, fc.color_sum_clamp, &mut s.cs[ch * TILE..][..n]);
+        }
+    }
+    for ch in 0..3 {
+        for v in 0..4 {
+            load(s, v, ch);
+        }
+        let f = &s.fin;
+        let var = |v: usize| &f[(v * 3 + ch) * TILE..][..n];
+        M::lerp_add(var(0), var(1), var(2), var(3), &mut s.rgb[ch * TILE..][..n]);
+    }
+    load(s, 6, 0);
+    let g = &s.fin[(6 * 3) * TILE..][..n];
+    for (i, px) in out.chunks_exact_mut(4).enumerate() {
+        px[0] = M::to_u8(s.rgb[i]);
+        px[1] = M::to_u8(s.rgb[TILE + i]);
+        px[2] = M::to_u8(s.rgb[2 * TILE + i]);
+        px[3] = M::to_u8(g[i]);
+    }
+}

@@ -1,0 +1,850 @@
+//! A recursive-descent parser for `!!RC1.0` following nvparse's
+//! `rc1.0_grammar.y` and the checks of its validator (`rc1.0_general.cpp`,
+//! `rc1.0_final.cpp`, `rc1.0_combiners.cpp`), producing a `CombinerConfig`
+//! plus the span of every place in it, so that validation errors point at
+//! the source.
+
+use std::collections::HashMap;
+
+use crate::diag::{did_you_mean, Diagnostic};
+use crate::span::Span;
+
+use super::lexer::{lex, Tok, Token};
+use crate::backends::combiners::config::{
+    Bias, Color, CombinerConfig, ComponentUsage, FinalCombiner, FinalInput, FinalSource, GeneralInput, GeneralPortion,
+    GeneralStage, InputMapping, PortionKind, Register, Scale,
+};
+use crate::backends::combiners::validate::{OutputSlot, Place};
+
+/// A parsed program: the config and where each of its places came from.
+#[derive(Clone, Debug)]
+pub struct Parsed {
+    pub config: CombinerConfig,
+    pub spans: HashMap<Place, Span>,
+}
+
+impl Parsed {
+    pub fn span_of(&self, place: Place) -> Option<Span> {
+        self.spans.get(&place).copied()
+    }
+}
+
+const REGISTER_NAMES: [&str; 14] =
+    ["tex0", "tex1", "tex2", "tex3", "col0", "col1", "spare0", "spare1", "fog", "const0", "const1", "zero", "one", "discard"];
+
+/// Parses an `!!RC1.0` program (optionally preceded by a `!!TS1.0` block).
+pub fn parse(text: &str) -> Result<Parsed, Diagnostic> {
+    let lead = text.len() - text.trim_start().len();
+    let body = &text[lead..];
+    let (texture_shader, rc_start) = if let Some(rest) = body.strip_prefix("!!TS1.0") {
+        match rest.find("!!RC1.0") {
+            Some(at) => (Some(rest[..at].to_string()), lead + "!!TS1.0".len() + at),
+            None => {
+                return Err(Diagnostic::error(
+                    "syntax",
+                    "a `!!TS1.0` texture-shader block must be followed by an `!!RC1.0` program",
+                    Span::new(lead, lead + 7),
+                    "texture shader starts here",
+                )
+                .with_help("append the register-combiner program, starting with the line `!!RC1.0`"))
+            }
+        }
+    } else {
+        (None, lead)
+    };
+    if !text[rc_start..].starts_with("!!RC1.0") {
+        let end = text[rc_start..].find(char::is_whitespace).map_or(text.len(), |e| rc_start + e);
+        return Err(Diagnostic::error("syntax", "expected the `!!RC1.0` header", Span::new(rc_start, end), "a register-combiner program starts with `!!RC1.0`")
+            .with_help("put `!!RC1.0` on the first line"));
+    }
+    let start = rc_start + "!!RC1.0".len();
+    let tokens = lex(&text[start..], start)?;
+    let mut parser = Parser { tokens, pos: 0, spans: HashMap::new() };
+    let mut config = parser.program()?;
+    config.texture_shader = texture_shader;
+    Ok(Parsed { config, spans: parser.spans })
+}
+
+/// An operand as written: a register (or a pseudo-register) with its mapping.
+#[derive(Clone, Copy, Debug)]
+struct Operand {
+    source: Source,
+    selector: Option<ComponentUsage>,
+    mapping: InputMapping,
+    span: Span,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Source {
+    Register(Register),
+    One,
+    Discard,
+    FinalProduct,
+    ColorSum,
+}
+
+impl Operand {
+    /// nvparse's `MappedRegisterStruct::Init`: `one` is `zero` with the
+    /// mapping that turns 0 into the value `one` would have given.
+    fn resolve(self) -> (Source, InputMapping) {
+        if self.source != Source::One {
+            return (self.source, self.mapping);
+        }
+        use InputMapping::*;
+        let mapping = match self.mapping {
+            UnsignedIdentity => UnsignedInvert,
+            UnsignedInvert => UnsignedIdentity,
+            ExpandNormal => UnsignedInvert,
+            ExpandNegate => ExpandNormal,
+            HalfBiasNormal => HalfBiasNegate,
+            HalfBiasNegate => HalfBiasNormal,
+            SignedIdentity => UnsignedInvert,
+            SignedNegate => ExpandNormal,
+        };
+        (Source::Register(Register::Zero), mapping)
+    }
+}
+
+enum Op {
+    Product { dest: (Option<Register>, Span), a: Operand, b: Operand, dot: bool, span: Span },
+    Sum { dest: (Option<Register>, Span), mux: bool, span: Span },
+}
+
+struct Parser<'a> {
+    tokens: Vec<Token<'a>>,
+    pos: usize,
+    spans: HashMap<Place, Span>,
+}
+
+type PResult<T> = Result<T, Diagnostic>;
+
+fn syntax(message: impl Into<String>, span: Span, label: impl Into<String>, help: impl Into<String>) -> Diagnostic {
+    Diagnostic::error("syntax", message, span, label).with_help(help)
+}
+
+impl<'a> Parser<'a> {
+    fn peek(&self) -> Token<'a> {
+        self.tokens[self.pos.min(self.tokens.len() - 1)]
+    }
+
+    fn peek2(&self) -> Token<'a> {
+        self.tokens[(self.pos + 1).min(self.tokens.len() - 1)]
+    }
+
+    fn bump(&mut self) -> Token<'a> {
+        let t = self.peek();
+        if self.pos < self.tokens.len() - 1 {
+            self.pos += 1;
+        }
+        t
+    }
+
+    fn prev_end(&self) -> Span {
+        let prev = self.tokens[self.pos.saturating_sub(1)].span;
+        Span { start: prev.end, end: prev.end }
+    }
+
+    fn expect(&mut self, want: Tok<'static>, what: &str) -> PResult<Span> {
+        let t = self.peek();
+        if t.tok == want {
+            self.bump();
+            return Ok(t.span);
+        }
+        if want == Tok::Semi {
+            return Err(syntax(format!("expected `;`, found {}", t.tok.describe()), self.prev_end(), "statement ends here", "end every statement with `;`"));
+        }
+        Err(syntax(format!("expected {what}, found {}", t.tok.describe()), t.span, format!("expected {what}"), format!("write {what} here")))
+    }
+
+    fn is_name(&self, name: &str) -> bool {
+        matches!(self.peek().tok, Tok::Name(n, None) if n == name)
+    }
+
+    fn program(&mut self) -> PResult<CombinerConfig> {
+        let mut config = CombinerConfig { general: Vec::new(), ..CombinerConfig::default() };
+        // Global constants.
+        while let Tok::Name(n @ ("const0" | "const1"), None) = self.peek().tok {
+            if self.peek2().tok != Tok::Equals {
+                break;
+            }
+            let idx = u8::from(n == "const1");
+            let (color, span) = self.constant()?;
+            let slot = if idx == 0 { &mut config.constant0 } else { &mut config.constant1 };
+            if slot.is_some() {
+                let first = self.spans[&Place::GlobalConstant(idx)];
+                return Err(Diagnostic::error("constant-twice", format!("global constant `{n}` set twice"), span, "set again here")
+                    .with_label(first, "first set here")
+                    .with_help("set each constant colour once"));
+            }
+            *slot = Some(color);
+            self.spans.insert(Place::GlobalConstant(idx), span);
+        }
+        // General combiners.
+        while self.peek().tok == Tok::LBrace {
+            let stage_idx = config.general.len();
+            let stage = self.stage(stage_idx)?;
+            config.general.push(stage);
+        }
+        config.final_combiner = self.final_combiner()?;
+        let t = self.peek();
+        if t.tok != Tok::Eof {
+            let help = match t.tok {
+                Tok::LBrace => "general combiners come before the final combiner statements",
+                Tok::Name("const0" | "const1", _) => "global constants come first, before any general combiner",
+                _ => "the program ends after `out.rgb` and `out.a`",
+            };
+            return Err(syntax(format!("unexpected {}", t.tok.describe()), t.span, "not expected here", help));
+        }
+        Ok(config)
+    }
+
+    fn number(&mut self) -> PResult<f32> {
+        let t = self.bump();
+        let (sign, t) = match t.tok {
+            Tok::Minus => (-1.0, self.bump()),
+            Tok::Plus => (1.0, self.bump()),
+            _ => (1.0, t),
+        };
+        match t.tok {
+            Tok::Number(x) => Ok(sign * x),
+            _ => Err(syntax(format!("expected a number, found {}", t.tok.describe()), t.span, "expected a number", "constants are written `const0 = (r, g, b, a);`")),
+        }
+    }
+
+    /// `const0 = (r, g, b, a);`
+    fn constant(&mut self) -> PResult<(Color, Span)> {
+        let start = self.bump().span;
+        self.expect(Tok::Equals, "`=`")?;
+        self.expect(Tok::LParen, "`(`")?;
+        let mut c = [0.0; 4];
+        for (i, slot) in c.iter_mut().enumerate() {
+            if i > 0 {
+                self.expect(Tok::Comma, "`,` (a constant has four components)")?;
+            }
+            *slot = self.number()?;
+        }
+        self.expect(Tok::RParen, "`)` (a constant has four components)")?;
+        let end = self.expect(Tok::Semi, "`;`")?;
+        Ok((c, start.join(end)))
+    }
+
+    /// `{ [const0 = ...;] [const1 = ...;] rgb {...} [alpha {...}] }`
+    fn stage(&mut self, s: usize) -> PResult<GeneralStage> {
+        let open = self.bump().span;
+        let mut stage = GeneralStage {
+            rgb: GeneralPortion::discard_all(),
+            alpha: GeneralPortion::discard_all(),
+            constant0: None,
+            constant1: None,
+        };
+        let mut seen: [Option<Span>; 2] = [None, None];
+        loop {
+            let t = self.peek();
+            match t.tok {
+                Tok::Name(n @ ("const0" | "const1"), None) if self.peek2().tok == Tok::Equals => {
+                    if seen.iter().any(Option::is_some) {
+                        return Err(syntax("per-stage constants come before the portions", t.span, "constant after a portion", "move the constant to the top of the stage"));
+                    }
+                    let idx = u8::from(n == "const1");
+                    let (color, span) = self.constant()?;
+                    let slot = if idx == 0 { &mut stage.constant0 } else { &mut stage.constant1 };
+                    if slot.is_some() {
+                        return Err(Diagnostic::error("constant-twice", format!("local constant `{n}` set twice in general combiner {s}"), span, "set again here")
+                            .with_help("set each constant colour once per stage"));
+                    }
+                    *slot = Some(color);
+                    self.spans.insert(Place::StageConstant(s, idx), span);
+                }
+                Tok::Name(n @ ("rgb" | "alpha"), None) => {
+                    let kind = if n == "rgb" { PortionKind::Rgb } else { PortionKind::Alpha };
+                    let k = kind as usize;
+                    if let Some(first) = seen[k] {
+                        return Err(Diagnostic::error("portion-twice", format!("the {n} portion of general combiner {s} is declared twice"), t.span, "declared again here")
+                            .with_label(first, "first declared here")
+                            .with_help("a general combiner has one rgb and one alpha portion"));
+                    }
+                    seen[k] = Some(t.span);
+                    let portion = self.portion(s, kind)?;
+                    match kind {
+                        PortionKind::Rgb => stage.rgb = portion,
+                        PortionKind::Alpha => stage.alpha = portion,
+                    }
+                }
+                Tok::RBrace => {
+                    let close = self.bump().span;
+                    if seen.iter().all(Option::is_none) {
+                        return Err(syntax(format!("general combiner {s} has no portion"), open.join(close), "empty general combiner", "give it an `rgb { ... }` and/or `alpha { ... }` portion, or remove it"));
+                    }
+                    self.spans.insert(Place::Stage(s), open.join(close));
+                    return Ok(stage);
+                }
+                _ => {
+                    let help = match t.tok {
+                        Tok::Name(n, _) => match did_you_mean(n, ["rgb", "alpha", "const0", "const1"]) {
+                            Some(m) => format!("did you mean `{m}`?"),
+                            None => "a general combiner holds `rgb { ... }` and `alpha { ... }` portions".into(),
+                        },
+                        Tok::Eof => "close the general combiner with `}`".into(),
+                        _ => "a general combiner holds `rgb { ... }` and `alpha { ... }` portions".into(),
+                    };
+                    return Err(syntax(format!("expected `rgb`, `alpha` or `}}`, found {}", t.tok.describe()), t.span, "not a portion", help));
+                }
+            }
+        }
+    }
+
+    fn portion(&mut self, s: usize, kind: PortionKind) -> PResult<GeneralPortion> {
+        let start = self.bump().span;
+        self.expect(Tok::LBrace, "`{`")?;
+        let mut ops: Vec<Op> = Vec::new();
+        let mut scale: Option<(Scale, Span)> = None;
+        let mut bias: Option<(Bias, Span)> = None;
+        loop {
+            let t = self.peek();
+            match t.tok {
+                Tok::RBrace => break,
+                Tok::Name(n, None) if self.peek2().tok == Tok::LParen && !matches!(n, "expand" | "half_bias" | "unsigned" | "unsigned_invert") => {
+                    let (sc, bi) = match n {
+                        "scale_by_two" => (Some(Scale::Two), None),
+                        "scale_by_four" => (Some(Scale::Four), None),
+                        "scale_by_one_half" => (Some(Scale::OneHalf), None),
+                        "bias_by_negative_one_half" => (None, Some(Bias::NegativeOneHalf)),
+                        "bias_by_negative_one_half_scale_by_two" => (Some(Scale::Two), Some(Bias::NegativeOneHalf)),
+                        _ => {
+                            let help = match did_you_mean(n, SCALE_BIAS) {
+                                Some(m) => format!("did you mean `{m}()`?"),
+                                None => format!("the output scale/bias calls are {}", SCALE_BIAS.map(|s| format!("`{s}()`")).join(", ")),
+                            };
+                            return Err(syntax(format!("unknown function `{n}`"), t.span, "not a scale/bias call", help));
+                        }
+                    };
+                    self.bump();
+                    self.expect(Tok::LParen, "`(`")?;
+                    self.expect(Tok::RParen, "`)`")?;
+                    let end = self.expect(Tok::Semi, "`;`")?;
+                    let span = t.span.join(end);
+                    if let Some(sc) = sc {
+                        if let Some((_, first)) = scale {
+                            return Err(Diagnostic::error("scale-twice", "the output scale is set twice in this portion", span, "set again here")
+                                .with_label(first, "first set here")
+                                .with_help("a portion has one scale/bias call"));
+                        }
+                        scale = Some((sc, span));
+                    }
+                    if let Some(bi) = bi {
+                        if let Some((_, first)) = bias {
+                            return Err(Diagnostic::error("scale-twice", "the output bias is set twice in this portion", span, "set again here")
+                                .with_label(first, "first set here")
+                                .with_help("a portion has one scale/bias call"));
+                        }
+                        bias = Some((bi, span));
+                    }
+                }
+                Tok::Name(..) => {
+                    if scale.is_some() || bias.is_some() {
+                        return Err(syntax("the scale/bias call comes after the portion's operations", t.span, "operation after scale/bias", "move the scale/bias call to the end of the portion"));
+                    }
+                    ops.push(self.op(kind)?);
+                }
+                _ => {
+                    let help = if t.tok == Tok::Eof { "close the portion with `}`" } else { "write `register = operation;` or a scale/bias call" };
+                    return Err(syntax(format!("expected an operation or `}}`, found {}", t.tok.describe()), t.span, "not an operation", help));
+                }
+            }
+        }
+        let close = self.bump().span;
+        self.spans.insert(Place::Portion(s, kind), start.join(close));
+        let scale_bias_span = scale.map(|x| x.1).into_iter().chain(bias.map(|x| x.1)).reduce(Span::join);
+        if let Some(span) = scale_bias_span {
+            self.spans.insert(Place::ScaleBias(s, kind), span);
+        }
+        self.assemble(s, kind, ops, scale.map_or(Scale::One, |x| x.0), bias.map_or(Bias::Zero, |x| x.0), start.join(close))
+    }
+
+    /// Maps the portion's operations onto AB, CD and sum/mux as nvparse does.
+    fn assemble(&mut self, s: usize, kind: PortionKind, ops: Vec<Op>, scale: Scale, bias: Bias, span: Span) -> PResult<GeneralPortion> {
+        let default_usage = match kind {
+            PortionKind::Rgb => ComponentUsage::Rgb,
+            PortionKind::Alpha => ComponentUsage::Alpha,
+        };
+        let zero = GeneralInput::new(Register::Zero, InputMapping::UnsignedIdentity, default_usage);
+        let mut p = GeneralPortion { a: zero, b: zero, c: zero, d: zero, ab_output: None, cd_output: None, sum_output: None, ab_dot: false, cd_dot: false, mux_sum: false, scale, bias };
+        if ops.is_empty() {
+            return Err(syntax(format!("the {} portion of general combiner {s} has no operation", kind.name()), span, "empty portion", "write e.g. `spare0 = tex0 * col0;`, or leave the portion out"));
+        }
+        let mut products = 0;
+        let mut sum_seen = false;
+        for op in ops {
+            match op {
+                Op::Product { dest, a, b, dot, span } => {
+                    if sum_seen {
+                        return Err(syntax("`sum()` / `mux()` comes after the products", span, "product after sum/mux", "write the AB and CD products first"));
+                    }
+                    let (a_span, b_span) = (a.span, b.span);
+                    let (a, b) = (self.general_input(kind, a)?, self.general_input(kind, b)?);
+                    match products {
+                        0 => {
+                            (p.a, p.b, p.ab_output, p.ab_dot) = (a, b, dest.0, dot);
+                            self.spans.insert(Place::Output(s, kind, OutputSlot::Ab), dest.1);
+                            self.spans.insert(Place::Input(s, kind, 'A'), a_span);
+                            self.spans.insert(Place::Input(s, kind, 'B'), b_span);
+                        }
+                        1 => {
+                            (p.c, p.d, p.cd_output, p.cd_dot) = (a, b, dest.0, dot);
+                            self.spans.insert(Place::Output(s, kind, OutputSlot::Cd), dest.1);
+                            self.spans.insert(Place::Input(s, kind, 'C'), a_span);
+                            self.spans.insert(Place::Input(s, kind, 'D'), b_span);
+                        }
+                        _ => {
+                            return Err(syntax("a portion computes at most two products (AB and CD)", span, "third product", "split the work over another general combiner"));
+                        }
+                    }
+                    products += 1;
+                }
+                Op::Sum { dest, mux, span } => {
+                    if sum_seen {
+                        return Err(syntax("a portion has one `sum()` / `mux()` output", span, "second sum/mux", "remove one of them"));
+                    }
+                    if products < 2 {
+                        return Err(syntax(
+                            format!("`{}()` needs both an AB and a CD product before it", if mux { "mux" } else { "sum" }),
+                            span,
+                            "missing a product",
+                            "write two products first, e.g. `discard = tex0 * col0; discard = tex1 * col1; spare0 = sum();`",
+                        ));
+                    }
+                    sum_seen = true;
+                    p.sum_output = dest.0;
+                    p.mux_sum = mux;
+                    self.spans.insert(Place::Output(s, kind, OutputSlot::Sum), dest.1);
+                }
+            }
+        }
+        Ok(p)
+    }
+
+    fn general_input(&mut self, kind: PortionKind, op: Operand) -> PResult<GeneralInput> {
+        let (source, mapping) = op.resolve();
+        let usage = op.selector.unwrap_or(match kind {
+            PortionKind::Rgb => ComponentUsage::Rgb,
+            PortionKind::Alpha => ComponentUsage::Alpha,
+        });
+        match source {
+            Source::Register(register) => Ok(GeneralInput::new(register, mapping, usage)),
+            Source::Discard => Err(Diagnostic::error("read-discard", "reading from `discard`", op.span, "`discard` can only be written")
+                .with_help("read a register such as `zero`, `spare0` or `tex0`")),
+            Source::FinalProduct | Source::ColorSum => Err(Diagnostic::error(
+                "final-only",
+                format!("`{}` exists only in the final combiner", if source == Source::ColorSum { "color_sum" } else { "final_product" }),
+                op.span,
+                "final-combiner pseudo-register",
+            )
+            .with_help("compute the value in this stage from registers instead")),
+            Source::One => unreachable_one(op.span),
+        }
+    }
+
+    /// `dest = a . b;`, `dest = a * b;`, `dest = a;`, `dest = sum();`, `dest = mux();`
+    fn op(&mut self, kind: PortionKind) -> PResult<Op> {
+        let t = self.bump();
+        let Tok::Name(name, selector) = t.tok else { unreachable_name(t.span)? };
+        let dest = match register_by_name(name) {
+            Some(Source::Register(r)) => Some(r),
+            Some(Source::Discard) => None,
+            Some(Source::One) => {
+                return Err(Diagnostic::error("read-only-output", "`one` is read-only", t.span, "cannot be written").with_help("write to spare0, spare1, or another read/write register"))
+            }
+            Some(Source::FinalProduct | Source::ColorSum) | None => {
+                return Err(unknown_register(name, t.span, "an output register"));
+            }
+        };
+        if let Some(sel) = selector {
+            let ok = matches!((kind, sel), (PortionKind::Rgb, "rgb") | (PortionKind::Alpha, "a"));
+            if !ok {
+                return Err(syntax(format!("the {} portion cannot write `{name}.{sel}`", kind.name()), t.span, "wrong component", format!("write `{name}` (the {} portion writes {} components)", kind.name(), kind.name())));
+            }
+        }
+        self.expect(Tok::Equals, "`=`")?;
+        if let Tok::Name(f @ ("sum" | "mux"), None) = self.peek().tok {
+            self.bump();
+            self.expect(Tok::LParen, "`(`")?;
+            self.expect(Tok::RParen, "`)`")?;
+            let end = self.expect(Tok::Semi, "`;`")?;
+            return Ok(Op::Sum { dest: (dest, t.span), mux: f == "mux", span: t.span.join(end) });
+        }
+        let a = self.general_operand()?;
+        let (b, dot) = match self.peek().tok {
+            Tok::Dot => {
+                self.bump();
+                (self.general_operand()?, true)
+            }
+            Tok::Star => {
+                self.bump();
+                (self.general_operand()?, false)
+            }
+            _ => (Operand { source: Source::One, selector: None, mapping: InputMapping::SignedIdentity, span: a.span }, false),
+        };
+        let end = self.expect(Tok::Semi, "`;`")?;
+        Ok(Op::Product { dest: (dest, t.span), a, b, dot, span: t.span.join(end) })
+    }
+
+    /// A general-combiner operand: `r`, `-r`, `expand(r)`, `-expand(r)`,
+    /// `half_bias(r)`, `-half_bias(r)`, `unsigned(r)`, `unsigned_invert(r)`.
+    fn general_operand(&mut self) -> PResult<Operand> {
+        let start = self.peek().span;
+        let negate = if self.peek().tok == Tok::Minus {
+            self.bump();
+            true
+        } else {
+            false
+        };
+        let t = self.peek();
+        let Tok::Name(name, selector) = t.tok else {
+            return Err(syntax(format!("expected a register, found {}", t.tok.describe()), t.span, "expected a register", "operands are registers such as `tex0`, `col0.a`, `expand(tex1)`"));
+        };
+        let wrapper = match name {
+            "expand" => Some(if negate { InputMapping::ExpandNegate } else { InputMapping::ExpandNormal }),
+            "half_bias" => Some(if negate { InputMapping::HalfBiasNegate } else { InputMapping::HalfBiasNormal }),
+            "unsigned" | "unsigned_invert" => {
+                if negate {
+                    return Err(syntax(format!("`-{name}(...)` is not an input mapping"), start.join(t.span), "no such mapping", "the negated mappings are `-r`, `-expand(r)` and `-half_bias(r)`"));
+                }
+                Some(if name == "unsigned" { InputMapping::UnsignedIdentity } else { InputMapping::UnsignedInvert })
+            }
+            _ => None,
+        };
+        if selector.is_some() && wrapper.is_some() {
+            return Err(syntax(format!("`{name}` is a mapping, not a register"), t.span, "selector on a mapping", format!("put the selector on the register: `{name}(tex0.a)`")));
+        }
+        let mut op = match wrapper {
+            Some(mapping) => {
+                self.bump();
+                self.expect(Tok::LParen, "`(`")?;
+                let inner = self.register_operand()?;
+                let close = self.expect(Tok::RParen, "`)`")?;
+                Operand { mapping, span: start.join(close), ..inner }
+            }
+            None => {
+                let inner = self.register_operand()?;
+                Operand { mapping: if negate { InputMapping::SignedNegate } else { InputMapping::SignedIdentity }, span: start.join(inner.span), ..inner }
+            }
+        };
+        if matches!(op.source, Source::FinalProduct | Source::ColorSum) {
+            op.span = t.span;
+        }
+        Ok(op)
+    }
+
+    fn register_operand(&mut self) -> PResult<Operand> {
+        let t = self.bump();
+        let Tok::Name(name, selector) = t.tok else {
+            return Err(syntax(format!("expected a register, found {}", t.tok.describe()), t.span, "expected a register", "registers are tex0-tex3, col0, col1, spare0, spare1, fog, const0, const1, zero, one"));
+        };
+        let Some(source) = register_by_name(name) else {
+            return Err(unknown_register(name, t.span, "a register"));
+        };
+        let selector = selector.map(|s| match s {
+            "rgb" => ComponentUsage::Rgb,
+            "a" => ComponentUsage::Alpha,
+            _ => ComponentUsage::Blue,
+        });
+        if selector.is_some() && matches!(source, Source::FinalProduct | Source::ColorSum | Source::Discard) {
+            return Err(syntax(format!("`{name}` takes no component selector"), t.span, "selector not allowed", format!("write `{name}`")));
+        }
+        Ok(Operand { source, selector, mapping: InputMapping::UnsignedIdentity, span: t.span })
+    }
+
+    /// A final-combiner operand: `r`, `unsigned(r)`, `unsigned_invert(r)`,
+    /// with `color_sum` and `final_product` allowed as `r`.
+    fn final_operand(&mut self) -> PResult<Operand> {
+        let t = self.peek();
+        match t.tok {
+            Tok::Minus => Err(syntax("the final combiner has no signed mappings", t.span, "negation", "the final combiner reads `r`, `unsigned(r)` or `unsigned_invert(r)`; negate in a general combiner")),
+            Tok::Name(name @ ("unsigned" | "unsigned_invert"), None) if self.peek2().tok == Tok::LParen => {
+                self.bump();
+                self.bump();
+                let inner = self.register_operand()?;
+                let close = self.expect(Tok::RParen, "`)`")?;
+                let mapping = if name == "unsigned" { InputMapping::UnsignedIdentity } else { InputMapping::UnsignedInvert };
+                Ok(Operand { mapping, span: t.span.join(close), ..inner })
+            }
+            Tok::Name(name @ ("expand" | "half_bias"), None) => Err(syntax(format!("`{name}()` is not available in the final combiner"), t.span, "signed mapping", "the final combiner reads `r`, `unsigned(r)` or `unsigned_invert(r)`")),
+            _ => self.register_operand(),
+        }
+    }
+
+    fn final_input(&mut self, op: Operand, var: char, has_product: bool) -> PResult<FinalInput> {
+        let (source, mapping) = op.resolve();
+        let default_usage = if var == 'G' { ComponentUsage::Alpha } else { ComponentUsage::Rgb };
+        let usage = op.selector.unwrap_or(default_usage);
+        let source = match source {
+            Source::Register(r) => FinalSource::Register(r),
+            Source::FinalProduct => {
+                if !has_product && matches!(var, 'A' | 'B' | 'C' | 'D') {
+                    return Err(Diagnostic::error("final-product-unset", "`final_product` is used but not set", op.span, "used here")
+                        .with_help("set it before `out.rgb`: `final_product = tex0 * col0;`"));
+                }
+                FinalSource::EfProduct
+            }
+            Source::ColorSum => FinalSource::Spare0PlusSecondary,
+            Source::Discard => {
+                return Err(Diagnostic::error("read-discard", "reading from `discard`", op.span, "`discard` can only be written").with_help("read a register such as `zero` or `spare0`"))
+            }
+            Source::One => unreachable_one(op.span)?,
+        };
+        self.spans.insert(Place::FinalInput(var), op.span);
+        Ok(FinalInput::new(source, mapping, usage))
+    }
+
+    /// `[clamp_color_sum();] [final_product = E * F;] out.rgb = ...; out.a = G;`
+    fn final_combiner(&mut self) -> PResult<FinalCombiner> {
+        let zero_rgb = FinalInput::register(Register::Zero, ComponentUsage::Rgb);
+        let mut fc = FinalCombiner {
+            a: zero_rgb,
+            b: zero_rgb,
+            c: zero_rgb,
+            d: zero_rgb,
+            e: zero_rgb,
+            f: zero_rgb,
+            g: FinalInput::register(Register::Zero, ComponentUsage::Alpha),
+            color_sum_clamp: false,
+        };
+        let mut clamp: Option<Span> = None;
+        let mut product: Option<Span> = None;
+        let mut rgb: Option<Span> = None;
+        let mut alpha: Option<Span> = None;
+        loop {
+            let t = self.peek();
+            let twice = |first: Span, what: &str| {
+                Diagnostic::error("final-twice", format!("`{what}` appears twice"), t.span, "again here").with_label(first, "first here").with_help(format!("write `{what}` once"))
+            };
+            let late = |what: &str| syntax(format!("`{what}` must come before `out.rgb` and `out.a`"), t.span, "too late", format!("move `{what}` above the `out.rgb` / `out.a` statements"));
+            match t.tok {
+                Tok::Name("clamp_color_sum", None) => {
+                    if let Some(first) = clamp {
+                        return Err(twice(first, "clamp_color_sum();"));
+                    }
+                    if rgb.is_some() || alpha.is_some() {
+                        return Err(late("clamp_color_sum();"));
+                    }
+                    self.bump();
+                    self.expect(Tok::LParen, "`(`")?;
+                    self.expect(Tok::RParen, "`)`")?;
+                    clamp = Some(t.span.join(self.expect(Tok::Semi, "`;`")?));
+                    fc.color_sum_clamp = true;
+                }
+                Tok::Name("final_product", None) if self.peek2().tok == Tok::Equals => {
+                    if let Some(first) = product {
+                        return Err(twice(first, "final_product"));
+                    }
+                    if rgb.is_some() || alpha.is_some() {
+                        return Err(late("final_product = ...;"));
+                    }
+                    self.bump();
+                    self.bump();
+                    let e = self.final_operand()?;
+                    self.expect(Tok::Star, "`*` (final_product = E * F;)")?;
+                    let f = self.final_operand()?;
+                    product = Some(t.span.join(self.expect(Tok::Semi, "`;`")?));
+                    for (op, var) in [(e, 'E'), (f, 'F')] {
+                        if matches!(op.source, Source::FinalProduct | Source::ColorSum) {
+                            return Err(Diagnostic::error(
+                                if op.source == Source::FinalProduct { "ef-product-input" } else { "color-sum-input" },
+                                "invalid input register for final_product",
+                                op.span,
+                                "pseudo-register",
+                            )
+                            .with_help("E and F read ordinary registers"));
+                        }
+                        let input = self.final_input(op, var, true)?;
+                        if var == 'E' { fc.e = input } else { fc.f = input }
+                    }
+                }
+                Tok::Name("out", Some("rgb")) => {
+                    if let Some(first) = rgb {
+                        return Err(twice(first, "out.rgb"));
+                    }
+                    self.bump();
+                    self.expect(Tok::Equals, "`=`")?;
+                    self.final_rgb(&mut fc, product.is_some())?;
+                    rgb = Some(t.span.join(self.expect(Tok::Semi, "`;`")?));
+                }
+                Tok::Name("out", Some("a")) => {
+                    if let Some(first) = alpha {
+                        return Err(twice(first, "out.a"));
+                    }
+                    self.bump();
+                    self.expect(Tok::Equals, "`=`")?;
+                    let g = self.final_operand()?;
+                    if matches!(g.source, Source::FinalProduct | Source::ColorSum) {
+                        return Err(Diagnostic::error(
+                            if g.source == Source::FinalProduct { "ef-product-input" } else { "color-sum-input" },
+                            "invalid input register for final alpha",
+                            g.span,
+                            "pseudo-register",
+                        )
+                        .with_help("`out.a` reads the alpha of an ordinary register"));
+                    }
+                    fc.g = self.final_input(g, 'G', product.is_some())?;
+                    alpha = Some(t.span.join(self.expect(Tok::Semi, "`;`")?));
+                }
+                _ => break,
+            }
+        }
+        if rgb.is_none() && alpha.is_none() {
+            let t = self.peek();
+            let help = match t.tok {
+                Tok::Name(n, _) => match did_you_mean(n, ["out.rgb", "out.a", "clamp_color_sum", "final_product"]) {
+                    Some(m) => format!("did you mean `{m}`?"),
+                    None => "end the program with `out.rgb = ...;` and/or `out.a = ...;`".into(),
+                },
+                _ => "end the program with `out.rgb = ...;` and/or `out.a = ...;`".into(),
+            };
+            return Err(syntax(format!("expected the final combiner (`out.rgb = ...;`), found {}", t.tok.describe()), t.span, "expected `out.rgb` or `out.a`", help));
+        }
+        // nvparse's FinalCombinerStruct::Validate: move color_sum out of A
+        // when the expression allows it.
+        let is_cs = |i: &FinalInput| i.source == FinalSource::Spare0PlusSecondary;
+        let is_reg = |i: &FinalInput, m: InputMapping| i.source == FinalSource::Register(Register::Zero) && i.mapping == m;
+        if is_cs(&fc.a) && !is_cs(&fc.b) && is_reg(&fc.c, InputMapping::UnsignedIdentity) {
+            std::mem::swap(&mut fc.a, &mut fc.b);
+            self.swap_spans('A', 'B');
+        }
+        if is_cs(&fc.a) && is_reg(&fc.b, InputMapping::UnsignedInvert) && is_reg(&fc.c, InputMapping::UnsignedIdentity) && !is_cs(&fc.d) {
+            std::mem::swap(&mut fc.a, &mut fc.d);
+            self.swap_spans('A', 'D');
+        }
+        Ok(fc)
+    }
+
+    fn swap_spans(&mut self, x: char, y: char) {
+        let sx = self.spans.remove(&Place::FinalInput(x));
+        let sy = self.spans.remove(&Place::FinalInput(y));
+        if let Some(s) = sx {
+            self.spans.insert(Place::FinalInput(y), s);
+        }
+        if let Some(s) = sy {
+            self.spans.insert(Place::FinalInput(x), s);
+        }
+    }
+
+    /// The right-hand side of `out.rgb =`: `lerp(A, B, C) + D`,
+    /// `D + lerp(A, B, C)`, `lerp(A, B, C)`, `A * B`, `A * B + D`, `D`, `A + D`.
+    fn final_rgb(&mut self, fc: &mut FinalCombiner, has_product: bool) -> PResult<()> {
+        let zero = Operand { source: Source::Register(Register::Zero), selector: None, mapping: InputMapping::UnsignedIdentity, span: self.peek().span };
+        let one = Operand { mapping: InputMapping::UnsignedInvert, ..zero };
+        let (a, b, c, d);
+        if self.is_name("lerp") {
+            (a, b, c) = self.lerp()?;
+            d = if self.peek().tok == Tok::Plus {
+                self.bump();
+                self.final_operand()?
+            } else {
+                zero
+            };
+        } else {
+            let first = self.final_operand()?;
+            match self.peek().tok {
+                Tok::Star => {
+                    self.bump();
+                    let second = self.final_operand()?;
+                    (a, b, c) = (first, second, zero);
+                    d = if self.peek().tok == Tok::Plus {
+                        self.bump();
+                        self.final_operand()?
+                    } else {
+                        zero
+                    };
+                }
+                Tok::Plus => {
+                    self.bump();
+                    if self.is_name("lerp") {
+                        (a, b, c) = self.lerp()?;
+                        d = first;
+                    } else {
+                        let second = self.final_operand()?;
+                        (a, b, c, d) = (first, one, zero, second);
+                    }
+                }
+                _ => (a, b, c, d) = (zero, zero, zero, first),
+            }
+        }
+        let is_filler = |o: &Operand| o.span == zero.span && o.source == Source::Register(Register::Zero) && o.selector.is_none();
+        for (op, var) in [(a, 'A'), (b, 'B'), (c, 'C'), (d, 'D')] {
+            let input = self.final_input(op, var, has_product)?;
+            if is_filler(&op) {
+                self.spans.remove(&Place::FinalInput(var));
+            }
+            match var {
+                'A' => fc.a = input,
+                'B' => fc.b = input,
+                'C' => fc.c = input,
+                _ => fc.d = input,
+            }
+        }
+        Ok(())
+    }
+
+    fn lerp(&mut self) -> PResult<(Operand, Operand, Operand)> {
+        self.bump();
+        self.expect(Tok::LParen, "`(`")?;
+        let a = self.final_operand()?;
+        self.expect(Tok::Comma, "`,` (lerp takes three operands)")?;
+        let b = self.final_operand()?;
+        self.expect(Tok::Comma, "`,` (lerp takes three operands)")?;
+        let c = self.final_operand()?;
+        self.expect(Tok::RParen, "`)`")?;
+        Ok((a, b, c))
+    }
+}
+
+const SCALE_BIAS: [&str; 5] = ["scale_by_two", "scale_by_four", "scale_by_one_half", "bias_by_negative_one_half", "bias_by_negative_one_half_scale_by_two"];
+
+fn register_by_name(name: &str) -> Option<Source> {
+    Some(match name {
+        "tex0" => Source::Register(Register::Texture0),
+        "tex1" => Source::Register(Register::Texture1),
+        "tex2" => Source::Register(Register::Texture2),
+        "tex3" => Source::Register(Register::Texture3),
+        "col0" => Source::Register(Register::Primary),
+        "col1" => Source::Register(Register::Secondary),
+        "spare0" => Source::Register(Register::Spare0),
+        "spare1" => Source::Register(Register::Spare1),
+        "fog" => Source::Register(Register::Fog),
+        "const0" => Source::Register(Register::Constant0),
+        "const1" => Source::Register(Register::Constant1),
+        "zero" => Source::Register(Register::Zero),
+        "one" => Source::One,
+        "discard" => Source::Discard,
+        "final_product" => Source::FinalProduct,
+        "color_sum" => Source::ColorSum,
+        _ => return None,
+    })
+}
+
+fn unknown_register(name: &str, span: Span, what: &str) -> Diagnostic {
+    let paper = match name {
+        "primary" => Some("col0"),
+        "secondary" => Some("col1"),
+        "texture0" => Some("tex0"),
+        "texture1" => Some("tex1"),
+        "texture2" => Some("tex2"),
+        "texture3" => Some("tex3"),
+        "constant0" => Some("const0"),
+        "constant1" => Some("const1"),
+        _ => None,
+    };
+    let help = match paper.or_else(|| did_you_mean(name, REGISTER_NAMES)) {
+        Some(m) => format!("did you mean `{m}`?"),
+        None => format!("the registers are {}", REGISTER_NAMES.map(|r| format!("`{r}`")).join(", ")),
+    };
+    Diagnostic::error("unknown-register", format!("unknown register `{name}`"), span, format!("expected {what}")).with_help(help)
+}
+
+fn unreachable_one<T>(span: Span) -> PResult<T> {
+    Err(Diagnostic::error("internal", "internal error: unresolved `one`", span, "here"))
+}
+
+fn unreachable_name<T>(span: Span) -> PResult<T> {
+    Err(Diagnostic::error("internal", "internal error: expected a name", span, "here"))
+}
