@@ -301,11 +301,7 @@ impl Builder {
 
     fn expr(&mut self, pair: Pair<'_, Rule>) -> Option<Deep> {
         match pair.as_rule() {
-            Rule::expr => self.select(pair),
-            Rule::or_expr | Rule::and_expr | Rule::cmp_expr | Rule::sum | Rule::product | Rule::dotted => self.binary_chain(pair),
-            Rule::combine => self.binary_chain(pair),
-            Rule::unary => self.unary(pair),
-            Rule::power => self.power(pair),
+            Rule::expr => self.fold_operators(pair),
             Rule::application => {
                 let mut parts: Vec<Pair<'_, Rule>> = pair.into_inner().collect();
                 let arg = parts.pop()?;
@@ -332,143 +328,118 @@ impl Builder {
         Some(())
     }
 
-    /// `c0 ? t0 : c1 ? t1 : e` is `c0 ? t0 : (c1 ? t1 : e)`; a last `? t` with
-    /// no `:` is a conditional write (seeds/001, shadow volumes).
-    fn select(&mut self, pair: Pair<'_, Rule>) -> Option<Deep> {
-        let span = self.span(&pair);
-        let mut iter = pair.into_inner();
-        let mut current = Some(self.expr(iter.next()?)?);
-        let mut pending: Vec<(Deep, Deep)> = Vec::new();
-        while let Some(sep) = iter.next() {
-            let operand = self.expr(iter.next()?)?;
-            if sep.as_rule() == Rule::question {
-                let Some(cond) = current.take() else {
-                    self.errors.push(
-                        Diagnostic::error("ambiguous-select", "a `?` without `:` must come last", operand.expr.span, "this follows a `?` with no `:`")
-                            .with_help("add `: else-value`, or put parentheses around the inner select"),
-                    );
-                    return None;
-                };
-                pending.push((cond, operand));
-            } else {
-                current = Some(operand);
+    /// Folds `operand (infix operand)*` by precedence with an explicit stack
+    /// (shunting-yard), so no input length can recurse. `c ? a : b` is a
+    /// right-associative ternary at the loosest level; `c ? a` without `:`
+    /// is a conditional write (seeds/001, shadow volumes).
+    fn fold_operators(&mut self, pair: Pair<'_, Rule>) -> Option<Deep> {
+        let mut operands: Vec<Deep> = Vec::new();
+        let mut ops: Vec<(Op, Span)> = Vec::new();
+        for p in pair.into_inner() {
+            match p.as_rule() {
+                Rule::operand => {
+                    let mut parts: Vec<Pair<'_, Rule>> = p.into_inner().collect();
+                    let application = parts.pop()?;
+                    for prefix in parts {
+                        let op = if prefix.as_rule() == Rule::op_not { UnaryOp::Not } else { UnaryOp::Neg };
+                        ops.push((Op::Prefix(op), self.span(&prefix)));
+                    }
+                    operands.push(self.expr(application)?);
+                }
+                Rule::colon => {
+                    let span = self.span(&p);
+                    loop {
+                        match ops.last() {
+                            Some((Op::Question, _)) => break,
+                            Some((Op::QuestionColon, _)) | None => {
+                                self.errors.push(
+                                    Diagnostic::error("syntax", "`:` without a matching `?`", span, "no `?` before this")
+                                        .with_help("a select reads `condition ? value : otherwise`"),
+                                );
+                                return None;
+                            }
+                            Some(_) => self.reduce(&mut operands, &mut ops)?,
+                        }
+                    }
+                    ops.last_mut()?.0 = Op::QuestionColon;
+                }
+                _ => {
+                    let op = self.infix(p)?;
+                    let (prec, right) = op.0.precedence();
+                    while let Some((top, _)) = ops.last() {
+                        let (top_prec, _) = top.precedence();
+                        if top_prec > prec || (top_prec == prec && !right) {
+                            self.reduce(&mut operands, &mut ops)?;
+                        } else {
+                            break;
+                        }
+                    }
+                    ops.push(op);
+                }
             }
         }
-        if pending.is_empty() {
-            return current;
+        while !ops.is_empty() {
+            self.reduce(&mut operands, &mut ops)?;
         }
-        let max_child = pending.iter().map(|(c, t)| c.depth.max(t.depth)).max().unwrap_or(0);
-        self.check_depth(max_child.max(current.as_ref().map_or(0, |d| d.depth)) + pending.len(), span)?;
-        let mut acc = current;
-        while let Some((cond, then)) = pending.pop() {
-            let depth = 1 + cond.depth.max(then.depth).max(acc.as_ref().map_or(0, |d| d.depth));
-            let span = cond.expr.span.join(acc.as_ref().map_or(then.expr.span, |d| d.expr.span));
-            let otherwise = acc.take().map(|d| Box::new(d.expr));
-            acc = Some(Deep {
-                expr: Expr { kind: ExprKind::Select { cond: Box::new(cond.expr), then: Box::new(then.expr), otherwise }, span },
-                depth,
-            });
-        }
-        acc
+        operands.pop()
     }
 
-    fn binary_chain(&mut self, pair: Pair<'_, Rule>) -> Option<Deep> {
-        let span = self.span(&pair);
-        let mut iter = pair.into_inner();
-        let first = self.expr(iter.next()?)?;
-        let mut rest = Vec::new();
-        while let Some(op) = iter.next() {
-            let rhs = self.expr(iter.next()?)?;
-            rest.push((op, rhs));
-        }
-        if rest.is_empty() {
-            return Some(first);
-        }
-        let max_child = rest.iter().map(|(_, d)| d.depth).max().unwrap_or(0).max(first.depth);
-        self.check_depth(max_child + rest.len(), span)?;
-        let mut acc = first;
-        for (op, rhs) in rest {
-            let span = acc.expr.span.join(rhs.expr.span);
-            let depth = 1 + acc.depth.max(rhs.depth);
-            let (lhs, rhs) = (Box::new(acc.expr), Box::new(rhs.expr));
-            let kind = if op.as_rule() == Rule::op_combine {
-                let mode = match op.into_inner().next() {
+    fn infix(&mut self, p: Pair<'_, Rule>) -> Option<(Op, Span)> {
+        let span = self.span(&p);
+        let op = match p.as_rule() {
+            Rule::question => Op::Question,
+            Rule::op_combine => {
+                let mode = match p.into_inner().next() {
                     Some(m) => {
                         let word = m.into_inner().next()?;
                         Some(self.classify(&word, "⊕ mode", CombineMode::from_word, CombineMode::ALL)?)
                     }
                     None => None,
                 };
-                ExprKind::Combine { mode, lhs, rhs }
-            } else {
-                ExprKind::Binary { op: binary_op(&op), lhs, rhs }
-            };
-            acc = Deep { expr: Expr { kind, span }, depth };
-        }
-        Some(acc)
-    }
-
-    fn unary(&mut self, pair: Pair<'_, Rule>) -> Option<Deep> {
-        let span = self.span(&pair);
-        let mut parts: Vec<Pair<'_, Rule>> = pair.into_inner().collect();
-        let operand = self.expr(parts.pop()?)?;
-        self.wrap_unary(parts, operand, span)
-    }
-
-    fn wrap_unary(&mut self, ops: Vec<Pair<'_, Rule>>, operand: Deep, span: Span) -> Option<Deep> {
-        if ops.is_empty() {
-            return Some(operand);
-        }
-        self.check_depth(operand.depth + ops.len(), span)?;
-        let mut acc = operand;
-        for op in ops.into_iter().rev() {
-            let op_span = self.span(&op);
-            let op = if op.as_rule() == Rule::op_not { UnaryOp::Not } else { UnaryOp::Neg };
-            let span = op_span.join(acc.expr.span);
-            acc = Deep { expr: Expr { kind: ExprKind::Unary { op, operand: Box::new(acc.expr) }, span }, depth: acc.depth + 1 };
-        }
-        Some(acc)
-    }
-
-    /// `a ^ b ^ c` is `a ^ (b ^ c)`; an exponent may carry its own minus signs.
-    fn power(&mut self, pair: Pair<'_, Rule>) -> Option<Deep> {
-        let span = self.span(&pair);
-        let mut operands: Vec<Deep> = Vec::new();
-        let mut negs: Vec<Pair<'_, Rule>> = Vec::new();
-        for p in pair.into_inner() {
-            match p.as_rule() {
-                Rule::op_pow => {}
-                Rule::op_neg => negs.push(p),
-                _ => {
-                    let d = self.expr(p)?;
-                    let d_span = d.expr.span;
-                    let d = self.wrap_unary(std::mem::take(&mut negs), d, d_span)?;
-                    operands.push(d);
-                }
+                Op::Combine(mode)
             }
-        }
-        if operands.len() > 1 {
-            let max_child = operands.iter().map(|d| d.depth).max().unwrap_or(0);
-            self.check_depth(max_child + operands.len(), span)?;
-        }
-        let mut acc = operands.pop()?;
-        while let Some(base) = operands.pop() {
-            let span = base.expr.span.join(acc.expr.span);
-            let depth = 1 + base.depth.max(acc.depth);
-            acc = Deep {
-                expr: Expr { kind: ExprKind::Binary { op: BinaryOp::Pow, lhs: Box::new(base.expr), rhs: Box::new(acc.expr) }, span },
-                depth,
-            };
-        }
-        Some(acc)
+            _ => Op::Binary(binary_op(&p)),
+        };
+        Some((op, span))
     }
 
-    /// `f g h x` → f(g(h(x))).
-    fn fold_application(&mut self, funcs: Vec<Pair<'_, Rule>>, arg: Pair<'_, Rule>) -> Option<Deep> {
-        let mut acc = self.expr(arg)?;
-        if funcs.is_empty() {
-            return Some(acc);
+    /// Applies the operator on top of the stack to its operands.
+    fn reduce(&mut self, operands: &mut Vec<Deep>, ops: &mut Vec<(Op, Span)>) -> Option<()> {
+        let (op, op_span) = ops.pop()?;
+        let arity = match op {
+            Op::Prefix(_) => 1,
+            Op::QuestionColon => 3,
+            _ => 2,
+        };
+        if operands.len() < arity {
+            return None;
         }
+        let args: Vec<Deep> = operands.split_off(operands.len() - arity);
+        let depth = 1 + args.iter().map(|d| d.depth).max().unwrap_or(0);
+        let span = args.iter().fold(op_span, |s, d| s.join(d.expr.span));
+        self.check_depth(depth, span)?;
+        let mut args = args.into_iter().map(|d| Box::new(d.expr));
+        let mut next = || args.next().expect("arity checked");
+        let kind = match op {
+            Op::Prefix(op) => ExprKind::Unary { op, operand: next() },
+            Op::Binary(op) => ExprKind::Binary { op, lhs: next(), rhs: next() },
+            Op::Combine(mode) => ExprKind::Combine { mode, lhs: next(), rhs: next() },
+            Op::Question => ExprKind::Select { cond: next(), then: next(), otherwise: None },
+            Op::QuestionColon => ExprKind::Select { cond: next(), then: next(), otherwise: Some(next()) },
+        };
+        operands.push(Deep { expr: Expr { kind, span }, depth });
+        Some(())
+    }
+
+    /// `f g h x` → f(g(h(x))); swizzles after the argument apply to the
+    /// whole chain: `T δu x.a` is `(T δu x).a`.
+    fn fold_application(&mut self, funcs: Vec<Pair<'_, Rule>>, arg: Pair<'_, Rule>) -> Option<Deep> {
+        if funcs.is_empty() {
+            return self.expr(arg);
+        }
+        let mut parts = arg.into_inner();
+        let mut acc = self.primary(parts.next()?.into_inner().next()?)?;
+        let swizzles: Vec<Pair<'_, Rule>> = parts.collect();
         let first_span = self.span(&funcs[0]);
         self.check_depth(acc.depth + funcs.len(), first_span.join(acc.expr.span))?;
         for f in funcs.into_iter().rev() {
@@ -476,7 +447,7 @@ impl Builder {
             let span = func.span.join(acc.expr.span);
             acc = Deep { expr: Expr { kind: ExprKind::Apply { func, arg: Box::new(acc.expr) }, span }, depth: acc.depth + 1 };
         }
-        Some(acc)
+        Some(self.swizzle(acc, swizzles))
     }
 
     fn func(&mut self, pair: Pair<'_, Rule>) -> Func {
@@ -505,15 +476,19 @@ impl Builder {
     fn postfix(&mut self, pair: Pair<'_, Rule>) -> Option<Deep> {
         let mut iter = pair.into_inner();
         let primary = iter.next()?.into_inner().next()?;
-        let mut acc = self.primary(primary)?;
-        for sw in iter {
+        let acc = self.primary(primary)?;
+        Some(self.swizzle(acc, iter.collect()))
+    }
+
+    fn swizzle(&mut self, mut acc: Deep, swizzles: Vec<Pair<'_, Rule>>) -> Deep {
+        for sw in swizzles {
             let span = acc.expr.span.join(self.span(&sw));
             acc = Deep {
                 expr: Expr { kind: ExprKind::Swizzle { base: Box::new(acc.expr), components: sw.as_str()[1..].to_string() }, span },
                 depth: acc.depth + 1,
             };
         }
-        Some(acc)
+        acc
     }
 
     fn primary(&mut self, pair: Pair<'_, Rule>) -> Option<Deep> {
@@ -548,6 +523,36 @@ impl Builder {
                 leaf(ExprKind::Tuple(items.into_iter().map(|d| d.expr).collect())).map(|d| Deep { depth, ..d })
             }
             other => unreachable!("not a primary: {other:?}"),
+        }
+    }
+}
+
+/// An operator waiting on the stack of `fold_operators`.
+enum Op {
+    Prefix(UnaryOp),
+    Binary(BinaryOp),
+    Combine(Option<Word<CombineMode>>),
+    /// `?` seen, no `:` yet.
+    Question,
+    /// `? … :` seen: a ternary.
+    QuestionColon,
+}
+
+impl Op {
+    /// Binding strength (larger binds tighter) and right-associativity; the
+    /// levels of `grammar/shade.pest` and of the printer's `Prec`.
+    fn precedence(&self) -> (u8, bool) {
+        match self {
+            Op::Question | Op::QuestionColon => (1, true),
+            Op::Binary(BinaryOp::Or) => (2, false),
+            Op::Binary(BinaryOp::And) => (3, false),
+            Op::Binary(BinaryOp::Lt | BinaryOp::Le | BinaryOp::Gt | BinaryOp::Ge | BinaryOp::Eq | BinaryOp::Ne) => (4, false),
+            Op::Combine(_) => (5, false),
+            Op::Binary(BinaryOp::Add | BinaryOp::Sub) => (6, false),
+            Op::Binary(BinaryOp::Mul | BinaryOp::Div) => (7, false),
+            Op::Binary(BinaryOp::Dot) => (8, false),
+            Op::Prefix(_) => (9, true),
+            Op::Binary(BinaryOp::Pow) => (10, true),
         }
     }
 }
@@ -600,6 +605,7 @@ fn binary_op(pair: &Pair<'_, Rule>) -> BinaryOp {
         (Rule::op_mul, _) => BinaryOp::Mul,
         (Rule::op_div, _) => BinaryOp::Div,
         (Rule::op_dot, _) => BinaryOp::Dot,
+        (Rule::op_pow, _) => BinaryOp::Pow,
         (other, text) => unreachable!("not a binary operator: {other:?} `{text}`"),
     }
 }

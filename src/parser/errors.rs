@@ -82,8 +82,7 @@ fn describe(rule: Rule) -> Option<&'static str> {
         Rule::word | Rule::vector_kind => "a word",
         Rule::number => "a number",
         Rule::string => "a string",
-        Rule::expr | Rule::or_expr | Rule::and_expr | Rule::cmp_expr | Rule::combine | Rule::sum | Rule::product
-        | Rule::dotted | Rule::unary | Rule::power | Rule::application | Rule::postfix | Rule::primary | Rule::tuple => {
+        Rule::expr | Rule::operand | Rule::application | Rule::postfix | Rule::primary | Rule::tuple => {
             "an expression"
         }
         Rule::delta | Rule::projection | Rule::channel => "an expression",

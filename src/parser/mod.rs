@@ -75,7 +75,7 @@ pub fn check(source: &str) -> (ast::Program, Vec<Diagnostic>) {
 }
 
 fn is_blank(text: &str) -> bool {
-    ShadeParser::parse(Rule::blank, text).is_ok()
+    split::next_significant(text, 0).is_none()
 }
 
 #[cfg(test)]

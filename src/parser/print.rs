@@ -224,7 +224,12 @@ impl Printer {
                 (Prec::Atom, format!("{b}.{components}"))
             }
             ExprKind::Apply { func, arg } => {
-                let a = self.at(arg, Prec::Apply);
+                // A swizzle after a chain applies to the whole chain, so a
+                // swizzled argument needs its parentheses: `f (v.rgb)`.
+                let a = match arg.kind {
+                    ExprKind::Swizzle { .. } => format!("({})", self.expr(arg)),
+                    _ => self.at(arg, Prec::Apply),
+                };
                 // A call glues its arguments (`max(0, x)`), but not after a star mark,
                 // which would read as a product (`s* (a)` vs `s*(a)`).
                 let call = matches!(&func.kind, FuncKind::Name(n) if !n.star) && a.starts_with('(');

@@ -93,7 +93,7 @@ fn skip_line(bytes: &[u8], mut i: usize) -> usize {
 }
 
 /// The offset of the next character that is neither white space nor comment.
-fn next_significant(source: &str, mut i: usize) -> Option<usize> {
+pub fn next_significant(source: &str, mut i: usize) -> Option<usize> {
     let bytes = source.as_bytes();
     loop {
         while i < bytes.len() && bytes[i].is_ascii_whitespace() {
@@ -104,6 +104,8 @@ fn next_significant(source: &str, mut i: usize) -> Option<usize> {
         }
         if bytes[i] == b'#' || source[i..].starts_with("//") {
             i = skip_line(bytes, i);
+        } else if source[i..].starts_with("/*") {
+            i = source[i + 2..].find("*/").map_or(bytes.len(), |end| i + 2 + end + 2);
         } else {
             return Some(i);
         }

@@ -92,7 +92,9 @@ fn precedence_follows_the_grammar() {
     assert_eq!(value("a ⊕ b ⊕[add] c + d"), "(⊕[add] (⊕ a b) (+ c d))");
     assert_eq!(value("a > b ∨ c ∧ d"), "(∨ (> a b) (∧ c d))");
     assert_eq!(value("-x^2"), "(neg (^ x 2))");
-    assert_eq!(value("x^-2^y"), "(^ x (^ (neg 2) y))");
+    assert_eq!(value("x^-2^y"), "(^ x (neg (^ 2 y)))");
+    assert_eq!(value("-a * b"), "(* (neg a) b)");
+    assert_eq!(value("a^-b*c"), "(* (^ a (neg b)) c)");
     assert_eq!(value("1 - (1 - V·N)^n"), "(- 1 (^ (- 1 (· V N)) n))");
 }
 
@@ -115,6 +117,9 @@ fn selects_nest_to_the_right_and_may_omit_the_else() {
 fn swizzles_and_tuples() {
     assert_eq!(value("L.z"), "(.z L)");
     assert_eq!(value("(T δu x).a"), "(.a (T (δ (u x))))");
+    assert_eq!(value("T δu x.a"), "(.a (T (δ (u x))))");
+    assert_eq!(value("expand(v).rgb"), "(.rgb (expand v))");
+    assert_eq!(value("f (v.rgb)"), "(f (.rgb v))");
     assert_eq!(value("(0.8, 0.6, 0.4)"), "(tuple 0.8 0.6 0.4)");
     assert_eq!(value("((x))"), "x");
 }
