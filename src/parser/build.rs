@@ -285,15 +285,17 @@ impl Builder {
         } else {
             None
         };
-        if first.as_rule() != Rule::name {
-            let what = describe_func(first.as_rule());
-            self.errors.push(
-                Diagnostic::error("bad-target", format!("cannot assign into {what}"), self.span(&first), "expected a framebuffer, texture or attribute name")
-                    .with_help(help),
-            );
-            return None;
-        }
-        let table = self.name(first);
+        let table = match self.atom_name(&first) {
+            Some(name) => name,
+            None => {
+                let what = describe_func(first.as_rule());
+                self.errors.push(
+                    Diagnostic::error("bad-target", format!("cannot assign into {what}"), self.span(&first), "expected a framebuffer, texture or attribute name")
+                        .with_help(help),
+                );
+                return None;
+            }
+        };
         let rest: Vec<Pair<'_, Rule>> = funcs.collect();
         let index = self.fold_application(rest, arg)?.expr;
         Some(Target { channel, table, index, span })
@@ -434,24 +436,79 @@ impl Builder {
     /// `f g h x` → f(g(h(x))); swizzles after the argument apply to the
     /// whole chain: `T δu x.a` is `(T δu x).a`.
     fn fold_application(&mut self, funcs: Vec<Pair<'_, Rule>>, arg: Pair<'_, Rule>) -> Option<Deep> {
+        let arg_span = self.span(&arg);
+        let arg = match arg.as_rule() {
+            Rule::postfix => arg,
+            // `z` at the end of a chain is a name, not the depth channel.
+            Rule::channel if arg.as_str() == "z" => {
+                let name = Name { base: "z".into(), primes: 0, star: false, span: arg_span };
+                return self.fold_funcs(funcs, Deep { expr: Expr { kind: ExprKind::Name(name), span: arg_span }, depth: 1 }, Vec::new());
+            }
+            rule => {
+                let (what, help) = match rule {
+                    Rule::channel => ("a channel selector needs a framebuffer to read", "write `α C xs` (alpha of framebuffer C at pixel xs)"),
+                    Rule::delta => ("δ needs a value to interpolate", "write `δ u x` (texture coordinates of vertex x, interpolated)"),
+                    _ => ("π needs a vertex to project", "write `π x` or `δπx`"),
+                };
+                self.errors.push(Diagnostic::error("incomplete-application", what, arg_span, "nothing follows").with_help(help));
+                return None;
+            }
+        };
         if funcs.is_empty() {
             return self.expr(arg);
         }
         let mut parts = arg.into_inner();
         let mut acc = self.primary(parts.next()?.into_inner().next()?)?;
         let swizzles: Vec<Pair<'_, Rule>> = parts.collect();
+        self.fold_funcs(funcs, acc, swizzles)
+    }
+
+    fn fold_funcs(&mut self, funcs: Vec<Pair<'_, Rule>>, mut acc: Deep, swizzles: Vec<Pair<'_, Rule>>) -> Option<Deep> {
+        if funcs.is_empty() {
+            return Some(self.swizzle(acc, swizzles));
+        }
         let first_span = self.span(&funcs[0]);
         self.check_depth(acc.depth + funcs.len(), first_span.join(acc.expr.span))?;
         for f in funcs.into_iter().rev() {
-            let func = self.func(f);
+            let func = self.func(f)?;
             let span = func.span.join(acc.expr.span);
             acc = Deep { expr: Expr { kind: ExprKind::Apply { func, arg: Box::new(acc.expr) }, span }, depth: acc.depth + 1 };
         }
         Some(self.swizzle(acc, swizzles))
     }
 
-    fn func(&mut self, pair: Pair<'_, Rule>) -> Func {
+    /// The name inside an atom that is a plain name (no swizzle).
+    fn atom_name(&mut self, pair: &Pair<'_, Rule>) -> Option<Name> {
+        if pair.as_rule() != Rule::postfix {
+            return None;
+        }
+        let mut inner = pair.clone().into_inner();
+        let primary = inner.next()?.into_inner().next()?;
+        if inner.next().is_some() || primary.as_rule() != Rule::name {
+            return None;
+        }
+        Some(self.name(primary))
+    }
+
+    fn func(&mut self, pair: Pair<'_, Rule>) -> Option<Func> {
         let span = self.span(&pair);
+        if pair.as_rule() == Rule::postfix {
+            if let Some(name) = self.atom_name(&pair) {
+                return Some(Func { kind: FuncKind::Name(name), span });
+            }
+            let text = pair.as_str();
+            let (what, help) = if text.starts_with('(') {
+                ("a parenthesized value cannot be applied to what follows", "to multiply, write `*` between them")
+            } else if text.starts_with('"') {
+                ("a string cannot be applied to a value", "strings name files inside texture sources: `image(\"brick.png\")`")
+            } else if text.contains('.') && !text.starts_with(|c: char| c.is_ascii_digit()) {
+                ("a swizzled value cannot be applied to what follows", "put parentheses around the swizzle or write `*` to multiply")
+            } else {
+                ("a number cannot be applied to a value", "to multiply, write `*`: `2 * x`")
+            };
+            self.errors.push(Diagnostic::error("not-a-function", what, span, "in function position").with_help(help));
+            return None;
+        }
         let kind = match pair.as_rule() {
             Rule::delta => FuncKind::Delta,
             Rule::channel => FuncKind::Channel(channel_of(pair.as_str())),
@@ -467,10 +524,9 @@ impl Builder {
                 }
                 FuncKind::Projection(proj)
             }
-            Rule::name => FuncKind::Name(self.name(pair)),
             other => unreachable!("not a function atom: {other:?}"),
         };
-        Func { kind, span }
+        Some(Func { kind, span })
     }
 
     fn postfix(&mut self, pair: Pair<'_, Rule>) -> Option<Deep> {
