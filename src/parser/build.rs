@@ -62,7 +62,8 @@ impl Builder {
                     None => None,
                 };
                 let mut words = words.into_iter();
-                let kind = self.classify::<TextureKind>(&words.next()?, "texture kind", TextureKind::from_word, TextureKind::ALL)?;
+                // Classify every word before giving up, so each unknown one is reported.
+                let kind = self.classify::<TextureKind>(&words.next()?, "texture kind", TextureKind::from_word, TextureKind::ALL);
                 let (mut format, mut attrs) = (None, Vec::new());
                 for w in words {
                     if let Some(f) = TextureFormat::from_word(w.as_str()) {
@@ -82,7 +83,7 @@ impl Builder {
                         self.unknown_word(&w, "texture format or attribute", &all);
                     }
                 }
-                ItemKind::Texture(TextureDecl { names, kind, format, attrs, source })
+                ItemKind::Texture(TextureDecl { names, kind: kind?, format, attrs, source })
             }
             Rule::framebuffer_decl => {
                 let names = self.name_list(it.next()?);

@@ -35,7 +35,21 @@ pub fn from_pest(err: pest::error::Error<Rule>, text: &str, offset: usize) -> Di
         format!("expected {expected_text}, found {found_text}")
     };
     let label = if expected.is_empty() { "unexpected here".to_string() } else { format!("expected {expected_text}") };
-    Diagnostic::error("syntax", message, span, label).with_help(help_for(found, &expected))
+    let mut d = Diagnostic::error("syntax", message, span, label).with_help(help_for(found, &expected));
+    if matches!(found, "←" | "<-") {
+        if let Some(end) = end_of_previous_line(text, pos) {
+            d = d.with_label(Span::new(offset + end, offset + end), "perhaps a `;` is missing here");
+        }
+    }
+    d
+}
+
+/// The end of the last non-blank text before the line holding `pos`, when a
+/// statement runs on from an earlier line (the usual sign of a missing `;`).
+fn end_of_previous_line(text: &str, pos: usize) -> Option<usize> {
+    let line_start = text[..pos].rfind('\n')?;
+    let before = text[..line_start].trim_end();
+    (!before.is_empty()).then_some(before.len())
 }
 
 /// The token starting at `pos`: a word, a known multi-character symbol, or one character.
