@@ -52,7 +52,14 @@ fn short_format_is_one_line_per_diagnostic() {
     let r = shadec_in(dir.path(), &["check", "--format", "short", "a.shd"]);
     assert_eq!(r.code, 1);
     let lines: Vec<&str> = r.stdout.lines().collect();
-    assert_eq!(lines, ["a.shd:1:8: error[unknown-name]: unknown name `a`", "a.shd:2:6: error[syntax]: expected `←` (or `<-`), found `=`"]);
+    assert_eq!(
+        lines,
+        [
+            "a.shd:1:8: error[unknown-name]: unknown name `a`",
+            "a.shd:2:6: error[syntax]: expected an expression or `←` (or `<-`), found `=`",
+            "checked 1 file: 0 clean, 2 errors, 0 warnings",
+        ]
+    );
 }
 
 #[test]
