@@ -459,7 +459,7 @@ impl Builder {
             return self.expr(arg);
         }
         let mut parts = arg.into_inner();
-        let mut acc = self.primary(parts.next()?.into_inner().next()?)?;
+        let acc = self.primary(parts.next()?.into_inner().next()?)?;
         let swizzles: Vec<Pair<'_, Rule>> = parts.collect();
         self.fold_funcs(funcs, acc, swizzles)
     }

@@ -80,3 +80,26 @@ fn is_blank(text: &str) -> bool {
 
 #[cfg(test)]
 mod tests;
+
+/// Entry points for `benches/parser.rs`: the parser's phases on their own, as
+/// baselines for the whole front end. Not part of the stable API.
+#[doc(hidden)]
+pub mod bench_support {
+    use pest::Parser as _;
+
+    use super::{split, Rule, ShadeParser};
+
+    /// Splits into items only: one pass over the bytes.
+    pub fn split_only(source: &str) -> usize {
+        split::split_items(source).len()
+    }
+
+    /// Runs pest on every item without building the AST; returns the pairs made.
+    pub fn pest_only(source: &str) -> usize {
+        split::split_items(source)
+            .into_iter()
+            .filter_map(|piece| ShadeParser::parse(Rule::item, &source[piece.range]).ok())
+            .map(|pairs| pairs.flatten().count())
+            .sum()
+    }
+}
