@@ -3,21 +3,13 @@
 //! `tests/diagnostics/*.shd`. Review changes with `cargo insta review` or
 //! `INSTA_UPDATE=always cargo test --test diagnostics` and `git diff`.
 
-use shadec::diag::SourceFile;
+mod common;
 
-fn inputs() -> Vec<std::path::PathBuf> {
-    let mut v: Vec<_> = std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/diagnostics"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "shd"))
-        .collect();
-    v.sort();
-    v
-}
+use shadec::diag::SourceFile;
 
 #[test]
 fn rendered_diagnostics() {
-    let inputs = inputs();
+    let inputs = common::shd_files("tests/diagnostics");
     assert!(inputs.len() >= 8);
     for path in inputs {
         let name = path.file_stem().unwrap().to_str().unwrap().to_string();

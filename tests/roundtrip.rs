@@ -1,6 +1,8 @@
 //! Printing and re-parsing gives the same AST: on every example, and on
 //! generated programs (proptest), in Unicode and in ASCII.
 
+mod common;
+
 use proptest::prelude::*;
 use shadec::parser::ast::*;
 use shadec::parser::print::{self, Style};
@@ -27,11 +29,7 @@ fn assert_round_trip(mut program: Program) {
 #[test]
 fn every_example_round_trips() {
     let mut n = 0;
-    for entry in std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/examples")).unwrap() {
-        let path = entry.unwrap().path();
-        if path.extension().is_none_or(|e| e != "shd") {
-            continue;
-        }
+    for path in common::examples() {
         let text = std::fs::read_to_string(&path).unwrap();
         let (program, d) = parse(&text);
         assert!(d.is_empty(), "{}: {d:#?}", path.display());

@@ -182,7 +182,7 @@ impl Resolver {
             return;
         }
         if let Some(fam) = family(name) {
-            if fam != entity && !(fam == Entity::Params && entity == Entity::Params) {
+            if fam != entity {
                 self.diagnostics.push(
                     Diagnostic::error(
                         "reserved-name",

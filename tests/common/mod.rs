@@ -32,7 +32,12 @@ pub fn shadec_in(dir: &Path, args: &[&str]) -> Run {
 
 /// Every `.shd` file under `examples/`, sorted.
 pub fn examples() -> Vec<std::path::PathBuf> {
-    let mut v: Vec<_> = std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/examples"))
+    shd_files("examples")
+}
+
+/// Every `.shd` file in a folder of the repository, sorted.
+pub fn shd_files(dir: &str) -> Vec<std::path::PathBuf> {
+    let mut v: Vec<_> = std::fs::read_dir(Path::new(env!("CARGO_MANIFEST_DIR")).join(dir))
         .unwrap()
         .map(|e| e.unwrap().path())
         .filter(|p| p.extension().is_some_and(|e| e == "shd"))
