@@ -127,14 +127,27 @@ fn item() -> impl Strategy<Value = Item> {
             source,
         })
     });
-    prop_oneof![4 => statement, 1 => constant, 1 => shader, 1 => texture].prop_map(|kind| Item { kind, span: Span::DETACHED })
+    // Comments are kept without trailing white space, as the parser stores them.
+    let comment = prop_oneof!["// [a-zδ]{0,5}( [a-z]{1,5})?", "# [a-z]{1,5}", "/\\* [a-z\n]{0,6} \\*/"].prop_map(|c| c.trim_end().to_string());
+    let comments = (prop::collection::vec(comment.clone(), 0..3), prop::option::of(comment), any::<bool>())
+        .prop_map(|(leading, trailing, blank_line_before)| Comments { leading, trailing, blank_line_before });
+    (prop_oneof![4 => statement, 1 => constant, 1 => shader, 1 => texture], comments)
+        .prop_map(|(kind, comments)| Item { kind, span: Span::DETACHED, comments })
+}
+
+fn program() -> impl Strategy<Value = Program> {
+    (prop::collection::vec(item(), 1..6), prop::collection::vec("// [a-z]{1,8}", 0..2)).prop_map(|(mut items, trailing_comments)| {
+        // The first item has nothing before it to be separated from.
+        items[0].comments.blank_line_before = false;
+        Program { items, trailing_comments }
+    })
 }
 
 proptest! {
     #![proptest_config(ProptestConfig { cases: 512, ..ProptestConfig::default() })]
 
     #[test]
-    fn generated_programs_round_trip(items in prop::collection::vec(item(), 1..6)) {
-        assert_round_trip(Program { items });
+    fn generated_programs_round_trip(program in program()) {
+        assert_round_trip(program);
     }
 }

@@ -12,12 +12,29 @@ use crate::span::Span;
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Program {
     pub items: Vec<Item>,
+    /// Comments after the last item.
+    pub trailing_comments: Vec<String>,
 }
 
 #[derive(Clone, Debug, PartialEq)]
 pub struct Item {
     pub kind: ItemKind,
     pub span: Span,
+    /// Comments between items are kept so `fmt` can rewrite a file in place;
+    /// comments inside an item are not.
+    pub comments: Comments,
+}
+
+/// The comments around one item, as written (`// …`, `# …`, `/* … */`).
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct Comments {
+    /// Whole-line comments above the item; `""` stands for an empty line.
+    pub leading: Vec<String>,
+    /// A comment on the line where the item ends.
+    pub trailing: Option<String>,
+    /// Whether an empty line separates the item (and its leading comments)
+    /// from the item before.
+    pub blank_line_before: bool,
 }
 
 #[derive(Clone, Debug, PartialEq)]

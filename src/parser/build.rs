@@ -27,7 +27,7 @@ pub fn item(pair: Pair<'_, Rule>, offset: usize) -> Result<Item, Errors> {
     let inner = children.into_iter().next().expect("item holds a declaration or statement");
     let kind = b.item_kind(inner);
     match kind {
-        Some(kind) if b.errors.is_empty() => Ok(Item { kind, span }),
+        Some(kind) if b.errors.is_empty() => Ok(Item { kind, span, comments: Comments::default() }),
         _ => Err(b.errors),
     }
 }

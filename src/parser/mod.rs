@@ -33,20 +33,22 @@ pub const MAX_EXPR_DEPTH: usize = 1000;
 pub fn parse(source: &str) -> (ast::Program, Vec<Diagnostic>) {
     let mut program = ast::Program::default();
     let mut diagnostics = Vec::new();
-    for piece in split::split_items(source) {
+    for (n, piece) in split::split_items(source).into_iter().enumerate() {
         if let Some(d) = piece.error {
             diagnostics.push(d);
             continue;
         }
         let text = &source[piece.range.clone()];
+        let comments = attach_comments(&mut program, text, n == 0);
         if is_blank(text) {
+            program.trailing_comments = comments.leading;
             continue;
         }
         match ShadeParser::parse(Rule::item, text) {
             Ok(mut pairs) => {
                 let item = pairs.next().expect("the item rule produces one pair");
                 match build::item(item, piece.range.start) {
-                    Ok(item) => program.items.push(item),
+                    Ok(item) => program.items.push(ast::Item { comments, ..item }),
                     Err(errs) => diagnostics.extend(errs),
                 }
             }
@@ -54,6 +56,32 @@ pub fn parse(source: &str) -> (ast::Program, Vec<Diagnostic>) {
         }
     }
     (program, diagnostics)
+}
+
+/// Reads the comments before an item: one on the line where the previous
+/// item ended belongs to that item; the rest lead this one.
+fn attach_comments(program: &mut ast::Program, text: &str, first: bool) -> ast::Comments {
+    let (found, newlines_after) = split::leading_trivia(text);
+    let mut found = found.into_iter().peekable();
+    if let Some(previous) = program.items.last_mut() {
+        if let Some(c) = found.next_if(|c| c.newlines_before == 0) {
+            previous.comments.trailing = Some(c.text);
+        }
+    }
+    let mut comments = ast::Comments::default();
+    let gap = found.peek().map_or(newlines_after, |c| c.newlines_before);
+    comments.blank_line_before = !first && gap >= 2;
+    // Blank lines among and after the leading comments are kept as "".
+    for (k, c) in found.enumerate() {
+        if k > 0 && c.newlines_before >= 2 {
+            comments.leading.push(String::new());
+        }
+        comments.leading.push(c.text);
+    }
+    if !comments.leading.is_empty() && newlines_after >= 2 {
+        comments.leading.push(String::new());
+    }
+    comments
 }
 
 /// Parses and resolves names: every diagnostic `shadec check` reports.

@@ -12,11 +12,31 @@ pub enum Style {
     Ascii,
 }
 
+/// Prints a whole program with the comments kept between items.
 pub fn program(p: &Program, style: Style) -> String {
     let mut out = String::new();
-    for item in &p.items {
+    for (i, item) in p.items.iter().enumerate() {
+        let c = &item.comments;
+        if c.blank_line_before && i > 0 {
+            out.push('\n');
+        }
+        for line in &c.leading {
+            out.push_str(line);
+            out.push('\n');
+        }
         out.push_str(&self::item(item, style));
+        if let Some(t) = &c.trailing {
+            out.push_str("  ");
+            out.push_str(t);
+        }
         out.push('\n');
+    }
+    if !p.trailing_comments.is_empty() {
+        out.push('\n');
+        for line in &p.trailing_comments {
+            out.push_str(line);
+            out.push('\n');
+        }
     }
     out
 }
@@ -226,6 +246,16 @@ impl Printer {
             ExprKind::Apply { func, arg } => {
                 // A swizzle after a chain applies to the whole chain, so a
                 // swizzled argument needs its parentheses: `f (v.rgb)`.
+                // Built-in functions and generators print as calls: `expand(v)`.
+                if let FuncKind::Name(n) = &func.kind {
+                    if is_builtin_call(n) {
+                        let a = match arg.kind {
+                            ExprKind::Tuple(_) => self.expr(arg),
+                            _ => format!("({})", self.expr(arg)),
+                        };
+                        return (Prec::Apply, format!("{}{a}", self.name(n)));
+                    }
+                }
                 let a = match arg.kind {
                     ExprKind::Swizzle { .. } => format!("({})", self.expr(arg)),
                     _ => self.at(arg, Prec::Apply),
@@ -361,6 +391,11 @@ fn quote(s: &str) -> String {
     }
     out.push('"');
     out
+}
+
+fn is_builtin_call(n: &Name) -> bool {
+    use super::resolve::{FUNCTIONS, GENERATORS};
+    n.primes == 0 && !n.star && (FUNCTIONS.contains(&n.base.as_str()) || GENERATORS.contains(&n.base.as_str()))
 }
 
 /// The strength needed on the right of a left-associative operator.

@@ -134,3 +134,41 @@ mod tests {
         assert_eq!(pieces[0].error.as_ref().unwrap().code, "nesting-too-deep");
     }
 }
+
+/// One comment in the trivia before an item, with the line breaks before it.
+pub struct Comment {
+    pub text: String,
+    pub newlines_before: usize,
+}
+
+/// The comments at the start of `text` (up to its first significant
+/// character), and the line breaks between the last of them and that character.
+pub fn leading_trivia(text: &str) -> (Vec<Comment>, usize) {
+    let bytes = text.as_bytes();
+    let mut comments = Vec::new();
+    let mut newlines = 0;
+    let mut i = 0;
+    while i < bytes.len() {
+        match bytes[i] {
+            b'\n' => {
+                newlines += 1;
+                i += 1;
+            }
+            b if b.is_ascii_whitespace() => i += 1,
+            b'#' => i = push_comment(text, i, skip_line(bytes, i), &mut comments, &mut newlines),
+            b'/' if bytes.get(i + 1) == Some(&b'/') => i = push_comment(text, i, skip_line(bytes, i), &mut comments, &mut newlines),
+            b'/' if bytes.get(i + 1) == Some(&b'*') => {
+                let end = text[i + 2..].find("*/").map_or(bytes.len(), |e| i + 2 + e + 2);
+                i = push_comment(text, i, end, &mut comments, &mut newlines);
+            }
+            _ => break,
+        }
+    }
+    (comments, newlines)
+}
+
+fn push_comment(text: &str, start: usize, end: usize, comments: &mut Vec<Comment>, newlines: &mut usize) -> usize {
+    comments.push(Comment { text: text[start..end].trim_end().to_string(), newlines_before: *newlines });
+    *newlines = 0;
+    end
+}
