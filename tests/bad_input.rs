@@ -92,6 +92,8 @@ fn long_application_and_unary_chains_are_bounded() {
         format!("const a = 1; C xs ← {}a;", "-".repeat(200_000)),
         format!("const a = 1; C xs ← a{};", "^a".repeat(200_000)),
         format!("const a = 1; C xs ← {}a;", "a ? a : ".repeat(200_000)),
+        // Glued subscripts look ahead one atom; a chain of them must stay linear.
+        format!("const a = 1; C xs ← {}x;", "πa ".repeat(200_000)),
     ] {
         let r = check_bytes(src.as_bytes());
         assert_eq!(r.code, 1, "{}", &r.stderr[..r.stderr.len().min(500)]);
