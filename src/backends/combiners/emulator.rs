@@ -203,12 +203,27 @@ trait Model {
 /// rounding (to nearest, ties toward +∞) happens on the register write.
 struct Fixed9;
 
-/// Floor of `t / 2040` rounded to nearest with ties up, for |t| < 8.3e6:
-/// turns a scaled product sum (units of 1/520200) into units of 1/255.
+/// `t / 2040` rounded to nearest with ties up, for |t| < 8.3e6: turns a
+/// scaled product sum (units of 1/520200) into units of 1/255.
+///
+/// Integer division by a constant does not vectorize on x86 (there is no
+/// 32-bit vector multiply-high), so it is done as 2040 = 8 · 255: a shift,
+/// then `div255_floor`, both exact.
 #[inline(always)]
 fn round_2040(t: i32) -> i32 {
     const K: i32 = 4096;
-    (((t + 1020 + 2040 * K) as u32) / 2040) as i32 - K
+    div255_floor((t + 1020 + 2040 * K) >> 3) - K
+}
+
+/// ⌊y / 255⌋ for 0 ≤ y < 2²¹, exactly, with shifts and adds only (so the
+/// loop vectorizes): with t = 257·(y + 1), ⌊(t + ⌊t/2¹⁶⌋) / 2¹⁶⌋ = ⌊y/255⌋,
+/// since 257·(1 + 2⁻¹⁶)/2¹⁶ approximates 1/255 from above closely enough
+/// for this range; t < 2²⁹ fits an i32. `tests::div255_floor_is_exact`
+/// checks every y.
+#[inline(always)]
+fn div255_floor(y: i32) -> i32 {
+    let t = ((y + 1) << 8) + (y + 1);
+    (t + (t >> 16)) >> 16
 }
 
 impl Model for Fixed9 {
@@ -283,7 +298,9 @@ impl Model for Fixed9 {
     fn ef(e: &[i16], f: &[i16], dst: &mut [i16]) {
         dst.iter_mut()
             .zip(e.iter().zip(f))
-            .for_each(|(d, (&e, &f))| *d = ((2 * e as i32 * f as i32 + 255) / 510) as i16);
+            // Inputs are unsigned (final-combiner mappings), so the numerator is ≥ 0
+            // and ⌊n/510⌋ = ⌊⌊n/2⌋/255⌋.
+            .for_each(|(d, (&e, &f))| *d = div255_floor((2 * e as i32 * f as i32 + 255) >> 1) as i16);
     }
 
     fn color_sum(spare0: &[i16], secondary: &[i16], clamp: bool, dst: &mut [i16]) {
@@ -297,7 +314,7 @@ impl Model for Fixed9 {
         for (i, o) in dst.iter_mut().enumerate() {
             let (a, b, c, d) = (a[i] as i32, b[i] as i32, c[i] as i32, d[i] as i32);
             let num = a * b + (255 - a) * c + 255 * d;
-            *o = ((2 * num + 255) / 510).min(255) as i16;
+            *o = div255_floor((2 * num + 255) >> 1).min(255) as i16;
         }
     }
 
@@ -661,5 +678,28 @@ fn final_combiner<M: Model>(s: &mut Scratch<M>, fc: &super::config::FinalCombine
         px[1] = M::to_u8(s.rgb[TILE + i]);
         px[2] = M::to_u8(s.rgb[2 * TILE + i]);
         px[3] = M::to_u8(g[i]);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn div255_floor_is_exact() {
+        for y in 0..(1 << 21) {
+            assert_eq!(div255_floor(y), y / 255, "y = {y}");
+        }
+    }
+
+    /// The vectorizable rounding equals the plain integer one over the whole
+    /// range a stage output can reach (|(v + bias) · scale| ≤ 5.3e6).
+    #[test]
+    fn round_2040_matches_integer_division() {
+        const K: i32 = 4096;
+        for t in -5_300_000..=5_300_000 {
+            let reference = (((t + 1020 + 2040 * K) as u32) / 2040) as i32 - K;
+            assert_eq!(round_2040(t), reference, "t = {t}");
+        }
     }
 }
