@@ -13,6 +13,18 @@ pub fn from_pest(err: pest::error::Error<Rule>, text: &str, offset: usize) -> Di
         InputLocation::Pos(p) => p,
         InputLocation::Span((s, _)) => s,
     };
+    if let ErrorVariant::CustomError { message } = &err.variant {
+        // pest's own guards: its call limit and its native stack probe.
+        if message.contains("limit reached") {
+            return Diagnostic::error(
+                "nesting-too-deep",
+                format!("this statement is too complex to parse ({message})"),
+                Span::new(offset + pos, offset + pos + token_at(text, pos).len()),
+                "the parser gave up here",
+            )
+            .with_help("split it into `let` bindings or several statements");
+        }
+    }
     let found = token_at(text, pos);
     let span = Span::new(offset + pos, offset + pos + found.len());
     let mut expected: Vec<&'static str> = match &err.variant {
