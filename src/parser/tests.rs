@@ -243,3 +243,15 @@ fn printing_is_canonical_and_stable() {
     let ascii = print::program(&p, print::Style::Ascii);
     assert_eq!(ascii, "C delta pi x <- delta p s x (+) T delta u x;\nu x <- pi_R R s x;\n");
 }
+
+#[test]
+fn the_deepest_allowed_nesting_parses_in_a_small_stack() {
+    // 64 levels is the limit (MAX_NESTING); it must parse in a 2 MiB thread
+    // stack (the test harness default), with pest's stack guard untouched.
+    let src = format!("C xs ← {}x{};", "(".repeat(64), ")".repeat(64));
+    let (_, d) = parse(&src);
+    assert!(d.is_empty(), "{d:#?}");
+    let src = format!("C xs ← {}x{};", "max(0, ".repeat(63), ")".repeat(63));
+    let (_, d) = parse(&src);
+    assert!(d.is_empty(), "{d:#?}");
+}
