@@ -643,7 +643,8 @@ fn describe_func(rule: Rule) -> &'static str {
     match rule {
         Rule::delta => "δ (rasterization is an operation, not a table)",
         Rule::projection => "π (the projection is an operation, not a table)",
-        _ => "this",
+        Rule::channel => "a channel of a channel (one selector per target)",
+        _ => "a value (only a named table can be assigned into)",
     }
 }
 
