@@ -305,7 +305,7 @@ impl Resolver {
     fn func_name(&mut self, n: &Name, locals: &[(String, Entity)], in_source: bool) {
         let key = n.key();
         let builtin = FUNCTIONS.contains(&key.as_str()) || (in_source && GENERATORS.contains(&key.as_str()));
-        if builtin && self.globals.get(&key).is_none() && !locals.iter().any(|(k, _)| *k == key) {
+        if builtin && !self.globals.contains_key(&key) && !locals.iter().any(|(k, _)| *k == key) {
             return;
         }
         match self.lookup(n, locals) {

@@ -112,29 +112,6 @@ pub fn next_significant(source: &str, mut i: usize) -> Option<usize> {
     }
 }
 
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn texts(source: &str) -> Vec<&str> {
-        split_items(source).into_iter().map(|p| &source[p.range]).collect()
-    }
-
-    #[test]
-    fn splits_at_top_level_semicolons_only() {
-        let src = "a ← f(x; y); // c; d\nshader p : s → c { let a = 1; a }\nb ← \"x;y\";";
-        assert_eq!(texts(src), ["a ← f(x; y);", " // c; d\nshader p : s → c { let a = 1; a }", "\nb ← \"x;y\";"]);
-    }
-
-    #[test]
-    fn deep_nesting_is_reported_once_without_recursion() {
-        let src = "(".repeat(100_000);
-        let pieces = split_items(&src);
-        assert_eq!(pieces.len(), 1);
-        assert_eq!(pieces[0].error.as_ref().unwrap().code, "nesting-too-deep");
-    }
-}
-
 /// One comment in the trivia before an item, with the line breaks before it.
 pub struct Comment {
     pub text: String,
@@ -171,4 +148,27 @@ fn push_comment(text: &str, start: usize, end: usize, comments: &mut Vec<Comment
     comments.push(Comment { text: text[start..end].trim_end().to_string(), newlines_before: *newlines });
     *newlines = 0;
     end
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn texts(source: &str) -> Vec<&str> {
+        split_items(source).into_iter().map(|p| &source[p.range]).collect()
+    }
+
+    #[test]
+    fn splits_at_top_level_semicolons_only() {
+        let src = "a ← f(x; y); // c; d\nshader p : s → c { let a = 1; a }\nb ← \"x;y\";";
+        assert_eq!(texts(src), ["a ← f(x; y);", " // c; d\nshader p : s → c { let a = 1; a }", "\nb ← \"x;y\";"]);
+    }
+
+    #[test]
+    fn deep_nesting_is_reported_once_without_recursion() {
+        let src = "(".repeat(100_000);
+        let pieces = split_items(&src);
+        assert_eq!(pieces.len(), 1);
+        assert_eq!(pieces[0].error.as_ref().unwrap().code, "nesting-too-deep");
+    }
 }
