@@ -26,15 +26,16 @@ use image::RgbaImage;
 use wgpu::util::DeviceExt;
 
 use crate::renderer::{
-    BlendEquation, BlendFactor, BlendState, CompareFunc, CullMode, RenderState, StencilOp,
-    StencilState,
+    BlendEquation, BlendFactor, BlendState, CompareFunc, CullMode, RenderState, StencilOp, StencilState,
 };
 
 /// What went wrong, with what to do about it.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum GpuError {
     /// No adapter (no GPU, no software driver).
-    #[error("no GPU adapter found ({0}): install Mesa's software drivers: apt-get install mesa-vulkan-drivers libvulkan1")]
+    #[error(
+        "no GPU adapter found ({0}): install Mesa's software drivers: apt-get install mesa-vulkan-drivers libvulkan1"
+    )]
     NoAdapter(String),
     /// An adapter exists but refused to give a device.
     #[error("the GPU adapter `{adapter}` refused to create a device: {message}")]
@@ -66,7 +67,10 @@ impl Gpu {
     /// creates a device with the adapter's own limits.
     pub fn new() -> Result<Gpu, GpuError> {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-        let options = wgpu::RequestAdapterOptions { compatible_surface: None, ..Default::default() };
+        let options = wgpu::RequestAdapterOptions {
+            compatible_surface: None,
+            ..Default::default()
+        };
         let adapter = pollster::block_on(instance.request_adapter(&options))
             .map_err(|err| GpuError::NoAdapter(err.to_string()))?;
         let descriptor = wgpu::DeviceDescriptor {
@@ -74,9 +78,11 @@ impl Gpu {
             required_limits: adapter.limits(),
             ..Default::default()
         };
-        let (device, queue) = pollster::block_on(adapter.request_device(&descriptor)).map_err(|err| {
-            GpuError::NoDevice { adapter: adapter.get_info().name, message: err.to_string() }
-        })?;
+        let (device, queue) =
+            pollster::block_on(adapter.request_device(&descriptor)).map_err(|err| GpuError::NoDevice {
+                adapter: adapter.get_info().name,
+                message: err.to_string(),
+            })?;
         // Errors are caught in scopes around each run; anything that escapes
         // them is printed, never turned into a panic (wgpu's default).
         device.on_uncaptured_error(Arc::new(|err| eprintln!("wgpu: uncaptured error: {err}")));
@@ -150,10 +156,16 @@ pub struct SamplerSettings {
 }
 
 impl SamplerSettings {
-    pub const NEAREST_CLAMP: SamplerSettings =
-        SamplerSettings { mag: Filter::Nearest, min: Filter::Nearest, address: AddressMode::ClampToEdge };
-    pub const LINEAR_CLAMP: SamplerSettings =
-        SamplerSettings { mag: Filter::Linear, min: Filter::Linear, address: AddressMode::ClampToEdge };
+    pub const NEAREST_CLAMP: SamplerSettings = SamplerSettings {
+        mag: Filter::Nearest,
+        min: Filter::Nearest,
+        address: AddressMode::ClampToEdge,
+    };
+    pub const LINEAR_CLAMP: SamplerSettings = SamplerSettings {
+        mag: Filter::Linear,
+        min: Filter::Linear,
+        address: AddressMode::ClampToEdge,
+    };
 }
 
 /// RGBA8 (unorm, not sRGB: the framebuffer is linear, as in the papers) texels.
@@ -222,15 +234,20 @@ impl Target {
 /// Parses (WGSL) and validates a shader with naga, and checks that both
 /// entry points exist with the right stages.
 pub fn validate_shader(pass: &str, shader: &RunShader) -> Result<naga::Module, GpuError> {
-    let invalid = |message: String| GpuError::InvalidShader { pass: pass.to_string(), message };
+    let invalid = |message: String| GpuError::InvalidShader {
+        pass: pass.to_string(),
+        message,
+    };
     let module = match &shader.source {
         ShaderSource::Wgsl(text) => {
             naga::front::wgsl::parse_str(text).map_err(|err| invalid(err.emit_to_string(text)))?
         }
         ShaderSource::Naga(module) => module.clone(),
     };
-    let mut validator =
-        naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default());
+    let mut validator = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::default(),
+    );
     if let Err(err) = validator.validate(&module) {
         return Err(invalid(match &shader.source {
             ShaderSource::Wgsl(text) => err.emit_to_string(text),
@@ -241,12 +258,23 @@ pub fn validate_shader(pass: &str, shader: &RunShader) -> Result<naga::Module, G
         (&shader.vertex_entry, naga::ShaderStage::Vertex),
         (&shader.fragment_entry, naga::ShaderStage::Fragment),
     ] {
-        if !module.entry_points.iter().any(|ep| &ep.name == name && ep.stage == stage) {
-            let found: Vec<String> =
-                module.entry_points.iter().map(|ep| format!("{} ({:?})", ep.name, ep.stage)).collect();
+        if !module
+            .entry_points
+            .iter()
+            .any(|ep| &ep.name == name && ep.stage == stage)
+        {
+            let found: Vec<String> = module
+                .entry_points
+                .iter()
+                .map(|ep| format!("{} ({:?})", ep.name, ep.stage))
+                .collect();
             return Err(invalid(format!(
                 "no {stage:?} entry point named `{name}`; the module has: {}",
-                if found.is_empty() { "none".to_string() } else { found.join(", ") }
+                if found.is_empty() {
+                    "none".to_string()
+                } else {
+                    found.join(", ")
+                }
             )));
         }
     }
@@ -274,10 +302,18 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
     }
 
     let device = &gpu.device;
-    let scopes = [wgpu::ErrorFilter::Validation, wgpu::ErrorFilter::OutOfMemory, wgpu::ErrorFilter::Internal]
-        .map(|filter| device.push_error_scope(filter));
+    let scopes = [
+        wgpu::ErrorFilter::Validation,
+        wgpu::ErrorFilter::OutOfMemory,
+        wgpu::ErrorFilter::Internal,
+    ]
+    .map(|filter| device.push_error_scope(filter));
 
-    let size = wgpu::Extent3d { width: target.width, height: target.height, depth_or_array_layers: 1 };
+    let size = wgpu::Extent3d {
+        width: target.width,
+        height: target.height,
+        depth_or_array_layers: 1,
+    };
     let color = device.create_texture(&wgpu::TextureDescriptor {
         label: Some("shadec colour target"),
         size,
@@ -305,19 +341,35 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
     let color_view = color.create_view(&Default::default());
     let depth_view = depth.create_view(&Default::default());
 
-    let prepared: Vec<Prepared> =
-        passes.iter().zip(modules).map(|(pass, module)| prepare(gpu, pass, module, depth_format)).collect();
+    let prepared: Vec<Prepared> = passes
+        .iter()
+        .zip(modules)
+        .map(|(pass, module)| prepare(gpu, pass, module, depth_format))
+        .collect();
 
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shadec passes") });
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("shadec passes"),
+    });
     // With no passes the target is still cleared.
     let n_render_passes = passes.len().max(1);
     for pass_idx in 0..n_render_passes {
         let first = pass_idx == 0;
         let [r, g, b, a] = target.clear_color.map(f64::from);
-        let color_load = if first { wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a }) } else { wgpu::LoadOp::Load };
-        let depth_load = if first { wgpu::LoadOp::Clear(target.clear_depth) } else { wgpu::LoadOp::Load };
-        let stencil_load =
-            if first { wgpu::LoadOp::Clear(u32::from(target.clear_stencil)) } else { wgpu::LoadOp::Load };
+        let color_load = if first {
+            wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a })
+        } else {
+            wgpu::LoadOp::Load
+        };
+        let depth_load = if first {
+            wgpu::LoadOp::Clear(target.clear_depth)
+        } else {
+            wgpu::LoadOp::Load
+        };
+        let stencil_load = if first {
+            wgpu::LoadOp::Clear(u32::from(target.clear_stencil))
+        } else {
+            wgpu::LoadOp::Load
+        };
         let has_stencil = target.depth_format == DepthFormat::Depth24PlusStencil8;
         let mut render_pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: passes.get(pass_idx).map(|p| p.label.as_str()),
@@ -325,19 +377,29 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
                 view: &color_view,
                 depth_slice: None,
                 resolve_target: None,
-                ops: wgpu::Operations { load: color_load, store: wgpu::StoreOp::Store },
+                ops: wgpu::Operations {
+                    load: color_load,
+                    store: wgpu::StoreOp::Store,
+                },
             })],
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: &depth_view,
-                depth_ops: Some(wgpu::Operations { load: depth_load, store: wgpu::StoreOp::Store }),
-                stencil_ops: has_stencil
-                    .then_some(wgpu::Operations { load: stencil_load, store: wgpu::StoreOp::Store }),
+                depth_ops: Some(wgpu::Operations {
+                    load: depth_load,
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: has_stencil.then_some(wgpu::Operations {
+                    load: stencil_load,
+                    store: wgpu::StoreOp::Store,
+                }),
             }),
             timestamp_writes: None,
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        let (Some(pass), Some(prep)) = (passes.get(pass_idx), prepared.get(pass_idx)) else { continue };
+        let (Some(pass), Some(prep)) = (passes.get(pass_idx), prepared.get(pass_idx)) else {
+            continue;
+        };
         if pass.indices.is_empty() {
             continue;
         }
@@ -346,7 +408,12 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
             render_pass.set_bind_group(0, bind_group, &[]);
         }
         let [cr, cg, cb, ca] = pass.state.blend.constant.map(f64::from);
-        render_pass.set_blend_constant(wgpu::Color { r: cr, g: cg, b: cb, a: ca });
+        render_pass.set_blend_constant(wgpu::Color {
+            r: cr,
+            g: cg,
+            b: cb,
+            a: ca,
+        });
         render_pass.set_stencil_reference(u32::from(pass.state.stencil.reference));
         render_pass.set_vertex_buffer(0, prep.vertex_buffer.slice(..));
         render_pass.set_index_buffer(prep.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
@@ -384,7 +451,8 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
     // Innermost scope first.
     for scope in scopes.into_iter().rev() {
         if let Some(err) = pollster::block_on(scope.pop()) {
-            return Err(GpuError::Wgpu(error_chain(&err)));
+            // wgpu's Display already prints the "Caused by" chain.
+            return Err(GpuError::Wgpu(err.to_string()));
         }
     }
 
@@ -393,12 +461,16 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
     slice.map_async(wgpu::MapMode::Read, move |res| {
         let _ = sender.send(res);
     });
-    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|err| GpuError::Readback(err.to_string()))?;
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|err| GpuError::Readback(err.to_string()))?;
     receiver
         .recv()
         .map_err(|_| GpuError::Readback("the map callback never ran".to_string()))?
         .map_err(|err| GpuError::Readback(err.to_string()))?;
-    let mapped = slice.get_mapped_range().map_err(|err| GpuError::Readback(err.to_string()))?;
+    let mapped = slice
+        .get_mapped_range()
+        .map_err(|err| GpuError::Readback(err.to_string()))?;
     let mut pixels = Vec::with_capacity((unpadded_row * target.height) as usize);
     for row in mapped.chunks_exact(padded_row as usize) {
         pixels.extend_from_slice(&row[..unpadded_row as usize]);
@@ -420,7 +492,12 @@ struct Prepared {
 /// Sizes, indices and formats: what wgpu would reject late or not at all
 /// (out-of-range indices are not an error on every backend).
 fn check_pass(pass: &RunPass, target: &Target) -> Result<(), GpuError> {
-    let invalid = |message: String| Err(GpuError::InvalidInput { pass: pass.label.clone(), message });
+    let invalid = |message: String| {
+        Err(GpuError::InvalidInput {
+            pass: pass.label.clone(),
+            message,
+        })
+    };
     let components = &pass.vertices.components;
     if components.is_empty() || components.iter().any(|&n| !(1..=4).contains(&n)) {
         return invalid(format!(
@@ -436,10 +513,15 @@ fn check_pass(pass: &RunPass, target: &Target) -> Result<(), GpuError> {
     }
     let n_vertices = pass.vertices.floats.len() / stride as usize;
     if pass.indices.len() % 3 != 0 {
-        return invalid(format!("{} indices is not a whole number of triangles", pass.indices.len()));
+        return invalid(format!(
+            "{} indices is not a whole number of triangles",
+            pass.indices.len()
+        ));
     }
     if let Some(&bad) = pass.indices.iter().find(|&&i| i as usize >= n_vertices) {
-        return invalid(format!("index {bad} is out of range: the pass has {n_vertices} vertices"));
+        return invalid(format!(
+            "index {bad} is out of range: the pass has {n_vertices} vertices"
+        ));
     }
     for (texture_idx, texture) in pass.textures.iter().enumerate() {
         let (expected, what) = match texture.data {
@@ -514,23 +596,43 @@ fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::
         owned_samplers.push(device.create_sampler(&sampler_descriptor(&texture.sampler)));
     }
     let bind_group_layout = (!layout_entries.is_empty()).then(|| {
-        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label, entries: &layout_entries })
+        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label,
+            entries: &layout_entries,
+        })
     });
     let bind_group = bind_group_layout.as_ref().map(|layout| {
         let mut entries = Vec::new();
         if let Some(buffer) = &uniform_buffer {
-            entries.push(wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() });
+            entries.push(wgpu::BindGroupEntry {
+                binding: 0,
+                resource: buffer.as_entire_binding(),
+            });
         }
         for (texture_idx, (view, sampler)) in owned_views.iter().zip(&owned_samplers).enumerate() {
             let binding = 1 + 2 * texture_idx as u32;
-            entries.push(wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) });
-            entries.push(wgpu::BindGroupEntry { binding: binding + 1, resource: wgpu::BindingResource::Sampler(sampler) });
+            entries.push(wgpu::BindGroupEntry {
+                binding,
+                resource: wgpu::BindingResource::TextureView(view),
+            });
+            entries.push(wgpu::BindGroupEntry {
+                binding: binding + 1,
+                resource: wgpu::BindingResource::Sampler(sampler),
+            });
         }
-        device.create_bind_group(&wgpu::BindGroupDescriptor { label, layout, entries: &entries })
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label,
+            layout,
+            entries: &entries,
+        })
     });
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label,
-        bind_group_layouts: &[bind_group_layout.as_ref()].into_iter().flatten().map(Some).collect::<Vec<_>>(),
+        bind_group_layouts: &[bind_group_layout.as_ref()]
+            .into_iter()
+            .flatten()
+            .map(Some)
+            .collect::<Vec<_>>(),
         immediate_size: 0,
     });
 
@@ -547,7 +649,11 @@ fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::
                 3 => wgpu::VertexFormat::Float32x3,
                 _ => wgpu::VertexFormat::Float32x4,
             };
-            let attribute = wgpu::VertexAttribute { format, offset, shader_location: location as u32 };
+            let attribute = wgpu::VertexAttribute {
+                format,
+                offset,
+                shader_location: location as u32,
+            };
             offset += u64::from(n) * 4;
             attribute
         })
@@ -607,7 +713,12 @@ fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::
         contents: bytemuck::cast_slice(&pass.indices),
         usage: wgpu::BufferUsages::INDEX,
     });
-    Prepared { pipeline, bind_group, vertex_buffer, index_buffer }
+    Prepared {
+        pipeline,
+        bind_group,
+        vertex_buffer,
+        index_buffer,
+    }
 }
 
 /// Uploads RGBA8 texels; returns the view dimension the layout needs.
@@ -616,7 +727,11 @@ fn upload_texture(gpu: &Gpu, data: &TextureData) -> (wgpu::TextureViewDimension,
         TextureData::D2 { width, height, rgba } => (*width, *height, 1, rgba, wgpu::TextureViewDimension::D2),
         TextureData::Cube { size, rgba } => (*size, *size, 6, rgba, wgpu::TextureViewDimension::Cube),
     };
-    let size = wgpu::Extent3d { width, height, depth_or_array_layers: layers };
+    let size = wgpu::Extent3d {
+        width,
+        height,
+        depth_or_array_layers: layers,
+    };
     let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
         label: Some("shadec texture"),
         size,
@@ -635,7 +750,11 @@ fn upload_texture(gpu: &Gpu, data: &TextureData) -> (wgpu::TextureViewDimension,
             aspect: wgpu::TextureAspect::All,
         },
         rgba,
-        wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(width * 4), rows_per_image: Some(height) },
+        wgpu::TexelCopyBufferLayout {
+            offset: 0,
+            bytes_per_row: Some(width * 4),
+            rows_per_image: Some(height),
+        },
         size,
     );
     let view = texture.create_view(&wgpu::TextureViewDescriptor {
@@ -734,9 +853,17 @@ fn blend_state(blend: &BlendState) -> wgpu::BlendState {
         };
         // GL ignores the factors of MIN and MAX; WebGPU requires them to be One.
         if matches!(blend.equation, BlendEquation::Min | BlendEquation::Max) {
-            wgpu::BlendComponent { src_factor: wgpu::BlendFactor::One, dst_factor: wgpu::BlendFactor::One, operation }
+            wgpu::BlendComponent {
+                src_factor: wgpu::BlendFactor::One,
+                dst_factor: wgpu::BlendFactor::One,
+                operation,
+            }
         } else {
-            wgpu::BlendComponent { src_factor: factor(src), dst_factor: factor(dst), operation }
+            wgpu::BlendComponent {
+                src_factor: factor(src),
+                dst_factor: factor(dst),
+                operation,
+            }
         }
     };
     wgpu::BlendState {
@@ -747,7 +874,12 @@ fn blend_state(blend: &BlendState) -> wgpu::BlendState {
 
 fn write_mask([r, g, b, a]: [bool; 4]) -> wgpu::ColorWrites {
     let mut mask = wgpu::ColorWrites::empty();
-    for (on, bit) in [(r, wgpu::ColorWrites::RED), (g, wgpu::ColorWrites::GREEN), (b, wgpu::ColorWrites::BLUE), (a, wgpu::ColorWrites::ALPHA)] {
+    for (on, bit) in [
+        (r, wgpu::ColorWrites::RED),
+        (g, wgpu::ColorWrites::GREEN),
+        (b, wgpu::ColorWrites::BLUE),
+        (a, wgpu::ColorWrites::ALPHA),
+    ] {
         if on {
             mask |= bit;
         }
