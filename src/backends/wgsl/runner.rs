@@ -448,12 +448,13 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
     );
     gpu.queue.submit([encoder.finish()]);
 
-    // Innermost scope first.
-    for scope in scopes.into_iter().rev() {
-        if let Some(err) = pollster::block_on(scope.pop()) {
-            // wgpu's Display already prints the "Caused by" chain.
-            return Err(GpuError::Wgpu(err.to_string()));
-        }
+    // Pop every scope, innermost first: wgpu panics on scopes popped (or
+    // dropped) out of order, so no early return may happen between the push
+    // and here. wgpu's Display already prints the "Caused by" chain.
+    let [validation, out_of_memory, internal] = scopes;
+    let errors = [internal.pop(), out_of_memory.pop(), validation.pop()].map(pollster::block_on);
+    if let Some(err) = errors.into_iter().flatten().next() {
+        return Err(GpuError::Wgpu(err.to_string()));
     }
 
     let slice = readback.slice(..);
