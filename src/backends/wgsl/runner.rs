@@ -1,0 +1,900 @@
+//! A headless wgpu runner: renders a list of passes into one offscreen RGBA8
+//! target with one depth/stencil buffer, in order, and reads the image back.
+//!
+//! The passes carry the same fixed-function state as the CPU rasterizer
+//! (`renderer::RenderState`: cull, depth, stencil, GL blending), so one pass
+//! plan can drive both renderers and their images can be compared.
+//!
+//! Conventions a shader must follow:
+//! - Vertex attribute `i` is `@location(i)`, `f32` × `VertexData::components[i]`;
+//!   attribute 0 is the position by convention (the shader decides).
+//! - Bind group 0: `@binding(0)` the uniform block (when `uniforms` is set);
+//!   texture `i` at `@binding(1 + 2i)` and its sampler at `@binding(2 + 2i)`.
+//! - Clip space is wgpu's: z in [0, 1] (GL's is [−1, 1]), y up; front faces
+//!   are counter-clockwise, as in the CPU renderer. Row 0 of the image is the
+//!   top (y = +1).
+//!
+//! Every shader is parsed and validated by naga before wgpu sees it, so a bad
+//! shader is a `GpuError::InvalidShader` with naga's message; every wgpu
+//! error is caught in an error scope, so nothing here panics on bad input.
+
+use std::borrow::Cow;
+use std::fmt;
+use std::sync::Arc;
+
+use image::RgbaImage;
+use wgpu::util::DeviceExt;
+
+use crate::renderer::{
+    BlendEquation, BlendFactor, BlendState, CompareFunc, CullMode, RenderState, StencilOp, StencilState,
+};
+
+/// What went wrong, with what to do about it.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum GpuError {
+    /// No adapter (no GPU, no software driver).
+    #[error(
+        "no GPU adapter found ({0}): install Mesa's software drivers: apt-get install mesa-vulkan-drivers libvulkan1"
+    )]
+    NoAdapter(String),
+    /// An adapter exists but refused to give a device.
+    #[error("the GPU adapter `{adapter}` refused to create a device: {message}")]
+    NoDevice { adapter: String, message: String },
+    /// naga rejected the shader (parse or validation), or an entry point is missing.
+    #[error("invalid shader in pass `{pass}`:\n{message}")]
+    InvalidShader { pass: String, message: String },
+    /// The pass description is inconsistent (sizes, indices, formats).
+    #[error("invalid input in pass `{pass}`: {message}")]
+    InvalidInput { pass: String, message: String },
+    /// wgpu reported an error (validation, out of memory, internal).
+    #[error("wgpu error: {0}")]
+    Wgpu(String),
+    /// Reading the image back failed.
+    #[error("reading the image back failed: {0}")]
+    Readback(String),
+}
+
+/// An instance, adapter, device and queue. Create one per thread or test;
+/// creating several at once is fine.
+pub struct Gpu {
+    adapter: wgpu::Adapter,
+    device: wgpu::Device,
+    queue: wgpu::Queue,
+}
+
+impl Gpu {
+    /// Picks an adapter (honours `WGPU_BACKEND`, `WGPU_ADAPTER_NAME`, …) and
+    /// creates a device with the adapter's own limits.
+    pub fn new() -> Result<Gpu, GpuError> {
+        let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
+        let options = wgpu::RequestAdapterOptions {
+            compatible_surface: None,
+            ..Default::default()
+        };
+        let adapter = pollster::block_on(instance.request_adapter(&options))
+            .map_err(|err| GpuError::NoAdapter(err.to_string()))?;
+        let descriptor = wgpu::DeviceDescriptor {
+            label: Some("shadec runner"),
+            required_limits: adapter.limits(),
+            ..Default::default()
+        };
+        let (device, queue) =
+            pollster::block_on(adapter.request_device(&descriptor)).map_err(|err| GpuError::NoDevice {
+                adapter: adapter.get_info().name,
+                message: err.to_string(),
+            })?;
+        // Errors are caught in scopes around each run; anything that escapes
+        // them is printed, never turned into a panic (wgpu's default).
+        device.on_uncaptured_error(Arc::new(|err| eprintln!("wgpu: uncaptured error: {err}")));
+        Ok(Gpu { adapter, device, queue })
+    }
+
+    pub fn adapter_info(&self) -> wgpu::AdapterInfo {
+        self.adapter.get_info()
+    }
+
+    pub fn device(&self) -> &wgpu::Device {
+        &self.device
+    }
+}
+
+impl fmt::Display for Gpu {
+    /// `llvmpipe (LLVM 15.0.6, 256 bits) [Vulkan, Cpu, driver llvmpipe: Mesa 22.3.6]`.
+    fn fmt(&self, f: &mut fmt::Formatter) -> fmt::Result {
+        let info = self.adapter.get_info();
+        write!(
+            f,
+            "{} [{:?}, {:?}, driver {}: {}]",
+            info.name, info.backend, info.device_type, info.driver, info.driver_info
+        )
+    }
+}
+
+/// The shader of a pass: WGSL text or a module built in memory.
+#[derive(Clone, Debug)]
+pub enum ShaderSource {
+    Wgsl(String),
+    Naga(naga::Module),
+}
+
+/// A shader and the two entry points a pass uses.
+#[derive(Clone, Debug)]
+pub struct RunShader {
+    pub source: ShaderSource,
+    pub vertex_entry: String,
+    pub fragment_entry: String,
+}
+
+/// Interleaved `f32` vertices: attribute `i` has `components[i]` floats
+/// (1 to 4) and is `@location(i)`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct VertexData {
+    pub floats: Vec<f32>,
+    pub components: Vec<u32>,
+}
+
+/// Texel filtering, for magnification and minification (one mip level only).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Filter {
+    Nearest,
+    Linear,
+}
+
+/// What texture coordinates outside [0, 1] do.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AddressMode {
+    ClampToEdge,
+    Repeat,
+    MirrorRepeat,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct SamplerSettings {
+    pub mag: Filter,
+    pub min: Filter,
+    pub address: AddressMode,
+}
+
+impl SamplerSettings {
+    pub const NEAREST_CLAMP: SamplerSettings = SamplerSettings {
+        mag: Filter::Nearest,
+        min: Filter::Nearest,
+        address: AddressMode::ClampToEdge,
+    };
+    pub const LINEAR_CLAMP: SamplerSettings = SamplerSettings {
+        mag: Filter::Linear,
+        min: Filter::Linear,
+        address: AddressMode::ClampToEdge,
+    };
+}
+
+/// RGBA8 (unorm, not sRGB: the framebuffer is linear, as in the papers) texels.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TextureData {
+    /// `width × height` texels, row 0 at texture coordinate v = 0.
+    D2 { width: u32, height: u32, rgba: Vec<u8> },
+    /// Six `size × size` faces in wgpu/GL order +X, −X, +Y, −Y, +Z, −Z.
+    Cube { size: u32, rgba: Vec<u8> },
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct RunTexture {
+    pub data: TextureData,
+    pub sampler: SamplerSettings,
+}
+
+/// One draw: a shader, a triangle list and the fixed-function state.
+#[derive(Clone, Debug)]
+pub struct RunPass {
+    /// Names the pass in errors.
+    pub label: String,
+    pub shader: RunShader,
+    pub vertices: VertexData,
+    /// Triangle list, three indices per triangle.
+    pub indices: Vec<u32>,
+    pub textures: Vec<RunTexture>,
+    /// The uniform block's bytes (WGSL layout), padded here to 16 bytes.
+    pub uniforms: Option<Vec<u8>>,
+    pub state: RenderState,
+}
+
+/// The depth/stencil buffer's format.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DepthFormat {
+    /// Depth and an 8-bit stencil; required when any pass uses the stencil.
+    Depth24PlusStencil8,
+    Depth32Float,
+}
+
+/// The offscreen target and what it is cleared to before the first pass.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Target {
+    pub width: u32,
+    pub height: u32,
+    pub clear_color: [f32; 4],
+    pub clear_depth: f32,
+    pub clear_stencil: u8,
+    pub depth_format: DepthFormat,
+}
+
+impl Target {
+    /// Cleared to transparent black, depth 1, stencil 0; depth and stencil.
+    pub fn new(width: u32, height: u32) -> Target {
+        Target {
+            width,
+            height,
+            clear_color: [0.0; 4],
+            clear_depth: 1.0,
+            clear_stencil: 0,
+            depth_format: DepthFormat::Depth24PlusStencil8,
+        }
+    }
+}
+
+/// Parses (WGSL) and validates a shader with naga, and checks that both
+/// entry points exist with the right stages.
+pub fn validate_shader(pass: &str, shader: &RunShader) -> Result<naga::Module, GpuError> {
+    let invalid = |message: String| GpuError::InvalidShader {
+        pass: pass.to_string(),
+        message,
+    };
+    let module = match &shader.source {
+        ShaderSource::Wgsl(text) => {
+            naga::front::wgsl::parse_str(text).map_err(|err| invalid(err.emit_to_string(text)))?
+        }
+        ShaderSource::Naga(module) => module.clone(),
+    };
+    let mut validator = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::default(),
+    );
+    if let Err(err) = validator.validate(&module) {
+        return Err(invalid(match &shader.source {
+            ShaderSource::Wgsl(text) => err.emit_to_string(text),
+            ShaderSource::Naga(_) => error_chain(&err),
+        }));
+    }
+    for (name, stage) in [
+        (&shader.vertex_entry, naga::ShaderStage::Vertex),
+        (&shader.fragment_entry, naga::ShaderStage::Fragment),
+    ] {
+        if !module
+            .entry_points
+            .iter()
+            .any(|ep| &ep.name == name && ep.stage == stage)
+        {
+            let found: Vec<String> = module
+                .entry_points
+                .iter()
+                .map(|ep| format!("{} ({:?})", ep.name, ep.stage))
+                .collect();
+            return Err(invalid(format!(
+                "no {stage:?} entry point named `{name}`; the module has: {}",
+                if found.is_empty() {
+                    "none".to_string()
+                } else {
+                    found.join(", ")
+                }
+            )));
+        }
+    }
+    Ok(module)
+}
+
+/// Renders `passes` in order into one RGBA8 target and reads it back.
+/// The first pass clears colour, depth and stencil; later passes load them.
+pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<RgbaImage, GpuError> {
+    let max_dim = gpu.device.limits().max_texture_dimension_2d;
+    if target.width == 0 || target.height == 0 || target.width > max_dim || target.height > max_dim {
+        return Err(GpuError::InvalidInput {
+            pass: "target".to_string(),
+            message: format!(
+                "size {}×{} is outside 1..={max_dim} (this adapter's limit)",
+                target.width, target.height
+            ),
+        });
+    }
+    // Check everything we can before touching the device.
+    let mut modules = Vec::with_capacity(passes.len());
+    for pass in passes {
+        check_pass(pass, target)?;
+        modules.push(validate_shader(&pass.label, &pass.shader)?);
+    }
+
+    let device = &gpu.device;
+    let scopes = [
+        wgpu::ErrorFilter::Validation,
+        wgpu::ErrorFilter::OutOfMemory,
+        wgpu::ErrorFilter::Internal,
+    ]
+    .map(|filter| device.push_error_scope(filter));
+
+    let size = wgpu::Extent3d {
+        width: target.width,
+        height: target.height,
+        depth_or_array_layers: 1,
+    };
+    let color = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("shadec colour target"),
+        size,
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba8Unorm,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    let depth_format = match target.depth_format {
+        DepthFormat::Depth24PlusStencil8 => wgpu::TextureFormat::Depth24PlusStencil8,
+        DepthFormat::Depth32Float => wgpu::TextureFormat::Depth32Float,
+    };
+    let depth = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("shadec depth/stencil"),
+        size,
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: depth_format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+        view_formats: &[],
+    });
+    let color_view = color.create_view(&Default::default());
+    let depth_view = depth.create_view(&Default::default());
+
+    let prepared: Vec<Prepared> = passes
+        .iter()
+        .zip(modules)
+        .map(|(pass, module)| prepare(gpu, pass, module, depth_format))
+        .collect();
+
+    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
+        label: Some("shadec passes"),
+    });
+    // With no passes the target is still cleared.
+    let n_render_passes = passes.len().max(1);
+    for pass_idx in 0..n_render_passes {
+        let first = pass_idx == 0;
+        let [r, g, b, a] = target.clear_color.map(f64::from);
+        let color_load = if first {
+            wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a })
+        } else {
+            wgpu::LoadOp::Load
+        };
+        let depth_load = if first {
+            wgpu::LoadOp::Clear(target.clear_depth)
+        } else {
+            wgpu::LoadOp::Load
+        };
+        let stencil_load = if first {
+            wgpu::LoadOp::Clear(u32::from(target.clear_stencil))
+        } else {
+            wgpu::LoadOp::Load
+        };
+        let has_stencil = target.depth_format == DepthFormat::Depth24PlusStencil8;
+        let mut render_pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: passes.get(pass_idx).map(|p| p.label.as_str()),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &color_view,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: color_load,
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
+            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                view: &depth_view,
+                depth_ops: Some(wgpu::Operations {
+                    load: depth_load,
+                    store: wgpu::StoreOp::Store,
+                }),
+                stencil_ops: has_stencil.then_some(wgpu::Operations {
+                    load: stencil_load,
+                    store: wgpu::StoreOp::Store,
+                }),
+            }),
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        let (Some(pass), Some(prep)) = (passes.get(pass_idx), prepared.get(pass_idx)) else {
+            continue;
+        };
+        if pass.indices.is_empty() {
+            continue;
+        }
+        render_pass.set_pipeline(&prep.pipeline);
+        if let Some(bind_group) = &prep.bind_group {
+            render_pass.set_bind_group(0, bind_group, &[]);
+        }
+        let [cr, cg, cb, ca] = pass.state.blend.constant.map(f64::from);
+        render_pass.set_blend_constant(wgpu::Color {
+            r: cr,
+            g: cg,
+            b: cb,
+            a: ca,
+        });
+        render_pass.set_stencil_reference(u32::from(pass.state.stencil.reference));
+        render_pass.set_vertex_buffer(0, prep.vertex_buffer.slice(..));
+        render_pass.set_index_buffer(prep.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
+        render_pass.draw_indexed(0..pass.indices.len() as u32, 0, 0..1);
+    }
+
+    // Copy out with rows padded to wgpu's 256-byte alignment.
+    let unpadded_row = target.width * 4;
+    let padded_row = unpadded_row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("shadec readback"),
+        size: u64::from(padded_row) * u64::from(target.height),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    encoder.copy_texture_to_buffer(
+        wgpu::TexelCopyTextureInfo {
+            texture: &color,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        wgpu::TexelCopyBufferInfo {
+            buffer: &readback,
+            layout: wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(padded_row),
+                rows_per_image: Some(target.height),
+            },
+        },
+        size,
+    );
+    gpu.queue.submit([encoder.finish()]);
+
+    // Pop every scope, innermost first: wgpu panics on scopes popped (or
+    // dropped) out of order, so no early return may happen between the push
+    // and here. wgpu's Display already prints the "Caused by" chain.
+    let [validation, out_of_memory, internal] = scopes;
+    let errors = [internal.pop(), out_of_memory.pop(), validation.pop()].map(pollster::block_on);
+    if let Some(err) = errors.into_iter().flatten().next() {
+        return Err(GpuError::Wgpu(err.to_string()));
+    }
+
+    let slice = readback.slice(..);
+    let (sender, receiver) = std::sync::mpsc::channel();
+    slice.map_async(wgpu::MapMode::Read, move |res| {
+        let _ = sender.send(res);
+    });
+    device
+        .poll(wgpu::PollType::wait_indefinitely())
+        .map_err(|err| GpuError::Readback(err.to_string()))?;
+    receiver
+        .recv()
+        .map_err(|_| GpuError::Readback("the map callback never ran".to_string()))?
+        .map_err(|err| GpuError::Readback(err.to_string()))?;
+    let mapped = slice
+        .get_mapped_range()
+        .map_err(|err| GpuError::Readback(err.to_string()))?;
+    let mut pixels = Vec::with_capacity((unpadded_row * target.height) as usize);
+    for row in mapped.chunks_exact(padded_row as usize) {
+        pixels.extend_from_slice(&row[..unpadded_row as usize]);
+    }
+    drop(mapped);
+    readback.unmap();
+    RgbaImage::from_raw(target.width, target.height, pixels)
+        .ok_or_else(|| GpuError::Readback("the image has the wrong size".to_string()))
+}
+
+/// The GPU objects of one pass.
+struct Prepared {
+    pipeline: wgpu::RenderPipeline,
+    bind_group: Option<wgpu::BindGroup>,
+    vertex_buffer: wgpu::Buffer,
+    index_buffer: wgpu::Buffer,
+}
+
+/// Sizes, indices and formats: what wgpu would reject late or not at all
+/// (out-of-range indices are not an error on every backend).
+fn check_pass(pass: &RunPass, target: &Target) -> Result<(), GpuError> {
+    let invalid = |message: String| {
+        Err(GpuError::InvalidInput {
+            pass: pass.label.clone(),
+            message,
+        })
+    };
+    let components = &pass.vertices.components;
+    if components.is_empty() || components.iter().any(|&n| !(1..=4).contains(&n)) {
+        return invalid(format!(
+            "vertex attributes must have 1 to 4 components each, at least one attribute (position); got {components:?}"
+        ));
+    }
+    let stride: u32 = components.iter().sum();
+    if pass.vertices.floats.len() % stride as usize != 0 {
+        return invalid(format!(
+            "{} vertex floats is not a multiple of the vertex size {stride} ({components:?})",
+            pass.vertices.floats.len()
+        ));
+    }
+    let n_vertices = pass.vertices.floats.len() / stride as usize;
+    if pass.indices.len() % 3 != 0 {
+        return invalid(format!(
+            "{} indices is not a whole number of triangles",
+            pass.indices.len()
+        ));
+    }
+    if let Some(&bad) = pass.indices.iter().find(|&&i| i as usize >= n_vertices) {
+        return invalid(format!(
+            "index {bad} is out of range: the pass has {n_vertices} vertices"
+        ));
+    }
+    for (texture_idx, texture) in pass.textures.iter().enumerate() {
+        let (expected, what) = match texture.data {
+            TextureData::D2 { width, height, .. } => (width as usize * height as usize * 4, "2D"),
+            TextureData::Cube { size, .. } => (size as usize * size as usize * 4 * 6, "cube"),
+        };
+        let (TextureData::D2 { rgba, .. } | TextureData::Cube { rgba, .. }) = &texture.data;
+        if expected == 0 || rgba.len() != expected {
+            return invalid(format!(
+                "{what} texture {texture_idx} has {} bytes, its size needs {expected} (RGBA8, non-empty)",
+                rgba.len()
+            ));
+        }
+    }
+    if pass.state.stencil.enabled && target.depth_format != DepthFormat::Depth24PlusStencil8 {
+        return invalid("the stencil test needs DepthFormat::Depth24PlusStencil8".to_string());
+    }
+    Ok(())
+}
+
+fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::TextureFormat) -> Prepared {
+    let device = &gpu.device;
+    let label = Some(pass.label.as_str());
+    let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label,
+        source: wgpu::ShaderSource::Naga(Cow::Owned(module)),
+    });
+
+    // Bind group 0: uniforms at 0, texture i at 1 + 2i, its sampler at 2 + 2i.
+    let mut layout_entries = Vec::new();
+    let mut owned_views = Vec::new();
+    let mut owned_samplers = Vec::new();
+    let uniform_buffer = pass.uniforms.as_ref().map(|bytes| {
+        let mut padded = bytes.clone();
+        padded.resize(bytes.len().div_ceil(16).max(1) * 16, 0);
+        layout_entries.push(wgpu::BindGroupLayoutEntry {
+            binding: 0,
+            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+            ty: wgpu::BindingType::Buffer {
+                ty: wgpu::BufferBindingType::Uniform,
+                has_dynamic_offset: false,
+                min_binding_size: None,
+            },
+            count: None,
+        });
+        device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+            label,
+            contents: &padded,
+            usage: wgpu::BufferUsages::UNIFORM,
+        })
+    });
+    for (texture_idx, texture) in pass.textures.iter().enumerate() {
+        let binding = 1 + 2 * texture_idx as u32;
+        let (view_dimension, view) = upload_texture(gpu, &texture.data);
+        layout_entries.push(wgpu::BindGroupLayoutEntry {
+            binding,
+            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                view_dimension,
+                multisampled: false,
+            },
+            count: None,
+        });
+        layout_entries.push(wgpu::BindGroupLayoutEntry {
+            binding: binding + 1,
+            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+            ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+            count: None,
+        });
+        owned_views.push(view);
+        owned_samplers.push(device.create_sampler(&sampler_descriptor(&texture.sampler)));
+    }
+    let bind_group_layout = (!layout_entries.is_empty()).then(|| {
+        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label,
+            entries: &layout_entries,
+        })
+    });
+    let bind_group = bind_group_layout.as_ref().map(|layout| {
+        let mut entries = Vec::new();
+        if let Some(buffer) = &uniform_buffer {
+            entries.push(wgpu::BindGroupEntry {
+                binding: 0,
+                resource: buffer.as_entire_binding(),
+            });
+        }
+        for (texture_idx, (view, sampler)) in owned_views.iter().zip(&owned_samplers).enumerate() {
+            let binding = 1 + 2 * texture_idx as u32;
+            entries.push(wgpu::BindGroupEntry {
+                binding,
+                resource: wgpu::BindingResource::TextureView(view),
+            });
+            entries.push(wgpu::BindGroupEntry {
+                binding: binding + 1,
+                resource: wgpu::BindingResource::Sampler(sampler),
+            });
+        }
+        device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label,
+            layout,
+            entries: &entries,
+        })
+    });
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label,
+        bind_group_layouts: &[bind_group_layout.as_ref()]
+            .into_iter()
+            .flatten()
+            .map(Some)
+            .collect::<Vec<_>>(),
+        immediate_size: 0,
+    });
+
+    let mut offset = 0;
+    let attributes: Vec<wgpu::VertexAttribute> = pass
+        .vertices
+        .components
+        .iter()
+        .enumerate()
+        .map(|(location, &n)| {
+            let format = match n {
+                1 => wgpu::VertexFormat::Float32,
+                2 => wgpu::VertexFormat::Float32x2,
+                3 => wgpu::VertexFormat::Float32x3,
+                _ => wgpu::VertexFormat::Float32x4,
+            };
+            let attribute = wgpu::VertexAttribute {
+                format,
+                offset,
+                shader_location: location as u32,
+            };
+            offset += u64::from(n) * 4;
+            attribute
+        })
+        .collect();
+    let state = &pass.state;
+    let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+        label,
+        layout: Some(&pipeline_layout),
+        vertex: wgpu::VertexState {
+            module: &shader,
+            entry_point: Some(&pass.shader.vertex_entry),
+            compilation_options: Default::default(),
+            buffers: &[Some(wgpu::VertexBufferLayout {
+                array_stride: offset,
+                step_mode: wgpu::VertexStepMode::Vertex,
+                attributes: &attributes,
+            })],
+        },
+        primitive: wgpu::PrimitiveState {
+            topology: wgpu::PrimitiveTopology::TriangleList,
+            front_face: wgpu::FrontFace::Ccw,
+            cull_mode: match state.cull {
+                CullMode::None => None,
+                CullMode::Back => Some(wgpu::Face::Back),
+                CullMode::Front => Some(wgpu::Face::Front),
+            },
+            ..Default::default()
+        },
+        depth_stencil: Some(wgpu::DepthStencilState {
+            format: depth_format,
+            depth_write_enabled: Some(state.depth.write),
+            depth_compare: Some(compare(state.depth.func)),
+            stencil: stencil_state(&state.stencil),
+            bias: Default::default(),
+        }),
+        multisample: Default::default(),
+        fragment: Some(wgpu::FragmentState {
+            module: &shader,
+            entry_point: Some(&pass.shader.fragment_entry),
+            compilation_options: Default::default(),
+            targets: &[Some(wgpu::ColorTargetState {
+                format: wgpu::TextureFormat::Rgba8Unorm,
+                blend: Some(blend_state(&state.blend)),
+                write_mask: write_mask(state.blend.write_mask),
+            })],
+        }),
+        multiview_mask: None,
+        cache: None,
+    });
+    let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label,
+        contents: bytemuck::cast_slice(&pass.vertices.floats),
+        usage: wgpu::BufferUsages::VERTEX,
+    });
+    let index_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label,
+        contents: bytemuck::cast_slice(&pass.indices),
+        usage: wgpu::BufferUsages::INDEX,
+    });
+    Prepared {
+        pipeline,
+        bind_group,
+        vertex_buffer,
+        index_buffer,
+    }
+}
+
+/// Uploads RGBA8 texels; returns the view dimension the layout needs.
+fn upload_texture(gpu: &Gpu, data: &TextureData) -> (wgpu::TextureViewDimension, wgpu::TextureView) {
+    let (width, height, layers, rgba, dimension) = match data {
+        TextureData::D2 { width, height, rgba } => (*width, *height, 1, rgba, wgpu::TextureViewDimension::D2),
+        TextureData::Cube { size, rgba } => (*size, *size, 6, rgba, wgpu::TextureViewDimension::Cube),
+    };
+    let size = wgpu::Extent3d {
+        width,
+        height,
+        depth_or_array_layers: layers,
+    };
+    let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("shadec texture"),
+        size,
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: wgpu::TextureFormat::Rgba8Unorm,
+        usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
+        view_formats: &[],
+    });
+    gpu.queue.write_texture(
+        wgpu::TexelCopyTextureInfo {
+            texture: &texture,
+            mip_level: 0,
+            origin: wgpu::Origin3d::ZERO,
+            aspect: wgpu::TextureAspect::All,
+        },
+        rgba,
+        wgpu::TexelCopyBufferLayout {
+            offset: 0,
+            bytes_per_row: Some(width * 4),
+            rows_per_image: Some(height),
+        },
+        size,
+    );
+    let view = texture.create_view(&wgpu::TextureViewDescriptor {
+        dimension: Some(dimension),
+        ..Default::default()
+    });
+    (dimension, view)
+}
+
+fn sampler_descriptor(settings: &SamplerSettings) -> wgpu::SamplerDescriptor<'static> {
+    let filter = |f: Filter| match f {
+        Filter::Nearest => wgpu::FilterMode::Nearest,
+        Filter::Linear => wgpu::FilterMode::Linear,
+    };
+    let address = match settings.address {
+        AddressMode::ClampToEdge => wgpu::AddressMode::ClampToEdge,
+        AddressMode::Repeat => wgpu::AddressMode::Repeat,
+        AddressMode::MirrorRepeat => wgpu::AddressMode::MirrorRepeat,
+    };
+    wgpu::SamplerDescriptor {
+        label: Some("shadec sampler"),
+        address_mode_u: address,
+        address_mode_v: address,
+        address_mode_w: address,
+        mag_filter: filter(settings.mag),
+        min_filter: filter(settings.min),
+        ..Default::default()
+    }
+}
+
+fn compare(func: CompareFunc) -> wgpu::CompareFunction {
+    match func {
+        CompareFunc::Never => wgpu::CompareFunction::Never,
+        CompareFunc::Less => wgpu::CompareFunction::Less,
+        CompareFunc::LessEqual => wgpu::CompareFunction::LessEqual,
+        CompareFunc::Equal => wgpu::CompareFunction::Equal,
+        CompareFunc::Greater => wgpu::CompareFunction::Greater,
+        CompareFunc::GreaterEqual => wgpu::CompareFunction::GreaterEqual,
+        CompareFunc::NotEqual => wgpu::CompareFunction::NotEqual,
+        CompareFunc::Always => wgpu::CompareFunction::Always,
+    }
+}
+
+/// GL's stencil state applies to both faces (`glStencilFunc`/`glStencilOp`).
+fn stencil_state(stencil: &StencilState) -> wgpu::StencilState {
+    if !stencil.enabled {
+        return wgpu::StencilState::default();
+    }
+    let op = |op: StencilOp| match op {
+        StencilOp::Keep => wgpu::StencilOperation::Keep,
+        StencilOp::Zero => wgpu::StencilOperation::Zero,
+        StencilOp::Replace => wgpu::StencilOperation::Replace,
+        StencilOp::Incr => wgpu::StencilOperation::IncrementClamp,
+        StencilOp::Decr => wgpu::StencilOperation::DecrementClamp,
+        StencilOp::Invert => wgpu::StencilOperation::Invert,
+        StencilOp::IncrWrap => wgpu::StencilOperation::IncrementWrap,
+        StencilOp::DecrWrap => wgpu::StencilOperation::DecrementWrap,
+    };
+    let face = wgpu::StencilFaceState {
+        compare: compare(stencil.func),
+        fail_op: op(stencil.fail),
+        depth_fail_op: op(stencil.depth_fail),
+        pass_op: op(stencil.pass),
+    };
+    wgpu::StencilState {
+        front: face,
+        back: face,
+        read_mask: u32::from(stencil.read_mask),
+        write_mask: u32::from(stencil.write_mask),
+    }
+}
+
+fn blend_state(blend: &BlendState) -> wgpu::BlendState {
+    let factor = |f: BlendFactor| match f {
+        BlendFactor::Zero => wgpu::BlendFactor::Zero,
+        BlendFactor::One => wgpu::BlendFactor::One,
+        BlendFactor::SrcColor => wgpu::BlendFactor::Src,
+        BlendFactor::OneMinusSrcColor => wgpu::BlendFactor::OneMinusSrc,
+        BlendFactor::DstColor => wgpu::BlendFactor::Dst,
+        BlendFactor::OneMinusDstColor => wgpu::BlendFactor::OneMinusDst,
+        BlendFactor::SrcAlpha => wgpu::BlendFactor::SrcAlpha,
+        BlendFactor::OneMinusSrcAlpha => wgpu::BlendFactor::OneMinusSrcAlpha,
+        BlendFactor::DstAlpha => wgpu::BlendFactor::DstAlpha,
+        BlendFactor::OneMinusDstAlpha => wgpu::BlendFactor::OneMinusDstAlpha,
+        BlendFactor::ConstantColor => wgpu::BlendFactor::Constant,
+        BlendFactor::OneMinusConstantColor => wgpu::BlendFactor::OneMinusConstant,
+        BlendFactor::SrcAlphaSaturate => wgpu::BlendFactor::SrcAlphaSaturated,
+    };
+    let component = |src: BlendFactor, dst: BlendFactor| {
+        let operation = match blend.equation {
+            BlendEquation::Add => wgpu::BlendOperation::Add,
+            BlendEquation::Subtract => wgpu::BlendOperation::Subtract,
+            BlendEquation::ReverseSubtract => wgpu::BlendOperation::ReverseSubtract,
+            BlendEquation::Min => wgpu::BlendOperation::Min,
+            BlendEquation::Max => wgpu::BlendOperation::Max,
+        };
+        // GL ignores the factors of MIN and MAX; WebGPU requires them to be One.
+        if matches!(blend.equation, BlendEquation::Min | BlendEquation::Max) {
+            wgpu::BlendComponent {
+                src_factor: wgpu::BlendFactor::One,
+                dst_factor: wgpu::BlendFactor::One,
+                operation,
+            }
+        } else {
+            wgpu::BlendComponent {
+                src_factor: factor(src),
+                dst_factor: factor(dst),
+                operation,
+            }
+        }
+    };
+    wgpu::BlendState {
+        color: component(blend.src_rgb, blend.dst_rgb),
+        alpha: component(blend.src_alpha, blend.dst_alpha),
+    }
+}
+
+fn write_mask([r, g, b, a]: [bool; 4]) -> wgpu::ColorWrites {
+    let mut mask = wgpu::ColorWrites::empty();
+    for (on, bit) in [
+        (r, wgpu::ColorWrites::RED),
+        (g, wgpu::ColorWrites::GREEN),
+        (b, wgpu::ColorWrites::BLUE),
+        (a, wgpu::ColorWrites::ALPHA),
+    ] {
+        if on {
+            mask |= bit;
+        }
+    }
+    mask
+}
+
+/// An error and its `source()` chain on one line each.
+fn error_chain(err: &dyn std::error::Error) -> String {
+    let mut text = err.to_string();
+    let mut source = err.source();
+    while let Some(cause) = source {
+        text.push_str(&format!("\n  caused by: {cause}"));
+        source = cause.source();
+    }
+    text
+}
