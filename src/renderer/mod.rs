@@ -13,7 +13,9 @@
 //! fragment interface is allocation-free: varyings arrive as a `&[f32]` slice
 //! owned by the tile's worker.
 
+pub mod adaptive;
 mod framebuffer;
+pub mod lights;
 mod raster;
 mod tile;
 
@@ -21,6 +23,7 @@ pub use framebuffer::{
     BlendEquation, BlendFactor, BlendState, ColorFormat, CompareFunc, DepthState, Framebuffer, StencilOp, StencilState,
     TILE,
 };
+pub use adaptive::{draw_adaptive, image_error, AdaptiveSettings, AdaptiveStats, EdgeMode, ImageError};
 pub use raster::{Fragment, SUBPIXEL_BITS};
 
 use serde::{Deserialize, Serialize};
@@ -36,6 +39,8 @@ pub enum RenderError {
     Encode { path: String, message: String },
     #[error("{0}")]
     Io(String),
+    #[error("{0}")]
+    Unsupported(String),
 }
 
 /// The per-vertex stage of a pass: `clip position + N varyings` per vertex.

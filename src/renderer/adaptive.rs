@@ -1,0 +1,588 @@
+//! Adaptive Sample Shading (seeds/004 Section 2.1) for any [`FragmentStage`]:
+//! shade exactly at regular samples and at edges, subdivide where
+//! neighbouring samples differ by more than a threshold, interpolate the rest.
+//!
+//! [`draw_adaptive`] works in three steps over the whole frame:
+//!
+//! 1. **Visibility.** Every pass is set up as by [`super::draw`] and scan
+//!    converted (same fill rule, same depth test) into a buffer of
+//!    primitive ids: which triangle of which pass is visible at each pixel.
+//!    Nothing is shaded yet.
+//! 2. **Scanlines** (Section 2.1, Fig. 1). On every `spacing`-th row (and the
+//!    last row), each run of pixels of the same surface is shaded exactly at
+//!    its ends, at every `spacing`-th column and at its edge pixels — the
+//!    paper's *regular samples*. Between two neighbouring samples whose
+//!    colours differ by more than `threshold` in some channel, a sample is
+//!    shaded half-way (Section 2.1.2, binary subdivision, at most
+//!    `max_depth` levels); where they do not, the pixels between are
+//!    interpolated linearly.
+//! 3. **Columns** (two-dimensional, Fig. 11). Every column between two
+//!    regular rows is processed the same way, with the regular rows' values
+//!    (exact or interpolated) and the edge pixels as its samples.
+//!
+//! 4. **Refinement** (beyond the paper): interpolated pixels that differ by
+//!    more than the threshold from a neighbour are shaded exactly, and the
+//!    search follows the feature from there (see `Ctx::refine`).
+//!
+//! An *edge pixel* is a covered pixel whose 4-neighbour is uncovered or
+//! belongs to another surface; it is always shaded exactly, so colours are
+//! never interpolated across a silhouette. What counts as the same surface
+//! is [`EdgeMode`]: the same triangle (the paper's edge samples), or the same
+//! pass (interpolation across the inner edges of a smooth mesh).
+//!
+//! A threshold ≤ 0 shades every pixel exactly (no interpolation). Limits:
+//! the stencil test is not supported (the draw returns
+//! [`RenderError::Unsupported`]); a fragment discarded at a sample is not
+//! written and counts as black for its neighbours' interpolation;
+//! interpolated pixels cannot discard.
+
+use rayon::prelude::*;
+
+use super::framebuffer::TILE;
+use super::raster::{setup_pass, Fragment, PassSetup, SUB};
+use super::{FragmentResult, Framebuffer, Pass, RenderError};
+
+/// What counts as one surface for edge detection.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum EdgeMode {
+    /// Every triangle is its own surface: pixels next to another triangle
+    /// are shaded exactly (the paper's edge samples, Fig. 9).
+    Triangle,
+    /// A pass (one mesh, one fragment stage) is one surface: only
+    /// silhouettes and boundaries between passes are edges. Right for
+    /// smooth meshes, whose varyings are continuous across triangles.
+    Pass,
+}
+
+/// The knobs of Section 2.1.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct AdaptiveSettings {
+    /// Distance between regular samples in pixels (the paper uses 8 or 16).
+    pub spacing: u32,
+    /// Largest per-channel colour difference between neighbouring samples
+    /// that is interpolated, in the colour's units (0.085 = 8.5 % of 1.0).
+    pub threshold: f32,
+    /// Most levels of binary subdivision; log2(spacing) reaches single pixels.
+    pub max_depth: u32,
+    pub edges: EdgeMode,
+}
+
+impl AdaptiveSettings {
+    /// Subdivision down to single pixels.
+    pub fn new(spacing: u32, threshold: f32, edges: EdgeMode) -> AdaptiveSettings {
+        AdaptiveSettings { spacing, threshold, max_depth: spacing.max(1).next_power_of_two().trailing_zeros(), edges }
+    }
+}
+
+/// Counters of one adaptive draw. `regular + edge + adaptive` pixels were
+/// shaded exactly; `interpolated` were not.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct AdaptiveStats {
+    /// Pixels covered by some visible triangle.
+    pub covered: u64,
+    /// Regular samples (every `spacing` pixels, ends of runs).
+    pub regular: u64,
+    /// Pixels at edges (next to another surface or an uncovered pixel).
+    pub edge: u64,
+    /// Samples added by binary subdivision.
+    pub adaptive: u64,
+    pub interpolated: u64,
+    /// Samples whose fragment stage discarded.
+    pub discarded: u64,
+}
+
+impl AdaptiveStats {
+    /// Pixels whose fragment stage ran.
+    pub fn shaded(&self) -> u64 {
+        self.regular + self.edge + self.adaptive
+    }
+    /// Shaded / covered, in [0, 1].
+    pub fn fraction_shaded(&self) -> f64 {
+        if self.covered == 0 {
+            0.0
+        } else {
+            self.shaded() as f64 / self.covered as f64
+        }
+    }
+    fn add(self, o: AdaptiveStats) -> AdaptiveStats {
+        AdaptiveStats {
+            covered: self.covered + o.covered,
+            regular: self.regular + o.regular,
+            edge: self.edge + o.edge,
+            adaptive: self.adaptive + o.adaptive,
+            interpolated: self.interpolated + o.interpolated,
+            discarded: self.discarded + o.discarded,
+        }
+    }
+}
+
+/// How far one image is from another, over the RGB channels.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ImageError {
+    pub max_abs: f32,
+    /// 10·log10(1/MSE) in dB for colours in [0, 1]; infinite when equal.
+    pub psnr: f64,
+}
+
+/// Compares two images of the same size (e.g. [`Framebuffer::to_rgba_f32`]).
+pub fn image_error(reference: &[[f32; 4]], test: &[[f32; 4]]) -> ImageError {
+    assert_eq!(reference.len(), test.len(), "images of different sizes");
+    let mut max_abs = 0.0f32;
+    let mut sum = 0.0f64;
+    for (a, b) in reference.iter().zip(test) {
+        for c in 0..3 {
+            let d = (a[c] - b[c]).abs();
+            max_abs = max_abs.max(d);
+            sum += (d as f64) * (d as f64);
+        }
+    }
+    let mse = sum / (3 * reference.len().max(1)) as f64;
+    ImageError { max_abs, psnr: if mse == 0.0 { f64::INFINITY } else { 10.0 * (1.0 / mse).log10() } }
+}
+
+const NONE: u32 = u32::MAX;
+
+// Pixel states.
+const UNKNOWN: u8 = 0;
+const REGULAR: u8 = 1;
+const EDGE: u8 = 2;
+const ADAPTIVE: u8 = 3;
+const INTERPOLATED: u8 = 4;
+/// Set on top of a state when the fragment stage discarded.
+const DISCARD_BIT: u8 = 0x80;
+
+/// Draws `passes` in order with adaptive sample shading. Depth testing,
+/// culling and blending follow each pass's state; the stencil must be disabled.
+pub fn draw_adaptive(
+    target: &mut Framebuffer,
+    passes: &[Pass],
+    settings: &AdaptiveSettings,
+) -> Result<AdaptiveStats, RenderError> {
+    for pass in passes {
+        if pass.state.stencil.enabled {
+            return Err(RenderError::Unsupported(
+                "adaptive shading does not support the stencil test; draw the pass with renderer::draw".into(),
+            ));
+        }
+    }
+    if settings.spacing == 0 {
+        return Err(RenderError::Unsupported("adaptive shading needs a sample spacing of at least 1 pixel".into()));
+    }
+    let (w, h) = (target.width() as usize, target.height() as usize);
+    let mut setups = Vec::with_capacity(passes.len());
+    let mut offsets = Vec::with_capacity(passes.len() + 1);
+    let mut total = 0usize;
+    for pass in passes {
+        let setup = setup_pass(pass, w as u32, h as u32)?;
+        offsets.push(total);
+        total += setup.n_triangles();
+        setups.push(setup);
+    }
+    offsets.push(total);
+    if total >= NONE as usize {
+        return Err(RenderError::Unsupported("more than 2^32 - 1 triangles in one adaptive draw".into()));
+    }
+
+    // 1. Visibility, in bands of TILE rows.
+    let mut ids = vec![NONE; w * h];
+    let mut depth: Vec<f32> = (0..w * h).map(|i| target.depth((i % w) as u32, (i / w) as u32).unwrap_or(1.0)).collect();
+    ids.par_chunks_mut(TILE * w).zip(depth.par_chunks_mut(TILE * w)).enumerate().for_each(|(band, (ids, depth))| {
+        let y0 = (band * TILE) as i32;
+        let y1 = y0 + (ids.len() / w) as i32 - 1;
+        for (p, (pass, setup)) in passes.iter().zip(&setups).enumerate() {
+            visibility(ids, depth, w, (y0, y1), pass, setup, offsets[p] as u32);
+        }
+    });
+
+    let max_varyings = setups.iter().map(|s| s.n_varyings).max().unwrap_or(0);
+    let ctx = Ctx { passes, setups: &setups, offsets: &offsets, ids: &ids, w, h, settings: *settings };
+
+    // 2. Scanlines: every `spacing`-th row and the last one.
+    let n = settings.spacing as usize;
+    let is_regular_row = |y: usize| y % n == 0 || y == h - 1;
+    let mut color = vec![[0.0f32; 4]; w * h];
+    let mut state = vec![UNKNOWN; w * h];
+    let row_stats = color
+        .par_chunks_mut(w)
+        .zip(state.par_chunks_mut(w))
+        .enumerate()
+        .filter(|(y, _)| is_regular_row(*y))
+        .map(|(y, (vals, st))| {
+            let mut scratch = vec![0.0f32; max_varyings];
+            let mut stats = AdaptiveStats::default();
+            let pixel = |i: usize| (i, y);
+            ctx.fill_line(vals, st, &pixel, |i| i % n == 0, &mut scratch, &mut stats);
+            stats
+        })
+        .reduce(AdaptiveStats::default, AdaptiveStats::add);
+
+    // 3. Columns between consecutive regular rows.
+    let regular_rows: Vec<usize> = (0..h).filter(|&y| is_regular_row(y)).collect();
+    let mut reg_color = Vec::with_capacity(regular_rows.len() * w);
+    let mut reg_state = Vec::with_capacity(regular_rows.len() * w);
+    for &y in &regular_rows {
+        reg_color.extend_from_slice(&color[y * w..(y + 1) * w]);
+        reg_state.extend_from_slice(&state[y * w..(y + 1) * w]);
+    }
+    // Band k owns the rows strictly between regular rows k and k + 1.
+    let mut bands: Vec<(usize, &mut [[f32; 4]], &mut [u8])> = Vec::with_capacity(regular_rows.len());
+    {
+        let (mut c_rest, mut s_rest) = (&mut color[..], &mut state[..]);
+        let mut consumed = 0;
+        for k in 0..regular_rows.len().saturating_sub(1) {
+            let (top, bottom) = (regular_rows[k], regular_rows[k + 1]);
+            let skip = (top + 1 - consumed) * w;
+            let take = (bottom - top - 1) * w;
+            let (_, c) = std::mem::take(&mut c_rest).split_at_mut(skip);
+            let (_, s) = std::mem::take(&mut s_rest).split_at_mut(skip);
+            let (c_band, c_tail) = c.split_at_mut(take);
+            let (s_band, s_tail) = s.split_at_mut(take);
+            bands.push((k, c_band, s_band));
+            c_rest = c_tail;
+            s_rest = s_tail;
+            consumed = bottom;
+        }
+    }
+    let column_stats = bands
+        .into_par_iter()
+        .map(|(k, c_band, s_band)| {
+            let (top, bottom) = (regular_rows[k], regular_rows[k + 1]);
+            let len = bottom - top + 1;
+            let mut vals = vec![[0.0f32; 4]; len];
+            let mut st = vec![UNKNOWN; len];
+            let mut scratch = vec![0.0f32; max_varyings];
+            let mut stats = AdaptiveStats::default();
+            for x in 0..w {
+                vals[0] = reg_color[k * w + x];
+                st[0] = reg_state[k * w + x];
+                vals[len - 1] = reg_color[(k + 1) * w + x];
+                st[len - 1] = reg_state[(k + 1) * w + x];
+                st[1..len - 1].fill(UNKNOWN);
+                let pixel = |i: usize| (x, top + i);
+                ctx.fill_line(&mut vals, &mut st, &pixel, |i| i == 0 || i == len - 1, &mut scratch, &mut stats);
+                for i in 1..len - 1 {
+                    c_band[(i - 1) * w + x] = vals[i];
+                    s_band[(i - 1) * w + x] = st[i];
+                }
+            }
+            stats
+        })
+        .reduce(AdaptiveStats::default, AdaptiveStats::add);
+    let mut stats = row_stats.add(column_stats);
+    if settings.threshold > 0.0 {
+        ctx.refine(&mut color, &mut state, &mut vec![0.0f32; max_varyings], &mut stats);
+    }
+    stats.covered = ids.iter().filter(|&&id| id != NONE).count() as u64;
+
+    // Write the result through each pass's depth and blend state.
+    for y in 0..h {
+        for x in 0..w {
+            let i = y * w + x;
+            let id = ids[i];
+            if id == NONE || state[i] & DISCARD_BIT != 0 || state[i] == UNKNOWN {
+                continue;
+            }
+            let p = ctx.pass_of(id);
+            let pass = &passes[p];
+            let (t, idx) = ((y / TILE) * target.tiles_x() + x / TILE, (y % TILE) * TILE + x % TILE);
+            let tile = &mut target.tiles[t];
+            if pass.state.depth.write {
+                tile.depth[idx] = depth[i];
+            }
+            tile.blend_color(idx, &color[i], &pass.state.blend);
+        }
+    }
+    Ok(stats)
+}
+
+/// Scan-converts one pass into the id and depth buffers of rows `y0..=y1`.
+fn visibility(ids: &mut [u32], depth: &mut [f32], w: usize, rows: (i32, i32), pass: &Pass, setup: &PassSetup, offset: u32) {
+    let func = pass.state.depth.func;
+    for (ti, tri) in setup.tris.iter().enumerate() {
+        let y0 = tri.y0.max(rows.0);
+        let y1 = tri.y1.min(rows.1);
+        if y0 > y1 {
+            continue;
+        }
+        let step_x = tri.dy.map(|d| -d * SUB);
+        let px0 = tri.x0 as i64 * SUB + SUB / 2;
+        for y in y0..=y1 {
+            let py = y as i64 * SUB + SUB / 2;
+            let mut e = [0i64; 3];
+            for k in 0..3 {
+                e[k] = tri.dx[k] * (py - tri.ya[k]) - tri.dy[k] * (px0 - tri.xa[k]);
+            }
+            let row = (y - rows.0) as usize * w;
+            for x in tri.x0..=tri.x1 {
+                if ((e[0] - tri.bias[0]) | (e[1] - tri.bias[1]) | (e[2] - tri.bias[2])) >= 0 {
+                    let l = [e[0] as f32 * tri.inv_area, e[1] as f32 * tri.inv_area, e[2] as f32 * tri.inv_area];
+                    let z = (l[0] * tri.z[0] + l[1] * tri.z[1] + l[2] * tri.z[2]).clamp(0.0, 1.0);
+                    let idx = row + x as usize;
+                    if func.test(z, depth[idx]) {
+                        // Later passes test against this depth even without depth writes,
+                        // as the tiled rasterizer would see it only with writes: keep GL's
+                        // behaviour by updating the test depth only when the pass writes.
+                        if pass.state.depth.write {
+                            depth[idx] = z;
+                        }
+                        ids[idx] = offset + ti as u32;
+                    }
+                }
+                for k in 0..3 {
+                    e[k] += step_x[k];
+                }
+            }
+        }
+    }
+}
+
+struct Ctx<'a> {
+    passes: &'a [Pass<'a>],
+    setups: &'a [PassSetup],
+    offsets: &'a [usize],
+    ids: &'a [u32],
+    w: usize,
+    h: usize,
+    settings: AdaptiveSettings,
+}
+
+impl Ctx<'_> {
+    fn pass_of(&self, id: u32) -> usize {
+        // offsets is sorted; the pass is the last offset ≤ id.
+        self.offsets.partition_point(|&o| o <= id as usize) - 1
+    }
+
+    /// The surface key of a primitive id (see [`EdgeMode`]).
+    fn key(&self, id: u32) -> u32 {
+        match self.settings.edges {
+            _ if id == NONE => NONE,
+            EdgeMode::Triangle => id,
+            EdgeMode::Pass => self.pass_of(id) as u32,
+        }
+    }
+
+    fn key_at(&self, x: usize, y: usize) -> u32 {
+        self.key(self.ids[y * self.w + x])
+    }
+
+    fn is_edge(&self, x: usize, y: usize) -> bool {
+        let k = self.key_at(x, y);
+        (x > 0 && self.key_at(x - 1, y) != k)
+            || (x + 1 < self.w && self.key_at(x + 1, y) != k)
+            || (y > 0 && self.key_at(x, y - 1) != k)
+            || (y + 1 < self.h && self.key_at(x, y + 1) != k)
+    }
+
+    /// Runs the fragment stage of the primitive visible at (x, y).
+    fn shade(&self, x: usize, y: usize, scratch: &mut [f32], out: &mut [f32; 4]) -> FragmentResult {
+        let id = self.ids[y * self.w + x];
+        let p = self.pass_of(id);
+        let setup = &self.setups[p];
+        let tri = &setup.tris[id as usize - self.offsets[p]];
+        let n = setup.n_varyings;
+        let (px, py) = (x as i64 * SUB + SUB / 2, y as i64 * SUB + SUB / 2);
+        let mut e = [0i64; 3];
+        for k in 0..3 {
+            e[k] = tri.dx[k] * (py - tri.ya[k]) - tri.dy[k] * (px - tri.xa[k]);
+        }
+        // The same arithmetic, in the same order, as the tiled rasterizer.
+        let l = [e[0] as f32 * tri.inv_area, e[1] as f32 * tri.inv_area, e[2] as f32 * tri.inv_area];
+        let z = (l[0] * tri.z[0] + l[1] * tri.z[1] + l[2] * tri.z[2]).clamp(0.0, 1.0);
+        let pw = [l[0] * tri.inv_w[0], l[1] * tri.inv_w[1], l[2] * tri.inv_w[2]];
+        let q = pw[0] + pw[1] + pw[2];
+        let inv_q = 1.0 / q;
+        let b = [pw[0] * inv_q, pw[1] * inv_q, pw[2] * inv_q];
+        let vary = &setup.varyings[tri.varying_offset..tri.varying_offset + 3 * n];
+        let varyings = &mut scratch[..n];
+        for (i, v) in varyings.iter_mut().enumerate() {
+            *v = b[0] * vary[i] + b[1] * vary[n + i] + b[2] * vary[2 * n + i];
+        }
+        let gradients = &setup.gradients[tri.gradient_offset..tri.gradient_offset + 2 * (n + 1)];
+        let fragment =
+            Fragment { x: x as u32, y: y as u32, depth: z, front_facing: tri.front_facing, inv_w: q, gradients };
+        self.passes[p].fragment.shade(&fragment, varyings, out)
+    }
+
+    /// 4. Refinement (ours, beyond the paper): a feature that lies wholly
+    /// between two regular rows and two samples of a column — the tip of a
+    /// spot cone, a small highlight — is missed by both 1D passes but shows
+    /// as a jump of more than the threshold between an interpolated pixel
+    /// and its horizontal or vertical neighbour. Such pixels are shaded
+    /// exactly, and the search continues from them (a flood fill that
+    /// follows the feature) until no interpolated pixel next to an exact one
+    /// differs by more than the threshold.
+    fn refine(&self, color: &mut [[f32; 4]], state: &mut [u8], scratch: &mut [f32], stats: &mut AdaptiveStats) {
+        let (w, h, t) = (self.w, self.h, self.settings.threshold);
+        let differs = |a: [f32; 4], b: [f32; 4]| (0..4).any(|c| (a[c] - b[c]).abs() > t);
+        let mut work: Vec<usize> = Vec::new();
+        let mut reshade = |i: usize, color: &mut [[f32; 4]], state: &mut [u8], work: &mut Vec<usize>, stats: &mut AdaptiveStats| {
+            let mut out = [0.0f32; 4];
+            let res = self.shade(i % w, i / w, scratch, &mut out);
+            stats.interpolated -= 1;
+            stats.adaptive += 1;
+            if res == FragmentResult::Discard {
+                stats.discarded += 1;
+                color[i] = [0.0; 4];
+                state[i] = ADAPTIVE | DISCARD_BIT;
+            } else {
+                color[i] = out;
+                state[i] = ADAPTIVE;
+            }
+            work.push(i);
+        };
+        for y in 0..h {
+            for x in 0..w {
+                let i = y * w + x;
+                let key = self.key(self.ids[i]);
+                if key == NONE {
+                    continue;
+                }
+                for j in [if x + 1 < w { Some(i + 1) } else { None }, if y + 1 < h { Some(i + w) } else { None }]
+                    .into_iter()
+                    .flatten()
+                {
+                    if self.key(self.ids[j]) != key || !differs(color[i], color[j]) {
+                        continue;
+                    }
+                    for k in [i, j] {
+                        if state[k] == INTERPOLATED {
+                            reshade(k, color, state, &mut work, stats);
+                        }
+                    }
+                }
+            }
+        }
+        while let Some(i) = work.pop() {
+            let (x, y) = (i % w, i / w);
+            let key = self.key(self.ids[i]);
+            let neighbours = [
+                (x > 0).then(|| i - 1),
+                (x + 1 < w).then(|| i + 1),
+                (y > 0).then(|| i - w),
+                (y + 1 < h).then(|| i + w),
+            ];
+            for j in neighbours.into_iter().flatten() {
+                if state[j] == INTERPOLATED && self.key(self.ids[j]) == key && differs(color[i], color[j]) {
+                    reshade(j, color, state, &mut work, stats);
+                }
+            }
+        }
+    }
+
+    /// Shades sample `i` of a line exactly, recording its kind.
+    fn sample(
+        &self,
+        vals: &mut [[f32; 4]],
+        st: &mut [u8],
+        i: usize,
+        (x, y): (usize, usize),
+        kind: u8,
+        scratch: &mut [f32],
+        stats: &mut AdaptiveStats,
+    ) {
+        let mut out = [0.0f32; 4];
+        let res = self.shade(x, y, scratch, &mut out);
+        match kind {
+            REGULAR => stats.regular += 1,
+            EDGE => stats.edge += 1,
+            _ => stats.adaptive += 1,
+        }
+        if res == FragmentResult::Discard {
+            stats.discarded += 1;
+            vals[i] = [0.0; 4];
+            st[i] = kind | DISCARD_BIT;
+        } else {
+            vals[i] = out;
+            st[i] = kind;
+        }
+    }
+
+    /// Processes one line (a row, or a column between two regular rows):
+    /// `pixel(i)` maps position i to (x, y); known values (state ≠ UNKNOWN)
+    /// are samples as they are; `regular(i)` marks regular sample positions.
+    fn fill_line(
+        &self,
+        vals: &mut [[f32; 4]],
+        st: &mut [u8],
+        pixel: &dyn Fn(usize) -> (usize, usize),
+        regular: impl Fn(usize) -> bool,
+        scratch: &mut [f32],
+        stats: &mut AdaptiveStats,
+    ) {
+        let len = vals.len();
+        let all = self.settings.threshold <= 0.0;
+        let mut a = 0;
+        while a < len {
+            let (x, y) = pixel(a);
+            let key = self.key_at(x, y);
+            if key == NONE {
+                a += 1;
+                continue;
+            }
+            let mut b = a;
+            while b + 1 < len && {
+                let (x, y) = pixel(b + 1);
+                self.key_at(x, y) == key
+            } {
+                b += 1;
+            }
+            // Samples of the run [a, b]: its ends, regular positions, edge pixels.
+            let mut prev = None;
+            for i in a..=b {
+                let (x, y) = pixel(i);
+                let is_end = i == a || i == b;
+                let is_sample = st[i] != UNKNOWN || all || is_end || regular(i) || self.is_edge(x, y);
+                if !is_sample {
+                    continue;
+                }
+                if st[i] == UNKNOWN {
+                    let kind = if self.is_edge(x, y) { EDGE } else { REGULAR };
+                    self.sample(vals, st, i, (x, y), kind, scratch, stats);
+                }
+                if let Some(p) = prev {
+                    self.subdivide(vals, st, pixel, p, i, 0, scratch, stats);
+                }
+                prev = Some(i);
+            }
+            a = b + 1;
+        }
+    }
+
+    /// Section 2.1.2: binary subdivision between samples `lo` and `hi`.
+    #[allow(clippy::too_many_arguments)]
+    fn subdivide(
+        &self,
+        vals: &mut [[f32; 4]],
+        st: &mut [u8],
+        pixel: &dyn Fn(usize) -> (usize, usize),
+        lo: usize,
+        hi: usize,
+        depth: u32,
+        scratch: &mut [f32],
+        stats: &mut AdaptiveStats,
+    ) {
+        if hi - lo <= 1 {
+            return;
+        }
+        let (va, vb) = (vals[lo], vals[hi]);
+        let diff = (0..4).map(|c| (va[c] - vb[c]).abs()).fold(0.0f32, f32::max);
+        if diff > self.settings.threshold && depth < self.settings.max_depth {
+            let mid = (lo + hi) / 2;
+            if st[mid] == UNKNOWN {
+                self.sample(vals, st, mid, pixel(mid), ADAPTIVE, scratch, stats);
+            }
+            self.subdivide(vals, st, pixel, lo, mid, depth + 1, scratch, stats);
+            self.subdivide(vals, st, pixel, mid, hi, depth + 1, scratch, stats);
+        } else {
+            let span = (hi - lo) as f32;
+            for i in lo + 1..hi {
+                if st[i] == UNKNOWN {
+                    let t = (i - lo) as f32 / span;
+                    vals[i] = [0, 1, 2, 3].map(|c| va[c] + (vb[c] - va[c]) * t);
+                    st[i] = INTERPOLATED;
+                    stats.interpolated += 1;
+                }
+            }
+        }
+    }
+}
