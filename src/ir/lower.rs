@@ -30,6 +30,7 @@ pub fn lower(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
         vector_decls: Vec::new(),
         params: Vec::new(),
         sample: None,
+        statement_freq: None,
         let_cache: HashMap::new(),
         locals: Vec::new(),
         bundles: Vec::new(),
@@ -92,6 +93,8 @@ struct Lowerer<'a> {
     params: Vec<Vec<VectorId>>,
     /// What δ interpolates to in the current statement (`None`: no δ allowed).
     sample: Option<Frequency>,
+    /// The frequency of the statement being lowered.
+    statement_freq: Option<Frequency>,
     /// Values of global `let`s in the current statement.
     let_cache: HashMap<String, Value>,
     /// Shader locals, innermost last; a `None` name marks a scope boundary.
@@ -366,6 +369,8 @@ impl<'a> Lowerer<'a> {
     fn statement(&mut self, st: &'a ast::Statement) {
         self.let_cache.clear();
         let _ = self.statement_inner(st);
+        self.statement_freq = None;
+        self.sample = None;
     }
 
     fn statement_inner(&mut self, st: &'a ast::Statement) -> Res<()> {
@@ -400,6 +405,7 @@ impl<'a> Lowerer<'a> {
             }
         };
         // The index.
+        self.statement_freq = Some(sample);
         self.sample = if sample.is_sample() { Some(sample) } else { None };
         let index_value = self.lower_expr(&t.index)?;
         let index = self.expect_expr(index_value, t.index.span)?;
@@ -456,11 +462,12 @@ impl<'a> Lowerer<'a> {
                 value = match (vi.ty, want) {
                     (a, b) if a == b => value,
                     (Ty::Rgb, Ty::Rgba) | (Ty::Scalar, Ty::Rgba) => self.append(Expr::Convert { value, to: Ty::Rgba }, st.value.span)?,
-                    // `Cl δπl x ← δ x`: a depth buffer stores the position's depth.
-                    (Ty::Position, Ty::Scalar) if *channel == FbChannel::Depth || self.is_depth_only(&table) => {
-                        self.append(Expr::Depth(value), st.value.span)?
+                    // `Cl δπl x ← δ x` (shadow mask): a position written into a depth
+                    // buffer stores the depth of the fragment being written, in the
+                    // projection of the index (πl here) — what the depth test compares.
+                    (Ty::Position, _) if *channel == FbChannel::Depth || self.is_depth_only(&table) => {
+                        self.append(Expr::Depth(index), st.value.span)?
                     }
-                    (Ty::Position, _) if self.is_depth_only(&table) => self.append(Expr::Depth(value), st.value.span)?,
                     (have, want) => {
                         self.error("type-mismatch", format!("a {} is written into a {} channel", have.name(), want.name()), st.value.span, format!("a {}", have.name()), "write a colour (rgb or rgba) into a framebuffer, a scalar into α, z or σ");
                         return Err(());
@@ -862,7 +869,12 @@ impl<'a> Lowerer<'a> {
 
     fn delta(&mut self, v: Value, distributed: bool, delta_span: Span, span: Span) -> Res<Value> {
         let Some(to) = self.sample else {
-            self.error("no-rasterization", "δ outside a rasterizing statement", delta_span, "δ rasterizes primitives", "δ belongs in statements that draw: `C δπx ← …`, `T δu ← …`; a texgen `u x ←` runs per vertex and a screen pass `C xs ←` per pixel");
+            let (message, label) = match self.statement_freq {
+                Some(Frequency::Vertex) => ("δ makes a per-fragment value, but this is a per-vertex target", "per-fragment value in a per-vertex statement"),
+                Some(Frequency::Screen) => ("δ in a screen pass: `C xs ←` draws no primitives to interpolate over", "nothing to rasterize"),
+                _ => ("δ outside a statement: constants and uniforms are not rasterized", "δ rasterizes primitives"),
+            };
+            self.error("frequency", message, delta_span, label, "δ belongs in statements that draw: `C δπx ← …`, `T δu ← …`; a texgen `u x ←` runs per vertex and a screen pass `C xs ←` per pixel");
             return Err(());
         };
         match v {
