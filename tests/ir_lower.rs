@@ -356,3 +356,17 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn long_chains_and_cycles_do_not_overflow() {
+    let chain = vec!["(T δu x)"; 900].join(" ⊕ ");
+    let m = lower_ok(&with(&format!("C δπx ← {chain};")));
+    assert_eq!(m.statements.len(), 1);
+    let sum = vec!["g"; 990].join(" + ");
+    let src = format!("uniform g : scalar = 0.5;\nlet a = {sum};\nlet b = a * a;\nC δπx ← rgb(b, b, b);\n");
+    lower_ok(&src);
+    let src = "let a = b + 1;\nlet b = a * 2;\nC δπx ← rgb(a, a, a);\n";
+    let (e, text) = lower_err(src);
+    assert_eq!(e.code, "cycle");
+    assert_eq!(text, "a");
+}

@@ -22,6 +22,26 @@ use crate::span::Span;
 /// Lowers a checked program. Never panics; what cannot be lowered is a
 /// diagnostic, and the statement it belongs to is left out of the module.
 pub fn lower(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
+    // Lowering recurses over expressions and inlined definitions; a large
+    // stack keeps the recursion bounds (below) far from an overflow on any
+    // thread, including test threads.
+    std::thread::scope(|scope| {
+        match std::thread::Builder::new().name("shadec-lower".into()).stack_size(LOWER_STACK).spawn_scoped(scope, || lower_here(program)) {
+            Ok(handle) => handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)),
+            Err(_) => lower_here(program),
+        }
+    })
+}
+
+/// Stack for the lowering thread.
+const LOWER_STACK: usize = 256 << 20;
+/// Deepest recursion over expressions, counting inlined definitions.
+const MAX_EXPR_RECURSION: usize = 20_000;
+/// Deepest nesting of definitions (`let`, computed vectors, shaders): beyond
+/// this, a definition uses itself.
+const MAX_DEFINITION_DEPTH: usize = 64;
+
+fn lower_here(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
     let mut l = Lowerer {
         program,
         module: Module::default(),
@@ -35,6 +55,7 @@ pub fn lower(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
         locals: Vec::new(),
         bundles: Vec::new(),
         depth: 0,
+        expr_depth: 0,
         under_delta: 0,
         distributed: false,
     };
@@ -101,8 +122,10 @@ struct Lowerer<'a> {
     locals: Vec<(String, Value)>,
     /// The bundle the shader being inlined was applied to.
     bundles: Vec<Bundle>,
-    /// Guards against `let`/vector/shader cycles.
+    /// Nesting of definitions being inlined: guards against cycles.
     depth: usize,
+    /// Recursion over expressions.
+    expr_depth: usize,
     /// Inside the argument of a δ: nodes mixing per-vertex and per-sample
     /// operands interpolate the per-vertex ones (δ distributes, EMBM).
     under_delta: usize,
@@ -111,7 +134,6 @@ struct Lowerer<'a> {
 }
 
 
-const MAX_DEPTH: usize = 64;
 
 impl<'a> Lowerer<'a> {
     fn run(&mut self) {
@@ -516,12 +538,26 @@ impl<'a> Lowerer<'a> {
     // ---- expressions ---------------------------------------------------
 
     fn lower_expr(&mut self, e: &'a ast::Expr) -> Res<Value> {
-        if self.depth > MAX_DEPTH {
-            self.error("cycle", "definitions nest too deeply (a cycle?)", e.span, "here", "a `let`, vector or shader must not use itself");
+        if self.expr_depth > MAX_EXPR_RECURSION {
+            self.error("too-deep", "the expression is too deep to lower", e.span, "here", "split it with `let` bindings");
+            return Err(());
+        }
+        self.expr_depth += 1;
+        let r = self.lower_expr_inner(e);
+        self.expr_depth -= 1;
+        r
+    }
+
+    /// Runs `f` one definition deeper; a cycle shows as too deep a nesting.
+    fn nested<T>(&mut self, name: &str, span: Span, f: impl FnOnce(&mut Self) -> Res<T>) -> Res<T> {
+        if self.depth >= MAX_DEFINITION_DEPTH {
+            if self.depth == MAX_DEFINITION_DEPTH {
+                self.error("cycle", format!("`{name}` is defined in terms of itself"), span, "used here", "a `let`, computed vector or shader must not use itself, directly or through others");
+            }
             return Err(());
         }
         self.depth += 1;
-        let r = self.lower_expr_inner(e);
+        let r = f(self);
         self.depth -= 1;
         r
     }
@@ -768,7 +804,7 @@ impl<'a> Lowerer<'a> {
         // A global `let` sees no shader locals.
         let locals = std::mem::take(&mut self.locals);
         let bundles = std::mem::take(&mut self.bundles);
-        let r = self.lower_expr(&l.value);
+        let r = self.nested(&key, l.name.span, |this| this.lower_expr(&l.value));
         self.locals = locals;
         self.bundles = bundles;
         let v = r?;
@@ -803,7 +839,8 @@ impl<'a> Lowerer<'a> {
             Some(value) => {
                 let locals = std::mem::take(&mut self.locals);
                 self.bundles.push(Bundle { members: self.all_vectors(), site: b.site });
-                let r = self.lower_expr(value).and_then(|v| self.expect_expr(v, value.span));
+                let name = self.module.vectors[id as usize].name.clone();
+                let r = self.nested(&name, span, |l| l.lower_expr(value).and_then(|v| l.expect_expr(v, value.span)));
                 self.bundles.pop();
                 self.locals = locals;
                 r
@@ -1027,14 +1064,10 @@ impl<'a> Lowerer<'a> {
                 return Err(());
             }
         };
-        if self.depth > MAX_DEPTH {
-            self.error("cycle", "shaders nest too deeply", span, "here", "a shader must not apply itself");
-            return Err(());
-        }
         let saved = std::mem::take(&mut self.locals);
         self.locals.push((s.input.key(), Value::Bundle(bundle.clone())));
         self.bundles.push(bundle);
-        let r = self.shader_body(s, span);
+        let r = self.nested(&s.name.key(), span, |l| l.shader_body(s, span));
         self.bundles.pop();
         self.locals = saved;
         r
