@@ -82,7 +82,23 @@
 //!   evaluated at compile time (f64) and becomes one [`Expr::Constant`].
 //!
 //! Lowering never panics on a program `parser::check` accepts; what it cannot
-//! lower yet is an error diagnostic saying "not yet supported".
+//! lower yet is an error diagnostic saying "not yet supported". Shaders and
+//! `let`s are inlined where they are used, so one that no statement uses is
+//! not type-checked.
+//!
+//! # For the pass planner
+//!
+//! A [`Statement`] is one pass as written. [`Usage::of`] lists what it needs
+//! (texture units = distinct per-sample lookups, interpolants, constant
+//! registers, dependent lookups, …) with the nodes that need it, and
+//! `crate::profile::fit` compares that with a target. To split a statement,
+//! cut its DAG at a node: the node's value goes to the framebuffer (blend it
+//! back with ⊕, `C δπx ← (C δπx) ⊕ …`) or to a texture rendered per texel;
+//! frequencies say where each cut may go (per-vertex nodes move to the
+//! vertex stage or to interpolants for free), ranges say whether an 8-bit
+//! target can hold the cut value (unsigned) or must range-compress it
+//! (signed, seeds/003 `expand`), or cannot (unbounded). Hash-consing means
+//! a node shared by two statements (Kilgard's `Tn δu x`) is the same handle.
 
 pub mod arena;
 pub mod dump;

@@ -345,7 +345,7 @@ fn binary(_m: &Module, op: BinaryOp, a: ExprInfo, b: ExprInfo) -> Result<ExprInf
     let done = |ty, interval| Ok(ExprInfo { ty, freq, interval });
     match op {
         Dot => {
-            if a.ty.width() != b.ty.width() || a.ty == Ty::Scalar || b.ty == Ty::Scalar {
+            if a.ty.width() != b.ty.width() || !a.ty.is_numeric() {
                 let what = |t: Ty| if t.is_color() { format!("a colour ({})", t.name()) } else { format!("a {}", t.name()) };
                 return Err(err("type-mismatch", format!("dot product of {} with {}", what(a.ty), what(b.ty)), "· needs two vectors of the same size")
                     .help("`·` is the dot product of two directions (vec3) or colours used as vectors (dot3); to scale, write `*`"));
@@ -355,6 +355,7 @@ fn binary(_m: &Module, op: BinaryOp, a: ExprInfo, b: ExprInfo) -> Result<ExprInf
                 // Unit vectors: the dot product is a cosine (seeds/003 Section 4.2 clamps it to [−1, 1]).
                 if a.interval.lo >= 0.0 && b.interval.lo >= 0.0 { Interval::UNSIGNED } else { Interval::SIGNED }
             } else {
+                // (A dot product of two scalars is their product.)
                 let p = mul(a.interval, b.interval);
                 iv(p.lo * a.ty.width() as f64, p.hi * a.ty.width() as f64)
             };
