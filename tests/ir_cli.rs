@@ -72,3 +72,11 @@ fn check_uses_the_programs_target_line() {
     assert_eq!(code, 0, "{out}{err}");
     assert!(!out.contains("warning["), "{out}");
 }
+
+#[test]
+fn compile_with_an_overflowing_target_warns_and_still_emits() {
+    let (code, out, err) = shadec(&["compile", "examples/chained_multitexture.shd", "--target", "geforce256"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(err.contains("warning[does-not-fit]"), "{err}");
+    assert!(out.contains("texture units 4"), "{out}");
+}

@@ -36,7 +36,7 @@ fn lower_ok(src: &str) -> Module {
 
 /// The single error lowering reports, and the source text it points at.
 #[track_caller]
-fn lower_err<'a>(src: &'a str) -> (Diagnostic, &'a str) {
+fn lower_err(src: &str) -> (Diagnostic, &str) {
     let (_, d) = lower(src);
     let errors: Vec<_> = d.into_iter().filter(|d| d.is_error()).collect();
     assert_eq!(errors.len(), 1, "expected one error:\n{src}\n{errors:#?}");
@@ -369,4 +369,41 @@ fn long_chains_and_cycles_do_not_overflow() {
     let (e, text) = lower_err(src);
     assert_eq!(e.code, "cycle");
     assert_eq!(text, "a");
+}
+
+#[test]
+fn a_vector_outside_the_parameter_vector_is_an_error() {
+    let src = "
+vector N : normal;
+vector L : light(0);
+vector V : view;
+params s′ : N, L;
+shader p : s → c = rgb(N·V, 0, 0);
+C δπx ← δ p s′ x;
+";
+    let (e, text) = lower_err(src);
+    assert_eq!(e.code, "not-a-member");
+    assert_eq!(text, "V");
+    // The same shader on the full `s` lowers.
+    lower_ok(&src.replace("s′ x", "s x"));
+}
+
+#[test]
+fn statement_frequencies_follow_the_target() {
+    let read = |name: &str| std::fs::read_to_string(format!("{}/examples/{name}.shd", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    let freqs = |m: &Module| m.statements.iter().map(|s| s.freq).collect::<Vec<_>>();
+    use Frequency::*;
+    // (15), (16), (2): rasterize into texture space, shade the texels, texture the surface.
+    assert_eq!(freqs(&lower_ok(&read("solid_mapping"))), vec![Texel, Texel, Fragment]);
+    // (5), (6): the fat framebuffer, then a screen pass.
+    let deferred = lower_ok(&read("deferred_shading"));
+    assert_eq!(freqs(&deferred), vec![Fragment, Screen]);
+    assert!(matches!(deferred.exprs[deferred.statements[0].value], Expr::Bundle(_)));
+    // (9), (10): `C δxs` writes fragments too.
+    assert_eq!(freqs(&lower_ok(&read("multipass"))), vec![Fragment, Fragment]);
+    // Texgen runs per vertex and types its coordinate set.
+    let dp = lower_ok(&read("dual_paraboloid_mirror"));
+    assert_eq!(&freqs(&dp)[..3], &[Vertex, Vertex, Vertex]);
+    let u2 = dp.texcoord_sets.iter().find(|t| t.name == "u''").unwrap();
+    assert_eq!((u2.ty, u2.generated), (Ty::Scalar, true));
 }
