@@ -407,3 +407,26 @@ fn statement_frequencies_follow_the_target() {
     let u2 = dp.texcoord_sets.iter().find(|t| t.name == "u''").unwrap();
     assert_eq!((u2.ty, u2.generated), (Ty::Scalar, true));
 }
+
+#[test]
+fn unused_shaders_and_lets_are_type_checked_too() {
+    let src = "
+vector N : normal;
+const kd : rgb = (1, 0, 0);
+texture T : 2d rgba8 = image(\"t.png\");
+shader q : s → c = kd · N.x;
+C δπx ← T δu x;
+";
+    let (e, text) = lower_err(src);
+    assert_eq!(e.code, "type-mismatch");
+    assert_eq!(text, "kd · N.x");
+    let src = "
+texture T : 2d rgba8 = image(\"t.png\");
+const kd : rgb = (1, 0, 0);
+let a = T kd;
+C δπx ← T δu x;
+";
+    let (e, text) = lower_err(src);
+    assert_eq!(e.code, "bad-index");
+    assert_eq!(text, "T kd");
+}

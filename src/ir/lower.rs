@@ -3,9 +3,10 @@
 //!
 //! Declarations are lowered first (resources, constants, uniforms); `let`s
 //! and shaders are lowered where they are used, in the context of the
-//! statement (which fixes what δ interpolates to), so a shader or `let` that
-//! no statement uses is not type-checked. Texgen statements (`u x ← …`) are
-//! lowered before the others, because they give their coordinate set a type.
+//! statement (which fixes what δ interpolates to); those no statement uses
+//! are type-checked at the end and dropped (`check_unused`). Texgen
+//! statements (`u x ← …`) are lowered before the others, because they give
+//! their coordinate set a type.
 
 use std::collections::HashMap;
 
@@ -52,6 +53,7 @@ fn lower_here(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
         sample: None,
         statement_freq: None,
         let_cache: HashMap::new(),
+        used: Default::default(),
         locals: Vec::new(),
         bundles: Vec::new(),
         depth: 0,
@@ -116,6 +118,8 @@ struct Lowerer<'a> {
     sample: Option<Frequency>,
     /// The frequency of the statement being lowered.
     statement_freq: Option<Frequency>,
+    /// Shaders and `let`s some statement used.
+    used: std::collections::HashSet<String>,
     /// Values of global `let`s in the current statement.
     let_cache: HashMap<String, Value>,
     /// Shader locals, innermost last; a `None` name marks a scope boundary.
@@ -156,6 +160,42 @@ impl<'a> Lowerer<'a> {
             self.statement(st);
         }
         self.module.statements.sort_by_key(|s| s.span.start);
+        self.check_unused();
+    }
+
+    /// Type-checks the shaders and `let`s no statement used (or only a
+    /// texture source such as `bake(p)` uses), so their errors are reported
+    /// too: shaders on a per-texel bundle (where `s.x` is the texel
+    /// coordinate), `let`s in a per-fragment context. Nothing they add stays
+    /// in the module.
+    fn check_unused(&mut self) {
+        let program = self.program;
+        let saved = self.module.clone();
+        for item in &program.items {
+            match &item.kind {
+                ItemKind::Shader(s) if !self.used.contains(&s.name.key()) => {
+                    self.let_cache.clear();
+                    self.sample = Some(Frequency::Texel);
+                    self.statement_freq = Some(Frequency::Texel);
+                    let members = match self.globals.get(&s.input.key()) {
+                        Some(Global::Params(i)) => self.params[*i].clone(),
+                        _ => self.all_vectors(),
+                    };
+                    let bundle = Value::Bundle(Bundle { members, site: BundleSite::Texel });
+                    let _ = self.inline(s, bundle, s.name.span, s.name.span);
+                }
+                ItemKind::Let(l) if !self.used.contains(&l.name.key()) => {
+                    self.let_cache.clear();
+                    self.sample = Some(Frequency::Fragment);
+                    self.statement_freq = Some(Frequency::Fragment);
+                    let _ = self.let_value(l);
+                }
+                _ => {}
+            }
+        }
+        self.module = saved;
+        self.sample = None;
+        self.statement_freq = None;
     }
 
     fn error(&mut self, code: &'static str, message: impl Into<String>, span: Span, label: impl Into<String>, help: impl Into<String>) {
@@ -798,6 +838,7 @@ impl<'a> Lowerer<'a> {
 
     fn let_value(&mut self, l: &'a ast::LetDecl) -> Res<Value> {
         let key = l.name.key();
+        self.used.insert(key.clone());
         if let Some(v) = self.let_cache.get(&key) {
             return Ok(v.clone());
         }
@@ -1049,6 +1090,7 @@ impl<'a> Lowerer<'a> {
     }
 
     fn inline(&mut self, s: &'a ast::ShaderDecl, arg: Value, arg_span: Span, span: Span) -> Res<Handle<Expr>> {
+        self.used.insert(s.name.key());
         let input_members = match self.globals.get(&s.input.key()) {
             Some(Global::Params(i)) => self.params[*i].clone(),
             _ => self.all_vectors(),

@@ -83,8 +83,9 @@
 //!
 //! Lowering never panics on a program `parser::check` accepts; what it cannot
 //! lower yet is an error diagnostic saying "not yet supported". Shaders and
-//! `let`s are inlined where they are used, so one that no statement uses is
-//! not type-checked.
+//! `let`s are inlined where they are used; one that no statement uses is
+//! still type-checked (a shader on a per-texel bundle, a `let` per fragment)
+//! and then dropped.
 //!
 //! # For the pass planner
 //!
