@@ -617,3 +617,25 @@ pub struct Statement {
     /// The span of the left side.
     pub target_span: Span,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn constants_intern_by_bits_and_zero_has_one_sign() {
+        let mut a: UniqueArena<Expr> = UniqueArena::default();
+        let (h1, _) = a.insert(Expr::Constant(Constant::scalar(0.0)), Span::DETACHED);
+        let (h2, _) = a.insert(Expr::Constant(Constant::scalar(-0.0)), Span::DETACHED);
+        assert_eq!(h1, h2);
+        let (h3, _) = a.insert(Expr::Constant(Constant::new(Ty::Rgb, &[0.0, 0.0, 0.0])), Span::DETACHED);
+        assert_ne!(h1, h3, "the type is part of a constant");
+    }
+
+    #[test]
+    fn type_widths() {
+        assert_eq!(Ty::Rgb.width(), 3);
+        assert_eq!(Ty::Bundle(3).width(), 9);
+        assert_eq!(Ty::from_ast(ast::Type::Color), Ty::Rgb);
+    }
+}

@@ -589,3 +589,51 @@ pub fn fold(m: &Module, e: &Expr, ty: Ty) -> Option<Constant> {
         _ => None,
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ir::Frequency::*;
+
+    #[test]
+    fn frequencies_join_up_to_one_sample_frequency() {
+        assert_eq!(Constant.join(Uniform), Some(Uniform));
+        assert_eq!(Uniform.join(Vertex), Some(Vertex));
+        assert_eq!(Uniform.join(Fragment), Some(Fragment));
+        assert_eq!(Fragment.join(Fragment), Some(Fragment));
+        // Right of δ is per vertex: it never meets a per-sample value directly.
+        assert_eq!(Vertex.join(Fragment), None);
+        assert_eq!(Fragment.join(Texel), None);
+        assert_eq!(Screen.join(Fragment), None);
+    }
+
+    #[test]
+    fn three_component_types_mix_and_scalars_broadcast() {
+        assert_eq!(unify(Ty::Vec3, Ty::Rgb), Some(Ty::Rgb));
+        assert_eq!(unify(Ty::Scalar, Ty::Rgba), Some(Ty::Rgba));
+        assert_eq!(unify(Ty::Rgb, Ty::Rgba), None, "lowering widens rgb explicitly");
+        assert_eq!(unify(Ty::Vec2, Ty::Vec3), None);
+        assert_eq!(unify(Ty::Position, Ty::Scalar), None);
+    }
+
+    #[test]
+    fn texels_by_format() {
+        assert_eq!(texel_type(TextureKind::Tex2d, TextureFormat::Rgba8), (Ty::Rgba, Interval::UNSIGNED));
+        assert_eq!(texel_type(TextureKind::Cube, TextureFormat::Rgb8), (Ty::Rgb, Interval::UNSIGNED));
+        // A signed 2-D map holds EMBM offsets (seeds/001 (8)); a signed cube map directions.
+        assert_eq!(texel_type(TextureKind::Tex2d, TextureFormat::Signed8).0, Ty::Vec2);
+        assert_eq!(texel_type(TextureKind::Cube, TextureFormat::Signed16), (Ty::Vec3, Interval::SIGNED));
+        assert_eq!(texel_type(TextureKind::Tex1d, TextureFormat::R8).0, Ty::Scalar);
+        assert_eq!(texel_type(TextureKind::Tex2d, TextureFormat::Rgba16f).1.class(), crate::ir::Range::Unbounded);
+    }
+
+    #[test]
+    fn intervals_classify() {
+        assert_eq!(Interval::UNSIGNED.class(), crate::ir::Range::Unsigned);
+        assert_eq!(Interval::SIGNED.class(), crate::ir::Range::Signed);
+        assert_eq!(mul(Interval::SIGNED, Interval::UNSIGNED).class(), crate::ir::Range::Signed);
+        assert_eq!(add(Interval::UNSIGNED, Interval::UNSIGNED).class(), crate::ir::Range::Unbounded);
+        assert_eq!(div(Interval::UNSIGNED, Interval::UNSIGNED), Interval::ALL);
+        assert_eq!(map_monotone(Interval::UNSIGNED, |x| 2.0 * x - 1.0), Interval::SIGNED);
+    }
+}
