@@ -9,6 +9,7 @@ pub mod diag;
 pub mod io;
 pub mod ir;
 pub mod parser;
+pub mod profile;
 pub mod renderer;
 pub mod scene;
 pub mod textures;

@@ -20,6 +20,11 @@ pub enum Command {
     /// Exit status: 0 when every file is clean (warnings allowed), 1 when a
     /// file has errors, 2 on usage or I/O errors.
     Check(CheckArgs),
+    /// Lower a program and print an intermediate form (`--emit ir`).
+    ///
+    /// Exit status: 0 on success, 1 when the program has errors, 2 on usage
+    /// or I/O errors.
+    Compile(CompileArgs),
     /// Print a program in canonical form (Unicode, or ASCII with --ascii).
     Fmt(FmtArgs),
     /// Run a register-combiner setup (`!!RC1.0` or RON) on images, as the
@@ -38,6 +43,36 @@ pub struct CheckArgs {
     /// Treat warnings as errors.
     #[arg(long)]
     pub deny_warnings: bool,
+    /// Also check each statement against a target profile: a built-in name
+    /// (geforce256, geforce3, multitexture, wgsl) or a `.ron` file. Without
+    /// it, a program's own `target X;` line is used.
+    #[arg(long, value_name = "PROFILE")]
+    pub target: Option<String>,
+}
+
+#[derive(Debug, clap::Args)]
+pub struct CompileArgs {
+    /// The program to compile.
+    pub file: PathBuf,
+    /// What to print.
+    #[arg(long, value_enum, default_value_t = Emit::Ir)]
+    pub emit: Emit,
+    /// Target profile (built-in name or `.ron` file); defaults to the
+    /// program's `target X;` line.
+    #[arg(long, value_name = "PROFILE")]
+    pub target: Option<String>,
+    /// Write here (atomically) instead of standard output.
+    #[arg(short, long, value_name = "OUT")]
+    pub output: Option<PathBuf>,
+    /// How to print diagnostics.
+    #[arg(long, value_enum, default_value_t = Format::Human)]
+    pub format: Format,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum Emit {
+    /// The typed IR: every value with its type, frequency, range and position.
+    Ir,
 }
 
 #[derive(Debug, clap::Args)]

@@ -5,6 +5,7 @@
 
 mod args;
 mod check;
+mod compile;
 mod emulate;
 mod fmt;
 
@@ -21,6 +22,7 @@ pub fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
         Command::Check(args) => check::run(&args),
+        Command::Compile(args) => compile::run(&args),
         Command::Fmt(args) => fmt::run(&args),
         Command::Emulate(args) => emulate::run(&args),
     }

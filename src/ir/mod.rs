@@ -1,2 +1,641 @@
-//! The typed IR with computation frequencies (issue 3). Not built yet: the
-//! front end stops at the checked AST (`crate::parser`).
+//! The shading IR: a typed, hash-consed DAG of expressions with computation
+//! frequencies and value ranges, lowered from the checked AST (issue 3).
+//!
+//! # What a module holds
+//!
+//! A [`Module`] is the program after name resolution, inlining and constant
+//! folding. Its resources (textures, framebuffers, shading vectors, uniforms,
+//! vertex streams, texture-coordinate sets) are plain lists indexed by small
+//! ids; its [`Statement`]s are the `←` assignments of seeds/001 in source
+//! order, each one pass until the planner splits it; every value is an
+//! [`Expr`] in one [`UniqueArena`], so identical subexpressions are one node
+//! (hash-consing: `Ncube δ L s x` used by two `let`s is one lookup, hence one
+//! texture unit). Handles point backwards only: a node's operands were
+//! appended before it, so walking the arena in order is a topological order.
+//!
+//! # Types, frequencies, ranges: a side table
+//!
+//! Every node has an [`ExprInfo`] in `Module::info` (same index as the
+//! handle), computed by [`valid::infer`] when the node is appended — naga
+//! keeps types in a side table too; ours is filled eagerly because lowering
+//! needs the type of an operand to lower its user (shader inlining, texture
+//! coordinates). The info says:
+//!
+//! - **type** ([`Ty`]): `scalar`, `vec2` (texture coordinates), `vec3`
+//!   (direction), `rgb`, `rgba`, plus `position` (a point from `x`, `π x`,
+//!   `xs`) and `bundle(n)` (a whole shading-parameter vector `s`, stored into a
+//!   fat texture, seeds/001 (5), (15)). `vec3` and `rgb` are both
+//!   three-component and mix freely in arithmetic (a normal-map texel *is* a
+//!   vector, seeds/003 Section 5.3); a dot product needs two three-component
+//!   operands; an `rgb` widens to `rgba` (alpha 1) where an `rgba` is needed,
+//!   through an explicit [`Expr::Convert`].
+//! - **frequency** ([`Frequency`]): where the value is computed, read from
+//!   where δ stands (seeds/001 Section 3.1-3.2). Constants and uniforms (per
+//!   object) join anything; right of δ is per vertex; `δ e` is
+//!   [`Expr::Interpolate`], which takes a per-vertex value to the statement's
+//!   *sample* frequency: per fragment (`C δπx ←`, `T δπx ←`), or per texel
+//!   when the statement renders into a texture in its own coordinates
+//!   (`T δu ←`, `T δu x ←`, texture shading, seeds/001 (13), (15)). A screen
+//!   pass `C xs ←` (seeds/001 (6)) reads framebuffers per pixel and has no δ.
+//!   The three sample frequencies do not mix: a value is per fragment, per
+//!   texel or per screen pixel, never two of them.
+//! - **range** ([`Range`], from a conservative interval): unsigned [0,1]
+//!   (8-bit textures, colours, the final combiner), signed [−1,1] (unit
+//!   vectors, the general combiners, signed textures) or unbounded. Dot
+//!   products of two signed operands are taken as dot products of unit
+//!   vectors, hence signed: the register combiners clamp them to [−1,1]
+//!   anyway (seeds/003 Section 4.2).
+//!
+//! # The semantics of lowering (seeds/001 Sections 2-3)
+//!
+//! - `x` is a vertex ([`Expr::VertexPosition`], per vertex); `u x` its
+//!   texture coordinates ([`Expr::TexCoord`]); `s x` its shading parameters,
+//!   a bundle that exists only during lowering: a vector `N` of the bundle at
+//!   vertex `x` is [`Expr::Vector`]; a declared vector with a value
+//!   (`vector H = normalize(L + V)`) is computed at the vertex from the other
+//!   members. `δ s x` interpolates each member; `s δu` is the bundle as a
+//!   function of the texel coordinate (texture shading); a fat-texture lookup
+//!   `T δu x` used as a bundle gives [`Expr::FatMember`]s.
+//! - `δ e`: `e` per vertex → [`Expr::Interpolate`]; `e` with per-vertex and
+//!   per-sample parts (EMBM, seeds/001 (8): `T δ((u x) + (T′ δu′ x))`) → δ
+//!   distributes over the operators and interpolates only the per-vertex
+//!   operands; `e` already per sample (`δ δ u x`) → error "δ applied twice";
+//!   `e` constant or uniform → `e` (interpolating a constant is the constant).
+//! - `T e` with `T` a texture is [`Expr::Lookup`]: one texture unit, at the
+//!   frequency of `e`; the coordinates must match the texture's kind (1d:
+//!   scalar, 2d: vec2 or a screen position, 3d and cube: vec3); indexing a
+//!   texture by a colour is an error. A lookup whose coordinates depend on
+//!   another per-sample lookup is a *dependent* lookup (texture shaders).
+//! - `p a` with `p` a shader inlines the body with its parameter vector bound
+//!   to the bundle `a` and its parameters bound to their defaults. `p s x` is
+//!   per-vertex shading, `δ p s x` Gouraud (1), `p δ s x` fragment lighting (4).
+//! - `π x` is [`Expr::Project`] of the vertex position (per vertex, a
+//!   position); `δπx` the fragment's position; `πR v` of a direction is a
+//!   vec2 (sphere-map texgen, seeds/001 (7)); `π⁻¹ xs` goes back to model
+//!   space.
+//! - `C p` reads framebuffer `C` at position `p` ([`Expr::FramebufferRead`]);
+//!   `α`, `z`, `σ` select its alpha, depth or stencil channel; `z` of a
+//!   position is its depth.
+//! - `⊕[mode]` is [`Expr::Combine`] (no mode: modulate); `c ? a : b` is
+//!   [`Expr::Select`] (no `b`: keep the destination — shadow volumes).
+//! - Constants fold: every operation whose operands are all constants is
+//!   evaluated at compile time (f64) and becomes one [`Expr::Constant`].
+//!
+//! Lowering never panics on a program `parser::check` accepts; what it cannot
+//! lower yet is an error diagnostic saying "not yet supported". Shaders and
+//! `let`s are inlined where they are used; one that no statement uses is
+//! still type-checked (a shader on a per-texel bundle, a `let` per fragment)
+//! and then dropped.
+//!
+//! # For the pass planner
+//!
+//! A [`Statement`] is one pass as written. [`Usage::of`] lists what it needs
+//! (texture units = distinct per-sample lookups, interpolants, constant
+//! registers, dependent lookups, …) with the nodes that need it, and
+//! `crate::profile::fit` compares that with a target. To split a statement,
+//! cut its DAG at a node: the node's value goes to the framebuffer (blend it
+//! back with ⊕, `C δπx ← (C δπx) ⊕ …`) or to a texture rendered per texel;
+//! frequencies say where each cut may go (per-vertex nodes move to the
+//! vertex stage or to interpolants for free), ranges say whether an 8-bit
+//! target can hold the cut value (unsigned) or must range-compress it
+//! (signed, seeds/003 `expand`), or cannot (unbounded). Hash-consing means
+//! a node shared by two statements (Kilgard's `Tn δu x`) is the same handle.
+
+pub mod arena;
+pub mod dump;
+pub mod lower;
+pub mod usage;
+pub mod valid;
+
+use std::hash::{Hash, Hasher};
+
+pub use arena::{Arena, Handle, UniqueArena};
+pub use lower::lower;
+pub use usage::Usage;
+
+use crate::parser::ast;
+use crate::span::Span;
+
+/// A lowered program.
+#[derive(Clone, Debug, Default)]
+pub struct Module {
+    /// The profile the program names with `target X;`, if any.
+    pub target: Option<ast::Word<String>>,
+    pub textures: Vec<Texture>,
+    pub framebuffers: Vec<Framebuffer>,
+    pub vectors: Vec<Vector>,
+    pub uniforms: Vec<Uniform>,
+    /// Vertex streams by name: `x`, `x'`.
+    pub vertices: Vec<String>,
+    /// Texture-coordinate sets: `u`, `u'`, `u*` (vertex attributes).
+    pub texcoord_sets: Vec<TexCoordSet>,
+    /// Every value. Invariant: a node's operands precede it; equal nodes are
+    /// one node (the span kept is the first occurrence's).
+    pub exprs: UniqueArena<Expr>,
+    /// `info[h.index()]` is the type, frequency and range of `exprs[h]`.
+    pub info: Vec<ExprInfo>,
+    /// The assignments, in source order.
+    pub statements: Vec<Statement>,
+}
+
+impl Module {
+    pub fn info(&self, h: Handle<Expr>) -> &ExprInfo {
+        &self.info[h.index()]
+    }
+
+    pub fn span(&self, h: Handle<Expr>) -> Span {
+        self.exprs.arena().span(h)
+    }
+
+    /// The operands of a node, in order.
+    pub fn operands(&self, h: Handle<Expr>) -> Vec<Handle<Expr>> {
+        self.exprs[h].operands()
+    }
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Texture {
+    pub name: String,
+    pub kind: ast::TextureKind,
+    pub format: ast::TextureFormat,
+    /// Written by a statement (texture shading, deferred shading) rather than
+    /// loaded or generated.
+    pub rendered: bool,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Framebuffer {
+    pub name: String,
+    pub channels: Vec<ast::FramebufferChannel>,
+    pub span: Span,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Vector {
+    pub name: String,
+    /// `None` for a computed vector (`vector H = normalize(L + V)`).
+    pub kind: Option<ast::VectorKind>,
+    pub index: Option<u32>,
+    pub space: Option<ast::Space>,
+    pub span: Span,
+}
+
+/// A texture-coordinate set: a vertex attribute, or generated by a texgen
+/// statement `u x ← …` (seeds/001 (7)), whose value type it takes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TexCoordSet {
+    pub name: String,
+    pub ty: Ty,
+    pub generated: bool,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub struct Uniform {
+    pub name: String,
+    pub ty: Ty,
+    pub default: Option<Constant>,
+    pub span: Span,
+}
+
+/// An index into one of the module's resource lists.
+pub type TextureId = u32;
+pub type FramebufferId = u32;
+pub type VectorId = u32;
+pub type UniformId = u32;
+pub type VertexId = u32;
+pub type TexCoordId = u32;
+
+/// Value types (seeds/001 Figure 2's c is `rgb`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Ty {
+    Scalar,
+    /// Texture coordinates.
+    Vec2,
+    /// A direction.
+    Vec3,
+    Rgb,
+    Rgba,
+    /// A point: a vertex `x`, a projected vertex `π x`, a pixel `xs`.
+    Position,
+    /// A whole shading-parameter vector of `n` three-component members.
+    Bundle(u8),
+}
+
+impl Ty {
+    /// Components of a value (a position counts as 4, homogeneous).
+    pub fn width(self) -> usize {
+        match self {
+            Ty::Scalar => 1,
+            Ty::Vec2 => 2,
+            Ty::Vec3 | Ty::Rgb => 3,
+            Ty::Rgba | Ty::Position => 4,
+            Ty::Bundle(n) => 3 * n as usize,
+        }
+    }
+
+    pub fn is_color(self) -> bool {
+        matches!(self, Ty::Rgb | Ty::Rgba)
+    }
+
+    /// Types that arithmetic and the built-in functions accept.
+    pub fn is_numeric(self) -> bool {
+        !matches!(self, Ty::Position | Ty::Bundle(_))
+    }
+
+    pub fn name(self) -> String {
+        match self {
+            Ty::Scalar => "scalar".into(),
+            Ty::Vec2 => "vec2".into(),
+            Ty::Vec3 => "vec3".into(),
+            Ty::Rgb => "rgb".into(),
+            Ty::Rgba => "rgba".into(),
+            Ty::Position => "position".into(),
+            Ty::Bundle(n) => format!("bundle({n})"),
+        }
+    }
+
+    pub fn from_ast(ty: ast::Type) -> Ty {
+        match ty {
+            ast::Type::Scalar => Ty::Scalar,
+            ast::Type::Vec2 => Ty::Vec2,
+            ast::Type::Vec3 => Ty::Vec3,
+            // A four-vector has no other use in the notation than a colour with alpha.
+            ast::Type::Vec4 | ast::Type::Rgba => Ty::Rgba,
+            ast::Type::Rgb | ast::Type::Color => Ty::Rgb,
+        }
+    }
+}
+
+/// Where a value is computed (seeds/001 Section 3: read from where δ stands).
+/// Ordered: `Constant < Uniform < Vertex < {Fragment, Texel, Screen}`; the
+/// last three are sample frequencies that never mix.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
+pub enum Frequency {
+    /// Folded at compile time.
+    Constant,
+    /// Per object: a uniform, set by the scene.
+    Uniform,
+    /// Per vertex: right of δ.
+    Vertex,
+    /// Per fragment: left of δ in `C δπx ←`.
+    Fragment,
+    /// Per texel of a texture rendered in its own coordinates (`T δu ←`).
+    Texel,
+    /// Per pixel of a screen pass (`C xs ←`).
+    Screen,
+}
+
+impl Frequency {
+    pub fn is_sample(self) -> bool {
+        self >= Frequency::Fragment
+    }
+
+    /// The frequency of a value computed from operands of `self` and
+    /// `other`, or `None` when two different sample frequencies meet, or a
+    /// per-vertex value meets a per-sample one without δ between them.
+    pub fn join(self, other: Frequency) -> Option<Frequency> {
+        let (lo, hi) = if self <= other { (self, other) } else { (other, self) };
+        if hi.is_sample() && (lo == Frequency::Vertex || (lo.is_sample() && lo != hi)) {
+            None
+        } else {
+            Some(self.max(other))
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Frequency::Constant => "constant",
+            Frequency::Uniform => "per-object",
+            Frequency::Vertex => "per-vertex",
+            Frequency::Fragment => "per-fragment",
+            Frequency::Texel => "per-texel",
+            Frequency::Screen => "per-pixel (screen pass)",
+        }
+    }
+}
+
+/// The value range class, as hardware sees it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Range {
+    /// [0, 1]: 8-bit textures and framebuffers, colours.
+    Unsigned,
+    /// [−1, 1]: unit vectors, the general combiners, signed textures.
+    Signed,
+    Unbounded,
+}
+
+/// A conservative interval of every component of a value.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Interval {
+    pub lo: f64,
+    pub hi: f64,
+}
+
+impl Interval {
+    pub const UNSIGNED: Interval = Interval { lo: 0.0, hi: 1.0 };
+    pub const SIGNED: Interval = Interval { lo: -1.0, hi: 1.0 };
+    pub const ALL: Interval = Interval { lo: f64::NEG_INFINITY, hi: f64::INFINITY };
+
+    pub fn point(v: f64) -> Interval {
+        Interval { lo: v, hi: v }
+    }
+
+    pub fn class(self) -> Range {
+        if self.lo >= 0.0 && self.hi <= 1.0 {
+            Range::Unsigned
+        } else if self.lo >= -1.0 && self.hi <= 1.0 {
+            Range::Signed
+        } else {
+            Range::Unbounded
+        }
+    }
+}
+
+/// What `valid::infer` knows about a node.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ExprInfo {
+    pub ty: Ty,
+    pub freq: Frequency,
+    pub interval: Interval,
+}
+
+impl ExprInfo {
+    pub fn range(&self) -> Range {
+        self.interval.class()
+    }
+}
+
+/// A compile-time value: up to four f64 components. Hashes and compares by
+/// bits (−0 is stored as +0), so equal constants intern to one node.
+#[derive(Clone, Copy, Debug)]
+pub struct Constant {
+    pub ty: Ty,
+    pub components: [f64; 4],
+}
+
+impl Constant {
+    pub fn scalar(v: f64) -> Constant {
+        Constant::new(Ty::Scalar, &[v])
+    }
+
+    pub fn new(ty: Ty, values: &[f64]) -> Constant {
+        let mut components = [0.0; 4];
+        for (c, v) in components.iter_mut().zip(values) {
+            *c = if *v == 0.0 { 0.0 } else { *v };
+        }
+        Constant { ty, components }
+    }
+
+    pub fn values(&self) -> &[f64] {
+        &self.components[..self.ty.width().min(4)]
+    }
+}
+
+impl PartialEq for Constant {
+    fn eq(&self, other: &Self) -> bool {
+        self.ty == other.ty && self.components.iter().zip(&other.components).all(|(a, b)| a.to_bits() == b.to_bits())
+    }
+}
+impl Eq for Constant {}
+impl Hash for Constant {
+    fn hash<H: Hasher>(&self, state: &mut H) {
+        self.ty.hash(state);
+        for c in &self.components {
+            c.to_bits().hash(state);
+        }
+    }
+}
+
+/// Projections π (seeds/001 Figure 2): the camera's, a light's (`πl`), a
+/// per-pass perturbed one (`π*`, (11)), or the inverse (`π⁻¹`).
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub struct Projection {
+    pub subscript: Option<String>,
+    pub star: bool,
+    pub inverse: bool,
+}
+
+/// Framebuffer channels a read or a write selects.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum FbChannel {
+    Color,
+    Alpha,
+    Depth,
+    Stencil,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum UnaryOp {
+    Neg,
+    Not,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum BinaryOp {
+    Add,
+    Sub,
+    Mul,
+    Div,
+    Pow,
+    Dot,
+    Lt,
+    Le,
+    Gt,
+    Ge,
+    Eq,
+    Ne,
+    And,
+    Or,
+}
+
+/// The built-in functions of `parser::resolve::FUNCTIONS`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum MathFunction {
+    Normalize,
+    Length,
+    Cross,
+    Reflect,
+    Max,
+    Min,
+    Clamp,
+    Saturate,
+    Abs,
+    Sign,
+    Sqrt,
+    Rsqrt,
+    Exp,
+    Log,
+    Sin,
+    Cos,
+    Floor,
+    Fract,
+    Step,
+    Smoothstep,
+    Mix,
+    /// 2x − 1 (seeds/003 Table 3, GL_EXPAND_NORMAL).
+    Expand,
+    /// x − ½.
+    HalfBias,
+    /// (x + 1)/2, the inverse of `expand`.
+    Compress,
+}
+
+impl MathFunction {
+    pub fn name(self) -> &'static str {
+        use MathFunction::*;
+        match self {
+            Normalize => "normalize",
+            Length => "length",
+            Cross => "cross",
+            Reflect => "reflect",
+            Max => "max",
+            Min => "min",
+            Clamp => "clamp",
+            Saturate => "saturate",
+            Abs => "abs",
+            Sign => "sign",
+            Sqrt => "sqrt",
+            Rsqrt => "rsqrt",
+            Exp => "exp",
+            Log => "log",
+            Sin => "sin",
+            Cos => "cos",
+            Floor => "floor",
+            Fract => "fract",
+            Step => "step",
+            Smoothstep => "smoothstep",
+            Mix => "mix",
+            Expand => "expand",
+            HalfBias => "half_bias",
+            Compress => "compress",
+        }
+    }
+}
+
+/// Where a shading vector is evaluated.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Site {
+    /// At the vertices of stream `x`.
+    Vertex(VertexId),
+    /// As a function of the texel coordinate (texture shading, `s δu`).
+    Texel,
+}
+
+/// One node of the DAG. Operands are handles to earlier nodes.
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
+pub enum Expr {
+    Constant(Constant),
+    Uniform(UniformId),
+    /// The vertex `x` itself: its model-space position.
+    VertexPosition(VertexId),
+    /// `u x`: a texture-coordinate set of a vertex.
+    TexCoord { set: TexCoordId, vertex: VertexId },
+    /// A role-declared shading vector (`vector N : normal`) at a site.
+    Vector { vector: VectorId, site: Site },
+    /// `δu` in texture shading: the coordinate of the texel being computed.
+    TexelCoord,
+    /// `xs`: the pixel of a screen pass; with `Fragment` frequency, `δ xs`.
+    Pixel { freq: Frequency },
+    Project { projection: Projection, value: Handle<Expr> },
+    /// δ: interpolate a per-vertex value (perspective-correct) to `to`.
+    Interpolate { value: Handle<Expr>, to: Frequency },
+    /// `T e`: one texture unit.
+    Lookup { texture: TextureId, coords: Handle<Expr> },
+    FramebufferRead { framebuffer: FramebufferId, channel: FbChannel, position: Handle<Expr> },
+    /// The depth of a position (`z δπx'`).
+    Depth(Handle<Expr>),
+    /// Member `member` of a shading-parameter vector stored in a fat texel.
+    FatMember { texel: Handle<Expr>, member: u8 },
+    /// A shading-parameter vector as one value (written into a fat texture).
+    Bundle(Vec<Handle<Expr>>),
+    Unary { op: UnaryOp, value: Handle<Expr> },
+    Binary { op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr> },
+    /// `a ⊕[mode] b` (seeds/001 (3)).
+    Combine { mode: ast::CombineMode, lhs: Handle<Expr>, rhs: Handle<Expr> },
+    Math { fun: MathFunction, args: Vec<Handle<Expr>> },
+    /// Component selection: `pattern[..len]` are component indices.
+    Swizzle { value: Handle<Expr>, pattern: [u8; 4], len: u8, ty: Ty },
+    /// `(a, b, c)`, `rgb(…)`, `rgba(c, a)`: components concatenated.
+    Compose { ty: Ty, components: Vec<Handle<Expr>> },
+    /// `rgb` → `rgba` (alpha 1), or a scalar splatted to a vector.
+    Convert { value: Handle<Expr>, to: Ty },
+    /// `c ? a : b`; without `b`, the destination is kept where `c` fails.
+    Select { cond: Handle<Expr>, accept: Handle<Expr>, reject: Option<Handle<Expr>> },
+}
+
+impl Expr {
+    pub fn operands(&self) -> Vec<Handle<Expr>> {
+        match self {
+            Expr::Constant(_)
+            | Expr::Uniform(_)
+            | Expr::VertexPosition(_)
+            | Expr::TexCoord { .. }
+            | Expr::Vector { .. }
+            | Expr::TexelCoord
+            | Expr::Pixel { .. } => vec![],
+            Expr::Project { value, .. }
+            | Expr::Interpolate { value, .. }
+            | Expr::Unary { value, .. }
+            | Expr::Swizzle { value, .. }
+            | Expr::Convert { value, .. } => vec![*value],
+            Expr::Lookup { coords, .. } => vec![*coords],
+            Expr::FramebufferRead { position, .. } => vec![*position],
+            Expr::Depth(h) => vec![*h],
+            Expr::FatMember { texel, .. } => vec![*texel],
+            Expr::Bundle(v) | Expr::Math { args: v, .. } | Expr::Compose { components: v, .. } => v.clone(),
+            Expr::Binary { lhs, rhs, .. } | Expr::Combine { lhs, rhs, .. } => vec![*lhs, *rhs],
+            Expr::Select { cond, accept, reject } => {
+                let mut v = vec![*cond, *accept];
+                v.extend(*reject);
+                v
+            }
+        }
+    }
+}
+
+/// The table a statement writes.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Table {
+    Framebuffer { id: FramebufferId, channel: FbChannel },
+    Texture(TextureId),
+    /// `u x ←`: texture-coordinate generation (seeds/001 (7)).
+    TexCoords(TexCoordId),
+}
+
+/// One `←` assignment.
+#[derive(Clone, Debug)]
+pub struct Statement {
+    pub table: Table,
+    /// Where it writes: the fragment position for `C δπx`, the texel
+    /// coordinate for `T δu`, the pixel for `C xs`, the vertex for `u x`.
+    pub index: Handle<Expr>,
+    /// The frequency the statement runs at (what its index samples).
+    pub freq: Frequency,
+    pub value: Handle<Expr>,
+    pub span: Span,
+    /// The span of the left side.
+    pub target_span: Span,
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn constants_intern_by_bits_and_zero_has_one_sign() {
+        let mut a: UniqueArena<Expr> = UniqueArena::default();
+        let (h1, _) = a.insert(Expr::Constant(Constant::scalar(0.0)), Span::DETACHED);
+        let (h2, _) = a.insert(Expr::Constant(Constant::scalar(-0.0)), Span::DETACHED);
+        assert_eq!(h1, h2);
+        let (h3, _) = a.insert(Expr::Constant(Constant::new(Ty::Rgb, &[0.0, 0.0, 0.0])), Span::DETACHED);
+        assert_ne!(h1, h3, "the type is part of a constant");
+    }
+
+    #[test]
+    fn type_widths() {
+        assert_eq!(Ty::Rgb.width(), 3);
+        assert_eq!(Ty::Bundle(3).width(), 9);
+        assert_eq!(Ty::from_ast(ast::Type::Color), Ty::Rgb);
+    }
+}

@@ -1,0 +1,133 @@
+//! What one statement needs from a target: texture units, interpolants,
+//! constant registers, dependent lookups, texture kinds. The profile check
+//! (`crate::profile::fit`) compares this with a profile; the pass planner
+//! will use it to decide where to split.
+
+use std::collections::BTreeSet;
+
+use super::{BinaryOp, Expr, Frequency, Handle, Module, Statement, Ty};
+use crate::parser::ast::{TextureFormat, TextureKind};
+
+/// Resources of one statement, each a list of the nodes that need them (so a
+/// diagnostic can point at every one). Lists are in arena order.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Usage {
+    /// Distinct per-sample lookups: one texture unit each (hash-consing makes
+    /// a lookup used twice one node, hence one unit).
+    pub lookups: Vec<Handle<Expr>>,
+    /// Lookups at per-vertex frequency (vertex texture fetch).
+    pub vertex_lookups: Vec<Handle<Expr>>,
+    /// Per-sample lookups whose coordinates depend on another lookup
+    /// (texture shaders: offset, dot-product and dependent reads).
+    pub dependent_lookups: Vec<Handle<Expr>>,
+    pub cube_lookups: Vec<Handle<Expr>>,
+    pub lookups_3d: Vec<Handle<Expr>>,
+    /// Lookups of signed (`signed8`, `signed16`) textures.
+    pub signed_lookups: Vec<Handle<Expr>>,
+    /// Lookups of float (`rgba16f`, `rgba32f`) textures.
+    pub float_lookups: Vec<Handle<Expr>>,
+    /// Interpolated values other than the fragment position.
+    pub interpolants: Vec<Handle<Expr>>,
+    /// Colour or vector constants and uniforms used by per-sample
+    /// arithmetic: each needs a constant register (scalars are left out: the
+    /// planner turns many into scales and input mappings).
+    pub constants: Vec<Handle<Expr>>,
+    /// Per-sample arithmetic beyond the texture environment (dot products,
+    /// powers, divisions, built-in functions).
+    pub arithmetic: Vec<Handle<Expr>>,
+    pub framebuffer_reads: Vec<Handle<Expr>>,
+}
+
+impl Usage {
+    pub fn texture_units(&self) -> usize {
+        self.lookups.len()
+    }
+
+    /// The resources of statement `st`.
+    pub fn of(module: &Module, st: &Statement) -> Usage {
+        let mut nodes = BTreeSet::new();
+        let mut stack = vec![st.value];
+        while let Some(h) = stack.pop() {
+            if nodes.insert(h) {
+                stack.extend(module.operands(h));
+            }
+        }
+        let mut u = Usage::default();
+        let lookups: BTreeSet<Handle<Expr>> =
+            nodes.iter().copied().filter(|h| matches!(module.exprs[*h], Expr::Lookup { .. })).collect();
+        for &h in &nodes {
+            let info = module.info(h);
+            let sample = info.freq.is_sample();
+            match &module.exprs[h] {
+                Expr::Lookup { texture, coords } => {
+                    if !sample {
+                        if info.freq == Frequency::Vertex {
+                            u.vertex_lookups.push(h);
+                        }
+                        continue;
+                    }
+                    u.lookups.push(h);
+                    if depends_on_any(module, *coords, &lookups) {
+                        u.dependent_lookups.push(h);
+                    }
+                    let t = &module.textures[*texture as usize];
+                    match t.kind {
+                        TextureKind::Cube => u.cube_lookups.push(h),
+                        TextureKind::Tex3d => u.lookups_3d.push(h),
+                        _ => {}
+                    }
+                    match t.format {
+                        TextureFormat::Signed8 | TextureFormat::Signed16 => u.signed_lookups.push(h),
+                        TextureFormat::Rgba16f | TextureFormat::Rgba32f => u.float_lookups.push(h),
+                        _ => {}
+                    }
+                }
+                Expr::Interpolate { .. } if info.ty != Ty::Position => u.interpolants.push(h),
+                Expr::FramebufferRead { .. } => u.framebuffer_reads.push(h),
+                Expr::Binary { op: BinaryOp::Dot | BinaryOp::Pow | BinaryOp::Div, .. } | Expr::Math { .. } if sample => {
+                    u.arithmetic.push(h)
+                }
+                _ => {}
+            }
+            if sample {
+                let pow_exponent = match &module.exprs[h] {
+                    Expr::Binary { op: BinaryOp::Pow, rhs, .. } => Some(*rhs),
+                    _ => None,
+                };
+                for o in module.operands(h) {
+                    let oi = module.info(o);
+                    let register = matches!(module.exprs[o], Expr::Constant(_) | Expr::Uniform(_)) && oi.ty != Ty::Scalar;
+                    let uniform_scalar = matches!(module.exprs[o], Expr::Uniform(_));
+                    if (register || uniform_scalar) && Some(o) != pow_exponent && !u.constants.contains(&o) && !is_trivial(module, o) {
+                        u.constants.push(o);
+                    }
+                }
+            }
+        }
+        u.constants.sort();
+        u
+    }
+}
+
+/// 0 and 1 vectors come free (the zero register, input mappings).
+fn is_trivial(module: &Module, h: Handle<Expr>) -> bool {
+    match &module.exprs[h] {
+        Expr::Constant(c) => c.values().iter().all(|v| *v == 0.0) || c.values().iter().all(|v| *v == 1.0),
+        _ => false,
+    }
+}
+
+fn depends_on_any(module: &Module, h: Handle<Expr>, lookups: &BTreeSet<Handle<Expr>>) -> bool {
+    let mut stack = vec![h];
+    let mut seen = BTreeSet::new();
+    while let Some(h) = stack.pop() {
+        if !seen.insert(h) {
+            continue;
+        }
+        if lookups.contains(&h) && module.info(h).freq.is_sample() {
+            return true;
+        }
+        stack.extend(module.operands(h));
+    }
+    false
+}

@@ -1,0 +1,639 @@
+//! Typing, frequency and range rules: what each [`Expr`] node is, given its
+//! operands (see the module doc of `ir` for the semantics), and constant
+//! folding. `infer` runs on every node as lowering appends it, so a node in a
+//! [`Module`] always has an [`ExprInfo`].
+
+use super::{
+    BinaryOp, Constant, Expr, ExprInfo, FbChannel, Frequency, Interval, MathFunction, Module, Site, Ty, UnaryOp,
+};
+use crate::parser::ast::{CombineMode, TextureFormat, TextureKind, VectorKind};
+
+/// Why a node is ill-typed; the caller adds the span.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TypeError {
+    /// A stable code: `type-mismatch`, `frequency`, `bad-index`.
+    pub code: &'static str,
+    pub message: String,
+    pub label: String,
+    pub help: Option<String>,
+}
+
+fn err(code: &'static str, message: impl Into<String>, label: impl Into<String>) -> TypeError {
+    TypeError { code, message: message.into(), label: label.into(), help: None }
+}
+
+impl TypeError {
+    fn help(mut self, help: impl Into<String>) -> TypeError {
+        self.help = Some(help.into());
+        self
+    }
+}
+
+/// The texel type of a texture: unsigned formats hold colours; signed
+/// formats hold vectors with as many components as the texture has
+/// coordinates (a 2-D offset map for EMBM, seeds/001 (8): "returns a 2-D
+/// vector"; a normalization cube map holds directions).
+pub fn texel_type(kind: TextureKind, format: TextureFormat) -> (Ty, Interval) {
+    use TextureFormat::*;
+    match format {
+        Signed8 | Signed16 => {
+            let ty = match kind {
+                TextureKind::Tex1d => Ty::Scalar,
+                TextureKind::Tex2d => Ty::Vec2,
+                TextureKind::Tex3d | TextureKind::Cube => Ty::Vec3,
+            };
+            (ty, Interval::SIGNED)
+        }
+        Rgba8 | Rgba16 => (Ty::Rgba, Interval::UNSIGNED),
+        Rgb8 => (Ty::Rgb, Interval::UNSIGNED),
+        R8 => (Ty::Scalar, Interval::UNSIGNED),
+        Rgba16f | Rgba32f => (Ty::Rgba, Interval::ALL),
+    }
+}
+
+/// The coordinate type a texture kind is indexed by.
+pub fn coord_type(kind: TextureKind) -> Ty {
+    match kind {
+        TextureKind::Tex1d => Ty::Scalar,
+        TextureKind::Tex2d => Ty::Vec2,
+        TextureKind::Tex3d | TextureKind::Cube => Ty::Vec3,
+    }
+}
+
+fn join(a: Frequency, b: Frequency) -> Result<Frequency, TypeError> {
+    a.join(b).ok_or_else(|| {
+        if a.min(b) == Frequency::Vertex {
+            let hi = a.max(b);
+            return err("frequency", format!("a per-vertex value is used in a {} computation without δ", hi.name()), "per-vertex operand here")
+                .help("right of δ is per vertex, left of δ per sample: interpolate the per-vertex part with δ");
+        }
+        err("frequency", format!("a {} value meets a {} value", a.name(), b.name()), "computed at two sample frequencies")
+            .help("a value is computed per fragment, per texel or per screen pixel, never two at once; split the statement")
+    })
+}
+
+fn join_all(m: &Module, hs: &[super::Handle<Expr>]) -> Result<Frequency, TypeError> {
+    let mut f = Frequency::Constant;
+    for h in hs {
+        f = join(f, m.info(*h).freq)?;
+    }
+    Ok(f)
+}
+
+/// Whether `a` and `b` may meet componentwise; the result type.
+pub fn unify(a: Ty, b: Ty) -> Option<Ty> {
+    match (a, b) {
+        _ if a == b => Some(a),
+        (Ty::Scalar, t) | (t, Ty::Scalar) if t.is_numeric() => Some(t),
+        (Ty::Vec3, Ty::Rgb) | (Ty::Rgb, Ty::Vec3) => Some(Ty::Rgb),
+        _ => None,
+    }
+}
+
+fn mismatch(what: &str, a: Ty, b: Ty) -> TypeError {
+    err("type-mismatch", format!("{what} of a {} and a {}", a.name(), b.name()), format!("{} and {} do not match", a.name(), b.name()))
+        .help("operands must have the same type, or one must be a scalar; rgb and vec3 mix, rgb widens to rgba")
+}
+
+fn numeric(t: Ty, what: &str) -> Result<(), TypeError> {
+    if t.is_numeric() {
+        Ok(())
+    } else {
+        Err(err("type-mismatch", format!("{what} of a {}", t.name()), format!("a {} is not a number", t.name()))
+            .help("positions (x, π x, xs) only index tables; shading-parameter vectors only feed shaders"))
+    }
+}
+
+// Interval arithmetic, conservative; NaN bounds widen to everything.
+fn iv(lo: f64, hi: f64) -> Interval {
+    if lo.is_nan() || hi.is_nan() {
+        Interval::ALL
+    } else {
+        Interval { lo, hi }
+    }
+}
+fn hull(a: Interval, b: Interval) -> Interval {
+    iv(a.lo.min(b.lo), a.hi.max(b.hi))
+}
+fn add(a: Interval, b: Interval) -> Interval {
+    iv(a.lo + b.lo, a.hi + b.hi)
+}
+fn neg(a: Interval) -> Interval {
+    iv(-a.hi, -a.lo)
+}
+fn mul(a: Interval, b: Interval) -> Interval {
+    let c = [a.lo * b.lo, a.lo * b.hi, a.hi * b.lo, a.hi * b.hi];
+    if c.iter().any(|v| v.is_nan()) {
+        return Interval::ALL;
+    }
+    iv(c.iter().copied().fold(f64::INFINITY, f64::min), c.iter().copied().fold(f64::NEG_INFINITY, f64::max))
+}
+fn div(a: Interval, b: Interval) -> Interval {
+    if b.lo <= 0.0 && b.hi >= 0.0 {
+        Interval::ALL
+    } else {
+        mul(a, iv(1.0 / b.hi, 1.0 / b.lo))
+    }
+}
+fn map_monotone(a: Interval, f: impl Fn(f64) -> f64) -> Interval {
+    iv(f(a.lo), f(a.hi))
+}
+
+/// Infers a node's type, frequency and interval from its operands.
+pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
+    let info = |h: &super::Handle<Expr>| *m.info(*h);
+    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    match e {
+        Expr::Constant(c) => {
+            let v = c.values();
+            let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+            let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            out(c.ty, Frequency::Constant, iv(lo, hi))
+        }
+        Expr::Uniform(id) => {
+            let ty = m.uniforms[*id as usize].ty;
+            // Colours set by the scene are colours: [0, 1] (the fixed pipeline clamps them).
+            let interval = if ty.is_color() { Interval::UNSIGNED } else { Interval::ALL };
+            out(ty, Frequency::Uniform, interval)
+        }
+        Expr::VertexPosition(_) => out(Ty::Position, Frequency::Vertex, Interval::ALL),
+        Expr::TexCoord { set, .. } => out(m.texcoord_sets[*set as usize].ty, Frequency::Vertex, Interval::ALL),
+        Expr::Vector { vector, site } => {
+            let freq = match site {
+                Site::Vertex(_) => Frequency::Vertex,
+                Site::Texel => Frequency::Texel,
+            };
+            let interval = match m.vectors[*vector as usize].kind {
+                Some(VectorKind::Position) => Interval::ALL,
+                _ => Interval::SIGNED,
+            };
+            out(Ty::Vec3, freq, interval)
+        }
+        Expr::TexelCoord => out(Ty::Vec2, Frequency::Texel, Interval::UNSIGNED),
+        Expr::Pixel { freq } => out(Ty::Position, *freq, Interval::ALL),
+        Expr::Project { value, .. } => {
+            let v = info(value);
+            match v.ty {
+                Ty::Position => out(Ty::Position, v.freq, Interval::ALL),
+                Ty::Vec3 => out(Ty::Vec2, v.freq, Interval::UNSIGNED),
+                t => Err(err("type-mismatch", format!("π projects a point or a direction, not a {}", t.name()), "projected here")
+                    .help("write `π x` for a vertex, or `πR R s x` for a direction (seeds/001 (7))")),
+            }
+        }
+        Expr::Interpolate { value, to } => {
+            let v = info(value);
+            if v.freq.is_sample() {
+                return Err(err("delta-twice", format!("δ applied to a value that is already {}", v.freq.name()), "δ applied twice")
+                    .help("δ interpolates per-vertex values; remove one δ"));
+            }
+            if matches!(v.ty, Ty::Bundle(_)) {
+                return Err(err("not-supported", "not yet supported: interpolating a bundle value", "here"));
+            }
+            out(v.ty, *to, v.interval)
+        }
+        Expr::Lookup { texture, coords } => {
+            let t = &m.textures[*texture as usize];
+            let c = info(coords);
+            let want = coord_type(t.kind);
+            let ok = c.ty == want || (t.kind == TextureKind::Tex2d && c.ty == Ty::Position);
+            if !ok {
+                let message = if c.ty.is_color() {
+                    format!("the texture `{}` is indexed by a colour ({})", t.name, c.ty.name())
+                } else {
+                    format!("the {} texture `{}` is indexed by a {}", t.kind.as_str(), t.name, c.ty.name())
+                };
+                return Err(err("bad-index", message, format!("expected {} coordinates", want.name())).help(format!(
+                    "a {} texture takes {} coordinates, such as `{} δu x`; a colour is not a coordinate",
+                    t.kind.as_str(),
+                    want.name(),
+                    t.name
+                )));
+            }
+            let (ty, interval) = texel_type(t.kind, t.format);
+            out(ty, c.freq.max(Frequency::Uniform), interval)
+        }
+        Expr::FramebufferRead { framebuffer, channel, position } => {
+            let p = info(position);
+            let name = &m.framebuffers[*framebuffer as usize].name;
+            if p.ty != Ty::Position {
+                return Err(err("bad-index", format!("the framebuffer `{name}` is indexed by a {}", p.ty.name()), "expected a position")
+                    .help(format!("read a framebuffer at a fragment (`{name} δπx`) or a pixel (`{name} xs`)")));
+            }
+            if !p.freq.is_sample() {
+                return Err(err("frequency", format!("the framebuffer `{name}` is read at a {} position", p.freq.name()), "not a fragment or pixel")
+                    .help(format!("framebuffers hold pixels: write `{name} δπx` or `{name} xs`")));
+            }
+            let (ty, interval) = match channel {
+                FbChannel::Color => (Ty::Rgba, Interval::UNSIGNED),
+                FbChannel::Alpha | FbChannel::Depth => (Ty::Scalar, Interval::UNSIGNED),
+                FbChannel::Stencil => (Ty::Scalar, Interval { lo: 0.0, hi: 255.0 }),
+            };
+            let float = m.framebuffers[*framebuffer as usize]
+                .channels
+                .iter()
+                .any(|c| matches!(c, crate::parser::ast::FramebufferChannel::Rgba16f | crate::parser::ast::FramebufferChannel::Rgba32f));
+            let interval = if float && matches!(channel, FbChannel::Color | FbChannel::Alpha) { Interval::ALL } else { interval };
+            out(ty, p.freq, interval)
+        }
+        Expr::Depth(p) => {
+            let p = info(p);
+            if p.ty != Ty::Position {
+                return Err(err("type-mismatch", format!("z of a {}", p.ty.name()), "not a position or framebuffer")
+                    .help("z selects the depth of a framebuffer (`z C xs`) or of a fragment (`z δπx`)"));
+            }
+            out(Ty::Scalar, p.freq, Interval::UNSIGNED)
+        }
+        Expr::FatMember { texel, .. } => {
+            let t = info(texel);
+            out(Ty::Vec3, t.freq, Interval::ALL)
+        }
+        Expr::Bundle(members) => out(Ty::Bundle(members.len().min(255) as u8), join_all(m, members)?, Interval::ALL),
+        Expr::Unary { op, value } => {
+            let v = info(value);
+            numeric(v.ty, "negation")?;
+            match op {
+                UnaryOp::Neg => out(v.ty, v.freq, neg(v.interval)),
+                UnaryOp::Not => {
+                    if v.ty != Ty::Scalar {
+                        return Err(err("type-mismatch", format!("`not` of a {}", v.ty.name()), "a condition is a scalar"));
+                    }
+                    out(Ty::Scalar, v.freq, Interval::UNSIGNED)
+                }
+            }
+        }
+        Expr::Binary { op, lhs, rhs } => binary(m, *op, info(lhs), info(rhs)),
+        Expr::Combine { mode, lhs, rhs } => {
+            let (a, b) = (info(lhs), info(rhs));
+            for t in [a.ty, b.ty] {
+                if !matches!(t, Ty::Scalar | Ty::Rgb | Ty::Rgba) {
+                    return Err(err("type-mismatch", format!("⊕ combines colours, not a {}", t.name()), format!("a {}", t.name()))
+                        .help("⊕ is a texture-environment or framebuffer operation on colours (seeds/001 (3)); use `*` or `+` for vectors"));
+                }
+            }
+            let ty = unify(a.ty, b.ty).ok_or_else(|| mismatch("⊕", a.ty, b.ty))?;
+            let freq = join(a.freq, b.freq)?;
+            let interval = match mode {
+                CombineMode::Modulate => mul(a.interval, b.interval),
+                CombineMode::Add => add(a.interval, b.interval),
+                CombineMode::AddSigned => add(add(a.interval, b.interval), Interval::point(-0.5)),
+                CombineMode::Subtract => add(a.interval, neg(b.interval)),
+                CombineMode::Dot3Rgb | CombineMode::Dot3Rgba => Interval::UNSIGNED,
+                _ => hull(a.interval, b.interval),
+            };
+            out(ty, freq, interval)
+        }
+        Expr::Math { fun, args } => math(m, *fun, args),
+        Expr::Swizzle { value, pattern, len, ty } => {
+            let v = info(value);
+            numeric(v.ty, "a component selection")?;
+            for &i in &pattern[..*len as usize] {
+                if i as usize >= v.ty.width() {
+                    return Err(err("bad-swizzle", format!("component {} of a {}", i + 1, v.ty.name()), "no such component")
+                        .help(format!("a {} has {} component(s)", v.ty.name(), v.ty.width())));
+                }
+            }
+            out(*ty, v.freq, v.interval)
+        }
+        Expr::Compose { ty, components } => {
+            let mut width = 0;
+            let mut interval: Option<Interval> = None;
+            for c in components {
+                let ci = info(c);
+                numeric(ci.ty, "a vector component")?;
+                width += ci.ty.width();
+                interval = Some(interval.map_or(ci.interval, |i| hull(i, ci.interval)));
+            }
+            if width != ty.width() {
+                return Err(err("type-mismatch", format!("a {} needs {} components, got {width}", ty.name(), ty.width()), "wrong number of components"));
+            }
+            out(*ty, join_all(m, components)?, interval.unwrap_or(Interval::ALL))
+        }
+        Expr::Convert { value, to } => {
+            let v = info(value);
+            let ok = (v.ty == Ty::Rgb && *to == Ty::Rgba) || (v.ty == Ty::Scalar && to.is_numeric()) || v.ty == *to;
+            if !ok {
+                return Err(mismatch("conversion", v.ty, *to));
+            }
+            let interval = if *to == Ty::Rgba && v.ty == Ty::Rgb { hull(v.interval, Interval::point(1.0)) } else { v.interval };
+            out(*to, v.freq, interval)
+        }
+        Expr::Select { cond, accept, reject } => {
+            let c = info(cond);
+            if c.ty != Ty::Scalar {
+                return Err(err("type-mismatch", format!("a condition must be a scalar, not a {}", c.ty.name()), "condition")
+                    .help("compare something: `Hn.z ≥ 0 ? … : …`"));
+            }
+            let a = info(accept);
+            let (ty, interval, freq) = match reject {
+                Some(r) => {
+                    let r = info(r);
+                    let ty = unify(a.ty, r.ty).ok_or_else(|| mismatch("selection", a.ty, r.ty))?;
+                    (ty, hull(a.interval, r.interval), join(join(c.freq, a.freq)?, r.freq)?)
+                }
+                None => (a.ty, a.interval, join(c.freq, a.freq)?),
+            };
+            out(ty, freq, interval)
+        }
+    }
+}
+
+fn binary(_m: &Module, op: BinaryOp, a: ExprInfo, b: ExprInfo) -> Result<ExprInfo, TypeError> {
+    use BinaryOp::*;
+    numeric(a.ty, "an operation")?;
+    numeric(b.ty, "an operation")?;
+    let freq = join(a.freq, b.freq)?;
+    let done = |ty, interval| Ok(ExprInfo { ty, freq, interval });
+    match op {
+        Dot => {
+            if a.ty.width() != b.ty.width() || !a.ty.is_numeric() {
+                let what = |t: Ty| if t.is_color() { format!("a colour ({})", t.name()) } else { format!("a {}", t.name()) };
+                return Err(err("type-mismatch", format!("dot product of {} with {}", what(a.ty), what(b.ty)), "· needs two vectors of the same size")
+                    .help("`·` is the dot product of two directions (vec3) or colours used as vectors (dot3); to scale, write `*`"));
+            }
+            let unit = |i: Interval| i.lo >= -1.0 && i.hi <= 1.0;
+            let interval = if unit(a.interval) && unit(b.interval) {
+                // Unit vectors: the dot product is a cosine (seeds/003 Section 4.2 clamps it to [−1, 1]).
+                if a.interval.lo >= 0.0 && b.interval.lo >= 0.0 { Interval::UNSIGNED } else { Interval::SIGNED }
+            } else {
+                // (A dot product of two scalars is their product.)
+                let p = mul(a.interval, b.interval);
+                iv(p.lo * a.ty.width() as f64, p.hi * a.ty.width() as f64)
+            };
+            done(Ty::Scalar, interval)
+        }
+        Pow => {
+            if b.ty != Ty::Scalar {
+                return Err(err("type-mismatch", format!("an exponent must be a scalar, not a {}", b.ty.name()), "exponent"));
+            }
+            let interval = if a.interval.lo >= 0.0 && b.interval.lo > 0.0 {
+                if a.interval.hi <= 1.0 { Interval::UNSIGNED } else { iv(0.0, f64::INFINITY) }
+            } else if a.interval.lo >= 0.0 {
+                iv(0.0, f64::INFINITY)
+            } else {
+                Interval::ALL
+            };
+            done(a.ty, interval)
+        }
+        Lt | Le | Gt | Ge | Eq | Ne | And | Or => {
+            if unify(a.ty, b.ty).is_none() {
+                return Err(mismatch("comparison", a.ty, b.ty));
+            }
+            if a.ty != Ty::Scalar || b.ty != Ty::Scalar {
+                return Err(err("type-mismatch", format!("comparison of a {} and a {}", a.ty.name(), b.ty.name()), "compare scalars")
+                    .help("select a component first, e.g. `Hn.z ≥ 0`"));
+            }
+            done(Ty::Scalar, Interval::UNSIGNED)
+        }
+        Add | Sub | Mul | Div => {
+            let ty = unify(a.ty, b.ty).ok_or_else(|| mismatch(op_word(op), a.ty, b.ty))?;
+            let interval = match op {
+                Add => add(a.interval, b.interval),
+                Sub => add(a.interval, neg(b.interval)),
+                Mul => mul(a.interval, b.interval),
+                _ => div(a.interval, b.interval),
+            };
+            done(ty, interval)
+        }
+    }
+}
+
+fn op_word(op: BinaryOp) -> &'static str {
+    match op {
+        BinaryOp::Add => "sum",
+        BinaryOp::Sub => "difference",
+        BinaryOp::Mul => "product",
+        BinaryOp::Div => "quotient",
+        _ => "operation",
+    }
+}
+
+fn math(m: &Module, fun: MathFunction, args: &[super::Handle<Expr>]) -> Result<ExprInfo, TypeError> {
+    use MathFunction::*;
+    let infos: Vec<ExprInfo> = args.iter().map(|h| *m.info(*h)).collect();
+    let arity = match fun {
+        Max | Min | Step | Cross | Reflect => 2,
+        Clamp | Smoothstep | Mix => 3,
+        _ => 1,
+    };
+    if infos.len() != arity {
+        return Err(err("arity", format!("`{}` takes {arity} argument(s), got {}", fun.name(), infos.len()), "wrong number of arguments"));
+    }
+    for i in &infos {
+        numeric(i.ty, &format!("`{}`", fun.name()))?;
+    }
+    let freq = join_all(m, args)?;
+    let a = infos[0];
+    let done = |ty, interval| Ok(ExprInfo { ty, freq, interval });
+    let vec3ish = |t: Ty| t.width() == 3;
+    match fun {
+        Normalize => {
+            if a.ty == Ty::Scalar {
+                return Err(err("type-mismatch", "normalize of a scalar", "needs a vector").help("normalize takes a vec3 (or vec2)"));
+            }
+            done(a.ty, Interval::SIGNED)
+        }
+        Length => done(Ty::Scalar, iv(0.0, f64::INFINITY)),
+        Cross | Reflect => {
+            if !vec3ish(a.ty) || !vec3ish(infos[1].ty) {
+                return Err(mismatch(fun.name(), a.ty, infos[1].ty));
+            }
+            done(Ty::Vec3, Interval::ALL)
+        }
+        Max | Min | Clamp | Step | Smoothstep | Mix => {
+            let mut ty = a.ty;
+            for i in &infos[1..] {
+                // mix(a, b, t) takes a scalar t; the rest unify componentwise.
+                ty = unify(ty, i.ty).ok_or_else(|| mismatch(fun.name(), ty, i.ty))?;
+            }
+            let b = infos[1];
+            let interval = match fun {
+                Max => iv(a.interval.lo.max(b.interval.lo), a.interval.hi.max(b.interval.hi)),
+                Min => iv(a.interval.lo.min(b.interval.lo), a.interval.hi.min(b.interval.hi)),
+                Clamp => iv(
+                    a.interval.lo.max(b.interval.lo).min(infos[2].interval.hi),
+                    a.interval.hi.min(infos[2].interval.hi).max(b.interval.lo),
+                ),
+                Step | Smoothstep => Interval::UNSIGNED,
+                _ => hull(a.interval, b.interval),
+            };
+            done(ty, interval)
+        }
+        Saturate => done(a.ty, Interval::UNSIGNED),
+        Abs => done(a.ty, iv(0.0, a.interval.lo.abs().max(a.interval.hi.abs()))),
+        Sign | Sin | Cos => done(a.ty, Interval::SIGNED),
+        Sqrt => done(a.ty, map_monotone(iv(a.interval.lo.max(0.0), a.interval.hi.max(0.0)), f64::sqrt)),
+        Rsqrt | Log => done(a.ty, Interval::ALL),
+        Exp => done(a.ty, map_monotone(a.interval, f64::exp)),
+        Floor => done(a.ty, map_monotone(a.interval, f64::floor)),
+        Fract => done(a.ty, Interval::UNSIGNED),
+        Expand => done(a.ty, map_monotone(a.interval, |x| 2.0 * x - 1.0)),
+        HalfBias => done(a.ty, map_monotone(a.interval, |x| x - 0.5)),
+        Compress => done(a.ty, map_monotone(a.interval, |x| (x + 1.0) / 2.0)),
+    }
+}
+
+/// Evaluates a node whose operands are all constants; `None` otherwise (or
+/// when the node is not a computation, such as a lookup).
+pub fn fold(m: &Module, e: &Expr, ty: Ty) -> Option<Constant> {
+    let c = |h: &super::Handle<Expr>| match &m.exprs[*h] {
+        Expr::Constant(c) => Some(*c),
+        _ => None,
+    };
+    let width = ty.width();
+    if width > 4 {
+        return None;
+    }
+    // Component i of a constant, broadcasting scalars.
+    let at = |k: &Constant, i: usize| if k.ty == Ty::Scalar { k.components[0] } else { k.components[i.min(3)] };
+    let map = |f: &dyn Fn(usize) -> f64| {
+        let v: Vec<f64> = (0..width).map(f).collect();
+        if v.iter().all(|x| x.is_finite()) {
+            Some(Constant::new(ty, &v))
+        } else {
+            None
+        }
+    };
+    match e {
+        Expr::Unary { op, value } => {
+            let a = c(value)?;
+            match op {
+                UnaryOp::Neg => map(&|i| -at(&a, i)),
+                UnaryOp::Not => map(&|i| if at(&a, i) == 0.0 { 1.0 } else { 0.0 }),
+            }
+        }
+        Expr::Binary { op, lhs, rhs } => {
+            let (a, b) = (c(lhs)?, c(rhs)?);
+            use BinaryOp::*;
+            let bool = |x: bool| if x { 1.0 } else { 0.0 };
+            match op {
+                Dot => map(&|_| (0..a.ty.width()).map(|i| a.components[i] * b.components[i]).sum()),
+                Add => map(&|i| at(&a, i) + at(&b, i)),
+                Sub => map(&|i| at(&a, i) - at(&b, i)),
+                Mul => map(&|i| at(&a, i) * at(&b, i)),
+                Div => map(&|i| at(&a, i) / at(&b, i)),
+                Pow => map(&|i| at(&a, i).powf(at(&b, i))),
+                Lt => map(&|i| bool(at(&a, i) < at(&b, i))),
+                Le => map(&|i| bool(at(&a, i) <= at(&b, i))),
+                Gt => map(&|i| bool(at(&a, i) > at(&b, i))),
+                Ge => map(&|i| bool(at(&a, i) >= at(&b, i))),
+                Eq => map(&|i| bool(at(&a, i) == at(&b, i))),
+                Ne => map(&|i| bool(at(&a, i) != at(&b, i))),
+                And => map(&|i| bool(at(&a, i) != 0.0 && at(&b, i) != 0.0)),
+                Or => map(&|i| bool(at(&a, i) != 0.0 || at(&b, i) != 0.0)),
+            }
+        }
+        Expr::Math { fun, args } => {
+            let k: Vec<Constant> = args.iter().map(c).collect::<Option<_>>()?;
+            use MathFunction::*;
+            let a = k[0];
+            let f1 = |f: fn(f64) -> f64| map(&|i| f(at(&a, i)));
+            match fun {
+                Normalize => {
+                    let n = a.values().iter().map(|v| v * v).sum::<f64>().sqrt();
+                    map(&|i| at(&a, i) / n)
+                }
+                Length => map(&|_| a.values().iter().map(|v| v * v).sum::<f64>().sqrt()),
+                Max => map(&|i| at(&a, i).max(at(&k[1], i))),
+                Min => map(&|i| at(&a, i).min(at(&k[1], i))),
+                Clamp => map(&|i| at(&a, i).max(at(&k[1], i)).min(at(&k[2], i))),
+                Saturate => f1(|x| x.clamp(0.0, 1.0)),
+                Abs => f1(f64::abs),
+                Sign => f1(f64::signum),
+                Sqrt => f1(f64::sqrt),
+                Rsqrt => f1(|x| 1.0 / x.sqrt()),
+                Exp => f1(f64::exp),
+                Log => f1(f64::ln),
+                Sin => f1(f64::sin),
+                Cos => f1(f64::cos),
+                Floor => f1(f64::floor),
+                Fract => f1(|x| x - x.floor()),
+                Expand => f1(|x| 2.0 * x - 1.0),
+                HalfBias => f1(|x| x - 0.5),
+                Compress => f1(|x| (x + 1.0) / 2.0),
+                Step => map(&|i| if at(&k[1], i) < at(&a, i) { 0.0 } else { 1.0 }),
+                Mix => map(&|i| at(&a, i) * (1.0 - at(&k[2], i)) + at(&k[1], i) * at(&k[2], i)),
+                Smoothstep => map(&|i| {
+                    let t = ((at(&k[2], i) - at(&a, i)) / (at(&k[1], i) - at(&a, i))).clamp(0.0, 1.0);
+                    t * t * (3.0 - 2.0 * t)
+                }),
+                Cross | Reflect => None,
+            }
+        }
+        Expr::Swizzle { value, pattern, len, .. } => {
+            let a = c(value)?;
+            let v: Vec<f64> = pattern[..*len as usize].iter().map(|&i| a.components[i as usize]).collect();
+            Some(Constant::new(ty, &v))
+        }
+        Expr::Compose { components, .. } => {
+            let mut v = Vec::new();
+            for h in components {
+                v.extend_from_slice(c(h)?.values());
+            }
+            Some(Constant::new(ty, &v))
+        }
+        Expr::Convert { value, to } => {
+            let a = c(value)?;
+            if a.ty == Ty::Rgb && *to == Ty::Rgba {
+                let v = a.values();
+                Some(Constant::new(ty, &[v[0], v[1], v[2], 1.0]))
+            } else {
+                map(&|i| at(&a, i))
+            }
+        }
+        Expr::Select { cond, accept, reject: Some(reject) } => {
+            let k = c(cond)?;
+            let (a, b) = (c(accept)?, c(reject)?);
+            let pick = if k.components[0] != 0.0 { a } else { b };
+            map(&|i| at(&pick, i))
+        }
+        _ => None,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ir::Frequency::*;
+
+    #[test]
+    fn frequencies_join_up_to_one_sample_frequency() {
+        assert_eq!(Constant.join(Uniform), Some(Uniform));
+        assert_eq!(Uniform.join(Vertex), Some(Vertex));
+        assert_eq!(Uniform.join(Fragment), Some(Fragment));
+        assert_eq!(Fragment.join(Fragment), Some(Fragment));
+        // Right of δ is per vertex: it never meets a per-sample value directly.
+        assert_eq!(Vertex.join(Fragment), None);
+        assert_eq!(Fragment.join(Texel), None);
+        assert_eq!(Screen.join(Fragment), None);
+    }
+
+    #[test]
+    fn three_component_types_mix_and_scalars_broadcast() {
+        assert_eq!(unify(Ty::Vec3, Ty::Rgb), Some(Ty::Rgb));
+        assert_eq!(unify(Ty::Scalar, Ty::Rgba), Some(Ty::Rgba));
+        assert_eq!(unify(Ty::Rgb, Ty::Rgba), None, "lowering widens rgb explicitly");
+        assert_eq!(unify(Ty::Vec2, Ty::Vec3), None);
+        assert_eq!(unify(Ty::Position, Ty::Scalar), None);
+    }
+
+    #[test]
+    fn texels_by_format() {
+        assert_eq!(texel_type(TextureKind::Tex2d, TextureFormat::Rgba8), (Ty::Rgba, Interval::UNSIGNED));
+        assert_eq!(texel_type(TextureKind::Cube, TextureFormat::Rgb8), (Ty::Rgb, Interval::UNSIGNED));
+        // A signed 2-D map holds EMBM offsets (seeds/001 (8)); a signed cube map directions.
+        assert_eq!(texel_type(TextureKind::Tex2d, TextureFormat::Signed8).0, Ty::Vec2);
+        assert_eq!(texel_type(TextureKind::Cube, TextureFormat::Signed16), (Ty::Vec3, Interval::SIGNED));
+        assert_eq!(texel_type(TextureKind::Tex1d, TextureFormat::R8).0, Ty::Scalar);
+        assert_eq!(texel_type(TextureKind::Tex2d, TextureFormat::Rgba16f).1.class(), crate::ir::Range::Unbounded);
+    }
+
+    #[test]
+    fn intervals_classify() {
+        assert_eq!(Interval::UNSIGNED.class(), crate::ir::Range::Unsigned);
+        assert_eq!(Interval::SIGNED.class(), crate::ir::Range::Signed);
+        assert_eq!(mul(Interval::SIGNED, Interval::UNSIGNED).class(), crate::ir::Range::Signed);
+        assert_eq!(add(Interval::UNSIGNED, Interval::UNSIGNED).class(), crate::ir::Range::Unbounded);
+        assert_eq!(div(Interval::UNSIGNED, Interval::UNSIGNED), Interval::ALL);
+        assert_eq!(map_monotone(Interval::UNSIGNED, |x| 2.0 * x - 1.0), Interval::SIGNED);
+    }
+}

@@ -1,0 +1,255 @@
+//! Target profiles as data: the resources of a GPU generation (texture
+//! units, register combiners, texture shaders, formats), read from RON —
+//! the built-in ones are `profiles/*.ron`, embedded in the binary — and the
+//! check of a lowered program against them.
+//!
+//! **Policy** (issue 3): a statement is one pass until the planner splits
+//! it. A *capacity* overflow (texture units, constant colours, interpolants)
+//! is a warning — "does not fit in one pass on geforce256: needs 3 texture
+//! units; it has 2; the pass planner will split it" — whether or not the
+//! program names the target, because framebuffer blending and
+//! render-to-texture can split such a statement. A *missing capability*
+//! (dependent lookups without texture shaders, cube maps, signed or float
+//! textures, per-fragment arithmetic on the fixed texture environment,
+//! vertex texture fetch) is an error: no split makes the hardware do it.
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::backends::combiners::config::CombinerLimits;
+use crate::diag::Diagnostic;
+use crate::ir::{Expr, Handle, Module, Usage};
+use crate::span::Span;
+
+/// The names of the built-in profiles.
+pub const BUILTIN: &[&str] = &["geforce256", "geforce3", "multitexture", "wgsl"];
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Profile {
+    pub name: String,
+    pub description: String,
+    /// Textures one pass can sample (texture units, or WGSL sampled textures).
+    pub texture_units: u32,
+    /// Interpolated values a pass can carry (texture coordinate sets and colours).
+    pub interpolants: u32,
+    /// What computes fragments.
+    pub fragment: FragmentStage,
+    /// NV_texture_shader-style lookups, if any.
+    pub texture_shaders: Option<TextureShaders>,
+    /// The ⊕ modes the texture environment offers.
+    pub texture_env_modes: Vec<String>,
+    pub cube_maps: bool,
+    pub textures_3d: bool,
+    pub signed_textures: bool,
+    pub float_textures: bool,
+    pub vertex_texture_fetch: bool,
+    /// Bits per texture channel.
+    pub texture_bits: u8,
+    /// Bits per framebuffer channel.
+    pub framebuffer_bits: u8,
+    /// ⊕ modes framebuffer blending can do (`C δπx ← (C δπx) ⊕ …`).
+    pub blend_modes: Vec<String>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum FragmentStage {
+    /// OpenGL 1.2.1 texture environment: one ⊕ per unit, nothing else.
+    TextureEnv,
+    /// NVIDIA register combiners (seeds/003 Section 4.2).
+    Combiners(Combiners),
+    /// A programmable fragment stage (WGSL).
+    Programmable,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Combiners {
+    pub general_combiners: u32,
+    /// Constant colours (constant0/1) visible to a stage.
+    pub constant_colors: u32,
+    /// Whether each stage has its own constant colours (NV_register_combiners2).
+    pub per_stage_constants: bool,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct TextureShaders {
+    /// Offset (EMBM) lookups, seeds/001 (8).
+    pub offset_2d: bool,
+    pub dot_product: bool,
+    pub dependent_lookups: bool,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum ProfileError {
+    #[error("unknown target profile `{name}` (the built-in profiles are: {})", BUILTIN.join(", "))]
+    Unknown { name: String },
+    #[error("{path}: cannot read the profile: {source}")]
+    Io { path: String, source: std::io::Error },
+    #[error("{path}: not a valid profile: {message}")]
+    Parse { path: String, message: String },
+}
+
+impl Profile {
+    /// A built-in profile by name.
+    pub fn builtin(name: &str) -> Result<Profile, ProfileError> {
+        let text = match name {
+            "geforce256" => include_str!("../profiles/geforce256.ron"),
+            "geforce3" => include_str!("../profiles/geforce3.ron"),
+            "multitexture" => include_str!("../profiles/multitexture.ron"),
+            "wgsl" => include_str!("../profiles/wgsl.ron"),
+            _ => return Err(ProfileError::Unknown { name: name.to_string() }),
+        };
+        Profile::from_ron(text, &format!("<builtin {name}>"))
+    }
+
+    /// A profile from a RON file.
+    pub fn load(path: &Path) -> Result<Profile, ProfileError> {
+        let text = std::fs::read_to_string(path).map_err(|source| ProfileError::Io { path: path.display().to_string(), source })?;
+        Profile::from_ron(&text, &path.display().to_string())
+    }
+
+    /// A built-in name, or else a path to a `.ron` file.
+    pub fn resolve(name_or_path: &str) -> Result<Profile, ProfileError> {
+        if BUILTIN.contains(&name_or_path) {
+            return Profile::builtin(name_or_path);
+        }
+        let path = Path::new(name_or_path);
+        if path.extension().is_some_and(|e| e == "ron") || path.exists() {
+            return Profile::load(path);
+        }
+        Err(ProfileError::Unknown { name: name_or_path.to_string() })
+    }
+
+    pub fn from_ron(text: &str, path: &str) -> Result<Profile, ProfileError> {
+        ron::from_str(text).map_err(|e| ProfileError::Parse { path: path.to_string(), message: e.to_string() })
+    }
+
+    pub fn to_ron(&self) -> String {
+        ron::ser::to_string_pretty(self, ron::ser::PrettyConfig::default()).expect("a profile serializes")
+    }
+
+    /// The combiner machine's limits, for the combiners backend.
+    pub fn combiner_limits(&self) -> Option<CombinerLimits> {
+        match &self.fragment {
+            FragmentStage::Combiners(c) => Some(CombinerLimits {
+                general_combiners: c.general_combiners as usize,
+                per_stage_constants: c.per_stage_constants,
+                texture_units: self.texture_units.min(u8::MAX as u32) as u8,
+            }),
+            _ => None,
+        }
+    }
+
+    /// Constant registers one pass offers.
+    pub fn constant_registers(&self) -> Option<u32> {
+        match &self.fragment {
+            FragmentStage::Combiners(c) if c.per_stage_constants => Some(c.constant_colors * (c.general_combiners + 1)),
+            FragmentStage::Combiners(c) => Some(c.constant_colors),
+            // The texture environment has one constant colour (GL_TEXTURE_ENV_COLOR) per unit.
+            FragmentStage::TextureEnv => Some(self.texture_units),
+            FragmentStage::Programmable => None,
+        }
+    }
+}
+
+/// Checks every statement of `module` against `profile` (see the policy in
+/// the module doc). Diagnostics point at the statement, with a secondary
+/// label at each node that needs the resource.
+pub fn fit(module: &Module, profile: &Profile) -> Vec<Diagnostic> {
+    let mut out = Vec::new();
+    let name = &profile.name;
+    for st in &module.statements {
+        let u = Usage::of(module, st);
+        let labels = |d: Diagnostic, hs: &[Handle<Expr>], what: &str| {
+            hs.iter().fold(d, |d, h| d.with_label(module.span(*h), what.to_string()))
+        };
+        let overflow = |resource: &str, need: usize, have: u32, hs: &[Handle<Expr>], what: &str| {
+            let d = Diagnostic::warning(
+                "does-not-fit",
+                format!("does not fit in one pass on {name}: needs {need} {resource}; it has {have}; the pass planner will split it"),
+                st.span,
+                format!("needs {need} {resource}"),
+            )
+            .with_help(format!("{name} offers {have} {resource} per pass; the planner splits the statement with framebuffer blending or render-to-texture"));
+            labels(d, hs, what)
+        };
+        if u.texture_units() > profile.texture_units as usize {
+            out.push(overflow("texture units", u.texture_units(), profile.texture_units, &u.lookups, "a texture unit"));
+        }
+        if u.interpolants.len() > profile.interpolants as usize {
+            out.push(overflow("interpolants", u.interpolants.len(), profile.interpolants, &u.interpolants, "interpolated"));
+        }
+        if let Some(have) = profile.constant_registers() {
+            if u.constants.len() > have as usize {
+                out.push(overflow("constant colours", u.constants.len(), have, &u.constants, "a constant register"));
+            }
+        }
+        let missing = |what: String, hs: &[Handle<Expr>], help: &str| {
+            let first = hs.first().map_or(st.span, |h| module.span(*h));
+            let d = Diagnostic::error("unsupported-by-target", format!("{name} cannot do this: {what}"), first, what.clone()).with_help(help.to_string());
+            labels(d, &hs[hs.len().min(1)..], "here too")
+        };
+        let has_dependent = profile.texture_shaders.as_ref().is_some_and(|t| t.dependent_lookups || t.offset_2d);
+        if !u.dependent_lookups.is_empty() && !has_dependent {
+            out.push(missing("a texture indexed by another texture's result (dependent lookup)".into(), &u.dependent_lookups, "dependent lookups need texture shaders: target geforce3 or wgsl"));
+        }
+        if !u.cube_lookups.is_empty() && !profile.cube_maps {
+            out.push(missing("cube-map lookups".into(), &u.cube_lookups, "target a profile with cube maps (geforce256, geforce3, wgsl)"));
+        }
+        if !u.lookups_3d.is_empty() && !profile.textures_3d {
+            out.push(missing("3-D texture lookups".into(), &u.lookups_3d, "target a profile with 3-D textures"));
+        }
+        if !u.signed_lookups.is_empty() && !profile.signed_textures {
+            out.push(missing("signed textures".into(), &u.signed_lookups, "store range-compressed vectors in rgb8 and `expand` them (seeds/003 Section 5.2)"));
+        }
+        if !u.float_lookups.is_empty() && !profile.float_textures {
+            out.push(missing("float textures".into(), &u.float_lookups, "use an 8-bit format, or target wgsl"));
+        }
+        if !u.vertex_lookups.is_empty() && !profile.vertex_texture_fetch {
+            out.push(missing("texture lookups per vertex".into(), &u.vertex_lookups, "interpolate the coordinates first: `T δu x`"));
+        }
+        if profile.fragment == FragmentStage::TextureEnv && !u.arithmetic.is_empty() {
+            out.push(missing(
+                format!("per-{} arithmetic beyond the texture environment", if st.freq == crate::ir::Frequency::Texel { "texel" } else { "fragment" }),
+                &u.arithmetic,
+                "the OpenGL 1.2.1 texture environment only combines texels (⊕); compute this per vertex (`δ p s x`) or target geforce256/geforce3/wgsl",
+            ));
+        }
+    }
+    out.sort_by_key(|d| (d.primary.span.start, d.severity));
+    let _ = Span::DETACHED;
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn builtins_load_and_round_trip() {
+        for name in BUILTIN {
+            let p = Profile::builtin(name).unwrap();
+            assert_eq!(&p.name, name);
+            let back = Profile::from_ron(&p.to_ron(), "round trip").unwrap();
+            assert_eq!(p, back);
+        }
+    }
+
+    #[test]
+    fn consistent_with_combiner_limits() {
+        assert_eq!(Profile::builtin("geforce256").unwrap().combiner_limits(), Some(CombinerLimits::GEFORCE256));
+        assert_eq!(Profile::builtin("geforce3").unwrap().combiner_limits(), Some(CombinerLimits::GEFORCE3));
+        assert_eq!(Profile::builtin("wgsl").unwrap().combiner_limits(), None);
+    }
+
+    #[test]
+    fn unknown_and_bad_profiles_are_clear() {
+        let e = Profile::builtin("voodoo2").unwrap_err().to_string();
+        assert!(e.contains("unknown target profile `voodoo2`"), "{e}");
+        let e = Profile::from_ron("Profile(name: \"x\")", "p.ron").unwrap_err().to_string();
+        assert!(e.starts_with("p.ron: not a valid profile:"), "{e}");
+    }
+}
