@@ -573,8 +573,9 @@ impl Builder {
                     items.push(self.expr(p)?);
                 }
                 if items.len() == 1 {
-                    // `(e)` is grouping only.
-                    return items.pop();
+                    // `(e)` is grouping only; its span keeps the parentheses, so
+                    // an operator's span covers `kd * (N·L)` to the last `)`.
+                    return items.pop().map(|d| Deep { expr: Expr { span, ..d.expr }, ..d });
                 }
                 let depth = 1 + items.iter().map(|d| d.depth).max().unwrap_or(0);
                 leaf(ExprKind::Tuple(items.into_iter().map(|d| d.expr).collect())).map(|d| Deep { depth, ..d })

@@ -172,6 +172,10 @@ fn spans_point_at_the_source_text() {
     assert_eq!(&src[s.target.span.range()], "C δπx");
     assert_eq!(&src[s.target.table.span.range()], "C");
     assert_eq!(&src[p.items[1].span.range()], "C δπx ← T δu x;");
+    let src = "C xs ← kd * (N·L);";
+    let (p, _) = parse(src);
+    let ItemKind::Statement(s) = &p.items[0].kind else { panic!() };
+    assert_eq!(&src[s.value.span.range()], "kd * (N·L)");
 }
 
 #[test]
