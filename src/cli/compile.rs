@@ -51,14 +51,5 @@ pub fn run(args: &CompileArgs) -> ExitCode {
     let out = match args.emit {
         Emit::Ir => shadec::ir::dump::dump(&module, Some(&text)),
     };
-    match &args.output {
-        Some(path) => {
-            if let Err(e) = shadec::io::write_atomic(path, out.as_bytes()) {
-                eprintln!("error: {e}");
-                return ExitCode::from(EXIT_USAGE_OR_IO);
-            }
-        }
-        None => print!("{out}"),
-    }
-    ExitCode::SUCCESS
+    super::write_output(args.output.as_deref(), &out)
 }

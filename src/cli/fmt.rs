@@ -25,14 +25,5 @@ pub fn run(args: &FmtArgs) -> ExitCode {
     }
     let style = if args.ascii { print::Style::Ascii } else { print::Style::Unicode };
     let out = print::program(&program, style);
-    match &args.output {
-        Some(path) => {
-            if let Err(e) = shadec::io::write_atomic(path, out.as_bytes()) {
-                eprintln!("error: {e}");
-                return ExitCode::from(EXIT_USAGE_OR_IO);
-            }
-        }
-        None => print!("{out}"),
-    }
-    ExitCode::SUCCESS
+    super::write_output(args.output.as_deref(), &out)
 }

@@ -27,3 +27,20 @@ pub fn main() -> ExitCode {
         Command::Emulate(args) => emulate::run(&args),
     }
 }
+
+/// Writes a command's result to `-o OUT` (atomically) or to standard output.
+fn write_output(output: Option<&std::path::Path>, text: &str) -> ExitCode {
+    match output {
+        Some(path) => match shadec::io::write_atomic(path, text.as_bytes()) {
+            Ok(()) => ExitCode::SUCCESS,
+            Err(e) => {
+                eprintln!("error: {e}");
+                ExitCode::from(EXIT_USAGE_OR_IO)
+            }
+        },
+        None => {
+            print!("{text}");
+            ExitCode::SUCCESS
+        }
+    }
+}
