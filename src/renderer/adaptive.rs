@@ -308,13 +308,10 @@ fn visibility(ids: &mut [u32], depth: &mut [f32], w: usize, rows: (i32, i32), pa
         let px0 = tri.x0 as i64 * SUB + SUB / 2;
         for y in y0..=y1 {
             let py = y as i64 * SUB + SUB / 2;
-            let mut e = [0i64; 3];
-            for k in 0..3 {
-                e[k] = tri.dx[k] * (py - tri.ya[k]) - tri.dy[k] * (px0 - tri.xa[k]);
-            }
+            let mut e = tri.edges_at(px0, py);
             let row = (y - rows.0) as usize * w;
             for x in tri.x0..=tri.x1 {
-                if ((e[0] - tri.bias[0]) | (e[1] - tri.bias[1]) | (e[2] - tri.bias[2])) >= 0 {
+                if tri.covers(&e) {
                     let l = [e[0] as f32 * tri.inv_area, e[1] as f32 * tri.inv_area, e[2] as f32 * tri.inv_area];
                     let z = (l[0] * tri.z[0] + l[1] * tri.z[1] + l[2] * tri.z[2]).clamp(0.0, 1.0);
                     let idx = row + x as usize;
@@ -381,10 +378,7 @@ impl Ctx<'_> {
         let tri = &setup.tris[id as usize - self.offsets[p]];
         let n = setup.n_varyings;
         let (px, py) = (x as i64 * SUB + SUB / 2, y as i64 * SUB + SUB / 2);
-        let mut e = [0i64; 3];
-        for k in 0..3 {
-            e[k] = tri.dx[k] * (py - tri.ya[k]) - tri.dy[k] * (px - tri.xa[k]);
-        }
+        let e = tri.edges_at(px, py);
         // The same arithmetic, in the same order, as the tiled rasterizer.
         let l = [e[0] as f32 * tri.inv_area, e[1] as f32 * tri.inv_area, e[2] as f32 * tri.inv_area];
         let z = (l[0] * tri.z[0] + l[1] * tri.z[1] + l[2] * tri.z[2]).clamp(0.0, 1.0);

@@ -82,6 +82,21 @@ pub(crate) struct Tri {
     pub(crate) gradient_offset: usize,
 }
 
+impl Tri {
+    /// The three edge functions at the subpixel point (px, py).
+    #[inline(always)]
+    pub(crate) fn edges_at(&self, px: i64, py: i64) -> [i64; 3] {
+        std::array::from_fn(|k| self.dx[k] * (py - self.ya[k]) - self.dy[k] * (px - self.xa[k]))
+    }
+
+    /// The top-left fill rule: inside when every biased edge function is ≥ 0.
+    /// The one definition both the tiled and the adaptive rasterizer use.
+    #[inline(always)]
+    pub(crate) fn covers(&self, e: &[i64; 3]) -> bool {
+        ((e[0] - self.bias[0]) | (e[1] - self.bias[1]) | (e[2] - self.bias[2])) >= 0
+    }
+}
+
 #[derive(Default)]
 pub(crate) struct PassSetup {
     pub(crate) tris: Vec<Tri>,

@@ -73,14 +73,11 @@ fn raster_tile(
         let px0 = x0 as i64 * SUB + SUB / 2;
         for y in y0..=y1 {
             let py = y as i64 * SUB + SUB / 2;
-            let mut e = [0i64; 3];
-            for k in 0..3 {
-                e[k] = tri.dx[k] * (py - tri.ya[k]) - tri.dy[k] * (px0 - tri.xa[k]);
-            }
+            let mut e = tri.edges_at(px0, py);
             let row = (y - rect.1) as usize * TILE;
             let lx0 = (x0 - rect.0) as usize;
             for x in x0..=x1 {
-                let inside = ((e[0] - tri.bias[0]) | (e[1] - tri.bias[1]) | (e[2] - tri.bias[2])) >= 0;
+                let inside = tri.covers(&e);
                 if inside {
                     let idx = row + lx0 + (x - x0) as usize;
                     let l = [e[0] as f32 * tri.inv_area, e[1] as f32 * tri.inv_area, e[2] as f32 * tri.inv_area];
