@@ -9,8 +9,20 @@ pub mod diag;
 pub mod io;
 pub mod ir;
 pub mod parser;
+pub mod planner;
 pub mod profile;
 pub mod renderer;
 pub mod scene;
 pub mod textures;
 pub mod span;
+
+/// Compiles `source` for `profile` into a pass plan — parse, check, lower,
+/// specialize, plan; never touches a GPU (issue 3 part 4). The plan
+/// serializes to RON and JSON (`PassPlan::to_ron`, `to_json`); for the IR
+/// the plan's value ids refer to, use [`planner::compile_source`].
+pub fn compile(source: &str, profile: &profile::Profile) -> Result<planner::PassPlan, Diagnostics> {
+    planner::compile_source(source, profile).map(|p| p.plan)
+}
+
+/// Every problem found in a program, each with its location.
+pub type Diagnostics = Vec<diag::Diagnostic>;

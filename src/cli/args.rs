@@ -20,7 +20,8 @@ pub enum Command {
     /// Exit status: 0 when every file is clean (warnings allowed), 1 when a
     /// file has errors, 2 on usage or I/O errors.
     Check(CheckArgs),
-    /// Lower a program and print an intermediate form (`--emit ir`).
+    /// Lower a program and print its IR (`--emit ir`) or its pass plan for a
+    /// target (`--emit plan --format ron|json`).
     ///
     /// Exit status: 0 on success, 1 when the program has errors, 2 on usage
     /// or I/O errors.
@@ -64,15 +65,30 @@ pub struct CompileArgs {
     /// Write here (atomically) instead of standard output.
     #[arg(short, long, value_name = "OUT")]
     pub output: Option<PathBuf>,
-    /// How to print diagnostics.
-    #[arg(long, value_enum, default_value_t = Format::Human)]
-    pub format: Format,
+    /// With `--emit plan`: the document's format (`ron`, the default, or
+    /// `json`). Diagnostics print as `human`, `short` or `json` (LSP).
+    #[arg(long, value_enum, default_value_t = CompileFormat::Human)]
+    pub format: CompileFormat,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
 pub enum Emit {
     /// The typed IR: every value with its type, frequency, range and position.
     Ir,
+    /// The pass plan for the target (docs/pass-plan.md): RON or JSON.
+    Plan,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum CompileFormat {
+    /// Human-readable diagnostics; a plan prints as RON.
+    Human,
+    /// One-line diagnostics; a plan prints as RON.
+    Short,
+    /// LSP JSON diagnostics; a plan prints as JSON.
+    Json,
+    /// A plan as RON; human-readable diagnostics.
+    Ron,
 }
 
 #[derive(Debug, clap::Args)]

@@ -148,7 +148,7 @@ fn list(hs: &[Handle<Expr>]) -> String {
     hs.iter().map(|h| h.to_string()).collect::<Vec<_>>().join(", ")
 }
 
-fn node(m: &Module, e: &Expr) -> String {
+pub(crate) fn node(m: &Module, e: &Expr) -> String {
     match e {
         Expr::Constant(c) => format!("const {}", constant(c)),
         Expr::Uniform(id) => format!("uniform {}", m.uniforms[*id as usize].name),

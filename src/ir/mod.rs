@@ -151,6 +151,41 @@ impl Module {
     pub fn operands(&self, h: Handle<Expr>) -> Vec<Handle<Expr>> {
         self.exprs[h].operands()
     }
+
+    /// Appends (or finds) a node built after lowering — by the pass planner
+    /// when it splits or fuses statements: infers its info and folds
+    /// constants, as lowering does.
+    pub fn intern(&mut self, e: Expr, span: Span) -> Result<Handle<Expr>, valid::TypeError> {
+        if let Some(h) = self.exprs.find(&e) {
+            return Ok(h);
+        }
+        let info = valid::infer(self, &e)?;
+        if let Some(c) = valid::fold(self, &e, info.ty) {
+            return self.intern(Expr::Constant(c), span);
+        }
+        let (h, new) = self.exprs.insert(e, span);
+        if new {
+            self.info.push(info);
+        }
+        Ok(h)
+    }
+
+    /// Whether `h` is the constant `v` in every component.
+    pub fn is_constant(&self, h: Handle<Expr>, v: f64) -> bool {
+        matches!(&self.exprs[h], Expr::Constant(c) if c.values().iter().all(|x| *x == v))
+    }
+
+    /// Every node reachable from `roots`, in arena (topological) order.
+    pub fn reachable(&self, roots: &[Handle<Expr>]) -> Vec<Handle<Expr>> {
+        let mut seen = std::collections::BTreeSet::new();
+        let mut stack = roots.to_vec();
+        while let Some(h) = stack.pop() {
+            if seen.insert(h) {
+                stack.extend(self.operands(h));
+            }
+        }
+        seen.into_iter().collect()
+    }
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -565,6 +600,46 @@ pub enum Expr {
 }
 
 impl Expr {
+    /// This node with every operand `o` replaced by `f(o)`.
+    pub fn map_operands(&self, mut f: impl FnMut(Handle<Expr>) -> Handle<Expr>) -> Expr {
+        let mut e = self.clone();
+        match &mut e {
+            Expr::Constant(_)
+            | Expr::Uniform(_)
+            | Expr::VertexPosition(_)
+            | Expr::TexCoord { .. }
+            | Expr::Vector { .. }
+            | Expr::TexelCoord
+            | Expr::Pixel { .. } => {}
+            Expr::Project { value, .. }
+            | Expr::Interpolate { value, .. }
+            | Expr::Unary { value, .. }
+            | Expr::Swizzle { value, .. }
+            | Expr::Convert { value, .. } => *value = f(*value),
+            Expr::Lookup { coords, .. } => *coords = f(*coords),
+            Expr::FramebufferRead { position, .. } => *position = f(*position),
+            Expr::Depth(h) => *h = f(*h),
+            Expr::FatMember { texel, .. } => *texel = f(*texel),
+            Expr::Bundle(v) | Expr::Math { args: v, .. } | Expr::Compose { components: v, .. } => {
+                for h in v.iter_mut() {
+                    *h = f(*h);
+                }
+            }
+            Expr::Binary { lhs, rhs, .. } | Expr::Combine { lhs, rhs, .. } => {
+                *lhs = f(*lhs);
+                *rhs = f(*rhs);
+            }
+            Expr::Select { cond, accept, reject } => {
+                *cond = f(*cond);
+                *accept = f(*accept);
+                if let Some(r) = reject {
+                    *r = f(*r);
+                }
+            }
+        }
+        e
+    }
+
     pub fn operands(&self) -> Vec<Handle<Expr>> {
         match self {
             Expr::Constant(_)

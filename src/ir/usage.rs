@@ -45,8 +45,13 @@ impl Usage {
 
     /// The resources of statement `st`.
     pub fn of(module: &Module, st: &Statement) -> Usage {
+        Usage::of_value(module, st.value)
+    }
+
+    /// The resources a pass needs to compute `value` per sample.
+    pub fn of_value(module: &Module, value: Handle<Expr>) -> Usage {
         let mut nodes = BTreeSet::new();
-        let mut stack = vec![st.value];
+        let mut stack = vec![value];
         while let Some(h) = stack.pop() {
             if nodes.insert(h) {
                 stack.extend(module.operands(h));

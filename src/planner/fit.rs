@@ -1,0 +1,136 @@
+//! Does a value fit one pass of a profile? Texture units (lookups plus
+//! framebuffers read as textures), interpolants, constant colours, and the
+//! fragment stage's capacity: register-combiner stages on geforce256 /
+//! geforce3, one ⊕ per texture unit on the OpenGL 1.2.1 texture
+//! environment, anything on a programmable stage.
+//!
+//! The combiner capacity is an *estimate* (seeds/003 Section 4.2): every
+//! general combiner computes two products or dot products per portion and
+//! a sum or mux of them, the final combiner one lerp-and-add and one E·F
+//! product; range mappings (`expand`, `half_bias`, `saturate`, `max(0, ·)`)
+//! and scales ride on inputs and outputs for free; `x^n` by repeated
+//! squaring costs ⌈log₂ n⌉ products. Until the combiner code generator
+//! decides, a value fits when its operations number at most
+//! `2 · general + 2`.
+
+use super::split::{FitCheck, Overflow};
+use crate::ir::{BinaryOp, Expr, Handle, MathFunction, Module, Usage};
+use crate::profile::{FragmentStage, Profile};
+
+pub struct ProfileFit<'p> {
+    pub profile: &'p Profile,
+}
+
+impl FitCheck for ProfileFit<'_> {
+    fn fits(&self, module: &Module, value: Handle<Expr>) -> Result<(), Overflow> {
+        let p = self.profile;
+        let u = Usage::of_value(module, value);
+        let units = u.texture_units() + framebuffer_textures(module, &u);
+        let over = |resource: &str, need: usize, have: usize, at: Option<Handle<Expr>>| {
+            Err(Overflow { resource: resource.to_string(), need, have, at })
+        };
+        if units > p.texture_units as usize {
+            return over("texture units", units, p.texture_units as usize, u.lookups.last().copied());
+        }
+        if u.interpolants.len() > p.interpolants as usize {
+            return over("interpolants", u.interpolants.len(), p.interpolants as usize, u.interpolants.last().copied());
+        }
+        if let Some(have) = p.constant_registers() {
+            if u.constants.len() > have as usize {
+                return over("constant colours", u.constants.len(), have as usize, u.constants.last().copied());
+            }
+        }
+        match &p.fragment {
+            FragmentStage::Programmable => Ok(()),
+            FragmentStage::Combiners(c) => {
+                let ops = combiner_operations(module, value).map_err(|h| Overflow {
+                    resource: format!("{} per fragment", operation_name(module, h)),
+                    need: 1,
+                    have: 0,
+                    at: Some(h),
+                })?;
+                let have = 2 * c.general_combiners as usize + 2;
+                if ops > have {
+                    over("combiner operations (estimated)", ops, have, None)
+                } else {
+                    Ok(())
+                }
+            }
+            FragmentStage::TextureEnv => {
+                let ops = combines(module, value);
+                let have = (p.texture_units as usize).max(1);
+                if ops > have {
+                    over("texture-environment stages", ops, have, None)
+                } else {
+                    Ok(())
+                }
+            }
+        }
+    }
+}
+
+/// Framebuffers a pass reads (at a position other than a blend's own):
+/// each is bound as a texture (render-to-texture of that framebuffer).
+fn framebuffer_textures(module: &Module, u: &Usage) -> usize {
+    let mut ids: Vec<u32> = u
+        .framebuffer_reads
+        .iter()
+        .filter_map(|h| match module.exprs[*h] {
+            Expr::FramebufferRead { framebuffer, .. } => Some(framebuffer),
+            _ => None,
+        })
+        .collect();
+    ids.sort();
+    ids.dedup();
+    ids.len()
+}
+
+/// What an operation is called in a message.
+fn operation_name(module: &Module, h: Handle<Expr>) -> String {
+    match &module.exprs[h] {
+        Expr::Math { fun, .. } => format!("`{}`", fun.name()),
+        Expr::Binary { op: BinaryOp::Div, .. } => "a division".into(),
+        Expr::Binary { op: BinaryOp::Pow, .. } => "a power with a non-constant or fractional exponent".into(),
+        _ => "an operation".into(),
+    }
+}
+
+/// Per-sample operations a combiner program needs (see the module doc), or
+/// the first operation the combiners cannot do at all (normalize, division,
+/// sqrt, …: seeds/003 Section 4.2 has none of them; use a normalization
+/// cube map or a lookup texture).
+pub fn combiner_operations(module: &Module, value: Handle<Expr>) -> Result<usize, Handle<Expr>> {
+    let mut n = 0;
+    for h in module.reachable(&[value]) {
+        if !module.info(h).freq.is_sample() {
+            continue;
+        }
+        n += match &module.exprs[h] {
+            Expr::Binary { op: BinaryOp::Pow, rhs, .. } => match &module.exprs[*rhs] {
+                Expr::Constant(c) if c.components[0] >= 1.0 && c.components[0].fract() == 0.0 => (c.components[0].log2().ceil() as usize).max(1),
+                _ => return Err(h),
+            },
+            Expr::Binary { op: BinaryOp::Div, .. } => return Err(h),
+            Expr::Binary { .. } | Expr::Combine { .. } | Expr::Select { .. } => 1,
+            // max(0, x) and min(1, x) are an unsigned mapping and a clamp: free.
+            Expr::Math { fun: MathFunction::Max, args } if args.iter().any(|a| module.is_constant(*a, 0.0)) => 0,
+            Expr::Math { fun: MathFunction::Min, args } if args.iter().any(|a| module.is_constant(*a, 1.0)) => 0,
+            Expr::Math { fun, .. } => match fun {
+                MathFunction::Expand | MathFunction::HalfBias | MathFunction::Saturate | MathFunction::Compress => 0,
+                MathFunction::Max | MathFunction::Min | MathFunction::Clamp | MathFunction::Mix | MathFunction::Abs => 1,
+                _ => return Err(h),
+            },
+            _ => 0,
+        };
+    }
+    Ok(n)
+}
+
+/// ⊕ and arithmetic nodes per sample: one texture-environment stage each.
+fn combines(module: &Module, value: Handle<Expr>) -> usize {
+    module
+        .reachable(&[value])
+        .into_iter()
+        .filter(|h| module.info(*h).freq.is_sample() && matches!(module.exprs[*h], Expr::Combine { .. } | Expr::Binary { .. }))
+        .count()
+}

@@ -1,0 +1,600 @@
+//! The pass planner (issue 3): turns a lowered program into rendering
+//! passes a target can run.
+//!
+//! 1. **Capabilities first.** `profile::fit` errors (a dependent lookup on
+//!    geforce256, arithmetic on the texture environment) cannot be split
+//!    away: the plan fails with them.
+//! 2. **Specialization** (`specialize.rs`): constant folding happened in
+//!    lowering; terms whose coefficient is exactly zero go, with the
+//!    textures and passes only they used.
+//! 3. **Statements to blends.** A statement `C δπx ← (C δπx) ⊕ e` is `e`
+//!    blended into C (seeds/001 (9)); `classify` reads the blend off the
+//!    value's affine form in the framebuffer's own colour (and its alpha:
+//!    Kilgard's GL_DST_ALPHA passes, seeds/003 Section 5.5).
+//! 4. **Fusion.** Consecutive statements on the same framebuffer and
+//!    geometry are fused (the later one reading the earlier one's value)
+//!    when the fused value plans into fewer passes — Kilgard's three passes
+//!    collapse on geforce3.
+//! 5. **Splitting** (`split.rs`): a value that does not fit one pass is split
+//!    by framebuffer blending or render-to-texture, minimizing passes, then
+//!    texture fetches.
+//!
+//! Texgen statements (`u x ← …`, seeds/001 (7)) are no pass: they are vertex
+//! work of every pass that reads the coordinates.
+
+pub mod affine;
+pub mod fit;
+pub mod plan;
+pub mod specialize;
+pub mod split;
+
+use std::collections::HashMap;
+
+pub use plan::{BlendMode, FragmentWork, Geometry, Pass, PassPlan, Removed, RenderTarget, TextureBinding, Value, VertexWork};
+pub use split::{FitCheck, Overflow};
+
+use affine::Builder;
+use split::{Dest, Piece, Splitter};
+
+use crate::diag::Diagnostic;
+use crate::ir::{self, BinaryOp, Expr, FbChannel, Frequency, Handle, Module, Statement, Table, Usage};
+use crate::parser::ast::CombineMode;
+use crate::profile::{FragmentStage, Profile};
+use crate::renderer::{BlendState, CullMode, DepthState, RenderState, StencilOp, StencilState};
+use crate::span::{LineIndex, Span};
+
+/// A plan together with the IR it refers to (value ids are handle indices
+/// into `module.exprs`): what backends and renderers take.
+#[derive(Clone, Debug)]
+pub struct Planned {
+    pub module: Module,
+    pub plan: PassPlan,
+}
+
+impl Planned {
+    pub fn handle(&self, id: u32) -> Handle<Expr> {
+        Handle::new(id as usize)
+    }
+}
+
+/// How a (possibly fused) statement meets its target.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Form {
+    pub blend: BlendMode,
+    /// What the fragment stage computes.
+    pub value: Handle<Expr>,
+    /// `c ? a` with no `:`: discard where `c` is zero.
+    pub condition: Option<Handle<Expr>>,
+    /// A stencil test or a stencil write replaces colour work.
+    pub stencil: Option<StencilState>,
+    pub depth: Option<DepthState>,
+    /// Channels written: `rgba`, `a`, `stencil`, `none`.
+    pub channels: &'static str,
+    /// A blend needing two passes (`C ← C·m + s`): the second value.
+    pub then_add: Option<Handle<Expr>>,
+}
+
+/// Plans `module` for `profile`. `source` gives `line:col` positions.
+pub fn plan(module: &Module, profile: &Profile, source: Option<&str>) -> Result<Planned, Vec<Diagnostic>> {
+    plan_with(module, profile, source, Search::Planner)
+}
+
+/// How splits are searched.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Search {
+    /// Memoized, exact subset DP for chains, greedy for long ones.
+    Planner,
+    /// Brute force over every set partition (the optimality test's reference;
+    /// exponential: for programs of a few dozen operations at most).
+    Exhaustive,
+}
+
+pub fn plan_with(module: &Module, profile: &Profile, source: Option<&str>, search: Search) -> Result<Planned, Vec<Diagnostic>> {
+    let errors: Vec<Diagnostic> = crate::profile::fit(module, profile).into_iter().filter(|d| d.is_error()).collect();
+    if !errors.is_empty() {
+        return Err(errors);
+    }
+    let mut m = module.clone();
+    let index = source.map(|s| (LineIndex::new(s), s));
+    let at = |span: Span| -> String {
+        match (&index, span == Span::DETACHED) {
+            (Some((ix, text)), false) => {
+                let lc = ix.line_col(text, span.start as usize);
+                format!("{}:{}", lc.line, lc.col)
+            }
+            _ => "-".to_string(),
+        }
+    };
+    let mut removed = specialize::specialize(&mut m, &at);
+    let fit = fit::ProfileFit { profile };
+    let float_temps = profile.float_textures;
+
+    // Texgen statements by the coordinate set they write.
+    let mut texgen: HashMap<u32, String> = HashMap::new();
+    for st in &m.statements {
+        if let Table::TexCoords(id) = st.table {
+            texgen.insert(id, m.texcoord_sets[id as usize].name.clone());
+        }
+    }
+
+    let mut diags = Vec::new();
+    let mut chosen: Vec<(Vec<usize>, Form, Vec<Piece>, String)> = Vec::new();
+    let live: Vec<usize> = (0..m.statements.len()).filter(|&i| !matches!(m.statements[i].table, Table::TexCoords(_)) && !specialize::is_noop(&m, &m.statements[i])).collect();
+    for &i in (0..m.statements.len()).filter(|i| !live.contains(i) && !matches!(m.statements[*i].table, Table::TexCoords(_))).collect::<Vec<_>>().iter() {
+        removed.push(Removed { kind: "pass".into(), what: format!("statement {}", i + 1), why: "after specialization it leaves its target unchanged".into(), at: at(m.statements[i].span) });
+    }
+    let mut k = 0;
+    while k < live.len() {
+        // The run of statements fusable with live[k].
+        let mut run = vec![live[k]];
+        while k + run.len() < live.len() && fusable(&m, &m.statements[*run.last().unwrap()], &m.statements[live[k + run.len()]]) {
+            run.push(live[k + run.len()]);
+        }
+        // best[j]: the cheapest plan of run[..j].
+        let mut best: Vec<Option<(split::Cost, Vec<(Vec<usize>, Form, Vec<Piece>, String)>)>> = vec![None; run.len() + 1];
+        best[0] = Some(((0, 0), vec![]));
+        let mut first_error: Option<Diagnostic> = None;
+        for j in 1..=run.len() {
+            for i in (0..j).rev() {
+                let Some((base_cost, base)) = best[i].clone() else { continue };
+                let stmts: Vec<usize> = run[i..j].to_vec();
+                let fused = match fuse(&mut m, &stmts) {
+                    Some(v) => v,
+                    None => continue,
+                };
+                let st = m.statements[stmts[0]].clone();
+                let form = match classify(&mut m, &st, fused) {
+                    Ok(f) => f,
+                    Err(d) => {
+                        if stmts.len() == 1 {
+                            first_error.get_or_insert(d);
+                        }
+                        continue;
+                    }
+                };
+                let pieces = match plan_form(&mut m, &fit, &st, &form, float_temps, search) {
+                    Ok(p) => p,
+                    Err(o) => {
+                        if stmts.len() == 1 {
+                            first_error.get_or_insert(cannot_split(&m, &st, profile, &o));
+                        }
+                        continue;
+                    }
+                };
+                let c = split::cost(&m, &pieces);
+                let total = (base_cost.0 + c.0, base_cost.1 + c.1);
+                if best[j].as_ref().is_none_or(|(b, _)| total < *b) {
+                    let reason = if stmts.len() > 1 {
+                        format!(
+                            "statements {} fused: together they fit {} pass{} on {}",
+                            stmts.iter().map(|s| (s + 1).to_string()).collect::<Vec<_>>().join(", "),
+                            pieces.len(),
+                            if pieces.len() == 1 { "" } else { "es" },
+                            profile.name
+                        )
+                    } else {
+                        format!("statement {} as written", stmts[0] + 1)
+                    };
+                    let mut v = base;
+                    v.push((stmts, form, pieces, reason));
+                    best[j] = Some((total, v));
+                }
+            }
+        }
+        match best[run.len()].take() {
+            Some((_, v)) => chosen.extend(v),
+            None => diags.push(first_error.unwrap_or_else(|| {
+                let st = &m.statements[run[0]];
+                Diagnostic::error("cannot-plan", format!("cannot plan this statement for {}", profile.name), st.span, "here")
+                    .with_help("simplify the statement or target a profile with more resources")
+            })),
+        }
+        k += run.len();
+    }
+    if !diags.is_empty() {
+        return Err(diags);
+    }
+    let plan = assemble(&m, profile, &chosen, &texgen, removed, &at);
+    Ok(Planned { module: m, plan })
+}
+
+/// Parse, check, lower and plan `source` for `profile`.
+pub fn compile_source(source: &str, profile: &Profile) -> Result<Planned, Vec<Diagnostic>> {
+    let (program, mut diags) = crate::parser::check(source);
+    if diags.iter().any(|d| d.is_error()) {
+        diags.retain(|d| d.is_error());
+        return Err(diags);
+    }
+    let (module, lower_diags) = ir::lower(&program);
+    if lower_diags.iter().any(|d| d.is_error()) {
+        return Err(lower_diags.into_iter().filter(|d| d.is_error()).collect());
+    }
+    plan(&module, profile, Some(source))
+}
+
+fn cannot_split(m: &Module, st: &Statement, profile: &Profile, o: &Overflow) -> Diagnostic {
+    let span = o.at.map(|h| m.span(h)).filter(|s| *s != Span::DETACHED).unwrap_or(st.span);
+    Diagnostic::error(
+        "cannot-split",
+        format!("no split of this statement fits {}: a part that cannot be divided further {o}", profile.name),
+        st.span,
+        format!("{o}"),
+    )
+    .with_label(span, "this part".to_string())
+    .with_help(format!(
+        "framebuffer blending can only split sums and products (and affine ⊕ chains); compute the part per vertex, bake it into a lookup texture, or target a profile with more {}",
+        o.resource
+    ))
+}
+
+/// The framebuffer read of `st`'s own target at its own position.
+fn self_read(m: &Module, st: &Statement, channel: FbChannel) -> Option<Handle<Expr>> {
+    match st.table {
+        Table::Framebuffer { id, .. } => m.exprs.find(&Expr::FramebufferRead { framebuffer: id, channel, position: st.index }),
+        _ => None,
+    }
+}
+
+/// Whether `b` can be fused after `a`: same framebuffer, colour writes,
+/// same geometry, no stencil or discard.
+fn fusable(m: &Module, a: &Statement, b: &Statement) -> bool {
+    matches!((&a.table, &b.table), (Table::Framebuffer { id: x, channel: FbChannel::Color }, Table::Framebuffer { id: y, channel: FbChannel::Color }) if x == y)
+        && a.index == b.index
+        && a.freq == Frequency::Fragment
+        && ![a.value, b.value].iter().any(|v| matches!(m.exprs[*v], Expr::Select { reject: None, .. }))
+}
+
+/// The value of the statements `stmts` run one after another, as one value:
+/// each later statement's reads of the framebuffer replaced by the earlier
+/// value.
+fn fuse(m: &mut Module, stmts: &[usize]) -> Option<Handle<Expr>> {
+    let mut value = m.statements[stmts[0]].value;
+    for &s in &stmts[1..] {
+        let st = m.statements[s].clone();
+        let mut map: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::new();
+        if let Some(r) = self_read(m, &st, FbChannel::Color) {
+            let v = widen_rgba(m, value)?;
+            map.insert(r, v);
+        }
+        if let Some(r) = self_read(m, &st, FbChannel::Alpha) {
+            let a = Builder { module: m }.alpha(value)?;
+            map.insert(r, a);
+        }
+        value = substitute(m, st.value, &map)?;
+    }
+    Some(value)
+}
+
+/// An rgb value as the framebuffer holds it: alpha 1.
+fn widen_rgba(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
+    match m.info(h).ty {
+        ir::Ty::Rgb | ir::Ty::Vec3 => Builder { module: m }.node(Expr::Convert { value: h, to: ir::Ty::Rgba }),
+        _ => Some(h),
+    }
+}
+
+/// `h` with the nodes of `map` replaced, rebuilt bottom-up.
+pub fn substitute(m: &mut Module, h: Handle<Expr>, map: &HashMap<Handle<Expr>, Handle<Expr>>) -> Option<Handle<Expr>> {
+    let mut done: HashMap<Handle<Expr>, Handle<Expr>> = map.clone();
+    for n in m.reachable(&[h]) {
+        if done.contains_key(&n) {
+            continue;
+        }
+        let e = m.exprs[n].clone();
+        let ops = e.operands();
+        if ops.iter().all(|o| done.get(o).is_none_or(|x| x == o)) {
+            done.insert(n, n);
+            continue;
+        }
+        let new = e.map_operands(|o| *done.get(&o).unwrap_or(&o));
+        let span = m.span(n);
+        let nh = m.intern(new, span).ok()?;
+        done.insert(n, nh);
+    }
+    done.get(&h).copied()
+}
+
+/// Reads the framebuffer operation off a statement's (possibly fused) value.
+pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<Form, Diagnostic> {
+    let mut form = Form { blend: BlendMode::Replace, value, condition: None, stencil: None, depth: None, channels: "rgba", then_add: None };
+    let unsupported = |what: &str| {
+        Diagnostic::error("unsupported-blend", format!("framebuffer blending cannot express this: {what}"), st.span, "this statement")
+            .with_help("write the statement as `C ← (C) ⊕ e`, `C ← (C) ⊕[add] e`, `C ← (C) ⊕[add] ((α C) * e)`, or compute the value without reading the framebuffer")
+    };
+    match st.table {
+        Table::Texture(_) => return Ok(form),
+        Table::TexCoords(_) => unreachable!("texgen statements are vertex work"),
+        Table::Framebuffer { channel: FbChannel::Stencil, .. } => return stencil_write(m, st, value).ok_or_else(|| unsupported("this stencil update (the planner knows `σ C ← (σ C) OR (depth comparison)`, seeds/001 Section 3.5)")),
+        Table::Framebuffer { channel: FbChannel::Depth, .. } => return Err(unsupported("a write to the depth channel")),
+        Table::Framebuffer { channel: FbChannel::Alpha, .. } => form.channels = "a",
+        Table::Framebuffer { channel: FbChannel::Color, .. } => {}
+    }
+    // `σ C ? a`: a stencil test; `c ? a`: a discard.
+    if let Expr::Select { cond, accept, reject: None } = m.exprs[value].clone() {
+        if Some(cond) == self_read(m, st, FbChannel::Stencil) {
+            form.stencil = Some(StencilState { enabled: true, func: crate::renderer::CompareFunc::NotEqual, reference: 0, ..StencilState::DISABLED });
+        } else {
+            form.condition = Some(cond);
+        }
+        form.value = accept;
+    }
+    let r = self_read(m, st, FbChannel::Color);
+    let ra = self_read(m, st, FbChannel::Alpha);
+    let uses = |m: &Module, h: Handle<Expr>, x: Option<Handle<Expr>>| x.is_some_and(|x| split::depends_on(m, h, x));
+    let v = form.value;
+    if !uses(m, v, r) && !uses(m, v, ra) {
+        return Ok(form);
+    }
+    if form.channels == "a" {
+        return Err(unsupported("an alpha write that reads the framebuffer"));
+    }
+    if let Some(r) = r.filter(|r| split::depends_on(m, v, *r)) {
+        // `T ⊕[decal] C`: alpha blending.
+        if let Expr::Combine { mode: CombineMode::Decal, lhs, rhs } = m.exprs[v] {
+            if rhs == r && m.info(lhs).ty == ir::Ty::Rgba && !uses(m, lhs, Some(r)) && !uses(m, lhs, ra) {
+                form.blend = BlendMode::AlphaBlend;
+                form.value = lhs;
+                return Ok(form);
+            }
+        }
+        let (coef, offset) = affine::affine(&mut Builder { module: m }, v, r).ok_or_else(|| unsupported("the framebuffer's colour is used non-linearly"))?;
+        if let Some(ra) = ra.filter(|ra| coef == *ra) {
+            // Cα·C + (1 − Cα)·f
+            let omr = Builder { module: m }.one_minus(ra);
+            if let Some(x) = omr.and_then(|omr| alpha_factor(m, offset, omr)) {
+                form.blend = BlendMode::DstAlphaMix;
+                form.value = x;
+                return Ok(form);
+            }
+        }
+        if uses(m, coef, ra) {
+            return Err(unsupported("the framebuffer's alpha scales its own colour"));
+        }
+        let one = m.is_constant(coef, 1.0);
+        let zero = m.is_constant(offset, 0.0);
+        if one && zero {
+            form.value = offset; // C ← C: nothing to do (specialization removes it)
+            form.blend = BlendMode::Add;
+            return Ok(form);
+        }
+        if !one && uses(m, offset, ra) {
+            return Err(unsupported("both a colour scale and a destination-alpha term"));
+        }
+        if one {
+            // C + s, or C + Cα·s (GL_DST_ALPHA, GL_ONE).
+            if let Some(x) = ra.and_then(|ra| alpha_factor(m, offset, ra)) {
+                form.blend = BlendMode::DstAlphaAdd;
+                form.value = x;
+            } else if uses(m, offset, ra) {
+                return Err(unsupported("the destination alpha appears other than as a factor of the added term"));
+            } else {
+                form.blend = BlendMode::Add;
+                form.value = offset;
+            }
+        } else if zero {
+            form.blend = BlendMode::Modulate;
+            form.value = coef;
+        } else {
+            // C·m + s: modulate, then add (two passes).
+            form.blend = BlendMode::Modulate;
+            form.value = coef;
+            form.then_add = Some(offset);
+        }
+        return Ok(form);
+    }
+    // Only the alpha is read: `C ← (α C) · x` (GL_DST_ALPHA, GL_ZERO).
+    match ra.and_then(|ra| alpha_factor(m, v, ra)) {
+        Some(x) => {
+            form.blend = BlendMode::DstAlphaModulate;
+            form.value = x;
+            Ok(form)
+        }
+        None => Err(unsupported("the framebuffer's alpha is used other than as a factor")),
+    }
+}
+
+/// `h = ra · x` (either order): `x`.
+fn alpha_factor(m: &Module, h: Handle<Expr>, ra: Handle<Expr>) -> Option<Handle<Expr>> {
+    match m.exprs[h] {
+        Expr::Binary { op: BinaryOp::Mul, lhs, rhs } | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs } => {
+            if lhs == ra && !split::depends_on(m, rhs, ra) {
+                Some(rhs)
+            } else if rhs == ra && !split::depends_on(m, lhs, ra) {
+                Some(lhs)
+            } else {
+                None
+            }
+        }
+        _ => None,
+    }
+}
+
+/// `σ C δπx ← (σ C δπx) OR (z δπx′ > z C δπx′)` (seeds/001 Section 3.5):
+/// set the stencil where the fragment's depth compares with the stored one;
+/// no colour, no depth write.
+fn stencil_write(m: &Module, st: &Statement, value: Handle<Expr>) -> Option<Form> {
+    let Expr::Binary { op: BinaryOp::Or, lhs, rhs } = m.exprs[value] else { return None };
+    let own = self_read(m, st, FbChannel::Stencil)?;
+    let cmp = if lhs == own { rhs } else if rhs == own { lhs } else { return None };
+    let Expr::Binary { op, lhs: a, rhs: b } = m.exprs[cmp] else { return None };
+    let stored_is_b = matches!(m.exprs[b], Expr::FramebufferRead { channel: FbChannel::Depth, .. });
+    let func = match (op, stored_is_b) {
+        (BinaryOp::Gt, true) | (BinaryOp::Lt, false) => crate::renderer::CompareFunc::Greater,
+        (BinaryOp::Ge, true) | (BinaryOp::Le, false) => crate::renderer::CompareFunc::GreaterEqual,
+        (BinaryOp::Lt, true) | (BinaryOp::Gt, false) => crate::renderer::CompareFunc::Less,
+        (BinaryOp::Le, true) | (BinaryOp::Ge, false) => crate::renderer::CompareFunc::LessEqual,
+        _ => return None,
+    };
+    let _ = a;
+    Some(Form {
+        blend: BlendMode::Replace,
+        value,
+        condition: None,
+        stencil: Some(StencilState { enabled: true, func: crate::renderer::CompareFunc::Always, reference: 1, pass: StencilOp::Replace, ..StencilState::DISABLED }),
+        depth: Some(DepthState { func, write: false }),
+        channels: "stencil",
+        then_add: None,
+    })
+}
+
+/// The pieces of one (fused) statement.
+fn plan_form(m: &mut Module, fit: &dyn FitCheck, st: &Statement, form: &Form, float_temps: bool, search: Search) -> Result<Vec<Piece>, Overflow> {
+    if form.channels == "stencil" {
+        return Ok(vec![Piece { blend: BlendMode::Replace, value: form.value, dest: Dest::Main, alpha: true, why: String::new() }]);
+    }
+    let overflow = fit.fits(m, form.value).err();
+    let mut splitter = Splitter::new(m, fit, st.index, float_temps);
+    if search == Search::Exhaustive {
+        splitter = splitter.exhaustive();
+    }
+    let mut pieces: Vec<Piece> = match splitter.plan(form.blend, form.value) {
+        Some(p) => p.iter().cloned().collect(),
+        None => return Err(overflow.unwrap_or(Overflow { resource: "resources".into(), need: 0, have: 0, at: None })),
+    };
+    if let Some(s) = form.then_add {
+        let o = fit.fits(splitter.module, s).err();
+        match splitter.plan(BlendMode::Add, s) {
+            Some(p) => pieces.extend(p.iter().cloned().map(|q| Piece { why: "C ← C·m + s: the added term, after the modulation".into(), ..q })),
+            None => return Err(o.unwrap_or(Overflow { resource: "resources".into(), need: 0, have: 0, at: None })),
+        }
+    }
+    Ok(pieces)
+}
+
+fn assemble(
+    m: &Module,
+    profile: &Profile,
+    chosen: &[(Vec<usize>, Form, Vec<Piece>, String)],
+    texgen: &HashMap<u32, String>,
+    removed: Vec<Removed>,
+    at: &dyn Fn(Span) -> String,
+) -> PassPlan {
+    let mut passes = Vec::new();
+    let mut drawn: Vec<(Table, Handle<Expr>)> = Vec::new();
+    let mut roots = Vec::new();
+    for (stmts, form, pieces, reason) in chosen {
+        let st = &m.statements[stmts[0]];
+        let n = pieces.len();
+        for (pi, piece) in pieces.iter().enumerate() {
+            let target = match (piece.dest, &st.table) {
+                (Dest::Temp(id), _) => RenderTarget::Temporary { name: format!("temp{id}") },
+                (Dest::Main, Table::Framebuffer { id, .. }) => RenderTarget::Framebuffer { name: m.framebuffers[*id as usize].name.clone(), channels: form.channels.to_string() },
+                (Dest::Main, Table::Texture(id)) => RenderTarget::Texture { name: m.textures[*id as usize].name.clone() },
+                (Dest::Main, Table::TexCoords(_)) => unreachable!(),
+            };
+            let mesh = st.freq == Frequency::Fragment || (st.freq == Frequency::Texel && !m.reachable(&[st.index]).iter().all(|h| !matches!(m.exprs[*h], Expr::VertexPosition(_))));
+            let geometry = if st.freq == Frequency::Screen {
+                Geometry::Screen
+            } else if mesh {
+                Geometry::Mesh { projection: projection_name(m, st.index) }
+            } else {
+                Geometry::Texels
+            };
+            let u = Usage::of_value(m, piece.value);
+            let mut textures: Vec<TextureBinding> = u
+                .lookups
+                .iter()
+                .map(|&h| {
+                    let Expr::Lookup { texture, coords } = m.exprs[h] else { unreachable!() };
+                    TextureBinding { unit: 0, texture: m.textures[texture as usize].name.clone(), lookup: h.index() as u32, coords: coords.index() as u32 }
+                })
+                .collect();
+            let own = |h: Handle<Expr>| matches!(m.exprs[h], Expr::FramebufferRead { framebuffer, position, .. } if matches!(st.table, Table::Framebuffer { id, .. } if id == framebuffer) && position == st.index);
+            for &h in &u.framebuffer_reads {
+                if own(h) {
+                    continue;
+                }
+                let Expr::FramebufferRead { framebuffer, position, .. } = m.exprs[h] else { unreachable!() };
+                textures.push(TextureBinding { unit: 0, texture: m.framebuffers[framebuffer as usize].name.clone(), lookup: h.index() as u32, coords: position.index() as u32 });
+            }
+            for (i, t) in textures.iter_mut().enumerate() {
+                t.unit = i as u32;
+            }
+            let reached = m.reachable(&[piece.value]);
+            let mut gen: Vec<String> = reached
+                .iter()
+                .filter_map(|h| match m.exprs[*h] {
+                    Expr::TexCoord { set, .. } => texgen.get(&set).cloned(),
+                    _ => None,
+                })
+                .collect();
+            gen.dedup();
+            let operations = reached.iter().filter(|h| m.info(**h).freq.is_sample() && matches!(m.exprs[**h], Expr::Binary { .. } | Expr::Unary { .. } | Expr::Math { .. } | Expr::Combine { .. } | Expr::Select { .. })).count();
+            let key = (st.table.clone(), st.index);
+            let depth = form.depth.unwrap_or(match geometry {
+                Geometry::Mesh { .. } if drawn.contains(&key) => DepthState::EQUAL_NO_WRITE,
+                Geometry::Mesh { .. } => DepthState::LESS_WRITE,
+                _ => DepthState::DISABLED,
+            });
+            if matches!(geometry, Geometry::Mesh { .. }) && piece.dest == Dest::Main && !drawn.contains(&key) {
+                drawn.push(key);
+            }
+            let mask = match form.channels {
+                "a" => [false, false, false, true],
+                "stencil" => [false; 4],
+                _ => [true, true, true, piece.alpha],
+            };
+            let state = RenderState {
+                cull: if matches!(geometry, Geometry::Mesh { .. }) { CullMode::Back } else { CullMode::None },
+                depth,
+                stencil: form.stencil.unwrap_or(StencilState::DISABLED),
+                blend: BlendState { ..piece.blend.render_state().with_write_mask(mask) },
+            };
+            let why = if n == 1 { reason.clone() } else { format!("{reason}; {}", piece.why) };
+            let pass_reason = if n > 1 { format!("statement {} split ({} of {n}): {}", stmts[0] + 1, pi + 1, piece.why) } else { why };
+            roots.push(piece.value);
+            roots.push(st.index);
+            roots.extend(form.condition);
+            passes.push(Pass {
+                statements: stmts.clone(),
+                at: at(st.span),
+                reason: pass_reason,
+                target,
+                geometry,
+                vertex: VertexWork { position: mesh.then_some(st.index.index() as u32), interpolants: u.interpolants.iter().map(|h| h.index() as u32).collect(), texgen: gen },
+                textures,
+                fragment: FragmentWork { output: piece.value.index() as u32, operations, condition: form.condition.map(|c| c.index() as u32) },
+                blend: piece.blend,
+                state,
+            });
+        }
+    }
+    let values = m
+        .reachable(&roots)
+        .into_iter()
+        .map(|h| {
+            let info = m.info(h);
+            Value {
+                id: h.index() as u32,
+                op: ir::dump::node(m, &m.exprs[h]),
+                ty: info.ty.name(),
+                freq: info.freq.name().to_string(),
+                range: match info.range() {
+                    ir::Range::Unsigned => "[0,1]".into(),
+                    ir::Range::Signed => "[-1,1]".into(),
+                    ir::Range::Unbounded => "unbounded".into(),
+                },
+                at: at(m.span(h)),
+            }
+        })
+        .collect();
+    let _ = FragmentStage::Programmable;
+    PassPlan { target: profile.name.clone(), passes, removed, values }
+}
+
+/// `π`, `πl`, `π*`, or `u` for a statement's index.
+fn projection_name(m: &Module, index: Handle<Expr>) -> String {
+    for h in m.reachable(&[index]).into_iter().rev() {
+        if let Expr::Project { projection, .. } = &m.exprs[h] {
+            let mut s = String::from(if projection.inverse { "π⁻¹" } else { "π" });
+            if let Some(sub) = &projection.subscript {
+                s += sub;
+            }
+            if projection.star {
+                s += "*";
+            }
+            return s;
+        }
+    }
+    "u".to_string()
+}

@@ -1,0 +1,220 @@
+//! The pass plan as data: what `shadec::compile` returns and
+//! `shadec compile --emit plan` writes (RON or JSON). The schema is
+//! documented in `docs/pass-plan.md`; a plan serializes and loads back
+//! identical (tested).
+//!
+//! A plan is self-describing: every IR value a pass uses is listed once in
+//! `values` (id = the IR handle's index, readable operation text, type,
+//! frequency, range and source position), and passes refer to values by id.
+
+use serde::{Deserialize, Serialize};
+
+use crate::renderer::RenderState;
+
+/// The plan of a whole program on one target.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PassPlan {
+    /// The profile the plan is for (`geforce256`, `geforce3`, `multitexture`, `wgsl`, or a file's).
+    pub target: String,
+    /// Rendering passes in the order they run.
+    pub passes: Vec<Pass>,
+    /// What specialization removed, and why.
+    pub removed: Vec<Removed>,
+    /// Every IR value the passes refer to, in topological order.
+    pub values: Vec<Value>,
+}
+
+/// One rendering pass.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Pass {
+    /// Which source statements this pass implements (0-based, in source
+    /// order); several when statements were fused, one statement may need
+    /// several passes when it was split.
+    pub statements: Vec<usize>,
+    /// `line:col` of the first statement.
+    pub at: String,
+    /// Why this pass exists: the statement it implements, the limit that
+    /// forced a split, or the fusion that made it.
+    pub reason: String,
+    pub target: RenderTarget,
+    /// What is rasterized.
+    pub geometry: Geometry,
+    pub vertex: VertexWork,
+    /// Texture unit `i` is `textures[i]`.
+    pub textures: Vec<TextureBinding>,
+    pub fragment: FragmentWork,
+    /// How the fragment colour meets the target, in the paper's terms
+    /// (`replace`, `add`, `modulate`, `dst_alpha_add`, …).
+    pub blend: BlendMode,
+    /// Cull, depth, stencil and GL blend factors, as the renderers take them.
+    pub state: RenderState,
+}
+
+/// Where a pass writes.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum RenderTarget {
+    /// A declared framebuffer; `channels` are the ones written (`rgba`, `a`, `stencil`).
+    Framebuffer { name: String, channels: String },
+    /// A declared texture rendered into (texture shading, deferred shading).
+    Texture { name: String },
+    /// A screen-sized texture the planner introduced to hold an
+    /// intermediate value (render-to-texture split).
+    Temporary { name: String },
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Geometry {
+    /// The scene's meshes, projected by `projection` (`π`, `πl`, `π*`).
+    Mesh { projection: String },
+    /// One full-screen rectangle (a screen pass, `C xs ←`).
+    Screen,
+    /// The texel grid of a texture (texture shading, `T δu ←`).
+    Texels,
+}
+
+/// Per-vertex work: the values the vertex stage computes and the rasterizer
+/// interpolates (δ), and the texture-coordinate sets generated per vertex.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct VertexWork {
+    /// The clip-space position (`π x`), when geometry is a mesh.
+    pub position: Option<u32>,
+    /// `Interpolate` values the fragment stage reads.
+    pub interpolants: Vec<u32>,
+    /// Texgen statements (`u x ← …`, seeds/001 (7)) this pass evaluates per vertex.
+    pub texgen: Vec<String>,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct TextureBinding {
+    pub unit: u32,
+    /// The declared texture's name, or a temporary's.
+    pub texture: String,
+    /// The lookup node and its coordinates.
+    pub lookup: u32,
+    pub coords: u32,
+}
+
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FragmentWork {
+    /// The colour the fragment stage outputs (before blending).
+    pub output: u32,
+    /// Per-sample operations (nodes) the stage evaluates.
+    pub operations: usize,
+    /// Discard the fragment where this value is zero (`c ? a` with no `:`,
+    /// seeds/001 Section 3.5), when the condition is not a stencil test.
+    pub condition: Option<u32>,
+}
+
+/// The framebuffer operation of a pass (seeds/001 (9): `C ← C ⊕ …`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum BlendMode {
+    /// `C ← f` (glBlendFunc(GL_ONE, GL_ZERO)).
+    Replace,
+    /// `C ← C + f` (GL_ONE, GL_ONE).
+    Add,
+    /// `C ← C · f` (GL_DST_COLOR, GL_ZERO).
+    Modulate,
+    /// `C ← C + Cα · f` (GL_DST_ALPHA, GL_ONE): seeds/003 Section 5.5.
+    DstAlphaAdd,
+    /// `C ← Cα · f` (GL_DST_ALPHA, GL_ZERO).
+    DstAlphaModulate,
+    /// `C ← fα · f + (1 − fα) · C` (GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA): decal.
+    AlphaBlend,
+    /// `C ← Cα · C + (1 − Cα) · f` (GL_ONE_MINUS_DST_ALPHA, GL_DST_ALPHA):
+    /// a mask kept in destination alpha chooses between C and f (the
+    /// shadow-mask compositing pass).
+    DstAlphaMix,
+}
+
+impl BlendMode {
+    pub fn render_state(self) -> crate::renderer::BlendState {
+        use crate::renderer::BlendState as B;
+        match self {
+            BlendMode::Replace => B::REPLACE,
+            BlendMode::Add => B::ADD,
+            BlendMode::Modulate => B::MODULATE,
+            BlendMode::DstAlphaAdd => B::DEST_ALPHA_ADD,
+            BlendMode::DstAlphaModulate => B::DEST_ALPHA_MODULATE,
+            BlendMode::AlphaBlend => B::ALPHA_BLEND,
+            BlendMode::DstAlphaMix => B::factors(crate::renderer::BlendFactor::OneMinusDstAlpha, crate::renderer::BlendFactor::DstAlpha),
+        }
+    }
+
+    pub fn name(self) -> &'static str {
+        match self {
+            BlendMode::Replace => "replace",
+            BlendMode::Add => "add",
+            BlendMode::Modulate => "modulate",
+            BlendMode::DstAlphaAdd => "dst_alpha_add",
+            BlendMode::DstAlphaModulate => "dst_alpha_modulate",
+            BlendMode::AlphaBlend => "alpha_blend",
+            BlendMode::DstAlphaMix => "dst_alpha_mix",
+        }
+    }
+}
+
+/// One IR value as the plan document shows it.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Value {
+    pub id: u32,
+    /// The operation, operands as `%id` (the `--emit ir` notation).
+    pub op: String,
+    pub ty: String,
+    pub freq: String,
+    pub range: String,
+    /// `line:col` in the source, or `-` for values the planner built.
+    pub at: String,
+}
+
+/// Something specialization removed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Removed {
+    /// `term`, `texture`, `pass`, `declaration`, `light`.
+    pub kind: String,
+    pub what: String,
+    pub why: String,
+    pub at: String,
+}
+
+impl PassPlan {
+    pub fn to_ron(&self) -> String {
+        ron::ser::to_string_pretty(self, ron::ser::PrettyConfig::default().struct_names(true)).expect("a pass plan serializes")
+    }
+
+    pub fn to_json(&self) -> String {
+        serde_json::to_string_pretty(self).expect("a pass plan serializes")
+    }
+
+    pub fn from_ron(text: &str) -> Result<PassPlan, String> {
+        ron::from_str(text).map_err(|e| e.to_string())
+    }
+
+    pub fn from_json(text: &str) -> Result<PassPlan, String> {
+        serde_json::from_str(text).map_err(|e| e.to_string())
+    }
+
+    /// Total texture fetches per covered pixel over all passes.
+    pub fn fetches(&self) -> usize {
+        self.passes.iter().map(|p| p.textures.len()).sum()
+    }
+
+    /// One line per pass: what a person reads first.
+    pub fn summary(&self) -> String {
+        let mut s = format!("{} pass{} on {}\n", self.passes.len(), if self.passes.len() == 1 { "" } else { "es" }, self.target);
+        for (i, p) in self.passes.iter().enumerate() {
+            let target = match &p.target {
+                RenderTarget::Framebuffer { name, channels } => format!("{name}.{channels}"),
+                RenderTarget::Texture { name } | RenderTarget::Temporary { name } => name.clone(),
+            };
+            let units: Vec<&str> = p.textures.iter().map(|t| t.texture.as_str()).collect();
+            s += &format!(
+                "  pass {}: {target} ← {} [{}]  — {}\n",
+                i + 1,
+                p.blend.name(),
+                if units.is_empty() { "no textures".to_string() } else { units.join(", ") },
+                p.reason
+            );
+        }
+        s
+    }
+}

@@ -1,0 +1,97 @@
+//! Specialization basics (issue 3 part 5): constants are folded while
+//! lowering; here terms whose coefficient is exactly zero are dropped
+//! (`0 · T δu x` costs no texture unit), sums with zero and products with
+//! one are simplified, selections on a constant condition take their
+//! branch — and every removal is reported, with the textures and passes
+//! that only the removed terms used.
+
+use std::collections::HashMap;
+
+use super::affine::Builder;
+use super::plan::Removed;
+use crate::ir::{BinaryOp, Expr, FbChannel, Handle, Module, Statement, Table};
+use crate::parser::ast::CombineMode;
+use crate::span::Span;
+
+/// Simplifies every statement of `m` in place; returns what went.
+pub fn specialize(m: &mut Module, at: &dyn Fn(Span) -> String) -> Vec<Removed> {
+    let mut removed = Vec::new();
+    let used_before = used_textures(m);
+    for i in 0..m.statements.len() {
+        let v = m.statements[i].value;
+        if let Some(nv) = simplify(m, v, &mut removed, at) {
+            m.statements[i].value = nv;
+        }
+    }
+    let used_after = used_textures(m);
+    for t in used_before.difference(&used_after) {
+        let tex = &m.textures[*t as usize];
+        removed.push(Removed { kind: "texture".into(), what: tex.name.clone(), why: "only removed terms used it".into(), at: at(tex.span) });
+    }
+    removed
+}
+
+fn used_textures(m: &Module) -> std::collections::BTreeSet<u32> {
+    let roots: Vec<Handle<Expr>> = m.statements.iter().map(|s| s.value).collect();
+    m.reachable(&roots)
+        .into_iter()
+        .filter_map(|h| match m.exprs[h] {
+            Expr::Lookup { texture, .. } => Some(texture),
+            _ => None,
+        })
+        .collect()
+}
+
+fn simplify(m: &mut Module, root: Handle<Expr>, removed: &mut Vec<Removed>, at: &dyn Fn(Span) -> String) -> Option<Handle<Expr>> {
+    let mut new: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::new();
+    for h in m.reachable(&[root]) {
+        let e = m.exprs[h].clone();
+        let mapped = e.map_operands(|o| new[&o]);
+        let ty = m.info(h).ty;
+        let span = m.span(h);
+        let zero = |m: &Module, x: Handle<Expr>| m.is_constant(x, 0.0);
+        let one = |m: &Module, x: Handle<Expr>| m.is_constant(x, 1.0);
+        let same_ty = |m: &Module, x: Handle<Expr>| m.info(x).ty == ty;
+        let result = match mapped {
+            Expr::Binary { op: BinaryOp::Mul, lhs, rhs } | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs } if zero(m, lhs) || zero(m, rhs) => {
+                let dropped = if zero(m, lhs) { rhs } else { lhs };
+                if !matches!(m.exprs[dropped], Expr::Constant(_)) {
+                    removed.push(Removed {
+                        kind: "term".into(),
+                        what: format!("the term at {}", at(m.span(dropped))),
+                        why: "its coefficient is exactly zero".into(),
+                        at: at(span),
+                    });
+                }
+                Builder { module: m }.constant(ty, 0.0)
+            }
+            Expr::Binary { op: BinaryOp::Add, lhs, rhs } | Expr::Combine { mode: CombineMode::Add, lhs, rhs } if zero(m, lhs) && same_ty(m, rhs) => Some(rhs),
+            Expr::Binary { op: BinaryOp::Add | BinaryOp::Sub, lhs, rhs } | Expr::Combine { mode: CombineMode::Add, lhs, rhs } if zero(m, rhs) && same_ty(m, lhs) => Some(lhs),
+            Expr::Binary { op: BinaryOp::Mul, lhs, rhs } | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs } if one(m, lhs) && same_ty(m, rhs) => Some(rhs),
+            Expr::Binary { op: BinaryOp::Mul, lhs, rhs } | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs } if one(m, rhs) && same_ty(m, lhs) => Some(lhs),
+            Expr::Select { cond, accept, reject: Some(reject) } if matches!(m.exprs[cond], Expr::Constant(_)) => {
+                let take = if zero(m, cond) { reject } else { accept };
+                same_ty(m, take).then_some(take)
+            }
+            other => m.intern(other, span).ok(),
+        };
+        new.insert(h, result.unwrap_or(h));
+    }
+    new.get(&root).copied()
+}
+
+/// Whether a statement leaves its target as it was (`C ← C`, `C ← C ⊕[add] 0`).
+pub fn is_noop(m: &Module, st: &Statement) -> bool {
+    let Table::Framebuffer { id, channel } = st.table else { return false };
+    let own = m.exprs.find(&Expr::FramebufferRead { framebuffer: id, channel, position: st.index });
+    if own == Some(st.value) {
+        return true;
+    }
+    let own_color = m.exprs.find(&Expr::FramebufferRead { framebuffer: id, channel: FbChannel::Color, position: st.index });
+    match m.exprs[st.value] {
+        Expr::Binary { op: BinaryOp::Add, lhs, rhs } | Expr::Combine { mode: CombineMode::Add, lhs, rhs } => {
+            (Some(lhs) == own_color && m.is_constant(rhs, 0.0)) || (Some(rhs) == own_color && m.is_constant(lhs, 0.0))
+        }
+        _ => false,
+    }
+}

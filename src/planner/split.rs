@@ -1,0 +1,485 @@
+//! Splitting one value into passes joined by framebuffer blending — the
+//! heart of the planner (issue 3 part 3).
+//!
+//! # The space of plans
+//!
+//! A value `e` is written into the framebuffer with a blend mode (`replace`
+//! for a plain statement, `add`/`modulate`/… for `C ← C ⊕ e`). If `e` fits
+//! one pass it is one pass. Otherwise three moves are tried, recursively:
+//!
+//! 1. **Chain split.** `e` is a sum or a product of operands `o₁ … oₙ`
+//!    (`+`, `⊕[add]`; `*`, `⊕`): partition the operands into groups that
+//!    each fit a pass; the first group replaces (or is itself planned
+//!    recursively, the *head*), the others are added or modulated in —
+//!    multipass rendering, seeds/001 (9).
+//! 2. **Affine peel.** `e = X·m + s` for a sub-value `X` (`affine.rs`):
+//!    render `X` first, then modulate by `m` and add `s` (one pass each, or
+//!    none when `m = 1` / `s = 0`); `T ⊕[decal] X` is `X` then one
+//!    alpha-blended pass of `T`.
+//! 3. **Render to texture.** A blended term that fits no pass is planned into
+//!    a screen-sized temporary texture, then blended in with one lookup.
+//!
+//! Plans are compared by passes, then texture fetches. The search memoizes
+//! on (mode, value), partitions chains exactly by dynamic programming over
+//! subsets when they have at most [`EXACT_CHAIN`] operands (greedily above),
+//! and tries at most [`MAX_PEEL_CANDIDATES`] sub-values per peel. In
+//! exhaustive mode (tests) memoization, the subset DP and the greedy path
+//! are off: every set partition is enumerated — the optimality test checks
+//! that both agree on pass counts.
+
+use std::collections::HashMap;
+use std::rc::Rc;
+
+use super::affine::{affine, contains, Builder};
+use super::plan::BlendMode;
+use crate::ir::{BinaryOp, Expr, Handle, Module, Texture, Ty, Usage};
+use crate::parser::ast::{CombineMode, TextureFormat, TextureKind};
+use crate::span::Span;
+
+/// Chains up to this many operands are partitioned exactly.
+pub const EXACT_CHAIN: usize = 12;
+/// Sub-values tried as the first pass of an affine peel.
+pub const MAX_PEEL_CANDIDATES: usize = 48;
+/// Bound on nested splits (each level is at least one more pass).
+const MAX_DEPTH: usize = 8;
+
+/// Why a value does not fit one pass.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Overflow {
+    /// What ran out, or (with `need` 1 and `have` 0) what the target lacks.
+    pub resource: String,
+    pub need: usize,
+    pub have: usize,
+    /// The node most responsible (for diagnostics), if one stands out.
+    pub at: Option<Handle<Expr>>,
+}
+
+impl std::fmt::Display for Overflow {
+    fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
+        if self.have == 0 && self.need == 1 {
+            write!(f, "needs {}, which the target cannot compute in a pass", self.resource)
+        } else {
+            write!(f, "needs {} {}; the target has {}", self.need, self.resource, self.have)
+        }
+    }
+}
+
+/// Does a value fit one pass? (A profile's limits; tests may plug in others.)
+pub trait FitCheck {
+    fn fits(&self, module: &Module, value: Handle<Expr>) -> Result<(), Overflow>;
+}
+
+/// Where a piece is written.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Dest {
+    /// The statement's own target.
+    Main,
+    /// A temporary texture (render-to-texture).
+    Temp(u32),
+}
+
+/// One pass of a split: `dest ← dest <blend> value`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Piece {
+    pub blend: BlendMode,
+    pub value: Handle<Expr>,
+    pub dest: Dest,
+    /// Whether the pass writes alpha: an rgb value split into passes writes
+    /// alpha 1 once, in its first pass, and keeps it after.
+    pub alpha: bool,
+    /// How the split produced this piece.
+    pub why: String,
+}
+
+pub type Pieces = Rc<Vec<Piece>>;
+
+/// (passes, texture fetches): what the planner minimizes, in that order.
+pub type Cost = (usize, usize);
+
+pub fn cost(module: &Module, pieces: &[Piece]) -> Cost {
+    (pieces.len(), pieces.iter().map(|p| Usage::of_value(module, p.value).texture_units()).sum())
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum ChainOp {
+    Add,
+    Mul,
+}
+
+pub struct Splitter<'a> {
+    pub module: &'a mut Module,
+    fit: &'a dyn FitCheck,
+    exhaustive: bool,
+    memo: HashMap<(BlendMode, Handle<Expr>), Option<Pieces>>,
+    temps: HashMap<Handle<Expr>, u32>,
+    /// Screen position the temporaries are read at (the statement's index).
+    position: Handle<Expr>,
+    float_temps: bool,
+}
+
+impl<'a> Splitter<'a> {
+    pub fn new(module: &'a mut Module, fit: &'a dyn FitCheck, position: Handle<Expr>, float_temps: bool) -> Splitter<'a> {
+        Splitter { module, fit, exhaustive: false, memo: HashMap::new(), temps: HashMap::new(), position, float_temps }
+    }
+
+    /// The brute-force variant the optimality test compares against.
+    pub fn exhaustive(mut self) -> Self {
+        self.exhaustive = true;
+        self
+    }
+
+    fn cost(&self, p: &[Piece]) -> Cost {
+        cost(self.module, p)
+    }
+
+    fn fits(&self, h: Handle<Expr>) -> Result<(), Overflow> {
+        self.fit.fits(self.module, h)
+    }
+
+    /// The cheapest plan writing `e` with `mode`, or `None` when no split
+    /// in the space above makes it fit.
+    pub fn plan(&mut self, mode: BlendMode, e: Handle<Expr>) -> Option<Pieces> {
+        self.plan_at(mode, e, 0)
+    }
+
+    fn plan_at(&mut self, mode: BlendMode, e: Handle<Expr>, depth: usize) -> Option<Pieces> {
+        if !self.exhaustive {
+            if let Some(r) = self.memo.get(&(mode, e)) {
+                return r.clone();
+            }
+        }
+        let r = self.search(mode, e, depth);
+        if !self.exhaustive {
+            self.memo.insert((mode, e), r.clone());
+        }
+        r
+    }
+
+    fn search(&mut self, mode: BlendMode, e: Handle<Expr>, depth: usize) -> Option<Pieces> {
+        let overflow = match self.fits(e) {
+            Ok(()) => return Some(Rc::new(vec![Piece { blend: mode, value: e, dest: Dest::Main, alpha: true, why: String::new() }])),
+            Err(o) => o,
+        };
+        if depth >= MAX_DEPTH {
+            return None;
+        }
+        // An rgb value written as rgba (alpha 1): split the colour, write
+        // alpha in the first pass only.
+        if let (BlendMode::Replace, Expr::Convert { value, to: Ty::Rgba }) = (mode, &self.module.exprs[e]) {
+            if matches!(self.module.info(*value).ty, Ty::Rgb | Ty::Vec3) {
+                let inner = self.plan_at(mode, *value, depth)?;
+                let first_main = inner.iter().position(|p| p.dest == Dest::Main);
+                return Some(Rc::new(inner.iter().enumerate().map(|(i, p)| Piece { alpha: p.dest != Dest::Main || Some(i) == first_main, ..p.clone() }).collect()));
+            }
+        }
+        let mut best: Option<Vec<Piece>> = None;
+        let consider = |s: &Self, cand: Vec<Piece>, best: &mut Option<Vec<Piece>>| {
+            if best.as_ref().is_none_or(|b| s.cost(&cand) < s.cost(b)) {
+                *best = Some(cand);
+            }
+        };
+        if let Some(c) = self.chain_split(mode, e, depth, &overflow) {
+            consider(self, c, &mut best);
+        }
+        if mode == BlendMode::Replace {
+            for c in self.peels(e, depth, &overflow) {
+                consider(self, c, &mut best);
+            }
+        } else if let Some(c) = self.render_to_texture(mode, e, depth, &overflow) {
+            consider(self, c, &mut best);
+        }
+        best.map(Rc::new)
+    }
+
+    // ---- chain split ----------------------------------------------------
+
+    fn chain_op(&self, h: Handle<Expr>) -> Option<ChainOp> {
+        match &self.module.exprs[h] {
+            Expr::Binary { op: BinaryOp::Add, .. } | Expr::Combine { mode: CombineMode::Add, .. } => Some(ChainOp::Add),
+            Expr::Binary { op: BinaryOp::Mul, .. } | Expr::Combine { mode: CombineMode::Modulate, .. } => Some(ChainOp::Mul),
+            _ => None,
+        }
+    }
+
+    /// The operands of a maximal sum or product rooted at `e`.
+    fn flatten(&self, e: Handle<Expr>, op: ChainOp, out: &mut Vec<Handle<Expr>>) {
+        if self.chain_op(e) == Some(op) {
+            for o in self.module.operands(e) {
+                self.flatten(o, op, out);
+            }
+        } else {
+            out.push(e);
+        }
+    }
+
+    /// One node for the sum or product of `ops`, in their order.
+    fn build_chain(&mut self, op: ChainOp, ops: &[Handle<Expr>]) -> Option<Handle<Expr>> {
+        let mut acc = ops[0];
+        for &o in &ops[1..] {
+            let mut b = Builder { module: self.module };
+            let (bin, comb) = match op {
+                ChainOp::Add => (BinaryOp::Add, CombineMode::Add),
+                ChainOp::Mul => (BinaryOp::Mul, CombineMode::Modulate),
+            };
+            acc = b.binary(bin, acc, o).or_else(|| b.node(Expr::Combine { mode: comb, lhs: acc, rhs: o }))?;
+        }
+        Some(acc)
+    }
+
+    fn chain_split(&mut self, mode: BlendMode, e: Handle<Expr>, depth: usize, overflow: &Overflow) -> Option<Vec<Piece>> {
+        let op = self.chain_op(e)?;
+        let (first, rest) = match (mode, op) {
+            (BlendMode::Replace, ChainOp::Add) => (BlendMode::Replace, BlendMode::Add),
+            (BlendMode::Replace, ChainOp::Mul) => (BlendMode::Replace, BlendMode::Modulate),
+            (BlendMode::Add, ChainOp::Add) => (BlendMode::Add, BlendMode::Add),
+            (BlendMode::Modulate, ChainOp::Mul) => (BlendMode::Modulate, BlendMode::Modulate),
+            (BlendMode::DstAlphaAdd, ChainOp::Add) => (BlendMode::DstAlphaAdd, BlendMode::DstAlphaAdd),
+            (BlendMode::DstAlphaModulate, ChainOp::Mul) => (BlendMode::DstAlphaModulate, BlendMode::Modulate),
+            _ => return None,
+        };
+        let mut ops = Vec::new();
+        self.flatten(e, op, &mut ops);
+        let what = if op == ChainOp::Add { "sum" } else { "product" };
+        let n = ops.len();
+        let why = |k: usize, groups: usize, blend: BlendMode| {
+            format!("{overflow}: split the {what} of {n} terms into {groups} passes; part {k} of {groups}, {}", blend.name())
+        };
+        let mut best: Option<Vec<Piece>> = None;
+        let mut keep = |s: &Self, cand: Vec<Piece>| {
+            if best.as_ref().is_none_or(|b| s.cost(&cand) < s.cost(b)) {
+                best = Some(cand);
+            }
+        };
+        // Plain partitions: every group one pass.
+        for groups in self.partitions(op, &ops) {
+            let g = groups.len();
+            let mut pieces = Vec::new();
+            for (k, group) in groups.into_iter().enumerate() {
+                let blend = if k == 0 { first } else { rest };
+                pieces.push(Piece { blend, value: group, dest: Dest::Main, alpha: true, why: why(k + 1, g, blend) });
+            }
+            keep(self, pieces);
+        }
+        // A head planned on its own (several passes), the rest grouped after it.
+        if mode == BlendMode::Replace {
+            for i in 0..n {
+                let others: Vec<Handle<Expr>> = ops.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, h)| *h).collect();
+                if self.fits(ops[i]).is_ok() {
+                    continue; // then it is just a group of a plain partition
+                }
+                let Some(head) = self.plan_at(BlendMode::Replace, ops[i], depth + 1) else { continue };
+                for groups in self.partitions(op, &others) {
+                    let g = groups.len() + 1;
+                    let mut pieces: Vec<Piece> = head.iter().cloned().collect();
+                    for (k, group) in groups.into_iter().enumerate() {
+                        pieces.push(Piece { blend: rest, value: group, dest: Dest::Main, alpha: true, why: why(k + 2, g, rest) });
+                    }
+                    keep(self, pieces);
+                }
+            }
+        }
+        best
+    }
+
+    /// Partitions of `ops` into groups that each fit one pass, as chain
+    /// nodes. Normal mode yields the best one (exact DP over subsets, or
+    /// first-fit for long chains); exhaustive mode yields every partition.
+    fn partitions(&mut self, op: ChainOp, ops: &[Handle<Expr>]) -> Vec<Vec<Handle<Expr>>> {
+        let n = ops.len();
+        if n == 0 {
+            return vec![vec![]];
+        }
+        if self.exhaustive {
+            let mut out = Vec::new();
+            let mut groups: Vec<Vec<usize>> = Vec::new();
+            self.enumerate(op, ops, 0, &mut groups, &mut out);
+            return out;
+        }
+        if n > EXACT_CHAIN {
+            return self.first_fit(op, ops).into_iter().collect();
+        }
+        // fits[mask]: the group's node when the subset fits one pass.
+        let full = (1usize << n) - 1;
+        let mut group: Vec<Option<(Handle<Expr>, usize)>> = vec![None; full + 1];
+        for (mask, slot) in group.iter_mut().enumerate().skip(1) {
+            let members: Vec<Handle<Expr>> = (0..n).filter(|i| mask & (1 << i) != 0).map(|i| ops[i]).collect();
+            if let Some(h) = self.build_chain(op, &members) {
+                if self.fits(h).is_ok() {
+                    *slot = Some((h, Usage::of_value(self.module, h).texture_units()));
+                }
+            }
+        }
+        // best[mask] = (cost, chosen first subset)
+        let mut best: Vec<Option<(Cost, usize)>> = vec![None; full + 1];
+        best[0] = Some(((0, 0), 0));
+        for mask in 1..=full {
+            let low = mask & mask.wrapping_neg();
+            let mut sub = mask;
+            while sub > 0 {
+                if sub & low != 0 {
+                    if let (Some((_, f)), Some((c, _))) = (group[sub], best[mask ^ sub]) {
+                        let cand = (c.0 + 1, c.1 + f);
+                        if best[mask].is_none_or(|(b, _)| cand < b) {
+                            best[mask] = Some((cand, sub));
+                        }
+                    }
+                }
+                sub = (sub - 1) & mask;
+            }
+        }
+        let mut out = Vec::new();
+        let mut mask = full;
+        while mask != 0 {
+            let Some((_, sub)) = best[mask] else { return vec![] };
+            out.push(group[sub].expect("chosen groups fit").0);
+            mask ^= sub;
+        }
+        vec![out]
+    }
+
+    fn enumerate(
+        &mut self,
+        op: ChainOp,
+        ops: &[Handle<Expr>],
+        i: usize,
+        groups: &mut Vec<Vec<usize>>,
+        out: &mut Vec<Vec<Handle<Expr>>>,
+    ) {
+        if i == ops.len() {
+            let mut nodes = Vec::new();
+            for g in groups.iter() {
+                let members: Vec<Handle<Expr>> = g.iter().map(|&j| ops[j]).collect();
+                match self.build_chain(op, &members) {
+                    Some(h) if self.fits(h).is_ok() => nodes.push(h),
+                    _ => return,
+                }
+            }
+            out.push(nodes);
+            return;
+        }
+        for k in 0..groups.len() {
+            groups[k].push(i);
+            self.enumerate(op, ops, i + 1, groups, out);
+            groups[k].pop();
+        }
+        groups.push(vec![i]);
+        self.enumerate(op, ops, i + 1, groups, out);
+        groups.pop();
+    }
+
+    /// Long chains: operands with the most texture units first, each into the
+    /// first group it fits.
+    fn first_fit(&mut self, op: ChainOp, ops: &[Handle<Expr>]) -> Option<Vec<Handle<Expr>>> {
+        let mut order: Vec<Handle<Expr>> = ops.to_vec();
+        order.sort_by_key(|h| std::cmp::Reverse(Usage::of_value(self.module, *h).texture_units()));
+        let mut groups: Vec<Vec<Handle<Expr>>> = Vec::new();
+        'next: for o in order {
+            for g in groups.iter_mut() {
+                g.push(o);
+                if let Some(h) = self.build_chain(op, g) {
+                    if self.fits(h).is_ok() {
+                        continue 'next;
+                    }
+                }
+                g.pop();
+            }
+            self.fits(o).ok()?;
+            groups.push(vec![o]);
+        }
+        groups.iter().map(|g| self.build_chain(op, g)).collect()
+    }
+
+    // ---- affine peel ----------------------------------------------------
+
+    fn peels(&mut self, e: Handle<Expr>, depth: usize, overflow: &Overflow) -> Vec<Vec<Piece>> {
+        let units = Usage::of_value(self.module, e).texture_units();
+        let mut out = Vec::new();
+        // `T ⊕[decal] X`: X, then T alpha-blended over it (seeds/001 (12)).
+        if let Expr::Combine { mode: CombineMode::Decal, lhs, rhs } = self.module.exprs[e].clone() {
+            if self.fits(lhs).is_ok() && self.module.info(lhs).ty == Ty::Rgba {
+                if let Some(inner) = self.plan_at(BlendMode::Replace, rhs, depth + 1) {
+                    let mut p: Vec<Piece> = inner.iter().cloned().collect();
+                    p.push(Piece { blend: BlendMode::AlphaBlend, value: lhs, dest: Dest::Main, alpha: true, why: format!("{overflow}: decal: the texture alpha-blended over the rest") });
+                    out.push(p);
+                }
+            }
+        }
+        let candidates: Vec<Handle<Expr>> = self
+            .module
+            .reachable(&[e])
+            .into_iter()
+            .filter(|&x| x != e && self.module.info(x).freq.is_sample() && self.module.info(x).ty != Ty::Position)
+            .filter(|&x| (1..units).contains(&Usage::of_value(self.module, x).texture_units()))
+            .rev() // largest sub-values first
+            .take(MAX_PEEL_CANDIDATES)
+            .collect();
+        for x in candidates {
+            let Some((m, s)) = affine(&mut Builder { module: self.module }, e, x) else { continue };
+            if self.module.is_constant(m, 0.0) {
+                continue;
+            }
+            let Some(inner) = self.plan_at(BlendMode::Replace, x, depth + 1) else { continue };
+            let mut p: Vec<Piece> = inner.iter().cloned().collect();
+            let m_one = self.module.is_constant(m, 1.0);
+            let s_zero = self.module.is_constant(s, 0.0);
+            if !m_one {
+                let Some(mp) = self.plan_at(BlendMode::Modulate, m, depth + 1) else { continue };
+                p.extend(mp.iter().cloned().map(|q| Piece { why: format!("{overflow}: rendered a part first, then modulated by its coefficient"), ..q }));
+            }
+            if !s_zero {
+                let Some(sp) = self.plan_at(BlendMode::Add, s, depth + 1) else { continue };
+                p.extend(sp.iter().cloned().map(|q| Piece { why: format!("{overflow}: rendered a part first, then added the rest"), ..q }));
+            }
+            out.push(p);
+        }
+        out
+    }
+
+    // ---- render to texture ----------------------------------------------
+
+    fn render_to_texture(&mut self, mode: BlendMode, e: Handle<Expr>, depth: usize, overflow: &Overflow) -> Option<Vec<Piece>> {
+        let inner = self.plan_at(BlendMode::Replace, e, depth + 1)?;
+        let id = self.temp_for(e);
+        let texture = self.temp_texture(id);
+        let lookup = Builder { module: self.module }.node(Expr::Lookup { texture, coords: self.position })?;
+        let mut lookup = lookup;
+        let ty = self.module.info(e).ty;
+        if ty != self.module.info(lookup).ty {
+            let mut b = Builder { module: self.module };
+            lookup = match ty {
+                Ty::Rgb | Ty::Vec3 => b.rgb(lookup)?,
+                Ty::Scalar => b.component(lookup, 0)?,
+                _ => lookup,
+            };
+        }
+        self.fits(lookup).ok()?;
+        let mut p: Vec<Piece> = inner.iter().cloned().map(|q| Piece { dest: Dest::Temp(id), why: format!("{overflow}: render-to-texture: the term is computed into a temporary first"), ..q }).collect();
+        p.push(Piece { blend: mode, value: lookup, dest: Dest::Main, alpha: true, why: format!("{overflow}: the temporary blended in ({})", mode.name()) });
+        Some(p)
+    }
+
+    fn temp_for(&mut self, e: Handle<Expr>) -> u32 {
+        let n = self.temps.len() as u32;
+        *self.temps.entry(e).or_insert(n)
+    }
+
+    fn temp_texture(&mut self, id: u32) -> u32 {
+        let name = format!("temp{id}");
+        if let Some(i) = self.module.textures.iter().position(|t| t.name == name) {
+            return i as u32;
+        }
+        self.module.textures.push(Texture {
+            name,
+            kind: TextureKind::Tex2d,
+            format: if self.float_temps { TextureFormat::Rgba16f } else { TextureFormat::Rgba8 },
+            rendered: true,
+            span: Span::DETACHED,
+        });
+        (self.module.textures.len() - 1) as u32
+    }
+}
+
+/// Whether `h` depends on `x` (re-exported for the planner).
+pub fn depends_on(module: &Module, h: Handle<Expr>, x: Handle<Expr>) -> bool {
+    contains(module, h, x, &mut HashMap::new())
+}
