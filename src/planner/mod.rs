@@ -24,6 +24,7 @@
 
 pub mod affine;
 pub mod fit;
+pub mod interface;
 pub mod plan;
 pub mod specialize;
 pub mod split;
@@ -31,6 +32,7 @@ pub mod split;
 use std::collections::HashMap;
 
 pub use plan::{BlendMode, FragmentWork, Geometry, Pass, PassPlan, Removed, RenderTarget, TextureBinding, Value, VertexWork};
+pub use interface::PassInterface;
 pub use split::{FitCheck, Overflow};
 
 use affine::Builder;
