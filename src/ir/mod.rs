@@ -103,6 +103,7 @@
 
 pub mod arena;
 pub mod dump;
+pub mod eval;
 pub mod lower;
 pub mod usage;
 pub mod valid;
