@@ -31,6 +31,14 @@ pub enum Command {
     /// Run a register-combiner setup (`!!RC1.0` or RON) on images, as the
     /// hardware would (seeds/003 Section 4.2, Appendix B).
     Emulate(super::emulate::EmulateArgs),
+    /// Render a scene with a program's pass plan on the CPU, in `fixed9`
+    /// (what the old hardware showed), `f32` or `exact`; print the pass plan,
+    /// the time per frame and the error against the exact reference. With no
+    /// arguments: Kilgard's bump-mapped torus on geforce256 → shadec-out.png.
+    ///
+    /// Exit status: 0 on success, 1 when the program or scene has errors
+    /// (shader errors with file:line:col), 2 on usage or I/O errors.
+    Render(super::render::RenderArgs),
 }
 
 #[derive(Debug, clap::Args)]

@@ -16,6 +16,7 @@
 pub mod adaptive;
 mod framebuffer;
 pub mod lights;
+pub mod plan;
 mod raster;
 mod tile;
 

@@ -10,6 +10,7 @@
 //! line:col; references to unknown materials/textures and missing files are
 //! named); [`Scene::build`] then creates meshes and textures.
 
+pub mod bind;
 pub mod camera;
 pub mod light;
 pub mod mesh;

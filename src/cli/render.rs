@@ -1,0 +1,259 @@
+//! `shadec render [SCENE.ron] [--shader FILE.shd] [--target X] [--mode
+//! fixed9|f32|exact] [--size WxH] [--out IMG.png]`: plan a program for a
+//! target, run the plan on the CPU for a scene, write the picture, and print
+//! the pass plan, the time per frame and the error against the exact
+//! reference. With no arguments: Kilgard's bump-mapped torus on geforce256.
+
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+
+use clap::ValueEnum;
+use shadec::diag::SourceFile;
+use shadec::renderer::plan::{compare, Mode, PlanRenderer};
+use shadec::scene::Scene;
+
+use super::check::color_stderr;
+use super::{EXIT_SOURCE_ERRORS, EXIT_USAGE_OR_IO};
+
+/// The built-in default program and scene.
+pub const DEFAULT_SHADER: &str = include_str!("../../examples/kilgard_bump_mapping.shd");
+pub const DEFAULT_SCENE: &str = include_str!("../../scenes/kilgard_torus.ron");
+
+#[derive(Debug, clap::Args)]
+pub struct RenderArgs {
+    /// The scene (RON). Without it, the built-in torus of
+    /// `scenes/kilgard_torus.ron`.
+    pub scene: Option<PathBuf>,
+    /// The shading program. Without it, `examples/kilgard_bump_mapping.shd`
+    /// (built in).
+    #[arg(long, value_name = "FILE.shd")]
+    pub shader: Option<PathBuf>,
+    /// Target profile (built-in name or `.ron` file); defaults to the
+    /// program's `target X;` line, else `wgsl`.
+    #[arg(long, value_name = "PROFILE")]
+    pub target: Option<String>,
+    /// How the plan's arithmetic is modelled: `fixed9` (8-bit textures and
+    /// framebuffer, 9-bit combiner maths: what the old hardware showed),
+    /// `f32`, or `exact` (the f64 reference).
+    #[arg(long, value_enum, default_value_t = ModeArg::Fixed9)]
+    pub mode: ModeArg,
+    /// Image size; defaults to the scene's resolution.
+    #[arg(long, value_name = "WxH")]
+    pub size: Option<String>,
+    /// Where to write the picture (PNG, written atomically).
+    #[arg(long, short, value_name = "IMG.png", default_value = "shadec-out.png")]
+    pub out: PathBuf,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum ModeArg {
+    Fixed9,
+    F32,
+    Exact,
+}
+
+impl ModeArg {
+    fn mode(self) -> Mode {
+        match self {
+            ModeArg::Fixed9 => Mode::Fixed9,
+            ModeArg::F32 => Mode::F32,
+            ModeArg::Exact => Mode::Exact,
+        }
+    }
+}
+
+fn usage(message: impl std::fmt::Display) -> ExitCode {
+    eprintln!("error: {message}");
+    ExitCode::from(EXIT_USAGE_OR_IO)
+}
+
+fn input(message: impl std::fmt::Display) -> ExitCode {
+    eprintln!("error: {message}");
+    ExitCode::from(EXIT_SOURCE_ERRORS)
+}
+
+/// `WxH` → (W, H).
+pub fn parse_size(s: &str) -> Option<(u32, u32)> {
+    let (w, h) = s.split_once(['x', 'X', '×'])?;
+    let (w, h) = (w.trim().parse::<u32>().ok()?, h.trim().parse::<u32>().ok()?);
+    ((1..=16384).contains(&w) && (1..=16384).contains(&h)).then_some((w, h))
+}
+
+pub fn run(args: &RenderArgs) -> ExitCode {
+    // The scene.
+    let scene = match &args.scene {
+        Some(path) => {
+            if !path.is_file() {
+                return usage(format!("{}: scene file not found; give the path of a RON scene such as scenes/kilgard_torus.ron", path.display()));
+            }
+            match Scene::load(path) {
+                Ok(s) => s,
+                Err(shadec::scene::SceneError::Io(e)) => return usage(e),
+                Err(e) => return input(e),
+            }
+        }
+        None => match Scene::parse(DEFAULT_SCENE, Path::new("")) {
+            Ok(s) => s,
+            Err(e) => return input(format!("the built-in scene: {e}")),
+        },
+    };
+    // The program.
+    let (shader_name, source) = match &args.shader {
+        Some(path) => match shadec::io::read_text(path) {
+            Ok(t) => (path.display().to_string(), t),
+            Err(e) => return usage(e),
+        },
+        None => ("examples/kilgard_bump_mapping.shd (built in)".to_string(), DEFAULT_SHADER.to_string()),
+    };
+    let size = match &args.size {
+        Some(s) => match parse_size(s) {
+            Some(v) => v,
+            None => return usage(format!("--size {s}: expected WxH with 1..=16384 pixels per side, such as 640x480")),
+        },
+        None => scene.resolution,
+    };
+    let file = SourceFile::new(shader_name.clone(), source.clone());
+    let (program, diagnostics) = shadec::parser::check(&source);
+    if diagnostics.iter().any(|d| d.is_error()) {
+        let errors: Vec<_> = diagnostics.into_iter().filter(|d| d.is_error()).collect();
+        eprint!("{}", file.render(&errors, color_stderr()));
+        return ExitCode::from(EXIT_SOURCE_ERRORS);
+    }
+    let (module, lower_diags) = shadec::ir::lower(&program);
+    if lower_diags.iter().any(|d| d.is_error()) {
+        let errors: Vec<_> = lower_diags.into_iter().filter(|d| d.is_error()).collect();
+        eprint!("{}", file.render(&errors, color_stderr()));
+        return ExitCode::from(EXIT_SOURCE_ERRORS);
+    }
+    let target = args.target.clone().or_else(|| module.target.as_ref().map(|t| t.value.clone())).unwrap_or_else(|| "wgsl".to_string());
+    let profile = match shadec::profile::Profile::resolve(&target) {
+        Ok(p) => p,
+        Err(e) => return usage(e),
+    };
+    let planned = match shadec::planner::plan(&module, &profile, Some(&source)) {
+        Ok(p) => p,
+        Err(errors) => {
+            eprint!("{}", file.render(&errors, color_stderr()));
+            return ExitCode::from(EXIT_SOURCE_ERRORS);
+        }
+    };
+    let assets = match scene.build() {
+        Ok(a) => a,
+        Err(e) => return input(e),
+    };
+    let renderer = match PlanRenderer::new(&planned, &program, &scene, &assets) {
+        Ok(r) => r,
+        Err(e) => return input(format!("{shader_name}: {e}")),
+    };
+    let mode = args.mode.mode();
+    println!(
+        "shadec render: {} with {}, {} on {}, {}×{}",
+        args.scene.as_ref().map_or("the built-in torus scene".to_string(), |p| p.display().to_string()),
+        shader_name,
+        mode.name(),
+        profile.name,
+        size.0,
+        size.1
+    );
+    for note in &renderer.notes {
+        println!("note: {note}");
+    }
+    print!("{}", planned.plan.summary());
+
+    let progress = Progress::new();
+    let frame = match renderer.render(mode, size.0, size.1, &mut |d, t| progress.tick(mode.name(), d, t)) {
+        Ok(f) => f,
+        Err(e) => {
+            progress.finish();
+            return input(format!("{shader_name}: {e}"));
+        }
+    };
+    let reference = if mode == Mode::Exact {
+        None
+    } else {
+        match renderer.render(Mode::Exact, size.0, size.1, &mut |d, t| progress.tick("exact reference", d, t)) {
+            Ok(f) => Some(f),
+            Err(e) => {
+                progress.finish();
+                return input(format!("{shader_name}: {e}"));
+            }
+        }
+    };
+    progress.finish();
+    if let Err(e) = save_opaque_png(&frame.image, &args.out) {
+        return usage(e);
+    }
+    let secs = frame.time.as_secs_f64().max(1e-9);
+    let mpix = (size.0 as f64 * size.1 as f64) / secs / 1e6;
+    println!(
+        "frame: {:.1} ms ({mpix:.2} Mpixel/s at {}×{}, {} threads), {} fragments shaded over {} pass{}",
+        secs * 1e3,
+        size.0,
+        size.1,
+        rayon::current_num_threads(),
+        frame.stats.shaded,
+        planned.plan.passes.len(),
+        if planned.plan.passes.len() == 1 { "" } else { "es" }
+    );
+    match &reference {
+        Some(r) => {
+            let e = compare(&r.image, &frame.image);
+            println!("error against exact: max abs {:.4} ({:.1}/255), RMSE {:.5}, PSNR {}", e.max_abs, e.max_abs * 255.0, e.rmse, psnr(e.psnr));
+        }
+        None => println!("error against exact: 0 (this is the exact reference)"),
+    }
+    println!("wrote {}", args.out.display());
+    ExitCode::SUCCESS
+}
+
+fn psnr(p: f64) -> String {
+    if p.is_infinite() {
+        "∞ dB (identical)".into()
+    } else {
+        format!("{p:.2} dB")
+    }
+}
+
+/// Saves the colour buffer as an opaque RGBA8 PNG (destination alpha is an
+/// intermediate of the plan, not coverage), atomically.
+pub fn save_opaque_png(fb: &shadec::renderer::Framebuffer, path: &Path) -> Result<(), String> {
+    let mut rgba = fb.to_rgba8();
+    for px in rgba.chunks_exact_mut(4) {
+        px[3] = 255;
+    }
+    let mut bytes = Vec::new();
+    let encoder = image::codecs::png::PngEncoder::new(&mut bytes);
+    image::ImageEncoder::write_image(encoder, &rgba, fb.width(), fb.height(), image::ExtendedColorType::Rgba8).map_err(|e| format!("{}: cannot encode PNG: {e}", path.display()))?;
+    shadec::io::write_atomic(path, &bytes).map_err(|e| e.to_string())
+}
+
+/// A progress bar that appears only once the work has taken over a second
+/// (and only on a terminal: indicatif hides it otherwise).
+struct Progress {
+    start: Instant,
+    bar: indicatif::ProgressBar,
+    shown: std::cell::Cell<bool>,
+}
+
+impl Progress {
+    fn new() -> Progress {
+        let bar = indicatif::ProgressBar::hidden();
+        bar.set_style(indicatif::ProgressStyle::with_template("{msg:>16} [{bar:40}] {pos}/{len} passes·objects, {elapsed}").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()).progress_chars("=> "));
+        Progress { start: Instant::now(), bar, shown: std::cell::Cell::new(false) }
+    }
+
+    fn tick(&self, what: &str, done: usize, total: usize) {
+        self.bar.set_length(total as u64);
+        self.bar.set_position(done as u64);
+        self.bar.set_message(what.to_string());
+        if !self.shown.get() && self.start.elapsed() > Duration::from_secs(1) {
+            self.shown.set(true);
+            self.bar.set_draw_target(indicatif::ProgressDrawTarget::stderr());
+        }
+    }
+
+    fn finish(&self) {
+        self.bar.finish_and_clear();
+    }
+}

@@ -1,0 +1,818 @@
+//! Executes a pass plan ([`crate::planner::Planned`]) on the CPU for a
+//! [`Scene`]: the renderer behind `shadec render` (issue 6, parts 3-4).
+//!
+//! Per pass, following [`PassInterface`] (the contract every executor
+//! binds): the vertex stage evaluates the per-vertex IR (the interpolants
+//! and the clip position) at every mesh vertex with [`ir::eval::Evaluator`]
+//! over the scene binder's leaves ([`crate::scene::bind`]); the rasterizer
+//! interpolates them perspective-correctly; the fragment stage evaluates the
+//! pass's output with [`ir::eval::apply`] — the one semantics of the IR —
+//! reading interpolated varyings, texture lookups
+//! ([`crate::textures`] sampling, mipmap level from the analytic
+//! derivatives of the coordinate varying), uniforms, the pixel, and other
+//! framebuffers; the pass's [`RenderState`] does depth, stencil and blending.
+//! Passes that render into a texture (`RenderTarget::Texture`, texture
+//! shading) or into a planner temporary (`RenderTarget::Temporary`) keep
+//! their image, which later passes look up (by screen position: the pixel
+//! itself; by coordinates: a filtered texture).
+//!
+//! # Three modes ([`Mode`])
+//!
+//! - `exact` — the reference: every node in f64; varyings that are **unit
+//!   directions** renormalized after interpolation (an interpolant whose
+//!   per-vertex value is a role vector other than `position`, a
+//!   `normalize(…)`, or a negation or reflection of those —
+//!   [`bind::is_unit_direction`]); true `pow` (the IR's `^`); **no lookup
+//!   tables**: a texture whose *generator* tabulates a function —
+//!   `normalize_cube` (normalize, range-compressed unless the format is
+//!   signed), `exponent_table(n)` (xⁿ), `brdf_fd`, `brdf_g` — is not
+//!   sampled; the function is evaluated at the lookup's coordinates
+//!   ([`bind::ExactFunction`], detected from the declaration's source).
+//!   Generated data textures (normal maps) are built unquantized, with the
+//!   same mipmap filter. f32 framebuffers, no clamping.
+//! - `f32` — the same plan with every node rounded to f32, textures as
+//!   stored (8-bit where declared so), f32 framebuffers.
+//! - `fixed9` — what the old hardware showed: 8-bit textures, an RGBA8
+//!   framebuffer (blending clamps and rounds) and 8-bit temporaries, and the
+//!   fragment maths in the register-combiner precision model. The combiner
+//!   code generator has not landed, so this is an approximation of the
+//!   emulator: every IR operation's result is clamped to [−1, 1] and
+//!   rounded to a multiple of 1/255 with the emulator's rule (nearest, ties
+//!   toward +∞) — 8 bits and a sign per operation. Values that only address
+//!   textures (lookup coordinates, framebuffer positions) are not quantized:
+//!   the texture units iterate them in float.
+
+use std::cell::RefCell;
+use std::collections::{BTreeMap, HashMap};
+use std::time::{Duration, Instant};
+
+use rayon::prelude::*;
+
+use super::{ColorFormat, CullMode, DrawStats, Fragment, FragmentResult, FragmentStage, Framebuffer, Pass as RasterPass, RenderError, VertexStage};
+use crate::ir::{self, eval::Value, Expr, FbChannel, Frequency, Handle, Module, TextureId, Ty};
+use crate::planner::{Geometry, PassInterface, Planned, RenderTarget};
+use crate::scene::bind::{self, BoundObject, BoundTexture, ExactFunction, TextureDecl, TextureQuality};
+use crate::scene::{Scene, SceneAssets};
+use crate::textures::{generators, Filter, Level, TexelFormat, Texture, Texture2D, Wrap};
+
+/// How the plan's arithmetic is modelled (module docs).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Mode {
+    Fixed9,
+    F32,
+    Exact,
+}
+
+impl Mode {
+    pub fn name(self) -> &'static str {
+        match self {
+            Mode::Fixed9 => "fixed9",
+            Mode::F32 => "f32",
+            Mode::Exact => "exact",
+        }
+    }
+
+    pub fn parse(s: &str) -> Option<Mode> {
+        match s {
+            "fixed9" => Some(Mode::Fixed9),
+            "f32" => Some(Mode::F32),
+            "exact" => Some(Mode::Exact),
+            _ => None,
+        }
+    }
+}
+
+/// One rendered frame.
+pub struct Frame {
+    /// The framebuffer the last framebuffer pass wrote (the picture).
+    pub image: Framebuffer,
+    pub name: String,
+    /// Summed over every pass and object.
+    pub stats: DrawStats,
+    /// Wall time of the passes (textures and binding excluded).
+    pub time: Duration,
+}
+
+/// A program bound to a scene: textures loaded, objects bound. Build once,
+/// render in any mode and size.
+pub struct PlanRenderer<'a> {
+    planned: &'a Planned,
+    scene: &'a Scene,
+    assets: &'a SceneAssets,
+    decls: Vec<TextureDecl>,
+    stored: BTreeMap<String, BoundTexture>,
+    exact: BTreeMap<String, BoundTexture>,
+    uniforms: Vec<Option<Value>>,
+    /// What stand-ins were used, for the user.
+    pub notes: Vec<String>,
+}
+
+impl<'a> PlanRenderer<'a> {
+    /// Binds `planned` (compiled from `program`) to a scene and its assets.
+    pub fn new(planned: &'a Planned, program: &crate::parser::ast::Program, scene: &'a Scene, assets: &'a SceneAssets) -> Result<PlanRenderer<'a>, RenderError> {
+        let decls = bind::texture_decls(program, &scene.constants);
+        let mut notes = Vec::new();
+        let err = |e: bind::BindError| RenderError::Unsupported(e.to_string());
+        let stored = bind::load_textures(&decls, scene, TextureQuality::Stored, &mut notes).map_err(err)?;
+        let mut ignore = Vec::new();
+        let exact = bind::load_textures(&decls, scene, TextureQuality::Exact, &mut ignore).map_err(err)?;
+        let uniforms = bind::uniforms(&planned.module, scene);
+        // What the CPU renderer cannot do yet: say so before drawing.
+        for (i, _) in planned.plan.passes.iter().enumerate() {
+            let pi = PassInterface::of(planned, i);
+            let mut roots = vec![pi.output];
+            roots.extend(pi.condition);
+            roots.extend(pi.interpolants.iter().copied());
+            for h in planned.module.reachable(&roots) {
+                match &planned.module.exprs[h] {
+                    Expr::Vector { site: ir::Site::Texel, .. } | Expr::FatMember { .. } | Expr::Bundle(_) => {
+                        return Err(RenderError::Unsupported(format!(
+                            "pass {} uses shading vectors per texel or fat textures (texture shading of a bundle); the CPU renderer does not run these yet",
+                            i + 1
+                        )))
+                    }
+                    _ => {}
+                }
+            }
+        }
+        Ok(PlanRenderer { planned, scene, assets, decls, stored, exact, uniforms, notes })
+    }
+
+    /// Renders every pass at `width`×`height`; `progress(done, total)` is
+    /// called after each pass of each object.
+    pub fn render(&self, mode: Mode, width: u32, height: u32, progress: &mut dyn FnMut(usize, usize)) -> Result<Frame, RenderError> {
+        let m = &self.planned.module;
+        let plan = &self.planned.plan;
+        let start = Instant::now();
+        let format = if mode == Mode::Fixed9 { ColorFormat::Rgba8 } else { ColorFormat::F32 };
+        let aspect = width as f32 / height as f32;
+        // Light 0's projection looks at the centre of the objects.
+        let (center, radius) = scene_bounds(self.assets);
+        let light_clip = bind::light_view_projection(self.scene.lights.first(), center, radius);
+        let mut objects: Vec<BoundObject> = self
+            .assets
+            .meshes
+            .iter()
+            .map(|(mesh, model)| BoundObject::new(self.scene, mesh, *model, aspect, light_clip))
+            .collect();
+        for o in &mut objects {
+            o.run_texgen(m).map_err(|e| RenderError::Unsupported(e.to_string()))?;
+        }
+        let mut targets: BTreeMap<String, Framebuffer> = BTreeMap::new();
+        let mut rendered: BTreeMap<String, Rendered> = BTreeMap::new();
+        let mut stats = DrawStats::default();
+        let mut last_fb: Option<String> = None;
+        let total = plan.passes.iter().map(|p| if matches!(p.geometry, Geometry::Mesh { .. }) { objects.len() } else { 1 }).sum::<usize>();
+        let mut done = 0;
+        for (index, pass) in plan.passes.iter().enumerate() {
+            let pi = PassInterface::of(self.planned, index);
+            let (name, size) = match &pass.target {
+                RenderTarget::Framebuffer { name, .. } => (name.clone(), (width, height)),
+                RenderTarget::Temporary { name } => (name.clone(), (width, height)),
+                RenderTarget::Texture { name } => {
+                    let s = if matches!(pass.geometry, Geometry::Texels) { bind::RENDERED_TEXTURE_SIZE } else { width.max(height) };
+                    (name.clone(), if matches!(pass.geometry, Geometry::Texels) { (s, s) } else { (width, height) })
+                }
+            };
+            if !targets.contains_key(&name) {
+                let mut fb = Framebuffer::new(size.0, size.1, format)?;
+                fb.clear_color([0.0, 0.0, 0.0, 0.0]);
+                targets.insert(name.clone(), fb);
+            }
+            // Snapshots of the framebuffers this pass reads (another's, or its own in a screen pass).
+            let mut reads: HashMap<u32, Framebuffer> = HashMap::new();
+            let mut roots = vec![pi.output];
+            roots.extend(pi.condition);
+            for h in m.reachable(&roots) {
+                if let Expr::FramebufferRead { framebuffer, .. } = m.exprs[h] {
+                    let fname = &m.framebuffers[framebuffer as usize].name;
+                    if let Some(fb) = targets.get(fname) {
+                        reads.entry(framebuffer).or_insert_with(|| fb.clone());
+                    }
+                }
+            }
+            let own_depth = targets.get(&name).cloned();
+            let stage = FragmentProgram::new(self, mode, &pi, &rendered, reads, own_depth)?;
+            let state = pass.state;
+            let target = targets.get_mut(&name).expect("created above");
+            match &pass.geometry {
+                Geometry::Mesh { .. } => {
+                    for object in &objects {
+                        let vs = MeshVertices::new(m, object, &pi, &self.uniforms);
+                        let s = super::draw(target, &RasterPass { triangles: &object.mesh.triangles, vertex: &vs, fragment: &stage, state })?;
+                        add(&mut stats, &s);
+                        done += 1;
+                        progress(done, total);
+                    }
+                }
+                Geometry::Screen | Geometry::Texels => {
+                    let quad = Quad;
+                    let state = super::RenderState { cull: CullMode::None, ..state };
+                    let s = super::draw(target, &RasterPass { triangles: &[[0, 1, 2], [0, 2, 3]], vertex: &quad, fragment: &stage, state })?;
+                    add(&mut stats, &s);
+                    done += 1;
+                    progress(done, total);
+                }
+            }
+            match &pass.target {
+                RenderTarget::Framebuffer { .. } => last_fb = Some(name.clone()),
+                RenderTarget::Texture { .. } | RenderTarget::Temporary { .. } => {
+                    let fb = &targets[&name];
+                    let mipmap = self.decls.iter().any(|d| d.name == name && d.mipmap);
+                    rendered.insert(name.clone(), Rendered::from_framebuffer(fb, mipmap));
+                }
+            }
+        }
+        let time = start.elapsed();
+        let name = last_fb.ok_or_else(|| RenderError::Unsupported("the plan writes no framebuffer: nothing to show".into()))?;
+        let image = targets.remove(&name).expect("written");
+        Ok(Frame { image, name, stats, time })
+    }
+}
+
+fn add(total: &mut DrawStats, s: &DrawStats) {
+    total.triangles_in += s.triangles_in;
+    total.triangles_setup += s.triangles_setup;
+    total.culled += s.culled;
+    total.degenerate += s.degenerate;
+    total.fragments += s.fragments;
+    total.shaded += s.shaded;
+    total.written += s.written;
+}
+
+/// The centre and radius of the world-space bounding sphere of all meshes.
+fn scene_bounds(assets: &SceneAssets) -> (glam::Vec3, f32) {
+    let mut lo = glam::Vec3::splat(f32::INFINITY);
+    let mut hi = glam::Vec3::splat(f32::NEG_INFINITY);
+    for (mesh, model) in &assets.meshes {
+        for p in &mesh.positions {
+            let w = model.transform_point3(*p);
+            lo = lo.min(w);
+            hi = hi.max(w);
+        }
+    }
+    if !lo.is_finite() || !hi.is_finite() {
+        return (glam::Vec3::ZERO, 1.0);
+    }
+    ((lo + hi) * 0.5, ((hi - lo) * 0.5).length().max(1e-3))
+}
+
+/// A texture or temporary a pass rendered: its pixels (for lookups by
+/// screen position) and a filtered texture (for lookups by coordinates).
+struct Rendered {
+    width: u32,
+    height: u32,
+    pixels: Vec<[f32; 4]>,
+    texture: Texture2D,
+}
+
+impl Rendered {
+    fn from_framebuffer(fb: &Framebuffer, mipmap: bool) -> Rendered {
+        let pixels = fb.to_rgba_f32();
+        let t = Texture2D::new(TexelFormat::F32, Wrap::ClampToEdge, Level::new(fb.width(), fb.height(), pixels.clone()));
+        let texture = if mipmap { t.with_box_mipmaps() } else { t };
+        Rendered { width: fb.width(), height: fb.height(), pixels, texture }
+    }
+}
+
+/// The screen-filling rectangle of screen and texel passes.
+struct Quad;
+
+impl VertexStage for Quad {
+    fn n_vertices(&self) -> usize {
+        4
+    }
+    fn n_varyings(&self) -> usize {
+        0
+    }
+    fn shade_vertex(&self, index: u32, _varyings: &mut [f32]) -> [f32; 4] {
+        // Counter-clockwise in NDC.
+        match index {
+            0 => [-1.0, -1.0, 0.0, 1.0],
+            1 => [1.0, -1.0, 0.0, 1.0],
+            2 => [1.0, 1.0, 0.0, 1.0],
+            _ => [-1.0, 1.0, 0.0, 1.0],
+        }
+    }
+}
+
+/// The vertex stage of one object in one pass: every vertex evaluated up
+/// front (in f64), in parallel.
+struct MeshVertices {
+    n_varyings: usize,
+    varyings: Vec<f32>,
+    clip: Vec<[f32; 4]>,
+}
+
+impl MeshVertices {
+    fn new(m: &Module, object: &BoundObject, pi: &PassInterface, uniforms: &[Option<Value>]) -> MeshVertices {
+        let values: Vec<Handle<Expr>> = pi
+            .interpolants
+            .iter()
+            .map(|h| match m.exprs[*h] {
+                Expr::Interpolate { value, .. } => value,
+                _ => *h,
+            })
+            .collect();
+        let mut roots = values.clone();
+        roots.extend(pi.position);
+        let n = object.n_vertices();
+        let nv = 4 * values.len();
+        let chunk = 256;
+        let results: Vec<(Vec<f32>, Vec<[f32; 4]>)> = (0..n.div_ceil(chunk))
+            .into_par_iter()
+            .map(|c| {
+                let mut ev = ir::eval::Evaluator::new(m, &roots, ir::eval::Precision::Exact);
+                let mut vary = Vec::with_capacity(chunk * nv);
+                let mut clip = Vec::with_capacity(chunk);
+                for v in c * chunk..((c + 1) * chunk).min(n) {
+                    let mut env = bind::VertexEnv { object, module: m, vertex: v, uniforms };
+                    let r = ev.eval(&mut env);
+                    for k in 0..values.len() {
+                        let ty = m.info(values[k]).ty;
+                        let x = widen_vertex(r.values[k], ty);
+                        vary.extend(x.map(|c| c as f32));
+                    }
+                    let p = match pi.position {
+                        Some(_) => r.values[values.len()],
+                        None => [0.0, 0.0, 0.0, 1.0],
+                    };
+                    clip.push(p.map(|c| c as f32));
+                }
+                (vary, clip)
+            })
+            .collect();
+        let mut varyings = Vec::with_capacity(n * nv);
+        let mut clip = Vec::with_capacity(n);
+        for (v, c) in results {
+            varyings.extend(v);
+            clip.extend(c);
+        }
+        MeshVertices { n_varyings: nv, varyings, clip }
+    }
+}
+
+/// A per-vertex value as a varying: a scalar as itself in lane 0 (then
+/// splatted again when read), others as they are.
+fn widen_vertex(v: Value, _ty: Ty) -> Value {
+    v
+}
+
+impl VertexStage for MeshVertices {
+    fn n_vertices(&self) -> usize {
+        self.clip.len()
+    }
+    fn n_varyings(&self) -> usize {
+        self.n_varyings
+    }
+    fn shade_vertex(&self, index: u32, varyings: &mut [f32]) -> [f32; 4] {
+        let i = index as usize;
+        varyings.copy_from_slice(&self.varyings[i * self.n_varyings..(i + 1) * self.n_varyings]);
+        self.clip[i]
+    }
+}
+
+/// What a texture unit reads in this pass.
+enum Source<'r> {
+    Bound { texture: &'r BoundTexture, exact: Option<ExactFunction> },
+    Rendered(&'r Rendered),
+    Missing,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Leaf {
+    Uniform(Value),
+    /// Interpolant k (varyings 4k..4k+4), normalized (exact, unit directions).
+    Varying { k: usize, normalize: bool },
+    Lookup { texture: TextureId, coords_ty: Ty, lod_from: Option<usize> },
+    Framebuffer { framebuffer: u32, channel: FbChannel },
+    Pixel(Frequency),
+    TexelCoord,
+    Depth,
+    /// A value the fragment stage cannot know (NaN).
+    Unknown,
+}
+
+#[derive(Clone, Debug)]
+struct Step<'m> {
+    expr: &'m Expr,
+    ty: Ty,
+    slot: u32,
+    ops: [u32; 4],
+    n_ops: u8,
+    leaf: Option<Leaf>,
+    quantize: bool,
+}
+
+/// The fragment stage of one pass: the reachable nodes of the output (and
+/// condition) in topological order, each with a slot.
+struct FragmentProgram<'a> {
+    module: &'a Module,
+    mode: Mode,
+    steps: Vec<Step<'a>>,
+    constants: Vec<(u32, Value)>,
+    n_slots: usize,
+    output: u32,
+    output_ty: Ty,
+    condition: Option<u32>,
+    sources: Vec<Source<'a>>,
+    reads: HashMap<u32, Framebuffer>,
+    own: Option<Framebuffer>,
+    filters: Vec<Filter>,
+}
+
+thread_local! {
+    static SLOTS: RefCell<Vec<Value>> = const { RefCell::new(Vec::new()) };
+}
+
+impl<'a> FragmentProgram<'a> {
+    fn new(
+        r: &'a PlanRenderer<'a>,
+        mode: Mode,
+        pi: &PassInterface,
+        rendered: &'a BTreeMap<String, Rendered>,
+        reads: HashMap<u32, Framebuffer>,
+        own: Option<Framebuffer>,
+    ) -> Result<FragmentProgram<'a>, RenderError> {
+        let m = &r.planned.module;
+        let mut roots = vec![pi.output];
+        roots.extend(pi.condition);
+        // Reachable nodes, stopping at δ.
+        let n = m.exprs.len();
+        let mut reach = vec![false; n];
+        for h in &roots {
+            reach[h.index()] = true;
+        }
+        for i in (0..n).rev() {
+            if !reach[i] {
+                continue;
+            }
+            let e = &m.exprs[Handle::new(i)];
+            if matches!(e, Expr::Interpolate { .. }) {
+                continue;
+            }
+            for o in e.operands() {
+                reach[o.index()] = true;
+            }
+        }
+        // Nodes that only address textures or framebuffers (not quantized in fixed9).
+        let mut address = vec![false; n];
+        for i in (0..n).rev() {
+            if !reach[i] {
+                continue;
+            }
+            match &m.exprs[Handle::new(i)] {
+                Expr::Lookup { coords, .. } => address[coords.index()] = true,
+                Expr::FramebufferRead { position, .. } => address[position.index()] = true,
+                Expr::Depth(p) => address[p.index()] = true,
+                e if address[i] && !matches!(e, Expr::Interpolate { .. }) => {
+                    for o in e.operands() {
+                        address[o.index()] = true;
+                    }
+                }
+                _ => {}
+            }
+        }
+        let varying_of: HashMap<Handle<Expr>, usize> = pi.interpolants.iter().enumerate().map(|(k, h)| (*h, k)).collect();
+        let normalize_varyings: Vec<bool> = pi
+            .interpolants
+            .iter()
+            .map(|h| mode == Mode::Exact && matches!(m.exprs[*h], Expr::Interpolate { value, .. } if bind::is_unit_direction(m, value)))
+            .collect();
+        // Texture sources by id.
+        let textures = if mode == Mode::Exact { &r.exact } else { &r.stored };
+        let mut sources = Vec::with_capacity(m.textures.len());
+        let mut filters = Vec::with_capacity(m.textures.len());
+        for t in &m.textures {
+            let decl = r.decls.iter().find(|d| d.name == t.name);
+            filters.push(decl.map_or(Filter::Bilinear, |d| d.filter));
+            sources.push(if let Some(b) = textures.get(&t.name) {
+                Source::Bound { texture: b, exact: if mode == Mode::Exact { b.exact } else { None } }
+            } else if let Some(rt) = rendered.get(&t.name) {
+                Source::Rendered(rt)
+            } else {
+                Source::Missing
+            });
+        }
+        let mut slot_of = vec![u32::MAX; n];
+        let mut steps = Vec::new();
+        let mut constants = Vec::new();
+        let mut n_slots = 0u32;
+        for i in (0..n).filter(|&i| reach[i]) {
+            let h = Handle::new(i);
+            let expr = &m.exprs[h];
+            let ty = m.info(h).ty;
+            let slot = n_slots;
+            n_slots += 1;
+            slot_of[i] = slot;
+            if let Expr::Constant(c) = expr {
+                constants.push((slot, ir::eval::value(c)));
+                continue;
+            }
+            let mut ops = [u32::MAX; 4];
+            let mut n_ops = 0u8;
+            let leaf = match expr {
+                Expr::Uniform(id) => Some(Leaf::Uniform(
+                    r.uniforms.get(*id as usize).copied().flatten().or_else(|| m.uniforms[*id as usize].default.as_ref().map(ir::eval::value)).unwrap_or(ir::eval::NAN),
+                )),
+                Expr::Interpolate { .. } => match varying_of.get(&h) {
+                    Some(&k) => Some(Leaf::Varying { k, normalize: normalize_varyings[k] }),
+                    None => Some(Leaf::Unknown),
+                },
+                Expr::Lookup { texture, coords } => {
+                    ops[0] = slot_of[coords.index()];
+                    n_ops = 1;
+                    let lod_from = lod_varying(m, *coords).and_then(|c| varying_of.get(&c).copied());
+                    if matches!(sources[*texture as usize], Source::Missing) {
+                        return Err(RenderError::Unsupported(format!("texture `{}` is read before any pass renders it", m.textures[*texture as usize].name)));
+                    }
+                    Some(Leaf::Lookup { texture: *texture, coords_ty: m.info(*coords).ty, lod_from })
+                }
+                Expr::FramebufferRead { framebuffer, channel, position } => {
+                    ops[0] = slot_of[position.index()];
+                    n_ops = 1;
+                    Some(Leaf::Framebuffer { framebuffer: *framebuffer, channel: *channel })
+                }
+                Expr::Depth(p) => {
+                    ops[0] = slot_of[p.index()];
+                    n_ops = 1;
+                    Some(Leaf::Depth)
+                }
+                Expr::Pixel { freq } => Some(Leaf::Pixel(*freq)),
+                Expr::TexelCoord => Some(Leaf::TexelCoord),
+                Expr::VertexPosition(_) | Expr::TexCoord { .. } | Expr::Vector { .. } | Expr::Project { .. } | Expr::FatMember { .. } | Expr::Bundle(_) => Some(Leaf::Unknown),
+                e => {
+                    let operands = e.operands();
+                    if operands.len() > 4 {
+                        return Err(RenderError::Unsupported("an operation with more than four operands".into()));
+                    }
+                    for (k, o) in operands.iter().enumerate() {
+                        ops[k] = slot_of[o.index()];
+                    }
+                    n_ops = operands.len() as u8;
+                    None
+                }
+            };
+            let quantize = mode == Mode::Fixed9 && !address[i] && leaf.is_none();
+            steps.push(Step { expr, ty, slot, ops, n_ops, leaf, quantize });
+        }
+        Ok(FragmentProgram {
+            module: m,
+            mode,
+            steps,
+            constants,
+            n_slots: n_slots as usize,
+            output: slot_of[pi.output.index()],
+            output_ty: m.info(pi.output).ty,
+            condition: pi.condition.map(|c| slot_of[c.index()]),
+            sources,
+            reads,
+            own,
+            filters,
+        })
+    }
+
+    #[inline]
+    fn leaf(&self, leaf: &Leaf, operand: Value, fragment: &Fragment, varyings: &[f32]) -> Value {
+        match *leaf {
+            Leaf::Uniform(v) => v,
+            Leaf::Varying { k, normalize } => {
+                let v = &varyings[4 * k..4 * k + 4];
+                let mut out = [v[0] as f64, v[1] as f64, v[2] as f64, v[3] as f64];
+                if normalize {
+                    let l = (out[0] * out[0] + out[1] * out[1] + out[2] * out[2]).sqrt();
+                    if l > 0.0 && l.is_finite() {
+                        for c in &mut out[..3] {
+                            *c /= l;
+                        }
+                    }
+                }
+                out
+            }
+            Leaf::Lookup { texture, coords_ty, lod_from } => self.lookup(texture, operand, coords_ty, lod_from, fragment, varyings),
+            Leaf::Framebuffer { framebuffer, channel } => {
+                let Some(fb) = self.reads.get(&framebuffer) else { return [0.0; 4] };
+                let Some((x, y)) = to_pixel(operand, fb.width(), fb.height()) else { return [0.0; 4] };
+                match channel {
+                    FbChannel::Color => fb.color(x, y).unwrap_or([0.0; 4]).map(|c| c as f64),
+                    FbChannel::Alpha => [fb.color(x, y).map_or(0.0, |c| c[3]) as f64; 4],
+                    FbChannel::Depth => [fb.depth(x, y).unwrap_or(1.0) as f64; 4],
+                    FbChannel::Stencil => [fb.stencil(x, y).unwrap_or(0) as f64; 4],
+                }
+            }
+            Leaf::Depth => {
+                let [_, _, z, w] = operand;
+                if w == 0.0 {
+                    [1.0; 4]
+                } else {
+                    [(z / w) * 0.5 + 0.5; 4]
+                }
+            }
+            Leaf::Pixel(freq) => {
+                let (w, h) = match &self.own {
+                    Some(fb) => (fb.width(), fb.height()),
+                    None => (1, 1),
+                };
+                let x = (fragment.x as f64 + 0.5) / w as f64 * 2.0 - 1.0;
+                let y = 1.0 - (fragment.y as f64 + 0.5) / h as f64 * 2.0;
+                let depth = if freq == Frequency::Screen {
+                    self.own.as_ref().and_then(|fb| fb.depth(fragment.x, fragment.y)).unwrap_or(1.0) as f64
+                } else {
+                    fragment.depth as f64
+                };
+                [x, y, depth * 2.0 - 1.0, 1.0]
+            }
+            Leaf::TexelCoord => {
+                let (w, h) = match &self.own {
+                    Some(fb) => (fb.width(), fb.height()),
+                    None => (1, 1),
+                };
+                [(fragment.x as f64 + 0.5) / w as f64, (fragment.y as f64 + 0.5) / h as f64, 0.0, 0.0]
+            }
+            Leaf::Unknown => ir::eval::NAN,
+        }
+    }
+
+    fn lookup(&self, texture: TextureId, c: Value, coords_ty: Ty, lod_from: Option<usize>, fragment: &Fragment, varyings: &[f32]) -> Value {
+        let filter = self.filters[texture as usize];
+        match &self.sources[texture as usize] {
+            Source::Bound { exact: Some(f), .. } => exact_lookup(*f, c),
+            Source::Bound { texture: b, .. } => {
+                let out = match &b.texture {
+                    Texture::Flat(t) => {
+                        let (u, v) = if coords_ty == Ty::Scalar { (c[0], 0.5) } else { (c[0], c[1]) };
+                        let lod = match lod_from {
+                            Some(k) if t.levels.len() > 1 => {
+                                let du = fragment.derivatives(4 * k, varyings[4 * k]);
+                                let dv = fragment.derivatives(4 * k + 1, varyings[4 * k + 1]);
+                                t.lod(du, dv)
+                            }
+                            _ => 0.0,
+                        };
+                        t.sample(u as f32, v as f32, filter, lod)
+                    }
+                    Texture::Cube(t) => t.sample([c[0] as f32, c[1] as f32, c[2] as f32], filter, 0.0),
+                    Texture::DualParaboloid(t) => t.sample([c[0] as f32, c[1] as f32, c[2] as f32], filter, 0.0),
+                };
+                out.map(|x| x as f64)
+            }
+            Source::Rendered(rt) => {
+                if coords_ty == Ty::Position {
+                    match to_pixel(c, rt.width, rt.height) {
+                        Some((x, y)) => rt.pixels[(y * rt.width + x) as usize].map(|v| v as f64),
+                        None => [0.0; 4],
+                    }
+                } else {
+                    rt.texture.sample(c[0] as f32, c[1] as f32, filter, 0.0).map(|v| v as f64)
+                }
+            }
+            Source::Missing => ir::eval::NAN,
+        }
+    }
+
+    fn run(&self, slots: &mut [Value], fragment: &Fragment, varyings: &[f32]) -> (Value, bool) {
+        for &(s, v) in &self.constants {
+            slots[s as usize] = v;
+        }
+        let mut discard = false;
+        let mut buf = [[0.0; 4]; 4];
+        for s in &self.steps {
+            let ops = &s.ops[..s.n_ops as usize];
+            for (b, &o) in buf.iter_mut().zip(ops) {
+                *b = slots[o as usize];
+            }
+            let v = match &s.leaf {
+                Some(leaf) => self.leaf(leaf, buf[0], fragment, varyings),
+                None => {
+                    if let Expr::Select { reject: None, .. } = s.expr {
+                        if buf[0][0] == 0.0 {
+                            discard = true;
+                        }
+                    }
+                    ir::eval::apply(self.module, s.expr, s.ty, &buf[..ops.len()])
+                }
+            };
+            let v = ir::eval::canonical(s.ty, v);
+            slots[s.slot as usize] = match self.mode {
+                Mode::Exact => v,
+                Mode::F32 => v.map(|x| x as f32 as f64),
+                Mode::Fixed9 if s.quantize => v.map(fixed9),
+                Mode::Fixed9 => v.map(|x| x as f32 as f64),
+            };
+        }
+        if let Some(c) = self.condition {
+            if slots[c as usize][0] == 0.0 {
+                discard = true;
+            }
+        }
+        (slots[self.output as usize], discard)
+    }
+}
+
+/// The register-combiner precision model: clamp to [−1, 1], round to
+/// 1/255 (nearest, ties toward +∞), as the emulator's register writes.
+#[inline]
+pub fn fixed9(v: f64) -> f64 {
+    if v.is_nan() {
+        return 0.0;
+    }
+    (v.clamp(-1.0, 1.0) * 255.0 + 0.5).floor() / 255.0
+}
+
+/// The varying whose derivatives choose the mipmap level of a lookup at
+/// `coords`: the coordinates themselves when they are a δ (or a swizzle of one).
+fn lod_varying(m: &Module, coords: Handle<Expr>) -> Option<Handle<Expr>> {
+    match &m.exprs[coords] {
+        Expr::Interpolate { .. } => Some(coords),
+        Expr::Swizzle { value, .. } => lod_varying(m, *value),
+        _ => None,
+    }
+}
+
+/// A clip-space position (x, y, z, w) to a pixel (row 0 at the top).
+fn to_pixel(p: Value, width: u32, height: u32) -> Option<(u32, u32)> {
+    let [x, y, _, w] = p;
+    if w == 0.0 || !x.is_finite() || !y.is_finite() || !w.is_finite() {
+        return None;
+    }
+    let px = ((x / w) * 0.5 + 0.5) * width as f64;
+    let py = (0.5 - (y / w) * 0.5) * height as f64;
+    if px < 0.0 || py < 0.0 {
+        return None;
+    }
+    let (px, py) = (px.floor() as u64, py.floor() as u64);
+    (px < width as u64 && py < height as u64).then_some((px as u32, py as u32))
+}
+
+/// What a lookup table's generator tabulates, evaluated exactly.
+pub fn exact_lookup(f: ExactFunction, c: Value) -> Value {
+    match f {
+        ExactFunction::Normalize { signed } => {
+            let l = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
+            let d = if l > 0.0 && l.is_finite() { [c[0] / l, c[1] / l, c[2] / l] } else { [0.0, 0.0, 1.0] };
+            if signed {
+                [d[0], d[1], d[2], 1.0]
+            } else {
+                [0.5 * d[0] + 0.5, 0.5 * d[1] + 0.5, 0.5 * d[2] + 0.5, 1.0]
+            }
+        }
+        ExactFunction::Exponent(n) => {
+            let v = c[0].clamp(0.0, 1.0).powf(n.max(0.0) as f64);
+            [v, v, v, 1.0]
+        }
+        ExactFunction::FresnelDistribution { roughness, index } => {
+            let (u, v) = (c[0].clamp(0.0, 1.0) as f32, c[1].clamp(0.0, 1.0) as f32);
+            let fd = (generators::fresnel(u, index) * generators::distribution(v, roughness)) as f64;
+            [fd, fd, fd, 1.0]
+        }
+        ExactFunction::Geometry { roughness, scale } => {
+            let (u, v) = (c[0].clamp(0.0, 1.0) as f32, c[1].clamp(1e-6, 1.0) as f32);
+            let scale = if scale > 0.0 && scale.is_finite() { scale } else { 1.0 };
+            let g = (generators::smith_g1(u, roughness) * generators::smith_g1(v, roughness) / (std::f32::consts::PI * v) / scale) as f64;
+            [g, g, g, 1.0]
+        }
+    }
+}
+
+impl FragmentStage for FragmentProgram<'_> {
+    fn shade(&self, fragment: &Fragment, varyings: &[f32], out: &mut [f32; 4]) -> FragmentResult {
+        SLOTS.with(|cell| {
+            let mut slots = cell.borrow_mut();
+            if slots.len() < self.n_slots {
+                slots.resize(self.n_slots, [0.0; 4]);
+            }
+            let (v, discard) = self.run(&mut slots[..self.n_slots], fragment, varyings);
+            if discard {
+                return FragmentResult::Discard;
+            }
+            // Widened to RGBA (PassInterface): a scalar splatted, rgb gets alpha 1.
+            let v = match self.output_ty.width() {
+                1 => [v[0]; 4],
+                2 => [v[0], v[1], 0.0, 1.0],
+                3 => [v[0], v[1], v[2], 1.0],
+                _ => v,
+            };
+            *out = v.map(|x| if x.is_nan() { 0.0 } else { x as f32 });
+            FragmentResult::Keep
+        })
+    }
+}
+
+/// The error of `test` against `reference` over RGB: max abs, RMSE, PSNR.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ErrorReport {
+    pub max_abs: f32,
+    pub rmse: f64,
+    pub psnr: f64,
+}
+
+/// Compares two images of the same size; both are clamped to [0, 1] first
+/// (what a display shows).
+pub fn compare(reference: &Framebuffer, test: &Framebuffer) -> ErrorReport {
+    let clamp = |v: Vec<[f32; 4]>| v.into_iter().map(|p| p.map(|c| if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) })).collect::<Vec<_>>();
+    let a = clamp(reference.to_rgba_f32());
+    let b = clamp(test.to_rgba_f32());
+    let e = super::image_error(&a, &b);
+    let rmse = if e.psnr.is_infinite() { 0.0 } else { 10f64.powf(-e.psnr / 20.0) };
+    ErrorReport { max_abs: e.max_abs, rmse, psnr: e.psnr }
+}

@@ -1,0 +1,670 @@
+//! The scene binder: what a program's leaves are worth for a scene — the
+//! inputs of [`crate::planner::PassInterface`] that every executor binds.
+//!
+//! - **Vertex leaves**, per mesh vertex, as `[f64; 4]` (a point has w = 1, a
+//!   direction w = 0, coordinates z = w = 0):
+//!   - `x` ([`Expr::VertexPosition`]): the model-space position;
+//!   - `u x` ([`Expr::TexCoord`]): the mesh UVs for a set the program does
+//!     not generate (`u`, `u′`, … all read the mesh's one UV set); a set
+//!     written by a texgen statement `u x ← e` (seeds/001 (7)) is `e`
+//!     evaluated at the vertex;
+//!   - shading vectors ([`Expr::Vector`]) by role — `normal`, `tangent`,
+//!     `binormal` (w·(N × T), seeds/003 Section 5.1), `light(i)` (unit vector
+//!     to scene light i), `view` (unit vector to the eye, or the camera's
+//!     constant direction for an infinite viewer), `half(i)` =
+//!     normalize(L + V), `reflection` = 2(N·V)N − V, `position` (the point) —
+//!     in the declared space: `object` (model), `world`, `eye` (the default
+//!     when a declaration names none) or `tangent`, where a vector v is
+//!     (T·v, B·v, N·v) with the vertex's object-space frame (seeds/003
+//!     Appendix C: the per-vertex light vector in tangent space).
+//! - **Projections**: `π` (and `π*`: no jitter) = camera projection · view ·
+//!   model; `πl` (any other subscript but `R`) = light 0's projection ·
+//!   view · model — a perspective from the light's position (or from far
+//!   along a directional light) towards the scene's centre; `π⁻¹` the
+//!   inverse; `πR d` of a direction: sphere-map coordinates (seeds/001 (7)).
+//! - **Uniforms**: the scene's `constants` by name, else the program's
+//!   declared default.
+//! - **Textures**: each declaration's source — `image("f.png")`,
+//!   `normalize_cube(size[, bits])`, `normal_map(height("f.png"), scale)`,
+//!   `bumps(cells)`, `exponent_table(n)`, `brdf_fd(m, η)`, `brdf_g(scale)`,
+//!   `dual_paraboloid("env.hdr", face)` — loaded or generated with
+//!   [`crate::textures`]. A scene texture of the same name replaces the
+//!   program's. **Missing image files** fall back to procedural stand-ins,
+//!   with a note for the user: a colour image becomes a checkerboard of
+//!   warm bricks (`decal.png`-like: alpha 1), a height field the golf-ball
+//!   dimples of seeds/003 Section 2.4.2 (256², 16 cells), an environment the
+//!   procedural sky. So the built-in default renders with no files at all.
+
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
+
+use super::{Light, Mesh, Scene};
+use crate::ir::{self, Expr, Handle, Module, Projection, Site, Table, TexCoordId, Ty, UniformId, VectorId};
+use crate::parser::ast::{self, ExprKind, FuncKind, ItemKind, Space, TextureAttr, TextureFormat, TextureKind, VectorKind};
+use crate::textures::{self, generators, CubeBits, Filter, HeightField, Level, NormalMapFormat, TexelFormat, Texture, Texture2D, Wrap};
+
+/// What a texture declaration's source says.
+#[derive(Clone, Debug, PartialEq)]
+pub enum TextureSource {
+    Image(String),
+    NormalizeCube { size: u32, bits: u32 },
+    NormalMap { height: HeightSource, scale: f32 },
+    /// `bumps(cells)`: a normal map of procedural dimples.
+    Bumps { cells: u32 },
+    DualParaboloid { file: String, face: u32 },
+    BrdfFd { roughness: f32, index: f32 },
+    BrdfG { scale: f32 },
+    ExponentTable { exponent: f32 },
+    /// `bake(shader)`: not supported by the CPU renderer yet.
+    Bake(String),
+    /// No source: statements render into it.
+    Rendered,
+}
+
+#[derive(Clone, Debug, PartialEq)]
+pub enum HeightSource {
+    File(String),
+    Dimples { size: u32, cells: u32 },
+}
+
+/// A texture declaration as the renderer needs it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TextureDecl {
+    pub name: String,
+    pub kind: TextureKind,
+    pub format: Option<TextureFormat>,
+    pub mipmap: bool,
+    pub filter: Filter,
+    pub wrap: Wrap,
+    pub source: TextureSource,
+}
+
+/// A function that exact mode evaluates instead of looking a table up
+/// (seeds issue 6 part 3: "no lookup tables").
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum ExactFunction {
+    /// normalize(d), range-compressed for an unsigned format.
+    Normalize { signed: bool },
+    /// x^n on [0, 1].
+    Exponent(f32),
+    /// F(u)·D(v) of seeds/002 Section 3.1.
+    FresnelDistribution { roughness: f32, index: f32 },
+    /// G(u, v)/(π v)/scale.
+    Geometry { roughness: f32, scale: f32 },
+}
+
+/// A texture ready to sample.
+#[derive(Clone, Debug)]
+pub struct BoundTexture {
+    pub name: String,
+    pub texture: Texture,
+    pub filter: Filter,
+    /// The function this texture tabulates, when it is a lookup table.
+    pub exact: Option<ExactFunction>,
+}
+
+#[derive(Debug, thiserror::Error)]
+pub enum BindError {
+    #[error("texture `{name}`: {message}")]
+    Texture { name: String, message: String },
+    #[error("{0}")]
+    Unsupported(String),
+    #[error(transparent)]
+    Scene(#[from] super::SceneError),
+}
+
+/// Reads every texture declaration of a checked program.
+pub fn texture_decls(program: &ast::Program, scene_constants: &BTreeMap<String, Vec<f32>>) -> Vec<TextureDecl> {
+    let mut numbers: BTreeMap<String, f32> = BTreeMap::new();
+    for item in &program.items {
+        match &item.kind {
+            ItemKind::Const(c) => {
+                if let Some(v) = number(&c.value, &numbers) {
+                    numbers.insert(c.name.key(), v);
+                }
+            }
+            ItemKind::Uniform(u) => {
+                if let Some(v) = u.default.as_ref().and_then(|d| number(d, &numbers)) {
+                    numbers.insert(u.name.key(), v);
+                }
+            }
+            _ => {}
+        }
+    }
+    for (k, v) in scene_constants {
+        if v.len() == 1 {
+            numbers.insert(k.clone(), v[0]);
+        }
+    }
+    let mut out = Vec::new();
+    for item in &program.items {
+        let ItemKind::Texture(t) = &item.kind else { continue };
+        let has = |a: TextureAttr| t.attrs.iter().any(|w| w.value == a);
+        let mipmap = has(TextureAttr::Mipmap);
+        let filter = if has(TextureAttr::Nearest) {
+            Filter::Nearest
+        } else if has(TextureAttr::Trilinear) || (mipmap && !has(TextureAttr::Bilinear)) {
+            Filter::Trilinear
+        } else {
+            Filter::Bilinear
+        };
+        let wrap = if has(TextureAttr::Clamp) || t.kind.value == TextureKind::Cube { Wrap::ClampToEdge } else { Wrap::Repeat };
+        let source = match &t.source {
+            None => TextureSource::Rendered,
+            Some(e) => source(e, &numbers),
+        };
+        for name in &t.names {
+            out.push(TextureDecl { name: name.key(), kind: t.kind.value, format: t.format.as_ref().map(|f| f.value), mipmap, filter, wrap, source: source.clone() });
+        }
+    }
+    out
+}
+
+fn number(e: &ast::Expr, names: &BTreeMap<String, f32>) -> Option<f32> {
+    match &e.kind {
+        ExprKind::Number(v) => Some(*v as f32),
+        ExprKind::Name(n) => names.get(&n.key()).copied(),
+        ExprKind::Unary { op: ast::UnaryOp::Neg, operand } => number(operand, names).map(|v| -v),
+        _ => None,
+    }
+}
+
+fn args(e: &ast::Expr) -> Vec<&ast::Expr> {
+    match &e.kind {
+        ExprKind::Tuple(items) => items.iter().collect(),
+        _ => vec![e],
+    }
+}
+
+fn string(e: &ast::Expr) -> Option<String> {
+    match &e.kind {
+        ExprKind::String(s) => Some(s.clone()),
+        _ => None,
+    }
+}
+
+fn source(e: &ast::Expr, names: &BTreeMap<String, f32>) -> TextureSource {
+    let ExprKind::Apply { func, arg } = &e.kind else {
+        return TextureSource::Bake(format!("{:?}", e.kind));
+    };
+    let FuncKind::Name(f) = &func.kind else { return TextureSource::Bake("?".into()) };
+    let a = args(arg);
+    let num = |i: usize, default: f32| a.get(i).and_then(|x| number(x, names)).unwrap_or(default);
+    match f.key().as_str() {
+        "image" => TextureSource::Image(a.first().and_then(|x| string(x)).unwrap_or_default()),
+        "normalize_cube" => TextureSource::NormalizeCube { size: num(0, 32.0).max(1.0) as u32, bits: num(1, 8.0) as u32 },
+        "normal_map" => {
+            let height = match a.first().map(|x| &x.kind) {
+                Some(ExprKind::Apply { arg, .. }) => match string(arg) {
+                    Some(file) => HeightSource::File(file),
+                    None => HeightSource::Dimples { size: 256, cells: 16 },
+                },
+                Some(ExprKind::String(s)) => HeightSource::File(s.clone()),
+                _ => HeightSource::Dimples { size: 256, cells: 16 },
+            };
+            TextureSource::NormalMap { height, scale: num(1, 4.0) }
+        }
+        "bumps" => TextureSource::Bumps { cells: num(0, 16.0).max(1.0) as u32 },
+        "dual_paraboloid" => TextureSource::DualParaboloid { file: a.first().and_then(|x| string(x)).unwrap_or_default(), face: num(1, 0.0) as u32 },
+        "brdf_fd" => TextureSource::BrdfFd { roughness: num(0, 0.3), index: num(1, 1.5) },
+        "brdf_g" => TextureSource::BrdfG { scale: num(0, 1.0) },
+        "exponent_table" => TextureSource::ExponentTable { exponent: num(0, 8.0) },
+        other => TextureSource::Bake(other.to_string()),
+    }
+}
+
+/// The size of textures that statements render into (texture shading).
+pub const RENDERED_TEXTURE_SIZE: u32 = 256;
+
+fn texel_format(format: Option<TextureFormat>) -> TexelFormat {
+    match format {
+        Some(TextureFormat::Rgba16 | TextureFormat::Signed16) => TexelFormat::Rgba16,
+        Some(TextureFormat::Rgba16f | TextureFormat::Rgba32f) => TexelFormat::F32,
+        _ => TexelFormat::Rgba8,
+    }
+}
+
+fn is_signed(format: Option<TextureFormat>) -> bool {
+    matches!(format, Some(TextureFormat::Signed8 | TextureFormat::Signed16))
+}
+
+/// Stand-in for a missing colour image: warm bricks, alpha 1.
+pub fn stand_in_image(size: u32) -> Level {
+    let texels = (0..size * size)
+        .map(|i| {
+            let (x, y) = ((i % size) as f32 / size as f32, (i / size) as f32 / size as f32);
+            let row = (y * 8.0).floor();
+            let bx = (x * 4.0 + if row as i32 % 2 == 0 { 0.0 } else { 0.5 }).fract();
+            let by = (y * 8.0).fract();
+            let mortar = bx < 0.04 || by < 0.08;
+            if mortar {
+                [0.85, 0.82, 0.75, 1.0]
+            } else {
+                let k = 0.85 + 0.15 * ((row * 1.7 + (x * 4.0).floor() * 2.3).sin() * 0.5 + 0.5);
+                [0.72 * k, 0.32 * k, 0.2 * k, 1.0]
+            }
+        })
+        .collect();
+    Level::new(size, size, texels)
+}
+
+/// How a texture set is built: what the hardware stores, or the exact reference's.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TextureQuality {
+    /// As declared: 8-bit (or 16-bit, float) texels.
+    Stored,
+    /// Generated data in f32 (normal maps unquantized); lookup tables remain
+    /// tables but carry their [`ExactFunction`].
+    Exact,
+}
+
+/// Loads or generates every declared (non-rendered) texture. `notes`
+/// receives a line per stand-in used.
+pub fn load_textures(decls: &[TextureDecl], scene: &Scene, quality: TextureQuality, notes: &mut Vec<String>) -> Result<BTreeMap<String, BoundTexture>, BindError> {
+    let mut out = BTreeMap::new();
+    for d in decls {
+        if d.source == TextureSource::Rendered {
+            continue;
+        }
+        let err = |message: String| BindError::Texture { name: d.name.clone(), message };
+        // A scene texture of the same name wins.
+        if scene.textures.contains_key(&d.name) {
+            let one = Scene { textures: [(d.name.clone(), scene.textures[&d.name].clone())].into_iter().collect(), objects: vec![], ..scene.clone() };
+            let built = one.build()?;
+            if let Some(t) = built.textures.get(&d.name) {
+                out.insert(d.name.clone(), BoundTexture { name: d.name.clone(), texture: t.clone(), filter: d.filter, exact: None });
+                continue;
+            }
+        }
+        let format = texel_format(d.format);
+        let signed = is_signed(d.format);
+        let mut exact = None;
+        let texture = match &d.source {
+            TextureSource::Image(file) => {
+                let path = scene.resolve(file);
+                let t = match textures::load_image(&path, format, d.wrap) {
+                    Ok(t) => t,
+                    Err(textures::TextureError::NotFound { .. }) => {
+                        notes.push(format!("texture `{}`: {} not found; using a procedural brick stand-in (256×256)", d.name, path.display()));
+                        Texture2D::new(format, d.wrap, stand_in_image(256))
+                    }
+                    Err(e) => return Err(err(e.to_string())),
+                };
+                let t = if d.mipmap { t.with_box_mipmaps() } else { t };
+                if d.kind == TextureKind::Cube {
+                    return Err(err("a cube map from an image file is not supported; use normalize_cube(…) or a scene texture".into()));
+                }
+                Texture::Flat(t)
+            }
+            TextureSource::NormalizeCube { size, bits } => {
+                if d.kind != TextureKind::Cube {
+                    return Err(err("normalize_cube(…) needs a `cube` texture".into()));
+                }
+                let bits = if *bits >= 16 || matches!(format, TexelFormat::Rgba16) { CubeBits::Sixteen } else { CubeBits::Eight };
+                let mut cube = generators::normalize_cube((*size).clamp(1, 4096), bits);
+                if signed {
+                    // Signed formats hold the vector itself, not its range compression.
+                    for face in cube.faces.iter_mut() {
+                        for level in face.levels.iter_mut() {
+                            for t in level.texels.iter_mut() {
+                                for c in 0..3 {
+                                    t[c] = generators::expand(t[c]);
+                                }
+                            }
+                        }
+                    }
+                }
+                exact = Some(ExactFunction::Normalize { signed });
+                Texture::Cube(cube)
+            }
+            TextureSource::NormalMap { height, scale } => {
+                let hf = match height {
+                    HeightSource::File(file) => {
+                        let path = scene.resolve(file);
+                        match textures::load_height_field(&path) {
+                            Ok(h) => h,
+                            Err(textures::TextureError::NotFound { .. }) => {
+                                notes.push(format!("texture `{}`: height field {} not found; using procedural golf-ball dimples (256×256, 16 cells)", d.name, path.display()));
+                                HeightField::dimples(256, 16)
+                            }
+                            Err(e) => return Err(err(e.to_string())),
+                        }
+                    }
+                    HeightSource::Dimples { size, cells } => HeightField::dimples(*size, *cells),
+                };
+                let nf = if quality == TextureQuality::Exact || format == TexelFormat::F32 { NormalMapFormat::F32 } else { NormalMapFormat::Rgba8 };
+                let mut t = generators::normal_map(&hf, *scale, nf);
+                t.wrap = d.wrap;
+                if !d.mipmap {
+                    t.levels.truncate(1);
+                }
+                Texture::Flat(t)
+            }
+            TextureSource::Bumps { cells } => {
+                let nf = if quality == TextureQuality::Exact { NormalMapFormat::F32 } else { NormalMapFormat::Rgba8 };
+                let mut t = generators::normal_map(&HeightField::dimples(256, *cells), 4.0, nf);
+                if signed {
+                    for level in t.levels.iter_mut() {
+                        for texel in level.texels.iter_mut() {
+                            for c in 0..3 {
+                                texel[c] = generators::expand(texel[c]);
+                            }
+                        }
+                    }
+                    t.format = if nf == NormalMapFormat::F32 { TexelFormat::F32 } else { TexelFormat::Signed8 };
+                }
+                t.wrap = d.wrap;
+                if !d.mipmap {
+                    t.levels.truncate(1);
+                }
+                Texture::Flat(t)
+            }
+            TextureSource::DualParaboloid { file, face } => {
+                let path = scene.resolve(file);
+                if path.is_file() {
+                    notes.push(format!("texture `{}`: environment images are not read yet; using the procedural sky", d.name));
+                } else {
+                    notes.push(format!("texture `{}`: {} not found; using the procedural sky", d.name, path.display()));
+                }
+                let dp = generators::dual_paraboloid(128, format, &|dir| generators::sky(dir, [0.3, 0.8, 0.5]));
+                let mut t = if *face == 0 { dp.front } else { dp.back };
+                t.wrap = d.wrap;
+                Texture::Flat(t)
+            }
+            TextureSource::BrdfFd { roughness, index } => {
+                exact = Some(ExactFunction::FresnelDistribution { roughness: *roughness, index: *index });
+                Texture::Flat(generators::hs_fresnel_distribution(64, *roughness, *index, format))
+            }
+            TextureSource::BrdfG { scale } => {
+                exact = Some(ExactFunction::Geometry { roughness: 0.3, scale: *scale });
+                Texture::Flat(generators::hs_geometry(64, 0.3, *scale, format))
+            }
+            TextureSource::ExponentTable { exponent } => {
+                exact = Some(ExactFunction::Exponent(*exponent));
+                Texture::Flat(generators::exponent_lut(256, *exponent, format))
+            }
+            TextureSource::Bake(what) => return Err(err(format!("the texture source `{what}` (baking a shader) is not supported by the CPU renderer yet"))),
+            TextureSource::Rendered => unreachable!(),
+        };
+        out.insert(d.name.clone(), BoundTexture { name: d.name.clone(), texture, filter: d.filter, exact });
+    }
+    Ok(out)
+}
+
+/// Light and eye in one object's model space.
+#[derive(Clone, Debug)]
+struct ObjectSpace {
+    model: Mat4,
+    /// model → eye for points.
+    model_view: Mat4,
+    /// Directions (object → eye / world), normals use the inverse transpose.
+    normal_eye: Mat3,
+    normal_world: Mat3,
+    eye_obj: Vec3,
+    /// The infinite viewer's direction (object space), if infinite.
+    view_dir_obj: Option<Vec3>,
+    /// Per light: position (w = 1) or direction to the light (w = 0), object space.
+    lights: Vec<Vec4>,
+}
+
+/// One object of the scene, bound: per-vertex leaves and projections.
+pub struct BoundObject<'s> {
+    pub mesh: &'s Mesh,
+    space: ObjectSpace,
+    /// Clip matrices: camera π and light πl (model → clip).
+    pub camera_clip: Mat4,
+    pub light_clip: Mat4,
+    /// Generated coordinate sets, per vertex.
+    texgen: BTreeMap<TexCoordId, Vec<[f64; 4]>>,
+}
+
+/// The view-projection of light 0: from its position (or from far along a
+/// directional light) towards `center`, a 60° (or the spot's cone) frustum.
+pub fn light_view_projection(light: Option<&Light>, center: Vec3, radius: f32) -> Mat4 {
+    let (eye, fov) = match light {
+        Some(Light::Point { position, .. }) => (*position, 60.0f32),
+        Some(Light::Spot { position, cutoff_deg, .. }) => (*position, (2.0 * cutoff_deg).clamp(10.0, 170.0)),
+        Some(Light::Directional { direction, .. }) => (center - direction.normalize_or_zero() * (4.0 * radius.max(1.0)), 60.0),
+        None => (center + Vec3::new(0.0, 4.0 * radius.max(1.0), 0.0), 60.0),
+    };
+    let d = (center - eye).length().max(1e-3);
+    let up = if (center - eye).cross(Vec3::Y).length_squared() < 1e-6 * d * d { Vec3::Z } else { Vec3::Y };
+    let near = (d - 2.0 * radius).max(d * 0.05);
+    let far = d + 2.0 * radius.max(1.0);
+    super::camera::perspective_gl(fov.to_radians(), 1.0, near, far) * super::camera::look_at(eye, center, up)
+}
+
+impl<'s> BoundObject<'s> {
+    pub fn new(scene: &Scene, mesh: &'s Mesh, model: Mat4, aspect: f32, light_clip: Mat4) -> BoundObject<'s> {
+        let view = scene.camera.view();
+        let inv = model.inverse();
+        let model_view = view * model;
+        let normal_eye = Mat3::from_mat4(model_view).inverse().transpose();
+        let normal_world = Mat3::from_mat4(model).inverse().transpose();
+        let eye_obj = inv.transform_point3(scene.camera.eye);
+        let view_dir_obj = match scene.camera.viewer {
+            super::Viewer::Local => None,
+            super::Viewer::Infinite => Some(inv.transform_vector3(scene.camera.eye - scene.camera.target).normalize_or_zero()),
+        };
+        let lights = scene
+            .lights
+            .iter()
+            .map(|l| match *l {
+                Light::Directional { direction, .. } => inv.transform_vector3(-direction).normalize_or_zero().extend(0.0),
+                Light::Point { position, .. } | Light::Spot { position, .. } => inv.transform_point3(position).extend(1.0),
+            })
+            .collect();
+        BoundObject {
+            mesh,
+            space: ObjectSpace { model, model_view, normal_eye, normal_world, eye_obj, view_dir_obj, lights },
+            camera_clip: scene.camera.view_projection(aspect) * model,
+            light_clip: light_clip * model,
+            texgen: BTreeMap::new(),
+        }
+    }
+
+    pub fn n_vertices(&self) -> usize {
+        self.mesh.positions.len()
+    }
+
+    /// Evaluates the texgen statements of `module` at every vertex.
+    pub fn run_texgen(&mut self, module: &Module) -> Result<(), BindError> {
+        for st in &module.statements {
+            let Table::TexCoords(set) = st.table else { continue };
+            let mut ev = ir::eval::Evaluator::new(module, &[st.value], ir::eval::Precision::Exact);
+            let mut values = Vec::with_capacity(self.n_vertices());
+            for v in 0..self.n_vertices() {
+                let mut env = VertexEnv { object: self, module, vertex: v, uniforms: &[] };
+                let r = ev.eval(&mut env);
+                values.push(r.values[0]);
+            }
+            self.texgen.insert(set, values);
+        }
+        Ok(())
+    }
+
+    /// Object-space frame at a vertex: (N, T, B).
+    fn frame(&self, v: usize) -> (Vec3, Vec3, Vec3) {
+        let n = self.mesh.normals[v].normalize_or_zero();
+        let t4 = self.mesh.tangents.get(v).copied().unwrap_or(Vec4::new(1.0, 0.0, 0.0, 1.0));
+        let t = t4.truncate();
+        let b = n.cross(t) * if t4.w < 0.0 { -1.0 } else { 1.0 };
+        (n, t, b)
+    }
+
+    /// The value of vector `id` of `module` at vertex `v`.
+    pub fn vector(&self, module: &Module, id: VectorId, v: usize) -> [f64; 4] {
+        let decl = &module.vectors[id as usize];
+        let p = self.mesh.positions[v];
+        let (n, t, b) = self.frame(v);
+        let to_eye = || match self.space.view_dir_obj {
+            Some(d) => d,
+            None => (self.space.eye_obj - p).normalize_or_zero(),
+        };
+        let to_light = |i: u32| match self.space.lights.get(i as usize) {
+            Some(l) if l.w == 0.0 => l.truncate(),
+            Some(l) => (l.truncate() - p).normalize_or_zero(),
+            None => Vec3::ZERO,
+        };
+        let index = decl.index.unwrap_or(0);
+        let kind = decl.kind.unwrap_or(VectorKind::Normal);
+        let (obj, is_normal, is_point) = match kind {
+            VectorKind::Normal => (n, true, false),
+            VectorKind::Tangent => (t, false, false),
+            VectorKind::Binormal => (b, false, false),
+            VectorKind::Light => (to_light(index), false, false),
+            VectorKind::View => (to_eye(), false, false),
+            VectorKind::Half => ((to_light(index) + to_eye()).normalize_or_zero(), false, false),
+            VectorKind::Reflection => {
+                let v = to_eye();
+                (2.0 * n.dot(v) * n - v, false, false)
+            }
+            VectorKind::Position => (p, false, true),
+        };
+        let unit = !is_point;
+        let out = match decl.space.unwrap_or(Space::Eye) {
+            Space::Object => obj,
+            Space::Tangent => {
+                if is_point {
+                    Vec3::new(t.dot(p), b.dot(p), n.dot(p))
+                } else {
+                    Vec3::new(t.dot(obj), b.dot(obj), n.dot(obj))
+                }
+            }
+            Space::World => {
+                if is_point {
+                    self.space.model.transform_point3(p)
+                } else if is_normal {
+                    self.space.normal_world * obj
+                } else {
+                    self.space.model.transform_vector3(obj)
+                }
+            }
+            Space::Eye => {
+                if is_point {
+                    self.space.model_view.transform_point3(p)
+                } else if is_normal {
+                    self.space.normal_eye * obj
+                } else {
+                    self.space.model_view.transform_vector3(obj)
+                }
+            }
+        };
+        let out = if unit { out.normalize_or_zero() } else { out };
+        [out.x as f64, out.y as f64, out.z as f64, if is_point { 1.0 } else { 0.0 }]
+    }
+
+    /// A texture-coordinate set at vertex `v`.
+    pub fn tex_coord(&self, set: TexCoordId, v: usize) -> [f64; 4] {
+        if let Some(values) = self.texgen.get(&set) {
+            return values[v];
+        }
+        let uv = self.mesh.uvs.get(v).copied().unwrap_or(Vec2::ZERO);
+        [uv.x as f64, uv.y as f64, 0.0, 0.0]
+    }
+
+    /// The model → clip matrix of a projection.
+    pub fn clip_matrix(&self, p: &Projection) -> Mat4 {
+        let base = match p.subscript.as_deref() {
+            None | Some("") => self.camera_clip,
+            Some(_) => self.light_clip,
+        };
+        if p.inverse {
+            base.inverse()
+        } else {
+            base
+        }
+    }
+}
+
+/// `π v` (see the module docs): a point to clip space, `π⁻¹` back (divided
+/// by w), `πR d` to sphere-map coordinates.
+pub fn project(object: &BoundObject, p: &Projection, value: [f64; 4], ty: Ty) -> [f64; 4] {
+    if ty == Ty::Vec3 {
+        // Sphere map (seeds/001 (7)): m = 2·sqrt(rx² + ry² + (rz + 1)²).
+        let [x, y, z, _] = value;
+        let m = 2.0 * (x * x + y * y + (z + 1.0) * (z + 1.0)).sqrt();
+        return if m > 0.0 { [x / m + 0.5, y / m + 0.5, 0.0, 0.0] } else { [0.5, 0.5, 0.0, 0.0] };
+    }
+    let w = if ty == Ty::Position && value[3] == 0.0 && !p.inverse { 1.0 } else { value[3] };
+    let v = Vec4::new(value[0] as f32, value[1] as f32, value[2] as f32, w as f32);
+    let r = object.clip_matrix(p) * v;
+    if p.inverse && r.w != 0.0 {
+        [(r.x / r.w) as f64, (r.y / r.w) as f64, (r.z / r.w) as f64, 1.0]
+    } else {
+        [r.x as f64, r.y as f64, r.z as f64, r.w as f64]
+    }
+}
+
+/// The uniforms of a module for a scene: the scene's constants by name,
+/// else `None` (the declared default applies).
+pub fn uniforms(module: &Module, scene: &Scene) -> Vec<Option<[f64; 4]>> {
+    module
+        .uniforms
+        .iter()
+        .map(|u| {
+            scene.constants.get(&u.name).map(|v| {
+                let mut out = [0.0; 4];
+                for (o, x) in out.iter_mut().zip(v) {
+                    *o = *x as f64;
+                }
+                if v.len() == 1 {
+                    out = [v[0] as f64; 4];
+                } else if v.len() == 3 && u.ty == Ty::Rgba {
+                    out[3] = 1.0;
+                }
+                out
+            })
+        })
+        .collect()
+}
+
+/// The leaves of one vertex.
+pub struct VertexEnv<'a, 's> {
+    pub object: &'a BoundObject<'s>,
+    pub module: &'a Module,
+    pub vertex: usize,
+    pub uniforms: &'a [Option<[f64; 4]>],
+}
+
+impl ir::eval::Env for VertexEnv<'_, '_> {
+    fn uniform(&mut self, id: UniformId) -> Option<[f64; 4]> {
+        self.uniforms.get(id as usize).copied().flatten()
+    }
+    fn vertex_position(&mut self, _vertex: ir::VertexId) -> [f64; 4] {
+        let p = self.object.mesh.positions[self.vertex];
+        [p.x as f64, p.y as f64, p.z as f64, 1.0]
+    }
+    fn tex_coord(&mut self, set: TexCoordId, _vertex: ir::VertexId) -> [f64; 4] {
+        self.object.tex_coord(set, self.vertex)
+    }
+    fn vector(&mut self, vector: VectorId, site: Site) -> [f64; 4] {
+        match site {
+            Site::Vertex(_) => self.object.vector(self.module, vector, self.vertex),
+            Site::Texel => ir::eval::NAN,
+        }
+    }
+    fn project(&mut self, projection: &Projection, value: [f64; 4], ty: Ty) -> [f64; 4] {
+        project(self.object, projection, value, ty)
+    }
+}
+
+/// Whether the per-vertex value `h` is a unit direction: a role vector other
+/// than a position, a `normalize(…)`, a negation or reflection of those.
+/// Exact mode renormalizes these after interpolation.
+pub fn is_unit_direction(m: &Module, h: Handle<Expr>) -> bool {
+    match &m.exprs[h] {
+        Expr::Vector { vector, .. } => m.vectors[*vector as usize].kind.is_some_and(|k| k != VectorKind::Position),
+        Expr::Math { fun: ir::MathFunction::Normalize, .. } => true,
+        Expr::Math { fun: ir::MathFunction::Reflect, args } => args.iter().all(|a| is_unit_direction(m, *a)),
+        Expr::Unary { op: ir::UnaryOp::Neg, value } => is_unit_direction(m, *value),
+        _ => false,
+    }
+}
+
+/// Resolves a path relative to the current directory when a scene has none.
+pub fn scene_dir(scene: &Scene) -> PathBuf {
+    scene.path.parent().map(Path::to_path_buf).unwrap_or_default()
+}

@@ -1,0 +1,78 @@
+//! `shadec render`: the built-in default, and its errors.
+
+use std::process::Command;
+
+fn shadec() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_shadec"))
+}
+
+#[test]
+fn no_arguments_renders_the_default_into_shadec_out_png() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = shadec().arg("render").current_dir(dir.path()).output().unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "stdout:\n{stdout}\nstderr:\n{stderr}");
+    let png = dir.path().join("shadec-out.png");
+    let img = image::open(&png).unwrap().to_rgba8();
+    assert_eq!(img.dimensions(), (640, 480));
+    assert!(img.pixels().any(|p| p.0[0] > 40), "the torus is visible");
+    for needle in ["3 passes on geforce256", "pass 1:", "Mpixel/s", "max abs", "RMSE", "PSNR", "fixed9", "stand-in"] {
+        assert!(stdout.contains(needle), "missing {needle:?} in:\n{stdout}");
+    }
+    assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "only the picture is written");
+}
+
+#[test]
+fn options_choose_mode_size_target_and_output() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = shadec()
+        .args(["render", "--mode", "exact", "--size", "80x60", "--target", "geforce3", "--out", "x.png"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(stdout.contains("1 pass on geforce3"), "{stdout}");
+    assert!(stdout.contains("error against exact: 0"), "{stdout}");
+    assert_eq!(image::open(dir.path().join("x.png")).unwrap().to_rgba8().dimensions(), (80, 60));
+}
+
+#[test]
+fn a_missing_scene_is_a_usage_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = shadec().args(["render", "no/such/scene.ron"]).current_dir(dir.path()).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("no/such/scene.ron") && stderr.contains("not found"), "{stderr}");
+    assert!(!dir.path().join("shadec-out.png").exists());
+}
+
+#[test]
+fn a_bad_size_is_a_usage_error() {
+    let out = shadec().args(["render", "--size", "0x10"]).output().unwrap();
+    assert_eq!(out.status.code(), Some(2));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("WxH"));
+}
+
+#[test]
+fn a_bad_shader_is_an_input_error_with_its_location() {
+    let dir = tempfile::tempdir().unwrap();
+    let shader = dir.path().join("bad.shd");
+    std::fs::write(&shader, "texture T : 2d rgba8 = image(\"a.png\");\n\nC δπx ← Q δu x;\n").unwrap();
+    let out = shadec().args(["render", "--shader"]).arg(&shader).current_dir(dir.path()).output().unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(stderr.contains("bad.shd:3:"), "expected file:line:col in:\n{stderr}");
+    assert!(!dir.path().join("shadec-out.png").exists());
+}
+
+#[test]
+fn a_bad_scene_is_an_input_error() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = dir.path().join("s.ron");
+    std::fs::write(&scene, "(camera: (eye: (0.0, 0.0, 1.0)), objects: [],, )").unwrap();
+    let out = shadec().arg("render").arg(&scene).current_dir(dir.path()).output().unwrap();
+    assert_eq!(out.status.code(), Some(1));
+    assert!(String::from_utf8_lossy(&out.stderr).contains("s.ron:"), "{}", String::from_utf8_lossy(&out.stderr));
+}

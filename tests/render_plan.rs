@@ -1,0 +1,110 @@
+//! The plan renderer (issue 6, parts 3-4): the default scene in the three
+//! modes, the planner's split-correctness at image level, and every example
+//! either rendering cleanly or refusing with a clear error.
+
+use std::path::Path;
+
+use shadec::planner::{compile_source, Planned};
+use shadec::profile::Profile;
+use shadec::renderer::plan::{compare, Frame, Mode, PlanRenderer};
+use shadec::scene::Scene;
+
+const W: u32 = 160;
+const H: u32 = 120;
+
+fn kilgard() -> String {
+    std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd")).unwrap()
+}
+
+fn default_scene() -> Scene {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron")).unwrap();
+    // Anchor at a folder without decal.png / bumps.png: the stand-ins are used.
+    Scene::parse(&text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap()
+}
+
+fn plan(source: &str, target: &str) -> (Planned, shadec::parser::ast::Program) {
+    let profile = Profile::resolve(target).unwrap();
+    let planned = compile_source(source, &profile).unwrap_or_else(|d| panic!("{target}: {d:?}"));
+    let (program, _) = shadec::parser::check(source);
+    (planned, program)
+}
+
+fn render(source: &str, target: &str, scene: &Scene, mode: Mode) -> (Frame, usize) {
+    let (planned, program) = plan(source, target);
+    let assets = scene.build().unwrap();
+    let r = PlanRenderer::new(&planned, &program, scene, &assets).unwrap();
+    let f = r.render(mode, W, H, &mut |_, _| {}).unwrap();
+    (f, planned.plan.passes.len())
+}
+
+fn assert_finite(f: &Frame) {
+    assert!(f.image.to_rgba_f32().iter().all(|p| p.iter().all(|c| c.is_finite())), "NaN or Inf in the image");
+}
+
+#[test]
+fn default_render_error_numbers_are_sane() {
+    let scene = default_scene();
+    let src = kilgard();
+    let (exact, n) = render(&src, "geforce256", &scene, Mode::Exact);
+    assert_eq!(n, 3, "Kilgard is three passes on geforce256");
+    assert!(exact.stats.shaded > 1000, "the torus covers pixels: {:?}", exact.stats);
+    let (exact2, _) = render(&src, "geforce256", &scene, Mode::Exact);
+    let (f32_, _) = render(&src, "geforce256", &scene, Mode::F32);
+    let (fixed, _) = render(&src, "geforce256", &scene, Mode::Fixed9);
+    for f in [&exact, &f32_, &fixed] {
+        assert_finite(f);
+    }
+    let e0 = compare(&exact.image, &exact2.image);
+    assert_eq!(e0.max_abs, 0.0, "exact against exact");
+    assert!(e0.psnr.is_infinite());
+    let ef = compare(&exact.image, &f32_.image);
+    let e9 = compare(&exact.image, &fixed.image);
+    eprintln!("f32: {ef:?}\nfixed9: {e9:?}");
+    assert!(ef.max_abs > 0.0, "f32 uses the stored tables, so it differs a little");
+    assert!(ef.psnr > 25.0, "f32 is close to exact: {ef:?}");
+    assert!(e9.psnr > 20.0, "fixed9 is a picture of the same thing: {e9:?}");
+    assert!(e9.rmse > ef.rmse, "fixed9 is worse than f32: {e9:?} vs {ef:?}");
+}
+
+/// The planner's split is correct at image level: the three blended passes
+/// of geforce256 give the picture of the one fused pass of geforce3 / wgsl.
+#[test]
+fn multipass_and_single_pass_kilgard_agree_in_f32() {
+    let scene = default_scene();
+    let src = kilgard().replace("target geforce256;", "");
+    let (multi, n) = render(&src, "geforce256", &scene, Mode::F32);
+    assert_eq!(n, 3);
+    for target in ["geforce3", "wgsl"] {
+        let (single, n1) = render(&src, target, &scene, Mode::F32);
+        assert_eq!(n1, 1, "{target}: Kilgard collapses to one pass");
+        let e = compare(&single.image, &multi.image);
+        eprintln!("{target}: {e:?}");
+        assert!(e.max_abs < 2e-3, "{target}: multi-pass and single-pass differ by {e:?}");
+    }
+}
+
+#[test]
+fn every_example_renders_or_refuses_clearly() {
+    let scene = default_scene();
+    let mut refused = Vec::new();
+    let mut dir: Vec<_> = std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/examples")).unwrap().map(|e| e.unwrap().path()).collect();
+    dir.sort();
+    for path in dir.iter().filter(|p| p.extension().is_some_and(|e| e == "shd")) {
+        let src = std::fs::read_to_string(path).unwrap();
+        let profile = Profile::resolve("wgsl").unwrap();
+        let Ok(planned) = compile_source(&src, &profile) else { continue };
+        let (program, _) = shadec::parser::check(&src);
+        let assets = scene.build().unwrap();
+        let result = PlanRenderer::new(&planned, &program, &scene, &assets).and_then(|r| r.render(Mode::F32, 64, 48, &mut |_, _| {}));
+        match result {
+            Ok(f) => assert_finite(&f),
+            Err(e) => {
+                let msg = e.to_string();
+                assert!(!msg.is_empty());
+                refused.push(format!("{}: {msg}", path.file_name().unwrap().to_string_lossy()));
+            }
+        }
+    }
+    eprintln!("refused:\n{}", refused.join("\n"));
+    assert!(refused.len() <= 8, "too many examples refused: {refused:#?}");
+}
