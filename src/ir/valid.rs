@@ -4,7 +4,7 @@
 //! [`Module`] always has an [`ExprInfo`].
 
 use super::{
-    BinaryOp, Constant, Expr, ExprInfo, FbChannel, Frequency, Interval, MathFunction, Module, Site, Ty, UnaryOp,
+    eval, BinaryOp, Constant, Expr, ExprInfo, FbChannel, Frequency, Interval, MathFunction, Module, Site, Ty, UnaryOp,
 };
 use crate::parser::ast::{CombineMode, TextureFormat, TextureKind, VectorKind};
 
@@ -472,122 +472,31 @@ fn math(m: &Module, fun: MathFunction, args: &[super::Handle<Expr>]) -> Result<E
     }
 }
 
-/// Evaluates a node whose operands are all constants; `None` otherwise (or
-/// when the node is not a computation, such as a lookup).
+/// Evaluates a node whose operands are all constants, with the one
+/// semantics of every operation, [`eval::apply`]; `None` when an operand is
+/// not a constant, when the node is not a computation (a lookup, a leaf),
+/// for a bundle, for `c ? a` (it keeps the destination where `c` fails: a
+/// write, not a value), or when a component is not finite (`1/0` stays an
+/// operation, so that the evaluator's precision decides what it gives).
 pub fn fold(m: &Module, e: &Expr, ty: Ty) -> Option<Constant> {
-    let c = |h: &super::Handle<Expr>| match &m.exprs[*h] {
-        Expr::Constant(c) => Some(*c),
-        _ => None,
-    };
     let width = ty.width();
-    if width > 4 {
+    if width > 4 || !eval::is_computation(e) || matches!(e, Expr::Select { reject: None, .. }) {
         return None;
     }
-    // Component i of a constant, broadcasting scalars.
-    let at = |k: &Constant, i: usize| if k.ty == Ty::Scalar { k.components[0] } else { k.components[i.min(3)] };
-    let map = |f: &dyn Fn(usize) -> f64| {
-        let v: Vec<f64> = (0..width).map(f).collect();
-        if v.iter().all(|x| x.is_finite()) {
-            Some(Constant::new(ty, &v))
-        } else {
-            None
-        }
-    };
-    match e {
-        Expr::Unary { op, value } => {
-            let a = c(value)?;
-            match op {
-                UnaryOp::Neg => map(&|i| -at(&a, i)),
-                UnaryOp::Not => map(&|i| if at(&a, i) == 0.0 { 1.0 } else { 0.0 }),
-            }
-        }
-        Expr::Binary { op, lhs, rhs } => {
-            let (a, b) = (c(lhs)?, c(rhs)?);
-            use BinaryOp::*;
-            let bool = |x: bool| if x { 1.0 } else { 0.0 };
-            match op {
-                Dot => map(&|_| (0..a.ty.width()).map(|i| a.components[i] * b.components[i]).sum()),
-                Add => map(&|i| at(&a, i) + at(&b, i)),
-                Sub => map(&|i| at(&a, i) - at(&b, i)),
-                Mul => map(&|i| at(&a, i) * at(&b, i)),
-                Div => map(&|i| at(&a, i) / at(&b, i)),
-                Pow => map(&|i| at(&a, i).powf(at(&b, i))),
-                Lt => map(&|i| bool(at(&a, i) < at(&b, i))),
-                Le => map(&|i| bool(at(&a, i) <= at(&b, i))),
-                Gt => map(&|i| bool(at(&a, i) > at(&b, i))),
-                Ge => map(&|i| bool(at(&a, i) >= at(&b, i))),
-                Eq => map(&|i| bool(at(&a, i) == at(&b, i))),
-                Ne => map(&|i| bool(at(&a, i) != at(&b, i))),
-                And => map(&|i| bool(at(&a, i) != 0.0 && at(&b, i) != 0.0)),
-                Or => map(&|i| bool(at(&a, i) != 0.0 || at(&b, i) != 0.0)),
-            }
-        }
-        Expr::Math { fun, args } => {
-            let k: Vec<Constant> = args.iter().map(c).collect::<Option<_>>()?;
-            use MathFunction::*;
-            let a = k[0];
-            let f1 = |f: fn(f64) -> f64| map(&|i| f(at(&a, i)));
-            match fun {
-                Normalize => {
-                    let n = a.values().iter().map(|v| v * v).sum::<f64>().sqrt();
-                    map(&|i| at(&a, i) / n)
-                }
-                Length => map(&|_| a.values().iter().map(|v| v * v).sum::<f64>().sqrt()),
-                Max => map(&|i| at(&a, i).max(at(&k[1], i))),
-                Min => map(&|i| at(&a, i).min(at(&k[1], i))),
-                Clamp => map(&|i| at(&a, i).max(at(&k[1], i)).min(at(&k[2], i))),
-                Saturate => f1(|x| x.clamp(0.0, 1.0)),
-                Abs => f1(f64::abs),
-                Sign => f1(f64::signum),
-                Sqrt => f1(f64::sqrt),
-                Rsqrt => f1(|x| 1.0 / x.sqrt()),
-                Exp => f1(f64::exp),
-                Log => f1(f64::ln),
-                Sin => f1(f64::sin),
-                Cos => f1(f64::cos),
-                Floor => f1(f64::floor),
-                Fract => f1(|x| x - x.floor()),
-                Expand => f1(|x| 2.0 * x - 1.0),
-                HalfBias => f1(|x| x - 0.5),
-                Compress => f1(|x| (x + 1.0) / 2.0),
-                Step => map(&|i| if at(&k[1], i) < at(&a, i) { 0.0 } else { 1.0 }),
-                Mix => map(&|i| at(&a, i) * (1.0 - at(&k[2], i)) + at(&k[1], i) * at(&k[2], i)),
-                Smoothstep => map(&|i| {
-                    let t = ((at(&k[2], i) - at(&a, i)) / (at(&k[1], i) - at(&a, i))).clamp(0.0, 1.0);
-                    t * t * (3.0 - 2.0 * t)
-                }),
-                Cross | Reflect => None,
-            }
-        }
-        Expr::Swizzle { value, pattern, len, .. } => {
-            let a = c(value)?;
-            let v: Vec<f64> = pattern[..*len as usize].iter().map(|&i| a.components[i as usize]).collect();
-            Some(Constant::new(ty, &v))
-        }
-        Expr::Compose { components, .. } => {
-            let mut v = Vec::new();
-            for h in components {
-                v.extend_from_slice(c(h)?.values());
-            }
-            Some(Constant::new(ty, &v))
-        }
-        Expr::Convert { value, to } => {
-            let a = c(value)?;
-            if a.ty == Ty::Rgb && *to == Ty::Rgba {
-                let v = a.values();
-                Some(Constant::new(ty, &[v[0], v[1], v[2], 1.0]))
-            } else {
-                map(&|i| at(&a, i))
-            }
-        }
-        Expr::Select { cond, accept, reject: Some(reject) } => {
-            let k = c(cond)?;
-            let (a, b) = (c(accept)?, c(reject)?);
-            let pick = if k.components[0] != 0.0 { a } else { b };
-            map(&|i| at(&pick, i))
-        }
-        _ => None,
+    let hs = e.operands();
+    let mut operands = [[0.0; 4]; 4];
+    if hs.len() > operands.len() {
+        return None;
     }
+    for (o, h) in operands.iter_mut().zip(&hs) {
+        match &m.exprs[*h] {
+            Expr::Constant(c) => *o = eval::value(c),
+            _ => return None,
+        }
+    }
+    let v = eval::apply(m, e, ty, &operands[..hs.len()]);
+    let v = &v[..width];
+    v.iter().all(|x| x.is_finite()).then(|| Constant::new(ty, v))
 }
 
 #[cfg(test)]
