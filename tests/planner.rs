@@ -276,3 +276,16 @@ fn compile_emit_plan_writes_ron_and_json() {
     assert!(r.stderr.contains("bad.shd:2:"), "{}", r.stderr);
     assert!(!out2.exists());
 }
+
+#[test]
+fn generated_benchmark_programs_plan() {
+    for n in [10, 100, 1000] {
+        let src = planner::generated_program(n);
+        let plan = plan_src(&src, "geforce256").unwrap_or_else(|d| panic!("{d:#?}\n{src}"));
+        assert!(plan.passes.len() > n / 10, "{n}: {}", plan.summary());
+        let plan = plan_src(&src, "wgsl").unwrap();
+        assert!(plan.passes.len() <= n / 10 / MAX_FUSE_HINT + 2, "{n}: {} passes on wgsl", plan.passes.len());
+    }
+}
+
+const MAX_FUSE_HINT: usize = planner::MAX_FUSE;

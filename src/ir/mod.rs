@@ -79,7 +79,9 @@
 //! - `⊕[mode]` is [`Expr::Combine`] (no mode: modulate); `c ? a : b` is
 //!   [`Expr::Select`] (no `b`: keep the destination — shadow volumes).
 //! - Constants fold: every operation whose operands are all constants is
-//!   evaluated at compile time (f64) and becomes one [`Expr::Constant`].
+//!   evaluated at compile time (f64, by [`eval::apply`], the one semantics
+//!   the per-sample [`eval::Evaluator`] shares) and becomes one
+//!   [`Expr::Constant`].
 //!
 //! Lowering never panics on a program `parser::check` accepts; what it cannot
 //! lower yet is an error diagnostic saying "not yet supported". Shaders and

@@ -36,7 +36,7 @@ pub use interface::PassInterface;
 pub use split::{FitCheck, Overflow};
 
 use affine::Builder;
-use split::{Dest, Piece, Splitter};
+use split::{Dest, Piece, SplitCache, Splitter};
 
 use crate::diag::Diagnostic;
 use crate::ir::{self, BinaryOp, Expr, FbChannel, Frequency, Handle, Module, Statement, Table, Usage};
@@ -44,6 +44,11 @@ use crate::parser::ast::CombineMode;
 use crate::profile::{FragmentStage, Profile};
 use crate::renderer::{BlendState, CullMode, DepthState, RenderState, StencilOp, StencilState};
 use crate::span::{LineIndex, Span};
+
+/// At most this many consecutive statements are fused into one value (the
+/// fusion search is quadratic in the run; eight is more than any pass of
+/// the papers combines).
+pub const MAX_FUSE: usize = 8;
 
 /// A plan together with the IR it refers to (value ids are handle indices
 /// into `module.exprs`): what backends and renderers take.
@@ -119,6 +124,7 @@ pub fn plan_with(module: &Module, profile: &Profile, source: Option<&str>, searc
         }
     }
 
+    let mut cache = SplitCache::default();
     let mut diags = Vec::new();
     let mut chosen: Vec<(Vec<usize>, Form, Vec<Piece>, String)> = Vec::new();
     let live: Vec<usize> = (0..m.statements.len()).filter(|&i| !matches!(m.statements[i].table, Table::TexCoords(_)) && !specialize::is_noop(&m, &m.statements[i])).collect();
@@ -129,14 +135,17 @@ pub fn plan_with(module: &Module, profile: &Profile, source: Option<&str>, searc
     while k < live.len() {
         // The run of statements fusable with live[k].
         let mut run = vec![live[k]];
-        while k + run.len() < live.len() && fusable(&m, &m.statements[*run.last().unwrap()], &m.statements[live[k + run.len()]]) {
+        while run.len() < MAX_FUSE && k + run.len() < live.len() && fusable(&m, &m.statements[*run.last().unwrap()], &m.statements[live[k + run.len()]]) {
             run.push(live[k + run.len()]);
         }
         // best[j]: the cheapest plan of run[..j].
         let mut best: Vec<Option<(split::Cost, Vec<(Vec<usize>, Form, Vec<Piece>, String)>)>> = vec![None; run.len() + 1];
         best[0] = Some(((0, 0), vec![]));
         let mut first_error: Option<Diagnostic> = None;
+        // Why a statement was not fused with the one before it.
+        let mut not_fused: HashMap<usize, String> = HashMap::new();
         for j in 1..=run.len() {
+            // Each statement alone first: its cost bounds the fused candidates.
             for i in (0..j).rev() {
                 let Some((base_cost, base)) = best[i].clone() else { continue };
                 let stmts: Vec<usize> = run[i..j].to_vec();
@@ -145,46 +154,77 @@ pub fn plan_with(module: &Module, profile: &Profile, source: Option<&str>, searc
                     None => continue,
                 };
                 let st = m.statements[stmts[0]].clone();
+                // Statements are fused only into one pass: a fused value that
+                // must be split again saves nothing the separate statements'
+                // blends do not already give, and searching its splits is
+                // what would make planning cubic.
+                if stmts.len() > 1 {
+                    if let Err(o) = fit.fits(&m, fused) {
+                        if stmts.len() == 2 {
+                            not_fused.entry(stmts[1]).or_insert(format!("fused with statement {} it {o}", stmts[0] + 1));
+                        }
+                        continue;
+                    }
+                }
                 let form = match classify(&mut m, &st, fused) {
                     Ok(f) => f,
                     Err(d) => {
                         if stmts.len() == 1 {
                             first_error.get_or_insert(d);
+                        } else if stmts.len() == 2 {
+                            not_fused.entry(stmts[1]).or_insert(format!("fused with statement {}, {}", stmts[0] + 1, d.message));
                         }
                         continue;
                     }
                 };
-                let pieces = match plan_form(&mut m, &fit, &st, &form, float_temps, search) {
+                let pieces = match plan_form(&mut m, &fit, &mut cache, &st, &form, float_temps, search) {
                     Ok(p) => p,
                     Err(o) => {
                         if stmts.len() == 1 {
                             first_error.get_or_insert(cannot_split(&m, &st, profile, &o));
+                        } else if stmts.len() == 2 {
+                            not_fused.entry(stmts[1]).or_insert(format!("fused with statement {} it {o}", stmts[0] + 1));
                         }
                         continue;
                     }
                 };
                 let c = split::cost(&m, &pieces);
+                if stmts.len() == 2 {
+                    not_fused.entry(stmts[1]).or_insert(format!(
+                        "fused with statement {} it needs {} pass{} on {}, no fewer than apart",
+                        stmts[0] + 1,
+                        pieces.len(),
+                        if pieces.len() == 1 { "" } else { "es" },
+                        profile.name
+                    ));
+                }
                 let total = (base_cost.0 + c.0, base_cost.1 + c.1);
-                if best[j].as_ref().is_none_or(|(b, _)| total < *b) {
-                    let reason = if stmts.len() > 1 {
-                        format!(
-                            "statements {} fused: together they fit {} pass{} on {}",
-                            stmts.iter().map(|s| (s + 1).to_string()).collect::<Vec<_>>().join(", "),
-                            pieces.len(),
-                            if pieces.len() == 1 { "" } else { "es" },
-                            profile.name
-                        )
-                    } else {
-                        format!("statement {} as written", stmts[0] + 1)
-                    };
+                // On a tie, keep statements as written (more, smaller groups).
+                if best[j].as_ref().is_none_or(|(b, v)| total < *b || (total == *b && base.len() + 1 > v.len())) {
                     let mut v = base;
-                    v.push((stmts, form, pieces, reason));
+                    v.push((stmts, form, pieces, String::new()));
                     best[j] = Some((total, v));
                 }
             }
         }
         match best[run.len()].take() {
-            Some((_, v)) => chosen.extend(v),
+            Some((_, v)) => chosen.extend(v.into_iter().map(|(stmts, form, pieces, _)| {
+                let reason = if stmts.len() > 1 {
+                    format!(
+                        "statements {} fused: together they fit {} pass{} on {}",
+                        stmts.iter().map(|s| (s + 1).to_string()).collect::<Vec<_>>().join(", "),
+                        pieces.len(),
+                        if pieces.len() == 1 { "" } else { "es" },
+                        profile.name
+                    )
+                } else {
+                    match not_fused.get(&stmts[0]) {
+                        Some(why) => format!("statement {} as written: {why}", stmts[0] + 1),
+                        None => format!("statement {} as written", stmts[0] + 1),
+                    }
+                };
+                (stmts, form, pieces, reason)
+            })),
             None => diags.push(first_error.unwrap_or_else(|| {
                 let st = &m.statements[run[0]];
                 Diagnostic::error("cannot-plan", format!("cannot plan this statement for {}", profile.name), st.span, "here")
@@ -440,12 +480,12 @@ fn stencil_write(m: &Module, st: &Statement, value: Handle<Expr>) -> Option<Form
 }
 
 /// The pieces of one (fused) statement.
-fn plan_form(m: &mut Module, fit: &dyn FitCheck, st: &Statement, form: &Form, float_temps: bool, search: Search) -> Result<Vec<Piece>, Overflow> {
+fn plan_form(m: &mut Module, fit: &dyn FitCheck, cache: &mut SplitCache, st: &Statement, form: &Form, float_temps: bool, search: Search) -> Result<Vec<Piece>, Overflow> {
     if form.channels == "stencil" {
         return Ok(vec![Piece { blend: BlendMode::Replace, value: form.value, dest: Dest::Main, alpha: true, why: String::new() }]);
     }
     let overflow = fit.fits(m, form.value).err();
-    let mut splitter = Splitter::new(m, fit, st.index, float_temps);
+    let mut splitter = Splitter::new(m, fit, cache, st.index, float_temps);
     if search == Search::Exhaustive {
         splitter = splitter.exhaustive();
     }
@@ -542,8 +582,16 @@ fn assemble(
                 stencil: form.stencil.unwrap_or(StencilState::DISABLED),
                 blend: BlendState { ..piece.blend.render_state().with_write_mask(mask) },
             };
-            let why = if n == 1 { reason.clone() } else { format!("{reason}; {}", piece.why) };
-            let pass_reason = if n > 1 { format!("statement {} split ({} of {n}): {}", stmts[0] + 1, pi + 1, piece.why) } else { why };
+            let pass_reason = if n == 1 {
+                reason.clone()
+            } else {
+                let label = match stmts.as_slice() {
+                    [s] => format!("statement {}", s + 1),
+                    many => format!("statements {} (fused)", many.iter().map(|s| (s + 1).to_string()).collect::<Vec<_>>().join(", ")),
+                };
+                let why = if piece.why.is_empty() { "the part rendered first" } else { piece.why.as_str() };
+                format!("{label} split into {n} passes on {} (pass {} of {n}): {why}", profile.name, pi + 1)
+            };
             roots.push(piece.value);
             roots.push(st.index);
             roots.extend(form.condition);
@@ -599,4 +647,32 @@ fn projection_name(m: &Module, index: Handle<Expr>) -> String {
         }
     }
     "u".to_string()
+}
+
+/// Generated programs for the compile-time benchmark and tests: about `ops`
+/// operations in statements of ten, accumulated into one framebuffer the way
+/// multipass lighting is (seeds/001 (9)), over eight textures and four lights.
+#[doc(hidden)]
+pub fn generated_program(ops: usize) -> String {
+    let mut s = String::from("vector N : normal in tangent;\n");
+    for l in 0..4 {
+        s += &format!("vector L{l} : light({l}) in tangent;\n");
+    }
+    for t in 0..8 {
+        s += &format!("texture T{t} : 2d rgba8;\n");
+    }
+    s += "texture Ncube : cube rgb8;\nframebuffer C : rgba8, depth;\nconst kd : rgb = (0.7, 0.6, 0.5);\n";
+    s += "C δπx ← T0 δu x;\n";
+    let statements = (ops / 10).max(1);
+    for i in 0..statements {
+        let (t, l) = (i % 8, i % 4);
+        // A distinct constant per statement: no two statements are the same DAG.
+        s += &format!(
+            "C δπx ← (C δπx) ⊕[add] ({:.6} * kd * T{t} δu x * max(0, expand(Ncube δ L{l} s x) · expand(T{} δu x).rgb) * (T{} δu x).a);\n",
+            1.0 - i as f64 / (2 * statements) as f64,
+            (t + 1) % 8,
+            (t + 3) % 8
+        );
+    }
+    s
 }

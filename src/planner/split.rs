@@ -106,20 +106,27 @@ enum ChainOp {
     Mul,
 }
 
+/// What the searches of one program share: plans already found for a
+/// (mode, value, position), and the temporaries introduced.
+#[derive(Default)]
+pub struct SplitCache {
+    memo: HashMap<(BlendMode, Handle<Expr>, Handle<Expr>), Option<Pieces>>,
+    temps: HashMap<Handle<Expr>, u32>,
+}
+
 pub struct Splitter<'a> {
     pub module: &'a mut Module,
     fit: &'a dyn FitCheck,
     exhaustive: bool,
-    memo: HashMap<(BlendMode, Handle<Expr>), Option<Pieces>>,
-    temps: HashMap<Handle<Expr>, u32>,
+    cache: &'a mut SplitCache,
     /// Screen position the temporaries are read at (the statement's index).
     position: Handle<Expr>,
     float_temps: bool,
 }
 
 impl<'a> Splitter<'a> {
-    pub fn new(module: &'a mut Module, fit: &'a dyn FitCheck, position: Handle<Expr>, float_temps: bool) -> Splitter<'a> {
-        Splitter { module, fit, exhaustive: false, memo: HashMap::new(), temps: HashMap::new(), position, float_temps }
+    pub fn new(module: &'a mut Module, fit: &'a dyn FitCheck, cache: &'a mut SplitCache, position: Handle<Expr>, float_temps: bool) -> Splitter<'a> {
+        Splitter { module, fit, exhaustive: false, cache, position, float_temps }
     }
 
     /// The brute-force variant the optimality test compares against.
@@ -144,13 +151,13 @@ impl<'a> Splitter<'a> {
 
     fn plan_at(&mut self, mode: BlendMode, e: Handle<Expr>, depth: usize) -> Option<Pieces> {
         if !self.exhaustive {
-            if let Some(r) = self.memo.get(&(mode, e)) {
+            if let Some(r) = self.cache.memo.get(&(mode, e, self.position)) {
                 return r.clone();
             }
         }
         let r = self.search(mode, e, depth);
         if !self.exhaustive {
-            self.memo.insert((mode, e), r.clone());
+            self.cache.memo.insert((mode, e, self.position), r.clone());
         }
         r
     }
@@ -459,8 +466,8 @@ impl<'a> Splitter<'a> {
     }
 
     fn temp_for(&mut self, e: Handle<Expr>) -> u32 {
-        let n = self.temps.len() as u32;
-        *self.temps.entry(e).or_insert(n)
+        let n = self.cache.temps.len() as u32;
+        *self.cache.temps.entry(e).or_insert(n)
     }
 
     fn temp_texture(&mut self, id: u32) -> u32 {
