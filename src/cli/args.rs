@@ -32,6 +32,13 @@ pub enum Command {
     /// Run a register-combiner setup (`!!RC1.0` or RON) on images, as the
     /// hardware would (seeds/003 Section 4.2, Appendix B).
     Emulate(super::emulate::EmulateArgs),
+    /// Translate a legacy register-combiner setup (`!!RC1.0` or RON) to a
+    /// WGSL shader that computes what the hardware does (fixed9, bit-exact
+    /// with `shadec emulate`).
+    ///
+    /// Exit status: 0 on success, 1 when the setup has errors, 2 on usage
+    /// or I/O errors.
+    Translate(super::translate::TranslateArgs),
 }
 
 #[derive(Debug, clap::Args)]

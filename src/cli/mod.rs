@@ -8,6 +8,7 @@ mod check;
 mod compile;
 mod emulate;
 mod fmt;
+mod translate;
 
 use std::process::ExitCode;
 
@@ -25,6 +26,7 @@ pub fn main() -> ExitCode {
         Command::Compile(args) => compile::run(&args),
         Command::Fmt(args) => fmt::run(&args),
         Command::Emulate(args) => emulate::run(&args),
+        Command::Translate(args) => translate::run(&args),
     }
 }
 

@@ -6,6 +6,8 @@
 //!   `planner::PassInterface`, validated by naga; `--fidelity exact|hardware`.
 //! - `emit`: the modules written as WGSL (one document, a header comment per
 //!   pass with its source line), SPIR-V and GLSL.
+//! - `rc1`: legacy `!!RC1.0` combiner setups as WGSL, bit-exact with the
+//!   fixed9 emulator (`shadec translate`).
 //! - `runner` (feature `gpu`): render a list of passes — WGSL or a
 //!   `naga::Module`, vertices, textures, uniforms and the GL-style
 //!   fixed-function state of `renderer::RenderState` — into one RGBA8 target
@@ -13,6 +15,7 @@
 
 pub mod codegen;
 pub mod emit;
+pub mod rc1;
 #[cfg(feature = "gpu")]
 pub mod runner;
 
