@@ -84,7 +84,16 @@ fn report(args: &CompileArgs, file: &SourceFile, diagnostics: &[shadec::diag::Di
     }
 }
 
+/// `--emit wgsl|spirv|glsl` in a build without naga.
+#[cfg(not(feature = "wgsl"))]
+fn shaders_out(_: &CompileArgs, _: &SourceFile, _: &str, _: &shadec::planner::Planned) -> ExitCode {
+    let _ = FidelityArg::Exact;
+    eprintln!("error: this shadec was built without the `wgsl` feature: rebuild with default features to emit shaders");
+    ExitCode::from(EXIT_USAGE_OR_IO)
+}
+
 /// `--emit wgsl|spirv|glsl`.
+#[cfg(feature = "wgsl")]
 fn shaders_out(args: &CompileArgs, file: &SourceFile, text: &str, planned: &shadec::planner::Planned) -> ExitCode {
     use shadec::backends::wgsl::{codegen, emit};
     let fidelity = match args.fidelity {
@@ -139,6 +148,7 @@ fn shaders_out(args: &CompileArgs, file: &SourceFile, text: &str, planned: &shad
 }
 
 /// `dir/a.spv` → `dir/a.pass2.spv`.
+#[cfg(feature = "wgsl")]
 fn pass_path(out: &std::path::Path, n: usize) -> std::path::PathBuf {
     let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "shader".into());
     let name = match out.extension() {

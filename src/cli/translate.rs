@@ -49,9 +49,21 @@ pub fn run(args: &TranslateArgs) -> ExitCode {
             return ExitCode::from(super::EXIT_USAGE_OR_IO);
         }
     };
+    #[cfg(not(feature = "wgsl"))]
+    {
+        let _ = config;
+        eprintln!("error: this shadec was built without the `wgsl` feature: rebuild with default features to translate");
+        ExitCode::from(super::EXIT_USAGE_OR_IO)
+    }
+    #[cfg(feature = "wgsl")]
+    translate(args, &config)
+}
+
+#[cfg(feature = "wgsl")]
+fn translate(args: &TranslateArgs, config: &shadec::backends::combiners::config::CombinerConfig) -> ExitCode {
     let title = args.config.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
     match args.emit {
-        TranslateEmit::Wgsl => match shadec::backends::wgsl::rc1::translate(&config, &title) {
+        TranslateEmit::Wgsl => match shadec::backends::wgsl::rc1::translate(config, &title) {
             Ok(text) => super::write_output(args.output.as_deref(), &text),
             Err(e) => {
                 eprintln!("error[internal-error]: {e}\n  = help: this is a bug in shadec, not in the setup: please report it with the setup");
