@@ -97,3 +97,21 @@ fn geforce256_plan_compiles_to_three_passes() {
         assert_eq!(p.source.len(), 1, "one statement per pass: {:?}", p.source);
     }
 }
+
+/// Every example planned on every built-in profile compiles to valid
+/// modules or to `wgsl-unsupported` diagnostics — never an internal error
+/// or a panic — in both fidelities.
+#[test]
+fn every_profile_plan_compiles_without_internal_errors() {
+    for (name, src) in examples() {
+        for profile in ["geforce256", "geforce3", "multitexture", "wgsl"] {
+            let p = shadec::profile::Profile::resolve(profile).unwrap();
+            let Ok(planned) = shadec::planner::compile_source(&src, &p) else { continue };
+            for fidelity in [Fidelity::Exact, Fidelity::Hardware] {
+                if let Err(diags) = codegen::generate(&planned, Some(&src), fidelity) {
+                    assert!(diags.iter().all(|d| d.code == "wgsl-unsupported"), "{name} on {profile}: {diags:#?}");
+                }
+            }
+        }
+    }
+}
