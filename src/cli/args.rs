@@ -20,8 +20,9 @@ pub enum Command {
     /// Exit status: 0 when every file is clean (warnings allowed), 1 when a
     /// file has errors, 2 on usage or I/O errors.
     Check(CheckArgs),
-    /// Lower a program and print its IR (`--emit ir`) or its pass plan for a
-    /// target (`--emit plan --format ron|json`).
+    /// Lower a program and print its IR (`--emit ir`), its pass plan for a
+    /// target (`--emit plan --format ron|json`), or shaders for its passes
+    /// (`--emit wgsl|spirv|glsl`, through naga).
     ///
     /// Exit status: 0 on success, 1 when the program has errors, 2 on usage
     /// or I/O errors.
@@ -39,6 +40,13 @@ pub enum Command {
     /// Exit status: 0 on success, 1 when the program or scene has errors
     /// (shader errors with file:line:col), 2 on usage or I/O errors.
     Render(super::render::RenderArgs),
+    /// Translate a legacy register-combiner setup (`!!RC1.0` or RON) to a
+    /// WGSL shader that computes what the hardware does (fixed9, bit-exact
+    /// with `shadec emulate`).
+    ///
+    /// Exit status: 0 on success, 1 when the setup has errors, 2 on usage
+    /// or I/O errors.
+    Translate(super::translate::TranslateArgs),
 }
 
 #[derive(Debug, clap::Args)]
@@ -73,6 +81,11 @@ pub struct CompileArgs {
     /// Write here (atomically) instead of standard output.
     #[arg(short, long, value_name = "OUT")]
     pub output: Option<PathBuf>,
+    /// With `--emit wgsl|spirv|glsl`: `exact` (f32 maths) or `hardware` (the
+    /// register-combiner precision model: clamp to [−1, 1] and 9-bit
+    /// quantization after every per-fragment operation).
+    #[arg(long, value_enum, default_value_t = FidelityArg::Exact)]
+    pub fidelity: FidelityArg,
     /// With `--emit plan`: the document's format (`ron`, the default, or
     /// `json`). Diagnostics print as `human`, `short` or `json` (LSP).
     #[arg(long, value_enum, default_value_t = CompileFormat::Human)]
@@ -85,6 +98,22 @@ pub enum Emit {
     Ir,
     /// The pass plan for the target (docs/pass-plan.md): RON or JSON.
     Plan,
+    /// WGSL, one module per pass in one document, each section headed by
+    /// `// ==== pass N of M: …` and its source line (target defaults to `wgsl`).
+    Wgsl,
+    /// SPIR-V binary, one module per pass; needs `-o OUT`: one pass writes
+    /// OUT, several write OUT's stem + `.passN` + extension (`a.pass1.spv`, …).
+    Spirv,
+    /// GLSL 330, a vertex and a fragment shader per pass, in one document.
+    Glsl,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum FidelityArg {
+    /// f32 arithmetic, true normalize and pow.
+    Exact,
+    /// The register-combiner precision model (8 bits + sign, clamps).
+    Hardware,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

@@ -1,11 +1,12 @@
-//! `shadec compile FILE --emit ir|plan`: lower a program and print the IR,
-//! or plan it for a target and print the pass plan (RON or JSON).
+//! `shadec compile FILE --emit ir|plan|wgsl|spirv|glsl`: lower a program and
+//! print the IR, plan it for a target and print the pass plan (RON or JSON),
+//! or compile the plan's passes to shaders through naga.
 
 use std::process::ExitCode;
 
 use shadec::diag::SourceFile;
 
-use super::args::{CompileArgs, CompileFormat, Emit};
+use super::args::{CompileArgs, CompileFormat, Emit, FidelityArg};
 use super::check::color_stderr;
 use super::{EXIT_SOURCE_ERRORS, EXIT_USAGE_OR_IO};
 
@@ -23,16 +24,22 @@ pub fn run(args: &CompileArgs) -> ExitCode {
     if diagnostics.iter().all(|d| !d.is_error()) {
         let (m, lower_diags) = shadec::ir::lower(&program);
         diagnostics.extend(lower_diags);
+        let shaders = matches!(args.emit, Emit::Wgsl | Emit::Spirv | Emit::Glsl);
         let mut target = args.target.clone().or_else(|| m.target.as_ref().map(|t| t.value.clone()));
+        if shaders && args.target.is_none() {
+            // Shaders are for modern hardware: plan on the wgsl profile
+            // unless --target says otherwise.
+            target = Some("wgsl".to_string());
+        }
         if args.emit == Emit::Plan && target.is_none() {
             target = Some("wgsl".to_string());
         }
         if let Some(name) = target {
             match shadec::profile::Profile::resolve(&name) {
                 Ok(p) if diagnostics.iter().all(|d| !d.is_error()) => {
-                    if args.emit == Emit::Plan {
+                    if args.emit == Emit::Plan || shaders {
                         match shadec::planner::plan(&m, &p, Some(&text)) {
-                            Ok(planned) => plan = Some(planned.plan),
+                            Ok(planned) => plan = Some(planned),
                             Err(ds) => diagnostics.extend(ds),
                         }
                     } else {
@@ -50,23 +57,103 @@ pub fn run(args: &CompileArgs) -> ExitCode {
     }
     diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
     let file = SourceFile::new(args.file.display().to_string(), text.clone());
-    match args.format {
-        CompileFormat::Human | CompileFormat::Ron => eprint!("{}", file.render(&diagnostics, color_stderr())),
-        CompileFormat::Short => eprint!("{}", file.render_short(&diagnostics)),
-        CompileFormat::Json => {
-            let uri = format!("file://{}", args.file.display());
-            eprintln!("{}", serde_json::to_string_pretty(&file.to_lsp(&uri, &diagnostics)).expect("diagnostics serialize"));
-        }
-    }
+    report(args, &file, &diagnostics);
     let module = match module {
         Some(m) if diagnostics.iter().all(|d| !d.is_error()) => m,
         _ => return ExitCode::from(EXIT_SOURCE_ERRORS),
     };
     let out = match (args.emit, plan) {
         (Emit::Ir, _) => shadec::ir::dump::dump(&module, Some(&text)),
-        (Emit::Plan, Some(plan)) if args.format == CompileFormat::Json => plan.to_json() + "\n",
-        (Emit::Plan, Some(plan)) => plan.to_ron() + "\n",
-        (Emit::Plan, None) => return ExitCode::from(EXIT_SOURCE_ERRORS),
+        (Emit::Plan, Some(p)) if args.format == CompileFormat::Json => p.plan.to_json() + "\n",
+        (Emit::Plan, Some(p)) => p.plan.to_ron() + "\n",
+        (Emit::Wgsl | Emit::Spirv | Emit::Glsl, Some(p)) => return shaders_out(args, &file, &text, &p),
+        (_, None) => return ExitCode::from(EXIT_SOURCE_ERRORS),
     };
     super::write_output(args.output.as_deref(), &out)
+}
+
+/// Prints diagnostics the way `--format` asks.
+fn report(args: &CompileArgs, file: &SourceFile, diagnostics: &[shadec::diag::Diagnostic]) {
+    match args.format {
+        CompileFormat::Human | CompileFormat::Ron => eprint!("{}", file.render(diagnostics, color_stderr())),
+        CompileFormat::Short => eprint!("{}", file.render_short(diagnostics)),
+        CompileFormat::Json => {
+            let uri = format!("file://{}", args.file.display());
+            eprintln!("{}", serde_json::to_string_pretty(&file.to_lsp(&uri, diagnostics)).expect("diagnostics serialize"));
+        }
+    }
+}
+
+/// `--emit wgsl|spirv|glsl` in a build without naga.
+#[cfg(not(feature = "wgsl"))]
+fn shaders_out(_: &CompileArgs, _: &SourceFile, _: &str, _: &shadec::planner::Planned) -> ExitCode {
+    let _ = FidelityArg::Exact;
+    eprintln!("error: this shadec was built without the `wgsl` feature: rebuild with default features to emit shaders");
+    ExitCode::from(EXIT_USAGE_OR_IO)
+}
+
+/// `--emit wgsl|spirv|glsl`.
+#[cfg(feature = "wgsl")]
+fn shaders_out(args: &CompileArgs, file: &SourceFile, text: &str, planned: &shadec::planner::Planned) -> ExitCode {
+    use shadec::backends::wgsl::{codegen, emit};
+    let fidelity = match args.fidelity {
+        FidelityArg::Exact => codegen::Fidelity::Exact,
+        FidelityArg::Hardware => codegen::Fidelity::Hardware,
+    };
+    let passes = match codegen::generate(planned, Some(text), fidelity) {
+        Ok(p) => p,
+        Err(ds) => {
+            report(args, file, &ds);
+            return ExitCode::from(EXIT_SOURCE_ERRORS);
+        }
+    };
+    let name = args.file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let title = format!("{name} on {}, fidelity {}", planned.plan.target, if fidelity == codegen::Fidelity::Exact { "exact" } else { "hardware" });
+    let doc = match args.emit {
+        Emit::Wgsl => emit::wgsl(&title, &passes),
+        Emit::Glsl => emit::glsl(&title, &passes),
+        _ => {
+            let Some(out) = args.output.as_deref() else {
+                eprintln!("error: SPIR-V is binary: give an output file with -o OUT (several passes write OUT's stem + .passN + extension)");
+                return ExitCode::from(EXIT_USAGE_OR_IO);
+            };
+            let mut files = Vec::new();
+            for p in &passes {
+                let words = match emit::spirv(p) {
+                    Ok(w) => w,
+                    Err(d) => {
+                        report(args, file, &[d]);
+                        return ExitCode::from(EXIT_SOURCE_ERRORS);
+                    }
+                };
+                let path = if passes.len() == 1 { out.to_path_buf() } else { pass_path(out, p.pass + 1) };
+                files.push((path, emit::spirv_bytes(&words)));
+            }
+            for (path, bytes) in files {
+                if let Err(e) = shadec::io::write_atomic(&path, &bytes) {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(EXIT_USAGE_OR_IO);
+                }
+            }
+            return ExitCode::SUCCESS;
+        }
+    };
+    match doc {
+        Ok(doc) => super::write_output(args.output.as_deref(), &doc),
+        Err(d) => {
+            report(args, file, &[d]);
+            ExitCode::from(EXIT_SOURCE_ERRORS)
+        }
+    }
+}
+
+/// `dir/a.spv` → `dir/a.pass2.spv`.
+#[cfg(feature = "wgsl")]
+fn pass_path(out: &std::path::Path, n: usize) -> std::path::PathBuf {
+    let stem = out.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "shader".into());
+    let name = match out.extension() {
+        Some(ext) => format!("{stem}.pass{n}.{}", ext.to_string_lossy()),
+        None => format!("{stem}.pass{n}"),
+    };
+    out.with_file_name(name)
 }

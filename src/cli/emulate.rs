@@ -82,7 +82,7 @@ fn parse_color(s: &str) -> Result<Color, String> {
     Ok(c)
 }
 
-enum Failure {
+pub(super) enum Failure {
     /// Bad config (exit 1); the message is complete.
     Config(String),
     /// Usage or I/O (exit 2).
@@ -171,7 +171,7 @@ fn run_inner(args: &EmulateArgs) -> Result<(), Failure> {
     Ok(())
 }
 
-fn load_config(path: &Path, limits: &CombinerLimits) -> Result<CombinerConfig, Failure> {
+pub(super) fn load_config(path: &Path, limits: &CombinerLimits) -> Result<CombinerConfig, Failure> {
     let text = shadec::io::read_text(path).map_err(|e| Failure::Io(e.to_string()))?;
     let name = path.display().to_string();
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ron")) {

@@ -9,6 +9,7 @@ mod compile;
 mod emulate;
 mod fmt;
 mod render;
+mod translate;
 
 use std::process::ExitCode;
 
@@ -27,6 +28,7 @@ pub fn main() -> ExitCode {
         Command::Fmt(args) => fmt::run(&args),
         Command::Emulate(args) => emulate::run(&args),
         Command::Render(args) => render::run(&args),
+        Command::Translate(args) => translate::run(&args),
     }
 }
 

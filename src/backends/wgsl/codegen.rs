@@ -1,0 +1,1383 @@
+//! IR → `naga::Module`: one module per pass of a [`Planned`] plan, with a
+//! vertex entry point `vs_main` and a fragment entry point `fs_main`, built
+//! to the binding contract of [`PassInterface`] and validated by naga here
+//! (an invalid module is a compiler bug, reported as an `internal-error`
+//! diagnostic on the statement).
+//!
+//! # Bindings (the runner's conventions, `runner.rs`)
+//!
+//! - Vertex input `@location(i)`: `vec4<f32>`, the pass's `vertex_leaves[i]`
+//!   (a position has w = 1, a direction w = 0, coordinates z = w = 0). A pass
+//!   whose geometry is not a mesh (`Screen`, `Texels`) takes one more input
+//!   after the leaves, `quad`: the clip-space corner (x, y in −1..1) of the
+//!   full-screen rectangle.
+//! - Group 0, `@binding(0)`: the uniform block `Uniforms`, when the pass has
+//!   a projection or a uniform: the projection matrices first (`mat4x4<f32>`
+//!   each, model → GL clip space, in `PassInterface::projections` order; an
+//!   inverse projection's slot holds the inverse matrix), then the uniforms
+//!   (`vec4<f32>` each, in `PassInterface::uniforms` order). See
+//!   [`uniform_bytes`].
+//! - Texture unit `i`: the texture at `@binding(1 + 2i)`, its sampler at
+//!   `@binding(2 + 2i)`. 1-D textures are bound as 2-D textures one texel
+//!   high (sampled at v = ½); signed formats are stored range-compressed in
+//!   RGBA8 (`(v + 1)/2`) and expanded in the shader. A framebuffer read at
+//!   the fragment's own pixel is a `textureLoad` at the pixel.
+//! - Varyings: `@location(k)` is `interpolants[k]` widened to `vec4<f32>`
+//!   (zeros appended), perspective-correct; a non-mesh pass adds `texel_uv`.
+//! - Output `@location(0)`: the fragment value widened to RGBA (a scalar is
+//!   splatted, rgb gets alpha 1).
+//!
+//! # Conventions
+//!
+//! - Clip space: the plan's matrices are GL's (z in −w..w); the vertex
+//!   shader writes `z' = ½z + ½w` (wgpu's 0..w). Interpolated positions keep
+//!   GL clip coordinates; their depth is `½ z/w + ½` (GL window depth).
+//! - Texture coordinates: v = 0 is row 0 of the image, which is the top of a
+//!   rendered image (clip y = +1). Projective lookups (`T δπl x`) use
+//!   `(½ x/w + ½, ½ − ½ y/w)`; rendering into a texture by its coordinates
+//!   (`T δu x ←`) puts u, v at clip `(2u − 1, 1 − 2v)`.
+//! - ⊕ modes, the left operand the texture (Ct, At) over the right one (Cf,
+//!   Af), as `planner/affine.rs` documents: modulate `a·b`, add `a + b`,
+//!   add_signed `a + b − ½`, subtract `a − b`, decal `Cf(1 − At) + Ct·At`
+//!   with alpha Af, blend `Cf(1 − Ct)` with alpha `Af·At`, replace `Ct` (alpha
+//!   At for an rgba texture, else Af), interpolate `Ct·At + Cf(1 − At)` (alpha
+//!   likewise), dot3 `saturate(4 (Ct − ½)·(Cf − ½))` splatted to rgb (alpha
+//!   `Af·At`; dot3_rgba: to all four). At = 1 for an rgb operand.
+//! - Comparisons and logic give 1.0 or 0.0; a condition holds where it is
+//!   not 0. `c ? a` (no `:`) discards the fragment where `c` is 0.
+//!
+//! # Fidelity
+//!
+//! [`Fidelity::Exact`] is f32 arithmetic with true normalize and pow.
+//! [`Fidelity::Hardware`] models the register combiners (seeds/000 Section
+//! 5.2, `docs/combiners.md`): every per-fragment arithmetic result, constant
+//! in [−1, 1] (larger ones are scale factors, exact) and uniform is clamped
+//! to [−1, 1] and quantized to 9 bits (8 + sign) by
+//! `q9(x) = clamp(floor(255x + ½), −255, 255) / 255` (nearest, ties toward
+//! +∞, as the emulator's register write); a constant integer power is
+//! repeated squaring with a register write after each product; textures are
+//! 8-bit already.
+
+use std::collections::{BTreeSet, HashMap};
+
+use naga::{
+    AddressSpace, Binding, BuiltIn, EntryPoint, Expression, Function, FunctionArgument, FunctionResult, GlobalVariable,
+    ImageClass, ImageDimension, Interpolation, Literal, ResourceBinding, Sampling, Scalar, ScalarKind, ShaderStage,
+    Statement, StructMember, SwizzleComponent, Type, TypeInner, VectorSize,
+};
+
+use crate::diag::Diagnostic;
+use crate::ir::{self, BinaryOp, Expr, FbChannel, Frequency, MathFunction, Ty, UnaryOp};
+use crate::parser::ast::{CombineMode, TextureFormat, TextureKind};
+use crate::planner::{Geometry, PassInterface, Planned, RenderTarget};
+use crate::span::Span;
+
+pub const VERTEX_ENTRY: &str = "vs_main";
+pub const FRAGMENT_ENTRY: &str = "fs_main";
+
+/// Which arithmetic the shader does.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
+pub enum Fidelity {
+    /// f32, true normalize and pow.
+    #[default]
+    Exact,
+    /// The register-combiner precision model: clamp to [−1, 1] and 9-bit
+    /// quantization after every per-fragment operation.
+    Hardware,
+}
+
+/// One pass, compiled.
+#[derive(Clone, Debug)]
+pub struct PassShader {
+    /// Index of the pass in the plan.
+    pub pass: usize,
+    /// `pass 2 of 3: C.rgba ← modulate [Tn, Ncube]`.
+    pub label: String,
+    /// The source statement(s) the pass implements, `line:col: text`.
+    pub source: Vec<String>,
+    pub interface: PassInterface,
+    /// The vertex stage takes the full-screen rectangle's corners as one
+    /// more input after the leaves (non-mesh geometry).
+    pub quad_input: bool,
+    pub module: naga::Module,
+    pub info: naga::valid::ModuleInfo,
+}
+
+/// The uniform block's bytes for a pass: the projection matrices
+/// (column-major, as WGSL stores `mat4x4<f32>`), then the uniforms.
+pub fn uniform_bytes(projections: &[[f32; 16]], uniforms: &[[f32; 4]]) -> Vec<u8> {
+    let mut out = Vec::with_capacity(64 * projections.len() + 16 * uniforms.len());
+    for m in projections {
+        for v in m {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    for u in uniforms {
+        for v in u {
+            out.extend_from_slice(&v.to_le_bytes());
+        }
+    }
+    out
+}
+
+/// Compiles every pass of `planned`. `source` (the program text) gives
+/// names (`let`s) and the source lines in headers.
+pub fn generate(planned: &Planned, source: Option<&str>, fidelity: Fidelity) -> Result<Vec<PassShader>, Vec<Diagnostic>> {
+    let names = source_names(planned, source);
+    let mut out = Vec::new();
+    let mut errors = Vec::new();
+    for i in 0..planned.plan.passes.len() {
+        match generate_pass(planned, i, source, &names, fidelity) {
+            Ok(s) => out.push(s),
+            Err(d) => errors.push(d),
+        }
+    }
+    if errors.is_empty() {
+        Ok(out)
+    } else {
+        Err(errors)
+    }
+}
+
+/// The span of the statement(s) pass `index` implements.
+fn pass_span(planned: &Planned, index: usize) -> Span {
+    let pass = &planned.plan.passes[index];
+    pass.statements.first().and_then(|s| planned.module.statements.get(*s)).map_or(Span::DETACHED, |s| s.span)
+}
+
+fn generate_pass(planned: &Planned, index: usize, source: Option<&str>, names: &HashMap<ir::Handle<Expr>, String>, fidelity: Fidelity) -> Result<PassShader, Diagnostic> {
+    let pass = &planned.plan.passes[index];
+    let span = pass_span(planned, index);
+    let interface = PassInterface::of(planned, index);
+    let mut g = Gen::new(planned, index, interface.clone(), names, fidelity);
+    g.build().map_err(|e| match e {
+        GenError::Unsupported { what, at } => {
+            let at = at.filter(|s| *s != Span::DETACHED);
+            let mut d = Diagnostic::error("wgsl-unsupported", format!("the WGSL backend cannot compile this yet: {what}"), span, "in this statement");
+            if let Some(at) = at {
+                d = d.with_label(at, what.clone());
+            }
+            d.with_help("target a combiner profile (geforce256, geforce3) for this program, or rewrite the part named above")
+        }
+        GenError::Internal(msg) => internal(span, &msg),
+    })?;
+    let module = g.module;
+    let mut validator = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default());
+    let info = validator.validate(&module).map_err(|e| internal(span, &error_chain(&e)))?;
+    let label = pass_label(planned, index);
+    let mut src = Vec::new();
+    if let Some(text) = source {
+        let ix = crate::span::LineIndex::new(text);
+        for &s in &pass.statements {
+            if let Some(st) = planned.module.statements.get(s) {
+                let (a, b) = (st.span.start as usize, st.span.end as usize);
+                if let Some(t) = text.get(a..b.min(text.len())) {
+                    let lc = ix.line_col(text, a);
+                    let one: String = t.split_whitespace().collect::<Vec<_>>().join(" ");
+                    src.push(format!("{}:{}: {one}", lc.line, lc.col));
+                }
+            }
+        }
+    }
+    Ok(PassShader { pass: index, label, source: src, interface, quad_input: g.quad, module, info })
+}
+
+fn internal(span: Span, msg: &str) -> Diagnostic {
+    Diagnostic::error("internal-error", format!("compiler bug: the WGSL backend built an invalid shader for this statement: {msg}"), span, "while compiling this statement")
+        .with_help("this is a bug in shadec, not in your program: please report it with the program")
+}
+
+fn error_chain(e: &dyn std::error::Error) -> String {
+    let mut s = e.to_string();
+    let mut src = e.source();
+    while let Some(inner) = src {
+        s += &format!(": {inner}");
+        src = inner.source();
+    }
+    s
+}
+
+/// `pass 2 of 3: C.rgba ← modulate [Tn, Ncube]`.
+pub fn pass_label(planned: &Planned, index: usize) -> String {
+    let pass = &planned.plan.passes[index];
+    let target = match &pass.target {
+        RenderTarget::Framebuffer { name, channels } => format!("{name}.{channels}"),
+        RenderTarget::Texture { name } | RenderTarget::Temporary { name } => name.clone(),
+    };
+    let units: Vec<&str> = pass.textures.iter().map(|t| t.texture.as_str()).collect();
+    format!("pass {} of {}: {target} ← {} [{}]", index + 1, planned.plan.passes.len(), pass.blend.name(), units.join(", "))
+}
+
+/// Names of IR values from the source: the `let` whose value a node is.
+fn source_names(planned: &Planned, source: Option<&str>) -> HashMap<ir::Handle<Expr>, String> {
+    let mut by_span: HashMap<Span, String> = HashMap::new();
+    if let Some(text) = source {
+        let (program, _) = crate::parser::parse(text);
+        for item in &program.items {
+            match &item.kind {
+                crate::parser::ast::ItemKind::Let(l) => {
+                    by_span.insert(l.value.span, l.name.key());
+                }
+                crate::parser::ast::ItemKind::Shader(s) => {
+                    for l in &s.lets {
+                        by_span.insert(l.value.span, l.name.key());
+                    }
+                }
+                _ => {}
+            }
+        }
+    }
+    let m = &planned.module;
+    let mut names = HashMap::new();
+    let mut last: HashMap<Span, ir::Handle<Expr>> = HashMap::new();
+    for (h, _) in m.exprs.arena().iter() {
+        let s = m.span(h);
+        if by_span.contains_key(&s) {
+            last.insert(s, h); // the outermost node with the let's span
+        }
+    }
+    for (s, h) in last {
+        names.insert(h, sanitize(&by_span[&s]));
+    }
+    names
+}
+
+/// A WGSL identifier from a source name: primes become `p`, Greek letters
+/// their names, anything else outside `[A-Za-z0-9_]` an underscore.
+pub fn sanitize(name: &str) -> String {
+    let mut s = String::new();
+    for c in name.chars() {
+        match c {
+            'a'..='z' | 'A'..='Z' | '0'..='9' | '_' => s.push(c),
+            '\'' | '′' | '″' | '‴' => s.push_str(if c == '″' { "pp" } else if c == '‴' { "ppp" } else { "p" }),
+            '*' => s.push_str("_star"),
+            'α' => s.push_str("alpha"),
+            'δ' => s.push_str("delta"),
+            'π' => s.push_str("pi"),
+            'σ' => s.push_str("sigma"),
+            _ => s.push('_'),
+        }
+    }
+    while s.contains("__") {
+        s = s.replace("__", "_");
+    }
+    let s = s.trim_matches('_').to_string();
+    if s.is_empty() || s.starts_with(|c: char| c.is_ascii_digit()) {
+        format!("v_{s}")
+    } else {
+        s
+    }
+}
+
+enum GenError {
+    Unsupported { what: String, at: Option<Span> },
+    Internal(String),
+}
+
+type R<T> = Result<T, GenError>;
+type NH = naga::Handle<Expression>;
+
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum Stage {
+    Vertex,
+    Fragment,
+}
+
+/// A function being built.
+struct Body {
+    f: Function,
+    stage: Stage,
+    vals: HashMap<ir::Handle<Expr>, NH>,
+    /// The vertex inputs (vertex stage) or the `VertexOutput` argument (fragment).
+    args: Vec<NH>,
+    /// Fragment stage: the varyings by interpolant index, and `position`.
+    frag_coord: Option<NH>,
+    texel_uv: Option<NH>,
+    /// The boolean behind a 0/1 value (comparisons, logic), so that a
+    /// condition uses it directly.
+    bools: HashMap<NH, NH>,
+}
+
+impl Body {
+    fn new(name: &str, stage: Stage) -> Body {
+        Body { f: Function { name: Some(name.to_string()), ..Default::default() }, stage, vals: HashMap::new(), args: vec![], frag_coord: None, texel_uv: None, bools: HashMap::new() }
+    }
+    /// A computed expression, covered by its own `Emit`.
+    fn emit(&mut self, e: Expression) -> NH {
+        let start = self.f.expressions.len();
+        let h = self.f.expressions.append(e, naga::Span::UNDEFINED);
+        self.f.body.push(Statement::Emit(self.f.expressions.range_from(start)), naga::Span::UNDEFINED);
+        h
+    }
+    /// An expression that must not be emitted (literals, arguments, globals).
+    fn plain(&mut self, e: Expression) -> NH {
+        self.f.expressions.append(e, naga::Span::UNDEFINED)
+    }
+    fn lit(&mut self, v: f32) -> NH {
+        self.plain(Expression::Literal(Literal::F32(v)))
+    }
+    fn name(&mut self, h: NH, name: &str) {
+        let needs_emit = !matches!(
+            self.f.expressions[h],
+            Expression::Literal(_) | Expression::Constant(_) | Expression::FunctionArgument(_) | Expression::GlobalVariable(_) | Expression::LocalVariable(_) | Expression::CallResult(_) | Expression::ZeroValue(_)
+        );
+        if needs_emit {
+            self.f.named_expressions.entry(h).or_insert_with(|| name.to_string());
+        }
+    }
+}
+
+fn size(w: usize) -> VectorSize {
+    match w {
+        2 => VectorSize::Bi,
+        3 => VectorSize::Tri,
+        _ => VectorSize::Quad,
+    }
+}
+
+const COMP: [SwizzleComponent; 4] = [SwizzleComponent::X, SwizzleComponent::Y, SwizzleComponent::Z, SwizzleComponent::W];
+
+/// The width of a value of type `ty` in the shader (1..=4).
+fn width(ty: Ty) -> usize {
+    match ty {
+        Ty::Position => 4,
+        t => t.width().clamp(1, 4),
+    }
+}
+
+struct Gen<'a> {
+    planned: &'a Planned,
+    m: &'a ir::Module,
+    pass_index: usize,
+    iface: PassInterface,
+    names: &'a HashMap<ir::Handle<Expr>, String>,
+    fidelity: Fidelity,
+    module: naga::Module,
+    uniforms_var: Option<naga::Handle<GlobalVariable>>,
+    /// (texture, sampler) per unit.
+    units: Vec<(naga::Handle<GlobalVariable>, naga::Handle<GlobalVariable>, TextureKind, Option<TextureFormat>)>,
+    q9: [Option<naga::Handle<Function>>; 4],
+    quad: bool,
+    /// The pass's fragment position (the index's Interpolate node).
+    own_position: Option<ir::Handle<Expr>>,
+}
+
+impl<'a> Gen<'a> {
+    fn new(planned: &'a Planned, pass_index: usize, iface: PassInterface, names: &'a HashMap<ir::Handle<Expr>, String>, fidelity: Fidelity) -> Gen<'a> {
+        let pass = &planned.plan.passes[pass_index];
+        Gen {
+            planned,
+            m: &planned.module,
+            pass_index,
+            own_position: pass.vertex.position.map(|p| planned.handle(p)),
+            iface,
+            names,
+            fidelity,
+            module: naga::Module::default(),
+            uniforms_var: None,
+            units: vec![],
+            q9: [None; 4],
+            quad: false,
+        }
+    }
+
+    fn ty(&mut self, inner: TypeInner) -> naga::Handle<Type> {
+        self.module.types.insert(Type { name: None, inner }, naga::Span::UNDEFINED)
+    }
+    fn vec_ty(&mut self, w: usize) -> naga::Handle<Type> {
+        if w == 1 {
+            self.ty(TypeInner::Scalar(Scalar::F32))
+        } else {
+            self.ty(TypeInner::Vector { size: size(w), scalar: Scalar::F32 })
+        }
+    }
+
+    fn unsupported<T>(&self, what: impl Into<String>, at: Option<ir::Handle<Expr>>) -> R<T> {
+        Err(GenError::Unsupported { what: what.into(), at: at.map(|h| self.m.span(h)) })
+    }
+
+    fn build(&mut self) -> R<()> {
+        let pass = &self.planned.plan.passes[self.pass_index];
+        let mesh = matches!(pass.geometry, Geometry::Mesh { .. });
+        self.quad = !mesh || self.iface.position.is_none();
+        self.globals()?;
+        // The varyings struct.
+        let vec4 = self.vec_ty(4);
+        let mut members = vec![StructMember { name: Some("position".into()), ty: vec4, binding: Some(Binding::BuiltIn(BuiltIn::Position { invariant: false })), offset: 0 }];
+        let loc = |location: u32| Binding::Location { location, interpolation: Some(Interpolation::Perspective), sampling: Some(Sampling::Center), blend_src: None, per_primitive: false };
+        let n_interp = self.iface.interpolants.len();
+        for (k, h) in self.iface.interpolants.clone().iter().enumerate() {
+            let name = self.value_name(*h).unwrap_or_else(|| format!("v{k}"));
+            members.push(StructMember { name: Some(name), ty: vec4, binding: Some(loc(k as u32)), offset: 16 * (k as u32 + 1) });
+        }
+        if self.quad {
+            members.push(StructMember { name: Some("texel_uv".into()), ty: vec4, binding: Some(loc(n_interp as u32)), offset: 16 * (n_interp as u32 + 1) });
+        }
+        let n_members = members.len() as u32;
+        let vout = self.module.types.insert(Type { name: Some("VertexOutput".into()), inner: TypeInner::Struct { members, span: 16 * n_members } }, naga::Span::UNDEFINED);
+        let vs = self.vertex(vout)?;
+        let fs = self.fragment(vout)?;
+        self.module.entry_points.push(EntryPoint {
+            name: VERTEX_ENTRY.into(),
+            stage: ShaderStage::Vertex,
+            early_depth_test: None,
+            workgroup_size: [0; 3],
+            workgroup_size_overrides: None,
+            function: vs,
+            mesh_info: None,
+            task_payload: None,
+            incoming_ray_payload: None,
+        });
+        self.module.entry_points.push(EntryPoint {
+            name: FRAGMENT_ENTRY.into(),
+            stage: ShaderStage::Fragment,
+            early_depth_test: None,
+            workgroup_size: [0; 3],
+            workgroup_size_overrides: None,
+            function: fs,
+            mesh_info: None,
+            task_payload: None,
+            incoming_ray_payload: None,
+        });
+        Ok(())
+    }
+
+    /// The name a value gets in the shader: its `let`, or a descriptive one.
+    fn value_name(&self, h: ir::Handle<Expr>) -> Option<String> {
+        if let Some(n) = self.names.get(&h) {
+            return Some(n.clone());
+        }
+        let m = self.m;
+        let n = match &m.exprs[h] {
+            Expr::VertexPosition(v) => sanitize(m.vertices.get(*v as usize)?),
+            Expr::TexCoord { set, .. } => sanitize(&m.texcoord_sets.get(*set as usize)?.name),
+            Expr::Vector { vector, .. } => sanitize(&m.vectors.get(*vector as usize)?.name),
+            Expr::Uniform(u) => sanitize(&m.uniforms.get(*u as usize)?.name),
+            Expr::Interpolate { value, .. } => format!("{}_frag", self.value_name(*value)?),
+            Expr::Project { projection, value } => {
+                let p = if projection.inverse { "pi_inv".to_string() } else { format!("pi{}{}", projection.subscript.as_deref().map(sanitize).unwrap_or_default(), if projection.star { "_star" } else { "" }) };
+                format!("{p}_{}", self.value_name(*value)?)
+            }
+            Expr::Lookup { texture, .. } => format!("{}_texel", sanitize(&m.textures.get(*texture as usize)?.name)),
+            Expr::FramebufferRead { framebuffer, channel, .. } => {
+                let c = match channel {
+                    FbChannel::Color => "color",
+                    FbChannel::Alpha => "alpha",
+                    FbChannel::Depth => "depth",
+                    FbChannel::Stencil => "stencil",
+                };
+                format!("{}_{c}", sanitize(&m.framebuffers.get(*framebuffer as usize)?.name))
+            }
+            Expr::Binary { op: BinaryOp::Dot, lhs, rhs } => {
+                let (a, b) = (self.value_name(*lhs)?, self.value_name(*rhs)?);
+                short(&a)?;
+                short(&b)?;
+                format!("{}_dot_{}", a.to_lowercase(), b.to_lowercase())
+            }
+            Expr::Math { fun: MathFunction::Normalize, args } => format!("{}_unit", short(&self.value_name(args[0])?)?),
+            Expr::Math { fun: MathFunction::Expand, args } => format!("{}_expanded", short(&self.value_name(args[0])?)?),
+            Expr::Binary { op: BinaryOp::Pow, lhs, .. } => format!("{}_pow", short(&self.value_name(*lhs)?)?),
+            _ => return None,
+        };
+        Some(n)
+    }
+
+    fn globals(&mut self) -> R<()> {
+        let mat4 = self.ty(TypeInner::Matrix { columns: VectorSize::Quad, rows: VectorSize::Quad, scalar: Scalar::F32 });
+        let vec4 = self.vec_ty(4);
+        let mut members = Vec::new();
+        let mut offset = 0;
+        for p in self.iface.projections.clone() {
+            let name = if p.inverse { "pi_inv".to_string() } else { format!("pi{}{}", p.subscript.as_deref().map(|s| format!("_{}", sanitize(s))).unwrap_or_default(), if p.star { "_star" } else { "" }) };
+            members.push(StructMember { name: Some(name), ty: mat4, binding: None, offset });
+            offset += 64;
+        }
+        for u in self.iface.uniforms.clone() {
+            let name = sanitize(&self.m.uniforms[u as usize].name);
+            members.push(StructMember { name: Some(name), ty: vec4, binding: None, offset });
+            offset += 16;
+        }
+        if !members.is_empty() {
+            let ty = self.module.types.insert(Type { name: Some("Uniforms".into()), inner: TypeInner::Struct { members, span: offset } }, naga::Span::UNDEFINED);
+            self.uniforms_var = Some(self.module.global_variables.append(
+                GlobalVariable { name: Some("uniforms".into()), space: AddressSpace::Uniform, binding: Some(ResourceBinding { group: 0, binding: 0 }), ty, init: None, memory_decorations: Default::default() },
+                naga::Span::UNDEFINED,
+            ));
+        }
+        let pass = &self.planned.plan.passes[self.pass_index];
+        for t in &pass.textures {
+            let node = self.planned.handle(t.lookup);
+            let (kind, format) = match self.m.exprs.arena().get(node) {
+                Some(Expr::Lookup { texture, .. }) => {
+                    let tex = &self.m.textures[*texture as usize];
+                    (tex.kind, Some(tex.format))
+                }
+                Some(Expr::FramebufferRead { .. }) => (TextureKind::Tex2d, None),
+                _ => return Err(GenError::Internal(format!("texture unit {} is not a lookup", t.unit))),
+            };
+            let dim = match kind {
+                TextureKind::Tex1d | TextureKind::Tex2d => ImageDimension::D2,
+                TextureKind::Tex3d => ImageDimension::D3,
+                TextureKind::Cube => ImageDimension::Cube,
+            };
+            let ity = self.ty(TypeInner::Image { dim, arrayed: false, class: ImageClass::Sampled { kind: ScalarKind::Float, multi: false } });
+            let sty = self.ty(TypeInner::Sampler { comparison: false });
+            let name = sanitize(&t.texture);
+            let tv = self.module.global_variables.append(
+                GlobalVariable { name: Some(name.clone()), space: AddressSpace::Handle, binding: Some(ResourceBinding { group: 0, binding: 1 + 2 * t.unit }), ty: ity, init: None, memory_decorations: Default::default() },
+                naga::Span::UNDEFINED,
+            );
+            let sv = self.module.global_variables.append(
+                GlobalVariable { name: Some(format!("{name}_sampler")), space: AddressSpace::Handle, binding: Some(ResourceBinding { group: 0, binding: 2 + 2 * t.unit }), ty: sty, init: None, memory_decorations: Default::default() },
+                naga::Span::UNDEFINED,
+            );
+            self.units.push((tv, sv, kind, format));
+        }
+        Ok(())
+    }
+
+    fn vertex(&mut self, vout: naga::Handle<Type>) -> R<Function> {
+        let mut b = Body::new(VERTEX_ENTRY, Stage::Vertex);
+        let vec4 = self.vec_ty(4);
+        let leaves = self.iface.vertex_leaves.clone();
+        for (i, leaf) in leaves.iter().enumerate() {
+            let name = self.value_name(*leaf).unwrap_or_else(|| format!("in{i}"));
+            b.f.arguments.push(FunctionArgument { name: Some(name), ty: vec4, binding: Some(Binding::Location { location: i as u32, interpolation: None, sampling: None, blend_src: None, per_primitive: false }) });
+            let arg = b.plain(Expression::FunctionArgument(i as u32));
+            b.args.push(arg);
+        }
+        let quad = if self.quad {
+            let i = leaves.len() as u32;
+            b.f.arguments.push(FunctionArgument { name: Some("quad".into()), ty: vec4, binding: Some(Binding::Location { location: i, interpolation: None, sampling: None, blend_src: None, per_primitive: false }) });
+            Some(b.plain(Expression::FunctionArgument(i)))
+        } else {
+            None
+        };
+        // Per-vertex nodes, in topological order.
+        let mut roots: Vec<ir::Handle<Expr>> = vec![];
+        for h in &self.iface.interpolants {
+            if let Expr::Interpolate { value, .. } = self.m.exprs[*h] {
+                roots.push(value);
+            }
+        }
+        roots.extend(self.iface.position);
+        for n in self.m.reachable(&roots) {
+            self.node(&mut b, n)?;
+        }
+        // The clip position.
+        let clip = match (self.iface.position, quad) {
+            (Some(p), _) if !self.quad => {
+                let v = b.vals[&p];
+                match self.m.info(p).ty {
+                    Ty::Position => v,
+                    Ty::Vec2 => {
+                        // Render into a texture by its coordinates: (2u − 1, 1 − 2v).
+                        let u = b.emit(Expression::AccessIndex { base: v, index: 0 });
+                        let vv = b.emit(Expression::AccessIndex { base: v, index: 1 });
+                        let two = b.lit(2.0);
+                        let one = b.lit(1.0);
+                        let zero = b.lit(0.0);
+                        let u2 = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: u, right: two });
+                        let x = b.emit(Expression::Binary { op: naga::BinaryOperator::Subtract, left: u2, right: one });
+                        let v2 = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: vv, right: two });
+                        let y = b.emit(Expression::Binary { op: naga::BinaryOperator::Subtract, left: one, right: v2 });
+                        b.emit(Expression::Compose { ty: vec4, components: vec![x, y, zero, one] })
+                    }
+                    t => return self.unsupported(format!("a pass positioned by a {} value", t.name()), Some(p)),
+                }
+            }
+            (_, Some(q)) => q,
+            _ => return Err(GenError::Internal("no clip position".into())),
+        };
+        // GL clip z (−w..w) → wgpu (0..w): z' = ½z + ½w.
+        let xy = b.emit(Expression::Swizzle { size: VectorSize::Bi, vector: clip, pattern: [COMP[0], COMP[1], COMP[0], COMP[0]] });
+        let z = b.emit(Expression::AccessIndex { base: clip, index: 2 });
+        let w = b.emit(Expression::AccessIndex { base: clip, index: 3 });
+        let half = b.lit(0.5);
+        let zw = b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: z, right: w });
+        let z2 = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: zw, right: half });
+        let position = b.emit(Expression::Compose { ty: vec4, components: vec![xy, z2, w] });
+        b.name(position, "clip_position");
+        let mut comps = vec![position];
+        for h in self.iface.interpolants.clone() {
+            let Expr::Interpolate { value, .. } = self.m.exprs[h] else { unreachable!() };
+            let v = b.vals[&value];
+            let wv = self.widen_zero(&mut b, v, width(self.m.info(value).ty));
+            comps.push(wv);
+        }
+        if let Some(q) = quad {
+            // texel_uv = (½x + ½, ½ − ½y): v = 0 at the top row.
+            let x = b.emit(Expression::AccessIndex { base: q, index: 0 });
+            let y = b.emit(Expression::AccessIndex { base: q, index: 1 });
+            let half = b.lit(0.5);
+            let zero = b.lit(0.0);
+            let xh = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: x, right: half });
+            let u = b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: xh, right: half });
+            let yh = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: y, right: half });
+            let v = b.emit(Expression::Binary { op: naga::BinaryOperator::Subtract, left: half, right: yh });
+            let uv = b.emit(Expression::Compose { ty: vec4, components: vec![u, v, zero, zero] });
+            comps.push(uv);
+        }
+        let out = b.emit(Expression::Compose { ty: vout, components: comps });
+        b.f.body.push(Statement::Return { value: Some(out) }, naga::Span::UNDEFINED);
+        b.f.result = Some(FunctionResult { ty: vout, binding: None });
+        Ok(b.f)
+    }
+
+    fn fragment(&mut self, vout: naga::Handle<Type>) -> R<Function> {
+        let mut b = Body::new(FRAGMENT_ENTRY, Stage::Fragment);
+        b.f.arguments.push(FunctionArgument { name: Some("input".into()), ty: vout, binding: None });
+        let input = b.plain(Expression::FunctionArgument(0));
+        let fc = b.emit(Expression::AccessIndex { base: input, index: 0 });
+        b.frag_coord = Some(fc);
+        for (k, h) in self.iface.interpolants.clone().into_iter().enumerate() {
+            let v = b.emit(Expression::AccessIndex { base: input, index: k as u32 + 1 });
+            let w = width(self.m.info(h).ty);
+            let v = self.narrow(&mut b, v, 4, w);
+            if let Some(n) = self.value_name(h) {
+                b.name(v, &n);
+            }
+            b.vals.insert(h, v);
+        }
+        if self.quad {
+            let uv4 = b.emit(Expression::AccessIndex { base: input, index: self.iface.interpolants.len() as u32 + 1 });
+            let uv = self.narrow(&mut b, uv4, 4, 2);
+            b.texel_uv = Some(uv);
+        }
+        let pass = &self.planned.plan.passes[self.pass_index];
+        let stencil_only = matches!(&pass.target, RenderTarget::Framebuffer { channels, .. } if channels == "stencil");
+        let vec4 = self.vec_ty(4);
+        let out = if stencil_only {
+            // The depth and stencil state do the work; no colour is written.
+            b.plain(Expression::ZeroValue(vec4))
+        } else {
+            let mut roots = vec![self.iface.output];
+            roots.extend(self.iface.condition);
+            for n in self.fragment_nodes(&roots) {
+                self.node(&mut b, n)?;
+            }
+            if let Some(c) = self.iface.condition {
+                let cv = b.vals[&c];
+                self.discard_unless(&mut b, cv);
+            }
+            let o = self.iface.output;
+            let v = b.vals[&o];
+            let ty = self.m.info(o).ty;
+            match ty {
+                Ty::Scalar => b.emit(Expression::Splat { size: VectorSize::Quad, value: v }),
+                Ty::Vec2 => {
+                    let zero = b.lit(0.0);
+                    let one = b.lit(1.0);
+                    b.emit(Expression::Compose { ty: vec4, components: vec![v, zero, one] })
+                }
+                Ty::Vec3 | Ty::Rgb => {
+                    let one = b.lit(1.0);
+                    b.emit(Expression::Compose { ty: vec4, components: vec![v, one] })
+                }
+                Ty::Rgba | Ty::Position => v,
+                Ty::Bundle(_) => return self.unsupported("writing a whole shading-parameter vector (a fat texel)", Some(o)),
+            }
+        };
+        b.f.body.push(Statement::Return { value: Some(out) }, naga::Span::UNDEFINED);
+        b.f.result = Some(FunctionResult { ty: vec4, binding: Some(Binding::Location { location: 0, interpolation: None, sampling: None, blend_src: None, per_primitive: false }) });
+        Ok(b.f)
+    }
+
+    /// The nodes the fragment stage computes: reachable from `roots`, not
+    /// looking under δ (the varyings), in topological order.
+    fn fragment_nodes(&self, roots: &[ir::Handle<Expr>]) -> Vec<ir::Handle<Expr>> {
+        let mut seen = BTreeSet::new();
+        let mut stack = roots.to_vec();
+        while let Some(n) = stack.pop() {
+            if !seen.insert(n) {
+                continue;
+            }
+            if !matches!(self.m.exprs[n], Expr::Interpolate { .. }) {
+                stack.extend(self.m.operands(n));
+            }
+        }
+        seen.into_iter().collect()
+    }
+
+    fn discard_unless(&mut self, b: &mut Body, cond: NH) {
+        let fails = match b.bools.get(&cond) {
+            Some(c) => b.emit(Expression::Unary { op: naga::UnaryOperator::LogicalNot, expr: *c }),
+            None => {
+                let zero = b.lit(0.0);
+                b.emit(Expression::Binary { op: naga::BinaryOperator::Equal, left: cond, right: zero })
+            }
+        };
+        let mut accept = naga::Block::new();
+        accept.push(Statement::Kill, naga::Span::UNDEFINED);
+        b.f.body.push(Statement::If { condition: fails, accept, reject: naga::Block::new() }, naga::Span::UNDEFINED);
+    }
+
+    /// `v` (width `from`) as width `to`: a scalar splats.
+    fn splat(&mut self, b: &mut Body, v: NH, from: usize, to: usize) -> R<NH> {
+        if from == to {
+            Ok(v)
+        } else if from == 1 {
+            Ok(b.emit(Expression::Splat { size: size(to), value: v }))
+        } else {
+            Err(GenError::Internal(format!("cannot widen a {from}-vector to {to}")))
+        }
+    }
+
+    /// The first `to` components of `v`.
+    fn narrow(&mut self, b: &mut Body, v: NH, from: usize, to: usize) -> NH {
+        if from == to {
+            v
+        } else if to == 1 {
+            b.emit(Expression::AccessIndex { base: v, index: 0 })
+        } else {
+            b.emit(Expression::Swizzle { size: size(to), vector: v, pattern: COMP })
+        }
+    }
+
+    /// `v` (width `w`) padded with zeros to a vec4.
+    fn widen_zero(&mut self, b: &mut Body, v: NH, w: usize) -> NH {
+        if w == 4 {
+            return v;
+        }
+        let vec4 = self.vec_ty(4);
+        let mut comps = vec![v];
+        for _ in w..4 {
+            let z = b.lit(0.0);
+            comps.push(z);
+        }
+        b.emit(Expression::Compose { ty: vec4, components: comps })
+    }
+
+    fn constant(&mut self, b: &mut Body, c: &ir::Constant) -> NH {
+        let w = width(c.ty);
+        let q = self.fidelity == Fidelity::Hardware && b.stage == Stage::Fragment;
+        // Constants beyond ±1 are scale factors (the combiners' ×2, ×4,
+        // repeated): exact; the others are register values: quantized.
+        let q = q && c.values().iter().all(|v| v.abs() <= 1.0);
+        let vals: Vec<f32> = c.values().iter().map(|v| if q { q9_value(*v) } else { *v as f32 }).collect();
+        if w == 1 || vals.iter().all(|v| v.to_bits() == vals[0].to_bits()) {
+            let l = b.lit(vals[0]);
+            return if w == 1 { l } else { b.emit(Expression::Splat { size: size(w), value: l }) };
+        }
+        let ty = self.vec_ty(w);
+        let comps: Vec<NH> = vals.iter().map(|v| b.lit(*v)).collect();
+        b.emit(Expression::Compose { ty, components: comps })
+    }
+
+    /// A register write in hardware fidelity: `q9(v)`.
+    fn quantize(&mut self, b: &mut Body, v: NH, w: usize) -> NH {
+        if self.fidelity != Fidelity::Hardware || b.stage != Stage::Fragment {
+            return v;
+        }
+        let f = self.q9_function(w);
+        let r = b.plain(Expression::CallResult(f));
+        b.f.body.push(Statement::Call { function: f, arguments: vec![v], result: Some(r) }, naga::Span::UNDEFINED);
+        r
+    }
+
+    /// `fn quantize_*(x) = clamp(floor(x * 255 + 0.5), -255, 255) / 255`.
+    fn q9_function(&mut self, w: usize) -> naga::Handle<Function> {
+        if let Some(f) = self.q9[w - 1] {
+            return f;
+        }
+        let ty = self.vec_ty(w);
+        let name = ["quantize_x", "quantize_xy", "quantize_xyz", "quantize_xyzw"][w - 1];
+        let mut b = Body::new(name, Stage::Vertex);
+        b.f.arguments.push(FunctionArgument { name: Some("x".into()), ty, binding: None });
+        b.f.result = Some(FunctionResult { ty, binding: None });
+        let x = b.plain(Expression::FunctionArgument(0));
+        let k = |b: &mut Body, v: f32| {
+            let l = b.lit(v);
+            if w == 1 {
+                l
+            } else {
+                b.emit(Expression::Splat { size: size(w), value: l })
+            }
+        };
+        let c255 = k(&mut b, 255.0);
+        let ch = k(&mut b, 0.5);
+        let lo = k(&mut b, -255.0);
+        let s = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: x, right: c255 });
+        let s = b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: s, right: ch });
+        let s = b.emit(Expression::Math { fun: naga::MathFunction::Floor, arg: s, arg1: None, arg2: None, arg3: None });
+        let s = b.emit(Expression::Math { fun: naga::MathFunction::Clamp, arg: s, arg1: Some(lo), arg2: Some(c255), arg3: None });
+        let s = b.emit(Expression::Binary { op: naga::BinaryOperator::Divide, left: s, right: c255 });
+        b.f.body.push(Statement::Return { value: Some(s) }, naga::Span::UNDEFINED);
+        let f = self.module.functions.append(b.f, naga::Span::UNDEFINED);
+        self.q9[w - 1] = Some(f);
+        f
+    }
+
+    fn binop(&mut self, b: &mut Body, op: naga::BinaryOperator, l: NH, r: NH) -> NH {
+        b.emit(Expression::Binary { op, left: l, right: r })
+    }
+
+    fn math(&mut self, b: &mut Body, fun: naga::MathFunction, args: &[NH]) -> NH {
+        b.emit(Expression::Math { fun, arg: args[0], arg1: args.get(1).copied(), arg2: args.get(2).copied(), arg3: None })
+    }
+
+    /// A float from a boolean: 1.0 or 0.0.
+    fn from_bool(&mut self, b: &mut Body, c: NH) -> NH {
+        let one = b.lit(1.0);
+        let zero = b.lit(0.0);
+        let v = b.emit(Expression::Select { condition: c, accept: one, reject: zero });
+        b.bools.insert(v, c);
+        v
+    }
+
+    fn truthy(&mut self, b: &mut Body, v: NH) -> NH {
+        if let Some(c) = b.bools.get(&v) {
+            return *c;
+        }
+        let zero = b.lit(0.0);
+        b.emit(Expression::Binary { op: naga::BinaryOperator::NotEqual, left: v, right: zero })
+    }
+
+    /// The alpha of a colour operand (1 for rgb, itself for a scalar).
+    fn alpha_of(&mut self, b: &mut Body, v: NH, ty: Ty) -> NH {
+        match ty {
+            Ty::Rgba | Ty::Position => b.emit(Expression::AccessIndex { base: v, index: 3 }),
+            Ty::Scalar => v,
+            _ => b.lit(1.0),
+        }
+    }
+
+    /// The colour channels of an operand as width `w` (≤ 3).
+    fn color_of(&mut self, b: &mut Body, v: NH, ty: Ty, w: usize) -> R<NH> {
+        let vw = width(ty);
+        if vw == 1 {
+            return self.splat(b, v, 1, w);
+        }
+        Ok(self.narrow(b, v, vw, w.min(vw)))
+    }
+
+    /// Computes node `n` in `b` (its operands are done), records it.
+    fn node(&mut self, b: &mut Body, n: ir::Handle<Expr>) -> R<()> {
+        if b.vals.contains_key(&n) {
+            return Ok(());
+        }
+        let m = self.m;
+        let info = *m.info(n);
+        let w = width(info.ty);
+        let e = m.exprs[n].clone();
+        let val = |b: &Body, h: ir::Handle<Expr>| -> R<NH> { b.vals.get(&h).copied().ok_or_else(|| GenError::Internal(format!("value %{} used before it is computed", h.index()))) };
+        let wof = |h: ir::Handle<Expr>| width(m.info(h).ty);
+        use naga::BinaryOperator as B;
+        use naga::MathFunction as F;
+        let sample = b.stage == Stage::Fragment;
+        let mut arith = false; // a register write in hardware fidelity
+        let v: NH = match &e {
+            Expr::Constant(c) => self.constant(b, c),
+            Expr::Uniform(u) => {
+                let Some(var) = self.uniforms_var else { return Err(GenError::Internal("uniform without a block".into())) };
+                let idx = self.iface.uniforms.iter().position(|x| x == u).ok_or_else(|| GenError::Internal("uniform not in the interface".into()))?;
+                let g = b.plain(Expression::GlobalVariable(var));
+                let p = b.emit(Expression::AccessIndex { base: g, index: (self.iface.projections.len() + idx) as u32 });
+                let l = b.emit(Expression::Load { pointer: p });
+                let v = self.narrow(b, l, 4, w);
+                if self.fidelity == Fidelity::Hardware && sample {
+                    self.quantize(b, v, w)
+                } else {
+                    v
+                }
+            }
+            Expr::VertexPosition(_) | Expr::TexCoord { .. } | Expr::Vector { .. } => {
+                if info.freq == Frequency::Texel {
+                    return self.unsupported("a shading vector as a function of the texel coordinate (texture shading, `s δu`): PassInterface binds per-vertex inputs only", Some(n));
+                }
+                if sample {
+                    return Err(GenError::Internal(format!("per-vertex value %{} read per sample without δ", n.index())));
+                }
+                let i = self.iface.vertex_leaves.iter().position(|x| *x == n);
+                let Some(i) = i else {
+                    return self.unsupported(format!("a {} shading value here (only per-vertex inputs are bound)", info.freq.name()), Some(n));
+                };
+                let a = b.args[i];
+                self.narrow(b, a, 4, w)
+            }
+            Expr::TexelCoord => match b.texel_uv {
+                Some(uv) => uv,
+                None => return self.unsupported("the texel coordinate δu outside a texel pass", Some(n)),
+            },
+            Expr::Pixel { .. } => match b.frag_coord {
+                Some(fc) if sample => fc,
+                _ => return self.unsupported("a pixel position per vertex", Some(n)),
+            },
+            Expr::Project { projection, value } => {
+                let x = val(b, *value)?;
+                match m.info(*value).ty {
+                    Ty::Position => {
+                        let idx = self.iface.projections.iter().position(|p| p == projection).ok_or_else(|| GenError::Internal("projection not in the interface".into()))?;
+                        let var = self.uniforms_var.ok_or_else(|| GenError::Internal("projection without a block".into()))?;
+                        let g = b.plain(Expression::GlobalVariable(var));
+                        let p = b.emit(Expression::AccessIndex { base: g, index: idx as u32 });
+                        let mat = b.emit(Expression::Load { pointer: p });
+                        self.binop(b, B::Multiply, mat, x)
+                    }
+                    Ty::Vec3 => {
+                        // Sphere-map texgen (seeds/001 (7)): m = 2·sqrt(Rx² + Ry² + (Rz + 1)²),
+                        // (s, t) = (Rx/m + ½, Ry/m + ½).
+                        let one = b.lit(1.0);
+                        let zero = b.lit(0.0);
+                        let vec3 = self.vec_ty(3);
+                        let off = b.emit(Expression::Compose { ty: vec3, components: vec![zero, zero, one] });
+                        let r1 = self.binop(b, B::Add, x, off);
+                        let len = self.math(b, F::Length, &[r1]);
+                        let two = b.lit(2.0);
+                        let mm = self.binop(b, B::Multiply, len, two);
+                        let xy = self.narrow(b, x, 3, 2);
+                        let d = self.binop(b, B::Divide, xy, mm);
+                        let half = b.lit(0.5);
+                        let h2 = b.emit(Expression::Splat { size: VectorSize::Bi, value: half });
+                        self.binop(b, B::Add, d, h2)
+                    }
+                    t => return self.unsupported(format!("π of a {}", t.name()), Some(n)),
+                }
+            }
+            Expr::Interpolate { .. } => {
+                return Err(GenError::Internal(format!("δ node %{} is not a varying of this pass", n.index())));
+            }
+            Expr::Lookup { texture, coords } => {
+                let c = val(b, *coords)?;
+                let unit = self.unit_of(n)?;
+                let (tv, sv, kind, format) = self.units[unit];
+                let ct = m.info(*coords).ty;
+                let coord = match (kind, ct) {
+                    (TextureKind::Tex1d, _) => {
+                        let half = b.lit(0.5);
+                        let vec2 = self.vec_ty(2);
+                        b.emit(Expression::Compose { ty: vec2, components: vec![c, half] })
+                    }
+                    (TextureKind::Tex2d, Ty::Position) => self.projective_uv(b, c),
+                    _ => c,
+                };
+                let image = b.plain(Expression::GlobalVariable(tv));
+                let sampler = b.plain(Expression::GlobalVariable(sv));
+                let level = if sample { naga::SampleLevel::Auto } else { naga::SampleLevel::Zero };
+                let s = b.emit(Expression::ImageSample { image, sampler, gather: None, coordinate: coord, array_index: None, offset: None, level, depth_ref: None, clamp_to_edge: false });
+                let _ = texture;
+                let t = self.narrow(b, s, 4, w);
+                if matches!(format, Some(TextureFormat::Signed8 | TextureFormat::Signed16)) {
+                    self.expand(b, t, w)
+                } else {
+                    t
+                }
+            }
+            Expr::FramebufferRead { framebuffer, channel, position } => {
+                let Ok(unit) = self.unit_of(n) else {
+                    let name = &m.framebuffers[*framebuffer as usize].name;
+                    return self.unsupported(format!("reading the target framebuffer `{name}` inside the shader (only blending can)"), Some(n));
+                };
+                let (tv, sv, _, _) = self.units[unit];
+                let image = b.plain(Expression::GlobalVariable(tv));
+                let at_pixel = matches!(m.exprs[*position], Expr::Pixel { .. }) || Some(*position) == self.own_position;
+                let texel = if at_pixel {
+                    let fc = b.frag_coord.ok_or_else(|| GenError::Internal("no fragment position".into()))?;
+                    let xy = self.narrow(b, fc, 4, 2);
+                    let ixy = b.emit(Expression::As { expr: xy, kind: ScalarKind::Sint, convert: Some(4) });
+                    let zero = b.plain(Expression::Literal(Literal::I32(0)));
+                    b.emit(Expression::ImageLoad { image, coordinate: ixy, array_index: None, sample: None, level: Some(zero) })
+                } else {
+                    let p = val(b, *position)?;
+                    let uv = self.projective_uv(b, p);
+                    let sampler = b.plain(Expression::GlobalVariable(sv));
+                    let level = if sample { naga::SampleLevel::Auto } else { naga::SampleLevel::Zero };
+                    b.emit(Expression::ImageSample { image, sampler, gather: None, coordinate: uv, array_index: None, offset: None, level, depth_ref: None, clamp_to_edge: false })
+                };
+                match channel {
+                    FbChannel::Color => texel,
+                    FbChannel::Alpha => b.emit(Expression::AccessIndex { base: texel, index: 3 }),
+                    FbChannel::Depth => b.emit(Expression::AccessIndex { base: texel, index: 0 }),
+                    FbChannel::Stencil => {
+                        let r = b.emit(Expression::AccessIndex { base: texel, index: 0 });
+                        let k = b.lit(255.0);
+                        let s = self.binop(b, B::Multiply, r, k);
+                        self.math(b, F::Round, &[s])
+                    }
+                }
+            }
+            Expr::Depth(p) => {
+                if matches!(m.exprs[*p], Expr::Pixel { .. }) || Some(*p) == self.own_position {
+                    let fc = b.frag_coord.ok_or_else(|| GenError::Internal("no fragment position".into()))?;
+                    b.emit(Expression::AccessIndex { base: fc, index: 2 })
+                } else {
+                    let pv = val(b, *p)?;
+                    let z = b.emit(Expression::AccessIndex { base: pv, index: 2 });
+                    let ww = b.emit(Expression::AccessIndex { base: pv, index: 3 });
+                    let d = self.binop(b, B::Divide, z, ww);
+                    let half = b.lit(0.5);
+                    let d = self.binop(b, B::Multiply, d, half);
+                    self.binop(b, B::Add, d, half)
+                }
+            }
+            Expr::FatMember { .. } => return self.unsupported("a member of a fat texel (a shading-parameter vector stored in a texture)", Some(n)),
+            Expr::Bundle(_) => return self.unsupported("a whole shading-parameter vector as a value (a fat texel)", Some(n)),
+            Expr::Unary { op, value } => {
+                let x = val(b, *value)?;
+                match op {
+                    UnaryOp::Neg => {
+                        arith = true;
+                        b.emit(Expression::Unary { op: naga::UnaryOperator::Negate, expr: x })
+                    }
+                    UnaryOp::Not => {
+                        let zero = b.lit(0.0);
+                        let c = self.binop(b, B::Equal, x, zero);
+                        self.from_bool(b, c)
+                    }
+                }
+            }
+            Expr::Binary { op, lhs, rhs } => {
+                let (x, y) = (val(b, *lhs)?, val(b, *rhs)?);
+                let (wx, wy) = (wof(*lhs), wof(*rhs));
+                match op {
+                    BinaryOp::Add | BinaryOp::Sub | BinaryOp::Mul | BinaryOp::Div => {
+                        arith = true;
+                        let x = self.splat(b, x, wx, w)?;
+                        let y = self.splat(b, y, wy, w)?;
+                        let o = match op {
+                            BinaryOp::Add => B::Add,
+                            BinaryOp::Sub => B::Subtract,
+                            BinaryOp::Mul => B::Multiply,
+                            _ => B::Divide,
+                        };
+                        self.binop(b, o, x, y)
+                    }
+                    BinaryOp::Dot => {
+                        arith = true;
+                        if wx == 1 {
+                            self.binop(b, B::Multiply, x, y)
+                        } else {
+                            self.math(b, F::Dot, &[x, y])
+                        }
+                    }
+                    BinaryOp::Pow => {
+                        let k = match &m.exprs[*rhs] {
+                            Expr::Constant(c) => Some(c.components[0]),
+                            _ => None,
+                        };
+                        match k {
+                            Some(k) if self.fidelity == Fidelity::Hardware && sample && k >= 1.0 && k <= 256.0 && k.fract() == 0.0 => {
+                                // Repeated squaring, a register write after each product.
+                                let mut e = k as u32;
+                                let mut base = x;
+                                let mut acc: Option<NH> = None;
+                                while e > 0 {
+                                    if e & 1 == 1 {
+                                        acc = Some(match acc {
+                                            None => base,
+                                            Some(a) => {
+                                                let p = self.binop(b, B::Multiply, a, base);
+                                                self.quantize(b, p, w)
+                                            }
+                                        });
+                                    }
+                                    e >>= 1;
+                                    if e > 0 {
+                                        let sq = self.binop(b, B::Multiply, base, base);
+                                        base = self.quantize(b, sq, w);
+                                    }
+                                }
+                                acc.unwrap_or(x)
+                            }
+                            _ => {
+                                arith = true;
+                                let y = self.splat(b, y, wy, w)?;
+                                self.math(b, F::Pow, &[x, y])
+                            }
+                        }
+                    }
+                    BinaryOp::Lt | BinaryOp::Le | BinaryOp::Gt | BinaryOp::Ge | BinaryOp::Eq | BinaryOp::Ne => {
+                        let o = match op {
+                            BinaryOp::Lt => B::Less,
+                            BinaryOp::Le => B::LessEqual,
+                            BinaryOp::Gt => B::Greater,
+                            BinaryOp::Ge => B::GreaterEqual,
+                            BinaryOp::Eq => B::Equal,
+                            _ => B::NotEqual,
+                        };
+                        let c = self.binop(b, o, x, y);
+                        self.from_bool(b, c)
+                    }
+                    BinaryOp::And | BinaryOp::Or => {
+                        let (cx, cy) = (self.truthy(b, x), self.truthy(b, y));
+                        let o = if *op == BinaryOp::And { B::LogicalAnd } else { B::LogicalOr };
+                        let c = self.binop(b, o, cx, cy);
+                        self.from_bool(b, c)
+                    }
+                }
+            }
+            Expr::Combine { mode, lhs, rhs } => {
+                arith = true;
+                let (x, y) = (val(b, *lhs)?, val(b, *rhs)?);
+                let (tx, ty) = (m.info(*lhs).ty, m.info(*rhs).ty);
+                self.combine(b, *mode, x, tx, y, ty, info.ty)?
+            }
+            Expr::Math { fun, args } => {
+                arith = !matches!(fun, MathFunction::Step);
+                let xs: Vec<NH> = args.iter().map(|a| val(b, *a)).collect::<R<_>>()?;
+                let ws: Vec<usize> = args.iter().map(|a| wof(*a)).collect();
+                let unary = |f| (f, false);
+                let (f, splat_all) = match fun {
+                    MathFunction::Normalize => unary(F::Normalize),
+                    MathFunction::Length => unary(F::Length),
+                    MathFunction::Cross => unary(F::Cross),
+                    MathFunction::Reflect => unary(F::Reflect),
+                    MathFunction::Max => (F::Max, true),
+                    MathFunction::Min => (F::Min, true),
+                    MathFunction::Clamp => (F::Clamp, true),
+                    MathFunction::Saturate => unary(F::Saturate),
+                    MathFunction::Abs => unary(F::Abs),
+                    MathFunction::Sign => unary(F::Sign),
+                    MathFunction::Sqrt => unary(F::Sqrt),
+                    MathFunction::Rsqrt => unary(F::InverseSqrt),
+                    MathFunction::Exp => unary(F::Exp),
+                    MathFunction::Log => unary(F::Log),
+                    MathFunction::Sin => unary(F::Sin),
+                    MathFunction::Cos => unary(F::Cos),
+                    MathFunction::Floor => unary(F::Floor),
+                    MathFunction::Fract => unary(F::Fract),
+                    MathFunction::Step => (F::Step, true),
+                    MathFunction::Smoothstep => (F::SmoothStep, true),
+                    MathFunction::Mix => (F::Mix, true),
+                    MathFunction::Expand | MathFunction::HalfBias | MathFunction::Compress => {
+                        let x = xs[0];
+                        let v = match fun {
+                            MathFunction::Expand => self.expand(b, x, w),
+                            MathFunction::HalfBias => {
+                                let h = b.lit(0.5);
+                                let h = self.splat(b, h, 1, w)?;
+                                self.binop(b, B::Subtract, x, h)
+                            }
+                            _ => {
+                                let one = b.lit(1.0);
+                                let one = self.splat(b, one, 1, w)?;
+                                let s = self.binop(b, B::Add, x, one);
+                                let h = b.lit(0.5);
+                                self.binop(b, B::Multiply, s, h)
+                            }
+                        };
+                        b.vals.insert(n, v);
+                        return self.finish(b, n, v, w, arith);
+                    }
+                };
+                let xs: Vec<NH> = if splat_all {
+                    let mut out = Vec::new();
+                    for (x, wx) in xs.iter().zip(&ws) {
+                        out.push(self.splat(b, *x, *wx, w)?);
+                    }
+                    out
+                } else {
+                    xs
+                };
+                if matches!(fun, MathFunction::Cross | MathFunction::Reflect) && ws.iter().any(|x| *x != 3) {
+                    return self.unsupported(format!("`{}` of non-3-component values", fun.name()), Some(n));
+                }
+                self.math(b, f, &xs)
+            }
+            Expr::Swizzle { value, pattern, len, .. } => {
+                let x = val(b, *value)?;
+                let wx = wof(*value);
+                let len = *len as usize;
+                if wx == 1 {
+                    self.splat(b, x, 1, len)?
+                } else if len == 1 {
+                    b.emit(Expression::AccessIndex { base: x, index: pattern[0] as u32 })
+                } else if len <= 4 && pattern[..len].iter().all(|&i| (i as usize) < wx) {
+                    let mut pat = [SwizzleComponent::X; 4];
+                    for (p, &i) in pat.iter_mut().zip(&pattern[..len]) {
+                        *p = COMP[i as usize];
+                    }
+                    if len == wx && pattern[..len].iter().enumerate().all(|(k, &i)| k == i as usize) {
+                        x
+                    } else {
+                        b.emit(Expression::Swizzle { size: size(len), vector: x, pattern: pat })
+                    }
+                } else {
+                    return Err(GenError::Internal("bad swizzle".into()));
+                }
+            }
+            Expr::Compose { components, .. } => {
+                let xs: Vec<NH> = components.iter().map(|a| val(b, *a)).collect::<R<_>>()?;
+                if xs.len() == 1 {
+                    xs[0]
+                } else {
+                    let ty = self.vec_ty(w);
+                    b.emit(Expression::Compose { ty, components: xs })
+                }
+            }
+            Expr::Convert { value, to } => {
+                let x = val(b, *value)?;
+                let from = m.info(*value).ty;
+                if from == *to || width(from) == width(*to) {
+                    x
+                } else if width(from) == 1 {
+                    self.splat(b, x, 1, w)?
+                } else if width(from) == 3 && w == 4 {
+                    let one = b.lit(1.0);
+                    let vec4 = self.vec_ty(4);
+                    b.emit(Expression::Compose { ty: vec4, components: vec![x, one] })
+                } else {
+                    return Err(GenError::Internal(format!("conversion {} → {}", from.name(), to.name())));
+                }
+            }
+            Expr::Select { cond, accept, reject } => {
+                let c = val(b, *cond)?;
+                let a = val(b, *accept)?;
+                let a = self.splat(b, a, wof(*accept), w)?;
+                match reject {
+                    Some(r) => {
+                        let rv = val(b, *r)?;
+                        let rv = self.splat(b, rv, wof(*r), w)?;
+                        let t = self.truthy(b, c);
+                        b.emit(Expression::Select { condition: t, accept: a, reject: rv })
+                    }
+                    None if sample => {
+                        // `c ? a`: the destination is kept where c fails.
+                        self.discard_unless(b, c);
+                        a
+                    }
+                    None => return self.unsupported("`c ? a` without `:` per vertex", Some(n)),
+                }
+            }
+        };
+        b.vals.insert(n, v);
+        self.finish(b, n, v, w, arith)
+    }
+
+    /// Quantizes (hardware fidelity) and names a computed node.
+    fn finish(&mut self, b: &mut Body, n: ir::Handle<Expr>, v: NH, w: usize, arith: bool) -> R<()> {
+        // Named before quantization: a call result cannot carry a name.
+        // Leaves are named by their arguments.
+        let leaf = matches!(self.m.exprs[n], Expr::VertexPosition(_) | Expr::TexCoord { .. } | Expr::Vector { .. });
+        if let Some(name) = self.value_name(n).filter(|_| !leaf) {
+            b.name(v, &name);
+        }
+        let v = if arith && self.m.info(n).freq.is_sample() { self.quantize(b, v, w) } else { v };
+        b.vals.insert(n, v);
+        Ok(())
+    }
+
+    fn expand(&mut self, b: &mut Body, x: NH, w: usize) -> NH {
+        let two = b.lit(2.0);
+        let d = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: x, right: two });
+        let one = b.lit(1.0);
+        let one = if w == 1 { one } else { b.emit(Expression::Splat { size: size(w), value: one }) };
+        b.emit(Expression::Binary { op: naga::BinaryOperator::Subtract, left: d, right: one })
+    }
+
+    /// `(½ x/w + ½, ½ − ½ y/w)` of a clip-space position.
+    fn projective_uv(&mut self, b: &mut Body, p: NH) -> NH {
+        let x = b.emit(Expression::AccessIndex { base: p, index: 0 });
+        let y = b.emit(Expression::AccessIndex { base: p, index: 1 });
+        let w = b.emit(Expression::AccessIndex { base: p, index: 3 });
+        let half = b.lit(0.5);
+        let xw = self.binop(b, naga::BinaryOperator::Divide, x, w);
+        let yw = self.binop(b, naga::BinaryOperator::Divide, y, w);
+        let xh = self.binop(b, naga::BinaryOperator::Multiply, xw, half);
+        let u = self.binop(b, naga::BinaryOperator::Add, xh, half);
+        let yh = self.binop(b, naga::BinaryOperator::Multiply, yw, half);
+        let v = self.binop(b, naga::BinaryOperator::Subtract, half, yh);
+        let vec2 = self.vec_ty(2);
+        b.emit(Expression::Compose { ty: vec2, components: vec![u, v] })
+    }
+
+    fn unit_of(&self, lookup: ir::Handle<Expr>) -> R<usize> {
+        let pass = &self.planned.plan.passes[self.pass_index];
+        pass.textures.iter().position(|t| t.lookup as usize == lookup.index()).ok_or_else(|| GenError::Internal(format!("lookup %{} has no texture unit", lookup.index())))
+    }
+
+    /// `a ⊕[mode] b` (see the module doc).
+    #[allow(clippy::too_many_arguments)]
+    fn combine(&mut self, b: &mut Body, mode: CombineMode, x: NH, tx: Ty, y: NH, ty_y: Ty, out: Ty) -> R<NH> {
+        use naga::BinaryOperator as B;
+        let w = width(out);
+        let wx = width(tx);
+        let wy = width(ty_y);
+        match mode {
+            CombineMode::Modulate | CombineMode::Add | CombineMode::Subtract | CombineMode::AddSigned => {
+                let xs = self.splat(b, x, wx, w)?;
+                let ys = self.splat(b, y, wy, w)?;
+                let op = match mode {
+                    CombineMode::Modulate => B::Multiply,
+                    CombineMode::Subtract => B::Subtract,
+                    _ => B::Add,
+                };
+                let r = self.binop(b, op, xs, ys);
+                if mode == CombineMode::AddSigned {
+                    let h = b.lit(0.5);
+                    let h = self.splat(b, h, 1, w)?;
+                    Ok(self.binop(b, B::Subtract, r, h))
+                } else {
+                    Ok(r)
+                }
+            }
+            _ => {
+                // Colour part (width cw ≤ 3) and alpha, then reassemble.
+                let cw = w.min(3);
+                let ct = self.color_of(b, x, tx, cw)?;
+                let cf = self.color_of(b, y, ty_y, cw)?;
+                let at = self.alpha_of(b, x, tx);
+                let af = self.alpha_of(b, y, ty_y);
+                let one = b.lit(1.0);
+                let (rgb, alpha) = match mode {
+                    CombineMode::Decal | CombineMode::Interpolate => {
+                        let omat = self.binop(b, B::Subtract, one, at);
+                        let a = self.binop(b, B::Multiply, cf, omat);
+                        let c = self.binop(b, B::Multiply, ct, at);
+                        let rgb = self.binop(b, B::Add, a, c);
+                        let alpha = if mode == CombineMode::Decal {
+                            af
+                        } else {
+                            let p = self.binop(b, B::Multiply, af, omat);
+                            let q = self.binop(b, B::Multiply, at, at);
+                            self.binop(b, B::Add, p, q)
+                        };
+                        (rgb, alpha)
+                    }
+                    CombineMode::Blend => {
+                        let ones = self.splat(b, one, 1, cw)?;
+                        let omct = self.binop(b, B::Subtract, ones, ct);
+                        let rgb = self.binop(b, B::Multiply, cf, omct);
+                        (rgb, self.binop(b, B::Multiply, af, at))
+                    }
+                    CombineMode::Replace => (ct, if tx == Ty::Rgba { at } else { af }),
+                    CombineMode::Dot3Rgb | CombineMode::Dot3Rgba => {
+                        let half = b.lit(0.5);
+                        let hs = self.splat(b, half, 1, cw)?;
+                        let a = self.binop(b, B::Subtract, ct, hs);
+                        let c = self.binop(b, B::Subtract, cf, hs);
+                        let d = if cw == 1 { self.binop(b, B::Multiply, a, c) } else { self.math(b, naga::MathFunction::Dot, &[a, c]) };
+                        let four = b.lit(4.0);
+                        let d = self.binop(b, B::Multiply, d, four);
+                        let d = self.math(b, naga::MathFunction::Saturate, &[d]);
+                        let rgb = self.splat(b, d, 1, cw)?;
+                        let alpha = if mode == CombineMode::Dot3Rgba { d } else { self.binop(b, B::Multiply, af, at) };
+                        (rgb, alpha)
+                    }
+                    _ => unreachable!(),
+                };
+                if w == 4 {
+                    let vec4 = self.vec_ty(4);
+                    Ok(b.emit(Expression::Compose { ty: vec4, components: vec![rgb, alpha] }))
+                } else {
+                    Ok(rgb)
+                }
+            }
+        }
+    }
+}
+
+fn short(s: &str) -> Option<&str> {
+    (s.len() <= 12).then_some(s)
+}
+
+/// `q9` of a constant, in f32: clamp to [−1, 1], nearest k/255, ties up.
+pub fn q9_value(v: f64) -> f32 {
+    (((v * 255.0 + 0.5).floor()).clamp(-255.0, 255.0) / 255.0) as f32
+}
+
+/// A frequency the backend treats as per sample.
+#[allow(dead_code)]
+fn is_sample(f: Frequency) -> bool {
+    f.is_sample()
+}

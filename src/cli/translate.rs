@@ -1,0 +1,74 @@
+//! `shadec translate CONFIG --emit wgsl [-o OUT]`: a legacy register-combiner
+//! setup (`!!RC1.0`, or RON) as a WGSL shader evaluating it exactly as the
+//! fixed9 emulator does (`backends::wgsl::rc1`).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use shadec::backends::combiners::config::CombinerLimits;
+
+use super::emulate::{load_config, Failure, ProfileArg};
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum TranslateEmit {
+    /// One WGSL module: `vs_main` (pass-through) and `fs_main` (the combiners).
+    Wgsl,
+}
+
+#[derive(Clone, Debug, clap::Args)]
+pub struct TranslateArgs {
+    /// The combiner setup: `!!RC1.0` text, or a `.ron` CombinerConfig.
+    pub config: PathBuf,
+    /// What to write.
+    #[arg(long, value_enum, default_value = "wgsl")]
+    pub emit: TranslateEmit,
+    /// The target whose limits the setup must fit.
+    #[arg(long, value_enum, default_value = "geforce3")]
+    pub profile: ProfileArg,
+    /// Write here (atomically) instead of standard output.
+    #[arg(short, long, value_name = "OUT")]
+    pub output: Option<PathBuf>,
+}
+
+pub fn run(args: &TranslateArgs) -> ExitCode {
+    let limits = match args.profile {
+        ProfileArg::Geforce256 => CombinerLimits::GEFORCE256,
+        ProfileArg::Geforce3 => CombinerLimits::GEFORCE3,
+    };
+    let config = match load_config(&args.config, &limits) {
+        Ok(c) => c,
+        Err(Failure::Config(message)) => {
+            eprint!("{message}");
+            if !message.ends_with('\n') {
+                eprintln!();
+            }
+            return ExitCode::from(super::EXIT_SOURCE_ERRORS);
+        }
+        Err(Failure::Io(message)) => {
+            eprintln!("error: {message}");
+            return ExitCode::from(super::EXIT_USAGE_OR_IO);
+        }
+    };
+    #[cfg(not(feature = "wgsl"))]
+    {
+        let _ = config;
+        eprintln!("error: this shadec was built without the `wgsl` feature: rebuild with default features to translate");
+        ExitCode::from(super::EXIT_USAGE_OR_IO)
+    }
+    #[cfg(feature = "wgsl")]
+    translate(args, &config)
+}
+
+#[cfg(feature = "wgsl")]
+fn translate(args: &TranslateArgs, config: &shadec::backends::combiners::config::CombinerConfig) -> ExitCode {
+    let title = args.config.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    match args.emit {
+        TranslateEmit::Wgsl => match shadec::backends::wgsl::rc1::translate(config, &title) {
+            Ok(text) => super::write_output(args.output.as_deref(), &text),
+            Err(e) => {
+                eprintln!("error[internal-error]: {e}\n  = help: this is a bug in shadec, not in the setup: please report it with the setup");
+                ExitCode::from(super::EXIT_SOURCE_ERRORS)
+            }
+        },
+    }
+}

@@ -1,0 +1,77 @@
+//! `shadec compile --emit wgsl|spirv|glsl` and `shadec translate` from the
+//! command line: outputs, files, exit codes and errors.
+#![cfg(feature = "wgsl")]
+
+mod common;
+use common::shadec;
+
+#[test]
+fn emit_wgsl_labels_passes_and_source_lines() {
+    let r = shadec(&["compile", "examples/kilgard_bump_mapping.shd", "--target", "geforce256", "--emit", "wgsl", "--fidelity", "hardware"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.starts_with("// shadec: kilgard_bump_mapping.shd on geforce256, fidelity hardware — 3 passes"), "{}", r.stdout);
+    for n in 1..=3 {
+        assert!(r.stdout.contains(&format!("// ==== pass {n} of 3")), "{}", r.stdout);
+    }
+    assert!(r.stdout.contains("// 57:1: C δπx ← Tdecal δu x"));
+    assert!(r.stdout.contains("fn quantize_x("));
+    assert!(r.stdout.contains("let s_self = "));
+}
+
+#[test]
+fn emit_wgsl_is_stable() {
+    let a = shadec(&["compile", "examples/cook_torrance.shd", "--emit", "wgsl"]);
+    let b = shadec(&["compile", "examples/cook_torrance.shd", "--emit", "wgsl"]);
+    assert_eq!(a.code, 0, "{}", a.stderr);
+    assert_eq!(a.stdout, b.stdout);
+}
+
+#[test]
+fn emit_spirv_needs_an_output_and_writes_one_file_per_pass() {
+    let r = shadec(&["compile", "examples/gouraud.shd", "--emit", "spirv"]);
+    assert_eq!(r.code, 2);
+    assert!(r.stderr.contains("-o OUT"), "{}", r.stderr);
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("k.spv");
+    let r = shadec(&["compile", "examples/kilgard_bump_mapping.shd", "--target", "geforce256", "--emit", "spirv", "-o", out.to_str().unwrap()]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    for n in 1..=3 {
+        let bytes = std::fs::read(dir.path().join(format!("k.pass{n}.spv"))).unwrap();
+        assert_eq!(&bytes[..4], &0x0723_0203u32.to_le_bytes());
+    }
+    let one = dir.path().join("g.spv");
+    let r = shadec(&["compile", "examples/gouraud.shd", "--emit", "spirv", "-o", one.to_str().unwrap()]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(std::fs::metadata(&one).unwrap().len() > 20);
+}
+
+#[test]
+fn emit_glsl_has_both_stages() {
+    let r = shadec(&["compile", "examples/texture.shd", "--emit", "glsl"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.contains(": vertex shader") && r.stdout.contains(": fragment shader"), "{}", r.stdout);
+    assert_eq!(r.stdout.matches("#version 330").count(), 2);
+}
+
+#[test]
+fn unsupported_constructs_are_diagnostics_with_locations() {
+    let r = shadec(&["compile", "examples/fat_texture_map.shd", "--emit", "wgsl"]);
+    assert_eq!(r.code, 1);
+    assert!(r.stderr.contains("error[wgsl-unsupported]") && r.stderr.contains("fat_texture_map.shd:"), "{}", r.stderr);
+    assert!(r.stdout.is_empty());
+}
+
+#[test]
+fn translate_writes_wgsl_and_reports_bad_setups() {
+    let r = shadec(&["translate", "tests/data/combiners/appendix_g.rc"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.contains("@fragment") && r.stdout.contains("General combiner 0"));
+    let dir = tempfile::tempdir().unwrap();
+    let bad = dir.path().join("bad.rc");
+    std::fs::write(&bad, "!!RC1.0\nout.rgb = nonsense;\n").unwrap();
+    let r = shadec(&["translate", bad.to_str().unwrap()]);
+    assert_eq!(r.code, 1, "{}", r.stderr);
+    assert!(r.stderr.contains("bad.rc"), "{}", r.stderr);
+    let r = shadec(&["translate", "no/such/file.rc"]);
+    assert_eq!(r.code, 2);
+}
