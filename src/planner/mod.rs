@@ -351,8 +351,16 @@ pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<F
         Table::Framebuffer { channel: FbChannel::Alpha, .. } => form.channels = "a",
         Table::Framebuffer { channel: FbChannel::Color, .. } => {}
     }
-    // `σ C ? a`: a stencil test; `c ? a`: a discard.
-    if let Expr::Select { cond, accept, reject: None } = m.exprs[value].clone() {
+    // `σ C ? a`: a stencil test; `c ? a`: a discard (also under the
+    // widening to rgba lowering puts around it).
+    if let Expr::Convert { value: inner, to } = m.exprs[value].clone() {
+        if let Expr::Select { cond, accept, reject: None } = m.exprs[inner].clone() {
+            if let Some(widened) = (Builder { module: m }).node(Expr::Convert { value: accept, to }) {
+                form.value = m.intern(Expr::Select { cond, accept: widened, reject: None }, m.span(inner)).unwrap_or(value);
+            }
+        }
+    }
+    if let Expr::Select { cond, accept, reject: None } = m.exprs[form.value].clone() {
         if Some(cond) == self_read(m, st, FbChannel::Stencil) {
             form.stencil = Some(StencilState { enabled: true, func: crate::renderer::CompareFunc::NotEqual, reference: 0, ..StencilState::DISABLED });
         } else {
