@@ -57,9 +57,21 @@ fn lookups(m: &Module) -> Vec<Handle<Expr>> {
     units.into_iter().map(|(_, h)| h).collect()
 }
 
-fn compile(value: &str, limits: &CombinerLimits) -> (Module, Handle<Expr>, Result<Generated, CodegenError>) {
+fn value_src_keeps_splat(value: &str) -> bool {
+    value.starts_with("splat ")
+}
+
+fn compile(value_src: &str, limits: &CombinerLimits) -> (Module, Handle<Expr>, Result<Generated, CodegenError>) {
+    let value = value_src.strip_prefix("splat ").unwrap_or(value_src);
     let m = lower(&program(value));
-    let v = m.statements.last().unwrap().value;
+    let mut v = m.statements.last().unwrap().value;
+    // A scalar statement value is splatted to rgba (alpha = the scalar); test
+    // the scalar itself (rgb broadcast, alpha 1) unless asked not to.
+    if let Expr::Convert { value, .. } = &m.exprs[v] {
+        if m.info(*value).ty == Ty::Scalar && !value_src_keeps_splat(value_src) {
+            v = *value;
+        }
+    }
     let units = lookups(&m);
     let r = generate(&PassInput { module: &m, value: v, units: &units }, limits);
     (m, v, r)
@@ -166,7 +178,9 @@ fn eval(m: &Module, h: Handle<Expr>, env: &Env) -> [f64; 4] {
                 BinaryOp::Sub => zip(a, b, &|x, y| x - y),
                 BinaryOp::Mul => zip(a, b, &|x, y| x * y),
                 BinaryOp::Pow => zip(a, b, &|x, y| x.powf(y)),
-                BinaryOp::Dot => [a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; 4],
+                // The IR takes a dot product as one of unit vectors, in [−1, 1] (the
+                // combiners clamp it there, seeds/003 Section 4.2.2).
+                BinaryOp::Dot => [(a[0] * b[0] + a[1] * b[1] + a[2] * b[2]).clamp(-1.0, 1.0); 4],
                 BinaryOp::Ge => [f64::from(u8::from(a[0] >= b[0])); 4],
                 BinaryOp::Gt => [f64::from(u8::from(a[0] > b[0])); 4],
                 BinaryOp::Lt => [f64::from(u8::from(a[0] < b[0])); 4],
@@ -350,6 +364,14 @@ fn exponents_by_repeated_squaring() {
     check("expand(b.b) ≥ 0 ? max(0, expand(a.rgb) · expand(b.rgb))^8 : 0", TOL);
 }
 
+/// A scalar statement value is splatted to rgba by the IR: alpha is the
+/// scalar too (G needs it in an alpha register).
+#[test]
+fn a_splatted_scalar_writes_alpha_too() {
+    check("splat max(0, expand(a.rgb) · expand(b.rgb))^4", TOL);
+    check("splat a.a * b.b", TOL);
+}
+
 #[test]
 fn interpolated_colours_go_to_primary() {
     let g = check("g * a.rgb", TOL);
@@ -375,7 +397,7 @@ fn spare_registers_are_reused() {
     // Four dependent products: each result dies when the next is computed.
     let (_, _, r) = compile("expand(a.rgb) * expand(b.rgb) * expand(a.a) * expand(b.a) * expand(b.b)", &CombinerLimits::GEFORCE3);
     let g = r.unwrap();
-    let written: std::collections::BTreeSet<_> =
+    let written: std::collections::HashSet<_> =
         g.config.general.iter().flat_map(|s| [s.rgb.ab_output, s.rgb.sum_output]).flatten().collect();
     assert!(g.stages >= 3);
     assert_eq!(written.len(), 1, "one spare register suffices: {written:?}");
@@ -388,6 +410,7 @@ fn spare_registers_are_reused() {
 fn error(value: &str, limits: &CombinerLimits) -> (CodegenError, String) {
     let src = program(value);
     let (_, _, r) = compile(value, limits);
+    let src = src.as_str();
     let e = r.expect_err(value);
     let text = e.span().map(|s| src[s.range()].to_string()).unwrap_or_default();
     (e, text)
@@ -430,7 +453,7 @@ fn intermediate_values_outside_the_combiner_range_are_errors() {
     // (a + b) may reach 2; the general combiners would clamp it before the product.
     let (e, text) = error("(a.rgb + b.rgb) * expand(a.a)", &CombinerLimits::GEFORCE3);
     assert!(matches!(e, CodegenError::Range { .. }), "{e:?}");
-    assert_eq!(text, "a.rgb + b.rgb");
+    assert_eq!(text, "(a.rgb + b.rgb)");
     // With an explicit clamp it compiles.
     check("saturate(a.rgb + b.rgb) * expand(a.a)", TOL);
 }

@@ -358,6 +358,8 @@ impl Gen<'_> {
             }
             (Expr::Convert { value, to: Ty::Rgba }, Part::Rgb) if self.ty(*value) == Ty::Rgb => Some(Some(*value)),
             (Expr::Convert { value, to: Ty::Rgba }, Part::Alpha) if self.ty(*value) == Ty::Rgb => Some(None),
+            // A scalar splatted to rgba: every component is the scalar.
+            (Expr::Convert { value, to: Ty::Rgba }, _) if self.ty(*value) == Ty::Scalar => Some(Some(*value)),
             _ => None,
         }
     }
@@ -1138,9 +1140,13 @@ impl Gen<'_> {
 
     /// out.rgb = A·B + (1 − A)·C + D, clamped to [0, 1] by the 8-bit output.
     fn final_rgb(&mut self, v: Handle<Expr>, part: Part, fin: &mut FinalSpec) -> R<()> {
+        let v = match self.expr(v) {
+            Expr::Convert { value, .. } if self.ty(*value) == Ty::Scalar => *value,
+            _ => v,
+        };
         let mut addends = Vec::new();
         self.flatten(v, BinaryOp::Add, &mut addends);
-        let simple = addends.len() <= 2 && addends.iter().all(|a| self.nonneg_unit(*a));
+        let simple = addends.iter().all(|a| self.nonneg_unit(*a));
         if !simple {
             // Computed in general combiners; the output saturates it.
             let s = self.src(v, part, true)?;
@@ -1158,10 +1164,32 @@ impl Gen<'_> {
             }
         }
         // Leaves first (they take the constant colours in source order).
+        // Beyond what the final combiner adds (C + D, or A·B + D), trailing
+        // addends are summed in general combiners. Those partial sums clamp
+        // at 1, which is exact here: every addend is ≥ 0, so once a partial
+        // sum reaches 1 the saturated output is 1 anyway.
+        let room = if product.is_some() { 1 } else { 2 };
         let mut leaf_srcs = Vec::new();
+        let extra = if leaves.len() > room { leaves.split_off(room - 1) } else { Vec::new() };
         for l in &leaves {
             let s = self.src(*l, part, false)?;
             leaf_srcs.push(self.final_src(s, self.m.span(*l))?);
+        }
+        if !extra.is_empty() {
+            let scalar = extra.iter().all(|h| self.scalar(*h, part));
+            let span = self.m.span(extra[0]).join(self.m.span(*extra.last().expect("non-empty")));
+            let mut terms = Vec::new();
+            for h in &extra {
+                terms.push(self.sum_term(*h, part)?);
+            }
+            while terms.len() > 1 {
+                let y = terms.pop().expect("len > 1");
+                let x = terms.pop().expect("len > 1");
+                let s = self.emit(Spec { cd: Some(y), alpha_only: part == Part::Alpha, ..Spec::single(x, scalar) }, span)?;
+                terms.push(Term::times_one(s));
+            }
+            let s = terms[0].a;
+            leaf_srcs.push(self.final_src(s, span)?);
         }
         match (product, leaf_srcs.as_slice()) {
             (None, [x]) => fin.d = FinalVal::Src(*x),
