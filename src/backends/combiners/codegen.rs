@@ -610,7 +610,7 @@ impl Gen<'_> {
 
     fn pow2_exponent(&self, h: Handle<Expr>) -> Option<u32> {
         let n = self.constant(h)?;
-        (n >= 2.0 && n <= 256.0 && n.fract() == 0.0 && (n as u32).is_power_of_two()).then(|| (n as u32).trailing_zeros())
+        ((2.0..=256.0).contains(&n) && n.fract() == 0.0 && (n as u32).is_power_of_two()).then(|| (n as u32).trailing_zeros())
     }
 
     /// `x^(2^k)` by repeated squaring in general combiners.
@@ -1519,4 +1519,84 @@ fn to_color(c: &Constant) -> Color {
         *o = if v.len() == 1 { v[0] as f32 } else { v.get(i).copied().unwrap_or(0.0) as f32 };
     }
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ir;
+
+    fn module(value: &str) -> (Module, Handle<Expr>, Vec<Handle<Expr>>) {
+        let src = format!(
+            "texture A : 2d rgba8 = image(\"a.png\");\ntexture B : 2d rgba8 = image(\"b.png\");\nframebuffer C : rgba8;\nlet a = A δu x;\nlet b = B δu x;\nC δπx ← {value};\n"
+        );
+        let (program, d) = crate::parser::check(&src);
+        assert!(d.iter().all(|d| !d.is_error()), "{d:#?}");
+        let (m, d) = ir::lower(&program);
+        assert!(d.iter().all(|d| !d.is_error()), "{d:#?}");
+        let mut v = m.statements[0].value;
+        if let Expr::Convert { value, .. } = m.exprs[v] {
+            if m.info(value).ty == Ty::Scalar {
+                v = value;
+            }
+        }
+        let units: Vec<_> = m.exprs.arena().iter().filter(|(_, e)| matches!(e, Expr::Lookup { .. })).map(|(h, _)| h).collect();
+        (m, v, units)
+    }
+
+    fn gen(value: &str) -> Result<Generated, CodegenError> {
+        let (m, v, units) = module(value);
+        generate(&PassInput { module: &m, value: v, units: &units }, &CombinerLimits::GEFORCE3)
+    }
+
+    #[test]
+    fn a_texel_needs_no_general_combiner() {
+        let g = gen("a").unwrap();
+        assert_eq!(g.stages, 0);
+        assert_eq!(g.config.final_combiner.d.source, FinalSource::Register(Register::Texture0));
+        assert_eq!(g.config.final_combiner.g.source, FinalSource::Register(Register::Texture0));
+    }
+
+    #[test]
+    fn expand_and_negation_are_input_mappings() {
+        let g = gen("-expand(a.rgb) * b.rgb").unwrap();
+        assert_eq!(g.stages, 1);
+        let rgb = g.config.general[0].rgb;
+        assert_eq!((rgb.a.mapping, rgb.b.mapping), (ExpandNegate, UnsignedIdentity));
+    }
+
+    #[test]
+    fn eight_times_is_a_doubled_sum_scaled_by_four() {
+        let g = gen("saturate(8 * expand(b.b))").unwrap();
+        let alpha = g.config.general[0].alpha;
+        assert_eq!(alpha.scale, Scale::Four);
+        assert_eq!(alpha.a, alpha.c);
+        assert_eq!(alpha.a.usage, ComponentUsage::Blue);
+        assert!(alpha.sum_output.is_some());
+    }
+
+    #[test]
+    fn independent_operations_share_a_stage() {
+        // A dot product (RGB portion) and an alpha product (alpha portion).
+        let g = gen("rgba(max(0, expand(a.rgb) · expand(b.rgb)) * a.rgb, expand(a.a) * expand(b.a))").unwrap();
+        assert_eq!(g.stages, 1, "{}", super::super::rc1::print(&g.config));
+        assert!(g.config.general[0].rgb.ab_dot);
+        assert!(g.config.general[0].alpha.ab_output.is_some() || g.config.general[0].alpha.sum_output.is_some());
+    }
+
+    #[test]
+    fn the_mux_select_lands_in_spare0_alpha() {
+        let g = gen("a.a ≥ 0.5 ? expand(a.rgb) * b.rgb : b.rgb").unwrap();
+        let mux = g.config.general.iter().find(|s| s.rgb.mux_sum).expect("a mux");
+        let select_writer = g.config.general.iter().find(|s| s.alpha.ab_output == Some(Register::Spare0) || s.alpha.sum_output == Some(Register::Spare0));
+        assert!(select_writer.is_some() && mux.rgb.sum_output.is_some());
+    }
+
+    #[test]
+    fn division_is_unsupported_at_its_span() {
+        let (m, v, units) = module("a / 2");
+        let e = generate(&PassInput { module: &m, value: v, units: &units }, &CombinerLimits::GEFORCE3).unwrap_err();
+        assert!(matches!(e, CodegenError::Unsupported { .. }));
+        assert!(e.to_diagnostic().help.is_some_and(|h| h.contains("lookup texture")));
+    }
 }
