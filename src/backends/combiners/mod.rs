@@ -3,14 +3,17 @@
 //! Appendix B: the NV_register_combiners state as data ([`CombinerConfig`],
 //! Tables 2-6), its validity rules ([`validate`]), NVIDIA's `!!RC1.0` text
 //! format ([`rc1`]), and a CPU emulator with a bit-faithful 8-bit + sign
-//! precision model and an f32 one ([`emulator`]). docs/combiners.md records
+//! precision model and an f32 one ([`emulator`]), and the code generator
+//! from the IR ([`codegen`]). docs/combiners.md records
 //! every emulation decision.
 
+pub mod codegen;
 pub mod config;
 pub mod emulator;
 pub mod rc1;
 pub mod validate;
 
+pub use codegen::{generate, CodegenError, Generated, PassInput};
 pub use config::{
     Bias, Color, CombinerConfig, CombinerLimits, ComponentUsage, FinalCombiner, FinalInput, FinalSource, GeneralInput,
     GeneralPortion, GeneralStage, InputMapping, PortionKind, Register, Scale,

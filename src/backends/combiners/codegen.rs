@@ -1,0 +1,1602 @@
+//! IR → register-combiner configuration for one pass (issue 4 part 5).
+//!
+//! The pass computes one per-fragment colour, `PassInput::value`, from the
+//! texels its texture units fetch, the interpolated primary and secondary
+//! colours, and constants. The generator covers the IR sub-DAG below `value`
+//! with what seeds/003 Section 4.2 and Appendix B offer, in three steps:
+//!
+//! 1. **Selection.** A tree-covering selector turns each node into a
+//!    *source* (a register component read through one of the eight input
+//!    mappings of Table 3: `expand` is `EXPAND_NORMAL`, `-x` a negate
+//!    mapping, `1 − x` `UNSIGNED_INVERT`, `max(0, x)` / `saturate` an
+//!    unsigned mapping, the scalars 0, 1, ±½, −1 are `zero` under a
+//!    mapping) or, where a mapping is not enough, into a general-combiner
+//!    *operation* (`A·B`, `A·B + C·D`, `A•B`, mux, with output scale and
+//!    bias) whose result lives in a virtual register. The output value is
+//!    covered by the final combiner (`A·B + (1 − A)·C + D`, `E·F`, `G`)
+//!    where it can be: products of up to three non-negative factors
+//!    (`A · EF`), `x⁴` as `EF · EF` (repeated squaring), lerps, sums of two.
+//! 2. **Scheduling.** Operations go, in dependency order, to the first
+//!    general stage after their operands' in which the RGB or alpha portion
+//!    they need is free (the two portions of a stage work in parallel).
+//! 3. **Register allocation.** Virtual registers get `spare0`, `spare1`, or
+//!    a texture/colour register whose own value is no longer read, by live
+//!    interval; the mux's select value is pinned to `spare0.a`.
+//!
+//! docs/combiners.md, "Code generation", has the mapping table.
+
+use std::collections::HashMap;
+
+use thiserror::Error;
+
+use crate::diag::Diagnostic;
+use crate::ir::{BinaryOp, Constant, Expr, Handle, MathFunction, Module, Ty, UnaryOp};
+use crate::span::Span;
+
+use super::config::{
+    Bias, Color, CombinerConfig, CombinerLimits, ComponentUsage, FinalCombiner, FinalInput, FinalSource, GeneralInput,
+    GeneralPortion, GeneralStage, InputMapping, Register, Scale,
+};
+use super::validate::{validate, ValidationError};
+
+use InputMapping::*;
+
+/// What one pass binds: texture unit `i` holds the per-fragment lookup node
+/// `units[i]`; `value` is the fragment colour the pass outputs (rgb, rgba or
+/// scalar: a scalar broadcasts to rgb; rgb and scalar outputs get alpha 1).
+pub struct PassInput<'a> {
+    pub module: &'a Module,
+    pub value: Handle<Expr>,
+    pub units: &'a [Handle<Expr>],
+}
+
+/// A generated configuration and what the caller must bind for it.
+#[derive(Clone, Debug)]
+pub struct Generated {
+    pub config: CombinerConfig,
+    /// The interpolated (`Interpolate`) IR node feeding the primary colour.
+    pub primary: Option<Handle<Expr>>,
+    /// The interpolated IR node feeding the secondary colour.
+    pub secondary: Option<Handle<Expr>>,
+    /// The constant or uniform IR node held by constant colour 0 and 1.
+    /// A uniform with no default leaves `config.constantN` unset: the caller
+    /// supplies it.
+    pub constants: [Option<Handle<Expr>>; 2],
+    /// General combiner stages used (`config.general.len()`).
+    pub stages: usize,
+}
+
+#[derive(Clone, Debug, Error, PartialEq)]
+pub enum CodegenError {
+    /// An operation the register combiners cannot compute.
+    #[error("{what} cannot be computed by the register combiners")]
+    Unsupported { span: Span, what: String, help: String },
+    /// An intermediate value outside the combiners' [−1, 1] range.
+    #[error("{what} may leave [−1, 1], and the general combiners clamp every result to [−1, 1]")]
+    Range { span: Span, what: String },
+    /// More general combiner stages than the target has (the pass planner
+    /// splits the pass).
+    #[error("the pass needs {needed} general combiners, the target has {available}")]
+    OutOfStages { needed: usize, available: usize },
+    #[error("the pass needs more than the two constant colours")]
+    OutOfConstants { span: Span },
+    #[error("the pass needs more than the two interpolated colours (primary and secondary)")]
+    OutOfColors { span: Span },
+    #[error("the pass needs more registers than spare0, spare1 and the free texture registers")]
+    OutOfRegisters { span: Span },
+    /// A bug in the generator: the config it built breaks an Appendix B rule.
+    #[error("internal error: the generated setup is invalid: {}", .0.first().map(ToString::to_string).unwrap_or_default())]
+    Invalid(Vec<ValidationError>),
+}
+
+impl CodegenError {
+    pub fn span(&self) -> Option<Span> {
+        match self {
+            CodegenError::Unsupported { span, .. }
+            | CodegenError::Range { span, .. }
+            | CodegenError::OutOfConstants { span }
+            | CodegenError::OutOfColors { span }
+            | CodegenError::OutOfRegisters { span } => Some(*span),
+            _ => None,
+        }
+    }
+
+    pub fn help(&self) -> String {
+        match self {
+            CodegenError::Unsupported { help, .. } => help.clone(),
+            CodegenError::Range { .. } => "clamp it with `saturate(…)` where the clamp is intended, or rescale it into [−1, 1] (seeds/003 Section 4.2.2)".into(),
+            CodegenError::OutOfStages { .. } => "split the pass: blend partial results in the framebuffer, or target a profile with more general combiners".into(),
+            CodegenError::OutOfConstants { .. } => "fold constants together, or split the pass".into(),
+            CodegenError::OutOfColors { .. } => "pass further per-vertex values as texture coordinates (a lookup texture), or split the pass".into(),
+            CodegenError::OutOfRegisters { .. } => "split the pass".into(),
+            CodegenError::Invalid(_) => "please report this".into(),
+        }
+    }
+
+    pub fn code(&self) -> &'static str {
+        match self {
+            CodegenError::Unsupported { .. } => "combiner-unsupported",
+            CodegenError::Range { .. } => "combiner-range",
+            CodegenError::OutOfStages { .. } => "combiner-stages",
+            CodegenError::OutOfConstants { .. } => "combiner-constants",
+            CodegenError::OutOfColors { .. } => "combiner-colors",
+            CodegenError::OutOfRegisters { .. } => "combiner-registers",
+            CodegenError::Invalid(_) => "combiner-internal",
+        }
+    }
+
+    pub fn to_diagnostic(&self) -> Diagnostic {
+        let span = self.span().unwrap_or(Span::DETACHED);
+        Diagnostic::error(self.code(), self.to_string(), span, "here").with_help(self.help())
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Selection data.
+
+/// Which part of a value: the rgb (or vec3, or scalar) part, or the alpha of
+/// an rgba value.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum Part {
+    Rgb,
+    Alpha,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum Base {
+    Reg(Register),
+    /// A virtual register: the result of operation `ops[vregs[i].op]`.
+    V(usize),
+}
+
+/// Which components a source reads.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum Comp {
+    /// An rgb vector.
+    Rgb,
+    /// A scalar held in all three rgb components (a dot product, a scalar
+    /// computed in an RGB portion): read as rgb, or as blue in an alpha portion.
+    Bcast,
+    Alpha,
+    /// The blue component (alpha portions only; elsewhere copied to alpha).
+    Blue,
+}
+
+/// A value a combiner variable can read: `map(comp(base))`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+struct Src {
+    base: Base,
+    comp: Comp,
+    map: InputMapping,
+}
+
+impl Src {
+    fn zero_mapped(map: InputMapping) -> Src {
+        Src { base: Base::Reg(Register::Zero), comp: Comp::Alpha, map }
+    }
+    const ZERO: Src = Src { base: Base::Reg(Register::Zero), comp: Comp::Alpha, map: UnsignedIdentity };
+    const ONE: Src = Src { base: Base::Reg(Register::Zero), comp: Comp::Alpha, map: UnsignedInvert };
+}
+
+/// One product (or dot product) of a portion.
+#[derive(Clone, Copy, Debug)]
+struct Term {
+    a: Src,
+    b: Src,
+    dot: bool,
+}
+
+impl Term {
+    fn times_one(a: Src) -> Term {
+        Term { a, b: Src::ONE, dot: false }
+    }
+}
+
+/// A portion's computation before it has a stage and registers.
+#[derive(Clone, Copy, Debug)]
+struct Spec {
+    ab: Term,
+    cd: Option<Term>,
+    /// Mux on this select value (placed in spare0.a) instead of AB + CD.
+    mux: Option<Src>,
+    scale: Scale,
+    bias: Bias,
+    /// The result is one number (may live in either portion).
+    scalar: bool,
+    /// An alpha part must be computed in the alpha portion.
+    alpha_only: bool,
+}
+
+impl Spec {
+    fn single(ab: Term, scalar: bool) -> Spec {
+        Spec { ab, cd: None, mux: None, scale: Scale::One, bias: Bias::Zero, scalar, alpha_only: false }
+    }
+}
+
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+enum Lane {
+    Rgb,
+    Alpha,
+}
+
+#[derive(Clone, Debug)]
+struct Op {
+    lane: Lane,
+    ab: Term,
+    cd: Option<Term>,
+    mux: Option<Src>,
+    scale: Scale,
+    bias: Bias,
+    out: usize,
+    stage: usize,
+    span: Span,
+}
+
+#[derive(Clone, Debug)]
+struct VReg {
+    lane: Lane,
+    op: usize,
+    pin: Option<Register>,
+    reg: Option<Register>,
+}
+
+/// What a final-combiner variable reads before registers are known.
+#[derive(Clone, Copy, Debug)]
+enum FinalVal {
+    Src(Src),
+    Ef,
+}
+
+struct FinalSpec {
+    a: FinalVal,
+    b: FinalVal,
+    c: FinalVal,
+    d: FinalVal,
+    e: Src,
+    f: Src,
+    g: Src,
+}
+
+struct Gen<'a> {
+    m: &'a Module,
+    units: &'a [Handle<Expr>],
+    limits: CombinerLimits,
+    ops: Vec<Op>,
+    vregs: Vec<VReg>,
+    stage_used: Vec<[bool; 2]>,
+    cache: HashMap<(Handle<Expr>, Part), Src>,
+    pow_cache: HashMap<(Handle<Expr>, Part, u32), Src>,
+    constants: [Option<(Color, Handle<Expr>)>; 2],
+    colors: [Option<Handle<Expr>>; 2],
+    span: Span,
+}
+
+type R<T> = Result<T, CodegenError>;
+
+/// Generates the register-combiner configuration for one pass.
+pub fn generate(input: &PassInput, limits: &CombinerLimits) -> Result<Generated, CodegenError> {
+    let m = input.module;
+    let span = m.span(input.value);
+    if input.units.len() > usize::from(limits.texture_units.min(4)) {
+        return Err(CodegenError::Unsupported {
+            span,
+            what: format!("a pass with {} texture units", input.units.len()),
+            help: format!("the target has {} texture units: split the pass", limits.texture_units),
+        });
+    }
+    let mut g = Gen {
+        m,
+        units: input.units,
+        limits: *limits,
+        ops: Vec::new(),
+        vregs: Vec::new(),
+        stage_used: Vec::new(),
+        cache: HashMap::new(),
+        pow_cache: HashMap::new(),
+        constants: [None, None],
+        colors: [None, None],
+        span,
+    };
+    let fin = g.final_combiner(input.value)?;
+    let stages = g.stage_used.len();
+    if stages > limits.general_combiners {
+        return Err(CodegenError::OutOfStages { needed: stages, available: limits.general_combiners });
+    }
+    g.allocate(&fin)?;
+    let config = g.build(&fin);
+    validate(&config, limits).map_err(CodegenError::Invalid)?;
+    Ok(Generated {
+        config,
+        primary: g.colors[0],
+        secondary: g.colors[1],
+        constants: [g.constants[0].map(|c| c.1), g.constants[1].map(|c| c.1)],
+        stages,
+    })
+}
+
+fn unsupported(span: Span, what: impl Into<String>, help: impl Into<String>) -> CodegenError {
+    CodegenError::Unsupported { span, what: what.into(), help: help.into() }
+}
+
+const LOOKUP_HELP: &str = "precompute it into a lookup texture indexed by its per-vertex inputs (seeds/003 Section 5.2 does this for normalization), or compute it per vertex";
+
+impl Gen<'_> {
+    fn expr(&self, h: Handle<Expr>) -> &Expr {
+        &self.m.exprs[h]
+    }
+
+    fn ty(&self, h: Handle<Expr>) -> Ty {
+        self.m.info(h).ty
+    }
+
+    fn lo(&self, h: Handle<Expr>) -> f64 {
+        self.m.info(h).interval.lo
+    }
+
+    fn hi(&self, h: Handle<Expr>) -> f64 {
+        self.m.info(h).interval.hi
+    }
+
+    fn in_unit(&self, h: Handle<Expr>) -> bool {
+        self.lo(h) >= -1.0 && self.hi(h) <= 1.0
+    }
+
+    fn norm(&self, h: Handle<Expr>, part: Part) -> Part {
+        if self.ty(h) == Ty::Rgba {
+            part
+        } else {
+            Part::Rgb
+        }
+    }
+
+    /// The node holding `part` of `h` when `h` is composed (`rgba(c, a)`,
+    /// an rgb widened to rgba); `Ok(None)` for the alpha 1 of a widened rgb.
+    fn part_node(&self, h: Handle<Expr>, part: Part) -> Option<Option<Handle<Expr>>> {
+        match (self.expr(h), part) {
+            (Expr::Compose { ty: Ty::Rgba, components }, _) if components.len() == 2 && self.ty(components[0]).width() == 3 => {
+                Some(Some(if part == Part::Rgb { components[0] } else { components[1] }))
+            }
+            (Expr::Convert { value, to: Ty::Rgba }, Part::Rgb) if self.ty(*value) == Ty::Rgb => Some(Some(*value)),
+            (Expr::Convert { value, to: Ty::Rgba }, Part::Alpha) if self.ty(*value) == Ty::Rgb => Some(None),
+            // A scalar splatted to rgba: every component is the scalar.
+            (Expr::Convert { value, to: Ty::Rgba }, _) if self.ty(*value) == Ty::Scalar => Some(Some(*value)),
+            _ => None,
+        }
+    }
+
+    fn constant(&self, h: Handle<Expr>) -> Option<f64> {
+        match self.expr(h) {
+            Expr::Constant(c) => {
+                let v = c.values();
+                (!v.is_empty() && v.iter().all(|x| *x == v[0])).then(|| v[0])
+            }
+            _ => None,
+        }
+    }
+
+    // -----------------------------------------------------------------------
+    // Sources.
+
+    /// `h` (its `part`) as a source. `sat`: the consumer clamps the value to
+    /// [0, 1], so a result the combiners clamp to [−1, 1] is still exact.
+    fn src(&mut self, h: Handle<Expr>, part: Part, sat: bool) -> R<Src> {
+        let part = self.norm(h, part);
+        if let Some(s) = self.cache.get(&(h, part)).copied() {
+            if matches!(s.base, Base::V(_)) && !sat && !self.in_unit(h) {
+                return Err(self.range(h));
+            }
+            return Ok(s);
+        }
+        let s = self.src_uncached(h, part, sat)?;
+        self.cache.insert((h, part), s);
+        Ok(s)
+    }
+
+    fn range(&self, h: Handle<Expr>) -> CodegenError {
+        let i = self.m.info(h).interval;
+        CodegenError::Range { span: self.m.span(h), what: format!("this value (range [{}, {}])", i.lo, i.hi) }
+    }
+
+    fn src_uncached(&mut self, h: Handle<Expr>, part: Part, sat: bool) -> R<Src> {
+        let span = self.m.span(h);
+        match self.expr(h).clone() {
+            Expr::Constant(c) => self.constant_src(h, &c, part),
+            Expr::Uniform(id) => {
+                let u = &self.m.uniforms[id as usize];
+                let color = u.default.map(|c| to_color(&c)).unwrap_or([0.0; 4]);
+                let reg = self.constant_register(h, color, u.default.is_some())?;
+                let comp = match (u.ty, part) {
+                    (Ty::Scalar, _) | (_, Part::Alpha) => Comp::Alpha,
+                    _ => Comp::Rgb,
+                };
+                Ok(Src { base: Base::Reg(reg), comp, map: UnsignedIdentity })
+            }
+            Expr::Lookup { .. } => {
+                let unit = self.units.iter().position(|u| *u == h).ok_or_else(|| {
+                    unsupported(span, "a texture lookup not bound to a texture unit of this pass", "list it in the pass's texture units")
+                })?;
+                let reg = Register::texture(unit as u8).expect("at most four units, checked");
+                let comp = match (self.ty(h), part) {
+                    (Ty::Scalar, _) => Comp::Alpha,
+                    (_, Part::Alpha) => Comp::Alpha,
+                    _ => Comp::Rgb,
+                };
+                Ok(Src { base: Base::Reg(reg), comp, map: UnsignedIdentity })
+            }
+            Expr::Interpolate { .. } => {
+                let info = self.m.info(h);
+                if info.interval.hi > 1.0 && info.interval.lo >= 0.0 && matches!(info.ty, Ty::Rgb | Ty::Rgba | Ty::Scalar) && !sat {
+                    // GL clamps vertex colours to [0, 1]: exact only where the consumer clamps too.
+                    return Err(self.range(h));
+                }
+                if !matches!(info.ty, Ty::Rgb | Ty::Rgba | Ty::Scalar) || info.interval.lo < 0.0 {
+                    return Err(unsupported(
+                        span,
+                        format!("an interpolated {} outside [0, 1]", info.ty.name()),
+                        "the primary and secondary colours are unsigned (seeds/003 Table 2): interpolate a direction as texture coordinates into a normalization cube map and `expand` the lookup (Section 5.2)",
+                    ));
+                }
+                let reg = match self.colors.iter().position(|c| *c == Some(h)) {
+                    Some(0) => Register::Primary,
+                    Some(_) => Register::Secondary,
+                    None => match self.colors.iter().position(Option::is_none) {
+                        Some(0) => {
+                            self.colors[0] = Some(h);
+                            Register::Primary
+                        }
+                        Some(_) => {
+                            self.colors[1] = Some(h);
+                            Register::Secondary
+                        }
+                        None => return Err(CodegenError::OutOfColors { span }),
+                    },
+                };
+                let comp = match (info.ty, part) {
+                    (Ty::Scalar, _) | (_, Part::Alpha) => Comp::Alpha,
+                    _ => Comp::Rgb,
+                };
+                Ok(Src { base: Base::Reg(reg), comp, map: UnsignedIdentity })
+            }
+            Expr::Swizzle { value, pattern, len, .. } => {
+                let p = &pattern[..len as usize];
+                let vty = self.ty(value);
+                if p == [0, 1, 2] {
+                    self.src(value, Part::Rgb, sat)
+                } else if p == [3] && vty == Ty::Rgba {
+                    self.src(value, Part::Alpha, sat)
+                } else if p == [2] && vty.width() >= 3 {
+                    let s = self.src(value, Part::Rgb, sat)?;
+                    Ok(match s.comp {
+                        Comp::Rgb => Src { comp: Comp::Blue, ..s },
+                        _ => s,
+                    })
+                } else {
+                    Err(unsupported(
+                        span,
+                        "this component selection",
+                        "the combiners read a register's rgb, its alpha, or (in an alpha portion) its blue (seeds/003 B.4): use `.rgb`, `.a` or `.b`, or a lookup texture that stores the component in alpha",
+                    ))
+                }
+            }
+            Expr::Convert { value, to } => {
+                let vty = self.ty(value);
+                if vty == Ty::Rgb && to == Ty::Rgba {
+                    if part == Part::Alpha {
+                        Ok(Src::ONE)
+                    } else {
+                        self.src(value, Part::Rgb, sat)
+                    }
+                } else if vty == Ty::Scalar || vty == to {
+                    self.src(value, Part::Rgb, sat)
+                } else {
+                    Err(unsupported(span, format!("a conversion from {} to {}", vty.name(), to.name()), LOOKUP_HELP))
+                }
+            }
+            Expr::Compose { .. } => match self.part_node(h, part) {
+                Some(Some(inner)) => self.src(inner, Part::Rgb, sat),
+                Some(None) => Ok(Src::ONE),
+                None => Err(unsupported(
+                    span,
+                    "a vector built from separate components",
+                    "the combiners compute rgb as a whole: only `rgba(c, a)` of an rgb and a scalar maps (rgb portion and alpha portion)",
+                )),
+            },
+            Expr::Math { fun: fun @ (MathFunction::Expand | MathFunction::HalfBias), ref args } => {
+                let s = self.src(args[0], part, false)?;
+                let map = match (fun, s.map) {
+                    (MathFunction::Expand, UnsignedIdentity) => Some(ExpandNormal),
+                    (MathFunction::Expand, UnsignedInvert) => Some(ExpandNegate),
+                    (MathFunction::HalfBias, UnsignedIdentity) => Some(HalfBiasNormal),
+                    (MathFunction::HalfBias, UnsignedInvert) => Some(HalfBiasNegate),
+                    (_, SignedIdentity) if self.lo(args[0]) >= 0.0 => {
+                        Some(if fun == MathFunction::Expand { ExpandNormal } else { HalfBiasNormal })
+                    }
+                    _ => None,
+                };
+                match map {
+                    Some(map) => Ok(Src { map, ..s }),
+                    None => self.materialise(h, part, sat),
+                }
+            }
+            Expr::Unary { op: UnaryOp::Neg, value } => {
+                let s = self.src(value, part, false)?;
+                let map = match s.map {
+                    SignedIdentity => Some(SignedNegate),
+                    SignedNegate => Some(SignedIdentity),
+                    ExpandNormal => Some(ExpandNegate),
+                    ExpandNegate => Some(ExpandNormal),
+                    HalfBiasNormal => Some(HalfBiasNegate),
+                    HalfBiasNegate => Some(HalfBiasNormal),
+                    UnsignedIdentity if self.lo(value) >= 0.0 => Some(SignedNegate),
+                    _ => None,
+                };
+                match map {
+                    Some(map) => Ok(Src { map, ..s }),
+                    None => self.materialise(h, part, sat),
+                }
+            }
+            Expr::Math { fun: MathFunction::Saturate, ref args } => {
+                let s = self.src(args[0], part, true)?;
+                self.unsigned(s, span)
+            }
+            Expr::Math { fun: MathFunction::Clamp, ref args }
+                if self.constant(args[1]) == Some(0.0) && self.constant(args[2]) == Some(1.0) =>
+            {
+                let s = self.src(args[0], part, true)?;
+                self.unsigned(s, span)
+            }
+            Expr::Math { fun: MathFunction::Max, ref args }
+                if self.constant(args[0]) == Some(0.0) || self.constant(args[1]) == Some(0.0) =>
+            {
+                let x = if self.constant(args[0]) == Some(0.0) { args[1] } else { args[0] };
+                // max(0, x) = max(0, clamp(x, −1, 1)) when x ≤ 1 or the consumer clamps to 1.
+                let s = self.src(x, part, sat)?;
+                self.unsigned(s, span)
+            }
+            Expr::Binary { op: BinaryOp::Pow, lhs, rhs } => {
+                let k = self.pow2_exponent(rhs).ok_or_else(|| self.pow_error(h))?;
+                self.pow_src(lhs, part, k)
+            }
+            Expr::Binary { op: BinaryOp::Sub, lhs, rhs } if self.constant(lhs) == Some(1.0) => {
+                // 1 − x: UNSIGNED_INVERT when x ∈ [0, 1].
+                let s = self.src(rhs, part, false)?;
+                if self.lo(rhs) >= 0.0 && self.hi(rhs) <= 1.0 && matches!(s.map, UnsignedIdentity | SignedIdentity) {
+                    Ok(Src { map: UnsignedInvert, ..s })
+                } else {
+                    self.materialise(h, part, sat)
+                }
+            }
+            Expr::Binary { op: BinaryOp::Mul | BinaryOp::Add | BinaryOp::Sub | BinaryOp::Dot, .. }
+            | Expr::Binary { op: BinaryOp::Lt | BinaryOp::Le | BinaryOp::Gt | BinaryOp::Ge, .. }
+            | Expr::Select { reject: Some(_), .. }
+            | Expr::Math { fun: MathFunction::Mix | MathFunction::Compress, .. } => self.materialise(h, part, sat),
+            other => Err(self.unsupported_node(h, &other)),
+        }
+    }
+
+    fn unsupported_node(&self, h: Handle<Expr>, e: &Expr) -> CodegenError {
+        let span = self.m.span(h);
+        match e {
+            Expr::Binary { op: BinaryOp::Div, .. } => unsupported(span, "a division", format!("there is no divider in the combiners; {LOOKUP_HELP}")),
+            Expr::Binary { op: BinaryOp::Pow, .. } => self.pow_error(h),
+            Expr::Math { fun: MathFunction::Normalize, .. } => unsupported(
+                span,
+                "`normalize`",
+                "normalize per fragment with a normalization cube map: look the interpolated vector up in `normalize_cube(n)` and `expand` the texel (seeds/003 Section 5.2, Appendix D)",
+            ),
+            Expr::Math { fun, .. } => unsupported(span, format!("`{}`", fun.name()), LOOKUP_HELP),
+            Expr::Select { reject: None, .. } => unsupported(
+                span,
+                "a selection that keeps the destination",
+                "keeping the destination is a framebuffer test (alpha or stencil test), not a combiner operation",
+            ),
+            Expr::Binary { op, .. } => unsupported(span, format!("the operation {op:?}"), LOOKUP_HELP),
+            Expr::FramebufferRead { .. } => unsupported(
+                span,
+                "a framebuffer read",
+                "the combiners cannot read the framebuffer: blend with it (⊕) after the pass, or copy it to a texture",
+            ),
+            _ => unsupported(span, "this value", "only texels, interpolated colours and constants reach the combiners (seeds/003 Table 2)"),
+        }
+    }
+
+    fn pow_error(&self, h: Handle<Expr>) -> CodegenError {
+        unsupported(
+            self.m.span(h),
+            "a power with an exponent that is not a constant power of two",
+            format!("the combiners square by multiplying a value with itself, so x^2, x^4, x^8, … map (seeds/003 Appendix H); {LOOKUP_HELP}"),
+        )
+    }
+
+    fn pow2_exponent(&self, h: Handle<Expr>) -> Option<u32> {
+        let n = self.constant(h)?;
+        ((2.0..=256.0).contains(&n) && n.fract() == 0.0 && (n as u32).is_power_of_two()).then(|| (n as u32).trailing_zeros())
+    }
+
+    /// `x^(2^k)` by repeated squaring in general combiners.
+    fn pow_src(&mut self, x: Handle<Expr>, part: Part, k: u32) -> R<Src> {
+        if k == 0 {
+            return self.src(x, part, false);
+        }
+        let part = self.norm(x, part);
+        if let Some(s) = self.pow_cache.get(&(x, part, k)) {
+            return Ok(*s);
+        }
+        let p = self.pow_src(x, part, k - 1)?;
+        let scalar = self.ty(x) == Ty::Scalar || part == Part::Alpha;
+        let mut spec = Spec::single(Term { a: p, b: p, dot: false }, scalar);
+        spec.alpha_only = part == Part::Alpha;
+        let s = self.emit(spec, self.m.span(x))?;
+        self.pow_cache.insert((x, part, k), s);
+        Ok(s)
+    }
+
+    /// A source whose value is max(0, s), readable with an unsigned mapping.
+    fn unsigned(&mut self, s: Src, span: Span) -> R<Src> {
+        match s.map {
+            UnsignedIdentity | UnsignedInvert => Ok(s),
+            SignedIdentity => Ok(Src { map: UnsignedIdentity, ..s }),
+            _ => {
+                let v = self.copy(s, span)?;
+                Ok(Src { map: UnsignedIdentity, ..v })
+            }
+        }
+    }
+
+    /// Copies a mapped source into a virtual register (`dest = s * one`).
+    fn copy(&mut self, s: Src, span: Span) -> R<Src> {
+        let scalar = s.comp != Comp::Rgb;
+        self.emit(Spec::single(Term::times_one(s), scalar), span)
+    }
+
+    fn constant_src(&mut self, h: Handle<Expr>, c: &Constant, part: Part) -> R<Src> {
+        let span = self.m.span(h);
+        let values: Vec<f64> = match (c.ty, part) {
+            (Ty::Rgba, Part::Alpha) => vec![c.components[3]],
+            (Ty::Rgba, Part::Rgb) => c.components[..3].to_vec(),
+            _ => c.values().to_vec(),
+        };
+        if values.iter().all(|v| *v == values[0]) {
+            let special = match values[0] {
+                0.0 => Some(Src::ZERO),
+                1.0 => Some(Src::ONE),
+                0.5 => Some(Src::zero_mapped(HalfBiasNegate)),
+                -0.5 => Some(Src::zero_mapped(HalfBiasNormal)),
+                -1.0 => Some(Src::zero_mapped(ExpandNormal)),
+                _ => None,
+            };
+            if let Some(s) = special {
+                return Ok(s);
+            }
+        }
+        let (negate, mags): (bool, Vec<f64>) = if values.iter().all(|v| *v <= 0.0) {
+            (true, values.iter().map(|v| -v).collect())
+        } else if values.iter().all(|v| *v >= 0.0) {
+            (false, values.clone())
+        } else {
+            return Err(unsupported(span, "a constant with components of both signs", "constant colours are unsigned (seeds/003 Table 2): add a signed part with `expand` of an unsigned constant"));
+        };
+        if mags.iter().any(|v| *v > 1.0) {
+            return Err(unsupported(
+                span,
+                "a constant outside [−1, 1]",
+                "constant colours hold [0, 1]; a factor 2, 4, 8 or ½ is an output scale: write it as a factor of a product",
+            ));
+        }
+        let mut color = [0.0f32; 4];
+        let scalar_like = mags.len() == 1;
+        for (i, slot) in color.iter_mut().enumerate() {
+            let v = if scalar_like { mags[0] } else if c.ty == Ty::Rgba { c.components[i].abs() } else { mags.get(i).copied().unwrap_or(0.0) };
+            *slot = v as f32;
+        }
+        let reg = self.constant_register(h, color, true)?;
+        let comp = if scalar_like || part == Part::Alpha { Comp::Alpha } else { Comp::Rgb };
+        Ok(Src { base: Base::Reg(reg), comp, map: if negate { SignedNegate } else { UnsignedIdentity } })
+    }
+
+    fn constant_register(&mut self, h: Handle<Expr>, color: Color, known: bool) -> R<Register> {
+        let regs = [Register::Constant0, Register::Constant1];
+        for (i, slot) in self.constants.iter().enumerate() {
+            if let Some((c, node)) = slot {
+                if *node == h || (known && *c == color && matches!(self.expr(*node), Expr::Constant(_))) {
+                    return Ok(regs[i]);
+                }
+            }
+        }
+        for (i, slot) in self.constants.iter_mut().enumerate() {
+            if slot.is_none() {
+                *slot = Some((color, h));
+                return Ok(regs[i]);
+            }
+        }
+        Err(CodegenError::OutOfConstants { span: self.m.span(h) })
+    }
+
+    // -----------------------------------------------------------------------
+    // Operations.
+
+    fn materialise(&mut self, h: Handle<Expr>, part: Part, sat: bool) -> R<Src> {
+        if !sat && !self.in_unit(h) {
+            return Err(self.range(h));
+        }
+        let spec = self.spec(h, part)?.ok_or_else(|| {
+            let e = self.expr(h).clone();
+            self.unsupported_node(h, &e)
+        })?;
+        self.emit(spec, self.m.span(h))
+    }
+
+    fn scalar(&self, h: Handle<Expr>, part: Part) -> bool {
+        self.ty(h) == Ty::Scalar || self.norm(h, part) == Part::Alpha
+    }
+
+    /// The portion computation of an operation node, or `None` for a node
+    /// that is a source.
+    fn spec(&mut self, h: Handle<Expr>, part: Part) -> R<Option<Spec>> {
+        let part = self.norm(h, part);
+        let scalar = self.scalar(h, part);
+        let alpha_only = part == Part::Alpha;
+        let span = self.m.span(h);
+        let spec = match self.expr(h).clone() {
+            Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => {
+                let scale = |g: &Self, k: Handle<Expr>| g.constant(k).filter(|k| [0.5, 2.0, 4.0, 8.0].contains(k));
+                if let Some((k, x)) = scale(self, lhs).map(|k| (k, rhs)).or_else(|| scale(self, rhs).map(|k| (k, lhs))) {
+                    let inner = self.spec_or_source(x, part)?;
+                    return Ok(Some(self.scaled(inner, k, x, part)?));
+                }
+                Spec::single(Term { a: self.src(lhs, part, false)?, b: self.src(rhs, part, false)?, dot: false }, scalar)
+            }
+            Expr::Binary { op: BinaryOp::Dot, lhs, rhs } => {
+                if self.ty(lhs).width() != 3 {
+                    return Ok(None);
+                }
+                Spec::single(Term { a: self.src(lhs, Part::Rgb, false)?, b: self.src(rhs, Part::Rgb, false)?, dot: true }, true)
+            }
+            Expr::Binary { op: op @ (BinaryOp::Add | BinaryOp::Sub), lhs, rhs } => {
+                let ab = self.sum_term(lhs, part)?;
+                let mut cd = self.sum_term(rhs, part)?;
+                if op == BinaryOp::Sub {
+                    cd = self.negate(cd, rhs, part)?;
+                }
+                Spec { cd: Some(cd), ..Spec::single(ab, scalar) }
+            }
+            Expr::Binary { op: BinaryOp::Pow, lhs, rhs } => {
+                let k = self.pow2_exponent(rhs).ok_or_else(|| self.pow_error(h))?;
+                let p = self.pow_src(lhs, part, k - 1)?;
+                Spec::single(Term { a: p, b: p, dot: false }, scalar)
+            }
+            Expr::Binary { op: BinaryOp::Lt | BinaryOp::Le | BinaryOp::Gt | BinaryOp::Ge, .. } => {
+                let (sel, high) = self.condition(h)?;
+                let (one, zero) = (Term::times_one(Src::ONE), Term::times_one(Src::ZERO));
+                let (ab, cd) = if high { (zero, one) } else { (one, zero) };
+                Spec { cd: Some(cd), mux: Some(sel), ..Spec::single(ab, true) }
+            }
+            Expr::Select { cond, accept, reject: Some(reject) } => {
+                let (sel, high) = self.condition(cond)?;
+                let acc = self.plain_term(accept, part)?;
+                let rej = self.plain_term(reject, part)?;
+                let (ab, cd) = if high { (rej, acc) } else { (acc, rej) };
+                Spec { cd: Some(cd), mux: Some(sel), ..Spec::single(ab, scalar) }
+            }
+            Expr::Math { fun: MathFunction::Mix, ref args } => {
+                let (a, b, t) = (args[0], args[1], args[2]);
+                if self.lo(t) < 0.0 || self.hi(t) > 1.0 {
+                    return Err(unsupported(span, "`mix` with a weight outside [0, 1]", "saturate the weight"));
+                }
+                let ts = self.src(t, part, false)?;
+                let ts = self.unsigned(ts, span)?;
+                let inv = Src { map: if ts.map == UnsignedInvert { UnsignedIdentity } else { UnsignedInvert }, ..ts };
+                let ab = Term { a: self.src(a, part, false)?, b: inv, dot: false };
+                let cd = Term { a: self.src(b, part, false)?, b: ts, dot: false };
+                Spec { cd: Some(cd), ..Spec::single(ab, scalar) }
+            }
+            Expr::Math { fun: fun @ (MathFunction::Expand | MathFunction::HalfBias | MathFunction::Compress), ref args } => {
+                let x = args[0];
+                let mut inner = self.spec_or_source(x, part)?;
+                match fun {
+                    MathFunction::Compress => {
+                        // (x + 1) · ½
+                        if inner.cd.is_some() || inner.mux.is_some() || inner.ab.dot || inner.scale != Scale::One || inner.bias != Bias::Zero {
+                            inner = Spec::single(Term::times_one(self.src(x, part, false)?), scalar);
+                        }
+                        inner.cd = Some(Term::times_one(Src::ONE));
+                        inner.scale = Scale::OneHalf;
+                    }
+                    _ => {
+                        // expand: (x − ½) · 2; half_bias: x − ½ (bias before scale).
+                        if inner.scale != Scale::One || inner.bias != Bias::Zero {
+                            inner = Spec::single(Term::times_one(self.src(x, part, false)?), scalar);
+                        }
+                        inner.bias = Bias::NegativeOneHalf;
+                        if fun == MathFunction::Expand {
+                            inner.scale = Scale::Two;
+                        }
+                    }
+                }
+                inner.scalar = scalar;
+                inner
+            }
+            Expr::Unary { op: UnaryOp::Neg, value } => {
+                let t = self.plain_term(value, part)?;
+                Spec::single(self.negate(t, value, part)?, scalar)
+            }
+            _ => return Ok(None),
+        };
+        Ok(Some(Spec { alpha_only, ..spec }))
+    }
+
+    /// The node as a portion computation, or its source times one.
+    fn spec_or_source(&mut self, h: Handle<Expr>, part: Part) -> R<Spec> {
+        let scalar = self.scalar(h, part);
+        // Sources first: a lookup or a mapped register is not an operation.
+        match self.spec_if_operation(h, part)? {
+            Some(s) => Ok(s),
+            None => Ok(Spec::single(Term::times_one(self.src(h, part, false)?), scalar)),
+        }
+    }
+
+    /// `spec` for nodes `src` would materialise; `None` for sources.
+    fn spec_if_operation(&mut self, h: Handle<Expr>, part: Part) -> R<Option<Spec>> {
+        if self.cache.contains_key(&(h, self.norm(h, part))) || self.is_source(h) {
+            return Ok(None);
+        }
+        self.spec(h, part)
+    }
+
+    /// Nodes `src` turns into a source without a new operation.
+    fn is_source(&self, h: Handle<Expr>) -> bool {
+        match self.expr(h) {
+            Expr::Math { fun: MathFunction::Expand | MathFunction::HalfBias, args } => self.is_source(args[0]),
+            Expr::Unary { op: UnaryOp::Neg, value } => self.is_source(*value),
+            Expr::Binary { op: BinaryOp::Mul | BinaryOp::Add | BinaryOp::Sub | BinaryOp::Dot | BinaryOp::Pow, .. }
+            | Expr::Binary { op: BinaryOp::Lt | BinaryOp::Le | BinaryOp::Gt | BinaryOp::Ge, .. }
+            | Expr::Select { .. }
+            | Expr::Math { .. } => false,
+            _ => true,
+        }
+    }
+
+    /// `k · spec`: the output scale, or AB + AB for 8 (seeds/003 Appendix G's
+    /// `4 · (Lz + Lz)`).
+    fn scaled(&mut self, mut inner: Spec, k: f64, x: Handle<Expr>, part: Part) -> R<Spec> {
+        let scalar = inner.scalar;
+        let fresh = |g: &mut Self| -> R<Spec> { Ok(Spec::single(Term::times_one(g.src(x, part, false)?), scalar)) };
+        if inner.scale != Scale::One || inner.mux.is_some() {
+            inner = fresh(self)?;
+        }
+        if k == 8.0 {
+            if inner.cd.is_some() || inner.ab.dot {
+                inner = fresh(self)?;
+            }
+            inner.cd = Some(inner.ab);
+            inner.scale = Scale::Four;
+            return Ok(inner);
+        }
+        if k == 0.5 && inner.bias != Bias::Zero {
+            inner = fresh(self)?;
+        }
+        inner.scale = match k {
+            0.5 => Scale::OneHalf,
+            2.0 => Scale::Two,
+            _ => {
+                if inner.bias != Bias::Zero {
+                    inner = fresh(self)?;
+                }
+                Scale::Four
+            }
+        };
+        Ok(inner)
+    }
+
+    /// An addend of AB + CD: a product of two sources, or a source times one.
+    fn sum_term(&mut self, h: Handle<Expr>, part: Part) -> R<Term> {
+        if let Expr::Binary { op: BinaryOp::Mul, lhs, rhs } = self.expr(h).clone() {
+            let is_scale = |k: Option<f64>| k.is_some_and(|k| k.abs() > 1.0);
+            if !is_scale(self.constant(lhs)) && !is_scale(self.constant(rhs)) && !self.cache.contains_key(&(h, self.norm(h, part))) {
+                return Ok(Term { a: self.src(lhs, part, false)?, b: self.src(rhs, part, false)?, dot: false });
+            }
+        }
+        Ok(Term::times_one(self.src(h, part, false)?))
+    }
+
+    /// A term for a mux input: like `sum_term`, but `x^2` squares in place
+    /// (Appendix H's `spare0 · spare0`).
+    fn plain_term(&mut self, h: Handle<Expr>, part: Part) -> R<Term> {
+        if let Expr::Binary { op: BinaryOp::Pow, lhs, rhs } = self.expr(h).clone() {
+            if let Some(k) = self.pow2_exponent(rhs) {
+                let p = self.pow_src(lhs, part, k - 1)?;
+                return Ok(Term { a: p, b: p, dot: false });
+            }
+        }
+        self.sum_term(h, part)
+    }
+
+    fn negate(&mut self, t: Term, h: Handle<Expr>, part: Part) -> R<Term> {
+        for flip_a in [false, true] {
+            let s = if flip_a { t.a } else { t.b };
+            let map = match s.map {
+                SignedIdentity => Some(SignedNegate),
+                SignedNegate => Some(SignedIdentity),
+                ExpandNormal => Some(ExpandNegate),
+                ExpandNegate => Some(ExpandNormal),
+                HalfBiasNormal => Some(HalfBiasNegate),
+                HalfBiasNegate => Some(HalfBiasNormal),
+                _ => None,
+            };
+            // UNSIGNED_INVERT of zero is one; its negation is −1 = EXPAND_NORMAL of zero.
+            let map = map.or_else(|| (s == Src::ONE).then_some(ExpandNormal));
+            if let Some(map) = map {
+                let s = Src { map, ..s };
+                return Ok(if flip_a { Term { a: s, ..t } } else { Term { b: s, ..t } });
+            }
+        }
+        // Materialise the term, then negate it.
+        let v = self.emit(Spec::single(t, self.scalar(h, part)), self.m.span(h))?;
+        Ok(Term::times_one(Src { map: SignedNegate, ..v }))
+    }
+
+    /// A condition as (the value to place in spare0.a, whether the condition
+    /// holds when that value is ≥ ½). The mux selects CD when spare0.a ≥ ½
+    /// (seeds/003 Section 4.2.2).
+    fn condition(&mut self, cond: Handle<Expr>) -> R<(Src, bool)> {
+        let span = self.m.span(cond);
+        let bad = || {
+            unsupported(
+                span,
+                "this condition",
+                "the mux tests spare0.a ≥ ½ (seeds/003 Section 4.2.2): compare a value with 0 or 0.5, e.g. `Hn.z ≥ 0` (Appendix H), or use a lookup texture",
+            )
+        };
+        let Expr::Binary { op, lhs, rhs } = self.expr(cond).clone() else { return Err(bad()) };
+        let (x, k, high) = match (self.constant(lhs), self.constant(rhs), op) {
+            (_, Some(k), BinaryOp::Ge | BinaryOp::Gt) => (lhs, k, true),
+            (_, Some(k), BinaryOp::Lt | BinaryOp::Le) => (lhs, k, false),
+            (Some(k), _, BinaryOp::Le | BinaryOp::Lt) => (rhs, k, true),
+            (Some(k), _, BinaryOp::Ge | BinaryOp::Gt) => (rhs, k, false),
+            _ => return Err(bad()),
+        };
+        let s = self.src(x, Part::Rgb, false)?;
+        let sel = if k == 0.5 {
+            match s.map {
+                UnsignedIdentity | SignedIdentity => Src { map: UnsignedIdentity, ..s },
+                _ => self.copy(s, span)?,
+            }
+        } else if k == 0.0 {
+            match s.map {
+                // expand(b) ≥ 0 ⟺ b ≥ ½; half_bias(b) ≥ 0 ⟺ b ≥ ½.
+                ExpandNormal | HalfBiasNormal => Src { map: UnsignedIdentity, ..s },
+                _ => {
+                    // x + ½ ≥ ½ ⟺ x ≥ 0 (the write rounds ties up, so x = 0 gives 128/255).
+                    let t = Term::times_one(s);
+                    let half = Term::times_one(Src::zero_mapped(HalfBiasNegate));
+                    self.emit(Spec { cd: Some(half), ..Spec::single(t, true) }, span)?
+                }
+            }
+        } else {
+            return Err(bad());
+        };
+        Ok((sel, high))
+    }
+
+    /// Adds an operation: picks its portion, fixes up component reads the
+    /// portion cannot make, and schedules it. Returns the result's source.
+    fn emit(&mut self, mut spec: Spec, span: Span) -> R<Src> {
+        let srcs = |s: &Spec| {
+            let mut v = vec![s.ab.a, s.ab.b];
+            if let Some(cd) = s.cd {
+                v.extend([cd.a, cd.b]);
+            }
+            v
+        };
+        let all = srcs(&spec);
+        let lane = if spec.ab.dot || spec.cd.is_some_and(|t| t.dot) {
+            Lane::Rgb
+        } else if spec.alpha_only {
+            Lane::Alpha
+        } else if !spec.scalar {
+            Lane::Rgb
+        } else if all.iter().any(|s| s.comp == Comp::Blue) {
+            Lane::Alpha
+        } else if all.iter().any(|s| matches!(s.comp, Comp::Bcast | Comp::Rgb) && !self.is_const_reg(s)) {
+            Lane::Rgb
+        } else {
+            Lane::Alpha
+        };
+        // A dot product forbids the sum output (B.4): materialise it first.
+        if spec.cd.is_some() || spec.mux.is_some() {
+            if spec.ab.dot {
+                let v = self.emit(Spec::single(spec.ab, true), span)?;
+                spec.ab = Term::times_one(v);
+            }
+            if let Some(cd) = spec.cd.filter(|t| t.dot) {
+                let v = self.emit(Spec::single(cd, true), span)?;
+                spec.cd = Some(Term::times_one(v));
+            }
+        }
+        let fix = |g: &mut Self, s: Src| -> R<Src> {
+            Ok(match (lane, s.comp) {
+                (Lane::Rgb, Comp::Blue) => g.blue_to_alpha(s, span)?,
+                (Lane::Alpha, Comp::Bcast) => Src { comp: Comp::Blue, ..s },
+                (Lane::Alpha, Comp::Rgb) if g.is_const_reg(&s) => Src { comp: Comp::Alpha, ..s },
+                (Lane::Alpha, Comp::Rgb) => {
+                    return Err(unsupported(span, "a vector in an alpha computation", "the alpha portion reads alpha or blue (seeds/003 B.4)"))
+                }
+                _ => s,
+            })
+        };
+        spec.ab.a = fix(self, spec.ab.a)?;
+        spec.ab.b = fix(self, spec.ab.b)?;
+        if let Some(mut cd) = spec.cd {
+            cd.a = fix(self, cd.a)?;
+            cd.b = fix(self, cd.b)?;
+            spec.cd = Some(cd);
+        }
+        if let Some(sel) = spec.mux {
+            spec.mux = Some(self.pin_select(sel, span)?);
+        }
+        let mut earliest = 0;
+        for s in srcs(&spec).into_iter().chain(spec.mux) {
+            if let Base::V(v) = s.base {
+                earliest = earliest.max(self.ops[self.vregs[v].op].stage + 1);
+            }
+        }
+        let li = if lane == Lane::Rgb { 0 } else { 1 };
+        let mut stage = earliest;
+        while stage < self.stage_used.len() && self.stage_used[stage][li] {
+            stage += 1;
+        }
+        if stage == self.stage_used.len() {
+            self.stage_used.push([false, false]);
+        }
+        self.stage_used[stage][li] = true;
+        let out = self.vregs.len();
+        self.vregs.push(VReg { lane, op: self.ops.len(), pin: None, reg: None });
+        self.ops.push(Op { lane, ab: spec.ab, cd: spec.cd, mux: spec.mux, scale: spec.scale, bias: spec.bias, out, stage, span });
+        let comp = match lane {
+            Lane::Alpha => Comp::Alpha,
+            Lane::Rgb if spec.scalar => Comp::Bcast,
+            Lane::Rgb => Comp::Rgb,
+        };
+        Ok(Src { base: Base::V(out), comp, map: SignedIdentity })
+    }
+
+    fn is_const_reg(&self, s: &Src) -> bool {
+        matches!(s.base, Base::Reg(Register::Zero))
+    }
+
+    /// Blue-to-alpha: an alpha portion copies a blue component into an
+    /// alpha register, where an RGB portion (or the final combiner) can read it.
+    fn blue_to_alpha(&mut self, s: Src, span: Span) -> R<Src> {
+        let copy = Spec { alpha_only: true, ..Spec::single(Term::times_one(s), true) };
+        self.emit(copy, span)
+    }
+
+    /// The mux reads spare0.a: the select value is computed into a virtual
+    /// register pinned there (Appendix H: `spare0.a = unsigned(tex1.b) * one`).
+    fn pin_select(&mut self, sel: Src, span: Span) -> R<Src> {
+        if let Base::V(v) = sel.base {
+            if self.vregs[v].lane == Lane::Alpha && self.vregs[v].pin.is_none() && matches!(sel.map, UnsignedIdentity | SignedIdentity) {
+                self.vregs[v].pin = Some(Register::Spare0);
+                return Ok(sel);
+            }
+        }
+        let v = self.emit(Spec { alpha_only: true, ..Spec::single(Term::times_one(sel), true) }, span)?;
+        let Base::V(i) = v.base else { unreachable!("emit returns a virtual register") };
+        self.vregs[i].pin = Some(Register::Spare0);
+        Ok(v)
+    }
+
+    // -----------------------------------------------------------------------
+    // The final combiner.
+
+    fn final_combiner(&mut self, value: Handle<Expr>) -> R<FinalSpec> {
+        let mut fin = FinalSpec {
+            a: FinalVal::Src(Src::ZERO),
+            b: FinalVal::Src(Src::ZERO),
+            c: FinalVal::Src(Src::ZERO),
+            d: FinalVal::Src(Src::ZERO),
+            e: Src::ZERO,
+            f: Src::ZERO,
+            g: Src::ONE,
+        };
+        let ty = self.ty(value);
+        if !matches!(ty, Ty::Rgb | Ty::Rgba | Ty::Scalar | Ty::Vec3) {
+            return Err(unsupported(self.span, format!("a pass whose value is a {}", ty.name()), "a pass outputs a colour"));
+        }
+        // rgb part.
+        let (rgb, rgb_part) = match self.part_node(value, Part::Rgb) {
+            Some(Some(n)) => (n, Part::Rgb),
+            _ => (value, Part::Rgb),
+        };
+        self.final_rgb(rgb, rgb_part, &mut fin)?;
+        // alpha part (G).
+        if ty == Ty::Rgba {
+            let alpha = match self.part_node(value, Part::Alpha) {
+                Some(Some(n)) => Some((n, Part::Rgb)),
+                Some(None) => None,
+                None => Some((value, Part::Alpha)),
+            };
+            if let Some((n, part)) = alpha {
+                let s = self.src(n, part, true)?;
+                fin.g = self.final_alpha(s, self.m.span(n))?;
+            }
+        }
+        Ok(fin)
+    }
+
+    fn flatten(&self, h: Handle<Expr>, op: BinaryOp, out: &mut Vec<Handle<Expr>>) {
+        match self.expr(h) {
+            Expr::Binary { op: o, lhs, rhs } if *o == op => {
+                self.flatten(*lhs, op, out);
+                self.flatten(*rhs, op, out);
+            }
+            _ => out.push(h),
+        }
+    }
+
+    fn nonneg_unit(&self, h: Handle<Expr>) -> bool {
+        self.lo(h) >= 0.0 && self.hi(h) <= 1.0
+    }
+
+    /// out.rgb = A·B + (1 − A)·C + D, clamped to [0, 1] by the 8-bit output.
+    fn final_rgb(&mut self, v: Handle<Expr>, part: Part, fin: &mut FinalSpec) -> R<()> {
+        let v = match self.expr(v) {
+            Expr::Convert { value, .. } if self.ty(*value) == Ty::Scalar => *value,
+            _ => v,
+        };
+        let mut addends = Vec::new();
+        self.flatten(v, BinaryOp::Add, &mut addends);
+        let simple = addends.iter().all(|a| self.nonneg_unit(*a));
+        if !simple {
+            // Computed in general combiners; the output saturates it.
+            let s = self.src(v, part, true)?;
+            fin.d = FinalVal::Src(self.final_src(s, self.m.span(v))?);
+            return Ok(());
+        }
+        // Classify: the one A·B (or lerp) term, and the plain sources.
+        let mut product = None;
+        let mut leaves = Vec::new();
+        for a in addends {
+            if product.is_none() && self.is_final_product(a) {
+                product = Some(a);
+            } else {
+                leaves.push(a);
+            }
+        }
+        // Leaves first (they take the constant colours in source order).
+        // Beyond what the final combiner adds (C + D, or A·B + D), trailing
+        // addends are summed in general combiners. Those partial sums clamp
+        // at 1, which is exact here: every addend is ≥ 0, so once a partial
+        // sum reaches 1 the saturated output is 1 anyway.
+        let room = if product.is_some() { 1 } else { 2 };
+        let mut leaf_srcs = Vec::new();
+        let extra = if leaves.len() > room { leaves.split_off(room - 1) } else { Vec::new() };
+        for l in &leaves {
+            let s = self.src(*l, part, false)?;
+            leaf_srcs.push(self.final_src(s, self.m.span(*l))?);
+        }
+        if !extra.is_empty() {
+            let scalar = extra.iter().all(|h| self.scalar(*h, part));
+            let span = self.m.span(extra[0]).join(self.m.span(*extra.last().expect("non-empty")));
+            let mut terms = Vec::new();
+            for h in &extra {
+                terms.push(self.sum_term(*h, part)?);
+            }
+            while terms.len() > 1 {
+                let y = terms.pop().expect("len > 1");
+                let x = terms.pop().expect("len > 1");
+                let s = self.emit(Spec { cd: Some(y), alpha_only: part == Part::Alpha, ..Spec::single(x, scalar) }, span)?;
+                terms.push(Term::times_one(s));
+            }
+            let s = terms[0].a;
+            leaf_srcs.push(self.final_src(s, span)?);
+        }
+        match (product, leaf_srcs.as_slice()) {
+            (None, [x]) => fin.d = FinalVal::Src(*x),
+            (None, [x, y]) => {
+                // A = 0: C + D.
+                fin.c = FinalVal::Src(*x);
+                fin.d = FinalVal::Src(*y);
+            }
+            (Some(p), rest) => {
+                if let Some(d) = rest.first() {
+                    fin.d = FinalVal::Src(*d);
+                }
+                self.final_product(p, part, fin)?;
+            }
+            _ => unreachable!("one or two addends"),
+        }
+        Ok(())
+    }
+
+    /// Whether an addend goes to A·B (a product of factors in [0, 1], a
+    /// power, a lerp).
+    fn is_final_product(&self, h: Handle<Expr>) -> bool {
+        match self.expr(h) {
+            Expr::Binary { op: BinaryOp::Mul, .. } => {
+                let mut f = Vec::new();
+                self.flatten(h, BinaryOp::Mul, &mut f);
+                f.iter().all(|x| self.nonneg_unit(*x))
+            }
+            Expr::Binary { op: BinaryOp::Pow, lhs, rhs } => self.pow2_exponent(*rhs).is_some() && self.nonneg_unit(*lhs),
+            Expr::Select { accept, reject: Some(r), .. } => {
+                self.constant(*r) == Some(0.0) && matches!(self.expr(*accept), Expr::Binary { op: BinaryOp::Pow, .. }) && self.is_final_product(*accept)
+            }
+            Expr::Math { fun: MathFunction::Mix, args } => args.iter().all(|a| self.nonneg_unit(*a)),
+            _ => false,
+        }
+    }
+
+    fn final_product(&mut self, p: Handle<Expr>, part: Part, fin: &mut FinalSpec) -> R<()> {
+        let span = self.m.span(p);
+        match self.expr(p).clone() {
+            Expr::Math { fun: MathFunction::Mix, args } => {
+                // mix(a, b, t) = t·b + (1 − t)·a: A = t, B = b, C = a.
+                let t = self.src(args[2], part, false)?;
+                let b = self.src(args[1], part, false)?;
+                let a = self.src(args[0], part, false)?;
+                fin.a = FinalVal::Src(self.final_src(t, span)?);
+                fin.b = FinalVal::Src(self.final_src(b, span)?);
+                fin.c = FinalVal::Src(self.final_src(a, span)?);
+                return Ok(());
+            }
+            Expr::Binary { op: BinaryOp::Pow, lhs, rhs } => {
+                let k = self.pow2_exponent(rhs).expect("checked");
+                let m = k.min(2);
+                let base = self.pow_src(lhs, part, k - m)?;
+                return self.final_power(base, m, span, fin);
+            }
+            Expr::Select { cond, accept, reject: Some(reject) } => {
+                // c ? x^(2^k) : 0 = (c ? x^(2^(k−m)) : 0)^(2^m): the final combiner
+                // squares twice (EF, then EF·EF), the mux stage once (Appendix H).
+                let Expr::Binary { op: BinaryOp::Pow, lhs: x, rhs } = self.expr(accept).clone() else { unreachable!("checked") };
+                let k = self.pow2_exponent(rhs).expect("checked");
+                let m = k.min(2);
+                let acc = if k - m >= 1 {
+                    let y = self.pow_src(x, part, k - m - 1)?;
+                    Term { a: y, b: y, dot: false }
+                } else {
+                    Term::times_one(self.src(x, part, false)?)
+                };
+                let rej = self.plain_term(reject, part)?;
+                let rej = if rej.a == Src::ZERO { Term { a: Src::ZERO, b: Src::ZERO, dot: false } } else { rej };
+                let (sel, high) = self.condition(cond)?;
+                let (ab, cd) = if high { (rej, acc) } else { (acc, rej) };
+                let scalar = self.scalar(p, part);
+                let s = self.emit(Spec { cd: Some(cd), mux: Some(sel), alpha_only: part == Part::Alpha, ..Spec::single(ab, scalar) }, span)?;
+                return self.final_power(s, m, span, fin);
+            }
+            _ => {}
+        }
+        let mut factors = Vec::new();
+        self.flatten(p, BinaryOp::Mul, &mut factors);
+        let mut srcs = Vec::new();
+        for f in factors {
+            let s = self.src(f, part, false)?;
+            srcs.push(s);
+        }
+        // More than three factors: multiply the trailing ones in general combiners.
+        while srcs.len() > 3 {
+            let b = srcs.pop().expect("len > 3");
+            let a = srcs.pop().expect("len > 3");
+            let scalar = a.comp != Comp::Rgb && b.comp != Comp::Rgb;
+            let a = self.unsigned(a, span)?;
+            let b = self.unsigned(b, span)?;
+            let v = self.emit(Spec { alpha_only: part == Part::Alpha, ..Spec::single(Term { a, b, dot: false }, scalar) }, span)?;
+            srcs.push(v);
+        }
+        let mut fs = Vec::new();
+        for s in srcs {
+            fs.push(self.final_src(s, span)?);
+        }
+        match fs.len() {
+            1 => fin.d = FinalVal::Src(fs[0]),
+            2 => {
+                fin.a = FinalVal::Src(fs[0]);
+                fin.b = FinalVal::Src(fs[1]);
+            }
+            _ => {
+                // A = a scalar factor (read as alpha) if there is one; B = E·F.
+                let ai = fs.iter().position(|s| s.comp == Comp::Alpha).unwrap_or(0);
+                let a = fs.remove(ai);
+                fin.a = FinalVal::Src(a);
+                fin.b = FinalVal::Ef;
+                fin.e = fs[0];
+                fin.f = fs[1];
+            }
+        }
+        Ok(())
+    }
+
+    /// `s^(2^m)` for m ≤ 2 in the final combiner: A·B = s·s, or E = F = s
+    /// and A = B = EF.
+    fn final_power(&mut self, s: Src, m: u32, span: Span, fin: &mut FinalSpec) -> R<()> {
+        let s = self.final_src(s, span)?;
+        match m {
+            0 => fin.d = FinalVal::Src(s),
+            1 => {
+                fin.a = FinalVal::Src(s);
+                fin.b = FinalVal::Src(s);
+            }
+            _ => {
+                fin.e = s;
+                fin.f = s;
+                fin.a = FinalVal::Ef;
+                fin.b = FinalVal::Ef;
+            }
+        }
+        Ok(())
+    }
+
+    /// A source the final combiner can read: rgb or alpha, unsigned mapping
+    /// (final inputs are clamped to ≥ 0, Section 4.2.3). Callers guarantee
+    /// the value is ≥ 0 or that the output's clamp makes max(0, ·) exact.
+    fn final_src(&mut self, s: Src, span: Span) -> R<Src> {
+        let s = match s.comp {
+            Comp::Blue => self.blue_to_alpha(s, span)?,
+            _ => s,
+        };
+        self.unsigned(s, span)
+    }
+
+    /// G reads alpha.
+    fn final_alpha(&mut self, s: Src, span: Span) -> R<Src> {
+        let s = match s.comp {
+            Comp::Alpha => s,
+            Comp::Blue | Comp::Bcast => self.blue_to_alpha(Src { comp: Comp::Blue, ..s }, span)?,
+            Comp::Rgb => return Err(unsupported(span, "an alpha made of a vector", "G reads an alpha (seeds/003 B.5)")),
+        };
+        self.unsigned(s, span)
+    }
+
+    // -----------------------------------------------------------------------
+    // Register allocation.
+
+    fn allocate(&mut self, fin: &FinalSpec) -> R<()> {
+        let n = self.stage_used.len();
+        let lane_of = |s: &Src| match s.comp {
+            Comp::Alpha => Lane::Alpha,
+            _ => Lane::Rgb,
+        };
+        // Last read of every virtual register and of every input register lane.
+        let mut last = vec![0usize; self.vregs.len()];
+        let mut phys: HashMap<(Register, Lane), usize> = HashMap::new();
+        let mut read = |s: &Src, stage: usize, last: &mut Vec<usize>| match s.base {
+            Base::V(v) => last[v] = last[v].max(stage),
+            Base::Reg(r) => {
+                let e = phys.entry((r, lane_of(s))).or_insert(stage);
+                *e = (*e).max(stage);
+            }
+        };
+        for op in &self.ops {
+            let mut srcs = vec![op.ab.a, op.ab.b];
+            if let Some(cd) = op.cd {
+                srcs.extend([cd.a, cd.b]);
+            }
+            srcs.extend(op.mux);
+            for s in &srcs {
+                read(s, op.stage, &mut last);
+            }
+        }
+        for v in [fin.a, fin.b, fin.c, fin.d] {
+            if let FinalVal::Src(s) = v {
+                read(&s, n, &mut last);
+            }
+        }
+        for s in [fin.e, fin.f, fin.g] {
+            read(&s, n, &mut last);
+        }
+        let def: Vec<usize> = self.vregs.iter().map(|v| self.ops[v.op].stage).collect();
+        for (i, l) in last.iter_mut().enumerate() {
+            *l = (*l).max(def[i] + 1);
+        }
+        let mut candidates = vec![Register::Spare0, Register::Spare1];
+        for u in 0..self.limits.texture_units.min(4) {
+            candidates.push(Register::texture(u).expect("unit < 4"));
+        }
+        candidates.extend([Register::Primary, Register::Secondary]);
+        let mut order: Vec<usize> = (0..self.vregs.len()).collect();
+        order.sort_by_key(|&v| (self.vregs[v].pin.is_none(), def[v], v));
+        let mut taken: Vec<(Register, Lane, usize, usize)> = Vec::new();
+        for v in order {
+            let lane = self.vregs[v].lane;
+            let (d, l) = (def[v], last[v]);
+            let free = |r: Register| {
+                let phys_ok = match r {
+                    Register::Spare0 | Register::Spare1 => true,
+                    _ => phys.get(&(r, lane)).is_none_or(|&u| u <= d),
+                };
+                phys_ok && taken.iter().all(|&(tr, tl, td, tu)| tr != r || tl != lane || tu <= d || l <= td)
+            };
+            let reg = match self.vregs[v].pin {
+                Some(p) if free(p) => p,
+                Some(_) => return Err(CodegenError::OutOfRegisters { span: self.ops[self.vregs[v].op].span }),
+                None => *candidates
+                    .iter()
+                    .find(|r| free(**r))
+                    .ok_or(CodegenError::OutOfRegisters { span: self.ops[self.vregs[v].op].span })?,
+            };
+            taken.push((reg, lane, d, l));
+            self.vregs[v].reg = Some(reg);
+        }
+        Ok(())
+    }
+
+    // -----------------------------------------------------------------------
+    // The config.
+
+    fn register(&self, s: &Src) -> Register {
+        match s.base {
+            Base::Reg(r) => r,
+            Base::V(v) => self.vregs[v].reg.expect("allocated"),
+        }
+    }
+
+    fn general_input(&self, s: &Src, lane: Lane) -> GeneralInput {
+        let usage = match (lane, s.comp) {
+            (Lane::Rgb, Comp::Rgb | Comp::Bcast) => ComponentUsage::Rgb,
+            (_, Comp::Alpha) => ComponentUsage::Alpha,
+            (Lane::Alpha, _) => ComponentUsage::Blue,
+            (Lane::Rgb, Comp::Blue) => unreachable!("fixed up by emit"),
+        };
+        GeneralInput::new(self.register(s), s.map, usage)
+    }
+
+    fn final_input(&self, v: FinalVal) -> FinalInput {
+        match v {
+            FinalVal::Ef => FinalInput::new(FinalSource::EfProduct, UnsignedIdentity, ComponentUsage::Rgb),
+            FinalVal::Src(s) => {
+                let usage = if s.comp == Comp::Alpha { ComponentUsage::Alpha } else { ComponentUsage::Rgb };
+                FinalInput::new(FinalSource::Register(self.register(&s)), s.map, usage)
+            }
+        }
+    }
+
+    fn build(&self, fin: &FinalSpec) -> CombinerConfig {
+        let mut general: Vec<GeneralStage> = (0..self.stage_used.len())
+            .map(|_| GeneralStage { rgb: GeneralPortion::discard_all(), alpha: GeneralPortion::discard_all(), constant0: None, constant1: None })
+            .collect();
+        for op in &self.ops {
+            let zero = GeneralInput::new(Register::Zero, UnsignedIdentity, ComponentUsage::Alpha);
+            let out = self.vregs[op.out].reg;
+            let (c, d, cd_dot) = match op.cd {
+                Some(t) => (self.general_input(&t.a, op.lane), self.general_input(&t.b, op.lane), t.dot),
+                None => (zero, zero, false),
+            };
+            let combined = op.cd.is_some() || op.mux.is_some();
+            let portion = GeneralPortion {
+                a: self.general_input(&op.ab.a, op.lane),
+                b: self.general_input(&op.ab.b, op.lane),
+                c,
+                d,
+                ab_output: if combined { None } else { out },
+                cd_output: None,
+                sum_output: if combined { out } else { None },
+                ab_dot: op.ab.dot,
+                cd_dot,
+                mux_sum: op.mux.is_some(),
+                scale: op.scale,
+                bias: op.bias,
+            };
+            let stage = &mut general[op.stage];
+            match op.lane {
+                Lane::Rgb => stage.rgb = portion,
+                Lane::Alpha => stage.alpha = portion,
+            }
+        }
+        let g = self.final_input(FinalVal::Src(fin.g));
+        let final_combiner = FinalCombiner {
+            a: self.final_input(fin.a),
+            b: self.final_input(fin.b),
+            c: self.final_input(fin.c),
+            d: self.final_input(fin.d),
+            e: self.final_input(FinalVal::Src(fin.e)),
+            f: self.final_input(FinalVal::Src(fin.f)),
+            g: FinalInput { usage: ComponentUsage::Alpha, ..g },
+            color_sum_clamp: true,
+        };
+        CombinerConfig {
+            constant0: self.constants[0].filter(|c| self.known(c.1)).map(|c| c.0),
+            constant1: self.constants[1].filter(|c| self.known(c.1)).map(|c| c.0),
+            general,
+            final_combiner,
+            texture_shader: None,
+        }
+    }
+
+    fn known(&self, h: Handle<Expr>) -> bool {
+        match self.expr(h) {
+            Expr::Uniform(id) => self.m.uniforms[*id as usize].default.is_some(),
+            _ => true,
+        }
+    }
+}
+
+fn to_color(c: &Constant) -> Color {
+    let v = c.values();
+    let mut out = [0.0f32; 4];
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = if v.len() == 1 { v[0] as f32 } else { v.get(i).copied().unwrap_or(0.0) as f32 };
+    }
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ir;
+
+    fn module(value: &str) -> (Module, Handle<Expr>, Vec<Handle<Expr>>) {
+        let src = format!(
+            "texture A : 2d rgba8 = image(\"a.png\");\ntexture B : 2d rgba8 = image(\"b.png\");\nframebuffer C : rgba8;\nlet a = A δu x;\nlet b = B δu x;\nC δπx ← {value};\n"
+        );
+        let (program, d) = crate::parser::check(&src);
+        assert!(d.iter().all(|d| !d.is_error()), "{d:#?}");
+        let (m, d) = ir::lower(&program);
+        assert!(d.iter().all(|d| !d.is_error()), "{d:#?}");
+        let mut v = m.statements[0].value;
+        if let Expr::Convert { value, .. } = m.exprs[v] {
+            if m.info(value).ty == Ty::Scalar {
+                v = value;
+            }
+        }
+        let units: Vec<_> = m.exprs.arena().iter().filter(|(_, e)| matches!(e, Expr::Lookup { .. })).map(|(h, _)| h).collect();
+        (m, v, units)
+    }
+
+    fn gen(value: &str) -> Result<Generated, CodegenError> {
+        let (m, v, units) = module(value);
+        generate(&PassInput { module: &m, value: v, units: &units }, &CombinerLimits::GEFORCE3)
+    }
+
+    #[test]
+    fn a_texel_needs_no_general_combiner() {
+        let g = gen("a").unwrap();
+        assert_eq!(g.stages, 0);
+        assert_eq!(g.config.final_combiner.d.source, FinalSource::Register(Register::Texture0));
+        assert_eq!(g.config.final_combiner.g.source, FinalSource::Register(Register::Texture0));
+    }
+
+    #[test]
+    fn expand_and_negation_are_input_mappings() {
+        let g = gen("-expand(a.rgb) * b.rgb").unwrap();
+        assert_eq!(g.stages, 1);
+        let rgb = g.config.general[0].rgb;
+        assert_eq!((rgb.a.mapping, rgb.b.mapping), (ExpandNegate, UnsignedIdentity));
+    }
+
+    #[test]
+    fn eight_times_is_a_doubled_sum_scaled_by_four() {
+        let g = gen("saturate(8 * expand(b.b))").unwrap();
+        let alpha = g.config.general[0].alpha;
+        assert_eq!(alpha.scale, Scale::Four);
+        assert_eq!(alpha.a, alpha.c);
+        assert_eq!(alpha.a.usage, ComponentUsage::Blue);
+        assert!(alpha.sum_output.is_some());
+    }
+
+    #[test]
+    fn independent_operations_share_a_stage() {
+        // A dot product (RGB portion) and an alpha product (alpha portion).
+        let g = gen("rgba(max(0, expand(a.rgb) · expand(b.rgb)) * a.rgb, expand(a.a) * expand(b.a))").unwrap();
+        assert_eq!(g.stages, 1, "{}", super::super::rc1::print(&g.config));
+        assert!(g.config.general[0].rgb.ab_dot);
+        assert!(g.config.general[0].alpha.ab_output.is_some() || g.config.general[0].alpha.sum_output.is_some());
+    }
+
+    #[test]
+    fn the_mux_select_lands_in_spare0_alpha() {
+        let g = gen("a.a ≥ 0.5 ? expand(a.rgb) * b.rgb : b.rgb").unwrap();
+        let mux = g.config.general.iter().find(|s| s.rgb.mux_sum).expect("a mux");
+        let select_writer = g.config.general.iter().find(|s| s.alpha.ab_output == Some(Register::Spare0) || s.alpha.sum_output == Some(Register::Spare0));
+        assert!(select_writer.is_some() && mux.rgb.sum_output.is_some());
+    }
+
+    #[test]
+    fn division_is_unsupported_at_its_span() {
+        let (m, v, units) = module("a / 2");
+        let e = generate(&PassInput { module: &m, value: v, units: &units }, &CombinerLimits::GEFORCE3).unwrap_err();
+        assert!(matches!(e, CodegenError::Unsupported { .. }));
+        assert!(e.to_diagnostic().help.is_some_and(|h| h.contains("lookup texture")));
+    }
+}
