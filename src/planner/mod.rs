@@ -582,7 +582,9 @@ fn assemble(
             let mask = match form.channels {
                 "a" => [false, false, false, true],
                 "stencil" => [false; 4],
-                _ => [true, true, true, piece.alpha],
+                // A decal keeps the incoming alpha (GL_DECAL: A = Af), so the
+                // alpha-blended texture writes colour only.
+                _ => [true, true, true, piece.alpha && piece.blend != BlendMode::AlphaBlend],
             };
             let state = RenderState {
                 cull: if matches!(geometry, Geometry::Mesh { .. }) { CullMode::Back } else { CullMode::None },
