@@ -616,6 +616,10 @@ fn assemble(
                 fragment: FragmentWork { output: piece.value.index() as u32, operations, condition: form.condition.map(|c| c.index() as u32) },
                 blend: piece.blend,
                 state,
+                combiners: profile.combiner_limits().and_then(|limits| {
+                    let input = crate::backends::combiners::codegen::PassInput { module: m, value: piece.value, units: &u.lookups };
+                    crate::backends::combiners::codegen::generate(&input, &limits).err().map(|e| format!("not generated yet: {e}"))
+                }),
             });
         }
     }

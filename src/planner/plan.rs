@@ -48,6 +48,12 @@ pub struct Pass {
     pub blend: BlendMode,
     /// Cull, depth, stencil and GL blend factors, as the renderers take them.
     pub state: RenderState,
+    /// On a register-combiner target: what the combiner code generator says
+    /// of this pass — `None` when it generated a setup within the target's
+    /// stages, else why not (the planner's capacity is an estimate; see
+    /// docs/pass-plan.md).
+    #[serde(default)]
+    pub combiners: Option<String>,
 }
 
 /// Where a pass writes.
