@@ -289,3 +289,49 @@ fn generated_benchmark_programs_plan() {
 }
 
 const MAX_FUSE_HINT: usize = planner::MAX_FUSE;
+
+#[test]
+fn compile_for_a_scene_removes_what_the_scene_zeroes() {
+    let dir = tempfile::tempdir().unwrap();
+    let shd = dir.path().join("spec.shd");
+    std::fs::write(
+        &shd,
+        "vector N : normal;\nvector L : light(0);\nvector H : half(0);\ntexture T : 2d rgba8;\ntexture Texp : 1d r8;\n\
+         uniform kd : rgb = (0.7, 0.6, 0.5);\nuniform ks : scalar = 0.5;\n\
+         shader ndotl : s → scalar = max(0, N·L);\nshader ndoth : s → scalar = max(0, N·H);\n\
+         C δπx ← kd * T δu x * (δ ndotl s x);\nC δπx ← (C δπx) ⊕[add] (ks * Texp δ ndoth s x);\n",
+    )
+    .unwrap();
+    let base = std::fs::read_to_string(format!("{}/scenes/kilgard_torus.ron", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    let cut = base.trim_end().rfind(')').unwrap();
+    let scene = |ks: &str| {
+        let p = dir.path().join(format!("scene_{ks}.ron"));
+        std::fs::write(&p, format!("{}    constants: {{\"ks\": [{ks}]}},\n)\n", &base[..cut])).unwrap();
+        p
+    };
+    let run = |scene: Option<&std::path::Path>| {
+        let mut args = vec!["compile", shd.to_str().unwrap(), "--target", "wgsl", "--emit", "plan"];
+        if let Some(s) = scene {
+            args.extend(["--scene", s.to_str().unwrap()]);
+        }
+        let r = common::shadec(&args);
+        assert_eq!(r.code, 0, "{}", r.stderr);
+        (PassPlan::from_ron(&r.stdout).unwrap(), r.stderr)
+    };
+    let (full, _) = run(None);
+    let units = |p: &PassPlan| p.passes.iter().map(|p| p.textures.len()).sum::<usize>();
+    assert_eq!(units(&full), 2);
+    let (matte, report) = run(Some(&scene("0.0")));
+    assert_eq!(units(&matte), 1, "{}", matte.summary());
+    assert!(report.contains("Texp — only removed terms used it"), "{report}");
+    assert!(report.contains("statement 2 — after specialization it leaves its target unchanged"), "{report}");
+    let (shiny, report) = run(Some(&scene("0.25")));
+    assert_eq!(units(&shiny), 2);
+    assert!(report.contains("ks — the scene sets it to [0.25]"), "{report}");
+    // A value of the wrong size is a located error.
+    let bad = dir.path().join("bad.ron");
+    std::fs::write(&bad, format!("{}    constants: {{\"kd\": [1, 2]}},\n)\n", &base[..cut])).unwrap();
+    let r = common::shadec(&["compile", shd.to_str().unwrap(), "--emit", "plan", "--scene", bad.to_str().unwrap()]);
+    assert_eq!(r.code, 1, "{}", r.stderr);
+    assert!(r.stderr.contains("spec.shd:6:") && r.stderr.contains("rgb but the scene gives 2"), "{}", r.stderr);
+}

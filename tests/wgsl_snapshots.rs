@@ -14,9 +14,6 @@ const UNSUPPORTED: &[(&str, &str)] = &[
     ("solid_mapping", "wgsl-unsupported"),
     // Reads the target framebuffer's depth inside a screen pass.
     ("shadow_mask", "wgsl-unsupported"),
-    // The planner keeps `σ C ? a` (under a widening to rgba) as a shader
-    // read of the stencil instead of a stencil test.
-    ("shadow_volumes", "wgsl-unsupported"),
     // Per-texel shading vectors (`s δu`) have no binding in PassInterface.
     ("texture_shading", "wgsl-unsupported"),
 ];

@@ -86,6 +86,11 @@ pub struct CompileArgs {
     /// quantization after every per-fragment operation).
     #[arg(long, value_enum, default_value_t = FidelityArg::Exact)]
     pub fidelity: FidelityArg,
+    /// With `--emit plan` or shaders: specialize for this scene (RON) — uniforms the
+    /// scene sets are folded, terms they zero are removed with their
+    /// textures and passes; what went is printed on standard error.
+    #[arg(long, value_name = "SCENE.ron")]
+    pub scene: Option<PathBuf>,
     /// With `--emit plan`: the document's format (`ron`, the default, or
     /// `json`). Diagnostics print as `human`, `short` or `json` (LSP).
     #[arg(long, value_enum, default_value_t = CompileFormat::Human)]

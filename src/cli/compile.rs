@@ -21,6 +21,17 @@ pub fn run(args: &CompileArgs) -> ExitCode {
     let (program, mut diagnostics) = shadec::parser::check(&text);
     let mut module = None;
     let mut plan = None;
+    let scene = match &args.scene {
+        None => None,
+        Some(path) => match shadec::scene::Scene::load(path) {
+            Ok(s) => Some(s),
+            Err(e) => {
+                eprintln!("error: {e}");
+                let missing = matches!(e, shadec::scene::SceneError::Io(_));
+                return ExitCode::from(if missing { EXIT_USAGE_OR_IO } else { EXIT_SOURCE_ERRORS });
+            }
+        },
+    };
     if diagnostics.iter().all(|d| !d.is_error()) {
         let (m, lower_diags) = shadec::ir::lower(&program);
         diagnostics.extend(lower_diags);
@@ -38,8 +49,17 @@ pub fn run(args: &CompileArgs) -> ExitCode {
             match shadec::profile::Profile::resolve(&name) {
                 Ok(p) if diagnostics.iter().all(|d| !d.is_error()) => {
                     if args.emit == Emit::Plan || shaders {
-                        match shadec::planner::plan(&m, &p, Some(&text)) {
-                            Ok(planned) => plan = Some(planned),
+                        let planned = match &scene {
+                            Some(sc) => shadec::planner::plan_for_scene(&m, &p, Some(&text), &sc.constants),
+                            None => shadec::planner::plan(&m, &p, Some(&text)),
+                        };
+                        match planned {
+                            Ok(planned) => {
+                                if scene.is_some() {
+                                    report_removed(&planned.plan);
+                                }
+                                plan = Some(planned)
+                            }
                             Err(ds) => diagnostics.extend(ds),
                         }
                     } else {
@@ -156,4 +176,16 @@ fn pass_path(out: &std::path::Path, n: usize) -> std::path::PathBuf {
         None => format!("{stem}.pass{n}"),
     };
     out.with_file_name(name)
+}
+
+/// `compile --scene`: what specialization removed for this scene, and why.
+fn report_removed(plan: &shadec::planner::PassPlan) {
+    if plan.removed.is_empty() {
+        eprintln!("specialization: nothing removed for this scene");
+        return;
+    }
+    eprintln!("specialization for this scene ({} passes remain):", plan.passes.len());
+    for r in &plan.removed {
+        eprintln!("  {:<9} {} — {} (at {})", r.kind, r.what, r.why, r.at);
+    }
 }

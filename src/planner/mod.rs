@@ -64,6 +64,9 @@ impl Planned {
     }
 }
 
+/// A planned (possibly fused) statement: its statements, form, passes and reason.
+type Chosen = (Vec<usize>, Form, Vec<Piece>, String);
+
 /// How a (possibly fused) statement meets its target.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Form {
@@ -97,6 +100,24 @@ pub enum Search {
 }
 
 pub fn plan_with(module: &Module, profile: &Profile, source: Option<&str>, search: Search) -> Result<Planned, Vec<Diagnostic>> {
+    plan_inner(module, profile, source, search, None)
+}
+
+/// Plans `module` for one scene: the scene's values for the program's
+/// uniforms are folded first, so terms they zero go with their textures
+/// and passes (`shadec compile --scene`). The bindings are listed in
+/// `removed` (kind `uniform`); values of the wrong size are errors.
+pub fn plan_for_scene(module: &Module, profile: &Profile, source: Option<&str>, constants: &std::collections::BTreeMap<String, Vec<f32>>) -> Result<Planned, Vec<Diagnostic>> {
+    plan_inner(module, profile, source, Search::Planner, Some(constants))
+}
+
+fn plan_inner(
+    module: &Module,
+    profile: &Profile,
+    source: Option<&str>,
+    search: Search,
+    scene: Option<&std::collections::BTreeMap<String, Vec<f32>>>,
+) -> Result<Planned, Vec<Diagnostic>> {
     let errors: Vec<Diagnostic> = crate::profile::fit(module, profile).into_iter().filter(|d| d.is_error()).collect();
     if !errors.is_empty() {
         return Err(errors);
@@ -112,7 +133,23 @@ pub fn plan_with(module: &Module, profile: &Profile, source: Option<&str>, searc
             _ => "-".to_string(),
         }
     };
-    let mut removed = specialize::specialize(&mut m, &at);
+    let mut removed = Vec::new();
+    if let Some(values) = scene {
+        let (bound, mismatched) = specialize::bind_uniforms(&mut m, values, &at);
+        if !mismatched.is_empty() {
+            return Err(mismatched
+                .into_iter()
+                .map(|what| {
+                    let name = what.split('`').nth(1).unwrap_or_default().to_string();
+                    let span = m.uniforms.iter().find(|u| u.name == name).map_or(Span::DETACHED, |u| u.span);
+                    Diagnostic::error("scene-value", format!("the scene's value does not fit: {what}"), span, "declared here")
+                        .with_help("give one number, or one per component, in the scene's `constants`")
+                })
+                .collect());
+        }
+        removed.extend(bound);
+    }
+    removed.extend(specialize::specialize(&mut m, &at));
     let fit = fit::ProfileFit { profile };
     let float_temps = profile.float_textures;
 
@@ -126,7 +163,7 @@ pub fn plan_with(module: &Module, profile: &Profile, source: Option<&str>, searc
 
     let mut cache = SplitCache::default();
     let mut diags = Vec::new();
-    let mut chosen: Vec<(Vec<usize>, Form, Vec<Piece>, String)> = Vec::new();
+    let mut chosen: Vec<Chosen> = Vec::new();
     let live: Vec<usize> = (0..m.statements.len()).filter(|&i| !matches!(m.statements[i].table, Table::TexCoords(_)) && !specialize::is_noop(&m, &m.statements[i])).collect();
     for &i in (0..m.statements.len()).filter(|i| !live.contains(i) && !matches!(m.statements[*i].table, Table::TexCoords(_))).collect::<Vec<_>>().iter() {
         removed.push(Removed { kind: "pass".into(), what: format!("statement {}", i + 1), why: "after specialization it leaves its target unchanged".into(), at: at(m.statements[i].span) });
@@ -139,7 +176,7 @@ pub fn plan_with(module: &Module, profile: &Profile, source: Option<&str>, searc
             run.push(live[k + run.len()]);
         }
         // best[j]: the cheapest plan of run[..j].
-        let mut best: Vec<Option<(split::Cost, Vec<(Vec<usize>, Form, Vec<Piece>, String)>)>> = vec![None; run.len() + 1];
+        let mut best: Vec<Option<(split::Cost, Vec<Chosen>)>> = vec![None; run.len() + 1];
         best[0] = Some(((0, 0), vec![]));
         let mut first_error: Option<Diagnostic> = None;
         // Why a statement was not fused with the one before it.
@@ -504,7 +541,7 @@ fn plan_form(m: &mut Module, fit: &dyn FitCheck, cache: &mut SplitCache, st: &St
     if let Some(s) = form.then_add {
         let o = fit.fits(splitter.module, s).err();
         match splitter.plan(BlendMode::Add, s) {
-            Some(p) => pieces.extend(p.iter().cloned().map(|q| Piece { why: "C ← C·m + s: the added term, after the modulation".into(), ..q })),
+            Some(p) => pieces.extend(p.iter().map(|q| Piece { why: "C ← C·m + s: the added term, after the modulation".into(), ..q.clone() })),
             None => return Err(o.unwrap_or(Overflow { resource: "resources".into(), need: 0, have: 0, at: None })),
         }
     }
@@ -514,7 +551,7 @@ fn plan_form(m: &mut Module, fit: &dyn FitCheck, cache: &mut SplitCache, st: &St
 fn assemble(
     m: &Module,
     profile: &Profile,
-    chosen: &[(Vec<usize>, Form, Vec<Piece>, String)],
+    chosen: &[Chosen],
     texgen: &HashMap<u32, String>,
     removed: Vec<Removed>,
     at: &dyn Fn(Span) -> String,

@@ -95,3 +95,46 @@ pub fn is_noop(m: &Module, st: &Statement) -> bool {
         _ => false,
     }
 }
+
+/// Scene-driven specialization, first step (issue 7 part 1): every uniform
+/// the scene gives a value (`constants: { "ks": [0, 0, 0] }`, by name, one
+/// value or one per component) becomes that constant, so the folding and
+/// zero-term removal of [`specialize`] see it — a matte material loses its
+/// specular term, its textures and its pass. Returns what was bound, as
+/// `Removed` entries of kind `uniform`, and the uniforms whose value did not
+/// fit their type (left as uniforms).
+pub fn bind_uniforms(m: &mut Module, values: &std::collections::BTreeMap<String, Vec<f32>>, at: &dyn Fn(Span) -> String) -> (Vec<Removed>, Vec<String>) {
+    let mut map = HashMap::new();
+    let mut bound = Vec::new();
+    let mut mismatched = Vec::new();
+    for (id, u) in m.uniforms.clone().iter().enumerate() {
+        let Some(v) = values.get(&u.name) else { continue };
+        let width = u.ty.width().min(4);
+        let comps: Vec<f64> = match v.len() {
+            1 => vec![v[0] as f64; width],
+            n if n == width => v.iter().map(|x| *x as f64).collect(),
+            _ => {
+                mismatched.push(format!("`{}` is a {} but the scene gives {} value(s)", u.name, u.ty.name(), v.len()));
+                continue;
+            }
+        };
+        let Some(node) = m.exprs.find(&Expr::Uniform(id as u32)) else { continue };
+        let Ok(c) = m.intern(Expr::Constant(crate::ir::Constant::new(u.ty, &comps)), u.span) else { continue };
+        map.insert(node, c);
+        bound.push(Removed {
+            kind: "uniform".into(),
+            what: u.name.clone(),
+            why: format!("the scene sets it to {comps:?}: folded as a constant"),
+            at: at(u.span),
+        });
+    }
+    if !map.is_empty() {
+        for i in 0..m.statements.len() {
+            let v = m.statements[i].value;
+            if let Some(nv) = super::substitute(m, v, &map) {
+                m.statements[i].value = nv;
+            }
+        }
+    }
+    (bound, mismatched)
+}

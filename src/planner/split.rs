@@ -431,11 +431,11 @@ impl<'a> Splitter<'a> {
             let s_zero = self.module.is_constant(s, 0.0);
             if !m_one {
                 let Some(mp) = self.plan_at(BlendMode::Modulate, m, depth + 1) else { continue };
-                p.extend(mp.iter().cloned().map(|q| Piece { why: format!("{overflow}: rendered a part first, then modulated by its coefficient"), ..q }));
+                p.extend(mp.iter().map(|q| Piece { why: format!("{overflow}: rendered a part first, then modulated by its coefficient"), ..q.clone() }));
             }
             if !s_zero {
                 let Some(sp) = self.plan_at(BlendMode::Add, s, depth + 1) else { continue };
-                p.extend(sp.iter().cloned().map(|q| Piece { why: format!("{overflow}: rendered a part first, then added the rest"), ..q }));
+                p.extend(sp.iter().map(|q| Piece { why: format!("{overflow}: rendered a part first, then added the rest"), ..q.clone() }));
             }
             out.push(p);
         }
@@ -460,7 +460,7 @@ impl<'a> Splitter<'a> {
             };
         }
         self.fits(lookup).ok()?;
-        let mut p: Vec<Piece> = inner.iter().cloned().map(|q| Piece { dest: Dest::Temp(id), why: format!("{overflow}: render-to-texture: the term is computed into a temporary first"), ..q }).collect();
+        let mut p: Vec<Piece> = inner.iter().map(|q| Piece { dest: Dest::Temp(id), why: format!("{overflow}: render-to-texture: the term is computed into a temporary first"), ..q.clone() }).collect();
         p.push(Piece { blend: mode, value: lookup, dest: Dest::Main, alpha: true, why: format!("{overflow}: the temporary blended in ({})", mode.name()) });
         Some(p)
     }
