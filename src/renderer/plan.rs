@@ -241,7 +241,7 @@ fn add(total: &mut DrawStats, s: &DrawStats) {
 }
 
 /// The centre and radius of the world-space bounding sphere of all meshes.
-fn scene_bounds(assets: &SceneAssets) -> (glam::Vec3, f32) {
+pub fn scene_bounds(assets: &SceneAssets) -> (glam::Vec3, f32) {
     let mut lo = glam::Vec3::splat(f32::INFINITY);
     let mut hi = glam::Vec3::splat(f32::NEG_INFINITY);
     for (mesh, model) in &assets.meshes {

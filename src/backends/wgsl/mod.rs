@@ -18,5 +18,7 @@ pub mod emit;
 pub mod rc1;
 #[cfg(feature = "gpu")]
 pub mod runner;
+#[cfg(feature = "gpu")]
+pub mod scene_run;
 
 pub use codegen::{generate, Fidelity, PassShader, FRAGMENT_ENTRY, VERTEX_ENTRY};

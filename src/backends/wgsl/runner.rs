@@ -153,6 +153,9 @@ pub struct SamplerSettings {
     pub mag: Filter,
     pub min: Filter,
     pub address: AddressMode,
+    /// Between mip levels (only for [`TextureData::D2Mipmapped`]); `None`:
+    /// level 0 only.
+    pub mipmap: Option<Filter>,
 }
 
 impl SamplerSettings {
@@ -160,11 +163,13 @@ impl SamplerSettings {
         mag: Filter::Nearest,
         min: Filter::Nearest,
         address: AddressMode::ClampToEdge,
+        mipmap: None,
     };
     pub const LINEAR_CLAMP: SamplerSettings = SamplerSettings {
         mag: Filter::Linear,
         min: Filter::Linear,
         address: AddressMode::ClampToEdge,
+        mipmap: None,
     };
 }
 
@@ -175,6 +180,9 @@ pub enum TextureData {
     D2 { width: u32, height: u32, rgba: Vec<u8> },
     /// Six `size × size` faces in wgpu/GL order +X, −X, +Y, −Y, +Z, −Z.
     Cube { size: u32, rgba: Vec<u8> },
+    /// A 2D texture with its mip chain: `levels[k]` is
+    /// `max(1, width >> k) × max(1, height >> k)` texels, row 0 at v = 0.
+    D2Mipmapped { width: u32, height: u32, levels: Vec<Vec<u8>> },
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -528,8 +536,23 @@ fn check_pass(pass: &RunPass, target: &Target) -> Result<(), GpuError> {
         let (expected, what) = match texture.data {
             TextureData::D2 { width, height, .. } => (width as usize * height as usize * 4, "2D"),
             TextureData::Cube { size, .. } => (size as usize * size as usize * 4 * 6, "cube"),
+            TextureData::D2Mipmapped { width, height, ref levels } => {
+                for (k, level) in levels.iter().enumerate() {
+                    let need = (width >> k).max(1) as usize * (height >> k).max(1) as usize * 4;
+                    if level.len() != need {
+                        return invalid(format!("mip level {k} of texture {texture_idx} has {} bytes, needs {need}", level.len()));
+                    }
+                }
+                (width as usize * height as usize * 4, "mipmapped 2D")
+            }
         };
-        let (TextureData::D2 { rgba, .. } | TextureData::Cube { rgba, .. }) = &texture.data;
+        let rgba = match &texture.data {
+            TextureData::D2 { rgba, .. } | TextureData::Cube { rgba, .. } => rgba,
+            TextureData::D2Mipmapped { levels, .. } => match levels.first() {
+                Some(l) => l,
+                None => return invalid(format!("mipmapped texture {texture_idx} has no levels")),
+            },
+        };
         if expected == 0 || rgba.len() != expected {
             return invalid(format!(
                 "{what} texture {texture_idx} has {} bytes, its size needs {expected} (RGBA8, non-empty)",
@@ -724,9 +747,10 @@ fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::
 
 /// Uploads RGBA8 texels; returns the view dimension the layout needs.
 fn upload_texture(gpu: &Gpu, data: &TextureData) -> (wgpu::TextureViewDimension, wgpu::TextureView) {
-    let (width, height, layers, rgba, dimension) = match data {
-        TextureData::D2 { width, height, rgba } => (*width, *height, 1, rgba, wgpu::TextureViewDimension::D2),
-        TextureData::Cube { size, rgba } => (*size, *size, 6, rgba, wgpu::TextureViewDimension::Cube),
+    let (width, height, layers, levels, dimension) = match data {
+        TextureData::D2 { width, height, rgba } => (*width, *height, 1, std::slice::from_ref(rgba), wgpu::TextureViewDimension::D2),
+        TextureData::Cube { size, rgba } => (*size, *size, 6, std::slice::from_ref(rgba), wgpu::TextureViewDimension::Cube),
+        TextureData::D2Mipmapped { width, height, levels } => (*width, *height, 1, levels.as_slice(), wgpu::TextureViewDimension::D2),
     };
     let size = wgpu::Extent3d {
         width,
@@ -736,28 +760,31 @@ fn upload_texture(gpu: &Gpu, data: &TextureData) -> (wgpu::TextureViewDimension,
     let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
         label: Some("shadec texture"),
         size,
-        mip_level_count: 1,
+        mip_level_count: levels.len() as u32,
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
         format: wgpu::TextureFormat::Rgba8Unorm,
         usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
         view_formats: &[],
     });
-    gpu.queue.write_texture(
-        wgpu::TexelCopyTextureInfo {
-            texture: &texture,
-            mip_level: 0,
-            origin: wgpu::Origin3d::ZERO,
-            aspect: wgpu::TextureAspect::All,
-        },
-        rgba,
-        wgpu::TexelCopyBufferLayout {
-            offset: 0,
-            bytes_per_row: Some(width * 4),
-            rows_per_image: Some(height),
-        },
-        size,
-    );
+    for (k, rgba) in levels.iter().enumerate() {
+        let (w, h) = ((width >> k).max(1), (height >> k).max(1));
+        gpu.queue.write_texture(
+            wgpu::TexelCopyTextureInfo {
+                texture: &texture,
+                mip_level: k as u32,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            rgba,
+            wgpu::TexelCopyBufferLayout {
+                offset: 0,
+                bytes_per_row: Some(w * 4),
+                rows_per_image: Some(h),
+            },
+            wgpu::Extent3d { width: w, height: h, depth_or_array_layers: layers },
+        );
+    }
     let view = texture.create_view(&wgpu::TextureViewDescriptor {
         dimension: Some(dimension),
         ..Default::default()
@@ -782,6 +809,10 @@ fn sampler_descriptor(settings: &SamplerSettings) -> wgpu::SamplerDescriptor<'st
         address_mode_w: address,
         mag_filter: filter(settings.mag),
         min_filter: filter(settings.min),
+        mipmap_filter: match settings.mipmap {
+            Some(Filter::Linear) => wgpu::MipmapFilterMode::Linear,
+            _ => wgpu::MipmapFilterMode::Nearest,
+        },
         ..Default::default()
     }
 }

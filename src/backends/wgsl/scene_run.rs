@@ -1,0 +1,228 @@
+//! A compiled plan rendered for a [`Scene`] on wgpu, bound exactly as the
+//! CPU renderer ([`crate::renderer::plan::PlanRenderer`]) binds it: the same
+//! [`crate::scene::bind`] data — vertex leaves evaluated per mesh vertex by
+//! [`bind::VertexEnv`], projection matrices from [`BoundObject::clip_matrix`],
+//! uniforms from [`bind::uniforms`] (else the declared default), textures
+//! from [`bind::load_textures`] at [`TextureQuality::Stored`] — so the two
+//! images differ only by what the executors do, not by their inputs.
+//!
+//! # Conventions at the seam (codegen ↔ binder ↔ CPU framebuffer)
+//!
+//! - **Rows.** Both images have row 0 at the top (clip y = +1): the CPU
+//!   framebuffer by construction (`renderer::plan`), wgpu because its
+//!   framebuffer y points down while NDC y points up. No flip is needed.
+//! - **Texture rows.** The binder's `Level` row 0 is t = 0 and codegen's
+//!   v = 0 is texture row 0: uploaded as is. Cube faces are in the binder's
+//!   order (+X, −X, +Y, −Y, +Z, −Z) with `cube_face_uv`'s GL face table,
+//!   which is Vulkan's/wgpu's: uploaded as is.
+//! - **Depth.** The binder's matrices are GL's (z in −w..w); codegen maps z
+//!   to wgpu's 0..w in the shader. The target is cleared to depth 1 and
+//!   transparent black, as the CPU framebuffer.
+//! - **Texels.** Every texture is uploaded as RGBA8: 8-bit formats exactly
+//!   (k/255 → k), signed formats range-compressed `(v + 1)/2` (the codegen
+//!   contract; the shader expands them), 16-bit and float textures rounded
+//!   to 8 bits (a difference from the CPU's f32 mode, where such a texture
+//!   keeps its precision). Mip chains are the binder's own levels (box
+//!   filtered), uploaded level by level; `trilinear` uses linear mip
+//!   filtering, `bilinear` the nearest level, `nearest` level 0 only when
+//!   the texture has no chain.
+//!
+//! # Agreement with the CPU renderer (measured, `tests/wgsl_agreement.rs`)
+//!
+//! Kilgard's torus (`scenes/kilgard_torus.ron`, 256×192, lavapipe / Mesa
+//! 22.3.6) against `renderer::plan` in f32 mode, off a 3×3 triangle-ID edge
+//! mask (40% of the image masked): one fused pass (wgsl) max 12/255 with 226
+//! pixels over 2/255; three blended passes (geforce256) max 14/255, 250
+//! pixels; with the mip chains removed max 11/255, 136 pixels — of ≈ 12 000
+//! compared covered pixels. The outliers sit on specular highlights at the
+//! dimples' rims, where `max(0, Hn·N′)^8` multiplies any difference in the
+//! filtered normal by ≈ 8; candidates (not yet separated): the GPU's
+//! finite-difference LOD vs the CPU's analytic one, and llvmpipe's 8-bit
+//! filter weights / sub-texel precision. The 2/255-everywhere
+//! criterion is therefore **not met yet**; the strict tests are `#[ignore]`d
+//! with this reason and a bounded test (≤ 16/255, ≤ 2% over 2/255) runs.
+//!
+//! # What is not supported (an [`SceneRunError::Unsupported`])
+//!
+//! Passes that render into a texture or a temporary, screen/texel passes,
+//! framebuffer reads inside a shader, dual-paraboloid textures: these need
+//! more than one render target per run, which `runner::run_passes` does not
+//! do yet.
+
+use std::collections::BTreeMap;
+
+use image::RgbaImage;
+
+use super::codegen::{self, uniform_bytes, Fidelity, PassShader};
+use super::runner::{self, AddressMode, Gpu, GpuError, RunPass, RunShader, RunTexture, SamplerSettings, ShaderSource, Target, TextureData, VertexData};
+use crate::ir::{self, Expr};
+use crate::parser::ast::Program;
+use crate::planner::{Geometry, Planned, RenderTarget};
+use crate::scene::bind::{self, BoundObject, BoundTexture, TextureQuality};
+use crate::scene::{Scene, SceneAssets};
+use crate::textures::{Filter, Level, TexelFormat, Texture, Texture2D, Wrap};
+
+#[derive(Debug, thiserror::Error)]
+pub enum SceneRunError {
+    #[error("the wgpu scene runner cannot run this plan: {0}")]
+    Unsupported(String),
+    #[error("code generation failed: {0}")]
+    Codegen(String),
+    #[error(transparent)]
+    Gpu(#[from] GpuError),
+}
+
+/// A plan compiled and bound to a scene, ready to render on a device at
+/// any size. Build once (code generation, texture upload data), render many.
+pub struct ScenePlan<'a> {
+    planned: &'a Planned,
+    scene: &'a Scene,
+    assets: &'a SceneAssets,
+    shaders: Vec<PassShader>,
+    textures: BTreeMap<String, BoundTexture>,
+    uniforms: Vec<[f32; 4]>,
+    /// Stand-ins the binder used (missing images), for the user.
+    pub notes: Vec<String>,
+}
+
+impl<'a> ScenePlan<'a> {
+    pub fn new(planned: &'a Planned, program: &Program, source: Option<&str>, fidelity: Fidelity, scene: &'a Scene, assets: &'a SceneAssets) -> Result<ScenePlan<'a>, SceneRunError> {
+        for (i, pass) in planned.plan.passes.iter().enumerate() {
+            if !matches!(pass.geometry, Geometry::Mesh { .. }) {
+                return Err(SceneRunError::Unsupported(format!("pass {} draws a screen or texel rectangle", i + 1)));
+            }
+            if !matches!(pass.target, RenderTarget::Framebuffer { .. }) {
+                return Err(SceneRunError::Unsupported(format!("pass {} renders into a texture or temporary", i + 1)));
+            }
+            for t in &pass.textures {
+                if !matches!(planned.module.exprs[planned.handle(t.lookup)], Expr::Lookup { .. }) {
+                    return Err(SceneRunError::Unsupported(format!("pass {} reads a framebuffer in its shader", i + 1)));
+                }
+            }
+        }
+        let shaders = codegen::generate(planned, source, fidelity).map_err(|d| SceneRunError::Codegen(d.iter().map(|d| d.message.clone()).collect::<Vec<_>>().join("; ")))?;
+        let decls = bind::texture_decls(program, &scene.constants);
+        let mut notes = Vec::new();
+        let textures = bind::load_textures(&decls, scene, TextureQuality::Stored, &mut notes).map_err(|e| SceneRunError::Unsupported(e.to_string()))?;
+        let m = &planned.module;
+        let uniforms = bind::uniforms(m, scene)
+            .into_iter()
+            .enumerate()
+            .map(|(i, v)| v.or_else(|| m.uniforms[i].default.as_ref().map(ir::eval::value)).unwrap_or([0.0; 4]).map(|c| c as f32))
+            .collect();
+        Ok(ScenePlan { planned, scene, assets, shaders, textures, uniforms, notes })
+    }
+
+    /// The [`RunPass`]es of a `width`×`height` frame: per pass, one draw per
+    /// scene object.
+    pub fn passes(&self, width: u32, height: u32) -> Result<Vec<RunPass>, SceneRunError> {
+        let m = &self.planned.module;
+        let aspect = width as f32 / height as f32;
+        let (center, radius) = crate::renderer::plan::scene_bounds(self.assets);
+        let light_clip = bind::light_view_projection(self.scene.lights.first(), center, radius);
+        let mut objects: Vec<BoundObject> = self.assets.meshes.iter().map(|(mesh, model)| BoundObject::new(self.scene, mesh, *model, aspect, light_clip)).collect();
+        for o in &mut objects {
+            o.run_texgen(m).map_err(|e| SceneRunError::Unsupported(e.to_string()))?;
+        }
+        let uniforms64: Vec<Option<[f64; 4]>> = self.uniforms.iter().map(|u| Some(u.map(|c| c as f64))).collect();
+        let mut out = Vec::new();
+        for s in &self.shaders {
+            let pass = &self.planned.plan.passes[s.pass];
+            let mut textures = Vec::new();
+            for t in &pass.textures {
+                let bound = self.textures.get(&t.texture).ok_or_else(|| SceneRunError::Unsupported(format!("texture `{}` is not bound", t.texture)))?;
+                if t.unit as usize != textures.len() {
+                    return Err(SceneRunError::Unsupported(format!("texture units of pass {} are not 0..n", s.pass + 1)));
+                }
+                textures.push(run_texture(bound)?);
+            }
+            let leaves = &s.interface.vertex_leaves;
+            for object in &objects {
+                let mut ev = ir::eval::Evaluator::new(m, leaves, ir::eval::Precision::Exact);
+                let mut floats = Vec::with_capacity(object.n_vertices() * 4 * leaves.len());
+                for v in 0..object.n_vertices() {
+                    let mut env = bind::VertexEnv { object, module: m, vertex: v, uniforms: &uniforms64 };
+                    let r = ev.eval(&mut env);
+                    for value in r.values.iter().take(leaves.len()) {
+                        floats.extend(value.map(|c| c as f32));
+                    }
+                }
+                let projections: Vec<[f32; 16]> = s.interface.projections.iter().map(|p| object.clip_matrix(p).to_cols_array()).collect();
+                let unis: Vec<[f32; 4]> = s.interface.uniforms.iter().map(|u| self.uniforms[*u as usize]).collect();
+                let has_block = !projections.is_empty() || !unis.is_empty();
+                out.push(RunPass {
+                    label: s.label.clone(),
+                    shader: RunShader { source: ShaderSource::Naga(s.module.clone()), vertex_entry: codegen::VERTEX_ENTRY.into(), fragment_entry: codegen::FRAGMENT_ENTRY.into() },
+                    vertices: VertexData { floats, components: vec![4; leaves.len()] },
+                    indices: object.mesh.triangles.iter().flatten().copied().collect(),
+                    textures: textures.clone(),
+                    uniforms: has_block.then(|| uniform_bytes(&projections, &unis)),
+                    state: pass.state,
+                });
+            }
+        }
+        Ok(out)
+    }
+
+    /// Renders a frame and reads it back (row 0 at the top).
+    pub fn render(&self, gpu: &Gpu, width: u32, height: u32) -> Result<RgbaImage, SceneRunError> {
+        let passes = self.passes(width, height)?;
+        Ok(runner::run_passes(gpu, &Target::new(width, height), &passes)?)
+    }
+}
+
+/// One call: compile, bind and render.
+#[allow(clippy::too_many_arguments)]
+pub fn render_scene(gpu: &Gpu, planned: &Planned, program: &Program, source: Option<&str>, fidelity: Fidelity, scene: &Scene, assets: &SceneAssets, width: u32, height: u32) -> Result<RgbaImage, SceneRunError> {
+    ScenePlan::new(planned, program, source, fidelity, scene, assets)?.render(gpu, width, height)
+}
+
+fn to_u8(x: f32) -> u8 {
+    (x.clamp(0.0, 1.0) * 255.0).round() as u8
+}
+
+fn level_rgba(level: &Level, format: TexelFormat) -> Vec<u8> {
+    let signed = format == TexelFormat::Signed8;
+    level.texels.iter().flat_map(|t| t.map(|c| if signed { to_u8(0.5 * (c + 1.0)) } else { to_u8(c) })).collect()
+}
+
+fn sampler(filter: Filter, wrap: Wrap, mipmapped: bool) -> SamplerSettings {
+    let address = match wrap {
+        Wrap::ClampToEdge => AddressMode::ClampToEdge,
+        Wrap::Repeat => AddressMode::Repeat,
+    };
+    let (texel, mip) = match filter {
+        Filter::Nearest => (runner::Filter::Nearest, runner::Filter::Nearest),
+        Filter::Bilinear => (runner::Filter::Linear, runner::Filter::Nearest),
+        Filter::Trilinear => (runner::Filter::Linear, runner::Filter::Linear),
+    };
+    SamplerSettings { mag: texel, min: texel, address, mipmap: mipmapped.then_some(mip) }
+}
+
+fn run_texture(bound: &BoundTexture) -> Result<RunTexture, SceneRunError> {
+    match &bound.texture {
+        Texture::Flat(t) => Ok(flat(t, bound.filter)),
+        Texture::Cube(c) => {
+            let size = c.faces[0].width();
+            let mut rgba = Vec::new();
+            for f in &c.faces {
+                if f.width() != size || f.height() != size {
+                    return Err(SceneRunError::Unsupported(format!("cube map `{}` has faces of different sizes", bound.name)));
+                }
+                rgba.extend(level_rgba(&f.levels[0], f.format));
+            }
+            Ok(RunTexture { data: TextureData::Cube { size, rgba }, sampler: sampler(bound.filter, c.faces[0].wrap, false) })
+        }
+        Texture::DualParaboloid(_) => Err(SceneRunError::Unsupported(format!("dual-paraboloid texture `{}`", bound.name))),
+    }
+}
+
+fn flat(t: &Texture2D, filter: Filter) -> RunTexture {
+    let (width, height) = (t.width(), t.height());
+    let data = if t.levels.len() > 1 {
+        TextureData::D2Mipmapped { width, height, levels: t.levels.iter().map(|l| level_rgba(l, t.format)).collect() }
+    } else {
+        TextureData::D2 { width, height, rgba: level_rgba(&t.levels[0], t.format) }
+    };
+    RunTexture { data, sampler: sampler(filter, t.wrap, t.levels.len() > 1) }
+}
