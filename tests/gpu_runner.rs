@@ -8,34 +8,15 @@
 //! only allowed skip, and it is refused when `CI=true`.
 #![cfg(feature = "gpu")]
 
+mod common;
+
 use shadec::backends::wgsl::runner::{
-    run_passes, validate_shader, DepthFormat, Gpu, GpuError, RunPass, RunShader, RunTexture, SamplerSettings,
+    run_passes, validate_shader, DepthFormat, GpuError, RunPass, RunShader, RunTexture, SamplerSettings,
     ShaderSource, Target, TextureData, VertexData,
 };
 use shadec::renderer::{BlendState, CullMode, DepthState, RenderState, StencilState};
 
-/// The one place tests get a device. `None` only for the documented skip.
-fn gpu() -> Option<Gpu> {
-    match Gpu::new() {
-        Ok(gpu) => {
-            eprintln!("adapter: {gpu}");
-            Some(gpu)
-        }
-        Err(err) => {
-            let allowed = std::env::var("SHADEC_ALLOW_NO_GPU").is_ok_and(|v| v == "1");
-            let in_ci = std::env::var("CI").is_ok_and(|v| v == "true");
-            if allowed && !in_ci {
-                eprintln!("SKIPPED: no GPU adapter (SHADEC_ALLOW_NO_GPU=1): {err}");
-                None
-            } else {
-                panic!(
-                    "{err}\nGPU tests need an adapter; set SHADEC_ALLOW_NO_GPU=1 to skip them outside CI \
-                     (never allowed with CI=true)"
-                );
-            }
-        }
-    }
-}
+use common::gpu::gpu;
 
 /// Position (xyzw) then an RGBA colour per vertex.
 const COLOR_WGSL: &str = r#"

@@ -17,6 +17,8 @@
 //! (outside CI), as `tests/gpu_runner.rs` documents.
 #![cfg(feature = "gpu")]
 
+mod common;
+
 use std::path::Path;
 
 use shadec::backends::wgsl::codegen::Fidelity;
@@ -32,25 +34,7 @@ use shadec::scene::{Scene, SceneAssets};
 const W: u32 = 256;
 const H: u32 = 192;
 
-/// As `tests/gpu_runner.rs`: the one place these tests get a device.
-fn gpu() -> Option<Gpu> {
-    match Gpu::new() {
-        Ok(gpu) => {
-            eprintln!("adapter: {gpu}");
-            Some(gpu)
-        }
-        Err(err) => {
-            let allowed = std::env::var("SHADEC_ALLOW_NO_GPU").is_ok_and(|v| v == "1");
-            let in_ci = std::env::var("CI").is_ok_and(|v| v == "true");
-            if allowed && !in_ci {
-                eprintln!("SKIPPED: no GPU adapter (SHADEC_ALLOW_NO_GPU=1): {err}");
-                None
-            } else {
-                panic!("{err}\nGPU tests need an adapter; set SHADEC_ALLOW_NO_GPU=1 to skip them outside CI (never allowed with CI=true)");
-            }
-        }
-    }
-}
+use common::gpu::gpu;
 
 fn kilgard_scene() -> Scene {
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron")).unwrap();

@@ -7,29 +7,17 @@
 //! (outside CI), as `tests/gpu_runner.rs` documents.
 #![cfg(feature = "gpu")]
 
+mod common;
+
 use shadec::backends::combiners::config::CombinerLimits;
 use shadec::backends::combiners::emulator::{emulate, Inputs, Precision};
 use shadec::backends::combiners::rc1;
 use shadec::backends::wgsl::codegen::{self, uniform_bytes, Fidelity};
-use shadec::backends::wgsl::runner::{run_passes, Gpu, RunPass, RunShader, RunTexture, SamplerSettings, ShaderSource, Target, TextureData, VertexData};
+use shadec::backends::wgsl::runner::{run_passes, RunPass, RunShader, RunTexture, SamplerSettings, ShaderSource, Target, TextureData, VertexData};
 use shadec::ir::Expr;
 use shadec::renderer::{BlendState, CullMode, DepthState, RenderState, StencilState};
 
-fn gpu() -> Option<Gpu> {
-    match Gpu::new() {
-        Ok(gpu) => Some(gpu),
-        Err(err) => {
-            let allowed = std::env::var("SHADEC_ALLOW_NO_GPU").is_ok_and(|v| v == "1");
-            let in_ci = std::env::var("CI").is_ok_and(|v| v == "true");
-            if allowed && !in_ci {
-                eprintln!("SKIPPED: no GPU adapter (SHADEC_ALLOW_NO_GPU=1): {err}");
-                None
-            } else {
-                panic!("{err}\nGPU tests need an adapter; set SHADEC_ALLOW_NO_GPU=1 to skip them outside CI (never allowed with CI=true)");
-            }
-        }
-    }
-}
+use common::gpu::gpu;
 
 /// A deterministic pseudo-random RGBA8 image.
 fn noise(w: u32, h: u32, seed: u64) -> Vec<u8> {
