@@ -284,11 +284,10 @@ fn generated_benchmark_programs_plan() {
         let plan = plan_src(&src, "geforce256").unwrap_or_else(|d| panic!("{d:#?}\n{src}"));
         assert!(plan.passes.len() > n / 10, "{n}: {}", plan.summary());
         let plan = plan_src(&src, "wgsl").unwrap();
-        assert!(plan.passes.len() <= n / 10 / MAX_FUSE_HINT + 2, "{n}: {} passes on wgsl", plan.passes.len());
+        assert!(plan.passes.len() <= n / 10 / planner::MAX_FUSE + 2, "{n}: {} passes on wgsl", plan.passes.len());
     }
 }
 
-const MAX_FUSE_HINT: usize = planner::MAX_FUSE;
 
 #[test]
 fn compile_for_a_scene_removes_what_the_scene_zeroes() {

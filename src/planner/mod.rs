@@ -41,7 +41,7 @@ use split::{Dest, Piece, SplitCache, Splitter};
 use crate::diag::Diagnostic;
 use crate::ir::{self, BinaryOp, Expr, FbChannel, Frequency, Handle, Module, Statement, Table, Usage};
 use crate::parser::ast::CombineMode;
-use crate::profile::{FragmentStage, Profile};
+use crate::profile::Profile;
 use crate::renderer::{BlendState, CullMode, DepthState, RenderState, StencilOp, StencilState};
 use crate::span::{LineIndex, Span};
 
@@ -503,7 +503,7 @@ fn stencil_write(m: &Module, st: &Statement, value: Handle<Expr>) -> Option<Form
     let Expr::Binary { op: BinaryOp::Or, lhs, rhs } = m.exprs[value] else { return None };
     let own = self_read(m, st, FbChannel::Stencil)?;
     let cmp = if lhs == own { rhs } else if rhs == own { lhs } else { return None };
-    let Expr::Binary { op, lhs: a, rhs: b } = m.exprs[cmp] else { return None };
+    let Expr::Binary { op, rhs: b, .. } = m.exprs[cmp] else { return None };
     let stored_is_b = matches!(m.exprs[b], Expr::FramebufferRead { channel: FbChannel::Depth, .. });
     let func = match (op, stored_is_b) {
         (BinaryOp::Gt, true) | (BinaryOp::Lt, false) => crate::renderer::CompareFunc::Greater,
@@ -512,7 +512,6 @@ fn stencil_write(m: &Module, st: &Statement, value: Handle<Expr>) -> Option<Form
         (BinaryOp::Le, true) | (BinaryOp::Ge, false) => crate::renderer::CompareFunc::LessEqual,
         _ => return None,
     };
-    let _ = a;
     Some(Form {
         blend: BlendMode::Replace,
         value,
@@ -679,7 +678,6 @@ fn assemble(
             }
         })
         .collect();
-    let _ = FragmentStage::Programmable;
     PassPlan { target: profile.name.clone(), passes, removed, values }
 }
 

@@ -41,6 +41,20 @@ use super::validate::{validate, ValidationError};
 
 use InputMapping::*;
 
+/// The input mapping that reads the negation of what `map` reads (Table 3
+/// pairs each signed mapping with its negate), if there is one.
+fn negated(map: InputMapping) -> Option<InputMapping> {
+    match map {
+        SignedIdentity => Some(SignedNegate),
+        SignedNegate => Some(SignedIdentity),
+        ExpandNormal => Some(ExpandNegate),
+        ExpandNegate => Some(ExpandNormal),
+        HalfBiasNormal => Some(HalfBiasNegate),
+        HalfBiasNegate => Some(HalfBiasNormal),
+        _ => None,
+    }
+}
+
 /// What one pass binds: texture unit `i` holds the per-fragment lookup node
 /// `units[i]`; `value` is the fragment colour the pass outputs (rgb, rgba or
 /// scalar: a scalar broadcasts to rgb; rgb and scalar outputs get alpha 1).
@@ -521,14 +535,8 @@ impl Gen<'_> {
             Expr::Unary { op: UnaryOp::Neg, value } => {
                 let s = self.src(value, part, false)?;
                 let map = match s.map {
-                    SignedIdentity => Some(SignedNegate),
-                    SignedNegate => Some(SignedIdentity),
-                    ExpandNormal => Some(ExpandNegate),
-                    ExpandNegate => Some(ExpandNormal),
-                    HalfBiasNormal => Some(HalfBiasNegate),
-                    HalfBiasNegate => Some(HalfBiasNormal),
                     UnsignedIdentity if self.lo(value) >= 0.0 => Some(SignedNegate),
-                    _ => None,
+                    m => negated(m),
                 };
                 match map {
                     Some(map) => Ok(Src { map, ..s }),
@@ -914,15 +922,7 @@ impl Gen<'_> {
     fn negate(&mut self, t: Term, h: Handle<Expr>, part: Part) -> R<Term> {
         for flip_a in [false, true] {
             let s = if flip_a { t.a } else { t.b };
-            let map = match s.map {
-                SignedIdentity => Some(SignedNegate),
-                SignedNegate => Some(SignedIdentity),
-                ExpandNormal => Some(ExpandNegate),
-                ExpandNegate => Some(ExpandNormal),
-                HalfBiasNormal => Some(HalfBiasNegate),
-                HalfBiasNegate => Some(HalfBiasNormal),
-                _ => None,
-            };
+            let map = negated(s.map);
             // UNSIGNED_INVERT of zero is one; its negation is −1 = EXPAND_NORMAL of zero.
             let map = map.or_else(|| (s == Src::ONE).then_some(ExpandNormal));
             if let Some(map) = map {
