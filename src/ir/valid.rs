@@ -112,6 +112,16 @@ fn iv(lo: f64, hi: f64) -> Interval {
         Interval { lo, hi }
     }
 }
+/// The range of `⊕[dot3_*]`: 4((Ct − ½)·(Cf − ½)) summed over r, g, b (one
+/// term for scalars), unclamped like `eval::combine` — GL's clamp to [0, 1]
+/// belongs to the hardware model, not to the value (two unsigned colours
+/// give [−3, 3]).
+fn dot3(t: Interval, f: Interval, scalar: bool) -> Interval {
+    let term = mul(add(t, Interval::point(-0.5)), add(f, Interval::point(-0.5)));
+    let terms = if scalar { 1.0 } else { 3.0 };
+    mul(term, Interval::point(4.0 * terms))
+}
+
 fn hull(a: Interval, b: Interval) -> Interval {
     iv(a.lo.min(b.lo), a.hi.max(b.hi))
 }
@@ -277,7 +287,7 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
                 CombineMode::Add => add(a.interval, b.interval),
                 CombineMode::AddSigned => add(add(a.interval, b.interval), Interval::point(-0.5)),
                 CombineMode::Subtract => add(a.interval, neg(b.interval)),
-                CombineMode::Dot3Rgb | CombineMode::Dot3Rgba => Interval::UNSIGNED,
+                CombineMode::Dot3Rgb | CombineMode::Dot3Rgba => dot3(a.interval, b.interval, ty == Ty::Scalar),
                 _ => hull(a.interval, b.interval),
             };
             out(ty, freq, interval)
@@ -544,5 +554,24 @@ mod tests {
         assert_eq!(add(Interval::UNSIGNED, Interval::UNSIGNED).class(), crate::ir::Range::Unbounded);
         assert_eq!(div(Interval::UNSIGNED, Interval::UNSIGNED), Interval::ALL);
         assert_eq!(map_monotone(Interval::UNSIGNED, |x| 2.0 * x - 1.0), Interval::SIGNED);
+    }
+
+    #[test]
+    fn dot3_range_holds_what_eval_computes() {
+        use crate::ir::eval::combine;
+        let u = Interval::UNSIGNED;
+        assert_eq!(dot3(u, u, false), Interval { lo: -3.0, hi: 3.0 });
+        assert_eq!(dot3(u, u, true), Interval { lo: -1.0, hi: 1.0 });
+        // Every corner of the unit cube pair lands inside, and the extremes are reached.
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for bits in 0..64u32 {
+            let c = |k: u32| f64::from((bits >> k) & 1);
+            let t = [c(0), c(1), c(2), 1.0];
+            let f = [c(3), c(4), c(5), 1.0];
+            let v = combine(CombineMode::Dot3Rgba, 4, &t, &f, false)[0];
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+        assert_eq!((lo, hi), (-3.0, 3.0));
     }
 }
