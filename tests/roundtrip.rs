@@ -130,7 +130,7 @@ fn item() -> impl Strategy<Value = Item> {
     // Comments are kept without trailing white space, as the parser stores them.
     let comment = prop_oneof!["// [a-zδ]{0,5}( [a-z]{1,5})?", "# [a-z]{1,5}", "/\\* [a-z\n]{0,6} \\*/"].prop_map(|c| c.trim_end().to_string());
     let comments = (prop::collection::vec(comment.clone(), 0..3), prop::option::of(comment), any::<bool>())
-        .prop_map(|(leading, trailing, blank_line_before)| Comments { leading, trailing, blank_line_before });
+        .prop_map(|(leading, trailing, blank_line_before)| Comments { leading, trailing, blank_line_before, block: vec![] });
     (prop_oneof![4 => statement, 1 => constant, 1 => shader, 1 => texture], comments)
         .prop_map(|(kind, comments)| Item { kind, span: Span::DETACHED, comments })
 }

@@ -20,8 +20,9 @@ pub struct Program {
 pub struct Item {
     pub kind: ItemKind,
     pub span: Span,
-    /// Comments between items are kept so `fmt` can rewrite a file in place;
-    /// comments inside an item are not.
+    /// Comments are kept so `fmt` can rewrite a file in place and lose
+    /// nothing: between items, on the lines of a `{ … }` shader block, and
+    /// (moved above the item) anywhere else inside it.
     pub comments: Comments,
 }
 
@@ -35,6 +36,19 @@ pub struct Comments {
     /// Whether an empty line separates the item (and its leading comments)
     /// from the item before.
     pub blank_line_before: bool,
+    /// Comments inside a `{ … }` shader block, one entry per line of the
+    /// block: `lets[i]` for `i < lets.len()`, then the result, then the
+    /// closing brace (`leading` only). Empty when the block has none.
+    pub block: Vec<LineComments>,
+}
+
+/// The comments of one line inside a shader block.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct LineComments {
+    /// Whole-line comments above the line.
+    pub leading: Vec<String>,
+    /// A comment at the end of the line.
+    pub trailing: Option<String>,
 }
 
 #[derive(Clone, Debug, PartialEq)]

@@ -48,7 +48,11 @@ pub fn parse(source: &str) -> (ast::Program, Vec<Diagnostic>) {
             Ok(mut pairs) => {
                 let item = pairs.next().expect("the item rule produces one pair");
                 match build::item(item, piece.range.start) {
-                    Ok(item) => program.items.push(ast::Item { comments, ..item }),
+                    Ok(item) => {
+                        let mut item = ast::Item { comments, ..item };
+                        attach_inner_comments(&mut item, text, piece.range.start);
+                        program.items.push(item);
+                    }
                     Err(errs) => diagnostics.extend(errs),
                 }
             }
@@ -82,6 +86,50 @@ fn attach_comments(program: &mut ast::Program, text: &str, first: bool) -> ast::
         comments.leading.push(String::new());
     }
     comments
+}
+
+/// Keeps the comments inside an item, so that `fmt` loses nothing: in a
+/// `{ … }` shader block on the line they were written on (or above the line
+/// whose expression they interrupt); anywhere else, above the item.
+fn attach_inner_comments(item: &mut ast::Item, text: &str, offset: usize) {
+    let Some(start) = split::next_significant(text, 0) else { return };
+    let found = split::comments_in(text, start);
+    if found.is_empty() {
+        return;
+    }
+    // The lines of a block: each `let`, then the result, as offsets in `text`.
+    let lines: Vec<(usize, usize)> = match &item.kind {
+        ast::ItemKind::Shader(sh) if sh.block => sh
+            .lets
+            .iter()
+            .map(|l| (l.name.span.start, l.value.span.end))
+            .chain([(sh.body.span.start, sh.body.span.end)])
+            .map(|(a, b)| ((a as usize).saturating_sub(offset), (b as usize).saturating_sub(offset)))
+            .collect(),
+        _ => {
+            item.comments.leading.extend(found.into_iter().map(|c| c.text));
+            return;
+        }
+    };
+    let mut block = vec![ast::LineComments::default(); lines.len() + 1];
+    for c in found {
+        let inside = lines.iter().position(|&(s, e)| s <= c.at && c.at < e);
+        let after = lines.iter().rposition(|&(_, e)| e <= c.at);
+        match (inside, after) {
+            (None, Some(k)) if !c.own_line => match &mut block[k].trailing {
+                Some(t) => {
+                    t.push(' ');
+                    t.push_str(&c.text);
+                }
+                t @ None => *t = Some(c.text),
+            },
+            _ => {
+                let k = inside.or_else(|| lines.iter().position(|&(s, _)| s > c.at)).unwrap_or(lines.len());
+                block[k].leading.push(c.text);
+            }
+        }
+    }
+    item.comments.block = block;
 }
 
 /// Parses and resolves names: every diagnostic `shadec check` reports.

@@ -124,10 +124,24 @@ pub fn item(item: &Item, style: Style) -> String {
             let _ = write!(s, " : {} {arrow} {}", pr.name(&sh.input), sh.output.value.as_str());
             if sh.block {
                 s.push_str(" {\n");
-                for l in &sh.lets {
-                    let _ = writeln!(s, "    let {} = {};", pr.name(&l.name), pr.expr(&l.value));
+                let lines = sh.lets.iter().map(|l| format!("let {} = {};", pr.name(&l.name), pr.expr(&l.value)));
+                let no_comments = LineComments::default();
+                let comments = |k: usize| item.comments.block.get(k).unwrap_or(&no_comments);
+                for (k, line) in lines.chain([pr.expr(&sh.body)]).enumerate() {
+                    let c = comments(k);
+                    for lead in &c.leading {
+                        let _ = writeln!(s, "    {lead}");
+                    }
+                    let _ = write!(s, "    {line}");
+                    if let Some(t) = &c.trailing {
+                        let _ = write!(s, "  {t}");
+                    }
+                    s.push('\n');
                 }
-                let _ = write!(s, "    {}\n}}", pr.expr(&sh.body));
+                for lead in &comments(sh.lets.len() + 1).leading {
+                    let _ = writeln!(s, "    {lead}");
+                }
+                s.push('}');
             } else {
                 let _ = write!(s, " = {};", pr.expr(&sh.body));
             }

@@ -144,6 +144,55 @@ pub fn leading_trivia(text: &str) -> (Vec<Comment>, usize) {
     (comments, newlines)
 }
 
+/// A comment inside an item: its offset in the text, and whether it starts
+/// its own line (nothing significant before it on that line).
+pub struct InnerComment {
+    pub at: usize,
+    pub text: String,
+    pub own_line: bool,
+}
+
+/// Every comment of `text` from offset `from` on, skipping string literals.
+pub fn comments_in(text: &str, from: usize) -> Vec<InnerComment> {
+    let bytes = text.as_bytes();
+    let mut found = Vec::new();
+    let mut own_line = false;
+    let mut i = from;
+    while i < bytes.len() {
+        let end = match bytes[i] {
+            b'"' => {
+                i += 1;
+                while i < bytes.len() && bytes[i] != b'"' && bytes[i] != b'\n' {
+                    i += if bytes[i] == b'\\' { 2 } else { 1 };
+                }
+                own_line = false;
+                i += 1;
+                continue;
+            }
+            b'\n' => {
+                own_line = true;
+                i += 1;
+                continue;
+            }
+            b if b.is_ascii_whitespace() => {
+                i += 1;
+                continue;
+            }
+            b'#' => skip_line(bytes, i),
+            b'/' if bytes.get(i + 1) == Some(&b'/') => skip_line(bytes, i),
+            b'/' if bytes.get(i + 1) == Some(&b'*') => text[i + 2..].find("*/").map_or(bytes.len(), |e| i + 2 + e + 2),
+            _ => {
+                own_line = false;
+                i += 1;
+                continue;
+            }
+        };
+        found.push(InnerComment { at: i, text: text[i..end].trim_end().to_string(), own_line });
+        i = end;
+    }
+    found
+}
+
 fn push_comment(text: &str, start: usize, end: usize, comments: &mut Vec<Comment>, newlines: &mut usize) -> usize {
     comments.push(Comment { text: text[start..end].trim_end().to_string(), newlines_before: *newlines });
     *newlines = 0;
@@ -162,6 +211,13 @@ mod tests {
     fn splits_at_top_level_semicolons_only() {
         let src = "a ← f(x; y); // c; d\nshader p : s → c { let a = 1; a }\nb ← \"x;y\";";
         assert_eq!(texts(src), ["a ← f(x; y);", " // c; d\nshader p : s → c { let a = 1; a }", "\nb ← \"x;y\";"]);
+    }
+
+    #[test]
+    fn comments_in_skip_strings_and_know_their_line() {
+        let src = "f(\"// no\", x) // a\n  # b\n y /* c */";
+        let found: Vec<_> = comments_in(src, 0).into_iter().map(|c| (c.text, c.own_line)).collect();
+        assert_eq!(found, [("// a".to_string(), false), ("# b".to_string(), true), ("/* c */".to_string(), false)]);
     }
 
     #[test]

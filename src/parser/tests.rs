@@ -249,6 +249,44 @@ fn printing_is_canonical_and_stable() {
 }
 
 #[test]
+fn comments_inside_items_are_kept_on_their_lines() {
+    let src = "shader h(n = 8) : s → c {\n    // the diffuse term\n    let d = N·L;  // (23)\n    let e = d +  # mid-expression\n        1;\n    d * e  /* result */\n    // closing\n}\nC δπx ← (δ h s x) // inside a statement\n    ⊕ T δu x;\n";
+    let (p, diags) = parse(src);
+    assert!(diags.is_empty(), "{diags:?}");
+    let printed = print::program(&p, print::Style::Unicode);
+    assert_eq!(
+        printed,
+        "shader h(n = 8) : s → c {\n    // the diffuse term\n    let d = N·L;  // (23)\n    # mid-expression\n    let e = d + 1;\n    d * e  /* result */\n    // closing\n}\n// inside a statement\nC δπx ← δ h s x ⊕ T δu x;\n"
+    );
+    // Printing again changes nothing.
+    let (again, _) = parse(&printed);
+    assert_eq!(print::program(&again, print::Style::Unicode), printed);
+}
+
+/// `fmt` loses no comment of any example, and is idempotent on them.
+#[test]
+fn every_example_keeps_every_comment() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/examples");
+    let comments = |text: &str| {
+        let mut all: Vec<String> = super::split::comments_in(text, 0).into_iter().map(|c| c.text).collect();
+        all.sort();
+        all
+    };
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "shd") {
+            continue;
+        }
+        let src = std::fs::read_to_string(&path).unwrap();
+        let (p, _) = parse(&src);
+        let printed = print::program(&p, print::Style::Unicode);
+        assert_eq!(comments(&printed), comments(&src), "{}", path.display());
+        let (again, _) = parse(&printed);
+        assert_eq!(print::program(&again, print::Style::Unicode), printed, "{}", path.display());
+    }
+}
+
+#[test]
 fn the_deepest_allowed_nesting_parses_in_a_small_stack() {
     // 64 levels is the limit (MAX_NESTING); it must parse in a 2 MiB thread
     // stack (the test harness default), with pest's stack guard untouched.
