@@ -132,6 +132,30 @@ fn heidrich_seidel_factorization_is_one_pass_with_two_textures() {
 }
 
 #[test]
+fn shadow_volume_stencil_pass_is_render_state_only() {
+    // seeds/001 Section 3.5: the stencil update is a depth test (Greater, no
+    // write) with stencil Replace; the stored depth is the depth buffer, not
+    // a texture unit, and the fragment computes nothing.
+    for target in ["geforce256", "wgsl"] {
+        let plan = plan_src(&example("shadow_volumes.shd"), target).unwrap();
+        assert_eq!(plan.passes.len(), 3, "{target}");
+        let stencil = &plan.passes[1];
+        assert!(stencil.textures.is_empty(), "{target}: {:?}", stencil.textures);
+        assert_eq!(stencil.fragment.operations, 0);
+        assert_eq!(stencil.state.depth.func, shadec::renderer::CompareFunc::Greater);
+        assert!(!stencil.state.depth.write);
+        assert_eq!(stencil.state.stencil.pass, shadec::renderer::StencilOp::Replace);
+        assert_eq!(stencil.state.blend.write_mask, [false; 4]);
+        assert_eq!(plan.passes[2].state.stencil.func, shadec::renderer::CompareFunc::NotEqual);
+        // It rasterizes the shadow volume x′, the others the object x.
+        let drawn = |p: &shadec::planner::Pass| plan.values.iter().find(|v| Some(v.id) == p.vertex.position).map(|v| v.op.clone());
+        assert!(drawn(&plan.passes[0]).is_some() && drawn(&plan.passes[1]).is_some());
+        assert_eq!(drawn(&plan.passes[0]), drawn(&plan.passes[2]));
+        assert_ne!(drawn(&plan.passes[1]), drawn(&plan.passes[0]), "{:?}", drawn(&plan.passes[1]));
+    }
+}
+
+#[test]
 fn zero_terms_are_removed_with_their_textures_and_passes() {
     let src = "
 texture T : 2d rgba8;

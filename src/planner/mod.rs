@@ -82,6 +82,9 @@ pub struct Form {
     pub channels: &'static str,
     /// A blend needing two passes (`C ← C·m + s`): the second value.
     pub then_add: Option<Handle<Expr>>,
+    /// The geometry rasterized when it is not the statement's own index:
+    /// the shadow volume `δπx′` whose depth a stencil update compares.
+    pub drawn_at: Option<Handle<Expr>>,
 }
 
 /// Plans `module` for `profile`. `source` gives `line:col` positions.
@@ -375,7 +378,7 @@ pub fn substitute(m: &mut Module, h: Handle<Expr>, map: &HashMap<Handle<Expr>, H
 
 /// Reads the framebuffer operation off a statement's (possibly fused) value.
 pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<Form, Diagnostic> {
-    let mut form = Form { blend: BlendMode::Replace, value, condition: None, stencil: None, depth: None, channels: "rgba", then_add: None };
+    let mut form = Form { blend: BlendMode::Replace, value, condition: None, stencil: None, depth: None, channels: "rgba", then_add: None, drawn_at: None };
     let unsupported = |what: &str| {
         Diagnostic::error("unsupported-blend", format!("framebuffer blending cannot express this: {what}"), st.span, "this statement")
             .with_help("write the statement as `C ← (C) ⊕ e`, `C ← (C) ⊕[add] e`, `C ← (C) ⊕[add] ((α C) * e)`, or compute the value without reading the framebuffer")
@@ -503,8 +506,12 @@ fn stencil_write(m: &Module, st: &Statement, value: Handle<Expr>) -> Option<Form
     let Expr::Binary { op: BinaryOp::Or, lhs, rhs } = m.exprs[value] else { return None };
     let own = self_read(m, st, FbChannel::Stencil)?;
     let cmp = if lhs == own { rhs } else if rhs == own { lhs } else { return None };
-    let Expr::Binary { op, rhs: b, .. } = m.exprs[cmp] else { return None };
+    let Expr::Binary { op, lhs: a, rhs: b } = m.exprs[cmp] else { return None };
     let stored_is_b = matches!(m.exprs[b], Expr::FramebufferRead { channel: FbChannel::Depth, .. });
+    // The fragment's own depth `z δπx′`: the shadow volume x′ is what this
+    // pass rasterizes (seeds/001 Section 3.5: "the shadow volume vertices
+    // are x′"), not the object x of the statement's index.
+    let Expr::Depth(drawn_at) = m.exprs[if stored_is_b { a } else { b }] else { return None };
     let func = match (op, stored_is_b) {
         (BinaryOp::Gt, true) | (BinaryOp::Lt, false) => crate::renderer::CompareFunc::Greater,
         (BinaryOp::Ge, true) | (BinaryOp::Le, false) => crate::renderer::CompareFunc::GreaterEqual,
@@ -520,13 +527,18 @@ fn stencil_write(m: &Module, st: &Statement, value: Handle<Expr>) -> Option<Form
         depth: Some(DepthState { func, write: false }),
         channels: "stencil",
         then_add: None,
+        drawn_at: Some(drawn_at),
     })
 }
 
 /// The pieces of one (fused) statement.
 fn plan_form(m: &mut Module, fit: &dyn FitCheck, cache: &mut SplitCache, st: &Statement, form: &Form, float_temps: bool, search: Search) -> Result<Vec<Piece>, Overflow> {
     if form.channels == "stencil" {
-        return Ok(vec![Piece { blend: BlendMode::Replace, value: form.value, dest: Dest::Main, alpha: true, why: String::new() }]);
+        // The depth test and the stencil operation of the pass state do the
+        // comparison; the fragment computes nothing and reads no texture
+        // (the stored depth `z C δπx′` is the depth buffer, not a unit).
+        let one = m.intern(Expr::Constant(crate::ir::Constant::scalar(1.0)), m.span(form.value)).map_err(|_| Overflow { resource: "a constant stencil-pass output".into(), need: 1, have: 0, at: None })?;
+        return Ok(vec![Piece { blend: BlendMode::Replace, value: one, dest: Dest::Main, alpha: true, why: String::new() }]);
     }
     let overflow = fit.fits(m, form.value).err();
     let mut splitter = Splitter::new(m, fit, cache, st.index, float_temps);
@@ -569,10 +581,11 @@ fn assemble(
                 (Dest::Main, Table::TexCoords(_)) => unreachable!(),
             };
             let mesh = st.freq == Frequency::Fragment || (st.freq == Frequency::Texel && !m.reachable(&[st.index]).iter().all(|h| !matches!(m.exprs[*h], Expr::VertexPosition(_))));
+            let drawn_at = form.drawn_at.unwrap_or(st.index);
             let geometry = if st.freq == Frequency::Screen {
                 Geometry::Screen
             } else if mesh {
-                Geometry::Mesh { projection: projection_name(m, st.index) }
+                Geometry::Mesh { projection: projection_name(m, drawn_at) }
             } else {
                 Geometry::Texels
             };
@@ -640,6 +653,7 @@ fn assemble(
             };
             roots.push(piece.value);
             roots.push(st.index);
+            roots.push(drawn_at);
             roots.extend(form.condition);
             passes.push(Pass {
                 statements: stmts.clone(),
@@ -647,7 +661,7 @@ fn assemble(
                 reason: pass_reason,
                 target,
                 geometry,
-                vertex: VertexWork { position: mesh.then_some(st.index.index() as u32), interpolants: u.interpolants.iter().map(|h| h.index() as u32).collect(), texgen: gen },
+                vertex: VertexWork { position: mesh.then_some(drawn_at.index() as u32), interpolants: u.interpolants.iter().map(|h| h.index() as u32).collect(), texgen: gen },
                 textures,
                 fragment: FragmentWork { output: piece.value.index() as u32, operations, condition: form.condition.map(|c| c.index() as u32) },
                 blend: piece.blend,
