@@ -371,3 +371,172 @@ fn program_level_zero_over_zero_is_counted_and_written_as_zero() {
     }
 }
 
+
+// ---------------------------------------------------------------------------
+// Antipodal vectors across a triangle: N on one edge, −N on the other.
+
+/// W odd: the quad's midline x = 0 (where N interpolates to zero) passes
+/// through the centres of column 32.
+const ANTIPODAL: &str = r#"(
+    resolution: (65, 65),
+    camera: (eye: (0.0, 0.0, 3.0), target: (0.0, 0.0, 0.0), fov_y_deg: 50.0, viewer: Infinite),
+    lights: [Directional(direction: (0.0, 0.0, -1.0), color: (1.0, 1.0, 1.0))],
+    objects: [(mesh: Obj("antipodal.obj"), material: "m")],
+    materials: { "m": (ambient: (0.2, 0.2, 0.2), diffuse: (0.8, 0.6, 0.4), specular: (1.0, 1.0, 1.0), shininess: 32.0) },
+    ambient: (0.25, 0.25, 0.25),
+)"#;
+
+#[test]
+fn antipodal_normals_flip_at_the_zero_crossing() {
+    let scene = scene(ANTIPODAL);
+    let mid = 32usize;
+    // Interpolating N and −N and renormalizing gives +N left of the midline
+    // and −N right of it (no slerp between antipodes is defined): fragment
+    // lighting shows exactly two colours, kd + ks facing the light and 0
+    // facing away, and the zero vector's fallback (0) on the midline itself.
+    let lit = [0.8f32 + 1.0, 0.6 + 1.0, 0.4 + 1.0];
+    for img in render_modes("fragment_lighting", &example("fragment_lighting.shd"), "wgsl", &scene) {
+        let mode = img.mode.name();
+        let expect = |left: bool| -> [f32; 4] {
+            let c = if left { lit } else { [0.0; 3] };
+            let c = if img.mode == Mode::Fixed9 { c.map(|x| x.min(1.0)) } else { c };
+            [c[0], c[1], c[2], 1.0]
+        };
+        let mut n = 0;
+        for (i, p) in img.covered() {
+            let x = i % img.width;
+            let ok = |left: bool| max_diff(p, expect(left)) <= 1e-3;
+            let fine = if x < mid { ok(true) } else if x > mid { ok(false) } else { ok(true) || ok(false) };
+            assert!(fine, "{mode}: pixel ({x}, {}) = {p:?}", i / img.width);
+            n += 1;
+        }
+        assert!(n > 1000, "{mode}: {n} pixels");
+    }
+    // Gouraud interpolates the two vertex colours: a ramp, never a NaN.
+    for img in render_modes("gouraud", &example("gouraud.shd"), "wgsl", &scene) {
+        let y = img.height / 2;
+        let (l, c, r) = (img.at(20, y)[1], img.at(mid, y)[1], img.at(44, y)[1]);
+        assert!(l > c && c > r && c > 0.05, "{}: a ramp {l} > {c} > {r}", img.mode.name());
+    }
+    let (full, _) = native("antipodal", &scene);
+    for (i, p) in full.iter().enumerate().filter(|(_, p)| p[3] > 0.5) {
+        let x = i % 65;
+        let ambient = max_diff(*p, [0.05, 0.05, 0.05, 1.0]) < 1e-6;
+        let bright = p[0] > 0.9;
+        assert!(if x < mid { bright } else if x > mid { ambient } else { bright || ambient }, "native ({x}): {p:?}");
+    }
+}
+
+// ---------------------------------------------------------------------------
+// Exponents 64-256 in 8 bits.
+
+/// A sphere lit from the camera: the highlight fills the middle.
+const HIGHLIGHT_SPHERE: &str = r#"(
+    resolution: (96, 96),
+    camera: (eye: (0.0, 0.0, 4.0), target: (0.0, 0.0, 0.0), fov_y_deg: 40.0, viewer: Local),
+    lights: [Directional(direction: (0.2, -0.1, -1.0), color: (1.0, 1.0, 1.0))],
+    objects: [(mesh: Sphere(radius: 1.0, slices: 48, stacks: 24), material: "m")],
+    materials: { "m": (ambient: (0.0, 0.0, 0.0), diffuse: (0.0, 0.0, 0.0), specular: (1.0, 1.0, 1.0), shininess: 128.0) },
+)"#;
+
+/// `max(0, N·H)^n`, H renormalized per pixel, in one of three forms.
+fn specular_program(n: u32, form: &str) -> String {
+    let mut s = String::from("vector H : half(0) in tangent;\nconst N : vec3 = (0, 0, 1);\nlet Hn = normalize(δ H s x);\nlet h = max(0, N·Hn);\n");
+    match form {
+        "squaring" => {
+            // seeds/000 Section 5.2: repeated self multiplication.
+            let mut k = 1;
+            let mut prev = "h".to_string();
+            while k < n {
+                k *= 2;
+                s += &format!("let h{k} = {prev} * {prev};\n");
+                prev = format!("h{k}");
+            }
+            s += &format!("C δπx ← {prev};\n");
+        }
+        "pow" => s += &format!("C δπx ← h^{n};\n"),
+        _ => {
+            s += &format!("texture Texp : 1d r8 bilinear clamp = exponent_table({n});\n");
+            s += "C δπx ← Texp h;\n";
+        }
+    }
+    s
+}
+
+/// sup over x ∈ [0, 1] of |f(x) − xⁿ|, sampled finely (2·10⁵ points plus
+/// every 8-bit grid point and its neighbours).
+fn sup_error(n: u32, f: impl Fn(f64) -> f64) -> f64 {
+    let mut xs: Vec<f64> = (0..=200_000).map(|k| k as f64 / 200_000.0).collect();
+    for j in 0..=255 {
+        let g = j as f64 / 255.0;
+        xs.extend([g, g - 0.5 / 255.0, g + 0.5 / 255.0, g - 0.5 / 255.0 + 1e-12, g + 0.5 / 255.0 - 1e-12]);
+    }
+    xs.into_iter().filter(|x| (0.0..=1.0).contains(x)).map(|x| (f(x) - x.powi(n as i32)).abs()).fold(0.0, f64::max)
+}
+
+/// The RMS of f(x) − xⁿ over x uniform in [0, 1].
+fn rms_error(n: u32, f: impl Fn(f64) -> f64) -> f64 {
+    let k = 100_000;
+    ((0..=k).map(|i| i as f64 / k as f64).map(|x| (f(x) - x.powi(n as i32)).powi(2)).sum::<f64>() / (k + 1) as f64).sqrt()
+}
+
+/// What 8-bit repeated squaring computes: the input rounded to the
+/// combiners' grid, then every product rounded (fixed9).
+fn squaring_chain(n: u32, x: f64) -> f64 {
+    let mut h = fixed9(x);
+    let mut k = 1;
+    while k < n {
+        h = fixed9(h * h);
+        k *= 2;
+    }
+    h
+}
+
+#[test]
+fn high_exponents_in_8_bits_stay_within_the_squaring_bound() {
+    let scene = scene(HIGHLIGHT_SPHERE);
+    for n in [64u32, 128, 256] {
+        // The bounds, from the arithmetic alone.
+        let b_squaring = sup_error(n, |x| squaring_chain(n, x));
+        let b_pow = sup_error(n, |x| fixed9(fixed9(x).powi(n as i32)));
+        let lut = generators::exponent_lut(256, n as f32, shadec::textures::TexelFormat::Rgba8);
+        let b_lut = sup_error(n, |x| lut.sample(x as f32, 0.5, shadec::textures::Filter::Bilinear, 0.0)[0] as f64);
+        // Below (1/510)^(1/n) every input squares to 0 — the highlight's
+        // skirt vanishes — and the surviving inputs are the few 8-bit
+        // steps near 1: the banding of seeds/000 Figure 10.
+        let survivors = (0..=255).filter(|j| squaring_chain(n, *j as f64 / 255.0) > 0.0).count();
+        eprintln!("n = {n}: sup error squaring {b_squaring:.4}, one rounded pow {b_pow:.4}, 8-bit table {b_lut:.4}; {survivors} nonzero levels");
+        // In the sup norm both lose ≈ n/(2·255)·x^(n−1) near x = 1 (the
+        // input's rounding, the table's last half texel); on average the
+        // table is far closer (no banding).
+        let (r_squaring, r_lut) = (rms_error(n, |x| squaring_chain(n, x)), rms_error(n, |x| lut.sample(x as f32, 0.5, shadec::textures::Filter::Bilinear, 0.0)[0] as f64));
+        eprintln!("n = {n}: rms error squaring {r_squaring:.5}, table {r_lut:.5}");
+        assert!(r_lut < r_squaring, "n = {n}: the lookup table beats repeated squaring on average");
+        assert!(survivors <= 1 + (255.0 * (1.0 - (1.0f64 / 510.0).powf(1.0 / n as f64))).ceil() as usize + 1);
+        for form in ["squaring", "pow", "table"] {
+            let src = specular_program(n, form);
+            let images = render_modes(&format!("n = {n}, {form}"), &src, "wgsl", &scene);
+            let exact = &images[0];
+            assert!(exact.max_rgb() > 0.9, "n = {n}: the highlight is in view");
+            let e_f32 = max_error(exact, &images[1]) as f64;
+            let e_9 = max_error(exact, &images[2]) as f64;
+            eprintln!("  {form}: max error f32 {e_f32:.4}, fixed9 {e_9:.4}");
+            let tol = 2e-6 * n as f64; // f32 varyings against f64
+            match form {
+                "squaring" => {
+                    assert!(e_f32 <= 1e-4, "n = {n}: f32 squaring {e_f32}");
+                    assert!(e_9 <= b_squaring + tol, "n = {n}: fixed9 squaring {e_9} > bound {b_squaring}");
+                }
+                "pow" => {
+                    assert!(e_f32 <= 1e-4, "n = {n}: f32 pow {e_f32}");
+                    // Whether fixed9 models `^` as one rounded pow or as squaring.
+                    assert!(e_9 <= b_pow.max(b_squaring) + tol, "n = {n}: fixed9 pow {e_9}");
+                }
+                _ => {
+                    assert!(e_f32 <= b_lut + 1e-3, "n = {n}: table {e_f32} > bound {b_lut}");
+                    assert!(e_9 <= b_lut + 1.0 / 255.0 + 1e-3, "n = {n}: fixed9 table {e_9}");
+                }
+            }
+        }
+    }
+}
