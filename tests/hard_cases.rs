@@ -540,3 +540,148 @@ fn high_exponents_in_8_bits_stay_within_the_squaring_bound() {
         }
     }
 }
+
+// ---------------------------------------------------------------------------
+// A highlight peaking inside one large triangle.
+
+/// A 4×4 plane of two triangles; eye and point light at the same height, so
+/// the Blinn and Phong highlights peak at the mirror point (0.8, 0, −0.4),
+/// inside one triangle and far from every vertex.
+const BIG_TRIANGLES: &str = r#"(
+    resolution: (96, 96),
+    camera: (eye: (0.0, 3.0, 3.0), target: (0.0, 0.0, 0.0), fov_y_deg: 60.0, viewer: Local),
+    lights: [Point(position: (1.6, 3.0, -3.8), color: (1.0, 1.0, 1.0))],
+    objects: [(mesh: Plane(size: 4.0, subdivisions: 1), material: "m")],
+    materials: { "m": (ambient: (0.0, 0.0, 0.0), diffuse: (0.3, 0.2, 0.1), specular: (1.0, 1.0, 1.0), shininess: 32.0) },
+)"#;
+
+/// The brightest pixel (the first, if several).
+fn brightest(pixels: &[[f32; 4]], width: usize) -> (f32, (usize, usize)) {
+    let (i, v) = pixels.iter().map(|p| p[0].max(p[1]).max(p[2])).enumerate().fold((0, 0.0f32), |a, (i, v)| if v > a.1 { (i, v) } else { a });
+    (v, (i % width, i / width))
+}
+
+#[test]
+fn highlight_inside_one_triangle_per_pixel_finds_it_gouraud_misses_it() {
+    let scene = scene(BIG_TRIANGLES);
+    let peak = project(&scene, Vec3::new(0.8, 0.0, -0.4));
+    let near_peak = |(x, y): (usize, usize)| ((x as f32 + 0.5 - peak.0).powi(2) + (y as f32 + 0.5 - peak.1).powi(2)).sqrt() <= 3.0;
+    let phong = render_modes("fragment lighting", &example("fragment_lighting.shd"), "wgsl", &scene);
+    let gouraud = render_modes("gouraud", &example("gouraud.shd"), "wgsl", &scene);
+    for (p, g) in phong.iter().zip(&gouraud) {
+        let mode = p.mode.name();
+        let (vp, at) = brightest(&p.pixels, p.width);
+        let (vg, at_g) = brightest(&g.pixels, g.width);
+        // Blue: the smallest diffuse (kd = 0.4), the same specular (ks = 1).
+        let m = (peak.0 as usize, peak.1 as usize);
+        let (p_at_peak, g_at_peak) = (p.at(m.0, m.1)[2], g.at(m.0, m.1)[2]);
+        eprintln!("highlight [{mode}]: per pixel {vp:.3} at {at:?} (mirror point at {peak:?}), blue there {p_at_peak:.3}; Gouraud's {g_at_peak:.3} there, brightest {vg:.3} at {at_g:?}");
+        // ks·1 at the peak, plus diffuse (fixed9 clamps to 1).
+        assert!(p_at_peak >= 0.99, "{mode}: per-pixel shading finds the highlight ({p_at_peak})");
+        if p.mode != Mode::Fixed9 {
+            assert!(near_peak(at), "{mode}: the brightest pixel is the mirror point: {at:?} vs {peak:?}");
+        }
+        // Gouraud interpolates vertex colours, whose highlight term
+        // (N·H)^32 is ≈ 0 at every vertex: only the diffuse ramp remains.
+        assert!(g_at_peak < 0.5, "{mode}: Gouraud misses the highlight ({g_at_peak} at the peak)");
+        assert!(!near_peak(at_g), "{mode}: Gouraud's brightest pixel is not the highlight");
+    }
+    let (full, adaptive) = native("big triangles", &scene);
+    // Phong's (M·L)^32 peaks at the same mirror point; the stage clamps to 1.
+    let m = (peak.0 as usize, peak.1 as usize);
+    let i = m.1 * 96 + m.0;
+    let (vn, va) = (full[i][2], adaptive[i][2]);
+    eprintln!("highlight [native]: blue {vn:.3} at the mirror point; adaptive {va:.3}");
+    assert!(vn >= 0.99, "native Phong finds it: {vn}");
+    assert!(va >= 0.99, "adaptive sample shading finds it: {va}");
+}
+
+// ---------------------------------------------------------------------------
+// A spot cut-off crossing a triangle.
+
+const SPOT_POSITION: [f32; 3] = [0.4, 2.0, 0.3];
+const SPOT_DIRECTION: [f32; 3] = [-0.1, -1.0, -0.05];
+const SPOT_CUTOFF_DEG: f32 = 15.0;
+
+/// A 6×6 plane of two triangles under a sharp spot (exponent 0) whose cone
+/// lies inside one triangle: every vertex is outside the cone.
+fn spot_scene() -> Scene {
+    let [px, py, pz] = SPOT_POSITION;
+    let [dx, dy, dz] = SPOT_DIRECTION;
+    scene(&format!(
+        r#"(
+    resolution: (96, 96),
+    camera: (eye: (0.0, 4.0, 3.0), target: (0.0, 0.0, 0.0), fov_y_deg: 60.0, viewer: Local),
+    lights: [Spot(position: ({px}, {py}, {pz}), direction: ({dx}, {dy}, {dz}), cutoff_deg: {SPOT_CUTOFF_DEG}, exponent: 0.0, color: (1.0, 1.0, 1.0))],
+    objects: [(mesh: Plane(size: 6.0, subdivisions: 1), material: "m")],
+    materials: {{ "m": (ambient: (0.0, 0.0, 0.0), diffuse: (0.7, 0.7, 0.7), specular: (0.0, 0.0, 0.0), shininess: 1.0) }},
+)"#
+    ))
+}
+
+/// GL's spot cut-off written in the language: the binder's light vector
+/// carries no spot factor, so the cone test is the program's.
+fn spot_program(per_pixel: bool) -> String {
+    let d = Vec3::from(SPOT_DIRECTION).normalize();
+    format!(
+        "vector N : normal in world;\nvector L : light(0) in world;\nconst D : vec3 = ({}, {}, {});\nconst cos_cut = {};\nconst kd : rgb = (0.7, 0.7, 0.7);\n\
+         shader p : s → c {{\n    let Ln = normalize(L);\n    let spot = (-Ln)·D ≥ cos_cut ? 1 : 0;\n    spot * kd * max(0, normalize(N)·Ln)\n}}\n\
+         C δπx ← {};\n",
+        d.x,
+        d.y,
+        d.z,
+        SPOT_CUTOFF_DEG.to_radians().cos(),
+        if per_pixel { "p δ s x" } else { "δ p s x" }
+    )
+}
+
+#[test]
+fn spot_cut_off_inside_a_triangle_is_sharp_per_pixel_and_lost_by_gouraud() {
+    let scene = spot_scene();
+    let (w, h) = (96usize, 96usize);
+    let d = Vec3::from(SPOT_DIRECTION).normalize();
+    let cos_cut = SPOT_CUTOFF_DEG.to_radians().cos();
+    // The analytic cone test at every pixel centre: the cosine to the axis.
+    let cosine: Vec<Option<f32>> = (0..w * h)
+        .map(|i| unproject_to_ground(&scene, i % w, i / w).filter(|p| p.x.abs() <= 3.0 && p.z.abs() <= 3.0).map(|p| (p - Vec3::from(SPOT_POSITION)).normalize().dot(d)))
+        .collect();
+    let inside = |i: usize| cosine[i].is_some_and(|c| c >= cos_cut);
+    let n_inside = (0..w * h).filter(|&i| inside(i)).count();
+    assert!(n_inside > 200, "the cone covers {n_inside} pixels");
+    // A pixel on the boundary: a neighbour is on the other side.
+    let boundary = |i: usize| {
+        let (x, y) = ((i % w) as i64, (i / w) as i64);
+        (-1..=1).any(|dy| (-1..=1).any(|dx| {
+            let (nx, ny) = (x + dx, y + dy);
+            nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64 && inside(ny as usize * w + nx as usize) != inside(i)
+        }))
+    };
+    let check = |what: &str, pixels: &[[f32; 4]], band: f32| {
+        let mut wrong = 0;
+        for i in 0..w * h {
+            let Some(c) = cosine[i] else { continue };
+            let lit = pixels[i][0] > 0.01;
+            if lit != inside(i) {
+                wrong += 1;
+                assert!(boundary(i) || (c - cos_cut).abs() <= band, "{what}: pixel ({}, {}) lit {lit}, cos {c} vs {cos_cut}", i % w, i / w);
+            }
+        }
+        eprintln!("spot [{what}]: {wrong} pixels on the other side of the cut-off, all on its boundary (band {band})");
+    };
+    for img in render_modes("spot, per pixel", &spot_program(true), "wgsl", &scene) {
+        // fixed9 rounds (−L)·D to 8 bits + sign: the edge may move by the
+        // cosines within 3/255 of the cut-off (each component of L and
+        // the dot product rounded by ½/255).
+        let band = if img.mode == Mode::Fixed9 { 3.0 / 255.0 } else { 0.0 };
+        check(img.mode.name(), &img.pixels, band);
+    }
+    for img in render_modes("spot, Gouraud", &spot_program(false), "wgsl", &scene) {
+        // Every vertex is outside the cone: the per-vertex shader sees no
+        // light, and δ interpolates zeros.
+        let lit = img.pixels.iter().filter(|p| p[0] > 0.01).count();
+        assert!(lit * 20 < n_inside, "{}: Gouraud lights {lit} of {n_inside} pixels", img.mode.name());
+    }
+    let (full, adaptive) = native("spot", &scene);
+    check("native", &full, 0.0);
+    check("adaptive", &adaptive, 0.0);
+}
