@@ -685,3 +685,125 @@ fn spot_cut_off_inside_a_triangle_is_sharp_per_pixel_and_lost_by_gouraud() {
     check("native", &full, 0.0);
     check("adaptive", &adaptive, 0.0);
 }
+
+// ---------------------------------------------------------------------------
+// Mipmapped bumpy normal maps: the golf-ball dimming (seeds/003 Section 2.4.2).
+
+/// Looking straight down at a unit plane of golf-ball dimples (16 cells,
+/// `bumps(16)`: 256² texels), from `height` above; the light 30° off the
+/// normal, so no dimple faces away from it (no self-shadow clamping).
+fn golf_scene(height: f32) -> Scene {
+    scene(&format!(
+        r#"(
+    resolution: (64, 64),
+    camera: (eye: (0.0, {height}, 0.0), target: (0.0, 0.0, 0.0), up: (0.0, 0.0, -1.0), fov_y_deg: 45.0, near: 0.01, viewer: Local),
+    lights: [Directional(direction: (-0.5, -0.8660254, 0.0), color: (1.0, 1.0, 1.0))],
+    objects: [(mesh: Plane(size: 1.0, subdivisions: 1), material: "m")],
+    materials: {{ "m": (diffuse: (1.0, 1.0, 1.0)) }},
+)"#
+    ))
+}
+
+/// Diffuse bump mapping with the filtered normal N′ of Kilgard's mipmaps:
+/// `with_alpha` rescales by the averaged length kept in alpha (Equation 15,
+/// Appendix G's combiner stage 1), else the renormalized N′ alone (the
+/// alternative Section 2.4.2 rejects).
+fn golf_program(with_alpha: bool) -> String {
+    format!(
+        "vector L : light(0) in tangent;\ntexture Tn : 2d rgba8 mipmap trilinear repeat = bumps(16);\nconst kd : rgb = (1, 1, 1);\nlet N′ = Tn δu x;\nC δπx ← kd * max(0, (δ L s x)·expand(N′.rgb)){};\n",
+        if with_alpha { " * N′.a" } else { "" }
+    )
+}
+
+/// The mean red value of the covered pixels (alpha 1: the output is rgb).
+fn mean_covered(img: &Image) -> f32 {
+    let v: Vec<f32> = img.covered().map(|(_, p)| p[0]).collect();
+    assert!(!v.is_empty());
+    v.iter().sum::<f32>() / v.len() as f32
+}
+
+#[test]
+fn golf_ball_dimming_is_kept_by_the_alpha_of_kilgards_filter() {
+    // Equation 13, the brute-force reference: the mean of max(0, L·N′ᵢ)
+    // over the base level's normals, with L in tangent space (T = +x,
+    // B = −z, N = +y for the plane: L = (0.5, 0, 0.866)).
+    let l = [0.5f32, 0.0, 0.8660254];
+    let base = generators::normal_map(&HeightField::dimples(256, 16), 4.0, NormalMapFormat::F32);
+    let texels = &base.levels[0].texels;
+    let eq13 = texels.iter().map(|t| (0..3).map(|c| l[c] * generators::expand(t[c])).sum::<f32>().max(0.0)).sum::<f32>() / texels.len() as f32;
+    let smooth = l[2]; // L·N of the flat ball
+    eprintln!("golf ball: Equation 13 gives {eq13:.4}, a smooth surface {smooth:.4}");
+    assert!(eq13 < smooth - 0.03, "the dimples make the surface dimmer");
+    // The mipmap chain keeps the mean vector, so the coarse levels' alpha shrinks.
+    let coarse = &base.levels[4];
+    let mean_alpha = coarse.texels.iter().map(|t| t[3]).sum::<f32>() / coarse.texels.len() as f32;
+    assert!(mean_alpha < 0.95, "level 4 (one texel per dimple) is shorter: {mean_alpha}");
+    let (near, far) = (golf_scene(0.15), golf_scene(4.8));
+    for mode in MODES {
+        let m = mode.name();
+        let near_a = mean_covered(&render("golf near, alpha", &golf_program(true), "wgsl", &near, mode));
+        let near_n = mean_covered(&render("golf near, renormalized", &golf_program(false), "wgsl", &near, mode));
+        let far_a = mean_covered(&render("golf far, alpha", &golf_program(true), "wgsl", &far, mode));
+        let far_n = mean_covered(&render("golf far, renormalized", &golf_program(false), "wgsl", &far, mode));
+        eprintln!("golf ball [{m}]: near {near_a:.4} / {near_n:.4}, far {far_a:.4} (alpha) / {far_n:.4} (renormalized)");
+        // Up close (level 0, alpha 1) both programs see the bumps themselves.
+        assert!((near_a - near_n).abs() < 0.01, "{m}: near {near_a} vs {near_n}");
+        assert!((near_a - eq13).abs() < 0.03, "{m}: near {near_a} vs Equation 13 {eq13}");
+        // From afar, the alpha keeps Equation 13's dimming; renormalizing
+        // loses it: "bumpy diffuse surfaces incorrectly appear too bright".
+        // 8-bit maps (f32, fixed9) lose a little more: Appendix F stores
+        // each level's length truncated to 1/255 and the next level filters
+        // the stored texels, so the truncations add up over 4 levels.
+        let tol = if mode == Mode::Exact { 0.005 } else { 0.04 };
+        assert!((far_a - eq13).abs() < tol, "{m}: far with alpha {far_a} vs Equation 13 {eq13}");
+        assert!(far_n > eq13 + 0.06, "{m}: far, renormalized {far_n} is too bright against {eq13}");
+        assert!(far_n - eq13 > 2.0 * (far_a - eq13).abs(), "{m}: the alpha is the better filter");
+    }
+}
+
+// ---------------------------------------------------------------------------
+// A light exactly in the surface plane.
+
+fn in_plane_scene(light: &str) -> Scene {
+    scene(&format!(
+        r#"(
+    resolution: (64, 64),
+    camera: (eye: (0.0, 3.0, 3.0), target: (0.0, 0.0, 0.0), fov_y_deg: 60.0, viewer: Local),
+    lights: [{light}],
+    objects: [(mesh: Plane(size: 4.0, subdivisions: 4), material: "m")],
+    materials: {{ "m": (ambient: (0.2, 0.2, 0.2), diffuse: (0.8, 0.8, 0.8), specular: (1.0, 1.0, 1.0), shininess: 16.0) }},
+    ambient: (0.25, 0.25, 0.25),
+)"#
+    ))
+}
+
+#[test]
+fn light_in_the_surface_plane_gives_no_diffuse_and_gated_specular() {
+    let diffuse = "vector N : normal in world;\nvector L : light(0) in world;\nshader p : s → c = max(0, normalize(N)·normalize(L));\nC δπx ← p δ s x;\n";
+    for light in ["Directional(direction: (-1.0, 0.0, 0.0), color: (1.0, 1.0, 1.0))", "Point(position: (3.0, 0.0, 0.5), color: (1.0, 1.0, 1.0))"] {
+        let scene = in_plane_scene(light);
+        // N·L = 0 exactly at every vertex and pixel: no diffuse light, in any mode.
+        for img in render_modes("N·L, light in the plane", diffuse, "wgsl", &scene) {
+            assert!(img.covered().count() > 1000);
+            assert!(img.max_rgb() == 0.0, "{} [{light}]: {}", img.mode.name(), img.max_rgb());
+        }
+        // Kilgard's s_self = saturate(8 Lz) is 0, which gates the diffuse term
+        // and, through destination alpha, the specular pass (Equation 16):
+        // exact shows the ambient decal only. The stored cube map encodes
+        // Lz = 0 as 128/255, i.e. 1/255 after expand (Appendix D), so
+        // s_self ≤ 8/255 there, and each gated term is at most that much.
+        let k = render_modes("kilgard, light in the plane", &example("kilgard_bump_mapping.shd"), "geforce256", &scene);
+        for img in &k[1..] {
+            let e = max_error(&k[0], img);
+            eprintln!("light in the plane [{}], kilgard: max error {e:.4}", img.mode.name());
+            assert!(e <= 2.0 * 8.0 / 255.0 + 2.0 / 255.0, "{}: {e}", img.mode.name());
+        }
+        // The native Phong stage: N·L ≤ 0 skips the light (GL's rule): ambient only.
+        let (full, adaptive) = native("light in the plane", &scene);
+        for img in [&full, &adaptive] {
+            for p in img.iter().filter(|p| p[3] > 0.5) {
+                assert!(max_diff(*p, [0.05, 0.05, 0.05, 1.0]) < 1e-6, "{light}: {p:?}");
+            }
+        }
+    }
+}
