@@ -816,6 +816,16 @@ mod tests {
     }
 
     #[test]
+    fn normalize_of_zero_is_zero() {
+        // docs/numerics.md: the half vector of L = −V, a zero-length normal.
+        let m = Module::default();
+        let h = Handle::new(0);
+        assert_eq!(super::math(&m, MathFunction::Normalize, &[h], Ty::Vec3, &[[0.0; 4]]), [0.0; 4]);
+        let v = super::math(&m, MathFunction::Normalize, &[h], Ty::Vec3, &[[3.0, 0.0, 4.0, 0.0]]);
+        close(&v[..3], &[0.6, 0.0, 0.8]);
+    }
+
+    #[test]
     fn swizzle_compose_convert() {
         let mut m = Module::default();
         let c = k(&mut m, Ty::Rgba, &[0.1, 0.2, 0.3, 0.4]);
