@@ -211,7 +211,17 @@ fn math(module: &Module, fun: MathFunction, args: &[Handle<Expr>], ty: Ty, o: &[
     let f1 = |f: fn(f64) -> f64| lanes(|i| f(a[i]));
     match fun {
         Normalize => {
+            // normalize(0) has no direction. GLSL leaves it undefined (NaN on
+            // most GPUs); we define it as the zero vector, as glam's
+            // `normalize_or_zero` in the scene binder does: every dot product
+            // with it is 0, so a zero-length interpolated normal and the half
+            // vector of L = −V (seeds/003 Eq. 16, H = (L + V)/|L + V|) light
+            // nothing — what GL's lighting gives there, since its specular
+            // term is 0 wherever N·L ≤ 0. docs/numerics.md lists the cases.
             let n = dot(&a, &a, ty.width()).sqrt();
+            if n == 0.0 {
+                return [0.0; 4];
+            }
             lanes(|i| a[i] / n)
         }
         Length => [dot(&a, &a, module.info(args[0]).ty.width()).sqrt(); 4],
@@ -803,6 +813,16 @@ mod tests {
         let (v, f) = ap(&m, &Expr::Select { cond: a, accept: c, reject: None });
         close(&v[..3], &[0.1, 0.2, 0.3]);
         assert!(f.is_none());
+    }
+
+    #[test]
+    fn normalize_of_zero_is_zero() {
+        // docs/numerics.md: the half vector of L = −V, a zero-length normal.
+        let m = Module::default();
+        let h = Handle::new(0);
+        assert_eq!(super::math(&m, MathFunction::Normalize, &[h], Ty::Vec3, &[[0.0; 4]]), [0.0; 4]);
+        let v = super::math(&m, MathFunction::Normalize, &[h], Ty::Vec3, &[[3.0, 0.0, 4.0, 0.0]]);
+        close(&v[..3], &[0.6, 0.0, 0.8]);
     }
 
     #[test]

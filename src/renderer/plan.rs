@@ -43,6 +43,7 @@
 //!   the texture units iterate them in float.
 
 use std::cell::RefCell;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::collections::{BTreeMap, HashMap};
 use std::time::{Duration, Instant};
 
@@ -91,6 +92,11 @@ pub struct Frame {
     pub stats: DrawStats,
     /// Wall time of the passes (textures and binding excluded).
     pub time: Duration,
+    /// Fragments whose computed value had a NaN or ±∞ component before it
+    /// was written (a NaN is written as 0, see `FragmentStage::shade` below):
+    /// the hard-case suite (`tests/hard_cases.rs`, `docs/numerics.md`)
+    /// asserts this is 0, so a fallback cannot hide a NaN.
+    pub nonfinite: u64,
 }
 
 /// A program bound to a scene: textures loaded, objects bound. Build once,
@@ -162,6 +168,7 @@ impl<'a> PlanRenderer<'a> {
         let mut rendered: BTreeMap<String, Rendered> = BTreeMap::new();
         let mut stats = DrawStats::default();
         let mut last_fb: Option<String> = None;
+        let mut nonfinite = 0;
         let total = plan.passes.iter().map(|p| if matches!(p.geometry, Geometry::Mesh { .. }) { objects.len() } else { 1 }).sum::<usize>();
         let mut done = 0;
         for (index, pass) in plan.passes.iter().enumerate() {
@@ -195,6 +202,7 @@ impl<'a> PlanRenderer<'a> {
             let stage = FragmentProgram::new(self, mode, &pi, &rendered, reads, own_depth)?;
             let state = pass.state;
             let target = targets.get_mut(&name).expect("created above");
+            let counted = &stage.nonfinite;
             match &pass.geometry {
                 Geometry::Mesh { .. } => {
                     for object in &objects {
@@ -214,6 +222,7 @@ impl<'a> PlanRenderer<'a> {
                     progress(done, total);
                 }
             }
+            nonfinite += counted.load(Ordering::Relaxed);
             match &pass.target {
                 RenderTarget::Framebuffer { .. } => last_fb = Some(name.clone()),
                 RenderTarget::Texture { .. } | RenderTarget::Temporary { .. } => {
@@ -226,7 +235,7 @@ impl<'a> PlanRenderer<'a> {
         let time = start.elapsed();
         let name = last_fb.ok_or_else(|| RenderError::Unsupported("the plan writes no framebuffer: nothing to show".into()))?;
         let image = targets.remove(&name).expect("written");
-        Ok(Frame { image, name, stats, time })
+        Ok(Frame { image, name, stats, time, nonfinite })
     }
 }
 
@@ -419,6 +428,8 @@ struct FragmentProgram<'a> {
     reads: HashMap<u32, Framebuffer>,
     own: Option<Framebuffer>,
     filters: Vec<Filter>,
+    /// Fragments whose value was not finite ([`Frame::nonfinite`]).
+    nonfinite: AtomicU64,
 }
 
 thread_local! {
@@ -569,6 +580,7 @@ impl<'a> FragmentProgram<'a> {
             reads,
             own,
             filters,
+            nonfinite: AtomicU64::new(0),
         })
     }
 
@@ -749,7 +761,10 @@ pub fn exact_lookup(f: ExactFunction, c: Value) -> Value {
     match f {
         ExactFunction::Normalize { signed } => {
             let l = (c[0] * c[0] + c[1] * c[1] + c[2] * c[2]).sqrt();
-            let d = if l > 0.0 && l.is_finite() { [c[0] / l, c[1] / l, c[2] / l] } else { [0.0, 0.0, 1.0] };
+            // The zero vector has no direction: normalize(0) = 0, the IR's
+            // fallback (`ir::eval`, docs/numerics.md). The stored cube map
+            // cannot hold it and returns +X's centre texel instead.
+            let d = if l > 0.0 && l.is_finite() { [c[0] / l, c[1] / l, c[2] / l] } else { [0.0, 0.0, 0.0] };
             if signed {
                 [d[0], d[1], d[2], 1.0]
             } else {
@@ -792,6 +807,9 @@ impl FragmentStage for FragmentProgram<'_> {
                 3 => [v[0], v[1], v[2], 1.0],
                 _ => v,
             };
+            if v.iter().any(|x| !x.is_finite()) {
+                self.nonfinite.fetch_add(1, Ordering::Relaxed);
+            }
             *out = v.map(|x| if x.is_nan() { 0.0 } else { x as f32 });
             FragmentResult::Keep
         })

@@ -808,6 +808,19 @@ impl<'a> Gen<'a> {
         f
     }
 
+    /// `normalize(x)` is undefined in WGSL for x = 0 (NaN on lavapipe); the
+    /// IR defines it as the zero vector (`ir::eval`, docs/numerics.md:
+    /// the half vector of L = −V, a zero-length interpolated normal), so
+    /// the shader selects 0 where `dot(x, x)` is 0.
+    fn zero_if_no_direction(&mut self, b: &mut Body, x: NH, unit: NH, w: usize) -> NH {
+        let len2 = self.math(b, naga::MathFunction::Dot, &[x, x]);
+        let zero = b.lit(0.0);
+        let has_direction = self.binop(b, naga::BinaryOperator::Greater, len2, zero);
+        let ty = self.vec_ty(w);
+        let zero_vector = b.plain(Expression::ZeroValue(ty));
+        b.emit(Expression::Select { condition: has_direction, accept: unit, reject: zero_vector })
+    }
+
     fn binop(&mut self, b: &mut Body, op: naga::BinaryOperator, l: NH, r: NH) -> NH {
         b.emit(Expression::Binary { op, left: l, right: r })
     }
@@ -1172,7 +1185,12 @@ impl<'a> Gen<'a> {
                 if matches!(fun, MathFunction::Cross | MathFunction::Reflect) && ws.iter().any(|x| *x != 3) {
                     return self.unsupported(format!("`{}` of non-3-component values", fun.name()), Some(n));
                 }
-                self.math(b, f, &xs)
+                let v = self.math(b, f, &xs);
+                if *fun == MathFunction::Normalize && w > 1 {
+                    self.zero_if_no_direction(b, xs[0], v, w)
+                } else {
+                    v
+                }
             }
             Expr::Swizzle { value, pattern, len, .. } => {
                 let x = val(b, *value)?;
