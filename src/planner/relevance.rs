@@ -463,10 +463,16 @@ pub struct Culled {
 }
 
 /// Words for a culled light's criterion.
-pub fn criterion(findings: &Findings, reach: &crate::scene::relevance::Reach, threshold: f64) -> String {
+pub fn criterion(findings: &Findings, light: &crate::scene::Light, reach: &crate::scene::relevance::Reach, threshold: f64) -> String {
     use crate::scene::relevance::Outside;
+    match (findings.max_intensity, reach.outside, light) {
+        (Some(_), Some(Outside::SpotCone { cutoff_deg }), _) => return format!("volume of influence: the object lies outside the spot's cone (cut-off {cutoff_deg}°)"),
+        (Some(i), _, crate::scene::Light::Spot { cutoff_deg, .. }) if i == 0.0 => {
+            return format!("volume of influence: every vertex of the object lies outside the spot's cone (cut-off {cutoff_deg}°)")
+        }
+        _ => {}
+    }
     match (findings.max_intensity, reach.outside) {
-        (Some(_), Some(Outside::SpotCone { cutoff_deg })) => return format!("volume of influence: the object lies outside the spot's cone (cut-off {cutoff_deg}°)"),
         (Some(i), _) if i <= threshold => {
             return format!("volume of influence: distance attenuation — the light is at least {:.2} away, its intensity at most {:.2e}", reach.min_distance, i)
         }
@@ -616,7 +622,7 @@ pub fn cull(m: &mut Module, spec: &super::SceneSpecialization, exp: &super::ligh
             let (mesh, model) = &spec.assets.meshes[o];
             let (oc, or) = sphere_of(mesh, *model);
             let reach = crate::scene::relevance::light_reach(l, oc, or);
-            let criterion = criterion(&findings, &reach, threshold);
+            let criterion = criterion(&findings, l, &reach, threshold);
             let object = &scene.objects[o];
             out.removed.push(super::Removed {
                 kind: "light".into(),
