@@ -635,6 +635,7 @@ fn plan_form(m: &mut Module, fit: &dyn FitCheck, cache: &mut SplitCache, st: &St
     Ok(pieces)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn assemble(
     m: &Module,
     profile: &Profile,

@@ -199,7 +199,7 @@ impl<'a, 's> Bounder<'a, 's> {
                     BinaryOp::Dot => self.dot(&a, &b, m.info(*lhs).ty.width()),
                     BinaryOp::Pow => {
                         let r = Bound::lanes(&a, &b, |a0, a1, b0, b1| {
-                            if a0 < 0.0 || !(b0 > 0.0) {
+                            if a0 < 0.0 || b0.is_nan() || b0 <= 0.0 {
                                 return (f64::NEG_INFINITY, f64::INFINITY);
                             }
                             let c = [a0.powf(b0), a0.powf(b1), a1.powf(b0), a1.powf(b1)];
@@ -237,7 +237,7 @@ impl<'a, 's> Bounder<'a, 's> {
                             lo += 4.0 * l;
                             hi += 4.0 * u;
                         }
-                        let all = Bound::lanes(&t, &f, |a0, a1, b0, b1| mul_iv(a0, a1, b0, b1));
+                        let all = Bound::lanes(&t, &f, mul_iv);
                         Bound { lo: [lo, lo, lo, lo.min(all.lo[3])], hi: [hi, hi, hi, hi.max(all.hi[3])], cone: None }.clean()
                     }
                     _ => Bound::ALL,
@@ -467,7 +467,7 @@ pub fn criterion(findings: &Findings, light: &crate::scene::Light, reach: &crate
     use crate::scene::relevance::Outside;
     match (findings.max_intensity, reach.outside, light) {
         (Some(_), Some(Outside::SpotCone { cutoff_deg }), _) => return format!("volume of influence: the object lies outside the spot's cone (cut-off {cutoff_deg}°)"),
-        (Some(i), _, crate::scene::Light::Spot { cutoff_deg, .. }) if i == 0.0 => {
+        (Some(0.0), _, crate::scene::Light::Spot { cutoff_deg, .. }) => {
             return format!("volume of influence: every vertex of the object lies outside the spot's cone (cut-off {cutoff_deg}°)")
         }
         _ => {}
@@ -579,7 +579,7 @@ pub fn cull(m: &mut Module, spec: &super::SceneSpecialization, exp: &super::ligh
         totals.sort_by(|a, b| a.0.total_cmp(&b.0));
         let mut sum = 0.0;
         for (total, light, findings) in totals {
-            if !(sum + total <= threshold) {
+            if total.is_nan() || sum + total > threshold {
                 break;
             }
             sum += total;

@@ -163,7 +163,8 @@ pub fn light_reach(light: &Light, center: Vec3, radius: f32) -> Reach {
 /// centre, `scale · cos^n` is below `threshold`. `None` when the highlight
 /// never falls below it (scale ≤ threshold) or n ≤ 0.
 pub fn shininess_cutoff(threshold: f32, scale: f32, n: f32) -> Option<f32> {
-    if !(n > 0.0) || !(scale > threshold) || !(threshold > 0.0) {
+    let defined = n > 0.0 && scale > threshold && threshold > 0.0;
+    if !defined {
         return None;
     }
     Some((threshold / scale).powf(1.0 / n).clamp(-1.0, 1.0).acos())
