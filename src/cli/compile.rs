@@ -50,7 +50,24 @@ pub fn run(args: &CompileArgs) -> ExitCode {
                 Ok(p) if diagnostics.iter().all(|d| !d.is_error()) => {
                     if args.emit == Emit::Plan || shaders {
                         let planned = match &scene {
-                            Some(sc) => shadec::planner::plan_for_scene(&m, &p, Some(&text), &sc.constants),
+                            // One pass per light, the scene's uniforms folded, lights culled per object.
+                            Some(sc) => match sc.build() {
+                                Ok(assets) => {
+                                    let textures = shadec::scene::bind::texture_decls(&program, &sc.constants);
+                                    let spec = shadec::planner::SceneSpecialization {
+                                        scene: sc,
+                                        assets: &assets,
+                                        textures: &textures,
+                                        fold_uniforms: true,
+                                        cull_threshold: Some(shadec::planner::DEFAULT_CULL_THRESHOLD),
+                                    };
+                                    shadec::planner::plan_specialized(&m, &p, Some(&text), &spec)
+                                }
+                                Err(e) => {
+                                    eprintln!("error: {e}");
+                                    return ExitCode::from(EXIT_SOURCE_ERRORS);
+                                }
+                            },
                             None => shadec::planner::plan(&m, &p, Some(&text)),
                         };
                         match planned {
@@ -184,7 +201,8 @@ fn report_removed(plan: &shadec::planner::PassPlan) {
         eprintln!("specialization: nothing removed for this scene");
         return;
     }
-    eprintln!("specialization for this scene ({} passes remain):", plan.passes.len());
+    let lights = plan.removed.iter().filter(|r| r.kind == "light").count();
+    eprintln!("specialization for this scene ({} passes remain; {lights} light × object pair(s) culled):", plan.passes.len());
     for r in &plan.removed {
         eprintln!("  {:<9} {} — {} (at {})", r.kind, r.what, r.why, r.at);
     }

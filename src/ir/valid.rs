@@ -175,6 +175,8 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
             };
             let interval = match m.vectors[*vector as usize].kind {
                 Some(VectorKind::Position) => Interval::ALL,
+                // A light's colour · attenuation · spot factor: not a unit vector.
+                Some(VectorKind::Intensity) => Interval { lo: 0.0, hi: f64::INFINITY },
                 _ => Interval::SIGNED,
             };
             out(Ty::Vec3, freq, interval)

@@ -374,7 +374,10 @@ words! {
 }
 
 words! {
-    /// Shading vectors of seeds/001 Figure 3 (and B, the binormal of seeds/003).
+    /// Shading vectors of seeds/001 Figure 3 (and B, the binormal of seeds/003),
+    /// and `intensity`: the light's colour at the point, times its distance
+    /// attenuation and spot factor (the "color of each light source" that
+    /// seeds/001 Section 3.2 lists among the shading parameters).
     VectorKind {
         Normal => "normal",
         Tangent => "tangent",
@@ -384,6 +387,7 @@ words! {
         Half => "half",
         Reflection => "reflection",
         Position => "position",
+        Intensity => "intensity",
     }
 }
 

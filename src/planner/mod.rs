@@ -25,7 +25,9 @@
 pub mod affine;
 pub mod fit;
 pub mod interface;
+pub mod lights;
 pub mod plan;
+pub mod relevance;
 pub mod specialize;
 pub mod split;
 
@@ -121,6 +123,57 @@ fn plan_inner(
     search: Search,
     scene: Option<&std::collections::BTreeMap<String, Vec<f32>>>,
 ) -> Result<Planned, Vec<Diagnostic>> {
+    plan_inner_with(module, profile, source, search, scene, None)
+}
+
+/// Scene-driven specialization (issue 7 parts 1-2): what
+/// [`plan_specialized`] does for a scene.
+pub struct SceneSpecialization<'s> {
+    pub scene: &'s crate::scene::Scene,
+    /// The scene's meshes (`Scene::build`): light relevance is per object.
+    pub assets: &'s crate::scene::SceneAssets,
+    /// The program's texture declarations (`scene::bind::texture_decls`):
+    /// normalization cube maps keep the cone of their coordinates.
+    pub textures: &'s [crate::scene::bind::TextureDecl],
+    /// Fold the uniforms the scene sets (and drop the terms they zero).
+    pub fold_uniforms: bool,
+    /// Cull lights whose terms add at most this much to any pixel of an
+    /// object (summed over the culled lights); `None`: no culling.
+    pub cull_threshold: Option<f64>,
+}
+
+/// The light culling threshold of `compile --scene`: half an 8-bit step,
+/// so that an RGBA8 framebuffer rounds to the same pixel.
+pub const DEFAULT_CULL_THRESHOLD: f64 = 0.5 / 255.0;
+
+/// Plans `module` for a scene: one pass per light for a program written
+/// for light 0 ([`lights`]), then — as `spec` asks — the scene's uniforms
+/// folded with their zero terms, textures and passes, and the lights that
+/// cannot reach an object culled for it ([`relevance`]). With
+/// `fold_uniforms: false, cull_threshold: None` this is the unspecialized
+/// plan of the program on the scene (the reference the tests compare with).
+pub fn plan_specialized(module: &Module, profile: &Profile, source: Option<&str>, spec: &SceneSpecialization) -> Result<Planned, Vec<Diagnostic>> {
+    let constants = spec.fold_uniforms.then_some(&spec.scene.constants);
+    plan_inner_with(module, profile, source, Search::Planner, constants, Some(spec))
+}
+
+/// Per statement of the expanded module: its light, the objects it is
+/// drawn for, and its source statement.
+#[derive(Clone, Debug, Default)]
+struct PerLight {
+    light: Vec<Option<u32>>,
+    objects: Vec<Option<Vec<usize>>>,
+    source: Vec<usize>,
+}
+
+fn plan_inner_with(
+    module: &Module,
+    profile: &Profile,
+    source: Option<&str>,
+    search: Search,
+    scene: Option<&std::collections::BTreeMap<String, Vec<f32>>>,
+    spec: Option<&SceneSpecialization>,
+) -> Result<Planned, Vec<Diagnostic>> {
     let errors: Vec<Diagnostic> = crate::profile::fit(module, profile).into_iter().filter(|d| d.is_error()).collect();
     if !errors.is_empty() {
         return Err(errors);
@@ -137,6 +190,33 @@ fn plan_inner(
         }
     };
     let mut removed = Vec::new();
+    let mut per_light = PerLight { light: vec![None; m.statements.len()], objects: vec![None; m.statements.len()], source: (0..m.statements.len()).collect() };
+    let mut culled_statements: Vec<usize> = Vec::new();
+    let mut names: Vec<String> = (1..=m.statements.len()).map(|i| i.to_string()).collect();
+    if let Some(spec) = spec {
+        let expansion = lights::expand(&mut m, spec.scene.lights.len(), &at);
+        removed.extend(expansion.notes.iter().cloned());
+        let n = m.statements.len();
+        per_light = PerLight { light: vec![None; n], objects: vec![None; n], source: Vec::with_capacity(n) };
+        for i in 0..n {
+            per_light.source.push(expansion.source.get(i).copied().unwrap_or(i));
+            per_light.light[i] = expansion.light_of(i);
+        }
+        names = (0..n)
+            .map(|i| match per_light.light[i] {
+                Some(l) if expansion.light_of(i).is_some() && spec.scene.lights.len() > 1 => format!("{} (light {l})", per_light.source[i] + 1),
+                _ => (per_light.source[i] + 1).to_string(),
+            })
+            .collect();
+        if let Some(threshold) = spec.cull_threshold {
+            let culled = relevance::cull(&mut m, spec, &expansion, threshold, &names, &at);
+            removed.extend(culled.removed);
+            culled_statements = culled.statements;
+            for (i, objects) in culled.objects {
+                per_light.objects[i] = Some(objects);
+            }
+        }
+    }
     if let Some(values) = scene {
         let (bound, mismatched) = specialize::bind_uniforms(&mut m, values, &at);
         if !mismatched.is_empty() {
@@ -167,15 +247,23 @@ fn plan_inner(
     let mut cache = SplitCache::default();
     let mut diags = Vec::new();
     let mut chosen: Vec<Chosen> = Vec::new();
-    let live: Vec<usize> = (0..m.statements.len()).filter(|&i| !matches!(m.statements[i].table, Table::TexCoords(_)) && !specialize::is_noop(&m, &m.statements[i])).collect();
-    for &i in (0..m.statements.len()).filter(|i| !live.contains(i) && !matches!(m.statements[*i].table, Table::TexCoords(_))).collect::<Vec<_>>().iter() {
-        removed.push(Removed { kind: "pass".into(), what: format!("statement {}", i + 1), why: "after specialization it leaves its target unchanged".into(), at: at(m.statements[i].span) });
+    let live: Vec<usize> = (0..m.statements.len())
+        .filter(|&i| !matches!(m.statements[i].table, Table::TexCoords(_)) && !specialize::is_noop(&m, &m.statements[i]) && !culled_statements.contains(&i))
+        .collect();
+    for &i in (0..m.statements.len()).filter(|i| !live.contains(i) && !culled_statements.contains(i) && !matches!(m.statements[*i].table, Table::TexCoords(_))).collect::<Vec<_>>().iter() {
+        removed.push(Removed { kind: "pass".into(), what: format!("statement {}", names[i]), why: "after specialization it leaves its target unchanged".into(), at: at(m.statements[i].span) });
     }
     let mut k = 0;
     while k < live.len() {
         // The run of statements fusable with live[k].
         let mut run = vec![live[k]];
-        while run.len() < MAX_FUSE && k + run.len() < live.len() && fusable(&m, &m.statements[*run.last().unwrap()], &m.statements[live[k + run.len()]]) {
+        let own_pass = |i: usize| per_light.light[i].is_some_and(|l| l > 0);
+        while run.len() < MAX_FUSE
+            && k + run.len() < live.len()
+            && !own_pass(*run.last().unwrap())
+            && !own_pass(live[k + run.len()])
+            && fusable(&m, &m.statements[*run.last().unwrap()], &m.statements[live[k + run.len()]])
+        {
             run.push(live[k + run.len()]);
         }
         // best[j]: the cheapest plan of run[..j].
@@ -201,7 +289,7 @@ fn plan_inner(
                 if stmts.len() > 1 {
                     if let Err(o) = fit.fits(&m, fused) {
                         if stmts.len() == 2 {
-                            not_fused.entry(stmts[1]).or_insert(format!("fused with statement {} it {o}", stmts[0] + 1));
+                            not_fused.entry(stmts[1]).or_insert(format!("fused with statement {} it {o}", names[stmts[0]]));
                         }
                         continue;
                     }
@@ -212,7 +300,7 @@ fn plan_inner(
                         if stmts.len() == 1 {
                             first_error.get_or_insert(d);
                         } else if stmts.len() == 2 {
-                            not_fused.entry(stmts[1]).or_insert(format!("fused with statement {}, {}", stmts[0] + 1, d.message));
+                            not_fused.entry(stmts[1]).or_insert(format!("fused with statement {}, {}", names[stmts[0]], d.message));
                         }
                         continue;
                     }
@@ -223,7 +311,7 @@ fn plan_inner(
                         if stmts.len() == 1 {
                             first_error.get_or_insert(cannot_split(&m, &st, profile, &o));
                         } else if stmts.len() == 2 {
-                            not_fused.entry(stmts[1]).or_insert(format!("fused with statement {} it {o}", stmts[0] + 1));
+                            not_fused.entry(stmts[1]).or_insert(format!("fused with statement {} it {o}", names[stmts[0]]));
                         }
                         continue;
                     }
@@ -232,7 +320,7 @@ fn plan_inner(
                 if stmts.len() == 2 {
                     not_fused.entry(stmts[1]).or_insert(format!(
                         "fused with statement {} it needs {} pass{} on {}, no fewer than apart",
-                        stmts[0] + 1,
+                        names[stmts[0]],
                         pieces.len(),
                         if pieces.len() == 1 { "" } else { "es" },
                         profile.name
@@ -252,15 +340,15 @@ fn plan_inner(
                 let reason = if stmts.len() > 1 {
                     format!(
                         "statements {} fused: together they fit {} pass{} on {}",
-                        stmts.iter().map(|s| (s + 1).to_string()).collect::<Vec<_>>().join(", "),
+                        stmts.iter().map(|s| names[*s].clone()).collect::<Vec<_>>().join(", "),
                         pieces.len(),
                         if pieces.len() == 1 { "" } else { "es" },
                         profile.name
                     )
                 } else {
                     match not_fused.get(&stmts[0]) {
-                        Some(why) => format!("statement {} as written: {why}", stmts[0] + 1),
-                        None => format!("statement {} as written", stmts[0] + 1),
+                        Some(why) => format!("statement {} as written: {why}", names[stmts[0]]),
+                        None => format!("statement {} as written", names[stmts[0]]),
                     }
                 };
                 (stmts, form, pieces, reason)
@@ -276,7 +364,7 @@ fn plan_inner(
     if !diags.is_empty() {
         return Err(diags);
     }
-    let plan = assemble(&m, profile, &chosen, &texgen, removed, &at);
+    let plan = assemble(&m, profile, &chosen, &texgen, removed, &at, &names, &per_light);
     Ok(Planned { module: m, plan })
 }
 
@@ -559,6 +647,7 @@ fn plan_form(m: &mut Module, fit: &dyn FitCheck, cache: &mut SplitCache, st: &St
     Ok(pieces)
 }
 
+#[allow(clippy::too_many_arguments)]
 fn assemble(
     m: &Module,
     profile: &Profile,
@@ -566,6 +655,8 @@ fn assemble(
     texgen: &HashMap<u32, String>,
     removed: Vec<Removed>,
     at: &dyn Fn(Span) -> String,
+    names: &[String],
+    per_light: &PerLight,
 ) -> PassPlan {
     let mut passes = Vec::new();
     let mut drawn: Vec<(Table, Handle<Expr>)> = Vec::new();
@@ -645,8 +736,8 @@ fn assemble(
                 reason.clone()
             } else {
                 let label = match stmts.as_slice() {
-                    [s] => format!("statement {}", s + 1),
-                    many => format!("statements {} (fused)", many.iter().map(|s| (s + 1).to_string()).collect::<Vec<_>>().join(", ")),
+                    [s] => format!("statement {}", names[*s]),
+                    many => format!("statements {} (fused)", many.iter().map(|s| names[*s].clone()).collect::<Vec<_>>().join(", ")),
                 };
                 let why = if piece.why.is_empty() { "the part rendered first" } else { piece.why.as_str() };
                 format!("{label} split into {n} passes on {} (pass {} of {n}): {why}", profile.name, pi + 1)
@@ -655,8 +746,18 @@ fn assemble(
             roots.push(st.index);
             roots.push(drawn_at);
             roots.extend(form.condition);
+            let light = match stmts.as_slice() {
+                [s] => per_light.light.get(*s).copied().flatten(),
+                _ => None,
+            };
+            let objects = match stmts.as_slice() {
+                [s] => per_light.objects.get(*s).cloned().flatten(),
+                _ => None,
+            };
             passes.push(Pass {
-                statements: stmts.clone(),
+                statements: { let mut v: Vec<usize> = stmts.iter().map(|s| per_light.source.get(*s).copied().unwrap_or(*s)).collect(); v.dedup(); v },
+                light,
+                objects,
                 at: at(st.span),
                 reason: pass_reason,
                 target,

@@ -31,6 +31,14 @@ pub struct Pass {
     /// order); several when statements were fused, one statement may need
     /// several passes when it was split.
     pub statements: Vec<usize>,
+    /// For a program written for light 0 on a scene with lights: the light
+    /// this pass adds (one pass per light, docs/pass-plan.md).
+    #[serde(default)]
+    pub light: Option<u32>,
+    /// The objects (indices into the scene's `objects`) this pass is drawn
+    /// for, when light culling skipped it for the others; `None`: all.
+    #[serde(default)]
+    pub objects: Option<Vec<usize>>,
     /// `line:col` of the first statement.
     pub at: String,
     /// Why this pass exists: the statement it implements, the limit that
@@ -175,7 +183,8 @@ pub struct Value {
 /// Something specialization removed.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Removed {
-    /// `term`, `texture`, `pass`, `declaration`, `light`.
+    /// `uniform`, `term`, `texture`, `pass`, `light` (a light culled for an
+    /// object), `note` (why a statement was not replicated per light).
     pub kind: String,
     pub what: String,
     pub why: String,

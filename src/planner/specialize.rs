@@ -138,3 +138,103 @@ pub fn bind_uniforms(m: &mut Module, values: &std::collections::BTreeMap<String,
     }
     (bound, mismatched)
 }
+
+/// What scene-driven specialization removed from one program on one scene
+/// (issue 7 parts 1-2): the data `shadec bench` prints and
+/// `shadec compile --scene` lists.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RemovalReport {
+    pub target: String,
+    pub lights: usize,
+    pub objects: usize,
+    /// Passes of the program on the scene, one per light, before specialization.
+    pub passes_before: usize,
+    /// Passes after folding, zero-term removal and light culling.
+    pub passes_after: usize,
+    /// Mesh draws (a pass drawn for an object) before and after: light
+    /// culling skips a light's pass for the objects it cannot reach.
+    pub draws_before: usize,
+    pub draws_after: usize,
+    /// (light, object) pairs skipped by light culling.
+    pub lights_culled: usize,
+    /// Every entry of the specialized plan's `removed`.
+    pub removed: Vec<Removed>,
+}
+
+impl RemovalReport {
+    /// A Markdown section: the counts, then one row per removal.
+    pub fn to_markdown(&self) -> String {
+        let mut s = format!(
+            "| target | lights | objects | passes | mesh draws | lights culled (light × object) |\n|---|---|---|---|---|---|\n| {} | {} | {} | {} → {} | {} → {} | {} |\n\n",
+            self.target, self.lights, self.objects, self.passes_before, self.passes_after, self.draws_before, self.draws_after, self.lights_culled
+        );
+        if self.removed.is_empty() {
+            s += "Nothing removed.\n";
+            return s;
+        }
+        s += "| kind | what | why | at |\n|---|---|---|---|\n";
+        for r in &self.removed {
+            let cell = |t: &str| t.replace('|', "\\|");
+            s += &format!("| {} | {} | {} | {} |\n", r.kind, cell(&r.what), cell(&r.why), r.at);
+        }
+        s
+    }
+}
+
+/// Mesh draws of a plan on a scene with `objects` objects.
+fn draws(plan: &super::PassPlan, objects: usize) -> usize {
+    plan.passes
+        .iter()
+        .map(|p| match p.geometry {
+            super::Geometry::Mesh { .. } => p.objects.as_ref().map_or(objects, |o| o.len()),
+            _ => 1,
+        })
+        .sum()
+}
+
+/// The removal report of `program_source` on `scene` for `profile`: the
+/// program planned for the scene's lights without specialization, then
+/// with the scene's uniforms folded and lights culled at
+/// [`super::DEFAULT_CULL_THRESHOLD`].
+pub fn removal_report(program_source: &str, profile: &crate::profile::Profile, scene: &crate::scene::Scene) -> Result<RemovalReport, Vec<crate::diag::Diagnostic>> {
+    let (before, after) = plan_pair(program_source, profile, scene, super::DEFAULT_CULL_THRESHOLD)?;
+    let objects = scene.objects.len();
+    Ok(RemovalReport {
+        target: after.plan.target.clone(),
+        lights: scene.lights.len(),
+        objects,
+        passes_before: before.plan.passes.len(),
+        passes_after: after.plan.passes.len(),
+        draws_before: draws(&before.plan, objects),
+        draws_after: draws(&after.plan, objects),
+        lights_culled: after.plan.removed.iter().filter(|r| r.kind == "light").count(),
+        removed: after.plan.removed.clone(),
+    })
+}
+
+/// The unspecialized and the specialized plan of a program on a scene
+/// (both with one pass per light): what the report and the tests compare.
+pub fn plan_pair(
+    program_source: &str,
+    profile: &crate::profile::Profile,
+    scene: &crate::scene::Scene,
+    threshold: f64,
+) -> Result<(super::Planned, super::Planned), Vec<crate::diag::Diagnostic>> {
+    let (program, diags) = crate::parser::check(program_source);
+    if diags.iter().any(|d| d.is_error()) {
+        return Err(diags.into_iter().filter(|d| d.is_error()).collect());
+    }
+    let (module, diags) = crate::ir::lower(&program);
+    if diags.iter().any(|d| d.is_error()) {
+        return Err(diags.into_iter().filter(|d| d.is_error()).collect());
+    }
+    let assets = scene.build().map_err(|e| {
+        vec![crate::diag::Diagnostic::error("scene-error", format!("the scene cannot be built: {e}"), Span::DETACHED, "")
+            .with_help("fix the scene file (its meshes and textures must load)")]
+    })?;
+    let textures = crate::scene::bind::texture_decls(&program, &scene.constants);
+    let spec = |fold: bool, cull: Option<f64>| super::SceneSpecialization { scene, assets: &assets, textures: &textures, fold_uniforms: fold, cull_threshold: cull };
+    let before = super::plan_specialized(&module, profile, Some(program_source), &spec(false, None))?;
+    let after = super::plan_specialized(&module, profile, Some(program_source), &spec(true, Some(threshold)))?;
+    Ok((before, after))
+}

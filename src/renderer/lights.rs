@@ -58,6 +58,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use glam::{Mat3, Mat4, Vec3};
 
 use super::{CullMode, DepthState, Fragment, FragmentResult, FragmentStage, Pass, RenderState, VertexStage};
+use crate::scene::relevance::{angle, light_reach, sphere_angle, Cone};
 use crate::scene::{Camera, Light, Material, Scene, SceneAssets, Viewer};
 
 /// Lights beyond this many are never culled (the term mask travels as an
@@ -282,22 +283,8 @@ impl LitScene {
     }
 }
 
-/// Angle between two unit vectors.
-fn angle(a: Vec3, b: Vec3) -> f32 {
-    a.dot(b).clamp(-1.0, 1.0).acos()
-}
-
-/// Half-angle of the cone of directions from a point at distance `d` to a
-/// sphere of radius `r` around it (π when the point is inside).
-fn sphere_angle(r: f32, d: f32) -> f32 {
-    if d <= r {
-        std::f32::consts::PI
-    } else {
-        (r / d).asin()
-    }
-}
-
-/// The mask of relevant terms of one triangle (module docs, Section 2.2).
+/// The mask of relevant terms of one triangle (module docs, Section 2.2);
+/// the cones and the volume of influence are [`crate::scene::relevance`]'s.
 pub fn triangle_relevance(p: &[Vec3; 3], n: &[Vec3; 3], lights: &[Light], mat: &Material, camera: &Camera, tolerance: f32) -> u32 {
     use std::f32::consts::{FRAC_PI_2, PI};
     let pm = (p[0] + p[1] + p[2]) / 3.0;
@@ -319,45 +306,16 @@ pub fn triangle_relevance(p: &[Vec3; 3], n: &[Vec3; 3], lights: &[Light], mat: &
     };
     let m_a = (2.0 * n_a.dot(v_a) * n_a - v_a).normalize_or_zero();
     let theta_m = (2.0 * theta_n + theta_v).min(PI);
+    let normals = Cone { axis: n_a, half_angle: theta_n };
+    let reflected = Cone { axis: m_a, half_angle: theta_m };
     let tol = tolerance / (2.0 * lights.len().max(1) as f32);
     let mut mask = 0u32;
     for (i, light) in lights.iter().enumerate().take(MAX_CULLED_LIGHTS) {
-        let (l_a, theta_l, i_max) = match *light {
-            Light::Directional { direction, color } => ((-direction).normalize_or_zero(), 0.0, color),
-            Light::Point { position, color, attenuation } => {
-                let d = position - pm;
-                let dist = d.length();
-                let i_max = color * attenuation.factor((dist - r_max).max(0.0));
-                (d.normalize_or_zero(), sphere_angle(r_max, dist), i_max)
-            }
-            Light::Spot { position, direction, cutoff_deg, exponent, color, attenuation } => {
-                let d = position - pm;
-                let dist = d.length();
-                let theta_l = sphere_angle(r_max, dist);
-                // Smallest angle between the spot axis and a ray to the polygon.
-                let gamma = (angle(direction.normalize_or_zero(), -d.normalize_or_zero()) - theta_l).max(0.0);
-                let spot = if gamma > cutoff_deg.to_radians() { 0.0 } else { gamma.cos().max(0.0).powf(exponent) };
-                (d.normalize_or_zero(), theta_l, color * attenuation.factor((dist - r_max).max(0.0)) * spot)
-            }
-        };
-        let max_ndl = {
-            let a = (angle(n_a, l_a) - theta_n - theta_l).max(0.0);
-            if a >= FRAC_PI_2 {
-                0.0
-            } else {
-                a.cos()
-            }
-        };
-        let max_mdl = {
-            let a = (angle(m_a, l_a) - theta_m - theta_l).max(0.0);
-            if a >= FRAC_PI_2 {
-                0.0
-            } else {
-                a.cos()
-            }
-        };
-        let diffuse = (mat.diffuse * i_max).max_element() * max_ndl;
-        let specular = if max_ndl > 0.0 { (mat.specular * i_max).max_element() * max_mdl.powf(mat.shininess) } else { 0.0 };
+        let reach = light_reach(light, pm, r_max);
+        let max_ndl = normals.max_cos(reach.to_light).max(0.0);
+        let max_mdl = reflected.max_cos(reach.to_light).max(0.0);
+        let diffuse = (mat.diffuse * reach.max_intensity).max_element() * max_ndl;
+        let specular = if max_ndl > 0.0 { (mat.specular * reach.max_intensity).max_element() * max_mdl.powf(mat.shininess) } else { 0.0 };
         if !(diffuse < tol) {
             mask |= 1 << (2 * i);
         }

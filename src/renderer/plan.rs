@@ -205,7 +205,12 @@ impl<'a> PlanRenderer<'a> {
             let counted = &stage.nonfinite;
             match &pass.geometry {
                 Geometry::Mesh { .. } => {
-                    for object in &objects {
+                    for (oi, object) in objects.iter().enumerate() {
+                        // Light culling drew this light's pass only for some objects.
+                        if pass.objects.as_ref().is_some_and(|keep| !keep.contains(&oi)) {
+                            done += 1;
+                            continue;
+                        }
                         let vs = MeshVertices::new(m, object, &pi, &self.uniforms);
                         let s = super::draw(target, &RasterPass { triangles: &object.mesh.triangles, vertex: &vs, fragment: &stage, state })?;
                         add(&mut stats, &s);

@@ -16,7 +16,9 @@
 //!     in the declared space: `object` (model), `world`, `eye` (the default
 //!     when a declaration names none) or `tangent`, where a vector v is
 //!     (T·v, B·v, N·v) with the vertex's object-space frame (seeds/003
-//!     Appendix C: the per-vertex light vector in tangent space).
+//!     Appendix C: the per-vertex light vector in tangent space);
+//!     `intensity(i)`, light i's colour times its distance attenuation and
+//!     spot factor at the vertex (a colour, the same in every space).
 //! - **Projections**: `π` (and `π*`: no jitter) = camera projection · view ·
 //!   model; `πl` (any other subscript but `R`) = light 0's projection ·
 //!   view · model — a perspective from the light's position (or from far
@@ -407,6 +409,8 @@ struct ObjectSpace {
     view_dir_obj: Option<Vec3>,
     /// Per light: position (w = 1) or direction to the light (w = 0), object space.
     lights: Vec<Vec4>,
+    /// The scene's lights (world space), for `intensity(i)`.
+    world_lights: Vec<Light>,
 }
 
 /// One object of the scene, bound: per-vertex leaves and projections.
@@ -458,7 +462,7 @@ impl<'s> BoundObject<'s> {
             .collect();
         BoundObject {
             mesh,
-            space: ObjectSpace { model, model_view, normal_eye, normal_world, eye_obj, view_dir_obj, lights },
+            space: ObjectSpace { model, model_view, normal_eye, normal_world, eye_obj, view_dir_obj, lights, world_lights: scene.lights.clone() },
             camera_clip: scene.camera.view_projection(aspect) * model,
             light_clip: light_clip * model,
             texgen: BTreeMap::new(),
@@ -510,6 +514,13 @@ impl<'s> BoundObject<'s> {
         };
         let index = decl.index.unwrap_or(0);
         let kind = decl.kind.unwrap_or(VectorKind::Normal);
+        if kind == VectorKind::Intensity {
+            // A colour, the same in every space: light i's colour ·
+            // attenuation · spot factor at the vertex (scene::Light::incidence).
+            let world = self.space.model.transform_point3(p);
+            let c = self.space.world_lights.get(index as usize).map_or(Vec3::ZERO, |l| l.incidence(world).intensity);
+            return [c.x as f64, c.y as f64, c.z as f64, 0.0];
+        }
         let (obj, is_normal, is_point) = match kind {
             VectorKind::Normal => (n, true, false),
             VectorKind::Tangent => (t, false, false),
@@ -522,6 +533,7 @@ impl<'s> BoundObject<'s> {
                 (2.0 * n.dot(v) * n - v, false, false)
             }
             VectorKind::Position => (p, false, true),
+            VectorKind::Intensity => (Vec3::ZERO, false, false), // returned above
         };
         let unit = !is_point;
         let out = match decl.space.unwrap_or(Space::Eye) {
@@ -656,7 +668,7 @@ impl ir::eval::Env for VertexEnv<'_, '_> {
 /// Exact mode renormalizes these after interpolation.
 pub fn is_unit_direction(m: &Module, h: Handle<Expr>) -> bool {
     match &m.exprs[h] {
-        Expr::Vector { vector, .. } => m.vectors[*vector as usize].kind.is_some_and(|k| k != VectorKind::Position),
+        Expr::Vector { vector, .. } => m.vectors[*vector as usize].kind.is_some_and(|k| !matches!(k, VectorKind::Position | VectorKind::Intensity)),
         Expr::Math { fun: ir::MathFunction::Normalize, .. } => true,
         Expr::Math { fun: ir::MathFunction::Reflect, args } => args.iter().all(|a| is_unit_direction(m, *a)),
         Expr::Unary { op: ir::UnaryOp::Neg, value } => is_unit_direction(m, *value),

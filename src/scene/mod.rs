@@ -14,6 +14,7 @@ pub mod bind;
 pub mod camera;
 pub mod light;
 pub mod mesh;
+pub mod relevance;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

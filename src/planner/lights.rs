@@ -1,0 +1,279 @@
+//! One pass per light (issue 7 part 1): how a program written for one light
+//! runs on a scene with several.
+//!
+//! **The rule.** A program that names only light 0 — vectors declared
+//! `light`, `light(0)`, `half`, `half(0)`, `intensity`, `intensity(0)` — is
+//! written for "one of possibly many light sources" (seeds/001 Figure 3's
+//! L). On a scene with n lights, each colour statement on a mesh
+//! (`C δπx ← …`) is read as a sum of products (through `+`, `−`, unary `−`,
+//! `*`, `⊕[add]` and `⊕[modulate]`, a product distributed over a sum when
+//! only one factor depends on the light). The terms that depend on light 0
+//! are the statement's *light terms*; the others are its *once terms*. The
+//! statement runs as written for light 0, and for every other light i a
+//! statement `C δπx ← (C δπx) ⊕[add] (light terms with light 0's vectors
+//! replaced by light i's)` follows it — the multipass accumulation of
+//! seeds/001 (9) with ⊕ = add, "a separate pass for each light source"
+//! (seeds/001 Section 3.4). These per-light statements are never fused with
+//! one another, so each light is its own pass and light culling can skip it
+//! per object (`planner::relevance`).
+//!
+//! Not replicated (light 0 only, and said so in the plan's `removed` list
+//! as kind `note`): a program that names another light index (it addresses
+//! lights explicitly); a statement whose framebuffer operation is not a
+//! replacement or an addition (a modulation `C ← C · d(L)` does not
+//! distribute over lights); a light term that reads its own target (Kilgard's
+//! `(α C) · specular` gates by a value the previous light's pass changed);
+//! a light term under a ⊕ mode that is not linear in it (`decal`, `blend`,
+//! `replace`, `interpolate`, `add_signed`, `dot3`) or under a selection.
+
+use std::collections::{HashMap, HashSet};
+
+use super::affine::Builder;
+use super::plan::Removed;
+use crate::ir::{BinaryOp, Expr, FbChannel, Frequency, Handle, Module, Statement, Table, Ty, UnaryOp, Vector, VectorId};
+use crate::parser::ast::{CombineMode, VectorKind};
+use crate::span::Span;
+
+/// A statement that depends on light 0 and was replicated.
+#[derive(Clone, Debug, PartialEq)]
+pub struct LightStatement {
+    /// The statement's index in the expanded module.
+    pub statement: usize,
+    /// The original statement's index (0-based, in source order).
+    pub source_statement: usize,
+    pub light: u32,
+    /// Light 0's statement only: its value without the light terms (the
+    /// once terms, or zero), what it becomes when light 0 is culled.
+    pub without_light: Option<Handle<Expr>>,
+    /// The light terms (light `light`'s vectors).
+    pub light_terms: Handle<Expr>,
+}
+
+/// What [`expand`] did.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Expansion {
+    pub statements: Vec<LightStatement>,
+    /// Why statements that depend on light 0 were not replicated.
+    pub notes: Vec<Removed>,
+    /// Per statement of the expanded module: its source statement (empty: the identity).
+    pub source: Vec<usize>,
+}
+
+impl Expansion {
+    /// The light of statement `i` of the expanded module, if it is a per-light statement.
+    pub fn light_of(&self, i: usize) -> Option<u32> {
+        self.statements.iter().find(|s| s.statement == i).map(|s| s.light)
+    }
+}
+
+/// Whether a vector declaration is light 0 as "the light" (module docs).
+fn is_light_zero(v: &Vector) -> bool {
+    matches!(v.kind, Some(VectorKind::Light | VectorKind::Half | VectorKind::Intensity)) && v.index.unwrap_or(0) == 0
+}
+
+/// Replicates the light terms of `m`'s statements for lights 1..n (module docs).
+pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> Expansion {
+    let mut out = Expansion::default();
+    let template: Vec<VectorId> = (0..m.vectors.len() as VectorId).filter(|&v| is_light_zero(&m.vectors[v as usize])).collect();
+    if template.is_empty() {
+        return out;
+    }
+    if let Some(v) = m.vectors.iter().find(|v| matches!(v.kind, Some(VectorKind::Light | VectorKind::Half | VectorKind::Intensity)) && v.index.unwrap_or(0) > 0) {
+        out.notes.push(Removed {
+            kind: "note".into(),
+            what: "per-light passes".into(),
+            why: format!("the program names light {} explicitly (`{}`), so it is not replicated per scene light", v.index.unwrap_or(0), v.name),
+            at: at(v.span),
+        });
+        return out;
+    }
+    // Nodes that depend on light 0.
+    let mut dep: HashSet<Handle<Expr>> = HashSet::new();
+    for i in 0..m.exprs.len() {
+        let h = Handle::new(i);
+        let e = &m.exprs[h];
+        let d = match e {
+            Expr::Vector { vector, .. } => template.contains(vector),
+            _ => e.operands().iter().any(|o| dep.contains(o)),
+        };
+        if d {
+            dep.insert(h);
+        }
+    }
+    // Light i's copies of the template vectors.
+    let mut copies: HashMap<(VectorId, u32), VectorId> = HashMap::new();
+    let n_statements = m.statements.len();
+    let mut new_statements: Vec<(usize, Statement, u32, Handle<Expr>)> = Vec::new();
+    for k in 0..n_statements {
+        let st = m.statements[k].clone();
+        if !dep.contains(&st.value) {
+            continue;
+        }
+        let note = |why: String| Removed { kind: "note".into(), what: format!("statement {}", k + 1), why, at: at(st.span) };
+        let (fb, own) = match st.table {
+            Table::Framebuffer { id, channel: FbChannel::Color } if st.freq == Frequency::Fragment => {
+                (id, m.exprs.find(&Expr::FramebufferRead { framebuffer: id, channel: FbChannel::Color, position: st.index }))
+            }
+            _ => {
+                out.notes.push(note("it depends on the light but is not a colour statement on a mesh: light 0 only".into()));
+                continue;
+            }
+        };
+        let own_alpha = m.exprs.find(&Expr::FramebufferRead { framebuffer: fb, channel: FbChannel::Alpha, position: st.index });
+        let mut terms = Vec::new();
+        if let Err(why) = decompose(m, &dep, st.value, false, &mut terms) {
+            out.notes.push(note(format!("{why}: light 0 only")));
+            continue;
+        }
+        let reads_own = |m: &Module, h: Handle<Expr>| {
+            m.reachable(&[h]).into_iter().any(|n| Some(n) == own || Some(n) == own_alpha || matches!(m.exprs[n], Expr::FramebufferRead { framebuffer, .. } if framebuffer == fb))
+        };
+        let (light, once): (Vec<_>, Vec<_>) = terms.into_iter().partition(|(h, _)| dep.contains(h));
+        if light.iter().any(|(h, _)| reads_own(m, *h)) {
+            out.notes.push(note("its light term reads its own target (as Kilgard's `(α C) · specular` does): light 0 only".into()));
+            continue;
+        }
+        // The framebuffer appears only as `C + …` (a term C itself) or not at all.
+        if once.iter().any(|(h, neg)| reads_own(m, *h) && (Some(*h) != own || *neg)) {
+            out.notes.push(note("its framebuffer operation is not a replacement or an addition (a product does not distribute over lights): light 0 only".into()));
+            continue;
+        }
+        let ty = m.info(st.value).ty;
+        let without = match sum(m, &once) {
+            Some(h) => Some(h),
+            None if once.is_empty() => Builder { module: m }.constant(ty, 0.0),
+            None => None,
+        };
+        let (Some(light_sum), Some(without)) = (sum(m, &light), without) else {
+            out.notes.push(note("its light terms could not be summed: light 0 only".into()));
+            continue;
+        };
+        let Some(own) = own.or_else(|| m.intern(Expr::FramebufferRead { framebuffer: fb, channel: FbChannel::Color, position: st.index }, Span::DETACHED).ok()) else { continue };
+        out.statements.push(LightStatement { statement: k, source_statement: k, light: 0, without_light: Some(without), light_terms: light_sum });
+        for i in 1..n_lights as u32 {
+            let mut map = HashMap::new();
+            for h in m.reachable(&[light_sum]) {
+                if let Expr::Vector { vector, site } = m.exprs[h] {
+                    if template.contains(&vector) {
+                        let copy = *copies.entry((vector, i)).or_insert_with(|| {
+                            let v = &m.vectors[vector as usize];
+                            let c = Vector { name: format!("{}#{i}", v.name), kind: v.kind, index: Some(i), space: v.space, span: v.span };
+                            m.vectors.push(c);
+                            (m.vectors.len() - 1) as VectorId
+                        });
+                        if let Ok(n) = m.intern(Expr::Vector { vector: copy, site }, m.span(h)) {
+                            map.insert(h, n);
+                        }
+                    }
+                }
+            }
+            let Some(term) = super::substitute(m, light_sum, &map) else { continue };
+            let term = match m.info(term).ty {
+                Ty::Rgb => m.intern(Expr::Convert { value: term, to: Ty::Rgba }, m.span(term)).ok(),
+                Ty::Rgba | Ty::Scalar => Some(term),
+                _ => None,
+            };
+            let Some(value) = term.and_then(|t| m.intern(Expr::Combine { mode: CombineMode::Add, lhs: own, rhs: t }, st.span).ok()) else {
+                out.notes.push(note(format!("light {i}'s term does not add to a colour: light 0 only")));
+                continue;
+            };
+            new_statements.push((k, Statement { value, ..st.clone() }, i, term.unwrap_or(value)));
+        }
+    }
+    // Insert light i's statements right after their statement, in light order.
+    let mut by_source: HashMap<usize, Vec<(Statement, u32, Handle<Expr>)>> = HashMap::new();
+    for (k, st, i, term) in new_statements {
+        by_source.entry(k).or_default().push((st, i, term));
+    }
+    let old = std::mem::take(&mut m.statements);
+    let mut index_of = vec![0; old.len()];
+    let mut added: Vec<LightStatement> = Vec::new();
+    for (k, st) in old.into_iter().enumerate() {
+        index_of[k] = m.statements.len();
+        m.statements.push(st);
+        for (st, i, term) in by_source.remove(&k).unwrap_or_default() {
+            added.push(LightStatement { statement: m.statements.len(), source_statement: k, light: i, without_light: None, light_terms: term });
+            m.statements.push(st);
+        }
+    }
+    for s in &mut out.statements {
+        s.statement = index_of[s.source_statement];
+    }
+    out.source = (0..m.statements.len()).map(|i| added.iter().find(|a| a.statement == i).map_or_else(|| index_of.iter().position(|&x| x == i).unwrap_or(i), |a| a.source_statement)).collect();
+    out.statements.extend(added);
+    out.statements.sort_by_key(|s| s.statement);
+    out
+}
+
+/// The terms of a sum of products (module docs); `Err` when a light term
+/// sits under an operation that is not linear in it.
+fn decompose(m: &mut Module, dep: &HashSet<Handle<Expr>>, h: Handle<Expr>, neg: bool, out: &mut Vec<(Handle<Expr>, bool)>) -> Result<(), String> {
+    if !dep.contains(&h) {
+        out.push((h, neg));
+        return Ok(());
+    }
+    match m.exprs[h].clone() {
+        Expr::Binary { op: BinaryOp::Add, lhs, rhs } | Expr::Combine { mode: CombineMode::Add, lhs, rhs } => {
+            decompose(m, dep, lhs, neg, out)?;
+            decompose(m, dep, rhs, neg, out)
+        }
+        Expr::Binary { op: BinaryOp::Sub, lhs, rhs } | Expr::Combine { mode: CombineMode::Subtract, lhs, rhs } => {
+            decompose(m, dep, lhs, neg, out)?;
+            decompose(m, dep, rhs, !neg, out)
+        }
+        Expr::Unary { op: UnaryOp::Neg, value } => decompose(m, dep, value, !neg, out),
+        ref e @ (Expr::Binary { op: BinaryOp::Mul, lhs, rhs } | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs }) if dep.contains(&lhs) != dep.contains(&rhs) => {
+            let (factor, light) = if dep.contains(&lhs) { (rhs, lhs) } else { (lhs, rhs) };
+            let mut inner = Vec::new();
+            decompose(m, dep, light, false, &mut inner)?;
+            if inner.len() == 1 {
+                out.push((h, neg ^ inner[0].1));
+                return Ok(());
+            }
+            let combine = matches!(e, Expr::Combine { .. });
+            for (t, n) in inner {
+                let p = if combine {
+                    m.intern(Expr::Combine { mode: CombineMode::Modulate, lhs: factor, rhs: t }, Span::DETACHED).ok()
+                } else {
+                    Builder { module: m }.mul(factor, t)
+                };
+                out.push((p.ok_or("a product of its light terms is ill-typed")?, neg ^ n));
+            }
+            Ok(())
+        }
+        Expr::Combine { mode, .. } if !matches!(mode, CombineMode::Modulate) => Err(format!("its light term is under ⊕[{}], which is not linear in it", mode.as_str())),
+        Expr::Select { .. } => Err("its light term is under a selection".into()),
+        _ => {
+            out.push((h, neg));
+            Ok(())
+        }
+    }
+}
+
+/// Σ ± terms (`None` for no terms or an ill-typed sum).
+fn sum(m: &mut Module, terms: &[(Handle<Expr>, bool)]) -> Option<Handle<Expr>> {
+    let mut acc: Option<Handle<Expr>> = None;
+    for &(t, neg) in terms {
+        let mut b = Builder { module: m };
+        acc = Some(match (acc, neg) {
+            (None, false) => t,
+            (None, true) => b.neg(t)?,
+            (Some(a), false) => add_any(m, a, t)?,
+            (Some(a), true) => {
+                let n = Builder { module: m }.neg(t)?;
+                add_any(m, a, n)?
+            }
+        });
+    }
+    acc
+}
+
+/// `a + b`, as `⊕[add]` when only colours unify that way (rgba with rgb).
+fn add_any(m: &mut Module, a: Handle<Expr>, b: Handle<Expr>) -> Option<Handle<Expr>> {
+    if let Some(h) = (Builder { module: m }).add(a, b) {
+        return Some(h);
+    }
+    let widen = |m: &mut Module, h: Handle<Expr>| if m.info(h).ty == Ty::Rgb { m.intern(Expr::Convert { value: h, to: Ty::Rgba }, Span::DETACHED).ok() } else { Some(h) };
+    let (a, b) = (widen(m, a)?, widen(m, b)?);
+    m.intern(Expr::Combine { mode: CombineMode::Add, lhs: a, rhs: b }, Span::DETACHED).ok()
+}
