@@ -31,7 +31,10 @@
 //!   Generated data textures (normal maps) are built unquantized, with the
 //!   same mipmap filter. f32 framebuffers, no clamping.
 //! - `f32` — the same plan with every node rounded to f32, textures as
-//!   stored (8-bit where declared so), f32 framebuffers.
+//!   stored (8-bit where declared so) and sampled as the WGSL target's
+//!   texture unit samples them (`textures::unit`: λ per 2×2 quad, 8-bit
+//!   filtering of 8-bit textures, seamless cube maps; fixed9 too), f32
+//!   framebuffers.
 //! - `fixed9` — what the old hardware showed: 8-bit textures, an RGBA8
 //!   framebuffer (blending clamps and rounds) and 8-bit temporaries, and the
 //!   fragment maths in the register-combiner precision model. The combiner
@@ -54,7 +57,7 @@ use crate::ir::{self, eval::Value, Expr, FbChannel, Frequency, Handle, Module, T
 use crate::planner::{Geometry, PassInterface, Planned, RenderTarget};
 use crate::scene::bind::{self, BoundObject, BoundTexture, ExactFunction, TextureDecl, TextureQuality};
 use crate::scene::{Scene, SceneAssets};
-use crate::textures::{generators, Filter, Level, TexelFormat, Texture, Texture2D, Wrap};
+use crate::textures::{generators, unit, Filter, Level, TexelFormat, Texture, Texture2D, Wrap};
 
 /// How the plan's arithmetic is modelled (module docs).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -656,6 +659,23 @@ impl<'a> FragmentProgram<'a> {
             Source::Bound { exact: Some(f), .. } => exact_lookup(*f, c),
             Source::Bound { texture: b, .. } => {
                 let out = match &b.texture {
+                    Texture::Flat(t) if self.mode != Mode::Exact => {
+                        // f32 and fixed9 sample as the WGSL target's texture
+                        // unit does (`textures::unit`: a level of detail per
+                        // 2×2 quad, 8-bit filtering of 8-bit textures), so
+                        // the wgpu image agrees with them (issue 5).
+                        let (u, v) = if coords_ty == Ty::Scalar { (c[0], 0.5) } else { (c[0], c[1]) };
+                        let lod = match lod_from {
+                            Some(k) if t.levels.len() > 1 => {
+                                let du = fragment.quad_derivatives(4 * k, varyings[4 * k]);
+                                let dv = fragment.quad_derivatives(4 * k + 1, varyings[4 * k + 1]);
+                                unit::quad_lod(t.width(), t.height(), [du[0], dv[0]], [du[1], dv[1]])
+                            }
+                            _ => f32::NEG_INFINITY,
+                        };
+                        unit::sample_2d(t, u as f32, v as f32, filter, lod)
+                    }
+                    Texture::Cube(t) if self.mode != Mode::Exact => unit::sample_cube(t, [c[0] as f32, c[1] as f32, c[2] as f32], filter),
                     Texture::Flat(t) => {
                         let (u, v) = if coords_ty == Ty::Scalar { (c[0], 0.5) } else { (c[0], c[1]) };
                         let lod = match lod_from {

@@ -53,6 +53,32 @@ impl Fragment<'_> {
         let (qx, qy) = (self.gradients[2 * n], self.gradients[2 * n + 1]);
         [(ax - value * qx) / self.inv_w, (ay - value * qy) / self.inv_w]
     }
+
+    /// The coarse derivatives of varying `index` (value `value` here) in
+    /// this pixel's 2×2 quad, as a GPU takes them for a texture's level of
+    /// detail (`textures::unit`): [d/dx, d/dy] = the varying at the quad's
+    /// top-right and bottom-left pixels minus the one at its top-left, each
+    /// interpolated perspective-correctly from this triangle's planes (a
+    /// pixel outside the triangle is a helper pixel, extrapolated, as on a
+    /// GPU). Falls back to [`Fragment::derivatives`] where 1/w degenerates.
+    pub fn quad_derivatives(&self, index: usize, value: f32) -> [f32; 2] {
+        let n = self.gradients.len() / 2 - 1;
+        if index >= n || self.inv_w == 0.0 {
+            return [0.0, 0.0];
+        }
+        let (ax, ay) = (self.gradients[2 * index], self.gradients[2 * index + 1]);
+        let (qx, qy) = (self.gradients[2 * n], self.gradients[2 * n + 1]);
+        // Offsets of the quad's top-left pixel from this one.
+        let (ox, oy) = (-((self.x & 1) as f32), -((self.y & 1) as f32));
+        let a = value * self.inv_w + ax * ox + ay * oy;
+        let q = self.inv_w + qx * ox + qy * oy;
+        let (qr, qb) = (q + qx, q + qy);
+        if q <= 0.0 || qr <= 0.0 || qb <= 0.0 {
+            return self.derivatives(index, value);
+        }
+        let v = a / q;
+        [(a + ax) / qr - v, (a + ay) / qb - v]
+    }
 }
 
 /// A snapped, oriented screen-space triangle ready for scan conversion.

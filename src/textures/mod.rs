@@ -8,6 +8,7 @@
 
 pub mod generators;
 pub mod sampling;
+pub mod unit;
 
 use std::path::Path;
 

@@ -1,0 +1,296 @@
+//! The texture unit of a modern (Vulkan/WebGPU) implementation, as the CPU
+//! renderer's `f32` and `fixed9` modes model it so that they compute what
+//! the WGSL backend's shaders compute on wgpu (issue 5, part 4). The ideal
+//! GL sampling of [`super::sampling`] stays the `exact` mode's.
+//!
+//! Everything here is what the specifications require, and where they leave
+//! an implementation freedom, the choice is **Mesa's llvmpipe/lavapipe**
+//! (22.3, the driver CI runs on; `gallivm/lp_bld_sample*.c`), measured on
+//! it by `tests/wgsl_agreement.rs` (`texture_unit_*`):
+//!
+//! - **Level of detail per 2×2 quad** (Vulkan §16 "Scale factor": ∂u/∂x
+//!   etc. may be the coarse derivatives of the quad; WGSL `textureSample`
+//!   uses implicit derivatives): the derivatives are the differences of the
+//!   coordinates between the quad's top-left pixel and its right and lower
+//!   neighbours ([`crate::renderer::Fragment::quad_derivatives`]), one LOD
+//!   for the four pixels. ρ² = max((∂u/∂x·w)² + (∂v/∂x·h)², (∂u/∂y·w)² +
+//!   (∂v/∂y·h)²) is the spec's ρ, squared; λ = ½·log2(ρ²) with log2 taken
+//!   *piecewise linearly* between powers of two — exact at powers of two,
+//!   (e − 1) + m for ρ² = m·2ᵉ, m ∈ [1, 2) — the approximation of λ the spec
+//!   allows (Vulkan §16.5.6: λ_base "may be approximated"). Linear mipmap
+//!   filtering truncates the fraction of λ to 8 bits (the spec's
+//!   `mipmapPrecisionBits`); nearest mipmap filtering rounds λ exactly
+//!   (half up).
+//! - **8-bit textures filter in 8.8 fixed point** (Vulkan §16.8:
+//!   `subTexelPrecisionBits` = 8 on lavapipe; the precision of the filter
+//!   arithmetic is the implementation's): the unnormalized coordinate
+//!   u·size·256 is rounded to an integer (ties to even), ½ texel (128)
+//!   subtracted, the top bits select the texel and the low 8 bits are the
+//!   weight w ∈ 0..=255; each linear step is `a + ⌊(w·(b − a) + 128)/256⌋`
+//!   on the 8-bit texel values, the result again 8-bit — horizontally on both
+//!   rows, then vertically, then (trilinear) between the two levels with the
+//!   8-bit λ fraction. Other formats filter in f32 with the same weights
+//!   unquantized.
+//! - **Cube maps are seamless** (WebGPU and Vulkan always filter cube maps
+//!   seamlessly; GL 4.6 §8.13.1): a bilinear footprint that leaves a face
+//!   takes the adjacent face's texels (GL's rule: the texel whose centre the
+//!   out-of-face texel centre's direction hits), and a texel outside both
+//!   edges at a corner is the average of the three that meet there. Seamless
+//!   filtering is float filtering in lavapipe, so cube maps filter in f32 at
+//!   any format. Face selection is GL's (seeds/003 Appendix A Table 1,
+//!   [`cube_face_uv`]).
+
+use super::sampling::{cube_direction, cube_face_uv, CubeFace, Filter, Level, TexelFormat, Texture2D, TextureCube, Wrap};
+
+/// λ of a lookup from the coarse derivatives of (u, v) in a 2×2 quad,
+/// `ddx = [∂u/∂x, ∂v/∂x]`, `ddy = [∂u/∂y, ∂v/∂y]`, for a level-0 size of
+/// `width`×`height` (module docs). Non-finite or zero derivatives give
+/// −∞ (magnification: level 0).
+pub fn quad_lod(width: u32, height: u32, ddx: [f32; 2], ddy: [f32; 2]) -> f32 {
+    let (w, h) = (width as f32, height as f32);
+    let (ux, vx, uy, vy) = (ddx[0] * w, ddx[1] * h, ddy[0] * w, ddy[1] * h);
+    let rho2 = (ux * ux + vx * vx).max(uy * uy + vy * vy);
+    if !rho2.is_finite() || rho2 <= 0.0 {
+        return f32::NEG_INFINITY;
+    }
+    0.5 * piecewise_log2(rho2)
+}
+
+/// log2 linear between powers of two: (e − 1) + m for x = m·2ᵉ, m ∈ [1, 2).
+fn piecewise_log2(x: f32) -> f32 {
+    let bits = x.to_bits();
+    let e = ((bits >> 23) & 0xff) as i32 - 127;
+    let m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000);
+    (e - 1) as f32 + m
+}
+
+/// Samples a 2D texture at (u, v) with level of detail `lod` ([`quad_lod`]).
+pub fn sample_2d(t: &Texture2D, u: f32, v: f32, filter: Filter, lod: f32) -> [f32; 4] {
+    let last = t.levels.len() - 1;
+    let lod = if lod.is_nan() { f32::NEG_INFINITY } else { lod };
+    match filter {
+        // Nearest and bilinear take the level nearest to λ (GL's
+        // *_MIPMAP_NEAREST); without a chain, level 0.
+        Filter::Nearest | Filter::Bilinear => {
+            let level = if lod <= 0.0 { 0 } else { ((lod + 0.5).floor() as usize).min(last) };
+            let l = &t.levels[level];
+            if filter == Filter::Nearest {
+                l.sample_nearest(u, v, t.wrap)
+            } else {
+                bilinear(l, t.format, u, v, t.wrap)
+            }
+        }
+        Filter::Trilinear => {
+            let floor = lod.floor();
+            if lod.is_infinite() || floor < 0.0 || last == 0 {
+                return bilinear(&t.levels[0], t.format, u, v, t.wrap);
+            }
+            let l0 = floor as usize;
+            if l0 >= last {
+                return bilinear(&t.levels[last], t.format, u, v, t.wrap);
+            }
+            let fraction = lod - floor;
+            let a = bilinear(&t.levels[l0], t.format, u, v, t.wrap);
+            if t.format == TexelFormat::Rgba8 {
+                // mipmapPrecisionBits = 8, truncated.
+                let w = (fraction * 256.0) as i32;
+                if w <= 0 {
+                    return a;
+                }
+                let b = bilinear(&t.levels[l0 + 1], t.format, u, v, t.wrap);
+                [0, 1, 2, 3].map(|c| lerp8(w, to_byte(a[c]), to_byte(b[c])) as f32 / 255.0)
+            } else {
+                let b = bilinear(&t.levels[l0 + 1], t.format, u, v, t.wrap);
+                [0, 1, 2, 3].map(|c| a[c] + fraction * (b[c] - a[c]))
+            }
+        }
+    }
+}
+
+/// Samples a cube map along `direction`, seamlessly (level 0: the renderer's
+/// cube maps have no chains).
+pub fn sample_cube(c: &TextureCube, direction: [f32; 3], filter: Filter) -> [f32; 4] {
+    let (face, s, t) = cube_face_uv(direction);
+    let f = &c.faces[face as usize];
+    let level = &f.levels[0];
+    if filter == Filter::Nearest {
+        return level.sample_nearest(s, t, Wrap::ClampToEdge);
+    }
+    let n = level.width as i64;
+    let fx = finite(s * level.width as f32 - 0.5);
+    let fy = finite(t * level.height as f32 - 0.5);
+    let (x0, y0) = (fx.floor(), fy.floor());
+    let (ax, ay) = (fx - x0, fy - y0);
+    let (x0, y0) = (x0 as i64, y0 as i64);
+    let inside = |i: i64| (0..n).contains(&i);
+    let mut texel = [[[0.0f32; 4]; 2]; 2];
+    let mut corner = None;
+    for (dy, row) in texel.iter_mut().enumerate() {
+        for (dx, out) in row.iter_mut().enumerate() {
+            let (i, j) = (x0 + dx as i64, y0 + dy as i64);
+            if inside(i) || inside(j) {
+                *out = cube_texel(c, face, i, j);
+            } else {
+                corner = Some((dx, dy));
+            }
+        }
+    }
+    if let Some((dx, dy)) = corner {
+        // The three texels that meet at the corner are the other three of
+        // the footprint (GL 4.6 §8.13.1).
+        let others = [(dx ^ 1, dy), (dx, dy ^ 1), (dx ^ 1, dy ^ 1)];
+        texel[dy][dx] = [0, 1, 2, 3].map(|k| others.iter().map(|&(x, y)| texel[y][x][k]).sum::<f32>() / 3.0);
+    }
+    [0, 1, 2, 3].map(|k| {
+        let top = texel[0][0][k] + ax * (texel[0][1][k] - texel[0][0][k]);
+        let bottom = texel[1][0][k] + ax * (texel[1][1][k] - texel[1][0][k]);
+        top + ay * (bottom - top)
+    })
+}
+
+/// Texel (i, j) of `face`, or, one texel beyond one of its edges, the texel
+/// of the adjacent face whose area the direction through its centre hits.
+fn cube_texel(c: &TextureCube, face: CubeFace, i: i64, j: i64) -> [f32; 4] {
+    let level = &c.faces[face as usize].levels[0];
+    let n = level.width as i64;
+    if (0..n).contains(&i) && (0..n).contains(&j) {
+        return level.texel(i as u32, j as u32);
+    }
+    let size = n as f32;
+    let d = cube_direction(face, (i as f32 + 0.5) / size, (j as f32 + 0.5) / size);
+    let (other, s, t) = cube_face_uv(d);
+    let l = &c.faces[other as usize].levels[0];
+    let x = ((s * size).floor() as i64).clamp(0, n - 1);
+    let y = ((t * size).floor() as i64).clamp(0, n - 1);
+    l.texel(x as u32, y as u32)
+}
+
+/// Bilinear filtering of one level: 8.8 fixed point for 8-bit textures,
+/// else f32 (module docs).
+fn bilinear(level: &Level, format: TexelFormat, u: f32, v: f32, wrap: Wrap) -> [f32; 4] {
+    if format != TexelFormat::Rgba8 {
+        return level.sample_bilinear(u, v, wrap);
+    }
+    let (x0, x1, wx) = fixed_coordinate(u, level.width, wrap);
+    let (y0, y1, wy) = fixed_coordinate(v, level.height, wrap);
+    let t = |x: u32, y: u32| level.texel(x, y).map(to_byte);
+    let (t00, t10, t01, t11) = (t(x0, y0), t(x1, y0), t(x0, y1), t(x1, y1));
+    [0, 1, 2, 3].map(|c| {
+        let top = lerp8(wx, t00[c], t10[c]);
+        let bottom = lerp8(wx, t01[c], t11[c]);
+        lerp8(wy, top, bottom) as f32 / 255.0
+    })
+}
+
+/// The two texel indices and the 8-bit weight of the second along one axis.
+fn fixed_coordinate(u: f32, size: u32, wrap: Wrap) -> (u32, u32, i32) {
+    let n = size as i64;
+    let pot = size.is_power_of_two();
+    let scaled = |x: f32| -> i64 {
+        let x = x.round_ties_even();
+        if x.is_finite() {
+            x.clamp(-(1i64 << 40) as f32, (1i64 << 40) as f32) as i64
+        } else {
+            0
+        }
+    };
+    if wrap == Wrap::Repeat && !pot {
+        // Non-power-of-two repeat wraps in float first.
+        let f = finite(u - u.floor());
+        let s = scaled(f * size as f32 * 256.0) - 128;
+        let w = (s & 255) as i32;
+        let mut i0 = s >> 8;
+        if i0 < 0 {
+            i0 = n - 1;
+        }
+        let i0 = i0.min(n - 1);
+        let i1 = if i0 == n - 1 { 0 } else { i0 + 1 };
+        return (i0 as u32, i1 as u32, w);
+    }
+    let s = scaled(finite(u) * (size * 256) as f32) - 128;
+    let w = (s & 255) as i32;
+    let i0 = s >> 8;
+    let (i0, i1) = match wrap {
+        Wrap::Repeat => (i0 & (n - 1), (i0 + 1) & (n - 1)),
+        Wrap::ClampToEdge => (i0.clamp(0, n - 1), (i0 + 1).clamp(0, n - 1)),
+    };
+    (i0 as u32, i1 as u32, w)
+}
+
+/// One 8-bit linear step with an 8-bit weight, rounded (module docs).
+#[inline]
+fn lerp8(w: i32, a: i32, b: i32) -> i32 {
+    a + ((w * (b - a) + 128) >> 8)
+}
+
+#[inline]
+fn to_byte(v: f32) -> i32 {
+    (v.clamp(0.0, 1.0) * 255.0).round() as i32
+}
+
+#[inline]
+fn finite(v: f32) -> f32 {
+    if v.is_finite() {
+        v.clamp(-1e9, 1e9)
+    } else {
+        0.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn two_texels(a: [f32; 4], b: [f32; 4]) -> Texture2D {
+        Texture2D::new(TexelFormat::Rgba8, Wrap::ClampToEdge, Level::new(2, 1, vec![a, b]))
+    }
+
+    #[test]
+    fn fixed_point_weights_round_ties_to_even_and_lerps_round() {
+        // Between the texel centres u = 0.25 and 0.75; a = (x + ½)/256.
+        let t = two_texels([0.0; 4], [1.0; 4]);
+        let at = |x: u32| {
+            let u = 0.25 + 0.5 * (x as f32 + 0.5) / 256.0;
+            (sample_2d(&t, u, 0.5, Filter::Bilinear, 0.0)[0] * 255.0).round() as u32
+        };
+        // u·512 = 128 + x + ½ rounds to the even neighbour: weights 0, 2, 2, 4, 4 …
+        // and 255·w/256 rounds: 0, 2, 2, 4, 4, …; 128 → 128; 130 → 129.
+        assert_eq!([at(0), at(1), at(2), at(3), at(4)], [0, 2, 2, 4, 4]);
+        assert_eq!([at(127), at(128), at(129), at(130), at(131)], [128, 128, 129, 129, 131]);
+        // The result is 8-bit: between 10 and 11 there is nothing.
+        let t = two_texels([10.0 / 255.0; 4], [11.0 / 255.0; 4]);
+        let s = sample_2d(&t, 0.25 + 0.5 * 0.3, 0.5, Filter::Bilinear, 0.0);
+        assert_eq!(s[0], 10.0 / 255.0);
+    }
+
+    #[test]
+    fn piecewise_log2_is_exact_at_powers_of_two_and_linear_between() {
+        assert_eq!(piecewise_log2(1.0), 0.0);
+        assert_eq!(piecewise_log2(8.0), 3.0);
+        assert_eq!(piecewise_log2(0.25), -2.0);
+        assert_eq!(piecewise_log2(1.5), 0.5);
+        assert_eq!(piecewise_log2(12.0), 3.5);
+        // ρ = 2 texels per pixel → λ = 1; ρ² = 2 → ½.
+        assert_eq!(quad_lod(256, 256, [2.0 / 256.0, 0.0], [0.0, 1.0 / 256.0]), 1.0);
+        assert_eq!(quad_lod(4, 4, [0.0, 0.0], [0.0, 0.0]), f32::NEG_INFINITY);
+    }
+
+    #[test]
+    fn seamless_cube_filtering_crosses_faces() {
+        // Each face a constant: at a face's edge the filter mixes in the
+        // neighbour's value; at its centre it does not.
+        let faces = CubeFace::ALL.map(|f| {
+            let v = f as usize as f32 / 10.0;
+            Texture2D::new(TexelFormat::F32, Wrap::ClampToEdge, Level::new(4, 4, vec![[v, 0.0, 0.0, 1.0]; 16]))
+        });
+        let c = TextureCube { faces };
+        assert_eq!(sample_cube(&c, [1.0, 0.0, 0.0], Filter::Bilinear)[0], 0.0);
+        // +X at s = 1 (its −Z edge), t = ½: half +X (0.0), half −Z (0.5).
+        let s = sample_cube(&c, [1.0, 0.0, -1.0 + 1e-6], Filter::Bilinear)[0];
+        assert!((s - 0.25).abs() < 1e-3, "{s}");
+        // A corner: the average of the three faces, whichever face is chosen.
+        let s = sample_cube(&c, [1.0, 1.0 - 1e-6, 1.0 - 1e-6], Filter::Bilinear)[0];
+        let expected = (0.0 + 0.2 + 0.4) / 3.0;
+        assert!((s - expected).abs() < 1e-3, "{s} vs {expected}");
+    }
+}
