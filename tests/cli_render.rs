@@ -76,3 +76,57 @@ fn a_bad_scene_is_an_input_error() {
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("s.ron:"), "{}", String::from_utf8_lossy(&out.stderr));
 }
+
+/// A number printed after `label` (`8.50 % of`, `PSNR 49.22 dB`).
+fn number_after(text: &str, label: &str) -> f64 {
+    let rest = &text[text.find(label).unwrap_or_else(|| panic!("no {label:?} in:\n{text}")) + label.len()..];
+    let num: String = rest.trim_start().chars().take_while(|c| c.is_ascii_digit() || *c == '.').collect();
+    num.parse().unwrap_or_else(|_| panic!("no number after {label:?} in:\n{text}"))
+}
+
+#[test]
+fn a_scene_with_four_lights_renders_a_pass_per_light_unless_told_not_to() {
+    let dir = tempfile::tempdir().unwrap();
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/adaptive_sphere_4lights.ron");
+    let shader = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/fragment_lighting.shd");
+    let run = |extra: &[&str]| {
+        let out = shadec().args(["render", scene, "--shader", shader, "--mode", "f32", "--size", "96x96"]).args(extra).current_dir(dir.path()).output().unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+        assert!(out.status.success(), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
+        stdout
+    };
+    let specialized = run(&[]);
+    assert!(specialized.contains("4 passes on wgsl") && specialized.contains("(light 3)"), "{specialized}");
+    let plain = run(&["--no-specialize"]);
+    assert!(plain.contains("1 pass on wgsl"), "{plain}");
+}
+
+#[test]
+fn adaptive_shading_reports_the_pixels_shaded_and_its_error() {
+    // seeds/004 Section 2.1 on the paper's 4-light sphere: far fewer pixels
+    // shaded than covered, at a small error against full shading.
+    let dir = tempfile::tempdir().unwrap();
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/adaptive_sphere_4lights.ron");
+    let shader = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/fragment_lighting.shd");
+    let out = shadec()
+        .args(["render", scene, "--shader", shader, "--mode", "f32", "--size", "256x256", "--adaptive", "8.5%,16", "--out", "a.png"])
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    let shaded = number_after(&stdout, "spacing 16):");
+    assert!(shaded > 0.0 && shaded < 25.0, "{shaded} % shaded:\n{stdout}");
+    let full = &stdout[stdout.find("error against full shading").unwrap()..];
+    assert!(number_after(full, "PSNR") >= 40.0, "{stdout}");
+    assert!(dir.path().join("a.png").exists());
+}
+
+#[test]
+fn a_bad_adaptive_setting_is_a_usage_error() {
+    for bad in ["200%", "0.1,0", "fast", "0.1,x"] {
+        let out = shadec().args(["render", "--adaptive", bad]).output().unwrap();
+        assert_eq!(out.status.code(), Some(2), "{bad}");
+        assert!(String::from_utf8_lossy(&out.stderr).contains("THRESHOLD[,SPACING]"), "{bad}");
+    }
+}

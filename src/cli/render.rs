@@ -11,6 +11,7 @@ use std::time::{Duration, Instant};
 use clap::ValueEnum;
 use shadec::diag::SourceFile;
 use shadec::renderer::plan::{compare, Mode, PlanRenderer};
+use shadec::renderer::{AdaptiveSettings, EdgeMode};
 use shadec::scene::Scene;
 
 use super::check::color_stderr;
@@ -44,6 +45,34 @@ pub struct RenderArgs {
     /// Where to write the picture (PNG, written atomically).
     #[arg(long, short, value_name = "IMG.png", default_value = "shadec-out.png")]
     pub out: PathBuf,
+    /// Adaptive sample shading (seeds/004 Section 2.1): shade exactly every
+    /// SPACING pixels (default 16) and at edges, subdivide where neighbouring
+    /// samples differ by more than THRESHOLD (a fraction, `0.085`, or a
+    /// percentage, `8.5%`), interpolate the rest. Reports the pixels shaded
+    /// and the error against full per-pixel shading of the same plan.
+    #[arg(long, value_name = "THRESHOLD[,SPACING]")]
+    pub adaptive: Option<String>,
+    /// Plan the program without the scene: no per-light passes (light 0
+    /// only), no uniform folding, no light culling (`compile --scene`).
+    #[arg(long)]
+    pub no_specialize: bool,
+}
+
+/// `--adaptive THRESHOLD[,SPACING]`: `0.085`, `8.5%`, `8.5%,8`.
+fn parse_adaptive(text: &str) -> Result<AdaptiveSettings, String> {
+    let bad = |why: &str| format!("--adaptive {text}: {why}; expected THRESHOLD[,SPACING] such as `8.5%` or `0.085,16`");
+    let (t, spacing) = match text.split_once(',') {
+        Some((t, sp)) => (t.trim(), sp.trim().parse::<u32>().ok().filter(|n| (1..=256).contains(n)).ok_or_else(|| bad("the spacing is a whole number of pixels from 1 to 256"))?),
+        None => (text.trim(), 16),
+    };
+    let threshold = match t.strip_suffix('%') {
+        Some(p) => p.trim().parse::<f32>().map(|v| v / 100.0),
+        None => t.parse::<f32>(),
+    }
+    .ok()
+    .filter(|v| v.is_finite() && (0.0..=1.0).contains(v))
+    .ok_or_else(|| bad("the threshold is a fraction of full intensity from 0 to 1 (or 0% to 100%)"))?;
+    Ok(AdaptiveSettings::new(spacing, threshold, EdgeMode::Pass))
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
@@ -131,16 +160,30 @@ pub fn run(args: &RenderArgs) -> ExitCode {
         Ok(p) => p,
         Err(e) => return usage(e),
     };
-    let planned = match shadec::planner::plan(&module, &profile, Some(&source)) {
+    let adaptive = match args.adaptive.as_deref().map(parse_adaptive).transpose() {
+        Ok(a) => a,
+        Err(e) => return usage(e),
+    };
+    let assets = match scene.build() {
+        Ok(a) => a,
+        Err(e) => return input(e),
+    };
+    // Only what this scene needs (issue 7): a pass per light that reaches
+    // the objects, the scene's uniforms folded, zeroed terms removed.
+    let textures = shadec::scene::bind::texture_decls(&program, &scene.constants);
+    let spec = shadec::planner::SceneSpecialization {
+        scene: &scene,
+        assets: &assets,
+        textures: &textures,
+        fold_uniforms: true,
+        cull_threshold: Some(shadec::planner::DEFAULT_CULL_THRESHOLD),
+    };
+    let planned = match if args.no_specialize { shadec::planner::plan(&module, &profile, Some(&source)) } else { shadec::planner::plan_specialized(&module, &profile, Some(&source), &spec) } {
         Ok(p) => p,
         Err(errors) => {
             eprint!("{}", file.render(&errors, color_stderr()));
             return ExitCode::from(EXIT_SOURCE_ERRORS);
         }
-    };
-    let assets = match scene.build() {
-        Ok(a) => a,
-        Err(e) => return input(e),
     };
     let renderer = match PlanRenderer::new(&planned, &program, &scene, &assets) {
         Ok(r) => r,
@@ -162,7 +205,11 @@ pub fn run(args: &RenderArgs) -> ExitCode {
     print!("{}", planned.plan.summary());
 
     let progress = Progress::new();
-    let frame = match renderer.render(mode, size.0, size.1, &mut |d, t| progress.tick(mode.name(), d, t)) {
+    let rendered = match &adaptive {
+        Some(settings) => renderer.render_adaptive(mode, size.0, size.1, settings, &mut |d, t| progress.tick("adaptive", d, t)),
+        None => renderer.render(mode, size.0, size.1, &mut |d, t| progress.tick(mode.name(), d, t)),
+    };
+    let frame = match rendered {
         Ok(f) => f,
         Err(e) => {
             progress.finish();
@@ -180,6 +227,17 @@ pub fn run(args: &RenderArgs) -> ExitCode {
             }
         }
     };
+    // Adaptive shading is measured against full per-pixel shading of the same plan and mode.
+    let full = match &adaptive {
+        Some(_) => match renderer.render(mode, size.0, size.1, &mut |d, t| progress.tick("full shading", d, t)) {
+            Ok(f) => Some(f),
+            Err(e) => {
+                progress.finish();
+                return input(format!("{shader_name}: {e}"));
+            }
+        },
+        None => None,
+    };
     progress.finish();
     if let Err(e) = save_opaque_png(&frame.image, &args.out) {
         return usage(e);
@@ -192,10 +250,27 @@ pub fn run(args: &RenderArgs) -> ExitCode {
         size.0,
         size.1,
         rayon::current_num_threads(),
-        frame.stats.shaded,
+        frame.adaptive.map_or(frame.stats.shaded, |a| a.shaded()),
         planned.plan.passes.len(),
         if planned.plan.passes.len() == 1 { "" } else { "es" }
     );
+    if let (Some(full), Some(a), Some(settings)) = (&full, frame.adaptive, &adaptive) {
+        let e = compare(&full.image, &frame.image);
+        let speedup = full.time.as_secs_f64() / secs;
+        println!(
+            "adaptive (threshold {:.1} %, spacing {}): {:.2} % of {} covered fragments shaded ({} regular, {} edge, {} subdivided), {} interpolated; {speedup:.2}× the speed of full shading ({:.1} ms)",
+            100.0 * settings.threshold,
+            settings.spacing,
+            100.0 * a.fraction_shaded(),
+            a.covered,
+            a.regular,
+            a.edge,
+            a.adaptive,
+            a.interpolated,
+            full.time.as_secs_f64() * 1e3
+        );
+        println!("error against full shading: max abs {:.4} ({:.1}/255), RMSE {:.5}, PSNR {}", e.max_abs, e.max_abs * 255.0, e.rmse, psnr(e.psnr));
+    }
     match &reference {
         Some(r) => {
             let e = compare(&r.image, &frame.image);

@@ -104,7 +104,8 @@ impl AdaptiveStats {
             self.shaded() as f64 / self.covered as f64
         }
     }
-    fn add(self, o: AdaptiveStats) -> AdaptiveStats {
+    /// The counters of two draws together.
+    pub fn add(self, o: AdaptiveStats) -> AdaptiveStats {
         AdaptiveStats {
             covered: self.covered + o.covered,
             regular: self.regular + o.regular,

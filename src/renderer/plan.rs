@@ -100,6 +100,9 @@ pub struct Frame {
     /// the hard-case suite (`tests/hard_cases.rs`, `docs/numerics.md`)
     /// asserts this is 0, so a fallback cannot hide a NaN.
     pub nonfinite: u64,
+    /// Adaptive sample shading's counters, summed over the mesh passes
+    /// ([`PlanRenderer::render_adaptive`]); `None` for a full render.
+    pub adaptive: Option<super::AdaptiveStats>,
 }
 
 /// A program bound to a scene: textures loaded, objects bound. Build once,
@@ -150,6 +153,20 @@ impl<'a> PlanRenderer<'a> {
     /// Renders every pass at `width`×`height`; `progress(done, total)` is
     /// called after each pass of each object.
     pub fn render(&self, mode: Mode, width: u32, height: u32, progress: &mut dyn FnMut(usize, usize)) -> Result<Frame, RenderError> {
+        self.render_with(mode, width, height, None, progress)
+    }
+
+    /// Renders with Adaptive Sample Shading (seeds/004 Section 2.1): each
+    /// mesh pass shades exactly at regular samples, at edges and where
+    /// neighbouring samples differ by more than the threshold, and
+    /// interpolates the rest ([`super::draw_adaptive`]); blending, depth and
+    /// culling follow the pass. Passes with a stencil test, and screen or
+    /// texel passes, are shaded in full.
+    pub fn render_adaptive(&self, mode: Mode, width: u32, height: u32, settings: &super::AdaptiveSettings, progress: &mut dyn FnMut(usize, usize)) -> Result<Frame, RenderError> {
+        self.render_with(mode, width, height, Some(settings), progress)
+    }
+
+    fn render_with(&self, mode: Mode, width: u32, height: u32, adaptive: Option<&super::AdaptiveSettings>, progress: &mut dyn FnMut(usize, usize)) -> Result<Frame, RenderError> {
         let m = &self.planned.module;
         let plan = &self.planned.plan;
         let start = Instant::now();
@@ -172,6 +189,7 @@ impl<'a> PlanRenderer<'a> {
         let mut stats = DrawStats::default();
         let mut last_fb: Option<String> = None;
         let mut nonfinite = 0;
+        let mut adaptive_stats = adaptive.map(|_| super::AdaptiveStats::default());
         let total = plan.passes.iter().map(|p| if matches!(p.geometry, Geometry::Mesh { .. }) { objects.len() } else { 1 }).sum::<usize>();
         let mut done = 0;
         for (index, pass) in plan.passes.iter().enumerate() {
@@ -207,6 +225,17 @@ impl<'a> PlanRenderer<'a> {
             let target = targets.get_mut(&name).expect("created above");
             let counted = &stage.nonfinite;
             match &pass.geometry {
+                Geometry::Mesh { .. } if adaptive.is_some() && !state.stencil.enabled => {
+                    // One adaptive draw over every object of the pass, so that
+                    // silhouettes between objects are edges (Section 2.1.3).
+                    let drawn: Vec<&BoundObject> = objects.iter().enumerate().filter(|(oi, _)| pass.objects.as_ref().is_none_or(|keep| keep.contains(oi))).map(|(_, o)| o).collect();
+                    let vertices: Vec<MeshVertices> = drawn.iter().map(|o| MeshVertices::new(m, o, &pi, &self.uniforms)).collect();
+                    let passes: Vec<RasterPass> = drawn.iter().zip(&vertices).map(|(o, vs)| RasterPass { triangles: &o.mesh.triangles, vertex: vs, fragment: &stage, state }).collect();
+                    let s = super::draw_adaptive(target, &passes, adaptive.expect("matched"))?;
+                    adaptive_stats = adaptive_stats.map(|a| a.add(s));
+                    done += objects.len();
+                    progress(done, total);
+                }
                 Geometry::Mesh { .. } => {
                     for (oi, object) in objects.iter().enumerate() {
                         // Light culling drew this light's pass only for some objects.
@@ -243,7 +272,7 @@ impl<'a> PlanRenderer<'a> {
         let time = start.elapsed();
         let name = last_fb.ok_or_else(|| RenderError::Unsupported("the plan writes no framebuffer: nothing to show".into()))?;
         let image = targets.remove(&name).expect("written");
-        Ok(Frame { image, name, stats, time, nonfinite })
+        Ok(Frame { image, name, stats, time, nonfinite, adaptive: adaptive_stats })
     }
 }
 
