@@ -5,6 +5,7 @@
 //! See `ARCHITECTURE.md` for the flow and the invariants.
 
 pub mod backends;
+pub mod bench;
 pub mod diag;
 pub mod io;
 pub mod ir;

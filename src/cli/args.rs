@@ -40,6 +40,14 @@ pub enum Command {
     /// Exit status: 0 on success, 1 when the program or scene has errors
     /// (shader errors with file:line:col), 2 on usage or I/O errors.
     Render(super::render::RenderArgs),
+    /// Measure speed against error: every technique variant of the papers
+    /// on its scene (time per frame, error against the exact reference), the
+    /// adaptive-shading table of seeds/004 and what specialization removes;
+    /// writes report.md, speed_vs_error.png, adaptive.png and diff/*.png.
+    ///
+    /// Exit status: 0 on success, 1 when a variant fails, 2 on usage or I/O
+    /// errors.
+    Bench(super::bench::BenchArgs),
     /// Translate a legacy register-combiner setup (`!!RC1.0` or RON) to a
     /// WGSL shader that computes what the hardware does (fixed9, bit-exact
     /// with `shadec emulate`).

@@ -4,6 +4,7 @@
 //! or I/O errors.
 
 mod args;
+mod bench;
 mod check;
 mod compile;
 mod emulate;
@@ -23,6 +24,7 @@ pub const EXIT_USAGE_OR_IO: u8 = 2;
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     match cli.command {
+        Command::Bench(args) => bench::run(&args),
         Command::Check(args) => check::run(&args),
         Command::Compile(args) => compile::run(&args),
         Command::Fmt(args) => fmt::run(&args),

@@ -305,20 +305,26 @@ pub fn save_opaque_png(fb: &shadec::renderer::Framebuffer, path: &Path) -> Resul
 
 /// A progress bar that appears only once the work has taken over a second
 /// (and only on a terminal: indicatif hides it otherwise).
-struct Progress {
+pub(super) struct Progress {
     start: Instant,
     bar: indicatif::ProgressBar,
     shown: std::cell::Cell<bool>,
 }
 
 impl Progress {
-    fn new() -> Progress {
+    pub(super) fn new() -> Progress {
+        Progress::counting("passes·objects")
+    }
+
+    /// A bar counting `unit`s (shown after a second, on a terminal).
+    pub(super) fn counting(unit: &str) -> Progress {
         let bar = indicatif::ProgressBar::hidden();
-        bar.set_style(indicatif::ProgressStyle::with_template("{msg:>16} [{bar:40}] {pos}/{len} passes·objects, {elapsed}").unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()).progress_chars("=> "));
+        let template = format!("{{msg:>16}} [{{bar:40}}] {{pos}}/{{len}} {unit}, {{elapsed}}");
+        bar.set_style(indicatif::ProgressStyle::with_template(&template).unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()).progress_chars("=> "));
         Progress { start: Instant::now(), bar, shown: std::cell::Cell::new(false) }
     }
 
-    fn tick(&self, what: &str, done: usize, total: usize) {
+    pub(super) fn tick(&self, what: &str, done: usize, total: usize) {
         self.bar.set_length(total as u64);
         self.bar.set_position(done as u64);
         self.bar.set_message(what.to_string());
@@ -328,7 +334,7 @@ impl Progress {
         }
     }
 
-    fn finish(&self) {
+    pub(super) fn finish(&self) {
         self.bar.finish_and_clear();
     }
 }

@@ -1,0 +1,195 @@
+//! `shadec bench`: speed against error (issue 6 part 5, issue 7 part 4).
+//!
+//! Every technique variant ([`variants::groups`]) is planned for its target
+//! and rendered on its scene by the CPU renderer in its precision mode; the
+//! frame time is the median of several runs after a warm-up, the error is
+//! measured against the group's ground truth — the `exact` render (f64,
+//! renormalized vectors, true pow, no lookup tables) of the group's
+//! reference program, so that every variant of a group is compared with the
+//! same picture. [`adaptive`] adds the Adaptive Sample Shading table of
+//! seeds/004, and [`removed_work`] what scene-driven specialization removes.
+//! [`report`] writes `report.md`, the plots and the difference images.
+
+pub mod adaptive;
+pub mod plot;
+pub mod report;
+pub mod variants;
+
+use std::path::Path;
+use std::time::Duration;
+
+use crate::renderer::plan::{compare, ErrorReport, Frame, Mode, PlanRenderer};
+use crate::renderer::Framebuffer;
+use crate::scene::Scene;
+
+pub use variants::{groups, Group, Variant};
+
+/// How much to measure.
+#[derive(Clone, Debug)]
+pub struct BenchOptions {
+    /// Image size of every variant.
+    pub size: (u32, u32),
+    /// Timed runs per variant (the median is reported), after one warm-up.
+    pub runs: usize,
+    /// Only variants (and adaptive scenes) whose name contains this.
+    pub only: Option<String>,
+    /// Adaptive-shading thresholds (fractions of full intensity).
+    pub thresholds: Vec<f32>,
+}
+
+impl BenchOptions {
+    /// The full settings: 512×512, 5 runs, thresholds 1 %…16 %.
+    pub fn full() -> BenchOptions {
+        BenchOptions { size: (512, 512), runs: 5, only: None, thresholds: vec![0.01, 0.02, 0.04, 0.085, 0.16] }
+    }
+    /// A quick look (tests, CI): 128×128, one run, three thresholds.
+    pub fn quick() -> BenchOptions {
+        BenchOptions { size: (128, 128), runs: 1, only: None, thresholds: vec![0.02, 0.085, 0.16] }
+    }
+    pub(crate) fn wants(&self, name: &str) -> bool {
+        self.only.as_deref().is_none_or(|p| name.contains(p))
+    }
+}
+
+/// One measured variant.
+#[derive(Clone, Debug)]
+pub struct Measured {
+    pub group: &'static str,
+    pub variant: Variant,
+    pub passes: usize,
+    /// Median wall time of one frame.
+    pub time: Duration,
+    pub error: ErrorReport,
+    /// The rendered picture and the group's truth, for the difference image.
+    pub image: Framebuffer,
+    pub truth: std::sync::Arc<Framebuffer>,
+}
+
+/// What went wrong, with the variant it went wrong in.
+#[derive(Debug, thiserror::Error)]
+pub enum BenchError {
+    #[error("{what}: {message}")]
+    Variant { what: String, message: String },
+    #[error("{0}")]
+    Io(String),
+}
+
+fn failed(what: &str, message: impl std::fmt::Display) -> BenchError {
+    BenchError::Variant { what: what.to_string(), message: message.to_string() }
+}
+
+/// A program planned for a target and bound to a scene, ready to render.
+pub struct Prepared {
+    pub planned: crate::planner::Planned,
+    pub program: crate::parser::ast::Program,
+    pub scene: Scene,
+    pub assets: crate::scene::SceneAssets,
+}
+
+impl Prepared {
+    /// Parses, lowers and plans `source` for `target` on the scene's text.
+    pub fn new(name: &str, source: &str, target: &str, scene_ron: &str) -> Result<Prepared, BenchError> {
+        let scene = Scene::parse(scene_ron, Path::new("")).map_err(|e| failed(name, e))?;
+        let assets = scene.build().map_err(|e| failed(name, e))?;
+        let (program, diags) = crate::parser::check(source);
+        let first_error = |d: &[crate::diag::Diagnostic]| d.iter().find(|d| d.is_error()).map(|d| d.message.clone());
+        if let Some(e) = first_error(&diags) {
+            return Err(failed(name, e));
+        }
+        let (module, diags) = crate::ir::lower(&program);
+        if let Some(e) = first_error(&diags) {
+            return Err(failed(name, e));
+        }
+        let profile = crate::profile::Profile::resolve(target).map_err(|e| failed(name, e))?;
+        let planned = crate::planner::plan(&module, &profile, Some(source)).map_err(|d| failed(&format!("{name} on {target}"), first_error(&d).unwrap_or_default()))?;
+        Ok(Prepared { planned, program, scene, assets })
+    }
+
+    pub fn renderer(&self) -> Result<PlanRenderer<'_>, BenchError> {
+        PlanRenderer::new(&self.planned, &self.program, &self.scene, &self.assets).map_err(|e| failed("binding", e))
+    }
+}
+
+/// Renders `runs` times after a warm-up; the last frame and the median time.
+pub fn timed(renderer: &PlanRenderer, mode: Mode, size: (u32, u32), runs: usize) -> Result<(Frame, Duration), crate::renderer::RenderError> {
+    let mut frame = renderer.render(mode, size.0, size.1, &mut |_, _| {})?;
+    let mut times = Vec::with_capacity(runs);
+    for _ in 0..runs.max(1) {
+        frame = renderer.render(mode, size.0, size.1, &mut |_, _| {})?;
+        times.push(frame.time);
+    }
+    Ok((frame, median(&mut times)))
+}
+
+pub fn median(times: &mut [Duration]) -> Duration {
+    times.sort();
+    times.get(times.len() / 2).copied().unwrap_or_default()
+}
+
+/// Measures every variant the options select; `progress(done, total, name)`
+/// after each.
+pub fn measure(options: &BenchOptions, progress: &mut dyn FnMut(usize, usize, &str)) -> Result<Vec<Measured>, BenchError> {
+    let groups: Vec<Group> = groups().into_iter().filter(|g| g.variants.iter().any(|v| options.wants(v.name))).collect();
+    let total = groups.iter().map(|g| g.variants.iter().filter(|v| options.wants(v.name)).count()).sum();
+    let mut done = 0;
+    let mut out = Vec::new();
+    for group in &groups {
+        let truth = Prepared::new(group.truth.name, group.truth.source, group.truth_target, group.scene.ron)?;
+        let truth_frame = truth.renderer()?.render(Mode::Exact, options.size.0, options.size.1, &mut |_, _| {}).map_err(|e| failed(group.truth.name, e))?;
+        let truth_image = std::sync::Arc::new(truth_frame.image);
+        for variant in group.variants.iter().filter(|v| options.wants(v.name)) {
+            let what = format!("{} ({} on {}, {})", variant.name, variant.program.name, variant.target, variant.mode.name());
+            let prepared = Prepared::new(&what, variant.program.source, variant.target, group.scene.ron)?;
+            let renderer = prepared.renderer()?;
+            let (frame, time) = timed(&renderer, variant.mode, options.size, options.runs).map_err(|e| failed(&what, e))?;
+            out.push(Measured {
+                group: group.name,
+                variant: *variant,
+                passes: prepared.planned.plan.passes.len(),
+                time,
+                error: compare(&truth_image, &frame.image),
+                image: frame.image,
+                truth: truth_image.clone(),
+            });
+            done += 1;
+            progress(done, total, variant.name);
+        }
+    }
+    Ok(out)
+}
+
+/// Runs the whole bench and writes `report.md`, `speed_vs_error.png`,
+/// `adaptive.png` and `diff/*.png` into `out_dir`.
+pub fn run(options: &BenchOptions, out_dir: &Path, progress: &mut dyn FnMut(usize, usize, &str)) -> Result<report::Report, BenchError> {
+    let measured = measure(options, progress)?;
+    let adaptive = adaptive::measure(options, progress)?;
+    let removed = removed_work()?;
+    let report = report::Report { options: options.clone(), measured, adaptive, removed };
+    report.write(out_dir)?;
+    Ok(report)
+}
+
+/// What scene-driven specialization removes (issue 7 part 1), for the
+/// scenes where it matters: `planner::specialize::removal_report` in
+/// Markdown, one section per (program, scene).
+pub fn removed_work() -> Result<String, BenchError> {
+    let cases: [(&str, &str, &str, &str, &str); 2] = [
+        (
+            "tests/data/lights/phong_lights.shd",
+            include_str!("../../tests/data/lights/phong_lights.shd"),
+            "scenes/lights_matte_floor.ron",
+            include_str!("../../scenes/lights_matte_floor.ron"),
+            "wgsl",
+        ),
+        ("examples/fragment_lighting.shd", include_str!("../../examples/fragment_lighting.shd"), "scenes/adaptive_sphere_4lights.ron", include_str!("../../scenes/adaptive_sphere_4lights.ron"), "wgsl"),
+    ];
+    let mut md = String::new();
+    for (program, source, scene_name, scene_ron, target) in cases {
+        let scene = Scene::parse(scene_ron, Path::new("")).map_err(|e| failed(scene_name, e))?;
+        let profile = crate::profile::Profile::resolve(target).map_err(|e| failed(target, e))?;
+        let report = crate::planner::specialize::removal_report(source, &profile, &scene)
+            .map_err(|d| failed(program, d.first().map(|d| d.message.clone()).unwrap_or_default()))?;
+        md.push_str(&format!("### `{program}` on `{scene_name}` ({target})\n\n{}\n", report.to_markdown()));
+    }
+    Ok(md)
+}

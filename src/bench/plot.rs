@@ -1,0 +1,195 @@
+//! The plots of `shadec bench`, drawn by plotters into an RGB buffer and
+//! encoded as PNG by `image` (written atomically). Text uses the embedded
+//! DejaVu Sans Mono (`assets/fonts/`, its licence beside it), so no system
+//! font is needed.
+
+use std::path::Path;
+use std::sync::Once;
+
+use plotters::prelude::*;
+
+use super::adaptive::AdaptiveRow;
+use super::{BenchError, Measured};
+
+const FONT: &str = "sans-serif";
+const W: u32 = 1000;
+const H: u32 = 700;
+
+fn register_font() {
+    static ONCE: Once = Once::new();
+    ONCE.call_once(|| {
+        // The font is embedded: it parses, or the build is broken.
+        let _ = plotters::style::register_font(FONT, FontStyle::Normal, include_bytes!("../../assets/fonts/DejaVuSansMono.ttf"));
+    });
+}
+
+fn plot_error(e: impl std::fmt::Display) -> BenchError {
+    BenchError::Io(format!("drawing a plot: {e}"))
+}
+
+fn save(buf: &[u8], path: &Path) -> Result<(), BenchError> {
+    let mut bytes = Vec::new();
+    let encoder = image::codecs::png::PngEncoder::new(&mut bytes);
+    image::ImageEncoder::write_image(encoder, buf, W, H, image::ExtendedColorType::Rgb8).map_err(plot_error)?;
+    crate::io::write_atomic(path, &bytes).map_err(|e| BenchError::Io(e.to_string()))
+}
+
+/// The smallest RMSE plotted: an exact variant (0) sits on this floor.
+pub const RMSE_FLOOR: f64 = 1e-6;
+
+/// The variants on the Pareto front: none is both faster and more accurate.
+pub fn pareto_front(points: &[(f64, f64)]) -> Vec<usize> {
+    let mut front: Vec<usize> = (0..points.len())
+        .filter(|&i| !points.iter().enumerate().any(|(j, q)| j != i && q.0 <= points[i].0 && q.1 <= points[i].1 && (q.0 < points[i].0 || q.1 < points[i].1)))
+        .collect();
+    front.sort_by(|&a, &b| points[a].0.total_cmp(&points[b].0));
+    front
+}
+
+/// The indices of the variants on their group's Pareto front. The exact
+/// variants are the groups' references (zero error by definition) and are
+/// left out: the front is the trade-off among the approximations.
+pub fn group_fronts(measured: &[Measured]) -> Vec<usize> {
+    let mut on_front = Vec::new();
+    for group in measured.iter().map(|m| m.group) {
+        let members: Vec<usize> = (0..measured.len()).filter(|&i| measured[i].group == group && measured[i].variant.mode != crate::renderer::plan::Mode::Exact).collect();
+        let pts: Vec<(f64, f64)> = members.iter().map(|&i| (measured[i].time.as_secs_f64(), measured[i].error.rmse)).collect();
+        for k in pareto_front(&pts) {
+            if !on_front.contains(&members[k]) {
+                on_front.push(members[k]);
+            }
+        }
+    }
+    on_front.sort();
+    on_front
+}
+
+/// Error (RMSE against the group's truth) against time per frame, log-log,
+/// one colour per group, the Pareto front joined and its points labelled.
+pub fn speed_vs_error(measured: &[Measured], path: &Path) -> Result<(), BenchError> {
+    register_font();
+    let points: Vec<(f64, f64)> = measured.iter().map(|m| (m.time.as_secs_f64() * 1e3, m.error.rmse.max(RMSE_FLOOR))).collect();
+    let fronts = group_fronts(measured);
+    let (x0, x1) = bounds(points.iter().map(|p| p.0));
+    let (y0, y1) = bounds(points.iter().map(|p| p.1));
+    // Room above the points for the legend.
+    let y1 = y1 * 50.0;
+    let mut buf = vec![0u8; (W * H * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (W, H)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_error)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption("shadec bench: error against time per frame", (FONT, 24))
+            .margin(20)
+            .x_label_area_size(50)
+            .y_label_area_size(80)
+            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+            .map_err(plot_error)?;
+        chart
+            .configure_mesh()
+            .x_desc("ms per frame (median, CPU renderer)")
+            .y_desc(format!("RMSE against exact (floor {RMSE_FLOOR:e})"))
+            .x_labels(8)
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .label_style((FONT, 14))
+            .draw()
+            .map_err(plot_error)?;
+        let groups: Vec<&str> = measured.iter().fold(Vec::new(), |mut g, m| {
+            if !g.contains(&m.group) {
+                g.push(m.group);
+            }
+            g
+        });
+        for (gi, group) in groups.iter().enumerate() {
+            let colour = Palette99::pick(gi).to_rgba();
+            let pts: Vec<(f64, f64)> = measured.iter().zip(&points).filter(|(m, _)| m.group == *group).map(|(_, p)| *p).collect();
+            chart
+                .draw_series(pts.iter().map(|p| Circle::new(*p, 6, colour.filled())))
+                .map_err(plot_error)?
+                .label(group.to_string())
+                .legend(move |(x, y)| Circle::new((x + 8, y), 6, colour.filled()));
+        }
+        for (gi, group) in groups.iter().enumerate() {
+            let colour = Palette99::pick(gi).to_rgba();
+            let front: Vec<(f64, f64)> = (0..measured.len()).filter(|i| measured[*i].group == *group && fronts.contains(i)).map(|i| points[i]).collect();
+            let series = chart.draw_series(LineSeries::new(front, colour.stroke_width(2))).map_err(plot_error)?;
+            if gi == 0 {
+                series.label("Pareto front of each group (*)").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK.stroke_width(2)));
+            }
+        }
+        for (i, (m, p)) in measured.iter().zip(&points).enumerate() {
+            let label = if fronts.contains(&i) { format!("{} *", m.variant.name) } else { m.variant.name.to_string() };
+            chart.draw_series(std::iter::once(Text::new(label, *p, (FONT, 13)))).map_err(plot_error)?;
+        }
+        chart.configure_series_labels().background_style(WHITE.mix(0.85)).border_style(BLACK).label_font((FONT, 13)).position(SeriesLabelPosition::UpperRight).draw().map_err(plot_error)?;
+        root.present().map_err(plot_error)?;
+    }
+    save(&buf, path)
+}
+
+/// Adaptive shading: share of pixels shaded and PSNR against the threshold,
+/// one line per scene.
+pub fn adaptive(rows: &[AdaptiveRow], path: &Path) -> Result<(), BenchError> {
+    register_font();
+    let mut buf = vec![0u8; (W * H * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (W, H)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_error)?;
+        let (upper, lower) = root.split_vertically(H / 2);
+        let scenes: Vec<&str> = rows.iter().fold(Vec::new(), |mut s, r| {
+            if !s.contains(&r.scene) {
+                s.push(r.scene);
+            }
+            s
+        });
+        let t1 = rows.iter().map(|r| 100.0 * r.threshold as f64).fold(1.0, f64::max) * 1.05;
+        for (area, title, value, legend) in [
+            (&upper, "pixels shaded (%) against the threshold (%)", (|r: &AdaptiveRow| 100.0 * r.fraction_shaded) as fn(&AdaptiveRow) -> f64, SeriesLabelPosition::UpperRight),
+            (&lower, "PSNR against full shading (dB) against the threshold (%)", |r: &AdaptiveRow| r.psnr.min(120.0), SeriesLabelPosition::LowerLeft),
+        ] {
+            let y1 = rows.iter().map(value).fold(1.0, f64::max) * 1.1;
+            let mut chart = ChartBuilder::on(area)
+                .caption(title, (FONT, 18))
+                .margin(15)
+                .x_label_area_size(35)
+                .y_label_area_size(60)
+                .build_cartesian_2d(0.0..t1, 0.0..y1)
+                .map_err(plot_error)?;
+            chart.configure_mesh().label_style((FONT, 13)).draw().map_err(plot_error)?;
+            for (si, scene) in scenes.iter().enumerate() {
+                let colour = Palette99::pick(si).to_rgba();
+                let pts: Vec<(f64, f64)> = rows.iter().filter(|r| r.scene == *scene).map(|r| (100.0 * r.threshold as f64, value(r))).collect();
+                chart
+                    .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))
+                    .map_err(plot_error)?
+                    .label(scene.to_string())
+                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2)));
+                chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, colour.filled()))).map_err(plot_error)?;
+            }
+            chart.configure_series_labels().background_style(WHITE.mix(0.85)).border_style(BLACK).label_font((FONT, 12)).position(legend).draw().map_err(plot_error)?;
+        }
+        root.present().map_err(plot_error)?;
+    }
+    save(&buf, path)
+}
+
+/// A log-scale range around the values, a little wider.
+fn bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
+    let (lo, hi) = values.fold((f64::INFINITY, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
+    if !lo.is_finite() || hi <= 0.0 {
+        return (1e-3, 1.0);
+    }
+    (lo / 2.0, hi * 2.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::pareto_front;
+
+    #[test]
+    fn the_pareto_front_keeps_only_undominated_points() {
+        // (time, error): b dominates c; a is fastest, d most accurate.
+        let pts = [(1.0, 0.5), (2.0, 0.1), (3.0, 0.2), (4.0, 0.01)];
+        assert_eq!(pareto_front(&pts), [0, 1, 3]);
+    }
+}

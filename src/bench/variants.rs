@@ -1,0 +1,121 @@
+//! The technique variants `shadec bench` measures (issue 6 part 5), each a
+//! program, a target and a precision mode on a scene, grouped by the ground
+//! truth they are measured against.
+
+use crate::renderer::plan::Mode;
+
+/// A scene of the bench, embedded so that `shadec bench` needs no files.
+#[derive(Clone, Copy, Debug)]
+pub struct BenchScene {
+    pub name: &'static str,
+    pub ron: &'static str,
+}
+
+/// A coarse sphere (12 × 6 facets) under one point light.
+pub const SPHERE: BenchScene = BenchScene { name: "scenes/bench_sphere.ron", ron: include_str!("../../scenes/bench_sphere.ron") };
+/// Kilgard's bump-mapped torus (the default of `shadec render`).
+pub const TORUS: BenchScene = BenchScene { name: "scenes/kilgard_torus.ron", ron: include_str!("../../scenes/kilgard_torus.ron") };
+
+/// A program of the bench.
+#[derive(Clone, Copy, Debug)]
+pub struct Program {
+    pub name: &'static str,
+    pub source: &'static str,
+}
+
+macro_rules! program {
+    ($file:literal) => {
+        Program { name: concat!("src/bench/programs/", $file), source: include_str!(concat!("programs/", $file)) }
+    };
+}
+
+pub const PHONG_EXACT: Program = program!("phong_exact.shd");
+pub const GOURAUD: Program = program!("gouraud.shd");
+pub const PHONG_UNNORMALIZED: Program = program!("phong_unnormalized.shd");
+pub const PHONG_TAYLOR: Program = program!("phong_taylor.shd");
+pub const PHONG_CUBE8: Program = program!("phong_cube8.shd");
+pub const PHONG_CUBE16: Program = program!("phong_cube16.shd");
+pub const EXPONENT_POW: Program = program!("exponent_pow.shd");
+pub const EXPONENT_SQUARING: Program = program!("exponent_squaring.shd");
+pub const EXPONENT_LOOKUP: Program = program!("exponent_lookup.shd");
+pub const KILGARD: Program = Program { name: "examples/kilgard_bump_mapping.shd", source: include_str!("../../examples/kilgard_bump_mapping.shd") };
+pub const HEIDRICH_SEIDEL: Program = Program { name: "examples/torrance_sparrow_factored.shd", source: include_str!("../../examples/torrance_sparrow_factored.shd") };
+
+/// One measured technique.
+#[derive(Clone, Copy, Debug)]
+pub struct Variant {
+    /// Short, file-name safe (`phong_cube8`): names the difference image.
+    pub name: &'static str,
+    pub program: Program,
+    pub target: &'static str,
+    pub mode: Mode,
+    /// What the variant approximates, and how, with the paper reference.
+    pub approximates: &'static str,
+}
+
+/// Variants measured against one ground truth: the exact render (f64,
+/// vectors renormalized, true pow, no lookup tables) of `truth` on `scene`.
+#[derive(Clone, Debug)]
+pub struct Group {
+    pub name: &'static str,
+    pub scene: BenchScene,
+    pub truth: Program,
+    pub truth_target: &'static str,
+    pub variants: Vec<Variant>,
+}
+
+/// Every group of the bench, in report order.
+pub fn groups() -> Vec<Group> {
+    use Mode::*;
+    let v = |name, program, target, mode, approximates| Variant { name, program, target, mode, approximates };
+    vec![
+        Group {
+            name: "Phong: renormalization (n = 16, coarse sphere)",
+            scene: SPHERE,
+            truth: PHONG_EXACT,
+            truth_target: "wgsl",
+            variants: vec![
+                v("gouraud", GOURAUD, "geforce3", F32, "shading per vertex, colours interpolated (seeds/001 (1))"),
+                v("phong_unnormalized", PHONG_UNNORMALIZED, "geforce3", F32, "per pixel, L and H interpolated and not renormalized"),
+                v("phong_taylor", PHONG_TAYLOR, "geforce3", F32, "renormalized by the Taylor series in the combiners (seeds/000 Formula 6)"),
+                v("phong_taylor_fixed9", PHONG_TAYLOR, "geforce3", Fixed9, "the same in the combiners' 8 bits + sign"),
+                v("phong_cube8", PHONG_CUBE8, "geforce3", F32, "renormalized by an 8-bit normalization cube map (seeds/003 App. D)"),
+                v("phong_cube16", PHONG_CUBE16, "geforce3", F32, "renormalized by a 16-bit normalization cube map"),
+                v("phong_exact_f32", PHONG_EXACT, "wgsl", F32, "normalize and pow in f32 (a modern shader)"),
+                v("phong_exact", PHONG_EXACT, "wgsl", Exact, "the reference itself (f64)"),
+            ],
+        },
+        Group {
+            name: "Specular exponent (n = 64, coarse sphere)",
+            scene: SPHERE,
+            truth: EXPONENT_POW,
+            truth_target: "wgsl",
+            variants: vec![
+                v("exponent_squaring", EXPONENT_SQUARING, "geforce3", Fixed9, "x^64 by six squarings, each rounded to 8 bits (seeds/000 Section 4.4)"),
+                v("exponent_lookup", EXPONENT_LOOKUP, "geforce3", Fixed9, "x^64 from an 8-bit 1-D lookup texture"),
+                v("exponent_pow", EXPONENT_POW, "wgsl", F32, "true pow in f32"),
+            ],
+        },
+        Group {
+            name: "Kilgard's bump mapping (seeds/003, torus, 3 passes on a GeForce 256)",
+            scene: TORUS,
+            truth: KILGARD,
+            truth_target: "geforce256",
+            variants: vec![
+                v("kilgard_fixed9", KILGARD, "geforce256", Fixed9, "the register combiners' precision: 8-bit textures, framebuffer, 9-bit maths"),
+                v("kilgard_f32", KILGARD, "geforce256", F32, "the same passes in float (cube-map normalization, ^8 by squaring)"),
+                v("kilgard_exact", KILGARD, "geforce256", Exact, "the reference itself"),
+            ],
+        },
+        Group {
+            name: "Heidrich-Seidel factorized Torrance-Sparrow (seeds/002, coarse sphere)",
+            scene: SPHERE,
+            truth: HEIDRICH_SEIDEL,
+            truth_target: "geforce3",
+            variants: vec![
+                v("heidrich_seidel_fixed9", HEIDRICH_SEIDEL, "geforce3", Fixed9, "F·D and G/(π cos β) from 8-bit textures, 8-bit maths"),
+                v("heidrich_seidel_f32", HEIDRICH_SEIDEL, "geforce3", F32, "the factor textures in float maths"),
+            ],
+        },
+    ]
+}

@@ -1,0 +1,90 @@
+//! `shadec bench [--out-dir bench] [--size WxH] [--runs N] [--quick]
+//! [--only PATTERN]`: the speed-against-error report (issue 6 part 5,
+//! issue 7 part 4); the work is `shadec::bench`'s.
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+use shadec::bench::{BenchError, BenchOptions};
+
+use super::render::{parse_size, Progress};
+use super::{EXIT_SOURCE_ERRORS, EXIT_USAGE_OR_IO};
+
+#[derive(Debug, clap::Args)]
+pub struct BenchArgs {
+    /// Where to write report.md, the plots and diff/ (created if needed).
+    #[arg(long, value_name = "DIR", default_value = "bench")]
+    pub out_dir: PathBuf,
+    /// Image size of every variant [default: 512x512; 128x128 with --quick].
+    #[arg(long, value_name = "WxH")]
+    pub size: Option<String>,
+    /// Timed runs per variant, after a warm-up; the median is reported
+    /// [default: 5; 1 with --quick].
+    #[arg(long, value_name = "N")]
+    pub runs: Option<usize>,
+    /// A quick look: small images, one run, three thresholds.
+    #[arg(long)]
+    pub quick: bool,
+    /// Only the variants and adaptive scenes whose name contains PATTERN.
+    #[arg(long, value_name = "PATTERN")]
+    pub only: Option<String>,
+}
+
+pub fn run(args: &BenchArgs) -> ExitCode {
+    let mut options = if args.quick { BenchOptions::quick() } else { BenchOptions::full() };
+    if let Some(s) = &args.size {
+        match parse_size(s) {
+            Some(v) => options.size = v,
+            None => return usage(format!("--size {s}: expected WxH with 1..=16384 pixels per side, such as 512x512")),
+        }
+    }
+    if let Some(n) = args.runs {
+        if !(1..=1000).contains(&n) {
+            return usage(format!("--runs {n}: expected 1 to 1000 timed runs"));
+        }
+        options.runs = n;
+    }
+    options.only = args.only.clone();
+    println!(
+        "shadec bench: {}×{}, median of {} run{}, {} threads → {}",
+        options.size.0,
+        options.size.1,
+        options.runs,
+        if options.runs == 1 { "" } else { "s" },
+        rayon::current_num_threads(),
+        args.out_dir.display()
+    );
+    let progress = Progress::counting("variants");
+    let result = shadec::bench::run(&options, &args.out_dir, &mut |done, total, name| progress.tick(name, done, total));
+    progress.finish();
+    match result {
+        Ok(report) => {
+            for m in &report.measured {
+                println!(
+                    "{:<24} {:>10} {:>7} {:>8.2} ms  RMSE {:.5}  max {:>5.1}/255",
+                    m.variant.name,
+                    m.variant.target,
+                    m.variant.mode.name(),
+                    m.time.as_secs_f64() * 1e3,
+                    m.error.rmse,
+                    m.error.max_abs * 255.0
+                );
+            }
+            for r in &report.adaptive {
+                println!("{:<24} threshold {:>4.1} %: {:>6.2} % shaded, {:.2}× faster, PSNR {:.1} dB", r.scene, 100.0 * r.threshold, 100.0 * r.fraction_shaded, r.speedup(), r.psnr);
+            }
+            println!("wrote {}", args.out_dir.join("report.md").display());
+            ExitCode::SUCCESS
+        }
+        Err(e @ BenchError::Io(_)) => usage(e),
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(EXIT_SOURCE_ERRORS)
+        }
+    }
+}
+
+fn usage(e: impl std::fmt::Display) -> ExitCode {
+    eprintln!("error: {e}");
+    ExitCode::from(EXIT_USAGE_OR_IO)
+}

@@ -1,0 +1,83 @@
+//! `shadec bench` (issue 6 part 5, issue 7 part 4): the numbers agree with
+//! the physics and the papers, and the command writes what it promises.
+//! Nothing here is timed: only errors and counts are asserted.
+
+use std::process::Command;
+
+use shadec::bench::{measure, BenchOptions, Measured};
+
+fn options() -> BenchOptions {
+    BenchOptions { size: (96, 96), runs: 1, only: None, thresholds: vec![0.085] }
+}
+
+fn rmse(all: &[Measured], name: &str) -> f64 {
+    all.iter().find(|m| m.variant.name == name).unwrap_or_else(|| panic!("no variant {name}")).error.rmse
+}
+
+#[test]
+fn the_bench_numbers_are_consistent_with_the_papers() {
+    let all = measure(&options(), &mut |_, _, _| {}).unwrap();
+    let e = |n| rmse(&all, n);
+    for m in &all {
+        assert!(m.error.rmse.is_finite() && m.error.max_abs.is_finite(), "{}", m.variant.name);
+    }
+    // The references are their own truth.
+    assert_eq!(e("phong_exact"), 0.0);
+    assert_eq!(e("kilgard_exact"), 0.0);
+    // Per-pixel, renormalized shading beats per-vertex shading on a coarse sphere.
+    assert!(e("phong_exact_f32") < e("gouraud") / 100.0, "Phong {} vs Gouraud {}", e("phong_exact_f32"), e("gouraud"));
+    // seeds/003 App. D: 16-bit cube-map normalization beats 8-bit.
+    assert!(e("phong_cube16") < e("phong_cube8") / 10.0, "{} vs {}", e("phong_cube16"), e("phong_cube8"));
+    // seeds/000 Formula 6: Taylor renormalization beats none.
+    assert!(e("phong_taylor") < e("phong_unnormalized") / 2.0, "{} vs {}", e("phong_taylor"), e("phong_unnormalized"));
+    // seeds/000 Section 4.4: at n = 64 in 8 bits, the table beats repeated squaring.
+    assert!(e("exponent_lookup") < e("exponent_squaring"), "{} vs {}", e("exponent_lookup"), e("exponent_squaring"));
+    // True pow in f32 beats both 8-bit methods.
+    assert!(e("exponent_pow") < e("exponent_lookup"));
+    // The combiners' precision costs something over float, never less than nothing.
+    assert!(e("kilgard_fixed9") >= e("kilgard_f32") * 0.9 && e("kilgard_f32") > 0.0);
+    assert!(e("heidrich_seidel_fixed9") > e("heidrich_seidel_f32"));
+}
+
+#[test]
+fn bench_quick_writes_the_report_the_plots_and_the_differences() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_shadec"))
+        .args(["bench", "--quick", "--size", "64x64", "--out-dir"])
+        .arg(dir.path().join("b"))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    let b = dir.path().join("b");
+    for f in ["report.md", "speed_vs_error.png", "adaptive.png", "diff/gouraud.png", "diff/kilgard_fixed9.png"] {
+        assert!(b.join(f).is_file(), "{f} missing");
+    }
+    for png in ["speed_vs_error.png", "adaptive.png"] {
+        let img = image::open(b.join(png)).unwrap();
+        assert_eq!((img.width(), img.height()), (1000, 700));
+    }
+    assert_eq!(image::open(b.join("diff/gouraud.png")).unwrap().width(), 64);
+    // Every variant row of the report is a full table row with numbers.
+    let md = std::fs::read_to_string(b.join("report.md")).unwrap();
+    let names: Vec<&str> = shadec::bench::groups().iter().flat_map(|g| g.variants.iter().map(|v| v.name).collect::<Vec<_>>()).collect();
+    for name in &names {
+        let row = md.lines().find(|l| l.starts_with(&format!("| {name} ")) || l.starts_with(&format!("| {name} *"))).unwrap_or_else(|| panic!("no row for {name} in\n{md}"));
+        let cells: Vec<&str> = row.trim_matches('|').split('|').map(str::trim).collect();
+        assert_eq!(cells.len(), 10, "{row}");
+        let ms: f64 = cells[5].parse().unwrap_or_else(|_| panic!("{row}"));
+        let rmse: f64 = cells[7].parse().unwrap_or_else(|_| panic!("{row}"));
+        assert!(ms > 0.0 && rmse >= 0.0, "{row}");
+    }
+    for scene in ["adaptive_sphere_4lights", "adaptive_cube_1light", "adaptive_cube_4lights"] {
+        assert!(md.lines().any(|l| l.starts_with(&format!("| {scene} | 8.5 %"))), "{scene} at 8.5 % missing:\n{md}");
+    }
+    assert!(md.contains("## Removed work") && md.contains("lights_matte_floor"), "{md}");
+}
+
+#[test]
+fn bad_bench_options_are_usage_errors() {
+    for args in [["--size", "0x0"], ["--runs", "0"]] {
+        let out = Command::new(env!("CARGO_BIN_EXE_shadec")).arg("bench").args(args).output().unwrap();
+        assert_eq!(out.status.code(), Some(2), "{args:?}");
+    }
+}
