@@ -225,14 +225,12 @@ fn grazing_view_geometry_factor_is_bounded_and_scaling_avoids_the_clamp() {
     native("grazing plane", &scene);
 }
 
-/// Known gap of the fixed9 model (reported, not hidden): the example's
-/// `I_light * g_scale * (…)` rounds `I_light * g_scale` = 4 to the
-/// combiners' range [−1, 1] before the texels are multiplied, so the
-/// paper's scale is lost and the whole term is 4× too dark. The combiner
-/// code generator applies such a constant as the output scale of the
-/// product (see [`scale_on_the_product`], which the test above bounds).
+/// The example's `I_light * g_scale * (…)`: the constant product
+/// `I_light * g_scale` = 4 is folded by the compiler into a constant register
+/// and an output scale (`scale_by_four`, seeds/003 Section 4.2), so fixed9
+/// keeps the paper's scale; clamping it to the combiners' [−1, 1] before the
+/// texels are multiplied made the term 4× too dark (max error 0.73).
 #[test]
-#[ignore = "fixed9 clamps the constant product I_light·g_scale = 4 to 1 (per-operation model); measured max error 0.73"]
 fn grazing_fixed9_keeps_a_leading_constant_scale() {
     let scene = scene(GRAZING);
     let src = example("torrance_sparrow_factored.shd");

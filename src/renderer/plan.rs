@@ -39,11 +39,14 @@
 //!   framebuffer (blending clamps and rounds) and 8-bit temporaries, and the
 //!   fragment maths in the register-combiner precision model. The combiner
 //!   code generator has not landed, so this is an approximation of the
-//!   emulator: every IR operation's result is clamped to [−1, 1] and
-//!   rounded to a multiple of 1/255 with the emulator's rule (nearest, ties
-//!   toward +∞) — 8 bits and a sign per operation. Values that only address
-//!   textures (lookup coordinates, framebuffer positions) are not quantized:
-//!   the texture units iterate them in float.
+//!   emulator: every per-fragment IR operation's result is clamped to
+//!   [−1, 1] and rounded to a multiple of 1/255 with the emulator's rule
+//!   (nearest, ties toward +∞) — 8 bits and a sign per operation. Constant
+//!   and uniform subexpressions are folded by the compiler into a constant
+//!   register and an output scale, so they are rounded but not clamped
+//!   ([`fixed9_folded`]). Values that only address textures (lookup
+//!   coordinates, framebuffer positions) are not quantized: the texture
+//!   units iterate them in float.
 
 use std::cell::RefCell;
 use std::sync::atomic::{AtomicU64, Ordering};
@@ -447,7 +450,11 @@ struct Step<'m> {
     ops: [u32; 4],
     n_ops: u8,
     leaf: Option<Leaf>,
+    /// fixed9: a per-fragment result, clamped and rounded ([`fixed9`]).
     quantize: bool,
+    /// fixed9: a constant or uniform result, which the compiler folds into
+    /// a constant register and an output scale: rounded, not clamped.
+    folded: bool,
 }
 
 /// The fragment stage of one pass: the reachable nodes of the output (and
@@ -601,8 +608,10 @@ impl<'a> FragmentProgram<'a> {
                     None
                 }
             };
-            let quantize = mode == Mode::Fixed9 && !address[i] && leaf.is_none();
-            steps.push(Step { expr, ty, slot, ops, n_ops, leaf, quantize });
+            let per_sample = m.info(Handle::new(i)).freq.is_sample();
+            let quantize = mode == Mode::Fixed9 && !address[i] && leaf.is_none() && per_sample;
+            let folded = mode == Mode::Fixed9 && !address[i] && leaf.is_none() && !per_sample;
+            steps.push(Step { expr, ty, slot, ops, n_ops, leaf, quantize, folded });
         }
         Ok(FragmentProgram {
             module: m,
@@ -763,6 +772,7 @@ impl<'a> FragmentProgram<'a> {
                 Mode::Exact => v,
                 Mode::F32 => v.map(|x| x as f32 as f64),
                 Mode::Fixed9 if s.quantize => v.map(fixed9),
+                Mode::Fixed9 if s.folded => v.map(fixed9_folded),
                 Mode::Fixed9 => v.map(|x| x as f32 as f64),
             };
         }
@@ -783,6 +793,20 @@ pub fn fixed9(v: f64) -> f64 {
         return 0.0;
     }
     (v.clamp(-1.0, 1.0) * 255.0 + 0.5).floor() / 255.0
+}
+
+/// A constant or uniform subexpression in the combiner precision model:
+/// the compiler folds it before the combiners run, into an 8-bit constant
+/// register times an output scale of 1, 2 or 4 (seeds/003 Section 4.2:
+/// `scale_by_two`, `scale_by_four`), so it keeps its magnitude and is
+/// rounded to 1/255 like the register (the product it scales is then
+/// clamped to [−1, 1] as the combiner's output is).
+#[inline]
+pub fn fixed9_folded(v: f64) -> f64 {
+    if v.is_nan() {
+        return 0.0;
+    }
+    (v * 255.0 + 0.5).floor() / 255.0
 }
 
 /// The varying whose derivatives choose the mipmap level of a lookup at
