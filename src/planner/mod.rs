@@ -742,6 +742,7 @@ fn assemble(
                 let why = if piece.why.is_empty() { "the part rendered first" } else { piece.why.as_str() };
                 format!("{label} split into {n} passes on {} (pass {} of {n}): {why}", profile.name, pi + 1)
             };
+            let combiners = combiner_verdict(m, profile, piece.value, &textures);
             roots.push(piece.value);
             roots.push(st.index);
             roots.push(drawn_at);
@@ -767,10 +768,7 @@ fn assemble(
                 fragment: FragmentWork { output: piece.value.index() as u32, operations, condition: form.condition.map(|c| c.index() as u32) },
                 blend: piece.blend,
                 state,
-                combiners: profile.combiner_limits().and_then(|limits| {
-                    let input = crate::backends::combiners::codegen::PassInput { module: m, value: piece.value, units: &u.lookups };
-                    crate::backends::combiners::codegen::generate(&input, &limits).err().map(|e| format!("not generated yet: {e}"))
-                }),
+                combiners,
             });
         }
     }
@@ -794,6 +792,16 @@ fn assemble(
         })
         .collect();
     PassPlan { target: profile.name.clone(), passes, removed, values }
+}
+
+/// What the combiner code generator says of a pass on a register-combiner
+/// profile: `None` when it generates a setup, else why not, located.
+fn combiner_verdict(m: &Module, profile: &Profile, value: Handle<Expr>, textures: &[TextureBinding]) -> Option<String> {
+    let limits = profile.combiner_limits()?;
+    // Unit i holds textures[i]: a lookup, or a framebuffer read as a texture.
+    let units: Vec<Handle<Expr>> = textures.iter().map(|t| Handle::new(t.lookup as usize)).collect();
+    let input = crate::backends::combiners::codegen::PassInput { module: m, value, units: &units };
+    crate::backends::combiners::codegen::generate(&input, &limits).err().map(|e| format!("not generated: {e}"))
 }
 
 /// `π`, `πl`, `π*`, or `u` for a statement's index.

@@ -30,7 +30,8 @@ use std::collections::HashMap;
 use thiserror::Error;
 
 use crate::diag::Diagnostic;
-use crate::ir::{BinaryOp, Constant, Expr, Handle, MathFunction, Module, Ty, UnaryOp};
+use crate::ir::{BinaryOp, Constant, Expr, FbChannel, Handle, MathFunction, Module, Ty, UnaryOp};
+use crate::parser::ast::CombineMode;
 use crate::span::Span;
 
 use super::config::{
@@ -289,8 +290,13 @@ type R<T> = Result<T, CodegenError>;
 
 /// Generates the register-combiner configuration for one pass.
 pub fn generate(input: &PassInput, limits: &CombinerLimits) -> Result<Generated, CodegenError> {
-    let m = input.module;
-    let span = m.span(input.value);
+    let original = input.module.exprs.len();
+    let desugared = desugar(input.module, input.value)?;
+    let (m, value) = match &desugared {
+        Some((m, v)) => (m, *v),
+        None => (input.module, input.value),
+    };
+    let span = m.span(value);
     if input.units.len() > usize::from(limits.texture_units.min(4)) {
         return Err(CodegenError::Unsupported {
             span,
@@ -311,7 +317,7 @@ pub fn generate(input: &PassInput, limits: &CombinerLimits) -> Result<Generated,
         colors: [None, None],
         span,
     };
-    let fin = g.final_combiner(input.value)?;
+    let fin = g.final_combiner(value)?;
     let stages = g.stage_used.len();
     if stages > limits.general_combiners {
         return Err(CodegenError::OutOfStages { needed: stages, available: limits.general_combiners });
@@ -323,8 +329,136 @@ pub fn generate(input: &PassInput, limits: &CombinerLimits) -> Result<Generated,
         config,
         primary: g.colors[0],
         secondary: g.colors[1],
-        constants: [g.constants[0].map(|c| c.1), g.constants[1].map(|c| c.1)],
+        // A constant the generator made (folded, or from a desugared ⊕) is
+        // not a node of the caller's module; its colour is in the config.
+        constants: g.constants.map(|c| c.map(|c| c.1).filter(|h| h.index() < original)),
         stages,
+    })
+}
+
+/// Rewrites the per-sample `⊕` nodes below `value` into the arithmetic they
+/// stand for (`crate::ir::eval::combine`, the OpenGL 1.2.1 texture
+/// environment of seeds/001 Section 3.6), so that the selector sees
+/// products, sums, lerps and dot products. `None` when there is no `⊕`.
+/// The rewritten nodes are appended to a copy of the module: every handle
+/// of the original (lookups, interpolants, uniforms) keeps its meaning.
+fn desugar(module: &Module, value: Handle<Expr>) -> R<Option<(Module, Handle<Expr>)>> {
+    let reach = module.reachable(&[value]);
+    let is_combine = |h: &Handle<Expr>| matches!(module.exprs[*h], Expr::Combine { .. }) && module.info(*h).freq.is_sample();
+    if !reach.iter().any(is_combine) {
+        return Ok(None);
+    }
+    let mut m = module.clone();
+    let mut map: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::new();
+    for h in reach {
+        let e = module.exprs[h].clone();
+        // Leaves for the combiners: texture units, interpolants, per-object values.
+        if !module.info(h).freq.is_sample() || matches!(e, Expr::Lookup { .. } | Expr::FramebufferRead { .. } | Expr::Interpolate { .. }) {
+            continue;
+        }
+        let span = module.span(h);
+        let e = e.map_operands(|o| map.get(&o).copied().unwrap_or(o));
+        let new = match e {
+            Expr::Combine { mode, lhs, rhs } => combine_expr(&mut m, mode, lhs, rhs, module.info(h).ty, span)?,
+            e => intern(&mut m, e, span)?,
+        };
+        if new != h {
+            map.insert(h, new);
+        }
+    }
+    let v = map.get(&value).copied().unwrap_or(value);
+    Ok(Some((m, v)))
+}
+
+fn intern(m: &mut Module, e: Expr, span: Span) -> R<Handle<Expr>> {
+    m.intern(e, span).map_err(|t| unsupported(span, format!("this value ({})", t.message), "please report this: rewriting ⊕ for the combiners failed"))
+}
+
+/// `t ⊕[mode] f` of type `ty` as IR arithmetic: `crate::ir::eval::combine`
+/// node for node (TEXTURE_ENV_COLOR is 0, so `blend` is f·(1 − t)).
+fn combine_expr(m: &mut Module, mode: CombineMode, t: Handle<Expr>, f: Handle<Expr>, ty: Ty, span: Span) -> R<Handle<Expr>> {
+    let bin = |m: &mut Module, op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr>| intern(m, Expr::Binary { op, lhs, rhs }, span);
+    let konst = |m: &mut Module, v: f64| intern(m, Expr::Constant(Constant::scalar(v)), span);
+    let lhs_rgb = matches!(m.exprs[t], Expr::Convert { value, to: Ty::Rgba } if m.info(value).ty == Ty::Rgb);
+    let rgba = ty == Ty::Rgba;
+    // Component selections of a value (a scalar operand splats).
+    let rgb_of = |m: &mut Module, h: Handle<Expr>| -> R<Handle<Expr>> {
+        match m.info(h).ty {
+            Ty::Rgba => intern(m, Expr::Swizzle { value: h, pattern: [0, 1, 2, 0], len: 3, ty: Ty::Rgb }, span),
+            _ => Ok(h),
+        }
+    };
+    let alpha_of = |m: &mut Module, h: Handle<Expr>| -> R<Handle<Expr>> {
+        match m.info(h).ty {
+            Ty::Rgba => intern(m, Expr::Swizzle { value: h, pattern: [3, 0, 0, 0], len: 1, ty: Ty::Scalar }, span),
+            Ty::Scalar => Ok(h),
+            _ => konst(m, 1.0),
+        }
+    };
+    let compose = |m: &mut Module, c: Handle<Expr>, a: Handle<Expr>| intern(m, Expr::Compose { ty: Ty::Rgba, components: vec![c, a] }, span);
+    Ok(match mode {
+        CombineMode::Modulate => bin(m, BinaryOp::Mul, t, f)?,
+        CombineMode::Add => bin(m, BinaryOp::Add, t, f)?,
+        CombineMode::Subtract => bin(m, BinaryOp::Sub, t, f)?,
+        CombineMode::AddSigned => {
+            let sum = bin(m, BinaryOp::Add, t, f)?;
+            intern(m, Expr::Math { fun: MathFunction::HalfBias, args: vec![sum] }, span)?
+        }
+        // Without alpha, At = 1: decal, replace and interpolate give t.
+        CombineMode::Decal | CombineMode::Replace | CombineMode::Interpolate if !rgba => t,
+        // rgb = f·(1 − At) + t·At, alpha = Af.
+        CombineMode::Decal => {
+            let (tc, fc, fa) = (rgb_of(m, t)?, rgb_of(m, f)?, alpha_of(m, f)?);
+            let c = if lhs_rgb {
+                tc
+            } else {
+                let at = alpha_of(m, t)?;
+                intern(m, Expr::Math { fun: MathFunction::Mix, args: vec![fc, tc, at] }, span)?
+            };
+            compose(m, c, fa)?
+        }
+        CombineMode::Replace => {
+            let tc = rgb_of(m, t)?;
+            let a = if lhs_rgb { alpha_of(m, f)? } else { alpha_of(m, t)? };
+            compose(m, tc, a)?
+        }
+        CombineMode::Interpolate => {
+            let at = alpha_of(m, t)?;
+            intern(m, Expr::Math { fun: MathFunction::Mix, args: vec![f, t, at] }, span)?
+        }
+        // rgb = f·(1 − t) (+ Cc·t, Cc = 0), alpha = At·Af.
+        CombineMode::Blend => {
+            let one = konst(m, 1.0)?;
+            let (tc, fc) = (rgb_of(m, t)?, rgb_of(m, f)?);
+            let inv = bin(m, BinaryOp::Sub, one, tc)?;
+            let c = bin(m, BinaryOp::Mul, fc, inv)?;
+            if rgba {
+                let (ta, fa) = (alpha_of(m, t)?, alpha_of(m, f)?);
+                let a = bin(m, BinaryOp::Mul, ta, fa)?;
+                compose(m, c, a)?
+            } else {
+                c
+            }
+        }
+        // 4·Σ(t − ½)(f − ½) = expand(t)·expand(f), on every channel (dot3_rgba)
+        // or rgb with alpha At·Af (dot3_rgb).
+        CombineMode::Dot3Rgb | CombineMode::Dot3Rgba => {
+            let (tc, fc) = (rgb_of(m, t)?, rgb_of(m, f)?);
+            let et = intern(m, Expr::Math { fun: MathFunction::Expand, args: vec![tc] }, span)?;
+            let ef = intern(m, Expr::Math { fun: MathFunction::Expand, args: vec![fc] }, span)?;
+            let op = if m.info(tc).ty == Ty::Scalar { BinaryOp::Mul } else { BinaryOp::Dot };
+            let d = bin(m, op, et, ef)?;
+            match (mode, ty) {
+                (_, Ty::Scalar) => d,
+                (CombineMode::Dot3Rgb, Ty::Rgba) => {
+                    let c = intern(m, Expr::Convert { value: d, to: Ty::Rgb }, span)?;
+                    let (ta, fa) = (alpha_of(m, t)?, alpha_of(m, f)?);
+                    let a = bin(m, BinaryOp::Mul, ta, fa)?;
+                    compose(m, c, a)?
+                }
+                (_, ty) => intern(m, Expr::Convert { value: d, to: ty }, span)?,
+            }
+        }
     })
 }
 
@@ -425,7 +559,7 @@ impl Gen<'_> {
                 };
                 Ok(Src { base: Base::Reg(reg), comp, map: UnsignedIdentity })
             }
-            Expr::Lookup { .. } => {
+            Expr::Lookup { .. } | Expr::FramebufferRead { channel: FbChannel::Color | FbChannel::Alpha, .. } if self.units.contains(&h) || matches!(self.expr(h), Expr::Lookup { .. }) => {
                 let unit = self.units.iter().position(|u| *u == h).ok_or_else(|| {
                     unsupported(span, "a texture lookup not bound to a texture unit of this pass", "list it in the pass's texture units")
                 })?;

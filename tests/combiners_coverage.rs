@@ -1,0 +1,90 @@
+//! Coverage of the combiner code generator over the examples (issue 4 part
+//! 5): on `geforce256` and `geforce3`, every example either fails to plan
+//! with located diagnostics, or plans into passes each of which the code
+//! generator either realizes as a configuration the Appendix B validator
+//! accepts, or refuses with a located diagnostic (the renderer then falls
+//! back to its per-operation model for that pass).
+
+use shadec::backends::combiners::{generate, validate, PassInput};
+use shadec::ir::{Expr, Handle};
+use shadec::planner::{compile_source, Planned};
+use shadec::profile::Profile;
+
+fn examples() -> Vec<(String, String)> {
+    let mut v: Vec<_> = std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/examples"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "shd"))
+        .map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read_to_string(&p).unwrap()))
+        .collect();
+    v.sort();
+    v
+}
+
+/// The generator's verdict on every pass: Ok(stages) or Err(located message).
+fn verdicts(planned: &Planned, profile: &Profile, src: &str) -> Vec<Result<usize, String>> {
+    let limits = profile.combiner_limits().expect("a combiner profile");
+    let lines = shadec::span::LineIndex::new(src);
+    (0..planned.plan.passes.len())
+        .map(|i| {
+            let pass = &planned.plan.passes[i];
+            let units: Vec<Handle<Expr>> = pass.textures.iter().map(|t| planned.handle(t.lookup)).collect();
+            let value = planned.handle(pass.fragment.output);
+            match generate(&PassInput { module: &planned.module, value, units: &units }, &limits) {
+                Ok(g) => {
+                    validate(&g.config, &limits).map_err(|e| format!("invalid config: {e:?}"))?;
+                    assert_eq!(pass.combiners, None, "the plan says pass {} is not generated, the generator generates it", i + 1);
+                    Ok(g.stages)
+                }
+                Err(e) => {
+                    let span = e.span().ok_or_else(|| format!("unlocated: {e}"))?;
+                    assert!(pass.combiners.is_some(), "the plan says pass {} is generated", i + 1);
+                    let lc = lines.line_col(src, span.start as usize);
+                    Err(format!("{}:{}: {e} (help: {})", lc.line, lc.col, e.help()))
+                }
+            }
+        })
+        .collect()
+}
+
+fn report(profile: &str) -> Vec<(String, Result<Vec<Result<usize, String>>, String>)> {
+    let p = Profile::builtin(profile).unwrap();
+    examples()
+        .into_iter()
+        .map(|(name, src)| {
+            let r = match compile_source(&src, &p) {
+                Ok(planned) => Ok(verdicts(&planned, &p, &src)),
+                Err(d) => {
+                    assert!(!d.is_empty());
+                    for d in &d {
+                        assert!(d.primary.span != shadec::span::Span::DETACHED || d.help.is_some(), "{name}: a diagnostic with neither location nor help: {d:?}");
+                    }
+                    Err(d[0].message.clone())
+                }
+            };
+            (name, r)
+        })
+        .collect()
+}
+
+#[test]
+fn every_example_generates_or_is_located_on_both_combiner_profiles() {
+    for profile in ["geforce256", "geforce3"] {
+        for (name, r) in report(profile) {
+            match r {
+                Ok(passes) => {
+                    for (i, v) in passes.iter().enumerate() {
+                        match v {
+                            Ok(n) => eprintln!("{profile} {name} pass {}: {n} stages", i + 1),
+                            Err(e) => {
+                                assert!(!e.starts_with("unlocated") && !e.starts_with("invalid"), "{profile} {name} pass {}: {e}", i + 1);
+                                eprintln!("{profile} {name} pass {}: NOT generated: {e}", i + 1)
+                            }
+                        }
+                    }
+                }
+                Err(e) => eprintln!("{profile} {name}: does not plan: {e}"),
+            }
+        }
+    }
+}
