@@ -295,7 +295,7 @@ pub(crate) struct TileBuffers {
 }
 
 #[inline]
-pub(crate) fn quantize_unorm8(v: f32) -> u8 {
+pub fn quantize_unorm8(v: f32) -> u8 {
     // NaN maps to 0 (`as` saturates NaN to 0).
     (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
 }

@@ -20,7 +20,7 @@ pub mod plan;
 mod raster;
 mod tile;
 
-pub use framebuffer::{
+pub use framebuffer::{quantize_unorm8, 
     BlendEquation, BlendFactor, BlendState, ColorFormat, CompareFunc, DepthState, Framebuffer, StencilOp, StencilState,
     TILE,
 };

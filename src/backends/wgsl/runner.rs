@@ -223,10 +223,40 @@ pub struct Target {
     pub clear_depth: f32,
     pub clear_stencil: u8,
     pub depth_format: DepthFormat,
+    pub color_format: ColorTarget,
+}
+
+/// The colour target's format. The picture read back is RGBA8 either way;
+/// a float target keeps the values *between* passes in float, as the CPU
+/// renderer's `f32` mode does ("the same plan in float", issue 6), so that
+/// multipass plans can be compared with it without the 8-bit rounding of
+/// every intermediate framebuffer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ColorTarget {
+    /// `Rgba8Unorm`: what a GPU of the papers' era had (and the default).
+    Rgba8,
+    /// `Rgba16Float`: blendable everywhere (WebGPU core), 11-bit mantissa.
+    Rgba16Float,
+}
+
+impl ColorTarget {
+    fn wgpu(self) -> wgpu::TextureFormat {
+        match self {
+            ColorTarget::Rgba8 => wgpu::TextureFormat::Rgba8Unorm,
+            ColorTarget::Rgba16Float => wgpu::TextureFormat::Rgba16Float,
+        }
+    }
+    fn bytes_per_pixel(self) -> u32 {
+        match self {
+            ColorTarget::Rgba8 => 4,
+            ColorTarget::Rgba16Float => 8,
+        }
+    }
 }
 
 impl Target {
-    /// Cleared to transparent black, depth 1, stencil 0; depth and stencil.
+    /// Cleared to transparent black, depth 1, stencil 0; depth and stencil;
+    /// an RGBA8 colour target.
     pub fn new(width: u32, height: u32) -> Target {
         Target {
             width,
@@ -235,7 +265,13 @@ impl Target {
             clear_depth: 1.0,
             clear_stencil: 0,
             depth_format: DepthFormat::Depth24PlusStencil8,
+            color_format: ColorTarget::Rgba8,
         }
+    }
+
+    /// The same with a float colour target ([`ColorTarget::Rgba16Float`]).
+    pub fn float(width: u32, height: u32) -> Target {
+        Target { color_format: ColorTarget::Rgba16Float, ..Target::new(width, height) }
     }
 }
 
@@ -328,7 +364,7 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
         mip_level_count: 1,
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
-        format: wgpu::TextureFormat::Rgba8Unorm,
+        format: target.color_format.wgpu(),
         usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
         view_formats: &[],
     });
@@ -352,7 +388,7 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
     let prepared: Vec<Prepared> = passes
         .iter()
         .zip(modules)
-        .map(|(pass, module)| prepare(gpu, pass, module, depth_format))
+        .map(|(pass, module)| prepare(gpu, pass, module, depth_format, target.color_format.wgpu()))
         .collect();
 
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
@@ -429,7 +465,7 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
     }
 
     // Copy out with rows padded to wgpu's 256-byte alignment.
-    let unpadded_row = target.width * 4;
+    let unpadded_row = target.width * target.color_format.bytes_per_pixel();
     let padded_row = unpadded_row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
     let readback = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("shadec readback"),
@@ -480,9 +516,17 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
     let mapped = slice
         .get_mapped_range()
         .map_err(|err| GpuError::Readback(err.to_string()))?;
-    let mut pixels = Vec::with_capacity((unpadded_row * target.height) as usize);
+    let mut pixels = Vec::with_capacity((target.width * 4 * target.height) as usize);
     for row in mapped.chunks_exact(padded_row as usize) {
-        pixels.extend_from_slice(&row[..unpadded_row as usize]);
+        let row = &row[..unpadded_row as usize];
+        match target.color_format {
+            ColorTarget::Rgba8 => pixels.extend_from_slice(row),
+            // Half floats to 8 bits as the CPU renderer's framebuffer does.
+            ColorTarget::Rgba16Float => pixels.extend(row.chunks_exact(2).map(|h| {
+                let v = half::f16::from_bits(u16::from_le_bytes([h[0], h[1]])).to_f32();
+                crate::renderer::quantize_unorm8(v)
+            })),
+        }
     }
     drop(mapped);
     readback.unmap();
@@ -566,7 +610,7 @@ fn check_pass(pass: &RunPass, target: &Target) -> Result<(), GpuError> {
     Ok(())
 }
 
-fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::TextureFormat) -> Prepared {
+fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::TextureFormat, color_format: wgpu::TextureFormat) -> Prepared {
     let device = &gpu.device;
     let label = Some(pass.label.as_str());
     let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -719,7 +763,7 @@ fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::
             entry_point: Some(&pass.shader.fragment_entry),
             compilation_options: Default::default(),
             targets: &[Some(wgpu::ColorTargetState {
-                format: wgpu::TextureFormat::Rgba8Unorm,
+                format: color_format,
                 blend: Some(blend_state(&state.blend)),
                 write_mask: write_mask(state.blend.write_mask),
             })],

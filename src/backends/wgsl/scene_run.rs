@@ -45,14 +45,15 @@
 //! mask (29 307 pixels compared): every term but the specular power — decal,
 //! normal map, the cube map along L and H, the diffuse pass — agrees within
 //! 2/255 (`kilgard_terms_below_the_eighth_power_agree_with_cpu_f32`; single
-//! lookups differ by 1/255 on 6-41 pixels). The whole program: one fused
-//! pass max 4/255 with 5 pixels over 2/255; with the mip chains removed
-//! max 8/255, 9 pixels; three blended passes (geforce256) max 10/255,
-//! 81 pixels — ≈ 70 of them because the GPU's target is RGBA8 between
-//! passes while `f32` keeps f32 framebuffers (an RGBA8 framebuffer on the
-//! CPU side brings it to 11 pixels, max 8/255). What remains: the texture
-//! coordinates of the two rasterizers differ in their last bits (the CPU
-//! interpolates from vertices snapped to 1/256 pixel, lavapipe from float
+//! lookups differ by 1/255 on 6-41 pixels). The whole program, rendered
+//! into a float target (`Target::float`: between passes the values stay in
+//! float, as in the CPU's f32 mode): one fused pass and the three blended
+//! passes of geforce256 alike max 8/255 with 9 pixels over 2/255 (the
+//! three-pass plan had 81 pixels, max 10/255, while the GPU's target was
+//! RGBA8 between passes); with the mip chains removed max 3/255, 6 pixels.
+//! What remains: the texture coordinates of the two rasterizers differ in
+//! their last bits (the CPU interpolates from vertices snapped to 1/256
+//! pixel, lavapipe from float
 //! planes), which moves an 8-bit filter weight across a rounding boundary
 //! now and then — a 1/255 texel difference, 2/255 after `expand`, which
 //! `max(0, Hn·N′)^8` multiplies by up to 8. The 2/255-everywhere
@@ -184,8 +185,14 @@ impl<'a> ScenePlan<'a> {
 
     /// Renders a frame and reads it back (row 0 at the top).
     pub fn render(&self, gpu: &Gpu, width: u32, height: u32) -> Result<RgbaImage, SceneRunError> {
-        let passes = self.passes(width, height)?;
-        Ok(runner::run_passes(gpu, &Target::new(width, height), &passes)?)
+        self.render_into(gpu, &Target::new(width, height))
+    }
+
+    /// Renders into `target` (e.g. [`Target::float`], to compare a
+    /// multipass plan with the CPU renderer's `f32` mode).
+    pub fn render_into(&self, gpu: &Gpu, target: &Target) -> Result<RgbaImage, SceneRunError> {
+        let passes = self.passes(target.width, target.height)?;
+        Ok(runner::run_passes(gpu, target, &passes)?)
     }
 }
 
