@@ -5,20 +5,15 @@
 //! accepts, or refuses with a located diagnostic (the renderer then falls
 //! back to its per-operation model for that pass).
 
+mod common;
+
 use shadec::backends::combiners::{generate, validate, PassInput};
 use shadec::ir::{Expr, Handle};
 use shadec::planner::{compile_source, Planned};
 use shadec::profile::Profile;
 
 fn examples() -> Vec<(String, String)> {
-    let mut v: Vec<_> = std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/examples"))
-        .unwrap()
-        .map(|e| e.unwrap().path())
-        .filter(|p| p.extension().is_some_and(|e| e == "shd"))
-        .map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read_to_string(&p).unwrap()))
-        .collect();
-    v.sort();
-    v
+    common::examples().into_iter().map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read_to_string(&p).unwrap())).collect()
 }
 
 /// The generator's verdict on every pass: Ok(stages) or Err(located message).

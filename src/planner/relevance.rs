@@ -588,7 +588,7 @@ pub fn cull(m: &mut Module, spec: &super::SceneSpecialization, exp: &super::ligh
         }
     }
     let all_objects: Vec<usize> = (0..objects.len()).collect();
-    let used_before = used_by(m, &[]);
+    let used_before = super::specialize::used_textures(m, &[]);
     for ls in &exp.statements {
         let keep: Vec<usize> = all_objects.iter().copied().filter(|&o| !dropped[ls.light as usize][o]).collect();
         if ls.light == 0 {
@@ -633,24 +633,12 @@ pub fn cull(m: &mut Module, spec: &super::SceneSpecialization, exp: &super::ligh
             out.culled.push(Culled { light, object: o, bound, criterion });
         }
     }
-    let used_after = used_by(m, &out.statements);
+    let used_after = super::specialize::used_textures(m, &out.statements);
     for t in used_before.difference(&used_after) {
         let tex = &m.textures[*t as usize];
         out.removed.push(super::Removed { kind: "texture".into(), what: tex.name.clone(), why: "only the culled lights' terms used it".into(), at: at(tex.span) });
     }
     out
-}
-
-/// Textures the statements other than `skip` look up.
-fn used_by(m: &Module, skip: &[usize]) -> std::collections::BTreeSet<u32> {
-    let roots: Vec<Handle<Expr>> = m.statements.iter().enumerate().filter(|(i, _)| !skip.contains(i)).map(|(_, s)| s.value).collect();
-    m.reachable(&roots)
-        .into_iter()
-        .filter_map(|h| match m.exprs[h] {
-            Expr::Lookup { texture, .. } => Some(texture),
-            _ => None,
-        })
-        .collect()
 }
 
 /// The world-space bounding sphere of one mesh.

@@ -16,14 +16,14 @@ use crate::span::Span;
 /// Simplifies every statement of `m` in place; returns what went.
 pub fn specialize(m: &mut Module, at: &dyn Fn(Span) -> String) -> Vec<Removed> {
     let mut removed = Vec::new();
-    let used_before = used_textures(m);
+    let used_before = used_textures(m, &[]);
     for i in 0..m.statements.len() {
         let v = m.statements[i].value;
         if let Some(nv) = simplify(m, v, &mut removed, at) {
             m.statements[i].value = nv;
         }
     }
-    let used_after = used_textures(m);
+    let used_after = used_textures(m, &[]);
     for t in used_before.difference(&used_after) {
         let tex = &m.textures[*t as usize];
         removed.push(Removed { kind: "texture".into(), what: tex.name.clone(), why: "only removed terms used it".into(), at: at(tex.span) });
@@ -31,8 +31,9 @@ pub fn specialize(m: &mut Module, at: &dyn Fn(Span) -> String) -> Vec<Removed> {
     removed
 }
 
-fn used_textures(m: &Module) -> std::collections::BTreeSet<u32> {
-    let roots: Vec<Handle<Expr>> = m.statements.iter().map(|s| s.value).collect();
+/// Textures looked up by the statements other than those in `skip`.
+pub(crate) fn used_textures(m: &Module, skip: &[usize]) -> std::collections::BTreeSet<u32> {
+    let roots: Vec<Handle<Expr>> = m.statements.iter().enumerate().filter(|(i, _)| !skip.contains(i)).map(|(_, s)| s.value).collect();
     m.reachable(&roots)
         .into_iter()
         .filter_map(|h| match m.exprs[h] {
