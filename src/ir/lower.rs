@@ -43,6 +43,14 @@ const MAX_EXPR_RECURSION: usize = 20_000;
 const MAX_DEFINITION_DEPTH: usize = 64;
 
 fn lower_here(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
+    let baked;
+    let program = match with_bakes(program) {
+        Some(p) => {
+            baked = p;
+            &baked
+        }
+        None => program,
+    };
     let mut l = Lowerer {
         program,
         module: Module::default(),
@@ -64,6 +72,43 @@ fn lower_here(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
     l.run();
     l.diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
     (l.module, l.diagnostics)
+}
+
+/// `texture T … = bake(f)` is texture shading (seeds/001 (13)) of the
+/// function `f` over T's texels: the program with the statement
+/// `T δu ← f s δu` added for every such texture (its spans those of the
+/// `bake(…)` source, so it sorts, plans and reports where it was written),
+/// or `None` when no texture is baked. Renderers treat a baked texture as
+/// one that statements render into.
+fn with_bakes(program: &ast::Program) -> Option<ast::Program> {
+    let mut added = Vec::new();
+    for item in &program.items {
+        let ItemKind::Texture(t) = &item.kind else { continue };
+        let Some(src) = &t.source else { continue };
+        let ExprKind::Apply { func, arg } = &src.kind else { continue };
+        let (FuncKind::Name(f), ExprKind::Name(shader)) = (&func.kind, &arg.kind) else { continue };
+        if f.key() != "bake" {
+            continue;
+        }
+        for name in &t.names {
+            let (parsed, diagnostics) = crate::parser::parse(&format!("{} delta u <- {} s delta u;", name.key(), shader.key()));
+            let Some(mut statement) = parsed.items.into_iter().next().filter(|_| diagnostics.is_empty()) else { continue };
+            statement.erase_spans();
+            statement.span = src.span;
+            if let ItemKind::Statement(st) = &mut statement.kind {
+                st.target.span = src.span;
+                st.target.table.span = name.span;
+                st.value.span = src.span;
+            }
+            added.push(statement);
+        }
+    }
+    if added.is_empty() {
+        return None;
+    }
+    let mut p = program.clone();
+    p.items.extend(added);
+    Some(p)
 }
 
 /// Where a shading-parameter bundle is evaluated.

@@ -59,7 +59,7 @@ pub enum TextureSource {
     BrdfFd { roughness: f32, index: f32 },
     BrdfG { scale: f32 },
     ExponentTable { exponent: f32 },
-    /// `bake(shader)`: not supported by the CPU renderer yet.
+    /// A source the renderer does not know.
     Bake(String),
     /// No source: statements render into it.
     Rendered,
@@ -213,6 +213,9 @@ fn source(e: &ast::Expr, names: &BTreeMap<String, f32>) -> TextureSource {
         "brdf_fd" => TextureSource::BrdfFd { roughness: num(0, 0.3), index: num(1, 1.5) },
         "brdf_g" => TextureSource::BrdfG { scale: num(0, 1.0) },
         "exponent_table" => TextureSource::ExponentTable { exponent: num(0, 8.0) },
+        // `bake(f)` becomes a texel pass that renders f into the texture
+        // (`ir::lower`, seeds/001 (13)).
+        "bake" => TextureSource::Rendered,
         other => TextureSource::Bake(other.to_string()),
     }
 }
@@ -387,7 +390,7 @@ pub fn load_textures(decls: &[TextureDecl], scene: &Scene, quality: TextureQuali
                 exact = Some(ExactFunction::Exponent(*exponent));
                 Texture::Flat(generators::exponent_lut(256, *exponent, format))
             }
-            TextureSource::Bake(what) => return Err(err(format!("the texture source `{what}` (baking a shader) is not supported by the CPU renderer yet"))),
+            TextureSource::Bake(what) => return Err(err(format!("the texture source `{what}` is not one the renderer knows: use image(\"file\"), a generator (normalize_cube, normal_map, bumps, dual_paraboloid, brdf_fd, brdf_g, exponent_table) or bake(shader)"))),
             TextureSource::Rendered => unreachable!(),
         };
         out.insert(d.name.clone(), BoundTexture { name: d.name.clone(), texture, filter: d.filter, exact });
