@@ -313,7 +313,7 @@ fn visibility(ids: &mut [u32], depth: &mut [f32], w: usize, rows: (i32, i32), pa
             let row = (y - rows.0) as usize * w;
             for x in tri.x0..=tri.x1 {
                 if tri.covers(&e) {
-                    let l = [e[0] as f32 * tri.inv_area, e[1] as f32 * tri.inv_area, e[2] as f32 * tri.inv_area];
+                    let l = tri.weights_at(x, y);
                     let z = (l[0] * tri.z[0] + l[1] * tri.z[1] + l[2] * tri.z[2]).clamp(0.0, 1.0);
                     let idx = row + x as usize;
                     if func.test(z, depth[idx]) {
@@ -378,10 +378,8 @@ impl Ctx<'_> {
         let setup = &self.setups[p];
         let tri = &setup.tris[id as usize - self.offsets[p]];
         let n = setup.n_varyings;
-        let (px, py) = (x as i64 * SUB + SUB / 2, y as i64 * SUB + SUB / 2);
-        let e = tri.edges_at(px, py);
         // The same arithmetic, in the same order, as the tiled rasterizer.
-        let l = [e[0] as f32 * tri.inv_area, e[1] as f32 * tri.inv_area, e[2] as f32 * tri.inv_area];
+        let l = tri.weights_at(x as i32, y as i32);
         let z = (l[0] * tri.z[0] + l[1] * tri.z[1] + l[2] * tri.z[2]).clamp(0.0, 1.0);
         let pw = [l[0] * tri.inv_w[0], l[1] * tri.inv_w[1], l[2] * tri.inv_w[2]];
         let q = pw[0] + pw[1] + pw[2];

@@ -91,7 +91,14 @@ pub(crate) struct Tri {
     pub(crate) ya: [i64; 3],
     /// 0 for top or left edges, 1 otherwise (pixels exactly on the edge are out).
     pub(crate) bias: [i64; 3],
-    pub(crate) inv_area: f32,
+    /// The barycentric weight of vertex k as a plane over the window,
+    /// `a·x + b·y + c` at the pixel centre (x + ½, y + ½), from the
+    /// *unsnapped* vertex positions: coverage follows the snapped edges (the
+    /// fill rule), attributes and depth the float planes, as GPUs do
+    /// (Vulkan 1.3 §25.8.1 leaves the precision to the implementation;
+    /// llvmpipe sets its planes up in float), so the texture coordinates the
+    /// CPU computes are the ones lavapipe computes (`tests/wgsl_agreement.rs`).
+    pub(crate) weights: [[f32; 3]; 3],
     /// Window depth per vertex.
     pub(crate) z: [f32; 3],
     /// 1/w per vertex.
@@ -113,6 +120,13 @@ impl Tri {
     #[inline(always)]
     pub(crate) fn edges_at(&self, px: i64, py: i64) -> [i64; 3] {
         std::array::from_fn(|k| self.dx[k] * (py - self.ya[k]) - self.dy[k] * (px - self.xa[k]))
+    }
+
+    /// The barycentric weights of the three vertices at pixel (x, y).
+    #[inline(always)]
+    pub(crate) fn weights_at(&self, x: i32, y: i32) -> [f32; 3] {
+        let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+        self.weights.map(|[a, b, c]| a * px + b * py + c)
     }
 
     /// The top-left fill rule: inside when every biased edge function is ≥ 0.
@@ -284,6 +298,7 @@ impl SetupCtx<'_> {
         let mut fy = [0i64; 3];
         let mut z = [0f32; 3];
         let mut inv_w = [0f32; 3];
+        let (mut wx, mut wy) = ([0f64; 3], [0f64; 3]);
         for (k, v) in verts.iter().enumerate() {
             // Clipping keeps w ≥ ε and |x|, |y| ≤ g·w, but with extreme inputs
             // (|coordinates| ~ 1e30) the intersection arithmetic cancels; clamp
@@ -301,6 +316,8 @@ impl SetupCtx<'_> {
             }
             fx[k] = (sx * SUB as f64).round() as i64;
             fy[k] = (sy * SUB as f64).round() as i64;
+            wx[k] = sx;
+            wy[k] = sy;
             let depth = v[2] * iw * 0.5 + 0.5;
             z[k] = if depth.is_nan() { 0.5 } else { depth.clamp(0.0, 1.0) as f32 };
             inv_w[k] = iw as f32;
@@ -347,7 +364,11 @@ impl SetupCtx<'_> {
             xa: [0; 3],
             ya: [0; 3],
             bias: [0; 3],
-            inv_area: 1.0 / area as f32,
+            weights: weight_planes(order.map(|k| wx[k]), order.map(|k| wy[k])).unwrap_or_else(|| {
+                // Degenerate in float but not once snapped: the snapped planes.
+                let (sx, sy) = (px.map(|v| v as f64 / SUB as f64), py.map(|v| v as f64 / SUB as f64));
+                weight_planes(sx, sy).unwrap_or([[0.0; 3]; 3])
+            }),
             z: order.map(|k| z[k]),
             inv_w: order.map(|k| inv_w[k]),
             x0: x0 as i32,
@@ -390,9 +411,36 @@ impl SetupCtx<'_> {
     }
 }
 
+/// The planes `a·x + b·y + c` of the barycentric weights of a triangle with
+/// window positions (x_k, y_k): 1 at vertex k, 0 at the other two. `None`
+/// when the triangle has no area.
+fn weight_planes(x: [f64; 3], y: [f64; 3]) -> Option<[[f32; 3]; 3]> {
+    let twice_area = x[0] * (y[1] - y[2]) + x[1] * (y[2] - y[0]) + x[2] * (y[0] - y[1]);
+    if twice_area == 0.0 || !twice_area.is_finite() {
+        return None;
+    }
+    Some(std::array::from_fn(|k| {
+        let (i, j) = ((k + 1) % 3, (k + 2) % 3);
+        [((y[i] - y[j]) / twice_area) as f32, ((x[j] - x[i]) / twice_area) as f32, ((x[i] * y[j] - x[j] * y[i]) / twice_area) as f32]
+    }))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn weight_planes_are_one_at_their_vertex_and_zero_at_the_others() {
+        let (x, y) = ([10.25, 200.5, 37.75], [5.5, 40.125, 180.0]);
+        let w = weight_planes(x, y).unwrap();
+        for k in 0..3 {
+            for v in 0..3 {
+                let value = w[k][0] as f64 * x[v] + w[k][1] as f64 * y[v] + w[k][2] as f64;
+                assert!((value - if k == v { 1.0 } else { 0.0 }).abs() < 1e-4, "weight {k} at vertex {v}: {value}");
+            }
+        }
+        assert!(weight_planes([0.0, 1.0, 2.0], [0.0, 1.0, 2.0]).is_none());
+    }
 
     #[test]
     fn guard_band_keeps_coordinates_in_fixed_point_range() {

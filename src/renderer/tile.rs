@@ -80,7 +80,7 @@ fn raster_tile(
                 let inside = tri.covers(&e);
                 if inside {
                     let idx = row + lx0 + (x - x0) as usize;
-                    let l = [e[0] as f32 * tri.inv_area, e[1] as f32 * tri.inv_area, e[2] as f32 * tri.inv_area];
+                    let l = tri.weights_at(x, y);
                     let z = (l[0] * tri.z[0] + l[1] * tri.z[1] + l[2] * tri.z[2]).clamp(0.0, 1.0);
                     stats.fragments += 1;
                     let pw = [l[0] * tri.inv_w[0], l[1] * tri.inv_w[1], l[2] * tri.inv_w[2]];

@@ -47,17 +47,18 @@
 //! 2/255 (`kilgard_terms_below_the_eighth_power_agree_with_cpu_f32`; single
 //! lookups differ by 1/255 on 6-41 pixels). The whole program, rendered
 //! into a float target (`Target::float`: between passes the values stay in
-//! float, as in the CPU's f32 mode): one fused pass and the three blended
-//! passes of geforce256 alike max 8/255 with 9 pixels over 2/255 (the
-//! three-pass plan had 81 pixels, max 10/255, while the GPU's target was
-//! RGBA8 between passes); with the mip chains removed max 3/255, 6 pixels.
-//! What remains: the texture coordinates of the two rasterizers differ in
-//! their last bits (the CPU interpolates from vertices snapped to 1/256
-//! pixel, lavapipe from float
-//! planes), which moves an 8-bit filter weight across a rounding boundary
-//! now and then — a 1/255 texel difference, 2/255 after `expand`, which
-//! `max(0, Hn·N′)^8` multiplies by up to 8. The 2/255-everywhere
-//! criterion therefore still fails on those few specular pixels; the strict
+//! float, as in the CPU's f32 mode), with the CPU interpolating attributes
+//! from the float planes of the unsnapped vertices (`raster::Tri::weights`;
+//! coverage keeps the snapped fill rule): with the mip chains removed every
+//! compared pixel is within 2/255 (`kilgard_without_mipmaps_agrees_with_cpu_f32`,
+//! strict, runs); with them, one fused pass and the three blended passes of
+//! geforce256 alike max 6/255 on 3 pixels. (Before: 81 pixels, max 10/255,
+//! with an RGBA8 target between passes; 9 pixels, max 8/255, with
+//! attributes from the snapped vertices.) What remains: a trilinear lookup
+//! whose LOD or filter weight sits on a rounding boundary differs by 1/255
+//! now and then, 2/255 after `expand`, which `max(0, Hn·N′)^8` multiplies.
+//! The 2/255-everywhere criterion therefore still fails on those
+//! three specular pixels; the two strict mipmapped
 //! tests are `#[ignore]`d with this reason and a bounded test (≤ 16/255,
 //! ≤ 0.5% over 2/255) runs.
 //!
