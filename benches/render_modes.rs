@@ -7,24 +7,18 @@
 //! `SHADEC_BENCH_RUNS` (default 7) after one warm-up frame, printed as the
 //! tables of BENCHMARKS.md. `cargo bench --bench render_modes`.
 
+#[path = "common/timing.rs"]
+mod timing;
+
 use std::path::Path;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use shadec::renderer::plan::{Mode, PlanRenderer};
 use shadec::scene::Scene;
 
-fn median(mut f: impl FnMut()) -> Duration {
-    let runs: usize = std::env::var("SHADEC_BENCH_RUNS").ok().and_then(|v| v.parse().ok()).unwrap_or(7).max(1);
-    f();
-    let mut t: Vec<Duration> = (0..runs)
-        .map(|_| {
-            let s = Instant::now();
-            f();
-            s.elapsed()
-        })
-        .collect();
-    t.sort();
-    t[runs / 2]
+/// Median of 7 runs (`SHADEC_BENCH_RUNS`) after one warm-up.
+fn median(f: impl FnMut()) -> Duration {
+    timing::median(7, 1, f)
 }
 
 const SOURCE: &str = include_str!("../examples/kilgard_bump_mapping.shd");

@@ -5,8 +5,11 @@
 //! after 2 warm-up frames), printed as a table for BENCHMARKS.md.
 //! `cargo bench --bench wgpu_vs_cpu`.
 
+#[path = "common/timing.rs"]
+mod timing;
+
 use std::path::Path;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use shadec::backends::wgsl::codegen::Fidelity;
 use shadec::backends::wgsl::runner::{run_passes, Gpu, Target};
@@ -17,20 +20,9 @@ use shadec::scene::Scene;
 const W: u32 = 512;
 const H: u32 = 512;
 
-fn median(mut f: impl FnMut()) -> Duration {
-    let runs: usize = std::env::var("SHADEC_BENCH_RUNS").ok().and_then(|v| v.parse().ok()).unwrap_or(15);
-    for _ in 0..2 {
-        f();
-    }
-    let mut t: Vec<Duration> = (0..runs)
-        .map(|_| {
-            let s = Instant::now();
-            f();
-            s.elapsed()
-        })
-        .collect();
-    t.sort();
-    t[runs / 2]
+/// Median of 15 runs (`SHADEC_BENCH_RUNS`) after two warm-ups.
+fn median(f: impl FnMut()) -> Duration {
+    timing::median(15, 2, f)
 }
 
 fn main() {
