@@ -7,7 +7,7 @@ mod combiners_common;
 use combiners_common as common;
 
 use proptest::prelude::*;
-use shadec::backends::combiners::emulator::{emulate, EmulateError, Inputs, Precision};
+use shadec::backends::combiners::emulator::{emulate, EmulateError, Inputs, PixelEmulator, PixelRegisters, Precision};
 use shadec::backends::combiners::rc1::{self, parse_and_validate};
 use shadec::backends::combiners::{
     Bias, CombinerConfig, CombinerLimits, ComponentUsage, FinalSource, GeneralInput, GeneralPortion, InputMapping,
@@ -304,6 +304,31 @@ proptest! {
             let d = max_diff(&out[i * 4..i * 4 + 4], &r);
             let at = |img: &Vec<u8>| img[i * 4..i * 4 + 4].to_vec();
             prop_assert!(d == 0, "pixel {}: emulator {:?}, reference {:?}; inputs {:?}\n{}", i, &out[i * 4..i * 4 + 4], r, imgs.iter().map(at).collect::<Vec<_>>(), rc1::print(&config));
+        }
+    }
+
+    /// The one-pixel entry the CPU renderer uses equals the tiled emulator
+    /// bit for bit, pixels run in any order on one thread's scratch (which
+    /// must not carry state from one pixel, config or fog to the next).
+    #[test]
+    fn pixel_emulator_equals_tiled(config in common::config(8), other in common::config(8), imgs in prop::collection::vec(image(30), 6), fog in common::color(), c0 in common::color(), c1 in common::color(), fixed in any::<bool>()) {
+        let (w, h) = (10, 3);
+        let precision = if fixed { Precision::Fixed9 } else { Precision::F32 };
+        let inputs = Inputs {
+            width: w, height: h,
+            textures: [Some(&imgs[0]), Some(&imgs[1]), Some(&imgs[2]), Some(&imgs[3])],
+            primary: Some(&imgs[4]), secondary: Some(&imgs[5]),
+            fog, constant0: c0, constant1: c1,
+        };
+        let out = emulate(&config, &inputs, precision).unwrap();
+        let machine = PixelEmulator::new(&config, c0, c1, fog, precision).unwrap();
+        let distractor = PixelEmulator::new(&other, c1, c0, [fog[1], fog[0], fog[3], fog[2]], precision).unwrap();
+        for i in (0..w * h).rev() {
+            let at = |k: usize| -> [u8; 4] { imgs[k][i * 4..i * 4 + 4].try_into().unwrap() };
+            let regs = PixelRegisters { textures: [at(0), at(1), at(2), at(3)], primary: at(4), secondary: at(5) };
+            distractor.run(&PixelRegisters { textures: [at(5), at(4), at(3), at(2)], primary: at(1), secondary: at(0) });
+            let px = machine.run(&regs);
+            prop_assert_eq!(px.as_slice(), &out[i * 4..i * 4 + 4], "pixel {}\n{}", i, rc1::print(&config));
         }
     }
 

@@ -10,6 +10,12 @@
 //! as a structure of arrays (one slice per register channel), the per-tile
 //! buffers are allocated once per worker, and tiles run on all cores with
 //! rayon. Inner loops are branch-free per input mapping so they vectorise.
+//!
+//! [`PixelEmulator`] runs the same tile engine on one pixel at a time, for
+//! the CPU renderer's `fixed9` mode, which shades fragment by fragment
+//! (blending and depth need each fragment's colour before the next).
+
+use std::cell::RefCell;
 
 use rayon::prelude::*;
 use thiserror::Error;
@@ -110,6 +116,69 @@ pub fn emulate_into(config: &CombinerConfig, inputs: &Inputs, precision: Precisi
         Precision::F32 => run::<F32>(&plan, inputs, out),
     }
     Ok(())
+}
+
+/// One pixel's per-pixel registers (seeds/003 Table 2), RGBA8: the four
+/// texture registers and the primary and secondary colours.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct PixelRegisters {
+    pub textures: [[u8; 4]; 4],
+    pub primary: [u8; 4],
+    pub secondary: [u8; 4],
+}
+
+/// A validated config with its constants and fog resolved, run one pixel at
+/// a time ([`PixelEmulator::run`]) by the same engine as [`emulate`], so a
+/// renderer's fixed9 fragments are exactly what `shadec emulate` computes
+/// from the same registers (tested below).
+pub struct PixelEmulator {
+    plan: Plan,
+    fog: Color,
+    precision: Precision,
+}
+
+thread_local! {
+    static PIXEL_FIXED9: RefCell<Option<Scratch<Fixed9>>> = const { RefCell::new(None) };
+    static PIXEL_F32: RefCell<Option<Scratch<F32>>> = const { RefCell::new(None) };
+}
+
+impl PixelEmulator {
+    /// `constant0`, `constant1`: used where the config leaves a constant
+    /// colour unset (its own override them, as in [`Inputs`]).
+    pub fn new(config: &CombinerConfig, constant0: Color, constant1: Color, fog: Color, precision: Precision) -> Result<PixelEmulator, EmulateError> {
+        validate(config, &CombinerLimits::GEFORCE3).map_err(EmulateError::Invalid)?;
+        let inputs = Inputs { constant0, constant1, fog, ..Inputs::default() };
+        Ok(PixelEmulator { plan: Plan::new(config, &inputs), fog, precision })
+    }
+
+    /// The final combiner's RGBA for one pixel's registers.
+    pub fn run(&self, r: &PixelRegisters) -> [u8; 4] {
+        let inputs = Inputs {
+            width: 1,
+            height: 1,
+            textures: [Some(&r.textures[0]), Some(&r.textures[1]), Some(&r.textures[2]), Some(&r.textures[3])],
+            primary: Some(&r.primary),
+            secondary: Some(&r.secondary),
+            fog: self.fog,
+            ..Inputs::default()
+        };
+        let mut out = [0u8; 4];
+        match self.precision {
+            Precision::Fixed9 => PIXEL_FIXED9.with(|cell| {
+                let mut cell = cell.borrow_mut();
+                let s = cell.get_or_insert_with(|| Scratch::new(self.fog));
+                s.set_fog(self.fog);
+                tile::<Fixed9>(&self.plan, &inputs, s, 0, &mut out);
+            }),
+            Precision::F32 => PIXEL_F32.with(|cell| {
+                let mut cell = cell.borrow_mut();
+                let s = cell.get_or_insert_with(|| Scratch::new(self.fog));
+                s.set_fog(self.fog);
+                tile::<F32>(&self.plan, &inputs, s, 0, &mut out);
+            }),
+        }
+        out
+    }
 }
 
 // ---------------------------------------------------------------------------
@@ -434,6 +503,8 @@ struct Scratch<M: Model> {
     rgb: Vec<M::R>,
     /// Which constants the constant registers hold now.
     constants: Option<[Color; 2]>,
+    /// Which colour the fog register holds.
+    fog: Color,
 }
 
 impl<M: Model> Scratch<M> {
@@ -451,10 +522,18 @@ impl<M: Model> Scratch<M> {
             cs: vec![M::R::default(); 3 * TILE],
             rgb: vec![M::R::default(); 3 * TILE],
             constants: None,
+            fog,
         };
         s.fill(Register::Zero, [0.0; 4]);
         s.fill(Register::Fog, fog);
         s
+    }
+
+    fn set_fog(&mut self, fog: Color) {
+        if self.fog != fog {
+            self.fill(Register::Fog, fog);
+            self.fog = fog;
+        }
     }
 
     fn fill(&mut self, r: Register, c: Color) {
@@ -510,17 +589,17 @@ fn tile<M: Model>(plan: &Plan, inputs: &Inputs, s: &mut Scratch<M>, first: usize
                     }
                 }
             }
-            None => (0..4).for_each(|ch| s.reg_mut(r.index(), ch).fill(M::R::default())),
+            None => (0..4).for_each(|ch| s.reg_mut(r.index(), ch)[..n].fill(M::R::default())),
         }
     }
     // spare0: RGB undefined (zero here), alpha = texture 0 alpha; spare1 undefined (zero).
     for ch in 0..3 {
-        s.reg_mut(Register::Spare0.index(), ch).fill(M::R::default());
+        s.reg_mut(Register::Spare0.index(), ch)[..n].fill(M::R::default());
     }
     let (t0a, spare0a) = (Register::Texture0.index() * 4 + 3, Register::Spare0.index() * 4 + 3);
-    s.regs.copy_within(t0a * TILE..(t0a + 1) * TILE, spare0a * TILE);
+    s.regs.copy_within(t0a * TILE..t0a * TILE + n, spare0a * TILE);
     for ch in 0..4 {
-        s.reg_mut(Register::Spare1.index(), ch).fill(M::R::default());
+        s.reg_mut(Register::Spare1.index(), ch)[..n].fill(M::R::default());
     }
 
     for stage in &plan.stages {

@@ -18,5 +18,5 @@ pub use config::{
     Bias, Color, CombinerConfig, CombinerLimits, ComponentUsage, FinalCombiner, FinalInput, FinalSource, GeneralInput,
     GeneralPortion, GeneralStage, InputMapping, PortionKind, Register, Scale,
 };
-pub use emulator::{emulate, Inputs, Precision};
+pub use emulator::{emulate, Inputs, PixelEmulator, PixelRegisters, Precision};
 pub use validate::{validate, Place, ValidationError};
