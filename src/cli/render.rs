@@ -254,6 +254,11 @@ pub fn run(args: &RenderArgs) -> ExitCode {
         planned.plan.passes.len(),
         if planned.plan.passes.len() == 1 { "" } else { "es" }
     );
+    if mode == Mode::Fixed9 {
+        for (i, how) in frame.shading.iter().enumerate() {
+            println!("pass {}: {}", i + 1, how.describe());
+        }
+    }
     if let (Some(full), Some(a), Some(settings)) = (&full, frame.adaptive, &adaptive) {
         let e = compare(&full.image, &frame.image);
         let speedup = full.time.as_secs_f64() / secs;

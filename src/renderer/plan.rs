@@ -37,12 +37,19 @@
 //!   framebuffers.
 //! - `fixed9` — what the old hardware showed: 8-bit textures, an RGBA8
 //!   framebuffer (blending clamps and rounds) and 8-bit temporaries, and the
-//!   fragment maths in the register-combiner precision model. The combiner
-//!   code generator has not landed, so this is an approximation of the
-//!   emulator: every per-fragment IR operation's result is clamped to
-//!   [−1, 1] and rounded to a multiple of 1/255 with the emulator's rule
-//!   (nearest, ties toward +∞) — 8 bits and a sign per operation. Constant
-//!   and uniform subexpressions are folded by the compiler into a constant
+//!   fragment maths on the register combiners. For each pass the combiner
+//!   code generator ([`crate::backends::combiners::codegen`]) makes the
+//!   setup for the plan's target (a GeForce 3 when the target has no
+//!   combiners); every fragment loads its texels and interpolated colours
+//!   into the texture, primary and secondary registers (clamped to [0, 1],
+//!   rounded to 8 bits) and the emulator runs the setup on them
+//!   ([`PixelEmulator`], bit-exact with `shadec emulate`;
+//!   tests/render_combiners.rs). A pass the generator refuses (a division,
+//!   a framebuffer read, too many stages — [`Frame::shading`] says which and
+//!   why) falls back to a per-operation model: every per-fragment IR
+//!   operation's result is clamped to [−1, 1] and rounded to a multiple of
+//!   1/255 with the emulator's rule (nearest, ties toward +∞). Constant and
+//!   uniform subexpressions are folded by the compiler into a constant
 //!   register and an output scale, so they are rounded but not clamped
 //!   ([`fixed9_folded`]). Values that only address textures (lookup
 //!   coordinates, framebuffer positions) are not quantized: the texture
@@ -56,6 +63,7 @@ use std::time::{Duration, Instant};
 use rayon::prelude::*;
 
 use super::{ColorFormat, CullMode, DrawStats, Fragment, FragmentResult, FragmentStage, Framebuffer, Pass as RasterPass, RenderError, VertexStage};
+use crate::backends::combiners::{self, CombinerLimits, PixelEmulator, PixelRegisters, Precision};
 use crate::ir::{self, eval::Value, Expr, FbChannel, Frequency, Handle, Module, TextureId, Ty};
 use crate::planner::{Geometry, PassInterface, Planned, RenderTarget};
 use crate::scene::bind::{self, BoundObject, BoundTexture, ExactFunction, TextureDecl, TextureQuality};
@@ -106,6 +114,35 @@ pub struct Frame {
     /// Adaptive sample shading's counters, summed over the mesh passes
     /// ([`PlanRenderer::render_adaptive`]); `None` for a full render.
     pub adaptive: Option<super::AdaptiveStats>,
+    /// How each pass's fragments were computed, in plan order.
+    pub shading: Vec<PassShading>,
+}
+
+/// How a pass's fragments were computed.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PassShading {
+    /// `exact` or `f32`: the IR evaluated node by node.
+    Float,
+    /// `fixed9`: the register-combiner configuration the code generator
+    /// made for the pass ([`combiners::codegen`]), run on each fragment's
+    /// registers by the emulator ([`PixelEmulator`]): what the old
+    /// hardware computed, bit for bit, from the same texels and colours.
+    Combiners { stages: usize },
+    /// `fixed9` for a pass the generator refuses (`why`): every
+    /// per-fragment IR operation clamped and rounded like a register write
+    /// ([`fixed9`]) — an approximation of what a hand-made setup would do.
+    PerOperation { why: String },
+}
+
+impl PassShading {
+    /// One line for `shadec render`.
+    pub fn describe(&self) -> String {
+        match self {
+            PassShading::Float => "IR in float".into(),
+            PassShading::Combiners { stages } => format!("register combiners ({stages} general stage{}), emulated", if *stages == 1 { "" } else { "s" }),
+            PassShading::PerOperation { why } => format!("per-operation 8-bit+sign model ({why})"),
+        }
+    }
 }
 
 /// A program bound to a scene: textures loaded, objects bound. Build once,
@@ -193,6 +230,7 @@ impl<'a> PlanRenderer<'a> {
         let mut last_fb: Option<String> = None;
         let mut nonfinite = 0;
         let mut adaptive_stats = adaptive.map(|_| super::AdaptiveStats::default());
+        let mut shading = Vec::with_capacity(plan.passes.len());
         let total = plan.passes.iter().map(|p| if matches!(p.geometry, Geometry::Mesh { .. }) { objects.len() } else { 1 }).sum::<usize>();
         let mut done = 0;
         for (index, pass) in plan.passes.iter().enumerate() {
@@ -223,7 +261,23 @@ impl<'a> PlanRenderer<'a> {
                 }
             }
             let own_depth = targets.get(&name).cloned();
-            let stage = FragmentProgram::new(self, mode, &pi, &rendered, reads, own_depth)?;
+            let machine = match mode {
+                Mode::Fixed9 => match self.combiner_setup(index) {
+                    Ok((setup, stages)) => {
+                        shading.push(PassShading::Combiners { stages });
+                        Some(setup)
+                    }
+                    Err(why) => {
+                        shading.push(PassShading::PerOperation { why });
+                        None
+                    }
+                },
+                _ => {
+                    shading.push(PassShading::Float);
+                    None
+                }
+            };
+            let stage = FragmentProgram::new(self, mode, &pi, &rendered, reads, own_depth, machine)?;
             let state = pass.state;
             let target = targets.get_mut(&name).expect("created above");
             let counted = &stage.nonfinite;
@@ -275,8 +329,47 @@ impl<'a> PlanRenderer<'a> {
         let time = start.elapsed();
         let name = last_fb.ok_or_else(|| RenderError::Unsupported("the plan writes no framebuffer: nothing to show".into()))?;
         let image = targets.remove(&name).expect("written");
-        Ok(Frame { image, name, stats, time, nonfinite, adaptive: adaptive_stats })
+        Ok(Frame { image, name, stats, time, nonfinite, adaptive: adaptive_stats, shading })
     }
+
+    /// The register-combiner setup of pass `index` for `fixed9`: generated
+    /// for the plan's target (a combiner profile), or for a GeForce 3 when
+    /// the plan is for another target; with the values of the constant
+    /// colours the scene sets. `Err` says why the generator refused.
+    fn combiner_setup(&self, index: usize) -> Result<(CombinerSetup, usize), String> {
+        let m = &self.planned.module;
+        let pass = &self.planned.plan.passes[index];
+        let limits = crate::profile::Profile::builtin(&self.planned.plan.target).ok().and_then(|p| p.combiner_limits()).unwrap_or(CombinerLimits::GEFORCE3);
+        let units: Vec<Handle<Expr>> = pass.textures.iter().map(|t| self.planned.handle(t.lookup)).collect();
+        let input = combiners::PassInput { module: m, value: self.planned.handle(pass.fragment.output), units: &units };
+        let g = combiners::generate(&input, &limits).map_err(|e| e.to_string())?;
+        // A constant colour the config leaves unset is a uniform: the scene's value.
+        let constant = |k: usize| -> [f32; 4] {
+            let Some(h) = g.constants[k] else { return [0.0; 4] };
+            let v = match &m.exprs[h] {
+                Expr::Uniform(id) => self.uniforms.get(*id as usize).copied().flatten().or_else(|| m.uniforms[*id as usize].default.as_ref().map(ir::eval::value)),
+                Expr::Constant(c) => Some(ir::eval::value(c)),
+                _ => None,
+            };
+            let v = ir::eval::canonical(m.info(h).ty, v.unwrap_or([0.0; 4]));
+            v.map(|x| if x.is_nan() { 0.0 } else { x as f32 })
+        };
+        let machine = PixelEmulator::new(&g.config, constant(0), constant(1), [0.0; 4], Precision::Fixed9).map_err(|e| e.to_string())?;
+        let mut registers = [None; 6];
+        for (r, u) in registers.iter_mut().zip(&units) {
+            *r = Some(*u);
+        }
+        registers[4] = g.primary;
+        registers[5] = g.secondary;
+        Ok((CombinerSetup { machine, registers }, g.stages))
+    }
+}
+
+/// A pass's register-combiner configuration ready to run, and the IR nodes
+/// whose values load texture registers 0-3, primary and secondary.
+struct CombinerSetup {
+    machine: PixelEmulator,
+    registers: [Option<Handle<Expr>>; 6],
 }
 
 fn add(total: &mut DrawStats, s: &DrawStats) {
@@ -455,6 +548,12 @@ struct Step<'m> {
     /// fixed9: a constant or uniform result, which the compiler folds into
     /// a constant register and an output scale: rounded, not clamped.
     folded: bool,
+    /// A colour texel loaded into a combiner register: kept as the texture
+    /// unit delivers it (all four channels: the register has the texture's
+    /// alpha even where the program reads only rgb), not narrowed to the
+    /// node's type. A scalar texel is an intensity (v, v, v, v), as the
+    /// program's type says.
+    raw: bool,
 }
 
 /// The fragment stage of one pass: the reachable nodes of the output (and
@@ -472,6 +571,9 @@ struct FragmentProgram<'a> {
     reads: HashMap<u32, Framebuffer>,
     own: Option<Framebuffer>,
     filters: Vec<Filter>,
+    /// fixed9 with a generated setup: the machine, and the slots of the
+    /// values that load texture 0-3, primary and secondary.
+    combiners: Option<(PixelEmulator, [Option<u32>; 6])>,
     /// Fragments whose value was not finite ([`Frame::nonfinite`]).
     nonfinite: AtomicU64,
 }
@@ -488,9 +590,14 @@ impl<'a> FragmentProgram<'a> {
         rendered: &'a BTreeMap<String, Rendered>,
         reads: HashMap<u32, Framebuffer>,
         own: Option<Framebuffer>,
+        setup: Option<CombinerSetup>,
     ) -> Result<FragmentProgram<'a>, RenderError> {
         let m = &r.planned.module;
-        let mut roots = vec![pi.output];
+        // With combiners the IR computes only what loads the registers.
+        let mut roots = match &setup {
+            Some(c) => c.registers.iter().flatten().copied().collect(),
+            None => vec![pi.output],
+        };
         roots.extend(pi.condition);
         // Reachable nodes, stopping at δ.
         let n = m.exprs.len();
@@ -609,10 +716,13 @@ impl<'a> FragmentProgram<'a> {
                 }
             };
             let per_sample = m.info(Handle::new(i)).freq.is_sample();
-            let quantize = mode == Mode::Fixed9 && !address[i] && leaf.is_none() && per_sample;
-            let folded = mode == Mode::Fixed9 && !address[i] && leaf.is_none() && !per_sample;
-            steps.push(Step { expr, ty, slot, ops, n_ops, leaf, quantize, folded });
+            let per_operation = mode == Mode::Fixed9 && setup.is_none() && !address[i] && leaf.is_none();
+            let quantize = per_operation && per_sample;
+            let folded = per_operation && !per_sample;
+            let raw = setup.is_some() && ty.width() >= 3 && matches!(leaf, Some(Leaf::Lookup { .. } | Leaf::Framebuffer { .. }));
+            steps.push(Step { expr, ty, slot, ops, n_ops, leaf, quantize, folded, raw });
         }
+        let combiners = setup.map(|c| (c.machine, c.registers.map(|h| h.map(|h| slot_of[h.index()]))));
         Ok(FragmentProgram {
             module: m,
             mode,
@@ -626,6 +736,7 @@ impl<'a> FragmentProgram<'a> {
             reads,
             own,
             filters,
+            combiners,
             nonfinite: AtomicU64::new(0),
         })
     }
@@ -745,7 +856,8 @@ impl<'a> FragmentProgram<'a> {
         }
     }
 
-    fn run(&self, slots: &mut [Value], fragment: &Fragment, varyings: &[f32]) -> (Value, bool) {
+    /// Runs the IR steps; returns whether the fragment is discarded.
+    fn run(&self, slots: &mut [Value], fragment: &Fragment, varyings: &[f32]) -> bool {
         for &(s, v) in &self.constants {
             slots[s as usize] = v;
         }
@@ -767,7 +879,7 @@ impl<'a> FragmentProgram<'a> {
                     ir::eval::apply(self.module, s.expr, s.ty, &buf[..ops.len()])
                 }
             };
-            let v = ir::eval::canonical(s.ty, v);
+            let v = if s.raw { v } else { ir::eval::canonical(s.ty, v) };
             slots[s.slot as usize] = match self.mode {
                 Mode::Exact => v,
                 Mode::F32 => v.map(|x| x as f32 as f64),
@@ -781,7 +893,24 @@ impl<'a> FragmentProgram<'a> {
                 discard = true;
             }
         }
-        (slots[self.output as usize], discard)
+        discard
+    }
+
+    /// The fragment colour: the output node, or what the combiners compute
+    /// from the registers the steps loaded (each channel clamped to [0, 1]
+    /// and rounded to 8 bits, as texels and colours reach the machine).
+    fn colour(&self, slots: &[Value]) -> Value {
+        let Some((machine, registers)) = &self.combiners else {
+            return slots[self.output as usize];
+        };
+        let load = |k: usize| -> [u8; 4] {
+            match registers[k] {
+                Some(slot) => slots[slot as usize].map(|x| if x.is_nan() { 0 } else { (x.clamp(0.0, 1.0) * 255.0 + 0.5).floor() as u8 }),
+                None => [0; 4],
+            }
+        };
+        let r = PixelRegisters { textures: [load(0), load(1), load(2), load(3)], primary: load(4), secondary: load(5) };
+        machine.run(&r).map(|c| c as f64 / 255.0)
     }
 }
 
@@ -874,11 +1003,12 @@ impl FragmentStage for FragmentProgram<'_> {
             if slots.len() < self.n_slots {
                 slots.resize(self.n_slots, [0.0; 4]);
             }
-            let (v, discard) = self.run(&mut slots[..self.n_slots], fragment, varyings);
-            if discard {
+            if self.run(&mut slots[..self.n_slots], fragment, varyings) {
                 return FragmentResult::Discard;
             }
-            // Widened to RGBA (PassInterface): a scalar splatted, rgb gets alpha 1.
+            let v = self.colour(&slots[..self.n_slots]);
+            // Widened to RGBA (PassInterface): a scalar splatted, rgb gets
+            // alpha 1 (the generated combiners widen the same way).
             let v = match self.output_ty.width() {
                 1 => [v[0]; 4],
                 2 => [v[0], v[1], 0.0, 1.0],
