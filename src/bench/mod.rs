@@ -22,7 +22,7 @@ use crate::renderer::plan::{compare, ErrorReport, Frame, Mode, PlanRenderer};
 use crate::renderer::Framebuffer;
 use crate::scene::Scene;
 
-pub use variants::{groups, Group, Variant};
+pub use variants::{groups, Group, Program, Variant};
 
 /// How much to measure.
 #[derive(Clone, Debug)]

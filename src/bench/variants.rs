@@ -39,6 +39,7 @@ pub const EXPONENT_POW: Program = program!("exponent_pow.shd");
 pub const EXPONENT_SQUARING: Program = program!("exponent_squaring.shd");
 pub const EXPONENT_LOOKUP: Program = program!("exponent_lookup.shd");
 pub const KILGARD: Program = Program { name: "examples/kilgard_bump_mapping.shd", source: include_str!("../../examples/kilgard_bump_mapping.shd") };
+pub const TORRANCE_SPARROW_PER_PIXEL: Program = program!("torrance_sparrow_per_pixel.shd");
 pub const HEIDRICH_SEIDEL: Program = Program { name: "examples/torrance_sparrow_factored.shd", source: include_str!("../../examples/torrance_sparrow_factored.shd") };
 
 /// One measured technique.
@@ -77,9 +78,11 @@ pub fn groups() -> Vec<Group> {
             variants: vec![
                 v("gouraud", GOURAUD, "geforce3", F32, "shading per vertex, colours interpolated (seeds/001 (1))"),
                 v("phong_unnormalized", PHONG_UNNORMALIZED, "geforce3", F32, "per pixel, L and H interpolated and not renormalized"),
+                v("phong_unnormalized_fixed9", PHONG_UNNORMALIZED, "geforce3", Fixed9, "the same in the combiners' 8 bits + sign"),
                 v("phong_taylor", PHONG_TAYLOR, "geforce3", F32, "renormalized by the Taylor series in the combiners (seeds/000 Formula 6)"),
                 v("phong_taylor_fixed9", PHONG_TAYLOR, "geforce3", Fixed9, "the same in the combiners' 8 bits + sign"),
                 v("phong_cube8", PHONG_CUBE8, "geforce3", F32, "renormalized by an 8-bit normalization cube map (seeds/003 App. D)"),
+                v("phong_cube8_fixed9", PHONG_CUBE8, "geforce3", Fixed9, "the same in the combiners' 8 bits + sign"),
                 v("phong_cube16", PHONG_CUBE16, "geforce3", F32, "renormalized by a 16-bit normalization cube map"),
                 v("phong_exact_f32", PHONG_EXACT, "wgsl", F32, "normalize and pow in f32 (a modern shader)"),
                 v("phong_exact", PHONG_EXACT, "wgsl", Exact, "the reference itself (f64)"),
@@ -108,13 +111,15 @@ pub fn groups() -> Vec<Group> {
             ],
         },
         Group {
-            name: "Heidrich-Seidel factorized Torrance-Sparrow (seeds/002, coarse sphere)",
+            name: "Heidrich-Seidel factorized Torrance-Sparrow vs the exact BRDF (seeds/002, coarse sphere)",
             scene: SPHERE,
-            truth: HEIDRICH_SEIDEL,
-            truth_target: "geforce3",
+            truth: TORRANCE_SPARROW_PER_PIXEL,
+            truth_target: "wgsl",
             variants: vec![
-                v("heidrich_seidel_fixed9", HEIDRICH_SEIDEL, "geforce3", Fixed9, "F·D and G/(π cos β) from 8-bit textures, 8-bit maths"),
-                v("heidrich_seidel_f32", HEIDRICH_SEIDEL, "geforce3", F32, "the factor textures in float maths"),
+                v("heidrich_seidel_fixed9", HEIDRICH_SEIDEL, "geforce3", Fixed9, "F·D and G/(π cos β) from 8-bit textures at per-vertex cosines, 8-bit maths"),
+                v("heidrich_seidel_f32", HEIDRICH_SEIDEL, "geforce3", F32, "the same factor textures in float maths"),
+                v("heidrich_seidel_exact", HEIDRICH_SEIDEL, "geforce3", Exact, "exact factors at the per-vertex cosines, interpolated without renormalization"),
+                v("torrance_sparrow_per_pixel_f32", TORRANCE_SPARROW_PER_PIXEL, "wgsl", F32, "the 8-bit factor textures at per-pixel cosines (dependent reads)"),
             ],
         },
     ]
