@@ -110,6 +110,33 @@ fn every_example_renders_or_refuses_clearly() {
     assert!(refused.len() <= 4, "too many examples refused: {refused:#?}");
 }
 
+/// The exact reference uses no lookup tables, baked ones included: a
+/// `bake(f)` texture is not sampled in `exact` but `f` is evaluated at the
+/// lookup's coordinate, so the baked program renders as the program with
+/// Fresnel's formula written out per pixel; f32 samples the 8-bit table and
+/// does not.
+#[test]
+fn exact_evaluates_a_baked_function_at_the_lookup() {
+    let example = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/dual_paraboloid_mirror.shd")).unwrap();
+    assert!(example.contains("α C δπx ← TF δu″ x;"), "pass 1 of the example writes F");
+    // F alone, written to the colour (compared images are RGB).
+    let declarations: String = example.lines().filter(|l| !l.contains("C δπx")).map(|l| format!("{l}\n")).collect();
+    let baked = format!("{declarations}C δπx ← TF δu″ x;\n");
+    let inline = format!(
+        "{declarations}let c_at = δu″ x;\nlet g_at = sqrt(η^2 + c_at^2 - 1);\nC δπx ← 0.5 * (g_at - c_at)^2 / (g_at + c_at)^2 * (1 + (c_at*(g_at + c_at) - 1)^2 / (c_at*(g_at - c_at) + 1)^2);\n"
+    );
+    let scene = default_scene();
+    let (a, _) = render(&baked, "wgsl", &scene, Mode::Exact);
+    let (b, _) = render(&inline, "wgsl", &scene, Mode::Exact);
+    assert_finite(&a);
+    assert!(b.image.to_rgba_f32().iter().filter(|p| p[0] > 0.03).count() > 500, "F is visible");
+    let e = compare(&b.image, &a.image);
+    assert!(e.max_abs <= 2e-6, "exact: the baked table is evaluated, not sampled: {e:?}");
+    let (f, _) = render(&baked, "wgsl", &scene, Mode::F32);
+    let ef = compare(&b.image, &f.image);
+    assert!(ef.max_abs > 1e-4, "f32 samples the 8-bit table: {ef:?}");
+}
+
 /// `bake(f)` is texture shading (seeds/001 (13)) of `f` over the texture's
 /// texels: the program with `= bake(fresnel)` plans a texel pass into the
 /// texture at the declaration, and renders exactly as the same program

@@ -27,7 +27,9 @@
 //!   `normalize_cube` (normalize, range-compressed unless the format is
 //!   signed), `exponent_table(n)` (xⁿ), `brdf_fd`, `brdf_g` — is not
 //!   sampled; the function is evaluated at the lookup's coordinates
-//!   ([`bind::ExactFunction`], detected from the declaration's source).
+//!   ([`bind::ExactFunction`], detected from the declaration's source); a
+//!   texture shaded over its texels (`bake(f)`) is not sampled either: the
+//!   texel pass's function is evaluated at the lookup's coordinates.
 //!   Generated data textures (normal maps) are built unquantized, with the
 //!   same mipmap filter. f32 framebuffers, no clamping.
 //! - `f32` — the same plan with every node rounded to f32, textures as
@@ -518,6 +520,10 @@ impl VertexStage for MeshVertices {
 enum Source<'r> {
     Bound { texture: &'r BoundTexture, exact: Option<ExactFunction> },
     Rendered(&'r Rendered),
+    /// `exact`: a texture shaded over its texels (`bake(f)`, seeds/001
+    /// (13)) is not sampled; the texel pass's function is evaluated at the
+    /// lookup's coordinates (no lookup tables in the reference).
+    Baked { program: Box<FragmentProgram<'r>>, wrap: Wrap },
     Missing,
 }
 
@@ -645,11 +651,28 @@ impl<'a> FragmentProgram<'a> {
         let textures = if mode == Mode::Exact { &r.exact } else { &r.stored };
         let mut sources = Vec::with_capacity(m.textures.len());
         let mut filters = Vec::with_capacity(m.textures.len());
-        for t in &m.textures {
+        let looked_up: std::collections::HashSet<TextureId> =
+            (0..n).filter(|&i| reach[i]).filter_map(|i| match &m.exprs[Handle::new(i)] { Expr::Lookup { texture, .. } => Some(*texture), _ => None }).collect();
+        for (id, t) in m.textures.iter().enumerate() {
             let decl = r.decls.iter().find(|d| d.name == t.name);
             filters.push(decl.map_or(Filter::Bilinear, |d| d.filter));
+            let baked_by = r.planned.plan.passes.iter().position(|p| matches!(p.geometry, Geometry::Texels) && matches!(&p.target, RenderTarget::Texture { name } if *name == t.name));
+            let baked = match baked_by {
+                Some(index) if mode == Mode::Exact && looked_up.contains(&(id as TextureId)) => {
+                    let texel_pass = PassInterface::of(r.planned, index);
+                    // Only a function of the texel coordinate and uniforms can be evaluated anywhere.
+                    if texel_pass.interpolants.is_empty() {
+                        Some(FragmentProgram::new(r, mode, &texel_pass, rendered, HashMap::new(), None, None)?)
+                    } else {
+                        None
+                    }
+                }
+                _ => None,
+            };
             sources.push(if let Some(b) = textures.get(&t.name) {
                 Source::Bound { texture: b, exact: if mode == Mode::Exact { b.exact } else { None } }
+            } else if let Some(program) = baked {
+                Source::Baked { program: Box::new(program), wrap: decl.map_or(Wrap::ClampToEdge, |d| d.wrap) }
             } else if let Some(rt) = rendered.get(&t.name) {
                 Source::Rendered(rt)
             } else {
@@ -742,7 +765,7 @@ impl<'a> FragmentProgram<'a> {
     }
 
     #[inline]
-    fn leaf(&self, leaf: &Leaf, operand: Value, fragment: &Fragment, varyings: &[f32]) -> Value {
+    fn leaf(&self, leaf: &Leaf, operand: Value, fragment: &Fragment, varyings: &[f32], texel_at: Option<[f64; 2]>) -> Value {
         match *leaf {
             Leaf::Uniform(v) => v,
             Leaf::Varying { k, normalize } => {
@@ -790,6 +813,10 @@ impl<'a> FragmentProgram<'a> {
                     fragment.depth as f64
                 };
                 [x, y, depth * 2.0 - 1.0, 1.0]
+            }
+            Leaf::TexelCoord if texel_at.is_some() => {
+                let [u, v] = texel_at.expect("matched");
+                [u, v, 0.0, 0.0]
             }
             Leaf::TexelCoord => {
                 let (w, h) = match &self.own {
@@ -852,12 +879,26 @@ impl<'a> FragmentProgram<'a> {
                     rt.texture.sample(c[0] as f32, c[1] as f32, filter, 0.0).map(|v| v as f64)
                 }
             }
+            Source::Baked { program, wrap } => {
+                let (u, v) = if coords_ty == Ty::Scalar { (c[0], 0.5) } else { (c[0], c[1]) };
+                let at = |x: f64| match wrap {
+                    Wrap::Repeat => x - x.floor(),
+                    _ => x.clamp(0.0, 1.0),
+                };
+                let fragment = Fragment { x: 0, y: 0, depth: 0.0, front_facing: true, inv_w: 1.0, gradients: &[] };
+                // The outer fragment's slots are borrowed: the nested program has its own.
+                let mut slots = vec![[0.0; 4]; program.n_slots];
+                program.run(&mut slots, &fragment, &[], Some([at(u), at(v)]));
+                slots[program.output as usize]
+            }
             Source::Missing => ir::eval::NAN,
         }
     }
 
     /// Runs the IR steps; returns whether the fragment is discarded.
-    fn run(&self, slots: &mut [Value], fragment: &Fragment, varyings: &[f32]) -> bool {
+    /// `texel_at`: the texel coordinate when a baked texture's function is
+    /// evaluated at a lookup ([`Source::Baked`]) instead of at a pixel.
+    fn run(&self, slots: &mut [Value], fragment: &Fragment, varyings: &[f32], texel_at: Option<[f64; 2]>) -> bool {
         for &(s, v) in &self.constants {
             slots[s as usize] = v;
         }
@@ -869,7 +910,7 @@ impl<'a> FragmentProgram<'a> {
                 *b = slots[o as usize];
             }
             let v = match &s.leaf {
-                Some(leaf) => self.leaf(leaf, buf[0], fragment, varyings),
+                Some(leaf) => self.leaf(leaf, buf[0], fragment, varyings, texel_at),
                 None => {
                     if let Expr::Select { reject: None, .. } = s.expr {
                         if buf[0][0] == 0.0 {
@@ -1003,7 +1044,7 @@ impl FragmentStage for FragmentProgram<'_> {
             if slots.len() < self.n_slots {
                 slots.resize(self.n_slots, [0.0; 4]);
             }
-            if self.run(&mut slots[..self.n_slots], fragment, varyings) {
+            if self.run(&mut slots[..self.n_slots], fragment, varyings, None) {
                 return FragmentResult::Discard;
             }
             let v = self.colour(&slots[..self.n_slots]);
