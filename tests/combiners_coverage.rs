@@ -33,8 +33,9 @@ fn verdicts(planned: &Planned, profile: &Profile, src: &str) -> Vec<Result<usize
                 }
                 Err(e) => {
                     let span = e.span().ok_or_else(|| format!("unlocated: {e}"))?;
-                    assert!(pass.combiners.is_some(), "the plan says pass {} is generated", i + 1);
                     let lc = lines.line_col(src, span.start as usize);
+                    // The plan's verdict is located the same way.
+                    assert_eq!(pass.combiners, Some(format!("not generated: {}:{}: {e}", lc.line, lc.col)), "pass {}", i + 1);
                     Err(format!("{}:{}: {e} (help: {})", lc.line, lc.col, e.help()))
                 }
             }
