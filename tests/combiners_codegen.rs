@@ -558,7 +558,7 @@ fn supplied_uniforms_stay_global() {
     assert_eq!(names, ["uniform `u1`", "uniform `u2`", "uniform `u3`"]);
     // Located at the one that did not fit, listed last.
     assert_eq!(format!("uniform `{}`", &src[span.range()]), constants[2], "{e}");
-    assert!(e.to_string().starts_with("the global constant colours"), "{e}");
+    assert!(e.to_string().starts_with("the final combiner, with the uniforms the caller supplies (no default: they stay global), needs more than its two constant colours: uniform `u"), "{e}");
 }
 
 /// The final combiner reads the global constants only: a third one it

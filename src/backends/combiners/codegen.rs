@@ -16,10 +16,17 @@
 //!    covered by the final combiner (`A·B + (1 − A)·C + D`, `E·F`, `G`)
 //!    where it can be: products of up to three non-negative factors
 //!    (`A · EF`), `x⁴` as `EF · EF` (repeated squaring), lerps, sums of two.
+//!    Constants and uniforms become *virtual constants*.
 //! 2. **Scheduling.** Operations go, in dependency order, to the first
 //!    general stage after their operands' in which the RGB or alpha portion
-//!    they need is free (the two portions of a stage work in parallel).
-//! 3. **Register allocation.** Virtual registers get `spare0`, `spare1`, or
+//!    they need is free (the two portions of a stage work in parallel) and,
+//!    with per-stage constants, whose constant colours, with the
+//!    operation's, are at most two.
+//! 3. **Constant registers.** Without per-stage constants (geforce256) the
+//!    pass has the two global ones (seeds/003 B.3). With them (geforce3,
+//!    NV_register_combiners2) each general stage has its own two and the
+//!    final combiner reads the global two: see `Gen::assign_constants`.
+//! 4. **Register allocation.** Virtual registers get `spare0`, `spare1`, or
 //!    a texture/colour register whose own value is no longer read, by live
 //!    interval; the mux's select value is pinned to `spare0.a`.
 //!
@@ -1670,7 +1677,7 @@ impl Gen<'_> {
             let place = if global.iter().all(|k| final_ks.contains(k)) {
                 "the final combiner".to_string()
             } else {
-                "the global constant colours (read by the final combiner; uniforms with no default, which the caller supplies)".to_string()
+                "the final combiner, with the uniforms the caller supplies (no default: they stay global),".to_string()
             };
             let span = self.m.span(self.konsts[global[2]].node);
             return Err(self.out_of_constants(span, place, &global));
