@@ -33,8 +33,9 @@ fn verdicts(planned: &Planned, profile: &Profile, src: &str) -> Vec<Result<usize
                 }
                 Err(e) => {
                     let span = e.span().ok_or_else(|| format!("unlocated: {e}"))?;
-                    assert!(pass.combiners.is_some(), "the plan says pass {} is generated", i + 1);
                     let lc = lines.line_col(src, span.start as usize);
+                    // The plan's verdict is located the same way.
+                    assert_eq!(pass.combiners, Some(format!("not generated: {}:{}: {e}", lc.line, lc.col)), "pass {}", i + 1);
                     Err(format!("{}:{}: {e} (help: {})", lc.line, lc.col, e.help()))
                 }
             }
@@ -81,5 +82,22 @@ fn every_example_generates_or_is_located_on_both_combiner_profiles() {
                 Err(e) => eprintln!("{profile} {name}: does not plan: {e}"),
             }
         }
+    }
+}
+
+/// How many of the examples' planned passes the generator realizes, per
+/// profile: a floor (the count when it was last raised), so that a change
+/// that loses a pass fails here. Raised by per-stage constants on geforce3
+/// (NV_register_combiners2: phong_cubemap_normalized, its 16-bit variant and
+/// phong_exponent_lookup read three or four constant colours: 15 → 18).
+#[test]
+fn generated_passes_do_not_decrease() {
+    for (profile, floor, planned) in [("geforce256", 19, 28), ("geforce3", 18, 30)] {
+        let r = report(profile);
+        let passes: Vec<&Result<usize, String>> = r.iter().filter_map(|(_, r)| r.as_ref().ok()).flatten().collect();
+        let generated = passes.iter().filter(|v| v.is_ok()).count();
+        eprintln!("{profile}: {generated} of {} planned passes generated", passes.len());
+        assert_eq!(passes.len(), planned, "{profile}: the examples plan into a different number of passes; update the counts");
+        assert!(generated >= floor, "{profile}: {generated} of {} passes generated, fewer than {floor}", passes.len());
     }
 }

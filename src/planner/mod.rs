@@ -742,7 +742,7 @@ fn assemble(
                 let why = if piece.why.is_empty() { "the part rendered first" } else { piece.why.as_str() };
                 format!("{label} split into {n} passes on {} (pass {} of {n}): {why}", profile.name, pi + 1)
             };
-            let combiners = combiner_verdict(m, profile, piece.value, &textures);
+            let combiners = combiner_verdict(m, profile, piece.value, &textures, &at);
             roots.push(piece.value);
             roots.push(st.index);
             roots.push(drawn_at);
@@ -795,13 +795,19 @@ fn assemble(
 }
 
 /// What the combiner code generator says of a pass on a register-combiner
-/// profile: `None` when it generates a setup, else why not, located.
-fn combiner_verdict(m: &Module, profile: &Profile, value: Handle<Expr>, textures: &[TextureBinding]) -> Option<String> {
+/// profile: `None` when it generates a setup, else why not, located:
+/// `not generated: LINE:COL: reason`, at the node the error names
+/// (`CodegenError::span`), or at the pass's value for an error of the
+/// whole pass (too many stages); `at` is the plan's `line:col` (`-` with no
+/// source text).
+fn combiner_verdict(m: &Module, profile: &Profile, value: Handle<Expr>, textures: &[TextureBinding], at: &dyn Fn(Span) -> String) -> Option<String> {
     let limits = profile.combiner_limits()?;
     // Unit i holds textures[i]: a lookup, or a framebuffer read as a texture.
     let units: Vec<Handle<Expr>> = textures.iter().map(|t| Handle::new(t.lookup as usize)).collect();
     let input = crate::backends::combiners::codegen::PassInput { module: m, value, units: &units };
-    crate::backends::combiners::codegen::generate(&input, &limits).err().map(|e| format!("not generated: {e}"))
+    let e = crate::backends::combiners::codegen::generate(&input, &limits).err()?;
+    let span = e.span().filter(|s| *s != Span::DETACHED).unwrap_or_else(|| m.span(value));
+    Some(format!("not generated: {}: {e}", at(span)))
 }
 
 /// `π`, `πl`, `π*`, or `u` for a statement's index.

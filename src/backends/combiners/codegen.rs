@@ -16,10 +16,17 @@
 //!    covered by the final combiner (`A·B + (1 − A)·C + D`, `E·F`, `G`)
 //!    where it can be: products of up to three non-negative factors
 //!    (`A · EF`), `x⁴` as `EF · EF` (repeated squaring), lerps, sums of two.
+//!    Constants and uniforms become *virtual constants*.
 //! 2. **Scheduling.** Operations go, in dependency order, to the first
 //!    general stage after their operands' in which the RGB or alpha portion
-//!    they need is free (the two portions of a stage work in parallel).
-//! 3. **Register allocation.** Virtual registers get `spare0`, `spare1`, or
+//!    they need is free (the two portions of a stage work in parallel) and,
+//!    with per-stage constants, whose constant colours, with the
+//!    operation's, are at most two.
+//! 3. **Constant registers.** Without per-stage constants (geforce256) the
+//!    pass has the two global ones (seeds/003 B.3). With them (geforce3,
+//!    NV_register_combiners2) each general stage has its own two and the
+//!    final combiner reads the global two: see `Gen::assign_constants`.
+//! 4. **Register allocation.** Virtual registers get `spare0`, `spare1`, or
 //!    a texture/colour register whose own value is no longer read, by live
 //!    interval; the mux's select value is pinned to `spare0.a`.
 //!
@@ -73,10 +80,27 @@ pub struct Generated {
     pub primary: Option<Handle<Expr>>,
     /// The interpolated IR node feeding the secondary colour.
     pub secondary: Option<Handle<Expr>>,
-    /// The constant or uniform IR node held by constant colour 0 and 1.
-    /// A uniform with no default leaves `config.constantN` unset: the caller
-    /// supplies it.
+    /// The constant or uniform IR node held by the global constant colours
+    /// 0 and 1 (`config.constant0/1`). Without per-stage constants these are
+    /// all the pass's constants. With them (geforce3), the global ones are
+    /// what the final combiner reads, plus what general stages share when a
+    /// pass needs more than two constants (see `stage_constants`); a stage
+    /// that does not set its own constant reads the global one (nvparse's
+    /// `SetUnusedLocalConsts`, the emulator's `Plan::new`). A uniform with
+    /// no default leaves `config.constantN` unset: the caller supplies it
+    /// (`emulator::Inputs::constant0/1`); such a uniform always goes to a
+    /// global constant, never to a stage's own.
     pub constants: [Option<Handle<Expr>>; 2],
+    /// Per general stage (`config.general[k]`): the node held by that
+    /// stage's own constant 0 and 1 (`config.general[k].constant0/1`,
+    /// NV_register_combiners2), `None` where the stage reads the global one.
+    /// One entry per general stage; all `[None, None]` without per-stage
+    /// constants, and when the pass reads no more than two constants (they
+    /// are then all global, as on geforce256). The colours are in the config
+    /// (always known: a stage's own constant is never a uniform the caller
+    /// supplies). A constant the generator made is `None` here too, but its
+    /// colour is set.
+    pub stage_constants: Vec<[Option<Handle<Expr>>; 2]>,
     /// General combiner stages used (`config.general.len()`).
     pub stages: usize,
 }
@@ -93,8 +117,14 @@ pub enum CodegenError {
     /// splits the pass).
     #[error("the pass needs {needed} general combiners, the target has {available}")]
     OutOfStages { needed: usize, available: usize },
-    #[error("the pass needs more than the two constant colours")]
-    OutOfConstants { span: Span },
+    /// More distinct constant colours than a combiner can read: two for the
+    /// whole pass without per-stage constants (seeds/003 B.3), else two per
+    /// general stage and two (the global ones) for the final combiner
+    /// (NV_register_combiners2). `place` says which combiner, `constants`
+    /// which constants compete (the last one did not fit); `span` is a node
+    /// reading the last one.
+    #[error("{place} needs more than {} constant colours: {}", if place.starts_with("the pass") { "the two" } else { "its two" }, list(constants))]
+    OutOfConstants { span: Span, place: String, constants: Vec<String> },
     #[error("the pass needs more than the two interpolated colours (primary and secondary)")]
     OutOfColors { span: Span },
     #[error("the pass needs more registers than spare0, spare1 and the free texture registers")]
@@ -104,12 +134,21 @@ pub enum CodegenError {
     Invalid(Vec<ValidationError>),
 }
 
+/// `a`, `a and b`, `a, b and c`.
+fn list(items: &[String]) -> String {
+    match items {
+        [] => String::new(),
+        [one] => one.clone(),
+        [init @ .., last] => format!("{} and {last}", init.join(", ")),
+    }
+}
+
 impl CodegenError {
     pub fn span(&self) -> Option<Span> {
         match self {
             CodegenError::Unsupported { span, .. }
             | CodegenError::Range { span, .. }
-            | CodegenError::OutOfConstants { span }
+            | CodegenError::OutOfConstants { span, .. }
             | CodegenError::OutOfColors { span }
             | CodegenError::OutOfRegisters { span } => Some(*span),
             _ => None,
@@ -121,7 +160,7 @@ impl CodegenError {
             CodegenError::Unsupported { help, .. } => help.clone(),
             CodegenError::Range { .. } => "clamp it with `saturate(…)` where the clamp is intended, or rescale it into [−1, 1] (seeds/003 Section 4.2.2)".into(),
             CodegenError::OutOfStages { .. } => "split the pass: blend partial results in the framebuffer, or target a profile with more general combiners".into(),
-            CodegenError::OutOfConstants { .. } => "fold constants together, or split the pass".into(),
+            CodegenError::OutOfConstants { .. } => "fold constants together, or split the pass (a target with per-stage constants, NV_register_combiners2, gives every general combiner two of its own)".into(),
             CodegenError::OutOfColors { .. } => "pass further per-vertex values as texture coordinates (a lookup texture), or split the pass".into(),
             CodegenError::OutOfRegisters { .. } => "split the pass".into(),
             CodegenError::Invalid(_) => "please report this".into(),
@@ -162,6 +201,10 @@ enum Base {
     Reg(Register),
     /// A virtual register: the result of operation `ops[vregs[i].op]`.
     V(usize),
+    /// A virtual constant colour, `konsts[i]`: which constant register
+    /// holds it is decided after scheduling (`assign_constants`), per stage
+    /// where the target has per-stage constants.
+    K(usize),
 }
 
 /// Which components a source reads.
@@ -262,6 +305,27 @@ enum FinalVal {
     Ef,
 }
 
+/// A constant colour before it has a register: a folded constant or a
+/// uniform, with the colour the register holds (magnitudes: a negative
+/// constant is read through `signed_negate`).
+#[derive(Clone, Debug)]
+struct VConst {
+    color: Color,
+    node: Handle<Expr>,
+    /// The colour is known (a constant, or a uniform's default); otherwise
+    /// the caller supplies it, which it can only do for the global constants.
+    known: bool,
+}
+
+/// Where the constants went: the global `constant0/1` (read by the final
+/// combiner, and by every stage that does not set its own) and each general
+/// stage's own (NV_register_combiners2; `None`: the stage reads the global).
+#[derive(Clone, Debug, Default)]
+struct ConstAssignment {
+    global: [Option<usize>; 2],
+    local: Vec<[Option<usize>; 2]>,
+}
+
 struct FinalSpec {
     a: FinalVal,
     b: FinalVal,
@@ -281,7 +345,14 @@ struct Gen<'a> {
     stage_used: Vec<[bool; 2]>,
     cache: HashMap<(Handle<Expr>, Part), Src>,
     pow_cache: HashMap<(Handle<Expr>, Part, u32), Src>,
-    constants: [Option<(Color, Handle<Expr>)>; 2],
+    /// Every constant colour the pass reads, in order of first use.
+    konsts: Vec<VConst>,
+    /// Per general stage: the constants its operations read (at most two
+    /// with per-stage constants; the scheduler keeps it so).
+    stage_konsts: Vec<Vec<usize>>,
+    /// Constants the final combiner reads (through `final_read`).
+    final_konsts: Vec<usize>,
+    assigned: ConstAssignment,
     colors: [Option<Handle<Expr>>; 2],
     span: Span,
 }
@@ -313,7 +384,10 @@ pub fn generate(input: &PassInput, limits: &CombinerLimits) -> Result<Generated,
         stage_used: Vec::new(),
         cache: HashMap::new(),
         pow_cache: HashMap::new(),
-        constants: [None, None],
+        konsts: Vec::new(),
+        stage_konsts: Vec::new(),
+        final_konsts: Vec::new(),
+        assigned: ConstAssignment::default(),
         colors: [None, None],
         span,
     };
@@ -322,6 +396,7 @@ pub fn generate(input: &PassInput, limits: &CombinerLimits) -> Result<Generated,
     if stages > limits.general_combiners {
         return Err(CodegenError::OutOfStages { needed: stages, available: limits.general_combiners });
     }
+    g.assign_constants(&fin)?;
     g.allocate(&fin)?;
     let config = g.build(&fin);
     validate(&config, limits).map_err(CodegenError::Invalid)?;
@@ -331,7 +406,8 @@ pub fn generate(input: &PassInput, limits: &CombinerLimits) -> Result<Generated,
         secondary: g.colors[1],
         // A constant the generator made (folded, or from a desugared ⊕) is
         // not a node of the caller's module; its colour is in the config.
-        constants: g.constants.map(|c| c.map(|c| c.1).filter(|h| h.index() < original)),
+        constants: g.assigned.global.map(|k| k.map(|k| g.konsts[k].node).filter(|h| h.index() < original)),
+        stage_constants: g.assigned.local.iter().map(|l| l.map(|k| k.map(|k| g.konsts[k].node).filter(|h| h.index() < original))).collect(),
         stages,
     })
 }
@@ -552,12 +628,12 @@ impl Gen<'_> {
             Expr::Uniform(id) => {
                 let u = &self.m.uniforms[id as usize];
                 let color = u.default.map(|c| to_color(&c)).unwrap_or([0.0; 4]);
-                let reg = self.constant_register(h, color, u.default.is_some())?;
                 let comp = match (u.ty, part) {
                     (Ty::Scalar, _) | (_, Part::Alpha) => Comp::Alpha,
                     _ => Comp::Rgb,
                 };
-                Ok(Src { base: Base::Reg(reg), comp, map: UnsignedIdentity })
+                let k = self.konst(h, color, u.default.is_some(), comp)?;
+                Ok(Src { base: Base::K(k), comp, map: UnsignedIdentity })
             }
             Expr::Lookup { .. } | Expr::FramebufferRead { channel: FbChannel::Color | FbChannel::Alpha, .. } if self.units.contains(&h) || matches!(self.expr(h), Expr::Lookup { .. }) => {
                 let unit = self.units.iter().position(|u| *u == h).ok_or_else(|| {
@@ -831,27 +907,70 @@ impl Gen<'_> {
             let v = if scalar_like { mags[0] } else if c.ty == Ty::Rgba { c.components[i].abs() } else { mags.get(i).copied().unwrap_or(0.0) };
             *slot = v as f32;
         }
-        let reg = self.constant_register(h, color, true)?;
         let comp = if scalar_like || part == Part::Alpha { Comp::Alpha } else { Comp::Rgb };
-        Ok(Src { base: Base::Reg(reg), comp, map: if negate { SignedNegate } else { UnsignedIdentity } })
+        let k = self.konst(h, color, true, comp)?;
+        Ok(Src { base: Base::K(k), comp, map: if negate { SignedNegate } else { UnsignedIdentity } })
     }
 
-    fn constant_register(&mut self, h: Handle<Expr>, color: Color, known: bool) -> R<Register> {
-        let regs = [Register::Constant0, Register::Constant1];
-        for (i, slot) in self.constants.iter().enumerate() {
-            if let Some((c, node)) = slot {
-                if *node == h || (known && *c == color && matches!(self.expr(*node), Expr::Constant(_))) {
-                    return Ok(regs[i]);
+    /// The virtual constant holding `color` for node `h`, read as `comp`
+    /// (its rgb, or its alpha). Constant registers are read-only (seeds/003
+    /// Table 2), so one register serves every read of a colour: a read
+    /// shares the constant of the same node, or of a folded constant equal
+    /// on the components read (a uniform with a default shares a folded
+    /// constant's; a folded constant never a uniform's, which the caller may
+    /// rebind). Without per-stage constants the whole pass has two (B.3),
+    /// so the third distinct one is an error here; with them, the scheduler
+    /// and `assign_constants` place them per stage.
+    fn konst(&mut self, h: Handle<Expr>, color: Color, known: bool, comp: Comp) -> R<usize> {
+        let same = |a: &Color, b: &Color| match comp {
+            Comp::Alpha => a[3] == b[3],
+            _ => a[..3] == b[..3],
+        };
+        let is_constant = |g: &Self, n: Handle<Expr>| matches!(g.expr(n), Expr::Constant(_));
+        for (i, k) in self.konsts.iter().enumerate() {
+            let same_node = k.node == h && (!is_constant(self, h) || same(&k.color, &color));
+            let same_color = known && k.known && is_constant(self, k.node) && same(&k.color, &color);
+            if same_node || same_color {
+                return Ok(i);
+            }
+        }
+        self.konsts.push(VConst { color, node: h, known });
+        let i = self.konsts.len() - 1;
+        if !self.limits.per_stage_constants && self.konsts.len() > 2 {
+            let all: Vec<usize> = (0..self.konsts.len()).collect();
+            return Err(self.out_of_constants(self.m.span(h), "the pass".into(), &all));
+        }
+        Ok(i)
+    }
+
+    fn out_of_constants(&self, span: Span, place: String, ks: &[usize]) -> CodegenError {
+        CodegenError::OutOfConstants { span, place, constants: ks.iter().map(|k| self.describe_konst(*k)).collect() }
+    }
+
+    /// A constant as the user wrote it: `uniform I_light`, or its value.
+    fn describe_konst(&self, k: usize) -> String {
+        let node = self.konsts[k].node;
+        match self.expr(node) {
+            Expr::Uniform(id) => format!("uniform `{}`", self.m.uniforms[*id as usize].name),
+            Expr::Constant(c) => match c.values() {
+                [v] => format!("{v}"),
+                vs => format!("({})", vs.iter().map(|v| v.to_string()).collect::<Vec<_>>().join(", ")),
+            },
+            _ => format!("{:?}", self.konsts[k].color),
+        }
+    }
+
+    /// The virtual constants a source list reads, each once, in order.
+    fn konsts_of(srcs: impl IntoIterator<Item = Src>) -> Vec<usize> {
+        let mut out = Vec::new();
+        for s in srcs {
+            if let Base::K(k) = s.base {
+                if !out.contains(&k) {
+                    out.push(k);
                 }
             }
         }
-        for (i, slot) in self.constants.iter_mut().enumerate() {
-            if slot.is_none() {
-                *slot = Some((color, h));
-                return Ok(regs[i]);
-            }
-        }
-        Err(CodegenError::OutOfConstants { span: self.m.span(h) })
+        out
     }
 
     // -----------------------------------------------------------------------
@@ -1175,14 +1294,30 @@ impl Gen<'_> {
             }
         }
         let li = if lane == Lane::Rgb { 0 } else { 1 };
+        // With per-stage constants a stage's two portions share its two
+        // constant colours (NV_register_combiners2): an operation goes to a
+        // stage whose constants, with its own, are at most two. Without them
+        // all constants are global, at most two in all (checked by `konst`).
+        let ks = Self::konsts_of(srcs(&spec).into_iter().chain(spec.mux));
+        let per_stage = self.limits.per_stage_constants;
+        if per_stage && ks.len() > 2 {
+            return Err(self.out_of_constants(span, "this general combiner operation".into(), &ks));
+        }
+        let fits = |g: &Self, stage: usize| !per_stage || g.stage_konsts[stage].iter().chain(ks.iter().filter(|k| !g.stage_konsts[stage].contains(k))).count() <= 2;
         let mut stage = earliest;
-        while stage < self.stage_used.len() && self.stage_used[stage][li] {
+        while stage < self.stage_used.len() && (self.stage_used[stage][li] || !fits(self, stage)) {
             stage += 1;
         }
         if stage == self.stage_used.len() {
             self.stage_used.push([false, false]);
+            self.stage_konsts.push(Vec::new());
         }
         self.stage_used[stage][li] = true;
+        for k in ks {
+            if !self.stage_konsts[stage].contains(&k) {
+                self.stage_konsts[stage].push(k);
+            }
+        }
         let out = self.vregs.len();
         self.vregs.push(VReg { lane, op: self.ops.len(), pin: None, reg: None });
         self.ops.push(Op { lane, ab: spec.ab, cd: spec.cd, mux: spec.mux, scale: spec.scale, bias: spec.bias, out, stage, span });
@@ -1470,7 +1605,27 @@ impl Gen<'_> {
             Comp::Blue => self.blue_to_alpha(s, span)?,
             _ => s,
         };
-        self.unsigned(s, span)
+        let s = self.unsigned(s, span)?;
+        self.final_read(s, span)
+    }
+
+    /// A source the final combiner reads. It reads the two global constant
+    /// colours only; with per-stage constants a third constant is copied
+    /// into a register by a general stage, which has its own two
+    /// (NV_register_combiners2). A uniform the caller supplies must stay
+    /// global, so it counts against the final combiner's two as well.
+    fn final_read(&mut self, s: Src, span: Span) -> R<Src> {
+        let Base::K(k) = s.base else { return Ok(s) };
+        if self.final_konsts.contains(&k) || !self.limits.per_stage_constants {
+            return Ok(s);
+        }
+        let supplied = (0..self.konsts.len()).filter(|i| !self.konsts[*i].known && !self.final_konsts.contains(i) && *i != k).count();
+        if self.final_konsts.len() + supplied >= 2 {
+            let v = self.copy(s, span)?;
+            return Ok(Src { map: UnsignedIdentity, ..v });
+        }
+        self.final_konsts.push(k);
+        Ok(s)
     }
 
     /// G reads alpha.
@@ -1480,7 +1635,80 @@ impl Gen<'_> {
             Comp::Blue | Comp::Bcast => self.blue_to_alpha(Src { comp: Comp::Blue, ..s }, span)?,
             Comp::Rgb => return Err(unsupported(span, "an alpha made of a vector", "G reads an alpha (seeds/003 B.5)")),
         };
-        self.unsigned(s, span)
+        let s = self.unsigned(s, span)?;
+        self.final_read(s, span)
+    }
+
+    // -----------------------------------------------------------------------
+    // Constant registers.
+
+    /// Gives every virtual constant a constant register, once operations
+    /// have their stages. Without per-stage constants, or when the pass
+    /// reads at most two, they are the global `constant0/1` in order of
+    /// first use (seeds/003 B.3; `konst` refused a third). Otherwise
+    /// (NV_register_combiners2) the final combiner reads the global two and
+    /// each general stage its own two, which default to the global ones
+    /// (nvparse copies the global constants into the stages that set none;
+    /// so does the emulator). The global constants are then: those the
+    /// final combiner reads and the uniforms the caller supplies (which can
+    /// only be global), then those read by the most stages; a stage sets
+    /// its own constant for anything else it reads, in a slot whose global
+    /// constant it does not read. The scheduler kept every stage at two.
+    fn assign_constants(&mut self, fin: &FinalSpec) -> R<()> {
+        let n = self.stage_used.len();
+        let all = self.konsts.len();
+        let mut a = ConstAssignment { global: [None, None], local: vec![[None, None]; n] };
+        if !self.limits.per_stage_constants || all <= 2 {
+            for (j, slot) in a.global.iter_mut().enumerate().take(all) {
+                *slot = Some(j);
+            }
+            self.assigned = a;
+            return Ok(());
+        }
+        let mut final_reads = vec![fin.e, fin.f, fin.g];
+        for v in [fin.a, fin.b, fin.c, fin.d] {
+            if let FinalVal::Src(s) = v {
+                final_reads.push(s);
+            }
+        }
+        let final_ks = Self::konsts_of(final_reads);
+        let mut global: Vec<usize> = (0..all).filter(|k| final_ks.contains(k) || !self.konsts[*k].known).collect();
+        if global.len() > 2 {
+            let place = if global.iter().all(|k| final_ks.contains(k)) {
+                "the final combiner".to_string()
+            } else {
+                "the final combiner, with the uniforms the caller supplies (no default: they stay global),".to_string()
+            };
+            let span = self.m.span(self.konsts[global[2]].node);
+            return Err(self.out_of_constants(span, place, &global));
+        }
+        let readers = |k: usize| self.stage_konsts.iter().filter(|s| s.contains(&k)).count();
+        let mut rest: Vec<usize> = (0..all).filter(|k| !global.contains(k)).collect();
+        rest.sort_by_key(|k| (std::cmp::Reverse(readers(*k)), *k));
+        global.extend(rest.into_iter().take(2 - global.len()));
+        global.sort_unstable();
+        for (j, k) in global.iter().enumerate() {
+            a.global[j] = Some(*k);
+        }
+        for st in 0..n {
+            let reads = &self.stage_konsts[st];
+            let mut kept = [false; 2];
+            for k in reads {
+                if let Some(j) = a.global.iter().position(|g| *g == Some(*k)) {
+                    kept[j] = true;
+                }
+            }
+            for &k in reads.iter().filter(|k| !global.contains(k)) {
+                let Some(j) = (0..2).find(|j| !kept[*j]) else {
+                    let span = self.ops.iter().find(|op| op.stage == st).map_or(self.span, |op| op.span);
+                    return Err(self.out_of_constants(span, format!("general combiner {st}"), reads));
+                };
+                a.local[st][j] = Some(k);
+                kept[j] = true;
+            }
+        }
+        self.assigned = a;
+        Ok(())
     }
 
     // -----------------------------------------------------------------------
@@ -1497,6 +1725,8 @@ impl Gen<'_> {
         let mut phys: HashMap<(Register, Lane), usize> = HashMap::new();
         let mut read = |s: &Src, stage: usize, last: &mut Vec<usize>| match s.base {
             Base::V(v) => last[v] = last[v].max(stage),
+            // Constant registers are read-only: nothing to allocate.
+            Base::K(_) => {}
             Base::Reg(r) => {
                 let e = phys.entry((r, lane_of(s))).or_insert(stage);
                 *e = (*e).max(stage);
@@ -1559,21 +1789,31 @@ impl Gen<'_> {
     // -----------------------------------------------------------------------
     // The config.
 
-    fn register(&self, s: &Src) -> Register {
+    /// The register a source reads in general stage `stage` (`None`: the
+    /// final combiner, which reads the global constants).
+    fn register(&self, s: &Src, stage: Option<usize>) -> Register {
         match s.base {
             Base::Reg(r) => r,
             Base::V(v) => self.vregs[v].reg.expect("allocated"),
+            Base::K(k) => {
+                let a = &self.assigned;
+                let slot = |j: usize| match stage.and_then(|st| a.local.get(st).and_then(|l| l[j])) {
+                    Some(local) => local == k,
+                    None => a.global[j] == Some(k),
+                };
+                [Register::Constant0, Register::Constant1][(0..2).find(|j| slot(*j)).expect("assigned")]
+            }
         }
     }
 
-    fn general_input(&self, s: &Src, lane: Lane) -> GeneralInput {
+    fn general_input(&self, s: &Src, lane: Lane, stage: usize) -> GeneralInput {
         let usage = match (lane, s.comp) {
             (Lane::Rgb, Comp::Rgb | Comp::Bcast) => ComponentUsage::Rgb,
             (_, Comp::Alpha) => ComponentUsage::Alpha,
             (Lane::Alpha, _) => ComponentUsage::Blue,
             (Lane::Rgb, Comp::Blue) => unreachable!("fixed up by emit"),
         };
-        GeneralInput::new(self.register(s), s.map, usage)
+        GeneralInput::new(self.register(s, Some(stage)), s.map, usage)
     }
 
     fn final_input(&self, v: FinalVal) -> FinalInput {
@@ -1581,26 +1821,30 @@ impl Gen<'_> {
             FinalVal::Ef => FinalInput::new(FinalSource::EfProduct, UnsignedIdentity, ComponentUsage::Rgb),
             FinalVal::Src(s) => {
                 let usage = if s.comp == Comp::Alpha { ComponentUsage::Alpha } else { ComponentUsage::Rgb };
-                FinalInput::new(FinalSource::Register(self.register(&s)), s.map, usage)
+                FinalInput::new(FinalSource::Register(self.register(&s, None)), s.map, usage)
             }
         }
     }
 
     fn build(&self, fin: &FinalSpec) -> CombinerConfig {
+        let color = |k: Option<usize>| k.map(|k| &self.konsts[k]).filter(|k| k.known).map(|k| k.color);
         let mut general: Vec<GeneralStage> = (0..self.stage_used.len())
-            .map(|_| GeneralStage { rgb: GeneralPortion::discard_all(), alpha: GeneralPortion::discard_all(), constant0: None, constant1: None })
+            .map(|st| {
+                let local = self.assigned.local.get(st).copied().unwrap_or([None, None]);
+                GeneralStage { rgb: GeneralPortion::discard_all(), alpha: GeneralPortion::discard_all(), constant0: color(local[0]), constant1: color(local[1]) }
+            })
             .collect();
         for op in &self.ops {
             let zero = GeneralInput::new(Register::Zero, UnsignedIdentity, ComponentUsage::Alpha);
             let out = self.vregs[op.out].reg;
             let (c, d, cd_dot) = match op.cd {
-                Some(t) => (self.general_input(&t.a, op.lane), self.general_input(&t.b, op.lane), t.dot),
+                Some(t) => (self.general_input(&t.a, op.lane, op.stage), self.general_input(&t.b, op.lane, op.stage), t.dot),
                 None => (zero, zero, false),
             };
             let combined = op.cd.is_some() || op.mux.is_some();
             let portion = GeneralPortion {
-                a: self.general_input(&op.ab.a, op.lane),
-                b: self.general_input(&op.ab.b, op.lane),
+                a: self.general_input(&op.ab.a, op.lane, op.stage),
+                b: self.general_input(&op.ab.b, op.lane, op.stage),
                 c,
                 d,
                 ab_output: if combined { None } else { out },
@@ -1630,20 +1874,14 @@ impl Gen<'_> {
             color_sum_clamp: true,
         };
         CombinerConfig {
-            constant0: self.constants[0].filter(|c| self.known(c.1)).map(|c| c.0),
-            constant1: self.constants[1].filter(|c| self.known(c.1)).map(|c| c.0),
+            constant0: color(self.assigned.global[0]),
+            constant1: color(self.assigned.global[1]),
             general,
             final_combiner,
             texture_shader: None,
         }
     }
 
-    fn known(&self, h: Handle<Expr>) -> bool {
-        match self.expr(h) {
-            Expr::Uniform(id) => self.m.uniforms[*id as usize].default.is_some(),
-            _ => true,
-        }
-    }
 }
 
 fn to_color(c: &Constant) -> Color {
