@@ -246,11 +246,14 @@ trait Model {
     type R: Copy + Default + Send + Sync;
     /// A mapped input, product or sum, before the output scale and bias.
     type W: Copy + Default + Send + Sync;
+    /// A mapped input (narrower than `W` where the model allows: fixed9
+    /// keeps it in 16 bits so products use 16-bit vector multiplies).
+    type V: Copy + Default + Send + Sync;
     fn from_u8(v: u8) -> Self::R;
     fn from_unit(v: f32) -> Self::R;
-    fn map(m: InputMapping, src: &[Self::R], dst: &mut [Self::W]);
-    fn mul(a: &[Self::W], b: &[Self::W], dst: &mut [Self::W]);
-    fn mul_add(a: &[Self::W], b: &[Self::W], dst: &mut [Self::W]);
+    fn map(m: InputMapping, src: &[Self::R], dst: &mut [Self::V]);
+    fn mul(a: &[Self::V], b: &[Self::V], dst: &mut [Self::W]);
+    fn mul_add(a: &[Self::V], b: &[Self::V], dst: &mut [Self::W]);
     fn add(a: &[Self::W], b: &[Self::W], dst: &mut [Self::W]);
     /// spare0.a < ½ → AB, else CD.
     fn mux(spare0_alpha: &[Self::R], ab: &[Self::W], cd: &[Self::W], dst: &mut [Self::W]);
@@ -298,6 +301,8 @@ fn div255_floor(y: i32) -> i32 {
 impl Model for Fixed9 {
     type R = i16;
     type W = i32;
+    /// Mapped inputs are in [−510, 510] (units of 1/510): they fit an i16.
+    type V = i16;
 
     fn from_u8(v: u8) -> i16 {
         v as i16
@@ -308,26 +313,27 @@ impl Model for Fixed9 {
         (v * 255.0 + 0.5).floor() as i16
     }
 
-    fn map(m: InputMapping, src: &[i16], dst: &mut [i32]) {
+    fn map(m: InputMapping, src: &[i16], dst: &mut [i16]) {
+        // Registers are in [−255, 255], so every result is in [−510, 510].
         let it = dst.iter_mut().zip(src);
         match m {
-            InputMapping::UnsignedIdentity => it.for_each(|(d, &s)| *d = 2 * (s as i32).max(0)),
-            InputMapping::UnsignedInvert => it.for_each(|(d, &s)| *d = 2 * (255 - (s as i32).clamp(0, 255))),
-            InputMapping::ExpandNormal => it.for_each(|(d, &s)| *d = 4 * (s as i32).max(0) - 510),
-            InputMapping::ExpandNegate => it.for_each(|(d, &s)| *d = 510 - 4 * (s as i32).max(0)),
-            InputMapping::HalfBiasNormal => it.for_each(|(d, &s)| *d = 2 * (s as i32).max(0) - 255),
-            InputMapping::HalfBiasNegate => it.for_each(|(d, &s)| *d = 255 - 2 * (s as i32).max(0)),
-            InputMapping::SignedIdentity => it.for_each(|(d, &s)| *d = 2 * s as i32),
-            InputMapping::SignedNegate => it.for_each(|(d, &s)| *d = -2 * s as i32),
+            InputMapping::UnsignedIdentity => it.for_each(|(d, &s)| *d = 2 * s.max(0)),
+            InputMapping::UnsignedInvert => it.for_each(|(d, &s)| *d = 2 * (255 - s.clamp(0, 255))),
+            InputMapping::ExpandNormal => it.for_each(|(d, &s)| *d = 4 * s.max(0) - 510),
+            InputMapping::ExpandNegate => it.for_each(|(d, &s)| *d = 510 - 4 * s.max(0)),
+            InputMapping::HalfBiasNormal => it.for_each(|(d, &s)| *d = 2 * s.max(0) - 255),
+            InputMapping::HalfBiasNegate => it.for_each(|(d, &s)| *d = 255 - 2 * s.max(0)),
+            InputMapping::SignedIdentity => it.for_each(|(d, &s)| *d = 2 * s),
+            InputMapping::SignedNegate => it.for_each(|(d, &s)| *d = -2 * s),
         }
     }
 
-    fn mul(a: &[i32], b: &[i32], dst: &mut [i32]) {
-        dst.iter_mut().zip(a.iter().zip(b)).for_each(|(d, (&a, &b))| *d = a * b);
+    fn mul(a: &[i16], b: &[i16], dst: &mut [i32]) {
+        dst.iter_mut().zip(a.iter().zip(b)).for_each(|(d, (&a, &b))| *d = a as i32 * b as i32);
     }
 
-    fn mul_add(a: &[i32], b: &[i32], dst: &mut [i32]) {
-        dst.iter_mut().zip(a.iter().zip(b)).for_each(|(d, (&a, &b))| *d += a * b);
+    fn mul_add(a: &[i16], b: &[i16], dst: &mut [i32]) {
+        dst.iter_mut().zip(a.iter().zip(b)).for_each(|(d, (&a, &b))| *d += a as i32 * b as i32);
     }
 
     fn add(a: &[i32], b: &[i32], dst: &mut [i32]) {
@@ -398,6 +404,7 @@ struct F32;
 impl Model for F32 {
     type R = f32;
     type W = f32;
+    type V = f32;
 
     fn from_u8(v: u8) -> f32 {
         v as f32 * (1.0 / 255.0)
@@ -489,7 +496,7 @@ struct Scratch<M: Model> {
     /// `N_REGS × 4` channel slices of `TILE`.
     regs: Vec<M::R>,
     /// Mapped A-D, 3 channels each.
-    mapped: Vec<M::W>,
+    mapped: Vec<M::V>,
     ab: Vec<M::W>,
     cd: Vec<M::W>,
     sum: Vec<M::W>,
@@ -511,7 +518,7 @@ impl<M: Model> Scratch<M> {
     fn new(fog: Color) -> Scratch<M> {
         let mut s = Scratch {
             regs: vec![M::R::default(); N_REGS * 4 * TILE],
-            mapped: vec![M::W::default(); 4 * 3 * TILE],
+            mapped: vec![M::V::default(); 4 * 3 * TILE],
             ab: vec![M::W::default(); 3 * TILE],
             cd: vec![M::W::default(); 3 * TILE],
             sum: vec![M::W::default(); 3 * TILE],
