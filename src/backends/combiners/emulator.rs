@@ -166,13 +166,13 @@ impl PixelEmulator {
         match self.precision {
             Precision::Fixed9 => PIXEL_FIXED9.with(|cell| {
                 let mut cell = cell.borrow_mut();
-                let s = cell.get_or_insert_with(|| Scratch::new(self.fog));
+                let s = cell.get_or_insert_with(|| Scratch::new(self.fog, 1));
                 s.set_fog(self.fog);
                 tile::<Fixed9>(&self.plan, &inputs, s, 0, &mut out);
             }),
             Precision::F32 => PIXEL_F32.with(|cell| {
                 let mut cell = cell.borrow_mut();
-                let s = cell.get_or_insert_with(|| Scratch::new(self.fog));
+                let s = cell.get_or_insert_with(|| Scratch::new(self.fog, 1));
                 s.set_fog(self.fog);
                 tile::<F32>(&self.plan, &inputs, s, 0, &mut out);
             }),
@@ -493,7 +493,10 @@ const N_REGS: usize = 12;
 
 /// Per-worker buffers, allocated once and reused for every tile.
 struct Scratch<M: Model> {
-    /// `N_REGS × 4` channel slices of `TILE`.
+    /// Pixels per channel slice: [`st`] for images, 1 for
+    /// [`PixelEmulator`] (so one pixel's state stays in a few cache lines).
+    stride: usize,
+    /// `N_REGS × 4` channel slices of `stride`.
     regs: Vec<M::R>,
     /// Mapped A-D, 3 channels each.
     mapped: Vec<M::V>,
@@ -515,19 +518,20 @@ struct Scratch<M: Model> {
 }
 
 impl<M: Model> Scratch<M> {
-    fn new(fog: Color) -> Scratch<M> {
+    fn new(fog: Color, stride: usize) -> Scratch<M> {
         let mut s = Scratch {
-            regs: vec![M::R::default(); N_REGS * 4 * TILE],
-            mapped: vec![M::V::default(); 4 * 3 * TILE],
-            ab: vec![M::W::default(); 3 * TILE],
-            cd: vec![M::W::default(); 3 * TILE],
-            sum: vec![M::W::default(); 3 * TILE],
-            staged_rgb: vec![M::R::default(); 3 * 3 * TILE],
-            staged_alpha: vec![M::R::default(); 3 * TILE],
-            fin: vec![M::R::default(); 7 * 3 * TILE],
-            ef: vec![M::R::default(); 3 * TILE],
-            cs: vec![M::R::default(); 3 * TILE],
-            rgb: vec![M::R::default(); 3 * TILE],
+            stride,
+            regs: vec![M::R::default(); N_REGS * 4 * stride],
+            mapped: vec![M::V::default(); 4 * 3 * stride],
+            ab: vec![M::W::default(); 3 * stride],
+            cd: vec![M::W::default(); 3 * stride],
+            sum: vec![M::W::default(); 3 * stride],
+            staged_rgb: vec![M::R::default(); 3 * 3 * stride],
+            staged_alpha: vec![M::R::default(); 3 * stride],
+            fin: vec![M::R::default(); 7 * 3 * stride],
+            ef: vec![M::R::default(); 3 * stride],
+            cs: vec![M::R::default(); 3 * stride],
+            rgb: vec![M::R::default(); 3 * stride],
             constants: None,
             fog,
         };
@@ -559,23 +563,25 @@ impl<M: Model> Scratch<M> {
     }
 
     fn reg_mut(&mut self, r: usize, ch: usize) -> &mut [M::R] {
-        &mut self.regs[(r * 4 + ch) * TILE..][..TILE]
+        let st = self.stride;
+        &mut self.regs[(r * 4 + ch) * st..][..st]
     }
 }
 
-fn reg<M: Model>(regs: &[M::R], r: usize, ch: usize, n: usize) -> &[M::R] {
-    &regs[(r * 4 + ch) * TILE..][..n]
+fn reg<M: Model>(regs: &[M::R], st: usize, r: usize, ch: usize, n: usize) -> &[M::R] {
+    &regs[(r * 4 + ch) * st..][..n]
 }
 
 fn run<M: Model>(plan: &Plan, inputs: &Inputs, out: &mut [u8]) {
     out.par_chunks_mut(TILE * 4).enumerate().for_each_init(
-        || Scratch::<M>::new(inputs.fog),
+        || Scratch::<M>::new(inputs.fog, TILE),
         |scratch, (tile_idx, out)| tile::<M>(plan, inputs, scratch, tile_idx * TILE, out),
     );
 }
 
 fn tile<M: Model>(plan: &Plan, inputs: &Inputs, s: &mut Scratch<M>, first: usize, out: &mut [u8]) {
     let n = out.len() / 4;
+    let st = s.stride;
     // Load the per-pixel registers (Section 4.2.1).
     let images = [
         (Register::Texture0, inputs.textures[0]),
@@ -604,7 +610,7 @@ fn tile<M: Model>(plan: &Plan, inputs: &Inputs, s: &mut Scratch<M>, first: usize
         s.reg_mut(Register::Spare0.index(), ch)[..n].fill(M::R::default());
     }
     let (t0a, spare0a) = (Register::Texture0.index() * 4 + 3, Register::Spare0.index() * 4 + 3);
-    s.regs.copy_within(t0a * TILE..t0a * TILE + n, spare0a * TILE);
+    s.regs.copy_within(t0a * st..t0a * st + n, spare0a * st);
     for ch in 0..4 {
         s.reg_mut(Register::Spare1.index(), ch)[..n].fill(M::R::default());
     }
@@ -617,15 +623,15 @@ fn tile<M: Model>(plan: &Plan, inputs: &Inputs, s: &mut Scratch<M>, first: usize
         for (slot, r) in stage.rgb.outputs.iter().enumerate() {
             if let Some(r) = r {
                 for ch in 0..3 {
-                    let at = (r.index() * 4 + ch) * TILE;
-                    s.regs[at..at + n].copy_from_slice(&s.staged_rgb[(slot * 3 + ch) * TILE..][..n]);
+                    let at = (r.index() * 4 + ch) * st;
+                    s.regs[at..at + n].copy_from_slice(&s.staged_rgb[(slot * 3 + ch) * st..][..n]);
                 }
             }
         }
         for (slot, r) in stage.alpha.outputs.iter().enumerate() {
             if let Some(r) = r {
-                let at = (r.index() * 4 + 3) * TILE;
-                s.regs[at..at + n].copy_from_slice(&s.staged_alpha[slot * TILE..][..n]);
+                let at = (r.index() * 4 + 3) * st;
+                s.regs[at..at + n].copy_from_slice(&s.staged_alpha[slot * st..][..n]);
             }
         }
     }
@@ -638,6 +644,7 @@ fn portion<M: Model>(s: &mut Scratch<M>, p: &PortionPlan, kind: PortionKind, n: 
     if !p.need_ab && !p.need_cd {
         return;
     }
+    let st = s.stride;
     let channels = if kind == PortionKind::Rgb { 3 } else { 1 };
     // Map the variables that are needed.
     for (v, input) in p.inputs.iter().enumerate() {
@@ -652,12 +659,12 @@ fn portion<M: Model>(s: &mut Scratch<M>, p: &PortionPlan, kind: PortionKind, n: 
                 // Invalid (rejected by validation); read alpha.
                 (PortionKind::Alpha, ComponentUsage::Rgb) => 3,
             };
-            let src = reg::<M>(&s.regs, input.register.index(), src_ch, n);
-            M::map(input.mapping, src, &mut s.mapped[(v * 3 + ch) * TILE..][..n]);
+            let src = reg::<M>(&s.regs, st, input.register.index(), src_ch, n);
+            M::map(input.mapping, src, &mut s.mapped[(v * 3 + ch) * st..][..n]);
         }
     }
     let mapped = &s.mapped;
-    let var = |v: usize, ch: usize| &mapped[(v * 3 + ch) * TILE..][..n];
+    let var = |v: usize, ch: usize| &mapped[(v * 3 + ch) * st..][..n];
     let product = |a: usize, dot: bool, dst: &mut [M::W]| {
         if dot {
             let dst = &mut dst[..n];
@@ -666,27 +673,27 @@ fn portion<M: Model>(s: &mut Scratch<M>, p: &PortionPlan, kind: PortionKind, n: 
             M::mul_add(var(a, 2), var(a + 1, 2), dst);
         } else {
             for ch in 0..channels {
-                M::mul(var(a, ch), var(a + 1, ch), &mut dst[ch * TILE..][..n]);
+                M::mul(var(a, ch), var(a + 1, ch), &mut dst[ch * st..][..n]);
             }
         }
     };
     if p.need_ab {
         product(0, p.ab_dot, &mut s.ab);
         if p.ab_dot {
-            smear::<M>(&mut s.ab, n);
+            smear::<M>(&mut s.ab, st, n);
         }
     }
     if p.need_cd {
         product(2, p.cd_dot, &mut s.cd);
         if p.cd_dot {
-            smear::<M>(&mut s.cd, n);
+            smear::<M>(&mut s.cd, st, n);
         }
     }
     if p.outputs[2].is_some() {
-        let spare0_alpha = reg::<M>(&s.regs, Register::Spare0.index(), 3, n);
+        let spare0_alpha = reg::<M>(&s.regs, st, Register::Spare0.index(), 3, n);
         for ch in 0..channels {
-            let (ab, cd) = (&s.ab[ch * TILE..][..n], &s.cd[ch * TILE..][..n]);
-            let dst = &mut s.sum[ch * TILE..][..n];
+            let (ab, cd) = (&s.ab[ch * st..][..n], &s.cd[ch * st..][..n]);
+            let dst = &mut s.sum[ch * st..][..n];
             if p.mux {
                 M::mux(spare0_alpha, ab, cd, dst);
             } else {
@@ -700,10 +707,10 @@ fn portion<M: Model>(s: &mut Scratch<M>, p: &PortionPlan, kind: PortionKind, n: 
             continue;
         }
         for ch in 0..channels {
-            let src = &sources[slot][ch * TILE..][..n];
+            let src = &sources[slot][ch * st..][..n];
             let dst = match kind {
-                PortionKind::Rgb => &mut s.staged_rgb[(slot * 3 + ch) * TILE..][..n],
-                PortionKind::Alpha => &mut s.staged_alpha[slot * TILE..][..n],
+                PortionKind::Rgb => &mut s.staged_rgb[(slot * 3 + ch) * st..][..n],
+                PortionKind::Alpha => &mut s.staged_alpha[slot * st..][..n],
             };
             M::output(src, p.scale, p.bias, dst);
         }
@@ -712,25 +719,26 @@ fn portion<M: Model>(s: &mut Scratch<M>, p: &PortionPlan, kind: PortionKind, n: 
 
 /// Copies a dot product (channel 0) to channels 1 and 2 (Section 4.2.2:
 /// "the dot product result is a scalar so it is smeared across RGB").
-fn smear<M: Model>(buf: &mut [M::W], n: usize) {
-    let (first, rest) = buf.split_at_mut(TILE);
+fn smear<M: Model>(buf: &mut [M::W], st: usize, n: usize) {
+    let (first, rest) = buf.split_at_mut(st);
     rest[..n].copy_from_slice(&first[..n]);
-    rest[TILE..TILE + n].copy_from_slice(&first[..n]);
+    rest[st..st + n].copy_from_slice(&first[..n]);
 }
 
 fn final_combiner<M: Model>(s: &mut Scratch<M>, fc: &super::config::FinalCombiner, n: usize, out: &mut [u8]) {
+    let st = s.stride;
     // Pseudo-registers first: EF needs E and F, spare0+secondary needs nothing.
     let vars = [fc.a, fc.b, fc.c, fc.d, fc.e, fc.f, fc.g];
     let load = |s: &mut Scratch<M>, v: usize, ch: usize| {
         let input = vars[v];
-        let dst = &mut s.fin[(v * 3 + ch) * TILE..][..n];
+        let dst = &mut s.fin[(v * 3 + ch) * st..][..n];
         match input.source {
             FinalSource::Register(r) => {
                 let src_ch = if v == 6 || input.usage == ComponentUsage::Alpha { 3 } else { ch };
-                M::final_map(input.mapping, reg::<M>(&s.regs, r.index(), src_ch, n), dst);
+                M::final_map(input.mapping, reg::<M>(&s.regs, st, r.index(), src_ch, n), dst);
             }
-            FinalSource::EfProduct => M::final_map(input.mapping, &s.ef[ch * TILE..][..n], dst),
-            FinalSource::Spare0PlusSecondary => M::final_map(input.mapping, &s.cs[ch * TILE..][..n], dst),
+            FinalSource::EfProduct => M::final_map(input.mapping, &s.ef[ch * st..][..n], dst),
+            FinalSource::Spare0PlusSecondary => M::final_map(input.mapping, &s.cs[ch * st..][..n], dst),
         }
     };
     let uses = |src: FinalSource| vars[..4].iter().any(|v| v.source == src);
@@ -738,15 +746,15 @@ fn final_combiner<M: Model>(s: &mut Scratch<M>, fc: &super::config::FinalCombine
         for ch in 0..3 {
             load(s, 4, ch);
             load(s, 5, ch);
-            let (e, f) = (&s.fin[(4 * 3 + ch) * TILE..][..n], &s.fin[(5 * 3 + ch) * TILE..][..n]);
-            M::ef(e, f, &mut s.ef[ch * TILE..][..n]);
+            let (e, f) = (&s.fin[(4 * 3 + ch) * st..][..n], &s.fin[(5 * 3 + ch) * st..][..n]);
+            M::ef(e, f, &mut s.ef[ch * st..][..n]);
         }
     }
     if uses(FinalSource::Spare0PlusSecondary) {
         for ch in 0..3 {
-            let spare0 = reg::<M>(&s.regs, Register::Spare0.index(), ch, n);
-            let secondary = reg::<M>(&s.regs, Register::Secondary.index(), ch, n);
-            M::color_sum(spare0, secondary, fc.color_sum_clamp, &mut s.cs[ch * TILE..][..n]);
+            let spare0 = reg::<M>(&s.regs, st, Register::Spare0.index(), ch, n);
+            let secondary = reg::<M>(&s.regs, st, Register::Secondary.index(), ch, n);
+            M::color_sum(spare0, secondary, fc.color_sum_clamp, &mut s.cs[ch * st..][..n]);
         }
     }
     for ch in 0..3 {
@@ -754,15 +762,15 @@ fn final_combiner<M: Model>(s: &mut Scratch<M>, fc: &super::config::FinalCombine
             load(s, v, ch);
         }
         let f = &s.fin;
-        let var = |v: usize| &f[(v * 3 + ch) * TILE..][..n];
-        M::lerp_add(var(0), var(1), var(2), var(3), &mut s.rgb[ch * TILE..][..n]);
+        let var = |v: usize| &f[(v * 3 + ch) * st..][..n];
+        M::lerp_add(var(0), var(1), var(2), var(3), &mut s.rgb[ch * st..][..n]);
     }
     load(s, 6, 0);
-    let g = &s.fin[(6 * 3) * TILE..][..n];
+    let g = &s.fin[(6 * 3) * st..][..n];
     for (i, px) in out.chunks_exact_mut(4).enumerate() {
         px[0] = M::to_u8(s.rgb[i]);
-        px[1] = M::to_u8(s.rgb[TILE + i]);
-        px[2] = M::to_u8(s.rgb[2 * TILE + i]);
+        px[1] = M::to_u8(s.rgb[st + i]);
+        px[2] = M::to_u8(s.rgb[2 * st + i]);
         px[3] = M::to_u8(g[i]);
     }
 }
