@@ -11,11 +11,10 @@
 //! buffers are allocated once per worker, and tiles run on all cores with
 //! rayon. Inner loops are branch-free per input mapping so they vectorise.
 //!
-//! [`PixelEmulator`] runs the same tile engine on one pixel at a time, for
+//! [`PixelEmulator`] runs the same steps on one pixel at a time, registers
+//! on the stack and the same precision models on one-element slices, for
 //! the CPU renderer's `fixed9` mode, which shades fragment by fragment
 //! (blending and depth need each fragment's colour before the next).
-
-use std::cell::RefCell;
 
 use rayon::prelude::*;
 use thiserror::Error;
@@ -128,18 +127,14 @@ pub struct PixelRegisters {
 }
 
 /// A validated config with its constants and fog resolved, run one pixel at
-/// a time ([`PixelEmulator::run`]) by the same engine as [`emulate`], so a
-/// renderer's fixed9 fragments are exactly what `shadec emulate` computes
-/// from the same registers (tested below).
+/// a time ([`PixelEmulator::run`]) with the same precision models as
+/// [`emulate`], so a renderer's fixed9 fragments are exactly what `shadec
+/// emulate` computes from the same registers
+/// (tests/combiners_emulator.rs, `pixel_emulator_equals_tiled`).
 pub struct PixelEmulator {
     plan: Plan,
     fog: Color,
     precision: Precision,
-}
-
-thread_local! {
-    static PIXEL_FIXED9: RefCell<Option<Scratch<Fixed9>>> = const { RefCell::new(None) };
-    static PIXEL_F32: RefCell<Option<Scratch<F32>>> = const { RefCell::new(None) };
 }
 
 impl PixelEmulator {
@@ -153,32 +148,161 @@ impl PixelEmulator {
 
     /// The final combiner's RGBA for one pixel's registers.
     pub fn run(&self, r: &PixelRegisters) -> [u8; 4] {
-        let inputs = Inputs {
-            width: 1,
-            height: 1,
-            textures: [Some(&r.textures[0]), Some(&r.textures[1]), Some(&r.textures[2]), Some(&r.textures[3])],
-            primary: Some(&r.primary),
-            secondary: Some(&r.secondary),
-            fog: self.fog,
-            ..Inputs::default()
-        };
-        let mut out = [0u8; 4];
         match self.precision {
-            Precision::Fixed9 => PIXEL_FIXED9.with(|cell| {
-                let mut cell = cell.borrow_mut();
-                let s = cell.get_or_insert_with(|| Scratch::new(self.fog, 1));
-                s.set_fog(self.fog);
-                tile::<Fixed9>(&self.plan, &inputs, s, 0, &mut out);
-            }),
-            Precision::F32 => PIXEL_F32.with(|cell| {
-                let mut cell = cell.borrow_mut();
-                let s = cell.get_or_insert_with(|| Scratch::new(self.fog, 1));
-                s.set_fog(self.fog);
-                tile::<F32>(&self.plan, &inputs, s, 0, &mut out);
-            }),
+            Precision::Fixed9 => pixel::<Fixed9>(&self.plan, self.fog, r),
+            Precision::F32 => pixel::<F32>(&self.plan, self.fog, r),
         }
-        out
     }
+}
+
+// ---------------------------------------------------------------------------
+// One pixel: the tile engine's steps with the register file on the stack and
+// the same precision models applied to one-element slices.
+
+type Regs<M> = [[<M as Model>::R; 4]; N_REGS];
+
+fn one<T>(v: &T) -> &[T] {
+    std::slice::from_ref(v)
+}
+
+fn one_mut<T>(v: &mut T) -> &mut [T] {
+    std::slice::from_mut(v)
+}
+
+fn pixel<M: Model>(plan: &Plan, fog: Color, input: &PixelRegisters) -> [u8; 4] {
+    let mut r: Regs<M> = [[M::R::default(); 4]; N_REGS];
+    let load = |px: [u8; 4]| px.map(M::from_u8);
+    for (k, t) in input.textures.iter().enumerate() {
+        r[Register::Texture0.index() + k] = load(*t);
+    }
+    r[Register::Primary.index()] = load(input.primary);
+    r[Register::Secondary.index()] = load(input.secondary);
+    r[Register::Fog.index()] = fog.map(M::from_unit);
+    // spare0: RGB undefined (zero here), alpha = texture 0 alpha; spare1 zero.
+    r[Register::Spare0.index()][3] = r[Register::Texture0.index()][3];
+    for stage in &plan.stages {
+        r[Register::Constant0.index()] = stage.constants[0].map(M::from_unit);
+        r[Register::Constant1.index()] = stage.constants[1].map(M::from_unit);
+        // Both portions read the registers as the stage found them; write after.
+        let rgb = pixel_portion::<M>(&r, &stage.rgb, PortionKind::Rgb);
+        let alpha = pixel_portion::<M>(&r, &stage.alpha, PortionKind::Alpha);
+        for (slot, reg) in stage.rgb.outputs.iter().enumerate() {
+            if let Some(reg) = reg {
+                r[reg.index()][..3].copy_from_slice(&rgb[slot]);
+            }
+        }
+        for (slot, reg) in stage.alpha.outputs.iter().enumerate() {
+            if let Some(reg) = reg {
+                r[reg.index()][3] = alpha[slot][0];
+            }
+        }
+    }
+    r[Register::Constant0.index()] = plan.global_constants[0].map(M::from_unit);
+    r[Register::Constant1.index()] = plan.global_constants[1].map(M::from_unit);
+    pixel_final::<M>(&r, &plan.final_combiner)
+}
+
+/// One portion of one pixel: the AB, CD and sum outputs (rgb: 3 channels,
+/// alpha: channel 0), after scale, bias and clamp (as [`portion`]).
+fn pixel_portion<M: Model>(r: &Regs<M>, p: &PortionPlan, kind: PortionKind) -> [[M::R; 3]; 3] {
+    let mut out = [[M::R::default(); 3]; 3];
+    if !p.need_ab && !p.need_cd {
+        return out;
+    }
+    let channels = if kind == PortionKind::Rgb { 3 } else { 1 };
+    let mut mapped = [[M::V::default(); 3]; 4];
+    for (v, input) in p.inputs.iter().enumerate() {
+        if (v < 2 && !p.need_ab) || (v >= 2 && !p.need_cd) {
+            continue;
+        }
+        for ch in 0..channels {
+            let src_ch = match (kind, input.usage) {
+                (PortionKind::Rgb, ComponentUsage::Rgb) => ch,
+                (_, ComponentUsage::Alpha) => 3,
+                (_, ComponentUsage::Blue) => 2,
+                (PortionKind::Alpha, ComponentUsage::Rgb) => 3,
+            };
+            M::map(input.mapping, one(&r[input.register.index()][src_ch]), one_mut(&mut mapped[v][ch]));
+        }
+    }
+    let product = |a: usize, dot: bool| {
+        let mut w = [M::W::default(); 3];
+        if dot {
+            M::mul(one(&mapped[a][0]), one(&mapped[a + 1][0]), one_mut(&mut w[0]));
+            M::mul_add(one(&mapped[a][1]), one(&mapped[a + 1][1]), one_mut(&mut w[0]));
+            M::mul_add(one(&mapped[a][2]), one(&mapped[a + 1][2]), one_mut(&mut w[0]));
+            w = [w[0]; 3];
+        } else {
+            for ch in 0..channels {
+                M::mul(one(&mapped[a][ch]), one(&mapped[a + 1][ch]), one_mut(&mut w[ch]));
+            }
+        }
+        w
+    };
+    let ab = if p.need_ab { product(0, p.ab_dot) } else { [M::W::default(); 3] };
+    let cd = if p.need_cd { product(2, p.cd_dot) } else { [M::W::default(); 3] };
+    let mut sum = [M::W::default(); 3];
+    if p.outputs[2].is_some() {
+        let spare0_alpha = r[Register::Spare0.index()][3];
+        for ch in 0..channels {
+            if p.mux {
+                M::mux(one(&spare0_alpha), one(&ab[ch]), one(&cd[ch]), one_mut(&mut sum[ch]));
+            } else {
+                M::add(one(&ab[ch]), one(&cd[ch]), one_mut(&mut sum[ch]));
+            }
+        }
+    }
+    let sources = [ab, cd, sum];
+    for (slot, o) in p.outputs.iter().enumerate() {
+        if o.is_some() {
+            for ch in 0..channels {
+                M::output(one(&sources[slot][ch]), p.scale, p.bias, one_mut(&mut out[slot][ch]));
+            }
+        }
+    }
+    out
+}
+
+/// The final combiner of one pixel (as [`final_combiner`]).
+fn pixel_final<M: Model>(r: &Regs<M>, fc: &super::config::FinalCombiner) -> [u8; 4] {
+    let vars = [fc.a, fc.b, fc.c, fc.d, fc.e, fc.f, fc.g];
+    let uses = |src: FinalSource| vars[..4].iter().any(|v| v.source == src);
+    let read = |v: usize, ch: usize, ef: &[M::R; 3], cs: &[M::R; 3]| -> M::R {
+        let input = vars[v];
+        let mut d = M::R::default();
+        match input.source {
+            FinalSource::Register(reg) => {
+                let src_ch = if v == 6 || input.usage == ComponentUsage::Alpha { 3 } else { ch };
+                M::final_map(input.mapping, one(&r[reg.index()][src_ch]), one_mut(&mut d));
+            }
+            FinalSource::EfProduct => M::final_map(input.mapping, one(&ef[ch]), one_mut(&mut d)),
+            FinalSource::Spare0PlusSecondary => M::final_map(input.mapping, one(&cs[ch]), one_mut(&mut d)),
+        }
+        d
+    };
+    let zero = [M::R::default(); 3];
+    let mut ef = zero;
+    if uses(FinalSource::EfProduct) {
+        for (ch, o) in ef.iter_mut().enumerate() {
+            let (e, f) = (read(4, ch, &zero, &zero), read(5, ch, &zero, &zero));
+            M::ef(one(&e), one(&f), one_mut(o));
+        }
+    }
+    let mut cs = zero;
+    if uses(FinalSource::Spare0PlusSecondary) {
+        for (ch, o) in cs.iter_mut().enumerate() {
+            M::color_sum(one(&r[Register::Spare0.index()][ch]), one(&r[Register::Secondary.index()][ch]), fc.color_sum_clamp, one_mut(o));
+        }
+    }
+    let mut px = [0u8; 4];
+    for (ch, p) in px.iter_mut().take(3).enumerate() {
+        let v = [0, 1, 2, 3].map(|k| read(k, ch, &ef, &cs));
+        let mut o = M::R::default();
+        M::lerp_add(one(&v[0]), one(&v[1]), one(&v[2]), one(&v[3]), one_mut(&mut o));
+        *p = M::to_u8(o);
+    }
+    px[3] = M::to_u8(read(6, 0, &ef, &cs));
+    px
 }
 
 // ---------------------------------------------------------------------------
@@ -493,10 +617,7 @@ const N_REGS: usize = 12;
 
 /// Per-worker buffers, allocated once and reused for every tile.
 struct Scratch<M: Model> {
-    /// Pixels per channel slice: [`st`] for images, 1 for
-    /// [`PixelEmulator`] (so one pixel's state stays in a few cache lines).
-    stride: usize,
-    /// `N_REGS × 4` channel slices of `stride`.
+    /// `N_REGS × 4` channel slices of `TILE`.
     regs: Vec<M::R>,
     /// Mapped A-D, 3 channels each.
     mapped: Vec<M::V>,
@@ -513,38 +634,27 @@ struct Scratch<M: Model> {
     rgb: Vec<M::R>,
     /// Which constants the constant registers hold now.
     constants: Option<[Color; 2]>,
-    /// Which colour the fog register holds.
-    fog: Color,
 }
 
 impl<M: Model> Scratch<M> {
-    fn new(fog: Color, stride: usize) -> Scratch<M> {
+    fn new(fog: Color) -> Scratch<M> {
         let mut s = Scratch {
-            stride,
-            regs: vec![M::R::default(); N_REGS * 4 * stride],
-            mapped: vec![M::V::default(); 4 * 3 * stride],
-            ab: vec![M::W::default(); 3 * stride],
-            cd: vec![M::W::default(); 3 * stride],
-            sum: vec![M::W::default(); 3 * stride],
-            staged_rgb: vec![M::R::default(); 3 * 3 * stride],
-            staged_alpha: vec![M::R::default(); 3 * stride],
-            fin: vec![M::R::default(); 7 * 3 * stride],
-            ef: vec![M::R::default(); 3 * stride],
-            cs: vec![M::R::default(); 3 * stride],
-            rgb: vec![M::R::default(); 3 * stride],
+            regs: vec![M::R::default(); N_REGS * 4 * TILE],
+            mapped: vec![M::V::default(); 4 * 3 * TILE],
+            ab: vec![M::W::default(); 3 * TILE],
+            cd: vec![M::W::default(); 3 * TILE],
+            sum: vec![M::W::default(); 3 * TILE],
+            staged_rgb: vec![M::R::default(); 3 * 3 * TILE],
+            staged_alpha: vec![M::R::default(); 3 * TILE],
+            fin: vec![M::R::default(); 7 * 3 * TILE],
+            ef: vec![M::R::default(); 3 * TILE],
+            cs: vec![M::R::default(); 3 * TILE],
+            rgb: vec![M::R::default(); 3 * TILE],
             constants: None,
-            fog,
         };
         s.fill(Register::Zero, [0.0; 4]);
         s.fill(Register::Fog, fog);
         s
-    }
-
-    fn set_fog(&mut self, fog: Color) {
-        if self.fog != fog {
-            self.fill(Register::Fog, fog);
-            self.fog = fog;
-        }
     }
 
     fn fill(&mut self, r: Register, c: Color) {
@@ -563,25 +673,23 @@ impl<M: Model> Scratch<M> {
     }
 
     fn reg_mut(&mut self, r: usize, ch: usize) -> &mut [M::R] {
-        let st = self.stride;
-        &mut self.regs[(r * 4 + ch) * st..][..st]
+        &mut self.regs[(r * 4 + ch) * TILE..][..TILE]
     }
 }
 
-fn reg<M: Model>(regs: &[M::R], st: usize, r: usize, ch: usize, n: usize) -> &[M::R] {
-    &regs[(r * 4 + ch) * st..][..n]
+fn reg<M: Model>(regs: &[M::R], r: usize, ch: usize, n: usize) -> &[M::R] {
+    &regs[(r * 4 + ch) * TILE..][..n]
 }
 
 fn run<M: Model>(plan: &Plan, inputs: &Inputs, out: &mut [u8]) {
     out.par_chunks_mut(TILE * 4).enumerate().for_each_init(
-        || Scratch::<M>::new(inputs.fog, TILE),
+        || Scratch::<M>::new(inputs.fog),
         |scratch, (tile_idx, out)| tile::<M>(plan, inputs, scratch, tile_idx * TILE, out),
     );
 }
 
 fn tile<M: Model>(plan: &Plan, inputs: &Inputs, s: &mut Scratch<M>, first: usize, out: &mut [u8]) {
     let n = out.len() / 4;
-    let st = s.stride;
     // Load the per-pixel registers (Section 4.2.1).
     let images = [
         (Register::Texture0, inputs.textures[0]),
@@ -610,7 +718,7 @@ fn tile<M: Model>(plan: &Plan, inputs: &Inputs, s: &mut Scratch<M>, first: usize
         s.reg_mut(Register::Spare0.index(), ch)[..n].fill(M::R::default());
     }
     let (t0a, spare0a) = (Register::Texture0.index() * 4 + 3, Register::Spare0.index() * 4 + 3);
-    s.regs.copy_within(t0a * st..t0a * st + n, spare0a * st);
+    s.regs.copy_within(t0a * TILE..t0a * TILE + n, spare0a * TILE);
     for ch in 0..4 {
         s.reg_mut(Register::Spare1.index(), ch)[..n].fill(M::R::default());
     }
@@ -623,15 +731,15 @@ fn tile<M: Model>(plan: &Plan, inputs: &Inputs, s: &mut Scratch<M>, first: usize
         for (slot, r) in stage.rgb.outputs.iter().enumerate() {
             if let Some(r) = r {
                 for ch in 0..3 {
-                    let at = (r.index() * 4 + ch) * st;
-                    s.regs[at..at + n].copy_from_slice(&s.staged_rgb[(slot * 3 + ch) * st..][..n]);
+                    let at = (r.index() * 4 + ch) * TILE;
+                    s.regs[at..at + n].copy_from_slice(&s.staged_rgb[(slot * 3 + ch) * TILE..][..n]);
                 }
             }
         }
         for (slot, r) in stage.alpha.outputs.iter().enumerate() {
             if let Some(r) = r {
-                let at = (r.index() * 4 + 3) * st;
-                s.regs[at..at + n].copy_from_slice(&s.staged_alpha[slot * st..][..n]);
+                let at = (r.index() * 4 + 3) * TILE;
+                s.regs[at..at + n].copy_from_slice(&s.staged_alpha[slot * TILE..][..n]);
             }
         }
     }
@@ -644,7 +752,6 @@ fn portion<M: Model>(s: &mut Scratch<M>, p: &PortionPlan, kind: PortionKind, n: 
     if !p.need_ab && !p.need_cd {
         return;
     }
-    let st = s.stride;
     let channels = if kind == PortionKind::Rgb { 3 } else { 1 };
     // Map the variables that are needed.
     for (v, input) in p.inputs.iter().enumerate() {
@@ -659,12 +766,12 @@ fn portion<M: Model>(s: &mut Scratch<M>, p: &PortionPlan, kind: PortionKind, n: 
                 // Invalid (rejected by validation); read alpha.
                 (PortionKind::Alpha, ComponentUsage::Rgb) => 3,
             };
-            let src = reg::<M>(&s.regs, st, input.register.index(), src_ch, n);
-            M::map(input.mapping, src, &mut s.mapped[(v * 3 + ch) * st..][..n]);
+            let src = reg::<M>(&s.regs, input.register.index(), src_ch, n);
+            M::map(input.mapping, src, &mut s.mapped[(v * 3 + ch) * TILE..][..n]);
         }
     }
     let mapped = &s.mapped;
-    let var = |v: usize, ch: usize| &mapped[(v * 3 + ch) * st..][..n];
+    let var = |v: usize, ch: usize| &mapped[(v * 3 + ch) * TILE..][..n];
     let product = |a: usize, dot: bool, dst: &mut [M::W]| {
         if dot {
             let dst = &mut dst[..n];
@@ -673,27 +780,27 @@ fn portion<M: Model>(s: &mut Scratch<M>, p: &PortionPlan, kind: PortionKind, n: 
             M::mul_add(var(a, 2), var(a + 1, 2), dst);
         } else {
             for ch in 0..channels {
-                M::mul(var(a, ch), var(a + 1, ch), &mut dst[ch * st..][..n]);
+                M::mul(var(a, ch), var(a + 1, ch), &mut dst[ch * TILE..][..n]);
             }
         }
     };
     if p.need_ab {
         product(0, p.ab_dot, &mut s.ab);
         if p.ab_dot {
-            smear::<M>(&mut s.ab, st, n);
+            smear::<M>(&mut s.ab, n);
         }
     }
     if p.need_cd {
         product(2, p.cd_dot, &mut s.cd);
         if p.cd_dot {
-            smear::<M>(&mut s.cd, st, n);
+            smear::<M>(&mut s.cd, n);
         }
     }
     if p.outputs[2].is_some() {
-        let spare0_alpha = reg::<M>(&s.regs, st, Register::Spare0.index(), 3, n);
+        let spare0_alpha = reg::<M>(&s.regs, Register::Spare0.index(), 3, n);
         for ch in 0..channels {
-            let (ab, cd) = (&s.ab[ch * st..][..n], &s.cd[ch * st..][..n]);
-            let dst = &mut s.sum[ch * st..][..n];
+            let (ab, cd) = (&s.ab[ch * TILE..][..n], &s.cd[ch * TILE..][..n]);
+            let dst = &mut s.sum[ch * TILE..][..n];
             if p.mux {
                 M::mux(spare0_alpha, ab, cd, dst);
             } else {
@@ -707,10 +814,10 @@ fn portion<M: Model>(s: &mut Scratch<M>, p: &PortionPlan, kind: PortionKind, n: 
             continue;
         }
         for ch in 0..channels {
-            let src = &sources[slot][ch * st..][..n];
+            let src = &sources[slot][ch * TILE..][..n];
             let dst = match kind {
-                PortionKind::Rgb => &mut s.staged_rgb[(slot * 3 + ch) * st..][..n],
-                PortionKind::Alpha => &mut s.staged_alpha[slot * st..][..n],
+                PortionKind::Rgb => &mut s.staged_rgb[(slot * 3 + ch) * TILE..][..n],
+                PortionKind::Alpha => &mut s.staged_alpha[slot * TILE..][..n],
             };
             M::output(src, p.scale, p.bias, dst);
         }
@@ -719,26 +826,25 @@ fn portion<M: Model>(s: &mut Scratch<M>, p: &PortionPlan, kind: PortionKind, n: 
 
 /// Copies a dot product (channel 0) to channels 1 and 2 (Section 4.2.2:
 /// "the dot product result is a scalar so it is smeared across RGB").
-fn smear<M: Model>(buf: &mut [M::W], st: usize, n: usize) {
-    let (first, rest) = buf.split_at_mut(st);
+fn smear<M: Model>(buf: &mut [M::W], n: usize) {
+    let (first, rest) = buf.split_at_mut(TILE);
     rest[..n].copy_from_slice(&first[..n]);
-    rest[st..st + n].copy_from_slice(&first[..n]);
+    rest[TILE..TILE + n].copy_from_slice(&first[..n]);
 }
 
 fn final_combiner<M: Model>(s: &mut Scratch<M>, fc: &super::config::FinalCombiner, n: usize, out: &mut [u8]) {
-    let st = s.stride;
     // Pseudo-registers first: EF needs E and F, spare0+secondary needs nothing.
     let vars = [fc.a, fc.b, fc.c, fc.d, fc.e, fc.f, fc.g];
     let load = |s: &mut Scratch<M>, v: usize, ch: usize| {
         let input = vars[v];
-        let dst = &mut s.fin[(v * 3 + ch) * st..][..n];
+        let dst = &mut s.fin[(v * 3 + ch) * TILE..][..n];
         match input.source {
             FinalSource::Register(r) => {
                 let src_ch = if v == 6 || input.usage == ComponentUsage::Alpha { 3 } else { ch };
-                M::final_map(input.mapping, reg::<M>(&s.regs, st, r.index(), src_ch, n), dst);
+                M::final_map(input.mapping, reg::<M>(&s.regs, r.index(), src_ch, n), dst);
             }
-            FinalSource::EfProduct => M::final_map(input.mapping, &s.ef[ch * st..][..n], dst),
-            FinalSource::Spare0PlusSecondary => M::final_map(input.mapping, &s.cs[ch * st..][..n], dst),
+            FinalSource::EfProduct => M::final_map(input.mapping, &s.ef[ch * TILE..][..n], dst),
+            FinalSource::Spare0PlusSecondary => M::final_map(input.mapping, &s.cs[ch * TILE..][..n], dst),
         }
     };
     let uses = |src: FinalSource| vars[..4].iter().any(|v| v.source == src);
@@ -746,15 +852,15 @@ fn final_combiner<M: Model>(s: &mut Scratch<M>, fc: &super::config::FinalCombine
         for ch in 0..3 {
             load(s, 4, ch);
             load(s, 5, ch);
-            let (e, f) = (&s.fin[(4 * 3 + ch) * st..][..n], &s.fin[(5 * 3 + ch) * st..][..n]);
-            M::ef(e, f, &mut s.ef[ch * st..][..n]);
+            let (e, f) = (&s.fin[(4 * 3 + ch) * TILE..][..n], &s.fin[(5 * 3 + ch) * TILE..][..n]);
+            M::ef(e, f, &mut s.ef[ch * TILE..][..n]);
         }
     }
     if uses(FinalSource::Spare0PlusSecondary) {
         for ch in 0..3 {
-            let spare0 = reg::<M>(&s.regs, st, Register::Spare0.index(), ch, n);
-            let secondary = reg::<M>(&s.regs, st, Register::Secondary.index(), ch, n);
-            M::color_sum(spare0, secondary, fc.color_sum_clamp, &mut s.cs[ch * st..][..n]);
+            let spare0 = reg::<M>(&s.regs, Register::Spare0.index(), ch, n);
+            let secondary = reg::<M>(&s.regs, Register::Secondary.index(), ch, n);
+            M::color_sum(spare0, secondary, fc.color_sum_clamp, &mut s.cs[ch * TILE..][..n]);
         }
     }
     for ch in 0..3 {
@@ -762,15 +868,15 @@ fn final_combiner<M: Model>(s: &mut Scratch<M>, fc: &super::config::FinalCombine
             load(s, v, ch);
         }
         let f = &s.fin;
-        let var = |v: usize| &f[(v * 3 + ch) * st..][..n];
-        M::lerp_add(var(0), var(1), var(2), var(3), &mut s.rgb[ch * st..][..n]);
+        let var = |v: usize| &f[(v * 3 + ch) * TILE..][..n];
+        M::lerp_add(var(0), var(1), var(2), var(3), &mut s.rgb[ch * TILE..][..n]);
     }
     load(s, 6, 0);
-    let g = &s.fin[(6 * 3) * st..][..n];
+    let g = &s.fin[(6 * 3) * TILE..][..n];
     for (i, px) in out.chunks_exact_mut(4).enumerate() {
         px[0] = M::to_u8(s.rgb[i]);
-        px[1] = M::to_u8(s.rgb[st + i]);
-        px[2] = M::to_u8(s.rgb[2 * st + i]);
+        px[1] = M::to_u8(s.rgb[TILE + i]);
+        px[2] = M::to_u8(s.rgb[2 * TILE + i]);
         px[3] = M::to_u8(g[i]);
     }
 }
