@@ -82,19 +82,7 @@ fn compile_with(decls: &str, value_src: &str, limits: &CombinerLimits) -> (Modul
     (m, v, r)
 }
 
-/// A fixed-seed xorshift generator.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-    fn bytes(&mut self, n: usize) -> Vec<u8> {
-        (0..n).map(|_| (self.next() >> 24) as u8).collect()
-    }
-}
+use common::Rng;
 
 /// Random RGBA8 images, with the edge values 0, 128, 255 (and 127) in
 /// every channel of the first pixels.

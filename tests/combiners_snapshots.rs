@@ -10,9 +10,12 @@
 //! identical config, and runs in the emulator (f32) to what the IR computes
 //! for the pass on random inputs.
 
+mod combiners_common;
 mod common;
 
 use std::fmt::Write as _;
+
+use combiners_common::Rng;
 
 use shadec::backends::combiners::emulator::{emulate, Inputs, Precision};
 use shadec::backends::combiners::{generate, rc1, CombinerLimits, Generated, PassInput};
@@ -169,22 +172,6 @@ impl Env for Leaves<'_> {
     }
 }
 
-/// A fixed-seed xorshift generator.
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 ^= self.0 << 13;
-        self.0 ^= self.0 >> 7;
-        self.0 ^= self.0 << 17;
-        self.0
-    }
-    fn byte(&mut self) -> u8 {
-        (self.next() >> 24) as u8
-    }
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
 
 /// A random texel whose rgb is a range-compressed vector of length at most
 /// 1 after `expand` (as a normalization cube map or normal map stores,

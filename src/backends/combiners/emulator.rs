@@ -216,12 +216,7 @@ fn pixel_portion<M: Model>(r: &Regs<M>, p: &PortionPlan, kind: PortionKind) -> [
             continue;
         }
         for ch in 0..channels {
-            let src_ch = match (kind, input.usage) {
-                (PortionKind::Rgb, ComponentUsage::Rgb) => ch,
-                (_, ComponentUsage::Alpha) => 3,
-                (_, ComponentUsage::Blue) => 2,
-                (PortionKind::Alpha, ComponentUsage::Rgb) => 3,
-            };
+            let src_ch = source_channel(kind, input.usage, ch);
             M::map(input.mapping, one(&r[input.register.index()][src_ch]), one_mut(&mut mapped[v][ch]));
         }
     }
@@ -759,13 +754,7 @@ fn portion<M: Model>(s: &mut Scratch<M>, p: &PortionPlan, kind: PortionKind, n: 
             continue;
         }
         for ch in 0..channels {
-            let src_ch = match (kind, input.usage) {
-                (PortionKind::Rgb, ComponentUsage::Rgb) => ch,
-                (_, ComponentUsage::Alpha) => 3,
-                (_, ComponentUsage::Blue) => 2,
-                // Invalid (rejected by validation); read alpha.
-                (PortionKind::Alpha, ComponentUsage::Rgb) => 3,
-            };
+            let src_ch = source_channel(kind, input.usage, ch);
             let src = reg::<M>(&s.regs, input.register.index(), src_ch, n);
             M::map(input.mapping, src, &mut s.mapped[(v * 3 + ch) * TILE..][..n]);
         }
@@ -821,6 +810,18 @@ fn portion<M: Model>(s: &mut Scratch<M>, p: &PortionPlan, kind: PortionKind, n: 
             };
             M::output(src, p.scale, p.bias, dst);
         }
+    }
+}
+
+/// The register channel a portion's variable reads for output channel `ch`
+/// (Section 4.2.2: RGB, alpha or blue component usage).
+fn source_channel(kind: PortionKind, usage: ComponentUsage, ch: usize) -> usize {
+    match (kind, usage) {
+        (PortionKind::Rgb, ComponentUsage::Rgb) => ch,
+        (_, ComponentUsage::Alpha) => 3,
+        (_, ComponentUsage::Blue) => 2,
+        // Invalid (rejected by validation); read alpha.
+        (PortionKind::Alpha, ComponentUsage::Rgb) => 3,
     }
 }
 
