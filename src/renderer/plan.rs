@@ -344,7 +344,8 @@ impl<'a> PlanRenderer<'a> {
         let limits = crate::profile::Profile::builtin(&self.planned.plan.target).ok().and_then(|p| p.combiner_limits()).unwrap_or(CombinerLimits::GEFORCE3);
         let units: Vec<Handle<Expr>> = pass.textures.iter().map(|t| self.planned.handle(t.lookup)).collect();
         let input = combiners::PassInput { module: m, value: self.planned.handle(pass.fragment.output), units: &units };
-        let g = combiners::generate(&input, &limits).map_err(|e| e.to_string())?;
+        // The plan's verdict, when it was made for this machine, is located (line:col).
+        let g = combiners::generate(&input, &limits).map_err(|e| pass.combiners.clone().unwrap_or_else(|| format!("not generated: {e}")))?;
         // A constant colour the config leaves unset is a uniform: the scene's value.
         let constant = |k: usize| -> [f32; 4] {
             let Some(h) = g.constants[k] else { return [0.0; 4] };
