@@ -14,8 +14,15 @@ fn emit_wgsl_labels_passes_and_source_lines() {
         assert!(r.stdout.contains(&format!("// ==== pass {n} of 3")), "{}", r.stdout);
     }
     assert!(r.stdout.contains("// 57:1: C δπx ← Tdecal δu x"));
-    assert!(r.stdout.contains("fn quantize_x("));
-    assert!(r.stdout.contains("let s_self = "));
+    // Hardware fidelity runs each pass's generated combiner setup.
+    assert_eq!(r.stdout.matches("fn register_combiners(").count(), 3, "{}", r.stdout);
+    let exact = shadec(&["compile", "examples/kilgard_bump_mapping.shd", "--target", "geforce256", "--emit", "wgsl"]);
+    assert_eq!(exact.code, 0, "{}", exact.stderr);
+    assert!(exact.stdout.contains("let s_self = "), "{}", exact.stdout);
+    // A pass the combiners cannot run keeps the per-operation model.
+    let taylor = shadec(&["compile", "src/bench/programs/phong_taylor.shd", "--target", "geforce3", "--emit", "wgsl", "--fidelity", "hardware"]);
+    assert_eq!(taylor.code, 0, "{}", taylor.stderr);
+    assert!(taylor.stdout.contains("fn quantize_x(") && !taylor.stdout.contains("fn register_combiners("), "{}", taylor.stdout);
 }
 
 #[test]

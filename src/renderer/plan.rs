@@ -65,7 +65,7 @@ use std::time::{Duration, Instant};
 use rayon::prelude::*;
 
 use super::{ColorFormat, CullMode, DrawStats, Fragment, FragmentResult, FragmentStage, Framebuffer, Pass as RasterPass, RenderError, VertexStage};
-use crate::backends::combiners::{self, CombinerLimits, PixelEmulator, PixelRegisters, Precision};
+use crate::backends::combiners::{self, PixelEmulator, PixelRegisters, Precision};
 use crate::ir::{self, eval::Value, Expr, FbChannel, Frequency, Handle, Module, TextureId, Ty};
 use crate::planner::{Geometry, PassInterface, Planned, RenderTarget};
 use crate::scene::bind::{self, BoundObject, BoundTexture, ExactFunction, TextureDecl, TextureQuality};
@@ -341,11 +341,7 @@ impl<'a> PlanRenderer<'a> {
     fn combiner_setup(&self, index: usize) -> Result<(CombinerSetup, usize), String> {
         let m = &self.planned.module;
         let pass = &self.planned.plan.passes[index];
-        let limits = crate::profile::Profile::builtin(&self.planned.plan.target).ok().and_then(|p| p.combiner_limits()).unwrap_or(CombinerLimits::GEFORCE3);
-        let units: Vec<Handle<Expr>> = pass.textures.iter().map(|t| self.planned.handle(t.lookup)).collect();
-        let input = combiners::PassInput { module: m, value: self.planned.handle(pass.fragment.output), units: &units };
-        // The plan's verdict, when it was made for this machine, is located (line:col).
-        let g = combiners::generate(&input, &limits).map_err(|e| pass.combiners.clone().unwrap_or_else(|| format!("not generated: {e}")))?;
+        let g = combiners::codegen::generate_for_pass(self.planned, index)?;
         // A constant colour the config leaves unset is a uniform: the scene's value.
         let constant = |k: usize| -> [f32; 4] {
             let Some(h) = g.constants[k] else { return [0.0; 4] };
@@ -359,8 +355,8 @@ impl<'a> PlanRenderer<'a> {
         };
         let machine = PixelEmulator::new(&g.config, constant(0), constant(1), [0.0; 4], Precision::Fixed9).map_err(|e| e.to_string())?;
         let mut registers = [None; 6];
-        for (r, u) in registers.iter_mut().zip(&units) {
-            *r = Some(*u);
+        for (r, t) in registers.iter_mut().zip(&pass.textures) {
+            *r = Some(self.planned.handle(t.lookup));
         }
         registers[4] = g.primary;
         registers[5] = g.secondary;

@@ -1972,3 +1972,17 @@ mod tests {
         assert!(e.to_diagnostic().help.is_some_and(|h| h.contains("lookup texture")));
     }
 }
+
+/// The setup of pass `index` of a plan, as the `fixed9` renderer and WGSL's
+/// `--fidelity hardware` run it: generated for the plan's target when that
+/// is a register-combiner profile, else for a GeForce 3 (the most capable
+/// combiner machine: what `fixed9` models on any target). `Err` is the
+/// plan's located verdict when the plan was made for this machine
+/// (`not generated: LINE:COL: …`), else the generator's reason.
+pub fn generate_for_pass(planned: &crate::planner::Planned, index: usize) -> Result<Generated, String> {
+    let pass = &planned.plan.passes[index];
+    let limits = crate::profile::Profile::builtin(&planned.plan.target).ok().and_then(|p| p.combiner_limits()).unwrap_or(CombinerLimits::GEFORCE3);
+    let units: Vec<Handle<Expr>> = pass.textures.iter().map(|t| planned.handle(t.lookup)).collect();
+    let input = PassInput { module: &planned.module, value: planned.handle(pass.fragment.output), units: &units };
+    generate(&input, &limits).map_err(|e| pass.combiners.clone().unwrap_or_else(|| format!("not generated: {e}")))
+}

@@ -150,6 +150,9 @@ fn generate_pass(planned: &Planned, index: usize, source: Option<&str>, names: &
     let span = pass_span(planned, index);
     let interface = PassInterface::of(planned, index);
     let mut g = Gen::new(planned, index, interface.clone(), names, fidelity);
+    if fidelity == Fidelity::Hardware {
+        g.combiners = crate::backends::combiners::codegen::generate_for_pass(planned, index).ok();
+    }
     g.build().map_err(|e| match e {
         GenError::Unsupported { what, at } => {
             let at = at.filter(|s| *s != Span::DETACHED);
@@ -164,6 +167,10 @@ fn generate_pass(planned: &Planned, index: usize, source: Option<&str>, names: &
     let module = g.module;
     let mut validator = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default());
     let info = validator.validate(&module).map_err(|e| internal(span, &error_chain(&e)))?;
+    let (module, info) = match &g.combiners {
+        Some(generated) => with_combiners(&module, &info, &generated.config).map_err(|e| internal(span, &e))?,
+        None => (module, info),
+    };
     let label = pass_label(planned, index);
     let mut src = Vec::new();
     if let Some(text) = source {
@@ -180,6 +187,24 @@ fn generate_pass(planned: &Planned, index: usize, source: Option<&str>, names: &
         }
     }
     Ok(PassShader { pass: index, label, source: src, interface, quad_input: g.quad, module, info })
+}
+
+/// Replaces the stub `register_combiners` of `module` by the setup's text
+/// (`rc1::combiners_function`) and its helpers, through WGSL: the module is
+/// written, the stub's text swapped, and the result parsed and validated
+/// again by naga.
+fn with_combiners(module: &naga::Module, info: &naga::valid::ModuleInfo, config: &crate::backends::combiners::CombinerConfig) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
+    use super::rc1;
+    let text = naga::back::wgsl::write_string(module, info, naga::back::wgsl::WriterFlags::empty()).map_err(|e| e.to_string())?;
+    let head = format!("fn {}(", rc1::COMBINERS_FUNCTION);
+    let start = text.find(&head).ok_or("the combiners stub is missing")?;
+    let end = text[start..].find("\n}\n").map(|e| start + e + 3).ok_or("the combiners stub does not end")?;
+    let spliced = format!("{}{}{}{}", &text[..start], rc1::combiners_function(config).trim_start(), &text[end..], rc1::combiners_helpers());
+    let module = naga::front::wgsl::parse_str(&spliced).map_err(|e| e.emit_to_string(&spliced))?;
+    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default())
+        .validate(&module)
+        .map_err(|e| format!("{}", e.emit_to_string(&spliced)))?;
+    Ok((module, info))
 }
 
 fn internal(span: Span, msg: &str) -> Diagnostic {
@@ -360,6 +385,9 @@ struct Gen<'a> {
     quad: bool,
     /// The pass's fragment position (the index's Interpolate node).
     own_position: Option<ir::Handle<Expr>>,
+    /// `--fidelity hardware`: the register-combiner setup generated for the
+    /// pass, which the fragment stage runs (`rc1::combiners_function`).
+    combiners: Option<crate::backends::combiners::Generated>,
 }
 
 impl<'a> Gen<'a> {
@@ -378,6 +406,7 @@ impl<'a> Gen<'a> {
             units: vec![],
             q9: [None; 4],
             quad: false,
+            combiners: None,
         }
     }
 
@@ -649,7 +678,10 @@ impl<'a> Gen<'a> {
         let vec4 = self.vec_ty(4);
         let out = if stencil_only {
             // The depth and stencil state do the work; no colour is written.
+            self.combiners = None;
             b.plain(Expression::ZeroValue(vec4))
+        } else if let Some(g) = self.combiners.clone() {
+            self.fragment_combiners(&mut b, &g)?
         } else {
             let mut roots = vec![self.iface.output];
             roots.extend(self.iface.condition);
@@ -681,6 +713,112 @@ impl<'a> Gen<'a> {
         b.f.body.push(Statement::Return { value: Some(out) }, naga::Span::UNDEFINED);
         b.f.result = Some(FunctionResult { ty: vec4, binding: Some(Binding::Location { location: 0, interpolation: None, sampling: None, blend_src: None, per_primitive: false }) });
         Ok(b.f)
+    }
+
+    /// `--fidelity hardware` with a generated setup: the fragment stage
+    /// computes, in f32, only what loads the registers — the texels of the
+    /// units and the interpolated primary and secondary colours — rounds
+    /// each to 8 bits as the machine's inputs are, and calls the setup as
+    /// `rc1::combiners_function` writes it (i32 arithmetic, bit-exact with
+    /// the emulator). The call goes to a stub here; `generate_pass` puts
+    /// the function's text in. The result is widened as the CPU renderer's
+    /// `fixed9` widens it (a scalar splatted, rgb with alpha 1).
+    fn fragment_combiners(&mut self, b: &mut Body, g: &crate::backends::combiners::Generated) -> R<NH> {
+        let pass = &self.planned.plan.passes[self.pass_index];
+        let mut registers: Vec<Option<ir::Handle<Expr>>> = pass.textures.iter().map(|t| Some(self.planned.handle(t.lookup))).collect();
+        registers.resize(4, None);
+        registers.push(g.primary);
+        registers.push(g.secondary);
+        let unset = [g.config.constant0.is_none(), g.config.constant1.is_none()];
+        let constants: Vec<Option<ir::Handle<Expr>>> = (0..2).map(|k| g.constants[k].filter(|_| unset[k])).collect();
+        let mut roots: Vec<ir::Handle<Expr>> = registers.iter().chain(&constants).flatten().copied().collect();
+        roots.extend(self.iface.condition);
+        // The registers' sources in float, unrounded (as the CPU's fixed9 loads them).
+        let fidelity = std::mem::replace(&mut self.fidelity, Fidelity::Exact);
+        let built: R<()> = self.fragment_nodes(&roots).into_iter().try_for_each(|n| self.node(b, n));
+        self.fidelity = fidelity;
+        built?;
+        if let Some(c) = self.iface.condition {
+            let cv = b.vals[&c];
+            self.discard_unless(b, cv);
+        }
+        let vec4 = self.vec_ty(4);
+        let ivec4 = self.ty(TypeInner::Vector { size: VectorSize::Quad, scalar: Scalar::I32 });
+        // A value as the machine's RGBA: texels keep alpha 1 beside rgb, other values alpha 0.
+        let as_rgba = |this: &mut Self, b: &mut Body, h: ir::Handle<Expr>| -> NH {
+            let v = b.vals[&h];
+            let ty = this.m.info(h).ty;
+            let texel = matches!(this.m.exprs[h], Expr::Lookup { .. } | Expr::FramebufferRead { .. });
+            match width(ty) {
+                1 => b.emit(Expression::Splat { size: VectorSize::Quad, value: v }),
+                2 => {
+                    let zero = b.lit(0.0);
+                    b.emit(Expression::Compose { ty: vec4, components: vec![v, zero, zero] })
+                }
+                3 => {
+                    let a = b.lit(if texel { 1.0 } else { 0.0 });
+                    b.emit(Expression::Compose { ty: vec4, components: vec![v, a] })
+                }
+                _ => v,
+            }
+        };
+        let mut args = Vec::new();
+        for r in &registers {
+            args.push(match r {
+                Some(h) => {
+                    let v = as_rgba(self, b, *h);
+                    // round(clamp(v, 0, 1) · 255): the 8-bit register input.
+                    let (zero, one, k255, half) = (b.lit(0.0), b.lit(1.0), b.lit(255.0), b.lit(0.5));
+                    let (zero, one) = (b.emit(Expression::Splat { size: VectorSize::Quad, value: zero }), b.emit(Expression::Splat { size: VectorSize::Quad, value: one }));
+                    let c = b.emit(Expression::Math { fun: naga::MathFunction::Clamp, arg: v, arg1: Some(zero), arg2: Some(one), arg3: None });
+                    let c = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: c, right: k255 });
+                    let half = b.emit(Expression::Splat { size: VectorSize::Quad, value: half });
+                    let c = b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: c, right: half });
+                    let c = b.emit(Expression::Math { fun: naga::MathFunction::Floor, arg: c, arg1: None, arg2: None, arg3: None });
+                    b.emit(Expression::As { expr: c, kind: ScalarKind::Sint, convert: Some(4) })
+                }
+                None => b.plain(Expression::ZeroValue(ivec4)),
+            });
+        }
+        for c in &constants {
+            args.push(match c {
+                Some(h) => as_rgba(self, b, *h),
+                None => b.plain(Expression::ZeroValue(vec4)),
+            });
+        }
+        args.push(b.plain(Expression::ZeroValue(vec4))); // fog
+        // The stub: same signature, replaced by the setup's text.
+        let mut stub = Body::new(super::rc1::COMBINERS_FUNCTION, Stage::Fragment);
+        for (i, name) in ["in_texture0", "in_texture1", "in_texture2", "in_texture3", "in_primary", "in_secondary", "in_constant0", "in_constant1", "in_fog"].iter().enumerate() {
+            stub.f.arguments.push(FunctionArgument { name: Some((*name).into()), ty: if i < 6 { ivec4 } else { vec4 }, binding: None });
+        }
+        stub.f.result = Some(FunctionResult { ty: vec4, binding: None });
+        let z = stub.plain(Expression::ZeroValue(vec4));
+        stub.f.body.push(Statement::Return { value: Some(z) }, naga::Span::UNDEFINED);
+        let f = self.module.functions.append(stub.f, naga::Span::UNDEFINED);
+        let result = b.plain(Expression::CallResult(f));
+        b.f.body.push(Statement::Call { function: f, arguments: args, result: Some(result) }, naga::Span::UNDEFINED);
+        b.name(result, "combiners");
+        let ty = self.m.info(self.iface.output).ty;
+        Ok(match width(ty) {
+            1 => {
+                let x = b.emit(Expression::AccessIndex { base: result, index: 0 });
+                b.emit(Expression::Splat { size: VectorSize::Quad, value: x })
+            }
+            2 | 3 => {
+                let n = width(ty);
+                let pattern = [SwizzleComponent::X, SwizzleComponent::Y, SwizzleComponent::Z, SwizzleComponent::W];
+                let v = b.emit(Expression::Swizzle { size: size(n), vector: result, pattern });
+                let one = b.lit(1.0);
+                if n == 3 {
+                    b.emit(Expression::Compose { ty: vec4, components: vec![v, one] })
+                } else {
+                    let zero = b.lit(0.0);
+                    b.emit(Expression::Compose { ty: vec4, components: vec![v, zero, one] })
+                }
+            }
+            _ => result,
+        })
     }
 
     /// The nodes the fragment stage computes: reachable from `roots`, not

@@ -34,6 +34,14 @@ fn unit_k(v: f32) -> i32 {
     (v * 255.0 + 0.5).floor() as i32
 }
 
+/// An RGBA8 input at the pixel, as integers 0..255 (`translate` only).
+const TEXEL_HELPER: &str = r#"
+// An RGBA8 input at the pixel, as integers 0..255.
+fn texel(t: texture_2d<f32>, p: vec2<i32>) -> vec4<i32> {
+    return vec4<i32>(round(textureLoad(t, p, 0) * 255.0));
+}
+"#;
+
 const HELPERS: &str = r#"
 // ⌊a / b⌋ for b > 0 (WGSL's integer division truncates toward zero).
 fn floor_div(a: i32, b: i32) -> i32 {
@@ -60,11 +68,6 @@ fn round_510_3(n: vec3<i32>) -> vec3<i32> {
     return vec3<i32>(round_510(n.x), round_510(n.y), round_510(n.z));
 }
 
-// An RGBA8 input at the pixel, as integers 0..255.
-fn texel(t: texture_2d<f32>, p: vec2<i32>) -> vec4<i32> {
-    return vec4<i32>(round(textureLoad(t, p, 0) * 255.0));
-}
-
 // A colour parameter: round(clamp(c, 0, 1) · 255).
 fn unit_k(c: vec4<f32>) -> vec4<i32> {
     return vec4<i32>(floor(clamp(c, vec4<f32>(0.0), vec4<f32>(1.0)) * 255.0 + 0.5));
@@ -86,22 +89,60 @@ pub fn translate(config: &CombinerConfig, title: &str) -> Result<String, String>
         writeln!(w, "@group(0) @binding({}) var {name}_sampler: sampler;", 2 + 2 * i).unwrap();
     }
     w.push_str(HELPERS);
+    w.push_str(TEXEL_HELPER);
+    w.push_str(&combiners_function(config));
     writeln!(w, "\n@vertex\nfn vs_main(@location(0) position: vec4<f32>) -> @builtin(position) vec4<f32> {{\n    return position;\n}}\n").unwrap();
     writeln!(w, "@fragment\nfn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {{").unwrap();
     writeln!(w, "    let p = vec2<i32>(frag.xy);").unwrap();
+    let args: Vec<String> = units.iter().map(|u| format!("texel({u}_image, p)")).collect();
+    writeln!(w, "    return {COMBINERS_FUNCTION}({}, uniforms.constant0, uniforms.constant1, uniforms.fog);", args.join(", ")).unwrap();
+    writeln!(w, "}}").unwrap();
+    // A compiler bug if naga rejects it.
+    let module = naga::front::wgsl::parse_str(&s).map_err(|e| format!("compiler bug: the translated shader does not parse:\n{}", e.emit_to_string(&s)))?;
+    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default())
+        .validate(&module)
+        .map_err(|e| format!("compiler bug: the translated shader does not validate:\n{}", e.emit_to_string(&s)))?;
+    Ok(s)
+}
+
+/// The name of the function [`combiners_function`] defines.
+pub const COMBINERS_FUNCTION: &str = "register_combiners";
+
+/// The helpers [`combiners_function`]'s text calls (register writes and
+/// roundings, `unit_k`), to be placed once in the same module.
+pub fn combiners_helpers() -> &'static str {
+    HELPERS
+}
+
+/// `config` as one WGSL function of the per-pixel registers:
+/// `register_combiners(texture0, texture1, texture2, texture3, primary,
+/// secondary: vec4<i32>, constant0, constant1, fog: vec4<f32>) -> vec4<f32>`
+/// — registers as integers 0..255, constants and fog as colours in [0, 1]
+/// (used where the config leaves them unset) — returning the final
+/// combiner's RGBA in [0, 1], computed exactly as the emulator's fixed9
+/// model does. Needs [`combiners_helpers`] in the module.
+pub fn combiners_function(config: &CombinerConfig) -> String {
+    let mut s = String::new();
+    let w = &mut s;
+    writeln!(w, "\n// The register combiners (seeds/003 Section 4.2) in fixed9: {} general combiner(s).", config.general.len()).unwrap();
+    writeln!(
+        w,
+        "fn {COMBINERS_FUNCTION}(in_texture0: vec4<i32>, in_texture1: vec4<i32>, in_texture2: vec4<i32>, in_texture3: vec4<i32>, in_primary: vec4<i32>, in_secondary: vec4<i32>, in_constant0: vec4<f32>, in_constant1: vec4<f32>, in_fog: vec4<f32>) -> vec4<f32> {{"
+    )
+    .unwrap();
     writeln!(w, "    // Registers (Table 2), integers in units of 1/255.").unwrap();
     writeln!(w, "    var r_zero = vec4<i32>(0);").unwrap();
-    let constant = |c: Option<[f32; 4]>, uniform: &str| match c {
+    let constant = |c: Option<[f32; 4]>, given: &str| match c {
         Some(c) => format!("vec4<i32>({}, {}, {}, {})", unit_k(c[0]), unit_k(c[1]), unit_k(c[2]), unit_k(c[3])),
-        None => format!("unit_k(uniforms.{uniform})"),
+        None => format!("unit_k({given})"),
     };
-    writeln!(w, "    var r_fog = unit_k(uniforms.fog);").unwrap();
-    writeln!(w, "    var r_constant0 = {};", constant(config.constant0, "constant0")).unwrap();
-    writeln!(w, "    var r_constant1 = {};", constant(config.constant1, "constant1")).unwrap();
-    writeln!(w, "    var r_primary = texel(primary_image, p);").unwrap();
-    writeln!(w, "    var r_secondary = texel(secondary_image, p);").unwrap();
+    writeln!(w, "    var r_fog = unit_k(in_fog);").unwrap();
+    writeln!(w, "    var r_constant0 = {};", constant(config.constant0, "in_constant0")).unwrap();
+    writeln!(w, "    var r_constant1 = {};", constant(config.constant1, "in_constant1")).unwrap();
+    writeln!(w, "    var r_primary = in_primary;").unwrap();
+    writeln!(w, "    var r_secondary = in_secondary;").unwrap();
     for i in 0..4 {
-        writeln!(w, "    var r_texture{i} = texel(texture{i}_image, p);").unwrap();
+        writeln!(w, "    var r_texture{i} = in_texture{i};").unwrap();
     }
     writeln!(w, "    // spare0.rgb and spare1 start at zero, spare0.a = texture0.a (Section 4.2.1).").unwrap();
     writeln!(w, "    var r_spare0 = vec4<i32>(0, 0, 0, r_texture0.w);").unwrap();
@@ -113,8 +154,8 @@ pub fn translate(config: &CombinerConfig, title: &str) -> Result<String, String>
         let c1 = stage.constant1.or(config.constant1);
         if stage.constant0.is_some() || stage.constant1.is_some() {
             writeln!(w, "        // Per-stage constants.").unwrap();
-            writeln!(w, "        let r_constant0 = {};", constant(c0, "constant0")).unwrap();
-            writeln!(w, "        let r_constant1 = {};", constant(c1, "constant1")).unwrap();
+            writeln!(w, "        let r_constant0 = {};", constant(c0, "in_constant0")).unwrap();
+            writeln!(w, "        let r_constant1 = {};", constant(c1, "in_constant1")).unwrap();
         }
         let mut writes = Vec::new();
         for kind in [PortionKind::Rgb, PortionKind::Alpha] {
@@ -131,12 +172,7 @@ pub fn translate(config: &CombinerConfig, title: &str) -> Result<String, String>
     }
     final_combiner(w, config);
     writeln!(w, "}}").unwrap();
-    // A compiler bug if naga rejects it.
-    let module = naga::front::wgsl::parse_str(&s).map_err(|e| format!("compiler bug: the translated shader does not parse:\n{}", e.emit_to_string(&s)))?;
-    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default())
-        .validate(&module)
-        .map_err(|e| format!("compiler bug: the translated shader does not validate:\n{}", e.emit_to_string(&s)))?;
-    Ok(s)
+    s
 }
 
 /// One input variable, mapped (units of 1/510).
