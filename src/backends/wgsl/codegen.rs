@@ -49,8 +49,15 @@
 //! # Fidelity
 //!
 //! [`Fidelity::Exact`] is f32 arithmetic with true normalize and pow.
-//! [`Fidelity::Hardware`] models the register combiners (seeds/000 Section
-//! 5.2, `docs/combiners.md`): every per-fragment arithmetic result, constant
+//! [`Fidelity::Hardware`] runs the register combiners (seeds/003 Section
+//! 4.2): a pass whose setup the combiner code generator makes
+//! ([`crate::backends::combiners::codegen::generate_for_pass`]) computes in
+//! f32 only its texels and interpolated colours, rounds them to 8 bits and
+//! calls the setup as integer code (`rc1::combiners_function`, spliced in
+//! by `with_combiners`), bit-exact with the emulator and so with the CPU
+//! renderer's `fixed9`. A pass the generator refuses models the combiners
+//! per operation (seeds/000 Section 5.2, `docs/combiners.md`): every
+//! per-fragment arithmetic result, constant
 //! in [−1, 1] (larger ones are scale factors, exact) and uniform is clamped
 //! to [−1, 1] and quantized to 9 bits (8 + sign) by
 //! `q9(x) = clamp(floor(255x + ½), −255, 255) / 255` (nearest, ties toward
@@ -81,8 +88,9 @@ pub enum Fidelity {
     /// f32, true normalize and pow.
     #[default]
     Exact,
-    /// The register-combiner precision model: clamp to [−1, 1] and 9-bit
-    /// quantization after every per-fragment operation.
+    /// The register combiners: the pass's generated setup as integer code,
+    /// else clamp to [−1, 1] and 9-bit quantization after every
+    /// per-fragment operation (module docs).
     Hardware,
 }
 
