@@ -119,6 +119,9 @@ fn bench_quick_writes_the_report_the_plots_and_the_differences() {
         assert!(md.lines().any(|l| l.starts_with(&format!("| {scene} | 8.5 %"))), "{scene} at 8.5 % missing:\n{md}");
     }
     assert!(md.contains("## Removed work") && md.contains("lights_matte_floor"), "{md}");
+    // Each fixed9 row says what ran: Kilgard's passes on the emulated combiners.
+    let kilgard = md.lines().find(|l| l.starts_with("- `kilgard_fixed9` — ")).unwrap_or_else(|| panic!("no fixed9 note for Kilgard:\n{md}"));
+    assert_eq!(kilgard.matches("register combiners").count(), 3, "{kilgard}");
 }
 
 #[test]

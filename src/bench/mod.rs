@@ -60,6 +60,9 @@ pub struct Measured {
     /// Median wall time of one frame.
     pub time: Duration,
     pub error: ErrorReport,
+    /// How each pass was shaded (fixed9: the generated combiner setup or
+    /// the per-operation fallback, and why).
+    pub shading: Vec<crate::renderer::plan::PassShading>,
     /// The rendered picture and the group's truth, for the difference image.
     pub image: Framebuffer,
     pub truth: std::sync::Arc<Framebuffer>,
@@ -148,6 +151,7 @@ pub fn measure(options: &BenchOptions, progress: &mut dyn FnMut(usize, usize, &s
                 passes: prepared.planned.plan.passes.len(),
                 time,
                 error: compare(&truth_image, &frame.image),
+                shading: frame.shading,
                 image: frame.image,
                 truth: truth_image.clone(),
             });

@@ -61,8 +61,19 @@ impl Report {
         );
         let front = super::plot::group_fronts(&self.measured);
         let mut group = "";
+        // What each fixed9 row ran, written under its group's table.
+        let mut fixed9_notes: Vec<String> = Vec::new();
+        let flush = |md: &mut String, notes: &mut Vec<String>| {
+            if !notes.is_empty() {
+                let _ = writeln!(md, "\nWhat the fixed9 rows ran, per pass:\n");
+                for n in notes.drain(..) {
+                    let _ = writeln!(md, "- {n}");
+                }
+            }
+        };
         for (i, m) in self.measured.iter().enumerate() {
             if m.group != group {
+                flush(&mut md, &mut fixed9_notes);
                 group = m.group;
                 let _ = writeln!(md, "\n## {group}\n");
                 let _ = writeln!(md, "| variant | program | target | mode | passes | ms/frame | max abs (/255) | RMSE | PSNR (dB) | approximates |");
@@ -84,7 +95,12 @@ impl Report {
                 psnr,
                 m.variant.approximates
             );
+            if m.variant.mode == crate::renderer::plan::Mode::Fixed9 {
+                let passes: Vec<String> = m.shading.iter().enumerate().map(|(k, s)| format!("pass {}: {}", k + 1, s.describe())).collect();
+                fixed9_notes.push(format!("`{}` — {}", m.variant.name, passes.join("; ")));
+            }
         }
+        flush(&mut md, &mut fixed9_notes);
         if !self.adaptive.is_empty() {
             let _ = writeln!(
                 md,
