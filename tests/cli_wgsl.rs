@@ -62,9 +62,9 @@ fn emit_glsl_has_both_stages() {
 
 #[test]
 fn unsupported_constructs_are_diagnostics_with_locations() {
-    let r = shadec(&["compile", "examples/fat_texture_map.shd", "--emit", "wgsl"]);
+    let r = shadec(&["compile", "tests/data/own_stencil_read.shd", "--emit", "wgsl"]);
     assert_eq!(r.code, 1);
-    assert!(r.stderr.contains("error[wgsl-unsupported]") && r.stderr.contains("fat_texture_map.shd:"), "{}", r.stderr);
+    assert!(r.stderr.contains("error[wgsl-unsupported]") && r.stderr.contains("own_stencil_read.shd:5:"), "{}", r.stderr);
     assert!(r.stdout.is_empty());
 }
 

@@ -10,7 +10,7 @@
 
 mod common;
 
-use shadec::backends::wgsl::runner::{
+use shadec::backends::wgsl::runner::{PassTarget, 
     run_passes, validate_shader, DepthFormat, GpuError, RunPass, RunShader, RunTexture, SamplerSettings,
     ShaderSource, Target, TextureData, VertexData,
 };
@@ -78,6 +78,8 @@ fn color_pass(label: &str, geometry: (Vec<f32>, Vec<u32>), state: RenderState) -
         textures: Vec::new(),
         uniforms: None,
         state,
+        target: PassTarget::Main,
+        outputs: 1,
     }
 }
 
@@ -252,6 +254,8 @@ fn textured_quad_with_nearest_filtering_returns_exact_texels() {
         }],
         uniforms: Some(bytemuck::cast_slice(&mask).to_vec()),
         state: state(DepthState::LESS_WRITE, BlendState::REPLACE),
+        target: PassTarget::Main,
+        outputs: 1,
     };
     let image = run_passes(&gpu, &Target::new(8, 8), &[pass]).unwrap();
     for py in 0..8 {
@@ -310,6 +314,8 @@ fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
         }],
         uniforms: None,
         state: state(DepthState::DISABLED, BlendState::REPLACE),
+        target: PassTarget::Main,
+        outputs: 1,
     };
     let image = run_passes(&gpu, &Target::new(4, 2), &[pass]).unwrap();
     assert_eq!(image.get_pixel(0, 0).0, faces[3]);
@@ -451,6 +457,8 @@ fn inconsistent_passes_are_input_errors() {
         textures: Vec::new(),
         uniforms: None,
         state: RenderState::default(),
+        target: PassTarget::Main,
+        outputs: 1,
     };
     let err = run_passes(&gpu, &target, &[pass]).unwrap_err();
     assert!(matches!(err, GpuError::Wgpu(_)), "{err}");

@@ -276,6 +276,27 @@ fn texture_shading_is_per_texel_and_fat_textures_feed_shaders() {
     assert_eq!(m.info(m.statements[0].value).freq, Frequency::Texel);
     assert_eq!(m.statements[1].freq, Frequency::Fragment);
 
+    // On a mesh, `s δu` is `s` at the surface point of the texel (seeds/001
+    // Section 3.7): the statement is indexed by `δu x`, rasterizing the mesh
+    // in texture space, and the roles are interpolated per texel.
+    let index = m.statements[0].index;
+    let Expr::Interpolate { value, to: Frequency::Texel } = m.exprs[index] else { panic!("index {:?}", m.exprs[index]) };
+    assert!(matches!(m.exprs[value], Expr::TexCoord { .. }), "{:?}", m.exprs[value]);
+    let per_texel_roles = nodes(&m, |e| matches!(e, Expr::Interpolate { to: Frequency::Texel, .. }));
+    assert_eq!(per_texel_roles.len(), 4, "δu x, N, L, V");
+    assert!(nodes(&m, |e| matches!(e, Expr::Vector { site: ir::Site::Texel, .. })).is_empty());
+
+    // With no mesh in the program, the bundle stays a function of the
+    // texel coordinate (a table, where `s.x` is the coordinate).
+    let table = "texture T : 2d rgba8;\nshader p : s → c = rgb(s.x, s.y, 0);\nT δu ← p s δu;\n";
+    let m = lower_ok(table);
+    assert!(matches!(m.exprs[m.statements[0].index], Expr::TexelCoord));
+
+    // Two vertex streams: which surface is ambiguous, and said so.
+    let two = "vector N : normal;\nvector L : light(0);\ntexture T : 2d rgba8;\nshader p : s → c = rgb(N·L, 0, 0);\nT δu ← p s δu;\nC δπx ← T δu x;\nC δπx′ ← T δu x′;\n";
+    let (e, text) = lower_err(two);
+    assert_eq!((e.code, text), ("ambiguous-surface", "N"), "{e:#?}");
+
     let src = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/fat_texture_map.shd")).unwrap();
     let m = lower_ok(&src);
     let members = nodes(&m, |e| matches!(e, Expr::FatMember { .. }));

@@ -106,8 +106,9 @@ fn every_example_renders_or_refuses_clearly() {
         }
     }
     eprintln!("refused:\n{}", refused.join("\n"));
-    // Texture shading of bundles and fat textures (4 examples) are not run yet.
-    assert!(refused.len() <= 4, "too many examples refused: {refused:#?}");
+    // Fat textures (3 examples: deferred_shading, fat_texture_map,
+    // solid_mapping) are not run yet.
+    assert!(refused.len() <= 3, "too many examples refused: {refused:#?}");
 }
 
 /// The exact reference uses no lookup tables, baked ones included: a

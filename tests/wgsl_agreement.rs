@@ -22,7 +22,7 @@ mod common;
 use std::path::Path;
 
 use shadec::backends::wgsl::codegen::Fidelity;
-use shadec::backends::wgsl::runner::{run_passes, Gpu, RunPass, RunShader, ShaderSource, Target, VertexData};
+use shadec::backends::wgsl::runner::{PassTarget, run_passes, Gpu, RunPass, RunShader, ShaderSource, Target, VertexData};
 use shadec::backends::wgsl::scene_run::ScenePlan;
 use shadec::planner::compile_source;
 use shadec::profile::Profile;
@@ -82,6 +82,8 @@ fn triangle_ids(gpu: &Gpu, scene: &Scene, assets: &SceneAssets) -> Vec<u32> {
             textures: vec![],
             uniforms: None,
             state,
+            target: PassTarget::Main,
+            outputs: 1,
         });
     }
     let img = run_passes(gpu, &Target::new(W, H), &passes).unwrap();
@@ -341,6 +343,8 @@ fn draw_rect(gpu: &Gpu, w: u32, h: u32, decls: &str, body: &str, texture: RunTex
         textures: vec![texture],
         uniforms: None,
         state: RenderState { cull: CullMode::None, depth: DepthState::DISABLED, stencil: StencilState::DISABLED, blend: BlendState::REPLACE },
+        target: PassTarget::Main,
+        outputs: 1,
     };
     run_passes(gpu, &Target::new(w, h), &[pass]).unwrap().into_raw()
 }

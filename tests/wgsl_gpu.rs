@@ -13,7 +13,7 @@ use shadec::backends::combiners::config::CombinerLimits;
 use shadec::backends::combiners::emulator::{emulate, Inputs, Precision};
 use shadec::backends::combiners::rc1;
 use shadec::backends::wgsl::codegen::{self, uniform_bytes, Fidelity};
-use shadec::backends::wgsl::runner::{run_passes, RunPass, RunShader, RunTexture, SamplerSettings, ShaderSource, Target, TextureData, VertexData};
+use shadec::backends::wgsl::runner::{PassTarget, run_passes, RunPass, RunShader, RunTexture, SamplerSettings, ShaderSource, Target, TextureData, VertexData};
 use shadec::ir::Expr;
 use shadec::renderer::{BlendState, CullMode, DepthState, RenderState, StencilState};
 
@@ -68,6 +68,8 @@ fn translated_matches_emulator(file: &str) {
         textures: images.iter().map(|rgba| RunTexture { data: TextureData::D2 { width: w, height: h, rgba: rgba.clone() }, sampler: SamplerSettings::NEAREST_CLAMP }).collect(),
         uniforms: Some(uniforms),
         state: FULL,
+        target: PassTarget::Main,
+        outputs: 1,
     };
     let image = run_passes(&gpu, &Target::new(w, h), &[pass]).unwrap();
     let got = image.into_raw();
@@ -136,6 +138,8 @@ fn compiled_fragment_lighting_matches_its_formula() {
         textures: vec![],
         uniforms: Some(uniform_bytes(&[identity], &[])),
         state: planned.plan.passes[0].state,
+        target: PassTarget::Main,
+        outputs: 1,
     };
     let image = run_passes(&gpu, &Target::new(32, 32), &[pass]).unwrap();
     let (nn, ln, vn) = (normalize(n), normalize(l), normalize(v));

@@ -68,6 +68,7 @@ fn lower_here(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
         expr_depth: 0,
         under_delta: 0,
         distributed: false,
+        surface: None,
     };
     l.run();
     l.diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
@@ -116,6 +117,12 @@ fn with_bakes(program: &ast::Program) -> Option<ast::Program> {
 enum BundleSite {
     Vertex(VertexId),
     Interpolated(VertexId, Frequency),
+    /// At the texel being rendered (`s δu`): in a texture-shading statement
+    /// of a program with a mesh, a vector is taken at the surface point
+    /// whose coordinate is the texel's (seeds/001 (13)) — a role
+    /// interpolated from the vertex stream in texture space, a computed
+    /// vector evaluated per texel from them (see `surface_vertex`); `s.x`
+    /// is the texel coordinate (a table, as `bake(f)` makes).
     Texel,
     Fat(Handle<Expr>),
 }
@@ -180,6 +187,10 @@ struct Lowerer<'a> {
     under_delta: usize,
     /// Whether the innermost δ's argument distributed.
     distributed: bool,
+    /// In a texture-shading statement `T δu ← …`: the set `u`, and once a
+    /// bundle `s δu` was taken on the surface, its vertex stream and the
+    /// index `δu x` that replaces `δu` (see `surface_vertex`).
+    surface: Option<(u32, Option<(VertexId, Handle<Expr>)>)>,
 }
 
 
@@ -476,6 +487,7 @@ impl<'a> Lowerer<'a> {
     fn statement(&mut self, st: &'a ast::Statement) {
         self.let_cache.clear();
         let _ = self.statement_inner(st);
+        self.surface = None;
         self.statement_freq = None;
         self.sample = None;
     }
@@ -511,11 +523,19 @@ impl<'a> Lowerer<'a> {
                 return Err(());
             }
         };
+        // Texture shading `T δu ← …`: `s δu` may be taken on the surface.
+        if let (Table::Texture(_), Frequency::Texel, ExprKind::Apply { func, arg }) = (&table, sample, &t.index.kind) {
+            if let (FuncKind::Delta, ExprKind::Name(u)) = (&func.kind, &arg.kind) {
+                if resolve::family(u) == Some(Entity::TexCoords) && !self.globals.contains_key(&u.key()) {
+                    self.surface = Some((self.texcoord_id(u), None));
+                }
+            }
+        }
         // The index.
         self.statement_freq = Some(sample);
         self.sample = if sample.is_sample() { Some(sample) } else { None };
         let index_value = self.lower_expr(&t.index)?;
-        let index = self.expect_expr(index_value, t.index.span)?;
+        let mut index = self.expect_expr(index_value, t.index.span)?;
         let ii = *self.module.info(index);
         let index_ok = match &table {
             Table::Framebuffer { .. } => ii.ty == Ty::Position && ii.freq == sample,
@@ -542,6 +562,11 @@ impl<'a> Lowerer<'a> {
             }
             v => self.expect_expr(v, st.value.span)?,
         };
+        // `s δu` was taken on the surface: the statement rasterizes the mesh
+        // in texture space, indexed by `δu x` (as (15) writes it).
+        if let Some((_, Some((_, surface_index)))) = self.surface {
+            index = surface_index;
+        }
         let vi = *self.module.info(value);
         // Frequencies: the value must be computable where the statement runs.
         if vi.freq.join(sample).is_none() || (vi.freq == Frequency::Vertex && sample.is_sample()) {
@@ -669,7 +694,11 @@ impl<'a> Lowerer<'a> {
                 let v = self.lower_expr(base)?;
                 if let Value::Bundle(b) = &v {
                     if b.site == BundleSite::Texel {
-                        let tc = self.append(Expr::TexelCoord, base.span)?;
+                        let tc = match self.surface {
+                            // On the surface: the texel coordinate there, `δu x`.
+                            Some((_, Some((_, index)))) => index,
+                            _ => self.append(Expr::TexelCoord, base.span)?,
+                        };
                         return self.swizzle(tc, components, span).map(Value::Expr);
                     }
                     self.unsupported("components of a shading-parameter vector outside texture shading; use its vectors by name", span);
@@ -907,7 +936,13 @@ impl<'a> Lowerer<'a> {
         };
         match b.site {
             BundleSite::Vertex(x) => self.vector_at(id, Site::Vertex(x), b, span),
-            BundleSite::Texel => self.vector_at(id, Site::Texel, b, span),
+            BundleSite::Texel => match (self.vector_decls[id as usize], self.surface_vertex(span)?) {
+                (None, Some(x)) => {
+                    let h = self.vector_at(id, Site::Vertex(x), b, span)?;
+                    self.interpolate(h, Frequency::Texel, span)
+                }
+                _ => self.vector_at(id, Site::Texel, b, span),
+            },
             BundleSite::Interpolated(x, to) => {
                 let at_vertex = Bundle { members: b.members.clone(), site: BundleSite::Vertex(x) };
                 let h = self.vector_at(id, Site::Vertex(x), &at_vertex, span)?;
@@ -1114,6 +1149,51 @@ impl<'a> Lowerer<'a> {
                 }
             },
         }
+    }
+
+    /// A member of `s δu` in `T δu ← …`: the vertex stream of the surface
+    /// it is taken on, making the statement's index `δu x` the first time
+    /// (the mesh rasterized in texture space, as (15) writes it). The mesh
+    /// is the program's one vertex stream; with none, `None` (the member is
+    /// a function of the texel coordinate); with several, an error.
+    fn surface_vertex(&mut self, span: Span) -> Res<Option<VertexId>> {
+        let Some((set, made)) = self.surface else { return Ok(None) };
+        if let Some((x, _)) = made {
+            return Ok(Some(x));
+        }
+        // Every vertex stream the program names (x, x′, …).
+        let mut streams: Vec<ast::Name> = Vec::new();
+        for item in &self.program.items {
+            if let ItemKind::Statement(st) = &item.kind {
+                for e in [&st.target.index, &st.value] {
+                    e.walk(&mut |x| {
+                        if let ExprKind::Name(n) = &x.kind {
+                            if resolve::family(n) == Some(Entity::Vertex) && !streams.iter().any(|s| s.key() == n.key()) {
+                                streams.push(n.clone());
+                            }
+                        }
+                    });
+                }
+            }
+        }
+        let x = match streams.as_slice() {
+            [] => return Ok(None),
+            [x] => self.vertex_id(x),
+            _ => {
+                self.error(
+                    "ambiguous-surface",
+                    "texture shading `s δu` on a program with several vertex streams: which surface `u` parameterizes is not said",
+                    span,
+                    "on which mesh?",
+                    "name the stream: `T δu x ← p δ s x` rasterizes the mesh `x` in texture space (seeds/001 (15))",
+                );
+                return Err(());
+            }
+        };
+        let tc = self.append(Expr::TexCoord { set, vertex: x }, span)?;
+        let index = self.interpolate(tc, Frequency::Texel, span)?;
+        self.surface = Some((set, Some((x, index))));
+        Ok(Some(x))
     }
 
     fn framebuffer_read(&mut self, id: u32, arg: &'a ast::Expr, span: Span) -> Res<Value> {

@@ -75,7 +75,19 @@ impl PassInterface {
             .filter(|n| matches!(m.exprs[*n], Expr::VertexPosition(_) | Expr::TexCoord { .. } | Expr::Vector { .. }) && m.info(*n).freq == crate::ir::Frequency::Vertex)
             .collect();
         let mut projections = Vec::new();
-        for n in &vertex_nodes {
+        // Those of the vertex stage, then those the fragment stage applies
+        // (`πl π⁻¹ xs`, seeds/001 Section 3.5).
+        let mut fragment_nodes = Vec::new();
+        let mut stack = frag_roots.clone();
+        let mut seen = BTreeSet::new();
+        while let Some(n) = stack.pop() {
+            if seen.insert(n) && !matches!(m.exprs[n], Expr::Interpolate { .. }) {
+                fragment_nodes.push(n);
+                stack.extend(m.exprs[n].operands());
+            }
+        }
+        fragment_nodes.sort();
+        for n in vertex_nodes.iter().chain(&fragment_nodes) {
             if let Expr::Project { projection, .. } = &m.exprs[*n] {
                 if !projections.contains(projection) {
                     projections.push(projection.clone());

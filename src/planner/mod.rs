@@ -671,7 +671,10 @@ fn assemble(
                 (Dest::Main, Table::Texture(id)) => RenderTarget::Texture { name: m.textures[*id as usize].name.clone() },
                 (Dest::Main, Table::TexCoords(_)) => unreachable!(),
             };
-            let mesh = st.freq == Frequency::Fragment || (st.freq == Frequency::Texel && !m.reachable(&[st.index]).iter().all(|h| !matches!(m.exprs[*h], Expr::VertexPosition(_))));
+            // A texel statement indexed through a vertex (`T δu x`, seeds/001
+            // (15)) rasterizes the mesh in texture space.
+            let in_texture_space = st.freq == Frequency::Texel && m.reachable(&[st.index]).iter().any(|h| m.info(*h).freq == Frequency::Vertex);
+            let mesh = st.freq == Frequency::Fragment || in_texture_space;
             let drawn_at = form.drawn_at.unwrap_or(st.index);
             let geometry = if st.freq == Frequency::Screen {
                 Geometry::Screen
@@ -712,6 +715,8 @@ fn assemble(
             let operations = reached.iter().filter(|h| m.info(**h).freq.is_sample() && matches!(m.exprs[**h], Expr::Binary { .. } | Expr::Unary { .. } | Expr::Math { .. } | Expr::Combine { .. } | Expr::Select { .. })).count();
             let key = (st.table.clone(), st.index);
             let depth = form.depth.unwrap_or(match geometry {
+                // A one-to-one u covers each texel once: no depth test.
+                _ if in_texture_space => DepthState::DISABLED,
                 Geometry::Mesh { .. } if drawn.contains(&key) => DepthState::EQUAL_NO_WRITE,
                 Geometry::Mesh { .. } => DepthState::LESS_WRITE,
                 _ => DepthState::DISABLED,
@@ -727,7 +732,8 @@ fn assemble(
                 _ => [true, true, true, piece.alpha && piece.blend != BlendMode::AlphaBlend],
             };
             let state = RenderState {
-                cull: if matches!(geometry, Geometry::Mesh { .. }) { CullMode::Back } else { CullMode::None },
+                // In texture space the winding is the parameterization's, not a facing.
+                cull: if matches!(geometry, Geometry::Mesh { .. }) && !in_texture_space { CullMode::Back } else { CullMode::None },
                 depth,
                 stencil: form.stencil.unwrap_or(StencilState::DISABLED),
                 blend: BlendState { ..piece.blend.render_state().with_write_mask(mask) },

@@ -241,8 +241,10 @@ impl<'a> PlanRenderer<'a> {
                 RenderTarget::Framebuffer { name, .. } => (name.clone(), (width, height)),
                 RenderTarget::Temporary { name } => (name.clone(), (width, height)),
                 RenderTarget::Texture { name } => {
-                    let s = if matches!(pass.geometry, Geometry::Texels) { bind::RENDERED_TEXTURE_SIZE } else { width.max(height) };
-                    (name.clone(), if matches!(pass.geometry, Geometry::Texels) { (s, s) } else { (width, height) })
+                    // Over its texels, or the mesh rasterized in texture space (`T δu x ←`).
+                    let by_texel = matches!(pass.geometry, Geometry::Texels) || pi.position.is_some_and(|p| m.info(p).ty == Ty::Vec2);
+                    let s = if by_texel { bind::RENDERED_TEXTURE_SIZE } else { width.max(height) };
+                    (name.clone(), if by_texel { (s, s) } else { (width, height) })
                 }
             };
             if !targets.contains_key(&name) {
@@ -475,6 +477,11 @@ impl MeshVertices {
                         vary.extend(x.map(|c| c as f32));
                     }
                     let p = match pi.position {
+                        // Into a texture by its coordinates (seeds/001 (15)): clip (2u − 1, 1 − 2v), row 0 at v = 0.
+                        Some(p) if m.info(p).ty == Ty::Vec2 => {
+                            let [u, v, ..] = r.values[values.len()];
+                            [2.0 * u - 1.0, 1.0 - 2.0 * v, 0.0, 1.0]
+                        }
                         Some(_) => r.values[values.len()],
                         None => [0.0, 0.0, 0.0, 1.0],
                     };

@@ -26,6 +26,28 @@
 //!   (zeros appended), perspective-correct; a non-mesh pass adds `texel_uv`.
 //! - Output `@location(0)`: the fragment value widened to RGBA (a scalar is
 //!   splatted, rgb gets alpha 1).
+//! - **Fat textures** ([`fat_layers`]; seeds/001 (5), (6), (14)-(16)): a
+//!   texture a statement writes a shading-parameter bundle into, or whose
+//!   texels a shader reads members of, is a `texture_2d_array<f32>` with
+//!   one layer per member (member i in layer i's rgb). A pass writing a
+//!   bundle returns `struct FatTexel` with member i at `@location(i)`
+//!   ([`PassShader::outputs`]): the runner attaches layer i as colour
+//!   attachment i. Read as a colour, a fat texture is its layer 0 (so a
+//!   colour written into it, as (16) does, goes to layer 0).
+//! - **Own-target reads**: a texture unit bound to the pass's own target
+//!   (`T δu ← p T δu`, or a framebuffer read away from the pixel) reads it
+//!   as it was before the pass — the runner binds a copy. A read of the
+//!   target framebuffer at the fragment's own pixel that blending does not
+//!   absorb (`α C xs ← (z C xs) > …`, seeds/001 Section 3.5) is a
+//!   `textureLoad` from a copy taken before the pass, at the bindings after
+//!   the units ([`PassShader::target_copies`]: colour, or depth in `.x`).
+//! - **Pixels**: `xs` as a value (under `π⁻¹`) is the pixel centre in GL
+//!   normalized device coordinates with the target's depth there (from the
+//!   depth copy) mapped to −1..1, w = 1 — the CPU renderer's definition.
+//!   `T xs` samples the texel under the pixel at level 0.
+//! - **Texture space**: a pass indexed by texture coordinates (`T δu x ←`,
+//!   (15), and texture shading on a mesh, (13)) rasterizes the mesh at clip
+//!   `(2u − 1, 1 − 2v)`, with no depth test or culling (the planner's state).
 //!
 //! # Conventions
 //!
@@ -107,8 +129,45 @@ pub struct PassShader {
     /// The vertex stage takes the full-screen rectangle's corners as one
     /// more input after the leaves (non-mesh geometry).
     pub quad_input: bool,
+    /// Colour attachments the fragment stage writes: 1, or the members of
+    /// a fat texel (one array layer each, see the module docs).
+    pub outputs: u32,
+    /// Copies of the pass's own target the shader reads, taken before the
+    /// pass (module docs, "Own-target reads").
+    pub target_copies: Vec<TargetCopy>,
     pub module: naga::Module,
     pub info: naga::valid::ModuleInfo,
+}
+
+/// A copy of the pass's target framebuffer, read by the shader at the
+/// fragment's own pixel (`textureLoad`), bound at `binding` (group 0).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct TargetCopy {
+    pub binding: u32,
+    pub framebuffer: String,
+    /// The depth buffer (in `.x`), else the colour buffer.
+    pub depth: bool,
+}
+
+/// Per texture of `m` (by id): how many members its fat texels hold — the
+/// array layers it is stored in — or 0 for an ordinary texture. A texture
+/// is fat when a statement writes a shading-parameter bundle into it
+/// (seeds/001 (5), (15)) or a shader reads members of its texels ((6), (14), (16)).
+pub fn fat_layers(m: &ir::Module) -> Vec<u8> {
+    let mut layers = vec![0u8; m.textures.len()];
+    for st in &m.statements {
+        if let (ir::Table::Texture(t), Ty::Bundle(n)) = (&st.table, m.info(st.value).ty) {
+            layers[*t as usize] = layers[*t as usize].max(n);
+        }
+    }
+    for (_, e) in m.exprs.arena().iter() {
+        if let Expr::FatMember { texel, member } = e {
+            if let Expr::Lookup { texture, .. } = m.exprs[*texel] {
+                layers[texture as usize] = layers[texture as usize].max(member + 1);
+            }
+        }
+    }
+    layers
 }
 
 /// The uniform block's bytes for a pass: the projection matrices
@@ -168,11 +227,11 @@ fn generate_pass(planned: &Planned, index: usize, source: Option<&str>, names: &
             if let Some(at) = at {
                 d = d.with_label(at, what.clone());
             }
-            d.with_help("target a combiner profile (geforce256, geforce3) for this program, or rewrite the part named above")
+            d.with_help("the CPU renderer (`shadec render`) or a combiner target may run it; else rewrite the part named above")
         }
         GenError::Internal(msg) => internal(span, &msg),
     })?;
-    let module = g.module;
+    let module = std::mem::take(&mut g.module);
     let mut validator = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default());
     let info = validator.validate(&module).map_err(|e| internal(span, &error_chain(&e)))?;
     let (module, info) = match &g.combiners {
@@ -194,7 +253,8 @@ fn generate_pass(planned: &Planned, index: usize, source: Option<&str>, names: &
             }
         }
     }
-    Ok(PassShader { pass: index, label, source: src, interface, quad_input: g.quad, module, info })
+    let target_copies = g.target_copies.iter().map(|(c, _)| c.clone()).collect();
+    Ok(PassShader { pass: index, label, source: src, interface, quad_input: g.quad, outputs: g.outputs, target_copies, module, info })
 }
 
 /// Replaces the stub `register_combiners` of `module` by the setup's text
@@ -250,6 +310,12 @@ fn source_names(planned: &Planned, source: Option<&str>) -> HashMap<ir::Handle<E
             match &item.kind {
                 crate::parser::ast::ItemKind::Let(l) => {
                     by_span.insert(l.value.span, l.name.key());
+                }
+                // A computed vector (`vector H = normalize(L + V)`).
+                crate::parser::ast::ItemKind::Vector(v) if v.names.len() == 1 => {
+                    if let Some(value) = &v.value {
+                        by_span.insert(value.span, v.names[0].key());
+                    }
                 }
                 crate::parser::ast::ItemKind::Shader(s) => {
                     for l in &s.lets {
@@ -326,6 +392,9 @@ struct Body {
     /// Fragment stage: the varyings by interpolant index, and `position`.
     frag_coord: Option<NH>,
     texel_uv: Option<NH>,
+    /// Lookups of fat textures: (unit, coordinate, level); their members
+    /// are sampled by [`Expr::FatMember`].
+    fat: HashMap<ir::Handle<Expr>, (usize, NH, naga::SampleLevel)>,
     /// The boolean behind a 0/1 value (comparisons, logic), so that a
     /// condition uses it directly.
     bools: HashMap<NH, NH>,
@@ -333,7 +402,7 @@ struct Body {
 
 impl Body {
     fn new(name: &str, stage: Stage) -> Body {
-        Body { f: Function { name: Some(name.to_string()), ..Default::default() }, stage, vals: HashMap::new(), args: vec![], frag_coord: None, texel_uv: None, bools: HashMap::new() }
+        Body { f: Function { name: Some(name.to_string()), ..Default::default() }, stage, vals: HashMap::new(), args: vec![], frag_coord: None, texel_uv: None, fat: HashMap::new(), bools: HashMap::new() }
     }
     /// A computed expression, covered by its own `Emit`.
     fn emit(&mut self, e: Expression) -> NH {
@@ -396,6 +465,12 @@ struct Gen<'a> {
     /// `--fidelity hardware`: the register-combiner setup generated for the
     /// pass, which the fragment stage runs (`rc1::combiners_function`).
     combiners: Option<crate::backends::combiners::Generated>,
+    /// Per texture: its fat layers ([`fat_layers`]).
+    fat: Vec<u8>,
+    /// Own-target copies bound so far, with their globals.
+    target_copies: Vec<(TargetCopy, naga::Handle<GlobalVariable>)>,
+    /// Colour attachments written ([`PassShader::outputs`]).
+    outputs: u32,
 }
 
 impl<'a> Gen<'a> {
@@ -415,6 +490,9 @@ impl<'a> Gen<'a> {
             q9: [None; 4],
             quad: false,
             combiners: None,
+            fat: fat_layers(&planned.module),
+            target_copies: vec![],
+            outputs: 1,
         }
     }
 
@@ -544,12 +622,16 @@ impl<'a> Gen<'a> {
         let pass = &self.planned.plan.passes[self.pass_index];
         for t in &pass.textures {
             let node = self.planned.handle(t.lookup);
-            let (kind, format) = match self.m.exprs.arena().get(node) {
+            let (kind, format, arrayed) = match self.m.exprs.arena().get(node) {
                 Some(Expr::Lookup { texture, .. }) => {
                     let tex = &self.m.textures[*texture as usize];
-                    (tex.kind, Some(tex.format))
+                    let fat = self.fat[*texture as usize] > 0;
+                    if fat && tex.kind != TextureKind::Tex2d {
+                        return self.unsupported(format!("a fat {} texture (fat texels are stored as the layers of a 2-D array)", tex.kind.as_str()), Some(node));
+                    }
+                    (tex.kind, Some(tex.format), fat)
                 }
-                Some(Expr::FramebufferRead { .. }) => (TextureKind::Tex2d, None),
+                Some(Expr::FramebufferRead { .. }) => (TextureKind::Tex2d, None, false),
                 _ => return Err(GenError::Internal(format!("texture unit {} is not a lookup", t.unit))),
             };
             let dim = match kind {
@@ -557,7 +639,7 @@ impl<'a> Gen<'a> {
                 TextureKind::Tex3d => ImageDimension::D3,
                 TextureKind::Cube => ImageDimension::Cube,
             };
-            let ity = self.ty(TypeInner::Image { dim, arrayed: false, class: ImageClass::Sampled { kind: ScalarKind::Float, multi: false } });
+            let ity = self.ty(TypeInner::Image { dim, arrayed, class: ImageClass::Sampled { kind: ScalarKind::Float, multi: false } });
             let sty = self.ty(TypeInner::Sampler { comparison: false });
             let name = sanitize(&t.texture);
             let tv = self.module.global_variables.append(
@@ -701,8 +783,8 @@ impl<'a> Gen<'a> {
                 self.discard_unless(&mut b, cv);
             }
             let o = self.iface.output;
-            let v = b.vals[&o];
             let ty = self.m.info(o).ty;
+            let v = if matches!(ty, Ty::Bundle(_)) { b.lit(0.0) } else { b.vals[&o] };
             match ty {
                 Ty::Scalar => b.emit(Expression::Splat { size: VectorSize::Quad, value: v }),
                 Ty::Vec2 => {
@@ -715,7 +797,38 @@ impl<'a> Gen<'a> {
                     b.emit(Expression::Compose { ty: vec4, components: vec![v, one] })
                 }
                 Ty::Rgba | Ty::Position => v,
-                Ty::Bundle(_) => return self.unsupported("writing a whole shading-parameter vector (a fat texel)", Some(o)),
+                Ty::Bundle(_) => {
+                    // A fat texel (seeds/001 (5), (15)): member i to colour
+                    // attachment i — layer i of the fat texture — as rgb, alpha 1.
+                    let Expr::Bundle(members) = self.m.exprs[o].clone() else { return Err(GenError::Internal("a bundle-typed value that is not a bundle".into())) };
+                    let mut comps = Vec::new();
+                    let mut fields = Vec::new();
+                    for (i, h) in members.iter().enumerate() {
+                        let v = b.vals.get(h).copied().ok_or_else(|| GenError::Internal(format!("member %{} not computed", h.index())))?;
+                        let one = b.lit(1.0);
+                        let c = match width(self.m.info(*h).ty) {
+                            3 => b.emit(Expression::Compose { ty: vec4, components: vec![v, one] }),
+                            w => {
+                                let z = self.widen_zero(&mut b, v, w);
+                                z
+                            }
+                        };
+                        comps.push(c);
+                        let name = match &self.m.exprs[*h] {
+                            Expr::Interpolate { value, .. } => self.value_name(*value),
+                            _ => self.value_name(*h),
+                        }
+                        .unwrap_or_else(|| format!("member{i}"));
+                        fields.push(StructMember { name: Some(name), ty: vec4, binding: Some(Binding::Location { location: i as u32, interpolation: None, sampling: None, blend_src: None, per_primitive: false }), offset: 16 * i as u32 });
+                    }
+                    let n = fields.len() as u32;
+                    let ty = self.module.types.insert(Type { name: Some("FatTexel".into()), inner: TypeInner::Struct { members: fields, span: 16 * n } }, naga::Span::UNDEFINED);
+                    let out = b.emit(Expression::Compose { ty, components: comps });
+                    b.f.body.push(Statement::Return { value: Some(out) }, naga::Span::UNDEFINED);
+                    b.f.result = Some(FunctionResult { ty, binding: None });
+                    self.outputs = n;
+                    return Ok(b.f);
+                }
             }
         };
         b.f.body.push(Statement::Return { value: Some(out) }, naga::Span::UNDEFINED);
@@ -1012,7 +1125,7 @@ impl<'a> Gen<'a> {
 
     /// Computes node `n` in `b` (its operands are done), records it.
     fn node(&mut self, b: &mut Body, n: ir::Handle<Expr>) -> R<()> {
-        if b.vals.contains_key(&n) {
+        if b.vals.contains_key(&n) || b.fat.contains_key(&n) {
             return Ok(());
         }
         let m = self.m;
@@ -1063,7 +1176,7 @@ impl<'a> Gen<'a> {
                 _ => return self.unsupported("a pixel position per vertex", Some(n)),
             },
             Expr::Project { projection, value } => {
-                let x = val(b, *value)?;
+                let x = if matches!(m.exprs[*value], Expr::Pixel { .. }) { self.pixel_position(b, *value)? } else { val(b, *value)? };
                 match m.info(*value).ty {
                     Ty::Position => {
                         let idx = self.iface.projections.iter().position(|p| p == projection).ok_or_else(|| GenError::Internal("projection not in the interface".into()))?;
@@ -1097,10 +1210,27 @@ impl<'a> Gen<'a> {
                 return Err(GenError::Internal(format!("δ node %{} is not a varying of this pass", n.index())));
             }
             Expr::Lookup { texture, coords } => {
-                let c = val(b, *coords)?;
                 let unit = self.unit_of(n)?;
                 let (tv, sv, kind, format) = self.units[unit];
                 let ct = m.info(*coords).ty;
+                let fat = self.fat[*texture as usize] > 0;
+                if matches!(m.exprs[*coords], Expr::Pixel { .. }) {
+                    // `T xs` (seeds/001 (6)): the texel under the pixel of a screen
+                    // pass, at level 0 (a fat framebuffer is one texel per pixel).
+                    let Some(uv) = b.texel_uv else { return self.unsupported("a lookup at the pixel outside a screen pass", Some(n)) };
+                    if fat && !self.plain_use(n) {
+                        b.fat.insert(n, (unit, uv, naga::SampleLevel::Zero));
+                        return Ok(());
+                    }
+                    let image = b.plain(Expression::GlobalVariable(tv));
+                    let sampler = b.plain(Expression::GlobalVariable(sv));
+                    let layer = fat.then(|| b.plain(Expression::Literal(Literal::I32(0))));
+                    let s = b.emit(Expression::ImageSample { image, sampler, gather: None, coordinate: uv, array_index: layer, offset: None, level: naga::SampleLevel::Zero, depth_ref: None, clamp_to_edge: false });
+                    let t = self.narrow(b, s, 4, w);
+                    b.vals.insert(n, t);
+                    return self.finish(b, n, t, w, false);
+                }
+                let c = val(b, *coords)?;
                 let coord = match (kind, ct) {
                     (TextureKind::Tex1d, _) => {
                         let half = b.lit(0.5);
@@ -1110,11 +1240,17 @@ impl<'a> Gen<'a> {
                     (TextureKind::Tex2d, Ty::Position) => self.projective_uv(b, c),
                     _ => c,
                 };
+                let level = if sample { naga::SampleLevel::Auto } else { naga::SampleLevel::Zero };
+                if fat && !self.plain_use(n) {
+                    // Only its members are read (`Expr::FatMember`).
+                    b.fat.insert(n, (unit, coord, level));
+                    return Ok(());
+                }
                 let image = b.plain(Expression::GlobalVariable(tv));
                 let sampler = b.plain(Expression::GlobalVariable(sv));
-                let level = if sample { naga::SampleLevel::Auto } else { naga::SampleLevel::Zero };
-                let s = b.emit(Expression::ImageSample { image, sampler, gather: None, coordinate: coord, array_index: None, offset: None, level, depth_ref: None, clamp_to_edge: false });
-                let _ = texture;
+                // A fat texture read as a colour: its first layer.
+                let layer = fat.then(|| b.plain(Expression::Literal(Literal::I32(0))));
+                let s = b.emit(Expression::ImageSample { image, sampler, gather: None, coordinate: coord, array_index: layer, offset: None, level, depth_ref: None, clamp_to_edge: false });
                 let t = self.narrow(b, s, 4, w);
                 if matches!(format, Some(TextureFormat::Signed8 | TextureFormat::Signed16)) {
                     self.expand(b, t, w)
@@ -1123,13 +1259,26 @@ impl<'a> Gen<'a> {
                 }
             }
             Expr::FramebufferRead { framebuffer, channel, position } => {
-                let Ok(unit) = self.unit_of(n) else {
-                    let name = &m.framebuffers[*framebuffer as usize].name;
-                    return self.unsupported(format!("reading the target framebuffer `{name}` inside the shader (only blending can)"), Some(n));
-                };
-                let (tv, sv, _, _) = self.units[unit];
-                let image = b.plain(Expression::GlobalVariable(tv));
                 let at_pixel = matches!(m.exprs[*position], Expr::Pixel { .. }) || Some(*position) == self.own_position;
+                let (image, sv) = match self.unit_of(n) {
+                    Ok(unit) => {
+                        let (tv, sv, _, _) = self.units[unit];
+                        (b.plain(Expression::GlobalVariable(tv)), Some(sv))
+                    }
+                    // The pass's own target, which blending did not absorb: a copy
+                    // taken before the pass, read at the pixel.
+                    Err(_) => {
+                        let name = m.framebuffers[*framebuffer as usize].name.clone();
+                        if !at_pixel {
+                            return self.unsupported(format!("reading the target framebuffer `{name}` away from the fragment's own pixel"), Some(n));
+                        }
+                        if *channel == FbChannel::Stencil {
+                            return self.unsupported(format!("reading the stencil of the target framebuffer `{name}` inside the shader (the stencil test can)"), Some(n));
+                        }
+                        let var = self.target_copy(&name, *channel == FbChannel::Depth);
+                        (b.plain(Expression::GlobalVariable(var)), None)
+                    }
+                };
                 let texel = if at_pixel {
                     let fc = b.frag_coord.ok_or_else(|| GenError::Internal("no fragment position".into()))?;
                     let xy = self.narrow(b, fc, 4, 2);
@@ -1137,6 +1286,7 @@ impl<'a> Gen<'a> {
                     let zero = b.plain(Expression::Literal(Literal::I32(0)));
                     b.emit(Expression::ImageLoad { image, coordinate: ixy, array_index: None, sample: None, level: Some(zero) })
                 } else {
+                    let sv = sv.ok_or_else(|| GenError::Internal("a framebuffer read without a sampler".into()))?;
                     let p = val(b, *position)?;
                     let uv = self.projective_uv(b, p);
                     let sampler = b.plain(Expression::GlobalVariable(sv));
@@ -1169,8 +1319,20 @@ impl<'a> Gen<'a> {
                     self.binop(b, B::Add, d, half)
                 }
             }
-            Expr::FatMember { .. } => return self.unsupported("a member of a fat texel (a shading-parameter vector stored in a texture)", Some(n)),
-            Expr::Bundle(_) => return self.unsupported("a whole shading-parameter vector as a value (a fat texel)", Some(n)),
+            Expr::FatMember { texel, member } => {
+                // Member i of a fat texel is layer i's rgb.
+                let Some(&(unit, coordinate, level)) = b.fat.get(texel) else {
+                    return Err(GenError::Internal(format!("fat member %{} of %{}, which is not a fat lookup here", n.index(), texel.index())));
+                };
+                let (tv, sv, _, _) = self.units[unit];
+                let image = b.plain(Expression::GlobalVariable(tv));
+                let sampler = b.plain(Expression::GlobalVariable(sv));
+                let layer = b.plain(Expression::Literal(Literal::I32(*member as i32)));
+                let s = b.emit(Expression::ImageSample { image, sampler, gather: None, coordinate, array_index: Some(layer), offset: None, level, depth_ref: None, clamp_to_edge: false });
+                self.narrow(b, s, 4, w)
+            }
+            // Written by the fragment stage as one output per member (`fragment`).
+            Expr::Bundle(_) => return Ok(()),
             Expr::Unary { op, value } => {
                 let x = val(b, *value)?;
                 match op {
@@ -1443,6 +1605,78 @@ impl<'a> Gen<'a> {
         let v = self.binop(b, naga::BinaryOperator::Subtract, half, yh);
         let vec2 = self.vec_ty(2);
         b.emit(Expression::Compose { ty: vec2, components: vec![u, v] })
+    }
+
+    /// Whether `lookup` (of a fat texture) is used as a colour, not only
+    /// through its members.
+    fn plain_use(&self, lookup: ir::Handle<Expr>) -> bool {
+        self.iface.output == lookup
+            || self.iface.condition == Some(lookup)
+            || self.m.exprs.arena().iter().any(|(_, e)| !matches!(e, Expr::FatMember { .. }) && e.operands().contains(&lookup))
+    }
+
+    /// The global of the copy of the target framebuffer `name` (its depth,
+    /// or colour) taken before the pass: `texture_2d<f32>` bound after the
+    /// units' textures and samplers, read with `textureLoad`.
+    fn target_copy(&mut self, name: &str, depth: bool) -> naga::Handle<GlobalVariable> {
+        if let Some((_, var)) = self.target_copies.iter().find(|(c, _)| c.framebuffer == name && c.depth == depth) {
+            return *var;
+        }
+        let binding = 1 + 2 * self.units.len() as u32 + self.target_copies.len() as u32;
+        let ty = self.ty(TypeInner::Image { dim: ImageDimension::D2, arrayed: false, class: ImageClass::Sampled { kind: ScalarKind::Float, multi: false } });
+        let var_name = format!("{}_{}before", sanitize(name), if depth { "depth_" } else { "" });
+        let var = self.module.global_variables.append(
+            GlobalVariable { name: Some(var_name), space: AddressSpace::Handle, binding: Some(ResourceBinding { group: 0, binding }), ty, init: None, memory_decorations: Default::default() },
+            naga::Span::UNDEFINED,
+        );
+        self.target_copies.push((TargetCopy { binding, framebuffer: name.to_string(), depth }, var));
+        var
+    }
+
+    /// A pixel `xs` (`δ xs`) as a position, as the CPU renderer defines it:
+    /// GL normalized device coordinates of the pixel's centre, the depth
+    /// there — the target's (a copy taken before the pass) for `xs`, the
+    /// fragment's for `δ xs` — mapped to −1..1, and w = 1; what `π⁻¹`
+    /// takes back to model space (seeds/001 Section 3.5, shadow mask).
+    fn pixel_position(&mut self, b: &mut Body, n: ir::Handle<Expr>) -> R<NH> {
+        let Expr::Pixel { freq } = self.m.exprs[n] else { return Err(GenError::Internal(format!("%{} is not a pixel", n.index()))) };
+        let (Some(uv), Some(fc)) = (b.texel_uv, b.frag_coord) else { return self.unsupported("the position of a pixel outside a screen pass", Some(n)) };
+        use naga::BinaryOperator as B;
+        let (one, two) = (b.lit(1.0), b.lit(2.0));
+        let u = b.emit(Expression::AccessIndex { base: uv, index: 0 });
+        let v = b.emit(Expression::AccessIndex { base: uv, index: 1 });
+        let u2 = self.binop(b, B::Multiply, u, two);
+        let x = self.binop(b, B::Subtract, u2, one);
+        let v2 = self.binop(b, B::Multiply, v, two);
+        let y = self.binop(b, B::Subtract, one, v2);
+        let depth = if freq == Frequency::Screen {
+            let target = match &self.planned.plan.passes[self.pass_index].target {
+                RenderTarget::Framebuffer { name, .. } => Some(name.clone()),
+                _ => None,
+            };
+            let with_depth = target.as_ref().and_then(|t| self.m.framebuffers.iter().find(|f| f.name == *t)).is_some_and(|f| f.channels.is_empty() || f.channels.iter().any(|c| matches!(c, crate::parser::ast::FramebufferChannel::Depth)));
+            match target {
+                Some(t) if with_depth => {
+                    let var = self.target_copy(&t, true);
+                    let image = b.plain(Expression::GlobalVariable(var));
+                    let xy = self.narrow(b, fc, 4, 2);
+                    let ixy = b.emit(Expression::As { expr: xy, kind: ScalarKind::Sint, convert: Some(4) });
+                    let zero = b.plain(Expression::Literal(Literal::I32(0)));
+                    let texel = b.emit(Expression::ImageLoad { image, coordinate: ixy, array_index: None, sample: None, level: Some(zero) });
+                    b.emit(Expression::AccessIndex { base: texel, index: 0 })
+                }
+                // No depth buffer: the far plane, as the CPU's cleared depth.
+                _ => b.lit(1.0),
+            }
+        } else {
+            b.emit(Expression::AccessIndex { base: fc, index: 2 })
+        };
+        let d2 = self.binop(b, B::Multiply, depth, two);
+        let z = self.binop(b, B::Subtract, d2, one);
+        let vec4 = self.vec_ty(4);
+        let p = b.emit(Expression::Compose { ty: vec4, components: vec![x, y, z, one] });
+        b.name(p, "pixel_position");
+        Ok(p)
     }
 
     fn unit_of(&self, lookup: ir::Handle<Expr>) -> R<usize> {

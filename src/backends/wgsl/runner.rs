@@ -19,6 +19,7 @@
 //! error is caught in an error scope, so nothing here panics on bad input.
 
 use std::borrow::Cow;
+use std::collections::BTreeMap;
 use std::fmt;
 use std::sync::Arc;
 
@@ -183,6 +184,35 @@ pub enum TextureData {
     /// A 2D texture with its mip chain: `levels[k]` is
     /// `max(1, width >> k) × max(1, height >> k)` texels, row 0 at v = 0.
     D2Mipmapped { width: u32, height: u32, levels: Vec<Vec<u8>> },
+    /// The texture an earlier pass of the same run rendered
+    /// ([`PassTarget::Texture`] of that name): all its layers as a
+    /// `texture_2d_array` when `array` (a fat texture), else its first
+    /// layer as a `texture_2d`. A pass that samples its own target reads a
+    /// copy taken just before it (seeds/001 (16): `T δu ← p T δu`).
+    Rendered { name: String, array: bool },
+}
+
+/// Where a pass draws.
+#[derive(Clone, Debug, PartialEq)]
+pub enum PassTarget {
+    /// The [`Target`] of [`run_passes`]: the picture read back.
+    Main,
+    /// A texture the plan renders for later passes to sample
+    /// ([`TextureData::Rendered`]), created and cleared (transparent black,
+    /// depth 1) before its first pass.
+    Texture(RenderedTexture),
+}
+
+/// A texture rendered during a run. A fat texture (seeds/001 (5), (15);
+/// `codegen::fat_layers`) has one array layer per member, and a pass
+/// with `outputs` colour outputs writes layers `0..outputs`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct RenderedTexture {
+    pub name: String,
+    pub width: u32,
+    pub height: u32,
+    pub layers: u32,
+    pub format: ColorTarget,
 }
 
 #[derive(Clone, Debug, PartialEq)]
@@ -204,6 +234,10 @@ pub struct RunPass {
     /// The uniform block's bytes (WGSL layout), padded here to 16 bytes.
     pub uniforms: Option<Vec<u8>>,
     pub state: RenderState,
+    pub target: PassTarget,
+    /// Colour outputs of the fragment stage (`@location(0..outputs)`): 1,
+    /// or a fat texel's members into the layers of a [`PassTarget::Texture`].
+    pub outputs: u32,
 }
 
 /// The depth/stencil buffer's format.
@@ -338,10 +372,28 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
             ),
         });
     }
+    // The rendered textures, by name: one description each.
+    let mut rendered: BTreeMap<String, RenderedTexture> = BTreeMap::new();
+    for pass in passes {
+        if let PassTarget::Texture(t) = &pass.target {
+            if t.width == 0 || t.height == 0 || t.width > max_dim || t.height > max_dim || t.layers == 0 || t.layers > 8 {
+                return Err(GpuError::InvalidInput { pass: pass.label.clone(), message: format!("rendered texture `{}` is {}×{} with {} layers: sizes 1..={max_dim}, 1 to 8 layers", t.name, t.width, t.height, t.layers) });
+            }
+            match rendered.get(&t.name) {
+                Some(known) if known != t => {
+                    return Err(GpuError::InvalidInput { pass: pass.label.clone(), message: format!("rendered texture `{}` is described two ways: {known:?} and {t:?}", t.name) });
+                }
+                Some(_) => {}
+                None => {
+                    rendered.insert(t.name.clone(), t.clone());
+                }
+            }
+        }
+    }
     // Check everything we can before touching the device.
     let mut modules = Vec::with_capacity(passes.len());
     for pass in passes {
-        check_pass(pass, target)?;
+        check_pass(pass, target, &rendered)?;
         modules.push(validate_shader(&pass.label, &pass.shader)?);
     }
 
@@ -382,66 +434,98 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
         usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
         view_formats: &[],
     });
-    let color_view = color.create_view(&Default::default());
     let depth_view = depth.create_view(&Default::default());
+    // Rendered textures, each with its own depth/stencil buffer, and a
+    // scratch copy for passes that sample their own target.
+    let mut textures: BTreeMap<String, (wgpu::Texture, wgpu::Texture, wgpu::Texture)> = BTreeMap::new();
+    for (name, t) in &rendered {
+        let size = wgpu::Extent3d { width: t.width, height: t.height, depth_or_array_layers: t.layers };
+        let make = |label: &str, format: wgpu::TextureFormat, usage: wgpu::TextureUsages, layers: u32| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d { depth_or_array_layers: layers, ..size },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::COPY_DST;
+        let texture = make(name, t.format.wgpu(), usage, t.layers);
+        let scratch = make(name, t.format.wgpu(), usage, t.layers);
+        let depth = make(name, depth_format, wgpu::TextureUsages::RENDER_ATTACHMENT, 1);
+        textures.insert(name.clone(), (texture, scratch, depth));
+    }
 
     let prepared: Vec<Prepared> = passes
         .iter()
         .zip(modules)
-        .map(|(pass, module)| prepare(gpu, pass, module, depth_format, target.color_format.wgpu()))
+        .map(|(pass, module)| {
+            let (color_format, own) = match &pass.target {
+                PassTarget::Main => (target.color_format.wgpu(), None),
+                PassTarget::Texture(t) => (t.format.wgpu(), Some(t.name.as_str())),
+            };
+            prepare(gpu, pass, module, depth_format, color_format, &|name: &str| textures.get(name).map(|(t, scratch, _)| if Some(name) == own { scratch } else { t }))
+        })
         .collect();
 
     let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
         label: Some("shadec passes"),
     });
-    // With no passes the target is still cleared.
-    let n_render_passes = passes.len().max(1);
-    for pass_idx in 0..n_render_passes {
-        let first = pass_idx == 0;
+    // Each pass's attachments: the main target, or layers 0..outputs of a
+    // rendered texture. A target is cleared by the first pass that draws
+    // into it (the main target also when no pass does).
+    let texture_depth_views: BTreeMap<String, wgpu::TextureView> = textures.iter().map(|(name, (_, _, depth))| (name.clone(), depth.create_view(&Default::default()))).collect();
+    let mut cleared: std::collections::BTreeSet<String> = std::collections::BTreeSet::new();
+    let main_key = String::new();
+    let has_stencil = target.depth_format == DepthFormat::Depth24PlusStencil8;
+    for pass_idx in 0..passes.len() + 1 {
+        let (pass, prep) = match (passes.get(pass_idx), prepared.get(pass_idx)) {
+            (Some(pass), Some(prep)) => (Some(pass), Some(prep)),
+            // After the last pass: clear the main target if nothing drew there.
+            _ if !cleared.contains(&main_key) => (None, None),
+            _ => break,
+        };
+        let (key, views, depth_view): (&String, Vec<wgpu::TextureView>, &wgpu::TextureView) = match pass.map(|p| &p.target) {
+            None | Some(PassTarget::Main) => (&main_key, vec![color.create_view(&Default::default())], &depth_view),
+            Some(PassTarget::Texture(t)) => {
+                let (texture, scratch, _) = &textures[&t.name];
+                let pass = pass.expect("matched");
+                if pass.textures.iter().any(|x| matches!(&x.data, TextureData::Rendered { name, .. } if *name == t.name)) {
+                    // It samples its own target: the copy it binds, taken now.
+                    encoder.copy_texture_to_texture(texture.as_image_copy(), scratch.as_image_copy(), wgpu::Extent3d { width: t.width, height: t.height, depth_or_array_layers: t.layers });
+                }
+                let views = (0..pass.outputs)
+                    .map(|layer| texture.create_view(&wgpu::TextureViewDescriptor { dimension: Some(wgpu::TextureViewDimension::D2), base_array_layer: layer, array_layer_count: Some(1), ..Default::default() }))
+                    .collect();
+                (&t.name, views, &texture_depth_views[&t.name])
+            }
+        };
+        let first = cleared.insert(key.clone());
         let [r, g, b, a] = target.clear_color.map(f64::from);
-        let color_load = if first {
-            wgpu::LoadOp::Clear(wgpu::Color { r, g, b, a })
-        } else {
-            wgpu::LoadOp::Load
-        };
-        let depth_load = if first {
-            wgpu::LoadOp::Clear(target.clear_depth)
-        } else {
-            wgpu::LoadOp::Load
-        };
-        let stencil_load = if first {
-            wgpu::LoadOp::Clear(u32::from(target.clear_stencil))
-        } else {
-            wgpu::LoadOp::Load
-        };
-        let has_stencil = target.depth_format == DepthFormat::Depth24PlusStencil8;
+        let clear_color = if key.is_empty() { wgpu::Color { r, g, b, a } } else { wgpu::Color::TRANSPARENT };
+        let color_load = if first { wgpu::LoadOp::Clear(clear_color) } else { wgpu::LoadOp::Load };
+        let depth_load = if first { wgpu::LoadOp::Clear(if key.is_empty() { target.clear_depth } else { 1.0 }) } else { wgpu::LoadOp::Load };
+        let stencil_load = if first { wgpu::LoadOp::Clear(if key.is_empty() { u32::from(target.clear_stencil) } else { 0 }) } else { wgpu::LoadOp::Load };
+        let color_attachments: Vec<Option<wgpu::RenderPassColorAttachment>> = views
+            .iter()
+            .map(|view| Some(wgpu::RenderPassColorAttachment { view, depth_slice: None, resolve_target: None, ops: wgpu::Operations { load: color_load, store: wgpu::StoreOp::Store } }))
+            .collect();
         let mut render_pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: passes.get(pass_idx).map(|p| p.label.as_str()),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
-                view: &color_view,
-                depth_slice: None,
-                resolve_target: None,
-                ops: wgpu::Operations {
-                    load: color_load,
-                    store: wgpu::StoreOp::Store,
-                },
-            })],
+            label: pass.map(|p| p.label.as_str()),
+            color_attachments: &color_attachments,
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: &depth_view,
-                depth_ops: Some(wgpu::Operations {
-                    load: depth_load,
-                    store: wgpu::StoreOp::Store,
-                }),
-                stencil_ops: has_stencil.then_some(wgpu::Operations {
-                    load: stencil_load,
-                    store: wgpu::StoreOp::Store,
-                }),
+                view: depth_view,
+                depth_ops: Some(wgpu::Operations { load: depth_load, store: wgpu::StoreOp::Store }),
+                stencil_ops: has_stencil.then_some(wgpu::Operations { load: stencil_load, store: wgpu::StoreOp::Store }),
             }),
             timestamp_writes: None,
             occlusion_query_set: None,
             multiview_mask: None,
         });
-        let (Some(pass), Some(prep)) = (passes.get(pass_idx), prepared.get(pass_idx)) else {
+        let (Some(pass), Some(prep)) = (pass, prep) else {
             continue;
         };
         if pass.indices.is_empty() {
@@ -452,12 +536,7 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
             render_pass.set_bind_group(0, bind_group, &[]);
         }
         let [cr, cg, cb, ca] = pass.state.blend.constant.map(f64::from);
-        render_pass.set_blend_constant(wgpu::Color {
-            r: cr,
-            g: cg,
-            b: cb,
-            a: ca,
-        });
+        render_pass.set_blend_constant(wgpu::Color { r: cr, g: cg, b: cb, a: ca });
         render_pass.set_stencil_reference(u32::from(pass.state.stencil.reference));
         render_pass.set_vertex_buffer(0, prep.vertex_buffer.slice(..));
         render_pass.set_index_buffer(prep.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
@@ -544,7 +623,7 @@ struct Prepared {
 
 /// Sizes, indices and formats: what wgpu would reject late or not at all
 /// (out-of-range indices are not an error on every backend).
-fn check_pass(pass: &RunPass, target: &Target) -> Result<(), GpuError> {
+fn check_pass(pass: &RunPass, target: &Target, rendered: &BTreeMap<String, RenderedTexture>) -> Result<(), GpuError> {
     let invalid = |message: String| {
         Err(GpuError::InvalidInput {
             pass: pass.label.clone(),
@@ -580,6 +659,12 @@ fn check_pass(pass: &RunPass, target: &Target) -> Result<(), GpuError> {
         let (expected, what) = match texture.data {
             TextureData::D2 { width, height, .. } => (width as usize * height as usize * 4, "2D"),
             TextureData::Cube { size, .. } => (size as usize * size as usize * 4 * 6, "cube"),
+            TextureData::Rendered { ref name, .. } => {
+                if !rendered.contains_key(name) {
+                    return invalid(format!("texture {texture_idx} is the rendered texture `{name}`, which no pass of this run renders"));
+                }
+                continue;
+            }
             TextureData::D2Mipmapped { width, height, ref levels } => {
                 for (k, level) in levels.iter().enumerate() {
                     let need = (width >> k).max(1) as usize * (height >> k).max(1) as usize * 4;
@@ -596,6 +681,7 @@ fn check_pass(pass: &RunPass, target: &Target) -> Result<(), GpuError> {
                 Some(l) => l,
                 None => return invalid(format!("mipmapped texture {texture_idx} has no levels")),
             },
+            TextureData::Rendered { .. } => continue,
         };
         if expected == 0 || rgba.len() != expected {
             return invalid(format!(
@@ -607,10 +693,17 @@ fn check_pass(pass: &RunPass, target: &Target) -> Result<(), GpuError> {
     if pass.state.stencil.enabled && target.depth_format != DepthFormat::Depth24PlusStencil8 {
         return invalid("the stencil test needs DepthFormat::Depth24PlusStencil8".to_string());
     }
+    let layers = match &pass.target {
+        PassTarget::Main => 1,
+        PassTarget::Texture(t) => t.layers,
+    };
+    if pass.outputs == 0 || pass.outputs > layers {
+        return invalid(format!("{} colour outputs into a target of {layers} layer(s)", pass.outputs));
+    }
     Ok(())
 }
 
-fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::TextureFormat, color_format: wgpu::TextureFormat) -> Prepared {
+fn prepare<'t>(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::TextureFormat, color_format: wgpu::TextureFormat, rendered: &dyn Fn(&str) -> Option<&'t wgpu::Texture>) -> Prepared {
     let device = &gpu.device;
     let label = Some(pass.label.as_str());
     let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -643,7 +736,15 @@ fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::
     });
     for (texture_idx, texture) in pass.textures.iter().enumerate() {
         let binding = 1 + 2 * texture_idx as u32;
-        let (view_dimension, view) = upload_texture(gpu, &texture.data);
+        let (view_dimension, view) = match &texture.data {
+            TextureData::Rendered { name, array } => {
+                let t = rendered(name).expect("checked in check_pass");
+                let dimension = if *array { wgpu::TextureViewDimension::D2Array } else { wgpu::TextureViewDimension::D2 };
+                let view = t.create_view(&wgpu::TextureViewDescriptor { dimension: Some(dimension), base_array_layer: 0, array_layer_count: if *array { None } else { Some(1) }, ..Default::default() });
+                (dimension, view)
+            }
+            data => upload_texture(gpu, data),
+        };
         layout_entries.push(wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
@@ -762,11 +863,14 @@ fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::
             module: &shader,
             entry_point: Some(&pass.shader.fragment_entry),
             compilation_options: Default::default(),
-            targets: &[Some(wgpu::ColorTargetState {
-                format: color_format,
-                blend: Some(blend_state(&state.blend)),
-                write_mask: write_mask(state.blend.write_mask),
-            })],
+            targets: &vec![
+                Some(wgpu::ColorTargetState {
+                    format: color_format,
+                    blend: Some(blend_state(&state.blend)),
+                    write_mask: write_mask(state.blend.write_mask),
+                });
+                pass.outputs as usize
+            ],
         }),
         multiview_mask: None,
         cache: None,
@@ -795,6 +899,7 @@ fn upload_texture(gpu: &Gpu, data: &TextureData) -> (wgpu::TextureViewDimension,
         TextureData::D2 { width, height, rgba } => (*width, *height, 1, std::slice::from_ref(rgba), wgpu::TextureViewDimension::D2),
         TextureData::Cube { size, rgba } => (*size, *size, 6, std::slice::from_ref(rgba), wgpu::TextureViewDimension::Cube),
         TextureData::D2Mipmapped { width, height, levels } => (*width, *height, 1, levels.as_slice(), wgpu::TextureViewDimension::D2),
+        TextureData::Rendered { .. } => unreachable!("bound by `prepare`"),
     };
     let size = wgpu::Extent3d {
         width,

@@ -62,21 +62,30 @@
 //! tests are `#[ignore]`d with this reason and a bounded test (≤ 16/255,
 //! ≤ 0.5% over 2/255) runs.
 //!
+//! # Rendered textures
+//!
+//! A pass that renders into a texture draws into a
+//! [`runner::RenderedTexture`] later passes sample (`TextureData::Rendered`):
+//! 256² (`bind::RENDERED_TEXTURE_SIZE`, as the CPU) when it is rendered over
+//! its texels or in texture space, else the frame's size; one array layer
+//! per member of a fat texel; `Rgba16Float` for 16-bit and float formats,
+//! else RGBA8. Screen and texel passes draw one rectangle. Unlike the CPU,
+//! no mip chain is made of a rendered texture (level 0 is sampled).
+//!
 //! # What is not supported (an [`SceneRunError::Unsupported`])
 //!
-//! Passes that render into a texture or a temporary, screen/texel passes,
-//! framebuffer reads inside a shader, dual-paraboloid textures: these need
-//! more than one render target per run, which `runner::run_passes` does not
-//! do yet.
+//! Temporaries, plans that draw into more than one framebuffer (shadow
+//! mask's C, C′, Cl), framebuffer reads inside a shader (own-target copies
+//! included), dual-paraboloid textures.
 
 use std::collections::BTreeMap;
 
 use image::RgbaImage;
 
 use super::codegen::{self, uniform_bytes, Fidelity, PassShader};
-use super::runner::{self, AddressMode, Gpu, GpuError, RunPass, RunShader, RunTexture, SamplerSettings, ShaderSource, Target, TextureData, VertexData};
+use super::runner::{self, AddressMode, ColorTarget, PassTarget, Gpu, GpuError, RunPass, RunShader, RunTexture, SamplerSettings, ShaderSource, Target, TextureData, VertexData};
 use crate::ir::{self, Expr};
-use crate::parser::ast::Program;
+use crate::parser::ast::{Program, TextureFormat};
 use crate::planner::{Geometry, Planned, RenderTarget};
 use crate::scene::bind::{self, BoundObject, BoundTexture, TextureQuality};
 use crate::scene::{Scene, SceneAssets};
@@ -100,6 +109,7 @@ pub struct ScenePlan<'a> {
     assets: &'a SceneAssets,
     shaders: Vec<PassShader>,
     textures: BTreeMap<String, BoundTexture>,
+    decls: Vec<bind::TextureDecl>,
     uniforms: Vec<[f32; 4]>,
     /// Stand-ins the binder used (missing images), for the user.
     pub notes: Vec<String>,
@@ -107,12 +117,12 @@ pub struct ScenePlan<'a> {
 
 impl<'a> ScenePlan<'a> {
     pub fn new(planned: &'a Planned, program: &Program, source: Option<&str>, fidelity: Fidelity, scene: &'a Scene, assets: &'a SceneAssets) -> Result<ScenePlan<'a>, SceneRunError> {
+        let mut framebuffers: Vec<&str> = Vec::new();
         for (i, pass) in planned.plan.passes.iter().enumerate() {
-            if !matches!(pass.geometry, Geometry::Mesh { .. }) {
-                return Err(SceneRunError::Unsupported(format!("pass {} draws a screen or texel rectangle", i + 1)));
-            }
-            if !matches!(pass.target, RenderTarget::Framebuffer { .. }) {
-                return Err(SceneRunError::Unsupported(format!("pass {} renders into a texture or temporary", i + 1)));
+            match &pass.target {
+                RenderTarget::Framebuffer { name, .. } if !framebuffers.contains(&name.as_str()) => framebuffers.push(name),
+                RenderTarget::Temporary { .. } => return Err(SceneRunError::Unsupported(format!("pass {} renders into a temporary", i + 1))),
+                _ => {}
             }
             for t in &pass.textures {
                 if !matches!(planned.module.exprs[planned.handle(t.lookup)], Expr::Lookup { .. }) {
@@ -120,7 +130,13 @@ impl<'a> ScenePlan<'a> {
                 }
             }
         }
+        if framebuffers.len() > 1 {
+            return Err(SceneRunError::Unsupported(format!("the plan draws into {} framebuffers ({}); one is read back", framebuffers.len(), framebuffers.join(", "))));
+        }
         let shaders = codegen::generate(planned, source, fidelity).map_err(|d| SceneRunError::Codegen(d.iter().map(|d| d.message.clone()).collect::<Vec<_>>().join("; ")))?;
+        if let Some(s) = shaders.iter().find(|s| !s.target_copies.is_empty()) {
+            return Err(SceneRunError::Unsupported(format!("pass {} reads its own target inside the shader (a copy taken before the pass)", s.pass + 1)));
+        }
         let decls = bind::texture_decls(program, &scene.constants);
         let mut notes = Vec::new();
         let textures = bind::load_textures(&decls, scene, TextureQuality::Stored, &mut notes).map_err(|e| SceneRunError::Unsupported(e.to_string()))?;
@@ -130,7 +146,7 @@ impl<'a> ScenePlan<'a> {
             .enumerate()
             .map(|(i, v)| v.or_else(|| m.uniforms[i].default.as_ref().map(ir::eval::value)).unwrap_or([0.0; 4]).map(|c| c as f32))
             .collect();
-        Ok(ScenePlan { planned, scene, assets, shaders, textures, uniforms, notes })
+        Ok(ScenePlan { planned, scene, assets, shaders, textures, decls, uniforms, notes })
     }
 
     /// The [`RunPass`]es of a `width`×`height` frame: per pass, one draw per
@@ -145,18 +161,71 @@ impl<'a> ScenePlan<'a> {
             o.run_texgen(m).map_err(|e| SceneRunError::Unsupported(e.to_string()))?;
         }
         let uniforms64: Vec<Option<[f64; 4]>> = self.uniforms.iter().map(|u| Some(u.map(|c| c as f64))).collect();
+        let fat = codegen::fat_layers(m);
+        // The textures the plan renders, and how (seeds/001 (5), (13), (15)).
+        let mut rendered: BTreeMap<String, runner::RenderedTexture> = BTreeMap::new();
+        for s in &self.shaders {
+            let pass = &self.planned.plan.passes[s.pass];
+            if let RenderTarget::Texture { name } = &pass.target {
+                let id = m.textures.iter().position(|t| t.name == *name).ok_or_else(|| SceneRunError::Unsupported(format!("texture `{name}` is not declared")))?;
+                // Over its texels, or the mesh in texture space: the CPU's size.
+                let by_texel = matches!(pass.geometry, Geometry::Texels) || s.interface.position.is_some_and(|p| m.info(p).ty == ir::Ty::Vec2);
+                let (w, h) = if by_texel { (bind::RENDERED_TEXTURE_SIZE, bind::RENDERED_TEXTURE_SIZE) } else { (width, height) };
+                let format = match m.textures[id].format {
+                    TextureFormat::Rgba16 | TextureFormat::Signed16 | TextureFormat::Rgba16f | TextureFormat::Rgba32f => ColorTarget::Rgba16Float,
+                    _ => ColorTarget::Rgba8,
+                };
+                rendered.insert(name.clone(), runner::RenderedTexture { name: name.clone(), width: w, height: h, layers: u32::from(fat[id]).max(1), format });
+            }
+        }
         let mut out = Vec::new();
         for s in &self.shaders {
             let pass = &self.planned.plan.passes[s.pass];
             let mut textures = Vec::new();
             for t in &pass.textures {
-                let bound = self.textures.get(&t.texture).ok_or_else(|| SceneRunError::Unsupported(format!("texture `{}` is not bound", t.texture)))?;
                 if t.unit as usize != textures.len() {
                     return Err(SceneRunError::Unsupported(format!("texture units of pass {} are not 0..n", s.pass + 1)));
                 }
+                if rendered.contains_key(&t.texture) {
+                    let id = m.textures.iter().position(|x| x.name == t.texture).expect("rendered textures are declared");
+                    let decl = self.decls.iter().find(|d| d.name == t.texture).ok_or_else(|| SceneRunError::Unsupported(format!("texture `{}` has no declaration", t.texture)))?;
+                    // Level 0 only: the GPU runner makes no mip chain of a rendered texture.
+                    textures.push(RunTexture { data: TextureData::Rendered { name: t.texture.clone(), array: fat[id] > 0 }, sampler: sampler(decl.filter, decl.wrap, false) });
+                    continue;
+                }
+                let bound = self.textures.get(&t.texture).ok_or_else(|| SceneRunError::Unsupported(format!("texture `{}` is not bound", t.texture)))?;
                 textures.push(run_texture(bound)?);
             }
+            let target = match &pass.target {
+                RenderTarget::Texture { name } => PassTarget::Texture(rendered[name].clone()),
+                _ => PassTarget::Main,
+            };
             let leaves = &s.interface.vertex_leaves;
+            if !matches!(pass.geometry, Geometry::Mesh { .. }) {
+                // One full-screen (full-texture) rectangle: the `quad` input.
+                if !leaves.is_empty() {
+                    return Err(SceneRunError::Unsupported(format!("pass {} draws a rectangle with per-vertex inputs", s.pass + 1)));
+                }
+                let floats = vec![-1.0, -1.0, 0.0, 1.0, 1.0, -1.0, 0.0, 1.0, 1.0, 1.0, 0.0, 1.0, -1.0, 1.0, 0.0, 1.0];
+                let projections: Vec<[f32; 16]> = match objects.first() {
+                    Some(object) => s.interface.projections.iter().map(|p| object.clip_matrix(p).to_cols_array()).collect(),
+                    None => Vec::new(),
+                };
+                let unis: Vec<[f32; 4]> = s.interface.uniforms.iter().map(|u| self.uniforms[*u as usize]).collect();
+                let has_block = !projections.is_empty() || !unis.is_empty();
+                out.push(RunPass {
+                    label: s.label.clone(),
+                    shader: RunShader { source: ShaderSource::Naga(s.module.clone()), vertex_entry: codegen::VERTEX_ENTRY.into(), fragment_entry: codegen::FRAGMENT_ENTRY.into() },
+                    vertices: VertexData { floats, components: vec![4] },
+                    indices: vec![0, 1, 2, 0, 2, 3],
+                    textures: textures.clone(),
+                    uniforms: has_block.then(|| uniform_bytes(&projections, &unis)),
+                    state: pass.state,
+                    target: target.clone(),
+                    outputs: s.outputs,
+                });
+                continue;
+            }
             for object in &objects {
                 let mut ev = ir::eval::Evaluator::new(m, leaves, ir::eval::Precision::Exact);
                 let mut floats = Vec::with_capacity(object.n_vertices() * 4 * leaves.len());
@@ -178,6 +247,8 @@ impl<'a> ScenePlan<'a> {
                     textures: textures.clone(),
                     uniforms: has_block.then(|| uniform_bytes(&projections, &unis)),
                     state: pass.state,
+                    target: target.clone(),
+                    outputs: s.outputs,
                 });
             }
         }
