@@ -99,6 +99,12 @@ fn own_target_reads_bind_a_copy_taken_before_the_pass() {
     assert!(p.source[0].starts_with("31:1:"), "{:?}", p.source);
     // Both projections of `πl π⁻¹ xs` are in the uniform block.
     assert_eq!(p.interface.projections.len(), 2);
+    // `z C xs` and the depth of `π⁻¹ xs` share one load of the copy; the
+    // next pass reads C′ at the pixel and builds no pixel position.
+    let doc = emit::wgsl("shadow_mask", &passes).unwrap();
+    let sections = emit::split_wgsl(&doc);
+    assert_eq!(sections[3].1.matches("textureLoad(C_depth_before").count(), 1, "{}", sections[3].1);
+    assert!(!sections[4].1.contains("pixel_position"), "{}", sections[4].1);
 }
 
 #[test]

@@ -395,6 +395,8 @@ struct Body {
     /// Lookups of fat textures: (unit, coordinate, level); their members
     /// are sampled by [`Expr::FatMember`].
     fat: HashMap<ir::Handle<Expr>, (usize, NH, naga::SampleLevel)>,
+    /// Texels loaded at the fragment's pixel, by texture ([`Gen::load_at_pixel`]).
+    loads: HashMap<naga::Handle<GlobalVariable>, NH>,
     /// The boolean behind a 0/1 value (comparisons, logic), so that a
     /// condition uses it directly.
     bools: HashMap<NH, NH>,
@@ -402,7 +404,7 @@ struct Body {
 
 impl Body {
     fn new(name: &str, stage: Stage) -> Body {
-        Body { f: Function { name: Some(name.to_string()), ..Default::default() }, stage, vals: HashMap::new(), args: vec![], frag_coord: None, texel_uv: None, fat: HashMap::new(), bools: HashMap::new() }
+        Body { f: Function { name: Some(name.to_string()), ..Default::default() }, stage, vals: HashMap::new(), args: vec![], frag_coord: None, texel_uv: None, fat: HashMap::new(), loads: HashMap::new(), bools: HashMap::new() }
     }
     /// A computed expression, covered by its own `Emit`.
     fn emit(&mut self, e: Expression) -> NH {
@@ -471,6 +473,8 @@ struct Gen<'a> {
     target_copies: Vec<(TargetCopy, naga::Handle<GlobalVariable>)>,
     /// Colour attachments written ([`PassShader::outputs`]).
     outputs: u32,
+    /// The nodes the fragment stage computes ([`Gen::fragment_nodes`]).
+    pass_nodes: Vec<ir::Handle<Expr>>,
 }
 
 impl<'a> Gen<'a> {
@@ -493,6 +497,7 @@ impl<'a> Gen<'a> {
             fat: fat_layers(&planned.module),
             target_copies: vec![],
             outputs: 1,
+            pass_nodes: vec![],
         }
     }
 
@@ -775,7 +780,8 @@ impl<'a> Gen<'a> {
         } else {
             let mut roots = vec![self.iface.output];
             roots.extend(self.iface.condition);
-            for n in self.fragment_nodes(&roots) {
+            self.pass_nodes = self.fragment_nodes(&roots);
+            for n in self.pass_nodes.clone() {
                 self.node(&mut b, n)?;
             }
             if let Some(c) = self.iface.condition {
@@ -808,10 +814,7 @@ impl<'a> Gen<'a> {
                         let one = b.lit(1.0);
                         let c = match width(self.m.info(*h).ty) {
                             3 => b.emit(Expression::Compose { ty: vec4, components: vec![v, one] }),
-                            w => {
-                                let z = self.widen_zero(&mut b, v, w);
-                                z
-                            }
+                            w => self.widen_zero(&mut b, v, w),
                         };
                         comps.push(c);
                         let name = match &self.m.exprs[*h] {
@@ -856,7 +859,8 @@ impl<'a> Gen<'a> {
         roots.extend(self.iface.condition);
         // The registers' sources in float, unrounded (as the CPU's fixed9 loads them).
         let fidelity = std::mem::replace(&mut self.fidelity, Fidelity::Exact);
-        let built: R<()> = self.fragment_nodes(&roots).into_iter().try_for_each(|n| self.node(b, n));
+        self.pass_nodes = self.fragment_nodes(&roots);
+        let built: R<()> = self.pass_nodes.clone().into_iter().try_for_each(|n| self.node(b, n));
         self.fidelity = fidelity;
         built?;
         if let Some(c) = self.iface.condition {
@@ -1171,12 +1175,25 @@ impl<'a> Gen<'a> {
                 Some(uv) => uv,
                 None => return self.unsupported("the texel coordinate δu outside a texel pass", Some(n)),
             },
-            Expr::Pixel { .. } => match b.frag_coord {
-                Some(fc) if sample => fc,
-                _ => return self.unsupported("a pixel position per vertex", Some(n)),
-            },
+            Expr::Pixel { .. } => {
+                if !sample {
+                    return self.unsupported("a pixel position per vertex", Some(n));
+                }
+                // Reads at the pixel use the fragment's own coordinates; the
+                // position as a value (`π⁻¹ xs`, `xs.x`) is built only if used.
+                let at_pixel = |e: &Expr| match e {
+                    Expr::FramebufferRead { position, .. } => *position == n,
+                    Expr::Lookup { coords, .. } => *coords == n,
+                    Expr::Depth(p) => *p == n && self.depth_is_fragments(n),
+                    _ => false,
+                };
+                if !self.pass_nodes.iter().any(|h| m.exprs[*h].operands().contains(&n) && !at_pixel(&m.exprs[*h])) {
+                    return Ok(());
+                }
+                self.pixel_position(b, n)?
+            }
             Expr::Project { projection, value } => {
-                let x = if matches!(m.exprs[*value], Expr::Pixel { .. }) { self.pixel_position(b, *value)? } else { val(b, *value)? };
+                let x = val(b, *value)?;
                 match m.info(*value).ty {
                     Ty::Position => {
                         let idx = self.iface.projections.iter().position(|p| p == projection).ok_or_else(|| GenError::Internal("projection not in the interface".into()))?;
@@ -1260,10 +1277,10 @@ impl<'a> Gen<'a> {
             }
             Expr::FramebufferRead { framebuffer, channel, position } => {
                 let at_pixel = matches!(m.exprs[*position], Expr::Pixel { .. }) || Some(*position) == self.own_position;
-                let (image, sv) = match self.unit_of(n) {
+                let (var, sv) = match self.unit_of(n) {
                     Ok(unit) => {
                         let (tv, sv, _, _) = self.units[unit];
-                        (b.plain(Expression::GlobalVariable(tv)), Some(sv))
+                        (tv, Some(sv))
                     }
                     // The pass's own target, which blending did not absorb: a copy
                     // taken before the pass, read at the pixel.
@@ -1275,17 +1292,13 @@ impl<'a> Gen<'a> {
                         if *channel == FbChannel::Stencil {
                             return self.unsupported(format!("reading the stencil of the target framebuffer `{name}` inside the shader (the stencil test can)"), Some(n));
                         }
-                        let var = self.target_copy(&name, *channel == FbChannel::Depth);
-                        (b.plain(Expression::GlobalVariable(var)), None)
+                        (self.target_copy(&name, *channel == FbChannel::Depth), None)
                     }
                 };
                 let texel = if at_pixel {
-                    let fc = b.frag_coord.ok_or_else(|| GenError::Internal("no fragment position".into()))?;
-                    let xy = self.narrow(b, fc, 4, 2);
-                    let ixy = b.emit(Expression::As { expr: xy, kind: ScalarKind::Sint, convert: Some(4) });
-                    let zero = b.plain(Expression::Literal(Literal::I32(0)));
-                    b.emit(Expression::ImageLoad { image, coordinate: ixy, array_index: None, sample: None, level: Some(zero) })
+                    self.load_at_pixel(b, var)?
                 } else {
+                    let image = b.plain(Expression::GlobalVariable(var));
                     let sv = sv.ok_or_else(|| GenError::Internal("a framebuffer read without a sampler".into()))?;
                     let p = val(b, *position)?;
                     let uv = self.projective_uv(b, p);
@@ -1306,7 +1319,7 @@ impl<'a> Gen<'a> {
                 }
             }
             Expr::Depth(p) => {
-                if matches!(m.exprs[*p], Expr::Pixel { .. }) || Some(*p) == self.own_position {
+                if self.depth_is_fragments(*p) {
                     let fc = b.frag_coord.ok_or_else(|| GenError::Internal("no fragment position".into()))?;
                     b.emit(Expression::AccessIndex { base: fc, index: 2 })
                 } else {
@@ -1607,12 +1620,34 @@ impl<'a> Gen<'a> {
         b.emit(Expression::Compose { ty: vec2, components: vec![u, v] })
     }
 
+    /// `textureLoad(var, pixel, 0)` at the fragment's pixel, once per texture.
+    fn load_at_pixel(&mut self, b: &mut Body, var: naga::Handle<GlobalVariable>) -> R<NH> {
+        if let Some(texel) = b.loads.get(&var) {
+            return Ok(*texel);
+        }
+        let fc = b.frag_coord.ok_or_else(|| GenError::Internal("no fragment position".into()))?;
+        let image = b.plain(Expression::GlobalVariable(var));
+        let xy = self.narrow(b, fc, 4, 2);
+        let ixy = b.emit(Expression::As { expr: xy, kind: ScalarKind::Sint, convert: Some(4) });
+        let zero = b.plain(Expression::Literal(Literal::I32(0)));
+        let texel = b.emit(Expression::ImageLoad { image, coordinate: ixy, array_index: None, sample: None, level: Some(zero) });
+        b.loads.insert(var, texel);
+        Ok(texel)
+    }
+
+    /// Whether `z p` is the fragment's own depth (`@builtin(position).z`):
+    /// `p` is the pass's position or `δ xs`. The depth at a screen pass's
+    /// pixel `xs` is the target's, from [`Self::pixel_position`].
+    fn depth_is_fragments(&self, p: ir::Handle<Expr>) -> bool {
+        matches!(self.m.exprs[p], Expr::Pixel { freq: Frequency::Fragment }) || Some(p) == self.own_position
+    }
+
     /// Whether `lookup` (of a fat texture) is used as a colour, not only
     /// through its members.
     fn plain_use(&self, lookup: ir::Handle<Expr>) -> bool {
         self.iface.output == lookup
             || self.iface.condition == Some(lookup)
-            || self.m.exprs.arena().iter().any(|(_, e)| !matches!(e, Expr::FatMember { .. }) && e.operands().contains(&lookup))
+            || self.pass_nodes.iter().any(|h| !matches!(self.m.exprs[*h], Expr::FatMember { .. }) && self.m.exprs[*h].operands().contains(&lookup))
     }
 
     /// The global of the copy of the target framebuffer `name` (its depth,
@@ -1658,11 +1693,7 @@ impl<'a> Gen<'a> {
             match target {
                 Some(t) if with_depth => {
                     let var = self.target_copy(&t, true);
-                    let image = b.plain(Expression::GlobalVariable(var));
-                    let xy = self.narrow(b, fc, 4, 2);
-                    let ixy = b.emit(Expression::As { expr: xy, kind: ScalarKind::Sint, convert: Some(4) });
-                    let zero = b.plain(Expression::Literal(Literal::I32(0)));
-                    let texel = b.emit(Expression::ImageLoad { image, coordinate: ixy, array_index: None, sample: None, level: Some(zero) });
+                    let texel = self.load_at_pixel(b, var)?;
                     b.emit(Expression::AccessIndex { base: texel, index: 0 })
                 }
                 // No depth buffer: the far plane, as the CPU's cleared depth.

@@ -162,6 +162,7 @@ impl<'a> ScenePlan<'a> {
         }
         let uniforms64: Vec<Option<[f64; 4]>> = self.uniforms.iter().map(|u| Some(u.map(|c| c as f64))).collect();
         let fat = codegen::fat_layers(m);
+        let fat_textures: Vec<&str> = m.textures.iter().zip(&fat).filter(|(_, l)| **l > 0).map(|(t, _)| t.name.as_str()).collect();
         // The textures the plan renders, and how (seeds/001 (5), (13), (15)).
         let mut rendered: BTreeMap<String, runner::RenderedTexture> = BTreeMap::new();
         for s in &self.shaders {
@@ -186,11 +187,10 @@ impl<'a> ScenePlan<'a> {
                 if t.unit as usize != textures.len() {
                     return Err(SceneRunError::Unsupported(format!("texture units of pass {} are not 0..n", s.pass + 1)));
                 }
-                if rendered.contains_key(&t.texture) {
-                    let id = m.textures.iter().position(|x| x.name == t.texture).expect("rendered textures are declared");
+                if let Some(r) = rendered.get(&t.texture) {
                     let decl = self.decls.iter().find(|d| d.name == t.texture).ok_or_else(|| SceneRunError::Unsupported(format!("texture `{}` has no declaration", t.texture)))?;
                     // Level 0 only: the GPU runner makes no mip chain of a rendered texture.
-                    textures.push(RunTexture { data: TextureData::Rendered { name: t.texture.clone(), array: fat[id] > 0 }, sampler: sampler(decl.filter, decl.wrap, false) });
+                    textures.push(RunTexture { data: TextureData::Rendered { name: t.texture.clone(), array: fat_textures.contains(&r.name.as_str()) }, sampler: sampler(decl.filter, decl.wrap, false) });
                     continue;
                 }
                 let bound = self.textures.get(&t.texture).ok_or_else(|| SceneRunError::Unsupported(format!("texture `{}` is not bound", t.texture)))?;
