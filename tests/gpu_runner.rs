@@ -79,6 +79,7 @@ fn color_pass(label: &str, geometry: (Vec<f32>, Vec<u32>), state: RenderState) -
         uniforms: None,
         state,
         target: PassTarget::Main,
+        loaded: vec![],
         outputs: 1,
     }
 }
@@ -255,6 +256,7 @@ fn textured_quad_with_nearest_filtering_returns_exact_texels() {
         uniforms: Some(bytemuck::cast_slice(&mask).to_vec()),
         state: state(DepthState::LESS_WRITE, BlendState::REPLACE),
         target: PassTarget::Main,
+        loaded: vec![],
         outputs: 1,
     };
     let image = run_passes(&gpu, &Target::new(8, 8), &[pass]).unwrap();
@@ -315,6 +317,7 @@ fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
         uniforms: None,
         state: state(DepthState::DISABLED, BlendState::REPLACE),
         target: PassTarget::Main,
+        loaded: vec![],
         outputs: 1,
     };
     let image = run_passes(&gpu, &Target::new(4, 2), &[pass]).unwrap();
@@ -458,6 +461,7 @@ fn inconsistent_passes_are_input_errors() {
         uniforms: None,
         state: RenderState::default(),
         target: PassTarget::Main,
+        loaded: vec![],
         outputs: 1,
     };
     let err = run_passes(&gpu, &target, &[pass]).unwrap_err();

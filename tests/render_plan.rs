@@ -162,3 +162,25 @@ fn bake_is_texture_shading_of_the_function() {
         assert_eq!(e.max_abs, 0.0, "{mode:?}: bake and the written-out statement differ by {}", e.max_abs);
     }
 }
+
+/// Shadow mask's reprojection `πl π⁻¹ xs` (seeds/001 Section 3.5) is
+/// evaluated per pixel — it was an unknown (NaN) leaf, which made every
+/// depth comparison false — and a read outside a framebuffer gives its
+/// cleared values (depth 1: nothing occludes there). With Williams's test
+/// written out, the ball casts its shadow on the floor.
+#[test]
+fn shadow_mask_reprojects_each_pixel() {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/shadow_floor.ron")).unwrap();
+    let scene = Scene::parse(&text, Path::new("/nonexistent-shadec-scene/shadow_floor.ron")).unwrap();
+    let lit = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/shadow_mask.shd")).unwrap();
+    let shadowed = lit.replace("C δπx ← δ p s x;", "C δπx ← ka;").replace("α C xs ← (z C xs) > (z Cl πl π⁻¹ xs);", "α C xs ← (z πl π⁻¹ xs) > (z Cl πl π⁻¹ xs) + 0.002;");
+    assert_ne!(shadowed, lit);
+    let (a, _) = render(&lit, "wgsl", &scene, Mode::F32);
+    let (b, _) = render(&shadowed, "wgsl", &scene, Mode::F32);
+    let (a, b) = (a.image.to_rgba8(), b.image.to_rgba8());
+    let opaque = (0..a.len() / 4).filter(|&i| a[4 * i + 3] == 255 && b[4 * i + 3] == 255);
+    let dark = opaque.clone().filter(|&i| a[4 * i] as i32 - b[4 * i] as i32 > 40).count();
+    let total = opaque.count();
+    // The shadow, and not everything: ambient where occluded, lit elsewhere.
+    assert!(dark > 500 && dark < total / 2, "{dark} of {total} opaque pixels in shadow");
+}

@@ -83,6 +83,7 @@ fn triangle_ids(gpu: &Gpu, scene: &Scene, assets: &SceneAssets) -> Vec<u32> {
             uniforms: None,
             state,
             target: PassTarget::Main,
+            loaded: vec![],
             outputs: 1,
         });
     }
@@ -344,6 +345,7 @@ fn draw_rect(gpu: &Gpu, w: u32, h: u32, decls: &str, body: &str, texture: RunTex
         uniforms: None,
         state: RenderState { cull: CullMode::None, depth: DepthState::DISABLED, stencil: StencilState::DISABLED, blend: BlendState::REPLACE },
         target: PassTarget::Main,
+        loaded: vec![],
         outputs: 1,
     };
     run_passes(gpu, &Target::new(w, h), &[pass]).unwrap().into_raw()

@@ -69,6 +69,7 @@ fn translated_matches_emulator(file: &str) {
         uniforms: Some(uniforms),
         state: FULL,
         target: PassTarget::Main,
+        loaded: vec![],
         outputs: 1,
     };
     let image = run_passes(&gpu, &Target::new(w, h), &[pass]).unwrap();
@@ -139,6 +140,7 @@ fn compiled_fragment_lighting_matches_its_formula() {
         uniforms: Some(uniform_bytes(&[identity], &[])),
         state: planned.plan.passes[0].state,
         target: PassTarget::Main,
+        loaded: vec![],
         outputs: 1,
     };
     let image = run_passes(&gpu, &Target::new(32, 32), &[pass]).unwrap();

@@ -281,7 +281,7 @@ impl<'a> PlanRenderer<'a> {
                     None
                 }
             };
-            let stage = FragmentProgram::new(self, mode, &pi, &rendered, reads, own_depth, machine)?;
+            let stage = FragmentProgram::new(self, mode, &pi, &rendered, reads, own_depth, machine, objects.first())?;
             let state = pass.state;
             let target = targets.get_mut(&name).expect("created above");
             let counted = &stage.nonfinite;
@@ -541,6 +541,10 @@ enum Leaf {
     Pixel(Frequency),
     TexelCoord,
     Depth,
+    /// `π p` of a per-pixel point (`πl π⁻¹ xs`, seeds/001 Section 3.5):
+    /// by the projection's model → clip matrix of the scene's first object
+    /// (in `πl π⁻¹` the model matrix cancels), as the WGSL target does.
+    Project { matrix: glam::Mat4, inverse: bool, ty: Ty },
     /// A value the fragment stage cannot know (NaN).
     Unknown,
 }
@@ -601,6 +605,7 @@ impl<'a> FragmentProgram<'a> {
         reads: HashMap<u32, Framebuffer>,
         own: Option<Framebuffer>,
         setup: Option<CombinerSetup>,
+        first_object: Option<&BoundObject>,
     ) -> Result<FragmentProgram<'a>, RenderError> {
         let m = &r.planned.module;
         // With combiners the IR computes only what loads the registers.
@@ -666,7 +671,7 @@ impl<'a> FragmentProgram<'a> {
                     let texel_pass = PassInterface::of(r.planned, index);
                     // Only a function of the texel coordinate and uniforms can be evaluated anywhere.
                     if texel_pass.interpolants.is_empty() {
-                        Some(FragmentProgram::new(r, mode, &texel_pass, rendered, HashMap::new(), None, None)?)
+                        Some(FragmentProgram::new(r, mode, &texel_pass, rendered, HashMap::new(), None, None, None)?)
                     } else {
                         None
                     }
@@ -729,6 +734,14 @@ impl<'a> FragmentProgram<'a> {
                 }
                 Expr::Pixel { freq } => Some(Leaf::Pixel(*freq)),
                 Expr::TexelCoord => Some(Leaf::TexelCoord),
+                Expr::Project { projection, value } if m.info(*value).freq.is_sample() => match first_object {
+                    Some(object) => {
+                        ops[0] = slot_of[value.index()];
+                        n_ops = 1;
+                        Some(Leaf::Project { matrix: object.clip_matrix(projection), inverse: projection.inverse, ty: m.info(*value).ty })
+                    }
+                    None => Some(Leaf::Unknown),
+                },
                 Expr::VertexPosition(_) | Expr::TexCoord { .. } | Expr::Vector { .. } | Expr::Project { .. } | Expr::FatMember { .. } | Expr::Bundle(_) => Some(Leaf::Unknown),
                 e => {
                     let operands = e.operands();
@@ -788,7 +801,8 @@ impl<'a> FragmentProgram<'a> {
             Leaf::Lookup { texture, coords_ty, lod_from } => self.lookup(texture, operand, coords_ty, lod_from, fragment, varyings),
             Leaf::Framebuffer { framebuffer, channel } => {
                 let Some(fb) = self.reads.get(&framebuffer) else { return [0.0; 4] };
-                let Some((x, y)) = to_pixel(operand, fb.width(), fb.height()) else { return [0.0; 4] };
+                // Outside the framebuffer: its cleared values (depth 1: far, not an occluder).
+                let Some((x, y)) = to_pixel(operand, fb.width(), fb.height()) else { return if channel == FbChannel::Depth { [1.0; 4] } else { [0.0; 4] } };
                 match channel {
                     FbChannel::Color => fb.color(x, y).unwrap_or([0.0; 4]).map(|c| c as f64),
                     FbChannel::Alpha => [fb.color(x, y).map_or(0.0, |c| c[3]) as f64; 4],
@@ -796,6 +810,7 @@ impl<'a> FragmentProgram<'a> {
                     FbChannel::Stencil => [fb.stencil(x, y).unwrap_or(0) as f64; 4],
                 }
             }
+            Leaf::Project { matrix, inverse, ty } => bind::project_by(matrix, inverse, operand, ty),
             Leaf::Depth => {
                 let [_, _, z, w] = operand;
                 if w == 0.0 {

@@ -603,10 +603,16 @@ pub fn project(object: &BoundObject, p: &Projection, value: [f64; 4], ty: Ty) ->
         let m = 2.0 * (x * x + y * y + (z + 1.0) * (z + 1.0)).sqrt();
         return if m > 0.0 { [x / m + 0.5, y / m + 0.5, 0.0, 0.0] } else { [0.5, 0.5, 0.0, 0.0] };
     }
-    let w = if ty == Ty::Position && value[3] == 0.0 && !p.inverse { 1.0 } else { value[3] };
+    project_by(object.clip_matrix(p), p.inverse, value, ty)
+}
+
+/// `π v` of a point by the projection's model → clip `matrix` (its inverse
+/// for `π⁻¹`, whose result is divided by w).
+pub fn project_by(matrix: Mat4, inverse: bool, value: [f64; 4], ty: Ty) -> [f64; 4] {
+    let w = if ty == Ty::Position && value[3] == 0.0 && !inverse { 1.0 } else { value[3] };
     let v = Vec4::new(value[0] as f32, value[1] as f32, value[2] as f32, w as f32);
-    let r = object.clip_matrix(p) * v;
-    if p.inverse && r.w != 0.0 {
+    let r = matrix * v;
+    if inverse && r.w != 0.0 {
         [(r.x / r.w) as f64, (r.y / r.w) as f64, (r.z / r.w) as f64, 1.0]
     } else {
         [r.x as f64, r.y as f64, r.z as f64, r.w as f64]

@@ -41,6 +41,9 @@
 //!   absorb (`α C xs ← (z C xs) > …`, seeds/001 Section 3.5) is a
 //!   `textureLoad` from a copy taken before the pass, at the bindings after
 //!   the units ([`PassShader::target_copies`]: colour, or depth in `.x`).
+//! - **Framebuffer reads** away from the pixel (`z Cl πl π⁻¹ xs`) sample
+//!   at the projective coordinate; outside the framebuffer they give its
+//!   cleared values (colour 0, depth 1), as the CPU renderer does.
 //! - **Pixels**: `xs` as a value (under `π⁻¹`) is the pixel centre in GL
 //!   normalized device coordinates with the target's depth there (from the
 //!   depth copy) mapped to −1..1, w = 1 — the CPU renderer's definition.
@@ -1304,7 +1307,18 @@ impl<'a> Gen<'a> {
                     let uv = self.projective_uv(b, p);
                     let sampler = b.plain(Expression::GlobalVariable(sv));
                     let level = if sample { naga::SampleLevel::Auto } else { naga::SampleLevel::Zero };
-                    b.emit(Expression::ImageSample { image, sampler, gather: None, coordinate: uv, array_index: None, offset: None, level, depth_ref: None, clamp_to_edge: false })
+                    let texel = b.emit(Expression::ImageSample { image, sampler, gather: None, coordinate: uv, array_index: None, offset: None, level, depth_ref: None, clamp_to_edge: false });
+                    // Outside the framebuffer: its cleared values (colour 0, depth 1), as the CPU.
+                    let (zero, one) = (b.lit(0.0), b.lit(1.0));
+                    let (zero2, one2) = (b.emit(Expression::Splat { size: VectorSize::Bi, value: zero }), b.emit(Expression::Splat { size: VectorSize::Bi, value: one }));
+                    let above = self.binop(b, B::GreaterEqual, uv, zero2);
+                    let below = self.binop(b, B::LessEqual, uv, one2);
+                    let above = b.emit(Expression::Relational { fun: naga::RelationalFunction::All, argument: above });
+                    let below = b.emit(Expression::Relational { fun: naga::RelationalFunction::All, argument: below });
+                    let inside = self.binop(b, B::LogicalAnd, above, below);
+                    let clear = b.lit(if *channel == FbChannel::Depth { 1.0 } else { 0.0 });
+                    let clear = b.emit(Expression::Splat { size: VectorSize::Quad, value: clear });
+                    b.emit(Expression::Select { condition: inside, accept: texel, reject: clear })
                 };
                 match channel {
                     FbChannel::Color => texel,

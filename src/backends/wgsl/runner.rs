@@ -190,6 +190,21 @@ pub enum TextureData {
     /// layer as a `texture_2d`. A pass that samples its own target reads a
     /// copy taken just before it (seeds/001 (16): `T δu ← p T δu`).
     Rendered { name: String, array: bool },
+    /// The depth buffer of a rendered texture (`None`: of the main target)
+    /// as it is just before the pass, in `.x` of an `R32Float` texture —
+    /// `z C′ …` read in a shader (seeds/001 Section 3.5, shadow mask).
+    /// Unfilterable: a unit of this kind samples through a nearest,
+    /// non-filtering sampler.
+    RenderedDepth { name: Option<String> },
+}
+
+/// A texture a pass reads with `textureLoad` only, at `binding` of group 0
+/// (codegen's `PassShader::target_copies`): [`TextureData::RenderedDepth`]
+/// or [`TextureData::Rendered`].
+#[derive(Clone, Debug, PartialEq)]
+pub struct LoadedTexture {
+    pub binding: u32,
+    pub data: TextureData,
 }
 
 /// Where a pass draws.
@@ -235,6 +250,8 @@ pub struct RunPass {
     pub uniforms: Option<Vec<u8>>,
     pub state: RenderState,
     pub target: PassTarget,
+    /// Textures read with `textureLoad`, after the units' bindings.
+    pub loaded: Vec<LoadedTexture>,
     /// Colour outputs of the fragment stage (`@location(0..outputs)`): 1,
     /// or a fat texel's members into the layers of a [`PassTarget::Texture`].
     pub outputs: u32,
@@ -431,7 +448,7 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
         format: depth_format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
         view_formats: &[],
     });
     let depth_view = depth.create_view(&Default::default());
@@ -455,19 +472,62 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::COPY_DST;
         let texture = make(name, t.format.wgpu(), usage, t.layers);
         let scratch = make(name, t.format.wgpu(), usage, t.layers);
-        let depth = make(name, depth_format, wgpu::TextureUsages::RENDER_ATTACHMENT, 1);
+        let depth = make(name, depth_format, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING, 1);
         textures.insert(name.clone(), (texture, scratch, depth));
     }
+
+    // Depth snapshots: per pass, per slot (units, then loaded textures) that
+    // reads a depth buffer, an R32Float copy made just before the pass.
+    let depth_source = |name: &Option<String>| -> (&wgpu::Texture, u32, u32) {
+        match name {
+            None => (&depth, target.width, target.height),
+            Some(n) => (&textures[n].2, rendered[n].width, rendered[n].height),
+        }
+    };
+    let mut snapshots: BTreeMap<(usize, usize), (wgpu::Texture, Option<String>)> = BTreeMap::new();
+    for (pass_idx, pass) in passes.iter().enumerate() {
+        let slots = pass.textures.iter().map(|t| &t.data).chain(pass.loaded.iter().map(|l| &l.data));
+        for (slot, data) in slots.enumerate() {
+            if let TextureData::RenderedDepth { name } = data {
+                let (_, width, height) = depth_source(name);
+                let copy = device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some("shadec depth snapshot"),
+                    size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::R32Float,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                });
+                snapshots.insert((pass_idx, slot), (copy, name.clone()));
+            }
+        }
+    }
+    let depth_copier = (!snapshots.is_empty()).then(|| DepthCopier::new(device));
 
     let prepared: Vec<Prepared> = passes
         .iter()
         .zip(modules)
-        .map(|(pass, module)| {
+        .enumerate()
+        .map(|(pass_idx, (pass, module))| {
             let (color_format, own) = match &pass.target {
                 PassTarget::Main => (target.color_format.wgpu(), None),
                 PassTarget::Texture(t) => (t.format.wgpu(), Some(t.name.as_str())),
             };
-            prepare(gpu, pass, module, depth_format, color_format, &|name: &str| textures.get(name).map(|(t, scratch, _)| if Some(name) == own { scratch } else { t }))
+            let view_of = |slot: usize, data: &TextureData| -> Option<wgpu::TextureView> {
+                match data {
+                    TextureData::Rendered { name, array } => {
+                        let (t, scratch, _) = &textures[name];
+                        let t = if Some(name.as_str()) == own { scratch } else { t };
+                        let dimension = if *array { wgpu::TextureViewDimension::D2Array } else { wgpu::TextureViewDimension::D2 };
+                        Some(t.create_view(&wgpu::TextureViewDescriptor { dimension: Some(dimension), base_array_layer: 0, array_layer_count: if *array { None } else { Some(1) }, ..Default::default() }))
+                    }
+                    TextureData::RenderedDepth { .. } => Some(snapshots[&(pass_idx, slot)].0.create_view(&Default::default())),
+                    _ => None,
+                }
+            };
+            prepare(gpu, pass, module, depth_format, color_format, &view_of)
         })
         .collect();
 
@@ -488,12 +548,17 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
             _ if !cleared.contains(&main_key) => (None, None),
             _ => break,
         };
+        // The depth buffers this pass reads, as they are now.
+        for ((_, _), (copy, name)) in snapshots.range((pass_idx, 0)..(pass_idx + 1, 0)) {
+            let copier = depth_copier.as_ref().expect("made when there are snapshots");
+            copier.copy(device, &mut encoder, depth_source(name).0, copy);
+        }
         let (key, views, depth_view): (&String, Vec<wgpu::TextureView>, &wgpu::TextureView) = match pass.map(|p| &p.target) {
             None | Some(PassTarget::Main) => (&main_key, vec![color.create_view(&Default::default())], &depth_view),
             Some(PassTarget::Texture(t)) => {
                 let (texture, scratch, _) = &textures[&t.name];
                 let pass = pass.expect("matched");
-                if pass.textures.iter().any(|x| matches!(&x.data, TextureData::Rendered { name, .. } if *name == t.name)) {
+                if pass.textures.iter().map(|x| &x.data).chain(pass.loaded.iter().map(|l| &l.data)).any(|d| matches!(d, TextureData::Rendered { name, .. } if *name == t.name)) {
                     // It samples its own target: the copy it binds, taken now.
                     encoder.copy_texture_to_texture(texture.as_image_copy(), scratch.as_image_copy(), wgpu::Extent3d { width: t.width, height: t.height, depth_or_array_layers: t.layers });
                 }
@@ -613,6 +678,77 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
         .ok_or_else(|| GpuError::Readback("the image has the wrong size".to_string()))
 }
 
+/// Copies a depth buffer into an `R32Float` texture (`.x`): a full-screen
+/// triangle loading the depth aspect texel by texel — a depth buffer can
+/// neither be sampled as a colour nor copied into one.
+struct DepthCopier {
+    pipeline: wgpu::RenderPipeline,
+    layout: wgpu::BindGroupLayout,
+}
+
+const DEPTH_COPY_WGSL: &str = "
+@group(0) @binding(0) var depth: texture_depth_2d;
+@vertex
+fn vs_main(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+    let p = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
+    return vec4<f32>(p * 2.0 - 1.0, 0.0, 1.0);
+}
+@fragment
+fn fs_main(@builtin(position) at: vec4<f32>) -> @location(0) vec4<f32> {
+    return vec4<f32>(textureLoad(depth, vec2<i32>(at.xy), 0), 0.0, 0.0, 1.0);
+}
+";
+
+impl DepthCopier {
+    fn new(device: &wgpu::Device) -> DepthCopier {
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("shadec depth copy"), source: wgpu::ShaderSource::Wgsl(Cow::Borrowed(DEPTH_COPY_WGSL)) });
+        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
+            label: Some("shadec depth copy"),
+            entries: &[wgpu::BindGroupLayoutEntry {
+                binding: 0,
+                visibility: wgpu::ShaderStages::FRAGMENT,
+                ty: wgpu::BindingType::Texture { sample_type: wgpu::TextureSampleType::Depth, view_dimension: wgpu::TextureViewDimension::D2, multisampled: false },
+                count: None,
+            }],
+        });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("shadec depth copy"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
+        let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+            label: Some("shadec depth copy"),
+            layout: Some(&pipeline_layout),
+            vertex: wgpu::VertexState { module: &module, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &[] },
+            primitive: Default::default(),
+            depth_stencil: None,
+            multisample: Default::default(),
+            fragment: Some(wgpu::FragmentState {
+                module: &module,
+                entry_point: Some("fs_main"),
+                compilation_options: Default::default(),
+                targets: &[Some(wgpu::ColorTargetState { format: wgpu::TextureFormat::R32Float, blend: None, write_mask: wgpu::ColorWrites::ALL })],
+            }),
+            multiview_mask: None,
+            cache: None,
+        });
+        DepthCopier { pipeline, layout }
+    }
+
+    fn copy(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, depth: &wgpu::Texture, into: &wgpu::Texture) {
+        let view = depth.create_view(&wgpu::TextureViewDescriptor { aspect: wgpu::TextureAspect::DepthOnly, ..Default::default() });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("shadec depth copy"), layout: &self.layout, entries: &[wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) }] });
+        let target = into.create_view(&Default::default());
+        let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+            label: Some("shadec depth copy"),
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment { view: &target, depth_slice: None, resolve_target: None, ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store } })],
+            depth_stencil_attachment: None,
+            timestamp_writes: None,
+            occlusion_query_set: None,
+            multiview_mask: None,
+        });
+        pass.set_pipeline(&self.pipeline);
+        pass.set_bind_group(0, &bind_group, &[]);
+        pass.draw(0..3, 0..1);
+    }
+}
+
 /// The GPU objects of one pass.
 struct Prepared {
     pipeline: wgpu::RenderPipeline,
@@ -623,6 +759,16 @@ struct Prepared {
 
 /// Sizes, indices and formats: what wgpu would reject late or not at all
 /// (out-of-range indices are not an error on every backend).
+/// A rendered source names a texture some pass of the run renders.
+fn check_rendered(data: &TextureData, rendered: &BTreeMap<String, RenderedTexture>) -> Result<(), String> {
+    match data {
+        TextureData::Rendered { name, .. } | TextureData::RenderedDepth { name: Some(name) } if !rendered.contains_key(name) => {
+            Err(format!("`{name}` is a rendered texture no pass of this run renders"))
+        }
+        _ => Ok(()),
+    }
+}
+
 fn check_pass(pass: &RunPass, target: &Target, rendered: &BTreeMap<String, RenderedTexture>) -> Result<(), GpuError> {
     let invalid = |message: String| {
         Err(GpuError::InvalidInput {
@@ -659,10 +805,8 @@ fn check_pass(pass: &RunPass, target: &Target, rendered: &BTreeMap<String, Rende
         let (expected, what) = match texture.data {
             TextureData::D2 { width, height, .. } => (width as usize * height as usize * 4, "2D"),
             TextureData::Cube { size, .. } => (size as usize * size as usize * 4 * 6, "cube"),
-            TextureData::Rendered { ref name, .. } => {
-                if !rendered.contains_key(name) {
-                    return invalid(format!("texture {texture_idx} is the rendered texture `{name}`, which no pass of this run renders"));
-                }
+            TextureData::Rendered { .. } | TextureData::RenderedDepth { .. } => {
+                check_rendered(&texture.data, rendered).map_err(|message| GpuError::InvalidInput { pass: pass.label.clone(), message: format!("texture {texture_idx}: {message}") })?;
                 continue;
             }
             TextureData::D2Mipmapped { width, height, ref levels } => {
@@ -681,7 +825,7 @@ fn check_pass(pass: &RunPass, target: &Target, rendered: &BTreeMap<String, Rende
                 Some(l) => l,
                 None => return invalid(format!("mipmapped texture {texture_idx} has no levels")),
             },
-            TextureData::Rendered { .. } => continue,
+            TextureData::Rendered { .. } | TextureData::RenderedDepth { .. } => continue,
         };
         if expected == 0 || rgba.len() != expected {
             return invalid(format!(
@@ -693,6 +837,12 @@ fn check_pass(pass: &RunPass, target: &Target, rendered: &BTreeMap<String, Rende
     if pass.state.stencil.enabled && target.depth_format != DepthFormat::Depth24PlusStencil8 {
         return invalid("the stencil test needs DepthFormat::Depth24PlusStencil8".to_string());
     }
+    for l in &pass.loaded {
+        if !matches!(l.data, TextureData::Rendered { .. } | TextureData::RenderedDepth { .. }) {
+            return invalid(format!("binding {}: only rendered textures are read with textureLoad", l.binding));
+        }
+        check_rendered(&l.data, rendered).map_err(|message| GpuError::InvalidInput { pass: pass.label.clone(), message: format!("binding {}: {message}", l.binding) })?;
+    }
     let layers = match &pass.target {
         PassTarget::Main => 1,
         PassTarget::Texture(t) => t.layers,
@@ -703,7 +853,9 @@ fn check_pass(pass: &RunPass, target: &Target, rendered: &BTreeMap<String, Rende
     Ok(())
 }
 
-fn prepare<'t>(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::TextureFormat, color_format: wgpu::TextureFormat, rendered: &dyn Fn(&str) -> Option<&'t wgpu::Texture>) -> Prepared {
+/// `view_of(slot, data)`: the view of a rendered source (slot: the unit,
+/// then `units + i` for `loaded[i]`), `None` for data to upload.
+fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::TextureFormat, color_format: wgpu::TextureFormat, view_of: &dyn Fn(usize, &TextureData) -> Option<wgpu::TextureView>) -> Prepared {
     let device = &gpu.device;
     let label = Some(pass.label.as_str());
     let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -736,20 +888,17 @@ fn prepare<'t>(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wg
     });
     for (texture_idx, texture) in pass.textures.iter().enumerate() {
         let binding = 1 + 2 * texture_idx as u32;
-        let (view_dimension, view) = match &texture.data {
-            TextureData::Rendered { name, array } => {
-                let t = rendered(name).expect("checked in check_pass");
-                let dimension = if *array { wgpu::TextureViewDimension::D2Array } else { wgpu::TextureViewDimension::D2 };
-                let view = t.create_view(&wgpu::TextureViewDescriptor { dimension: Some(dimension), base_array_layer: 0, array_layer_count: if *array { None } else { Some(1) }, ..Default::default() });
-                (dimension, view)
-            }
-            data => upload_texture(gpu, data),
+        let (view_dimension, view) = match view_of(texture_idx, &texture.data) {
+            Some(view) => (if matches!(texture.data, TextureData::Rendered { array: true, .. }) { wgpu::TextureViewDimension::D2Array } else { wgpu::TextureViewDimension::D2 }, view),
+            None => upload_texture(gpu, &texture.data),
         };
+        // A depth snapshot (R32Float) is unfilterable: nearest, non-filtering.
+        let depth = matches!(texture.data, TextureData::RenderedDepth { .. });
         layout_entries.push(wgpu::BindGroupLayoutEntry {
             binding,
             visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
             ty: wgpu::BindingType::Texture {
-                sample_type: wgpu::TextureSampleType::Float { filterable: true },
+                sample_type: wgpu::TextureSampleType::Float { filterable: !depth },
                 view_dimension,
                 multisampled: false,
             },
@@ -758,11 +907,24 @@ fn prepare<'t>(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wg
         layout_entries.push(wgpu::BindGroupLayoutEntry {
             binding: binding + 1,
             visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-            ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
+            ty: wgpu::BindingType::Sampler(if depth { wgpu::SamplerBindingType::NonFiltering } else { wgpu::SamplerBindingType::Filtering }),
             count: None,
         });
         owned_views.push(view);
-        owned_samplers.push(device.create_sampler(&sampler_descriptor(&texture.sampler)));
+        let settings = if depth { SamplerSettings { address: texture.sampler.address, ..SamplerSettings::NEAREST_CLAMP } } else { texture.sampler };
+        owned_samplers.push(device.create_sampler(&sampler_descriptor(&settings)));
+    }
+    let units = pass.textures.len();
+    let mut loaded_views = Vec::new();
+    for (i, l) in pass.loaded.iter().enumerate() {
+        let view = view_of(units + i, &l.data).expect("loaded textures are rendered (check_pass)");
+        layout_entries.push(wgpu::BindGroupLayoutEntry {
+            binding: l.binding,
+            visibility: wgpu::ShaderStages::FRAGMENT,
+            ty: wgpu::BindingType::Texture { sample_type: wgpu::TextureSampleType::Float { filterable: false }, view_dimension: wgpu::TextureViewDimension::D2, multisampled: false },
+            count: None,
+        });
+        loaded_views.push((l.binding, view));
     }
     let bind_group_layout = (!layout_entries.is_empty()).then(|| {
         device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
@@ -777,6 +939,9 @@ fn prepare<'t>(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wg
                 binding: 0,
                 resource: buffer.as_entire_binding(),
             });
+        }
+        for (binding, view) in &loaded_views {
+            entries.push(wgpu::BindGroupEntry { binding: *binding, resource: wgpu::BindingResource::TextureView(view) });
         }
         for (texture_idx, (view, sampler)) in owned_views.iter().zip(&owned_samplers).enumerate() {
             let binding = 1 + 2 * texture_idx as u32;
@@ -899,7 +1064,7 @@ fn upload_texture(gpu: &Gpu, data: &TextureData) -> (wgpu::TextureViewDimension,
         TextureData::D2 { width, height, rgba } => (*width, *height, 1, std::slice::from_ref(rgba), wgpu::TextureViewDimension::D2),
         TextureData::Cube { size, rgba } => (*size, *size, 6, std::slice::from_ref(rgba), wgpu::TextureViewDimension::Cube),
         TextureData::D2Mipmapped { width, height, levels } => (*width, *height, 1, levels.as_slice(), wgpu::TextureViewDimension::D2),
-        TextureData::Rendered { .. } => unreachable!("bound by `prepare`"),
+        TextureData::Rendered { .. } | TextureData::RenderedDepth { .. } => unreachable!("bound by `prepare`"),
     };
     let size = wgpu::Extent3d {
         width,

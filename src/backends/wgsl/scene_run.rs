@@ -72,18 +72,24 @@
 //! else RGBA8. Screen and texel passes draw one rectangle. Unlike the CPU,
 //! no mip chain is made of a rendered texture (level 0 is sampled).
 //!
+//! The picture is the framebuffer the plan writes last (as the CPU's); the
+//! others (shadow mask's C′, Cl) are frame-sized rendered textures in the
+//! target's colour format. A framebuffer read in a shader binds that
+//! texture's colour, or its depth as of the pass (`TextureData::RenderedDepth`,
+//! an R32Float copy); a pass's reads of its own target
+//! (`PassShader::target_copies`) bind the same copies.
+//!
 //! # What is not supported (an [`SceneRunError::Unsupported`])
 //!
-//! Temporaries, plans that draw into more than one framebuffer (shadow
-//! mask's C, C′, Cl), framebuffer reads inside a shader (own-target copies
-//! included), dual-paraboloid textures.
+//! Temporaries, reading the colour of the framebuffer that is read back
+//! (or any stencil) inside a shader, dual-paraboloid textures.
 
 use std::collections::BTreeMap;
 
 use image::RgbaImage;
 
 use super::codegen::{self, uniform_bytes, Fidelity, PassShader};
-use super::runner::{self, AddressMode, ColorTarget, PassTarget, Gpu, GpuError, RunPass, RunShader, RunTexture, SamplerSettings, ShaderSource, Target, TextureData, VertexData};
+use super::runner::{self, AddressMode, ColorTarget, LoadedTexture, PassTarget, Gpu, GpuError, RunPass, RunShader, RunTexture, SamplerSettings, ShaderSource, Target, TextureData, VertexData};
 use crate::ir::{self, Expr};
 use crate::parser::ast::{Program, TextureFormat};
 use crate::planner::{Geometry, Planned, RenderTarget};
@@ -110,6 +116,8 @@ pub struct ScenePlan<'a> {
     shaders: Vec<PassShader>,
     textures: BTreeMap<String, BoundTexture>,
     decls: Vec<bind::TextureDecl>,
+    /// The framebuffer read back (written last); the others are rendered textures.
+    main: String,
     uniforms: Vec<[f32; 4]>,
     /// Stand-ins the binder used (missing images), for the user.
     pub notes: Vec<String>,
@@ -117,26 +125,17 @@ pub struct ScenePlan<'a> {
 
 impl<'a> ScenePlan<'a> {
     pub fn new(planned: &'a Planned, program: &Program, source: Option<&str>, fidelity: Fidelity, scene: &'a Scene, assets: &'a SceneAssets) -> Result<ScenePlan<'a>, SceneRunError> {
-        let mut framebuffers: Vec<&str> = Vec::new();
+        let mut main = None;
         for (i, pass) in planned.plan.passes.iter().enumerate() {
             match &pass.target {
-                RenderTarget::Framebuffer { name, .. } if !framebuffers.contains(&name.as_str()) => framebuffers.push(name),
+                // The picture is the framebuffer written last, as the CPU's.
+                RenderTarget::Framebuffer { name, .. } => main = Some(name.clone()),
                 RenderTarget::Temporary { .. } => return Err(SceneRunError::Unsupported(format!("pass {} renders into a temporary", i + 1))),
-                _ => {}
-            }
-            for t in &pass.textures {
-                if !matches!(planned.module.exprs[planned.handle(t.lookup)], Expr::Lookup { .. }) {
-                    return Err(SceneRunError::Unsupported(format!("pass {} reads a framebuffer in its shader", i + 1)));
-                }
+                RenderTarget::Texture { .. } => {}
             }
         }
-        if framebuffers.len() > 1 {
-            return Err(SceneRunError::Unsupported(format!("the plan draws into {} framebuffers ({}); one is read back", framebuffers.len(), framebuffers.join(", "))));
-        }
+        let main = main.ok_or_else(|| SceneRunError::Unsupported("the plan writes no framebuffer: nothing to show".into()))?;
         let shaders = codegen::generate(planned, source, fidelity).map_err(|d| SceneRunError::Codegen(d.iter().map(|d| d.message.clone()).collect::<Vec<_>>().join("; ")))?;
-        if let Some(s) = shaders.iter().find(|s| !s.target_copies.is_empty()) {
-            return Err(SceneRunError::Unsupported(format!("pass {} reads its own target inside the shader (a copy taken before the pass)", s.pass + 1)));
-        }
         let decls = bind::texture_decls(program, &scene.constants);
         let mut notes = Vec::new();
         let textures = bind::load_textures(&decls, scene, TextureQuality::Stored, &mut notes).map_err(|e| SceneRunError::Unsupported(e.to_string()))?;
@@ -146,12 +145,19 @@ impl<'a> ScenePlan<'a> {
             .enumerate()
             .map(|(i, v)| v.or_else(|| m.uniforms[i].default.as_ref().map(ir::eval::value)).unwrap_or([0.0; 4]).map(|c| c as f32))
             .collect();
-        Ok(ScenePlan { planned, scene, assets, shaders, textures, decls, uniforms, notes })
+        Ok(ScenePlan { planned, scene, assets, shaders, textures, decls, uniforms, main, notes })
     }
 
     /// The [`RunPass`]es of a `width`×`height` frame: per pass, one draw per
-    /// scene object.
+    /// scene object (one rectangle for screen and texel passes).
     pub fn passes(&self, width: u32, height: u32) -> Result<Vec<RunPass>, SceneRunError> {
+        self.passes_in(&Target::new(width, height))
+    }
+
+    /// The same for `target`: the framebuffers other than the one read back
+    /// have its colour format.
+    pub fn passes_in(&self, frame: &Target) -> Result<Vec<RunPass>, SceneRunError> {
+        let (width, height) = (frame.width, frame.height);
         let m = &self.planned.module;
         let aspect = width as f32 / height as f32;
         let (center, radius) = crate::renderer::plan::scene_bounds(self.assets);
@@ -179,13 +185,35 @@ impl<'a> ScenePlan<'a> {
                 rendered.insert(name.clone(), runner::RenderedTexture { name: name.clone(), width: w, height: h, layers: u32::from(fat[id]).max(1), format });
             }
         }
+        // The other framebuffers (shadow mask's C′, Cl): frame-sized textures.
+        for pass in &self.planned.plan.passes {
+            if let RenderTarget::Framebuffer { name, .. } = &pass.target {
+                if *name != self.main {
+                    rendered.insert(name.clone(), runner::RenderedTexture { name: name.clone(), width, height, layers: 1, format: frame.color_format });
+                }
+            }
+        }
+        let main = self.main.as_str();
+        let depth_of = |name: &str| TextureData::RenderedDepth { name: (name != main).then(|| name.to_string()) };
         let mut out = Vec::new();
         for s in &self.shaders {
             let pass = &self.planned.plan.passes[s.pass];
+            let unsupported = |what: String| SceneRunError::Unsupported(format!("pass {} {what}", s.pass + 1));
             let mut textures = Vec::new();
             for t in &pass.textures {
                 if t.unit as usize != textures.len() {
                     return Err(SceneRunError::Unsupported(format!("texture units of pass {} are not 0..n", s.pass + 1)));
+                }
+                if let Expr::FramebufferRead { framebuffer, channel, .. } = m.exprs[self.planned.handle(t.lookup)] {
+                    // Another framebuffer, read in the shader: its colour, or its depth as of now.
+                    let name = m.framebuffers[framebuffer as usize].name.as_str();
+                    let data = match channel {
+                        ir::FbChannel::Depth => depth_of(name),
+                        ir::FbChannel::Color | ir::FbChannel::Alpha if name != main => TextureData::Rendered { name: name.to_string(), array: false },
+                        _ => return Err(unsupported(format!("reads the {channel:?} of `{name}` in its shader"))),
+                    };
+                    textures.push(RunTexture { data, sampler: runner::SamplerSettings::NEAREST_CLAMP });
+                    continue;
                 }
                 if let Some(r) = rendered.get(&t.texture) {
                     let decl = self.decls.iter().find(|d| d.name == t.texture).ok_or_else(|| SceneRunError::Unsupported(format!("texture `{}` has no declaration", t.texture)))?;
@@ -198,8 +226,21 @@ impl<'a> ScenePlan<'a> {
             }
             let target = match &pass.target {
                 RenderTarget::Texture { name } => PassTarget::Texture(rendered[name].clone()),
+                RenderTarget::Framebuffer { name, .. } if *name != self.main => PassTarget::Texture(rendered[name].clone()),
                 _ => PassTarget::Main,
             };
+            // Reads of the pass's own target, as it was before the pass.
+            let mut loaded = Vec::new();
+            for c in &s.target_copies {
+                let data = if c.depth {
+                    depth_of(&c.framebuffer)
+                } else if c.framebuffer != main {
+                    TextureData::Rendered { name: c.framebuffer.clone(), array: false }
+                } else {
+                    return Err(unsupported(format!("reads the colour of `{}`, the framebuffer read back, in its shader", c.framebuffer)));
+                };
+                loaded.push(LoadedTexture { binding: c.binding, data });
+            }
             let leaves = &s.interface.vertex_leaves;
             if !matches!(pass.geometry, Geometry::Mesh { .. }) {
                 // One full-screen (full-texture) rectangle: the `quad` input.
@@ -222,6 +263,7 @@ impl<'a> ScenePlan<'a> {
                     uniforms: has_block.then(|| uniform_bytes(&projections, &unis)),
                     state: pass.state,
                     target: target.clone(),
+                    loaded: loaded.clone(),
                     outputs: s.outputs,
                 });
                 continue;
@@ -248,6 +290,7 @@ impl<'a> ScenePlan<'a> {
                     uniforms: has_block.then(|| uniform_bytes(&projections, &unis)),
                     state: pass.state,
                     target: target.clone(),
+                    loaded: loaded.clone(),
                     outputs: s.outputs,
                 });
             }
@@ -263,7 +306,7 @@ impl<'a> ScenePlan<'a> {
     /// Renders into `target` (e.g. [`Target::float`], to compare a
     /// multipass plan with the CPU renderer's `f32` mode).
     pub fn render_into(&self, gpu: &Gpu, target: &Target) -> Result<RgbaImage, SceneRunError> {
-        let passes = self.passes(target.width, target.height)?;
+        let passes = self.passes_in(target)?;
         Ok(runner::run_passes(gpu, target, &passes)?)
     }
 }
