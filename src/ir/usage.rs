@@ -5,7 +5,7 @@
 
 use std::collections::BTreeSet;
 
-use super::{BinaryOp, Expr, Frequency, Handle, Module, Statement, Ty};
+use super::{BinaryOp, Expr, Frequency, Handle, Module, Statement, Table, Ty};
 use crate::parser::ast::{TextureFormat, TextureKind};
 
 /// Resources of one statement, each a list of the nodes that need them (so a
@@ -135,4 +135,25 @@ fn depends_on_any(module: &Module, h: Handle<Expr>, lookups: &BTreeSet<Handle<Ex
         stack.extend(module.operands(h));
     }
     false
+}
+
+/// Per texture of `m` (by id): how many members its fat texels hold — the
+/// array layers it is stored in — or 0 for an ordinary texture. A texture
+/// is fat when a statement writes a shading-parameter bundle into it
+/// (seeds/001 (5), (15)) or a shader reads members of its texels ((6), (14), (16)).
+pub fn fat_layers(m: &Module) -> Vec<u8> {
+    let mut layers = vec![0u8; m.textures.len()];
+    for st in &m.statements {
+        if let (Table::Texture(t), Ty::Bundle(n)) = (&st.table, m.info(st.value).ty) {
+            layers[*t as usize] = layers[*t as usize].max(n);
+        }
+    }
+    for (_, e) in m.exprs.arena().iter() {
+        if let Expr::FatMember { texel, member } = e {
+            if let Expr::Lookup { texture, .. } = m.exprs[*texel] {
+                layers[texture as usize] = layers[texture as usize].max(member + 1);
+            }
+        }
+    }
+    layers
 }

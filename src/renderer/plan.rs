@@ -179,11 +179,8 @@ impl<'a> PlanRenderer<'a> {
             roots.extend(pi.interpolants.iter().copied());
             for h in planned.module.reachable(&roots) {
                 match &planned.module.exprs[h] {
-                    Expr::Vector { site: ir::Site::Texel, .. } | Expr::FatMember { .. } | Expr::Bundle(_) => {
-                        return Err(RenderError::Unsupported(format!(
-                            "pass {} uses shading vectors per texel or fat textures (texture shading of a bundle); the CPU renderer does not run these yet",
-                            i + 1
-                        )))
+                    Expr::Vector { site: ir::Site::Texel, .. } => {
+                        return Err(RenderError::Unsupported(format!("pass {} uses shading vectors as a function of the texel coordinate, with no mesh to take them on", i + 1)))
                     }
                     _ => {}
                 }
@@ -233,10 +230,22 @@ impl<'a> PlanRenderer<'a> {
         let mut nonfinite = 0;
         let mut adaptive_stats = adaptive.map(|_| super::AdaptiveStats::default());
         let mut shading = Vec::with_capacity(plan.passes.len());
-        let total = plan.passes.iter().map(|p| if matches!(p.geometry, Geometry::Mesh { .. }) { objects.len() } else { 1 }).sum::<usize>();
+        let layers = |index: usize| match &m.exprs[self.planned.handle(plan.passes[index].fragment.output)] {
+            Expr::Bundle(members) => members.len(),
+            _ => 1,
+        };
+        let total = plan.passes.iter().enumerate().map(|(i, p)| layers(i) * if matches!(p.geometry, Geometry::Mesh { .. }) { objects.len() } else { 1 }).sum::<usize>();
         let mut done = 0;
         for (index, pass) in plan.passes.iter().enumerate() {
-            let pi = PassInterface::of(self.planned, index);
+          let whole = PassInterface::of(self.planned, index);
+          // A fat texel (seeds/001 (5), (15)): one draw per member, member i
+          // into layer i of the texture (`T`, then `T#1`, `T#2`, …).
+          let outputs = match &m.exprs[whole.output] {
+              Expr::Bundle(members) => members.clone(),
+              _ => vec![whole.output],
+          };
+          for (layer, output) in outputs.iter().enumerate() {
+            let pi = PassInterface { output: *output, ..whole.clone() };
             let (name, size) = match &pass.target {
                 RenderTarget::Framebuffer { name, .. } => (name.clone(), (width, height)),
                 RenderTarget::Temporary { name } => (name.clone(), (width, height)),
@@ -247,6 +256,7 @@ impl<'a> PlanRenderer<'a> {
                     (name.clone(), if by_texel { (s, s) } else { (width, height) })
                 }
             };
+            let name = if layer == 0 { name } else { format!("{name}#{layer}") };
             if !targets.contains_key(&name) {
                 let mut fb = Framebuffer::new(size.0, size.1, format)?;
                 fb.clear_color([0.0, 0.0, 0.0, 0.0]);
@@ -265,22 +275,16 @@ impl<'a> PlanRenderer<'a> {
                 }
             }
             let own_depth = targets.get(&name).cloned();
-            let machine = match mode {
+            let (machine, how) = match mode {
                 Mode::Fixed9 => match self.combiner_setup(index) {
-                    Ok((setup, stages)) => {
-                        shading.push(PassShading::Combiners { stages });
-                        Some(setup)
-                    }
-                    Err(why) => {
-                        shading.push(PassShading::PerOperation { why });
-                        None
-                    }
+                    Ok((setup, stages)) => (Some(setup), PassShading::Combiners { stages }),
+                    Err(why) => (None, PassShading::PerOperation { why }),
                 },
-                _ => {
-                    shading.push(PassShading::Float);
-                    None
-                }
+                _ => (None, PassShading::Float),
             };
+            if layer == 0 {
+                shading.push(how);
+            }
             let stage = FragmentProgram::new(self, mode, &pi, &rendered, reads, own_depth, machine, objects.first())?;
             let state = pass.state;
             let target = targets.get_mut(&name).expect("created above");
@@ -329,6 +333,7 @@ impl<'a> PlanRenderer<'a> {
                     rendered.insert(name.clone(), Rendered::from_framebuffer(fb, mipmap));
                 }
             }
+          }
         }
         let time = start.elapsed();
         let name = last_fb.ok_or_else(|| RenderError::Unsupported("the plan writes no framebuffer: nothing to show".into()))?;
@@ -410,6 +415,19 @@ struct Rendered {
 }
 
 impl Rendered {
+    /// The texel at a pixel position (`T xs`, `T δπx`), or sampled at
+    /// texture coordinates (level 0).
+    fn sample(&self, c: Value, coords_ty: Ty, filter: Filter) -> Value {
+        if coords_ty == Ty::Position {
+            match to_pixel(c, self.width, self.height) {
+                Some((x, y)) => self.pixels[(y * self.width + x) as usize].map(|v| v as f64),
+                None => [0.0; 4],
+            }
+        } else {
+            self.texture.sample(c[0] as f32, c[1] as f32, filter, 0.0).map(|v| v as f64)
+        }
+    }
+
     fn from_framebuffer(fb: &Framebuffer, mipmap: bool) -> Rendered {
         let pixels = fb.to_rgba_f32();
         let t = Texture2D::new(TexelFormat::F32, Wrap::ClampToEdge, Level::new(fb.width(), fb.height(), pixels.clone()));
@@ -537,6 +555,9 @@ enum Leaf {
     /// Interpolant k (varyings 4k..4k+4), normalized (exact, unit directions).
     Varying { k: usize, normalize: bool },
     Lookup { texture: TextureId, coords_ty: Ty, lod_from: Option<usize> },
+    /// Member `member` of a fat texel of `texture` (seeds/001 (6), (14),
+    /// (16)): layer `member` sampled at the lookup's coordinates.
+    FatMember { texture: TextureId, member: u8, coords_ty: Ty },
     Framebuffer { framebuffer: u32, channel: FbChannel },
     Pixel(Frequency),
     TexelCoord,
@@ -582,6 +603,8 @@ struct FragmentProgram<'a> {
     output_ty: Ty,
     condition: Option<u32>,
     sources: Vec<Source<'a>>,
+    /// Per texture: the layers of its fat texels, rendered by a bundle pass.
+    fat: Vec<Vec<&'a Rendered>>,
     reads: HashMap<u32, Framebuffer>,
     own: Option<Framebuffer>,
     filters: Vec<Filter>,
@@ -669,8 +692,10 @@ impl<'a> FragmentProgram<'a> {
             let baked = match baked_by {
                 Some(index) if mode == Mode::Exact && looked_up.contains(&(id as TextureId)) => {
                     let texel_pass = PassInterface::of(r.planned, index);
-                    // Only a function of the texel coordinate and uniforms can be evaluated anywhere.
-                    if texel_pass.interpolants.is_empty() {
+                    // Only a function of the texel coordinate and uniforms can be evaluated
+                    // anywhere (not solid mapping's (16), which reads the texture itself).
+                    let reads = m.reachable(&[texel_pass.output]).into_iter().any(|h| matches!(m.exprs[h], Expr::Lookup { .. } | Expr::FramebufferRead { .. }));
+                    if texel_pass.interpolants.is_empty() && !reads {
                         Some(FragmentProgram::new(r, mode, &texel_pass, rendered, HashMap::new(), None, None, None)?)
                     } else {
                         None
@@ -688,6 +713,12 @@ impl<'a> FragmentProgram<'a> {
                 Source::Missing
             });
         }
+        let fat: Vec<Vec<&Rendered>> = m
+            .textures
+            .iter()
+            .zip(ir::fat_layers(m))
+            .map(|(t, n)| (0..n).map_while(|i| rendered.get(&if i == 0 { t.name.clone() } else { format!("{}#{i}", t.name) })).collect())
+            .collect();
         let mut slot_of = vec![u32::MAX; n];
         let mut steps = Vec::new();
         let mut constants = Vec::new();
@@ -734,6 +765,19 @@ impl<'a> FragmentProgram<'a> {
                 }
                 Expr::Pixel { freq } => Some(Leaf::Pixel(*freq)),
                 Expr::TexelCoord => Some(Leaf::TexelCoord),
+                Expr::FatMember { texel, member } => {
+                    let Expr::Lookup { texture, coords } = m.exprs[*texel] else { return Err(RenderError::Unsupported("a fat member of something not a lookup".into())) };
+                    if fat[texture as usize].len() <= *member as usize {
+                        return Err(RenderError::Unsupported(format!(
+                            "member {} of the fat texels of `{}`, which no pass renders (a fat texture from an image has no layout yet)",
+                            member + 1,
+                            m.textures[texture as usize].name
+                        )));
+                    }
+                    ops[0] = slot_of[coords.index()];
+                    n_ops = 1;
+                    Some(Leaf::FatMember { texture, member: *member, coords_ty: m.info(coords).ty })
+                }
                 Expr::Project { projection, value } if m.info(*value).freq.is_sample() => match first_object {
                     Some(object) => {
                         ops[0] = slot_of[value.index()];
@@ -742,7 +786,7 @@ impl<'a> FragmentProgram<'a> {
                     }
                     None => Some(Leaf::Unknown),
                 },
-                Expr::VertexPosition(_) | Expr::TexCoord { .. } | Expr::Vector { .. } | Expr::Project { .. } | Expr::FatMember { .. } | Expr::Bundle(_) => Some(Leaf::Unknown),
+                Expr::VertexPosition(_) | Expr::TexCoord { .. } | Expr::Vector { .. } | Expr::Project { .. } | Expr::Bundle(_) => Some(Leaf::Unknown),
                 e => {
                     let operands = e.operands();
                     if operands.len() > 4 {
@@ -773,6 +817,7 @@ impl<'a> FragmentProgram<'a> {
             output_ty: m.info(pi.output).ty,
             condition: pi.condition.map(|c| slot_of[c.index()]),
             sources,
+            fat,
             reads,
             own,
             filters,
@@ -799,6 +844,7 @@ impl<'a> FragmentProgram<'a> {
                 out
             }
             Leaf::Lookup { texture, coords_ty, lod_from } => self.lookup(texture, operand, coords_ty, lod_from, fragment, varyings),
+            Leaf::FatMember { texture, member, coords_ty } => self.fat[texture as usize][member as usize].sample(operand, coords_ty, self.filters[texture as usize]),
             Leaf::Framebuffer { framebuffer, channel } => {
                 let Some(fb) = self.reads.get(&framebuffer) else { return [0.0; 4] };
                 // Outside the framebuffer: its cleared values (depth 1: far, not an occluder).
@@ -888,16 +934,7 @@ impl<'a> FragmentProgram<'a> {
                 };
                 out.map(|x| x as f64)
             }
-            Source::Rendered(rt) => {
-                if coords_ty == Ty::Position {
-                    match to_pixel(c, rt.width, rt.height) {
-                        Some((x, y)) => rt.pixels[(y * rt.width + x) as usize].map(|v| v as f64),
-                        None => [0.0; 4],
-                    }
-                } else {
-                    rt.texture.sample(c[0] as f32, c[1] as f32, filter, 0.0).map(|v| v as f64)
-                }
-            }
+            Source::Rendered(rt) => rt.sample(c, coords_ty, filter),
             Source::Baked { program, wrap } => {
                 let (u, v) = if coords_ty == Ty::Scalar { (c[0], 0.5) } else { (c[0], c[1]) };
                 let at = |x: f64| match wrap {

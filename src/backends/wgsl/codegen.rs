@@ -152,26 +152,7 @@ pub struct TargetCopy {
     pub depth: bool,
 }
 
-/// Per texture of `m` (by id): how many members its fat texels hold — the
-/// array layers it is stored in — or 0 for an ordinary texture. A texture
-/// is fat when a statement writes a shading-parameter bundle into it
-/// (seeds/001 (5), (15)) or a shader reads members of its texels ((6), (14), (16)).
-pub fn fat_layers(m: &ir::Module) -> Vec<u8> {
-    let mut layers = vec![0u8; m.textures.len()];
-    for st in &m.statements {
-        if let (ir::Table::Texture(t), Ty::Bundle(n)) = (&st.table, m.info(st.value).ty) {
-            layers[*t as usize] = layers[*t as usize].max(n);
-        }
-    }
-    for (_, e) in m.exprs.arena().iter() {
-        if let Expr::FatMember { texel, member } = e {
-            if let Expr::Lookup { texture, .. } = m.exprs[*texel] {
-                layers[texture as usize] = layers[texture as usize].max(member + 1);
-            }
-        }
-    }
-    layers
-}
+pub use crate::ir::fat_layers;
 
 /// The uniform block's bytes for a pass: the projection matrices
 /// (column-major, as WGSL stores `mat4x4<f32>`), then the uniforms.
