@@ -237,103 +237,103 @@ impl<'a> PlanRenderer<'a> {
         let total = plan.passes.iter().enumerate().map(|(i, p)| layers(i) * if matches!(p.geometry, Geometry::Mesh { .. }) { objects.len() } else { 1 }).sum::<usize>();
         let mut done = 0;
         for (index, pass) in plan.passes.iter().enumerate() {
-          let whole = PassInterface::of(self.planned, index);
-          // A fat texel (seeds/001 (5), (15)): one draw per member, member i
-          // into layer i of the texture (`T`, then `T#1`, `T#2`, …).
-          let outputs = match &m.exprs[whole.output] {
-              Expr::Bundle(members) => members.clone(),
-              _ => vec![whole.output],
-          };
-          for (layer, output) in outputs.iter().enumerate() {
-            let pi = PassInterface { output: *output, ..whole.clone() };
-            let (name, size) = match &pass.target {
-                RenderTarget::Framebuffer { name, .. } => (name.clone(), (width, height)),
-                RenderTarget::Temporary { name } => (name.clone(), (width, height)),
-                RenderTarget::Texture { name } => {
-                    // Over its texels, or the mesh rasterized in texture space (`T δu x ←`).
-                    let by_texel = matches!(pass.geometry, Geometry::Texels) || pi.position.is_some_and(|p| m.info(p).ty == Ty::Vec2);
-                    let s = if by_texel { bind::RENDERED_TEXTURE_SIZE } else { width.max(height) };
-                    (name.clone(), if by_texel { (s, s) } else { (width, height) })
-                }
+            let whole = PassInterface::of(self.planned, index);
+            // A fat texel (seeds/001 (5), (15)): one draw per member, member i
+            // into layer i of the texture (`T`, then `T#1`, `T#2`, …).
+            let outputs = match &m.exprs[whole.output] {
+                Expr::Bundle(members) => members.clone(),
+                _ => vec![whole.output],
             };
-            let name = if layer == 0 { name } else { format!("{name}#{layer}") };
-            if !targets.contains_key(&name) {
-                let mut fb = Framebuffer::new(size.0, size.1, format)?;
-                fb.clear_color([0.0, 0.0, 0.0, 0.0]);
-                targets.insert(name.clone(), fb);
-            }
-            // Snapshots of the framebuffers this pass reads (another's, or its own in a screen pass).
-            let mut reads: HashMap<u32, Framebuffer> = HashMap::new();
-            let mut roots = vec![pi.output];
-            roots.extend(pi.condition);
-            for h in m.reachable(&roots) {
-                if let Expr::FramebufferRead { framebuffer, .. } = m.exprs[h] {
-                    let fname = &m.framebuffers[framebuffer as usize].name;
-                    if let Some(fb) = targets.get(fname) {
-                        reads.entry(framebuffer).or_insert_with(|| fb.clone());
+            for (layer, output) in outputs.iter().enumerate() {
+                let pi = PassInterface { output: *output, ..whole.clone() };
+                let (name, size) = match &pass.target {
+                    RenderTarget::Framebuffer { name, .. } => (name.clone(), (width, height)),
+                    RenderTarget::Temporary { name } => (name.clone(), (width, height)),
+                    RenderTarget::Texture { name } => {
+                        // Over its texels, or the mesh rasterized in texture space (`T δu x ←`).
+                        let by_texel = matches!(pass.geometry, Geometry::Texels) || pi.position.is_some_and(|p| m.info(p).ty == Ty::Vec2);
+                        let s = if by_texel { bind::RENDERED_TEXTURE_SIZE } else { width.max(height) };
+                        (name.clone(), if by_texel { (s, s) } else { (width, height) })
+                    }
+                };
+                let name = if layer == 0 { name } else { format!("{name}#{layer}") };
+                if !targets.contains_key(&name) {
+                    let mut fb = Framebuffer::new(size.0, size.1, format)?;
+                    fb.clear_color([0.0, 0.0, 0.0, 0.0]);
+                    targets.insert(name.clone(), fb);
+                }
+                // Snapshots of the framebuffers this pass reads (another's, or its own in a screen pass).
+                let mut reads: HashMap<u32, Framebuffer> = HashMap::new();
+                let mut roots = vec![pi.output];
+                roots.extend(pi.condition);
+                for h in m.reachable(&roots) {
+                    if let Expr::FramebufferRead { framebuffer, .. } = m.exprs[h] {
+                        let fname = &m.framebuffers[framebuffer as usize].name;
+                        if let Some(fb) = targets.get(fname) {
+                            reads.entry(framebuffer).or_insert_with(|| fb.clone());
+                        }
                     }
                 }
-            }
-            let own_depth = targets.get(&name).cloned();
-            let (machine, how) = match mode {
-                Mode::Fixed9 => match self.combiner_setup(index) {
-                    Ok((setup, stages)) => (Some(setup), PassShading::Combiners { stages }),
-                    Err(why) => (None, PassShading::PerOperation { why }),
-                },
-                _ => (None, PassShading::Float),
-            };
-            if layer == 0 {
-                shading.push(how);
-            }
-            let stage = FragmentProgram::new(self, mode, &pi, &rendered, reads, own_depth, machine, objects.first())?;
-            let state = pass.state;
-            let target = targets.get_mut(&name).expect("created above");
-            let counted = &stage.nonfinite;
-            match &pass.geometry {
-                Geometry::Mesh { .. } if adaptive.is_some() && !state.stencil.enabled => {
-                    // One adaptive draw over every object of the pass, so that
-                    // silhouettes between objects are edges (Section 2.1.3).
-                    let drawn: Vec<&BoundObject> = objects.iter().enumerate().filter(|(oi, _)| pass.objects.as_ref().is_none_or(|keep| keep.contains(oi))).map(|(_, o)| o).collect();
-                    let vertices: Vec<MeshVertices> = drawn.iter().map(|o| MeshVertices::new(m, o, &pi, &self.uniforms)).collect();
-                    let passes: Vec<RasterPass> = drawn.iter().zip(&vertices).map(|(o, vs)| RasterPass { triangles: &o.mesh.triangles, vertex: vs, fragment: &stage, state }).collect();
-                    let s = super::draw_adaptive(target, &passes, adaptive.expect("matched"))?;
-                    adaptive_stats = adaptive_stats.map(|a| a.add(s));
-                    done += objects.len();
-                    progress(done, total);
+                let own_depth = targets.get(&name).cloned();
+                let (machine, how) = match mode {
+                    Mode::Fixed9 => match self.combiner_setup(index) {
+                        Ok((setup, stages)) => (Some(setup), PassShading::Combiners { stages }),
+                        Err(why) => (None, PassShading::PerOperation { why }),
+                    },
+                    _ => (None, PassShading::Float),
+                };
+                if layer == 0 {
+                    shading.push(how);
                 }
-                Geometry::Mesh { .. } => {
-                    for (oi, object) in objects.iter().enumerate() {
-                        // Light culling drew this light's pass only for some objects.
-                        if pass.objects.as_ref().is_some_and(|keep| !keep.contains(&oi)) {
+                let stage = FragmentProgram::new(self, mode, &pi, &rendered, reads, own_depth, machine, objects.first())?;
+                let state = pass.state;
+                let target = targets.get_mut(&name).expect("created above");
+                let counted = &stage.nonfinite;
+                match &pass.geometry {
+                    Geometry::Mesh { .. } if adaptive.is_some() && !state.stencil.enabled => {
+                        // One adaptive draw over every object of the pass, so that
+                        // silhouettes between objects are edges (Section 2.1.3).
+                        let drawn: Vec<&BoundObject> = objects.iter().enumerate().filter(|(oi, _)| pass.objects.as_ref().is_none_or(|keep| keep.contains(oi))).map(|(_, o)| o).collect();
+                        let vertices: Vec<MeshVertices> = drawn.iter().map(|o| MeshVertices::new(m, o, &pi, &self.uniforms)).collect();
+                        let passes: Vec<RasterPass> = drawn.iter().zip(&vertices).map(|(o, vs)| RasterPass { triangles: &o.mesh.triangles, vertex: vs, fragment: &stage, state }).collect();
+                        let s = super::draw_adaptive(target, &passes, adaptive.expect("matched"))?;
+                        adaptive_stats = adaptive_stats.map(|a| a.add(s));
+                        done += objects.len();
+                        progress(done, total);
+                    }
+                    Geometry::Mesh { .. } => {
+                        for (oi, object) in objects.iter().enumerate() {
+                            // Light culling drew this light's pass only for some objects.
+                            if pass.objects.as_ref().is_some_and(|keep| !keep.contains(&oi)) {
+                                done += 1;
+                                continue;
+                            }
+                            let vs = MeshVertices::new(m, object, &pi, &self.uniforms);
+                            let s = super::draw(target, &RasterPass { triangles: &object.mesh.triangles, vertex: &vs, fragment: &stage, state })?;
+                            add(&mut stats, &s);
                             done += 1;
-                            continue;
+                            progress(done, total);
                         }
-                        let vs = MeshVertices::new(m, object, &pi, &self.uniforms);
-                        let s = super::draw(target, &RasterPass { triangles: &object.mesh.triangles, vertex: &vs, fragment: &stage, state })?;
+                    }
+                    Geometry::Screen | Geometry::Texels => {
+                        let quad = Quad;
+                        let state = super::RenderState { cull: CullMode::None, ..state };
+                        let s = super::draw(target, &RasterPass { triangles: &[[0, 1, 2], [0, 2, 3]], vertex: &quad, fragment: &stage, state })?;
                         add(&mut stats, &s);
                         done += 1;
                         progress(done, total);
                     }
                 }
-                Geometry::Screen | Geometry::Texels => {
-                    let quad = Quad;
-                    let state = super::RenderState { cull: CullMode::None, ..state };
-                    let s = super::draw(target, &RasterPass { triangles: &[[0, 1, 2], [0, 2, 3]], vertex: &quad, fragment: &stage, state })?;
-                    add(&mut stats, &s);
-                    done += 1;
-                    progress(done, total);
+                nonfinite += counted.load(Ordering::Relaxed);
+                match &pass.target {
+                    RenderTarget::Framebuffer { .. } => last_fb = Some(name.clone()),
+                    RenderTarget::Texture { .. } | RenderTarget::Temporary { .. } => {
+                        let fb = &targets[&name];
+                        let mipmap = self.decls.iter().any(|d| d.name == name && d.mipmap);
+                        rendered.insert(name.clone(), Rendered::from_framebuffer(fb, mipmap));
+                    }
                 }
             }
-            nonfinite += counted.load(Ordering::Relaxed);
-            match &pass.target {
-                RenderTarget::Framebuffer { .. } => last_fb = Some(name.clone()),
-                RenderTarget::Texture { .. } | RenderTarget::Temporary { .. } => {
-                    let fb = &targets[&name];
-                    let mipmap = self.decls.iter().any(|d| d.name == name && d.mipmap);
-                    rendered.insert(name.clone(), Rendered::from_framebuffer(fb, mipmap));
-                }
-            }
-          }
         }
         let time = start.elapsed();
         let name = last_fb.ok_or_else(|| RenderError::Unsupported("the plan writes no framebuffer: nothing to show".into()))?;
