@@ -12,7 +12,7 @@ mod common;
 
 use shadec::backends::wgsl::runner::{PassTarget, 
     run_passes, validate_shader, DepthFormat, GpuError, RunPass, RunShader, RunTexture, SamplerSettings,
-    ShaderSource, Target, TextureData, VertexData,
+    ShaderSource, Target, TexelUpload, TextureData, VertexData,
 };
 use shadec::renderer::{BlendState, CullMode, DepthState, RenderState, StencilState};
 
@@ -252,6 +252,7 @@ fn textured_quad_with_nearest_filtering_returns_exact_texels() {
                 rgba,
             },
             sampler: SamplerSettings::NEAREST_CLAMP,
+            texels: TexelUpload::Rgba8,
         }],
         uniforms: Some(bytemuck::cast_slice(&mask).to_vec()),
         state: state(DepthState::LESS_WRITE, BlendState::REPLACE),
@@ -313,6 +314,7 @@ fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
         textures: vec![RunTexture {
             data: TextureData::Cube { size: 2, rgba },
             sampler: SamplerSettings::NEAREST_CLAMP,
+            texels: TexelUpload::Rgba8,
         }],
         uniforms: None,
         state: state(DepthState::DISABLED, BlendState::REPLACE),

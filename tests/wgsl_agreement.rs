@@ -311,7 +311,7 @@ fn kilgard_terms_below_the_eighth_power_agree_with_cpu_f32() {
 // for bit, on coordinates both sides compute exactly (dyadic rationals: no
 // rounding anywhere before the sampler).
 
-use shadec::backends::wgsl::runner::{AddressMode, Filter as RunFilter, RunTexture, SamplerSettings, TextureData};
+use shadec::backends::wgsl::runner::{AddressMode, Filter as RunFilter, RunTexture, SamplerSettings, TexelUpload, TextureData};
 use shadec::textures::{unit, Filter, Level, TexelFormat, Texture2D, TextureCube, Wrap};
 
 /// A deterministic pseudo-random RGBA8 image.
@@ -365,14 +365,14 @@ fn texture_unit_bilinear_matches_lavapipe_bit_for_bit() {
     for (wrap, address, offset) in [(Wrap::Repeat, AddressMode::Repeat, 0.0f32), (Wrap::ClampToEdge, AddressMode::ClampToEdge, -1.5)] {
         let sampler = SamplerSettings { mag: RunFilter::Linear, min: RunFilter::Linear, address, mipmap: None };
         let body = format!("let uv = vec2<f32>(p.x / 4096.0 + p.y / 16.0 + {offset:?}, p.y * 3.0 / 4096.0 + p.x / 64.0 + {offset:?}); return textureSample(t, s, uv);");
-        let got = draw_rect(&gpu, w, h, "", &body, RunTexture { data: TextureData::D2 { width: tw, height: th, rgba: rgba.clone() }, sampler });
+        let got = draw_rect(&gpu, w, h, "", &body, RunTexture { data: TextureData::D2 { width: tw, height: th, rgba: rgba.clone() }, sampler, texels: TexelUpload::Rgba8 });
         let t = Texture2D::new(TexelFormat::Rgba8, wrap, level_of(tw, th, &rgba));
         let mut differ = 0;
         for y in 0..h {
             for x in 0..w {
                 let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
                 let (u, v) = (px / 4096.0 + py / 16.0 + offset, py * 3.0 / 4096.0 + px / 64.0 + offset);
-                let want = bytes(unit::sample_2d(&t, u, v, Filter::Bilinear, f32::NEG_INFINITY));
+                let want = bytes(unit::sample_2d(&t, u, v, Filter::Bilinear, f32::NEG_INFINITY, unit::Arithmetic::Fixed8));
                 let i = 4 * (y * w + x) as usize;
                 if got[i..i + 4] != want {
                     differ += 1;
@@ -400,7 +400,7 @@ fn texture_unit_trilinear_lod_matches_lavapipe_bit_for_bit() {
     }
     let sampler = SamplerSettings { mag: RunFilter::Linear, min: RunFilter::Linear, address: AddressMode::Repeat, mipmap: Some(RunFilter::Linear) };
     let body = "let uv = vec2<f32>(p.x * p.x / 4096.0, p.y * p.y / 8192.0); return textureSample(t, s, uv);";
-    let got = draw_rect(&gpu, w, h, "", body, RunTexture { data: TextureData::D2Mipmapped { width: size, height: size, levels }, sampler });
+    let got = draw_rect(&gpu, w, h, "", body, RunTexture { data: TextureData::D2Mipmapped { width: size, height: size, levels }, sampler, texels: TexelUpload::Rgba8 });
     let t = Texture2D { format: TexelFormat::Rgba8, wrap: Wrap::Repeat, levels: chain };
     let coord = |x: u32, y: u32| {
         let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
@@ -415,7 +415,7 @@ fn texture_unit_trilinear_lod_matches_lavapipe_bit_for_bit() {
             let (u01, v01) = coord(x0, y0 + 1);
             let lod = unit::quad_lod(size, size, [u10 - u00, v10 - v00], [u01 - u00, v01 - v00]);
             let (u, v) = coord(x, y);
-            let want = bytes(unit::sample_2d(&t, u, v, Filter::Trilinear, lod));
+            let want = bytes(unit::sample_2d(&t, u, v, Filter::Trilinear, lod, unit::Arithmetic::Fixed8));
             let i = 4 * (y * w + x) as usize;
             if got[i..i + 4] != want {
                 differ += 1;
@@ -423,6 +423,55 @@ fn texture_unit_trilinear_lod_matches_lavapipe_bit_for_bit() {
         }
     }
     assert_eq!(differ, 0, "{differ} of {} pixels differ from textures::unit", w * h);
+}
+
+/// Exact fidelity's upload: the same 8-bit texels as 16-bit unorm, which
+/// lavapipe filters in float (`unit::Arithmetic::Float`), with the same
+/// quad λ: within 1/255 of the model once the result is rounded to the
+/// RGBA8 target (float arithmetic orders differ by an ulp, so a few
+/// results round the other way), never the 8-bit model's value steps.
+#[test]
+fn texture_unit_16bit_upload_filters_in_float() {
+    let Some(gpu) = gpu() else { return };
+    assert!(gpu.filters_16bit_norm(), "the device has no TEXTURE_FORMAT_16BIT_NORM: exact fidelity falls back to RGBA8");
+    let (size, w, h) = (64u32, 256u32, 256u32);
+    let (mut levels, mut chain, mut s) = (Vec::new(), Vec::new(), size);
+    while s >= 1 {
+        let rgba = noise((s * s * 4) as usize, 11 + s as u64);
+        chain.push(level_of(s, s, &rgba));
+        levels.push(rgba.iter().flat_map(|&k| (k as u16 * 257).to_ne_bytes()).collect::<Vec<u8>>());
+        s /= 2;
+    }
+    let sampler = SamplerSettings { mag: RunFilter::Linear, min: RunFilter::Linear, address: AddressMode::Repeat, mipmap: Some(RunFilter::Linear) };
+    let body = "let uv = vec2<f32>(p.x * p.x / 4096.0, p.y * p.y / 8192.0); return textureSample(t, s, uv);";
+    let got = draw_rect(&gpu, w, h, "", body, RunTexture { data: TextureData::D2Mipmapped { width: size, height: size, levels }, sampler, texels: TexelUpload::Rgba16 });
+    let t = Texture2D { format: TexelFormat::Rgba8, wrap: Wrap::Repeat, levels: chain };
+    let coord = |x: u32, y: u32| {
+        let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+        (px * px / 4096.0, py * py / 8192.0)
+    };
+    let (mut max, mut differ, mut fixed_differ) = (0u8, 0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let (x0, y0) = (x & !1, y & !1);
+            let (u00, v00) = coord(x0, y0);
+            let (u10, v10) = coord(x0 + 1, y0);
+            let (u01, v01) = coord(x0, y0 + 1);
+            let lod = unit::quad_lod(size, size, [u10 - u00, v10 - v00], [u01 - u00, v01 - v00]);
+            let (u, v) = coord(x, y);
+            let want = bytes(unit::sample_2d(&t, u, v, Filter::Trilinear, lod, unit::Arithmetic::Float));
+            let fixed = bytes(unit::sample_2d(&t, u, v, Filter::Trilinear, lod, unit::Arithmetic::Fixed8));
+            let i = 4 * (y * w + x) as usize;
+            let m = (0..4).map(|c| got[i + c].abs_diff(want[c])).max().unwrap();
+            max = max.max(m);
+            differ += (m > 0) as usize;
+            fixed_differ += (got[i..i + 4] != fixed) as usize;
+        }
+    }
+    eprintln!("16-bit upload: max {max}/255, {differ} of {} pixels differ from the float model, {fixed_differ} from the 8-bit one", w * h);
+    assert!(max <= 1, "16-bit upload: up to {max}/255 off the float model");
+    assert!(differ * 100 < (w * h) as usize, "16-bit upload: {differ} pixels differ from the float model");
+    assert!(fixed_differ > 10 * differ, "16-bit upload looks like 8-bit filtering: {fixed_differ} pixels off the 8-bit model, {differ} off the float one");
 }
 
 /// Seamless cube filtering, every face, edge and corner: within 1/255 (the
@@ -436,7 +485,7 @@ fn texture_unit_seamless_cube_matches_lavapipe() {
     let cube = TextureCube { faces: faces.try_into().unwrap() };
     let sampler = SamplerSettings { mag: RunFilter::Linear, min: RunFilter::Linear, address: AddressMode::ClampToEdge, mipmap: None };
     let body = "let d = vec3<f32>(p.x / 64.0 - 2.0, p.y / 16.0 - 2.0, fract(p.x / 16.0) * 2.0 - 1.0); return textureSample(t, s, d);";
-    let got = draw_rect(&gpu, w, h, "", body, RunTexture { data: TextureData::Cube { size, rgba }, sampler });
+    let got = draw_rect(&gpu, w, h, "", body, RunTexture { data: TextureData::Cube { size, rgba }, sampler, texels: TexelUpload::Rgba8 });
     let (mut max, mut differ) = (0u8, 0);
     for y in 0..h {
         for x in 0..w {

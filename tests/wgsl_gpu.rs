@@ -13,7 +13,7 @@ use shadec::backends::combiners::config::CombinerLimits;
 use shadec::backends::combiners::emulator::{emulate, Inputs, Precision};
 use shadec::backends::combiners::rc1;
 use shadec::backends::wgsl::codegen::{self, uniform_bytes, Fidelity};
-use shadec::backends::wgsl::runner::{PassTarget, run_passes, RunPass, RunShader, RunTexture, SamplerSettings, ShaderSource, Target, TextureData, VertexData};
+use shadec::backends::wgsl::runner::{PassTarget, run_passes, RunPass, RunShader, RunTexture, SamplerSettings, ShaderSource, Target, TexelUpload, TextureData, VertexData};
 use shadec::ir::Expr;
 use shadec::renderer::{BlendState, CullMode, DepthState, RenderState, StencilState};
 
@@ -65,7 +65,7 @@ fn translated_matches_emulator(file: &str) {
         shader: RunShader { source: ShaderSource::Wgsl(wgsl), vertex_entry: "vs_main".into(), fragment_entry: "fs_main".into() },
         vertices: VertexData { floats, components: vec![4] },
         indices: vec![0, 1, 2, 0, 2, 3],
-        textures: images.iter().map(|rgba| RunTexture { data: TextureData::D2 { width: w, height: h, rgba: rgba.clone() }, sampler: SamplerSettings::NEAREST_CLAMP }).collect(),
+        textures: images.iter().map(|rgba| RunTexture { data: TextureData::D2 { width: w, height: h, rgba: rgba.clone() }, sampler: SamplerSettings::NEAREST_CLAMP, texels: TexelUpload::Rgba8 }).collect(),
         uniforms: Some(uniforms),
         state: FULL,
         target: PassTarget::Main,

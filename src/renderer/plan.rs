@@ -903,8 +903,10 @@ impl<'a> FragmentProgram<'a> {
                     Texture::Flat(t) if self.mode != Mode::Exact => {
                         // f32 and fixed9 sample as the WGSL target's texture
                         // unit does (`textures::unit`: a level of detail per
-                        // 2×2 quad, 8-bit filtering of 8-bit textures), so
-                        // the wgpu image agrees with them (issue 5).
+                        // 2×2 quad; 8-bit textures filtered in 8.8 fixed
+                        // point in fixed9, as hardware fidelity uploads them,
+                        // in float in f32, as exact fidelity does), so the
+                        // wgpu image agrees with them (issue 5).
                         let (u, v) = if coords_ty == Ty::Scalar { (c[0], 0.5) } else { (c[0], c[1]) };
                         let lod = match lod_from {
                             Some(k) if t.levels.len() > 1 => {
@@ -914,7 +916,8 @@ impl<'a> FragmentProgram<'a> {
                             }
                             _ => f32::NEG_INFINITY,
                         };
-                        unit::sample_2d(t, u as f32, v as f32, filter, lod)
+                        let arithmetic = if self.mode == Mode::Fixed9 { unit::Arithmetic::Fixed8 } else { unit::Arithmetic::Float };
+                        unit::sample_2d(t, u as f32, v as f32, filter, lod, arithmetic)
                     }
                     Texture::Cube(t) if self.mode != Mode::Exact => unit::sample_cube(t, [c[0] as f32, c[1] as f32, c[2] as f32], filter),
                     Texture::Flat(t) => {

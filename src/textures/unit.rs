@@ -21,7 +21,8 @@
 //!   filtering truncates the fraction of λ to 8 bits (the spec's
 //!   `mipmapPrecisionBits`); nearest mipmap filtering rounds λ exactly
 //!   (half up).
-//! - **8-bit textures filter in 8.8 fixed point** (Vulkan §16.8:
+//! - **8-bit textures filter in 8.8 fixed point** in `fixed9` mode
+//!   ([`Arithmetic::Fixed8`]; Vulkan §16.8:
 //!   `subTexelPrecisionBits` = 8 on lavapipe; the precision of the filter
 //!   arithmetic is the implementation's): the unnormalized coordinate
 //!   u·size·256 is rounded to an integer (ties to even), ½ texel (128)
@@ -30,7 +31,11 @@
 //!   on the 8-bit texel values, the result again 8-bit — horizontally on both
 //!   rows, then vertically, then (trilinear) between the two levels with the
 //!   8-bit λ fraction. Other formats filter in f32 with the same weights
-//!   unquantized.
+//!   unquantized — and so do 8-bit textures in `f32` mode
+//!   ([`Arithmetic::Float`]): exact fidelity uploads them to wgpu as 16-bit
+//!   unorm (k·257, the same values), which lavapipe filters in float, so a
+//!   filtered texel is not rounded to 8 bits before the shader's math (a
+//!   1/255 step there became up to 6/255 under Kilgard's `^8`).
 //! - **Cube maps are seamless** (WebGPU and Vulkan always filter cube maps
 //!   seamlessly; GL 4.6 §8.13.1): a bilinear footprint that leaves a face
 //!   takes the adjacent face's texels (GL's rule: the texel whose centre the
@@ -64,8 +69,21 @@ fn piecewise_log2(x: f32) -> f32 {
     (e - 1) as f32 + m
 }
 
+/// How a texture unit computes with the texels of an 8-bit texture (module
+/// docs); other formats always filter in float.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Arithmetic {
+    /// 8.8 fixed point, 8-bit results: the hardware (`fixed9`) model, and
+    /// lavapipe on `Rgba8Unorm`.
+    Fixed8,
+    /// f32 weights and results: the `f32` model, and lavapipe on the
+    /// `Rgba16Unorm` upload of exact fidelity.
+    Float,
+}
+
 /// Samples a 2D texture at (u, v) with level of detail `lod` ([`quad_lod`]).
-pub fn sample_2d(t: &Texture2D, u: f32, v: f32, filter: Filter, lod: f32) -> [f32; 4] {
+pub fn sample_2d(t: &Texture2D, u: f32, v: f32, filter: Filter, lod: f32, arithmetic: Arithmetic) -> [f32; 4] {
+    let fixed = arithmetic == Arithmetic::Fixed8 && t.format == TexelFormat::Rgba8;
     let last = t.levels.len() - 1;
     let lod = if lod.is_nan() { f32::NEG_INFINITY } else { lod };
     match filter {
@@ -77,30 +95,30 @@ pub fn sample_2d(t: &Texture2D, u: f32, v: f32, filter: Filter, lod: f32) -> [f3
             if filter == Filter::Nearest {
                 l.sample_nearest(u, v, t.wrap)
             } else {
-                bilinear(l, t.format, u, v, t.wrap)
+                bilinear(l, fixed, u, v, t.wrap)
             }
         }
         Filter::Trilinear => {
             let floor = lod.floor();
             if lod.is_infinite() || floor < 0.0 || last == 0 {
-                return bilinear(&t.levels[0], t.format, u, v, t.wrap);
+                return bilinear(&t.levels[0], fixed, u, v, t.wrap);
             }
             let l0 = floor as usize;
             if l0 >= last {
-                return bilinear(&t.levels[last], t.format, u, v, t.wrap);
+                return bilinear(&t.levels[last], fixed, u, v, t.wrap);
             }
             let fraction = lod - floor;
-            let a = bilinear(&t.levels[l0], t.format, u, v, t.wrap);
-            if t.format == TexelFormat::Rgba8 {
+            let a = bilinear(&t.levels[l0], fixed, u, v, t.wrap);
+            if fixed {
                 // mipmapPrecisionBits = 8, truncated.
                 let w = (fraction * 256.0) as i32;
                 if w <= 0 {
                     return a;
                 }
-                let b = bilinear(&t.levels[l0 + 1], t.format, u, v, t.wrap);
+                let b = bilinear(&t.levels[l0 + 1], fixed, u, v, t.wrap);
                 [0, 1, 2, 3].map(|c| lerp8(w, to_byte(a[c]), to_byte(b[c])) as f32 / 255.0)
             } else {
-                let b = bilinear(&t.levels[l0 + 1], t.format, u, v, t.wrap);
+                let b = bilinear(&t.levels[l0 + 1], fixed, u, v, t.wrap);
                 [0, 1, 2, 3].map(|c| a[c] + fraction * (b[c] - a[c]))
             }
         }
@@ -165,10 +183,10 @@ fn cube_texel(c: &TextureCube, face: CubeFace, i: i64, j: i64) -> [f32; 4] {
     l.texel(x as u32, y as u32)
 }
 
-/// Bilinear filtering of one level: 8.8 fixed point for 8-bit textures,
-/// else f32 (module docs).
-fn bilinear(level: &Level, format: TexelFormat, u: f32, v: f32, wrap: Wrap) -> [f32; 4] {
-    if format != TexelFormat::Rgba8 {
+/// Bilinear filtering of one level: 8.8 fixed point when `fixed` (an 8-bit
+/// texture, [`Arithmetic::Fixed8`]), else f32 (module docs).
+fn bilinear(level: &Level, fixed: bool, u: f32, v: f32, wrap: Wrap) -> [f32; 4] {
+    if !fixed {
         return level.sample_bilinear(u, v, wrap);
     }
     let (x0, x1, wx) = fixed_coordinate(u, level.width, wrap);
@@ -251,7 +269,7 @@ mod tests {
         let t = two_texels([0.0; 4], [1.0; 4]);
         let at = |x: u32| {
             let u = 0.25 + 0.5 * (x as f32 + 0.5) / 256.0;
-            (sample_2d(&t, u, 0.5, Filter::Bilinear, 0.0)[0] * 255.0).round() as u32
+            (sample_2d(&t, u, 0.5, Filter::Bilinear, 0.0, Arithmetic::Fixed8)[0] * 255.0).round() as u32
         };
         // u·512 = 128 + x + ½ rounds to the even neighbour: weights 0, 2, 2, 4, 4 …
         // and 255·w/256 rounds: 0, 2, 2, 4, 4, …; 128 → 128; 130 → 129.
@@ -259,8 +277,11 @@ mod tests {
         assert_eq!([at(127), at(128), at(129), at(130), at(131)], [128, 128, 129, 129, 131]);
         // The result is 8-bit: between 10 and 11 there is nothing.
         let t = two_texels([10.0 / 255.0; 4], [11.0 / 255.0; 4]);
-        let s = sample_2d(&t, 0.25 + 0.5 * 0.3, 0.5, Filter::Bilinear, 0.0);
+        let s = sample_2d(&t, 0.25 + 0.5 * 0.3, 0.5, Filter::Bilinear, 0.0, Arithmetic::Fixed8);
         assert_eq!(s[0], 10.0 / 255.0);
+        // In float it is: 30% of the way.
+        let s = sample_2d(&t, 0.25 + 0.5 * 0.3, 0.5, Filter::Bilinear, 0.0, Arithmetic::Float);
+        assert!((s[0] * 255.0 - 10.3).abs() < 1e-4, "{}", s[0] * 255.0);
     }
 
     #[test]

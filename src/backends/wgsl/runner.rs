@@ -76,6 +76,9 @@ impl Gpu {
             .map_err(|err| GpuError::NoAdapter(err.to_string()))?;
         let descriptor = wgpu::DeviceDescriptor {
             label: Some("shadec runner"),
+            // 16-bit unorm textures, where the adapter has them: exact
+            // fidelity's uploads (`TexelUpload::Rgba16`).
+            required_features: adapter.features() & wgpu::Features::TEXTURE_FORMAT_16BIT_NORM,
             required_limits: adapter.limits(),
             ..Default::default()
         };
@@ -96,6 +99,12 @@ impl Gpu {
 
     pub fn device(&self) -> &wgpu::Device {
         &self.device
+    }
+
+    /// Whether [`TexelUpload::Rgba16`] textures are uploaded as
+    /// `Rgba16Unorm` (else rounded to `Rgba8Unorm`).
+    pub fn filters_16bit_norm(&self) -> bool {
+        self.device.features().contains(wgpu::Features::TEXTURE_FORMAT_16BIT_NORM)
     }
 }
 
@@ -174,7 +183,8 @@ impl SamplerSettings {
     };
 }
 
-/// RGBA8 (unorm, not sRGB: the framebuffer is linear, as in the papers) texels.
+/// Texels (unorm, not sRGB: the framebuffer is linear, as in the papers) in
+/// the layout of [`RunTexture::texels`], or a texture rendered in the run.
 #[derive(Clone, Debug, PartialEq)]
 pub enum TextureData {
     /// `width × height` texels, row 0 at texture coordinate v = 0.
@@ -234,6 +244,32 @@ pub struct RenderedTexture {
 pub struct RunTexture {
     pub data: TextureData,
     pub sampler: SamplerSettings,
+    /// How the texel bytes of `data` are laid out and uploaded.
+    pub texels: TexelUpload,
+}
+
+/// The texel format a [`TextureData`] image is uploaded in: what a texture
+/// unit filters, and at which precision (`textures::unit`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum TexelUpload {
+    /// `Rgba8Unorm`, 4 bytes a texel. lavapipe filters it in 8.8 fixed
+    /// point with 8-bit results, as the papers' hardware did.
+    #[default]
+    Rgba8,
+    /// `Rgba16Unorm`, four native-endian `u16` (8 bytes) a texel; 8-bit
+    /// values k/255 are exact (k·257). Filtered in float: exact fidelity.
+    /// On a device without `TEXTURE_FORMAT_16BIT_NORM` the runner uploads
+    /// it rounded to `Rgba8Unorm` (see [`Gpu::filters_16bit_norm`]).
+    Rgba16,
+}
+
+impl TexelUpload {
+    pub fn bytes_per_texel(self) -> usize {
+        match self {
+            TexelUpload::Rgba8 => 4,
+            TexelUpload::Rgba16 => 8,
+        }
+    }
 }
 
 /// One draw: a shader, a triangle list and the fixed-function state.
@@ -802,21 +838,22 @@ fn check_pass(pass: &RunPass, target: &Target, rendered: &BTreeMap<String, Rende
         ));
     }
     for (texture_idx, texture) in pass.textures.iter().enumerate() {
+        let bpt = texture.texels.bytes_per_texel();
         let (expected, what) = match texture.data {
-            TextureData::D2 { width, height, .. } => (width as usize * height as usize * 4, "2D"),
-            TextureData::Cube { size, .. } => (size as usize * size as usize * 4 * 6, "cube"),
+            TextureData::D2 { width, height, .. } => (width as usize * height as usize * bpt, "2D"),
+            TextureData::Cube { size, .. } => (size as usize * size as usize * bpt * 6, "cube"),
             TextureData::Rendered { .. } | TextureData::RenderedDepth { .. } => {
                 check_rendered(&texture.data, rendered).map_err(|message| GpuError::InvalidInput { pass: pass.label.clone(), message: format!("texture {texture_idx}: {message}") })?;
                 continue;
             }
             TextureData::D2Mipmapped { width, height, ref levels } => {
                 for (k, level) in levels.iter().enumerate() {
-                    let need = (width >> k).max(1) as usize * (height >> k).max(1) as usize * 4;
+                    let need = (width >> k).max(1) as usize * (height >> k).max(1) as usize * bpt;
                     if level.len() != need {
                         return invalid(format!("mip level {k} of texture {texture_idx} has {} bytes, needs {need}", level.len()));
                     }
                 }
-                (width as usize * height as usize * 4, "mipmapped 2D")
+                (width as usize * height as usize * bpt, "mipmapped 2D")
             }
         };
         let rgba = match &texture.data {
@@ -829,8 +866,9 @@ fn check_pass(pass: &RunPass, target: &Target, rendered: &BTreeMap<String, Rende
         };
         if expected == 0 || rgba.len() != expected {
             return invalid(format!(
-                "{what} texture {texture_idx} has {} bytes, its size needs {expected} (RGBA8, non-empty)",
-                rgba.len()
+                "{what} texture {texture_idx} has {} bytes, its size needs {expected} ({:?}, non-empty)",
+                rgba.len(),
+                texture.texels
             ));
         }
     }
@@ -890,7 +928,7 @@ fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::
         let binding = 1 + 2 * texture_idx as u32;
         let (view_dimension, view) = match view_of(texture_idx, &texture.data) {
             Some(view) => (if matches!(texture.data, TextureData::Rendered { array: true, .. }) { wgpu::TextureViewDimension::D2Array } else { wgpu::TextureViewDimension::D2 }, view),
-            None => upload_texture(gpu, &texture.data),
+            None => upload_texture(gpu, &texture.data, texture.texels),
         };
         // A depth snapshot (R32Float) is unfilterable: nearest, non-filtering.
         let depth = matches!(texture.data, TextureData::RenderedDepth { .. });
@@ -1058,14 +1096,17 @@ fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::
     }
 }
 
-/// Uploads RGBA8 texels; returns the view dimension the layout needs.
-fn upload_texture(gpu: &Gpu, data: &TextureData) -> (wgpu::TextureViewDimension, wgpu::TextureView) {
+/// Uploads the texels in `texels`' format (an `Rgba16` image rounded to
+/// RGBA8 where the device has no 16-bit unorm); returns the view dimension
+/// the layout needs.
+fn upload_texture(gpu: &Gpu, data: &TextureData, texels: TexelUpload) -> (wgpu::TextureViewDimension, wgpu::TextureView) {
     let (width, height, layers, levels, dimension) = match data {
         TextureData::D2 { width, height, rgba } => (*width, *height, 1, std::slice::from_ref(rgba), wgpu::TextureViewDimension::D2),
         TextureData::Cube { size, rgba } => (*size, *size, 6, std::slice::from_ref(rgba), wgpu::TextureViewDimension::Cube),
         TextureData::D2Mipmapped { width, height, levels } => (*width, *height, 1, levels.as_slice(), wgpu::TextureViewDimension::D2),
         TextureData::Rendered { .. } | TextureData::RenderedDepth { .. } => unreachable!("bound by `prepare`"),
     };
+    let wide = texels == TexelUpload::Rgba16 && gpu.filters_16bit_norm();
     let size = wgpu::Extent3d {
         width,
         height,
@@ -1077,12 +1118,20 @@ fn upload_texture(gpu: &Gpu, data: &TextureData) -> (wgpu::TextureViewDimension,
         mip_level_count: levels.len() as u32,
         sample_count: 1,
         dimension: wgpu::TextureDimension::D2,
-        format: wgpu::TextureFormat::Rgba8Unorm,
+        format: if wide { wgpu::TextureFormat::Rgba16Unorm } else { wgpu::TextureFormat::Rgba8Unorm },
         usage: wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_DST,
         view_formats: &[],
     });
-    for (k, rgba) in levels.iter().enumerate() {
+    for (k, texel_bytes) in levels.iter().enumerate() {
         let (w, h) = ((width >> k).max(1), (height >> k).max(1));
+        let narrowed;
+        let rgba = if texels == TexelUpload::Rgba16 && !wide {
+            narrowed = texel_bytes.chunks_exact(2).map(|c| ((u16::from_ne_bytes([c[0], c[1]]) as u32 + 128) / 257) as u8).collect::<Vec<u8>>();
+            &narrowed
+        } else {
+            texel_bytes
+        };
+        let bpt = if wide { 8 } else { 4 };
         gpu.queue.write_texture(
             wgpu::TexelCopyTextureInfo {
                 texture: &texture,
@@ -1093,7 +1142,7 @@ fn upload_texture(gpu: &Gpu, data: &TextureData) -> (wgpu::TextureViewDimension,
             rgba,
             wgpu::TexelCopyBufferLayout {
                 offset: 0,
-                bytes_per_row: Some(w * 4),
+                bytes_per_row: Some(w * bpt),
                 rows_per_image: Some(h),
             },
             wgpu::Extent3d { width: w, height: h, depth_or_array_layers: layers },

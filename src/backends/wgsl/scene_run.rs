@@ -89,7 +89,7 @@ use std::collections::BTreeMap;
 use image::RgbaImage;
 
 use super::codegen::{self, uniform_bytes, Fidelity, PassShader};
-use super::runner::{self, AddressMode, ColorTarget, LoadedTexture, PassTarget, Gpu, GpuError, RunPass, RunShader, RunTexture, SamplerSettings, ShaderSource, Target, TextureData, VertexData};
+use super::runner::{self, AddressMode, ColorTarget, LoadedTexture, PassTarget, Gpu, GpuError, RunPass, RunShader, RunTexture, SamplerSettings, ShaderSource, Target, TexelUpload, TextureData, VertexData};
 use crate::ir::{self, Expr};
 use crate::parser::ast::{Program, TextureFormat};
 use crate::planner::{Geometry, Planned, RenderTarget};
@@ -121,6 +121,9 @@ pub struct ScenePlan<'a> {
     uniforms: Vec<[f32; 4]>,
     /// Stand-ins the binder used (missing images), for the user.
     pub notes: Vec<String>,
+    /// Exact fidelity uploads textures as 16-bit unorm (filtered in
+    /// float), hardware fidelity as RGBA8 (filtered in 8 bits).
+    texels: TexelUpload,
 }
 
 impl<'a> ScenePlan<'a> {
@@ -145,7 +148,8 @@ impl<'a> ScenePlan<'a> {
             .enumerate()
             .map(|(i, v)| v.or_else(|| m.uniforms[i].default.as_ref().map(ir::eval::value)).unwrap_or([0.0; 4]).map(|c| c as f32))
             .collect();
-        Ok(ScenePlan { planned, scene, assets, shaders, textures, decls, uniforms, main, notes })
+        let texels = if fidelity == Fidelity::Exact { TexelUpload::Rgba16 } else { TexelUpload::Rgba8 };
+        Ok(ScenePlan { planned, scene, assets, shaders, textures, decls, uniforms, main, notes, texels })
     }
 
     /// The [`RunPass`]es of a `width`×`height` frame: per pass, one draw per
@@ -212,17 +216,17 @@ impl<'a> ScenePlan<'a> {
                         ir::FbChannel::Color | ir::FbChannel::Alpha if name != main => TextureData::Rendered { name: name.to_string(), array: false },
                         _ => return Err(unsupported(format!("reads the {channel:?} of `{name}` in its shader"))),
                     };
-                    textures.push(RunTexture { data, sampler: runner::SamplerSettings::NEAREST_CLAMP });
+                    textures.push(RunTexture { data, sampler: runner::SamplerSettings::NEAREST_CLAMP, texels: TexelUpload::Rgba8 });
                     continue;
                 }
                 if let Some(r) = rendered.get(&t.texture) {
                     let decl = self.decls.iter().find(|d| d.name == t.texture).ok_or_else(|| SceneRunError::Unsupported(format!("texture `{}` has no declaration", t.texture)))?;
                     // Level 0 only: the GPU runner makes no mip chain of a rendered texture.
-                    textures.push(RunTexture { data: TextureData::Rendered { name: t.texture.clone(), array: fat_textures.contains(&r.name.as_str()) }, sampler: sampler(decl.filter, decl.wrap, false) });
+                    textures.push(RunTexture { data: TextureData::Rendered { name: t.texture.clone(), array: fat_textures.contains(&r.name.as_str()) }, sampler: sampler(decl.filter, decl.wrap, false), texels: TexelUpload::Rgba8 });
                     continue;
                 }
                 let bound = self.textures.get(&t.texture).ok_or_else(|| SceneRunError::Unsupported(format!("texture `{}` is not bound", t.texture)))?;
-                textures.push(run_texture(bound)?);
+                textures.push(run_texture(bound, self.texels)?);
             }
             let target = match &pass.target {
                 RenderTarget::Texture { name } => PassTarget::Texture(rendered[name].clone()),
@@ -317,13 +321,16 @@ pub fn render_scene(gpu: &Gpu, planned: &Planned, program: &Program, source: Opt
     ScenePlan::new(planned, program, source, fidelity, scene, assets)?.render(gpu, width, height)
 }
 
-fn to_u8(x: f32) -> u8 {
-    (x.clamp(0.0, 1.0) * 255.0).round() as u8
-}
-
-fn level_rgba(level: &Level, format: TexelFormat) -> Vec<u8> {
+/// A level's texels as `texels` bytes: signed formats range-compressed
+/// (`(v + 1)/2`, the codegen contract), everything rounded to the upload's
+/// unorm steps (8-bit texels exactly at either width).
+fn level_rgba(level: &Level, format: TexelFormat, texels: TexelUpload) -> Vec<u8> {
     let signed = format == TexelFormat::Signed8;
-    level.texels.iter().flat_map(|t| t.map(|c| if signed { to_u8(0.5 * (c + 1.0)) } else { to_u8(c) })).collect()
+    let values = level.texels.iter().flatten().map(|&c| (if signed { 0.5 * (c + 1.0) } else { c }).clamp(0.0, 1.0));
+    match texels {
+        TexelUpload::Rgba8 => values.map(|c| (c * 255.0).round() as u8).collect(),
+        TexelUpload::Rgba16 => values.flat_map(|c| ((c * 65535.0).round() as u16).to_ne_bytes()).collect(),
+    }
 }
 
 fn sampler(filter: Filter, wrap: Wrap, mipmapped: bool) -> SamplerSettings {
@@ -339,9 +346,9 @@ fn sampler(filter: Filter, wrap: Wrap, mipmapped: bool) -> SamplerSettings {
     SamplerSettings { mag: texel, min: texel, address, mipmap: mipmapped.then_some(mip) }
 }
 
-fn run_texture(bound: &BoundTexture) -> Result<RunTexture, SceneRunError> {
+fn run_texture(bound: &BoundTexture, texels: TexelUpload) -> Result<RunTexture, SceneRunError> {
     match &bound.texture {
-        Texture::Flat(t) => Ok(flat(t, bound.filter)),
+        Texture::Flat(t) => Ok(flat(t, bound.filter, texels)),
         Texture::Cube(c) => {
             let size = c.faces[0].width();
             let mut rgba = Vec::new();
@@ -349,20 +356,20 @@ fn run_texture(bound: &BoundTexture) -> Result<RunTexture, SceneRunError> {
                 if f.width() != size || f.height() != size {
                     return Err(SceneRunError::Unsupported(format!("cube map `{}` has faces of different sizes", bound.name)));
                 }
-                rgba.extend(level_rgba(&f.levels[0], f.format));
+                rgba.extend(level_rgba(&f.levels[0], f.format, texels));
             }
-            Ok(RunTexture { data: TextureData::Cube { size, rgba }, sampler: sampler(bound.filter, c.faces[0].wrap, false) })
+            Ok(RunTexture { data: TextureData::Cube { size, rgba }, sampler: sampler(bound.filter, c.faces[0].wrap, false), texels })
         }
         Texture::DualParaboloid(_) => Err(SceneRunError::Unsupported(format!("dual-paraboloid texture `{}`", bound.name))),
     }
 }
 
-fn flat(t: &Texture2D, filter: Filter) -> RunTexture {
+fn flat(t: &Texture2D, filter: Filter, texels: TexelUpload) -> RunTexture {
     let (width, height) = (t.width(), t.height());
     let data = if t.levels.len() > 1 {
-        TextureData::D2Mipmapped { width, height, levels: t.levels.iter().map(|l| level_rgba(l, t.format)).collect() }
+        TextureData::D2Mipmapped { width, height, levels: t.levels.iter().map(|l| level_rgba(l, t.format, texels)).collect() }
     } else {
-        TextureData::D2 { width, height, rgba: level_rgba(&t.levels[0], t.format) }
+        TextureData::D2 { width, height, rgba: level_rgba(&t.levels[0], t.format, texels) }
     };
-    RunTexture { data, sampler: sampler(filter, t.wrap, t.levels.len() > 1) }
+    RunTexture { data, sampler: sampler(filter, t.wrap, t.levels.len() > 1), texels }
 }
