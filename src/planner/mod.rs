@@ -361,6 +361,7 @@ fn plan_inner_with(
         }
         k += run.len();
     }
+    diags.extend(reused_projection(&m));
     if !diags.is_empty() {
         return Err(diags);
     }
@@ -675,7 +676,14 @@ fn assemble(
             // (15)) rasterizes the mesh in texture space.
             let in_texture_space = st.freq == Frequency::Texel && m.reachable(&[st.index]).iter().any(|h| m.info(*h).freq == Frequency::Vertex);
             let mesh = st.freq == Frequency::Fragment || in_texture_space;
-            let drawn_at = form.drawn_at.unwrap_or(st.index);
+            // seeds/001 (10), `C δxs ← (C δxs) ⊕ (δ p s x …)`: a static
+            // viewpoint — the pass reuses the vertices the last mesh pass
+            // into the same framebuffer projected (`reused_projection`
+            // checked there is one), with its depth (equal, no write).
+            let reused = (mesh && form.drawn_at.is_none() && matches!(m.exprs[st.index], Expr::Pixel { .. }))
+                .then(|| drawn.iter().rev().find(|(t, _)| same_framebuffer(t, &st.table)).cloned())
+                .flatten();
+            let drawn_at = reused.as_ref().map_or(form.drawn_at.unwrap_or(st.index), |(_, h)| *h);
             let geometry = if st.freq == Frequency::Screen {
                 Geometry::Screen
             } else if mesh {
@@ -713,7 +721,7 @@ fn assemble(
                 .collect();
             gen.dedup();
             let operations = reached.iter().filter(|h| m.info(**h).freq.is_sample() && matches!(m.exprs[**h], Expr::Binary { .. } | Expr::Unary { .. } | Expr::Math { .. } | Expr::Combine { .. } | Expr::Select { .. })).count();
-            let key = (st.table.clone(), st.index);
+            let key = reused.unwrap_or((st.table.clone(), st.index));
             let depth = form.depth.unwrap_or(match geometry {
                 // A one-to-one u covers each texel once: no depth test.
                 _ if in_texture_space => DepthState::DISABLED,
@@ -817,6 +825,37 @@ fn combiner_verdict(m: &Module, profile: &Profile, value: Handle<Expr>, textures
 }
 
 /// `π`, `πl`, `π*`, or `u` for a statement's index.
+fn same_framebuffer(a: &Table, b: &Table) -> bool {
+    matches!((a, b), (Table::Framebuffer { id: x, .. }, Table::Framebuffer { id: y, .. }) if x == y)
+}
+
+/// A statement at the pixel (`C δxs`) whose value interpolates per-vertex
+/// values draws the vertices an earlier statement projected into the same
+/// framebuffer (seeds/001 (10): "the passes reuse the projected vertices").
+/// Errors where there is none: nothing would place the mesh on the screen.
+fn reused_projection(m: &Module) -> Vec<Diagnostic> {
+    let mut projected: Vec<&Table> = Vec::new();
+    let mut diags = Vec::new();
+    for st in &m.statements {
+        if !matches!(st.table, Table::Framebuffer { .. }) || st.freq != Frequency::Fragment {
+            continue;
+        }
+        if !matches!(m.exprs[st.index], Expr::Pixel { .. }) {
+            projected.push(&st.table);
+        } else if !projected.iter().any(|t| same_framebuffer(t, &st.table)) {
+            let name = match st.table {
+                Table::Framebuffer { id, .. } => m.framebuffers[id as usize].name.as_str(),
+                _ => unreachable!(),
+            };
+            diags.push(
+                Diagnostic::error("no-projected-vertices", format!("this statement at the pixel interpolates per-vertex values, but no earlier statement projects the mesh into `{name}`"), m.span(st.index), "the vertices of an earlier pass are reused here")
+                    .with_help(format!("seeds/001 (10) reuses the screen positions an earlier pass computed: write a statement `{name} δπx ← …` first, or index this one by `δπx`")),
+            );
+        }
+    }
+    diags
+}
+
 fn projection_name(m: &Module, index: Handle<Expr>) -> String {
     for h in m.reachable(&[index]).into_iter().rev() {
         if let Expr::Project { projection, .. } = &m.exprs[h] {

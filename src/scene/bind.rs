@@ -231,7 +231,8 @@ fn texel_format(format: Option<TextureFormat>) -> TexelFormat {
     }
 }
 
-fn is_signed(format: Option<TextureFormat>) -> bool {
+/// Signed formats hold values in [−1, 1] (whatever their `TexelFormat`).
+pub(crate) fn is_signed(format: Option<TextureFormat>) -> bool {
     matches!(format, Some(TextureFormat::Signed8 | TextureFormat::Signed16))
 }
 
