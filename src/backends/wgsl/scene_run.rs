@@ -96,7 +96,7 @@ use crate::parser::ast::{Program, TextureFormat};
 use crate::planner::{Geometry, Planned, RenderTarget};
 use crate::scene::bind::{self, BoundObject, BoundTexture, TextureQuality};
 use crate::scene::{Scene, SceneAssets};
-use crate::textures::{Filter, Level, Texture, Texture2D, Wrap};
+use crate::textures::{Filter, Level, TexelFormat, Texture, Texture2D, Wrap};
 
 #[derive(Debug, thiserror::Error)]
 pub enum SceneRunError {
@@ -122,9 +122,8 @@ pub struct ScenePlan<'a> {
     uniforms: Vec<[f32; 4]>,
     /// Stand-ins the binder used (missing images), for the user.
     pub notes: Vec<String>,
-    /// Exact fidelity uploads textures as 16-bit unorm (filtered in
-    /// float), hardware fidelity as RGBA8 (filtered in 8 bits).
-    texels: TexelUpload,
+    /// Which executor model the textures follow (see [`upload_of`]).
+    fidelity: Fidelity,
 }
 
 impl<'a> ScenePlan<'a> {
@@ -149,8 +148,7 @@ impl<'a> ScenePlan<'a> {
             .enumerate()
             .map(|(i, v)| v.or_else(|| m.uniforms[i].default.as_ref().map(ir::eval::value)).unwrap_or([0.0; 4]).map(|c| c as f32))
             .collect();
-        let texels = if fidelity == Fidelity::Exact { TexelUpload::Rgba16 } else { TexelUpload::Rgba8 };
-        Ok(ScenePlan { planned, scene, assets, shaders, textures, decls, uniforms, main, notes, texels })
+        Ok(ScenePlan { planned, scene, assets, shaders, textures, decls, uniforms, main, notes, fidelity })
     }
 
     /// The [`RunPass`]es of a `width`×`height` frame: per pass, one draw per
@@ -228,7 +226,7 @@ impl<'a> ScenePlan<'a> {
                 }
                 let bound = self.textures.get(&t.texture).ok_or_else(|| SceneRunError::Unsupported(format!("texture `{}` is not bound", t.texture)))?;
                 let signed = self.decls.iter().find(|d| d.name == t.texture).is_some_and(|d| bind::is_signed(d.format));
-                textures.push(run_texture(bound, self.texels, signed)?);
+                textures.push(run_texture(bound, self.fidelity, signed)?);
             }
             let target = match &pass.target {
                 RenderTarget::Texture { name } => PassTarget::Texture(rendered[name].clone()),
@@ -348,11 +346,26 @@ fn sampler(filter: Filter, wrap: Wrap, mipmapped: bool) -> SamplerSettings {
     SamplerSettings { mag: texel, min: texel, address, mipmap: mipmapped.then_some(mip) }
 }
 
-fn run_texture(bound: &BoundTexture, texels: TexelUpload, signed: bool) -> Result<RunTexture, SceneRunError> {
+/// How a texture of `format` is uploaded: as RGBA8, filtered in 8.8 fixed
+/// point, only where the CPU's model of the fidelity filters it so
+/// (`unit::Arithmetic::Fixed8`: `fixed9` on an 8-bit texture); everything
+/// else — all of exact fidelity, and 16-bit, float and signed textures in
+/// hardware fidelity (the CPU filters them in float) — as 16-bit unorm,
+/// filtered in float.
+fn upload_of(fidelity: Fidelity, format: TexelFormat) -> TexelUpload {
+    if fidelity == Fidelity::Hardware && format == TexelFormat::Rgba8 {
+        TexelUpload::Rgba8
+    } else {
+        TexelUpload::Rgba16
+    }
+}
+
+fn run_texture(bound: &BoundTexture, fidelity: Fidelity, signed: bool) -> Result<RunTexture, SceneRunError> {
     match &bound.texture {
-        Texture::Flat(t) => Ok(flat(t, bound.filter, texels, signed)),
+        Texture::Flat(t) => Ok(flat(t, bound.filter, upload_of(fidelity, t.format), signed)),
         Texture::Cube(c) => {
             let size = c.faces[0].width();
+            let texels = upload_of(fidelity, c.faces[0].format);
             let mut rgba = Vec::new();
             for f in &c.faces {
                 if f.width() != size || f.height() != size {
