@@ -157,3 +157,51 @@ pub fn fat_layers(m: &Module) -> Vec<u8> {
     }
     layers
 }
+
+/// The nodes the fragment stage of a pass evaluates for `roots`: reachable
+/// from them without crossing a `δ` (an `Interpolate` is reached, its
+/// per-vertex operand is not). Indexed by arena index.
+pub fn fragment_reach(m: &Module, roots: &[Handle<Expr>]) -> Vec<bool> {
+    let n = m.exprs.len();
+    let mut reach = vec![false; n];
+    for h in roots {
+        reach[h.index()] = true;
+    }
+    for i in (0..n).rev() {
+        if !reach[i] || matches!(m.exprs[Handle::new(i)], Expr::Interpolate { .. }) {
+            continue;
+        }
+        for o in m.exprs[Handle::new(i)].operands() {
+            reach[o.index()] = true;
+        }
+    }
+    reach
+}
+
+/// Of the `reach`ed nodes ([`fragment_reach`]), those that only address a
+/// texture or a framebuffer: lookup coordinates, read positions, and what
+/// only they use. The texture units iterate them in float, so the register
+/// combiners' precision model (the CPU's `fixed9`, WGSL's hardware
+/// fidelity) does not round them (seeds/003 Section 4.2: the combiners see
+/// texels, not coordinates).
+pub fn address_only(m: &Module, reach: &[bool]) -> Vec<bool> {
+    let n = m.exprs.len();
+    let mut address = vec![false; n];
+    for i in (0..n).rev() {
+        if !reach[i] {
+            continue;
+        }
+        match &m.exprs[Handle::new(i)] {
+            Expr::Lookup { coords, .. } => address[coords.index()] = true,
+            Expr::FramebufferRead { position, .. } => address[position.index()] = true,
+            Expr::Depth(p) => address[p.index()] = true,
+            e if address[i] && !matches!(e, Expr::Interpolate { .. }) => {
+                for o in e.operands() {
+                    address[o.index()] = true;
+                }
+            }
+            _ => {}
+        }
+    }
+    address
+}

@@ -637,42 +637,10 @@ impl<'a> FragmentProgram<'a> {
             None => vec![pi.output],
         };
         roots.extend(pi.condition);
-        // Reachable nodes, stopping at δ.
         let n = m.exprs.len();
-        let mut reach = vec![false; n];
-        for h in &roots {
-            reach[h.index()] = true;
-        }
-        for i in (0..n).rev() {
-            if !reach[i] {
-                continue;
-            }
-            let e = &m.exprs[Handle::new(i)];
-            if matches!(e, Expr::Interpolate { .. }) {
-                continue;
-            }
-            for o in e.operands() {
-                reach[o.index()] = true;
-            }
-        }
+        let reach = ir::fragment_reach(m, &roots);
         // Nodes that only address textures or framebuffers (not quantized in fixed9).
-        let mut address = vec![false; n];
-        for i in (0..n).rev() {
-            if !reach[i] {
-                continue;
-            }
-            match &m.exprs[Handle::new(i)] {
-                Expr::Lookup { coords, .. } => address[coords.index()] = true,
-                Expr::FramebufferRead { position, .. } => address[position.index()] = true,
-                Expr::Depth(p) => address[p.index()] = true,
-                e if address[i] && !matches!(e, Expr::Interpolate { .. }) => {
-                    for o in e.operands() {
-                        address[o.index()] = true;
-                    }
-                }
-                _ => {}
-            }
-        }
+        let address = ir::address_only(m, &reach);
         let varying_of: HashMap<Handle<Expr>, usize> = pi.interpolants.iter().enumerate().map(|(k, h)| (*h, k)).collect();
         let normalize_varyings: Vec<bool> = pi
             .interpolants

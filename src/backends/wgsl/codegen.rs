@@ -459,6 +459,9 @@ struct Gen<'a> {
     outputs: u32,
     /// The nodes the fragment stage computes ([`Gen::fragment_nodes`]).
     pass_nodes: Vec<ir::Handle<Expr>>,
+    /// Per arena index: the node only addresses textures or framebuffers
+    /// ([`ir::address_only`]), so hardware fidelity does not round it.
+    address: Vec<bool>,
 }
 
 impl<'a> Gen<'a> {
@@ -482,6 +485,7 @@ impl<'a> Gen<'a> {
             target_copies: vec![],
             outputs: 1,
             pass_nodes: vec![],
+            address: vec![],
         }
     }
 
@@ -764,6 +768,7 @@ impl<'a> Gen<'a> {
         } else {
             let mut roots = vec![self.iface.output];
             roots.extend(self.iface.condition);
+            self.address = ir::address_only(self.m, &ir::fragment_reach(self.m, &roots));
             self.pass_nodes = self.fragment_nodes(&roots);
             for n in self.pass_nodes.clone() {
                 self.node(&mut b, n)?;
@@ -1509,6 +1514,7 @@ impl<'a> Gen<'a> {
                 }
             }
             Expr::Swizzle { value, pattern, len, .. } => {
+                arith = true;
                 let x = val(b, *value)?;
                 let wx = wof(*value);
                 let len = *len as usize;
@@ -1531,6 +1537,7 @@ impl<'a> Gen<'a> {
                 }
             }
             Expr::Compose { components, .. } => {
+                arith = true;
                 let xs: Vec<NH> = components.iter().map(|a| val(b, *a)).collect::<R<_>>()?;
                 if xs.len() == 1 {
                     xs[0]
@@ -1540,6 +1547,7 @@ impl<'a> Gen<'a> {
                 }
             }
             Expr::Convert { value, to } => {
+                arith = true;
                 let x = val(b, *value)?;
                 let from = m.info(*value).ty;
                 if from == *to || width(from) == width(*to) {
@@ -1555,6 +1563,7 @@ impl<'a> Gen<'a> {
                 }
             }
             Expr::Select { cond, accept, reject } => {
+                arith = true;
                 let c = val(b, *cond)?;
                 let a = val(b, *accept)?;
                 let a = self.splat(b, a, wof(*accept), w)?;
@@ -1586,7 +1595,9 @@ impl<'a> Gen<'a> {
         if let Some(name) = self.value_name(n).filter(|_| !leaf) {
             b.name(v, &name);
         }
-        let v = if arith && self.m.info(n).freq.is_sample() { self.quantize(b, v, w) } else { v };
+        // A register write, as the CPU's per-operation fixed9 model rounds
+        // every per-fragment operation but those that only address textures.
+        let v = if arith && self.m.info(n).freq.is_sample() && !self.address.get(n.index()).copied().unwrap_or(false) { self.quantize(b, v, w) } else { v };
         b.vals.insert(n, v);
         Ok(())
     }
