@@ -811,7 +811,7 @@ impl<'a> FragmentProgram<'a> {
                 }
                 out
             }
-            Leaf::Lookup { texture, coords_ty, lod_from } => self.lookup(texture, operand, coords_ty, lod_from, fragment, varyings),
+            Leaf::Lookup { texture, coords_ty, lod_from } => self.lookup(texture, operand, coords_ty, lod_from, None, fragment, varyings),
             Leaf::FatMember { texture, member, coords_ty } => self.fat[texture as usize][member as usize].sample(operand, coords_ty, self.filters[texture as usize]),
             Leaf::Framebuffer { framebuffer, channel } => {
                 let Some(fb) = self.reads.get(&framebuffer) else { return [0.0; 4] };
@@ -862,7 +862,12 @@ impl<'a> FragmentProgram<'a> {
         }
     }
 
-    fn lookup(&self, texture: TextureId, c: Value, coords_ty: Ty, lod_from: Option<usize>, fragment: &Fragment, varyings: &[f32]) -> Value {
+    /// A lookup at `c`. The level of detail comes from the quad
+    /// derivatives of the varying `lod_from` when the coordinates are one,
+    /// else from `quad`, the coordinates at the quad's top-left, top-right
+    /// and bottom-left pixels (a dependent lookup, [`FragmentProgram::quad_coords`]).
+    #[allow(clippy::too_many_arguments)]
+    fn lookup(&self, texture: TextureId, c: Value, coords_ty: Ty, lod_from: Option<usize>, quad: Option<[[f64; 2]; 3]>, fragment: &Fragment, varyings: &[f32]) -> Value {
         let filter = self.filters[texture as usize];
         match &self.sources[texture as usize] {
             Source::Bound { exact: Some(f), .. } => exact_lookup(*f, c),
@@ -876,11 +881,15 @@ impl<'a> FragmentProgram<'a> {
                         // in float in f32, as exact fidelity does), so the
                         // wgpu image agrees with them (issue 5).
                         let (u, v) = if coords_ty == Ty::Scalar { (c[0], 0.5) } else { (c[0], c[1]) };
-                        let lod = match lod_from {
-                            Some(k) if t.levels.len() > 1 => {
+                        let lod = match (lod_from, quad) {
+                            (Some(k), _) if t.levels.len() > 1 => {
                                 let du = fragment.quad_derivatives(4 * k, varyings[4 * k]);
                                 let dv = fragment.quad_derivatives(4 * k + 1, varyings[4 * k + 1]);
                                 unit::quad_lod(t.width(), t.height(), [du[0], dv[0]], [du[1], dv[1]])
+                            }
+                            (None, Some([tl, tr, bl])) => {
+                                let d = |a: [f64; 2]| [(a[0] - tl[0]) as f32, (a[1] - tl[1]) as f32];
+                                unit::quad_lod(t.width(), t.height(), d(tr), d(bl))
                             }
                             _ => f32::NEG_INFINITY,
                         };
@@ -890,10 +899,14 @@ impl<'a> FragmentProgram<'a> {
                     Texture::Cube(t) if self.mode != Mode::Exact => unit::sample_cube(t, [c[0] as f32, c[1] as f32, c[2] as f32], filter),
                     Texture::Flat(t) => {
                         let (u, v) = if coords_ty == Ty::Scalar { (c[0], 0.5) } else { (c[0], c[1]) };
-                        let lod = match lod_from {
-                            Some(k) if t.levels.len() > 1 => {
+                        let lod = match (lod_from, quad) {
+                            (Some(k), _) if t.levels.len() > 1 => {
                                 let du = fragment.derivatives(4 * k, varyings[4 * k]);
                                 let dv = fragment.derivatives(4 * k + 1, varyings[4 * k + 1]);
+                                t.lod(du, dv)
+                            }
+                            (None, Some([tl, tr, bl])) => {
+                                let (du, dv) = ([(tr[0] - tl[0]) as f32, (bl[0] - tl[0]) as f32], [(tr[1] - tl[1]) as f32, (bl[1] - tl[1]) as f32]);
                                 t.lod(du, dv)
                             }
                             _ => 0.0,
@@ -926,17 +939,28 @@ impl<'a> FragmentProgram<'a> {
     /// `texel_at`: the texel coordinate when a baked texture's function is
     /// evaluated at a lookup ([`Source::Baked`]) instead of at a pixel.
     fn run(&self, slots: &mut [Value], fragment: &Fragment, varyings: &[f32], texel_at: Option<[f64; 2]>) -> bool {
+        self.run_steps(slots, fragment, varyings, texel_at, self.steps.len(), true)
+    }
+
+    /// [`FragmentProgram::run`] of the first `upto` steps; `quad`: whether a
+    /// dependent lookup takes its level of detail from its quad
+    /// ([`FragmentProgram::quad_coords`]; not inside that evaluation).
+    fn run_steps(&self, slots: &mut [Value], fragment: &Fragment, varyings: &[f32], texel_at: Option<[f64; 2]>, upto: usize, quad: bool) -> bool {
         for &(s, v) in &self.constants {
             slots[s as usize] = v;
         }
         let mut discard = false;
         let mut buf = [[0.0; 4]; 4];
-        for s in &self.steps {
+        for (i, s) in self.steps[..upto].iter().enumerate() {
             let ops = &s.ops[..s.n_ops as usize];
             for (b, &o) in buf.iter_mut().zip(ops) {
                 *b = slots[o as usize];
             }
             let v = match &s.leaf {
+                Some(Leaf::Lookup { texture, coords_ty, lod_from: None }) if quad && texel_at.is_none() && self.mipmapped(*texture) => {
+                    let q = self.quad_coords(i, buf[0], fragment, varyings);
+                    self.lookup(*texture, buf[0], *coords_ty, None, Some(q), fragment, varyings)
+                }
                 Some(leaf) => self.leaf(leaf, buf[0], fragment, varyings, texel_at),
                 None => {
                     if let Expr::Select { reject: None, .. } = s.expr {
@@ -962,6 +986,37 @@ impl<'a> FragmentProgram<'a> {
             }
         }
         discard
+    }
+
+    /// Whether `texture` is a bound 2D texture with a mip chain: a lookup
+    /// of it at computed coordinates needs their quad derivatives.
+    fn mipmapped(&self, texture: TextureId) -> bool {
+        matches!(&self.sources[texture as usize], Source::Bound { exact: None, texture: b } if matches!(&b.texture, Texture::Flat(t) if t.levels.len() > 1))
+    }
+
+    /// The coordinates of the dependent lookup of step `step` (`c` at this
+    /// pixel) at the top-left, top-right and bottom-left pixels of this
+    /// pixel's 2×2 quad, whose differences are the coarse derivatives a GPU
+    /// takes for its level of detail (WGSL `textureSample`: implicit
+    /// derivatives of whatever the coordinates are). The other pixels run
+    /// the steps before the lookup on their own varyings (extrapolated
+    /// outside the triangle: helper pixels); lookups among those steps
+    /// that are themselves dependent sample level 0 there.
+    fn quad_coords(&self, step: usize, c: Value, fragment: &Fragment, varyings: &[f32]) -> [[f64; 2]; 3] {
+        let coords = self.steps[step].ops[0] as usize;
+        let (tx, ty) = (-((fragment.x & 1) as f32), -((fragment.y & 1) as f32));
+        let mut slots = vec![[0.0; 4]; self.n_slots];
+        let mut vary = vec![0.0f32; varyings.len()];
+        [(tx, ty), (tx + 1.0, ty), (tx, ty + 1.0)].map(|(ox, oy)| {
+            if ox == 0.0 && oy == 0.0 {
+                return [c[0], c[1]];
+            }
+            let Some(inv_w) = fragment.varyings_at(varyings, ox, oy, &mut vary) else { return [c[0], c[1]] };
+            let at = |p: u32, o: f32| (p as i64 + o as i64).max(0) as u32;
+            let neighbour = Fragment { x: at(fragment.x, ox), y: at(fragment.y, oy), inv_w, ..*fragment };
+            self.run_steps(&mut slots, &neighbour, &vary, None, step, false);
+            [slots[coords][0], slots[coords][1]]
+        })
     }
 
     /// The fragment colour: the output node, or what the combiners compute

@@ -81,6 +81,30 @@ impl Fragment<'_> {
     }
 }
 
+impl Fragment<'_> {
+    /// The varyings at the pixel (ox, oy) away from this one, into `out`,
+    /// interpolated perspective-correctly from this triangle's planes (as
+    /// [`Fragment::quad_derivatives`] does: outside the triangle they are
+    /// extrapolated, a GPU's helper pixel); returns that pixel's 1/w, or
+    /// `None` where 1/w degenerates. Dependent lookups take their level of
+    /// detail from the coordinates computed at the quad's pixels.
+    pub fn varyings_at(&self, varyings: &[f32], ox: f32, oy: f32, out: &mut [f32]) -> Option<f32> {
+        if self.gradients.len() < 2 || self.inv_w == 0.0 {
+            return None;
+        }
+        let n = self.gradients.len() / 2 - 1;
+        let (qx, qy) = (self.gradients[2 * n], self.gradients[2 * n + 1]);
+        let q = self.inv_w + qx * ox + qy * oy;
+        if !(q > 0.0) {
+            return None;
+        }
+        for (i, (o, v)) in out.iter_mut().zip(varyings).take(n).enumerate() {
+            *o = (v * self.inv_w + self.gradients[2 * i] * ox + self.gradients[2 * i + 1] * oy) / q;
+        }
+        Some(q)
+    }
+}
+
 /// A snapped, oriented screen-space triangle ready for scan conversion.
 #[derive(Clone, Debug)]
 pub(crate) struct Tri {
