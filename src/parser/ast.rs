@@ -351,6 +351,14 @@ words! {
     }
 }
 
+impl TextureFormat {
+    /// 16-bit and float formats: a texture rendered into stores more than
+    /// 8 bits (and keeps signs), on the CPU as on wgpu.
+    pub fn is_wide(self) -> bool {
+        matches!(self, TextureFormat::Rgba16 | TextureFormat::Signed16 | TextureFormat::Rgba16f | TextureFormat::Rgba32f)
+    }
+}
+
 words! {
     TextureAttr {
         Mipmap => "mipmap",

@@ -24,6 +24,10 @@ pub enum ColorFormat {
     Rgba8,
     /// 32-bit float per channel, no clamping.
     F32,
+    /// 16-bit float per channel (what the WGSL target renders 16-bit and
+    /// float textures into, `Rgba16Float`): every write rounds to the
+    /// nearest half; no clamping.
+    F16,
 }
 
 /// A GL comparison function, used by the depth and stencil tests.
@@ -284,6 +288,8 @@ impl BlendState {
 pub(crate) enum ColorTile {
     Rgba8(Vec<[u8; 4]>),
     F32(Vec<[f32; 4]>),
+    /// Values already rounded to half precision.
+    F16(Vec<[f32; 4]>),
 }
 
 /// One tile's buffers, `TILE*TILE` texels each, row-major inside the tile.
@@ -292,6 +298,12 @@ pub(crate) struct TileBuffers {
     pub(crate) color: ColorTile,
     pub(crate) depth: Vec<f32>,
     pub(crate) stencil: Vec<u8>,
+}
+
+/// The nearest half-precision value (ties to even), as an `f32`.
+#[inline]
+pub fn round_f16(v: f32) -> f32 {
+    half::f16::from_f32(v).to_f32()
 }
 
 #[inline]
@@ -308,7 +320,7 @@ impl TileBuffers {
                 let p = c[idx];
                 [p[0] as f32 / 255.0, p[1] as f32 / 255.0, p[2] as f32 / 255.0, p[3] as f32 / 255.0]
             }
-            ColorTile::F32(c) => c[idx],
+            ColorTile::F32(c) | ColorTile::F16(c) => c[idx],
         }
     }
 
@@ -333,6 +345,14 @@ impl TileBuffers {
                 for ch in 0..4 {
                     if blend.write_mask[ch] {
                         c[idx][ch] = out[ch];
+                    }
+                }
+            }
+            ColorTile::F16(c) => {
+                let out = blend.blend(src, &c[idx]);
+                for ch in 0..4 {
+                    if blend.write_mask[ch] {
+                        c[idx][ch] = round_f16(out[ch]);
                     }
                 }
             }
@@ -364,6 +384,7 @@ impl Framebuffer {
         let color = match format {
             ColorFormat::Rgba8 => ColorTile::Rgba8(vec![[0; 4]; n]),
             ColorFormat::F32 => ColorTile::F32(vec![[0.0; 4]; n]),
+            ColorFormat::F16 => ColorTile::F16(vec![[0.0; 4]; n]),
         };
         let tile = TileBuffers { color, depth: vec![1.0; n], stencil: vec![0; n] };
         Ok(Framebuffer { width, height, format, tiles_x, tiles_y, tiles: vec![tile; tiles_x * tiles_y] })
@@ -422,6 +443,7 @@ impl Framebuffer {
             match &mut tile.color {
                 ColorTile::Rgba8(v) => v.fill(c.map(quantize_unorm8)),
                 ColorTile::F32(v) => v.fill(c),
+                ColorTile::F16(v) => v.fill(c.map(round_f16)),
             }
         }
     }
@@ -452,7 +474,7 @@ impl Framebuffer {
                 let (t, i) = self.locate(x, y).expect("in range");
                 match &self.tiles[t].color {
                     ColorTile::Rgba8(c) => out.extend_from_slice(&c[i]),
-                    ColorTile::F32(c) => out.extend(c[i].map(quantize_unorm8)),
+                    ColorTile::F32(c) | ColorTile::F16(c) => out.extend(c[i].map(quantize_unorm8)),
                 }
             }
         }

@@ -258,6 +258,12 @@ impl<'a> PlanRenderer<'a> {
                 };
                 let name = if layer == 0 { name } else { format!("{name}#{layer}") };
                 if !targets.contains_key(&name) {
+                    // A texture declared 16-bit or float keeps what is
+                    // rendered into it (deferred shading's signed vectors)
+                    // in half floats, as the WGSL target's `Rgba16Float`
+                    // (fixed9 and f32; exact keeps f32).
+                    let wide = matches!(&pass.target, RenderTarget::Texture { name } if m.textures.iter().any(|t| t.name == *name && t.format.is_wide()));
+                    let format = if wide && mode != Mode::Exact { ColorFormat::F16 } else { format };
                     let mut fb = Framebuffer::new(size.0, size.1, format)?;
                     fb.clear_color([0.0, 0.0, 0.0, 0.0]);
                     targets.insert(name.clone(), fb);

@@ -92,7 +92,7 @@ use image::RgbaImage;
 use super::codegen::{self, uniform_bytes, Fidelity, PassShader};
 use super::runner::{self, AddressMode, ColorTarget, LoadedTexture, PassTarget, Gpu, GpuError, RunPass, RunShader, RunTexture, SamplerSettings, ShaderSource, Target, TexelUpload, TextureData, VertexData};
 use crate::ir::{self, Expr};
-use crate::parser::ast::{Program, TextureFormat};
+use crate::parser::ast::Program;
 use crate::planner::{Geometry, Planned, RenderTarget};
 use crate::scene::bind::{self, BoundObject, BoundTexture, TextureQuality};
 use crate::scene::{Scene, SceneAssets};
@@ -181,10 +181,7 @@ impl<'a> ScenePlan<'a> {
                 // Over its texels, or the mesh in texture space: the CPU's size.
                 let by_texel = matches!(pass.geometry, Geometry::Texels) || s.interface.position.is_some_and(|p| m.info(p).ty == ir::Ty::Vec2);
                 let (w, h) = if by_texel { (bind::RENDERED_TEXTURE_SIZE, bind::RENDERED_TEXTURE_SIZE) } else { (width, height) };
-                let format = match m.textures[id].format {
-                    TextureFormat::Rgba16 | TextureFormat::Signed16 | TextureFormat::Rgba16f | TextureFormat::Rgba32f => ColorTarget::Rgba16Float,
-                    _ => ColorTarget::Rgba8,
-                };
+                let format = if m.textures[id].format.is_wide() { ColorTarget::Rgba16Float } else { ColorTarget::Rgba8 };
                 rendered.insert(name.clone(), runner::RenderedTexture { name: name.clone(), width: w, height: h, layers: u32::from(fat[id]).max(1), format });
             }
         }
