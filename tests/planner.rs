@@ -188,6 +188,32 @@ C δπx ← normalize(δ N s x) · normalize(δ L s x);
     assert_eq!(passes(src, "wgsl"), 1);
 }
 
+/// seeds/001 (10): `C δxs ← (C δxs) ⊕ …` with a static viewpoint reuses the
+/// vertices (9) projected: the second pass draws the same mesh with the
+/// same projection and the equal depth test, not a screen rectangle.
+#[test]
+fn static_viewpoint_pass_reuses_the_projected_vertices() {
+    let plan = plan_src(&example("multipass.shd"), "wgsl").unwrap();
+    assert_eq!(plan.passes.len(), 2);
+    let (first, second) = (&plan.passes[0], &plan.passes[1]);
+    assert_eq!(second.geometry, planner::Geometry::Mesh { projection: "π".into() });
+    assert_eq!(second.vertex.position, first.vertex.position, "the vertices of (9)");
+    assert_eq!(second.state.depth, shadec::renderer::DepthState::EQUAL_NO_WRITE);
+    assert_eq!(first.state.depth, shadec::renderer::DepthState::LESS_WRITE);
+}
+
+/// Without an earlier pass that projects the mesh, there is nothing to reuse.
+#[test]
+fn static_viewpoint_without_projected_vertices_is_a_located_error() {
+    let src = "vector N : normal;\nvector L : light(0);\nshader p : s → c = max(0, N·L);\nC δxs ← (C δxs) ⊕ (δ p s x);\n";
+    let e = plan_src(src, "wgsl").unwrap_err();
+    assert_eq!(e[0].code, "no-projected-vertices", "{e:#?}");
+    assert!(e[0].message.contains("`C`"), "{}", e[0].message);
+    assert!(e[0].help.as_ref().unwrap().contains("C δπx"), "{:?}", e[0].help);
+    let rendered = shadec::diag::SourceFile::new("t.shd", src).render(&e, false);
+    assert!(rendered.contains("t.shd:4:"), "{rendered}");
+}
+
 // ---- optimality: the planner against an exhaustive search -------------------
 
 fn exhaustive_and_planner(src: &str, target: &str) -> (Option<usize>, Option<usize>) {

@@ -462,6 +462,10 @@ struct Gen<'a> {
     /// Per arena index: the node only addresses textures or framebuffers
     /// ([`ir::address_only`]), so hardware fidelity does not round it.
     address: Vec<bool>,
+    /// Hardware fidelity: nodes whose value is already on the 8-bit grid
+    /// (rounded, or a rounded constant or uniform): a swizzle, conversion,
+    /// compose or select of only these needs no rounding of its own.
+    on_grid: std::collections::HashSet<ir::Handle<Expr>>,
 }
 
 impl<'a> Gen<'a> {
@@ -486,6 +490,7 @@ impl<'a> Gen<'a> {
             outputs: 1,
             pass_nodes: vec![],
             address: vec![],
+            on_grid: Default::default(),
         }
     }
 
@@ -1132,7 +1137,12 @@ impl<'a> Gen<'a> {
         let sample = b.stage == Stage::Fragment;
         let mut arith = false; // a register write in hardware fidelity
         let v: NH = match &e {
-            Expr::Constant(c) => self.constant(b, c),
+            Expr::Constant(c) => {
+                if self.fidelity == Fidelity::Hardware && sample && c.values().iter().all(|v| v.abs() <= 1.0) {
+                    self.on_grid.insert(n);
+                }
+                self.constant(b, c)
+            }
             Expr::Uniform(u) => {
                 let Some(var) = self.uniforms_var else { return Err(GenError::Internal("uniform without a block".into())) };
                 let idx = self.iface.uniforms.iter().position(|x| x == u).ok_or_else(|| GenError::Internal("uniform not in the interface".into()))?;
@@ -1141,6 +1151,7 @@ impl<'a> Gen<'a> {
                 let l = b.emit(Expression::Load { pointer: p });
                 let v = self.narrow(b, l, 4, w);
                 if self.fidelity == Fidelity::Hardware && sample {
+                    self.on_grid.insert(n);
                     self.quantize(b, v, w)
                 } else {
                     v
@@ -1261,6 +1272,11 @@ impl<'a> Gen<'a> {
                 if matches!(format, Some(TextureFormat::Signed8 | TextureFormat::Signed16)) {
                     self.expand(b, t, w)
                 } else {
+                    // A 2D 8-bit texture filters to 8-bit results in
+                    // hardware fidelity (`scene_run` uploads it as RGBA8).
+                    if self.fidelity == Fidelity::Hardware && sample && kind != TextureKind::Cube && matches!(format, None | Some(TextureFormat::Rgba8 | TextureFormat::Rgb8 | TextureFormat::R8)) {
+                        self.on_grid.insert(n);
+                    }
                     t
                 }
             }
@@ -1514,7 +1530,7 @@ impl<'a> Gen<'a> {
                 }
             }
             Expr::Swizzle { value, pattern, len, .. } => {
-                arith = true;
+                arith = !self.on_grid.contains(value);
                 let x = val(b, *value)?;
                 let wx = wof(*value);
                 let len = *len as usize;
@@ -1537,7 +1553,7 @@ impl<'a> Gen<'a> {
                 }
             }
             Expr::Compose { components, .. } => {
-                arith = true;
+                arith = !components.iter().all(|c| self.on_grid.contains(c));
                 let xs: Vec<NH> = components.iter().map(|a| val(b, *a)).collect::<R<_>>()?;
                 if xs.len() == 1 {
                     xs[0]
@@ -1547,7 +1563,7 @@ impl<'a> Gen<'a> {
                 }
             }
             Expr::Convert { value, to } => {
-                arith = true;
+                arith = !self.on_grid.contains(value);
                 let x = val(b, *value)?;
                 let from = m.info(*value).ty;
                 if from == *to || width(from) == width(*to) {
@@ -1563,7 +1579,7 @@ impl<'a> Gen<'a> {
                 }
             }
             Expr::Select { cond, accept, reject } => {
-                arith = true;
+                arith = !(self.on_grid.contains(accept) && reject.is_none_or(|r| self.on_grid.contains(&r)));
                 let c = val(b, *cond)?;
                 let a = val(b, *accept)?;
                 let a = self.splat(b, a, wof(*accept), w)?;
@@ -1597,7 +1613,17 @@ impl<'a> Gen<'a> {
         }
         // A register write, as the CPU's per-operation fixed9 model rounds
         // every per-fragment operation but those that only address textures.
-        let v = if arith && self.m.info(n).freq.is_sample() && !self.address.get(n.index()).copied().unwrap_or(false) { self.quantize(b, v, w) } else { v };
+        let regroup = matches!(self.m.exprs[n], Expr::Swizzle { .. } | Expr::Convert { .. } | Expr::Compose { .. } | Expr::Select { .. });
+        if regroup && !arith {
+            // Rearranges values already on the grid.
+            self.on_grid.insert(n);
+        }
+        let v = if arith && self.m.info(n).freq.is_sample() && !self.address.get(n.index()).copied().unwrap_or(false) {
+            self.on_grid.insert(n);
+            self.quantize(b, v, w)
+        } else {
+            v
+        };
         b.vals.insert(n, v);
         Ok(())
     }
