@@ -204,3 +204,24 @@ fn deferred_shading_renders_as_forward_shading() {
     let max = object.iter().map(|&i| (0..3).map(|c| d[4 * i + c].abs_diff(f[4 * i + c])).max().unwrap()).max().unwrap();
     assert!(max <= 1, "deferred and forward differ by {max}/255");
 }
+
+/// A lookup at coordinates computed per fragment (a dependent read) takes
+/// its level of detail from the coordinates at its 2×2 quad, as a GPU's
+/// implicit derivatives do: the same coordinates interpolated or computed
+/// per fragment give the same mipmapped image (it was level 0, aliased).
+#[test]
+fn dependent_lookups_take_their_level_of_detail_from_the_quad() {
+    let head = "texture T : 2d rgba8 mipmap trilinear repeat = image(\"bricks.png\");\n";
+    let interpolated = format!("{head}C δπx ← T δ(4 * (u x));\n");
+    let dependent = format!("{head}C δπx ← T (4 * (δu x));\n");
+    let scene = default_scene();
+    for mode in [Mode::F32, Mode::Fixed9, Mode::Exact] {
+        let (a, _) = render(&interpolated, "wgsl", &scene, mode);
+        let (b, _) = render(&dependent, "wgsl", &scene, mode);
+        let (a, b) = (a.image.to_rgba8(), b.image.to_rgba8());
+        let object: Vec<usize> = (0..a.len() / 4).filter(|&i| a[4 * i + 3] == 255).collect();
+        assert!(object.len() > 2000, "{}", object.len());
+        let over = object.iter().filter(|&&i| (0..3).any(|c| a[4 * i + c].abs_diff(b[4 * i + c]) > 2)).count();
+        assert!(over * 200 < object.len(), "{mode:?}: {over} of {} pixels differ by more than 2/255", object.len());
+    }
+}
