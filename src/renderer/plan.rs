@@ -34,9 +34,12 @@
 //!   same mipmap filter. f32 framebuffers, no clamping.
 //! - `f32` — the same plan with every node rounded to f32, textures as
 //!   stored (8-bit where declared so) and sampled as the WGSL target's
-//!   texture unit samples them (`textures::unit`: λ per 2×2 quad, 8-bit
-//!   filtering of 8-bit textures, seamless cube maps; fixed9 too), f32
-//!   framebuffers.
+//!   texture unit samples them in exact fidelity (`textures::unit`: λ per
+//!   2×2 quad — for a dependent lookup from its coordinates computed at the
+//!   quad's pixels, [`FragmentProgram::quad_coords`] — float filtering,
+//!   seamless cube maps; fixed9 too, but with 8-bit textures filtered in 8.8
+//!   fixed point), f32 framebuffers; textures declared 16-bit or float are
+//!   rendered into in half floats, as the WGSL target's `Rgba16Float`.
 //! - `fixed9` — what the old hardware showed: 8-bit textures, an RGBA8
 //!   framebuffer (blending clamps and rounds) and 8-bit temporaries, and the
 //!   fragment maths on the register combiners. For each pass the combiner
