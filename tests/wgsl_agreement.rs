@@ -384,46 +384,50 @@ fn texture_unit_bilinear_matches_lavapipe_bit_for_bit() {
     }
 }
 
-/// Trilinear filtering with the level of detail from the quad's implicit
-/// derivatives (λ from 0 to 3, every 8-bit mip weight): identical bytes.
-#[test]
-fn texture_unit_trilinear_lod_matches_lavapipe_bit_for_bit() {
-    let Some(gpu) = gpu() else { return };
-    let (size, w, h) = (64u32, 256u32, 256u32);
-    let mut levels = Vec::new();
-    let mut chain = Vec::new();
-    let mut s = size;
+/// The trilinear pattern of the tests below: a 64² noise texture with its
+/// chain, uploaded as `texels`, drawn over 256² with coordinates whose
+/// quad derivatives take λ from 0 to 3. Returns lavapipe's image and the
+/// model's answer (`textures::unit`) at a pixel.
+fn trilinear_pattern(gpu: &Gpu, texels: TexelUpload) -> (Vec<u8>, impl Fn(u32, u32, unit::Arithmetic) -> [u8; 4]) {
+    let size = 64u32;
+    let (mut levels, mut chain, mut s) = (Vec::new(), Vec::new(), size);
     while s >= 1 {
         let rgba = noise((s * s * 4) as usize, 11 + s as u64);
         chain.push(level_of(s, s, &rgba));
-        levels.push(rgba);
+        levels.push(match texels {
+            TexelUpload::Rgba8 => rgba,
+            TexelUpload::Rgba16 => rgba.iter().flat_map(|&k| (k as u16 * 257).to_ne_bytes()).collect(),
+        });
         s /= 2;
     }
     let sampler = SamplerSettings { mag: RunFilter::Linear, min: RunFilter::Linear, address: AddressMode::Repeat, mipmap: Some(RunFilter::Linear) };
     let body = "let uv = vec2<f32>(p.x * p.x / 4096.0, p.y * p.y / 8192.0); return textureSample(t, s, uv);";
-    let got = draw_rect(&gpu, w, h, "", body, RunTexture { data: TextureData::D2Mipmapped { width: size, height: size, levels }, sampler, texels: TexelUpload::Rgba8 });
+    let got = draw_rect(gpu, 256, 256, "", body, RunTexture { data: TextureData::D2Mipmapped { width: size, height: size, levels }, sampler, texels });
     let t = Texture2D { format: TexelFormat::Rgba8, wrap: Wrap::Repeat, levels: chain };
     let coord = |x: u32, y: u32| {
         let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
         (px * px / 4096.0, py * py / 8192.0)
     };
-    let mut differ = 0;
-    for y in 0..h {
-        for x in 0..w {
-            let (x0, y0) = (x & !1, y & !1);
-            let (u00, v00) = coord(x0, y0);
-            let (u10, v10) = coord(x0 + 1, y0);
-            let (u01, v01) = coord(x0, y0 + 1);
-            let lod = unit::quad_lod(size, size, [u10 - u00, v10 - v00], [u01 - u00, v01 - v00]);
-            let (u, v) = coord(x, y);
-            let want = bytes(unit::sample_2d(&t, u, v, Filter::Trilinear, lod, unit::Arithmetic::Fixed8));
-            let i = 4 * (y * w + x) as usize;
-            if got[i..i + 4] != want {
-                differ += 1;
-            }
-        }
-    }
-    assert_eq!(differ, 0, "{differ} of {} pixels differ from textures::unit", w * h);
+    let model = move |x: u32, y: u32, arithmetic| {
+        let (x0, y0) = (x & !1, y & !1);
+        let (u00, v00) = coord(x0, y0);
+        let (u10, v10) = coord(x0 + 1, y0);
+        let (u01, v01) = coord(x0, y0 + 1);
+        let lod = unit::quad_lod(size, size, [u10 - u00, v10 - v00], [u01 - u00, v01 - v00]);
+        let (u, v) = coord(x, y);
+        bytes(unit::sample_2d(&t, u, v, Filter::Trilinear, lod, arithmetic))
+    };
+    (got, model)
+}
+
+/// Trilinear filtering with the level of detail from the quad's implicit
+/// derivatives (λ from 0 to 3, every 8-bit mip weight): identical bytes.
+#[test]
+fn texture_unit_trilinear_lod_matches_lavapipe_bit_for_bit() {
+    let Some(gpu) = gpu() else { return };
+    let (got, model) = trilinear_pattern(&gpu, TexelUpload::Rgba8);
+    let differ = (0..256 * 256u32).filter(|&i| got[4 * i as usize..4 * i as usize + 4] != model(i % 256, i / 256, unit::Arithmetic::Fixed8)).count();
+    assert_eq!(differ, 0, "{differ} of {} pixels differ from textures::unit", 256 * 256);
 }
 
 /// Exact fidelity's upload: the same 8-bit texels as 16-bit unorm, which
@@ -435,43 +439,19 @@ fn texture_unit_trilinear_lod_matches_lavapipe_bit_for_bit() {
 fn texture_unit_16bit_upload_filters_in_float() {
     let Some(gpu) = gpu() else { return };
     assert!(gpu.filters_16bit_norm(), "the device has no TEXTURE_FORMAT_16BIT_NORM: exact fidelity falls back to RGBA8");
-    let (size, w, h) = (64u32, 256u32, 256u32);
-    let (mut levels, mut chain, mut s) = (Vec::new(), Vec::new(), size);
-    while s >= 1 {
-        let rgba = noise((s * s * 4) as usize, 11 + s as u64);
-        chain.push(level_of(s, s, &rgba));
-        levels.push(rgba.iter().flat_map(|&k| (k as u16 * 257).to_ne_bytes()).collect::<Vec<u8>>());
-        s /= 2;
-    }
-    let sampler = SamplerSettings { mag: RunFilter::Linear, min: RunFilter::Linear, address: AddressMode::Repeat, mipmap: Some(RunFilter::Linear) };
-    let body = "let uv = vec2<f32>(p.x * p.x / 4096.0, p.y * p.y / 8192.0); return textureSample(t, s, uv);";
-    let got = draw_rect(&gpu, w, h, "", body, RunTexture { data: TextureData::D2Mipmapped { width: size, height: size, levels }, sampler, texels: TexelUpload::Rgba16 });
-    let t = Texture2D { format: TexelFormat::Rgba8, wrap: Wrap::Repeat, levels: chain };
-    let coord = |x: u32, y: u32| {
-        let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
-        (px * px / 4096.0, py * py / 8192.0)
-    };
+    let (got, model) = trilinear_pattern(&gpu, TexelUpload::Rgba16);
     let (mut max, mut differ, mut fixed_differ) = (0u8, 0, 0);
-    for y in 0..h {
-        for x in 0..w {
-            let (x0, y0) = (x & !1, y & !1);
-            let (u00, v00) = coord(x0, y0);
-            let (u10, v10) = coord(x0 + 1, y0);
-            let (u01, v01) = coord(x0, y0 + 1);
-            let lod = unit::quad_lod(size, size, [u10 - u00, v10 - v00], [u01 - u00, v01 - v00]);
-            let (u, v) = coord(x, y);
-            let want = bytes(unit::sample_2d(&t, u, v, Filter::Trilinear, lod, unit::Arithmetic::Float));
-            let fixed = bytes(unit::sample_2d(&t, u, v, Filter::Trilinear, lod, unit::Arithmetic::Fixed8));
-            let i = 4 * (y * w + x) as usize;
-            let m = (0..4).map(|c| got[i + c].abs_diff(want[c])).max().unwrap();
-            max = max.max(m);
-            differ += (m > 0) as usize;
-            fixed_differ += (got[i..i + 4] != fixed) as usize;
-        }
+    for i in 0..256 * 256u32 {
+        let (x, y, k) = (i % 256, i / 256, 4 * i as usize);
+        let want = model(x, y, unit::Arithmetic::Float);
+        let m = (0..4).map(|c| got[k + c].abs_diff(want[c])).max().unwrap();
+        max = max.max(m);
+        differ += (m > 0) as usize;
+        fixed_differ += (got[k..k + 4] != model(x, y, unit::Arithmetic::Fixed8)) as usize;
     }
-    eprintln!("16-bit upload: max {max}/255, {differ} of {} pixels differ from the float model, {fixed_differ} from the 8-bit one", w * h);
+    eprintln!("16-bit upload: max {max}/255, {differ} of 65536 pixels differ from the float model, {fixed_differ} from the 8-bit one");
     assert!(max <= 1, "16-bit upload: up to {max}/255 off the float model");
-    assert!(differ * 100 < (w * h) as usize, "16-bit upload: {differ} pixels differ from the float model");
+    assert!(differ * 100 < 65536, "16-bit upload: {differ} pixels differ from the float model");
     assert!(fixed_differ > 10 * differ, "16-bit upload looks like 8-bit filtering: {fixed_differ} pixels off the 8-bit model, {differ} off the float one");
 }
 

@@ -824,7 +824,6 @@ fn combiner_verdict(m: &Module, profile: &Profile, value: Handle<Expr>, textures
     Some(format!("not generated: {}: {e}", at(span)))
 }
 
-/// `π`, `πl`, `π*`, or `u` for a statement's index.
 fn same_framebuffer(a: &Table, b: &Table) -> bool {
     matches!((a, b), (Table::Framebuffer { id: x, .. }, Table::Framebuffer { id: y, .. }) if x == y)
 }
@@ -856,6 +855,7 @@ fn reused_projection(m: &Module) -> Vec<Diagnostic> {
     diags
 }
 
+/// `π`, `πl`, `π*`, or `u` for a statement's index.
 fn projection_name(m: &Module, index: Handle<Expr>) -> String {
     for h in m.reachable(&[index]).into_iter().rev() {
         if let Expr::Project { projection, .. } = &m.exprs[h] {

@@ -967,7 +967,7 @@ impl<'a> FragmentProgram<'a> {
             }
             let v = match &s.leaf {
                 Some(Leaf::Lookup { texture, coords_ty, lod_from: None }) if quad && texel_at.is_none() && self.mipmapped(*texture) => {
-                    let q = self.quad_coords(i, buf[0], fragment, varyings);
+                    let q = self.quad_coords(i, buf[0], *coords_ty, fragment, varyings);
                     self.lookup(*texture, buf[0], *coords_ty, None, Some(q), fragment, varyings)
                 }
                 Some(leaf) => self.leaf(leaf, buf[0], fragment, varyings, texel_at),
@@ -1011,20 +1011,22 @@ impl<'a> FragmentProgram<'a> {
     /// the steps before the lookup on their own varyings (extrapolated
     /// outside the triangle: helper pixels); lookups among those steps
     /// that are themselves dependent sample level 0 there.
-    fn quad_coords(&self, step: usize, c: Value, fragment: &Fragment, varyings: &[f32]) -> [[f64; 2]; 3] {
+    fn quad_coords(&self, step: usize, c: Value, coords_ty: Ty, fragment: &Fragment, varyings: &[f32]) -> [[f64; 2]; 3] {
         let coords = self.steps[step].ops[0] as usize;
+        // A 1D lookup's v is fixed (as in `lookup`).
+        let uv = |v: Value| if coords_ty == Ty::Scalar { [v[0], 0.5] } else { [v[0], v[1]] };
         let (tx, ty) = (-((fragment.x & 1) as f32), -((fragment.y & 1) as f32));
         let mut slots = vec![[0.0; 4]; self.n_slots];
         let mut vary = vec![0.0f32; varyings.len()];
         [(tx, ty), (tx + 1.0, ty), (tx, ty + 1.0)].map(|(ox, oy)| {
             if ox == 0.0 && oy == 0.0 {
-                return [c[0], c[1]];
+                return uv(c);
             }
-            let Some(inv_w) = fragment.varyings_at(varyings, ox, oy, &mut vary) else { return [c[0], c[1]] };
+            let Some(inv_w) = fragment.varyings_at(varyings, ox, oy, &mut vary) else { return uv(c) };
             let at = |p: u32, o: f32| (p as i64 + o as i64).max(0) as u32;
             let neighbour = Fragment { x: at(fragment.x, ox), y: at(fragment.y, oy), inv_w, ..*fragment };
             self.run_steps(&mut slots, &neighbour, &vary, None, step, false);
-            [slots[coords][0], slots[coords][1]]
+            uv(slots[coords])
         })
     }
 

@@ -1126,7 +1126,7 @@ fn upload_texture(gpu: &Gpu, data: &TextureData, texels: TexelUpload) -> (wgpu::
         let (w, h) = ((width >> k).max(1), (height >> k).max(1));
         let narrowed;
         let rgba = if texels == TexelUpload::Rgba16 && !wide {
-            narrowed = texel_bytes.chunks_exact(2).map(|c| ((u16::from_ne_bytes([c[0], c[1]]) as u32 + 128) / 257) as u8).collect::<Vec<u8>>();
+            narrowed = narrow_to_8bit(texel_bytes);
             &narrowed
         } else {
             texel_bytes
@@ -1291,4 +1291,22 @@ fn error_chain(err: &dyn std::error::Error) -> String {
         source = cause.source();
     }
     text
+}
+
+/// `Rgba16Unorm` texel bytes rounded to `Rgba8Unorm` (a device without
+/// 16-bit unorm textures): k·257 → k, other values to the nearest 8-bit step.
+fn narrow_to_8bit(texel_bytes: &[u8]) -> Vec<u8> {
+    texel_bytes.chunks_exact(2).map(|c| ((u16::from_ne_bytes([c[0], c[1]]) as u32 + 128) / 257) as u8).collect()
+}
+
+#[cfg(test)]
+mod tests {
+    #[test]
+    fn narrowing_16bit_texels_recovers_8bit_values_and_rounds_the_rest() {
+        let wide: Vec<u8> = (0..=255u16).map(|k| k * 257).chain([128, 129, 65535 - 128]).flat_map(u16::to_ne_bytes).collect();
+        let narrow = super::narrow_to_8bit(&wide);
+        assert_eq!(&narrow[..256], (0..=255u8).collect::<Vec<_>>().as_slice());
+        // 128/65535 is just under half a step: 0; 129/65535 just over: 1.
+        assert_eq!(&narrow[256..], &[0, 1, 255]);
+    }
 }
