@@ -1,7 +1,11 @@
 //! Agreement of the two executors of a plan (issue 5, part 4): the wgpu
 //! image (`backends::wgsl::scene_run`, Mesa's lavapipe in CI) against the CPU
 //! renderer's f32 mode (`renderer::plan`), bound to the same scene data,
-//! within 2/255 per channel on every pixel not on a triangle edge.
+//! within 2/255 per channel on every pixel not on a triangle edge; and
+//! `--fidelity hardware` against the fixed9 mode within 1/255. Every
+//! example is compared at 640×480 (at 256×192 the mask below left only
+//! ~1 200 of the torus's pixels); where the bound does not hold yet the
+//! example is listed in `KNOWN_GAPS` with its measured bound and why.
 //!
 //! # The edge mask
 //!
