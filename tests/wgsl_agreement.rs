@@ -253,7 +253,7 @@ fn kilgard_without_mipmaps_agrees_with_cpu_f32() {
 /// see `backends::wgsl::scene_run`).
 const KNOWN_GAPS: &[(&str, Fidelity, u8, usize, &str)] = &[
     ("deferred_shading.shd", Fidelity::Exact, 4, 100, "measured 3/255 on 48 pixels: T is rgba16f, and a half-float rounding step of N·H is 3/255 under `^24`"),
-    ("solid_mapping.shd", Fidelity::Exact, 96, 1400, "measured 85/255 on 899 pixels: texels on texture-space triangle edges that only one rasterizer covers (tests/wgsl_texture_targets.rs)"),
+    ("solid_mapping.shd", Fidelity::Exact, 96, 1400, "measured 85/255 on 899 pixels: `fract` of the ring radius jumps at each ring, so a texel whose radius lies within float rounding of a whole ring is light on one executor and dark on the other (hardware fidelity, which rounds P to 8 bits first, agrees), and bilinear magnification spreads each such texel over a few pixels"),
     ("shadow_mask.shd", Fidelity::Exact, 255, 5, "measured 255/255 on 1 pixel: a depth comparison of near-equal depths at the shadow's edge goes the other way"),
     ("shadow_mask.shd", Fidelity::Hardware, 255, 5, "the same pixel"),
     ("deferred_shading.shd", Fidelity::Hardware, 12, 3500, "measured 9/255 on 2 158 pixels: 8-bit rounding flips under `^24`"),

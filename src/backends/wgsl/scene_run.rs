@@ -57,8 +57,9 @@
 //!   (3/255 on 48 pixels: its G-buffer is `rgba16f`, and one half-float
 //!   rounding step of N·H is 3/255 under `^24`), shadow mask (one pixel at
 //!   the shadow's edge where near-equal depths compare the other way),
-//!   solid mapping (texels on texture-space triangle edges that only one
-//!   rasterizer covers, 899 pixels);
+//!   solid mapping (899 pixels: `fract` of the ring radius jumps at every
+//!   ring, and texels whose radius is within float rounding of a whole
+//!   ring are light on one executor, dark on the other);
 //! - hardware fidelity against `fixed9`: within 1/255 for 17 examples;
 //!   shadow mask has the same edge pixel, 10 others differ by 2-9/255 on
 //!   1-3 500 pixels (Kilgard's three passes: 8/255 on 10). Both executors round every
