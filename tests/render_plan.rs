@@ -2,6 +2,8 @@
 //! modes, the planner's split-correctness at image level, and every example
 //! either rendering cleanly or refusing with a clear error.
 
+mod common;
+
 use std::path::Path;
 
 use shadec::planner::{compile_source, Planned};
@@ -168,11 +170,8 @@ fn bake_is_texture_shading_of_the_function() {
 /// written out, the ball casts its shadow on the floor.
 #[test]
 fn shadow_mask_reprojects_each_pixel() {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/shadow_floor.ron")).unwrap();
-    let scene = Scene::parse(&text, Path::new("/nonexistent-shadec-scene/shadow_floor.ron")).unwrap();
-    let lit = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/shadow_mask.shd")).unwrap();
-    let shadowed = lit.replace("C δπx ← δ p s x;", "C δπx ← ka;").replace("α C xs ← (z C xs) > (z Cl πl π⁻¹ xs);", "α C xs ← (z πl π⁻¹ xs) > (z Cl πl π⁻¹ xs) + 0.002;");
-    assert_ne!(shadowed, lit);
+    let scene = common::shadow_floor_scene();
+    let (lit, shadowed) = common::shadow_mask_and_williams();
     let (a, _) = render(&lit, "wgsl", &scene, Mode::F32);
     let (b, _) = render(&shadowed, "wgsl", &scene, Mode::F32);
     let (a, b) = (a.image.to_rgba8(), b.image.to_rgba8());

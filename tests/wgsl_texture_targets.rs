@@ -138,10 +138,6 @@ fn cpu_vs_gpu(gpu: &Gpu, source: &str, scene: &Scene) -> (u8, usize, Vec<u8>, Ve
     (*diffs.iter().max().unwrap(), diffs.iter().filter(|d| **d > 2).count(), cpu, wgpu)
 }
 
-fn shadow_scene() -> Scene {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/shadow_floor.ron")).unwrap();
-    Scene::parse(&text, Path::new("/nonexistent-shadec-scene/shadow_floor.ron")).unwrap()
-}
 
 /// Shadow mask (seeds/001 Section 3.5) as the example writes it: five
 /// passes into three framebuffers — C′ and Cl are rendered textures, the
@@ -152,7 +148,7 @@ fn shadow_scene() -> Scene {
 #[test]
 fn shadow_mask_on_wgpu_agrees_with_cpu_f32() {
     let Some(gpu) = gpu() else { return };
-    let (max, over, _, _) = cpu_vs_gpu(&gpu, &example("shadow_mask"), &shadow_scene());
+    let (max, over, _, _) = cpu_vs_gpu(&gpu, &example("shadow_mask"), &common::shadow_floor_scene());
     eprintln!("shadow mask: max {max}/255, {over} pixels over 2/255");
     assert!(max <= 2, "wgpu and the CPU differ by {max}/255 on {over} pixels");
 }
@@ -166,10 +162,8 @@ fn shadow_mask_on_wgpu_agrees_with_cpu_f32() {
 #[test]
 fn williams_shadow_test_agrees_and_casts_a_shadow() {
     let Some(gpu) = gpu() else { return };
-    let scene = shadow_scene();
-    let lit = example("shadow_mask");
-    let shadowed = lit.replace("C δπx ← δ p s x;", "C δπx ← ka;").replace("α C xs ← (z C xs) > (z Cl πl π⁻¹ xs);", "α C xs ← (z πl π⁻¹ xs) > (z Cl πl π⁻¹ xs) + 0.002;");
-    assert_ne!(shadowed, lit);
+    let scene = common::shadow_floor_scene();
+    let (lit, shadowed) = common::shadow_mask_and_williams();
     let (max, over, cpu, wgpu) = cpu_vs_gpu(&gpu, &shadowed, &scene);
     let (_, _, cpu_lit, _) = cpu_vs_gpu(&gpu, &lit, &scene);
     eprintln!("Williams shadow test: max {max}/255, {over} pixels over 2/255");

@@ -328,6 +328,7 @@ impl TileBuffers {
     /// as GL clamps fragment colours for fixed-point buffers).
     #[inline]
     pub(crate) fn blend_color(&mut self, idx: usize, src: &[f32; 4], blend: &BlendState) {
+        let half = matches!(self.color, ColorTile::F16(_));
         match &mut self.color {
             ColorTile::Rgba8(c) => {
                 let s = [src[0].clamp(0.0, 1.0), src[1].clamp(0.0, 1.0), src[2].clamp(0.0, 1.0), src[3].clamp(0.0, 1.0)];
@@ -340,19 +341,11 @@ impl TileBuffers {
                     }
                 }
             }
-            ColorTile::F32(c) => {
+            ColorTile::F32(c) | ColorTile::F16(c) => {
                 let out = blend.blend(src, &c[idx]);
                 for ch in 0..4 {
                     if blend.write_mask[ch] {
-                        c[idx][ch] = out[ch];
-                    }
-                }
-            }
-            ColorTile::F16(c) => {
-                let out = blend.blend(src, &c[idx]);
-                for ch in 0..4 {
-                    if blend.write_mask[ch] {
-                        c[idx][ch] = round_f16(out[ch]);
+                        c[idx][ch] = if half { round_f16(out[ch]) } else { out[ch] };
                     }
                 }
             }
@@ -515,6 +508,18 @@ mod tests {
         let mut fb = Framebuffer::new(3, 2, ColorFormat::Rgba8).unwrap();
         fb.set_color(1, 1, [2.0, -1.0, 0.5, f32::NAN]);
         assert_eq!(fb.to_rgba8()[(1 * 3 + 1) * 4..(1 * 3 + 2) * 4], [255, 0, 128, 0]);
+    }
+
+    #[test]
+    fn f16_rounds_to_half_precision_without_clamping() {
+        let mut fb = Framebuffer::new(2, 1, ColorFormat::F16).unwrap();
+        fb.set_color(0, 0, [0.1, -0.7, 3.0, 1.0]);
+        let c = fb.color(0, 0).unwrap();
+        // 0.1 is not a half: the nearest one is 0.0999755859375.
+        assert_eq!(c, [0.0999755859375, -0.7001953125, 3.0, 1.0]);
+        let mut f32_fb = Framebuffer::new(2, 1, ColorFormat::F32).unwrap();
+        f32_fb.set_color(0, 0, [0.1, -0.7, 3.0, 1.0]);
+        assert_eq!(f32_fb.color(0, 0).unwrap(), [0.1, -0.7, 3.0, 1.0]);
     }
 
     #[test]

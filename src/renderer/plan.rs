@@ -626,6 +626,8 @@ struct FragmentProgram<'a> {
 
 thread_local! {
     static SLOTS: RefCell<Vec<Value>> = const { RefCell::new(Vec::new()) };
+    /// Slots and varyings of a quad neighbour ([`FragmentProgram::quad_coords`]).
+    static QUAD_SCRATCH: RefCell<(Vec<Value>, Vec<f32>)> = const { RefCell::new((Vec::new(), Vec::new())) };
 }
 
 impl<'a> FragmentProgram<'a> {
@@ -1016,17 +1018,21 @@ impl<'a> FragmentProgram<'a> {
         // A 1D lookup's v is fixed (as in `lookup`).
         let uv = |v: Value| if coords_ty == Ty::Scalar { [v[0], 0.5] } else { [v[0], v[1]] };
         let (tx, ty) = (-((fragment.x & 1) as f32), -((fragment.y & 1) as f32));
-        let mut slots = vec![[0.0; 4]; self.n_slots];
-        let mut vary = vec![0.0f32; varyings.len()];
-        [(tx, ty), (tx + 1.0, ty), (tx, ty + 1.0)].map(|(ox, oy)| {
-            if ox == 0.0 && oy == 0.0 {
-                return uv(c);
-            }
-            let Some(inv_w) = fragment.varyings_at(varyings, ox, oy, &mut vary) else { return uv(c) };
-            let at = |p: u32, o: f32| (p as i64 + o as i64).max(0) as u32;
-            let neighbour = Fragment { x: at(fragment.x, ox), y: at(fragment.y, oy), inv_w, ..*fragment };
-            self.run_steps(&mut slots, &neighbour, &vary, None, step, false);
-            uv(slots[coords])
+        // Not re-entrant: the neighbours' runs evaluate no quads.
+        QUAD_SCRATCH.with(|cell| {
+            let (slots, vary) = &mut *cell.borrow_mut();
+            slots.resize(self.n_slots, [0.0; 4]);
+            vary.resize(varyings.len(), 0.0);
+            [(tx, ty), (tx + 1.0, ty), (tx, ty + 1.0)].map(|(ox, oy)| {
+                if ox == 0.0 && oy == 0.0 {
+                    return uv(c);
+                }
+                let Some(inv_w) = fragment.varyings_at(varyings, ox, oy, vary) else { return uv(c) };
+                let at = |p: u32, o: f32| (p as i64 + o as i64).max(0) as u32;
+                let neighbour = Fragment { x: at(fragment.x, ox), y: at(fragment.y, oy), inv_w, ..*fragment };
+                self.run_steps(slots, &neighbour, vary, None, step, false);
+                uv(slots[coords])
+            })
         })
     }
 

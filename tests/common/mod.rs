@@ -1,5 +1,5 @@
 //! Helpers shared by the integration tests: run the `shadec` binary; drive
-//! the rasterizer with explicit clip-space vertices.
+//! the rasterizer with explicit clip-space vertices; the shadow-mask scene.
 
 #![allow(dead_code)]
 
@@ -135,4 +135,20 @@ pub fn hit_counts(vertices: &ClipVertices, triangles: &[[u32; 3]], width: u32, h
     )
     .unwrap();
     (fb.to_rgba_f32().iter().map(|c| c[0]).collect(), stats)
+}
+
+/// `tests/data/shadow_floor.ron`: a ball over a floor, one light.
+pub fn shadow_floor_scene() -> shadec::scene::Scene {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/shadow_floor.ron")).unwrap();
+    shadec::scene::Scene::parse(&text, Path::new("/nonexistent-shadec-scene/shadow_floor.ron")).unwrap()
+}
+
+/// `examples/shadow_mask.shd` as printed, and with Williams's test written
+/// out (GAPS.md 15): an ambient first image, and the reprojected point's
+/// depth from the light against the light's depth buffer, with a bias.
+pub fn shadow_mask_and_williams() -> (String, String) {
+    let lit = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/shadow_mask.shd")).unwrap();
+    let williams = lit.replace("C δπx ← δ p s x;", "C δπx ← ka;").replace("α C xs ← (z C xs) > (z Cl πl π⁻¹ xs);", "α C xs ← (z πl π⁻¹ xs) > (z Cl πl π⁻¹ xs) + 0.002;");
+    assert_ne!(williams, lit, "the example's statements changed");
+    (lit, williams)
 }

@@ -250,11 +250,10 @@ pub struct RunTexture {
 
 /// The texel format a [`TextureData`] image is uploaded in: what a texture
 /// unit filters, and at which precision (`textures::unit`).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TexelUpload {
     /// `Rgba8Unorm`, 4 bytes a texel. lavapipe filters it in 8.8 fixed
     /// point with 8-bit results, as the papers' hardware did.
-    #[default]
     Rgba8,
     /// `Rgba16Unorm`, four native-endian `u16` (8 bytes) a texel; 8-bit
     /// values k/255 are exact (k·257). Filtered in float: exact fidelity.

@@ -263,30 +263,31 @@ impl<'a> ScenePlan<'a> {
                 loaded.push(LoadedTexture { binding: c.binding, data });
             }
             let leaves = &s.interface.vertex_leaves;
-            if !matches!(pass.geometry, Geometry::Mesh { .. }) {
-                // One full-screen (full-texture) rectangle: the `quad` input.
-                if !leaves.is_empty() {
-                    return Err(SceneRunError::Unsupported(format!("pass {} draws a rectangle with per-vertex inputs", s.pass + 1)));
-                }
-                let floats = vec![-1.0, -1.0, 0.0, 1.0, 1.0, -1.0, 0.0, 1.0, 1.0, 1.0, 0.0, 1.0, -1.0, 1.0, 0.0, 1.0];
-                let projections: Vec<[f32; 16]> = match objects.first() {
-                    Some(object) => s.interface.projections.iter().map(|p| object.clip_matrix(p).to_cols_array()).collect(),
-                    None => Vec::new(),
-                };
-                let unis: Vec<[f32; 4]> = s.interface.uniforms.iter().map(|u| self.uniforms[*u as usize]).collect();
+            let unis: Vec<[f32; 4]> = s.interface.uniforms.iter().map(|u| self.uniforms[*u as usize]).collect();
+            // One draw: the pass's projections taken from `object`'s matrices.
+            let draw = |object: Option<&BoundObject>, vertices: VertexData, indices: Vec<u32>| {
+                let projections: Vec<[f32; 16]> = object.map_or_else(Vec::new, |o| s.interface.projections.iter().map(|p| o.clip_matrix(p).to_cols_array()).collect());
                 let has_block = !projections.is_empty() || !unis.is_empty();
-                out.push(RunPass {
+                RunPass {
                     label: s.label.clone(),
                     shader: RunShader { source: ShaderSource::Naga(s.module.clone()), vertex_entry: codegen::VERTEX_ENTRY.into(), fragment_entry: codegen::FRAGMENT_ENTRY.into() },
-                    vertices: VertexData { floats, components: vec![4] },
-                    indices: vec![0, 1, 2, 0, 2, 3],
+                    vertices,
+                    indices,
                     textures: textures.clone(),
                     uniforms: has_block.then(|| uniform_bytes(&projections, &unis)),
                     state: pass.state,
                     target: target.clone(),
                     loaded: loaded.clone(),
                     outputs: s.outputs,
-                });
+                }
+            };
+            if !matches!(pass.geometry, Geometry::Mesh { .. }) {
+                // One full-screen (full-texture) rectangle: the `quad` input.
+                if !leaves.is_empty() {
+                    return Err(SceneRunError::Unsupported(format!("pass {} draws a rectangle with per-vertex inputs", s.pass + 1)));
+                }
+                let floats = vec![-1.0, -1.0, 0.0, 1.0, 1.0, -1.0, 0.0, 1.0, 1.0, 1.0, 0.0, 1.0, -1.0, 1.0, 0.0, 1.0];
+                out.push(draw(objects.first(), VertexData { floats, components: vec![4] }, vec![0, 1, 2, 0, 2, 3]));
                 continue;
             }
             for object in &objects {
@@ -299,21 +300,8 @@ impl<'a> ScenePlan<'a> {
                         floats.extend(value.map(|c| c as f32));
                     }
                 }
-                let projections: Vec<[f32; 16]> = s.interface.projections.iter().map(|p| object.clip_matrix(p).to_cols_array()).collect();
-                let unis: Vec<[f32; 4]> = s.interface.uniforms.iter().map(|u| self.uniforms[*u as usize]).collect();
-                let has_block = !projections.is_empty() || !unis.is_empty();
-                out.push(RunPass {
-                    label: s.label.clone(),
-                    shader: RunShader { source: ShaderSource::Naga(s.module.clone()), vertex_entry: codegen::VERTEX_ENTRY.into(), fragment_entry: codegen::FRAGMENT_ENTRY.into() },
-                    vertices: VertexData { floats, components: vec![4; leaves.len()] },
-                    indices: object.mesh.triangles.iter().flatten().copied().collect(),
-                    textures: textures.clone(),
-                    uniforms: has_block.then(|| uniform_bytes(&projections, &unis)),
-                    state: pass.state,
-                    target: target.clone(),
-                    loaded: loaded.clone(),
-                    outputs: s.outputs,
-                });
+                let indices = object.mesh.triangles.iter().flatten().copied().collect();
+                out.push(draw(Some(object), VertexData { floats, components: vec![4; leaves.len()] }, indices));
             }
         }
         Ok(out)
