@@ -205,3 +205,38 @@ pub fn address_only(m: &Module, reach: &[bool]) -> Vec<bool> {
     }
     address
 }
+
+/// In the register combiners' precision model, the exponent `k` of `x^k`
+/// when the power is taken by repeated squaring, each product a register
+/// write rounded to 8 bits + sign (seeds/000 Section 4.4: "exponentiation
+/// by squaring" in the combiners; seeds/003 Section 4.2: every general
+/// combiner output is a register). That is a power to a constant whole
+/// exponent in 1..=256; other powers are one operation. The CPU's `fixed9`
+/// and WGSL's hardware fidelity both round where this says, so they agree.
+pub fn squaring_exponent(m: &Module, pow: Handle<Expr>) -> Option<u32> {
+    let Expr::Binary { op: BinaryOp::Pow, rhs, .. } = &m.exprs[pow] else { return None };
+    let Expr::Constant(c) = &m.exprs[*rhs] else { return None };
+    let k = c.components[0];
+    (k >= 1.0 && k <= 256.0 && k.fract() == 0.0).then_some(k as u32)
+}
+
+/// `x^k` by repeated squaring ([`squaring_exponent`]), `round` applied to
+/// every product — the order both executors follow: squarings of the base
+/// from the lowest bit up, the running product multiplied in at each set
+/// bit (the first set bit takes the base itself, unrounded).
+pub fn power_by_squaring<T: Copy>(x: T, k: u32, mut mul: impl FnMut(T, T) -> T) -> T {
+    let (mut e, mut base, mut acc) = (k, x, None);
+    while e > 0 {
+        if e & 1 == 1 {
+            acc = Some(match acc {
+                None => base,
+                Some(a) => mul(a, base),
+            });
+        }
+        e >>= 1;
+        if e > 0 {
+            base = mul(base, base);
+        }
+    }
+    acc.unwrap_or(x)
+}

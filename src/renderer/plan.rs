@@ -598,6 +598,9 @@ struct Step<'m> {
     /// node's type. A scalar texel is an intensity (v, v, v, v), as the
     /// program's type says.
     raw: bool,
+    /// fixed9: `x^k` taken by `k`'s squarings, each product rounded
+    /// ([`ir::squaring_exponent`]), as WGSL's hardware fidelity takes it.
+    squarings: Option<u32>,
 }
 
 /// The fragment stage of one pass: the reachable nodes of the output (and
@@ -710,7 +713,12 @@ impl<'a> FragmentProgram<'a> {
             n_slots += 1;
             slot_of[i] = slot;
             if let Expr::Constant(c) = expr {
-                constants.push((slot, ir::eval::value(c)));
+                let v = ir::eval::value(c);
+                // A register value in the combiners' precision (as WGSL's
+                // hardware fidelity writes it); scale factors beyond ±1 and
+                // addresses stay exact.
+                let register = mode == Mode::Fixed9 && setup.is_none() && !address[i] && c.values().iter().all(|x| x.abs() <= 1.0);
+                constants.push((slot, if register { v.map(fixed9) } else { v }));
                 continue;
             }
             let mut ops = [u32::MAX; 4];
@@ -783,7 +791,8 @@ impl<'a> FragmentProgram<'a> {
             let quantize = per_operation && per_sample;
             let folded = per_operation && !per_sample;
             let raw = setup.is_some() && ty.width() >= 3 && matches!(leaf, Some(Leaf::Lookup { .. } | Leaf::Framebuffer { .. }));
-            steps.push(Step { expr, ty, slot, ops, n_ops, leaf, quantize, folded, raw });
+            let squarings = ir::squaring_exponent(m, h).filter(|_| quantize);
+            steps.push(Step { expr, ty, slot, ops, n_ops, leaf, quantize, folded, raw, squarings });
         }
         let combiners = setup.map(|c| (c.machine, c.registers.map(|h| h.map(|h| slot_of[h.index()]))));
         Ok(FragmentProgram {
@@ -973,6 +982,10 @@ impl<'a> FragmentProgram<'a> {
                     self.lookup(*texture, buf[0], *coords_ty, None, Some(q), fragment, varyings)
                 }
                 Some(leaf) => self.leaf(leaf, buf[0], fragment, varyings, texel_at),
+                None if s.squarings.is_some() => {
+                    let k = s.squarings.unwrap_or(1);
+                    ir::power_by_squaring(buf[0], k, |a, c| [0, 1, 2, 3].map(|i| fixed9(a[i] * c[i])))
+                }
                 None => {
                     if let Expr::Select { reject: None, .. } = s.expr {
                         if buf[0][0] == 0.0 {

@@ -1005,12 +1005,12 @@ impl<'a> Gen<'a> {
         b.emit(Expression::Compose { ty: vec4, components: comps })
     }
 
-    fn constant(&mut self, b: &mut Body, c: &ir::Constant) -> NH {
+    /// A constant; a `register` value (hardware fidelity, per fragment, not
+    /// only an address, within ±1) is quantized as a constant register
+    /// holds it. Constants beyond ±1 are scale factors (the combiners' ×2,
+    /// ×4, repeated) and stay exact, as do texture addresses.
+    fn constant(&mut self, b: &mut Body, c: &ir::Constant, q: bool) -> NH {
         let w = width(c.ty);
-        let q = self.fidelity == Fidelity::Hardware && b.stage == Stage::Fragment;
-        // Constants beyond ±1 are scale factors (the combiners' ×2, ×4,
-        // repeated): exact; the others are register values: quantized.
-        let q = q && c.values().iter().all(|v| v.abs() <= 1.0);
         let vals: Vec<f32> = c.values().iter().map(|v| if q { q9_value(*v) } else { *v as f32 }).collect();
         if w == 1 || vals.iter().all(|v| v.to_bits() == vals[0].to_bits()) {
             let l = b.lit(vals[0]);
@@ -1138,10 +1138,11 @@ impl<'a> Gen<'a> {
         let mut arith = false; // a register write in hardware fidelity
         let v: NH = match &e {
             Expr::Constant(c) => {
-                if self.fidelity == Fidelity::Hardware && sample && c.values().iter().all(|v| v.abs() <= 1.0) {
+                let register = self.fidelity == Fidelity::Hardware && sample && !self.address.get(n.index()).copied().unwrap_or(false) && c.values().iter().all(|v| v.abs() <= 1.0);
+                if register {
                     self.on_grid.insert(n);
                 }
-                self.constant(b, c)
+                self.constant(b, c, register)
             }
             Expr::Uniform(u) => {
                 let Some(var) = self.uniforms_var else { return Err(GenError::Internal("uniform without a block".into())) };
@@ -1401,35 +1402,18 @@ impl<'a> Gen<'a> {
                         }
                     }
                     BinaryOp::Pow => {
-                        let k = match &m.exprs[*rhs] {
-                            Expr::Constant(c) => Some(c.components[0]),
-                            _ => None,
-                        };
-                        match k {
-                            Some(k) if self.fidelity == Fidelity::Hardware && sample && k >= 1.0 && k <= 256.0 && k.fract() == 0.0 => {
-                                // Repeated squaring, a register write after each product.
-                                let mut e = k as u32;
-                                let mut base = x;
-                                let mut acc: Option<NH> = None;
-                                while e > 0 {
-                                    if e & 1 == 1 {
-                                        acc = Some(match acc {
-                                            None => base,
-                                            Some(a) => {
-                                                let p = self.binop(b, B::Multiply, a, base);
-                                                self.quantize(b, p, w)
-                                            }
-                                        });
-                                    }
-                                    e >>= 1;
-                                    if e > 0 {
-                                        let sq = self.binop(b, B::Multiply, base, base);
-                                        base = self.quantize(b, sq, w);
-                                    }
-                                }
-                                acc.unwrap_or(x)
+                        let squarings = ir::squaring_exponent(m, n).filter(|_| self.fidelity == Fidelity::Hardware && info.freq.is_sample() && !self.address.get(n.index()).copied().unwrap_or(false));
+                        match squarings {
+                            // Repeated squaring, a register write after each product
+                            // (`x^1` is x, written once).
+                            Some(k) => {
+                                arith = k == 1;
+                                ir::power_by_squaring(x, k, |a, c| {
+                                    let p = self.binop(b, B::Multiply, a, c);
+                                    self.quantize(b, p, w)
+                                })
                             }
-                            _ => {
+                            None => {
                                 arith = true;
                                 let y = self.splat(b, y, wy, w)?;
                                 self.math(b, F::Pow, &[x, y])
