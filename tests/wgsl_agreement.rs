@@ -183,6 +183,14 @@ fn try_agreement_in(gpu: &Gpu, source: &str, target: &str, scene: &Scene, fideli
         H
     );
     if std::env::var("SHADEC_AGREEMENT_DUMP").is_ok() {
+        // Signed differences (wgpu − CPU) per channel over the lit compared pixels: a bias shows as asymmetry.
+        for c in 0..3 {
+            let mut histogram = std::collections::BTreeMap::new();
+            for i in (0..(W * H) as usize).filter(|&i| !mask[i] && cpu[4 * i..4 * i + 3].iter().any(|&c| c > 0)) {
+                *histogram.entry(gpu_img[4 * i + c] as i32 - cpu[4 * i + c] as i32).or_insert(0usize) += 1;
+            }
+            eprintln!("{target} channel {c}: wgpu − cpu → pixels {histogram:?}");
+        }
         let dir = std::env::temp_dir();
         image::RgbaImage::from_raw(W, H, cpu.clone()).unwrap().save(dir.join(format!("agree_cpu_{target}.png"))).unwrap();
         image::RgbaImage::from_raw(W, H, gpu_img.clone()).unwrap().save(dir.join(format!("agree_gpu_{target}.png"))).unwrap();

@@ -445,6 +445,8 @@ struct Gen<'a> {
     /// (texture, sampler) per unit.
     units: Vec<(naga::Handle<GlobalVariable>, naga::Handle<GlobalVariable>, TextureKind, Option<TextureFormat>)>,
     q9: [Option<naga::Handle<Function>>; 4],
+    /// `round_to_half`, once built.
+    half: Option<naga::Handle<Function>>,
     quad: bool,
     /// The pass's fragment position (the index's Interpolate node).
     own_position: Option<ir::Handle<Expr>>,
@@ -483,6 +485,7 @@ impl<'a> Gen<'a> {
             uniforms_var: None,
             units: vec![],
             q9: [None; 4],
+            half: None,
             quad: false,
             combiners: None,
             fat: fat_layers(&planned.module),
@@ -741,6 +744,13 @@ impl<'a> Gen<'a> {
         Ok(b.f)
     }
 
+    /// Whether this pass renders into a texture held in half floats (a
+    /// 16-bit or float format: `Rgba16Float` on wgpu, `ColorFormat::F16`
+    /// on the CPU).
+    fn renders_half_floats(&self) -> bool {
+        matches!(&self.planned.plan.passes[self.pass_index].target, RenderTarget::Texture { name } if self.m.textures.iter().any(|t| t.name == *name && t.format.is_wide()))
+    }
+
     fn fragment(&mut self, vout: naga::Handle<Type>) -> R<Function> {
         let mut b = Body::new(FRAGMENT_ENTRY, Stage::Fragment);
         b.f.arguments.push(FunctionArgument { name: Some("input".into()), ty: vout, binding: None });
@@ -810,6 +820,7 @@ impl<'a> Gen<'a> {
                             3 => b.emit(Expression::Compose { ty: vec4, components: vec![v, one] }),
                             w => self.widen_zero(&mut b, v, w),
                         };
+                        let c = if self.renders_half_floats() { self.round_to_half(&mut b, c) } else { c };
                         comps.push(c);
                         let name = match &self.m.exprs[*h] {
                             Expr::Interpolate { value, .. } => self.value_name(*value),
@@ -828,6 +839,7 @@ impl<'a> Gen<'a> {
                 }
             }
         };
+        let out = if self.renders_half_floats() { self.round_to_half(&mut b, out) } else { out };
         b.f.body.push(Statement::Return { value: Some(out) }, naga::Span::UNDEFINED);
         b.f.result = Some(FunctionResult { ty: vec4, binding: Some(Binding::Location { location: 0, interpolation: None, sampling: None, blend_src: None, per_primitive: false }) });
         Ok(b.f)
@@ -1063,6 +1075,61 @@ impl<'a> Gen<'a> {
         let f = self.module.functions.append(b.f, naga::Span::UNDEFINED);
         self.q9[w - 1] = Some(f);
         f
+    }
+
+    /// `round_to_half(x)`: each component rounded to the nearest half float
+    /// (ties to even), as the CPU's `ColorFormat::F16` stores it. A pass
+    /// into an `Rgba16Float` texture writes this, so the target's own
+    /// conversion is exact: Vulkan lets a driver round a colour write
+    /// toward zero (lavapipe does), which makes every N·H of a G-buffer
+    /// one half-float step short, a bias `^24` magnifies to 3/255.
+    fn round_to_half(&mut self, b: &mut Body, v: NH) -> NH {
+        let f = match self.half {
+            Some(f) => f,
+            None => {
+                let f = self.round_to_half_function();
+                self.half = Some(f);
+                f
+            }
+        };
+        let r = b.plain(Expression::CallResult(f));
+        b.f.body.push(Statement::Call { function: f, arguments: vec![v], result: Some(r) }, naga::Span::UNDEFINED);
+        r
+    }
+
+    /// `fn round_to_half(x: vec4<f32>) -> vec4<f32>`: with E the binary
+    /// exponent of x (from its bits) and k = max(E − 10, −24) the exponent
+    /// of a half float's step there (10 mantissa bits; below 2⁻¹⁴ the
+    /// subnormals' fixed step 2⁻²⁴), `ldexp(round(ldexp(x, −k)), k)` —
+    /// scalings by powers of two are exact and WGSL's `round` takes ties to
+    /// even. (WGSL's `quantizeToF16` would need the f16 capability, and its
+    /// rounding direction is the implementation's choice.)
+    fn round_to_half_function(&mut self) -> naga::Handle<Function> {
+        let vec4 = self.vec_ty(4);
+        let mut b = Body::new("round_to_half", Stage::Vertex);
+        b.f.arguments.push(FunctionArgument { name: Some("x".into()), ty: vec4, binding: None });
+        b.f.result = Some(FunctionResult { ty: vec4, binding: None });
+        let x = b.plain(Expression::FunctionArgument(0));
+        let splat = |b: &mut Body, l: Literal| {
+            let l = b.plain(Expression::Literal(l));
+            b.emit(Expression::Splat { size: VectorSize::Quad, value: l })
+        };
+        let bits = b.emit(Expression::As { expr: x, kind: naga::ScalarKind::Uint, convert: None });
+        let c23 = splat(&mut b, Literal::U32(23));
+        let c255 = splat(&mut b, Literal::U32(255));
+        let biased = self.binop(&mut b, naga::BinaryOperator::ShiftRight, bits, c23);
+        let biased = self.binop(&mut b, naga::BinaryOperator::And, biased, c255);
+        let biased = b.emit(Expression::As { expr: biased, kind: naga::ScalarKind::Sint, convert: Some(4) });
+        let bias = splat(&mut b, Literal::I32(127 + 10));
+        let k = self.binop(&mut b, naga::BinaryOperator::Subtract, biased, bias);
+        let lowest = splat(&mut b, Literal::I32(-24));
+        let k = self.math(&mut b, naga::MathFunction::Max, &[k, lowest]);
+        let minus_k = b.emit(Expression::Unary { op: naga::UnaryOperator::Negate, expr: k });
+        let scaled = self.math(&mut b, naga::MathFunction::Ldexp, &[x, minus_k]);
+        let rounded = self.math(&mut b, naga::MathFunction::Round, &[scaled]);
+        let back = self.math(&mut b, naga::MathFunction::Ldexp, &[rounded, k]);
+        b.f.body.push(Statement::Return { value: Some(back) }, naga::Span::UNDEFINED);
+        self.module.functions.append(b.f, naga::Span::UNDEFINED)
     }
 
     /// `normalize(x)` is undefined in WGSL for x = 0 (NaN on lavapipe); the
