@@ -150,6 +150,17 @@ impl PassShading {
     }
 }
 
+/// How far [`PlanRenderer::set_rounding_bias`] moves the ties of `fixed9`'s
+/// roundings (the default, zero, is the model).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct RoundingBias {
+    /// In 1/255 steps: register writes, folded constants, register loads.
+    pub register_steps: f64,
+    /// In 1/256 quanta: the 8-bit texture units' texel coordinates and λ
+    /// (`textures::unit::Arithmetic::Fixed8`).
+    pub texel_quanta: f32,
+}
+
 /// A program bound to a scene: textures loaded, objects bound. Build once,
 /// render in any mode and size.
 pub struct PlanRenderer<'a> {
@@ -160,6 +171,8 @@ pub struct PlanRenderer<'a> {
     stored: BTreeMap<String, BoundTexture>,
     exact: BTreeMap<String, BoundTexture>,
     uniforms: Vec<Option<Value>>,
+    /// See [`PlanRenderer::set_rounding_bias`]; zero renders the model.
+    rounding_bias: RoundingBias,
     /// What stand-ins were used, for the user.
     pub notes: Vec<String>,
 }
@@ -189,7 +202,19 @@ impl<'a> PlanRenderer<'a> {
                 }
             }
         }
-        Ok(PlanRenderer { planned, scene, assets, decls, stored, exact, uniforms, notes })
+        Ok(PlanRenderer { planned, scene, assets, decls, stored, exact, uniforms, rounding_bias: RoundingBias::default(), notes })
+    }
+
+    /// A sensitivity probe of `fixed9`, not a model: moves the tie of
+    /// every rounding the model takes ([`RoundingBias`]). Where a pixel's
+    /// colour changes, some rounding there decides on an input within that
+    /// distance of its tie — an input another float evaluation (a GPU's
+    /// interpolation, `dot` and derivatives) can put on the other side. The
+    /// WGSL agreement tests accept a GPU pixel that agrees with such a
+    /// picture, as they skip the pixels where coverage is decided at a
+    /// triangle edge.
+    pub fn set_rounding_bias(&mut self, bias: RoundingBias) {
+        self.rounding_bias = bias;
     }
 
     /// Renders every pass at `width`×`height`; `progress(done, total)` is
@@ -625,6 +650,10 @@ struct FragmentProgram<'a> {
     combiners: Option<(PixelEmulator, [Option<u32>; 6])>,
     /// Fragments whose value was not finite ([`Frame::nonfinite`]).
     nonfinite: AtomicU64,
+    /// [`PlanRenderer::set_rounding_bias`]: the register roundings' part.
+    bias: f64,
+    /// The texture units' part.
+    texel_bias: f32,
 }
 
 thread_local! {
@@ -718,7 +747,7 @@ impl<'a> FragmentProgram<'a> {
                 // hardware fidelity writes it); scale factors beyond ±1 and
                 // addresses stay exact.
                 let register = mode == Mode::Fixed9 && setup.is_none() && !address[i] && c.values().iter().all(|x| x.abs() <= 1.0);
-                constants.push((slot, if register { v.map(fixed9) } else { v }));
+                constants.push((slot, if register { v.map(|x| fixed9_with(x, r.rounding_bias.register_steps)) } else { v }));
                 continue;
             }
             let mut ops = [u32::MAX; 4];
@@ -811,6 +840,8 @@ impl<'a> FragmentProgram<'a> {
             filters,
             combiners,
             nonfinite: AtomicU64::new(0),
+            bias: r.rounding_bias.register_steps,
+            texel_bias: r.rounding_bias.texel_quanta,
         })
     }
 
@@ -913,7 +944,7 @@ impl<'a> FragmentProgram<'a> {
                             }
                             _ => f32::NEG_INFINITY,
                         };
-                        let arithmetic = if self.mode == Mode::Fixed9 { unit::Arithmetic::Fixed8 } else { unit::Arithmetic::Float };
+                        let arithmetic = if self.mode == Mode::Fixed9 { unit::Arithmetic::Fixed8 { tie_bias: self.texel_bias } } else { unit::Arithmetic::Float };
                         unit::sample_2d(t, u as f32, v as f32, filter, lod, arithmetic)
                     }
                     Texture::Cube(t) if self.mode != Mode::Exact => unit::sample_cube(t, [c[0] as f32, c[1] as f32, c[2] as f32], filter),
@@ -984,7 +1015,7 @@ impl<'a> FragmentProgram<'a> {
                 Some(leaf) => self.leaf(leaf, buf[0], fragment, varyings, texel_at),
                 None if s.squarings.is_some() => {
                     let k = s.squarings.unwrap_or(1);
-                    ir::power_by_squaring(buf[0], k, |a, c| [0, 1, 2, 3].map(|i| fixed9(a[i] * c[i])))
+                    ir::power_by_squaring(buf[0], k, |a, c| [0, 1, 2, 3].map(|i| fixed9_with(a[i] * c[i], self.bias)))
                 }
                 None => {
                     if let Expr::Select { reject: None, .. } = s.expr {
@@ -999,8 +1030,8 @@ impl<'a> FragmentProgram<'a> {
             slots[s.slot as usize] = match self.mode {
                 Mode::Exact => v,
                 Mode::F32 => v.map(|x| x as f32 as f64),
-                Mode::Fixed9 if s.quantize => v.map(fixed9),
-                Mode::Fixed9 if s.folded => v.map(fixed9_folded),
+                Mode::Fixed9 if s.quantize => v.map(|x| fixed9_with(x, self.bias)),
+                Mode::Fixed9 if s.folded => v.map(|x| fixed9_folded_with(x, self.bias)),
                 Mode::Fixed9 => v.map(|x| x as f32 as f64),
             };
         }
@@ -1058,7 +1089,7 @@ impl<'a> FragmentProgram<'a> {
         };
         let load = |k: usize| -> [u8; 4] {
             match registers[k] {
-                Some(slot) => slots[slot as usize].map(|x| if x.is_nan() { 0 } else { (x.clamp(0.0, 1.0) * 255.0 + 0.5).floor() as u8 }),
+                Some(slot) => slots[slot as usize].map(|x| if x.is_nan() { 0 } else { (x.clamp(0.0, 1.0) * 255.0 + 0.5 + self.bias).floor().clamp(0.0, 255.0) as u8 }),
                 None => [0; 4],
             }
         };
@@ -1071,10 +1102,17 @@ impl<'a> FragmentProgram<'a> {
 /// 1/255 (nearest, ties toward +∞), as the emulator's register writes.
 #[inline]
 pub fn fixed9(v: f64) -> f64 {
+    fixed9_with(v, 0.0)
+}
+
+/// [`fixed9`] with its tie point moved by `bias` steps
+/// ([`PlanRenderer::set_rounding_bias`]).
+#[inline]
+fn fixed9_with(v: f64, bias: f64) -> f64 {
     if v.is_nan() {
         return 0.0;
     }
-    (v.clamp(-1.0, 1.0) * 255.0 + 0.5).floor() / 255.0
+    (v.clamp(-1.0, 1.0) * 255.0 + 0.5 + bias).floor().clamp(-255.0, 255.0) / 255.0
 }
 
 /// A constant or uniform subexpression in the combiner precision model:
@@ -1083,12 +1121,13 @@ pub fn fixed9(v: f64) -> f64 {
 /// `scale_by_two`, `scale_by_four`), so it keeps its magnitude and is
 /// rounded to 1/255 like the register (the product it scales is then
 /// clamped to [−1, 1] as the combiner's output is).
+/// (`bias`: [`PlanRenderer::set_rounding_bias`].)
 #[inline]
-pub fn fixed9_folded(v: f64) -> f64 {
+fn fixed9_folded_with(v: f64, bias: f64) -> f64 {
     if v.is_nan() {
         return 0.0;
     }
-    (v * 255.0 + 0.5).floor() / 255.0
+    (v * 255.0 + 0.5 + bias).floor() / 255.0
 }
 
 /// The varying whose derivatives choose the mipmap level of a lookup at

@@ -71,21 +71,32 @@ fn piecewise_log2(x: f32) -> f32 {
 
 /// How a texture unit computes with the texels of an 8-bit texture (module
 /// docs); other formats always filter in float.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Arithmetic {
     /// 8.8 fixed point, 8-bit results: the hardware (`fixed9`) model, and
-    /// lavapipe on `Rgba8Unorm`.
-    Fixed8,
+    /// lavapipe on `Rgba8Unorm`. `tie_bias` is 0 in the model; otherwise
+    /// every rounding or truncation of the coordinates' 1/256 texels and
+    /// of λ's 1/256 moves by that many quanta — a sensitivity probe
+    /// (`renderer::plan::PlanRenderer::set_rounding_bias`).
+    Fixed8 { tie_bias: f32 },
     /// f32 weights and results: the `f32` model, and lavapipe on the
     /// `Rgba16Unorm` upload of exact fidelity.
     Float,
 }
 
+impl Arithmetic {
+    /// The hardware model: [`Arithmetic::Fixed8`] with no bias.
+    pub const FIXED8: Arithmetic = Arithmetic::Fixed8 { tie_bias: 0.0 };
+}
+
 /// Samples a 2D texture at (u, v) with level of detail `lod` ([`quad_lod`]).
 pub fn sample_2d(t: &Texture2D, u: f32, v: f32, filter: Filter, lod: f32, arithmetic: Arithmetic) -> [f32; 4] {
-    let fixed = arithmetic == Arithmetic::Fixed8 && t.format == TexelFormat::Rgba8;
+    let (fixed, bias) = match arithmetic {
+        Arithmetic::Fixed8 { tie_bias } if t.format == TexelFormat::Rgba8 => (true, tie_bias),
+        _ => (false, 0.0),
+    };
     let last = t.levels.len() - 1;
-    let lod = if lod.is_nan() { f32::NEG_INFINITY } else { lod };
+    let lod = if lod.is_nan() { f32::NEG_INFINITY } else { lod + bias / 256.0 };
     match filter {
         // Nearest and bilinear take the level nearest to λ (GL's
         // *_MIPMAP_NEAREST); without a chain, level 0.
@@ -95,30 +106,30 @@ pub fn sample_2d(t: &Texture2D, u: f32, v: f32, filter: Filter, lod: f32, arithm
             if filter == Filter::Nearest {
                 l.sample_nearest(u, v, t.wrap)
             } else {
-                bilinear(l, fixed, u, v, t.wrap)
+                bilinear(l, fixed, bias, u, v, t.wrap)
             }
         }
         Filter::Trilinear => {
             let floor = lod.floor();
             if lod.is_infinite() || floor < 0.0 || last == 0 {
-                return bilinear(&t.levels[0], fixed, u, v, t.wrap);
+                return bilinear(&t.levels[0], fixed, bias, u, v, t.wrap);
             }
             let l0 = floor as usize;
             if l0 >= last {
-                return bilinear(&t.levels[last], fixed, u, v, t.wrap);
+                return bilinear(&t.levels[last], fixed, bias, u, v, t.wrap);
             }
             let fraction = lod - floor;
-            let a = bilinear(&t.levels[l0], fixed, u, v, t.wrap);
+            let a = bilinear(&t.levels[l0], fixed, bias, u, v, t.wrap);
             if fixed {
                 // mipmapPrecisionBits = 8, truncated.
                 let w = (fraction * 256.0) as i32;
                 if w <= 0 {
                     return a;
                 }
-                let b = bilinear(&t.levels[l0 + 1], fixed, u, v, t.wrap);
+                let b = bilinear(&t.levels[l0 + 1], fixed, bias, u, v, t.wrap);
                 [0, 1, 2, 3].map(|c| lerp8(w, to_byte(a[c]), to_byte(b[c])) as f32 / 255.0)
             } else {
-                let b = bilinear(&t.levels[l0 + 1], fixed, u, v, t.wrap);
+                let b = bilinear(&t.levels[l0 + 1], fixed, bias, u, v, t.wrap);
                 [0, 1, 2, 3].map(|c| a[c] + fraction * (b[c] - a[c]))
             }
         }
@@ -185,12 +196,12 @@ fn cube_texel(c: &TextureCube, face: CubeFace, i: i64, j: i64) -> [f32; 4] {
 
 /// Bilinear filtering of one level: 8.8 fixed point when `fixed` (an 8-bit
 /// texture, [`Arithmetic::Fixed8`]), else f32 (module docs).
-fn bilinear(level: &Level, fixed: bool, u: f32, v: f32, wrap: Wrap) -> [f32; 4] {
+fn bilinear(level: &Level, fixed: bool, bias: f32, u: f32, v: f32, wrap: Wrap) -> [f32; 4] {
     if !fixed {
         return level.sample_bilinear(u, v, wrap);
     }
-    let (x0, x1, wx) = fixed_coordinate(u, level.width, wrap);
-    let (y0, y1, wy) = fixed_coordinate(v, level.height, wrap);
+    let (x0, x1, wx) = fixed_coordinate(u, level.width, wrap, bias);
+    let (y0, y1, wy) = fixed_coordinate(v, level.height, wrap, bias);
     let t = |x: u32, y: u32| level.texel(x, y).map(to_byte);
     let (t00, t10, t01, t11) = (t(x0, y0), t(x1, y0), t(x0, y1), t(x1, y1));
     [0, 1, 2, 3].map(|c| {
@@ -201,11 +212,11 @@ fn bilinear(level: &Level, fixed: bool, u: f32, v: f32, wrap: Wrap) -> [f32; 4] 
 }
 
 /// The two texel indices and the 8-bit weight of the second along one axis.
-fn fixed_coordinate(u: f32, size: u32, wrap: Wrap) -> (u32, u32, i32) {
+fn fixed_coordinate(u: f32, size: u32, wrap: Wrap, bias: f32) -> (u32, u32, i32) {
     let n = size as i64;
     let pot = size.is_power_of_two();
     let scaled = |x: f32| -> i64 {
-        let x = x.round_ties_even();
+        let x = (x + bias).round_ties_even();
         if x.is_finite() {
             x.clamp(-(1i64 << 40) as f32, (1i64 << 40) as f32) as i64
         } else {
@@ -269,7 +280,7 @@ mod tests {
         let t = two_texels([0.0; 4], [1.0; 4]);
         let at = |x: u32| {
             let u = 0.25 + 0.5 * (x as f32 + 0.5) / 256.0;
-            (sample_2d(&t, u, 0.5, Filter::Bilinear, 0.0, Arithmetic::Fixed8)[0] * 255.0).round() as u32
+            (sample_2d(&t, u, 0.5, Filter::Bilinear, 0.0, Arithmetic::FIXED8)[0] * 255.0).round() as u32
         };
         // u·512 = 128 + x + ½ rounds to the even neighbour: weights 0, 2, 2, 4, 4 …
         // and 255·w/256 rounds: 0, 2, 2, 4, 4, …; 128 → 128; 130 → 129.
@@ -277,7 +288,7 @@ mod tests {
         assert_eq!([at(127), at(128), at(129), at(130), at(131)], [128, 128, 129, 129, 131]);
         // The result is 8-bit: between 10 and 11 there is nothing.
         let t = two_texels([10.0 / 255.0; 4], [11.0 / 255.0; 4]);
-        let s = sample_2d(&t, 0.25 + 0.5 * 0.3, 0.5, Filter::Bilinear, 0.0, Arithmetic::Fixed8);
+        let s = sample_2d(&t, 0.25 + 0.5 * 0.3, 0.5, Filter::Bilinear, 0.0, Arithmetic::FIXED8);
         assert_eq!(s[0], 10.0 / 255.0);
         // In float it is: 30% of the way.
         let s = sample_2d(&t, 0.25 + 0.5 * 0.3, 0.5, Filter::Bilinear, 0.0, Arithmetic::Float);
