@@ -4,8 +4,18 @@
 //! within 2/255 per channel on every pixel not on a triangle edge; and
 //! `--fidelity hardware` against the fixed9 mode within 1/255. Every
 //! example is compared at 640×480 (at 256×192 the mask below left only
-//! ~1 200 of the torus's pixels); where the bound does not hold yet the
-//! example is listed in `KNOWN_GAPS` with its measured bound and why.
+//! ~1 200 of the torus's pixels).
+//!
+//! # Rounding ties
+//!
+//! The executors' interpolated values, dot products and derivatives differ
+//! by float noise, so a rounding (or comparison) whose input lies within
+//! that noise of its tie can go either way, and squarings multiply the
+//! 1/255. Where pixels differ beyond the tolerance, the CPU renders the
+//! plan again with every tie moved ± [`TIES`]
+//! (`PlanRenderer::set_rounding_bias`); a pixel within the tolerance of
+//! one of those pictures agrees. More than 0.1% of an example's pixels
+//! needing that fails it: noise explains a rare pixel, not a pattern.
 //!
 //! # The edge mask
 //!
@@ -49,7 +59,9 @@ const H: u32 = 480;
 /// neighbouring coordinates (a relative error of ~5·10⁻⁴ in ρ is 0.2
 /// quanta of λ); one picture per distance, since a larger move also
 /// flips roundings that were not near their ties.
-const TIES: [(f64, f32); 3] = [(1e-3, 1e-2), (1e-3, 5e-2), (1e-3, 0.2)];
+/// Comparisons (a shadow test of depths that went through a 24-bit depth
+/// buffer and a reprojection) get 8, 64 and 256 ulps.
+const TIES: [(f64, f32, f64); 3] = [(1e-3, 1e-2, 8.0), (1e-3, 5e-2, 64.0), (1e-3, 0.2, 256.0)];
 
 use common::gpu::gpu;
 
@@ -198,11 +210,11 @@ fn try_agreement_in(gpu: &Gpu, source: &str, target: &str, scene: &Scene, fideli
     // Hardware fidelity, where pixels differ: the fixed9 model also as it
     // decides every 8-bit rounding whose input lies within TIES of its
     // tie the other way (the CPU rendered again with the ties moved ±).
-    let (max_diff, over, worst) = if fidelity == Fidelity::Hardware && over_with_ties > 0 {
+    let (max_diff, over, worst) = if over_with_ties > 0 {
         let mut pictures = vec![cpu.clone()];
-        for (register_steps, texel_quanta) in TIES {
+        for (register_steps, texel_quanta, comparison_ulps) in TIES {
             for sign in [1.0, -1.0] {
-                pictures.push(render(RoundingBias { register_steps: sign * register_steps, texel_quanta: sign as f32 * texel_quanta })?);
+                pictures.push(render(RoundingBias { register_steps: sign * register_steps, texel_quanta: sign as f32 * texel_quanta, comparison_ulps: sign * comparison_ulps })?);
             }
         }
         differences(&pictures.iter().map(|p| &p[..]).collect::<Vec<_>>())
@@ -292,23 +304,11 @@ fn kilgard_without_mipmaps_agrees_with_cpu_f32() {
     check(&a, "kilgard without mipmaps (wgsl, 1 pass)");
 }
 
-/// Where the criterion does not hold yet, measured on lavapipe
-/// (Mesa 22.3.6) — example, fidelity, then the bounds this test keeps (the
-/// measured maximum /255 and pixel count over the tolerance, with some
-/// margin), and why. Hardware fidelity rounds every operation to 8 bits on
-/// both executors; where an interpolated value lies within float rounding
-/// of a rounding step the two round apart by 1/255, and squarings or
-/// `^n` multiply that (the interpolated attributes are not bit-identical:
-/// see `backends::wgsl::scene_run`).
-const KNOWN_GAPS: &[(&str, Fidelity, u8, usize, &str)] = &[
-    ("shadow_mask.shd", Fidelity::Exact, 255, 5, "measured 255/255 on 1 pixel: a depth comparison of near-equal depths at the shadow's edge goes the other way"),
-    ("shadow_mask.shd", Fidelity::Hardware, 255, 5, "the same pixel"),
-];
 
 /// Every example on Kilgard's torus, planned for its own target (`wgsl`
 /// when it names none): exact fidelity against f32 within 2/255, hardware
-/// fidelity against fixed9 within 1/255, off the edge mask — but for
-/// [`KNOWN_GAPS`], held to their measured bounds.
+/// fidelity against fixed9 within 1/255, off the edge mask (allowing for
+/// rounding ties, module docs).
 #[test]
 fn every_example_agrees_on_the_torus() {
     let Some(gpu) = gpu() else { return };
@@ -326,7 +326,6 @@ fn every_example_agrees_on_the_torus() {
         let source = std::fs::read_to_string(format!("{dir}/{name}")).unwrap();
         let target = source.lines().find_map(|l| l.trim().strip_prefix("target ")?.strip_suffix(';').map(str::to_string)).unwrap_or_else(|| "wgsl".into());
         for (fidelity, tol) in [(Fidelity::Exact, 2), (Fidelity::Hardware, 1)] {
-            let known = KNOWN_GAPS.iter().find(|k| k.0 == name && k.1 == fidelity);
             match try_agreement_in(&gpu, &source, &target, &scene, fidelity) {
                 Ok(a) => {
                     eprintln!(
@@ -340,11 +339,8 @@ fn every_example_agrees_on_the_torus() {
                     if a.lit * 10 < a.compared {
                         failures.push(format!("{name} {fidelity:?}: only {} of {} compared pixels are lit: the agreement says little", a.lit, a.compared));
                     }
-                    match known {
-                        Some(&(_, _, max, over, why)) if a.max_diff > max || a.over > over => failures.push(format!("{name} {fidelity:?}: max {}/255 on {} pixels, over its known bound ({max}/255 on {over}: {why})", a.max_diff, a.over)),
-                        Some(_) => {}
-                        None if a.max_diff > tol => failures.push(format!("{name} {fidelity:?}: max {}/255 on {} pixels", a.max_diff, a.over)),
-                        None => {}
+                    if a.max_diff > tol {
+                        failures.push(format!("{name} {fidelity:?}: max {}/255 on {} pixels", a.max_diff, a.over));
                     }
                 }
                 Err(e) => failures.push(format!("{name} {fidelity:?}: refused: {e}")),

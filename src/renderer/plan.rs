@@ -159,6 +159,10 @@ pub struct RoundingBias {
     /// In 1/256 quanta: the 8-bit texture units' texel coordinates and λ
     /// (`textures::unit::Arithmetic::Fixed8`).
     pub texel_quanta: f32,
+    /// In units in the last place (f32) of the larger operand: the
+    /// comparisons `<`, `≤`, `>`, `≥` of the program (a shadow test's
+    /// depths), in every mode — positive lets more comparisons hold.
+    pub comparison_ulps: f64,
 }
 
 /// A program bound to a scene: textures loaded, objects bound. Build once,
@@ -654,6 +658,8 @@ struct FragmentProgram<'a> {
     bias: f64,
     /// The texture units' part.
     texel_bias: f32,
+    /// The comparisons' part.
+    comparison_bias: f64,
 }
 
 thread_local! {
@@ -842,6 +848,7 @@ impl<'a> FragmentProgram<'a> {
             nonfinite: AtomicU64::new(0),
             bias: r.rounding_bias.register_steps,
             texel_bias: r.rounding_bias.texel_quanta,
+            comparison_bias: r.rounding_bias.comparison_ulps,
         })
     }
 
@@ -1016,6 +1023,12 @@ impl<'a> FragmentProgram<'a> {
                 None if s.squarings.is_some() => {
                     let k = s.squarings.unwrap_or(1);
                     ir::power_by_squaring(buf[0], k, |a, c| [0, 1, 2, 3].map(|i| fixed9_with(a[i] * c[i], self.bias)))
+                }
+                None if self.comparison_bias != 0.0 && matches!(s.expr, Expr::Binary { op: ir::BinaryOp::Lt | ir::BinaryOp::Le | ir::BinaryOp::Gt | ir::BinaryOp::Ge, .. }) => {
+                    let toward = if matches!(s.expr, Expr::Binary { op: ir::BinaryOp::Lt | ir::BinaryOp::Le, .. }) { 1.0 } else { -1.0 };
+                    let ulp = |a: f64, b: f64| a.abs().max(b.abs()) * f32::EPSILON as f64;
+                    let moved = [0, 1, 2, 3].map(|i| buf[1][i] + toward * self.comparison_bias * ulp(buf[0][i], buf[1][i]));
+                    ir::eval::apply(self.module, s.expr, s.ty, &[buf[0], moved])
                 }
                 None => {
                     if let Expr::Select { reject: None, .. } = s.expr {
