@@ -261,6 +261,24 @@ fn try_agreement_in(gpu: &Gpu, source: &str, target: &str, scene: &Scene, fideli
     Ok(Agreement { max_diff, masked, covered, over, ties, over_with_ties, max_with_ties, compared, lit })
 }
 
+/// A pass into a half-float texture rounds to nearest, ties to even, on
+/// both executors (the CPU's F16; WGSL's `round_to_half`, since lavapipe's
+/// `Rgba16Float` writes round toward zero). With u = 2⁻¹², the half-float
+/// step at ¼: ¼ + ¾u rounds up (toward zero: down), ¼ + 1.5u and ¼ + 2.5u
+/// are ties, to 2u both (toward zero: u and 2u; half away from zero: 2u
+/// and 3u). The second pass shows the stored steps ×¼.
+#[test]
+fn half_float_targets_round_to_nearest_even() {
+    let Some(gpu) = gpu() else { return };
+    let source = "texture T : 2d rgba16f nearest clamp;\n\
+                  T δπx ← rgb(0.25018310546875, 0.2503662109375, 0.2506103515625);\n\
+                  C xs ← 1024 * (T xs - 0.25);\n";
+    // Exact fidelity: hardware fidelity's 8-bit constants would hide the steps.
+    let a = agreement(&gpu, source, "wgsl", &kilgard_scene());
+    assert!(a.lit * 10 > a.compared, "the torus is drawn ({} of {} compared pixels lit)", a.lit, a.compared);
+    assert_eq!((a.max_diff, a.max_with_ties), (0, 0), "the half floats are rounded differently");
+}
+
 fn kilgard() -> String {
     std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd")).unwrap()
 }

@@ -240,3 +240,32 @@ pub fn power_by_squaring<T: Copy>(x: T, k: u32, mut mul: impl FnMut(T, T) -> T) 
     }
     acc.unwrap_or(x)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::power_by_squaring;
+
+    /// `x^k` with the products
+    /// the WGSL writes: ⌊log2 k⌋ squarings and one product per further set bit.
+    #[test]
+    fn power_by_squaring_takes_the_squarings_and_products_of_k() {
+        for k in 1..=80u32 {
+            let mut products = 0;
+            let p = power_by_squaring(3u128, k, |a, b| {
+                products += 1;
+                a * b
+            });
+            assert_eq!(p, 3u128.pow(k), "k = {k}");
+            assert_eq!(products, (31 - k.leading_zeros()) + k.count_ones() - 1, "k = {k}");
+        }
+    }
+
+    /// Rounding each product (here to a coarse grid) is what makes the order matter.
+    #[test]
+    fn power_by_squaring_rounds_every_product() {
+        let round = |v: f64| (v * 16.0 + 0.5).floor() / 16.0;
+        // 0.9² = 0.81 → 0.8125, → 0.66015625 → 0.6875, → 0.47265625 → 0.5; 0.9⁸ = 0.4305 → 0.4375.
+        assert_eq!(power_by_squaring(0.9, 8, |a, b| round(a * b)), 0.5);
+        assert_eq!(round(0.9f64.powi(8)), 0.4375);
+    }
+}

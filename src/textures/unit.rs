@@ -270,6 +270,18 @@ fn finite(v: f32) -> f32 {
 mod tests {
     use super::*;
 
+    /// The tie bias moves the rounding of the 1/256-texel coordinate, and
+    /// only near its tie (`Arithmetic::Fixed8 { tie_bias }`).
+    #[test]
+    fn tie_bias_moves_only_near_ties() {
+        // u·256·256 = 192.5: a tie, to even (192), weight 192 − 128 = 64.
+        let tie = 192.5 / 65536.0;
+        let weight = |u: f32, bias: f32| fixed_coordinate(u, 256, Wrap::ClampToEdge, bias).2;
+        assert_eq!((weight(tie, 0.0), weight(tie, 0.01), weight(tie, -0.01)), (64, 65, 64));
+        let off = 192.3 / 65536.0;
+        assert_eq!((weight(off, 0.0), weight(off, 0.01), weight(off, -0.01)), (64, 64, 64));
+    }
+
     fn two_texels(a: [f32; 4], b: [f32; 4]) -> Texture2D {
         Texture2D::new(TexelFormat::Rgba8, Wrap::ClampToEdge, Level::new(2, 1, vec![a, b]))
     }
