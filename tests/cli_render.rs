@@ -67,6 +67,25 @@ fn a_bad_shader_is_an_input_error_with_its_location() {
     assert!(!dir.path().join("shadec-out.png").exists());
 }
 
+/// What the CPU renderer cannot do yet (a fat texture read from an image:
+/// its members have no layout) is reported at the statement whose pass it
+/// is, with file:line:col and a help line, and nothing is written.
+#[test]
+fn a_pass_the_cpu_cannot_render_is_located_at_its_statement() {
+    let dir = tempfile::tempdir().unwrap();
+    let shader = dir.path().join("fat.shd");
+    std::fs::write(
+        &shader,
+        "vector N : normal;\nvector L : light(0);\ntexture T : 2d rgba16f bilinear clamp = image(\"fat.png\");\nshader p : s → c = max(0, N·L);\n\nC δπx ← p T δu x;\n",
+    )
+    .unwrap();
+    let out = shadec().args(["render", "--size", "64x48", "--shader"]).arg(&shader).current_dir(dir.path()).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("cpu-unsupported") && stderr.contains("fat.shd:6:1") && stderr.contains("no layout yet") && stderr.contains("help:"), "{stderr}");
+    assert!(!dir.path().join("shadec-out.png").exists());
+}
+
 #[test]
 fn a_bad_scene_is_an_input_error() {
     let dir = tempfile::tempdir().unwrap();

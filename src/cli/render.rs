@@ -9,9 +9,9 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
 use clap::ValueEnum;
-use shadec::diag::SourceFile;
+use shadec::diag::{Diagnostic, SourceFile};
 use shadec::renderer::plan::{compare, Mode, PlanRenderer};
-use shadec::renderer::{AdaptiveSettings, EdgeMode};
+use shadec::renderer::{AdaptiveSettings, EdgeMode, RenderError};
 use shadec::scene::Scene;
 
 use super::check::color_stderr;
@@ -185,9 +185,21 @@ pub fn run(args: &RenderArgs) -> ExitCode {
             return ExitCode::from(EXIT_SOURCE_ERRORS);
         }
     };
+    // A pass the CPU cannot render is reported at its statement.
+    let failed = |e: RenderError| -> ExitCode {
+        if let RenderError::InPass { pass, source } = &e {
+            if let Some(&k) = planned.plan.passes.get(*pass).and_then(|p| p.statements.first()) {
+                let d = Diagnostic::error("cpu-unsupported", format!("the CPU renderer cannot render pass {} of this statement: {source}", pass + 1), planned.module.statements[k].span, "this statement's pass")
+                    .with_help("this is a limit of the CPU renderer (README, \"not supported yet\"), not an error in the program: `shadec compile --target wgsl` still compiles it; or change the statement as the message says");
+                eprint!("{}", file.render(&[d], color_stderr()));
+                return ExitCode::from(EXIT_SOURCE_ERRORS);
+            }
+        }
+        input(format!("{shader_name}: {e}"))
+    };
     let renderer = match PlanRenderer::new(&planned, &program, &scene, &assets) {
         Ok(r) => r,
-        Err(e) => return input(format!("{shader_name}: {e}")),
+        Err(e) => return failed(e),
     };
     let mode = args.mode.mode();
     println!(
@@ -213,7 +225,7 @@ pub fn run(args: &RenderArgs) -> ExitCode {
         Ok(f) => f,
         Err(e) => {
             progress.finish();
-            return input(format!("{shader_name}: {e}"));
+            return failed(e);
         }
     };
     let reference = if mode == Mode::Exact {
@@ -223,7 +235,7 @@ pub fn run(args: &RenderArgs) -> ExitCode {
             Ok(f) => Some(f),
             Err(e) => {
                 progress.finish();
-                return input(format!("{shader_name}: {e}"));
+                return failed(e);
             }
         }
     };
@@ -233,7 +245,7 @@ pub fn run(args: &RenderArgs) -> ExitCode {
             Ok(f) => Some(f),
             Err(e) => {
                 progress.finish();
-                return input(format!("{shader_name}: {e}"));
+                return failed(e);
             }
         },
         None => None,

@@ -42,6 +42,20 @@ pub enum RenderError {
     Io(String),
     #[error("{0}")]
     Unsupported(String),
+    /// An error of pass `pass` (0-based) of a plan: callers with the
+    /// source locate it at the pass's statement (`shadec render` does).
+    #[error("pass {}: {source}", pass + 1)]
+    InPass { pass: usize, source: Box<RenderError> },
+}
+
+impl RenderError {
+    /// This error, as one of pass `pass` (0-based) of a plan.
+    pub fn in_pass(self, pass: usize) -> RenderError {
+        match self {
+            e @ RenderError::InPass { .. } => e,
+            e => RenderError::InPass { pass, source: Box::new(e) },
+        }
+    }
 }
 
 /// The per-vertex stage of a pass: `clip position + N varyings` per vertex.

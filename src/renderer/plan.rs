@@ -200,7 +200,7 @@ impl<'a> PlanRenderer<'a> {
             for h in planned.module.reachable(&roots) {
                 match &planned.module.exprs[h] {
                     Expr::Vector { site: ir::Site::Texel, .. } => {
-                        return Err(RenderError::Unsupported(format!("pass {} uses shading vectors as a function of the texel coordinate, with no mesh to take them on", i + 1)))
+                        return Err(RenderError::Unsupported("it uses shading vectors as a function of the texel coordinate, with no mesh to take them on".into()).in_pass(i))
                     }
                     _ => {}
                 }
@@ -323,7 +323,7 @@ impl<'a> PlanRenderer<'a> {
                 if layer == 0 {
                     shading.push(how);
                 }
-                let stage = FragmentProgram::new(self, mode, &pi, &rendered, reads, own_depth, machine, objects.first())?;
+                let stage = FragmentProgram::new(self, mode, &pi, &rendered, reads, own_depth, machine, objects.first()).map_err(|e| e.in_pass(index))?;
                 let state = pass.state;
                 let target = targets.get_mut(&name).expect("created above");
                 let counted = &stage.nonfinite;
