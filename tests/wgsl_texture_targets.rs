@@ -158,7 +158,12 @@ fn shadow_mask_on_wgpu_agrees_with_cpu_f32() {
 /// the test is Williams's: the reprojected point's depth from the light
 /// against the light's depth buffer (with a bias). The shadow of the ball
 /// on the floor appears on both executors, which agree but for a few
-/// pixels on its boundary where a depth comparison tips.
+/// pixels on its boundary (measured 9 of 65 536): a column of them where,
+/// most likely, the ball's silhouette in the light's depth buffer is a
+/// triangle edge one rasterizer covers and the other does not — the
+/// camera's edge mask cannot see edges in the light's image. Moving the
+/// depth comparisons' and the reads' ties (`RoundingBias`) explains 3 of
+/// the 9, not these.
 #[test]
 fn williams_shadow_test_agrees_and_casts_a_shadow() {
     let Some(gpu) = gpu() else { return };
@@ -188,12 +193,13 @@ fn deferred_and_texture_shading_agree_with_cpu_f32() {
     }
 }
 
-/// Solid mapping on both executors (two rings, as above). They agree but
-/// on a few pixels that sample texels on the edges of the mesh's triangles
-/// in texture space, which one rasterizer covers and the other leaves
-/// empty: measured 89 of 38 528 interior pixels over 2/255.
+/// Solid mapping on both executors (two rings, as above), within 2/255 on
+/// every interior pixel. (89 pixels used to differ: lavapipe's half-float
+/// writes round toward zero, and a ring's `fract` jumped on texels whose
+/// radius was a step from a whole ring; the WGSL now rounds to nearest
+/// even itself, codegen's `round_to_half`.)
 #[test]
-fn solid_mapping_agrees_with_cpu_f32_off_texture_space_edges() {
+fn solid_mapping_agrees_with_cpu_f32() {
     let Some(gpu) = gpu() else { return };
     let src = example("solid_mapping").replace("const rings = 12;", "const rings = 2;");
     let (max, _, cpu, wgpu) = cpu_vs_gpu(&gpu, &src, &scene());
@@ -201,5 +207,5 @@ fn solid_mapping_agrees_with_cpu_f32_off_texture_space_edges() {
     let inside = mask.iter().filter(|m| **m).count();
     let over = (0..mask.len()).filter(|&i| mask[i] && (0..3).any(|c| cpu[4 * i + c].abs_diff(wgpu[4 * i + c]) > 2)).count();
     eprintln!("solid mapping: max {max}/255, {over} of {inside} interior pixels over 2/255");
-    assert!(inside > 20_000 && over * 200 <= inside, "{over} of {inside} pixels over 2/255 (more than 0.5%)");
+    assert!(inside > 20_000 && over == 0, "{over} of {inside} interior pixels over 2/255 (max {max}/255)");
 }

@@ -157,7 +157,8 @@ pub struct RoundingBias {
     /// In 1/255 steps: register writes, folded constants, register loads.
     pub register_steps: f64,
     /// In 1/256 quanta: the 8-bit texture units' texel coordinates and λ
-    /// (`textures::unit::Arithmetic::Fixed8`).
+    /// (`textures::unit::Arithmetic::Fixed8`), and the pixel a framebuffer
+    /// read at a computed position (`πl π⁻¹ xs`) falls in, in every mode.
     pub texel_quanta: f32,
     /// In units in the last place (f32) of the larger operand: the
     /// comparisons `<`, `≤`, `>`, `≥` of the program (a shadow test's
@@ -457,7 +458,7 @@ impl Rendered {
     /// texture coordinates (level 0).
     fn sample(&self, c: Value, coords_ty: Ty, filter: Filter) -> Value {
         if coords_ty == Ty::Position {
-            match to_pixel(c, self.width, self.height) {
+            match to_pixel(c, self.width, self.height, 0.0) {
                 Some((x, y)) => self.pixels[(y * self.width + x) as usize].map(|v| v as f64),
                 None => [0.0; 4],
             }
@@ -874,7 +875,7 @@ impl<'a> FragmentProgram<'a> {
             Leaf::Framebuffer { framebuffer, channel } => {
                 let Some(fb) = self.reads.get(&framebuffer) else { return [0.0; 4] };
                 // Outside the framebuffer: its cleared values (depth 1: far, not an occluder).
-                let Some((x, y)) = to_pixel(operand, fb.width(), fb.height()) else { return if channel == FbChannel::Depth { [1.0; 4] } else { [0.0; 4] } };
+                let Some((x, y)) = to_pixel(operand, fb.width(), fb.height(), self.texel_bias as f64 / 256.0) else { return if channel == FbChannel::Depth { [1.0; 4] } else { [0.0; 4] } };
                 match channel {
                     FbChannel::Color => fb.color(x, y).unwrap_or([0.0; 4]).map(|c| c as f64),
                     FbChannel::Alpha => [fb.color(x, y).map_or(0.0, |c| c[3]) as f64; 4],
@@ -1154,13 +1155,14 @@ fn lod_varying(m: &Module, coords: Handle<Expr>) -> Option<Handle<Expr>> {
 }
 
 /// A clip-space position (x, y, z, w) to a pixel (row 0 at the top).
-fn to_pixel(p: Value, width: u32, height: u32) -> Option<(u32, u32)> {
+/// (`shift`: of the pixel boundaries, in pixels — [`RoundingBias`].)
+fn to_pixel(p: Value, width: u32, height: u32, shift: f64) -> Option<(u32, u32)> {
     let [x, y, _, w] = p;
     if w == 0.0 || !x.is_finite() || !y.is_finite() || !w.is_finite() {
         return None;
     }
-    let px = ((x / w) * 0.5 + 0.5) * width as f64;
-    let py = (0.5 - (y / w) * 0.5) * height as f64;
+    let px = ((x / w) * 0.5 + 0.5) * width as f64 + shift;
+    let py = (0.5 - (y / w) * 0.5) * height as f64 + shift;
     if px < 0.0 || py < 0.0 {
         return None;
     }
