@@ -14,8 +14,10 @@
 //! 1/255. Where pixels differ beyond the tolerance, the CPU renders the
 //! plan again with every tie moved ± [`TIES`]
 //! (`PlanRenderer::set_rounding_bias`); a pixel within the tolerance of
-//! one of those pictures agrees. More than 0.1% of an example's pixels
-//! needing that fails it: noise explains a rare pixel, not a pattern.
+//! one of those pictures agrees. More than 0.1% of an example's lit
+//! pixels needing that fails it: noise explains a rare pixel, not a
+//! pattern (the `^n` rounded once on one executor and by squarings on the
+//! other showed on 254 of kajiya_kay_hair's 51 840).
 //!
 //! # The edge mask
 //!
@@ -351,7 +353,7 @@ fn every_example_agrees_on_the_torus() {
                         a.max_diff, a.over, a.compared, a.lit, a.ties, a.max_with_ties, a.over_with_ties
                     );
                     // The tie allowance explains a rare pixel, not a pattern (a bias would show on thousands).
-                    if a.ties * 1000 > a.compared {
+                    if a.ties * 1000 > a.lit {
                         failures.push(format!("{name} {fidelity:?}: {} pixels agree only with a rounding tie taken the other way: more than noise", a.ties));
                     }
                     if a.lit * 10 < a.compared {

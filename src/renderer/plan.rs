@@ -655,12 +655,8 @@ struct FragmentProgram<'a> {
     combiners: Option<(PixelEmulator, [Option<u32>; 6])>,
     /// Fragments whose value was not finite ([`Frame::nonfinite`]).
     nonfinite: AtomicU64,
-    /// [`PlanRenderer::set_rounding_bias`]: the register roundings' part.
-    bias: f64,
-    /// The texture units' part.
-    texel_bias: f32,
-    /// The comparisons' part.
-    comparison_bias: f64,
+    /// [`PlanRenderer::set_rounding_bias`] (zero: the model).
+    tie: RoundingBias,
 }
 
 thread_local! {
@@ -847,9 +843,7 @@ impl<'a> FragmentProgram<'a> {
             filters,
             combiners,
             nonfinite: AtomicU64::new(0),
-            bias: r.rounding_bias.register_steps,
-            texel_bias: r.rounding_bias.texel_quanta,
-            comparison_bias: r.rounding_bias.comparison_ulps,
+            tie: r.rounding_bias,
         })
     }
 
@@ -875,7 +869,7 @@ impl<'a> FragmentProgram<'a> {
             Leaf::Framebuffer { framebuffer, channel } => {
                 let Some(fb) = self.reads.get(&framebuffer) else { return [0.0; 4] };
                 // Outside the framebuffer: its cleared values (depth 1: far, not an occluder).
-                let Some((x, y)) = to_pixel(operand, fb.width(), fb.height(), self.texel_bias as f64 / 256.0) else { return if channel == FbChannel::Depth { [1.0; 4] } else { [0.0; 4] } };
+                let Some((x, y)) = to_pixel(operand, fb.width(), fb.height(), self.tie.texel_quanta as f64 / 256.0) else { return if channel == FbChannel::Depth { [1.0; 4] } else { [0.0; 4] } };
                 match channel {
                     FbChannel::Color => fb.color(x, y).unwrap_or([0.0; 4]).map(|c| c as f64),
                     FbChannel::Alpha => [fb.color(x, y).map_or(0.0, |c| c[3]) as f64; 4],
@@ -952,7 +946,7 @@ impl<'a> FragmentProgram<'a> {
                             }
                             _ => f32::NEG_INFINITY,
                         };
-                        let arithmetic = if self.mode == Mode::Fixed9 { unit::Arithmetic::Fixed8 { tie_bias: self.texel_bias } } else { unit::Arithmetic::Float };
+                        let arithmetic = if self.mode == Mode::Fixed9 { unit::Arithmetic::Fixed8 { tie_bias: self.tie.texel_quanta } } else { unit::Arithmetic::Float };
                         unit::sample_2d(t, u as f32, v as f32, filter, lod, arithmetic)
                     }
                     Texture::Cube(t) if self.mode != Mode::Exact => unit::sample_cube(t, [c[0] as f32, c[1] as f32, c[2] as f32], filter),
@@ -1023,12 +1017,12 @@ impl<'a> FragmentProgram<'a> {
                 Some(leaf) => self.leaf(leaf, buf[0], fragment, varyings, texel_at),
                 None if s.squarings.is_some() => {
                     let k = s.squarings.unwrap_or(1);
-                    ir::power_by_squaring(buf[0], k, |a, c| [0, 1, 2, 3].map(|i| fixed9_with(a[i] * c[i], self.bias)))
+                    ir::power_by_squaring(buf[0], k, |a, c| [0, 1, 2, 3].map(|i| fixed9_with(a[i] * c[i], self.tie.register_steps)))
                 }
-                None if self.comparison_bias != 0.0 && matches!(s.expr, Expr::Binary { op: ir::BinaryOp::Lt | ir::BinaryOp::Le | ir::BinaryOp::Gt | ir::BinaryOp::Ge, .. }) => {
+                None if self.tie.comparison_ulps != 0.0 && matches!(s.expr, Expr::Binary { op: ir::BinaryOp::Lt | ir::BinaryOp::Le | ir::BinaryOp::Gt | ir::BinaryOp::Ge, .. }) => {
                     let toward = if matches!(s.expr, Expr::Binary { op: ir::BinaryOp::Lt | ir::BinaryOp::Le, .. }) { 1.0 } else { -1.0 };
                     let ulp = |a: f64, b: f64| a.abs().max(b.abs()) * f32::EPSILON as f64;
-                    let moved = [0, 1, 2, 3].map(|i| buf[1][i] + toward * self.comparison_bias * ulp(buf[0][i], buf[1][i]));
+                    let moved = [0, 1, 2, 3].map(|i| buf[1][i] + toward * self.tie.comparison_ulps * ulp(buf[0][i], buf[1][i]));
                     ir::eval::apply(self.module, s.expr, s.ty, &[buf[0], moved])
                 }
                 None => {
@@ -1044,8 +1038,8 @@ impl<'a> FragmentProgram<'a> {
             slots[s.slot as usize] = match self.mode {
                 Mode::Exact => v,
                 Mode::F32 => v.map(|x| x as f32 as f64),
-                Mode::Fixed9 if s.quantize => v.map(|x| fixed9_with(x, self.bias)),
-                Mode::Fixed9 if s.folded => v.map(|x| fixed9_folded_with(x, self.bias)),
+                Mode::Fixed9 if s.quantize => v.map(|x| fixed9_with(x, self.tie.register_steps)),
+                Mode::Fixed9 if s.folded => v.map(|x| fixed9_folded_with(x, self.tie.register_steps)),
                 Mode::Fixed9 => v.map(|x| x as f32 as f64),
             };
         }
@@ -1103,7 +1097,7 @@ impl<'a> FragmentProgram<'a> {
         };
         let load = |k: usize| -> [u8; 4] {
             match registers[k] {
-                Some(slot) => slots[slot as usize].map(|x| if x.is_nan() { 0 } else { (x.clamp(0.0, 1.0) * 255.0 + 0.5 + self.bias).floor().clamp(0.0, 255.0) as u8 }),
+                Some(slot) => slots[slot as usize].map(|x| if x.is_nan() { 0 } else { (x.clamp(0.0, 1.0) * 255.0 + 0.5 + self.tie.register_steps).floor().clamp(0.0, 255.0) as u8 }),
                 None => [0; 4],
             }
         };

@@ -64,7 +64,7 @@
 //! pixel when the CPU renders it as the GPU did with the model's ties moved
 //! by float noise (`PlanRenderer::set_rounding_bias`: register roundings
 //! 10⁻³ step, texture-unit coordinates and λ up to 0.2/256, comparisons up
-//! to 256 ulps), and fails an example where more than 0.1% of the pixels
+//! to 256 ulps), and fails an example where more than 0.1% of its lit pixels
 //! need that. Shadow mask's pixel is such a comparison: near-equal depths
 //! at the shadow's edge.
 //!
