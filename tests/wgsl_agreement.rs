@@ -332,7 +332,11 @@ fn kilgard_without_mipmaps_agrees_with_cpu_f32() {
 #[test]
 fn every_example_agrees_on_the_torus() {
     let Some(gpu) = gpu() else { return };
-    let scene = kilgard_scene();
+    // `SHADEC_AGREEMENT_SCENE=scenes/bump_torus.ron` runs the sweep on another scene.
+    let scene = match std::env::var("SHADEC_AGREEMENT_SCENE") {
+        Ok(path) => Scene::load(Path::new(&path)).unwrap_or_else(|e| panic!("{path}: {e}")),
+        Err(_) => kilgard_scene(),
+    };
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/examples");
     let mut names: Vec<String> = std::fs::read_dir(dir).unwrap().filter_map(|e| e.ok()?.file_name().into_string().ok()).filter(|n| n.ends_with(".shd")).collect();
     names.sort();
