@@ -281,6 +281,20 @@ fn half_float_targets_round_to_nearest_even() {
     assert_eq!((a.max_diff, a.max_with_ties), (0, 0), "the half floats are rounded differently");
 }
 
+/// Hardware fidelity: a NaN (here √ of a negative) is 0 on both executors,
+/// as `fixed9` makes it — lavapipe's `clamp` of NaN gave −1, which turned
+/// Cook-Torrance's 0/0 highlights black on a sphere (44/255).
+#[test]
+fn hardware_fidelity_makes_nan_zero_on_both() {
+    let Some(gpu) = gpu() else { return };
+    let source = "vector N : normal;\nvector L : light(0);\n\
+                  shader p : s → c = rgb(0.5, 0.5, 0.5) + rgb(0.25, 0.25, 0.25) * sqrt(-0.5 - (N·L)^2);\n\
+                  C δπx ← p δ s x;\n";
+    let a = agreement_in(&gpu, source, "wgsl", &kilgard_scene(), Fidelity::Hardware);
+    assert!(a.lit * 10 > a.compared, "the torus is drawn ({} of {} compared pixels lit)", a.lit, a.compared);
+    assert_eq!(a.max_with_ties, 0, "NaN is not 0 on one of them");
+}
+
 fn kilgard() -> String {
     std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd")).unwrap()
 }

@@ -1044,7 +1044,8 @@ impl<'a> Gen<'a> {
         r
     }
 
-    /// `fn quantize_*(x) = clamp(floor(x * 255 + 0.5), -255, 255) / 255`.
+    /// `fn quantize_*(x) = clamp(floor(x * 255 + 0.5), -255, 255) / 255`, and
+    /// 0 for NaN.
     fn q9_function(&mut self, w: usize) -> naga::Handle<Function> {
         if let Some(f) = self.q9[w - 1] {
             return f;
@@ -1071,6 +1072,25 @@ impl<'a> Gen<'a> {
         let s = b.emit(Expression::Math { fun: naga::MathFunction::Floor, arg: s, arg1: None, arg2: None, arg3: None });
         let s = b.emit(Expression::Math { fun: naga::MathFunction::Clamp, arg: s, arg1: Some(lo), arg2: Some(c255), arg3: None });
         let s = b.emit(Expression::Binary { op: naga::BinaryOperator::Divide, left: s, right: c255 });
+        // NaN (0/0, √−x, ∞−∞) is 0, as the CPU's `fixed9` makes it: tested on
+        // the bits (exponent all ones, mantissa not zero), since WGSL lets a
+        // compiler assume no NaN in float comparisons — and `clamp` of NaN
+        // is the implementation's (lavapipe gives −1: a black highlight).
+        let u = |b: &mut Body, v: u32| {
+            let l = b.plain(Expression::Literal(Literal::U32(v)));
+            if w == 1 {
+                l
+            } else {
+                b.emit(Expression::Splat { size: size(w), value: l })
+            }
+        };
+        let bits = b.emit(Expression::As { expr: x, kind: naga::ScalarKind::Uint, convert: None });
+        let magnitude = u(&mut b, 0x7fff_ffff);
+        let bits = b.emit(Expression::Binary { op: naga::BinaryOperator::And, left: bits, right: magnitude });
+        let infinity = u(&mut b, 0x7f80_0000);
+        let nan = b.emit(Expression::Binary { op: naga::BinaryOperator::Greater, left: bits, right: infinity });
+        let zero = k(&mut b, 0.0);
+        let s = b.emit(Expression::Select { condition: nan, accept: zero, reject: s });
         b.f.body.push(Statement::Return { value: Some(s) }, naga::Span::UNDEFINED);
         let f = self.module.functions.append(b.f, naga::Span::UNDEFINED);
         self.q9[w - 1] = Some(f);
