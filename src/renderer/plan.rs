@@ -631,6 +631,9 @@ struct Step<'m> {
     /// fixed9: `x^k` taken by `k`'s squarings, each product rounded
     /// ([`ir::squaring_exponent`]), as WGSL's hardware fidelity takes it.
     squarings: Option<u32>,
+    /// fixed9: a quotient, rounded from the registers' integers
+    /// ([`fixed9_quotient`]), as WGSL's hardware fidelity divides.
+    quotient: bool,
 }
 
 /// The fragment stage of one pass: the reachable nodes of the output (and
@@ -824,7 +827,8 @@ impl<'a> FragmentProgram<'a> {
             let folded = per_operation && !per_sample;
             let raw = setup.is_some() && ty.width() >= 3 && matches!(leaf, Some(Leaf::Lookup { .. } | Leaf::Framebuffer { .. }));
             let squarings = ir::squaring_exponent(m, h).filter(|_| quantize);
-            steps.push(Step { expr, ty, slot, ops, n_ops, leaf, quantize, folded, raw, squarings });
+            let quotient = quantize && matches!(expr, Expr::Binary { op: ir::BinaryOp::Div, .. });
+            steps.push(Step { expr, ty, slot, ops, n_ops, leaf, quantize, folded, raw, squarings, quotient });
         }
         let combiners = setup.map(|c| (c.machine, c.registers.map(|h| h.map(|h| slot_of[h.index()]))));
         Ok(FragmentProgram {
@@ -1019,6 +1023,10 @@ impl<'a> FragmentProgram<'a> {
                     let k = s.squarings.unwrap_or(1);
                     ir::power_by_squaring(buf[0], k, |a, c| [0, 1, 2, 3].map(|i| fixed9_with(a[i] * c[i], self.tie.register_steps)))
                 }
+                None if s.quotient => {
+                    let steps = |v: f64| (v * 255.0).round_ties_even();
+                    [0, 1, 2, 3].map(|i| fixed9_quotient(steps(buf[0][i]), steps(buf[1][i]), self.tie.register_steps))
+                }
                 None if self.tie.comparison_ulps != 0.0 && matches!(s.expr, Expr::Binary { op: ir::BinaryOp::Lt | ir::BinaryOp::Le | ir::BinaryOp::Gt | ir::BinaryOp::Ge, .. }) => {
                     let toward = if matches!(s.expr, Expr::Binary { op: ir::BinaryOp::Lt | ir::BinaryOp::Le, .. }) { 1.0 } else { -1.0 };
                     let ulp = |a: f64, b: f64| a.abs().max(b.abs()) * f32::EPSILON as f64;
@@ -1111,6 +1119,21 @@ impl<'a> FragmentProgram<'a> {
 #[inline]
 pub fn fixed9(v: f64) -> f64 {
     fixed9_with(v, 0.0)
+}
+
+/// a / b in the combiners' precision from the registers' integers
+/// k₁ = a·255, k₂ = b·255: the quotient in 1/255 steps is k₁·255/k₂,
+/// exact (in f64 as in f32) where it is a tie m + ½ — a quotient of 8-bit
+/// values lands on ties, unlike a product — so the tie rounds up on both
+/// executors rather than by float noise (WGSL: codegen's `divide_*`).
+/// x/0 is ±1 (clamped), 0/0 (NaN) is 0, as in [`fixed9`].
+#[inline]
+fn fixed9_quotient(k1: f64, k2: f64, bias: f64) -> f64 {
+    let t = k1 * 255.0 / k2;
+    if t.is_nan() {
+        return 0.0;
+    }
+    (t + 0.5 + bias).floor().clamp(-255.0, 255.0) / 255.0
 }
 
 /// [`fixed9`] with its tie point moved by `bias` steps

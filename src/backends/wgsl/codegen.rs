@@ -444,7 +444,8 @@ struct Gen<'a> {
     uniforms_var: Option<naga::Handle<GlobalVariable>>,
     /// (texture, sampler) per unit.
     units: Vec<(naga::Handle<GlobalVariable>, naga::Handle<GlobalVariable>, TextureKind, Option<TextureFormat>)>,
-    q9: [Option<naga::Handle<Function>>; 4],
+    /// `quantize_*` and `divide_*` by width ([`Gen::q9_function`]).
+    q9: [[Option<naga::Handle<Function>>; 4]; 2],
     /// `round_to_half`, once built.
     half: Option<naga::Handle<Function>>,
     quad: bool,
@@ -484,7 +485,7 @@ impl<'a> Gen<'a> {
             module: naga::Module::default(),
             uniforms_var: None,
             units: vec![],
-            q9: [None; 4],
+            q9: [[None; 4]; 2],
             half: None,
             quad: false,
             combiners: None,
@@ -1038,24 +1039,39 @@ impl<'a> Gen<'a> {
         if self.fidelity != Fidelity::Hardware || b.stage != Stage::Fragment {
             return v;
         }
-        let f = self.q9_function(w);
+        let f = self.q9_function(w, false);
         let r = b.plain(Expression::CallResult(f));
         b.f.body.push(Statement::Call { function: f, arguments: vec![v], result: Some(r) }, naga::Span::UNDEFINED);
         r
     }
 
+    /// `x / y` written to a register in hardware fidelity: `divide_*(x, y)`.
+    fn quotient(&mut self, b: &mut Body, x: NH, y: NH, w: usize) -> NH {
+        let f = self.q9_function(w, true);
+        let r = b.plain(Expression::CallResult(f));
+        b.f.body.push(Statement::Call { function: f, arguments: vec![x, y], result: Some(r) }, naga::Span::UNDEFINED);
+        r
+    }
+
     /// `fn quantize_*(x) = clamp(floor(x * 255 + 0.5), -255, 255) / 255`, and
-    /// 0 for NaN.
-    fn q9_function(&mut self, w: usize) -> naga::Handle<Function> {
-        if let Some(f) = self.q9[w - 1] {
+    /// 0 for NaN; with `quotient`, `fn divide_*(a, b)` the same of a / b in
+    /// 1/255 steps taken as `(round(a·255)·255) / round(b·255)`: the
+    /// quotient of the registers' integers k₁·255/k₂, exact where it is a
+    /// tie m + ½ (k₁/k₂ reaches those, unlike products), so that the
+    /// tie rounds up on every executor instead of by float noise
+    /// (`renderer::plan::fixed9_quotient` computes the same).
+    fn q9_function(&mut self, w: usize, quotient: bool) -> naga::Handle<Function> {
+        if let Some(f) = self.q9[quotient as usize][w - 1] {
             return f;
         }
         let ty = self.vec_ty(w);
-        let name = ["quantize_x", "quantize_xy", "quantize_xyz", "quantize_xyzw"][w - 1];
+        let name = if quotient { ["divide_x", "divide_xy", "divide_xyz", "divide_xyzw"] } else { ["quantize_x", "quantize_xy", "quantize_xyz", "quantize_xyzw"] }[w - 1];
         let mut b = Body::new(name, Stage::Vertex);
-        b.f.arguments.push(FunctionArgument { name: Some("x".into()), ty, binding: None });
+        let arguments: &[&str] = if quotient { &["a", "b"] } else { &["x"] };
+        for a in arguments {
+            b.f.arguments.push(FunctionArgument { name: Some(a.to_string()), ty, binding: None });
+        }
         b.f.result = Some(FunctionResult { ty, binding: None });
-        let x = b.plain(Expression::FunctionArgument(0));
         let k = |b: &mut Body, v: f32| {
             let l = b.lit(v);
             if w == 1 {
@@ -1067,7 +1083,20 @@ impl<'a> Gen<'a> {
         let c255 = k(&mut b, 255.0);
         let ch = k(&mut b, 0.5);
         let lo = k(&mut b, -255.0);
-        let s = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: x, right: c255 });
+        let x = b.plain(Expression::FunctionArgument(0));
+        let steps = |b: &mut Body, v: NH| b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: v, right: c255 });
+        // The value in 1/255 steps, and what is NaN when it is.
+        let (s, tested) = if quotient {
+            let y = b.plain(Expression::FunctionArgument(1));
+            let (n, d) = (steps(&mut b, x), steps(&mut b, y));
+            let n = b.emit(Expression::Math { fun: naga::MathFunction::Round, arg: n, arg1: None, arg2: None, arg3: None });
+            let d = b.emit(Expression::Math { fun: naga::MathFunction::Round, arg: d, arg1: None, arg2: None, arg3: None });
+            let n = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: n, right: c255 });
+            let t = b.emit(Expression::Binary { op: naga::BinaryOperator::Divide, left: n, right: d });
+            (t, t)
+        } else {
+            (steps(&mut b, x), x)
+        };
         let s = b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: s, right: ch });
         let s = b.emit(Expression::Math { fun: naga::MathFunction::Floor, arg: s, arg1: None, arg2: None, arg3: None });
         let s = b.emit(Expression::Math { fun: naga::MathFunction::Clamp, arg: s, arg1: Some(lo), arg2: Some(c255), arg3: None });
@@ -1084,7 +1113,7 @@ impl<'a> Gen<'a> {
                 b.emit(Expression::Splat { size: size(w), value: l })
             }
         };
-        let bits = b.emit(Expression::As { expr: x, kind: naga::ScalarKind::Uint, convert: None });
+        let bits = b.emit(Expression::As { expr: tested, kind: naga::ScalarKind::Uint, convert: None });
         let magnitude = u(&mut b, 0x7fff_ffff);
         let bits = b.emit(Expression::Binary { op: naga::BinaryOperator::And, left: bits, right: magnitude });
         let infinity = u(&mut b, 0x7f80_0000);
@@ -1093,7 +1122,7 @@ impl<'a> Gen<'a> {
         let s = b.emit(Expression::Select { condition: nan, accept: zero, reject: s });
         b.f.body.push(Statement::Return { value: Some(s) }, naga::Span::UNDEFINED);
         let f = self.module.functions.append(b.f, naga::Span::UNDEFINED);
-        self.q9[w - 1] = Some(f);
+        self.q9[quotient as usize][w - 1] = Some(f);
         f
     }
 
@@ -1468,6 +1497,12 @@ impl<'a> Gen<'a> {
                 let (x, y) = (val(b, *lhs)?, val(b, *rhs)?);
                 let (wx, wy) = (wof(*lhs), wof(*rhs));
                 match op {
+                    BinaryOp::Div if self.fidelity == Fidelity::Hardware && sample && info.freq.is_sample() && !self.address.get(n.index()).copied().unwrap_or(false) => {
+                        let x = self.splat(b, x, wx, w)?;
+                        let y = self.splat(b, y, wy, w)?;
+                        self.on_grid.insert(n);
+                        self.quotient(b, x, y, w)
+                    }
                     BinaryOp::Add | BinaryOp::Sub | BinaryOp::Mul | BinaryOp::Div => {
                         arith = true;
                         let x = self.splat(b, x, wx, w)?;

@@ -69,14 +69,14 @@
 //! at the shadow's edge.
 //!
 //! On other scenes (`SHADEC_AGREEMENT_SCENE=scenes/bump_torus.ron`,
-//! `scenes/bench_sphere.ron`) exact fidelity holds for every example too;
-//! hardware fidelity does not yet, on three: deferred shading (bump torus,
-//! one pixel 3/255) and EMBM (sphere, one pixel 2/255), not explained by a
-//! moved tie; and Cook-Torrance on the sphere, whose divisions of 8-bit
-//! values land *exactly* on rounding ties (k₁/k₂·255 = m + ½ happens), so
-//! each executor's float noise decides 205 of its 109 839 lit pixels —
-//! more than the test's 0.1% (computing those quotients exactly, from the
-//! integers k₁·255/k₂, on both executors would settle it; not done).
+//! `scenes/bench_sphere.ron`) exact fidelity holds for every example too,
+//! and hardware fidelity for all but one pixel each of deferred shading
+//! (bump torus, 3/255) and EMBM (sphere, 2/255), which no moved tie
+//! explains. Cook-Torrance on the sphere took two fixes: a NaN (0/0) is 0
+//! on both (below), and a quotient is rounded from the registers'
+//! integers, k₁·255/k₂, on both (`divide_*`, `fixed9_quotient`) — a
+//! quotient of 8-bit values lands *exactly* on rounding ties, where each
+//! executor's float noise decided 205 of its 109 839 lit pixels.
 //!
 //! Two biases of lavapipe the sweep found are now taken out in the WGSL,
 //! not tolerated: its `Rgba16Float` colour writes round toward zero (Vulkan
