@@ -217,7 +217,7 @@ pub fn squaring_exponent(m: &Module, pow: Handle<Expr>) -> Option<u32> {
     let Expr::Binary { op: BinaryOp::Pow, rhs, .. } = &m.exprs[pow] else { return None };
     let Expr::Constant(c) = &m.exprs[*rhs] else { return None };
     let k = c.components[0];
-    (k >= 1.0 && k <= 256.0 && k.fract() == 0.0).then_some(k as u32)
+    ((1.0..=256.0).contains(&k) && k.fract() == 0.0).then_some(k as u32)
 }
 
 /// `x^k` by repeated squaring ([`squaring_exponent`]), `round` applied to
