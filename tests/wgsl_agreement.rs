@@ -295,6 +295,21 @@ fn hardware_fidelity_makes_nan_zero_on_both() {
     assert_eq!(a.max_with_ties, 0, "NaN is not 0 on one of them");
 }
 
+/// Hardware fidelity: a uniform is read as given and what is computed
+/// from it alone is folded (rounded to 1/255, keeping its magnitude: a
+/// constant register and its scale), on both executors — the WGSL used to
+/// clamp a uniform to ±1, halving this one.
+#[test]
+fn hardware_fidelity_keeps_a_uniforms_magnitude() {
+    let Some(gpu) = gpu() else { return };
+    let source = "vector N : normal;\nvector L : light(0);\nuniform k : scalar = 1.5;\n\
+                  shader p : s → c = rgb(0.5, 0.4, 0.3) * (k * k / 2) * max(0, N·L);\n\
+                  C δπx ← p δ s x;\n";
+    let a = agreement_in(&gpu, source, "wgsl", &kilgard_scene(), Fidelity::Hardware);
+    assert!(a.lit * 10 > a.compared, "the torus is drawn ({} of {} compared pixels lit)", a.lit, a.compared);
+    assert!(a.max_diff <= 1, "max {}/255 on {} pixels", a.max_diff, a.over);
+}
+
 fn kilgard() -> String {
     std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd")).unwrap()
 }

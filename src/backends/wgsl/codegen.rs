@@ -1045,6 +1045,25 @@ impl<'a> Gen<'a> {
         r
     }
 
+    /// `floor(v * 255 + 0.5) / 255`, unclamped (a folded constant register
+    /// and its scale).
+    fn fold(&mut self, b: &mut Body, v: NH, w: usize) -> NH {
+        let k = |b: &mut Body, x: f32| {
+            let l = b.lit(x);
+            if w == 1 {
+                l
+            } else {
+                b.emit(Expression::Splat { size: size(w), value: l })
+            }
+        };
+        let c255 = k(b, 255.0);
+        let half = k(b, 0.5);
+        let s = self.binop(b, naga::BinaryOperator::Multiply, v, c255);
+        let s = self.binop(b, naga::BinaryOperator::Add, s, half);
+        let s = self.math(b, naga::MathFunction::Floor, &[s]);
+        self.binop(b, naga::BinaryOperator::Divide, s, c255)
+    }
+
     /// `x / y` written to a register in hardware fidelity: `divide_*(x, y)`.
     fn quotient(&mut self, b: &mut Body, x: NH, y: NH, w: usize) -> NH {
         let f = self.q9_function(w, true);
@@ -1266,13 +1285,9 @@ impl<'a> Gen<'a> {
                 let g = b.plain(Expression::GlobalVariable(var));
                 let p = b.emit(Expression::AccessIndex { base: g, index: (self.iface.projections.len() + idx) as u32 });
                 let l = b.emit(Expression::Load { pointer: p });
-                let v = self.narrow(b, l, 4, w);
-                if self.fidelity == Fidelity::Hardware && sample {
-                    self.on_grid.insert(n);
-                    self.quantize(b, v, w)
-                } else {
-                    v
-                }
+                // As the CPU's fixed9 reads a uniform: as given (what is
+                // computed from it is folded, `finish`).
+                self.narrow(b, l, 4, w)
             }
             Expr::VertexPosition(_) | Expr::TexCoord { .. } | Expr::Vector { .. } => {
                 if info.freq == Frequency::Texel {
@@ -1724,9 +1739,16 @@ impl<'a> Gen<'a> {
             // Rearranges values already on the grid.
             self.on_grid.insert(n);
         }
-        let v = if arith && self.m.info(n).freq.is_sample() && !self.address.get(n.index()).copied().unwrap_or(false) {
+        let register = arith && !self.address.get(n.index()).copied().unwrap_or(false);
+        let v = if register && self.m.info(n).freq.is_sample() {
             self.on_grid.insert(n);
             self.quantize(b, v, w)
+        } else if register && self.fidelity == Fidelity::Hardware && b.stage == Stage::Fragment {
+            // A uniform subexpression, which the compiler folds into a
+            // constant register times an output scale: rounded to 1/255,
+            // keeping its magnitude (the CPU's `fixed9_folded`).
+            self.on_grid.insert(n);
+            self.fold(b, v, w)
         } else {
             v
         };
