@@ -310,6 +310,26 @@ fn hardware_fidelity_keeps_a_uniforms_magnitude() {
     assert!(a.max_diff <= 1, "max {}/255 on {} pixels", a.max_diff, a.over);
 }
 
+/// Hardware fidelity: quotients of register values that land exactly on
+/// rounding ties — 3/10, 3/34 and 9/90 in 1/255 steps are 76.5, 22.5 and
+/// 25.5 — round the same way on both executors (up: `fixed9_quotient`,
+/// `divide_*`). Taken as float quotients of k/255 values, f32 rounds the
+/// first two down and f64 the third: each executor's noise. Scaled (×3,
+/// ×10, ×9) so that one step shows.
+#[test]
+fn hardware_fidelity_rounds_quotient_ties_alike() {
+    let Some(gpu) = gpu() else { return };
+    let source = "vector N : normal;\nvector L : light(0);\n\
+                  shader p : s → c {\n\
+                      let one = max(1, N·L);\n\
+                      rgb(3, 10, 9) * rgb(one * (3 / 255) / (one * (10 / 255)), one * (3 / 255) / (one * (34 / 255)), one * (9 / 255) / (one * (90 / 255)))\n\
+                  }\n\
+                  C δπx ← p δ s x;\n";
+    let a = agreement_in(&gpu, source, "wgsl", &kilgard_scene(), Fidelity::Hardware);
+    assert!(a.lit * 10 > a.compared, "the torus is drawn ({} of {} compared pixels lit)", a.lit, a.compared);
+    assert_eq!(a.max_with_ties, 0, "the executors round a quotient's tie apart");
+}
+
 fn kilgard() -> String {
     std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd")).unwrap()
 }

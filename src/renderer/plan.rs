@@ -1266,3 +1266,18 @@ pub fn compare(reference: &Framebuffer, test: &Framebuffer) -> ErrorReport {
     let rmse = if e.psnr.is_infinite() { 0.0 } else { 10f64.powf(-e.psnr / 20.0) };
     ErrorReport { max_abs: e.max_abs, rmse, psnr: e.psnr }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::fixed9_quotient;
+
+    /// Quotients of 8-bit values that land on ties (k₁·255/k₂ = m + ½) round
+    /// up; x/0 clamps to ±1, 0/0 is 0.
+    #[test]
+    fn fixed9_quotient_rounds_ties_up() {
+        for (k1, k2, m) in [(1.0, 170.0, 2.0), (1.0, 102.0, 3.0), (1.0, 30.0, 9.0), (-1.0, 170.0, -1.0), (3.0, 6.0, 128.0)] {
+            assert_eq!(fixed9_quotient(k1, k2, 0.0), m / 255.0, "{k1}/{k2}");
+        }
+        assert_eq!((fixed9_quotient(5.0, 0.0, 0.0), fixed9_quotient(-5.0, 0.0, 0.0), fixed9_quotient(0.0, 0.0, 0.0)), (1.0, -1.0, 0.0));
+    }
+}
