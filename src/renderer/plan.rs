@@ -628,12 +628,20 @@ struct Step<'m> {
     /// node's type. A scalar texel is an intensity (v, v, v, v), as the
     /// program's type says.
     raw: bool,
-    /// fixed9: `x^k` taken by `k`'s squarings, each product rounded
-    /// ([`ir::squaring_exponent`]), as WGSL's hardware fidelity takes it.
-    squarings: Option<u32>,
-    /// fixed9: a quotient, rounded from the registers' integers
-    /// ([`fixed9_quotient`]), as WGSL's hardware fidelity divides.
-    quotient: bool,
+    /// fixed9: how a register write of a power or a quotient is rounded.
+    register: RegisterOp,
+}
+
+/// A fixed9 register write the WGSL's hardware fidelity computes its own
+/// way, so the CPU computes it that way too.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum RegisterOp {
+    /// Any other: the operation in float, rounded once.
+    Rounded,
+    /// `x^k` by `k`'s squarings, each product rounded ([`ir::squaring_exponent`]).
+    Squarings(u32),
+    /// A quotient rounded from the registers' integers ([`fixed9_quotient`]).
+    Quotient,
 }
 
 /// The fragment stage of one pass: the reachable nodes of the output (and
@@ -826,9 +834,13 @@ impl<'a> FragmentProgram<'a> {
             let quantize = per_operation && per_sample;
             let folded = per_operation && !per_sample;
             let raw = setup.is_some() && ty.width() >= 3 && matches!(leaf, Some(Leaf::Lookup { .. } | Leaf::Framebuffer { .. }));
-            let squarings = ir::squaring_exponent(m, h).filter(|_| quantize);
-            let quotient = quantize && matches!(expr, Expr::Binary { op: ir::BinaryOp::Div, .. });
-            steps.push(Step { expr, ty, slot, ops, n_ops, leaf, quantize, folded, raw, squarings, quotient });
+            let register = match (quantize, ir::squaring_exponent(m, h)) {
+                (false, _) => RegisterOp::Rounded,
+                (true, Some(k)) => RegisterOp::Squarings(k),
+                (true, None) if matches!(expr, Expr::Binary { op: ir::BinaryOp::Div, .. }) => RegisterOp::Quotient,
+                (true, None) => RegisterOp::Rounded,
+            };
+            steps.push(Step { expr, ty, slot, ops, n_ops, leaf, quantize, folded, raw, register });
         }
         let combiners = setup.map(|c| (c.machine, c.registers.map(|h| h.map(|h| slot_of[h.index()]))));
         Ok(FragmentProgram {
@@ -1019,11 +1031,8 @@ impl<'a> FragmentProgram<'a> {
                     self.lookup(*texture, buf[0], *coords_ty, None, Some(q), fragment, varyings)
                 }
                 Some(leaf) => self.leaf(leaf, buf[0], fragment, varyings, texel_at),
-                None if s.squarings.is_some() => {
-                    let k = s.squarings.unwrap_or(1);
-                    ir::power_by_squaring(buf[0], k, |a, c| [0, 1, 2, 3].map(|i| fixed9_with(a[i] * c[i], self.tie.register_steps)))
-                }
-                None if s.quotient => {
+                None if let RegisterOp::Squarings(k) = s.register => ir::power_by_squaring(buf[0], k, |a, c| [0, 1, 2, 3].map(|i| fixed9_with(a[i] * c[i], self.tie.register_steps))),
+                None if s.register == RegisterOp::Quotient => {
                     let steps = |v: f64| (v * 255.0).round_ties_even();
                     [0, 1, 2, 3].map(|i| fixed9_quotient(steps(buf[0][i]), steps(buf[1][i]), self.tie.register_steps))
                 }

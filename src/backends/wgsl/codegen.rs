@@ -1045,23 +1045,30 @@ impl<'a> Gen<'a> {
         r
     }
 
+    /// Whether node `n` only addresses a texture or framebuffer
+    /// (`ir::address_only`): never rounded.
+    fn addresses_only(&self, n: ir::Handle<Expr>) -> bool {
+        self.address.get(n.index()).copied().unwrap_or(false)
+    }
+
+    /// Whether node `n`, computed in the fragment stage (`sample`), is a
+    /// register write of hardware fidelity: per fragment, not only an
+    /// address (the CPU's `Step::quantize`).
+    fn register_write(&self, n: ir::Handle<Expr>, sample: bool) -> bool {
+        self.fidelity == Fidelity::Hardware && sample && self.m.info(n).freq.is_sample() && !self.addresses_only(n)
+    }
+
     /// `floor(v * 255 + 0.5) / 255`, unclamped (a folded constant register
     /// and its scale).
-    fn fold(&mut self, b: &mut Body, v: NH, w: usize) -> NH {
-        let k = |b: &mut Body, x: f32| {
-            let l = b.lit(x);
-            if w == 1 {
-                l
-            } else {
-                b.emit(Expression::Splat { size: size(w), value: l })
-            }
-        };
-        let c255 = k(b, 255.0);
-        let half = k(b, 0.5);
+    fn fold(&mut self, b: &mut Body, v: NH, w: usize) -> R<NH> {
+        let c255 = b.lit(255.0);
+        let c255 = self.splat(b, c255, 1, w)?;
+        let half = b.lit(0.5);
+        let half = self.splat(b, half, 1, w)?;
         let s = self.binop(b, naga::BinaryOperator::Multiply, v, c255);
         let s = self.binop(b, naga::BinaryOperator::Add, s, half);
         let s = self.math(b, naga::MathFunction::Floor, &[s]);
-        self.binop(b, naga::BinaryOperator::Divide, s, c255)
+        Ok(self.binop(b, naga::BinaryOperator::Divide, s, c255))
     }
 
     /// `x / y` written to a register in hardware fidelity: `divide_*(x, y)`.
@@ -1273,7 +1280,7 @@ impl<'a> Gen<'a> {
         let mut arith = false; // a register write in hardware fidelity
         let v: NH = match &e {
             Expr::Constant(c) => {
-                let register = self.fidelity == Fidelity::Hardware && sample && !self.address.get(n.index()).copied().unwrap_or(false) && c.values().iter().all(|v| v.abs() <= 1.0);
+                let register = self.fidelity == Fidelity::Hardware && sample && !self.addresses_only(n) && c.values().iter().all(|v| v.abs() <= 1.0);
                 if register {
                     self.on_grid.insert(n);
                 }
@@ -1512,7 +1519,7 @@ impl<'a> Gen<'a> {
                 let (x, y) = (val(b, *lhs)?, val(b, *rhs)?);
                 let (wx, wy) = (wof(*lhs), wof(*rhs));
                 match op {
-                    BinaryOp::Div if self.fidelity == Fidelity::Hardware && sample && info.freq.is_sample() && !self.address.get(n.index()).copied().unwrap_or(false) => {
+                    BinaryOp::Div if self.register_write(n, sample) => {
                         let x = self.splat(b, x, wx, w)?;
                         let y = self.splat(b, y, wy, w)?;
                         self.on_grid.insert(n);
@@ -1539,7 +1546,7 @@ impl<'a> Gen<'a> {
                         }
                     }
                     BinaryOp::Pow => {
-                        let squarings = ir::squaring_exponent(m, n).filter(|_| self.fidelity == Fidelity::Hardware && info.freq.is_sample() && !self.address.get(n.index()).copied().unwrap_or(false));
+                        let squarings = ir::squaring_exponent(m, n).filter(|_| self.register_write(n, sample));
                         match squarings {
                             // Repeated squaring, a register write after each product
                             // (`x^1` is x, written once).
@@ -1739,7 +1746,7 @@ impl<'a> Gen<'a> {
             // Rearranges values already on the grid.
             self.on_grid.insert(n);
         }
-        let register = arith && !self.address.get(n.index()).copied().unwrap_or(false);
+        let register = arith && !self.addresses_only(n);
         let v = if register && self.m.info(n).freq.is_sample() {
             self.on_grid.insert(n);
             self.quantize(b, v, w)
@@ -1748,7 +1755,7 @@ impl<'a> Gen<'a> {
             // constant register times an output scale: rounded to 1/255,
             // keeping its magnitude (the CPU's `fixed9_folded`).
             self.on_grid.insert(n);
-            self.fold(b, v, w)
+            self.fold(b, v, w)?
         } else {
             v
         };
