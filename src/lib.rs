@@ -9,6 +9,7 @@ pub mod bench;
 pub mod diag;
 pub mod io;
 pub mod ir;
+pub mod meaning;
 pub mod parser;
 pub mod planner;
 pub mod profile;

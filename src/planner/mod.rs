@@ -465,18 +465,22 @@ pub fn substitute(m: &mut Module, h: Handle<Expr>, map: &HashMap<Handle<Expr>, H
     done.get(&h).copied()
 }
 
-/// Reads the framebuffer operation off a statement's (possibly fused) value.
-pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<Form, Diagnostic> {
+/// A statement's framebuffer operation as written, no blend read off its
+/// value: the whole value replaces the target, its reads of the target are
+/// the target's values before the statement. What the target channel, a
+/// discard `c ? a`, a stencil test `σ C ? a` or a stencil update say is
+/// taken out (seeds/001 Sections 3.4-3.5). The program's meaning
+/// (`crate::meaning`) runs statements in this form; `classify` goes on to
+/// read a blend.
+pub fn whole_form(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<Form, Diagnostic> {
     let mut form = Form { blend: BlendMode::Replace, value, condition: None, stencil: None, depth: None, channels: "rgba", then_add: None, drawn_at: None };
-    let unsupported = |what: &str| {
-        Diagnostic::error("unsupported-blend", format!("framebuffer blending cannot express this: {what}"), st.span, "this statement")
-            .with_help("write the statement as `C ← (C) ⊕ e`, `C ← (C) ⊕[add] e`, `C ← (C) ⊕[add] ((α C) * e)`, or compute the value without reading the framebuffer")
-    };
     match st.table {
         Table::Texture(_) => return Ok(form),
         Table::TexCoords(_) => unreachable!("texgen statements are vertex work"),
-        Table::Framebuffer { channel: FbChannel::Stencil, .. } => return stencil_write(m, st, value).ok_or_else(|| unsupported("this stencil update (the planner knows `σ C ← (σ C) OR (depth comparison)`, seeds/001 Section 3.5)")),
-        Table::Framebuffer { channel: FbChannel::Depth, .. } => return Err(unsupported("a write to the depth channel")),
+        Table::Framebuffer { channel: FbChannel::Stencil, .. } => {
+            return stencil_write(m, st, value).ok_or_else(|| unsupported_blend(st, "this stencil update (the planner knows `σ C ← (σ C) OR (depth comparison)`, seeds/001 Section 3.5)"))
+        }
+        Table::Framebuffer { channel: FbChannel::Depth, .. } => return Err(unsupported_blend(st, "a write to the depth channel")),
         Table::Framebuffer { channel: FbChannel::Alpha, .. } => form.channels = "a",
         Table::Framebuffer { channel: FbChannel::Color, .. } => {}
     }
@@ -497,6 +501,21 @@ pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<F
         }
         form.value = accept;
     }
+    Ok(form)
+}
+
+fn unsupported_blend(st: &Statement, what: &str) -> Diagnostic {
+    Diagnostic::error("unsupported-blend", format!("framebuffer blending cannot express this: {what}"), st.span, "this statement")
+        .with_help("write the statement as `C ← (C) ⊕ e`, `C ← (C) ⊕[add] e`, `C ← (C) ⊕[add] ((α C) * e)`, or compute the value without reading the framebuffer")
+}
+
+/// Reads the framebuffer operation off a statement's (possibly fused) value.
+pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<Form, Diagnostic> {
+    let mut form = whole_form(m, st, value)?;
+    if matches!(st.table, Table::Texture(_)) || form.channels == "stencil" {
+        return Ok(form);
+    }
+    let unsupported = |what: &str| unsupported_blend(st, what);
     let r = self_read(m, st, FbChannel::Color);
     let ra = self_read(m, st, FbChannel::Alpha);
     let uses = |m: &Module, h: Handle<Expr>, x: Option<Handle<Expr>>| x.is_some_and(|x| split::depends_on(m, h, x));
@@ -661,6 +680,7 @@ fn assemble(
 ) -> PassPlan {
     let mut passes = Vec::new();
     let mut drawn: Vec<(Table, Handle<Expr>)> = Vec::new();
+    let mut drawn_temps: Vec<u32> = Vec::new();
     let mut roots = Vec::new();
     for (stmts, form, pieces, reason) in chosen {
         let st = &m.statements[stmts[0]];
@@ -722,15 +742,26 @@ fn assemble(
             gen.dedup();
             let operations = reached.iter().filter(|h| m.info(**h).freq.is_sample() && matches!(m.exprs[**h], Expr::Binary { .. } | Expr::Unary { .. } | Expr::Math { .. } | Expr::Combine { .. } | Expr::Select { .. })).count();
             let key = reused.unwrap_or((st.table.clone(), st.index));
+            // A temporary has a depth buffer of its own, fresh when its
+            // first pass draws: that pass tests `Less` and writes, as the
+            // first pass into a framebuffer does (an `Equal` test against
+            // the cleared depth drew nothing: issue 16's lost term).
+            let first_draw = match piece.dest {
+                Dest::Main => !drawn.contains(&key),
+                Dest::Temp(id) => !drawn_temps.contains(&id),
+            };
             let depth = form.depth.unwrap_or(match geometry {
                 // A one-to-one u covers each texel once: no depth test.
                 _ if in_texture_space => DepthState::DISABLED,
-                Geometry::Mesh { .. } if drawn.contains(&key) => DepthState::EQUAL_NO_WRITE,
+                Geometry::Mesh { .. } if !first_draw => DepthState::EQUAL_NO_WRITE,
                 Geometry::Mesh { .. } => DepthState::LESS_WRITE,
                 _ => DepthState::DISABLED,
             });
-            if matches!(geometry, Geometry::Mesh { .. }) && piece.dest == Dest::Main && !drawn.contains(&key) {
-                drawn.push(key);
+            if matches!(geometry, Geometry::Mesh { .. }) && first_draw {
+                match piece.dest {
+                    Dest::Main => drawn.push(key),
+                    Dest::Temp(id) => drawn_temps.push(id),
+                }
             }
             let mask = match form.channels {
                 "a" => [false, false, false, true],

@@ -1,0 +1,149 @@
+//! The program's own meaning: the reference every plan is measured against
+//! (issue 16; DESIGN.md, "Reference, speed and error").
+//!
+//! seeds/001 defines a program as its statements run in order, each one
+//! table assignment `T i ← v` over every sample of its index (Section 3):
+//! the value `v` is computed in full and stored, and a read of the target
+//! (`C δπx` on the right, (9)) is the target's value before the statement.
+//! The meaning does exactly that with unlimited resources: one pass per
+//! statement, the statement's whole value written with `replace`, no
+//! blend read off it, no split, no fusion, no specialization, no light
+//! culling — so a plan that loses, duplicates or reorders a term differs
+//! from it. Rendered in `Mode::Exact` (f64 arithmetic, ideal filtering,
+//! unit vectors renormalized, true `pow`), it is what `render` and `bench`
+//! report error against, and what the differential tests compare every
+//! plan with.
+//!
+//! What it shares with plans: the rasterizer, the scene binder and the
+//! IR's one semantics of each operation (`ir::eval`). What it does not:
+//! the planner's blends, splits, temporaries, fusion, depth-state choice
+//! and specialization — the parts that decide whether a plan computes
+//! what the program says.
+
+use crate::diag::Diagnostic;
+use crate::ir::{Expr, FbChannel, Frequency, Handle, Module, Table, Usage};
+use crate::planner::{self, BlendMode, FragmentWork, Geometry, Pass, PassPlan, Planned, RenderTarget, TextureBinding, VertexWork};
+use crate::renderer::{BlendState, CullMode, DepthState, RenderState, StencilState};
+
+/// The name the meaning's plan carries as its target.
+pub const TARGET: &str = "meaning";
+
+/// The program as a plan of one whole-value pass per statement. `lights` is
+/// the number of scene lights: a program written for light 0 means one
+/// term per light (docs/pass-plan.md, "per-light passes"), as every plan
+/// for the scene does.
+pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> {
+    let mut m = module.clone();
+    if lights > 1 {
+        planner::lights::expand(&mut m, lights, &|_| "-".to_string());
+    }
+    let mut passes = Vec::new();
+    let mut errors = Vec::new();
+    // (target, index) of the mesh draws so far: the first draw of an index
+    // into a target resolves visibility (depth `Less`, written), later ones
+    // shade the visible surface again (`Equal`).
+    let mut drawn: Vec<(Table, Handle<Expr>)> = Vec::new();
+    for (i, st) in m.statements.clone().iter().enumerate() {
+        if matches!(st.table, Table::TexCoords(_)) {
+            continue; // texgen: vertex work of the passes that read it
+        }
+        let form = match planner::whole_form(&mut m, st, st.value) {
+            Ok(f) => f,
+            Err(d) => {
+                errors.push(d);
+                continue;
+            }
+        };
+        let in_texture_space = st.freq == Frequency::Texel && m.reachable(&[st.index]).iter().any(|h| m.info(*h).freq == Frequency::Vertex);
+        let mesh = st.freq == Frequency::Fragment || in_texture_space;
+        // seeds/001 (10): a statement at the pixel reuses the vertices the
+        // last statement into the same framebuffer projected.
+        let at_pixel = mesh && form.drawn_at.is_none() && matches!(m.exprs[st.index], Expr::Pixel { .. });
+        let reused = at_pixel.then(|| drawn.iter().rev().find(|(t, _)| same_target(t, &st.table)).map(|(_, h)| *h)).flatten();
+        if at_pixel && reused.is_none() {
+            errors.push(Diagnostic::error("no-projected-vertices", "this statement at the pixel interpolates per-vertex values, but no earlier statement projects the mesh", st.span, "here").with_help("write a statement `C δπx ← …` into this framebuffer first (seeds/001 (10))"));
+            continue;
+        }
+        let position = reused.or(form.drawn_at).unwrap_or(st.index);
+        let geometry = match (st.freq, mesh) {
+            (Frequency::Screen, _) => Geometry::Screen,
+            (_, true) => Geometry::Mesh { projection: if in_texture_space { "u".into() } else { "π".into() } },
+            _ => Geometry::Texels,
+        };
+        let key = (st.table.clone(), position);
+        let depth = match (&geometry, form.depth) {
+            (_, Some(d)) => d,
+            (Geometry::Mesh { .. }, None) if in_texture_space => DepthState::DISABLED,
+            (Geometry::Mesh { .. }, None) if drawn.contains(&key) => DepthState::EQUAL_NO_WRITE,
+            (Geometry::Mesh { .. }, None) => DepthState::LESS_WRITE,
+            _ => DepthState::DISABLED,
+        };
+        if matches!(geometry, Geometry::Mesh { .. }) && form.depth.is_none() && !drawn.contains(&key) {
+            drawn.push(key);
+        }
+        let (target, mask) = match st.table {
+            Table::Framebuffer { id, channel } => {
+                let channels = match channel {
+                    FbChannel::Alpha => "a",
+                    FbChannel::Stencil => "stencil",
+                    _ => "rgba",
+                };
+                let mask = match channel {
+                    FbChannel::Alpha => [false, false, false, true],
+                    FbChannel::Stencil => [false; 4],
+                    _ => [true; 4],
+                };
+                (RenderTarget::Framebuffer { name: m.framebuffers[id as usize].name.clone(), channels: channels.into() }, mask)
+            }
+            Table::Texture(id) => (RenderTarget::Texture { name: m.textures[id as usize].name.clone() }, [true; 4]),
+            Table::TexCoords(_) => unreachable!("skipped above"),
+        };
+        // The stencil update's fragment computes nothing: the depth test
+        // and the stencil operation are the statement.
+        let output = if form.channels == "stencil" { constant_one(&mut m, st.value) } else { Some(form.value) };
+        let Some(output) = output else { continue };
+        let usage = Usage::of_value(&m, output);
+        let textures = usage
+            .lookups
+            .iter()
+            .enumerate()
+            .filter_map(|(unit, &h)| match m.exprs[h] {
+                Expr::Lookup { texture, coords } => Some(TextureBinding { unit: unit as u32, texture: m.textures[texture as usize].name.clone(), lookup: h.index() as u32, coords: coords.index() as u32 }),
+                _ => None,
+            })
+            .collect();
+        passes.push(Pass {
+            statements: vec![i],
+            light: None,
+            objects: None,
+            at: "-".into(),
+            reason: format!("statement {} as written (the program's meaning)", i + 1),
+            target,
+            vertex: VertexWork { position: mesh.then_some(position.index() as u32), interpolants: usage.interpolants.iter().map(|h| h.index() as u32).collect(), texgen: Vec::new() },
+            textures,
+            fragment: FragmentWork { output: output.index() as u32, operations: 0, condition: form.condition.map(|c| c.index() as u32) },
+            blend: BlendMode::Replace,
+            state: RenderState {
+                cull: if matches!(geometry, Geometry::Mesh { .. }) && !in_texture_space { CullMode::Back } else { CullMode::None },
+                depth,
+                stencil: form.stencil.unwrap_or(StencilState::DISABLED),
+                blend: BlendState::REPLACE.with_write_mask(mask),
+            },
+            geometry,
+            combiners: None,
+        });
+    }
+    if !errors.is_empty() {
+        return Err(errors);
+    }
+    Ok(Planned { module: m, plan: PassPlan { target: TARGET.into(), passes, removed: Vec::new(), values: Vec::new() } })
+}
+
+fn constant_one(m: &mut Module, near: Handle<Expr>) -> Option<Handle<Expr>> {
+    let span = m.span(near);
+    m.intern(Expr::Constant(crate::ir::Constant::scalar(1.0)), span).ok()
+}
+
+fn same_target(a: &Table, b: &Table) -> bool {
+    matches!((a, b), (Table::Framebuffer { id: x, .. }, Table::Framebuffer { id: y, .. }) if x == y)
+}
