@@ -118,7 +118,8 @@ pub fn run(args: &CheckArgs) -> ExitCode {
 
 /// Parse and check; when a target is known (`--target` or the program's
 /// `target X;`) and the program is clean, lower it and check it against the
-/// profile (`shadec::profile::fit`). Lowering errors are reported too.
+/// profile (`shadec::profile::fit`) and plan it (`shadec::planner::plan`,
+/// as `compile` does). Lowering errors are reported too.
 pub fn target_diagnostics(
     text: &str,
     target: Option<&str>,
@@ -134,6 +135,15 @@ pub fn target_diagnostics(
     if let (Some(name), true) = (name, lowered_ok) {
         let profile = shadec::profile::Profile::resolve(&name)?;
         diagnostics.extend(shadec::profile::fit(&module, &profile));
+        // One fitting decision (issue 16 item 3): what `compile` cannot
+        // plan is an error here too, with the planner's own message, and
+        // the "the planner will split it" warnings go with it.
+        if diagnostics.iter().all(|d| !d.is_error()) {
+            if let Err(errors) = shadec::planner::plan(&module, &profile, Some(text)) {
+                diagnostics.retain(|d| d.code != "does-not-fit");
+                diagnostics.extend(errors);
+            }
+        }
     }
     diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
     Ok((program, diagnostics))

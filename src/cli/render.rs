@@ -36,9 +36,11 @@ pub struct RenderArgs {
     pub target: Option<String>,
     /// How the plan's arithmetic is modelled: `fixed9` (8-bit textures and
     /// framebuffer, 9-bit combiner maths: what the old hardware showed),
-    /// `f32`, or `exact` (the f64 reference).
-    #[arg(long, value_enum, default_value_t = ModeArg::Fixed9)]
-    pub mode: ModeArg,
+    /// `f32`, or `exact` (the f64 reference). Defaults to the target's own
+    /// arithmetic: `fixed9` on the 8-bit hardware targets (register combiners,
+    /// the texture environment), `f32` on a programmable one (`wgsl`).
+    #[arg(long, value_enum)]
+    pub mode: Option<ModeArg>,
     /// Image size; defaults to the scene's resolution.
     #[arg(long, value_name = "WxH")]
     pub size: Option<String>,
@@ -201,7 +203,9 @@ pub fn run(args: &RenderArgs) -> ExitCode {
         Ok(r) => r,
         Err(e) => return failed(e),
     };
-    let mode = args.mode.mode();
+    // The target's own arithmetic unless asked otherwise (issue 16 item 4):
+    // the combiners' fixed9 on the old hardware, f32 on a modern target.
+    let mode = args.mode.map_or(if matches!(profile.fragment, shadec::profile::FragmentStage::Programmable) { Mode::F32 } else { Mode::Fixed9 }, ModeArg::mode);
     println!(
         "shadec render: {} with {}, {} on {}, {}×{}",
         args.scene.as_ref().map_or("the built-in torus scene".to_string(), |p| p.display().to_string()),

@@ -392,10 +392,11 @@ fn cannot_split(m: &Module, st: &Statement, profile: &Profile, o: &Overflow) -> 
         format!("{o}"),
     )
     .with_label(span, "this part".to_string())
-    .with_help(format!(
-        "framebuffer blending can only split sums and products (and affine ⊕ chains); compute the part per vertex, bake it into a lookup texture, or target a profile with more {}",
-        o.resource
-    ))
+    .with_help(if o.need == 0 {
+        "framebuffer blending can only split sums and products (and affine ⊕ chains); compute the part per vertex, bake it into a lookup texture (`= bake(f)`), or target `wgsl`".to_string()
+    } else {
+        format!("framebuffer blending can only split sums and products (and affine ⊕ chains); compute the part per vertex, bake it into a lookup texture, or target a profile with more {}", o.resource)
+    })
 }
 
 /// The framebuffer read of `st`'s own target at its own position.
@@ -655,13 +656,13 @@ fn plan_form(m: &mut Module, fit: &dyn FitCheck, cache: &mut SplitCache, st: &St
     }
     let mut pieces: Vec<Piece> = match splitter.plan(form.blend, form.value) {
         Some(p) => p.iter().cloned().collect(),
-        None => return Err(overflow.unwrap_or(Overflow { resource: "resources".into(), need: 0, have: 0, at: None })),
+        None => return Err(overflow.unwrap_or(Overflow { resource: "has no split into passes of this target".into(), need: 0, have: 0, at: None })),
     };
     if let Some(s) = form.then_add {
         let o = fit.fits(splitter.module, s).err();
         match splitter.plan(BlendMode::Add, s) {
             Some(p) => pieces.extend(p.iter().map(|q| Piece { why: "C ← C·m + s: the added term, after the modulation".into(), ..q.clone() })),
-            None => return Err(o.unwrap_or(Overflow { resource: "resources".into(), need: 0, have: 0, at: None })),
+            None => return Err(o.unwrap_or(Overflow { resource: "has no split into passes of this target".into(), need: 0, have: 0, at: None })),
         }
     }
     Ok(pieces)

@@ -46,7 +46,8 @@ const MAX_DEPTH: usize = 8;
 /// Why a value does not fit one pass.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Overflow {
-    /// What ran out, or (with `need` 1 and `have` 0) what the target lacks.
+    /// What ran out, or (with `need` 1 and `have` 0) what the target lacks,
+    /// or (with both 0) the whole reason, as a sentence.
     pub resource: String,
     pub need: usize,
     pub have: usize,
@@ -56,7 +57,10 @@ pub struct Overflow {
 
 impl std::fmt::Display for Overflow {
     fn fmt(&self, f: &mut std::fmt::Formatter) -> std::fmt::Result {
-        if self.have == 0 && self.need == 1 {
+        if self.have == 0 && self.need == 0 {
+            // A refusal that says itself (the combiner code generator's).
+            write!(f, "{}", self.resource)
+        } else if self.have == 0 && self.need == 1 {
             write!(f, "needs {}, which the target cannot compute in a pass", self.resource)
         } else {
             write!(f, "needs {} {}; the target has {}", self.need, self.resource, self.have)
