@@ -433,25 +433,42 @@ impl<'a> Lowerer<'a> {
         self.append(Expr::Constant(c), span).expect("a constant always types")
     }
 
-    /// Applies a declared type to a value: vec3 ↔ rgb retag constants, scalars
-    /// splat, rgb widens to rgba.
+    /// The one rule by which a value takes a declared type — a `let`'s or
+    /// parameter's annotation, a shader's `s → t`, `rgb(…)`/`vec3(…)`: the
+    /// same type is kept; a constant of the same width is retagged; a scalar
+    /// splats; rgb widens to rgba (alpha 1); a vec3 and an rgb are the same
+    /// three numbers read as a direction or a colour (seeds/001 (1)-(3)
+    /// multiply light intensities, colours, by dot products of directions),
+    /// so one is retagged as the other by an identity component selection.
+    /// `None` when the value cannot take the type.
+    fn coerce(&mut self, h: Handle<Expr>, want: Ty, span: Span) -> Res<Option<Handle<Expr>>> {
+        let have = self.module.info(h).ty;
+        if have == want {
+            return Ok(Some(h));
+        }
+        if let Expr::Constant(c) = self.module.exprs[h] {
+            if c.ty.width() == want.width() {
+                return Ok(Some(self.constant(Constant { ty: want, ..c }, span)));
+            }
+        }
+        Ok(Some(match (have, want) {
+            (Ty::Scalar, t) if t.is_numeric() => self.append(Expr::Convert { value: h, to: t }, span)?,
+            (Ty::Rgb, Ty::Rgba) => self.append(Expr::Convert { value: h, to: Ty::Rgba }, span)?,
+            (Ty::Vec3, Ty::Rgb) | (Ty::Rgb, Ty::Vec3) => {
+                self.append(Expr::Swizzle { value: h, pattern: [0, 1, 2, 0], len: 3, ty: want }, span)?
+            }
+            _ => return Ok(None),
+        }))
+    }
+
+    /// Applies a declared type to a value by [`Self::coerce`].
     fn annotate(&mut self, h: Handle<Expr>, ty: Option<&ast::Word<ast::Type>>, span: Span) -> Res<Handle<Expr>> {
         let Some(want) = ty else { return Ok(h) };
         let want_ty = Ty::from_ast(want.value);
         let have = self.module.info(h).ty;
-        if have == want_ty {
-            return Ok(h);
-        }
-        if let Expr::Constant(c) = self.module.exprs[h] {
-            if c.ty.width() == want_ty.width() {
-                return Ok(self.constant(Constant { ty: want_ty, ..c }, span));
-            }
-        }
-        match (have, want_ty) {
-            (Ty::Scalar, t) if t.is_numeric() => self.append(Expr::Convert { value: h, to: t }, span),
-            (Ty::Rgb, Ty::Rgba) => self.append(Expr::Convert { value: h, to: Ty::Rgba }, span),
-            (Ty::Vec3, Ty::Rgb) | (Ty::Rgb, Ty::Vec3) => Ok(h),
-            _ => {
+        match self.coerce(h, want_ty, span)? {
+            Some(h) => Ok(h),
+            None => {
                 self.error(
                     "type-mismatch",
                     format!("declared {} but the value is a {}", want_ty.name(), have.name()),
@@ -601,7 +618,7 @@ impl<'a> Lowerer<'a> {
                         self.append(Expr::Depth(index), st.value.span)?
                     }
                     (have, want) => {
-                        self.error("type-mismatch", format!("a {} is written into a {} channel", have.name(), want.name()), st.value.span, format!("a {}", have.name()), "write a colour (rgb or rgba) into a framebuffer, a scalar into α, z or σ");
+                        self.error("type-mismatch", format!("a {} is written into a {} channel", have.name(), want.name()), st.value.span, format!("a {}", have.name()), if have == Ty::Vec3 { "a vec3 is a direction: write a colour into a framebuffer (`rgb(v)` reads a vec3 as one), a scalar into α, z or σ" } else { "write a colour (rgb or rgba) into a framebuffer, a scalar into α, z or σ" });
                         return Err(());
                     }
                 };
@@ -800,13 +817,11 @@ impl<'a> Lowerer<'a> {
                 }
             },
         };
+        // `rgb(v)` of a vec3 is a colour, `vec3(c)` of a colour a vector,
+        // `rgba(c)` of an rgb the colour with alpha 1, `rgb(s)` a grey.
         if hs.len() == 1 {
-            let t = self.module.info(hs[0]).ty;
-            if t == ty || (t.width() == 3 && ty.width() == 3) {
-                return Ok(hs[0]);
-            }
-            if t == Ty::Scalar || (t == Ty::Rgb && ty == Ty::Rgba) {
-                return self.append(Expr::Convert { value: hs[0], to: ty }, span);
+            if let Some(h) = self.coerce(hs[0], ty, span)? {
+                return Ok(h);
             }
         }
         self.append(Expr::Compose { ty, components: hs }, span)
@@ -1259,8 +1274,11 @@ impl<'a> Lowerer<'a> {
         let h = self.expect_expr(v, s.body.span)?;
         let have = self.module.info(h).ty;
         let want = Ty::from_ast(s.output.value);
-        let ok = have == want || (have.width() == 3 && want.width() == 3) || have == Ty::Scalar;
-        if !ok {
+        // The declared `s → t` is the type of every use: the declaration is
+        // checked (`check_unused`) and each use inlined through this one rule,
+        // so a shader that checks where it is declared types alike where it is used.
+        let coerced = self.coerce(h, want, s.body.span)?;
+        let Some(h) = coerced else {
             self.diagnostics.push(
                 Diagnostic::error("type-mismatch", format!("the shader `{}` returns a {}, not the declared {}", s.name.key(), have.name(), want.name()), s.body.span, format!("a {}", have.name()))
                     .with_label(s.output.span, "declared here")
@@ -1268,10 +1286,7 @@ impl<'a> Lowerer<'a> {
                     .with_help(format!("declare it `: s → {}`", have.name())),
             );
             return Err(());
-        }
-        if have == Ty::Scalar && want != Ty::Scalar {
-            return self.append(Expr::Convert { value: h, to: want }, s.body.span);
-        }
+        };
         Ok(h)
     }
 

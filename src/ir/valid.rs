@@ -173,13 +173,15 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
                 Site::Vertex(_) => Frequency::Vertex,
                 Site::Texel => Frequency::Texel,
             };
-            let interval = match m.vectors[*vector as usize].kind {
-                Some(VectorKind::Position) => Interval::ALL,
-                // A light's colour · attenuation · spot factor: not a unit vector.
-                Some(VectorKind::Intensity) => Interval { lo: 0.0, hi: f64::INFINITY },
-                _ => Interval::SIGNED,
+            let (ty, interval) = match m.vectors[*vector as usize].kind {
+                Some(VectorKind::Position) => (Ty::Vec3, Interval::ALL),
+                // A light's colour · attenuation · spot factor: not a unit
+                // vector but a colour (the I of seeds/001 (1)-(3)), written
+                // into a framebuffer as it is.
+                Some(VectorKind::Intensity) => (Ty::Rgb, Interval { lo: 0.0, hi: f64::INFINITY }),
+                _ => (Ty::Vec3, Interval::SIGNED),
             };
-            out(Ty::Vec3, freq, interval)
+            out(ty, freq, interval)
         }
         Expr::TexelCoord => out(Ty::Vec2, Frequency::Texel, Interval::UNSIGNED),
         Expr::Pixel { freq } => out(Ty::Position, *freq, Interval::ALL),
