@@ -454,3 +454,35 @@ C δπx ← T δu x;
     assert_eq!(e.code, "bad-index");
     assert_eq!(text, "T kd");
 }
+
+/// seeds/001 (9) written literally as a program's first pass modulates the
+/// cleared framebuffer: black, and a located warning says so (issue 16, item 7).
+#[test]
+fn a_bare_modulate_of_an_unwritten_framebuffer_warns() {
+    let src = with("C δπx ← (C δπx) ⊕ (δ p s x);");
+    let (_, d) = lower(&src);
+    let warnings: Vec<&Diagnostic> = d.iter().filter(|d| d.code == "modulate-cleared").collect();
+    assert_eq!(warnings.len(), 1, "{d:#?}");
+    let w = warnings[0];
+    assert!(!w.is_error());
+    assert_eq!(&src[w.primary.span.range()], "(C δπx)");
+    assert_eq!(w.message, "`⊕` modulates the framebuffer `C`, which no earlier statement writes: it is still cleared to 0, so the result is black");
+    assert_eq!(
+        w.help.as_deref(),
+        Some("to accumulate into `C`, write `⊕[add]`; to modulate what an earlier pass drew, write `C` first (e.g. `C δπx ← …;` before this statement)")
+    );
+    // The help is true: either fix is quiet.
+    for fixed in ["C δπx ← (C δπx) ⊕[add] (δ p s x);", "C δπx ← T δu x;\nC δπx ← (C δπx) ⊕ (δ p s x);"] {
+        let (_, d) = lower(&with(fixed));
+        assert!(d.iter().all(|d| d.code != "modulate-cleared"), "{fixed}: {d:#?}");
+    }
+    // Another framebuffer, written only later, in a screen pass: warned too
+    // (not the incoming `C xs`, which is not modulated by itself).
+    let (_, d) = lower(&with("framebuffer C′ : rgba8;\nC xs ← (C′ xs) ⊕ (C xs);\nC′ δπx ← T δu x;"));
+    let w: Vec<_> = d.iter().filter(|d| d.code == "modulate-cleared").map(|d| d.message.clone()).collect();
+    assert_eq!(w.len(), 1, "{d:#?}");
+    assert!(w[0].contains("framebuffer `C'`"), "{w:?}"); // names print by their key (ASCII primes)
+    // A framebuffer as the incoming colour (right operand) is not modulated by itself.
+    let (_, d) = lower(&with("C δπx ← T δu x ⊕ (C δπx);"));
+    assert!(d.iter().all(|d| d.code != "modulate-cleared"), "{d:#?}");
+}

@@ -69,6 +69,7 @@ fn lower_here(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
         under_delta: 0,
         distributed: false,
         surface: None,
+        written: Default::default(),
     };
     l.run();
     l.diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
@@ -191,6 +192,10 @@ struct Lowerer<'a> {
     /// bundle `s δu` was taken on the surface, its vertex stream and the
     /// index `δu x` that replaces `δu` (see `surface_vertex`).
     surface: Option<(u32, Option<(VertexId, Handle<Expr>)>)>,
+    /// Framebuffers some statement before the current one writes (in source
+    /// order, whether or not it lowered): reading one of these is reading
+    /// what was drawn, not the cleared buffer.
+    written: std::collections::HashSet<u32>,
 }
 
 
@@ -504,6 +509,9 @@ impl<'a> Lowerer<'a> {
     fn statement(&mut self, st: &'a ast::Statement) {
         self.let_cache.clear();
         let _ = self.statement_inner(st);
+        if let Some(Global::Framebuffer(id)) = self.globals.get(&st.target.table.key()).copied() {
+            self.written.insert(id);
+        }
         self.surface = None;
         self.statement_freq = None;
         self.sample = None;
@@ -762,6 +770,9 @@ impl<'a> Lowerer<'a> {
                 let b = self.lower_expr(rhs)?;
                 let b = self.expect_expr(b, rhs.span)?;
                 let (a, b) = self.widen_pair(a, b, span)?;
+                if mode.is_none() {
+                    self.warn_modulating_cleared(a, lhs.span, span);
+                }
                 let mode = mode.as_ref().map_or(ast::CombineMode::Modulate, |m| m.value);
                 self.append(Expr::Combine { mode, lhs: a, rhs: b }, span).map(Value::Expr)
             }
@@ -783,6 +794,32 @@ impl<'a> Lowerer<'a> {
                 self.append(Expr::Select { cond: c, accept: a, reject }, span).map(Value::Expr)
             }
         }
+    }
+
+    /// A bare `⊕` is modulate: seeds/001's multipass forms (9)-(11),
+    /// `C δπx ← (C δπx) ⊕ (…)`, written literally as a program's first
+    /// write of `C` multiply the cleared framebuffer (0) and render black.
+    /// Warns when the left operand reads the colour of a framebuffer no
+    /// earlier statement writes.
+    fn warn_modulating_cleared(&mut self, lhs: Handle<Expr>, lhs_span: Span, span: Span) {
+        let Expr::FramebufferRead { framebuffer, channel: FbChannel::Color, .. } = self.module.exprs[lhs] else { return };
+        // Once per place: a `let` is lowered again in every statement using it.
+        if self.written.contains(&framebuffer) || self.diagnostics.iter().any(|d| d.code == "modulate-cleared" && d.primary.span == lhs_span) {
+            return;
+        }
+        let name = self.module.framebuffers[framebuffer as usize].name.clone();
+        self.diagnostics.push(
+            Diagnostic::warning(
+                "modulate-cleared",
+                format!("`⊕` modulates the framebuffer `{name}`, which no earlier statement writes: it is still cleared to 0, so the result is black"),
+                lhs_span,
+                format!("`{name}` is not written yet"),
+            )
+            .with_label(span, "a bare `⊕` is `⊕[modulate]`")
+            .with_help(format!(
+                "to accumulate into `{name}`, write `⊕[add]`; to modulate what an earlier pass drew, write `{name}` first (e.g. `{name} δπx ← …;` before this statement)"
+            )),
+        );
     }
 
     /// rgb meets rgba: the rgb side widens (alpha 1).
