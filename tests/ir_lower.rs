@@ -486,3 +486,41 @@ fn a_bare_modulate_of_an_unwritten_framebuffer_warns() {
     let (_, d) = lower(&with("C δπx ← T δu x ⊕ (C δπx);"));
     assert!(d.iter().all(|d| d.code != "modulate-cleared"), "{d:#?}");
 }
+
+/// Generator sizes are bounded where the texture is declared (issue 16,
+/// item 8): `normalize_cube(100000)` took 15 s and 3 GB to build; now it is
+/// a located error before anything is built.
+#[test]
+fn a_huge_normalization_cube_is_a_located_error_at_once() {
+    let src = "texture Ncube : cube rgb8 = normalize_cube(100000);\nvector L : light;\nC δπx ← Ncube δ L s x;\n";
+    let start = std::time::Instant::now();
+    let (e, text) = lower_err(src);
+    assert!(start.elapsed() < std::time::Duration::from_secs(1), "{:?}", start.elapsed());
+    assert_eq!(e.code, "too-large");
+    assert_eq!(e.message, "a cube face of 100000×100000 texels is larger than the limit of 1024×1024");
+    assert!(text.contains("100000"), "{text}");
+    assert!(e.help.as_deref().is_some_and(|h| h.contains("from 1 to 1024")), "{:?}", e.help);
+    let rendered = shadec::diag::SourceFile::new("t.shd", src).render(&[e], false);
+    assert!(rendered.contains("t.shd:1:43"), "{rendered}");
+    // Nor does compiling build it.
+    let start = std::time::Instant::now();
+    let refused = shadec::compile(src, &shadec::profile::Profile::builtin("wgsl").unwrap()).unwrap_err();
+    assert_eq!(refused[0].code, "too-large");
+    assert!(start.elapsed() < std::time::Duration::from_secs(1), "{:?}", start.elapsed());
+
+    // The limit is allowed, through a `const` too; bits are 8 or 16; a cube generator needs a cube.
+    lower_ok("const n = 1024;\ntexture Ncube : cube rgb8 = normalize_cube(n, 16);\nvector L : light;\nC δπx ← Ncube δ L s x;\n");
+    for (source, code, message) in [
+        ("cube rgb8 = normalize_cube(1025)", "too-large", "a cube face of 1025×1025 texels is larger than the limit of 1024×1024"),
+        ("cube rgb8 = normalize_cube(0)", "bad-generator", "a cube face of 0 texels per side is not a whole number from 1 to 1024"),
+        ("cube rgb8 = normalize_cube(31.5)", "bad-generator", "a cube face of 31.5 texels per side is not a whole number from 1 to 1024"),
+        ("cube rgb8 = normalize_cube(32, 12)", "bad-generator", "the bits of `normalize_cube` are 8 or 16"),
+        ("2d rgb8 = normalize_cube(32)", "bad-generator", "`normalize_cube` makes a cube map, but the texture is declared `2d`"),
+    ] {
+        let src = format!("texture Ncube : {source};\nvector L : light;\nC δπx ← Ncube δu x;\n");
+        let (_, d) = lower(&src);
+        let e = d.iter().find(|d| d.is_error()).unwrap_or_else(|| panic!("{source}: no error"));
+        assert_eq!((e.code, e.message.as_str()), (code, message), "{source}");
+        assert!(e.help.is_some(), "{source}");
+    }
+}

@@ -206,6 +206,12 @@ impl<'a> Lowerer<'a> {
         for item in &program.items {
             self.declare(item);
         }
+        // After every `const` is known, as the scene binder reads them.
+        for item in &program.items {
+            if let ItemKind::Texture(t) = &item.kind {
+                self.check_generator(t);
+            }
+        }
         let statements: Vec<&ast::Statement> = program
             .items
             .iter()
@@ -352,6 +358,78 @@ impl<'a> Lowerer<'a> {
                 self.globals.insert(s.name.key(), Global::Shader(s));
             }
             ItemKind::Statement(_) => {}
+        }
+    }
+
+    /// Bounds a generated texture where it is declared, before anything
+    /// builds it: `normalize_cube(size[, bits])` (seeds/003 Appendix D)
+    /// needs a `cube` texture, a whole face size from 1 to
+    /// [`generators::MAX_CUBE_FACE`] known at compile time (a literal or a
+    /// `const`), and 8 or 16 bits. The other generators' sizes are fixed
+    /// (`bumps`, `exponent_table`, `brdf_*`: 256 or 64 per side, or the
+    /// height image's own size).
+    fn check_generator(&mut self, t: &'a ast::TextureDecl) {
+        use crate::textures::generators::MAX_CUBE_FACE;
+        let Some(source) = &t.source else { return };
+        let ExprKind::Apply { func, arg } = &source.kind else { return };
+        let FuncKind::Name(f) = &func.kind else { return };
+        if f.key() != "normalize_cube" {
+            return;
+        }
+        if t.kind.value != ast::TextureKind::Cube {
+            self.diagnostics.push(
+                Diagnostic::error("bad-generator", format!("`normalize_cube` makes a cube map, but the texture is declared `{}`", t.kind.value.as_str()), f.span, "a cube map generator")
+                    .with_label(t.kind.span, "declared here")
+                    .with_help("declare the texture `cube` (`texture N : cube rgb8 = normalize_cube(32);`)"),
+            );
+            return;
+        }
+        let items: Vec<&'a ast::Expr> = match &arg.kind {
+            ExprKind::Tuple(items) => items.iter().collect(),
+            _ => vec![arg],
+        };
+        if items.is_empty() || items.len() > 2 {
+            self.error("arity", format!("`normalize_cube` takes a face size and optionally the bits (8 or 16), got {} argument(s)", items.len()), arg.span, "normalize_cube(size[, bits])", "write `normalize_cube(32)` or `normalize_cube(256, 16)`");
+            return;
+        }
+        let values: Vec<Option<f64>> = items.iter().map(|e| self.compile_time_number(e)).collect();
+        let size = values[0];
+        match size {
+            None => self.error("bad-generator", "the face size of `normalize_cube` is not a number known at compile time", items[0].span, "not a constant", "write a number or a `const`, such as `normalize_cube(32)`"),
+            Some(n) if !(n >= 1.0 && n <= MAX_CUBE_FACE as f64 && n.fract() == 0.0) => self.error(
+                if n > MAX_CUBE_FACE as f64 { "too-large" } else { "bad-generator" },
+                if n > MAX_CUBE_FACE as f64 {
+                    format!("a cube face of {n}×{n} texels is larger than the limit of {MAX_CUBE_FACE}×{MAX_CUBE_FACE}")
+                } else {
+                    format!("a cube face of {n} texels per side is not a whole number from 1 to {MAX_CUBE_FACE}")
+                },
+                items[0].span,
+                format!("{n} texels per side"),
+                format!("write a whole face size from 1 to {MAX_CUBE_FACE}: `normalize_cube(32)` is seeds/003's normalization cube, 256 is smooth under magnification"),
+            ),
+            Some(_) => {}
+        }
+        if let Some(bits) = items.get(1) {
+            if !matches!(values[1], Some(b) if b == 8.0 || b == 16.0) {
+                self.error("bad-generator", "the bits of `normalize_cube` are 8 or 16", bits.span, "not 8 or 16", "write `normalize_cube(size, 8)` (Kilgard's 8-bit encoding) or `normalize_cube(size, 16)` (16 bits per component)");
+            }
+        }
+    }
+
+    /// A generator argument as the scene binder reads it (`scene::bind`): a
+    /// number, a `const`, or a negation of one.
+    fn compile_time_number(&self, e: &ast::Expr) -> Option<f64> {
+        match &e.kind {
+            ExprKind::Number(v) => Some(*v),
+            ExprKind::Unary { op: ast::UnaryOp::Neg, operand } => self.compile_time_number(operand).map(|v| -v),
+            ExprKind::Name(n) => match self.globals.get(&n.key()) {
+                Some(Global::Const(h)) => match self.module.exprs[*h] {
+                    Expr::Constant(c) if c.ty == Ty::Scalar => Some(c.values()[0]),
+                    _ => None,
+                },
+                _ => None,
+            },
+            _ => None,
         }
     }
 

@@ -309,7 +309,7 @@ pub fn load_textures(decls: &[TextureDecl], scene: &Scene, quality: TextureQuali
                     return Err(err("normalize_cube(…) needs a `cube` texture".into()));
                 }
                 let bits = if *bits >= 16 || matches!(format, TexelFormat::Rgba16) { CubeBits::Sixteen } else { CubeBits::Eight };
-                let mut cube = generators::normalize_cube((*size).clamp(1, 4096), bits);
+                let mut cube = generators::normalize_cube((*size).clamp(1, generators::MAX_CUBE_FACE), bits);
                 if signed {
                     // Signed formats hold the vector itself, not its range compression.
                     for face in cube.faces.iter_mut() {

@@ -197,7 +197,7 @@ pub struct SceneAssets {
     pub textures: BTreeMap<String, Texture>,
 }
 
-const MAX_TEXTURE: u32 = 8192;
+use crate::textures::generators::{MAX_CUBE_FACE, MAX_TABLE_SIDE};
 
 impl Scene {
     /// Reads, parses and checks a scene file.
@@ -292,11 +292,12 @@ impl Scene {
         }
         for (name, texture) in &self.textures {
             let what = format!("texture '{name}'");
+            let max = if matches!(texture, TextureDesc::NormalizeCube { .. }) { MAX_CUBE_FACE } else { MAX_TABLE_SIDE };
             let size_ok = |size: u32| {
-                if (1..=MAX_TEXTURE).contains(&size) {
+                if (1..=max).contains(&size) {
                     Ok(())
                 } else {
-                    Err(invalid(what.clone(), format!("size {size} is out of range; use 1..={MAX_TEXTURE}")))
+                    Err(invalid(what.clone(), format!("size {size} is out of range; use 1..={max}")))
                 }
             };
             match texture {
@@ -423,5 +424,19 @@ mod tests {
         assert!(Scene::parse(&text, Path::new("s.ron")).unwrap_err().to_string().contains("fov_y_deg"));
         assert!(Scene::parse("", Path::new("s.ron")).is_err());
         assert!(Scene::parse("(((((", Path::new("s.ron")).is_err());
+    }
+
+    /// Generated textures are bounded before they are built (issue 16, item
+    /// 8): a cube face by MAX_CUBE_FACE, a 2-D table side by MAX_TABLE_SIDE.
+    #[test]
+    fn generator_sizes_are_bounded() {
+        let text = example().replacen("NormalizeCube(size: 32", "NormalizeCube(size: 100000", 1);
+        let err = Scene::parse(&text, Path::new("s.ron")).unwrap_err().to_string();
+        assert_eq!(err, "s.ron: texture 'norm_cube': size 100000 is out of range; use 1..=1024");
+        let text = example().replacen("NormalizeCube(size: 32", &format!("NormalizeCube(size: {MAX_CUBE_FACE}"), 1);
+        Scene::parse(&text, Path::new("s.ron")).expect("the limit itself is allowed");
+        let text = example().replacen("Dimples(size: 256", "Dimples(size: 4097", 1);
+        let err = Scene::parse(&text, Path::new("s.ron")).unwrap_err().to_string();
+        assert!(err.ends_with("size 4097 is out of range; use 1..=4096"), "{err}");
     }
 }

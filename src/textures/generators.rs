@@ -12,6 +12,18 @@
 
 use std::f32::consts::PI;
 
+/// The largest face of a generated cube map (`normalize_cube(size)`): 1024²
+/// texels × 6 faces is ~6 M texels, about a second and 400 MB with mipmaps
+/// and the exact reference's copy; the papers' normalization cubes are 32²
+/// (seeds/003 Appendix D) and the GeForce-era limit was 512. A program asking
+/// for more is refused where it declares the texture (`ir::lower`); the
+/// generators clamp as a last guard.
+pub const MAX_CUBE_FACE: u32 = 1024;
+
+/// The largest side of a generated 2-D table (height fields, the BRDF factor
+/// textures, exponent tables, dual-paraboloid maps): 4096² = 16 M texels.
+pub const MAX_TABLE_SIDE: u32 = 4096;
+
 use super::sampling::{cube_direction, CubeFace, Level, TexelFormat, Texture2D, TextureCube, Wrap};
 
 /// Range compression [−1, 1] → [0, 1] (seeds/003 Section 5.2).
@@ -55,7 +67,7 @@ pub enum CubeBits {
 /// range-compressed unit vector through its centre; alpha is 1. Expanding a
 /// fetched texel with [`expand`] gives the normalized direction.
 pub fn normalize_cube(size: u32, bits: CubeBits) -> TextureCube {
-    let size = size.max(1);
+    let size = size.clamp(1, MAX_CUBE_FACE);
     let face = |face: CubeFace| {
         let mut texels = Vec::with_capacity((size * size) as usize);
         for y in 0..size {
@@ -91,7 +103,7 @@ impl HeightField {
     /// Procedural dimples on a grid (a golf ball's surface, seeds/003
     /// Section 2.4.2): `cells` round pits per side.
     pub fn dimples(size: u32, cells: u32) -> HeightField {
-        let size = size.max(1);
+        let size = size.clamp(1, MAX_TABLE_SIDE);
         let cells = cells.max(1) as f32;
         let heights = (0..size * size)
             .map(|i| {
@@ -111,7 +123,8 @@ impl HeightField {
 
     /// A constant (flat) height field.
     pub fn flat(size: u32) -> HeightField {
-        HeightField { width: size.max(1), height: size.max(1), heights: vec![0.5; (size.max(1) * size.max(1)) as usize] }
+        let size = size.clamp(1, MAX_TABLE_SIDE);
+        HeightField { width: size, height: size, heights: vec![0.5; (size * size) as usize] }
     }
 
     fn at(&self, x: u32, y: u32) -> f32 {
@@ -269,7 +282,7 @@ impl DualParaboloid {
 /// proportional to each texel's solid angle; a coarse texel's weight is the
 /// sum of its children's (Section 4.2).
 pub fn dual_paraboloid(size: u32, format: TexelFormat, environment: &dyn Fn([f32; 3]) -> [f32; 3]) -> DualParaboloid {
-    let size = size.max(1);
+    let size = size.clamp(1, MAX_TABLE_SIDE);
     let make = |face: ParaboloidFace| {
         let da = (2.0 / size as f32).powi(2);
         let mut colors = Vec::with_capacity((size * size) as usize);
@@ -373,7 +386,7 @@ pub fn smith_g1(cos: f32, m: f32) -> f32 {
 /// The F·D texture of seeds/002 Section 3.1: u = cos θ (between l and h),
 /// v = cos δ (between n and h), texel centres at (i + ½)/size.
 pub fn hs_fresnel_distribution(size: u32, roughness: f32, index: f32, format: TexelFormat) -> Texture2D {
-    let size = size.max(2);
+    let size = size.clamp(2, MAX_TABLE_SIDE);
     let texels = (0..size * size)
         .map(|k| {
             let cos_theta = ((k % size) as f32 + 0.5) / size as f32;
@@ -390,7 +403,7 @@ pub fn hs_fresnel_distribution(size: u32, roughness: f32, index: f32, format: Te
 /// are stored divided by `scale` (multiply back after the lookup), and
 /// fixed-point formats clamp to [0, 1] as the paper notes.
 pub fn hs_geometry(size: u32, roughness: f32, scale: f32, format: TexelFormat) -> Texture2D {
-    let size = size.max(2);
+    let size = size.clamp(2, MAX_TABLE_SIDE);
     let scale = if scale > 0.0 && scale.is_finite() { scale } else { 1.0 };
     let texels = (0..size * size)
         .map(|k| {
@@ -408,7 +421,7 @@ pub fn hs_geometry(size: u32, roughness: f32, scale: f32, format: TexelFormat) -
 /// Section 5.2: the texture-shader exponent by table lookup), texel centres at
 /// (i + ½)/size; bilinear filtering interpolates between them.
 pub fn exponent_lut(size: u32, exponent: f32, format: TexelFormat) -> Texture2D {
-    let size = size.max(2);
+    let size = size.clamp(2, MAX_TABLE_SIDE);
     let texels = (0..size)
         .map(|i| {
             let x = (i as f32 + 0.5) / size as f32;
