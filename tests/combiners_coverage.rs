@@ -85,19 +85,21 @@ fn every_example_generates_or_is_located_on_both_combiner_profiles() {
     }
 }
 
-/// How many of the examples' planned passes the generator realizes, per
-/// profile: a floor (the count when it was last raised), so that a change
-/// that loses a pass fails here. Raised by per-stage constants on geforce3
-/// (NV_register_combiners2: phong_cubemap_normalized, its 16-bit variant and
-/// phong_exponent_lookup read three or four constant colours: 15 → 18).
+/// Every pass the planner plans for a combiner profile is one the generator
+/// realizes (issue 16: a plan the target cannot run is refused, never
+/// planned), and the examples still plan into this many passes: a change
+/// that makes an example plan differently, or refuse, shows here.
+/// (Before the planner asked the generator, 19 of 28 planned passes on
+/// geforce256 and 18 of 30 on geforce3 were generated; the rest were
+/// accepted and could not run.)
 #[test]
-fn generated_passes_do_not_decrease() {
-    for (profile, floor, planned) in [("geforce256", 19, 28), ("geforce3", 18, 30)] {
+fn every_planned_pass_is_generated() {
+    for (profile, planned) in [("geforce256", 25), ("geforce3", 22)] {
         let r = report(profile);
         let passes: Vec<&Result<usize, String>> = r.iter().filter_map(|(_, r)| r.as_ref().ok()).flatten().collect();
         let generated = passes.iter().filter(|v| v.is_ok()).count();
         eprintln!("{profile}: {generated} of {} planned passes generated", passes.len());
+        assert_eq!(generated, passes.len(), "{profile}: a planned pass the generator cannot realize");
         assert_eq!(passes.len(), planned, "{profile}: the examples plan into a different number of passes; update the counts");
-        assert!(generated >= floor, "{profile}: {generated} of {} passes generated, fewer than {floor}", passes.len());
     }
 }

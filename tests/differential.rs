@@ -7,7 +7,7 @@
 //!    every pass within the target's texture units and interpolants; on a
 //!    register-combiner target every pass realized by the code generator
 //!    and accepted by the Appendix B validator under that profile's own
-//!    limits; per-fragment texture coordinates only with texture shaders;
+//!    limits (a pass whose `combiners` says "not generated" is a failure); per-fragment texture coordinates only with texture shaders;
 //!    render targets only in formats the target can write;
 //! 2. renders in f32 within 2/255 of the program's own meaning
 //!    (`shadec::meaning`: each statement in order, whole, unsplit), the
@@ -106,7 +106,7 @@ fn scalar() -> impl Strategy<Value = Scalar> {
 
 fn colour() -> impl Strategy<Value = Colour> {
     let leaf = prop_oneof![
-        4 => (0..N_TEXTURES).prop_map(Colour::Texture),
+        6 => (0..N_TEXTURES).prop_map(Colour::Texture),
         2 => (0..N_CONSTANTS).prop_map(Colour::Constant),
         1 => Just(Colour::Uniform),
         2 => Just(Colour::Gouraud),
@@ -114,12 +114,16 @@ fn colour() -> impl Strategy<Value = Colour> {
         1 => Just(Colour::Baked),
     ];
     leaf.prop_recursive(4, 12, 2, |inner| {
+        // Weighted towards what the combiners can compute (products,
+        // clamped sums), so that the combiner targets plan, split and
+        // refuse in about equal measure.
         prop_oneof![
-            (scalar(), inner.clone()).prop_map(|(s, c)| Colour::Scaled(s, Box::new(c))),
-            (inner.clone(), inner.clone()).prop_map(|(a, b)| Colour::Mul(Box::new(a), Box::new(b))),
-            (inner.clone(), inner.clone()).prop_map(|(a, b)| Colour::Add(Box::new(a), Box::new(b))),
-            (prop::sample::select(MODES), inner.clone(), inner.clone()).prop_map(|(m, a, b)| Colour::Combine(m, Box::new(a), Box::new(b))),
-            inner.prop_map(|c| Colour::Saturate(Box::new(c))),
+            3 => (scalar(), inner.clone()).prop_map(|(s, c)| Colour::Scaled(s, Box::new(c))),
+            4 => (inner.clone(), inner.clone()).prop_map(|(a, b)| Colour::Mul(Box::new(a), Box::new(b))),
+            1 => (inner.clone(), inner.clone()).prop_map(|(a, b)| Colour::Add(Box::new(a), Box::new(b))),
+            2 => (inner.clone(), inner.clone()).prop_map(|(a, b)| Colour::Saturate(Box::new(Colour::Add(Box::new(a), Box::new(b))))),
+            2 => (prop::sample::select(MODES), inner.clone(), inner.clone()).prop_map(|(m, a, b)| Colour::Combine(m, Box::new(a), Box::new(b))),
+            1 => inner.prop_map(|c| Colour::Saturate(Box::new(c))),
         ]
     })
 }
@@ -165,17 +169,21 @@ impl Colour {
         }
     }
 
-    fn uses_sphere_map(&self) -> bool {
+    /// Whether a leaf `leaf` says yes to occurs in the expression.
+    fn uses(&self, leaf: &dyn Fn(&Colour) -> bool) -> bool {
         match self {
-            Colour::SphereMap => true,
-            Colour::Scaled(_, c) | Colour::Saturate(c) => c.uses_sphere_map(),
-            Colour::Mul(a, b) | Colour::Add(a, b) | Colour::Combine(_, a, b) => a.uses_sphere_map() || b.uses_sphere_map(),
-            _ => false,
+            Colour::Scaled(_, c) | Colour::Saturate(c) => c.uses(leaf),
+            Colour::Mul(a, b) | Colour::Add(a, b) | Colour::Combine(_, a, b) => a.uses(leaf) || b.uses(leaf),
+            c => leaf(c),
         }
     }
 }
 
 impl Program {
+    fn uses(&self, leaf: &dyn Fn(&Colour) -> bool) -> bool {
+        self.first.uses(leaf) || self.more.iter().any(|(_, a, b)| a.uses(leaf) || b.uses(leaf))
+    }
+
     /// The program's text: declarations, then the statements.
     fn source(&self) -> String {
         let mut s = String::new();
@@ -192,10 +200,16 @@ impl Program {
         s += "texture Ncube : cube rgb8 bilinear clamp = normalize_cube(32);\n";
         s += "texture Env : 2d rgb8 bilinear clamp = image(\"missing-env.png\");\n";
         s += "shader g : s → c = kd * max(0, N·L);\n";
-        s += "shader ramp : s → c = ka + s.x * ks;\n";
-        s += "texture Bk : 2d rgba8 bilinear clamp = bake(ramp);\n";
         s += "let Ln = expand(Ncube δ Lt s x);\nlet Hn = expand(Ncube δ Ht s x);\n";
-        if self.first.uses_sphere_map() || self.more.iter().any(|(_, a, b)| a.uses_sphere_map() || b.uses_sphere_map()) {
+        // The texture-shading statement and the texgen only where they are
+        // read: a statement nothing reads is still planned (and a bake is
+        // refused on the combiner targets until the compiler bakes tables
+        // itself, issue 18), which would refuse every program.
+        if self.uses(&|c| matches!(c, Colour::Baked)) {
+            s += "shader ramp : s → c = ka + s.x * ks;\n";
+            s += "texture Bk : 2d rgba8 bilinear clamp = bake(ramp);\n";
+        }
+        if self.uses(&|c| matches!(c, Colour::SphereMap)) {
             s += "u x ← πR R s x;\n";
         }
         s += &format!("C δπx ← {};\n", self.first.text(self));
@@ -243,12 +257,8 @@ fn validate_plan(planned: &Planned, profile: &Profile) -> Result<(), String> {
             }
         }
         if let Some(limits) = profile.combiner_limits() {
-            if pass.combiners.is_some() {
-                // FIXME(issue 16 item 2): the planner still accepts a pass
-                // its combiner generator cannot realize (the CPU then runs
-                // a per-operation model). Counted, not yet refused: see
-                // `unrealized_passes` and BENCHMARKS.md.
-                continue;
+            if let Some(why) = &pass.combiners {
+                return Err(at(format!("the plan says its combiners are {why}")));
             }
             let units: Vec<Handle<Expr>> = pass.textures.iter().map(|t| Handle::new(t.lookup as usize)).collect();
             let input = codegen::PassInput { module: m, value: Handle::new(pass.fragment.output as usize), units: &units };
@@ -313,9 +323,11 @@ enum Outcome {
     Planned(usize),
 }
 
-fn check_all_targets(source: &str, scene: &Scene) -> Result<(), String> {
-    for target in TARGETS {
-        check(source, target, scene).map_err(|e| format!("{target}: {e}\n{source}"))?;
+/// Checks `source` on every target; counts plans per target into `planned`.
+fn check_all_targets(source: &str, scene: &Scene, planned: &mut [usize; 4]) -> Result<(), String> {
+    for (i, target) in TARGETS.iter().enumerate() {
+        let outcome = check(source, target, scene).map_err(|e| format!("{target}: {e}\n{source}"))?;
+        planned[i] += matches!(outcome, Outcome::Planned(_)) as usize;
     }
     Ok(())
 }
@@ -329,13 +341,15 @@ fn generated_programs_plan_validly_and_render_their_meaning() {
     let scene = scene();
     let config = ProptestConfig { cases: cases(), failure_persistence: None, ..ProptestConfig::default() };
     let mut runner = proptest::test_runner::TestRunner::new(config);
+    let planned = std::cell::RefCell::new([0usize; 4]);
     let result = runner.run(&program(), |p| {
         let source = p.source();
-        check_all_targets(&source, &scene).map_err(TestCaseError::fail)
+        check_all_targets(&source, &scene, &mut planned.borrow_mut()).map_err(TestCaseError::fail)
     });
     if let Err(e) = result {
         panic!("{e}");
     }
+    eprintln!("{} programs; planned per target {TARGETS:?}: {:?} (the rest refused, located)", cases(), planned.borrow());
 }
 
 /// The generator reaches what it should: over a fixed sample, every target
@@ -377,14 +391,58 @@ fn a_temporary_keeps_its_term() {
     }
 }
 
-/// FIXME(issue 16 item 2): a plan whose pass the combiner generator cannot
-/// realize should be split further or refused; today it is accepted and
-/// the pass says why in its `combiners` field. This asserts the current,
-/// wrong behaviour so that the fix shows here.
+/// A pass the combiner generator cannot realize is split further or
+/// refused, never planned (issue 16 item 2): `x^8` of an interpolated
+/// signed vector's dot product has no setup (interpolated colours are
+/// unsigned), so geforce3 refuses it at the part responsible.
 #[test]
-fn a_pass_the_combiners_cannot_compute_is_still_accepted() {
+fn a_pass_the_combiners_cannot_compute_is_refused_where_it_is() {
     let source = "vector N : normal;\nvector H : half(0);\nC δπx ← max(0, (δ N s x)·(δ H s x))^8;\n";
     let profile = Profile::builtin("geforce3").unwrap();
-    let planned = shadec::planner::compile_source(source, &profile).unwrap();
-    assert!(planned.plan.passes[0].combiners.as_deref().is_some_and(|c| c.starts_with("not generated")), "{:?}", planned.plan.passes[0].combiners);
+    let err = shadec::planner::compile_source(source, &profile).unwrap_err();
+    assert_eq!(err[0].code, "cannot-split");
+    assert!(err[0].message.contains("has no register-combiner setup the code generator can build"), "{}", err[0].message);
+    // The secondary label points at the interpolated signed vector.
+    let part = &err[0].secondary[0];
+    assert_eq!(&source[part.span.start as usize..part.span.end as usize], "(δ N s x)");
+    assert!(err[0].help.as_deref().is_some_and(|h| h.contains("bake")), "{:?}", err[0].help);
+}
+
+/// No example is planned for a combiner target with a pass its generator
+/// cannot realize: each plans with every pass generated, or is refused.
+#[test]
+fn every_accepted_example_plan_runs_on_its_combiner_target() {
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/examples");
+    let mut accepted = 0;
+    for entry in std::fs::read_dir(dir).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_none_or(|e| e != "shd") {
+            continue;
+        }
+        let source = std::fs::read_to_string(&path).unwrap();
+        for target in ["geforce256", "geforce3"] {
+            let profile = Profile::builtin(target).unwrap();
+            if let Ok(planned) = shadec::planner::compile_source(&source, &profile) {
+                validate_plan(&planned, &profile).unwrap_or_else(|e| panic!("{} on {target}: {e}", path.display()));
+                accepted += 1;
+            }
+        }
+    }
+    assert!(accepted >= 20, "only {accepted} example plans on the combiner targets");
+}
+
+/// The order factors are written in does not decide the combiner setup
+/// (issue 16 item 5): `2 * A * B` maps to `scale_by_two()` as `A * B * 2`
+/// does (it was refused: "range [0, 2] may leave [−1, 1]").
+#[test]
+fn a_scale_factor_maps_to_the_output_scale_in_any_position() {
+    let profile = Profile::builtin("geforce256").unwrap();
+    let decl = "texture A, B : 2d rgb8 = image(\"x.png\");\n";
+    for statement in ["C δπx ← 2 * (A δu x) * (B δu x);", "C δπx ← (A δu x) * 2 * (B δu x);", "C δπx ← (A δu x) * (B δu x) * 2;"] {
+        let planned = shadec::planner::compile_source(&format!("{decl}{statement}\n"), &profile).unwrap();
+        assert_eq!(planned.plan.passes.len(), 1, "{statement}");
+        assert_eq!(planned.plan.passes[0].combiners, None, "{statement}");
+        let generated = codegen::generate_for_pass(&planned, 0).unwrap();
+        assert_eq!(generated.stages, 1, "{statement}");
+    }
 }

@@ -284,8 +284,10 @@ fn light_opposite_the_viewer_half_vector_falls_back_to_zero() {
     for (name, target) in [
         ("gouraud.shd", "wgsl"),
         ("fragment_lighting.shd", "wgsl"),
-        ("phong_unnormalized.shd", "geforce3"),
-        ("phong_taylor_renormalized.shd", "geforce3"),
+        // Written for geforce3, whose combiner generator cannot realize
+        // them yet (the planner refuses them there): planned for wgsl.
+        ("phong_unnormalized.shd", "wgsl"),
+        ("phong_taylor_renormalized.shd", "wgsl"),
     ] {
         let images = render_modes(name, &example(name), target, &scene);
         // Where the sphere is seen, N·V ≥ 0, so N·L = −N·V ≤ 0: no diffuse,

@@ -67,7 +67,7 @@ fn example(name: &str) -> String {
 }
 
 #[test]
-fn kilgard_is_three_passes_on_geforce256_and_one_on_geforce3() {
+fn kilgard_is_three_passes_on_geforce256_and_on_geforce3_until_the_fused_pass_generates() {
     let src = example("kilgard_bump_mapping.shd");
     let plan = plan_src(&src, "geforce256").unwrap();
     assert_eq!(plan.passes.len(), 3, "{}", plan.summary());
@@ -82,11 +82,15 @@ fn kilgard_is_three_passes_on_geforce256_and_one_on_geforce3() {
         assert_eq!(p.state.depth.func, CompareFunc::Equal, "re-rendering passes test depth-equal");
         assert!(!p.state.depth.write);
     }
+    // FIXME(issue 16 item 5): on geforce3 the three should fuse into one
+    // pass, but its `diffuse` lies in [0.1, 1.1], which the general
+    // combiners would clamp, so the generator builds no setup for it and a
+    // plan with that pass would not run: three passes, each generated, and
+    // the reason says why they were not fused.
     let g3 = plan_src(&src, "geforce3").unwrap();
-    assert_eq!(g3.passes.len(), 1, "{}", g3.summary());
-    assert_eq!(g3.passes[0].statements, [0, 1, 2]);
-    assert!(g3.passes[0].reason.contains("fused"), "{}", g3.passes[0].reason);
-    assert_eq!(g3.passes[0].textures.len(), 4);
+    assert_eq!(g3.passes.len(), 3, "{}", g3.summary());
+    assert!(g3.passes.iter().all(|p| p.combiners.is_none()), "{}", g3.summary());
+    assert!(g3.passes[1].reason.contains("has no register-combiner setup"), "{}", g3.passes[1].reason);
 }
 
 /// seeds/001 (12) with modulation, the common base × lightmap × detail × decal
@@ -121,11 +125,19 @@ fn chained_multitexture_is_two_passes_on_geforce256_and_one_on_geforce3() {
 }
 
 #[test]
-fn heidrich_seidel_factorization_is_one_pass_with_two_textures() {
+fn heidrich_seidel_factorization_plans_with_every_pass_generated() {
     let src = example("torrance_sparrow_factored.shd");
-    for target in ["geforce256", "geforce3", "wgsl"] {
+    // FIXME(issue 16 item 5): on the combiner targets `g_scale · (Tfd ⊕ Tg)`
+    // lies in [0, 4] before the sum with the diffuse term; the generator
+    // cannot put the scale on the stage's output past that sum, so the plan
+    // takes three passes, each generated (one on wgsl).
+    for (target, passes) in [("geforce256", 3), ("geforce3", 3), ("wgsl", 1)] {
         let plan = plan_src(&src, target).unwrap();
-        assert_eq!(plan.passes.len(), 1, "{target}: {}", plan.summary());
+        assert_eq!(plan.passes.len(), passes, "{target}: {}", plan.summary());
+        assert!(plan.passes.iter().all(|p| p.combiners.is_none()), "{target}: {}", plan.summary());
+        if passes > 1 {
+            continue;
+        }
         assert_eq!(plan.passes[0].textures.len(), 2);
         assert_eq!(plan.passes[0].vertex.texgen, ["u", "u'"], "the (2) and (3) texgens run per vertex");
     }
@@ -315,7 +327,7 @@ fn compile_emit_plan_writes_ron_and_json() {
     let r = common::shadec(&["compile", "examples/kilgard_bump_mapping.shd", "--target", "geforce3", "--emit", "plan"]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     let plan = PassPlan::from_ron(&r.stdout).unwrap();
-    assert_eq!(plan.passes.len(), 1);
+    assert_eq!(plan.passes.len(), 3, "every pass generated: see kilgard_is_three_passes_on_geforce256_and_on_geforce3_until_the_fused_pass_generates");
     assert!(r.stdout.contains("passes:") && r.stdout.contains("target: \"geforce3\""), "{}", r.stdout);
     // A program that cannot run: exit 1, located error, no output file.
     let bad = dir.path().join("bad.shd");

@@ -9,16 +9,49 @@
 //! a sum or mux of them, the final combiner one lerp-and-add and one E·F
 //! product; range mappings (`expand`, `half_bias`, `saturate`, `max(0, ·)`)
 //! and scales ride on inputs and outputs for free; `x^n` by repeated
-//! squaring costs ⌈log₂ n⌉ products. Until the combiner code generator
-//! decides, a value fits when its operations number at most
-//! `2 · general + 2`.
+//! squaring costs ⌈log₂ n⌉ products. A value within the estimate
+//! (operations at most `2 · general + 2`) fits only when the combiner code
+//! generator realizes it under the profile's own limits (a setup the
+//! Appendix B validator accepts): a pass the target cannot run is split
+//! further or refused, never planned (issue 16).
+
+use std::cell::RefCell;
+use std::collections::HashMap;
 
 use super::split::{FitCheck, Overflow};
+use crate::backends::combiners::codegen;
 use crate::ir::{BinaryOp, Expr, Handle, MathFunction, Module, Usage};
 use crate::profile::{FragmentStage, Profile};
 
 pub struct ProfileFit<'p> {
     pub profile: &'p Profile,
+    /// The generator's verdicts by value: the arena only grows, so a
+    /// handle's value never changes while the planner runs.
+    generated: RefCell<HashMap<Handle<Expr>, Result<(), Overflow>>>,
+}
+
+impl<'p> ProfileFit<'p> {
+    pub fn new(profile: &'p Profile) -> ProfileFit<'p> {
+        ProfileFit { profile, generated: RefCell::default() }
+    }
+
+    /// Whether the combiner code generator realizes `value` as one pass,
+    /// its texture units bound as the plan binds them (lookups, then
+    /// framebuffers read as textures).
+    fn generates(&self, module: &Module, value: Handle<Expr>, u: &Usage) -> Result<(), Overflow> {
+        let Some(limits) = self.profile.combiner_limits() else { return Ok(()) };
+        if let Some(known) = self.generated.borrow().get(&value) {
+            return known.clone();
+        }
+        let units: Vec<Handle<Expr>> = u.lookups.iter().chain(&u.framebuffer_reads).copied().collect();
+        let input = codegen::PassInput { module, value, units: &units };
+        let verdict = codegen::generate(&input, &limits).map(|_| ()).map_err(|e| {
+            let at = e.span().and_then(|span| module.reachable(&[value]).into_iter().rev().find(|h| module.span(*h) == span));
+            Overflow { resource: format!("has no register-combiner setup the code generator can build: {e}"), need: 0, have: 0, at }
+        });
+        self.generated.borrow_mut().insert(value, verdict.clone());
+        verdict
+    }
 }
 
 impl FitCheck for ProfileFit<'_> {
@@ -53,7 +86,7 @@ impl FitCheck for ProfileFit<'_> {
                 if ops > have {
                     over("combiner operations (estimated)", ops, have, None)
                 } else {
-                    Ok(())
+                    self.generates(module, value, &u)
                 }
             }
             FragmentStage::TextureEnv => {

@@ -233,7 +233,7 @@ fn plan_inner_with(
         removed.extend(bound);
     }
     removed.extend(specialize::specialize(&mut m, &at));
-    let fit = fit::ProfileFit { profile };
+    let fit = fit::ProfileFit::new(profile);
     let float_temps = profile.float_textures;
 
     // Texgen statements by the coordinate set they write.

@@ -421,7 +421,8 @@ pub fn generate(input: &PassInput, limits: &CombinerLimits) -> Result<Generated,
 fn desugar(module: &Module, value: Handle<Expr>) -> R<Option<(Module, Handle<Expr>)>> {
     let reach = module.reachable(&[value]);
     let is_combine = |h: &Handle<Expr>| matches!(module.exprs[*h], Expr::Combine { .. }) && module.info(*h).freq.is_sample();
-    if !reach.iter().any(is_combine) {
+    let floats_a_scale = |h: &Handle<Expr>| module.info(*h).freq.is_sample() && scale_to_float(module, &module.exprs[*h]).is_some();
+    if !reach.iter().any(|h| is_combine(h) || floats_a_scale(h)) {
         return Ok(None);
     }
     let mut m = module.clone();
@@ -436,7 +437,13 @@ fn desugar(module: &Module, value: Handle<Expr>) -> R<Option<(Module, Handle<Exp
         let e = e.map_operands(|o| map.get(&o).copied().unwrap_or(o));
         let new = match e {
             Expr::Combine { mode, lhs, rhs } => combine_expr(&mut m, mode, lhs, rhs, module.info(h).ty, span)?,
-            e => intern(&mut m, e, span)?,
+            e => match scale_to_float(&m, &e) {
+                Some((k, y, z)) => {
+                    let inner = intern(&mut m, Expr::Binary { op: BinaryOp::Mul, lhs: y, rhs: z }, span)?;
+                    intern(&mut m, Expr::Binary { op: BinaryOp::Mul, lhs: k, rhs: inner }, span)?
+                }
+                None => intern(&mut m, e, span)?,
+            },
         };
         if new != h {
             map.insert(h, new);
@@ -444,6 +451,25 @@ fn desugar(module: &Module, value: Handle<Expr>) -> R<Option<(Module, Handle<Exp
     }
     let v = map.get(&value).copied().unwrap_or(value);
     Ok(Some((m, v)))
+}
+
+/// `(k · y) · z` or `z · (k · y)` with `k` an output scale (½, 2, 4, 8):
+/// `(k, y, z)`, to be rewritten `k · (y · z)` so that the scale lands on the
+/// stage's output mapping whatever the order written (seeds/003 Section
+/// 4.2.2: scale_by_two() applies to a stage's output; issue 16 item 5 —
+/// `2 * L * B` was refused where `L * B * 2` mapped).
+fn scale_to_float(m: &Module, e: &Expr) -> Option<(Handle<Expr>, Handle<Expr>, Handle<Expr>)> {
+    let Expr::Binary { op: BinaryOp::Mul, lhs, rhs } = *e else { return None };
+    let scale = |h: Handle<Expr>| matches!(&m.exprs[h], Expr::Constant(c) if { let v = c.values(); !v.is_empty() && v.iter().all(|x| *x == v[0]) && [0.5, 2.0, 4.0, 8.0].contains(&v[0]) });
+    let scaled = |h: Handle<Expr>| match m.exprs[h] {
+        Expr::Binary { op: BinaryOp::Mul, lhs: a, rhs: b } if scale(a) && !scale(b) => Some((a, b)),
+        Expr::Binary { op: BinaryOp::Mul, lhs: a, rhs: b } if scale(b) && !scale(a) => Some((b, a)),
+        _ => None,
+    };
+    if scale(lhs) || scale(rhs) {
+        return None;
+    }
+    scaled(lhs).map(|(k, y)| (k, y, rhs)).or_else(|| scaled(rhs).map(|(k, y)| (k, y, lhs)))
 }
 
 fn intern(m: &mut Module, e: Expr, span: Span) -> R<Handle<Expr>> {
