@@ -33,10 +33,8 @@ fn options_choose_mode_size_target_and_output() {
         .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    // Three passes: the fused pass's `diffuse` lies in [0.1, 1.1], which the
-    // combiners would clamp, so no generated setup computes it in one
-    // (FIXME(issue 16 item 5): clamps that change nothing downstream).
-    assert!(stdout.contains("3 passes on geforce3"), "{stdout}");
+    // Kilgard's three statements fuse into one pass on geforce3.
+    assert!(stdout.contains("1 pass on geforce3"), "{stdout}");
     assert!(stdout.contains("error against the program's meaning (exact, unsplit): max abs 0.0000"), "{stdout}");
     assert_eq!(image::open(dir.path().join("x.png")).unwrap().to_rgba8().dimensions(), (80, 60));
 }

@@ -76,10 +76,10 @@ fn multipass_and_single_pass_kilgard_agree_in_f32() {
     let src = kilgard().replace("target geforce256;", "");
     let (multi, n) = render(&src, "geforce256", &scene, Mode::F32);
     assert_eq!(n, 3);
-    // FIXME(issue 16 item 5): geforce3 should collapse too; its fused pass
-    // has no generated combiner setup yet (`diffuse` in [0.1, 1.1]), so it
-    // plans the same three passes.
-    for (target, passes) in [("geforce3", 3), ("wgsl", 1)] {
+    // geforce3 fuses the three into one generated pass: `diffuse` in
+    // [0.1, 1.1] enters the ⊕ as GL's clamped fragment colour, which the
+    // combiners compute exactly (issue 16 item 5).
+    for (target, passes) in [("geforce3", 1), ("wgsl", 1)] {
         let (single, n1) = render(&src, target, &scene, Mode::F32);
         assert_eq!(n1, passes, "{target}");
         let e = compare(&single.image, &multi.image);

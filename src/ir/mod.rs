@@ -114,7 +114,7 @@ use std::hash::{Hash, Hasher};
 
 pub use arena::{Arena, Handle, UniqueArena};
 pub use lower::lower;
-pub use usage::{address_only, fat_layers, fragment_reach, power_by_squaring, squaring_exponent, Usage};
+pub use usage::{address_only, fat_layers, fragment_reach, power_by_squaring, register_reads, squaring_exponent, Usage};
 
 use crate::parser::ast;
 use crate::span::Span;

@@ -5,7 +5,7 @@
 
 use std::collections::BTreeSet;
 
-use super::{BinaryOp, Expr, Frequency, Handle, Module, Statement, Table, Ty};
+use super::{BinaryOp, Expr, Frequency, Handle, MathFunction, Module, Statement, Table, Ty};
 use crate::parser::ast::{TextureFormat, TextureKind};
 
 /// Resources of one statement, each a list of the nodes that need them (so a
@@ -204,6 +204,57 @@ pub fn address_only(m: &Module, reach: &[bool]) -> Vec<bool> {
         }
     }
     address
+}
+
+/// The per-operation fixed9 model (a pass the combiner generator cannot
+/// build): which per-sample nodes are *register reads* — an operand that a
+/// product, dot product, power or function of another per-sample value
+/// takes, so the combiners hold it in a register, clamped to [−1, 1]
+/// (seeds/003 Section 4.2.2). Affine work — sums, constant scales and
+/// biases, negation, the range mappings — rides on input mappings, output
+/// scales and the AB + CD sum of the consumer's portion, where the
+/// hardware does not clamp in between; such a node is rounded to 1/255 but
+/// keeps its magnitude (issue 16 item 4: `2 * Detail`, `2*s.x − 1` on the
+/// way to a product). Both the CPU's `fixed9` and WGSL's hardware fidelity
+/// clamp exactly these. `reach`: the pass's nodes ([`fragment_reach`]).
+pub fn register_reads(m: &Module, reach: &[bool]) -> Vec<bool> {
+    let mut reads = vec![false; m.exprs.len()];
+    let sample = |h: Handle<Expr>| m.info(h).freq.is_sample();
+    for i in 0..m.exprs.len() {
+        if !reach[i] || !sample(Handle::new(i)) {
+            continue;
+        }
+        let e = &m.exprs[Handle::new(i)];
+        let ops = e.operands();
+        let product = match e {
+            Expr::Binary { op: BinaryOp::Mul | BinaryOp::Dot | BinaryOp::Div, lhs, rhs } => sample(*lhs) && sample(*rhs),
+            Expr::Binary { op: BinaryOp::Pow, .. } => true,
+            Expr::Math { fun, .. } => !matches!(fun, MathFunction::Expand | MathFunction::HalfBias | MathFunction::Compress | MathFunction::Saturate),
+            Expr::Combine { .. } => true,
+            _ => false,
+        };
+        if product {
+            for o in ops {
+                mark_register_read(m, o, &mut reads);
+            }
+        }
+    }
+    reads
+}
+
+/// Marks `o` a register read, looking through what the consumer's portion
+/// applies to a register on the way in or out: a constant or per-object
+/// scale (its output scale or constant colour), a negation or a range
+/// mapping (an input mapping) — `2 * Detail` in `Base * (2 * Detail)` is
+/// `Base · Detail` with `scale_by_two()`, so only `Detail` is held.
+fn mark_register_read(m: &Module, o: Handle<Expr>, reads: &mut [bool]) {
+    let sample = |h: Handle<Expr>| m.info(h).freq.is_sample();
+    match m.exprs[o] {
+        Expr::Binary { op: BinaryOp::Mul, lhs, rhs } if sample(lhs) != sample(rhs) => mark_register_read(m, if sample(lhs) { lhs } else { rhs }, reads),
+        Expr::Unary { op: super::UnaryOp::Neg, value } => mark_register_read(m, value, reads),
+        Expr::Math { fun: MathFunction::Expand | MathFunction::HalfBias, ref args } => mark_register_read(m, args[0], reads),
+        _ => reads[o.index()] = true,
+    }
 }
 
 /// In the register combiners' precision model, the exponent `k` of `x^k`

@@ -698,6 +698,7 @@ impl<'a> FragmentProgram<'a> {
         let reach = ir::fragment_reach(m, &roots);
         // Nodes that only address textures or framebuffers (not quantized in fixed9).
         let address = ir::address_only(m, &reach);
+        let register_reads = ir::register_reads(m, &reach);
         let varying_of: HashMap<Handle<Expr>, usize> = pi.interpolants.iter().enumerate().map(|(k, h)| (*h, k)).collect();
         let normalize_varyings: Vec<bool> = pi
             .interpolants
@@ -831,8 +832,12 @@ impl<'a> FragmentProgram<'a> {
             };
             let per_sample = m.info(Handle::new(i)).freq.is_sample();
             let per_operation = mode == Mode::Fixed9 && setup.is_none() && !address[i] && leaf.is_none();
-            let quantize = per_operation && per_sample;
-            let folded = per_operation && !per_sample;
+            // A register write clamps where the hardware's would: a value a
+            // product or function reads from a register, and the powers and
+            // quotients the generator cannot fold (`ir::register_reads`).
+            let own_register = register_reads[i] || ir::squaring_exponent(m, h).is_some() || matches!(expr, Expr::Binary { op: ir::BinaryOp::Div, .. });
+            let quantize = per_operation && per_sample && own_register;
+            let folded = per_operation && !quantize;
             let raw = setup.is_some() && ty.width() >= 3 && matches!(leaf, Some(Leaf::Lookup { .. } | Leaf::Framebuffer { .. }));
             let register = match (quantize, ir::squaring_exponent(m, h)) {
                 (false, _) => RegisterOp::Rounded,

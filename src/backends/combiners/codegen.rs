@@ -287,7 +287,21 @@ struct Op {
     bias: Bias,
     out: usize,
     stage: usize,
+    /// The operation is one product in the CD half of a portion whose AB
+    /// half holds another (two independent products or dot products of one
+    /// portion, each to its own output: Appendix B.4, Table 4).
+    in_cd: bool,
     span: Span,
+}
+
+/// What a general combiner portion (RGB or alpha of one stage) holds so far.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Portion {
+    Free,
+    /// Operation `ops[i]`, a single product in AB: its CD half can take
+    /// another independent product with the same output scale and bias.
+    Ab(usize),
+    Full,
 }
 
 #[derive(Clone, Debug)]
@@ -342,7 +356,7 @@ struct Gen<'a> {
     limits: CombinerLimits,
     ops: Vec<Op>,
     vregs: Vec<VReg>,
-    stage_used: Vec<[bool; 2]>,
+    stage_used: Vec<[Portion; 2]>,
     cache: HashMap<(Handle<Expr>, Part), Src>,
     pow_cache: HashMap<(Handle<Expr>, Part, u32), Src>,
     /// Every constant colour the pass reads, in order of first use.
@@ -472,16 +486,35 @@ fn scale_to_float(m: &Module, e: &Expr) -> Option<(Handle<Expr>, Handle<Expr>, H
     scaled(lhs).map(|(k, y)| (k, y, rhs)).or_else(|| scaled(rhs).map(|(k, y)| (k, y, lhs)))
 }
 
+/// `h` clamped to [0, 1] where its range leaves it (see [`combine_expr`]).
+fn gl_colour(m: &mut Module, h: Handle<Expr>, span: Span) -> R<Handle<Expr>> {
+    let i = m.info(h).interval;
+    if i.lo >= 0.0 && i.hi <= 1.0 {
+        return Ok(h);
+    }
+    intern(m, Expr::Math { fun: MathFunction::Saturate, args: vec![h] }, span)
+}
+
 fn intern(m: &mut Module, e: Expr, span: Span) -> R<Handle<Expr>> {
     m.intern(e, span).map_err(|t| unsupported(span, format!("this value ({})", t.message), "please report this: rewriting ⊕ for the combiners failed"))
 }
 
 /// `t ⊕[mode] f` of type `ty` as IR arithmetic: `crate::ir::eval::combine`
 /// node for node (TEXTURE_ENV_COLOR is 0, so `blend` is f·(1 − t)).
+///
+/// Each operand enters as GL gives it to the texture environment or the
+/// blender: a colour in [0, 1] (OpenGL 1.2.1 Sections 2.13.6 and 4.1.7:
+/// fragment colours are clamped, texels and fixed-point framebuffer values
+/// are in range). An operand whose range leaves [0, 1] is therefore
+/// `saturate`d here — what the as-written plan does on the hardware, where
+/// the operand is the fragment colour a blend clamps (issue 16 item 5:
+/// Kilgard's `C ⊕ rgba(diffuse, s_self)`, `diffuse` in [0.1, 1.1], fused
+/// into one pass). The IR itself keeps ⊕ unclamped (docs/language.md).
 fn combine_expr(m: &mut Module, mode: CombineMode, t: Handle<Expr>, f: Handle<Expr>, ty: Ty, span: Span) -> R<Handle<Expr>> {
     let bin = |m: &mut Module, op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr>| intern(m, Expr::Binary { op, lhs, rhs }, span);
     let konst = |m: &mut Module, v: f64| intern(m, Expr::Constant(Constant::scalar(v)), span);
     let lhs_rgb = matches!(m.exprs[t], Expr::Convert { value, to: Ty::Rgba } if m.info(value).ty == Ty::Rgb);
+    let (t, f) = (gl_colour(m, t, span)?, gl_colour(m, f, span)?);
     let rgba = ty == Ty::Rgba;
     // Component selections of a value (a scalar operand splats).
     let rgb_of = |m: &mut Module, h: Handle<Expr>| -> R<Handle<Expr>> {
@@ -614,6 +647,11 @@ impl Gen<'_> {
         }
     }
 
+    /// `h`'s `part` is the number 1.
+    fn is_one(&self, h: Handle<Expr>, part: Part) -> bool {
+        self.constant(h) == Some(1.0) || (self.norm(h, part) == Part::Alpha && self.part_node(h, part) == Some(None))
+    }
+
     fn constant(&self, h: Handle<Expr>) -> Option<f64> {
         match self.expr(h) {
             Expr::Constant(c) => {
@@ -651,6 +689,11 @@ impl Gen<'_> {
         let span = self.m.span(h);
         match self.expr(h).clone() {
             Expr::Constant(c) => self.constant_src(h, &c, part),
+            // `x · 1` in this part (the alpha 1 of a widened rgb): `x`, no operation.
+            Expr::Binary { op: BinaryOp::Mul, lhs, rhs } if self.is_one(lhs, part) || self.is_one(rhs, part) => {
+                let x = if self.is_one(lhs, part) { rhs } else { lhs };
+                self.src(x, part, sat)
+            }
             Expr::Uniform(id) => {
                 let u = &self.m.uniforms[id as usize];
                 let color = u.default.map(|c| to_color(&c)).unwrap_or([0.0; 4]);
@@ -1029,7 +1072,29 @@ impl Gen<'_> {
                 let scale = |g: &Self, k: Handle<Expr>| g.constant(k).filter(|k| [0.5, 2.0, 4.0, 8.0].contains(k));
                 if let Some((k, x)) = scale(self, lhs).map(|k| (k, rhs)).or_else(|| scale(self, rhs).map(|k| (k, lhs))) {
                     let inner = self.spec_or_source(x, part)?;
-                    return Ok(Some(self.scaled(inner, k, x, part)?));
+                    return Ok(Some(self.scaled(inner, k, Some(x), part)?));
+                }
+                // `(k · y) · z` where `k · y` is a per-object value seen
+                // through the part it contributes (a uniform colour times a
+                // constant, widened to rgba): `k · (y · z)`, the scale on
+                // the output (issue 16 item 5; Heidrich-Seidel's
+                // `I_light * g_scale * (F·D ⊕ G)`).
+                let scaled_operand = |g: &Self, o: Handle<Expr>| {
+                    let node = match g.part_node(o, part) {
+                        Some(Some(n)) => n,
+                        Some(None) => return None,
+                        None => o,
+                    };
+                    match *g.expr(node) {
+                        Expr::Binary { op: BinaryOp::Mul, lhs: a, rhs: b } if !g.m.info(node).freq.is_sample() => {
+                            scale(g, a).map(|k| (k, b)).or_else(|| scale(g, b).map(|k| (k, a)))
+                        }
+                        _ => None,
+                    }
+                };
+                if let Some((k, y, z)) = scaled_operand(self, lhs).map(|(k, y)| (k, y, rhs)).or_else(|| scaled_operand(self, rhs).map(|(k, y)| (k, y, lhs))) {
+                    let term = Term { a: self.src(y, part, false)?, b: self.src(z, part, false)?, dot: false };
+                    return Ok(Some(self.scaled(Spec::single(term, scalar), k, None, part)?));
                 }
                 Spec::single(Term { a: self.src(lhs, part, false)?, b: self.src(rhs, part, false)?, dot: false }, scalar)
             }
@@ -1145,9 +1210,19 @@ impl Gen<'_> {
 
     /// `k · spec`: the output scale, or AB + AB for 8 (seeds/003 Appendix G's
     /// `4 · (Lz + Lz)`).
-    fn scaled(&mut self, mut inner: Spec, k: f64, x: Handle<Expr>, part: Part) -> R<Spec> {
+    /// `x` is the node `inner` computes, read again when the scale cannot
+    /// join `inner`'s portion; `None` when `inner` is one fresh product
+    /// (which any scale joins).
+    fn scaled(&mut self, mut inner: Spec, k: f64, x: Option<Handle<Expr>>, part: Part) -> R<Spec> {
         let scalar = inner.scalar;
-        let fresh = |g: &mut Self| -> R<Spec> { Ok(Spec::single(Term::times_one(g.src(x, part, false)?), scalar)) };
+        let (span, original) = (self.span, inner);
+        let fresh = |g: &mut Self| -> R<Spec> {
+            let s = match x {
+                Some(x) => g.src(x, part, false)?,
+                None => g.emit(original, span)?,
+            };
+            Ok(Spec::single(Term::times_one(s), scalar))
+        };
         if inner.scale != Scale::One || inner.mux.is_some() {
             inner = fresh(self)?;
         }
@@ -1330,15 +1405,22 @@ impl Gen<'_> {
             return Err(self.out_of_constants(span, "this general combiner operation".into(), &ks));
         }
         let fits = |g: &Self, stage: usize| !per_stage || g.stage_konsts[stage].iter().chain(ks.iter().filter(|k| !g.stage_konsts[stage].contains(k))).count() <= 2;
+        let single = spec.cd.is_none() && spec.mux.is_none();
+        let takes = |g: &Self, stage: usize| match g.stage_used[stage][li] {
+            Portion::Free => true,
+            Portion::Ab(o) => single && g.ops[o].scale == spec.scale && g.ops[o].bias == spec.bias,
+            Portion::Full => false,
+        };
         let mut stage = earliest;
-        while stage < self.stage_used.len() && (self.stage_used[stage][li] || !fits(self, stage)) {
+        while stage < self.stage_used.len() && !(takes(self, stage) && fits(self, stage)) {
             stage += 1;
         }
         if stage == self.stage_used.len() {
-            self.stage_used.push([false, false]);
+            self.stage_used.push([Portion::Free; 2]);
             self.stage_konsts.push(Vec::new());
         }
-        self.stage_used[stage][li] = true;
+        let in_cd = matches!(self.stage_used[stage][li], Portion::Ab(_));
+        self.stage_used[stage][li] = if single && !in_cd { Portion::Ab(self.ops.len()) } else { Portion::Full };
         for k in ks {
             if !self.stage_konsts[stage].contains(&k) {
                 self.stage_konsts[stage].push(k);
@@ -1346,7 +1428,7 @@ impl Gen<'_> {
         }
         let out = self.vregs.len();
         self.vregs.push(VReg { lane, op: self.ops.len(), pin: None, reg: None });
-        self.ops.push(Op { lane, ab: spec.ab, cd: spec.cd, mux: spec.mux, scale: spec.scale, bias: spec.bias, out, stage, span });
+        self.ops.push(Op { lane, ab: spec.ab, cd: spec.cd, mux: spec.mux, scale: spec.scale, bias: spec.bias, out, stage, in_cd, span });
         let comp = match lane {
             Lane::Alpha => Comp::Alpha,
             Lane::Rgb if spec.scalar => Comp::Bcast,
@@ -1863,6 +1945,17 @@ impl Gen<'_> {
         for op in &self.ops {
             let zero = GeneralInput::new(Register::Zero, UnsignedIdentity, ComponentUsage::Alpha);
             let out = self.vregs[op.out].reg;
+            if op.in_cd {
+                let portion = match op.lane {
+                    Lane::Rgb => &mut general[op.stage].rgb,
+                    Lane::Alpha => &mut general[op.stage].alpha,
+                };
+                portion.c = self.general_input(&op.ab.a, op.lane, op.stage);
+                portion.d = self.general_input(&op.ab.b, op.lane, op.stage);
+                portion.cd_dot = op.ab.dot;
+                portion.cd_output = out;
+                continue;
+            }
             let (c, d, cd_dot) = match op.cd {
                 Some(t) => (self.general_input(&t.a, op.lane, op.stage), self.general_input(&t.b, op.lane, op.stage), t.dot),
                 None => (zero, zero, false),

@@ -82,11 +82,11 @@
 //! by `with_combiners`), bit-exact with the emulator and so with the CPU
 //! renderer's `fixed9`. A pass the generator refuses models the combiners
 //! per operation (seeds/000 Section 5.2, `docs/combiners.md`): every
-//! per-fragment arithmetic result, constant
-//! in [−1, 1] (larger ones are scale factors, exact) and uniform is clamped
-//! to [−1, 1] and quantized to 9 bits (8 + sign) by
-//! `q9(x) = clamp(floor(255x + ½), −255, 255) / 255` (nearest, ties toward
-//! +∞, as the emulator's register write); a constant integer power is
+//! per-fragment arithmetic result is rounded to 1/255 (nearest, ties toward
+//! +∞, as the emulator's register write), and clamped to [−1, 1] only
+//! where the hardware holds it in a register ([`ir::register_reads`]:
+//! `q9(x) = clamp(floor(255x + ½), −255, 255) / 255`); constants and
+//! uniforms are rounded, keeping their magnitude; a constant integer power is
 //! repeated squaring with a register write after each product; textures are
 //! 8-bit already.
 
@@ -469,6 +469,9 @@ struct Gen<'a> {
     /// (rounded, or a rounded constant or uniform): a swizzle, conversion,
     /// compose or select of only these needs no rounding of its own.
     on_grid: std::collections::HashSet<ir::Handle<Expr>>,
+    /// Per arena index: hardware fidelity clamps the node's register write
+    /// to [−1, 1] ([`ir::register_reads`], as the CPU's fixed9 does).
+    register_reads: Vec<bool>,
 }
 
 impl<'a> Gen<'a> {
@@ -495,6 +498,7 @@ impl<'a> Gen<'a> {
             pass_nodes: vec![],
             address: vec![],
             on_grid: Default::default(),
+            register_reads: Vec::new(),
         }
     }
 
@@ -784,7 +788,9 @@ impl<'a> Gen<'a> {
         } else {
             let mut roots = vec![self.iface.output];
             roots.extend(self.iface.condition);
-            self.address = ir::address_only(self.m, &ir::fragment_reach(self.m, &roots));
+            let reach = ir::fragment_reach(self.m, &roots);
+            self.address = ir::address_only(self.m, &reach);
+            self.register_reads = ir::register_reads(self.m, &reach);
             self.pass_nodes = self.fragment_nodes(&roots);
             for n in self.pass_nodes.clone() {
                 self.node(&mut b, n)?;
@@ -1747,13 +1753,19 @@ impl<'a> Gen<'a> {
             self.on_grid.insert(n);
         }
         let register = arith && !self.addresses_only(n);
-        let v = if register && self.m.info(n).freq.is_sample() {
+        let sample = self.m.info(n).freq.is_sample();
+        let clamps = self.register_reads.get(n.index()).copied().unwrap_or(true)
+            || ir::squaring_exponent(self.m, n).is_some()
+            || matches!(self.m.exprs[n], Expr::Binary { op: ir::BinaryOp::Div, .. });
+        let v = if register && sample && clamps {
             self.on_grid.insert(n);
             self.quantize(b, v, w)
         } else if register && self.fidelity == Fidelity::Hardware && b.stage == Stage::Fragment {
-            // A uniform subexpression, which the compiler folds into a
-            // constant register times an output scale: rounded to 1/255,
-            // keeping its magnitude (the CPU's `fixed9_folded`).
+            // A sum or scale on its way into a product (rounded, not
+            // clamped: `ir::register_reads`), or a uniform subexpression,
+            // which the compiler folds into a constant register times an
+            // output scale: rounded to 1/255, keeping its magnitude (the
+            // CPU's `fixed9_folded`).
             self.on_grid.insert(n);
             self.fold(b, v, w)?
         } else {
