@@ -32,23 +32,62 @@ pub fn text_from_bytes(path: &Path, bytes: Vec<u8>) -> Result<String, IoError> {
     })
 }
 
-/// Writes `bytes` to `path` atomically: a temporary file beside it, then rename.
+/// Writes `bytes` to `path` atomically: a temporary file beside it, then
+/// rename. The file gets the permissions a plain create would (0666 less
+/// the umask; a file it replaces keeps its own), not the temporary file's
+/// owner-only 0600 (issue 17).
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
     let err = |source| IoError::Write { path: path.display().to_string(), source };
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    let mut tmp = tempfile::NamedTempFile::new_in(dir).map_err(err)?;
+    let mut builder = tempfile::Builder::new();
+    if let Some(p) = output_permissions(path) {
+        builder.permissions(p);
+    }
+    let mut tmp = builder.tempfile_in(dir).map_err(err)?;
     tmp.write_all(bytes).map_err(err)?;
     tmp.as_file().sync_all().map_err(err)?;
     tmp.persist(path).map_err(|e| err(e.error))?;
     Ok(())
 }
 
+/// The replaced file's own permissions, else what `File::create` asks for:
+/// read and write for everyone, which the kernel narrows by the umask.
+#[cfg(unix)]
+fn output_permissions(path: &Path) -> Option<std::fs::Permissions> {
+    use std::os::unix::fs::PermissionsExt;
+    Some(std::fs::metadata(path).map(|m| m.permissions()).unwrap_or_else(|_| std::fs::Permissions::from_mode(0o666)))
+}
+
+/// Elsewhere the temporary file's defaults are a plain file's.
+#[cfg(not(unix))]
+fn output_permissions(_: &Path) -> Option<std::fs::Permissions> {
+    None
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An output file is readable by others as one `File::create` makes
+    /// (the umask decides), not owner-only like a temporary file.
+    #[cfg(unix)]
+    #[test]
+    fn atomic_write_keeps_the_permissions_a_create_gives() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = tempfile::tempdir().unwrap();
+        let (plain, atomic) = (dir.path().join("plain.txt"), dir.path().join("atomic.txt"));
+        std::fs::write(&plain, b"x").unwrap();
+        write_atomic(&atomic, b"x").unwrap();
+        let mode = |p: &Path| std::fs::metadata(p).unwrap().permissions().mode() & 0o777;
+        assert_eq!(mode(&atomic), mode(&plain));
+        // A file it replaces keeps its own mode.
+        std::fs::set_permissions(&atomic, std::fs::Permissions::from_mode(0o640)).unwrap();
+        write_atomic(&atomic, b"y").unwrap();
+        assert_eq!(mode(&atomic), 0o640);
+    }
 
     #[test]
     fn non_utf8_names_the_byte_offset() {

@@ -136,7 +136,7 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
     if !errors.is_empty() {
         return Err(errors);
     }
-    Ok(Planned { module: m, plan: PassPlan { target: TARGET.into(), passes, removed: Vec::new(), values: Vec::new() } })
+    Ok(Planned { module: m, plan: PassPlan { target: TARGET.into(), passes, removed: Vec::new(), values: Vec::new() }, combiners: None })
 }
 
 fn constant_one(m: &mut Module, near: Handle<Expr>) -> Option<Handle<Expr>> {

@@ -21,9 +21,10 @@ fn the_bench_numbers_are_consistent_with_the_papers() {
     for m in &all {
         assert!(m.error.rmse.is_finite() && m.error.max_abs.is_finite(), "{}", m.variant.name);
     }
-    // The references are their own truth.
-    assert_eq!(e("phong_exact"), 0.0);
-    assert_eq!(e("kilgard_exact"), 0.0);
+    // The references' plans render their own meaning (the truth), up to
+    // f64 rounding in a different order.
+    assert!(e("phong_exact") < 1e-6, "{}", e("phong_exact"));
+    assert!(e("kilgard_exact") < 1e-6, "{}", e("kilgard_exact"));
     // The exact BRDF is not the factored one at per-vertex cosines: the
     // interpolation costs more than the 8-bit tables (seeds/002 Section 3.1).
     assert!(e("heidrich_seidel_exact") > 0.0);

@@ -51,6 +51,39 @@ fn appendix_h_golden_pixel() {
     assert_eq!(pixel(&h, away, [0; 4], [0; 4], Precision::Fixed9), [0, 0, 0, 0]);
 }
 
+/// Hardware results (issue 20): NV2A (NV20 family) golden images of
+/// nxdk_pgraph_tests' "Combiner" suite, CombinerOps test — constant colour
+/// 0 = (25, 63, 255)/255 written to spare0 by general combiner 0 with each
+/// output mapping and shown by the final combiner. The hardware subtracts
+/// exactly 128 for the −½ bias (255 − 128 = 127) and halves round half up.
+#[test]
+fn hardware_output_mappings() {
+    let cases = [
+        ("", [25, 63, 255]),
+        ("scale_by_two();", [50, 126, 255]),
+        ("scale_by_four();", [100, 252, 255]),
+        ("scale_by_one_half();", [13, 32, 128]),
+        ("bias_by_negative_one_half();", [0, 0, 127]),
+        ("bias_by_negative_one_half_scale_by_two();", [0, 0, 254]),
+    ];
+    for (mapping, hardware) in cases {
+        let text = format!("!!RC1.0\nconst0 = (0.09803922, 0.24705882, 1, 1);\n{{ rgb {{ spare0 = const0 * one; {mapping} }} }}\nout.rgb = spare0;\nout.a = one;\n");
+        let config = program(&text);
+        let out = pixel(&config, [[0; 4]; 4], [0; 4], [0; 4], Precision::Fixed9);
+        assert_eq!(out[..3], hardware, "{mapping}");
+    }
+}
+
+/// nvparse's final combiner takes G from a register's blue as from its
+/// alpha (`glFinalCombinerInputNV(GL_VARIABLE_G_NV, …, GL_BLUE)`).
+#[test]
+fn final_alpha_reads_blue() {
+    let config = program("!!RC1.0\nout.rgb = tex0;\nout.a = tex0.b;\n");
+    assert_eq!(pixel(&config, [[10, 20, 30, 40], [0; 4], [0; 4], [0; 4]], [0; 4], [0; 4], Precision::Fixed9), [10, 20, 30, 30]);
+    let spare = program("!!RC1.0\n{ rgb { spare0 = tex1 * one; } }\nout.rgb = zero;\nout.a = spare0.b;\n");
+    assert_eq!(pixel(&spare, [[0; 4], [1, 2, 200, 9], [0; 4], [0; 4]], [0; 4], [0; 4], Precision::Fixed9)[3], 200);
+}
+
 #[test]
 fn appendix_g_golden_pixel() {
     // Same vectors, normal-map alpha 200/255. fixed9: L·N' = 182, self-shadow
@@ -218,7 +251,9 @@ fn reference(config: &CombinerConfig, inputs: &Inputs, i: usize, precision: Prec
                 let cd = prod(&p.c, &p.d, p.cd_dot, ch);
                 let sum = if p.mux_sum { if old[Register::Spare0.index()][3] < 0.5 { ab } else { cd } } else if fixed { ab + cd } else { (ab as f32 + cd as f32) as f64 };
                 let out = |v: f64| {
-                    let v = if fixed { (v + p.bias.offset() as f64) * p.scale.factor() as f64 } else { ((v as f32 + p.bias.offset()) * p.scale.factor()) as f64 };
+                    // fixed9: the bias's ½ is 128/255 (NV2A golden images, above).
+                    let bias = if p.bias == Bias::Zero { 0.0 } else { -HALF };
+                    let v = if fixed { (v + bias) * p.scale.factor() as f64 } else { ((v as f32 + p.bias.offset()) * p.scale.factor()) as f64 };
                     q(v.clamp(-1.0, 1.0))
                 };
                 for (r, v) in [(p.ab_output, ab), (p.cd_output, cd), (p.sum_output, sum)] {
@@ -238,7 +273,11 @@ fn reference(config: &CombinerConfig, inputs: &Inputs, i: usize, precision: Prec
     });
     let fmap = |m: InputMapping, x: f64| if m == InputMapping::UnsignedInvert { 1.0 - x.clamp(0.0, 1.0) } else { x.max(0.0) };
     let read = |v: &shadec::backends::combiners::FinalInput, ch: usize, ef: &[f64; 3]| match v.source {
-        FinalSource::Register(r) => fmap(v.mapping, regs[r.index()][if v.usage == ComponentUsage::Alpha { 3 } else { ch }]),
+        FinalSource::Register(r) => fmap(v.mapping, regs[r.index()][match v.usage {
+            ComponentUsage::Alpha => 3,
+            ComponentUsage::Blue => 2,
+            ComponentUsage::Rgb => ch,
+        }]),
         FinalSource::EfProduct => fmap(v.mapping, ef[ch]),
         FinalSource::Spare0PlusSecondary => fmap(v.mapping, cs[ch]),
     };
@@ -260,6 +299,9 @@ fn reference(config: &CombinerConfig, inputs: &Inputs, i: usize, precision: Prec
     let g = read(&f.g, 0, &ef);
     [rgb[0], rgb[1], rgb[2], to_u8(g)]
 }
+
+/// The output bias's ½ in fixed9: 128/255 (see `hardware_output_mappings`).
+const HALF: f64 = 128.0 / 255.0;
 
 /// Table 3 in exact arithmetic (for fixed9 values k/255).
 fn m_exact(m: InputMapping, x: f64) -> f64 {

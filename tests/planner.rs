@@ -323,7 +323,7 @@ fn compile_emit_plan_writes_ron_and_json() {
     let r = common::shadec(&["compile", "examples/kilgard_bump_mapping.shd", "--target", "geforce3", "--emit", "plan"]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     let plan = PassPlan::from_ron(&r.stdout).unwrap();
-    assert_eq!(plan.passes.len(), 3, "every pass generated: see kilgard_is_three_passes_on_geforce256_and_on_geforce3_until_the_fused_pass_generates");
+    assert_eq!(plan.passes.len(), 1, "Kilgard's three statements fuse into one generated pass on geforce3");
     assert!(r.stdout.contains("passes:") && r.stdout.contains("target: \"geforce3\""), "{}", r.stdout);
     // A program that cannot run: exit 1, located error, no output file.
     let bad = dir.path().join("bad.shd");
@@ -391,4 +391,26 @@ fn compile_for_a_scene_removes_what_the_scene_zeroes() {
     let r = common::shadec(&["compile", shd.to_str().unwrap(), "--emit", "plan", "--scene", bad.to_str().unwrap()]);
     assert_eq!(r.code, 1, "{}", r.stderr);
     assert!(r.stderr.contains("spec.shd:6:") && r.stderr.contains("rgb but the scene gives 2"), "{}", r.stderr);
+}
+
+/// A profile given as a file keeps its own combiner limits after planning
+/// (issue 17): the plan used to name its target only, and the backends
+/// rebuilt the profile by name, falling back to GeForce3 limits — so a
+/// pass planned for a card with twelve general combiners had no setup in
+/// fixed9 renders and hardware fidelity.
+#[test]
+fn a_profile_file_keeps_its_combiner_limits_downstream() {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/profiles/geforce3.ron"))
+        .unwrap()
+        .replace("name: \"geforce3\"", "name: \"nv_twelve\"")
+        .replace("general_combiners: 8", "general_combiners: 12");
+    let profile = Profile::from_ron(&text, "nv_twelve.ron").unwrap();
+    // Eight squarings after the dot product: more stages than a GeForce3 has.
+    let src = "texture T, U : 2d rgb8 = image(\"x.png\");\nC δπx ← max(0, expand(T δu x)·expand(U δu x))^256;\n";
+    let planned = planner::compile_source(src, &profile).unwrap();
+    assert_eq!(planned.plan.passes.len(), 1);
+    assert_eq!(planned.combiners, profile.combiner_limits());
+    let g = shadec::backends::combiners::codegen::generate_for_pass(&planned, 0).unwrap();
+    assert!(g.stages > 8 && g.stages <= 12, "{} stages", g.stages);
+    assert!(planner::compile_source(src, &Profile::builtin("geforce3").unwrap()).is_err(), "a GeForce3 cannot run it in one pass");
 }

@@ -172,8 +172,10 @@ fn plans_compute_what_the_examples_compute() {
         let src = std::fs::read_to_string(&path).unwrap();
         differing += check_program(&src, &path.display().to_string());
     }
-    // Kilgard fused on geforce3 and wgsl; chained multitexturing, Phong split on geforce256, …
-    assert!(differing >= 6, "only {differing} example plans split or fused statements");
+    // Kilgard fused on geforce3 and wgsl; chained multitexturing and Phong
+    // split on geforce256 (Heidrich-Seidel and the modulation example, split
+    // until the combiner generator wrote canonical code, now take one pass).
+    assert!(differing >= 4, "only {differing} example plans split or fused statements");
 }
 
 #[test]

@@ -3,10 +3,12 @@
 //! Every technique variant ([`variants::groups`]) is planned for its target
 //! and rendered on its scene by the CPU renderer in its precision mode; the
 //! frame time is the median of several runs after a warm-up, the error is
-//! measured against the group's ground truth — the `exact` render (f64,
-//! renormalized vectors, true pow, no lookup tables) of the group's
-//! reference program, so that every variant of a group is compared with the
-//! same picture. [`adaptive`] adds the Adaptive Sample Shading table of
+//! measured against the group's ground truth — the *meaning* of the
+//! group's reference program ([`crate::meaning`]: its statements one
+//! unsplit pass each, no plan of the planner's) rendered `exact` (f64,
+//! renormalized vectors, true pow, no lookup tables), so that every variant
+//! of a group is compared with the same picture and a planner bug in the
+//! reference cannot hide in it (issue 16). [`adaptive`] adds the Adaptive Sample Shading table of
 //! seeds/004, and [`removed_work`] what scene-driven specialization removes.
 //! [`report`] writes `report.md`, the plots and the difference images.
 
@@ -84,6 +86,8 @@ fn failed(what: &str, message: impl std::fmt::Display) -> BenchError {
 /// A program planned for a target and bound to a scene, ready to render.
 pub struct Prepared {
     pub planned: crate::planner::Planned,
+    /// The lowered program, before planning: what [`Prepared::meaning`] reads.
+    pub module: crate::ir::Module,
     pub program: crate::parser::ast::Program,
     pub scene: Scene,
     pub assets: crate::scene::SceneAssets,
@@ -105,7 +109,15 @@ impl Prepared {
         }
         let profile = crate::profile::Profile::resolve(target).map_err(|e| failed(name, e))?;
         let planned = crate::planner::plan(&module, &profile, Some(source)).map_err(|d| failed(&format!("{name} on {target}"), first_error(&d).unwrap_or_default()))?;
-        Ok(Prepared { planned, program, scene, assets })
+        Ok(Prepared { planned, module, program, scene, assets })
+    }
+
+    /// The program's meaning on this scene ([`crate::meaning::plan`]),
+    /// rendered by [`PlanRenderer`] like a plan. One light: the bench plans
+    /// without a scene, so its plans shade light 0 as written.
+    pub fn meaning(&self) -> Result<Prepared, BenchError> {
+        let planned = crate::meaning::plan(&self.module, 1).map_err(|d| failed("the meaning", d.first().map(|d| d.message.clone()).unwrap_or_default()))?;
+        Ok(Prepared { planned, module: self.module.clone(), program: self.program.clone(), scene: self.scene.clone(), assets: self.assets.clone() })
     }
 
     pub fn renderer(&self) -> Result<PlanRenderer<'_>, BenchError> {
@@ -137,7 +149,7 @@ pub fn measure(options: &BenchOptions, progress: &mut dyn FnMut(usize, usize, &s
     let mut done = 0;
     let mut out = Vec::new();
     for group in &groups {
-        let truth = Prepared::new(group.truth.name, group.truth.source, group.truth_target, group.scene.ron)?;
+        let truth = Prepared::new(group.truth.name, group.truth.source, group.truth_target, group.scene.ron)?.meaning()?;
         let truth_frame = truth.renderer()?.render(Mode::Exact, options.size.0, options.size.1, &mut |_, _| {}).map_err(|e| failed(group.truth.name, e))?;
         let truth_image = std::sync::Arc::new(truth_frame.image);
         for variant in group.variants.iter().filter(|v| options.wants(v.name)) {

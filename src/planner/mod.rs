@@ -58,6 +58,12 @@ pub const MAX_FUSE: usize = 8;
 pub struct Planned {
     pub module: Module,
     pub plan: PassPlan,
+    /// The target's register-combiner limits (`None` off the combiner
+    /// targets): what each pass's setup is generated under downstream
+    /// (fixed9 renders, hardware fidelity), so that a profile given as a
+    /// `.ron` file keeps its own limits — the plan names its target only by
+    /// name, and a name is not a profile (issue 17).
+    pub combiners: Option<crate::backends::combiners::CombinerLimits>,
 }
 
 impl Planned {
@@ -366,7 +372,7 @@ fn plan_inner_with(
         return Err(diags);
     }
     let plan = assemble(&m, profile, &chosen, &texgen, removed, &at, &names, &per_light);
-    Ok(Planned { module: m, plan })
+    Ok(Planned { module: m, plan, combiners: profile.combiner_limits() })
 }
 
 /// Parse, check, lower and plan `source` for `profile`.

@@ -357,6 +357,8 @@ struct Gen<'a> {
     ops: Vec<Op>,
     vregs: Vec<VReg>,
     stage_used: Vec<[Portion; 2]>,
+    /// Whether an independent product may take a portion's free CD half.
+    pairing: bool,
     cache: HashMap<(Handle<Expr>, Part), Src>,
     pow_cache: HashMap<(Handle<Expr>, Part, u32), Src>,
     /// Every constant colour the pass reads, in order of first use.
@@ -375,6 +377,17 @@ type R<T> = Result<T, CodegenError>;
 
 /// Generates the register-combiner configuration for one pass.
 pub fn generate(input: &PassInput, limits: &CombinerLimits) -> Result<Generated, CodegenError> {
+    // Two products in one portion save stages but hold two results at once:
+    // where that runs out of registers, the unpaired schedule may still fit.
+    match generate_with(input, limits, true) {
+        Err(e) if !matches!(e, CodegenError::OutOfStages { .. }) => generate_with(input, limits, false),
+        r => r,
+    }
+}
+
+/// [`generate`], with independent products paired in one portion (AB and
+/// CD to two outputs) or not.
+fn generate_with(input: &PassInput, limits: &CombinerLimits, pairing: bool) -> Result<Generated, CodegenError> {
     let original = input.module.exprs.len();
     let desugared = desugar(input.module, input.value)?;
     let (m, value) = match &desugared {
@@ -396,6 +409,7 @@ pub fn generate(input: &PassInput, limits: &CombinerLimits) -> Result<Generated,
         ops: Vec::new(),
         vregs: Vec::new(),
         stage_used: Vec::new(),
+        pairing,
         cache: HashMap::new(),
         pow_cache: HashMap::new(),
         konsts: Vec::new(),
@@ -647,6 +661,11 @@ impl Gen<'_> {
         }
     }
 
+    /// `h` is the constant vector (0, 0, 1).
+    fn is_z_axis(&self, h: Handle<Expr>) -> bool {
+        matches!(self.expr(h), Expr::Constant(c) if c.values() == [0.0, 0.0, 1.0])
+    }
+
     /// `h`'s `part` is the number 1.
     fn is_one(&self, h: Handle<Expr>, part: Part) -> bool {
         self.constant(h) == Some(1.0) || (self.norm(h, part) == Part::Alpha && self.part_node(h, part) == Some(None))
@@ -689,6 +708,16 @@ impl Gen<'_> {
         let span = self.m.span(h);
         match self.expr(h).clone() {
             Expr::Constant(c) => self.constant_src(h, &c, part),
+            // `(0, 0, 1)·v` is v's blue, as `v.z` (a tangent-space N·L with the
+            // unperturbed normal, seeds/003 Appendix G): no constant register.
+            Expr::Binary { op: BinaryOp::Dot, lhs, rhs } if self.is_z_axis(lhs) || self.is_z_axis(rhs) => {
+                let v = if self.is_z_axis(lhs) { rhs } else { lhs };
+                let s = self.src(v, Part::Rgb, sat)?;
+                Ok(match s.comp {
+                    Comp::Rgb => Src { comp: Comp::Blue, ..s },
+                    _ => s,
+                })
+            }
             // `x · 1` in this part (the alpha 1 of a widened rgb): `x`, no operation.
             Expr::Binary { op: BinaryOp::Mul, lhs, rhs } if self.is_one(lhs, part) || self.is_one(rhs, part) => {
                 let x = if self.is_one(lhs, part) { rhs } else { lhs };
@@ -1099,7 +1128,7 @@ impl Gen<'_> {
                 Spec::single(Term { a: self.src(lhs, part, false)?, b: self.src(rhs, part, false)?, dot: false }, scalar)
             }
             Expr::Binary { op: BinaryOp::Dot, lhs, rhs } => {
-                if self.ty(lhs).width() != 3 {
+                if self.ty(lhs).width() != 3 || self.is_z_axis(lhs) || self.is_z_axis(rhs) {
                     return Ok(None);
                 }
                 Spec::single(Term { a: self.src(lhs, Part::Rgb, false)?, b: self.src(rhs, Part::Rgb, false)?, dot: true }, true)
@@ -1198,6 +1227,7 @@ impl Gen<'_> {
     /// Nodes `src` turns into a source without a new operation.
     fn is_source(&self, h: Handle<Expr>) -> bool {
         match self.expr(h) {
+            Expr::Binary { op: BinaryOp::Dot, lhs, rhs } if self.is_z_axis(*lhs) || self.is_z_axis(*rhs) => true,
             Expr::Math { fun: MathFunction::Expand | MathFunction::HalfBias, args } => self.is_source(args[0]),
             Expr::Unary { op: UnaryOp::Neg, value } => self.is_source(*value),
             Expr::Binary { op: BinaryOp::Mul | BinaryOp::Add | BinaryOp::Sub | BinaryOp::Dot | BinaryOp::Pow, .. }
@@ -1408,7 +1438,7 @@ impl Gen<'_> {
         let single = spec.cd.is_none() && spec.mux.is_none();
         let takes = |g: &Self, stage: usize| match g.stage_used[stage][li] {
             Portion::Free => true,
-            Portion::Ab(o) => single && g.ops[o].scale == spec.scale && g.ops[o].bias == spec.bias,
+            Portion::Ab(o) => g.pairing && single && g.ops[o].scale == spec.scale && g.ops[o].bias == spec.bias,
             Portion::Full => false,
         };
         let mut stage = earliest;
@@ -2100,7 +2130,9 @@ mod tests {
 /// (`not generated: LINE:COL: …`), else the generator's reason.
 pub fn generate_for_pass(planned: &crate::planner::Planned, index: usize) -> Result<Generated, String> {
     let pass = &planned.plan.passes[index];
-    let limits = crate::profile::Profile::builtin(&planned.plan.target).ok().and_then(|p| p.combiner_limits()).unwrap_or(CombinerLimits::GEFORCE3);
+    // The plan's own target's limits; a GeForce3 models the combiners for a
+    // target that has none (the fixed9 render of a wgsl plan).
+    let limits = planned.combiners.unwrap_or(CombinerLimits::GEFORCE3);
     let units: Vec<Handle<Expr>> = pass.textures.iter().map(|t| planned.handle(t.lookup)).collect();
     let input = PassInput { module: &planned.module, value: planned.handle(pass.fragment.output), units: &units };
     generate(&input, &limits).map_err(|e| pass.combiners.clone().unwrap_or_else(|| format!("not generated: {e}")))

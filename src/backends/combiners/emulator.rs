@@ -267,7 +267,12 @@ fn pixel_final<M: Model>(r: &Regs<M>, fc: &super::config::FinalCombiner) -> [u8;
         let mut d = M::R::default();
         match input.source {
             FinalSource::Register(reg) => {
-                let src_ch = if v == 6 || input.usage == ComponentUsage::Alpha { 3 } else { ch };
+                let src_ch = match input.usage {
+                    ComponentUsage::Blue => 2,
+                    _ if v == 6 => 3,
+                    ComponentUsage::Alpha => 3,
+                    ComponentUsage::Rgb => ch,
+                };
                 M::final_map(input.mapping, one(&r[reg.index()][src_ch]), one_mut(&mut d));
             }
             FinalSource::EfProduct => M::final_map(input.mapping, one(&ef[ch]), one_mut(&mut d)),
@@ -394,6 +399,22 @@ trait Model {
 /// rounding (to nearest, ties toward +∞) happens on the register write.
 struct Fixed9;
 
+/// What the hardware subtracts for "½" in its 8-bit integer units: 128, not
+/// 127.5. Evidence: NV2A (NV20 family) golden images of nxdk_pgraph_tests'
+/// "Combiner" suite, CombinerOps test, constant colour 0 = (25, 63, 255)/255
+/// written through spare0 with each output mapping (issue 20):
+/// `bias_by_negative_one_half()` gives (0, 0, 127) — 255 − 128 — and
+/// `bias_by_negative_one_half_scale_by_two()` (0, 0, 254); halving rounds
+/// half up (`scale_by_one_half()`: (13, 32, 128)). The bias works on the
+/// sum in the register's 8-bit units, where ½ is not a step; the input
+/// mappings (`expand`, `half_bias`, and their negates) work in the mapped
+/// inputs' units of 1/510, where ½ is exactly 255 steps, so they keep Table
+/// 3's ½ — the decision docs/combiners.md records, consistent with the
+/// evidence, which does not measure them. Used by this emulator (hence the
+/// CPU renderer's fixed9 and `shadec emulate`) and by the WGSL it
+/// translates to (`wgsl::rc1`).
+pub const HARDWARE_HALF: i16 = 128;
+
 /// `t / 2040` rounded to nearest with ties up, for |t| < 8.3e6: turns a
 /// scaled product sum (units of 1/520200) into units of 1/255.
 ///
@@ -438,6 +459,9 @@ impl Model for Fixed9 {
         match m {
             InputMapping::UnsignedIdentity => it.for_each(|(d, &s)| *d = 2 * s.max(0)),
             InputMapping::UnsignedInvert => it.for_each(|(d, &s)| *d = 2 * (255 - s.clamp(0, 255))),
+            // Mapped inputs carry one more bit (units of 1/510), in which ½
+            // is exact: Table 3 as written ([`HARDWARE_HALF`] says why the
+            // output bias differs).
             InputMapping::ExpandNormal => it.for_each(|(d, &s)| *d = 4 * s.max(0) - 510),
             InputMapping::ExpandNegate => it.for_each(|(d, &s)| *d = 510 - 4 * s.max(0)),
             InputMapping::HalfBiasNormal => it.for_each(|(d, &s)| *d = 2 * s.max(0) - 255),
@@ -470,7 +494,8 @@ impl Model for Fixed9 {
         // (v + bias) · scale in units of 1/520200 = 2 · 260100.
         let b = match bias {
             Bias::Zero => 0,
-            Bias::NegativeOneHalf => -130_050,
+            // −128/255 in units of 1/260100 (1/255 = 1020 units).
+            Bias::NegativeOneHalf => -HARDWARE_HALF as i32 * 1020,
         };
         let s = match scale {
             Scale::OneHalf => 1,
@@ -841,7 +866,12 @@ fn final_combiner<M: Model>(s: &mut Scratch<M>, fc: &super::config::FinalCombine
         let dst = &mut s.fin[(v * 3 + ch) * TILE..][..n];
         match input.source {
             FinalSource::Register(r) => {
-                let src_ch = if v == 6 || input.usage == ComponentUsage::Alpha { 3 } else { ch };
+                let src_ch = match input.usage {
+                    ComponentUsage::Blue => 2,
+                    _ if v == 6 => 3,
+                    ComponentUsage::Alpha => 3,
+                    ComponentUsage::Rgb => ch,
+                };
                 M::final_map(input.mapping, reg::<M>(&s.regs, r.index(), src_ch, n), dst);
             }
             FinalSource::EfProduct => M::final_map(input.mapping, &s.ef[ch * TILE..][..n], dst),

@@ -272,9 +272,12 @@ impl Validator<'_> {
             match input.source {
                 FinalSource::Register(register) => {
                     self.register(place, register);
-                    if var == 'G' && input.usage != ComponentUsage::Alpha {
-                        self.error("g-reads-alpha", place, "variable G reads an alpha value", "read `.a` of a register for G");
-                    } else if input.usage == ComponentUsage::Blue {
+                    // G is one number: a register's alpha, or its blue (nvparse's
+                    // final-combiner check, and `glFinalCombinerInputNV(GL_VARIABLE_G_NV,
+                    // …, GL_BLUE)` in real code: `out.a = tex3.b;`).
+                    if var == 'G' && input.usage == ComponentUsage::Rgb {
+                        self.error("g-reads-alpha", place, "variable G reads one component (`.a` or `.b`), not rgb", "read `.a` or `.b` of a register for G");
+                    } else if var != 'G' && input.usage == ComponentUsage::Blue {
                         self.error(
                             "component-usage",
                             place,

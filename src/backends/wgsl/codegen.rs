@@ -415,6 +415,28 @@ impl Body {
     }
 }
 
+
+/// `value`, or 0 where `tested` is NaN (0/0, √−x, ∞−∞), as the CPU's
+/// `fixed9` makes it: tested on the bits (exponent all ones, mantissa not
+/// zero), since WGSL lets a compiler assume no NaN in float comparisons —
+/// and `clamp` of NaN is the implementation's (lavapipe gives −1: a black
+/// highlight).
+fn nan_to_zero(b: &mut Body, tested: NH, value: NH, w: usize) -> NH {
+    let splat = |b: &mut Body, l: NH| if w == 1 { l } else { b.emit(Expression::Splat { size: size(w), value: l }) };
+    let u = |b: &mut Body, v: u32| {
+        let l = b.plain(Expression::Literal(Literal::U32(v)));
+        splat(b, l)
+    };
+    let bits = b.emit(Expression::As { expr: tested, kind: naga::ScalarKind::Uint, convert: None });
+    let magnitude = u(b, 0x7fff_ffff);
+    let bits = b.emit(Expression::Binary { op: naga::BinaryOperator::And, left: bits, right: magnitude });
+    let infinity = u(b, 0x7f80_0000);
+    let nan = b.emit(Expression::Binary { op: naga::BinaryOperator::Greater, left: bits, right: infinity });
+    let zero = b.lit(0.0);
+    let zero = splat(b, zero);
+    b.emit(Expression::Select { condition: nan, accept: zero, reject: value })
+}
+
 fn size(w: usize) -> VectorSize {
     match w {
         2 => VectorSize::Bi,
@@ -1074,7 +1096,8 @@ impl<'a> Gen<'a> {
         let s = self.binop(b, naga::BinaryOperator::Multiply, v, c255);
         let s = self.binop(b, naga::BinaryOperator::Add, s, half);
         let s = self.math(b, naga::MathFunction::Floor, &[s]);
-        Ok(self.binop(b, naga::BinaryOperator::Divide, s, c255))
+        let s = self.binop(b, naga::BinaryOperator::Divide, s, c255);
+        Ok(nan_to_zero(b, v, s, w))
     }
 
     /// `x / y` written to a register in hardware fidelity: `divide_*(x, y)`.
@@ -1133,25 +1156,7 @@ impl<'a> Gen<'a> {
         let s = b.emit(Expression::Math { fun: naga::MathFunction::Floor, arg: s, arg1: None, arg2: None, arg3: None });
         let s = b.emit(Expression::Math { fun: naga::MathFunction::Clamp, arg: s, arg1: Some(lo), arg2: Some(c255), arg3: None });
         let s = b.emit(Expression::Binary { op: naga::BinaryOperator::Divide, left: s, right: c255 });
-        // NaN (0/0, √−x, ∞−∞) is 0, as the CPU's `fixed9` makes it: tested on
-        // the bits (exponent all ones, mantissa not zero), since WGSL lets a
-        // compiler assume no NaN in float comparisons — and `clamp` of NaN
-        // is the implementation's (lavapipe gives −1: a black highlight).
-        let u = |b: &mut Body, v: u32| {
-            let l = b.plain(Expression::Literal(Literal::U32(v)));
-            if w == 1 {
-                l
-            } else {
-                b.emit(Expression::Splat { size: size(w), value: l })
-            }
-        };
-        let bits = b.emit(Expression::As { expr: tested, kind: naga::ScalarKind::Uint, convert: None });
-        let magnitude = u(&mut b, 0x7fff_ffff);
-        let bits = b.emit(Expression::Binary { op: naga::BinaryOperator::And, left: bits, right: magnitude });
-        let infinity = u(&mut b, 0x7f80_0000);
-        let nan = b.emit(Expression::Binary { op: naga::BinaryOperator::Greater, left: bits, right: infinity });
-        let zero = k(&mut b, 0.0);
-        let s = b.emit(Expression::Select { condition: nan, accept: zero, reject: s });
+        let s = nan_to_zero(&mut b, tested, s, w);
         b.f.body.push(Statement::Return { value: Some(s) }, naga::Span::UNDEFINED);
         let f = self.module.functions.append(b.f, naga::Span::UNDEFINED);
         self.q9[quotient as usize][w - 1] = Some(f);
@@ -1752,11 +1757,14 @@ impl<'a> Gen<'a> {
             // Rearranges values already on the grid.
             self.on_grid.insert(n);
         }
-        let register = arith && !self.addresses_only(n);
         let sample = self.m.info(n).freq.is_sample();
         let clamps = self.register_reads.get(n.index()).copied().unwrap_or(true)
             || ir::squaring_exponent(self.m, n).is_some()
             || matches!(self.m.exprs[n], Expr::Binary { op: ir::BinaryOp::Div, .. });
+        // A rearrangement of values on the grid needs no rounding, but a
+        // register read of one still clamps: its inputs may be sums kept
+        // unclamped (the CPU clamps every register read).
+        let register = (arith || (regroup && sample && clamps)) && !self.addresses_only(n);
         let v = if register && sample && clamps {
             self.on_grid.insert(n);
             self.quantize(b, v, w)

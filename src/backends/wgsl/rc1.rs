@@ -21,6 +21,7 @@
 
 use std::fmt::Write as _;
 
+use crate::backends::combiners::emulator::HARDWARE_HALF;
 use crate::backends::combiners::config::{Bias, CombinerConfig, ComponentUsage, FinalSource, GeneralInput, GeneralPortion, InputMapping, PortionKind, Register, Scale};
 
 /// Registers in `Register::ALL` order, as WGSL variable names.
@@ -235,7 +236,7 @@ fn portion(w: &mut String, p: &GeneralPortion, kind: PortionKind, writes: &mut V
     }
     let b = match p.bias {
         Bias::Zero => 0,
-        Bias::NegativeOneHalf => -130_050,
+        Bias::NegativeOneHalf => -(HARDWARE_HALF as i32) * 1020,
     };
     let s = match p.scale {
         Scale::OneHalf => 1,
@@ -265,7 +266,9 @@ fn final_combiner(w: &mut String, config: &CombinerConfig) {
         let src = match input.source {
             FinalSource::Register(r) => {
                 let n = reg_name(r);
-                if v == 6 {
+                if v == 6 && input.usage == ComponentUsage::Blue {
+                    format!("{n}.z")
+                } else if v == 6 {
                     format!("{n}.w")
                 } else if input.usage == ComponentUsage::Alpha {
                     format!("vec3<i32>({n}.w)")
