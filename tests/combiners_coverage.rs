@@ -93,10 +93,11 @@ fn every_example_generates_or_is_located_on_both_combiner_profiles() {
 /// geforce256 and 18 of 30 on geforce3 were generated; the rest were
 /// accepted and could not run. Canonical combiner code then fused Kilgard
 /// into one pass on geforce3 and Heidrich-Seidel and the modulation example
-/// into one on both: 25 → 22 and 22 → 17 passes.)
+/// into one on both, and Phong with cube-map normalization on geforce256
+/// from five passes to three: 25 → 20 and 22 → 17 passes.)
 #[test]
 fn every_planned_pass_is_generated() {
-    for (profile, planned) in [("geforce256", 22), ("geforce3", 17)] {
+    for (profile, planned) in [("geforce256", 20), ("geforce3", 17)] {
         let r = report(profile);
         let passes: Vec<&Result<usize, String>> = r.iter().filter_map(|(_, r)| r.as_ref().ok()).flatten().collect();
         let generated = passes.iter().filter(|v| v.is_ok()).count();

@@ -23,3 +23,46 @@ fn rendered_diagnostics() {
         insta::assert_snapshot!(format!("{name}.lsp"), lsp);
     }
 }
+
+/// The first error's message and help of `text` (parsed, then lowered).
+fn first_error(text: &str) -> (String, String) {
+    let (program, mut diagnostics) = shadec::parser::check(text);
+    if !diagnostics.iter().any(|d| d.is_error()) {
+        diagnostics = shadec::ir::lower(&program).1;
+    }
+    let d = diagnostics.into_iter().find(|d| d.is_error()).expect("an error");
+    (d.message, d.help.unwrap_or_default())
+}
+
+/// Help lines that used to mislead (issue 21, "Diagnostics that never
+/// mislead"), each with its exact text.
+#[test]
+fn help_for_symbols_in_the_wrong_place_says_where_they_belong() {
+    // It said "`→` is not a symbol of the language; the symbols are … → …".
+    let (_, help) = first_error("vector N : normal;\nvector L : light;\nC δπx ← N → L;\n");
+    assert_eq!(help, "`→` (ASCII `->`) only separates a shader's argument from its result type: `shader d : s → c = …`");
+    let (_, help) = first_error("texture T : 2d rgb8;\nC δπx ← ⊕ T δu x;\n");
+    assert_eq!(help, "`⊕` (ASCII `(+)`) combines the values on its two sides: `a ⊕ b`, `a ⊕[add] b`");
+}
+
+#[test]
+fn text_pasted_from_the_papers_symbol_font_gets_the_symbols() {
+    // seeds/001 (1) as a PDF's Symbol font pastes it: d→δ, p→π, ¬→←.
+    let (message, help) = first_error("vector N : normal;\nC d p x ¬ d p s x;\n");
+    assert_eq!(message, "expected an expression or `←` (or `<-`), found `¬`");
+    assert!(help.starts_with("did you mean `←` (ASCII `<-`)? Text pasted from a PDF set in the Symbol font shows ← as `¬`, ⊕ as `Å`, δ as `d` and π as `p`"), "{help}");
+    // The alpha and stencil channels as printed: `a C xs`, `s C δπx`.
+    let (message, help) = first_error("texture T : 2d rgba8;\nC δπx ← a C δπx * (T δu x);\n");
+    assert_eq!(message, "unknown name `a`");
+    assert_eq!(help, "did you mean `α` (ASCII `alpha`), the framebuffer's alpha channel? seeds/001 as printed (the Symbol font) shows `α` as `a`");
+    let (message, help) = first_error("C δπx ← 1;\ns C δπx ← 1;\n");
+    assert_eq!(message, "`s` is not a table");
+    assert!(help.starts_with("did you mean `σ` (ASCII `stencil`)"), "{help}");
+}
+
+#[test]
+fn a_transposed_name_is_suggested() {
+    let (message, help) = first_error("vector Light : light;\nvector N : normal;\nC δπx ← max(0, N·Ligth);\n");
+    assert_eq!(message, "unknown name `Ligth`");
+    assert_eq!(help, "did you mean `Light`?");
+}

@@ -595,6 +595,12 @@ impl<'a> Lowerer<'a> {
         self.sample = None;
     }
 
+    /// Whether a statement target's index starts with a framebuffer's name
+    /// (`C δπx` in `s C δπx ← …`).
+    fn index_names_framebuffer(&self, index: &ast::Expr) -> bool {
+        index.head_name().is_some_and(|h| matches!(self.globals.get(&h.key()), Some(Global::Framebuffer(_))))
+    }
+
     fn statement_inner(&mut self, st: &'a ast::Statement) -> Res<()> {
         let t = &st.target;
         let key = t.table.key();
@@ -621,6 +627,16 @@ impl<'a> Lowerer<'a> {
                 (Table::Texture(id), if has_pi { Frequency::Fragment } else { Frequency::Texel })
             }
             (None, Some(Entity::TexCoords)) => (Table::TexCoords(self.texcoord_id(&t.table)), Frequency::Vertex),
+            _ if matches!(key.as_str(), "a" | "s") && self.index_names_framebuffer(&t.index) => {
+                // seeds/001 as printed: `s C δπx ← …` is σ, `a C xs ← …` α.
+                let (sym, word) = if key == "s" { ("σ", "stencil") } else { ("α", "alpha") };
+                self.diagnostics.push(
+                    Diagnostic::error("unknown-name", format!("`{key}` is not a table"), t.table.span, "assigned into here").with_help(format!(
+                        "did you mean `{sym}` (ASCII `{word}`), the framebuffer's {word} channel: `{sym} C δπx ← …`? seeds/001 as printed (the Symbol font) shows `{sym}` as `{key}`"
+                    )),
+                );
+                return Err(());
+            }
             _ => {
                 self.unsupported(format!("assigning into `{key}`"), t.table.span);
                 return Err(());

@@ -417,6 +417,18 @@ words! {
 }
 
 impl Expr {
+    /// The name an expression starts with: `C` of `C`, `C δπx` or `C xs`.
+    pub fn head_name(&self) -> Option<&Name> {
+        match &self.kind {
+            ExprKind::Name(n) => Some(n),
+            ExprKind::Apply { func, .. } => match &func.kind {
+                FuncKind::Name(n) => Some(n),
+                _ => None,
+            },
+            _ => None,
+        }
+    }
+
     /// Visits every expression below and including this one (pre-order).
     pub fn walk(&self, f: &mut dyn FnMut(&Expr)) {
         f(self);

@@ -132,6 +132,26 @@ fn join_or(items: &[&str]) -> String {
     }
 }
 
+/// Help for a symbol of the language found where it cannot stand: where it
+/// belongs (issue 21: "`→` is not a symbol of the language; the symbols
+/// are … → …" contradicted itself). Also the spellings of text pasted from
+/// a PDF set in the Symbol font, as seeds/001 prints: `¬` for ←, `Å` for ⊕.
+fn symbol_help(found: &str) -> Option<String> {
+    let first = found.chars().next()?;
+    Some(match first {
+        '→' => "`→` (ASCII `->`) only separates a shader's argument from its result type: `shader d : s → c = …`".into(),
+        '⊕' => "`⊕` (ASCII `(+)`) combines the values on its two sides: `a ⊕ b`, `a ⊕[add] b`".into(),
+        '·' | '⋅' => "`·` (ASCII `(.)`) is a dot product of the vectors on its two sides: `N·L`".into(),
+        '¬' => "`¬` (ASCII `!`) negates the condition after it (`¬ c`); a statement assigns with `←` (ASCII `<-`) — text pasted from a PDF set in the Symbol font shows ← as `¬`".into(),
+        'Å' => "did you mean `⊕`? Text pasted from a PDF set in the Symbol font shows ⊕ as `Å` (ASCII `(+)`)".into(),
+        'δ' | 'π' => format!("`{first}` applies to the value after it: `T δu x`, `δ s x`, `C δπx`"),
+        'α' | 'σ' => format!("`{first}` selects a framebuffer's {} before its name: `{first} C δπx`", if first == 'α' { "alpha" } else { "stencil" }),
+        '′' => "a prime belongs to the name it follows, without a space: `u′`, `C′`".into(),
+        '⁻' => "`⁻¹` follows a projection: `π⁻¹`".into(),
+        _ => return None,
+    })
+}
+
 fn help_for(found: &str, expected: &[&str]) -> String {
     let expects = |what: &str| expected.contains(&what);
     match found {
@@ -143,6 +163,8 @@ fn help_for(found: &str, expected: &[&str]) -> String {
         "" if expects("`;`") => "end every statement and declaration with `;`".into(),
         "" => "the file ends in the middle of a statement; complete it and end it with `;`".into(),
         ")" | "]" | "}" => "this closing bracket has no matching opening bracket".into(),
+        "¬" if expects("`←` (or `<-`)") => "did you mean `←` (ASCII `<-`)? Text pasted from a PDF set in the Symbol font shows ← as `¬`, ⊕ as `Å`, δ as `d` and π as `p`: write those symbols (or their ASCII spellings `<-`, `(+)`, `delta`, `pi`)".into(),
+        f if symbol_help(f).is_some() => symbol_help(f).unwrap_or_default(),
         f if f.chars().next().is_some_and(|c| !c.is_ascii() && !c.is_alphanumeric()) => format!(
             "`{f}` is not a symbol of the language; the symbols are δ π ← ⊕ · ′ α σ ⁻¹ → and their ASCII spellings (see docs/language.md)"
         ),

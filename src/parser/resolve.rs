@@ -283,7 +283,9 @@ impl Resolver {
                 ExprKind::Tuple(items) => stack.extend(items),
                 ExprKind::Apply { func, arg } => {
                     if let FuncKind::Name(n) = &func.kind {
-                        self.func_name(n, locals, in_source);
+                        if !self.printed_channel(n, arg, locals) {
+                            self.func_name(n, locals, in_source);
+                        }
                     }
                     stack.push(arg);
                 }
@@ -300,6 +302,29 @@ impl Resolver {
                 }
             }
         }
+    }
+
+    /// seeds/001 as printed writes the alpha and stencil channels as `a C xs`
+    /// and `s C δπx` (the Symbol font's α and σ): an undeclared `a` or `s`
+    /// applied to a framebuffer gets that suggestion (issue 21), not "did
+    /// you mean `N`?". Whether it reported one.
+    fn printed_channel(&mut self, n: &Name, arg: &Expr, locals: &[(String, Entity)]) -> bool {
+        let key = n.key();
+        let symbol = match key.as_str() {
+            "a" => ("α", "alpha"),
+            "s" => ("σ", "stencil"),
+            _ => return false,
+        };
+        if self.lookup(n, locals).is_some() || !arg.head_name().is_some_and(|h| matches!(self.lookup(h, locals), Some(Entity::Framebuffer))) {
+            return false;
+        }
+        let (sym, word) = symbol;
+        self.diagnostics.push(
+            Diagnostic::error("unknown-name", format!("unknown name `{key}`"), n.span, "not declared").with_help(format!(
+                "did you mean `{sym}` (ASCII `{word}`), the framebuffer's {word} channel? seeds/001 as printed (the Symbol font) shows `{sym}` as `{key}`"
+            )),
+        );
+        true
     }
 
     fn func_name(&mut self, n: &Name, locals: &[(String, Entity)], in_source: bool) {
