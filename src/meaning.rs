@@ -131,6 +131,7 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
             },
             geometry,
             combiners: None,
+            baked: m.is_baked(st),
         });
     }
     if !errors.is_empty() {

@@ -161,7 +161,8 @@ impl Profile {
 pub fn fit(module: &Module, profile: &Profile) -> Vec<Diagnostic> {
     let mut out = Vec::new();
     let name = &profile.name;
-    for st in &module.statements {
+    // A `bake` table is the compiler's work: the target only samples it.
+    for st in module.statements.iter().filter(|st| !module.is_baked(st)) {
         let u = Usage::of(module, st);
         let labels = |d: Diagnostic, hs: &[Handle<Expr>], what: &str| {
             hs.iter().fold(d, |d, h| d.with_label(module.span(*h), what.to_string()))

@@ -47,6 +47,10 @@ fn document(planned: &Planned, limits: &CombinerLimits, checked: &mut Vec<String
         let value = planned.handle(pass.fragment.output);
         let statements = pass.statements.iter().map(|s| (s + 1).to_string()).collect::<Vec<_>>().join(", ");
         let _ = write!(doc, "{SECTION}{} of {n} (statement {statements} at {}, {} texture units)", i + 1, pass.at, units.len());
+        if pass.baked {
+            let _ = writeln!(doc, ": a `bake` table, computed by the compiler");
+            continue;
+        }
         match generate(&PassInput { module: &planned.module, value, units: &units }, limits) {
             Ok(g) => {
                 assert_eq!(pass.combiners, None, "{name} pass {}: the plan and the generator disagree", i + 1);
@@ -93,6 +97,7 @@ fn generated_setups_of_the_examples() {
             for (i, (header, body)) in secs.iter().enumerate() {
                 let Some(body) = body else { continue };
                 let pass = &planned.plan.passes[i];
+                assert!(!pass.baked, "{profile} {name} {header}");
                 let units: Vec<Handle<Expr>> = pass.textures.iter().map(|t| planned.handle(t.lookup)).collect();
                 let g = generate(&PassInput { module: &planned.module, value: planned.handle(pass.fragment.output), units: &units }, &limits).unwrap();
                 let back = rc1::parse_and_validate(body, &limits).unwrap_or_else(|d| panic!("{profile} {name} {header}: {d:#?}\n{body}"));

@@ -210,9 +210,8 @@ impl Program {
         s += "shader g : s → c = kd * max(0, N·L);\n";
         s += "let Ln = expand(Ncube δ Lt s x);\nlet Hn = expand(Ncube δ Ht s x);\n";
         // The texture-shading statement and the texgen only where they are
-        // read: a statement nothing reads is still planned (and a bake is
-        // refused on the combiner targets until the compiler bakes tables
-        // itself, issue 18), which would refuse every program.
+        // read: a statement nothing reads is still planned. (The compiler
+        // computes a bake itself, so the combiner targets plan it too.)
         if self.uses(&|c| matches!(c, Colour::Baked)) {
             s += "shader ramp : s → c = ka + s.x * ks;\n";
             s += "texture Bk : 2d rgba8 bilinear clamp = bake(ramp);\n";
@@ -246,6 +245,17 @@ fn validate_plan(planned: &Planned, profile: &Profile) -> Result<(), String> {
     let m = &planned.module;
     for (i, pass) in planned.plan.passes.iter().enumerate() {
         let at = |what: String| format!("pass {}: {what}", i + 1);
+        // A `bake` table is the compiler's work (issue 18): the target only
+        // samples it, so only its format must be one the target reads.
+        let baked = pass.baked && matches!(pass.geometry, shadec::planner::Geometry::Texels) && matches!(&pass.target, RenderTarget::Texture { .. });
+        if baked {
+            if let RenderTarget::Texture { name } = &pass.target {
+                if m.textures.iter().any(|t| t.name == *name && t.format.is_wide()) && !profile.float_textures {
+                    return Err(at(format!("bakes `{name}` in a 16-bit/float format the target cannot sample")));
+                }
+            }
+            continue;
+        }
         if pass.textures.len() > profile.texture_units as usize {
             return Err(at(format!("{} textures on {} units", pass.textures.len(), profile.texture_units)));
         }
@@ -462,5 +472,21 @@ fn a_scale_factor_maps_to_the_output_scale_in_any_position() {
         assert_eq!(planned.plan.passes[0].combiners, None, "{statement}");
         let generated = codegen::generate_for_pass(&planned, 0).unwrap();
         assert_eq!(generated.stages, 1, "{statement}");
+    }
+}
+
+/// `bake(f)` is computed by the compiler, not the target (issue 18): a table
+/// of `sqrt` — which no combiner computes — plans on every target, its
+/// texel pass marked `baked`, and renders the meaning (the generated suite
+/// found 17 of 32 sampled programs refused on geforce256 for their table).
+#[test]
+fn a_bake_is_computed_by_the_compiler_on_every_target() {
+    let source = "const kd : rgb = (0.8, 0.6, 0.4);\nshader f : s → c = sqrt(s.x) * kd;\ntexture Bk : 2d rgba8 bilinear clamp = bake(f);\ntexture A : 2d rgb8 = image(\"missing.png\");\nC δπx ← (Bk δu x).rgb * (A δu x);\n";
+    let scene = scene();
+    for target in TARGETS {
+        assert!(matches!(check(source, target, &scene), Ok(Outcome::Planned { .. })), "{target}: {:?}", check(source, target, &scene));
+        let planned = shadec::planner::compile_source(source, &Profile::builtin(target).unwrap()).unwrap();
+        let baked: Vec<bool> = planned.plan.passes.iter().map(|p| p.baked).collect();
+        assert_eq!(baked, [true, false], "{target}");
     }
 }

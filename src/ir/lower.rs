@@ -82,16 +82,18 @@ fn lower_here(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
 /// `bake(…)` source, so it sorts, plans and reports where it was written),
 /// or `None` when no texture is baked. Renderers treat a baked texture as
 /// one that statements render into.
+/// Whether a texture source is `bake(f)`.
+fn is_bake(src: &ast::Expr) -> bool {
+    matches!(&src.kind, ExprKind::Apply { func, arg } if matches!((&func.kind, &arg.kind), (FuncKind::Name(f), ExprKind::Name(_)) if f.key() == "bake"))
+}
+
 fn with_bakes(program: &ast::Program) -> Option<ast::Program> {
     let mut added = Vec::new();
     for item in &program.items {
         let ItemKind::Texture(t) = &item.kind else { continue };
-        let Some(src) = &t.source else { continue };
-        let ExprKind::Apply { func, arg } = &src.kind else { continue };
-        let (FuncKind::Name(f), ExprKind::Name(shader)) = (&func.kind, &arg.kind) else { continue };
-        if f.key() != "bake" {
-            continue;
-        }
+        let Some(src) = t.source.as_ref().filter(|s| is_bake(s)) else { continue };
+        let ExprKind::Apply { arg, .. } = &src.kind else { continue };
+        let ExprKind::Name(shader) = &arg.kind else { continue };
         for name in &t.names {
             let (parsed, diagnostics) = crate::parser::parse(&format!("{} delta u <- {} s delta u;", name.key(), shader.key()));
             let Some(mut statement) = parsed.items.into_iter().next().filter(|_| diagnostics.is_empty()) else { continue };
@@ -288,6 +290,7 @@ impl<'a> Lowerer<'a> {
                         kind: t.kind.value,
                         format: t.format.as_ref().map_or(ast::TextureFormat::Rgba8, |f| f.value),
                         rendered: t.source.is_none(),
+                        baked: t.source.as_ref().is_some_and(is_bake),
                         span: n.span,
                     });
                     self.globals.insert(n.key(), Global::Texture(id));

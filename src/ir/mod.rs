@@ -142,6 +142,12 @@ pub struct Module {
 }
 
 impl Module {
+    /// Whether `st` is the texel statement of a `bake(f)` table, which the
+    /// compiler computes, not the target (issue 18; `Texture::baked`).
+    pub fn is_baked(&self, st: &Statement) -> bool {
+        matches!(st.table, Table::Texture(id) if self.textures[id as usize].baked) && st.freq == Frequency::Texel
+    }
+
     pub fn info(&self, h: Handle<Expr>) -> &ExprInfo {
         &self.info[h.index()]
     }
@@ -199,6 +205,10 @@ pub struct Texture {
     /// Written by a statement (texture shading, deferred shading) rather than
     /// loaded or generated.
     pub rendered: bool,
+    /// Filled by `bake(f)`: a table the compiler computes on the CPU at
+    /// compile time (issue 18), which the target only samples — its texel
+    /// pass is never the target's to run.
+    pub baked: bool,
     pub span: Span,
 }
 

@@ -239,7 +239,11 @@ fn plan_inner_with(
         removed.extend(bound);
     }
     removed.extend(specialize::specialize(&mut m, &at));
-    let fit = fit::ProfileFit::new(profile);
+    let target_fit = fit::ProfileFit::new(profile);
+    // A `bake(f)` table's texel pass runs on the compiler's CPU, which has
+    // no fragment-stage limits (issue 18).
+    let compiler = Profile { fragment: crate::profile::FragmentStage::Programmable, ..profile.clone() };
+    let compiler_fit = fit::ProfileFit::new(&compiler);
     let float_temps = profile.float_textures;
 
     // Texgen statements by the coordinate set they write.
@@ -251,6 +255,7 @@ fn plan_inner_with(
     }
 
     let mut cache = SplitCache::default();
+    let mut compiler_cache = SplitCache::default();
     let mut diags = Vec::new();
     let mut chosen: Vec<Chosen> = Vec::new();
     let live: Vec<usize> = (0..m.statements.len())
@@ -272,6 +277,8 @@ fn plan_inner_with(
         {
             run.push(live[k + run.len()]);
         }
+        let baked = m.is_baked(&m.statements[run[0]]);
+        let (fit, cache) = if baked { (&compiler_fit, &mut compiler_cache) } else { (&target_fit, &mut cache) };
         // best[j]: the cheapest plan of run[..j].
         let mut best: Vec<Option<(split::Cost, Vec<Chosen>)>> = vec![None; run.len() + 1];
         best[0] = Some(((0, 0), vec![]));
@@ -311,7 +318,7 @@ fn plan_inner_with(
                         continue;
                     }
                 };
-                let pieces = match plan_form(&mut m, &fit, &mut cache, &st, &form, float_temps, search) {
+                let pieces = match plan_form(&mut m, fit, cache, &st, &form, float_temps, search) {
                     Ok(p) => p,
                     Err(o) => {
                         if stmts.len() == 1 {
@@ -794,7 +801,8 @@ fn assemble(
                 let why = if piece.why.is_empty() { "the part rendered first" } else { piece.why.as_str() };
                 format!("{label} split into {n} passes on {} (pass {} of {n}): {why}", profile.name, pi + 1)
             };
-            let combiners = combiner_verdict(m, profile, piece.value, &textures, &at);
+            // A `bake` table is the compiler's: no combiner setup to judge.
+            let combiners = if m.is_baked(st) { None } else { combiner_verdict(m, profile, piece.value, &textures, &at) };
             roots.push(piece.value);
             roots.push(st.index);
             roots.push(drawn_at);
@@ -812,7 +820,7 @@ fn assemble(
                 light,
                 objects,
                 at: at(st.span),
-                reason: pass_reason,
+                reason: if m.is_baked(st) { format!("{pass_reason}: a `bake` table, computed by the compiler on the CPU, which the target samples") } else { pass_reason },
                 target,
                 geometry,
                 vertex: VertexWork { position: mesh.then_some(drawn_at.index() as u32), interpolants: u.interpolants.iter().map(|h| h.index() as u32).collect(), texgen: gen },
@@ -821,6 +829,7 @@ fn assemble(
                 blend: piece.blend,
                 state,
                 combiners,
+                baked: m.is_baked(st),
             });
         }
     }

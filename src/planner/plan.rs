@@ -62,6 +62,12 @@ pub struct Pass {
     /// docs/pass-plan.md).
     #[serde(default)]
     pub combiners: Option<String>,
+    /// The texel pass of a `bake(f)` table: computed by the compiler on the
+    /// CPU at compile time (in float, stored in the texture's format), not
+    /// by the target, which only samples the table (issue 18). Its fragment
+    /// work is therefore not held to the target's limits.
+    #[serde(default)]
+    pub baked: bool,
 }
 
 /// Where a pass writes.

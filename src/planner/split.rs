@@ -484,6 +484,7 @@ impl<'a> Splitter<'a> {
             kind: TextureKind::Tex2d,
             format: if self.float_temps { TextureFormat::Rgba16f } else { TextureFormat::Rgba8 },
             rendered: true,
+            baked: false,
             span: Span::DETACHED,
         });
         (self.module.textures.len() - 1) as u32

@@ -314,6 +314,9 @@ impl<'a> PlanRenderer<'a> {
                     }
                 }
                 let own_depth = targets.get(&name).cloned();
+                // A `bake` table is the compiler's work, in float, whatever
+                // the target's arithmetic (issue 18).
+                let mode = if pass.baked && mode == Mode::Fixed9 { Mode::F32 } else { mode };
                 let (machine, how) = match mode {
                     Mode::Fixed9 => match self.combiner_setup(index) {
                         Ok((setup, stages)) => (Some(setup), PassShading::Combiners { stages }),

@@ -200,6 +200,8 @@ fn generate_pass(planned: &Planned, index: usize, source: Option<&str>, names: &
     let pass = &planned.plan.passes[index];
     let span = pass_span(planned, index);
     let interface = PassInterface::of(planned, index);
+    // A `bake` table is computed by the compiler, in float (issue 18).
+    let fidelity = if pass.baked { Fidelity::Exact } else { fidelity };
     let mut g = Gen::new(planned, index, interface.clone(), names, fidelity);
     if fidelity == Fidelity::Hardware {
         g.combiners = crate::backends::combiners::codegen::generate_for_pass(planned, index).ok();
