@@ -84,7 +84,7 @@ enum Accumulate {
     /// `(C δπx) ⊕[add] ((α C δπx) * e)`: the specular pass of seeds/003
     /// Section 5.5, gated by destination alpha (GL_DST_ALPHA, GL_ONE).
     DstAlphaAdd,
-    /// `(α C δπx) * e` (GL_DST_ALPHA, GL_ZERO).
+    /// `rgba((α C δπx) * e, α C δπx)` (GL_DST_ALPHA, GL_ZERO).
     DstAlphaModulate,
 }
 
@@ -230,7 +230,7 @@ impl Program {
                 Accumulate::Modulate => format!("C δπx ← (C δπx) ⊕ ({});\n", a.text(self)),
                 Accumulate::Affine => format!("C δπx ← (C δπx) * ({}) + ({});\n", a.text(self), b.text(self)),
                 Accumulate::DstAlphaAdd => format!("C δπx ← (C δπx) ⊕[add] ((α C δπx) * ({}));\n", a.text(self)),
-                Accumulate::DstAlphaModulate => format!("C δπx ← (α C δπx) * ({});\n", a.text(self)),
+                Accumulate::DstAlphaModulate => format!("C δπx ← rgba((α C δπx) * ({}), α C δπx);\n", a.text(self)),
             };
         }
         s
@@ -488,5 +488,19 @@ fn a_bake_is_computed_by_the_compiler_on_every_target() {
         let planned = shadec::planner::compile_source(source, &Profile::builtin(target).unwrap()).unwrap();
         let baked: Vec<bool> = planned.plan.passes.iter().map(|p| p.baked).collect();
         assert_eq!(baked, [true, false], "{target}");
+    }
+}
+
+/// Found by the suite: an rgb statement split into a scalar part and a
+/// texture (`spec⁴ · 0.1 · Env` on geforce256) wrote the scalar into alpha
+/// in its first pass, where the statement's alpha is 1; a later `α C` read
+/// then differed by 190/255. The alpha-writing pass writes the part as rgb.
+#[test]
+fn a_split_rgb_statement_keeps_alpha_one() {
+    let source = "vector Ht : half(0) in tangent;\nvector R : reflection in eye;\nconst Nt : vec3 = (0, 0, 1);\ntexture A : 2d rgb8 = image(\"missing-0.png\");\ntexture Ncube : cube rgb8 bilinear clamp = normalize_cube(32);\ntexture Env : 2d rgb8 bilinear clamp = image(\"missing-env.png\");\nlet Hn = expand(Ncube δ Ht s x);\nu x ← πR R s x;\nframebuffer C : rgba8, depth;\nC δπx ← max(0, Nt·Hn)^4 * 0.1 * Env δu x;\nC δπx ← rgba((α C δπx) * (A δu x), α C δπx);\n";
+    let scene = scene();
+    assert_eq!(check(source, "geforce256", &scene), Ok(Outcome::Planned { passes: 3, split: true }));
+    for target in TARGETS {
+        check(source, target, &scene).unwrap_or_else(|e| panic!("{target}: {e}"));
     }
 }

@@ -414,3 +414,17 @@ fn a_profile_file_keeps_its_combiner_limits_downstream() {
     assert!(g.stages > 8 && g.stages <= 12, "{} stages", g.stages);
     assert!(planner::compile_source(src, &Profile::builtin("geforce3").unwrap()).is_err(), "a GeForce3 cannot run it in one pass");
 }
+
+/// `C ← rgba((α C)·c, α C)` is one blend by destination alpha, the factor
+/// `rgba(c, 1)`; `C ← (α C)·c` with an rgb `c` writes alpha 1, which that
+/// blend cannot, and the refusal says so with a help that plans.
+#[test]
+fn a_destination_alpha_product_keeps_or_explains_its_alpha() {
+    let decl = "texture A : 2d rgba8 = image(\"a.png\");\ntexture B, D, E, G : 2d rgb8 = image(\"d.png\");\nframebuffer C : rgba8, depth;\nC δπx ← rgba((B δu x) * (E δu x) * (G δu x), (A δu x).a);\n";
+    let kept = plan_src(&format!("{decl}C δπx ← rgba((α C δπx) * (D δu x), α C δπx);\n"), "geforce3").unwrap();
+    assert_eq!(kept.passes.len(), 2, "{}", kept.summary());
+    assert_eq!(kept.passes[1].blend, BlendMode::DstAlphaModulate);
+    let err = plan_src(&format!("{decl}C δπx ← (α C δπx) * (D δu x);\n"), "geforce3").unwrap_err();
+    assert_eq!(err[0].message, "framebuffer blending cannot express this: the value is rgb, so the statement writes alpha 1, while a blend by the destination alpha would scale the alpha too");
+    assert!(err[0].help.as_deref().is_some_and(|h| h.contains("rgba((α C δπx) * c, α C δπx)")), "{:?}", err[0].help);
+}

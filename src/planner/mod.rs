@@ -594,15 +594,33 @@ pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<F
         }
         return Ok(form);
     }
-    // Only the alpha is read: `C ← (α C) · x` (GL_DST_ALPHA, GL_ZERO).
-    match ra.and_then(|ra| alpha_factor(m, v, ra)) {
+    // Only the alpha is read: `C ← (α C) · x` (GL_DST_ALPHA, GL_ZERO),
+    // `rgba((α C)·x, α C)` = (α C) · rgba(x, 1) included.
+    match ra.and_then(|ra| alpha_factor(m, v, ra).or_else(|| composed_alpha_factor(m, v, ra))) {
         Some(x) => {
             form.blend = BlendMode::DstAlphaModulate;
             form.value = x;
             Ok(form)
         }
+        None if ra.is_some_and(|ra| widened_alpha_product(m, v, ra)) => Err(unsupported_blend(st, "the value is rgb, so the statement writes alpha 1, while a blend by the destination alpha would scale the alpha too")
+            .with_help("give the alpha you mean: `rgba((α C δπx) * c, α C δπx)` keeps the alpha (one blend by destination alpha), or write the colour and the alpha in two statements")),
         None => Err(unsupported("the framebuffer's alpha is used other than as a factor")),
     }
+}
+
+/// `rgba(α·x, α)` or `rgba(α·x, α·y)` with α the destination alpha `ra`:
+/// the factor `rgba(x, 1)` or `rgba(x, y)`.
+fn composed_alpha_factor(m: &mut Module, h: Handle<Expr>, ra: Handle<Expr>) -> Option<Handle<Expr>> {
+    let Expr::Compose { ty: ir::Ty::Rgba, ref components } = m.exprs[h] else { return None };
+    let [c, a] = components[..] else { return None };
+    let x = alpha_factor(m, c, ra)?;
+    let y = if a == ra { Builder { module: m }.constant(ir::Ty::Scalar, 1.0)? } else { alpha_factor(m, a, ra)? };
+    Builder { module: m }.node(Expr::Compose { ty: ir::Ty::Rgba, components: vec![x, y] })
+}
+
+/// `(α C)·x` of an rgb x, widened to rgba (alpha 1): not one blend.
+fn widened_alpha_product(m: &Module, h: Handle<Expr>, ra: Handle<Expr>) -> bool {
+    matches!(m.exprs[h], Expr::Convert { value, to: ir::Ty::Rgba } if alpha_factor(m, value, ra).is_some())
 }
 
 /// `h = ra · x` (either order): `x`.

@@ -180,7 +180,19 @@ impl<'a> Splitter<'a> {
             if matches!(self.module.info(*value).ty, Ty::Rgb | Ty::Vec3) {
                 let inner = self.plan_at(mode, *value, depth)?;
                 let first_main = inner.iter().position(|p| p.dest == Dest::Main);
-                return Some(Rc::new(inner.iter().enumerate().map(|(i, p)| Piece { alpha: p.dest != Dest::Main || Some(i) == first_main, ..p.clone() }).collect()));
+                let mut pieces = Vec::with_capacity(inner.len());
+                for (i, p) in inner.iter().enumerate() {
+                    let mut p = Piece { alpha: p.dest != Dest::Main || Some(i) == first_main, ..p.clone() };
+                    // The pass that writes alpha writes the value's alpha 1:
+                    // a scalar part (`0.1 · spec⁴` of `0.1 · spec⁴ · Env`)
+                    // would splat into alpha, so it is written as rgb (the
+                    // differential suite found this: a later `α C` read 190/255 off).
+                    if p.alpha && p.dest == Dest::Main && self.module.info(p.value).ty == Ty::Scalar {
+                        p.value = Builder { module: self.module }.node(Expr::Convert { value: p.value, to: Ty::Rgb })?;
+                    }
+                    pieces.push(p);
+                }
+                return Some(Rc::new(pieces));
             }
         }
         let mut best: Option<Vec<Piece>> = None;
