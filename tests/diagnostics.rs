@@ -66,3 +66,18 @@ fn a_transposed_name_is_suggested() {
     assert_eq!(message, "unknown name `Ligth`");
     assert_eq!(help, "did you mean `Light`?");
 }
+
+#[test]
+fn an_unclosed_parenthesis_says_where_it_opened() {
+    let text = "vector N : normal;\nvector L : light;\nC δπx ← max(0, (N·L);\n";
+    let (_, diagnostics) = shadec::parser::check(text);
+    let d = diagnostics.iter().find(|d| d.is_error()).unwrap();
+    let opened = d.secondary.iter().find(|l| l.message == "this `(` is never closed").expect("a label at the `(`");
+    assert_eq!(&text[opened.span.start as usize..opened.span.end as usize], "(");
+    assert_eq!(opened.span.start as usize, text.find("max(").unwrap() + 3);
+    assert_eq!(d.help.as_deref(), Some("close the `(` opened here with `)` before the statement ends"));
+    // `(+)` and `(.)` are operators, not brackets; a string's `(` does not count.
+    let (_, diagnostics) = shadec::parser::check("texture T : 2d rgb8 = image(\"a(b.png\");\nC δπx ← (T δu x) (+) (T δu x;\n");
+    let d = diagnostics.iter().find(|d| d.is_error()).unwrap();
+    assert_eq!(d.secondary.len(), 1, "{d:?}");
+}

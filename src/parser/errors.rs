@@ -48,6 +48,10 @@ pub fn from_pest(err: pest::error::Error<Rule>, text: &str, offset: usize) -> Di
     };
     let label = if expected.is_empty() { "unexpected here".to_string() } else { format!("expected {expected_text}") };
     let mut d = Diagnostic::error("syntax", message, span, label).with_help(help_for(found, &expected));
+    // An unclosed `(` says where it opened (issue 21).
+    if let Some(open) = unclosed_paren(text, pos).filter(|_| matches!(found, "" | ";" | "←" | "<-")) {
+        d = d.with_label(Span::new(offset + open, offset + open + 1), "this `(` is never closed").with_help("close the `(` opened here with `)` before the statement ends");
+    }
     if matches!(found, "←" | "<-") {
         if let Some(end) = end_of_previous_line(text, pos) {
             d = d.with_label(Span::new(offset + end, offset + end), "perhaps a `;` is missing here");
@@ -58,6 +62,38 @@ pub fn from_pest(err: pest::error::Error<Rule>, text: &str, offset: usize) -> Di
 
 /// The end of the last non-blank text before the line holding `pos`, when a
 /// statement runs on from an earlier line (the usual sign of a missing `;`).
+/// The byte offset of the last `(` before `pos` that no `)` closes, skipping
+/// comments, strings and the ASCII operators `(+)` and `(.)`.
+fn unclosed_paren(text: &str, pos: usize) -> Option<usize> {
+    let head = &text[..pos.min(text.len())];
+    let mut open = Vec::new();
+    let mut i = 0;
+    while i < head.len() {
+        let rest = &head[i..];
+        if rest.starts_with("//") {
+            i += rest.find('\n').unwrap_or(rest.len());
+            continue;
+        }
+        if rest.starts_with("(+)") || rest.starts_with("(.)") {
+            i += 3;
+            continue;
+        }
+        let c = rest.chars().next().unwrap_or(' ');
+        if c == '"' {
+            // Past the closing quote (or to the end of an unclosed string).
+            i += 1 + rest[1..].find('"').map_or(rest.len() - 1, |e| e + 1);
+            continue;
+        }
+        if c == '(' {
+            open.push(i);
+        } else if c == ')' {
+            open.pop();
+        }
+        i += c.len_utf8();
+    }
+    open.pop()
+}
+
 fn end_of_previous_line(text: &str, pos: usize) -> Option<usize> {
     let line_start = text[..pos].rfind('\n')?;
     let before = text[..line_start].trim_end();
