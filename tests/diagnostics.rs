@@ -81,3 +81,24 @@ fn an_unclosed_parenthesis_says_where_it_opened() {
     let d = diagnostics.iter().find(|d| d.is_error()).unwrap();
     assert_eq!(d.secondary.len(), 1, "{d:?}");
 }
+
+/// A missing `;` is one error at the end of its line; the statement on the
+/// next line is a new statement, and no "unknown name" cascade follows
+/// (issue 21: 50 statements each missing its `;` reported one error).
+#[test]
+fn each_missing_semicolon_is_reported_where_it_belongs() {
+    let mut text = String::from("vector N : normal;\nvector L : light\ntexture T : 2d rgb8\n");
+    for _ in 0..50 {
+        text += "C δπx ← (C δπx) ⊕[add] (T δu x) * max(0, N·L)\n";
+    }
+    let (program, diagnostics) = shadec::parser::check(&text);
+    let errors: Vec<_> = diagnostics.iter().filter(|d| d.is_error()).collect();
+    assert_eq!(errors.len(), 52, "{:#?}", errors.iter().map(|d| &d.message).collect::<Vec<_>>());
+    assert!(errors.iter().all(|d| d.message == "expected `;` at the end of this line"), "{:?}", errors[0].message);
+    // The first is at the end of line 2, after `light`.
+    assert_eq!(errors[0].primary.span.start as usize, text.find("light\n").unwrap() + "light".len());
+    assert_eq!(program.items.len(), 53, "every item still parses");
+    // A statement continued on the next line is not cut.
+    let (_, diagnostics) = shadec::parser::check("texture T : 2d rgb8;\nC δπx ← (T δu x)\n    * 0.5;\n");
+    assert!(diagnostics.iter().all(|d| !d.is_error()), "{diagnostics:?}");
+}

@@ -18,6 +18,7 @@ mod split;
 use pest::Parser as _;
 
 use crate::diag::Diagnostic;
+use crate::span::Span;
 
 /// The pest parser generated from `grammar/shade.pest`.
 #[derive(pest_derive::Parser)]
@@ -44,6 +45,21 @@ pub fn parse(source: &str) -> (ast::Program, Vec<Diagnostic>) {
             program.trailing_comments = comments.leading;
             continue;
         }
+        // A piece cut at a line break (its `;` missing): parsed with the `;`
+        // added, so later statements see its names, and one error says where
+        // the `;` goes.
+        let owned;
+        let text = if piece.missing_semicolon {
+            let end = piece.range.start + text.trim_end().len();
+            diagnostics.push(
+                Diagnostic::error("syntax", "expected `;` at the end of this line", Span::new(end, end), "add `;` here")
+                    .with_help("end every statement and declaration with `;`; the next line starts a new one"),
+            );
+            owned = format!("{};", text.trim_end());
+            owned.as_str()
+        } else {
+            text
+        };
         match ShadeParser::parse(Rule::item, text) {
             Ok(mut pairs) => {
                 let item = pairs.next().expect("the item rule produces one pair");

@@ -14,6 +14,32 @@ pub struct Piece {
     pub range: Range<usize>,
     /// Set when the piece cannot be parsed at all (nesting too deep).
     pub error: Option<Diagnostic>,
+    /// The piece ends at a line break, not at its `;`: the next line starts
+    /// an item of its own (issue 21's recovery: a missing `;` is one error
+    /// at the end of its line, and the statements after it still parse).
+    pub missing_semicolon: bool,
+}
+
+/// Keywords that start a declaration.
+const ITEM_KEYWORDS: &[&str] = &["vector", "texture", "framebuffer", "const", "uniform", "shader", "let", "target", "params"];
+
+/// Whether the line at `j` starts an item: a declaration keyword, or an
+/// assignment `… ←` on that line.
+fn starts_item(source: &str, j: usize) -> bool {
+    let line = source[j..].split('\n').next().unwrap_or_default();
+    let line = line.split("//").next().unwrap_or_default();
+    let word = line.split(|c: char| !(c.is_alphanumeric() || c == '_')).next().unwrap_or_default();
+    (ITEM_KEYWORDS.contains(&word) && line[word.len()..].starts_with(char::is_whitespace)) || line.contains('←') || line.contains("<-")
+}
+
+/// Whether `text` (a piece so far) ends where a statement or declaration
+/// could end: after a name, a number, a closing bracket, a prime or a
+/// string — not after an operator that continues it on the next line.
+fn ends_complete(text: &str) -> bool {
+    let last_line = text.rsplit('\n').next().unwrap_or_default();
+    let code = last_line.split("//").next().unwrap_or_default();
+    let tail = if code.trim().is_empty() { text.trim_end() } else { code.trim_end() };
+    tail.chars().last().is_some_and(|c| c.is_alphanumeric() || matches!(c, ')' | ']' | '\'' | '′' | '"' | '_'))
 }
 
 pub fn split_items(source: &str) -> Vec<Piece> {
@@ -65,22 +91,34 @@ pub fn split_items(source: &str) -> Vec<Piece> {
                     if let Some(semi) = next_significant(source, end).filter(|&j| bytes[j] == b';') {
                         end = semi + 1;
                     }
-                    pieces.push(Piece { range: start..end, error: error.take() });
+                    pieces.push(Piece { range: start..end, error: error.take(), missing_semicolon: false });
                     start = end;
                     i = end;
                     continue;
                 }
             }
             b';' if depth == 0 => {
-                pieces.push(Piece { range: start..i + 1, error: error.take() });
+                pieces.push(Piece { range: start..i + 1, error: error.take(), missing_semicolon: false });
                 start = i + 1;
+            }
+            b'\n' if depth == 0 && error.is_none() => {
+                let so_far = &source[start..i];
+                if next_significant(source, start).is_some_and(|s| s < i)
+                    && ends_complete(so_far)
+                    && next_significant(source, i).is_some_and(|j| starts_item(source, j))
+                {
+                    pieces.push(Piece { range: start..i, error: None, missing_semicolon: true });
+                    start = i;
+                }
             }
             _ => {}
         }
         i += 1;
     }
     if start < bytes.len() || error.is_some() {
-        pieces.push(Piece { range: start..bytes.len(), error });
+        // The last item without its `;`, complete otherwise: the same recovery.
+        let missing_semicolon = error.is_none() && next_significant(source, start).is_some() && ends_complete(&source[start..]) && depth == 0;
+        pieces.push(Piece { range: start..bytes.len(), error, missing_semicolon });
     }
     pieces
 }

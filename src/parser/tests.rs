@@ -192,8 +192,14 @@ fn every_error_is_reported_not_only_the_first() {
 
 #[test]
 fn a_missing_semicolon_is_blamed_with_a_hint() {
-    let (_, d) = parse("C xs ← a\nC xs ← b;");
+    // The next line starts a statement: the `;` is missing at the line's end.
+    let (p, d) = parse("C xs ← a\nC xs ← b;");
     assert_eq!(d.len(), 1);
+    assert_eq!(d[0].message, "expected `;` at the end of this line");
+    assert_eq!(d[0].primary.span.start as usize, "C xs ← a".len());
+    assert_eq!(p.items.len(), 2);
+    // Two statements on one line: the second `←` is blamed, with the hint.
+    let (_, d) = parse("C xs ← a C xs ← b;");
     assert_eq!(d[0].message, "expected an operator, an expression or `;`, found `←`");
     assert!(d[0].help.as_deref().unwrap().contains("previous statement lacks its `;`"));
 }
