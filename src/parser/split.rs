@@ -116,8 +116,11 @@ pub fn split_items(source: &str) -> Vec<Piece> {
         i += 1;
     }
     if start < bytes.len() || error.is_some() {
-        // The last item without its `;`, complete otherwise: the same recovery.
-        let missing_semicolon = error.is_none() && next_significant(source, start).is_some() && ends_complete(&source[start..]) && depth == 0;
+        // The last item without its `;`, complete otherwise: the same
+        // recovery, where white space follows it (the added `;` then lies
+        // within the source, as every span must).
+        let rest = &source[start..];
+        let missing_semicolon = error.is_none() && depth == 0 && next_significant(source, start).is_some() && ends_complete(rest) && rest.trim_end().len() < rest.len();
         pieces.push(Piece { range: start..bytes.len(), error, missing_semicolon });
     }
     pieces
