@@ -200,7 +200,7 @@ fn help_for(found: &str, expected: &[&str]) -> String {
         "" => "the file ends in the middle of a statement; complete it and end it with `;`".into(),
         ")" | "]" | "}" => "this closing bracket has no matching opening bracket".into(),
         "¬" if expects("`←` (or `<-`)") => "did you mean `←` (ASCII `<-`)? Text pasted from a PDF set in the Symbol font shows ← as `¬`, ⊕ as `Å`, δ as `d` and π as `p`: write those symbols (or their ASCII spellings `<-`, `(+)`, `delta`, `pi`)".into(),
-        f if symbol_help(f).is_some() => symbol_help(f).unwrap_or_default(),
+        f if let Some(help) = symbol_help(f) => help,
         f if f.chars().next().is_some_and(|c| !c.is_ascii() && !c.is_alphanumeric()) => format!(
             "`{f}` is not a symbol of the language; the symbols are δ π ← ⊕ · ′ α σ ⁻¹ → and their ASCII spellings (see docs/language.md)"
         ),

@@ -379,8 +379,11 @@ type R<T> = Result<T, CodegenError>;
 pub fn generate(input: &PassInput, limits: &CombinerLimits) -> Result<Generated, CodegenError> {
     // Two products in one portion save stages but hold two results at once:
     // where that runs out of registers, the unpaired schedule may still fit.
+    // Other refusals (range, unsupported operations, constants, stages) do
+    // not depend on pairing, so the planner's many refused values are
+    // generated once, not twice.
     match generate_with(input, limits, true) {
-        Err(e) if !matches!(e, CodegenError::OutOfStages { .. }) => generate_with(input, limits, false),
+        Err(CodegenError::OutOfRegisters { .. } | CodegenError::Invalid(_)) => generate_with(input, limits, false),
         r => r,
     }
 }
