@@ -17,8 +17,12 @@ use shadec::renderer::{image_error, AdaptiveSettings, ColorFormat, EdgeMode, Fra
 use shadec::scene::Scene;
 
 const RUNS: usize = 7;
-const SCENES: [&str; 4] =
-    ["adaptive_sphere_4lights.ron", "adaptive_cube_1light.ron", "adaptive_cube_2lights.ron", "adaptive_cube_4lights.ron"];
+const SCENES: [&str; 4] = [
+    "adaptive_sphere_4lights.ron",
+    "adaptive_cube_1light.ron",
+    "adaptive_cube_2lights.ron",
+    "adaptive_cube_4lights.ron",
+];
 const THRESHOLDS: [f32; 5] = [0.01, 0.02, 0.04, 0.085, 0.16];
 
 fn load(name: &str, cull: Option<f32>) -> (Scene, LitScene) {
@@ -46,12 +50,21 @@ fn table() -> String {
     let threads = rayon::current_num_threads();
     let cpu = std::fs::read_to_string("/proc/cpuinfo")
         .ok()
-        .and_then(|s| s.lines().find(|l| l.starts_with("model name")).map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string()))
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .map(|l| l.split(':').nth(1).unwrap_or("").trim().to_string())
+        })
         .unwrap_or_else(|| "unknown".into());
     writeln!(out, "# Adaptive sample shading (seeds/004) — measured\n").unwrap();
-    writeln!(out, "Command: `cargo bench --bench adaptive -- --quick` (release, `[profile.release]`).  ").unwrap();
+    writeln!(out, "Command: `cargo bench --bench adaptive -- --quick` (release, `[profile.release]`).  ")
+        .unwrap();
     writeln!(out, "Machine: {cpu}, {threads} rayon threads (shared machine; timings are noisy).  ").unwrap();
-    writeln!(out, "Images 512×512, f32 colour; regular samples every 16 pixels, subdivision to single pixels; ").unwrap();
+    writeln!(
+        out,
+        "Images 512×512, f32 colour; regular samples every 16 pixels, subdivision to single pixels; "
+    )
+    .unwrap();
     writeln!(out, "time = median of {RUNS} draws; speed-up = full time / adaptive time in the same run; error vs full per-pixel Phong (RGB in [0, 1]).  ").unwrap();
     writeln!(out, "Edges `pass`: only silhouettes and object boundaries are edge samples; `triangle`: every pixel next to another triangle (the paper's edge samples).  ").unwrap();
     writeln!(out, "Culling: per-polygon light relevance (seeds/004 §2.2) with tolerance 1 % (total culling error < 1 %).\n").unwrap();

@@ -10,7 +10,10 @@ use shadec::profile::Profile;
 
 fn sizes() -> Vec<usize> {
     match std::env::var("SHADEC_BENCH_MAX_OPS") {
-        Ok(v) => [10, 100, 1000, 10_000, 100_000].into_iter().filter(|n| *n <= v.parse().unwrap_or(100_000)).collect(),
+        Ok(v) => [10, 100, 1000, 10_000, 100_000]
+            .into_iter()
+            .filter(|n| *n <= v.parse().unwrap_or(100_000))
+            .collect(),
         Err(_) => vec![10, 100, 1000, 10_000, 100_000],
     }
 }
@@ -19,7 +22,10 @@ fn compile_growth(c: &mut Criterion) {
     for target in ["geforce256", "wgsl"] {
         let profile = Profile::builtin(target).unwrap();
         let mut group = c.benchmark_group(format!("compile/{target}"));
-        group.sample_size(10).warm_up_time(Duration::from_millis(500)).measurement_time(Duration::from_secs(3));
+        group
+            .sample_size(10)
+            .warm_up_time(Duration::from_millis(500))
+            .measurement_time(Duration::from_secs(3));
         for n in sizes() {
             let src = shadec::planner::generated_program(n);
             group.bench_with_input(BenchmarkId::from_parameter(n), &src, |b, src| {

@@ -12,7 +12,8 @@ fn bench(c: &mut Criterion) {
     let t0: Vec<u8> = (0..W * H * 4).map(|i| (i.wrapping_mul(2654435761) >> 13) as u8).collect();
     let t1: Vec<u8> = (0..W * H * 4).map(|i| (i.wrapping_mul(40503) >> 7) as u8).collect();
     let mut out = vec![0u8; W * H * 4];
-    let inputs = Inputs { width: W, height: H, textures: [Some(&t0), Some(&t1), None, None], ..Inputs::default() };
+    let inputs =
+        Inputs { width: W, height: H, textures: [Some(&t0), Some(&t1), None, None], ..Inputs::default() };
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
     let all = rayon::ThreadPoolBuilder::new().build().unwrap();
     let mut group = c.benchmark_group("emulator_1024x1024");

@@ -28,7 +28,9 @@ fn bench(c: &mut Criterion) {
         .unwrap()
         .map(|e| e.unwrap().path())
         .filter(|p| p.extension().is_some_and(|e| e == "shd"))
-        .map(|p| (p.file_stem().unwrap().to_string_lossy().into_owned(), std::fs::read_to_string(&p).unwrap()))
+        .map(|p| {
+            (p.file_stem().unwrap().to_string_lossy().into_owned(), std::fs::read_to_string(&p).unwrap())
+        })
         .collect();
     examples.sort();
     let total: usize = examples.iter().map(|(_, t)| t.len()).sum();
@@ -49,8 +51,12 @@ fn bench(c: &mut Criterion) {
     let mut group = c.benchmark_group("generated_1MB");
     group.throughput(Throughput::Bytes(program.len() as u64));
     group.sample_size(10);
-    group.bench_function("baseline_split_items", |b| b.iter(|| shadec::parser::bench_support::split_only(&program)));
-    group.bench_function("baseline_pest_only", |b| b.iter(|| shadec::parser::bench_support::pest_only(&program)));
+    group.bench_function("baseline_split_items", |b| {
+        b.iter(|| shadec::parser::bench_support::split_only(&program))
+    });
+    group.bench_function("baseline_pest_only", |b| {
+        b.iter(|| shadec::parser::bench_support::pest_only(&program))
+    });
     group.bench_function("parse", |b| b.iter(|| shadec::parser::parse(&program)));
     group.bench_function("check", |b| b.iter(|| shadec::parser::check(&program)));
     group.finish();

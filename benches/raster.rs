@@ -4,8 +4,8 @@
 
 use criterion::{criterion_group, criterion_main, BenchmarkId, Criterion, Throughput};
 use shadec::renderer::{
-    draw, ColorFormat, CullMode, DepthState, Fragment, FragmentResult, FragmentStage, Framebuffer, Pass, RenderState,
-    VertexStage,
+    draw, ColorFormat, CullMode, DepthState, Fragment, FragmentResult, FragmentStage, Framebuffer, Pass,
+    RenderState, VertexStage,
 };
 
 const SIZE: u32 = 1024;
@@ -67,9 +67,10 @@ fn fill_rate(c: &mut Criterion) {
         let all = rayon::current_num_threads();
         for threads in [1, all] {
             let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
-            group.bench_function(BenchmarkId::new(format!("{format:?}"), format!("{threads}_threads")), |b| {
-                b.iter(|| pool.install(|| render(&mut fb, &grid, &tris)))
-            });
+            group
+                .bench_function(BenchmarkId::new(format!("{format:?}"), format!("{threads}_threads")), |b| {
+                    b.iter(|| pool.install(|| render(&mut fb, &grid, &tris)))
+                });
         }
     }
     group.finish();
@@ -82,7 +83,9 @@ fn triangle_count(c: &mut Criterion) {
         let grid = Grid { cells };
         let tris = grid_triangles(cells);
         group.throughput(Throughput::Elements(tris.len() as u64));
-        group.bench_function(BenchmarkId::from_parameter(tris.len()), |b| b.iter(|| render(&mut fb, &grid, &tris)));
+        group.bench_function(BenchmarkId::from_parameter(tris.len()), |b| {
+            b.iter(|| render(&mut fb, &grid, &tris))
+        });
     }
     group.finish();
 }

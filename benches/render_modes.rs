@@ -52,7 +52,10 @@ fn main() {
     let (w, h) = (1024u32, 1024u32);
     let mpix = |d: Duration| (w as f64 * h as f64) / d.as_secs_f64() / 1e6;
 
-    println!("Kilgard torus, geforce256 plan ({} passes), {w}×{h}, median frame time", s.planned.plan.passes.len());
+    println!(
+        "Kilgard torus, geforce256 plan ({} passes), {w}×{h}, median frame time",
+        s.planned.plan.passes.len()
+    );
     println!("| mode | 1 thread: ms | Mpixel/s | {all} threads: ms | Mpixel/s | speed-up |");
     println!("|---|---|---|---|---|---|");
     let mut fixed9_all = Duration::ZERO;
@@ -62,7 +65,15 @@ fn main() {
         if mode == Mode::Fixed9 {
             fixed9_all = tn;
         }
-        println!("| {} | {:.1} | {:.2} | {:.1} | {:.2} | {:.2}× |", mode.name(), ms(t1), mpix(t1), ms(tn), mpix(tn), t1.as_secs_f64() / tn.as_secs_f64());
+        println!(
+            "| {} | {:.1} | {:.2} | {:.1} | {:.2} | {:.2}× |",
+            mode.name(),
+            ms(t1),
+            mpix(t1),
+            ms(tn),
+            mpix(tn),
+            t1.as_secs_f64() / tn.as_secs_f64()
+        );
     }
 
     println!("\nGrowth with resolution (fixed9, {all} threads)");
@@ -71,7 +82,12 @@ fn main() {
     let mut before: Option<Duration> = None;
     for side in [256u32, 512, 1024, 2048] {
         let t = median(|| drop(cpu.render(Mode::Fixed9, side, side, &mut |_, _| {}).unwrap()));
-        println!("| {side}×{side} | {:.1} | {} | {} |", ms(t), before.map_or(String::new(), |b| format!("{:.2}×", t.as_secs_f64() / b.as_secs_f64())), if before.is_some() { "4×" } else { "" });
+        println!(
+            "| {side}×{side} | {:.1} | {} | {} |",
+            ms(t),
+            before.map_or(String::new(), |b| format!("{:.2}×", t.as_secs_f64() / b.as_secs_f64())),
+            if before.is_some() { "4×" } else { "" }
+        );
         before = Some(t);
     }
 
@@ -84,7 +100,12 @@ fn main() {
         let g = setup(&text);
         let r = PlanRenderer::new(&g.planned, &g.program, &g.scene, &g.assets).unwrap();
         let t = median(|| drop(r.render(Mode::Fixed9, 512, 512, &mut |_, _| {}).unwrap()));
-        println!("| {rings} × {sides} | {} | {:.1} | {} |", 2 * rings * sides, ms(t), before.map_or(String::new(), |b| format!("{:.2}×", t.as_secs_f64() / b.as_secs_f64())));
+        println!(
+            "| {rings} × {sides} | {} | {:.1} | {} |",
+            2 * rings * sides,
+            ms(t),
+            before.map_or(String::new(), |b| format!("{:.2}×", t.as_secs_f64() / b.as_secs_f64()))
+        );
         before = Some(t);
     }
 
@@ -104,13 +125,18 @@ fn peer(s: &Setup, fixed9: Duration, w: u32, h: u32) {
             return;
         }
     };
-    let plan = ScenePlan::new(&s.planned, &s.program, Some(SOURCE), Fidelity::Hardware, &s.scene, &s.assets).unwrap();
+    let plan = ScenePlan::new(&s.planned, &s.program, Some(SOURCE), Fidelity::Hardware, &s.scene, &s.assets)
+        .unwrap();
     let t = median(|| drop(plan.render(&gpu, w, h).unwrap()));
     println!("\nThe peer: the same plan's WGSL (--fidelity hardware) on wgpu, adapter {gpu}, {w}×{h}, whole frame incl. upload and readback");
     println!("| path | ms/frame | ratio to wgpu |");
     println!("|---|---|---|");
     println!("| wgpu | {:.1} | 1.00× |", ms(t));
-    println!("| CPU renderer, fixed9, all threads | {:.1} | {:.2}× |", ms(fixed9), fixed9.as_secs_f64() / t.as_secs_f64());
+    println!(
+        "| CPU renderer, fixed9, all threads | {:.1} | {:.2}× |",
+        ms(fixed9),
+        fixed9.as_secs_f64() / t.as_secs_f64()
+    );
 }
 
 #[cfg(not(feature = "gpu"))]

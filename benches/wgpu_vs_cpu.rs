@@ -26,8 +26,12 @@ fn median(f: impl FnMut()) -> Duration {
 }
 
 fn main() {
-    let src = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd")).unwrap().replace("target geforce256;", "");
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron")).unwrap();
+    let src =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd"))
+            .unwrap()
+            .replace("target geforce256;", "");
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron")).unwrap();
     let scene = Scene::parse(&text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap();
     let assets = scene.build().unwrap();
     let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
@@ -61,8 +65,15 @@ fn main() {
     println!("Kilgard torus, wgsl plan ({} pass), {W}×{H}, median frame time", planned.plan.passes.len());
     println!("| path | ms/frame | CPU time / wgpu frame |");
     println!("|---|---|---|");
-    println!("| wgpu, whole frame (bind vertices + upload + draw + readback) | {:.2} | 1.00× |", ms(gpu_full));
-    println!("| wgpu, draw + readback only (prepared passes) | {:.2} | {:.2}× |", ms(gpu_draw), ms(gpu_draw) / ms(gpu_full));
+    println!(
+        "| wgpu, whole frame (bind vertices + upload + draw + readback) | {:.2} | 1.00× |",
+        ms(gpu_full)
+    );
+    println!(
+        "| wgpu, draw + readback only (prepared passes) | {:.2} | {:.2}× |",
+        ms(gpu_draw),
+        ms(gpu_draw) / ms(gpu_full)
+    );
     println!("| CPU plan renderer, f32 | {:.2} | {:.2}× |", ms(f32_), ms(f32_) / ms(gpu_full));
     println!("| CPU plan renderer, fixed9 | {:.2} | {:.2}× |", ms(fixed9), ms(fixed9) / ms(gpu_full));
 }

@@ -54,7 +54,12 @@ pub struct Diagnostic {
 }
 
 impl Diagnostic {
-    pub fn error(code: &'static str, message: impl Into<String>, span: Span, label: impl Into<String>) -> Diagnostic {
+    pub fn error(
+        code: &'static str,
+        message: impl Into<String>,
+        span: Span,
+        label: impl Into<String>,
+    ) -> Diagnostic {
         Diagnostic {
             severity: Severity::Error,
             code,
@@ -65,7 +70,12 @@ impl Diagnostic {
         }
     }
 
-    pub fn warning(code: &'static str, message: impl Into<String>, span: Span, label: impl Into<String>) -> Diagnostic {
+    pub fn warning(
+        code: &'static str,
+        message: impl Into<String>,
+        span: Span,
+        label: impl Into<String>,
+    ) -> Diagnostic {
         Diagnostic { severity: Severity::Warning, ..Diagnostic::error(code, message, span, label) }
     }
 
@@ -144,7 +154,9 @@ impl SourceFile {
     }
 
     fn touches_long_line(&self, d: &Diagnostic) -> bool {
-        std::iter::once(&d.primary).chain(&d.secondary).any(|l| self.line_around(l.span.start as usize).len() > MAX_SHOWN_LINE)
+        std::iter::once(&d.primary)
+            .chain(&d.secondary)
+            .any(|l| self.line_around(l.span.start as usize).len() > MAX_SHOWN_LINE)
     }
 
     /// The whole line that holds byte `offset`.
@@ -160,12 +172,24 @@ impl SourceFile {
         let at = d.primary.span.start as usize;
         let line = self.line_around(at);
         let line_start = line.as_ptr() as usize - self.text.as_ptr() as usize;
-        let before: String = self.text[line_start..at.min(self.text.len())].chars().rev().take(40).collect::<Vec<_>>().into_iter().rev().collect();
-        let after: String = self.text[at.min(self.text.len())..line_start + line.len()].chars().take(40).collect();
+        let before: String = self.text[line_start..at.min(self.text.len())]
+            .chars()
+            .rev()
+            .take(40)
+            .collect::<Vec<_>>()
+            .into_iter()
+            .rev()
+            .collect();
+        let after: String =
+            self.text[at.min(self.text.len())..line_start + line.len()].chars().take(40).collect();
         let mut out = String::new();
         let _ = writeln!(out, "{}[{}]: {}", severity_word(d.severity), d.code, d.message);
         let _ = writeln!(out, "  ┌─ {}", self.location(d.primary.span.start));
-        let _ = writeln!(out, "  │ (this line has {} characters; showing the 80 around the error)", line.chars().count());
+        let _ = writeln!(
+            out,
+            "  │ (this line has {} characters; showing the 80 around the error)",
+            line.chars().count()
+        );
         let _ = writeln!(out, "  │ …{before}{after}…");
         let _ = writeln!(out, "  │  {}^ {}", " ".repeat(before.chars().count()), d.primary.message);
         if let Some(help) = &d.help {
@@ -187,7 +211,9 @@ impl SourceFile {
             Severity::Hint => cs::Severity::Help,
         };
         let mut labels = vec![cs::Label::primary((), clamp(d.primary.span)).with_message(&d.primary.message)];
-        labels.extend(d.secondary.iter().map(|l| cs::Label::secondary((), clamp(l.span)).with_message(&l.message)));
+        labels.extend(
+            d.secondary.iter().map(|l| cs::Label::secondary((), clamp(l.span)).with_message(&l.message)),
+        );
         let mut notes = Vec::new();
         if let Some(help) = &d.help {
             notes.push(format!("help: {help}"));
@@ -204,7 +230,8 @@ impl SourceFile {
         let mut out = String::new();
         for d in diagnostics {
             let sev = severity_word(d.severity);
-            let _ = writeln!(out, "{}: {sev}[{}]: {}", self.location(d.primary.span.start), d.code, d.message);
+            let _ =
+                writeln!(out, "{}: {sev}[{}]: {}", self.location(d.primary.span.start), d.code, d.message);
         }
         out
     }

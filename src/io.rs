@@ -20,7 +20,8 @@ pub enum IoError {
 
 /// Reads a text file, rejecting non-UTF-8 input with the first bad byte's offset.
 pub fn read_text(path: &Path) -> Result<String, IoError> {
-    let bytes = std::fs::read(path).map_err(|source| IoError::Read { path: path.display().to_string(), source })?;
+    let bytes =
+        std::fs::read(path).map_err(|source| IoError::Read { path: path.display().to_string(), source })?;
     text_from_bytes(path, bytes)
 }
 
@@ -58,7 +59,11 @@ pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
 #[cfg(unix)]
 fn output_permissions(path: &Path) -> Option<std::fs::Permissions> {
     use std::os::unix::fs::PermissionsExt;
-    Some(std::fs::metadata(path).map(|m| m.permissions()).unwrap_or_else(|_| std::fs::Permissions::from_mode(0o666)))
+    Some(
+        std::fs::metadata(path)
+            .map(|m| m.permissions())
+            .unwrap_or_else(|_| std::fs::Permissions::from_mode(0o666)),
+    )
 }
 
 /// Elsewhere the temporary file's defaults are a plain file's.
@@ -92,7 +97,10 @@ mod tests {
     #[test]
     fn non_utf8_names_the_byte_offset() {
         let err = text_from_bytes(Path::new("x.shd"), b"ab\ncd\xffef".to_vec()).unwrap_err();
-        assert_eq!(err.to_string(), "x.shd: byte 5 (line 2) is not valid UTF-8; shadec sources must be UTF-8 text");
+        assert_eq!(
+            err.to_string(),
+            "x.shd: byte 5 (line 2) is not valid UTF-8; shadec sources must be UTF-8 text"
+        );
     }
 
     #[test]

@@ -15,8 +15,8 @@ pub mod planner;
 pub mod profile;
 pub mod renderer;
 pub mod scene;
-pub mod textures;
 pub mod span;
+pub mod textures;
 
 /// Compiles `source` for `profile` into a pass plan — parse, check, lower,
 /// specialize, plan; never touches a GPU (issue 3 part 4). The plan

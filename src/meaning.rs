@@ -22,7 +22,10 @@
 
 use crate::diag::Diagnostic;
 use crate::ir::{Expr, FbChannel, Frequency, Handle, Module, Table, Usage};
-use crate::planner::{self, BlendMode, FragmentWork, Geometry, Pass, PassPlan, Planned, RenderTarget, TextureBinding, VertexWork};
+use crate::planner::{
+    self, BlendMode, FragmentWork, Geometry, Pass, PassPlan, Planned, RenderTarget, TextureBinding,
+    VertexWork,
+};
 use crate::renderer::{BlendState, CullMode, DepthState, RenderState, StencilState};
 
 /// The name the meaning's plan carries as its target.
@@ -54,12 +57,15 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
                 continue;
             }
         };
-        let in_texture_space = st.freq == Frequency::Texel && m.reachable(&[st.index]).iter().any(|h| m.info(*h).freq == Frequency::Vertex);
+        let in_texture_space = st.freq == Frequency::Texel
+            && m.reachable(&[st.index]).iter().any(|h| m.info(*h).freq == Frequency::Vertex);
         let mesh = st.freq == Frequency::Fragment || in_texture_space;
         // seeds/001 (10): a statement at the pixel reuses the vertices the
         // last statement into the same framebuffer projected.
         let at_pixel = mesh && form.drawn_at.is_none() && matches!(m.exprs[st.index], Expr::Pixel { .. });
-        let reused = at_pixel.then(|| drawn.iter().rev().find(|(t, _)| same_target(t, &st.table)).map(|(_, h)| *h)).flatten();
+        let reused = at_pixel
+            .then(|| drawn.iter().rev().find(|(t, _)| same_target(t, &st.table)).map(|(_, h)| *h))
+            .flatten();
         if at_pixel && reused.is_none() {
             errors.push(Diagnostic::error("no-projected-vertices", "this statement at the pixel interpolates per-vertex values, but no earlier statement projects the mesh", st.span, "here").with_help("write a statement `C δπx ← …` into this framebuffer first (seeds/001 (10))"));
             continue;
@@ -67,7 +73,9 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
         let position = reused.or(form.drawn_at).unwrap_or(st.index);
         let geometry = match (st.freq, mesh) {
             (Frequency::Screen, _) => Geometry::Screen,
-            (_, true) => Geometry::Mesh { projection: if in_texture_space { "u".into() } else { "π".into() } },
+            (_, true) => {
+                Geometry::Mesh { projection: if in_texture_space { "u".into() } else { "π".into() } }
+            }
             _ => Geometry::Texels,
         };
         let key = (st.table.clone(), position);
@@ -93,14 +101,23 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
                     FbChannel::Stencil => [false; 4],
                     _ => [true; 4],
                 };
-                (RenderTarget::Framebuffer { name: m.framebuffers[id as usize].name.clone(), channels: channels.into() }, mask)
+                (
+                    RenderTarget::Framebuffer {
+                        name: m.framebuffers[id as usize].name.clone(),
+                        channels: channels.into(),
+                    },
+                    mask,
+                )
             }
-            Table::Texture(id) => (RenderTarget::Texture { name: m.textures[id as usize].name.clone() }, [true; 4]),
+            Table::Texture(id) => {
+                (RenderTarget::Texture { name: m.textures[id as usize].name.clone() }, [true; 4])
+            }
             Table::TexCoords(_) => unreachable!("skipped above"),
         };
         // The stencil update's fragment computes nothing: the depth test
         // and the stencil operation are the statement.
-        let output = if form.channels == "stencil" { constant_one(&mut m, st.value) } else { Some(form.value) };
+        let output =
+            if form.channels == "stencil" { constant_one(&mut m, st.value) } else { Some(form.value) };
         let Some(output) = output else { continue };
         let usage = Usage::of_value(&m, output);
         let textures = usage
@@ -108,7 +125,12 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
             .iter()
             .enumerate()
             .filter_map(|(unit, &h)| match m.exprs[h] {
-                Expr::Lookup { texture, coords } => Some(TextureBinding { unit: unit as u32, texture: m.textures[texture as usize].name.clone(), lookup: h.index() as u32, coords: coords.index() as u32 }),
+                Expr::Lookup { texture, coords } => Some(TextureBinding {
+                    unit: unit as u32,
+                    texture: m.textures[texture as usize].name.clone(),
+                    lookup: h.index() as u32,
+                    coords: coords.index() as u32,
+                }),
                 _ => None,
             })
             .collect();
@@ -119,12 +141,24 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
             at: "-".into(),
             reason: format!("statement {} as written (the program's meaning)", i + 1),
             target,
-            vertex: VertexWork { position: mesh.then_some(position.index() as u32), interpolants: usage.interpolants.iter().map(|h| h.index() as u32).collect(), texgen: Vec::new() },
+            vertex: VertexWork {
+                position: mesh.then_some(position.index() as u32),
+                interpolants: usage.interpolants.iter().map(|h| h.index() as u32).collect(),
+                texgen: Vec::new(),
+            },
             textures,
-            fragment: FragmentWork { output: output.index() as u32, operations: 0, condition: form.condition.map(|c| c.index() as u32) },
+            fragment: FragmentWork {
+                output: output.index() as u32,
+                operations: 0,
+                condition: form.condition.map(|c| c.index() as u32),
+            },
             blend: BlendMode::Replace,
             state: RenderState {
-                cull: if matches!(geometry, Geometry::Mesh { .. }) && !in_texture_space { CullMode::Back } else { CullMode::None },
+                cull: if matches!(geometry, Geometry::Mesh { .. }) && !in_texture_space {
+                    CullMode::Back
+                } else {
+                    CullMode::None
+                },
                 depth,
                 stencil: form.stencil.unwrap_or(StencilState::DISABLED),
                 blend: BlendState::REPLACE.with_write_mask(mask),
@@ -137,7 +171,11 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
     if !errors.is_empty() {
         return Err(errors);
     }
-    Ok(Planned { module: m, plan: PassPlan { target: TARGET.into(), passes, removed: Vec::new(), values: Vec::new() }, combiners: None })
+    Ok(Planned {
+        module: m,
+        plan: PassPlan { target: TARGET.into(), passes, removed: Vec::new(), values: Vec::new() },
+        combiners: None,
+    })
 }
 
 fn constant_one(m: &mut Module, near: Handle<Expr>) -> Option<Handle<Expr>> {

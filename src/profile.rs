@@ -107,7 +107,8 @@ impl Profile {
 
     /// A profile from a RON file.
     pub fn load(path: &Path) -> Result<Profile, ProfileError> {
-        let text = std::fs::read_to_string(path).map_err(|source| ProfileError::Io { path: path.display().to_string(), source })?;
+        let text = std::fs::read_to_string(path)
+            .map_err(|source| ProfileError::Io { path: path.display().to_string(), source })?;
         Profile::from_ron(&text, &path.display().to_string())
     }
 
@@ -124,7 +125,8 @@ impl Profile {
     }
 
     pub fn from_ron(text: &str, path: &str) -> Result<Profile, ProfileError> {
-        ron::from_str(text).map_err(|e| ProfileError::Parse { path: path.to_string(), message: e.to_string() })
+        ron::from_str(text)
+            .map_err(|e| ProfileError::Parse { path: path.to_string(), message: e.to_string() })
     }
 
     pub fn to_ron(&self) -> String {
@@ -146,7 +148,9 @@ impl Profile {
     /// Constant registers one pass offers.
     pub fn constant_registers(&self) -> Option<u32> {
         match &self.fragment {
-            FragmentStage::Combiners(c) if c.per_stage_constants => Some(c.constant_colors * (c.general_combiners + 1)),
+            FragmentStage::Combiners(c) if c.per_stage_constants => {
+                Some(c.constant_colors * (c.general_combiners + 1))
+            }
             FragmentStage::Combiners(c) => Some(c.constant_colors),
             // The texture environment has one constant colour (GL_TEXTURE_ENV_COLOR) per unit.
             FragmentStage::TextureEnv => Some(self.texture_units),
@@ -178,39 +182,88 @@ pub fn fit(module: &Module, profile: &Profile) -> Vec<Diagnostic> {
             labels(d, hs, what)
         };
         if u.texture_units() > profile.texture_units as usize {
-            out.push(overflow("texture units", u.texture_units(), profile.texture_units, &u.lookups, "a texture unit"));
+            out.push(overflow(
+                "texture units",
+                u.texture_units(),
+                profile.texture_units,
+                &u.lookups,
+                "a texture unit",
+            ));
         }
         if u.interpolants.len() > profile.interpolants as usize {
-            out.push(overflow("interpolants", u.interpolants.len(), profile.interpolants, &u.interpolants, "interpolated"));
+            out.push(overflow(
+                "interpolants",
+                u.interpolants.len(),
+                profile.interpolants,
+                &u.interpolants,
+                "interpolated",
+            ));
         }
         if let Some(have) = profile.constant_registers() {
             if u.constants.len() > have as usize {
-                out.push(overflow("constant colours", u.constants.len(), have, &u.constants, "a constant register"));
+                out.push(overflow(
+                    "constant colours",
+                    u.constants.len(),
+                    have,
+                    &u.constants,
+                    "a constant register",
+                ));
             }
         }
         let missing = |what: String, hs: &[Handle<Expr>], help: &str| {
             let first = hs.first().map_or(st.span, |h| module.span(*h));
-            let d = Diagnostic::error("unsupported-by-target", format!("{name} cannot do this: {what}"), first, what.clone()).with_help(help.to_string());
+            let d = Diagnostic::error(
+                "unsupported-by-target",
+                format!("{name} cannot do this: {what}"),
+                first,
+                what.clone(),
+            )
+            .with_help(help.to_string());
             labels(d, &hs[hs.len().min(1)..], "here too")
         };
-        let has_dependent = profile.texture_shaders.as_ref().is_some_and(|t| t.dependent_lookups || t.offset_2d);
+        let has_dependent =
+            profile.texture_shaders.as_ref().is_some_and(|t| t.dependent_lookups || t.offset_2d);
         if !u.dependent_lookups.is_empty() && !has_dependent {
-            out.push(missing("a texture indexed by another texture's result (dependent lookup)".into(), &u.dependent_lookups, "dependent lookups need texture shaders: target geforce3 or wgsl"));
+            out.push(missing(
+                "a texture indexed by another texture's result (dependent lookup)".into(),
+                &u.dependent_lookups,
+                "dependent lookups need texture shaders: target geforce3 or wgsl",
+            ));
         }
         if !u.cube_lookups.is_empty() && !profile.cube_maps {
-            out.push(missing("cube-map lookups".into(), &u.cube_lookups, "target a profile with cube maps (geforce256, geforce3, wgsl)"));
+            out.push(missing(
+                "cube-map lookups".into(),
+                &u.cube_lookups,
+                "target a profile with cube maps (geforce256, geforce3, wgsl)",
+            ));
         }
         if !u.lookups_3d.is_empty() && !profile.textures_3d {
-            out.push(missing("3-D texture lookups".into(), &u.lookups_3d, "target a profile with 3-D textures"));
+            out.push(missing(
+                "3-D texture lookups".into(),
+                &u.lookups_3d,
+                "target a profile with 3-D textures",
+            ));
         }
         if !u.signed_lookups.is_empty() && !profile.signed_textures {
-            out.push(missing("signed textures".into(), &u.signed_lookups, "store range-compressed vectors in rgb8 and `expand` them (seeds/003 Section 5.2)"));
+            out.push(missing(
+                "signed textures".into(),
+                &u.signed_lookups,
+                "store range-compressed vectors in rgb8 and `expand` them (seeds/003 Section 5.2)",
+            ));
         }
         if !u.float_lookups.is_empty() && !profile.float_textures {
-            out.push(missing("float textures".into(), &u.float_lookups, "use an 8-bit format, or target wgsl"));
+            out.push(missing(
+                "float textures".into(),
+                &u.float_lookups,
+                "use an 8-bit format, or target wgsl",
+            ));
         }
         if !u.vertex_lookups.is_empty() && !profile.vertex_texture_fetch {
-            out.push(missing("texture lookups per vertex".into(), &u.vertex_lookups, "interpolate the coordinates first: `T δu x`"));
+            out.push(missing(
+                "texture lookups per vertex".into(),
+                &u.vertex_lookups,
+                "interpolate the coordinates first: `T δu x`",
+            ));
         }
         if profile.fragment == FragmentStage::TextureEnv && !u.arithmetic.is_empty() {
             out.push(missing(
@@ -241,7 +294,10 @@ mod tests {
 
     #[test]
     fn consistent_with_combiner_limits() {
-        assert_eq!(Profile::builtin("geforce256").unwrap().combiner_limits(), Some(CombinerLimits::GEFORCE256));
+        assert_eq!(
+            Profile::builtin("geforce256").unwrap().combiner_limits(),
+            Some(CombinerLimits::GEFORCE256)
+        );
         assert_eq!(Profile::builtin("geforce3").unwrap().combiner_limits(), Some(CombinerLimits::GEFORCE3));
         assert_eq!(Profile::builtin("wgsl").unwrap().combiner_limits(), None);
     }

@@ -22,7 +22,8 @@ fn error_is_within_the_threshold_on_smooth_regions() {
         for cy in 0..h / 16 {
             for cx in 0..w / 16 {
                 // Cell with its border rows/columns (the samples it is interpolated from).
-                let (x0, y0, x1, y1) = (cx * 16, cy * 16, (cx * 16 + 16).min(w - 1), (cy * 16 + 16).min(h - 1));
+                let (x0, y0, x1, y1) =
+                    (cx * 16, cy * 16, (cx * 16 + 16).min(w - 1), (cy * 16 + 16).min(h - 1));
                 let px: Vec<[f32; 4]> =
                     (y0..=y1).flat_map(|y| (x0..=x1).map(move |x| y * w + x)).map(|i| reference[i]).collect();
                 let covered = px.iter().all(|c| c[3] > 0.0);
@@ -63,7 +64,9 @@ fn spot_cut_off_is_not_smeared() {
             // Pixels on both sides of the cut-off edge: a neighbour differs by more than the threshold.
             let jump = [(1i64, 0i64), (0, 1)].iter().any(|&(dx, dy)| {
                 let (nx, ny) = (x as i64 + dx, y as i64 + dy);
-                nx < w as i64 && (ny as usize) < reference.len() / w && max_diff(*r, reference[ny as usize * w + nx as usize]) > t
+                nx < w as i64
+                    && (ny as usize) < reference.len() / w
+                    && max_diff(*r, reference[ny as usize * w + nx as usize]) > t
             });
             if jump {
                 edge_pixels += 1;
@@ -73,7 +76,12 @@ fn spot_cut_off_is_not_smeared() {
         }
         assert!(edge_pixels > 200, "the scene has a sharp cut-off ({edge_pixels} pixels)");
         let e = image_error(&reference, &image);
-        println!("spot spacing {spacing}: {:.2} % shaded, max {:.4}, PSNR {:.2}", 100.0 * stats.fraction_shaded(), e.max_abs, e.psnr);
+        println!(
+            "spot spacing {spacing}: {:.2} % shaded, max {:.4}, PSNR {:.2}",
+            100.0 * stats.fraction_shaded(),
+            e.max_abs,
+            e.psnr
+        );
         assert!(e.max_abs <= t, "max error {}", e.max_abs);
     }
 }
@@ -81,7 +89,12 @@ fn spot_cut_off_is_not_smeared() {
 #[test]
 fn light_culling_never_drops_a_light_that_matters() {
     let tolerance = 0.01;
-    for name in ["adaptive_sphere_4lights.ron", "adaptive_cube_1light.ron", "adaptive_cube_4lights.ron", "adaptive_spot_cutoff.ron"] {
+    for name in [
+        "adaptive_sphere_4lights.ron",
+        "adaptive_cube_1light.ron",
+        "adaptive_cube_4lights.ron",
+        "adaptive_spot_cutoff.ron",
+    ] {
         let (scene, all) = lit(name, None);
         let (_, culled) = lit(name, Some(tolerance));
         let reference = full(&scene, &all);
@@ -110,6 +123,10 @@ fn culling_and_adaptive_shading_together() {
     let reference = full(&scene, &all);
     let (image, stats) = adaptive(&scene, &culled, &AdaptiveSettings::new(16, 0.085, EdgeMode::Triangle));
     let e = image_error(&reference, &image);
-    println!("cube 4 lights, culled + adaptive: {:.2} % shaded, PSNR {:.2}", 100.0 * stats.fraction_shaded(), e.psnr);
+    println!(
+        "cube 4 lights, culled + adaptive: {:.2} % shaded, PSNR {:.2}",
+        100.0 * stats.fraction_shaded(),
+        e.psnr
+    );
     assert!(e.psnr >= 40.0);
 }

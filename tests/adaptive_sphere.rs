@@ -15,10 +15,19 @@ fn paper_criterion_on_the_four_light_sphere() {
     let (image, stats) = adaptive(&scene, &lit, &AdaptiveSettings::new(16, 0.085, EdgeMode::Pass));
     let e = image_error(&reference, &image);
     let fraction = stats.fraction_shaded();
-    println!("sphere 8.5 %: {:.2} % shaded, max abs {:.4}, PSNR {:.2} dB, {stats:?}", 100.0 * fraction, e.max_abs, e.psnr);
+    println!(
+        "sphere 8.5 %: {:.2} % shaded, max abs {:.4}, PSNR {:.2} dB, {stats:?}",
+        100.0 * fraction,
+        e.max_abs,
+        e.psnr
+    );
     assert!(fraction <= 0.1925, "shaded {:.2} % > the paper's 19.25 %", 100.0 * fraction);
     assert!(e.psnr >= 40.0, "PSNR {:.2} dB < 40 dB", e.psnr);
-    assert_eq!(stats.shaded() + stats.interpolated, stats.covered, "every covered pixel is shaded or interpolated");
+    assert_eq!(
+        stats.shaded() + stats.interpolated,
+        stats.covered,
+        "every covered pixel is shaded or interpolated"
+    );
 }
 
 #[test]

@@ -61,7 +61,11 @@ fn ten_megabyte_single_line_expression_is_refused_as_too_deep() {
     src.push(';');
     let r = check_bytes(src.as_bytes());
     assert_eq!(r.code, 1, "{}", r.stderr);
-    assert!(r.stderr.contains("error[nesting-too-deep]: expression nests more than 1000 levels deep"), "{}", &r.stderr[..r.stderr.len().min(2000)]);
+    assert!(
+        r.stderr.contains("error[nesting-too-deep]: expression nests more than 1000 levels deep"),
+        "{}",
+        &r.stderr[..r.stderr.len().min(2000)]
+    );
     // The human rendering must not echo ten megabytes back.
     assert!(r.stderr.len() < 100_000, "stderr is {} bytes", r.stderr.len());
 }
@@ -81,7 +85,11 @@ fn hundred_thousand_nested_parentheses_do_not_overflow() {
     let src = format!("C xs ← {}1{};", "(".repeat(100_000), ")".repeat(100_000));
     let r = check_bytes(src.as_bytes());
     assert_eq!(r.code, 1);
-    assert!(r.stderr.contains("error[nesting-too-deep]: brackets nest more than 64 levels deep"), "{}", r.stderr);
+    assert!(
+        r.stderr.contains("error[nesting-too-deep]: brackets nest more than 64 levels deep"),
+        "{}",
+        r.stderr
+    );
     assert!(r.stderr.contains("input.shd:1:72"), "the error points at the 65th bracket: {}", r.stderr);
 }
 
@@ -104,7 +112,8 @@ fn long_application_and_unary_chains_are_bounded() {
 
 #[test]
 fn unknown_symbols_get_a_suggestion() {
-    let r = check_bytes("vector N : normal;\nvector L : light;\nC δπx ← max(0, N·normalise(L));\n".as_bytes());
+    let r =
+        check_bytes("vector N : normal;\nvector L : light;\nC δπx ← max(0, N·normalise(L));\n".as_bytes());
     assert_eq!(r.code, 1);
     assert!(r.stderr.contains("error[unknown-name]: unknown name `normalise`"), "{}", r.stderr);
     assert!(r.stderr.contains("input.shd:3:18"), "{}", r.stderr);
@@ -138,7 +147,10 @@ fn usage_errors_exit_2() {
 
 // ---------------------------------------------------------------- mutated examples
 
-const SYMBOLS: &[&str] = &["δ", "π", "←", "⊕", "·", "′", "(", ")", "{", "}", ";", "*", "?", ":", "[", "]", "\"", "⁻¹", "x", " ", "\n", "#", "/*", "α"];
+const SYMBOLS: &[&str] = &[
+    "δ", "π", "←", "⊕", "·", "′", "(", ")", "{", "}", ";", "*", "?", ":", "[", "]", "\"", "⁻¹", "x", " ",
+    "\n", "#", "/*", "α",
+];
 
 fn corpus() -> Vec<String> {
     examples().iter().map(|p| std::fs::read_to_string(p).unwrap()).collect()

@@ -28,15 +28,35 @@ fn the_bench_numbers_are_consistent_with_the_papers() {
     // The exact BRDF is not the factored one at per-vertex cosines: the
     // interpolation costs more than the 8-bit tables (seeds/002 Section 3.1).
     assert!(e("heidrich_seidel_exact") > 0.0);
-    assert!(e("torrance_sparrow_per_pixel_f32") < e("heidrich_seidel_f32"), "{} vs {}", e("torrance_sparrow_per_pixel_f32"), e("heidrich_seidel_f32"));
+    assert!(
+        e("torrance_sparrow_per_pixel_f32") < e("heidrich_seidel_f32"),
+        "{} vs {}",
+        e("torrance_sparrow_per_pixel_f32"),
+        e("heidrich_seidel_f32")
+    );
     // Per-pixel, renormalized shading beats per-vertex shading on a coarse sphere.
-    assert!(e("phong_exact_f32") < e("gouraud") / 100.0, "Phong {} vs Gouraud {}", e("phong_exact_f32"), e("gouraud"));
+    assert!(
+        e("phong_exact_f32") < e("gouraud") / 100.0,
+        "Phong {} vs Gouraud {}",
+        e("phong_exact_f32"),
+        e("gouraud")
+    );
     // seeds/003 App. D: 16-bit cube-map normalization beats 8-bit.
     assert!(e("phong_cube16") < e("phong_cube8") / 10.0, "{} vs {}", e("phong_cube16"), e("phong_cube8"));
     // seeds/000 Formula 6: Taylor renormalization beats none.
-    assert!(e("phong_taylor") < e("phong_unnormalized") / 2.0, "{} vs {}", e("phong_taylor"), e("phong_unnormalized"));
+    assert!(
+        e("phong_taylor") < e("phong_unnormalized") / 2.0,
+        "{} vs {}",
+        e("phong_taylor"),
+        e("phong_unnormalized")
+    );
     // seeds/000 Section 4.4: at n = 64 in 8 bits, the table beats repeated squaring.
-    assert!(e("exponent_lookup") < e("exponent_squaring"), "{} vs {}", e("exponent_lookup"), e("exponent_squaring"));
+    assert!(
+        e("exponent_lookup") < e("exponent_squaring"),
+        "{} vs {}",
+        e("exponent_lookup"),
+        e("exponent_squaring")
+    );
     // True pow in f32 beats both 8-bit methods.
     assert!(e("exponent_pow") < e("exponent_lookup"));
     // The combiners' precision costs something over float, never less than nothing.
@@ -71,7 +91,8 @@ fn exact_renders_of_approximations_are_the_truth() {
         // The same holds across targets (other pass splits) for the truth itself.
         let other = if g.truth_target == "wgsl" { "geforce3" } else { "wgsl" };
         if let Ok(p) = Prepared::new(g.truth.name, g.truth.source, other, g.scene.ron) {
-            let image = p.renderer().unwrap().render(Mode::Exact, size.0, size.1, &mut |_, _| {}).unwrap().image;
+            let image =
+                p.renderer().unwrap().render(Mode::Exact, size.0, size.1, &mut |_, _| {}).unwrap().image;
             let e = compare(&truth, &image);
             assert!(e.max_abs <= 2e-6, "{}: the truth depends on the target: {e:?}", g.name);
             across += 1;
@@ -95,9 +116,16 @@ fn bench_quick_writes_the_report_the_plots_and_the_differences() {
         .arg(dir.path().join("b"))
         .output()
         .unwrap();
-    assert!(out.status.success(), "{}{}", String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(
+        out.status.success(),
+        "{}{}",
+        String::from_utf8_lossy(&out.stdout),
+        String::from_utf8_lossy(&out.stderr)
+    );
     let b = dir.path().join("b");
-    for f in ["report.md", "speed_vs_error.png", "adaptive.png", "diff/gouraud.png", "diff/kilgard_fixed9.png"] {
+    for f in
+        ["report.md", "speed_vs_error.png", "adaptive.png", "diff/gouraud.png", "diff/kilgard_fixed9.png"]
+    {
         assert!(b.join(f).is_file(), "{f} missing");
     }
     for png in ["speed_vs_error.png", "adaptive.png"] {
@@ -107,9 +135,15 @@ fn bench_quick_writes_the_report_the_plots_and_the_differences() {
     assert_eq!(image::open(b.join("diff/gouraud.png")).unwrap().width(), 64);
     // Every variant row of the report is a full table row with numbers.
     let md = std::fs::read_to_string(b.join("report.md")).unwrap();
-    let names: Vec<&str> = shadec::bench::groups().iter().flat_map(|g| g.variants.iter().map(|v| v.name).collect::<Vec<_>>()).collect();
+    let names: Vec<&str> = shadec::bench::groups()
+        .iter()
+        .flat_map(|g| g.variants.iter().map(|v| v.name).collect::<Vec<_>>())
+        .collect();
     for name in &names {
-        let row = md.lines().find(|l| l.starts_with(&format!("| {name} ")) || l.starts_with(&format!("| {name} *"))).unwrap_or_else(|| panic!("no row for {name} in\n{md}"));
+        let row = md
+            .lines()
+            .find(|l| l.starts_with(&format!("| {name} ")) || l.starts_with(&format!("| {name} *")))
+            .unwrap_or_else(|| panic!("no row for {name} in\n{md}"));
         let cells: Vec<&str> = row.trim_matches('|').split('|').map(str::trim).collect();
         assert_eq!(cells.len(), 10, "{row}");
         let ms: f64 = cells[5].parse().unwrap_or_else(|_| panic!("{row}"));
@@ -117,11 +151,17 @@ fn bench_quick_writes_the_report_the_plots_and_the_differences() {
         assert!(ms > 0.0 && rmse >= 0.0, "{row}");
     }
     for scene in ["adaptive_sphere_4lights", "adaptive_cube_1light", "adaptive_cube_4lights"] {
-        assert!(md.lines().any(|l| l.starts_with(&format!("| {scene} | 8.5 %"))), "{scene} at 8.5 % missing:\n{md}");
+        assert!(
+            md.lines().any(|l| l.starts_with(&format!("| {scene} | 8.5 %"))),
+            "{scene} at 8.5 % missing:\n{md}"
+        );
     }
     assert!(md.contains("## Removed work") && md.contains("lights_matte_floor"), "{md}");
     // Each fixed9 row says what ran: Kilgard's passes on the emulated combiners.
-    let kilgard = md.lines().find(|l| l.starts_with("- `kilgard_fixed9` — ")).unwrap_or_else(|| panic!("no fixed9 note for Kilgard:\n{md}"));
+    let kilgard = md
+        .lines()
+        .find(|l| l.starts_with("- `kilgard_fixed9` — "))
+        .unwrap_or_else(|| panic!("no fixed9 note for Kilgard:\n{md}"));
     assert_eq!(kilgard.matches("register combiners").count(), 3, "{kilgard}");
 }
 

@@ -11,15 +11,28 @@ fn check_examples_is_clean_with_a_summary_per_file() {
     assert_eq!(r.code, 0, "{}\n{}", r.stdout, r.stderr);
     let n = common::examples().len();
     assert!(n >= 25);
-    assert_eq!(r.stdout.lines().filter(|l| l.starts_with("examples/") && l.contains(" ok ")).count(), n, "{}", r.stdout);
-    assert!(r.stdout.contains(&format!("checked {n} files: {n} clean, 0 errors, 0 warnings")), "{}", r.stdout);
+    assert_eq!(
+        r.stdout.lines().filter(|l| l.starts_with("examples/") && l.contains(" ok ")).count(),
+        n,
+        "{}",
+        r.stdout
+    );
+    assert!(
+        r.stdout.contains(&format!("checked {n} files: {n} clean, 0 errors, 0 warnings")),
+        "{}",
+        r.stdout
+    );
     assert!(r.stderr.is_empty(), "{}", r.stderr);
 }
 
 #[test]
 fn json_is_one_document_of_lsp_diagnostics() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("bad.shd"), "vector N : normal;\nC δπx ← N·normalise(N);\nC δπx ← 𝑇 = 1;\n").unwrap();
+    std::fs::write(
+        dir.path().join("bad.shd"),
+        "vector N : normal;\nC δπx ← N·normalise(N);\nC δπx ← 𝑇 = 1;\n",
+    )
+    .unwrap();
     std::fs::write(dir.path().join("good.shd"), "C δπx ← 1;\n").unwrap();
     let r = shadec_in(dir.path(), &["check", "--format", "json", "bad.shd", "good.shd"]);
     assert_eq!(r.code, 1);
@@ -27,7 +40,10 @@ fn json_is_one_document_of_lsp_diagnostics() {
     assert_eq!(doc["summary"]["files"], 2);
     assert_eq!(doc["summary"]["errors"], 2);
     let files = doc["files"].as_array().unwrap();
-    assert!(files[0]["uri"].as_str().unwrap().starts_with("file:///") && files[0]["uri"].as_str().unwrap().ends_with("/bad.shd"));
+    assert!(
+        files[0]["uri"].as_str().unwrap().starts_with("file:///")
+            && files[0]["uri"].as_str().unwrap().ends_with("/bad.shd")
+    );
     let diags = files[0]["diagnostics"].as_array().unwrap();
     assert_eq!(diags.len(), 2);
     let d = &diags[0];
@@ -73,7 +89,11 @@ fn warnings_pass_unless_denied() {
 #[test]
 fn fmt_writes_atomically_and_refuses_broken_input_without_touching_the_output() {
     let dir = tempfile::tempdir().unwrap();
-    std::fs::write(dir.path().join("a.shd"), "C delta pi x <- T delta u x (+)[add] (delta p s x);\ntexture T : 2d;\nshader p : s -> c = 1;\n").unwrap();
+    std::fs::write(
+        dir.path().join("a.shd"),
+        "C delta pi x <- T delta u x (+)[add] (delta p s x);\ntexture T : 2d;\nshader p : s -> c = 1;\n",
+    )
+    .unwrap();
     let r = shadec_in(dir.path(), &["fmt", "a.shd", "-o", "out.shd"]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     let out = std::fs::read_to_string(dir.path().join("out.shd")).unwrap();
@@ -84,5 +104,9 @@ fn fmt_writes_atomically_and_refuses_broken_input_without_touching_the_output() 
     let r = shadec_in(dir.path(), &["fmt", "broken.shd", "-o", "out.shd"]);
     assert_eq!(r.code, 1);
     assert!(r.stderr.contains("nothing was written"));
-    assert_eq!(std::fs::read_to_string(dir.path().join("out.shd")).unwrap(), out, "a failed run keeps the old output");
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("out.shd")).unwrap(),
+        out,
+        "a failed run keeps the old output"
+    );
 }

@@ -31,7 +31,8 @@ fn runs_appendix_h_on_images() {
     let out = dir.path().join("out.png");
     for (config, precision) in [("appendix_h.rc", "fixed9"), ("appendix_h.ron", "f32")] {
         let cfg = data(config);
-        let (code, err) = shadec(args![&cfg, "--tex0", &t0, "--tex1", &t1, "--precision", precision, "--out", &out]);
+        let (code, err) =
+            shadec(args![&cfg, "--tex0", &t0, "--tex1", &t1, "--precision", precision, "--out", &out]);
         assert_eq!(code, 0, "{err}");
         let img = image::open(&out).unwrap().to_rgba8();
         assert_eq!(img.dimensions(), (3, 2));
@@ -44,9 +45,22 @@ fn program_constants_override_command_line_ones() {
     let dir = tempfile::tempdir().unwrap();
     let prim = png(dir.path(), "p.png", 1, 1, [0, 0, 0, 0]);
     let cfg = dir.path().join("c.rc");
-    std::fs::write(&cfg, "!!RC1.0\nconst0 = (1, 0, 0, 1);\nout.rgb = const0 + const1;\nout.a = fog;\n").unwrap();
+    std::fs::write(&cfg, "!!RC1.0\nconst0 = (1, 0, 0, 1);\nout.rgb = const0 + const1;\nout.a = fog;\n")
+        .unwrap();
     let out = dir.path().join("out.png");
-    let (code, err) = shadec(args![&cfg, "--primary", &prim, "--const0", "0,0,1,1", "--const1", "0,1,0,1", "--fog", "0,0,0,0.5", "--out", &out]);
+    let (code, err) = shadec(args![
+        &cfg,
+        "--primary",
+        &prim,
+        "--const0",
+        "0,0,1,1",
+        "--const1",
+        "0,1,0,1",
+        "--fog",
+        "0,0,0,0.5",
+        "--out",
+        &out
+    ]);
     assert_eq!(code, 0, "{err}");
     assert_eq!(image::open(&out).unwrap().to_rgba8().get_pixel(0, 0).0, [255, 255, 0, 128]);
 }
@@ -59,7 +73,10 @@ fn mismatched_sizes_are_a_usage_error() {
     let out = dir.path().join("out.png");
     let (code, err) = shadec(args![&data("appendix_g.rc"), "--tex0", &a, "--tex1", &b, "--out", &out]);
     assert_eq!(code, 2);
-    assert!(err.contains("input images differ in size") && err.contains("is 4x4 but") && err.contains("is 4x3"), "{err}");
+    assert!(
+        err.contains("input images differ in size") && err.contains("is 4x4 but") && err.contains("is 4x3"),
+        "{err}"
+    );
     assert!(!out.exists(), "no output on failure");
 }
 
@@ -71,7 +88,8 @@ fn missing_files_are_io_errors() {
     let (code, err) = shadec(args![&dir.path().join("nope.rc"), "--tex0", &a, "--out", &out]);
     assert_eq!(code, 2);
     assert!(err.contains("nope.rc: cannot read"), "{err}");
-    let (code, err) = shadec(args![&data("appendix_g.rc"), "--tex0", &dir.path().join("gone.png"), "--out", &out]);
+    let (code, err) =
+        shadec(args![&data("appendix_g.rc"), "--tex0", &dir.path().join("gone.png"), "--out", &out]);
     assert_eq!(code, 2);
     assert!(err.contains("gone.png: cannot read"), "{err}");
     let not_png = dir.path().join("x.png");
@@ -79,7 +97,8 @@ fn missing_files_are_io_errors() {
     let (code, err) = shadec(args![&data("appendix_g.rc"), "--tex0", &not_png, "--out", &out]);
     assert_eq!(code, 2);
     assert!(err.contains("not a readable PNG"), "{err}");
-    let (code, _) = shadec(args![&data("appendix_g.rc"), "--tex0", &a, "--out", &dir.path().join("no/such/dir/o.png")]);
+    let (code, _) =
+        shadec(args![&data("appendix_g.rc"), "--tex0", &a, "--out", &dir.path().join("no/such/dir/o.png")]);
     assert_eq!(code, 2);
     let (code, err) = shadec(args![&data("appendix_g.rc"), "--out", &out]);
     assert_eq!(code, 2);
@@ -95,7 +114,10 @@ fn malformed_configs_name_file_line_and_column() {
     std::fs::write(&rc, "!!RC1.0\n{\n  rgb { spare0 = tex0 * tex9; }\n}\nout.rgb = spare0;\n").unwrap();
     let (code, err) = shadec(args![&rc, "--tex0", &a, "--out", &out]);
     assert_eq!(code, 1);
-    assert!(err.contains("bad.rc:3:25") && err.contains("unknown register `tex9`") && err.contains("help:"), "{err}");
+    assert!(
+        err.contains("bad.rc:3:25") && err.contains("unknown register `tex9`") && err.contains("help:"),
+        "{err}"
+    );
     let ron = dir.path().join("bad.ron");
     std::fs::write(&ron, "(\n  general: [],\n  final: oops,\n)").unwrap();
     let (code, err) = shadec(args![&ron, "--tex0", &a, "--out", &out]);

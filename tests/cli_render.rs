@@ -17,7 +17,9 @@ fn no_arguments_renders_the_default_into_shadec_out_png() {
     let img = image::open(&png).unwrap().to_rgba8();
     assert_eq!(img.dimensions(), (640, 480));
     assert!(img.pixels().any(|p| p.0[0] > 40), "the torus is visible");
-    for needle in ["3 passes on geforce256", "pass 1:", "Mpixel/s", "max abs", "RMSE", "PSNR", "fixed9", "stand-in"] {
+    for needle in
+        ["3 passes on geforce256", "pass 1:", "Mpixel/s", "max abs", "RMSE", "PSNR", "fixed9", "stand-in"]
+    {
         assert!(stdout.contains(needle), "missing {needle:?} in:\n{stdout}");
     }
     assert_eq!(std::fs::read_dir(dir.path()).unwrap().count(), 1, "only the picture is written");
@@ -35,7 +37,10 @@ fn options_choose_mode_size_target_and_output() {
     assert!(out.status.success(), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
     // Kilgard's three statements fuse into one pass on geforce3.
     assert!(stdout.contains("1 pass on geforce3"), "{stdout}");
-    assert!(stdout.contains("error against the program's meaning (exact, unsplit): max abs 0.0000"), "{stdout}");
+    assert!(
+        stdout.contains("error against the program's meaning (exact, unsplit): max abs 0.0000"),
+        "{stdout}"
+    );
     assert_eq!(image::open(dir.path().join("x.png")).unwrap().to_rgba8().dimensions(), (80, 60));
 }
 
@@ -80,10 +85,21 @@ fn a_pass_the_cpu_cannot_render_is_located_at_its_statement() {
         "vector N : normal;\nvector L : light(0);\ntexture T : 2d rgba16f bilinear clamp = image(\"fat.png\");\nshader p : s → c = max(0, N·L);\n\nC δπx ← p T δu x;\n",
     )
     .unwrap();
-    let out = shadec().args(["render", "--size", "64x48", "--shader"]).arg(&shader).current_dir(dir.path()).output().unwrap();
+    let out = shadec()
+        .args(["render", "--size", "64x48", "--shader"])
+        .arg(&shader)
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert_eq!(out.status.code(), Some(1), "{stderr}");
-    assert!(stderr.contains("cpu-unsupported") && stderr.contains("fat.shd:6:1") && stderr.contains("no layout yet") && stderr.contains("help:"), "{stderr}");
+    assert!(
+        stderr.contains("cpu-unsupported")
+            && stderr.contains("fat.shd:6:1")
+            && stderr.contains("no layout yet")
+            && stderr.contains("help:"),
+        "{stderr}"
+    );
     assert!(!dir.path().join("shadec-out.png").exists());
 }
 
@@ -94,7 +110,11 @@ fn a_bad_scene_is_an_input_error() {
     std::fs::write(&scene, "(camera: (eye: (0.0, 0.0, 1.0)), objects: [],, )").unwrap();
     let out = shadec().arg("render").arg(&scene).current_dir(dir.path()).output().unwrap();
     assert_eq!(out.status.code(), Some(1));
-    assert!(String::from_utf8_lossy(&out.stderr).contains("s.ron:"), "{}", String::from_utf8_lossy(&out.stderr));
+    assert!(
+        String::from_utf8_lossy(&out.stderr).contains("s.ron:"),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
 }
 
 /// A number printed after `label` (`8.50 % of`, `PSNR 49.22 dB`).
@@ -110,7 +130,12 @@ fn a_scene_with_four_lights_renders_a_pass_per_light_unless_told_not_to() {
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/adaptive_sphere_4lights.ron");
     let shader = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/fragment_lighting.shd");
     let run = |extra: &[&str]| {
-        let out = shadec().args(["render", scene, "--shader", shader, "--mode", "f32", "--size", "96x96"]).args(extra).current_dir(dir.path()).output().unwrap();
+        let out = shadec()
+            .args(["render", scene, "--shader", shader, "--mode", "f32", "--size", "96x96"])
+            .args(extra)
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
         let stdout = String::from_utf8_lossy(&out.stdout).to_string();
         assert!(out.status.success(), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
         stdout
@@ -129,7 +154,20 @@ fn adaptive_shading_reports_the_pixels_shaded_and_its_error() {
     let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/adaptive_sphere_4lights.ron");
     let shader = concat!(env!("CARGO_MANIFEST_DIR"), "/examples/fragment_lighting.shd");
     let out = shadec()
-        .args(["render", scene, "--shader", shader, "--mode", "f32", "--size", "256x256", "--adaptive", "8.5%,16", "--out", "a.png"])
+        .args([
+            "render",
+            scene,
+            "--shader",
+            shader,
+            "--mode",
+            "f32",
+            "--size",
+            "256x256",
+            "--adaptive",
+            "8.5%,16",
+            "--out",
+            "a.png",
+        ])
         .current_dir(dir.path())
         .output()
         .unwrap();

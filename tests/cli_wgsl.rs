@@ -7,27 +7,64 @@ use common::shadec;
 
 #[test]
 fn emit_wgsl_labels_passes_and_source_lines() {
-    let r = shadec(&["compile", "examples/kilgard_bump_mapping.shd", "--target", "geforce256", "--emit", "wgsl", "--fidelity", "hardware"]);
+    let r = shadec(&[
+        "compile",
+        "examples/kilgard_bump_mapping.shd",
+        "--target",
+        "geforce256",
+        "--emit",
+        "wgsl",
+        "--fidelity",
+        "hardware",
+    ]);
     assert_eq!(r.code, 0, "{}", r.stderr);
-    assert!(r.stdout.starts_with("// shadec: kilgard_bump_mapping.shd on geforce256, fidelity hardware — 3 passes"), "{}", r.stdout);
+    assert!(
+        r.stdout
+            .starts_with("// shadec: kilgard_bump_mapping.shd on geforce256, fidelity hardware — 3 passes"),
+        "{}",
+        r.stdout
+    );
     for n in 1..=3 {
         assert!(r.stdout.contains(&format!("// ==== pass {n} of 3")), "{}", r.stdout);
     }
     assert!(r.stdout.contains("// 57:1: C δπx ← Tdecal δu x"));
     // Hardware fidelity runs each pass's generated combiner setup.
     assert_eq!(r.stdout.matches("fn register_combiners(").count(), 3, "{}", r.stdout);
-    let exact = shadec(&["compile", "examples/kilgard_bump_mapping.shd", "--target", "geforce256", "--emit", "wgsl"]);
+    let exact =
+        shadec(&["compile", "examples/kilgard_bump_mapping.shd", "--target", "geforce256", "--emit", "wgsl"]);
     assert_eq!(exact.code, 0, "{}", exact.stderr);
     assert!(exact.stdout.contains("let s_self = "), "{}", exact.stdout);
     // A target without combiners runs hardware fidelity's per-operation
     // model (on geforce3 the combiner generator cannot realize this program,
     // and the planner refuses it).
-    let refused = shadec(&["compile", "src/bench/programs/phong_taylor.shd", "--target", "geforce3", "--emit", "wgsl", "--fidelity", "hardware"]);
+    let refused = shadec(&[
+        "compile",
+        "src/bench/programs/phong_taylor.shd",
+        "--target",
+        "geforce3",
+        "--emit",
+        "wgsl",
+        "--fidelity",
+        "hardware",
+    ]);
     assert_eq!(refused.code, 1, "{}", refused.stderr);
     assert!(refused.stderr.contains("error[cannot-split]"), "{}", refused.stderr);
-    let taylor = shadec(&["compile", "src/bench/programs/phong_taylor.shd", "--target", "wgsl", "--emit", "wgsl", "--fidelity", "hardware"]);
+    let taylor = shadec(&[
+        "compile",
+        "src/bench/programs/phong_taylor.shd",
+        "--target",
+        "wgsl",
+        "--emit",
+        "wgsl",
+        "--fidelity",
+        "hardware",
+    ]);
     assert_eq!(taylor.code, 0, "{}", taylor.stderr);
-    assert!(taylor.stdout.contains("fn quantize_x(") && !taylor.stdout.contains("fn register_combiners("), "{}", taylor.stdout);
+    assert!(
+        taylor.stdout.contains("fn quantize_x(") && !taylor.stdout.contains("fn register_combiners("),
+        "{}",
+        taylor.stdout
+    );
 }
 
 #[test]
@@ -45,7 +82,16 @@ fn emit_spirv_needs_an_output_and_writes_one_file_per_pass() {
     assert!(r.stderr.contains("-o OUT"), "{}", r.stderr);
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("k.spv");
-    let r = shadec(&["compile", "examples/kilgard_bump_mapping.shd", "--target", "geforce256", "--emit", "spirv", "-o", out.to_str().unwrap()]);
+    let r = shadec(&[
+        "compile",
+        "examples/kilgard_bump_mapping.shd",
+        "--target",
+        "geforce256",
+        "--emit",
+        "spirv",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     for n in 1..=3 {
         let bytes = std::fs::read(dir.path().join(format!("k.pass{n}.spv"))).unwrap();
@@ -69,7 +115,11 @@ fn emit_glsl_has_both_stages() {
 fn unsupported_constructs_are_diagnostics_with_locations() {
     let r = shadec(&["compile", "tests/data/own_stencil_read.shd", "--emit", "wgsl"]);
     assert_eq!(r.code, 1);
-    assert!(r.stderr.contains("error[wgsl-unsupported]") && r.stderr.contains("own_stencil_read.shd:5:"), "{}", r.stderr);
+    assert!(
+        r.stderr.contains("error[wgsl-unsupported]") && r.stderr.contains("own_stencil_read.shd:5:"),
+        "{}",
+        r.stderr
+    );
     assert!(r.stdout.is_empty());
 }
 

@@ -6,7 +6,8 @@
 use shadec::diag::Diagnostic;
 use shadec::ir::{self, Expr, Module, Ty};
 
-const DECLS: &str = "vector N : normal;\nvector L : light(0);\nvector I : intensity(0);\nconst kd : rgb = (0.8, 0.6, 0.4);\n";
+const DECLS: &str =
+    "vector N : normal;\nvector L : light(0);\nvector I : intensity(0);\nconst kd : rgb = (0.8, 0.6, 0.4);\n";
 
 /// Checks and lowers; every error of both.
 fn errors(src: &str) -> Vec<Diagnostic> {
@@ -33,14 +34,22 @@ fn the_lighting_idiom_writes_into_the_framebuffer() {
     let st = &m.statements[0];
     // rgb widened to rgba (alpha 1) for the framebuffer's colour.
     assert_eq!(m.info(st.value).ty, Ty::Rgba);
-    let Expr::Convert { value, to: Ty::Rgba } = m.exprs[st.value] else { panic!("not a widening: {:?}", m.exprs[st.value]) };
+    let Expr::Convert { value, to: Ty::Rgba } = m.exprs[st.value] else {
+        panic!("not a widening: {:?}", m.exprs[st.value])
+    };
     assert_eq!(m.info(value).ty, Ty::Rgb);
 }
 
 #[test]
 fn an_intensity_vector_is_a_colour() {
     let m = lower_ok(&format!("{DECLS}C δπx ← I δ s x;\n"));
-    let vectors: Vec<Ty> = m.exprs.arena().iter().filter(|(_, e)| matches!(e, Expr::Vector { .. })).map(|(h, _)| m.info(h).ty).collect();
+    let vectors: Vec<Ty> = m
+        .exprs
+        .arena()
+        .iter()
+        .filter(|(_, e)| matches!(e, Expr::Vector { .. }))
+        .map(|(h, _)| m.info(h).ty)
+        .collect();
     assert_eq!(vectors, vec![Ty::Rgb]);
 }
 
@@ -49,7 +58,9 @@ fn rgb_of_a_vec3_is_a_colour() {
     // A direction shown as a colour (a normal-map debug view).
     let m = lower_ok(&format!("{DECLS}C δπx ← rgb(N δ s x);\n"));
     let st = &m.statements[0];
-    let Expr::Convert { value, to: Ty::Rgba } = m.exprs[st.value] else { panic!("not a widening: {:?}", m.exprs[st.value]) };
+    let Expr::Convert { value, to: Ty::Rgba } = m.exprs[st.value] else {
+        panic!("not a widening: {:?}", m.exprs[st.value])
+    };
     assert_eq!(m.info(value).ty, Ty::Rgb);
     // `rgb(I)` of a colour is the colour itself; `vec3(I)` reads it as a vector.
     lower_ok(&format!("{DECLS}shader d : s → c = rgb(I) * max(0, N·L);\nC δπx ← d δ s x;\n"));
@@ -70,7 +81,20 @@ fn a_vec3_into_a_framebuffer_says_how_to_convert() {
 /// check fails with the same message at both.
 #[test]
 fn a_colour_shader_checks_alike_where_declared_and_where_used() {
-    let bodies = ["I * max(0, N·L)", "N", "kd * max(0, N·L)", "N·L", "rgb(N)", "I", "(N + L) * 0.5", "kd * I", "vec3(I)", "N.xy", "rgba(kd)", "(0.1, 0.2, 0.3)"];
+    let bodies = [
+        "I * max(0, N·L)",
+        "N",
+        "kd * max(0, N·L)",
+        "N·L",
+        "rgb(N)",
+        "I",
+        "(N + L) * 0.5",
+        "kd * I",
+        "vec3(I)",
+        "N.xy",
+        "rgba(kd)",
+        "(0.1, 0.2, 0.3)",
+    ];
     let mut clean = 0;
     for out in ["c", "rgb", "rgba"] {
         for body in bodies {

@@ -10,15 +10,23 @@ use combiners_common as common;
 use shadec::backends::combiners::emulator::{emulate, Inputs, Precision};
 use shadec::backends::combiners::rc1::parse_and_validate;
 use shadec::backends::combiners::{
-    validate, Bias, CombinerConfig, CombinerLimits, ComponentUsage, FinalInput, FinalSource, GeneralInput, GeneralStage,
-    InputMapping, PortionKind, Register, Scale,
+    validate, Bias, CombinerConfig, CombinerLimits, ComponentUsage, FinalInput, FinalSource, GeneralInput,
+    GeneralStage, InputMapping, PortionKind, Register, Scale,
 };
 
 use ComponentUsage::{Alpha, Blue, Rgb};
 use InputMapping::*;
 use Register::*;
 
-fn input(c: &mut CombinerConfig, stage: usize, portion: PortionKind, var: char, register: Register, mapping: InputMapping, usage: ComponentUsage) {
+fn input(
+    c: &mut CombinerConfig,
+    stage: usize,
+    portion: PortionKind,
+    var: char,
+    register: Register,
+    mapping: InputMapping,
+    usage: ComponentUsage,
+) {
     let p = match portion {
         PortionKind::Rgb => &mut c.general[stage].rgb,
         PortionKind::Alpha => &mut c.general[stage].alpha,
@@ -33,12 +41,25 @@ fn input(c: &mut CombinerConfig, stage: usize, portion: PortionKind, var: char, 
 }
 
 #[allow(clippy::too_many_arguments)]
-fn output(c: &mut CombinerConfig, stage: usize, portion: PortionKind, ab: Option<Register>, cd: Option<Register>, sum: Option<Register>, scale: Scale, bias: Bias, ab_dot: bool, cd_dot: bool, mux: bool) {
+fn output(
+    c: &mut CombinerConfig,
+    stage: usize,
+    portion: PortionKind,
+    ab: Option<Register>,
+    cd: Option<Register>,
+    sum: Option<Register>,
+    scale: Scale,
+    bias: Bias,
+    ab_dot: bool,
+    cd_dot: bool,
+    mux: bool,
+) {
     let p = match portion {
         PortionKind::Rgb => &mut c.general[stage].rgb,
         PortionKind::Alpha => &mut c.general[stage].alpha,
     };
-    (p.ab_output, p.cd_output, p.sum_output, p.scale, p.bias, p.ab_dot, p.cd_dot, p.mux_sum) = (ab, cd, sum, scale, bias, ab_dot, cd_dot, mux);
+    (p.ab_output, p.cd_output, p.sum_output, p.scale, p.bias, p.ab_dot, p.cd_dot, p.mux_sum) =
+        (ab, cd, sum, scale, bias, ab_dot, cd_dot, mux);
 }
 
 fn fin(c: &mut CombinerConfig, var: char, source: FinalSource, mapping: InputMapping, usage: ComponentUsage) {
@@ -57,7 +78,10 @@ fn fin(c: &mut CombinerConfig, var: char, source: FinalSource, mapping: InputMap
 
 /// The GL initial state with `GL_NUM_GENERAL_COMBINERS_NV` = 2.
 fn initial_two() -> CombinerConfig {
-    CombinerConfig { general: vec![GeneralStage::initial(0), GeneralStage::initial(1)], ..CombinerConfig::default() }
+    CombinerConfig {
+        general: vec![GeneralStage::initial(0), GeneralStage::initial(1)],
+        ..CombinerConfig::default()
+    }
 }
 
 /// configCombinersForAmbientAndDiffusePass, Appendix G.
@@ -134,11 +158,16 @@ fn rc_and_ron_transcriptions_emulate_identically() {
     let n = 64 * 64;
     let t0: Vec<u8> = (0..n * 4).map(|i| (i * 7919 % 256) as u8).collect();
     let t1: Vec<u8> = (0..n * 4).map(|i| (i * 104729 % 253) as u8).collect();
-    let inputs = Inputs { width: 64, height: 64, textures: [Some(&t0), Some(&t1), None, None], ..Inputs::default() };
+    let inputs =
+        Inputs { width: 64, height: 64, textures: [Some(&t0), Some(&t1), None, None], ..Inputs::default() };
     for (rc, ron) in [("appendix_g.rc", appendix_g()), ("appendix_h.rc", appendix_h())] {
         let program = parse_and_validate(&common::data(rc), &CombinerLimits::GEFORCE256).unwrap();
         for precision in [Precision::Fixed9, Precision::F32] {
-            assert_eq!(emulate(&program, &inputs, precision).unwrap(), emulate(&ron, &inputs, precision).unwrap(), "{rc}");
+            assert_eq!(
+                emulate(&program, &inputs, precision).unwrap(),
+                emulate(&ron, &inputs, precision).unwrap(),
+                "{rc}"
+            );
         }
     }
 }

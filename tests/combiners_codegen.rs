@@ -8,7 +8,9 @@ mod combiners_common;
 use combiners_common as common;
 
 use shadec::backends::combiners::emulator::{emulate, Inputs, Precision};
-use shadec::backends::combiners::{generate, validate, CodegenError, CombinerConfig, CombinerLimits, Generated, PassInput};
+use shadec::backends::combiners::{
+    generate, validate, CodegenError, CombinerConfig, CombinerLimits, Generated, PassInput,
+};
 use shadec::ir::{self, BinaryOp, Expr, Handle, MathFunction, Module, Ty, UnaryOp};
 
 // ---------------------------------------------------------------------------
@@ -62,11 +64,18 @@ fn value_src_keeps_splat(value: &str) -> bool {
     value.starts_with("splat ")
 }
 
-fn compile(value_src: &str, limits: &CombinerLimits) -> (Module, Handle<Expr>, Result<Generated, CodegenError>) {
+fn compile(
+    value_src: &str,
+    limits: &CombinerLimits,
+) -> (Module, Handle<Expr>, Result<Generated, CodegenError>) {
     compile_with("", value_src, limits)
 }
 
-fn compile_with(decls: &str, value_src: &str, limits: &CombinerLimits) -> (Module, Handle<Expr>, Result<Generated, CodegenError>) {
+fn compile_with(
+    decls: &str,
+    value_src: &str,
+    limits: &CombinerLimits,
+) -> (Module, Handle<Expr>, Result<Generated, CodegenError>) {
     let value = value_src.strip_prefix("splat ").unwrap_or(value_src);
     let m = lower(&program_with(decls, value));
     let mut v = m.statements.last().unwrap().value;
@@ -248,7 +257,13 @@ fn check(value: &str, tolerance: f64) -> Generated {
 /// without a default is bound to the global constant register the generator
 /// reports holding it (`Generated::constants`); one it does not report fails.
 #[track_caller]
-fn check_on(decls: &str, value: &str, limits: &CombinerLimits, precision: Precision, tolerance: f64) -> Generated {
+fn check_on(
+    decls: &str,
+    value: &str,
+    limits: &CombinerLimits,
+    precision: Precision,
+    tolerance: f64,
+) -> Generated {
     let (m, v, r) = compile_with(decls, value, limits);
     let g = r.unwrap_or_else(|e| panic!("{value}: {e} ({})", e.help()));
     assert!(validate(&g.config, limits).is_ok());
@@ -260,8 +275,14 @@ fn check_on(decls: &str, value: &str, limits: &CombinerLimits, precision: Precis
     for h in m.reachable(&[v]) {
         if let Expr::Uniform(id) = m.exprs[h] {
             if m.uniforms[id as usize].default.is_none() {
-                let j = g.constants.iter().position(|c| *c == Some(h)).unwrap_or_else(|| panic!("{value}: uniform {} is not reported", m.uniforms[id as usize].name));
-                assert_eq!([g.config.constant0, g.config.constant1][j], None, "a supplied uniform leaves its constant unset");
+                let j = g.constants.iter().position(|c| *c == Some(h)).unwrap_or_else(|| {
+                    panic!("{value}: uniform {} is not reported", m.uniforms[id as usize].name)
+                });
+                assert_eq!(
+                    [g.config.constant0, g.config.constant1][j],
+                    None,
+                    "a supplied uniform leaves its constant unset"
+                );
                 supplied[j] = uniform_value(&m, id).map(|x| x as f32);
             }
         }
@@ -283,7 +304,13 @@ fn check_on(decls: &str, value: &str, limits: &CombinerLimits, precision: Precis
         let want = reference(&m, v, &env);
         for c in 0..4 {
             let d = (f64::from(out[p * 4 + c]) - want[c]).abs();
-            assert!(d <= tolerance, "{value}: pixel {p} channel {c}: emulated {} want {:.3}\n{}", out[p * 4 + c], want[c], shadec::backends::combiners::rc1::print(&g.config));
+            assert!(
+                d <= tolerance,
+                "{value}: pixel {p} channel {c}: emulated {} want {:.3}\n{}",
+                out[p * 4 + c],
+                want[c],
+                shadec::backends::combiners::rc1::print(&g.config)
+            );
         }
     }
     g
@@ -406,7 +433,10 @@ fn a_splatted_scalar_writes_alpha_too() {
 fn interpolated_colours_go_to_primary() {
     let g = check("g * a.rgb", TOL);
     assert!(g.primary.is_some() && g.secondary.is_none());
-    assert_eq!(g.config.final_combiner.a.source, shadec::backends::combiners::FinalSource::Register(shadec::backends::combiners::Register::Primary));
+    assert_eq!(
+        g.config.final_combiner.a.source,
+        shadec::backends::combiners::FinalSource::Register(shadec::backends::combiners::Register::Primary)
+    );
 }
 
 #[test]
@@ -446,7 +476,9 @@ fn more_than_two_constants_need_per_stage_constants() {
     for (value, n) in MANY_CONSTANTS {
         // geforce256: the third distinct constant is the error, located.
         let (e, text) = error(value, &CombinerLimits::GEFORCE256);
-        let CodegenError::OutOfConstants { ref place, ref constants, .. } = e else { panic!("{value}: {e:?}") };
+        let CodegenError::OutOfConstants { ref place, ref constants, .. } = e else {
+            panic!("{value}: {e:?}")
+        };
         assert_eq!(place, "the pass", "{value}");
         assert_eq!(constants.len(), 3, "{value}: {constants:?}");
         assert!(!text.is_empty(), "{value}: the error has a span");
@@ -455,10 +487,16 @@ fn more_than_two_constants_need_per_stage_constants() {
         let (_, _, r) = compile(value, &CombinerLimits::GEFORCE3);
         let g = r.unwrap_or_else(|e| panic!("{value}: {e}"));
         let (global, local) = constants_set(&g.config);
-        assert!(global <= 2 && global + local >= n, "{value}: {global} global + {local} per-stage constants for {n}");
+        assert!(
+            global <= 2 && global + local >= n,
+            "{value}: {global} global + {local} per-stage constants for {n}"
+        );
         assert!(local >= 1, "{value}: some stage sets its own constant");
         assert_eq!(g.stage_constants.len(), g.stages);
-        assert!(validate(&g.config, &CombinerLimits::GEFORCE256).unwrap_err().iter().any(|e| e.code == "per-stage-constant"));
+        assert!(validate(&g.config, &CombinerLimits::GEFORCE256)
+            .unwrap_err()
+            .iter()
+            .any(|e| e.code == "per-stage-constant"));
         // The final combiner reads only global constants; a stage reads its own or the global ones.
         for s in &g.config.general {
             assert!([s.constant0, s.constant1].iter().flatten().count() <= 2);
@@ -501,7 +539,8 @@ fn two_constants_stay_global_on_geforce3() {
 #[test]
 fn per_stage_constants_are_reported() {
     let decls = "uniform tint : rgb = (0.9, 0.5, 0.1);";
-    let value = "tint * a.rgb * b.a + (0.2, 0.1, 0.05) * b.rgb + (0.1, 0.3, 0.2) * (a.a * b.rgb) + kd * (b.a * a.a)";
+    let value =
+        "tint * a.rgb * b.a + (0.2, 0.1, 0.05) * b.rgb + (0.1, 0.3, 0.2) * (a.a * b.rgb) + kd * (b.a * a.a)";
     let (m, v, r) = compile_with(decls, value, &CombinerLimits::GEFORCE3);
     let g = r.unwrap_or_else(|e| panic!("{e}"));
     let mut reported: Vec<Handle<Expr>> = g.constants.iter().flatten().copied().collect();
@@ -529,7 +568,8 @@ fn per_stage_constants_are_reported() {
 #[test]
 fn supplied_uniforms_stay_global() {
     let decls = "uniform u1 : rgb; uniform u2 : rgb;";
-    let value = "u1 * a.rgb * b.a + (0.2, 0.1, 0.05) * b.rgb + (0.1, 0.3, 0.2) * (a.a * b.rgb) + u2 * (b.a * a.a)";
+    let value =
+        "u1 * a.rgb * b.a + (0.2, 0.1, 0.05) * b.rgb + (0.1, 0.3, 0.2) * (a.a * b.rgb) + u2 * (b.a * a.a)";
     let g = check_on(decls, value, &CombinerLimits::GEFORCE3, Precision::F32, TOL);
     assert_eq!(g.config.constant0, None);
     assert_eq!(g.config.constant1, None);
@@ -538,7 +578,8 @@ fn supplied_uniforms_stay_global() {
     // Three supplied uniforms cannot all be global.
     let decls = "uniform u1 : rgb; uniform u2 : rgb; uniform u3 : rgb;";
     let src = program_with(decls, "u1 * a.rgb + u2 * b.rgb + u3 * (a.a * b.rgb)");
-    let (_, _, r) = compile_with(decls, "u1 * a.rgb + u2 * b.rgb + u3 * (a.a * b.rgb)", &CombinerLimits::GEFORCE3);
+    let (_, _, r) =
+        compile_with(decls, "u1 * a.rgb + u2 * b.rgb + u3 * (a.a * b.rgb)", &CombinerLimits::GEFORCE3);
     let e = r.unwrap_err();
     let CodegenError::OutOfConstants { span, ref constants, .. } = e else { panic!("{e:?}") };
     let mut names = constants.clone();
@@ -566,7 +607,10 @@ fn a_third_final_constant_is_copied_by_a_stage() {
 #[test]
 fn spare_registers_are_reused() {
     // Four dependent products: each result dies when the next is computed.
-    let (_, _, r) = compile("expand(a.rgb) * expand(b.rgb) * expand(a.a) * expand(b.a) * expand(b.b)", &CombinerLimits::GEFORCE3);
+    let (_, _, r) = compile(
+        "expand(a.rgb) * expand(b.rgb) * expand(a.a) * expand(b.a) * expand(b.b)",
+        &CombinerLimits::GEFORCE3,
+    );
     let g = r.unwrap();
     let written: std::collections::HashSet<_> =
         g.config.general.iter().flat_map(|s| [s.rgb.ab_output, s.rgb.sum_output]).flatten().collect();
@@ -659,7 +703,9 @@ struct Kilgard {
 }
 
 fn kilgard() -> Kilgard {
-    let src = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd")).unwrap();
+    let src =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd"))
+            .unwrap();
     let m = lower(&src);
     let rhs = |h: Handle<Expr>| match &m.exprs[h] {
         Expr::Combine { rhs, .. } => *rhs,
@@ -683,7 +729,9 @@ fn kilgard() -> Kilgard {
             .find(|(_, e)| match e {
                 Expr::Lookup { texture, coords } if *texture == tex => match (v, &m.exprs[*coords]) {
                     (None, _) => true,
-                    (Some(v), Expr::Interpolate { value, .. }) => matches!(m.exprs[*value], Expr::Vector { vector, .. } if vector as usize == v),
+                    (Some(v), Expr::Interpolate { value, .. }) => {
+                        matches!(m.exprs[*value], Expr::Vector { vector, .. } if vector as usize == v)
+                    }
                     _ => false,
                 },
                 _ => false,
@@ -692,7 +740,14 @@ fn kilgard() -> Kilgard {
             .unwrap()
     };
     let (tn, ncube) = (texture("Tn"), texture("Ncube"));
-    Kilgard { normal_map: lookup(tn, ""), l_cube: lookup(ncube, "L"), h_cube: lookup(ncube, "H"), pass2, pass3, m }
+    Kilgard {
+        normal_map: lookup(tn, ""),
+        l_cube: lookup(ncube, "L"),
+        h_cube: lookup(ncube, "H"),
+        pass2,
+        pass3,
+        m,
+    }
     .fix()
 }
 
@@ -711,7 +766,12 @@ fn same_outputs(generated: &CombinerConfig, appendix: &CombinerConfig, channels:
     let (w, h) = (256, 64);
     let n = w * h;
     let imgs = images(n, 2, 0x00c0_ffee);
-    let inputs = Inputs { width: w, height: h, textures: [Some(&imgs[0]), Some(&imgs[1]), None, None], ..Inputs::default() };
+    let inputs = Inputs {
+        width: w,
+        height: h,
+        textures: [Some(&imgs[0]), Some(&imgs[1]), None, None],
+        ..Inputs::default()
+    };
     let a = emulate(generated, &inputs, Precision::Fixed9).unwrap();
     let b = emulate(appendix, &inputs, Precision::Fixed9).unwrap();
     let mut differ = 0;
@@ -720,7 +780,13 @@ fn same_outputs(generated: &CombinerConfig, appendix: &CombinerConfig, channels:
             if a[p * 4 + c] != b[p * 4 + c] {
                 differ += 1;
                 if differ < 5 {
-                    eprintln!("{what}: pixel {p} channel {c}: generated {} appendix {} (t0 {:?} t1 {:?})", a[p * 4 + c], b[p * 4 + c], &imgs[0][p * 4..p * 4 + 4], &imgs[1][p * 4..p * 4 + 4]);
+                    eprintln!(
+                        "{what}: pixel {p} channel {c}: generated {} appendix {} (t0 {:?} t1 {:?})",
+                        a[p * 4 + c],
+                        b[p * 4 + c],
+                        &imgs[0][p * 4..p * 4 + 4],
+                        &imgs[1][p * 4..p * 4 + 4]
+                    );
                 }
             }
         }
@@ -732,13 +798,18 @@ fn same_outputs(generated: &CombinerConfig, appendix: &CombinerConfig, channels:
 fn golden_pass_2_is_appendix_g() {
     let k = kilgard();
     let units = [k.normal_map, k.l_cube];
-    let g = generate(&PassInput { module: &k.m, value: k.pass2, units: &units }, &CombinerLimits::GEFORCE256).unwrap();
+    let g = generate(&PassInput { module: &k.m, value: k.pass2, units: &units }, &CombinerLimits::GEFORCE256)
+        .unwrap();
     assert_eq!(g.stages, 2, "Appendix G uses both general combiners");
     let appendix = CombinerConfig::from_ron(&common::data("appendix_g.ron")).unwrap();
     // Appendix G defines all four channels: rgb = ambient + diffuse, alpha = s_self.
     same_outputs(&g.config, &appendix, &[0, 1, 2, 3], "pass 2 vs Appendix G");
     // And the nvparse transcription.
-    let rc = shadec::backends::combiners::rc1::parse_and_validate(&common::data("appendix_g.rc"), &CombinerLimits::GEFORCE256).unwrap();
+    let rc = shadec::backends::combiners::rc1::parse_and_validate(
+        &common::data("appendix_g.rc"),
+        &CombinerLimits::GEFORCE256,
+    )
+    .unwrap();
     same_outputs(&g.config, &rc, &[0, 1, 2, 3], "pass 2 vs appendix_g.rc");
 }
 
@@ -746,7 +817,8 @@ fn golden_pass_2_is_appendix_g() {
 fn golden_pass_3_is_appendix_h() {
     let k = kilgard();
     let units = [k.normal_map, k.h_cube];
-    let g = generate(&PassInput { module: &k.m, value: k.pass3, units: &units }, &CombinerLimits::GEFORCE256).unwrap();
+    let g = generate(&PassInput { module: &k.m, value: k.pass3, units: &units }, &CombinerLimits::GEFORCE256)
+        .unwrap();
     assert_eq!(g.stages, 2, "Appendix H uses both general combiners");
     let appendix = CombinerConfig::from_ron(&common::data("appendix_h.ron")).unwrap();
     // Only rgb: the pass's value `specular` is a scalar, whose alpha the DSL
@@ -755,7 +827,11 @@ fn golden_pass_3_is_appendix_h() {
     // only matters if destination alpha is written in pass 3, which the
     // paper does not rely on.
     same_outputs(&g.config, &appendix, &[0, 1, 2], "pass 3 vs Appendix H");
-    let rc = shadec::backends::combiners::rc1::parse_and_validate(&common::data("appendix_h.rc"), &CombinerLimits::GEFORCE256).unwrap();
+    let rc = shadec::backends::combiners::rc1::parse_and_validate(
+        &common::data("appendix_h.rc"),
+        &CombinerLimits::GEFORCE256,
+    )
+    .unwrap();
     same_outputs(&g.config, &rc, &[0, 1, 2], "pass 3 vs appendix_h.rc");
 }
 
@@ -766,9 +842,12 @@ fn golden_configs_print_as_rc() {
     let k = kilgard();
     for (value, cube) in [(k.pass2, k.l_cube), (k.pass3, k.h_cube)] {
         let units = [k.normal_map, cube];
-        let g = generate(&PassInput { module: &k.m, value, units: &units }, &CombinerLimits::GEFORCE256).unwrap();
+        let g =
+            generate(&PassInput { module: &k.m, value, units: &units }, &CombinerLimits::GEFORCE256).unwrap();
         let text = shadec::backends::combiners::rc1::print(&g.config);
         println!("{text}");
-        assert!(shadec::backends::combiners::rc1::parse_and_validate(&text, &CombinerLimits::GEFORCE256).is_ok());
+        assert!(
+            shadec::backends::combiners::rc1::parse_and_validate(&text, &CombinerLimits::GEFORCE256).is_ok()
+        );
     }
 }

@@ -13,7 +13,12 @@ use shadec::planner::{compile_source, Planned};
 use shadec::profile::Profile;
 
 fn examples() -> Vec<(String, String)> {
-    common::examples().into_iter().map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read_to_string(&p).unwrap())).collect()
+    common::examples()
+        .into_iter()
+        .map(|p| {
+            (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read_to_string(&p).unwrap())
+        })
+        .collect()
 }
 
 /// The generator's verdict on every pass: Ok(stages) or Err(located message).
@@ -30,14 +35,24 @@ fn verdicts(planned: &Planned, profile: &Profile, src: &str) -> Vec<Result<usize
             match generate(&PassInput { module: &planned.module, value, units: &units }, &limits) {
                 Ok(g) => {
                     validate(&g.config, &limits).map_err(|e| format!("invalid config: {e:?}"))?;
-                    assert_eq!(pass.combiners, None, "the plan says pass {} is not generated, the generator generates it", i + 1);
+                    assert_eq!(
+                        pass.combiners,
+                        None,
+                        "the plan says pass {} is not generated, the generator generates it",
+                        i + 1
+                    );
                     Ok(g.stages)
                 }
                 Err(e) => {
                     let span = e.span().ok_or_else(|| format!("unlocated: {e}"))?;
                     let lc = lines.line_col(src, span.start as usize);
                     // The plan's verdict is located the same way.
-                    assert_eq!(pass.combiners, Some(format!("not generated: {}:{}: {e}", lc.line, lc.col)), "pass {}", i + 1);
+                    assert_eq!(
+                        pass.combiners,
+                        Some(format!("not generated: {}:{}: {e}", lc.line, lc.col)),
+                        "pass {}",
+                        i + 1
+                    );
                     Err(format!("{}:{}: {e} (help: {})", lc.line, lc.col, e.help()))
                 }
             }
@@ -55,7 +70,10 @@ fn report(profile: &str) -> Vec<(String, Result<Vec<Result<usize, String>>, Stri
                 Err(d) => {
                     assert!(!d.is_empty());
                     for d in &d {
-                        assert!(d.primary.span != shadec::span::Span::DETACHED || d.help.is_some(), "{name}: a diagnostic with neither location nor help: {d:?}");
+                        assert!(
+                            d.primary.span != shadec::span::Span::DETACHED || d.help.is_some(),
+                            "{name}: a diagnostic with neither location nor help: {d:?}"
+                        );
                     }
                     Err(d[0].message.clone())
                 }
@@ -75,7 +93,11 @@ fn every_example_generates_or_is_located_on_both_combiner_profiles() {
                         match v {
                             Ok(n) => eprintln!("{profile} {name} pass {}: {n} stages", i + 1),
                             Err(e) => {
-                                assert!(!e.starts_with("unlocated") && !e.starts_with("invalid"), "{profile} {name} pass {}: {e}", i + 1);
+                                assert!(
+                                    !e.starts_with("unlocated") && !e.starts_with("invalid"),
+                                    "{profile} {name} pass {}: {e}",
+                                    i + 1
+                                );
                                 eprintln!("{profile} {name} pass {}: NOT generated: {e}", i + 1)
                             }
                         }
@@ -103,10 +125,15 @@ fn every_example_generates_or_is_located_on_both_combiner_profiles() {
 fn every_planned_pass_is_generated() {
     for (profile, planned) in [("geforce256", 23), ("geforce3", 20)] {
         let r = report(profile);
-        let passes: Vec<&Result<usize, String>> = r.iter().filter_map(|(_, r)| r.as_ref().ok()).flatten().collect();
+        let passes: Vec<&Result<usize, String>> =
+            r.iter().filter_map(|(_, r)| r.as_ref().ok()).flatten().collect();
         let generated = passes.iter().filter(|v| v.is_ok()).count();
         eprintln!("{profile}: {generated} of {} planned passes generated", passes.len());
         assert_eq!(generated, passes.len(), "{profile}: a planned pass the generator cannot realize");
-        assert_eq!(passes.len(), planned, "{profile}: the examples plan into a different number of passes; update the counts");
+        assert_eq!(
+            passes.len(),
+            planned,
+            "{profile}: the examples plan into a different number of passes; update the counts"
+        );
     }
 }

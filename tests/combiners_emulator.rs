@@ -7,11 +7,13 @@ mod combiners_common;
 use combiners_common as common;
 
 use proptest::prelude::*;
-use shadec::backends::combiners::emulator::{emulate, EmulateError, Inputs, PixelEmulator, PixelRegisters, Precision};
+use shadec::backends::combiners::emulator::{
+    emulate, EmulateError, Inputs, PixelEmulator, PixelRegisters, Precision,
+};
 use shadec::backends::combiners::rc1::{self, parse_and_validate};
 use shadec::backends::combiners::{
-    Bias, CombinerConfig, CombinerLimits, ComponentUsage, FinalSource, GeneralInput, GeneralPortion, InputMapping,
-    PortionKind, Register, Scale,
+    Bias, CombinerConfig, CombinerLimits, ComponentUsage, FinalSource, GeneralInput, GeneralPortion,
+    InputMapping, PortionKind, Register, Scale,
 };
 
 fn program(text: &str) -> CombinerConfig {
@@ -19,7 +21,13 @@ fn program(text: &str) -> CombinerConfig {
 }
 
 /// Runs a config on one pixel given as RGBA8 per input.
-fn pixel(config: &CombinerConfig, tex: [[u8; 4]; 4], primary: [u8; 4], secondary: [u8; 4], precision: Precision) -> [u8; 4] {
+fn pixel(
+    config: &CombinerConfig,
+    tex: [[u8; 4]; 4],
+    primary: [u8; 4],
+    secondary: [u8; 4],
+    precision: Precision,
+) -> [u8; 4] {
     let t = tex.map(|t| t.to_vec());
     let (p, s) = (primary.to_vec(), secondary.to_vec());
     let inputs = Inputs {
@@ -79,9 +87,15 @@ fn hardware_output_mappings() {
 #[test]
 fn final_alpha_reads_blue() {
     let config = program("!!RC1.0\nout.rgb = tex0;\nout.a = tex0.b;\n");
-    assert_eq!(pixel(&config, [[10, 20, 30, 40], [0; 4], [0; 4], [0; 4]], [0; 4], [0; 4], Precision::Fixed9), [10, 20, 30, 30]);
+    assert_eq!(
+        pixel(&config, [[10, 20, 30, 40], [0; 4], [0; 4], [0; 4]], [0; 4], [0; 4], Precision::Fixed9),
+        [10, 20, 30, 30]
+    );
     let spare = program("!!RC1.0\n{ rgb { spare0 = tex1 * one; } }\nout.rgb = zero;\nout.a = spare0.b;\n");
-    assert_eq!(pixel(&spare, [[0; 4], [1, 2, 200, 9], [0; 4], [0; 4]], [0; 4], [0; 4], Precision::Fixed9)[3], 200);
+    assert_eq!(
+        pixel(&spare, [[0; 4], [1, 2, 200, 9], [0; 4], [0; 4]], [0; 4], [0; 4], Precision::Fixed9)[3],
+        200
+    );
 }
 
 #[test]
@@ -124,7 +138,8 @@ fn color_sum_clamp_and_unsigned_identity_above_one() {
     // (Table 3's unsigned identity is max(0, x): no clamp above 1). In fixed9 the constant ½ is
     // stored as 128/255, so 128 · 408 / 255 = 204.8 → 205.
     let base = "const0 = (0.5, 0.5, 0.5, 0.5);\n{ rgb { spare0 = unsigned(col0); } }\n";
-    let clamped = program(&format!("!!RC1.0\n{base}clamp_color_sum();\nout.rgb = lerp(const0, color_sum, zero);"));
+    let clamped =
+        program(&format!("!!RC1.0\n{base}clamp_color_sum();\nout.rgb = lerp(const0, color_sum, zero);"));
     let unclamped = program(&format!("!!RC1.0\n{base}out.rgb = lerp(const0, color_sum, zero);"));
     let c = [204, 204, 204, 255];
     for (precision, expected) in [(Precision::Fixed9, 205), (Precision::F32, 204)] {
@@ -156,7 +171,13 @@ fn both_portions_read_the_registers_as_the_stage_began() {
 #[test]
 fn constants_program_over_command_line_and_per_stage_only_in_stage() {
     let c = program("!!RC1.0\nconst1 = (0, 0, 1, 1);\n{ const0 = (1, 0, 0, 1); rgb { spare0 = unsigned(const0); } }\n{ rgb { spare1 = unsigned(const0); } }\nout.rgb = spare0 + spare1;\nout.a = const1;");
-    let inputs = Inputs { width: 1, height: 1, constant0: [0.0, 1.0, 0.0, 1.0], constant1: [1.0, 0.0, 0.0, 0.0], ..Inputs::default() };
+    let inputs = Inputs {
+        width: 1,
+        height: 1,
+        constant0: [0.0, 1.0, 0.0, 1.0],
+        constant1: [1.0, 0.0, 0.0, 0.0],
+        ..Inputs::default()
+    };
     let out = emulate(&c, &inputs, Precision::Fixed9).unwrap();
     // Stage 0 sees its own const0 (red), stage 1 the command line's (green); const1 comes from the program.
     assert_eq!(out, vec![255, 255, 0, 255]);
@@ -180,7 +201,14 @@ fn initial_gl_state_modulates_primary_by_texture() {
     let inputs_px = ([[200, 100, 50, 255], [0; 4], [0; 4], [0; 4]], [255, 255, 128, 255]);
     let t: Vec<Vec<u8>> = inputs_px.0.iter().map(|t| t.to_vec()).collect();
     let p = inputs_px.1.to_vec();
-    let inputs = Inputs { width: 1, height: 1, textures: [Some(&t[0]), None, None, None], primary: Some(&p), fog: [0.0, 0.0, 0.0, 1.0], ..Inputs::default() };
+    let inputs = Inputs {
+        width: 1,
+        height: 1,
+        textures: [Some(&t[0]), None, None, None],
+        primary: Some(&p),
+        fog: [0.0, 0.0, 0.0, 1.0],
+        ..Inputs::default()
+    };
     // 128·50/255 = 25.1 → 25; alpha: G = spare0.a = 255·255/255.
     assert_eq!(emulate(&c, &inputs, Precision::Fixed9).unwrap(), vec![200, 100, 25, 255]);
 }
@@ -193,7 +221,10 @@ fn errors_instead_of_panics() {
     assert!(matches!(emulate(&c, &inputs, Precision::F32), Err(EmulateError::SizeMismatch { .. })));
     let mut bad = CombinerConfig::default();
     bad.general[0].alpha.ab_dot = true;
-    assert!(matches!(emulate(&bad, &Inputs { width: 1, height: 1, ..Inputs::default() }, Precision::F32), Err(EmulateError::Invalid(_))));
+    assert!(matches!(
+        emulate(&bad, &Inputs { width: 1, height: 1, ..Inputs::default() }, Precision::F32),
+        Err(EmulateError::Invalid(_))
+    ));
     assert_eq!(emulate(&c, &Inputs::default(), Precision::Fixed9), Ok(Vec::new()));
     let huge = Inputs { width: usize::MAX, height: 3, ..Inputs::default() };
     assert!(emulate(&c, &huge, Precision::Fixed9).is_err());
@@ -208,8 +239,26 @@ fn reference(config: &CombinerConfig, inputs: &Inputs, i: usize, precision: Prec
     // Exact values here are multiples of 1/(255·2040), so a tie k + ½ is never
     // closer than 1/2040 to a non-tie: the 1e-7 makes f64 ties round up exactly.
     let q = |x: f64| if fixed { ((x * 255.0) + 0.5 + 1e-7).floor() / 255.0 } else { x };
-    let unit = |c: [f32; 4]| c.map(|v| if fixed { (v.clamp(0.0, 1.0) * 255.0 + 0.5).floor() as f64 / 255.0 } else { v.clamp(0.0, 1.0) as f64 });
-    let px = |img: Option<&[u8]>| img.map_or([0.0; 4], |img| [0, 1, 2, 3].map(|c| if fixed { img[i * 4 + c] as f64 / 255.0 } else { (img[i * 4 + c] as f32 * (1.0 / 255.0)) as f64 }));
+    let unit = |c: [f32; 4]| {
+        c.map(|v| {
+            if fixed {
+                (v.clamp(0.0, 1.0) * 255.0 + 0.5).floor() as f64 / 255.0
+            } else {
+                v.clamp(0.0, 1.0) as f64
+            }
+        })
+    };
+    let px = |img: Option<&[u8]>| {
+        img.map_or([0.0; 4], |img| {
+            [0, 1, 2, 3].map(|c| {
+                if fixed {
+                    img[i * 4 + c] as f64 / 255.0
+                } else {
+                    (img[i * 4 + c] as f32 * (1.0 / 255.0)) as f64
+                }
+            })
+        })
+    };
     let mut regs = [[0.0f64; 4]; 12];
     regs[Register::Fog.index()] = unit(inputs.fog);
     for (u, t) in inputs.textures.iter().enumerate() {
@@ -218,10 +267,17 @@ fn reference(config: &CombinerConfig, inputs: &Inputs, i: usize, precision: Prec
     regs[Register::Primary.index()] = px(inputs.primary);
     regs[Register::Secondary.index()] = px(inputs.secondary);
     regs[Register::Spare0.index()][3] = regs[Register::Texture0.index()][3];
-    let globals = [unit(config.constant0.unwrap_or(inputs.constant0)), unit(config.constant1.unwrap_or(inputs.constant1))];
+    let globals = [
+        unit(config.constant0.unwrap_or(inputs.constant0)),
+        unit(config.constant1.unwrap_or(inputs.constant1)),
+    ];
     let map = |m: InputMapping, x: f64| -> f64 {
         let r = m.apply(x as f32) as f64;
-        if fixed { m_exact(m, x) } else { r }
+        if fixed {
+            m_exact(m, x)
+        } else {
+            r
+        }
     };
     for stage in &config.general {
         regs[Register::Constant0.index()] = stage.constant0.map_or(globals[0], unit);
@@ -239,7 +295,13 @@ fn reference(config: &CombinerConfig, inputs: &Inputs, i: usize, precision: Prec
             };
             let prod = |a: &GeneralInput, b: &GeneralInput, dot: bool, ch: usize| -> f64 {
                 if dot {
-                    (0..3).map(|c| var(a, c) * var(b, c)).fold(0.0, |s, x| if fixed { s + x } else { (s as f32 + x as f32) as f64 })
+                    (0..3).map(|c| var(a, c) * var(b, c)).fold(0.0, |s, x| {
+                        if fixed {
+                            s + x
+                        } else {
+                            (s as f32 + x as f32) as f64
+                        }
+                    })
                 } else if fixed {
                     var(a, ch) * var(b, ch)
                 } else {
@@ -249,11 +311,25 @@ fn reference(config: &CombinerConfig, inputs: &Inputs, i: usize, precision: Prec
             for &ch in chans {
                 let ab = prod(&p.a, &p.b, p.ab_dot, ch);
                 let cd = prod(&p.c, &p.d, p.cd_dot, ch);
-                let sum = if p.mux_sum { if old[Register::Spare0.index()][3] < 0.5 { ab } else { cd } } else if fixed { ab + cd } else { (ab as f32 + cd as f32) as f64 };
+                let sum = if p.mux_sum {
+                    if old[Register::Spare0.index()][3] < 0.5 {
+                        ab
+                    } else {
+                        cd
+                    }
+                } else if fixed {
+                    ab + cd
+                } else {
+                    (ab as f32 + cd as f32) as f64
+                };
                 let out = |v: f64| {
                     // fixed9: the bias's ½ is 128/255 (NV2A golden images, above).
                     let bias = if p.bias == Bias::Zero { 0.0 } else { -HALF };
-                    let v = if fixed { (v + bias) * p.scale.factor() as f64 } else { ((v as f32 + p.bias.offset()) * p.scale.factor()) as f64 };
+                    let v = if fixed {
+                        (v + bias) * p.scale.factor() as f64
+                    } else {
+                        ((v as f32 + p.bias.offset()) * p.scale.factor()) as f64
+                    };
                     q(v.clamp(-1.0, 1.0))
                 };
                 for (r, v) in [(p.ab_output, ab), (p.cd_output, cd), (p.sum_output, sum)] {
@@ -269,24 +345,47 @@ fn reference(config: &CombinerConfig, inputs: &Inputs, i: usize, precision: Prec
     let f = &config.final_combiner;
     let cs: [f64; 3] = [0, 1, 2].map(|c| {
         let s = regs[Register::Spare0.index()][c].max(0.0) + regs[Register::Secondary.index()][c].max(0.0);
-        if fixed { s.min(if f.color_sum_clamp { 1.0 } else { 2.0 }) } else { (s as f32).min(if f.color_sum_clamp { 1.0 } else { 2.0 }) as f64 }
+        if fixed {
+            s.min(if f.color_sum_clamp { 1.0 } else { 2.0 })
+        } else {
+            (s as f32).min(if f.color_sum_clamp { 1.0 } else { 2.0 }) as f64
+        }
     });
-    let fmap = |m: InputMapping, x: f64| if m == InputMapping::UnsignedInvert { 1.0 - x.clamp(0.0, 1.0) } else { x.max(0.0) };
+    let fmap = |m: InputMapping, x: f64| {
+        if m == InputMapping::UnsignedInvert {
+            1.0 - x.clamp(0.0, 1.0)
+        } else {
+            x.max(0.0)
+        }
+    };
     let read = |v: &shadec::backends::combiners::FinalInput, ch: usize, ef: &[f64; 3]| match v.source {
-        FinalSource::Register(r) => fmap(v.mapping, regs[r.index()][match v.usage {
-            ComponentUsage::Alpha => 3,
-            ComponentUsage::Blue => 2,
-            ComponentUsage::Rgb => ch,
-        }]),
+        FinalSource::Register(r) => fmap(
+            v.mapping,
+            regs[r.index()][match v.usage {
+                ComponentUsage::Alpha => 3,
+                ComponentUsage::Blue => 2,
+                ComponentUsage::Rgb => ch,
+            }],
+        ),
         FinalSource::EfProduct => fmap(v.mapping, ef[ch]),
         FinalSource::Spare0PlusSecondary => fmap(v.mapping, cs[ch]),
     };
     let ef: [f64; 3] = [0, 1, 2].map(|c| {
         let e = read(&f.e, c, &[0.0; 3]);
         let g = read(&f.f, c, &[0.0; 3]);
-        if fixed { q(e * g) } else { (e as f32 * g as f32) as f64 }
+        if fixed {
+            q(e * g)
+        } else {
+            (e as f32 * g as f32) as f64
+        }
     });
-    let to_u8 = |x: f64| if fixed { ((x.clamp(0.0, 1.0) * 255.0) + 0.5 + 1e-7).floor() as u8 } else { ((x as f32).clamp(0.0, 1.0) * 255.0 + 0.5) as u8 };
+    let to_u8 = |x: f64| {
+        if fixed {
+            ((x.clamp(0.0, 1.0) * 255.0) + 0.5 + 1e-7).floor() as u8
+        } else {
+            ((x as f32).clamp(0.0, 1.0) * 255.0 + 0.5) as u8
+        }
+    };
     let rgb = [0, 1, 2].map(|c| {
         let (a, b, cc, d) = (read(&f.a, c, &ef), read(&f.b, c, &ef), read(&f.c, c, &ef), read(&f.d, c, &ef));
         if fixed {
@@ -444,7 +543,8 @@ fn result_does_not_depend_on_thread_count() {
     let n = 300 * 7;
     let t0: Vec<u8> = (0..n * 4).map(|i| (i * 37 % 251) as u8).collect();
     let t1: Vec<u8> = (0..n * 4).map(|i| (i * 101 % 253) as u8).collect();
-    let inputs = Inputs { width: 300, height: 7, textures: [Some(&t0), Some(&t1), None, None], ..Inputs::default() };
+    let inputs =
+        Inputs { width: 300, height: 7, textures: [Some(&t0), Some(&t1), None, None], ..Inputs::default() };
     let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
     for precision in [Precision::Fixed9, Precision::F32] {
         let a = one.install(|| emulate(&g, &inputs, precision).unwrap());
@@ -460,4 +560,3 @@ fn unused_portion_is_cheap_and_harmless() {
     c.general[0].alpha = GeneralPortion::discard_all();
     assert_eq!(pixel(&c, tex01([1, 2, 3, 4], [0; 4]), [0; 4], [0; 4], Precision::Fixed9), [1, 2, 3, 4]);
 }
-

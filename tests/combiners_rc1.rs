@@ -8,8 +8,8 @@ use combiners_common as common;
 use proptest::prelude::*;
 use shadec::backends::combiners::rc1::{parse, parse_and_validate, print};
 use shadec::backends::combiners::{
-    validate, Bias, CombinerConfig, CombinerLimits, ComponentUsage, FinalInput, FinalSource, GeneralInput, InputMapping,
-    Register, Scale,
+    validate, Bias, CombinerConfig, CombinerLimits, ComponentUsage, FinalInput, FinalSource, GeneralInput,
+    InputMapping, Register, Scale,
 };
 use shadec::diag::SourceFile;
 
@@ -129,12 +129,21 @@ out.a = unsigned_invert(tex3);
     assert!(r.cd_dot && r.sum_output.is_none());
     let f = &c.final_combiner;
     assert!(f.color_sum_clamp);
-    assert_eq!(f.e, FinalInput::new(FinalSource::Register(Register::Texture0), UnsignedInvert, ComponentUsage::Rgb));
+    assert_eq!(
+        f.e,
+        FinalInput::new(FinalSource::Register(Register::Texture0), UnsignedInvert, ComponentUsage::Rgb)
+    );
     assert_eq!(f.f, FinalInput::register(Register::Secondary, ComponentUsage::Alpha));
     assert_eq!(f.d, FinalInput::register(Register::Spare0, ComponentUsage::Rgb));
     assert_eq!(f.b.source, FinalSource::Spare0PlusSecondary);
-    assert_eq!(f.c, FinalInput::new(FinalSource::Register(Register::Zero), UnsignedInvert, ComponentUsage::Rgb));
-    assert_eq!(f.g, FinalInput::new(FinalSource::Register(Register::Texture3), UnsignedInvert, ComponentUsage::Alpha));
+    assert_eq!(
+        f.c,
+        FinalInput::new(FinalSource::Register(Register::Zero), UnsignedInvert, ComponentUsage::Rgb)
+    );
+    assert_eq!(
+        f.g,
+        FinalInput::new(FinalSource::Register(Register::Texture3), UnsignedInvert, ComponentUsage::Alpha)
+    );
 }
 
 #[test]
@@ -174,19 +183,52 @@ fn texture_shader_block_is_kept() {
 
 #[test]
 fn syntax_errors_have_locations_and_help() {
-    check_error("!!RC1.0\n{ rgb { spare0 = tex0 * tex1 } }\nout.rgb = spare0;", "test.rc:2:29: error[syntax]: expected `;`");
-    check_error("!!RC1.0\n{ rgb { spare0 = texture0 * tex1; } }\nout.rgb = spare0;", "test.rc:2:18: error[unknown-register]: unknown register `texture0`");
-    check_error("{ rgb { spare0 = tex0; } }\nout.rgb = spare0;", "test.rc:1:1: error[syntax]: expected the `!!RC1.0` header");
-    check_error("!!RC1.0\n{ rgb { spare0 = tex0; } rgb { spare1 = tex0; } }\nout.rgb = spare0;", "test.rc:2:26: error[portion-twice]");
-    check_error("!!RC1.0\nconst0 = (1, 0, 0, 1);\nconst0 = (0, 1, 0, 1);\nout.rgb = const0;", "test.rc:3:1: error[constant-twice]");
-    check_error("!!RC1.0\n{ rgb { spare0 = discard * tex1; } }\nout.rgb = spare0;", "test.rc:2:18: error[read-discard]");
+    check_error(
+        "!!RC1.0\n{ rgb { spare0 = tex0 * tex1 } }\nout.rgb = spare0;",
+        "test.rc:2:29: error[syntax]: expected `;`",
+    );
+    check_error(
+        "!!RC1.0\n{ rgb { spare0 = texture0 * tex1; } }\nout.rgb = spare0;",
+        "test.rc:2:18: error[unknown-register]: unknown register `texture0`",
+    );
+    check_error(
+        "{ rgb { spare0 = tex0; } }\nout.rgb = spare0;",
+        "test.rc:1:1: error[syntax]: expected the `!!RC1.0` header",
+    );
+    check_error(
+        "!!RC1.0\n{ rgb { spare0 = tex0; } rgb { spare1 = tex0; } }\nout.rgb = spare0;",
+        "test.rc:2:26: error[portion-twice]",
+    );
+    check_error(
+        "!!RC1.0\nconst0 = (1, 0, 0, 1);\nconst0 = (0, 1, 0, 1);\nout.rgb = const0;",
+        "test.rc:3:1: error[constant-twice]",
+    );
+    check_error(
+        "!!RC1.0\n{ rgb { spare0 = discard * tex1; } }\nout.rgb = spare0;",
+        "test.rc:2:18: error[read-discard]",
+    );
     check_error("!!RC1.0\nout.rgb = final_product;", "test.rc:2:11: error[final-product-unset]");
-    check_error("!!RC1.0\n{ rgb { spare0 = tex0; scale_by_three(); } }\nout.rgb = spare0;", "test.rc:2:24: error[syntax]: unknown function `scale_by_three`");
-    check_error("!!RC1.0\n{ rgb { spare0 = color_sum; } }\nout.rgb = spare0;", "test.rc:2:18: error[final-only]");
-    check_error("!!RC1.0\n{ rgb { spare0 = sum(); } }\nout.rgb = spare0;", "error[syntax]: `sum()` needs both an AB and a CD product");
-    check_error("!!RC1.0\nout.rgb = -tex0;", "test.rc:2:11: error[syntax]: the final combiner has no signed mappings");
+    check_error(
+        "!!RC1.0\n{ rgb { spare0 = tex0; scale_by_three(); } }\nout.rgb = spare0;",
+        "test.rc:2:24: error[syntax]: unknown function `scale_by_three`",
+    );
+    check_error(
+        "!!RC1.0\n{ rgb { spare0 = color_sum; } }\nout.rgb = spare0;",
+        "test.rc:2:18: error[final-only]",
+    );
+    check_error(
+        "!!RC1.0\n{ rgb { spare0 = sum(); } }\nout.rgb = spare0;",
+        "error[syntax]: `sum()` needs both an AB and a CD product",
+    );
+    check_error(
+        "!!RC1.0\nout.rgb = -tex0;",
+        "test.rc:2:11: error[syntax]: the final combiner has no signed mappings",
+    );
     check_error("!!RC1.0\n{ rgb { spare0 = tex0; } }\n", "expected the final combiner");
-    check_error("!!RC1.0\nout.rgb = tex0;\n{ rgb { spare0 = tex0; } }", "test.rc:3:1: error[syntax]: unexpected `{`");
+    check_error(
+        "!!RC1.0\nout.rgb = tex0;\n{ rgb { spare0 = tex0; } }",
+        "test.rc:3:1: error[syntax]: unexpected `{`",
+    );
     check_error("!!RC1.0\nout.rgb = tex0 @ tex1;", "test.rc:2:16: error[syntax]: unexpected character `@`");
     check_error("!!RC1.0\nout.rgb = tex0; /* open", "error[syntax]: unterminated `/*` comment");
     check_error("!!RC1.0\nout.rgb = tex0.rgba;", "unknown component selector `.rgba`");
@@ -195,21 +237,45 @@ fn syntax_errors_have_locations_and_help() {
 #[test]
 fn validation_errors_point_at_the_source() {
     // Each Appendix B rule, found by the validator, located in the program.
-    check_error("!!RC1.0\n{ alpha { spare0 = tex0 . tex1; } }\nout.rgb = spare0;", "test.rc:2:11: error[dot-in-alpha]");
+    check_error(
+        "!!RC1.0\n{ alpha { spare0 = tex0 . tex1; } }\nout.rgb = spare0;",
+        "test.rc:2:11: error[dot-in-alpha]",
+    );
     check_error(
         "!!RC1.0\n{ rgb { discard = tex0 . tex1; discard = tex0 * tex1; spare0 = sum(); } }\nout.rgb = spare0;",
         "test.rc:2:55: error[dot-with-sum]",
     );
-    check_error("!!RC1.0\n{ rgb { spare0 = tex0; spare0 = tex1; } }\nout.rgb = spare0;", "test.rc:2:24: error[duplicate-output]");
-    check_error("!!RC1.0\n{ rgb { zero = tex0; } }\nout.rgb = spare0;", "test.rc:2:9: error[read-only-output]");
+    check_error(
+        "!!RC1.0\n{ rgb { spare0 = tex0; spare0 = tex1; } }\nout.rgb = spare0;",
+        "test.rc:2:24: error[duplicate-output]",
+    );
+    check_error(
+        "!!RC1.0\n{ rgb { zero = tex0; } }\nout.rgb = spare0;",
+        "test.rc:2:9: error[read-only-output]",
+    );
     check_error("!!RC1.0\n{ rgb { spare0 = tex0; scale_by_four(); bias_by_negative_one_half(); } }\nout.rgb = spare0;", "test.rc:2:24: error[bias-with-scale]");
-    check_error("!!RC1.0\n{ alpha { spare0 = fog * one; } }\nout.rgb = spare0;", "test.rc:2:20: error[fog-alpha-in-general]");
-    check_error("!!RC1.0\n{ rgb { spare0 = tex0.b; } }\nout.rgb = spare0;", "test.rc:2:18: error[component-usage]");
-    check_error("!!RC1.0\n{ alpha { spare0 = tex0.rgb; } }\nout.rgb = spare0;", "test.rc:2:20: error[component-usage]");
-    check_error("!!RC1.0\nout.rgb = lerp(color_sum, color_sum, tex0);", "test.rc:2:16: error[color-sum-input]");
+    check_error(
+        "!!RC1.0\n{ alpha { spare0 = fog * one; } }\nout.rgb = spare0;",
+        "test.rc:2:20: error[fog-alpha-in-general]",
+    );
+    check_error(
+        "!!RC1.0\n{ rgb { spare0 = tex0.b; } }\nout.rgb = spare0;",
+        "test.rc:2:18: error[component-usage]",
+    );
+    check_error(
+        "!!RC1.0\n{ alpha { spare0 = tex0.rgb; } }\nout.rgb = spare0;",
+        "test.rc:2:20: error[component-usage]",
+    );
+    check_error(
+        "!!RC1.0\nout.rgb = lerp(color_sum, color_sum, tex0);",
+        "test.rc:2:16: error[color-sum-input]",
+    );
     check_error("!!RC1.0\nout.a = tex0.rgb;", "test.rc:2:9: error[g-reads-alpha]");
     check_error("!!RC1.0\nout.rgb = tex0.b;", "test.rc:2:11: error[component-usage]");
-    check_error("!!RC1.0\nfinal_product = final_product * tex0;\nout.rgb = tex0;", "test.rc:2:17: error[ef-product-input]");
+    check_error(
+        "!!RC1.0\nfinal_product = final_product * tex0;\nout.rgb = tex0;",
+        "test.rc:2:17: error[ef-product-input]",
+    );
     check_error("!!RC1.0\nout.a = final_product;", "error[ef-product-input]");
     check_error("!!RC1.0\nout.a = color_sum;", "error[color-sum-input]");
 }

@@ -32,13 +32,20 @@ const SECTION: &str = "# ==== pass ";
 fn examples() -> Vec<(String, String)> {
     common::examples()
         .into_iter()
-        .map(|p| (p.file_stem().unwrap().to_string_lossy().into_owned(), std::fs::read_to_string(&p).unwrap()))
+        .map(|p| {
+            (p.file_stem().unwrap().to_string_lossy().into_owned(), std::fs::read_to_string(&p).unwrap())
+        })
         .collect()
 }
 
 /// A snapshot document: per pass, a header and the setup (or why none).
 /// `None` when no pass of the example is generated.
-fn document(planned: &Planned, limits: &CombinerLimits, checked: &mut Vec<String>, name: &str) -> Option<String> {
+fn document(
+    planned: &Planned,
+    limits: &CombinerLimits,
+    checked: &mut Vec<String>,
+    name: &str,
+) -> Option<String> {
     let n = planned.plan.passes.len();
     let mut doc = String::new();
     let mut any = false;
@@ -46,23 +53,38 @@ fn document(planned: &Planned, limits: &CombinerLimits, checked: &mut Vec<String
         let units: Vec<Handle<Expr>> = pass.textures.iter().map(|t| planned.handle(t.lookup)).collect();
         let value = planned.handle(pass.fragment.output);
         let statements = pass.statements.iter().map(|s| (s + 1).to_string()).collect::<Vec<_>>().join(", ");
-        let _ = write!(doc, "{SECTION}{} of {n} (statement {statements} at {}, {} texture units)", i + 1, pass.at, units.len());
+        let _ = write!(
+            doc,
+            "{SECTION}{} of {n} (statement {statements} at {}, {} texture units)",
+            i + 1,
+            pass.at,
+            units.len()
+        );
         if pass.baked {
             let _ = writeln!(doc, ": a `bake` table, computed by the compiler");
             continue;
         }
         match generate(&PassInput { module: &planned.module, value, units: &units }, limits) {
             Ok(g) => {
-                assert_eq!(pass.combiners, None, "{name} pass {}: the plan and the generator disagree", i + 1);
+                assert_eq!(
+                    pass.combiners,
+                    None,
+                    "{name} pass {}: the plan and the generator disagree",
+                    i + 1
+                );
                 let _ = writeln!(doc, ": {} general combiners", g.stages);
                 doc += &rc1::print(&g.config);
                 any = true;
-                if let Some(why) = agrees(&planned.module, value, &units, &g, &format!("{name} pass {}", i + 1)) {
+                if let Some(why) =
+                    agrees(&planned.module, value, &units, &g, &format!("{name} pass {}", i + 1))
+                {
                     checked.push(format!("{name} pass {}: {why}", i + 1));
                 }
             }
             Err(e) => {
-                let reason = pass.combiners.clone().unwrap_or_else(|| panic!("{name} pass {}: the plan says generated, the generator: {e}", i + 1));
+                let reason = pass.combiners.clone().unwrap_or_else(|| {
+                    panic!("{name} pass {}: the plan says generated, the generator: {e}", i + 1)
+                });
                 let _ = writeln!(doc, ": {reason}");
             }
         }
@@ -90,7 +112,9 @@ fn generated_setups_of_the_examples() {
         let limits = p.combiner_limits().unwrap();
         for (name, src) in examples() {
             let Ok(planned) = compile_source(&src, &p) else { continue };
-            let Some(doc) = document(&planned, &limits, &mut skipped, &format!("{profile} {name}")) else { continue };
+            let Some(doc) = document(&planned, &limits, &mut skipped, &format!("{profile} {name}")) else {
+                continue;
+            };
             // The snapshot's own text parses back to the generated configs.
             let secs = sections(&doc);
             assert_eq!(secs.len(), planned.plan.passes.len());
@@ -98,9 +122,19 @@ fn generated_setups_of_the_examples() {
                 let Some(body) = body else { continue };
                 let pass = &planned.plan.passes[i];
                 assert!(!pass.baked, "{profile} {name} {header}");
-                let units: Vec<Handle<Expr>> = pass.textures.iter().map(|t| planned.handle(t.lookup)).collect();
-                let g = generate(&PassInput { module: &planned.module, value: planned.handle(pass.fragment.output), units: &units }, &limits).unwrap();
-                let back = rc1::parse_and_validate(body, &limits).unwrap_or_else(|d| panic!("{profile} {name} {header}: {d:#?}\n{body}"));
+                let units: Vec<Handle<Expr>> =
+                    pass.textures.iter().map(|t| planned.handle(t.lookup)).collect();
+                let g = generate(
+                    &PassInput {
+                        module: &planned.module,
+                        value: planned.handle(pass.fragment.output),
+                        units: &units,
+                    },
+                    &limits,
+                )
+                .unwrap();
+                let back = rc1::parse_and_validate(body, &limits)
+                    .unwrap_or_else(|d| panic!("{profile} {name} {header}: {d:#?}\n{body}"));
                 assert_eq!(back, g.config, "{profile} {name} {header}: the text does not round-trip");
             }
             insta::assert_snapshot!(format!("{profile}__{name}"), doc);
@@ -177,7 +211,6 @@ impl Env for Leaves<'_> {
     }
 }
 
-
 /// A random texel whose rgb is a range-compressed vector of length at most
 /// 1 after `expand` (as a normalization cube map or normal map stores,
 /// seeds/003 Section 5.2), and any alpha: valid for colour textures too, and
@@ -202,7 +235,13 @@ fn texel(rng: &mut Rng) -> [u8; 4] {
 /// texels and colours and compares with the IR's value of the pass, the
 /// 8-bit target's `saturate(value)` (alpha 1 unless the value is rgba).
 /// `Some(why)` when the pass cannot be compared this way.
-fn agrees(m: &Module, value: Handle<Expr>, units: &[Handle<Expr>], g: &Generated, what: &str) -> Option<String> {
+fn agrees(
+    m: &Module,
+    value: Handle<Expr>,
+    units: &[Handle<Expr>],
+    g: &Generated,
+    what: &str,
+) -> Option<String> {
     // Unit coordinates from the markers: the same for every sample unless a
     // unit's coordinates depend on another unit (a dependent lookup).
     let mut keys = Vec::new();
@@ -212,16 +251,22 @@ fn agrees(m: &Module, value: Handle<Expr>, units: &[Handle<Expr>], g: &Generated
             Expr::FramebufferRead { position, .. } => *position,
             e => return Some(format!("unit bound to {e:?}")),
         };
-        if m.reachable(&[coords]).iter().any(|h| matches!(m.exprs[*h], Expr::Lookup { .. } | Expr::FramebufferRead { .. })) {
+        if m.reachable(&[coords])
+            .iter()
+            .any(|h| matches!(m.exprs[*h], Expr::Lookup { .. } | Expr::FramebufferRead { .. }))
+        {
             return Some("dependent texture lookup (texture shader)".into());
         }
         let mut ev = Evaluator::new(m, &[coords], shadec::ir::eval::Precision::Exact);
-        let mut env = Leaves { m, keys: &[], texels: vec![], colors: [(g.primary, [0.0; 4]), (g.secondary, [0.0; 4])] };
+        let mut env =
+            Leaves { m, keys: &[], texels: vec![], colors: [(g.primary, [0.0; 4]), (g.secondary, [0.0; 4])] };
         let c = bits(ev.eval(&mut env).values[0]);
         keys.push((
             match &m.exprs[u] {
                 Expr::Lookup { texture, .. } => Key::Texture(*texture, c),
-                Expr::FramebufferRead { framebuffer, channel, .. } => Key::Framebuffer(*framebuffer, *channel, c),
+                Expr::FramebufferRead { framebuffer, channel, .. } => {
+                    Key::Framebuffer(*framebuffer, *channel, c)
+                }
                 _ => unreachable!(),
             },
             m.info(u).ty,
@@ -233,7 +278,8 @@ fn agrees(m: &Module, value: Handle<Expr>, units: &[Handle<Expr>], g: &Generated
     let (w, h) = (64, 16);
     let n = w * h;
     let mut rng = Rng(0x00c0_ffee_5eed ^ value.index() as u64);
-    let imgs: Vec<Vec<u8>> = (0..units.len() + 2).map(|_| (0..n).flat_map(|_| texel(&mut rng)).collect()).collect();
+    let imgs: Vec<Vec<u8>> =
+        (0..units.len() + 2).map(|_| (0..n).flat_map(|_| texel(&mut rng)).collect()).collect();
     // Uniforms take their defaults (the generator's colours); one with no
     // default would be the caller's to bind.
     for c in g.constants.iter().flatten() {
@@ -264,10 +310,14 @@ fn agrees(m: &Module, value: Handle<Expr>, units: &[Handle<Expr>], g: &Generated
             m,
             keys: &keys,
             texels: imgs[..units.len()].iter().map(|img| rgba(img, p)).collect(),
-            colors: [(g.primary, rgba(&imgs[units.len()], p)), (g.secondary, rgba(&imgs[units.len() + 1], p))],
+            colors: [
+                (g.primary, rgba(&imgs[units.len()], p)),
+                (g.secondary, rgba(&imgs[units.len() + 1], p)),
+            ],
         };
         let v = ev.eval(&mut env).values[0];
-        let want = if ty == Ty::Rgba { v } else { [v[0], v[1], v[2], 1.0] }.map(|c| c.clamp(0.0, 1.0) * 255.0);
+        let want =
+            if ty == Ty::Rgba { v } else { [v[0], v[1], v[2], 1.0] }.map(|c| c.clamp(0.0, 1.0) * 255.0);
         for c in 0..4 {
             let got = f64::from(out[p * 4 + c]);
             assert!(

@@ -18,7 +18,8 @@ fn rendered_diagnostics() {
         assert!(!diagnostics.is_empty(), "{name}: every input here has something to report");
         let file = SourceFile::new(format!("{name}.shd"), text);
         let human = file.render(&diagnostics, false);
-        let lsp = serde_json::to_string_pretty(&file.to_lsp(&format!("file:///{name}.shd"), &diagnostics)).unwrap();
+        let lsp =
+            serde_json::to_string_pretty(&file.to_lsp(&format!("file:///{name}.shd"), &diagnostics)).unwrap();
         insta::assert_snapshot!(format!("{name}.human"), human);
         insta::assert_snapshot!(format!("{name}.lsp"), lsp);
     }
@@ -40,7 +41,10 @@ fn first_error(text: &str) -> (String, String) {
 fn help_for_symbols_in_the_wrong_place_says_where_they_belong() {
     // It said "`→` is not a symbol of the language; the symbols are … → …".
     let (_, help) = first_error("vector N : normal;\nvector L : light;\nC δπx ← N → L;\n");
-    assert_eq!(help, "`→` (ASCII `->`) only separates a shader's argument from its result type: `shader d : s → c = …`");
+    assert_eq!(
+        help,
+        "`→` (ASCII `->`) only separates a shader's argument from its result type: `shader d : s → c = …`"
+    );
     let (_, help) = first_error("texture T : 2d rgb8;\nC δπx ← ⊕ T δu x;\n");
     assert_eq!(help, "`⊕` (ASCII `(+)`) combines the values on its two sides: `a ⊕ b`, `a ⊕[add] b`");
 }
@@ -62,7 +66,8 @@ fn text_pasted_from_the_papers_symbol_font_gets_the_symbols() {
 
 #[test]
 fn a_transposed_name_is_suggested() {
-    let (message, help) = first_error("vector Light : light;\nvector N : normal;\nC δπx ← max(0, N·Ligth);\n");
+    let (message, help) =
+        first_error("vector Light : light;\nvector N : normal;\nC δπx ← max(0, N·Ligth);\n");
     assert_eq!(message, "unknown name `Ligth`");
     assert_eq!(help, "did you mean `Light`?");
 }
@@ -72,12 +77,14 @@ fn an_unclosed_parenthesis_says_where_it_opened() {
     let text = "vector N : normal;\nvector L : light;\nC δπx ← max(0, (N·L);\n";
     let (_, diagnostics) = shadec::parser::check(text);
     let d = diagnostics.iter().find(|d| d.is_error()).unwrap();
-    let opened = d.secondary.iter().find(|l| l.message == "this `(` is never closed").expect("a label at the `(`");
+    let opened =
+        d.secondary.iter().find(|l| l.message == "this `(` is never closed").expect("a label at the `(`");
     assert_eq!(&text[opened.span.start as usize..opened.span.end as usize], "(");
     assert_eq!(opened.span.start as usize, text.find("max(").unwrap() + 3);
     assert_eq!(d.help.as_deref(), Some("close the `(` opened here with `)` before the statement ends"));
     // `(+)` and `(.)` are operators, not brackets; a string's `(` does not count.
-    let (_, diagnostics) = shadec::parser::check("texture T : 2d rgb8 = image(\"a(b.png\");\nC δπx ← (T δu x) (+) (T δu x;\n");
+    let (_, diagnostics) =
+        shadec::parser::check("texture T : 2d rgb8 = image(\"a(b.png\");\nC δπx ← (T δu x) (+) (T δu x;\n");
     let d = diagnostics.iter().find(|d| d.is_error()).unwrap();
     assert_eq!(d.secondary.len(), 1, "{d:?}");
 }
@@ -94,7 +101,11 @@ fn each_missing_semicolon_is_reported_where_it_belongs() {
     let (program, diagnostics) = shadec::parser::check(&text);
     let errors: Vec<_> = diagnostics.iter().filter(|d| d.is_error()).collect();
     assert_eq!(errors.len(), 52, "{:#?}", errors.iter().map(|d| &d.message).collect::<Vec<_>>());
-    assert!(errors.iter().all(|d| d.message == "expected `;` at the end of this line"), "{:?}", errors[0].message);
+    assert!(
+        errors.iter().all(|d| d.message == "expected `;` at the end of this line"),
+        "{:?}",
+        errors[0].message
+    );
     // The first is at the end of line 2, after `light`.
     assert_eq!(errors[0].primary.span.start as usize, text.find("light\n").unwrap() + "light".len());
     assert_eq!(program.items.len(), 53, "every item still parses");

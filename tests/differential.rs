@@ -136,16 +136,28 @@ fn colour() -> impl Strategy<Value = Colour> {
 }
 
 fn accumulate() -> impl Strategy<Value = Accumulate> {
-    prop_oneof![Just(Accumulate::Add), Just(Accumulate::Modulate), Just(Accumulate::Affine), Just(Accumulate::DstAlphaAdd), Just(Accumulate::DstAlphaModulate)]
+    prop_oneof![
+        Just(Accumulate::Add),
+        Just(Accumulate::Modulate),
+        Just(Accumulate::Affine),
+        Just(Accumulate::DstAlphaAdd),
+        Just(Accumulate::DstAlphaModulate)
+    ]
 }
 
 fn program() -> impl Strategy<Value = Program> {
-    (prop::collection::vec(any::<bool>(), N_TEXTURES), colour(), prop::option::of(scalar()), prop::collection::vec((accumulate(), colour(), colour()), 0..3))
+    (
+        prop::collection::vec(any::<bool>(), N_TEXTURES),
+        colour(),
+        prop::option::of(scalar()),
+        prop::collection::vec((accumulate(), colour(), colour()), 0..3),
+    )
         .prop_map(|(rgba, first, first_alpha, more)| Program { rgba, first, first_alpha, more })
 }
 
 const NAMES: [&str; N_TEXTURES] = ["A", "B2", "D", "E"];
-const CONSTANTS: [(&str, &str); N_CONSTANTS] = [("kd", "(0.8, 0.6, 0.4)"), ("ks", "(0.5, 0.5, 0.5)"), ("ka", "(0.1, 0.2, 0.1)")];
+const CONSTANTS: [(&str, &str); N_CONSTANTS] =
+    [("kd", "(0.8, 0.6, 0.4)"), ("ks", "(0.5, 0.5, 0.5)"), ("ka", "(0.1, 0.2, 0.1)")];
 
 impl Scalar {
     fn text(&self, p: &Program) -> String {
@@ -203,7 +215,10 @@ impl Program {
         }
         s += "uniform I : rgb = (0.9, 0.9, 0.8);\n";
         for (i, name) in NAMES.iter().enumerate() {
-            s += &format!("texture {name} : 2d {} mipmap repeat = image(\"missing-{i}.png\");\n", if self.rgba[i] { "rgba8" } else { "rgb8" });
+            s += &format!(
+                "texture {name} : 2d {} mipmap repeat = image(\"missing-{i}.png\");\n",
+                if self.rgba[i] { "rgba8" } else { "rgb8" }
+            );
         }
         s += "texture Ncube : cube rgb8 bilinear clamp = normalize_cube(32);\n";
         s += "texture Env : 2d rgb8 bilinear clamp = image(\"missing-env.png\");\n";
@@ -229,8 +244,12 @@ impl Program {
                 Accumulate::Add => format!("C δπx ← (C δπx) ⊕[add] ({});\n", a.text(self)),
                 Accumulate::Modulate => format!("C δπx ← (C δπx) ⊕ ({});\n", a.text(self)),
                 Accumulate::Affine => format!("C δπx ← (C δπx) * ({}) + ({});\n", a.text(self), b.text(self)),
-                Accumulate::DstAlphaAdd => format!("C δπx ← (C δπx) ⊕[add] ((α C δπx) * ({}));\n", a.text(self)),
-                Accumulate::DstAlphaModulate => format!("C δπx ← rgba((α C δπx) * ({}), α C δπx);\n", a.text(self)),
+                Accumulate::DstAlphaAdd => {
+                    format!("C δπx ← (C δπx) ⊕[add] ((α C δπx) * ({}));\n", a.text(self))
+                }
+                Accumulate::DstAlphaModulate => {
+                    format!("C δπx ← rgba((α C δπx) * ({}), α C δπx);\n", a.text(self))
+                }
             };
         }
         s
@@ -247,11 +266,16 @@ fn validate_plan(planned: &Planned, profile: &Profile) -> Result<(), String> {
         let at = |what: String| format!("pass {}: {what}", i + 1);
         // A `bake` table is the compiler's work (issue 18): the target only
         // samples it, so only its format must be one the target reads.
-        let baked = pass.baked && matches!(pass.geometry, shadec::planner::Geometry::Texels) && matches!(&pass.target, RenderTarget::Texture { .. });
+        let baked = pass.baked
+            && matches!(pass.geometry, shadec::planner::Geometry::Texels)
+            && matches!(&pass.target, RenderTarget::Texture { .. });
         if baked {
             if let RenderTarget::Texture { name } = &pass.target {
-                if m.textures.iter().any(|t| t.name == *name && t.format.is_wide()) && !profile.float_textures {
-                    return Err(at(format!("bakes `{name}` in a 16-bit/float format the target cannot sample")));
+                if m.textures.iter().any(|t| t.name == *name && t.format.is_wide()) && !profile.float_textures
+                {
+                    return Err(at(format!(
+                        "bakes `{name}` in a 16-bit/float format the target cannot sample"
+                    )));
                 }
             }
             continue;
@@ -260,34 +284,54 @@ fn validate_plan(planned: &Planned, profile: &Profile) -> Result<(), String> {
             return Err(at(format!("{} textures on {} units", pass.textures.len(), profile.texture_units)));
         }
         if pass.vertex.interpolants.len() > profile.interpolants as usize {
-            return Err(at(format!("{} interpolants, the target has {}", pass.vertex.interpolants.len(), profile.interpolants)));
+            return Err(at(format!(
+                "{} interpolants, the target has {}",
+                pass.vertex.interpolants.len(),
+                profile.interpolants
+            )));
         }
         // A texture indexed by a value computed per fragment needs texture
         // shaders (NV_texture_shader's dependent and dot-product lookups).
         for t in &pass.textures {
             let coords = Handle::<Expr>::new(t.coords as usize);
-            let computed = m.info(coords).freq == Frequency::Fragment && !matches!(m.exprs[coords], Expr::Interpolate { .. });
+            let computed = m.info(coords).freq == Frequency::Fragment
+                && !matches!(m.exprs[coords], Expr::Interpolate { .. });
             if computed && profile.texture_shaders.is_none() {
-                return Err(at(format!("`{}` is indexed by a per-fragment value, and the target has no texture shaders", t.texture)));
+                return Err(at(format!(
+                    "`{}` is indexed by a per-fragment value, and the target has no texture shaders",
+                    t.texture
+                )));
             }
         }
         let written = match &pass.target {
-            RenderTarget::Texture { name } | RenderTarget::Temporary { name } => m.textures.iter().find(|t| t.name == *name),
+            RenderTarget::Texture { name } | RenderTarget::Temporary { name } => {
+                m.textures.iter().find(|t| t.name == *name)
+            }
             RenderTarget::Framebuffer { .. } => None,
         };
         if let Some(t) = written {
             if t.format.is_wide() && !profile.float_textures {
-                return Err(at(format!("renders into `{}`, a 16-bit/float texture the target cannot write", t.name)));
+                return Err(at(format!(
+                    "renders into `{}`, a 16-bit/float texture the target cannot write",
+                    t.name
+                )));
             }
         }
         if let Some(limits) = profile.combiner_limits() {
             if let Some(why) = &pass.combiners {
                 return Err(at(format!("the plan says its combiners are {why}")));
             }
-            let units: Vec<Handle<Expr>> = pass.textures.iter().map(|t| Handle::new(t.lookup as usize)).collect();
-            let input = codegen::PassInput { module: m, value: Handle::new(pass.fragment.output as usize), units: &units };
-            let generated = codegen::generate(&input, &limits).map_err(|e| at(format!("the combiner generator refuses it: {e}")))?;
-            validate::validate(&generated.config, &limits).map_err(|e| at(format!("Appendix B rejects its setup: {e:?}")))?;
+            let units: Vec<Handle<Expr>> =
+                pass.textures.iter().map(|t| Handle::new(t.lookup as usize)).collect();
+            let input = codegen::PassInput {
+                module: m,
+                value: Handle::new(pass.fragment.output as usize),
+                units: &units,
+            };
+            let generated = codegen::generate(&input, &limits)
+                .map_err(|e| at(format!("the combiner generator refuses it: {e}")))?;
+            validate::validate(&generated.config, &limits)
+                .map_err(|e| at(format!("Appendix B rejects its setup: {e:?}")))?;
         }
     }
     Ok(())
@@ -296,7 +340,8 @@ fn validate_plan(planned: &Planned, profile: &Profile) -> Result<(), String> {
 // ---- the differential check -----------------------------------------------
 
 fn scene() -> Scene {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron")).unwrap();
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron")).unwrap();
     Scene::parse(&text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap()
 }
 
@@ -316,7 +361,9 @@ fn check(source: &str, target: &str, scene: &Scene) -> Result<Outcome, String> {
         Ok(p) => p,
         Err(errors) => {
             for d in &errors {
-                if d.primary.span.end as usize > source.len() || d.primary.span.start == d.primary.span.end && d.primary.span.start == 0 {
+                if d.primary.span.end as usize > source.len()
+                    || d.primary.span.start == d.primary.span.end && d.primary.span.start == 0
+                {
                     return Err(format!("a refusal without a location: {}", d.message));
                 }
                 if d.help.as_deref().is_none_or(str::is_empty) {
@@ -328,15 +375,25 @@ fn check(source: &str, target: &str, scene: &Scene) -> Result<Outcome, String> {
     };
     validate_plan(&planned, &profile).map_err(|e| format!("an accepted plan the target cannot run: {e}"))?;
     let assets = scene.build().unwrap();
-    let meaning = shadec::meaning::plan(&module, scene.lights.len()).map_err(|e| format!("no meaning: {e:?}"))?;
+    let meaning =
+        shadec::meaning::plan(&module, scene.lights.len()).map_err(|e| format!("no meaning: {e:?}"))?;
     // The meaning in f32 too, through the same texture unit: what differs
     // is then the plan's structure, not the filtering, which an amplified
     // value (`(2A)·(2A)`) would magnify past any fixed tolerance.
-    let reference = PlanRenderer::new(&meaning, &program, scene, &assets).and_then(|r| r.render(Mode::F32, W, H, &mut |_, _| {})).map_err(|e| format!("meaning: {e}"))?;
-    let frame = PlanRenderer::new(&planned, &program, scene, &assets).and_then(|r| r.render(Mode::F32, W, H, &mut |_, _| {})).map_err(|e| format!("plan: {e}"))?;
+    let reference = PlanRenderer::new(&meaning, &program, scene, &assets)
+        .and_then(|r| r.render(Mode::F32, W, H, &mut |_, _| {}))
+        .map_err(|e| format!("meaning: {e}"))?;
+    let frame = PlanRenderer::new(&planned, &program, scene, &assets)
+        .and_then(|r| r.render(Mode::F32, W, H, &mut |_, _| {}))
+        .map_err(|e| format!("plan: {e}"))?;
     let e = compare(&reference.image, &frame.image);
     if e.max_abs > TOLERANCE {
-        return Err(format!("the plan's f32 render is {:.1}/255 from the meaning (RMSE {:.4}) over {} passes", e.max_abs * 255.0, e.rmse, planned.plan.passes.len()));
+        return Err(format!(
+            "the plan's f32 render is {:.1}/255 from the meaning (RMSE {:.4}) over {} passes",
+            e.max_abs * 255.0,
+            e.rmse,
+            planned.plan.passes.len()
+        ));
     }
     let split = planned.plan.passes.iter().any(|p| p.reason.contains(" split into "));
     Ok(Outcome::Planned { passes: planned.plan.passes.len(), split })
@@ -346,7 +403,10 @@ fn check(source: &str, target: &str, scene: &Scene) -> Result<Outcome, String> {
 enum Outcome {
     Refused,
     /// Passes, and whether a statement was split into several.
-    Planned { passes: usize, split: bool },
+    Planned {
+        passes: usize,
+        split: bool,
+    },
 }
 
 /// Checks `source` on every target; counts plans per target into `planned`.
@@ -375,7 +435,11 @@ fn generated_programs_plan_validly_and_render_their_meaning() {
     if let Err(e) = result {
         panic!("{e}");
     }
-    eprintln!("{} programs; planned per target {TARGETS:?}: {:?} (the rest refused, located)", cases(), planned.borrow());
+    eprintln!(
+        "{} programs; planned per target {TARGETS:?}: {:?} (the rest refused, located)",
+        cases(),
+        planned.borrow()
+    );
 }
 
 /// The generator reaches what it should: over a fixed sample, every target
@@ -399,7 +463,10 @@ fn the_generator_covers_plans_and_splits() {
     assert!(planned.iter().all(|&n| n > 0), "planned per target {planned:?}");
     // Splits are rarer since the generator packs more into a pass (the
     // named tests below and tests/planner_split.rs split on purpose).
-    assert!(split[0] + split[1] > 0, "the combiner targets split none of them: {split:?} (planned {planned:?})");
+    assert!(
+        split[0] + split[1] > 0,
+        "the combiner targets split none of them: {split:?} (planned {planned:?})"
+    );
 }
 
 // ---- regressions the suite found ------------------------------------------
@@ -429,7 +496,11 @@ fn a_pass_the_combiners_cannot_compute_is_refused_where_it_is() {
     let profile = Profile::builtin("geforce3").unwrap();
     let err = shadec::planner::compile_source(source, &profile).unwrap_err();
     assert_eq!(err[0].code, "cannot-split");
-    assert!(err[0].message.contains("has no register-combiner setup the code generator can build"), "{}", err[0].message);
+    assert!(
+        err[0].message.contains("has no register-combiner setup the code generator can build"),
+        "{}",
+        err[0].message
+    );
     // The secondary label points at the interpolated signed vector.
     let part = &err[0].secondary[0];
     assert_eq!(&source[part.span.start as usize..part.span.end as usize], "(δ N s x)");
@@ -451,7 +522,8 @@ fn every_accepted_example_plan_runs_on_its_combiner_target() {
         for target in ["geforce256", "geforce3"] {
             let profile = Profile::builtin(target).unwrap();
             if let Ok(planned) = shadec::planner::compile_source(&source, &profile) {
-                validate_plan(&planned, &profile).unwrap_or_else(|e| panic!("{} on {target}: {e}", path.display()));
+                validate_plan(&planned, &profile)
+                    .unwrap_or_else(|e| panic!("{} on {target}: {e}", path.display()));
                 accepted += 1;
             }
         }
@@ -466,7 +538,11 @@ fn every_accepted_example_plan_runs_on_its_combiner_target() {
 fn a_scale_factor_maps_to_the_output_scale_in_any_position() {
     let profile = Profile::builtin("geforce256").unwrap();
     let decl = "texture A, B : 2d rgb8 = image(\"x.png\");\n";
-    for statement in ["C δπx ← 2 * (A δu x) * (B δu x);", "C δπx ← (A δu x) * 2 * (B δu x);", "C δπx ← (A δu x) * (B δu x) * 2;"] {
+    for statement in [
+        "C δπx ← 2 * (A δu x) * (B δu x);",
+        "C δπx ← (A δu x) * 2 * (B δu x);",
+        "C δπx ← (A δu x) * (B δu x) * 2;",
+    ] {
         let planned = shadec::planner::compile_source(&format!("{decl}{statement}\n"), &profile).unwrap();
         assert_eq!(planned.plan.passes.len(), 1, "{statement}");
         assert_eq!(planned.plan.passes[0].combiners, None, "{statement}");
@@ -484,7 +560,11 @@ fn a_bake_is_computed_by_the_compiler_on_every_target() {
     let source = "const kd : rgb = (0.8, 0.6, 0.4);\nshader f : s → c = sqrt(s.x) * kd;\ntexture Bk : 2d rgba8 bilinear clamp = bake(f);\ntexture A : 2d rgb8 = image(\"missing.png\");\nC δπx ← (Bk δu x).rgb * (A δu x);\n";
     let scene = scene();
     for target in TARGETS {
-        assert!(matches!(check(source, target, &scene), Ok(Outcome::Planned { .. })), "{target}: {:?}", check(source, target, &scene));
+        assert!(
+            matches!(check(source, target, &scene), Ok(Outcome::Planned { .. })),
+            "{target}: {:?}",
+            check(source, target, &scene)
+        );
         let planned = shadec::planner::compile_source(source, &Profile::builtin(target).unwrap()).unwrap();
         let baked: Vec<bool> = planned.plan.passes.iter().map(|p| p.baked).collect();
         assert_eq!(baked, [true, false], "{target}");

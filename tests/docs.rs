@@ -74,9 +74,16 @@ fn every_example_in_the_docs_checks_and_lowers() {
             diagnostics.extend(shadec::ir::lower(&program).1.into_iter().filter(|d| d.is_error()));
         }
         if !diagnostics.is_empty() {
-            let source = shadec::diag::SourceFile::new(format!("{file} (the block at line {line})"), block.as_str());
+            let source =
+                shadec::diag::SourceFile::new(format!("{file} (the block at line {line})"), block.as_str());
             failures.push(source.render(&diagnostics, false));
         }
     }
-    assert!(failures.is_empty(), "{} of {} ```shd blocks do not check:\n{}", failures.len(), blocks.len(), failures.join("\n"));
+    assert!(
+        failures.is_empty(),
+        "{} of {} ```shd blocks do not check:\n{}",
+        failures.len(),
+        blocks.len(),
+        failures.join("\n")
+    );
 }

@@ -10,9 +10,9 @@
 
 mod common;
 
-use shadec::backends::wgsl::runner::{PassTarget, 
-    run_passes, validate_shader, DepthFormat, GpuError, RunPass, RunShader, RunTexture, SamplerSettings,
-    ShaderSource, Target, TexelUpload, TextureData, VertexData,
+use shadec::backends::wgsl::runner::{
+    run_passes, validate_shader, DepthFormat, GpuError, PassTarget, RunPass, RunShader, RunTexture,
+    SamplerSettings, ShaderSource, Target, TexelUpload, TextureData, VertexData,
 };
 use shadec::renderer::{BlendState, CullMode, DepthState, RenderState, StencilState};
 
@@ -46,7 +46,14 @@ fn shader(wgsl: &str) -> RunShader {
 
 /// A counter-clockwise quad over x0..x1 × y0..y1 (NDC) at depth z, with a
 /// colour per corner from `color(x, y)`.
-fn quad(x0: f32, x1: f32, y0: f32, y1: f32, z: f32, color: impl Fn(f32, f32) -> [f32; 4]) -> (Vec<f32>, Vec<u32>) {
+fn quad(
+    x0: f32,
+    x1: f32,
+    y0: f32,
+    y1: f32,
+    z: f32,
+    color: impl Fn(f32, f32) -> [f32; 4],
+) -> (Vec<f32>, Vec<u32>) {
     let mut floats = Vec::new();
     for (x, y) in [(x0, y0), (x1, y0), (x1, y1), (x0, y1)] {
         floats.extend_from_slice(&[x, y, z, 1.0]);
@@ -70,10 +77,7 @@ fn color_pass(label: &str, geometry: (Vec<f32>, Vec<u32>), state: RenderState) -
     RunPass {
         label: label.to_string(),
         shader: shader(COLOR_WGSL),
-        vertices: VertexData {
-            floats: geometry.0,
-            components: vec![4, 4],
-        },
+        vertices: VertexData { floats: geometry.0, components: vec![4, 4] },
         indices: geometry.1,
         textures: Vec::new(),
         uniforms: None,
@@ -85,12 +89,7 @@ fn color_pass(label: &str, geometry: (Vec<f32>, Vec<u32>), state: RenderState) -
 }
 
 fn state(depth: DepthState, blend: BlendState) -> RenderState {
-    RenderState {
-        cull: CullMode::None,
-        depth,
-        stencil: StencilState::DISABLED,
-        blend,
-    }
+    RenderState { cull: CullMode::None, depth, stencil: StencilState::DISABLED, blend }
 }
 
 /// Asserts |got − round(255·want)| ≤ 1 per channel.
@@ -134,10 +133,7 @@ fn additive_second_pass_with_depth_equal_sums_where_depth_matches() {
     // Pass 1: the full quad at z = 0.5 and, nearer, a quad over the left half.
     let first = color_pass(
         "base",
-        quads(&[
-            quad(-1.0, 1.0, -1.0, 1.0, 0.5, base),
-            quad(-1.0, 0.0, -1.0, 1.0, 0.25, near),
-        ]),
+        quads(&[quad(-1.0, 1.0, -1.0, 1.0, 0.5, base), quad(-1.0, 0.0, -1.0, 1.0, 0.25, near)]),
         state(DepthState::LESS_WRITE, BlendState::REPLACE),
     );
     // Pass 2 re-renders the full quad: it passes `Equal` only on the right.
@@ -184,12 +180,7 @@ fn destination_alpha_blending_scales_the_source_by_the_stashed_alpha() {
     let image = run_passes(&gpu, &Target::new(8, 2), &[first, second]).unwrap();
     for (px, dst_alpha) in [(0, 0.2), (3, 0.2), (4, 0.8), (7, 0.8)] {
         let want = [0.0, 1.0, 2.0].map(|c: f32| 0.2 + src[c as usize] * dst_alpha);
-        assert_pixel(
-            &image,
-            px,
-            1,
-            [want[0], want[1], want[2], src[3] * dst_alpha + dst_alpha],
-        );
+        assert_pixel(&image, px, 1, [want[0], want[1], want[2], src[3] * dst_alpha + dst_alpha]);
     }
 }
 
@@ -220,12 +211,7 @@ fn textured_quad_with_nearest_filtering_returns_exact_texels() {
     let Some(gpu) = gpu() else { return };
     // 4×4 texels, all distinct; each covers 2×2 pixels of the 8×8 target.
     let texel = |tx: u32, ty: u32| {
-        [
-            (tx * 60 + 10) as u8,
-            (ty * 60 + 20) as u8,
-            (tx * 16 + ty * 4) as u8,
-            255 - (tx + ty) as u8,
-        ]
+        [(tx * 60 + 10) as u8, (ty * 60 + 20) as u8, (tx * 16 + ty * 4) as u8, 255 - (tx + ty) as u8]
     };
     let rgba: Vec<u8> = (0..4).flat_map(|ty| (0..4).flat_map(move |tx| texel(tx, ty))).collect();
     // uv (0, 0) at the top-left corner (x = −1, y = +1).
@@ -240,17 +226,10 @@ fn textured_quad_with_nearest_filtering_returns_exact_texels() {
     let pass = RunPass {
         label: "textured".to_string(),
         shader: shader(TEXTURE_WGSL),
-        vertices: VertexData {
-            floats,
-            components: vec![2, 2],
-        },
+        vertices: VertexData { floats, components: vec![2, 2] },
         indices: vec![0, 1, 2, 0, 2, 3],
         textures: vec![RunTexture {
-            data: TextureData::D2 {
-                width: 4,
-                height: 4,
-                rgba,
-            },
+            data: TextureData::D2 { width: 4, height: 4, rgba },
             sampler: SamplerSettings::NEAREST_CLAMP,
             texels: TexelUpload::Rgba8,
         }],
@@ -306,10 +285,7 @@ fn fs_main(in: VsOut) -> @location(0) vec4<f32> {
     let pass = RunPass {
         label: "cube".to_string(),
         shader: shader(wgsl),
-        vertices: VertexData {
-            floats,
-            components: vec![2, 3],
-        },
+        vertices: VertexData { floats, components: vec![2, 3] },
         indices: vec![0, 1, 2, 0, 2, 3, 4, 5, 6, 4, 6, 7],
         textures: vec![RunTexture {
             data: TextureData::Cube { size: 2, rgba },
@@ -348,11 +324,8 @@ fn stencil_pass_masks_the_second_pass() {
         pass: shadec::renderer::StencilOp::Keep,
         ..mark
     };
-    let second = color_pass(
-        "masked",
-        quad(-1.0, 1.0, -1.0, 1.0, 0.5, |_, _| [0.4, 0.6, 0.2, 1.0]),
-        second_state,
-    );
+    let second =
+        color_pass("masked", quad(-1.0, 1.0, -1.0, 1.0, 0.5, |_, _| [0.4, 0.6, 0.2, 1.0]), second_state);
     let mut target = Target::new(2, 4);
     target.clear_color = [0.0, 0.0, 0.0, 1.0];
     let image = run_passes(&gpu, &target, &[first, second]).unwrap();
@@ -381,9 +354,7 @@ fn invalid_shaders_are_errors_not_panics() {
 
     // A parse error, rendered by naga with its location.
     let err = run("@vertex fn vs_main( -> {");
-    let GpuError::InvalidShader { pass, message } = &err else {
-        panic!("{err}")
-    };
+    let GpuError::InvalidShader { pass, message } = &err else { panic!("{err}") };
     assert_eq!(pass, "bad");
     assert!(message.contains("wgsl:1:"), "{message}");
 
@@ -393,13 +364,8 @@ fn invalid_shaders_are_errors_not_panics() {
 
     // A missing entry point names what there is.
     let err = run(&COLOR_WGSL.replace("fn fs_main", "fn fs_other"));
-    let GpuError::InvalidShader { message, .. } = &err else {
-        panic!("{err}")
-    };
-    assert!(
-        message.contains("`fs_main`") && message.contains("fs_other (Fragment)"),
-        "{message}"
-    );
+    let GpuError::InvalidShader { message, .. } = &err else { panic!("{err}") };
+    assert!(message.contains("`fs_main`") && message.contains("fs_other (Fragment)"), "{message}");
 
     // A module built in memory that breaks a validation rule: drop the Emit
     // statements, so expressions are used before they are evaluated.
@@ -407,10 +373,7 @@ fn invalid_shaders_are_errors_not_panics() {
     for ep in &mut module.entry_points {
         let body = std::mem::take(&mut ep.function.body);
         ep.function.body = naga::Block::from_vec(
-            body.iter()
-                .filter(|s| !matches!(s, naga::Statement::Emit(_)))
-                .cloned()
-                .collect(),
+            body.iter().filter(|s| !matches!(s, naga::Statement::Emit(_))).cloned().collect(),
         );
     }
     let shader = RunShader {
@@ -419,9 +382,7 @@ fn invalid_shaders_are_errors_not_panics() {
         fragment_entry: "fs_main".to_string(),
     };
     let err = validate_shader("hand-built", &shader).unwrap_err();
-    let GpuError::InvalidShader { message, .. } = &err else {
-        panic!("{err}")
-    };
+    let GpuError::InvalidShader { message, .. } = &err else { panic!("{err}") };
     assert!(!message.is_empty());
     eprintln!("{err}");
 }
@@ -430,21 +391,15 @@ fn invalid_shaders_are_errors_not_panics() {
 fn inconsistent_passes_are_input_errors() {
     let Some(gpu) = gpu() else { return };
     let target = Target::new(4, 4);
-    let mut pass = color_pass(
-        "oob",
-        quad(-1.0, 1.0, -1.0, 1.0, 0.5, |_, _| [1.0; 4]),
-        RenderState::default(),
-    );
+    let mut pass =
+        color_pass("oob", quad(-1.0, 1.0, -1.0, 1.0, 0.5, |_, _| [1.0; 4]), RenderState::default());
     pass.indices[5] = 4;
     let err = run_passes(&gpu, &target, &[pass.clone()]).unwrap_err();
     assert!(err.to_string().contains("index 4 is out of range"), "{err}");
 
     pass.indices[5] = 3;
     pass.vertices.floats.pop();
-    assert!(matches!(
-        run_passes(&gpu, &target, &[pass]).unwrap_err(),
-        GpuError::InvalidInput { .. }
-    ));
+    assert!(matches!(run_passes(&gpu, &target, &[pass]).unwrap_err(), GpuError::InvalidInput { .. }));
 
     let err = run_passes(&gpu, &Target::new(0, 4), &[]).unwrap_err();
     assert!(matches!(err, GpuError::InvalidInput { .. }), "{err}");
@@ -454,10 +409,7 @@ fn inconsistent_passes_are_input_errors() {
     let pass = RunPass {
         label: "unbound".to_string(),
         shader: shader(TEXTURE_WGSL),
-        vertices: VertexData {
-            floats: vec![0.0; 12],
-            components: vec![2, 2],
-        },
+        vertices: VertexData { floats: vec![0.0; 12], components: vec![2, 2] },
         indices: vec![0, 1, 2],
         textures: Vec::new(),
         uniforms: None,

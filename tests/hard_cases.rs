@@ -75,7 +75,12 @@ fn assert_finite(what: &str, pixels: &[[f32; 4]]) {
 /// scene's resolution, asserting that no value anywhere was NaN or ±∞.
 fn render(what: &str, source: &str, target: &str, scene: &Scene, mode: Mode) -> Image {
     let (image, nonfinite) = render_counting(what, source, target, scene, mode);
-    assert_eq!(nonfinite, 0, "{what} [{}]: {nonfinite} fragments computed NaN or ±∞ (written as 0)", mode.name());
+    assert_eq!(
+        nonfinite,
+        0,
+        "{what} [{}]: {nonfinite} fragments computed NaN or ±∞ (written as 0)",
+        mode.name()
+    );
     image
 }
 
@@ -119,7 +124,11 @@ fn native(what: &str, scene: &Scene) -> (Vec<[f32; 4]>, Vec<[f32; 4]>) {
 /// Largest per-channel RGB difference between two images, both clamped to
 /// [0, 1] (what a display shows; fixed9's framebuffer is 8-bit).
 fn max_error(a: &Image, b: &Image) -> f32 {
-    a.pixels.iter().zip(&b.pixels).map(|(p, q)| max_diff(p.map(|c| c.clamp(0.0, 1.0)), q.map(|c| c.clamp(0.0, 1.0)))).fold(0.0, f32::max)
+    a.pixels
+        .iter()
+        .zip(&b.pixels)
+        .map(|(p, q)| max_diff(p.map(|c| c.clamp(0.0, 1.0)), q.map(|c| c.clamp(0.0, 1.0))))
+        .fold(0.0, f32::max)
 }
 
 /// Pixel (x, y) centre → the world point where its ray meets the plane y = 0.
@@ -168,7 +177,11 @@ fn geometry_factor_sup(m: f32) -> f32 {
     let mut sup = 0.0f32;
     for k in 0..=20000 {
         // Log-spaced towards 0 and linear up to 1.
-        let c = if k < 10000 { 1e-6f32 * (1e6f32).powf(k as f32 / 10000.0) } else { (k - 10000) as f32 / 10000.0 };
+        let c = if k < 10000 {
+            1e-6f32 * (1e6f32).powf(k as f32 / 10000.0)
+        } else {
+            (k - 10000) as f32 / 10000.0
+        };
         let c = c.max(1e-6);
         sup = sup.max(generators::smith_g1(c, m) / (std::f32::consts::PI * c));
     }
@@ -197,8 +210,20 @@ fn grazing_view_geometry_factor_is_bounded_and_scaling_avoids_the_clamp() {
     assert!((sup - 3.535 / (std::f32::consts::PI * 0.3)).abs() < 0.02, "sup G/(π cos β) = {sup}");
     let s4 = render_modes("Torrance-Sparrow, g_scale 4", &scaled, "wgsl", &scene);
     let s1 = render_modes("Torrance-Sparrow, g_scale 1", &unscaled, "wgsl", &scene);
-    let p4 = render("Torrance-Sparrow, g_scale 4, ×4 on the product", &scale_on_the_product(&scaled), "wgsl", &scene, Mode::Fixed9);
-    let p1 = render("Torrance-Sparrow, g_scale 1, ×1 on the product", &scale_on_the_product(&unscaled), "wgsl", &scene, Mode::Fixed9);
+    let p4 = render(
+        "Torrance-Sparrow, g_scale 4, ×4 on the product",
+        &scale_on_the_product(&scaled),
+        "wgsl",
+        &scene,
+        Mode::Fixed9,
+    );
+    let p1 = render(
+        "Torrance-Sparrow, g_scale 1, ×1 on the product",
+        &scale_on_the_product(&unscaled),
+        "wgsl",
+        &scene,
+        Mode::Fixed9,
+    );
     // Exact: F·D ≤ 1, G/(π cos β) ≤ sup, plus the diffuse term kd·max(0, N·L) ≤ 0.35.
     let bound = sup + 0.35 + 1e-4;
     for img in [&s4[0], &s1[0]] {
@@ -217,10 +242,14 @@ fn grazing_view_geometry_factor_is_bounded_and_scaling_avoids_the_clamp() {
     for (with, without) in [(&s4[1], &s1[1]), (&p4, &p1)] {
         let mode = with.mode.name();
         let (e4, e1) = (max_error(&s4[0], with), max_error(&s1[0], without));
-        let darker = without.pixels.iter().zip(&s1[0].pixels).filter(|(t, x)| t[0] < x[0].min(1.0) - 0.05).count();
+        let darker =
+            without.pixels.iter().zip(&s1[0].pixels).filter(|(t, x)| t[0] < x[0].min(1.0) - 0.05).count();
         eprintln!("grazing {mode}: max error g_scale 4 = {e4:.4}, g_scale 1 = {e1:.4}; {darker} pixels too dark by > 0.05");
         assert!(e4 <= 0.04, "{mode}: g_scale 4 error {e4} over its bound");
-        assert!(e1 > 0.3 && darker > 50, "{mode}: the clamp darkens the grazing highlight ({e1}, {darker} pixels)");
+        assert!(
+            e1 > 0.3 && darker > 50,
+            "{mode}: the clamp darkens the grazing highlight ({e1}, {darker} pixels)"
+        );
     }
     native("grazing plane", &scene);
 }
@@ -297,7 +326,11 @@ fn light_opposite_the_viewer_half_vector_falls_back_to_zero() {
             let brightest = img.covered().map(|(_, p)| p[0].max(p[1]).max(p[2])).fold(0.0, f32::max);
             eprintln!("L = −V, {name} [{}]: brightest pixel {brightest}", img.mode.name());
             assert!(img.covered().count() > 500, "{name}: the sphere is drawn");
-            assert!(brightest <= 2.0 / 255.0, "{name} [{}]: light from an undefined half vector: {brightest}", img.mode.name());
+            assert!(
+                brightest <= 2.0 / 255.0,
+                "{name} [{}]: light from an undefined half vector: {brightest}",
+                img.mode.name()
+            );
         }
     }
     // Kilgard: s_self = 0 gates the specular pass; the stored cube map holds
@@ -332,13 +365,20 @@ const ZERO_NORMALS: &str = r#"(
 #[test]
 fn zero_length_normal_lights_nothing() {
     let scene = scene(ZERO_NORMALS);
-    assert!(scene.build().unwrap().meshes[0].0.normals.iter().all(|n| *n == Vec3::ZERO), "the OBJ's normals stay zero");
+    assert!(
+        scene.build().unwrap().meshes[0].0.normals.iter().all(|n| *n == Vec3::ZERO),
+        "the OBJ's normals stay zero"
+    );
     for (name, target) in [("fragment_lighting.shd", "wgsl"), ("gouraud.shd", "wgsl")] {
         for img in render_modes(name, &example(name), target, &scene) {
             // normalize(0) = 0: N·L = N·H = 0, so nothing is lit.
             assert!(img.covered().count() > 300);
             let brightest = img.covered().map(|(_, p)| p[0].max(p[1]).max(p[2])).fold(0.0, f32::max);
-            assert!(brightest == 0.0, "{name} [{}]: a zero normal lit a pixel ({brightest})", img.mode.name());
+            assert!(
+                brightest == 0.0,
+                "{name} [{}]: a zero normal lit a pixel ({brightest})",
+                img.mode.name()
+            );
         }
     }
     let (full, adaptive) = native("zero normals", &scene);
@@ -358,7 +398,8 @@ fn zero_length_normal_lights_nothing() {
 fn program_level_zero_over_zero_is_counted_and_written_as_zero() {
     let scene = scene(ZERO_NORMALS);
     for mode in MODES {
-        let (img, nonfinite) = render_counting("cook_torrance.shd", &example("cook_torrance.shd"), "wgsl", &scene, mode);
+        let (img, nonfinite) =
+            render_counting("cook_torrance.shd", &example("cook_torrance.shd"), "wgsl", &scene, mode);
         let covered = img.covered().count() as u64;
         eprintln!("Cook-Torrance with N = 0 [{}]: {nonfinite} of {covered} fragments NaN", mode.name());
         if mode == Mode::Fixed9 {
@@ -370,7 +411,6 @@ fn program_level_zero_over_zero_is_counted_and_written_as_zero() {
         assert!(img.covered().all(|(_, p)| p[..3] == [0.0; 3]), "written as 0");
     }
 }
-
 
 // ---------------------------------------------------------------------------
 // Antipodal vectors across a triangle: N on one edge, −N on the other.
@@ -406,7 +446,13 @@ fn antipodal_normals_flip_at_the_zero_crossing() {
         for (i, p) in img.covered() {
             let x = i % img.width;
             let ok = |left: bool| max_diff(p, expect(left)) <= 1e-3;
-            let fine = if x < mid { ok(true) } else if x > mid { ok(false) } else { ok(true) || ok(false) };
+            let fine = if x < mid {
+                ok(true)
+            } else if x > mid {
+                ok(false)
+            } else {
+                ok(true) || ok(false)
+            };
             assert!(fine, "{mode}: pixel ({x}, {}) = {p:?}", i / img.width);
             n += 1;
         }
@@ -423,7 +469,16 @@ fn antipodal_normals_flip_at_the_zero_crossing() {
         let x = i % 65;
         let ambient = max_diff(*p, [0.05, 0.05, 0.05, 1.0]) < 1e-6;
         let bright = p[0] > 0.9;
-        assert!(if x < mid { bright } else if x > mid { ambient } else { bright || ambient }, "native ({x}): {p:?}");
+        assert!(
+            if x < mid {
+                bright
+            } else if x > mid {
+                ambient
+            } else {
+                bright || ambient
+            },
+            "native ({x}): {p:?}"
+        );
     }
 }
 
@@ -471,13 +526,18 @@ fn sup_error(n: u32, f: impl Fn(f64) -> f64) -> f64 {
         let g = j as f64 / 255.0;
         xs.extend([g, g - 0.5 / 255.0, g + 0.5 / 255.0, g - 0.5 / 255.0 + 1e-12, g + 0.5 / 255.0 - 1e-12]);
     }
-    xs.into_iter().filter(|x| (0.0..=1.0).contains(x)).map(|x| (f(x) - x.powi(n as i32)).abs()).fold(0.0, f64::max)
+    xs.into_iter()
+        .filter(|x| (0.0..=1.0).contains(x))
+        .map(|x| (f(x) - x.powi(n as i32)).abs())
+        .fold(0.0, f64::max)
 }
 
 /// The RMS of f(x) − xⁿ over x uniform in [0, 1].
 fn rms_error(n: u32, f: impl Fn(f64) -> f64) -> f64 {
     let k = 100_000;
-    ((0..=k).map(|i| i as f64 / k as f64).map(|x| (f(x) - x.powi(n as i32)).powi(2)).sum::<f64>() / (k + 1) as f64).sqrt()
+    ((0..=k).map(|i| i as f64 / k as f64).map(|x| (f(x) - x.powi(n as i32)).powi(2)).sum::<f64>()
+        / (k + 1) as f64)
+        .sqrt()
 }
 
 /// What 8-bit repeated squaring computes: the input rounded to the
@@ -500,7 +560,8 @@ fn high_exponents_in_8_bits_stay_within_the_squaring_bound() {
         let b_squaring = sup_error(n, |x| squaring_chain(n, x));
         let b_pow = sup_error(n, |x| fixed9(fixed9(x).powi(n as i32)));
         let lut = generators::exponent_lut(256, n as f32, shadec::textures::TexelFormat::Rgba8);
-        let b_lut = sup_error(n, |x| lut.sample(x as f32, 0.5, shadec::textures::Filter::Bilinear, 0.0)[0] as f64);
+        let b_lut =
+            sup_error(n, |x| lut.sample(x as f32, 0.5, shadec::textures::Filter::Bilinear, 0.0)[0] as f64);
         // Below (1/510)^(1/n) every input squares to 0 — the highlight's
         // skirt vanishes — and the surviving inputs are the few 8-bit
         // steps near 1: the banding of seeds/000 Figure 10.
@@ -509,7 +570,10 @@ fn high_exponents_in_8_bits_stay_within_the_squaring_bound() {
         // In the sup norm both lose ≈ n/(2·255)·x^(n−1) near x = 1 (the
         // input's rounding, the table's last half texel); on average the
         // table is far closer (no banding).
-        let (r_squaring, r_lut) = (rms_error(n, |x| squaring_chain(n, x)), rms_error(n, |x| lut.sample(x as f32, 0.5, shadec::textures::Filter::Bilinear, 0.0)[0] as f64));
+        let (r_squaring, r_lut) = (
+            rms_error(n, |x| squaring_chain(n, x)),
+            rms_error(n, |x| lut.sample(x as f32, 0.5, shadec::textures::Filter::Bilinear, 0.0)[0] as f64),
+        );
         eprintln!("n = {n}: rms error squaring {r_squaring:.5}, table {r_lut:.5}");
         assert!(r_lut < r_squaring, "n = {n}: the lookup table beats repeated squaring on average");
         assert!(survivors <= 1 + (255.0 * (1.0 - (1.0f64 / 510.0).powf(1.0 / n as f64))).ceil() as usize + 1);
@@ -557,7 +621,11 @@ const BIG_TRIANGLES: &str = r#"(
 
 /// The brightest pixel (the first, if several).
 fn brightest(pixels: &[[f32; 4]], width: usize) -> (f32, (usize, usize)) {
-    let (i, v) = pixels.iter().map(|p| p[0].max(p[1]).max(p[2])).enumerate().fold((0, 0.0f32), |a, (i, v)| if v > a.1 { (i, v) } else { a });
+    let (i, v) = pixels
+        .iter()
+        .map(|p| p[0].max(p[1]).max(p[2]))
+        .enumerate()
+        .fold((0, 0.0f32), |a, (i, v)| if v > a.1 { (i, v) } else { a });
     (v, (i % width, i / width))
 }
 
@@ -565,7 +633,9 @@ fn brightest(pixels: &[[f32; 4]], width: usize) -> (f32, (usize, usize)) {
 fn highlight_inside_one_triangle_per_pixel_finds_it_gouraud_misses_it() {
     let scene = scene(BIG_TRIANGLES);
     let peak = project(&scene, Vec3::new(0.8, 0.0, -0.4));
-    let near_peak = |(x, y): (usize, usize)| ((x as f32 + 0.5 - peak.0).powi(2) + (y as f32 + 0.5 - peak.1).powi(2)).sqrt() <= 3.0;
+    let near_peak = |(x, y): (usize, usize)| {
+        ((x as f32 + 0.5 - peak.0).powi(2) + (y as f32 + 0.5 - peak.1).powi(2)).sqrt() <= 3.0
+    };
     let phong = render_modes("fragment lighting", &example("fragment_lighting.shd"), "wgsl", &scene);
     let gouraud = render_modes("gouraud", &example("gouraud.shd"), "wgsl", &scene);
     for (p, g) in phong.iter().zip(&gouraud) {
@@ -643,7 +713,11 @@ fn spot_cut_off_inside_a_triangle_is_sharp_per_pixel_and_lost_by_gouraud() {
     let cos_cut = SPOT_CUTOFF_DEG.to_radians().cos();
     // The analytic cone test at every pixel centre: the cosine to the axis.
     let cosine: Vec<Option<f32>> = (0..w * h)
-        .map(|i| unproject_to_ground(&scene, i % w, i / w).filter(|p| p.x.abs() <= 3.0 && p.z.abs() <= 3.0).map(|p| (p - Vec3::from(SPOT_POSITION)).normalize().dot(d)))
+        .map(|i| {
+            unproject_to_ground(&scene, i % w, i / w)
+                .filter(|p| p.x.abs() <= 3.0 && p.z.abs() <= 3.0)
+                .map(|p| (p - Vec3::from(SPOT_POSITION)).normalize().dot(d))
+        })
         .collect();
     let inside = |i: usize| cosine[i].is_some_and(|c| c >= cos_cut);
     let n_inside = (0..w * h).filter(|&i| inside(i)).count();
@@ -651,10 +725,16 @@ fn spot_cut_off_inside_a_triangle_is_sharp_per_pixel_and_lost_by_gouraud() {
     // A pixel on the boundary: a neighbour is on the other side.
     let boundary = |i: usize| {
         let (x, y) = ((i % w) as i64, (i / w) as i64);
-        (-1..=1).any(|dy| (-1..=1).any(|dx| {
-            let (nx, ny) = (x + dx, y + dy);
-            nx >= 0 && ny >= 0 && nx < w as i64 && ny < h as i64 && inside(ny as usize * w + nx as usize) != inside(i)
-        }))
+        (-1..=1).any(|dy| {
+            (-1..=1).any(|dx| {
+                let (nx, ny) = (x + dx, y + dy);
+                nx >= 0
+                    && ny >= 0
+                    && nx < w as i64
+                    && ny < h as i64
+                    && inside(ny as usize * w + nx as usize) != inside(i)
+            })
+        })
     };
     let check = |what: &str, pixels: &[[f32; 4]], band: f32| {
         let mut wrong = 0;
@@ -663,7 +743,12 @@ fn spot_cut_off_inside_a_triangle_is_sharp_per_pixel_and_lost_by_gouraud() {
             let lit = pixels[i][0] > 0.01;
             if lit != inside(i) {
                 wrong += 1;
-                assert!(boundary(i) || (c - cos_cut).abs() <= band, "{what}: pixel ({}, {}) lit {lit}, cos {c} vs {cos_cut}", i % w, i / w);
+                assert!(
+                    boundary(i) || (c - cos_cut).abs() <= band,
+                    "{what}: pixel ({}, {}) lit {lit}, cos {c} vs {cos_cut}",
+                    i % w,
+                    i / w
+                );
             }
         }
         eprintln!("spot [{what}]: {wrong} pixels on the other side of the cut-off, all on its boundary (band {band})");
@@ -730,7 +815,11 @@ fn golf_ball_dimming_is_kept_by_the_alpha_of_kilgards_filter() {
     let l = [0.5f32, 0.0, 0.8660254];
     let base = generators::normal_map(&HeightField::dimples(256, 16), 4.0, NormalMapFormat::F32);
     let texels = &base.levels[0].texels;
-    let eq13 = texels.iter().map(|t| (0..3).map(|c| l[c] * generators::expand(t[c])).sum::<f32>().max(0.0)).sum::<f32>() / texels.len() as f32;
+    let eq13 = texels
+        .iter()
+        .map(|t| (0..3).map(|c| l[c] * generators::expand(t[c])).sum::<f32>().max(0.0))
+        .sum::<f32>()
+        / texels.len() as f32;
     let smooth = l[2]; // L·N of the flat ball
     eprintln!("golf ball: Equation 13 gives {eq13:.4}, a smooth surface {smooth:.4}");
     assert!(eq13 < smooth - 0.03, "the dimples make the surface dimmer");
@@ -742,7 +831,8 @@ fn golf_ball_dimming_is_kept_by_the_alpha_of_kilgards_filter() {
     for mode in MODES {
         let m = mode.name();
         let near_a = mean_covered(&render("golf near, alpha", &golf_program(true), "wgsl", &near, mode));
-        let near_n = mean_covered(&render("golf near, renormalized", &golf_program(false), "wgsl", &near, mode));
+        let near_n =
+            mean_covered(&render("golf near, renormalized", &golf_program(false), "wgsl", &near, mode));
         let far_a = mean_covered(&render("golf far, alpha", &golf_program(true), "wgsl", &far, mode));
         let far_n = mean_covered(&render("golf far, renormalized", &golf_program(false), "wgsl", &far, mode));
         eprintln!("golf ball [{m}]: near {near_a:.4} / {near_n:.4}, far {far_a:.4} (alpha) / {far_n:.4} (renormalized)");
@@ -780,7 +870,10 @@ fn in_plane_scene(light: &str) -> Scene {
 #[test]
 fn light_in_the_surface_plane_gives_no_diffuse_and_gated_specular() {
     let diffuse = "vector N : normal in world;\nvector L : light(0) in world;\nshader p : s → c = max(0, normalize(N)·normalize(L));\nC δπx ← p δ s x;\n";
-    for light in ["Directional(direction: (-1.0, 0.0, 0.0), color: (1.0, 1.0, 1.0))", "Point(position: (3.0, 0.0, 0.5), color: (1.0, 1.0, 1.0))"] {
+    for light in [
+        "Directional(direction: (-1.0, 0.0, 0.0), color: (1.0, 1.0, 1.0))",
+        "Point(position: (3.0, 0.0, 0.5), color: (1.0, 1.0, 1.0))",
+    ] {
         let scene = in_plane_scene(light);
         // N·L = 0 exactly at every vertex and pixel: no diffuse light, in any mode.
         for img in render_modes("N·L, light in the plane", diffuse, "wgsl", &scene) {
@@ -792,7 +885,12 @@ fn light_in_the_surface_plane_gives_no_diffuse_and_gated_specular() {
         // exact shows the ambient decal only. The stored cube map encodes
         // Lz = 0 as 128/255, i.e. 1/255 after expand (Appendix D), so
         // s_self ≤ 8/255 there, and each gated term is at most that much.
-        let k = render_modes("kilgard, light in the plane", &example("kilgard_bump_mapping.shd"), "geforce256", &scene);
+        let k = render_modes(
+            "kilgard, light in the plane",
+            &example("kilgard_bump_mapping.shd"),
+            "geforce256",
+            &scene,
+        );
         for img in &k[1..] {
             let e = max_error(&k[0], img);
             eprintln!("light in the plane [{}], kilgard: max error {e:.4}", img.mode.name());

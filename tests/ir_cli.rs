@@ -3,8 +3,16 @@
 use std::process::Command;
 
 fn shadec(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_shadec")).args(args).current_dir(env!("CARGO_MANIFEST_DIR")).output().unwrap();
-    (out.status.code().unwrap_or(-1), String::from_utf8_lossy(&out.stdout).into_owned(), String::from_utf8_lossy(&out.stderr).into_owned())
+    let out = Command::new(env!("CARGO_BIN_EXE_shadec"))
+        .args(args)
+        .current_dir(env!("CARGO_MANIFEST_DIR"))
+        .output()
+        .unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
 }
 
 #[test]
@@ -30,7 +38,11 @@ fn compile_writes_atomically_to_a_file() {
 fn compile_exit_codes() {
     let dir = tempfile::tempdir().unwrap();
     let bad = dir.path().join("bad.shd");
-    std::fs::write(&bad, "texture T : 2d rgba8 = image(\"t.png\");\nconst kd : rgb = (1, 0, 0);\nC δπx ← T kd;\n").unwrap();
+    std::fs::write(
+        &bad,
+        "texture T : 2d rgba8 = image(\"t.png\");\nconst kd : rgb = (1, 0, 0);\nC δπx ← T kd;\n",
+    )
+    .unwrap();
     let (code, _, err) = shadec(&["compile", bad.to_str().unwrap()]);
     assert_eq!(code, 1, "{err}");
     assert!(err.contains("error[bad-index]"), "{err}");
@@ -44,23 +56,40 @@ fn compile_exit_codes() {
 
 #[test]
 fn check_target_reports_overflow_as_warning() {
-    let (code, _, err) = shadec(&["check", "--target", "geforce256", "--format", "short", "examples/chained_multitexture.shd"]);
+    let (code, _, err) = shadec(&[
+        "check",
+        "--target",
+        "geforce256",
+        "--format",
+        "short",
+        "examples/chained_multitexture.shd",
+    ]);
     assert_eq!(code, 0, "a warning does not fail the check: {err}");
-    let (_, out, _) = shadec(&["check", "--target", "geforce256", "--format", "short", "examples/chained_multitexture.shd"]);
+    let (_, out, _) = shadec(&[
+        "check",
+        "--target",
+        "geforce256",
+        "--format",
+        "short",
+        "examples/chained_multitexture.shd",
+    ]);
     assert!(
         out.contains("examples/chained_multitexture.shd:15:1: warning[does-not-fit]: does not fit in one pass on geforce256: needs 4 texture units; it has 2"),
         "{out}"
     );
-    let (code, out, _) = shadec(&["check", "--target", "geforce3", "--format", "short", "examples/chained_multitexture.shd"]);
+    let (code, out, _) =
+        shadec(&["check", "--target", "geforce3", "--format", "short", "examples/chained_multitexture.shd"]);
     assert_eq!(code, 0);
     assert!(!out.contains("does-not-fit"), "{out}");
-    let (code, _, _) = shadec(&["check", "--target", "geforce256", "--deny-warnings", "examples/chained_multitexture.shd"]);
+    let (code, _, _) =
+        shadec(&["check", "--target", "geforce256", "--deny-warnings", "examples/chained_multitexture.shd"]);
     assert_eq!(code, 1);
 }
 
 #[test]
 fn check_target_from_a_ron_file_and_missing_capabilities() {
-    let (code, out, _) = shadec(&["check", "--target", "profiles/geforce256.ron", "--format", "short", "examples/embm.shd"]);
+    let (code, out, _) =
+        shadec(&["check", "--target", "profiles/geforce256.ron", "--format", "short", "examples/embm.shd"]);
     assert_eq!(code, 1);
     assert!(out.contains("error[unsupported-by-target]: geforce256 cannot do this: a texture indexed by another texture's result"), "{out}");
 }
@@ -75,7 +104,8 @@ fn check_uses_the_programs_target_line() {
 
 #[test]
 fn compile_with_an_overflowing_target_warns_and_still_emits() {
-    let (code, out, err) = shadec(&["compile", "examples/chained_multitexture.shd", "--target", "geforce256"]);
+    let (code, out, err) =
+        shadec(&["compile", "examples/chained_multitexture.shd", "--target", "geforce256"]);
     assert_eq!(code, 0, "{err}");
     assert!(err.contains("warning[does-not-fit]"), "{err}");
     assert!(out.contains("texture units 4"), "{out}");

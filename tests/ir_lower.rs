@@ -12,7 +12,9 @@ fn examples() -> Vec<(String, String)> {
         .unwrap()
         .map(|e| e.unwrap().path())
         .filter(|p| p.extension().is_some_and(|e| e == "shd"))
-        .map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read_to_string(&p).unwrap()))
+        .map(|p| {
+            (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read_to_string(&p).unwrap())
+        })
         .collect();
     v.sort();
     v
@@ -68,8 +70,14 @@ fn every_example_lowers_without_errors() {
         let errors: Vec<_> = d.iter().filter(|d| d.is_error()).collect();
         assert!(errors.is_empty(), "{name}: {errors:#?}");
         // Every statement, plus one texel pass per `= bake(f)` texture (seeds/001 (13)).
-        let n_statements = shadec::parser::parse(&src).0.items.iter().filter(|i| matches!(i.kind, shadec::parser::ast::ItemKind::Statement(_))).count();
-        let n_baked = src.lines().filter(|l| !l.trim_start().starts_with("//") && l.contains("= bake(")).count();
+        let n_statements = shadec::parser::parse(&src)
+            .0
+            .items
+            .iter()
+            .filter(|i| matches!(i.kind, shadec::parser::ast::ItemKind::Statement(_)))
+            .count();
+        let n_baked =
+            src.lines().filter(|l| !l.trim_start().starts_with("//") && l.contains("= bake(")).count();
         assert_eq!(m.statements.len(), n_statements + n_baked, "{name}: a statement went missing");
         assert_eq!(m.info.len(), m.exprs.len(), "{name}: every node has its info");
         // Operands precede their users.
@@ -89,7 +97,9 @@ fn gouraud_colour_is_per_vertex_then_per_fragment() {
     assert_eq!(st.freq, Frequency::Fragment);
     // The written value widens the interpolated rgb colour to rgba.
     let Expr::Convert { value, to: Ty::Rgba } = m.exprs[st.value] else { panic!("{:?}", m.exprs[st.value]) };
-    let Expr::Interpolate { value: colour, to: Frequency::Fragment } = m.exprs[value] else { panic!("{:?}", m.exprs[value]) };
+    let Expr::Interpolate { value: colour, to: Frequency::Fragment } = m.exprs[value] else {
+        panic!("{:?}", m.exprs[value])
+    };
     assert_eq!(m.info(value).freq, Frequency::Fragment);
     assert_eq!(m.info(colour).freq, Frequency::Vertex);
     assert_eq!(m.info(colour).ty, Ty::Rgb);
@@ -197,7 +207,9 @@ fn identical_subexpressions_are_one_node() {
 
 #[test]
 fn kilgard_shares_the_normal_map_and_fits_geforce256() {
-    let src = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd")).unwrap();
+    let src =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd"))
+            .unwrap();
     let m = lower_ok(&src);
     let units: Vec<usize> = m.statements.iter().map(|s| Usage::of(&m, s).texture_units()).collect();
     assert_eq!(units, vec![1, 2, 2]);
@@ -210,7 +222,9 @@ fn kilgard_shares_the_normal_map_and_fits_geforce256() {
 
 #[test]
 fn chained_multitexture_needs_four_units() {
-    let src = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/chained_multitexture.shd")).unwrap();
+    let src =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/chained_multitexture.shd"))
+            .unwrap();
     let m = lower_ok(&src);
     assert_eq!(Usage::of(&m, &m.statements[0]).texture_units(), 4);
     let gf1 = shadec::profile::fit(&m, &shadec::profile::Profile::builtin("geforce256").unwrap());
@@ -239,10 +253,15 @@ fn missing_capabilities_are_errors() {
 #[test]
 fn constants_fold() {
     let m = lower_ok(&with("const a = 2;\nC δπx ← rgb(a * 0.25, sqrt(0.25), max(0, -1)) ⊕ (T δu x);"));
-    let consts: Vec<_> = m.exprs.arena().iter().filter_map(|(_, e)| match e {
-        Expr::Constant(c) if c.ty == Ty::Rgb => Some(c.values().to_vec()),
-        _ => None,
-    }).collect();
+    let consts: Vec<_> = m
+        .exprs
+        .arena()
+        .iter()
+        .filter_map(|(_, e)| match e {
+            Expr::Constant(c) if c.ty == Ty::Rgb => Some(c.values().to_vec()),
+            _ => None,
+        })
+        .collect();
     assert!(consts.contains(&vec![0.5, 0.5, 0.0]), "{consts:?}");
     assert!(nodes(&m, |e| matches!(e, Expr::Math { .. } | Expr::Compose { .. })).is_empty());
 }
@@ -270,7 +289,8 @@ C δπx ← rgb(max(0, Ln · expand((Tn δu x).rgb)), Ln.z, 2 * Ln.z);
 
 #[test]
 fn texture_shading_is_per_texel_and_fat_textures_feed_shaders() {
-    let src = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/texture_shading.shd")).unwrap();
+    let src = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/texture_shading.shd"))
+        .unwrap();
     let m = lower_ok(&src);
     assert_eq!(m.statements[0].freq, Frequency::Texel);
     assert_eq!(m.info(m.statements[0].value).freq, Frequency::Texel);
@@ -280,7 +300,9 @@ fn texture_shading_is_per_texel_and_fat_textures_feed_shaders() {
     // Section 3.7): the statement is indexed by `δu x`, rasterizing the mesh
     // in texture space, and the roles are interpolated per texel.
     let index = m.statements[0].index;
-    let Expr::Interpolate { value, to: Frequency::Texel } = m.exprs[index] else { panic!("index {:?}", m.exprs[index]) };
+    let Expr::Interpolate { value, to: Frequency::Texel } = m.exprs[index] else {
+        panic!("index {:?}", m.exprs[index])
+    };
     assert!(matches!(m.exprs[value], Expr::TexCoord { .. }), "{:?}", m.exprs[value]);
     let per_texel_roles = nodes(&m, |e| matches!(e, Expr::Interpolate { to: Frequency::Texel, .. }));
     assert_eq!(per_texel_roles.len(), 4, "δu x, N, L, V");
@@ -297,7 +319,8 @@ fn texture_shading_is_per_texel_and_fat_textures_feed_shaders() {
     let (e, text) = lower_err(two);
     assert_eq!((e.code, text), ("ambiguous-surface", "N"), "{e:#?}");
 
-    let src = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/fat_texture_map.shd")).unwrap();
+    let src = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/fat_texture_map.shd"))
+        .unwrap();
     let m = lower_ok(&src);
     let members = nodes(&m, |e| matches!(e, Expr::FatMember { .. }));
     assert!(!members.is_empty());
@@ -334,9 +357,44 @@ let a = T δu x;
 
 fn atom() -> impl Strategy<Value = String> {
     prop::sample::select(vec![
-        "N", "L", "H", "kd", "g", "a", "x", "xs", "u x", "s x", "δ s x", "δu", "δu x", "π x", "δπx", "T δu x", "Tc δ L s x",
-        "Ts δu x", "Tf δu x", "C δπx", "C xs", "α C δπx", "z C2 xs", "0", "1", "0.5", "(1, 2)", "(0, 0, 1)", "(1, 1, 1, 1)", "s",
-        "p s x", "p δ s x", "δ p s x", "p s δu", "p T δu x", "u", "δ x", "πl π⁻¹ xs",
+        "N",
+        "L",
+        "H",
+        "kd",
+        "g",
+        "a",
+        "x",
+        "xs",
+        "u x",
+        "s x",
+        "δ s x",
+        "δu",
+        "δu x",
+        "π x",
+        "δπx",
+        "T δu x",
+        "Tc δ L s x",
+        "Ts δu x",
+        "Tf δu x",
+        "C δπx",
+        "C xs",
+        "α C δπx",
+        "z C2 xs",
+        "0",
+        "1",
+        "0.5",
+        "(1, 2)",
+        "(0, 0, 1)",
+        "(1, 1, 1, 1)",
+        "s",
+        "p s x",
+        "p δ s x",
+        "δ p s x",
+        "p s δu",
+        "p T δu x",
+        "u",
+        "δ x",
+        "πl π⁻¹ xs",
     ])
     .prop_map(str::to_string)
 }
@@ -344,20 +402,59 @@ fn atom() -> impl Strategy<Value = String> {
 fn expr() -> impl Strategy<Value = String> {
     atom().prop_recursive(4, 24, 3, |inner| {
         prop_oneof![
-            (inner.clone(), prop::sample::select(vec!["+", "-", "*", "/", "·", "^", "⊕", "⊕[add]", "<", "∧"]), inner.clone())
+            (
+                inner.clone(),
+                prop::sample::select(vec!["+", "-", "*", "/", "·", "^", "⊕", "⊕[add]", "<", "∧"]),
+                inner.clone()
+            )
                 .prop_map(|(a, op, b)| format!("({a}) {op} ({b})")),
-            (prop::sample::select(vec!["δ", "T", "Tc", "p", "π", "πR", "α", "z", "N", "s", "u", "C", "normalize", "expand", "saturate"]), inner.clone())
+            (
+                prop::sample::select(vec![
+                    "δ",
+                    "T",
+                    "Tc",
+                    "p",
+                    "π",
+                    "πR",
+                    "α",
+                    "z",
+                    "N",
+                    "s",
+                    "u",
+                    "C",
+                    "normalize",
+                    "expand",
+                    "saturate"
+                ]),
+                inner.clone()
+            )
                 .prop_map(|(f, a)| format!("{f} ({a})")),
-            (prop::sample::select(vec!["max", "min", "dot", "pow", "rgba", "mix", "clamp"]), prop::collection::vec(inner.clone(), 1..4))
+            (
+                prop::sample::select(vec!["max", "min", "dot", "pow", "rgba", "mix", "clamp"]),
+                prop::collection::vec(inner.clone(), 1..4)
+            )
                 .prop_map(|(f, args)| format!("{f}({})", args.join(", "))),
-            (inner.clone(), prop::sample::select(vec!["x", "xy", "rgb", "a", "z", "xyzw"])).prop_map(|(a, c)| format!("({a}).{c}")),
-            (inner.clone(), inner.clone(), inner.clone()).prop_map(|(c, a, b)| format!("({c}) ? ({a}) : ({b})")),
+            (inner.clone(), prop::sample::select(vec!["x", "xy", "rgb", "a", "z", "xyzw"]))
+                .prop_map(|(a, c)| format!("({a}).{c}")),
+            (inner.clone(), inner.clone(), inner.clone())
+                .prop_map(|(c, a, b)| format!("({c}) ? ({a}) : ({b})")),
         ]
     })
 }
 
 fn target() -> impl Strategy<Value = String> {
-    prop::sample::select(vec!["C δπx", "α C δπx", "C xs", "T δu", "Tf δu x", "Tf δπx", "u' x", "C2 δπl x", "z C xs"]).prop_map(str::to_string)
+    prop::sample::select(vec![
+        "C δπx",
+        "α C δπx",
+        "C xs",
+        "T δu",
+        "Tf δu x",
+        "Tf δπx",
+        "u' x",
+        "C2 δπl x",
+        "z C xs",
+    ])
+    .prop_map(str::to_string)
 }
 
 proptest! {
@@ -413,7 +510,9 @@ C δπx ← δ p s′ x;
 
 #[test]
 fn statement_frequencies_follow_the_target() {
-    let read = |name: &str| std::fs::read_to_string(format!("{}/examples/{name}.shd", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    let read = |name: &str| {
+        std::fs::read_to_string(format!("{}/examples/{name}.shd", env!("CARGO_MANIFEST_DIR"))).unwrap()
+    };
     let freqs = |m: &Module| m.statements.iter().map(|s| s.freq).collect::<Vec<_>>();
     use Frequency::*;
     // (15), (16), (2): rasterize into texture space, shade the texels, texture the surface.
@@ -472,7 +571,8 @@ fn a_bare_modulate_of_an_unwritten_framebuffer_warns() {
         Some("to accumulate into `C`, write `⊕[add]`; to modulate what an earlier pass drew, write `C` first (e.g. `C δπx ← …;` before this statement)")
     );
     // The help is true: either fix is quiet.
-    for fixed in ["C δπx ← (C δπx) ⊕[add] (δ p s x);", "C δπx ← T δu x;\nC δπx ← (C δπx) ⊕ (δ p s x);"] {
+    for fixed in ["C δπx ← (C δπx) ⊕[add] (δ p s x);", "C δπx ← T δu x;\nC δπx ← (C δπx) ⊕ (δ p s x);"]
+    {
         let (_, d) = lower(&with(fixed));
         assert!(d.iter().all(|d| d.code != "modulate-cleared"), "{fixed}: {d:#?}");
     }
@@ -482,7 +582,7 @@ fn a_bare_modulate_of_an_unwritten_framebuffer_warns() {
     let w: Vec<_> = d.iter().filter(|d| d.code == "modulate-cleared").map(|d| d.message.clone()).collect();
     assert_eq!(w.len(), 1, "{d:#?}");
     assert!(w[0].contains("framebuffer `C'`"), "{w:?}"); // names print by their key (ASCII primes)
-    // A framebuffer as the incoming colour (right operand) is not modulated by itself.
+                                                         // A framebuffer as the incoming colour (right operand) is not modulated by itself.
     let (_, d) = lower(&with("C δπx ← T δu x ⊕ (C δπx);"));
     assert!(d.iter().all(|d| d.code != "modulate-cleared"), "{d:#?}");
 }
@@ -492,7 +592,8 @@ fn a_bare_modulate_of_an_unwritten_framebuffer_warns() {
 /// a located error before anything is built.
 #[test]
 fn a_huge_normalization_cube_is_a_located_error_at_once() {
-    let src = "texture Ncube : cube rgb8 = normalize_cube(100000);\nvector L : light;\nC δπx ← Ncube δ L s x;\n";
+    let src =
+        "texture Ncube : cube rgb8 = normalize_cube(100000);\nvector L : light;\nC δπx ← Ncube δ L s x;\n";
     let start = std::time::Instant::now();
     let (e, text) = lower_err(src);
     assert!(start.elapsed() < std::time::Duration::from_secs(1), "{:?}", start.elapsed());
@@ -511,11 +612,27 @@ fn a_huge_normalization_cube_is_a_located_error_at_once() {
     // The limit is allowed, through a `const` too; bits are 8 or 16; a cube generator needs a cube.
     lower_ok("const n = 1024;\ntexture Ncube : cube rgb8 = normalize_cube(n, 16);\nvector L : light;\nC δπx ← Ncube δ L s x;\n");
     for (source, code, message) in [
-        ("cube rgb8 = normalize_cube(1025)", "too-large", "a cube face of 1025×1025 texels is larger than the limit of 1024×1024"),
-        ("cube rgb8 = normalize_cube(0)", "bad-generator", "a cube face of 0 texels per side is not a whole number from 1 to 1024"),
-        ("cube rgb8 = normalize_cube(31.5)", "bad-generator", "a cube face of 31.5 texels per side is not a whole number from 1 to 1024"),
+        (
+            "cube rgb8 = normalize_cube(1025)",
+            "too-large",
+            "a cube face of 1025×1025 texels is larger than the limit of 1024×1024",
+        ),
+        (
+            "cube rgb8 = normalize_cube(0)",
+            "bad-generator",
+            "a cube face of 0 texels per side is not a whole number from 1 to 1024",
+        ),
+        (
+            "cube rgb8 = normalize_cube(31.5)",
+            "bad-generator",
+            "a cube face of 31.5 texels per side is not a whole number from 1 to 1024",
+        ),
         ("cube rgb8 = normalize_cube(32, 12)", "bad-generator", "the bits of `normalize_cube` are 8 or 16"),
-        ("2d rgb8 = normalize_cube(32)", "bad-generator", "`normalize_cube` makes a cube map, but the texture is declared `2d`"),
+        (
+            "2d rgb8 = normalize_cube(32)",
+            "bad-generator",
+            "`normalize_cube` makes a cube map, but the texture is declared `2d`",
+        ),
     ] {
         let src = format!("texture Ncube : {source};\nvector L : light;\nC δπx ← Ncube δu x;\n");
         let (_, d) = lower(&src);

@@ -36,7 +36,8 @@ fn profiles_round_trip_through_ron_and_load_from_disk() {
         std::fs::write(&path, p.to_ron()).unwrap();
         assert_eq!(Profile::load(&path).unwrap(), p);
         // The shipped file is the embedded one.
-        let shipped = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("profiles").join(format!("{name}.ron"));
+        let shipped =
+            std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("profiles").join(format!("{name}.ron"));
         assert_eq!(Profile::load(&shipped).unwrap(), p);
     }
 }
@@ -55,7 +56,10 @@ fn load_errors_name_the_file_and_the_problem() {
     assert!(e.contains("broken.ron: not a valid profile"), "{e}");
     let e = Profile::load(&dir.path().join("missing.ron")).unwrap_err().to_string();
     assert!(e.contains("missing.ron: cannot read the profile"), "{e}");
-    let p = Profile::builtin("geforce256").unwrap().to_ron().replace("texture_units: 2", "texture_units: 2, warp_drive: true");
+    let p = Profile::builtin("geforce256")
+        .unwrap()
+        .to_ron()
+        .replace("texture_units: 2", "texture_units: 2, warp_drive: true");
     let e = Profile::from_ron(&p, "x.ron").unwrap_err().to_string();
     assert!(e.contains("warp_drive"), "{e}");
 }

@@ -36,22 +36,45 @@ fn every_example_plans_or_says_why_on_every_profile() {
                     for p in &plan.passes {
                         assert!(!p.reason.is_empty(), "{}: a pass without a reason", path.display());
                         let have = profile(target).texture_units as usize;
-                        assert!(p.textures.len() <= have, "{}: pass binds {} textures on {target}", path.display(), p.textures.len());
+                        assert!(
+                            p.textures.len() <= have,
+                            "{}: pass binds {} textures on {target}",
+                            path.display(),
+                            p.textures.len()
+                        );
                         for id in [Some(p.fragment.output), p.vertex.position].into_iter().flatten() {
-                            assert!(plan.values.iter().any(|v| v.id == id), "value %{id} missing from the plan's values");
+                            assert!(
+                                plan.values.iter().any(|v| v.id == id),
+                                "value %{id} missing from the plan's values"
+                            );
                         }
                     }
                     let ron = plan.to_ron();
-                    assert_eq!(PassPlan::from_ron(&ron).unwrap(), plan, "{}: RON round trip on {target}", path.display());
+                    assert_eq!(
+                        PassPlan::from_ron(&ron).unwrap(),
+                        plan,
+                        "{}: RON round trip on {target}",
+                        path.display()
+                    );
                     let json = plan.to_json();
-                    assert_eq!(PassPlan::from_json(&json).unwrap(), plan, "{}: JSON round trip on {target}", path.display());
+                    assert_eq!(
+                        PassPlan::from_json(&json).unwrap(),
+                        plan,
+                        "{}: JSON round trip on {target}",
+                        path.display()
+                    );
                 }
                 Err(diags) => {
                     assert!(!diags.is_empty());
                     for d in &diags {
                         assert!(d.is_error(), "{}: only errors stop a plan", path.display());
                         assert!(d.help.is_some(), "{}: `{}` has no help line", path.display(), d.message);
-                        assert!(d.primary.span.end > d.primary.span.start, "{}: `{}` has no location", path.display(), d.message);
+                        assert!(
+                            d.primary.span.end > d.primary.span.start,
+                            "{}: `{}` has no location",
+                            path.display(),
+                            d.message
+                        );
                     }
                 }
             }
@@ -156,7 +179,9 @@ fn shadow_volume_stencil_pass_is_render_state_only() {
         assert_eq!(stencil.state.blend.write_mask, [false; 4]);
         assert_eq!(plan.passes[2].state.stencil.func, shadec::renderer::CompareFunc::NotEqual);
         // It rasterizes the shadow volume x′, the others the object x.
-        let drawn = |p: &shadec::planner::Pass| plan.values.iter().find(|v| Some(v.id) == p.vertex.position).map(|v| v.op.clone());
+        let drawn = |p: &shadec::planner::Pass| {
+            plan.values.iter().find(|v| Some(v.id) == p.vertex.position).map(|v| v.op.clone())
+        };
         assert!(drawn(&plan.passes[0]).is_some() && drawn(&plan.passes[1]).is_some());
         assert_eq!(drawn(&plan.passes[0]), drawn(&plan.passes[2]));
         assert_ne!(drawn(&plan.passes[1]), drawn(&plan.passes[0]), "{:?}", drawn(&plan.passes[1]));
@@ -239,7 +264,19 @@ fn operations(src: &str) -> usize {
     let (program, _) = shadec::parser::check(src);
     let (module, _) = shadec::ir::lower(&program);
     let roots: Vec<_> = module.statements.iter().map(|s| s.value).collect();
-    module.reachable(&roots).iter().filter(|h| matches!(module.exprs[**h], shadec::ir::Expr::Binary { .. } | shadec::ir::Expr::Combine { .. } | shadec::ir::Expr::Math { .. } | shadec::ir::Expr::Lookup { .. })).count()
+    module
+        .reachable(&roots)
+        .iter()
+        .filter(|h| {
+            matches!(
+                module.exprs[**h],
+                shadec::ir::Expr::Binary { .. }
+                    | shadec::ir::Expr::Combine { .. }
+                    | shadec::ir::Expr::Math { .. }
+                    | shadec::ir::Expr::Lookup { .. }
+            )
+        })
+        .count()
 }
 
 #[test]
@@ -316,11 +353,29 @@ fn planner_pass_counts_are_minimal_on_generated_programs() {
 fn compile_emit_plan_writes_ron_and_json() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("plan.json");
-    let r = common::shadec(&["compile", "examples/kilgard_bump_mapping.shd", "--target", "geforce256", "--emit", "plan", "--format", "json", "-o", out.to_str().unwrap()]);
+    let r = common::shadec(&[
+        "compile",
+        "examples/kilgard_bump_mapping.shd",
+        "--target",
+        "geforce256",
+        "--emit",
+        "plan",
+        "--format",
+        "json",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     let plan = PassPlan::from_json(&std::fs::read_to_string(&out).unwrap()).unwrap();
     assert_eq!(plan.passes.len(), 3);
-    let r = common::shadec(&["compile", "examples/kilgard_bump_mapping.shd", "--target", "geforce3", "--emit", "plan"]);
+    let r = common::shadec(&[
+        "compile",
+        "examples/kilgard_bump_mapping.shd",
+        "--target",
+        "geforce3",
+        "--emit",
+        "plan",
+    ]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     let plan = PassPlan::from_ron(&r.stdout).unwrap();
     assert_eq!(plan.passes.len(), 1, "Kilgard's three statements fuse into one generated pass on geforce3");
@@ -329,7 +384,16 @@ fn compile_emit_plan_writes_ron_and_json() {
     let bad = dir.path().join("bad.shd");
     std::fs::write(&bad, "vector N : normal;\nC δπx ← normalize(δ N s x).z;\n").unwrap();
     let out2 = dir.path().join("never.ron");
-    let r = common::shadec(&["compile", bad.to_str().unwrap(), "--target", "geforce256", "--emit", "plan", "-o", out2.to_str().unwrap()]);
+    let r = common::shadec(&[
+        "compile",
+        bad.to_str().unwrap(),
+        "--target",
+        "geforce256",
+        "--emit",
+        "plan",
+        "-o",
+        out2.to_str().unwrap(),
+    ]);
     assert_eq!(r.code, 1, "{}", r.stderr);
     assert!(r.stderr.contains("bad.shd:2:"), "{}", r.stderr);
     assert!(!out2.exists());
@@ -342,10 +406,13 @@ fn generated_benchmark_programs_plan() {
         let plan = plan_src(&src, "geforce256").unwrap_or_else(|d| panic!("{d:#?}\n{src}"));
         assert!(plan.passes.len() > n / 10, "{n}: {}", plan.summary());
         let plan = plan_src(&src, "wgsl").unwrap();
-        assert!(plan.passes.len() <= n / 10 / planner::MAX_FUSE + 2, "{n}: {} passes on wgsl", plan.passes.len());
+        assert!(
+            plan.passes.len() <= n / 10 / planner::MAX_FUSE + 2,
+            "{n}: {} passes on wgsl",
+            plan.passes.len()
+        );
     }
 }
-
 
 #[test]
 fn compile_for_a_scene_removes_what_the_scene_zeroes() {
@@ -359,7 +426,8 @@ fn compile_for_a_scene_removes_what_the_scene_zeroes() {
          C δπx ← kd * T δu x * (δ ndotl s x);\nC δπx ← (C δπx) ⊕[add] (ks * Texp δ ndoth s x);\n",
     )
     .unwrap();
-    let base = std::fs::read_to_string(format!("{}/scenes/kilgard_torus.ron", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    let base =
+        std::fs::read_to_string(format!("{}/scenes/kilgard_torus.ron", env!("CARGO_MANIFEST_DIR"))).unwrap();
     let cut = base.trim_end().rfind(')').unwrap();
     let scene = |ks: &str| {
         let p = dir.path().join(format!("scene_{ks}.ron"));
@@ -388,9 +456,20 @@ fn compile_for_a_scene_removes_what_the_scene_zeroes() {
     // A value of the wrong size is a located error.
     let bad = dir.path().join("bad.ron");
     std::fs::write(&bad, format!("{}    constants: {{\"kd\": [1, 2]}},\n)\n", &base[..cut])).unwrap();
-    let r = common::shadec(&["compile", shd.to_str().unwrap(), "--emit", "plan", "--scene", bad.to_str().unwrap()]);
+    let r = common::shadec(&[
+        "compile",
+        shd.to_str().unwrap(),
+        "--emit",
+        "plan",
+        "--scene",
+        bad.to_str().unwrap(),
+    ]);
     assert_eq!(r.code, 1, "{}", r.stderr);
-    assert!(r.stderr.contains("spec.shd:6:") && r.stderr.contains("rgb but the scene gives 2"), "{}", r.stderr);
+    assert!(
+        r.stderr.contains("spec.shd:6:") && r.stderr.contains("rgb but the scene gives 2"),
+        "{}",
+        r.stderr
+    );
 }
 
 /// A profile given as a file keeps its own combiner limits after planning
@@ -406,13 +485,17 @@ fn a_profile_file_keeps_its_combiner_limits_downstream() {
         .replace("general_combiners: 8", "general_combiners: 12");
     let profile = Profile::from_ron(&text, "nv_twelve.ron").unwrap();
     // Eight squarings after the dot product: more stages than a GeForce3 has.
-    let src = "texture T, U : 2d rgb8 = image(\"x.png\");\nC δπx ← max(0, expand(T δu x)·expand(U δu x))^256;\n";
+    let src =
+        "texture T, U : 2d rgb8 = image(\"x.png\");\nC δπx ← max(0, expand(T δu x)·expand(U δu x))^256;\n";
     let planned = planner::compile_source(src, &profile).unwrap();
     assert_eq!(planned.plan.passes.len(), 1);
     assert_eq!(planned.combiners, profile.combiner_limits());
     let g = shadec::backends::combiners::codegen::generate_for_pass(&planned, 0).unwrap();
     assert!(g.stages > 8 && g.stages <= 12, "{} stages", g.stages);
-    assert!(planner::compile_source(src, &Profile::builtin("geforce3").unwrap()).is_err(), "a GeForce3 cannot run it in one pass");
+    assert!(
+        planner::compile_source(src, &Profile::builtin("geforce3").unwrap()).is_err(),
+        "a GeForce3 cannot run it in one pass"
+    );
 }
 
 /// `C ← rgba((α C)·c, α C)` is one blend by destination alpha, the factor
@@ -421,10 +504,15 @@ fn a_profile_file_keeps_its_combiner_limits_downstream() {
 #[test]
 fn a_destination_alpha_product_keeps_or_explains_its_alpha() {
     let decl = "texture A : 2d rgba8 = image(\"a.png\");\ntexture B, D, E, G : 2d rgb8 = image(\"d.png\");\nframebuffer C : rgba8, depth;\nC δπx ← rgba((B δu x) * (E δu x) * (G δu x), (A δu x).a);\n";
-    let kept = plan_src(&format!("{decl}C δπx ← rgba((α C δπx) * (D δu x), α C δπx);\n"), "geforce3").unwrap();
+    let kept =
+        plan_src(&format!("{decl}C δπx ← rgba((α C δπx) * (D δu x), α C δπx);\n"), "geforce3").unwrap();
     assert_eq!(kept.passes.len(), 2, "{}", kept.summary());
     assert_eq!(kept.passes[1].blend, BlendMode::DstAlphaModulate);
     let err = plan_src(&format!("{decl}C δπx ← (α C δπx) * (D δu x);\n"), "geforce3").unwrap_err();
     assert_eq!(err[0].message, "framebuffer blending cannot express this: the value is rgb, so the statement writes alpha 1, while a blend by the destination alpha would scale the alpha too");
-    assert!(err[0].help.as_deref().is_some_and(|h| h.contains("rgba((α C δπx) * c, α C δπx)")), "{:?}", err[0].help);
+    assert!(
+        err[0].help.as_deref().is_some_and(|h| h.contains("rgba((α C δπx) * c, α C δπx)")),
+        "{:?}",
+        err[0].help
+    );
 }

@@ -84,7 +84,11 @@ fn checkable(m: &Module) -> bool {
     m.statements.iter().all(|s| match s.table {
         Table::TexCoords(_) => true,
         Table::Framebuffer { channel: FbChannel::Color | FbChannel::Alpha, .. } => {
-            s.freq == Frequency::Fragment && !m.reachable(&[s.value]).iter().any(|h| matches!(m.exprs[*h], Expr::Select { reject: None, .. }))
+            s.freq == Frequency::Fragment
+                && !m
+                    .reachable(&[s.value])
+                    .iter()
+                    .any(|h| matches!(m.exprs[*h], Expr::Select { reject: None, .. }))
         }
         _ => false,
     })
@@ -97,7 +101,12 @@ fn compare(original: &Module, planned: &Planned, samples: u64) -> f64 {
     let mut worst = 0.0f64;
     for seed in 0..samples {
         let seed = hash(seed + 1);
-        let initial: HashMap<String, Value> = m.framebuffers.iter().enumerate().map(|(i, f)| (f.name.clone(), random4(seed ^ (i as u64 + 1000)))).collect();
+        let initial: HashMap<String, Value> = m
+            .framebuffers
+            .iter()
+            .enumerate()
+            .map(|(i, f)| (f.name.clone(), random4(seed ^ (i as u64 + 1000))))
+            .collect();
         // As written.
         let mut fb = initial.clone();
         let temps = HashMap::new();
@@ -115,10 +124,16 @@ fn compare(original: &Module, planned: &Planned, samples: u64) -> f64 {
         let mut pfb = initial.clone();
         let mut ptemps: HashMap<String, Value> = HashMap::new();
         for pass in &planned.plan.passes {
-            let src = eval(m, planned.handle(pass.fragment.output), &mut Sample { seed, module: m, framebuffers: &pfb, temps: &ptemps });
+            let src = eval(
+                m,
+                planned.handle(pass.fragment.output),
+                &mut Sample { seed, module: m, framebuffers: &pfb, temps: &ptemps },
+            );
             let (store, name) = match &pass.target {
                 RenderTarget::Framebuffer { name, .. } => (&mut pfb, name.clone()),
-                RenderTarget::Temporary { name } | RenderTarget::Texture { name } => (&mut ptemps, name.clone()),
+                RenderTarget::Temporary { name } | RenderTarget::Texture { name } => {
+                    (&mut ptemps, name.clone())
+                }
             };
             let dst = store.get(&name).copied().unwrap_or([0.0; 4]).map(|x| x as f32);
             let blended = pass.state.blend.blend(&src, &dst);
@@ -134,7 +149,12 @@ fn compare(original: &Module, planned: &Planned, samples: u64) -> f64 {
             let got = pfb[name];
             for c in 0..4 {
                 let d = (want[c] - got[c]).abs() / (1.0 + want[c].abs());
-                assert!(d.is_finite() || (want[c].is_nan() && got[c].is_nan()), "{name}[{c}]: {} vs {}", want[c], got[c]);
+                assert!(
+                    d.is_finite() || (want[c].is_nan() && got[c].is_nan()),
+                    "{name}[{c}]: {} vs {}",
+                    want[c],
+                    got[c]
+                );
                 if d.is_finite() {
                     worst = worst.max(d);
                 }
@@ -156,11 +176,19 @@ fn check_program(src: &str, what: &str) -> usize {
     }
     let mut split = 0;
     for target in ["geforce256", "geforce3", "multitexture", "wgsl"] {
-        let Ok(planned) = planner::plan(&original, &Profile::builtin(target).unwrap(), Some(src)) else { continue };
+        let Ok(planned) = planner::plan(&original, &Profile::builtin(target).unwrap(), Some(src)) else {
+            continue;
+        };
         let worst = compare(&original, &planned, 200);
         // f32 rounding of a few dozen operations in a different order.
-        assert!(worst <= 1e-5, "{what} on {target}: the plan differs from the program by {worst:e}\n{}", planned.plan.summary());
-        split += (planned.plan.passes.len() != original.statements.iter().filter(|s| !matches!(s.table, Table::TexCoords(_))).count()) as usize;
+        assert!(
+            worst <= 1e-5,
+            "{what} on {target}: the plan differs from the program by {worst:e}\n{}",
+            planned.plan.summary()
+        );
+        split += (planned.plan.passes.len()
+            != original.statements.iter().filter(|s| !matches!(s.table, Table::TexCoords(_))).count())
+            as usize;
     }
     split
 }

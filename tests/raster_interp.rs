@@ -3,11 +3,11 @@ mod common;
 
 use common::{ClipVertices, Constant, VaryingsAsColor};
 use glam::{Vec3, Vec4};
-use shadec::scene::camera::perspective_gl;
 use shadec::renderer::{
-    draw, BlendState, ColorFormat, CompareFunc, CullMode, DepthState, Fragment, FragmentResult, FragmentStage,
-    Framebuffer, Pass, RenderState,
+    draw, BlendState, ColorFormat, CompareFunc, CullMode, DepthState, Fragment, FragmentResult,
+    FragmentStage, Framebuffer, Pass, RenderState,
 };
+use shadec::scene::camera::perspective_gl;
 
 /// A large triangle on the tilted plane z = −4 − 0.8·x (eye space), seen in
 /// perspective; each vertex carries its eye-space (x, y). At every pixel the
@@ -20,7 +20,11 @@ fn interpolation_is_perspective_correct_against_ray_plane_intersection() {
     let fov = 1.0f32;
     let proj = perspective_gl(fov, aspect, 0.1, 100.0);
     let plane_z = |x: f32| -4.0 - 0.8 * x;
-    let eye = [Vec3::new(-3.0, -2.0, plane_z(-3.0)), Vec3::new(4.0, -2.5, plane_z(4.0)), Vec3::new(0.5, 3.0, plane_z(0.5))];
+    let eye = [
+        Vec3::new(-3.0, -2.0, plane_z(-3.0)),
+        Vec3::new(4.0, -2.5, plane_z(4.0)),
+        Vec3::new(0.5, 3.0, plane_z(0.5)),
+    ];
     let clip = eye.iter().map(|p| (proj * p.extend(1.0)).to_array()).collect();
     let varyings = eye.iter().flat_map(|p| [p.x, p.y]).collect();
     let verts = ClipVertices { clip, varyings, n: 2 };
@@ -28,7 +32,8 @@ fn interpolation_is_perspective_correct_against_ray_plane_intersection() {
     fb.clear_color([f32::NAN; 4]);
     let state = RenderState { cull: CullMode::None, ..RenderState::default() };
     let stats =
-        draw(&mut fb, &Pass { triangles: &[[0, 1, 2]], vertex: &verts, fragment: &VaryingsAsColor, state }).unwrap();
+        draw(&mut fb, &Pass { triangles: &[[0, 1, 2]], vertex: &verts, fragment: &VaryingsAsColor, state })
+            .unwrap();
     assert!(stats.written > 500, "{stats:?}");
     let tan = (fov / 2.0).tan();
     let mut checked = 0;
@@ -64,8 +69,11 @@ fn depth_equal_rerender_touches_exactly_the_visible_pixels() {
     let verts = ClipVertices { clip, varyings: Vec::new(), n: 0 };
     let mut fb = Framebuffer::new(w, h, ColorFormat::F32).unwrap();
     let first = RenderState { cull: CullMode::None, depth: DepthState::LESS_WRITE, ..RenderState::default() };
-    draw(&mut fb, &Pass { triangles: &tris, vertex: &verts, fragment: &Constant([1.0, 0.0, 0.0, 0.0]), state: first })
-        .unwrap();
+    draw(
+        &mut fb,
+        &Pass { triangles: &tris, vertex: &verts, fragment: &Constant([1.0, 0.0, 0.0, 0.0]), state: first },
+    )
+    .unwrap();
     let again = RenderState {
         cull: CullMode::None,
         depth: DepthState::EQUAL_NO_WRITE,
@@ -130,7 +138,11 @@ fn fragment_derivatives_match_finite_differences() {
     let verts = ClipVertices { clip, varyings: vec![0.0, 10.0, 5.0], n: 1 };
     let mut fb = Framebuffer::new(w, h, ColorFormat::F32).unwrap();
     fb.clear_color([f32::NAN; 4]);
-    let state = RenderState { cull: CullMode::None, depth: DepthState { func: CompareFunc::Always, write: false }, ..RenderState::default() };
+    let state = RenderState {
+        cull: CullMode::None,
+        depth: DepthState { func: CompareFunc::Always, write: false },
+        ..RenderState::default()
+    };
     draw(&mut fb, &Pass { triangles: &[[0, 1, 2]], vertex: &verts, fragment: &Probe, state }).unwrap();
     let mut checked = 0;
     for y in 1..h - 1 {

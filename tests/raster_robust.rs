@@ -5,7 +5,7 @@ mod common;
 
 use common::{ClipVertices, VaryingsAsColor};
 use proptest::prelude::*;
-use shadec::renderer::{draw, ColorFormat, CullMode, Framebuffer, Pass, RenderState, RenderError};
+use shadec::renderer::{draw, ColorFormat, CullMode, Framebuffer, Pass, RenderError, RenderState};
 
 fn coordinate() -> impl Strategy<Value = f32> {
     prop_oneof![
@@ -61,7 +61,9 @@ fn triangle_crossing_the_near_plane_is_clipped_not_inverted() {
     let verts = ClipVertices { clip, varyings: vec![1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 1.0, 0.0, 0.0], n: 3 };
     let mut fb = Framebuffer::new(32, 32, ColorFormat::F32).unwrap();
     let state = RenderState { cull: CullMode::None, ..RenderState::default() };
-    let stats = draw(&mut fb, &Pass { triangles: &[[0, 1, 2]], vertex: &verts, fragment: &VaryingsAsColor, state }).unwrap();
+    let stats =
+        draw(&mut fb, &Pass { triangles: &[[0, 1, 2]], vertex: &verts, fragment: &VaryingsAsColor, state })
+            .unwrap();
     assert!(stats.written > 0, "{stats:?}");
     assert!(fb.to_rgba_f32().iter().all(|c| c.iter().all(|v| v.is_finite())));
 }
@@ -72,7 +74,12 @@ fn out_of_range_indices_are_errors() {
     let mut fb = Framebuffer::new(8, 8, ColorFormat::Rgba8).unwrap();
     let err = draw(
         &mut fb,
-        &Pass { triangles: &[[0, 1, 7]], vertex: &verts, fragment: &VaryingsAsColor, state: RenderState::default() },
+        &Pass {
+            triangles: &[[0, 1, 7]],
+            vertex: &verts,
+            fragment: &VaryingsAsColor,
+            state: RenderState::default(),
+        },
     )
     .unwrap_err();
     assert!(matches!(err, RenderError::IndexOutOfRange { index: 7, .. }), "{err}");

@@ -3,15 +3,19 @@ mod common;
 
 use common::{ClipVertices, Constant};
 use shadec::renderer::{
-    draw, BlendState, ColorFormat, CompareFunc, CullMode, DepthState, Fragment, FragmentResult, FragmentStage,
-    Framebuffer, Pass, RenderState, StencilOp, StencilState,
+    draw, BlendState, ColorFormat, CompareFunc, CullMode, DepthState, Fragment, FragmentResult,
+    FragmentStage, Framebuffer, Pass, RenderState, StencilOp, StencilState,
 };
 
 const W: u32 = 32;
 const H: u32 = 32;
 
 fn full_screen() -> (ClipVertices, Vec<[u32; 3]>) {
-    let v = ClipVertices::from_pixels(&[[0.0, 0.0], [W as f32, 0.0], [W as f32, H as f32], [0.0, H as f32]], W, H);
+    let v = ClipVertices::from_pixels(
+        &[[0.0, 0.0], [W as f32, 0.0], [W as f32, H as f32], [0.0, H as f32]],
+        W,
+        H,
+    );
     // Counter-clockwise in NDC (y up): (0,H) is bottom-left.
     (v, vec![[3, 2, 1], [3, 1, 0]])
 }
@@ -33,7 +37,9 @@ fn back_face_culling_follows_ndc_winding() {
     ] {
         let mut fb = Framebuffer::new(W, H, ColorFormat::F32).unwrap();
         let state = RenderState { cull, ..RenderState::default() };
-        let stats = draw(&mut fb, &Pass { triangles: tris, vertex: &v, fragment: &Constant([1.0; 4]), state }).unwrap();
+        let stats =
+            draw(&mut fb, &Pass { triangles: tris, vertex: &v, fragment: &Constant([1.0; 4]), state })
+                .unwrap();
         let lit = count(&fb, |c| c[0] == 1.0);
         assert_eq!(lit, if visible { (W * H) as usize } else { 0 }, "{cull:?}");
         assert_eq!(stats.culled, if visible { 0 } else { 2 });
@@ -67,18 +73,38 @@ fn stencil_masks_a_second_pass() {
     let mark = RenderState {
         cull: CullMode::None,
         depth: DepthState::DISABLED,
-        stencil: StencilState { enabled: true, func: CompareFunc::Always, reference: 1, pass: StencilOp::Replace, ..StencilState::DISABLED },
+        stencil: StencilState {
+            enabled: true,
+            func: CompareFunc::Always,
+            reference: 1,
+            pass: StencilOp::Replace,
+            ..StencilState::DISABLED
+        },
         blend: BlendState::REPLACE.with_write_mask([false; 4]),
     };
-    let s1 = draw(&mut fb, &Pass { triangles: &[[0, 1, 2]], vertex: &tri, fragment: &Constant([1.0; 4]), state: mark }).unwrap();
+    let s1 = draw(
+        &mut fb,
+        &Pass { triangles: &[[0, 1, 2]], vertex: &tri, fragment: &Constant([1.0; 4]), state: mark },
+    )
+    .unwrap();
     assert_eq!(count(&fb, |c| c != [0.0; 4]), 0, "write mask off: no colour");
     // Pass 2: full screen where stencil == 1, incrementing it.
     let masked = RenderState {
-        stencil: StencilState { enabled: true, func: CompareFunc::Equal, reference: 1, pass: StencilOp::Incr, ..StencilState::DISABLED },
+        stencil: StencilState {
+            enabled: true,
+            func: CompareFunc::Equal,
+            reference: 1,
+            pass: StencilOp::Incr,
+            ..StencilState::DISABLED
+        },
         blend: BlendState::REPLACE,
         ..mark
     };
-    draw(&mut fb, &Pass { triangles: &quad, vertex: &v, fragment: &Constant([1.0, 0.0, 0.0, 1.0]), state: masked }).unwrap();
+    draw(
+        &mut fb,
+        &Pass { triangles: &quad, vertex: &v, fragment: &Constant([1.0, 0.0, 0.0, 1.0]), state: masked },
+    )
+    .unwrap();
     let red = count(&fb, |c| c[0] == 1.0);
     assert_eq!(red as u64, s1.written);
     let mut twos = 0;
@@ -109,11 +135,17 @@ fn blend_modes_through_draws() {
         for format in [ColorFormat::F32, ColorFormat::Rgba8] {
             let mut fb = Framebuffer::new(W, H, format).unwrap();
             fb.clear_color(dst);
-            let state = RenderState { cull: CullMode::None, depth: DepthState::DISABLED, blend, ..RenderState::default() };
+            let state = RenderState {
+                cull: CullMode::None,
+                depth: DepthState::DISABLED,
+                blend,
+                ..RenderState::default()
+            };
             draw(&mut fb, &Pass { triangles: &quad, vertex: &v, fragment: &Constant(src), state }).unwrap();
             let tol = if format == ColorFormat::Rgba8 { 1.0 / 255.0 } else { 1e-6 };
             // Fixed-point targets saturate at 1.
-            let expected = if format == ColorFormat::Rgba8 { expected.map(|e: f32| e.min(1.0)) } else { expected };
+            let expected =
+                if format == ColorFormat::Rgba8 { expected.map(|e: f32| e.min(1.0)) } else { expected };
             for c in fb.to_rgba_f32() {
                 for k in 0..4 {
                     assert!((c[k] - expected[k]).abs() <= tol, "{blend:?} {format:?}: {c:?} vs {expected:?}");
@@ -124,7 +156,12 @@ fn blend_modes_through_draws() {
     // RGBA8 saturates additive blending; f32 does not.
     let mut f = Framebuffer::new(W, H, ColorFormat::F32).unwrap();
     let mut b = Framebuffer::new(W, H, ColorFormat::Rgba8).unwrap();
-    let state = RenderState { cull: CullMode::None, depth: DepthState::DISABLED, blend: BlendState::ADD, ..RenderState::default() };
+    let state = RenderState {
+        cull: CullMode::None,
+        depth: DepthState::DISABLED,
+        blend: BlendState::ADD,
+        ..RenderState::default()
+    };
     for fb in [&mut f, &mut b] {
         for _ in 0..3 {
             draw(fb, &Pass { triangles: &quad, vertex: &v, fragment: &Constant([0.5; 4]), state }).unwrap();
@@ -140,7 +177,11 @@ fn discarded_fragments_touch_nothing() {
     impl FragmentStage for Checker {
         fn shade(&self, f: &Fragment, _: &[f32], out: &mut [f32; 4]) -> FragmentResult {
             *out = [1.0; 4];
-            if (f.x + f.y) % 2 == 0 { FragmentResult::Keep } else { FragmentResult::Discard }
+            if (f.x + f.y) % 2 == 0 {
+                FragmentResult::Keep
+            } else {
+                FragmentResult::Discard
+            }
         }
     }
     let (v, quad) = full_screen();

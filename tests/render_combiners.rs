@@ -19,7 +19,8 @@ const W: u32 = 128;
 const H: u32 = 96;
 
 fn kilgard() -> String {
-    std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd")).unwrap()
+    std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd"))
+        .unwrap()
 }
 
 /// Kilgard's declarations and `let`s, without his three statements.
@@ -28,7 +29,8 @@ fn declarations() -> String {
 }
 
 fn scene() -> Scene {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron")).unwrap();
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron")).unwrap();
     Scene::parse(&text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap()
 }
 
@@ -42,7 +44,10 @@ fn plan(source: &str, target: &str) -> (Planned, shadec::parser::ast::Program) {
 fn render(source: &str, target: &str, scene: &Scene, mode: Mode) -> (Planned, Frame) {
     let (planned, program) = plan(source, target);
     let assets = scene.build().unwrap();
-    let frame = PlanRenderer::new(&planned, &program, scene, &assets).unwrap().render(mode, W, H, &mut |_, _| {}).unwrap();
+    let frame = PlanRenderer::new(&planned, &program, scene, &assets)
+        .unwrap()
+        .render(mode, W, H, &mut |_, _| {})
+        .unwrap();
     (planned, frame)
 }
 
@@ -54,26 +59,39 @@ fn check_pass(statement: &str, target: &str, units: &[(&str, &str)]) -> usize {
     let decls = declarations();
     let (planned, frame) = render(&format!("{decls}\nC δπx ← {statement};\n"), target, &scene, Mode::Fixed9);
     assert_eq!(planned.plan.passes.len(), 1, "{statement}: one pass");
-    let PassShading::Combiners { stages } = frame.shading[0] else { panic!("{statement}: not run by the combiners: {:?}", frame.shading) };
+    let PassShading::Combiners { stages } = frame.shading[0] else {
+        panic!("{statement}: not run by the combiners: {:?}", frame.shading)
+    };
     // The generated config, as the renderer made it.
     let pass = &planned.plan.passes[0];
     let lookups: Vec<_> = pass.textures.iter().map(|t| planned.handle(t.lookup)).collect();
     let generated = combiners::generate(
-        &combiners::PassInput { module: &planned.module, value: planned.handle(pass.fragment.output), units: &lookups },
+        &combiners::PassInput {
+            module: &planned.module,
+            value: planned.handle(pass.fragment.output),
+            units: &lookups,
+        },
         &combiners::CombinerLimits::by_name(target).unwrap(),
     )
     .unwrap();
-    assert!(generated.primary.is_none() && generated.secondary.is_none(), "Kilgard's passes read textures and constants only");
+    assert!(
+        generated.primary.is_none() && generated.secondary.is_none(),
+        "Kilgard's passes read textures and constants only"
+    );
     // Each register's image: the texel itself, rendered by a replace pass.
     let dumps: Vec<Vec<u8>> = pass
         .textures
         .iter()
         .map(|t| {
-            let (_, lookup) = units.iter().find(|(name, _)| *name == t.texture).unwrap_or_else(|| panic!("unit for {}", t.texture));
+            let (_, lookup) = units
+                .iter()
+                .find(|(name, _)| *name == t.texture)
+                .unwrap_or_else(|| panic!("unit for {}", t.texture));
             render(&format!("{decls}\nC δπx ← {lookup};\n"), target, &scene, Mode::Fixed9).1.image.to_rgba8()
         })
         .collect();
-    let coverage = render(&format!("{decls}\nC δπx ← Iambient;\n"), target, &scene, Mode::Fixed9).1.image.to_rgba8();
+    let coverage =
+        render(&format!("{decls}\nC δπx ← Iambient;\n"), target, &scene, Mode::Fixed9).1.image.to_rgba8();
     let mut textures: [Option<&[u8]>; 4] = [None; 4];
     for (slot, d) in textures.iter_mut().zip(&dumps) {
         *slot = Some(d.as_slice());
@@ -87,7 +105,13 @@ fn check_pass(statement: &str, target: &str, units: &[(&str, &str)]) -> usize {
             continue;
         }
         covered += 1;
-        assert_eq!(got[4 * i..4 * i + 4], expected[4 * i..4 * i + 4], "{statement}: pixel ({}, {}) ({stages} stages)", i % W as usize, i / W as usize);
+        assert_eq!(
+            got[4 * i..4 * i + 4],
+            expected[4 * i..4 * i + 4],
+            "{statement}: pixel ({}, {}) ({stages} stages)",
+            i % W as usize,
+            i / W as usize
+        );
     }
     assert!(covered > 1000, "the torus covers the screen: {covered}");
     stages
@@ -95,7 +119,8 @@ fn check_pass(statement: &str, target: &str, units: &[(&str, &str)]) -> usize {
 
 #[test]
 fn ambient_and_diffuse_pass_is_the_emulated_appendix_g_setup() {
-    let stages = check_pass("rgba(diffuse, s_self)", "geforce256", &[("Tn", "Tn δu x"), ("Ncube", "Ncube δ L s x")]);
+    let stages =
+        check_pass("rgba(diffuse, s_self)", "geforce256", &[("Tn", "Tn δu x"), ("Ncube", "Ncube δ L s x")]);
     assert_eq!(stages, 2, "Appendix G uses both general combiners");
 }
 
@@ -114,10 +139,14 @@ fn splatted_specular_runs_six_emulated_stages_on_geforce3() {
 fn default_plan_runs_every_pass_in_the_combiners() {
     let scene = scene();
     let (_, fixed) = render(&kilgard(), "geforce256", &scene, Mode::Fixed9);
-    let stages: Vec<usize> = fixed.shading.iter().map(|s| match s {
-        PassShading::Combiners { stages } => *stages,
-        other => panic!("{other:?}"),
-    }).collect();
+    let stages: Vec<usize> = fixed
+        .shading
+        .iter()
+        .map(|s| match s {
+            PassShading::Combiners { stages } => *stages,
+            other => panic!("{other:?}"),
+        })
+        .collect();
     assert_eq!(stages, [0, 2, 2], "decal in the final combiner alone; Appendices G and H");
     let (_, exact) = render(&kilgard(), "geforce256", &scene, Mode::Exact);
     let (_, f32_) = render(&kilgard(), "geforce256", &scene, Mode::F32);
@@ -126,7 +155,10 @@ fn default_plan_runs_every_pass_in_the_combiners() {
     let ef = compare(&exact.image, &f32_.image);
     let e9f = compare(&f32_.image, &fixed.image);
     eprintln!("fixed9 vs exact {e9:?}\nf32 vs exact {ef:?}\nfixed9 vs f32 {e9f:?}");
-    assert!(e9.psnr > 30.0 && e9.rmse > ef.rmse, "fixed9 is a close picture, and worse than f32: {e9:?} vs {ef:?}");
+    assert!(
+        e9.psnr > 30.0 && e9.rmse > ef.rmse,
+        "fixed9 is a close picture, and worse than f32: {e9:?} vs {ef:?}"
+    );
     assert!(e9f.psnr > 35.0, "the combiners' 8 bits + sign stay near the float plan: {e9f:?}");
 }
 
@@ -135,11 +167,14 @@ fn default_plan_runs_every_pass_in_the_combiners() {
 /// target without combiners, fixed9 runs the per-operation model.
 #[test]
 fn a_pass_the_generator_refuses_is_not_planned_and_fixed9_elsewhere_is_per_operation() {
-    let source = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/src/bench/programs/phong_taylor.shd")).unwrap();
+    let source =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/src/bench/programs/phong_taylor.shd"))
+            .unwrap();
     let err = compile_source(&source, &Profile::resolve("geforce3").unwrap()).unwrap_err();
     assert_eq!(err[0].code, "cannot-split", "{err:?}");
     assert!(err[0].primary.span.end > err[0].primary.span.start, "located: {err:?}");
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/bench_sphere.ron")).unwrap();
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/bench_sphere.ron")).unwrap();
     let scene = Scene::parse(&text, Path::new("scenes/bench_sphere.ron")).unwrap();
     let (_, frame) = render(&source, "wgsl", &scene, Mode::Fixed9);
     assert!(!frame.shading.is_empty());

@@ -15,11 +15,13 @@ const W: u32 = 160;
 const H: u32 = 120;
 
 fn kilgard() -> String {
-    std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd")).unwrap()
+    std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd"))
+        .unwrap()
 }
 
 fn default_scene() -> Scene {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron")).unwrap();
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron")).unwrap();
     // Anchor at a folder without decal.png / bumps.png: the stand-ins are used.
     Scene::parse(&text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap()
 }
@@ -92,7 +94,10 @@ fn multipass_and_single_pass_kilgard_agree_in_f32() {
 fn every_example_renders_or_refuses_clearly() {
     let scene = default_scene();
     let mut refused = Vec::new();
-    let mut dir: Vec<_> = std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/examples")).unwrap().map(|e| e.unwrap().path()).collect();
+    let mut dir: Vec<_> = std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/examples"))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .collect();
     dir.sort();
     for path in dir.iter().filter(|p| p.extension().is_some_and(|e| e == "shd")) {
         let src = std::fs::read_to_string(path).unwrap();
@@ -100,7 +105,8 @@ fn every_example_renders_or_refuses_clearly() {
         let Ok(planned) = compile_source(&src, &profile) else { continue };
         let (program, _) = shadec::parser::check(&src);
         let assets = scene.build().unwrap();
-        let result = PlanRenderer::new(&planned, &program, &scene, &assets).and_then(|r| r.render(Mode::F32, 64, 48, &mut |_, _| {}));
+        let result = PlanRenderer::new(&planned, &program, &scene, &assets)
+            .and_then(|r| r.render(Mode::F32, 64, 48, &mut |_, _| {}));
         match result {
             Ok(f) => assert_finite(&f),
             Err(e) => {
@@ -121,10 +127,13 @@ fn every_example_renders_or_refuses_clearly() {
 /// does not.
 #[test]
 fn exact_evaluates_a_baked_function_at_the_lookup() {
-    let example = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/dual_paraboloid_mirror.shd")).unwrap();
+    let example =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/dual_paraboloid_mirror.shd"))
+            .unwrap();
     assert!(example.contains("α C δπx ← TF δu″ x;"), "pass 1 of the example writes F");
     // F alone, written to the colour (compared images are RGB).
-    let declarations: String = example.lines().filter(|l| !l.contains("C δπx")).map(|l| format!("{l}\n")).collect();
+    let declarations: String =
+        example.lines().filter(|l| !l.contains("C δπx")).map(|l| format!("{l}\n")).collect();
     let baked = format!("{declarations}C δπx ← TF δu″ x;\n");
     let inline = format!(
         "{declarations}let c_at = δu″ x;\nlet g_at = sqrt(η^2 + c_at^2 - 1);\nC δπx ← 0.5 * (g_at - c_at)^2 / (g_at + c_at)^2 * (1 + (c_at*(g_at + c_at) - 1)^2 / (c_at*(g_at - c_at) + 1)^2);\n"
@@ -147,15 +156,28 @@ fn exact_evaluates_a_baked_function_at_the_lookup() {
 /// with the statement `TF δu ← fresnel s δu` written out.
 #[test]
 fn bake_is_texture_shading_of_the_function() {
-    let baked = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/dual_paraboloid_mirror.shd")).unwrap();
-    let explicit = baked.replace("texture TF : 1d r8 bilinear clamp = bake(fresnel);", "texture TF : 1d r8 bilinear clamp;\nTF δu ← fresnel s δu;");
+    let baked =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/dual_paraboloid_mirror.shd"))
+            .unwrap();
+    let explicit = baked.replace(
+        "texture TF : 1d r8 bilinear clamp = bake(fresnel);",
+        "texture TF : 1d r8 bilinear clamp;\nTF δu ← fresnel s δu;",
+    );
     assert_ne!(baked, explicit, "the example declares TF = bake(fresnel)");
     let (planned, _) = plan(&baked, "wgsl");
     let first = &planned.plan.passes[0];
-    assert!(matches!(&first.target, shadec::planner::RenderTarget::Texture { name } if name == "TF"), "{:?}", first.target);
+    assert!(
+        matches!(&first.target, shadec::planner::RenderTarget::Texture { name } if name == "TF"),
+        "{:?}",
+        first.target
+    );
     assert!(matches!(first.geometry, shadec::planner::Geometry::Texels), "{:?}", first.geometry);
     let line = baked.lines().position(|l| l.contains("bake(fresnel)")).unwrap() + 1;
-    assert!(first.at.starts_with(&format!("{line}:")), "pass 1 is at {}, the bake is on line {line}", first.at);
+    assert!(
+        first.at.starts_with(&format!("{line}:")),
+        "pass 1 is at {}, the bake is on line {line}",
+        first.at
+    );
     let scene = default_scene();
     for mode in [Mode::F32, Mode::Fixed9] {
         let (a, _) = render(&baked, "wgsl", &scene, mode);
@@ -190,7 +212,9 @@ fn shadow_mask_reprojects_each_pixel() {
 /// reads members back; the picture is forward per-pixel shading's.
 #[test]
 fn deferred_shading_renders_as_forward_shading() {
-    let deferred = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/deferred_shading.shd")).unwrap();
+    let deferred =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/deferred_shading.shd"))
+            .unwrap();
     let forward = deferred.replace("T δπx ← δ s x;", "").replace("C xs ← p T xs;", "C δπx ← p δ s x;");
     assert_ne!(forward, deferred);
     let scene = default_scene();
@@ -201,7 +225,11 @@ fn deferred_shading_renders_as_forward_shading() {
     let object: Vec<usize> = (0..f.len() / 4).filter(|&i| f[4 * i + 3] == 255).collect();
     assert!(object.len() > 2000, "{}", object.len());
     assert!(object.iter().filter(|&&i| f[4 * i] > 40).count() > object.len() / 4, "lit");
-    let max = object.iter().map(|&i| (0..3).map(|c| d[4 * i + c].abs_diff(f[4 * i + c])).max().unwrap()).max().unwrap();
+    let max = object
+        .iter()
+        .map(|&i| (0..3).map(|c| d[4 * i + c].abs_diff(f[4 * i + c])).max().unwrap())
+        .max()
+        .unwrap();
     assert!(max <= 1, "deferred and forward differ by {max}/255");
 }
 
@@ -221,7 +249,12 @@ fn dependent_lookups_take_their_level_of_detail_from_the_quad() {
         let (a, b) = (a.image.to_rgba8(), b.image.to_rgba8());
         let object: Vec<usize> = (0..a.len() / 4).filter(|&i| a[4 * i + 3] == 255).collect();
         assert!(object.len() > 2000, "{}", object.len());
-        let over = object.iter().filter(|&&i| (0..3).any(|c| a[4 * i + c].abs_diff(b[4 * i + c]) > 2)).count();
-        assert!(over * 200 < object.len(), "{mode:?}: {over} of {} pixels differ by more than 2/255", object.len());
+        let over =
+            object.iter().filter(|&&i| (0..3).any(|c| a[4 * i + c].abs_diff(b[4 * i + c]) > 2)).count();
+        assert!(
+            over * 200 < object.len(),
+            "{mode:?}: {over} of {} pixels differ by more than 2/255",
+            object.len()
+        );
     }
 }

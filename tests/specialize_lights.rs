@@ -16,7 +16,11 @@ const SIZE: u32 = 64;
 const ROOT: &str = env!("CARGO_MANIFEST_DIR");
 
 fn files(dir: &str, ext: &str) -> Vec<PathBuf> {
-    let mut v: Vec<PathBuf> = std::fs::read_dir(Path::new(ROOT).join(dir)).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|e| e == ext)).collect();
+    let mut v: Vec<PathBuf> = std::fs::read_dir(Path::new(ROOT).join(dir))
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == ext))
+        .collect();
     v.sort();
     v
 }
@@ -33,12 +37,20 @@ fn phong() -> String {
 
 /// The program's own target, else wgsl.
 fn profile_of(source: &str) -> Profile {
-    let target = source.lines().find_map(|l| l.trim().strip_prefix("target ").map(|t| t.trim_end_matches(';').trim().to_string())).unwrap_or_else(|| "wgsl".into());
+    let target = source
+        .lines()
+        .find_map(|l| l.trim().strip_prefix("target ").map(|t| t.trim_end_matches(';').trim().to_string()))
+        .unwrap_or_else(|| "wgsl".into());
     Profile::resolve(&target).unwrap()
 }
 
 /// Renders a plan; `None` when the CPU renderer does not run it.
-fn render(planned: &Planned, source: &str, scene: &Scene, mode: Mode) -> Option<shadec::renderer::Framebuffer> {
+fn render(
+    planned: &Planned,
+    source: &str,
+    scene: &Scene,
+    mode: Mode,
+) -> Option<shadec::renderer::Framebuffer> {
     let (program, _) = shadec::parser::check(source);
     let assets = scene.build().ok()?;
     let r = PlanRenderer::new(planned, &program, scene, &assets).ok()?;
@@ -50,7 +62,12 @@ fn render(planned: &Planned, source: &str, scene: &Scene, mode: Mode) -> Option<
 /// in f32 and fixed9, for every example on every scene it renders on.
 #[test]
 fn specialization_never_changes_an_example_scene_beyond_one_step() {
-    let mut programs: Vec<(String, String)> = files("examples", "shd").into_iter().map(|p| (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read_to_string(&p).unwrap())).collect();
+    let mut programs: Vec<(String, String)> = files("examples", "shd")
+        .into_iter()
+        .map(|p| {
+            (p.file_name().unwrap().to_string_lossy().into_owned(), std::fs::read_to_string(&p).unwrap())
+        })
+        .collect();
     programs.push(("tests/data/lights/phong_lights.shd".into(), phong()));
     let (mut compared, mut with_removals, mut with_culls) = (0, 0, 0);
     let mut worst = (0.0f32, String::new());
@@ -58,16 +75,29 @@ fn specialization_never_changes_an_example_scene_beyond_one_step() {
         let sc = scene(&scene_path);
         for (name, source) in &programs {
             let profile = profile_of(source);
-            let Ok((before, after)) = plan_pair(source, &profile, &sc, DEFAULT_CULL_THRESHOLD) else { continue };
+            let Ok((before, after)) = plan_pair(source, &profile, &sc, DEFAULT_CULL_THRESHOLD) else {
+                continue;
+            };
             for mode in [Mode::F32, Mode::Fixed9] {
                 let Some(a) = render(&before, source, &sc, mode) else { continue };
-                let b = render(&after, source, &sc, mode).unwrap_or_else(|| panic!("{name} on {}: the specialized plan does not render", scene_path.display()));
+                let b = render(&after, source, &sc, mode).unwrap_or_else(|| {
+                    panic!("{name} on {}: the specialized plan does not render", scene_path.display())
+                });
                 let e = compare(&a, &b);
-                let what = format!("{name} on {} ({})", scene_path.file_name().unwrap().to_string_lossy(), mode.name());
+                let what = format!(
+                    "{name} on {} ({})",
+                    scene_path.file_name().unwrap().to_string_lossy(),
+                    mode.name()
+                );
                 if e.max_abs > worst.0 {
                     worst = (e.max_abs, what.clone());
                 }
-                assert!(e.max_abs <= 1.0 / 255.0 + 1e-6, "{what}: specialization changed a pixel by {} (> 1/255); removed: {:#?}", e.max_abs * 255.0, after.plan.removed);
+                assert!(
+                    e.max_abs <= 1.0 / 255.0 + 1e-6,
+                    "{what}: specialization changed a pixel by {} (> 1/255); removed: {:#?}",
+                    e.max_abs * 255.0,
+                    after.plan.removed
+                );
                 compared += 1;
             }
             if !after.plan.removed.iter().all(|r| r.kind == "note") {
@@ -80,7 +110,10 @@ fn specialization_never_changes_an_example_scene_beyond_one_step() {
     }
     eprintln!("{compared} renders compared; {with_removals} program × scene pairs with removals, {with_culls} with culled lights; worst {:.2}/255 ({})", worst.0 * 255.0, worst.1);
     assert!(compared >= 100, "most examples render on most scenes: only {compared} comparisons");
-    assert!(with_removals >= 3 && with_culls >= 2, "removal actually happens: {with_removals} pairs with removals, {with_culls} with culled lights");
+    assert!(
+        with_removals >= 3 && with_culls >= 2,
+        "removal actually happens: {with_removals} pairs with removals, {with_culls} with culled lights"
+    );
 }
 
 /// Culling at a threshold changes no pixel by more than that threshold
@@ -92,11 +125,23 @@ fn light_culling_never_drops_a_light_that_changes_a_pixel_by_more_than_the_thres
     let profile = Profile::resolve("wgsl").unwrap();
     let (program, _) = shadec::parser::check(&source);
     let (module, _) = shadec::ir::lower(&program);
-    for name in ["lights_matte_floor.ron", "lights_two_spots.ron", "adaptive_sphere_4lights.ron", "adaptive_cube_4lights.ron", "adaptive_spot_cutoff.ron"] {
+    for name in [
+        "lights_matte_floor.ron",
+        "lights_two_spots.ron",
+        "adaptive_sphere_4lights.ron",
+        "adaptive_cube_4lights.ron",
+        "adaptive_spot_cutoff.ron",
+    ] {
         let sc = scene(&Path::new(ROOT).join("scenes").join(name));
         let assets = sc.build().unwrap();
         let textures = shadec::scene::bind::texture_decls(&program, &sc.constants);
-        let spec = |cull: Option<f64>| SceneSpecialization { scene: &sc, assets: &assets, textures: &textures, fold_uniforms: true, cull_threshold: cull };
+        let spec = |cull: Option<f64>| SceneSpecialization {
+            scene: &sc,
+            assets: &assets,
+            textures: &textures,
+            fold_uniforms: true,
+            cull_threshold: cull,
+        };
         let full = plan_specialized(&module, &profile, Some(&source), &spec(None)).unwrap();
         let reference = render(&full, &source, &sc, Mode::F32).unwrap();
         let mut culled_before = 0;
@@ -104,8 +149,15 @@ fn light_culling_never_drops_a_light_that_changes_a_pixel_by_more_than_the_thres
             let culled = plan_specialized(&module, &profile, Some(&source), &spec(Some(threshold))).unwrap();
             let n = culled.plan.removed.iter().filter(|r| r.kind == "light").count();
             let e = compare(&reference, &render(&culled, &source, &sc, Mode::F32).unwrap());
-            eprintln!("{name} at {threshold:.4}: {n} light × object pairs culled, max change {:.5}", e.max_abs);
-            assert!((e.max_abs as f64) <= threshold + 1e-5, "{name}: culling at {threshold} changed a pixel by {}", e.max_abs);
+            eprintln!(
+                "{name} at {threshold:.4}: {n} light × object pairs culled, max change {:.5}",
+                e.max_abs
+            );
+            assert!(
+                (e.max_abs as f64) <= threshold + 1e-5,
+                "{name}: culling at {threshold} changed a pixel by {}",
+                e.max_abs
+            );
             assert!(n >= culled_before, "a larger threshold culls no less");
             culled_before = n;
         }
@@ -123,11 +175,31 @@ fn floor_scene_removes_the_lights_that_cannot_reach() {
     let sc = scene(&Path::new(ROOT).join("scenes/lights_matte_floor.ron"));
     let profile = Profile::resolve("wgsl").unwrap();
     let (before, after) = plan_pair(&phong(), &profile, &sc, DEFAULT_CULL_THRESHOLD).unwrap();
-    assert_eq!(before.plan.passes.iter().map(|p| p.light).collect::<Vec<_>>(), vec![Some(0), Some(1), Some(2), Some(3)], "one pass per light");
-    assert_eq!(after.plan.passes.iter().map(|p| (p.light, p.objects.clone())).collect::<Vec<_>>(), vec![(Some(0), None), (Some(2), Some(vec![1]))]);
-    let culled: Vec<&str> = after.plan.removed.iter().filter(|r| r.kind == "light").map(|r| r.what.as_str()).collect();
-    assert!(culled.iter().any(|w| w.starts_with("light 1 (spot)")) && culled.iter().any(|w| w.starts_with("light 3 (point)")), "{culled:?}");
-    let why = |prefix: &str| after.plan.removed.iter().find(|r| r.what.starts_with(prefix)).map(|r| r.why.clone()).unwrap_or_default();
+    assert_eq!(
+        before.plan.passes.iter().map(|p| p.light).collect::<Vec<_>>(),
+        vec![Some(0), Some(1), Some(2), Some(3)],
+        "one pass per light"
+    );
+    assert_eq!(
+        after.plan.passes.iter().map(|p| (p.light, p.objects.clone())).collect::<Vec<_>>(),
+        vec![(Some(0), None), (Some(2), Some(vec![1]))]
+    );
+    let culled: Vec<&str> =
+        after.plan.removed.iter().filter(|r| r.kind == "light").map(|r| r.what.as_str()).collect();
+    assert!(
+        culled.iter().any(|w| w.starts_with("light 1 (spot)"))
+            && culled.iter().any(|w| w.starts_with("light 3 (point)")),
+        "{culled:?}"
+    );
+    let why = |prefix: &str| {
+        after
+            .plan
+            .removed
+            .iter()
+            .find(|r| r.what.starts_with(prefix))
+            .map(|r| r.why.clone())
+            .unwrap_or_default()
+    };
     assert!(why("light 2 (point) for object 0").contains("behind every face"));
     assert!(why("light 1 (spot) for object 1").contains("spot's cone"));
     assert!(why("light 3 (point) for object 1").contains("distance attenuation"));
@@ -149,7 +221,14 @@ fn removal_report_snapshot() {
 #[test]
 fn compile_with_scene_prints_the_culled_lights() {
     let out = Command::new(env!("CARGO_BIN_EXE_shadec"))
-        .args(["compile", "tests/data/lights/phong_lights.shd", "--scene", "scenes/lights_matte_floor.ron", "--emit", "plan"])
+        .args([
+            "compile",
+            "tests/data/lights/phong_lights.shd",
+            "--scene",
+            "scenes/lights_matte_floor.ron",
+            "--emit",
+            "plan",
+        ])
         .current_dir(ROOT)
         .output()
         .unwrap();

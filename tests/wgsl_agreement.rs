@@ -38,7 +38,9 @@ mod common;
 use std::path::Path;
 
 use shadec::backends::wgsl::codegen::Fidelity;
-use shadec::backends::wgsl::runner::{PassTarget, run_passes, Gpu, RunPass, RunShader, ShaderSource, Target, VertexData};
+use shadec::backends::wgsl::runner::{
+    run_passes, Gpu, PassTarget, RunPass, RunShader, ShaderSource, Target, VertexData,
+};
 use shadec::backends::wgsl::scene_run::ScenePlan;
 use shadec::planner::compile_source;
 use shadec::profile::Profile;
@@ -68,7 +70,8 @@ const TIES: [(f64, f32, f64); 3] = [(1e-3, 1e-2, 8.0), (1e-3, 5e-2, 64.0), (1e-3
 use common::gpu::gpu;
 
 fn kilgard_scene() -> Scene {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron")).unwrap();
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron")).unwrap();
     // Anchored where decal.png / bumps.png do not exist: the binder's
     // procedural stand-ins are used by both executors.
     Scene::parse(&text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap()
@@ -89,14 +92,24 @@ fn fs_main(in: VsOut) -> @location(0) vec4<f32> { return in.id; }
 fn triangle_ids(gpu: &Gpu, scene: &Scene, assets: &SceneAssets) -> Vec<u32> {
     let (center, radius) = scene_bounds(assets);
     let light = light_view_projection(scene.lights.first(), center, radius);
-    let state = RenderState { cull: CullMode::None, depth: DepthState { func: CompareFunc::Less, write: true }, stencil: StencilState::DISABLED, blend: BlendState::REPLACE };
+    let state = RenderState {
+        cull: CullMode::None,
+        depth: DepthState { func: CompareFunc::Less, write: true },
+        stencil: StencilState::DISABLED,
+        blend: BlendState::REPLACE,
+    };
     let mut next = 1u32;
     let mut passes = Vec::new();
     for (mesh, model) in &assets.meshes {
         let object = BoundObject::new(scene, mesh, *model, W as f32 / H as f32, light);
         let mut floats = Vec::new();
         for tri in &mesh.triangles {
-            let id = [(next & 255) as f32 / 255.0, ((next >> 8) & 255) as f32 / 255.0, ((next >> 16) & 255) as f32 / 255.0, 1.0];
+            let id = [
+                (next & 255) as f32 / 255.0,
+                ((next >> 8) & 255) as f32 / 255.0,
+                ((next >> 16) & 255) as f32 / 255.0,
+                1.0,
+            ];
             next += 1;
             for &v in tri {
                 let p = object.camera_clip * mesh.positions[v as usize].extend(1.0);
@@ -107,7 +120,11 @@ fn triangle_ids(gpu: &Gpu, scene: &Scene, assets: &SceneAssets) -> Vec<u32> {
         let n = floats.len() as u32 / 8;
         passes.push(RunPass {
             label: "triangle ids".into(),
-            shader: RunShader { source: ShaderSource::Wgsl(ID_WGSL.into()), vertex_entry: "vs_main".into(), fragment_entry: "fs_main".into() },
+            shader: RunShader {
+                source: ShaderSource::Wgsl(ID_WGSL.into()),
+                vertex_entry: "vs_main".into(),
+                fragment_entry: "fs_main".into(),
+            },
             vertices: VertexData { floats, components: vec![4, 4] },
             indices: (0..n).collect(),
             textures: vec![],
@@ -181,23 +198,38 @@ fn agreement_in(gpu: &Gpu, source: &str, target: &str, scene: &Scene, fidelity: 
 }
 
 /// [`agreement_in`], or why an executor refused the program.
-fn try_agreement_in(gpu: &Gpu, source: &str, target: &str, scene: &Scene, fidelity: Fidelity) -> Result<Agreement, String> {
+fn try_agreement_in(
+    gpu: &Gpu,
+    source: &str,
+    target: &str,
+    scene: &Scene,
+    fidelity: Fidelity,
+) -> Result<Agreement, String> {
     let profile = Profile::resolve(target).map_err(|e| format!("{e:?}"))?;
     let planned = compile_source(source, &profile).map_err(|d| format!("does not compile: {d:?}"))?;
     let (program, _) = shadec::parser::check(source);
     let assets = scene.build().unwrap();
     let (mode, tol) = if fidelity == Fidelity::Hardware { (Mode::Fixed9, 1) } else { (Mode::F32, 2) };
-    let mut renderer = PlanRenderer::new(&planned, &program, scene, &assets).map_err(|e| format!("CPU: {e}"))?;
+    let mut renderer =
+        PlanRenderer::new(&planned, &program, scene, &assets).map_err(|e| format!("CPU: {e}"))?;
     let mut render = |bias: RoundingBias| {
         renderer.set_rounding_bias(bias);
-        renderer.render(mode, W, H, &mut |_, _| {}).map(|f| f.image.to_rgba8()).map_err(|e| format!("CPU: {e}"))
+        renderer
+            .render(mode, W, H, &mut |_, _| {})
+            .map(|f| f.image.to_rgba8())
+            .map_err(|e| format!("CPU: {e}"))
     };
     let cpu = render(RoundingBias::default())?;
-    let plan = ScenePlan::new(&planned, &program, Some(source), fidelity, scene, &assets).map_err(|e| format!("wgpu: {e}"))?;
+    let plan = ScenePlan::new(&planned, &program, Some(source), fidelity, scene, &assets)
+        .map_err(|e| format!("wgpu: {e}"))?;
     // f32: a float target — between passes the values stay in float, as in
     // the CPU renderer's f32 mode (the picture is read back in 8 bits, as
     // the CPU's is written). fixed9: RGBA8 between passes, as the CPU's.
-    let gpu_target = if fidelity == Fidelity::Hardware { shadec::backends::wgsl::runner::Target::new(W, H) } else { shadec::backends::wgsl::runner::Target::float(W, H) };
+    let gpu_target = if fidelity == Fidelity::Hardware {
+        shadec::backends::wgsl::runner::Target::new(W, H)
+    } else {
+        shadec::backends::wgsl::runner::Target::float(W, H)
+    };
     let gpu_img = plan.render_into(gpu, &gpu_target).map_err(|e| format!("wgpu: {e}"))?.into_raw();
     let ids = triangle_ids(gpu, scene, &assets);
     let mask = edge_mask(&ids);
@@ -205,13 +237,21 @@ fn try_agreement_in(gpu: &Gpu, source: &str, target: &str, scene: &Scene, fideli
     let differences = |pictures: &[&[u8]]| {
         let (mut max_diff, mut over, mut worst) = (0u8, 0usize, (0usize, [0u8; 4], [0u8; 4]));
         for i in (0..(W * H) as usize).filter(|&i| !mask[i]) {
-            let d = pictures.iter().map(|cpu| (0..4).map(|c| cpu[4 * i + c].abs_diff(gpu_img[4 * i + c])).max().unwrap()).min().unwrap();
+            let d = pictures
+                .iter()
+                .map(|cpu| (0..4).map(|c| cpu[4 * i + c].abs_diff(gpu_img[4 * i + c])).max().unwrap())
+                .min()
+                .unwrap();
             if d > tol {
                 over += 1;
             }
             if d > max_diff {
                 max_diff = d;
-                worst = (i, cpu[4 * i..4 * i + 4].try_into().unwrap(), gpu_img[4 * i..4 * i + 4].try_into().unwrap());
+                worst = (
+                    i,
+                    cpu[4 * i..4 * i + 4].try_into().unwrap(),
+                    gpu_img[4 * i..4 * i + 4].try_into().unwrap(),
+                );
             }
         }
         (max_diff, over, worst)
@@ -224,7 +264,11 @@ fn try_agreement_in(gpu: &Gpu, source: &str, target: &str, scene: &Scene, fideli
         let mut pictures = vec![cpu.clone()];
         for (register_steps, texel_quanta, comparison_ulps) in TIES {
             for sign in [1.0, -1.0] {
-                pictures.push(render(RoundingBias { register_steps: sign * register_steps, texel_quanta: sign as f32 * texel_quanta, comparison_ulps: sign * comparison_ulps })?);
+                pictures.push(render(RoundingBias {
+                    register_steps: sign * register_steps,
+                    texel_quanta: sign as f32 * texel_quanta,
+                    comparison_ulps: sign * comparison_ulps,
+                })?);
             }
         }
         differences(&pictures.iter().map(|p| &p[..]).collect::<Vec<_>>())
@@ -249,25 +293,41 @@ fn try_agreement_in(gpu: &Gpu, source: &str, target: &str, scene: &Scene, fideli
         // Signed differences (wgpu − CPU) per channel over the lit compared pixels: a bias shows as asymmetry.
         for c in 0..3 {
             let mut histogram = std::collections::BTreeMap::new();
-            for i in (0..(W * H) as usize).filter(|&i| !mask[i] && cpu[4 * i..4 * i + 3].iter().any(|&c| c > 0)) {
+            for i in
+                (0..(W * H) as usize).filter(|&i| !mask[i] && cpu[4 * i..4 * i + 3].iter().any(|&c| c > 0))
+            {
                 *histogram.entry(gpu_img[4 * i + c] as i32 - cpu[4 * i + c] as i32).or_insert(0usize) += 1;
             }
             eprintln!("{target} channel {c}: wgpu − cpu → pixels {histogram:?}");
         }
         let dir = std::env::temp_dir();
-        image::RgbaImage::from_raw(W, H, cpu.clone()).unwrap().save(dir.join(format!("agree_cpu_{target}.png"))).unwrap();
-        image::RgbaImage::from_raw(W, H, gpu_img.clone()).unwrap().save(dir.join(format!("agree_gpu_{target}.png"))).unwrap();
+        image::RgbaImage::from_raw(W, H, cpu.clone())
+            .unwrap()
+            .save(dir.join(format!("agree_cpu_{target}.png")))
+            .unwrap();
+        image::RgbaImage::from_raw(W, H, gpu_img.clone())
+            .unwrap()
+            .save(dir.join(format!("agree_gpu_{target}.png")))
+            .unwrap();
         let diff: Vec<u8> = (0..(W * H) as usize)
             .flat_map(|i| {
                 let d = (0..3).map(|c| cpu[4 * i + c].abs_diff(gpu_img[4 * i + c])).max().unwrap();
                 let v = (d as u32 * 40).min(255) as u8;
-                if mask[i] { [0, 0, 80, 255] } else { [v, v, v, 255] }
+                if mask[i] {
+                    [0, 0, 80, 255]
+                } else {
+                    [v, v, v, 255]
+                }
             })
             .collect();
-        image::RgbaImage::from_raw(W, H, diff).unwrap().save(dir.join(format!("agree_diff_{target}.png"))).unwrap();
+        image::RgbaImage::from_raw(W, H, diff)
+            .unwrap()
+            .save(dir.join(format!("agree_diff_{target}.png")))
+            .unwrap();
     }
     let compared = mask.iter().filter(|m| !**m).count();
-    let lit = (0..(W * H) as usize).filter(|&i| !mask[i] && cpu[4 * i..4 * i + 3].iter().any(|&c| c > 0)).count();
+    let lit =
+        (0..(W * H) as usize).filter(|&i| !mask[i] && cpu[4 * i..4 * i + 3].iter().any(|&c| c > 0)).count();
     Ok(Agreement { max_diff, masked, covered, over, ties, over_with_ties, max_with_ties, compared, lit })
 }
 
@@ -339,17 +399,27 @@ fn hardware_fidelity_rounds_quotient_ties_alike() {
 }
 
 fn kilgard() -> String {
-    std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd")).unwrap()
+    std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd"))
+        .unwrap()
 }
 
 /// The criterion: every pixel off the edge mask within 2/255.
 fn check(a: &Agreement, what: &str) {
     sane(a, what);
-    assert!(a.max_diff <= 2, "{what}: wgpu and the CPU f32 renderer differ by up to {}/255 on {} pixels off triangle edges", a.max_diff, a.over);
+    assert!(
+        a.max_diff <= 2,
+        "{what}: wgpu and the CPU f32 renderer differ by up to {}/255 on {} pixels off triangle edges",
+        a.max_diff,
+        a.over
+    );
 }
 
 fn sane(a: &Agreement, what: &str) {
-    assert!(a.covered > (W * H) as usize / 10, "{what}: the torus covers too little of the image ({} pixels)", a.covered);
+    assert!(
+        a.covered > (W * H) as usize / 10,
+        "{what}: the torus covers too little of the image ({} pixels)",
+        a.covered
+    );
     assert!(a.masked < 0.6, "{what}: the edge mask hides {:.0}% of the image", 100.0 * a.masked);
 }
 
@@ -381,7 +451,6 @@ fn kilgard_without_mipmaps_agrees_with_cpu_f32() {
     check(&a, "kilgard without mipmaps (wgsl, 1 pass)");
 }
 
-
 /// Every example on Kilgard's torus, planned for its own target (`wgsl`
 /// when it names none): exact fidelity against f32 within 2/255, hardware
 /// fidelity against fixed9 within 1/255, off the edge mask (allowing for
@@ -395,7 +464,11 @@ fn every_example_agrees_on_the_torus() {
         Err(_) => kilgard_scene(),
     };
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/examples");
-    let mut names: Vec<String> = std::fs::read_dir(dir).unwrap().filter_map(|e| e.ok()?.file_name().into_string().ok()).filter(|n| n.ends_with(".shd")).collect();
+    let mut names: Vec<String> = std::fs::read_dir(dir)
+        .unwrap()
+        .filter_map(|e| e.ok()?.file_name().into_string().ok())
+        .filter(|n| n.ends_with(".shd"))
+        .collect();
     names.sort();
     assert!(names.len() >= 28, "{names:?}");
     // `SHADEC_AGREEMENT_ONLY=embm` narrows the sweep (with `SHADEC_AGREEMENT_DUMP`, its images).
@@ -405,7 +478,10 @@ fn every_example_agrees_on_the_torus() {
     let mut failures = Vec::new();
     for name in &names {
         let source = std::fs::read_to_string(format!("{dir}/{name}")).unwrap();
-        let target = source.lines().find_map(|l| l.trim().strip_prefix("target ")?.strip_suffix(';').map(str::to_string)).unwrap_or_else(|| "wgsl".into());
+        let target = source
+            .lines()
+            .find_map(|l| l.trim().strip_prefix("target ")?.strip_suffix(';').map(str::to_string))
+            .unwrap_or_else(|| "wgsl".into());
         for (fidelity, tol) in [(Fidelity::Exact, 2), (Fidelity::Hardware, 1)] {
             match try_agreement_in(&gpu, &source, &target, &scene, fidelity) {
                 Ok(a) => {
@@ -421,7 +497,10 @@ fn every_example_agrees_on_the_torus() {
                         failures.push(format!("{name} {fidelity:?}: only {} of {} compared pixels are lit: the agreement says little", a.lit, a.compared));
                     }
                     if a.max_diff > tol {
-                        failures.push(format!("{name} {fidelity:?}: max {}/255 on {} pixels", a.max_diff, a.over));
+                        failures.push(format!(
+                            "{name} {fidelity:?}: max {}/255 on {} pixels",
+                            a.max_diff, a.over
+                        ));
                     }
                 }
                 Err(e) => failures.push(format!("{name} {fidelity:?}: refused: {e}")),
@@ -436,7 +515,9 @@ fn every_example_agrees_on_the_torus() {
 // for bit, on coordinates both sides compute exactly (dyadic rationals: no
 // rounding anywhere before the sampler).
 
-use shadec::backends::wgsl::runner::{AddressMode, Filter as RunFilter, RunTexture, SamplerSettings, TexelUpload, TextureData};
+use shadec::backends::wgsl::runner::{
+    AddressMode, Filter as RunFilter, RunTexture, SamplerSettings, TexelUpload, TextureData,
+};
 use shadec::textures::{unit, Filter, Level, TexelFormat, Texture2D, TextureCube, Wrap};
 
 /// A deterministic pseudo-random RGBA8 image.
@@ -463,12 +544,21 @@ fn draw_rect(gpu: &Gpu, w: u32, h: u32, decls: &str, body: &str, texture: RunTex
     let floats = vec![-1.0, -1.0, 0.0, 1.0, 1.0, -1.0, 0.0, 1.0, 1.0, 1.0, 0.0, 1.0, -1.0, 1.0, 0.0, 1.0];
     let pass = RunPass {
         label: "texture unit".into(),
-        shader: RunShader { source: ShaderSource::Wgsl(wgsl), vertex_entry: "vs_main".into(), fragment_entry: "fs_main".into() },
+        shader: RunShader {
+            source: ShaderSource::Wgsl(wgsl),
+            vertex_entry: "vs_main".into(),
+            fragment_entry: "fs_main".into(),
+        },
         vertices: VertexData { floats, components: vec![4] },
         indices: vec![0, 1, 2, 0, 2, 3],
         textures: vec![texture],
         uniforms: None,
-        state: RenderState { cull: CullMode::None, depth: DepthState::DISABLED, stencil: StencilState::DISABLED, blend: BlendState::REPLACE },
+        state: RenderState {
+            cull: CullMode::None,
+            depth: DepthState::DISABLED,
+            stencil: StencilState::DISABLED,
+            blend: BlendState::REPLACE,
+        },
         target: PassTarget::Main,
         loaded: vec![],
         outputs: 1,
@@ -487,17 +577,38 @@ fn texture_unit_bilinear_matches_lavapipe_bit_for_bit() {
     let Some(gpu) = gpu() else { return };
     let (tw, th, w, h) = (16u32, 16u32, 256u32, 64u32);
     let rgba = noise((tw * th * 4) as usize, 5);
-    for (wrap, address, offset) in [(Wrap::Repeat, AddressMode::Repeat, 0.0f32), (Wrap::ClampToEdge, AddressMode::ClampToEdge, -1.5)] {
-        let sampler = SamplerSettings { mag: RunFilter::Linear, min: RunFilter::Linear, address, mipmap: None };
+    for (wrap, address, offset) in
+        [(Wrap::Repeat, AddressMode::Repeat, 0.0f32), (Wrap::ClampToEdge, AddressMode::ClampToEdge, -1.5)]
+    {
+        let sampler =
+            SamplerSettings { mag: RunFilter::Linear, min: RunFilter::Linear, address, mipmap: None };
         let body = format!("let uv = vec2<f32>(p.x / 4096.0 + p.y / 16.0 + {offset:?}, p.y * 3.0 / 4096.0 + p.x / 64.0 + {offset:?}); return textureSample(t, s, uv);");
-        let got = draw_rect(&gpu, w, h, "", &body, RunTexture { data: TextureData::D2 { width: tw, height: th, rgba: rgba.clone() }, sampler, texels: TexelUpload::Rgba8 });
+        let got = draw_rect(
+            &gpu,
+            w,
+            h,
+            "",
+            &body,
+            RunTexture {
+                data: TextureData::D2 { width: tw, height: th, rgba: rgba.clone() },
+                sampler,
+                texels: TexelUpload::Rgba8,
+            },
+        );
         let t = Texture2D::new(TexelFormat::Rgba8, wrap, level_of(tw, th, &rgba));
         let mut differ = 0;
         for y in 0..h {
             for x in 0..w {
                 let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
                 let (u, v) = (px / 4096.0 + py / 16.0 + offset, py * 3.0 / 4096.0 + px / 64.0 + offset);
-                let want = bytes(unit::sample_2d(&t, u, v, Filter::Bilinear, f32::NEG_INFINITY, unit::Arithmetic::FIXED8));
+                let want = bytes(unit::sample_2d(
+                    &t,
+                    u,
+                    v,
+                    Filter::Bilinear,
+                    f32::NEG_INFINITY,
+                    unit::Arithmetic::FIXED8,
+                ));
                 let i = 4 * (y * w + x) as usize;
                 if got[i..i + 4] != want {
                     differ += 1;
@@ -512,7 +623,10 @@ fn texture_unit_bilinear_matches_lavapipe_bit_for_bit() {
 /// chain, uploaded as `texels`, drawn over 256² with coordinates whose
 /// quad derivatives take λ from 0 to 3. Returns lavapipe's image and the
 /// model's answer (`textures::unit`) at a pixel.
-fn trilinear_pattern(gpu: &Gpu, texels: TexelUpload) -> (Vec<u8>, impl Fn(u32, u32, unit::Arithmetic) -> [u8; 4]) {
+fn trilinear_pattern(
+    gpu: &Gpu,
+    texels: TexelUpload,
+) -> (Vec<u8>, impl Fn(u32, u32, unit::Arithmetic) -> [u8; 4]) {
     let size = 64u32;
     let (mut levels, mut chain, mut s) = (Vec::new(), Vec::new(), size);
     while s >= 1 {
@@ -524,9 +638,21 @@ fn trilinear_pattern(gpu: &Gpu, texels: TexelUpload) -> (Vec<u8>, impl Fn(u32, u
         });
         s /= 2;
     }
-    let sampler = SamplerSettings { mag: RunFilter::Linear, min: RunFilter::Linear, address: AddressMode::Repeat, mipmap: Some(RunFilter::Linear) };
+    let sampler = SamplerSettings {
+        mag: RunFilter::Linear,
+        min: RunFilter::Linear,
+        address: AddressMode::Repeat,
+        mipmap: Some(RunFilter::Linear),
+    };
     let body = "let uv = vec2<f32>(p.x * p.x / 4096.0, p.y * p.y / 8192.0); return textureSample(t, s, uv);";
-    let got = draw_rect(gpu, 256, 256, "", body, RunTexture { data: TextureData::D2Mipmapped { width: size, height: size, levels }, sampler, texels });
+    let got = draw_rect(
+        gpu,
+        256,
+        256,
+        "",
+        body,
+        RunTexture { data: TextureData::D2Mipmapped { width: size, height: size, levels }, sampler, texels },
+    );
     let t = Texture2D { format: TexelFormat::Rgba8, wrap: Wrap::Repeat, levels: chain };
     let coord = |x: u32, y: u32| {
         let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
@@ -550,7 +676,11 @@ fn trilinear_pattern(gpu: &Gpu, texels: TexelUpload) -> (Vec<u8>, impl Fn(u32, u
 fn texture_unit_trilinear_lod_matches_lavapipe_bit_for_bit() {
     let Some(gpu) = gpu() else { return };
     let (got, model) = trilinear_pattern(&gpu, TexelUpload::Rgba8);
-    let differ = (0..256 * 256u32).filter(|&i| got[4 * i as usize..4 * i as usize + 4] != model(i % 256, i / 256, unit::Arithmetic::FIXED8)).count();
+    let differ = (0..256 * 256u32)
+        .filter(|&i| {
+            got[4 * i as usize..4 * i as usize + 4] != model(i % 256, i / 256, unit::Arithmetic::FIXED8)
+        })
+        .count();
     assert_eq!(differ, 0, "{differ} of {} pixels differ from textures::unit", 256 * 256);
 }
 
@@ -562,7 +692,10 @@ fn texture_unit_trilinear_lod_matches_lavapipe_bit_for_bit() {
 #[test]
 fn texture_unit_16bit_upload_filters_in_float() {
     let Some(gpu) = gpu() else { return };
-    assert!(gpu.filters_16bit_norm(), "the device has no TEXTURE_FORMAT_16BIT_NORM: exact fidelity falls back to RGBA8");
+    assert!(
+        gpu.filters_16bit_norm(),
+        "the device has no TEXTURE_FORMAT_16BIT_NORM: exact fidelity falls back to RGBA8"
+    );
     let (got, model) = trilinear_pattern(&gpu, TexelUpload::Rgba16);
     let (mut max, mut differ, mut fixed_differ) = (0u8, 0, 0);
     for i in 0..256 * 256u32 {
@@ -586,11 +719,35 @@ fn texture_unit_seamless_cube_matches_lavapipe() {
     let Some(gpu) = gpu() else { return };
     let (size, w, h) = (8u32, 256u32, 64u32);
     let rgba = noise((size * size * 4 * 6) as usize, 23);
-    let faces: Vec<Texture2D> = (0..6).map(|f| Texture2D::new(TexelFormat::Rgba8, Wrap::ClampToEdge, level_of(size, size, &rgba[(f * size * size * 4) as usize..((f + 1) * size * size * 4) as usize]))).collect();
+    let faces: Vec<Texture2D> = (0..6)
+        .map(|f| {
+            Texture2D::new(
+                TexelFormat::Rgba8,
+                Wrap::ClampToEdge,
+                level_of(
+                    size,
+                    size,
+                    &rgba[(f * size * size * 4) as usize..((f + 1) * size * size * 4) as usize],
+                ),
+            )
+        })
+        .collect();
     let cube = TextureCube { faces: faces.try_into().unwrap() };
-    let sampler = SamplerSettings { mag: RunFilter::Linear, min: RunFilter::Linear, address: AddressMode::ClampToEdge, mipmap: None };
+    let sampler = SamplerSettings {
+        mag: RunFilter::Linear,
+        min: RunFilter::Linear,
+        address: AddressMode::ClampToEdge,
+        mipmap: None,
+    };
     let body = "let d = vec3<f32>(p.x / 64.0 - 2.0, p.y / 16.0 - 2.0, fract(p.x / 16.0) * 2.0 - 1.0); return textureSample(t, s, d);";
-    let got = draw_rect(&gpu, w, h, "", body, RunTexture { data: TextureData::Cube { size, rgba }, sampler, texels: TexelUpload::Rgba8 });
+    let got = draw_rect(
+        &gpu,
+        w,
+        h,
+        "",
+        body,
+        RunTexture { data: TextureData::Cube { size, rgba }, sampler, texels: TexelUpload::Rgba8 },
+    );
     let (mut max, mut differ) = (0u8, 0);
     for y in 0..h {
         for x in 0..w {

@@ -13,7 +13,10 @@ use shadec::backends::combiners::config::CombinerLimits;
 use shadec::backends::combiners::emulator::{emulate, Inputs, Precision};
 use shadec::backends::combiners::rc1;
 use shadec::backends::wgsl::codegen::{self, uniform_bytes, Fidelity};
-use shadec::backends::wgsl::runner::{PassTarget, run_passes, RunPass, RunShader, RunTexture, SamplerSettings, ShaderSource, Target, TexelUpload, TextureData, VertexData};
+use shadec::backends::wgsl::runner::{
+    run_passes, PassTarget, RunPass, RunShader, RunTexture, SamplerSettings, ShaderSource, Target,
+    TexelUpload, TextureData, VertexData,
+};
 use shadec::ir::Expr;
 use shadec::renderer::{BlendState, CullMode, DepthState, RenderState, StencilState};
 
@@ -30,7 +33,12 @@ fn noise(w: u32, h: u32, seed: u64) -> Vec<u8> {
         .collect()
 }
 
-const FULL: RenderState = RenderState { cull: CullMode::None, depth: DepthState::DISABLED, stencil: StencilState::DISABLED, blend: BlendState::REPLACE };
+const FULL: RenderState = RenderState {
+    cull: CullMode::None,
+    depth: DepthState::DISABLED,
+    stencil: StencilState::DISABLED,
+    blend: BlendState::REPLACE,
+};
 
 fn translated_matches_emulator(file: &str) {
     let Some(gpu) = gpu() else { return };
@@ -62,10 +70,21 @@ fn translated_matches_emulator(file: &str) {
     let floats = vec![-1.0, -1.0, 0.0, 1.0, 1.0, -1.0, 0.0, 1.0, 1.0, 1.0, 0.0, 1.0, -1.0, 1.0, 0.0, 1.0];
     let pass = RunPass {
         label: file.to_string(),
-        shader: RunShader { source: ShaderSource::Wgsl(wgsl), vertex_entry: "vs_main".into(), fragment_entry: "fs_main".into() },
+        shader: RunShader {
+            source: ShaderSource::Wgsl(wgsl),
+            vertex_entry: "vs_main".into(),
+            fragment_entry: "fs_main".into(),
+        },
         vertices: VertexData { floats, components: vec![4] },
         indices: vec![0, 1, 2, 0, 2, 3],
-        textures: images.iter().map(|rgba| RunTexture { data: TextureData::D2 { width: w, height: h, rgba: rgba.clone() }, sampler: SamplerSettings::NEAREST_CLAMP, texels: TexelUpload::Rgba8 }).collect(),
+        textures: images
+            .iter()
+            .map(|rgba| RunTexture {
+                data: TextureData::D2 { width: w, height: h, rgba: rgba.clone() },
+                sampler: SamplerSettings::NEAREST_CLAMP,
+                texels: TexelUpload::Rgba8,
+            })
+            .collect(),
         uniforms: Some(uniforms),
         state: FULL,
         target: PassTarget::Main,
@@ -101,7 +120,9 @@ fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 #[test]
 fn compiled_fragment_lighting_matches_its_formula() {
     let Some(gpu) = gpu() else { return };
-    let src = std::fs::read_to_string(format!("{}/examples/fragment_lighting.shd", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    let src =
+        std::fs::read_to_string(format!("{}/examples/fragment_lighting.shd", env!("CARGO_MANIFEST_DIR")))
+            .unwrap();
     let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
     let planned = shadec::planner::compile_source(&src, &profile).unwrap();
     let shaders = codegen::generate(&planned, Some(&src), Fidelity::Exact).unwrap();
@@ -129,11 +150,16 @@ fn compiled_fragment_lighting_matches_its_formula() {
             floats.extend_from_slice(&value);
         }
     }
-    let identity: [f32; 16] = [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0];
+    let identity: [f32; 16] =
+        [1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0];
     assert_eq!(s.interface.projections.len(), 1);
     let pass = RunPass {
         label: s.label.clone(),
-        shader: RunShader { source: ShaderSource::Naga(s.module.clone()), vertex_entry: codegen::VERTEX_ENTRY.into(), fragment_entry: codegen::FRAGMENT_ENTRY.into() },
+        shader: RunShader {
+            source: ShaderSource::Naga(s.module.clone()),
+            vertex_entry: codegen::VERTEX_ENTRY.into(),
+            fragment_entry: codegen::FRAGMENT_ENTRY.into(),
+        },
         vertices: VertexData { floats, components: vec![4; s.interface.vertex_leaves.len()] },
         indices: vec![0, 1, 2, 0, 2, 3],
         textures: vec![],
@@ -149,10 +175,17 @@ fn compiled_fragment_lighting_matches_its_formula() {
     let (kd, ks) = ([0.8, 0.6, 0.4], [1.0, 1.0, 1.0]);
     let diffuse = dot(nn, ln).max(0.0);
     let spec = dot(nn, h).max(0.0).powf(32.0);
-    let expected: Vec<u8> = (0..3).map(|i| ((kd[i] * diffuse + ks[i] * spec).clamp(0.0, 1.0) * 255.0).round() as u8).chain([255]).collect();
+    let expected: Vec<u8> = (0..3)
+        .map(|i| ((kd[i] * diffuse + ks[i] * spec).clamp(0.0, 1.0) * 255.0).round() as u8)
+        .chain([255])
+        .collect();
     for px in image.pixels() {
         for c in 0..4 {
-            assert!((px.0[c] as i32 - expected[c] as i32).abs() <= 1, "pixel {:?} vs expected {expected:?}", px.0);
+            assert!(
+                (px.0[c] as i32 - expected[c] as i32).abs() <= 1,
+                "pixel {:?} vs expected {expected:?}",
+                px.0
+            );
         }
     }
 }

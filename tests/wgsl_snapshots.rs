@@ -11,23 +11,31 @@ fn examples() -> Vec<(String, String)> {
         .unwrap()
         .filter_map(|e| {
             let p = e.unwrap().path();
-            (p.extension()? == "shd").then(|| (p.file_stem().unwrap().to_string_lossy().into_owned(), std::fs::read_to_string(&p).unwrap()))
+            (p.extension()? == "shd").then(|| {
+                (p.file_stem().unwrap().to_string_lossy().into_owned(), std::fs::read_to_string(&p).unwrap())
+            })
         })
         .collect();
     v.sort();
     v
 }
 
-fn compile(name: &str, src: &str, fidelity: Fidelity) -> Result<Vec<codegen::PassShader>, Vec<shadec::diag::Diagnostic>> {
+fn compile(
+    name: &str,
+    src: &str,
+    fidelity: Fidelity,
+) -> Result<Vec<codegen::PassShader>, Vec<shadec::diag::Diagnostic>> {
     let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
-    let planned = shadec::planner::compile_source(src, &profile).unwrap_or_else(|d| panic!("{name} does not plan on wgsl: {d:#?}"));
+    let planned = shadec::planner::compile_source(src, &profile)
+        .unwrap_or_else(|d| panic!("{name} does not plan on wgsl: {d:#?}"));
     codegen::generate(&planned, Some(src), fidelity)
 }
 
 #[test]
 fn every_example_compiles() {
     for (name, src) in examples() {
-        let passes = compile(&name, &src, Fidelity::Exact).unwrap_or_else(|d| panic!("{name} does not compile: {d:#?}"));
+        let passes = compile(&name, &src, Fidelity::Exact)
+            .unwrap_or_else(|d| panic!("{name} does not compile: {d:#?}"));
         let doc = emit::wgsl(&name, &passes).unwrap();
         insta::assert_snapshot!(format!("wgsl_{name}"), doc);
         // Stable: the same input gives the same bytes.
@@ -35,10 +43,14 @@ fn every_example_compiles() {
         assert_eq!(doc, again, "{name}: output is not stable");
         // Each section parses back and validates.
         for (label, text) in emit::split_wgsl(&doc) {
-            let m = naga::front::wgsl::parse_str(&text).unwrap_or_else(|e| panic!("{name} {label}: {}", e.emit_to_string(&text)));
-            naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default())
-                .validate(&m)
-                .unwrap_or_else(|e| panic!("{name} {label}: {e:?}"));
+            let m = naga::front::wgsl::parse_str(&text)
+                .unwrap_or_else(|e| panic!("{name} {label}: {}", e.emit_to_string(&text)));
+            naga::valid::Validator::new(
+                naga::valid::ValidationFlags::all(),
+                naga::valid::Capabilities::default(),
+            )
+            .validate(&m)
+            .unwrap_or_else(|e| panic!("{name} {label}: {e:?}"));
         }
         for p in &passes {
             let words = emit::spirv(p).unwrap();
@@ -48,7 +60,8 @@ fn every_example_compiles() {
             assert!(vs.starts_with("#version 330"), "{name}: {vs}");
         }
         // Hardware fidelity compiles and validates too.
-        let hw = compile(&name, &src, Fidelity::Hardware).unwrap_or_else(|d| panic!("{name} hardware: {d:#?}"));
+        let hw =
+            compile(&name, &src, Fidelity::Hardware).unwrap_or_else(|d| panic!("{name} hardware: {d:#?}"));
         assert_eq!(hw.len(), passes.len());
     }
 }
@@ -57,7 +70,9 @@ fn every_example_compiles() {
 /// colour attachment per member, and read from the layers of a 2-D array.
 #[test]
 fn fat_texels_are_array_layers_written_as_several_outputs() {
-    let src = std::fs::read_to_string(format!("{}/examples/deferred_shading.shd", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    let src =
+        std::fs::read_to_string(format!("{}/examples/deferred_shading.shd", env!("CARGO_MANIFEST_DIR")))
+            .unwrap();
     let passes = compile("deferred_shading", &src, Fidelity::Exact).unwrap();
     assert_eq!(passes.len(), 2);
     // (5): N, L, V, H into the fat framebuffer T.
@@ -74,7 +89,8 @@ fn fat_texels_are_array_layers_written_as_several_outputs() {
 
     // Solid mapping: T is fat (one member, P) in (15) and (16), a colour
     // in (2) — its first layer.
-    let src = std::fs::read_to_string(format!("{}/examples/solid_mapping.shd", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    let src = std::fs::read_to_string(format!("{}/examples/solid_mapping.shd", env!("CARGO_MANIFEST_DIR")))
+        .unwrap();
     let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
     let planned = shadec::planner::compile_source(&src, &profile).unwrap();
     assert_eq!(codegen::fat_layers(&planned.module), vec![1]);
@@ -90,12 +106,16 @@ fn fat_texels_are_array_layers_written_as_several_outputs() {
 /// taken before the pass, and `π⁻¹ xs` takes the pixel's depth from it.
 #[test]
 fn own_target_reads_bind_a_copy_taken_before_the_pass() {
-    let src = std::fs::read_to_string(format!("{}/examples/shadow_mask.shd", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    let src =
+        std::fs::read_to_string(format!("{}/examples/shadow_mask.shd", env!("CARGO_MANIFEST_DIR"))).unwrap();
     let passes = compile("shadow_mask", &src, Fidelity::Exact).unwrap();
     let with_copies: Vec<_> = passes.iter().filter(|p| !p.target_copies.is_empty()).collect();
     assert_eq!(with_copies.len(), 1, "only statement 4 reads its own target");
     let p = with_copies[0];
-    assert_eq!(p.target_copies, vec![codegen::TargetCopy { binding: 3, framebuffer: "C".into(), depth: true }]);
+    assert_eq!(
+        p.target_copies,
+        vec![codegen::TargetCopy { binding: 3, framebuffer: "C".into(), depth: true }]
+    );
     assert!(p.source[0].starts_with("31:1:"), "{:?}", p.source);
     // Both projections of `πl π⁻¹ xs` are in the uniform block.
     assert_eq!(p.interface.projections.len(), 2);
@@ -109,14 +129,21 @@ fn own_target_reads_bind_a_copy_taken_before_the_pass() {
 
 #[test]
 fn hardware_fidelity_snapshot() {
-    let src = std::fs::read_to_string(format!("{}/examples/kilgard_bump_mapping.shd", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    let src =
+        std::fs::read_to_string(format!("{}/examples/kilgard_bump_mapping.shd", env!("CARGO_MANIFEST_DIR")))
+            .unwrap();
     let passes = compile("kilgard_bump_mapping", &src, Fidelity::Hardware).unwrap();
-    insta::assert_snapshot!("wgsl_hardware_kilgard_bump_mapping", emit::wgsl("kilgard_bump_mapping (hardware)", &passes).unwrap());
+    insta::assert_snapshot!(
+        "wgsl_hardware_kilgard_bump_mapping",
+        emit::wgsl("kilgard_bump_mapping (hardware)", &passes).unwrap()
+    );
 }
 
 #[test]
 fn geforce256_plan_compiles_to_three_passes() {
-    let src = std::fs::read_to_string(format!("{}/examples/kilgard_bump_mapping.shd", env!("CARGO_MANIFEST_DIR"))).unwrap();
+    let src =
+        std::fs::read_to_string(format!("{}/examples/kilgard_bump_mapping.shd", env!("CARGO_MANIFEST_DIR")))
+            .unwrap();
     let profile = shadec::profile::Profile::resolve("geforce256").unwrap();
     let planned = shadec::planner::compile_source(&src, &profile).unwrap();
     let passes = codegen::generate(&planned, Some(&src), Fidelity::Hardware).unwrap();
@@ -138,7 +165,10 @@ fn every_profile_plan_compiles_without_internal_errors() {
             let Ok(planned) = shadec::planner::compile_source(&src, &p) else { continue };
             for fidelity in [Fidelity::Exact, Fidelity::Hardware] {
                 if let Err(diags) = codegen::generate(&planned, Some(&src), fidelity) {
-                    assert!(diags.iter().all(|d| d.code == "wgsl-unsupported"), "{name} on {profile}: {diags:#?}");
+                    assert!(
+                        diags.iter().all(|d| d.code == "wgsl-unsupported"),
+                        "{name} on {profile}: {diags:#?}"
+                    );
                 }
             }
         }

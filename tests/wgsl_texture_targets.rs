@@ -27,7 +27,8 @@ const W: u32 = 256;
 const H: u32 = 256;
 
 fn scene() -> Scene {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/bench_sphere.ron")).unwrap();
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/bench_sphere.ron")).unwrap();
     Scene::parse(&text, Path::new("/nonexistent-shadec-scene/bench_sphere.ron")).unwrap()
 }
 
@@ -41,15 +42,27 @@ fn render(gpu: &Gpu, source: &str, scene: &Scene) -> (Vec<u8>, usize) {
     let planned = compile_source(source, &profile).unwrap_or_else(|d| panic!("{d:?}"));
     let (program, _) = shadec::parser::check(source);
     let assets = scene.build().unwrap();
-    let plan = ScenePlan::new(&planned, &program, Some(source), Fidelity::Exact, scene, &assets).unwrap_or_else(|e| panic!("{e}"));
-    (plan.render_into(gpu, &Target::new(W, H)).unwrap_or_else(|e| panic!("{e}")).into_raw(), planned.plan.passes.len())
+    let plan = ScenePlan::new(&planned, &program, Some(source), Fidelity::Exact, scene, &assets)
+        .unwrap_or_else(|e| panic!("{e}"));
+    (
+        plan.render_into(gpu, &Target::new(W, H)).unwrap_or_else(|e| panic!("{e}")).into_raw(),
+        planned.plan.passes.len(),
+    )
 }
 
 /// Pixels covered by the object (alpha > 0 in `forward`) whose 3×3
 /// neighbourhood is covered too: the silhouette is left out.
 fn interior(forward: &[u8]) -> Vec<bool> {
-    let covered = |x: i64, y: i64| x >= 0 && y >= 0 && x < W as i64 && y < H as i64 && forward[4 * (y as usize * W as usize + x as usize) + 3] > 0;
-    (0..(W * H) as i64).map(|i| (-1..=1).all(|dy| (-1..=1).all(|dx| covered(i % W as i64 + dx, i / W as i64 + dy)))).collect()
+    let covered = |x: i64, y: i64| {
+        x >= 0
+            && y >= 0
+            && x < W as i64
+            && y < H as i64
+            && forward[4 * (y as usize * W as usize + x as usize) + 3] > 0
+    };
+    (0..(W * H) as i64)
+        .map(|i| (-1..=1).all(|dy| (-1..=1).all(|dx| covered(i % W as i64 + dx, i / W as i64 + dy))))
+        .collect()
 }
 
 /// Max RGB difference over `mask`, and how many pixels it covers.
@@ -102,7 +115,10 @@ fn solid_mapping_equals_the_solid_texture_per_pixel() {
     // Two rings instead of twelve: a 256² texture over the sphere holds
     // ~40 texels per unit, too few for twelve rings' edges.
     let mapped = example("solid_mapping").replace("const rings = 12;", "const rings = 2;");
-    let direct = mapped.replace("T δu x ← δ s x;", "").replace("T δu ← p T δu;", "").replace("C δπx ← T δu x;", "C δπx ← p δ s x;");
+    let direct = mapped
+        .replace("T δu x ← δ s x;", "")
+        .replace("T δu ← p T δu;", "")
+        .replace("C δπx ← T δu x;", "C δπx ← p δ s x;");
     assert_ne!(direct, mapped);
     let (img, passes) = render(&gpu, &mapped, &scene);
     assert_eq!(passes, 3);
@@ -110,11 +126,20 @@ fn solid_mapping_equals_the_solid_texture_per_pixel() {
     let mask = interior(&reference);
     let inside: Vec<usize> = (0..mask.len()).filter(|i| mask[*i]).collect();
     assert!(inside.len() > 20_000, "{}", inside.len());
-    let close = inside.iter().filter(|&&i| (0..3).all(|c| img[4 * i + c].abs_diff(reference[4 * i + c]) <= 6)).count();
+    let close = inside
+        .iter()
+        .filter(|&&i| (0..3).all(|c| img[4 * i + c].abs_diff(reference[4 * i + c]) <= 6))
+        .count();
     eprintln!("solid mapping vs per-pixel: {close} of {} interior pixels within 6/255", inside.len());
     if std::env::var("SHADEC_DUMP").is_ok() {
-        image::RgbaImage::from_raw(W, H, img.clone()).unwrap().save(std::env::temp_dir().join("solid_mapped.png")).unwrap();
-        image::RgbaImage::from_raw(W, H, reference.clone()).unwrap().save(std::env::temp_dir().join("solid_direct.png")).unwrap();
+        image::RgbaImage::from_raw(W, H, img.clone())
+            .unwrap()
+            .save(std::env::temp_dir().join("solid_mapped.png"))
+            .unwrap();
+        image::RgbaImage::from_raw(W, H, reference.clone())
+            .unwrap()
+            .save(std::env::temp_dir().join("solid_direct.png"))
+            .unwrap();
     }
     assert!(close as f64 >= 0.9 * inside.len() as f64, "only {close} of {} pixels agree", inside.len());
     // Both colours of the rings appear.
@@ -131,13 +156,20 @@ fn cpu_vs_gpu(gpu: &Gpu, source: &str, scene: &Scene) -> (u8, usize, Vec<u8>, Ve
     let planned = compile_source(source, &profile).unwrap_or_else(|d| panic!("{d:?}"));
     let (program, _) = shadec::parser::check(source);
     let assets = scene.build().unwrap();
-    let cpu = PlanRenderer::new(&planned, &program, scene, &assets).unwrap().render(Mode::F32, W, H, &mut |_, _| {}).unwrap().image.to_rgba8();
-    let plan = ScenePlan::new(&planned, &program, Some(source), Fidelity::Exact, scene, &assets).unwrap_or_else(|e| panic!("{e}"));
+    let cpu = PlanRenderer::new(&planned, &program, scene, &assets)
+        .unwrap()
+        .render(Mode::F32, W, H, &mut |_, _| {})
+        .unwrap()
+        .image
+        .to_rgba8();
+    let plan = ScenePlan::new(&planned, &program, Some(source), Fidelity::Exact, scene, &assets)
+        .unwrap_or_else(|e| panic!("{e}"));
     let wgpu = plan.render_into(gpu, &Target::float(W, H)).unwrap_or_else(|e| panic!("{e}")).into_raw();
-    let diffs: Vec<u8> = (0..(W * H) as usize).map(|i| (0..4).map(|c| cpu[4 * i + c].abs_diff(wgpu[4 * i + c])).max().unwrap()).collect();
+    let diffs: Vec<u8> = (0..(W * H) as usize)
+        .map(|i| (0..4).map(|c| cpu[4 * i + c].abs_diff(wgpu[4 * i + c])).max().unwrap())
+        .collect();
     (*diffs.iter().max().unwrap(), diffs.iter().filter(|d| **d > 2).count(), cpu, wgpu)
 }
-
 
 /// Shadow mask (seeds/001 Section 3.5) as the example writes it: five
 /// passes into three framebuffers — C′ and Cl are rendered textures, the
@@ -174,7 +206,15 @@ fn williams_shadow_test_agrees_and_casts_a_shadow() {
     eprintln!("Williams shadow test: max {max}/255, {over} pixels over 2/255");
     assert!(over <= 65, "{over} pixels over 2/255 (max {max}/255): more than 0.1% of the picture");
     // The shadow: opaque floor pixels darker than in the lit picture.
-    let shadow = |img: &[u8]| (0..(W * H) as usize).filter(|&i| img[4 * i + 3] == 255 && cpu_lit[4 * i + 3] == 255 && cpu_lit[4 * i] as i32 - img[4 * i] as i32 > 40).count();
+    let shadow = |img: &[u8]| {
+        (0..(W * H) as usize)
+            .filter(|&i| {
+                img[4 * i + 3] == 255
+                    && cpu_lit[4 * i + 3] == 255
+                    && cpu_lit[4 * i] as i32 - img[4 * i] as i32 > 40
+            })
+            .count()
+    };
     let (on_cpu, on_gpu) = (shadow(&cpu), shadow(&wgpu));
     eprintln!("shadowed pixels: cpu {on_cpu}, wgpu {on_gpu}");
     assert!(on_cpu > 2000 && on_gpu > 2000, "the ball's shadow: {on_cpu} (cpu), {on_gpu} (wgpu) pixels");
@@ -205,7 +245,9 @@ fn solid_mapping_agrees_with_cpu_f32() {
     let (max, _, cpu, wgpu) = cpu_vs_gpu(&gpu, &src, &scene());
     let mask = interior(&wgpu);
     let inside = mask.iter().filter(|m| **m).count();
-    let over = (0..mask.len()).filter(|&i| mask[i] && (0..3).any(|c| cpu[4 * i + c].abs_diff(wgpu[4 * i + c]) > 2)).count();
+    let over = (0..mask.len())
+        .filter(|&i| mask[i] && (0..3).any(|c| cpu[4 * i + c].abs_diff(wgpu[4 * i + c]) > 2))
+        .count();
     eprintln!("solid mapping: max {max}/255, {over} of {inside} interior pixels over 2/255");
     assert!(inside > 20_000 && over == 0, "{over} of {inside} interior pixels over 2/255 (max {max}/255)");
 }

@@ -4,7 +4,8 @@
 use std::time::{Duration, Instant};
 
 pub fn median(default_runs: usize, warmups: usize, mut f: impl FnMut()) -> Duration {
-    let runs: usize = std::env::var("SHADEC_BENCH_RUNS").ok().and_then(|v| v.parse().ok()).unwrap_or(default_runs).max(1);
+    let runs: usize =
+        std::env::var("SHADEC_BENCH_RUNS").ok().and_then(|v| v.parse().ok()).unwrap_or(default_runs).max(1);
     for _ in 0..warmups {
         f();
     }

@@ -51,7 +51,10 @@ fn target(size: (u32, u32)) -> Result<Framebuffer, BenchError> {
 }
 
 /// Measures every scene the options select at every threshold.
-pub fn measure(options: &BenchOptions, progress: &mut dyn FnMut(usize, usize, &str)) -> Result<Vec<AdaptiveRow>, BenchError> {
+pub fn measure(
+    options: &BenchOptions,
+    progress: &mut dyn FnMut(usize, usize, &str),
+) -> Result<Vec<AdaptiveRow>, BenchError> {
     let scenes: Vec<_> = SCENES.iter().filter(|(name, ..)| options.wants(name)).collect();
     let mut rows = Vec::new();
     for (i, (name, ron, paper)) in scenes.iter().enumerate() {

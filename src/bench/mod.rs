@@ -42,7 +42,12 @@ pub struct BenchOptions {
 impl BenchOptions {
     /// The full settings: 512×512, 5 runs, thresholds 1 %…16 %.
     pub fn full() -> BenchOptions {
-        BenchOptions { size: (512, 512), runs: 5, only: None, thresholds: vec![0.01, 0.02, 0.04, 0.085, 0.16] }
+        BenchOptions {
+            size: (512, 512),
+            runs: 5,
+            only: None,
+            thresholds: vec![0.01, 0.02, 0.04, 0.085, 0.16],
+        }
     }
     /// A quick look (tests, CI): 128×128, one run, three thresholds.
     pub fn quick() -> BenchOptions {
@@ -99,7 +104,8 @@ impl Prepared {
         let scene = Scene::parse(scene_ron, Path::new("")).map_err(|e| failed(name, e))?;
         let assets = scene.build().map_err(|e| failed(name, e))?;
         let (program, diags) = crate::parser::check(source);
-        let first_error = |d: &[crate::diag::Diagnostic]| d.iter().find(|d| d.is_error()).map(|d| d.message.clone());
+        let first_error =
+            |d: &[crate::diag::Diagnostic]| d.iter().find(|d| d.is_error()).map(|d| d.message.clone());
         if let Some(e) = first_error(&diags) {
             return Err(failed(name, e));
         }
@@ -108,7 +114,8 @@ impl Prepared {
             return Err(failed(name, e));
         }
         let profile = crate::profile::Profile::resolve(target).map_err(|e| failed(name, e))?;
-        let planned = crate::planner::plan(&module, &profile, Some(source)).map_err(|d| failed(&format!("{name} on {target}"), first_error(&d).unwrap_or_default()))?;
+        let planned = crate::planner::plan(&module, &profile, Some(source))
+            .map_err(|d| failed(&format!("{name} on {target}"), first_error(&d).unwrap_or_default()))?;
         Ok(Prepared { planned, module, program, scene, assets })
     }
 
@@ -116,17 +123,30 @@ impl Prepared {
     /// rendered by [`PlanRenderer`] like a plan. One light: the bench plans
     /// without a scene, so its plans shade light 0 as written.
     pub fn meaning(&self) -> Result<Prepared, BenchError> {
-        let planned = crate::meaning::plan(&self.module, 1).map_err(|d| failed("the meaning", d.first().map(|d| d.message.clone()).unwrap_or_default()))?;
-        Ok(Prepared { planned, module: self.module.clone(), program: self.program.clone(), scene: self.scene.clone(), assets: self.assets.clone() })
+        let planned = crate::meaning::plan(&self.module, 1)
+            .map_err(|d| failed("the meaning", d.first().map(|d| d.message.clone()).unwrap_or_default()))?;
+        Ok(Prepared {
+            planned,
+            module: self.module.clone(),
+            program: self.program.clone(),
+            scene: self.scene.clone(),
+            assets: self.assets.clone(),
+        })
     }
 
     pub fn renderer(&self) -> Result<PlanRenderer<'_>, BenchError> {
-        PlanRenderer::new(&self.planned, &self.program, &self.scene, &self.assets).map_err(|e| failed("binding", e))
+        PlanRenderer::new(&self.planned, &self.program, &self.scene, &self.assets)
+            .map_err(|e| failed("binding", e))
     }
 }
 
 /// Renders `runs` times after a warm-up; the last frame and the median time.
-pub fn timed(renderer: &PlanRenderer, mode: Mode, size: (u32, u32), runs: usize) -> Result<(Frame, Duration), crate::renderer::RenderError> {
+pub fn timed(
+    renderer: &PlanRenderer,
+    mode: Mode,
+    size: (u32, u32),
+    runs: usize,
+) -> Result<(Frame, Duration), crate::renderer::RenderError> {
     let mut frame = renderer.render(mode, size.0, size.1, &mut |_, _| {})?;
     let mut times = Vec::with_capacity(runs);
     for _ in 0..runs.max(1) {
@@ -143,20 +163,35 @@ pub fn median(times: &mut [Duration]) -> Duration {
 
 /// Measures every variant the options select; `progress(done, total, name)`
 /// after each.
-pub fn measure(options: &BenchOptions, progress: &mut dyn FnMut(usize, usize, &str)) -> Result<Vec<Measured>, BenchError> {
-    let groups: Vec<Group> = groups().into_iter().filter(|g| g.variants.iter().any(|v| options.wants(v.name))).collect();
+pub fn measure(
+    options: &BenchOptions,
+    progress: &mut dyn FnMut(usize, usize, &str),
+) -> Result<Vec<Measured>, BenchError> {
+    let groups: Vec<Group> =
+        groups().into_iter().filter(|g| g.variants.iter().any(|v| options.wants(v.name))).collect();
     let total = groups.iter().map(|g| g.variants.iter().filter(|v| options.wants(v.name)).count()).sum();
     let mut done = 0;
     let mut out = Vec::new();
     for group in &groups {
-        let truth = Prepared::new(group.truth.name, group.truth.source, group.truth_target, group.scene.ron)?.meaning()?;
-        let truth_frame = truth.renderer()?.render(Mode::Exact, options.size.0, options.size.1, &mut |_, _| {}).map_err(|e| failed(group.truth.name, e))?;
+        let truth = Prepared::new(group.truth.name, group.truth.source, group.truth_target, group.scene.ron)?
+            .meaning()?;
+        let truth_frame = truth
+            .renderer()?
+            .render(Mode::Exact, options.size.0, options.size.1, &mut |_, _| {})
+            .map_err(|e| failed(group.truth.name, e))?;
         let truth_image = std::sync::Arc::new(truth_frame.image);
         for variant in group.variants.iter().filter(|v| options.wants(v.name)) {
-            let what = format!("{} ({} on {}, {})", variant.name, variant.program.name, variant.target, variant.mode.name());
+            let what = format!(
+                "{} ({} on {}, {})",
+                variant.name,
+                variant.program.name,
+                variant.target,
+                variant.mode.name()
+            );
             let prepared = Prepared::new(&what, variant.program.source, variant.target, group.scene.ron)?;
             let renderer = prepared.renderer()?;
-            let (frame, time) = timed(&renderer, variant.mode, options.size, options.runs).map_err(|e| failed(&what, e))?;
+            let (frame, time) =
+                timed(&renderer, variant.mode, options.size, options.runs).map_err(|e| failed(&what, e))?;
             out.push(Measured {
                 group: group.name,
                 variant: *variant,
@@ -176,7 +211,11 @@ pub fn measure(options: &BenchOptions, progress: &mut dyn FnMut(usize, usize, &s
 
 /// Runs the whole bench and writes `report.md`, `speed_vs_error.png`,
 /// `adaptive.png` and `diff/*.png` into `out_dir`.
-pub fn run(options: &BenchOptions, out_dir: &Path, progress: &mut dyn FnMut(usize, usize, &str)) -> Result<report::Report, BenchError> {
+pub fn run(
+    options: &BenchOptions,
+    out_dir: &Path,
+    progress: &mut dyn FnMut(usize, usize, &str),
+) -> Result<report::Report, BenchError> {
     let measured = measure(options, progress)?;
     let adaptive = adaptive::measure(options, progress)?;
     let removed = removed_work()?;
@@ -197,7 +236,13 @@ pub fn removed_work() -> Result<String, BenchError> {
             include_str!("../../scenes/lights_matte_floor.ron"),
             "wgsl",
         ),
-        ("examples/fragment_lighting.shd", include_str!("../../examples/fragment_lighting.shd"), "scenes/adaptive_sphere_4lights.ron", include_str!("../../scenes/adaptive_sphere_4lights.ron"), "wgsl"),
+        (
+            "examples/fragment_lighting.shd",
+            include_str!("../../examples/fragment_lighting.shd"),
+            "scenes/adaptive_sphere_4lights.ron",
+            include_str!("../../scenes/adaptive_sphere_4lights.ron"),
+            "wgsl",
+        ),
     ];
     let mut md = String::new();
     for (program, source, scene_name, scene_ron, target) in cases {

@@ -19,7 +19,11 @@ fn register_font() {
     static ONCE: Once = Once::new();
     ONCE.call_once(|| {
         // The font is embedded: it parses, or the build is broken.
-        let _ = plotters::style::register_font(FONT, FontStyle::Normal, include_bytes!("../../assets/fonts/DejaVuSansMono.ttf"));
+        let _ = plotters::style::register_font(
+            FONT,
+            FontStyle::Normal,
+            include_bytes!("../../assets/fonts/DejaVuSansMono.ttf"),
+        );
     });
 }
 
@@ -30,7 +34,8 @@ fn plot_error(e: impl std::fmt::Display) -> BenchError {
 fn save(buf: &[u8], path: &Path) -> Result<(), BenchError> {
     let mut bytes = Vec::new();
     let encoder = image::codecs::png::PngEncoder::new(&mut bytes);
-    image::ImageEncoder::write_image(encoder, buf, W, H, image::ExtendedColorType::Rgb8).map_err(plot_error)?;
+    image::ImageEncoder::write_image(encoder, buf, W, H, image::ExtendedColorType::Rgb8)
+        .map_err(plot_error)?;
     crate::io::write_atomic(path, &bytes).map_err(|e| BenchError::Io(e.to_string()))
 }
 
@@ -40,7 +45,11 @@ pub const RMSE_FLOOR: f64 = 1e-6;
 /// The variants on the Pareto front: none is both faster and more accurate.
 pub fn pareto_front(points: &[(f64, f64)]) -> Vec<usize> {
     let mut front: Vec<usize> = (0..points.len())
-        .filter(|&i| !points.iter().enumerate().any(|(j, q)| j != i && q.0 <= points[i].0 && q.1 <= points[i].1 && (q.0 < points[i].0 || q.1 < points[i].1)))
+        .filter(|&i| {
+            !points.iter().enumerate().any(|(j, q)| {
+                j != i && q.0 <= points[i].0 && q.1 <= points[i].1 && (q.0 < points[i].0 || q.1 < points[i].1)
+            })
+        })
         .collect();
     front.sort_by(|&a, &b| points[a].0.total_cmp(&points[b].0));
     front
@@ -52,8 +61,13 @@ pub fn pareto_front(points: &[(f64, f64)]) -> Vec<usize> {
 pub fn group_fronts(measured: &[Measured]) -> Vec<usize> {
     let mut on_front = Vec::new();
     for group in measured.iter().map(|m| m.group) {
-        let members: Vec<usize> = (0..measured.len()).filter(|&i| measured[i].group == group && measured[i].variant.mode != crate::renderer::plan::Mode::Exact).collect();
-        let pts: Vec<(f64, f64)> = members.iter().map(|&i| (measured[i].time.as_secs_f64(), measured[i].error.rmse)).collect();
+        let members: Vec<usize> = (0..measured.len())
+            .filter(|&i| {
+                measured[i].group == group && measured[i].variant.mode != crate::renderer::plan::Mode::Exact
+            })
+            .collect();
+        let pts: Vec<(f64, f64)> =
+            members.iter().map(|&i| (measured[i].time.as_secs_f64(), measured[i].error.rmse)).collect();
         for k in pareto_front(&pts) {
             if !on_front.contains(&members[k]) {
                 on_front.push(members[k]);
@@ -68,7 +82,8 @@ pub fn group_fronts(measured: &[Measured]) -> Vec<usize> {
 /// one colour per group, the Pareto front joined and its points labelled.
 pub fn speed_vs_error(measured: &[Measured], path: &Path) -> Result<(), BenchError> {
     register_font();
-    let points: Vec<(f64, f64)> = measured.iter().map(|m| (m.time.as_secs_f64() * 1e3, m.error.rmse.max(RMSE_FLOOR))).collect();
+    let points: Vec<(f64, f64)> =
+        measured.iter().map(|m| (m.time.as_secs_f64() * 1e3, m.error.rmse.max(RMSE_FLOOR))).collect();
     let fronts = group_fronts(measured);
     let (x0, x1) = bounds(points.iter().map(|p| p.0));
     let (y0, y1) = bounds(points.iter().map(|p| p.1));
@@ -102,7 +117,8 @@ pub fn speed_vs_error(measured: &[Measured], path: &Path) -> Result<(), BenchErr
         });
         for (gi, group) in groups.iter().enumerate() {
             let colour = Palette99::pick(gi).to_rgba();
-            let pts: Vec<(f64, f64)> = measured.iter().zip(&points).filter(|(m, _)| m.group == *group).map(|(_, p)| *p).collect();
+            let pts: Vec<(f64, f64)> =
+                measured.iter().zip(&points).filter(|(m, _)| m.group == *group).map(|(_, p)| *p).collect();
             chart
                 .draw_series(pts.iter().map(|p| Circle::new(*p, 6, colour.filled())))
                 .map_err(plot_error)?
@@ -111,17 +127,34 @@ pub fn speed_vs_error(measured: &[Measured], path: &Path) -> Result<(), BenchErr
         }
         for (gi, group) in groups.iter().enumerate() {
             let colour = Palette99::pick(gi).to_rgba();
-            let front: Vec<(f64, f64)> = (0..measured.len()).filter(|i| measured[*i].group == *group && fronts.contains(i)).map(|i| points[i]).collect();
-            let series = chart.draw_series(LineSeries::new(front, colour.stroke_width(2))).map_err(plot_error)?;
+            let front: Vec<(f64, f64)> = (0..measured.len())
+                .filter(|i| measured[*i].group == *group && fronts.contains(i))
+                .map(|i| points[i])
+                .collect();
+            let series =
+                chart.draw_series(LineSeries::new(front, colour.stroke_width(2))).map_err(plot_error)?;
             if gi == 0 {
-                series.label("Pareto front of each group (*)").legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK.stroke_width(2)));
+                series
+                    .label("Pareto front of each group (*)")
+                    .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK.stroke_width(2)));
             }
         }
         for (i, (m, p)) in measured.iter().zip(&points).enumerate() {
-            let label = if fronts.contains(&i) { format!("{} *", m.variant.name) } else { m.variant.name.to_string() };
+            let label = if fronts.contains(&i) {
+                format!("{} *", m.variant.name)
+            } else {
+                m.variant.name.to_string()
+            };
             chart.draw_series(std::iter::once(Text::new(label, *p, (FONT, 13)))).map_err(plot_error)?;
         }
-        chart.configure_series_labels().background_style(WHITE.mix(0.85)).border_style(BLACK).label_font((FONT, 13)).position(SeriesLabelPosition::UpperRight).draw().map_err(plot_error)?;
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font((FONT, 13))
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(plot_error)?;
         root.present().map_err(plot_error)?;
     }
     save(&buf, path)
@@ -144,8 +177,18 @@ pub fn adaptive(rows: &[AdaptiveRow], path: &Path) -> Result<(), BenchError> {
         });
         let t1 = rows.iter().map(|r| 100.0 * r.threshold as f64).fold(1.0, f64::max) * 1.05;
         for (area, title, value, legend) in [
-            (&upper, "pixels shaded (%) against the threshold (%)", (|r: &AdaptiveRow| 100.0 * r.fraction_shaded) as fn(&AdaptiveRow) -> f64, SeriesLabelPosition::UpperRight),
-            (&lower, "PSNR against full shading (dB) against the threshold (%)", |r: &AdaptiveRow| r.psnr.min(120.0), SeriesLabelPosition::LowerLeft),
+            (
+                &upper,
+                "pixels shaded (%) against the threshold (%)",
+                (|r: &AdaptiveRow| 100.0 * r.fraction_shaded) as fn(&AdaptiveRow) -> f64,
+                SeriesLabelPosition::UpperRight,
+            ),
+            (
+                &lower,
+                "PSNR against full shading (dB) against the threshold (%)",
+                |r: &AdaptiveRow| r.psnr.min(120.0),
+                SeriesLabelPosition::LowerLeft,
+            ),
         ] {
             let y1 = rows.iter().map(value).fold(1.0, f64::max) * 1.1;
             let mut chart = ChartBuilder::on(area)
@@ -158,15 +201,30 @@ pub fn adaptive(rows: &[AdaptiveRow], path: &Path) -> Result<(), BenchError> {
             chart.configure_mesh().label_style((FONT, 13)).draw().map_err(plot_error)?;
             for (si, scene) in scenes.iter().enumerate() {
                 let colour = Palette99::pick(si).to_rgba();
-                let pts: Vec<(f64, f64)> = rows.iter().filter(|r| r.scene == *scene).map(|r| (100.0 * r.threshold as f64, value(r))).collect();
+                let pts: Vec<(f64, f64)> = rows
+                    .iter()
+                    .filter(|r| r.scene == *scene)
+                    .map(|r| (100.0 * r.threshold as f64, value(r)))
+                    .collect();
                 chart
                     .draw_series(LineSeries::new(pts.clone(), colour.stroke_width(2)))
                     .map_err(plot_error)?
                     .label(scene.to_string())
-                    .legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2)));
-                chart.draw_series(pts.iter().map(|p| Circle::new(*p, 4, colour.filled()))).map_err(plot_error)?;
+                    .legend(move |(x, y)| {
+                        PathElement::new(vec![(x, y), (x + 16, y)], colour.stroke_width(2))
+                    });
+                chart
+                    .draw_series(pts.iter().map(|p| Circle::new(*p, 4, colour.filled())))
+                    .map_err(plot_error)?;
             }
-            chart.configure_series_labels().background_style(WHITE.mix(0.85)).border_style(BLACK).label_font((FONT, 12)).position(legend).draw().map_err(plot_error)?;
+            chart
+                .configure_series_labels()
+                .background_style(WHITE.mix(0.85))
+                .border_style(BLACK)
+                .label_font((FONT, 12))
+                .position(legend)
+                .draw()
+                .map_err(plot_error)?;
         }
         root.present().map_err(plot_error)?;
     }

@@ -26,7 +26,8 @@ impl Report {
     /// Writes everything into `dir` (created if needed), each file atomically.
     pub fn write(&self, dir: &Path) -> Result<(), BenchError> {
         let diff_dir = dir.join("diff");
-        std::fs::create_dir_all(&diff_dir).map_err(|e| io(format!("{}: cannot create: {e}", diff_dir.display())))?;
+        std::fs::create_dir_all(&diff_dir)
+            .map_err(|e| io(format!("{}: cannot create: {e}", diff_dir.display())))?;
         for m in &self.measured {
             let png = difference_png(m)?;
             crate::io::write_atomic(&diff_dir.join(format!("{}.png", m.variant.name)), &png).map_err(io)?;
@@ -79,7 +80,8 @@ impl Report {
                 let _ = writeln!(md, "| variant | program | target | mode | passes | ms/frame | max abs (/255) | RMSE | PSNR (dB) | approximates |");
                 let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|---|");
             }
-            let psnr = if m.error.psnr.is_infinite() { "∞".to_string() } else { format!("{:.2}", m.error.psnr) };
+            let psnr =
+                if m.error.psnr.is_infinite() { "∞".to_string() } else { format!("{:.2}", m.error.psnr) };
             let _ = writeln!(
                 md,
                 "| {}{} | `{}` | {} | {} | {} | {:.2} | {:.1} | {:.5} | {} | {} |",
@@ -96,7 +98,12 @@ impl Report {
                 m.variant.approximates
             );
             if m.variant.mode == crate::renderer::plan::Mode::Fixed9 {
-                let passes: Vec<String> = m.shading.iter().enumerate().map(|(k, s)| format!("pass {}: {}", k + 1, s.describe())).collect();
+                let passes: Vec<String> = m
+                    .shading
+                    .iter()
+                    .enumerate()
+                    .map(|(k, s)| format!("pass {}: {}", k + 1, s.describe()))
+                    .collect();
                 fixed9_notes.push(format!("`{}` — {}", m.variant.name, passes.join("; ")));
             }
         }
@@ -130,7 +137,8 @@ impl Report {
             let _ = writeln!(md, "\nPlot: `adaptive.png`.");
         }
         if !self.removed.is_empty() {
-            let _ = writeln!(md, "\n## Removed work (scene-driven specialization, issue 7)\n\n{}", self.removed);
+            let _ =
+                writeln!(md, "\n## Removed work (scene-driven specialization, issue 7)\n\n{}", self.removed);
         }
         md
     }
@@ -148,6 +156,13 @@ fn difference_png(m: &Measured) -> Result<Vec<u8>, BenchError> {
     }
     let mut bytes = Vec::new();
     let encoder = image::codecs::png::PngEncoder::new(&mut bytes);
-    image::ImageEncoder::write_image(encoder, &rgb, m.image.width(), m.image.height(), image::ExtendedColorType::Rgb8).map_err(io)?;
+    image::ImageEncoder::write_image(
+        encoder,
+        &rgb,
+        m.image.width(),
+        m.image.height(),
+        image::ExtendedColorType::Rgb8,
+    )
+    .map_err(io)?;
     Ok(bytes)
 }

@@ -12,9 +12,11 @@ pub struct BenchScene {
 }
 
 /// A coarse sphere (12 × 6 facets) under one point light.
-pub const SPHERE: BenchScene = BenchScene { name: "scenes/bench_sphere.ron", ron: include_str!("../../scenes/bench_sphere.ron") };
+pub const SPHERE: BenchScene =
+    BenchScene { name: "scenes/bench_sphere.ron", ron: include_str!("../../scenes/bench_sphere.ron") };
 /// Kilgard's bump-mapped torus (the default of `shadec render`).
-pub const TORUS: BenchScene = BenchScene { name: "scenes/kilgard_torus.ron", ron: include_str!("../../scenes/kilgard_torus.ron") };
+pub const TORUS: BenchScene =
+    BenchScene { name: "scenes/kilgard_torus.ron", ron: include_str!("../../scenes/kilgard_torus.ron") };
 
 /// A program of the bench.
 #[derive(Clone, Copy, Debug)]
@@ -25,7 +27,10 @@ pub struct Program {
 
 macro_rules! program {
     ($file:literal) => {
-        Program { name: concat!("src/bench/programs/", $file), source: include_str!(concat!("programs/", $file)) }
+        Program {
+            name: concat!("src/bench/programs/", $file),
+            source: include_str!(concat!("programs/", $file)),
+        }
     };
 }
 
@@ -38,9 +43,15 @@ pub const PHONG_CUBE16: Program = program!("phong_cube16.shd");
 pub const EXPONENT_POW: Program = program!("exponent_pow.shd");
 pub const EXPONENT_SQUARING: Program = program!("exponent_squaring.shd");
 pub const EXPONENT_LOOKUP: Program = program!("exponent_lookup.shd");
-pub const KILGARD: Program = Program { name: "examples/kilgard_bump_mapping.shd", source: include_str!("../../examples/kilgard_bump_mapping.shd") };
+pub const KILGARD: Program = Program {
+    name: "examples/kilgard_bump_mapping.shd",
+    source: include_str!("../../examples/kilgard_bump_mapping.shd"),
+};
 pub const TORRANCE_SPARROW_PER_PIXEL: Program = program!("torrance_sparrow_per_pixel.shd");
-pub const HEIDRICH_SEIDEL: Program = Program { name: "examples/torrance_sparrow_factored.shd", source: include_str!("../../examples/torrance_sparrow_factored.shd") };
+pub const HEIDRICH_SEIDEL: Program = Program {
+    name: "examples/torrance_sparrow_factored.shd",
+    source: include_str!("../../examples/torrance_sparrow_factored.shd"),
+};
 
 /// One measured technique.
 #[derive(Clone, Copy, Debug)]

@@ -35,7 +35,11 @@ pub fn run(args: &BenchArgs) -> ExitCode {
     if let Some(s) = &args.size {
         match parse_size(s) {
             Some(v) => options.size = v,
-            None => return usage(format!("--size {s}: expected WxH with 1..=16384 pixels per side, such as 512x512")),
+            None => {
+                return usage(format!(
+                    "--size {s}: expected WxH with 1..=16384 pixels per side, such as 512x512"
+                ))
+            }
         }
     }
     if let Some(n) = args.runs {
@@ -55,7 +59,9 @@ pub fn run(args: &BenchArgs) -> ExitCode {
         args.out_dir.display()
     );
     let progress = Progress::counting("variants");
-    let result = shadec::bench::run(&options, &args.out_dir, &mut |done, total, name| progress.tick(name, done, total));
+    let result = shadec::bench::run(&options, &args.out_dir, &mut |done, total, name| {
+        progress.tick(name, done, total)
+    });
     progress.finish();
     match result {
         Ok(report) => {
@@ -71,7 +77,14 @@ pub fn run(args: &BenchArgs) -> ExitCode {
                 );
             }
             for r in &report.adaptive {
-                println!("{:<24} threshold {:>4.1} %: {:>6.2} % shaded, {:.2}× faster, PSNR {:.1} dB", r.scene, 100.0 * r.threshold, 100.0 * r.fraction_shaded, r.speedup(), r.psnr);
+                println!(
+                    "{:<24} threshold {:>4.1} %: {:>6.2} % shaded, {:.2}× faster, PSNR {:.1} dB",
+                    r.scene,
+                    100.0 * r.threshold,
+                    100.0 * r.fraction_shaded,
+                    r.speedup(),
+                    r.psnr
+                );
             }
             println!("wrote {}", args.out_dir.join("report.md").display());
             ExitCode::SUCCESS

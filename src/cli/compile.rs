@@ -53,7 +53,8 @@ pub fn run(args: &CompileArgs) -> ExitCode {
                             // One pass per light, the scene's uniforms folded, lights culled per object.
                             Some(sc) => match sc.build() {
                                 Ok(assets) => {
-                                    let textures = shadec::scene::bind::texture_decls(&program, &sc.constants);
+                                    let textures =
+                                        shadec::scene::bind::texture_decls(&program, &sc.constants);
                                     let spec = shadec::planner::SceneSpecialization {
                                         scene: sc,
                                         assets: &assets,
@@ -116,7 +117,10 @@ fn report(args: &CompileArgs, file: &SourceFile, diagnostics: &[shadec::diag::Di
         CompileFormat::Short => eprint!("{}", file.render_short(diagnostics)),
         CompileFormat::Json => {
             let uri = format!("file://{}", args.file.display());
-            eprintln!("{}", serde_json::to_string_pretty(&file.to_lsp(&uri, diagnostics)).expect("diagnostics serialize"));
+            eprintln!(
+                "{}",
+                serde_json::to_string_pretty(&file.to_lsp(&uri, diagnostics)).expect("diagnostics serialize")
+            );
         }
     }
 }
@@ -131,7 +135,12 @@ fn shaders_out(_: &CompileArgs, _: &SourceFile, _: &str, _: &shadec::planner::Pl
 
 /// `--emit wgsl|spirv|glsl`.
 #[cfg(feature = "wgsl")]
-fn shaders_out(args: &CompileArgs, file: &SourceFile, text: &str, planned: &shadec::planner::Planned) -> ExitCode {
+fn shaders_out(
+    args: &CompileArgs,
+    file: &SourceFile,
+    text: &str,
+    planned: &shadec::planner::Planned,
+) -> ExitCode {
     use shadec::backends::wgsl::{codegen, emit};
     let fidelity = match args.fidelity {
         FidelityArg::Exact => codegen::Fidelity::Exact,
@@ -145,7 +154,11 @@ fn shaders_out(args: &CompileArgs, file: &SourceFile, text: &str, planned: &shad
         }
     };
     let name = args.file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let title = format!("{name} on {}, fidelity {}", planned.plan.target, if fidelity == codegen::Fidelity::Exact { "exact" } else { "hardware" });
+    let title = format!(
+        "{name} on {}, fidelity {}",
+        planned.plan.target,
+        if fidelity == codegen::Fidelity::Exact { "exact" } else { "hardware" }
+    );
     let doc = match args.emit {
         Emit::Wgsl => emit::wgsl(&title, &passes),
         Emit::Glsl => emit::glsl(&title, &passes),
@@ -202,7 +215,10 @@ fn report_removed(plan: &shadec::planner::PassPlan) {
         return;
     }
     let lights = plan.removed.iter().filter(|r| r.kind == "light").count();
-    eprintln!("specialization for this scene ({} passes remain; {lights} light × object pair(s) culled):", plan.passes.len());
+    eprintln!(
+        "specialization for this scene ({} passes remain; {lights} light × object pair(s) culled):",
+        plan.passes.len()
+    );
     for r in &plan.removed {
         eprintln!("  {:<9} {} — {} (at {})", r.kind, r.what, r.why, r.at);
     }

@@ -134,12 +134,12 @@ fn run_inner(args: &EmulateArgs) -> Result<(), Failure> {
             None => size = Some((path, img.width(), img.height())),
             Some((first, w, h)) if (w, h) != img.dimensions() => {
                 return Err(Failure::Io(format!(
-                    "input images differ in size: {} is {w}x{h} but {} is {}x{}; all inputs must have one size",
-                    first.display(),
-                    path.display(),
-                    img.width(),
-                    img.height()
-                )))
+                "input images differ in size: {} is {w}x{h} but {} is {}x{}; all inputs must have one size",
+                first.display(),
+                path.display(),
+                img.width(),
+                img.height()
+            )))
             }
             _ => {}
         }
@@ -198,7 +198,8 @@ pub(super) fn load_config(path: &Path, limits: &CombinerLimits) -> Result<Combin
 }
 
 fn load_png(path: &Path) -> Result<image::RgbaImage, Failure> {
-    let bytes = std::fs::read(path).map_err(|e| Failure::Io(format!("{}: cannot read: {e}", path.display())))?;
+    let bytes =
+        std::fs::read(path).map_err(|e| Failure::Io(format!("{}: cannot read: {e}", path.display())))?;
     let img = image::load_from_memory_with_format(&bytes, image::ImageFormat::Png)
         .map_err(|e| Failure::Io(format!("{}: not a readable PNG image: {e}", path.display())))?;
     Ok(img.to_rgba8())

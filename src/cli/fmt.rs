@@ -20,7 +20,10 @@ pub fn run(args: &FmtArgs) -> ExitCode {
     let file = SourceFile::new(args.file.display().to_string(), text);
     if diagnostics.iter().any(|d| d.is_error()) {
         eprint!("{}", file.render(&diagnostics, super::check::color_stderr()));
-        eprintln!("error: {} was not printed: it has syntax errors (nothing was written)", args.file.display());
+        eprintln!(
+            "error: {} was not printed: it has syntax errors (nothing was written)",
+            args.file.display()
+        );
         return ExitCode::from(EXIT_SOURCE_ERRORS);
     }
     let style = if args.ascii { print::Style::Ascii } else { print::Style::Unicode };

@@ -62,9 +62,18 @@ pub struct RenderArgs {
 
 /// `--adaptive THRESHOLD[,SPACING]`: `0.085`, `8.5%`, `8.5%,8`.
 fn parse_adaptive(text: &str) -> Result<AdaptiveSettings, String> {
-    let bad = |why: &str| format!("--adaptive {text}: {why}; expected THRESHOLD[,SPACING] such as `8.5%` or `0.085,16`");
+    let bad = |why: &str| {
+        format!("--adaptive {text}: {why}; expected THRESHOLD[,SPACING] such as `8.5%` or `0.085,16`")
+    };
     let (t, spacing) = match text.split_once(',') {
-        Some((t, sp)) => (t.trim(), sp.trim().parse::<u32>().ok().filter(|n| (1..=256).contains(n)).ok_or_else(|| bad("the spacing is a whole number of pixels from 1 to 256"))?),
+        Some((t, sp)) => (
+            t.trim(),
+            sp.trim()
+                .parse::<u32>()
+                .ok()
+                .filter(|n| (1..=256).contains(n))
+                .ok_or_else(|| bad("the spacing is a whole number of pixels from 1 to 256"))?,
+        ),
         None => (text.trim(), 16),
     };
     let threshold = match t.strip_suffix('%') {
@@ -116,7 +125,10 @@ pub fn run(args: &RenderArgs) -> ExitCode {
     let scene = match &args.scene {
         Some(path) => {
             if !path.is_file() {
-                return usage(format!("{}: scene file not found; give the path of a RON scene such as scenes/kilgard_torus.ron", path.display()));
+                return usage(format!(
+                    "{}: scene file not found; give the path of a RON scene such as scenes/kilgard_torus.ron",
+                    path.display()
+                ));
             }
             match Scene::load(path) {
                 Ok(s) => s,
@@ -140,7 +152,11 @@ pub fn run(args: &RenderArgs) -> ExitCode {
     let size = match &args.size {
         Some(s) => match parse_size(s) {
             Some(v) => v,
-            None => return usage(format!("--size {s}: expected WxH with 1..=16384 pixels per side, such as 640x480")),
+            None => {
+                return usage(format!(
+                    "--size {s}: expected WxH with 1..=16384 pixels per side, such as 640x480"
+                ))
+            }
         },
         None => scene.resolution,
     };
@@ -157,7 +173,11 @@ pub fn run(args: &RenderArgs) -> ExitCode {
         eprint!("{}", file.render(&errors, color_stderr()));
         return ExitCode::from(EXIT_SOURCE_ERRORS);
     }
-    let target = args.target.clone().or_else(|| module.target.as_ref().map(|t| t.value.clone())).unwrap_or_else(|| "wgsl".to_string());
+    let target = args
+        .target
+        .clone()
+        .or_else(|| module.target.as_ref().map(|t| t.value.clone()))
+        .unwrap_or_else(|| "wgsl".to_string());
     let profile = match shadec::profile::Profile::resolve(&target) {
         Ok(p) => p,
         Err(e) => return usage(e),
@@ -180,7 +200,11 @@ pub fn run(args: &RenderArgs) -> ExitCode {
         fold_uniforms: true,
         cull_threshold: Some(shadec::planner::DEFAULT_CULL_THRESHOLD),
     };
-    let planned = match if args.no_specialize { shadec::planner::plan(&module, &profile, Some(&source)) } else { shadec::planner::plan_specialized(&module, &profile, Some(&source), &spec) } {
+    let planned = match if args.no_specialize {
+        shadec::planner::plan(&module, &profile, Some(&source))
+    } else {
+        shadec::planner::plan_specialized(&module, &profile, Some(&source), &spec)
+    } {
         Ok(p) => p,
         Err(errors) => {
             eprint!("{}", file.render(&errors, color_stderr()));
@@ -205,7 +229,14 @@ pub fn run(args: &RenderArgs) -> ExitCode {
     };
     // The target's own arithmetic unless asked otherwise (issue 16 item 4):
     // the combiners' fixed9 on the old hardware, f32 on a modern target.
-    let mode = args.mode.map_or(if matches!(profile.fragment, shadec::profile::FragmentStage::Programmable) { Mode::F32 } else { Mode::Fixed9 }, ModeArg::mode);
+    let mode = args.mode.map_or(
+        if matches!(profile.fragment, shadec::profile::FragmentStage::Programmable) {
+            Mode::F32
+        } else {
+            Mode::Fixed9
+        },
+        ModeArg::mode,
+    );
     println!(
         "shadec render: {} with {}, {} on {}, {}×{}",
         args.scene.as_ref().map_or("the built-in torus scene".to_string(), |p| p.display().to_string()),
@@ -222,7 +253,8 @@ pub fn run(args: &RenderArgs) -> ExitCode {
 
     let progress = Progress::new();
     let rendered = match &adaptive {
-        Some(settings) => renderer.render_adaptive(mode, size.0, size.1, settings, &mut |d, t| progress.tick("adaptive", d, t)),
+        Some(settings) => renderer
+            .render_adaptive(mode, size.0, size.1, settings, &mut |d, t| progress.tick("adaptive", d, t)),
         None => renderer.render(mode, size.0, size.1, &mut |d, t| progress.tick(mode.name(), d, t)),
     };
     let frame = match rendered {
@@ -243,7 +275,9 @@ pub fn run(args: &RenderArgs) -> ExitCode {
             return ExitCode::from(EXIT_SOURCE_ERRORS);
         }
     };
-    let reference = match PlanRenderer::new(&meaning, &program, &scene, &assets).and_then(|r| r.render(Mode::Exact, size.0, size.1, &mut |d, t| progress.tick("meaning", d, t))) {
+    let reference = match PlanRenderer::new(&meaning, &program, &scene, &assets)
+        .and_then(|r| r.render(Mode::Exact, size.0, size.1, &mut |d, t| progress.tick("meaning", d, t)))
+    {
         Ok(f) => f,
         Err(e) => {
             progress.finish();
@@ -252,13 +286,15 @@ pub fn run(args: &RenderArgs) -> ExitCode {
     };
     // Adaptive shading is measured against full per-pixel shading of the same plan and mode.
     let full = match &adaptive {
-        Some(_) => match renderer.render(mode, size.0, size.1, &mut |d, t| progress.tick("full shading", d, t)) {
-            Ok(f) => Some(f),
-            Err(e) => {
-                progress.finish();
-                return failed(e);
+        Some(_) => {
+            match renderer.render(mode, size.0, size.1, &mut |d, t| progress.tick("full shading", d, t)) {
+                Ok(f) => Some(f),
+                Err(e) => {
+                    progress.finish();
+                    return failed(e);
+                }
             }
-        },
+        }
         None => None,
     };
     progress.finish();
@@ -297,7 +333,13 @@ pub fn run(args: &RenderArgs) -> ExitCode {
             a.interpolated,
             full.time.as_secs_f64() * 1e3
         );
-        println!("error against full shading: max abs {:.4} ({:.1}/255), RMSE {:.5}, PSNR {}", e.max_abs, e.max_abs * 255.0, e.rmse, psnr(e.psnr));
+        println!(
+            "error against full shading: max abs {:.4} ({:.1}/255), RMSE {:.5}, PSNR {}",
+            e.max_abs,
+            e.max_abs * 255.0,
+            e.rmse,
+            psnr(e.psnr)
+        );
     }
     let e = compare(&reference.image, &frame.image);
     println!(
@@ -328,7 +370,14 @@ pub fn save_opaque_png(fb: &shadec::renderer::Framebuffer, path: &Path) -> Resul
     }
     let mut bytes = Vec::new();
     let encoder = image::codecs::png::PngEncoder::new(&mut bytes);
-    image::ImageEncoder::write_image(encoder, &rgba, fb.width(), fb.height(), image::ExtendedColorType::Rgba8).map_err(|e| format!("{}: cannot encode PNG: {e}", path.display()))?;
+    image::ImageEncoder::write_image(
+        encoder,
+        &rgba,
+        fb.width(),
+        fb.height(),
+        image::ExtendedColorType::Rgba8,
+    )
+    .map_err(|e| format!("{}: cannot encode PNG: {e}", path.display()))?;
     shadec::io::write_atomic(path, &bytes).map_err(|e| e.to_string())
 }
 
@@ -349,7 +398,11 @@ impl Progress {
     pub(super) fn counting(unit: &str) -> Progress {
         let bar = indicatif::ProgressBar::hidden();
         let template = format!("{{msg:>16}} [{{bar:40}}] {{pos}}/{{len}} {unit}, {{elapsed}}");
-        bar.set_style(indicatif::ProgressStyle::with_template(&template).unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()).progress_chars("=> "));
+        bar.set_style(
+            indicatif::ProgressStyle::with_template(&template)
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar())
+                .progress_chars("=> "),
+        );
         Progress { start: Instant::now(), bar, shown: std::cell::Cell::new(false) }
     }
 

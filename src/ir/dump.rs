@@ -81,7 +81,15 @@ pub fn dump(module: &Module, source: Option<&str>) -> String {
             Range::Signed => "[-1,1]",
             Range::Unbounded => "unbounded",
         };
-        writeln!(w, "{text:<44} : {:<8} {:<12} {:<9} @{}", info.ty.name(), freq(info.freq), range, at(module.span(h))).unwrap();
+        writeln!(
+            w,
+            "{text:<44} : {:<8} {:<12} {:<9} @{}",
+            info.ty.name(),
+            freq(info.freq),
+            range,
+            at(module.span(h))
+        )
+        .unwrap();
     }
     writeln!(w, "statements:").unwrap();
     for (i, st) in module.statements.iter().enumerate() {
@@ -136,12 +144,20 @@ fn channel_name(c: FbChannel) -> &'static str {
 fn number(v: f64) -> String {
     let s = format!("{v:.6}");
     let s = s.trim_end_matches('0').trim_end_matches('.');
-    if s == "-0" { "0".into() } else { s.to_string() }
+    if s == "-0" {
+        "0".into()
+    } else {
+        s.to_string()
+    }
 }
 
 fn constant(c: &super::Constant) -> String {
     let v: Vec<String> = c.values().iter().map(|v| number(*v)).collect();
-    if v.len() == 1 { v[0].clone() } else { format!("({})", v.join(", ")) }
+    if v.len() == 1 {
+        v[0].clone()
+    } else {
+        format!("({})", v.join(", "))
+    }
 }
 
 fn list(hs: &[Handle<Expr>]) -> String {
@@ -153,7 +169,9 @@ pub(crate) fn node(m: &Module, e: &Expr) -> String {
         Expr::Constant(c) => format!("const {}", constant(c)),
         Expr::Uniform(id) => format!("uniform {}", m.uniforms[*id as usize].name),
         Expr::VertexPosition(x) => format!("vertex {}", m.vertices[*x as usize]),
-        Expr::TexCoord { set, vertex } => format!("texcoord {} {}", m.texcoord_sets[*set as usize].name, m.vertices[*vertex as usize]),
+        Expr::TexCoord { set, vertex } => {
+            format!("texcoord {} {}", m.texcoord_sets[*set as usize].name, m.vertices[*vertex as usize])
+        }
         Expr::Vector { vector, site } => {
             let site = match site {
                 Site::Vertex(x) => m.vertices[*x as usize].clone(),
@@ -179,7 +197,11 @@ pub(crate) fn node(m: &Module, e: &Expr) -> String {
         Expr::Interpolate { value, to } => format!("δ {value} -> {}", freq(*to)),
         Expr::Lookup { texture, coords } => format!("lookup {} {coords}", m.textures[*texture as usize].name),
         Expr::FramebufferRead { framebuffer, channel, position } => {
-            format!("read {}.{} {position}", m.framebuffers[*framebuffer as usize].name, channel_name(*channel))
+            format!(
+                "read {}.{} {position}",
+                m.framebuffers[*framebuffer as usize].name,
+                channel_name(*channel)
+            )
         }
         Expr::Depth(h) => format!("depth {h}"),
         Expr::FatMember { texel, member } => format!("fat-member {member} of {texel}"),
@@ -211,7 +233,8 @@ pub(crate) fn node(m: &Module, e: &Expr) -> String {
         Expr::Math { fun, args } => format!("{}({})", fun.name(), list(args)),
         Expr::Swizzle { value, pattern, len, ty } => {
             let letters = if ty.is_color() || m.info(*value).ty.is_color() { "rgba" } else { "xyzw" };
-            let s: String = pattern[..*len as usize].iter().map(|&i| letters.as_bytes()[i as usize] as char).collect();
+            let s: String =
+                pattern[..*len as usize].iter().map(|&i| letters.as_bytes()[i as usize] as char).collect();
             format!("{value}.{s}")
         }
         Expr::Compose { ty, components } => format!("{}({})", ty.name(), list(components)),

@@ -32,8 +32,8 @@
 //! of passing for a plausible number.
 
 use super::{
-    BinaryOp, Constant, Expr, FbChannel, FramebufferId, Frequency, Handle, MathFunction, Module, Projection, Site,
-    TexCoordId, TextureId, Ty, UnaryOp, UniformId, VectorId, VertexId,
+    BinaryOp, Constant, Expr, FbChannel, FramebufferId, Frequency, Handle, MathFunction, Module, Projection,
+    Site, TexCoordId, TextureId, Ty, UnaryOp, UniformId, VectorId, VertexId,
 };
 use crate::parser::ast::CombineMode;
 
@@ -596,7 +596,9 @@ impl<'m> Evaluator<'m> {
                 Expr::Project { projection, value } => {
                     env.project(projection, self.slots[ops[0] as usize], m.info(*value).ty)
                 }
-                Expr::Lookup { texture, coords } => env.lookup(*texture, self.slots[ops[0] as usize], m.info(*coords).ty),
+                Expr::Lookup { texture, coords } => {
+                    env.lookup(*texture, self.slots[ops[0] as usize], m.info(*coords).ty)
+                }
                 Expr::FramebufferRead { framebuffer, channel, .. } => {
                     env.framebuffer(*framebuffer, *channel, self.slots[ops[0] as usize])
                 }
@@ -874,7 +876,11 @@ mod tests {
         let wide = node(&mut m, Expr::Convert { value: texel, to: Ty::Rgba });
         let t1 = [1.0, 0.5, 0.75, 1.0];
         let fv = [1.0, 0.8, 0.4, 0.5];
-        for (mode, want) in [(Replace, [1.0, 0.5, 0.75, 0.5]), (Decal, [1.0, 0.5, 0.75, 0.5]), (Modulate, [1.0, 0.4, 0.3, 0.5])] {
+        for (mode, want) in [
+            (Replace, [1.0, 0.5, 0.75, 0.5]),
+            (Decal, [1.0, 0.5, 0.75, 0.5]),
+            (Modulate, [1.0, 0.4, 0.3, 0.5]),
+        ] {
             let v = apply(&m, &Expr::Combine { mode, lhs: wide, rhs: f }, Ty::Rgba, &[t1, fv]);
             close(&v, &want);
         }

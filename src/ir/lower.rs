@@ -12,8 +12,8 @@ use std::collections::HashMap;
 
 use super::valid::{self, TypeError};
 use super::{
-    BinaryOp, Constant, Expr, FbChannel, Frequency, Handle, MathFunction, Module, Projection, Site, Statement, Table,
-    TexCoordSet, Texture, Ty, UnaryOp, Uniform, Vector, VectorId, VertexId,
+    BinaryOp, Constant, Expr, FbChannel, Frequency, Handle, MathFunction, Module, Projection, Site,
+    Statement, Table, TexCoordSet, Texture, Ty, UnaryOp, Uniform, Vector, VectorId, VertexId,
 };
 use crate::diag::Diagnostic;
 use crate::parser::ast::{self, ExprKind, FuncKind, ItemKind};
@@ -27,7 +27,11 @@ pub fn lower(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
     // stack keeps the recursion bounds (below) far from an overflow on any
     // thread, including test threads.
     std::thread::scope(|scope| {
-        match std::thread::Builder::new().name("shadec-lower".into()).stack_size(LOWER_STACK).spawn_scoped(scope, || lower_here(program)) {
+        match std::thread::Builder::new()
+            .name("shadec-lower".into())
+            .stack_size(LOWER_STACK)
+            .spawn_scoped(scope, || lower_here(program))
+        {
             Ok(handle) => handle.join().unwrap_or_else(|panic| std::panic::resume_unwind(panic)),
             Err(_) => lower_here(program),
         }
@@ -95,8 +99,12 @@ fn with_bakes(program: &ast::Program) -> Option<ast::Program> {
         let ExprKind::Apply { arg, .. } = &src.kind else { continue };
         let ExprKind::Name(shader) = &arg.kind else { continue };
         for name in &t.names {
-            let (parsed, diagnostics) = crate::parser::parse(&format!("{} delta u <- {} s delta u;", name.key(), shader.key()));
-            let Some(mut statement) = parsed.items.into_iter().next().filter(|_| diagnostics.is_empty()) else { continue };
+            let (parsed, diagnostics) =
+                crate::parser::parse(&format!("{} delta u <- {} s delta u;", name.key(), shader.key()));
+            let Some(mut statement) = parsed.items.into_iter().next().filter(|_| diagnostics.is_empty())
+            else {
+                continue;
+            };
             statement.erase_spans();
             statement.span = src.span;
             if let ItemKind::Statement(st) = &mut statement.kind {
@@ -200,8 +208,6 @@ struct Lowerer<'a> {
     written: std::collections::HashSet<u32>,
 }
 
-
-
 impl<'a> Lowerer<'a> {
     fn run(&mut self) {
         let program = self.program;
@@ -223,7 +229,8 @@ impl<'a> Lowerer<'a> {
             })
             .collect();
         let (texgen, rest): (Vec<_>, Vec<_>) = statements.into_iter().partition(|s| {
-            resolve::family(&s.target.table) == Some(Entity::TexCoords) && !self.globals.contains_key(&s.target.table.key())
+            resolve::family(&s.target.table) == Some(Entity::TexCoords)
+                && !self.globals.contains_key(&s.target.table.key())
         });
         for st in texgen.into_iter().chain(rest) {
             self.statement(st);
@@ -267,15 +274,27 @@ impl<'a> Lowerer<'a> {
         self.statement_freq = None;
     }
 
-    fn error(&mut self, code: &'static str, message: impl Into<String>, span: Span, label: impl Into<String>, help: impl Into<String>) {
+    fn error(
+        &mut self,
+        code: &'static str,
+        message: impl Into<String>,
+        span: Span,
+        label: impl Into<String>,
+        help: impl Into<String>,
+    ) {
         self.diagnostics.push(Diagnostic::error(code, message, span, label).with_help(help));
     }
 
     fn unsupported(&mut self, what: impl Into<String>, span: Span) {
         let what = what.into();
         self.diagnostics.push(
-            Diagnostic::error("not-supported", format!("not yet supported: {what}"), span, "the IR cannot express this yet")
-                .with_help("rewrite it with the forms of seeds/001 Sections 2-3, or report it as a gap"),
+            Diagnostic::error(
+                "not-supported",
+                format!("not yet supported: {what}"),
+                span,
+                "the IR cannot express this yet",
+            )
+            .with_help("rewrite it with the forms of seeds/001 Sections 2-3, or report it as a gap"),
         );
     }
 
@@ -320,7 +339,13 @@ impl<'a> Lowerer<'a> {
                 for m in &p.members {
                     match self.globals.get(&m.key()) {
                         Some(Global::Vector(id)) => members.push(*id),
-                        _ => self.error("bad-params", format!("`{}` is not a shading vector", m.key()), m.span, "not a vector", "list vectors declared with `vector`"),
+                        _ => self.error(
+                            "bad-params",
+                            format!("`{}` is not a shading vector", m.key()),
+                            m.span,
+                            "not a vector",
+                            "list vectors declared with `vector`",
+                        ),
                     }
                 }
                 self.params.push(members);
@@ -328,10 +353,18 @@ impl<'a> Lowerer<'a> {
             }
             ItemKind::Const(c) => {
                 self.sample = None;
-                let Ok(h) = self.lower_expr(&c.value).and_then(|v| self.expect_expr(v, c.value.span)) else { return };
+                let Ok(h) = self.lower_expr(&c.value).and_then(|v| self.expect_expr(v, c.value.span)) else {
+                    return;
+                };
                 let Ok(h) = self.annotate(h, c.ty.as_ref(), c.value.span) else { return };
                 if !matches!(self.module.exprs[h], Expr::Constant(_)) {
-                    self.error("not-constant", format!("the constant `{}` is not computable at compile time", c.name.key()), c.value.span, "not a constant", "use `uniform` for a value the scene sets");
+                    self.error(
+                        "not-constant",
+                        format!("the constant `{}` is not computable at compile time", c.name.key()),
+                        c.value.span,
+                        "not a constant",
+                        "use `uniform` for a value the scene sets",
+                    );
                     return;
                 }
                 self.globals.insert(c.name.key(), Global::Const(h));
@@ -341,17 +374,32 @@ impl<'a> Lowerer<'a> {
                 let mut default = None;
                 let mut ty = u.ty.as_ref().map(|t| Ty::from_ast(t.value));
                 if let Some(d) = &u.default {
-                    if let Ok(h) = self.lower_expr(d).and_then(|v| self.expect_expr(v, d.span)).and_then(|h| self.annotate(h, u.ty.as_ref(), d.span)) {
+                    if let Ok(h) = self
+                        .lower_expr(d)
+                        .and_then(|v| self.expect_expr(v, d.span))
+                        .and_then(|h| self.annotate(h, u.ty.as_ref(), d.span))
+                    {
                         if let Expr::Constant(c) = self.module.exprs[h] {
                             ty = Some(c.ty);
                             default = Some(c);
                         } else {
-                            self.error("not-constant", "a uniform's default must be a constant", d.span, "not a constant", "write numbers or constants here");
+                            self.error(
+                                "not-constant",
+                                "a uniform's default must be a constant",
+                                d.span,
+                                "not a constant",
+                                "write numbers or constants here",
+                            );
                         }
                     }
                 }
                 let id = self.module.uniforms.len() as u32;
-                self.module.uniforms.push(Uniform { name: u.name.key(), ty: ty.unwrap_or(Ty::Scalar), default, span: u.name.span });
+                self.module.uniforms.push(Uniform {
+                    name: u.name.key(),
+                    ty: ty.unwrap_or(Ty::Scalar),
+                    default,
+                    span: u.name.span,
+                });
                 self.globals.insert(u.name.key(), Global::Uniform(id));
             }
             ItemKind::Let(l) => {
@@ -381,9 +429,17 @@ impl<'a> Lowerer<'a> {
         }
         if t.kind.value != ast::TextureKind::Cube {
             self.diagnostics.push(
-                Diagnostic::error("bad-generator", format!("`normalize_cube` makes a cube map, but the texture is declared `{}`", t.kind.value.as_str()), f.span, "a cube map generator")
-                    .with_label(t.kind.span, "declared here")
-                    .with_help("declare the texture `cube` (`texture N : cube rgb8 = normalize_cube(32);`)"),
+                Diagnostic::error(
+                    "bad-generator",
+                    format!(
+                        "`normalize_cube` makes a cube map, but the texture is declared `{}`",
+                        t.kind.value.as_str()
+                    ),
+                    f.span,
+                    "a cube map generator",
+                )
+                .with_label(t.kind.span, "declared here")
+                .with_help("declare the texture `cube` (`texture N : cube rgb8 = normalize_cube(32);`)"),
             );
             return;
         }
@@ -424,7 +480,9 @@ impl<'a> Lowerer<'a> {
     fn compile_time_number(&self, e: &ast::Expr) -> Option<f64> {
         match &e.kind {
             ExprKind::Number(v) => Some(*v),
-            ExprKind::Unary { op: ast::UnaryOp::Neg, operand } => self.compile_time_number(operand).map(|v| -v),
+            ExprKind::Unary { op: ast::UnaryOp::Neg, operand } => {
+                self.compile_time_number(operand).map(|v| -v)
+            }
             ExprKind::Name(n) => match self.globals.get(&n.key()) {
                 Some(Global::Const(h)) => match self.module.exprs[*h] {
                     Expr::Constant(c) if c.ty == Ty::Scalar => Some(c.values()[0]),
@@ -548,7 +606,12 @@ impl<'a> Lowerer<'a> {
     }
 
     /// Applies a declared type to a value by [`Self::coerce`].
-    fn annotate(&mut self, h: Handle<Expr>, ty: Option<&ast::Word<ast::Type>>, span: Span) -> Res<Handle<Expr>> {
+    fn annotate(
+        &mut self,
+        h: Handle<Expr>,
+        ty: Option<&ast::Word<ast::Type>>,
+        span: Span,
+    ) -> Res<Handle<Expr>> {
         let Some(want) = ty else { return Ok(h) };
         let want_ty = Ty::from_ast(want.value);
         let have = self.module.info(h).ty;
@@ -571,7 +634,13 @@ impl<'a> Lowerer<'a> {
         match v {
             Value::Expr(h) => Ok(h),
             Value::Bundle(_) | Value::ParamsName(_) => {
-                self.error("type-mismatch", "a shading-parameter vector is not a value here", span, "a bundle of vectors", "apply a shader to it (`p δ s x`), or select a vector (`L s x`)");
+                self.error(
+                    "type-mismatch",
+                    "a shading-parameter vector is not a value here",
+                    span,
+                    "a bundle of vectors",
+                    "apply a shader to it (`p δ s x`), or select a vector (`L s x`)",
+                );
                 Err(())
             }
             Value::Vertex(_) => {
@@ -579,7 +648,13 @@ impl<'a> Lowerer<'a> {
                 self.append(Expr::VertexPosition(v), span)
             }
             Value::TexCoordSet => {
-                self.error("type-mismatch", "a texture-coordinate set needs a vertex or δ", span, "unapplied", "write `u x` (at a vertex) or `δu` (the texel being rendered)");
+                self.error(
+                    "type-mismatch",
+                    "a texture-coordinate set needs a vertex or δ",
+                    span,
+                    "unapplied",
+                    "write `u x` (at a vertex) or `δu` (the texel being rendered)",
+                );
                 Err(())
             }
         }
@@ -608,8 +683,14 @@ impl<'a> Lowerer<'a> {
         let t = &st.target;
         let key = t.table.key();
         let span = t.span.join(st.value.span);
-        let has_delta = contains(&t.index, &|e| matches!(&e.kind, ExprKind::Apply { func, .. } if func.kind == FuncKind::Delta));
-        let has_pi = contains(&t.index, &|e| matches!(&e.kind, ExprKind::Apply { func, .. } if matches!(func.kind, FuncKind::Projection(_))));
+        let has_delta = contains(
+            &t.index,
+            &|e| matches!(&e.kind, ExprKind::Apply { func, .. } if func.kind == FuncKind::Delta),
+        );
+        let has_pi = contains(
+            &t.index,
+            &|e| matches!(&e.kind, ExprKind::Apply { func, .. } if matches!(func.kind, FuncKind::Projection(_))),
+        );
         let channel = match t.channel.as_ref().map(|c| c.value) {
             None => FbChannel::Color,
             Some(ast::Channel::Alpha) => FbChannel::Alpha,
@@ -617,10 +698,16 @@ impl<'a> Lowerer<'a> {
             Some(ast::Channel::Stencil) => FbChannel::Stencil,
         };
         let (table, sample) = match (self.globals.get(&key).copied(), resolve::family(&t.table)) {
-            (Some(Global::Framebuffer(id)), _) => (Table::Framebuffer { id, channel }, if has_delta { Frequency::Fragment } else { Frequency::Screen }),
+            (Some(Global::Framebuffer(id)), _) => (
+                Table::Framebuffer { id, channel },
+                if has_delta { Frequency::Fragment } else { Frequency::Screen },
+            ),
             (None, Some(Entity::Framebuffer)) => {
                 let id = self.framebuffer_id(&t.table, Vec::new());
-                (Table::Framebuffer { id, channel }, if has_delta { Frequency::Fragment } else { Frequency::Screen })
+                (
+                    Table::Framebuffer { id, channel },
+                    if has_delta { Frequency::Fragment } else { Frequency::Screen },
+                )
             }
             (Some(Global::Texture(id)), _) => {
                 if !has_delta {
@@ -629,7 +716,9 @@ impl<'a> Lowerer<'a> {
                 }
                 (Table::Texture(id), if has_pi { Frequency::Fragment } else { Frequency::Texel })
             }
-            (None, Some(Entity::TexCoords)) => (Table::TexCoords(self.texcoord_id(&t.table)), Frequency::Vertex),
+            (None, Some(Entity::TexCoords)) => {
+                (Table::TexCoords(self.texcoord_id(&t.table)), Frequency::Vertex)
+            }
             _ if matches!(key.as_str(), "a" | "s") && self.index_names_framebuffer(&t.index) => {
                 // seeds/001 as printed: `s C δπx ← …` is σ, `a C xs ← …` α.
                 let (sym, word) = if key == "s" { ("σ", "stencil") } else { ("α", "alpha") };
@@ -646,7 +735,9 @@ impl<'a> Lowerer<'a> {
             }
         };
         // Texture shading `T δu ← …`: `s δu` may be taken on the surface.
-        if let (Table::Texture(_), Frequency::Texel, ExprKind::Apply { func, arg }) = (&table, sample, &t.index.kind) {
+        if let (Table::Texture(_), Frequency::Texel, ExprKind::Apply { func, arg }) =
+            (&table, sample, &t.index.kind)
+        {
             if let (FuncKind::Delta, ExprKind::Name(u)) = (&func.kind, &arg.kind) {
                 if resolve::family(u) == Some(Entity::TexCoords) && !self.globals.contains_key(&u.key()) {
                     self.surface = Some((self.texcoord_id(u), None));
@@ -693,9 +784,13 @@ impl<'a> Lowerer<'a> {
         // Frequencies: the value must be computable where the statement runs.
         if vi.freq.join(sample).is_none() || (vi.freq == Frequency::Vertex && sample.is_sample()) {
             let help = if vi.freq == Frequency::Vertex {
-                "interpolate it: right of δ is per vertex, left of δ per fragment (e.g. `δ p s x`)".to_string()
+                "interpolate it: right of δ is per vertex, left of δ per fragment (e.g. `δ p s x`)"
+                    .to_string()
             } else {
-                format!("this target is written {}; compute the value there, or write it in another statement", sample.name())
+                format!(
+                    "this target is written {}; compute the value there, or write it in another statement",
+                    sample.name()
+                )
             };
             self.error(
                 "frequency",
@@ -715,7 +810,9 @@ impl<'a> Lowerer<'a> {
                 };
                 value = match (vi.ty, want) {
                     (a, b) if a == b => value,
-                    (Ty::Rgb, Ty::Rgba) | (Ty::Scalar, Ty::Rgba) => self.append(Expr::Convert { value, to: Ty::Rgba }, st.value.span)?,
+                    (Ty::Rgb, Ty::Rgba) | (Ty::Scalar, Ty::Rgba) => {
+                        self.append(Expr::Convert { value, to: Ty::Rgba }, st.value.span)?
+                    }
                     // `Cl δπl x ← δ x` (shadow mask): a position written into a depth
                     // buffer stores the depth of the fragment being written, in the
                     // projection of the index (πl here) — what the depth test compares.
@@ -735,17 +832,35 @@ impl<'a> Lowerer<'a> {
                 value = match (vi.ty, texel) {
                     (a, b) if a == b => value,
                     (Ty::Bundle(_), _) => value,
-                    (Ty::Rgb, Ty::Rgba) | (Ty::Scalar, Ty::Rgba) => self.append(Expr::Convert { value, to: Ty::Rgba }, st.value.span)?,
+                    (Ty::Rgb, Ty::Rgba) | (Ty::Scalar, Ty::Rgba) => {
+                        self.append(Expr::Convert { value, to: Ty::Rgba }, st.value.span)?
+                    }
                     (Ty::Vec3, Ty::Rgb) | (Ty::Rgb, Ty::Vec3) => value,
                     (have, want) => {
-                        self.error("type-mismatch", format!("a {} is written into the texture `{name}` of {} texels", have.name(), want.name()), st.value.span, format!("a {}", have.name()), "change the texture's format, or the value");
+                        self.error(
+                            "type-mismatch",
+                            format!(
+                                "a {} is written into the texture `{name}` of {} texels",
+                                have.name(),
+                                want.name()
+                            ),
+                            st.value.span,
+                            format!("a {}", have.name()),
+                            "change the texture's format, or the value",
+                        );
                         return Err(());
                     }
                 };
             }
             Table::TexCoords(set) => {
                 if !matches!(vi.ty, Ty::Scalar | Ty::Vec2 | Ty::Vec3) {
-                    self.error("type-mismatch", format!("texture coordinates cannot be a {}", vi.ty.name()), st.value.span, format!("a {}", vi.ty.name()), "generate a scalar, vec2 or vec3 (seeds/001 (7))");
+                    self.error(
+                        "type-mismatch",
+                        format!("texture coordinates cannot be a {}", vi.ty.name()),
+                        st.value.span,
+                        format!("a {}", vi.ty.name()),
+                        "generate a scalar, vec2 or vec3 (seeds/001 (7))",
+                    );
                     return Err(());
                 }
                 let set = &mut self.module.texcoord_sets[*set as usize];
@@ -753,7 +868,14 @@ impl<'a> Lowerer<'a> {
                 set.generated = true;
             }
         }
-        self.module.statements.push(Statement { table, index, freq: sample, value, span, target_span: t.span });
+        self.module.statements.push(Statement {
+            table,
+            index,
+            freq: sample,
+            value,
+            span,
+            target_span: t.span,
+        });
         Ok(())
     }
 
@@ -761,7 +883,10 @@ impl<'a> Lowerer<'a> {
         match table {
             Table::Framebuffer { id, .. } => {
                 let ch = &self.module.framebuffers[*id as usize].channels;
-                !ch.is_empty() && ch.iter().all(|c| matches!(c, ast::FramebufferChannel::Depth | ast::FramebufferChannel::Stencil))
+                !ch.is_empty()
+                    && ch.iter().all(|c| {
+                        matches!(c, ast::FramebufferChannel::Depth | ast::FramebufferChannel::Stencil)
+                    })
             }
             _ => false,
         }
@@ -771,7 +896,13 @@ impl<'a> Lowerer<'a> {
 
     fn lower_expr(&mut self, e: &'a ast::Expr) -> Res<Value> {
         if self.expr_depth > MAX_EXPR_RECURSION {
-            self.error("too-deep", "the expression is too deep to lower", e.span, "here", "split it with `let` bindings");
+            self.error(
+                "too-deep",
+                "the expression is too deep to lower",
+                e.span,
+                "here",
+                "split it with `let` bindings",
+            );
             return Err(());
         }
         self.expr_depth += 1;
@@ -784,7 +915,13 @@ impl<'a> Lowerer<'a> {
     fn nested<T>(&mut self, name: &str, span: Span, f: impl FnOnce(&mut Self) -> Res<T>) -> Res<T> {
         if self.depth >= MAX_DEFINITION_DEPTH {
             if self.depth == MAX_DEFINITION_DEPTH {
-                self.error("cycle", format!("`{name}` is defined in terms of itself"), span, "used here", "a `let`, computed vector or shader must not use itself, directly or through others");
+                self.error(
+                    "cycle",
+                    format!("`{name}` is defined in terms of itself"),
+                    span,
+                    "used here",
+                    "a `let`, computed vector or shader must not use itself, directly or through others",
+                );
             }
             return Err(());
         }
@@ -799,7 +936,13 @@ impl<'a> Lowerer<'a> {
         match &e.kind {
             ExprKind::Number(n) => Ok(Value::Expr(self.constant(Constant::scalar(*n), span))),
             ExprKind::String(_) => {
-                self.error("type-mismatch", "a string is not a value", span, "a string", "strings name files, in texture sources (`image(\"brick.png\")`)");
+                self.error(
+                    "type-mismatch",
+                    "a string is not a value",
+                    span,
+                    "a string",
+                    "strings name files, in texture sources (`image(\"brick.png\")`)",
+                );
                 Err(())
             }
             ExprKind::Name(n) => self.name(n),
@@ -899,9 +1042,14 @@ impl<'a> Lowerer<'a> {
     /// Warns when the left operand reads the colour of a framebuffer no
     /// earlier statement writes.
     fn warn_modulating_cleared(&mut self, lhs: Handle<Expr>, lhs_span: Span, span: Span) {
-        let Expr::FramebufferRead { framebuffer, channel: FbChannel::Color, .. } = self.module.exprs[lhs] else { return };
+        let Expr::FramebufferRead { framebuffer, channel: FbChannel::Color, .. } = self.module.exprs[lhs]
+        else {
+            return;
+        };
         // Once per place: a `let` is lowered again in every statement using it.
-        if self.written.contains(&framebuffer) || self.diagnostics.iter().any(|d| d.code == "modulate-cleared" && d.primary.span == lhs_span) {
+        if self.written.contains(&framebuffer)
+            || self.diagnostics.iter().any(|d| d.code == "modulate-cleared" && d.primary.span == lhs_span)
+        {
             return;
         }
         let name = self.module.framebuffers[framebuffer as usize].name.clone();
@@ -920,7 +1068,12 @@ impl<'a> Lowerer<'a> {
     }
 
     /// rgb meets rgba: the rgb side widens (alpha 1).
-    fn widen_pair(&mut self, a: Handle<Expr>, b: Handle<Expr>, span: Span) -> Res<(Handle<Expr>, Handle<Expr>)> {
+    fn widen_pair(
+        &mut self,
+        a: Handle<Expr>,
+        b: Handle<Expr>,
+        span: Span,
+    ) -> Res<(Handle<Expr>, Handle<Expr>)> {
         let (ta, tb) = (self.module.info(a).ty, self.module.info(b).ty);
         match (ta, tb) {
             (Ty::Rgb, Ty::Rgba) => Ok((self.append(Expr::Convert { value: a, to: Ty::Rgba }, span)?, b)),
@@ -930,7 +1083,11 @@ impl<'a> Lowerer<'a> {
     }
 
     fn binary(&mut self, op: BinaryOp, a: Handle<Expr>, b: Handle<Expr>, span: Span) -> Res<Handle<Expr>> {
-        let (a, b) = if matches!(op, BinaryOp::Add | BinaryOp::Sub | BinaryOp::Mul | BinaryOp::Div) { self.widen_pair(a, b, span)? } else { (a, b) };
+        let (a, b) = if matches!(op, BinaryOp::Add | BinaryOp::Sub | BinaryOp::Mul | BinaryOp::Div) {
+            self.widen_pair(a, b, span)?
+        } else {
+            (a, b)
+        };
         self.append(Expr::Binary { op, lhs: a, rhs: b }, span)
     }
 
@@ -946,7 +1103,13 @@ impl<'a> Lowerer<'a> {
                 3 => Ty::Vec3,
                 4 => Ty::Rgba,
                 n => {
-                    self.error("type-mismatch", format!("a tuple of {n} components is not a value"), span, "2, 3 or 4 components", "write (u, v), (x, y, z) or (r, g, b, a)");
+                    self.error(
+                        "type-mismatch",
+                        format!("a tuple of {n} components is not a value"),
+                        span,
+                        "2, 3 or 4 components",
+                        "write (u, v), (x, y, z) or (r, g, b, a)",
+                    );
                     return Err(());
                 }
             },
@@ -967,7 +1130,13 @@ impl<'a> Lowerer<'a> {
         let mut rgba = false;
         let chars: Vec<char> = components.chars().collect();
         if chars.is_empty() || chars.len() > 4 {
-            self.error("bad-swizzle", format!("`.{components}` selects {} components", chars.len()), span, "1 to 4 components", "write `.x`, `.xy`, `.rgb`, `.a`…");
+            self.error(
+                "bad-swizzle",
+                format!("`.{components}` selects {} components", chars.len()),
+                span,
+                "1 to 4 components",
+                "write `.x`, `.xy`, `.rgb`, `.a`…",
+            );
             return Err(());
         }
         for (i, c) in chars.iter().enumerate() {
@@ -977,7 +1146,13 @@ impl<'a> Lowerer<'a> {
                 'z' | 'b' => 2,
                 'w' | 'a' => 3,
                 _ => {
-                    self.error("bad-swizzle", format!("`{c}` is not a component"), span, "unknown component", "components are x y z w, or r g b a");
+                    self.error(
+                        "bad-swizzle",
+                        format!("`{c}` is not a component"),
+                        span,
+                        "unknown component",
+                        "components are x y z w, or r g b a",
+                    );
                     return Err(());
                 }
             };
@@ -988,7 +1163,13 @@ impl<'a> Lowerer<'a> {
             }
         }
         if xyzw && rgba {
-            self.error("bad-swizzle", format!("`.{components}` mixes xyzw and rgba"), span, "mixed component names", "use one naming: `.xyz` or `.rgb`");
+            self.error(
+                "bad-swizzle",
+                format!("`.{components}` mixes xyzw and rgba"),
+                span,
+                "mixed component names",
+                "use one naming: `.xyz` or `.rgb`",
+            );
             return Err(());
         }
         let ty = match chars.len() {
@@ -1028,26 +1209,52 @@ impl<'a> Lowerer<'a> {
             },
             Some(Global::Params(i)) => Ok(Value::ParamsName(self.params[i].clone())),
             Some(Global::Texture(_) | Global::Framebuffer(_) | Global::Shader(_)) => {
-                self.error("type-mismatch", format!("`{key}` is a table or shader, not a value"), n.span, "apply it", format!("apply it to an index, such as `{key} δu x`"));
+                self.error(
+                    "type-mismatch",
+                    format!("`{key}` is a table or shader, not a value"),
+                    n.span,
+                    "apply it",
+                    format!("apply it to an index, such as `{key} δu x`"),
+                );
                 Err(())
             }
             None => match resolve::family(n) {
                 Some(Entity::Vertex) => Ok(Value::Vertex(self.vertex_id(n))),
-                Some(Entity::Pixel) => self.append(Expr::Pixel { freq: Frequency::Screen }, n.span).map(Value::Expr),
+                Some(Entity::Pixel) => {
+                    self.append(Expr::Pixel { freq: Frequency::Screen }, n.span).map(Value::Expr)
+                }
                 Some(Entity::TexCoords) => {
                     self.texcoord_id(n);
                     Ok(Value::TexCoordSet)
-                },
+                }
                 Some(Entity::Params) => Ok(Value::ParamsName(self.all_vectors())),
                 Some(Entity::Framebuffer) => {
-                    self.error("type-mismatch", format!("the framebuffer `{key}` is not a value"), n.span, "apply it", format!("read it at a position: `{key} δπx` or `{key} xs`"));
+                    self.error(
+                        "type-mismatch",
+                        format!("the framebuffer `{key}` is not a value"),
+                        n.span,
+                        "apply it",
+                        format!("read it at a position: `{key} δπx` or `{key} xs`"),
+                    );
                     Err(())
                 }
                 _ => {
                     if FUNCTIONS.contains(&key.as_str()) {
-                        self.error("type-mismatch", format!("the function `{key}` is not a value"), n.span, "apply it", format!("call it: `{key}(…)`"));
+                        self.error(
+                            "type-mismatch",
+                            format!("the function `{key}` is not a value"),
+                            n.span,
+                            "apply it",
+                            format!("call it: `{key}(…)`"),
+                        );
                     } else {
-                        self.error("unknown-name", format!("unknown name `{key}`"), n.span, "not declared", "declare it first");
+                        self.error(
+                            "unknown-name",
+                            format!("unknown name `{key}`"),
+                            n.span,
+                            "not declared",
+                            "declare it first",
+                        );
                     }
                     Err(())
                 }
@@ -1080,7 +1287,13 @@ impl<'a> Lowerer<'a> {
     fn member(&mut self, b: &Bundle, id: VectorId, span: Span) -> Res<Handle<Expr>> {
         let Some(pos) = b.members.iter().position(|m| *m == id) else {
             let name = self.module.vectors[id as usize].name.clone();
-            self.error("not-a-member", format!("`{name}` is not a member of this shading-parameter vector"), span, "not in the bundle", format!("add `{name}` to its `params` declaration"));
+            self.error(
+                "not-a-member",
+                format!("`{name}` is not a member of this shading-parameter vector"),
+                span,
+                "not in the bundle",
+                format!("add `{name}` to its `params` declaration"),
+            );
             return Err(());
         };
         match b.site {
@@ -1110,7 +1323,8 @@ impl<'a> Lowerer<'a> {
                 let locals = std::mem::take(&mut self.locals);
                 self.bundles.push(Bundle { members: self.all_vectors(), site: b.site });
                 let name = self.module.vectors[id as usize].name.clone();
-                let r = self.nested(&name, span, |l| l.lower_expr(value).and_then(|v| l.expect_expr(v, value.span)));
+                let r = self
+                    .nested(&name, span, |l| l.lower_expr(value).and_then(|v| l.expect_expr(v, value.span)));
                 self.bundles.pop();
                 self.locals = locals;
                 r
@@ -1145,7 +1359,8 @@ impl<'a> Lowerer<'a> {
             FuncKind::Projection(p) => {
                 let v = self.lower_expr(arg)?;
                 let h = self.expect_expr(v, arg.span)?;
-                let projection = Projection { subscript: p.subscript.clone(), star: p.star, inverse: p.inverse };
+                let projection =
+                    Projection { subscript: p.subscript.clone(), star: p.star, inverse: p.inverse };
                 self.append(Expr::Project { projection, value: h }, span).map(Value::Expr)
             }
             FuncKind::Channel(ch) => {
@@ -1157,15 +1372,21 @@ impl<'a> Lowerer<'a> {
                     ast::Channel::Stencil => FbChannel::Stencil,
                 };
                 match self.module.exprs[h].clone() {
-                    Expr::FramebufferRead { framebuffer, channel: FbChannel::Color, position } => {
-                        self.append(Expr::FramebufferRead { framebuffer, channel, position }, span).map(Value::Expr)
-                    }
+                    Expr::FramebufferRead { framebuffer, channel: FbChannel::Color, position } => self
+                        .append(Expr::FramebufferRead { framebuffer, channel, position }, span)
+                        .map(Value::Expr),
                     _ if channel == FbChannel::Depth => self.append(Expr::Depth(h), span).map(Value::Expr),
                     _ if channel == FbChannel::Alpha && self.module.info(h).ty == Ty::Rgba => {
                         self.swizzle(h, "a", span).map(Value::Expr)
                     }
                     _ => {
-                        self.error("type-mismatch", "a channel selector needs a framebuffer", func.span, "selects a framebuffer channel", "write `α C δπx`, `z C xs`, `σ C δπx`");
+                        self.error(
+                            "type-mismatch",
+                            "a channel selector needs a framebuffer",
+                            func.span,
+                            "selects a framebuffer channel",
+                            "write `α C δπx`, `z C xs`, `σ C δπx`",
+                        );
                         Err(())
                     }
                 }
@@ -1177,17 +1398,34 @@ impl<'a> Lowerer<'a> {
     fn delta(&mut self, v: Value, distributed: bool, delta_span: Span, span: Span) -> Res<Value> {
         let Some(to) = self.sample else {
             let (message, label) = match self.statement_freq {
-                Some(Frequency::Vertex) => ("δ makes a per-fragment value, but this is a per-vertex target", "per-fragment value in a per-vertex statement"),
-                Some(Frequency::Screen) => ("δ in a screen pass: `C xs ←` draws no primitives to interpolate over", "nothing to rasterize"),
-                _ => ("δ outside a statement: constants and uniforms are not rasterized", "δ rasterizes primitives"),
+                Some(Frequency::Vertex) => (
+                    "δ makes a per-fragment value, but this is a per-vertex target",
+                    "per-fragment value in a per-vertex statement",
+                ),
+                Some(Frequency::Screen) => (
+                    "δ in a screen pass: `C xs ←` draws no primitives to interpolate over",
+                    "nothing to rasterize",
+                ),
+                _ => (
+                    "δ outside a statement: constants and uniforms are not rasterized",
+                    "δ rasterizes primitives",
+                ),
             };
             self.error("frequency", message, delta_span, label, "δ belongs in statements that draw: `C δπx ← …`, `T δu ← …`; a texgen `u x ←` runs per vertex and a screen pass `C xs ←` per pixel");
             return Err(());
         };
         match v {
-            Value::Bundle(Bundle { members, site: BundleSite::Vertex(x) }) => Ok(Value::Bundle(Bundle { members, site: BundleSite::Interpolated(x, to) })),
+            Value::Bundle(Bundle { members, site: BundleSite::Vertex(x) }) => {
+                Ok(Value::Bundle(Bundle { members, site: BundleSite::Interpolated(x, to) }))
+            }
             Value::Bundle(_) => {
-                self.error("delta-twice", "δ applied to a shading-parameter vector that is not per vertex", delta_span, "δ applied twice", "δ interpolates per-vertex values; remove one δ");
+                self.error(
+                    "delta-twice",
+                    "δ applied to a shading-parameter vector that is not per vertex",
+                    delta_span,
+                    "δ applied twice",
+                    "δ interpolates per-vertex values; remove one δ",
+                );
                 Err(())
             }
             Value::Vertex(x) => {
@@ -1202,7 +1440,13 @@ impl<'a> Lowerer<'a> {
                 self.append(Expr::TexelCoord, span).map(Value::Expr)
             }
             Value::ParamsName(_) => {
-                self.error("type-mismatch", "δ of an unapplied parameter vector", span, "no vertex", "write `δ s x`");
+                self.error(
+                    "type-mismatch",
+                    "δ of an unapplied parameter vector",
+                    span,
+                    "no vertex",
+                    "write `δ s x`",
+                );
                 Err(())
             }
             Value::Expr(h) => {
@@ -1218,7 +1462,13 @@ impl<'a> Lowerer<'a> {
                     // its argument was lowered, interpolating the per-vertex operands.
                     _ if distributed => Ok(Value::Expr(h)),
                     _ => {
-                        self.error("delta-twice", format!("δ applied to a value that is already {}", info.freq.name()), delta_span, "δ applied twice", "δ interpolates per-vertex values; remove one δ");
+                        self.error(
+                            "delta-twice",
+                            format!("δ applied to a value that is already {}", info.freq.name()),
+                            delta_span,
+                            "δ applied twice",
+                            "δ interpolates per-vertex values; remove one δ",
+                        );
                         Err(())
                     }
                 }
@@ -1257,7 +1507,13 @@ impl<'a> Lowerer<'a> {
                 let b = match a {
                     Value::Bundle(b) => b,
                     _ => {
-                        self.error("type-mismatch", format!("the vector `{key}` selects from a shading-parameter vector"), arg.span, "not a parameter vector", format!("write `{key} s x` or `{key} δ s x`"));
+                        self.error(
+                            "type-mismatch",
+                            format!("the vector `{key}` selects from a shading-parameter vector"),
+                            arg.span,
+                            "not a parameter vector",
+                            format!("write `{key} s x` or `{key} δ s x`"),
+                        );
                         return Err(());
                     }
                 };
@@ -1281,9 +1537,17 @@ impl<'a> Lowerer<'a> {
                 Some(Entity::TexCoords) => {
                     let set = self.texcoord_id(n);
                     match self.lower_expr(arg)? {
-                        Value::Vertex(x) => self.append(Expr::TexCoord { set, vertex: x }, span).map(Value::Expr),
+                        Value::Vertex(x) => {
+                            self.append(Expr::TexCoord { set, vertex: x }, span).map(Value::Expr)
+                        }
                         _ => {
-                            self.error("type-mismatch", format!("`{key}` is indexed by a vertex"), arg.span, "not a vertex", format!("write `{key} x`"));
+                            self.error(
+                                "type-mismatch",
+                                format!("`{key}` is indexed by a vertex"),
+                                arg.span,
+                                "not a vertex",
+                                format!("write `{key} x`"),
+                            );
                             Err(())
                         }
                     }
@@ -1317,7 +1581,9 @@ impl<'a> Lowerer<'a> {
                 for e in [&st.target.index, &st.value] {
                     e.walk(&mut |x| {
                         if let ExprKind::Name(n) = &x.kind {
-                            if resolve::family(n) == Some(Entity::Vertex) && !streams.iter().any(|s| s.key() == n.key()) {
+                            if resolve::family(n) == Some(Entity::Vertex)
+                                && !streams.iter().any(|s| s.key() == n.key())
+                            {
                                 streams.push(n.clone());
                             }
                         }
@@ -1348,22 +1614,37 @@ impl<'a> Lowerer<'a> {
     fn framebuffer_read(&mut self, id: u32, arg: &'a ast::Expr, span: Span) -> Res<Value> {
         let a = self.lower_expr(arg)?;
         let position = self.expect_expr(a, arg.span)?;
-        self.append(Expr::FramebufferRead { framebuffer: id, channel: FbChannel::Color, position }, span).map(Value::Expr)
+        self.append(Expr::FramebufferRead { framebuffer: id, channel: FbChannel::Color, position }, span)
+            .map(Value::Expr)
     }
 
     /// `s x`, `s δu`: a bundle at a vertex or at the texel being rendered.
     fn params_at(&mut self, members: Vec<VectorId>, a: Value, span: Span) -> Res<Value> {
         match a {
             Value::Vertex(x) => Ok(Value::Bundle(Bundle { members, site: BundleSite::Vertex(x) })),
-            Value::Expr(h) if matches!(self.module.exprs[h], Expr::TexelCoord) => Ok(Value::Bundle(Bundle { members, site: BundleSite::Texel })),
+            Value::Expr(h) if matches!(self.module.exprs[h], Expr::TexelCoord) => {
+                Ok(Value::Bundle(Bundle { members, site: BundleSite::Texel }))
+            }
             _ => {
-                self.error("type-mismatch", "a shading-parameter vector is indexed by a vertex or a texel", span, "not a vertex", "write `s x` (at a vertex) or `s δu` (texture shading)");
+                self.error(
+                    "type-mismatch",
+                    "a shading-parameter vector is indexed by a vertex or a texel",
+                    span,
+                    "not a vertex",
+                    "write `s x` (at a vertex) or `s δu` (texture shading)",
+                );
                 Err(())
             }
         }
     }
 
-    fn inline(&mut self, s: &'a ast::ShaderDecl, arg: Value, arg_span: Span, span: Span) -> Res<Handle<Expr>> {
+    fn inline(
+        &mut self,
+        s: &'a ast::ShaderDecl,
+        arg: Value,
+        arg_span: Span,
+        span: Span,
+    ) -> Res<Handle<Expr>> {
         self.used.insert(s.name.key());
         let input_members = match self.globals.get(&s.input.key()) {
             Some(Global::Params(i)) => self.params[*i].clone(),
@@ -1371,12 +1652,24 @@ impl<'a> Lowerer<'a> {
         };
         let bundle = match arg {
             Value::Bundle(b) => b,
-            Value::Expr(h) if self.module.info(h).ty.is_color() && matches!(self.module.exprs[h], Expr::Lookup { .. }) => {
+            Value::Expr(h)
+                if self.module.info(h).ty.is_color()
+                    && matches!(self.module.exprs[h], Expr::Lookup { .. }) =>
+            {
                 // A fat texel holds the shader's parameters (seeds/001 (6), (14), (16)).
                 Bundle { members: input_members, site: BundleSite::Fat(h) }
             }
             _ => {
-                self.error("type-mismatch", format!("the shader `{}` is applied to something that is not a shading-parameter vector", s.name.key()), arg_span, "not a parameter vector", "apply a shader to `s x`, `δ s x`, `s δu` or a fat-texture lookup `T δu x`");
+                self.error(
+                    "type-mismatch",
+                    format!(
+                        "the shader `{}` is applied to something that is not a shading-parameter vector",
+                        s.name.key()
+                    ),
+                    arg_span,
+                    "not a parameter vector",
+                    "apply a shader to `s x`, `δ s x`, `s δu` or a fat-texture lookup `T δu x`",
+                );
                 return Err(());
             }
         };
@@ -1414,10 +1707,20 @@ impl<'a> Lowerer<'a> {
         let coerced = self.coerce(h, want, s.body.span)?;
         let Some(h) = coerced else {
             self.diagnostics.push(
-                Diagnostic::error("type-mismatch", format!("the shader `{}` returns a {}, not the declared {}", s.name.key(), have.name(), want.name()), s.body.span, format!("a {}", have.name()))
-                    .with_label(s.output.span, "declared here")
-                    .with_label(span, "inlined here")
-                    .with_help(format!("declare it `: s → {}`", have.name())),
+                Diagnostic::error(
+                    "type-mismatch",
+                    format!(
+                        "the shader `{}` returns a {}, not the declared {}",
+                        s.name.key(),
+                        have.name(),
+                        want.name()
+                    ),
+                    s.body.span,
+                    format!("a {}", have.name()),
+                )
+                .with_label(s.output.span, "declared here")
+                .with_label(span, "inlined here")
+                .with_help(format!("declare it `: s → {}`", have.name())),
             );
             return Err(());
         };
@@ -1436,7 +1739,13 @@ impl<'a> Lowerer<'a> {
         }
         let n_args = |l: &mut Self, n: usize| -> Res<()> {
             if args.len() != n {
-                l.error("arity", format!("`{key}` takes {n} argument(s), got {}", args.len()), span, "wrong number of arguments", format!("write `{key}(…)` with {n} argument(s)"));
+                l.error(
+                    "arity",
+                    format!("`{key}` takes {n} argument(s), got {}", args.len()),
+                    span,
+                    "wrong number of arguments",
+                    format!("write `{key}(…)` with {n} argument(s)"),
+                );
                 return Err(());
             }
             Ok(())
@@ -1512,7 +1821,9 @@ fn replace_operands(e: Expr, new: &[Handle<Expr>]) -> Expr {
         Expr::Swizzle { pattern, len, ty, .. } => Expr::Swizzle { value: next(), pattern, len, ty },
         Expr::Convert { to, .. } => Expr::Convert { value: next(), to },
         Expr::Lookup { texture, .. } => Expr::Lookup { texture, coords: next() },
-        Expr::FramebufferRead { framebuffer, channel, .. } => Expr::FramebufferRead { framebuffer, channel, position: next() },
+        Expr::FramebufferRead { framebuffer, channel, .. } => {
+            Expr::FramebufferRead { framebuffer, channel, position: next() }
+        }
         Expr::Depth(_) => Expr::Depth(next()),
         Expr::FatMember { member, .. } => Expr::FatMember { texel: next(), member },
         Expr::Bundle(_) => Expr::Bundle(new.to_vec()),

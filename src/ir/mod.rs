@@ -114,7 +114,9 @@ use std::hash::{Hash, Hasher};
 
 pub use arena::{Arena, Handle, UniqueArena};
 pub use lower::lower;
-pub use usage::{address_only, fat_layers, fragment_reach, power_by_squaring, register_reads, squaring_exponent, Usage};
+pub use usage::{
+    address_only, fat_layers, fragment_reach, power_by_squaring, register_reads, squaring_exponent, Usage,
+};
 
 use crate::parser::ast;
 use crate::span::Span;
@@ -145,7 +147,8 @@ impl Module {
     /// Whether `st` is the texel statement of a `bake(f)` table, which the
     /// compiler computes, not the target (issue 18; `Texture::baked`).
     pub fn is_baked(&self, st: &Statement) -> bool {
-        matches!(st.table, Table::Texture(id) if self.textures[id as usize].baked) && st.freq == Frequency::Texel
+        matches!(st.table, Table::Texture(id) if self.textures[id as usize].baked)
+            && st.freq == Frequency::Texel
     }
 
     pub fn info(&self, h: Handle<Expr>) -> &ExprInfo {
@@ -442,7 +445,8 @@ impl Constant {
 
 impl PartialEq for Constant {
     fn eq(&self, other: &Self) -> bool {
-        self.ty == other.ty && self.components.iter().zip(&other.components).all(|(a, b)| a.to_bits() == b.to_bits())
+        self.ty == other.ty
+            && self.components.iter().zip(&other.components).all(|(a, b)| a.to_bits() == b.to_bits())
     }
 }
 impl Eq for Constant {}
@@ -578,38 +582,91 @@ pub enum Expr {
     /// The vertex `x` itself: its model-space position.
     VertexPosition(VertexId),
     /// `u x`: a texture-coordinate set of a vertex.
-    TexCoord { set: TexCoordId, vertex: VertexId },
+    TexCoord {
+        set: TexCoordId,
+        vertex: VertexId,
+    },
     /// A role-declared shading vector (`vector N : normal`) at a site.
-    Vector { vector: VectorId, site: Site },
+    Vector {
+        vector: VectorId,
+        site: Site,
+    },
     /// `δu` in texture shading: the coordinate of the texel being computed.
     TexelCoord,
     /// `xs`: the pixel of a screen pass; with `Fragment` frequency, `δ xs`.
-    Pixel { freq: Frequency },
-    Project { projection: Projection, value: Handle<Expr> },
+    Pixel {
+        freq: Frequency,
+    },
+    Project {
+        projection: Projection,
+        value: Handle<Expr>,
+    },
     /// δ: interpolate a per-vertex value (perspective-correct) to `to`.
-    Interpolate { value: Handle<Expr>, to: Frequency },
+    Interpolate {
+        value: Handle<Expr>,
+        to: Frequency,
+    },
     /// `T e`: one texture unit.
-    Lookup { texture: TextureId, coords: Handle<Expr> },
-    FramebufferRead { framebuffer: FramebufferId, channel: FbChannel, position: Handle<Expr> },
+    Lookup {
+        texture: TextureId,
+        coords: Handle<Expr>,
+    },
+    FramebufferRead {
+        framebuffer: FramebufferId,
+        channel: FbChannel,
+        position: Handle<Expr>,
+    },
     /// The depth of a position (`z δπx'`).
     Depth(Handle<Expr>),
     /// Member `member` of a shading-parameter vector stored in a fat texel.
-    FatMember { texel: Handle<Expr>, member: u8 },
+    FatMember {
+        texel: Handle<Expr>,
+        member: u8,
+    },
     /// A shading-parameter vector as one value (written into a fat texture).
     Bundle(Vec<Handle<Expr>>),
-    Unary { op: UnaryOp, value: Handle<Expr> },
-    Binary { op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr> },
+    Unary {
+        op: UnaryOp,
+        value: Handle<Expr>,
+    },
+    Binary {
+        op: BinaryOp,
+        lhs: Handle<Expr>,
+        rhs: Handle<Expr>,
+    },
     /// `a ⊕[mode] b` (seeds/001 (3)).
-    Combine { mode: ast::CombineMode, lhs: Handle<Expr>, rhs: Handle<Expr> },
-    Math { fun: MathFunction, args: Vec<Handle<Expr>> },
+    Combine {
+        mode: ast::CombineMode,
+        lhs: Handle<Expr>,
+        rhs: Handle<Expr>,
+    },
+    Math {
+        fun: MathFunction,
+        args: Vec<Handle<Expr>>,
+    },
     /// Component selection: `pattern[..len]` are component indices.
-    Swizzle { value: Handle<Expr>, pattern: [u8; 4], len: u8, ty: Ty },
+    Swizzle {
+        value: Handle<Expr>,
+        pattern: [u8; 4],
+        len: u8,
+        ty: Ty,
+    },
     /// `(a, b, c)`, `rgb(…)`, `rgba(c, a)`: components concatenated.
-    Compose { ty: Ty, components: Vec<Handle<Expr>> },
+    Compose {
+        ty: Ty,
+        components: Vec<Handle<Expr>>,
+    },
     /// `rgb` → `rgba` (alpha 1), or a scalar splatted to a vector.
-    Convert { value: Handle<Expr>, to: Ty },
+    Convert {
+        value: Handle<Expr>,
+        to: Ty,
+    },
     /// `c ? a : b`; without `b`, the destination is kept where `c` fails.
-    Select { cond: Handle<Expr>, accept: Handle<Expr>, reject: Option<Handle<Expr>> },
+    Select {
+        cond: Handle<Expr>,
+        accept: Handle<Expr>,
+        reject: Option<Handle<Expr>>,
+    },
 }
 
 impl Expr {
@@ -685,7 +742,10 @@ impl Expr {
 /// The table a statement writes.
 #[derive(Clone, Debug, PartialEq)]
 pub enum Table {
-    Framebuffer { id: FramebufferId, channel: FbChannel },
+    Framebuffer {
+        id: FramebufferId,
+        channel: FbChannel,
+    },
     Texture(TextureId),
     /// `u x ←`: texture-coordinate generation (seeds/001 (7)).
     TexCoords(TexCoordId),

@@ -89,7 +89,10 @@ impl Usage {
                 }
                 Expr::Interpolate { .. } if info.ty != Ty::Position => u.interpolants.push(h),
                 Expr::FramebufferRead { .. } => u.framebuffer_reads.push(h),
-                Expr::Binary { op: BinaryOp::Dot | BinaryOp::Pow | BinaryOp::Div, .. } | Expr::Math { .. } if sample => {
+                Expr::Binary { op: BinaryOp::Dot | BinaryOp::Pow | BinaryOp::Div, .. }
+                | Expr::Math { .. }
+                    if sample =>
+                {
                     u.arithmetic.push(h)
                 }
                 _ => {}
@@ -101,9 +104,14 @@ impl Usage {
                 };
                 for o in module.operands(h) {
                     let oi = module.info(o);
-                    let register = matches!(module.exprs[o], Expr::Constant(_) | Expr::Uniform(_)) && oi.ty != Ty::Scalar;
+                    let register = matches!(module.exprs[o], Expr::Constant(_) | Expr::Uniform(_))
+                        && oi.ty != Ty::Scalar;
                     let uniform_scalar = matches!(module.exprs[o], Expr::Uniform(_));
-                    if (register || uniform_scalar) && Some(o) != pow_exponent && !u.constants.contains(&o) && !is_trivial(module, o) {
+                    if (register || uniform_scalar)
+                        && Some(o) != pow_exponent
+                        && !u.constants.contains(&o)
+                        && !is_trivial(module, o)
+                    {
                         u.constants.push(o);
                     }
                 }
@@ -227,9 +235,17 @@ pub fn register_reads(m: &Module, reach: &[bool]) -> Vec<bool> {
         let e = &m.exprs[Handle::new(i)];
         let ops = e.operands();
         let product = match e {
-            Expr::Binary { op: BinaryOp::Mul | BinaryOp::Dot | BinaryOp::Div, lhs, rhs } => sample(*lhs) && sample(*rhs),
+            Expr::Binary { op: BinaryOp::Mul | BinaryOp::Dot | BinaryOp::Div, lhs, rhs } => {
+                sample(*lhs) && sample(*rhs)
+            }
             Expr::Binary { op: BinaryOp::Pow, .. } => true,
-            Expr::Math { fun, .. } => !matches!(fun, MathFunction::Expand | MathFunction::HalfBias | MathFunction::Compress | MathFunction::Saturate),
+            Expr::Math { fun, .. } => !matches!(
+                fun,
+                MathFunction::Expand
+                    | MathFunction::HalfBias
+                    | MathFunction::Compress
+                    | MathFunction::Saturate
+            ),
             Expr::Combine { .. } => true,
             _ => false,
         };
@@ -250,9 +266,13 @@ pub fn register_reads(m: &Module, reach: &[bool]) -> Vec<bool> {
 fn mark_register_read(m: &Module, o: Handle<Expr>, reads: &mut [bool]) {
     let sample = |h: Handle<Expr>| m.info(h).freq.is_sample();
     match m.exprs[o] {
-        Expr::Binary { op: BinaryOp::Mul, lhs, rhs } if sample(lhs) != sample(rhs) => mark_register_read(m, if sample(lhs) { lhs } else { rhs }, reads),
+        Expr::Binary { op: BinaryOp::Mul, lhs, rhs } if sample(lhs) != sample(rhs) => {
+            mark_register_read(m, if sample(lhs) { lhs } else { rhs }, reads)
+        }
         Expr::Unary { op: super::UnaryOp::Neg, value } => mark_register_read(m, value, reads),
-        Expr::Math { fun: MathFunction::Expand | MathFunction::HalfBias, ref args } => mark_register_read(m, args[0], reads),
+        Expr::Math { fun: MathFunction::Expand | MathFunction::HalfBias, ref args } => {
+            mark_register_read(m, args[0], reads)
+        }
         _ => reads[o.index()] = true,
     }
 }

@@ -4,7 +4,8 @@
 //! [`Module`] always has an [`ExprInfo`].
 
 use super::{
-    eval, BinaryOp, Constant, Expr, ExprInfo, FbChannel, Frequency, Interval, MathFunction, Module, Site, Ty, UnaryOp,
+    eval, BinaryOp, Constant, Expr, ExprInfo, FbChannel, Frequency, Interval, MathFunction, Module, Site, Ty,
+    UnaryOp,
 };
 use crate::parser::ast::{CombineMode, TextureFormat, TextureKind, VectorKind};
 
@@ -91,16 +92,24 @@ pub fn unify(a: Ty, b: Ty) -> Option<Ty> {
 }
 
 fn mismatch(what: &str, a: Ty, b: Ty) -> TypeError {
-    err("type-mismatch", format!("{what} of a {} and a {}", a.name(), b.name()), format!("{} and {} do not match", a.name(), b.name()))
-        .help("operands must have the same type, or one must be a scalar; rgb and vec3 mix, rgb widens to rgba")
+    err(
+        "type-mismatch",
+        format!("{what} of a {} and a {}", a.name(), b.name()),
+        format!("{} and {} do not match", a.name(), b.name()),
+    )
+    .help("operands must have the same type, or one must be a scalar; rgb and vec3 mix, rgb widens to rgba")
 }
 
 fn numeric(t: Ty, what: &str) -> Result<(), TypeError> {
     if t.is_numeric() {
         Ok(())
     } else {
-        Err(err("type-mismatch", format!("{what} of a {}", t.name()), format!("a {} is not a number", t.name()))
-            .help("positions (x, π x, xs) only index tables; shading-parameter vectors only feed shaders"))
+        Err(err(
+            "type-mismatch",
+            format!("{what} of a {}", t.name()),
+            format!("a {} is not a number", t.name()),
+        )
+        .help("positions (x, π x, xs) only index tables; shading-parameter vectors only feed shaders"))
     }
 }
 
@@ -167,7 +176,9 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
             out(ty, Frequency::Uniform, interval)
         }
         Expr::VertexPosition(_) => out(Ty::Position, Frequency::Vertex, Interval::ALL),
-        Expr::TexCoord { set, .. } => out(m.texcoord_sets[*set as usize].ty, Frequency::Vertex, Interval::ALL),
+        Expr::TexCoord { set, .. } => {
+            out(m.texcoord_sets[*set as usize].ty, Frequency::Vertex, Interval::ALL)
+        }
         Expr::Vector { vector, site } => {
             let freq = match site {
                 Site::Vertex(_) => Frequency::Vertex,
@@ -190,15 +201,23 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
             match v.ty {
                 Ty::Position => out(Ty::Position, v.freq, Interval::ALL),
                 Ty::Vec3 => out(Ty::Vec2, v.freq, Interval::UNSIGNED),
-                t => Err(err("type-mismatch", format!("π projects a point or a direction, not a {}", t.name()), "projected here")
-                    .help("write `π x` for a vertex, or `πR R s x` for a direction (seeds/001 (7))")),
+                t => Err(err(
+                    "type-mismatch",
+                    format!("π projects a point or a direction, not a {}", t.name()),
+                    "projected here",
+                )
+                .help("write `π x` for a vertex, or `πR R s x` for a direction (seeds/001 (7))")),
             }
         }
         Expr::Interpolate { value, to } => {
             let v = info(value);
             if v.freq.is_sample() {
-                return Err(err("delta-twice", format!("δ applied to a value that is already {}", v.freq.name()), "δ applied twice")
-                    .help("δ interpolates per-vertex values; remove one δ"));
+                return Err(err(
+                    "delta-twice",
+                    format!("δ applied to a value that is already {}", v.freq.name()),
+                    "δ applied twice",
+                )
+                .help("δ interpolates per-vertex values; remove one δ"));
             }
             if matches!(v.ty, Ty::Bundle(_)) {
                 return Err(err("not-supported", "not yet supported: interpolating a bundle value", "here"));
@@ -216,12 +235,14 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
                 } else {
                     format!("the {} texture `{}` is indexed by a {}", t.kind.as_str(), t.name, c.ty.name())
                 };
-                return Err(err("bad-index", message, format!("expected {} coordinates", want.name())).help(format!(
-                    "a {} texture takes {} coordinates, such as `{} δu x`; a colour is not a coordinate",
-                    t.kind.as_str(),
-                    want.name(),
-                    t.name
-                )));
+                return Err(err("bad-index", message, format!("expected {} coordinates", want.name())).help(
+                    format!(
+                        "a {} texture takes {} coordinates, such as `{} δu x`; a colour is not a coordinate",
+                        t.kind.as_str(),
+                        want.name(),
+                        t.name
+                    ),
+                ));
             }
             let (ty, interval) = texel_type(t.kind, t.format);
             out(ty, c.freq.max(Frequency::Uniform), interval)
@@ -230,30 +251,49 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
             let p = info(position);
             let name = &m.framebuffers[*framebuffer as usize].name;
             if p.ty != Ty::Position {
-                return Err(err("bad-index", format!("the framebuffer `{name}` is indexed by a {}", p.ty.name()), "expected a position")
-                    .help(format!("read a framebuffer at a fragment (`{name} δπx`) or a pixel (`{name} xs`)")));
+                return Err(err(
+                    "bad-index",
+                    format!("the framebuffer `{name}` is indexed by a {}", p.ty.name()),
+                    "expected a position",
+                )
+                .help(format!("read a framebuffer at a fragment (`{name} δπx`) or a pixel (`{name} xs`)")));
             }
             if !p.freq.is_sample() {
-                return Err(err("frequency", format!("the framebuffer `{name}` is read at a {} position", p.freq.name()), "not a fragment or pixel")
-                    .help(format!("framebuffers hold pixels: write `{name} δπx` or `{name} xs`")));
+                return Err(err(
+                    "frequency",
+                    format!("the framebuffer `{name}` is read at a {} position", p.freq.name()),
+                    "not a fragment or pixel",
+                )
+                .help(format!("framebuffers hold pixels: write `{name} δπx` or `{name} xs`")));
             }
             let (ty, interval) = match channel {
                 FbChannel::Color => (Ty::Rgba, Interval::UNSIGNED),
                 FbChannel::Alpha | FbChannel::Depth => (Ty::Scalar, Interval::UNSIGNED),
                 FbChannel::Stencil => (Ty::Scalar, Interval { lo: 0.0, hi: 255.0 }),
             };
-            let float = m.framebuffers[*framebuffer as usize]
-                .channels
-                .iter()
-                .any(|c| matches!(c, crate::parser::ast::FramebufferChannel::Rgba16f | crate::parser::ast::FramebufferChannel::Rgba32f));
-            let interval = if float && matches!(channel, FbChannel::Color | FbChannel::Alpha) { Interval::ALL } else { interval };
+            let float = m.framebuffers[*framebuffer as usize].channels.iter().any(|c| {
+                matches!(
+                    c,
+                    crate::parser::ast::FramebufferChannel::Rgba16f
+                        | crate::parser::ast::FramebufferChannel::Rgba32f
+                )
+            });
+            let interval = if float && matches!(channel, FbChannel::Color | FbChannel::Alpha) {
+                Interval::ALL
+            } else {
+                interval
+            };
             out(ty, p.freq, interval)
         }
         Expr::Depth(p) => {
             let p = info(p);
             if p.ty != Ty::Position {
-                return Err(err("type-mismatch", format!("z of a {}", p.ty.name()), "not a position or framebuffer")
-                    .help("z selects the depth of a framebuffer (`z C xs`) or of a fragment (`z δπx`)"));
+                return Err(err(
+                    "type-mismatch",
+                    format!("z of a {}", p.ty.name()),
+                    "not a position or framebuffer",
+                )
+                .help("z selects the depth of a framebuffer (`z C xs`) or of a fragment (`z δπx`)"));
             }
             out(Ty::Scalar, p.freq, Interval::UNSIGNED)
         }
@@ -261,7 +301,9 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
             let t = info(texel);
             out(Ty::Vec3, t.freq, Interval::ALL)
         }
-        Expr::Bundle(members) => out(Ty::Bundle(members.len().min(255) as u8), join_all(m, members)?, Interval::ALL),
+        Expr::Bundle(members) => {
+            out(Ty::Bundle(members.len().min(255) as u8), join_all(m, members)?, Interval::ALL)
+        }
         Expr::Unary { op, value } => {
             let v = info(value);
             numeric(v.ty, "negation")?;
@@ -269,7 +311,11 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
                 UnaryOp::Neg => out(v.ty, v.freq, neg(v.interval)),
                 UnaryOp::Not => {
                     if v.ty != Ty::Scalar {
-                        return Err(err("type-mismatch", format!("`not` of a {}", v.ty.name()), "a condition is a scalar"));
+                        return Err(err(
+                            "type-mismatch",
+                            format!("`not` of a {}", v.ty.name()),
+                            "a condition is a scalar",
+                        ));
                     }
                     out(Ty::Scalar, v.freq, Interval::UNSIGNED)
                 }
@@ -291,7 +337,9 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
                 CombineMode::Add => add(a.interval, b.interval),
                 CombineMode::AddSigned => add(add(a.interval, b.interval), Interval::point(-0.5)),
                 CombineMode::Subtract => add(a.interval, neg(b.interval)),
-                CombineMode::Dot3Rgb | CombineMode::Dot3Rgba => dot3(a.interval, b.interval, ty == Ty::Scalar),
+                CombineMode::Dot3Rgb | CombineMode::Dot3Rgba => {
+                    dot3(a.interval, b.interval, ty == Ty::Scalar)
+                }
                 _ => hull(a.interval, b.interval),
             };
             out(ty, freq, interval)
@@ -302,8 +350,12 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
             numeric(v.ty, "a component selection")?;
             for &i in &pattern[..*len as usize] {
                 if i as usize >= v.ty.width() {
-                    return Err(err("bad-swizzle", format!("component {} of a {}", i + 1, v.ty.name()), "no such component")
-                        .help(format!("a {} has {} component(s)", v.ty.name(), v.ty.width())));
+                    return Err(err(
+                        "bad-swizzle",
+                        format!("component {} of a {}", i + 1, v.ty.name()),
+                        "no such component",
+                    )
+                    .help(format!("a {} has {} component(s)", v.ty.name(), v.ty.width())));
                 }
             }
             out(*ty, v.freq, v.interval)
@@ -318,24 +370,38 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
                 interval = Some(interval.map_or(ci.interval, |i| hull(i, ci.interval)));
             }
             if width != ty.width() {
-                return Err(err("type-mismatch", format!("a {} needs {} components, got {width}", ty.name(), ty.width()), "wrong number of components"));
+                return Err(err(
+                    "type-mismatch",
+                    format!("a {} needs {} components, got {width}", ty.name(), ty.width()),
+                    "wrong number of components",
+                ));
             }
             out(*ty, join_all(m, components)?, interval.unwrap_or(Interval::ALL))
         }
         Expr::Convert { value, to } => {
             let v = info(value);
-            let ok = (v.ty == Ty::Rgb && *to == Ty::Rgba) || (v.ty == Ty::Scalar && to.is_numeric()) || v.ty == *to;
+            let ok = (v.ty == Ty::Rgb && *to == Ty::Rgba)
+                || (v.ty == Ty::Scalar && to.is_numeric())
+                || v.ty == *to;
             if !ok {
                 return Err(mismatch("conversion", v.ty, *to));
             }
-            let interval = if *to == Ty::Rgba && v.ty == Ty::Rgb { hull(v.interval, Interval::point(1.0)) } else { v.interval };
+            let interval = if *to == Ty::Rgba && v.ty == Ty::Rgb {
+                hull(v.interval, Interval::point(1.0))
+            } else {
+                v.interval
+            };
             out(*to, v.freq, interval)
         }
         Expr::Select { cond, accept, reject } => {
             let c = info(cond);
             if c.ty != Ty::Scalar {
-                return Err(err("type-mismatch", format!("a condition must be a scalar, not a {}", c.ty.name()), "condition")
-                    .help("compare something: `Hn.z ≥ 0 ? … : …`"));
+                return Err(err(
+                    "type-mismatch",
+                    format!("a condition must be a scalar, not a {}", c.ty.name()),
+                    "condition",
+                )
+                .help("compare something: `Hn.z ≥ 0 ? … : …`"));
             }
             let a = info(accept);
             let (ty, interval, freq) = match reject {
@@ -360,14 +426,24 @@ fn binary(_m: &Module, op: BinaryOp, a: ExprInfo, b: ExprInfo) -> Result<ExprInf
     match op {
         Dot => {
             if a.ty.width() != b.ty.width() || !a.ty.is_numeric() {
-                let what = |t: Ty| if t.is_color() { format!("a colour ({})", t.name()) } else { format!("a {}", t.name()) };
+                let what = |t: Ty| {
+                    if t.is_color() {
+                        format!("a colour ({})", t.name())
+                    } else {
+                        format!("a {}", t.name())
+                    }
+                };
                 return Err(err("type-mismatch", format!("dot product of {} with {}", what(a.ty), what(b.ty)), "· needs two vectors of the same size")
                     .help("`·` is the dot product of two directions (vec3) or colours used as vectors (dot3); to scale, write `*`"));
             }
             let unit = |i: Interval| i.lo >= -1.0 && i.hi <= 1.0;
             let interval = if unit(a.interval) && unit(b.interval) {
                 // Unit vectors: the dot product is a cosine (seeds/003 Section 4.2 clamps it to [−1, 1]).
-                if a.interval.lo >= 0.0 && b.interval.lo >= 0.0 { Interval::UNSIGNED } else { Interval::SIGNED }
+                if a.interval.lo >= 0.0 && b.interval.lo >= 0.0 {
+                    Interval::UNSIGNED
+                } else {
+                    Interval::SIGNED
+                }
             } else {
                 // (A dot product of two scalars is their product.)
                 let p = mul(a.interval, b.interval);
@@ -377,10 +453,18 @@ fn binary(_m: &Module, op: BinaryOp, a: ExprInfo, b: ExprInfo) -> Result<ExprInf
         }
         Pow => {
             if b.ty != Ty::Scalar {
-                return Err(err("type-mismatch", format!("an exponent must be a scalar, not a {}", b.ty.name()), "exponent"));
+                return Err(err(
+                    "type-mismatch",
+                    format!("an exponent must be a scalar, not a {}", b.ty.name()),
+                    "exponent",
+                ));
             }
             let interval = if a.interval.lo >= 0.0 && b.interval.lo > 0.0 {
-                if a.interval.hi <= 1.0 { Interval::UNSIGNED } else { iv(0.0, f64::INFINITY) }
+                if a.interval.hi <= 1.0 {
+                    Interval::UNSIGNED
+                } else {
+                    iv(0.0, f64::INFINITY)
+                }
             } else if a.interval.lo >= 0.0 {
                 iv(0.0, f64::INFINITY)
             } else {
@@ -393,8 +477,12 @@ fn binary(_m: &Module, op: BinaryOp, a: ExprInfo, b: ExprInfo) -> Result<ExprInf
                 return Err(mismatch("comparison", a.ty, b.ty));
             }
             if a.ty != Ty::Scalar || b.ty != Ty::Scalar {
-                return Err(err("type-mismatch", format!("comparison of a {} and a {}", a.ty.name(), b.ty.name()), "compare scalars")
-                    .help("select a component first, e.g. `Hn.z ≥ 0`"));
+                return Err(err(
+                    "type-mismatch",
+                    format!("comparison of a {} and a {}", a.ty.name(), b.ty.name()),
+                    "compare scalars",
+                )
+                .help("select a component first, e.g. `Hn.z ≥ 0`"));
             }
             done(Ty::Scalar, Interval::UNSIGNED)
         }
@@ -430,7 +518,11 @@ fn math(m: &Module, fun: MathFunction, args: &[super::Handle<Expr>]) -> Result<E
         _ => 1,
     };
     if infos.len() != arity {
-        return Err(err("arity", format!("`{}` takes {arity} argument(s), got {}", fun.name(), infos.len()), "wrong number of arguments"));
+        return Err(err(
+            "arity",
+            format!("`{}` takes {arity} argument(s), got {}", fun.name(), infos.len()),
+            "wrong number of arguments",
+        ));
     }
     for i in &infos {
         numeric(i.ty, &format!("`{}`", fun.name()))?;
@@ -442,7 +534,8 @@ fn math(m: &Module, fun: MathFunction, args: &[super::Handle<Expr>]) -> Result<E
     match fun {
         Normalize => {
             if a.ty == Ty::Scalar {
-                return Err(err("type-mismatch", "normalize of a scalar", "needs a vector").help("normalize takes a vec3 (or vec2)"));
+                return Err(err("type-mismatch", "normalize of a scalar", "needs a vector")
+                    .help("normalize takes a vec3 (or vec2)"));
             }
             done(a.ty, Interval::SIGNED)
         }
@@ -547,7 +640,10 @@ mod tests {
         assert_eq!(texel_type(TextureKind::Tex2d, TextureFormat::Signed8).0, Ty::Vec2);
         assert_eq!(texel_type(TextureKind::Cube, TextureFormat::Signed16), (Ty::Vec3, Interval::SIGNED));
         assert_eq!(texel_type(TextureKind::Tex1d, TextureFormat::R8).0, Ty::Scalar);
-        assert_eq!(texel_type(TextureKind::Tex2d, TextureFormat::Rgba16f).1.class(), crate::ir::Range::Unbounded);
+        assert_eq!(
+            texel_type(TextureKind::Tex2d, TextureFormat::Rgba16f).1.class(),
+            crate::ir::Range::Unbounded
+        );
     }
 
     #[test]

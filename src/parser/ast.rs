@@ -220,15 +220,36 @@ pub enum ExprKind {
     /// `(a, b, c)`: a vector or colour literal, or the arguments of a call.
     Tuple(Vec<Expr>),
     /// `f arg`: right-to-left application, e.g. `T δu x`, `max(0, N·L)`.
-    Apply { func: Func, arg: Box<Expr> },
+    Apply {
+        func: Func,
+        arg: Box<Expr>,
+    },
     /// `L.z`, `(T δu x).a`.
-    Swizzle { base: Box<Expr>, components: String },
-    Unary { op: UnaryOp, operand: Box<Expr> },
-    Binary { op: BinaryOp, lhs: Box<Expr>, rhs: Box<Expr> },
+    Swizzle {
+        base: Box<Expr>,
+        components: String,
+    },
+    Unary {
+        op: UnaryOp,
+        operand: Box<Expr>,
+    },
+    Binary {
+        op: BinaryOp,
+        lhs: Box<Expr>,
+        rhs: Box<Expr>,
+    },
     /// `a ⊕ b` or `a ⊕[add] b`; no mode means modulate (seeds/001 (3)).
-    Combine { mode: Option<Word<CombineMode>>, lhs: Box<Expr>, rhs: Box<Expr> },
+    Combine {
+        mode: Option<Word<CombineMode>>,
+        lhs: Box<Expr>,
+        rhs: Box<Expr>,
+    },
     /// `c ? a : b`, or `c ? a` — write a only where c holds (shadow volumes).
-    Select { cond: Box<Expr>, then: Box<Expr>, otherwise: Option<Box<Expr>> },
+    Select {
+        cond: Box<Expr>,
+        then: Box<Expr>,
+        otherwise: Option<Box<Expr>>,
+    },
 }
 
 /// What stands in function position of an application.
@@ -355,7 +376,10 @@ impl TextureFormat {
     /// 16-bit and float formats: a texture rendered into stores more than
     /// 8 bits (and keeps signs), on the CPU as on wgpu.
     pub fn is_wide(self) -> bool {
-        matches!(self, TextureFormat::Rgba16 | TextureFormat::Signed16 | TextureFormat::Rgba16f | TextureFormat::Rgba32f)
+        matches!(
+            self,
+            TextureFormat::Rgba16 | TextureFormat::Signed16 | TextureFormat::Rgba16f | TextureFormat::Rgba32f
+        )
     }
 }
 

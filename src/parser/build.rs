@@ -49,7 +49,9 @@ impl Builder {
         Some(match rule {
             Rule::target_decl => {
                 let word = it.next()?;
-                ItemKind::Target(TargetDecl { profile: Word { value: word.as_str().to_string(), span: self.span(&word) } })
+                ItemKind::Target(TargetDecl {
+                    profile: Word { value: word.as_str().to_string(), span: self.span(&word) },
+                })
             }
             Rule::texture_decl => {
                 let names = self.name_list(it.next()?);
@@ -63,23 +65,32 @@ impl Builder {
                 };
                 let mut words = words.into_iter();
                 // Classify every word before giving up, so each unknown one is reported.
-                let kind = self.classify::<TextureKind>(&words.next()?, "texture kind", TextureKind::from_word, TextureKind::ALL);
+                let kind = self.classify::<TextureKind>(
+                    &words.next()?,
+                    "texture kind",
+                    TextureKind::from_word,
+                    TextureKind::ALL,
+                );
                 let (mut format, mut attrs) = (None, Vec::new());
                 for w in words {
                     if let Some(f) = TextureFormat::from_word(w.as_str()) {
                         if format.is_some() {
-                            self.errors.push(Diagnostic::error(
-                                "duplicate-format",
-                                "a texture has one format",
-                                self.span(&w),
-                                "second format",
-                            ).with_help("keep one of the formats"));
+                            self.errors.push(
+                                Diagnostic::error(
+                                    "duplicate-format",
+                                    "a texture has one format",
+                                    self.span(&w),
+                                    "second format",
+                                )
+                                .with_help("keep one of the formats"),
+                            );
                         }
                         format = Some(Word { value: f, span: self.span(&w) });
                     } else if let Some(a) = TextureAttr::from_word(w.as_str()) {
                         attrs.push(Word { value: a, span: self.span(&w) });
                     } else {
-                        let all: Vec<&str> = TextureFormat::ALL.iter().chain(TextureAttr::ALL).copied().collect();
+                        let all: Vec<&str> =
+                            TextureFormat::ALL.iter().chain(TextureAttr::ALL).copied().collect();
                         self.unknown_word(&w, "texture format or attribute", &all);
                     }
                 }
@@ -88,7 +99,14 @@ impl Builder {
             Rule::framebuffer_decl => {
                 let names = self.name_list(it.next()?);
                 let channels = it
-                    .filter_map(|w| self.classify(&w, "framebuffer channel", FramebufferChannel::from_word, FramebufferChannel::ALL))
+                    .filter_map(|w| {
+                        self.classify(
+                            &w,
+                            "framebuffer channel",
+                            FramebufferChannel::from_word,
+                            FramebufferChannel::ALL,
+                        )
+                    })
                     .collect();
                 ItemKind::Framebuffer(FramebufferDecl { names, channels })
             }
@@ -176,7 +194,10 @@ impl Builder {
         Some(LetDecl { name, value })
     }
 
-    fn opt_type<'a>(&mut self, it: &mut std::iter::Peekable<impl Iterator<Item = Pair<'a, Rule>>>) -> Option<Option<Word<Type>>> {
+    fn opt_type<'a>(
+        &mut self,
+        it: &mut std::iter::Peekable<impl Iterator<Item = Pair<'a, Rule>>>,
+    ) -> Option<Option<Word<Type>>> {
         match it.next_if(|p| p.as_rule() == Rule::word) {
             Some(w) => Some(Some(self.classify(&w, "type", Type::from_word, Type::ALL)?)),
             None => Some(None),
@@ -193,8 +214,13 @@ impl Builder {
                     Ok(i) => index = Some(Word { value: i, span: self.span(&p) }),
                     Err(_) => {
                         self.errors.push(
-                            Diagnostic::error("bad-index", "a light index is a whole number", self.span(&p), "not a whole number")
-                                .with_help("write `light(0)`, `light(1)`, …"),
+                            Diagnostic::error(
+                                "bad-index",
+                                "a light index is a whole number",
+                                self.span(&p),
+                                "not a whole number",
+                            )
+                            .with_help("write `light(0)`, `light(1)`, …"),
                         );
                         return None;
                     }
@@ -205,7 +231,13 @@ impl Builder {
         Some(VectorRole { kind, index, space })
     }
 
-    fn classify<T>(&mut self, pair: &Pair<'_, Rule>, what: &str, from: fn(&str) -> Option<T>, all: &[&str]) -> Option<Word<T>> {
+    fn classify<T>(
+        &mut self,
+        pair: &Pair<'_, Rule>,
+        what: &str,
+        from: fn(&str) -> Option<T>,
+        all: &[&str],
+    ) -> Option<Word<T>> {
         match from(pair.as_str()) {
             Some(value) => Some(Word { value, span: self.span(pair) }),
             None => {
@@ -222,8 +254,13 @@ impl Builder {
             None => format!("expected one of: {}", all.join(", ")),
         };
         self.errors.push(
-            Diagnostic::error("unknown-word", format!("unknown {what} `{word}`"), self.span(pair), format!("not a {what}"))
-                .with_help(help),
+            Diagnostic::error(
+                "unknown-word",
+                format!("unknown {what} `{word}`"),
+                self.span(pair),
+                format!("not a {what}"),
+            )
+            .with_help(help),
         );
     }
 
@@ -241,11 +278,15 @@ impl Builder {
             match p.as_rule() {
                 Rule::primes => {
                     base_end = base_end.min(p.as_span().start() - (span.start as usize - self.offset));
-                    primes = p.as_str().chars().map(|c| match c {
-                        '″' => 2,
-                        '‴' => 3,
-                        _ => 1,
-                    }).sum::<u8>();
+                    primes = p
+                        .as_str()
+                        .chars()
+                        .map(|c| match c {
+                            '″' => 2,
+                            '‴' => 3,
+                            _ => 1,
+                        })
+                        .sum::<u8>();
                 }
                 Rule::star_mark => star = true,
                 _ => {}
@@ -264,8 +305,13 @@ impl Builder {
             Some(f) => f,
             None => {
                 self.errors.push(
-                    Diagnostic::error("bad-target", "nothing to assign into: the left of `←` has no index", span, "a table needs an index")
-                        .with_help(help),
+                    Diagnostic::error(
+                        "bad-target",
+                        "nothing to assign into: the left of `←` has no index",
+                        span,
+                        "a table needs an index",
+                    )
+                    .with_help(help),
                 );
                 return None;
             }
@@ -276,8 +322,13 @@ impl Builder {
                 Some(f) => f,
                 None => {
                     self.errors.push(
-                        Diagnostic::error("bad-target", "a channel selector needs a framebuffer and an index", span, "incomplete target")
-                            .with_help(help),
+                        Diagnostic::error(
+                            "bad-target",
+                            "a channel selector needs a framebuffer and an index",
+                            span,
+                            "incomplete target",
+                        )
+                        .with_help(help),
                     );
                     return None;
                 }
@@ -291,8 +342,13 @@ impl Builder {
             None => {
                 let what = describe_func(first.as_rule());
                 self.errors.push(
-                    Diagnostic::error("bad-target", format!("cannot assign into {what}"), self.span(&first), "expected a framebuffer, texture or attribute name")
-                        .with_help(help),
+                    Diagnostic::error(
+                        "bad-target",
+                        format!("cannot assign into {what}"),
+                        self.span(&first),
+                        "expected a framebuffer, texture or attribute name",
+                    )
+                    .with_help(help),
                 );
                 return None;
             }
@@ -356,8 +412,13 @@ impl Builder {
                             Some((Op::Question, _)) => break,
                             Some((Op::QuestionColon, _)) | None => {
                                 self.errors.push(
-                                    Diagnostic::error("syntax", "`:` without a matching `?`", span, "no `?` before this")
-                                        .with_help("a select reads `condition ? value : otherwise`"),
+                                    Diagnostic::error(
+                                        "syntax",
+                                        "`:` without a matching `?`",
+                                        span,
+                                        "no `?` before this",
+                                    )
+                                    .with_help("a select reads `condition ? value : otherwise`"),
                                 );
                                 return None;
                             }
@@ -443,15 +504,28 @@ impl Builder {
             // `z` at the end of a chain is a name, not the depth channel.
             Rule::channel if arg.as_str() == "z" => {
                 let name = Name { base: "z".into(), primes: 0, star: false, span: arg_span };
-                return self.fold_funcs(funcs, Deep { expr: Expr { kind: ExprKind::Name(name), span: arg_span }, depth: 1 }, Vec::new());
+                return self.fold_funcs(
+                    funcs,
+                    Deep { expr: Expr { kind: ExprKind::Name(name), span: arg_span }, depth: 1 },
+                    Vec::new(),
+                );
             }
             rule => {
                 let (what, help) = match rule {
-                    Rule::channel => ("a channel selector needs a framebuffer to read", "write `α C xs` (alpha of framebuffer C at pixel xs)"),
-                    Rule::delta => ("δ needs a value to interpolate", "write `δ u x` (texture coordinates of vertex x, interpolated)"),
+                    Rule::channel => (
+                        "a channel selector needs a framebuffer to read",
+                        "write `α C xs` (alpha of framebuffer C at pixel xs)",
+                    ),
+                    Rule::delta => (
+                        "δ needs a value to interpolate",
+                        "write `δ u x` (texture coordinates of vertex x, interpolated)",
+                    ),
                     _ => ("π needs a vertex to project", "write `π x` or `δπx`"),
                 };
-                self.errors.push(Diagnostic::error("incomplete-application", what, arg_span, "nothing follows").with_help(help));
+                self.errors.push(
+                    Diagnostic::error("incomplete-application", what, arg_span, "nothing follows")
+                        .with_help(help),
+                );
                 return None;
             }
         };
@@ -464,7 +538,12 @@ impl Builder {
         self.fold_funcs(funcs, acc, swizzles)
     }
 
-    fn fold_funcs(&mut self, funcs: Vec<Pair<'_, Rule>>, mut acc: Deep, swizzles: Vec<Pair<'_, Rule>>) -> Option<Deep> {
+    fn fold_funcs(
+        &mut self,
+        funcs: Vec<Pair<'_, Rule>>,
+        mut acc: Deep,
+        swizzles: Vec<Pair<'_, Rule>>,
+    ) -> Option<Deep> {
         if funcs.is_empty() {
             return Some(self.swizzle(acc, swizzles));
         }
@@ -473,7 +552,10 @@ impl Builder {
         for f in funcs.into_iter().rev() {
             let func = self.func(f)?;
             let span = func.span.join(acc.expr.span);
-            acc = Deep { expr: Expr { kind: ExprKind::Apply { func, arg: Box::new(acc.expr) }, span }, depth: acc.depth + 1 };
+            acc = Deep {
+                expr: Expr { kind: ExprKind::Apply { func, arg: Box::new(acc.expr) }, span },
+                depth: acc.depth + 1,
+            };
         }
         Some(self.swizzle(acc, swizzles))
     }
@@ -499,15 +581,26 @@ impl Builder {
             }
             let text = pair.as_str();
             let (what, help) = if text.starts_with('(') {
-                ("a parenthesized value cannot be applied to what follows", "to multiply, write `*` between them")
+                (
+                    "a parenthesized value cannot be applied to what follows",
+                    "to multiply, write `*` between them",
+                )
             } else if text.starts_with('"') {
-                ("a string cannot be applied to a value", "strings name files inside texture sources: `image(\"brick.png\")`")
+                (
+                    "a string cannot be applied to a value",
+                    "strings name files inside texture sources: `image(\"brick.png\")`",
+                )
             } else if text.contains('.') && !text.starts_with(|c: char| c.is_ascii_digit()) {
-                ("a swizzled value cannot be applied to what follows", "put parentheses around the swizzle or write `*` to multiply")
+                (
+                    "a swizzled value cannot be applied to what follows",
+                    "put parentheses around the swizzle or write `*` to multiply",
+                )
             } else {
                 ("a number cannot be applied to a value", "to multiply, write `*`: `2 * x`")
             };
-            self.errors.push(Diagnostic::error("not-a-function", what, span, "in function position").with_help(help));
+            self.errors.push(
+                Diagnostic::error("not-a-function", what, span, "in function position").with_help(help),
+            );
             return None;
         }
         let kind = match pair.as_rule() {
@@ -541,7 +634,13 @@ impl Builder {
         for sw in swizzles {
             let span = acc.expr.span.join(self.span(&sw));
             acc = Deep {
-                expr: Expr { kind: ExprKind::Swizzle { base: Box::new(acc.expr), components: sw.as_str()[1..].to_string() }, span },
+                expr: Expr {
+                    kind: ExprKind::Swizzle {
+                        base: Box::new(acc.expr),
+                        components: sw.as_str()[1..].to_string(),
+                    },
+                    span,
+                },
                 depth: acc.depth + 1,
             };
         }
@@ -556,8 +655,13 @@ impl Builder {
                 Ok(v) if v.is_finite() => leaf(ExprKind::Number(v)),
                 _ => {
                     self.errors.push(
-                        Diagnostic::error("bad-number", format!("number `{}` is out of range", pair.as_str()), span, "too large for a 64-bit float")
-                            .with_help("shading values lie far inside ±1e308; check the exponent"),
+                        Diagnostic::error(
+                            "bad-number",
+                            format!("number `{}` is out of range", pair.as_str()),
+                            span,
+                            "too large for a 64-bit float",
+                        )
+                        .with_help("shading values lie far inside ±1e308; check the exponent"),
                     );
                     None
                 }
@@ -578,7 +682,8 @@ impl Builder {
                     return items.pop().map(|d| Deep { expr: Expr { span, ..d.expr }, ..d });
                 }
                 let depth = 1 + items.iter().map(|d| d.depth).max().unwrap_or(0);
-                leaf(ExprKind::Tuple(items.into_iter().map(|d| d.expr).collect())).map(|d| Deep { depth, ..d })
+                leaf(ExprKind::Tuple(items.into_iter().map(|d| d.expr).collect()))
+                    .map(|d| Deep { depth, ..d })
             }
             other => unreachable!("not a primary: {other:?}"),
         }
@@ -604,7 +709,9 @@ impl Op {
             Op::Question | Op::QuestionColon => (1, true),
             Op::Binary(BinaryOp::Or) => (2, false),
             Op::Binary(BinaryOp::And) => (3, false),
-            Op::Binary(BinaryOp::Lt | BinaryOp::Le | BinaryOp::Gt | BinaryOp::Ge | BinaryOp::Eq | BinaryOp::Ne) => (4, false),
+            Op::Binary(
+                BinaryOp::Lt | BinaryOp::Le | BinaryOp::Gt | BinaryOp::Ge | BinaryOp::Eq | BinaryOp::Ne,
+            ) => (4, false),
             Op::Combine(_) => (5, false),
             Op::Binary(BinaryOp::Add | BinaryOp::Sub) => (6, false),
             Op::Binary(BinaryOp::Mul | BinaryOp::Div) => (7, false),

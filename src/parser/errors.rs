@@ -28,7 +28,9 @@ pub fn from_pest(err: pest::error::Error<Rule>, text: &str, offset: usize) -> Di
     let found = token_at(text, pos);
     let span = Span::new(offset + pos, offset + pos + found.len());
     let mut expected: Vec<&'static str> = match &err.variant {
-        ErrorVariant::ParsingError { positives, .. } => positives.iter().filter_map(|r| describe(*r)).collect(),
+        ErrorVariant::ParsingError { positives, .. } => {
+            positives.iter().filter_map(|r| describe(*r)).collect()
+        }
         ErrorVariant::CustomError { .. } => Vec::new(),
     };
     // The most useful words first; "an expression" covers names and numbers.
@@ -46,11 +48,14 @@ pub fn from_pest(err: pest::error::Error<Rule>, text: &str, offset: usize) -> Di
     } else {
         format!("expected {expected_text}, found {found_text}")
     };
-    let label = if expected.is_empty() { "unexpected here".to_string() } else { format!("expected {expected_text}") };
+    let label =
+        if expected.is_empty() { "unexpected here".to_string() } else { format!("expected {expected_text}") };
     let mut d = Diagnostic::error("syntax", message, span, label).with_help(help_for(found, &expected));
     // An unclosed `(` says where it opened (issue 21).
     if let Some(open) = unclosed_paren(text, pos).filter(|_| matches!(found, "" | ";" | "←" | "<-")) {
-        d = d.with_label(Span::new(offset + open, offset + open + 1), "this `(` is never closed").with_help("close the `(` opened here with `)` before the statement ends");
+        d = d
+            .with_label(Span::new(offset + open, offset + open + 1), "this `(` is never closed")
+            .with_help("close the `(` opened here with `)` before the statement ends");
     }
     if matches!(found, "←" | "<-") {
         if let Some(end) = end_of_previous_line(text, pos) {
@@ -132,11 +137,24 @@ fn describe_found(found: &str) -> String {
 fn describe(rule: Rule) -> Option<&'static str> {
     Some(match rule {
         Rule::item | Rule::statement => "a declaration or a statement",
-        Rule::kw_target | Rule::kw_texture | Rule::kw_framebuffer | Rule::kw_vector | Rule::kw_params | Rule::kw_const
-        | Rule::kw_uniform | Rule::kw_shader | Rule::kw_let | Rule::target_decl | Rule::texture_decl | Rule::framebuffer_decl
-        | Rule::vector_decl | Rule::params_decl | Rule::const_decl | Rule::uniform_decl | Rule::let_decl | Rule::shader_decl => {
-            "a declaration or a statement"
-        }
+        Rule::kw_target
+        | Rule::kw_texture
+        | Rule::kw_framebuffer
+        | Rule::kw_vector
+        | Rule::kw_params
+        | Rule::kw_const
+        | Rule::kw_uniform
+        | Rule::kw_shader
+        | Rule::kw_let
+        | Rule::target_decl
+        | Rule::texture_decl
+        | Rule::framebuffer_decl
+        | Rule::vector_decl
+        | Rule::params_decl
+        | Rule::const_decl
+        | Rule::uniform_decl
+        | Rule::let_decl
+        | Rule::shader_decl => "a declaration or a statement",
         Rule::semi => "`;`",
         Rule::assign => "`←` (or `<-`)",
         Rule::arrow => "`→` (or `->`)",
@@ -148,8 +166,18 @@ fn describe(rule: Rule) -> Option<&'static str> {
             "an expression"
         }
         Rule::delta | Rule::projection | Rule::channel => "an expression",
-        Rule::op_or | Rule::op_and | Rule::op_cmp | Rule::op_combine | Rule::op_add | Rule::op_sub | Rule::op_mul
-        | Rule::op_div | Rule::op_dot | Rule::op_pow | Rule::question | Rule::colon => "an operator",
+        Rule::op_or
+        | Rule::op_and
+        | Rule::op_cmp
+        | Rule::op_combine
+        | Rule::op_add
+        | Rule::op_sub
+        | Rule::op_mul
+        | Rule::op_div
+        | Rule::op_dot
+        | Rule::op_pow
+        | Rule::question
+        | Rule::colon => "an operator",
         Rule::op_neg | Rule::op_not => "an expression",
         Rule::swizzle => "a swizzle such as `.xyz` or `.a`",
         Rule::shader_params | Rule::shader_param => "shader parameters",

@@ -52,8 +52,13 @@ pub fn parse(source: &str) -> (ast::Program, Vec<Diagnostic>) {
         let text = if piece.missing_semicolon {
             let end = piece.range.start + text.trim_end().len();
             diagnostics.push(
-                Diagnostic::error("syntax", "expected `;` at the end of this line", Span::new(end, end), "add `;` here")
-                    .with_help("end every statement and declaration with `;`; the next line starts a new one"),
+                Diagnostic::error(
+                    "syntax",
+                    "expected `;` at the end of this line",
+                    Span::new(end, end),
+                    "add `;` here",
+                )
+                .with_help("end every statement and declaration with `;`; the next line starts a new one"),
             );
             owned = format!("{};", text.trim_end());
             owned.as_str()
@@ -158,8 +163,13 @@ pub fn check(source: &str) -> (ast::Program, Vec<Diagnostic>) {
     if !has_statement && diagnostics.iter().all(|d| !d.is_error()) {
         let end = crate::span::Span::new(source.len(), source.len());
         diagnostics.push(
-            crate::diag::Diagnostic::error("no-statement", "the program has no statement: nothing is drawn", end, "the file ends here")
-                .with_help("add a statement, such as `C δπx ← T δu x;` (seeds/001 equation (2))"),
+            crate::diag::Diagnostic::error(
+                "no-statement",
+                "the program has no statement: nothing is drawn",
+                end,
+                "the file ends here",
+            )
+            .with_help("add a statement, such as `C δπx ← T δu x;` (seeds/001 equation (2))"),
         );
     }
     diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));

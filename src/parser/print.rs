@@ -124,7 +124,8 @@ pub fn item(item: &Item, style: Style) -> String {
             let _ = write!(s, " : {} {arrow} {}", pr.name(&sh.input), sh.output.value.as_str());
             if sh.block {
                 s.push_str(" {\n");
-                let lines = sh.lets.iter().map(|l| format!("let {} = {};", pr.name(&l.name), pr.expr(&l.value)));
+                let lines =
+                    sh.lets.iter().map(|l| format!("let {} = {};", pr.name(&l.name), pr.expr(&l.value)));
                 let no_comments = LineComments::default();
                 let comments = |k: usize| item.comments.block.get(k).unwrap_or(&no_comments);
                 for (k, line) in lines.chain([pr.expr(&sh.body)]).enumerate() {
@@ -254,7 +255,11 @@ impl Printer {
             }
             ExprKind::Swizzle { base, components } => {
                 // `(2).x`: a number would swallow the dot.
-                let b = if matches!(base.kind, ExprKind::Number(_)) { format!("({})", self.expr(base)) } else { self.at(base, Prec::Atom) };
+                let b = if matches!(base.kind, ExprKind::Number(_)) {
+                    format!("({})", self.expr(base))
+                } else {
+                    self.at(base, Prec::Atom)
+                };
                 (Prec::Atom, format!("{b}.{components}"))
             }
             ExprKind::Apply { func, arg } => {
@@ -328,7 +333,10 @@ impl Printer {
         if !self.uni() {
             return false;
         }
-        let starts_with_op = matches!(&arg.kind, ExprKind::Apply { func: Func { kind: FuncKind::Delta | FuncKind::Projection(_), .. }, .. });
+        let starts_with_op = matches!(
+            &arg.kind,
+            ExprKind::Apply { func: Func { kind: FuncKind::Delta | FuncKind::Projection(_), .. }, .. }
+        );
         match &func.kind {
             // δ glues to projections and texture coordinates: `δπx`, `T δu x`.
             FuncKind::Delta => {
@@ -409,7 +417,9 @@ fn quote(s: &str) -> String {
 
 fn is_builtin_call(n: &Name) -> bool {
     use super::resolve::{FUNCTIONS, GENERATORS};
-    n.primes == 0 && !n.star && (FUNCTIONS.contains(&n.base.as_str()) || GENERATORS.contains(&n.base.as_str()))
+    n.primes == 0
+        && !n.star
+        && (FUNCTIONS.contains(&n.base.as_str()) || GENERATORS.contains(&n.base.as_str()))
 }
 
 /// The strength needed on the right of a left-associative operator.
@@ -435,10 +445,14 @@ pub fn sexpr(e: &Expr) -> String {
     let p = Printer { style: Style::Unicode };
     match &e.kind {
         ExprKind::Number(_) | ExprKind::String(_) | ExprKind::Name(_) => p.expr(e),
-        ExprKind::Tuple(items) => format!("(tuple {})", items.iter().map(sexpr).collect::<Vec<_>>().join(" ")),
+        ExprKind::Tuple(items) => {
+            format!("(tuple {})", items.iter().map(sexpr).collect::<Vec<_>>().join(" "))
+        }
         ExprKind::Apply { func, arg } => format!("({} {})", p.func(func), sexpr(arg)),
         ExprKind::Swizzle { base, components } => format!("(.{components} {})", sexpr(base)),
-        ExprKind::Unary { op, operand } => format!("({} {})", if *op == UnaryOp::Neg { "neg" } else { "not" }, sexpr(operand)),
+        ExprKind::Unary { op, operand } => {
+            format!("({} {})", if *op == UnaryOp::Neg { "neg" } else { "not" }, sexpr(operand))
+        }
         ExprKind::Binary { op, lhs, rhs } => format!("({} {} {})", p.binary(*op).1, sexpr(lhs), sexpr(rhs)),
         ExprKind::Combine { mode, lhs, rhs } => {
             let m = mode.as_ref().map_or("⊕".to_string(), |m| format!("⊕[{}]", m.value.as_str()));
@@ -458,8 +472,15 @@ pub fn program_tree(p: &Program) -> String {
         match &item.kind {
             ItemKind::Statement(st) => {
                 let t = &st.target;
-                let channel = t.channel.as_ref().map_or(String::new(), |c| format!("{:?} ", c.value).to_lowercase());
-                let _ = writeln!(out, "(← ({channel}{} {}) {})", Printer { style: Style::Unicode }.name(&t.table), sexpr(&t.index), sexpr(&st.value));
+                let channel =
+                    t.channel.as_ref().map_or(String::new(), |c| format!("{:?} ", c.value).to_lowercase());
+                let _ = writeln!(
+                    out,
+                    "(← ({channel}{} {}) {})",
+                    Printer { style: Style::Unicode }.name(&t.table),
+                    sexpr(&t.index),
+                    sexpr(&st.value)
+                );
             }
             _ => {
                 let _ = writeln!(out, "{}", self::item(item, Style::Unicode));

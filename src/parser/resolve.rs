@@ -12,17 +12,53 @@ use crate::span::Span;
 
 /// Built-in functions, usable in any expression.
 pub const FUNCTIONS: &[&str] = &[
-    "normalize", "length", "dot", "cross", "reflect", "max", "min", "clamp", "saturate", "abs", "sign", "sqrt", "rsqrt",
-    "pow", "exp", "log", "sin", "cos", "floor", "fract", "step", "smoothstep", "lerp", "mix",
+    "normalize",
+    "length",
+    "dot",
+    "cross",
+    "reflect",
+    "max",
+    "min",
+    "clamp",
+    "saturate",
+    "abs",
+    "sign",
+    "sqrt",
+    "rsqrt",
+    "pow",
+    "exp",
+    "log",
+    "sin",
+    "cos",
+    "floor",
+    "fract",
+    "step",
+    "smoothstep",
+    "lerp",
+    "mix",
     // Range mappings of the register combiners (seeds/003 Table 3): 2x−1 and x−½, and back.
-    "expand", "half_bias", "compress",
-    "rgb", "rgba", "vec2", "vec3", "vec4",
+    "expand",
+    "half_bias",
+    "compress",
+    "rgb",
+    "rgba",
+    "vec2",
+    "vec3",
+    "vec4",
 ];
 
 /// Texture sources (generators), usable only after `texture … =`.
 pub const GENERATORS: &[&str] = &[
-    "image", "normalize_cube", "normal_map", "height", "bumps", "dual_paraboloid", "brdf_fd", "brdf_g",
-    "exponent_table", "bake",
+    "image",
+    "normalize_cube",
+    "normal_map",
+    "height",
+    "bumps",
+    "dual_paraboloid",
+    "brdf_fd",
+    "brdf_g",
+    "exponent_table",
+    "bake",
 ];
 
 /// Target profiles the compiler knows.
@@ -102,9 +138,14 @@ pub fn resolve(program: &Program) -> Vec<Diagnostic> {
             ItemKind::Target(t) => {
                 if let Some(first) = target {
                     r.diagnostics.push(
-                        Diagnostic::error("duplicate-target", "the target profile is chosen twice", t.profile.span, "second choice")
-                            .with_label(first, "first chosen here")
-                            .with_help("keep one `target` line, or choose on the command line with `--target`"),
+                        Diagnostic::error(
+                            "duplicate-target",
+                            "the target profile is chosen twice",
+                            t.profile.span,
+                            "second choice",
+                        )
+                        .with_label(first, "first chosen here")
+                        .with_help("keep one `target` line, or choose on the command line with `--target`"),
                     );
                 }
                 target = Some(t.profile.span);
@@ -114,8 +155,13 @@ pub fn resolve(program: &Program) -> Vec<Diagnostic> {
                         None => format!("the profiles are: {}", PROFILES.join(", ")),
                     };
                     r.diagnostics.push(
-                        Diagnostic::error("unknown-profile", format!("unknown target profile `{}`", t.profile.value), t.profile.span, "no such profile")
-                            .with_help(help),
+                        Diagnostic::error(
+                            "unknown-profile",
+                            format!("unknown target profile `{}`", t.profile.value),
+                            t.profile.span,
+                            "no such profile",
+                        )
+                        .with_help(help),
                     );
                 }
             }
@@ -162,8 +208,13 @@ pub fn resolve(program: &Program) -> Vec<Diagnostic> {
         let d = &r.globals[key];
         if !d.used && d.entity != Entity::Framebuffer {
             r.diagnostics.push(
-                Diagnostic::warning("unused", format!("{} `{key}` is never used", d.entity.describe()), d.span, "declared here")
-                    .with_help("remove the declaration, or use it in a statement"),
+                Diagnostic::warning(
+                    "unused",
+                    format!("{} `{key}` is never used", d.entity.describe()),
+                    d.span,
+                    "declared here",
+                )
+                .with_help("remove the declaration, or use it in a statement"),
             );
         }
     }
@@ -175,9 +226,14 @@ impl Resolver {
         let key = name.key();
         if let Some(prev) = self.globals.get(&key) {
             self.diagnostics.push(
-                Diagnostic::error("duplicate-name", format!("`{key}` is declared twice"), name.span, "declared again here")
-                    .with_label(prev.span, format!("first declared here as a {}", prev.entity.describe()))
-                    .with_help("rename one of them (primes make new names: `T'`, `T''`)"),
+                Diagnostic::error(
+                    "duplicate-name",
+                    format!("`{key}` is declared twice"),
+                    name.span,
+                    "declared again here",
+                )
+                .with_label(prev.span, format!("first declared here as a {}", prev.entity.describe()))
+                .with_help("rename one of them (primes make new names: `T'`, `T''`)"),
             );
             return;
         }
@@ -220,16 +276,28 @@ impl Resolver {
         match entity {
             Some(Entity::Framebuffer | Entity::Texture | Entity::TexCoords | Entity::Params) => {}
             Some(other) => self.diagnostics.push(
-                Diagnostic::error("bad-target", format!("cannot assign into the {} `{key}`", other.describe()), t.table.span, "not a table")
-                    .with_help("assign into a framebuffer (`C δπx`), a texture (`T δu`) or a vertex attribute (`u x`)"),
+                Diagnostic::error(
+                    "bad-target",
+                    format!("cannot assign into the {} `{key}`", other.describe()),
+                    t.table.span,
+                    "not a table",
+                )
+                .with_help(
+                    "assign into a framebuffer (`C δπx`), a texture (`T δu`) or a vertex attribute (`u x`)",
+                ),
             ),
             None => self.unknown(&t.table, &[], false),
         }
         if let Some(c) = &t.channel {
             if entity.is_some_and(|e| e != Entity::Framebuffer) {
                 self.diagnostics.push(
-                    Diagnostic::error("bad-channel", "channel selectors apply to framebuffers", c.span, "selects a framebuffer channel")
-                        .with_help(format!("`{key}` is not a framebuffer; declare it with `framebuffer {key};`")),
+                    Diagnostic::error(
+                        "bad-channel",
+                        "channel selectors apply to framebuffers",
+                        c.span,
+                        "selects a framebuffer channel",
+                    )
+                    .with_help(format!("`{key}` is not a framebuffer; declare it with `framebuffer {key};`")),
                 );
             }
         }
@@ -268,7 +336,8 @@ impl Resolver {
             None => format!("declare it first, e.g. `vector {key} : normal;`, `const {key} = 1;` or `texture {key} : 2d rgba8 = image(\"file.png\");`"),
         };
         self.diagnostics.push(
-            Diagnostic::error("unknown-name", format!("unknown name `{key}`"), name.span, "not declared").with_help(help),
+            Diagnostic::error("unknown-name", format!("unknown name `{key}`"), name.span, "not declared")
+                .with_help(help),
         );
     }
 
@@ -315,7 +384,9 @@ impl Resolver {
             "s" => ("σ", "stencil"),
             _ => return false,
         };
-        if self.lookup(n, locals).is_some() || !arg.head_name().is_some_and(|h| matches!(self.lookup(h, locals), Some(Entity::Framebuffer))) {
+        if self.lookup(n, locals).is_some()
+            || !arg.head_name().is_some_and(|h| matches!(self.lookup(h, locals), Some(Entity::Framebuffer)))
+        {
             return false;
         }
         let (sym, word) = symbol;
@@ -334,10 +405,17 @@ impl Resolver {
             return;
         }
         match self.lookup(n, locals) {
-            Some(e @ (Entity::Const | Entity::Uniform | Entity::ShaderParam | Entity::Pixel)) => self.diagnostics.push(
-                Diagnostic::error("not-a-function", format!("the {} `{key}` cannot be applied to a value", e.describe()), n.span, "applied here")
+            Some(e @ (Entity::Const | Entity::Uniform | Entity::ShaderParam | Entity::Pixel)) => {
+                self.diagnostics.push(
+                    Diagnostic::error(
+                        "not-a-function",
+                        format!("the {} `{key}` cannot be applied to a value", e.describe()),
+                        n.span,
+                        "applied here",
+                    )
                     .with_help(format!("to multiply, write `{key} * …`")),
-            ),
+                )
+            }
             Some(_) => {}
             None => self.unknown(n, locals, in_source),
         }

@@ -21,7 +21,8 @@ pub struct Piece {
 }
 
 /// Keywords that start a declaration.
-const ITEM_KEYWORDS: &[&str] = &["vector", "texture", "framebuffer", "const", "uniform", "shader", "let", "target", "params"];
+const ITEM_KEYWORDS: &[&str] =
+    &["vector", "texture", "framebuffer", "const", "uniform", "shader", "let", "target", "params"];
 
 /// Whether the line at `j` starts an item: a declaration keyword, or an
 /// assignment `… ←` on that line.
@@ -29,7 +30,9 @@ fn starts_item(source: &str, j: usize) -> bool {
     let line = source[j..].split('\n').next().unwrap_or_default();
     let line = line.split("//").next().unwrap_or_default();
     let word = line.split(|c: char| !(c.is_alphanumeric() || c == '_')).next().unwrap_or_default();
-    (ITEM_KEYWORDS.contains(&word) && line[word.len()..].starts_with(char::is_whitespace)) || line.contains('←') || line.contains("<-")
+    (ITEM_KEYWORDS.contains(&word) && line[word.len()..].starts_with(char::is_whitespace))
+        || line.contains('←')
+        || line.contains("<-")
 }
 
 /// Whether `text` (a piece so far) ends where a statement or declaration
@@ -39,7 +42,9 @@ fn ends_complete(text: &str) -> bool {
     let last_line = text.rsplit('\n').next().unwrap_or_default();
     let code = last_line.split("//").next().unwrap_or_default();
     let tail = if code.trim().is_empty() { text.trim_end() } else { code.trim_end() };
-    tail.chars().last().is_some_and(|c| c.is_alphanumeric() || matches!(c, ')' | ']' | '\'' | '′' | '"' | '_'))
+    tail.chars()
+        .last()
+        .is_some_and(|c| c.is_alphanumeric() || matches!(c, ')' | ']' | '\'' | '′' | '"' | '_'))
 }
 
 pub fn split_items(source: &str) -> Vec<Piece> {
@@ -120,7 +125,11 @@ pub fn split_items(source: &str) -> Vec<Piece> {
         // recovery, where white space follows it (the added `;` then lies
         // within the source, as every span must).
         let rest = &source[start..];
-        let missing_semicolon = error.is_none() && depth == 0 && next_significant(source, start).is_some() && ends_complete(rest) && rest.trim_end().len() < rest.len();
+        let missing_semicolon = error.is_none()
+            && depth == 0
+            && next_significant(source, start).is_some()
+            && ends_complete(rest)
+            && rest.trim_end().len() < rest.len();
         pieces.push(Piece { range: start..bytes.len(), error, missing_semicolon });
     }
     pieces
@@ -174,7 +183,9 @@ pub fn leading_trivia(text: &str) -> (Vec<Comment>, usize) {
             }
             b if b.is_ascii_whitespace() => i += 1,
             b'#' => i = push_comment(text, i, skip_line(bytes, i), &mut comments, &mut newlines),
-            b'/' if bytes.get(i + 1) == Some(&b'/') => i = push_comment(text, i, skip_line(bytes, i), &mut comments, &mut newlines),
+            b'/' if bytes.get(i + 1) == Some(&b'/') => {
+                i = push_comment(text, i, skip_line(bytes, i), &mut comments, &mut newlines)
+            }
             b'/' if bytes.get(i + 1) == Some(&b'*') => {
                 let end = text[i + 2..].find("*/").map_or(bytes.len(), |e| i + 2 + e + 2);
                 i = push_comment(text, i, end, &mut comments, &mut newlines);
@@ -221,7 +232,9 @@ pub fn comments_in(text: &str, from: usize) -> Vec<InnerComment> {
             }
             b'#' => skip_line(bytes, i),
             b'/' if bytes.get(i + 1) == Some(&b'/') => skip_line(bytes, i),
-            b'/' if bytes.get(i + 1) == Some(&b'*') => text[i + 2..].find("*/").map_or(bytes.len(), |e| i + 2 + e + 2),
+            b'/' if bytes.get(i + 1) == Some(&b'*') => {
+                text[i + 2..].find("*/").map_or(bytes.len(), |e| i + 2 + e + 2)
+            }
             _ => {
                 own_line = false;
                 i += 1;
@@ -234,7 +247,13 @@ pub fn comments_in(text: &str, from: usize) -> Vec<InnerComment> {
     found
 }
 
-fn push_comment(text: &str, start: usize, end: usize, comments: &mut Vec<Comment>, newlines: &mut usize) -> usize {
+fn push_comment(
+    text: &str,
+    start: usize,
+    end: usize,
+    comments: &mut Vec<Comment>,
+    newlines: &mut usize,
+) -> usize {
     comments.push(Comment { text: text[start..end].trim_end().to_string(), newlines_before: *newlines });
     *newlines = 0;
     end
@@ -251,14 +270,20 @@ mod tests {
     #[test]
     fn splits_at_top_level_semicolons_only() {
         let src = "a ← f(x; y); // c; d\nshader p : s → c { let a = 1; a }\nb ← \"x;y\";";
-        assert_eq!(texts(src), ["a ← f(x; y);", " // c; d\nshader p : s → c { let a = 1; a }", "\nb ← \"x;y\";"]);
+        assert_eq!(
+            texts(src),
+            ["a ← f(x; y);", " // c; d\nshader p : s → c { let a = 1; a }", "\nb ← \"x;y\";"]
+        );
     }
 
     #[test]
     fn comments_in_skip_strings_and_know_their_line() {
         let src = "f(\"// no\", x) // a\n  # b\n y /* c */";
         let found: Vec<_> = comments_in(src, 0).into_iter().map(|c| (c.text, c.own_line)).collect();
-        assert_eq!(found, [("// a".to_string(), false), ("# b".to_string(), true), ("/* c */".to_string(), false)]);
+        assert_eq!(
+            found,
+            [("// a".to_string(), false), ("# b".to_string(), true), ("/* c */".to_string(), false)]
+        );
     }
 
     #[test]

@@ -88,7 +88,10 @@ fn targets_are_a_table_its_channel_and_its_index() {
 fn precedence_follows_the_grammar() {
     assert_eq!(value("a + b * c·d^e"), "(+ a (* b (· c (^ d e))))");
     assert_eq!(value("1 – α C xs"), "(- 1 (α (C xs)))");
-    assert_eq!(value("(α C xs)*(C xs) + (1 − α C xs)*(C′ xs)"), "(+ (* (α (C xs)) (C xs)) (* (- 1 (α (C xs))) (C′ xs)))");
+    assert_eq!(
+        value("(α C xs)*(C xs) + (1 − α C xs)*(C′ xs)"),
+        "(+ (* (α (C xs)) (C xs)) (* (- 1 (α (C xs))) (C′ xs)))"
+    );
     assert_eq!(value("a ⊕ b ⊕[add] c + d"), "(⊕[add] (⊕ a b) (+ c d))");
     assert_eq!(value("a > b ∨ c ∧ d"), "(∨ (> a b) (∧ c d))");
     assert_eq!(value("-x^2"), "(neg (^ x 2))");
@@ -154,10 +157,16 @@ fn declarations_parse_into_their_parts() {
     let ItemKind::Texture(t) = &p.items[1].kind else { panic!() };
     assert_eq!(t.names.iter().map(Name::key).collect::<Vec<_>>(), ["N'", "E"]);
     assert_eq!((t.kind.value, t.format.as_ref().unwrap().value), (TextureKind::Cube, TextureFormat::Signed8));
-    assert_eq!(t.attrs.iter().map(|a| a.value).collect::<Vec<_>>(), [TextureAttr::Mipmap, TextureAttr::Trilinear]);
+    assert_eq!(
+        t.attrs.iter().map(|a| a.value).collect::<Vec<_>>(),
+        [TextureAttr::Mipmap, TextureAttr::Trilinear]
+    );
     let ItemKind::Vector(v) = &p.items[3].kind else { panic!() };
     let role = v.role.as_ref().unwrap();
-    assert_eq!((role.kind.value, role.index.as_ref().unwrap().value, role.space.as_ref().unwrap().value), (VectorKind::Light, 1, Space::Tangent));
+    assert_eq!(
+        (role.kind.value, role.index.as_ref().unwrap().value, role.space.as_ref().unwrap().value),
+        (VectorKind::Light, 1, Space::Tangent)
+    );
     let ItemKind::Shader(s) = &p.items[9].kind else { panic!() };
     assert_eq!((s.params.len(), s.lets.len(), s.block, s.output.value), (1, 1, true, Type::Color));
     assert_eq!(sexpr(&s.body), "(^ d n)");
@@ -182,7 +191,8 @@ fn spans_point_at_the_source_text() {
 fn every_error_is_reported_not_only_the_first() {
     let src = "C xs ← a +;\nC xs = b;\nC xs ← c;\nC xs ← ⊗;\n";
     let (_, d) = parse(src);
-    let lines: Vec<usize> = d.iter().map(|d| src[..d.primary.span.start as usize].matches('\n').count() + 1).collect();
+    let lines: Vec<usize> =
+        d.iter().map(|d| src[..d.primary.span.start as usize].matches('\n').count() + 1).collect();
     assert_eq!(lines, [1, 2, 4], "{d:#?}");
     assert!(d[1].help.as_deref().unwrap().contains("assign with `←`"));
     assert!(d[2].help.as_deref().unwrap().contains("multiply with `*`"));
@@ -208,7 +218,13 @@ fn a_missing_semicolon_is_blamed_with_a_hint() {
 fn names_resolve_with_suggestions() {
     let src = "vector N : normal;\nvector L : light;\nC δπx ← δ normalise(N)·L;\nC δπx ← T δu x;";
     let e = errors(src);
-    assert_eq!(e, [("unknown-name", "unknown name `normalise`".to_string()), ("unknown-name", "unknown name `T`".to_string())]);
+    assert_eq!(
+        e,
+        [
+            ("unknown-name", "unknown name `normalise`".to_string()),
+            ("unknown-name", "unknown name `T`".to_string())
+        ]
+    );
     let (_, d) = check(src);
     assert_eq!(d[0].help.as_deref(), Some("did you mean `normalize`?"));
 }

@@ -45,8 +45,12 @@ impl Builder<'_> {
         match op {
             BinaryOp::Add if m.is_constant(lhs, 0.0) && keeps(rhs) => return Some(rhs),
             BinaryOp::Add | BinaryOp::Sub if m.is_constant(rhs, 0.0) && keeps(lhs) => return Some(lhs),
-            BinaryOp::Mul if m.is_constant(lhs, 1.0) && self.ty(rhs) == self.join_ty(lhs, rhs)? => return Some(rhs),
-            BinaryOp::Mul if m.is_constant(rhs, 1.0) && self.ty(lhs) == self.join_ty(lhs, rhs)? => return Some(lhs),
+            BinaryOp::Mul if m.is_constant(lhs, 1.0) && self.ty(rhs) == self.join_ty(lhs, rhs)? => {
+                return Some(rhs)
+            }
+            BinaryOp::Mul if m.is_constant(rhs, 1.0) && self.ty(lhs) == self.join_ty(lhs, rhs)? => {
+                return Some(lhs)
+            }
             BinaryOp::Mul if m.is_constant(lhs, 0.0) || m.is_constant(rhs, 0.0) => {
                 let ty = self.join_ty(lhs, rhs)?;
                 return self.constant(ty, 0.0);
@@ -98,7 +102,8 @@ impl Builder<'_> {
     /// A value of type `ty` (rgb or rgba) whose colour channels are `c` and
     /// whose alpha is `a`.
     pub fn color(&mut self, ty: Ty, c: Handle<Expr>, a: Handle<Expr>) -> Option<Handle<Expr>> {
-        let c3 = if self.ty(c) == Ty::Scalar { self.node(Expr::Convert { value: c, to: Ty::Rgb })? } else { c };
+        let c3 =
+            if self.ty(c) == Ty::Scalar { self.node(Expr::Convert { value: c, to: Ty::Rgb })? } else { c };
         match ty {
             Ty::Rgba => self.node(Expr::Compose { ty: Ty::Rgba, components: vec![c3, a] }),
             Ty::Rgb => Some(c3),
@@ -108,7 +113,12 @@ impl Builder<'_> {
 }
 
 /// Whether `h` depends on `x`.
-pub fn contains(module: &Module, h: Handle<Expr>, x: Handle<Expr>, memo: &mut HashMap<Handle<Expr>, bool>) -> bool {
+pub fn contains(
+    module: &Module,
+    h: Handle<Expr>,
+    x: Handle<Expr>,
+    memo: &mut HashMap<Handle<Expr>, bool>,
+) -> bool {
     if h == x {
         return true;
     }
@@ -163,7 +173,8 @@ fn decompose(
                 let (mr, sr) = decompose(b, rhs, x, memo, cache)?;
                 Some((b.binary(op, ml, mr)?, b.binary(op, sl, sr)?))
             }
-            Expr::Binary { op: BinaryOp::Mul, lhs, rhs } | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs } => {
+            Expr::Binary { op: BinaryOp::Mul, lhs, rhs }
+            | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs } => {
                 let (inner, k) = match (contains(b.module, lhs, x, memo), contains(b.module, rhs, x, memo)) {
                     (true, false) => (lhs, rhs),
                     (false, true) => (rhs, lhs),
@@ -181,9 +192,11 @@ fn decompose(
                 let (m, s) = decompose(b, value, x, memo, cache)?;
                 Some((m, b.node(Expr::Convert { value: s, to })?))
             }
-            Expr::Combine { mode: mode @ (CombineMode::Decal | CombineMode::Blend), lhs: tex, rhs: incoming }
-                if !contains(b.module, tex, x, memo) =>
-            {
+            Expr::Combine {
+                mode: mode @ (CombineMode::Decal | CombineMode::Blend),
+                lhs: tex,
+                rhs: incoming,
+            } if !contains(b.module, tex, x, memo) => {
                 let (m, s) = decompose(b, incoming, x, memo, cache)?;
                 let at = b.alpha(tex)?;
                 let one = b.constant(Ty::Scalar, 1.0)?;

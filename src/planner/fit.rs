@@ -47,8 +47,15 @@ impl<'p> ProfileFit<'p> {
         let units: Vec<Handle<Expr>> = u.lookups.iter().chain(&u.framebuffer_reads).copied().collect();
         let input = codegen::PassInput { module, value, units: &units };
         let verdict = codegen::generate(&input, &limits).map(|_| ()).map_err(|e| {
-            let at = e.span().and_then(|span| module.reachable(&[value]).into_iter().rev().find(|h| module.span(*h) == span));
-            Overflow { resource: format!("has no register-combiner setup the code generator can build: {e}"), need: 0, have: 0, at }
+            let at = e.span().and_then(|span| {
+                module.reachable(&[value]).into_iter().rev().find(|h| module.span(*h) == span)
+            });
+            Overflow {
+                resource: format!("has no register-combiner setup the code generator can build: {e}"),
+                need: 0,
+                have: 0,
+                at,
+            }
         });
         self.generated.borrow_mut().insert(value, verdict.clone());
         verdict
@@ -67,11 +74,21 @@ impl FitCheck for ProfileFit<'_> {
             return over("texture units", units, p.texture_units as usize, u.lookups.last().copied());
         }
         if u.interpolants.len() > p.interpolants as usize {
-            return over("interpolants", u.interpolants.len(), p.interpolants as usize, u.interpolants.last().copied());
+            return over(
+                "interpolants",
+                u.interpolants.len(),
+                p.interpolants as usize,
+                u.interpolants.last().copied(),
+            );
         }
         if let Some(have) = p.constant_registers() {
             if u.constants.len() > have as usize {
-                return over("constant colours", u.constants.len(), have as usize, u.constants.last().copied());
+                return over(
+                    "constant colours",
+                    u.constants.len(),
+                    have as usize,
+                    u.constants.last().copied(),
+                );
             }
         }
         match &p.fragment {
@@ -85,7 +102,12 @@ impl FitCheck for ProfileFit<'_> {
                 })?;
                 let have = 6 * c.general_combiners as usize + 8;
                 if ops > have {
-                    over("combiner operations (at most six per general combiner, eight in the final one)", ops, have, None)
+                    over(
+                        "combiner operations (at most six per general combiner, eight in the final one)",
+                        ops,
+                        have,
+                        None,
+                    )
                 } else {
                     self.generates(module, value, &u)
                 }
@@ -141,17 +163,34 @@ pub fn combiner_operations(module: &Module, value: Handle<Expr>) -> Result<usize
         }
         n += match &module.exprs[h] {
             Expr::Binary { op: BinaryOp::Pow, rhs, .. } => match &module.exprs[*rhs] {
-                Expr::Constant(c) if c.components[0] >= 1.0 && c.components[0].fract() == 0.0 => (c.components[0].log2().ceil() as usize).max(1),
+                Expr::Constant(c) if c.components[0] >= 1.0 && c.components[0].fract() == 0.0 => {
+                    (c.components[0].log2().ceil() as usize).max(1)
+                }
                 _ => return Err(h),
             },
             Expr::Binary { op: BinaryOp::Div, .. } => return Err(h),
             Expr::Binary { .. } | Expr::Combine { .. } | Expr::Select { .. } => 1,
             // max(0, x) and min(1, x) are an unsigned mapping and a clamp: free.
-            Expr::Math { fun: MathFunction::Max, args } if args.iter().any(|a| module.is_constant(*a, 0.0)) => 0,
-            Expr::Math { fun: MathFunction::Min, args } if args.iter().any(|a| module.is_constant(*a, 1.0)) => 0,
+            Expr::Math { fun: MathFunction::Max, args }
+                if args.iter().any(|a| module.is_constant(*a, 0.0)) =>
+            {
+                0
+            }
+            Expr::Math { fun: MathFunction::Min, args }
+                if args.iter().any(|a| module.is_constant(*a, 1.0)) =>
+            {
+                0
+            }
             Expr::Math { fun, .. } => match fun {
-                MathFunction::Expand | MathFunction::HalfBias | MathFunction::Saturate | MathFunction::Compress => 0,
-                MathFunction::Max | MathFunction::Min | MathFunction::Clamp | MathFunction::Mix | MathFunction::Abs => 1,
+                MathFunction::Expand
+                | MathFunction::HalfBias
+                | MathFunction::Saturate
+                | MathFunction::Compress => 0,
+                MathFunction::Max
+                | MathFunction::Min
+                | MathFunction::Clamp
+                | MathFunction::Mix
+                | MathFunction::Abs => 1,
                 _ => return Err(h),
             },
             _ => 0,
@@ -165,6 +204,9 @@ fn combines(module: &Module, value: Handle<Expr>) -> usize {
     module
         .reachable(&[value])
         .into_iter()
-        .filter(|h| module.info(*h).freq.is_sample() && matches!(module.exprs[*h], Expr::Combine { .. } | Expr::Binary { .. }))
+        .filter(|h| {
+            module.info(*h).freq.is_sample()
+                && matches!(module.exprs[*h], Expr::Combine { .. } | Expr::Binary { .. })
+        })
         .count()
 }

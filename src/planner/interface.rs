@@ -72,7 +72,10 @@ impl PassInterface {
         let vertex_leaves = vertex_nodes
             .iter()
             .copied()
-            .filter(|n| matches!(m.exprs[*n], Expr::VertexPosition(_) | Expr::TexCoord { .. } | Expr::Vector { .. }) && m.info(*n).freq == crate::ir::Frequency::Vertex)
+            .filter(|n| {
+                matches!(m.exprs[*n], Expr::VertexPosition(_) | Expr::TexCoord { .. } | Expr::Vector { .. })
+                    && m.info(*n).freq == crate::ir::Frequency::Vertex
+            })
             .collect();
         let mut projections = Vec::new();
         // Those of the vertex stage, then those the fragment stage applies
@@ -106,6 +109,14 @@ impl PassInterface {
             .collect::<BTreeSet<_>>()
             .into_iter()
             .collect();
-        PassInterface { vertex_leaves, projections, uniforms, interpolants: interpolants.into_iter().collect(), position, output, condition }
+        PassInterface {
+            vertex_leaves,
+            projections,
+            uniforms,
+            interpolants: interpolants.into_iter().collect(),
+            position,
+            output,
+            condition,
+        }
     }
 }

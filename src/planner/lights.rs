@@ -30,7 +30,9 @@ use std::collections::{HashMap, HashSet};
 
 use super::affine::Builder;
 use super::plan::Removed;
-use crate::ir::{BinaryOp, Expr, FbChannel, Frequency, Handle, Module, Statement, Table, Ty, UnaryOp, Vector, VectorId};
+use crate::ir::{
+    BinaryOp, Expr, FbChannel, Frequency, Handle, Module, Statement, Table, Ty, UnaryOp, Vector, VectorId,
+};
 use crate::parser::ast::{CombineMode, VectorKind};
 use crate::span::Span;
 
@@ -68,21 +70,30 @@ impl Expansion {
 
 /// Whether a vector declaration is light 0 as "the light" (module docs).
 fn is_light_zero(v: &Vector) -> bool {
-    matches!(v.kind, Some(VectorKind::Light | VectorKind::Half | VectorKind::Intensity)) && v.index.unwrap_or(0) == 0
+    matches!(v.kind, Some(VectorKind::Light | VectorKind::Half | VectorKind::Intensity))
+        && v.index.unwrap_or(0) == 0
 }
 
 /// Replicates the light terms of `m`'s statements for lights 1..n (module docs).
 pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> Expansion {
     let mut out = Expansion::default();
-    let template: Vec<VectorId> = (0..m.vectors.len() as VectorId).filter(|&v| is_light_zero(&m.vectors[v as usize])).collect();
+    let template: Vec<VectorId> =
+        (0..m.vectors.len() as VectorId).filter(|&v| is_light_zero(&m.vectors[v as usize])).collect();
     if template.is_empty() {
         return out;
     }
-    if let Some(v) = m.vectors.iter().find(|v| matches!(v.kind, Some(VectorKind::Light | VectorKind::Half | VectorKind::Intensity)) && v.index.unwrap_or(0) > 0) {
+    if let Some(v) = m.vectors.iter().find(|v| {
+        matches!(v.kind, Some(VectorKind::Light | VectorKind::Half | VectorKind::Intensity))
+            && v.index.unwrap_or(0) > 0
+    }) {
         out.notes.push(Removed {
             kind: "note".into(),
             what: "per-light passes".into(),
-            why: format!("the program names light {} explicitly (`{}`), so it is not replicated per scene light", v.index.unwrap_or(0), v.name),
+            why: format!(
+                "the program names light {} explicitly (`{}`), so it is not replicated per scene light",
+                v.index.unwrap_or(0),
+                v.name
+            ),
             at: at(v.span),
         });
         return out;
@@ -109,28 +120,51 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
         if !dep.contains(&st.value) {
             continue;
         }
-        let note = |why: String| Removed { kind: "note".into(), what: format!("statement {}", k + 1), why, at: at(st.span) };
+        let note = |why: String| Removed {
+            kind: "note".into(),
+            what: format!("statement {}", k + 1),
+            why,
+            at: at(st.span),
+        };
         let (fb, own) = match st.table {
-            Table::Framebuffer { id, channel: FbChannel::Color } if st.freq == Frequency::Fragment => {
-                (id, m.exprs.find(&Expr::FramebufferRead { framebuffer: id, channel: FbChannel::Color, position: st.index }))
-            }
+            Table::Framebuffer { id, channel: FbChannel::Color } if st.freq == Frequency::Fragment => (
+                id,
+                m.exprs.find(&Expr::FramebufferRead {
+                    framebuffer: id,
+                    channel: FbChannel::Color,
+                    position: st.index,
+                }),
+            ),
             _ => {
-                out.notes.push(note("it depends on the light but is not a colour statement on a mesh: light 0 only".into()));
+                out.notes.push(note(
+                    "it depends on the light but is not a colour statement on a mesh: light 0 only".into(),
+                ));
                 continue;
             }
         };
-        let own_alpha = m.exprs.find(&Expr::FramebufferRead { framebuffer: fb, channel: FbChannel::Alpha, position: st.index });
+        let own_alpha = m.exprs.find(&Expr::FramebufferRead {
+            framebuffer: fb,
+            channel: FbChannel::Alpha,
+            position: st.index,
+        });
         let mut terms = Vec::new();
         if let Err(why) = decompose(m, &dep, st.value, false, &mut terms) {
             out.notes.push(note(format!("{why}: light 0 only")));
             continue;
         }
         let reads_own = |m: &Module, h: Handle<Expr>| {
-            m.reachable(&[h]).into_iter().any(|n| Some(n) == own || Some(n) == own_alpha || matches!(m.exprs[n], Expr::FramebufferRead { framebuffer, .. } if framebuffer == fb))
+            m.reachable(&[h]).into_iter().any(|n| {
+                Some(n) == own
+                    || Some(n) == own_alpha
+                    || matches!(m.exprs[n], Expr::FramebufferRead { framebuffer, .. } if framebuffer == fb)
+            })
         };
         let (light, once): (Vec<_>, Vec<_>) = terms.into_iter().partition(|(h, _)| dep.contains(h));
         if light.iter().any(|(h, _)| reads_own(m, *h)) {
-            out.notes.push(note("its light term reads its own target (as Kilgard's `(α C) · specular` does): light 0 only".into()));
+            out.notes.push(note(
+                "its light term reads its own target (as Kilgard's `(α C) · specular` does): light 0 only"
+                    .into(),
+            ));
             continue;
         }
         // The framebuffer appears only as `C + …` (a term C itself) or not at all.
@@ -148,8 +182,22 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
             out.notes.push(note("its light terms could not be summed: light 0 only".into()));
             continue;
         };
-        let Some(own) = own.or_else(|| m.intern(Expr::FramebufferRead { framebuffer: fb, channel: FbChannel::Color, position: st.index }, Span::DETACHED).ok()) else { continue };
-        out.statements.push(LightStatement { statement: k, source_statement: k, light: 0, without_light: Some(without), light_terms: light_sum });
+        let Some(own) = own.or_else(|| {
+            m.intern(
+                Expr::FramebufferRead { framebuffer: fb, channel: FbChannel::Color, position: st.index },
+                Span::DETACHED,
+            )
+            .ok()
+        }) else {
+            continue;
+        };
+        out.statements.push(LightStatement {
+            statement: k,
+            source_statement: k,
+            light: 0,
+            without_light: Some(without),
+            light_terms: light_sum,
+        });
         for i in 1..n_lights as u32 {
             let mut map = HashMap::new();
             for h in m.reachable(&[light_sum]) {
@@ -157,7 +205,13 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
                     if template.contains(&vector) {
                         let copy = *copies.entry((vector, i)).or_insert_with(|| {
                             let v = &m.vectors[vector as usize];
-                            let c = Vector { name: format!("{}#{i}", v.name), kind: v.kind, index: Some(i), space: v.space, span: v.span };
+                            let c = Vector {
+                                name: format!("{}#{i}", v.name),
+                                kind: v.kind,
+                                index: Some(i),
+                                space: v.space,
+                                span: v.span,
+                            };
                             m.vectors.push(c);
                             (m.vectors.len() - 1) as VectorId
                         });
@@ -173,7 +227,9 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
                 Ty::Rgba | Ty::Scalar => Some(term),
                 _ => None,
             };
-            let Some(value) = term.and_then(|t| m.intern(Expr::Combine { mode: CombineMode::Add, lhs: own, rhs: t }, st.span).ok()) else {
+            let Some(value) = term.and_then(|t| {
+                m.intern(Expr::Combine { mode: CombineMode::Add, lhs: own, rhs: t }, st.span).ok()
+            }) else {
                 out.notes.push(note(format!("light {i}'s term does not add to a colour: light 0 only")));
                 continue;
             };
@@ -192,14 +248,27 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
         index_of[k] = m.statements.len();
         m.statements.push(st);
         for (st, i, term) in by_source.remove(&k).unwrap_or_default() {
-            added.push(LightStatement { statement: m.statements.len(), source_statement: k, light: i, without_light: None, light_terms: term });
+            added.push(LightStatement {
+                statement: m.statements.len(),
+                source_statement: k,
+                light: i,
+                without_light: None,
+                light_terms: term,
+            });
             m.statements.push(st);
         }
     }
     for s in &mut out.statements {
         s.statement = index_of[s.source_statement];
     }
-    out.source = (0..m.statements.len()).map(|i| added.iter().find(|a| a.statement == i).map_or_else(|| index_of.iter().position(|&x| x == i).unwrap_or(i), |a| a.source_statement)).collect();
+    out.source = (0..m.statements.len())
+        .map(|i| {
+            added
+                .iter()
+                .find(|a| a.statement == i)
+                .map_or_else(|| index_of.iter().position(|&x| x == i).unwrap_or(i), |a| a.source_statement)
+        })
+        .collect();
     out.statements.extend(added);
     out.statements.sort_by_key(|s| s.statement);
     out
@@ -207,7 +276,13 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
 
 /// The terms of a sum of products (module docs); `Err` when a light term
 /// sits under an operation that is not linear in it.
-fn decompose(m: &mut Module, dep: &HashSet<Handle<Expr>>, h: Handle<Expr>, neg: bool, out: &mut Vec<(Handle<Expr>, bool)>) -> Result<(), String> {
+fn decompose(
+    m: &mut Module,
+    dep: &HashSet<Handle<Expr>>,
+    h: Handle<Expr>,
+    neg: bool,
+    out: &mut Vec<(Handle<Expr>, bool)>,
+) -> Result<(), String> {
     if !dep.contains(&h) {
         out.push((h, neg));
         return Ok(());
@@ -217,12 +292,16 @@ fn decompose(m: &mut Module, dep: &HashSet<Handle<Expr>>, h: Handle<Expr>, neg: 
             decompose(m, dep, lhs, neg, out)?;
             decompose(m, dep, rhs, neg, out)
         }
-        Expr::Binary { op: BinaryOp::Sub, lhs, rhs } | Expr::Combine { mode: CombineMode::Subtract, lhs, rhs } => {
+        Expr::Binary { op: BinaryOp::Sub, lhs, rhs }
+        | Expr::Combine { mode: CombineMode::Subtract, lhs, rhs } => {
             decompose(m, dep, lhs, neg, out)?;
             decompose(m, dep, rhs, !neg, out)
         }
         Expr::Unary { op: UnaryOp::Neg, value } => decompose(m, dep, value, !neg, out),
-        ref e @ (Expr::Binary { op: BinaryOp::Mul, lhs, rhs } | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs }) if dep.contains(&lhs) != dep.contains(&rhs) => {
+        ref e @ (Expr::Binary { op: BinaryOp::Mul, lhs, rhs }
+        | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs })
+            if dep.contains(&lhs) != dep.contains(&rhs) =>
+        {
             let (factor, light) = if dep.contains(&lhs) { (rhs, lhs) } else { (lhs, rhs) };
             let mut inner = Vec::new();
             decompose(m, dep, light, false, &mut inner)?;
@@ -233,7 +312,11 @@ fn decompose(m: &mut Module, dep: &HashSet<Handle<Expr>>, h: Handle<Expr>, neg: 
             let combine = matches!(e, Expr::Combine { .. });
             for (t, n) in inner {
                 let p = if combine {
-                    m.intern(Expr::Combine { mode: CombineMode::Modulate, lhs: factor, rhs: t }, Span::DETACHED).ok()
+                    m.intern(
+                        Expr::Combine { mode: CombineMode::Modulate, lhs: factor, rhs: t },
+                        Span::DETACHED,
+                    )
+                    .ok()
                 } else {
                     Builder { module: m }.mul(factor, t)
                 };
@@ -241,7 +324,9 @@ fn decompose(m: &mut Module, dep: &HashSet<Handle<Expr>>, h: Handle<Expr>, neg: 
             }
             Ok(())
         }
-        Expr::Combine { mode, .. } if !matches!(mode, CombineMode::Modulate) => Err(format!("its light term is under ⊕[{}], which is not linear in it", mode.as_str())),
+        Expr::Combine { mode, .. } if !matches!(mode, CombineMode::Modulate) => {
+            Err(format!("its light term is under ⊕[{}], which is not linear in it", mode.as_str()))
+        }
         Expr::Select { .. } => Err("its light term is under a selection".into()),
         _ => {
             out.push((h, neg));
@@ -273,7 +358,13 @@ fn add_any(m: &mut Module, a: Handle<Expr>, b: Handle<Expr>) -> Option<Handle<Ex
     if let Some(h) = (Builder { module: m }).add(a, b) {
         return Some(h);
     }
-    let widen = |m: &mut Module, h: Handle<Expr>| if m.info(h).ty == Ty::Rgb { m.intern(Expr::Convert { value: h, to: Ty::Rgba }, Span::DETACHED).ok() } else { Some(h) };
+    let widen = |m: &mut Module, h: Handle<Expr>| {
+        if m.info(h).ty == Ty::Rgb {
+            m.intern(Expr::Convert { value: h, to: Ty::Rgba }, Span::DETACHED).ok()
+        } else {
+            Some(h)
+        }
+    };
     let (a, b) = (widen(m, a)?, widen(m, b)?);
     m.intern(Expr::Combine { mode: CombineMode::Add, lhs: a, rhs: b }, Span::DETACHED).ok()
 }

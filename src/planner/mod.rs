@@ -33,8 +33,11 @@ pub mod split;
 
 use std::collections::HashMap;
 
-pub use plan::{BlendMode, FragmentWork, Geometry, Pass, PassPlan, Removed, RenderTarget, TextureBinding, Value, VertexWork};
 pub use interface::PassInterface;
+pub use plan::{
+    BlendMode, FragmentWork, Geometry, Pass, PassPlan, Removed, RenderTarget, TextureBinding, Value,
+    VertexWork,
+};
 pub use split::{FitCheck, Overflow};
 
 use affine::Builder;
@@ -110,7 +113,12 @@ pub enum Search {
     Exhaustive,
 }
 
-pub fn plan_with(module: &Module, profile: &Profile, source: Option<&str>, search: Search) -> Result<Planned, Vec<Diagnostic>> {
+pub fn plan_with(
+    module: &Module,
+    profile: &Profile,
+    source: Option<&str>,
+    search: Search,
+) -> Result<Planned, Vec<Diagnostic>> {
     plan_inner(module, profile, source, search, None)
 }
 
@@ -118,7 +126,12 @@ pub fn plan_with(module: &Module, profile: &Profile, source: Option<&str>, searc
 /// uniforms are folded first, so terms they zero go with their textures
 /// and passes (`shadec compile --scene`). The bindings are listed in
 /// `removed` (kind `uniform`); values of the wrong size are errors.
-pub fn plan_for_scene(module: &Module, profile: &Profile, source: Option<&str>, constants: &std::collections::BTreeMap<String, Vec<f32>>) -> Result<Planned, Vec<Diagnostic>> {
+pub fn plan_for_scene(
+    module: &Module,
+    profile: &Profile,
+    source: Option<&str>,
+    constants: &std::collections::BTreeMap<String, Vec<f32>>,
+) -> Result<Planned, Vec<Diagnostic>> {
     plan_inner(module, profile, source, Search::Planner, Some(constants))
 }
 
@@ -158,7 +171,12 @@ pub const DEFAULT_CULL_THRESHOLD: f64 = 0.5 / 255.0;
 /// cannot reach an object culled for it ([`relevance`]). With
 /// `fold_uniforms: false, cull_threshold: None` this is the unspecialized
 /// plan of the program on the scene (the reference the tests compare with).
-pub fn plan_specialized(module: &Module, profile: &Profile, source: Option<&str>, spec: &SceneSpecialization) -> Result<Planned, Vec<Diagnostic>> {
+pub fn plan_specialized(
+    module: &Module,
+    profile: &Profile,
+    source: Option<&str>,
+    spec: &SceneSpecialization,
+) -> Result<Planned, Vec<Diagnostic>> {
     let constants = spec.fold_uniforms.then_some(&spec.scene.constants);
     plan_inner_with(module, profile, source, Search::Planner, constants, Some(spec))
 }
@@ -180,7 +198,8 @@ fn plan_inner_with(
     scene: Option<&std::collections::BTreeMap<String, Vec<f32>>>,
     spec: Option<&SceneSpecialization>,
 ) -> Result<Planned, Vec<Diagnostic>> {
-    let errors: Vec<Diagnostic> = crate::profile::fit(module, profile).into_iter().filter(|d| d.is_error()).collect();
+    let errors: Vec<Diagnostic> =
+        crate::profile::fit(module, profile).into_iter().filter(|d| d.is_error()).collect();
     if !errors.is_empty() {
         return Err(errors);
     }
@@ -196,7 +215,11 @@ fn plan_inner_with(
         }
     };
     let mut removed = Vec::new();
-    let mut per_light = PerLight { light: vec![None; m.statements.len()], objects: vec![None; m.statements.len()], source: (0..m.statements.len()).collect() };
+    let mut per_light = PerLight {
+        light: vec![None; m.statements.len()],
+        objects: vec![None; m.statements.len()],
+        source: (0..m.statements.len()).collect(),
+    };
     let mut culled_statements: Vec<usize> = Vec::new();
     let mut names: Vec<String> = (1..=m.statements.len()).map(|i| i.to_string()).collect();
     if let Some(spec) = spec {
@@ -210,7 +233,9 @@ fn plan_inner_with(
         }
         names = (0..n)
             .map(|i| match per_light.light[i] {
-                Some(l) if expansion.light_of(i).is_some() && spec.scene.lights.len() > 1 => format!("{} (light {l})", per_light.source[i] + 1),
+                Some(l) if expansion.light_of(i).is_some() && spec.scene.lights.len() > 1 => {
+                    format!("{} (light {l})", per_light.source[i] + 1)
+                }
                 _ => (per_light.source[i] + 1).to_string(),
             })
             .collect();
@@ -231,8 +256,13 @@ fn plan_inner_with(
                 .map(|what| {
                     let name = what.split('`').nth(1).unwrap_or_default().to_string();
                     let span = m.uniforms.iter().find(|u| u.name == name).map_or(Span::DETACHED, |u| u.span);
-                    Diagnostic::error("scene-value", format!("the scene's value does not fit: {what}"), span, "declared here")
-                        .with_help("give one number, or one per component, in the scene's `constants`")
+                    Diagnostic::error(
+                        "scene-value",
+                        format!("the scene's value does not fit: {what}"),
+                        span,
+                        "declared here",
+                    )
+                    .with_help("give one number, or one per component, in the scene's `constants`")
                 })
                 .collect());
         }
@@ -259,10 +289,27 @@ fn plan_inner_with(
     let mut diags = Vec::new();
     let mut chosen: Vec<Chosen> = Vec::new();
     let live: Vec<usize> = (0..m.statements.len())
-        .filter(|&i| !matches!(m.statements[i].table, Table::TexCoords(_)) && !specialize::is_noop(&m, &m.statements[i]) && !culled_statements.contains(&i))
+        .filter(|&i| {
+            !matches!(m.statements[i].table, Table::TexCoords(_))
+                && !specialize::is_noop(&m, &m.statements[i])
+                && !culled_statements.contains(&i)
+        })
         .collect();
-    for &i in (0..m.statements.len()).filter(|i| !live.contains(i) && !culled_statements.contains(i) && !matches!(m.statements[*i].table, Table::TexCoords(_))).collect::<Vec<_>>().iter() {
-        removed.push(Removed { kind: "pass".into(), what: format!("statement {}", names[i]), why: "after specialization it leaves its target unchanged".into(), at: at(m.statements[i].span) });
+    for &i in (0..m.statements.len())
+        .filter(|i| {
+            !live.contains(i)
+                && !culled_statements.contains(i)
+                && !matches!(m.statements[*i].table, Table::TexCoords(_))
+        })
+        .collect::<Vec<_>>()
+        .iter()
+    {
+        removed.push(Removed {
+            kind: "pass".into(),
+            what: format!("statement {}", names[i]),
+            why: "after specialization it leaves its target unchanged".into(),
+            at: at(m.statements[i].span),
+        });
     }
     let mut k = 0;
     while k < live.len() {
@@ -278,7 +325,8 @@ fn plan_inner_with(
             run.push(live[k + run.len()]);
         }
         let baked = m.is_baked(&m.statements[run[0]]);
-        let (fit, cache) = if baked { (&compiler_fit, &mut compiler_cache) } else { (&target_fit, &mut cache) };
+        let (fit, cache) =
+            if baked { (&compiler_fit, &mut compiler_cache) } else { (&target_fit, &mut cache) };
         // best[j]: the cheapest plan of run[..j].
         let mut best: Vec<Option<(split::Cost, Vec<Chosen>)>> = vec![None; run.len() + 1];
         best[0] = Some(((0, 0), vec![]));
@@ -302,7 +350,9 @@ fn plan_inner_with(
                 if stmts.len() > 1 {
                     if let Err(o) = fit.fits(&m, fused) {
                         if stmts.len() == 2 {
-                            not_fused.entry(stmts[1]).or_insert(format!("fused with statement {} it {o}", names[stmts[0]]));
+                            not_fused
+                                .entry(stmts[1])
+                                .or_insert(format!("fused with statement {} it {o}", names[stmts[0]]));
                         }
                         continue;
                     }
@@ -313,7 +363,10 @@ fn plan_inner_with(
                         if stmts.len() == 1 {
                             first_error.get_or_insert(d);
                         } else if stmts.len() == 2 {
-                            not_fused.entry(stmts[1]).or_insert(format!("fused with statement {}, {}", names[stmts[0]], d.message));
+                            not_fused.entry(stmts[1]).or_insert(format!(
+                                "fused with statement {}, {}",
+                                names[stmts[0]], d.message
+                            ));
                         }
                         continue;
                     }
@@ -324,7 +377,9 @@ fn plan_inner_with(
                         if stmts.len() == 1 {
                             first_error.get_or_insert(cannot_split(&m, &st, profile, &o));
                         } else if stmts.len() == 2 {
-                            not_fused.entry(stmts[1]).or_insert(format!("fused with statement {} it {o}", names[stmts[0]]));
+                            not_fused
+                                .entry(stmts[1])
+                                .or_insert(format!("fused with statement {} it {o}", names[stmts[0]]));
                         }
                         continue;
                     }
@@ -341,7 +396,10 @@ fn plan_inner_with(
                 }
                 let total = (base_cost.0 + c.0, base_cost.1 + c.1);
                 // On a tie, keep statements as written (more, smaller groups).
-                if best[j].as_ref().is_none_or(|(b, v)| total < *b || (total == *b && base.len() + 1 > v.len())) {
+                if best[j]
+                    .as_ref()
+                    .is_none_or(|(b, v)| total < *b || (total == *b && base.len() + 1 > v.len()))
+                {
                     let mut v = base;
                     v.push((stmts, form, pieces, String::new()));
                     best[j] = Some((total, v));
@@ -368,8 +426,13 @@ fn plan_inner_with(
             })),
             None => diags.push(first_error.unwrap_or_else(|| {
                 let st = &m.statements[run[0]];
-                Diagnostic::error("cannot-plan", format!("cannot plan this statement for {}", profile.name), st.span, "here")
-                    .with_help("simplify the statement or target a profile with more resources")
+                Diagnostic::error(
+                    "cannot-plan",
+                    format!("cannot plan this statement for {}", profile.name),
+                    st.span,
+                    "here",
+                )
+                .with_help("simplify the statement or target a profile with more resources")
             })),
         }
         k += run.len();
@@ -415,7 +478,9 @@ fn cannot_split(m: &Module, st: &Statement, profile: &Profile, o: &Overflow) -> 
 /// The framebuffer read of `st`'s own target at its own position.
 fn self_read(m: &Module, st: &Statement, channel: FbChannel) -> Option<Handle<Expr>> {
     match st.table {
-        Table::Framebuffer { id, .. } => m.exprs.find(&Expr::FramebufferRead { framebuffer: id, channel, position: st.index }),
+        Table::Framebuffer { id, .. } => {
+            m.exprs.find(&Expr::FramebufferRead { framebuffer: id, channel, position: st.index })
+        }
         _ => None,
     }
 }
@@ -453,13 +518,19 @@ fn fuse(m: &mut Module, stmts: &[usize]) -> Option<Handle<Expr>> {
 /// An rgb value as the framebuffer holds it: alpha 1.
 fn widen_rgba(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
     match m.info(h).ty {
-        ir::Ty::Rgb | ir::Ty::Vec3 => Builder { module: m }.node(Expr::Convert { value: h, to: ir::Ty::Rgba }),
+        ir::Ty::Rgb | ir::Ty::Vec3 => {
+            Builder { module: m }.node(Expr::Convert { value: h, to: ir::Ty::Rgba })
+        }
         _ => Some(h),
     }
 }
 
 /// `h` with the nodes of `map` replaced, rebuilt bottom-up.
-pub fn substitute(m: &mut Module, h: Handle<Expr>, map: &HashMap<Handle<Expr>, Handle<Expr>>) -> Option<Handle<Expr>> {
+pub fn substitute(
+    m: &mut Module,
+    h: Handle<Expr>,
+    map: &HashMap<Handle<Expr>, Handle<Expr>>,
+) -> Option<Handle<Expr>> {
     let mut done: HashMap<Handle<Expr>, Handle<Expr>> = map.clone();
     for n in m.reachable(&[h]) {
         if done.contains_key(&n) {
@@ -487,7 +558,16 @@ pub fn substitute(m: &mut Module, h: Handle<Expr>, map: &HashMap<Handle<Expr>, H
 /// (`crate::meaning`) runs statements in this form; `classify` goes on to
 /// read a blend.
 pub fn whole_form(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<Form, Diagnostic> {
-    let mut form = Form { blend: BlendMode::Replace, value, condition: None, stencil: None, depth: None, channels: "rgba", then_add: None, drawn_at: None };
+    let mut form = Form {
+        blend: BlendMode::Replace,
+        value,
+        condition: None,
+        stencil: None,
+        depth: None,
+        channels: "rgba",
+        then_add: None,
+        drawn_at: None,
+    };
     match st.table {
         Table::Texture(_) => return Ok(form),
         Table::TexCoords(_) => unreachable!("texgen statements are vertex work"),
@@ -503,13 +583,20 @@ pub fn whole_form(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result
     if let Expr::Convert { value: inner, to } = m.exprs[value].clone() {
         if let Expr::Select { cond, accept, reject: None } = m.exprs[inner].clone() {
             if let Some(widened) = (Builder { module: m }).node(Expr::Convert { value: accept, to }) {
-                form.value = m.intern(Expr::Select { cond, accept: widened, reject: None }, m.span(inner)).unwrap_or(value);
+                form.value = m
+                    .intern(Expr::Select { cond, accept: widened, reject: None }, m.span(inner))
+                    .unwrap_or(value);
             }
         }
     }
     if let Expr::Select { cond, accept, reject: None } = m.exprs[form.value].clone() {
         if Some(cond) == self_read(m, st, FbChannel::Stencil) {
-            form.stencil = Some(StencilState { enabled: true, func: crate::renderer::CompareFunc::NotEqual, reference: 0, ..StencilState::DISABLED });
+            form.stencil = Some(StencilState {
+                enabled: true,
+                func: crate::renderer::CompareFunc::NotEqual,
+                reference: 0,
+                ..StencilState::DISABLED
+            });
         } else {
             form.condition = Some(cond);
         }
@@ -532,7 +619,8 @@ pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<F
     let unsupported = |what: &str| unsupported_blend(st, what);
     let r = self_read(m, st, FbChannel::Color);
     let ra = self_read(m, st, FbChannel::Alpha);
-    let uses = |m: &Module, h: Handle<Expr>, x: Option<Handle<Expr>>| x.is_some_and(|x| split::depends_on(m, h, x));
+    let uses =
+        |m: &Module, h: Handle<Expr>, x: Option<Handle<Expr>>| x.is_some_and(|x| split::depends_on(m, h, x));
     let v = form.value;
     if !uses(m, v, r) && !uses(m, v, ra) {
         return Ok(form);
@@ -549,7 +637,8 @@ pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<F
                 return Ok(form);
             }
         }
-        let (coef, offset) = affine::affine(&mut Builder { module: m }, v, r).ok_or_else(|| unsupported("the framebuffer's colour is used non-linearly"))?;
+        let (coef, offset) = affine::affine(&mut Builder { module: m }, v, r)
+            .ok_or_else(|| unsupported("the framebuffer's colour is used non-linearly"))?;
         if let Some(ra) = ra.filter(|ra| coef == *ra) {
             // Cα·C + (1 − Cα)·f
             let omr = Builder { module: m }.one_minus(ra);
@@ -578,7 +667,9 @@ pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<F
                 form.blend = BlendMode::DstAlphaAdd;
                 form.value = x;
             } else if uses(m, offset, ra) {
-                return Err(unsupported("the destination alpha appears other than as a factor of the added term"));
+                return Err(unsupported(
+                    "the destination alpha appears other than as a factor of the added term",
+                ));
             } else {
                 form.blend = BlendMode::Add;
                 form.value = offset;
@@ -614,7 +705,8 @@ fn composed_alpha_factor(m: &mut Module, h: Handle<Expr>, ra: Handle<Expr>) -> O
     let Expr::Compose { ty: ir::Ty::Rgba, ref components } = m.exprs[h] else { return None };
     let [c, a] = components[..] else { return None };
     let x = alpha_factor(m, c, ra)?;
-    let y = if a == ra { Builder { module: m }.constant(ir::Ty::Scalar, 1.0)? } else { alpha_factor(m, a, ra)? };
+    let y =
+        if a == ra { Builder { module: m }.constant(ir::Ty::Scalar, 1.0)? } else { alpha_factor(m, a, ra)? };
     Builder { module: m }.node(Expr::Compose { ty: ir::Ty::Rgba, components: vec![x, y] })
 }
 
@@ -626,7 +718,8 @@ fn widened_alpha_product(m: &Module, h: Handle<Expr>, ra: Handle<Expr>) -> bool 
 /// `h = ra · x` (either order): `x`.
 fn alpha_factor(m: &Module, h: Handle<Expr>, ra: Handle<Expr>) -> Option<Handle<Expr>> {
     match m.exprs[h] {
-        Expr::Binary { op: BinaryOp::Mul, lhs, rhs } | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs } => {
+        Expr::Binary { op: BinaryOp::Mul, lhs, rhs }
+        | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs } => {
             if lhs == ra && !split::depends_on(m, rhs, ra) {
                 Some(rhs)
             } else if rhs == ra && !split::depends_on(m, lhs, ra) {
@@ -645,7 +738,13 @@ fn alpha_factor(m: &Module, h: Handle<Expr>, ra: Handle<Expr>) -> Option<Handle<
 fn stencil_write(m: &Module, st: &Statement, value: Handle<Expr>) -> Option<Form> {
     let Expr::Binary { op: BinaryOp::Or, lhs, rhs } = m.exprs[value] else { return None };
     let own = self_read(m, st, FbChannel::Stencil)?;
-    let cmp = if lhs == own { rhs } else if rhs == own { lhs } else { return None };
+    let cmp = if lhs == own {
+        rhs
+    } else if rhs == own {
+        lhs
+    } else {
+        return None;
+    };
     let Expr::Binary { op, lhs: a, rhs: b } = m.exprs[cmp] else { return None };
     let stored_is_b = matches!(m.exprs[b], Expr::FramebufferRead { channel: FbChannel::Depth, .. });
     // The fragment's own depth `z δπx′`: the shadow volume x′ is what this
@@ -663,7 +762,13 @@ fn stencil_write(m: &Module, st: &Statement, value: Handle<Expr>) -> Option<Form
         blend: BlendMode::Replace,
         value,
         condition: None,
-        stencil: Some(StencilState { enabled: true, func: crate::renderer::CompareFunc::Always, reference: 1, pass: StencilOp::Replace, ..StencilState::DISABLED }),
+        stencil: Some(StencilState {
+            enabled: true,
+            func: crate::renderer::CompareFunc::Always,
+            reference: 1,
+            pass: StencilOp::Replace,
+            ..StencilState::DISABLED
+        }),
         depth: Some(DepthState { func, write: false }),
         channels: "stencil",
         then_add: None,
@@ -672,13 +777,30 @@ fn stencil_write(m: &Module, st: &Statement, value: Handle<Expr>) -> Option<Form
 }
 
 /// The pieces of one (fused) statement.
-fn plan_form(m: &mut Module, fit: &dyn FitCheck, cache: &mut SplitCache, st: &Statement, form: &Form, float_temps: bool, search: Search) -> Result<Vec<Piece>, Overflow> {
+fn plan_form(
+    m: &mut Module,
+    fit: &dyn FitCheck,
+    cache: &mut SplitCache,
+    st: &Statement,
+    form: &Form,
+    float_temps: bool,
+    search: Search,
+) -> Result<Vec<Piece>, Overflow> {
     if form.channels == "stencil" {
         // The depth test and the stencil operation of the pass state do the
         // comparison; the fragment computes nothing and reads no texture
         // (the stored depth `z C δπx′` is the depth buffer, not a unit).
-        let one = m.intern(Expr::Constant(crate::ir::Constant::scalar(1.0)), m.span(form.value)).map_err(|_| Overflow { resource: "a constant stencil-pass output".into(), need: 1, have: 0, at: None })?;
-        return Ok(vec![Piece { blend: BlendMode::Replace, value: one, dest: Dest::Main, alpha: true, why: String::new() }]);
+        let one =
+            m.intern(Expr::Constant(crate::ir::Constant::scalar(1.0)), m.span(form.value)).map_err(|_| {
+                Overflow { resource: "a constant stencil-pass output".into(), need: 1, have: 0, at: None }
+            })?;
+        return Ok(vec![Piece {
+            blend: BlendMode::Replace,
+            value: one,
+            dest: Dest::Main,
+            alpha: true,
+            why: String::new(),
+        }]);
     }
     let overflow = fit.fits(m, form.value).err();
     let mut splitter = Splitter::new(m, fit, cache, st.index, float_temps);
@@ -687,13 +809,30 @@ fn plan_form(m: &mut Module, fit: &dyn FitCheck, cache: &mut SplitCache, st: &St
     }
     let mut pieces: Vec<Piece> = match splitter.plan(form.blend, form.value) {
         Some(p) => p.iter().cloned().collect(),
-        None => return Err(overflow.unwrap_or(Overflow { resource: "has no split into passes of this target".into(), need: 0, have: 0, at: None })),
+        None => {
+            return Err(overflow.unwrap_or(Overflow {
+                resource: "has no split into passes of this target".into(),
+                need: 0,
+                have: 0,
+                at: None,
+            }))
+        }
     };
     if let Some(s) = form.then_add {
         let o = fit.fits(splitter.module, s).err();
         match splitter.plan(BlendMode::Add, s) {
-            Some(p) => pieces.extend(p.iter().map(|q| Piece { why: "C ← C·m + s: the added term, after the modulation".into(), ..q.clone() })),
-            None => return Err(o.unwrap_or(Overflow { resource: "has no split into passes of this target".into(), need: 0, have: 0, at: None })),
+            Some(p) => pieces.extend(p.iter().map(|q| Piece {
+                why: "C ← C·m + s: the added term, after the modulation".into(),
+                ..q.clone()
+            })),
+            None => {
+                return Err(o.unwrap_or(Overflow {
+                    resource: "has no split into passes of this target".into(),
+                    need: 0,
+                    have: 0,
+                    at: None,
+                }))
+            }
         }
     }
     Ok(pieces)
@@ -720,13 +859,19 @@ fn assemble(
         for (pi, piece) in pieces.iter().enumerate() {
             let target = match (piece.dest, &st.table) {
                 (Dest::Temp(id), _) => RenderTarget::Temporary { name: format!("temp{id}") },
-                (Dest::Main, Table::Framebuffer { id, .. }) => RenderTarget::Framebuffer { name: m.framebuffers[*id as usize].name.clone(), channels: form.channels.to_string() },
-                (Dest::Main, Table::Texture(id)) => RenderTarget::Texture { name: m.textures[*id as usize].name.clone() },
+                (Dest::Main, Table::Framebuffer { id, .. }) => RenderTarget::Framebuffer {
+                    name: m.framebuffers[*id as usize].name.clone(),
+                    channels: form.channels.to_string(),
+                },
+                (Dest::Main, Table::Texture(id)) => {
+                    RenderTarget::Texture { name: m.textures[*id as usize].name.clone() }
+                }
                 (Dest::Main, Table::TexCoords(_)) => unreachable!(),
             };
             // A texel statement indexed through a vertex (`T δu x`, seeds/001
             // (15)) rasterizes the mesh in texture space.
-            let in_texture_space = st.freq == Frequency::Texel && m.reachable(&[st.index]).iter().any(|h| m.info(*h).freq == Frequency::Vertex);
+            let in_texture_space = st.freq == Frequency::Texel
+                && m.reachable(&[st.index]).iter().any(|h| m.info(*h).freq == Frequency::Vertex);
             let mesh = st.freq == Frequency::Fragment || in_texture_space;
             // seeds/001 (10), `C δxs ← (C δxs) ⊕ (δ p s x …)`: a static
             // viewpoint — the pass reuses the vertices the last mesh pass
@@ -749,7 +894,12 @@ fn assemble(
                 .iter()
                 .map(|&h| {
                     let Expr::Lookup { texture, coords } = m.exprs[h] else { unreachable!() };
-                    TextureBinding { unit: 0, texture: m.textures[texture as usize].name.clone(), lookup: h.index() as u32, coords: coords.index() as u32 }
+                    TextureBinding {
+                        unit: 0,
+                        texture: m.textures[texture as usize].name.clone(),
+                        lookup: h.index() as u32,
+                        coords: coords.index() as u32,
+                    }
                 })
                 .collect();
             let own = |h: Handle<Expr>| matches!(m.exprs[h], Expr::FramebufferRead { framebuffer, position, .. } if matches!(st.table, Table::Framebuffer { id, .. } if id == framebuffer) && position == st.index);
@@ -758,7 +908,12 @@ fn assemble(
                     continue;
                 }
                 let Expr::FramebufferRead { framebuffer, position, .. } = m.exprs[h] else { unreachable!() };
-                textures.push(TextureBinding { unit: 0, texture: m.framebuffers[framebuffer as usize].name.clone(), lookup: h.index() as u32, coords: position.index() as u32 });
+                textures.push(TextureBinding {
+                    unit: 0,
+                    texture: m.framebuffers[framebuffer as usize].name.clone(),
+                    lookup: h.index() as u32,
+                    coords: position.index() as u32,
+                });
             }
             for (i, t) in textures.iter_mut().enumerate() {
                 t.unit = i as u32;
@@ -772,7 +927,20 @@ fn assemble(
                 })
                 .collect();
             gen.dedup();
-            let operations = reached.iter().filter(|h| m.info(**h).freq.is_sample() && matches!(m.exprs[**h], Expr::Binary { .. } | Expr::Unary { .. } | Expr::Math { .. } | Expr::Combine { .. } | Expr::Select { .. })).count();
+            let operations = reached
+                .iter()
+                .filter(|h| {
+                    m.info(**h).freq.is_sample()
+                        && matches!(
+                            m.exprs[**h],
+                            Expr::Binary { .. }
+                                | Expr::Unary { .. }
+                                | Expr::Math { .. }
+                                | Expr::Combine { .. }
+                                | Expr::Select { .. }
+                        )
+                })
+                .count();
             let key = reused.unwrap_or((st.table.clone(), st.index));
             // A temporary has a depth buffer of its own, fresh when its
             // first pass draws: that pass tests `Less` and writes, as the
@@ -804,7 +972,11 @@ fn assemble(
             };
             let state = RenderState {
                 // In texture space the winding is the parameterization's, not a facing.
-                cull: if matches!(geometry, Geometry::Mesh { .. }) && !in_texture_space { CullMode::Back } else { CullMode::None },
+                cull: if matches!(geometry, Geometry::Mesh { .. }) && !in_texture_space {
+                    CullMode::Back
+                } else {
+                    CullMode::None
+                },
                 depth,
                 stencil: form.stencil.unwrap_or(StencilState::DISABLED),
                 blend: BlendState { ..piece.blend.render_state().with_write_mask(mask) },
@@ -814,13 +986,17 @@ fn assemble(
             } else {
                 let label = match stmts.as_slice() {
                     [s] => format!("statement {}", names[*s]),
-                    many => format!("statements {} (fused)", many.iter().map(|s| names[*s].clone()).collect::<Vec<_>>().join(", ")),
+                    many => format!(
+                        "statements {} (fused)",
+                        many.iter().map(|s| names[*s].clone()).collect::<Vec<_>>().join(", ")
+                    ),
                 };
                 let why = if piece.why.is_empty() { "the part rendered first" } else { piece.why.as_str() };
                 format!("{label} split into {n} passes on {} (pass {} of {n}): {why}", profile.name, pi + 1)
             };
             // A `bake` table is the compiler's: no combiner setup to judge.
-            let combiners = if m.is_baked(st) { None } else { combiner_verdict(m, profile, piece.value, &textures, &at) };
+            let combiners =
+                if m.is_baked(st) { None } else { combiner_verdict(m, profile, piece.value, &textures, &at) };
             roots.push(piece.value);
             roots.push(st.index);
             roots.push(drawn_at);
@@ -879,7 +1055,13 @@ fn assemble(
 /// (`CodegenError::span`), or at the pass's value for an error of the
 /// whole pass (too many stages); `at` is the plan's `line:col` (`-` with no
 /// source text).
-fn combiner_verdict(m: &Module, profile: &Profile, value: Handle<Expr>, textures: &[TextureBinding], at: &dyn Fn(Span) -> String) -> Option<String> {
+fn combiner_verdict(
+    m: &Module,
+    profile: &Profile,
+    value: Handle<Expr>,
+    textures: &[TextureBinding],
+    at: &dyn Fn(Span) -> String,
+) -> Option<String> {
     let limits = profile.combiner_limits()?;
     // Unit i holds textures[i]: a lookup, or a framebuffer read as a texture.
     let units: Vec<Handle<Expr>> = textures.iter().map(|t| Handle::new(t.lookup as usize)).collect();

@@ -156,7 +156,10 @@ impl BlendMode {
             BlendMode::DstAlphaAdd => B::DEST_ALPHA_ADD,
             BlendMode::DstAlphaModulate => B::DEST_ALPHA_MODULATE,
             BlendMode::AlphaBlend => B::ALPHA_BLEND,
-            BlendMode::DstAlphaMix => B::factors(crate::renderer::BlendFactor::OneMinusDstAlpha, crate::renderer::BlendFactor::DstAlpha),
+            BlendMode::DstAlphaMix => B::factors(
+                crate::renderer::BlendFactor::OneMinusDstAlpha,
+                crate::renderer::BlendFactor::DstAlpha,
+            ),
         }
     }
 
@@ -199,7 +202,8 @@ pub struct Removed {
 
 impl PassPlan {
     pub fn to_ron(&self) -> String {
-        ron::ser::to_string_pretty(self, ron::ser::PrettyConfig::default().struct_names(true)).expect("a pass plan serializes")
+        ron::ser::to_string_pretty(self, ron::ser::PrettyConfig::default().struct_names(true))
+            .expect("a pass plan serializes")
     }
 
     pub fn to_json(&self) -> String {
@@ -221,7 +225,12 @@ impl PassPlan {
 
     /// One line per pass: what a person reads first.
     pub fn summary(&self) -> String {
-        let mut s = format!("{} pass{} on {}\n", self.passes.len(), if self.passes.len() == 1 { "" } else { "es" }, self.target);
+        let mut s = format!(
+            "{} pass{} on {}\n",
+            self.passes.len(),
+            if self.passes.len() == 1 { "" } else { "es" },
+            self.target
+        );
         for (i, p) in self.passes.iter().enumerate() {
             let target = match &p.target {
                 RenderTarget::Framebuffer { name, channels } => format!("{name}.{channels}"),

@@ -152,7 +152,12 @@ pub struct Bounder<'a, 's> {
 }
 
 impl<'a, 's> Bounder<'a, 's> {
-    pub fn new(module: &'a Module, object: &'a BoundObject<'s>, uniforms: &'a [Option<[f64; 4]>], decls: &'a [TextureDecl]) -> Bounder<'a, 's> {
+    pub fn new(
+        module: &'a Module,
+        object: &'a BoundObject<'s>,
+        uniforms: &'a [Option<[f64; 4]>],
+        decls: &'a [TextureDecl],
+    ) -> Bounder<'a, 's> {
         Bounder { module, object, uniforms, decls, findings: Findings::default(), memo: BTreeMap::new() }
     }
 
@@ -179,14 +184,20 @@ impl<'a, 's> Bounder<'a, 's> {
         match &m.exprs[h] {
             Expr::Constant(c) => Bound::point(ir::eval::value(c)),
             Expr::Uniform(id) => {
-                let v = self.uniforms.get(*id as usize).copied().flatten().or_else(|| m.uniforms[*id as usize].default.as_ref().map(ir::eval::value));
+                let v = self
+                    .uniforms
+                    .get(*id as usize)
+                    .copied()
+                    .flatten()
+                    .or_else(|| m.uniforms[*id as usize].default.as_ref().map(ir::eval::value));
                 v.map_or(Bound::ALL, Bound::point)
             }
             Expr::Interpolate { value, .. } => self.vertex_hull(*value),
             Expr::Lookup { texture, coords } => self.lookup(*texture, *coords, info.interval),
-            Expr::FramebufferRead { channel: FbChannel::Color | FbChannel::Alpha | FbChannel::Depth, .. } | Expr::Depth(_) => {
-                Bound::splat(info.interval.lo, info.interval.hi)
+            Expr::FramebufferRead {
+                channel: FbChannel::Color | FbChannel::Alpha | FbChannel::Depth, ..
             }
+            | Expr::Depth(_) => Bound::splat(info.interval.lo, info.interval.hi),
             Expr::Unary { op: UnaryOp::Neg, value } => self.get(*value).map(|lo, hi| (-hi, -lo)),
             Expr::Unary { op: UnaryOp::Not, .. } => Bound::splat(0.0, 1.0),
             Expr::Binary { op, lhs, rhs } => {
@@ -195,7 +206,13 @@ impl<'a, 's> Bounder<'a, 's> {
                     BinaryOp::Add => Bound::lanes(&a, &b, |a0, a1, b0, b1| (a0 + b0, a1 + b1)),
                     BinaryOp::Sub => Bound::lanes(&a, &b, |a0, a1, b0, b1| (a0 - b1, a1 - b0)),
                     BinaryOp::Mul => Bound::lanes(&a, &b, mul_iv),
-                    BinaryOp::Div => Bound::lanes(&a, &b, |a0, a1, b0, b1| if b0 > 0.0 || b1 < 0.0 { mul_iv(a0, a1, 1.0 / b1, 1.0 / b0) } else { (f64::NEG_INFINITY, f64::INFINITY) }),
+                    BinaryOp::Div => Bound::lanes(&a, &b, |a0, a1, b0, b1| {
+                        if b0 > 0.0 || b1 < 0.0 {
+                            mul_iv(a0, a1, 1.0 / b1, 1.0 / b0)
+                        } else {
+                            (f64::NEG_INFINITY, f64::INFINITY)
+                        }
+                    }),
                     BinaryOp::Dot => self.dot(&a, &b, m.info(*lhs).ty.width()),
                     BinaryOp::Pow => {
                         let r = Bound::lanes(&a, &b, |a0, a1, b0, b1| {
@@ -203,7 +220,10 @@ impl<'a, 's> Bounder<'a, 's> {
                                 return (f64::NEG_INFINITY, f64::INFINITY);
                             }
                             let c = [a0.powf(b0), a0.powf(b1), a1.powf(b0), a1.powf(b1)];
-                            (c.iter().copied().fold(f64::INFINITY, f64::min), c.iter().copied().fold(f64::NEG_INFINITY, f64::max))
+                            (
+                                c.iter().copied().fold(f64::INFINITY, f64::min),
+                                c.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                            )
                         });
                         if a.lo[0] >= 0.0 && a.hi[0] < 1.0 && b.lo[0] > 1.0 {
                             self.findings.highlight = Some((a.hi[0], b.lo[0]));
@@ -218,7 +238,9 @@ impl<'a, 's> Bounder<'a, 's> {
                 match mode {
                     CombineMode::Modulate => Bound::lanes(&t, &f, mul_iv),
                     CombineMode::Add => Bound::lanes(&t, &f, |a0, a1, b0, b1| (a0 + b0, a1 + b1)),
-                    CombineMode::AddSigned => Bound::lanes(&t, &f, |a0, a1, b0, b1| (a0 + b0 - 0.5, a1 + b1 - 0.5)),
+                    CombineMode::AddSigned => {
+                        Bound::lanes(&t, &f, |a0, a1, b0, b1| (a0 + b0 - 0.5, a1 + b1 - 0.5))
+                    }
                     CombineMode::Subtract => Bound::lanes(&t, &f, |a0, a1, b0, b1| (a0 - b1, a1 - b0)),
                     CombineMode::Blend => {
                         // rgb = Cf·(1 − Ct) (Cc = 0), alpha = Af·At: the hull of both.
@@ -226,7 +248,9 @@ impl<'a, 's> Bounder<'a, 's> {
                         let alpha = Bound::lanes(&t, &f, mul_iv);
                         Bound::lanes(&rgb, &alpha, |a0, a1, b0, b1| (a0.min(b0), a1.max(b1)))
                     }
-                    CombineMode::Decal | CombineMode::Interpolate | CombineMode::Replace if t.lo[3] >= 0.0 && t.hi[3] <= 1.0 => {
+                    CombineMode::Decal | CombineMode::Interpolate | CombineMode::Replace
+                        if t.lo[3] >= 0.0 && t.hi[3] <= 1.0 =>
+                    {
                         Bound::lanes(&t, &f, |a0, a1, b0, b1| (a0.min(b0), a1.max(b1)))
                     }
                     CombineMode::Dot3Rgb | CombineMode::Dot3Rgba => {
@@ -238,7 +262,12 @@ impl<'a, 's> Bounder<'a, 's> {
                             hi += 4.0 * u;
                         }
                         let all = Bound::lanes(&t, &f, mul_iv);
-                        Bound { lo: [lo, lo, lo, lo.min(all.lo[3])], hi: [hi, hi, hi, hi.max(all.hi[3])], cone: None }.clean()
+                        Bound {
+                            lo: [lo, lo, lo, lo.min(all.lo[3])],
+                            hi: [hi, hi, hi, hi.max(all.hi[3])],
+                            cone: None,
+                        }
+                        .clean()
                     }
                     _ => Bound::ALL,
                 }
@@ -278,7 +307,11 @@ impl<'a, 's> Bounder<'a, 's> {
                 if from == Ty::Scalar {
                     Bound::splat(v.lo[0], v.hi[0])
                 } else if from == Ty::Rgb && *to == Ty::Rgba {
-                    Bound { lo: [v.lo[0], v.lo[1], v.lo[2], 1.0], hi: [v.hi[0], v.hi[1], v.hi[2], 1.0], cone: None }
+                    Bound {
+                        lo: [v.lo[0], v.lo[1], v.lo[2], 1.0],
+                        hi: [v.hi[0], v.hi[1], v.hi[2], 1.0],
+                        cone: None,
+                    }
                 } else {
                     Bound { cone: None, ..v }
                 }
@@ -304,7 +337,8 @@ impl<'a, 's> Bounder<'a, 's> {
         let mut dirs = Vec::new();
         let intensity = m.reachable(&[value]).into_iter().any(|n| matches!(m.exprs[n], Expr::Vector { vector, .. } if m.vectors[vector as usize].kind == Some(VectorKind::Intensity)));
         for v in 0..self.object.n_vertices() {
-            let mut env = bind::VertexEnv { object: self.object, module: m, vertex: v, uniforms: self.uniforms };
+            let mut env =
+                bind::VertexEnv { object: self.object, module: m, vertex: v, uniforms: self.uniforms };
             let r = ev.eval(&mut env);
             let x = r.values[0];
             for i in 0..4 {
@@ -321,7 +355,8 @@ impl<'a, 's> Bounder<'a, 's> {
         let hull = Bound { lo, hi, cone: None }.clean();
         if intensity && matches!(m.exprs[value], Expr::Vector { .. }) {
             let peak = hull.magnitude(3);
-            self.findings.max_intensity = Some(self.findings.max_intensity.map_or(peak, |p: f64| p.max(peak)));
+            self.findings.max_intensity =
+                Some(self.findings.max_intensity.map_or(peak, |p: f64| p.max(peak)));
         }
         if unit {
             let cone = Cone::of_directions(dirs.iter().copied());
@@ -337,7 +372,9 @@ impl<'a, 's> Bounder<'a, 's> {
     fn lookup(&mut self, texture: u32, coords: Handle<Expr>, interval: ir::Interval) -> Bound {
         let m = self.module;
         let name = &m.textures[texture as usize].name;
-        if let Some(TextureSource::NormalizeCube { size, .. }) = self.decls.iter().find(|d| &d.name == name).map(|d| &d.source) {
+        if let Some(TextureSource::NormalizeCube { size, .. }) =
+            self.decls.iter().find(|d| &d.name == name).map(|d| &d.source)
+        {
             if let Some((cone, _, _)) = self.get(coords).cone {
                 // A filtered texel blends directions up to a texel's angle apart.
                 let slack = 2.5 / (*size).max(1) as f32 + 0.01;
@@ -392,7 +429,9 @@ impl<'a, 's> Bounder<'a, 's> {
             },
             Max => {
                 let r = Bound::lanes(&a, &b, |a0, a1, b0, b1| (a0.max(b0), a1.max(b1)));
-                if (a.hi[0] <= 0.0 && b.lo[0] >= 0.0 && b.hi[0] == 0.0) || (b.hi[0] <= 0.0 && a.lo[0] >= 0.0 && a.hi[0] == 0.0) {
+                if (a.hi[0] <= 0.0 && b.lo[0] >= 0.0 && b.hi[0] == 0.0)
+                    || (b.hi[0] <= 0.0 && a.lo[0] >= 0.0 && a.hi[0] == 0.0)
+                {
                     self.findings.faces_away = true;
                 }
                 r
@@ -404,12 +443,38 @@ impl<'a, 's> Bounder<'a, 's> {
                 Bound::lanes(&lo_clamped, &c, |a0, a1, c0, c1| (a0.min(c0), a1.min(c1)))
             }
             Saturate => a.map(|lo, hi| (lo.clamp(0.0, 1.0), hi.clamp(0.0, 1.0))),
-            Abs => a.map(|lo, hi| if lo >= 0.0 { (lo, hi) } else if hi <= 0.0 { (-hi, -lo) } else { (0.0, hi.max(-lo)) }),
+            Abs => a.map(|lo, hi| {
+                if lo >= 0.0 {
+                    (lo, hi)
+                } else if hi <= 0.0 {
+                    (-hi, -lo)
+                } else {
+                    (0.0, hi.max(-lo))
+                }
+            }),
             Sign => Bound::splat(-1.0, 1.0),
-            Sqrt => a.map(|lo, hi| if lo >= 0.0 { (lo.sqrt(), hi.sqrt()) } else { (f64::NEG_INFINITY, f64::INFINITY) }),
-            Rsqrt => a.map(|lo, hi| if lo > 0.0 { (1.0 / hi.sqrt(), 1.0 / lo.sqrt()) } else { (f64::NEG_INFINITY, f64::INFINITY) }),
+            Sqrt => {
+                a.map(
+                    |lo, hi| {
+                        if lo >= 0.0 {
+                            (lo.sqrt(), hi.sqrt())
+                        } else {
+                            (f64::NEG_INFINITY, f64::INFINITY)
+                        }
+                    },
+                )
+            }
+            Rsqrt => a.map(|lo, hi| {
+                if lo > 0.0 {
+                    (1.0 / hi.sqrt(), 1.0 / lo.sqrt())
+                } else {
+                    (f64::NEG_INFINITY, f64::INFINITY)
+                }
+            }),
             Exp => monotone(f64::exp),
-            Log => a.map(|lo, hi| if lo > 0.0 { (lo.ln(), hi.ln()) } else { (f64::NEG_INFINITY, f64::INFINITY) }),
+            Log => {
+                a.map(|lo, hi| if lo > 0.0 { (lo.ln(), hi.ln()) } else { (f64::NEG_INFINITY, f64::INFINITY) })
+            }
             Floor => monotone(f64::floor),
             Sin | Cos => Bound::splat(-1.0, 1.0),
             Fract | Step | Smoothstep => Bound::splat(0.0, 1.0),
@@ -418,7 +483,8 @@ impl<'a, 's> Bounder<'a, 's> {
                 // `expand` of a range-compressed cone-map lookup: the cone again.
                 if let Some((c, l0, l1)) = a.cone.filter(|(_, l0, _)| *l0 < 0.0) {
                     let unit = Bound::of_cone(c, -l0, -l1);
-                    r = Bound::lanes(&r, &unit, |a0, a1, b0, b1| (a0.max(b0), a1.min(b1))).with_cone(unit.cone);
+                    r = Bound::lanes(&r, &unit, |a0, a1, b0, b1| (a0.max(b0), a1.min(b1)))
+                        .with_cone(unit.cone);
                 }
                 r
             }
@@ -463,7 +529,12 @@ pub struct Culled {
 }
 
 /// Words for a culled light's criterion.
-pub fn criterion(findings: &Findings, light: &crate::scene::Light, reach: &crate::scene::relevance::Reach, threshold: f64) -> String {
+pub fn criterion(
+    findings: &Findings,
+    light: &crate::scene::Light,
+    reach: &crate::scene::relevance::Reach,
+    threshold: f64,
+) -> String {
     use crate::scene::relevance::Outside;
     match (findings.max_intensity, reach.outside, light) {
         (Some(_), Some(Outside::SpotCone { cutoff_deg }), _) => return format!("volume of influence: the object lies outside the spot's cone (cut-off {cutoff_deg}°)"),
@@ -526,7 +597,14 @@ fn mesh_word(d: &crate::scene::MeshDesc) -> String {
 /// (module docs) in the expanded module `m`; light 0's statement loses its
 /// light terms when no object needs them, light i's statement is dropped
 /// or drawn only for the objects that need it.
-pub fn cull(m: &mut Module, spec: &super::SceneSpecialization, exp: &super::lights::Expansion, threshold: f64, names: &[String], at: &dyn Fn(crate::span::Span) -> String) -> Culling {
+pub fn cull(
+    m: &mut Module,
+    spec: &super::SceneSpecialization,
+    exp: &super::lights::Expansion,
+    threshold: f64,
+    names: &[String],
+    at: &dyn Fn(crate::span::Span) -> String,
+) -> Culling {
     let mut out = Culling::default();
     if exp.statements.is_empty() || spec.assets.meshes.is_empty() {
         return out;
@@ -536,7 +614,12 @@ pub fn cull(m: &mut Module, spec: &super::SceneSpecialization, exp: &super::ligh
     let (w, h) = scene.resolution;
     let (center, radius) = crate::renderer::plan::scene_bounds(spec.assets);
     let light_clip = bind::light_view_projection(scene.lights.first(), center, radius);
-    let mut objects: Vec<BoundObject> = spec.assets.meshes.iter().map(|(mesh, model)| BoundObject::new(scene, mesh, *model, w as f32 / h.max(1) as f32, light_clip)).collect();
+    let mut objects: Vec<BoundObject> = spec
+        .assets
+        .meshes
+        .iter()
+        .map(|(mesh, model)| BoundObject::new(scene, mesh, *model, w as f32 / h.max(1) as f32, light_clip))
+        .collect();
     for o in &mut objects {
         // Texgen failures leave the mesh UVs: the bound is then only looser.
         let _ = o.run_texgen(m);
@@ -547,7 +630,9 @@ pub fn cull(m: &mut Module, spec: &super::SceneSpecialization, exp: &super::ligh
     let blocked = |m: &Module, stmt: usize| {
         let crate::ir::Table::Framebuffer { id, .. } = m.statements[stmt].table else { return true };
         (stmt + 1..m.statements.len()).filter(|j| !per_light.contains(j)).any(|j| {
-            m.reachable(&[m.statements[j].value]).into_iter().any(|n| matches!(m.exprs[n], Expr::FramebufferRead { framebuffer, .. } if framebuffer == id))
+            m.reachable(&[m.statements[j].value])
+                .into_iter()
+                .any(|n| matches!(m.exprs[n], Expr::FramebufferRead { framebuffer, .. } if framebuffer == id))
         })
     };
     let n_lights = scene.lights.len();
@@ -590,7 +675,8 @@ pub fn cull(m: &mut Module, spec: &super::SceneSpecialization, exp: &super::ligh
     let all_objects: Vec<usize> = (0..objects.len()).collect();
     let used_before = super::specialize::used_textures(m, &[]);
     for ls in &exp.statements {
-        let keep: Vec<usize> = all_objects.iter().copied().filter(|&o| !dropped[ls.light as usize][o]).collect();
+        let keep: Vec<usize> =
+            all_objects.iter().copied().filter(|&o| !dropped[ls.light as usize][o]).collect();
         if ls.light == 0 {
             if keep.is_empty() {
                 if let Some(wl) = ls.without_light {
@@ -613,7 +699,8 @@ pub fn cull(m: &mut Module, spec: &super::SceneSpecialization, exp: &super::ligh
         let Some(first) = exp.statements.iter().find(|s| s.light == light) else { continue };
         for o in 0..objects.len() {
             // Light 0's terms are in a statement drawn for every object: skipped only when no object needs them.
-            let effective = dropped[light as usize][o] && (light > 0 || all_objects.iter().all(|&x| dropped[0][x]));
+            let effective =
+                dropped[light as usize][o] && (light > 0 || all_objects.iter().all(|&x| dropped[0][x]));
             if !effective {
                 continue;
             }
@@ -626,8 +713,15 @@ pub fn cull(m: &mut Module, spec: &super::SceneSpecialization, exp: &super::ligh
             let object = &scene.objects[o];
             out.removed.push(super::Removed {
                 kind: "light".into(),
-                what: format!("light {light} ({}) for object {o} ({}, material `{}`)", light_word(l), mesh_word(&object.mesh), object.material),
-                why: format!("{criterion}; its terms add at most {bound:.2e} to a pixel (threshold {threshold:.2e})"),
+                what: format!(
+                    "light {light} ({}) for object {o} ({}, material `{}`)",
+                    light_word(l),
+                    mesh_word(&object.mesh),
+                    object.material
+                ),
+                why: format!(
+                    "{criterion}; its terms add at most {bound:.2e} to a pixel (threshold {threshold:.2e})"
+                ),
                 at: at(m.statements[first.statement].span),
             });
             out.culled.push(Culled { light, object: o, bound, criterion });
@@ -636,7 +730,12 @@ pub fn cull(m: &mut Module, spec: &super::SceneSpecialization, exp: &super::ligh
     let used_after = super::specialize::used_textures(m, &out.statements);
     for t in used_before.difference(&used_after) {
         let tex = &m.textures[*t as usize];
-        out.removed.push(super::Removed { kind: "texture".into(), what: tex.name.clone(), why: "only the culled lights' terms used it".into(), at: at(tex.span) });
+        out.removed.push(super::Removed {
+            kind: "texture".into(),
+            what: tex.name.clone(),
+            why: "only the culled lights' terms used it".into(),
+            at: at(tex.span),
+        });
     }
     out
 }

@@ -26,14 +26,20 @@ pub fn specialize(m: &mut Module, at: &dyn Fn(Span) -> String) -> Vec<Removed> {
     let used_after = used_textures(m, &[]);
     for t in used_before.difference(&used_after) {
         let tex = &m.textures[*t as usize];
-        removed.push(Removed { kind: "texture".into(), what: tex.name.clone(), why: "only removed terms used it".into(), at: at(tex.span) });
+        removed.push(Removed {
+            kind: "texture".into(),
+            what: tex.name.clone(),
+            why: "only removed terms used it".into(),
+            at: at(tex.span),
+        });
     }
     removed
 }
 
 /// Textures looked up by the statements other than those in `skip`.
 pub(crate) fn used_textures(m: &Module, skip: &[usize]) -> std::collections::BTreeSet<u32> {
-    let roots: Vec<Handle<Expr>> = m.statements.iter().enumerate().filter(|(i, _)| !skip.contains(i)).map(|(_, s)| s.value).collect();
+    let roots: Vec<Handle<Expr>> =
+        m.statements.iter().enumerate().filter(|(i, _)| !skip.contains(i)).map(|(_, s)| s.value).collect();
     m.reachable(&roots)
         .into_iter()
         .filter_map(|h| match m.exprs[h] {
@@ -43,7 +49,12 @@ pub(crate) fn used_textures(m: &Module, skip: &[usize]) -> std::collections::BTr
         .collect()
 }
 
-fn simplify(m: &mut Module, root: Handle<Expr>, removed: &mut Vec<Removed>, at: &dyn Fn(Span) -> String) -> Option<Handle<Expr>> {
+fn simplify(
+    m: &mut Module,
+    root: Handle<Expr>,
+    removed: &mut Vec<Removed>,
+    at: &dyn Fn(Span) -> String,
+) -> Option<Handle<Expr>> {
     let mut new: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::new();
     for h in m.reachable(&[root]) {
         let e = m.exprs[h].clone();
@@ -54,7 +65,10 @@ fn simplify(m: &mut Module, root: Handle<Expr>, removed: &mut Vec<Removed>, at: 
         let one = |m: &Module, x: Handle<Expr>| m.is_constant(x, 1.0);
         let same_ty = |m: &Module, x: Handle<Expr>| m.info(x).ty == ty;
         let result = match mapped {
-            Expr::Binary { op: BinaryOp::Mul, lhs, rhs } | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs } if zero(m, lhs) || zero(m, rhs) => {
+            Expr::Binary { op: BinaryOp::Mul, lhs, rhs }
+            | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs }
+                if zero(m, lhs) || zero(m, rhs) =>
+            {
                 let dropped = if zero(m, lhs) { rhs } else { lhs };
                 if !matches!(m.exprs[dropped], Expr::Constant(_)) {
                     removed.push(Removed {
@@ -66,11 +80,33 @@ fn simplify(m: &mut Module, root: Handle<Expr>, removed: &mut Vec<Removed>, at: 
                 }
                 Builder { module: m }.constant(ty, 0.0)
             }
-            Expr::Binary { op: BinaryOp::Add, lhs, rhs } | Expr::Combine { mode: CombineMode::Add, lhs, rhs } if zero(m, lhs) && same_ty(m, rhs) => Some(rhs),
-            Expr::Binary { op: BinaryOp::Add | BinaryOp::Sub, lhs, rhs } | Expr::Combine { mode: CombineMode::Add, lhs, rhs } if zero(m, rhs) && same_ty(m, lhs) => Some(lhs),
-            Expr::Binary { op: BinaryOp::Mul, lhs, rhs } | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs } if one(m, lhs) && same_ty(m, rhs) => Some(rhs),
-            Expr::Binary { op: BinaryOp::Mul, lhs, rhs } | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs } if one(m, rhs) && same_ty(m, lhs) => Some(lhs),
-            Expr::Select { cond, accept, reject: Some(reject) } if matches!(m.exprs[cond], Expr::Constant(_)) => {
+            Expr::Binary { op: BinaryOp::Add, lhs, rhs }
+            | Expr::Combine { mode: CombineMode::Add, lhs, rhs }
+                if zero(m, lhs) && same_ty(m, rhs) =>
+            {
+                Some(rhs)
+            }
+            Expr::Binary { op: BinaryOp::Add | BinaryOp::Sub, lhs, rhs }
+            | Expr::Combine { mode: CombineMode::Add, lhs, rhs }
+                if zero(m, rhs) && same_ty(m, lhs) =>
+            {
+                Some(lhs)
+            }
+            Expr::Binary { op: BinaryOp::Mul, lhs, rhs }
+            | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs }
+                if one(m, lhs) && same_ty(m, rhs) =>
+            {
+                Some(rhs)
+            }
+            Expr::Binary { op: BinaryOp::Mul, lhs, rhs }
+            | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs }
+                if one(m, rhs) && same_ty(m, lhs) =>
+            {
+                Some(lhs)
+            }
+            Expr::Select { cond, accept, reject: Some(reject) }
+                if matches!(m.exprs[cond], Expr::Constant(_)) =>
+            {
                 let take = if zero(m, cond) { reject } else { accept };
                 same_ty(m, take).then_some(take)
             }
@@ -88,10 +124,15 @@ pub fn is_noop(m: &Module, st: &Statement) -> bool {
     if own == Some(st.value) {
         return true;
     }
-    let own_color = m.exprs.find(&Expr::FramebufferRead { framebuffer: id, channel: FbChannel::Color, position: st.index });
+    let own_color = m.exprs.find(&Expr::FramebufferRead {
+        framebuffer: id,
+        channel: FbChannel::Color,
+        position: st.index,
+    });
     match m.exprs[st.value] {
         Expr::Binary { op: BinaryOp::Add, lhs, rhs } | Expr::Combine { mode: CombineMode::Add, lhs, rhs } => {
-            (Some(lhs) == own_color && m.is_constant(rhs, 0.0)) || (Some(rhs) == own_color && m.is_constant(lhs, 0.0))
+            (Some(lhs) == own_color && m.is_constant(rhs, 0.0))
+                || (Some(rhs) == own_color && m.is_constant(lhs, 0.0))
         }
         _ => false,
     }
@@ -104,7 +145,11 @@ pub fn is_noop(m: &Module, st: &Statement) -> bool {
 /// specular term, its textures and its pass. Returns what was bound, as
 /// `Removed` entries of kind `uniform`, and the uniforms whose value did not
 /// fit their type (left as uniforms).
-pub fn bind_uniforms(m: &mut Module, values: &std::collections::BTreeMap<String, Vec<f32>>, at: &dyn Fn(Span) -> String) -> (Vec<Removed>, Vec<String>) {
+pub fn bind_uniforms(
+    m: &mut Module,
+    values: &std::collections::BTreeMap<String, Vec<f32>>,
+    at: &dyn Fn(Span) -> String,
+) -> (Vec<Removed>, Vec<String>) {
     let mut map = HashMap::new();
     let mut bound = Vec::new();
     let mut mismatched = Vec::new();
@@ -115,12 +160,19 @@ pub fn bind_uniforms(m: &mut Module, values: &std::collections::BTreeMap<String,
             1 => vec![v[0] as f64; width],
             n if n == width => v.iter().map(|x| *x as f64).collect(),
             _ => {
-                mismatched.push(format!("`{}` is a {} but the scene gives {} value(s)", u.name, u.ty.name(), v.len()));
+                mismatched.push(format!(
+                    "`{}` is a {} but the scene gives {} value(s)",
+                    u.name,
+                    u.ty.name(),
+                    v.len()
+                ));
                 continue;
             }
         };
         let Some(node) = m.exprs.find(&Expr::Uniform(id as u32)) else { continue };
-        let Ok(c) = m.intern(Expr::Constant(crate::ir::Constant::new(u.ty, &comps)), u.span) else { continue };
+        let Ok(c) = m.intern(Expr::Constant(crate::ir::Constant::new(u.ty, &comps)), u.span) else {
+            continue;
+        };
         map.insert(node, c);
         bound.push(Removed {
             kind: "uniform".into(),
@@ -197,7 +249,11 @@ fn draws(plan: &super::PassPlan, objects: usize) -> usize {
 /// program planned for the scene's lights without specialization, then
 /// with the scene's uniforms folded and lights culled at
 /// [`super::DEFAULT_CULL_THRESHOLD`].
-pub fn removal_report(program_source: &str, profile: &crate::profile::Profile, scene: &crate::scene::Scene) -> Result<RemovalReport, Vec<crate::diag::Diagnostic>> {
+pub fn removal_report(
+    program_source: &str,
+    profile: &crate::profile::Profile,
+    scene: &crate::scene::Scene,
+) -> Result<RemovalReport, Vec<crate::diag::Diagnostic>> {
     let (before, after) = plan_pair(program_source, profile, scene, super::DEFAULT_CULL_THRESHOLD)?;
     let objects = scene.objects.len();
     Ok(RemovalReport {
@@ -230,12 +286,24 @@ pub fn plan_pair(
         return Err(diags.into_iter().filter(|d| d.is_error()).collect());
     }
     let assets = scene.build().map_err(|e| {
-        vec![crate::diag::Diagnostic::error("scene-error", format!("the scene cannot be built: {e}"), Span::DETACHED, "")
-            .with_help("fix the scene file (its meshes and textures must load)")]
+        vec![crate::diag::Diagnostic::error(
+            "scene-error",
+            format!("the scene cannot be built: {e}"),
+            Span::DETACHED,
+            "",
+        )
+        .with_help("fix the scene file (its meshes and textures must load)")]
     })?;
     let textures = crate::scene::bind::texture_decls(&program, &scene.constants);
-    let spec = |fold: bool, cull: Option<f64>| super::SceneSpecialization { scene, assets: &assets, textures: &textures, fold_uniforms: fold, cull_threshold: cull };
+    let spec = |fold: bool, cull: Option<f64>| super::SceneSpecialization {
+        scene,
+        assets: &assets,
+        textures: &textures,
+        fold_uniforms: fold,
+        cull_threshold: cull,
+    };
     let before = super::plan_specialized(&module, profile, Some(program_source), &spec(false, None))?;
-    let after = super::plan_specialized(&module, profile, Some(program_source), &spec(true, Some(threshold)))?;
+    let after =
+        super::plan_specialized(&module, profile, Some(program_source), &spec(true, Some(threshold)))?;
     Ok((before, after))
 }

@@ -129,7 +129,13 @@ pub struct Splitter<'a> {
 }
 
 impl<'a> Splitter<'a> {
-    pub fn new(module: &'a mut Module, fit: &'a dyn FitCheck, cache: &'a mut SplitCache, position: Handle<Expr>, float_temps: bool) -> Splitter<'a> {
+    pub fn new(
+        module: &'a mut Module,
+        fit: &'a dyn FitCheck,
+        cache: &'a mut SplitCache,
+        position: Handle<Expr>,
+        float_temps: bool,
+    ) -> Splitter<'a> {
         Splitter { module, fit, exhaustive: false, cache, position, float_temps }
     }
 
@@ -168,7 +174,15 @@ impl<'a> Splitter<'a> {
 
     fn search(&mut self, mode: BlendMode, e: Handle<Expr>, depth: usize) -> Option<Pieces> {
         let overflow = match self.fits(e) {
-            Ok(()) => return Some(Rc::new(vec![Piece { blend: mode, value: e, dest: Dest::Main, alpha: true, why: String::new() }])),
+            Ok(()) => {
+                return Some(Rc::new(vec![Piece {
+                    blend: mode,
+                    value: e,
+                    dest: Dest::Main,
+                    alpha: true,
+                    why: String::new(),
+                }]))
+            }
             Err(o) => o,
         };
         if depth >= MAX_DEPTH {
@@ -188,7 +202,8 @@ impl<'a> Splitter<'a> {
                     // would splat into alpha, so it is written as rgb (the
                     // differential suite found this: a later `α C` read 190/255 off).
                     if p.alpha && p.dest == Dest::Main && self.module.info(p.value).ty == Ty::Scalar {
-                        p.value = Builder { module: self.module }.node(Expr::Convert { value: p.value, to: Ty::Rgb })?;
+                        p.value = Builder { module: self.module }
+                            .node(Expr::Convert { value: p.value, to: Ty::Rgb })?;
                     }
                     pieces.push(p);
                 }
@@ -218,8 +233,12 @@ impl<'a> Splitter<'a> {
 
     fn chain_op(&self, h: Handle<Expr>) -> Option<ChainOp> {
         match &self.module.exprs[h] {
-            Expr::Binary { op: BinaryOp::Add, .. } | Expr::Combine { mode: CombineMode::Add, .. } => Some(ChainOp::Add),
-            Expr::Binary { op: BinaryOp::Mul, .. } | Expr::Combine { mode: CombineMode::Modulate, .. } => Some(ChainOp::Mul),
+            Expr::Binary { op: BinaryOp::Add, .. } | Expr::Combine { mode: CombineMode::Add, .. } => {
+                Some(ChainOp::Add)
+            }
+            Expr::Binary { op: BinaryOp::Mul, .. } | Expr::Combine { mode: CombineMode::Modulate, .. } => {
+                Some(ChainOp::Mul)
+            }
             _ => None,
         }
     }
@@ -249,7 +268,13 @@ impl<'a> Splitter<'a> {
         Some(acc)
     }
 
-    fn chain_split(&mut self, mode: BlendMode, e: Handle<Expr>, depth: usize, overflow: &Overflow) -> Option<Vec<Piece>> {
+    fn chain_split(
+        &mut self,
+        mode: BlendMode,
+        e: Handle<Expr>,
+        depth: usize,
+        overflow: &Overflow,
+    ) -> Option<Vec<Piece>> {
         let op = self.chain_op(e)?;
         let (first, rest) = match (mode, op) {
             (BlendMode::Replace, ChainOp::Add) => (BlendMode::Replace, BlendMode::Add),
@@ -265,7 +290,10 @@ impl<'a> Splitter<'a> {
         let what = if op == ChainOp::Add { "sum" } else { "product" };
         let n = ops.len();
         let why = |k: usize, groups: usize, blend: BlendMode| {
-            format!("{overflow}: split the {what} of {n} terms into {groups} passes; part {k} of {groups}, {}", blend.name())
+            format!(
+                "{overflow}: split the {what} of {n} terms into {groups} passes; part {k} of {groups}, {}",
+                blend.name()
+            )
         };
         let mut best: Option<Vec<Piece>> = None;
         let mut keep = |s: &Self, cand: Vec<Piece>| {
@@ -279,14 +307,21 @@ impl<'a> Splitter<'a> {
             let mut pieces = Vec::new();
             for (k, group) in groups.into_iter().enumerate() {
                 let blend = if k == 0 { first } else { rest };
-                pieces.push(Piece { blend, value: group, dest: Dest::Main, alpha: true, why: why(k + 1, g, blend) });
+                pieces.push(Piece {
+                    blend,
+                    value: group,
+                    dest: Dest::Main,
+                    alpha: true,
+                    why: why(k + 1, g, blend),
+                });
             }
             keep(self, pieces);
         }
         // A head planned on its own (several passes), the rest grouped after it.
         if mode == BlendMode::Replace {
             for i in 0..n {
-                let others: Vec<Handle<Expr>> = ops.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, h)| *h).collect();
+                let others: Vec<Handle<Expr>> =
+                    ops.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, h)| *h).collect();
                 if self.fits(ops[i]).is_ok() {
                     continue; // then it is just a group of a plain partition
                 }
@@ -295,7 +330,13 @@ impl<'a> Splitter<'a> {
                     let g = groups.len() + 1;
                     let mut pieces: Vec<Piece> = head.iter().cloned().collect();
                     for (k, group) in groups.into_iter().enumerate() {
-                        pieces.push(Piece { blend: rest, value: group, dest: Dest::Main, alpha: true, why: why(k + 2, g, rest) });
+                        pieces.push(Piece {
+                            blend: rest,
+                            value: group,
+                            dest: Dest::Main,
+                            alpha: true,
+                            why: why(k + 2, g, rest),
+                        });
                     }
                     keep(self, pieces);
                 }
@@ -325,7 +366,8 @@ impl<'a> Splitter<'a> {
         let full = (1usize << n) - 1;
         let mut group: Vec<Option<(Handle<Expr>, usize)>> = vec![None; full + 1];
         for (mask, slot) in group.iter_mut().enumerate().skip(1) {
-            let members: Vec<Handle<Expr>> = (0..n).filter(|i| mask & (1 << i) != 0).map(|i| ops[i]).collect();
+            let members: Vec<Handle<Expr>> =
+                (0..n).filter(|i| mask & (1 << i) != 0).map(|i| ops[i]).collect();
             if let Some(h) = self.build_chain(op, &members) {
                 if self.fits(h).is_ok() {
                     *slot = Some((h, Usage::of_value(self.module, h).texture_units()));
@@ -422,7 +464,13 @@ impl<'a> Splitter<'a> {
             if self.fits(lhs).is_ok() && self.module.info(lhs).ty == Ty::Rgba {
                 if let Some(inner) = self.plan_at(BlendMode::Replace, rhs, depth + 1) {
                     let mut p: Vec<Piece> = inner.iter().cloned().collect();
-                    p.push(Piece { blend: BlendMode::AlphaBlend, value: lhs, dest: Dest::Main, alpha: true, why: format!("{overflow}: decal: the texture alpha-blended over the rest") });
+                    p.push(Piece {
+                        blend: BlendMode::AlphaBlend,
+                        value: lhs,
+                        dest: Dest::Main,
+                        alpha: true,
+                        why: format!("{overflow}: decal: the texture alpha-blended over the rest"),
+                    });
                     out.push(p);
                 }
             }
@@ -431,7 +479,9 @@ impl<'a> Splitter<'a> {
             .module
             .reachable(&[e])
             .into_iter()
-            .filter(|&x| x != e && self.module.info(x).freq.is_sample() && self.module.info(x).ty != Ty::Position)
+            .filter(|&x| {
+                x != e && self.module.info(x).freq.is_sample() && self.module.info(x).ty != Ty::Position
+            })
             .filter(|&x| (1..units).contains(&Usage::of_value(self.module, x).texture_units()))
             .rev() // largest sub-values first
             .take(MAX_PEEL_CANDIDATES)
@@ -447,11 +497,17 @@ impl<'a> Splitter<'a> {
             let s_zero = self.module.is_constant(s, 0.0);
             if !m_one {
                 let Some(mp) = self.plan_at(BlendMode::Modulate, m, depth + 1) else { continue };
-                p.extend(mp.iter().map(|q| Piece { why: format!("{overflow}: rendered a part first, then modulated by its coefficient"), ..q.clone() }));
+                p.extend(mp.iter().map(|q| Piece {
+                    why: format!("{overflow}: rendered a part first, then modulated by its coefficient"),
+                    ..q.clone()
+                }));
             }
             if !s_zero {
                 let Some(sp) = self.plan_at(BlendMode::Add, s, depth + 1) else { continue };
-                p.extend(sp.iter().map(|q| Piece { why: format!("{overflow}: rendered a part first, then added the rest"), ..q.clone() }));
+                p.extend(sp.iter().map(|q| Piece {
+                    why: format!("{overflow}: rendered a part first, then added the rest"),
+                    ..q.clone()
+                }));
             }
             out.push(p);
         }
@@ -460,7 +516,13 @@ impl<'a> Splitter<'a> {
 
     // ---- render to texture ----------------------------------------------
 
-    fn render_to_texture(&mut self, mode: BlendMode, e: Handle<Expr>, depth: usize, overflow: &Overflow) -> Option<Vec<Piece>> {
+    fn render_to_texture(
+        &mut self,
+        mode: BlendMode,
+        e: Handle<Expr>,
+        depth: usize,
+        overflow: &Overflow,
+    ) -> Option<Vec<Piece>> {
         let inner = self.plan_at(BlendMode::Replace, e, depth + 1)?;
         let id = self.temp_for(e);
         let texture = self.temp_texture(id);
@@ -476,8 +538,21 @@ impl<'a> Splitter<'a> {
             };
         }
         self.fits(lookup).ok()?;
-        let mut p: Vec<Piece> = inner.iter().map(|q| Piece { dest: Dest::Temp(id), why: format!("{overflow}: render-to-texture: the term is computed into a temporary first"), ..q.clone() }).collect();
-        p.push(Piece { blend: mode, value: lookup, dest: Dest::Main, alpha: true, why: format!("{overflow}: the temporary blended in ({})", mode.name()) });
+        let mut p: Vec<Piece> = inner
+            .iter()
+            .map(|q| Piece {
+                dest: Dest::Temp(id),
+                why: format!("{overflow}: render-to-texture: the term is computed into a temporary first"),
+                ..q.clone()
+            })
+            .collect();
+        p.push(Piece {
+            blend: mode,
+            value: lookup,
+            dest: Dest::Main,
+            alpha: true,
+            why: format!("{overflow}: the temporary blended in ({})", mode.name()),
+        });
         Some(p)
     }
 

@@ -70,7 +70,12 @@ pub struct AdaptiveSettings {
 impl AdaptiveSettings {
     /// Subdivision down to single pixels.
     pub fn new(spacing: u32, threshold: f32, edges: EdgeMode) -> AdaptiveSettings {
-        AdaptiveSettings { spacing, threshold, max_depth: spacing.max(1).next_power_of_two().trailing_zeros(), edges }
+        AdaptiveSettings {
+            spacing,
+            threshold,
+            max_depth: spacing.max(1).next_power_of_two().trailing_zeros(),
+            edges,
+        }
     }
 }
 
@@ -162,12 +167,15 @@ pub fn draw_adaptive(
     for pass in passes {
         if pass.state.stencil.enabled {
             return Err(RenderError::Unsupported(
-                "adaptive shading does not support the stencil test; draw the pass with renderer::draw".into(),
+                "adaptive shading does not support the stencil test; draw the pass with renderer::draw"
+                    .into(),
             ));
         }
     }
     if settings.spacing == 0 {
-        return Err(RenderError::Unsupported("adaptive shading needs a sample spacing of at least 1 pixel".into()));
+        return Err(RenderError::Unsupported(
+            "adaptive shading needs a sample spacing of at least 1 pixel".into(),
+        ));
     }
     let (w, h) = (target.width() as usize, target.height() as usize);
     let mut setups = Vec::with_capacity(passes.len());
@@ -186,14 +194,17 @@ pub fn draw_adaptive(
 
     // 1. Visibility, in bands of TILE rows.
     let mut ids = vec![NONE; w * h];
-    let mut depth: Vec<f32> = (0..w * h).map(|i| target.depth((i % w) as u32, (i / w) as u32).unwrap_or(1.0)).collect();
-    ids.par_chunks_mut(TILE * w).zip(depth.par_chunks_mut(TILE * w)).enumerate().for_each(|(band, (ids, depth))| {
-        let y0 = (band * TILE) as i32;
-        let y1 = y0 + (ids.len() / w) as i32 - 1;
-        for (p, (pass, setup)) in passes.iter().zip(&setups).enumerate() {
-            visibility(ids, depth, w, (y0, y1), pass, setup, offsets[p] as u32);
-        }
-    });
+    let mut depth: Vec<f32> =
+        (0..w * h).map(|i| target.depth((i % w) as u32, (i / w) as u32).unwrap_or(1.0)).collect();
+    ids.par_chunks_mut(TILE * w).zip(depth.par_chunks_mut(TILE * w)).enumerate().for_each(
+        |(band, (ids, depth))| {
+            let y0 = (band * TILE) as i32;
+            let y1 = y0 + (ids.len() / w) as i32 - 1;
+            for (p, (pass, setup)) in passes.iter().zip(&setups).enumerate() {
+                visibility(ids, depth, w, (y0, y1), pass, setup, offsets[p] as u32);
+            }
+        },
+    );
 
     let max_varyings = setups.iter().map(|s| s.n_varyings).max().unwrap_or(0);
     let ctx = Ctx { passes, setups: &setups, offsets: &offsets, ids: &ids, w, h, settings: *settings };
@@ -260,7 +271,14 @@ pub fn draw_adaptive(
                 st[len - 1] = reg_state[(k + 1) * w + x];
                 st[1..len - 1].fill(UNKNOWN);
                 let pixel = |i: usize| (x, top + i);
-                ctx.fill_line(&mut vals, &mut st, &pixel, |i| i == 0 || i == len - 1, &mut scratch, &mut stats);
+                ctx.fill_line(
+                    &mut vals,
+                    &mut st,
+                    &pixel,
+                    |i| i == 0 || i == len - 1,
+                    &mut scratch,
+                    &mut stats,
+                );
                 for i in 1..len - 1 {
                     c_band[(i - 1) * w + x] = vals[i];
                     s_band[(i - 1) * w + x] = st[i];
@@ -297,7 +315,15 @@ pub fn draw_adaptive(
 }
 
 /// Scan-converts one pass into the id and depth buffers of rows `y0..=y1`.
-fn visibility(ids: &mut [u32], depth: &mut [f32], w: usize, rows: (i32, i32), pass: &Pass, setup: &PassSetup, offset: u32) {
+fn visibility(
+    ids: &mut [u32],
+    depth: &mut [f32],
+    w: usize,
+    rows: (i32, i32),
+    pass: &Pass,
+    setup: &PassSetup,
+    offset: u32,
+) {
     let func = pass.state.depth.func;
     for (ti, tri) in setup.tris.iter().enumerate() {
         let y0 = tri.y0.max(rows.0);
@@ -391,8 +417,14 @@ impl Ctx<'_> {
             *v = b[0] * vary[i] + b[1] * vary[n + i] + b[2] * vary[2 * n + i];
         }
         let gradients = &setup.gradients[tri.gradient_offset..tri.gradient_offset + 2 * (n + 1)];
-        let fragment =
-            Fragment { x: x as u32, y: y as u32, depth: z, front_facing: tri.front_facing, inv_w: q, gradients };
+        let fragment = Fragment {
+            x: x as u32,
+            y: y as u32,
+            depth: z,
+            front_facing: tri.front_facing,
+            inv_w: q,
+            gradients,
+        };
         self.passes[p].fragment.shade(&fragment, varyings, out)
     }
 
@@ -404,11 +436,21 @@ impl Ctx<'_> {
     /// exactly, and the search continues from them (a flood fill that
     /// follows the feature) until no interpolated pixel next to an exact one
     /// differs by more than the threshold.
-    fn refine(&self, color: &mut [[f32; 4]], state: &mut [u8], scratch: &mut [f32], stats: &mut AdaptiveStats) {
+    fn refine(
+        &self,
+        color: &mut [[f32; 4]],
+        state: &mut [u8],
+        scratch: &mut [f32],
+        stats: &mut AdaptiveStats,
+    ) {
         let (w, h, t) = (self.w, self.h, self.settings.threshold);
         let differs = |a: [f32; 4], b: [f32; 4]| (0..4).any(|c| (a[c] - b[c]).abs() > t);
         let mut work: Vec<usize> = Vec::new();
-        let mut reshade = |i: usize, color: &mut [[f32; 4]], state: &mut [u8], work: &mut Vec<usize>, stats: &mut AdaptiveStats| {
+        let mut reshade = |i: usize,
+                           color: &mut [[f32; 4]],
+                           state: &mut [u8],
+                           work: &mut Vec<usize>,
+                           stats: &mut AdaptiveStats| {
             let mut out = [0.0f32; 4];
             let res = self.shade(i % w, i / w, scratch, &mut out);
             stats.interpolated -= 1;
@@ -430,9 +472,10 @@ impl Ctx<'_> {
                 if key == NONE {
                     continue;
                 }
-                for j in [if x + 1 < w { Some(i + 1) } else { None }, if y + 1 < h { Some(i + w) } else { None }]
-                    .into_iter()
-                    .flatten()
+                for j in
+                    [if x + 1 < w { Some(i + 1) } else { None }, if y + 1 < h { Some(i + w) } else { None }]
+                        .into_iter()
+                        .flatten()
                 {
                     if self.key(self.ids[j]) != key || !differs(color[i], color[j]) {
                         continue;

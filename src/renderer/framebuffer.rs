@@ -220,7 +220,8 @@ impl BlendState {
     /// `C ← C · src` (DST_COLOR, ZERO).
     pub const MODULATE: BlendState = BlendState::factors(BlendFactor::DstColor, BlendFactor::Zero);
     /// `C ← src·As + C·(1 − As)`.
-    pub const ALPHA_BLEND: BlendState = BlendState::factors(BlendFactor::SrcAlpha, BlendFactor::OneMinusSrcAlpha);
+    pub const ALPHA_BLEND: BlendState =
+        BlendState::factors(BlendFactor::SrcAlpha, BlendFactor::OneMinusSrcAlpha);
     /// `C ← src · Ad` (DST_ALPHA, ZERO): modulate by a term stashed in destination alpha.
     pub const DEST_ALPHA_MODULATE: BlendState = BlendState::factors(BlendFactor::DstAlpha, BlendFactor::Zero);
     /// `C ← C + src · Ad` (DST_ALPHA, ONE): seeds/003 Section 5.5, the specular
@@ -331,7 +332,12 @@ impl TileBuffers {
         let half = matches!(self.color, ColorTile::F16(_));
         match &mut self.color {
             ColorTile::Rgba8(c) => {
-                let s = [src[0].clamp(0.0, 1.0), src[1].clamp(0.0, 1.0), src[2].clamp(0.0, 1.0), src[3].clamp(0.0, 1.0)];
+                let s = [
+                    src[0].clamp(0.0, 1.0),
+                    src[1].clamp(0.0, 1.0),
+                    src[2].clamp(0.0, 1.0),
+                    src[3].clamp(0.0, 1.0),
+                ];
                 let p = c[idx];
                 let d = [p[0] as f32 / 255.0, p[1] as f32 / 255.0, p[2] as f32 / 255.0, p[3] as f32 / 255.0];
                 let out = blend.blend(&s, &d);
@@ -478,8 +484,14 @@ impl Framebuffer {
     pub fn save_png(&self, path: &Path) -> Result<(), RenderError> {
         let mut bytes = Vec::new();
         let encoder = image::codecs::png::PngEncoder::new(&mut bytes);
-        image::ImageEncoder::write_image(encoder, &self.to_rgba8(), self.width, self.height, image::ExtendedColorType::Rgba8)
-            .map_err(|e| RenderError::Encode { path: path.display().to_string(), message: e.to_string() })?;
+        image::ImageEncoder::write_image(
+            encoder,
+            &self.to_rgba8(),
+            self.width,
+            self.height,
+            image::ExtendedColorType::Rgba8,
+        )
+        .map_err(|e| RenderError::Encode { path: path.display().to_string(), message: e.to_string() })?;
         crate::io::write_atomic(path, &bytes).map_err(|e| RenderError::Io(e.to_string()))
     }
 }

@@ -246,7 +246,11 @@ impl LitScene {
                 triangles: &v.triangles,
                 vertex: v,
                 fragment: f,
-                state: RenderState { cull: CullMode::Back, depth: DepthState::LESS_WRITE, ..RenderState::default() },
+                state: RenderState {
+                    cull: CullMode::Back,
+                    depth: DepthState::LESS_WRITE,
+                    ..RenderState::default()
+                },
             })
             .collect()
     }
@@ -285,7 +289,14 @@ impl LitScene {
 
 /// The mask of relevant terms of one triangle (module docs, Section 2.2);
 /// the cones and the volume of influence are [`crate::scene::relevance`]'s.
-pub fn triangle_relevance(p: &[Vec3; 3], n: &[Vec3; 3], lights: &[Light], mat: &Material, camera: &Camera, tolerance: f32) -> u32 {
+pub fn triangle_relevance(
+    p: &[Vec3; 3],
+    n: &[Vec3; 3],
+    lights: &[Light],
+    mat: &Material,
+    camera: &Camera,
+    tolerance: f32,
+) -> u32 {
     use std::f32::consts::{FRAC_PI_2, PI};
     let pm = (p[0] + p[1] + p[2]) / 3.0;
     let r_max = p.iter().map(|q| (*q - pm).length()).fold(0.0f32, f32::max) * (1.0 + 1e-5) + 1e-6;
@@ -315,7 +326,11 @@ pub fn triangle_relevance(p: &[Vec3; 3], n: &[Vec3; 3], lights: &[Light], mat: &
         let max_ndl = normals.max_cos(reach.to_light).max(0.0);
         let max_mdl = reflected.max_cos(reach.to_light).max(0.0);
         let diffuse = (mat.diffuse * reach.max_intensity).max_element() * max_ndl;
-        let specular = if max_ndl > 0.0 { (mat.specular * reach.max_intensity).max_element() * max_mdl.powf(mat.shininess) } else { 0.0 };
+        let specular = if max_ndl > 0.0 {
+            (mat.specular * reach.max_intensity).max_element() * max_mdl.powf(mat.shininess)
+        } else {
+            0.0
+        };
         if !(diffuse < tol) {
             mask |= 1 << (2 * i);
         }
@@ -344,7 +359,13 @@ mod tests {
     }
 
     fn shiny() -> Material {
-        Material { ambient: Vec3::ZERO, diffuse: Vec3::splat(0.5), specular: Vec3::splat(0.5), shininess: 50.0, textures: Default::default() }
+        Material {
+            ambient: Vec3::ZERO,
+            diffuse: Vec3::splat(0.5),
+            specular: Vec3::splat(0.5),
+            shininess: 50.0,
+            textures: Default::default(),
+        }
     }
 
     #[test]

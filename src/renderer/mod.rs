@@ -20,11 +20,11 @@ pub mod plan;
 mod raster;
 mod tile;
 
-pub use framebuffer::{quantize_unorm8, 
-    BlendEquation, BlendFactor, BlendState, ColorFormat, CompareFunc, DepthState, Framebuffer, StencilOp, StencilState,
-    TILE,
-};
 pub use adaptive::{draw_adaptive, image_error, AdaptiveSettings, AdaptiveStats, EdgeMode, ImageError};
+pub use framebuffer::{
+    quantize_unorm8, BlendEquation, BlendFactor, BlendState, ColorFormat, CompareFunc, DepthState,
+    Framebuffer, StencilOp, StencilState, TILE,
+};
 pub use raster::{Fragment, SUBPIXEL_BITS};
 
 use serde::{Deserialize, Serialize};

@@ -61,13 +61,16 @@
 //!   units iterate them in float.
 
 use std::cell::RefCell;
-use std::sync::atomic::{AtomicU64, Ordering};
 use std::collections::{BTreeMap, HashMap};
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
-use super::{ColorFormat, CullMode, DrawStats, Fragment, FragmentResult, FragmentStage, Framebuffer, Pass as RasterPass, RenderError, VertexStage};
+use super::{
+    ColorFormat, CullMode, DrawStats, Fragment, FragmentResult, FragmentStage, Framebuffer,
+    Pass as RasterPass, RenderError, VertexStage,
+};
 use crate::backends::combiners::{self, PixelEmulator, PixelRegisters, Precision};
 use crate::ir::{self, eval::Value, Expr, FbChannel, Frequency, Handle, Module, TextureId, Ty};
 use crate::planner::{Geometry, PassInterface, Planned, RenderTarget};
@@ -144,7 +147,10 @@ impl PassShading {
     pub fn describe(&self) -> String {
         match self {
             PassShading::Float => "IR in float".into(),
-            PassShading::Combiners { stages } => format!("register combiners ({stages} general stage{}), emulated", if *stages == 1 { "" } else { "s" }),
+            PassShading::Combiners { stages } => format!(
+                "register combiners ({stages} general stage{}), emulated",
+                if *stages == 1 { "" } else { "s" }
+            ),
             PassShading::PerOperation { why } => format!("per-operation 8-bit+sign model ({why})"),
         }
     }
@@ -184,7 +190,12 @@ pub struct PlanRenderer<'a> {
 
 impl<'a> PlanRenderer<'a> {
     /// Binds `planned` (compiled from `program`) to a scene and its assets.
-    pub fn new(planned: &'a Planned, program: &crate::parser::ast::Program, scene: &'a Scene, assets: &'a SceneAssets) -> Result<PlanRenderer<'a>, RenderError> {
+    pub fn new(
+        planned: &'a Planned,
+        program: &crate::parser::ast::Program,
+        scene: &'a Scene,
+        assets: &'a SceneAssets,
+    ) -> Result<PlanRenderer<'a>, RenderError> {
         let decls = bind::texture_decls(program, &scene.constants);
         let mut notes = Vec::new();
         let err = |e: bind::BindError| RenderError::Unsupported(e.to_string());
@@ -207,7 +218,17 @@ impl<'a> PlanRenderer<'a> {
                 }
             }
         }
-        Ok(PlanRenderer { planned, scene, assets, decls, stored, exact, uniforms, rounding_bias: RoundingBias::default(), notes })
+        Ok(PlanRenderer {
+            planned,
+            scene,
+            assets,
+            decls,
+            stored,
+            exact,
+            uniforms,
+            rounding_bias: RoundingBias::default(),
+            notes,
+        })
     }
 
     /// A sensitivity probe of `fixed9`, not a model: moves the tie of
@@ -224,7 +245,13 @@ impl<'a> PlanRenderer<'a> {
 
     /// Renders every pass at `width`×`height`; `progress(done, total)` is
     /// called after each pass of each object.
-    pub fn render(&self, mode: Mode, width: u32, height: u32, progress: &mut dyn FnMut(usize, usize)) -> Result<Frame, RenderError> {
+    pub fn render(
+        &self,
+        mode: Mode,
+        width: u32,
+        height: u32,
+        progress: &mut dyn FnMut(usize, usize),
+    ) -> Result<Frame, RenderError> {
         self.render_with(mode, width, height, None, progress)
     }
 
@@ -234,11 +261,25 @@ impl<'a> PlanRenderer<'a> {
     /// interpolates the rest ([`super::draw_adaptive`]); blending, depth and
     /// culling follow the pass. Passes with a stencil test, and screen or
     /// texel passes, are shaded in full.
-    pub fn render_adaptive(&self, mode: Mode, width: u32, height: u32, settings: &super::AdaptiveSettings, progress: &mut dyn FnMut(usize, usize)) -> Result<Frame, RenderError> {
+    pub fn render_adaptive(
+        &self,
+        mode: Mode,
+        width: u32,
+        height: u32,
+        settings: &super::AdaptiveSettings,
+        progress: &mut dyn FnMut(usize, usize),
+    ) -> Result<Frame, RenderError> {
         self.render_with(mode, width, height, Some(settings), progress)
     }
 
-    fn render_with(&self, mode: Mode, width: u32, height: u32, adaptive: Option<&super::AdaptiveSettings>, progress: &mut dyn FnMut(usize, usize)) -> Result<Frame, RenderError> {
+    fn render_with(
+        &self,
+        mode: Mode,
+        width: u32,
+        height: u32,
+        adaptive: Option<&super::AdaptiveSettings>,
+        progress: &mut dyn FnMut(usize, usize),
+    ) -> Result<Frame, RenderError> {
         let m = &self.planned.module;
         let plan = &self.planned.plan;
         let start = Instant::now();
@@ -267,7 +308,14 @@ impl<'a> PlanRenderer<'a> {
             Expr::Bundle(members) => members.len(),
             _ => 1,
         };
-        let total = plan.passes.iter().enumerate().map(|(i, p)| layers(i) * if matches!(p.geometry, Geometry::Mesh { .. }) { objects.len() } else { 1 }).sum::<usize>();
+        let total = plan
+            .passes
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                layers(i) * if matches!(p.geometry, Geometry::Mesh { .. }) { objects.len() } else { 1 }
+            })
+            .sum::<usize>();
         let mut done = 0;
         for (index, pass) in plan.passes.iter().enumerate() {
             let whole = PassInterface::of(self.planned, index);
@@ -284,7 +332,8 @@ impl<'a> PlanRenderer<'a> {
                     RenderTarget::Temporary { name } => (name.clone(), (width, height)),
                     RenderTarget::Texture { name } => {
                         // Over its texels, or the mesh rasterized in texture space (`T δu x ←`).
-                        let by_texel = matches!(pass.geometry, Geometry::Texels) || pi.position.is_some_and(|p| m.info(p).ty == Ty::Vec2);
+                        let by_texel = matches!(pass.geometry, Geometry::Texels)
+                            || pi.position.is_some_and(|p| m.info(p).ty == Ty::Vec2);
                         let s = if by_texel { bind::RENDERED_TEXTURE_SIZE } else { width.max(height) };
                         (name.clone(), if by_texel { (s, s) } else { (width, height) })
                     }
@@ -327,7 +376,17 @@ impl<'a> PlanRenderer<'a> {
                 if layer == 0 {
                     shading.push(how);
                 }
-                let stage = FragmentProgram::new(self, mode, &pi, &rendered, reads, own_depth, machine, objects.first()).map_err(|e| e.in_pass(index))?;
+                let stage = FragmentProgram::new(
+                    self,
+                    mode,
+                    &pi,
+                    &rendered,
+                    reads,
+                    own_depth,
+                    machine,
+                    objects.first(),
+                )
+                .map_err(|e| e.in_pass(index))?;
                 let state = pass.state;
                 let target = targets.get_mut(&name).expect("created above");
                 let counted = &stage.nonfinite;
@@ -335,9 +394,24 @@ impl<'a> PlanRenderer<'a> {
                     Geometry::Mesh { .. } if adaptive.is_some() && !state.stencil.enabled => {
                         // One adaptive draw over every object of the pass, so that
                         // silhouettes between objects are edges (Section 2.1.3).
-                        let drawn: Vec<&BoundObject> = objects.iter().enumerate().filter(|(oi, _)| pass.objects.as_ref().is_none_or(|keep| keep.contains(oi))).map(|(_, o)| o).collect();
-                        let vertices: Vec<MeshVertices> = drawn.iter().map(|o| MeshVertices::new(m, o, &pi, &self.uniforms)).collect();
-                        let passes: Vec<RasterPass> = drawn.iter().zip(&vertices).map(|(o, vs)| RasterPass { triangles: &o.mesh.triangles, vertex: vs, fragment: &stage, state }).collect();
+                        let drawn: Vec<&BoundObject> = objects
+                            .iter()
+                            .enumerate()
+                            .filter(|(oi, _)| pass.objects.as_ref().is_none_or(|keep| keep.contains(oi)))
+                            .map(|(_, o)| o)
+                            .collect();
+                        let vertices: Vec<MeshVertices> =
+                            drawn.iter().map(|o| MeshVertices::new(m, o, &pi, &self.uniforms)).collect();
+                        let passes: Vec<RasterPass> = drawn
+                            .iter()
+                            .zip(&vertices)
+                            .map(|(o, vs)| RasterPass {
+                                triangles: &o.mesh.triangles,
+                                vertex: vs,
+                                fragment: &stage,
+                                state,
+                            })
+                            .collect();
                         let s = super::draw_adaptive(target, &passes, adaptive.expect("matched"))?;
                         adaptive_stats = adaptive_stats.map(|a| a.add(s));
                         done += objects.len();
@@ -351,7 +425,15 @@ impl<'a> PlanRenderer<'a> {
                                 continue;
                             }
                             let vs = MeshVertices::new(m, object, &pi, &self.uniforms);
-                            let s = super::draw(target, &RasterPass { triangles: &object.mesh.triangles, vertex: &vs, fragment: &stage, state })?;
+                            let s = super::draw(
+                                target,
+                                &RasterPass {
+                                    triangles: &object.mesh.triangles,
+                                    vertex: &vs,
+                                    fragment: &stage,
+                                    state,
+                                },
+                            )?;
                             add(&mut stats, &s);
                             done += 1;
                             progress(done, total);
@@ -360,7 +442,15 @@ impl<'a> PlanRenderer<'a> {
                     Geometry::Screen | Geometry::Texels => {
                         let quad = Quad;
                         let state = super::RenderState { cull: CullMode::None, ..state };
-                        let s = super::draw(target, &RasterPass { triangles: &[[0, 1, 2], [0, 2, 3]], vertex: &quad, fragment: &stage, state })?;
+                        let s = super::draw(
+                            target,
+                            &RasterPass {
+                                triangles: &[[0, 1, 2], [0, 2, 3]],
+                                vertex: &quad,
+                                fragment: &stage,
+                                state,
+                            },
+                        )?;
                         add(&mut stats, &s);
                         done += 1;
                         progress(done, total);
@@ -378,7 +468,9 @@ impl<'a> PlanRenderer<'a> {
             }
         }
         let time = start.elapsed();
-        let name = last_fb.ok_or_else(|| RenderError::Unsupported("the plan writes no framebuffer: nothing to show".into()))?;
+        let name = last_fb.ok_or_else(|| {
+            RenderError::Unsupported("the plan writes no framebuffer: nothing to show".into())
+        })?;
         let image = targets.remove(&name).expect("written");
         Ok(Frame { image, name, stats, time, nonfinite, adaptive: adaptive_stats, shading })
     }
@@ -395,14 +487,20 @@ impl<'a> PlanRenderer<'a> {
         let constant = |k: usize| -> [f32; 4] {
             let Some(h) = g.constants[k] else { return [0.0; 4] };
             let v = match &m.exprs[h] {
-                Expr::Uniform(id) => self.uniforms.get(*id as usize).copied().flatten().or_else(|| m.uniforms[*id as usize].default.as_ref().map(ir::eval::value)),
+                Expr::Uniform(id) => self
+                    .uniforms
+                    .get(*id as usize)
+                    .copied()
+                    .flatten()
+                    .or_else(|| m.uniforms[*id as usize].default.as_ref().map(ir::eval::value)),
                 Expr::Constant(c) => Some(ir::eval::value(c)),
                 _ => None,
             };
             let v = ir::eval::canonical(m.info(h).ty, v.unwrap_or([0.0; 4]));
             v.map(|x| if x.is_nan() { 0.0 } else { x as f32 })
         };
-        let machine = PixelEmulator::new(&g.config, constant(0), constant(1), [0.0; 4], Precision::Fixed9).map_err(|e| e.to_string())?;
+        let machine = PixelEmulator::new(&g.config, constant(0), constant(1), [0.0; 4], Precision::Fixed9)
+            .map_err(|e| e.to_string())?;
         let mut registers = [None; 6];
         for (r, t) in registers.iter_mut().zip(&pass.textures) {
             *r = Some(self.planned.handle(t.lookup));
@@ -472,7 +570,11 @@ impl Rendered {
 
     fn from_framebuffer(fb: &Framebuffer, mipmap: bool) -> Rendered {
         let pixels = fb.to_rgba_f32();
-        let t = Texture2D::new(TexelFormat::F32, Wrap::ClampToEdge, Level::new(fb.width(), fb.height(), pixels.clone()));
+        let t = Texture2D::new(
+            TexelFormat::F32,
+            Wrap::ClampToEdge,
+            Level::new(fb.width(), fb.height(), pixels.clone()),
+        );
         let texture = if mipmap { t.with_box_mipmaps() } else { t };
         Rendered { width: fb.width(), height: fb.height(), pixels, texture }
     }
@@ -582,12 +684,18 @@ impl VertexStage for MeshVertices {
 
 /// What a texture unit reads in this pass.
 enum Source<'r> {
-    Bound { texture: &'r BoundTexture, exact: Option<ExactFunction> },
+    Bound {
+        texture: &'r BoundTexture,
+        exact: Option<ExactFunction>,
+    },
     Rendered(&'r Rendered),
     /// `exact`: a texture shaded over its texels (`bake(f)`, seeds/001
     /// (13)) is not sampled; the texel pass's function is evaluated at the
     /// lookup's coordinates (no lookup tables in the reference).
-    Baked { program: Box<FragmentProgram<'r>>, wrap: Wrap },
+    Baked {
+        program: Box<FragmentProgram<'r>>,
+        wrap: Wrap,
+    },
     Missing,
 }
 
@@ -595,19 +703,37 @@ enum Source<'r> {
 enum Leaf {
     Uniform(Value),
     /// Interpolant k (varyings 4k..4k+4), normalized (exact, unit directions).
-    Varying { k: usize, normalize: bool },
-    Lookup { texture: TextureId, coords_ty: Ty, lod_from: Option<usize> },
+    Varying {
+        k: usize,
+        normalize: bool,
+    },
+    Lookup {
+        texture: TextureId,
+        coords_ty: Ty,
+        lod_from: Option<usize>,
+    },
     /// Member `member` of a fat texel of `texture` (seeds/001 (6), (14),
     /// (16)): layer `member` sampled at the lookup's coordinates.
-    FatMember { texture: TextureId, member: u8, coords_ty: Ty },
-    Framebuffer { framebuffer: u32, channel: FbChannel },
+    FatMember {
+        texture: TextureId,
+        member: u8,
+        coords_ty: Ty,
+    },
+    Framebuffer {
+        framebuffer: u32,
+        channel: FbChannel,
+    },
     Pixel(Frequency),
     TexelCoord,
     Depth,
     /// `π p` of a per-pixel point (`πl π⁻¹ xs`, seeds/001 Section 3.5):
     /// by the projection's model → clip matrix of the scene's first object
     /// (in `πl π⁻¹` the model matrix cancels), as the WGSL target does.
-    Project { matrix: glam::Mat4, inverse: bool, ty: Ty },
+    Project {
+        matrix: glam::Mat4,
+        inverse: bool,
+        ty: Ty,
+    },
     /// A value the fragment stage cannot know (NaN).
     Unknown,
 }
@@ -702,7 +828,8 @@ impl<'a> FragmentProgram<'a> {
         // Nodes that only address textures or framebuffers (not quantized in fixed9).
         let address = ir::address_only(m, &reach);
         let register_reads = ir::register_reads(m, &reach);
-        let varying_of: HashMap<Handle<Expr>, usize> = pi.interpolants.iter().enumerate().map(|(k, h)| (*h, k)).collect();
+        let varying_of: HashMap<Handle<Expr>, usize> =
+            pi.interpolants.iter().enumerate().map(|(k, h)| (*h, k)).collect();
         let normalize_varyings: Vec<bool> = pi
             .interpolants
             .iter()
@@ -712,20 +839,40 @@ impl<'a> FragmentProgram<'a> {
         let textures = if mode == Mode::Exact { &r.exact } else { &r.stored };
         let mut sources = Vec::with_capacity(m.textures.len());
         let mut filters = Vec::with_capacity(m.textures.len());
-        let looked_up: std::collections::HashSet<TextureId> =
-            (0..n).filter(|&i| reach[i]).filter_map(|i| match &m.exprs[Handle::new(i)] { Expr::Lookup { texture, .. } => Some(*texture), _ => None }).collect();
+        let looked_up: std::collections::HashSet<TextureId> = (0..n)
+            .filter(|&i| reach[i])
+            .filter_map(|i| match &m.exprs[Handle::new(i)] {
+                Expr::Lookup { texture, .. } => Some(*texture),
+                _ => None,
+            })
+            .collect();
         for (id, t) in m.textures.iter().enumerate() {
             let decl = r.decls.iter().find(|d| d.name == t.name);
             filters.push(decl.map_or(Filter::Bilinear, |d| d.filter));
-            let baked_by = r.planned.plan.passes.iter().position(|p| matches!(p.geometry, Geometry::Texels) && matches!(&p.target, RenderTarget::Texture { name } if *name == t.name));
+            let baked_by = r.planned.plan.passes.iter().position(|p| {
+                matches!(p.geometry, Geometry::Texels)
+                    && matches!(&p.target, RenderTarget::Texture { name } if *name == t.name)
+            });
             let baked = match baked_by {
                 Some(index) if mode == Mode::Exact && looked_up.contains(&(id as TextureId)) => {
                     let texel_pass = PassInterface::of(r.planned, index);
                     // Only a function of the texel coordinate and uniforms can be evaluated
                     // anywhere (not solid mapping's (16), which reads the texture itself).
-                    let reads = m.reachable(&[texel_pass.output]).into_iter().any(|h| matches!(m.exprs[h], Expr::Lookup { .. } | Expr::FramebufferRead { .. }));
+                    let reads = m
+                        .reachable(&[texel_pass.output])
+                        .into_iter()
+                        .any(|h| matches!(m.exprs[h], Expr::Lookup { .. } | Expr::FramebufferRead { .. }));
                     if texel_pass.interpolants.is_empty() && !reads {
-                        Some(FragmentProgram::new(r, mode, &texel_pass, rendered, HashMap::new(), None, None, None)?)
+                        Some(FragmentProgram::new(
+                            r,
+                            mode,
+                            &texel_pass,
+                            rendered,
+                            HashMap::new(),
+                            None,
+                            None,
+                            None,
+                        )?)
                     } else {
                         None
                     }
@@ -746,7 +893,13 @@ impl<'a> FragmentProgram<'a> {
             .textures
             .iter()
             .zip(ir::fat_layers(m))
-            .map(|(t, n)| (0..n).map_while(|i| rendered.get(&if i == 0 { t.name.clone() } else { format!("{}#{i}", t.name) })).collect())
+            .map(|(t, n)| {
+                (0..n)
+                    .map_while(|i| {
+                        rendered.get(&if i == 0 { t.name.clone() } else { format!("{}#{i}", t.name) })
+                    })
+                    .collect()
+            })
             .collect();
         let mut slot_of = vec![u32::MAX; n];
         let mut steps = Vec::new();
@@ -764,15 +917,26 @@ impl<'a> FragmentProgram<'a> {
                 // A register value in the combiners' precision (as WGSL's
                 // hardware fidelity writes it); scale factors beyond ±1 and
                 // addresses stay exact.
-                let register = mode == Mode::Fixed9 && setup.is_none() && !address[i] && c.values().iter().all(|x| x.abs() <= 1.0);
-                constants.push((slot, if register { v.map(|x| fixed9_with(x, r.rounding_bias.register_steps)) } else { v }));
+                let register = mode == Mode::Fixed9
+                    && setup.is_none()
+                    && !address[i]
+                    && c.values().iter().all(|x| x.abs() <= 1.0);
+                constants.push((
+                    slot,
+                    if register { v.map(|x| fixed9_with(x, r.rounding_bias.register_steps)) } else { v },
+                ));
                 continue;
             }
             let mut ops = [u32::MAX; 4];
             let mut n_ops = 0u8;
             let leaf = match expr {
                 Expr::Uniform(id) => Some(Leaf::Uniform(
-                    r.uniforms.get(*id as usize).copied().flatten().or_else(|| m.uniforms[*id as usize].default.as_ref().map(ir::eval::value)).unwrap_or(ir::eval::NAN),
+                    r.uniforms
+                        .get(*id as usize)
+                        .copied()
+                        .flatten()
+                        .or_else(|| m.uniforms[*id as usize].default.as_ref().map(ir::eval::value))
+                        .unwrap_or(ir::eval::NAN),
                 )),
                 Expr::Interpolate { .. } => match varying_of.get(&h) {
                     Some(&k) => Some(Leaf::Varying { k, normalize: normalize_varyings[k] }),
@@ -783,7 +947,10 @@ impl<'a> FragmentProgram<'a> {
                     n_ops = 1;
                     let lod_from = lod_varying(m, *coords).and_then(|c| varying_of.get(&c).copied());
                     if matches!(sources[*texture as usize], Source::Missing) {
-                        return Err(RenderError::Unsupported(format!("texture `{}` is read before any pass renders it", m.textures[*texture as usize].name)));
+                        return Err(RenderError::Unsupported(format!(
+                            "texture `{}` is read before any pass renders it",
+                            m.textures[*texture as usize].name
+                        )));
                     }
                     Some(Leaf::Lookup { texture: *texture, coords_ty: m.info(*coords).ty, lod_from })
                 }
@@ -800,7 +967,11 @@ impl<'a> FragmentProgram<'a> {
                 Expr::Pixel { freq } => Some(Leaf::Pixel(*freq)),
                 Expr::TexelCoord => Some(Leaf::TexelCoord),
                 Expr::FatMember { texel, member } => {
-                    let Expr::Lookup { texture, coords } = m.exprs[*texel] else { return Err(RenderError::Unsupported("a fat member of something not a lookup".into())) };
+                    let Expr::Lookup { texture, coords } = m.exprs[*texel] else {
+                        return Err(RenderError::Unsupported(
+                            "a fat member of something not a lookup".into(),
+                        ));
+                    };
                     if fat[texture as usize].len() <= *member as usize {
                         return Err(RenderError::Unsupported(format!(
                             "member {} of the fat texels of `{}`, which no pass renders (a fat texture from an image has no layout yet)",
@@ -812,19 +983,31 @@ impl<'a> FragmentProgram<'a> {
                     n_ops = 1;
                     Some(Leaf::FatMember { texture, member: *member, coords_ty: m.info(coords).ty })
                 }
-                Expr::Project { projection, value } if m.info(*value).freq.is_sample() => match first_object {
-                    Some(object) => {
-                        ops[0] = slot_of[value.index()];
-                        n_ops = 1;
-                        Some(Leaf::Project { matrix: object.clip_matrix(projection), inverse: projection.inverse, ty: m.info(*value).ty })
+                Expr::Project { projection, value } if m.info(*value).freq.is_sample() => {
+                    match first_object {
+                        Some(object) => {
+                            ops[0] = slot_of[value.index()];
+                            n_ops = 1;
+                            Some(Leaf::Project {
+                                matrix: object.clip_matrix(projection),
+                                inverse: projection.inverse,
+                                ty: m.info(*value).ty,
+                            })
+                        }
+                        None => Some(Leaf::Unknown),
                     }
-                    None => Some(Leaf::Unknown),
-                },
-                Expr::VertexPosition(_) | Expr::TexCoord { .. } | Expr::Vector { .. } | Expr::Project { .. } | Expr::Bundle(_) => Some(Leaf::Unknown),
+                }
+                Expr::VertexPosition(_)
+                | Expr::TexCoord { .. }
+                | Expr::Vector { .. }
+                | Expr::Project { .. }
+                | Expr::Bundle(_) => Some(Leaf::Unknown),
                 e => {
                     let operands = e.operands();
                     if operands.len() > 4 {
-                        return Err(RenderError::Unsupported("an operation with more than four operands".into()));
+                        return Err(RenderError::Unsupported(
+                            "an operation with more than four operands".into(),
+                        ));
                     }
                     for (k, o) in operands.iter().enumerate() {
                         ops[k] = slot_of[o.index()];
@@ -838,14 +1021,20 @@ impl<'a> FragmentProgram<'a> {
             // A register write clamps where the hardware's would: a value a
             // product or function reads from a register, and the powers and
             // quotients the generator cannot fold (`ir::register_reads`).
-            let own_register = register_reads[i] || ir::squaring_exponent(m, h).is_some() || matches!(expr, Expr::Binary { op: ir::BinaryOp::Div, .. });
+            let own_register = register_reads[i]
+                || ir::squaring_exponent(m, h).is_some()
+                || matches!(expr, Expr::Binary { op: ir::BinaryOp::Div, .. });
             let quantize = per_operation && per_sample && own_register;
             let folded = per_operation && !quantize;
-            let raw = setup.is_some() && ty.width() >= 3 && matches!(leaf, Some(Leaf::Lookup { .. } | Leaf::Framebuffer { .. }));
+            let raw = setup.is_some()
+                && ty.width() >= 3
+                && matches!(leaf, Some(Leaf::Lookup { .. } | Leaf::Framebuffer { .. }));
             let register = match (quantize, ir::squaring_exponent(m, h)) {
                 (false, _) => RegisterOp::Rounded,
                 (true, Some(k)) => RegisterOp::Squarings(k),
-                (true, None) if matches!(expr, Expr::Binary { op: ir::BinaryOp::Div, .. }) => RegisterOp::Quotient,
+                (true, None) if matches!(expr, Expr::Binary { op: ir::BinaryOp::Div, .. }) => {
+                    RegisterOp::Quotient
+                }
                 (true, None) => RegisterOp::Rounded,
             };
             steps.push(Step { expr, ty, slot, ops, n_ops, leaf, quantize, folded, raw, register });
@@ -872,7 +1061,14 @@ impl<'a> FragmentProgram<'a> {
     }
 
     #[inline]
-    fn leaf(&self, leaf: &Leaf, operand: Value, fragment: &Fragment, varyings: &[f32], texel_at: Option<[f64; 2]>) -> Value {
+    fn leaf(
+        &self,
+        leaf: &Leaf,
+        operand: Value,
+        fragment: &Fragment,
+        varyings: &[f32],
+        texel_at: Option<[f64; 2]>,
+    ) -> Value {
         match *leaf {
             Leaf::Uniform(v) => v,
             Leaf::Varying { k, normalize } => {
@@ -888,12 +1084,19 @@ impl<'a> FragmentProgram<'a> {
                 }
                 out
             }
-            Leaf::Lookup { texture, coords_ty, lod_from } => self.lookup(texture, operand, coords_ty, lod_from, None, fragment, varyings),
-            Leaf::FatMember { texture, member, coords_ty } => self.fat[texture as usize][member as usize].sample(operand, coords_ty, self.filters[texture as usize]),
+            Leaf::Lookup { texture, coords_ty, lod_from } => {
+                self.lookup(texture, operand, coords_ty, lod_from, None, fragment, varyings)
+            }
+            Leaf::FatMember { texture, member, coords_ty } => self.fat[texture as usize][member as usize]
+                .sample(operand, coords_ty, self.filters[texture as usize]),
             Leaf::Framebuffer { framebuffer, channel } => {
                 let Some(fb) = self.reads.get(&framebuffer) else { return [0.0; 4] };
                 // Outside the framebuffer: its cleared values (depth 1: far, not an occluder).
-                let Some((x, y)) = to_pixel(operand, fb.width(), fb.height(), self.tie.texel_quanta as f64 / 256.0) else { return if channel == FbChannel::Depth { [1.0; 4] } else { [0.0; 4] } };
+                let Some((x, y)) =
+                    to_pixel(operand, fb.width(), fb.height(), self.tie.texel_quanta as f64 / 256.0)
+                else {
+                    return if channel == FbChannel::Depth { [1.0; 4] } else { [0.0; 4] };
+                };
                 match channel {
                     FbChannel::Color => fb.color(x, y).unwrap_or([0.0; 4]).map(|c| c as f64),
                     FbChannel::Alpha => [fb.color(x, y).map_or(0.0, |c| c[3]) as f64; 4],
@@ -944,7 +1147,16 @@ impl<'a> FragmentProgram<'a> {
     /// else from `quad`, the coordinates at the quad's top-left, top-right
     /// and bottom-left pixels (a dependent lookup, [`FragmentProgram::quad_coords`]).
     #[allow(clippy::too_many_arguments)]
-    fn lookup(&self, texture: TextureId, c: Value, coords_ty: Ty, lod_from: Option<usize>, quad: Option<[[f64; 2]; 3]>, fragment: &Fragment, varyings: &[f32]) -> Value {
+    fn lookup(
+        &self,
+        texture: TextureId,
+        c: Value,
+        coords_ty: Ty,
+        lod_from: Option<usize>,
+        quad: Option<[[f64; 2]; 3]>,
+        fragment: &Fragment,
+        varyings: &[f32],
+    ) -> Value {
         let filter = self.filters[texture as usize];
         match &self.sources[texture as usize] {
             Source::Bound { exact: Some(f), .. } => exact_lookup(*f, c),
@@ -970,10 +1182,16 @@ impl<'a> FragmentProgram<'a> {
                             }
                             _ => f32::NEG_INFINITY,
                         };
-                        let arithmetic = if self.mode == Mode::Fixed9 { unit::Arithmetic::Fixed8 { tie_bias: self.tie.texel_quanta } } else { unit::Arithmetic::Float };
+                        let arithmetic = if self.mode == Mode::Fixed9 {
+                            unit::Arithmetic::Fixed8 { tie_bias: self.tie.texel_quanta }
+                        } else {
+                            unit::Arithmetic::Float
+                        };
                         unit::sample_2d(t, u as f32, v as f32, filter, lod, arithmetic)
                     }
-                    Texture::Cube(t) if self.mode != Mode::Exact => unit::sample_cube(t, [c[0] as f32, c[1] as f32, c[2] as f32], filter),
+                    Texture::Cube(t) if self.mode != Mode::Exact => {
+                        unit::sample_cube(t, [c[0] as f32, c[1] as f32, c[2] as f32], filter)
+                    }
                     Texture::Flat(t) => {
                         let (u, v) = if coords_ty == Ty::Scalar { (c[0], 0.5) } else { (c[0], c[1]) };
                         let lod = match (lod_from, quad) {
@@ -983,7 +1201,10 @@ impl<'a> FragmentProgram<'a> {
                                 t.lod(du, dv)
                             }
                             (None, Some([tl, tr, bl])) => {
-                                let (du, dv) = ([(tr[0] - tl[0]) as f32, (bl[0] - tl[0]) as f32], [(tr[1] - tl[1]) as f32, (bl[1] - tl[1]) as f32]);
+                                let (du, dv) = (
+                                    [(tr[0] - tl[0]) as f32, (bl[0] - tl[0]) as f32],
+                                    [(tr[1] - tl[1]) as f32, (bl[1] - tl[1]) as f32],
+                                );
                                 t.lod(du, dv)
                             }
                             _ => 0.0,
@@ -991,7 +1212,9 @@ impl<'a> FragmentProgram<'a> {
                         t.sample(u as f32, v as f32, filter, lod)
                     }
                     Texture::Cube(t) => t.sample([c[0] as f32, c[1] as f32, c[2] as f32], filter, 0.0),
-                    Texture::DualParaboloid(t) => t.sample([c[0] as f32, c[1] as f32, c[2] as f32], filter, 0.0),
+                    Texture::DualParaboloid(t) => {
+                        t.sample([c[0] as f32, c[1] as f32, c[2] as f32], filter, 0.0)
+                    }
                 };
                 out.map(|x| x as f64)
             }
@@ -1002,7 +1225,8 @@ impl<'a> FragmentProgram<'a> {
                     Wrap::Repeat => x - x.floor(),
                     _ => x.clamp(0.0, 1.0),
                 };
-                let fragment = Fragment { x: 0, y: 0, depth: 0.0, front_facing: true, inv_w: 1.0, gradients: &[] };
+                let fragment =
+                    Fragment { x: 0, y: 0, depth: 0.0, front_facing: true, inv_w: 1.0, gradients: &[] };
                 // The outer fragment's slots are borrowed: the nested program has its own.
                 let mut slots = vec![[0.0; 4]; program.n_slots];
                 program.run(&mut slots, &fragment, &[], Some([at(u), at(v)]));
@@ -1015,14 +1239,28 @@ impl<'a> FragmentProgram<'a> {
     /// Runs the IR steps; returns whether the fragment is discarded.
     /// `texel_at`: the texel coordinate when a baked texture's function is
     /// evaluated at a lookup ([`Source::Baked`]) instead of at a pixel.
-    fn run(&self, slots: &mut [Value], fragment: &Fragment, varyings: &[f32], texel_at: Option<[f64; 2]>) -> bool {
+    fn run(
+        &self,
+        slots: &mut [Value],
+        fragment: &Fragment,
+        varyings: &[f32],
+        texel_at: Option<[f64; 2]>,
+    ) -> bool {
         self.run_steps(slots, fragment, varyings, texel_at, self.steps.len(), true)
     }
 
     /// [`FragmentProgram::run`] of the first `upto` steps; `quad`: whether a
     /// dependent lookup takes its level of detail from its quad
     /// ([`FragmentProgram::quad_coords`]; not inside that evaluation).
-    fn run_steps(&self, slots: &mut [Value], fragment: &Fragment, varyings: &[f32], texel_at: Option<[f64; 2]>, upto: usize, quad: bool) -> bool {
+    fn run_steps(
+        &self,
+        slots: &mut [Value],
+        fragment: &Fragment,
+        varyings: &[f32],
+        texel_at: Option<[f64; 2]>,
+        upto: usize,
+        quad: bool,
+    ) -> bool {
         for &(s, v) in &self.constants {
             slots[s as usize] = v;
         }
@@ -1034,20 +1272,41 @@ impl<'a> FragmentProgram<'a> {
                 *b = slots[o as usize];
             }
             let v = match &s.leaf {
-                Some(Leaf::Lookup { texture, coords_ty, lod_from: None }) if quad && texel_at.is_none() && self.mipmapped(*texture) => {
+                Some(Leaf::Lookup { texture, coords_ty, lod_from: None })
+                    if quad && texel_at.is_none() && self.mipmapped(*texture) =>
+                {
                     let q = self.quad_coords(i, buf[0], *coords_ty, fragment, varyings);
                     self.lookup(*texture, buf[0], *coords_ty, None, Some(q), fragment, varyings)
                 }
                 Some(leaf) => self.leaf(leaf, buf[0], fragment, varyings, texel_at),
-                None if let RegisterOp::Squarings(k) = s.register => ir::power_by_squaring(buf[0], k, |a, c| [0, 1, 2, 3].map(|i| fixed9_with(a[i] * c[i], self.tie.register_steps))),
+                None if let RegisterOp::Squarings(k) = s.register => {
+                    ir::power_by_squaring(buf[0], k, |a, c| {
+                        [0, 1, 2, 3].map(|i| fixed9_with(a[i] * c[i], self.tie.register_steps))
+                    })
+                }
                 None if s.register == RegisterOp::Quotient => {
                     let steps = |v: f64| (v * 255.0).round_ties_even();
-                    [0, 1, 2, 3].map(|i| fixed9_quotient(steps(buf[0][i]), steps(buf[1][i]), self.tie.register_steps))
+                    [0, 1, 2, 3]
+                        .map(|i| fixed9_quotient(steps(buf[0][i]), steps(buf[1][i]), self.tie.register_steps))
                 }
-                None if self.tie.comparison_ulps != 0.0 && matches!(s.expr, Expr::Binary { op: ir::BinaryOp::Lt | ir::BinaryOp::Le | ir::BinaryOp::Gt | ir::BinaryOp::Ge, .. }) => {
-                    let toward = if matches!(s.expr, Expr::Binary { op: ir::BinaryOp::Lt | ir::BinaryOp::Le, .. }) { 1.0 } else { -1.0 };
+                None if self.tie.comparison_ulps != 0.0
+                    && matches!(
+                        s.expr,
+                        Expr::Binary {
+                            op: ir::BinaryOp::Lt | ir::BinaryOp::Le | ir::BinaryOp::Gt | ir::BinaryOp::Ge,
+                            ..
+                        }
+                    ) =>
+                {
+                    let toward =
+                        if matches!(s.expr, Expr::Binary { op: ir::BinaryOp::Lt | ir::BinaryOp::Le, .. }) {
+                            1.0
+                        } else {
+                            -1.0
+                        };
                     let ulp = |a: f64, b: f64| a.abs().max(b.abs()) * f32::EPSILON as f64;
-                    let moved = [0, 1, 2, 3].map(|i| buf[1][i] + toward * self.tie.comparison_ulps * ulp(buf[0][i], buf[1][i]));
+                    let moved = [0, 1, 2, 3]
+                        .map(|i| buf[1][i] + toward * self.tie.comparison_ulps * ulp(buf[0][i], buf[1][i]));
                     ir::eval::apply(self.module, s.expr, s.ty, &[buf[0], moved])
                 }
                 None => {
@@ -1090,7 +1349,14 @@ impl<'a> FragmentProgram<'a> {
     /// the steps before the lookup on their own varyings (extrapolated
     /// outside the triangle: helper pixels); lookups among those steps
     /// that are themselves dependent sample level 0 there.
-    fn quad_coords(&self, step: usize, c: Value, coords_ty: Ty, fragment: &Fragment, varyings: &[f32]) -> [[f64; 2]; 3] {
+    fn quad_coords(
+        &self,
+        step: usize,
+        c: Value,
+        coords_ty: Ty,
+        fragment: &Fragment,
+        varyings: &[f32],
+    ) -> [[f64; 2]; 3] {
         let coords = self.steps[step].ops[0] as usize;
         // A 1D lookup's v is fixed (as in `lookup`).
         let uv = |v: Value| if coords_ty == Ty::Scalar { [v[0], 0.5] } else { [v[0], v[1]] };
@@ -1122,11 +1388,22 @@ impl<'a> FragmentProgram<'a> {
         };
         let load = |k: usize| -> [u8; 4] {
             match registers[k] {
-                Some(slot) => slots[slot as usize].map(|x| if x.is_nan() { 0 } else { (x.clamp(0.0, 1.0) * 255.0 + 0.5 + self.tie.register_steps).floor().clamp(0.0, 255.0) as u8 }),
+                Some(slot) => slots[slot as usize].map(|x| {
+                    if x.is_nan() {
+                        0
+                    } else {
+                        (x.clamp(0.0, 1.0) * 255.0 + 0.5 + self.tie.register_steps).floor().clamp(0.0, 255.0)
+                            as u8
+                    }
+                }),
                 None => [0; 4],
             }
         };
-        let r = PixelRegisters { textures: [load(0), load(1), load(2), load(3)], primary: load(4), secondary: load(5) };
+        let r = PixelRegisters {
+            textures: [load(0), load(1), load(2), load(3)],
+            primary: load(4),
+            secondary: load(5),
+        };
         machine.run(&r).map(|c| c as f64 / 255.0)
     }
 }
@@ -1231,7 +1508,9 @@ pub fn exact_lookup(f: ExactFunction, c: Value) -> Value {
         ExactFunction::Geometry { roughness, scale } => {
             let (u, v) = (c[0].clamp(0.0, 1.0) as f32, c[1].clamp(1e-6, 1.0) as f32);
             let scale = if scale > 0.0 && scale.is_finite() { scale } else { 1.0 };
-            let g = (generators::smith_g1(u, roughness) * generators::smith_g1(v, roughness) / (std::f32::consts::PI * v) / scale) as f64;
+            let g = (generators::smith_g1(u, roughness) * generators::smith_g1(v, roughness)
+                / (std::f32::consts::PI * v)
+                / scale) as f64;
             [g, g, g, 1.0]
         }
     }
@@ -1276,7 +1555,9 @@ pub struct ErrorReport {
 /// Compares two images of the same size; both are clamped to [0, 1] first
 /// (what a display shows).
 pub fn compare(reference: &Framebuffer, test: &Framebuffer) -> ErrorReport {
-    let clamp = |v: Vec<[f32; 4]>| v.into_iter().map(|p| p.map(|c| if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) })).collect::<Vec<_>>();
+    let clamp = |v: Vec<[f32; 4]>| {
+        v.into_iter().map(|p| p.map(|c| if c.is_nan() { 0.0 } else { c.clamp(0.0, 1.0) })).collect::<Vec<_>>()
+    };
     let a = clamp(reference.to_rgba_f32());
     let b = clamp(test.to_rgba_f32());
     let e = super::image_error(&a, &b);
@@ -1292,9 +1573,14 @@ mod tests {
     /// up; x/0 clamps to ±1, 0/0 is 0.
     #[test]
     fn fixed9_quotient_rounds_ties_up() {
-        for (k1, k2, m) in [(1.0, 170.0, 2.0), (1.0, 102.0, 3.0), (1.0, 30.0, 9.0), (-1.0, 170.0, -1.0), (3.0, 6.0, 128.0)] {
+        for (k1, k2, m) in
+            [(1.0, 170.0, 2.0), (1.0, 102.0, 3.0), (1.0, 30.0, 9.0), (-1.0, 170.0, -1.0), (3.0, 6.0, 128.0)]
+        {
             assert_eq!(fixed9_quotient(k1, k2, 0.0), m / 255.0, "{k1}/{k2}");
         }
-        assert_eq!((fixed9_quotient(5.0, 0.0, 0.0), fixed9_quotient(-5.0, 0.0, 0.0), fixed9_quotient(0.0, 0.0, 0.0)), (1.0, -1.0, 0.0));
+        assert_eq!(
+            (fixed9_quotient(5.0, 0.0, 0.0), fixed9_quotient(-5.0, 0.0, 0.0), fixed9_quotient(0.0, 0.0, 0.0)),
+            (1.0, -1.0, 0.0)
+        );
     }
 }

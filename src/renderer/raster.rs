@@ -262,7 +262,9 @@ impl SetupCtx<'_> {
             poly.clear();
             for &i in tri {
                 poly.extend(self.clip[i as usize].iter().map(|&c| c as f64));
-                poly.extend(self.vary[i as usize * self.n..(i as usize + 1) * self.n].iter().map(|&c| c as f64));
+                poly.extend(
+                    self.vary[i as usize * self.n..(i as usize + 1) * self.n].iter().map(|&c| c as f64),
+                );
             }
             let g = self.guard;
             let planes: [fn(&[f64], f64) -> f64; 7] = [
@@ -291,7 +293,8 @@ impl SetupCtx<'_> {
                     }
                     if (da >= 0.0) != (db >= 0.0) {
                         // From the inside vertex towards the outside one.
-                        let (inside, outside_v, di, d_o) = if da >= 0.0 { (a, b, da, db) } else { (b, a, db, da) };
+                        let (inside, outside_v, di, d_o) =
+                            if da >= 0.0 { (a, b, da, db) } else { (b, a, db, da) };
                         let t = di / (di - d_o);
                         for c in 0..stride {
                             next.push(inside[c] + t * (outside_v[c] - inside[c]));
@@ -309,7 +312,12 @@ impl SetupCtx<'_> {
             }
             let count = poly.len() / stride;
             for k in 1..count - 1 {
-                self.emit(&mut out, &poly[0..stride], &poly[k * stride..(k + 1) * stride], &poly[(k + 1) * stride..(k + 2) * stride]);
+                self.emit(
+                    &mut out,
+                    &poly[0..stride],
+                    &poly[k * stride..(k + 1) * stride],
+                    &poly[(k + 1) * stride..(k + 2) * stride],
+                );
             }
         }
         out
@@ -445,7 +453,11 @@ fn weight_planes(x: [f64; 3], y: [f64; 3]) -> Option<[[f32; 3]; 3]> {
     }
     Some(std::array::from_fn(|k| {
         let (i, j) = ((k + 1) % 3, (k + 2) % 3);
-        [((y[i] - y[j]) / twice_area) as f32, ((x[j] - x[i]) / twice_area) as f32, ((x[i] * y[j] - x[j] * y[i]) / twice_area) as f32]
+        [
+            ((y[i] - y[j]) / twice_area) as f32,
+            ((x[j] - x[i]) / twice_area) as f32,
+            ((x[i] * y[j] - x[j] * y[i]) / twice_area) as f32,
+        ]
     }))
 }
 
@@ -460,7 +472,10 @@ mod tests {
         for k in 0..3 {
             for v in 0..3 {
                 let value = w[k][0] as f64 * x[v] + w[k][1] as f64 * y[v] + w[k][2] as f64;
-                assert!((value - if k == v { 1.0 } else { 0.0 }).abs() < 1e-4, "weight {k} at vertex {v}: {value}");
+                assert!(
+                    (value - if k == v { 1.0 } else { 0.0 }).abs() < 1e-4,
+                    "weight {k} at vertex {v}: {value}"
+                );
             }
         }
         assert!(weight_planes([0.0, 1.0, 2.0], [0.0, 1.0, 2.0]).is_none());

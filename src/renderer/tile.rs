@@ -85,8 +85,14 @@ fn raster_tile(
                     stats.fragments += 1;
                     let pw = [l[0] * tri.inv_w[0], l[1] * tri.inv_w[1], l[2] * tri.inv_w[2]];
                     let q = pw[0] + pw[1] + pw[2];
-                    let fragment =
-                        Fragment { x: x as u32, y: y as u32, depth: z, front_facing: tri.front_facing, inv_w: q, gradients };
+                    let fragment = Fragment {
+                        x: x as u32,
+                        y: y as u32,
+                        depth: z,
+                        front_facing: tri.front_facing,
+                        inv_w: q,
+                        gradients,
+                    };
                     // Interpolates the varyings and runs the fragment stage.
                     let mut shade = |out: &mut [f32; 4], stats: &mut DrawStats| {
                         let inv_q = 1.0 / q;
@@ -101,7 +107,9 @@ fn raster_tile(
                     let stored_stencil = tile.stencil[idx];
                     if !stencil.test(stored_stencil) {
                         // A discarded fragment must not touch the stencil: shade only if it matters.
-                        if stencil.fail != StencilOp::Keep && shade(&mut color, &mut stats) == FragmentResult::Keep {
+                        if stencil.fail != StencilOp::Keep
+                            && shade(&mut color, &mut stats) == FragmentResult::Keep
+                        {
                             stencil.update(&mut tile.stencil[idx], stencil.fail);
                         }
                     } else if !depth.func.test(z, tile.depth[idx]) {

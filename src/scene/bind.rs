@@ -44,21 +44,44 @@ use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 
 use super::{Light, Mesh, Scene};
 use crate::ir::{self, Expr, Handle, Module, Projection, Site, Table, TexCoordId, Ty, UniformId, VectorId};
-use crate::parser::ast::{self, ExprKind, FuncKind, ItemKind, Space, TextureAttr, TextureFormat, TextureKind, VectorKind};
-use crate::textures::{self, generators, CubeBits, Filter, HeightField, Level, NormalMapFormat, TexelFormat, Texture, Texture2D, Wrap};
+use crate::parser::ast::{
+    self, ExprKind, FuncKind, ItemKind, Space, TextureAttr, TextureFormat, TextureKind, VectorKind,
+};
+use crate::textures::{
+    self, generators, CubeBits, Filter, HeightField, Level, NormalMapFormat, TexelFormat, Texture, Texture2D,
+    Wrap,
+};
 
 /// What a texture declaration's source says.
 #[derive(Clone, Debug, PartialEq)]
 pub enum TextureSource {
     Image(String),
-    NormalizeCube { size: u32, bits: u32 },
-    NormalMap { height: HeightSource, scale: f32 },
+    NormalizeCube {
+        size: u32,
+        bits: u32,
+    },
+    NormalMap {
+        height: HeightSource,
+        scale: f32,
+    },
     /// `bumps(cells)`: a normal map of procedural dimples.
-    Bumps { cells: u32 },
-    DualParaboloid { file: String, face: u32 },
-    BrdfFd { roughness: f32, index: f32 },
-    BrdfG { scale: f32 },
-    ExponentTable { exponent: f32 },
+    Bumps {
+        cells: u32,
+    },
+    DualParaboloid {
+        file: String,
+        face: u32,
+    },
+    BrdfFd {
+        roughness: f32,
+        index: f32,
+    },
+    BrdfG {
+        scale: f32,
+    },
+    ExponentTable {
+        exponent: f32,
+    },
     /// A source the renderer does not know.
     Bake(String),
     /// No source: statements render into it.
@@ -118,7 +141,10 @@ pub enum BindError {
 }
 
 /// Reads every texture declaration of a checked program.
-pub fn texture_decls(program: &ast::Program, scene_constants: &BTreeMap<String, Vec<f32>>) -> Vec<TextureDecl> {
+pub fn texture_decls(
+    program: &ast::Program,
+    scene_constants: &BTreeMap<String, Vec<f32>>,
+) -> Vec<TextureDecl> {
     let mut numbers: BTreeMap<String, f32> = BTreeMap::new();
     for item in &program.items {
         match &item.kind {
@@ -152,13 +178,25 @@ pub fn texture_decls(program: &ast::Program, scene_constants: &BTreeMap<String, 
         } else {
             Filter::Bilinear
         };
-        let wrap = if has(TextureAttr::Clamp) || t.kind.value == TextureKind::Cube { Wrap::ClampToEdge } else { Wrap::Repeat };
+        let wrap = if has(TextureAttr::Clamp) || t.kind.value == TextureKind::Cube {
+            Wrap::ClampToEdge
+        } else {
+            Wrap::Repeat
+        };
         let source = match &t.source {
             None => TextureSource::Rendered,
             Some(e) => source(e, &numbers),
         };
         for name in &t.names {
-            out.push(TextureDecl { name: name.key(), kind: t.kind.value, format: t.format.as_ref().map(|f| f.value), mipmap, filter, wrap, source: source.clone() });
+            out.push(TextureDecl {
+                name: name.key(),
+                kind: t.kind.value,
+                format: t.format.as_ref().map(|f| f.value),
+                mipmap,
+                filter,
+                wrap,
+                source: source.clone(),
+            });
         }
     }
     out
@@ -196,7 +234,9 @@ fn source(e: &ast::Expr, names: &BTreeMap<String, f32>) -> TextureSource {
     let num = |i: usize, default: f32| a.get(i).and_then(|x| number(x, names)).unwrap_or(default);
     match f.key().as_str() {
         "image" => TextureSource::Image(a.first().and_then(|x| string(x)).unwrap_or_default()),
-        "normalize_cube" => TextureSource::NormalizeCube { size: num(0, 32.0).max(1.0) as u32, bits: num(1, 8.0) as u32 },
+        "normalize_cube" => {
+            TextureSource::NormalizeCube { size: num(0, 32.0).max(1.0) as u32, bits: num(1, 8.0) as u32 }
+        }
         "normal_map" => {
             let height = match a.first().map(|x| &x.kind) {
                 Some(ExprKind::Apply { arg, .. }) => match string(arg) {
@@ -209,7 +249,10 @@ fn source(e: &ast::Expr, names: &BTreeMap<String, f32>) -> TextureSource {
             TextureSource::NormalMap { height, scale: num(1, 4.0) }
         }
         "bumps" => TextureSource::Bumps { cells: num(0, 16.0).max(1.0) as u32 },
-        "dual_paraboloid" => TextureSource::DualParaboloid { file: a.first().and_then(|x| string(x)).unwrap_or_default(), face: num(1, 0.0) as u32 },
+        "dual_paraboloid" => TextureSource::DualParaboloid {
+            file: a.first().and_then(|x| string(x)).unwrap_or_default(),
+            face: num(1, 0.0) as u32,
+        },
         "brdf_fd" => TextureSource::BrdfFd { roughness: num(0, 0.3), index: num(1, 1.5) },
         "brdf_g" => TextureSource::BrdfG { scale: num(0, 1.0) },
         "exponent_table" => TextureSource::ExponentTable { exponent: num(0, 8.0) },
@@ -268,7 +311,12 @@ pub enum TextureQuality {
 
 /// Loads or generates every declared (non-rendered) texture. `notes`
 /// receives a line per stand-in used.
-pub fn load_textures(decls: &[TextureDecl], scene: &Scene, quality: TextureQuality, notes: &mut Vec<String>) -> Result<BTreeMap<String, BoundTexture>, BindError> {
+pub fn load_textures(
+    decls: &[TextureDecl],
+    scene: &Scene,
+    quality: TextureQuality,
+    notes: &mut Vec<String>,
+) -> Result<BTreeMap<String, BoundTexture>, BindError> {
     let mut out = BTreeMap::new();
     for d in decls {
         if d.source == TextureSource::Rendered {
@@ -277,10 +325,17 @@ pub fn load_textures(decls: &[TextureDecl], scene: &Scene, quality: TextureQuali
         let err = |message: String| BindError::Texture { name: d.name.clone(), message };
         // A scene texture of the same name wins.
         if scene.textures.contains_key(&d.name) {
-            let one = Scene { textures: [(d.name.clone(), scene.textures[&d.name].clone())].into_iter().collect(), objects: vec![], ..scene.clone() };
+            let one = Scene {
+                textures: [(d.name.clone(), scene.textures[&d.name].clone())].into_iter().collect(),
+                objects: vec![],
+                ..scene.clone()
+            };
             let built = one.build()?;
             if let Some(t) = built.textures.get(&d.name) {
-                out.insert(d.name.clone(), BoundTexture { name: d.name.clone(), texture: t.clone(), filter: d.filter, exact: None });
+                out.insert(
+                    d.name.clone(),
+                    BoundTexture { name: d.name.clone(), texture: t.clone(), filter: d.filter, exact: None },
+                );
                 continue;
             }
         }
@@ -434,7 +489,9 @@ pub fn light_view_projection(light: Option<&Light>, center: Vec3, radius: f32) -
     let (eye, fov) = match light {
         Some(Light::Point { position, .. }) => (*position, 60.0f32),
         Some(Light::Spot { position, cutoff_deg, .. }) => (*position, (2.0 * cutoff_deg).clamp(10.0, 170.0)),
-        Some(Light::Directional { direction, .. }) => (center - direction.normalize_or_zero() * (4.0 * radius.max(1.0)), 60.0),
+        Some(Light::Directional { direction, .. }) => {
+            (center - direction.normalize_or_zero() * (4.0 * radius.max(1.0)), 60.0)
+        }
         None => (center + Vec3::new(0.0, 4.0 * radius.max(1.0), 0.0), 60.0),
     };
     let d = (center - eye).length().max(1e-3);
@@ -454,19 +511,34 @@ impl<'s> BoundObject<'s> {
         let eye_obj = inv.transform_point3(scene.camera.eye);
         let view_dir_obj = match scene.camera.viewer {
             super::Viewer::Local => None,
-            super::Viewer::Infinite => Some(inv.transform_vector3(scene.camera.eye - scene.camera.target).normalize_or_zero()),
+            super::Viewer::Infinite => {
+                Some(inv.transform_vector3(scene.camera.eye - scene.camera.target).normalize_or_zero())
+            }
         };
         let lights = scene
             .lights
             .iter()
             .map(|l| match *l {
-                Light::Directional { direction, .. } => inv.transform_vector3(-direction).normalize_or_zero().extend(0.0),
-                Light::Point { position, .. } | Light::Spot { position, .. } => inv.transform_point3(position).extend(1.0),
+                Light::Directional { direction, .. } => {
+                    inv.transform_vector3(-direction).normalize_or_zero().extend(0.0)
+                }
+                Light::Point { position, .. } | Light::Spot { position, .. } => {
+                    inv.transform_point3(position).extend(1.0)
+                }
             })
             .collect();
         BoundObject {
             mesh,
-            space: ObjectSpace { model, model_view, normal_eye, normal_world, eye_obj, view_dir_obj, lights, world_lights: scene.lights.clone() },
+            space: ObjectSpace {
+                model,
+                model_view,
+                normal_eye,
+                normal_world,
+                eye_obj,
+                view_dir_obj,
+                lights,
+                world_lights: scene.lights.clone(),
+            },
             camera_clip: scene.camera.view_projection(aspect) * model,
             light_clip: light_clip * model,
             texgen: BTreeMap::new(),
@@ -522,7 +594,11 @@ impl<'s> BoundObject<'s> {
             // A colour, the same in every space: light i's colour ·
             // attenuation · spot factor at the vertex (scene::Light::incidence).
             let world = self.space.model.transform_point3(p);
-            let c = self.space.world_lights.get(index as usize).map_or(Vec3::ZERO, |l| l.incidence(world).intensity);
+            let c = self
+                .space
+                .world_lights
+                .get(index as usize)
+                .map_or(Vec3::ZERO, |l| l.incidence(world).intensity);
             return [c.x as f64, c.y as f64, c.z as f64, 0.0];
         }
         let (obj, is_normal, is_point) = match kind {
@@ -678,7 +754,9 @@ impl ir::eval::Env for VertexEnv<'_, '_> {
 /// Exact mode renormalizes these after interpolation.
 pub fn is_unit_direction(m: &Module, h: Handle<Expr>) -> bool {
     match &m.exprs[h] {
-        Expr::Vector { vector, .. } => m.vectors[*vector as usize].kind.is_some_and(|k| !matches!(k, VectorKind::Position | VectorKind::Intensity)),
+        Expr::Vector { vector, .. } => m.vectors[*vector as usize]
+            .kind
+            .is_some_and(|k| !matches!(k, VectorKind::Position | VectorKind::Intensity)),
         Expr::Math { fun: ir::MathFunction::Normalize, .. } => true,
         Expr::Math { fun: ir::MathFunction::Reflect, args } => args.iter().all(|a| is_unit_direction(m, *a)),
         Expr::Unary { op: ir::UnaryOp::Neg, value } => is_unit_direction(m, *value),

@@ -138,7 +138,9 @@ mod tests {
             far: 10.0,
             viewer: Viewer::Local,
         };
-        assert!((c.view_vector(Vec3::new(5.0, 0.0, 0.0)) - Vec3::new(-1.0, 0.0, 1.0).normalize()).length() < 1e-6);
+        assert!(
+            (c.view_vector(Vec3::new(5.0, 0.0, 0.0)) - Vec3::new(-1.0, 0.0, 1.0).normalize()).length() < 1e-6
+        );
         c.viewer = Viewer::Infinite;
         assert_eq!(c.view_vector(Vec3::new(5.0, 0.0, 0.0)), Vec3::Z);
         assert!(c.problem().is_none());

@@ -68,7 +68,9 @@ pub struct Incidence {
 impl Light {
     pub fn color(&self) -> Vec3 {
         match *self {
-            Light::Directional { color, .. } | Light::Point { color, .. } | Light::Spot { color, .. } => color,
+            Light::Directional { color, .. } | Light::Point { color, .. } | Light::Spot { color, .. } => {
+                color
+            }
         }
     }
 
@@ -80,12 +82,20 @@ impl Light {
             }
             Light::Point { position, color, attenuation } => {
                 let d = position - p;
-                Incidence { to_light: d.normalize_or_zero(), intensity: color * attenuation.factor(d.length()) }
+                Incidence {
+                    to_light: d.normalize_or_zero(),
+                    intensity: color * attenuation.factor(d.length()),
+                }
             }
             Light::Spot { position, direction, cutoff_deg, exponent, color, attenuation } => {
                 let d = position - p;
                 let l = d.normalize_or_zero();
-                Incidence { to_light: l, intensity: color * attenuation.factor(d.length()) * spot_factor(l, direction, cutoff_deg, exponent) }
+                Incidence {
+                    to_light: l,
+                    intensity: color
+                        * attenuation.factor(d.length())
+                        * spot_factor(l, direction, cutoff_deg, exponent),
+                }
             }
         }
     }
@@ -95,20 +105,36 @@ impl Light {
         match *self {
             Light::Directional { direction, color } => {
                 if !direction.is_finite() || direction.length_squared() == 0.0 || !color.is_finite() {
-                    return Some("directional light needs a finite, non-zero direction and a finite colour".into());
+                    return Some(
+                        "directional light needs a finite, non-zero direction and a finite colour".into(),
+                    );
                 }
             }
             Light::Point { position, color, attenuation } => {
-                if !position.is_finite() || !color.is_finite() || attenuation.factor(0.0) == 0.0 && attenuation.linear == 0.0 && attenuation.quadratic == 0.0 {
-                    return Some("point light needs finite values and attenuation coefficients not all zero".into());
+                if !position.is_finite()
+                    || !color.is_finite()
+                    || attenuation.factor(0.0) == 0.0
+                        && attenuation.linear == 0.0
+                        && attenuation.quadratic == 0.0
+                {
+                    return Some(
+                        "point light needs finite values and attenuation coefficients not all zero".into(),
+                    );
                 }
             }
             Light::Spot { position, direction, cutoff_deg, exponent, color, .. } => {
-                if !position.is_finite() || !color.is_finite() || !direction.is_finite() || direction.length_squared() == 0.0 {
+                if !position.is_finite()
+                    || !color.is_finite()
+                    || !direction.is_finite()
+                    || direction.length_squared() == 0.0
+                {
                     return Some("spot light needs finite values and a non-zero direction".into());
                 }
                 if !(0.0..=90.0).contains(&cutoff_deg) {
-                    return Some("spot cutoff_deg must be in [0, 90] (GL also allows 180 = point light; use Point)".into());
+                    return Some(
+                        "spot cutoff_deg must be in [0, 90] (GL also allows 180 = point light; use Point)"
+                            .into(),
+                    );
                 }
                 if !(0.0..=128.0).contains(&exponent) {
                     return Some("spot exponent must be in [0, 128], as in GL".into());

@@ -160,7 +160,8 @@ impl Mesh {
             return Err(MeshError::NotFound { path: display });
         }
         let options = tobj::LoadOptions { triangulate: true, single_index: true, ..Default::default() };
-        let (models, _) = tobj::load_obj(path, &options).map_err(|e| MeshError::Obj { path: display.clone(), message: e.to_string() })?;
+        let (models, _) = tobj::load_obj(path, &options)
+            .map_err(|e| MeshError::Obj { path: display.clone(), message: e.to_string() })?;
         let mut m = Mesh::default();
         let mut have_normals = true;
         for model in &models {
@@ -175,7 +176,11 @@ impl Mesh {
                     have_normals = false;
                     m.normals.push(Vec3::ZERO);
                 }
-                m.uvs.push(if mesh.texcoords.len() >= 2 * n { Vec2::from_slice(&mesh.texcoords[2 * k..2 * k + 2]) } else { Vec2::ZERO });
+                m.uvs.push(if mesh.texcoords.len() >= 2 * n {
+                    Vec2::from_slice(&mesh.texcoords[2 * k..2 * k + 2])
+                } else {
+                    Vec2::ZERO
+                });
             }
             for tri in mesh.indices.chunks_exact(3) {
                 if tri.iter().all(|&i| (i as usize) < n) {
@@ -199,7 +204,8 @@ impl Mesh {
         let positions = &self.positions;
         self.triangles.retain(|t| {
             let [a, b, c] = t.map(|i| positions[i as usize]);
-            let longest = (b - a).length_squared().max((c - a).length_squared()).max((c - b).length_squared());
+            let longest =
+                (b - a).length_squared().max((c - a).length_squared()).max((c - b).length_squared());
             (b - a).cross(c - a).length_squared() > 1e-8 * longest * longest
         });
     }
@@ -295,12 +301,20 @@ mod tests {
 
     #[test]
     fn tangents_from_uvs_follow_the_u_direction() {
-        for mut m in [Mesh::torus(1.0, 0.3, 24, 12).unwrap(), Mesh::sphere(1.0, 16, 8).unwrap(), Mesh::cube(1.0, 1).unwrap()] {
+        for mut m in [
+            Mesh::torus(1.0, 0.3, 24, 12).unwrap(),
+            Mesh::sphere(1.0, 16, 8).unwrap(),
+            Mesh::cube(1.0, 1).unwrap(),
+        ] {
             let analytic = m.tangents.clone();
             m.compute_tangents();
             assert_frames_orthonormal(&m);
             // Away from poles and seams, the UV tangent matches the parametric one.
-            let agree = analytic.iter().zip(&m.tangents).filter(|(a, b)| a.truncate().dot(b.truncate()) > 0.95).count();
+            let agree = analytic
+                .iter()
+                .zip(&m.tangents)
+                .filter(|(a, b)| a.truncate().dot(b.truncate()) > 0.95)
+                .count();
             assert!(agree as f32 > 0.8 * analytic.len() as f32, "{agree} of {}", analytic.len());
         }
     }
@@ -315,7 +329,11 @@ mod tests {
     fn obj_loading_computes_normals_and_tangents() {
         let dir = tempfile::tempdir().unwrap();
         let path = dir.path().join("quad.obj");
-        std::fs::write(&path, "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3 4/4\n").unwrap();
+        std::fs::write(
+            &path,
+            "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\nf 1/1 2/2 3/3 4/4\n",
+        )
+        .unwrap();
         let m = Mesh::load_obj(&path).unwrap();
         assert_eq!(m.triangles.len(), 2);
         assert_frames_orthonormal(&m);

@@ -27,7 +27,9 @@ pub use camera::{Camera, Viewer};
 pub use light::{Attenuation, Light};
 pub use mesh::{Mesh, MeshError};
 
-use crate::textures::{self, generators, CubeBits, NormalMapFormat, TexelFormat, Texture, TextureError, Wrap};
+use crate::textures::{
+    self, generators, CubeBits, NormalMapFormat, TexelFormat, Texture, TextureError, Wrap,
+};
 
 #[derive(Debug, Error)]
 pub enum SceneError {
@@ -107,7 +109,11 @@ impl Default for Transform {
 impl Transform {
     pub fn matrix(&self) -> Mat4 {
         let r = self.rotate_deg * (std::f32::consts::PI / 180.0);
-        Mat4::from_scale_rotation_translation(self.scale, Quat::from_euler(glam::EulerRot::XYZ, r.x, r.y, r.z), self.translate)
+        Mat4::from_scale_rotation_translation(
+            self.scale,
+            Quat::from_euler(glam::EulerRot::XYZ, r.x, r.y, r.z),
+            self.translate,
+        )
     }
 }
 
@@ -171,13 +177,35 @@ pub enum TextureDesc {
         format: NormalMapFormat,
     },
     /// seeds/002 Section 4.1-4.2, of a procedural sky with a sun in direction `sun`.
-    DualParaboloid { size: u32, sun: Vec3, #[serde(default = "default_format")] format: TexelFormat },
+    DualParaboloid {
+        size: u32,
+        sun: Vec3,
+        #[serde(default = "default_format")]
+        format: TexelFormat,
+    },
     /// seeds/002 Section 3.1: F(cos θ)·D(cos δ).
-    HsFresnelDistribution { size: u32, roughness: f32, index: f32, #[serde(default = "default_format")] format: TexelFormat },
+    HsFresnelDistribution {
+        size: u32,
+        roughness: f32,
+        index: f32,
+        #[serde(default = "default_format")]
+        format: TexelFormat,
+    },
     /// seeds/002 Section 3.1: G(cos α, cos β)/(π cos β), stored divided by `scale`.
-    HsGeometry { size: u32, roughness: f32, scale: f32, #[serde(default = "default_format")] format: TexelFormat },
+    HsGeometry {
+        size: u32,
+        roughness: f32,
+        scale: f32,
+        #[serde(default = "default_format")]
+        format: TexelFormat,
+    },
     /// seeds/000 Section 5.2: x^exponent.
-    ExponentLut { size: u32, exponent: f32, #[serde(default = "default_format")] format: TexelFormat },
+    ExponentLut {
+        size: u32,
+        exponent: f32,
+        #[serde(default = "default_format")]
+        format: TexelFormat,
+    },
 }
 
 fn default_format() -> TexelFormat {
@@ -236,10 +264,14 @@ impl Scene {
 
     fn check(&self) -> Result<(), SceneError> {
         let path = self.path.display().to_string();
-        let invalid = |what: String, message: String| SceneError::Invalid { path: path.clone(), what, message };
+        let invalid =
+            |what: String, message: String| SceneError::Invalid { path: path.clone(), what, message };
         let (w, h) = self.resolution;
         if w == 0 || h == 0 || w > 16384 || h > 16384 {
-            return Err(invalid("resolution".into(), format!("{w}x{h} is not usable; use 1..=16384 per side")));
+            return Err(invalid(
+                "resolution".into(),
+                format!("{w}x{h} is not usable; use 1..=16384 per side"),
+            ));
         }
         if let Some(problem) = self.camera.problem() {
             return Err(invalid("camera".into(), problem));
@@ -254,7 +286,12 @@ impl Scene {
             if resolved.is_file() {
                 Ok(())
             } else {
-                Err(SceneError::MissingFile { path: path.clone(), what, file: file.into(), resolved: resolved.display().to_string() })
+                Err(SceneError::MissingFile {
+                    path: path.clone(),
+                    what,
+                    file: file.into(),
+                    resolved: resolved.display().to_string(),
+                })
             }
         };
         let names = |map: Vec<&String>| map.into_iter().cloned().collect::<Vec<_>>().join(", ");
@@ -264,7 +301,10 @@ impl Scene {
                     path: path.clone(),
                     what: "material",
                     name: object.material.clone(),
-                    help: format!("object {i} uses it; defined materials: [{}]", names(self.materials.keys().collect())),
+                    help: format!(
+                        "object {i} uses it; defined materials: [{}]",
+                        names(self.materials.keys().collect())
+                    ),
                 });
             }
             if let MeshDesc::Obj(file) = &object.mesh {
@@ -292,7 +332,11 @@ impl Scene {
         }
         for (name, texture) in &self.textures {
             let what = format!("texture '{name}'");
-            let max = if matches!(texture, TextureDesc::NormalizeCube { .. }) { MAX_CUBE_FACE } else { MAX_TABLE_SIDE };
+            let max = if matches!(texture, TextureDesc::NormalizeCube { .. }) {
+                MAX_CUBE_FACE
+            } else {
+                MAX_TABLE_SIDE
+            };
             let size_ok = |size: u32| {
                 if (1..=max).contains(&size) {
                     Ok(())
@@ -302,7 +346,9 @@ impl Scene {
             };
             match texture {
                 TextureDesc::File { path: file, .. } => file_exists(what.clone(), file)?,
-                TextureDesc::NormalMap { height: HeightDesc::File(file), .. } => file_exists(what.clone(), file)?,
+                TextureDesc::NormalMap { height: HeightDesc::File(file), .. } => {
+                    file_exists(what.clone(), file)?
+                }
                 TextureDesc::NormalMap { height: HeightDesc::Dimples { size, .. }, .. } => size_ok(*size)?,
                 TextureDesc::NormalizeCube { size, .. }
                 | TextureDesc::DualParaboloid { size, .. }
@@ -325,7 +371,9 @@ impl Scene {
         for object in &self.objects {
             let mesh = match &object.mesh {
                 MeshDesc::Sphere { radius, slices, stacks } => Mesh::sphere(*radius, *slices, *stacks)?,
-                MeshDesc::Torus { major, minor, rings, sides } => Mesh::torus(*major, *minor, *rings, *sides)?,
+                MeshDesc::Torus { major, minor, rings, sides } => {
+                    Mesh::torus(*major, *minor, *rings, *sides)?
+                }
                 MeshDesc::Plane { size, subdivisions } => Mesh::plane(*size, *subdivisions)?,
                 MeshDesc::Cube { size, subdivisions } => Mesh::cube(*size, *subdivisions)?,
                 MeshDesc::Obj(file) => Mesh::load_obj(&self.resolve(file))?,
@@ -339,17 +387,23 @@ impl Scene {
                     let t = textures::load_image(&self.resolve(path), *format, *wrap)?;
                     Texture::Flat(if *mipmaps { t.with_box_mipmaps() } else { t })
                 }
-                TextureDesc::NormalizeCube { size, bits } => Texture::Cube(generators::normalize_cube(*size, *bits)),
+                TextureDesc::NormalizeCube { size, bits } => {
+                    Texture::Cube(generators::normalize_cube(*size, *bits))
+                }
                 TextureDesc::NormalMap { height, scale, format } => {
                     let hf = match height {
                         HeightDesc::File(file) => textures::load_height_field(&self.resolve(file))?,
-                        HeightDesc::Dimples { size, cells } => generators::HeightField::dimples(*size, *cells),
+                        HeightDesc::Dimples { size, cells } => {
+                            generators::HeightField::dimples(*size, *cells)
+                        }
                     };
                     Texture::Flat(generators::normal_map(&hf, *scale, *format))
                 }
                 TextureDesc::DualParaboloid { size, sun, format } => {
                     let sun = sun.to_array();
-                    Texture::DualParaboloid(generators::dual_paraboloid(*size, *format, &|d| generators::sky(d, sun)))
+                    Texture::DualParaboloid(generators::dual_paraboloid(*size, *format, &|d| {
+                        generators::sky(d, sun)
+                    }))
                 }
                 TextureDesc::HsFresnelDistribution { size, roughness, index, format } => {
                     Texture::Flat(generators::hs_fresnel_distribution(*size, *roughness, *index, *format))
@@ -406,7 +460,11 @@ mod tests {
         let err = Scene::parse(&text, Path::new("s.ron")).unwrap_err().to_string();
         assert!(!err.is_empty());
 
-        let text = example().replacen("mesh: Torus(major: 1.0, minor: 0.35, rings: 64, sides: 32)", "mesh: Obj(\"nowhere/teapot.obj\")", 1);
+        let text = example().replacen(
+            "mesh: Torus(major: 1.0, minor: 0.35, rings: 64, sides: 32)",
+            "mesh: Obj(\"nowhere/teapot.obj\")",
+            1,
+        );
         let err = Scene::parse(&text, Path::new("/tmp/s.ron")).unwrap_err().to_string();
         assert!(err.contains("nowhere/teapot.obj") && err.contains("/tmp/nowhere/teapot.obj"), "{err}");
 
@@ -433,7 +491,8 @@ mod tests {
         let text = example().replacen("NormalizeCube(size: 32", "NormalizeCube(size: 100000", 1);
         let err = Scene::parse(&text, Path::new("s.ron")).unwrap_err().to_string();
         assert_eq!(err, "s.ron: texture 'norm_cube': size 100000 is out of range; use 1..=1024");
-        let text = example().replacen("NormalizeCube(size: 32", &format!("NormalizeCube(size: {MAX_CUBE_FACE}"), 1);
+        let text =
+            example().replacen("NormalizeCube(size: 32", &format!("NormalizeCube(size: {MAX_CUBE_FACE}"), 1);
         Scene::parse(&text, Path::new("s.ron")).expect("the limit itself is allowed");
         let text = example().replacen("Dimples(size: 256", "Dimples(size: 4097", 1);
         let err = Scene::parse(&text, Path::new("s.ron")).unwrap_err().to_string();

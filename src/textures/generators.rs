@@ -186,7 +186,9 @@ pub fn normal_map(height: &HeightField, scale: f32, format: NormalMapFormat) -> 
                     let b = n.map(|c| (128.0 + 127.0 * c).round() / 255.0);
                     [b[0], b[1], b[2], *mag]
                 }
-                NormalMapFormat::F32 => [range_compress(n[0]), range_compress(n[1]), range_compress(n[2]), *mag],
+                NormalMapFormat::F32 => {
+                    [range_compress(n[0]), range_compress(n[1]), range_compress(n[2]), *mag]
+                }
             })
             .collect();
         Level::new(w, h, texels)
@@ -237,7 +239,8 @@ pub enum ParaboloidFace {
 /// (x, y) = (dx, dy)/(1 ± dz); u = (x + 1)/2, v = (y + 1)/2.
 pub fn paraboloid_uv(d: [f32; 3]) -> (ParaboloidFace, f32, f32) {
     let d = normalize3(d.map(|c| if c.is_finite() { c } else { 0.0 }));
-    let (face, denom) = if d[2] >= 0.0 { (ParaboloidFace::Front, 1.0 + d[2]) } else { (ParaboloidFace::Back, 1.0 - d[2]) };
+    let (face, denom) =
+        if d[2] >= 0.0 { (ParaboloidFace::Front, 1.0 + d[2]) } else { (ParaboloidFace::Back, 1.0 - d[2]) };
     (face, 0.5 * (d[0] / denom + 1.0), 0.5 * (d[1] / denom + 1.0))
 }
 
@@ -281,7 +284,11 @@ impl DualParaboloid {
 /// per face, with mipmaps whose 2×2 blocks are averaged with weights
 /// proportional to each texel's solid angle; a coarse texel's weight is the
 /// sum of its children's (Section 4.2).
-pub fn dual_paraboloid(size: u32, format: TexelFormat, environment: &dyn Fn([f32; 3]) -> [f32; 3]) -> DualParaboloid {
+pub fn dual_paraboloid(
+    size: u32,
+    format: TexelFormat,
+    environment: &dyn Fn([f32; 3]) -> [f32; 3],
+) -> DualParaboloid {
     let size = size.clamp(1, MAX_TABLE_SIDE);
     let make = |face: ParaboloidFace| {
         let da = (2.0 / size as f32).powi(2);
@@ -298,7 +305,8 @@ pub fn dual_paraboloid(size: u32, format: TexelFormat, environment: &dyn Fn([f32
                 weights.push(paraboloid_solid_angle(x, y, da));
             }
         }
-        let mut levels = vec![Level::new(size, size, colors.iter().map(|t| t.map(|c| format.quantize(c))).collect())];
+        let mut levels =
+            vec![Level::new(size, size, colors.iter().map(|t| t.map(|c| format.quantize(c))).collect())];
         let mut n = size;
         while n > 1 {
             let m = n / 2;
@@ -497,7 +505,8 @@ mod tests {
     #[test]
     fn normal_map_differences_follow_appendix_e() {
         // Height rising to the right: dcx < 0, so nx = 0 and ny = −dcx/len > 0.
-        let hf = HeightField { width: 4, height: 4, heights: (0..16).map(|i| (i % 4) as f32 * 0.1).collect() };
+        let hf =
+            HeightField { width: 4, height: 4, heights: (0..16).map(|i| (i % 4) as f32 * 0.1).collect() };
         let nm = normal_map(&hf, 1.0, NormalMapFormat::F32);
         let t = nm.levels[0].texel(1, 1);
         let n = [expand(t[0]), expand(t[1]), expand(t[2])];

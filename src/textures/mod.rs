@@ -15,11 +15,15 @@ use std::path::Path;
 use thiserror::Error;
 
 pub use generators::{CubeBits, DualParaboloid, HeightField, NormalMapFormat, ParaboloidFace};
-pub use sampling::{cube_direction, cube_face_uv, CubeFace, Filter, Level, TexelFormat, Texture2D, TextureCube, Wrap};
+pub use sampling::{
+    cube_direction, cube_face_uv, CubeFace, Filter, Level, TexelFormat, Texture2D, TextureCube, Wrap,
+};
 
 #[derive(Debug, Error)]
 pub enum TextureError {
-    #[error("{path}: texture file not found; check the path (relative paths are relative to the scene file)")]
+    #[error(
+        "{path}: texture file not found; check the path (relative paths are relative to the scene file)"
+    )]
     NotFound { path: String },
     #[error("{path}: cannot decode image: {message}; supported formats are PNG, JPEG and Radiance HDR")]
     Decode { path: String, message: String },
@@ -40,7 +44,8 @@ pub fn load_image(path: &Path, format: TexelFormat, wrap: Wrap) -> Result<Textur
     if !path.is_file() {
         return Err(TextureError::NotFound { path: display });
     }
-    let img = image::open(path).map_err(|e| TextureError::Decode { path: display, message: e.to_string() })?;
+    let img =
+        image::open(path).map_err(|e| TextureError::Decode { path: display, message: e.to_string() })?;
     let rgba = img.to_rgba32f();
     let (w, h) = rgba.dimensions();
     let texels = rgba.pixels().map(|p| p.0).collect();
@@ -53,7 +58,8 @@ pub fn load_height_field(path: &Path) -> Result<HeightField, TextureError> {
     if !path.is_file() {
         return Err(TextureError::NotFound { path: display });
     }
-    let img = image::open(path).map_err(|e| TextureError::Decode { path: display, message: e.to_string() })?;
+    let img =
+        image::open(path).map_err(|e| TextureError::Decode { path: display, message: e.to_string() })?;
     let luma = img.to_luma32f();
     let (w, h) = luma.dimensions();
     Ok(HeightField { width: w, height: h, heights: luma.pixels().map(|p| p.0[0].clamp(0.0, 1.0)).collect() })

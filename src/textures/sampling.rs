@@ -335,7 +335,11 @@ mod tests {
 
     #[test]
     fn rgba8_quantizes_on_creation() {
-        let t = Texture2D::new(TexelFormat::Rgba8, Wrap::ClampToEdge, Level::new(1, 1, vec![[0.5, 2.0, -1.0, 0.1]]));
+        let t = Texture2D::new(
+            TexelFormat::Rgba8,
+            Wrap::ClampToEdge,
+            Level::new(1, 1, vec![[0.5, 2.0, -1.0, 0.1]]),
+        );
         assert_eq!(t.levels[0].texels[0], [128.0 / 255.0, 1.0, 0.0, 26.0 / 255.0]);
     }
 

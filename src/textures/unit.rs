@@ -45,7 +45,9 @@
 //!   any format. Face selection is GL's (seeds/003 Appendix A Table 1,
 //!   [`cube_face_uv`]).
 
-use super::sampling::{cube_direction, cube_face_uv, CubeFace, Filter, Level, TexelFormat, Texture2D, TextureCube, Wrap};
+use super::sampling::{
+    cube_direction, cube_face_uv, CubeFace, Filter, Level, TexelFormat, Texture2D, TextureCube, Wrap,
+};
 
 /// λ of a lookup from the coarse derivatives of (u, v) in a 2×2 quad,
 /// `ddx = [∂u/∂x, ∂v/∂x]`, `ddy = [∂u/∂y, ∂v/∂y]`, for a level-0 size of
@@ -90,7 +92,14 @@ impl Arithmetic {
 }
 
 /// Samples a 2D texture at (u, v) with level of detail `lod` ([`quad_lod`]).
-pub fn sample_2d(t: &Texture2D, u: f32, v: f32, filter: Filter, lod: f32, arithmetic: Arithmetic) -> [f32; 4] {
+pub fn sample_2d(
+    t: &Texture2D,
+    u: f32,
+    v: f32,
+    filter: Filter,
+    lod: f32,
+    arithmetic: Arithmetic,
+) -> [f32; 4] {
     let (fixed, bias) = match arithmetic {
         Arithmetic::Fixed8 { tie_bias } if t.format == TexelFormat::Rgba8 => (true, tie_bias),
         _ => (false, 0.0),
@@ -325,7 +334,11 @@ mod tests {
         // neighbour's value; at its centre it does not.
         let faces = CubeFace::ALL.map(|f| {
             let v = f as usize as f32 / 10.0;
-            Texture2D::new(TexelFormat::F32, Wrap::ClampToEdge, Level::new(4, 4, vec![[v, 0.0, 0.0, 1.0]; 16]))
+            Texture2D::new(
+                TexelFormat::F32,
+                Wrap::ClampToEdge,
+                Level::new(4, 4, vec![[v, 0.0, 0.0, 1.0]; 16]),
+            )
         });
         let c = TextureCube { faces };
         assert_eq!(sample_cube(&c, [1.0, 0.0, 0.0], Filter::Bilinear)[0], 0.0);

@@ -25,7 +25,11 @@ pub fn full(scene: &Scene, lit: &LitScene) -> Vec<[f32; 4]> {
     fb.to_rgba_f32()
 }
 
-pub fn adaptive(scene: &Scene, lit: &LitScene, settings: &AdaptiveSettings) -> (Vec<[f32; 4]>, AdaptiveStats) {
+pub fn adaptive(
+    scene: &Scene,
+    lit: &LitScene,
+    settings: &AdaptiveSettings,
+) -> (Vec<[f32; 4]>, AdaptiveStats) {
     let mut fb = target(scene);
     let stats = lit.draw_adaptive(&mut fb, settings).unwrap();
     (fb.to_rgba_f32(), stats)

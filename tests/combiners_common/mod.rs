@@ -5,8 +5,8 @@
 
 use proptest::prelude::*;
 use shadec::backends::combiners::{
-    Bias, CombinerConfig, ComponentUsage, FinalCombiner, FinalInput, FinalSource, GeneralInput, GeneralPortion,
-    GeneralStage, InputMapping, PortionKind, Register, Scale,
+    Bias, CombinerConfig, ComponentUsage, FinalCombiner, FinalInput, FinalSource, GeneralInput,
+    GeneralPortion, GeneralStage, InputMapping, PortionKind, Register, Scale,
 };
 
 /// A fixed-seed xorshift generator.
@@ -66,45 +66,54 @@ pub fn portion(kind: PortionKind) -> impl Strategy<Value = GeneralPortion> {
     let flags = (any::<bool>(), any::<bool>(), any::<bool>());
     let scale = prop::sample::select(vec![Scale::One, Scale::Two, Scale::Four, Scale::OneHalf]);
     let special = prop::sample::select(vec![0u8, 0, 0, 1, 2]);
-    (inputs, outputs, flags, scale, any::<bool>(), special).prop_map(move |([a, b, c, d], mut out, (ab_dot, cd_dot, mux_sum), scale, bias, special)| {
-        if special == 1 {
-            return GeneralPortion::discard_all();
-        }
-        // Distinct outputs: drop repeats.
-        if out[1].is_some() && out[1] == out[0] {
-            out[1] = None;
-        }
-        if out[2].is_some() && (out[2] == out[0] || out[2] == out[1]) {
-            out[2] = None;
-        }
-        let dots = kind == PortionKind::Rgb;
-        let (ab_dot, cd_dot) = (ab_dot && dots, cd_dot && dots);
-        if ab_dot || cd_dot {
-            out[2] = None;
-        }
-        let bias = if bias && matches!(scale, Scale::One | Scale::Two) { Bias::NegativeOneHalf } else { Bias::Zero };
-        let mut p = GeneralPortion {
-            a,
-            b,
-            c,
-            d,
-            ab_output: out[0],
-            cd_output: out[1],
-            sum_output: out[2],
-            ab_dot,
-            cd_dot,
-            mux_sum,
-            scale,
-            bias,
-        };
-        if special == 2 {
-            // What nvparse makes of a lone product: C = D = zero, CD and sum discarded.
-            let usage = if kind == PortionKind::Rgb { ComponentUsage::Rgb } else { ComponentUsage::Alpha };
-            let zero = GeneralInput { register: Register::Zero, mapping: InputMapping::UnsignedIdentity, usage };
-            (p.c, p.d, p.cd_output, p.cd_dot, p.sum_output, p.mux_sum) = (zero, zero, None, false, None, false);
-        }
-        p
-    })
+    (inputs, outputs, flags, scale, any::<bool>(), special).prop_map(
+        move |([a, b, c, d], mut out, (ab_dot, cd_dot, mux_sum), scale, bias, special)| {
+            if special == 1 {
+                return GeneralPortion::discard_all();
+            }
+            // Distinct outputs: drop repeats.
+            if out[1].is_some() && out[1] == out[0] {
+                out[1] = None;
+            }
+            if out[2].is_some() && (out[2] == out[0] || out[2] == out[1]) {
+                out[2] = None;
+            }
+            let dots = kind == PortionKind::Rgb;
+            let (ab_dot, cd_dot) = (ab_dot && dots, cd_dot && dots);
+            if ab_dot || cd_dot {
+                out[2] = None;
+            }
+            let bias = if bias && matches!(scale, Scale::One | Scale::Two) {
+                Bias::NegativeOneHalf
+            } else {
+                Bias::Zero
+            };
+            let mut p = GeneralPortion {
+                a,
+                b,
+                c,
+                d,
+                ab_output: out[0],
+                cd_output: out[1],
+                sum_output: out[2],
+                ab_dot,
+                cd_dot,
+                mux_sum,
+                scale,
+                bias,
+            };
+            if special == 2 {
+                // What nvparse makes of a lone product: C = D = zero, CD and sum discarded.
+                let usage =
+                    if kind == PortionKind::Rgb { ComponentUsage::Rgb } else { ComponentUsage::Alpha };
+                let zero =
+                    GeneralInput { register: Register::Zero, mapping: InputMapping::UnsignedIdentity, usage };
+                (p.c, p.d, p.cd_output, p.cd_dot, p.sum_output, p.mux_sum) =
+                    (zero, zero, None, false, None, false);
+            }
+            p
+        },
+    )
 }
 
 pub fn color() -> impl Strategy<Value = [f32; 4]> {
@@ -116,7 +125,12 @@ pub fn color() -> impl Strategy<Value = [f32; 4]> {
 }
 
 pub fn stage() -> impl Strategy<Value = GeneralStage> {
-    (portion(PortionKind::Rgb), portion(PortionKind::Alpha), prop::option::of(color()), prop::option::of(color()))
+    (
+        portion(PortionKind::Rgb),
+        portion(PortionKind::Alpha),
+        prop::option::of(color()),
+        prop::option::of(color()),
+    )
         .prop_map(|(rgb, alpha, constant0, constant1)| GeneralStage { rgb, alpha, constant0, constant1 })
 }
 
@@ -143,12 +157,24 @@ pub fn final_combiner() -> impl Strategy<Value = FinalCombiner> {
         (final_input('E'), final_input('F'), final_input('G')),
         any::<bool>(),
     )
-        .prop_map(|((a, b, c, d), (e, f, g), color_sum_clamp)| FinalCombiner { a, b, c, d, e, f, g, color_sum_clamp })
+        .prop_map(|((a, b, c, d), (e, f, g), color_sum_clamp)| FinalCombiner {
+            a,
+            b,
+            c,
+            d,
+            e,
+            f,
+            g,
+            color_sum_clamp,
+        })
 }
 
 /// A valid config (geforce3 limits) by construction.
 pub fn config(max_stages: usize) -> impl Strategy<Value = CombinerConfig> {
-    let ts = prop::option::of(prop_oneof![Just("\n".to_string()), "[ -~\n]{0,40}".prop_filter("no header", |s| !s.contains("!!RC1.0"))]);
+    let ts = prop::option::of(prop_oneof![
+        Just("\n".to_string()),
+        "[ -~\n]{0,40}".prop_filter("no header", |s| !s.contains("!!RC1.0"))
+    ]);
     (
         prop::option::of(color()),
         prop::option::of(color()),

@@ -53,8 +53,8 @@ pub fn shd_files(dir: &str) -> Vec<std::path::PathBuf> {
 // A vertex stage over explicit clip positions and varyings, and small fragment stages.
 
 use shadec::renderer::{
-    draw, ColorFormat, CullMode, DepthState, DrawStats, Fragment, FragmentResult, FragmentStage, Framebuffer, Pass,
-    RenderState, VertexStage,
+    draw, ColorFormat, CullMode, DepthState, DrawStats, Fragment, FragmentResult, FragmentStage, Framebuffer,
+    Pass, RenderState, VertexStage,
 };
 
 /// Vertices given directly in clip space, each with `n` varyings.
@@ -127,11 +127,21 @@ pub fn counting_state() -> RenderState {
 }
 
 /// Draws `triangles` with a +1 additive count per fragment; returns the count image.
-pub fn hit_counts(vertices: &ClipVertices, triangles: &[[u32; 3]], width: u32, height: u32) -> (Vec<f32>, DrawStats) {
+pub fn hit_counts(
+    vertices: &ClipVertices,
+    triangles: &[[u32; 3]],
+    width: u32,
+    height: u32,
+) -> (Vec<f32>, DrawStats) {
     let mut fb = Framebuffer::new(width, height, ColorFormat::F32).unwrap();
     let stats = draw(
         &mut fb,
-        &Pass { triangles, vertex: vertices, fragment: &Constant([1.0, 0.0, 0.0, 0.0]), state: counting_state() },
+        &Pass {
+            triangles,
+            vertex: vertices,
+            fragment: &Constant([1.0, 0.0, 0.0, 0.0]),
+            state: counting_state(),
+        },
     )
     .unwrap();
     (fb.to_rgba_f32().iter().map(|c| c[0]).collect(), stats)
@@ -139,7 +149,8 @@ pub fn hit_counts(vertices: &ClipVertices, triangles: &[[u32; 3]], width: u32, h
 
 /// `tests/data/shadow_floor.ron`: a ball over a floor, one light.
 pub fn shadow_floor_scene() -> shadec::scene::Scene {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/shadow_floor.ron")).unwrap();
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/shadow_floor.ron")).unwrap();
     shadec::scene::Scene::parse(&text, Path::new("/nonexistent-shadec-scene/shadow_floor.ron")).unwrap()
 }
 
@@ -147,8 +158,12 @@ pub fn shadow_floor_scene() -> shadec::scene::Scene {
 /// out (GAPS.md 15): an ambient first image, and the reprojected point's
 /// depth from the light against the light's depth buffer, with a bias.
 pub fn shadow_mask_and_williams() -> (String, String) {
-    let lit = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/shadow_mask.shd")).unwrap();
-    let williams = lit.replace("C δπx ← δ p s x;", "C δπx ← ka;").replace("α C xs ← (z C xs) > (z Cl πl π⁻¹ xs);", "α C xs ← (z πl π⁻¹ xs) > (z Cl πl π⁻¹ xs) + 0.002;");
+    let lit =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/shadow_mask.shd")).unwrap();
+    let williams = lit.replace("C δπx ← δ p s x;", "C δπx ← ka;").replace(
+        "α C xs ← (z C xs) > (z Cl πl π⁻¹ xs);",
+        "α C xs ← (z πl π⁻¹ xs) > (z Cl πl π⁻¹ xs) + 0.002;",
+    );
     assert_ne!(williams, lit, "the example's statements changed");
     (lit, williams)
 }

@@ -42,8 +42,8 @@ use crate::parser::ast::CombineMode;
 use crate::span::Span;
 
 use super::config::{
-    Bias, Color, CombinerConfig, CombinerLimits, ComponentUsage, FinalCombiner, FinalInput, FinalSource, GeneralInput,
-    GeneralPortion, GeneralStage, InputMapping, Register, Scale,
+    Bias, Color, CombinerConfig, CombinerLimits, ComponentUsage, FinalCombiner, FinalInput, FinalSource,
+    GeneralInput, GeneralPortion, GeneralStage, InputMapping, Register, Scale,
 };
 use super::validate::{validate, ValidationError};
 
@@ -383,14 +383,20 @@ pub fn generate(input: &PassInput, limits: &CombinerLimits) -> Result<Generated,
     // not depend on pairing, so the planner's many refused values are
     // generated once, not twice.
     match generate_with(input, limits, true) {
-        Err(CodegenError::OutOfRegisters { .. } | CodegenError::Invalid(_)) => generate_with(input, limits, false),
+        Err(CodegenError::OutOfRegisters { .. } | CodegenError::Invalid(_)) => {
+            generate_with(input, limits, false)
+        }
         r => r,
     }
 }
 
 /// [`generate`], with independent products paired in one portion (AB and
 /// CD to two outputs) or not.
-fn generate_with(input: &PassInput, limits: &CombinerLimits, pairing: bool) -> Result<Generated, CodegenError> {
+fn generate_with(
+    input: &PassInput,
+    limits: &CombinerLimits,
+    pairing: bool,
+) -> Result<Generated, CodegenError> {
     let original = input.module.exprs.len();
     let desugared = desugar(input.module, input.value)?;
     let (m, value) = match &desugared {
@@ -438,7 +444,12 @@ fn generate_with(input: &PassInput, limits: &CombinerLimits, pairing: bool) -> R
         // A constant the generator made (folded, or from a desugared ⊕) is
         // not a node of the caller's module; its colour is in the config.
         constants: g.assigned.global.map(|k| k.map(|k| g.konsts[k].node).filter(|h| h.index() < original)),
-        stage_constants: g.assigned.local.iter().map(|l| l.map(|k| k.map(|k| g.konsts[k].node).filter(|h| h.index() < original))).collect(),
+        stage_constants: g
+            .assigned
+            .local
+            .iter()
+            .map(|l| l.map(|k| k.map(|k| g.konsts[k].node).filter(|h| h.index() < original)))
+            .collect(),
         stages,
     })
 }
@@ -451,8 +462,12 @@ fn generate_with(input: &PassInput, limits: &CombinerLimits, pairing: bool) -> R
 /// of the original (lookups, interpolants, uniforms) keeps its meaning.
 fn desugar(module: &Module, value: Handle<Expr>) -> R<Option<(Module, Handle<Expr>)>> {
     let reach = module.reachable(&[value]);
-    let is_combine = |h: &Handle<Expr>| matches!(module.exprs[*h], Expr::Combine { .. }) && module.info(*h).freq.is_sample();
-    let floats_a_scale = |h: &Handle<Expr>| module.info(*h).freq.is_sample() && scale_to_float(module, &module.exprs[*h]).is_some();
+    let is_combine = |h: &Handle<Expr>| {
+        matches!(module.exprs[*h], Expr::Combine { .. }) && module.info(*h).freq.is_sample()
+    };
+    let floats_a_scale = |h: &Handle<Expr>| {
+        module.info(*h).freq.is_sample() && scale_to_float(module, &module.exprs[*h]).is_some()
+    };
     if !reach.iter().any(|h| is_combine(h) || floats_a_scale(h)) {
         return Ok(None);
     }
@@ -461,13 +476,17 @@ fn desugar(module: &Module, value: Handle<Expr>) -> R<Option<(Module, Handle<Exp
     for h in reach {
         let e = module.exprs[h].clone();
         // Leaves for the combiners: texture units, interpolants, per-object values.
-        if !module.info(h).freq.is_sample() || matches!(e, Expr::Lookup { .. } | Expr::FramebufferRead { .. } | Expr::Interpolate { .. }) {
+        if !module.info(h).freq.is_sample()
+            || matches!(e, Expr::Lookup { .. } | Expr::FramebufferRead { .. } | Expr::Interpolate { .. })
+        {
             continue;
         }
         let span = module.span(h);
         let e = e.map_operands(|o| map.get(&o).copied().unwrap_or(o));
         let new = match e {
-            Expr::Combine { mode, lhs, rhs } => combine_expr(&mut m, mode, lhs, rhs, module.info(h).ty, span)?,
+            Expr::Combine { mode, lhs, rhs } => {
+                combine_expr(&mut m, mode, lhs, rhs, module.info(h).ty, span)?
+            }
             e => match scale_to_float(&m, &e) {
                 Some((k, y, z)) => {
                     let inner = intern(&mut m, Expr::Binary { op: BinaryOp::Mul, lhs: y, rhs: z }, span)?;
@@ -513,7 +532,13 @@ fn gl_colour(m: &mut Module, h: Handle<Expr>, span: Span) -> R<Handle<Expr>> {
 }
 
 fn intern(m: &mut Module, e: Expr, span: Span) -> R<Handle<Expr>> {
-    m.intern(e, span).map_err(|t| unsupported(span, format!("this value ({})", t.message), "please report this: rewriting ⊕ for the combiners failed"))
+    m.intern(e, span).map_err(|t| {
+        unsupported(
+            span,
+            format!("this value ({})", t.message),
+            "please report this: rewriting ⊕ for the combiners failed",
+        )
+    })
 }
 
 /// `t ⊕[mode] f` of type `ty` as IR arithmetic: `crate::ir::eval::combine`
@@ -527,8 +552,17 @@ fn intern(m: &mut Module, e: Expr, span: Span) -> R<Handle<Expr>> {
 /// the operand is the fragment colour a blend clamps (issue 16 item 5:
 /// Kilgard's `C ⊕ rgba(diffuse, s_self)`, `diffuse` in [0.1, 1.1], fused
 /// into one pass). The IR itself keeps ⊕ unclamped (docs/language.md).
-fn combine_expr(m: &mut Module, mode: CombineMode, t: Handle<Expr>, f: Handle<Expr>, ty: Ty, span: Span) -> R<Handle<Expr>> {
-    let bin = |m: &mut Module, op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr>| intern(m, Expr::Binary { op, lhs, rhs }, span);
+fn combine_expr(
+    m: &mut Module,
+    mode: CombineMode,
+    t: Handle<Expr>,
+    f: Handle<Expr>,
+    ty: Ty,
+    span: Span,
+) -> R<Handle<Expr>> {
+    let bin = |m: &mut Module, op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr>| {
+        intern(m, Expr::Binary { op, lhs, rhs }, span)
+    };
     let konst = |m: &mut Module, v: f64| intern(m, Expr::Constant(Constant::scalar(v)), span);
     let lhs_rgb = matches!(m.exprs[t], Expr::Convert { value, to: Ty::Rgba } if m.info(value).ty == Ty::Rgb);
     let (t, f) = (gl_colour(m, t, span)?, gl_colour(m, f, span)?);
@@ -536,18 +570,24 @@ fn combine_expr(m: &mut Module, mode: CombineMode, t: Handle<Expr>, f: Handle<Ex
     // Component selections of a value (a scalar operand splats).
     let rgb_of = |m: &mut Module, h: Handle<Expr>| -> R<Handle<Expr>> {
         match m.info(h).ty {
-            Ty::Rgba => intern(m, Expr::Swizzle { value: h, pattern: [0, 1, 2, 0], len: 3, ty: Ty::Rgb }, span),
+            Ty::Rgba => {
+                intern(m, Expr::Swizzle { value: h, pattern: [0, 1, 2, 0], len: 3, ty: Ty::Rgb }, span)
+            }
             _ => Ok(h),
         }
     };
     let alpha_of = |m: &mut Module, h: Handle<Expr>| -> R<Handle<Expr>> {
         match m.info(h).ty {
-            Ty::Rgba => intern(m, Expr::Swizzle { value: h, pattern: [3, 0, 0, 0], len: 1, ty: Ty::Scalar }, span),
+            Ty::Rgba => {
+                intern(m, Expr::Swizzle { value: h, pattern: [3, 0, 0, 0], len: 1, ty: Ty::Scalar }, span)
+            }
             Ty::Scalar => Ok(h),
             _ => konst(m, 1.0),
         }
     };
-    let compose = |m: &mut Module, c: Handle<Expr>, a: Handle<Expr>| intern(m, Expr::Compose { ty: Ty::Rgba, components: vec![c, a] }, span);
+    let compose = |m: &mut Module, c: Handle<Expr>, a: Handle<Expr>| {
+        intern(m, Expr::Compose { ty: Ty::Rgba, components: vec![c, a] }, span)
+    };
     Ok(match mode {
         CombineMode::Modulate => bin(m, BinaryOp::Mul, t, f)?,
         CombineMode::Add => bin(m, BinaryOp::Add, t, f)?,
@@ -653,10 +693,14 @@ impl Gen<'_> {
     /// an rgb widened to rgba); `Ok(None)` for the alpha 1 of a widened rgb.
     fn part_node(&self, h: Handle<Expr>, part: Part) -> Option<Option<Handle<Expr>>> {
         match (self.expr(h), part) {
-            (Expr::Compose { ty: Ty::Rgba, components }, _) if components.len() == 2 && self.ty(components[0]).width() == 3 => {
+            (Expr::Compose { ty: Ty::Rgba, components }, _)
+                if components.len() == 2 && self.ty(components[0]).width() == 3 =>
+            {
                 Some(Some(if part == Part::Rgb { components[0] } else { components[1] }))
             }
-            (Expr::Convert { value, to: Ty::Rgba }, Part::Rgb) if self.ty(*value) == Ty::Rgb => Some(Some(*value)),
+            (Expr::Convert { value, to: Ty::Rgba }, Part::Rgb) if self.ty(*value) == Ty::Rgb => {
+                Some(Some(*value))
+            }
             (Expr::Convert { value, to: Ty::Rgba }, Part::Alpha) if self.ty(*value) == Ty::Rgb => Some(None),
             // A scalar splatted to rgba: every component is the scalar.
             (Expr::Convert { value, to: Ty::Rgba }, _) if self.ty(*value) == Ty::Scalar => Some(Some(*value)),
@@ -671,7 +715,8 @@ impl Gen<'_> {
 
     /// `h`'s `part` is the number 1.
     fn is_one(&self, h: Handle<Expr>, part: Part) -> bool {
-        self.constant(h) == Some(1.0) || (self.norm(h, part) == Part::Alpha && self.part_node(h, part) == Some(None))
+        self.constant(h) == Some(1.0)
+            || (self.norm(h, part) == Part::Alpha && self.part_node(h, part) == Some(None))
     }
 
     fn constant(&self, h: Handle<Expr>) -> Option<f64> {
@@ -929,7 +974,8 @@ impl Gen<'_> {
 
     fn pow2_exponent(&self, h: Handle<Expr>) -> Option<u32> {
         let n = self.constant(h)?;
-        ((2.0..=256.0).contains(&n) && n.fract() == 0.0 && (n as u32).is_power_of_two()).then(|| (n as u32).trailing_zeros())
+        ((2.0..=256.0).contains(&n) && n.fract() == 0.0 && (n as u32).is_power_of_two())
+            .then(|| (n as u32).trailing_zeros())
     }
 
     /// `x^(2^k)` by repeated squaring in general combiners.
@@ -1005,7 +1051,13 @@ impl Gen<'_> {
         let mut color = [0.0f32; 4];
         let scalar_like = mags.len() == 1;
         for (i, slot) in color.iter_mut().enumerate() {
-            let v = if scalar_like { mags[0] } else if c.ty == Ty::Rgba { c.components[i].abs() } else { mags.get(i).copied().unwrap_or(0.0) };
+            let v = if scalar_like {
+                mags[0]
+            } else if c.ty == Ty::Rgba {
+                c.components[i].abs()
+            } else {
+                mags.get(i).copied().unwrap_or(0.0)
+            };
             *slot = v as f32;
         }
         let comp = if scalar_like || part == Part::Alpha { Comp::Alpha } else { Comp::Rgb };
@@ -1045,7 +1097,11 @@ impl Gen<'_> {
     }
 
     fn out_of_constants(&self, span: Span, place: String, ks: &[usize]) -> CodegenError {
-        CodegenError::OutOfConstants { span, place, constants: ks.iter().map(|k| self.describe_konst(*k)).collect() }
+        CodegenError::OutOfConstants {
+            span,
+            place,
+            constants: ks.iter().map(|k| self.describe_konst(*k)).collect(),
+        }
     }
 
     /// A constant as the user wrote it: `uniform I_light`, or its value.
@@ -1101,8 +1157,11 @@ impl Gen<'_> {
         let span = self.m.span(h);
         let spec = match self.expr(h).clone() {
             Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => {
-                let scale = |g: &Self, k: Handle<Expr>| g.constant(k).filter(|k| [0.5, 2.0, 4.0, 8.0].contains(k));
-                if let Some((k, x)) = scale(self, lhs).map(|k| (k, rhs)).or_else(|| scale(self, rhs).map(|k| (k, lhs))) {
+                let scale =
+                    |g: &Self, k: Handle<Expr>| g.constant(k).filter(|k| [0.5, 2.0, 4.0, 8.0].contains(k));
+                if let Some((k, x)) =
+                    scale(self, lhs).map(|k| (k, rhs)).or_else(|| scale(self, rhs).map(|k| (k, lhs)))
+                {
                     let inner = self.spec_or_source(x, part)?;
                     return Ok(Some(self.scaled(inner, k, Some(x), part)?));
                 }
@@ -1118,23 +1177,39 @@ impl Gen<'_> {
                         None => o,
                     };
                     match *g.expr(node) {
-                        Expr::Binary { op: BinaryOp::Mul, lhs: a, rhs: b } if !g.m.info(node).freq.is_sample() => {
+                        Expr::Binary { op: BinaryOp::Mul, lhs: a, rhs: b }
+                            if !g.m.info(node).freq.is_sample() =>
+                        {
                             scale(g, a).map(|k| (k, b)).or_else(|| scale(g, b).map(|k| (k, a)))
                         }
                         _ => None,
                     }
                 };
-                if let Some((k, y, z)) = scaled_operand(self, lhs).map(|(k, y)| (k, y, rhs)).or_else(|| scaled_operand(self, rhs).map(|(k, y)| (k, y, lhs))) {
-                    let term = Term { a: self.src(y, part, false)?, b: self.src(z, part, false)?, dot: false };
+                if let Some((k, y, z)) = scaled_operand(self, lhs)
+                    .map(|(k, y)| (k, y, rhs))
+                    .or_else(|| scaled_operand(self, rhs).map(|(k, y)| (k, y, lhs)))
+                {
+                    let term =
+                        Term { a: self.src(y, part, false)?, b: self.src(z, part, false)?, dot: false };
                     return Ok(Some(self.scaled(Spec::single(term, scalar), k, None, part)?));
                 }
-                Spec::single(Term { a: self.src(lhs, part, false)?, b: self.src(rhs, part, false)?, dot: false }, scalar)
+                Spec::single(
+                    Term { a: self.src(lhs, part, false)?, b: self.src(rhs, part, false)?, dot: false },
+                    scalar,
+                )
             }
             Expr::Binary { op: BinaryOp::Dot, lhs, rhs } => {
                 if self.ty(lhs).width() != 3 || self.is_z_axis(lhs) || self.is_z_axis(rhs) {
                     return Ok(None);
                 }
-                Spec::single(Term { a: self.src(lhs, Part::Rgb, false)?, b: self.src(rhs, Part::Rgb, false)?, dot: true }, true)
+                Spec::single(
+                    Term {
+                        a: self.src(lhs, Part::Rgb, false)?,
+                        b: self.src(rhs, Part::Rgb, false)?,
+                        dot: true,
+                    },
+                    true,
+                )
             }
             Expr::Binary { op: op @ (BinaryOp::Add | BinaryOp::Sub), lhs, rhs } => {
                 let ab = self.sum_term(lhs, part)?;
@@ -1165,22 +1240,37 @@ impl Gen<'_> {
             Expr::Math { fun: MathFunction::Mix, ref args } => {
                 let (a, b, t) = (args[0], args[1], args[2]);
                 if self.lo(t) < 0.0 || self.hi(t) > 1.0 {
-                    return Err(unsupported(span, "`mix` with a weight outside [0, 1]", "saturate the weight"));
+                    return Err(unsupported(
+                        span,
+                        "`mix` with a weight outside [0, 1]",
+                        "saturate the weight",
+                    ));
                 }
                 let ts = self.src(t, part, false)?;
                 let ts = self.unsigned(ts, span)?;
-                let inv = Src { map: if ts.map == UnsignedInvert { UnsignedIdentity } else { UnsignedInvert }, ..ts };
+                let inv = Src {
+                    map: if ts.map == UnsignedInvert { UnsignedIdentity } else { UnsignedInvert },
+                    ..ts
+                };
                 let ab = Term { a: self.src(a, part, false)?, b: inv, dot: false };
                 let cd = Term { a: self.src(b, part, false)?, b: ts, dot: false };
                 Spec { cd: Some(cd), ..Spec::single(ab, scalar) }
             }
-            Expr::Math { fun: fun @ (MathFunction::Expand | MathFunction::HalfBias | MathFunction::Compress), ref args } => {
+            Expr::Math {
+                fun: fun @ (MathFunction::Expand | MathFunction::HalfBias | MathFunction::Compress),
+                ref args,
+            } => {
                 let x = args[0];
                 let mut inner = self.spec_or_source(x, part)?;
                 match fun {
                     MathFunction::Compress => {
                         // (x + 1) · ½
-                        if inner.cd.is_some() || inner.mux.is_some() || inner.ab.dot || inner.scale != Scale::One || inner.bias != Bias::Zero {
+                        if inner.cd.is_some()
+                            || inner.mux.is_some()
+                            || inner.ab.dot
+                            || inner.scale != Scale::One
+                            || inner.bias != Bias::Zero
+                        {
                             inner = Spec::single(Term::times_one(self.src(x, part, false)?), scalar);
                         }
                         inner.cd = Some(Term::times_one(Src::ONE));
@@ -1230,10 +1320,17 @@ impl Gen<'_> {
     /// Nodes `src` turns into a source without a new operation.
     fn is_source(&self, h: Handle<Expr>) -> bool {
         match self.expr(h) {
-            Expr::Binary { op: BinaryOp::Dot, lhs, rhs } if self.is_z_axis(*lhs) || self.is_z_axis(*rhs) => true,
-            Expr::Math { fun: MathFunction::Expand | MathFunction::HalfBias, args } => self.is_source(args[0]),
+            Expr::Binary { op: BinaryOp::Dot, lhs, rhs } if self.is_z_axis(*lhs) || self.is_z_axis(*rhs) => {
+                true
+            }
+            Expr::Math { fun: MathFunction::Expand | MathFunction::HalfBias, args } => {
+                self.is_source(args[0])
+            }
             Expr::Unary { op: UnaryOp::Neg, value } => self.is_source(*value),
-            Expr::Binary { op: BinaryOp::Mul | BinaryOp::Add | BinaryOp::Sub | BinaryOp::Dot | BinaryOp::Pow, .. }
+            Expr::Binary {
+                op: BinaryOp::Mul | BinaryOp::Add | BinaryOp::Sub | BinaryOp::Dot | BinaryOp::Pow,
+                ..
+            }
             | Expr::Binary { op: BinaryOp::Lt | BinaryOp::Le | BinaryOp::Gt | BinaryOp::Ge, .. }
             | Expr::Select { .. }
             | Expr::Math { .. } => false,
@@ -1287,8 +1384,15 @@ impl Gen<'_> {
     fn sum_term(&mut self, h: Handle<Expr>, part: Part) -> R<Term> {
         if let Expr::Binary { op: BinaryOp::Mul, lhs, rhs } = self.expr(h).clone() {
             let is_scale = |k: Option<f64>| k.is_some_and(|k| k.abs() > 1.0);
-            if !is_scale(self.constant(lhs)) && !is_scale(self.constant(rhs)) && !self.cache.contains_key(&(h, self.norm(h, part))) {
-                return Ok(Term { a: self.src(lhs, part, false)?, b: self.src(rhs, part, false)?, dot: false });
+            if !is_scale(self.constant(lhs))
+                && !is_scale(self.constant(rhs))
+                && !self.cache.contains_key(&(h, self.norm(h, part)))
+            {
+                return Ok(Term {
+                    a: self.src(lhs, part, false)?,
+                    b: self.src(rhs, part, false)?,
+                    dot: false,
+                });
             }
         }
         Ok(Term::times_one(self.src(h, part, false)?))
@@ -1406,7 +1510,11 @@ impl Gen<'_> {
                 (Lane::Alpha, Comp::Bcast) => Src { comp: Comp::Blue, ..s },
                 (Lane::Alpha, Comp::Rgb) if g.is_const_reg(&s) => Src { comp: Comp::Alpha, ..s },
                 (Lane::Alpha, Comp::Rgb) => {
-                    return Err(unsupported(span, "a vector in an alpha computation", "the alpha portion reads alpha or blue (seeds/003 B.4)"))
+                    return Err(unsupported(
+                        span,
+                        "a vector in an alpha computation",
+                        "the alpha portion reads alpha or blue (seeds/003 B.4)",
+                    ))
                 }
                 _ => s,
             })
@@ -1437,11 +1545,20 @@ impl Gen<'_> {
         if per_stage && ks.len() > 2 {
             return Err(self.out_of_constants(span, "this general combiner operation".into(), &ks));
         }
-        let fits = |g: &Self, stage: usize| !per_stage || g.stage_konsts[stage].iter().chain(ks.iter().filter(|k| !g.stage_konsts[stage].contains(k))).count() <= 2;
+        let fits = |g: &Self, stage: usize| {
+            !per_stage
+                || g.stage_konsts[stage]
+                    .iter()
+                    .chain(ks.iter().filter(|k| !g.stage_konsts[stage].contains(k)))
+                    .count()
+                    <= 2
+        };
         let single = spec.cd.is_none() && spec.mux.is_none();
         let takes = |g: &Self, stage: usize| match g.stage_used[stage][li] {
             Portion::Free => true,
-            Portion::Ab(o) => g.pairing && single && g.ops[o].scale == spec.scale && g.ops[o].bias == spec.bias,
+            Portion::Ab(o) => {
+                g.pairing && single && g.ops[o].scale == spec.scale && g.ops[o].bias == spec.bias
+            }
             Portion::Full => false,
         };
         let mut stage = earliest;
@@ -1453,7 +1570,8 @@ impl Gen<'_> {
             self.stage_konsts.push(Vec::new());
         }
         let in_cd = matches!(self.stage_used[stage][li], Portion::Ab(_));
-        self.stage_used[stage][li] = if single && !in_cd { Portion::Ab(self.ops.len()) } else { Portion::Full };
+        self.stage_used[stage][li] =
+            if single && !in_cd { Portion::Ab(self.ops.len()) } else { Portion::Full };
         for k in ks {
             if !self.stage_konsts[stage].contains(&k) {
                 self.stage_konsts[stage].push(k);
@@ -1461,7 +1579,18 @@ impl Gen<'_> {
         }
         let out = self.vregs.len();
         self.vregs.push(VReg { lane, op: self.ops.len(), pin: None, reg: None });
-        self.ops.push(Op { lane, ab: spec.ab, cd: spec.cd, mux: spec.mux, scale: spec.scale, bias: spec.bias, out, stage, in_cd, span });
+        self.ops.push(Op {
+            lane,
+            ab: spec.ab,
+            cd: spec.cd,
+            mux: spec.mux,
+            scale: spec.scale,
+            bias: spec.bias,
+            out,
+            stage,
+            in_cd,
+            span,
+        });
         let comp = match lane {
             Lane::Alpha => Comp::Alpha,
             Lane::Rgb if spec.scalar => Comp::Bcast,
@@ -1485,7 +1614,10 @@ impl Gen<'_> {
     /// register pinned there (Appendix H: `spare0.a = unsigned(tex1.b) * one`).
     fn pin_select(&mut self, sel: Src, span: Span) -> R<Src> {
         if let Base::V(v) = sel.base {
-            if self.vregs[v].lane == Lane::Alpha && self.vregs[v].pin.is_none() && matches!(sel.map, UnsignedIdentity | SignedIdentity) {
+            if self.vregs[v].lane == Lane::Alpha
+                && self.vregs[v].pin.is_none()
+                && matches!(sel.map, UnsignedIdentity | SignedIdentity)
+            {
                 self.vregs[v].pin = Some(Register::Spare0);
                 return Ok(sel);
             }
@@ -1511,7 +1643,11 @@ impl Gen<'_> {
         };
         let ty = self.ty(value);
         if !matches!(ty, Ty::Rgb | Ty::Rgba | Ty::Scalar | Ty::Vec3) {
-            return Err(unsupported(self.span, format!("a pass whose value is a {}", ty.name()), "a pass outputs a colour"));
+            return Err(unsupported(
+                self.span,
+                format!("a pass whose value is a {}", ty.name()),
+                "a pass outputs a colour",
+            ));
         }
         // rgb part.
         let (rgb, rgb_part) = match self.part_node(value, Part::Rgb) {
@@ -1595,7 +1731,10 @@ impl Gen<'_> {
             while terms.len() > 1 {
                 let y = terms.pop().expect("len > 1");
                 let x = terms.pop().expect("len > 1");
-                let s = self.emit(Spec { cd: Some(y), alpha_only: part == Part::Alpha, ..Spec::single(x, scalar) }, span)?;
+                let s = self.emit(
+                    Spec { cd: Some(y), alpha_only: part == Part::Alpha, ..Spec::single(x, scalar) },
+                    span,
+                )?;
                 terms.push(Term::times_one(s));
             }
             let s = terms[0].a;
@@ -1628,9 +1767,13 @@ impl Gen<'_> {
                 self.flatten(h, BinaryOp::Mul, &mut f);
                 f.iter().all(|x| self.nonneg_unit(*x))
             }
-            Expr::Binary { op: BinaryOp::Pow, lhs, rhs } => self.pow2_exponent(*rhs).is_some() && self.nonneg_unit(*lhs),
+            Expr::Binary { op: BinaryOp::Pow, lhs, rhs } => {
+                self.pow2_exponent(*rhs).is_some() && self.nonneg_unit(*lhs)
+            }
             Expr::Select { accept, reject: Some(r), .. } => {
-                self.constant(*r) == Some(0.0) && matches!(self.expr(*accept), Expr::Binary { op: BinaryOp::Pow, .. }) && self.is_final_product(*accept)
+                self.constant(*r) == Some(0.0)
+                    && matches!(self.expr(*accept), Expr::Binary { op: BinaryOp::Pow, .. })
+                    && self.is_final_product(*accept)
             }
             Expr::Math { fun: MathFunction::Mix, args } => args.iter().all(|a| self.nonneg_unit(*a)),
             _ => false,
@@ -1659,7 +1802,9 @@ impl Gen<'_> {
             Expr::Select { cond, accept, reject: Some(reject) } => {
                 // c ? x^(2^k) : 0 = (c ? x^(2^(k−m)) : 0)^(2^m): the final combiner
                 // squares twice (EF, then EF·EF), the mux stage once (Appendix H).
-                let Expr::Binary { op: BinaryOp::Pow, lhs: x, rhs } = self.expr(accept).clone() else { unreachable!("checked") };
+                let Expr::Binary { op: BinaryOp::Pow, lhs: x, rhs } = self.expr(accept).clone() else {
+                    unreachable!("checked")
+                };
                 let k = self.pow2_exponent(rhs).expect("checked");
                 let m = k.min(2);
                 let acc = if k - m >= 1 {
@@ -1669,11 +1814,20 @@ impl Gen<'_> {
                     Term::times_one(self.src(x, part, false)?)
                 };
                 let rej = self.plain_term(reject, part)?;
-                let rej = if rej.a == Src::ZERO { Term { a: Src::ZERO, b: Src::ZERO, dot: false } } else { rej };
+                let rej =
+                    if rej.a == Src::ZERO { Term { a: Src::ZERO, b: Src::ZERO, dot: false } } else { rej };
                 let (sel, high) = self.condition(cond)?;
                 let (ab, cd) = if high { (rej, acc) } else { (acc, rej) };
                 let scalar = self.scalar(p, part);
-                let s = self.emit(Spec { cd: Some(cd), mux: Some(sel), alpha_only: part == Part::Alpha, ..Spec::single(ab, scalar) }, span)?;
+                let s = self.emit(
+                    Spec {
+                        cd: Some(cd),
+                        mux: Some(sel),
+                        alpha_only: part == Part::Alpha,
+                        ..Spec::single(ab, scalar)
+                    },
+                    span,
+                )?;
                 return self.final_power(s, m, span, fin);
             }
             _ => {}
@@ -1692,7 +1846,10 @@ impl Gen<'_> {
             let scalar = a.comp != Comp::Rgb && b.comp != Comp::Rgb;
             let a = self.unsigned(a, span)?;
             let b = self.unsigned(b, span)?;
-            let v = self.emit(Spec { alpha_only: part == Part::Alpha, ..Spec::single(Term { a, b, dot: false }, scalar) }, span)?;
+            let v = self.emit(
+                Spec { alpha_only: part == Part::Alpha, ..Spec::single(Term { a, b, dot: false }, scalar) },
+                span,
+            )?;
             srcs.push(v);
         }
         let mut fs = Vec::new();
@@ -1760,7 +1917,9 @@ impl Gen<'_> {
         if self.final_konsts.contains(&k) || !self.limits.per_stage_constants {
             return Ok(s);
         }
-        let supplied = (0..self.konsts.len()).filter(|i| !self.konsts[*i].known && !self.final_konsts.contains(i) && *i != k).count();
+        let supplied = (0..self.konsts.len())
+            .filter(|i| !self.konsts[*i].known && !self.final_konsts.contains(i) && *i != k)
+            .count();
         if self.final_konsts.len() + supplied >= 2 {
             let v = self.copy(s, span)?;
             return Ok(Src { map: UnsignedIdentity, ..v });
@@ -1774,7 +1933,13 @@ impl Gen<'_> {
         let s = match s.comp {
             Comp::Alpha => s,
             Comp::Blue | Comp::Bcast => self.blue_to_alpha(Src { comp: Comp::Blue, ..s }, span)?,
-            Comp::Rgb => return Err(unsupported(span, "an alpha made of a vector", "G reads an alpha (seeds/003 B.5)")),
+            Comp::Rgb => {
+                return Err(unsupported(
+                    span,
+                    "an alpha made of a vector",
+                    "G reads an alpha (seeds/003 B.5)",
+                ))
+            }
         };
         let s = self.unsigned(s, span)?;
         self.final_read(s, span)
@@ -1813,12 +1978,14 @@ impl Gen<'_> {
             }
         }
         let final_ks = Self::konsts_of(final_reads);
-        let mut global: Vec<usize> = (0..all).filter(|k| final_ks.contains(k) || !self.konsts[*k].known).collect();
+        let mut global: Vec<usize> =
+            (0..all).filter(|k| final_ks.contains(k) || !self.konsts[*k].known).collect();
         if global.len() > 2 {
             let place = if global.iter().all(|k| final_ks.contains(k)) {
                 "the final combiner".to_string()
             } else {
-                "the final combiner, with the uniforms the caller supplies (no default: they stay global),".to_string()
+                "the final combiner, with the uniforms the caller supplies (no default: they stay global),"
+                    .to_string()
             };
             let span = self.m.span(self.konsts[global[2]].node);
             return Err(self.out_of_constants(span, place, &global));
@@ -1915,7 +2082,9 @@ impl Gen<'_> {
             };
             let reg = match self.vregs[v].pin {
                 Some(p) if free(p) => p,
-                Some(_) => return Err(CodegenError::OutOfRegisters { span: self.ops[self.vregs[v].op].span }),
+                Some(_) => {
+                    return Err(CodegenError::OutOfRegisters { span: self.ops[self.vregs[v].op].span })
+                }
                 None => *candidates
                     .iter()
                     .find(|r| free(**r))
@@ -1972,7 +2141,12 @@ impl Gen<'_> {
         let mut general: Vec<GeneralStage> = (0..self.stage_used.len())
             .map(|st| {
                 let local = self.assigned.local.get(st).copied().unwrap_or([None, None]);
-                GeneralStage { rgb: GeneralPortion::discard_all(), alpha: GeneralPortion::discard_all(), constant0: color(local[0]), constant1: color(local[1]) }
+                GeneralStage {
+                    rgb: GeneralPortion::discard_all(),
+                    alpha: GeneralPortion::discard_all(),
+                    constant0: color(local[0]),
+                    constant1: color(local[1]),
+                }
             })
             .collect();
         for op in &self.ops {
@@ -1990,7 +2164,11 @@ impl Gen<'_> {
                 continue;
             }
             let (c, d, cd_dot) = match op.cd {
-                Some(t) => (self.general_input(&t.a, op.lane, op.stage), self.general_input(&t.b, op.lane, op.stage), t.dot),
+                Some(t) => (
+                    self.general_input(&t.a, op.lane, op.stage),
+                    self.general_input(&t.b, op.lane, op.stage),
+                    t.dot,
+                ),
                 None => (zero, zero, false),
             };
             let combined = op.cd.is_some() || op.mux.is_some();
@@ -2033,7 +2211,6 @@ impl Gen<'_> {
             texture_shader: None,
         }
     }
-
 }
 
 fn to_color(c: &Constant) -> Color {
@@ -2064,7 +2241,13 @@ mod tests {
                 v = value;
             }
         }
-        let units: Vec<_> = m.exprs.arena().iter().filter(|(_, e)| matches!(e, Expr::Lookup { .. })).map(|(h, _)| h).collect();
+        let units: Vec<_> = m
+            .exprs
+            .arena()
+            .iter()
+            .filter(|(_, e)| matches!(e, Expr::Lookup { .. }))
+            .map(|(h, _)| h)
+            .collect();
         (m, v, units)
     }
 
@@ -2102,24 +2285,30 @@ mod tests {
     #[test]
     fn independent_operations_share_a_stage() {
         // A dot product (RGB portion) and an alpha product (alpha portion).
-        let g = gen("rgba(max(0, expand(a.rgb) · expand(b.rgb)) * a.rgb, expand(a.a) * expand(b.a))").unwrap();
+        let g =
+            gen("rgba(max(0, expand(a.rgb) · expand(b.rgb)) * a.rgb, expand(a.a) * expand(b.a))").unwrap();
         assert_eq!(g.stages, 1, "{}", super::super::rc1::print(&g.config));
         assert!(g.config.general[0].rgb.ab_dot);
-        assert!(g.config.general[0].alpha.ab_output.is_some() || g.config.general[0].alpha.sum_output.is_some());
+        assert!(
+            g.config.general[0].alpha.ab_output.is_some() || g.config.general[0].alpha.sum_output.is_some()
+        );
     }
 
     #[test]
     fn the_mux_select_lands_in_spare0_alpha() {
         let g = gen("a.a ≥ 0.5 ? expand(a.rgb) * b.rgb : b.rgb").unwrap();
         let mux = g.config.general.iter().find(|s| s.rgb.mux_sum).expect("a mux");
-        let select_writer = g.config.general.iter().find(|s| s.alpha.ab_output == Some(Register::Spare0) || s.alpha.sum_output == Some(Register::Spare0));
+        let select_writer = g.config.general.iter().find(|s| {
+            s.alpha.ab_output == Some(Register::Spare0) || s.alpha.sum_output == Some(Register::Spare0)
+        });
         assert!(select_writer.is_some() && mux.rgb.sum_output.is_some());
     }
 
     #[test]
     fn division_is_unsupported_at_its_span() {
         let (m, v, units) = module("a / 2");
-        let e = generate(&PassInput { module: &m, value: v, units: &units }, &CombinerLimits::GEFORCE3).unwrap_err();
+        let e = generate(&PassInput { module: &m, value: v, units: &units }, &CombinerLimits::GEFORCE3)
+            .unwrap_err();
         assert!(matches!(e, CodegenError::Unsupported { .. }));
         assert!(e.to_diagnostic().help.is_some_and(|h| h.contains("lookup texture")));
     }
@@ -2137,6 +2326,8 @@ pub fn generate_for_pass(planned: &crate::planner::Planned, index: usize) -> Res
     // target that has none (the fixed9 render of a wgsl plan).
     let limits = planned.combiners.unwrap_or(CombinerLimits::GEFORCE3);
     let units: Vec<Handle<Expr>> = pass.textures.iter().map(|t| planned.handle(t.lookup)).collect();
-    let input = PassInput { module: &planned.module, value: planned.handle(pass.fragment.output), units: &units };
-    generate(&input, &limits).map_err(|e| pass.combiners.clone().unwrap_or_else(|| format!("not generated: {e}")))
+    let input =
+        PassInput { module: &planned.module, value: planned.handle(pass.fragment.output), units: &units };
+    generate(&input, &limits)
+        .map_err(|e| pass.combiners.clone().unwrap_or_else(|| format!("not generated: {e}")))
 }

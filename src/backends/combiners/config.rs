@@ -426,7 +426,15 @@ impl Default for FinalCombiner {
 
 impl FinalCombiner {
     pub fn inputs(&self) -> [(char, &FinalInput); 7] {
-        [('A', &self.a), ('B', &self.b), ('C', &self.c), ('D', &self.d), ('E', &self.e), ('F', &self.f), ('G', &self.g)]
+        [
+            ('A', &self.a),
+            ('B', &self.b),
+            ('C', &self.c),
+            ('D', &self.d),
+            ('E', &self.e),
+            ('F', &self.f),
+            ('G', &self.g),
+        ]
     }
 }
 
@@ -489,9 +497,11 @@ pub struct CombinerLimits {
 
 impl CombinerLimits {
     /// GeForce 256 / Quadro: two general combiners, two texture units.
-    pub const GEFORCE256: CombinerLimits = CombinerLimits { general_combiners: 2, per_stage_constants: false, texture_units: 2 };
+    pub const GEFORCE256: CombinerLimits =
+        CombinerLimits { general_combiners: 2, per_stage_constants: false, texture_units: 2 };
     /// GeForce3: eight general combiners, per-stage constants, four units.
-    pub const GEFORCE3: CombinerLimits = CombinerLimits { general_combiners: 8, per_stage_constants: true, texture_units: 4 };
+    pub const GEFORCE3: CombinerLimits =
+        CombinerLimits { general_combiners: 8, per_stage_constants: true, texture_units: 4 };
 
     pub fn by_name(name: &str) -> Option<CombinerLimits> {
         match name {

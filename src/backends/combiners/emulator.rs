@@ -20,8 +20,8 @@ use rayon::prelude::*;
 use thiserror::Error;
 
 use super::config::{
-    Bias, Color, CombinerConfig, CombinerLimits, ComponentUsage, FinalSource, GeneralInput, InputMapping, PortionKind,
-    Register, Scale,
+    Bias, Color, CombinerConfig, CombinerLimits, ComponentUsage, FinalSource, GeneralInput, InputMapping,
+    PortionKind, Register, Scale,
 };
 use super::validate::{validate, ValidationError};
 
@@ -76,7 +76,11 @@ pub enum EmulateError {
 }
 
 /// Runs `config` on every pixel; returns the final combiner's RGBA as RGBA8.
-pub fn emulate(config: &CombinerConfig, inputs: &Inputs, precision: Precision) -> Result<Vec<u8>, EmulateError> {
+pub fn emulate(
+    config: &CombinerConfig,
+    inputs: &Inputs,
+    precision: Precision,
+) -> Result<Vec<u8>, EmulateError> {
     let len = inputs.width.checked_mul(inputs.height).and_then(|n| n.checked_mul(4)).unwrap_or(usize::MAX);
     if len == usize::MAX {
         return Err(EmulateError::OutputSize { got: 0, expected: len });
@@ -87,7 +91,12 @@ pub fn emulate(config: &CombinerConfig, inputs: &Inputs, precision: Precision) -
 }
 
 /// Like [`emulate`], writing into `out` (`width * height * 4` bytes).
-pub fn emulate_into(config: &CombinerConfig, inputs: &Inputs, precision: Precision, out: &mut [u8]) -> Result<(), EmulateError> {
+pub fn emulate_into(
+    config: &CombinerConfig,
+    inputs: &Inputs,
+    precision: Precision,
+    out: &mut [u8],
+) -> Result<(), EmulateError> {
     // The emulator runs anything a geforce3 accepts; the caller checks its own profile.
     validate(config, &CombinerLimits::GEFORCE3).map_err(EmulateError::Invalid)?;
     let expected = inputs.width.saturating_mul(inputs.height).saturating_mul(4);
@@ -105,7 +114,13 @@ pub fn emulate_into(config: &CombinerConfig, inputs: &Inputs, precision: Precisi
     for (what, image) in images {
         if let Some(image) = image {
             if image.len() != expected {
-                return Err(EmulateError::SizeMismatch { what: what.into(), got: image.len(), expected, width: inputs.width, height: inputs.height });
+                return Err(EmulateError::SizeMismatch {
+                    what: what.into(),
+                    got: image.len(),
+                    expected,
+                    width: inputs.width,
+                    height: inputs.height,
+                });
             }
         }
     }
@@ -140,7 +155,13 @@ pub struct PixelEmulator {
 impl PixelEmulator {
     /// `constant0`, `constant1`: used where the config leaves a constant
     /// colour unset (its own override them, as in [`Inputs`]).
-    pub fn new(config: &CombinerConfig, constant0: Color, constant1: Color, fog: Color, precision: Precision) -> Result<PixelEmulator, EmulateError> {
+    pub fn new(
+        config: &CombinerConfig,
+        constant0: Color,
+        constant1: Color,
+        fog: Color,
+        precision: Precision,
+    ) -> Result<PixelEmulator, EmulateError> {
         validate(config, &CombinerLimits::GEFORCE3).map_err(EmulateError::Invalid)?;
         let inputs = Inputs { constant0, constant1, fog, ..Inputs::default() };
         Ok(PixelEmulator { plan: Plan::new(config, &inputs), fog, precision })
@@ -291,7 +312,12 @@ fn pixel_final<M: Model>(r: &Regs<M>, fc: &super::config::FinalCombiner) -> [u8;
     let mut cs = zero;
     if uses(FinalSource::Spare0PlusSecondary) {
         for (ch, o) in cs.iter_mut().enumerate() {
-            M::color_sum(one(&r[Register::Spare0.index()][ch]), one(&r[Register::Secondary.index()][ch]), fc.color_sum_clamp, one_mut(o));
+            M::color_sum(
+                one(&r[Register::Spare0.index()][ch]),
+                one(&r[Register::Secondary.index()][ch]),
+                fc.color_sum_clamp,
+                one_mut(o),
+            );
         }
     }
     let mut px = [0u8; 4];
@@ -334,7 +360,8 @@ struct Plan {
 
 impl Plan {
     fn new(config: &CombinerConfig, inputs: &Inputs) -> Plan {
-        let global_constants = [config.constant0.unwrap_or(inputs.constant0), config.constant1.unwrap_or(inputs.constant1)];
+        let global_constants =
+            [config.constant0.unwrap_or(inputs.constant0), config.constant1.unwrap_or(inputs.constant1)];
         let portion = |p: &super::config::GeneralPortion| {
             let sum = p.sum_output.is_some();
             PortionPlan {
@@ -355,7 +382,10 @@ impl Plan {
             .map(|s| StagePlan {
                 rgb: portion(&s.rgb),
                 alpha: portion(&s.alpha),
-                constants: [s.constant0.unwrap_or(global_constants[0]), s.constant1.unwrap_or(global_constants[1])],
+                constants: [
+                    s.constant0.unwrap_or(global_constants[0]),
+                    s.constant1.unwrap_or(global_constants[1]),
+                ],
             })
             .collect();
         Plan { stages, global_constants, final_combiner: config.final_combiner }

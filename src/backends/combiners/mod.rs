@@ -15,8 +15,8 @@ pub mod validate;
 
 pub use codegen::{generate, CodegenError, Generated, PassInput};
 pub use config::{
-    Bias, Color, CombinerConfig, CombinerLimits, ComponentUsage, FinalCombiner, FinalInput, FinalSource, GeneralInput,
-    GeneralPortion, GeneralStage, InputMapping, PortionKind, Register, Scale,
+    Bias, Color, CombinerConfig, CombinerLimits, ComponentUsage, FinalCombiner, FinalInput, FinalSource,
+    GeneralInput, GeneralPortion, GeneralStage, InputMapping, PortionKind, Register, Scale,
 };
 pub use emulator::{emulate, Inputs, PixelEmulator, PixelRegisters, Precision};
 pub use validate::{validate, Place, ValidationError};

@@ -12,8 +12,8 @@ use crate::diag::Diagnostic;
 use crate::span::Span;
 
 use super::config::{
-    Bias, CombinerConfig, CombinerLimits, ComponentUsage, FinalSource, GeneralPortion, InputMapping, PortionKind,
-    Register, Scale,
+    Bias, CombinerConfig, CombinerLimits, ComponentUsage, FinalSource, GeneralPortion, InputMapping,
+    PortionKind, Register, Scale,
 };
 
 /// Which output of a general portion.
@@ -58,7 +58,9 @@ impl fmt::Display for Place {
             Place::StageConstant(s, i) => write!(f, "general combiner {s}, per-stage constant colour {i}"),
             Place::Portion(s, p) => write!(f, "general combiner {s}, {} portion", p.name()),
             Place::Input(s, p, v) => write!(f, "general combiner {s}, {} portion, variable {v}", p.name()),
-            Place::Output(s, p, o) => write!(f, "general combiner {s}, {} portion, {} output", p.name(), o.name()),
+            Place::Output(s, p, o) => {
+                write!(f, "general combiner {s}, {} portion, {} output", p.name(), o.name())
+            }
             Place::ScaleBias(s, p) => write!(f, "general combiner {s}, {} portion, scale/bias", p.name()),
             Place::FinalInput(v) => write!(f, "final combiner, variable {v}"),
         }
@@ -111,7 +113,13 @@ struct Validator<'a> {
 }
 
 impl Validator<'_> {
-    fn error(&mut self, code: &'static str, place: Place, message: impl Into<String>, help: impl Into<String>) {
+    fn error(
+        &mut self,
+        code: &'static str,
+        place: Place,
+        message: impl Into<String>,
+        help: impl Into<String>,
+    ) {
         self.errors.push(ValidationError { code, place, message: message.into(), help: help.into() });
     }
 
@@ -170,7 +178,11 @@ impl Validator<'_> {
                 self.error(
                     "texture-unit",
                     place,
-                    format!("`{}` needs texture unit {unit}, but the target profile has {}", register.name(), self.limits.texture_units),
+                    format!(
+                        "`{}` needs texture unit {unit}, but the target profile has {}",
+                        register.name(),
+                        self.limits.texture_units
+                    ),
                     "use a texture unit the profile has, or target geforce3 (4 units)",
                 );
             }
@@ -225,7 +237,8 @@ impl Validator<'_> {
                 "discard the sum/mux output (`discard = sum();` or leave it out), or use products instead of dots",
             );
         }
-        let outputs = [(OutputSlot::Ab, p.ab_output), (OutputSlot::Cd, p.cd_output), (OutputSlot::Sum, p.sum_output)];
+        let outputs =
+            [(OutputSlot::Ab, p.ab_output), (OutputSlot::Cd, p.cd_output), (OutputSlot::Sum, p.sum_output)];
         for (i, (slot, out)) in outputs.iter().enumerate() {
             let Some(register) = *out else { continue };
             let place = Place::Output(s, kind, *slot);
@@ -243,7 +256,11 @@ impl Validator<'_> {
                 self.error(
                     "duplicate-output",
                     place,
-                    format!("`{}` is already written by the {} output of this portion", register.name(), first.name()),
+                    format!(
+                        "`{}` is already written by the {} output of this portion",
+                        register.name(),
+                        first.name()
+                    ),
                     "each output of a portion needs its own register (several may be discarded)",
                 );
             }
@@ -265,7 +282,10 @@ impl Validator<'_> {
                 self.error(
                     "final-mapping",
                     place,
-                    format!("the final combiner accepts only unsigned_identity and unsigned_invert, not {}", input.mapping.name()),
+                    format!(
+                        "the final combiner accepts only unsigned_identity and unsigned_invert, not {}",
+                        input.mapping.name()
+                    ),
                     "do signed work in a general combiner and pass the result on",
                 );
             }
@@ -276,7 +296,12 @@ impl Validator<'_> {
                     // final-combiner check, and `glFinalCombinerInputNV(GL_VARIABLE_G_NV,
                     // …, GL_BLUE)` in real code: `out.a = tex3.b;`).
                     if var == 'G' && input.usage == ComponentUsage::Rgb {
-                        self.error("g-reads-alpha", place, "variable G reads one component (`.a` or `.b`), not rgb", "read `.a` or `.b` of a register for G");
+                        self.error(
+                            "g-reads-alpha",
+                            place,
+                            "variable G reads one component (`.a` or `.b`), not rgb",
+                            "read `.a` or `.b` of a register for G",
+                        );
                     } else if var != 'G' && input.usage == ComponentUsage::Blue {
                         self.error(
                             "component-usage",
@@ -295,7 +320,12 @@ impl Validator<'_> {
                             "use `final_product` in `out.rgb`, not in E, F or G",
                         );
                     } else if input.usage != ComponentUsage::Rgb {
-                        self.error("pseudo-register-usage", place, "the EF product is read as RGB only", "drop the component selector");
+                        self.error(
+                            "pseudo-register-usage",
+                            place,
+                            "the EF product is read as RGB only",
+                            "drop the component selector",
+                        );
                     }
                 }
                 FinalSource::Spare0PlusSecondary => {
@@ -307,7 +337,12 @@ impl Validator<'_> {
                             "use `color_sum` as the second or third lerp operand or the added term",
                         );
                     } else if input.usage != ComponentUsage::Rgb {
-                        self.error("pseudo-register-usage", place, "spare0+secondary is read as RGB only", "drop the component selector");
+                        self.error(
+                            "pseudo-register-usage",
+                            place,
+                            "spare0+secondary is read as RGB only",
+                            "drop the component selector",
+                        );
                     }
                 }
             }
@@ -336,7 +371,10 @@ mod tests {
     #[test]
     fn initial_state_of_tables_4_to_6_is_valid() {
         assert_eq!(codes(&CombinerConfig::default(), &CombinerLimits::GEFORCE256), Vec::<&str>::new());
-        let eight = CombinerConfig { general: (0..8).map(GeneralStage::initial).collect(), ..CombinerConfig::default() };
+        let eight = CombinerConfig {
+            general: (0..8).map(GeneralStage::initial).collect(),
+            ..CombinerConfig::default()
+        };
         assert_eq!(codes(&eight, &CombinerLimits::GEFORCE3), Vec::<&str>::new());
         assert_eq!(CombinerConfig::default().general[0].rgb.b.register, Register::Texture0);
         assert_eq!(GeneralStage::initial(1).alpha.b.register, Register::Texture1);
@@ -386,7 +424,9 @@ mod tests {
 
     #[test]
     fn bias_not_with_scale_one_half_or_four() {
-        for (scale, ok) in [(Scale::OneHalf, false), (Scale::Four, false), (Scale::One, true), (Scale::Two, true)] {
+        for (scale, ok) in
+            [(Scale::OneHalf, false), (Scale::Four, false), (Scale::One, true), (Scale::Two, true)]
+        {
             let mut c = CombinerConfig::default();
             c.general[0].rgb.scale = scale;
             c.general[0].rgb.bias = Bias::NegativeOneHalf;
@@ -414,7 +454,11 @@ mod tests {
 
     #[test]
     fn color_sum_only_into_b_to_d() {
-        let cs = FinalInput::new(FinalSource::Spare0PlusSecondary, InputMapping::UnsignedIdentity, ComponentUsage::Rgb);
+        let cs = FinalInput::new(
+            FinalSource::Spare0PlusSecondary,
+            InputMapping::UnsignedIdentity,
+            ComponentUsage::Rgb,
+        );
         for var in ['A', 'F'] {
             let mut c = CombinerConfig::default();
             match var {
@@ -459,14 +503,16 @@ mod tests {
     #[test]
     fn fog_alpha_only_in_final_combiner() {
         let mut c = CombinerConfig::default();
-        c.general[0].alpha.c = GeneralInput::new(Register::Fog, InputMapping::UnsignedIdentity, ComponentUsage::Alpha);
+        c.general[0].alpha.c =
+            GeneralInput::new(Register::Fog, InputMapping::UnsignedIdentity, ComponentUsage::Alpha);
         check(&c, "fog-alpha-in-general");
         // The fog colour's blue is fine in the alpha portion, fog alpha in the final combiner.
         c.general[0].alpha.c.usage = ComponentUsage::Blue;
         c.final_combiner.g = FinalInput::register(Register::Fog, ComponentUsage::Alpha);
         check_ok(&c);
         // In the RGB portion, smearing fog alpha is just as forbidden.
-        c.general[0].rgb.d = GeneralInput::new(Register::Fog, InputMapping::UnsignedIdentity, ComponentUsage::Alpha);
+        c.general[0].rgb.d =
+            GeneralInput::new(Register::Fog, InputMapping::UnsignedIdentity, ComponentUsage::Alpha);
         check(&c, "fog-alpha-in-general");
     }
 
@@ -482,14 +528,24 @@ mod tests {
 
     #[test]
     fn stage_count_within_profile() {
-        let c = CombinerConfig { general: (0..3).map(GeneralStage::initial).collect(), ..CombinerConfig::default() };
+        let c = CombinerConfig {
+            general: (0..3).map(GeneralStage::initial).collect(),
+            ..CombinerConfig::default()
+        };
         // Stage 2's B reads texture2, which geforce256 lacks as well.
         let errors = validate(&c, &CombinerLimits::GEFORCE256).unwrap_err();
         assert_eq!(errors[0].code, "too-many-stages");
         assert_eq!(errors[0].place, Place::Stage(2));
-        assert!(errors[0].to_string().contains("3 general combiners, but the target profile has only 2"), "{}", errors[0]);
+        assert!(
+            errors[0].to_string().contains("3 general combiners, but the target profile has only 2"),
+            "{}",
+            errors[0]
+        );
         check_ok(&c);
-        let c = CombinerConfig { general: (0..9).map(|_| GeneralStage::initial(0)).collect(), ..CombinerConfig::default() };
+        let c = CombinerConfig {
+            general: (0..9).map(|_| GeneralStage::initial(0)).collect(),
+            ..CombinerConfig::default()
+        };
         check(&c, "too-many-stages");
         // No general combiner at all is valid.
         check_ok(&CombinerConfig { general: Vec::new(), ..CombinerConfig::default() });

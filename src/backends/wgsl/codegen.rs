@@ -93,9 +93,9 @@
 use std::collections::{BTreeSet, HashMap};
 
 use naga::{
-    AddressSpace, Binding, BuiltIn, EntryPoint, Expression, Function, FunctionArgument, FunctionResult, GlobalVariable,
-    ImageClass, ImageDimension, Interpolation, Literal, ResourceBinding, Sampling, Scalar, ScalarKind, ShaderStage,
-    Statement, StructMember, SwizzleComponent, Type, TypeInner, VectorSize,
+    AddressSpace, Binding, BuiltIn, EntryPoint, Expression, Function, FunctionArgument, FunctionResult,
+    GlobalVariable, ImageClass, ImageDimension, Interpolation, Literal, ResourceBinding, Sampling, Scalar,
+    ScalarKind, ShaderStage, Statement, StructMember, SwizzleComponent, Type, TypeInner, VectorSize,
 };
 
 use crate::diag::Diagnostic;
@@ -173,7 +173,11 @@ pub fn uniform_bytes(projections: &[[f32; 16]], uniforms: &[[f32; 4]]) -> Vec<u8
 
 /// Compiles every pass of `planned`. `source` (the program text) gives
 /// names (`let`s) and the source lines in headers.
-pub fn generate(planned: &Planned, source: Option<&str>, fidelity: Fidelity) -> Result<Vec<PassShader>, Vec<Diagnostic>> {
+pub fn generate(
+    planned: &Planned,
+    source: Option<&str>,
+    fidelity: Fidelity,
+) -> Result<Vec<PassShader>, Vec<Diagnostic>> {
     let names = source_names(planned, source);
     let mut out = Vec::new();
     let mut errors = Vec::new();
@@ -196,7 +200,13 @@ fn pass_span(planned: &Planned, index: usize) -> Span {
     pass.statements.first().and_then(|s| planned.module.statements.get(*s)).map_or(Span::DETACHED, |s| s.span)
 }
 
-fn generate_pass(planned: &Planned, index: usize, source: Option<&str>, names: &HashMap<ir::Handle<Expr>, String>, fidelity: Fidelity) -> Result<PassShader, Diagnostic> {
+fn generate_pass(
+    planned: &Planned,
+    index: usize,
+    source: Option<&str>,
+    names: &HashMap<ir::Handle<Expr>, String>,
+    fidelity: Fidelity,
+) -> Result<PassShader, Diagnostic> {
     let pass = &planned.plan.passes[index];
     let span = pass_span(planned, index);
     let interface = PassInterface::of(planned, index);
@@ -218,10 +228,15 @@ fn generate_pass(planned: &Planned, index: usize, source: Option<&str>, names: &
         GenError::Internal(msg) => internal(span, &msg),
     })?;
     let module = std::mem::take(&mut g.module);
-    let mut validator = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default());
+    let mut validator = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::default(),
+    );
     let info = validator.validate(&module).map_err(|e| internal(span, &error_chain(&e)))?;
     let (module, info) = match &g.combiners {
-        Some(generated) => with_combiners(&module, &info, &generated.config).map_err(|e| internal(span, &e))?,
+        Some(generated) => {
+            with_combiners(&module, &info, &generated.config).map_err(|e| internal(span, &e))?
+        }
         None => (module, info),
     };
     let label = pass_label(planned, index);
@@ -240,30 +255,59 @@ fn generate_pass(planned: &Planned, index: usize, source: Option<&str>, names: &
         }
     }
     let target_copies = g.target_copies.iter().map(|(c, _)| c.clone()).collect();
-    Ok(PassShader { pass: index, label, source: src, interface, quad_input: g.quad, outputs: g.outputs, target_copies, module, info })
+    Ok(PassShader {
+        pass: index,
+        label,
+        source: src,
+        interface,
+        quad_input: g.quad,
+        outputs: g.outputs,
+        target_copies,
+        module,
+        info,
+    })
 }
 
 /// Replaces the stub `register_combiners` of `module` by the setup's text
 /// (`rc1::combiners_function`) and its helpers, through WGSL: the module is
 /// written, the stub's text swapped, and the result parsed and validated
 /// again by naga.
-fn with_combiners(module: &naga::Module, info: &naga::valid::ModuleInfo, config: &crate::backends::combiners::CombinerConfig) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
+fn with_combiners(
+    module: &naga::Module,
+    info: &naga::valid::ModuleInfo,
+    config: &crate::backends::combiners::CombinerConfig,
+) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
     use super::rc1;
-    let text = naga::back::wgsl::write_string(module, info, naga::back::wgsl::WriterFlags::empty()).map_err(|e| e.to_string())?;
+    let text = naga::back::wgsl::write_string(module, info, naga::back::wgsl::WriterFlags::empty())
+        .map_err(|e| e.to_string())?;
     let head = format!("fn {}(", rc1::COMBINERS_FUNCTION);
     let start = text.find(&head).ok_or("the combiners stub is missing")?;
     let end = text[start..].find("\n}\n").map(|e| start + e + 3).ok_or("the combiners stub does not end")?;
-    let spliced = format!("{}{}{}{}", &text[..start], rc1::combiners_function(config).trim_start(), &text[end..], rc1::combiners_helpers());
+    let spliced = format!(
+        "{}{}{}{}",
+        &text[..start],
+        rc1::combiners_function(config).trim_start(),
+        &text[end..],
+        rc1::combiners_helpers()
+    );
     let module = naga::front::wgsl::parse_str(&spliced).map_err(|e| e.emit_to_string(&spliced))?;
-    let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default())
-        .validate(&module)
-        .map_err(|e| format!("{}", e.emit_to_string(&spliced)))?;
+    let info = naga::valid::Validator::new(
+        naga::valid::ValidationFlags::all(),
+        naga::valid::Capabilities::default(),
+    )
+    .validate(&module)
+    .map_err(|e| format!("{}", e.emit_to_string(&spliced)))?;
     Ok((module, info))
 }
 
 fn internal(span: Span, msg: &str) -> Diagnostic {
-    Diagnostic::error("internal-error", format!("compiler bug: the WGSL backend built an invalid shader for this statement: {msg}"), span, "while compiling this statement")
-        .with_help("this is a bug in shadec, not in your program: please report it with the program")
+    Diagnostic::error(
+        "internal-error",
+        format!("compiler bug: the WGSL backend built an invalid shader for this statement: {msg}"),
+        span,
+        "while compiling this statement",
+    )
+    .with_help("this is a bug in shadec, not in your program: please report it with the program")
 }
 
 fn error_chain(e: &dyn std::error::Error) -> String {
@@ -284,7 +328,13 @@ pub fn pass_label(planned: &Planned, index: usize) -> String {
         RenderTarget::Texture { name } | RenderTarget::Temporary { name } => name.clone(),
     };
     let units: Vec<&str> = pass.textures.iter().map(|t| t.texture.as_str()).collect();
-    format!("pass {} of {}: {target} ← {} [{}]", index + 1, planned.plan.passes.len(), pass.blend.name(), units.join(", "))
+    format!(
+        "pass {} of {}: {target} ← {} [{}]",
+        index + 1,
+        planned.plan.passes.len(),
+        pass.blend.name(),
+        units.join(", ")
+    )
 }
 
 /// Names of IR values from the source: the `let` whose value a node is.
@@ -334,7 +384,13 @@ pub fn sanitize(name: &str) -> String {
     for c in name.chars() {
         match c {
             'a'..='z' | 'A'..='Z' | '0'..='9' | '_' => s.push(c),
-            '\'' | '′' | '″' | '‴' => s.push_str(if c == '″' { "pp" } else if c == '‴' { "ppp" } else { "p" }),
+            '\'' | '′' | '″' | '‴' => s.push_str(if c == '″' {
+                "pp"
+            } else if c == '‴' {
+                "ppp"
+            } else {
+                "p"
+            }),
             '*' => s.push_str("_star"),
             'α' => s.push_str("alpha"),
             'δ' => s.push_str("delta"),
@@ -390,7 +446,17 @@ struct Body {
 
 impl Body {
     fn new(name: &str, stage: Stage) -> Body {
-        Body { f: Function { name: Some(name.to_string()), ..Default::default() }, stage, vals: HashMap::new(), args: vec![], frag_coord: None, texel_uv: None, fat: HashMap::new(), loads: HashMap::new(), bools: HashMap::new() }
+        Body {
+            f: Function { name: Some(name.to_string()), ..Default::default() },
+            stage,
+            vals: HashMap::new(),
+            args: vec![],
+            frag_coord: None,
+            texel_uv: None,
+            fat: HashMap::new(),
+            loads: HashMap::new(),
+            bools: HashMap::new(),
+        }
     }
     /// A computed expression, covered by its own `Emit`.
     fn emit(&mut self, e: Expression) -> NH {
@@ -409,7 +475,13 @@ impl Body {
     fn name(&mut self, h: NH, name: &str) {
         let needs_emit = !matches!(
             self.f.expressions[h],
-            Expression::Literal(_) | Expression::Constant(_) | Expression::FunctionArgument(_) | Expression::GlobalVariable(_) | Expression::LocalVariable(_) | Expression::CallResult(_) | Expression::ZeroValue(_)
+            Expression::Literal(_)
+                | Expression::Constant(_)
+                | Expression::FunctionArgument(_)
+                | Expression::GlobalVariable(_)
+                | Expression::LocalVariable(_)
+                | Expression::CallResult(_)
+                | Expression::ZeroValue(_)
         );
         if needs_emit {
             self.f.named_expressions.entry(h).or_insert_with(|| name.to_string());
@@ -417,14 +489,14 @@ impl Body {
     }
 }
 
-
 /// `value`, or 0 where `tested` is NaN (0/0, √−x, ∞−∞), as the CPU's
 /// `fixed9` makes it: tested on the bits (exponent all ones, mantissa not
 /// zero), since WGSL lets a compiler assume no NaN in float comparisons —
 /// and `clamp` of NaN is the implementation's (lavapipe gives −1: a black
 /// highlight).
 fn nan_to_zero(b: &mut Body, tested: NH, value: NH, w: usize) -> NH {
-    let splat = |b: &mut Body, l: NH| if w == 1 { l } else { b.emit(Expression::Splat { size: size(w), value: l }) };
+    let splat =
+        |b: &mut Body, l: NH| if w == 1 { l } else { b.emit(Expression::Splat { size: size(w), value: l }) };
     let u = |b: &mut Body, v: u32| {
         let l = b.plain(Expression::Literal(Literal::U32(v)));
         splat(b, l)
@@ -447,7 +519,8 @@ fn size(w: usize) -> VectorSize {
     }
 }
 
-const COMP: [SwizzleComponent; 4] = [SwizzleComponent::X, SwizzleComponent::Y, SwizzleComponent::Z, SwizzleComponent::W];
+const COMP: [SwizzleComponent; 4] =
+    [SwizzleComponent::X, SwizzleComponent::Y, SwizzleComponent::Z, SwizzleComponent::W];
 
 /// The width of a value of type `ty` in the shader (1..=4).
 fn width(ty: Ty) -> usize {
@@ -467,7 +540,8 @@ struct Gen<'a> {
     module: naga::Module,
     uniforms_var: Option<naga::Handle<GlobalVariable>>,
     /// (texture, sampler) per unit.
-    units: Vec<(naga::Handle<GlobalVariable>, naga::Handle<GlobalVariable>, TextureKind, Option<TextureFormat>)>,
+    units:
+        Vec<(naga::Handle<GlobalVariable>, naga::Handle<GlobalVariable>, TextureKind, Option<TextureFormat>)>,
     /// `quantize_*` and `divide_*` by width ([`Gen::q9_function`]).
     q9: [[Option<naga::Handle<Function>>; 4]; 2],
     /// `round_to_half`, once built.
@@ -499,7 +573,13 @@ struct Gen<'a> {
 }
 
 impl<'a> Gen<'a> {
-    fn new(planned: &'a Planned, pass_index: usize, iface: PassInterface, names: &'a HashMap<ir::Handle<Expr>, String>, fidelity: Fidelity) -> Gen<'a> {
+    fn new(
+        planned: &'a Planned,
+        pass_index: usize,
+        iface: PassInterface,
+        names: &'a HashMap<ir::Handle<Expr>, String>,
+        fidelity: Fidelity,
+    ) -> Gen<'a> {
         let pass = &planned.plan.passes[pass_index];
         Gen {
             planned,
@@ -548,18 +628,45 @@ impl<'a> Gen<'a> {
         self.globals()?;
         // The varyings struct.
         let vec4 = self.vec_ty(4);
-        let mut members = vec![StructMember { name: Some("position".into()), ty: vec4, binding: Some(Binding::BuiltIn(BuiltIn::Position { invariant: false })), offset: 0 }];
-        let loc = |location: u32| Binding::Location { location, interpolation: Some(Interpolation::Perspective), sampling: Some(Sampling::Center), blend_src: None, per_primitive: false };
+        let mut members = vec![StructMember {
+            name: Some("position".into()),
+            ty: vec4,
+            binding: Some(Binding::BuiltIn(BuiltIn::Position { invariant: false })),
+            offset: 0,
+        }];
+        let loc = |location: u32| Binding::Location {
+            location,
+            interpolation: Some(Interpolation::Perspective),
+            sampling: Some(Sampling::Center),
+            blend_src: None,
+            per_primitive: false,
+        };
         let n_interp = self.iface.interpolants.len();
         for (k, h) in self.iface.interpolants.clone().iter().enumerate() {
             let name = self.value_name(*h).unwrap_or_else(|| format!("v{k}"));
-            members.push(StructMember { name: Some(name), ty: vec4, binding: Some(loc(k as u32)), offset: 16 * (k as u32 + 1) });
+            members.push(StructMember {
+                name: Some(name),
+                ty: vec4,
+                binding: Some(loc(k as u32)),
+                offset: 16 * (k as u32 + 1),
+            });
         }
         if self.quad {
-            members.push(StructMember { name: Some("texel_uv".into()), ty: vec4, binding: Some(loc(n_interp as u32)), offset: 16 * (n_interp as u32 + 1) });
+            members.push(StructMember {
+                name: Some("texel_uv".into()),
+                ty: vec4,
+                binding: Some(loc(n_interp as u32)),
+                offset: 16 * (n_interp as u32 + 1),
+            });
         }
         let n_members = members.len() as u32;
-        let vout = self.module.types.insert(Type { name: Some("VertexOutput".into()), inner: TypeInner::Struct { members, span: 16 * n_members } }, naga::Span::UNDEFINED);
+        let vout = self.module.types.insert(
+            Type {
+                name: Some("VertexOutput".into()),
+                inner: TypeInner::Struct { members, span: 16 * n_members },
+            },
+            naga::Span::UNDEFINED,
+        );
         let vs = self.vertex(vout)?;
         let fs = self.fragment(vout)?;
         self.module.entry_points.push(EntryPoint {
@@ -600,10 +707,20 @@ impl<'a> Gen<'a> {
             Expr::Uniform(u) => sanitize(&m.uniforms.get(*u as usize)?.name),
             Expr::Interpolate { value, .. } => format!("{}_frag", self.value_name(*value)?),
             Expr::Project { projection, value } => {
-                let p = if projection.inverse { "pi_inv".to_string() } else { format!("pi{}{}", projection.subscript.as_deref().map(sanitize).unwrap_or_default(), if projection.star { "_star" } else { "" }) };
+                let p = if projection.inverse {
+                    "pi_inv".to_string()
+                } else {
+                    format!(
+                        "pi{}{}",
+                        projection.subscript.as_deref().map(sanitize).unwrap_or_default(),
+                        if projection.star { "_star" } else { "" }
+                    )
+                };
                 format!("{p}_{}", self.value_name(*value)?)
             }
-            Expr::Lookup { texture, .. } => format!("{}_texel", sanitize(&m.textures.get(*texture as usize)?.name)),
+            Expr::Lookup { texture, .. } => {
+                format!("{}_texel", sanitize(&m.textures.get(*texture as usize)?.name))
+            }
             Expr::FramebufferRead { framebuffer, channel, .. } => {
                 let c = match channel {
                     FbChannel::Color => "color",
@@ -619,8 +736,12 @@ impl<'a> Gen<'a> {
                 short(&b)?;
                 format!("{}_dot_{}", a.to_lowercase(), b.to_lowercase())
             }
-            Expr::Math { fun: MathFunction::Normalize, args } => format!("{}_unit", short(&self.value_name(args[0])?)?),
-            Expr::Math { fun: MathFunction::Expand, args } => format!("{}_expanded", short(&self.value_name(args[0])?)?),
+            Expr::Math { fun: MathFunction::Normalize, args } => {
+                format!("{}_unit", short(&self.value_name(args[0])?)?)
+            }
+            Expr::Math { fun: MathFunction::Expand, args } => {
+                format!("{}_expanded", short(&self.value_name(args[0])?)?)
+            }
             Expr::Binary { op: BinaryOp::Pow, lhs, .. } => format!("{}_pow", short(&self.value_name(*lhs)?)?),
             _ => return None,
         };
@@ -628,12 +749,24 @@ impl<'a> Gen<'a> {
     }
 
     fn globals(&mut self) -> R<()> {
-        let mat4 = self.ty(TypeInner::Matrix { columns: VectorSize::Quad, rows: VectorSize::Quad, scalar: Scalar::F32 });
+        let mat4 = self.ty(TypeInner::Matrix {
+            columns: VectorSize::Quad,
+            rows: VectorSize::Quad,
+            scalar: Scalar::F32,
+        });
         let vec4 = self.vec_ty(4);
         let mut members = Vec::new();
         let mut offset = 0;
         for p in self.iface.projections.clone() {
-            let name = if p.inverse { "pi_inv".to_string() } else { format!("pi{}{}", p.subscript.as_deref().map(|s| format!("_{}", sanitize(s))).unwrap_or_default(), if p.star { "_star" } else { "" }) };
+            let name = if p.inverse {
+                "pi_inv".to_string()
+            } else {
+                format!(
+                    "pi{}{}",
+                    p.subscript.as_deref().map(|s| format!("_{}", sanitize(s))).unwrap_or_default(),
+                    if p.star { "_star" } else { "" }
+                )
+            };
             members.push(StructMember { name: Some(name), ty: mat4, binding: None, offset });
             offset += 64;
         }
@@ -643,9 +776,19 @@ impl<'a> Gen<'a> {
             offset += 16;
         }
         if !members.is_empty() {
-            let ty = self.module.types.insert(Type { name: Some("Uniforms".into()), inner: TypeInner::Struct { members, span: offset } }, naga::Span::UNDEFINED);
+            let ty = self.module.types.insert(
+                Type { name: Some("Uniforms".into()), inner: TypeInner::Struct { members, span: offset } },
+                naga::Span::UNDEFINED,
+            );
             self.uniforms_var = Some(self.module.global_variables.append(
-                GlobalVariable { name: Some("uniforms".into()), space: AddressSpace::Uniform, binding: Some(ResourceBinding { group: 0, binding: 0 }), ty, init: None, memory_decorations: Default::default() },
+                GlobalVariable {
+                    name: Some("uniforms".into()),
+                    space: AddressSpace::Uniform,
+                    binding: Some(ResourceBinding { group: 0, binding: 0 }),
+                    ty,
+                    init: None,
+                    memory_decorations: Default::default(),
+                },
                 naga::Span::UNDEFINED,
             ));
         }
@@ -657,7 +800,13 @@ impl<'a> Gen<'a> {
                     let tex = &self.m.textures[*texture as usize];
                     let fat = self.fat[*texture as usize] > 0;
                     if fat && tex.kind != TextureKind::Tex2d {
-                        return self.unsupported(format!("a fat {} texture (fat texels are stored as the layers of a 2-D array)", tex.kind.as_str()), Some(node));
+                        return self.unsupported(
+                            format!(
+                                "a fat {} texture (fat texels are stored as the layers of a 2-D array)",
+                                tex.kind.as_str()
+                            ),
+                            Some(node),
+                        );
                     }
                     (tex.kind, Some(tex.format), fat)
                 }
@@ -669,15 +818,33 @@ impl<'a> Gen<'a> {
                 TextureKind::Tex3d => ImageDimension::D3,
                 TextureKind::Cube => ImageDimension::Cube,
             };
-            let ity = self.ty(TypeInner::Image { dim, arrayed, class: ImageClass::Sampled { kind: ScalarKind::Float, multi: false } });
+            let ity = self.ty(TypeInner::Image {
+                dim,
+                arrayed,
+                class: ImageClass::Sampled { kind: ScalarKind::Float, multi: false },
+            });
             let sty = self.ty(TypeInner::Sampler { comparison: false });
             let name = sanitize(&t.texture);
             let tv = self.module.global_variables.append(
-                GlobalVariable { name: Some(name.clone()), space: AddressSpace::Handle, binding: Some(ResourceBinding { group: 0, binding: 1 + 2 * t.unit }), ty: ity, init: None, memory_decorations: Default::default() },
+                GlobalVariable {
+                    name: Some(name.clone()),
+                    space: AddressSpace::Handle,
+                    binding: Some(ResourceBinding { group: 0, binding: 1 + 2 * t.unit }),
+                    ty: ity,
+                    init: None,
+                    memory_decorations: Default::default(),
+                },
                 naga::Span::UNDEFINED,
             );
             let sv = self.module.global_variables.append(
-                GlobalVariable { name: Some(format!("{name}_sampler")), space: AddressSpace::Handle, binding: Some(ResourceBinding { group: 0, binding: 2 + 2 * t.unit }), ty: sty, init: None, memory_decorations: Default::default() },
+                GlobalVariable {
+                    name: Some(format!("{name}_sampler")),
+                    space: AddressSpace::Handle,
+                    binding: Some(ResourceBinding { group: 0, binding: 2 + 2 * t.unit }),
+                    ty: sty,
+                    init: None,
+                    memory_decorations: Default::default(),
+                },
                 naga::Span::UNDEFINED,
             );
             self.units.push((tv, sv, kind, format));
@@ -691,13 +858,33 @@ impl<'a> Gen<'a> {
         let leaves = self.iface.vertex_leaves.clone();
         for (i, leaf) in leaves.iter().enumerate() {
             let name = self.value_name(*leaf).unwrap_or_else(|| format!("in{i}"));
-            b.f.arguments.push(FunctionArgument { name: Some(name), ty: vec4, binding: Some(Binding::Location { location: i as u32, interpolation: None, sampling: None, blend_src: None, per_primitive: false }) });
+            b.f.arguments.push(FunctionArgument {
+                name: Some(name),
+                ty: vec4,
+                binding: Some(Binding::Location {
+                    location: i as u32,
+                    interpolation: None,
+                    sampling: None,
+                    blend_src: None,
+                    per_primitive: false,
+                }),
+            });
             let arg = b.plain(Expression::FunctionArgument(i as u32));
             b.args.push(arg);
         }
         let quad = if self.quad {
             let i = leaves.len() as u32;
-            b.f.arguments.push(FunctionArgument { name: Some("quad".into()), ty: vec4, binding: Some(Binding::Location { location: i, interpolation: None, sampling: None, blend_src: None, per_primitive: false }) });
+            b.f.arguments.push(FunctionArgument {
+                name: Some("quad".into()),
+                ty: vec4,
+                binding: Some(Binding::Location {
+                    location: i,
+                    interpolation: None,
+                    sampling: None,
+                    blend_src: None,
+                    per_primitive: false,
+                }),
+            });
             Some(b.plain(Expression::FunctionArgument(i)))
         } else {
             None
@@ -726,20 +913,43 @@ impl<'a> Gen<'a> {
                         let two = b.lit(2.0);
                         let one = b.lit(1.0);
                         let zero = b.lit(0.0);
-                        let u2 = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: u, right: two });
-                        let x = b.emit(Expression::Binary { op: naga::BinaryOperator::Subtract, left: u2, right: one });
-                        let v2 = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: vv, right: two });
-                        let y = b.emit(Expression::Binary { op: naga::BinaryOperator::Subtract, left: one, right: v2 });
+                        let u2 = b.emit(Expression::Binary {
+                            op: naga::BinaryOperator::Multiply,
+                            left: u,
+                            right: two,
+                        });
+                        let x = b.emit(Expression::Binary {
+                            op: naga::BinaryOperator::Subtract,
+                            left: u2,
+                            right: one,
+                        });
+                        let v2 = b.emit(Expression::Binary {
+                            op: naga::BinaryOperator::Multiply,
+                            left: vv,
+                            right: two,
+                        });
+                        let y = b.emit(Expression::Binary {
+                            op: naga::BinaryOperator::Subtract,
+                            left: one,
+                            right: v2,
+                        });
                         b.emit(Expression::Compose { ty: vec4, components: vec![x, y, zero, one] })
                     }
-                    t => return self.unsupported(format!("a pass positioned by a {} value", t.name()), Some(p)),
+                    t => {
+                        return self
+                            .unsupported(format!("a pass positioned by a {} value", t.name()), Some(p))
+                    }
                 }
             }
             (_, Some(q)) => q,
             _ => return Err(GenError::Internal("no clip position".into())),
         };
         // GL clip z (−w..w) → wgpu (0..w): z' = ½z + ½w.
-        let xy = b.emit(Expression::Swizzle { size: VectorSize::Bi, vector: clip, pattern: [COMP[0], COMP[1], COMP[0], COMP[0]] });
+        let xy = b.emit(Expression::Swizzle {
+            size: VectorSize::Bi,
+            vector: clip,
+            pattern: [COMP[0], COMP[1], COMP[0], COMP[0]],
+        });
         let z = b.emit(Expression::AccessIndex { base: clip, index: 2 });
         let w = b.emit(Expression::AccessIndex { base: clip, index: 3 });
         let half = b.lit(0.5);
@@ -796,12 +1006,16 @@ impl<'a> Gen<'a> {
             b.vals.insert(h, v);
         }
         if self.quad {
-            let uv4 = b.emit(Expression::AccessIndex { base: input, index: self.iface.interpolants.len() as u32 + 1 });
+            let uv4 = b.emit(Expression::AccessIndex {
+                base: input,
+                index: self.iface.interpolants.len() as u32 + 1,
+            });
             let uv = self.narrow(&mut b, uv4, 4, 2);
             b.texel_uv = Some(uv);
         }
         let pass = &self.planned.plan.passes[self.pass_index];
-        let stencil_only = matches!(&pass.target, RenderTarget::Framebuffer { channels, .. } if channels == "stencil");
+        let stencil_only =
+            matches!(&pass.target, RenderTarget::Framebuffer { channels, .. } if channels == "stencil");
         let vec4 = self.vec_ty(4);
         let out = if stencil_only {
             // The depth and stencil state do the work; no colour is written.
@@ -841,11 +1055,15 @@ impl<'a> Gen<'a> {
                 Ty::Bundle(_) => {
                     // A fat texel (seeds/001 (5), (15)): member i to colour
                     // attachment i — layer i of the fat texture — as rgb, alpha 1.
-                    let Expr::Bundle(members) = self.m.exprs[o].clone() else { return Err(GenError::Internal("a bundle-typed value that is not a bundle".into())) };
+                    let Expr::Bundle(members) = self.m.exprs[o].clone() else {
+                        return Err(GenError::Internal("a bundle-typed value that is not a bundle".into()));
+                    };
                     let mut comps = Vec::new();
                     let mut fields = Vec::new();
                     for (i, h) in members.iter().enumerate() {
-                        let v = b.vals.get(h).copied().ok_or_else(|| GenError::Internal(format!("member %{} not computed", h.index())))?;
+                        let v = b.vals.get(h).copied().ok_or_else(|| {
+                            GenError::Internal(format!("member %{} not computed", h.index()))
+                        })?;
                         let one = b.lit(1.0);
                         let c = match width(self.m.info(*h).ty) {
                             3 => b.emit(Expression::Compose { ty: vec4, components: vec![v, one] }),
@@ -858,10 +1076,27 @@ impl<'a> Gen<'a> {
                             _ => self.value_name(*h),
                         }
                         .unwrap_or_else(|| format!("member{i}"));
-                        fields.push(StructMember { name: Some(name), ty: vec4, binding: Some(Binding::Location { location: i as u32, interpolation: None, sampling: None, blend_src: None, per_primitive: false }), offset: 16 * i as u32 });
+                        fields.push(StructMember {
+                            name: Some(name),
+                            ty: vec4,
+                            binding: Some(Binding::Location {
+                                location: i as u32,
+                                interpolation: None,
+                                sampling: None,
+                                blend_src: None,
+                                per_primitive: false,
+                            }),
+                            offset: 16 * i as u32,
+                        });
                     }
                     let n = fields.len() as u32;
-                    let ty = self.module.types.insert(Type { name: Some("FatTexel".into()), inner: TypeInner::Struct { members: fields, span: 16 * n } }, naga::Span::UNDEFINED);
+                    let ty = self.module.types.insert(
+                        Type {
+                            name: Some("FatTexel".into()),
+                            inner: TypeInner::Struct { members: fields, span: 16 * n },
+                        },
+                        naga::Span::UNDEFINED,
+                    );
                     let out = b.emit(Expression::Compose { ty, components: comps });
                     b.f.body.push(Statement::Return { value: Some(out) }, naga::Span::UNDEFINED);
                     b.f.result = Some(FunctionResult { ty, binding: None });
@@ -872,7 +1107,16 @@ impl<'a> Gen<'a> {
         };
         let out = if self.renders_half_floats() { self.round_to_half(&mut b, out) } else { out };
         b.f.body.push(Statement::Return { value: Some(out) }, naga::Span::UNDEFINED);
-        b.f.result = Some(FunctionResult { ty: vec4, binding: Some(Binding::Location { location: 0, interpolation: None, sampling: None, blend_src: None, per_primitive: false }) });
+        b.f.result = Some(FunctionResult {
+            ty: vec4,
+            binding: Some(Binding::Location {
+                location: 0,
+                interpolation: None,
+                sampling: None,
+                blend_src: None,
+                per_primitive: false,
+            }),
+        });
         Ok(b.f)
     }
 
@@ -886,13 +1130,16 @@ impl<'a> Gen<'a> {
     /// `fixed9` widens it (a scalar splatted, rgb with alpha 1).
     fn fragment_combiners(&mut self, b: &mut Body, g: &crate::backends::combiners::Generated) -> R<NH> {
         let pass = &self.planned.plan.passes[self.pass_index];
-        let mut registers: Vec<Option<ir::Handle<Expr>>> = pass.textures.iter().map(|t| Some(self.planned.handle(t.lookup))).collect();
+        let mut registers: Vec<Option<ir::Handle<Expr>>> =
+            pass.textures.iter().map(|t| Some(self.planned.handle(t.lookup))).collect();
         registers.resize(4, None);
         registers.push(g.primary);
         registers.push(g.secondary);
         let unset = [g.config.constant0.is_none(), g.config.constant1.is_none()];
-        let constants: Vec<Option<ir::Handle<Expr>>> = (0..2).map(|k| g.constants[k].filter(|_| unset[k])).collect();
-        let mut roots: Vec<ir::Handle<Expr>> = registers.iter().chain(&constants).flatten().copied().collect();
+        let constants: Vec<Option<ir::Handle<Expr>>> =
+            (0..2).map(|k| g.constants[k].filter(|_| unset[k])).collect();
+        let mut roots: Vec<ir::Handle<Expr>> =
+            registers.iter().chain(&constants).flatten().copied().collect();
         roots.extend(self.iface.condition);
         // The registers' sources in float, unrounded (as the CPU's fixed9 loads them).
         let fidelity = std::mem::replace(&mut self.fidelity, Fidelity::Exact);
@@ -931,12 +1178,32 @@ impl<'a> Gen<'a> {
                     let v = as_rgba(self, b, *h);
                     // round(clamp(v, 0, 1) · 255): the 8-bit register input.
                     let (zero, one, k255, half) = (b.lit(0.0), b.lit(1.0), b.lit(255.0), b.lit(0.5));
-                    let (zero, one) = (b.emit(Expression::Splat { size: VectorSize::Quad, value: zero }), b.emit(Expression::Splat { size: VectorSize::Quad, value: one }));
-                    let c = b.emit(Expression::Math { fun: naga::MathFunction::Clamp, arg: v, arg1: Some(zero), arg2: Some(one), arg3: None });
-                    let c = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: c, right: k255 });
+                    let (zero, one) = (
+                        b.emit(Expression::Splat { size: VectorSize::Quad, value: zero }),
+                        b.emit(Expression::Splat { size: VectorSize::Quad, value: one }),
+                    );
+                    let c = b.emit(Expression::Math {
+                        fun: naga::MathFunction::Clamp,
+                        arg: v,
+                        arg1: Some(zero),
+                        arg2: Some(one),
+                        arg3: None,
+                    });
+                    let c = b.emit(Expression::Binary {
+                        op: naga::BinaryOperator::Multiply,
+                        left: c,
+                        right: k255,
+                    });
                     let half = b.emit(Expression::Splat { size: VectorSize::Quad, value: half });
-                    let c = b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: c, right: half });
-                    let c = b.emit(Expression::Math { fun: naga::MathFunction::Floor, arg: c, arg1: None, arg2: None, arg3: None });
+                    let c =
+                        b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: c, right: half });
+                    let c = b.emit(Expression::Math {
+                        fun: naga::MathFunction::Floor,
+                        arg: c,
+                        arg1: None,
+                        arg2: None,
+                        arg3: None,
+                    });
                     b.emit(Expression::As { expr: c, kind: ScalarKind::Sint, convert: Some(4) })
                 }
                 None => b.plain(Expression::ZeroValue(ivec4)),
@@ -949,17 +1216,37 @@ impl<'a> Gen<'a> {
             });
         }
         args.push(b.plain(Expression::ZeroValue(vec4))); // fog
-        // The stub: same signature, replaced by the setup's text.
+                                                         // The stub: same signature, replaced by the setup's text.
         let mut stub = Body::new(super::rc1::COMBINERS_FUNCTION, Stage::Fragment);
-        for (i, name) in ["in_texture0", "in_texture1", "in_texture2", "in_texture3", "in_primary", "in_secondary", "in_constant0", "in_constant1", "in_fog"].iter().enumerate() {
-            stub.f.arguments.push(FunctionArgument { name: Some((*name).into()), ty: if i < 6 { ivec4 } else { vec4 }, binding: None });
+        for (i, name) in [
+            "in_texture0",
+            "in_texture1",
+            "in_texture2",
+            "in_texture3",
+            "in_primary",
+            "in_secondary",
+            "in_constant0",
+            "in_constant1",
+            "in_fog",
+        ]
+        .iter()
+        .enumerate()
+        {
+            stub.f.arguments.push(FunctionArgument {
+                name: Some((*name).into()),
+                ty: if i < 6 { ivec4 } else { vec4 },
+                binding: None,
+            });
         }
         stub.f.result = Some(FunctionResult { ty: vec4, binding: None });
         let z = stub.plain(Expression::ZeroValue(vec4));
         stub.f.body.push(Statement::Return { value: Some(z) }, naga::Span::UNDEFINED);
         let f = self.module.functions.append(stub.f, naga::Span::UNDEFINED);
         let result = b.plain(Expression::CallResult(f));
-        b.f.body.push(Statement::Call { function: f, arguments: args, result: Some(result) }, naga::Span::UNDEFINED);
+        b.f.body.push(
+            Statement::Call { function: f, arguments: args, result: Some(result) },
+            naga::Span::UNDEFINED,
+        );
         b.name(result, "combiners");
         let ty = self.m.info(self.iface.output).ty;
         Ok(match width(ty) {
@@ -969,7 +1256,8 @@ impl<'a> Gen<'a> {
             }
             2 | 3 => {
                 let n = width(ty);
-                let pattern = [SwizzleComponent::X, SwizzleComponent::Y, SwizzleComponent::Z, SwizzleComponent::W];
+                let pattern =
+                    [SwizzleComponent::X, SwizzleComponent::Y, SwizzleComponent::Z, SwizzleComponent::W];
                 let v = b.emit(Expression::Swizzle { size: size(n), vector: result, pattern });
                 let one = b.lit(1.0);
                 if n == 3 {
@@ -1009,7 +1297,10 @@ impl<'a> Gen<'a> {
         };
         let mut accept = naga::Block::new();
         accept.push(Statement::Kill, naga::Span::UNDEFINED);
-        b.f.body.push(Statement::If { condition: fails, accept, reject: naga::Block::new() }, naga::Span::UNDEFINED);
+        b.f.body.push(
+            Statement::If { condition: fails, accept, reject: naga::Block::new() },
+            naga::Span::UNDEFINED,
+        );
     }
 
     /// `v` (width `from`) as width `to`: a scalar splats.
@@ -1071,7 +1362,10 @@ impl<'a> Gen<'a> {
         }
         let f = self.q9_function(w, false);
         let r = b.plain(Expression::CallResult(f));
-        b.f.body.push(Statement::Call { function: f, arguments: vec![v], result: Some(r) }, naga::Span::UNDEFINED);
+        b.f.body.push(
+            Statement::Call { function: f, arguments: vec![v], result: Some(r) },
+            naga::Span::UNDEFINED,
+        );
         r
     }
 
@@ -1085,7 +1379,10 @@ impl<'a> Gen<'a> {
     /// register write of hardware fidelity: per fragment, not only an
     /// address (the CPU's `Step::quantize`).
     fn register_write(&self, n: ir::Handle<Expr>, sample: bool) -> bool {
-        self.fidelity == Fidelity::Hardware && sample && self.m.info(n).freq.is_sample() && !self.addresses_only(n)
+        self.fidelity == Fidelity::Hardware
+            && sample
+            && self.m.info(n).freq.is_sample()
+            && !self.addresses_only(n)
     }
 
     /// `floor(v * 255 + 0.5) / 255`, unclamped (a folded constant register
@@ -1106,7 +1403,10 @@ impl<'a> Gen<'a> {
     fn quotient(&mut self, b: &mut Body, x: NH, y: NH, w: usize) -> NH {
         let f = self.q9_function(w, true);
         let r = b.plain(Expression::CallResult(f));
-        b.f.body.push(Statement::Call { function: f, arguments: vec![x, y], result: Some(r) }, naga::Span::UNDEFINED);
+        b.f.body.push(
+            Statement::Call { function: f, arguments: vec![x, y], result: Some(r) },
+            naga::Span::UNDEFINED,
+        );
         r
     }
 
@@ -1122,7 +1422,11 @@ impl<'a> Gen<'a> {
             return f;
         }
         let ty = self.vec_ty(w);
-        let name = if quotient { ["divide_x", "divide_xy", "divide_xyz", "divide_xyzw"] } else { ["quantize_x", "quantize_xy", "quantize_xyz", "quantize_xyzw"] }[w - 1];
+        let name = if quotient {
+            ["divide_x", "divide_xy", "divide_xyz", "divide_xyzw"]
+        } else {
+            ["quantize_x", "quantize_xy", "quantize_xyz", "quantize_xyzw"]
+        }[w - 1];
         let mut b = Body::new(name, Stage::Vertex);
         let arguments: &[&str] = if quotient { &["a", "b"] } else { &["x"] };
         for a in arguments {
@@ -1141,13 +1445,27 @@ impl<'a> Gen<'a> {
         let ch = k(&mut b, 0.5);
         let lo = k(&mut b, -255.0);
         let x = b.plain(Expression::FunctionArgument(0));
-        let steps = |b: &mut Body, v: NH| b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: v, right: c255 });
+        let steps = |b: &mut Body, v: NH| {
+            b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: v, right: c255 })
+        };
         // The value in 1/255 steps, and what is NaN when it is.
         let (s, tested) = if quotient {
             let y = b.plain(Expression::FunctionArgument(1));
             let (n, d) = (steps(&mut b, x), steps(&mut b, y));
-            let n = b.emit(Expression::Math { fun: naga::MathFunction::Round, arg: n, arg1: None, arg2: None, arg3: None });
-            let d = b.emit(Expression::Math { fun: naga::MathFunction::Round, arg: d, arg1: None, arg2: None, arg3: None });
+            let n = b.emit(Expression::Math {
+                fun: naga::MathFunction::Round,
+                arg: n,
+                arg1: None,
+                arg2: None,
+                arg3: None,
+            });
+            let d = b.emit(Expression::Math {
+                fun: naga::MathFunction::Round,
+                arg: d,
+                arg1: None,
+                arg2: None,
+                arg3: None,
+            });
             let n = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: n, right: c255 });
             let t = b.emit(Expression::Binary { op: naga::BinaryOperator::Divide, left: n, right: d });
             (t, t)
@@ -1155,8 +1473,20 @@ impl<'a> Gen<'a> {
             (steps(&mut b, x), x)
         };
         let s = b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: s, right: ch });
-        let s = b.emit(Expression::Math { fun: naga::MathFunction::Floor, arg: s, arg1: None, arg2: None, arg3: None });
-        let s = b.emit(Expression::Math { fun: naga::MathFunction::Clamp, arg: s, arg1: Some(lo), arg2: Some(c255), arg3: None });
+        let s = b.emit(Expression::Math {
+            fun: naga::MathFunction::Floor,
+            arg: s,
+            arg1: None,
+            arg2: None,
+            arg3: None,
+        });
+        let s = b.emit(Expression::Math {
+            fun: naga::MathFunction::Clamp,
+            arg: s,
+            arg1: Some(lo),
+            arg2: Some(c255),
+            arg3: None,
+        });
         let s = b.emit(Expression::Binary { op: naga::BinaryOperator::Divide, left: s, right: c255 });
         let s = nan_to_zero(&mut b, tested, s, w);
         b.f.body.push(Statement::Return { value: Some(s) }, naga::Span::UNDEFINED);
@@ -1181,7 +1511,10 @@ impl<'a> Gen<'a> {
             }
         };
         let r = b.plain(Expression::CallResult(f));
-        b.f.body.push(Statement::Call { function: f, arguments: vec![v], result: Some(r) }, naga::Span::UNDEFINED);
+        b.f.body.push(
+            Statement::Call { function: f, arguments: vec![v], result: Some(r) },
+            naga::Span::UNDEFINED,
+        );
         r
     }
 
@@ -1238,7 +1571,13 @@ impl<'a> Gen<'a> {
     }
 
     fn math(&mut self, b: &mut Body, fun: naga::MathFunction, args: &[NH]) -> NH {
-        b.emit(Expression::Math { fun, arg: args[0], arg1: args.get(1).copied(), arg2: args.get(2).copied(), arg3: None })
+        b.emit(Expression::Math {
+            fun,
+            arg: args[0],
+            arg1: args.get(1).copied(),
+            arg2: args.get(2).copied(),
+            arg3: None,
+        })
     }
 
     /// A float from a boolean: 1.0 or 0.0.
@@ -1285,7 +1624,12 @@ impl<'a> Gen<'a> {
         let info = *m.info(n);
         let w = width(info.ty);
         let e = m.exprs[n].clone();
-        let val = |b: &Body, h: ir::Handle<Expr>| -> R<NH> { b.vals.get(&h).copied().ok_or_else(|| GenError::Internal(format!("value %{} used before it is computed", h.index()))) };
+        let val = |b: &Body, h: ir::Handle<Expr>| -> R<NH> {
+            b.vals
+                .get(&h)
+                .copied()
+                .ok_or_else(|| GenError::Internal(format!("value %{} used before it is computed", h.index())))
+        };
         let wof = |h: ir::Handle<Expr>| width(m.info(h).ty);
         use naga::BinaryOperator as B;
         use naga::MathFunction as F;
@@ -1293,17 +1637,30 @@ impl<'a> Gen<'a> {
         let mut arith = false; // a register write in hardware fidelity
         let v: NH = match &e {
             Expr::Constant(c) => {
-                let register = self.fidelity == Fidelity::Hardware && sample && !self.addresses_only(n) && c.values().iter().all(|v| v.abs() <= 1.0);
+                let register = self.fidelity == Fidelity::Hardware
+                    && sample
+                    && !self.addresses_only(n)
+                    && c.values().iter().all(|v| v.abs() <= 1.0);
                 if register {
                     self.on_grid.insert(n);
                 }
                 self.constant(b, c, register)
             }
             Expr::Uniform(u) => {
-                let Some(var) = self.uniforms_var else { return Err(GenError::Internal("uniform without a block".into())) };
-                let idx = self.iface.uniforms.iter().position(|x| x == u).ok_or_else(|| GenError::Internal("uniform not in the interface".into()))?;
+                let Some(var) = self.uniforms_var else {
+                    return Err(GenError::Internal("uniform without a block".into()));
+                };
+                let idx = self
+                    .iface
+                    .uniforms
+                    .iter()
+                    .position(|x| x == u)
+                    .ok_or_else(|| GenError::Internal("uniform not in the interface".into()))?;
                 let g = b.plain(Expression::GlobalVariable(var));
-                let p = b.emit(Expression::AccessIndex { base: g, index: (self.iface.projections.len() + idx) as u32 });
+                let p = b.emit(Expression::AccessIndex {
+                    base: g,
+                    index: (self.iface.projections.len() + idx) as u32,
+                });
                 let l = b.emit(Expression::Load { pointer: p });
                 // As the CPU's fixed9 reads a uniform: as given (what is
                 // computed from it is folded, `finish`).
@@ -1314,11 +1671,20 @@ impl<'a> Gen<'a> {
                     return self.unsupported("a shading vector as a function of the texel coordinate (texture shading, `s δu`): PassInterface binds per-vertex inputs only", Some(n));
                 }
                 if sample {
-                    return Err(GenError::Internal(format!("per-vertex value %{} read per sample without δ", n.index())));
+                    return Err(GenError::Internal(format!(
+                        "per-vertex value %{} read per sample without δ",
+                        n.index()
+                    )));
                 }
                 let i = self.iface.vertex_leaves.iter().position(|x| *x == n);
                 let Some(i) = i else {
-                    return self.unsupported(format!("a {} shading value here (only per-vertex inputs are bound)", info.freq.name()), Some(n));
+                    return self.unsupported(
+                        format!(
+                            "a {} shading value here (only per-vertex inputs are bound)",
+                            info.freq.name()
+                        ),
+                        Some(n),
+                    );
                 };
                 let a = b.args[i];
                 self.narrow(b, a, 4, w)
@@ -1339,7 +1705,11 @@ impl<'a> Gen<'a> {
                     Expr::Depth(p) => *p == n && self.depth_is_fragments(n),
                     _ => false,
                 };
-                if !self.pass_nodes.iter().any(|h| m.exprs[*h].operands().contains(&n) && !at_pixel(&m.exprs[*h])) {
+                if !self
+                    .pass_nodes
+                    .iter()
+                    .any(|h| m.exprs[*h].operands().contains(&n) && !at_pixel(&m.exprs[*h]))
+                {
                     return Ok(());
                 }
                 self.pixel_position(b, n)?
@@ -1348,8 +1718,13 @@ impl<'a> Gen<'a> {
                 let x = val(b, *value)?;
                 match m.info(*value).ty {
                     Ty::Position => {
-                        let idx = self.iface.projections.iter().position(|p| p == projection).ok_or_else(|| GenError::Internal("projection not in the interface".into()))?;
-                        let var = self.uniforms_var.ok_or_else(|| GenError::Internal("projection without a block".into()))?;
+                        let idx =
+                            self.iface.projections.iter().position(|p| p == projection).ok_or_else(|| {
+                                GenError::Internal("projection not in the interface".into())
+                            })?;
+                        let var = self
+                            .uniforms_var
+                            .ok_or_else(|| GenError::Internal("projection without a block".into()))?;
                         let g = b.plain(Expression::GlobalVariable(var));
                         let p = b.emit(Expression::AccessIndex { base: g, index: idx as u32 });
                         let mat = b.emit(Expression::Load { pointer: p });
@@ -1376,7 +1751,10 @@ impl<'a> Gen<'a> {
                 }
             }
             Expr::Interpolate { .. } => {
-                return Err(GenError::Internal(format!("δ node %{} is not a varying of this pass", n.index())));
+                return Err(GenError::Internal(format!(
+                    "δ node %{} is not a varying of this pass",
+                    n.index()
+                )));
             }
             Expr::Lookup { texture, coords } => {
                 let unit = self.unit_of(n)?;
@@ -1386,7 +1764,9 @@ impl<'a> Gen<'a> {
                 if matches!(m.exprs[*coords], Expr::Pixel { .. }) {
                     // `T xs` (seeds/001 (6)): the texel under the pixel of a screen
                     // pass, at level 0 (a fat framebuffer is one texel per pixel).
-                    let Some(uv) = b.texel_uv else { return self.unsupported("a lookup at the pixel outside a screen pass", Some(n)) };
+                    let Some(uv) = b.texel_uv else {
+                        return self.unsupported("a lookup at the pixel outside a screen pass", Some(n));
+                    };
                     if fat && !self.plain_use(n) {
                         b.fat.insert(n, (unit, uv, naga::SampleLevel::Zero));
                         return Ok(());
@@ -1394,7 +1774,17 @@ impl<'a> Gen<'a> {
                     let image = b.plain(Expression::GlobalVariable(tv));
                     let sampler = b.plain(Expression::GlobalVariable(sv));
                     let layer = fat.then(|| b.plain(Expression::Literal(Literal::I32(0))));
-                    let s = b.emit(Expression::ImageSample { image, sampler, gather: None, coordinate: uv, array_index: layer, offset: None, level: naga::SampleLevel::Zero, depth_ref: None, clamp_to_edge: false });
+                    let s = b.emit(Expression::ImageSample {
+                        image,
+                        sampler,
+                        gather: None,
+                        coordinate: uv,
+                        array_index: layer,
+                        offset: None,
+                        level: naga::SampleLevel::Zero,
+                        depth_ref: None,
+                        clamp_to_edge: false,
+                    });
                     let t = self.narrow(b, s, 4, w);
                     b.vals.insert(n, t);
                     return self.finish(b, n, t, w, false);
@@ -1419,21 +1809,39 @@ impl<'a> Gen<'a> {
                 let sampler = b.plain(Expression::GlobalVariable(sv));
                 // A fat texture read as a colour: its first layer.
                 let layer = fat.then(|| b.plain(Expression::Literal(Literal::I32(0))));
-                let s = b.emit(Expression::ImageSample { image, sampler, gather: None, coordinate: coord, array_index: layer, offset: None, level, depth_ref: None, clamp_to_edge: false });
+                let s = b.emit(Expression::ImageSample {
+                    image,
+                    sampler,
+                    gather: None,
+                    coordinate: coord,
+                    array_index: layer,
+                    offset: None,
+                    level,
+                    depth_ref: None,
+                    clamp_to_edge: false,
+                });
                 let t = self.narrow(b, s, 4, w);
                 if matches!(format, Some(TextureFormat::Signed8 | TextureFormat::Signed16)) {
                     self.expand(b, t, w)
                 } else {
                     // A 2D 8-bit texture filters to 8-bit results in
                     // hardware fidelity (`scene_run` uploads it as RGBA8).
-                    if self.fidelity == Fidelity::Hardware && sample && kind != TextureKind::Cube && matches!(format, None | Some(TextureFormat::Rgba8 | TextureFormat::Rgb8 | TextureFormat::R8)) {
+                    if self.fidelity == Fidelity::Hardware
+                        && sample
+                        && kind != TextureKind::Cube
+                        && matches!(
+                            format,
+                            None | Some(TextureFormat::Rgba8 | TextureFormat::Rgb8 | TextureFormat::R8)
+                        )
+                    {
                         self.on_grid.insert(n);
                     }
                     t
                 }
             }
             Expr::FramebufferRead { framebuffer, channel, position } => {
-                let at_pixel = matches!(m.exprs[*position], Expr::Pixel { .. }) || Some(*position) == self.own_position;
+                let at_pixel =
+                    matches!(m.exprs[*position], Expr::Pixel { .. }) || Some(*position) == self.own_position;
                 let (var, sv) = match self.unit_of(n) {
                     Ok(unit) => {
                         let (tv, sv, _, _) = self.units[unit];
@@ -1456,19 +1864,35 @@ impl<'a> Gen<'a> {
                     self.load_at_pixel(b, var)?
                 } else {
                     let image = b.plain(Expression::GlobalVariable(var));
-                    let sv = sv.ok_or_else(|| GenError::Internal("a framebuffer read without a sampler".into()))?;
+                    let sv =
+                        sv.ok_or_else(|| GenError::Internal("a framebuffer read without a sampler".into()))?;
                     let p = val(b, *position)?;
                     let uv = self.projective_uv(b, p);
                     let sampler = b.plain(Expression::GlobalVariable(sv));
                     let level = if sample { naga::SampleLevel::Auto } else { naga::SampleLevel::Zero };
-                    let texel = b.emit(Expression::ImageSample { image, sampler, gather: None, coordinate: uv, array_index: None, offset: None, level, depth_ref: None, clamp_to_edge: false });
+                    let texel = b.emit(Expression::ImageSample {
+                        image,
+                        sampler,
+                        gather: None,
+                        coordinate: uv,
+                        array_index: None,
+                        offset: None,
+                        level,
+                        depth_ref: None,
+                        clamp_to_edge: false,
+                    });
                     // Outside the framebuffer: its cleared values (colour 0, depth 1), as the CPU.
                     let (zero, one) = (b.lit(0.0), b.lit(1.0));
-                    let (zero2, one2) = (b.emit(Expression::Splat { size: VectorSize::Bi, value: zero }), b.emit(Expression::Splat { size: VectorSize::Bi, value: one }));
+                    let (zero2, one2) = (
+                        b.emit(Expression::Splat { size: VectorSize::Bi, value: zero }),
+                        b.emit(Expression::Splat { size: VectorSize::Bi, value: one }),
+                    );
                     let above = self.binop(b, B::GreaterEqual, uv, zero2);
                     let below = self.binop(b, B::LessEqual, uv, one2);
-                    let above = b.emit(Expression::Relational { fun: naga::RelationalFunction::All, argument: above });
-                    let below = b.emit(Expression::Relational { fun: naga::RelationalFunction::All, argument: below });
+                    let above = b
+                        .emit(Expression::Relational { fun: naga::RelationalFunction::All, argument: above });
+                    let below = b
+                        .emit(Expression::Relational { fun: naga::RelationalFunction::All, argument: below });
                     let inside = self.binop(b, B::LogicalAnd, above, below);
                     let clear = b.lit(if *channel == FbChannel::Depth { 1.0 } else { 0.0 });
                     let clear = b.emit(Expression::Splat { size: VectorSize::Quad, value: clear });
@@ -1503,13 +1927,27 @@ impl<'a> Gen<'a> {
             Expr::FatMember { texel, member } => {
                 // Member i of a fat texel is layer i's rgb.
                 let Some(&(unit, coordinate, level)) = b.fat.get(texel) else {
-                    return Err(GenError::Internal(format!("fat member %{} of %{}, which is not a fat lookup here", n.index(), texel.index())));
+                    return Err(GenError::Internal(format!(
+                        "fat member %{} of %{}, which is not a fat lookup here",
+                        n.index(),
+                        texel.index()
+                    )));
                 };
                 let (tv, sv, _, _) = self.units[unit];
                 let image = b.plain(Expression::GlobalVariable(tv));
                 let sampler = b.plain(Expression::GlobalVariable(sv));
                 let layer = b.plain(Expression::Literal(Literal::I32(*member as i32)));
-                let s = b.emit(Expression::ImageSample { image, sampler, gather: None, coordinate, array_index: Some(layer), offset: None, level, depth_ref: None, clamp_to_edge: false });
+                let s = b.emit(Expression::ImageSample {
+                    image,
+                    sampler,
+                    gather: None,
+                    coordinate,
+                    array_index: Some(layer),
+                    offset: None,
+                    level,
+                    depth_ref: None,
+                    clamp_to_edge: false,
+                });
                 self.narrow(b, s, 4, w)
             }
             // Written by the fragment stage as one output per member (`fragment`).
@@ -1559,7 +1997,8 @@ impl<'a> Gen<'a> {
                         }
                     }
                     BinaryOp::Pow => {
-                        let squarings = ir::squaring_exponent(m, n).filter(|_| self.register_write(n, sample));
+                        let squarings =
+                            ir::squaring_exponent(m, n).filter(|_| self.register_write(n, sample));
                         match squarings {
                             // Repeated squaring, a register write after each product
                             // (`x^1` is x, written once).
@@ -1577,7 +2016,12 @@ impl<'a> Gen<'a> {
                             }
                         }
                     }
-                    BinaryOp::Lt | BinaryOp::Le | BinaryOp::Gt | BinaryOp::Ge | BinaryOp::Eq | BinaryOp::Ne => {
+                    BinaryOp::Lt
+                    | BinaryOp::Le
+                    | BinaryOp::Gt
+                    | BinaryOp::Ge
+                    | BinaryOp::Eq
+                    | BinaryOp::Ne => {
                         let o = match op {
                             BinaryOp::Lt => B::Less,
                             BinaryOp::Le => B::LessEqual,
@@ -1748,13 +2192,17 @@ impl<'a> Gen<'a> {
     fn finish(&mut self, b: &mut Body, n: ir::Handle<Expr>, v: NH, w: usize, arith: bool) -> R<()> {
         // Named before quantization: a call result cannot carry a name.
         // Leaves are named by their arguments.
-        let leaf = matches!(self.m.exprs[n], Expr::VertexPosition(_) | Expr::TexCoord { .. } | Expr::Vector { .. });
+        let leaf =
+            matches!(self.m.exprs[n], Expr::VertexPosition(_) | Expr::TexCoord { .. } | Expr::Vector { .. });
         if let Some(name) = self.value_name(n).filter(|_| !leaf) {
             b.name(v, &name);
         }
         // A register write, as the CPU's per-operation fixed9 model rounds
         // every per-fragment operation but those that only address textures.
-        let regroup = matches!(self.m.exprs[n], Expr::Swizzle { .. } | Expr::Convert { .. } | Expr::Compose { .. } | Expr::Select { .. });
+        let regroup = matches!(
+            self.m.exprs[n],
+            Expr::Swizzle { .. } | Expr::Convert { .. } | Expr::Compose { .. } | Expr::Select { .. }
+        );
         if regroup && !arith {
             // Rearranges values already on the grid.
             self.on_grid.insert(n);
@@ -1819,7 +2267,13 @@ impl<'a> Gen<'a> {
         let xy = self.narrow(b, fc, 4, 2);
         let ixy = b.emit(Expression::As { expr: xy, kind: ScalarKind::Sint, convert: Some(4) });
         let zero = b.plain(Expression::Literal(Literal::I32(0)));
-        let texel = b.emit(Expression::ImageLoad { image, coordinate: ixy, array_index: None, sample: None, level: Some(zero) });
+        let texel = b.emit(Expression::ImageLoad {
+            image,
+            coordinate: ixy,
+            array_index: None,
+            sample: None,
+            level: Some(zero),
+        });
         b.loads.insert(var, texel);
         Ok(texel)
     }
@@ -1836,21 +2290,37 @@ impl<'a> Gen<'a> {
     fn plain_use(&self, lookup: ir::Handle<Expr>) -> bool {
         self.iface.output == lookup
             || self.iface.condition == Some(lookup)
-            || self.pass_nodes.iter().any(|h| !matches!(self.m.exprs[*h], Expr::FatMember { .. }) && self.m.exprs[*h].operands().contains(&lookup))
+            || self.pass_nodes.iter().any(|h| {
+                !matches!(self.m.exprs[*h], Expr::FatMember { .. })
+                    && self.m.exprs[*h].operands().contains(&lookup)
+            })
     }
 
     /// The global of the copy of the target framebuffer `name` (its depth,
     /// or colour) taken before the pass: `texture_2d<f32>` bound after the
     /// units' textures and samplers, read with `textureLoad`.
     fn target_copy(&mut self, name: &str, depth: bool) -> naga::Handle<GlobalVariable> {
-        if let Some((_, var)) = self.target_copies.iter().find(|(c, _)| c.framebuffer == name && c.depth == depth) {
+        if let Some((_, var)) =
+            self.target_copies.iter().find(|(c, _)| c.framebuffer == name && c.depth == depth)
+        {
             return *var;
         }
         let binding = 1 + 2 * self.units.len() as u32 + self.target_copies.len() as u32;
-        let ty = self.ty(TypeInner::Image { dim: ImageDimension::D2, arrayed: false, class: ImageClass::Sampled { kind: ScalarKind::Float, multi: false } });
+        let ty = self.ty(TypeInner::Image {
+            dim: ImageDimension::D2,
+            arrayed: false,
+            class: ImageClass::Sampled { kind: ScalarKind::Float, multi: false },
+        });
         let var_name = format!("{}_{}before", sanitize(name), if depth { "depth_" } else { "" });
         let var = self.module.global_variables.append(
-            GlobalVariable { name: Some(var_name), space: AddressSpace::Handle, binding: Some(ResourceBinding { group: 0, binding }), ty, init: None, memory_decorations: Default::default() },
+            GlobalVariable {
+                name: Some(var_name),
+                space: AddressSpace::Handle,
+                binding: Some(ResourceBinding { group: 0, binding }),
+                ty,
+                init: None,
+                memory_decorations: Default::default(),
+            },
             naga::Span::UNDEFINED,
         );
         self.target_copies.push((TargetCopy { binding, framebuffer: name.to_string(), depth }, var));
@@ -1863,8 +2333,12 @@ impl<'a> Gen<'a> {
     /// fragment's for `δ xs` — mapped to −1..1, and w = 1; what `π⁻¹`
     /// takes back to model space (seeds/001 Section 3.5, shadow mask).
     fn pixel_position(&mut self, b: &mut Body, n: ir::Handle<Expr>) -> R<NH> {
-        let Expr::Pixel { freq } = self.m.exprs[n] else { return Err(GenError::Internal(format!("%{} is not a pixel", n.index()))) };
-        let (Some(uv), Some(fc)) = (b.texel_uv, b.frag_coord) else { return self.unsupported("the position of a pixel outside a screen pass", Some(n)) };
+        let Expr::Pixel { freq } = self.m.exprs[n] else {
+            return Err(GenError::Internal(format!("%{} is not a pixel", n.index())));
+        };
+        let (Some(uv), Some(fc)) = (b.texel_uv, b.frag_coord) else {
+            return self.unsupported("the position of a pixel outside a screen pass", Some(n));
+        };
         use naga::BinaryOperator as B;
         let (one, two) = (b.lit(1.0), b.lit(2.0));
         let u = b.emit(Expression::AccessIndex { base: uv, index: 0 });
@@ -1878,7 +2352,15 @@ impl<'a> Gen<'a> {
                 RenderTarget::Framebuffer { name, .. } => Some(name.clone()),
                 _ => None,
             };
-            let with_depth = target.as_ref().and_then(|t| self.m.framebuffers.iter().find(|f| f.name == *t)).is_some_and(|f| f.channels.is_empty() || f.channels.iter().any(|c| matches!(c, crate::parser::ast::FramebufferChannel::Depth)));
+            let with_depth = target
+                .as_ref()
+                .and_then(|t| self.m.framebuffers.iter().find(|f| f.name == *t))
+                .is_some_and(|f| {
+                    f.channels.is_empty()
+                        || f.channels
+                            .iter()
+                            .any(|c| matches!(c, crate::parser::ast::FramebufferChannel::Depth))
+                });
             match target {
                 Some(t) if with_depth => {
                     let var = self.target_copy(&t, true);
@@ -1901,7 +2383,10 @@ impl<'a> Gen<'a> {
 
     fn unit_of(&self, lookup: ir::Handle<Expr>) -> R<usize> {
         let pass = &self.planned.plan.passes[self.pass_index];
-        pass.textures.iter().position(|t| t.lookup as usize == lookup.index()).ok_or_else(|| GenError::Internal(format!("lookup %{} has no texture unit", lookup.index())))
+        pass.textures
+            .iter()
+            .position(|t| t.lookup as usize == lookup.index())
+            .ok_or_else(|| GenError::Internal(format!("lookup %{} has no texture unit", lookup.index())))
     }
 
     /// `a ⊕[mode] b` (see the module doc).
@@ -1964,12 +2449,20 @@ impl<'a> Gen<'a> {
                         let hs = self.splat(b, half, 1, cw)?;
                         let a = self.binop(b, B::Subtract, ct, hs);
                         let c = self.binop(b, B::Subtract, cf, hs);
-                        let d = if cw == 1 { self.binop(b, B::Multiply, a, c) } else { self.math(b, naga::MathFunction::Dot, &[a, c]) };
+                        let d = if cw == 1 {
+                            self.binop(b, B::Multiply, a, c)
+                        } else {
+                            self.math(b, naga::MathFunction::Dot, &[a, c])
+                        };
                         let four = b.lit(4.0);
                         let d = self.binop(b, B::Multiply, d, four);
                         let d = self.math(b, naga::MathFunction::Saturate, &[d]);
                         let rgb = self.splat(b, d, 1, cw)?;
-                        let alpha = if mode == CombineMode::Dot3Rgba { d } else { self.binop(b, B::Multiply, af, at) };
+                        let alpha = if mode == CombineMode::Dot3Rgba {
+                            d
+                        } else {
+                            self.binop(b, B::Multiply, af, at)
+                        };
                         (rgb, alpha)
                     }
                     _ => unreachable!(),

@@ -22,13 +22,19 @@ use crate::span::Span;
 pub const PASS_MARK: &str = "// ==== ";
 
 fn writer_error(what: &str, pass: &PassShader, e: impl std::fmt::Display) -> Diagnostic {
-    Diagnostic::error("internal-error", format!("compiler bug: naga's {what} writer failed on {}: {e}", pass.label), Span::DETACHED, "here")
-        .with_help("this is a bug in shadec, not in your program: please report it with the program")
+    Diagnostic::error(
+        "internal-error",
+        format!("compiler bug: naga's {what} writer failed on {}: {e}", pass.label),
+        Span::DETACHED,
+        "here",
+    )
+    .with_help("this is a bug in shadec, not in your program: please report it with the program")
 }
 
 /// One pass as WGSL, without header.
 pub fn pass_wgsl(pass: &PassShader) -> Result<String, Diagnostic> {
-    back::wgsl::write_string(&pass.module, &pass.info, back::wgsl::WriterFlags::empty()).map_err(|e| writer_error("WGSL", pass, e))
+    back::wgsl::write_string(&pass.module, &pass.info, back::wgsl::WriterFlags::empty())
+        .map_err(|e| writer_error("WGSL", pass, e))
 }
 
 fn pass_header(pass: &PassShader) -> String {
@@ -42,7 +48,8 @@ fn pass_header(pass: &PassShader) -> String {
 /// The whole plan as one WGSL document (see the module doc). `title` is
 /// the first comment line (`FILE on TARGET, fidelity F`).
 pub fn wgsl(title: &str, passes: &[PassShader]) -> Result<String, Diagnostic> {
-    let mut out = format!("// shadec: {title} — {} pass{}\n", passes.len(), if passes.len() == 1 { "" } else { "es" });
+    let mut out =
+        format!("// shadec: {title} — {} pass{}\n", passes.len(), if passes.len() == 1 { "" } else { "es" });
     out += "// Each section is one WGSL module (vs_main, fs_main); bindings: docs in src/backends/wgsl/codegen.rs.\n";
     for p in passes {
         out += "\n";
@@ -68,7 +75,8 @@ pub fn split_wgsl(doc: &str) -> Vec<(String, String)> {
 
 /// One pass as a SPIR-V module (both entry points).
 pub fn spirv(pass: &PassShader) -> Result<Vec<u32>, Diagnostic> {
-    back::spv::write_vec(&pass.module, &pass.info, &back::spv::Options::default(), None).map_err(|e| writer_error("SPIR-V", pass, e))
+    back::spv::write_vec(&pass.module, &pass.info, &back::spv::Options::default(), None)
+        .map_err(|e| writer_error("SPIR-V", pass, e))
 }
 
 /// SPIR-V words as little-endian bytes (the file format).
@@ -80,9 +88,21 @@ pub fn spirv_bytes(words: &[u32]) -> Vec<u8> {
 pub fn glsl_pass(pass: &PassShader) -> Result<(String, String), Diagnostic> {
     let options = back::glsl::Options { version: back::glsl::Version::Desktop(330), ..Default::default() };
     let one = |stage: naga::ShaderStage, entry: &str| -> Result<String, Diagnostic> {
-        let pipeline = back::glsl::PipelineOptions { shader_stage: stage, entry_point: entry.to_string(), multiview: None };
+        let pipeline = back::glsl::PipelineOptions {
+            shader_stage: stage,
+            entry_point: entry.to_string(),
+            multiview: None,
+        };
         let mut s = String::new();
-        let mut w = back::glsl::Writer::new(&mut s, &pass.module, &pass.info, &options, &pipeline, naga::proc::BoundsCheckPolicies::default()).map_err(|e| writer_error("GLSL", pass, e))?;
+        let mut w = back::glsl::Writer::new(
+            &mut s,
+            &pass.module,
+            &pass.info,
+            &options,
+            &pipeline,
+            naga::proc::BoundsCheckPolicies::default(),
+        )
+        .map_err(|e| writer_error("GLSL", pass, e))?;
         w.write().map_err(|e| writer_error("GLSL", pass, e))?;
         Ok(s)
     };
@@ -91,7 +111,11 @@ pub fn glsl_pass(pass: &PassShader) -> Result<(String, String), Diagnostic> {
 
 /// The whole plan as one GLSL document (see the module doc).
 pub fn glsl(title: &str, passes: &[PassShader]) -> Result<String, Diagnostic> {
-    let mut out = format!("// shadec: {title} — {} pass{} (GLSL 330)\n", passes.len(), if passes.len() == 1 { "" } else { "es" });
+    let mut out = format!(
+        "// shadec: {title} — {} pass{} (GLSL 330)\n",
+        passes.len(),
+        if passes.len() == 1 { "" } else { "es" }
+    );
     for p in passes {
         let (vs, fs) = glsl_pass(p)?;
         for (stage, text) in [("vertex shader", vs), ("fragment shader", fs)] {

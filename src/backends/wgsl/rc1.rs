@@ -21,8 +21,11 @@
 
 use std::fmt::Write as _;
 
+use crate::backends::combiners::config::{
+    Bias, CombinerConfig, ComponentUsage, FinalSource, GeneralInput, GeneralPortion, InputMapping,
+    PortionKind, Register, Scale,
+};
 use crate::backends::combiners::emulator::HARDWARE_HALF;
-use crate::backends::combiners::config::{Bias, CombinerConfig, ComponentUsage, FinalSource, GeneralInput, GeneralPortion, InputMapping, PortionKind, Register, Scale};
 
 /// Registers in `Register::ALL` order, as WGSL variable names.
 fn reg_name(r: Register) -> String {
@@ -80,8 +83,13 @@ pub fn translate(config: &CombinerConfig, title: &str) -> Result<String, String>
     let mut s = String::new();
     let w = &mut s;
     writeln!(w, "// shadec translate: {title}").unwrap();
-    writeln!(w, "// The register combiners in fixed9 (8 bits + sign), as `shadec emulate --precision fixed9`.").unwrap();
-    writeln!(w, "// {} general combiner(s); bindings: src/backends/wgsl/rc1.rs.", config.general.len()).unwrap();
+    writeln!(
+        w,
+        "// The register combiners in fixed9 (8 bits + sign), as `shadec emulate --precision fixed9`."
+    )
+    .unwrap();
+    writeln!(w, "// {} general combiner(s); bindings: src/backends/wgsl/rc1.rs.", config.general.len())
+        .unwrap();
     writeln!(w, "\nstruct Uniforms {{\n    constant0: vec4<f32>,\n    constant1: vec4<f32>,\n    fog: vec4<f32>,\n}}\n").unwrap();
     writeln!(w, "@group(0) @binding(0) var<uniform> uniforms: Uniforms;").unwrap();
     let units = ["texture0", "texture1", "texture2", "texture3", "primary", "secondary"];
@@ -93,16 +101,26 @@ pub fn translate(config: &CombinerConfig, title: &str) -> Result<String, String>
     w.push_str(TEXEL_HELPER);
     w.push_str(&combiners_function(config));
     writeln!(w, "\n@vertex\nfn vs_main(@location(0) position: vec4<f32>) -> @builtin(position) vec4<f32> {{\n    return position;\n}}\n").unwrap();
-    writeln!(w, "@fragment\nfn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {{").unwrap();
+    writeln!(w, "@fragment\nfn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {{")
+        .unwrap();
     writeln!(w, "    let p = vec2<i32>(frag.xy);").unwrap();
     let args: Vec<String> = units.iter().map(|u| format!("texel({u}_image, p)")).collect();
-    writeln!(w, "    return {COMBINERS_FUNCTION}({}, uniforms.constant0, uniforms.constant1, uniforms.fog);", args.join(", ")).unwrap();
+    writeln!(
+        w,
+        "    return {COMBINERS_FUNCTION}({}, uniforms.constant0, uniforms.constant1, uniforms.fog);",
+        args.join(", ")
+    )
+    .unwrap();
     writeln!(w, "}}").unwrap();
     // A compiler bug if naga rejects it.
-    let module = naga::front::wgsl::parse_str(&s).map_err(|e| format!("compiler bug: the translated shader does not parse:\n{}", e.emit_to_string(&s)))?;
+    let module = naga::front::wgsl::parse_str(&s).map_err(|e| {
+        format!("compiler bug: the translated shader does not parse:\n{}", e.emit_to_string(&s))
+    })?;
     naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default())
         .validate(&module)
-        .map_err(|e| format!("compiler bug: the translated shader does not validate:\n{}", e.emit_to_string(&s)))?;
+        .map_err(|e| {
+            format!("compiler bug: the translated shader does not validate:\n{}", e.emit_to_string(&s))
+        })?;
     Ok(s)
 }
 
@@ -125,7 +143,12 @@ pub fn combiners_helpers() -> &'static str {
 pub fn combiners_function(config: &CombinerConfig) -> String {
     let mut s = String::new();
     let w = &mut s;
-    writeln!(w, "\n// The register combiners (seeds/003 Section 4.2) in fixed9: {} general combiner(s).", config.general.len()).unwrap();
+    writeln!(
+        w,
+        "\n// The register combiners (seeds/003 Section 4.2) in fixed9: {} general combiner(s).",
+        config.general.len()
+    )
+    .unwrap();
     writeln!(
         w,
         "fn {COMBINERS_FUNCTION}(in_texture0: vec4<i32>, in_texture1: vec4<i32>, in_texture2: vec4<i32>, in_texture3: vec4<i32>, in_primary: vec4<i32>, in_secondary: vec4<i32>, in_constant0: vec4<f32>, in_constant1: vec4<f32>, in_fog: vec4<f32>) -> vec4<f32> {{"
@@ -134,7 +157,9 @@ pub fn combiners_function(config: &CombinerConfig) -> String {
     writeln!(w, "    // Registers (Table 2), integers in units of 1/255.").unwrap();
     writeln!(w, "    var r_zero = vec4<i32>(0);").unwrap();
     let constant = |c: Option<[f32; 4]>, given: &str| match c {
-        Some(c) => format!("vec4<i32>({}, {}, {}, {})", unit_k(c[0]), unit_k(c[1]), unit_k(c[2]), unit_k(c[3])),
+        Some(c) => {
+            format!("vec4<i32>({}, {}, {}, {})", unit_k(c[0]), unit_k(c[1]), unit_k(c[2]), unit_k(c[3]))
+        }
         None => format!("unit_k({given})"),
     };
     writeln!(w, "    var r_fog = unit_k(in_fog);").unwrap();
@@ -145,11 +170,13 @@ pub fn combiners_function(config: &CombinerConfig) -> String {
     for i in 0..4 {
         writeln!(w, "    var r_texture{i} = in_texture{i};").unwrap();
     }
-    writeln!(w, "    // spare0.rgb and spare1 start at zero, spare0.a = texture0.a (Section 4.2.1).").unwrap();
+    writeln!(w, "    // spare0.rgb and spare1 start at zero, spare0.a = texture0.a (Section 4.2.1).")
+        .unwrap();
     writeln!(w, "    var r_spare0 = vec4<i32>(0, 0, 0, r_texture0.w);").unwrap();
     writeln!(w, "    var r_spare1 = vec4<i32>(0);").unwrap();
     for (k, stage) in config.general.iter().enumerate() {
-        writeln!(w, "    // General combiner {k}: both portions read the registers as the stage began.").unwrap();
+        writeln!(w, "    // General combiner {k}: both portions read the registers as the stage began.")
+            .unwrap();
         writeln!(w, "    {{").unwrap();
         let c0 = stage.constant0.or(config.constant0);
         let c1 = stage.constant1.or(config.constant1);
@@ -181,8 +208,12 @@ fn mapped(input: &GeneralInput, kind: PortionKind) -> String {
     let r = reg_name(input.register);
     let (src, zero, k255) = match (kind, input.usage) {
         (PortionKind::Rgb, ComponentUsage::Rgb) => (format!("{r}.xyz"), "vec3<i32>(0)", "vec3<i32>(255)"),
-        (PortionKind::Rgb, ComponentUsage::Alpha) => (format!("vec3<i32>({r}.w)"), "vec3<i32>(0)", "vec3<i32>(255)"),
-        (PortionKind::Rgb, ComponentUsage::Blue) => (format!("vec3<i32>({r}.z)"), "vec3<i32>(0)", "vec3<i32>(255)"),
+        (PortionKind::Rgb, ComponentUsage::Alpha) => {
+            (format!("vec3<i32>({r}.w)"), "vec3<i32>(0)", "vec3<i32>(255)")
+        }
+        (PortionKind::Rgb, ComponentUsage::Blue) => {
+            (format!("vec3<i32>({r}.z)"), "vec3<i32>(0)", "vec3<i32>(255)")
+        }
         (PortionKind::Alpha, ComponentUsage::Blue) => (format!("{r}.z"), "0", "255"),
         (PortionKind::Alpha, _) => (format!("{r}.w"), "0", "255"),
     };
@@ -198,7 +229,12 @@ fn mapped(input: &GeneralInput, kind: PortionKind) -> String {
     }
 }
 
-fn portion(w: &mut String, p: &GeneralPortion, kind: PortionKind, writes: &mut Vec<(Register, PortionKind, String)>) {
+fn portion(
+    w: &mut String,
+    p: &GeneralPortion,
+    kind: PortionKind,
+    writes: &mut Vec<(Register, PortionKind, String)>,
+) {
     let sum = p.sum_output.is_some();
     let need_ab = p.ab_output.is_some() || sum;
     let need_cd = p.cd_output.is_some() || sum;
@@ -209,9 +245,18 @@ fn portion(w: &mut String, p: &GeneralPortion, kind: PortionKind, writes: &mut V
     }
     writeln!(w, "        // {k} portion.").unwrap();
     let rgb = kind == PortionKind::Rgb;
-    for (v, input, needed) in [("a", &p.a, need_ab), ("b", &p.b, need_ab), ("c", &p.c, need_cd), ("d", &p.d, need_cd)] {
+    for (v, input, needed) in
+        [("a", &p.a, need_ab), ("b", &p.b, need_ab), ("c", &p.c, need_cd), ("d", &p.d, need_cd)]
+    {
         if needed {
-            writeln!(w, "        let {k}_{v} = {}; // {} {}", mapped(input, kind), input.mapping.name(), input.register.name()).unwrap();
+            writeln!(
+                w,
+                "        let {k}_{v} = {}; // {} {}",
+                mapped(input, kind),
+                input.mapping.name(),
+                input.register.name()
+            )
+            .unwrap();
         }
     }
     let product = |x: &str, y: &str, dot: bool| {
@@ -229,7 +274,11 @@ fn portion(w: &mut String, p: &GeneralPortion, kind: PortionKind, writes: &mut V
     }
     if sum {
         if p.mux_sum {
-            writeln!(w, "        let {k}_sum = select({k}_cd, {k}_ab, r_spare0.w < 128); // mux: spare0.a < ½ → AB").unwrap();
+            writeln!(
+                w,
+                "        let {k}_sum = select({k}_cd, {k}_ab, r_spare0.w < 128); // mux: spare0.a < ½ → AB"
+            )
+            .unwrap();
         } else {
             writeln!(w, "        let {k}_sum = {k}_ab + {k}_cd;").unwrap();
         }
@@ -299,6 +348,7 @@ fn final_combiner(w: &mut String, config: &CombinerConfig) {
     }
     writeln!(w, "    let fin_g = {};", load(6)).unwrap();
     writeln!(w, "    let rgb = min(round_510_3(fin_a * fin_b + (255 - fin_a) * fin_c + 255 * fin_d), vec3<i32>(255));").unwrap();
-    writeln!(w, "    let out = vec4<i32>(clamp(rgb, vec3<i32>(0), vec3<i32>(255)), clamp(fin_g, 0, 255));").unwrap();
+    writeln!(w, "    let out = vec4<i32>(clamp(rgb, vec3<i32>(0), vec3<i32>(255)), clamp(fin_g, 0, 255));")
+        .unwrap();
     writeln!(w, "    return vec4<f32>(out) / 255.0;").unwrap();
 }

@@ -68,10 +68,7 @@ impl Gpu {
     /// creates a device with the adapter's own limits.
     pub fn new() -> Result<Gpu, GpuError> {
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
-        let options = wgpu::RequestAdapterOptions {
-            compatible_surface: None,
-            ..Default::default()
-        };
+        let options = wgpu::RequestAdapterOptions { compatible_surface: None, ..Default::default() };
         let adapter = pollster::block_on(instance.request_adapter(&options))
             .map_err(|err| GpuError::NoAdapter(err.to_string()))?;
         let descriptor = wgpu::DeviceDescriptor {
@@ -82,11 +79,9 @@ impl Gpu {
             required_limits: adapter.limits(),
             ..Default::default()
         };
-        let (device, queue) =
-            pollster::block_on(adapter.request_device(&descriptor)).map_err(|err| GpuError::NoDevice {
-                adapter: adapter.get_info().name,
-                message: err.to_string(),
-            })?;
+        let (device, queue) = pollster::block_on(adapter.request_device(&descriptor)).map_err(|err| {
+            GpuError::NoDevice { adapter: adapter.get_info().name, message: err.to_string() }
+        })?;
         // Errors are caught in scopes around each run; anything that escapes
         // them is printed, never turned into a panic (wgpu's default).
         device.on_uncaptured_error(Arc::new(|err| eprintln!("wgpu: uncaptured error: {err}")));
@@ -364,10 +359,7 @@ impl Target {
 /// Parses (WGSL) and validates a shader with naga, and checks that both
 /// entry points exist with the right stages.
 pub fn validate_shader(pass: &str, shader: &RunShader) -> Result<naga::Module, GpuError> {
-    let invalid = |message: String| GpuError::InvalidShader {
-        pass: pass.to_string(),
-        message,
-    };
+    let invalid = |message: String| GpuError::InvalidShader { pass: pass.to_string(), message };
     let module = match &shader.source {
         ShaderSource::Wgsl(text) => {
             naga::front::wgsl::parse_str(text).map_err(|err| invalid(err.emit_to_string(text)))?
@@ -388,23 +380,12 @@ pub fn validate_shader(pass: &str, shader: &RunShader) -> Result<naga::Module, G
         (&shader.vertex_entry, naga::ShaderStage::Vertex),
         (&shader.fragment_entry, naga::ShaderStage::Fragment),
     ] {
-        if !module
-            .entry_points
-            .iter()
-            .any(|ep| &ep.name == name && ep.stage == stage)
-        {
-            let found: Vec<String> = module
-                .entry_points
-                .iter()
-                .map(|ep| format!("{} ({:?})", ep.name, ep.stage))
-                .collect();
+        if !module.entry_points.iter().any(|ep| &ep.name == name && ep.stage == stage) {
+            let found: Vec<String> =
+                module.entry_points.iter().map(|ep| format!("{} ({:?})", ep.name, ep.stage)).collect();
             return Err(invalid(format!(
                 "no {stage:?} entry point named `{name}`; the module has: {}",
-                if found.is_empty() {
-                    "none".to_string()
-                } else {
-                    found.join(", ")
-                }
+                if found.is_empty() { "none".to_string() } else { found.join(", ") }
             )));
         }
     }
@@ -428,12 +409,30 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
     let mut rendered: BTreeMap<String, RenderedTexture> = BTreeMap::new();
     for pass in passes {
         if let PassTarget::Texture(t) = &pass.target {
-            if t.width == 0 || t.height == 0 || t.width > max_dim || t.height > max_dim || t.layers == 0 || t.layers > 8 {
-                return Err(GpuError::InvalidInput { pass: pass.label.clone(), message: format!("rendered texture `{}` is {}×{} with {} layers: sizes 1..={max_dim}, 1 to 8 layers", t.name, t.width, t.height, t.layers) });
+            if t.width == 0
+                || t.height == 0
+                || t.width > max_dim
+                || t.height > max_dim
+                || t.layers == 0
+                || t.layers > 8
+            {
+                return Err(GpuError::InvalidInput {
+                    pass: pass.label.clone(),
+                    message: format!(
+                        "rendered texture `{}` is {}×{} with {} layers: sizes 1..={max_dim}, 1 to 8 layers",
+                        t.name, t.width, t.height, t.layers
+                    ),
+                });
             }
             match rendered.get(&t.name) {
                 Some(known) if known != t => {
-                    return Err(GpuError::InvalidInput { pass: pass.label.clone(), message: format!("rendered texture `{}` is described two ways: {known:?} and {t:?}", t.name) });
+                    return Err(GpuError::InvalidInput {
+                        pass: pass.label.clone(),
+                        message: format!(
+                            "rendered texture `{}` is described two ways: {known:?} and {t:?}",
+                            t.name
+                        ),
+                    });
                 }
                 Some(_) => {}
                 None => {
@@ -450,18 +449,10 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
     }
 
     let device = &gpu.device;
-    let scopes = [
-        wgpu::ErrorFilter::Validation,
-        wgpu::ErrorFilter::OutOfMemory,
-        wgpu::ErrorFilter::Internal,
-    ]
-    .map(|filter| device.push_error_scope(filter));
+    let scopes = [wgpu::ErrorFilter::Validation, wgpu::ErrorFilter::OutOfMemory, wgpu::ErrorFilter::Internal]
+        .map(|filter| device.push_error_scope(filter));
 
-    let size = wgpu::Extent3d {
-        width: target.width,
-        height: target.height,
-        depth_or_array_layers: 1,
-    };
+    let size = wgpu::Extent3d { width: target.width, height: target.height, depth_or_array_layers: 1 };
     let color = device.create_texture(&wgpu::TextureDescriptor {
         label: Some("shadec colour target"),
         size,
@@ -504,10 +495,18 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
                 view_formats: &[],
             })
         };
-        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING | wgpu::TextureUsages::COPY_SRC | wgpu::TextureUsages::COPY_DST;
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC
+            | wgpu::TextureUsages::COPY_DST;
         let texture = make(name, t.format.wgpu(), usage, t.layers);
         let scratch = make(name, t.format.wgpu(), usage, t.layers);
-        let depth = make(name, depth_format, wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING, 1);
+        let depth = make(
+            name,
+            depth_format,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            1,
+        );
         textures.insert(name.clone(), (texture, scratch, depth));
     }
 
@@ -555,10 +554,21 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
                     TextureData::Rendered { name, array } => {
                         let (t, scratch, _) = &textures[name];
                         let t = if Some(name.as_str()) == own { scratch } else { t };
-                        let dimension = if *array { wgpu::TextureViewDimension::D2Array } else { wgpu::TextureViewDimension::D2 };
-                        Some(t.create_view(&wgpu::TextureViewDescriptor { dimension: Some(dimension), base_array_layer: 0, array_layer_count: if *array { None } else { Some(1) }, ..Default::default() }))
+                        let dimension = if *array {
+                            wgpu::TextureViewDimension::D2Array
+                        } else {
+                            wgpu::TextureViewDimension::D2
+                        };
+                        Some(t.create_view(&wgpu::TextureViewDescriptor {
+                            dimension: Some(dimension),
+                            base_array_layer: 0,
+                            array_layer_count: if *array { None } else { Some(1) },
+                            ..Default::default()
+                        }))
                     }
-                    TextureData::RenderedDepth { .. } => Some(snapshots[&(pass_idx, slot)].0.create_view(&Default::default())),
+                    TextureData::RenderedDepth { .. } => {
+                        Some(snapshots[&(pass_idx, slot)].0.create_view(&Default::default()))
+                    }
                     _ => None,
                 }
             };
@@ -566,13 +576,15 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
         })
         .collect();
 
-    let mut encoder = device.create_command_encoder(&wgpu::CommandEncoderDescriptor {
-        label: Some("shadec passes"),
-    });
+    let mut encoder =
+        device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shadec passes") });
     // Each pass's attachments: the main target, or layers 0..outputs of a
     // rendered texture. A target is cleared by the first pass that draws
     // into it (the main target also when no pass does).
-    let texture_depth_views: BTreeMap<String, wgpu::TextureView> = textures.iter().map(|(name, (_, _, depth))| (name.clone(), depth.create_view(&Default::default()))).collect();
+    let texture_depth_views: BTreeMap<String, wgpu::TextureView> = textures
+        .iter()
+        .map(|(name, (_, _, depth))| (name.clone(), depth.create_view(&Default::default())))
+        .collect();
     let mut cleared: std::collections::BTreeSet<String> = std::collections::BTreeSet::new();
     let main_key = String::new();
     let has_stencil = target.depth_format == DepthFormat::Depth24PlusStencil8;
@@ -588,17 +600,38 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
             let copier = depth_copier.as_ref().expect("made when there are snapshots");
             copier.copy(device, &mut encoder, depth_source(name).0, copy);
         }
-        let (key, views, depth_view): (&String, Vec<wgpu::TextureView>, &wgpu::TextureView) = match pass.map(|p| &p.target) {
-            None | Some(PassTarget::Main) => (&main_key, vec![color.create_view(&Default::default())], &depth_view),
+        let (key, views, depth_view): (&String, Vec<wgpu::TextureView>, &wgpu::TextureView) = match pass
+            .map(|p| &p.target)
+        {
+            None | Some(PassTarget::Main) => {
+                (&main_key, vec![color.create_view(&Default::default())], &depth_view)
+            }
             Some(PassTarget::Texture(t)) => {
                 let (texture, scratch, _) = &textures[&t.name];
                 let pass = pass.expect("matched");
-                if pass.textures.iter().map(|x| &x.data).chain(pass.loaded.iter().map(|l| &l.data)).any(|d| matches!(d, TextureData::Rendered { name, .. } if *name == t.name)) {
+                if pass
+                    .textures
+                    .iter()
+                    .map(|x| &x.data)
+                    .chain(pass.loaded.iter().map(|l| &l.data))
+                    .any(|d| matches!(d, TextureData::Rendered { name, .. } if *name == t.name))
+                {
                     // It samples its own target: the copy it binds, taken now.
-                    encoder.copy_texture_to_texture(texture.as_image_copy(), scratch.as_image_copy(), wgpu::Extent3d { width: t.width, height: t.height, depth_or_array_layers: t.layers });
+                    encoder.copy_texture_to_texture(
+                        texture.as_image_copy(),
+                        scratch.as_image_copy(),
+                        wgpu::Extent3d { width: t.width, height: t.height, depth_or_array_layers: t.layers },
+                    );
                 }
                 let views = (0..pass.outputs)
-                    .map(|layer| texture.create_view(&wgpu::TextureViewDescriptor { dimension: Some(wgpu::TextureViewDimension::D2), base_array_layer: layer, array_layer_count: Some(1), ..Default::default() }))
+                    .map(|layer| {
+                        texture.create_view(&wgpu::TextureViewDescriptor {
+                            dimension: Some(wgpu::TextureViewDimension::D2),
+                            base_array_layer: layer,
+                            array_layer_count: Some(1),
+                            ..Default::default()
+                        })
+                    })
                     .collect();
                 (&t.name, views, &texture_depth_views[&t.name])
             }
@@ -607,11 +640,26 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
         let [r, g, b, a] = target.clear_color.map(f64::from);
         let clear_color = if key.is_empty() { wgpu::Color { r, g, b, a } } else { wgpu::Color::TRANSPARENT };
         let color_load = if first { wgpu::LoadOp::Clear(clear_color) } else { wgpu::LoadOp::Load };
-        let depth_load = if first { wgpu::LoadOp::Clear(if key.is_empty() { target.clear_depth } else { 1.0 }) } else { wgpu::LoadOp::Load };
-        let stencil_load = if first { wgpu::LoadOp::Clear(if key.is_empty() { u32::from(target.clear_stencil) } else { 0 }) } else { wgpu::LoadOp::Load };
+        let depth_load = if first {
+            wgpu::LoadOp::Clear(if key.is_empty() { target.clear_depth } else { 1.0 })
+        } else {
+            wgpu::LoadOp::Load
+        };
+        let stencil_load = if first {
+            wgpu::LoadOp::Clear(if key.is_empty() { u32::from(target.clear_stencil) } else { 0 })
+        } else {
+            wgpu::LoadOp::Load
+        };
         let color_attachments: Vec<Option<wgpu::RenderPassColorAttachment>> = views
             .iter()
-            .map(|view| Some(wgpu::RenderPassColorAttachment { view, depth_slice: None, resolve_target: None, ops: wgpu::Operations { load: color_load, store: wgpu::StoreOp::Store } }))
+            .map(|view| {
+                Some(wgpu::RenderPassColorAttachment {
+                    view,
+                    depth_slice: None,
+                    resolve_target: None,
+                    ops: wgpu::Operations { load: color_load, store: wgpu::StoreOp::Store },
+                })
+            })
             .collect();
         let mut render_pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: pass.map(|p| p.label.as_str()),
@@ -619,7 +667,8 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
             depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
                 view: depth_view,
                 depth_ops: Some(wgpu::Operations { load: depth_load, store: wgpu::StoreOp::Store }),
-                stencil_ops: has_stencil.then_some(wgpu::Operations { load: stencil_load, store: wgpu::StoreOp::Store }),
+                stencil_ops: has_stencil
+                    .then_some(wgpu::Operations { load: stencil_load, store: wgpu::StoreOp::Store }),
             }),
             timestamp_writes: None,
             occlusion_query_set: None,
@@ -645,7 +694,8 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
 
     // Copy out with rows padded to wgpu's 256-byte alignment.
     let unpadded_row = target.width * target.color_format.bytes_per_pixel();
-    let padded_row = unpadded_row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let padded_row =
+        unpadded_row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
     let readback = device.create_buffer(&wgpu::BufferDescriptor {
         label: Some("shadec readback"),
         size: u64::from(padded_row) * u64::from(target.height),
@@ -685,16 +735,12 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
     slice.map_async(wgpu::MapMode::Read, move |res| {
         let _ = sender.send(res);
     });
-    device
-        .poll(wgpu::PollType::wait_indefinitely())
-        .map_err(|err| GpuError::Readback(err.to_string()))?;
+    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|err| GpuError::Readback(err.to_string()))?;
     receiver
         .recv()
         .map_err(|_| GpuError::Readback("the map callback never ran".to_string()))?
         .map_err(|err| GpuError::Readback(err.to_string()))?;
-    let mapped = slice
-        .get_mapped_range()
-        .map_err(|err| GpuError::Readback(err.to_string()))?;
+    let mapped = slice.get_mapped_range().map_err(|err| GpuError::Readback(err.to_string()))?;
     let mut pixels = Vec::with_capacity((target.width * 4 * target.height) as usize);
     for row in mapped.chunks_exact(padded_row as usize) {
         let row = &row[..unpadded_row as usize];
@@ -736,21 +782,37 @@ fn fs_main(@builtin(position) at: vec4<f32>) -> @location(0) vec4<f32> {
 
 impl DepthCopier {
     fn new(device: &wgpu::Device) -> DepthCopier {
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor { label: Some("shadec depth copy"), source: wgpu::ShaderSource::Wgsl(Cow::Borrowed(DEPTH_COPY_WGSL)) });
+        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label: Some("shadec depth copy"),
+            source: wgpu::ShaderSource::Wgsl(Cow::Borrowed(DEPTH_COPY_WGSL)),
+        });
         let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
             label: Some("shadec depth copy"),
             entries: &[wgpu::BindGroupLayoutEntry {
                 binding: 0,
                 visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Texture { sample_type: wgpu::TextureSampleType::Depth, view_dimension: wgpu::TextureViewDimension::D2, multisampled: false },
+                ty: wgpu::BindingType::Texture {
+                    sample_type: wgpu::TextureSampleType::Depth,
+                    view_dimension: wgpu::TextureViewDimension::D2,
+                    multisampled: false,
+                },
                 count: None,
             }],
         });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor { label: Some("shadec depth copy"), bind_group_layouts: &[Some(&layout)], immediate_size: 0 });
+        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+            label: Some("shadec depth copy"),
+            bind_group_layouts: &[Some(&layout)],
+            immediate_size: 0,
+        });
         let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
             label: Some("shadec depth copy"),
             layout: Some(&pipeline_layout),
-            vertex: wgpu::VertexState { module: &module, entry_point: Some("vs_main"), compilation_options: Default::default(), buffers: &[] },
+            vertex: wgpu::VertexState {
+                module: &module,
+                entry_point: Some("vs_main"),
+                compilation_options: Default::default(),
+                buffers: &[],
+            },
             primitive: Default::default(),
             depth_stencil: None,
             multisample: Default::default(),
@@ -758,7 +820,11 @@ impl DepthCopier {
                 module: &module,
                 entry_point: Some("fs_main"),
                 compilation_options: Default::default(),
-                targets: &[Some(wgpu::ColorTargetState { format: wgpu::TextureFormat::R32Float, blend: None, write_mask: wgpu::ColorWrites::ALL })],
+                targets: &[Some(wgpu::ColorTargetState {
+                    format: wgpu::TextureFormat::R32Float,
+                    blend: None,
+                    write_mask: wgpu::ColorWrites::ALL,
+                })],
             }),
             multiview_mask: None,
             cache: None,
@@ -766,13 +832,37 @@ impl DepthCopier {
         DepthCopier { pipeline, layout }
     }
 
-    fn copy(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, depth: &wgpu::Texture, into: &wgpu::Texture) {
-        let view = depth.create_view(&wgpu::TextureViewDescriptor { aspect: wgpu::TextureAspect::DepthOnly, ..Default::default() });
-        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor { label: Some("shadec depth copy"), layout: &self.layout, entries: &[wgpu::BindGroupEntry { binding: 0, resource: wgpu::BindingResource::TextureView(&view) }] });
+    fn copy(
+        &self,
+        device: &wgpu::Device,
+        encoder: &mut wgpu::CommandEncoder,
+        depth: &wgpu::Texture,
+        into: &wgpu::Texture,
+    ) {
+        let view = depth.create_view(&wgpu::TextureViewDescriptor {
+            aspect: wgpu::TextureAspect::DepthOnly,
+            ..Default::default()
+        });
+        let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
+            label: Some("shadec depth copy"),
+            layout: &self.layout,
+            entries: &[wgpu::BindGroupEntry {
+                binding: 0,
+                resource: wgpu::BindingResource::TextureView(&view),
+            }],
+        });
         let target = into.create_view(&Default::default());
         let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
             label: Some("shadec depth copy"),
-            color_attachments: &[Some(wgpu::RenderPassColorAttachment { view: &target, depth_slice: None, resolve_target: None, ops: wgpu::Operations { load: wgpu::LoadOp::Clear(wgpu::Color::BLACK), store: wgpu::StoreOp::Store } })],
+            color_attachments: &[Some(wgpu::RenderPassColorAttachment {
+                view: &target,
+                depth_slice: None,
+                resolve_target: None,
+                ops: wgpu::Operations {
+                    load: wgpu::LoadOp::Clear(wgpu::Color::BLACK),
+                    store: wgpu::StoreOp::Store,
+                },
+            })],
             depth_stencil_attachment: None,
             timestamp_writes: None,
             occlusion_query_set: None,
@@ -797,20 +887,21 @@ struct Prepared {
 /// A rendered source names a texture some pass of the run renders.
 fn check_rendered(data: &TextureData, rendered: &BTreeMap<String, RenderedTexture>) -> Result<(), String> {
     match data {
-        TextureData::Rendered { name, .. } | TextureData::RenderedDepth { name: Some(name) } if !rendered.contains_key(name) => {
+        TextureData::Rendered { name, .. } | TextureData::RenderedDepth { name: Some(name) }
+            if !rendered.contains_key(name) =>
+        {
             Err(format!("`{name}` is a rendered texture no pass of this run renders"))
         }
         _ => Ok(()),
     }
 }
 
-fn check_pass(pass: &RunPass, target: &Target, rendered: &BTreeMap<String, RenderedTexture>) -> Result<(), GpuError> {
-    let invalid = |message: String| {
-        Err(GpuError::InvalidInput {
-            pass: pass.label.clone(),
-            message,
-        })
-    };
+fn check_pass(
+    pass: &RunPass,
+    target: &Target,
+    rendered: &BTreeMap<String, RenderedTexture>,
+) -> Result<(), GpuError> {
+    let invalid = |message: String| Err(GpuError::InvalidInput { pass: pass.label.clone(), message });
     let components = &pass.vertices.components;
     if components.is_empty() || components.iter().any(|&n| !(1..=4).contains(&n)) {
         return invalid(format!(
@@ -826,15 +917,10 @@ fn check_pass(pass: &RunPass, target: &Target, rendered: &BTreeMap<String, Rende
     }
     let n_vertices = pass.vertices.floats.len() / stride as usize;
     if pass.indices.len() % 3 != 0 {
-        return invalid(format!(
-            "{} indices is not a whole number of triangles",
-            pass.indices.len()
-        ));
+        return invalid(format!("{} indices is not a whole number of triangles", pass.indices.len()));
     }
     if let Some(&bad) = pass.indices.iter().find(|&&i| i as usize >= n_vertices) {
-        return invalid(format!(
-            "index {bad} is out of range: the pass has {n_vertices} vertices"
-        ));
+        return invalid(format!("index {bad} is out of range: the pass has {n_vertices} vertices"));
     }
     for (texture_idx, texture) in pass.textures.iter().enumerate() {
         let bpt = texture.texels.bytes_per_texel();
@@ -842,14 +928,20 @@ fn check_pass(pass: &RunPass, target: &Target, rendered: &BTreeMap<String, Rende
             TextureData::D2 { width, height, .. } => (width as usize * height as usize * bpt, "2D"),
             TextureData::Cube { size, .. } => (size as usize * size as usize * bpt * 6, "cube"),
             TextureData::Rendered { .. } | TextureData::RenderedDepth { .. } => {
-                check_rendered(&texture.data, rendered).map_err(|message| GpuError::InvalidInput { pass: pass.label.clone(), message: format!("texture {texture_idx}: {message}") })?;
+                check_rendered(&texture.data, rendered).map_err(|message| GpuError::InvalidInput {
+                    pass: pass.label.clone(),
+                    message: format!("texture {texture_idx}: {message}"),
+                })?;
                 continue;
             }
             TextureData::D2Mipmapped { width, height, ref levels } => {
                 for (k, level) in levels.iter().enumerate() {
                     let need = (width >> k).max(1) as usize * (height >> k).max(1) as usize * bpt;
                     if level.len() != need {
-                        return invalid(format!("mip level {k} of texture {texture_idx} has {} bytes, needs {need}", level.len()));
+                        return invalid(format!(
+                            "mip level {k} of texture {texture_idx} has {} bytes, needs {need}",
+                            level.len()
+                        ));
                     }
                 }
                 (width as usize * height as usize * bpt, "mipmapped 2D")
@@ -876,9 +968,15 @@ fn check_pass(pass: &RunPass, target: &Target, rendered: &BTreeMap<String, Rende
     }
     for l in &pass.loaded {
         if !matches!(l.data, TextureData::Rendered { .. } | TextureData::RenderedDepth { .. }) {
-            return invalid(format!("binding {}: only rendered textures are read with textureLoad", l.binding));
+            return invalid(format!(
+                "binding {}: only rendered textures are read with textureLoad",
+                l.binding
+            ));
         }
-        check_rendered(&l.data, rendered).map_err(|message| GpuError::InvalidInput { pass: pass.label.clone(), message: format!("binding {}: {message}", l.binding) })?;
+        check_rendered(&l.data, rendered).map_err(|message| GpuError::InvalidInput {
+            pass: pass.label.clone(),
+            message: format!("binding {}: {message}", l.binding),
+        })?;
     }
     let layers = match &pass.target {
         PassTarget::Main => 1,
@@ -892,7 +990,14 @@ fn check_pass(pass: &RunPass, target: &Target, rendered: &BTreeMap<String, Rende
 
 /// `view_of(slot, data)`: the view of a rendered source (slot: the unit,
 /// then `units + i` for `loaded[i]`), `None` for data to upload.
-fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::TextureFormat, color_format: wgpu::TextureFormat, view_of: &dyn Fn(usize, &TextureData) -> Option<wgpu::TextureView>) -> Prepared {
+fn prepare(
+    gpu: &Gpu,
+    pass: &RunPass,
+    module: naga::Module,
+    depth_format: wgpu::TextureFormat,
+    color_format: wgpu::TextureFormat,
+    view_of: &dyn Fn(usize, &TextureData) -> Option<wgpu::TextureView>,
+) -> Prepared {
     let device = &gpu.device;
     let label = Some(pass.label.as_str());
     let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
@@ -926,7 +1031,14 @@ fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::
     for (texture_idx, texture) in pass.textures.iter().enumerate() {
         let binding = 1 + 2 * texture_idx as u32;
         let (view_dimension, view) = match view_of(texture_idx, &texture.data) {
-            Some(view) => (if matches!(texture.data, TextureData::Rendered { array: true, .. }) { wgpu::TextureViewDimension::D2Array } else { wgpu::TextureViewDimension::D2 }, view),
+            Some(view) => (
+                if matches!(texture.data, TextureData::Rendered { array: true, .. }) {
+                    wgpu::TextureViewDimension::D2Array
+                } else {
+                    wgpu::TextureViewDimension::D2
+                },
+                view,
+            ),
             None => upload_texture(gpu, &texture.data, texture.texels),
         };
         // A depth snapshot (R32Float) is unfilterable: nearest, non-filtering.
@@ -944,11 +1056,19 @@ fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::
         layout_entries.push(wgpu::BindGroupLayoutEntry {
             binding: binding + 1,
             visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-            ty: wgpu::BindingType::Sampler(if depth { wgpu::SamplerBindingType::NonFiltering } else { wgpu::SamplerBindingType::Filtering }),
+            ty: wgpu::BindingType::Sampler(if depth {
+                wgpu::SamplerBindingType::NonFiltering
+            } else {
+                wgpu::SamplerBindingType::Filtering
+            }),
             count: None,
         });
         owned_views.push(view);
-        let settings = if depth { SamplerSettings { address: texture.sampler.address, ..SamplerSettings::NEAREST_CLAMP } } else { texture.sampler };
+        let settings = if depth {
+            SamplerSettings { address: texture.sampler.address, ..SamplerSettings::NEAREST_CLAMP }
+        } else {
+            texture.sampler
+        };
         owned_samplers.push(device.create_sampler(&sampler_descriptor(&settings)));
     }
     let units = pass.textures.len();
@@ -958,52 +1078,43 @@ fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::
         layout_entries.push(wgpu::BindGroupLayoutEntry {
             binding: l.binding,
             visibility: wgpu::ShaderStages::FRAGMENT,
-            ty: wgpu::BindingType::Texture { sample_type: wgpu::TextureSampleType::Float { filterable: false }, view_dimension: wgpu::TextureViewDimension::D2, multisampled: false },
+            ty: wgpu::BindingType::Texture {
+                sample_type: wgpu::TextureSampleType::Float { filterable: false },
+                view_dimension: wgpu::TextureViewDimension::D2,
+                multisampled: false,
+            },
             count: None,
         });
         loaded_views.push((l.binding, view));
     }
     let bind_group_layout = (!layout_entries.is_empty()).then(|| {
-        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label,
-            entries: &layout_entries,
-        })
+        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label, entries: &layout_entries })
     });
     let bind_group = bind_group_layout.as_ref().map(|layout| {
         let mut entries = Vec::new();
         if let Some(buffer) = &uniform_buffer {
-            entries.push(wgpu::BindGroupEntry {
-                binding: 0,
-                resource: buffer.as_entire_binding(),
-            });
+            entries.push(wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() });
         }
         for (binding, view) in &loaded_views {
-            entries.push(wgpu::BindGroupEntry { binding: *binding, resource: wgpu::BindingResource::TextureView(view) });
+            entries.push(wgpu::BindGroupEntry {
+                binding: *binding,
+                resource: wgpu::BindingResource::TextureView(view),
+            });
         }
         for (texture_idx, (view, sampler)) in owned_views.iter().zip(&owned_samplers).enumerate() {
             let binding = 1 + 2 * texture_idx as u32;
-            entries.push(wgpu::BindGroupEntry {
-                binding,
-                resource: wgpu::BindingResource::TextureView(view),
-            });
+            entries
+                .push(wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) });
             entries.push(wgpu::BindGroupEntry {
                 binding: binding + 1,
                 resource: wgpu::BindingResource::Sampler(sampler),
             });
         }
-        device.create_bind_group(&wgpu::BindGroupDescriptor {
-            label,
-            layout,
-            entries: &entries,
-        })
+        device.create_bind_group(&wgpu::BindGroupDescriptor { label, layout, entries: &entries })
     });
     let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
         label,
-        bind_group_layouts: &[bind_group_layout.as_ref()]
-            .into_iter()
-            .flatten()
-            .map(Some)
-            .collect::<Vec<_>>(),
+        bind_group_layouts: &[bind_group_layout.as_ref()].into_iter().flatten().map(Some).collect::<Vec<_>>(),
         immediate_size: 0,
     });
 
@@ -1020,11 +1131,7 @@ fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::
                 3 => wgpu::VertexFormat::Float32x3,
                 _ => wgpu::VertexFormat::Float32x4,
             };
-            let attribute = wgpu::VertexAttribute {
-                format,
-                offset,
-                shader_location: location as u32,
-            };
+            let attribute = wgpu::VertexAttribute { format, offset, shader_location: location as u32 };
             offset += u64::from(n) * 4;
             attribute
         })
@@ -1087,30 +1194,33 @@ fn prepare(gpu: &Gpu, pass: &RunPass, module: naga::Module, depth_format: wgpu::
         contents: bytemuck::cast_slice(&pass.indices),
         usage: wgpu::BufferUsages::INDEX,
     });
-    Prepared {
-        pipeline,
-        bind_group,
-        vertex_buffer,
-        index_buffer,
-    }
+    Prepared { pipeline, bind_group, vertex_buffer, index_buffer }
 }
 
 /// Uploads the texels in `texels`' format (an `Rgba16` image rounded to
 /// RGBA8 where the device has no 16-bit unorm); returns the view dimension
 /// the layout needs.
-fn upload_texture(gpu: &Gpu, data: &TextureData, texels: TexelUpload) -> (wgpu::TextureViewDimension, wgpu::TextureView) {
+fn upload_texture(
+    gpu: &Gpu,
+    data: &TextureData,
+    texels: TexelUpload,
+) -> (wgpu::TextureViewDimension, wgpu::TextureView) {
     let (width, height, layers, levels, dimension) = match data {
-        TextureData::D2 { width, height, rgba } => (*width, *height, 1, std::slice::from_ref(rgba), wgpu::TextureViewDimension::D2),
-        TextureData::Cube { size, rgba } => (*size, *size, 6, std::slice::from_ref(rgba), wgpu::TextureViewDimension::Cube),
-        TextureData::D2Mipmapped { width, height, levels } => (*width, *height, 1, levels.as_slice(), wgpu::TextureViewDimension::D2),
-        TextureData::Rendered { .. } | TextureData::RenderedDepth { .. } => unreachable!("bound by `prepare`"),
+        TextureData::D2 { width, height, rgba } => {
+            (*width, *height, 1, std::slice::from_ref(rgba), wgpu::TextureViewDimension::D2)
+        }
+        TextureData::Cube { size, rgba } => {
+            (*size, *size, 6, std::slice::from_ref(rgba), wgpu::TextureViewDimension::Cube)
+        }
+        TextureData::D2Mipmapped { width, height, levels } => {
+            (*width, *height, 1, levels.as_slice(), wgpu::TextureViewDimension::D2)
+        }
+        TextureData::Rendered { .. } | TextureData::RenderedDepth { .. } => {
+            unreachable!("bound by `prepare`")
+        }
     };
     let wide = texels == TexelUpload::Rgba16 && gpu.filters_16bit_norm();
-    let size = wgpu::Extent3d {
-        width,
-        height,
-        depth_or_array_layers: layers,
-    };
+    let size = wgpu::Extent3d { width, height, depth_or_array_layers: layers };
     let texture = gpu.device.create_texture(&wgpu::TextureDescriptor {
         label: Some("shadec texture"),
         size,
@@ -1139,18 +1249,12 @@ fn upload_texture(gpu: &Gpu, data: &TextureData, texels: TexelUpload) -> (wgpu::
                 aspect: wgpu::TextureAspect::All,
             },
             rgba,
-            wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(w * bpt),
-                rows_per_image: Some(h),
-            },
+            wgpu::TexelCopyBufferLayout { offset: 0, bytes_per_row: Some(w * bpt), rows_per_image: Some(h) },
             wgpu::Extent3d { width: w, height: h, depth_or_array_layers: layers },
         );
     }
-    let view = texture.create_view(&wgpu::TextureViewDescriptor {
-        dimension: Some(dimension),
-        ..Default::default()
-    });
+    let view = texture
+        .create_view(&wgpu::TextureViewDescriptor { dimension: Some(dimension), ..Default::default() });
     (dimension, view)
 }
 
@@ -1253,11 +1357,7 @@ fn blend_state(blend: &BlendState) -> wgpu::BlendState {
                 operation,
             }
         } else {
-            wgpu::BlendComponent {
-                src_factor: factor(src),
-                dst_factor: factor(dst),
-                operation,
-            }
+            wgpu::BlendComponent { src_factor: factor(src), dst_factor: factor(dst), operation }
         }
     };
     wgpu::BlendState {
@@ -1295,14 +1395,18 @@ fn error_chain(err: &dyn std::error::Error) -> String {
 /// `Rgba16Unorm` texel bytes rounded to `Rgba8Unorm` (a device without
 /// 16-bit unorm textures): k·257 → k, other values to the nearest 8-bit step.
 fn narrow_to_8bit(texel_bytes: &[u8]) -> Vec<u8> {
-    texel_bytes.chunks_exact(2).map(|c| ((u16::from_ne_bytes([c[0], c[1]]) as u32 + 128) / 257) as u8).collect()
+    texel_bytes
+        .chunks_exact(2)
+        .map(|c| ((u16::from_ne_bytes([c[0], c[1]]) as u32 + 128) / 257) as u8)
+        .collect()
 }
 
 #[cfg(test)]
 mod tests {
     #[test]
     fn narrowing_16bit_texels_recovers_8bit_values_and_rounds_the_rest() {
-        let wide: Vec<u8> = (0..=255u16).map(|k| k * 257).chain([128, 129, 65535 - 128]).flat_map(u16::to_ne_bytes).collect();
+        let wide: Vec<u8> =
+            (0..=255u16).map(|k| k * 257).chain([128, 129, 65535 - 128]).flat_map(u16::to_ne_bytes).collect();
         let narrow = super::narrow_to_8bit(&wide);
         assert_eq!(&narrow[..256], (0..=255u8).collect::<Vec<_>>().as_slice());
         // 128/65535 is just under half a step: 0; 129/65535 just over: 1.

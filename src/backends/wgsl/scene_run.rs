@@ -127,7 +127,10 @@ use std::collections::BTreeMap;
 use image::RgbaImage;
 
 use super::codegen::{self, uniform_bytes, Fidelity, PassShader};
-use super::runner::{self, AddressMode, ColorTarget, LoadedTexture, PassTarget, Gpu, GpuError, RunPass, RunShader, RunTexture, SamplerSettings, ShaderSource, Target, TexelUpload, TextureData, VertexData};
+use super::runner::{
+    self, AddressMode, ColorTarget, Gpu, GpuError, LoadedTexture, PassTarget, RunPass, RunShader, RunTexture,
+    SamplerSettings, ShaderSource, Target, TexelUpload, TextureData, VertexData,
+};
 use crate::ir::{self, Expr};
 use crate::parser::ast::Program;
 use crate::planner::{Geometry, Planned, RenderTarget};
@@ -164,26 +167,47 @@ pub struct ScenePlan<'a> {
 }
 
 impl<'a> ScenePlan<'a> {
-    pub fn new(planned: &'a Planned, program: &Program, source: Option<&str>, fidelity: Fidelity, scene: &'a Scene, assets: &'a SceneAssets) -> Result<ScenePlan<'a>, SceneRunError> {
+    pub fn new(
+        planned: &'a Planned,
+        program: &Program,
+        source: Option<&str>,
+        fidelity: Fidelity,
+        scene: &'a Scene,
+        assets: &'a SceneAssets,
+    ) -> Result<ScenePlan<'a>, SceneRunError> {
         let mut main = None;
         for (i, pass) in planned.plan.passes.iter().enumerate() {
             match &pass.target {
                 // The picture is the framebuffer written last, as the CPU's.
                 RenderTarget::Framebuffer { name, .. } => main = Some(name.clone()),
-                RenderTarget::Temporary { .. } => return Err(SceneRunError::Unsupported(format!("pass {} renders into a temporary", i + 1))),
+                RenderTarget::Temporary { .. } => {
+                    return Err(SceneRunError::Unsupported(format!(
+                        "pass {} renders into a temporary",
+                        i + 1
+                    )))
+                }
                 RenderTarget::Texture { .. } => {}
             }
         }
-        let main = main.ok_or_else(|| SceneRunError::Unsupported("the plan writes no framebuffer: nothing to show".into()))?;
-        let shaders = codegen::generate(planned, source, fidelity).map_err(|d| SceneRunError::Codegen(d.iter().map(|d| d.message.clone()).collect::<Vec<_>>().join("; ")))?;
+        let main = main.ok_or_else(|| {
+            SceneRunError::Unsupported("the plan writes no framebuffer: nothing to show".into())
+        })?;
+        let shaders = codegen::generate(planned, source, fidelity).map_err(|d| {
+            SceneRunError::Codegen(d.iter().map(|d| d.message.clone()).collect::<Vec<_>>().join("; "))
+        })?;
         let decls = bind::texture_decls(program, &scene.constants);
         let mut notes = Vec::new();
-        let textures = bind::load_textures(&decls, scene, TextureQuality::Stored, &mut notes).map_err(|e| SceneRunError::Unsupported(e.to_string()))?;
+        let textures = bind::load_textures(&decls, scene, TextureQuality::Stored, &mut notes)
+            .map_err(|e| SceneRunError::Unsupported(e.to_string()))?;
         let m = &planned.module;
         let uniforms = bind::uniforms(m, scene)
             .into_iter()
             .enumerate()
-            .map(|(i, v)| v.or_else(|| m.uniforms[i].default.as_ref().map(ir::eval::value)).unwrap_or([0.0; 4]).map(|c| c as f32))
+            .map(|(i, v)| {
+                v.or_else(|| m.uniforms[i].default.as_ref().map(ir::eval::value))
+                    .unwrap_or([0.0; 4])
+                    .map(|c| c as f32)
+            })
             .collect();
         Ok(ScenePlan { planned, scene, assets, shaders, textures, decls, uniforms, main, notes, fidelity })
     }
@@ -202,69 +226,140 @@ impl<'a> ScenePlan<'a> {
         let aspect = width as f32 / height as f32;
         let (center, radius) = crate::renderer::plan::scene_bounds(self.assets);
         let light_clip = bind::light_view_projection(self.scene.lights.first(), center, radius);
-        let mut objects: Vec<BoundObject> = self.assets.meshes.iter().map(|(mesh, model)| BoundObject::new(self.scene, mesh, *model, aspect, light_clip)).collect();
+        let mut objects: Vec<BoundObject> = self
+            .assets
+            .meshes
+            .iter()
+            .map(|(mesh, model)| BoundObject::new(self.scene, mesh, *model, aspect, light_clip))
+            .collect();
         for o in &mut objects {
             o.run_texgen(m).map_err(|e| SceneRunError::Unsupported(e.to_string()))?;
         }
-        let uniforms64: Vec<Option<[f64; 4]>> = self.uniforms.iter().map(|u| Some(u.map(|c| c as f64))).collect();
+        let uniforms64: Vec<Option<[f64; 4]>> =
+            self.uniforms.iter().map(|u| Some(u.map(|c| c as f64))).collect();
         let fat = codegen::fat_layers(m);
-        let fat_textures: Vec<&str> = m.textures.iter().zip(&fat).filter(|(_, l)| **l > 0).map(|(t, _)| t.name.as_str()).collect();
+        let fat_textures: Vec<&str> =
+            m.textures.iter().zip(&fat).filter(|(_, l)| **l > 0).map(|(t, _)| t.name.as_str()).collect();
         // The textures the plan renders, and how (seeds/001 (5), (13), (15)).
         let mut rendered: BTreeMap<String, runner::RenderedTexture> = BTreeMap::new();
         for s in &self.shaders {
             let pass = &self.planned.plan.passes[s.pass];
             if let RenderTarget::Texture { name } = &pass.target {
-                let id = m.textures.iter().position(|t| t.name == *name).ok_or_else(|| SceneRunError::Unsupported(format!("texture `{name}` is not declared")))?;
+                let id =
+                    m.textures.iter().position(|t| t.name == *name).ok_or_else(|| {
+                        SceneRunError::Unsupported(format!("texture `{name}` is not declared"))
+                    })?;
                 // Over its texels, or the mesh in texture space: the CPU's size.
-                let by_texel = matches!(pass.geometry, Geometry::Texels) || s.interface.position.is_some_and(|p| m.info(p).ty == ir::Ty::Vec2);
-                let (w, h) = if by_texel { (bind::RENDERED_TEXTURE_SIZE, bind::RENDERED_TEXTURE_SIZE) } else { (width, height) };
-                let format = if m.textures[id].format.is_wide() { ColorTarget::Rgba16Float } else { ColorTarget::Rgba8 };
-                rendered.insert(name.clone(), runner::RenderedTexture { name: name.clone(), width: w, height: h, layers: u32::from(fat[id]).max(1), format });
+                let by_texel = matches!(pass.geometry, Geometry::Texels)
+                    || s.interface.position.is_some_and(|p| m.info(p).ty == ir::Ty::Vec2);
+                let (w, h) = if by_texel {
+                    (bind::RENDERED_TEXTURE_SIZE, bind::RENDERED_TEXTURE_SIZE)
+                } else {
+                    (width, height)
+                };
+                let format = if m.textures[id].format.is_wide() {
+                    ColorTarget::Rgba16Float
+                } else {
+                    ColorTarget::Rgba8
+                };
+                rendered.insert(
+                    name.clone(),
+                    runner::RenderedTexture {
+                        name: name.clone(),
+                        width: w,
+                        height: h,
+                        layers: u32::from(fat[id]).max(1),
+                        format,
+                    },
+                );
             }
         }
         // The other framebuffers (shadow mask's C′, Cl): frame-sized textures.
         for pass in &self.planned.plan.passes {
             if let RenderTarget::Framebuffer { name, .. } = &pass.target {
                 if *name != self.main {
-                    rendered.insert(name.clone(), runner::RenderedTexture { name: name.clone(), width, height, layers: 1, format: frame.color_format });
+                    rendered.insert(
+                        name.clone(),
+                        runner::RenderedTexture {
+                            name: name.clone(),
+                            width,
+                            height,
+                            layers: 1,
+                            format: frame.color_format,
+                        },
+                    );
                 }
             }
         }
         let main = self.main.as_str();
-        let depth_of = |name: &str| TextureData::RenderedDepth { name: (name != main).then(|| name.to_string()) };
+        let depth_of =
+            |name: &str| TextureData::RenderedDepth { name: (name != main).then(|| name.to_string()) };
         let mut out = Vec::new();
         for s in &self.shaders {
             let pass = &self.planned.plan.passes[s.pass];
-            let unsupported = |what: String| SceneRunError::Unsupported(format!("pass {} {what}", s.pass + 1));
+            let unsupported =
+                |what: String| SceneRunError::Unsupported(format!("pass {} {what}", s.pass + 1));
             let mut textures = Vec::new();
             for t in &pass.textures {
                 if t.unit as usize != textures.len() {
-                    return Err(SceneRunError::Unsupported(format!("texture units of pass {} are not 0..n", s.pass + 1)));
+                    return Err(SceneRunError::Unsupported(format!(
+                        "texture units of pass {} are not 0..n",
+                        s.pass + 1
+                    )));
                 }
-                if let Expr::FramebufferRead { framebuffer, channel, .. } = m.exprs[self.planned.handle(t.lookup)] {
+                if let Expr::FramebufferRead { framebuffer, channel, .. } =
+                    m.exprs[self.planned.handle(t.lookup)]
+                {
                     // Another framebuffer, read in the shader: its colour, or its depth as of now.
                     let name = m.framebuffers[framebuffer as usize].name.as_str();
                     let data = match channel {
                         ir::FbChannel::Depth => depth_of(name),
-                        ir::FbChannel::Color | ir::FbChannel::Alpha if name != main => TextureData::Rendered { name: name.to_string(), array: false },
-                        _ => return Err(unsupported(format!("reads the {channel:?} of `{name}` in its shader"))),
+                        ir::FbChannel::Color | ir::FbChannel::Alpha if name != main => {
+                            TextureData::Rendered { name: name.to_string(), array: false }
+                        }
+                        _ => {
+                            return Err(unsupported(format!(
+                                "reads the {channel:?} of `{name}` in its shader"
+                            )))
+                        }
                     };
-                    textures.push(RunTexture { data, sampler: runner::SamplerSettings::NEAREST_CLAMP, texels: TexelUpload::Rgba8 });
+                    textures.push(RunTexture {
+                        data,
+                        sampler: runner::SamplerSettings::NEAREST_CLAMP,
+                        texels: TexelUpload::Rgba8,
+                    });
                     continue;
                 }
                 if let Some(r) = rendered.get(&t.texture) {
-                    let decl = self.decls.iter().find(|d| d.name == t.texture).ok_or_else(|| SceneRunError::Unsupported(format!("texture `{}` has no declaration", t.texture)))?;
+                    let decl = self.decls.iter().find(|d| d.name == t.texture).ok_or_else(|| {
+                        SceneRunError::Unsupported(format!("texture `{}` has no declaration", t.texture))
+                    })?;
                     // Level 0 only: the GPU runner makes no mip chain of a rendered texture.
-                    textures.push(RunTexture { data: TextureData::Rendered { name: t.texture.clone(), array: fat_textures.contains(&r.name.as_str()) }, sampler: sampler(decl.filter, decl.wrap, false), texels: TexelUpload::Rgba8 });
+                    textures.push(RunTexture {
+                        data: TextureData::Rendered {
+                            name: t.texture.clone(),
+                            array: fat_textures.contains(&r.name.as_str()),
+                        },
+                        sampler: sampler(decl.filter, decl.wrap, false),
+                        texels: TexelUpload::Rgba8,
+                    });
                     continue;
                 }
-                let bound = self.textures.get(&t.texture).ok_or_else(|| SceneRunError::Unsupported(format!("texture `{}` is not bound", t.texture)))?;
-                let signed = self.decls.iter().find(|d| d.name == t.texture).is_some_and(|d| bind::is_signed(d.format));
+                let bound = self.textures.get(&t.texture).ok_or_else(|| {
+                    SceneRunError::Unsupported(format!("texture `{}` is not bound", t.texture))
+                })?;
+                let signed = self
+                    .decls
+                    .iter()
+                    .find(|d| d.name == t.texture)
+                    .is_some_and(|d| bind::is_signed(d.format));
                 textures.push(run_texture(bound, self.fidelity, signed)?);
             }
             let target = match &pass.target {
                 RenderTarget::Texture { name } => PassTarget::Texture(rendered[name].clone()),
-                RenderTarget::Framebuffer { name, .. } if *name != self.main => PassTarget::Texture(rendered[name].clone()),
+                RenderTarget::Framebuffer { name, .. } if *name != self.main => {
+                    PassTarget::Texture(rendered[name].clone())
+                }
                 _ => PassTarget::Main,
             };
             // Reads of the pass's own target, as it was before the pass.
@@ -275,19 +370,29 @@ impl<'a> ScenePlan<'a> {
                 } else if c.framebuffer != main {
                     TextureData::Rendered { name: c.framebuffer.clone(), array: false }
                 } else {
-                    return Err(unsupported(format!("reads the colour of `{}`, the framebuffer read back, in its shader", c.framebuffer)));
+                    return Err(unsupported(format!(
+                        "reads the colour of `{}`, the framebuffer read back, in its shader",
+                        c.framebuffer
+                    )));
                 };
                 loaded.push(LoadedTexture { binding: c.binding, data });
             }
             let leaves = &s.interface.vertex_leaves;
-            let unis: Vec<[f32; 4]> = s.interface.uniforms.iter().map(|u| self.uniforms[*u as usize]).collect();
+            let unis: Vec<[f32; 4]> =
+                s.interface.uniforms.iter().map(|u| self.uniforms[*u as usize]).collect();
             // One draw: the pass's projections taken from `object`'s matrices.
             let draw = |object: Option<&BoundObject>, vertices: VertexData, indices: Vec<u32>| {
-                let projections: Vec<[f32; 16]> = object.map_or_else(Vec::new, |o| s.interface.projections.iter().map(|p| o.clip_matrix(p).to_cols_array()).collect());
+                let projections: Vec<[f32; 16]> = object.map_or_else(Vec::new, |o| {
+                    s.interface.projections.iter().map(|p| o.clip_matrix(p).to_cols_array()).collect()
+                });
                 let has_block = !projections.is_empty() || !unis.is_empty();
                 RunPass {
                     label: s.label.clone(),
-                    shader: RunShader { source: ShaderSource::Naga(s.module.clone()), vertex_entry: codegen::VERTEX_ENTRY.into(), fragment_entry: codegen::FRAGMENT_ENTRY.into() },
+                    shader: RunShader {
+                        source: ShaderSource::Naga(s.module.clone()),
+                        vertex_entry: codegen::VERTEX_ENTRY.into(),
+                        fragment_entry: codegen::FRAGMENT_ENTRY.into(),
+                    },
                     vertices,
                     indices,
                     textures: textures.clone(),
@@ -301,10 +406,18 @@ impl<'a> ScenePlan<'a> {
             if !matches!(pass.geometry, Geometry::Mesh { .. }) {
                 // One full-screen (full-texture) rectangle: the `quad` input.
                 if !leaves.is_empty() {
-                    return Err(SceneRunError::Unsupported(format!("pass {} draws a rectangle with per-vertex inputs", s.pass + 1)));
+                    return Err(SceneRunError::Unsupported(format!(
+                        "pass {} draws a rectangle with per-vertex inputs",
+                        s.pass + 1
+                    )));
                 }
-                let floats = vec![-1.0, -1.0, 0.0, 1.0, 1.0, -1.0, 0.0, 1.0, 1.0, 1.0, 0.0, 1.0, -1.0, 1.0, 0.0, 1.0];
-                out.push(draw(objects.first(), VertexData { floats, components: vec![4] }, vec![0, 1, 2, 0, 2, 3]));
+                let floats =
+                    vec![-1.0, -1.0, 0.0, 1.0, 1.0, -1.0, 0.0, 1.0, 1.0, 1.0, 0.0, 1.0, -1.0, 1.0, 0.0, 1.0];
+                out.push(draw(
+                    objects.first(),
+                    VertexData { floats, components: vec![4] },
+                    vec![0, 1, 2, 0, 2, 3],
+                ));
                 continue;
             }
             for object in &objects {
@@ -318,7 +431,11 @@ impl<'a> ScenePlan<'a> {
                     }
                 }
                 let indices = object.mesh.triangles.iter().flatten().copied().collect();
-                out.push(draw(Some(object), VertexData { floats, components: vec![4; leaves.len()] }, indices));
+                out.push(draw(
+                    Some(object),
+                    VertexData { floats, components: vec![4; leaves.len()] },
+                    indices,
+                ));
             }
         }
         Ok(out)
@@ -339,7 +456,17 @@ impl<'a> ScenePlan<'a> {
 
 /// One call: compile, bind and render.
 #[allow(clippy::too_many_arguments)]
-pub fn render_scene(gpu: &Gpu, planned: &Planned, program: &Program, source: Option<&str>, fidelity: Fidelity, scene: &Scene, assets: &SceneAssets, width: u32, height: u32) -> Result<RgbaImage, SceneRunError> {
+pub fn render_scene(
+    gpu: &Gpu,
+    planned: &Planned,
+    program: &Program,
+    source: Option<&str>,
+    fidelity: Fidelity,
+    scene: &Scene,
+    assets: &SceneAssets,
+    width: u32,
+    height: u32,
+) -> Result<RgbaImage, SceneRunError> {
     ScenePlan::new(planned, program, source, fidelity, scene, assets)?.render(gpu, width, height)
 }
 
@@ -348,7 +475,8 @@ pub fn render_scene(gpu: &Gpu, planned: &Planned, program: &Program, source: Opt
 /// codegen contract), everything rounded to the upload's unorm steps
 /// (8-bit texels exactly at either width).
 fn level_rgba(level: &Level, signed: bool, texels: TexelUpload) -> Vec<u8> {
-    let values = level.texels.iter().flatten().map(|&c| (if signed { 0.5 * (c + 1.0) } else { c }).clamp(0.0, 1.0));
+    let values =
+        level.texels.iter().flatten().map(|&c| (if signed { 0.5 * (c + 1.0) } else { c }).clamp(0.0, 1.0));
     match texels {
         TexelUpload::Rgba8 => values.map(|c| (c * 255.0).round() as u8).collect(),
         TexelUpload::Rgba16 => values.flat_map(|c| ((c * 65535.0).round() as u16).to_ne_bytes()).collect(),
@@ -391,20 +519,33 @@ fn run_texture(bound: &BoundTexture, fidelity: Fidelity, signed: bool) -> Result
             let mut rgba = Vec::new();
             for f in &c.faces {
                 if f.width() != size || f.height() != size {
-                    return Err(SceneRunError::Unsupported(format!("cube map `{}` has faces of different sizes", bound.name)));
+                    return Err(SceneRunError::Unsupported(format!(
+                        "cube map `{}` has faces of different sizes",
+                        bound.name
+                    )));
                 }
                 rgba.extend(level_rgba(&f.levels[0], signed, texels));
             }
-            Ok(RunTexture { data: TextureData::Cube { size, rgba }, sampler: sampler(bound.filter, c.faces[0].wrap, false), texels })
+            Ok(RunTexture {
+                data: TextureData::Cube { size, rgba },
+                sampler: sampler(bound.filter, c.faces[0].wrap, false),
+                texels,
+            })
         }
-        Texture::DualParaboloid(_) => Err(SceneRunError::Unsupported(format!("dual-paraboloid texture `{}`", bound.name))),
+        Texture::DualParaboloid(_) => {
+            Err(SceneRunError::Unsupported(format!("dual-paraboloid texture `{}`", bound.name)))
+        }
     }
 }
 
 fn flat(t: &Texture2D, filter: Filter, texels: TexelUpload, signed: bool) -> RunTexture {
     let (width, height) = (t.width(), t.height());
     let data = if t.levels.len() > 1 {
-        TextureData::D2Mipmapped { width, height, levels: t.levels.iter().map(|l| level_rgba(l, signed, texels)).collect() }
+        TextureData::D2Mipmapped {
+            width,
+            height,
+            levels: t.levels.iter().map(|l| level_rgba(l, signed, texels)).collect(),
+        }
     } else {
         TextureData::D2 { width, height, rgba: level_rgba(&t.levels[0], signed, texels) }
     };

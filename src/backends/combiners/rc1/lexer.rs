@@ -79,17 +79,28 @@ pub fn lex(text: &str, base: usize) -> Result<Vec<Token<'_>>, Diagnostic> {
             b'/' if bytes.get(i + 1) == Some(&b'*') => match text[i + 2..].find("*/") {
                 Some(end) => i += 2 + end + 2,
                 None => {
-                    return Err(Diagnostic::error("syntax", "unterminated `/*` comment", span(i, i + 2), "comment starts here")
-                        .with_help("close the comment with `*/`"))
+                    return Err(Diagnostic::error(
+                        "syntax",
+                        "unterminated `/*` comment",
+                        span(i, i + 2),
+                        "comment starts here",
+                    )
+                    .with_help("close the comment with `*/`"))
                 }
             },
             b'0'..=b'9' => {
                 i = number_end(bytes, i);
-                tokens.push(Token { tok: Tok::Number(parse_number(&text[start..i], span(start, i))?), span: span(start, i) });
+                tokens.push(Token {
+                    tok: Tok::Number(parse_number(&text[start..i], span(start, i))?),
+                    span: span(start, i),
+                });
             }
             b'.' if bytes.get(i + 1).is_some_and(u8::is_ascii_digit) => {
                 i = number_end(bytes, i);
-                tokens.push(Token { tok: Tok::Number(parse_number(&text[start..i], span(start, i))?), span: span(start, i) });
+                tokens.push(Token {
+                    tok: Tok::Number(parse_number(&text[start..i], span(start, i))?),
+                    span: span(start, i),
+                });
             }
             b'a'..=b'z' | b'A'..=b'Z' | b'_' => {
                 i = name_end(bytes, i);
@@ -164,6 +175,8 @@ fn number_end(bytes: &[u8], mut i: usize) -> usize {
 
 fn parse_number(s: &str, span: Span) -> Result<f32, Diagnostic> {
     let s = s.strip_suffix('.').unwrap_or(s);
-    s.parse::<f32>()
-        .map_err(|_| Diagnostic::error("syntax", format!("malformed number `{s}`"), span, "not a number").with_help("write numbers like `0.5` or `1`"))
+    s.parse::<f32>().map_err(|_| {
+        Diagnostic::error("syntax", format!("malformed number `{s}`"), span, "not a number")
+            .with_help("write numbers like `0.5` or `1`")
+    })
 }

@@ -11,8 +11,8 @@ use crate::span::Span;
 
 use super::lexer::{lex, Tok, Token};
 use crate::backends::combiners::config::{
-    Bias, Color, CombinerConfig, ComponentUsage, FinalCombiner, FinalInput, FinalSource, GeneralInput, GeneralPortion,
-    GeneralStage, InputMapping, PortionKind, Register, Scale,
+    Bias, Color, CombinerConfig, ComponentUsage, FinalCombiner, FinalInput, FinalSource, GeneralInput,
+    GeneralPortion, GeneralStage, InputMapping, PortionKind, Register, Scale,
 };
 use crate::backends::combiners::validate::{OutputSlot, Place};
 
@@ -29,8 +29,10 @@ impl Parsed {
     }
 }
 
-const REGISTER_NAMES: [&str; 14] =
-    ["tex0", "tex1", "tex2", "tex3", "col0", "col1", "spare0", "spare1", "fog", "const0", "const1", "zero", "one", "discard"];
+const REGISTER_NAMES: [&str; 14] = [
+    "tex0", "tex1", "tex2", "tex3", "col0", "col1", "spare0", "spare1", "fog", "const0", "const1", "zero",
+    "one", "discard",
+];
 
 /// Parses an `!!RC1.0` program (optionally preceded by a `!!TS1.0` block).
 pub fn parse(text: &str) -> Result<Parsed, Diagnostic> {
@@ -54,8 +56,13 @@ pub fn parse(text: &str) -> Result<Parsed, Diagnostic> {
     };
     if !text[rc_start..].starts_with("!!RC1.0") {
         let end = text[rc_start..].find(char::is_whitespace).map_or(text.len(), |e| rc_start + e);
-        return Err(Diagnostic::error("syntax", "expected the `!!RC1.0` header", Span::new(rc_start, end), "a register-combiner program starts with `!!RC1.0`")
-            .with_help("put `!!RC1.0` on the first line"));
+        return Err(Diagnostic::error(
+            "syntax",
+            "expected the `!!RC1.0` header",
+            Span::new(rc_start, end),
+            "a register-combiner program starts with `!!RC1.0`",
+        )
+        .with_help("put `!!RC1.0` on the first line"));
     }
     let start = rc_start + "!!RC1.0".len();
     let tokens = lex(&text[start..], start)?;
@@ -118,7 +125,12 @@ struct Parser<'a> {
 
 type PResult<T> = Result<T, Diagnostic>;
 
-fn syntax(message: impl Into<String>, span: Span, label: impl Into<String>, help: impl Into<String>) -> Diagnostic {
+fn syntax(
+    message: impl Into<String>,
+    span: Span,
+    label: impl Into<String>,
+    help: impl Into<String>,
+) -> Diagnostic {
     Diagnostic::error("syntax", message, span, label).with_help(help)
 }
 
@@ -151,9 +163,19 @@ impl<'a> Parser<'a> {
             return Ok(t.span);
         }
         if want == Tok::Semi {
-            return Err(syntax(format!("expected `;`, found {}", t.tok.describe()), self.prev_end(), "statement ends here", "end every statement with `;`"));
+            return Err(syntax(
+                format!("expected `;`, found {}", t.tok.describe()),
+                self.prev_end(),
+                "statement ends here",
+                "end every statement with `;`",
+            ));
         }
-        Err(syntax(format!("expected {what}, found {}", t.tok.describe()), t.span, format!("expected {what}"), format!("write {what} here")))
+        Err(syntax(
+            format!("expected {what}, found {}", t.tok.describe()),
+            t.span,
+            format!("expected {what}"),
+            format!("write {what} here"),
+        ))
     }
 
     fn is_name(&self, name: &str) -> bool {
@@ -172,9 +194,14 @@ impl<'a> Parser<'a> {
             let slot = if idx == 0 { &mut config.constant0 } else { &mut config.constant1 };
             if slot.is_some() {
                 let first = self.spans[&Place::GlobalConstant(idx)];
-                return Err(Diagnostic::error("constant-twice", format!("global constant `{n}` set twice"), span, "set again here")
-                    .with_label(first, "first set here")
-                    .with_help("set each constant colour once"));
+                return Err(Diagnostic::error(
+                    "constant-twice",
+                    format!("global constant `{n}` set twice"),
+                    span,
+                    "set again here",
+                )
+                .with_label(first, "first set here")
+                .with_help("set each constant colour once"));
             }
             *slot = Some(color);
             self.spans.insert(Place::GlobalConstant(idx), span);
@@ -190,10 +217,17 @@ impl<'a> Parser<'a> {
         if t.tok != Tok::Eof {
             let help = match t.tok {
                 Tok::LBrace => "general combiners come before the final combiner statements",
-                Tok::Name("const0" | "const1", _) => "global constants come first, before any general combiner",
+                Tok::Name("const0" | "const1", _) => {
+                    "global constants come first, before any general combiner"
+                }
                 _ => "the program ends after `out.rgb` and `out.a`",
             };
-            return Err(syntax(format!("unexpected {}", t.tok.describe()), t.span, "not expected here", help));
+            return Err(syntax(
+                format!("unexpected {}", t.tok.describe()),
+                t.span,
+                "not expected here",
+                help,
+            ));
         }
         Ok(config)
     }
@@ -207,7 +241,12 @@ impl<'a> Parser<'a> {
         };
         match t.tok {
             Tok::Number(x) => Ok(sign * x),
-            _ => Err(syntax(format!("expected a number, found {}", t.tok.describe()), t.span, "expected a number", "constants are written `const0 = (r, g, b, a);`")),
+            _ => Err(syntax(
+                format!("expected a number, found {}", t.tok.describe()),
+                t.span,
+                "expected a number",
+                "constants are written `const0 = (r, g, b, a);`",
+            )),
         }
     }
 
@@ -243,14 +282,24 @@ impl<'a> Parser<'a> {
             match t.tok {
                 Tok::Name(n @ ("const0" | "const1"), None) if self.peek2().tok == Tok::Equals => {
                     if seen.iter().any(Option::is_some) {
-                        return Err(syntax("per-stage constants come before the portions", t.span, "constant after a portion", "move the constant to the top of the stage"));
+                        return Err(syntax(
+                            "per-stage constants come before the portions",
+                            t.span,
+                            "constant after a portion",
+                            "move the constant to the top of the stage",
+                        ));
                     }
                     let idx = u8::from(n == "const1");
                     let (color, span) = self.constant()?;
                     let slot = if idx == 0 { &mut stage.constant0 } else { &mut stage.constant1 };
                     if slot.is_some() {
-                        return Err(Diagnostic::error("constant-twice", format!("local constant `{n}` set twice in general combiner {s}"), span, "set again here")
-                            .with_help("set each constant colour once per stage"));
+                        return Err(Diagnostic::error(
+                            "constant-twice",
+                            format!("local constant `{n}` set twice in general combiner {s}"),
+                            span,
+                            "set again here",
+                        )
+                        .with_help("set each constant colour once per stage"));
                     }
                     *slot = Some(color);
                     self.spans.insert(Place::StageConstant(s, idx), span);
@@ -259,9 +308,14 @@ impl<'a> Parser<'a> {
                     let kind = if n == "rgb" { PortionKind::Rgb } else { PortionKind::Alpha };
                     let k = kind as usize;
                     if let Some(first) = seen[k] {
-                        return Err(Diagnostic::error("portion-twice", format!("the {n} portion of general combiner {s} is declared twice"), t.span, "declared again here")
-                            .with_label(first, "first declared here")
-                            .with_help("a general combiner has one rgb and one alpha portion"));
+                        return Err(Diagnostic::error(
+                            "portion-twice",
+                            format!("the {n} portion of general combiner {s} is declared twice"),
+                            t.span,
+                            "declared again here",
+                        )
+                        .with_label(first, "first declared here")
+                        .with_help("a general combiner has one rgb and one alpha portion"));
                     }
                     seen[k] = Some(t.span);
                     let portion = self.portion(s, kind)?;
@@ -273,7 +327,12 @@ impl<'a> Parser<'a> {
                 Tok::RBrace => {
                     let close = self.bump().span;
                     if seen.iter().all(Option::is_none) {
-                        return Err(syntax(format!("general combiner {s} has no portion"), open.join(close), "empty general combiner", "give it an `rgb { ... }` and/or `alpha { ... }` portion, or remove it"));
+                        return Err(syntax(
+                            format!("general combiner {s} has no portion"),
+                            open.join(close),
+                            "empty general combiner",
+                            "give it an `rgb { ... }` and/or `alpha { ... }` portion, or remove it",
+                        ));
                     }
                     self.spans.insert(Place::Stage(s), open.join(close));
                     return Ok(stage);
@@ -282,12 +341,19 @@ impl<'a> Parser<'a> {
                     let help = match t.tok {
                         Tok::Name(n, _) => match did_you_mean(n, ["rgb", "alpha", "const0", "const1"]) {
                             Some(m) => format!("did you mean `{m}`?"),
-                            None => "a general combiner holds `rgb { ... }` and `alpha { ... }` portions".into(),
+                            None => {
+                                "a general combiner holds `rgb { ... }` and `alpha { ... }` portions".into()
+                            }
                         },
                         Tok::Eof => "close the general combiner with `}`".into(),
                         _ => "a general combiner holds `rgb { ... }` and `alpha { ... }` portions".into(),
                     };
-                    return Err(syntax(format!("expected `rgb`, `alpha` or `}}`, found {}", t.tok.describe()), t.span, "not a portion", help));
+                    return Err(syntax(
+                        format!("expected `rgb`, `alpha` or `}}`, found {}", t.tok.describe()),
+                        t.span,
+                        "not a portion",
+                        help,
+                    ));
                 }
             }
         }
@@ -303,19 +369,32 @@ impl<'a> Parser<'a> {
             let t = self.peek();
             match t.tok {
                 Tok::RBrace => break,
-                Tok::Name(n, None) if self.peek2().tok == Tok::LParen && !matches!(n, "expand" | "half_bias" | "unsigned" | "unsigned_invert") => {
+                Tok::Name(n, None)
+                    if self.peek2().tok == Tok::LParen
+                        && !matches!(n, "expand" | "half_bias" | "unsigned" | "unsigned_invert") =>
+                {
                     let (sc, bi) = match n {
                         "scale_by_two" => (Some(Scale::Two), None),
                         "scale_by_four" => (Some(Scale::Four), None),
                         "scale_by_one_half" => (Some(Scale::OneHalf), None),
                         "bias_by_negative_one_half" => (None, Some(Bias::NegativeOneHalf)),
-                        "bias_by_negative_one_half_scale_by_two" => (Some(Scale::Two), Some(Bias::NegativeOneHalf)),
+                        "bias_by_negative_one_half_scale_by_two" => {
+                            (Some(Scale::Two), Some(Bias::NegativeOneHalf))
+                        }
                         _ => {
                             let help = match did_you_mean(n, SCALE_BIAS) {
                                 Some(m) => format!("did you mean `{m}()`?"),
-                                None => format!("the output scale/bias calls are {}", SCALE_BIAS.map(|s| format!("`{s}()`")).join(", ")),
+                                None => format!(
+                                    "the output scale/bias calls are {}",
+                                    SCALE_BIAS.map(|s| format!("`{s}()`")).join(", ")
+                                ),
                             };
-                            return Err(syntax(format!("unknown function `{n}`"), t.span, "not a scale/bias call", help));
+                            return Err(syntax(
+                                format!("unknown function `{n}`"),
+                                t.span,
+                                "not a scale/bias call",
+                                help,
+                            ));
                         }
                     };
                     self.bump();
@@ -325,30 +404,54 @@ impl<'a> Parser<'a> {
                     let span = t.span.join(end);
                     if let Some(sc) = sc {
                         if let Some((_, first)) = scale {
-                            return Err(Diagnostic::error("scale-twice", "the output scale is set twice in this portion", span, "set again here")
-                                .with_label(first, "first set here")
-                                .with_help("a portion has one scale/bias call"));
+                            return Err(Diagnostic::error(
+                                "scale-twice",
+                                "the output scale is set twice in this portion",
+                                span,
+                                "set again here",
+                            )
+                            .with_label(first, "first set here")
+                            .with_help("a portion has one scale/bias call"));
                         }
                         scale = Some((sc, span));
                     }
                     if let Some(bi) = bi {
                         if let Some((_, first)) = bias {
-                            return Err(Diagnostic::error("scale-twice", "the output bias is set twice in this portion", span, "set again here")
-                                .with_label(first, "first set here")
-                                .with_help("a portion has one scale/bias call"));
+                            return Err(Diagnostic::error(
+                                "scale-twice",
+                                "the output bias is set twice in this portion",
+                                span,
+                                "set again here",
+                            )
+                            .with_label(first, "first set here")
+                            .with_help("a portion has one scale/bias call"));
                         }
                         bias = Some((bi, span));
                     }
                 }
                 Tok::Name(..) => {
                     if scale.is_some() || bias.is_some() {
-                        return Err(syntax("the scale/bias call comes after the portion's operations", t.span, "operation after scale/bias", "move the scale/bias call to the end of the portion"));
+                        return Err(syntax(
+                            "the scale/bias call comes after the portion's operations",
+                            t.span,
+                            "operation after scale/bias",
+                            "move the scale/bias call to the end of the portion",
+                        ));
                     }
                     ops.push(self.op(kind)?);
                 }
                 _ => {
-                    let help = if t.tok == Tok::Eof { "close the portion with `}`" } else { "write `register = operation;` or a scale/bias call" };
-                    return Err(syntax(format!("expected an operation or `}}`, found {}", t.tok.describe()), t.span, "not an operation", help));
+                    let help = if t.tok == Tok::Eof {
+                        "close the portion with `}`"
+                    } else {
+                        "write `register = operation;` or a scale/bias call"
+                    };
+                    return Err(syntax(
+                        format!("expected an operation or `}}`, found {}", t.tok.describe()),
+                        t.span,
+                        "not an operation",
+                        help,
+                    ));
                 }
             }
         }
@@ -358,19 +461,52 @@ impl<'a> Parser<'a> {
         if let Some(span) = scale_bias_span {
             self.spans.insert(Place::ScaleBias(s, kind), span);
         }
-        self.assemble(s, kind, ops, scale.map_or(Scale::One, |x| x.0), bias.map_or(Bias::Zero, |x| x.0), start.join(close))
+        self.assemble(
+            s,
+            kind,
+            ops,
+            scale.map_or(Scale::One, |x| x.0),
+            bias.map_or(Bias::Zero, |x| x.0),
+            start.join(close),
+        )
     }
 
     /// Maps the portion's operations onto AB, CD and sum/mux as nvparse does.
-    fn assemble(&mut self, s: usize, kind: PortionKind, ops: Vec<Op>, scale: Scale, bias: Bias, span: Span) -> PResult<GeneralPortion> {
+    fn assemble(
+        &mut self,
+        s: usize,
+        kind: PortionKind,
+        ops: Vec<Op>,
+        scale: Scale,
+        bias: Bias,
+        span: Span,
+    ) -> PResult<GeneralPortion> {
         let default_usage = match kind {
             PortionKind::Rgb => ComponentUsage::Rgb,
             PortionKind::Alpha => ComponentUsage::Alpha,
         };
         let zero = GeneralInput::new(Register::Zero, InputMapping::UnsignedIdentity, default_usage);
-        let mut p = GeneralPortion { a: zero, b: zero, c: zero, d: zero, ab_output: None, cd_output: None, sum_output: None, ab_dot: false, cd_dot: false, mux_sum: false, scale, bias };
+        let mut p = GeneralPortion {
+            a: zero,
+            b: zero,
+            c: zero,
+            d: zero,
+            ab_output: None,
+            cd_output: None,
+            sum_output: None,
+            ab_dot: false,
+            cd_dot: false,
+            mux_sum: false,
+            scale,
+            bias,
+        };
         if ops.is_empty() {
-            return Err(syntax(format!("the {} portion of general combiner {s} has no operation", kind.name()), span, "empty portion", "write e.g. `spare0 = tex0 * col0;`, or leave the portion out"));
+            return Err(syntax(
+                format!("the {} portion of general combiner {s} has no operation", kind.name()),
+                span,
+                "empty portion",
+                "write e.g. `spare0 = tex0 * col0;`, or leave the portion out",
+            ));
         }
         let mut products = 0;
         let mut sum_seen = false;
@@ -378,7 +514,12 @@ impl<'a> Parser<'a> {
             match op {
                 Op::Product { dest, a, b, dot, span } => {
                     if sum_seen {
-                        return Err(syntax("`sum()` / `mux()` comes after the products", span, "product after sum/mux", "write the AB and CD products first"));
+                        return Err(syntax(
+                            "`sum()` / `mux()` comes after the products",
+                            span,
+                            "product after sum/mux",
+                            "write the AB and CD products first",
+                        ));
                     }
                     let (a_span, b_span) = (a.span, b.span);
                     let (a, b) = (self.general_input(kind, a)?, self.general_input(kind, b)?);
@@ -396,14 +537,24 @@ impl<'a> Parser<'a> {
                             self.spans.insert(Place::Input(s, kind, 'D'), b_span);
                         }
                         _ => {
-                            return Err(syntax("a portion computes at most two products (AB and CD)", span, "third product", "split the work over another general combiner"));
+                            return Err(syntax(
+                                "a portion computes at most two products (AB and CD)",
+                                span,
+                                "third product",
+                                "split the work over another general combiner",
+                            ));
                         }
                     }
                     products += 1;
                 }
                 Op::Sum { dest, mux, span } => {
                     if sum_seen {
-                        return Err(syntax("a portion has one `sum()` / `mux()` output", span, "second sum/mux", "remove one of them"));
+                        return Err(syntax(
+                            "a portion has one `sum()` / `mux()` output",
+                            span,
+                            "second sum/mux",
+                            "remove one of them",
+                        ));
                     }
                     if products < 2 {
                         return Err(syntax(
@@ -431,11 +582,19 @@ impl<'a> Parser<'a> {
         });
         match source {
             Source::Register(register) => Ok(GeneralInput::new(register, mapping, usage)),
-            Source::Discard => Err(Diagnostic::error("read-discard", "reading from `discard`", op.span, "`discard` can only be written")
-                .with_help("read a register such as `zero`, `spare0` or `tex0`")),
+            Source::Discard => Err(Diagnostic::error(
+                "read-discard",
+                "reading from `discard`",
+                op.span,
+                "`discard` can only be written",
+            )
+            .with_help("read a register such as `zero`, `spare0` or `tex0`")),
             Source::FinalProduct | Source::ColorSum => Err(Diagnostic::error(
                 "final-only",
-                format!("`{}` exists only in the final combiner", if source == Source::ColorSum { "color_sum" } else { "final_product" }),
+                format!(
+                    "`{}` exists only in the final combiner",
+                    if source == Source::ColorSum { "color_sum" } else { "final_product" }
+                ),
                 op.span,
                 "final-combiner pseudo-register",
             )
@@ -452,7 +611,13 @@ impl<'a> Parser<'a> {
             Some(Source::Register(r)) => Some(r),
             Some(Source::Discard) => None,
             Some(Source::One) => {
-                return Err(Diagnostic::error("read-only-output", "`one` is read-only", t.span, "cannot be written").with_help("write to spare0, spare1, or another read/write register"))
+                return Err(Diagnostic::error(
+                    "read-only-output",
+                    "`one` is read-only",
+                    t.span,
+                    "cannot be written",
+                )
+                .with_help("write to spare0, spare1, or another read/write register"))
             }
             Some(Source::FinalProduct | Source::ColorSum) | None => {
                 return Err(unknown_register(name, t.span, "an output register"));
@@ -461,7 +626,12 @@ impl<'a> Parser<'a> {
         if let Some(sel) = selector {
             let ok = matches!((kind, sel), (PortionKind::Rgb, "rgb") | (PortionKind::Alpha, "a"));
             if !ok {
-                return Err(syntax(format!("the {} portion cannot write `{name}.{sel}`", kind.name()), t.span, "wrong component", format!("write `{name}` (the {} portion writes {} components)", kind.name(), kind.name())));
+                return Err(syntax(
+                    format!("the {} portion cannot write `{name}.{sel}`", kind.name()),
+                    t.span,
+                    "wrong component",
+                    format!("write `{name}` (the {} portion writes {} components)", kind.name(), kind.name()),
+                ));
             }
         }
         self.expect(Tok::Equals, "`=`")?;
@@ -482,7 +652,15 @@ impl<'a> Parser<'a> {
                 self.bump();
                 (self.general_operand()?, false)
             }
-            _ => (Operand { source: Source::One, selector: None, mapping: InputMapping::SignedIdentity, span: a.span }, false),
+            _ => (
+                Operand {
+                    source: Source::One,
+                    selector: None,
+                    mapping: InputMapping::SignedIdentity,
+                    span: a.span,
+                },
+                false,
+            ),
         };
         let end = self.expect(Tok::Semi, "`;`")?;
         Ok(Op::Product { dest: (dest, t.span), a, b, dot, span: t.span.join(end) })
@@ -500,21 +678,42 @@ impl<'a> Parser<'a> {
         };
         let t = self.peek();
         let Tok::Name(name, selector) = t.tok else {
-            return Err(syntax(format!("expected a register, found {}", t.tok.describe()), t.span, "expected a register", "operands are registers such as `tex0`, `col0.a`, `expand(tex1)`"));
+            return Err(syntax(
+                format!("expected a register, found {}", t.tok.describe()),
+                t.span,
+                "expected a register",
+                "operands are registers such as `tex0`, `col0.a`, `expand(tex1)`",
+            ));
         };
         let wrapper = match name {
             "expand" => Some(if negate { InputMapping::ExpandNegate } else { InputMapping::ExpandNormal }),
-            "half_bias" => Some(if negate { InputMapping::HalfBiasNegate } else { InputMapping::HalfBiasNormal }),
+            "half_bias" => {
+                Some(if negate { InputMapping::HalfBiasNegate } else { InputMapping::HalfBiasNormal })
+            }
             "unsigned" | "unsigned_invert" => {
                 if negate {
-                    return Err(syntax(format!("`-{name}(...)` is not an input mapping"), start.join(t.span), "no such mapping", "the negated mappings are `-r`, `-expand(r)` and `-half_bias(r)`"));
+                    return Err(syntax(
+                        format!("`-{name}(...)` is not an input mapping"),
+                        start.join(t.span),
+                        "no such mapping",
+                        "the negated mappings are `-r`, `-expand(r)` and `-half_bias(r)`",
+                    ));
                 }
-                Some(if name == "unsigned" { InputMapping::UnsignedIdentity } else { InputMapping::UnsignedInvert })
+                Some(if name == "unsigned" {
+                    InputMapping::UnsignedIdentity
+                } else {
+                    InputMapping::UnsignedInvert
+                })
             }
             _ => None,
         };
         if selector.is_some() && wrapper.is_some() {
-            return Err(syntax(format!("`{name}` is a mapping, not a register"), t.span, "selector on a mapping", format!("put the selector on the register: `{name}(tex0.a)`")));
+            return Err(syntax(
+                format!("`{name}` is a mapping, not a register"),
+                t.span,
+                "selector on a mapping",
+                format!("put the selector on the register: `{name}(tex0.a)`"),
+            ));
         }
         let mut op = match wrapper {
             Some(mapping) => {
@@ -526,7 +725,11 @@ impl<'a> Parser<'a> {
             }
             None => {
                 let inner = self.register_operand()?;
-                Operand { mapping: if negate { InputMapping::SignedNegate } else { InputMapping::SignedIdentity }, span: start.join(inner.span), ..inner }
+                Operand {
+                    mapping: if negate { InputMapping::SignedNegate } else { InputMapping::SignedIdentity },
+                    span: start.join(inner.span),
+                    ..inner
+                }
             }
         };
         if matches!(op.source, Source::FinalProduct | Source::ColorSum) {
@@ -538,7 +741,12 @@ impl<'a> Parser<'a> {
     fn register_operand(&mut self) -> PResult<Operand> {
         let t = self.bump();
         let Tok::Name(name, selector) = t.tok else {
-            return Err(syntax(format!("expected a register, found {}", t.tok.describe()), t.span, "expected a register", "registers are tex0-tex3, col0, col1, spare0, spare1, fog, const0, const1, zero, one"));
+            return Err(syntax(
+                format!("expected a register, found {}", t.tok.describe()),
+                t.span,
+                "expected a register",
+                "registers are tex0-tex3, col0, col1, spare0, spare1, fog, const0, const1, zero, one",
+            ));
         };
         let Some(source) = register_by_name(name) else {
             return Err(unknown_register(name, t.span, "a register"));
@@ -549,7 +757,12 @@ impl<'a> Parser<'a> {
             _ => ComponentUsage::Blue,
         });
         if selector.is_some() && matches!(source, Source::FinalProduct | Source::ColorSum | Source::Discard) {
-            return Err(syntax(format!("`{name}` takes no component selector"), t.span, "selector not allowed", format!("write `{name}`")));
+            return Err(syntax(
+                format!("`{name}` takes no component selector"),
+                t.span,
+                "selector not allowed",
+                format!("write `{name}`"),
+            ));
         }
         Ok(Operand { source, selector, mapping: InputMapping::UnsignedIdentity, span: t.span })
     }
@@ -581,14 +794,25 @@ impl<'a> Parser<'a> {
             Source::Register(r) => FinalSource::Register(r),
             Source::FinalProduct => {
                 if !has_product && matches!(var, 'A' | 'B' | 'C' | 'D') {
-                    return Err(Diagnostic::error("final-product-unset", "`final_product` is used but not set", op.span, "used here")
-                        .with_help("set it before `out.rgb`: `final_product = tex0 * col0;`"));
+                    return Err(Diagnostic::error(
+                        "final-product-unset",
+                        "`final_product` is used but not set",
+                        op.span,
+                        "used here",
+                    )
+                    .with_help("set it before `out.rgb`: `final_product = tex0 * col0;`"));
                 }
                 FinalSource::EfProduct
             }
             Source::ColorSum => FinalSource::Spare0PlusSecondary,
             Source::Discard => {
-                return Err(Diagnostic::error("read-discard", "reading from `discard`", op.span, "`discard` can only be written").with_help("read a register such as `zero` or `spare0`"))
+                return Err(Diagnostic::error(
+                    "read-discard",
+                    "reading from `discard`",
+                    op.span,
+                    "`discard` can only be written",
+                )
+                .with_help("read a register such as `zero` or `spare0`"))
             }
             Source::One => unreachable_one(op.span)?,
         };
@@ -616,9 +840,18 @@ impl<'a> Parser<'a> {
         loop {
             let t = self.peek();
             let twice = |first: Span, what: &str| {
-                Diagnostic::error("final-twice", format!("`{what}` appears twice"), t.span, "again here").with_label(first, "first here").with_help(format!("write `{what}` once"))
+                Diagnostic::error("final-twice", format!("`{what}` appears twice"), t.span, "again here")
+                    .with_label(first, "first here")
+                    .with_help(format!("write `{what}` once"))
             };
-            let late = |what: &str| syntax(format!("`{what}` must come before `out.rgb` and `out.a`"), t.span, "too late", format!("move `{what}` above the `out.rgb` / `out.a` statements"));
+            let late = |what: &str| {
+                syntax(
+                    format!("`{what}` must come before `out.rgb` and `out.a`"),
+                    t.span,
+                    "too late",
+                    format!("move `{what}` above the `out.rgb` / `out.a` statements"),
+                )
+            };
             match t.tok {
                 Tok::Name("clamp_color_sum", None) => {
                     if let Some(first) = clamp {
@@ -649,7 +882,11 @@ impl<'a> Parser<'a> {
                     for (op, var) in [(e, 'E'), (f, 'F')] {
                         if matches!(op.source, Source::FinalProduct | Source::ColorSum) {
                             return Err(Diagnostic::error(
-                                if op.source == Source::FinalProduct { "ef-product-input" } else { "color-sum-input" },
+                                if op.source == Source::FinalProduct {
+                                    "ef-product-input"
+                                } else {
+                                    "color-sum-input"
+                                },
                                 "invalid input register for final_product",
                                 op.span,
                                 "pseudo-register",
@@ -657,7 +894,11 @@ impl<'a> Parser<'a> {
                             .with_help("E and F read ordinary registers"));
                         }
                         let input = self.final_input(op, var, true)?;
-                        if var == 'E' { fc.e = input } else { fc.f = input }
+                        if var == 'E' {
+                            fc.e = input
+                        } else {
+                            fc.f = input
+                        }
                     }
                 }
                 Tok::Name("out", Some("rgb")) => {
@@ -678,7 +919,11 @@ impl<'a> Parser<'a> {
                     let g = self.final_operand()?;
                     if matches!(g.source, Source::FinalProduct | Source::ColorSum) {
                         return Err(Diagnostic::error(
-                            if g.source == Source::FinalProduct { "ef-product-input" } else { "color-sum-input" },
+                            if g.source == Source::FinalProduct {
+                                "ef-product-input"
+                            } else {
+                                "color-sum-input"
+                            },
                             "invalid input register for final alpha",
                             g.span,
                             "pseudo-register",
@@ -694,23 +939,36 @@ impl<'a> Parser<'a> {
         if rgb.is_none() && alpha.is_none() {
             let t = self.peek();
             let help = match t.tok {
-                Tok::Name(n, _) => match did_you_mean(n, ["out.rgb", "out.a", "clamp_color_sum", "final_product"]) {
-                    Some(m) => format!("did you mean `{m}`?"),
-                    None => "end the program with `out.rgb = ...;` and/or `out.a = ...;`".into(),
-                },
+                Tok::Name(n, _) => {
+                    match did_you_mean(n, ["out.rgb", "out.a", "clamp_color_sum", "final_product"]) {
+                        Some(m) => format!("did you mean `{m}`?"),
+                        None => "end the program with `out.rgb = ...;` and/or `out.a = ...;`".into(),
+                    }
+                }
                 _ => "end the program with `out.rgb = ...;` and/or `out.a = ...;`".into(),
             };
-            return Err(syntax(format!("expected the final combiner (`out.rgb = ...;`), found {}", t.tok.describe()), t.span, "expected `out.rgb` or `out.a`", help));
+            return Err(syntax(
+                format!("expected the final combiner (`out.rgb = ...;`), found {}", t.tok.describe()),
+                t.span,
+                "expected `out.rgb` or `out.a`",
+                help,
+            ));
         }
         // nvparse's FinalCombinerStruct::Validate: move color_sum out of A
         // when the expression allows it.
         let is_cs = |i: &FinalInput| i.source == FinalSource::Spare0PlusSecondary;
-        let is_reg = |i: &FinalInput, m: InputMapping| i.source == FinalSource::Register(Register::Zero) && i.mapping == m;
+        let is_reg = |i: &FinalInput, m: InputMapping| {
+            i.source == FinalSource::Register(Register::Zero) && i.mapping == m
+        };
         if is_cs(&fc.a) && !is_cs(&fc.b) && is_reg(&fc.c, InputMapping::UnsignedIdentity) {
             std::mem::swap(&mut fc.a, &mut fc.b);
             self.swap_spans('A', 'B');
         }
-        if is_cs(&fc.a) && is_reg(&fc.b, InputMapping::UnsignedInvert) && is_reg(&fc.c, InputMapping::UnsignedIdentity) && !is_cs(&fc.d) {
+        if is_cs(&fc.a)
+            && is_reg(&fc.b, InputMapping::UnsignedInvert)
+            && is_reg(&fc.c, InputMapping::UnsignedIdentity)
+            && !is_cs(&fc.d)
+        {
             std::mem::swap(&mut fc.a, &mut fc.d);
             self.swap_spans('A', 'D');
         }
@@ -731,7 +989,12 @@ impl<'a> Parser<'a> {
     /// The right-hand side of `out.rgb =`: `lerp(A, B, C) + D`,
     /// `D + lerp(A, B, C)`, `lerp(A, B, C)`, `A * B`, `A * B + D`, `D`, `A + D`.
     fn final_rgb(&mut self, fc: &mut FinalCombiner, has_product: bool) -> PResult<()> {
-        let zero = Operand { source: Source::Register(Register::Zero), selector: None, mapping: InputMapping::UnsignedIdentity, span: self.peek().span };
+        let zero = Operand {
+            source: Source::Register(Register::Zero),
+            selector: None,
+            mapping: InputMapping::UnsignedIdentity,
+            span: self.peek().span,
+        };
         let one = Operand { mapping: InputMapping::UnsignedInvert, ..zero };
         let (a, b, c, d);
         if self.is_name("lerp") {
@@ -769,7 +1032,9 @@ impl<'a> Parser<'a> {
                 _ => (a, b, c, d) = (zero, zero, zero, first),
             }
         }
-        let is_filler = |o: &Operand| o.span == zero.span && o.source == Source::Register(Register::Zero) && o.selector.is_none();
+        let is_filler = |o: &Operand| {
+            o.span == zero.span && o.source == Source::Register(Register::Zero) && o.selector.is_none()
+        };
         for (op, var) in [(a, 'A'), (b, 'B'), (c, 'C'), (d, 'D')] {
             let input = self.final_input(op, var, has_product)?;
             if is_filler(&op) {
@@ -798,7 +1063,13 @@ impl<'a> Parser<'a> {
     }
 }
 
-const SCALE_BIAS: [&str; 5] = ["scale_by_two", "scale_by_four", "scale_by_one_half", "bias_by_negative_one_half", "bias_by_negative_one_half_scale_by_two"];
+const SCALE_BIAS: [&str; 5] = [
+    "scale_by_two",
+    "scale_by_four",
+    "scale_by_one_half",
+    "bias_by_negative_one_half",
+    "bias_by_negative_one_half_scale_by_two",
+];
 
 fn register_by_name(name: &str) -> Option<Source> {
     Some(match name {
@@ -838,7 +1109,13 @@ fn unknown_register(name: &str, span: Span, what: &str) -> Diagnostic {
         Some(m) => format!("did you mean `{m}`?"),
         None => format!("the registers are {}", REGISTER_NAMES.map(|r| format!("`{r}`")).join(", ")),
     };
-    Diagnostic::error("unknown-register", format!("unknown register `{name}`"), span, format!("expected {what}")).with_help(help)
+    Diagnostic::error(
+        "unknown-register",
+        format!("unknown register `{name}`"),
+        span,
+        format!("expected {what}"),
+    )
+    .with_help(help)
 }
 
 fn unreachable_one<T>(span: Span) -> PResult<T> {

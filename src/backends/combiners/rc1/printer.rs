@@ -11,8 +11,8 @@
 use std::fmt::Write as _;
 
 use crate::backends::combiners::config::{
-    Bias, CombinerConfig, ComponentUsage, FinalCombiner, FinalInput, FinalSource, GeneralInput, GeneralPortion,
-    InputMapping, PortionKind, Register, Scale,
+    Bias, CombinerConfig, ComponentUsage, FinalCombiner, FinalInput, FinalSource, GeneralInput,
+    GeneralPortion, InputMapping, PortionKind, Register, Scale,
 };
 
 pub fn print(config: &CombinerConfig) -> String {
@@ -113,13 +113,27 @@ fn output(r: Option<Register>) -> &'static str {
 fn portion(out: &mut String, kind: PortionKind, p: &GeneralPortion) {
     let _ = writeln!(out, "  {} {{", kind.name());
     let op = |dot: bool| if dot { " . " } else { " * " };
-    let _ = writeln!(out, "    {} = {}{}{};", output(p.ab_output), general_operand(&p.a, kind), op(p.ab_dot), general_operand(&p.b, kind));
+    let _ = writeln!(
+        out,
+        "    {} = {}{}{};",
+        output(p.ab_output),
+        general_operand(&p.a, kind),
+        op(p.ab_dot),
+        general_operand(&p.b, kind)
+    );
     // nvparse fills C and D with unsigned zero when the CD product is left out.
     let zero = GeneralInput::new(Register::Zero, InputMapping::UnsignedIdentity, default_usage(kind));
     let cd_default = p.cd_output.is_none() && !p.cd_dot && p.c == zero && p.d == zero;
     let sum_default = p.sum_output.is_none() && !p.mux_sum;
     if !cd_default || !sum_default {
-        let _ = writeln!(out, "    {} = {}{}{};", output(p.cd_output), general_operand(&p.c, kind), op(p.cd_dot), general_operand(&p.d, kind));
+        let _ = writeln!(
+            out,
+            "    {} = {}{}{};",
+            output(p.cd_output),
+            general_operand(&p.c, kind),
+            op(p.cd_dot),
+            general_operand(&p.d, kind)
+        );
     }
     if !sum_default {
         let _ = writeln!(out, "    {} = {}();", output(p.sum_output), if p.mux_sum { "mux" } else { "sum" });
@@ -136,7 +150,9 @@ fn portion(out: &mut String, kind: PortionKind, p: &GeneralPortion) {
             let _ = writeln!(out, "    {s}();");
         }
         (None, Bias::NegativeOneHalf) => out.push_str("    bias_by_negative_one_half();\n"),
-        (Some("scale_by_two"), Bias::NegativeOneHalf) => out.push_str("    bias_by_negative_one_half_scale_by_two();\n"),
+        (Some("scale_by_two"), Bias::NegativeOneHalf) => {
+            out.push_str("    bias_by_negative_one_half_scale_by_two();\n")
+        }
         (Some(s), Bias::NegativeOneHalf) => {
             let _ = writeln!(out, "    {s}();\n    bias_by_negative_one_half();");
         }
@@ -149,7 +165,9 @@ fn final_operand(input: &FinalInput, default: ComponentUsage) -> String {
     let r = match input.source {
         FinalSource::EfProduct => "final_product".to_string(),
         FinalSource::Spare0PlusSecondary => "color_sum".to_string(),
-        FinalSource::Register(Register::Zero) if input.mapping == InputMapping::UnsignedInvert => return format!("one{sel}"),
+        FinalSource::Register(Register::Zero) if input.mapping == InputMapping::UnsignedInvert => {
+            return format!("one{sel}")
+        }
         FinalSource::Register(r) => format!("{}{sel}", register_name(r)),
     };
     match input.mapping {
@@ -168,7 +186,8 @@ fn final_combiner(out: &mut String, fc: &FinalCombiner) {
     let zero = FinalInput::register(Register::Zero, Rgb);
     let reads_ef = [fc.a, fc.b, fc.c, fc.d].iter().any(|i| i.source == FinalSource::EfProduct);
     if reads_ef || fc.e != zero || fc.f != zero {
-        let _ = writeln!(out, "final_product = {} * {};", final_operand(&fc.e, Rgb), final_operand(&fc.f, Rgb));
+        let _ =
+            writeln!(out, "final_product = {} * {};", final_operand(&fc.e, Rgb), final_operand(&fc.f, Rgb));
     }
     let _ = writeln!(
         out,
