@@ -25,7 +25,7 @@ const SOURCE: &str = include_str!("../examples/kilgard_bump_mapping.shd");
 const SCENE: &str = include_str!("../scenes/kilgard_torus.ron");
 
 struct Setup {
-    planned: shadec::planner::Planned,
+    planned: shadec::pipeline::Planned,
     program: shadec::parser::ast::Program,
     scene: Scene,
     assets: shadec::scene::SceneAssets,

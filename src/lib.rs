@@ -11,6 +11,7 @@ pub mod io;
 pub mod ir;
 pub mod meaning;
 pub mod parser;
+pub mod pipeline;
 pub mod planner;
 pub mod profile;
 pub mod renderer;
@@ -22,7 +23,7 @@ pub mod textures;
 /// specialize, plan; never touches a GPU (issue 3 part 4). The plan
 /// serializes to RON and JSON (`PassPlan::to_ron`, `to_json`); for the IR
 /// the plan's value ids refer to, use [`planner::compile_source`].
-pub fn compile(source: &str, profile: &profile::Profile) -> Result<planner::PassPlan, Diagnostics> {
+pub fn compile(source: &str, profile: &profile::Profile) -> Result<pipeline::PassPlan, Diagnostics> {
     planner::compile_source(source, profile).map(|p| p.plan)
 }
 

@@ -22,11 +22,11 @@
 
 use crate::diag::Diagnostic;
 use crate::ir::{Expr, FbChannel, Frequency, Handle, Module, Table, Usage};
-use crate::planner::{
-    self, BlendMode, FragmentWork, Geometry, Pass, PassPlan, Planned, RenderTarget, TextureBinding,
-    VertexWork,
+use crate::pipeline::{
+    BlendMode, FragmentWork, Geometry, Pass, PassPlan, Planned, RenderTarget, TextureBinding, VertexWork,
 };
-use crate::renderer::{BlendState, CullMode, DepthState, RenderState, StencilState};
+use crate::pipeline::{BlendState, CullMode, DepthState, RenderState, StencilState};
+use crate::planner::{self};
 
 /// The name the meaning's plan carries as its target.
 pub const TARGET: &str = "meaning";

@@ -17,10 +17,30 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use crate::backends::combiners::config::CombinerLimits;
 use crate::diag::Diagnostic;
 use crate::ir::{Expr, Handle, Module, Usage};
 use crate::span::Span;
+
+/// The register combiners a target profile has (seeds/003 Section 4.2.2:
+/// GeForce has two general stages, later GPUs more; NV_register_combiners2
+/// adds per-stage constants). The constants equal the built-in profiles'
+/// limits (a unit test keeps them so).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct CombinerLimits {
+    pub general_combiners: usize,
+    pub per_stage_constants: bool,
+    /// Texture units, hence `texture0..` registers (Table 2: 8 + units).
+    pub texture_units: u8,
+}
+
+impl CombinerLimits {
+    /// GeForce 256 / Quadro: two general combiners, two texture units.
+    pub const GEFORCE256: CombinerLimits =
+        CombinerLimits { general_combiners: 2, per_stage_constants: false, texture_units: 2 };
+    /// GeForce3: eight general combiners, per-stage constants, four units.
+    pub const GEFORCE3: CombinerLimits =
+        CombinerLimits { general_combiners: 8, per_stage_constants: true, texture_units: 4 };
+}
 
 /// The names of the built-in profiles.
 pub const BUILTIN: &[&str] = &["geforce256", "geforce3", "multitexture", "wgsl"];

@@ -9,7 +9,8 @@ mod common;
 
 use shadec::backends::combiners::{generate, validate, PassInput};
 use shadec::ir::{Expr, Handle};
-use shadec::planner::{compile_source, Planned};
+use shadec::pipeline::Planned;
+use shadec::planner::compile_source;
 use shadec::profile::Profile;
 
 fn examples() -> Vec<(String, String)> {

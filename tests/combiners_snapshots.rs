@@ -21,7 +21,8 @@ use shadec::backends::combiners::emulator::{emulate, Inputs, Precision};
 use shadec::backends::combiners::{generate, rc1, CombinerLimits, Generated, PassInput};
 use shadec::ir::eval::{Env, Evaluator, Value};
 use shadec::ir::{Expr, FbChannel, Frequency, Handle, Module, Ty};
-use shadec::planner::{compile_source, Planned};
+use shadec::pipeline::Planned;
+use shadec::planner::compile_source;
 use shadec::profile::Profile;
 
 const PROFILES: [&str; 2] = ["geforce256", "geforce3"];

@@ -25,7 +25,7 @@ use proptest::prelude::*;
 use proptest::strategy::ValueTree;
 use shadec::backends::combiners::{codegen, validate};
 use shadec::ir::{Expr, Frequency, Handle};
-use shadec::planner::{Planned, RenderTarget};
+use shadec::pipeline::{Planned, RenderTarget};
 use shadec::profile::Profile;
 use shadec::renderer::plan::{compare, Mode, PlanRenderer};
 use shadec::scene::Scene;
@@ -267,7 +267,7 @@ fn validate_plan(planned: &Planned, profile: &Profile) -> Result<(), String> {
         // A `bake` table is the compiler's work (issue 18): the target only
         // samples it, so only its format must be one the target reads.
         let baked = pass.baked
-            && matches!(pass.geometry, shadec::planner::Geometry::Texels)
+            && matches!(pass.geometry, shadec::pipeline::Geometry::Texels)
             && matches!(&pass.target, RenderTarget::Texture { .. });
         if baked {
             if let RenderTarget::Texture { name } = &pass.target {

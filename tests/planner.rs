@@ -4,7 +4,8 @@
 
 mod common;
 
-use shadec::planner::{self, BlendMode, PassPlan, Search};
+use shadec::pipeline::{BlendMode, PassPlan};
+use shadec::planner::{self, Search};
 use shadec::profile::{Profile, BUILTIN};
 
 fn profile(name: &str) -> Profile {
@@ -179,7 +180,7 @@ fn shadow_volume_stencil_pass_is_render_state_only() {
         assert_eq!(stencil.state.blend.write_mask, [false; 4]);
         assert_eq!(plan.passes[2].state.stencil.func, shadec::renderer::CompareFunc::NotEqual);
         // It rasterizes the shadow volume x′, the others the object x.
-        let drawn = |p: &shadec::planner::Pass| {
+        let drawn = |p: &shadec::pipeline::Pass| {
             plan.values.iter().find(|v| Some(v.id) == p.vertex.position).map(|v| v.op.clone())
         };
         assert!(drawn(&plan.passes[0]).is_some() && drawn(&plan.passes[1]).is_some());
@@ -229,7 +230,7 @@ fn static_viewpoint_pass_reuses_the_projected_vertices() {
     let plan = plan_src(&example("multipass.shd"), "wgsl").unwrap();
     assert_eq!(plan.passes.len(), 2);
     let (first, second) = (&plan.passes[0], &plan.passes[1]);
-    assert_eq!(second.geometry, planner::Geometry::Mesh { projection: "π".into() });
+    assert_eq!(second.geometry, shadec::pipeline::Geometry::Mesh { projection: "π".into() });
     assert_eq!(second.vertex.position, first.vertex.position, "the vertices of (9)");
     assert_eq!(second.state.depth, shadec::renderer::DepthState::EQUAL_NO_WRITE);
     assert_eq!(first.state.depth, shadec::renderer::DepthState::LESS_WRITE);

@@ -10,7 +10,8 @@ use std::collections::HashMap;
 
 use shadec::ir::eval::{Env, Evaluator, Precision, Value};
 use shadec::ir::{Expr, FbChannel, Frequency, Handle, Module, Table, TextureId, Ty};
-use shadec::planner::{self, Planned, RenderTarget};
+use shadec::pipeline::{Planned, RenderTarget};
+use shadec::planner::{self};
 use shadec::profile::Profile;
 
 fn hash(mut x: u64) -> u64 {

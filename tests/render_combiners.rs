@@ -10,7 +10,8 @@
 use std::path::Path;
 
 use shadec::backends::combiners::{self, emulator, Inputs, Precision};
-use shadec::planner::{compile_source, Planned};
+use shadec::pipeline::Planned;
+use shadec::planner::compile_source;
 use shadec::profile::Profile;
 use shadec::renderer::plan::{compare, Frame, Mode, PassShading, PlanRenderer};
 use shadec::scene::Scene;
@@ -71,7 +72,7 @@ fn check_pass(statement: &str, target: &str, units: &[(&str, &str)]) -> usize {
             value: planned.handle(pass.fragment.output),
             units: &lookups,
         },
-        &combiners::CombinerLimits::by_name(target).unwrap(),
+        &planned.combiners.unwrap(),
     )
     .unwrap();
     assert!(

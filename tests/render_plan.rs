@@ -6,7 +6,8 @@ mod common;
 
 use std::path::Path;
 
-use shadec::planner::{compile_source, Planned};
+use shadec::pipeline::Planned;
+use shadec::planner::compile_source;
 use shadec::profile::Profile;
 use shadec::renderer::plan::{compare, Frame, Mode, PlanRenderer};
 use shadec::scene::Scene;
@@ -167,11 +168,11 @@ fn bake_is_texture_shading_of_the_function() {
     let (planned, _) = plan(&baked, "wgsl");
     let first = &planned.plan.passes[0];
     assert!(
-        matches!(&first.target, shadec::planner::RenderTarget::Texture { name } if name == "TF"),
+        matches!(&first.target, shadec::pipeline::RenderTarget::Texture { name } if name == "TF"),
         "{:?}",
         first.target
     );
-    assert!(matches!(first.geometry, shadec::planner::Geometry::Texels), "{:?}", first.geometry);
+    assert!(matches!(first.geometry, shadec::pipeline::Geometry::Texels), "{:?}", first.geometry);
     let line = baked.lines().position(|l| l.contains("bake(fresnel)")).unwrap() + 1;
     assert!(
         first.at.starts_with(&format!("{line}:")),

@@ -6,8 +6,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use shadec::pipeline::Planned;
 use shadec::planner::specialize::{plan_pair, removal_report};
-use shadec::planner::{plan_specialized, Planned, SceneSpecialization, DEFAULT_CULL_THRESHOLD};
+use shadec::planner::{plan_specialized, SceneSpecialization, DEFAULT_CULL_THRESHOLD};
 use shadec::profile::Profile;
 use shadec::renderer::plan::{compare, Mode, PlanRenderer};
 use shadec::scene::Scene;
@@ -236,6 +237,6 @@ fn compile_with_scene_prints_the_culled_lights() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("light 1 (spot) for object 1 (sphere, material `matte`)"), "{err}");
     assert!(err.contains("light 3 (light culling)") || err.contains("statement 1 (light 3)"), "{err}");
-    let plan = shadec::planner::PassPlan::from_ron(&String::from_utf8_lossy(&out.stdout)).unwrap();
+    let plan = shadec::pipeline::PassPlan::from_ron(&String::from_utf8_lossy(&out.stdout)).unwrap();
     assert_eq!(plan.passes.len(), 2);
 }

@@ -90,7 +90,7 @@ fn failed(what: &str, message: impl std::fmt::Display) -> BenchError {
 
 /// A program planned for a target and bound to a scene, ready to render.
 pub struct Prepared {
-    pub planned: crate::planner::Planned,
+    pub planned: crate::pipeline::Planned,
     /// The lowered program, before planning: what [`Prepared::meaning`] reads.
     pub module: crate::ir::Module,
     pub program: crate::parser::ast::Program,

@@ -127,7 +127,7 @@ fn report(args: &CompileArgs, file: &SourceFile, diagnostics: &[shadec::diag::Di
 
 /// `--emit wgsl|spirv|glsl` in a build without naga.
 #[cfg(not(feature = "wgsl"))]
-fn shaders_out(_: &CompileArgs, _: &SourceFile, _: &str, _: &shadec::planner::Planned) -> ExitCode {
+fn shaders_out(_: &CompileArgs, _: &SourceFile, _: &str, _: &shadec::pipeline::Planned) -> ExitCode {
     let _ = FidelityArg::Exact;
     eprintln!("error: this shadec was built without the `wgsl` feature: rebuild with default features to emit shaders");
     ExitCode::from(EXIT_USAGE_OR_IO)
@@ -139,7 +139,7 @@ fn shaders_out(
     args: &CompileArgs,
     file: &SourceFile,
     text: &str,
-    planned: &shadec::planner::Planned,
+    planned: &shadec::pipeline::Planned,
 ) -> ExitCode {
     use shadec::backends::wgsl::{codegen, emit};
     let fidelity = match args.fidelity {
@@ -209,7 +209,7 @@ fn pass_path(out: &std::path::Path, n: usize) -> std::path::PathBuf {
 }
 
 /// `compile --scene`: what specialization removed for this scene, and why.
-fn report_removed(plan: &shadec::planner::PassPlan) {
+fn report_removed(plan: &shadec::pipeline::PassPlan) {
     if plan.removed.is_empty() {
         eprintln!("specialization: nothing removed for this scene");
         return;

@@ -29,11 +29,11 @@
 use std::collections::{HashMap, HashSet};
 
 use super::affine::Builder;
-use super::plan::Removed;
 use crate::ir::{
     BinaryOp, Expr, FbChannel, Frequency, Handle, Module, Statement, Table, Ty, UnaryOp, Vector, VectorId,
 };
 use crate::parser::ast::{CombineMode, VectorKind};
+use crate::pipeline::Removed;
 use crate::span::Span;
 
 /// A statement that depends on light 0 and was replicated.

@@ -24,18 +24,15 @@
 
 pub mod affine;
 pub mod fit;
-pub mod interface;
 pub mod lights;
-pub mod plan;
 pub mod relevance;
 pub mod specialize;
 pub mod split;
 
 use std::collections::HashMap;
 
-pub use interface::PassInterface;
-pub use plan::{
-    BlendMode, FragmentWork, Geometry, Pass, PassPlan, Removed, RenderTarget, TextureBinding, Value,
+use crate::pipeline::{
+    BlendMode, FragmentWork, Geometry, Pass, PassPlan, Planned, Removed, RenderTarget, TextureBinding, Value,
     VertexWork,
 };
 pub use split::{FitCheck, Overflow};
@@ -46,34 +43,14 @@ use split::{Dest, Piece, SplitCache, Splitter};
 use crate::diag::Diagnostic;
 use crate::ir::{self, BinaryOp, Expr, FbChannel, Frequency, Handle, Module, Statement, Table, Usage};
 use crate::parser::ast::CombineMode;
+use crate::pipeline::{BlendState, CullMode, DepthState, RenderState, StencilOp, StencilState};
 use crate::profile::Profile;
-use crate::renderer::{BlendState, CullMode, DepthState, RenderState, StencilOp, StencilState};
 use crate::span::{LineIndex, Span};
 
 /// At most this many consecutive statements are fused into one value (the
 /// fusion search is quadratic in the run; eight is more than any pass of
 /// the papers combines).
 pub const MAX_FUSE: usize = 8;
-
-/// A plan together with the IR it refers to (value ids are handle indices
-/// into `module.exprs`): what backends and renderers take.
-#[derive(Clone, Debug)]
-pub struct Planned {
-    pub module: Module,
-    pub plan: PassPlan,
-    /// The target's register-combiner limits (`None` off the combiner
-    /// targets): what each pass's setup is generated under downstream
-    /// (fixed9 renders, hardware fidelity), so that a profile given as a
-    /// `.ron` file keeps its own limits — the plan names its target only by
-    /// name, and a name is not a profile (issue 17).
-    pub combiners: Option<crate::backends::combiners::CombinerLimits>,
-}
-
-impl Planned {
-    pub fn handle(&self, id: u32) -> Handle<Expr> {
-        Handle::new(id as usize)
-    }
-}
 
 /// A planned (possibly fused) statement: its statements, form, passes and reason.
 type Chosen = (Vec<usize>, Form, Vec<Piece>, String);
@@ -593,7 +570,7 @@ pub fn whole_form(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result
         if Some(cond) == self_read(m, st, FbChannel::Stencil) {
             form.stencil = Some(StencilState {
                 enabled: true,
-                func: crate::renderer::CompareFunc::NotEqual,
+                func: crate::pipeline::CompareFunc::NotEqual,
                 reference: 0,
                 ..StencilState::DISABLED
             });
@@ -752,10 +729,10 @@ fn stencil_write(m: &Module, st: &Statement, value: Handle<Expr>) -> Option<Form
     // are x′"), not the object x of the statement's index.
     let Expr::Depth(drawn_at) = m.exprs[if stored_is_b { a } else { b }] else { return None };
     let func = match (op, stored_is_b) {
-        (BinaryOp::Gt, true) | (BinaryOp::Lt, false) => crate::renderer::CompareFunc::Greater,
-        (BinaryOp::Ge, true) | (BinaryOp::Le, false) => crate::renderer::CompareFunc::GreaterEqual,
-        (BinaryOp::Lt, true) | (BinaryOp::Gt, false) => crate::renderer::CompareFunc::Less,
-        (BinaryOp::Le, true) | (BinaryOp::Ge, false) => crate::renderer::CompareFunc::LessEqual,
+        (BinaryOp::Gt, true) | (BinaryOp::Lt, false) => crate::pipeline::CompareFunc::Greater,
+        (BinaryOp::Ge, true) | (BinaryOp::Le, false) => crate::pipeline::CompareFunc::GreaterEqual,
+        (BinaryOp::Lt, true) | (BinaryOp::Gt, false) => crate::pipeline::CompareFunc::Less,
+        (BinaryOp::Le, true) | (BinaryOp::Ge, false) => crate::pipeline::CompareFunc::LessEqual,
         _ => return None,
     };
     Some(Form {
@@ -764,7 +741,7 @@ fn stencil_write(m: &Module, st: &Statement, value: Handle<Expr>) -> Option<Form
         condition: None,
         stencil: Some(StencilState {
             enabled: true,
-            func: crate::renderer::CompareFunc::Always,
+            func: crate::pipeline::CompareFunc::Always,
             reference: 1,
             pass: StencilOp::Replace,
             ..StencilState::DISABLED

@@ -8,9 +8,9 @@
 use std::collections::HashMap;
 
 use super::affine::Builder;
-use super::plan::Removed;
 use crate::ir::{BinaryOp, Expr, FbChannel, Handle, Module, Statement, Table};
 use crate::parser::ast::CombineMode;
+use crate::pipeline::Removed;
 use crate::span::Span;
 
 /// Simplifies every statement of `m` in place; returns what went.

@@ -31,9 +31,9 @@ use std::collections::HashMap;
 use std::rc::Rc;
 
 use super::affine::{affine, contains, Builder};
-use super::plan::BlendMode;
 use crate::ir::{BinaryOp, Expr, Handle, Module, Texture, Ty, Usage};
 use crate::parser::ast::{CombineMode, TextureFormat, TextureKind};
+use crate::pipeline::BlendMode;
 use crate::span::Span;
 
 /// Chains up to this many operands are partitioned exactly.

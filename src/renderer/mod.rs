@@ -20,14 +20,15 @@ pub mod plan;
 mod raster;
 mod tile;
 
-pub use adaptive::{draw_adaptive, image_error, AdaptiveSettings, AdaptiveStats, EdgeMode, ImageError};
-pub use framebuffer::{
-    quantize_unorm8, BlendEquation, BlendFactor, BlendState, ColorFormat, CompareFunc, DepthState,
-    Framebuffer, StencilOp, StencilState, TILE,
+/// The fixed-function state the rasterizer applies is the plan contract's.
+pub use crate::pipeline::{
+    BlendEquation, BlendFactor, BlendState, CompareFunc, CullMode, DepthState, RenderState, StencilOp,
+    StencilState,
 };
+pub use adaptive::{draw_adaptive, image_error, AdaptiveSettings, AdaptiveStats, EdgeMode, ImageError};
+pub use framebuffer::{quantize_unorm8, ColorFormat, Framebuffer, TILE};
 pub use raster::{Fragment, SUBPIXEL_BITS};
 
-use serde::{Deserialize, Serialize};
 use thiserror::Error;
 
 #[derive(Debug, Error)]
@@ -85,36 +86,6 @@ pub trait FragmentStage: Sync {
     /// vertex varyings; `fragment` gives the pixel position, depth, facing and
     /// screen-space derivatives; `out` receives RGBA.
     fn shade(&self, fragment: &Fragment, varyings: &[f32], out: &mut [f32; 4]) -> FragmentResult;
-}
-
-/// Which faces are culled. Front faces are counter-clockwise in normalized
-/// device coordinates (y up), as in GL's default `glFrontFace(GL_CCW)`.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-pub enum CullMode {
-    None,
-    Back,
-    Front,
-}
-
-/// The fixed-function state of a pass.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct RenderState {
-    pub cull: CullMode,
-    pub depth: DepthState,
-    pub stencil: StencilState,
-    pub blend: BlendState,
-}
-
-impl Default for RenderState {
-    /// Back-face culling, depth `Less` with write, no stencil, replace.
-    fn default() -> RenderState {
-        RenderState {
-            cull: CullMode::Back,
-            depth: DepthState::LESS_WRITE,
-            stencil: StencilState::DISABLED,
-            blend: BlendState::REPLACE,
-        }
-    }
 }
 
 /// One rendering pass over one mesh.

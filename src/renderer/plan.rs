@@ -1,4 +1,4 @@
-//! Executes a pass plan ([`crate::planner::Planned`]) on the CPU for a
+//! Executes a pass plan ([`crate::pipeline::Planned`]) on the CPU for a
 //! [`Scene`]: the renderer behind `shadec render` (issue 6, parts 3-4).
 //!
 //! Per pass, following [`PassInterface`] (the contract every executor
@@ -73,7 +73,7 @@ use super::{
 };
 use crate::backends::combiners::{self, PixelEmulator, PixelRegisters, Precision};
 use crate::ir::{self, eval::Value, Expr, FbChannel, Frequency, Handle, Module, TextureId, Ty};
-use crate::planner::{Geometry, PassInterface, Planned, RenderTarget};
+use crate::pipeline::{Geometry, PassInterface, Planned, RenderTarget};
 use crate::scene::bind::{self, BoundObject, BoundTexture, ExactFunction, TextureDecl, TextureQuality};
 use crate::scene::{Scene, SceneAssets};
 use crate::textures::{generators, unit, Filter, Level, TexelFormat, Texture, Texture2D, Wrap};

@@ -1,5 +1,5 @@
 //! The scene binder: what a program's leaves are worth for a scene — the
-//! inputs of [`crate::planner::PassInterface`] that every executor binds.
+//! inputs of [`crate::pipeline::PassInterface`] that every executor binds.
 //!
 //! - **Vertex leaves**, per mesh vertex, as `[f64; 4]` (a point has w = 1, a
 //!   direction w = 0, coordinates z = w = 0):

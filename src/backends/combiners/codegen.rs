@@ -2320,7 +2320,7 @@ mod tests {
 /// combiner machine: what `fixed9` models on any target). `Err` is the
 /// plan's located verdict when the plan was made for this machine
 /// (`not generated: LINE:COL: …`), else the generator's reason.
-pub fn generate_for_pass(planned: &crate::planner::Planned, index: usize) -> Result<Generated, String> {
+pub fn generate_for_pass(planned: &crate::pipeline::Planned, index: usize) -> Result<Generated, String> {
     let pass = &planned.plan.passes[index];
     // The plan's own target's limits; a GeForce3 models the combiners for a
     // target that has none (the fixed9 render of a wgsl plan).

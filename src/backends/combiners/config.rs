@@ -9,6 +9,9 @@
 
 use serde::{Deserialize, Serialize};
 
+/// The limits a setup is validated against come from the target profile.
+pub use crate::profile::CombinerLimits;
+
 /// An RGBA colour with components nominally in [0, 1].
 pub type Color = [f32; 4];
 
@@ -482,32 +485,5 @@ impl CombinerConfig {
 
     pub fn from_ron(text: &str) -> Result<CombinerConfig, ron::error::SpannedError> {
         ron::from_str(text)
-    }
-}
-
-/// What a target profile allows (Section 4.2.2: GeForce has two general
-/// stages, later GPUs more; NV_register_combiners2 adds per-stage constants).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub struct CombinerLimits {
-    pub general_combiners: usize,
-    pub per_stage_constants: bool,
-    /// Texture units, hence `texture0..` registers (Table 2: 8 + units).
-    pub texture_units: u8,
-}
-
-impl CombinerLimits {
-    /// GeForce 256 / Quadro: two general combiners, two texture units.
-    pub const GEFORCE256: CombinerLimits =
-        CombinerLimits { general_combiners: 2, per_stage_constants: false, texture_units: 2 };
-    /// GeForce3: eight general combiners, per-stage constants, four units.
-    pub const GEFORCE3: CombinerLimits =
-        CombinerLimits { general_combiners: 8, per_stage_constants: true, texture_units: 4 };
-
-    pub fn by_name(name: &str) -> Option<CombinerLimits> {
-        match name {
-            "geforce256" => Some(CombinerLimits::GEFORCE256),
-            "geforce3" => Some(CombinerLimits::GEFORCE3),
-            _ => None,
-        }
     }
 }

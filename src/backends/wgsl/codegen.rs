@@ -101,7 +101,7 @@ use naga::{
 use crate::diag::Diagnostic;
 use crate::ir::{self, BinaryOp, Expr, FbChannel, Frequency, MathFunction, Ty, UnaryOp};
 use crate::parser::ast::{CombineMode, TextureFormat, TextureKind};
-use crate::planner::{Geometry, PassInterface, Planned, RenderTarget};
+use crate::pipeline::{Geometry, PassInterface, Planned, RenderTarget};
 use crate::span::Span;
 
 pub const VERTEX_ENTRY: &str = "vs_main";

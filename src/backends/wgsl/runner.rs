@@ -26,7 +26,7 @@ use std::sync::Arc;
 use image::RgbaImage;
 use wgpu::util::DeviceExt;
 
-use crate::renderer::{
+use crate::pipeline::{
     BlendEquation, BlendFactor, BlendState, CompareFunc, CullMode, RenderState, StencilOp, StencilState,
 };
 

@@ -133,7 +133,7 @@ use super::runner::{
 };
 use crate::ir::{self, Expr};
 use crate::parser::ast::Program;
-use crate::planner::{Geometry, Planned, RenderTarget};
+use crate::pipeline::{Geometry, Planned, RenderTarget};
 use crate::scene::bind::{self, BoundObject, BoundTexture, TextureQuality};
 use crate::scene::{Scene, SceneAssets};
 use crate::textures::{Filter, Level, TexelFormat, Texture, Texture2D, Wrap};

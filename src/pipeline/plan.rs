@@ -9,7 +9,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::renderer::RenderState;
+use super::RenderState;
 
 /// The plan of a whole program on one target.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -147,8 +147,8 @@ pub enum BlendMode {
 }
 
 impl BlendMode {
-    pub fn render_state(self) -> crate::renderer::BlendState {
-        use crate::renderer::BlendState as B;
+    pub fn render_state(self) -> super::BlendState {
+        use super::BlendState as B;
         match self {
             BlendMode::Replace => B::REPLACE,
             BlendMode::Add => B::ADD,
@@ -156,10 +156,9 @@ impl BlendMode {
             BlendMode::DstAlphaAdd => B::DEST_ALPHA_ADD,
             BlendMode::DstAlphaModulate => B::DEST_ALPHA_MODULATE,
             BlendMode::AlphaBlend => B::ALPHA_BLEND,
-            BlendMode::DstAlphaMix => B::factors(
-                crate::renderer::BlendFactor::OneMinusDstAlpha,
-                crate::renderer::BlendFactor::DstAlpha,
-            ),
+            BlendMode::DstAlphaMix => {
+                B::factors(super::BlendFactor::OneMinusDstAlpha, super::BlendFactor::DstAlpha)
+            }
         }
     }
 
