@@ -116,8 +116,8 @@ fn main() {
 #[cfg(feature = "gpu")]
 fn peer(s: &Setup, fixed9: Duration, w: u32, h: u32) {
     use shadec::backends::wgsl::codegen::Fidelity;
-    use shadec::backends::wgsl::runner::Gpu;
-    use shadec::backends::wgsl::scene_run::ScenePlan;
+    use shadec::gpu::runner::Gpu;
+    use shadec::gpu::scene_run::ScenePlan;
     let gpu = match Gpu::new() {
         Ok(g) => g,
         Err(e) => {

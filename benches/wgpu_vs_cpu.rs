@@ -12,8 +12,8 @@ use std::path::Path;
 use std::time::Duration;
 
 use shadec::backends::wgsl::codegen::Fidelity;
-use shadec::backends::wgsl::runner::{run_passes, Gpu, Target};
-use shadec::backends::wgsl::scene_run::ScenePlan;
+use shadec::gpu::runner::{run_passes, Gpu, Target};
+use shadec::gpu::scene_run::ScenePlan;
 use shadec::renderer::plan::{Mode, PlanRenderer};
 use shadec::scene::Scene;
 

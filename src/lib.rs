@@ -7,6 +7,8 @@
 pub mod backends;
 pub mod bench;
 pub mod diag;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod io;
 pub mod ir;
 pub mod meaning;

@@ -10,7 +10,7 @@
 
 mod common;
 
-use shadec::backends::wgsl::runner::{
+use shadec::gpu::runner::{
     run_passes, validate_shader, DepthFormat, GpuError, PassTarget, RunPass, RunShader, RunTexture,
     SamplerSettings, ShaderSource, Target, TexelUpload, TextureData, VertexData,
 };

@@ -1,5 +1,5 @@
 //! Agreement of the two executors of a plan (issue 5, part 4): the wgpu
-//! image (`backends::wgsl::scene_run`, Mesa's lavapipe in CI) against the CPU
+//! image (`gpu::scene_run`, Mesa's lavapipe in CI) against the CPU
 //! renderer's f32 mode (`renderer::plan`), bound to the same scene data,
 //! within 2/255 per channel on every pixel not on a triangle edge; and
 //! `--fidelity hardware` against the fixed9 mode within 1/255. Every
@@ -38,13 +38,13 @@ mod common;
 use std::path::Path;
 
 use shadec::backends::wgsl::codegen::Fidelity;
-use shadec::backends::wgsl::runner::{
+use shadec::gpu::runner::{
     run_passes, Gpu, PassTarget, RunPass, RunShader, ShaderSource, Target, VertexData,
 };
-use shadec::backends::wgsl::scene_run::ScenePlan;
+use shadec::gpu::scene_run::ScenePlan;
 use shadec::planner::compile_source;
 use shadec::profile::Profile;
-use shadec::renderer::plan::{scene_bounds, Mode, PlanRenderer, RoundingBias};
+use shadec::renderer::plan::{Mode, PlanRenderer, RoundingBias};
 use shadec::renderer::{BlendState, CompareFunc, CullMode, DepthState, RenderState, StencilState};
 use shadec::scene::bind::{light_view_projection, BoundObject};
 use shadec::scene::{Scene, SceneAssets};
@@ -90,7 +90,7 @@ fn fs_main(in: VsOut) -> @location(0) vec4<f32> { return in.id; }
 /// Triangle IDs per pixel (0: background), from the binder's camera clip
 /// matrices, with depth test.
 fn triangle_ids(gpu: &Gpu, scene: &Scene, assets: &SceneAssets) -> Vec<u32> {
-    let (center, radius) = scene_bounds(assets);
+    let (center, radius) = assets.bounding_sphere();
     let light = light_view_projection(scene.lights.first(), center, radius);
     let state = RenderState {
         cull: CullMode::None,
@@ -226,9 +226,9 @@ fn try_agreement_in(
     // the CPU renderer's f32 mode (the picture is read back in 8 bits, as
     // the CPU's is written). fixed9: RGBA8 between passes, as the CPU's.
     let gpu_target = if fidelity == Fidelity::Hardware {
-        shadec::backends::wgsl::runner::Target::new(W, H)
+        shadec::gpu::runner::Target::new(W, H)
     } else {
-        shadec::backends::wgsl::runner::Target::float(W, H)
+        shadec::gpu::runner::Target::float(W, H)
     };
     let gpu_img = plan.render_into(gpu, &gpu_target).map_err(|e| format!("wgpu: {e}"))?.into_raw();
     let ids = triangle_ids(gpu, scene, &assets);
@@ -515,7 +515,7 @@ fn every_example_agrees_on_the_torus() {
 // for bit, on coordinates both sides compute exactly (dyadic rationals: no
 // rounding anywhere before the sampler).
 
-use shadec::backends::wgsl::runner::{
+use shadec::gpu::runner::{
     AddressMode, Filter as RunFilter, RunTexture, SamplerSettings, TexelUpload, TextureData,
 };
 use shadec::textures::{unit, Filter, Level, TexelFormat, Texture2D, TextureCube, Wrap};

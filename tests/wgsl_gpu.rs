@@ -13,7 +13,7 @@ use shadec::backends::combiners::config::CombinerLimits;
 use shadec::backends::combiners::emulator::{emulate, Inputs, Precision};
 use shadec::backends::combiners::rc1;
 use shadec::backends::wgsl::codegen::{self, uniform_bytes, Fidelity};
-use shadec::backends::wgsl::runner::{
+use shadec::gpu::runner::{
     run_passes, PassTarget, RunPass, RunShader, RunTexture, SamplerSettings, ShaderSource, Target,
     TexelUpload, TextureData, VertexData,
 };

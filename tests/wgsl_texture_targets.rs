@@ -15,8 +15,8 @@ mod common;
 use std::path::Path;
 
 use shadec::backends::wgsl::codegen::Fidelity;
-use shadec::backends::wgsl::runner::{Gpu, Target};
-use shadec::backends::wgsl::scene_run::ScenePlan;
+use shadec::gpu::runner::{Gpu, Target};
+use shadec::gpu::scene_run::ScenePlan;
 use shadec::planner::compile_source;
 use shadec::profile::Profile;
 use shadec::scene::Scene;

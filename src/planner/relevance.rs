@@ -612,7 +612,7 @@ pub fn cull(
     let scene = spec.scene;
     let uniforms = bind::uniforms(m, scene);
     let (w, h) = scene.resolution;
-    let (center, radius) = crate::renderer::plan::scene_bounds(spec.assets);
+    let (center, radius) = spec.assets.bounding_sphere();
     let light_clip = bind::light_view_projection(scene.lights.first(), center, radius);
     let mut objects: Vec<BoundObject> = spec
         .assets

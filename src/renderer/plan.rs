@@ -286,7 +286,7 @@ impl<'a> PlanRenderer<'a> {
         let format = if mode == Mode::Fixed9 { ColorFormat::Rgba8 } else { ColorFormat::F32 };
         let aspect = width as f32 / height as f32;
         // Light 0's projection looks at the centre of the objects.
-        let (center, radius) = scene_bounds(self.assets);
+        let (center, radius) = self.assets.bounding_sphere();
         let light_clip = bind::light_view_projection(self.scene.lights.first(), center, radius);
         let mut objects: Vec<BoundObject> = self
             .assets
@@ -526,23 +526,6 @@ fn add(total: &mut DrawStats, s: &DrawStats) {
     total.fragments += s.fragments;
     total.shaded += s.shaded;
     total.written += s.written;
-}
-
-/// The centre and radius of the world-space bounding sphere of all meshes.
-pub fn scene_bounds(assets: &SceneAssets) -> (glam::Vec3, f32) {
-    let mut lo = glam::Vec3::splat(f32::INFINITY);
-    let mut hi = glam::Vec3::splat(f32::NEG_INFINITY);
-    for (mesh, model) in &assets.meshes {
-        for p in &mesh.positions {
-            let w = model.transform_point3(*p);
-            lo = lo.min(w);
-            hi = hi.max(w);
-        }
-    }
-    if !lo.is_finite() || !hi.is_finite() {
-        return (glam::Vec3::ZERO, 1.0);
-    }
-    ((lo + hi) * 0.5, ((hi - lo) * 0.5).length().max(1e-3))
 }
 
 /// A texture or temporary a pass rendered: its pixels (for lookups by

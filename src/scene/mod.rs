@@ -227,6 +227,27 @@ pub struct SceneAssets {
 
 use crate::textures::generators::{MAX_CUBE_FACE, MAX_TABLE_SIDE};
 
+impl SceneAssets {
+    /// The centre and radius of the world-space bounding sphere of all
+    /// meshes: where light projections aim (seeds/001's `πl`) and what light
+    /// relevance bounds against.
+    pub fn bounding_sphere(&self) -> (Vec3, f32) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for (mesh, model) in &self.meshes {
+            for p in &mesh.positions {
+                let w = model.transform_point3(*p);
+                lo = lo.min(w);
+                hi = hi.max(w);
+            }
+        }
+        if !lo.is_finite() || !hi.is_finite() {
+            return (Vec3::ZERO, 1.0);
+        }
+        ((lo + hi) * 0.5, ((hi - lo) * 0.5).length().max(1e-3))
+    }
+}
+
 impl Scene {
     /// Reads, parses and checks a scene file.
     pub fn load(path: &Path) -> Result<Scene, SceneError> {

@@ -2,7 +2,7 @@
 //! fail with the fix, unless `SHADEC_ALLOW_NO_GPU=1` outside CI — the only
 //! allowed skip, and it says so.
 
-use shadec::backends::wgsl::runner::Gpu;
+use shadec::gpu::runner::Gpu;
 
 /// A device, or `None` only for the documented skip.
 pub fn gpu() -> Option<Gpu> {

@@ -3,22 +3,16 @@
 //!
 //! - `codegen`: one `naga::Module` per pass of a plan (vertex entry point
 //!   `vs_main`, fragment entry point `fs_main`), following
-//!   `planner::PassInterface`, validated by naga; `--fidelity exact|hardware`.
+//!   `pipeline::PassInterface`, validated by naga; `--fidelity exact|hardware`.
 //! - `emit`: the modules written as WGSL (one document, a header comment per
 //!   pass with its source line), SPIR-V and GLSL.
 //! - `rc1`: legacy `!!RC1.0` combiner setups as WGSL, bit-exact with the
 //!   fixed9 emulator (`shadec translate`).
-//! - `runner` (feature `gpu`): render a list of passes — WGSL or a
-//!   `naga::Module`, vertices, textures, uniforms and the GL-style
-//!   fixed-function state of `renderer::RenderState` — into one RGBA8 target
-//!   and read it back. Works on Mesa's lavapipe where there is no GPU.
+//!
+//! Running the modules on wgpu is the executor `crate::gpu`'s work.
 
 pub mod codegen;
 pub mod emit;
 pub mod rc1;
-#[cfg(feature = "gpu")]
-pub mod runner;
-#[cfg(feature = "gpu")]
-pub mod scene_run;
 
 pub use codegen::{generate, Fidelity, PassShader, FRAGMENT_ENTRY, VERTEX_ENTRY};

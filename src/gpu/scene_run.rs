@@ -126,11 +126,11 @@ use std::collections::BTreeMap;
 
 use image::RgbaImage;
 
-use super::codegen::{self, uniform_bytes, Fidelity, PassShader};
 use super::runner::{
     self, AddressMode, ColorTarget, Gpu, GpuError, LoadedTexture, PassTarget, RunPass, RunShader, RunTexture,
     SamplerSettings, ShaderSource, Target, TexelUpload, TextureData, VertexData,
 };
+use crate::backends::wgsl::codegen::{self, uniform_bytes, Fidelity, PassShader};
 use crate::ir::{self, Expr};
 use crate::parser::ast::Program;
 use crate::pipeline::{Geometry, Planned, RenderTarget};
@@ -224,7 +224,7 @@ impl<'a> ScenePlan<'a> {
         let (width, height) = (frame.width, frame.height);
         let m = &self.planned.module;
         let aspect = width as f32 / height as f32;
-        let (center, radius) = crate::renderer::plan::scene_bounds(self.assets);
+        let (center, radius) = self.assets.bounding_sphere();
         let light_clip = bind::light_view_projection(self.scene.lights.first(), center, radius);
         let mut objects: Vec<BoundObject> = self
             .assets

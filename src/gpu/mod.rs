@@ -1,0 +1,12 @@
+//! The wgpu executor (feature `gpu`): runs the WGSL backend's modules
+//! offscreen on whatever adapter there is — a real GPU, or Mesa's lavapipe
+//! on the CPU.
+//!
+//! - `runner`: render a list of passes — WGSL or a `naga::Module`,
+//!   vertices, textures, uniforms and the GL-style fixed-function state of
+//!   `pipeline::RenderState` — into one target and read it back;
+//! - `scene_run`: a whole plan on a scene, bound by the same scene binder
+//!   as the CPU renderer (`scene::bind`), rendered textures included.
+
+pub mod runner;
+pub mod scene_run;
