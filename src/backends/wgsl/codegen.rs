@@ -418,6 +418,57 @@ enum GenError {
 type R<T> = Result<T, GenError>;
 type NH = naga::Handle<Expression>;
 
+/// A node's value in a body, and whether it is an arithmetic result: a
+/// register write, which hardware fidelity rounds ([`Gen::finish`]).
+#[derive(Clone, Copy)]
+struct Computed {
+    value: NH,
+    arith: bool,
+}
+
+impl Computed {
+    /// A value that is no register write of its own (an input, a texel, a 0/1).
+    fn plain(value: NH) -> Computed {
+        Computed { value, arith: false }
+    }
+    /// An arithmetic result.
+    fn arith(value: NH) -> Computed {
+        Computed { value, arith: true }
+    }
+}
+
+/// naga's builtin for a math function, and whether its arguments are
+/// splatted to the result's width; `None` for the range mappings
+/// (`expand`, `half_bias`, `compress`, [`Gen::range_mapping`]).
+fn naga_math(fun: MathFunction) -> Option<(naga::MathFunction, bool)> {
+    use naga::MathFunction as F;
+    let unary = |f| Some((f, false));
+    match fun {
+        MathFunction::Normalize => unary(F::Normalize),
+        MathFunction::Length => unary(F::Length),
+        MathFunction::Cross => unary(F::Cross),
+        MathFunction::Reflect => unary(F::Reflect),
+        MathFunction::Max => Some((F::Max, true)),
+        MathFunction::Min => Some((F::Min, true)),
+        MathFunction::Clamp => Some((F::Clamp, true)),
+        MathFunction::Saturate => unary(F::Saturate),
+        MathFunction::Abs => unary(F::Abs),
+        MathFunction::Sign => unary(F::Sign),
+        MathFunction::Sqrt => unary(F::Sqrt),
+        MathFunction::Rsqrt => unary(F::InverseSqrt),
+        MathFunction::Exp => unary(F::Exp),
+        MathFunction::Log => unary(F::Log),
+        MathFunction::Sin => unary(F::Sin),
+        MathFunction::Cos => unary(F::Cos),
+        MathFunction::Floor => unary(F::Floor),
+        MathFunction::Fract => unary(F::Fract),
+        MathFunction::Step => Some((F::Step, true)),
+        MathFunction::Smoothstep => Some((F::SmoothStep, true)),
+        MathFunction::Mix => Some((F::Mix, true)),
+        MathFunction::Expand | MathFunction::HalfBias | MathFunction::Compress => None,
+    }
+}
+
 #[derive(Clone, Copy, PartialEq, Eq)]
 enum Stage {
     Vertex,
@@ -471,6 +522,44 @@ impl Body {
     }
     fn lit(&mut self, v: f32) -> NH {
         self.plain(Expression::Literal(Literal::F32(v)))
+    }
+    /// The value of node `h`, computed earlier in this body.
+    fn val(&self, h: ir::Handle<Expr>) -> R<NH> {
+        self.vals
+            .get(&h)
+            .copied()
+            .ok_or_else(|| GenError::Internal(format!("value %{} used before it is computed", h.index())))
+    }
+    /// The fragment stage, where values are per sample.
+    fn per_sample(&self) -> bool {
+        self.stage == Stage::Fragment
+    }
+    /// Loads member `index` of the uniform block `var`.
+    fn load_member(&mut self, var: naga::Handle<GlobalVariable>, index: u32) -> NH {
+        let g = self.plain(Expression::GlobalVariable(var));
+        let p = self.emit(Expression::AccessIndex { base: g, index });
+        self.emit(Expression::Load { pointer: p })
+    }
+    /// Samples `image` with `sampler` at `coordinate` (in `array_index`'s layer).
+    fn sample(
+        &mut self,
+        image: NH,
+        sampler: NH,
+        coordinate: NH,
+        array_index: Option<NH>,
+        level: naga::SampleLevel,
+    ) -> NH {
+        self.emit(Expression::ImageSample {
+            image,
+            sampler,
+            gather: None,
+            coordinate,
+            array_index,
+            offset: None,
+            level,
+            depth_ref: None,
+            clamp_to_edge: false,
+        })
     }
     fn name(&mut self, h: NH, name: &str) {
         let needs_emit = !matches!(
@@ -1620,572 +1709,679 @@ impl<'a> Gen<'a> {
         if b.vals.contains_key(&n) || b.fat.contains_key(&n) {
             return Ok(());
         }
-        let m = self.m;
-        let info = *m.info(n);
-        let w = width(info.ty);
-        let e = m.exprs[n].clone();
-        let val = |b: &Body, h: ir::Handle<Expr>| -> R<NH> {
-            b.vals
-                .get(&h)
-                .copied()
-                .ok_or_else(|| GenError::Internal(format!("value %{} used before it is computed", h.index())))
+        let Some(Computed { value, arith }) = self.compute(b, n)? else {
+            return Ok(());
         };
-        let wof = |h: ir::Handle<Expr>| width(m.info(h).ty);
-        use naga::BinaryOperator as B;
-        use naga::MathFunction as F;
-        let sample = b.stage == Stage::Fragment;
-        let mut arith = false; // a register write in hardware fidelity
-        let v: NH = match &e {
-            Expr::Constant(c) => {
-                let register = self.fidelity == Fidelity::Hardware
-                    && sample
-                    && !self.addresses_only(n)
-                    && c.values().iter().all(|v| v.abs() <= 1.0);
-                if register {
-                    self.on_grid.insert(n);
-                }
-                self.constant(b, c, register)
-            }
-            Expr::Uniform(u) => {
-                let Some(var) = self.uniforms_var else {
-                    return Err(GenError::Internal("uniform without a block".into()));
-                };
-                let idx = self
-                    .iface
-                    .uniforms
-                    .iter()
-                    .position(|x| x == u)
-                    .ok_or_else(|| GenError::Internal("uniform not in the interface".into()))?;
-                let g = b.plain(Expression::GlobalVariable(var));
-                let p = b.emit(Expression::AccessIndex {
-                    base: g,
-                    index: (self.iface.projections.len() + idx) as u32,
-                });
-                let l = b.emit(Expression::Load { pointer: p });
-                // As the CPU's fixed9 reads a uniform: as given (what is
-                // computed from it is folded, `finish`).
-                self.narrow(b, l, 4, w)
-            }
+        b.vals.insert(n, value);
+        self.finish(b, n, value, self.width_of(n), arith)
+    }
+
+    /// The value of node `n`, by kind of expression; `None` for a node read
+    /// only through others (a fat lookup, an unused pixel, a bundle).
+    fn compute(&mut self, b: &mut Body, n: ir::Handle<Expr>) -> R<Option<Computed>> {
+        let m = self.m;
+        let computed = match &m.exprs[n] {
+            Expr::Constant(c) => self.constant_node(b, n, c),
+            Expr::Uniform(u) => Computed::plain(self.uniform_value(b, n, *u)?),
             Expr::VertexPosition(_) | Expr::TexCoord { .. } | Expr::Vector { .. } => {
-                if info.freq == Frequency::Texel {
-                    return self.unsupported("a shading vector as a function of the texel coordinate (texture shading, `s δu`): PassInterface binds per-vertex inputs only", Some(n));
-                }
-                if sample {
-                    return Err(GenError::Internal(format!(
-                        "per-vertex value %{} read per sample without δ",
-                        n.index()
-                    )));
-                }
-                let i = self.iface.vertex_leaves.iter().position(|x| *x == n);
-                let Some(i) = i else {
-                    return self.unsupported(
-                        format!(
-                            "a {} shading value here (only per-vertex inputs are bound)",
-                            info.freq.name()
-                        ),
-                        Some(n),
-                    );
-                };
-                let a = b.args[i];
-                self.narrow(b, a, 4, w)
+                Computed::plain(self.vertex_input(b, n)?)
             }
             Expr::TexelCoord => match b.texel_uv {
-                Some(uv) => uv,
+                Some(uv) => Computed::plain(uv),
                 None => return self.unsupported("the texel coordinate δu outside a texel pass", Some(n)),
             },
-            Expr::Pixel { .. } => {
-                if !sample {
-                    return self.unsupported("a pixel position per vertex", Some(n));
-                }
-                // Reads at the pixel use the fragment's own coordinates; the
-                // position as a value (`π⁻¹ xs`, `xs.x`) is built only if used.
-                let at_pixel = |e: &Expr| match e {
-                    Expr::FramebufferRead { position, .. } => *position == n,
-                    Expr::Lookup { coords, .. } => *coords == n,
-                    Expr::Depth(p) => *p == n && self.depth_is_fragments(n),
-                    _ => false,
-                };
-                if !self
-                    .pass_nodes
-                    .iter()
-                    .any(|h| m.exprs[*h].operands().contains(&n) && !at_pixel(&m.exprs[*h]))
-                {
-                    return Ok(());
-                }
-                self.pixel_position(b, n)?
-            }
-            Expr::Project { projection, value } => {
-                let x = val(b, *value)?;
-                match m.info(*value).ty {
-                    Ty::Position => {
-                        let idx =
-                            self.iface.projections.iter().position(|p| p == projection).ok_or_else(|| {
-                                GenError::Internal("projection not in the interface".into())
-                            })?;
-                        let var = self
-                            .uniforms_var
-                            .ok_or_else(|| GenError::Internal("projection without a block".into()))?;
-                        let g = b.plain(Expression::GlobalVariable(var));
-                        let p = b.emit(Expression::AccessIndex { base: g, index: idx as u32 });
-                        let mat = b.emit(Expression::Load { pointer: p });
-                        self.binop(b, B::Multiply, mat, x)
-                    }
-                    Ty::Vec3 => {
-                        // Sphere-map texgen (seeds/001 (7)): m = 2·sqrt(Rx² + Ry² + (Rz + 1)²),
-                        // (s, t) = (Rx/m + ½, Ry/m + ½).
-                        let one = b.lit(1.0);
-                        let zero = b.lit(0.0);
-                        let vec3 = self.vec_ty(3);
-                        let off = b.emit(Expression::Compose { ty: vec3, components: vec![zero, zero, one] });
-                        let r1 = self.binop(b, B::Add, x, off);
-                        let len = self.math(b, F::Length, &[r1]);
-                        let two = b.lit(2.0);
-                        let mm = self.binop(b, B::Multiply, len, two);
-                        let xy = self.narrow(b, x, 3, 2);
-                        let d = self.binop(b, B::Divide, xy, mm);
-                        let half = b.lit(0.5);
-                        let h2 = b.emit(Expression::Splat { size: VectorSize::Bi, value: half });
-                        self.binop(b, B::Add, d, h2)
-                    }
-                    t => return self.unsupported(format!("π of a {}", t.name()), Some(n)),
-                }
-            }
+            Expr::Pixel { .. } => return Ok(self.pixel_value(b, n)?.map(Computed::plain)),
+            Expr::Project { projection, value } => Computed::plain(self.project(b, n, projection, *value)?),
             Expr::Interpolate { .. } => {
                 return Err(GenError::Internal(format!(
                     "δ node %{} is not a varying of this pass",
                     n.index()
                 )));
             }
-            Expr::Lookup { texture, coords } => {
-                let unit = self.unit_of(n)?;
-                let (tv, sv, kind, format) = self.units[unit];
-                let ct = m.info(*coords).ty;
-                let fat = self.fat[*texture as usize] > 0;
-                if matches!(m.exprs[*coords], Expr::Pixel { .. }) {
-                    // `T xs` (seeds/001 (6)): the texel under the pixel of a screen
-                    // pass, at level 0 (a fat framebuffer is one texel per pixel).
-                    let Some(uv) = b.texel_uv else {
-                        return self.unsupported("a lookup at the pixel outside a screen pass", Some(n));
-                    };
-                    if fat && !self.plain_use(n) {
-                        b.fat.insert(n, (unit, uv, naga::SampleLevel::Zero));
-                        return Ok(());
-                    }
-                    let image = b.plain(Expression::GlobalVariable(tv));
-                    let sampler = b.plain(Expression::GlobalVariable(sv));
-                    let layer = fat.then(|| b.plain(Expression::Literal(Literal::I32(0))));
-                    let s = b.emit(Expression::ImageSample {
-                        image,
-                        sampler,
-                        gather: None,
-                        coordinate: uv,
-                        array_index: layer,
-                        offset: None,
-                        level: naga::SampleLevel::Zero,
-                        depth_ref: None,
-                        clamp_to_edge: false,
-                    });
-                    let t = self.narrow(b, s, 4, w);
-                    b.vals.insert(n, t);
-                    return self.finish(b, n, t, w, false);
-                }
-                let c = val(b, *coords)?;
-                let coord = match (kind, ct) {
-                    (TextureKind::Tex1d, _) => {
-                        let half = b.lit(0.5);
-                        let vec2 = self.vec_ty(2);
-                        b.emit(Expression::Compose { ty: vec2, components: vec![c, half] })
-                    }
-                    (TextureKind::Tex2d, Ty::Position) => self.projective_uv(b, c),
-                    _ => c,
-                };
-                let level = if sample { naga::SampleLevel::Auto } else { naga::SampleLevel::Zero };
-                if fat && !self.plain_use(n) {
-                    // Only its members are read (`Expr::FatMember`).
-                    b.fat.insert(n, (unit, coord, level));
-                    return Ok(());
-                }
-                let image = b.plain(Expression::GlobalVariable(tv));
-                let sampler = b.plain(Expression::GlobalVariable(sv));
-                // A fat texture read as a colour: its first layer.
-                let layer = fat.then(|| b.plain(Expression::Literal(Literal::I32(0))));
-                let s = b.emit(Expression::ImageSample {
-                    image,
-                    sampler,
-                    gather: None,
-                    coordinate: coord,
-                    array_index: layer,
-                    offset: None,
-                    level,
-                    depth_ref: None,
-                    clamp_to_edge: false,
-                });
-                let t = self.narrow(b, s, 4, w);
-                if matches!(format, Some(TextureFormat::Signed8 | TextureFormat::Signed16)) {
-                    self.expand(b, t, w)
-                } else {
-                    // A 2D 8-bit texture filters to 8-bit results in
-                    // hardware fidelity (`scene_run` uploads it as RGBA8).
-                    if self.fidelity == Fidelity::Hardware
-                        && sample
-                        && kind != TextureKind::Cube
-                        && matches!(
-                            format,
-                            None | Some(TextureFormat::Rgba8 | TextureFormat::Rgb8 | TextureFormat::R8)
-                        )
-                    {
-                        self.on_grid.insert(n);
-                    }
-                    t
-                }
-            }
+            Expr::Lookup { texture, coords } => return self.lookup(b, n, *texture, *coords),
             Expr::FramebufferRead { framebuffer, channel, position } => {
-                let at_pixel =
-                    matches!(m.exprs[*position], Expr::Pixel { .. }) || Some(*position) == self.own_position;
-                let (var, sv) = match self.unit_of(n) {
-                    Ok(unit) => {
-                        let (tv, sv, _, _) = self.units[unit];
-                        (tv, Some(sv))
-                    }
-                    // The pass's own target, which blending did not absorb: a copy
-                    // taken before the pass, read at the pixel.
-                    Err(_) => {
-                        let name = m.framebuffers[*framebuffer as usize].name.clone();
-                        if !at_pixel {
-                            return self.unsupported(format!("reading the target framebuffer `{name}` away from the fragment's own pixel"), Some(n));
-                        }
-                        if *channel == FbChannel::Stencil {
-                            return self.unsupported(format!("reading the stencil of the target framebuffer `{name}` inside the shader (the stencil test can)"), Some(n));
-                        }
-                        (self.target_copy(&name, *channel == FbChannel::Depth), None)
-                    }
-                };
-                let texel = if at_pixel {
-                    self.load_at_pixel(b, var)?
-                } else {
-                    let image = b.plain(Expression::GlobalVariable(var));
-                    let sv =
-                        sv.ok_or_else(|| GenError::Internal("a framebuffer read without a sampler".into()))?;
-                    let p = val(b, *position)?;
-                    let uv = self.projective_uv(b, p);
-                    let sampler = b.plain(Expression::GlobalVariable(sv));
-                    let level = if sample { naga::SampleLevel::Auto } else { naga::SampleLevel::Zero };
-                    let texel = b.emit(Expression::ImageSample {
-                        image,
-                        sampler,
-                        gather: None,
-                        coordinate: uv,
-                        array_index: None,
-                        offset: None,
-                        level,
-                        depth_ref: None,
-                        clamp_to_edge: false,
-                    });
-                    // Outside the framebuffer: its cleared values (colour 0, depth 1), as the CPU.
-                    let (zero, one) = (b.lit(0.0), b.lit(1.0));
-                    let (zero2, one2) = (
-                        b.emit(Expression::Splat { size: VectorSize::Bi, value: zero }),
-                        b.emit(Expression::Splat { size: VectorSize::Bi, value: one }),
-                    );
-                    let above = self.binop(b, B::GreaterEqual, uv, zero2);
-                    let below = self.binop(b, B::LessEqual, uv, one2);
-                    let above = b
-                        .emit(Expression::Relational { fun: naga::RelationalFunction::All, argument: above });
-                    let below = b
-                        .emit(Expression::Relational { fun: naga::RelationalFunction::All, argument: below });
-                    let inside = self.binop(b, B::LogicalAnd, above, below);
-                    let clear = b.lit(if *channel == FbChannel::Depth { 1.0 } else { 0.0 });
-                    let clear = b.emit(Expression::Splat { size: VectorSize::Quad, value: clear });
-                    b.emit(Expression::Select { condition: inside, accept: texel, reject: clear })
-                };
-                match channel {
-                    FbChannel::Color => texel,
-                    FbChannel::Alpha => b.emit(Expression::AccessIndex { base: texel, index: 3 }),
-                    FbChannel::Depth => b.emit(Expression::AccessIndex { base: texel, index: 0 }),
-                    FbChannel::Stencil => {
-                        let r = b.emit(Expression::AccessIndex { base: texel, index: 0 });
-                        let k = b.lit(255.0);
-                        let s = self.binop(b, B::Multiply, r, k);
-                        self.math(b, F::Round, &[s])
-                    }
-                }
+                Computed::plain(self.framebuffer_read(b, n, *framebuffer, *channel, *position)?)
             }
-            Expr::Depth(p) => {
-                if self.depth_is_fragments(*p) {
-                    let fc = b.frag_coord.ok_or_else(|| GenError::Internal("no fragment position".into()))?;
-                    b.emit(Expression::AccessIndex { base: fc, index: 2 })
-                } else {
-                    let pv = val(b, *p)?;
-                    let z = b.emit(Expression::AccessIndex { base: pv, index: 2 });
-                    let ww = b.emit(Expression::AccessIndex { base: pv, index: 3 });
-                    let d = self.binop(b, B::Divide, z, ww);
-                    let half = b.lit(0.5);
-                    let d = self.binop(b, B::Multiply, d, half);
-                    self.binop(b, B::Add, d, half)
-                }
-            }
-            Expr::FatMember { texel, member } => {
-                // Member i of a fat texel is layer i's rgb.
-                let Some(&(unit, coordinate, level)) = b.fat.get(texel) else {
-                    return Err(GenError::Internal(format!(
-                        "fat member %{} of %{}, which is not a fat lookup here",
-                        n.index(),
-                        texel.index()
-                    )));
-                };
-                let (tv, sv, _, _) = self.units[unit];
-                let image = b.plain(Expression::GlobalVariable(tv));
-                let sampler = b.plain(Expression::GlobalVariable(sv));
-                let layer = b.plain(Expression::Literal(Literal::I32(*member as i32)));
-                let s = b.emit(Expression::ImageSample {
-                    image,
-                    sampler,
-                    gather: None,
-                    coordinate,
-                    array_index: Some(layer),
-                    offset: None,
-                    level,
-                    depth_ref: None,
-                    clamp_to_edge: false,
-                });
-                self.narrow(b, s, 4, w)
-            }
+            Expr::Depth(p) => Computed::plain(self.depth(b, *p)?),
+            Expr::FatMember { texel, member } => Computed::plain(self.fat_member(b, n, *texel, *member)?),
             // Written by the fragment stage as one output per member (`fragment`).
-            Expr::Bundle(_) => return Ok(()),
-            Expr::Unary { op, value } => {
-                let x = val(b, *value)?;
-                match op {
-                    UnaryOp::Neg => {
-                        arith = true;
-                        b.emit(Expression::Unary { op: naga::UnaryOperator::Negate, expr: x })
-                    }
-                    UnaryOp::Not => {
-                        let zero = b.lit(0.0);
-                        let c = self.binop(b, B::Equal, x, zero);
-                        self.from_bool(b, c)
-                    }
-                }
-            }
-            Expr::Binary { op, lhs, rhs } => {
-                let (x, y) = (val(b, *lhs)?, val(b, *rhs)?);
-                let (wx, wy) = (wof(*lhs), wof(*rhs));
-                match op {
-                    BinaryOp::Div if self.register_write(n, sample) => {
-                        let x = self.splat(b, x, wx, w)?;
-                        let y = self.splat(b, y, wy, w)?;
-                        self.on_grid.insert(n);
-                        self.quotient(b, x, y, w)
-                    }
-                    BinaryOp::Add | BinaryOp::Sub | BinaryOp::Mul | BinaryOp::Div => {
-                        arith = true;
-                        let x = self.splat(b, x, wx, w)?;
-                        let y = self.splat(b, y, wy, w)?;
-                        let o = match op {
-                            BinaryOp::Add => B::Add,
-                            BinaryOp::Sub => B::Subtract,
-                            BinaryOp::Mul => B::Multiply,
-                            _ => B::Divide,
-                        };
-                        self.binop(b, o, x, y)
-                    }
-                    BinaryOp::Dot => {
-                        arith = true;
-                        if wx == 1 {
-                            self.binop(b, B::Multiply, x, y)
-                        } else {
-                            self.math(b, F::Dot, &[x, y])
-                        }
-                    }
-                    BinaryOp::Pow => {
-                        let squarings =
-                            ir::squaring_exponent(m, n).filter(|_| self.register_write(n, sample));
-                        match squarings {
-                            // Repeated squaring, a register write after each product
-                            // (`x^1` is x, written once).
-                            Some(k) => {
-                                arith = k == 1;
-                                ir::power_by_squaring(x, k, |a, c| {
-                                    let p = self.binop(b, B::Multiply, a, c);
-                                    self.quantize(b, p, w)
-                                })
-                            }
-                            None => {
-                                arith = true;
-                                let y = self.splat(b, y, wy, w)?;
-                                self.math(b, F::Pow, &[x, y])
-                            }
-                        }
-                    }
-                    BinaryOp::Lt
-                    | BinaryOp::Le
-                    | BinaryOp::Gt
-                    | BinaryOp::Ge
-                    | BinaryOp::Eq
-                    | BinaryOp::Ne => {
-                        let o = match op {
-                            BinaryOp::Lt => B::Less,
-                            BinaryOp::Le => B::LessEqual,
-                            BinaryOp::Gt => B::Greater,
-                            BinaryOp::Ge => B::GreaterEqual,
-                            BinaryOp::Eq => B::Equal,
-                            _ => B::NotEqual,
-                        };
-                        let c = self.binop(b, o, x, y);
-                        self.from_bool(b, c)
-                    }
-                    BinaryOp::And | BinaryOp::Or => {
-                        let (cx, cy) = (self.truthy(b, x), self.truthy(b, y));
-                        let o = if *op == BinaryOp::And { B::LogicalAnd } else { B::LogicalOr };
-                        let c = self.binop(b, o, cx, cy);
-                        self.from_bool(b, c)
-                    }
-                }
-            }
+            Expr::Bundle(_) => return Ok(None),
+            Expr::Unary { op, value } => self.unary(b, *op, *value)?,
+            Expr::Binary { op, lhs, rhs } => self.binary(b, n, *op, *lhs, *rhs)?,
             Expr::Combine { mode, lhs, rhs } => {
-                arith = true;
-                let (x, y) = (val(b, *lhs)?, val(b, *rhs)?);
+                let (x, y) = (b.val(*lhs)?, b.val(*rhs)?);
                 let (tx, ty) = (m.info(*lhs).ty, m.info(*rhs).ty);
-                self.combine(b, *mode, x, tx, y, ty, info.ty)?
+                Computed::arith(self.combine(b, *mode, x, tx, y, ty, m.info(n).ty)?)
             }
-            Expr::Math { fun, args } => {
-                arith = !matches!(fun, MathFunction::Step);
-                let xs: Vec<NH> = args.iter().map(|a| val(b, *a)).collect::<R<_>>()?;
-                let ws: Vec<usize> = args.iter().map(|a| wof(*a)).collect();
-                let unary = |f| (f, false);
-                let (f, splat_all) = match fun {
-                    MathFunction::Normalize => unary(F::Normalize),
-                    MathFunction::Length => unary(F::Length),
-                    MathFunction::Cross => unary(F::Cross),
-                    MathFunction::Reflect => unary(F::Reflect),
-                    MathFunction::Max => (F::Max, true),
-                    MathFunction::Min => (F::Min, true),
-                    MathFunction::Clamp => (F::Clamp, true),
-                    MathFunction::Saturate => unary(F::Saturate),
-                    MathFunction::Abs => unary(F::Abs),
-                    MathFunction::Sign => unary(F::Sign),
-                    MathFunction::Sqrt => unary(F::Sqrt),
-                    MathFunction::Rsqrt => unary(F::InverseSqrt),
-                    MathFunction::Exp => unary(F::Exp),
-                    MathFunction::Log => unary(F::Log),
-                    MathFunction::Sin => unary(F::Sin),
-                    MathFunction::Cos => unary(F::Cos),
-                    MathFunction::Floor => unary(F::Floor),
-                    MathFunction::Fract => unary(F::Fract),
-                    MathFunction::Step => (F::Step, true),
-                    MathFunction::Smoothstep => (F::SmoothStep, true),
-                    MathFunction::Mix => (F::Mix, true),
-                    MathFunction::Expand | MathFunction::HalfBias | MathFunction::Compress => {
-                        let x = xs[0];
-                        let v = match fun {
-                            MathFunction::Expand => self.expand(b, x, w),
-                            MathFunction::HalfBias => {
-                                let h = b.lit(0.5);
-                                let h = self.splat(b, h, 1, w)?;
-                                self.binop(b, B::Subtract, x, h)
-                            }
-                            _ => {
-                                let one = b.lit(1.0);
-                                let one = self.splat(b, one, 1, w)?;
-                                let s = self.binop(b, B::Add, x, one);
-                                let h = b.lit(0.5);
-                                self.binop(b, B::Multiply, s, h)
-                            }
-                        };
-                        b.vals.insert(n, v);
-                        return self.finish(b, n, v, w, arith);
-                    }
+            Expr::Math { fun, args } => self.math_call(b, n, *fun, args)?,
+            Expr::Swizzle { value, pattern, len, .. } => self.swizzle(b, *value, pattern, *len)?,
+            Expr::Compose { components, .. } => self.compose(b, n, components)?,
+            Expr::Convert { value, to } => self.convert(b, n, *value, *to)?,
+            Expr::Select { cond, accept, reject } => self.select(b, n, *cond, *accept, *reject)?,
+        };
+        Ok(Some(computed))
+    }
+
+    /// The shader width of node `h` (1..=4).
+    fn width_of(&self, h: ir::Handle<Expr>) -> usize {
+        width(self.m.info(h).ty)
+    }
+
+    /// A constant. In hardware fidelity one of magnitude ≤ 1 read per sample
+    /// sits in a register: it is rounded, and so on the grid.
+    fn constant_node(&mut self, b: &mut Body, n: ir::Handle<Expr>, c: &ir::Constant) -> Computed {
+        let register = self.fidelity == Fidelity::Hardware
+            && b.per_sample()
+            && !self.addresses_only(n)
+            && c.values().iter().all(|v| v.abs() <= 1.0);
+        if register {
+            self.on_grid.insert(n);
+        }
+        Computed::plain(self.constant(b, c, register))
+    }
+
+    /// Uniform `u`, loaded from the uniform block (after the projections).
+    fn uniform_value(&mut self, b: &mut Body, n: ir::Handle<Expr>, u: ir::UniformId) -> R<NH> {
+        let Some(var) = self.uniforms_var else {
+            return Err(GenError::Internal("uniform without a block".into()));
+        };
+        let idx = self
+            .iface
+            .uniforms
+            .iter()
+            .position(|x| *x == u)
+            .ok_or_else(|| GenError::Internal("uniform not in the interface".into()))?;
+        let l = b.load_member(var, (self.iface.projections.len() + idx) as u32);
+        // As the CPU's fixed9 reads a uniform: as given (what is
+        // computed from it is folded, `finish`).
+        let w = self.width_of(n);
+        Ok(self.narrow(b, l, 4, w))
+    }
+
+    /// A per-vertex leaf (vertex position, texture coordinate, vector): its
+    /// vertex input.
+    fn vertex_input(&mut self, b: &mut Body, n: ir::Handle<Expr>) -> R<NH> {
+        let info = *self.m.info(n);
+        if info.freq == Frequency::Texel {
+            return self.unsupported("a shading vector as a function of the texel coordinate (texture shading, `s δu`): PassInterface binds per-vertex inputs only", Some(n));
+        }
+        if b.per_sample() {
+            return Err(GenError::Internal(format!(
+                "per-vertex value %{} read per sample without δ",
+                n.index()
+            )));
+        }
+        let i = self.iface.vertex_leaves.iter().position(|x| *x == n);
+        let Some(i) = i else {
+            return self.unsupported(
+                format!("a {} shading value here (only per-vertex inputs are bound)", info.freq.name()),
+                Some(n),
+            );
+        };
+        let a = b.args[i];
+        Ok(self.narrow(b, a, 4, width(info.ty)))
+    }
+
+    /// The pixel `xs` as a value (`π⁻¹ xs`, `xs.x`), built only if a node
+    /// other than a read at the pixel uses it (those use the fragment's own
+    /// coordinates).
+    fn pixel_value(&mut self, b: &mut Body, n: ir::Handle<Expr>) -> R<Option<NH>> {
+        if !b.per_sample() {
+            return self.unsupported("a pixel position per vertex", Some(n));
+        }
+        let m = self.m;
+        let at_pixel = |e: &Expr| match e {
+            Expr::FramebufferRead { position, .. } => *position == n,
+            Expr::Lookup { coords, .. } => *coords == n,
+            Expr::Depth(p) => *p == n && self.depth_is_fragments(n),
+            _ => false,
+        };
+        if !self.pass_nodes.iter().any(|h| m.exprs[*h].operands().contains(&n) && !at_pixel(&m.exprs[*h])) {
+            return Ok(None);
+        }
+        self.pixel_position(b, n).map(Some)
+    }
+
+    /// `π x`: a projection matrix times a position, or sphere-map texgen of
+    /// a direction.
+    fn project(
+        &mut self,
+        b: &mut Body,
+        n: ir::Handle<Expr>,
+        projection: &ir::Projection,
+        value: ir::Handle<Expr>,
+    ) -> R<NH> {
+        use naga::BinaryOperator as B;
+        let x = b.val(value)?;
+        match self.m.info(value).ty {
+            Ty::Position => {
+                let idx = self
+                    .iface
+                    .projections
+                    .iter()
+                    .position(|p| p == projection)
+                    .ok_or_else(|| GenError::Internal("projection not in the interface".into()))?;
+                let var = self
+                    .uniforms_var
+                    .ok_or_else(|| GenError::Internal("projection without a block".into()))?;
+                let mat = b.load_member(var, idx as u32);
+                Ok(self.binop(b, B::Multiply, mat, x))
+            }
+            Ty::Vec3 => Ok(self.sphere_map(b, x)),
+            t => self.unsupported(format!("π of a {}", t.name()), Some(n)),
+        }
+    }
+
+    /// Sphere-map texgen (seeds/001 (7)): m = 2·sqrt(Rx² + Ry² + (Rz + 1)²),
+    /// (s, t) = (Rx/m + ½, Ry/m + ½).
+    fn sphere_map(&mut self, b: &mut Body, x: NH) -> NH {
+        use naga::BinaryOperator as B;
+        let one = b.lit(1.0);
+        let zero = b.lit(0.0);
+        let vec3 = self.vec_ty(3);
+        let off = b.emit(Expression::Compose { ty: vec3, components: vec![zero, zero, one] });
+        let r1 = self.binop(b, B::Add, x, off);
+        let len = self.math(b, naga::MathFunction::Length, &[r1]);
+        let two = b.lit(2.0);
+        let mm = self.binop(b, B::Multiply, len, two);
+        let xy = self.narrow(b, x, 3, 2);
+        let d = self.binop(b, B::Divide, xy, mm);
+        let half = b.lit(0.5);
+        let h2 = b.emit(Expression::Splat { size: VectorSize::Bi, value: half });
+        self.binop(b, B::Add, d, h2)
+    }
+
+    /// `z p`: the fragment's own depth, or the GL window depth `½ z/w + ½`
+    /// of clip position `p`.
+    fn depth(&mut self, b: &mut Body, p: ir::Handle<Expr>) -> R<NH> {
+        use naga::BinaryOperator as B;
+        if self.depth_is_fragments(p) {
+            let fc = b.frag_coord.ok_or_else(|| GenError::Internal("no fragment position".into()))?;
+            return Ok(b.emit(Expression::AccessIndex { base: fc, index: 2 }));
+        }
+        let pv = b.val(p)?;
+        let z = b.emit(Expression::AccessIndex { base: pv, index: 2 });
+        let ww = b.emit(Expression::AccessIndex { base: pv, index: 3 });
+        let d = self.binop(b, B::Divide, z, ww);
+        let half = b.lit(0.5);
+        let d = self.binop(b, B::Multiply, d, half);
+        Ok(self.binop(b, B::Add, d, half))
+    }
+
+    /// `T x`: the texture's unit sampled at `coords` (projectively for a 2D
+    /// texture at a position). A fat texture whose members only are read is
+    /// recorded in `b.fat` instead (`None`).
+    fn lookup(
+        &mut self,
+        b: &mut Body,
+        n: ir::Handle<Expr>,
+        texture: ir::TextureId,
+        coords: ir::Handle<Expr>,
+    ) -> R<Option<Computed>> {
+        let m = self.m;
+        let w = self.width_of(n);
+        let sample = b.per_sample();
+        let unit = self.unit_of(n)?;
+        let (_, _, kind, format) = self.units[unit];
+        let ct = m.info(coords).ty;
+        let fat = self.fat[texture as usize] > 0;
+        if matches!(m.exprs[coords], Expr::Pixel { .. }) {
+            return self.lookup_at_pixel(b, n, unit, fat);
+        }
+        let c = b.val(coords)?;
+        let coord = match (kind, ct) {
+            (TextureKind::Tex1d, _) => {
+                let half = b.lit(0.5);
+                let vec2 = self.vec_ty(2);
+                b.emit(Expression::Compose { ty: vec2, components: vec![c, half] })
+            }
+            (TextureKind::Tex2d, Ty::Position) => self.projective_uv(b, c),
+            _ => c,
+        };
+        let level = if sample { naga::SampleLevel::Auto } else { naga::SampleLevel::Zero };
+        if fat && !self.plain_use(n) {
+            // Only its members are read (`Expr::FatMember`).
+            b.fat.insert(n, (unit, coord, level));
+            return Ok(None);
+        }
+        // A fat texture read as a colour: its first layer.
+        let s = self.sample_unit(b, unit, coord, fat.then_some(0), level);
+        let t = self.narrow(b, s, 4, w);
+        if matches!(format, Some(TextureFormat::Signed8 | TextureFormat::Signed16)) {
+            return Ok(Some(Computed::plain(self.expand(b, t, w))));
+        }
+        // A 2D 8-bit texture filters to 8-bit results in
+        // hardware fidelity (`scene_run` uploads it as RGBA8).
+        if self.fidelity == Fidelity::Hardware
+            && sample
+            && kind != TextureKind::Cube
+            && matches!(format, None | Some(TextureFormat::Rgba8 | TextureFormat::Rgb8 | TextureFormat::R8))
+        {
+            self.on_grid.insert(n);
+        }
+        Ok(Some(Computed::plain(t)))
+    }
+
+    /// `T xs` (seeds/001 (6)): the texel under the pixel of a screen pass, at
+    /// level 0 (a fat framebuffer is one texel per pixel).
+    fn lookup_at_pixel(
+        &mut self,
+        b: &mut Body,
+        n: ir::Handle<Expr>,
+        unit: usize,
+        fat: bool,
+    ) -> R<Option<Computed>> {
+        let Some(uv) = b.texel_uv else {
+            return self.unsupported("a lookup at the pixel outside a screen pass", Some(n));
+        };
+        if fat && !self.plain_use(n) {
+            b.fat.insert(n, (unit, uv, naga::SampleLevel::Zero));
+            return Ok(None);
+        }
+        let s = self.sample_unit(b, unit, uv, fat.then_some(0), naga::SampleLevel::Zero);
+        let w = self.width_of(n);
+        Ok(Some(Computed::plain(self.narrow(b, s, 4, w))))
+    }
+
+    /// Samples texture unit `unit` at `coordinate`, in array `layer` of a fat
+    /// texture.
+    fn sample_unit(
+        &mut self,
+        b: &mut Body,
+        unit: usize,
+        coordinate: NH,
+        layer: Option<i32>,
+        level: naga::SampleLevel,
+    ) -> NH {
+        let (tv, sv, _, _) = self.units[unit];
+        let image = b.plain(Expression::GlobalVariable(tv));
+        let sampler = b.plain(Expression::GlobalVariable(sv));
+        let array_index = layer.map(|l| b.plain(Expression::Literal(Literal::I32(l))));
+        b.sample(image, sampler, coordinate, array_index, level)
+    }
+
+    /// A framebuffer channel (`C`, `α C`, `z C`, stencil): loaded at the
+    /// fragment's own pixel, else sampled at the projective coordinate.
+    fn framebuffer_read(
+        &mut self,
+        b: &mut Body,
+        n: ir::Handle<Expr>,
+        framebuffer: ir::FramebufferId,
+        channel: FbChannel,
+        position: ir::Handle<Expr>,
+    ) -> R<NH> {
+        let at_pixel =
+            matches!(self.m.exprs[position], Expr::Pixel { .. }) || Some(position) == self.own_position;
+        let (var, sv) = match self.unit_of(n) {
+            Ok(unit) => {
+                let (tv, sv, _, _) = self.units[unit];
+                (tv, Some(sv))
+            }
+            Err(_) => (self.own_target_copy(n, framebuffer, channel, at_pixel)?, None),
+        };
+        let texel = if at_pixel {
+            self.load_at_pixel(b, var)?
+        } else {
+            self.sample_framebuffer(b, var, sv, position, channel)?
+        };
+        Ok(self.framebuffer_channel(b, texel, channel))
+    }
+
+    /// The pass's own target, which blending did not absorb: a copy taken
+    /// before the pass, read at the pixel.
+    fn own_target_copy(
+        &mut self,
+        n: ir::Handle<Expr>,
+        framebuffer: ir::FramebufferId,
+        channel: FbChannel,
+        at_pixel: bool,
+    ) -> R<naga::Handle<GlobalVariable>> {
+        let name = self.m.framebuffers[framebuffer as usize].name.clone();
+        if !at_pixel {
+            return self.unsupported(
+                format!("reading the target framebuffer `{name}` away from the fragment's own pixel"),
+                Some(n),
+            );
+        }
+        if channel == FbChannel::Stencil {
+            return self.unsupported(format!("reading the stencil of the target framebuffer `{name}` inside the shader (the stencil test can)"), Some(n));
+        }
+        Ok(self.target_copy(&name, channel == FbChannel::Depth))
+    }
+
+    /// A framebuffer sampled at projective `position`; outside it, its
+    /// cleared values (colour 0, depth 1), as the CPU.
+    fn sample_framebuffer(
+        &mut self,
+        b: &mut Body,
+        var: naga::Handle<GlobalVariable>,
+        sv: Option<naga::Handle<GlobalVariable>>,
+        position: ir::Handle<Expr>,
+        channel: FbChannel,
+    ) -> R<NH> {
+        let image = b.plain(Expression::GlobalVariable(var));
+        let sv = sv.ok_or_else(|| GenError::Internal("a framebuffer read without a sampler".into()))?;
+        let p = b.val(position)?;
+        let uv = self.projective_uv(b, p);
+        let sampler = b.plain(Expression::GlobalVariable(sv));
+        let level = if b.per_sample() { naga::SampleLevel::Auto } else { naga::SampleLevel::Zero };
+        let texel = b.sample(image, sampler, uv, None, level);
+        let inside = self.inside_unit_square(b, uv);
+        let clear = b.lit(if channel == FbChannel::Depth { 1.0 } else { 0.0 });
+        let clear = b.emit(Expression::Splat { size: VectorSize::Quad, value: clear });
+        Ok(b.emit(Expression::Select { condition: inside, accept: texel, reject: clear }))
+    }
+
+    /// Whether texture coordinate `uv` lies in the framebuffer (0..1 both).
+    fn inside_unit_square(&mut self, b: &mut Body, uv: NH) -> NH {
+        use naga::BinaryOperator as B;
+        let (zero, one) = (b.lit(0.0), b.lit(1.0));
+        let (zero2, one2) = (
+            b.emit(Expression::Splat { size: VectorSize::Bi, value: zero }),
+            b.emit(Expression::Splat { size: VectorSize::Bi, value: one }),
+        );
+        let above = self.binop(b, B::GreaterEqual, uv, zero2);
+        let below = self.binop(b, B::LessEqual, uv, one2);
+        let above = b.emit(Expression::Relational { fun: naga::RelationalFunction::All, argument: above });
+        let below = b.emit(Expression::Relational { fun: naga::RelationalFunction::All, argument: below });
+        self.binop(b, B::LogicalAnd, above, below)
+    }
+
+    /// The channel of a framebuffer texel: colour, alpha, depth (in `.x`),
+    /// or the stencil value (`.x` as 0..255).
+    fn framebuffer_channel(&mut self, b: &mut Body, texel: NH, channel: FbChannel) -> NH {
+        match channel {
+            FbChannel::Color => texel,
+            FbChannel::Alpha => b.emit(Expression::AccessIndex { base: texel, index: 3 }),
+            FbChannel::Depth => b.emit(Expression::AccessIndex { base: texel, index: 0 }),
+            FbChannel::Stencil => {
+                let r = b.emit(Expression::AccessIndex { base: texel, index: 0 });
+                let k = b.lit(255.0);
+                let s = self.binop(b, naga::BinaryOperator::Multiply, r, k);
+                self.math(b, naga::MathFunction::Round, &[s])
+            }
+        }
+    }
+
+    /// Member `member` of the fat texel `texel`: layer `member`'s rgb, sampled
+    /// where the fat lookup is.
+    fn fat_member(
+        &mut self,
+        b: &mut Body,
+        n: ir::Handle<Expr>,
+        texel: ir::Handle<Expr>,
+        member: u8,
+    ) -> R<NH> {
+        let Some(&(unit, coordinate, level)) = b.fat.get(&texel) else {
+            return Err(GenError::Internal(format!(
+                "fat member %{} of %{}, which is not a fat lookup here",
+                n.index(),
+                texel.index()
+            )));
+        };
+        let s = self.sample_unit(b, unit, coordinate, Some(member as i32), level);
+        let w = self.width_of(n);
+        Ok(self.narrow(b, s, 4, w))
+    }
+
+    /// `−x` (arithmetic) or `!x` (1 where x is 0).
+    fn unary(&mut self, b: &mut Body, op: UnaryOp, value: ir::Handle<Expr>) -> R<Computed> {
+        let x = b.val(value)?;
+        Ok(match op {
+            UnaryOp::Neg => {
+                Computed::arith(b.emit(Expression::Unary { op: naga::UnaryOperator::Negate, expr: x }))
+            }
+            UnaryOp::Not => {
+                let zero = b.lit(0.0);
+                let c = self.binop(b, naga::BinaryOperator::Equal, x, zero);
+                Computed::plain(self.from_bool(b, c))
+            }
+        })
+    }
+
+    /// A binary operator: arithmetic (a hardware register quotient included),
+    /// dot, power, or a comparison or logic as 1 or 0.
+    fn binary(
+        &mut self,
+        b: &mut Body,
+        n: ir::Handle<Expr>,
+        op: BinaryOp,
+        lhs: ir::Handle<Expr>,
+        rhs: ir::Handle<Expr>,
+    ) -> R<Computed> {
+        use naga::BinaryOperator as B;
+        let (x, y) = (b.val(lhs)?, b.val(rhs)?);
+        let (wx, wy) = (self.width_of(lhs), self.width_of(rhs));
+        let w = self.width_of(n);
+        Ok(match op {
+            BinaryOp::Div if self.register_write(n, b.per_sample()) => {
+                let x = self.splat(b, x, wx, w)?;
+                let y = self.splat(b, y, wy, w)?;
+                self.on_grid.insert(n);
+                Computed::plain(self.quotient(b, x, y, w))
+            }
+            BinaryOp::Add | BinaryOp::Sub | BinaryOp::Mul | BinaryOp::Div => {
+                let x = self.splat(b, x, wx, w)?;
+                let y = self.splat(b, y, wy, w)?;
+                let o = match op {
+                    BinaryOp::Add => B::Add,
+                    BinaryOp::Sub => B::Subtract,
+                    BinaryOp::Mul => B::Multiply,
+                    _ => B::Divide,
                 };
-                let xs: Vec<NH> = if splat_all {
-                    let mut out = Vec::new();
-                    for (x, wx) in xs.iter().zip(&ws) {
-                        out.push(self.splat(b, *x, *wx, w)?);
-                    }
-                    out
-                } else {
-                    xs
+                Computed::arith(self.binop(b, o, x, y))
+            }
+            BinaryOp::Dot => Computed::arith(if wx == 1 {
+                self.binop(b, B::Multiply, x, y)
+            } else {
+                self.math(b, naga::MathFunction::Dot, &[x, y])
+            }),
+            BinaryOp::Pow => self.power(b, n, x, y, wy)?,
+            BinaryOp::Lt
+            | BinaryOp::Le
+            | BinaryOp::Gt
+            | BinaryOp::Ge
+            | BinaryOp::Eq
+            | BinaryOp::Ne
+            | BinaryOp::And
+            | BinaryOp::Or => Computed::plain(self.predicate(b, op, x, y)),
+        })
+    }
+
+    /// `x^y`. In hardware fidelity a constant integer power is repeated
+    /// squaring, a register write after each product (`x^1` is x, written
+    /// once).
+    fn power(&mut self, b: &mut Body, n: ir::Handle<Expr>, x: NH, y: NH, wy: usize) -> R<Computed> {
+        let w = self.width_of(n);
+        let sample = b.per_sample();
+        let squarings = ir::squaring_exponent(self.m, n).filter(|_| self.register_write(n, sample));
+        match squarings {
+            Some(k) => {
+                let value = ir::power_by_squaring(x, k, |a, c| {
+                    let p = self.binop(b, naga::BinaryOperator::Multiply, a, c);
+                    self.quantize(b, p, w)
+                });
+                Ok(Computed { value, arith: k == 1 })
+            }
+            None => {
+                let y = self.splat(b, y, wy, w)?;
+                Ok(Computed::arith(self.math(b, naga::MathFunction::Pow, &[x, y])))
+            }
+        }
+    }
+
+    /// A comparison or logic operator, as 1.0 or 0.0.
+    fn predicate(&mut self, b: &mut Body, op: BinaryOp, x: NH, y: NH) -> NH {
+        use naga::BinaryOperator as B;
+        let c = match op {
+            BinaryOp::And | BinaryOp::Or => {
+                let (cx, cy) = (self.truthy(b, x), self.truthy(b, y));
+                let o = if op == BinaryOp::And { B::LogicalAnd } else { B::LogicalOr };
+                self.binop(b, o, cx, cy)
+            }
+            _ => {
+                let o = match op {
+                    BinaryOp::Lt => B::Less,
+                    BinaryOp::Le => B::LessEqual,
+                    BinaryOp::Gt => B::Greater,
+                    BinaryOp::Ge => B::GreaterEqual,
+                    BinaryOp::Eq => B::Equal,
+                    _ => B::NotEqual,
                 };
-                if matches!(fun, MathFunction::Cross | MathFunction::Reflect) && ws.iter().any(|x| *x != 3) {
-                    return self.unsupported(format!("`{}` of non-3-component values", fun.name()), Some(n));
-                }
-                let v = self.math(b, f, &xs);
-                if *fun == MathFunction::Normalize && w > 1 {
-                    self.zero_if_no_direction(b, xs[0], v, w)
-                } else {
-                    v
-                }
-            }
-            Expr::Swizzle { value, pattern, len, .. } => {
-                arith = !self.on_grid.contains(value);
-                let x = val(b, *value)?;
-                let wx = wof(*value);
-                let len = *len as usize;
-                if wx == 1 {
-                    self.splat(b, x, 1, len)?
-                } else if len == 1 {
-                    b.emit(Expression::AccessIndex { base: x, index: pattern[0] as u32 })
-                } else if len <= 4 && pattern[..len].iter().all(|&i| (i as usize) < wx) {
-                    let mut pat = [SwizzleComponent::X; 4];
-                    for (p, &i) in pat.iter_mut().zip(&pattern[..len]) {
-                        *p = COMP[i as usize];
-                    }
-                    if len == wx && pattern[..len].iter().enumerate().all(|(k, &i)| k == i as usize) {
-                        x
-                    } else {
-                        b.emit(Expression::Swizzle { size: size(len), vector: x, pattern: pat })
-                    }
-                } else {
-                    return Err(GenError::Internal("bad swizzle".into()));
-                }
-            }
-            Expr::Compose { components, .. } => {
-                arith = !components.iter().all(|c| self.on_grid.contains(c));
-                let xs: Vec<NH> = components.iter().map(|a| val(b, *a)).collect::<R<_>>()?;
-                if xs.len() == 1 {
-                    xs[0]
-                } else {
-                    let ty = self.vec_ty(w);
-                    b.emit(Expression::Compose { ty, components: xs })
-                }
-            }
-            Expr::Convert { value, to } => {
-                arith = !self.on_grid.contains(value);
-                let x = val(b, *value)?;
-                let from = m.info(*value).ty;
-                if from == *to || width(from) == width(*to) {
-                    x
-                } else if width(from) == 1 {
-                    self.splat(b, x, 1, w)?
-                } else if width(from) == 3 && w == 4 {
-                    let one = b.lit(1.0);
-                    let vec4 = self.vec_ty(4);
-                    b.emit(Expression::Compose { ty: vec4, components: vec![x, one] })
-                } else {
-                    return Err(GenError::Internal(format!("conversion {} → {}", from.name(), to.name())));
-                }
-            }
-            Expr::Select { cond, accept, reject } => {
-                arith = !(self.on_grid.contains(accept) && reject.is_none_or(|r| self.on_grid.contains(&r)));
-                let c = val(b, *cond)?;
-                let a = val(b, *accept)?;
-                let a = self.splat(b, a, wof(*accept), w)?;
-                match reject {
-                    Some(r) => {
-                        let rv = val(b, *r)?;
-                        let rv = self.splat(b, rv, wof(*r), w)?;
-                        let t = self.truthy(b, c);
-                        b.emit(Expression::Select { condition: t, accept: a, reject: rv })
-                    }
-                    None if sample => {
-                        // `c ? a`: the destination is kept where c fails.
-                        self.discard_unless(b, c);
-                        a
-                    }
-                    None => return self.unsupported("`c ? a` without `:` per vertex", Some(n)),
-                }
+                self.binop(b, o, x, y)
             }
         };
-        b.vals.insert(n, v);
-        self.finish(b, n, v, w, arith)
+        self.from_bool(b, c)
+    }
+
+    /// A math function: naga's builtin (arguments splatted to the result's
+    /// width where it takes equal widths), or a range mapping.
+    fn math_call(
+        &mut self,
+        b: &mut Body,
+        n: ir::Handle<Expr>,
+        fun: MathFunction,
+        args: &[ir::Handle<Expr>],
+    ) -> R<Computed> {
+        let arith = !matches!(fun, MathFunction::Step);
+        let w = self.width_of(n);
+        let xs: Vec<NH> = args.iter().map(|a| b.val(*a)).collect::<R<_>>()?;
+        let ws: Vec<usize> = args.iter().map(|a| self.width_of(*a)).collect();
+        let Some((f, splat_all)) = naga_math(fun) else {
+            let value = self.range_mapping(b, fun, xs[0], w)?;
+            return Ok(Computed { value, arith });
+        };
+        let xs: Vec<NH> = if splat_all {
+            let mut out = Vec::new();
+            for (x, wx) in xs.iter().zip(&ws) {
+                out.push(self.splat(b, *x, *wx, w)?);
+            }
+            out
+        } else {
+            xs
+        };
+        if matches!(fun, MathFunction::Cross | MathFunction::Reflect) && ws.iter().any(|x| *x != 3) {
+            return self.unsupported(format!("`{}` of non-3-component values", fun.name()), Some(n));
+        }
+        let v = self.math(b, f, &xs);
+        let value = if fun == MathFunction::Normalize && w > 1 {
+            self.zero_if_no_direction(b, xs[0], v, w)
+        } else {
+            v
+        };
+        Ok(Computed { value, arith })
+    }
+
+    /// `expand` (2x − 1), `half_bias` (x − ½) or `compress` (½(x + 1)) of `x`.
+    fn range_mapping(&mut self, b: &mut Body, fun: MathFunction, x: NH, w: usize) -> R<NH> {
+        use naga::BinaryOperator as B;
+        Ok(match fun {
+            MathFunction::Expand => self.expand(b, x, w),
+            MathFunction::HalfBias => {
+                let h = b.lit(0.5);
+                let h = self.splat(b, h, 1, w)?;
+                self.binop(b, B::Subtract, x, h)
+            }
+            _ => {
+                let one = b.lit(1.0);
+                let one = self.splat(b, one, 1, w)?;
+                let s = self.binop(b, B::Add, x, one);
+                let h = b.lit(0.5);
+                self.binop(b, B::Multiply, s, h)
+            }
+        })
+    }
+
+    /// `x.pattern`: a component, a splat of a scalar, or a swizzle (none for
+    /// the identity).
+    fn swizzle(&mut self, b: &mut Body, value: ir::Handle<Expr>, pattern: &[u8; 4], len: u8) -> R<Computed> {
+        let arith = !self.on_grid.contains(&value);
+        let x = b.val(value)?;
+        let wx = self.width_of(value);
+        let len = len as usize;
+        let v = if wx == 1 {
+            self.splat(b, x, 1, len)?
+        } else if len == 1 {
+            b.emit(Expression::AccessIndex { base: x, index: pattern[0] as u32 })
+        } else if len <= 4 && pattern[..len].iter().all(|&i| (i as usize) < wx) {
+            let mut pat = [SwizzleComponent::X; 4];
+            for (p, &i) in pat.iter_mut().zip(&pattern[..len]) {
+                *p = COMP[i as usize];
+            }
+            if len == wx && pattern[..len].iter().enumerate().all(|(k, &i)| k == i as usize) {
+                x
+            } else {
+                b.emit(Expression::Swizzle { size: size(len), vector: x, pattern: pat })
+            }
+        } else {
+            return Err(GenError::Internal("bad swizzle".into()));
+        };
+        Ok(Computed { value: v, arith })
+    }
+
+    /// A vector composed of components (one is itself).
+    fn compose(&mut self, b: &mut Body, n: ir::Handle<Expr>, components: &[ir::Handle<Expr>]) -> R<Computed> {
+        let arith = !components.iter().all(|c| self.on_grid.contains(c));
+        let xs: Vec<NH> = components.iter().map(|a| b.val(*a)).collect::<R<_>>()?;
+        let value = if xs.len() == 1 {
+            xs[0]
+        } else {
+            let ty = self.vec_ty(self.width_of(n));
+            b.emit(Expression::Compose { ty, components: xs })
+        };
+        Ok(Computed { value, arith })
+    }
+
+    /// A conversion: same width, a splatted scalar, or rgb to rgba (alpha 1).
+    fn convert(&mut self, b: &mut Body, n: ir::Handle<Expr>, value: ir::Handle<Expr>, to: Ty) -> R<Computed> {
+        let arith = !self.on_grid.contains(&value);
+        let w = self.width_of(n);
+        let x = b.val(value)?;
+        let from = self.m.info(value).ty;
+        let v = if from == to || width(from) == width(to) {
+            x
+        } else if width(from) == 1 {
+            self.splat(b, x, 1, w)?
+        } else if width(from) == 3 && w == 4 {
+            let one = b.lit(1.0);
+            let vec4 = self.vec_ty(4);
+            b.emit(Expression::Compose { ty: vec4, components: vec![x, one] })
+        } else {
+            return Err(GenError::Internal(format!("conversion {} → {}", from.name(), to.name())));
+        };
+        Ok(Computed { value: v, arith })
+    }
+
+    /// `c ? a : r`, or `c ? a` (per sample: the fragment is discarded where
+    /// c fails, so the destination is kept).
+    fn select(
+        &mut self,
+        b: &mut Body,
+        n: ir::Handle<Expr>,
+        cond: ir::Handle<Expr>,
+        accept: ir::Handle<Expr>,
+        reject: Option<ir::Handle<Expr>>,
+    ) -> R<Computed> {
+        let arith = !(self.on_grid.contains(&accept) && reject.is_none_or(|r| self.on_grid.contains(&r)));
+        let w = self.width_of(n);
+        let c = b.val(cond)?;
+        let a = b.val(accept)?;
+        let a = self.splat(b, a, self.width_of(accept), w)?;
+        let v = match reject {
+            Some(r) => {
+                let rv = b.val(r)?;
+                let rv = self.splat(b, rv, self.width_of(r), w)?;
+                let t = self.truthy(b, c);
+                b.emit(Expression::Select { condition: t, accept: a, reject: rv })
+            }
+            None if b.per_sample() => {
+                // `c ? a`: the destination is kept where c fails.
+                self.discard_unless(b, c);
+                a
+            }
+            None => return self.unsupported("`c ? a` without `:` per vertex", Some(n)),
+        };
+        Ok(Computed { value: v, arith })
     }
 
     /// Quantizes (hardware fidelity) and names a computed node.
