@@ -683,6 +683,57 @@ impl<'a> Lowerer<'a> {
         let t = &st.target;
         let key = t.table.key();
         let span = t.span.join(st.value.span);
+        let (table, sample) = self.target_table(t, &key)?;
+        // Texture shading `T δu ← …`: `s δu` may be taken on the surface.
+        if let (Table::Texture(_), Frequency::Texel, ExprKind::Apply { func, arg }) =
+            (&table, sample, &t.index.kind)
+        {
+            if let (FuncKind::Delta, ExprKind::Name(u)) = (&func.kind, &arg.kind) {
+                if resolve::family(u) == Some(Entity::TexCoords) && !self.globals.contains_key(&u.key()) {
+                    self.surface = Some((self.texcoord_id(u), None));
+                }
+            }
+        }
+        // The index.
+        self.statement_freq = Some(sample);
+        self.sample = if sample.is_sample() { Some(sample) } else { None };
+        let index_value = self.lower_expr(&t.index)?;
+        let mut index = self.expect_expr(index_value, t.index.span)?;
+        self.check_index(&key, &table, sample, index, t.index.span)?;
+        // The value.
+        let value = self.lower_expr(&st.value)?;
+        let value = match value {
+            Value::Bundle(b) if matches!(table, Table::Texture(_)) => {
+                let members = self.bundle_members(&b, st.value.span)?;
+                self.append(Expr::Bundle(members), st.value.span)?
+            }
+            v => self.expect_expr(v, st.value.span)?,
+        };
+        // `s δu` was taken on the surface: the statement rasterizes the mesh
+        // in texture space, indexed by `δu x` (as (15) writes it).
+        if let Some((_, Some((_, surface_index)))) = self.surface {
+            index = surface_index;
+        }
+        let vi = *self.module.info(value);
+        // Frequencies: the value must be computable where the statement runs.
+        self.check_value_freq(vi.freq, sample, st.value.span)?;
+        // Types: what the table holds.
+        let value = self.fit_value(&table, index, value, vi.ty, st.value.span)?;
+        self.module.statements.push(Statement {
+            table,
+            index,
+            freq: sample,
+            value,
+            span,
+            target_span: t.span,
+        });
+        Ok(())
+    }
+
+    /// The table a statement's target writes into, and the frequency the
+    /// statement runs at: per fragment or per pixel for a framebuffer, per
+    /// texel or fragment for a texture, per vertex for texgen.
+    fn target_table(&mut self, t: &'a ast::Target, key: &str) -> Res<(Table, Frequency)> {
         let has_delta = contains(
             &t.index,
             &|e| matches!(&e.kind, ExprKind::Apply { func, .. } if func.kind == FuncKind::Delta),
@@ -697,7 +748,7 @@ impl<'a> Lowerer<'a> {
             Some(ast::Channel::Depth) => FbChannel::Depth,
             Some(ast::Channel::Stencil) => FbChannel::Stencil,
         };
-        let (table, sample) = match (self.globals.get(&key).copied(), resolve::family(&t.table)) {
+        let (table, sample) = match (self.globals.get(key).copied(), resolve::family(&t.table)) {
             (Some(Global::Framebuffer(id)), _) => (
                 Table::Framebuffer { id, channel },
                 if has_delta { Frequency::Fragment } else { Frequency::Screen },
@@ -719,7 +770,7 @@ impl<'a> Lowerer<'a> {
             (None, Some(Entity::TexCoords)) => {
                 (Table::TexCoords(self.texcoord_id(&t.table)), Frequency::Vertex)
             }
-            _ if matches!(key.as_str(), "a" | "s") && self.index_names_framebuffer(&t.index) => {
+            _ if matches!(key, "a" | "s") && self.index_names_framebuffer(&t.index) => {
                 // seeds/001 as printed: `s C δπx ← …` is σ, `a C xs ← …` α.
                 let (sym, word) = if key == "s" { ("σ", "stencil") } else { ("α", "alpha") };
                 self.diagnostics.push(
@@ -734,23 +785,20 @@ impl<'a> Lowerer<'a> {
                 return Err(());
             }
         };
-        // Texture shading `T δu ← …`: `s δu` may be taken on the surface.
-        if let (Table::Texture(_), Frequency::Texel, ExprKind::Apply { func, arg }) =
-            (&table, sample, &t.index.kind)
-        {
-            if let (FuncKind::Delta, ExprKind::Name(u)) = (&func.kind, &arg.kind) {
-                if resolve::family(u) == Some(Entity::TexCoords) && !self.globals.contains_key(&u.key()) {
-                    self.surface = Some((self.texcoord_id(u), None));
-                }
-            }
-        }
-        // The index.
-        self.statement_freq = Some(sample);
-        self.sample = if sample.is_sample() { Some(sample) } else { None };
-        let index_value = self.lower_expr(&t.index)?;
-        let mut index = self.expect_expr(index_value, t.index.span)?;
+        Ok((table, sample))
+    }
+
+    /// Refuses an index the table cannot be indexed by at `sample`.
+    fn check_index(
+        &mut self,
+        key: &str,
+        table: &Table,
+        sample: Frequency,
+        index: Handle<Expr>,
+        span: Span,
+    ) -> Res<()> {
         let ii = *self.module.info(index);
-        let index_ok = match &table {
+        let index_ok = match table {
             Table::Framebuffer { .. } => ii.ty == Ty::Position && ii.freq == sample,
             Table::Texture(_) if sample == Frequency::Fragment => ii.ty == Ty::Position && ii.freq == sample,
             Table::Texture(_) => ii.ty == Ty::Vec2 && ii.freq == Frequency::Texel,
@@ -760,30 +808,19 @@ impl<'a> Lowerer<'a> {
             self.error(
                 "bad-target",
                 format!("`{key}` cannot be indexed by a {} {}", ii.freq.name(), ii.ty.name()),
-                t.index.span,
+                span,
                 "unexpected index",
                 "write `C δπx` (fragments), `C xs` (a screen pass), `T δu` (texture shading), `T δπx` (render to texture) or `u x` (texgen)",
             );
             return Err(());
         }
-        // The value.
-        let value = self.lower_expr(&st.value)?;
-        let mut value = match value {
-            Value::Bundle(b) if matches!(table, Table::Texture(_)) => {
-                let members = self.bundle_members(&b, st.value.span)?;
-                self.append(Expr::Bundle(members), st.value.span)?
-            }
-            v => self.expect_expr(v, st.value.span)?,
-        };
-        // `s δu` was taken on the surface: the statement rasterizes the mesh
-        // in texture space, indexed by `δu x` (as (15) writes it).
-        if let Some((_, Some((_, surface_index)))) = self.surface {
-            index = surface_index;
-        }
-        let vi = *self.module.info(value);
-        // Frequencies: the value must be computable where the statement runs.
-        if vi.freq.join(sample).is_none() || (vi.freq == Frequency::Vertex && sample.is_sample()) {
-            let help = if vi.freq == Frequency::Vertex {
+        Ok(())
+    }
+
+    /// Refuses a value not computable where the statement runs (`sample`).
+    fn check_value_freq(&mut self, freq: Frequency, sample: Frequency, span: Span) -> Res<()> {
+        if freq.join(sample).is_none() || (freq == Frequency::Vertex && sample.is_sample()) {
+            let help = if freq == Frequency::Vertex {
                 "interpolate it: right of δ is per vertex, left of δ per fragment (e.g. `δ p s x`)"
                     .to_string()
             } else {
@@ -794,33 +831,45 @@ impl<'a> Lowerer<'a> {
             };
             self.error(
                 "frequency",
-                format!("a {} value is assigned to a {} target", vi.freq.name(), sample.name()),
-                st.value.span,
-                format!("{} value", vi.freq.name()),
+                format!("a {} value is assigned to a {} target", freq.name(), sample.name()),
+                span,
+                format!("{} value", freq.name()),
                 help,
             );
             return Err(());
         }
-        // Types: what the table holds.
-        match &table {
+        Ok(())
+    }
+
+    /// The value as the table holds it (rgb widened to rgba, a position
+    /// into a depth buffer as its depth); records a texgen's type.
+    fn fit_value(
+        &mut self,
+        table: &Table,
+        index: Handle<Expr>,
+        mut value: Handle<Expr>,
+        ty: Ty,
+        span: Span,
+    ) -> Res<Handle<Expr>> {
+        match table {
             Table::Framebuffer { channel, .. } => {
                 let want = match channel {
                     FbChannel::Color => Ty::Rgba,
                     _ => Ty::Scalar,
                 };
-                value = match (vi.ty, want) {
+                value = match (ty, want) {
                     (a, b) if a == b => value,
                     (Ty::Rgb, Ty::Rgba) | (Ty::Scalar, Ty::Rgba) => {
-                        self.append(Expr::Convert { value, to: Ty::Rgba }, st.value.span)?
+                        self.append(Expr::Convert { value, to: Ty::Rgba }, span)?
                     }
                     // `Cl δπl x ← δ x` (shadow mask): a position written into a depth
                     // buffer stores the depth of the fragment being written, in the
                     // projection of the index (πl here) — what the depth test compares.
-                    (Ty::Position, _) if *channel == FbChannel::Depth || self.is_depth_only(&table) => {
-                        self.append(Expr::Depth(index), st.value.span)?
+                    (Ty::Position, _) if *channel == FbChannel::Depth || self.is_depth_only(table) => {
+                        self.append(Expr::Depth(index), span)?
                     }
                     (have, want) => {
-                        self.error("type-mismatch", format!("a {} is written into a {} channel", have.name(), want.name()), st.value.span, format!("a {}", have.name()), if have == Ty::Vec3 { "a vec3 is a direction: write a colour into a framebuffer (`rgb(v)` reads a vec3 as one), a scalar into α, z or σ" } else { "write a colour (rgb or rgba) into a framebuffer, a scalar into α, z or σ" });
+                        self.error("type-mismatch", format!("a {} is written into a {} channel", have.name(), want.name()), span, format!("a {}", have.name()), if have == Ty::Vec3 { "a vec3 is a direction: write a colour into a framebuffer (`rgb(v)` reads a vec3 as one), a scalar into α, z or σ" } else { "write a colour (rgb or rgba) into a framebuffer, a scalar into α, z or σ" });
                         return Err(());
                     }
                 };
@@ -829,11 +878,11 @@ impl<'a> Lowerer<'a> {
                 let tex = &self.module.textures[*id as usize];
                 let (texel, _) = valid::texel_type(tex.kind, tex.format);
                 let name = tex.name.clone();
-                value = match (vi.ty, texel) {
+                value = match (ty, texel) {
                     (a, b) if a == b => value,
                     (Ty::Bundle(_), _) => value,
                     (Ty::Rgb, Ty::Rgba) | (Ty::Scalar, Ty::Rgba) => {
-                        self.append(Expr::Convert { value, to: Ty::Rgba }, st.value.span)?
+                        self.append(Expr::Convert { value, to: Ty::Rgba }, span)?
                     }
                     (Ty::Vec3, Ty::Rgb) | (Ty::Rgb, Ty::Vec3) => value,
                     (have, want) => {
@@ -844,7 +893,7 @@ impl<'a> Lowerer<'a> {
                                 have.name(),
                                 want.name()
                             ),
-                            st.value.span,
+                            span,
                             format!("a {}", have.name()),
                             "change the texture's format, or the value",
                         );
@@ -853,30 +902,22 @@ impl<'a> Lowerer<'a> {
                 };
             }
             Table::TexCoords(set) => {
-                if !matches!(vi.ty, Ty::Scalar | Ty::Vec2 | Ty::Vec3) {
+                if !matches!(ty, Ty::Scalar | Ty::Vec2 | Ty::Vec3) {
                     self.error(
                         "type-mismatch",
-                        format!("texture coordinates cannot be a {}", vi.ty.name()),
-                        st.value.span,
-                        format!("a {}", vi.ty.name()),
+                        format!("texture coordinates cannot be a {}", ty.name()),
+                        span,
+                        format!("a {}", ty.name()),
                         "generate a scalar, vec2 or vec3 (seeds/001 (7))",
                     );
                     return Err(());
                 }
                 let set = &mut self.module.texcoord_sets[*set as usize];
-                set.ty = vi.ty;
+                set.ty = ty;
                 set.generated = true;
             }
         }
-        self.module.statements.push(Statement {
-            table,
-            index,
-            freq: sample,
-            value,
-            span,
-            target_span: t.span,
-        });
-        Ok(())
+        Ok(value)
     }
 
     fn is_depth_only(&self, table: &Table) -> bool {

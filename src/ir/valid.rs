@@ -4,8 +4,8 @@
 //! [`Module`] always has an [`ExprInfo`].
 
 use super::{
-    eval, BinaryOp, Constant, Expr, ExprInfo, FbChannel, Frequency, Interval, MathFunction, Module, Site, Ty,
-    UnaryOp,
+    eval, BinaryOp, Constant, Expr, ExprInfo, FbChannel, FramebufferId, Frequency, Handle, Interval,
+    MathFunction, Module, Site, TextureId, Ty, UnaryOp, VectorId,
 };
 use crate::parser::ast::{CombineMode, TextureFormat, TextureKind, VectorKind};
 
@@ -179,21 +179,7 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
         Expr::TexCoord { set, .. } => {
             out(m.texcoord_sets[*set as usize].ty, Frequency::Vertex, Interval::ALL)
         }
-        Expr::Vector { vector, site } => {
-            let freq = match site {
-                Site::Vertex(_) => Frequency::Vertex,
-                Site::Texel => Frequency::Texel,
-            };
-            let (ty, interval) = match m.vectors[*vector as usize].kind {
-                Some(VectorKind::Position) => (Ty::Vec3, Interval::ALL),
-                // A light's colour · attenuation · spot factor: not a unit
-                // vector but a colour (the I of seeds/001 (1)-(3)), written
-                // into a framebuffer as it is.
-                Some(VectorKind::Intensity) => (Ty::Rgb, Interval { lo: 0.0, hi: f64::INFINITY }),
-                _ => (Ty::Vec3, Interval::SIGNED),
-            };
-            out(ty, freq, interval)
-        }
+        Expr::Vector { vector, site } => shading_vector(m, *vector, *site),
         Expr::TexelCoord => out(Ty::Vec2, Frequency::Texel, Interval::UNSIGNED),
         Expr::Pixel { freq } => out(Ty::Position, *freq, Interval::ALL),
         Expr::Project { value, .. } => {
@@ -209,81 +195,10 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
                 .help("write `π x` for a vertex, or `πR R s x` for a direction (seeds/001 (7))")),
             }
         }
-        Expr::Interpolate { value, to } => {
-            let v = info(value);
-            if v.freq.is_sample() {
-                return Err(err(
-                    "delta-twice",
-                    format!("δ applied to a value that is already {}", v.freq.name()),
-                    "δ applied twice",
-                )
-                .help("δ interpolates per-vertex values; remove one δ"));
-            }
-            if matches!(v.ty, Ty::Bundle(_)) {
-                return Err(err("not-supported", "not yet supported: interpolating a bundle value", "here"));
-            }
-            out(v.ty, *to, v.interval)
-        }
-        Expr::Lookup { texture, coords } => {
-            let t = &m.textures[*texture as usize];
-            let c = info(coords);
-            let want = coord_type(t.kind);
-            let ok = c.ty == want || (t.kind == TextureKind::Tex2d && c.ty == Ty::Position);
-            if !ok {
-                let message = if c.ty.is_color() {
-                    format!("the texture `{}` is indexed by a colour ({})", t.name, c.ty.name())
-                } else {
-                    format!("the {} texture `{}` is indexed by a {}", t.kind.as_str(), t.name, c.ty.name())
-                };
-                return Err(err("bad-index", message, format!("expected {} coordinates", want.name())).help(
-                    format!(
-                        "a {} texture takes {} coordinates, such as `{} δu x`; a colour is not a coordinate",
-                        t.kind.as_str(),
-                        want.name(),
-                        t.name
-                    ),
-                ));
-            }
-            let (ty, interval) = texel_type(t.kind, t.format);
-            out(ty, c.freq.max(Frequency::Uniform), interval)
-        }
+        Expr::Interpolate { value, to } => interpolate(m, *value, *to),
+        Expr::Lookup { texture, coords } => lookup(m, *texture, *coords),
         Expr::FramebufferRead { framebuffer, channel, position } => {
-            let p = info(position);
-            let name = &m.framebuffers[*framebuffer as usize].name;
-            if p.ty != Ty::Position {
-                return Err(err(
-                    "bad-index",
-                    format!("the framebuffer `{name}` is indexed by a {}", p.ty.name()),
-                    "expected a position",
-                )
-                .help(format!("read a framebuffer at a fragment (`{name} δπx`) or a pixel (`{name} xs`)")));
-            }
-            if !p.freq.is_sample() {
-                return Err(err(
-                    "frequency",
-                    format!("the framebuffer `{name}` is read at a {} position", p.freq.name()),
-                    "not a fragment or pixel",
-                )
-                .help(format!("framebuffers hold pixels: write `{name} δπx` or `{name} xs`")));
-            }
-            let (ty, interval) = match channel {
-                FbChannel::Color => (Ty::Rgba, Interval::UNSIGNED),
-                FbChannel::Alpha | FbChannel::Depth => (Ty::Scalar, Interval::UNSIGNED),
-                FbChannel::Stencil => (Ty::Scalar, Interval { lo: 0.0, hi: 255.0 }),
-            };
-            let float = m.framebuffers[*framebuffer as usize].channels.iter().any(|c| {
-                matches!(
-                    c,
-                    crate::parser::ast::FramebufferChannel::Rgba16f
-                        | crate::parser::ast::FramebufferChannel::Rgba32f
-                )
-            });
-            let interval = if float && matches!(channel, FbChannel::Color | FbChannel::Alpha) {
-                Interval::ALL
-            } else {
-                interval
-            };
-            out(ty, p.freq, interval)
+            framebuffer_read(m, *framebuffer, *channel, *position)
         }
         Expr::Depth(p) => {
             let p = info(p);
@@ -304,117 +219,266 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
         Expr::Bundle(members) => {
             out(Ty::Bundle(members.len().min(255) as u8), join_all(m, members)?, Interval::ALL)
         }
-        Expr::Unary { op, value } => {
-            let v = info(value);
-            numeric(v.ty, "negation")?;
-            match op {
-                UnaryOp::Neg => out(v.ty, v.freq, neg(v.interval)),
-                UnaryOp::Not => {
-                    if v.ty != Ty::Scalar {
-                        return Err(err(
-                            "type-mismatch",
-                            format!("`not` of a {}", v.ty.name()),
-                            "a condition is a scalar",
-                        ));
-                    }
-                    out(Ty::Scalar, v.freq, Interval::UNSIGNED)
-                }
-            }
-        }
+        Expr::Unary { op, value } => unary(m, *op, *value),
         Expr::Binary { op, lhs, rhs } => binary(m, *op, info(lhs), info(rhs)),
-        Expr::Combine { mode, lhs, rhs } => {
-            let (a, b) = (info(lhs), info(rhs));
-            for t in [a.ty, b.ty] {
-                if !matches!(t, Ty::Scalar | Ty::Rgb | Ty::Rgba) {
-                    return Err(err("type-mismatch", format!("⊕ combines colours, not a {}", t.name()), format!("a {}", t.name()))
-                        .help("⊕ is a texture-environment or framebuffer operation on colours (seeds/001 (3)); use `*` or `+` for vectors"));
-                }
-            }
-            let ty = unify(a.ty, b.ty).ok_or_else(|| mismatch("⊕", a.ty, b.ty))?;
-            let freq = join(a.freq, b.freq)?;
-            let interval = match mode {
-                CombineMode::Modulate => mul(a.interval, b.interval),
-                CombineMode::Add => add(a.interval, b.interval),
-                CombineMode::AddSigned => add(add(a.interval, b.interval), Interval::point(-0.5)),
-                CombineMode::Subtract => add(a.interval, neg(b.interval)),
-                CombineMode::Dot3Rgb | CombineMode::Dot3Rgba => {
-                    dot3(a.interval, b.interval, ty == Ty::Scalar)
-                }
-                _ => hull(a.interval, b.interval),
-            };
-            out(ty, freq, interval)
-        }
+        Expr::Combine { mode, lhs, rhs } => combine(m, *mode, *lhs, *rhs),
         Expr::Math { fun, args } => math(m, *fun, args),
-        Expr::Swizzle { value, pattern, len, ty } => {
-            let v = info(value);
-            numeric(v.ty, "a component selection")?;
-            for &i in &pattern[..*len as usize] {
-                if i as usize >= v.ty.width() {
-                    return Err(err(
-                        "bad-swizzle",
-                        format!("component {} of a {}", i + 1, v.ty.name()),
-                        "no such component",
-                    )
-                    .help(format!("a {} has {} component(s)", v.ty.name(), v.ty.width())));
-                }
-            }
-            out(*ty, v.freq, v.interval)
-        }
-        Expr::Compose { ty, components } => {
-            let mut width = 0;
-            let mut interval: Option<Interval> = None;
-            for c in components {
-                let ci = info(c);
-                numeric(ci.ty, "a vector component")?;
-                width += ci.ty.width();
-                interval = Some(interval.map_or(ci.interval, |i| hull(i, ci.interval)));
-            }
-            if width != ty.width() {
+        Expr::Swizzle { value, pattern, len, ty } => swizzle(m, *value, pattern, *len, *ty),
+        Expr::Compose { ty, components } => compose(m, *ty, components),
+        Expr::Convert { value, to } => convert(m, *value, *to),
+        Expr::Select { cond, accept, reject } => select(m, *cond, *accept, *reject),
+    }
+}
+
+/// `δ`: a per-vertex value, interpolated once.
+fn interpolate(m: &Module, value: Handle<Expr>, to: Frequency) -> Result<ExprInfo, TypeError> {
+    let info = |h: Handle<Expr>| *m.info(h);
+    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let v = info(value);
+    if v.freq.is_sample() {
+        return Err(err(
+            "delta-twice",
+            format!("δ applied to a value that is already {}", v.freq.name()),
+            "δ applied twice",
+        )
+        .help("δ interpolates per-vertex values; remove one δ"));
+    }
+    if matches!(v.ty, Ty::Bundle(_)) {
+        return Err(err("not-supported", "not yet supported: interpolating a bundle value", "here"));
+    }
+    out(v.ty, to, v.interval)
+}
+
+/// Negation of a number, or `not` of a condition.
+fn unary(m: &Module, op: UnaryOp, value: Handle<Expr>) -> Result<ExprInfo, TypeError> {
+    let info = |h: Handle<Expr>| *m.info(h);
+    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let v = info(value);
+    numeric(v.ty, "negation")?;
+    match op {
+        UnaryOp::Neg => out(v.ty, v.freq, neg(v.interval)),
+        UnaryOp::Not => {
+            if v.ty != Ty::Scalar {
                 return Err(err(
                     "type-mismatch",
-                    format!("a {} needs {} components, got {width}", ty.name(), ty.width()),
-                    "wrong number of components",
+                    format!("`not` of a {}", v.ty.name()),
+                    "a condition is a scalar",
                 ));
             }
-            out(*ty, join_all(m, components)?, interval.unwrap_or(Interval::ALL))
-        }
-        Expr::Convert { value, to } => {
-            let v = info(value);
-            let ok = (v.ty == Ty::Rgb && *to == Ty::Rgba)
-                || (v.ty == Ty::Scalar && to.is_numeric())
-                || v.ty == *to;
-            if !ok {
-                return Err(mismatch("conversion", v.ty, *to));
-            }
-            let interval = if *to == Ty::Rgba && v.ty == Ty::Rgb {
-                hull(v.interval, Interval::point(1.0))
-            } else {
-                v.interval
-            };
-            out(*to, v.freq, interval)
-        }
-        Expr::Select { cond, accept, reject } => {
-            let c = info(cond);
-            if c.ty != Ty::Scalar {
-                return Err(err(
-                    "type-mismatch",
-                    format!("a condition must be a scalar, not a {}", c.ty.name()),
-                    "condition",
-                )
-                .help("compare something: `Hn.z ≥ 0 ? … : …`"));
-            }
-            let a = info(accept);
-            let (ty, interval, freq) = match reject {
-                Some(r) => {
-                    let r = info(r);
-                    let ty = unify(a.ty, r.ty).ok_or_else(|| mismatch("selection", a.ty, r.ty))?;
-                    (ty, hull(a.interval, r.interval), join(join(c.freq, a.freq)?, r.freq)?)
-                }
-                None => (a.ty, a.interval, join(c.freq, a.freq)?),
-            };
-            out(ty, freq, interval)
+            out(Ty::Scalar, v.freq, Interval::UNSIGNED)
         }
     }
+}
+
+/// A component selection: each selected component must exist.
+fn swizzle(
+    m: &Module,
+    value: Handle<Expr>,
+    pattern: &[u8; 4],
+    len: u8,
+    ty: Ty,
+) -> Result<ExprInfo, TypeError> {
+    let info = |h: Handle<Expr>| *m.info(h);
+    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let v = info(value);
+    numeric(v.ty, "a component selection")?;
+    for &i in &pattern[..len as usize] {
+        if i as usize >= v.ty.width() {
+            return Err(err(
+                "bad-swizzle",
+                format!("component {} of a {}", i + 1, v.ty.name()),
+                "no such component",
+            )
+            .help(format!("a {} has {} component(s)", v.ty.name(), v.ty.width())));
+        }
+    }
+    out(ty, v.freq, v.interval)
+}
+
+/// A widening conversion: rgb to rgba (alpha 1), a scalar splatted, or to its own type.
+fn convert(m: &Module, value: Handle<Expr>, to: Ty) -> Result<ExprInfo, TypeError> {
+    let info = |h: Handle<Expr>| *m.info(h);
+    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let v = info(value);
+    let ok = (v.ty == Ty::Rgb && to == Ty::Rgba) || (v.ty == Ty::Scalar && to.is_numeric()) || v.ty == to;
+    if !ok {
+        return Err(mismatch("conversion", v.ty, to));
+    }
+    let interval =
+        if to == Ty::Rgba && v.ty == Ty::Rgb { hull(v.interval, Interval::point(1.0)) } else { v.interval };
+    out(to, v.freq, interval)
+}
+
+/// A shading vector: per vertex or per texel, a unit direction unless its kind says otherwise.
+fn shading_vector(m: &Module, vector: VectorId, site: Site) -> Result<ExprInfo, TypeError> {
+    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let freq = match site {
+        Site::Vertex(_) => Frequency::Vertex,
+        Site::Texel => Frequency::Texel,
+    };
+    let (ty, interval) = match m.vectors[vector as usize].kind {
+        Some(VectorKind::Position) => (Ty::Vec3, Interval::ALL),
+        // A light's colour · attenuation · spot factor: not a unit
+        // vector but a colour (the I of seeds/001 (1)-(3)), written
+        // into a framebuffer as it is.
+        Some(VectorKind::Intensity) => (Ty::Rgb, Interval { lo: 0.0, hi: f64::INFINITY }),
+        _ => (Ty::Vec3, Interval::SIGNED),
+    };
+    out(ty, freq, interval)
+}
+
+/// A texel: the coordinates must be the texture kind's.
+fn lookup(m: &Module, texture: TextureId, coords: Handle<Expr>) -> Result<ExprInfo, TypeError> {
+    let info = |h: Handle<Expr>| *m.info(h);
+    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let t = &m.textures[texture as usize];
+    let c = info(coords);
+    let want = coord_type(t.kind);
+    let ok = c.ty == want || (t.kind == TextureKind::Tex2d && c.ty == Ty::Position);
+    if !ok {
+        let message = if c.ty.is_color() {
+            format!("the texture `{}` is indexed by a colour ({})", t.name, c.ty.name())
+        } else {
+            format!("the {} texture `{}` is indexed by a {}", t.kind.as_str(), t.name, c.ty.name())
+        };
+        return Err(err("bad-index", message, format!("expected {} coordinates", want.name())).help(
+            format!(
+                "a {} texture takes {} coordinates, such as `{} δu x`; a colour is not a coordinate",
+                t.kind.as_str(),
+                want.name(),
+                t.name
+            ),
+        ));
+    }
+    let (ty, interval) = texel_type(t.kind, t.format);
+    out(ty, c.freq.max(Frequency::Uniform), interval)
+}
+
+/// A framebuffer channel, read at a per-fragment or per-pixel position; a float framebuffer's colour is unbounded.
+fn framebuffer_read(
+    m: &Module,
+    framebuffer: FramebufferId,
+    channel: FbChannel,
+    position: Handle<Expr>,
+) -> Result<ExprInfo, TypeError> {
+    let info = |h: Handle<Expr>| *m.info(h);
+    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let p = info(position);
+    let name = &m.framebuffers[framebuffer as usize].name;
+    if p.ty != Ty::Position {
+        return Err(err(
+            "bad-index",
+            format!("the framebuffer `{name}` is indexed by a {}", p.ty.name()),
+            "expected a position",
+        )
+        .help(format!("read a framebuffer at a fragment (`{name} δπx`) or a pixel (`{name} xs`)")));
+    }
+    if !p.freq.is_sample() {
+        return Err(err(
+            "frequency",
+            format!("the framebuffer `{name}` is read at a {} position", p.freq.name()),
+            "not a fragment or pixel",
+        )
+        .help(format!("framebuffers hold pixels: write `{name} δπx` or `{name} xs`")));
+    }
+    let (ty, interval) = match channel {
+        FbChannel::Color => (Ty::Rgba, Interval::UNSIGNED),
+        FbChannel::Alpha | FbChannel::Depth => (Ty::Scalar, Interval::UNSIGNED),
+        FbChannel::Stencil => (Ty::Scalar, Interval { lo: 0.0, hi: 255.0 }),
+    };
+    let float = m.framebuffers[framebuffer as usize].channels.iter().any(|c| {
+        matches!(
+            c,
+            crate::parser::ast::FramebufferChannel::Rgba16f | crate::parser::ast::FramebufferChannel::Rgba32f
+        )
+    });
+    let interval = if float && matches!(channel, FbChannel::Color | FbChannel::Alpha) {
+        Interval::ALL
+    } else {
+        interval
+    };
+    out(ty, p.freq, interval)
+}
+
+/// `⊕`: a texture-environment or framebuffer operation on colours.
+fn combine(
+    m: &Module,
+    mode: CombineMode,
+    lhs: Handle<Expr>,
+    rhs: Handle<Expr>,
+) -> Result<ExprInfo, TypeError> {
+    let info = |h: Handle<Expr>| *m.info(h);
+    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let (a, b) = (info(lhs), info(rhs));
+    for t in [a.ty, b.ty] {
+        if !matches!(t, Ty::Scalar | Ty::Rgb | Ty::Rgba) {
+            return Err(err("type-mismatch", format!("⊕ combines colours, not a {}", t.name()), format!("a {}", t.name()))
+                .help("⊕ is a texture-environment or framebuffer operation on colours (seeds/001 (3)); use `*` or `+` for vectors"));
+        }
+    }
+    let ty = unify(a.ty, b.ty).ok_or_else(|| mismatch("⊕", a.ty, b.ty))?;
+    let freq = join(a.freq, b.freq)?;
+    let interval = match mode {
+        CombineMode::Modulate => mul(a.interval, b.interval),
+        CombineMode::Add => add(a.interval, b.interval),
+        CombineMode::AddSigned => add(add(a.interval, b.interval), Interval::point(-0.5)),
+        CombineMode::Subtract => add(a.interval, neg(b.interval)),
+        CombineMode::Dot3Rgb | CombineMode::Dot3Rgba => dot3(a.interval, b.interval, ty == Ty::Scalar),
+        _ => hull(a.interval, b.interval),
+    };
+    out(ty, freq, interval)
+}
+
+/// A vector from components, whose widths must add up to its own.
+fn compose(m: &Module, ty: Ty, components: &[Handle<Expr>]) -> Result<ExprInfo, TypeError> {
+    let info = |h: Handle<Expr>| *m.info(h);
+    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let mut width = 0;
+    let mut interval: Option<Interval> = None;
+    for c in components {
+        let ci = info(*c);
+        numeric(ci.ty, "a vector component")?;
+        width += ci.ty.width();
+        interval = Some(interval.map_or(ci.interval, |i| hull(i, ci.interval)));
+    }
+    if width != ty.width() {
+        return Err(err(
+            "type-mismatch",
+            format!("a {} needs {} components, got {width}", ty.name(), ty.width()),
+            "wrong number of components",
+        ));
+    }
+    out(ty, join_all(m, components)?, interval.unwrap_or(Interval::ALL))
+}
+
+/// `c ? a : b`, or `c ? a` (no reject: the fragment is discarded where c is 0).
+fn select(
+    m: &Module,
+    cond: Handle<Expr>,
+    accept: Handle<Expr>,
+    reject: Option<Handle<Expr>>,
+) -> Result<ExprInfo, TypeError> {
+    let info = |h: Handle<Expr>| *m.info(h);
+    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let c = info(cond);
+    if c.ty != Ty::Scalar {
+        return Err(err(
+            "type-mismatch",
+            format!("a condition must be a scalar, not a {}", c.ty.name()),
+            "condition",
+        )
+        .help("compare something: `Hn.z ≥ 0 ? … : …`"));
+    }
+    let a = info(accept);
+    let (ty, interval, freq) = match reject {
+        Some(r) => {
+            let r = info(r);
+            let ty = unify(a.ty, r.ty).ok_or_else(|| mismatch("selection", a.ty, r.ty))?;
+            (ty, hull(a.interval, r.interval), join(join(c.freq, a.freq)?, r.freq)?)
+        }
+        None => (a.ty, a.interval, join(c.freq, a.freq)?),
+    };
+    out(ty, freq, interval)
 }
 
 fn binary(_m: &Module, op: BinaryOp, a: ExprInfo, b: ExprInfo) -> Result<ExprInfo, TypeError> {

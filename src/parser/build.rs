@@ -53,49 +53,7 @@ impl Builder {
                     profile: Word { value: word.as_str().to_string(), span: self.span(&word) },
                 })
             }
-            Rule::texture_decl => {
-                let names = self.name_list(it.next()?);
-                let mut words = Vec::new();
-                while let Some(p) = it.next_if(|p| p.as_rule() == Rule::word) {
-                    words.push(p);
-                }
-                let source = match it.next() {
-                    Some(e) => Some(self.expr(e)?.expr),
-                    None => None,
-                };
-                let mut words = words.into_iter();
-                // Classify every word before giving up, so each unknown one is reported.
-                let kind = self.classify::<TextureKind>(
-                    &words.next()?,
-                    "texture kind",
-                    TextureKind::from_word,
-                    TextureKind::ALL,
-                );
-                let (mut format, mut attrs) = (None, Vec::new());
-                for w in words {
-                    if let Some(f) = TextureFormat::from_word(w.as_str()) {
-                        if format.is_some() {
-                            self.errors.push(
-                                Diagnostic::error(
-                                    "duplicate-format",
-                                    "a texture has one format",
-                                    self.span(&w),
-                                    "second format",
-                                )
-                                .with_help("keep one of the formats"),
-                            );
-                        }
-                        format = Some(Word { value: f, span: self.span(&w) });
-                    } else if let Some(a) = TextureAttr::from_word(w.as_str()) {
-                        attrs.push(Word { value: a, span: self.span(&w) });
-                    } else {
-                        let all: Vec<&str> =
-                            TextureFormat::ALL.iter().chain(TextureAttr::ALL).copied().collect();
-                        self.unknown_word(&w, "texture format or attribute", &all);
-                    }
-                }
-                ItemKind::Texture(TextureDecl { names, kind: kind?, format, attrs, source })
-            }
+            Rule::texture_decl => ItemKind::Texture(self.texture_decl(it)?),
             Rule::framebuffer_decl => {
                 let names = self.name_list(it.next()?);
                 let channels = it
@@ -143,40 +101,7 @@ impl Builder {
                 ItemKind::Uniform(UniformDecl { name, ty, default })
             }
             Rule::let_decl => ItemKind::Let(self.let_decl(it)?),
-            Rule::shader_decl => {
-                let name = self.name(it.next()?);
-                let mut params = Vec::new();
-                if let Some(ps) = it.next_if(|p| p.as_rule() == Rule::shader_params) {
-                    for p in ps.into_inner() {
-                        let mut parts = p.into_inner().peekable();
-                        let name = self.name(parts.next()?);
-                        let ty = self.opt_type(&mut parts)?;
-                        let default = match parts.next() {
-                            Some(e) => Some(self.expr(e)?.expr),
-                            None => None,
-                        };
-                        params.push(ShaderParam { name, ty, default });
-                    }
-                }
-                let input = self.name(it.next()?);
-                it.next_if(|p| p.as_rule() == Rule::arrow);
-                let output = self.classify(&it.next()?, "type", Type::from_word, Type::ALL)?;
-                let body = it.next()?;
-                let block = body.as_str().trim_start().starts_with('{');
-                let mut lets = Vec::new();
-                let mut result = None;
-                for p in body.into_inner() {
-                    match p.as_rule() {
-                        Rule::let_decl => {
-                            let inner = p.into_inner().filter(|p| !is_keyword(p.as_rule())).peekable();
-                            lets.push(self.let_decl(inner)?);
-                        }
-                        Rule::expr => result = Some(self.expr(p)?.expr),
-                        _ => {}
-                    }
-                }
-                ItemKind::Shader(ShaderDecl { name, params, input, output, lets, body: result?, block })
-            }
+            Rule::shader_decl => ItemKind::Shader(self.shader_decl(it)?),
             Rule::statement => {
                 let lhs = it.next()?;
                 it.next_if(|p| p.as_rule() == Rule::assign);
@@ -186,6 +111,92 @@ impl Builder {
             }
             other => unreachable!("not an item: {other:?}"),
         })
+    }
+
+    /// `texture T kind format attributes = source`: every word classified before giving up.
+    fn texture_decl<'a>(
+        &mut self,
+        mut it: std::iter::Peekable<impl Iterator<Item = Pair<'a, Rule>>>,
+    ) -> Option<TextureDecl> {
+        let names = self.name_list(it.next()?);
+        let mut words = Vec::new();
+        while let Some(p) = it.next_if(|p| p.as_rule() == Rule::word) {
+            words.push(p);
+        }
+        let source = match it.next() {
+            Some(e) => Some(self.expr(e)?.expr),
+            None => None,
+        };
+        let mut words = words.into_iter();
+        // Classify every word before giving up, so each unknown one is reported.
+        let kind = self.classify::<TextureKind>(
+            &words.next()?,
+            "texture kind",
+            TextureKind::from_word,
+            TextureKind::ALL,
+        );
+        let (mut format, mut attrs) = (None, Vec::new());
+        for w in words {
+            if let Some(f) = TextureFormat::from_word(w.as_str()) {
+                if format.is_some() {
+                    self.errors.push(
+                        Diagnostic::error(
+                            "duplicate-format",
+                            "a texture has one format",
+                            self.span(&w),
+                            "second format",
+                        )
+                        .with_help("keep one of the formats"),
+                    );
+                }
+                format = Some(Word { value: f, span: self.span(&w) });
+            } else if let Some(a) = TextureAttr::from_word(w.as_str()) {
+                attrs.push(Word { value: a, span: self.span(&w) });
+            } else {
+                let all: Vec<&str> = TextureFormat::ALL.iter().chain(TextureAttr::ALL).copied().collect();
+                self.unknown_word(&w, "texture format or attribute", &all);
+            }
+        }
+        Some(TextureDecl { names, kind: kind?, format, attrs, source })
+    }
+
+    /// `shader f(params) x -> type = body`, the body an expression or a block of lets.
+    fn shader_decl<'a>(
+        &mut self,
+        mut it: std::iter::Peekable<impl Iterator<Item = Pair<'a, Rule>>>,
+    ) -> Option<ShaderDecl> {
+        let name = self.name(it.next()?);
+        let mut params = Vec::new();
+        if let Some(ps) = it.next_if(|p| p.as_rule() == Rule::shader_params) {
+            for p in ps.into_inner() {
+                let mut parts = p.into_inner().peekable();
+                let name = self.name(parts.next()?);
+                let ty = self.opt_type(&mut parts)?;
+                let default = match parts.next() {
+                    Some(e) => Some(self.expr(e)?.expr),
+                    None => None,
+                };
+                params.push(ShaderParam { name, ty, default });
+            }
+        }
+        let input = self.name(it.next()?);
+        it.next_if(|p| p.as_rule() == Rule::arrow);
+        let output = self.classify(&it.next()?, "type", Type::from_word, Type::ALL)?;
+        let body = it.next()?;
+        let block = body.as_str().trim_start().starts_with('{');
+        let mut lets = Vec::new();
+        let mut result = None;
+        for p in body.into_inner() {
+            match p.as_rule() {
+                Rule::let_decl => {
+                    let inner = p.into_inner().filter(|p| !is_keyword(p.as_rule())).peekable();
+                    lets.push(self.let_decl(inner)?);
+                }
+                Rule::expr => result = Some(self.expr(p)?.expr),
+                _ => {}
+            }
+        }
+        Some(ShaderDecl { name, params, input, output, lets, body: result?, block })
     }
 
     fn let_decl<'a>(&mut self, mut it: impl Iterator<Item = Pair<'a, Rule>>) -> Option<LetDecl> {

@@ -164,6 +164,35 @@ pub fn draw_adaptive(
     passes: &[Pass],
     settings: &AdaptiveSettings,
 ) -> Result<AdaptiveStats, RenderError> {
+    check_adaptive(passes, settings)?;
+    let (w, h) = (target.width() as usize, target.height() as usize);
+    let (setups, offsets) = setup_passes(passes, w, h)?;
+
+    // 1. Visibility, in bands of TILE rows.
+    let (ids, depth) = visible(target, passes, &setups, &offsets);
+
+    let max_varyings = setups.iter().map(|s| s.n_varyings).max().unwrap_or(0);
+    let ctx = Ctx { passes, setups: &setups, offsets: &offsets, ids: &ids, w, h, settings: *settings };
+
+    // 2. Scanlines: every `spacing`-th row and the last one.
+    let mut color = vec![[0.0f32; 4]; w * h];
+    let mut state = vec![UNKNOWN; w * h];
+    let row_stats = ctx.scanlines(&mut color, &mut state, max_varyings);
+
+    // 3. Columns between consecutive regular rows.
+    let column_stats = ctx.columns(&mut color, &mut state, max_varyings);
+    let mut stats = row_stats.add(column_stats);
+    if settings.threshold > 0.0 {
+        ctx.refine(&mut color, &mut state, &mut vec![0.0f32; max_varyings], &mut stats);
+    }
+    stats.covered = ids.iter().filter(|&&id| id != NONE).count() as u64;
+
+    ctx.write_through(target, &depth, &color, &state);
+    Ok(stats)
+}
+
+/// Refuses what adaptive shading cannot draw: a stencil test, a spacing of 0.
+fn check_adaptive(passes: &[Pass], settings: &AdaptiveSettings) -> Result<(), RenderError> {
     for pass in passes {
         if pass.state.stencil.enabled {
             return Err(RenderError::Unsupported(
@@ -177,7 +206,12 @@ pub fn draw_adaptive(
             "adaptive shading needs a sample spacing of at least 1 pixel".into(),
         ));
     }
-    let (w, h) = (target.width() as usize, target.height() as usize);
+    Ok(())
+}
+
+/// Each pass's triangle setup, and the offsets of each pass's triangles in
+/// the draw's triangle ids (one more: the total).
+fn setup_passes(passes: &[Pass], w: usize, h: usize) -> Result<(Vec<PassSetup>, Vec<usize>), RenderError> {
     let mut setups = Vec::with_capacity(passes.len());
     let mut offsets = Vec::with_capacity(passes.len() + 1);
     let mut total = 0usize;
@@ -191,8 +225,18 @@ pub fn draw_adaptive(
     if total >= NONE as usize {
         return Err(RenderError::Unsupported("more than 2^32 - 1 triangles in one adaptive draw".into()));
     }
+    Ok((setups, offsets))
+}
 
-    // 1. Visibility, in bands of TILE rows.
+/// The visible triangle's id and depth at every pixel, starting from the
+/// target's depth, in bands of TILE rows.
+fn visible(
+    target: &Framebuffer,
+    passes: &[Pass],
+    setups: &[PassSetup],
+    offsets: &[usize],
+) -> (Vec<u32>, Vec<f32>) {
+    let (w, h) = (target.width() as usize, target.height() as usize);
     let mut ids = vec![NONE; w * h];
     let mut depth: Vec<f32> =
         (0..w * h).map(|i| target.depth((i % w) as u32, (i / w) as u32).unwrap_or(1.0)).collect();
@@ -200,120 +244,40 @@ pub fn draw_adaptive(
         |(band, (ids, depth))| {
             let y0 = (band * TILE) as i32;
             let y1 = y0 + (ids.len() / w) as i32 - 1;
-            for (p, (pass, setup)) in passes.iter().zip(&setups).enumerate() {
+            for (p, (pass, setup)) in passes.iter().zip(setups).enumerate() {
                 visibility(ids, depth, w, (y0, y1), pass, setup, offsets[p] as u32);
             }
         },
     );
-
-    let max_varyings = setups.iter().map(|s| s.n_varyings).max().unwrap_or(0);
-    let ctx = Ctx { passes, setups: &setups, offsets: &offsets, ids: &ids, w, h, settings: *settings };
-
-    // 2. Scanlines: every `spacing`-th row and the last one.
-    let n = settings.spacing as usize;
-    let is_regular_row = |y: usize| y % n == 0 || y == h - 1;
-    let mut color = vec![[0.0f32; 4]; w * h];
-    let mut state = vec![UNKNOWN; w * h];
-    let row_stats = color
-        .par_chunks_mut(w)
-        .zip(state.par_chunks_mut(w))
-        .enumerate()
-        .filter(|(y, _)| is_regular_row(*y))
-        .map(|(y, (vals, st))| {
-            let mut scratch = vec![0.0f32; max_varyings];
-            let mut stats = AdaptiveStats::default();
-            let pixel = |i: usize| (i, y);
-            ctx.fill_line(vals, st, &pixel, |i| i % n == 0, &mut scratch, &mut stats);
-            stats
-        })
-        .reduce(AdaptiveStats::default, AdaptiveStats::add);
-
-    // 3. Columns between consecutive regular rows.
-    let regular_rows: Vec<usize> = (0..h).filter(|&y| is_regular_row(y)).collect();
-    let mut reg_color = Vec::with_capacity(regular_rows.len() * w);
-    let mut reg_state = Vec::with_capacity(regular_rows.len() * w);
-    for &y in &regular_rows {
-        reg_color.extend_from_slice(&color[y * w..(y + 1) * w]);
-        reg_state.extend_from_slice(&state[y * w..(y + 1) * w]);
-    }
-    // Band k owns the rows strictly between regular rows k and k + 1.
-    let mut bands: Vec<(usize, &mut [[f32; 4]], &mut [u8])> = Vec::with_capacity(regular_rows.len());
-    {
-        let (mut c_rest, mut s_rest) = (&mut color[..], &mut state[..]);
-        let mut consumed = 0;
-        for k in 0..regular_rows.len().saturating_sub(1) {
-            let (top, bottom) = (regular_rows[k], regular_rows[k + 1]);
-            let skip = (top + 1 - consumed) * w;
-            let take = (bottom - top - 1) * w;
-            let (_, c) = std::mem::take(&mut c_rest).split_at_mut(skip);
-            let (_, s) = std::mem::take(&mut s_rest).split_at_mut(skip);
-            let (c_band, c_tail) = c.split_at_mut(take);
-            let (s_band, s_tail) = s.split_at_mut(take);
-            bands.push((k, c_band, s_band));
-            c_rest = c_tail;
-            s_rest = s_tail;
-            consumed = bottom;
-        }
-    }
-    let column_stats = bands
-        .into_par_iter()
-        .map(|(k, c_band, s_band)| {
-            let (top, bottom) = (regular_rows[k], regular_rows[k + 1]);
-            let len = bottom - top + 1;
-            let mut vals = vec![[0.0f32; 4]; len];
-            let mut st = vec![UNKNOWN; len];
-            let mut scratch = vec![0.0f32; max_varyings];
-            let mut stats = AdaptiveStats::default();
-            for x in 0..w {
-                vals[0] = reg_color[k * w + x];
-                st[0] = reg_state[k * w + x];
-                vals[len - 1] = reg_color[(k + 1) * w + x];
-                st[len - 1] = reg_state[(k + 1) * w + x];
-                st[1..len - 1].fill(UNKNOWN);
-                let pixel = |i: usize| (x, top + i);
-                ctx.fill_line(
-                    &mut vals,
-                    &mut st,
-                    &pixel,
-                    |i| i == 0 || i == len - 1,
-                    &mut scratch,
-                    &mut stats,
-                );
-                for i in 1..len - 1 {
-                    c_band[(i - 1) * w + x] = vals[i];
-                    s_band[(i - 1) * w + x] = st[i];
-                }
-            }
-            stats
-        })
-        .reduce(AdaptiveStats::default, AdaptiveStats::add);
-    let mut stats = row_stats.add(column_stats);
-    if settings.threshold > 0.0 {
-        ctx.refine(&mut color, &mut state, &mut vec![0.0f32; max_varyings], &mut stats);
-    }
-    stats.covered = ids.iter().filter(|&&id| id != NONE).count() as u64;
-
-    // Write the result through each pass's depth and blend state.
-    for y in 0..h {
-        for x in 0..w {
-            let i = y * w + x;
-            let id = ids[i];
-            if id == NONE || state[i] & DISCARD_BIT != 0 || state[i] == UNKNOWN {
-                continue;
-            }
-            let p = ctx.pass_of(id);
-            let pass = &passes[p];
-            let (t, idx) = ((y / TILE) * target.tiles_x() + x / TILE, (y % TILE) * TILE + x % TILE);
-            let tile = &mut target.tiles[t];
-            if pass.state.depth.write {
-                tile.depth[idx] = depth[i];
-            }
-            tile.blend_color(idx, &color[i], &pass.state.blend);
-        }
-    }
-    Ok(stats)
+    (ids, depth)
 }
 
+/// The rows strictly between regular rows k and k + 1 of `color` and
+/// `state`, as band k (disjoint, so the bands fill in parallel).
+fn between_rows<'c>(
+    color: &'c mut [[f32; 4]],
+    state: &'c mut [u8],
+    w: usize,
+    regular_rows: &[usize],
+) -> Vec<(usize, &'c mut [[f32; 4]], &'c mut [u8])> {
+    let mut bands: Vec<(usize, &mut [[f32; 4]], &mut [u8])> = Vec::with_capacity(regular_rows.len());
+    let (mut c_rest, mut s_rest) = (color, state);
+    let mut consumed = 0;
+    for k in 0..regular_rows.len().saturating_sub(1) {
+        let (top, bottom) = (regular_rows[k], regular_rows[k + 1]);
+        let skip = (top + 1 - consumed) * w;
+        let take = (bottom - top - 1) * w;
+        let (_, c) = std::mem::take(&mut c_rest).split_at_mut(skip);
+        let (_, s) = std::mem::take(&mut s_rest).split_at_mut(skip);
+        let (c_band, c_tail) = c.split_at_mut(take);
+        let (s_band, s_tail) = s.split_at_mut(take);
+        bands.push((k, c_band, s_band));
+        c_rest = c_tail;
+        s_rest = s_tail;
+        consumed = bottom;
+    }
+    bands
+}
 /// Scan-converts one pass into the id and depth buffers of rows `y0..=y1`.
 fn visibility(
     ids: &mut [u32],
@@ -371,6 +335,93 @@ struct Ctx<'a> {
 }
 
 impl Ctx<'_> {
+    /// Whether row `y` is a scanline: every `spacing`-th row and the last one.
+    fn is_regular_row(&self, y: usize) -> bool {
+        y % self.settings.spacing as usize == 0 || y == self.h - 1
+    }
+
+    /// Step 2: shades the scanlines, exactly at every `spacing`-th pixel.
+    fn scanlines(&self, color: &mut [[f32; 4]], state: &mut [u8], max_varyings: usize) -> AdaptiveStats {
+        let n = self.settings.spacing as usize;
+        color
+            .par_chunks_mut(self.w)
+            .zip(state.par_chunks_mut(self.w))
+            .enumerate()
+            .filter(|(y, _)| self.is_regular_row(*y))
+            .map(|(y, (vals, st))| {
+                let mut scratch = vec![0.0f32; max_varyings];
+                let mut stats = AdaptiveStats::default();
+                let pixel = |i: usize| (i, y);
+                self.fill_line(vals, st, &pixel, |i| i % n == 0, &mut scratch, &mut stats);
+                stats
+            })
+            .reduce(AdaptiveStats::default, AdaptiveStats::add)
+    }
+
+    /// Step 3: fills the columns between consecutive scanlines, from the
+    /// scanlines' pixels at their ends.
+    fn columns(&self, color: &mut [[f32; 4]], state: &mut [u8], max_varyings: usize) -> AdaptiveStats {
+        let w = self.w;
+        let regular_rows: Vec<usize> = (0..self.h).filter(|&y| self.is_regular_row(y)).collect();
+        let mut reg_color = Vec::with_capacity(regular_rows.len() * w);
+        let mut reg_state = Vec::with_capacity(regular_rows.len() * w);
+        for &y in &regular_rows {
+            reg_color.extend_from_slice(&color[y * w..(y + 1) * w]);
+            reg_state.extend_from_slice(&state[y * w..(y + 1) * w]);
+        }
+        between_rows(color, state, w, &regular_rows)
+            .into_par_iter()
+            .map(|(k, c_band, s_band)| {
+                let (top, bottom) = (regular_rows[k], regular_rows[k + 1]);
+                let len = bottom - top + 1;
+                let mut vals = vec![[0.0f32; 4]; len];
+                let mut st = vec![UNKNOWN; len];
+                let mut scratch = vec![0.0f32; max_varyings];
+                let mut stats = AdaptiveStats::default();
+                for x in 0..w {
+                    vals[0] = reg_color[k * w + x];
+                    st[0] = reg_state[k * w + x];
+                    vals[len - 1] = reg_color[(k + 1) * w + x];
+                    st[len - 1] = reg_state[(k + 1) * w + x];
+                    st[1..len - 1].fill(UNKNOWN);
+                    let pixel = |i: usize| (x, top + i);
+                    self.fill_line(
+                        &mut vals,
+                        &mut st,
+                        &pixel,
+                        |i| i == 0 || i == len - 1,
+                        &mut scratch,
+                        &mut stats,
+                    );
+                    for i in 1..len - 1 {
+                        c_band[(i - 1) * w + x] = vals[i];
+                        s_band[(i - 1) * w + x] = st[i];
+                    }
+                }
+                stats
+            })
+            .reduce(AdaptiveStats::default, AdaptiveStats::add)
+    }
+
+    /// Writes the shaded pixels through each pass's depth and blend state.
+    fn write_through(&self, target: &mut Framebuffer, depth: &[f32], color: &[[f32; 4]], state: &[u8]) {
+        for y in 0..self.h {
+            for x in 0..self.w {
+                let i = y * self.w + x;
+                let id = self.ids[i];
+                if id == NONE || state[i] & DISCARD_BIT != 0 || state[i] == UNKNOWN {
+                    continue;
+                }
+                let pass = &self.passes[self.pass_of(id)];
+                let (t, idx) = ((y / TILE) * target.tiles_x() + x / TILE, (y % TILE) * TILE + x % TILE);
+                let tile = &mut target.tiles[t];
+                if pass.state.depth.write {
+                    tile.depth[idx] = depth[i];
+                }
+                tile.blend_color(idx, &color[i], &pass.state.blend);
+            }
+        }
+    }
     fn pass_of(&self, id: u32) -> usize {
         // offsets is sorted; the pass is the last offset ≤ id.
         self.offsets.partition_point(|&o| o <= id as usize) - 1

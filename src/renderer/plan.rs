@@ -73,7 +73,7 @@ use super::{
 };
 use crate::backends::combiners::{self, PixelEmulator, PixelRegisters, Precision};
 use crate::ir::{self, eval::Value, Expr, FbChannel, Frequency, Handle, Module, TextureId, Ty};
-use crate::pipeline::{Geometry, PassInterface, Planned, RenderTarget};
+use crate::pipeline::{Geometry, Pass, PassInterface, Planned, RenderTarget};
 use crate::scene::bind::{self, BoundObject, BoundTexture, ExactFunction, TextureDecl, TextureQuality};
 use crate::scene::{Scene, SceneAssets};
 use crate::textures::{generators, unit, Filter, Level, TexelFormat, Texture, Texture2D, Wrap};
@@ -284,39 +284,20 @@ impl<'a> PlanRenderer<'a> {
         let plan = &self.planned.plan;
         let start = Instant::now();
         let format = if mode == Mode::Fixed9 { ColorFormat::Rgba8 } else { ColorFormat::F32 };
-        let aspect = width as f32 / height as f32;
-        // Light 0's projection looks at the centre of the objects.
-        let (center, radius) = self.assets.bounding_sphere();
-        let light_clip = bind::light_view_projection(self.scene.lights.first(), center, radius);
-        let mut objects: Vec<BoundObject> = self
-            .assets
-            .meshes
-            .iter()
-            .map(|(mesh, model)| BoundObject::new(self.scene, mesh, *model, aspect, light_clip))
-            .collect();
-        for o in &mut objects {
-            o.run_texgen(m).map_err(|e| RenderError::Unsupported(e.to_string()))?;
-        }
+        let objects = self.bound_objects(width as f32 / height as f32)?;
         let mut targets: BTreeMap<String, Framebuffer> = BTreeMap::new();
         let mut rendered: BTreeMap<String, Rendered> = BTreeMap::new();
-        let mut stats = DrawStats::default();
         let mut last_fb: Option<String> = None;
         let mut nonfinite = 0;
-        let mut adaptive_stats = adaptive.map(|_| super::AdaptiveStats::default());
         let mut shading = Vec::with_capacity(plan.passes.len());
-        let layers = |index: usize| match &m.exprs[self.planned.handle(plan.passes[index].fragment.output)] {
-            Expr::Bundle(members) => members.len(),
-            _ => 1,
+        let mut draws = Draws {
+            stats: DrawStats::default(),
+            settings: adaptive,
+            adaptive: adaptive.map(|_| super::AdaptiveStats::default()),
+            done: 0,
+            total: self.n_draws(objects.len()),
+            progress,
         };
-        let total = plan
-            .passes
-            .iter()
-            .enumerate()
-            .map(|(i, p)| {
-                layers(i) * if matches!(p.geometry, Geometry::Mesh { .. }) { objects.len() } else { 1 }
-            })
-            .sum::<usize>();
-        let mut done = 0;
         for (index, pass) in plan.passes.iter().enumerate() {
             let whole = PassInterface::of(self.planned, index);
             // A fat texel (seeds/001 (5), (15)): one draw per member, member i
@@ -327,52 +308,16 @@ impl<'a> PlanRenderer<'a> {
             };
             for (layer, output) in outputs.iter().enumerate() {
                 let pi = PassInterface { output: *output, ..whole.clone() };
-                let (name, size) = match &pass.target {
-                    RenderTarget::Framebuffer { name, .. } => (name.clone(), (width, height)),
-                    RenderTarget::Temporary { name } => (name.clone(), (width, height)),
-                    RenderTarget::Texture { name } => {
-                        // Over its texels, or the mesh rasterized in texture space (`T δu x ←`).
-                        let by_texel = matches!(pass.geometry, Geometry::Texels)
-                            || pi.position.is_some_and(|p| m.info(p).ty == Ty::Vec2);
-                        let s = if by_texel { bind::RENDERED_TEXTURE_SIZE } else { width.max(height) };
-                        (name.clone(), if by_texel { (s, s) } else { (width, height) })
-                    }
-                };
-                let name = if layer == 0 { name } else { format!("{name}#{layer}") };
+                let (name, size) = self.target_of(pass, &pi, layer, width, height);
                 if !targets.contains_key(&name) {
-                    // A texture declared 16-bit or float keeps what is
-                    // rendered into it (deferred shading's signed vectors)
-                    // in half floats, as the WGSL target's `Rgba16Float`
-                    // (fixed9 and f32; exact keeps f32).
-                    let wide = matches!(&pass.target, RenderTarget::Texture { name } if m.textures.iter().any(|t| t.name == *name && t.format.is_wide()));
-                    let format = if wide && mode != Mode::Exact { ColorFormat::F16 } else { format };
-                    let mut fb = Framebuffer::new(size.0, size.1, format)?;
-                    fb.clear_color([0.0, 0.0, 0.0, 0.0]);
-                    targets.insert(name.clone(), fb);
+                    targets.insert(name.clone(), self.new_target(pass, mode, format, size)?);
                 }
-                // Snapshots of the framebuffers this pass reads (another's, or its own in a screen pass).
-                let mut reads: HashMap<u32, Framebuffer> = HashMap::new();
-                let mut roots = vec![pi.output];
-                roots.extend(pi.condition);
-                for h in m.reachable(&roots) {
-                    if let Expr::FramebufferRead { framebuffer, .. } = m.exprs[h] {
-                        let fname = &m.framebuffers[framebuffer as usize].name;
-                        if let Some(fb) = targets.get(fname) {
-                            reads.entry(framebuffer).or_insert_with(|| fb.clone());
-                        }
-                    }
-                }
+                let reads = framebuffer_reads(m, &pi, &targets);
                 let own_depth = targets.get(&name).cloned();
                 // A `bake` table is the compiler's work, in float, whatever
                 // the target's arithmetic (issue 18).
                 let mode = if pass.baked && mode == Mode::Fixed9 { Mode::F32 } else { mode };
-                let (machine, how) = match mode {
-                    Mode::Fixed9 => match self.combiner_setup(index) {
-                        Ok((setup, stages)) => (Some(setup), PassShading::Combiners { stages }),
-                        Err(why) => (None, PassShading::PerOperation { why }),
-                    },
-                    _ => (None, PassShading::Float),
-                };
+                let (machine, how) = self.shading_of(mode, index);
                 if layer == 0 {
                     shading.push(how);
                 }
@@ -387,76 +332,9 @@ impl<'a> PlanRenderer<'a> {
                     objects.first(),
                 )
                 .map_err(|e| e.in_pass(index))?;
-                let state = pass.state;
                 let target = targets.get_mut(&name).expect("created above");
-                let counted = &stage.nonfinite;
-                match &pass.geometry {
-                    Geometry::Mesh { .. } if adaptive.is_some() && !state.stencil.enabled => {
-                        // One adaptive draw over every object of the pass, so that
-                        // silhouettes between objects are edges (Section 2.1.3).
-                        let drawn: Vec<&BoundObject> = objects
-                            .iter()
-                            .enumerate()
-                            .filter(|(oi, _)| pass.objects.as_ref().is_none_or(|keep| keep.contains(oi)))
-                            .map(|(_, o)| o)
-                            .collect();
-                        let vertices: Vec<MeshVertices> =
-                            drawn.iter().map(|o| MeshVertices::new(m, o, &pi, &self.uniforms)).collect();
-                        let passes: Vec<RasterPass> = drawn
-                            .iter()
-                            .zip(&vertices)
-                            .map(|(o, vs)| RasterPass {
-                                triangles: &o.mesh.triangles,
-                                vertex: vs,
-                                fragment: &stage,
-                                state,
-                            })
-                            .collect();
-                        let s = super::draw_adaptive(target, &passes, adaptive.expect("matched"))?;
-                        adaptive_stats = adaptive_stats.map(|a| a.add(s));
-                        done += objects.len();
-                        progress(done, total);
-                    }
-                    Geometry::Mesh { .. } => {
-                        for (oi, object) in objects.iter().enumerate() {
-                            // Light culling drew this light's pass only for some objects.
-                            if pass.objects.as_ref().is_some_and(|keep| !keep.contains(&oi)) {
-                                done += 1;
-                                continue;
-                            }
-                            let vs = MeshVertices::new(m, object, &pi, &self.uniforms);
-                            let s = super::draw(
-                                target,
-                                &RasterPass {
-                                    triangles: &object.mesh.triangles,
-                                    vertex: &vs,
-                                    fragment: &stage,
-                                    state,
-                                },
-                            )?;
-                            add(&mut stats, &s);
-                            done += 1;
-                            progress(done, total);
-                        }
-                    }
-                    Geometry::Screen | Geometry::Texels => {
-                        let quad = Quad;
-                        let state = super::RenderState { cull: CullMode::None, ..state };
-                        let s = super::draw(
-                            target,
-                            &RasterPass {
-                                triangles: &[[0, 1, 2], [0, 2, 3]],
-                                vertex: &quad,
-                                fragment: &stage,
-                                state,
-                            },
-                        )?;
-                        add(&mut stats, &s);
-                        done += 1;
-                        progress(done, total);
-                    }
-                }
-                nonfinite += counted.load(Ordering::Relaxed);
+                self.draw_layer(pass, &pi, &objects, &stage, target, &mut draws)?;
+                nonfinite += stage.nonfinite.load(Ordering::Relaxed);
                 match &pass.target {
                     RenderTarget::Framebuffer { .. } => last_fb = Some(name.clone()),
                     RenderTarget::Texture { .. } | RenderTarget::Temporary { .. } => {
@@ -472,7 +350,173 @@ impl<'a> PlanRenderer<'a> {
             RenderError::Unsupported("the plan writes no framebuffer: nothing to show".into())
         })?;
         let image = targets.remove(&name).expect("written");
+        let Draws { stats, adaptive: adaptive_stats, .. } = draws;
         Ok(Frame { image, name, stats, time, nonfinite, adaptive: adaptive_stats, shading })
+    }
+
+    /// The scene's objects bound for a frame of this aspect ratio, their
+    /// texture coordinates generated; light 0's projection looks at the
+    /// centre of the objects.
+    fn bound_objects(&self, aspect: f32) -> Result<Vec<BoundObject<'a>>, RenderError> {
+        let (center, radius) = self.assets.bounding_sphere();
+        let light_clip = bind::light_view_projection(self.scene.lights.first(), center, radius);
+        let mut objects: Vec<BoundObject> = self
+            .assets
+            .meshes
+            .iter()
+            .map(|(mesh, model)| BoundObject::new(self.scene, mesh, *model, aspect, light_clip))
+            .collect();
+        for o in &mut objects {
+            o.run_texgen(&self.planned.module).map_err(|e| RenderError::Unsupported(e.to_string()))?;
+        }
+        Ok(objects)
+    }
+
+    /// How many draws the plan makes (the `total` of `progress`): one per
+    /// layer of each pass, times the objects for a mesh pass.
+    fn n_draws(&self, n_objects: usize) -> usize {
+        let m = &self.planned.module;
+        let plan = &self.planned.plan;
+        let layers = |index: usize| match &m.exprs[self.planned.handle(plan.passes[index].fragment.output)] {
+            Expr::Bundle(members) => members.len(),
+            _ => 1,
+        };
+        plan.passes
+            .iter()
+            .enumerate()
+            .map(|(i, p)| layers(i) * if matches!(p.geometry, Geometry::Mesh { .. }) { n_objects } else { 1 })
+            .sum::<usize>()
+    }
+
+    /// The name and size of the image layer `layer` of `pass` renders into.
+    fn target_of(
+        &self,
+        pass: &Pass,
+        pi: &PassInterface,
+        layer: usize,
+        width: u32,
+        height: u32,
+    ) -> (String, (u32, u32)) {
+        let m = &self.planned.module;
+        let (name, size) = match &pass.target {
+            RenderTarget::Framebuffer { name, .. } => (name.clone(), (width, height)),
+            RenderTarget::Temporary { name } => (name.clone(), (width, height)),
+            RenderTarget::Texture { name } => {
+                // Over its texels, or the mesh rasterized in texture space (`T δu x ←`).
+                let by_texel = matches!(pass.geometry, Geometry::Texels)
+                    || pi.position.is_some_and(|p| m.info(p).ty == Ty::Vec2);
+                let s = if by_texel { bind::RENDERED_TEXTURE_SIZE } else { width.max(height) };
+                (name.clone(), if by_texel { (s, s) } else { (width, height) })
+            }
+        };
+        let name = if layer == 0 { name } else { format!("{name}#{layer}") };
+        (name, size)
+    }
+
+    /// A cleared image for `pass` to render into. A texture declared
+    /// 16-bit or float keeps what is rendered into it (deferred shading's
+    /// signed vectors) in half floats, as the WGSL target's `Rgba16Float`
+    /// (fixed9 and f32; exact keeps f32).
+    fn new_target(
+        &self,
+        pass: &Pass,
+        mode: Mode,
+        format: ColorFormat,
+        size: (u32, u32),
+    ) -> Result<Framebuffer, RenderError> {
+        let m = &self.planned.module;
+        let wide = matches!(&pass.target, RenderTarget::Texture { name } if m.textures.iter().any(|t| t.name == *name && t.format.is_wide()));
+        let format = if wide && mode != Mode::Exact { ColorFormat::F16 } else { format };
+        let mut fb = Framebuffer::new(size.0, size.1, format)?;
+        fb.clear_color([0.0, 0.0, 0.0, 0.0]);
+        Ok(fb)
+    }
+
+    /// How pass `index` is shaded in `mode`: in `fixed9` by its combiner
+    /// setup, or per operation where the generator refuses.
+    fn shading_of(&self, mode: Mode, index: usize) -> (Option<CombinerSetup>, PassShading) {
+        match mode {
+            Mode::Fixed9 => match self.combiner_setup(index) {
+                Ok((setup, stages)) => (Some(setup), PassShading::Combiners { stages }),
+                Err(why) => (None, PassShading::PerOperation { why }),
+            },
+            _ => (None, PassShading::Float),
+        }
+    }
+
+    /// Draws one layer of `pass` into `target` with `stage`: each object's
+    /// mesh (one adaptive draw over them all when adaptive), or the
+    /// screen-filling quad; counted in `draws`.
+    fn draw_layer(
+        &self,
+        pass: &Pass,
+        pi: &PassInterface,
+        objects: &[BoundObject],
+        stage: &FragmentProgram,
+        target: &mut Framebuffer,
+        draws: &mut Draws,
+    ) -> Result<(), RenderError> {
+        let m = &self.planned.module;
+        let state = pass.state;
+        match &pass.geometry {
+            Geometry::Mesh { .. } if draws.settings.is_some() && !state.stencil.enabled => {
+                // One adaptive draw over every object of the pass, so that
+                // silhouettes between objects are edges (Section 2.1.3).
+                let drawn: Vec<&BoundObject> = objects
+                    .iter()
+                    .enumerate()
+                    .filter(|(oi, _)| pass.objects.as_ref().is_none_or(|keep| keep.contains(oi)))
+                    .map(|(_, o)| o)
+                    .collect();
+                let vertices: Vec<MeshVertices> =
+                    drawn.iter().map(|o| MeshVertices::new(m, o, pi, &self.uniforms)).collect();
+                let passes: Vec<RasterPass> = drawn
+                    .iter()
+                    .zip(&vertices)
+                    .map(|(o, vs)| RasterPass {
+                        triangles: &o.mesh.triangles,
+                        vertex: vs,
+                        fragment: stage,
+                        state,
+                    })
+                    .collect();
+                let s = super::draw_adaptive(target, &passes, draws.settings.expect("matched"))?;
+                draws.adaptive = draws.adaptive.map(|a| a.add(s));
+                draws.advance(objects.len());
+            }
+            Geometry::Mesh { .. } => {
+                for (oi, object) in objects.iter().enumerate() {
+                    // Light culling drew this light's pass only for some objects.
+                    if pass.objects.as_ref().is_some_and(|keep| !keep.contains(&oi)) {
+                        draws.done += 1;
+                        continue;
+                    }
+                    let vs = MeshVertices::new(m, object, pi, &self.uniforms);
+                    let s = super::draw(
+                        target,
+                        &RasterPass {
+                            triangles: &object.mesh.triangles,
+                            vertex: &vs,
+                            fragment: stage,
+                            state,
+                        },
+                    )?;
+                    add(&mut draws.stats, &s);
+                    draws.advance(1);
+                }
+            }
+            Geometry::Screen | Geometry::Texels => {
+                let quad = Quad;
+                let state = super::RenderState { cull: CullMode::None, ..state };
+                let s = super::draw(
+                    target,
+                    &RasterPass { triangles: &[[0, 1, 2], [0, 2, 3]], vertex: &quad, fragment: stage, state },
+                )?;
+                add(&mut draws.stats, &s);
+                draws.advance(1);
+            }
+        }
+        Ok(())
     }
 
     /// The register-combiner setup of pass `index` for `fixed9`: generated
@@ -508,6 +552,47 @@ impl<'a> PlanRenderer<'a> {
         registers[4] = g.primary;
         registers[5] = g.secondary;
         Ok((CombinerSetup { machine, registers }, g.stages))
+    }
+}
+
+/// Snapshots of the framebuffers a pass reads (another's, or its own in a
+/// screen pass), by framebuffer id.
+fn framebuffer_reads(
+    m: &Module,
+    pi: &PassInterface,
+    targets: &BTreeMap<String, Framebuffer>,
+) -> HashMap<u32, Framebuffer> {
+    let mut reads: HashMap<u32, Framebuffer> = HashMap::new();
+    let mut roots = vec![pi.output];
+    roots.extend(pi.condition);
+    for h in m.reachable(&roots) {
+        if let Expr::FramebufferRead { framebuffer, .. } = m.exprs[h] {
+            let fname = &m.framebuffers[framebuffer as usize].name;
+            if let Some(fb) = targets.get(fname) {
+                reads.entry(framebuffer).or_insert_with(|| fb.clone());
+            }
+        }
+    }
+    reads
+}
+
+/// The draws of a frame so far ([`PlanRenderer::render_with`]): their
+/// counters, and the caller's progress report.
+struct Draws<'p, 's> {
+    stats: DrawStats,
+    /// Adaptive sample shading's settings, `None` for a full render.
+    settings: Option<&'s super::AdaptiveSettings>,
+    adaptive: Option<super::AdaptiveStats>,
+    done: usize,
+    total: usize,
+    progress: &'p mut dyn FnMut(usize, usize),
+}
+
+impl Draws<'_, '_> {
+    /// Counts `n` draws done and reports progress.
+    fn advance(&mut self, n: usize) {
+        self.done += n;
+        (self.progress)(self.done, self.total);
     }
 }
 
@@ -782,6 +867,190 @@ struct FragmentProgram<'a> {
     tie: RoundingBias,
 }
 
+/// Per texture, the layers of its fat texels a bundle pass rendered (`T`,
+/// `T#1`, `T#2`, …).
+fn fat_texel_layers<'a>(m: &Module, rendered: &'a BTreeMap<String, Rendered>) -> Vec<Vec<&'a Rendered>> {
+    m.textures
+        .iter()
+        .zip(ir::fat_layers(m))
+        .map(|(t, n)| {
+            (0..n)
+                .map_while(|i| rendered.get(&if i == 0 { t.name.clone() } else { format!("{}#{i}", t.name) }))
+                .collect()
+        })
+        .collect()
+}
+
+/// What turning a pass's reachable nodes into [`Step`]s reads: the
+/// renderer, the mode, the analyses of the fragment reach and the pass's
+/// texture sources.
+struct StepBuilder<'c, 'a> {
+    r: &'a PlanRenderer<'a>,
+    mode: Mode,
+    /// fixed9 with a generated combiner setup: the IR only loads registers.
+    combiners: bool,
+    address: Vec<bool>,
+    register_reads: Vec<bool>,
+    varying_of: HashMap<Handle<Expr>, usize>,
+    normalize_varyings: Vec<bool>,
+    sources: &'c [Source<'a>],
+    fat: &'c [Vec<&'a Rendered>],
+    first_object: Option<&'c BoundObject<'c>>,
+}
+
+impl<'a> StepBuilder<'_, 'a> {
+    /// The value of constant node `i`: a register value in the combiners'
+    /// precision (as WGSL's hardware fidelity writes it); scale factors
+    /// beyond ±1 and addresses stay exact.
+    fn constant(&self, i: usize, c: &ir::Constant) -> Value {
+        let v = ir::eval::value(c);
+        let register = self.mode == Mode::Fixed9
+            && !self.combiners
+            && !self.address[i]
+            && c.values().iter().all(|x| x.abs() <= 1.0);
+        if register {
+            v.map(|x| fixed9_with(x, self.r.rounding_bias.register_steps))
+        } else {
+            v
+        }
+    }
+
+    /// The leaf a node reads at the fragment (`None` for an operation the
+    /// IR's semantics computes), and the slots of its operands.
+    fn leaf_and_operands(
+        &self,
+        h: Handle<Expr>,
+        expr: &Expr,
+        slot_of: &[u32],
+    ) -> Result<(Option<Leaf>, [u32; 4], u8), RenderError> {
+        let m = &self.r.planned.module;
+        let mut ops = [u32::MAX; 4];
+        let mut n_ops = 0u8;
+        let leaf = match expr {
+            Expr::Uniform(id) => Some(Leaf::Uniform(
+                self.r
+                    .uniforms
+                    .get(*id as usize)
+                    .copied()
+                    .flatten()
+                    .or_else(|| m.uniforms[*id as usize].default.as_ref().map(ir::eval::value))
+                    .unwrap_or(ir::eval::NAN),
+            )),
+            Expr::Interpolate { .. } => match self.varying_of.get(&h) {
+                Some(&k) => Some(Leaf::Varying { k, normalize: self.normalize_varyings[k] }),
+                None => Some(Leaf::Unknown),
+            },
+            Expr::Lookup { texture, coords } => {
+                ops[0] = slot_of[coords.index()];
+                n_ops = 1;
+                let lod_from = lod_varying(m, *coords).and_then(|c| self.varying_of.get(&c).copied());
+                if matches!(self.sources[*texture as usize], Source::Missing) {
+                    return Err(RenderError::Unsupported(format!(
+                        "texture `{}` is read before any pass renders it",
+                        m.textures[*texture as usize].name
+                    )));
+                }
+                Some(Leaf::Lookup { texture: *texture, coords_ty: m.info(*coords).ty, lod_from })
+            }
+            Expr::FramebufferRead { framebuffer, channel, position } => {
+                ops[0] = slot_of[position.index()];
+                n_ops = 1;
+                Some(Leaf::Framebuffer { framebuffer: *framebuffer, channel: *channel })
+            }
+            Expr::Depth(p) => {
+                ops[0] = slot_of[p.index()];
+                n_ops = 1;
+                Some(Leaf::Depth)
+            }
+            Expr::Pixel { freq } => Some(Leaf::Pixel(*freq)),
+            Expr::TexelCoord => Some(Leaf::TexelCoord),
+            Expr::FatMember { texel, member } => {
+                let Expr::Lookup { texture, coords } = m.exprs[*texel] else {
+                    return Err(RenderError::Unsupported("a fat member of something not a lookup".into()));
+                };
+                if self.fat[texture as usize].len() <= *member as usize {
+                    return Err(RenderError::Unsupported(format!(
+                        "member {} of the fat texels of `{}`, which no pass renders (a fat texture from an image has no layout yet)",
+                        member + 1,
+                        m.textures[texture as usize].name
+                    )));
+                }
+                ops[0] = slot_of[coords.index()];
+                n_ops = 1;
+                Some(Leaf::FatMember { texture, member: *member, coords_ty: m.info(coords).ty })
+            }
+            Expr::Project { projection, value } if m.info(*value).freq.is_sample() => match self.first_object
+            {
+                Some(object) => {
+                    ops[0] = slot_of[value.index()];
+                    n_ops = 1;
+                    Some(Leaf::Project {
+                        matrix: object.clip_matrix(projection),
+                        inverse: projection.inverse,
+                        ty: m.info(*value).ty,
+                    })
+                }
+                None => Some(Leaf::Unknown),
+            },
+            Expr::VertexPosition(_)
+            | Expr::TexCoord { .. }
+            | Expr::Vector { .. }
+            | Expr::Project { .. }
+            | Expr::Bundle(_) => Some(Leaf::Unknown),
+            e => {
+                let operands = e.operands();
+                if operands.len() > 4 {
+                    return Err(RenderError::Unsupported("an operation with more than four operands".into()));
+                }
+                for (k, o) in operands.iter().enumerate() {
+                    ops[k] = slot_of[o.index()];
+                }
+                n_ops = operands.len() as u8;
+                None
+            }
+        };
+        Ok((leaf, ops, n_ops))
+    }
+
+    /// Node `h`'s step, with how fixed9 rounds its result.
+    fn step(
+        &self,
+        h: Handle<Expr>,
+        expr: &'a Expr,
+        slot: u32,
+        ops: [u32; 4],
+        n_ops: u8,
+        leaf: Option<Leaf>,
+    ) -> Step<'a> {
+        let m = &self.r.planned.module;
+        let i = h.index();
+        let ty = m.info(h).ty;
+        let per_sample = m.info(h).freq.is_sample();
+        let per_operation =
+            self.mode == Mode::Fixed9 && !self.combiners && !self.address[i] && leaf.is_none();
+        // A register write clamps where the hardware's would: a value a
+        // product or function reads from a register, and the powers and
+        // quotients the generator cannot fold (`ir::register_reads`).
+        let own_register = self.register_reads[i]
+            || ir::squaring_exponent(m, h).is_some()
+            || matches!(expr, Expr::Binary { op: ir::BinaryOp::Div, .. });
+        let quantize = per_operation && per_sample && own_register;
+        let folded = per_operation && !quantize;
+        let raw = self.combiners
+            && ty.width() >= 3
+            && matches!(leaf, Some(Leaf::Lookup { .. } | Leaf::Framebuffer { .. }));
+        let register = match (quantize, ir::squaring_exponent(m, h)) {
+            (false, _) => RegisterOp::Rounded,
+            (true, Some(k)) => RegisterOp::Squarings(k),
+            (true, None) if matches!(expr, Expr::Binary { op: ir::BinaryOp::Div, .. }) => {
+                RegisterOp::Quotient
+            }
+            (true, None) => RegisterOp::Rounded,
+        };
+        Step { expr, ty, slot, ops, n_ops, leaf, quantize, folded, raw, register }
+    }
+}
+
 thread_local! {
     static SLOTS: RefCell<Vec<Value>> = const { RefCell::new(Vec::new()) };
     /// Slots and varyings of a quad neighbour ([`FragmentProgram::quad_coords`]).
@@ -808,82 +1077,25 @@ impl<'a> FragmentProgram<'a> {
         roots.extend(pi.condition);
         let n = m.exprs.len();
         let reach = ir::fragment_reach(m, &roots);
-        // Nodes that only address textures or framebuffers (not quantized in fixed9).
-        let address = ir::address_only(m, &reach);
-        let register_reads = ir::register_reads(m, &reach);
-        let varying_of: HashMap<Handle<Expr>, usize> =
-            pi.interpolants.iter().enumerate().map(|(k, h)| (*h, k)).collect();
-        let normalize_varyings: Vec<bool> = pi
-            .interpolants
-            .iter()
-            .map(|h| mode == Mode::Exact && matches!(m.exprs[*h], Expr::Interpolate { value, .. } if bind::is_unit_direction(m, value)))
-            .collect();
-        // Texture sources by id.
-        let textures = if mode == Mode::Exact { &r.exact } else { &r.stored };
-        let mut sources = Vec::with_capacity(m.textures.len());
-        let mut filters = Vec::with_capacity(m.textures.len());
-        let looked_up: std::collections::HashSet<TextureId> = (0..n)
-            .filter(|&i| reach[i])
-            .filter_map(|i| match &m.exprs[Handle::new(i)] {
-                Expr::Lookup { texture, .. } => Some(*texture),
-                _ => None,
-            })
-            .collect();
-        for (id, t) in m.textures.iter().enumerate() {
-            let decl = r.decls.iter().find(|d| d.name == t.name);
-            filters.push(decl.map_or(Filter::Bilinear, |d| d.filter));
-            let baked_by = r.planned.plan.passes.iter().position(|p| {
-                matches!(p.geometry, Geometry::Texels)
-                    && matches!(&p.target, RenderTarget::Texture { name } if *name == t.name)
-            });
-            let baked = match baked_by {
-                Some(index) if mode == Mode::Exact && looked_up.contains(&(id as TextureId)) => {
-                    let texel_pass = PassInterface::of(r.planned, index);
-                    // Only a function of the texel coordinate and uniforms can be evaluated
-                    // anywhere (not solid mapping's (16), which reads the texture itself).
-                    let reads = m
-                        .reachable(&[texel_pass.output])
-                        .into_iter()
-                        .any(|h| matches!(m.exprs[h], Expr::Lookup { .. } | Expr::FramebufferRead { .. }));
-                    if texel_pass.interpolants.is_empty() && !reads {
-                        Some(FragmentProgram::new(
-                            r,
-                            mode,
-                            &texel_pass,
-                            rendered,
-                            HashMap::new(),
-                            None,
-                            None,
-                            None,
-                        )?)
-                    } else {
-                        None
-                    }
-                }
-                _ => None,
-            };
-            sources.push(if let Some(b) = textures.get(&t.name) {
-                Source::Bound { texture: b, exact: if mode == Mode::Exact { b.exact } else { None } }
-            } else if let Some(program) = baked {
-                Source::Baked { program: Box::new(program), wrap: decl.map_or(Wrap::ClampToEdge, |d| d.wrap) }
-            } else if let Some(rt) = rendered.get(&t.name) {
-                Source::Rendered(rt)
-            } else {
-                Source::Missing
-            });
-        }
-        let fat: Vec<Vec<&Rendered>> = m
-            .textures
-            .iter()
-            .zip(ir::fat_layers(m))
-            .map(|(t, n)| {
-                (0..n)
-                    .map_while(|i| {
-                        rendered.get(&if i == 0 { t.name.clone() } else { format!("{}#{i}", t.name) })
-                    })
-                    .collect()
-            })
-            .collect();
+        let (sources, filters) = FragmentProgram::texture_sources(r, mode, rendered, &reach)?;
+        let fat = fat_texel_layers(m, rendered);
+        let steps_of = StepBuilder {
+            r,
+            mode,
+            combiners: setup.is_some(),
+            // Nodes that only address textures or framebuffers (not quantized in fixed9).
+            address: ir::address_only(m, &reach),
+            register_reads: ir::register_reads(m, &reach),
+            varying_of: pi.interpolants.iter().enumerate().map(|(k, h)| (*h, k)).collect(),
+            normalize_varyings: pi
+                .interpolants
+                .iter()
+                .map(|h| mode == Mode::Exact && matches!(m.exprs[*h], Expr::Interpolate { value, .. } if bind::is_unit_direction(m, value)))
+                .collect(),
+            sources: &sources,
+            fat: &fat,
+            first_object,
+        };
         let mut slot_of = vec![u32::MAX; n];
         let mut steps = Vec::new();
         let mut constants = Vec::new();
@@ -891,136 +1103,15 @@ impl<'a> FragmentProgram<'a> {
         for i in (0..n).filter(|&i| reach[i]) {
             let h = Handle::new(i);
             let expr = &m.exprs[h];
-            let ty = m.info(h).ty;
             let slot = n_slots;
             n_slots += 1;
             slot_of[i] = slot;
             if let Expr::Constant(c) = expr {
-                let v = ir::eval::value(c);
-                // A register value in the combiners' precision (as WGSL's
-                // hardware fidelity writes it); scale factors beyond ±1 and
-                // addresses stay exact.
-                let register = mode == Mode::Fixed9
-                    && setup.is_none()
-                    && !address[i]
-                    && c.values().iter().all(|x| x.abs() <= 1.0);
-                constants.push((
-                    slot,
-                    if register { v.map(|x| fixed9_with(x, r.rounding_bias.register_steps)) } else { v },
-                ));
+                constants.push((slot, steps_of.constant(i, c)));
                 continue;
             }
-            let mut ops = [u32::MAX; 4];
-            let mut n_ops = 0u8;
-            let leaf = match expr {
-                Expr::Uniform(id) => Some(Leaf::Uniform(
-                    r.uniforms
-                        .get(*id as usize)
-                        .copied()
-                        .flatten()
-                        .or_else(|| m.uniforms[*id as usize].default.as_ref().map(ir::eval::value))
-                        .unwrap_or(ir::eval::NAN),
-                )),
-                Expr::Interpolate { .. } => match varying_of.get(&h) {
-                    Some(&k) => Some(Leaf::Varying { k, normalize: normalize_varyings[k] }),
-                    None => Some(Leaf::Unknown),
-                },
-                Expr::Lookup { texture, coords } => {
-                    ops[0] = slot_of[coords.index()];
-                    n_ops = 1;
-                    let lod_from = lod_varying(m, *coords).and_then(|c| varying_of.get(&c).copied());
-                    if matches!(sources[*texture as usize], Source::Missing) {
-                        return Err(RenderError::Unsupported(format!(
-                            "texture `{}` is read before any pass renders it",
-                            m.textures[*texture as usize].name
-                        )));
-                    }
-                    Some(Leaf::Lookup { texture: *texture, coords_ty: m.info(*coords).ty, lod_from })
-                }
-                Expr::FramebufferRead { framebuffer, channel, position } => {
-                    ops[0] = slot_of[position.index()];
-                    n_ops = 1;
-                    Some(Leaf::Framebuffer { framebuffer: *framebuffer, channel: *channel })
-                }
-                Expr::Depth(p) => {
-                    ops[0] = slot_of[p.index()];
-                    n_ops = 1;
-                    Some(Leaf::Depth)
-                }
-                Expr::Pixel { freq } => Some(Leaf::Pixel(*freq)),
-                Expr::TexelCoord => Some(Leaf::TexelCoord),
-                Expr::FatMember { texel, member } => {
-                    let Expr::Lookup { texture, coords } = m.exprs[*texel] else {
-                        return Err(RenderError::Unsupported(
-                            "a fat member of something not a lookup".into(),
-                        ));
-                    };
-                    if fat[texture as usize].len() <= *member as usize {
-                        return Err(RenderError::Unsupported(format!(
-                            "member {} of the fat texels of `{}`, which no pass renders (a fat texture from an image has no layout yet)",
-                            member + 1,
-                            m.textures[texture as usize].name
-                        )));
-                    }
-                    ops[0] = slot_of[coords.index()];
-                    n_ops = 1;
-                    Some(Leaf::FatMember { texture, member: *member, coords_ty: m.info(coords).ty })
-                }
-                Expr::Project { projection, value } if m.info(*value).freq.is_sample() => {
-                    match first_object {
-                        Some(object) => {
-                            ops[0] = slot_of[value.index()];
-                            n_ops = 1;
-                            Some(Leaf::Project {
-                                matrix: object.clip_matrix(projection),
-                                inverse: projection.inverse,
-                                ty: m.info(*value).ty,
-                            })
-                        }
-                        None => Some(Leaf::Unknown),
-                    }
-                }
-                Expr::VertexPosition(_)
-                | Expr::TexCoord { .. }
-                | Expr::Vector { .. }
-                | Expr::Project { .. }
-                | Expr::Bundle(_) => Some(Leaf::Unknown),
-                e => {
-                    let operands = e.operands();
-                    if operands.len() > 4 {
-                        return Err(RenderError::Unsupported(
-                            "an operation with more than four operands".into(),
-                        ));
-                    }
-                    for (k, o) in operands.iter().enumerate() {
-                        ops[k] = slot_of[o.index()];
-                    }
-                    n_ops = operands.len() as u8;
-                    None
-                }
-            };
-            let per_sample = m.info(Handle::new(i)).freq.is_sample();
-            let per_operation = mode == Mode::Fixed9 && setup.is_none() && !address[i] && leaf.is_none();
-            // A register write clamps where the hardware's would: a value a
-            // product or function reads from a register, and the powers and
-            // quotients the generator cannot fold (`ir::register_reads`).
-            let own_register = register_reads[i]
-                || ir::squaring_exponent(m, h).is_some()
-                || matches!(expr, Expr::Binary { op: ir::BinaryOp::Div, .. });
-            let quantize = per_operation && per_sample && own_register;
-            let folded = per_operation && !quantize;
-            let raw = setup.is_some()
-                && ty.width() >= 3
-                && matches!(leaf, Some(Leaf::Lookup { .. } | Leaf::Framebuffer { .. }));
-            let register = match (quantize, ir::squaring_exponent(m, h)) {
-                (false, _) => RegisterOp::Rounded,
-                (true, Some(k)) => RegisterOp::Squarings(k),
-                (true, None) if matches!(expr, Expr::Binary { op: ir::BinaryOp::Div, .. }) => {
-                    RegisterOp::Quotient
-                }
-                (true, None) => RegisterOp::Rounded,
-            };
-            steps.push(Step { expr, ty, slot, ops, n_ops, leaf, quantize, folded, raw, register });
+            let (leaf, ops, n_ops) = steps_of.leaf_and_operands(h, expr, &slot_of)?;
+            steps.push(steps_of.step(h, expr, slot, ops, n_ops, leaf));
         }
         let combiners = setup.map(|c| (c.machine, c.registers.map(|h| h.map(|h| slot_of[h.index()]))));
         Ok(FragmentProgram {
@@ -1041,6 +1132,78 @@ impl<'a> FragmentProgram<'a> {
             nonfinite: AtomicU64::new(0),
             tie: r.rounding_bias,
         })
+    }
+
+    /// Per texture of the module, what its unit reads in this pass and
+    /// with which filter (`reach`: the pass's reachable nodes).
+    fn texture_sources(
+        r: &'a PlanRenderer<'a>,
+        mode: Mode,
+        rendered: &'a BTreeMap<String, Rendered>,
+        reach: &[bool],
+    ) -> Result<(Vec<Source<'a>>, Vec<Filter>), RenderError> {
+        let m = &r.planned.module;
+        let textures = if mode == Mode::Exact { &r.exact } else { &r.stored };
+        let mut sources = Vec::with_capacity(m.textures.len());
+        let mut filters = Vec::with_capacity(m.textures.len());
+        let looked_up: std::collections::HashSet<TextureId> = (0..m.exprs.len())
+            .filter(|&i| reach[i])
+            .filter_map(|i| match &m.exprs[Handle::new(i)] {
+                Expr::Lookup { texture, .. } => Some(*texture),
+                _ => None,
+            })
+            .collect();
+        for (id, t) in m.textures.iter().enumerate() {
+            let decl = r.decls.iter().find(|d| d.name == t.name);
+            filters.push(decl.map_or(Filter::Bilinear, |d| d.filter));
+            let baked = match FragmentProgram::baked_by(r, &t.name) {
+                Some(index) if mode == Mode::Exact && looked_up.contains(&(id as TextureId)) => {
+                    FragmentProgram::baked(r, mode, rendered, index)?
+                }
+                _ => None,
+            };
+            sources.push(if let Some(b) = textures.get(&t.name) {
+                Source::Bound { texture: b, exact: if mode == Mode::Exact { b.exact } else { None } }
+            } else if let Some(program) = baked {
+                Source::Baked { program: Box::new(program), wrap: decl.map_or(Wrap::ClampToEdge, |d| d.wrap) }
+            } else if let Some(rt) = rendered.get(&t.name) {
+                Source::Rendered(rt)
+            } else {
+                Source::Missing
+            });
+        }
+        Ok((sources, filters))
+    }
+
+    /// The texel pass that shades texture `name` over its texels, if any.
+    fn baked_by(r: &PlanRenderer, name: &str) -> Option<usize> {
+        r.planned.plan.passes.iter().position(|p| {
+            matches!(p.geometry, Geometry::Texels)
+                && matches!(&p.target, RenderTarget::Texture { name: target } if *target == name)
+        })
+    }
+
+    /// `exact`: texel pass `index` as a program to evaluate at a lookup's
+    /// coordinates ([`Source::Baked`]). Only a function of the texel
+    /// coordinate and uniforms can be evaluated anywhere (not solid
+    /// mapping's (16), which reads the texture itself): `None` otherwise.
+    fn baked(
+        r: &'a PlanRenderer<'a>,
+        mode: Mode,
+        rendered: &'a BTreeMap<String, Rendered>,
+        index: usize,
+    ) -> Result<Option<FragmentProgram<'a>>, RenderError> {
+        let m = &r.planned.module;
+        let texel_pass = PassInterface::of(r.planned, index);
+        let reads = m
+            .reachable(&[texel_pass.output])
+            .into_iter()
+            .any(|h| matches!(m.exprs[h], Expr::Lookup { .. } | Expr::FramebufferRead { .. }));
+        if texel_pass.interpolants.is_empty() && !reads {
+            Ok(Some(FragmentProgram::new(r, mode, &texel_pass, rendered, HashMap::new(), None, None, None)?))
+        } else {
+            Ok(None)
+        }
     }
 
     #[inline]

@@ -326,34 +326,10 @@ impl SetupCtx<'_> {
     /// Projects, snaps, culls and sets up one clipped triangle.
     fn emit(&self, out: &mut PassSetup, a: &[f64], b: &[f64], c: &[f64]) {
         let verts = [a, b, c];
-        let mut fx = [0i64; 3];
-        let mut fy = [0i64; 3];
-        let mut z = [0f32; 3];
-        let mut inv_w = [0f32; 3];
-        let (mut wx, mut wy) = ([0f64; 3], [0f64; 3]);
-        for (k, v) in verts.iter().enumerate() {
-            // Clipping keeps w ≥ ε and |x|, |y| ≤ g·w, but with extreme inputs
-            // (|coordinates| ~ 1e30) the intersection arithmetic cancels; clamp
-            // to the fixed-point range so nothing overflows.
-            if !(v[3] > 0.0) {
-                out.degenerate += 1;
-                return;
-            }
-            let iw = 1.0 / v[3].max(W_EPSILON);
-            let sx = ((v[0] * iw * 0.5 + 0.5) * self.width).clamp(-MAX_WINDOW, MAX_WINDOW);
-            let sy = ((0.5 - v[1] * iw * 0.5) * self.height).clamp(-MAX_WINDOW, MAX_WINDOW);
-            if !(sx.is_finite() && sy.is_finite()) {
-                out.degenerate += 1;
-                return;
-            }
-            fx[k] = (sx * SUB as f64).round() as i64;
-            fy[k] = (sy * SUB as f64).round() as i64;
-            wx[k] = sx;
-            wy[k] = sy;
-            let depth = v[2] * iw * 0.5 + 0.5;
-            z[k] = if depth.is_nan() { 0.5 } else { depth.clamp(0.0, 1.0) as f32 };
-            inv_w[k] = iw as f32;
-        }
+        let Some(Snapped { fx, fy, z, inv_w, wx, wy }) = self.snap(&verts) else {
+            out.degenerate += 1;
+            return;
+        };
         let area = (fx[1] - fx[0]) * (fy[2] - fy[0]) - (fy[1] - fy[0]) * (fx[2] - fx[0]);
         if area == 0 {
             out.degenerate += 1;
@@ -411,20 +387,54 @@ impl SetupCtx<'_> {
             varying_offset: out.varyings.len(),
             gradient_offset: out.gradients.len(),
         };
-        for k in 0..3 {
-            let (ia, ib) = ((k + 1) % 3, (k + 2) % 3);
-            let (dx, dy) = (px[ib] - px[ia], py[ib] - py[ia]);
-            tri.dx[k] = dx;
-            tri.dy[k] = dy;
-            tri.xa[k] = px[ia];
-            tri.ya[k] = py[ia];
-            let top_left = (dy == 0 && dx > 0) || dy < 0;
-            tri.bias[k] = if top_left { 0 } else { 1 };
-        }
+        tri.set_edges(px, py);
         for &k in &order {
             out.varyings.extend(verts[k][4..].iter().map(|&v| v as f32));
         }
-        // Screen-space gradients (per pixel) of v/w and of 1/w.
+        self.push_gradients(out, &verts, order, (px, py), area);
+        out.tris.push(tri);
+    }
+
+    /// The window positions of a triangle's vertices, in float and snapped
+    /// to the subpixel grid, with their depths and 1/w; `None` for a
+    /// degenerate one. Clipping keeps w ≥ ε and |x|, |y| ≤ g·w, but with
+    /// extreme inputs (|coordinates| ~ 1e30) the intersection arithmetic
+    /// cancels; positions are clamped to the fixed-point range so nothing
+    /// overflows.
+    fn snap(&self, verts: &[&[f64]; 3]) -> Option<Snapped> {
+        let mut s =
+            Snapped { fx: [0; 3], fy: [0; 3], z: [0.0; 3], inv_w: [0.0; 3], wx: [0.0; 3], wy: [0.0; 3] };
+        for (k, v) in verts.iter().enumerate() {
+            if !(v[3] > 0.0) {
+                return None;
+            }
+            let iw = 1.0 / v[3].max(W_EPSILON);
+            let sx = ((v[0] * iw * 0.5 + 0.5) * self.width).clamp(-MAX_WINDOW, MAX_WINDOW);
+            let sy = ((0.5 - v[1] * iw * 0.5) * self.height).clamp(-MAX_WINDOW, MAX_WINDOW);
+            if !(sx.is_finite() && sy.is_finite()) {
+                return None;
+            }
+            s.fx[k] = (sx * SUB as f64).round() as i64;
+            s.fy[k] = (sy * SUB as f64).round() as i64;
+            s.wx[k] = sx;
+            s.wy[k] = sy;
+            let depth = v[2] * iw * 0.5 + 0.5;
+            s.z[k] = if depth.is_nan() { 0.5 } else { depth.clamp(0.0, 1.0) as f32 };
+            s.inv_w[k] = iw as f32;
+        }
+        Some(s)
+    }
+
+    /// Pushes the screen-space gradients (per pixel) of v/w for each varying
+    /// and of 1/w, over the snapped positions `(px, py)` of `verts` in `order`.
+    fn push_gradients(
+        &self,
+        out: &mut PassSetup,
+        verts: &[&[f64]; 3],
+        order: [usize; 3],
+        (px, py): ([i64; 3], [i64; 3]),
+        area: i64,
+    ) {
         let sx = px.map(|v| v as f64 / SUB as f64);
         let sy = py.map(|v| v as f64 / SUB as f64);
         let area_px = area as f64 / (SUB * SUB) as f64;
@@ -439,7 +449,35 @@ impl SetupCtx<'_> {
             plane([0, 1, 2].map(|j| verts[order[j]][4 + i] * iw[j]));
         }
         plane(iw);
-        out.tris.push(tri);
+    }
+}
+
+/// A triangle's vertices in window space ([`SetupCtx::snap`]).
+struct Snapped {
+    /// Snapped to 1/SUB pixel.
+    fx: [i64; 3],
+    fy: [i64; 3],
+    z: [f32; 3],
+    inv_w: [f32; 3],
+    /// Unsnapped, in pixels.
+    wx: [f64; 3],
+    wy: [f64; 3],
+}
+
+impl Tri {
+    /// The edge functions from the snapped, ordered positions: edge k is
+    /// opposite vertex k, with the top-left fill rule's bias.
+    fn set_edges(&mut self, px: [i64; 3], py: [i64; 3]) {
+        for k in 0..3 {
+            let (ia, ib) = ((k + 1) % 3, (k + 2) % 3);
+            let (dx, dy) = (px[ib] - px[ia], py[ib] - py[ia]);
+            self.dx[k] = dx;
+            self.dy[k] = dy;
+            self.xa[k] = px[ia];
+            self.ya[k] = py[ia];
+            let top_left = (dy == 0 && dx > 0) || dy < 0;
+            self.bias[k] = if top_left { 0 } else { 1 };
+        }
     }
 }
 
