@@ -252,6 +252,9 @@ fn visible(
     (ids, depth)
 }
 
+/// Band k of [`between_rows`]: k, and its colours and states.
+type Band<'c> = (usize, &'c mut [[f32; 4]], &'c mut [u8]);
+
 /// The rows strictly between regular rows k and k + 1 of `color` and
 /// `state`, as band k (disjoint, so the bands fill in parallel).
 fn between_rows<'c>(
@@ -259,8 +262,8 @@ fn between_rows<'c>(
     state: &'c mut [u8],
     w: usize,
     regular_rows: &[usize],
-) -> Vec<(usize, &'c mut [[f32; 4]], &'c mut [u8])> {
-    let mut bands: Vec<(usize, &mut [[f32; 4]], &mut [u8])> = Vec::with_capacity(regular_rows.len());
+) -> Vec<Band<'c>> {
+    let mut bands: Vec<Band> = Vec::with_capacity(regular_rows.len());
     let (mut c_rest, mut s_rest) = (color, state);
     let mut consumed = 0;
     for k in 0..regular_rows.len().saturating_sub(1) {
