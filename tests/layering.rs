@@ -76,8 +76,7 @@ fn edges() -> BTreeSet<(String, String, String)> {
         }
         let text = code(&std::fs::read_to_string(&path).unwrap());
         for (i, _) in text.match_indices("crate::") {
-            let to: String =
-                text[i + 7..].chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
+            let to: String = text[i + 7..].chars().take_while(|c| c.is_alphanumeric() || *c == '_').collect();
             if to != from {
                 edges.insert((from.clone(), to, rel.clone()));
             }
@@ -109,7 +108,11 @@ fn no_module_uses_its_own_layer_or_a_higher_one() {
         }
         broken.push(format!("{file}: `{from}` uses `crate::{to}`, which is not below it"));
     }
-    assert!(broken.is_empty(), "dependency rules broken (ARCHITECTURE.md, Invariants):\n{}", broken.join("\n"));
+    assert!(
+        broken.is_empty(),
+        "dependency rules broken (ARCHITECTURE.md, Invariants):\n{}",
+        broken.join("\n")
+    );
     for (from, to, why) in KNOWN {
         assert!(
             known_seen.contains(&(from.to_string(), to.to_string())),
