@@ -216,7 +216,7 @@ pub fn run(args: &RenderArgs) -> ExitCode {
         if let RenderError::InPass { pass, source } = &e {
             if let Some(&k) = planned.plan.passes.get(*pass).and_then(|p| p.statements.first()) {
                 let d = Diagnostic::error("cpu-unsupported", format!("the CPU renderer cannot render pass {} of this statement: {source}", pass + 1), planned.module.statements[k].span, "this statement's pass")
-                    .with_help("this is a limit of the CPU renderer (README, \"not supported yet\"), not an error in the program: `shadec compile --target wgsl` still compiles it; or change the statement as the message says");
+                    .with_help("this is a limit of the CPU renderer (README, Status), not an error in the program: `shadec compile --target wgsl` still compiles it; or change the statement as the message says");
                 eprint!("{}", file.render(&[d], color_stderr()));
                 return ExitCode::from(EXIT_SOURCE_ERRORS);
             }

@@ -224,17 +224,8 @@ impl<'a> ScenePlan<'a> {
         let (width, height) = (frame.width, frame.height);
         let m = &self.planned.module;
         let aspect = width as f32 / height as f32;
-        let (center, radius) = self.assets.bounding_sphere();
-        let light_clip = bind::light_view_projection(self.scene.lights.first(), center, radius);
-        let mut objects: Vec<BoundObject> = self
-            .assets
-            .meshes
-            .iter()
-            .map(|(mesh, model)| BoundObject::new(self.scene, mesh, *model, aspect, light_clip))
-            .collect();
-        for o in &mut objects {
-            o.run_texgen(m).map_err(|e| SceneRunError::Unsupported(e.to_string()))?;
-        }
+        let objects = bind::bound_objects(self.scene, self.assets, m, aspect)
+            .map_err(|e| SceneRunError::Unsupported(e.to_string()))?;
         let uniforms64: Vec<Option<[f64; 4]>> =
             self.uniforms.iter().map(|u| Some(u.map(|c| c as f64))).collect();
         let fat = codegen::fat_layers(m);

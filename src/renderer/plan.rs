@@ -358,18 +358,8 @@ impl<'a> PlanRenderer<'a> {
     /// texture coordinates generated; light 0's projection looks at the
     /// centre of the objects.
     fn bound_objects(&self, aspect: f32) -> Result<Vec<BoundObject<'a>>, RenderError> {
-        let (center, radius) = self.assets.bounding_sphere();
-        let light_clip = bind::light_view_projection(self.scene.lights.first(), center, radius);
-        let mut objects: Vec<BoundObject> = self
-            .assets
-            .meshes
-            .iter()
-            .map(|(mesh, model)| BoundObject::new(self.scene, mesh, *model, aspect, light_clip))
-            .collect();
-        for o in &mut objects {
-            o.run_texgen(&self.planned.module).map_err(|e| RenderError::Unsupported(e.to_string()))?;
-        }
-        Ok(objects)
+        bind::bound_objects(self.scene, self.assets, &self.planned.module, aspect)
+            .map_err(|e| RenderError::Unsupported(e.to_string()))
     }
 
     /// How many draws the plan makes (the `total` of `progress`): one per

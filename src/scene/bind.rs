@@ -483,6 +483,29 @@ pub struct BoundObject<'s> {
     texgen: BTreeMap<TexCoordId, Vec<[f64; 4]>>,
 }
 
+/// The scene's objects bound for a frame of aspect ratio `aspect`, their
+/// texture coordinates generated (seeds/001 (7)); light 0's projection
+/// looks at the centre of the objects. Every executor binds its objects
+/// through this, so they draw the same vertices.
+pub fn bound_objects<'s>(
+    scene: &'s Scene,
+    assets: &'s super::SceneAssets,
+    module: &Module,
+    aspect: f32,
+) -> Result<Vec<BoundObject<'s>>, BindError> {
+    let (center, radius) = assets.bounding_sphere();
+    let light_clip = light_view_projection(scene.lights.first(), center, radius);
+    let mut objects: Vec<BoundObject> = assets
+        .meshes
+        .iter()
+        .map(|(mesh, model)| BoundObject::new(scene, mesh, *model, aspect, light_clip))
+        .collect();
+    for o in &mut objects {
+        o.run_texgen(module)?;
+    }
+    Ok(objects)
+}
+
 /// The view-projection of light 0: from its position (or from far along a
 /// directional light) towards `center`, a 60° (or the spot's cone) frustum.
 pub fn light_view_projection(light: Option<&Light>, center: Vec3, radius: f32) -> Mat4 {
