@@ -55,6 +55,13 @@ pub enum Command {
     /// Exit status: 0 on success, 1 when the setup has errors, 2 on usage
     /// or I/O errors.
     Translate(super::translate::TranslateArgs),
+    /// Run the language server on standard input and output (LSP over
+    /// JSON-RPC): diagnostics as you type, hover with each value's
+    /// frequency, range, pass and texture unit on the target, navigation,
+    /// rename, formatting, semantic tokens, inlay hints, completion and
+    /// code actions. docs/editors.md shows how to use it from Neovim, VS
+    /// Code and Helix.
+    Lsp(super::lsp::LspArgs),
 }
 
 #[derive(Debug, clap::Args)]

@@ -195,7 +195,7 @@ fn walk(dir: &Path, files: &mut Vec<PathBuf>, io_errors: &mut Vec<String>) {
     }
 }
 
+/// The file's URI, percent-encoded (a raw space or `ä` is rejected by strict clients).
 fn file_uri(path: &Path) -> String {
-    let abs = std::fs::canonicalize(path).unwrap_or_else(|_| path.to_path_buf());
-    format!("file://{}", abs.display())
+    shadec::lsp::uri::from_path(path)
 }

@@ -9,6 +9,7 @@ mod check;
 mod compile;
 mod emulate;
 mod fmt;
+mod lsp;
 mod render;
 mod translate;
 
@@ -31,6 +32,7 @@ pub fn main() -> ExitCode {
         Command::Emulate(args) => emulate::run(&args),
         Command::Render(args) => render::run(&args),
         Command::Translate(args) => translate::run(&args),
+        Command::Lsp(args) => lsp::run(&args),
     }
 }
 

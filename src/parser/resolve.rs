@@ -86,7 +86,7 @@ pub enum Entity {
 }
 
 impl Entity {
-    fn describe(self) -> &'static str {
+    pub fn describe(self) -> &'static str {
         match self {
             Entity::Texture => "texture",
             Entity::Framebuffer => "framebuffer",

@@ -1,0 +1,24 @@
+//! `shadec lsp`: the language server (`shadec::lsp`) on stdin/stdout.
+
+use std::process::ExitCode;
+
+use super::EXIT_USAGE_OR_IO;
+
+#[derive(Debug, clap::Args)]
+pub struct LspArgs {
+    /// Accepted and ignored: editors (VS Code's client among them) pass it
+    /// to say the protocol runs on standard input and output, the only
+    /// transport there is.
+    #[arg(long)]
+    pub stdio: bool,
+}
+
+pub fn run(_args: &LspArgs) -> ExitCode {
+    match shadec::lsp::run() {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: shadec lsp: {e}");
+            ExitCode::from(EXIT_USAGE_OR_IO)
+        }
+    }
+}

@@ -1,0 +1,142 @@
+//! The one front end of the server: a document's text and target in, every
+//! diagnostic `shadec check --target` reports out, with the AST, the IR and
+//! the pass plan kept for hover, hints and navigation. No second
+//! parse→lower→plan path: this calls the library's phases in the order
+//! `check` does (issue 21).
+
+use crate::diag::{Diagnostic, SourceFile};
+use crate::ir::{self, Module};
+use crate::parser::{self, ast};
+use crate::pipeline::Planned;
+use crate::profile::Profile;
+use crate::span::Span;
+
+/// Where the document's target came from, strongest first.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TargetSource {
+    /// The program's own `target geforce3;` declaration.
+    Declaration,
+    /// A `// target: geforce3` comment.
+    Comment,
+    /// The client's `initializationOptions` or `shadec.target` setting.
+    Client,
+    /// Nothing said: `wgsl`.
+    Default,
+}
+
+/// Everything the server knows about one version of a document.
+#[derive(Clone, Debug)]
+pub struct Analysis {
+    pub file: SourceFile,
+    pub program: ast::Program,
+    pub diagnostics: Vec<Diagnostic>,
+    /// The lowered program, when it parsed and resolved without errors.
+    pub module: Option<Module>,
+    /// The pass plan for the target, when the program lowered and fitted.
+    pub planned: Option<Planned>,
+    pub target: String,
+    pub target_source: TargetSource,
+}
+
+/// The profile named by a `// target: NAME` comment (also `# target: NAME`),
+/// with the span of the name.
+pub fn target_comment(text: &str) -> Option<(String, Span)> {
+    let mut offset = 0;
+    for line in text.split_inclusive('\n') {
+        let trimmed = line.trim_start();
+        let body = trimmed.strip_prefix("//").or_else(|| trimmed.strip_prefix('#'));
+        if let Some(rest) = body.and_then(|b| b.trim_start().strip_prefix("target:")) {
+            let name = rest.trim();
+            if !name.is_empty() {
+                let start = offset + line.find(name).unwrap_or(0);
+                return Some((name.to_string(), Span::new(start, start + name.len())));
+            }
+        }
+        offset += line.len();
+    }
+    None
+}
+
+/// Checks `text` as `shadec check --target T` does, T being the document's
+/// target: the program's declaration, else a `// target:` comment, else the
+/// client's setting (`client`), else `wgsl`.
+pub fn analyze(name: &str, text: &str, client: Option<&str>) -> Analysis {
+    let file = SourceFile::new(name, text);
+    let (program, mut diagnostics) = parser::check(text);
+    let comment = target_comment(text);
+    let (mut target, mut target_source) = match (&comment, client) {
+        (Some((t, _)), _) => (t.clone(), TargetSource::Comment),
+        (None, Some(t)) => (t.to_string(), TargetSource::Client),
+        (None, None) => ("wgsl".to_string(), TargetSource::Default),
+    };
+    let declared = program.items.iter().find_map(|i| match &i.kind {
+        ast::ItemKind::Target(t) => Some(t.profile.value.clone()),
+        _ => None,
+    });
+    if let Some(t) = declared {
+        (target, target_source) = (t, TargetSource::Declaration);
+    }
+    let mut analysis = Analysis {
+        file,
+        program,
+        diagnostics: Vec::new(),
+        module: None,
+        planned: None,
+        target,
+        target_source,
+    };
+    if diagnostics.iter().any(Diagnostic::is_error) {
+        analysis.diagnostics = diagnostics;
+        return analysis;
+    }
+    let (module, lower_diags) = ir::lower(&analysis.program);
+    let lowered_ok = lower_diags.iter().all(|d| !d.is_error());
+    diagnostics.extend(lower_diags);
+    if lowered_ok {
+        plan_for_target(&mut analysis, &module, &mut diagnostics, comment.map(|c| c.1));
+        analysis.module = Some(module);
+    }
+    diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
+    analysis.diagnostics = diagnostics;
+    analysis
+}
+
+/// The profile check and the planner, as `check --target` runs them: what
+/// cannot be planned is an error with the planner's message, and the
+/// "the planner will split it" warnings go with it (issue 16 item 3).
+fn plan_for_target(
+    analysis: &mut Analysis,
+    module: &Module,
+    diagnostics: &mut Vec<Diagnostic>,
+    comment: Option<Span>,
+) {
+    let profile = match Profile::resolve(&analysis.target) {
+        Ok(p) => p,
+        Err(e) => {
+            // A declaration's unknown profile is already an error of the resolver.
+            if analysis.target_source != TargetSource::Declaration {
+                let span = comment.filter(|_| analysis.target_source == TargetSource::Comment);
+                diagnostics.push(unknown_target(span.unwrap_or_default(), &e.to_string()));
+            }
+            return;
+        }
+    };
+    diagnostics.extend(crate::profile::fit(module, &profile));
+    if diagnostics.iter().any(Diagnostic::is_error) {
+        return;
+    }
+    match crate::planner::plan(module, &profile, Some(&analysis.file.text)) {
+        Ok(planned) => analysis.planned = Some(planned),
+        Err(errors) => {
+            diagnostics.retain(|d| d.code != "does-not-fit");
+            diagnostics.extend(errors);
+        }
+    }
+}
+
+fn unknown_target(span: Span, why: &str) -> Diagnostic {
+    Diagnostic::error("unknown-profile", why, span, "no such profile").with_help(format!(
+        "name a built-in profile ({}) or a profile's `.ron` file",
+        parser::resolve::PROFILES.join(", ")
+    ))
+}

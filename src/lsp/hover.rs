@@ -1,0 +1,148 @@
+//! Hover: what a name is, and for the value under the cursor its type,
+//! computation frequency (seeds/001 Section 3: where δ stands decides per
+//! vertex or per fragment), value range, and where it lands on the
+//! document's target — the pass, the texture unit of a lookup, the
+//! combiner setup (seeds/003 §4.2) or the WGSL stage.
+
+use std::fmt::Write as _;
+
+use super::documents::Document;
+use super::index;
+use crate::ir::{Expr, Frequency, Handle, Interval, Module};
+use crate::pipeline::Planned;
+use crate::span::Span;
+
+/// The hover text (Markdown) at `offset`, and the span it is about.
+pub fn hover(doc: &Document, offset: usize) -> Option<(String, Span)> {
+    let a = &doc.analysis;
+    let mut text = String::new();
+    let mut span = None;
+    let occ = index::occurrences(&a.program);
+    if let Some(o) = index::at(&occ, offset) {
+        let what = o.entity.map_or("unknown name", |e| e.describe());
+        let _ = write!(text, "**`{}`** — {what}", o.key);
+        if let Some(d) = o.decl.filter(|d| *d != o.span) {
+            let lc = a.file.line_index().line_col(&a.file.text, d.start as usize);
+            let _ = write!(text, " (declared at line {}:{})", lc.line, lc.col);
+        }
+        text.push('\n');
+        span = Some(o.span);
+    }
+    let module = a.planned.as_ref().map(|p| &p.module).or(a.module.as_ref());
+    if let Some((h, m)) = module.and_then(|m| node_at(m, offset).map(|h| (h, m))) {
+        let s = m.span(h);
+        let source = a.file.text.get(s.range()).unwrap_or("").trim();
+        if !text.is_empty() {
+            text.push('\n');
+        }
+        let _ = writeln!(text, "`{}`", short(source));
+        let info = m.info(h);
+        let _ = writeln!(
+            text,
+            "\n- type: {}\n- frequency: {}\n- value range: {}",
+            info.ty.name(),
+            info.freq.name(),
+            interval(info.interval)
+        );
+        match &a.planned {
+            Some(p) => text.push_str(&placement(p, h, &a.target)),
+            None => {
+                let _ = writeln!(text, "- target {}: not planned (see the diagnostics)", a.target);
+            }
+        }
+        span = span.or(Some(s));
+    }
+    span.map(|s| (text, s))
+}
+
+/// The smallest IR node whose source span holds `offset`.
+fn node_at(m: &Module, offset: usize) -> Option<Handle<Expr>> {
+    let o = offset as u32;
+    m.exprs
+        .arena()
+        .iter()
+        .map(|(h, _)| (h, m.span(h)))
+        .filter(|(_, s)| *s != Span::DETACHED && s.start <= o && o < s.end)
+        .min_by_key(|(h, s)| (s.len(), std::cmp::Reverse(h.index())))
+        .map(|(h, _)| h)
+}
+
+fn short(source: &str) -> String {
+    let one_line: String = source.split_whitespace().collect::<Vec<_>>().join(" ");
+    if one_line.chars().count() > 60 {
+        format!("{}…", one_line.chars().take(60).collect::<String>())
+    } else {
+        one_line
+    }
+}
+
+fn bound(v: f64) -> String {
+    if v == f64::INFINITY {
+        "∞".into()
+    } else if v == f64::NEG_INFINITY {
+        "−∞".into()
+    } else {
+        format!("{}", (v * 1e4).round() / 1e4)
+    }
+}
+
+fn interval(i: Interval) -> String {
+    format!("[{}, {}]", bound(i.lo), bound(i.hi))
+}
+
+/// Where `h` lands in the plan: each pass that computes it, the texture
+/// unit of a lookup, and what the target runs there.
+pub fn placement(p: &Planned, h: Handle<Expr>, target: &str) -> String {
+    let mut out = String::new();
+    let m = &p.module;
+    let combiners = p.combiners.is_some();
+    for (k, pass) in p.plan.passes.iter().enumerate() {
+        let mut roots: Vec<Handle<Expr>> = vec![p.handle(pass.fragment.output)];
+        roots.extend(pass.fragment.condition.map(|c| p.handle(c)));
+        roots.extend(pass.vertex.interpolants.iter().map(|&i| p.handle(i)));
+        if !m.reachable(&roots).contains(&h) {
+            continue;
+        }
+        let _ = write!(out, "- {target}, pass {}", k + 1);
+        if let Some(t) = pass.textures.iter().find(|t| p.handle(t.lookup) == h) {
+            let _ = write!(out, ": texture unit {} (`{}`)", t.unit, t.texture);
+        }
+        let stage = m.info(h).freq;
+        if pass.baked {
+            out.push_str(": baked by the compiler into a table");
+        } else if combiners {
+            out.push_str(&combiner_note(p, k, stage));
+        } else if stage <= Frequency::Vertex {
+            out.push_str(": WGSL vertex shader");
+        } else {
+            out.push_str(": WGSL fragment shader");
+        }
+        let _ = writeln!(out, " — {}", pass.reason);
+    }
+    if out.is_empty() {
+        let _ = writeln!(out, "- {target}: in no pass (folded, or removed by specialization)");
+    }
+    out
+}
+
+fn combiner_note(p: &Planned, pass: usize, freq: Frequency) -> String {
+    if freq <= Frequency::Vertex {
+        return ": per vertex (interpolated into the combiners)".into();
+    }
+    match crate::backends::combiners::codegen::generate_for_pass(p, pass) {
+        Ok(g) => format!(
+            ": register combiners, {} general stage{} and the final combiner",
+            g.stages,
+            plural(g.stages)
+        ),
+        Err(why) => format!(": register combiners (no setup generated: {why})"),
+    }
+}
+
+fn plural(n: usize) -> &'static str {
+    if n == 1 {
+        ""
+    } else {
+        "s"
+    }
+}
