@@ -21,6 +21,7 @@ const LAYERS: &[&[&str]] = &[
     &["gpu"],
     &["meaning"],
     &["bench"],
+    &["lsp"],
 ];
 
 /// Upward imports not yet removed, each with why it is still there. The

@@ -9,6 +9,7 @@ use std::fmt::Write as _;
 use super::documents::Document;
 use super::index;
 use crate::ir::{Expr, Frequency, Handle, Interval, Module};
+use crate::parser::ast;
 use crate::pipeline::Planned;
 use crate::span::Span;
 
@@ -18,7 +19,9 @@ pub fn hover(doc: &Document, offset: usize) -> Option<(String, Span)> {
     let mut text = String::new();
     let mut span = None;
     let occ = index::occurrences(&a.program);
+    let mut let_value = None;
     if let Some(o) = index::at(&occ, offset) {
+        let_value = o.decl.and_then(|d| let_value_span(&a.program, d));
         let what = o.entity.map_or("unknown name", |e| e.describe());
         let _ = write!(text, "**`{}`** — {what}", o.key);
         if let Some(d) = o.decl.filter(|d| *d != o.span) {
@@ -29,7 +32,12 @@ pub fn hover(doc: &Document, offset: usize) -> Option<(String, Span)> {
         span = Some(o.span);
     }
     let module = a.planned.as_ref().map(|p| &p.module).or(a.module.as_ref());
-    if let Some((h, m)) = module.and_then(|m| node_at(m, offset).map(|h| (h, m))) {
+    let node = |m: &Module| match let_value {
+        // A `let` is lowered once, where it is declared: its value's node.
+        Some(v) => m.exprs.arena().iter().map(|(h, _)| h).find(|&h| m.span(h) == v),
+        None => node_at(m, offset),
+    };
+    if let Some((h, m)) = module.and_then(|m| node(m).map(|h| (h, m))) {
         let s = m.span(h);
         let source = a.file.text.get(s.range()).unwrap_or("").trim();
         if !text.is_empty() {
@@ -53,6 +61,15 @@ pub fn hover(doc: &Document, offset: usize) -> Option<(String, Span)> {
         span = span.or(Some(s));
     }
     span.map(|s| (text, s))
+}
+
+/// The value span of the `let` (global or in a shader block) declared at `decl`.
+fn let_value_span(program: &ast::Program, decl: Span) -> Option<Span> {
+    program.items.iter().find_map(|item| match &item.kind {
+        ast::ItemKind::Let(l) if l.name.span == decl => Some(l.value.span),
+        ast::ItemKind::Shader(s) => s.lets.iter().find(|l| l.name.span == decl).map(|l| l.value.span),
+        _ => None,
+    })
 }
 
 /// The smallest IR node whose source span holds `offset`.
