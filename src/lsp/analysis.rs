@@ -1,11 +1,13 @@
-//! The one front end of the server: a document's text and target in, every
+//! The server's view of a document: its text and target in, every
 //! diagnostic `shadec check --target` reports out, with the AST, the IR and
 //! the pass plan kept for hover, hints and navigation. No second
-//! parse→lower→plan path: this calls the library's phases in the order
-//! `check` does (issue 21).
+//! parse→lower→plan path: the front end and the planner are the driver's
+//! (`driver::front`, `driver::plan`, issue 17), run as `driver::check` runs
+//! them, keeping the plan it drops.
 
 use crate::diag::{Diagnostic, SourceFile};
-use crate::ir::{self, Module};
+use crate::driver::{self, PlanOptions};
+use crate::ir::Module;
 use crate::parser::{self, ast};
 use crate::pipeline::Planned;
 use crate::profile::Profile;
@@ -62,7 +64,7 @@ pub fn target_comment(text: &str) -> Option<(String, Span)> {
 /// client's setting (`client`), else `wgsl`.
 pub fn analyze(name: &str, text: &str, client: Option<&str>) -> Analysis {
     let file = SourceFile::new(name, text);
-    let (program, mut diagnostics) = parser::check(text);
+    let driver::Front { program, module, mut diagnostics } = driver::front(text);
     let comment = target_comment(text);
     let (mut target, mut target_source) = match (&comment, client) {
         (Some((t, _)), _) => (t.clone(), TargetSource::Comment),
@@ -85,16 +87,12 @@ pub fn analyze(name: &str, text: &str, client: Option<&str>) -> Analysis {
         target,
         target_source,
     };
-    if diagnostics.iter().any(Diagnostic::is_error) {
-        analysis.diagnostics = diagnostics;
-        return analysis;
-    }
-    let (module, lower_diags) = ir::lower(&analysis.program);
-    let lowered_ok = lower_diags.iter().all(|d| !d.is_error());
-    diagnostics.extend(lower_diags);
-    if lowered_ok {
-        plan_for_target(&mut analysis, &module, &mut diagnostics, comment.map(|c| c.1));
-        analysis.module = Some(module);
+    match module {
+        Some(module) if diagnostics.iter().all(|d| !d.is_error()) => {
+            plan_for_target(&mut analysis, &module, &mut diagnostics, comment.map(|c| c.1));
+            analysis.module = Some(module);
+        }
+        _ => {}
     }
     diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
     analysis.diagnostics = diagnostics;
@@ -125,7 +123,8 @@ fn plan_for_target(
     if diagnostics.iter().any(Diagnostic::is_error) {
         return;
     }
-    match crate::planner::plan(module, &profile, Some(&analysis.file.text)) {
+    let (program, source) = (&analysis.program, Some(analysis.file.text.as_str()));
+    match driver::plan(module, program, &profile, source, &PlanOptions::default()) {
         Ok(planned) => analysis.planned = Some(planned),
         Err(errors) => {
             diagnostics.retain(|d| d.code != "does-not-fit");
