@@ -555,3 +555,30 @@ fn check_json_writes_percent_encoded_uris() {
     assert!(uri.parse::<lsp_types::Uri>().is_ok(), "{uri}");
     assert_eq!(shadec::lsp::uri::to_path(uri).unwrap(), std::fs::canonicalize(&file).unwrap());
 }
+
+#[test]
+fn the_textmate_grammar_knows_every_builtin_and_keyword() {
+    let path = concat!(env!("CARGO_MANIFEST_DIR"), "/editors/shadec.tmLanguage.json");
+    let grammar: Value = serde_json::from_str(&std::fs::read_to_string(path).unwrap()).unwrap();
+    assert_eq!(grammar["scopeName"], "source.shadec");
+    let builtins = grammar["repository"]["builtins"]["match"].as_str().unwrap();
+    let listed = |pattern: &str, word: &str| {
+        pattern.contains(&format!("|{word}|"))
+            || pattern.contains(&format!("({word}|"))
+            || pattern.contains(&format!("|{word})"))
+    };
+    for f in shadec::parser::resolve::FUNCTIONS.iter().chain(shadec::parser::resolve::GENERATORS) {
+        assert!(listed(builtins, f), "`{f}` is missing from the grammar's built-ins");
+    }
+    let decls = grammar["repository"]["declarations"].to_string();
+    for k in shadec::lsp::navigation::KEYWORDS {
+        let in_ops = grammar["repository"]["operators"].to_string().contains(&format!("\\\\b{k}\\\\b"));
+        assert!(
+            listed(&decls, k) || in_ops || ["depth", "stencil"].contains(k),
+            "keyword `{k}` is missing from the grammar"
+        );
+    }
+    // The VS Code extension points at it.
+    let package: Value = serde_json::from_str(include_str!("../editors/vscode/package.json")).unwrap();
+    assert_eq!(package["contributes"]["grammars"][0]["path"], "../shadec.tmLanguage.json");
+}
