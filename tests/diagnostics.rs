@@ -113,3 +113,62 @@ fn each_missing_semicolon_is_reported_where_it_belongs() {
     let (_, diagnostics) = shadec::parser::check("texture T : 2d rgb8;\nC δπx ← (T δu x)\n    * 0.5;\n");
     assert!(diagnostics.iter().all(|d| !d.is_error()), "{diagnostics:?}");
 }
+
+/// seeds/001 (28) as the paper prints it, `ρ = 1 − (1 − V·N)^n`: the help
+/// offers the definition as a shader, and following it gives a program
+/// that checks (issue 21).
+#[test]
+fn a_definition_written_as_the_paper_writes_it_gets_a_help_that_leads_to_a_clean_program() {
+    let text = "vector N : normal;\nvector V : view;\nρ = 1 − (1 − V·N)^n;\n";
+    let (message, help) = first_error(text);
+    assert_eq!(message, "expected an expression or `←` (or `<-`), found `=`");
+    let shader = "shader ρ(n: scalar = 1) : s → c = 1 − (1 − V·N)^n;";
+    assert_eq!(
+        help,
+        format!("to define `ρ` as a function of the shading parameters (as seeds/001 (28) does), write it as a shader: `{shader}`, then use it in a statement such as `C δπx ← δ ρ s x;`; to assign into a table, write `←` (ASCII `<-`)")
+    );
+    // Follow the help: replace the line by the shader, add the statement.
+    let fixed = format!("vector N : normal;\nvector V : view;\n{shader}\nC δπx ← δ ρ s x;\n");
+    let (program, diagnostics) = shadec::parser::check(&fixed);
+    assert!(diagnostics.is_empty(), "{diagnostics:?}");
+    let (_, lowered) = shadec::ir::lower(&program);
+    assert!(lowered.iter().all(|d| !d.is_error()), "{lowered:?}");
+    // Declared names are not made parameters; a name that is not a word gets no such help.
+    let (_, help) = first_error(
+        "vector N : normal;\nvector V : view;\nconst n = 8;\nρ = 1 − (1 − V·N)^n;\nC δπx ← δ ρ s x;\n",
+    );
+    assert!(help.contains("`shader ρ : s → c = 1 − (1 − V·N)^n;`"), "{help}");
+    let (_, help) = first_error("vector N : normal;\nC δπx = N;\n");
+    assert_eq!(help, "assign with `←` (ASCII `<-`): `C δπx ← T δu x;`");
+}
+
+/// `p(16) δ s x`: shader parameters cannot be set where the shader is used
+/// (examples/GAPS.md item 6); the help says so and shows the declaration's
+/// own parameter, not "to multiply, write `*`" alone (issue 21).
+#[test]
+fn setting_shader_parameters_where_used_says_it_cannot_yet() {
+    let decl =
+        "vector N : normal;\nvector L : light(0);\nshader p(n: scalar = 32) : s → c = max(0, N·L)^n;\n";
+    let (message, help) = first_error(&format!("{decl}C δπx ← p(16) δ s x;\n"));
+    assert_eq!(message, "`p(16)`: a shader's parameters cannot be set where it is used");
+    assert_eq!(
+        help,
+        "set the value as the parameter's default where `p` is declared, `shader p(n: scalar = 16) : …`, and use it as `p δ s x`; for two values declare two shaders (examples/GAPS.md item 6); to multiply instead, write `*`"
+    );
+    // Following it checks.
+    let fixed = format!("{}C δπx ← p δ s x;\n", decl.replace("= 32", "= 16"));
+    assert!(shadec::parser::check(&fixed).1.is_empty());
+    // The parameter's own name; a shader without parameters; a shader not declared.
+    let (_, help) = first_error(&format!(
+        "{}C δπx ← p(16) δ s x;\n",
+        decl.replace("(n: scalar = 32)", "(e = 32)").replace("^n", "^e")
+    ));
+    assert!(help.contains("`shader p(e = 16) : …`"), "{help}");
+    let (_, help) = first_error(&format!(
+        "{}C δπx ← p(16) δ s x;\n",
+        decl.replace("(n: scalar = 32)", "").replace("^n", "")
+    ));
+    assert_eq!(help, "the shader `p` has no parameters: remove `(16)` and write `p δ s x`");
+    let (message, _) = first_error("C δπx ← q(2) δ s x;\n");
+    assert_eq!(message, "`q(2)`: a shader's parameters cannot be set where it is used");
+}

@@ -560,6 +560,7 @@ impl Builder {
         }
         let first_span = self.span(&funcs[0]);
         self.check_depth(acc.depth + funcs.len(), first_span.join(acc.expr.span))?;
+        self.parameters_at_use(&funcs)?;
         for f in funcs.into_iter().rev() {
             let func = self.func(f)?;
             let span = func.span.join(acc.expr.span);
@@ -569,6 +570,34 @@ impl Builder {
             };
         }
         Some(self.swizzle(acc, swizzles))
+    }
+
+    /// `p(16) δ s x`: a name followed by a parenthesized value in an
+    /// application chain reads as setting a shader's parameters where it is
+    /// used, which the language cannot do yet (examples/GAPS.md item 6).
+    /// Says so, with what works instead, rather than "to multiply, write
+    /// `*`" (issue 21). `None` after reporting it.
+    fn parameters_at_use(&mut self, funcs: &[Pair<'_, Rule>]) -> Option<()> {
+        for pair in funcs.windows(2) {
+            let (Some(name), value) = (self.atom_name(&pair[0]), &pair[1]) else { continue };
+            if value.as_rule() != Rule::postfix || !value.as_str().starts_with('(') {
+                continue;
+            }
+            let key = name.key();
+            let args = value.as_str();
+            let span = name.span.join(self.span(value));
+            self.errors.push(
+                Diagnostic::error(
+                    "not-supported",
+                    format!("`{key}{args}`: a shader's parameters cannot be set where it is used"),
+                    span,
+                    "parameters set here",
+                )
+                .with_help(parameters_help(&key, args, None)),
+            );
+            return None;
+        }
+        Some(())
     }
 
     /// The name inside an atom that is a plain name (no swizzle).
@@ -804,4 +833,15 @@ fn unescape(quoted: &str) -> String {
         }
     }
     out
+}
+
+/// The help for `p(16) δ s x` (`Builder::parameters_at_use`): `param` is
+/// the declared shader's first parameter (`n: scalar`) when `parser::check`
+/// knows it, so the example given is the user's own declaration.
+pub(super) fn parameters_help(key: &str, args: &str, param: Option<&str>) -> String {
+    let value = args.trim_start_matches('(').trim_end_matches(')').trim();
+    let param = param.unwrap_or("n: scalar");
+    format!(
+        "set the value as the parameter's default where `{key}` is declared, `shader {key}({param} = {value}) : …`, and use it as `{key} δ s x`; for two values declare two shaders (examples/GAPS.md item 6); to multiply instead, write `*`"
+    )
 }

@@ -159,6 +159,12 @@ pub fn check(source: &str) -> (ast::Program, Vec<Diagnostic>) {
     // Names used only by items that failed to parse would look unused.
     let syntax_ok = diagnostics.iter().all(|d| !d.is_error());
     diagnostics.extend(resolve::resolve(&program).into_iter().filter(|d| syntax_ok || d.code != "unused"));
+    refine_parameter_help(&program, &mut diagnostics);
+    for d in diagnostics.iter_mut() {
+        if let Some(help) = definition_help(source, &program, d) {
+            d.help = Some(help);
+        }
+    }
     let has_statement = program.items.iter().any(|i| matches!(i.kind, ast::ItemKind::Statement(_)));
     if !has_statement && diagnostics.iter().all(|d| !d.is_error()) {
         let end = crate::span::Span::new(source.len(), source.len());
@@ -174,6 +180,108 @@ pub fn check(source: &str) -> (ast::Program, Vec<Diagnostic>) {
     }
     diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
     (program, diagnostics)
+}
+
+/// `p(16) δ s x` (issue 21): when `p` is a declared shader, the help names
+/// its own first parameter, or says it has none.
+fn refine_parameter_help(program: &ast::Program, diagnostics: &mut [Diagnostic]) {
+    const SUFFIX: &str = "`: a shader's parameters cannot be set where it is used";
+    for d in diagnostics.iter_mut().filter(|d| d.code == "not-supported" && d.message.ends_with(SUFFIX)) {
+        let written = &d.message[1..d.message.len() - SUFFIX.len()];
+        let Some((key, args)) = written.find('(').map(|i| written.split_at(i)) else { continue };
+        let shader = program.items.iter().find_map(|i| match &i.kind {
+            ast::ItemKind::Shader(s) if s.name.key() == key => Some(s),
+            _ => None,
+        });
+        let Some(shader) = shader else { continue };
+        d.help = Some(match shader.params.first() {
+            Some(p) => {
+                let ty = p.ty.as_ref().map_or(String::new(), |t| format!(": {}", t.value.as_str()));
+                build::parameters_help(key, args, Some(&format!("{}{ty}", p.name.key())))
+            }
+            None => format!("the shader `{key}` has no parameters: remove `{args}` and write `{key} δ s x`"),
+        });
+    }
+}
+
+/// seeds/001 (28) as printed, `ρ = 1 − (1 − V·N)^n`: a name defined by
+/// `=` where a statement's `←` was expected (issue 21). The help offers the
+/// definition as a shader of the shading parameters, its free names as
+/// parameters — and only when the program with that shader in place of the
+/// line resolves without errors there, so following it leads to a program
+/// that checks.
+fn definition_help(source: &str, program: &ast::Program, d: &Diagnostic) -> Option<String> {
+    if d.code != "syntax" || !d.message.ends_with("found `=`") || !d.message.contains("`←`") {
+        return None;
+    }
+    let eq = d.primary.span.start as usize;
+    let start = source[..eq].rfind([';', '}', '\n']).map_or(0, |i| i + 1);
+    let name = source[start..eq].trim();
+    let ok_name = !name.is_empty() && name.chars().all(|c| c.is_alphanumeric() || c == '_' || c == '\'');
+    if !ok_name || source[start..eq].contains("//") {
+        return None;
+    }
+    let end = source[eq..].find(';').map(|i| eq + i)?;
+    let value = source[eq + 1..end].trim();
+    let params = free_names(program, name, value)?;
+    let params: Vec<String> = params.iter().map(|p| format!("{p}: scalar = 1")).collect();
+    let params = if params.is_empty() { String::new() } else { format!("({})", params.join(", ")) };
+    let shader = format!("shader {name}{params} : s → c = {value};");
+    let candidate = format!("{}{shader}{}", &source[..start], &source[end + 1..]);
+    let (candidate_program, mut errors) = parse(&candidate);
+    errors.extend(resolve::resolve(&candidate_program));
+    let replaced = start as u32..(start + shader.len()) as u32;
+    if errors.iter().any(|e| e.is_error() && replaced.contains(&e.primary.span.start)) {
+        return None;
+    }
+    Some(format!(
+        "to define `{name}` as a function of the shading parameters (as seeds/001 (28) does), write it as a shader: `{shader}`, then use it in a statement such as `C δπx ← δ {name} s x;`; to assign into a table, write `←` (ASCII `<-`)"
+    ))
+}
+
+/// The names `value` uses that the program does not declare (nor are
+/// built in, nor the paper's families): what a shader defined by it needs
+/// as parameters. `None` when the value does not parse.
+fn free_names(program: &ast::Program, name: &str, value: &str) -> Option<Vec<String>> {
+    let (probe, errors) = parse(&format!("shader {name} : s → c = {value};"));
+    if errors.iter().any(Diagnostic::is_error) {
+        return None;
+    }
+    let ast::ItemKind::Shader(sh) = &probe.items.first()?.kind else { return None };
+    let declared: Vec<String> = program.items.iter().flat_map(declared_names).collect();
+    let mut free = Vec::new();
+    sh.body.walk(&mut |e| {
+        let n = match &e.kind {
+            ast::ExprKind::Name(n) => n,
+            ast::ExprKind::Apply { func: ast::Func { kind: ast::FuncKind::Name(n), .. }, .. } => n,
+            _ => return,
+        };
+        let key = n.key();
+        let known = declared.contains(&key)
+            || resolve::family(n).is_some()
+            || resolve::FUNCTIONS.contains(&key.as_str())
+            || free.contains(&key);
+        if !known {
+            free.push(key);
+        }
+    });
+    Some(free)
+}
+
+fn declared_names(item: &ast::Item) -> Vec<String> {
+    use ast::ItemKind as K;
+    let keys = |names: &[ast::Name]| names.iter().map(ast::Name::key).collect();
+    match &item.kind {
+        K::Texture(t) => keys(&t.names),
+        K::Framebuffer(f) => keys(&f.names),
+        K::Vector(v) => keys(&v.names),
+        K::Params(p) => vec![p.name.key()],
+        K::Const(c) => vec![c.name.key()],
+        K::Uniform(u) => vec![u.name.key()],
+        K::Let(l) => vec![l.name.key()],
+        K::Shader(s) => vec![s.name.key()],
+        K::Target(_) | K::Statement(_) => vec![],
+    }
 }
 
 fn is_blank(text: &str) -> bool {
