@@ -82,11 +82,7 @@ fn diagnostics_follow_edits_that_introduce_and_fix_errors() {
     assert_eq!(messages(&clean), Vec::<String>::new(), "{clean}");
 
     // A typo with a transposition, then a missing `;` on two lines.
-    let typo = PROGRAM
-        .replace("max(0, N·L)", "max(0, N·Lgiht)")
-        .replace("vector L :", "vector Light :")
-        .replace("light(0);", "light(0);");
-    let typo = typo.replace("N·Lgiht", "N·Ligth");
+    let typo = PROGRAM.replace("max(0, N·L)", "max(0, N·Ligth)").replace("vector L :", "vector Light :");
     let d = c.change(URI, 2, &typo);
     assert_eq!(d["version"], 2);
     let unused =
@@ -581,4 +577,95 @@ fn the_textmate_grammar_knows_every_builtin_and_keyword() {
     // The VS Code extension points at it.
     let package: Value = serde_json::from_str(include_str!("../editors/vscode/package.json")).unwrap();
     assert_eq!(package["contributes"]["grammars"][0]["path"], "../shadec.tmLanguage.json");
+}
+
+mod robustness {
+    use super::*;
+    use proptest::prelude::*;
+
+    /// Text made of the language's pieces, often malformed.
+    fn program_text() -> impl Strategy<Value = String> {
+        let pieces = prop::sample::select(vec![
+            "C",
+            "δ",
+            "π",
+            "x",
+            "u",
+            "s",
+            "xs",
+            "←",
+            "<-",
+            "⊕",
+            "(+)",
+            "·",
+            "T",
+            "N",
+            "L",
+            "kd",
+            "p",
+            "(",
+            ")",
+            "{",
+            "}",
+            ";",
+            "\n",
+            " ",
+            "=",
+            "→",
+            "1",
+            "0.5",
+            "texture T : 2d = image(\"a.png\");",
+            "vector N : normal;",
+            "vector L : light(0);",
+            "shader p : s → c = max(0, N·L);",
+            "let a = ",
+            "// c\n",
+            "α",
+            "′",
+            "ä",
+            "𝑇",
+            "p(16)",
+            "target geforce3;",
+            "// target: geforce256\n",
+            "¬",
+            "Å",
+            "\"",
+            "/*",
+        ]);
+        prop::collection::vec(pieces, 0..40).prop_map(|v| v.concat())
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 64, failure_persistence: None, ..ProptestConfig::default() })]
+
+        /// Whatever the text, every request is answered, none with an
+        /// internal error, and the server is alive for the next.
+        #[test]
+        fn any_text_gets_answers_and_never_kills_the_server(text in program_text(), line in 0u32..4, character in 0u32..12) {
+            let mut c = client();
+            c.open(URI, &text);
+            let position = json!({"line": line, "character": character});
+            let at = json!({"textDocument": text_doc(URI), "position": position});
+            let mut rename = at.clone();
+            rename["newName"] = json!("renamed");
+            for (method, params) in [
+                ("textDocument/hover", at.clone()),
+                ("textDocument/definition", at.clone()),
+                ("textDocument/prepareRename", at.clone()),
+                ("textDocument/rename", rename),
+                ("textDocument/completion", at.clone()),
+                ("textDocument/documentSymbol", json!({"textDocument": text_doc(URI)})),
+                ("textDocument/semanticTokens/full", json!({"textDocument": text_doc(URI)})),
+                ("textDocument/inlayHint", whole(URI)),
+                ("textDocument/codeAction", whole(URI)),
+                ("textDocument/formatting", json!({"textDocument": text_doc(URI), "options": {"tabSize": 4, "insertSpaces": true}})),
+            ] {
+                let r = c.request(method, params);
+                prop_assert!(r["error"]["code"] != json!(-32603), "{method} on {text:?}: {r}");
+            }
+            let d = c.change(URI, 2, &format!("{text}\n"));
+            prop_assert!(d["diagnostics"].as_array().unwrap().iter().all(|d| d["code"] != "internal-error"), "{d}");
+            prop_assert!(c.shutdown().success());
+        }
+    }
 }

@@ -33,8 +33,8 @@ pub fn comments(text: &str) -> Vec<String> {
     let mut rest = text;
     while let Some(i) = rest.find(['"', '/', '#']) {
         let tail = &rest[i..];
-        if tail.starts_with('"') {
-            let end = tail[1..].find('"').map_or(tail.len(), |j| j + 2);
+        if let Some(string) = tail.strip_prefix('"') {
+            let end = string.find('"').map_or(tail.len(), |j| j + 2);
             rest = &tail[end..];
         } else if tail.starts_with("//") || tail.starts_with('#') {
             let end = tail.find('\n').unwrap_or(tail.len());
