@@ -8,9 +8,9 @@ use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 /// The document the script opens: a typo (`Ligth`) to fix, a lookup to
-/// hover, a `let` to rename.
+/// hover, a `let` to rename. It names no target: the script's client sets
+/// `shadec.target = geforce3` in its initializationOptions.
 const PROGRAM: &str = "\
-// target: geforce3
 vector N : normal;
 vector Light : light(0);
 const kd : rgb = (0.8, 0.6, 0.4);

@@ -669,3 +669,32 @@ mod robustness {
         }
     }
 }
+
+/// LSP 3.17 "shutdown" and "exit": after `shutdown` requests are refused
+/// (Neovim 0.7 sends a second `shutdown`), `exit` then ends with status 0;
+/// `exit` without `shutdown` ends with status 1.
+#[test]
+fn shutdown_refuses_later_requests_and_exit_reports_order() {
+    let mut c = client();
+    c.open(URI, PROGRAM);
+    assert_eq!(c.request("shutdown", Value::Null)["result"], Value::Null);
+    let again = c.request("shutdown", Value::Null);
+    assert_eq!(again["error"]["code"], -32600, "{again}");
+    let hover = c.request("textDocument/hover", at(URI, PROGRAM, "kd", 1, 0));
+    assert_eq!(hover["error"]["message"], "the server is shutting down");
+    assert!(c.exit().success());
+    assert_eq!(client().exit().code(), Some(1));
+}
+
+/// Found by the property test: an unterminated string ran its token past
+/// the line's end, and the token length underflowed (a panic answered as
+/// InternalError). It ends at the line's end now.
+#[test]
+fn an_unterminated_string_is_a_token_of_its_line() {
+    let mut c = client();
+    c.open(URI, "C\"ab\nx");
+    let r = c.result("textDocument/semanticTokens/full", json!({"textDocument": text_doc(URI)}));
+    let strings: Vec<_> = decode(&r["data"]).into_iter().filter(|t| t.3 == "string").collect();
+    assert_eq!(strings, [(0, 1, 3, "string".to_string(), 0)]);
+    assert!(c.shutdown().success());
+}

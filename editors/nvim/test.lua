@@ -79,7 +79,16 @@ local ok_all, err = pcall(function()
   check(value:find('- frequency: per-fragment', 1, true) ~= nil, 'hover says per-fragment: ' .. value)
   check(value:find('- geforce3, pass 1: texture unit 0 (`T`)', 1, true) ~= nil, 'hover says where it lands: ' .. value)
 
-  -- 4. Rename `base` everywhere with the editor's own command.
+  -- 4. Inlay hints (Neovim 0.7 has no inlay-hint display: asked directly).
+  local range = { start = { line = 0, character = 0 }, ['end'] = { line = vim.api.nvim_buf_line_count(buf), character = 0 } }
+  res = client.request_sync('textDocument/inlayHint', { textDocument = params.textDocument, range = range }, 10000, buf)
+  local labels = {}
+  for _, h in ipairs(res and res.result or {}) do
+    table.insert(labels, h.label)
+  end
+  check(vim.tbl_contains(labels, 'pass 1 (geforce3)'), 'the statement\'s inlay hint: ' .. vim.inspect(labels))
+
+  -- 5. Rename `base` everywhere with the editor's own command.
   line, col = find(buf, 'base')
   vim.api.nvim_win_set_cursor(0, { line + 1, col })
   vim.lsp.buf.rename('albedo')

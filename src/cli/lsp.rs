@@ -15,7 +15,9 @@ pub struct LspArgs {
 
 pub fn run(_args: &LspArgs) -> ExitCode {
     match shadec::lsp::run() {
-        Ok(()) => ExitCode::SUCCESS,
+        Ok(true) => ExitCode::SUCCESS,
+        // LSP 3.17, `exit`: status 1 when no `shutdown` came first.
+        Ok(false) => ExitCode::from(1),
         Err(e) => {
             eprintln!("error: shadec lsp: {e}");
             ExitCode::from(EXIT_USAGE_OR_IO)

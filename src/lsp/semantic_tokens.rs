@@ -109,8 +109,13 @@ fn lex_one(text: &str, i: usize, out: &mut Vec<Token>) -> usize {
         return i + end;
     }
     if c == '"' {
-        let end = rest[1..].find(['"', '\n']).map_or(rest.len(), |j| j + 2);
-        return push(out, end.min(rest.len()), "string");
+        // An unterminated string ends at its line's end (a token never spans lines).
+        let end = match rest[1..].find(['"', '\n']) {
+            Some(j) if rest.as_bytes()[j + 1] == b'"' => j + 2,
+            Some(j) => j + 1,
+            None => rest.len(),
+        };
+        return push(out, end, "string");
     }
     if c.is_ascii_digit() {
         let len = rest.find(|c: char| !(c.is_ascii_digit() || c == '.')).unwrap_or(rest.len());
@@ -139,6 +144,9 @@ pub fn encode(doc: &Document, tokens: &[Token]) -> Vec<SemanticToken> {
     let mut out = Vec::with_capacity(tokens.len());
     for t in tokens {
         let r = doc.range(t.span);
+        if r.end.line != r.start.line {
+            continue; // cannot happen (`tokens` cuts at lines); never a wrong length
+        }
         let delta_line = r.start.line - line;
         let delta_start = if delta_line == 0 { r.start.character - start } else { r.start.character };
         out.push(SemanticToken {

@@ -68,17 +68,20 @@ pub fn configured_target(options: &Value) -> Option<String> {
     t.as_str().map(str::to_string)
 }
 
-/// Runs the server on stdin/stdout until `exit`.
-pub fn run() -> anyhow::Result<()> {
+/// Runs the server on stdin/stdout until `exit` (or the end of input).
+/// Whether it was shut down in order (`shutdown` before `exit`).
+pub fn run() -> anyhow::Result<bool> {
     let (connection, io) = Connection::stdio();
-    serve(&connection)?;
+    let orderly = serve(&connection)?;
     drop(connection);
     io.join()?;
-    Ok(())
+    Ok(orderly)
 }
 
-/// The whole session on a connection: initialize, messages, shutdown.
-pub fn serve(connection: &Connection) -> anyhow::Result<()> {
+/// The whole session on a connection: initialize, messages, shutdown,
+/// exit. Whether `shutdown` came before the end (the protocol asks for exit
+/// status 1 when it did not); `Err` when the connection breaks.
+pub fn serve(connection: &Connection) -> anyhow::Result<bool> {
     let (id, params) = connection.initialize_start()?;
     let params: InitializeParams = serde_json::from_value(params)?;
     let mut docs = Documents::default();
@@ -91,12 +94,29 @@ pub fn serve(connection: &Connection) -> anyhow::Result<()> {
         }),
     };
     connection.initialize_finish(id, serde_json::to_value(result)?)?;
+    // LSP 3.17 "shutdown": after it, requests are refused until `exit`
+    // (Neovim 0.7 sends `shutdown` twice when a stopped client's editor
+    // quits; lsp-server's `handle_shutdown` would fail on the second).
+    let mut shutting_down = false;
     for msg in &connection.receiver {
         match msg {
+            Message::Request(req) if req.method == "shutdown" || shutting_down => {
+                let response = if shutting_down {
+                    Response::new_err(
+                        req.id,
+                        ErrorCode::InvalidRequest as i32,
+                        "the server is shutting down".into(),
+                    )
+                } else {
+                    Response::new_ok(req.id, ())
+                };
+                shutting_down = true;
+                connection.sender.send(Message::Response(response))?;
+            }
+            Message::Notification(n) if n.method == "exit" => {
+                return Ok(shutting_down);
+            }
             Message::Request(req) => {
-                if connection.handle_shutdown(&req)? {
-                    return Ok(());
-                }
                 let id = req.id.clone();
                 let response = match catch_unwind(AssertUnwindSafe(|| handle_request(&docs, req))) {
                     Ok(Ok(value)) => Response::new_ok(id, value),
@@ -121,7 +141,7 @@ pub fn serve(connection: &Connection) -> anyhow::Result<()> {
             Message::Response(_) => {}
         }
     }
-    Ok(())
+    Ok(shutting_down)
 }
 
 pub(super) fn panic_text(panic: &Box<dyn std::any::Any + Send>) -> String {

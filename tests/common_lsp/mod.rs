@@ -148,6 +148,12 @@ impl Client {
         self.diagnostics(uri)
     }
 
+    /// `exit` alone, and the server's exit status.
+    pub fn exit(mut self) -> std::process::ExitStatus {
+        self.notify("exit", Value::Null);
+        self.child.wait().unwrap()
+    }
+
     /// `shutdown`, `exit`, and the server's exit status.
     pub fn shutdown(mut self) -> std::process::ExitStatus {
         let r = self.request("shutdown", Value::Null);
