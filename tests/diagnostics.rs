@@ -55,6 +55,19 @@ fn text_pasted_from_the_papers_symbol_font_gets_the_symbols() {
     let (message, help) = first_error("vector N : normal;\nC d p x ¬ d p s x;\n");
     assert_eq!(message, "expected an expression or `←` (or `<-`), found `¬`");
     assert!(help.starts_with("did you mean `←` (ASCII `<-`)? Text pasted from a PDF set in the Symbol font shows ← as `¬`, ⊕ as `Å`, δ as `d` and π as `p`"), "{help}");
+    // With `←` fixed, the `d` and `p` are δ and π, not "did you mean `N`?".
+    let (message, help) = first_error("vector N : normal;\nC d p x ← N;\n");
+    assert_eq!(message, "unknown name `d`");
+    assert_eq!(
+        help,
+        "did you mean `δ` (ASCII `delta`)? Text pasted from a PDF set in the Symbol font shows δ as `d`"
+    );
+    let (message, help) = first_error("vector N : normal;\nC δ p x ← N;\n");
+    assert_eq!(message, "unknown name `p`");
+    assert_eq!(
+        help,
+        "did you mean `π` (ASCII `pi`)? Text pasted from a PDF set in the Symbol font shows π as `p`"
+    );
     // The alpha and stencil channels as printed: `a C xs`, `s C δπx`.
     let (message, help) = first_error("texture T : 2d rgba8;\nC δπx ← a C δπx * (T δu x);\n");
     assert_eq!(message, "unknown name `a`");

@@ -698,3 +698,35 @@ fn an_unterminated_string_is_a_token_of_its_line() {
     assert_eq!(strings, [(0, 1, 3, "string".to_string(), 0)]);
     assert!(c.shutdown().success());
 }
+
+/// seeds/001 (1) pasted from the PDF's Symbol font, `C d p x ¬ d p s x`:
+/// applying the server's quick fixes one at a time, as a user would, gives a
+/// program that checks.
+#[test]
+fn quick_fixes_turn_symbol_font_text_into_a_program_that_checks() {
+    let mut c = client();
+    let mut text =
+        "vector N : normal;\nvector L : light(0);\nshader q : s → c = max(0, N·L);\nC d p x ¬ d q s x;\n"
+            .to_string();
+    let mut d = c.open(URI, &text);
+    let mut version = 1;
+    let mut applied = Vec::new();
+    while let Some(diag) = d["diagnostics"].as_array().unwrap().iter().find(|d| d["severity"] == 1).cloned() {
+        assert!(applied.len() < 10, "no progress: {applied:?} {d}");
+        let r = c.result("textDocument/codeAction", json!({"textDocument": text_doc(URI), "range": diag["range"], "context": {"diagnostics": [diag]}}));
+        let fix = r
+            .as_array()
+            .unwrap()
+            .iter()
+            .find(|a| a["kind"] == "quickfix")
+            .unwrap_or_else(|| panic!("no fix for {diag}"));
+        applied.push(fix["title"].as_str().unwrap().to_string());
+        text = apply(&text, fix["edit"]["changes"][URI].as_array().unwrap());
+        version += 1;
+        d = c.change(URI, version, &text);
+    }
+    assert_eq!(applied, ["Replace with `←`", "Replace with `δ`", "Replace with `π`", "Replace with `δ`"]);
+    assert!(text.ends_with("C δ π x ← δ q s x;\n"), "{text}");
+    assert_eq!(messages(&d), Vec::<String>::new());
+    assert!(c.shutdown().success());
+}

@@ -47,6 +47,20 @@ pub const FUNCTIONS: &[&str] = &[
     "vec4",
 ];
 
+/// An undeclared `d` or `p` is most likely text pasted from seeds/001 as
+/// printed, whose Symbol font shows δ as `d` and π as `p` (issue 21): the
+/// help names the symbol, not the nearest one-letter name.
+fn symbol_font_help(key: &str) -> Option<String> {
+    let (symbol, ascii) = match key {
+        "d" => ("δ", "delta"),
+        "p" => ("π", "pi"),
+        _ => return None,
+    };
+    Some(format!(
+        "did you mean `{symbol}` (ASCII `{ascii}`)? Text pasted from a PDF set in the Symbol font shows {symbol} as `{key}`"
+    ))
+}
+
 /// Texture sources (generators), usable only after `texture … =`.
 pub const GENERATORS: &[&str] = &[
     "image",
@@ -331,6 +345,7 @@ impl Resolver {
             candidates.extend(GENERATORS);
         }
         let help = match did_you_mean(&key, candidates) {
+            _ if let Some(help) = symbol_font_help(&key) => help,
             Some(s) => format!("did you mean `{s}`?"),
             None if GENERATORS.contains(&key.as_str()) => format!("`{key}` is a texture generator: use it after `texture … =`"),
             None => format!("declare it first, e.g. `vector {key} : normal;`, `const {key} = 1;` or `texture {key} : 2d rgba8 = image(\"file.png\");`"),
