@@ -730,3 +730,48 @@ fn quick_fixes_turn_symbol_font_text_into_a_program_that_checks() {
     assert_eq!(messages(&d), Vec::<String>::new());
     assert!(c.shutdown().success());
 }
+
+/// "Every error of the document, as `check` finds them": for every example
+/// program, what the server publishes equals what `shadec check --target T
+/// --format json` writes (T: the program's own `target`, else the client's
+/// geforce3).
+#[test]
+fn the_server_reports_what_check_reports_on_every_example() {
+    let mut c = Client::start(json!({"shadec": {"target": "geforce3"}}), &[]);
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/examples");
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "shd"))
+        .collect();
+    files.sort();
+    assert!(files.len() >= 20);
+    let mut with_diagnostics = 0;
+    for path in files {
+        let text = std::fs::read_to_string(&path).unwrap();
+        let uri = shadec::lsp::uri::from_path(&path);
+        let published = c.open(&uri, &text);
+        let declared = shadec::parser::parse(&text).0.items.iter().find_map(|i| match &i.kind {
+            shadec::parser::ast::ItemKind::Target(t) => Some(t.profile.value.clone()),
+            _ => None,
+        });
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_shadec"))
+            .args(["check", "--format", "json", "--target", declared.as_deref().unwrap_or("geforce3")])
+            .arg(&path)
+            .output()
+            .unwrap();
+        let report: Value = serde_json::from_slice(&out.stdout).unwrap();
+        let expected = &report["files"][0];
+        assert_eq!(expected["uri"], uri.as_str());
+        let key = |d: &Value| (d["range"].to_string(), d["code"].to_string(), d["message"].to_string());
+        let got: Vec<_> = published["diagnostics"].as_array().unwrap().iter().map(key).collect();
+        let want: Vec<_> = expected["diagnostics"].as_array().unwrap().iter().map(key).collect();
+        assert_eq!(got, want, "{}", path.display());
+        with_diagnostics += usize::from(!want.is_empty());
+    }
+    assert!(
+        with_diagnostics > 0,
+        "some example has a diagnostic on geforce3, so the comparison compares something"
+    );
+    assert!(c.shutdown().success());
+}
