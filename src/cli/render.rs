@@ -8,9 +8,9 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
-use clap::ValueEnum;
 use shadec::diag::{Diagnostic, SourceFile};
-use shadec::renderer::plan::{compare, Mode, PlanRenderer};
+use shadec::numerics::Precision;
+use shadec::renderer::plan::{compare, PlanRenderer};
 use shadec::renderer::{AdaptiveSettings, EdgeMode, RenderError};
 use shadec::scene::Scene;
 
@@ -39,8 +39,9 @@ pub struct RenderArgs {
     /// `f32`, or `exact` (the f64 reference). Defaults to the target's own
     /// arithmetic: `fixed9` on the 8-bit hardware targets (register combiners,
     /// the texture environment), `f32` on a programmable one (`wgsl`).
-    #[arg(long, value_enum)]
-    pub mode: Option<ModeArg>,
+    /// `--mode` is an older name.
+    #[arg(long, visible_alias = "mode", value_enum)]
+    pub precision: Option<Precision>,
     /// Image size; defaults to the scene's resolution.
     #[arg(long, value_name = "WxH")]
     pub size: Option<String>,
@@ -84,23 +85,6 @@ fn parse_adaptive(text: &str) -> Result<AdaptiveSettings, String> {
     .filter(|v| v.is_finite() && (0.0..=1.0).contains(v))
     .ok_or_else(|| bad("the threshold is a fraction of full intensity from 0 to 1 (or 0% to 100%)"))?;
     Ok(AdaptiveSettings::new(spacing, threshold, EdgeMode::Pass))
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum ModeArg {
-    Fixed9,
-    F32,
-    Exact,
-}
-
-impl ModeArg {
-    fn mode(self) -> Mode {
-        match self {
-            ModeArg::Fixed9 => Mode::Fixed9,
-            ModeArg::F32 => Mode::F32,
-            ModeArg::Exact => Mode::Exact,
-        }
-    }
 }
 
 fn usage(message: impl std::fmt::Display) -> ExitCode {
@@ -223,13 +207,12 @@ fn render(args: &RenderArgs) -> Result<(), ExitCode> {
         .map_err(|e| failed(planned, &file, e))?;
     // The target's own arithmetic unless asked otherwise (issue 16 item 4):
     // the combiners' fixed9 on the old hardware, f32 on a modern target.
-    let mode = args.mode.map_or(
+    let mode = args.precision.unwrap_or(
         if matches!(profile.fragment, shadec::profile::FragmentStage::Programmable) {
-            Mode::F32
+            Precision::F32
         } else {
-            Mode::Fixed9
+            Precision::Fixed9
         },
-        ModeArg::mode,
     );
     println!(
         "shadec render: {} with {}, {} on {}, {}×{}",
@@ -273,7 +256,7 @@ fn render_frames(
     renderer: &PlanRenderer,
     meaning: &shadec::pipeline::Planned,
     (program, scene, assets): (&shadec::parser::ast::Program, &Scene, &shadec::scene::SceneAssets),
-    mode: Mode,
+    mode: Precision,
     size: (u32, u32),
     adaptive: Option<&AdaptiveSettings>,
     progress: &Progress,
@@ -287,7 +270,7 @@ fn render_frames(
     }?;
     let reference =
         PlanRenderer::new(meaning, program, scene, assets)?
-            .render(Mode::Exact, w, h, &mut |d, t| progress.tick("meaning", d, t))?;
+            .render(Precision::Exact, w, h, &mut |d, t| progress.tick("meaning", d, t))?;
     // Adaptive shading is measured against full per-pixel shading of the same plan and mode.
     let full = match adaptive {
         Some(_) => Some(renderer.render(mode, w, h, &mut |d, t| progress.tick("full shading", d, t))?),
@@ -301,7 +284,7 @@ fn render_frames(
 fn print_report(
     planned: &shadec::pipeline::Planned,
     frames: &Frames,
-    mode: Mode,
+    mode: Precision,
     size: (u32, u32),
     adaptive: Option<&AdaptiveSettings>,
 ) {
@@ -318,7 +301,7 @@ fn print_report(
         frame.adaptive.map_or(frame.stats.shaded, |a| a.shaded()),
         if n == 1 { "" } else { "es" }
     );
-    if mode == Mode::Fixed9 {
+    if mode == Precision::Fixed9 {
         for (i, how) in frame.shading.iter().enumerate() {
             println!("pass {}: {}", i + 1, how.describe());
         }
