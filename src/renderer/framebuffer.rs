@@ -211,6 +211,24 @@ impl Framebuffer {
         out
     }
 
+    /// An RGBA8 framebuffer holding `rgba` (row-major, row 0 at the top):
+    /// an image another executor rendered (wgpu), to compare like ours.
+    pub fn from_rgba8(width: u32, height: u32, rgba: &[u8]) -> Result<Framebuffer, RenderError> {
+        let mut fb = Framebuffer::new(width, height, ColorFormat::Rgba8)?;
+        if rgba.len() != width as usize * height as usize * 4 {
+            return Err(RenderError::Unsupported(format!(
+                "an RGBA8 image of {width}×{height} has {} bytes, not {}",
+                width as usize * height as usize * 4,
+                rgba.len()
+            )));
+        }
+        for (k, px) in rgba.chunks_exact(4).enumerate() {
+            let (x, y) = ((k % width as usize) as u32, (k / width as usize) as u32);
+            fb.set_color(x, y, [px[0], px[1], px[2], px[3]].map(|c| c as f32 / 255.0));
+        }
+        Ok(fb)
+    }
+
     /// Row-major colour as RGBA8 bytes (f32 buffers are clamped and rounded).
     pub fn to_rgba8(&self) -> Vec<u8> {
         let mut out = Vec::with_capacity(self.width as usize * self.height as usize * 4);
@@ -260,6 +278,14 @@ mod tests {
         assert!(close(BlendState::DEST_ALPHA_ADD.blend(&src, &dst), [0.6, 0.6, 1.4, 1.2]));
         let sub = BlendState { equation: BlendEquation::ReverseSubtract, ..BlendState::ADD };
         assert!(close(sub.blend(&src, &dst), [-0.3, 0.15, -0.4, 0.3]));
+    }
+
+    #[test]
+    fn from_rgba8_round_trips_and_checks_its_size() {
+        let bytes: Vec<u8> = (0..2 * 3 * 4).map(|i| (i * 10) as u8).collect();
+        let fb = Framebuffer::from_rgba8(2, 3, &bytes).unwrap();
+        assert_eq!(fb.to_rgba8(), bytes);
+        assert!(Framebuffer::from_rgba8(2, 2, &bytes).is_err());
     }
 
     #[test]
