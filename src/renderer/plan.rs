@@ -10,7 +10,7 @@
 //! reading interpolated varyings, texture lookups
 //! ([`crate::textures`] sampling, mipmap level from the analytic
 //! derivatives of the coordinate varying), uniforms, the pixel, and other
-//! framebuffers; the pass's [`RenderState`] does depth, stencil and blending.
+//! framebuffers; the pass's [`RenderState`](crate::pipeline::RenderState) does depth, stencil and blending.
 //! Passes that render into a texture (`RenderTarget::Texture`, texture
 //! shading) or into a planner temporary (`RenderTarget::Temporary`) keep
 //! their image, which later passes look up (by screen position: the pixel
@@ -36,7 +36,7 @@
 //!   stored (8-bit where declared so) and sampled as the WGSL target's
 //!   texture unit samples them in exact fidelity (`textures::unit`: λ per
 //!   2×2 quad — for a dependent lookup from its coordinates computed at the
-//!   quad's pixels, [`FragmentProgram::quad_coords`] — float filtering,
+//!   quad's pixels, `FragmentProgram::quad_coords` — float filtering,
 //!   seamless cube maps; fixed9 too, but with 8-bit textures filtered in 8.8
 //!   fixed point), f32 framebuffers; textures declared 16-bit or float are
 //!   rendered into in half floats, as the WGSL target's `Rgba16Float`.
@@ -56,7 +56,7 @@
 //!   1/255 with the emulator's rule (nearest, ties toward +∞). Constant and
 //!   uniform subexpressions are folded by the compiler into a constant
 //!   register and an output scale, so they are rounded but not clamped
-//!   ([`fixed9_folded`]). Values that only address textures (lookup
+//!   ([`fixed9_folded_with`]). Values that only address textures (lookup
 //!   coordinates, framebuffer positions) are not quantized: the texture
 //!   units iterate them in float.
 
@@ -73,13 +73,12 @@ use super::{
 };
 use crate::backends::combiners::{self, PixelEmulator, PixelRegisters};
 use crate::ir::{self, eval::Value, Expr, FbChannel, Frequency, Handle, Module, TextureId, Ty};
-use crate::numerics::Precision;
 use crate::pipeline::{Geometry, Pass, PassInterface, Planned, RenderTarget};
 use crate::scene::bind::{self, BoundObject, BoundTexture, ExactFunction, TextureDecl, TextureQuality};
 use crate::scene::{Scene, SceneAssets};
 use crate::textures::{generators, unit, Filter, Level, TexelFormat, Texture, Texture2D, Wrap};
 
-use crate::numerics::{fixed9_folded_with, fixed9_quotient, fixed9_with};
+use crate::numerics::{fixed9_folded_with, fixed9_quotient, fixed9_with, Precision};
 
 /// One rendered frame.
 pub struct Frame {
@@ -114,7 +113,7 @@ pub enum PassShading {
     Combiners { stages: usize },
     /// `fixed9` for a pass the generator refuses (`why`): every
     /// per-fragment IR operation clamped and rounded like a register write
-    /// ([`fixed9`]) — an approximation of what a hand-made setup would do.
+    /// ([`fixed9`](crate::numerics::fixed9)) — an approximation of what a hand-made setup would do.
     PerOperation { why: String },
 }
 
