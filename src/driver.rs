@@ -12,7 +12,7 @@
 //! use shadec::driver::{compile, PlanOptions};
 //! use shadec::profile::Profile;
 //!
-//! let source = "texture T : rgba8 = file(\"wood.png\");\nC δπx ← T δu x;\n";
+//! let source = "texture T : 2d rgba8 = image(\"wood.png\");\nC δπx ← T δu x;\n";
 //! let geforce256 = Profile::builtin("geforce256").unwrap();
 //! let compilation = compile(source, &geforce256, &PlanOptions::default()).unwrap();
 //! assert_eq!(compilation.planned.plan.passes.len(), 1);

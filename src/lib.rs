@@ -4,6 +4,11 @@
 //!
 //! See `ARCHITECTURE.md` for the flow and the invariants.
 
+// Diagnostics are the error type throughout (a location, labels, a help
+// line); they are built once per failure and never on a hot path, so boxing
+// them would cost every caller a pointer chase for nothing.
+#![allow(clippy::result_large_err)]
+
 pub mod backends;
 pub mod bench;
 pub mod diag;
@@ -14,6 +19,7 @@ pub mod io;
 pub mod ir;
 pub mod lsp;
 pub mod meaning;
+pub mod numerics;
 pub mod parser;
 pub mod pipeline;
 pub mod planner;

@@ -60,7 +60,11 @@ fn verdicts(planned: &Planned, profile: &Profile, src: &str) -> Vec<Result<usize
         .collect()
 }
 
-fn report(profile: &str) -> Vec<(String, Result<Vec<Result<usize, String>>, String>)> {
+/// Per example: the plan's passes, each its general combiner count or why
+/// it was not generated; or why the example did not plan.
+type Report = Vec<(String, Result<Vec<Result<usize, String>>, String>)>;
+
+fn report(profile: &str) -> Report {
     let p = Profile::builtin(profile).unwrap();
     examples()
         .into_iter()

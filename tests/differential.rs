@@ -25,9 +25,10 @@ use proptest::prelude::*;
 use proptest::strategy::ValueTree;
 use shadec::backends::combiners::{codegen, validate};
 use shadec::ir::{Expr, Frequency, Handle};
+use shadec::numerics::Precision;
 use shadec::pipeline::{Planned, RenderTarget};
 use shadec::profile::Profile;
-use shadec::renderer::plan::{compare, Mode, PlanRenderer};
+use shadec::renderer::plan::{compare, PlanRenderer};
 use shadec::scene::Scene;
 
 const TARGETS: &[&str] = &["geforce256", "geforce3", "multitexture", "wgsl"];
@@ -381,10 +382,10 @@ fn check(source: &str, target: &str, scene: &Scene) -> Result<Outcome, String> {
     // is then the plan's structure, not the filtering, which an amplified
     // value (`(2A)·(2A)`) would magnify past any fixed tolerance.
     let reference = PlanRenderer::new(&meaning, &program, scene, &assets)
-        .and_then(|r| r.render(Mode::F32, W, H, &mut |_, _| {}))
+        .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
         .map_err(|e| format!("meaning: {e}"))?;
     let frame = PlanRenderer::new(&planned, &program, scene, &assets)
-        .and_then(|r| r.render(Mode::F32, W, H, &mut |_, _| {}))
+        .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
         .map_err(|e| format!("plan: {e}"))?;
     let e = compare(&reference.image, &frame.image);
     if e.max_abs > TOLERANCE {

@@ -9,7 +9,7 @@ use std::path::Path;
 
 /// The layers, bottom first: a module may use modules of lower layers only.
 const LAYERS: &[&[&str]] = &[
-    &["span"],
+    &["span", "numerics"],
     &["diag", "io", "textures"],
     &["parser"],
     &["ir"],

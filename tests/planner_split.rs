@@ -8,8 +8,9 @@ mod common;
 
 use std::collections::HashMap;
 
-use shadec::ir::eval::{Env, Evaluator, Precision, Value};
+use shadec::ir::eval::{Env, Evaluator, Value};
 use shadec::ir::{Expr, FbChannel, Frequency, Handle, Module, Table, TextureId, Ty};
+use shadec::numerics::Precision;
 use shadec::pipeline::{Planned, RenderTarget};
 use shadec::profile::Profile;
 

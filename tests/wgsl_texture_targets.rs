@@ -14,9 +14,9 @@ mod common;
 
 use std::path::Path;
 
-use shadec::backends::wgsl::codegen::Fidelity;
 use shadec::gpu::runner::{Gpu, Target};
 use shadec::gpu::scene_run::ScenePlan;
+use shadec::numerics::Precision;
 use shadec::profile::Profile;
 use shadec::scene::Scene;
 
@@ -43,7 +43,7 @@ fn render(gpu: &Gpu, source: &str, scene: &Scene) -> (Vec<u8>, usize) {
         .unwrap_or_else(|d| panic!("{d:?}"));
     let (program, _) = shadec::parser::check(source);
     let assets = scene.build().unwrap();
-    let plan = ScenePlan::new(&planned, &program, Some(source), Fidelity::Exact, scene, &assets)
+    let plan = ScenePlan::new(&planned, &program, Some(source), Precision::F32, scene, &assets)
         .unwrap_or_else(|e| panic!("{e}"));
     (
         plan.render_into(gpu, &Target::new(W, H)).unwrap_or_else(|e| panic!("{e}")).into_raw(),
@@ -152,7 +152,8 @@ fn solid_mapping_equals_the_solid_texture_per_pixel() {
 /// CPU f32 and wgpu (float target) images of `source` on `scene`: the max
 /// channel difference and how many pixels differ by more than 2/255.
 fn cpu_vs_gpu(gpu: &Gpu, source: &str, scene: &Scene) -> (u8, usize, Vec<u8>, Vec<u8>) {
-    use shadec::renderer::plan::{Mode, PlanRenderer};
+    use shadec::numerics::Precision;
+    use shadec::renderer::plan::PlanRenderer;
     let profile = Profile::resolve("wgsl").unwrap();
     let planned = shadec::driver::compile(source, &profile, &Default::default())
         .map(|c| c.planned)
@@ -161,11 +162,11 @@ fn cpu_vs_gpu(gpu: &Gpu, source: &str, scene: &Scene) -> (u8, usize, Vec<u8>, Ve
     let assets = scene.build().unwrap();
     let cpu = PlanRenderer::new(&planned, &program, scene, &assets)
         .unwrap()
-        .render(Mode::F32, W, H, &mut |_, _| {})
+        .render(Precision::F32, W, H, &mut |_, _| {})
         .unwrap()
         .image
         .to_rgba8();
-    let plan = ScenePlan::new(&planned, &program, Some(source), Fidelity::Exact, scene, &assets)
+    let plan = ScenePlan::new(&planned, &program, Some(source), Precision::F32, scene, &assets)
         .unwrap_or_else(|e| panic!("{e}"));
     let wgpu = plan.render_into(gpu, &Target::float(W, H)).unwrap_or_else(|e| panic!("{e}")).into_raw();
     let diffs: Vec<u8> = (0..(W * H) as usize)

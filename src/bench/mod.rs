@@ -20,7 +20,8 @@ pub mod variants;
 use std::path::Path;
 use std::time::Duration;
 
-use crate::renderer::plan::{compare, ErrorReport, Frame, Mode, PlanRenderer};
+use crate::numerics::Precision;
+use crate::renderer::plan::{compare, ErrorReport, Frame, PlanRenderer};
 use crate::renderer::Framebuffer;
 use crate::scene::Scene;
 
@@ -136,7 +137,7 @@ impl Prepared {
 /// Renders `runs` times after a warm-up; the last frame and the median time.
 pub fn timed(
     renderer: &PlanRenderer,
-    mode: Mode,
+    mode: Precision,
     size: (u32, u32),
     runs: usize,
 ) -> Result<(Frame, Duration), crate::renderer::RenderError> {
@@ -170,7 +171,7 @@ pub fn measure(
             .meaning()?;
         let truth_frame = truth
             .renderer()?
-            .render(Mode::Exact, options.size.0, options.size.1, &mut |_, _| {})
+            .render(Precision::Exact, options.size.0, options.size.1, &mut |_, _| {})
             .map_err(|e| failed(group.truth.name, e))?;
         let truth_image = std::sync::Arc::new(truth_frame.image);
         for variant in group.variants.iter().filter(|v| options.wants(v.name)) {

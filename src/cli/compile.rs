@@ -6,7 +6,7 @@ use std::process::ExitCode;
 
 use shadec::diag::SourceFile;
 
-use super::args::{CompileArgs, CompileFormat, Emit, FidelityArg};
+use super::args::{CompileArgs, CompileFormat, Emit};
 use super::check::color_stderr;
 use super::{EXIT_SOURCE_ERRORS, EXIT_USAGE_OR_IO};
 
@@ -134,7 +134,6 @@ fn report(args: &CompileArgs, file: &SourceFile, diagnostics: &[shadec::diag::Di
 /// `--emit wgsl|spirv|glsl` in a build without naga.
 #[cfg(not(feature = "wgsl"))]
 fn shaders_out(_: &CompileArgs, _: &SourceFile, _: &str, _: &shadec::pipeline::Planned) -> ExitCode {
-    let _ = FidelityArg::Exact;
     eprintln!("error: this shadec was built without the `wgsl` feature: rebuild with default features to emit shaders");
     ExitCode::from(EXIT_USAGE_OR_IO)
 }
@@ -148,11 +147,7 @@ fn shaders_out(
     planned: &shadec::pipeline::Planned,
 ) -> ExitCode {
     use shadec::backends::wgsl::{codegen, emit};
-    let fidelity = match args.fidelity {
-        FidelityArg::Exact => codegen::Fidelity::Exact,
-        FidelityArg::Hardware => codegen::Fidelity::Hardware,
-    };
-    let passes = match codegen::generate(planned, Some(text), fidelity) {
+    let passes = match codegen::generate(planned, Some(text), args.precision) {
         Ok(p) => p,
         Err(ds) => {
             report(args, file, &ds);
@@ -160,11 +155,7 @@ fn shaders_out(
         }
     };
     let name = args.file.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
-    let title = format!(
-        "{name} on {}, fidelity {}",
-        planned.plan.target,
-        if fidelity == codegen::Fidelity::Exact { "exact" } else { "hardware" }
-    );
+    let title = format!("{name} on {}, precision {}", planned.plan.target, args.precision);
     let doc = match args.emit {
         Emit::Wgsl => emit::wgsl(&title, &passes),
         Emit::Glsl => emit::glsl(&title, &passes),

@@ -8,9 +8,9 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
 
-use clap::ValueEnum;
 use shadec::diag::{Diagnostic, SourceFile};
-use shadec::renderer::plan::{compare, Mode, PlanRenderer};
+use shadec::numerics::Precision;
+use shadec::renderer::plan::{compare, Frame, PlanRenderer};
 use shadec::renderer::{AdaptiveSettings, EdgeMode, RenderError};
 use shadec::scene::Scene;
 
@@ -39,8 +39,9 @@ pub struct RenderArgs {
     /// `f32`, or `exact` (the f64 reference). Defaults to the target's own
     /// arithmetic: `fixed9` on the 8-bit hardware targets (register combiners,
     /// the texture environment), `f32` on a programmable one (`wgsl`).
-    #[arg(long, value_enum)]
-    pub mode: Option<ModeArg>,
+    /// `--mode` is an older name.
+    #[arg(long, visible_alias = "mode", value_enum)]
+    pub precision: Option<Precision>,
     /// Image size; defaults to the scene's resolution.
     #[arg(long, value_name = "WxH")]
     pub size: Option<String>,
@@ -58,6 +59,17 @@ pub struct RenderArgs {
     /// only), no uniform folding, no light culling (`compile --scene`).
     #[arg(long)]
     pub no_specialize: bool,
+    /// Where the plan runs: `cpu` (the CPU renderer) or `wgpu` (the plan's
+    /// WGSL on whatever adapter there is: a GPU, or Mesa's lavapipe).
+    #[arg(long, value_enum, default_value_t = Backend::Cpu)]
+    pub backend: Backend,
+}
+
+/// The executor `render` runs the plan on.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum Backend {
+    Cpu,
+    Wgpu,
 }
 
 /// `--adaptive THRESHOLD[,SPACING]`: `0.085`, `8.5%`, `8.5%,8`.
@@ -84,23 +96,6 @@ fn parse_adaptive(text: &str) -> Result<AdaptiveSettings, String> {
     .filter(|v| v.is_finite() && (0.0..=1.0).contains(v))
     .ok_or_else(|| bad("the threshold is a fraction of full intensity from 0 to 1 (or 0% to 100%)"))?;
     Ok(AdaptiveSettings::new(spacing, threshold, EdgeMode::Pass))
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum ModeArg {
-    Fixed9,
-    F32,
-    Exact,
-}
-
-impl ModeArg {
-    fn mode(self) -> Mode {
-        match self {
-            ModeArg::Fixed9 => Mode::Fixed9,
-            ModeArg::F32 => Mode::F32,
-            ModeArg::Exact => Mode::Exact,
-        }
-    }
 }
 
 fn usage(message: impl std::fmt::Display) -> ExitCode {
@@ -200,9 +195,9 @@ fn failed(planned: &shadec::pipeline::Planned, file: &SourceFile, e: RenderError
 /// The frames a render compares: the plan's, the program's meaning in
 /// exact arithmetic, and — with adaptive shading — the plan shaded fully.
 struct Frames {
-    frame: shadec::renderer::plan::Frame,
-    reference: shadec::renderer::plan::Frame,
-    full: Option<shadec::renderer::plan::Frame>,
+    frame: Frame,
+    reference: Frame,
+    full: Option<Frame>,
 }
 
 fn render(args: &RenderArgs) -> Result<(), ExitCode> {
@@ -223,13 +218,12 @@ fn render(args: &RenderArgs) -> Result<(), ExitCode> {
         .map_err(|e| failed(planned, &file, e))?;
     // The target's own arithmetic unless asked otherwise (issue 16 item 4):
     // the combiners' fixed9 on the old hardware, f32 on a modern target.
-    let mode = args.mode.map_or(
+    let mode = args.precision.unwrap_or(
         if matches!(profile.fragment, shadec::profile::FragmentStage::Programmable) {
-            Mode::F32
+            Precision::F32
         } else {
-            Mode::Fixed9
+            Precision::Fixed9
         },
-        ModeArg::mode,
     );
     println!(
         "shadec render: {} with {}, {} on {}, {}×{}",
@@ -244,40 +238,31 @@ fn render(args: &RenderArgs) -> Result<(), ExitCode> {
         println!("note: {note}");
     }
     print!("{}", planned.plan.summary());
-    let lights = if args.no_specialize { 1 } else { scene.lights.len() };
-    let meaning = shadec::meaning::plan(&compiled.module, lights).map_err(|errors| {
-        eprint!("{}", file.render(&errors, color_stderr()));
-        ExitCode::from(EXIT_SOURCE_ERRORS)
-    })?;
+    if args.backend == Backend::Wgpu {
+        return render_on_wgpu(args, &compiled, &file, (&scene, &assets), mode, size);
+    }
     let progress = Progress::new();
-    let frames = render_frames(
-        &renderer,
-        &meaning,
-        (&compiled.program, &scene, &assets),
-        mode,
-        size,
-        adaptive.as_ref(),
-        &progress,
-    );
+    let frames = render_frames(&renderer, mode, size, adaptive.as_ref(), &progress);
     progress.finish();
-    let frames = frames.map_err(|e| failed(planned, &file, e))?;
+    let (frame, full) = frames.map_err(|e| failed(planned, &file, e))?;
+    let lights = if args.no_specialize { 1 } else { scene.lights.len() };
+    let reference = meaning_frame(&compiled, &file, (&scene, &assets), lights, size)?;
+    let frames = Frames { frame, reference, full };
     save_opaque_png(&frames.frame.image, &args.out).map_err(usage)?;
     print_report(planned, &frames, mode, size, adaptive.as_ref());
     println!("wrote {}", args.out.display());
     Ok(())
 }
 
-/// Renders the plan, the program's meaning (the reference: a plan that
-/// loses a term shows as error), and full shading when adaptive.
+/// Renders the plan, and full shading when adaptive (what adaptive shading
+/// is measured against: the same plan and mode).
 fn render_frames(
     renderer: &PlanRenderer,
-    meaning: &shadec::pipeline::Planned,
-    (program, scene, assets): (&shadec::parser::ast::Program, &Scene, &shadec::scene::SceneAssets),
-    mode: Mode,
+    mode: Precision,
     size: (u32, u32),
     adaptive: Option<&AdaptiveSettings>,
     progress: &Progress,
-) -> Result<Frames, RenderError> {
+) -> Result<(Frame, Option<Frame>), RenderError> {
     let (w, h) = size;
     let frame = match adaptive {
         Some(settings) => {
@@ -285,15 +270,11 @@ fn render_frames(
         }
         None => renderer.render(mode, w, h, &mut |d, t| progress.tick(mode.name(), d, t)),
     }?;
-    let reference =
-        PlanRenderer::new(meaning, program, scene, assets)?
-            .render(Mode::Exact, w, h, &mut |d, t| progress.tick("meaning", d, t))?;
-    // Adaptive shading is measured against full per-pixel shading of the same plan and mode.
     let full = match adaptive {
         Some(_) => Some(renderer.render(mode, w, h, &mut |d, t| progress.tick("full shading", d, t))?),
         None => None,
     };
-    Ok(Frames { frame, reference, full })
+    Ok((frame, full))
 }
 
 /// Time, shading, and the error against the meaning (and against full
@@ -301,7 +282,7 @@ fn render_frames(
 fn print_report(
     planned: &shadec::pipeline::Planned,
     frames: &Frames,
-    mode: Mode,
+    mode: Precision,
     size: (u32, u32),
     adaptive: Option<&AdaptiveSettings>,
 ) {
@@ -318,7 +299,7 @@ fn print_report(
         frame.adaptive.map_or(frame.stats.shaded, |a| a.shaded()),
         if n == 1 { "" } else { "es" }
     );
-    if mode == Mode::Fixed9 {
+    if mode == Precision::Fixed9 {
         for (i, how) in frame.shading.iter().enumerate() {
             println!("pass {}: {}", i + 1, how.describe());
         }
@@ -341,6 +322,95 @@ fn print_report(
         print_error("full shading", e);
     }
     print_error("the program's meaning (exact, unsplit)", compare(&frames.reference.image, &frame.image));
+}
+
+/// The program's meaning rendered exactly on the CPU: the reference both
+/// backends are measured against.
+fn meaning_frame(
+    compiled: &shadec::driver::Compilation,
+    file: &SourceFile,
+    (scene, assets): (&Scene, &shadec::scene::SceneAssets),
+    lights: usize,
+    size: (u32, u32),
+) -> Result<Frame, ExitCode> {
+    let meaning = shadec::meaning::plan(&compiled.module, lights).map_err(|errors| {
+        eprint!("{}", file.render(&errors, color_stderr()));
+        ExitCode::from(EXIT_SOURCE_ERRORS)
+    })?;
+    let progress = Progress::new();
+    let frame = PlanRenderer::new(&meaning, &compiled.program, scene, assets)
+        .and_then(|r| r.render(Precision::Exact, size.0, size.1, &mut |d, t| progress.tick("meaning", d, t)));
+    progress.finish();
+    frame.map_err(|e| failed(&meaning, file, e))
+}
+
+/// `--backend wgpu`: the plan's WGSL on the adapter wgpu finds (issue 22),
+/// in f32 or, with `--precision fixed9`, the register combiners' integer
+/// model; the same error report as the CPU's.
+#[cfg(feature = "gpu")]
+fn render_on_wgpu(
+    args: &RenderArgs,
+    compiled: &shadec::driver::Compilation,
+    file: &SourceFile,
+    (scene, assets): (&Scene, &shadec::scene::SceneAssets),
+    mode: Precision,
+    size: (u32, u32),
+) -> Result<(), ExitCode> {
+    use shadec::gpu::{runner::Gpu, scene_run::ScenePlan};
+    if args.adaptive.is_some() {
+        return Err(usage(
+            "--adaptive runs on the CPU backend only: WebGPU has no variable-rate shading (issue 22)",
+        ));
+    }
+    let gpu = Gpu::new().map_err(usage)?;
+    let info = gpu.adapter_info();
+    println!("adapter: {} ({:?}, {:?}, driver {})", info.name, info.backend, info.device_type, info.driver);
+    if mode == Precision::Exact {
+        println!("note: a GPU has no f64: `--precision exact` runs the f32 shader");
+    }
+    let planned = &compiled.planned;
+    let gpu_failed = |e: shadec::gpu::scene_run::SceneRunError| input(format!("{}: {e}", file.name));
+    let plan = ScenePlan::new(planned, &compiled.program, Some(&file.text), mode, scene, assets)
+        .map_err(gpu_failed)?;
+    for note in &plan.notes {
+        println!("note: {note}");
+    }
+    // The first frame builds what the runner needs; the second is timed.
+    let first = Instant::now();
+    plan.render(&gpu, size.0, size.1).map_err(gpu_failed)?;
+    let first = first.elapsed();
+    let start = Instant::now();
+    let image = plan.render(&gpu, size.0, size.1).map_err(gpu_failed)?;
+    let time = start.elapsed();
+    let frame = shadec::renderer::Framebuffer::from_rgba8(size.0, size.1, image.as_raw()).map_err(input)?;
+    let lights = if args.no_specialize { 1 } else { scene.lights.len() };
+    let reference = meaning_frame(compiled, file, (scene, assets), lights, size)?;
+    save_opaque_png(&frame, &args.out).map_err(usage)?;
+    let n = planned.plan.passes.len();
+    println!(
+        "frame: {:.1} ms on wgpu ({} pass{}, submit to read-back wall time; the runner builds pipelines and uploads textures every frame: first frame {:.1} ms)",
+        time.as_secs_f64() * 1e3,
+        n,
+        if n == 1 { "" } else { "es" },
+        first.as_secs_f64() * 1e3
+    );
+    print_error("the program's meaning (exact, unsplit)", compare(&reference.image, &frame));
+    println!("wrote {}", args.out.display());
+    Ok(())
+}
+
+#[cfg(not(feature = "gpu"))]
+fn render_on_wgpu(
+    _: &RenderArgs,
+    _: &shadec::driver::Compilation,
+    _: &SourceFile,
+    _: (&Scene, &shadec::scene::SceneAssets),
+    _: Precision,
+    _: (u32, u32),
+) -> Result<(), ExitCode> {
+    Err(usage(
+        "this shadec was built without the `gpu` feature: rebuild with default features for --backend wgpu",
+    ))
 }
 
 fn print_error(against: &str, e: shadec::renderer::plan::ErrorReport) {
