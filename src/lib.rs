@@ -11,6 +11,7 @@ pub mod diag;
 pub mod gpu;
 pub mod io;
 pub mod ir;
+pub mod lowering;
 pub mod meaning;
 pub mod parser;
 pub mod pipeline;

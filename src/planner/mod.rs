@@ -119,7 +119,7 @@ fn plan_inner(
     search: Search,
     scene: Option<&std::collections::BTreeMap<String, Vec<f32>>>,
 ) -> Result<Planned, Vec<Diagnostic>> {
-    plan_inner_with(module, profile, source, search, scene, None)
+    plan_inner_with(module, profile, source, search, scene, None, &Default::default())
 }
 
 /// Scene-driven specialization (issue 7 parts 1-2): what
@@ -155,7 +155,7 @@ pub fn plan_specialized(
     spec: &SceneSpecialization,
 ) -> Result<Planned, Vec<Diagnostic>> {
     let constants = spec.fold_uniforms.then_some(&spec.scene.constants);
-    plan_inner_with(module, profile, source, Search::Planner, constants, Some(spec))
+    plan_inner_with(module, profile, source, Search::Planner, constants, Some(spec), &Default::default())
 }
 
 /// Per statement of the expanded module: its light, the objects it is
@@ -167,7 +167,69 @@ struct PerLight {
     source: Vec<usize>,
 }
 
+/// Plans `module` with the lowering `options` (`compile --no-approx`,
+/// `--max-error`); the other entry points lower with the defaults.
+pub fn plan_lowered(
+    module: &Module,
+    profile: &Profile,
+    source: Option<&str>,
+    spec: Option<&SceneSpecialization>,
+    options: &crate::lowering::LowerOptions,
+) -> Result<Planned, Vec<Diagnostic>> {
+    let constants = spec.filter(|s| s.fold_uniforms).map(|s| &s.scene.constants);
+    plan_inner_with(module, profile, source, Search::Planner, constants, spec, options)
+}
+
+/// The planning funnel: the program as written, and only when that does
+/// not plan, lowered (issue 18, [`crate::lowering`]) — each choice of
+/// rules, most accurate first, until one plans within `options`; the
+/// program's own refusal when none does.
 fn plan_inner_with(
+    module: &Module,
+    profile: &Profile,
+    source: Option<&str>,
+    search: Search,
+    scene: Option<&std::collections::BTreeMap<String, Vec<f32>>>,
+    spec: Option<&SceneSpecialization>,
+    options: &crate::lowering::LowerOptions,
+) -> Result<Planned, Vec<Diagnostic>> {
+    let written = plan_as_written(module, profile, source, search, scene, spec);
+    if written.is_ok() || !options.approximate {
+        return written;
+    }
+    let index = source.map(|s| (LineIndex::new(s), s));
+    let at = |span: Span| at_text(&index, span);
+    for choice in crate::lowering::choices(profile) {
+        let lowered = crate::lowering::lower(module, profile, choice, &at);
+        if std::env::var("SHADEC_DEBUG_LOWER").is_ok() {
+            eprintln!("{choice:?}: {:?}", lowered.approximations);
+            if let Err(e) = plan_as_written(&lowered.module, profile, source, search, scene, spec) {
+                eprintln!("  -> {}", e[0].message);
+            }
+        }
+        if lowered.approximations.is_empty() || !lowered.within(options) {
+            continue;
+        }
+        if let Ok(mut planned) = plan_as_written(&lowered.module, profile, source, search, scene, spec) {
+            planned.plan.approximations = lowered.approximations;
+            return Ok(planned);
+        }
+    }
+    written
+}
+
+/// `line:col` of `span`, `-` without a source or for a built node.
+fn at_text(index: &Option<(LineIndex, &str)>, span: Span) -> String {
+    match (index, span == Span::DETACHED) {
+        (Some((ix, text)), false) => {
+            let lc = ix.line_col(text, span.start as usize);
+            format!("{}:{}", lc.line, lc.col)
+        }
+        _ => "-".to_string(),
+    }
+}
+
+fn plan_as_written(
     module: &Module,
     profile: &Profile,
     source: Option<&str>,
@@ -1023,7 +1085,7 @@ fn assemble(
             }
         })
         .collect();
-    PassPlan { target: profile.name.clone(), passes, removed, values }
+    PassPlan { target: profile.name.clone(), passes, removed, values, approximations: Vec::new() }
 }
 
 /// What the combiner code generator says of a pass on a register-combiner
