@@ -32,6 +32,8 @@ pub fn run(args: &CompileArgs) -> ExitCode {
             }
         },
     };
+    let lowering =
+        shadec::lowering::LowerOptions { approximate: !args.no_approx, max_error: args.max_error };
     if diagnostics.iter().all(|d| !d.is_error()) {
         let (m, lower_diags) = shadec::ir::lower(&program);
         diagnostics.extend(lower_diags);
@@ -62,14 +64,14 @@ pub fn run(args: &CompileArgs) -> ExitCode {
                                         fold_uniforms: true,
                                         cull_threshold: Some(shadec::planner::DEFAULT_CULL_THRESHOLD),
                                     };
-                                    shadec::planner::plan_specialized(&m, &p, Some(&text), &spec)
+                                    shadec::planner::plan_lowered(&m, &p, Some(&text), Some(&spec), &lowering)
                                 }
                                 Err(e) => {
                                     eprintln!("error: {e}");
                                     return ExitCode::from(EXIT_SOURCE_ERRORS);
                                 }
                             },
-                            None => shadec::planner::plan(&m, &p, Some(&text)),
+                            None => shadec::planner::plan_lowered(&m, &p, Some(&text), None, &lowering),
                         };
                         match planned {
                             Ok(planned) => {

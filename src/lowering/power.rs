@@ -1,6 +1,7 @@
 //! Rule `power_by_passes`: `x^n` per fragment, an integer power the
 //! target's general combiners cannot square out in one pass (⌈log₂ n⌉
-//! stages, seeds/000 Section 4.2.2), becomes the product `x^k · x^k · …`
+//! stages, seeds/000 Section 4.2.2) or not a power of two (the code
+//! generator only squares), becomes the product `x^k · x^k · …`
 //! of powers that fit (k = 2^(stages − 1): one stage left for `x`'s own
 //! dot product), which the planner splits into passes that multiply in
 //! the framebuffer (seeds/001 (9), `C ← C ⊕ …` with GL_DST_COLOR).
@@ -31,24 +32,27 @@ pub fn apply(r: &mut Rewriter, h: Handle<Expr>, span: Span) -> Option<Handle<Exp
         return None;
     }
     let (n, k) = (n as u32, per_pass(stages));
-    if n <= k {
+    if n <= k && n.is_power_of_two() {
         return None;
     }
-    let factor = pow(r, x, k, span)?;
-    let mut product = factor;
-    for _ in 1..n / k {
-        product = r.node(Expr::Binary { op: BinaryOp::Mul, lhs: product, rhs: factor }, span)?;
+    // Powers of two only: the generator squares (seeds/000 Section 4.2.2).
+    let mut parts = Vec::new();
+    let mut rest = n;
+    while rest > 0 {
+        let p = (1u32 << (31 - rest.leading_zeros())).min(k);
+        parts.push(pow(r, x, p, span)?);
+        rest -= p;
     }
-    if n % k != 0 {
-        let rest = pow(r, x, n % k, span)?;
-        product = r.node(Expr::Binary { op: BinaryOp::Mul, lhs: product, rhs: rest }, span)?;
+    let factors = parts.len() as u32;
+    let mut product = parts[0];
+    for f in &parts[1..] {
+        product = r.node(Expr::Binary { op: BinaryOp::Mul, lhs: product, rhs: *f }, span)?;
     }
-    let factors = n.div_ceil(k);
     r.record(
         "power_by_passes",
         span,
         Some(product),
-        format!("x^{n} is the product of {factors} powers of at most x^{k}, which the planner can multiply in the framebuffer"),
+        format!("x^{n} is the product of {factors} powers of two of at most x^{k}, which the combiners square and the planner can multiply in the framebuffer"),
         ApproximationCost { texture_units: 0, passes: factors - 1, general_combiners: stages as u32, texels: 0 },
         Some((factors - 1) as f64 * 0.5 / 255.0),
     );

@@ -32,20 +32,19 @@ pub const PROBES: usize = 4096;
 /// wrote it), or `None` when `h` is not a function of one bounded
 /// interpolated scalar.
 pub fn apply(r: &mut Rewriter, h: Handle<Expr>, written: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
-    let expr = r.m.exprs[h].clone();
-    let a = single_argument(&r.m, &expr)?;
-    let idx = if super::is_interpolant(&r.m, a) {
-        a
+    let (ops, b) = chain(&r.m, h)?;
+    let idx = if super::is_interpolant(&r.m, b) {
+        b
     } else {
-        let a_written = single_argument(&r.m, &r.m.exprs[written].clone())?;
-        per_vertex::apply(r, a_written, "the argument of the function tabulated here", span)?
+        let (_, b_written) = chain(&r.m, written)?;
+        per_vertex::apply(r, b_written, "the argument of the function tabulated here", span)?
     };
     let Expr::Interpolate { value: a_v, to } = r.m.exprs[idx] else { return None };
     let (lo, hi) = (r.m.info(idx).interval.lo, r.m.info(idx).interval.hi);
     if !(lo.is_finite() && hi.is_finite() && hi > lo) || to != Frequency::Fragment {
         return None;
     }
-    let f = |x: f64| evaluate(&r.m, &expr, a, x);
+    let f = |x: f64| evaluate(&r.m, &ops, b, x);
     let samples: Vec<f64> = (0..TEXELS).map(|i| f(lo + (hi - lo) * i as f64 / (TEXELS - 1) as f64)).collect();
     let (ylo, yhi) =
         samples.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| (l.min(*y), h.max(*y)));
@@ -55,7 +54,7 @@ pub fn apply(r: &mut Rewriter, h: Handle<Expr>, written: Handle<Expr>, span: Spa
     let store = Storage::for_range(ylo, yhi);
     let bound = table_error(&samples, store, lo, hi, &f);
     let id = add_texture(r);
-    let texel_value = texel_function(r, &expr, a, lo, hi, store, span)?;
+    let texel_value = texel_function(r, &ops, b, lo, hi, store, span)?;
     let index = r.node(Expr::TexelCoord, span)?;
     r.pending.push(Statement {
         table: Table::Texture(id),
@@ -98,18 +97,42 @@ fn single_argument(m: &Module, expr: &Expr) -> Option<Handle<Expr>> {
     arg
 }
 
-/// `f` at `x`: `expr` with its argument `a` set to `x`, the others constant.
-fn evaluate(m: &Module, expr: &Expr, a: Handle<Expr>, x: f64) -> f64 {
-    let operands: Vec<Value> = expr
-        .operands()
-        .iter()
-        .map(|o| match &m.exprs[*o] {
-            Expr::Constant(c) => eval::value(c),
-            _ if *o == a => [x; 4],
-            _ => [f64::NAN; 4],
-        })
-        .collect();
-    eval::apply(m, expr, Ty::Scalar, &operands)[0]
+/// The operations from `h` down to the bounded scalar `b` they are a
+/// function of (`sqrt(1 − t²)`: sqrt, −, ^ down to t), top first: the
+/// table tabulates the whole chain over b's interval.
+fn chain(m: &Module, h: Handle<Expr>) -> Option<(Vec<Expr>, Handle<Expr>)> {
+    let mut nodes = vec![m.exprs[h].clone()];
+    let mut b = single_argument(m, &m.exprs[h])?;
+    while !m.info(b).interval.lo.is_finite() || !m.info(b).interval.hi.is_finite() {
+        if nodes.len() > 16 {
+            return None;
+        }
+        let e = m.exprs[b].clone();
+        let next = single_argument(m, &e)?;
+        nodes.push(e);
+        b = next;
+    }
+    Some((nodes, b))
+}
+
+/// The chain at `b = x`, evaluated bottom up (its other operands constant).
+fn evaluate(m: &Module, chain: &[Expr], b: Handle<Expr>, x: f64) -> f64 {
+    let mut below: (Handle<Expr>, f64) = (b, x);
+    let mut value = x;
+    for expr in chain.iter().rev() {
+        let operands: Vec<Value> = expr
+            .operands()
+            .iter()
+            .map(|o| match &m.exprs[*o] {
+                Expr::Constant(c) => eval::value(c),
+                _ if *o == below.0 => [below.1; 4],
+                _ => [f64::NAN; 4],
+            })
+            .collect();
+        value = eval::apply(m, expr, Ty::Scalar, &operands)[0];
+        below = (m.exprs.find(expr).unwrap_or(below.0), value);
+    }
+    value
 }
 
 /// How table values are kept in 8 bits.
@@ -182,8 +205,8 @@ fn add_texture(r: &mut Rewriter) -> u32 {
 /// the texel centre's place in [0, 1] (`(t·N − ½)/(N − 1)`).
 fn texel_function(
     r: &mut Rewriter,
-    expr: &Expr,
-    a: Handle<Expr>,
+    chain: &[Expr],
+    b: Handle<Expr>,
     lo: f64,
     hi: f64,
     store: Storage,
@@ -193,7 +216,12 @@ fn texel_function(
     let texel = r.node(Expr::TexelCoord, span)?;
     let t = r.node(Expr::Swizzle { value: texel, pattern: [0, 0, 0, 0], len: 1, ty: Ty::Scalar }, span)?;
     let x = affine(r, t, (hi - lo) * n / (n - 1.0), lo - (hi - lo) * 0.5 / (n - 1.0), span)?;
-    let fx = r.node(expr.map_operands(|o| if o == a { x } else { o }), span)?;
+    let mut below = (b, x);
+    for expr in chain.iter().rev() {
+        let rebuilt = r.node(expr.map_operands(|o| if o == below.0 { below.1 } else { o }), span)?;
+        below = (r.m.exprs.find(expr)?, rebuilt);
+    }
+    let fx = below.1;
     let encoded = affine(r, fx, 1.0 / store.scale, -store.lo / store.scale, span)?;
     r.node(Expr::Math { fun: crate::ir::MathFunction::Saturate, args: vec![encoded] }, span)
 }

@@ -201,12 +201,6 @@ fn plan_inner_with(
     let at = |span: Span| at_text(&index, span);
     for choice in crate::lowering::choices(profile) {
         let lowered = crate::lowering::lower(module, profile, choice, &at);
-        if std::env::var("SHADEC_DEBUG_LOWER").is_ok() {
-            eprintln!("{choice:?}: {:?}", lowered.approximations);
-            if let Err(e) = plan_as_written(&lowered.module, profile, source, search, scene, spec) {
-                eprintln!("  -> {}", e[0].message);
-            }
-        }
         if lowered.approximations.is_empty() || !lowered.within(options) {
             continue;
         }
