@@ -32,8 +32,7 @@ pub fn run(args: &CompileArgs) -> ExitCode {
             }
         },
     };
-    let lowering =
-        shadec::lowering::LowerOptions { approximate: !args.no_approx, max_error: args.max_error };
+    let lowering = shadec::lowering::LowerOptions { approximate: !args.no_approx, max_error: args.max_error };
     if diagnostics.iter().all(|d| !d.is_error()) {
         let (m, lower_diags) = shadec::ir::lower(&program);
         diagnostics.extend(lower_diags);

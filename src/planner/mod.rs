@@ -204,9 +204,12 @@ fn plan_inner_with(
         if lowered.approximations.is_empty() || !lowered.within(options) {
             continue;
         }
-        if let Ok(mut planned) = plan_as_written(&lowered.module, profile, source, search, scene, spec) {
-            planned.plan.approximations = lowered.approximations;
-            return Ok(planned);
+        match plan_as_written(&lowered.module, profile, source, search, scene, spec) {
+            Ok(mut planned) => {
+                planned.plan.approximations = lowered.approximations;
+                return Ok(planned);
+            }
+            Err(_) => {}
         }
     }
     written
