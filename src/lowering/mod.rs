@@ -178,7 +178,14 @@ impl Rewriter<'_> {
             Expr::Binary { op: BinaryOp::Pow, .. } if !needs_table(&self.m, h) => {
                 power::apply(self, h, span).unwrap_or(h)
             }
-            _ if needs_table(&self.m, h) => table::apply(self, h, original, span).unwrap_or(h),
+            _ if needs_table(&self.m, h) => table::apply(self, h, original, span)
+                .or_else(|| per_vertex::apply(self, original, "this value", span))
+                .unwrap_or(h),
+            // An rgb division (`kd·(N·L)/((N·L) + (N·V))`): no table of one
+            // scalar holds it; per vertex is what is left.
+            _ if no_combiner_op(&self.m, h) => {
+                per_vertex::apply(self, original, "this value", span).unwrap_or(h)
+            }
             _ => h,
         }
     }
@@ -220,10 +227,16 @@ impl Rewriter<'_> {
 }
 
 /// A per-sample scalar operation the register combiners have no way to
-/// compute (seeds/003 Section 4.2: products, sums, dots, muxes and the
-/// input mappings only) and a table can: `sqrt`, division, `floor`, …
+/// compute and a table can: `sqrt`, division, `floor`, …
 pub fn needs_table(m: &Module, h: Handle<Expr>) -> bool {
-    if !m.info(h).freq.is_sample() || m.info(h).ty != crate::ir::Ty::Scalar {
+    m.info(h).ty == crate::ir::Ty::Scalar && no_combiner_op(m, h)
+}
+
+/// A per-sample operation the register combiners have no way to compute
+/// (seeds/003 Section 4.2: products, sums, dots, muxes and the input
+/// mappings only).
+pub fn no_combiner_op(m: &Module, h: Handle<Expr>) -> bool {
+    if !m.info(h).freq.is_sample() {
         return false;
     }
     match &m.exprs[h] {

@@ -2,8 +2,9 @@
 //! target's general combiners cannot square out in one pass (⌈log₂ n⌉
 //! stages, seeds/000 Section 4.2.2) or not a power of two (the code
 //! generator only squares), becomes the product `x^k · x^k · …`
-//! of powers that fit (k = 2^(stages − 1): one stage left for `x`'s own
-//! dot product), which the planner splits into passes that multiply in
+//! of powers that fit (k = 2^(stages − 1), small, so that the planner's
+//! product split packs as many factors into each pass as its generated
+//! setup holds — three x² on a GeForce 256), which the planner splits into passes that multiply in
 //! the framebuffer (seeds/001 (9), `C ← C ⊕ …` with GL_DST_COLOR).
 //!
 //! Exact in arithmetic; the error is the framebuffer's rounding, ½ of an

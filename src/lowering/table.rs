@@ -33,15 +33,18 @@ pub const PROBES: usize = 4096;
 /// interpolated scalar.
 pub fn apply(r: &mut Rewriter, h: Handle<Expr>, written: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
     let (ops, b) = chain(&r.m, h)?;
-    let idx = if super::is_interpolant(&r.m, b) {
-        b
-    } else {
-        let (_, b_written) = chain(&r.m, written)?;
-        per_vertex::apply(r, b_written, "the argument of the function tabulated here", span)?
+    // The argument per vertex: `δ v` gives v; another value of
+    // interpolants is computed per vertex (rule `per_vertex`, recorded
+    // below once the table stands for it).
+    let (a_v, hoisted) = match r.m.exprs[b] {
+        Expr::Interpolate { value, to: Frequency::Fragment } => (value, false),
+        _ => {
+            let (_, b_written) = chain(&r.m, written)?;
+            (per_vertex::at_vertex(&mut r.m, b_written)?, true)
+        }
     };
-    let Expr::Interpolate { value: a_v, to } = r.m.exprs[idx] else { return None };
-    let (lo, hi) = (r.m.info(idx).interval.lo, r.m.info(idx).interval.hi);
-    if !(lo.is_finite() && hi.is_finite() && hi > lo) || to != Frequency::Fragment {
+    let (lo, hi) = (r.m.info(a_v).interval.lo, r.m.info(a_v).interval.hi);
+    if !(lo.is_finite() && hi.is_finite() && hi > lo) || r.m.info(b).freq != Frequency::Fragment {
         return None;
     }
     let f = |x: f64| evaluate(&r.m, &ops, b, x);
@@ -67,6 +70,16 @@ pub fn apply(r: &mut Rewriter, h: Handle<Expr>, written: Handle<Expr>, span: Spa
     let coords = coordinates(r, a_v, lo, hi, span)?;
     let looked_up = r.node(Expr::Lookup { texture: id, coords }, span)?;
     let decoded = store.decode(r, looked_up, span)?;
+    if hoisted {
+        r.record(
+            "per_vertex",
+            span,
+            Some(decoded),
+            "the argument of the function tabulated here is computed per vertex and interpolated".into(),
+            ApproximationCost::default(),
+            None,
+        );
+    }
     r.record(
         "baked_table",
         span,
@@ -103,16 +116,20 @@ fn single_argument(m: &Module, expr: &Expr) -> Option<Handle<Expr>> {
 fn chain(m: &Module, h: Handle<Expr>) -> Option<(Vec<Expr>, Handle<Expr>)> {
     let mut nodes = vec![m.exprs[h].clone()];
     let mut b = single_argument(m, &m.exprs[h])?;
-    while !m.info(b).interval.lo.is_finite() || !m.info(b).interval.hi.is_finite() {
+    // As deep as one-argument operations go: an interpolant's affine map
+    // (`3·δc`) is then in the table, not computed per vertex.
+    while let Some(next) = arithmetic(m, b).then(|| single_argument(m, &m.exprs[b])).flatten() {
         if nodes.len() > 16 {
             return None;
         }
-        let e = m.exprs[b].clone();
-        let next = single_argument(m, &e)?;
-        nodes.push(e);
+        nodes.push(m.exprs[b].clone());
         b = next;
     }
     Some((nodes, b))
+}
+
+fn arithmetic(m: &Module, h: Handle<Expr>) -> bool {
+    matches!(m.exprs[h], Expr::Unary { .. } | Expr::Binary { .. } | Expr::Math { .. })
 }
 
 /// The chain at `b = x`, evaluated bottom up (its other operands constant).

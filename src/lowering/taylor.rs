@@ -33,6 +33,16 @@ pub fn apply(r: &mut Rewriter, x: Handle<Expr>, span: Span) -> Option<Handle<Exp
     let step = r.node(Expr::Binary { op: BinaryOp::Mul, lhs: scaled, rhs: defect }, span)?;
     let out = r.node(Expr::Binary { op: BinaryOp::Add, lhs: w, rhs: step }, span)?;
     debug_assert!(matches!(r.m.info(out).ty, Ty::Vec3 | Ty::Rgb));
+    if !super::is_interpolant(&r.m, x) {
+        r.record(
+            "per_vertex",
+            span,
+            Some(out),
+            "the vector renormalized here is computed per vertex and interpolated".into(),
+            ApproximationCost::default(),
+            None,
+        );
+    }
     r.record(
         "taylor_renormalization",
         span,

@@ -194,7 +194,9 @@ fn plan_inner_with(
     options: &crate::lowering::LowerOptions,
 ) -> Result<Planned, Vec<Diagnostic>> {
     let written = plan_as_written(module, profile, source, search, scene, spec);
-    if written.is_ok() || !options.approximate {
+    // The exhaustive search is the optimality test's reference for the
+    // splits; a lowered program's long products would make it explode.
+    if written.is_ok() || !options.approximate || search == Search::Exhaustive {
         return written;
     }
     let index = source.map(|s| (LineIndex::new(s), s));
