@@ -10,7 +10,7 @@
 //! a GeForce 256 can do without texture shaders.
 
 use super::Rewriter;
-use crate::ir::{Expr, Handle, Module};
+use crate::ir::{Expr, Handle, MathFunction, Module};
 use crate::pipeline::ApproximationCost;
 use crate::span::Span;
 
@@ -54,13 +54,22 @@ pub fn at_vertex(m: &mut Module, x: Handle<Expr>) -> Option<Handle<Expr>> {
 /// `what` at `span`; `None` when `x` cannot be computed per vertex.
 pub fn apply(r: &mut Rewriter, x: Handle<Expr>, what: &str, span: Span) -> Option<Handle<Expr>> {
     let to = r.m.info(x).freq;
-    let v = at_vertex(&mut r.m, x)?;
+    let mut v = at_vertex(&mut r.m, x)?;
+    // A colour leaving [0, 1] is clamped as GL clamps a vertex colour.
+    let iv = r.m.info(v).interval;
+    let clamped = r.m.info(v).ty.is_color() && (iv.lo < 0.0 || iv.hi > 1.0);
+    if clamped {
+        v = r.node(Expr::Math { fun: MathFunction::Saturate, args: vec![v] }, span)?;
+    }
     let h = r.node(Expr::Interpolate { value: v, to }, span)?;
     r.record(
         "per_vertex",
         span,
         Some(h),
-        format!("{what} is computed per vertex and interpolated (the target cannot compute it per fragment)"),
+        format!(
+            "{what} is computed per vertex and interpolated{} (the target cannot compute it per fragment)",
+            if clamped { ", clamped to [0, 1] as a vertex colour" } else { "" }
+        ),
         ApproximationCost::default(),
         None,
     );
