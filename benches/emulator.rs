@@ -2,9 +2,10 @@
 //! and f32, one thread and all threads. Results: BENCHMARKS-combiners.md.
 
 use criterion::{criterion_group, criterion_main, Criterion, Throughput};
-use shadec::backends::combiners::emulator::{emulate_into, Inputs, Precision};
+use shadec::backends::combiners::emulator::{emulate_into, Inputs};
 use shadec::backends::combiners::rc1::parse_and_validate;
 use shadec::backends::combiners::CombinerLimits;
+use shadec::numerics::Precision;
 
 fn bench(c: &mut Criterion) {
     const W: usize = 1024;

@@ -13,7 +13,8 @@ mod timing;
 use std::path::Path;
 use std::time::Duration;
 
-use shadec::renderer::plan::{Mode, PlanRenderer};
+use shadec::numerics::Precision;
+use shadec::renderer::plan::PlanRenderer;
 use shadec::scene::Scene;
 
 /// Median of 7 runs (`SHADEC_BENCH_RUNS`) after one warm-up.
@@ -35,7 +36,7 @@ fn setup(scene_text: &str) -> Setup {
     let scene = Scene::parse(scene_text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap();
     let assets = scene.build().unwrap();
     let profile = shadec::profile::Profile::resolve("geforce256").unwrap();
-    let planned = shadec::planner::compile_source(SOURCE, &profile).unwrap();
+    let planned = shadec::driver::compile(SOURCE, &profile, &Default::default()).map(|c| c.planned).unwrap();
     let (program, _) = shadec::parser::check(SOURCE);
     Setup { planned, program, scene, assets }
 }
@@ -59,10 +60,10 @@ fn main() {
     println!("| mode | 1 thread: ms | Mpixel/s | {all} threads: ms | Mpixel/s | speed-up |");
     println!("|---|---|---|---|---|---|");
     let mut fixed9_all = Duration::ZERO;
-    for mode in [Mode::Fixed9, Mode::F32, Mode::Exact] {
+    for mode in [Precision::Fixed9, Precision::F32, Precision::Exact] {
         let t1 = one.install(|| median(|| drop(cpu.render(mode, w, h, &mut |_, _| {}).unwrap())));
         let tn = median(|| drop(cpu.render(mode, w, h, &mut |_, _| {}).unwrap()));
-        if mode == Mode::Fixed9 {
+        if mode == Precision::Fixed9 {
             fixed9_all = tn;
         }
         println!(
@@ -81,7 +82,7 @@ fn main() {
     println!("|---|---|---|---|");
     let mut before: Option<Duration> = None;
     for side in [256u32, 512, 1024, 2048] {
-        let t = median(|| drop(cpu.render(Mode::Fixed9, side, side, &mut |_, _| {}).unwrap()));
+        let t = median(|| drop(cpu.render(Precision::Fixed9, side, side, &mut |_, _| {}).unwrap()));
         println!(
             "| {side}×{side} | {:.1} | {} | {} |",
             ms(t),
@@ -99,7 +100,7 @@ fn main() {
         let text = SCENE.replace("rings: 64, sides: 32", &format!("rings: {rings}, sides: {sides}"));
         let g = setup(&text);
         let r = PlanRenderer::new(&g.planned, &g.program, &g.scene, &g.assets).unwrap();
-        let t = median(|| drop(r.render(Mode::Fixed9, 512, 512, &mut |_, _| {}).unwrap()));
+        let t = median(|| drop(r.render(Precision::Fixed9, 512, 512, &mut |_, _| {}).unwrap()));
         println!(
             "| {rings} × {sides} | {} | {:.1} | {} |",
             2 * rings * sides,
@@ -115,9 +116,9 @@ fn main() {
 /// The same plan's WGSL on wgpu, in the same run.
 #[cfg(feature = "gpu")]
 fn peer(s: &Setup, fixed9: Duration, w: u32, h: u32) {
-    use shadec::backends::wgsl::codegen::Fidelity;
     use shadec::gpu::runner::Gpu;
     use shadec::gpu::scene_run::ScenePlan;
+    use shadec::numerics::Precision;
     let gpu = match Gpu::new() {
         Ok(g) => g,
         Err(e) => {
@@ -125,8 +126,8 @@ fn peer(s: &Setup, fixed9: Duration, w: u32, h: u32) {
             return;
         }
     };
-    let plan = ScenePlan::new(&s.planned, &s.program, Some(SOURCE), Fidelity::Hardware, &s.scene, &s.assets)
-        .unwrap();
+    let plan =
+        ScenePlan::new(&s.planned, &s.program, Some(SOURCE), Precision::Fixed9, &s.scene, &s.assets).unwrap();
     let t = median(|| drop(plan.render(&gpu, w, h).unwrap()));
     println!("\nThe peer: the same plan's WGSL (--fidelity hardware) on wgpu, adapter {gpu}, {w}×{h}, whole frame incl. upload and readback");
     println!("| path | ms/frame | ratio to wgpu |");

@@ -11,10 +11,10 @@ mod timing;
 use std::path::Path;
 use std::time::Duration;
 
-use shadec::backends::wgsl::codegen::Fidelity;
 use shadec::gpu::runner::{run_passes, Gpu, Target};
 use shadec::gpu::scene_run::ScenePlan;
-use shadec::renderer::plan::{Mode, PlanRenderer};
+use shadec::numerics::Precision;
+use shadec::renderer::plan::PlanRenderer;
 use shadec::scene::Scene;
 
 const W: u32 = 512;
@@ -35,7 +35,7 @@ fn main() {
     let scene = Scene::parse(&text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap();
     let assets = scene.build().unwrap();
     let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
-    let planned = shadec::planner::compile_source(&src, &profile).unwrap();
+    let planned = shadec::driver::compile(&src, &profile, &Default::default()).map(|c| c.planned).unwrap();
     let (program, _) = shadec::parser::check(&src);
     let gpu = match Gpu::new() {
         Ok(g) => g,
@@ -44,7 +44,7 @@ fn main() {
             return;
         }
     };
-    let plan = ScenePlan::new(&planned, &program, Some(&src), Fidelity::Exact, &scene, &assets).unwrap();
+    let plan = ScenePlan::new(&planned, &program, Some(&src), Precision::F32, &scene, &assets).unwrap();
     let cpu = PlanRenderer::new(&planned, &program, &scene, &assets).unwrap();
     let passes = plan.passes(W, H).unwrap();
     let target = Target::new(W, H);
@@ -55,10 +55,10 @@ fn main() {
         run_passes(&gpu, &target, &passes).unwrap();
     });
     let f32_ = median(|| {
-        cpu.render(Mode::F32, W, H, &mut |_, _| {}).unwrap();
+        cpu.render(Precision::F32, W, H, &mut |_, _| {}).unwrap();
     });
     let fixed9 = median(|| {
-        cpu.render(Mode::Fixed9, W, H, &mut |_, _| {}).unwrap();
+        cpu.render(Precision::Fixed9, W, H, &mut |_, _| {}).unwrap();
     });
     let ms = |d: Duration| d.as_secs_f64() * 1e3;
     println!("adapter: {gpu}");

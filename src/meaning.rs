@@ -9,7 +9,7 @@
 //! statement, the statement's whole value written with `replace`, no
 //! blend read off it, no split, no fusion, no specialization, no light
 //! culling — so a plan that loses, duplicates or reorders a term differs
-//! from it. Rendered in `Mode::Exact` (f64 arithmetic, ideal filtering,
+//! from it. Rendered in `Precision::Exact` (f64 arithmetic, ideal filtering,
 //! unit vectors renormalized, true `pow`), it is what `render` and `bench`
 //! report error against, and what the differential tests compare every
 //! plan with.

@@ -82,12 +82,13 @@ fn the_bench_numbers_are_consistent_with_the_papers() {
 #[test]
 fn exact_renders_of_approximations_are_the_truth() {
     use shadec::bench::{groups, Prepared};
-    use shadec::renderer::plan::{compare, Mode};
+    use shadec::numerics::Precision;
+    use shadec::renderer::plan::compare;
     let size = (80, 80);
     let render = |p: &shadec::bench::Program, target: &str, scene: &str| {
         let prepared = Prepared::new(p.name, p.source, target, scene).unwrap();
         let r = prepared.renderer().unwrap();
-        r.render(Mode::Exact, size.0, size.1, &mut |_, _| {}).unwrap().image
+        r.render(Precision::Exact, size.0, size.1, &mut |_, _| {}).unwrap().image
     };
     let (mut checked, mut across) = (0, 0);
     for g in groups() {
@@ -107,7 +108,7 @@ fn exact_renders_of_approximations_are_the_truth() {
             .filter(|p| p.planned.plan.approximations.is_empty())
         {
             let image =
-                p.renderer().unwrap().render(Mode::Exact, size.0, size.1, &mut |_, _| {}).unwrap().image;
+                p.renderer().unwrap().render(Precision::Exact, size.0, size.1, &mut |_, _| {}).unwrap().image;
             let e = compare(&truth, &image);
             assert!(e.max_abs <= 2e-6, "{}: the truth depends on the target: {e:?}", g.name);
             across += 1;
@@ -119,7 +120,8 @@ fn exact_renders_of_approximations_are_the_truth() {
     let g = &groups()[0];
     let v = g.variants.iter().find(|v| v.name == "phong_cube8").unwrap();
     let prepared = Prepared::new(v.program.name, v.program.source, v.target, g.scene.ron).unwrap();
-    let f32_ = prepared.renderer().unwrap().render(Mode::F32, size.0, size.1, &mut |_, _| {}).unwrap().image;
+    let f32_ =
+        prepared.renderer().unwrap().render(Precision::F32, size.0, size.1, &mut |_, _| {}).unwrap().image;
     assert!(compare(&render(&g.truth, g.truth_target, g.scene.ron), &f32_).max_abs > 1e-3);
 }
 

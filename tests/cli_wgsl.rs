@@ -20,7 +20,7 @@ fn emit_wgsl_labels_passes_and_source_lines() {
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert!(
         r.stdout
-            .starts_with("// shadec: kilgard_bump_mapping.shd on geforce256, fidelity hardware — 3 passes"),
+            .starts_with("// shadec: kilgard_bump_mapping.shd on geforce256, precision fixed9 — 3 passes"),
         "{}",
         r.stdout
     );

@@ -7,12 +7,13 @@
 mod combiners_common;
 use combiners_common as common;
 
-use shadec::backends::combiners::emulator::{emulate, Inputs, Precision};
+use shadec::backends::combiners::emulator::{emulate, Inputs};
 use shadec::backends::combiners::rc1::parse_and_validate;
 use shadec::backends::combiners::{
     validate, Bias, CombinerConfig, CombinerLimits, ComponentUsage, FinalInput, FinalSource, GeneralInput,
     GeneralStage, InputMapping, PortionKind, Register, Scale,
 };
+use shadec::numerics::Precision;
 
 use ComponentUsage::{Alpha, Blue, Rgb};
 use InputMapping::*;

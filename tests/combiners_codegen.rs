@@ -7,11 +7,12 @@
 mod combiners_common;
 use combiners_common as common;
 
-use shadec::backends::combiners::emulator::{emulate, Inputs, Precision};
+use shadec::backends::combiners::emulator::{emulate, Inputs};
 use shadec::backends::combiners::{
     generate, validate, CodegenError, CombinerConfig, CombinerLimits, Generated, PassInput,
 };
 use shadec::ir::{self, BinaryOp, Expr, Handle, MathFunction, Module, Ty, UnaryOp};
+use shadec::numerics::Precision;
 
 // ---------------------------------------------------------------------------
 // Helpers.

@@ -10,7 +10,6 @@ mod common;
 use shadec::backends::combiners::{generate, validate, PassInput};
 use shadec::ir::{Expr, Handle};
 use shadec::pipeline::Planned;
-use shadec::planner::compile_source;
 use shadec::profile::Profile;
 
 fn examples() -> Vec<(String, String)> {
@@ -61,12 +60,16 @@ fn verdicts(planned: &Planned, profile: &Profile, src: &str) -> Vec<Result<usize
         .collect()
 }
 
-fn report(profile: &str) -> Vec<(String, Result<Vec<Result<usize, String>>, String>)> {
+/// Per example: the plan's passes, each its general combiner count or why
+/// it was not generated; or why the example did not plan.
+type Report = Vec<(String, Result<Vec<Result<usize, String>>, String>)>;
+
+fn report(profile: &str) -> Report {
     let p = Profile::builtin(profile).unwrap();
     examples()
         .into_iter()
         .map(|(name, src)| {
-            let r = match compile_source(&src, &p) {
+            let r = match shadec::driver::compile(&src, &p, &Default::default()).map(|c| c.planned) {
                 Ok(planned) => Ok(verdicts(&planned, &p, &src)),
                 Err(d) => {
                     assert!(!d.is_empty());

@@ -7,14 +7,13 @@ mod combiners_common;
 use combiners_common as common;
 
 use proptest::prelude::*;
-use shadec::backends::combiners::emulator::{
-    emulate, EmulateError, Inputs, PixelEmulator, PixelRegisters, Precision,
-};
+use shadec::backends::combiners::emulator::{emulate, EmulateError, Inputs, PixelEmulator, PixelRegisters};
 use shadec::backends::combiners::rc1::{self, parse_and_validate};
 use shadec::backends::combiners::{
     Bias, CombinerConfig, CombinerLimits, ComponentUsage, FinalSource, GeneralInput, GeneralPortion,
     InputMapping, PortionKind, Register, Scale,
 };
+use shadec::numerics::Precision;
 
 fn program(text: &str) -> CombinerConfig {
     parse_and_validate(text, &CombinerLimits::GEFORCE3).unwrap_or_else(|d| panic!("{d:?}"))

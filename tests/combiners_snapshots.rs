@@ -17,12 +17,12 @@ use std::fmt::Write as _;
 
 use combiners_common::Rng;
 
-use shadec::backends::combiners::emulator::{emulate, Inputs, Precision};
+use shadec::backends::combiners::emulator::{emulate, Inputs};
 use shadec::backends::combiners::{generate, rc1, CombinerLimits, Generated, PassInput};
 use shadec::ir::eval::{Env, Evaluator, Value};
 use shadec::ir::{Expr, FbChannel, Frequency, Handle, Module, Ty};
+use shadec::numerics::Precision;
 use shadec::pipeline::Planned;
-use shadec::planner::compile_source;
 use shadec::profile::Profile;
 
 const PROFILES: [&str; 2] = ["geforce256", "geforce3"];
@@ -112,7 +112,10 @@ fn generated_setups_of_the_examples() {
         let p = Profile::builtin(profile).unwrap();
         let limits = p.combiner_limits().unwrap();
         for (name, src) in examples() {
-            let Ok(planned) = compile_source(&src, &p) else { continue };
+            let Ok(planned) = shadec::driver::compile(&src, &p, &Default::default()).map(|c| c.planned)
+            else {
+                continue;
+            };
             let Some(doc) = document(&planned, &limits, &mut skipped, &format!("{profile} {name}")) else {
                 continue;
             };
@@ -258,7 +261,7 @@ fn agrees(
         {
             return Some("dependent texture lookup (texture shader)".into());
         }
-        let mut ev = Evaluator::new(m, &[coords], shadec::ir::eval::Precision::Exact);
+        let mut ev = Evaluator::new(m, &[coords], shadec::numerics::Precision::Exact);
         let mut env =
             Leaves { m, keys: &[], texels: vec![], colors: [(g.primary, [0.0; 4]), (g.secondary, [0.0; 4])] };
         let c = bits(ev.eval(&mut env).values[0]);
@@ -304,7 +307,7 @@ fn agrees(
     };
     let out = emulate(&g.config, &inputs, Precision::F32).unwrap();
     let rgba = |img: &[u8], p: usize| [0, 1, 2, 3].map(|c| f64::from(img[p * 4 + c]) / 255.0);
-    let mut ev = Evaluator::new(m, &[value], shadec::ir::eval::Precision::Exact);
+    let mut ev = Evaluator::new(m, &[value], shadec::numerics::Precision::Exact);
     let ty = m.info(value).ty;
     for p in 0..n {
         let mut env = Leaves {

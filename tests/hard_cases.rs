@@ -17,15 +17,16 @@ use std::path::{Path, PathBuf};
 
 use adaptive_common::max_diff;
 use glam::{Vec3, Vec4};
-use shadec::planner::compile_source;
+use shadec::numerics::fixed9;
+use shadec::numerics::Precision;
 use shadec::profile::Profile;
 use shadec::renderer::lights::LitScene;
-use shadec::renderer::plan::{fixed9, Mode, PlanRenderer};
+use shadec::renderer::plan::PlanRenderer;
 use shadec::renderer::{AdaptiveSettings, ColorFormat, EdgeMode, Framebuffer};
 use shadec::scene::Scene;
 use shadec::textures::generators::{self, HeightField, NormalMapFormat};
 
-const MODES: [Mode; 3] = [Mode::Exact, Mode::F32, Mode::Fixed9];
+const MODES: [Precision; 3] = [Precision::Exact, Precision::F32, Precision::Fixed9];
 
 fn root() -> &'static Path {
     Path::new(env!("CARGO_MANIFEST_DIR"))
@@ -46,7 +47,7 @@ fn scene(ron: &str) -> Scene {
 
 /// One rendered image.
 struct Image {
-    mode: Mode,
+    mode: Precision,
     width: usize,
     height: usize,
     pixels: Vec<[f32; 4]>,
@@ -73,7 +74,7 @@ fn assert_finite(what: &str, pixels: &[[f32; 4]]) {
 
 /// Plans `source` for `target` and renders it for `scene` in `mode` at the
 /// scene's resolution, asserting that no value anywhere was NaN or ±∞.
-fn render(what: &str, source: &str, target: &str, scene: &Scene, mode: Mode) -> Image {
+fn render(what: &str, source: &str, target: &str, scene: &Scene, mode: Precision) -> Image {
     let (image, nonfinite) = render_counting(what, source, target, scene, mode);
     assert_eq!(
         nonfinite,
@@ -86,9 +87,11 @@ fn render(what: &str, source: &str, target: &str, scene: &Scene, mode: Mode) -> 
 
 /// [`render`], returning how many fragments computed NaN or ±∞ instead of
 /// failing on them (the image itself must still be finite).
-fn render_counting(what: &str, source: &str, target: &str, scene: &Scene, mode: Mode) -> (Image, u64) {
+fn render_counting(what: &str, source: &str, target: &str, scene: &Scene, mode: Precision) -> (Image, u64) {
     let profile = Profile::resolve(target).unwrap();
-    let planned = compile_source(source, &profile).unwrap_or_else(|d| panic!("{what}: {d:?}"));
+    let planned = shadec::driver::compile(source, &profile, &Default::default())
+        .map(|c| c.planned)
+        .unwrap_or_else(|d| panic!("{what}: {d:?}"));
     let (program, _) = shadec::parser::check(source);
     let assets = scene.build().unwrap();
     let r = PlanRenderer::new(&planned, &program, scene, &assets).unwrap_or_else(|e| panic!("{what}: {e}"));
@@ -215,14 +218,14 @@ fn grazing_view_geometry_factor_is_bounded_and_scaling_avoids_the_clamp() {
         &scale_on_the_product(&scaled),
         "wgsl",
         &scene,
-        Mode::Fixed9,
+        Precision::Fixed9,
     );
     let p1 = render(
         "Torrance-Sparrow, g_scale 1, ×1 on the product",
         &scale_on_the_product(&unscaled),
         "wgsl",
         &scene,
-        Mode::Fixed9,
+        Precision::Fixed9,
     );
     // Exact: F·D ≤ 1, G/(π cos β) ≤ sup, plus the diffuse term kd·max(0, N·L) ≤ 0.35.
     let bound = sup + 0.35 + 1e-4;
@@ -263,8 +266,8 @@ fn grazing_view_geometry_factor_is_bounded_and_scaling_avoids_the_clamp() {
 fn grazing_fixed9_keeps_a_leading_constant_scale() {
     let scene = scene(GRAZING);
     let src = example("torrance_sparrow_factored.shd");
-    let exact = render("Torrance-Sparrow", &src, "wgsl", &scene, Mode::Exact);
-    let fixed = render("Torrance-Sparrow", &src, "wgsl", &scene, Mode::Fixed9);
+    let exact = render("Torrance-Sparrow", &src, "wgsl", &scene, Precision::Exact);
+    let fixed = render("Torrance-Sparrow", &src, "wgsl", &scene, Precision::Fixed9);
     let e = max_error(&exact, &fixed);
     assert!(e <= 0.04, "fixed9 error {e}");
 }
@@ -402,7 +405,7 @@ fn program_level_zero_over_zero_is_counted_and_written_as_zero() {
             render_counting("cook_torrance.shd", &example("cook_torrance.shd"), "wgsl", &scene, mode);
         let covered = img.covered().count() as u64;
         eprintln!("Cook-Torrance with N = 0 [{}]: {nonfinite} of {covered} fragments NaN", mode.name());
-        if mode == Mode::Fixed9 {
+        if mode == Precision::Fixed9 {
             // fixed9 clamps every operation's result to [−1, 1] (a NaN to 0): no NaN reaches the output.
             assert_eq!(nonfinite, 0);
         } else {
@@ -439,7 +442,7 @@ fn antipodal_normals_flip_at_the_zero_crossing() {
         let mode = img.mode.name();
         let expect = |left: bool| -> [f32; 4] {
             let c = if left { lit } else { [0.0; 3] };
-            let c = if img.mode == Mode::Fixed9 { c.map(|x| x.min(1.0)) } else { c };
+            let c = if img.mode == Precision::Fixed9 { c.map(|x| x.min(1.0)) } else { c };
             [c[0], c[1], c[2], 1.0]
         };
         let mut n = 0;
@@ -648,7 +651,7 @@ fn highlight_inside_one_triangle_per_pixel_finds_it_gouraud_misses_it() {
         eprintln!("highlight [{mode}]: per pixel {vp:.3} at {at:?} (mirror point at {peak:?}), blue there {p_at_peak:.3}; Gouraud's {g_at_peak:.3} there, brightest {vg:.3} at {at_g:?}");
         // ks·1 at the peak, plus diffuse (fixed9 clamps to 1).
         assert!(p_at_peak >= 0.99, "{mode}: per-pixel shading finds the highlight ({p_at_peak})");
-        if p.mode != Mode::Fixed9 {
+        if p.mode != Precision::Fixed9 {
             assert!(near_peak(at), "{mode}: the brightest pixel is the mirror point: {at:?} vs {peak:?}");
         }
         // Gouraud interpolates vertex colours, whose highlight term
@@ -757,7 +760,7 @@ fn spot_cut_off_inside_a_triangle_is_sharp_per_pixel_and_lost_by_gouraud() {
         // fixed9 rounds (−L)·D to 8 bits + sign: the edge may move by the
         // cosines within 3/255 of the cut-off (each component of L and
         // the dot product rounded by ½/255).
-        let band = if img.mode == Mode::Fixed9 { 3.0 / 255.0 } else { 0.0 };
+        let band = if img.mode == Precision::Fixed9 { 3.0 / 255.0 } else { 0.0 };
         check(img.mode.name(), &img.pixels, band);
     }
     for img in render_modes("spot, Gouraud", &spot_program(false), "wgsl", &scene) {
@@ -844,7 +847,7 @@ fn golf_ball_dimming_is_kept_by_the_alpha_of_kilgards_filter() {
         // 8-bit maps (f32, fixed9) lose a little more: Appendix F stores
         // each level's length truncated to 1/255 and the next level filters
         // the stored texels, so the truncations add up over 4 levels.
-        let tol = if mode == Mode::Exact { 0.005 } else { 0.04 };
+        let tol = if mode == Precision::Exact { 0.005 } else { 0.04 };
         assert!((far_a - eq13).abs() < tol, "{m}: far with alpha {far_a} vs Equation 13 {eq13}");
         assert!(far_n > eq13 + 0.06, "{m}: far, renormalized {far_n} is too bright against {eq13}");
         assert!(far_n - eq13 > 2.0 * (far_a - eq13).abs(), "{m}: the alpha is the better filter");

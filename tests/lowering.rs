@@ -8,12 +8,15 @@ use std::path::Path;
 
 use proptest::prelude::*;
 use proptest::test_runner::{Config, TestRunner};
+use shadec::diag::Diagnostic;
+use shadec::driver::PlanOptions;
 use shadec::ir::{Expr, MathFunction, Module};
 use shadec::lowering::{self, Choice, LowerOptions, Normalization};
+use shadec::numerics::Precision;
 use shadec::parser::ast::TextureKind;
 use shadec::pipeline::Planned;
 use shadec::profile::Profile;
-use shadec::renderer::plan::{compare, Mode, PlanRenderer};
+use shadec::renderer::plan::{compare, PlanRenderer};
 use shadec::scene::Scene;
 
 const W: u32 = 48;
@@ -27,6 +30,16 @@ fn module(source: &str) -> Module {
     let (module, diags) = shadec::ir::lower(&program);
     assert!(diags.iter().all(|d| !d.is_error()), "{diags:?}");
     module
+}
+
+/// Plans `source` through the driver with the lowering `options`.
+fn compile_with(source: &str, profile: &Profile, lowering: LowerOptions) -> Result<Planned, Vec<Diagnostic>> {
+    let options = PlanOptions { lowering, ..Default::default() };
+    shadec::driver::compile(source, profile, &options).map(|c| c.planned)
+}
+
+fn compile(source: &str, profile: &Profile) -> Result<Planned, Vec<Diagnostic>> {
+    compile_with(source, profile, LowerOptions::default())
 }
 
 fn example(name: &str) -> String {
@@ -56,10 +69,10 @@ fn error_against_meaning(source: &str, planned: &Planned, scene: &Scene) -> f64 
     let assets = scene.build().unwrap();
     let meaning = shadec::meaning::plan(&written, scene.lights.len()).unwrap();
     let reference = PlanRenderer::new(&meaning, &program, scene, &assets)
-        .and_then(|r| r.render(Mode::F32, W, H, &mut |_, _| {}))
+        .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
         .unwrap();
     let frame = PlanRenderer::new(planned, &program, scene, &assets)
-        .and_then(|r| r.render(Mode::F32, W, H, &mut |_, _| {}))
+        .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
         .unwrap();
     compare(&reference.image, &frame.image).max_abs as f64
 }
@@ -92,7 +105,7 @@ fn normalize_per_fragment_becomes_a_normalization_cube_map_lookup() {
 #[test]
 fn a_normalization_cube_map_stays_within_its_bound_of_the_meaning() {
     let profile = Profile::builtin("geforce256").unwrap();
-    let planned = shadec::planner::compile_source(NORMALIZED, &profile).expect("lowered and planned");
+    let planned = compile(NORMALIZED, &profile).expect("lowered and planned");
     let a = &planned.plan.approximations;
     assert_eq!(a.len(), 1, "{a:?}");
     // compress halves the vector's error.
@@ -149,20 +162,18 @@ fn a_function_of_an_interpolated_scalar_becomes_a_table_baked_by_the_compiler() 
 fn what_no_rule_lowers_keeps_its_located_refusal() {
     let profile = Profile::builtin("geforce256").unwrap();
     let embm = example("embm.shd");
-    let err = shadec::planner::compile_source(&embm, &profile).unwrap_err();
+    let err = compile(&embm, &profile).unwrap_err();
     assert!(err[0].message.contains("dependent lookup"), "{}", err[0].message);
     assert!(err[0].primary.span.end > 0);
     // --no-approx refuses as before issue 18.
     let source = example("fragment_lighting.shd");
-    let m = module(&source);
     let off = LowerOptions { approximate: false, max_error: None };
-    let err = shadec::planner::plan_lowered(&m, &profile, Some(&source), None, &off).unwrap_err();
+    let err = compile_with(&source, &profile, off).unwrap_err();
     assert!(err[0].message.contains("`normalize` per fragment"), "{}", err[0].message);
     // A bound tighter than the cube map's refuses it too.
     let tight = LowerOptions { approximate: true, max_error: Some(1e-4) };
-    assert!(shadec::planner::plan_lowered(&m, &profile, Some(&source), None, &tight).is_err());
-    let on =
-        shadec::planner::plan_lowered(&m, &profile, Some(&source), None, &LowerOptions::default()).unwrap();
+    assert!(compile_with(&source, &profile, tight).is_err());
+    let on = compile(&source, &profile).unwrap();
     assert!(on.plan.approximations.iter().any(|a| a.rule == "normalization_cube_map"));
 }
 
@@ -171,8 +182,7 @@ fn a_program_that_plans_as_written_is_not_lowered() {
     for (name, target) in
         [("phong_cubemap_normalized.shd", "geforce3"), ("kilgard_bump_mapping.shd", "geforce256")]
     {
-        let planned =
-            shadec::planner::compile_source(&example(name), &Profile::builtin(target).unwrap()).unwrap();
+        let planned = compile(&example(name), &Profile::builtin(target).unwrap()).unwrap();
         assert!(planned.plan.approximations.is_empty(), "{name}");
     }
 }
@@ -196,7 +206,7 @@ fn lowered_tables_stay_within_their_stated_bounds_of_the_meaning() {
         .run(&(functions, prop::bool::ANY), |(f, gf3)| {
             let source = tabulated(&f);
             let profile = Profile::builtin(if gf3 { "geforce3" } else { "geforce256" }).unwrap();
-            let planned = shadec::planner::compile_source(&source, &profile)
+            let planned = compile(&source, &profile)
                 .map_err(|e| TestCaseError::fail(format!("{f}: {}", e[0].message)))?;
             let a = &planned.plan.approximations;
             prop_assert!(a.iter().any(|a| a.rule == "baked_table"), "{f}: {a:?}");
@@ -225,7 +235,7 @@ fn every_example_plans_realized_or_is_refused_where_it_is() {
         let source = std::fs::read_to_string(path).unwrap();
         for target in ["geforce256", "geforce3"] {
             let profile = Profile::builtin(target).unwrap();
-            match shadec::planner::compile_source(&source, &profile) {
+            match compile(&source, &profile) {
                 Ok(p) => {
                     planned_count += 1;
                     for (i, pass) in p.plan.passes.iter().enumerate() {

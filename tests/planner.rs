@@ -271,11 +271,14 @@ fn exhaustive_and_planner(src: &str, target: &str) -> (Option<usize>, Option<usi
     let p = profile(target);
     // Only plans of the program as written: the exhaustive search does not
     // lower (issue 18), and the lowering is not what this compares.
-    let a = planner::plan_with(&module, &p, Some(src), Search::Planner)
-        .ok()
-        .filter(|p| p.plan.approximations.is_empty())
-        .map(|p| p.plan.passes.len());
-    let b = planner::plan_with(&module, &p, Some(src), Search::Exhaustive).ok().map(|p| p.plan.passes.len());
+    let passes = |search: Search| {
+        let options = shadec::driver::PlanOptions { search, ..Default::default() };
+        shadec::driver::plan(&module, &program, &p, Some(src), &options)
+            .ok()
+            .filter(|p| p.plan.approximations.is_empty())
+            .map(|p| p.plan.passes.len())
+    };
+    let (a, b) = (passes(Search::Planner), passes(Search::Exhaustive));
     (a, b)
 }
 
@@ -507,13 +510,15 @@ fn a_profile_file_keeps_its_combiner_limits_downstream() {
     // Eight squarings after the dot product: more stages than a GeForce3 has.
     let src =
         "texture T, U : 2d rgb8 = image(\"x.png\");\nC δπx ← max(0, expand(T δu x)·expand(U δu x))^256;\n";
-    let planned = planner::compile_source(src, &profile).unwrap();
+    let planned = shadec::driver::compile(src, &profile, &Default::default()).map(|c| c.planned).unwrap();
     assert_eq!(planned.plan.passes.len(), 1);
     assert_eq!(planned.combiners, profile.combiner_limits());
     let g = shadec::backends::combiners::codegen::generate_for_pass(&planned, 0).unwrap();
     assert!(g.stages > 8 && g.stages <= 12, "{} stages", g.stages);
     assert!(
-        planner::compile_source(src, &Profile::builtin("geforce3").unwrap()).is_err(),
+        shadec::driver::compile(src, &Profile::builtin("geforce3").unwrap(), &Default::default())
+            .map(|c| c.planned)
+            .is_err(),
         "a GeForce3 cannot run it in one pass"
     );
 }

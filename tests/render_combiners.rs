@@ -9,11 +9,11 @@
 
 use std::path::Path;
 
-use shadec::backends::combiners::{self, emulator, Inputs, Precision};
+use shadec::backends::combiners::{self, emulator, Inputs};
+use shadec::numerics::Precision;
 use shadec::pipeline::Planned;
-use shadec::planner::compile_source;
 use shadec::profile::Profile;
-use shadec::renderer::plan::{compare, Frame, Mode, PassShading, PlanRenderer};
+use shadec::renderer::plan::{compare, Frame, PassShading, PlanRenderer};
 use shadec::scene::Scene;
 
 const W: u32 = 128;
@@ -37,12 +37,14 @@ fn scene() -> Scene {
 
 fn plan(source: &str, target: &str) -> (Planned, shadec::parser::ast::Program) {
     let profile = Profile::resolve(target).unwrap();
-    let planned = compile_source(source, &profile).unwrap_or_else(|d| panic!("{target}: {d:?}\n{source}"));
+    let planned = shadec::driver::compile(source, &profile, &Default::default())
+        .map(|c| c.planned)
+        .unwrap_or_else(|d| panic!("{target}: {d:?}\n{source}"));
     let (program, _) = shadec::parser::check(source);
     (planned, program)
 }
 
-fn render(source: &str, target: &str, scene: &Scene, mode: Mode) -> (Planned, Frame) {
+fn render(source: &str, target: &str, scene: &Scene, mode: Precision) -> (Planned, Frame) {
     let (planned, program) = plan(source, target);
     let assets = scene.build().unwrap();
     let frame = PlanRenderer::new(&planned, &program, scene, &assets)
@@ -58,7 +60,8 @@ fn render(source: &str, target: &str, scene: &Scene, mode: Mode) -> (Planned, Fr
 fn check_pass(statement: &str, target: &str, units: &[(&str, &str)]) -> usize {
     let scene = scene();
     let decls = declarations();
-    let (planned, frame) = render(&format!("{decls}\nC δπx ← {statement};\n"), target, &scene, Mode::Fixed9);
+    let (planned, frame) =
+        render(&format!("{decls}\nC δπx ← {statement};\n"), target, &scene, Precision::Fixed9);
     assert_eq!(planned.plan.passes.len(), 1, "{statement}: one pass");
     let PassShading::Combiners { stages } = frame.shading[0] else {
         panic!("{statement}: not run by the combiners: {:?}", frame.shading)
@@ -88,11 +91,16 @@ fn check_pass(statement: &str, target: &str, units: &[(&str, &str)]) -> usize {
                 .iter()
                 .find(|(name, _)| *name == t.texture)
                 .unwrap_or_else(|| panic!("unit for {}", t.texture));
-            render(&format!("{decls}\nC δπx ← {lookup};\n"), target, &scene, Mode::Fixed9).1.image.to_rgba8()
+            render(&format!("{decls}\nC δπx ← {lookup};\n"), target, &scene, Precision::Fixed9)
+                .1
+                .image
+                .to_rgba8()
         })
         .collect();
-    let coverage =
-        render(&format!("{decls}\nC δπx ← Iambient;\n"), target, &scene, Mode::Fixed9).1.image.to_rgba8();
+    let coverage = render(&format!("{decls}\nC δπx ← Iambient;\n"), target, &scene, Precision::Fixed9)
+        .1
+        .image
+        .to_rgba8();
     let mut textures: [Option<&[u8]>; 4] = [None; 4];
     for (slot, d) in textures.iter_mut().zip(&dumps) {
         *slot = Some(d.as_slice());
@@ -139,7 +147,7 @@ fn splatted_specular_runs_six_emulated_stages_on_geforce3() {
 #[test]
 fn default_plan_runs_every_pass_in_the_combiners() {
     let scene = scene();
-    let (_, fixed) = render(&kilgard(), "geforce256", &scene, Mode::Fixed9);
+    let (_, fixed) = render(&kilgard(), "geforce256", &scene, Precision::Fixed9);
     let stages: Vec<usize> = fixed
         .shading
         .iter()
@@ -149,8 +157,8 @@ fn default_plan_runs_every_pass_in_the_combiners() {
         })
         .collect();
     assert_eq!(stages, [0, 2, 2], "decal in the final combiner alone; Appendices G and H");
-    let (_, exact) = render(&kilgard(), "geforce256", &scene, Mode::Exact);
-    let (_, f32_) = render(&kilgard(), "geforce256", &scene, Mode::F32);
+    let (_, exact) = render(&kilgard(), "geforce256", &scene, Precision::Exact);
+    let (_, f32_) = render(&kilgard(), "geforce256", &scene, Precision::F32);
     assert!(exact.shading.iter().chain(&f32_.shading).all(|s| *s == PassShading::Float));
     let e9 = compare(&exact.image, &fixed.image);
     let ef = compare(&exact.image, &f32_.image);
@@ -171,13 +179,15 @@ fn a_pass_the_generator_refuses_is_not_planned_and_fixed9_elsewhere_is_per_opera
     let source =
         std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/src/bench/programs/phong_taylor.shd"))
             .unwrap();
-    let err = compile_source(&source, &Profile::resolve("geforce3").unwrap()).unwrap_err();
+    let err = shadec::driver::compile(&source, &Profile::resolve("geforce3").unwrap(), &Default::default())
+        .map(|c| c.planned)
+        .unwrap_err();
     assert_eq!(err[0].code, "cannot-split", "{err:?}");
     assert!(err[0].primary.span.end > err[0].primary.span.start, "located: {err:?}");
     let text =
         std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/bench_sphere.ron")).unwrap();
     let scene = Scene::parse(&text, Path::new("scenes/bench_sphere.ron")).unwrap();
-    let (_, frame) = render(&source, "wgsl", &scene, Mode::Fixed9);
+    let (_, frame) = render(&source, "wgsl", &scene, Precision::Fixed9);
     assert!(!frame.shading.is_empty());
     for (i, s) in frame.shading.iter().enumerate() {
         assert!(matches!(s, PassShading::PerOperation { .. }), "pass {}: {s:?}", i + 1);

@@ -6,10 +6,10 @@ mod common;
 
 use std::path::Path;
 
+use shadec::numerics::Precision;
 use shadec::pipeline::Planned;
-use shadec::planner::compile_source;
 use shadec::profile::Profile;
-use shadec::renderer::plan::{compare, Frame, Mode, PlanRenderer};
+use shadec::renderer::plan::{compare, Frame, PlanRenderer};
 use shadec::scene::Scene;
 
 const W: u32 = 160;
@@ -29,12 +29,14 @@ fn default_scene() -> Scene {
 
 fn plan(source: &str, target: &str) -> (Planned, shadec::parser::ast::Program) {
     let profile = Profile::resolve(target).unwrap();
-    let planned = compile_source(source, &profile).unwrap_or_else(|d| panic!("{target}: {d:?}"));
+    let planned = shadec::driver::compile(source, &profile, &Default::default())
+        .map(|c| c.planned)
+        .unwrap_or_else(|d| panic!("{target}: {d:?}"));
     let (program, _) = shadec::parser::check(source);
     (planned, program)
 }
 
-fn render(source: &str, target: &str, scene: &Scene, mode: Mode) -> (Frame, usize) {
+fn render(source: &str, target: &str, scene: &Scene, mode: Precision) -> (Frame, usize) {
     let (planned, program) = plan(source, target);
     let assets = scene.build().unwrap();
     let r = PlanRenderer::new(&planned, &program, scene, &assets).unwrap();
@@ -50,12 +52,12 @@ fn assert_finite(f: &Frame) {
 fn default_render_error_numbers_are_sane() {
     let scene = default_scene();
     let src = kilgard();
-    let (exact, n) = render(&src, "geforce256", &scene, Mode::Exact);
+    let (exact, n) = render(&src, "geforce256", &scene, Precision::Exact);
     assert_eq!(n, 3, "Kilgard is three passes on geforce256");
     assert!(exact.stats.shaded > 1000, "the torus covers pixels: {:?}", exact.stats);
-    let (exact2, _) = render(&src, "geforce256", &scene, Mode::Exact);
-    let (f32_, _) = render(&src, "geforce256", &scene, Mode::F32);
-    let (fixed, _) = render(&src, "geforce256", &scene, Mode::Fixed9);
+    let (exact2, _) = render(&src, "geforce256", &scene, Precision::Exact);
+    let (f32_, _) = render(&src, "geforce256", &scene, Precision::F32);
+    let (fixed, _) = render(&src, "geforce256", &scene, Precision::Fixed9);
     for f in [&exact, &f32_, &fixed] {
         assert_finite(f);
     }
@@ -77,13 +79,13 @@ fn default_render_error_numbers_are_sane() {
 fn multipass_and_single_pass_kilgard_agree_in_f32() {
     let scene = default_scene();
     let src = kilgard().replace("target geforce256;", "");
-    let (multi, n) = render(&src, "geforce256", &scene, Mode::F32);
+    let (multi, n) = render(&src, "geforce256", &scene, Precision::F32);
     assert_eq!(n, 3);
     // geforce3 fuses the three into one generated pass: `diffuse` in
     // [0.1, 1.1] enters the ⊕ as GL's clamped fragment colour, which the
     // combiners compute exactly (issue 16 item 5).
     for (target, passes) in [("geforce3", 1), ("wgsl", 1)] {
-        let (single, n1) = render(&src, target, &scene, Mode::F32);
+        let (single, n1) = render(&src, target, &scene, Precision::F32);
         assert_eq!(n1, passes, "{target}");
         let e = compare(&single.image, &multi.image);
         eprintln!("{target}: {e:?}");
@@ -103,11 +105,14 @@ fn every_example_renders_or_refuses_clearly() {
     for path in dir.iter().filter(|p| p.extension().is_some_and(|e| e == "shd")) {
         let src = std::fs::read_to_string(path).unwrap();
         let profile = Profile::resolve("wgsl").unwrap();
-        let Ok(planned) = compile_source(&src, &profile) else { continue };
+        let Ok(planned) = shadec::driver::compile(&src, &profile, &Default::default()).map(|c| c.planned)
+        else {
+            continue;
+        };
         let (program, _) = shadec::parser::check(&src);
         let assets = scene.build().unwrap();
         let result = PlanRenderer::new(&planned, &program, &scene, &assets)
-            .and_then(|r| r.render(Mode::F32, 64, 48, &mut |_, _| {}));
+            .and_then(|r| r.render(Precision::F32, 64, 48, &mut |_, _| {}));
         match result {
             Ok(f) => assert_finite(&f),
             Err(e) => {
@@ -140,13 +145,13 @@ fn exact_evaluates_a_baked_function_at_the_lookup() {
         "{declarations}let c_at = δu″ x;\nlet g_at = sqrt(η^2 + c_at^2 - 1);\nC δπx ← 0.5 * (g_at - c_at)^2 / (g_at + c_at)^2 * (1 + (c_at*(g_at + c_at) - 1)^2 / (c_at*(g_at - c_at) + 1)^2);\n"
     );
     let scene = default_scene();
-    let (a, _) = render(&baked, "wgsl", &scene, Mode::Exact);
-    let (b, _) = render(&inline, "wgsl", &scene, Mode::Exact);
+    let (a, _) = render(&baked, "wgsl", &scene, Precision::Exact);
+    let (b, _) = render(&inline, "wgsl", &scene, Precision::Exact);
     assert_finite(&a);
     assert!(b.image.to_rgba_f32().iter().filter(|p| p[0] > 0.03).count() > 500, "F is visible");
     let e = compare(&b.image, &a.image);
     assert!(e.max_abs <= 2e-6, "exact: the baked table is evaluated, not sampled: {e:?}");
-    let (f, _) = render(&baked, "wgsl", &scene, Mode::F32);
+    let (f, _) = render(&baked, "wgsl", &scene, Precision::F32);
     let ef = compare(&b.image, &f.image);
     assert!(ef.max_abs > 1e-4, "f32 samples the 8-bit table: {ef:?}");
 }
@@ -180,7 +185,7 @@ fn bake_is_texture_shading_of_the_function() {
         first.at
     );
     let scene = default_scene();
-    for mode in [Mode::F32, Mode::Fixed9] {
+    for mode in [Precision::F32, Precision::Fixed9] {
         let (a, _) = render(&baked, "wgsl", &scene, mode);
         let (b, _) = render(&explicit, "wgsl", &scene, mode);
         assert_finite(&a);
@@ -198,8 +203,8 @@ fn bake_is_texture_shading_of_the_function() {
 fn shadow_mask_reprojects_each_pixel() {
     let scene = common::shadow_floor_scene();
     let (lit, shadowed) = common::shadow_mask_and_williams();
-    let (a, _) = render(&lit, "wgsl", &scene, Mode::F32);
-    let (b, _) = render(&shadowed, "wgsl", &scene, Mode::F32);
+    let (a, _) = render(&lit, "wgsl", &scene, Precision::F32);
+    let (b, _) = render(&shadowed, "wgsl", &scene, Precision::F32);
     let (a, b) = (a.image.to_rgba8(), b.image.to_rgba8());
     let opaque = (0..a.len() / 4).filter(|&i| a[4 * i + 3] == 255 && b[4 * i + 3] == 255);
     let dark = opaque.clone().filter(|&i| a[4 * i] as i32 - b[4 * i] as i32 > 40).count();
@@ -219,9 +224,9 @@ fn deferred_shading_renders_as_forward_shading() {
     let forward = deferred.replace("T δπx ← δ s x;", "").replace("C xs ← p T xs;", "C δπx ← p δ s x;");
     assert_ne!(forward, deferred);
     let scene = default_scene();
-    let (d, passes) = render(&deferred, "wgsl", &scene, Mode::F32);
+    let (d, passes) = render(&deferred, "wgsl", &scene, Precision::F32);
     assert_eq!(passes, 2);
-    let (f, _) = render(&forward, "wgsl", &scene, Mode::F32);
+    let (f, _) = render(&forward, "wgsl", &scene, Precision::F32);
     let (d, f) = (d.image.to_rgba8(), f.image.to_rgba8());
     let object: Vec<usize> = (0..f.len() / 4).filter(|&i| f[4 * i + 3] == 255).collect();
     assert!(object.len() > 2000, "{}", object.len());
@@ -244,7 +249,7 @@ fn dependent_lookups_take_their_level_of_detail_from_the_quad() {
     let interpolated = format!("{head}C δπx ← T δ(4 * (u x));\n");
     let dependent = format!("{head}C δπx ← T (4 * (δu x));\n");
     let scene = default_scene();
-    for mode in [Mode::F32, Mode::Fixed9, Mode::Exact] {
+    for mode in [Precision::F32, Precision::Fixed9, Precision::Exact] {
         let (a, _) = render(&interpolated, "wgsl", &scene, mode);
         let (b, _) = render(&dependent, "wgsl", &scene, mode);
         let (a, b) = (a.image.to_rgba8(), b.image.to_rgba8());

@@ -37,14 +37,13 @@ mod common;
 
 use std::path::Path;
 
-use shadec::backends::wgsl::codegen::Fidelity;
 use shadec::gpu::runner::{
     run_passes, Gpu, PassTarget, RunPass, RunShader, ShaderSource, Target, VertexData,
 };
 use shadec::gpu::scene_run::ScenePlan;
-use shadec::planner::compile_source;
+use shadec::numerics::Precision;
 use shadec::profile::Profile;
-use shadec::renderer::plan::{Mode, PlanRenderer, RoundingBias};
+use shadec::renderer::plan::{PlanRenderer, RoundingBias};
 use shadec::renderer::{BlendState, CompareFunc, CullMode, DepthState, RenderState, StencilState};
 use shadec::scene::bind::{light_view_projection, BoundObject};
 use shadec::scene::{Scene, SceneAssets};
@@ -187,13 +186,13 @@ impl Agreement {
 }
 
 fn agreement(gpu: &Gpu, source: &str, target: &str, scene: &Scene) -> Agreement {
-    agreement_in(gpu, source, target, scene, Fidelity::Exact)
+    agreement_in(gpu, source, target, scene, Precision::F32)
 }
 
 /// `Exact`: the WGSL against the CPU's f32 mode, in a float target;
 /// `Hardware`: against the CPU's fixed9 mode, in an RGBA8 target as the
 /// old machine's framebuffer (over-count threshold 1/255 instead of 2/255).
-fn agreement_in(gpu: &Gpu, source: &str, target: &str, scene: &Scene, fidelity: Fidelity) -> Agreement {
+fn agreement_in(gpu: &Gpu, source: &str, target: &str, scene: &Scene, fidelity: Precision) -> Agreement {
     try_agreement_in(gpu, source, target, scene, fidelity).unwrap_or_else(|e| panic!("{target}: {e}"))
 }
 
@@ -203,13 +202,16 @@ fn try_agreement_in(
     source: &str,
     target: &str,
     scene: &Scene,
-    fidelity: Fidelity,
+    fidelity: Precision,
 ) -> Result<Agreement, String> {
     let profile = Profile::resolve(target).map_err(|e| format!("{e:?}"))?;
-    let planned = compile_source(source, &profile).map_err(|d| format!("does not compile: {d:?}"))?;
+    let planned = shadec::driver::compile(source, &profile, &Default::default())
+        .map(|c| c.planned)
+        .map_err(|d| format!("does not compile: {d:?}"))?;
     let (program, _) = shadec::parser::check(source);
     let assets = scene.build().unwrap();
-    let (mode, tol) = if fidelity == Fidelity::Hardware { (Mode::Fixed9, 1) } else { (Mode::F32, 2) };
+    let (mode, tol) =
+        if fidelity == Precision::Fixed9 { (Precision::Fixed9, 1) } else { (Precision::F32, 2) };
     let mut renderer =
         PlanRenderer::new(&planned, &program, scene, &assets).map_err(|e| format!("CPU: {e}"))?;
     let mut render = |bias: RoundingBias| {
@@ -225,7 +227,7 @@ fn try_agreement_in(
     // f32: a float target — between passes the values stay in float, as in
     // the CPU renderer's f32 mode (the picture is read back in 8 bits, as
     // the CPU's is written). fixed9: RGBA8 between passes, as the CPU's.
-    let gpu_target = if fidelity == Fidelity::Hardware {
+    let gpu_target = if fidelity == Precision::Fixed9 {
         shadec::gpu::runner::Target::new(W, H)
     } else {
         shadec::gpu::runner::Target::float(W, H)
@@ -358,7 +360,7 @@ fn hardware_fidelity_makes_nan_zero_on_both() {
     let source = "vector N : normal;\nvector L : light(0);\n\
                   shader p : s → c = rgb(0.5, 0.5, 0.5) + rgb(0.25, 0.25, 0.25) * sqrt(-0.5 - (N·L)^2);\n\
                   C δπx ← p δ s x;\n";
-    let a = agreement_in(&gpu, source, "wgsl", &kilgard_scene(), Fidelity::Hardware);
+    let a = agreement_in(&gpu, source, "wgsl", &kilgard_scene(), Precision::Fixed9);
     assert!(a.says_something(), "the torus is drawn ({} of {} compared pixels lit)", a.lit, a.compared);
     assert_eq!(a.max_with_ties, 0, "NaN is not 0 on one of them");
 }
@@ -373,7 +375,7 @@ fn hardware_fidelity_keeps_a_uniforms_magnitude() {
     let source = "vector N : normal;\nvector L : light(0);\nuniform k : scalar = 1.5;\n\
                   shader p : s → c = rgb(0.5, 0.4, 0.3) * (k * k / 2) * max(0, N·L);\n\
                   C δπx ← p δ s x;\n";
-    let a = agreement_in(&gpu, source, "wgsl", &kilgard_scene(), Fidelity::Hardware);
+    let a = agreement_in(&gpu, source, "wgsl", &kilgard_scene(), Precision::Fixed9);
     assert!(a.says_something(), "the torus is drawn ({} of {} compared pixels lit)", a.lit, a.compared);
     assert!(a.max_diff <= 1, "max {}/255 on {} pixels", a.max_diff, a.over);
 }
@@ -393,7 +395,7 @@ fn hardware_fidelity_rounds_quotient_ties_alike() {
                       rgb(3, 10, 9) * rgb(one * (3 / 255) / (one * (10 / 255)), one * (3 / 255) / (one * (34 / 255)), one * (9 / 255) / (one * (90 / 255)))\n\
                   }\n\
                   C δπx ← p δ s x;\n";
-    let a = agreement_in(&gpu, source, "wgsl", &kilgard_scene(), Fidelity::Hardware);
+    let a = agreement_in(&gpu, source, "wgsl", &kilgard_scene(), Precision::Fixed9);
     assert!(a.says_something(), "the torus is drawn ({} of {} compared pixels lit)", a.lit, a.compared);
     assert_eq!(a.max_with_ties, 0, "the executors round a quotient's tie apart");
 }
@@ -482,7 +484,7 @@ fn every_example_agrees_on_the_torus() {
             .lines()
             .find_map(|l| l.trim().strip_prefix("target ")?.strip_suffix(';').map(str::to_string))
             .unwrap_or_else(|| "wgsl".into());
-        for (fidelity, tol) in [(Fidelity::Exact, 2), (Fidelity::Hardware, 1)] {
+        for (fidelity, tol) in [(Precision::F32, 2), (Precision::Fixed9, 1)] {
             match try_agreement_in(&gpu, &source, &target, &scene, fidelity) {
                 Ok(a) => {
                     eprintln!(

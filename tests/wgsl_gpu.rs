@@ -10,14 +10,15 @@
 mod common;
 
 use shadec::backends::combiners::config::CombinerLimits;
-use shadec::backends::combiners::emulator::{emulate, Inputs, Precision};
+use shadec::backends::combiners::emulator::{emulate, Inputs};
 use shadec::backends::combiners::rc1;
-use shadec::backends::wgsl::codegen::{self, uniform_bytes, Fidelity};
+use shadec::backends::wgsl::codegen::{self, uniform_bytes};
 use shadec::gpu::runner::{
     run_passes, PassTarget, RunPass, RunShader, RunTexture, SamplerSettings, ShaderSource, Target,
     TexelUpload, TextureData, VertexData,
 };
 use shadec::ir::Expr;
+use shadec::numerics::Precision;
 use shadec::renderer::{BlendState, CullMode, DepthState, RenderState, StencilState};
 
 use common::gpu::gpu;
@@ -124,8 +125,8 @@ fn compiled_fragment_lighting_matches_its_formula() {
         std::fs::read_to_string(format!("{}/examples/fragment_lighting.shd", env!("CARGO_MANIFEST_DIR")))
             .unwrap();
     let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
-    let planned = shadec::planner::compile_source(&src, &profile).unwrap();
-    let shaders = codegen::generate(&planned, Some(&src), Fidelity::Exact).unwrap();
+    let planned = shadec::driver::compile(&src, &profile, &Default::default()).map(|c| c.planned).unwrap();
+    let shaders = codegen::generate(&planned, Some(&src), Precision::F32).unwrap();
     assert_eq!(shaders.len(), 1);
     let s = &shaders[0];
     let (n, l, v) = ([0.2, 0.3, 1.0], [0.5, 0.6, 0.7], [-0.3, 0.2, 1.0]);

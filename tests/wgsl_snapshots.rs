@@ -3,7 +3,8 @@
 //! stable, and every compiled example also writes SPIR-V and GLSL.
 #![cfg(feature = "wgsl")]
 
-use shadec::backends::wgsl::{codegen, emit, Fidelity};
+use shadec::backends::wgsl::{codegen, emit};
+use shadec::numerics::Precision;
 
 fn examples() -> Vec<(String, String)> {
     let dir = format!("{}/examples", env!("CARGO_MANIFEST_DIR"));
@@ -23,10 +24,11 @@ fn examples() -> Vec<(String, String)> {
 fn compile(
     name: &str,
     src: &str,
-    fidelity: Fidelity,
+    fidelity: Precision,
 ) -> Result<Vec<codegen::PassShader>, Vec<shadec::diag::Diagnostic>> {
     let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
-    let planned = shadec::planner::compile_source(src, &profile)
+    let planned = shadec::driver::compile(src, &profile, &Default::default())
+        .map(|c| c.planned)
         .unwrap_or_else(|d| panic!("{name} does not plan on wgsl: {d:#?}"));
     codegen::generate(&planned, Some(src), fidelity)
 }
@@ -34,12 +36,12 @@ fn compile(
 #[test]
 fn every_example_compiles() {
     for (name, src) in examples() {
-        let passes = compile(&name, &src, Fidelity::Exact)
+        let passes = compile(&name, &src, Precision::F32)
             .unwrap_or_else(|d| panic!("{name} does not compile: {d:#?}"));
         let doc = emit::wgsl(&name, &passes).unwrap();
         insta::assert_snapshot!(format!("wgsl_{name}"), doc);
         // Stable: the same input gives the same bytes.
-        let again = emit::wgsl(&name, &compile(&name, &src, Fidelity::Exact).unwrap()).unwrap();
+        let again = emit::wgsl(&name, &compile(&name, &src, Precision::F32).unwrap()).unwrap();
         assert_eq!(doc, again, "{name}: output is not stable");
         // Each section parses back and validates.
         for (label, text) in emit::split_wgsl(&doc) {
@@ -61,7 +63,7 @@ fn every_example_compiles() {
         }
         // Hardware fidelity compiles and validates too.
         let hw =
-            compile(&name, &src, Fidelity::Hardware).unwrap_or_else(|d| panic!("{name} hardware: {d:#?}"));
+            compile(&name, &src, Precision::Fixed9).unwrap_or_else(|d| panic!("{name} hardware: {d:#?}"));
         assert_eq!(hw.len(), passes.len());
     }
 }
@@ -73,7 +75,7 @@ fn fat_texels_are_array_layers_written_as_several_outputs() {
     let src =
         std::fs::read_to_string(format!("{}/examples/deferred_shading.shd", env!("CARGO_MANIFEST_DIR")))
             .unwrap();
-    let passes = compile("deferred_shading", &src, Fidelity::Exact).unwrap();
+    let passes = compile("deferred_shading", &src, Precision::F32).unwrap();
     assert_eq!(passes.len(), 2);
     // (5): N, L, V, H into the fat framebuffer T.
     assert_eq!(passes[0].outputs, 4);
@@ -92,9 +94,9 @@ fn fat_texels_are_array_layers_written_as_several_outputs() {
     let src = std::fs::read_to_string(format!("{}/examples/solid_mapping.shd", env!("CARGO_MANIFEST_DIR")))
         .unwrap();
     let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
-    let planned = shadec::planner::compile_source(&src, &profile).unwrap();
+    let planned = shadec::driver::compile(&src, &profile, &Default::default()).map(|c| c.planned).unwrap();
     assert_eq!(codegen::fat_layers(&planned.module), vec![1]);
-    let passes = codegen::generate(&planned, Some(&src), Fidelity::Exact).unwrap();
+    let passes = codegen::generate(&planned, Some(&src), Precision::F32).unwrap();
     assert_eq!(passes.iter().map(|p| p.outputs).collect::<Vec<_>>(), vec![1, 1, 1]);
     let doc = emit::wgsl("solid_mapping", &passes).unwrap();
     let third = &emit::split_wgsl(&doc)[2].1;
@@ -108,7 +110,7 @@ fn fat_texels_are_array_layers_written_as_several_outputs() {
 fn own_target_reads_bind_a_copy_taken_before_the_pass() {
     let src =
         std::fs::read_to_string(format!("{}/examples/shadow_mask.shd", env!("CARGO_MANIFEST_DIR"))).unwrap();
-    let passes = compile("shadow_mask", &src, Fidelity::Exact).unwrap();
+    let passes = compile("shadow_mask", &src, Precision::F32).unwrap();
     let with_copies: Vec<_> = passes.iter().filter(|p| !p.target_copies.is_empty()).collect();
     assert_eq!(with_copies.len(), 1, "only statement 4 reads its own target");
     let p = with_copies[0];
@@ -132,7 +134,7 @@ fn hardware_fidelity_snapshot() {
     let src =
         std::fs::read_to_string(format!("{}/examples/kilgard_bump_mapping.shd", env!("CARGO_MANIFEST_DIR")))
             .unwrap();
-    let passes = compile("kilgard_bump_mapping", &src, Fidelity::Hardware).unwrap();
+    let passes = compile("kilgard_bump_mapping", &src, Precision::Fixed9).unwrap();
     insta::assert_snapshot!(
         "wgsl_hardware_kilgard_bump_mapping",
         emit::wgsl("kilgard_bump_mapping (hardware)", &passes).unwrap()
@@ -145,8 +147,8 @@ fn geforce256_plan_compiles_to_three_passes() {
         std::fs::read_to_string(format!("{}/examples/kilgard_bump_mapping.shd", env!("CARGO_MANIFEST_DIR")))
             .unwrap();
     let profile = shadec::profile::Profile::resolve("geforce256").unwrap();
-    let planned = shadec::planner::compile_source(&src, &profile).unwrap();
-    let passes = codegen::generate(&planned, Some(&src), Fidelity::Hardware).unwrap();
+    let planned = shadec::driver::compile(&src, &profile, &Default::default()).map(|c| c.planned).unwrap();
+    let passes = codegen::generate(&planned, Some(&src), Precision::Fixed9).unwrap();
     assert_eq!(passes.len(), 3);
     for p in &passes {
         assert!(p.label.starts_with(&format!("pass {} of 3", p.pass + 1)));
@@ -162,8 +164,11 @@ fn every_profile_plan_compiles_without_internal_errors() {
     for (name, src) in examples() {
         for profile in ["geforce256", "geforce3", "multitexture", "wgsl"] {
             let p = shadec::profile::Profile::resolve(profile).unwrap();
-            let Ok(planned) = shadec::planner::compile_source(&src, &p) else { continue };
-            for fidelity in [Fidelity::Exact, Fidelity::Hardware] {
+            let Ok(planned) = shadec::driver::compile(&src, &p, &Default::default()).map(|c| c.planned)
+            else {
+                continue;
+            };
+            for fidelity in [Precision::F32, Precision::Fixed9] {
                 if let Err(diags) = codegen::generate(&planned, Some(&src), fidelity) {
                     assert!(
                         diags.iter().all(|d| d.code == "wgsl-unsupported"),

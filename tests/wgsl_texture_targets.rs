@@ -14,10 +14,9 @@ mod common;
 
 use std::path::Path;
 
-use shadec::backends::wgsl::codegen::Fidelity;
 use shadec::gpu::runner::{Gpu, Target};
 use shadec::gpu::scene_run::ScenePlan;
-use shadec::planner::compile_source;
+use shadec::numerics::Precision;
 use shadec::profile::Profile;
 use shadec::scene::Scene;
 
@@ -39,10 +38,12 @@ fn example(name: &str) -> String {
 /// The program rendered on wgpu (RGBA8 target), with the plan's pass count.
 fn render(gpu: &Gpu, source: &str, scene: &Scene) -> (Vec<u8>, usize) {
     let profile = Profile::resolve("wgsl").unwrap();
-    let planned = compile_source(source, &profile).unwrap_or_else(|d| panic!("{d:?}"));
+    let planned = shadec::driver::compile(source, &profile, &Default::default())
+        .map(|c| c.planned)
+        .unwrap_or_else(|d| panic!("{d:?}"));
     let (program, _) = shadec::parser::check(source);
     let assets = scene.build().unwrap();
-    let plan = ScenePlan::new(&planned, &program, Some(source), Fidelity::Exact, scene, &assets)
+    let plan = ScenePlan::new(&planned, &program, Some(source), Precision::F32, scene, &assets)
         .unwrap_or_else(|e| panic!("{e}"));
     (
         plan.render_into(gpu, &Target::new(W, H)).unwrap_or_else(|e| panic!("{e}")).into_raw(),
@@ -151,18 +152,21 @@ fn solid_mapping_equals_the_solid_texture_per_pixel() {
 /// CPU f32 and wgpu (float target) images of `source` on `scene`: the max
 /// channel difference and how many pixels differ by more than 2/255.
 fn cpu_vs_gpu(gpu: &Gpu, source: &str, scene: &Scene) -> (u8, usize, Vec<u8>, Vec<u8>) {
-    use shadec::renderer::plan::{Mode, PlanRenderer};
+    use shadec::numerics::Precision;
+    use shadec::renderer::plan::PlanRenderer;
     let profile = Profile::resolve("wgsl").unwrap();
-    let planned = compile_source(source, &profile).unwrap_or_else(|d| panic!("{d:?}"));
+    let planned = shadec::driver::compile(source, &profile, &Default::default())
+        .map(|c| c.planned)
+        .unwrap_or_else(|d| panic!("{d:?}"));
     let (program, _) = shadec::parser::check(source);
     let assets = scene.build().unwrap();
     let cpu = PlanRenderer::new(&planned, &program, scene, &assets)
         .unwrap()
-        .render(Mode::F32, W, H, &mut |_, _| {})
+        .render(Precision::F32, W, H, &mut |_, _| {})
         .unwrap()
         .image
         .to_rgba8();
-    let plan = ScenePlan::new(&planned, &program, Some(source), Fidelity::Exact, scene, &assets)
+    let plan = ScenePlan::new(&planned, &program, Some(source), Precision::F32, scene, &assets)
         .unwrap_or_else(|e| panic!("{e}"));
     let wgpu = plan.render_into(gpu, &Target::float(W, H)).unwrap_or_else(|e| panic!("{e}")).into_raw();
     let diffs: Vec<u8> = (0..(W * H) as usize)

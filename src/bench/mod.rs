@@ -20,7 +20,8 @@ pub mod variants;
 use std::path::Path;
 use std::time::Duration;
 
-use crate::renderer::plan::{compare, ErrorReport, Frame, Mode, PlanRenderer};
+use crate::numerics::Precision;
+use crate::renderer::plan::{compare, ErrorReport, Frame, PlanRenderer};
 use crate::renderer::Framebuffer;
 use crate::scene::Scene;
 
@@ -103,19 +104,12 @@ impl Prepared {
     pub fn new(name: &str, source: &str, target: &str, scene_ron: &str) -> Result<Prepared, BenchError> {
         let scene = Scene::parse(scene_ron, Path::new("")).map_err(|e| failed(name, e))?;
         let assets = scene.build().map_err(|e| failed(name, e))?;
-        let (program, diags) = crate::parser::check(source);
-        let first_error =
-            |d: &[crate::diag::Diagnostic]| d.iter().find(|d| d.is_error()).map(|d| d.message.clone());
-        if let Some(e) = first_error(&diags) {
-            return Err(failed(name, e));
-        }
-        let (module, diags) = crate::ir::lower(&program);
-        if let Some(e) = first_error(&diags) {
-            return Err(failed(name, e));
-        }
         let profile = crate::profile::Profile::resolve(target).map_err(|e| failed(name, e))?;
-        let planned = crate::planner::plan(&module, &profile, Some(source))
-            .map_err(|d| failed(&format!("{name} on {target}"), first_error(&d).unwrap_or_default()))?;
+        let first_error =
+            |d: &[crate::diag::Diagnostic]| d.first().map(|d| d.message.clone()).unwrap_or_default();
+        let compiled = crate::driver::compile(source, &profile, &Default::default())
+            .map_err(|d| failed(&format!("{name} on {target}"), first_error(&d)))?;
+        let crate::driver::Compilation { program, module, planned, .. } = compiled;
         Ok(Prepared { planned, module, program, scene, assets })
     }
 
@@ -143,7 +137,7 @@ impl Prepared {
 /// Renders `runs` times after a warm-up; the last frame and the median time.
 pub fn timed(
     renderer: &PlanRenderer,
-    mode: Mode,
+    mode: Precision,
     size: (u32, u32),
     runs: usize,
 ) -> Result<(Frame, Duration), crate::renderer::RenderError> {
@@ -177,7 +171,7 @@ pub fn measure(
             .meaning()?;
         let truth_frame = truth
             .renderer()?
-            .render(Mode::Exact, options.size.0, options.size.1, &mut |_, _| {})
+            .render(Precision::Exact, options.size.0, options.size.1, &mut |_, _| {})
             .map_err(|e| failed(group.truth.name, e))?;
         let truth_image = std::sync::Arc::new(truth_frame.image);
         for variant in group.variants.iter().filter(|v| options.wants(v.name)) {
@@ -248,7 +242,7 @@ pub fn removed_work() -> Result<String, BenchError> {
     for (program, source, scene_name, scene_ron, target) in cases {
         let scene = Scene::parse(scene_ron, Path::new("")).map_err(|e| failed(scene_name, e))?;
         let profile = crate::profile::Profile::resolve(target).map_err(|e| failed(target, e))?;
-        let report = crate::planner::specialize::removal_report(source, &profile, &scene)
+        let report = crate::driver::removal_report(source, &profile, &scene)
             .map_err(|d| failed(program, d.first().map(|d| d.message.clone()).unwrap_or_default()))?;
         md.push_str(&format!("### `{program}` on `{scene_name}` ({target})\n\n{}\n", report.to_markdown()));
     }

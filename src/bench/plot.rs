@@ -63,7 +63,7 @@ pub fn group_fronts(measured: &[Measured]) -> Vec<usize> {
     for group in measured.iter().map(|m| m.group) {
         let members: Vec<usize> = (0..measured.len())
             .filter(|&i| {
-                measured[i].group == group && measured[i].variant.mode != crate::renderer::plan::Mode::Exact
+                measured[i].group == group && measured[i].variant.mode != crate::numerics::Precision::Exact
             })
             .collect();
         let pts: Vec<(f64, f64)> =

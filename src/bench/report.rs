@@ -97,7 +97,7 @@ impl Report {
                 psnr,
                 m.variant.approximates
             );
-            if m.variant.mode == crate::renderer::plan::Mode::Fixed9 {
+            if m.variant.mode == crate::numerics::Precision::Fixed9 {
                 let passes: Vec<String> = m
                     .shading
                     .iter()

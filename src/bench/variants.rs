@@ -2,7 +2,7 @@
 //! program, a target and a precision mode on a scene, grouped by the ground
 //! truth they are measured against.
 
-use crate::renderer::plan::Mode;
+use crate::numerics::Precision;
 
 /// A scene of the bench, embedded so that `shadec bench` needs no files.
 #[derive(Clone, Copy, Debug)]
@@ -60,7 +60,7 @@ pub struct Variant {
     pub name: &'static str,
     pub program: Program,
     pub target: &'static str,
-    pub mode: Mode,
+    pub mode: Precision,
     /// What the variant approximates, and how, with the paper reference.
     pub approximates: &'static str,
 }
@@ -78,7 +78,7 @@ pub struct Group {
 
 /// Every group of the bench, in report order.
 pub fn groups() -> Vec<Group> {
-    use Mode::*;
+    use Precision::*;
     let v = |name, program, target, mode, approximates| Variant { name, program, target, mode, approximates };
     vec![
         Group {

@@ -3,6 +3,7 @@
 use std::path::PathBuf;
 
 use clap::{Parser, Subcommand, ValueEnum};
+use shadec::numerics::Precision;
 
 /// shadec — compile shading pipelines written in the notation of "A graphics
 /// pipeline grammar" to register combiners and WGSL.
@@ -89,11 +90,12 @@ pub struct CompileArgs {
     /// Write here (atomically) instead of standard output.
     #[arg(short, long, value_name = "OUT")]
     pub output: Option<PathBuf>,
-    /// With `--emit wgsl|spirv|glsl`: `exact` (f32 maths) or `hardware` (the
-    /// register-combiner precision model: clamp to [−1, 1] and 9-bit
-    /// quantization after every per-fragment operation).
-    #[arg(long, value_enum, default_value_t = FidelityArg::Exact)]
-    pub fidelity: FidelityArg,
+    /// With `--emit wgsl|spirv|glsl`: the shader's arithmetic — `f32` (true
+    /// normalize and pow; `exact` is the same on a GPU, which has no f64) or
+    /// `fixed9` (alias `hardware`: the register combiners, each pass's
+    /// generated setup as integer code). `--fidelity` is an older name.
+    #[arg(long, visible_alias = "fidelity", value_enum, default_value_t = Precision::F32)]
+    pub precision: Precision,
     /// With `--emit plan` or shaders: specialize for this scene (RON) — uniforms the
     /// scene sets are folded, terms they zero are removed with their
     /// textures and passes; what went is printed on standard error.
@@ -128,14 +130,6 @@ pub enum Emit {
     Spirv,
     /// GLSL 330, a vertex and a fragment shader per pass, in one document.
     Glsl,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum FidelityArg {
-    /// f32 arithmetic, true normalize and pow.
-    Exact,
-    /// The register-combiner precision model (8 bits + sign, clamps).
-    Hardware,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

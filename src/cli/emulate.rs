@@ -8,24 +8,22 @@
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
-use shadec::backends::combiners::emulator::{emulate, Inputs, Precision};
+use shadec::backends::combiners::emulator::{emulate, Inputs};
 use shadec::backends::combiners::{rc1, validate, Color, CombinerConfig, CombinerLimits};
 use shadec::diag::SourceFile;
+use shadec::numerics::Precision;
 
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum PrecisionArg {
-    /// 8 bits + sign inside the combiners, as the hardware does.
-    Fixed9,
-    /// 32-bit floats inside the combiners.
-    F32,
-}
-
-#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum ProfileArg {
-    /// 2 general combiners, 2 texture units.
-    Geforce256,
-    /// 8 general combiners, 4 texture units, per-stage constants.
-    Geforce3,
+/// The combiner limits of a profile (built-in name or `.ron` file): a
+/// setup is checked against the machine the user names, never a copy of
+/// its numbers (issue 17: limits come only from profiles).
+pub(super) fn profile_limits(name: &str) -> Result<CombinerLimits, Failure> {
+    let profile = shadec::profile::Profile::resolve(name).map_err(|e| Failure::Io(e.to_string()))?;
+    profile.combiner_limits().ok_or_else(|| {
+        Failure::Io(format!(
+            "profile `{}` has no register combiners; give `geforce256`, `geforce3` or a `.ron` profile whose fragment stage is `Combiners`",
+            profile.name
+        ))
+    })
 }
 
 /// Run a register-combiner setup on images.
@@ -57,11 +55,14 @@ pub struct EmulateArgs {
     /// Fog colour (r,g,b) and fog factor (a).
     #[arg(long, value_parser = parse_color)]
     pub fog: Option<Color>,
-    #[arg(long, value_enum, default_value = "fixed9")]
-    pub precision: PrecisionArg,
-    /// The target whose limits the setup must fit.
-    #[arg(long, value_enum, default_value = "geforce3")]
-    pub profile: ProfileArg,
+    /// The combiners' arithmetic: `fixed9` (8 bits + sign, as the hardware
+    /// did), `f32`, or `exact` (f64).
+    #[arg(long, value_enum, default_value_t = Precision::Fixed9)]
+    pub precision: Precision,
+    /// The profile whose combiner limits the setup must fit (built-in name
+    /// or `.ron` file).
+    #[arg(long, value_name = "PROFILE", default_value = "geforce3")]
+    pub profile: String,
     /// The output image (RGBA8 PNG): the final combiner's RGBA.
     #[arg(long)]
     pub out: PathBuf,
@@ -107,10 +108,7 @@ pub fn run(args: &EmulateArgs) -> ExitCode {
 }
 
 fn run_inner(args: &EmulateArgs) -> Result<(), Failure> {
-    let limits = match args.profile {
-        ProfileArg::Geforce256 => CombinerLimits::GEFORCE256,
-        ProfileArg::Geforce3 => CombinerLimits::GEFORCE3,
-    };
+    let limits = profile_limits(&args.profile)?;
     let config = load_config(&args.config, &limits)?;
 
     let named = [
@@ -158,11 +156,8 @@ fn run_inner(args: &EmulateArgs) -> Result<(), Failure> {
         constant0: args.const0.unwrap_or([0.0; 4]),
         constant1: args.const1.unwrap_or([0.0; 4]),
     };
-    let precision = match args.precision {
-        PrecisionArg::Fixed9 => Precision::Fixed9,
-        PrecisionArg::F32 => Precision::F32,
-    };
-    let pixels = emulate(&config, &inputs, precision).map_err(|e| Failure::Config(format!("error: {e}")))?;
+    let pixels =
+        emulate(&config, &inputs, args.precision).map_err(|e| Failure::Config(format!("error: {e}")))?;
     let mut png = Vec::new();
     let encoder = image::codecs::png::PngEncoder::new(&mut png);
     image::ImageEncoder::write_image(encoder, &pixels, width, height, image::ExtendedColorType::Rgba8)

@@ -5,9 +5,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use shadec::backends::combiners::config::CombinerLimits;
-
-use super::emulate::{load_config, Failure, ProfileArg};
+use super::emulate::{load_config, profile_limits, Failure};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum TranslateEmit {
@@ -22,20 +20,17 @@ pub struct TranslateArgs {
     /// What to write.
     #[arg(long, value_enum, default_value = "wgsl")]
     pub emit: TranslateEmit,
-    /// The target whose limits the setup must fit.
-    #[arg(long, value_enum, default_value = "geforce3")]
-    pub profile: ProfileArg,
+    /// The profile whose combiner limits the setup must fit (built-in name
+    /// or `.ron` file).
+    #[arg(long, value_name = "PROFILE", default_value = "geforce3")]
+    pub profile: String,
     /// Write here (atomically) instead of standard output.
     #[arg(short, long, value_name = "OUT")]
     pub output: Option<PathBuf>,
 }
 
 pub fn run(args: &TranslateArgs) -> ExitCode {
-    let limits = match args.profile {
-        ProfileArg::Geforce256 => CombinerLimits::GEFORCE256,
-        ProfileArg::Geforce3 => CombinerLimits::GEFORCE3,
-    };
-    let config = match load_config(&args.config, &limits) {
+    let config = match profile_limits(&args.profile).and_then(|limits| load_config(&args.config, &limits)) {
         Ok(c) => c,
         Err(Failure::Config(message)) => {
             eprint!("{message}");

@@ -116,6 +116,8 @@ impl fmt::Display for Gpu {
 }
 
 /// The shader of a pass: WGSL text or a module built in memory.
+// One per pass, built once and moved: boxing the module would buy nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Clone, Debug)]
 pub enum ShaderSource {
     Wgsl(String),

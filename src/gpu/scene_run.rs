@@ -18,10 +18,10 @@
 //! - **Depth.** The binder's matrices are GL's (z in −w..w); codegen maps z
 //!   to wgpu's 0..w in the shader. The target is cleared to depth 1 and
 //!   transparent black, as the CPU framebuffer.
-//! - **Texels.** Exact fidelity uploads every texture as 16-bit unorm
+//! - **Texels.** Exact precision uploads every texture as 16-bit unorm
 //!   (`TexelUpload::Rgba16`): 8-bit formats exactly (k/255 → k·257),
 //!   16-bit formats exactly, float formats rounded to 16 bits; hardware
-//!   fidelity uploads RGBA8 (16-bit and float textures rounded to 8 bits,
+//!   precision uploads RGBA8 (16-bit and float textures rounded to 8 bits,
 //!   as on the papers' hardware). Signed formats are range-compressed
 //!   `(v + 1)/2` (the codegen contract; the shader expands them). Mip
 //!   chains are the binder's own levels (box filtered), uploaded level by
@@ -50,12 +50,12 @@
 //! rule), multipass plans rendered into a float target (`Target::float`,
 //! as the CPU's f32 framebuffer) — `every_example_agrees_on_the_torus`:
 //!
-//! - exact fidelity against `f32`: all 28 examples within the issue's
+//! - exact precision against `f32`: all 28 examples within the issue's
 //!   2/255 (all but shadow mask's one pixel within 1/255);
-//! - hardware fidelity against `fixed9`: all 28 within 1/255.
+//! - hardware precision against `fixed9`: all 28 within 1/255.
 //!
 //! Both executors round where the model says (every operation to 8 bits in
-//! hardware fidelity; or the same generated combiner setup), but their
+//! hardware precision; or the same generated combiner setup), but their
 //! interpolated attributes, dot products and derivatives are not
 //! bit-identical (they differ by ~10⁻⁴ of an 8-bit step). So on a few
 //! pixels of the 231 000 (at most 10 for an example: Kilgard's, Taylor's)
@@ -69,8 +69,8 @@
 //! at the shadow's edge.
 //!
 //! On other scenes (`SHADEC_AGREEMENT_SCENE=scenes/bump_torus.ron`,
-//! `scenes/bench_sphere.ron`) exact fidelity holds for every example too,
-//! and hardware fidelity for all but one pixel each of deferred shading
+//! `scenes/bench_sphere.ron`) exact precision holds for every example too,
+//! and hardware precision for all but one pixel each of deferred shading
 //! (bump torus, 3/255) and EMBM (sphere, 2/255), which no moved tie
 //! explains. Cook-Torrance on the sphere took two fixes: a NaN (0/0) is 0
 //! on both (below), and a quotient is rounded from the registers'
@@ -83,19 +83,19 @@
 //! allows it), one half-float step low on every G-buffer value (deferred
 //! shading was 3/255 off under `^24`, solid mapping's rings 85/255 on 899
 //! pixels), so a pass into a half-float texture rounds to nearest even
-//! itself (`round_to_half`, codegen); and hardware fidelity's `^n` is
+//! itself (`round_to_half`, codegen); and hardware precision's `^n` is
 //! taken by rounded squarings on both executors (`ir::power_by_squaring`),
 //! constants rounded as registers on both; and a NaN (0/0, √ of a
-//! negative) is 0 in hardware fidelity on both (the WGSL tests the bits:
+//! negative) is 0 in hardware precision on both (the WGSL tests the bits:
 //! lavapipe's `clamp` of NaN gave −1, black highlights on the sphere).
 //!
-//! Exact fidelity used to upload RGBA8 as well, filtered in 8 bits on both
+//! Exact precision used to upload RGBA8 as well, filtered in 8 bits on both
 //! sides: the same rounding-boundary lookups made 3 pixels of Kilgard's
-//! f32 comparison 6/255 off. Filtering exact fidelity's textures in float
+//! f32 comparison 6/255 off. Filtering exact precision's textures in float
 //! removed that, and is what "exact" promises. The sweep also found, and
 //! this session fixed: `signed16` textures uploaded clamped (negative
 //! components lost), 16-bit textures rounded to 8 bits in hardware
-//! fidelity, dependent lookups sampled at level 0 on the CPU (EMBM),
+//! precision, dependent lookups sampled at level 0 on the CPU (EMBM),
 //! fixed9 rendering a `rgba16f` G-buffer into 8 bits, hardware WGSL not
 //! rounding conversions like the CPU's per-operation model, and
 //! seeds/001 (10) drawing nothing.
@@ -130,8 +130,9 @@ use super::runner::{
     self, AddressMode, ColorTarget, Gpu, GpuError, LoadedTexture, PassTarget, RunPass, RunShader, RunTexture,
     SamplerSettings, ShaderSource, Target, TexelUpload, TextureData, VertexData,
 };
-use crate::backends::wgsl::codegen::{self, uniform_bytes, Fidelity, PassShader};
+use crate::backends::wgsl::codegen::{self, uniform_bytes, PassShader};
 use crate::ir::{self, Expr};
+use crate::numerics::Precision;
 use crate::parser::ast::Program;
 use crate::pipeline::{Geometry, Planned, RenderTarget};
 use crate::scene::bind::{self, BoundObject, BoundTexture, TextureQuality};
@@ -163,7 +164,7 @@ pub struct ScenePlan<'a> {
     /// Stand-ins the binder used (missing images), for the user.
     pub notes: Vec<String>,
     /// Which executor model the textures follow (see [`upload_of`]).
-    fidelity: Fidelity,
+    precision: Precision,
 }
 
 impl<'a> ScenePlan<'a> {
@@ -171,7 +172,7 @@ impl<'a> ScenePlan<'a> {
         planned: &'a Planned,
         program: &Program,
         source: Option<&str>,
-        fidelity: Fidelity,
+        precision: Precision,
         scene: &'a Scene,
         assets: &'a SceneAssets,
     ) -> Result<ScenePlan<'a>, SceneRunError> {
@@ -192,7 +193,7 @@ impl<'a> ScenePlan<'a> {
         let main = main.ok_or_else(|| {
             SceneRunError::Unsupported("the plan writes no framebuffer: nothing to show".into())
         })?;
-        let shaders = codegen::generate(planned, source, fidelity).map_err(|d| {
+        let shaders = codegen::generate(planned, source, precision).map_err(|d| {
             SceneRunError::Codegen(d.iter().map(|d| d.message.clone()).collect::<Vec<_>>().join("; "))
         })?;
         let mut decls = bind::texture_decls(program, &scene.constants);
@@ -210,7 +211,7 @@ impl<'a> ScenePlan<'a> {
                     .map(|c| c as f32)
             })
             .collect();
-        Ok(ScenePlan { planned, scene, assets, shaders, textures, decls, uniforms, main, notes, fidelity })
+        Ok(ScenePlan { planned, scene, assets, shaders, textures, decls, uniforms, main, notes, precision })
     }
 
     /// The [`RunPass`]es of a `width`×`height` frame: per pass, one draw per
@@ -345,7 +346,7 @@ impl<'a> ScenePlan<'a> {
                     .iter()
                     .find(|d| d.name == t.texture)
                     .is_some_and(|d| bind::is_signed(d.format));
-                textures.push(run_texture(bound, self.fidelity, signed)?);
+                textures.push(run_texture(bound, self.precision, signed)?);
             }
             let target = match &pass.target {
                 RenderTarget::Texture { name } => PassTarget::Texture(rendered[name].clone()),
@@ -413,7 +414,7 @@ impl<'a> ScenePlan<'a> {
                 continue;
             }
             for object in &objects {
-                let mut ev = ir::eval::Evaluator::new(m, leaves, ir::eval::Precision::Exact);
+                let mut ev = ir::eval::Evaluator::new(m, leaves, crate::numerics::Precision::Exact);
                 let mut floats = Vec::with_capacity(object.n_vertices() * 4 * leaves.len());
                 for v in 0..object.n_vertices() {
                     let mut env = bind::VertexEnv { object, module: m, vertex: v, uniforms: &uniforms64 };
@@ -453,13 +454,13 @@ pub fn render_scene(
     planned: &Planned,
     program: &Program,
     source: Option<&str>,
-    fidelity: Fidelity,
+    precision: Precision,
     scene: &Scene,
     assets: &SceneAssets,
     width: u32,
     height: u32,
 ) -> Result<RgbaImage, SceneRunError> {
-    ScenePlan::new(planned, program, source, fidelity, scene, assets)?.render(gpu, width, height)
+    ScenePlan::new(planned, program, source, precision, scene, assets)?.render(gpu, width, height)
 }
 
 /// A level's texels as `texels` bytes: a signed texture's (`signed8`,
@@ -489,25 +490,29 @@ fn sampler(filter: Filter, wrap: Wrap, mipmapped: bool) -> SamplerSettings {
 }
 
 /// How a texture of `format` is uploaded: as RGBA8, filtered in 8.8 fixed
-/// point, only where the CPU's model of the fidelity filters it so
+/// point, only where the CPU's model of the precision filters it so
 /// (`unit::Arithmetic::Fixed8`: `fixed9` on an 8-bit texture); everything
-/// else — all of exact fidelity, and 16-bit, float and signed textures in
-/// hardware fidelity (the CPU filters them in float) — as 16-bit unorm,
+/// else — all of exact precision, and 16-bit, float and signed textures in
+/// hardware precision (the CPU filters them in float) — as 16-bit unorm,
 /// filtered in float.
-fn upload_of(fidelity: Fidelity, format: TexelFormat) -> TexelUpload {
-    if fidelity == Fidelity::Hardware && format == TexelFormat::Rgba8 {
+fn upload_of(precision: Precision, format: TexelFormat) -> TexelUpload {
+    if precision == Precision::Fixed9 && format == TexelFormat::Rgba8 {
         TexelUpload::Rgba8
     } else {
         TexelUpload::Rgba16
     }
 }
 
-fn run_texture(bound: &BoundTexture, fidelity: Fidelity, signed: bool) -> Result<RunTexture, SceneRunError> {
+fn run_texture(
+    bound: &BoundTexture,
+    precision: Precision,
+    signed: bool,
+) -> Result<RunTexture, SceneRunError> {
     match &bound.texture {
-        Texture::Flat(t) => Ok(flat(t, bound.filter, upload_of(fidelity, t.format), signed)),
+        Texture::Flat(t) => Ok(flat(t, bound.filter, upload_of(precision, t.format), signed)),
         Texture::Cube(c) => {
             let size = c.faces[0].width();
-            let texels = upload_of(fidelity, c.faces[0].format);
+            let texels = upload_of(precision, c.faces[0].format);
             let mut rgba = Vec::new();
             for f in &c.faces {
                 if f.width() != size || f.height() != size {

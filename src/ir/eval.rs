@@ -421,23 +421,21 @@ pub trait Env {
 /// An `Env` that answers nothing: every leaf NaN, uniforms their defaults.
 impl Env for () {}
 
-/// The arithmetic the evaluator models.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Default)]
-pub enum Precision {
-    /// f64 throughout: the reference.
-    #[default]
-    Exact,
-    /// Every node's result, leaves included, rounded to f32: what a float
-    /// GPU computes (an operation on f32 operands done in f64 and rounded
-    /// once is the correctly rounded f32 operation for + − × ÷ √).
-    F32,
-}
+// The arithmetic the evaluator models: `Exact` keeps f64 throughout (the
+// reference); otherwise every node's result, leaves included, is rounded to
+// f32 — what a float GPU computes (an operation on f32 operands done in f64
+// and rounded once is the correctly rounded f32 operation for + − × ÷ √).
+// `Fixed9` evaluates as f32 here: the register model's clamps and 9-bit
+// rounding happen at register writes, which only the executors know
+// (`numerics::fixed9`).
+use crate::numerics::Precision;
 
 #[inline]
 fn round(precision: Precision, v: Value) -> Value {
-    match precision {
-        Precision::Exact => v,
-        Precision::F32 => lanes(|i| v[i] as f32 as f64),
+    if precision.rounds_to_f32() {
+        lanes(|i| v[i] as f32 as f64)
+    } else {
+        v
     }
 }
 

@@ -170,6 +170,9 @@ enum Global<'a> {
 
 type Res<T> = Result<T, ()>;
 
+/// A bundle's vertex stream and the index `δu x` that replaces `δu`.
+type SurfaceVertex = (VertexId, Handle<Expr>);
+
 struct Lowerer<'a> {
     program: &'a ast::Program,
     module: Module,
@@ -201,7 +204,7 @@ struct Lowerer<'a> {
     /// In a texture-shading statement `T δu ← …`: the set `u`, and once a
     /// bundle `s δu` was taken on the surface, its vertex stream and the
     /// index `δu x` that replaces `δu` (see `surface_vertex`).
-    surface: Option<(u32, Option<(VertexId, Handle<Expr>)>)>,
+    surface: Option<(u32, Option<SurfaceVertex>)>,
     /// Framebuffers some statement before the current one writes (in source
     /// order, whether or not it lowered): reading one of these is reading
     /// what was drawn, not the cleared buffer.

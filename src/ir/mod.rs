@@ -39,7 +39,7 @@
 //!   pass `C xs ←` (seeds/001 (6)) reads framebuffers per pixel and has no δ.
 //!   The three sample frequencies do not mix: a value is per fragment, per
 //!   texel or per screen pixel, never two of them.
-//! - **range** ([`Range`], from a conservative interval): unsigned [0,1]
+//! - **range** ([`Range`], from a conservative interval): unsigned \[0,1\]
 //!   (8-bit textures, colours, the final combiner), signed [−1,1] (unit
 //!   vectors, the general combiners, signed textures) or unbounded. Dot
 //!   products of two signed operands are taken as dot products of unit

@@ -228,8 +228,8 @@ pub fn address_only(m: &Module, reach: &[bool]) -> Vec<bool> {
 pub fn register_reads(m: &Module, reach: &[bool]) -> Vec<bool> {
     let mut reads = vec![false; m.exprs.len()];
     let sample = |h: Handle<Expr>| m.info(h).freq.is_sample();
-    for i in 0..m.exprs.len() {
-        if !reach[i] || !sample(Handle::new(i)) {
+    for (i, &reached) in reach.iter().enumerate() {
+        if !reached || !sample(Handle::new(i)) {
             continue;
         }
         let e = &m.exprs[Handle::new(i)];

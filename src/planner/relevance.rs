@@ -330,7 +330,7 @@ impl<'a, 's> Bounder<'a, 's> {
     /// `δ v`: the hull of `v` at every vertex, and the cone of a unit direction.
     fn vertex_hull(&mut self, value: Handle<Expr>) -> Bound {
         let m = self.module;
-        let mut ev = ir::eval::Evaluator::new(m, &[value], ir::eval::Precision::Exact);
+        let mut ev = ir::eval::Evaluator::new(m, &[value], crate::numerics::Precision::Exact);
         let mut lo = [f64::INFINITY; 4];
         let mut hi = [f64::NEG_INFINITY; 4];
         let unit = bind::is_unit_direction(m, value) && m.info(value).ty == Ty::Vec3;

@@ -1,4 +1,4 @@
-//! Adaptive Sample Shading (seeds/004 Section 2.1) for any [`FragmentStage`]:
+//! Adaptive Sample Shading (seeds/004 Section 2.1) for any [`FragmentStage`](crate::renderer::FragmentStage):
 //! shade exactly at regular samples and at edges, subdivide where
 //! neighbouring samples differ by more than a threshold, interpolate the rest.
 //!
@@ -109,8 +109,13 @@ impl AdaptiveStats {
             self.shaded() as f64 / self.covered as f64
         }
     }
-    /// The counters of two draws together.
-    pub fn add(self, o: AdaptiveStats) -> AdaptiveStats {
+}
+
+/// The counters of two draws together.
+impl std::ops::Add for AdaptiveStats {
+    type Output = AdaptiveStats;
+
+    fn add(self, o: AdaptiveStats) -> AdaptiveStats {
         AdaptiveStats {
             covered: self.covered + o.covered,
             regular: self.regular + o.regular,
@@ -181,7 +186,7 @@ pub fn draw_adaptive(
 
     // 3. Columns between consecutive regular rows.
     let column_stats = ctx.columns(&mut color, &mut state, max_varyings);
-    let mut stats = row_stats.add(column_stats);
+    let mut stats = row_stats + column_stats;
     if settings.threshold > 0.0 {
         ctx.refine(&mut color, &mut state, &mut vec![0.0f32; max_varyings], &mut stats);
     }
@@ -358,7 +363,7 @@ impl Ctx<'_> {
                 self.fill_line(vals, st, &pixel, |i| i % n == 0, &mut scratch, &mut stats);
                 stats
             })
-            .reduce(AdaptiveStats::default, AdaptiveStats::add)
+            .reduce(AdaptiveStats::default, std::ops::Add::add)
     }
 
     /// Step 3: fills the columns between consecutive scanlines, from the
@@ -403,7 +408,7 @@ impl Ctx<'_> {
                 }
                 stats
             })
-            .reduce(AdaptiveStats::default, AdaptiveStats::add)
+            .reduce(AdaptiveStats::default, std::ops::Add::add)
     }
 
     /// Writes the shaded pixels through each pass's depth and blend state.
@@ -482,14 +487,14 @@ impl Ctx<'_> {
         self.passes[p].fragment.shade(&fragment, varyings, out)
     }
 
-    /// 4. Refinement (ours, beyond the paper): a feature that lies wholly
-    /// between two regular rows and two samples of a column — the tip of a
-    /// spot cone, a small highlight — is missed by both 1D passes but shows
-    /// as a jump of more than the threshold between an interpolated pixel
-    /// and its horizontal or vertical neighbour. Such pixels are shaded
-    /// exactly, and the search continues from them (a flood fill that
-    /// follows the feature) until no interpolated pixel next to an exact one
-    /// differs by more than the threshold.
+    /// Step 4, refinement (ours, beyond the paper): a feature that lies
+    /// wholly between two regular rows and two samples of a column — the tip
+    /// of a spot cone, a small highlight — is missed by both 1D passes but
+    /// shows as a jump of more than the threshold between an interpolated
+    /// pixel and its horizontal or vertical neighbour. Such pixels are
+    /// shaded exactly, and the search continues from them (a flood fill
+    /// that follows the feature) until no interpolated pixel next to an
+    /// exact one differs by more than the threshold.
     fn refine(
         &self,
         color: &mut [[f32; 4]],
@@ -560,6 +565,8 @@ impl Ctx<'_> {
     }
 
     /// Shades sample `i` of a line exactly, recording its kind.
+    // The line's buffers are borrowed separately so the caller keeps the others.
+    #[allow(clippy::too_many_arguments)]
     fn sample(
         &self,
         vals: &mut [[f32; 4]],

@@ -211,6 +211,24 @@ impl Framebuffer {
         out
     }
 
+    /// An RGBA8 framebuffer holding `rgba` (row-major, row 0 at the top):
+    /// an image another executor rendered (wgpu), to compare like ours.
+    pub fn from_rgba8(width: u32, height: u32, rgba: &[u8]) -> Result<Framebuffer, RenderError> {
+        let mut fb = Framebuffer::new(width, height, ColorFormat::Rgba8)?;
+        if rgba.len() != width as usize * height as usize * 4 {
+            return Err(RenderError::Unsupported(format!(
+                "an RGBA8 image of {width}×{height} has {} bytes, not {}",
+                width as usize * height as usize * 4,
+                rgba.len()
+            )));
+        }
+        for (k, px) in rgba.chunks_exact(4).enumerate() {
+            let (x, y) = ((k % width as usize) as u32, (k / width as usize) as u32);
+            fb.set_color(x, y, [px[0], px[1], px[2], px[3]].map(|c| c as f32 / 255.0));
+        }
+        Ok(fb)
+    }
+
     /// Row-major colour as RGBA8 bytes (f32 buffers are clamped and rounded).
     pub fn to_rgba8(&self) -> Vec<u8> {
         let mut out = Vec::with_capacity(self.width as usize * self.height as usize * 4);
@@ -263,10 +281,19 @@ mod tests {
     }
 
     #[test]
+    fn from_rgba8_round_trips_and_checks_its_size() {
+        let bytes: Vec<u8> = (0..2 * 3 * 4).map(|i| (i * 10) as u8).collect();
+        let fb = Framebuffer::from_rgba8(2, 3, &bytes).unwrap();
+        assert_eq!(fb.to_rgba8(), bytes);
+        assert!(Framebuffer::from_rgba8(2, 2, &bytes).is_err());
+    }
+
+    #[test]
     fn rgba8_clamps_and_rounds() {
         let mut fb = Framebuffer::new(3, 2, ColorFormat::Rgba8).unwrap();
         fb.set_color(1, 1, [2.0, -1.0, 0.5, f32::NAN]);
-        assert_eq!(fb.to_rgba8()[(1 * 3 + 1) * 4..(1 * 3 + 2) * 4], [255, 0, 128, 0]);
+        // Pixel (1, 1) of a 3-wide framebuffer is the fifth.
+        assert_eq!(fb.to_rgba8()[4 * 4..5 * 4], [255, 0, 128, 0]);
     }
 
     #[test]
@@ -275,7 +302,7 @@ mod tests {
         fb.set_color(0, 0, [0.1, -0.7, 3.0, 1.0]);
         let c = fb.color(0, 0).unwrap();
         // 0.1 is not a half: the nearest one is 0.0999755859375.
-        assert_eq!(c, [0.0999755859375, -0.7001953125, 3.0, 1.0]);
+        assert_eq!(c, [0.099_975_586, -0.700_195_3, 3.0, 1.0]);
         let mut f32_fb = Framebuffer::new(2, 1, ColorFormat::F32).unwrap();
         f32_fb.set_color(0, 0, [0.1, -0.7, 3.0, 1.0]);
         assert_eq!(f32_fb.color(0, 0).unwrap(), [0.1, -0.7, 3.0, 1.0]);

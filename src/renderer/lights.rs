@@ -331,10 +331,11 @@ pub fn triangle_relevance(
         } else {
             0.0
         };
-        if !(diffuse < tol) {
+        // NaN counts as relevant: only a bound known to be small culls.
+        if diffuse.is_nan() || diffuse >= tol {
             mask |= 1 << (2 * i);
         }
-        if !(specular < tol) {
+        if specular.is_nan() || specular >= tol {
             mask |= 2 << (2 * i);
         }
     }

@@ -10,13 +10,13 @@
 //! reading interpolated varyings, texture lookups
 //! ([`crate::textures`] sampling, mipmap level from the analytic
 //! derivatives of the coordinate varying), uniforms, the pixel, and other
-//! framebuffers; the pass's [`RenderState`] does depth, stencil and blending.
+//! framebuffers; the pass's [`RenderState`](crate::pipeline::RenderState) does depth, stencil and blending.
 //! Passes that render into a texture (`RenderTarget::Texture`, texture
 //! shading) or into a planner temporary (`RenderTarget::Temporary`) keep
 //! their image, which later passes look up (by screen position: the pixel
 //! itself; by coordinates: a filtered texture).
 //!
-//! # Three modes ([`Mode`])
+//! # Three modes ([`Precision`])
 //!
 //! - `exact` — the reference: every node in f64; varyings that are **unit
 //!   directions** renormalized after interpolation (an interpolant whose
@@ -36,7 +36,7 @@
 //!   stored (8-bit where declared so) and sampled as the WGSL target's
 //!   texture unit samples them in exact fidelity (`textures::unit`: λ per
 //!   2×2 quad — for a dependent lookup from its coordinates computed at the
-//!   quad's pixels, [`FragmentProgram::quad_coords`] — float filtering,
+//!   quad's pixels, `FragmentProgram::quad_coords` — float filtering,
 //!   seamless cube maps; fixed9 too, but with 8-bit textures filtered in 8.8
 //!   fixed point), f32 framebuffers; textures declared 16-bit or float are
 //!   rendered into in half floats, as the WGSL target's `Rgba16Float`.
@@ -56,7 +56,7 @@
 //!   1/255 with the emulator's rule (nearest, ties toward +∞). Constant and
 //!   uniform subexpressions are folded by the compiler into a constant
 //!   register and an output scale, so they are rounded but not clamped
-//!   ([`fixed9_folded`]). Values that only address textures (lookup
+//!   ([`fixed9_folded_with`]). Values that only address textures (lookup
 //!   coordinates, framebuffer positions) are not quantized: the texture
 //!   units iterate them in float.
 
@@ -71,39 +71,14 @@ use super::{
     ColorFormat, CullMode, DrawStats, Fragment, FragmentResult, FragmentStage, Framebuffer,
     Pass as RasterPass, RenderError, VertexStage,
 };
-use crate::backends::combiners::{self, PixelEmulator, PixelRegisters, Precision};
+use crate::backends::combiners::{self, PixelEmulator, PixelRegisters};
 use crate::ir::{self, eval::Value, Expr, FbChannel, Frequency, Handle, Module, TextureId, Ty};
 use crate::pipeline::{Geometry, Pass, PassInterface, Planned, RenderTarget};
 use crate::scene::bind::{self, BoundObject, BoundTexture, ExactFunction, TextureDecl, TextureQuality};
 use crate::scene::{Scene, SceneAssets};
 use crate::textures::{generators, unit, Filter, Level, TexelFormat, Texture, Texture2D, Wrap};
 
-/// How the plan's arithmetic is modelled (module docs).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Mode {
-    Fixed9,
-    F32,
-    Exact,
-}
-
-impl Mode {
-    pub fn name(self) -> &'static str {
-        match self {
-            Mode::Fixed9 => "fixed9",
-            Mode::F32 => "f32",
-            Mode::Exact => "exact",
-        }
-    }
-
-    pub fn parse(s: &str) -> Option<Mode> {
-        match s {
-            "fixed9" => Some(Mode::Fixed9),
-            "f32" => Some(Mode::F32),
-            "exact" => Some(Mode::Exact),
-            _ => None,
-        }
-    }
-}
+use crate::numerics::{fixed9_folded_with, fixed9_quotient, fixed9_with, Precision};
 
 /// One rendered frame.
 pub struct Frame {
@@ -138,7 +113,7 @@ pub enum PassShading {
     Combiners { stages: usize },
     /// `fixed9` for a pass the generator refuses (`why`): every
     /// per-fragment IR operation clamped and rounded like a register write
-    /// ([`fixed9`]) — an approximation of what a hand-made setup would do.
+    /// ([`fixed9`](crate::numerics::fixed9)) — an approximation of what a hand-made setup would do.
     PerOperation { why: String },
 }
 
@@ -211,11 +186,8 @@ impl<'a> PlanRenderer<'a> {
             roots.extend(pi.condition);
             roots.extend(pi.interpolants.iter().copied());
             for h in planned.module.reachable(&roots) {
-                match &planned.module.exprs[h] {
-                    Expr::Vector { site: ir::Site::Texel, .. } => {
-                        return Err(RenderError::Unsupported("it uses shading vectors as a function of the texel coordinate, with no mesh to take them on".into()).in_pass(i))
-                    }
-                    _ => {}
+                if let Expr::Vector { site: ir::Site::Texel, .. } = &planned.module.exprs[h] {
+                    return Err(RenderError::Unsupported("it uses shading vectors as a function of the texel coordinate, with no mesh to take them on".into()).in_pass(i));
                 }
             }
         }
@@ -248,7 +220,7 @@ impl<'a> PlanRenderer<'a> {
     /// called after each pass of each object.
     pub fn render(
         &self,
-        mode: Mode,
+        mode: Precision,
         width: u32,
         height: u32,
         progress: &mut dyn FnMut(usize, usize),
@@ -264,7 +236,7 @@ impl<'a> PlanRenderer<'a> {
     /// texel passes, are shaded in full.
     pub fn render_adaptive(
         &self,
-        mode: Mode,
+        mode: Precision,
         width: u32,
         height: u32,
         settings: &super::AdaptiveSettings,
@@ -275,7 +247,7 @@ impl<'a> PlanRenderer<'a> {
 
     fn render_with(
         &self,
-        mode: Mode,
+        mode: Precision,
         width: u32,
         height: u32,
         adaptive: Option<&super::AdaptiveSettings>,
@@ -284,7 +256,7 @@ impl<'a> PlanRenderer<'a> {
         let m = &self.planned.module;
         let plan = &self.planned.plan;
         let start = Instant::now();
-        let format = if mode == Mode::Fixed9 { ColorFormat::Rgba8 } else { ColorFormat::F32 };
+        let format = if mode == Precision::Fixed9 { ColorFormat::Rgba8 } else { ColorFormat::F32 };
         let objects = self.bound_objects(width as f32 / height as f32)?;
         let mut targets: BTreeMap<String, Framebuffer> = BTreeMap::new();
         let mut rendered: BTreeMap<String, Rendered> = BTreeMap::new();
@@ -317,7 +289,7 @@ impl<'a> PlanRenderer<'a> {
                 let own_depth = targets.get(&name).cloned();
                 // A `bake` table is the compiler's work, in float, whatever
                 // the target's arithmetic (issue 18).
-                let mode = if pass.baked && mode == Mode::Fixed9 { Mode::F32 } else { mode };
+                let mode = if pass.baked && mode == Precision::Fixed9 { Precision::F32 } else { mode };
                 let (machine, how) = self.shading_of(mode, index);
                 if layer == 0 {
                     shading.push(how);
@@ -411,13 +383,13 @@ impl<'a> PlanRenderer<'a> {
     fn new_target(
         &self,
         pass: &Pass,
-        mode: Mode,
+        mode: Precision,
         format: ColorFormat,
         size: (u32, u32),
     ) -> Result<Framebuffer, RenderError> {
         let m = &self.planned.module;
         let wide = matches!(&pass.target, RenderTarget::Texture { name } if m.textures.iter().any(|t| t.name == *name && t.format.is_wide()));
-        let format = if wide && mode != Mode::Exact { ColorFormat::F16 } else { format };
+        let format = if wide && mode != Precision::Exact { ColorFormat::F16 } else { format };
         let mut fb = Framebuffer::new(size.0, size.1, format)?;
         fb.clear_color([0.0, 0.0, 0.0, 0.0]);
         Ok(fb)
@@ -425,9 +397,9 @@ impl<'a> PlanRenderer<'a> {
 
     /// How pass `index` is shaded in `mode`: in `fixed9` by its combiner
     /// setup, or per operation where the generator refuses.
-    fn shading_of(&self, mode: Mode, index: usize) -> (Option<CombinerSetup>, PassShading) {
+    fn shading_of(&self, mode: Precision, index: usize) -> (Option<CombinerSetup>, PassShading) {
         match mode {
-            Mode::Fixed9 => match self.combiner_setup(index) {
+            Precision::Fixed9 => match self.combiner_setup(index) {
                 Ok((setup, stages)) => (Some(setup), PassShading::Combiners { stages }),
                 Err(why) => (None, PassShading::PerOperation { why }),
             },
@@ -472,7 +444,7 @@ impl<'a> PlanRenderer<'a> {
                     })
                     .collect();
                 let s = super::draw_adaptive(target, &passes, draws.settings.expect("matched"))?;
-                draws.adaptive = draws.adaptive.map(|a| a.add(s));
+                draws.adaptive = draws.adaptive.map(|a| a + s);
                 draws.advance(objects.len());
             }
             Geometry::Mesh { .. } => {
@@ -686,14 +658,14 @@ impl MeshVertices {
         let results: Vec<(Vec<f32>, Vec<[f32; 4]>)> = (0..n.div_ceil(chunk))
             .into_par_iter()
             .map(|c| {
-                let mut ev = ir::eval::Evaluator::new(m, &roots, ir::eval::Precision::Exact);
+                let mut ev = ir::eval::Evaluator::new(m, &roots, crate::numerics::Precision::Exact);
                 let mut vary = Vec::with_capacity(chunk * nv);
                 let mut clip = Vec::with_capacity(chunk);
                 for v in c * chunk..((c + 1) * chunk).min(n) {
                     let mut env = bind::VertexEnv { object, module: m, vertex: v, uniforms };
                     let r = ev.eval(&mut env);
-                    for k in 0..values.len() {
-                        let ty = m.info(values[k]).ty;
+                    for (k, &value) in values.iter().enumerate() {
+                        let ty = m.info(value).ty;
                         let x = widen_vertex(r.values[k], ty);
                         vary.extend(x.map(|c| c as f32));
                     }
@@ -836,7 +808,7 @@ enum RegisterOp {
 /// condition) in topological order, each with a slot.
 struct FragmentProgram<'a> {
     module: &'a Module,
-    mode: Mode,
+    mode: Precision,
     steps: Vec<Step<'a>>,
     constants: Vec<(u32, Value)>,
     n_slots: usize,
@@ -877,7 +849,7 @@ fn fat_texel_layers<'a>(m: &Module, rendered: &'a BTreeMap<String, Rendered>) ->
 /// texture sources.
 struct StepBuilder<'c, 'a> {
     r: &'a PlanRenderer<'a>,
-    mode: Mode,
+    mode: Precision,
     /// fixed9 with a generated combiner setup: the IR only loads registers.
     combiners: bool,
     address: Vec<bool>,
@@ -895,7 +867,7 @@ impl<'a> StepBuilder<'_, 'a> {
     /// beyond ±1 and addresses stay exact.
     fn constant(&self, i: usize, c: &ir::Constant) -> Value {
         let v = ir::eval::value(c);
-        let register = self.mode == Mode::Fixed9
+        let register = self.mode == Precision::Fixed9
             && !self.combiners
             && !self.address[i]
             && c.values().iter().all(|x| x.abs() <= 1.0);
@@ -1018,7 +990,7 @@ impl<'a> StepBuilder<'_, 'a> {
         let ty = m.info(h).ty;
         let per_sample = m.info(h).freq.is_sample();
         let per_operation =
-            self.mode == Mode::Fixed9 && !self.combiners && !self.address[i] && leaf.is_none();
+            self.mode == Precision::Fixed9 && !self.combiners && !self.address[i] && leaf.is_none();
         // A register write clamps where the hardware's would: a value a
         // product or function reads from a register, and the powers and
         // quotients the generator cannot fold (`ir::register_reads`).
@@ -1049,9 +1021,11 @@ thread_local! {
 }
 
 impl<'a> FragmentProgram<'a> {
+    // Each argument is one of the pass's inputs, owned or borrowed differently.
+    #[allow(clippy::too_many_arguments)]
     fn new(
         r: &'a PlanRenderer<'a>,
-        mode: Mode,
+        mode: Precision,
         pi: &PassInterface,
         rendered: &'a BTreeMap<String, Rendered>,
         reads: HashMap<u32, Framebuffer>,
@@ -1081,7 +1055,7 @@ impl<'a> FragmentProgram<'a> {
             normalize_varyings: pi
                 .interpolants
                 .iter()
-                .map(|h| mode == Mode::Exact && matches!(m.exprs[*h], Expr::Interpolate { value, .. } if bind::is_unit_direction(m, value)))
+                .map(|h| mode == Precision::Exact && matches!(m.exprs[*h], Expr::Interpolate { value, .. } if bind::is_unit_direction(m, value)))
                 .collect(),
             sources: &sources,
             fat: &fat,
@@ -1129,12 +1103,12 @@ impl<'a> FragmentProgram<'a> {
     /// with which filter (`reach`: the pass's reachable nodes).
     fn texture_sources(
         r: &'a PlanRenderer<'a>,
-        mode: Mode,
+        mode: Precision,
         rendered: &'a BTreeMap<String, Rendered>,
         reach: &[bool],
     ) -> Result<(Vec<Source<'a>>, Vec<Filter>), RenderError> {
         let m = &r.planned.module;
-        let textures = if mode == Mode::Exact { &r.exact } else { &r.stored };
+        let textures = if mode == Precision::Exact { &r.exact } else { &r.stored };
         let mut sources = Vec::with_capacity(m.textures.len());
         let mut filters = Vec::with_capacity(m.textures.len());
         let looked_up: std::collections::HashSet<TextureId> = (0..m.exprs.len())
@@ -1148,13 +1122,13 @@ impl<'a> FragmentProgram<'a> {
             let decl = r.decls.iter().find(|d| d.name == t.name);
             filters.push(decl.map_or(Filter::Bilinear, |d| d.filter));
             let baked = match FragmentProgram::baked_by(r, &t.name) {
-                Some(index) if mode == Mode::Exact && looked_up.contains(&(id as TextureId)) => {
+                Some(index) if mode == Precision::Exact && looked_up.contains(&(id as TextureId)) => {
                     FragmentProgram::baked(r, mode, rendered, index)?
                 }
                 _ => None,
             };
             sources.push(if let Some(b) = textures.get(&t.name) {
-                Source::Bound { texture: b, exact: if mode == Mode::Exact { b.exact } else { None } }
+                Source::Bound { texture: b, exact: if mode == Precision::Exact { b.exact } else { None } }
             } else if let Some(program) = baked {
                 Source::Baked { program: Box::new(program), wrap: decl.map_or(Wrap::ClampToEdge, |d| d.wrap) }
             } else if let Some(rt) = rendered.get(&t.name) {
@@ -1180,7 +1154,7 @@ impl<'a> FragmentProgram<'a> {
     /// mapping's (16), which reads the texture itself): `None` otherwise.
     fn baked(
         r: &'a PlanRenderer<'a>,
-        mode: Mode,
+        mode: Precision,
         rendered: &'a BTreeMap<String, Rendered>,
         index: usize,
     ) -> Result<Option<FragmentProgram<'a>>, RenderError> {
@@ -1299,7 +1273,7 @@ impl<'a> FragmentProgram<'a> {
             Source::Bound { exact: Some(f), .. } => exact_lookup(*f, c),
             Source::Bound { texture: b, .. } => {
                 let out = match &b.texture {
-                    Texture::Flat(t) if self.mode != Mode::Exact => {
+                    Texture::Flat(t) if self.mode != Precision::Exact => {
                         // f32 and fixed9 sample as the WGSL target's texture
                         // unit does (`textures::unit`: a level of detail per
                         // 2×2 quad; 8-bit textures filtered in 8.8 fixed
@@ -1319,14 +1293,14 @@ impl<'a> FragmentProgram<'a> {
                             }
                             _ => f32::NEG_INFINITY,
                         };
-                        let arithmetic = if self.mode == Mode::Fixed9 {
+                        let arithmetic = if self.mode == Precision::Fixed9 {
                             unit::Arithmetic::Fixed8 { tie_bias: self.tie.texel_quanta }
                         } else {
                             unit::Arithmetic::Float
                         };
                         unit::sample_2d(t, u as f32, v as f32, filter, lod, arithmetic)
                     }
-                    Texture::Cube(t) if self.mode != Mode::Exact => {
+                    Texture::Cube(t) if self.mode != Precision::Exact => {
                         unit::sample_cube(t, [c[0] as f32, c[1] as f32, c[2] as f32], filter)
                     }
                     Texture::Flat(t) => {
@@ -1457,11 +1431,11 @@ impl<'a> FragmentProgram<'a> {
             };
             let v = if s.raw { v } else { ir::eval::canonical(s.ty, v) };
             slots[s.slot as usize] = match self.mode {
-                Mode::Exact => v,
-                Mode::F32 => v.map(|x| x as f32 as f64),
-                Mode::Fixed9 if s.quantize => v.map(|x| fixed9_with(x, self.tie.register_steps)),
-                Mode::Fixed9 if s.folded => v.map(|x| fixed9_folded_with(x, self.tie.register_steps)),
-                Mode::Fixed9 => v.map(|x| x as f32 as f64),
+                Precision::Exact => v,
+                Precision::F32 => v.map(|x| x as f32 as f64),
+                Precision::Fixed9 if s.quantize => v.map(|x| fixed9_with(x, self.tie.register_steps)),
+                Precision::Fixed9 if s.folded => v.map(|x| fixed9_folded_with(x, self.tie.register_steps)),
+                Precision::Fixed9 => v.map(|x| x as f32 as f64),
             };
         }
         if let Some(c) = self.condition {
@@ -1543,53 +1517,6 @@ impl<'a> FragmentProgram<'a> {
         };
         machine.run(&r).map(|c| c as f64 / 255.0)
     }
-}
-
-/// The register-combiner precision model: clamp to [−1, 1], round to
-/// 1/255 (nearest, ties toward +∞), as the emulator's register writes.
-#[inline]
-pub fn fixed9(v: f64) -> f64 {
-    fixed9_with(v, 0.0)
-}
-
-/// a / b in the combiners' precision from the registers' integers
-/// k₁ = a·255, k₂ = b·255: the quotient in 1/255 steps is k₁·255/k₂,
-/// exact (in f64 as in f32) where it is a tie m + ½ — a quotient of 8-bit
-/// values lands on ties, unlike a product — so the tie rounds up on both
-/// executors rather than by float noise (WGSL: codegen's `divide_*`).
-/// x/0 is ±1 (clamped), 0/0 (NaN) is 0, as in [`fixed9`].
-#[inline]
-fn fixed9_quotient(k1: f64, k2: f64, bias: f64) -> f64 {
-    let t = k1 * 255.0 / k2;
-    if t.is_nan() {
-        return 0.0;
-    }
-    (t + 0.5 + bias).floor().clamp(-255.0, 255.0) / 255.0
-}
-
-/// [`fixed9`] with its tie point moved by `bias` steps
-/// ([`PlanRenderer::set_rounding_bias`]).
-#[inline]
-fn fixed9_with(v: f64, bias: f64) -> f64 {
-    if v.is_nan() {
-        return 0.0;
-    }
-    (v.clamp(-1.0, 1.0) * 255.0 + 0.5 + bias).floor().clamp(-255.0, 255.0) / 255.0
-}
-
-/// A constant or uniform subexpression in the combiner precision model:
-/// the compiler folds it before the combiners run, into an 8-bit constant
-/// register times an output scale of 1, 2 or 4 (seeds/003 Section 4.2:
-/// `scale_by_two`, `scale_by_four`), so it keeps its magnitude and is
-/// rounded to 1/255 like the register (the product it scales is then
-/// clamped to [−1, 1] as the combiner's output is).
-/// (`bias`: [`PlanRenderer::set_rounding_bias`].)
-#[inline]
-fn fixed9_folded_with(v: f64, bias: f64) -> f64 {
-    if v.is_nan() {
-        return 0.0;
-    }
-    (v * 255.0 + 0.5 + bias).floor() / 255.0
 }
 
 /// The varying whose derivatives choose the mipmap level of a lookup at
@@ -1700,24 +1627,4 @@ pub fn compare(reference: &Framebuffer, test: &Framebuffer) -> ErrorReport {
     let e = super::image_error(&a, &b);
     let rmse = if e.psnr.is_infinite() { 0.0 } else { 10f64.powf(-e.psnr / 20.0) };
     ErrorReport { max_abs: e.max_abs, rmse, psnr: e.psnr }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::fixed9_quotient;
-
-    /// Quotients of 8-bit values that land on ties (k₁·255/k₂ = m + ½) round
-    /// up; x/0 clamps to ±1, 0/0 is 0.
-    #[test]
-    fn fixed9_quotient_rounds_ties_up() {
-        for (k1, k2, m) in
-            [(1.0, 170.0, 2.0), (1.0, 102.0, 3.0), (1.0, 30.0, 9.0), (-1.0, 170.0, -1.0), (3.0, 6.0, 128.0)]
-        {
-            assert_eq!(fixed9_quotient(k1, k2, 0.0), m / 255.0, "{k1}/{k2}");
-        }
-        assert_eq!(
-            (fixed9_quotient(5.0, 0.0, 0.0), fixed9_quotient(-5.0, 0.0, 0.0), fixed9_quotient(0.0, 0.0, 0.0)),
-            (1.0, -1.0, 0.0)
-        );
-    }
 }

@@ -95,7 +95,7 @@ impl Fragment<'_> {
         let n = self.gradients.len() / 2 - 1;
         let (qx, qy) = (self.gradients[2 * n], self.gradients[2 * n + 1]);
         let q = self.inv_w + qx * ox + qy * oy;
-        if !(q > 0.0) {
+        if q.is_nan() || q <= 0.0 {
             return None;
         }
         for (i, (o, v)) in out.iter_mut().zip(varyings).take(n).enumerate() {
@@ -405,7 +405,7 @@ impl SetupCtx<'_> {
         let mut s =
             Snapped { fx: [0; 3], fy: [0; 3], z: [0.0; 3], inv_w: [0.0; 3], wx: [0.0; 3], wy: [0.0; 3] };
         for (k, v) in verts.iter().enumerate() {
-            if !(v[3] > 0.0) {
+            if v[3].is_nan() || v[3] <= 0.0 {
                 return None;
             }
             let iw = 1.0 / v[3].max(W_EPSILON);
@@ -507,9 +507,9 @@ mod tests {
     fn weight_planes_are_one_at_their_vertex_and_zero_at_the_others() {
         let (x, y) = ([10.25, 200.5, 37.75], [5.5, 40.125, 180.0]);
         let w = weight_planes(x, y).unwrap();
-        for k in 0..3 {
+        for (k, wk) in w.iter().enumerate() {
             for v in 0..3 {
-                let value = w[k][0] as f64 * x[v] + w[k][1] as f64 * y[v] + w[k][2] as f64;
+                let value = wk[0] as f64 * x[v] + wk[1] as f64 * y[v] + wk[2] as f64;
                 assert!(
                     (value - if k == v { 1.0 } else { 0.0 }).abs() < 1e-4,
                     "weight {k} at vertex {v}: {value}"

@@ -382,8 +382,8 @@ pub fn load_textures(
                     for face in cube.faces.iter_mut() {
                         for level in face.levels.iter_mut() {
                             for t in level.texels.iter_mut() {
-                                for c in 0..3 {
-                                    t[c] = generators::expand(t[c]);
+                                for c in t.iter_mut().take(3) {
+                                    *c = generators::expand(*c);
                                 }
                             }
                         }
@@ -421,8 +421,8 @@ pub fn load_textures(
                 if signed {
                     for level in t.levels.iter_mut() {
                         for texel in level.texels.iter_mut() {
-                            for c in 0..3 {
-                                texel[c] = generators::expand(texel[c]);
+                            for c in texel.iter_mut().take(3) {
+                                *c = generators::expand(*c);
                             }
                         }
                     }
@@ -588,7 +588,7 @@ impl<'s> BoundObject<'s> {
     pub fn run_texgen(&mut self, module: &Module) -> Result<(), BindError> {
         for st in &module.statements {
             let Table::TexCoords(set) = st.table else { continue };
-            let mut ev = ir::eval::Evaluator::new(module, &[st.value], ir::eval::Precision::Exact);
+            let mut ev = ir::eval::Evaluator::new(module, &[st.value], crate::numerics::Precision::Exact);
             let mut values = Vec::with_capacity(self.n_vertices());
             for v in 0..self.n_vertices() {
                 let mut env = VertexEnv { object: self, module, vertex: v, uniforms: &[] };

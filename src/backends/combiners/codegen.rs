@@ -39,6 +39,7 @@ use thiserror::Error;
 use crate::diag::Diagnostic;
 use crate::ir::{BinaryOp, Constant, Expr, FbChannel, Handle, MathFunction, Module, Ty, UnaryOp};
 use crate::parser::ast::CombineMode;
+use crate::planner::{Realizer, Refusal};
 use crate::span::Span;
 
 use super::config::{
@@ -2222,6 +2223,40 @@ fn to_color(c: &Constant) -> Color {
     out
 }
 
+/// The setup of pass `index` of a plan, as the `fixed9` renderer and WGSL's
+/// `--fidelity hardware` run it: generated for the plan's target when that
+/// is a register-combiner profile, else for a GeForce 3 (the most capable
+/// combiner machine: what `fixed9` models on any target). `Err` is the
+/// plan's located verdict when the plan was made for this machine
+/// (`not generated: LINE:COL: …`), else the generator's reason.
+pub fn generate_for_pass(planned: &crate::pipeline::Planned, index: usize) -> Result<Generated, String> {
+    let pass = &planned.plan.passes[index];
+    // The plan's own target's limits; a GeForce3 models the combiners for a
+    // target that has none (the fixed9 render of a wgsl plan).
+    let limits = planned.combiners.unwrap_or(CombinerLimits::GEFORCE3);
+    let units: Vec<Handle<Expr>> = pass.textures.iter().map(|t| planned.handle(t.lookup)).collect();
+    let input =
+        PassInput { module: &planned.module, value: planned.handle(pass.fragment.output), units: &units };
+    generate(&input, &limits)
+        .map_err(|e| pass.combiners.clone().unwrap_or_else(|| format!("not generated: {e}")))
+}
+
+/// The code generator as the planner's [`Realizer`] (issue 17): a value
+/// fits one pass of a register-combiner target when a setup for it is
+/// generated under the target's own limits (an Appendix B-valid setup).
+pub struct CombinerRealizer {
+    pub limits: CombinerLimits,
+}
+
+impl Realizer for CombinerRealizer {
+    fn realize(&self, module: &Module, value: Handle<Expr>, units: &[Handle<Expr>]) -> Result<(), Refusal> {
+        let input = PassInput { module, value, units };
+        generate(&input, &self.limits)
+            .map(|_| ())
+            .map_err(|e| Refusal { reason: e.to_string(), span: e.span() })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -2312,22 +2347,4 @@ mod tests {
         assert!(matches!(e, CodegenError::Unsupported { .. }));
         assert!(e.to_diagnostic().help.is_some_and(|h| h.contains("lookup texture")));
     }
-}
-
-/// The setup of pass `index` of a plan, as the `fixed9` renderer and WGSL's
-/// `--fidelity hardware` run it: generated for the plan's target when that
-/// is a register-combiner profile, else for a GeForce 3 (the most capable
-/// combiner machine: what `fixed9` models on any target). `Err` is the
-/// plan's located verdict when the plan was made for this machine
-/// (`not generated: LINE:COL: …`), else the generator's reason.
-pub fn generate_for_pass(planned: &crate::pipeline::Planned, index: usize) -> Result<Generated, String> {
-    let pass = &planned.plan.passes[index];
-    // The plan's own target's limits; a GeForce3 models the combiners for a
-    // target that has none (the fixed9 render of a wgsl plan).
-    let limits = planned.combiners.unwrap_or(CombinerLimits::GEFORCE3);
-    let units: Vec<Handle<Expr>> = pass.textures.iter().map(|t| planned.handle(t.lookup)).collect();
-    let input =
-        PassInput { module: &planned.module, value: planned.handle(pass.fragment.output), units: &units };
-    generate(&input, &limits)
-        .map_err(|e| pass.combiners.clone().unwrap_or_else(|| format!("not generated: {e}")))
 }

@@ -28,25 +28,7 @@ use super::validate::{validate, ValidationError};
 /// Pixels per tile.
 pub const TILE: usize = 256;
 
-/// The arithmetic the emulator runs.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
-pub enum Precision {
-    /// 8 bits + sign inside the combiners, as the hardware does.
-    #[default]
-    Fixed9,
-    /// 32-bit floats inside the combiners.
-    F32,
-}
-
-impl Precision {
-    pub fn by_name(name: &str) -> Option<Precision> {
-        match name {
-            "fixed9" => Some(Precision::Fixed9),
-            "f32" => Some(Precision::F32),
-            _ => None,
-        }
-    }
-}
+pub use crate::numerics::Precision;
 
 /// Per-pixel inputs (RGBA8, `width * height * 4` bytes, row-major) and the
 /// uniform ones. A missing image reads as (0, 0, 0, 0).
@@ -128,6 +110,7 @@ pub fn emulate_into(
     match precision {
         Precision::Fixed9 => run::<Fixed9>(&plan, inputs, out),
         Precision::F32 => run::<F32>(&plan, inputs, out),
+        Precision::Exact => run::<F64>(&plan, inputs, out),
     }
     Ok(())
 }
@@ -172,6 +155,7 @@ impl PixelEmulator {
         match self.precision {
             Precision::Fixed9 => pixel::<Fixed9>(&self.plan, self.fog, r),
             Precision::F32 => pixel::<F32>(&self.plan, self.fog, r),
+            Precision::Exact => pixel::<F64>(&self.plan, self.fog, r),
         }
     }
 }
@@ -236,9 +220,9 @@ fn pixel_portion<M: Model>(r: &Regs<M>, p: &PortionPlan, kind: PortionKind) -> [
         if (v < 2 && !p.need_ab) || (v >= 2 && !p.need_cd) {
             continue;
         }
-        for ch in 0..channels {
+        for (ch, dst) in mapped[v].iter_mut().enumerate().take(channels) {
             let src_ch = source_channel(kind, input.usage, ch);
-            M::map(input.mapping, one(&r[input.register.index()][src_ch]), one_mut(&mut mapped[v][ch]));
+            M::map(input.mapping, one(&r[input.register.index()][src_ch]), one_mut(dst));
         }
     }
     let product = |a: usize, dot: bool| {
@@ -572,93 +556,104 @@ impl Model for Fixed9 {
     }
 }
 
-/// f32 inside the combiners: Table 3 on reals, outputs clamped to [−1, 1].
-struct F32;
+/// A float model: Table 3 on reals in `$t`, outputs clamped to [−1, 1]
+/// (`F32` what a float GPU computes, `F64` the exact reference).
+macro_rules! float_model {
+    ($model:ident, $t:ty) => {
+        impl Model for $model {
+            type R = $t;
+            type W = $t;
+            type V = $t;
 
-impl Model for F32 {
-    type R = f32;
-    type W = f32;
-    type V = f32;
+            fn from_u8(v: u8) -> $t {
+                v as $t * (1.0 / 255.0)
+            }
 
-    fn from_u8(v: u8) -> f32 {
-        v as f32 * (1.0 / 255.0)
-    }
+            fn from_unit(v: f32) -> $t {
+                if v.is_nan() {
+                    0.0
+                } else {
+                    v.clamp(0.0, 1.0) as $t
+                }
+            }
 
-    fn from_unit(v: f32) -> f32 {
-        if v.is_nan() {
-            0.0
-        } else {
-            v.clamp(0.0, 1.0)
+            fn map(m: InputMapping, src: &[$t], dst: &mut [$t]) {
+                let it = dst.iter_mut().zip(src);
+                match m {
+                    InputMapping::UnsignedIdentity => it.for_each(|(d, &s)| *d = s.max(0.0)),
+                    InputMapping::UnsignedInvert => it.for_each(|(d, &s)| *d = 1.0 - s.clamp(0.0, 1.0)),
+                    InputMapping::ExpandNormal => it.for_each(|(d, &s)| *d = 2.0 * s.max(0.0) - 1.0),
+                    InputMapping::ExpandNegate => it.for_each(|(d, &s)| *d = 1.0 - 2.0 * s.max(0.0)),
+                    InputMapping::HalfBiasNormal => it.for_each(|(d, &s)| *d = s.max(0.0) - 0.5),
+                    InputMapping::HalfBiasNegate => it.for_each(|(d, &s)| *d = 0.5 - s.max(0.0)),
+                    InputMapping::SignedIdentity => it.for_each(|(d, &s)| *d = s),
+                    InputMapping::SignedNegate => it.for_each(|(d, &s)| *d = -s),
+                }
+            }
+
+            fn mul(a: &[$t], b: &[$t], dst: &mut [$t]) {
+                dst.iter_mut().zip(a.iter().zip(b)).for_each(|(d, (&a, &b))| *d = a * b);
+            }
+
+            fn mul_add(a: &[$t], b: &[$t], dst: &mut [$t]) {
+                dst.iter_mut().zip(a.iter().zip(b)).for_each(|(d, (&a, &b))| *d += a * b);
+            }
+
+            fn add(a: &[$t], b: &[$t], dst: &mut [$t]) {
+                dst.iter_mut().zip(a.iter().zip(b)).for_each(|(d, (&a, &b))| *d = a + b);
+            }
+
+            fn mux(spare0_alpha: &[$t], ab: &[$t], cd: &[$t], dst: &mut [$t]) {
+                dst.iter_mut()
+                    .zip(spare0_alpha.iter().zip(ab.iter().zip(cd)))
+                    .for_each(|(d, (&s, (&ab, &cd)))| *d = if s < 0.5 { ab } else { cd });
+            }
+
+            fn output(src: &[$t], scale: Scale, bias: Bias, dst: &mut [$t]) {
+                let (s, b) = (scale.factor() as $t, bias.offset() as $t);
+                dst.iter_mut().zip(src).for_each(|(d, &v)| *d = ((v + b) * s).clamp(-1.0, 1.0));
+            }
+
+            fn final_map(m: InputMapping, src: &[$t], dst: &mut [$t]) {
+                let it = dst.iter_mut().zip(src);
+                match m {
+                    InputMapping::UnsignedInvert => it.for_each(|(d, &s)| *d = 1.0 - s.clamp(0.0, 1.0)),
+                    _ => it.for_each(|(d, &s)| *d = s.max(0.0)),
+                }
+            }
+
+            fn ef(e: &[$t], f: &[$t], dst: &mut [$t]) {
+                dst.iter_mut().zip(e.iter().zip(f)).for_each(|(d, (&e, &f))| *d = e * f);
+            }
+
+            fn color_sum(spare0: &[$t], secondary: &[$t], clamp: bool, dst: &mut [$t]) {
+                let max = if clamp { 1.0 } else { 2.0 };
+                dst.iter_mut()
+                    .zip(spare0.iter().zip(secondary))
+                    .for_each(|(d, (&a, &b))| *d = (a.max(0.0) + b.max(0.0)).min(max));
+            }
+
+            fn lerp_add(a: &[$t], b: &[$t], c: &[$t], d: &[$t], dst: &mut [$t]) {
+                for (i, o) in dst.iter_mut().enumerate() {
+                    let (a, b, c, d) = (a[i], b[i], c[i], d[i]);
+                    *o = (a * b + (1.0 - a) * c + d).min(1.0);
+                }
+            }
+
+            fn to_u8(v: $t) -> u8 {
+                (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
+            }
         }
-    }
-
-    fn map(m: InputMapping, src: &[f32], dst: &mut [f32]) {
-        let it = dst.iter_mut().zip(src);
-        match m {
-            InputMapping::UnsignedIdentity => it.for_each(|(d, &s)| *d = s.max(0.0)),
-            InputMapping::UnsignedInvert => it.for_each(|(d, &s)| *d = 1.0 - s.clamp(0.0, 1.0)),
-            InputMapping::ExpandNormal => it.for_each(|(d, &s)| *d = 2.0 * s.max(0.0) - 1.0),
-            InputMapping::ExpandNegate => it.for_each(|(d, &s)| *d = 1.0 - 2.0 * s.max(0.0)),
-            InputMapping::HalfBiasNormal => it.for_each(|(d, &s)| *d = s.max(0.0) - 0.5),
-            InputMapping::HalfBiasNegate => it.for_each(|(d, &s)| *d = 0.5 - s.max(0.0)),
-            InputMapping::SignedIdentity => it.for_each(|(d, &s)| *d = s),
-            InputMapping::SignedNegate => it.for_each(|(d, &s)| *d = -s),
-        }
-    }
-
-    fn mul(a: &[f32], b: &[f32], dst: &mut [f32]) {
-        dst.iter_mut().zip(a.iter().zip(b)).for_each(|(d, (&a, &b))| *d = a * b);
-    }
-
-    fn mul_add(a: &[f32], b: &[f32], dst: &mut [f32]) {
-        dst.iter_mut().zip(a.iter().zip(b)).for_each(|(d, (&a, &b))| *d += a * b);
-    }
-
-    fn add(a: &[f32], b: &[f32], dst: &mut [f32]) {
-        dst.iter_mut().zip(a.iter().zip(b)).for_each(|(d, (&a, &b))| *d = a + b);
-    }
-
-    fn mux(spare0_alpha: &[f32], ab: &[f32], cd: &[f32], dst: &mut [f32]) {
-        dst.iter_mut()
-            .zip(spare0_alpha.iter().zip(ab.iter().zip(cd)))
-            .for_each(|(d, (&s, (&ab, &cd)))| *d = if s < 0.5 { ab } else { cd });
-    }
-
-    fn output(src: &[f32], scale: Scale, bias: Bias, dst: &mut [f32]) {
-        let (s, b) = (scale.factor(), bias.offset());
-        dst.iter_mut().zip(src).for_each(|(d, &v)| *d = ((v + b) * s).clamp(-1.0, 1.0));
-    }
-
-    fn final_map(m: InputMapping, src: &[f32], dst: &mut [f32]) {
-        let it = dst.iter_mut().zip(src);
-        match m {
-            InputMapping::UnsignedInvert => it.for_each(|(d, &s)| *d = 1.0 - s.clamp(0.0, 1.0)),
-            _ => it.for_each(|(d, &s)| *d = s.max(0.0)),
-        }
-    }
-
-    fn ef(e: &[f32], f: &[f32], dst: &mut [f32]) {
-        dst.iter_mut().zip(e.iter().zip(f)).for_each(|(d, (&e, &f))| *d = e * f);
-    }
-
-    fn color_sum(spare0: &[f32], secondary: &[f32], clamp: bool, dst: &mut [f32]) {
-        let max = if clamp { 1.0 } else { 2.0 };
-        dst.iter_mut()
-            .zip(spare0.iter().zip(secondary))
-            .for_each(|(d, (&a, &b))| *d = (a.max(0.0) + b.max(0.0)).min(max));
-    }
-
-    fn lerp_add(a: &[f32], b: &[f32], c: &[f32], d: &[f32], dst: &mut [f32]) {
-        for (i, o) in dst.iter_mut().enumerate() {
-            let (a, b, c, d) = (a[i], b[i], c[i], d[i]);
-            *o = (a * b + (1.0 - a) * c + d).min(1.0);
-        }
-    }
-
-    fn to_u8(v: f32) -> u8 {
-        (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
-    }
+    };
 }
+
+/// f32 inside the combiners.
+struct F32;
+float_model!(F32, f32);
+
+/// f64 inside the combiners: `Precision::Exact`.
+struct F64;
+float_model!(F64, f64);
 
 // ---------------------------------------------------------------------------
 // The tile engine.

@@ -71,10 +71,11 @@
 //! - Comparisons and logic give 1.0 or 0.0; a condition holds where it is
 //!   not 0. `c ? a` (no `:`) discards the fragment where `c` is 0.
 //!
-//! # Fidelity
+//! # Precision
 //!
-//! [`Fidelity::Exact`] is f32 arithmetic with true normalize and pow.
-//! [`Fidelity::Hardware`] runs the register combiners (seeds/003 Section
+//! [`Precision::Exact`] and [`Precision::F32`] are f32 arithmetic with true
+//! normalize and pow (a GPU has no f64: the exact reference is the CPU's).
+//! [`Precision::Fixed9`] runs the register combiners (seeds/003 Section
 //! 4.2): a pass whose setup the combiner code generator makes
 //! ([`crate::backends::combiners::codegen::generate_for_pass`]) computes in
 //! f32 only its texels and interpolated colours, rounds them to 8 bits and
@@ -100,6 +101,7 @@ use naga::{
 
 use crate::diag::Diagnostic;
 use crate::ir::{self, BinaryOp, Expr, FbChannel, Frequency, MathFunction, Ty, UnaryOp};
+use crate::numerics::Precision;
 use crate::parser::ast::{CombineMode, TextureFormat, TextureKind};
 use crate::pipeline::{Geometry, PassInterface, Planned, RenderTarget};
 use crate::span::Span;
@@ -107,17 +109,9 @@ use crate::span::Span;
 pub const VERTEX_ENTRY: &str = "vs_main";
 pub const FRAGMENT_ENTRY: &str = "fs_main";
 
-/// Which arithmetic the shader does.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash)]
-pub enum Fidelity {
-    /// f32, true normalize and pow.
-    #[default]
-    Exact,
-    /// The register combiners: the pass's generated setup as integer code,
-    /// else clamp to [−1, 1] and 9-bit quantization after every
-    /// per-fragment operation (module docs).
-    Hardware,
-}
+/// A texture unit's globals: (texture, sampler), its kind and format.
+type UnitBinding =
+    (naga::Handle<GlobalVariable>, naga::Handle<GlobalVariable>, TextureKind, Option<TextureFormat>);
 
 /// One pass, compiled.
 #[derive(Clone, Debug)]
@@ -176,13 +170,13 @@ pub fn uniform_bytes(projections: &[[f32; 16]], uniforms: &[[f32; 4]]) -> Vec<u8
 pub fn generate(
     planned: &Planned,
     source: Option<&str>,
-    fidelity: Fidelity,
+    precision: Precision,
 ) -> Result<Vec<PassShader>, Vec<Diagnostic>> {
     let names = source_names(planned, source);
     let mut out = Vec::new();
     let mut errors = Vec::new();
     for i in 0..planned.plan.passes.len() {
-        match generate_pass(planned, i, source, &names, fidelity) {
+        match generate_pass(planned, i, source, &names, precision) {
             Ok(s) => out.push(s),
             Err(d) => errors.push(d),
         }
@@ -205,15 +199,15 @@ fn generate_pass(
     index: usize,
     source: Option<&str>,
     names: &HashMap<ir::Handle<Expr>, String>,
-    fidelity: Fidelity,
+    precision: Precision,
 ) -> Result<PassShader, Diagnostic> {
     let pass = &planned.plan.passes[index];
     let span = pass_span(planned, index);
     let interface = PassInterface::of(planned, index);
     // A `bake` table is computed by the compiler, in float (issue 18).
-    let fidelity = if pass.baked { Fidelity::Exact } else { fidelity };
-    let mut g = Gen::new(planned, index, interface.clone(), names, fidelity);
-    if fidelity == Fidelity::Hardware {
+    let precision = if pass.baked { Precision::F32 } else { precision };
+    let mut g = Gen::new(planned, index, interface.clone(), names, precision);
+    if precision == Precision::Fixed9 {
         g.combiners = crate::backends::combiners::codegen::generate_for_pass(planned, index).ok();
     }
     g.build().map_err(|e| match e {
@@ -296,7 +290,7 @@ fn with_combiners(
         naga::valid::Capabilities::default(),
     )
     .validate(&module)
-    .map_err(|e| format!("{}", e.emit_to_string(&spliced)))?;
+    .map_err(|e| e.emit_to_string(&spliced))?;
     Ok((module, info))
 }
 
@@ -419,7 +413,7 @@ type R<T> = Result<T, GenError>;
 type NH = naga::Handle<Expression>;
 
 /// A node's value in a body, and whether it is an arithmetic result: a
-/// register write, which hardware fidelity rounds ([`Gen::finish`]).
+/// register write, which hardware precision rounds ([`Gen::finish`]).
 #[derive(Clone, Copy)]
 struct Computed {
     value: NH,
@@ -625,12 +619,11 @@ struct Gen<'a> {
     pass_index: usize,
     iface: PassInterface,
     names: &'a HashMap<ir::Handle<Expr>, String>,
-    fidelity: Fidelity,
+    precision: Precision,
     module: naga::Module,
     uniforms_var: Option<naga::Handle<GlobalVariable>>,
     /// (texture, sampler) per unit.
-    units:
-        Vec<(naga::Handle<GlobalVariable>, naga::Handle<GlobalVariable>, TextureKind, Option<TextureFormat>)>,
+    units: Vec<UnitBinding>,
     /// `quantize_*` and `divide_*` by width ([`Gen::q9_function`]).
     q9: [[Option<naga::Handle<Function>>; 4]; 2],
     /// `round_to_half`, once built.
@@ -638,7 +631,7 @@ struct Gen<'a> {
     quad: bool,
     /// The pass's fragment position (the index's Interpolate node).
     own_position: Option<ir::Handle<Expr>>,
-    /// `--fidelity hardware`: the register-combiner setup generated for the
+    /// `--precision hardware`: the register-combiner setup generated for the
     /// pass, which the fragment stage runs (`rc1::combiners_function`).
     combiners: Option<crate::backends::combiners::Generated>,
     /// Per texture: its fat layers ([`fat_layers`]).
@@ -650,13 +643,13 @@ struct Gen<'a> {
     /// The nodes the fragment stage computes ([`Gen::fragment_nodes`]).
     pass_nodes: Vec<ir::Handle<Expr>>,
     /// Per arena index: the node only addresses textures or framebuffers
-    /// ([`ir::address_only`]), so hardware fidelity does not round it.
+    /// ([`ir::address_only`]), so hardware precision does not round it.
     address: Vec<bool>,
-    /// Hardware fidelity: nodes whose value is already on the 8-bit grid
+    /// Hardware precision: nodes whose value is already on the 8-bit grid
     /// (rounded, or a rounded constant or uniform): a swizzle, conversion,
     /// compose or select of only these needs no rounding of its own.
     on_grid: std::collections::HashSet<ir::Handle<Expr>>,
-    /// Per arena index: hardware fidelity clamps the node's register write
+    /// Per arena index: hardware precision clamps the node's register write
     /// to [−1, 1] ([`ir::register_reads`], as the CPU's fixed9 does).
     register_reads: Vec<bool>,
 }
@@ -667,7 +660,7 @@ impl<'a> Gen<'a> {
         pass_index: usize,
         iface: PassInterface,
         names: &'a HashMap<ir::Handle<Expr>, String>,
-        fidelity: Fidelity,
+        precision: Precision,
     ) -> Gen<'a> {
         let pass = &planned.plan.passes[pass_index];
         Gen {
@@ -677,7 +670,7 @@ impl<'a> Gen<'a> {
             own_position: pass.vertex.position.map(|p| planned.handle(p)),
             iface,
             names,
-            fidelity,
+            precision,
             module: naga::Module::default(),
             uniforms_var: None,
             units: vec![],
@@ -1209,7 +1202,7 @@ impl<'a> Gen<'a> {
         Ok(b.f)
     }
 
-    /// `--fidelity hardware` with a generated setup: the fragment stage
+    /// `--precision hardware` with a generated setup: the fragment stage
     /// computes, in f32, only what loads the registers — the texels of the
     /// units and the interpolated primary and secondary colours — rounds
     /// each to 8 bits as the machine's inputs are, and calls the setup as
@@ -1231,10 +1224,10 @@ impl<'a> Gen<'a> {
             registers.iter().chain(&constants).flatten().copied().collect();
         roots.extend(self.iface.condition);
         // The registers' sources in float, unrounded (as the CPU's fixed9 loads them).
-        let fidelity = std::mem::replace(&mut self.fidelity, Fidelity::Exact);
+        let precision = std::mem::replace(&mut self.precision, Precision::F32);
         self.pass_nodes = self.fragment_nodes(&roots);
         let built: R<()> = self.pass_nodes.clone().into_iter().try_for_each(|n| self.node(b, n));
-        self.fidelity = fidelity;
+        self.precision = precision;
         built?;
         if let Some(c) = self.iface.condition {
             let cv = b.vals[&c];
@@ -1428,7 +1421,7 @@ impl<'a> Gen<'a> {
         b.emit(Expression::Compose { ty: vec4, components: comps })
     }
 
-    /// A constant; a `register` value (hardware fidelity, per fragment, not
+    /// A constant; a `register` value (hardware precision, per fragment, not
     /// only an address, within ±1) is quantized as a constant register
     /// holds it. Constants beyond ±1 are scale factors (the combiners' ×2,
     /// ×4, repeated) and stay exact, as do texture addresses.
@@ -1444,9 +1437,9 @@ impl<'a> Gen<'a> {
         b.emit(Expression::Compose { ty, components: comps })
     }
 
-    /// A register write in hardware fidelity: `q9(v)`.
+    /// A register write in hardware precision: `q9(v)`.
     fn quantize(&mut self, b: &mut Body, v: NH, w: usize) -> NH {
-        if self.fidelity != Fidelity::Hardware || b.stage != Stage::Fragment {
+        if self.precision != Precision::Fixed9 || b.stage != Stage::Fragment {
             return v;
         }
         let f = self.q9_function(w, false);
@@ -1465,10 +1458,10 @@ impl<'a> Gen<'a> {
     }
 
     /// Whether node `n`, computed in the fragment stage (`sample`), is a
-    /// register write of hardware fidelity: per fragment, not only an
+    /// register write of hardware precision: per fragment, not only an
     /// address (the CPU's `Step::quantize`).
     fn register_write(&self, n: ir::Handle<Expr>, sample: bool) -> bool {
-        self.fidelity == Fidelity::Hardware
+        self.precision == Precision::Fixed9
             && sample
             && self.m.info(n).freq.is_sample()
             && !self.addresses_only(n)
@@ -1488,7 +1481,7 @@ impl<'a> Gen<'a> {
         Ok(nan_to_zero(b, v, s, w))
     }
 
-    /// `x / y` written to a register in hardware fidelity: `divide_*(x, y)`.
+    /// `x / y` written to a register in hardware precision: `divide_*(x, y)`.
     fn quotient(&mut self, b: &mut Body, x: NH, y: NH, w: usize) -> NH {
         let f = self.q9_function(w, true);
         let r = b.plain(Expression::CallResult(f));
@@ -1670,7 +1663,7 @@ impl<'a> Gen<'a> {
     }
 
     /// A float from a boolean: 1.0 or 0.0.
-    fn from_bool(&mut self, b: &mut Body, c: NH) -> NH {
+    fn bool_to_float(&mut self, b: &mut Body, c: NH) -> NH {
         let one = b.lit(1.0);
         let zero = b.lit(0.0);
         let v = b.emit(Expression::Select { condition: c, accept: one, reject: zero });
@@ -1767,10 +1760,10 @@ impl<'a> Gen<'a> {
         width(self.m.info(h).ty)
     }
 
-    /// A constant. In hardware fidelity one of magnitude ≤ 1 read per sample
+    /// A constant. In hardware precision one of magnitude ≤ 1 read per sample
     /// sits in a register: it is rounded, and so on the grid.
     fn constant_node(&mut self, b: &mut Body, n: ir::Handle<Expr>, c: &ir::Constant) -> Computed {
-        let register = self.fidelity == Fidelity::Hardware
+        let register = self.precision == Precision::Fixed9
             && b.per_sample()
             && !self.addresses_only(n)
             && c.values().iter().all(|v| v.abs() <= 1.0);
@@ -1951,8 +1944,8 @@ impl<'a> Gen<'a> {
             return Ok(Some(Computed::plain(self.expand(b, t, w))));
         }
         // A 2D 8-bit texture filters to 8-bit results in
-        // hardware fidelity (`scene_run` uploads it as RGBA8).
-        if self.fidelity == Fidelity::Hardware
+        // hardware precision (`scene_run` uploads it as RGBA8).
+        if self.precision == Precision::Fixed9
             && sample
             && kind != TextureKind::Cube
             && matches!(format, None | Some(TextureFormat::Rgba8 | TextureFormat::Rgb8 | TextureFormat::R8))
@@ -2134,7 +2127,7 @@ impl<'a> Gen<'a> {
             UnaryOp::Not => {
                 let zero = b.lit(0.0);
                 let c = self.binop(b, naga::BinaryOperator::Equal, x, zero);
-                Computed::plain(self.from_bool(b, c))
+                Computed::plain(self.bool_to_float(b, c))
             }
         })
     }
@@ -2188,7 +2181,7 @@ impl<'a> Gen<'a> {
         })
     }
 
-    /// `x^y`. In hardware fidelity a constant integer power is repeated
+    /// `x^y`. In hardware precision a constant integer power is repeated
     /// squaring, a register write after each product (`x^1` is x, written
     /// once).
     fn power(&mut self, b: &mut Body, n: ir::Handle<Expr>, x: NH, y: NH, wy: usize) -> R<Computed> {
@@ -2231,7 +2224,7 @@ impl<'a> Gen<'a> {
                 self.binop(b, o, x, y)
             }
         };
-        self.from_bool(b, c)
+        self.bool_to_float(b, c)
     }
 
     /// A math function: naga's builtin (arguments splatted to the result's
@@ -2384,7 +2377,7 @@ impl<'a> Gen<'a> {
         Ok(Computed { value: v, arith })
     }
 
-    /// Quantizes (hardware fidelity) and names a computed node.
+    /// Quantizes (hardware precision) and names a computed node.
     fn finish(&mut self, b: &mut Body, n: ir::Handle<Expr>, v: NH, w: usize, arith: bool) -> R<()> {
         // Named before quantization: a call result cannot carry a name.
         // Leaves are named by their arguments.
@@ -2414,7 +2407,7 @@ impl<'a> Gen<'a> {
         let v = if register && sample && clamps {
             self.on_grid.insert(n);
             self.quantize(b, v, w)
-        } else if register && self.fidelity == Fidelity::Hardware && b.stage == Stage::Fragment {
+        } else if register && self.precision == Precision::Fixed9 && b.stage == Stage::Fragment {
             // A sum or scale on its way into a product (rounded, not
             // clamped: `ir::register_reads`), or a uniform subexpression,
             // which the compiler folds into a constant register times an
@@ -2680,7 +2673,7 @@ fn short(s: &str) -> Option<&str> {
 
 /// `q9` of a constant, in f32: clamp to [−1, 1], nearest k/255, ties up.
 pub fn q9_value(v: f64) -> f32 {
-    (((v * 255.0 + 0.5).floor()).clamp(-255.0, 255.0) / 255.0) as f32
+    crate::numerics::fixed9(v) as f32
 }
 
 /// A frequency the backend treats as per sample.

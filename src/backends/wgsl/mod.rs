@@ -3,7 +3,7 @@
 //!
 //! - `codegen`: one `naga::Module` per pass of a plan (vertex entry point
 //!   `vs_main`, fragment entry point `fs_main`), following
-//!   `pipeline::PassInterface`, validated by naga; `--fidelity exact|hardware`.
+//!   `pipeline::PassInterface`, validated by naga; `--precision exact|f32|fixed9` (`fixed9`: the register combiners).
 //! - `emit`: the modules written as WGSL (one document, a header comment per
 //!   pass with its source line), SPIR-V and GLSL.
 //! - `rc1`: legacy `!!RC1.0` combiner setups as WGSL, bit-exact with the
@@ -15,4 +15,4 @@ pub mod codegen;
 pub mod emit;
 pub mod rc1;
 
-pub use codegen::{generate, Fidelity, PassShader, FRAGMENT_ENTRY, VERTEX_ENTRY};
+pub use codegen::{generate, PassShader, FRAGMENT_ENTRY, VERTEX_ENTRY};

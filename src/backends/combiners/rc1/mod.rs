@@ -1,6 +1,6 @@
 //! NVIDIA nvparse's `!!RC1.0` text format for register combiners, both ways:
 //! [`parse`] (after nvparse's `rc1.0_grammar.y` and its validator, with spans
-//! and better messages) and [`print`]. See docs/combiners.md for the syntax.
+//! and better messages) and [`print()`]. See docs/combiners.md for the syntax.
 
 // `Diagnostic` is the error type by design (errors are rare and rich).
 #![allow(clippy::result_large_err)]
