@@ -4,6 +4,8 @@
 //! and every example planned on both combiner targets with every pass
 //! realized, or refused with a located reason.
 
+mod common;
+
 use std::path::Path;
 
 use proptest::prelude::*;
@@ -262,4 +264,43 @@ fn every_example_plans_realized_or_is_refused_where_it_is() {
     }
     // 27 of 56 planned before the lowering; fragment_lighting now plans on both.
     assert!(planned_count >= 29, "{planned_count}");
+}
+
+/// `compile --emit plan` lists each approximation with its rule, place,
+/// cost and bound; `--no-approx` and a `--max-error` below the cube map's
+/// bound refuse with the planner's located reason.
+#[test]
+fn compile_lists_approximations_and_honours_the_flags() {
+    let args = [
+        "compile",
+        "examples/fragment_lighting.shd",
+        "--target",
+        "geforce3",
+        "--emit",
+        "plan",
+        "--format",
+        "json",
+    ];
+    let r = common::shadec(&args);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let plan = shadec::pipeline::PassPlan::from_json(&r.stdout).unwrap();
+    let cube = plan.approximations.iter().find(|a| a.rule == "normalization_cube_map").expect("a cube map");
+    assert_eq!(cube.at, "16:14", "normalize(N) in the shader");
+    assert_eq!(cube.cost.texture_units, 1);
+    assert!(cube.error_bound.is_some_and(|b| b > 0.0 && b < 0.005));
+    for extra in [&["--no-approx"][..], &["--max-error", "0.001"][..]] {
+        let r = common::shadec(&[&args[..6], extra].concat());
+        assert_eq!(r.code, 1, "{extra:?}: {}", r.stdout);
+        assert!(r.stderr.contains("fragment_lighting.shd:21:1"), "{extra:?}: {}", r.stderr);
+    }
+    // fragment_lighting's half vector is per vertex, which states no bound:
+    // any --max-error refuses it; a cube map alone is within 0.01.
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("n.shd");
+    std::fs::write(&file, NORMALIZED).unwrap();
+    let f = file.to_str().unwrap();
+    let r =
+        common::shadec(&["compile", f, "--target", "geforce256", "--emit", "plan", "--max-error", "0.01"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.contains("normalization_cube_map"), "{}", r.stdout);
 }
