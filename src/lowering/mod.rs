@@ -125,8 +125,7 @@ pub fn lower(module: &Module, profile: &Profile, choice: Choice, at: &dyn Fn(Spa
         r.m.statements.extend(tables);
         r.m.statements.push(Statement { value, ..st });
     }
-    let module = r.m.clone();
-    Lowered { module, approximations: r.used() }
+    r.finish()
 }
 
 /// The state the rules share.
@@ -190,7 +189,6 @@ impl Rewriter<'_> {
         }
     }
 
-    /// Records an approximation made at `span`.
     /// Records an approximation made at `span` whose value is `result`
     /// (`None`: a whole statement's).
     pub fn record(
@@ -207,17 +205,20 @@ impl Rewriter<'_> {
         self.results.push(result);
     }
 
-    /// The approximations whose value some statement still uses (a rule
-    /// applied inside a value a later rule computed per vertex is gone).
-    fn used(self) -> Vec<Approximation> {
+    /// The lowered module with the approximations some statement still
+    /// uses (a rule applied inside a value a later rule computed per vertex
+    /// is gone).
+    fn finish(self) -> Lowered {
         let roots: Vec<Handle<Expr>> = self.m.statements.iter().map(|st| st.value).collect();
         let live: std::collections::HashSet<Handle<Expr>> = self.m.reachable(&roots).into_iter().collect();
-        self.approximations
+        let approximations = self
+            .approximations
             .into_iter()
             .zip(self.results)
             .filter(|(_, r)| r.is_none_or(|h| live.contains(&h)))
             .map(|(a, _)| a)
-            .collect()
+            .collect();
+        Lowered { module: self.m, approximations }
     }
 
     /// A node built by a rule (`None` when it would be ill-typed).

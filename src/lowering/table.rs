@@ -56,9 +56,13 @@ pub fn apply(r: &mut Rewriter, h: Handle<Expr>, written: Handle<Expr>, span: Spa
     }
     let store = Storage::for_range(ylo, yhi);
     let bound = table_error(&samples, store, lo, hi, &f);
-    let id = add_texture(r);
     let texel_value = texel_function(r, &ops, b, lo, hi, store, span)?;
     let index = r.node(Expr::TexelCoord, span)?;
+    let coords = coordinates(r, a_v, lo, hi, span)?;
+    // The table is added once its statement and coordinates exist.
+    let id = add_texture(r);
+    let looked_up = r.node(Expr::Lookup { texture: id, coords }, span)?;
+    let decoded = store.decode(r, looked_up, span)?;
     r.pending.push(Statement {
         table: Table::Texture(id),
         index,
@@ -67,9 +71,6 @@ pub fn apply(r: &mut Rewriter, h: Handle<Expr>, written: Handle<Expr>, span: Spa
         span,
         target_span: span,
     });
-    let coords = coordinates(r, a_v, lo, hi, span)?;
-    let looked_up = r.node(Expr::Lookup { texture: id, coords }, span)?;
-    let decoded = store.decode(r, looked_up, span)?;
     if hoisted {
         r.record(
             "per_vertex",
