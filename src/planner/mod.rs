@@ -933,188 +933,273 @@ struct AssembleCtx<'a> {
 }
 
 fn assemble(m: &Module, ctx: &AssembleCtx, chosen: &[Chosen], prepared: Prepared) -> PassPlan {
-    let AssembleCtx { profile, realizer, texgen, at } = *ctx;
     let Prepared { removed, per_light, names, .. } = prepared;
     let mut passes = Vec::new();
-    let mut drawn: Vec<(Table, Handle<Expr>)> = Vec::new();
-    let mut drawn_temps: Vec<u32> = Vec::new();
+    let mut drawn = Drawn::default();
     let mut roots = Vec::new();
     for (stmts, form, pieces, reason) in chosen {
-        let st = &m.statements[stmts[0]];
-        let n = pieces.len();
+        let group = Group { stmts, form, reason, n: pieces.len() };
         for (pi, piece) in pieces.iter().enumerate() {
-            let target = match (piece.dest, &st.table) {
-                (Dest::Temp(id), _) => RenderTarget::Temporary { name: format!("temp{id}") },
-                (Dest::Main, Table::Framebuffer { id, .. }) => RenderTarget::Framebuffer {
-                    name: m.framebuffers[*id as usize].name.clone(),
-                    channels: form.channels.to_string(),
-                },
-                (Dest::Main, Table::Texture(id)) => {
-                    RenderTarget::Texture { name: m.textures[*id as usize].name.clone() }
-                }
-                (Dest::Main, Table::TexCoords(_)) => unreachable!(),
-            };
-            // A texel statement indexed through a vertex (`T δu x`, seeds/001
-            // (15)) rasterizes the mesh in texture space.
-            let in_texture_space = st.freq == Frequency::Texel
-                && m.reachable(&[st.index]).iter().any(|h| m.info(*h).freq == Frequency::Vertex);
-            let mesh = st.freq == Frequency::Fragment || in_texture_space;
-            // seeds/001 (10), `C δxs ← (C δxs) ⊕ (δ p s x …)`: a static
-            // viewpoint — the pass reuses the vertices the last mesh pass
-            // into the same framebuffer projected (`reused_projection`
-            // checked there is one), with its depth (equal, no write).
-            let reused = (mesh && form.drawn_at.is_none() && matches!(m.exprs[st.index], Expr::Pixel { .. }))
-                .then(|| drawn.iter().rev().find(|(t, _)| same_framebuffer(t, &st.table)).cloned())
-                .flatten();
-            let drawn_at = reused.as_ref().map_or(form.drawn_at.unwrap_or(st.index), |(_, h)| *h);
-            let geometry = if st.freq == Frequency::Screen {
-                Geometry::Screen
-            } else if mesh {
-                Geometry::Mesh { projection: projection_name(m, drawn_at) }
-            } else {
-                Geometry::Texels
-            };
-            let u = Usage::of_value(m, piece.value);
-            let mut textures: Vec<TextureBinding> = u
-                .lookups
-                .iter()
-                .map(|&h| {
-                    let Expr::Lookup { texture, coords } = m.exprs[h] else { unreachable!() };
-                    TextureBinding {
-                        unit: 0,
-                        texture: m.textures[texture as usize].name.clone(),
-                        lookup: h.index() as u32,
-                        coords: coords.index() as u32,
-                    }
-                })
-                .collect();
-            let own = |h: Handle<Expr>| matches!(m.exprs[h], Expr::FramebufferRead { framebuffer, position, .. } if matches!(st.table, Table::Framebuffer { id, .. } if id == framebuffer) && position == st.index);
-            for &h in &u.framebuffer_reads {
-                if own(h) {
-                    continue;
-                }
-                let Expr::FramebufferRead { framebuffer, position, .. } = m.exprs[h] else { unreachable!() };
-                textures.push(TextureBinding {
-                    unit: 0,
-                    texture: m.framebuffers[framebuffer as usize].name.clone(),
-                    lookup: h.index() as u32,
-                    coords: position.index() as u32,
-                });
-            }
-            for (i, t) in textures.iter_mut().enumerate() {
-                t.unit = i as u32;
-            }
-            let reached = m.reachable(&[piece.value]);
-            let mut gen: Vec<String> = reached
-                .iter()
-                .filter_map(|h| match m.exprs[*h] {
-                    Expr::TexCoord { set, .. } => texgen.get(&set).cloned(),
-                    _ => None,
-                })
-                .collect();
-            gen.dedup();
-            let operations = reached
-                .iter()
-                .filter(|h| {
-                    m.info(**h).freq.is_sample()
-                        && matches!(
-                            m.exprs[**h],
-                            Expr::Binary { .. }
-                                | Expr::Unary { .. }
-                                | Expr::Math { .. }
-                                | Expr::Combine { .. }
-                                | Expr::Select { .. }
-                        )
-                })
-                .count();
-            let key = reused.unwrap_or((st.table.clone(), st.index));
-            // A temporary has a depth buffer of its own, fresh when its
-            // first pass draws: that pass tests `Less` and writes, as the
-            // first pass into a framebuffer does (an `Equal` test against
-            // the cleared depth drew nothing: issue 16's lost term).
-            let first_draw = match piece.dest {
-                Dest::Main => !drawn.contains(&key),
-                Dest::Temp(id) => !drawn_temps.contains(&id),
-            };
-            let depth = form.depth.unwrap_or(match geometry {
-                // A one-to-one u covers each texel once: no depth test.
-                _ if in_texture_space => DepthState::DISABLED,
-                Geometry::Mesh { .. } if !first_draw => DepthState::EQUAL_NO_WRITE,
-                Geometry::Mesh { .. } => DepthState::LESS_WRITE,
-                _ => DepthState::DISABLED,
-            });
-            if matches!(geometry, Geometry::Mesh { .. }) && first_draw {
-                match piece.dest {
-                    Dest::Main => drawn.push(key),
-                    Dest::Temp(id) => drawn_temps.push(id),
-                }
-            }
-            let mask = match form.channels {
-                "a" => [false, false, false, true],
-                "stencil" => [false; 4],
-                // A decal keeps the incoming alpha (GL_DECAL: A = Af), so the
-                // alpha-blended texture writes colour only.
-                _ => [true, true, true, piece.alpha && piece.blend != BlendMode::AlphaBlend],
-            };
-            let state = RenderState {
-                // In texture space the winding is the parameterization's, not a facing.
-                cull: if matches!(geometry, Geometry::Mesh { .. }) && !in_texture_space {
-                    CullMode::Back
-                } else {
-                    CullMode::None
-                },
-                depth,
-                stencil: form.stencil.unwrap_or(StencilState::DISABLED),
-                blend: BlendState { ..piece.blend.render_state().with_write_mask(mask) },
-            };
-            let pass_reason = if n == 1 {
-                reason.clone()
-            } else {
-                let label = match stmts.as_slice() {
-                    [s] => format!("statement {}", names[*s]),
-                    many => format!(
-                        "statements {} (fused)",
-                        many.iter().map(|s| names[*s].clone()).collect::<Vec<_>>().join(", ")
-                    ),
-                };
-                let why = if piece.why.is_empty() { "the part rendered first" } else { piece.why.as_str() };
-                format!("{label} split into {n} passes on {} (pass {} of {n}): {why}", profile.name, pi + 1)
-            };
-            // A `bake` table is the compiler's: no combiner setup to judge.
-            let combiners =
-                if m.is_baked(st) { None } else { combiner_verdict(m, realizer, piece.value, &textures, at) };
-            roots.push(piece.value);
-            roots.push(st.index);
-            roots.push(drawn_at);
+            let (pass, drawn_at) = assemble_pass(m, ctx, &group, piece, pi, &mut drawn, &names, &per_light);
+            roots.extend([piece.value, m.statements[stmts[0]].index, drawn_at]);
             roots.extend(form.condition);
-            let light = match stmts.as_slice() {
-                [s] => per_light.light.get(*s).copied().flatten(),
-                _ => None,
-            };
-            let objects = match stmts.as_slice() {
-                [s] => per_light.objects.get(*s).cloned().flatten(),
-                _ => None,
-            };
-            passes.push(Pass {
-                statements: { let mut v: Vec<usize> = stmts.iter().map(|s| per_light.source.get(*s).copied().unwrap_or(*s)).collect(); v.dedup(); v },
-                light,
-                objects,
-                at: at(st.span),
-                reason: if m.is_baked(st) { format!("{pass_reason}: a `bake` table, computed by the compiler on the CPU, which the target samples") } else { pass_reason },
-                target,
-                geometry,
-                vertex: VertexWork { position: mesh.then_some(drawn_at.index() as u32), interpolants: u.interpolants.iter().map(|h| h.index() as u32).collect(), texgen: gen },
-                textures,
-                fragment: FragmentWork { output: piece.value.index() as u32, operations, condition: form.condition.map(|c| c.index() as u32) },
-                blend: piece.blend,
-                state,
-                combiners,
-                baked: m.is_baked(st),
-            });
+            passes.push(pass);
         }
     }
-    let values = m
-        .reachable(&roots)
+    PassPlan {
+        target: ctx.profile.name.clone(),
+        passes,
+        removed,
+        values: plan_values(m, &roots, ctx.at),
+        approximations: Vec::new(),
+    }
+}
+
+/// A planned group of statements as [`assemble`] walks it.
+struct Group<'a> {
+    stmts: &'a [usize],
+    form: &'a Form,
+    reason: &'a str,
+    /// Its number of passes.
+    n: usize,
+}
+
+/// What earlier passes drew, for the depth test of the next: a
+/// framebuffer's geometry (its table and index) and the temporaries drawn.
+#[derive(Default)]
+struct Drawn {
+    main: Vec<(Table, Handle<Expr>)>,
+    temps: Vec<u32>,
+}
+
+/// Pass `pi` of a group: where it draws, what it binds, its state and why;
+/// and the geometry it is drawn at.
+#[allow(clippy::too_many_arguments)]
+fn assemble_pass(
+    m: &Module,
+    ctx: &AssembleCtx,
+    group: &Group,
+    piece: &Piece,
+    pi: usize,
+    drawn: &mut Drawn,
+    names: &[String],
+    per_light: &PerLight,
+) -> (Pass, Handle<Expr>) {
+    let Group { stmts, form, .. } = *group;
+    let st = &m.statements[stmts[0]];
+    // A texel statement indexed through a vertex (`T δu x`, seeds/001
+    // (15)) rasterizes the mesh in texture space.
+    let in_texture_space = st.freq == Frequency::Texel
+        && m.reachable(&[st.index]).iter().any(|h| m.info(*h).freq == Frequency::Vertex);
+    let mesh = st.freq == Frequency::Fragment || in_texture_space;
+    // seeds/001 (10), `C δxs ← (C δxs) ⊕ (δ p s x …)`: a static viewpoint —
+    // the pass reuses the vertices the last mesh pass into the same
+    // framebuffer projected (`reused_projection` checked there is one),
+    // with its depth (equal, no write).
+    let reused = (mesh && form.drawn_at.is_none() && matches!(m.exprs[st.index], Expr::Pixel { .. }))
+        .then(|| drawn.main.iter().rev().find(|(t, _)| same_framebuffer(t, &st.table)).cloned())
+        .flatten();
+    let drawn_at = reused.as_ref().map_or(form.drawn_at.unwrap_or(st.index), |(_, h)| *h);
+    let geometry = if st.freq == Frequency::Screen {
+        Geometry::Screen
+    } else if mesh {
+        Geometry::Mesh { projection: projection_name(m, drawn_at) }
+    } else {
+        Geometry::Texels
+    };
+    let u = Usage::of_value(m, piece.value);
+    let textures = texture_bindings(m, st, &u);
+    let key = reused.unwrap_or((st.table.clone(), st.index));
+    let state = pass_state(form, piece, &geometry, in_texture_space, drawn, key);
+    // A `bake` table is the compiler's: no combiner setup to judge.
+    let baked = m.is_baked(st);
+    let combiners =
+        if baked { None } else { combiner_verdict(m, ctx.realizer, piece.value, &textures, ctx.at) };
+    let reason = pass_reason(group, piece, pi, names, ctx.profile);
+    let reached = m.reachable(&[piece.value]);
+    let one = |v: &[Option<u32>]| match stmts {
+        [s] => v.get(*s).copied().flatten(),
+        _ => None,
+    };
+    let pass = Pass {
+        statements: {
+            let mut v: Vec<usize> =
+                stmts.iter().map(|s| per_light.source.get(*s).copied().unwrap_or(*s)).collect();
+            v.dedup();
+            v
+        },
+        light: one(&per_light.light),
+        objects: match stmts {
+            [s] => per_light.objects.get(*s).cloned().flatten(),
+            _ => None,
+        },
+        at: (ctx.at)(st.span),
+        reason: if baked {
+            format!("{reason}: a `bake` table, computed by the compiler on the CPU, which the target samples")
+        } else {
+            reason
+        },
+        target: pass_target(m, st, piece, form),
+        geometry,
+        vertex: VertexWork {
+            position: mesh.then_some(drawn_at.index() as u32),
+            interpolants: u.interpolants.iter().map(|h| h.index() as u32).collect(),
+            texgen: texgen_of(m, &reached, ctx.texgen),
+        },
+        textures,
+        fragment: FragmentWork {
+            output: piece.value.index() as u32,
+            operations: fragment_operations(m, &reached),
+            condition: form.condition.map(|c| c.index() as u32),
+        },
+        blend: piece.blend,
+        state,
+        combiners,
+        baked,
+    };
+    (pass, drawn_at)
+}
+
+/// Where a pass draws: a temporary, the statement's framebuffer (with the
+/// channels it writes), or its texture.
+fn pass_target(m: &Module, st: &Statement, piece: &Piece, form: &Form) -> RenderTarget {
+    match (piece.dest, &st.table) {
+        (Dest::Temp(id), _) => RenderTarget::Temporary { name: format!("temp{id}") },
+        (Dest::Main, Table::Framebuffer { id, .. }) => RenderTarget::Framebuffer {
+            name: m.framebuffers[*id as usize].name.clone(),
+            channels: form.channels.to_string(),
+        },
+        (Dest::Main, Table::Texture(id)) => {
+            RenderTarget::Texture { name: m.textures[*id as usize].name.clone() }
+        }
+        (Dest::Main, Table::TexCoords(_)) => unreachable!("texgen statements are vertex work"),
+    }
+}
+
+/// The texture units of a pass, in order: its lookups, then the other
+/// framebuffers it reads as textures (its own target it reads by blending).
+fn texture_bindings(m: &Module, st: &Statement, u: &Usage) -> Vec<TextureBinding> {
+    let own = |h: Handle<Expr>| matches!(m.exprs[h], Expr::FramebufferRead { framebuffer, position, .. } if matches!(st.table, Table::Framebuffer { id, .. } if id == framebuffer) && position == st.index);
+    let lookups = u.lookups.iter().map(|&h| {
+        let Expr::Lookup { texture, coords } = m.exprs[h] else { unreachable!("a lookup") };
+        (m.textures[texture as usize].name.clone(), h, coords)
+    });
+    let reads = u.framebuffer_reads.iter().filter(|h| !own(**h)).map(|&h| {
+        let Expr::FramebufferRead { framebuffer, position, .. } = m.exprs[h] else { unreachable!("a read") };
+        (m.framebuffers[framebuffer as usize].name.clone(), h, position)
+    });
+    lookups
+        .chain(reads)
+        .enumerate()
+        .map(|(i, (texture, h, coords))| TextureBinding {
+            unit: i as u32,
+            texture,
+            lookup: h.index() as u32,
+            coords: coords.index() as u32,
+        })
+        .collect()
+}
+
+/// The texgen statements whose coordinates a pass reads.
+fn texgen_of(m: &Module, reached: &[Handle<Expr>], texgen: &HashMap<u32, String>) -> Vec<String> {
+    let mut gen: Vec<String> = reached
+        .iter()
+        .filter_map(|h| match m.exprs[*h] {
+            Expr::TexCoord { set, .. } => texgen.get(&set).cloned(),
+            _ => None,
+        })
+        .collect();
+    gen.dedup();
+    gen
+}
+
+/// The per-sample arithmetic of a pass's fragment value.
+fn fragment_operations(m: &Module, reached: &[Handle<Expr>]) -> usize {
+    reached
+        .iter()
+        .filter(|h| {
+            m.info(**h).freq.is_sample()
+                && matches!(
+                    m.exprs[**h],
+                    Expr::Binary { .. }
+                        | Expr::Unary { .. }
+                        | Expr::Math { .. }
+                        | Expr::Combine { .. }
+                        | Expr::Select { .. }
+                )
+        })
+        .count()
+}
+
+/// The fixed-function state of a pass: culling, the depth test (the first
+/// draw into a target tests `Less` and writes, later ones `Equal`), the
+/// form's stencil, and the blend with the channels written.
+fn pass_state(
+    form: &Form,
+    piece: &Piece,
+    geometry: &Geometry,
+    in_texture_space: bool,
+    drawn: &mut Drawn,
+    key: (Table, Handle<Expr>),
+) -> RenderState {
+    // A temporary has a depth buffer of its own, fresh when its first pass
+    // draws: that pass tests `Less` and writes, as the first pass into a
+    // framebuffer does (an `Equal` test against the cleared depth drew
+    // nothing: issue 16's lost term).
+    let first_draw = match piece.dest {
+        Dest::Main => !drawn.main.contains(&key),
+        Dest::Temp(id) => !drawn.temps.contains(&id),
+    };
+    let on_mesh = matches!(geometry, Geometry::Mesh { .. });
+    let depth = form.depth.unwrap_or(match geometry {
+        // A one-to-one u covers each texel once: no depth test.
+        _ if in_texture_space => DepthState::DISABLED,
+        Geometry::Mesh { .. } if !first_draw => DepthState::EQUAL_NO_WRITE,
+        Geometry::Mesh { .. } => DepthState::LESS_WRITE,
+        _ => DepthState::DISABLED,
+    });
+    if on_mesh && first_draw {
+        match piece.dest {
+            Dest::Main => drawn.main.push(key),
+            Dest::Temp(id) => drawn.temps.push(id),
+        }
+    }
+    let mask = match form.channels {
+        "a" => [false, false, false, true],
+        "stencil" => [false; 4],
+        // A decal keeps the incoming alpha (GL_DECAL: A = Af), so the
+        // alpha-blended texture writes colour only.
+        _ => [true, true, true, piece.alpha && piece.blend != BlendMode::AlphaBlend],
+    };
+    RenderState {
+        // In texture space the winding is the parameterization's, not a facing.
+        cull: if on_mesh && !in_texture_space { CullMode::Back } else { CullMode::None },
+        depth,
+        stencil: form.stencil.unwrap_or(StencilState::DISABLED),
+        blend: BlendState { ..piece.blend.render_state().with_write_mask(mask) },
+    }
+}
+
+/// Why a pass exists: its group's reason, or which part of a split it is.
+fn pass_reason(group: &Group, piece: &Piece, pi: usize, names: &[String], profile: &Profile) -> String {
+    let n = group.n;
+    if n == 1 {
+        return group.reason.to_string();
+    }
+    let label = match group.stmts {
+        [s] => format!("statement {}", names[*s]),
+        many => format!(
+            "statements {} (fused)",
+            many.iter().map(|s| names[*s].clone()).collect::<Vec<_>>().join(", ")
+        ),
+    };
+    let why = if piece.why.is_empty() { "the part rendered first" } else { piece.why.as_str() };
+    format!("{label} split into {n} passes on {} (pass {} of {n}): {why}", profile.name, pi + 1)
+}
+
+/// Every value a plan's passes refer to, with its type, frequency and range.
+fn plan_values(m: &Module, roots: &[Handle<Expr>], at: &dyn Fn(Span) -> String) -> Vec<Value> {
+    m.reachable(roots)
         .into_iter()
         .map(|h| {
             let info = m.info(h);
@@ -1131,8 +1216,7 @@ fn assemble(m: &Module, ctx: &AssembleCtx, chosen: &[Chosen], prepared: Prepared
                 at: at(m.span(h)),
             }
         })
-        .collect();
-    PassPlan { target: profile.name.clone(), passes, removed, values, approximations: Vec::new() }
+        .collect()
 }
 
 /// What the combiner code generator says of a pass on a register-combiner
