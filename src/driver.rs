@@ -38,6 +38,8 @@ pub struct PlanOptions<'a> {
     pub search: Search,
     /// Plan for this scene (`compile --scene`, `render`); `None`: for any scene.
     pub scene: Option<ForScene<'a>>,
+    /// What the target lacks may be lowered into approximations (issue 18).
+    pub lowering: crate::lowering::LowerOptions,
 }
 
 /// A plan made for one scene (issue 7): one pass per light for a program
@@ -160,6 +162,7 @@ pub fn plan(
         search: options.search,
         scene,
         realizer: realizer.as_ref().map(|r| r as &dyn Realizer),
+        lowering: options.lowering,
     };
     planner::plan(module, profile, &request)
 }

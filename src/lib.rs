@@ -17,6 +17,7 @@ pub mod driver;
 pub mod gpu;
 pub mod io;
 pub mod ir;
+pub mod lowering;
 pub mod lsp;
 pub mod meaning;
 pub mod numerics;

@@ -173,7 +173,13 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
     }
     Ok(Planned {
         module: m,
-        plan: PassPlan { target: TARGET.into(), passes, removed: Vec::new(), values: Vec::new() },
+        plan: PassPlan {
+            target: TARGET.into(),
+            passes,
+            removed: Vec::new(),
+            values: Vec::new(),
+            approximations: Vec::new(),
+        },
         combiners: None,
     })
 }

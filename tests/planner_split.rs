@@ -182,6 +182,11 @@ fn check_program(src: &str, what: &str) -> usize {
         else {
             continue;
         };
+        // A lowered plan approximates by design (issue 18): tests/lowering.rs
+        // holds it to its stated bounds of the meaning instead.
+        if !planned.plan.approximations.is_empty() {
+            continue;
+        }
         let worst = compare(&original, &planned, 200);
         // f32 rounding of a few dozen operations in a different order.
         assert!(

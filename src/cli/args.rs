@@ -112,6 +112,15 @@ pub struct CompileArgs {
     /// `json`). Diagnostics print as `human`, `short` or `json` (LSP).
     #[arg(long, value_enum, default_value_t = CompileFormat::Human)]
     pub format: CompileFormat,
+    /// Refuse what the target cannot compute instead of lowering it into
+    /// tables and approximations (docs/lowering.md).
+    #[arg(long)]
+    pub no_approx: bool,
+    /// Accept only approximations whose stated error bound is at most E
+    /// (an approximation with no bound of its own, such as a per-vertex
+    /// one, is then refused).
+    #[arg(long, value_name = "E")]
+    pub max_error: Option<f64>,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

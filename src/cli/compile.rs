@@ -37,7 +37,11 @@ pub fn run(args: &CompileArgs) -> ExitCode {
             if matches!(args.emit, Emit::Ir) {
                 diagnostics.extend(shadec::profile::fit(m, &profile));
             } else {
-                match plan_for(&front.program, m, &profile, &text, scene.as_ref()) {
+                let lowering = shadec::lowering::LowerOptions {
+                    approximate: !args.no_approx,
+                    max_error: args.max_error,
+                };
+                match plan_for(&front.program, m, &profile, &text, scene.as_ref(), lowering) {
                     Ok(planned) => plan = Some(planned),
                     Err(PlanFailure::Scene(code)) => return code,
                     Err(PlanFailure::Program(ds)) => diagnostics.extend(ds),
@@ -97,6 +101,7 @@ fn plan_for(
     profile: &shadec::profile::Profile,
     text: &str,
     scene: Option<&shadec::scene::Scene>,
+    lowering: shadec::lowering::LowerOptions,
 ) -> Result<shadec::pipeline::Planned, PlanFailure> {
     use shadec::driver::{ForScene, PlanOptions};
     let assets = match scene.map(|s| s.build()).transpose() {
@@ -107,7 +112,7 @@ fn plan_for(
         }
     };
     let for_scene = scene.zip(assets.as_ref()).map(|(s, a)| ForScene::specialized(s, a));
-    let options = PlanOptions { scene: for_scene, ..Default::default() };
+    let options = PlanOptions { scene: for_scene, lowering, ..Default::default() };
     let planned =
         shadec::driver::plan(m, program, profile, Some(text), &options).map_err(PlanFailure::Program)?;
     if scene.is_some() {

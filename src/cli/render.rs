@@ -63,6 +63,13 @@ pub struct RenderArgs {
     /// WGSL on whatever adapter there is: a GPU, or Mesa's lavapipe).
     #[arg(long, value_enum, default_value_t = Backend::Cpu)]
     pub backend: Backend,
+    /// Refuse what the target cannot compute instead of lowering it into
+    /// tables and approximations (docs/lowering.md).
+    #[arg(long)]
+    pub no_approx: bool,
+    /// Accept only approximations whose stated error bound is at most E.
+    #[arg(long, value_name = "E")]
+    pub max_error: Option<f64>,
 }
 
 /// The executor `render` runs the plan on.
@@ -171,7 +178,8 @@ fn compile(
     // Only what this scene needs (issue 7): a pass per light that reaches
     // the objects, the scene's uniforms folded, zeroed terms removed.
     let for_scene = (!args.no_specialize).then(|| ForScene::specialized(scene, assets));
-    let options = PlanOptions { scene: for_scene, ..Default::default() };
+    let lowering = shadec::lowering::LowerOptions { approximate: !args.no_approx, max_error: args.max_error };
+    let options = PlanOptions { scene: for_scene, lowering, ..Default::default() };
     let compiled = shadec::driver::compile(source, &profile, &options).map_err(|errors| {
         eprint!("{}", file.render(&errors, color_stderr()));
         ExitCode::from(EXIT_SOURCE_ERRORS)

@@ -196,7 +196,8 @@ impl<'a> ScenePlan<'a> {
         let shaders = codegen::generate(planned, source, precision).map_err(|d| {
             SceneRunError::Codegen(d.iter().map(|d| d.message.clone()).collect::<Vec<_>>().join("; "))
         })?;
-        let decls = bind::texture_decls(program, &scene.constants);
+        let mut decls = bind::texture_decls(program, &scene.constants);
+        decls.extend(bind::lowered_decls(&planned.module));
         let mut notes = Vec::new();
         let textures = bind::load_textures(&decls, scene, TextureQuality::Stored, &mut notes)
             .map_err(|e| SceneRunError::Unsupported(e.to_string()))?;

@@ -313,6 +313,7 @@ impl<'a> Lowerer<'a> {
                         format: t.format.as_ref().map_or(ast::TextureFormat::Rgba8, |f| f.value),
                         rendered: t.source.is_none(),
                         baked: t.source.as_ref().is_some_and(is_bake),
+                        declaration: None,
                         span: n.span,
                     });
                     self.globals.insert(n.key(), Global::Texture(id));

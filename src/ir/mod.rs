@@ -212,6 +212,10 @@ pub struct Texture {
     /// compile time (issue 18), which the target only samples — its texel
     /// pass is never the target's to run.
     pub baked: bool,
+    /// For a texture the lowering added (a normalization cube map, issue
+    /// 18): its declaration as a user would write it, so that executors
+    /// bind it as they bind a declared one (`scene::bind::lowered_decls`).
+    pub declaration: Option<String>,
     pub span: Span,
 }
 

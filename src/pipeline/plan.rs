@@ -22,6 +22,10 @@ pub struct PassPlan {
     pub removed: Vec<Removed>,
     /// Every IR value the passes refer to, in topological order.
     pub values: Vec<Value>,
+    /// What the lowering replaced by what the target has (issue 18,
+    /// docs/lowering.md): empty when the program planned as written.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub approximations: Vec<Approximation>,
 }
 
 /// One rendering pass.
@@ -188,6 +192,38 @@ pub struct Value {
     pub at: String,
 }
 
+/// One rewrite of the lowering (issue 18): a part of the program the
+/// target cannot compute, replaced by what it has — a table, a cube map,
+/// a per-vertex value — with what that costs and how far it may be off.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Approximation {
+    /// The rule's name (`normalization_cube_map`, `per_vertex`, `baked_table`, …).
+    pub rule: String,
+    /// `line:col` of the replaced operation.
+    pub at: String,
+    /// What was replaced, by what, and why the target needed it.
+    pub why: String,
+    pub cost: ApproximationCost,
+    /// The rule's own bound on the absolute error of the replaced value
+    /// (per component), when it has one; `None` when only a scene can
+    /// say (a per-vertex approximation depends on the triangles).
+    pub error_bound: Option<f64>,
+}
+
+/// What an approximation spends (issue 18's four resources).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct ApproximationCost {
+    /// Texture units a pass that uses the replacement needs for it.
+    pub texture_units: u32,
+    /// Passes it adds on the target (a baked table's texel pass runs on
+    /// the compiler, not the target: 0).
+    pub passes: u32,
+    /// General combiner stages it needs (an estimate: one per operation).
+    pub general_combiners: u32,
+    /// Texels of the tables it adds.
+    pub texels: u64,
+}
+
 /// Something specialization removed.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Removed {
@@ -243,6 +279,9 @@ impl PassPlan {
                 if units.is_empty() { "no textures".to_string() } else { units.join(", ") },
                 p.reason
             );
+        }
+        for a in &self.approximations {
+            s += &format!("  approximation {} at {}: {}\n", a.rule, a.at, a.why);
         }
         s
     }

@@ -101,6 +101,9 @@ pub struct Request<'a> {
     /// value fits one pass (the combiner code generator on geforce256 and
     /// geforce3); required on those targets.
     pub realizer: Option<&'a dyn Realizer>,
+    /// What the lowering may do when the program as written does not plan
+    /// (issue 18: `--no-approx`, `--max-error`).
+    pub lowering: crate::lowering::LowerOptions,
 }
 
 /// Scene-driven specialization (issue 7 parts 1-2).
@@ -155,7 +158,49 @@ struct Fits<'p> {
 /// light 0 ([`lights`]), then — as the specialization asks — the scene's
 /// uniforms folded with their zero terms, textures and passes, and the
 /// lights that cannot reach an object culled for it ([`relevance`]).
+///
+/// The program as written first; only when that does not plan, lowered
+/// (issue 18, [`crate::lowering`]) — each choice of rules, most accurate
+/// first, until one plans within `request.lowering`; the program's own
+/// refusal when none does.
 pub fn plan(module: &Module, profile: &Profile, request: &Request) -> Result<Planned, Vec<Diagnostic>> {
+    let written = plan_as_written(module, profile, request);
+    // The exhaustive search is the optimality test's reference for the
+    // splits; a lowered program's long products would make it explode.
+    if written.is_ok() || !request.lowering.approximate || request.search == Search::Exhaustive {
+        return written;
+    }
+    let index = request.source.map(|s| (LineIndex::new(s), s));
+    let at = |span: Span| at_text(&index, span);
+    for choice in crate::lowering::choices(profile) {
+        let lowered = crate::lowering::lower(module, profile, choice, &at);
+        if lowered.approximations.is_empty() || !lowered.within(&request.lowering) {
+            continue;
+        }
+        if let Ok(mut planned) = plan_as_written(&lowered.module, profile, request) {
+            planned.plan.approximations = lowered.approximations;
+            return Ok(planned);
+        }
+    }
+    written
+}
+
+/// `line:col` of `span`, `-` without a source or for a built node.
+fn at_text(index: &Option<(LineIndex, &str)>, span: Span) -> String {
+    match (index, span == Span::DETACHED) {
+        (Some((ix, text)), false) => {
+            let lc = ix.line_col(text, span.start as usize);
+            format!("{}:{}", lc.line, lc.col)
+        }
+        _ => "-".to_string(),
+    }
+}
+
+fn plan_as_written(
+    module: &Module,
+    profile: &Profile,
+    request: &Request,
+) -> Result<Planned, Vec<Diagnostic>> {
     let errors: Vec<Diagnostic> =
         crate::profile::fit(module, profile).into_iter().filter(|d| d.is_error()).collect();
     if !errors.is_empty() {
@@ -169,15 +214,7 @@ pub fn plan(module: &Module, profile: &Profile, request: &Request) -> Result<Pla
     }
     let mut m = module.clone();
     let index = request.source.map(|s| (LineIndex::new(s), s));
-    let at = |span: Span| -> String {
-        match (&index, span == Span::DETACHED) {
-            (Some((ix, text)), false) => {
-                let lc = ix.line_col(text, span.start as usize);
-                format!("{}:{}", lc.line, lc.col)
-            }
-            _ => "-".to_string(),
-        }
-    };
+    let at = |span: Span| at_text(&index, span);
     let prepared = prepare(&mut m, request.scene, &at)?;
     let compiler = Profile { fragment: FragmentStage::Programmable, ..profile.clone() };
     let mut fits = Fits {
@@ -909,7 +946,13 @@ fn assemble(m: &Module, ctx: &AssembleCtx, chosen: &[Chosen], prepared: Prepared
             passes.push(pass);
         }
     }
-    PassPlan { target: ctx.profile.name.clone(), passes, removed, values: plan_values(m, &roots, ctx.at) }
+    PassPlan {
+        target: ctx.profile.name.clone(),
+        passes,
+        removed,
+        values: plan_values(m, &roots, ctx.at),
+        approximations: Vec::new(),
+    }
 }
 
 /// A planned group of statements as [`assemble`] walks it.

@@ -572,6 +572,7 @@ impl<'a> Splitter<'a> {
             format: if self.float_temps { TextureFormat::Rgba16f } else { TextureFormat::Rgba8 },
             rendered: true,
             baked: false,
+            declaration: None,
             span: Span::DETACHED,
         });
         (self.module.textures.len() - 1) as u32

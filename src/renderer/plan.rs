@@ -171,7 +171,8 @@ impl<'a> PlanRenderer<'a> {
         scene: &'a Scene,
         assets: &'a SceneAssets,
     ) -> Result<PlanRenderer<'a>, RenderError> {
-        let decls = bind::texture_decls(program, &scene.constants);
+        let mut decls = bind::texture_decls(program, &scene.constants);
+        decls.extend(bind::lowered_decls(&planned.module));
         let mut notes = Vec::new();
         let err = |e: bind::BindError| RenderError::Unsupported(e.to_string());
         let stored = bind::load_textures(&decls, scene, TextureQuality::Stored, &mut notes).map_err(err)?;

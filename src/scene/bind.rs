@@ -225,6 +225,18 @@ fn string(e: &ast::Expr) -> Option<String> {
     }
 }
 
+/// The declarations of the textures the lowering added (issue 18: a
+/// normalization cube map), read from the text each carries
+/// (`ir::Texture::declaration`), so that they bind like declared ones.
+pub fn lowered_decls(module: &crate::ir::Module) -> Vec<TextureDecl> {
+    let text: String = module.textures.iter().filter_map(|t| t.declaration.as_deref()).collect();
+    if text.is_empty() {
+        return Vec::new();
+    }
+    let (program, _) = crate::parser::parse(&text);
+    texture_decls(&program, &BTreeMap::new())
+}
+
 fn source(e: &ast::Expr, names: &BTreeMap<String, f32>) -> TextureSource {
     let ExprKind::Apply { func, arg } = &e.kind else {
         return TextureSource::Bake(format!("{:?}", e.kind));

@@ -1,0 +1,270 @@
+//! The lowering (issue 18): what a target cannot compute, rewritten into
+//! what it has — the GeForce-era techniques of seeds/000 and seeds/003 as
+//! named rules, each recording an [`Approximation`] with its cost and its
+//! error bound.
+//!
+//! It sits between the IR and the planner: the planner calls [`lower`]
+//! only when the program as written does not plan (so programs that plan,
+//! and every WGSL plan, are unchanged), once per [`Choice`], most accurate
+//! first ([`choices`]). The rules, one file each (docs/lowering.md):
+//!
+//! - [`cube_map`]: `normalize(δ v)` → an 8-bit normalization cube map
+//!   (seeds/000 Section 4.2.2, Formula 4; seeds/003 Section 5.2);
+//! - [`taylor`]: `normalize(δ v)` → `v + ½ v (1 − v·v)` in the combiners
+//!   (seeds/000 Formula 6), no texture unit;
+//! - [`per_vertex`]: a per-fragment function of interpolated values
+//!   computed per vertex and interpolated instead (seeds/001 (1) against
+//!   (4)): what makes the other rules' coordinates;
+//! - [`table`]: a per-fragment function of one bounded interpolated
+//!   scalar (`sqrt`, division, `floor`, `fract`, `exp`, a fractional power)
+//!   → a 1-D table baked by the compiler on the CPU (the `bake` path) and
+//!   indexed by texgen (seeds/002 Section 3: functions as textures);
+//! - [`power`]: `x^n` beyond the stages of one pass → a product of
+//!   powers that do fit, multiplied in the framebuffer across passes;
+//! - [`texel_bake`]: a texture-shading statement that is a function of the
+//!   texel coordinate and uniforms only → computed by the compiler, as
+//!   `bake(f)` is.
+//!
+//! What no rule rewrites (a texture indexed by another texture's result on
+//! geforce256, float textures) keeps the planner's located refusal.
+
+pub mod cube_map;
+pub mod per_vertex;
+pub mod power;
+pub mod table;
+pub mod taylor;
+pub mod texel_bake;
+
+use std::collections::HashMap;
+
+use crate::ir::{BinaryOp, Expr, Frequency, Handle, MathFunction, Module, Statement, Table};
+use crate::pipeline::{Approximation, ApproximationCost};
+use crate::profile::Profile;
+use crate::span::Span;
+
+/// What the user allows (`compile --no-approx`, `--max-error E`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct LowerOptions {
+    /// `false`: refuse what the target cannot compute, as before issue 18.
+    pub approximate: bool,
+    /// Accept only approximations whose stated bound is at most this
+    /// (an approximation with no bound is then refused); `None`: any.
+    pub max_error: Option<f64>,
+}
+
+impl Default for LowerOptions {
+    fn default() -> LowerOptions {
+        LowerOptions { approximate: true, max_error: None }
+    }
+}
+
+/// How a per-fragment `normalize` is replaced.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Normalization {
+    /// A normalization cube map: one texture unit, error one 8-bit step.
+    CubeMap,
+    /// Taylor renormalization in the combiners: no unit, error growing
+    /// with the angle the interpolated vectors span.
+    Taylor,
+}
+
+/// One way to lower a program.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Choice {
+    pub normalization: Normalization,
+}
+
+/// The choices for `profile`, most accurate first (the planner takes the
+/// first that plans within the options).
+pub fn choices(profile: &Profile) -> Vec<Choice> {
+    let mut out = Vec::new();
+    if profile.cube_maps {
+        out.push(Choice { normalization: Normalization::CubeMap });
+    }
+    out.push(Choice { normalization: Normalization::Taylor });
+    out
+}
+
+/// A lowered program and what was approximated in it.
+#[derive(Clone, Debug)]
+pub struct Lowered {
+    pub module: Module,
+    pub approximations: Vec<Approximation>,
+}
+
+impl Lowered {
+    /// Whether every approximation is within `options.max_error`.
+    pub fn within(&self, options: &LowerOptions) -> bool {
+        options
+            .max_error
+            .is_none_or(|e| self.approximations.iter().all(|a| a.error_bound.is_some_and(|b| b <= e)))
+    }
+}
+
+/// Rewrites what `profile` lacks in `module`'s statements. `at` gives the
+/// `line:col` of a span for the record.
+pub fn lower(module: &Module, profile: &Profile, choice: Choice, at: &dyn Fn(Span) -> String) -> Lowered {
+    let mut r = Rewriter {
+        m: module.clone(),
+        profile,
+        choice,
+        at,
+        approximations: Vec::new(),
+        pending: Vec::new(),
+        results: Vec::new(),
+    };
+    texel_bake::apply(&mut r);
+    for st in std::mem::take(&mut r.m.statements) {
+        if matches!(st.table, Table::TexCoords(_)) || r.m.is_baked(&st) {
+            r.m.statements.push(st);
+            continue;
+        }
+        let value = r.rewrite(st.value);
+        // A table's texel statement runs before the statement sampling it.
+        let tables = std::mem::take(&mut r.pending);
+        r.m.statements.extend(tables);
+        r.m.statements.push(Statement { value, ..st });
+    }
+    r.finish()
+}
+
+/// The state the rules share.
+pub struct Rewriter<'a> {
+    pub m: Module,
+    pub profile: &'a Profile,
+    pub choice: Choice,
+    at: &'a dyn Fn(Span) -> String,
+    pub approximations: Vec<Approximation>,
+    /// Texel statements of tables made for the statement being rewritten.
+    pub pending: Vec<Statement>,
+    /// The value each approximation produced, in the same order.
+    results: Vec<Option<Handle<Expr>>>,
+}
+
+impl Rewriter<'_> {
+    /// `value` with every per-sample node the target cannot compute
+    /// rewritten; its operands first (arena order is topological).
+    fn rewrite(&mut self, value: Handle<Expr>) -> Handle<Expr> {
+        let mut map: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::new();
+        for h in self.m.reachable(&[value]) {
+            if !self.m.info(h).freq.is_sample() {
+                continue;
+            }
+            let e = self.m.exprs[h].map_operands(|o| map.get(&o).copied().unwrap_or(o));
+            let span = self.m.span(h);
+            let nh = self.m.intern(e, span).unwrap_or(h);
+            let lowered = self.rule(h, nh, span);
+            map.insert(h, lowered);
+        }
+        map.get(&value).copied().unwrap_or(value)
+    }
+
+    /// The first rule that rewrites `h` (`original` before its operands
+    /// were rewritten: what a per-vertex rule computes at the vertices),
+    /// or `h`.
+    fn rule(&mut self, original: Handle<Expr>, h: Handle<Expr>, span: Span) -> Handle<Expr> {
+        match &self.m.exprs[h] {
+            Expr::Math { fun: MathFunction::Normalize, args } => {
+                let (x, x_written) = (args[0], self.m.operands(original)[0]);
+                let normalized = match self.choice.normalization {
+                    Normalization::CubeMap if self.profile.cube_maps => {
+                        cube_map::apply(self, x, x_written, span)
+                    }
+                    _ => taylor::apply(self, x_written, span),
+                };
+                normalized.unwrap_or(h)
+            }
+            Expr::Binary { op: BinaryOp::Pow, .. } if !needs_table(&self.m, h) => {
+                power::apply(self, h, span).unwrap_or(h)
+            }
+            _ if needs_table(&self.m, h) => table::apply(self, h, original, span)
+                .or_else(|| per_vertex::apply(self, original, "this value", span))
+                .unwrap_or(h),
+            // An rgb division (`kd·(N·L)/((N·L) + (N·V))`): no table of one
+            // scalar holds it; per vertex is what is left.
+            _ if no_combiner_op(&self.m, h) => {
+                per_vertex::apply(self, original, "this value", span).unwrap_or(h)
+            }
+            _ => h,
+        }
+    }
+
+    /// Records an approximation made at `span` whose value is `result`
+    /// (`None`: a whole statement's).
+    pub fn record(
+        &mut self,
+        rule: &str,
+        span: Span,
+        result: Option<Handle<Expr>>,
+        why: String,
+        cost: ApproximationCost,
+        error_bound: Option<f64>,
+    ) {
+        let at = (self.at)(span);
+        self.approximations.push(Approximation { rule: rule.into(), at, why, cost, error_bound });
+        self.results.push(result);
+    }
+
+    /// The lowered module with the approximations some statement still
+    /// uses (a rule applied inside a value a later rule computed per vertex
+    /// is gone).
+    fn finish(self) -> Lowered {
+        let roots: Vec<Handle<Expr>> = self.m.statements.iter().map(|st| st.value).collect();
+        let live: std::collections::HashSet<Handle<Expr>> = self.m.reachable(&roots).into_iter().collect();
+        let approximations = self
+            .approximations
+            .into_iter()
+            .zip(self.results)
+            .filter(|(_, r)| r.is_none_or(|h| live.contains(&h)))
+            .map(|(a, _)| a)
+            .collect();
+        Lowered { module: self.m, approximations }
+    }
+
+    /// A node built by a rule (`None` when it would be ill-typed).
+    pub fn node(&mut self, e: Expr, span: Span) -> Option<Handle<Expr>> {
+        self.m.intern(e, span).ok()
+    }
+}
+
+/// A per-sample scalar operation the register combiners have no way to
+/// compute and a table can: `sqrt`, division, `floor`, …
+pub fn needs_table(m: &Module, h: Handle<Expr>) -> bool {
+    m.info(h).ty == crate::ir::Ty::Scalar && no_combiner_op(m, h)
+}
+
+/// A per-sample operation the register combiners have no way to compute
+/// (seeds/003 Section 4.2: products, sums, dots, muxes and the input
+/// mappings only).
+pub fn no_combiner_op(m: &Module, h: Handle<Expr>) -> bool {
+    if !m.info(h).freq.is_sample() {
+        return false;
+    }
+    match &m.exprs[h] {
+        Expr::Binary { op: BinaryOp::Div, .. } => true,
+        Expr::Binary { op: BinaryOp::Pow, rhs, .. } => match &m.exprs[*rhs] {
+            Expr::Constant(c) => !(c.components[0] >= 1.0 && c.components[0].fract() == 0.0),
+            _ => true,
+        },
+        Expr::Math { fun, .. } => matches!(
+            fun,
+            MathFunction::Sqrt
+                | MathFunction::Rsqrt
+                | MathFunction::Exp
+                | MathFunction::Log
+                | MathFunction::Sin
+                | MathFunction::Cos
+                | MathFunction::Floor
+                | MathFunction::Fract
+                | MathFunction::Step
+                | MathFunction::Smoothstep
+                | MathFunction::Sign
+        ),
+        _ => false,
+    }
+}
+
+/// Whether `h` is `δ v`: a per-vertex value interpolated to a sample.
+pub fn is_interpolant(m: &Module, h: Handle<Expr>) -> bool {
+    matches!(m.exprs[h], Expr::Interpolate { .. }) && m.info(h).freq == Frequency::Fragment
+}

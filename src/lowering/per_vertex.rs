@@ -1,0 +1,77 @@
+//! Rule `per_vertex`: a per-fragment value that depends on the fragment
+//! only through interpolated values is computed per vertex and
+//! interpolated instead — seeds/001 (1) `δ p s x` in place of (4)
+//! `p δ s x` for that part. Exact at the vertices; between them the error
+//! grows with how far the function bends over a triangle, so the rule
+//! states no bound of its own: a scene measures it (`render`, `bench`).
+//!
+//! It makes the coordinates of the other rules: a normalization cube map
+//! or a table is indexed by an interpolated value (texgen), which is what
+//! a GeForce 256 can do without texture shaders.
+
+use super::Rewriter;
+use crate::ir::{Expr, Handle, MathFunction, Module};
+use crate::pipeline::ApproximationCost;
+use crate::span::Span;
+
+/// `x`'s per-vertex counterpart: every `δ v` in it replaced by `v`;
+/// `None` when `x` reads anything per sample but interpolants (a texture,
+/// a framebuffer, the pixel).
+pub fn at_vertex(m: &mut Module, x: Handle<Expr>) -> Option<Handle<Expr>> {
+    let info = m.info(x);
+    if !info.freq.is_sample() {
+        return Some(x);
+    }
+    match &m.exprs[x] {
+        Expr::Interpolate { value, .. } => Some(*value),
+        Expr::Unary { .. }
+        | Expr::Binary { .. }
+        | Expr::Math { .. }
+        | Expr::Swizzle { .. }
+        | Expr::Compose { .. }
+        | Expr::Convert { .. } => {
+            let e = m.exprs[x].clone();
+            let mut ok = true;
+            let mut ops = Vec::new();
+            for o in e.operands() {
+                match at_vertex(m, o) {
+                    Some(v) => ops.push(v),
+                    None => ok = false,
+                }
+            }
+            if !ok {
+                return None;
+            }
+            let mut it = ops.into_iter();
+            let e = e.map_operands(|_| it.next().expect("one per operand"));
+            m.intern(e, m.span(x)).ok()
+        }
+        _ => None,
+    }
+}
+
+/// `δ(x at the vertices)`, recorded as a `per_vertex` approximation of
+/// `what` at `span`; `None` when `x` cannot be computed per vertex.
+pub fn apply(r: &mut Rewriter, x: Handle<Expr>, what: &str, span: Span) -> Option<Handle<Expr>> {
+    let to = r.m.info(x).freq;
+    let mut v = at_vertex(&mut r.m, x)?;
+    // A colour leaving [0, 1] is clamped as GL clamps a vertex colour.
+    let iv = r.m.info(v).interval;
+    let clamped = r.m.info(v).ty.is_color() && (iv.lo < 0.0 || iv.hi > 1.0);
+    if clamped {
+        v = r.node(Expr::Math { fun: MathFunction::Saturate, args: vec![v] }, span)?;
+    }
+    let h = r.node(Expr::Interpolate { value: v, to }, span)?;
+    r.record(
+        "per_vertex",
+        span,
+        Some(h),
+        format!(
+            "{what} is computed per vertex and interpolated{} (the target cannot compute it per fragment)",
+            if clamped { ", clamped to [0, 1] as a vertex colour" } else { "" }
+        ),
+        ApproximationCost::default(),
+        None,
+    );
+    Some(h)
+}

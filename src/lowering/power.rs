@@ -1,0 +1,69 @@
+//! Rule `power_by_passes`: `x^n` per fragment, an integer power the
+//! target's general combiners cannot square out in one pass (⌈log₂ n⌉
+//! stages, seeds/000 Section 4.2.2) or not a power of two (the code
+//! generator only squares), becomes the product `x^k · x^k · …`
+//! of powers that fit (k = 2^(stages − 1), small, so that the planner's
+//! product split packs as many factors into each pass as its generated
+//! setup holds — three x² on a GeForce 256), which the planner splits into passes that multiply in
+//! the framebuffer (seeds/001 (9), `C ← C ⊕ …` with GL_DST_COLOR).
+//!
+//! Exact in arithmetic; the error is the framebuffer's rounding, ½ of an
+//! 8-bit step per pass that multiplies, bounded by that sum (each factor
+//! is at most 1).
+
+use super::Rewriter;
+use crate::ir::{BinaryOp, Constant, Expr, Handle};
+use crate::pipeline::ApproximationCost;
+use crate::span::Span;
+
+/// The largest power one pass computes on `stages` general combiners.
+pub fn per_pass(stages: usize) -> u32 {
+    1 << stages.saturating_sub(1).clamp(1, 5)
+}
+
+/// `x^k · … · x^r` for `x^n`, or `None` when `x^n` needs no more stages
+/// than the target has, or is not an integer power of an unsigned value.
+pub fn apply(r: &mut Rewriter, h: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
+    let stages = r.profile.combiner_limits()?.general_combiners;
+    let Expr::Binary { op: BinaryOp::Pow, lhs: x, rhs } = r.m.exprs[h] else { return None };
+    let Expr::Constant(c) = r.m.exprs[rhs] else { return None };
+    let n = c.components[0];
+    let iv = r.m.info(x).interval;
+    if n.fract() != 0.0 || !(2.0..=1024.0).contains(&n) || iv.lo < 0.0 || iv.hi > 1.0 {
+        return None;
+    }
+    let (n, k) = (n as u32, per_pass(stages));
+    if n <= k && n.is_power_of_two() {
+        return None;
+    }
+    // Powers of two only: the generator squares (seeds/000 Section 4.2.2).
+    let mut parts = Vec::new();
+    let mut rest = n;
+    while rest > 0 {
+        let p = (1u32 << (31 - rest.leading_zeros())).min(k);
+        parts.push(pow(r, x, p, span)?);
+        rest -= p;
+    }
+    let factors = parts.len() as u32;
+    let mut product = parts[0];
+    for f in &parts[1..] {
+        product = r.node(Expr::Binary { op: BinaryOp::Mul, lhs: product, rhs: *f }, span)?;
+    }
+    r.record(
+        "power_by_passes",
+        span,
+        Some(product),
+        format!("x^{n} is the product of {factors} powers of two of at most x^{k}, which the combiners square and the planner can multiply in the framebuffer"),
+        ApproximationCost { texture_units: 0, passes: factors - 1, general_combiners: stages as u32, texels: 0 },
+        Some((factors - 1) as f64 * 0.5 / 255.0),
+    );
+    Some(product)
+}
+
+fn pow(r: &mut Rewriter, x: Handle<Expr>, k: u32, span: Span) -> Option<Handle<Expr>> {
+    if k == 1 {
+        return Some(x);
+    }
+    let e = r.node(Expr::Constant(Constant::scalar(k as f64)), span)?;
+    r.node(Expr::Binary { op: BinaryOp::Pow, lhs: x, rhs: e }, span)
+}

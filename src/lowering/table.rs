@@ -1,0 +1,262 @@
+//! Rule `baked_table`: a per-fragment function `f(a)` of one bounded
+//! scalar that the combiners cannot compute (`sqrt`, division, `floor`,
+//! `fract`, `exp`, a fractional power, …) becomes a 1-D table of `f`,
+//! computed by the compiler on the CPU (the `bake(f)` path: a texel pass
+//! `baked: true`), and looked up at the interpolated argument — texgen
+//! indexing, which every target has (seeds/001 (7), (13); seeds/002
+//! Section 3 stores functions as textures the same way). An argument that
+//! is not itself interpolated is first computed per vertex (rule
+//! `per_vertex`, reported).
+//!
+//! The table has [`TEXELS`] entries over the argument's interval [lo, hi]
+//! (its texel centres at the ends, so nothing is clamped), stored 8-bit,
+//! range-compressed to the values' own interval when they leave [0, 1].
+//! Error bound: measured by the compiler when it bakes — the largest
+//! difference between `f` and the 8-bit table read back with linear
+//! filtering, over [`PROBES`] arguments in [lo, hi].
+
+use super::{per_vertex, Rewriter};
+use crate::ir::eval::{self, Value};
+use crate::ir::{BinaryOp, Constant, Expr, Frequency, Handle, Module, Statement, Table, Texture, Ty};
+use crate::parser::ast::{TextureFormat, TextureKind};
+use crate::pipeline::ApproximationCost;
+use crate::span::Span;
+
+/// Entries of a table: the compiler renders baked textures this size
+/// (`scene::bind::RENDERED_TEXTURE_SIZE`).
+pub const TEXELS: usize = 256;
+/// Arguments at which the compiler measures a table's error.
+pub const PROBES: usize = 4096;
+
+/// The table lookup standing for `h` (`written`: `h` as the program
+/// wrote it), or `None` when `h` is not a function of one bounded
+/// interpolated scalar.
+pub fn apply(r: &mut Rewriter, h: Handle<Expr>, written: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
+    let (ops, b) = chain(&r.m, h)?;
+    // The argument per vertex: `δ v` gives v; another value of
+    // interpolants is computed per vertex (rule `per_vertex`, recorded
+    // below once the table stands for it).
+    let (a_v, hoisted) = match r.m.exprs[b] {
+        Expr::Interpolate { value, to: Frequency::Fragment } => (value, false),
+        _ => {
+            let (_, b_written) = chain(&r.m, written)?;
+            (per_vertex::at_vertex(&mut r.m, b_written)?, true)
+        }
+    };
+    let (lo, hi) = (r.m.info(a_v).interval.lo, r.m.info(a_v).interval.hi);
+    if !(lo.is_finite() && hi.is_finite() && hi > lo) || r.m.info(b).freq != Frequency::Fragment {
+        return None;
+    }
+    let f = |x: f64| evaluate(&r.m, &ops, b, x);
+    let samples: Vec<f64> = (0..TEXELS).map(|i| f(lo + (hi - lo) * i as f64 / (TEXELS - 1) as f64)).collect();
+    let (ylo, yhi) =
+        samples.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| (l.min(*y), h.max(*y)));
+    if !(ylo.is_finite() && yhi.is_finite()) {
+        return None;
+    }
+    let store = Storage::for_range(ylo, yhi);
+    let bound = table_error(&samples, store, lo, hi, &f);
+    let texel_value = texel_function(r, &ops, b, lo, hi, store, span)?;
+    let index = r.node(Expr::TexelCoord, span)?;
+    let coords = coordinates(r, a_v, lo, hi, span)?;
+    // The table is added once its statement and coordinates exist.
+    let id = add_texture(r);
+    let looked_up = r.node(Expr::Lookup { texture: id, coords }, span)?;
+    let decoded = store.decode(r, looked_up, span)?;
+    r.pending.push(Statement {
+        table: Table::Texture(id),
+        index,
+        freq: Frequency::Texel,
+        value: texel_value,
+        span,
+        target_span: span,
+    });
+    if hoisted {
+        r.record(
+            "per_vertex",
+            span,
+            Some(decoded),
+            "the argument of the function tabulated here is computed per vertex and interpolated".into(),
+            ApproximationCost::default(),
+            None,
+        );
+    }
+    r.record(
+        "baked_table",
+        span,
+        Some(decoded),
+        format!(
+            "a function per fragment is a {TEXELS}-texel 8-bit table over [{lo:.3}, {hi:.3}] baked by the compiler, \
+             looked up at the interpolated argument"
+        ),
+        ApproximationCost { texture_units: 1, passes: 0, general_combiners: 0, texels: TEXELS as u64 },
+        Some(bound),
+    );
+    Some(decoded)
+}
+
+/// The one per-sample scalar operand of `expr` when its others are
+/// constants (a table can only vary with one).
+fn single_argument(m: &Module, expr: &Expr) -> Option<Handle<Expr>> {
+    let mut arg = None;
+    for o in expr.operands() {
+        match &m.exprs[o] {
+            Expr::Constant(_) => {}
+            _ if m.info(o).freq.is_sample() && m.info(o).ty == Ty::Scalar && arg.is_none_or(|a| a == o) => {
+                arg = Some(o)
+            }
+            _ => return None,
+        }
+    }
+    arg
+}
+
+/// The operations from `h` down to the bounded scalar `b` they are a
+/// function of (`sqrt(1 − t²)`: sqrt, −, ^ down to t), top first: the
+/// table tabulates the whole chain over b's interval.
+fn chain(m: &Module, h: Handle<Expr>) -> Option<(Vec<Expr>, Handle<Expr>)> {
+    let mut nodes = vec![m.exprs[h].clone()];
+    let mut b = single_argument(m, &m.exprs[h])?;
+    // As deep as one-argument operations go: an interpolant's affine map
+    // (`3·δc`) is then in the table, not computed per vertex.
+    while let Some(next) = arithmetic(m, b).then(|| single_argument(m, &m.exprs[b])).flatten() {
+        if nodes.len() > 16 {
+            return None;
+        }
+        nodes.push(m.exprs[b].clone());
+        b = next;
+    }
+    Some((nodes, b))
+}
+
+fn arithmetic(m: &Module, h: Handle<Expr>) -> bool {
+    matches!(m.exprs[h], Expr::Unary { .. } | Expr::Binary { .. } | Expr::Math { .. })
+}
+
+/// The chain at `b = x`, evaluated bottom up (its other operands constant).
+fn evaluate(m: &Module, chain: &[Expr], b: Handle<Expr>, x: f64) -> f64 {
+    let mut below: (Handle<Expr>, f64) = (b, x);
+    let mut value = x;
+    for expr in chain.iter().rev() {
+        let operands: Vec<Value> = expr
+            .operands()
+            .iter()
+            .map(|o| match &m.exprs[*o] {
+                Expr::Constant(c) => eval::value(c),
+                _ if *o == below.0 => [below.1; 4],
+                _ => [f64::NAN; 4],
+            })
+            .collect();
+        value = eval::apply(m, expr, Ty::Scalar, &operands)[0];
+        below = (m.exprs.find(expr).unwrap_or(below.0), value);
+    }
+    value
+}
+
+/// How table values are kept in 8 bits.
+#[derive(Clone, Copy, Debug, PartialEq)]
+struct Storage {
+    lo: f64,
+    scale: f64,
+}
+
+impl Storage {
+    /// As they are when in [0, 1]; else range-compressed to [lo, hi].
+    fn for_range(lo: f64, hi: f64) -> Storage {
+        if lo >= 0.0 && hi <= 1.0 {
+            Storage { lo: 0.0, scale: 1.0 }
+        } else {
+            Storage { lo, scale: (hi - lo).max(f64::MIN_POSITIVE) }
+        }
+    }
+    fn encode(self, y: f64) -> f64 {
+        ((y - self.lo) / self.scale).clamp(0.0, 1.0)
+    }
+    fn decode_value(self, t: f64) -> f64 {
+        self.lo + self.scale * t
+    }
+    /// `lo + scale·T` as IR (nothing when stored as is).
+    fn decode(self, r: &mut Rewriter, t: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
+        if self.lo == 0.0 && self.scale == 1.0 {
+            return Some(t);
+        }
+        let scale = r.node(Expr::Constant(Constant::scalar(self.scale)), span)?;
+        let lo = r.node(Expr::Constant(Constant::scalar(self.lo)), span)?;
+        let scaled = r.node(Expr::Binary { op: BinaryOp::Mul, lhs: scale, rhs: t }, span)?;
+        r.node(Expr::Binary { op: BinaryOp::Add, lhs: scaled, rhs: lo }, span)
+    }
+}
+
+/// The largest |f(x) − table(x)| over [`PROBES`] arguments: the table
+/// rounded to 8 bits and read back with linear filtering between texel
+/// centres, as the target's texture unit reads it.
+fn table_error(samples: &[f64], store: Storage, lo: f64, hi: f64, f: &dyn Fn(f64) -> f64) -> f64 {
+    let q: Vec<f64> = samples.iter().map(|y| (store.encode(*y) * 255.0).round() / 255.0).collect();
+    let mut worst: f64 = 0.0;
+    for k in 0..PROBES {
+        let s = k as f64 / (PROBES - 1) as f64;
+        let p = s * (TEXELS - 1) as f64;
+        let i = (p.floor() as usize).min(TEXELS - 2);
+        let w = p - i as f64;
+        let t = q[i] * (1.0 - w) + q[i + 1] * w;
+        worst = worst.max((f(lo + (hi - lo) * s) - store.decode_value(t)).abs());
+    }
+    worst
+}
+
+/// A new 1-D table texture, baked by the compiler.
+fn add_texture(r: &mut Rewriter) -> u32 {
+    let k = r.m.textures.iter().filter(|t| t.name.starts_with("table_lowered")).count();
+    r.m.textures.push(Texture {
+        name: format!("table_lowered{k}"),
+        kind: TextureKind::Tex1d,
+        format: TextureFormat::R8,
+        rendered: true,
+        baked: true,
+        declaration: None,
+        span: Span::DETACHED,
+    });
+    (r.m.textures.len() - 1) as u32
+}
+
+/// The texel statement's value: `encode(f(lo + (hi − lo)·s))`, with `s`
+/// the texel centre's place in [0, 1] (`(t·N − ½)/(N − 1)`).
+fn texel_function(
+    r: &mut Rewriter,
+    chain: &[Expr],
+    b: Handle<Expr>,
+    lo: f64,
+    hi: f64,
+    store: Storage,
+    span: Span,
+) -> Option<Handle<Expr>> {
+    let n = TEXELS as f64;
+    let texel = r.node(Expr::TexelCoord, span)?;
+    let t = r.node(Expr::Swizzle { value: texel, pattern: [0, 0, 0, 0], len: 1, ty: Ty::Scalar }, span)?;
+    let x = affine(r, t, (hi - lo) * n / (n - 1.0), lo - (hi - lo) * 0.5 / (n - 1.0), span)?;
+    let mut below = (b, x);
+    for expr in chain.iter().rev() {
+        let rebuilt = r.node(expr.map_operands(|o| if o == below.0 { below.1 } else { o }), span)?;
+        below = (r.m.exprs.find(expr)?, rebuilt);
+    }
+    let fx = below.1;
+    let encoded = affine(r, fx, 1.0 / store.scale, -store.lo / store.scale, span)?;
+    r.node(Expr::Math { fun: crate::ir::MathFunction::Saturate, args: vec![encoded] }, span)
+}
+
+/// The table coordinate per vertex, `(a − lo)/(hi − lo)·(N − 1)/N + ½/N`,
+/// interpolated (exact: interpolation commutes with an affine map).
+fn coordinates(r: &mut Rewriter, a_v: Handle<Expr>, lo: f64, hi: f64, span: Span) -> Option<Handle<Expr>> {
+    let n = TEXELS as f64;
+    let scale = (n - 1.0) / (n * (hi - lo));
+    let c = affine(r, a_v, scale, 0.5 / n - lo * scale, span)?;
+    r.node(Expr::Interpolate { value: c, to: Frequency::Fragment }, span)
+}
+
+/// `x·m + b` (scalar).
+fn affine(r: &mut Rewriter, x: Handle<Expr>, m: f64, b: f64, span: Span) -> Option<Handle<Expr>> {
+    let mc = r.node(Expr::Constant(Constant::scalar(m)), span)?;
+    let bc = r.node(Expr::Constant(Constant::scalar(b)), span)?;
+    let scaled = r.node(Expr::Binary { op: BinaryOp::Mul, lhs: x, rhs: mc }, span)?;
+    r.node(Expr::Binary { op: BinaryOp::Add, lhs: scaled, rhs: bc }, span)
+}

@@ -1,0 +1,306 @@
+//! The lowering (issue 18, `shadec::lowering`): each rule's output (the IR
+//! it makes), its stated error bound measured against the program's
+//! meaning on a scene, its refusal; a property over generated programs;
+//! and every example planned on both combiner targets with every pass
+//! realized, or refused with a located reason.
+
+mod common;
+
+use std::path::Path;
+
+use proptest::prelude::*;
+use proptest::test_runner::{Config, TestRunner};
+use shadec::diag::Diagnostic;
+use shadec::driver::PlanOptions;
+use shadec::ir::{Expr, MathFunction, Module};
+use shadec::lowering::{self, Choice, LowerOptions, Normalization};
+use shadec::numerics::Precision;
+use shadec::parser::ast::TextureKind;
+use shadec::pipeline::Planned;
+use shadec::profile::Profile;
+use shadec::renderer::plan::{compare, PlanRenderer};
+use shadec::scene::Scene;
+
+const W: u32 = 48;
+const H: u32 = 36;
+/// Both renders are rounded to RGBA8 once each.
+const FRAMEBUFFER: f64 = 1.0 / 255.0;
+
+fn module(source: &str) -> Module {
+    let (program, diags) = shadec::parser::check(source);
+    assert!(diags.iter().all(|d| !d.is_error()), "{diags:?}");
+    let (module, diags) = shadec::ir::lower(&program);
+    assert!(diags.iter().all(|d| !d.is_error()), "{diags:?}");
+    module
+}
+
+/// Plans `source` through the driver with the lowering `options`.
+fn compile_with(source: &str, profile: &Profile, lowering: LowerOptions) -> Result<Planned, Vec<Diagnostic>> {
+    let options = PlanOptions { lowering, ..Default::default() };
+    shadec::driver::compile(source, profile, &options).map(|c| c.planned)
+}
+
+fn compile(source: &str, profile: &Profile) -> Result<Planned, Vec<Diagnostic>> {
+    compile_with(source, profile, LowerOptions::default())
+}
+
+fn example(name: &str) -> String {
+    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("examples").join(name)).unwrap()
+}
+
+fn scene() -> Scene {
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron")).unwrap();
+    Scene::parse(&text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap()
+}
+
+/// Whether a statement of `m` still computes `fun` per fragment.
+fn computes_per_fragment(m: &Module, fun: MathFunction) -> bool {
+    let roots: Vec<_> = m.statements.iter().filter(|st| !m.is_baked(st)).map(|st| st.value).collect();
+    m.reachable(&roots)
+        .into_iter()
+        .any(|h| m.info(h).freq.is_sample() && matches!(&m.exprs[h], Expr::Math { fun: f, .. } if *f == fun))
+}
+
+/// The largest difference between the f32 render of `planned` and the f32
+/// render of the program's meaning (the reference shares nothing with the
+/// lowering: it evaluates `normalize`, `sqrt`, … themselves).
+fn error_against_meaning(source: &str, planned: &Planned, scene: &Scene) -> f64 {
+    let (program, _) = shadec::parser::check(source);
+    let (written, _) = shadec::ir::lower(&program);
+    let assets = scene.build().unwrap();
+    let meaning = shadec::meaning::plan(&written, scene.lights.len()).unwrap();
+    let reference = PlanRenderer::new(&meaning, &program, scene, &assets)
+        .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
+        .unwrap();
+    let frame = PlanRenderer::new(planned, &program, scene, &assets)
+        .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
+        .unwrap();
+    compare(&reference.image, &frame.image).max_abs as f64
+}
+
+const NORMALIZED: &str = "vector N : normal;\nC δπx ← rgb(compress(normalize(δ N s x)));\n";
+
+#[test]
+fn normalize_per_fragment_becomes_a_normalization_cube_map_lookup() {
+    let m = module(NORMALIZED);
+    let profile = Profile::builtin("geforce256").unwrap();
+    let lowered =
+        lowering::lower(&m, &profile, Choice { normalization: Normalization::CubeMap }, &|_| "-".into());
+    assert!(computes_per_fragment(&m, MathFunction::Normalize));
+    assert!(!computes_per_fragment(&lowered.module, MathFunction::Normalize));
+    let cube = lowered.module.textures.iter().find(|t| t.kind == TextureKind::Cube).expect("a cube map");
+    assert!(cube.declaration.as_deref().is_some_and(|d| d.contains("normalize_cube(")), "{cube:?}");
+    let st = lowered.module.statements.last().unwrap();
+    let looked_up = lowered.module.reachable(&[st.value]).into_iter().any(|h| {
+        matches!(lowered.module.exprs[h], Expr::Lookup { texture, .. } if lowered.module.textures[texture as usize].kind == TextureKind::Cube)
+    });
+    assert!(looked_up, "the statement samples the cube map");
+    assert_eq!(lowered.approximations.len(), 1);
+    assert_eq!(lowered.approximations[0].rule, "normalization_cube_map");
+    assert_eq!(
+        lowered.approximations[0].error_bound,
+        Some(lowering::cube_map::error_bound(lowering::cube_map::SIZE))
+    );
+}
+
+#[test]
+fn a_normalization_cube_map_stays_within_its_bound_of_the_meaning() {
+    let profile = Profile::builtin("geforce256").unwrap();
+    let planned = compile(NORMALIZED, &profile).expect("lowered and planned");
+    let a = &planned.plan.approximations;
+    assert_eq!(a.len(), 1, "{a:?}");
+    // compress halves the vector's error.
+    let bound = a[0].error_bound.unwrap() / 2.0 + FRAMEBUFFER;
+    let e = error_against_meaning(NORMALIZED, &planned, &scene());
+    assert!(e <= bound, "measured {e} > stated {bound}");
+    assert!(e > 0.0, "a table is not exact");
+}
+
+#[test]
+fn taylor_renormalization_is_formula_6_on_the_vertex_unit_vector() {
+    let m = module(NORMALIZED);
+    let profile = Profile::builtin("geforce256").unwrap();
+    let lowered =
+        lowering::lower(&m, &profile, Choice { normalization: Normalization::Taylor }, &|_| "-".into());
+    assert!(!computes_per_fragment(&lowered.module, MathFunction::Normalize));
+    assert!(lowered.module.textures.iter().all(|t| t.kind != TextureKind::Cube));
+    // w + ½w(1 − w·w): a dot product of the interpolant with itself.
+    let st = lowered.module.statements.last().unwrap();
+    let dots = lowered.module.reachable(&[st.value]).into_iter().any(|h| {
+        matches!(lowered.module.exprs[h], Expr::Binary { op: shadec::ir::BinaryOp::Dot, lhs, rhs } if lhs == rhs)
+    });
+    assert!(dots);
+    assert_eq!(lowered.approximations[0].rule, "taylor_renormalization");
+    assert_eq!(lowered.approximations[0].error_bound, None, "only a scene knows the vertex angles");
+}
+
+fn tabulated(f: &str) -> String {
+    format!(
+        "vector N : normal;\nvector L : light(0);\nshader c : s → scalar = max(0, N·L);\n\
+         const k : rgb = (1, 1, 1);\nC δπx ← k * ({});\n",
+        f.replace('@', "(δ c s x)")
+    )
+}
+
+#[test]
+fn a_function_of_an_interpolated_scalar_becomes_a_table_baked_by_the_compiler() {
+    let source = tabulated("sqrt(@)");
+    let m = module(&source);
+    let profile = Profile::builtin("geforce256").unwrap();
+    let lowered = lowering::lower(&m, &profile, lowering::choices(&profile)[0], &|_| "-".into());
+    assert!(!computes_per_fragment(&lowered.module, MathFunction::Sqrt));
+    assert_eq!(lowered.module.statements.len(), m.statements.len() + 1);
+    let table = &lowered.module.statements[lowered.module.statements.len() - 2];
+    assert!(lowered.module.is_baked(table), "the table's texel statement comes first and is the compiler's");
+    let a = &lowered.approximations;
+    assert_eq!(a.iter().map(|a| a.rule.as_str()).collect::<Vec<_>>(), ["baked_table"]);
+    // √ is steep at 0: the bound the compiler measured says so.
+    let bound = a[0].error_bound.unwrap();
+    assert!(bound > 0.5 / 255.0 && bound < 0.05, "{bound}");
+}
+
+#[test]
+fn what_no_rule_lowers_keeps_its_located_refusal() {
+    let profile = Profile::builtin("geforce256").unwrap();
+    let embm = example("embm.shd");
+    let err = compile(&embm, &profile).unwrap_err();
+    assert!(err[0].message.contains("dependent lookup"), "{}", err[0].message);
+    assert!(err[0].primary.span.end > 0);
+    // --no-approx refuses as before issue 18.
+    let source = example("fragment_lighting.shd");
+    let off = LowerOptions { approximate: false, max_error: None };
+    let err = compile_with(&source, &profile, off).unwrap_err();
+    assert!(err[0].message.contains("`normalize` per fragment"), "{}", err[0].message);
+    // A bound tighter than the cube map's refuses it too.
+    let tight = LowerOptions { approximate: true, max_error: Some(1e-4) };
+    assert!(compile_with(&source, &profile, tight).is_err());
+    let on = compile(&source, &profile).unwrap();
+    assert!(on.plan.approximations.iter().any(|a| a.rule == "normalization_cube_map"));
+}
+
+#[test]
+fn a_program_that_plans_as_written_is_not_lowered() {
+    for (name, target) in
+        [("phong_cubemap_normalized.shd", "geforce3"), ("kilgard_bump_mapping.shd", "geforce256")]
+    {
+        let planned = compile(&example(name), &Profile::builtin(target).unwrap()).unwrap();
+        assert!(planned.plan.approximations.is_empty(), "{name}");
+    }
+}
+
+/// Generated programs `k · f(δ c)` for functions the combiners lack:
+/// each lowered plan's render stays within its stated bound of the
+/// meaning's.
+#[test]
+fn lowered_tables_stay_within_their_stated_bounds_of_the_meaning() {
+    let functions = prop_oneof![
+        Just("sqrt(@)".to_string()),
+        (1.0f64..4.0).prop_map(|a| format!("exp(-{a:.2} * @)")),
+        (0.3f64..0.95).prop_map(|p| format!("@ ^ {p:.2}")),
+        (1.05f64..1.95).prop_map(|p| format!("@ ^ {p:.2}")),
+        (2.0f64..6.0).prop_map(|a| format!("0.2 / (0.2 + {a:.2} * @)")),
+        Just("fract(3 * @)".to_string()),
+    ];
+    let scene = scene();
+    let mut runner = TestRunner::new(Config { cases: 12, failure_persistence: None, ..Config::default() });
+    runner
+        .run(&(functions, prop::bool::ANY), |(f, gf3)| {
+            let source = tabulated(&f);
+            let profile = Profile::builtin(if gf3 { "geforce3" } else { "geforce256" }).unwrap();
+            let planned = compile(&source, &profile)
+                .map_err(|e| TestCaseError::fail(format!("{f}: {}", e[0].message)))?;
+            let a = &planned.plan.approximations;
+            prop_assert!(a.iter().any(|a| a.rule == "baked_table"), "{f}: {a:?}");
+            let bound: f64 = a.iter().map(|a| a.error_bound.unwrap()).sum::<f64>() + FRAMEBUFFER;
+            let e = error_against_meaning(&source, &planned, &scene);
+            prop_assert!(e <= bound, "{f}: measured {e} > stated {bound}");
+            Ok(())
+        })
+        .unwrap();
+}
+
+/// Issue 18's done-when: every example plans on both combiner targets with
+/// every pass realized by the combiner generator, or is refused with a
+/// located reason and a help line.
+#[test]
+fn every_example_plans_realized_or_is_refused_where_it_is() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
+    let mut names: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "shd"))
+        .collect();
+    names.sort();
+    let mut planned_count = 0;
+    for path in &names {
+        let source = std::fs::read_to_string(path).unwrap();
+        for target in ["geforce256", "geforce3"] {
+            let profile = Profile::builtin(target).unwrap();
+            match compile(&source, &profile) {
+                Ok(p) => {
+                    planned_count += 1;
+                    for (i, pass) in p.plan.passes.iter().enumerate() {
+                        assert!(
+                            pass.combiners.is_none(),
+                            "{path:?} on {target}: pass {i}: {:?}",
+                            pass.combiners
+                        );
+                    }
+                }
+                Err(errors) => {
+                    for d in errors.iter().filter(|d| d.is_error()) {
+                        let s = d.primary.span;
+                        assert!(
+                            s.end as usize <= source.len() && s.end > 0,
+                            "{path:?}: unlocated {}",
+                            d.message
+                        );
+                        assert!(d.help.as_deref().is_some_and(|h| !h.is_empty()), "{path:?}: no help");
+                    }
+                }
+            }
+        }
+    }
+    // 27 of 56 planned before the lowering; fragment_lighting now plans on both.
+    assert!(planned_count >= 29, "{planned_count}");
+}
+
+/// `compile --emit plan` lists each approximation with its rule, place,
+/// cost and bound; `--no-approx` and a `--max-error` below the cube map's
+/// bound refuse with the planner's located reason.
+#[test]
+fn compile_lists_approximations_and_honours_the_flags() {
+    let args = [
+        "compile",
+        "examples/fragment_lighting.shd",
+        "--target",
+        "geforce3",
+        "--emit",
+        "plan",
+        "--format",
+        "json",
+    ];
+    let r = common::shadec(&args);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let plan = shadec::pipeline::PassPlan::from_json(&r.stdout).unwrap();
+    let cube = plan.approximations.iter().find(|a| a.rule == "normalization_cube_map").expect("a cube map");
+    assert_eq!(cube.at, "16:14", "normalize(N) in the shader");
+    assert_eq!(cube.cost.texture_units, 1);
+    assert!(cube.error_bound.is_some_and(|b| b > 0.0 && b < 0.005));
+    for extra in [&["--no-approx"][..], &["--max-error", "0.001"][..]] {
+        let r = common::shadec(&[&args[..6], extra].concat());
+        assert_eq!(r.code, 1, "{extra:?}: {}", r.stdout);
+        assert!(r.stderr.contains("fragment_lighting.shd:21:1"), "{extra:?}: {}", r.stderr);
+    }
+    // fragment_lighting's half vector is per vertex, which states no bound:
+    // any --max-error refuses it; a cube map alone is within 0.01.
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("n.shd");
+    std::fs::write(&file, NORMALIZED).unwrap();
+    let f = file.to_str().unwrap();
+    let r =
+        common::shadec(&["compile", f, "--target", "geforce256", "--emit", "plan", "--max-error", "0.01"]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.contains("normalization_cube_map"), "{}", r.stdout);
+}
