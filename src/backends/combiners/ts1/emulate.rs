@@ -1,0 +1,383 @@
+//! The texture-shader stages per pixel, in integers, so that the CPU
+//! (`shadec emulate`) and the WGSL `translate` writes (`wgsl::ts1`) compute
+//! the same texels bit for bit. NV_texture_shader Section 3.8.13 defines the
+//! operations on real numbers; this model fixes their precision:
+//!
+//! - **Coordinates** are integers in units of 1/65536 ([`COORD_ONE`]; 16
+//!   fractional bits). By default unit *i* at pixel (x, y) of a W×H image
+//!   has s = (x + ½)/W, t = (y + ½)/H, r = 0, q = 1, rounded to that unit.
+//!   A coordinate image (`--coordN`, RGBA8 = s, t, r, q) overrides it; a
+//!   byte b means b/255 where the stage reads a position (lookups,
+//!   `pass_through`, offsets) and (2b − 255)/255 where it reads a direction
+//!   (`cull_fragment`, dot products), so both ranges keep 8 bits.
+//! - **Lookups** are nearest (no filtering), clamp-to-edge, with texel
+//!   index ⌊c·n⌋ of the normalized coordinate c; `texture_1d/2d/rectangle`
+//!   divide s and t by q (q ≤ 0 reads index 0); the rectangle's coordinate
+//!   is c·n texels, so `texture_rectangle` reads what `texture_2d` reads.
+//!   `texture_1d` reads row 0 of its image.
+//! - **Signed DSDT texels** (the stage an `offset_*` reads): red = ds,
+//!   green = dt as two's-complement bytes k ∈ −128..=127, meaning
+//!   max(k, −127)/127 (the NV signed 8-bit normalized format, as
+//!   `textures::TexelFormat::Signed8`); blue = the unsigned magnitude of
+//!   `DSDT_MAG` for `_scale`.
+//! - **Offset matrix, scale and bias** are clamped to [−8, 8] and rounded
+//!   to units of 1/4096 ([`MATRIX_ONE`]); the offset is
+//!   ⌊(m₀·ds + m₂·dt)·16 / 127⌋ coordinate units, so a zero matrix gives the
+//!   plain lookup exactly. `_scale` multiplies RGB by
+//!   clamp(scale·mag + bias, 0, 1), rounded to nearest.
+//! - **Dot products** take the unsigned texel k (`texN`: k/255) or its
+//!   expansion (`expand(texN)`: (2k − 255)/255) against (s, t, r) and keep
+//!   ⌊Σ/255⌋ coordinate units; `dot_product_rectangle_2of2` reads texel
+//!   ⌊dot⌋ directly. Stages without an RGBA result read (0, 0, 0, 0).
+//!
+//! Not modelled (refused with the stage named): 3-D textures and cube maps
+//! (`texture_3d`, `texture_cube_map`, `dot_product_3d`, the cube-map and
+//! reflection families) — `emulate` takes only 2-D images; the depth that
+//! `dot_product_depth_replace` writes (its RGBA is 0, as the spec says).
+
+use rayon::prelude::*;
+use thiserror::Error;
+
+use super::program::{CullCondition, DotFamily, DotMapping, Operation, TextureShader, MAX_STAGES};
+use crate::backends::combiners::config::CombinerConfig;
+use crate::backends::combiners::emulator::{self, EmulateError, Inputs, Precision};
+
+/// One coordinate unit: 1/65536.
+pub const COORD_ONE: i32 = 65536;
+/// One unit of the offset matrix, scale and bias: 1/4096.
+pub const MATRIX_ONE: i32 = 4096;
+/// The largest texture side a stage may read (keeps every product in i32).
+pub const MAX_TEXTURE_SIDE: u32 = 4096;
+
+/// An RGBA8 texture image, row-major, row 0 at t = 0.
+#[derive(Clone, Copy, Debug)]
+pub struct Image<'a> {
+    pub width: u32,
+    pub height: u32,
+    pub rgba: &'a [u8],
+}
+
+/// What the texture-shader stages read: each unit's texture image (any
+/// size) and, optionally, its per-pixel coordinates (an RGBA8 image of the
+/// output's size).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct TextureInputs<'a> {
+    pub width: usize,
+    pub height: usize,
+    pub textures: [Option<Image<'a>>; 4],
+    pub coords: [Option<&'a [u8]>; 4],
+}
+
+#[derive(Debug, Error, PartialEq)]
+pub enum TsEmulateError {
+    #[error("texture shader stage {stage}: `{name}` is not emulated ({why})")]
+    Unsupported { stage: usize, name: String, why: &'static str },
+    #[error("{what} is {width}x{height}; texture images may be at most {MAX_TEXTURE_SIDE} texels a side")]
+    TooLarge { what: String, width: u32, height: u32 },
+    #[error("{what} has {got} bytes, but a {width}x{height} RGBA8 image has {expected}")]
+    SizeMismatch { what: String, got: usize, expected: usize, width: usize, height: usize },
+    #[error("the texture shader is inconsistent: {0}")]
+    Invalid(String),
+    #[error(transparent)]
+    Combiners(#[from] EmulateError),
+}
+
+/// The four texture registers of every pixel, and which pixels
+/// `cull_fragment` discarded.
+pub struct Shaded {
+    pub textures: [Vec<u8>; 4],
+    pub culled: Vec<bool>,
+}
+
+/// `⌊a / b⌋` for b > 0.
+#[inline]
+pub fn floor_div(a: i32, b: i32) -> i32 {
+    a.div_euclid(b)
+}
+
+/// A matrix entry, scale or bias in units of 1/4096.
+pub fn matrix_units(v: f32) -> i32 {
+    let v = if v.is_nan() { 0.0 } else { v.clamp(-8.0, 8.0) };
+    (v * MATRIX_ONE as f32).round() as i32
+}
+
+/// The operations the emulator refuses, with why.
+pub fn unsupported(op: &Operation) -> Option<&'static str> {
+    match op {
+        Operation::Texture3d | Operation::TextureCubeMap => {
+            Some("emulate reads 2-D images only: 3-D textures and cube maps have no input form")
+        }
+        Operation::DotProduct { family, .. }
+            if !matches!(family, DotFamily::Texture2d | DotFamily::Rectangle | DotFamily::DepthReplace) =>
+        {
+            Some("emulate reads 2-D images only: its 3-D or cube-map lookup has no input form")
+        }
+        _ => None,
+    }
+}
+
+/// Whether unit `unit`'s coordinates are read as directions (signed).
+pub fn signed_coordinates(op: &Operation) -> bool {
+    matches!(op, Operation::CullFragment(_) | Operation::DotProduct { .. })
+}
+
+/// Runs the texture-shader stages on every pixel.
+pub fn shade(program: &TextureShader, inputs: &TextureInputs) -> Result<Shaded, TsEmulateError> {
+    check(program, inputs)?;
+    let n = inputs.width * inputs.height;
+    let mut pixels = vec![([[0u8; 4]; 4], false); n];
+    let width = inputs.width.max(1);
+    pixels.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
+        for (x, px) in row.iter_mut().enumerate() {
+            *px = pixel(program, inputs, x, y);
+        }
+    });
+    let mut textures: [Vec<u8>; 4] = Default::default();
+    for (unit, t) in textures.iter_mut().enumerate() {
+        *t = pixels.iter().flat_map(|(texels, _)| texels[unit]).collect();
+    }
+    Ok(Shaded { textures, culled: pixels.iter().map(|p| p.1).collect() })
+}
+
+fn check(program: &TextureShader, inputs: &TextureInputs) -> Result<(), TsEmulateError> {
+    if let Some(e) = super::validate(program).first() {
+        return Err(TsEmulateError::Invalid(e.to_string()));
+    }
+    for (stage, op) in program.stages.iter().enumerate() {
+        if let Some(why) = unsupported(op) {
+            return Err(TsEmulateError::Unsupported { stage, name: op.name(), why });
+        }
+    }
+    let expected = inputs.width.saturating_mul(inputs.height).saturating_mul(4);
+    for unit in 0..MAX_STAGES {
+        if let Some(t) = inputs.textures[unit] {
+            if t.width > MAX_TEXTURE_SIDE || t.height > MAX_TEXTURE_SIDE || t.width == 0 || t.height == 0 {
+                return Err(TsEmulateError::TooLarge {
+                    what: format!("texture {unit}"),
+                    width: t.width,
+                    height: t.height,
+                });
+            }
+            let need = t.width as usize * t.height as usize * 4;
+            if t.rgba.len() != need {
+                return Err(TsEmulateError::SizeMismatch {
+                    what: format!("texture {unit}"),
+                    got: t.rgba.len(),
+                    expected: need,
+                    width: t.width as usize,
+                    height: t.height as usize,
+                });
+            }
+        }
+        if let Some(c) = inputs.coords[unit] {
+            if c.len() != expected {
+                return Err(TsEmulateError::SizeMismatch {
+                    what: format!("coordinates of unit {unit}"),
+                    got: c.len(),
+                    expected,
+                    width: inputs.width,
+                    height: inputs.height,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Unit `unit`'s (s, t, r, q) at pixel (x, y), in coordinate units.
+fn coordinates(inputs: &TextureInputs, unit: usize, x: usize, y: usize, signed: bool) -> [i32; 4] {
+    match inputs.coords[unit] {
+        Some(c) => {
+            let at = (y * inputs.width + x) * 4;
+            [0, 1, 2, 3].map(|k| coordinate_from_byte(c[at + k], signed))
+        }
+        None => [default_coordinate(x, inputs.width), default_coordinate(y, inputs.height), 0, COORD_ONE],
+    }
+}
+
+/// (i + ½)/n in coordinate units, rounded to nearest.
+pub fn default_coordinate(i: usize, n: usize) -> i32 {
+    let n = n.max(1) as i64;
+    ((2 * i as i64 + 1) * COORD_ONE as i64 + n).div_euclid(2 * n) as i32
+}
+
+/// A coordinate byte: b/255, or (2b − 255)/255 for a direction, in
+/// coordinate units rounded to nearest.
+pub fn coordinate_from_byte(b: u8, signed: bool) -> i32 {
+    let v = if signed { 2 * b as i32 - 255 } else { b as i32 };
+    floor_div(v * 2 * COORD_ONE + 255, 510)
+}
+
+/// A byte as a coordinate in [0, 1] (dependent lookups read texels so).
+fn unit_coordinate(k: u8) -> i32 {
+    coordinate_from_byte(k, false)
+}
+
+/// The texel index of normalized coordinate `c` (divided by `q`) in a side of `n`, clamped to the edge.
+pub fn texel_index(c: i32, q: i32, n: i32) -> i32 {
+    if q <= 0 {
+        return 0;
+    }
+    let c = c.clamp(-2 * COORD_ONE, 2 * COORD_ONE);
+    floor_div(c * n, q).clamp(0, n - 1)
+}
+
+fn fetch(image: Option<Image>, ix: i32, iy: i32) -> [u8; 4] {
+    let Some(im) = image else { return [0; 4] };
+    let x = ix.clamp(0, im.width as i32 - 1) as usize;
+    let y = iy.clamp(0, im.height as i32 - 1) as usize;
+    let at = (y * im.width as usize + x) * 4;
+    [im.rgba[at], im.rgba[at + 1], im.rgba[at + 2], im.rgba[at + 3]]
+}
+
+/// A lookup at normalized (s, t), both divided by q.
+fn lookup(image: Option<Image>, s: i32, t: i32, q: i32) -> [u8; 4] {
+    let Some(im) = image else { return [0; 4] };
+    fetch(image, texel_index(s, q, im.width as i32), texel_index(t, q, im.height as i32))
+}
+
+/// A signed DSDT component: max(k, −127) in units of 1/127.
+pub fn signed_component(k: u8) -> i32 {
+    (k as i8 as i32).max(-127)
+}
+
+/// The offset ⌊(a·ds + b·dt)·16/127⌋ in coordinate units (a, b in 1/4096).
+pub fn offset(a: i32, b: i32, ds: i32, dt: i32) -> i32 {
+    floor_div((a * ds + b * dt) * 16, 127)
+}
+
+/// One pixel: the four texture registers and whether it was culled.
+fn pixel(program: &TextureShader, inputs: &TextureInputs, x: usize, y: usize) -> ([[u8; 4]; 4], bool) {
+    let mut out = [[0u8; 4]; 4];
+    // Dot products of the current group, in coordinate units.
+    let mut dots = [0i32; 3];
+    let mut culled = false;
+    for unit in 0..MAX_STAGES {
+        let op = program.stage(unit);
+        let c = coordinates(inputs, unit, x, y, signed_coordinates(&op));
+        let image = inputs.textures[unit];
+        out[unit] = match op {
+            Operation::Nop => [0; 4],
+            Operation::Texture1d => lookup(image, c[0], 0, c[3]),
+            Operation::Texture2d | Operation::TextureRectangle => lookup(image, c[0], c[1], c[3]),
+            Operation::PassThrough => {
+                c.map(|v| floor_div(v * 255 + COORD_ONE / 2, COORD_ONE).clamp(0, 255) as u8)
+            }
+            Operation::CullFragment(conditions) => {
+                let keep = conditions.iter().zip(c).all(|(cond, v)| match cond {
+                    CullCondition::GequalToZero => v >= 0,
+                    CullCondition::LessThanZero => v < 0,
+                });
+                culled |= !keep;
+                [0; 4]
+            }
+            Operation::Offset { rectangle, previous, matrix, scale } => {
+                offset_stage(image, out[previous as usize], c, rectangle, matrix, scale)
+            }
+            Operation::Dependent { green_blue, previous } => {
+                let p = out[previous as usize];
+                let (s, t) = if green_blue { (p[1], p[2]) } else { (p[3], p[0]) };
+                lookup(image, unit_coordinate(s), unit_coordinate(t), COORD_ONE)
+            }
+            Operation::DotProduct { family, step, previous, mapping, .. } => {
+                dots[step as usize] = dot(c, out[previous as usize], mapping);
+                dot_result(image, family, step, &dots)
+            }
+            Operation::Texture3d | Operation::TextureCubeMap => [0; 4],
+        };
+    }
+    (out, culled)
+}
+
+fn offset_stage(
+    image: Option<Image>,
+    dsdt: [u8; 4],
+    c: [i32; 4],
+    rectangle: bool,
+    matrix: [f32; 4],
+    scale: Option<(f32, f32)>,
+) -> [u8; 4] {
+    let m = matrix.map(matrix_units);
+    let (ds, dt) = (signed_component(dsdt[0]), signed_component(dsdt[1]));
+    let (os, ot) = (offset(m[0], m[2], ds, dt), offset(m[1], m[3], ds, dt));
+    let mut texel = match (rectangle, image) {
+        (_, None) => [0; 4],
+        (false, Some(_)) => lookup(image, c[0] + os, c[1] + ot, COORD_ONE),
+        (true, Some(im)) => {
+            let index = |v: i32, off: i32, n: u32| {
+                floor_div(
+                    v.clamp(-2 * COORD_ONE, 2 * COORD_ONE) * n as i32 + off.clamp(-(1 << 24), 1 << 24),
+                    COORD_ONE,
+                )
+            };
+            fetch(image, index(c[0], os, im.width), index(c[1], ot, im.height))
+        }
+    };
+    if let Some((scale, bias)) = scale {
+        let factor = scale_factor(matrix_units(scale), matrix_units(bias), dsdt[2]);
+        for v in &mut texel[..3] {
+            *v = scaled(*v, factor) as u8;
+        }
+    }
+    texel
+}
+
+/// clamp(scale·mag + bias, 0, 1) in units of 1/(4096·255).
+pub fn scale_factor(scale: i32, bias: i32, mag: u8) -> i32 {
+    (scale * mag as i32 + bias * 255).clamp(0, MATRIX_ONE * 255)
+}
+
+/// v·factor rounded to nearest (ties up).
+pub fn scaled(v: u8, factor: i32) -> i32 {
+    let one = MATRIX_ONE * 255;
+    floor_div(v as i32 * factor + one / 2, one)
+}
+
+/// dot((s, t, r), mapped RGB) in coordinate units.
+fn dot(c: [i32; 4], texel: [u8; 4], mapping: DotMapping) -> i32 {
+    let m = |k: u8| match mapping {
+        DotMapping::UnsignedIdentity => k as i32,
+        DotMapping::ExpandNormal => 2 * k as i32 - 255,
+    };
+    floor_div(c[0] * m(texel[0]) + c[1] * m(texel[1]) + c[2] * m(texel[2]), 255)
+}
+
+fn dot_result(image: Option<Image>, family: DotFamily, step: u8, dots: &[i32; 3]) -> [u8; 4] {
+    if !family.has_output(step) {
+        return [0; 4];
+    }
+    match family {
+        DotFamily::Texture2d => lookup(image, dots[0], dots[1], COORD_ONE),
+        DotFamily::Rectangle => {
+            let index = |d: i32| floor_div(d, COORD_ONE);
+            fetch(image, index(dots[0]), index(dots[1]))
+        }
+        _ => [0; 4],
+    }
+}
+
+/// A `!!TS1.0` + `!!RC1.0` setup on every pixel: the texture-shader stages
+/// compute texture0..3 (`inputs.textures` is ignored), the combiners run
+/// on them, and culled pixels are (0, 0, 0, 0).
+pub fn emulate(
+    config: &CombinerConfig,
+    program: &TextureShader,
+    inputs: &Inputs,
+    textures: &TextureInputs,
+    precision: Precision,
+) -> Result<Vec<u8>, TsEmulateError> {
+    let shaded = shade(program, textures)?;
+    let registers = Inputs {
+        width: textures.width,
+        height: textures.height,
+        textures: [0, 1, 2, 3].map(|k| Some(shaded.textures[k].as_slice())),
+        ..*inputs
+    };
+    let mut out = emulator::emulate(config, &registers, precision)?;
+    for (px, culled) in out.chunks_exact_mut(4).zip(&shaded.culled) {
+        if *culled {
+            px.fill(0);
+        }
+    }
+    Ok(out)
+}
