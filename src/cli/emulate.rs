@@ -162,7 +162,11 @@ fn run_inner(args: &EmulateArgs) -> Result<(), Failure> {
         img.as_ref().map(|(_, i)| i.as_raw().as_slice())
     }
     fn image(img: &Loaded) -> Option<ts1::emulate::Image<'_>> {
-        img.as_ref().map(|(_, i)| ts1::emulate::Image { width: i.width(), height: i.height(), rgba: i.as_raw() })
+        img.as_ref().map(|(_, i)| ts1::emulate::Image {
+            width: i.width(),
+            height: i.height(),
+            rgba: i.as_raw(),
+        })
     }
     let inputs = Inputs {
         width: width as usize,
@@ -184,8 +188,18 @@ fn run_inner(args: &EmulateArgs) -> Result<(), Failure> {
             let texture_inputs = ts1::emulate::TextureInputs {
                 width: width as usize,
                 height: height as usize,
-                textures: [image(&textures[0]), image(&textures[1]), image(&textures[2]), image(&textures[3])],
-                coords: [raw(&coord_images[0]), raw(&coord_images[1]), raw(&coord_images[2]), raw(&coord_images[3])],
+                textures: [
+                    image(&textures[0]),
+                    image(&textures[1]),
+                    image(&textures[2]),
+                    image(&textures[3]),
+                ],
+                coords: [
+                    raw(&coord_images[0]),
+                    raw(&coord_images[1]),
+                    raw(&coord_images[2]),
+                    raw(&coord_images[3]),
+                ],
             };
             ts1::emulate::emulate(&config, program, &inputs, &texture_inputs, precision)
                 .map_err(|e| Failure::Config(format!("error: {e}")))?

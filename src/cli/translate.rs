@@ -7,7 +7,7 @@ use std::process::ExitCode;
 
 use shadec::backends::combiners::config::CombinerLimits;
 
-use super::emulate::{load_config, Failure, ProfileArg};
+use super::emulate::{load_config, texture_shader, Failure, ProfileArg};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum TranslateEmit {
@@ -25,6 +25,10 @@ pub struct TranslateArgs {
     /// The target whose limits the setup must fit.
     #[arg(long, value_enum, default_value = "geforce3")]
     pub profile: ProfileArg,
+    /// A `!!TS1.0` texture-shader program in front of the combiners (instead
+    /// of one at the top of CONFIG).
+    #[arg(long, value_name = "TS_FILE")]
+    pub texture_shader: Option<PathBuf>,
     /// Write here (atomically) instead of standard output.
     #[arg(short, long, value_name = "OUT")]
     pub output: Option<PathBuf>,
@@ -35,7 +39,11 @@ pub fn run(args: &TranslateArgs) -> ExitCode {
         ProfileArg::Geforce256 => CombinerLimits::GEFORCE256,
         ProfileArg::Geforce3 => CombinerLimits::GEFORCE3,
     };
-    let config = match load_config(&args.config, &limits) {
+    let loaded = load_config(&args.config, &limits).and_then(|mut c| {
+        texture_shader(args.texture_shader.as_deref(), &mut c, &args.config)?;
+        Ok(c)
+    });
+    let config = match loaded {
         Ok(c) => c,
         Err(Failure::Config(message)) => {
             eprint!("{message}");
