@@ -4,6 +4,7 @@
 #![allow(dead_code)]
 
 use proptest::prelude::*;
+use shadec::backends::combiners::ts1::{Operation, TextureShader};
 use shadec::backends::combiners::{
     Bias, CombinerConfig, ComponentUsage, FinalCombiner, FinalInput, FinalSource, GeneralInput,
     GeneralPortion, GeneralStage, InputMapping, PortionKind, Register, Scale,
@@ -171,10 +172,19 @@ pub fn final_combiner() -> impl Strategy<Value = FinalCombiner> {
 
 /// A valid config (geforce3 limits) by construction.
 pub fn config(max_stages: usize) -> impl Strategy<Value = CombinerConfig> {
-    let ts = prop::option::of(prop_oneof![
-        Just("\n".to_string()),
-        "[ -~\n]{0,40}".prop_filter("no header", |s| !s.contains("!!RC1.0"))
-    ]);
+    // Texture shaders made of stages that read no other stage (always consistent).
+    let ts = prop::option::of(
+        prop::collection::vec(
+            prop_oneof![
+                Just(Operation::Texture2d),
+                Just(Operation::Nop),
+                Just(Operation::PassThrough),
+                Just(Operation::TextureCubeMap),
+            ],
+            0..=4,
+        )
+        .prop_map(|stages| TextureShader { stages }),
+    );
     (
         prop::option::of(color()),
         prop::option::of(color()),
