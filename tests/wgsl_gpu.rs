@@ -189,3 +189,103 @@ fn compiled_fragment_lighting_matches_its_formula() {
         }
     }
 }
+
+/// `translate` of a `!!TS1.0` + `!!RC1.0` pair against `shadec emulate`'s
+/// texture-shader model, bit for bit: textures of other sizes than the
+/// target, some units with coordinate images and some with the default
+/// coordinates (issue 20).
+fn translated_texture_shader_matches_emulator(text: &str, coords_given: [bool; 4]) {
+    use shadec::backends::combiners::ts1::emulate::{self as ts_emulate, Image, TextureInputs};
+    let Some(gpu) = gpu() else { return };
+    let config = rc1::parse_and_validate(text, &CombinerLimits::GEFORCE3).unwrap();
+    let program = config.texture_shader.clone().unwrap();
+    let wgsl = shadec::backends::wgsl::rc1::translate(&config, "pair").unwrap();
+    let (w, h) = (40u32, 24u32);
+    let sizes = [(17u32, 9u32), (32, 32), (5, 13), (64, 3)];
+    let textures: Vec<Vec<u8>> =
+        sizes.iter().enumerate().map(|(i, &(tw, th))| noise(tw, th, 31 + i as u64)).collect();
+    let coords: Vec<Vec<u8>> = (0..4).map(|i| noise(w, h, 41 + i)).collect();
+    let colours: Vec<Vec<u8>> = (0..2).map(|i| noise(w, h, 51 + i)).collect();
+    let (fog, c0, c1) = ([0.25, 0.5, 0.75, 0.3], [0.2, 0.4, 0.6, 0.8], [0.9, 0.1, 0.5, 0.33]);
+    let texture_inputs = TextureInputs {
+        width: w as usize,
+        height: h as usize,
+        textures: [0, 1, 2, 3]
+            .map(|k| Some(Image { width: sizes[k].0, height: sizes[k].1, rgba: &textures[k] })),
+        coords: [0, 1, 2, 3].map(|k| coords_given[k].then_some(coords[k].as_slice())),
+    };
+    let inputs = Inputs {
+        width: w as usize,
+        height: h as usize,
+        primary: Some(&colours[0]),
+        secondary: Some(&colours[1]),
+        fog,
+        constant0: c0,
+        constant1: c1,
+        ..Inputs::default()
+    };
+    let expected =
+        ts_emulate::emulate(&config, &program, &inputs, &texture_inputs, Precision::Fixed9).unwrap();
+    let distinct: std::collections::HashSet<&[u8]> = expected.chunks(4).collect();
+    assert!(
+        distinct.len() > 50,
+        "{text}: the image varies ({} colours), so agreement means something",
+        distinct.len()
+    );
+    let mut uniforms = Vec::new();
+    for c in [c0, c1, fog] {
+        for v in c {
+            uniforms.extend_from_slice(&f32::to_le_bytes(v));
+        }
+    }
+    let mask = coords_given.iter().enumerate().filter(|(_, g)| **g).map(|(k, _)| 1i32 << k).sum::<i32>();
+    for v in [w as i32, h as i32, mask, 0] {
+        uniforms.extend_from_slice(&i32::to_le_bytes(v));
+    }
+    let d2 = |width: u32, height: u32, rgba: Vec<u8>| RunTexture {
+        data: TextureData::D2 { width, height, rgba },
+        sampler: SamplerSettings::NEAREST_CLAMP,
+        texels: TexelUpload::Rgba8,
+    };
+    let mut bound: Vec<RunTexture> =
+        (0..4).map(|k| d2(sizes[k].0, sizes[k].1, textures[k].clone())).collect();
+    bound.extend(colours.iter().map(|c| d2(w, h, c.clone())));
+    for k in 0..4 {
+        bound.push(if coords_given[k] { d2(w, h, coords[k].clone()) } else { d2(1, 1, vec![0; 4]) });
+    }
+    let floats = vec![-1.0, -1.0, 0.0, 1.0, 1.0, -1.0, 0.0, 1.0, 1.0, 1.0, 0.0, 1.0, -1.0, 1.0, 0.0, 1.0];
+    let pass = RunPass {
+        label: "texture shader".into(),
+        shader: RunShader {
+            source: ShaderSource::Wgsl(wgsl),
+            vertex_entry: "vs_main".into(),
+            fragment_entry: "fs_main".into(),
+        },
+        vertices: VertexData { floats, components: vec![4] },
+        indices: vec![0, 1, 2, 0, 2, 3],
+        textures: bound,
+        uniforms: Some(uniforms),
+        state: FULL,
+        target: PassTarget::Main,
+        loaded: vec![],
+        outputs: 1,
+    };
+    let got = run_passes(&gpu, &Target::new(w, h), &[pass]).unwrap().into_raw();
+    let diff = got.iter().zip(&expected).filter(|(a, b)| a != b).count();
+    assert_eq!(diff, 0, "{text}: {diff} channels differ from the emulator");
+}
+
+#[test]
+fn translated_texture_shaders_are_bit_exact() {
+    let rc = "!!RC1.0\n{ rgb { spare0 = tex1 * col0; spare1 = tex3 * col1; } }\nout.rgb = lerp(tex0, tex2, spare0) + spare1;\nout.a = tex2.a;\n";
+    let programs = [
+        ("texture_1d();\noffset_2d(tex0, 0.5, -0.25, 0.125, 0.75);\noffset_2d_scale(tex1, -1.5, 0.3, 0.2, 1, 0.8, 0.1);\noffset_rectangle_scale(tex0, 3, 1, -2, 4, 1.5, -0.2);\n", [false, true, false, true]),
+        ("texture_2d();\ndependent_ar(tex0);\ndependent_gb(tex0);\noffset_rectangle(tex1, 7, 0, 0, -5);\n", [true, false, true, false]),
+        ("texture_rectangle();\ndot_product_2d_1of2(expand(tex0));\ndot_product_2d_2of2(expand(tex0));\npass_through();\n", [false, true, true, true]),
+        ("pass_through();\ndot_product_rectangle_1of2(tex0);\ndot_product_rectangle_2of2(tex0);\ncull_fragment(GEQUAL_TO_ZERO, LESS_THAN_ZERO, GEQUAL_TO_ZERO, GEQUAL_TO_ZERO);\n", [true, true, false, true]),
+        ("texture_2d();\ndot_product_depth_replace_1of2(expand(tex0));\ndot_product_depth_replace_2of2(tex0);\ntexture_2d();\n", [false, false, false, false]),
+    ];
+    for (ts, coords) in programs {
+        translated_texture_shader_matches_emulator(&format!("!!TS1.0\n{ts}{rc}"), coords);
+    }
+}
