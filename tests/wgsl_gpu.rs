@@ -41,10 +41,14 @@ const FULL: RenderState = RenderState {
 };
 
 fn translated_matches_emulator(file: &str) {
-    let Some(gpu) = gpu() else { return };
     let path = format!("{}/tests/data/combiners/{file}", env!("CARGO_MANIFEST_DIR"));
     let text = std::fs::read_to_string(&path).unwrap();
-    let config = rc1::parse_and_validate(&text, &CombinerLimits::GEFORCE3).unwrap();
+    translated_text_matches_emulator(file, &text, &CombinerLimits::GEFORCE3);
+}
+
+fn translated_text_matches_emulator(file: &str, text: &str, limits: &CombinerLimits) {
+    let Some(gpu) = gpu() else { return };
+    let config = rc1::parse_and_validate(text, limits).unwrap();
     let wgsl = shadec::backends::wgsl::rc1::translate(&config, file).unwrap();
     let (w, h) = (64u32, 48u32);
     let images: Vec<Vec<u8>> = (0..6).map(|i| noise(w, h, 17 + i)).collect();
@@ -105,6 +109,13 @@ fn translated_appendix_g_is_bit_exact() {
 #[test]
 fn translated_appendix_h_is_bit_exact() {
     translated_matches_emulator("appendix_h.rc");
+}
+
+/// NV2A's alpha dot products (`--permissive`, issue 20) translate bit-exactly too.
+#[test]
+fn translated_permissive_alpha_dot_is_bit_exact() {
+    let text = "!!RC1.0\n{ rgb { spare0 = expand(tex0) . expand(tex1); } alpha { spare1.a = tex2.b . expand(tex3.a); discard.a = tex0.a . col0.a; } }\nout.rgb = spare0;\nout.a = spare1.a;\n";
+    translated_text_matches_emulator("alpha_dot", text, &CombinerLimits::GEFORCE3.permissive());
 }
 
 fn normalize(v: [f64; 3]) -> [f64; 3] {

@@ -78,6 +78,11 @@ pub struct EmulateArgs {
     pub coord2: Option<PathBuf>,
     #[arg(long)]
     pub coord3: Option<PathBuf>,
+    /// Accept what NV2A (the Xbox GPU) runs beyond NV_register_combiners:
+    /// dot products in the alpha portion, computed as the product of the two
+    /// alpha inputs (docs/combiners.md). Off by default.
+    #[arg(long)]
+    pub permissive: bool,
     /// The output image (RGBA8 PNG): the final combiner's RGBA.
     #[arg(long)]
     pub out: PathBuf,
@@ -127,6 +132,7 @@ fn run_inner(args: &EmulateArgs) -> Result<(), Failure> {
         ProfileArg::Geforce256 => CombinerLimits::GEFORCE256,
         ProfileArg::Geforce3 => CombinerLimits::GEFORCE3,
     };
+    let limits = if args.permissive { limits.permissive() } else { limits };
     let mut config = load_config(&args.config, &limits)?;
     let program = texture_shader(args.texture_shader.as_deref(), &mut config, &args.config)?;
     let coords = [&args.coord0, &args.coord1, &args.coord2, &args.coord3];

@@ -29,6 +29,11 @@ pub struct TranslateArgs {
     /// of one at the top of CONFIG).
     #[arg(long, value_name = "TS_FILE")]
     pub texture_shader: Option<PathBuf>,
+    /// Accept what NV2A (the Xbox GPU) runs beyond NV_register_combiners:
+    /// dot products in the alpha portion, computed as the product of the two
+    /// alpha inputs (docs/combiners.md). Off by default.
+    #[arg(long)]
+    pub permissive: bool,
     /// Write here (atomically) instead of standard output.
     #[arg(short, long, value_name = "OUT")]
     pub output: Option<PathBuf>,
@@ -39,6 +44,7 @@ pub fn run(args: &TranslateArgs) -> ExitCode {
         ProfileArg::Geforce256 => CombinerLimits::GEFORCE256,
         ProfileArg::Geforce3 => CombinerLimits::GEFORCE3,
     };
+    let limits = if args.permissive { limits.permissive() } else { limits };
     let loaded = load_config(&args.config, &limits).and_then(|mut c| {
         texture_shader(args.texture_shader.as_deref(), &mut c, &args.config)?;
         Ok(c)
