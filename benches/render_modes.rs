@@ -35,7 +35,7 @@ fn setup(scene_text: &str) -> Setup {
     let scene = Scene::parse(scene_text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap();
     let assets = scene.build().unwrap();
     let profile = shadec::profile::Profile::resolve("geforce256").unwrap();
-    let planned = shadec::planner::compile_source(SOURCE, &profile).unwrap();
+    let planned = shadec::driver::compile(SOURCE, &profile, &Default::default()).map(|c| c.planned).unwrap();
     let (program, _) = shadec::parser::check(SOURCE);
     Setup { planned, program, scene, assets }
 }

@@ -35,7 +35,7 @@ fn main() {
     let scene = Scene::parse(&text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap();
     let assets = scene.build().unwrap();
     let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
-    let planned = shadec::planner::compile_source(&src, &profile).unwrap();
+    let planned = shadec::driver::compile(&src, &profile, &Default::default()).map(|c| c.planned).unwrap();
     let (program, _) = shadec::parser::check(&src);
     let gpu = match Gpu::new() {
         Ok(g) => g,

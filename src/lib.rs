@@ -7,6 +7,7 @@
 pub mod backends;
 pub mod bench;
 pub mod diag;
+pub mod driver;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod io;
@@ -24,10 +25,9 @@ pub mod textures;
 /// Compiles `source` for `profile` into a pass plan — parse, check, lower,
 /// specialize, plan; never touches a GPU (issue 3 part 4). The plan
 /// serializes to RON and JSON (`PassPlan::to_ron`, `to_json`); for the IR
-/// the plan's value ids refer to, use [`planner::compile_source`].
+/// the plan's value ids refer to, and for scenes, use [`driver::compile`].
 pub fn compile(source: &str, profile: &profile::Profile) -> Result<pipeline::PassPlan, Diagnostics> {
-    planner::compile_source(source, profile).map(|p| p.plan)
+    driver::compile(source, profile, &driver::PlanOptions::default()).map(|c| c.planned.plan)
 }
 
-/// Every problem found in a program, each with its location.
-pub type Diagnostics = Vec<diag::Diagnostic>;
+pub use driver::Diagnostics;

@@ -10,7 +10,6 @@ mod common;
 use shadec::backends::combiners::{generate, validate, PassInput};
 use shadec::ir::{Expr, Handle};
 use shadec::pipeline::Planned;
-use shadec::planner::compile_source;
 use shadec::profile::Profile;
 
 fn examples() -> Vec<(String, String)> {
@@ -66,7 +65,7 @@ fn report(profile: &str) -> Vec<(String, Result<Vec<Result<usize, String>>, Stri
     examples()
         .into_iter()
         .map(|(name, src)| {
-            let r = match compile_source(&src, &p) {
+            let r = match shadec::driver::compile(&src, &p, &Default::default()).map(|c| c.planned) {
                 Ok(planned) => Ok(verdicts(&planned, &p, &src)),
                 Err(d) => {
                     assert!(!d.is_empty());

@@ -22,7 +22,6 @@ use shadec::backends::combiners::{generate, rc1, CombinerLimits, Generated, Pass
 use shadec::ir::eval::{Env, Evaluator, Value};
 use shadec::ir::{Expr, FbChannel, Frequency, Handle, Module, Ty};
 use shadec::pipeline::Planned;
-use shadec::planner::compile_source;
 use shadec::profile::Profile;
 
 const PROFILES: [&str; 2] = ["geforce256", "geforce3"];
@@ -112,7 +111,10 @@ fn generated_setups_of_the_examples() {
         let p = Profile::builtin(profile).unwrap();
         let limits = p.combiner_limits().unwrap();
         for (name, src) in examples() {
-            let Ok(planned) = compile_source(&src, &p) else { continue };
+            let Ok(planned) = shadec::driver::compile(&src, &p, &Default::default()).map(|c| c.planned)
+            else {
+                continue;
+            };
             let Some(doc) = document(&planned, &limits, &mut skipped, &format!("{profile} {name}")) else {
                 continue;
             };

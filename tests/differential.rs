@@ -357,7 +357,7 @@ fn check(source: &str, target: &str, scene: &Scene) -> Result<Outcome, String> {
     if let Some(d) = lower.iter().find(|d| d.is_error()) {
         return Err(format!("the generator wrote a program that does not lower: {}", d.message));
     }
-    let planned = match shadec::planner::plan(&module, &profile, Some(source)) {
+    let planned = match shadec::driver::plan(&module, &program, &profile, Some(source), &Default::default()) {
         Ok(p) => p,
         Err(errors) => {
             for d in &errors {
@@ -494,7 +494,7 @@ fn a_temporary_keeps_its_term() {
 fn a_pass_the_combiners_cannot_compute_is_refused_where_it_is() {
     let source = "vector N : normal;\nvector H : half(0);\nC δπx ← max(0, (δ N s x)·(δ H s x))^8;\n";
     let profile = Profile::builtin("geforce3").unwrap();
-    let err = shadec::planner::compile_source(source, &profile).unwrap_err();
+    let err = shadec::driver::compile(source, &profile, &Default::default()).map(|c| c.planned).unwrap_err();
     assert_eq!(err[0].code, "cannot-split");
     assert!(
         err[0].message.contains("has no register-combiner setup the code generator can build"),
@@ -521,7 +521,9 @@ fn every_accepted_example_plan_runs_on_its_combiner_target() {
         let source = std::fs::read_to_string(&path).unwrap();
         for target in ["geforce256", "geforce3"] {
             let profile = Profile::builtin(target).unwrap();
-            if let Ok(planned) = shadec::planner::compile_source(&source, &profile) {
+            if let Ok(planned) =
+                shadec::driver::compile(&source, &profile, &Default::default()).map(|c| c.planned)
+            {
                 validate_plan(&planned, &profile)
                     .unwrap_or_else(|e| panic!("{} on {target}: {e}", path.display()));
                 accepted += 1;
@@ -543,7 +545,9 @@ fn a_scale_factor_maps_to_the_output_scale_in_any_position() {
         "C δπx ← (A δu x) * 2 * (B δu x);",
         "C δπx ← (A δu x) * (B δu x) * 2;",
     ] {
-        let planned = shadec::planner::compile_source(&format!("{decl}{statement}\n"), &profile).unwrap();
+        let planned = shadec::driver::compile(&format!("{decl}{statement}\n"), &profile, &Default::default())
+            .map(|c| c.planned)
+            .unwrap();
         assert_eq!(planned.plan.passes.len(), 1, "{statement}");
         assert_eq!(planned.plan.passes[0].combiners, None, "{statement}");
         let generated = codegen::generate_for_pass(&planned, 0).unwrap();
@@ -565,7 +569,10 @@ fn a_bake_is_computed_by_the_compiler_on_every_target() {
             "{target}: {:?}",
             check(source, target, &scene)
         );
-        let planned = shadec::planner::compile_source(source, &Profile::builtin(target).unwrap()).unwrap();
+        let planned =
+            shadec::driver::compile(source, &Profile::builtin(target).unwrap(), &Default::default())
+                .map(|c| c.planned)
+                .unwrap();
         let baked: Vec<bool> = planned.plan.passes.iter().map(|p| p.baked).collect();
         assert_eq!(baked, [true, false], "{target}");
     }

@@ -17,7 +17,6 @@ use std::path::{Path, PathBuf};
 
 use adaptive_common::max_diff;
 use glam::{Vec3, Vec4};
-use shadec::planner::compile_source;
 use shadec::profile::Profile;
 use shadec::renderer::lights::LitScene;
 use shadec::renderer::plan::{fixed9, Mode, PlanRenderer};
@@ -88,7 +87,9 @@ fn render(what: &str, source: &str, target: &str, scene: &Scene, mode: Mode) -> 
 /// failing on them (the image itself must still be finite).
 fn render_counting(what: &str, source: &str, target: &str, scene: &Scene, mode: Mode) -> (Image, u64) {
     let profile = Profile::resolve(target).unwrap();
-    let planned = compile_source(source, &profile).unwrap_or_else(|d| panic!("{what}: {d:?}"));
+    let planned = shadec::driver::compile(source, &profile, &Default::default())
+        .map(|c| c.planned)
+        .unwrap_or_else(|d| panic!("{what}: {d:?}"));
     let (program, _) = shadec::parser::check(source);
     let assets = scene.build().unwrap();
     let r = PlanRenderer::new(&planned, &program, scene, &assets).unwrap_or_else(|e| panic!("{what}: {e}"));

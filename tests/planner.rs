@@ -256,8 +256,11 @@ fn exhaustive_and_planner(src: &str, target: &str) -> (Option<usize>, Option<usi
     let (module, diags) = shadec::ir::lower(&program);
     assert!(diags.iter().all(|d| !d.is_error()), "{src}\n{diags:#?}");
     let p = profile(target);
-    let a = planner::plan_with(&module, &p, Some(src), Search::Planner).ok().map(|p| p.plan.passes.len());
-    let b = planner::plan_with(&module, &p, Some(src), Search::Exhaustive).ok().map(|p| p.plan.passes.len());
+    let passes = |search: Search| {
+        let options = shadec::driver::PlanOptions { search, scene: None };
+        shadec::driver::plan(&module, &program, &p, Some(src), &options).ok().map(|p| p.plan.passes.len())
+    };
+    let (a, b) = (passes(Search::Planner), passes(Search::Exhaustive));
     (a, b)
 }
 
@@ -488,13 +491,15 @@ fn a_profile_file_keeps_its_combiner_limits_downstream() {
     // Eight squarings after the dot product: more stages than a GeForce3 has.
     let src =
         "texture T, U : 2d rgb8 = image(\"x.png\");\nC δπx ← max(0, expand(T δu x)·expand(U δu x))^256;\n";
-    let planned = planner::compile_source(src, &profile).unwrap();
+    let planned = shadec::driver::compile(src, &profile, &Default::default()).map(|c| c.planned).unwrap();
     assert_eq!(planned.plan.passes.len(), 1);
     assert_eq!(planned.combiners, profile.combiner_limits());
     let g = shadec::backends::combiners::codegen::generate_for_pass(&planned, 0).unwrap();
     assert!(g.stages > 8 && g.stages <= 12, "{} stages", g.stages);
     assert!(
-        planner::compile_source(src, &Profile::builtin("geforce3").unwrap()).is_err(),
+        shadec::driver::compile(src, &Profile::builtin("geforce3").unwrap(), &Default::default())
+            .map(|c| c.planned)
+            .is_err(),
         "a GeForce3 cannot run it in one pass"
     );
 }

@@ -11,7 +11,6 @@ use std::collections::HashMap;
 use shadec::ir::eval::{Env, Evaluator, Precision, Value};
 use shadec::ir::{Expr, FbChannel, Frequency, Handle, Module, Table, TextureId, Ty};
 use shadec::pipeline::{Planned, RenderTarget};
-use shadec::planner::{self};
 use shadec::profile::Profile;
 
 fn hash(mut x: u64) -> u64 {
@@ -177,7 +176,9 @@ fn check_program(src: &str, what: &str) -> usize {
     }
     let mut split = 0;
     for target in ["geforce256", "geforce3", "multitexture", "wgsl"] {
-        let Ok(planned) = planner::plan(&original, &Profile::builtin(target).unwrap(), Some(src)) else {
+        let profile = Profile::builtin(target).unwrap();
+        let Ok(planned) = shadec::driver::compile(src, &profile, &Default::default()).map(|c| c.planned)
+        else {
             continue;
         };
         let worst = compare(&original, &planned, 200);

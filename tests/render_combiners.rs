@@ -11,7 +11,6 @@ use std::path::Path;
 
 use shadec::backends::combiners::{self, emulator, Inputs, Precision};
 use shadec::pipeline::Planned;
-use shadec::planner::compile_source;
 use shadec::profile::Profile;
 use shadec::renderer::plan::{compare, Frame, Mode, PassShading, PlanRenderer};
 use shadec::scene::Scene;
@@ -37,7 +36,9 @@ fn scene() -> Scene {
 
 fn plan(source: &str, target: &str) -> (Planned, shadec::parser::ast::Program) {
     let profile = Profile::resolve(target).unwrap();
-    let planned = compile_source(source, &profile).unwrap_or_else(|d| panic!("{target}: {d:?}\n{source}"));
+    let planned = shadec::driver::compile(source, &profile, &Default::default())
+        .map(|c| c.planned)
+        .unwrap_or_else(|d| panic!("{target}: {d:?}\n{source}"));
     let (program, _) = shadec::parser::check(source);
     (planned, program)
 }
@@ -171,7 +172,9 @@ fn a_pass_the_generator_refuses_is_not_planned_and_fixed9_elsewhere_is_per_opera
     let source =
         std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/src/bench/programs/phong_taylor.shd"))
             .unwrap();
-    let err = compile_source(&source, &Profile::resolve("geforce3").unwrap()).unwrap_err();
+    let err = shadec::driver::compile(&source, &Profile::resolve("geforce3").unwrap(), &Default::default())
+        .map(|c| c.planned)
+        .unwrap_err();
     assert_eq!(err[0].code, "cannot-split", "{err:?}");
     assert!(err[0].primary.span.end > err[0].primary.span.start, "located: {err:?}");
     let text =

@@ -7,7 +7,6 @@ mod common;
 use std::path::Path;
 
 use shadec::pipeline::Planned;
-use shadec::planner::compile_source;
 use shadec::profile::Profile;
 use shadec::renderer::plan::{compare, Frame, Mode, PlanRenderer};
 use shadec::scene::Scene;
@@ -29,7 +28,9 @@ fn default_scene() -> Scene {
 
 fn plan(source: &str, target: &str) -> (Planned, shadec::parser::ast::Program) {
     let profile = Profile::resolve(target).unwrap();
-    let planned = compile_source(source, &profile).unwrap_or_else(|d| panic!("{target}: {d:?}"));
+    let planned = shadec::driver::compile(source, &profile, &Default::default())
+        .map(|c| c.planned)
+        .unwrap_or_else(|d| panic!("{target}: {d:?}"));
     let (program, _) = shadec::parser::check(source);
     (planned, program)
 }
@@ -103,7 +104,10 @@ fn every_example_renders_or_refuses_clearly() {
     for path in dir.iter().filter(|p| p.extension().is_some_and(|e| e == "shd")) {
         let src = std::fs::read_to_string(path).unwrap();
         let profile = Profile::resolve("wgsl").unwrap();
-        let Ok(planned) = compile_source(&src, &profile) else { continue };
+        let Ok(planned) = shadec::driver::compile(&src, &profile, &Default::default()).map(|c| c.planned)
+        else {
+            continue;
+        };
         let (program, _) = shadec::parser::check(&src);
         let assets = scene.build().unwrap();
         let result = PlanRenderer::new(&planned, &program, &scene, &assets)

@@ -6,9 +6,9 @@
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
+use shadec::driver::{plan_pair, removal_report, ForScene, PlanOptions};
 use shadec::pipeline::Planned;
-use shadec::planner::specialize::{plan_pair, removal_report};
-use shadec::planner::{plan_specialized, SceneSpecialization, DEFAULT_CULL_THRESHOLD};
+use shadec::planner::DEFAULT_CULL_THRESHOLD;
 use shadec::profile::Profile;
 use shadec::renderer::plan::{compare, Mode, PlanRenderer};
 use shadec::scene::Scene;
@@ -135,19 +135,16 @@ fn light_culling_never_drops_a_light_that_changes_a_pixel_by_more_than_the_thres
     ] {
         let sc = scene(&Path::new(ROOT).join("scenes").join(name));
         let assets = sc.build().unwrap();
-        let textures = shadec::scene::bind::texture_decls(&program, &sc.constants);
-        let spec = |cull: Option<f64>| SceneSpecialization {
-            scene: &sc,
-            assets: &assets,
-            textures: &textures,
-            fold_uniforms: true,
-            cull_threshold: cull,
+        let plan = |cull_threshold: Option<f64>| {
+            let scene = ForScene { cull_threshold, ..ForScene::specialized(&sc, &assets) };
+            let options = PlanOptions { scene: Some(scene), ..Default::default() };
+            shadec::driver::plan(&module, &program, &profile, Some(&source), &options).unwrap()
         };
-        let full = plan_specialized(&module, &profile, Some(&source), &spec(None)).unwrap();
+        let full = plan(None);
         let reference = render(&full, &source, &sc, Mode::F32).unwrap();
         let mut culled_before = 0;
         for threshold in [DEFAULT_CULL_THRESHOLD, 4.0 / 255.0, 0.05] {
-            let culled = plan_specialized(&module, &profile, Some(&source), &spec(Some(threshold))).unwrap();
+            let culled = plan(Some(threshold));
             let n = culled.plan.removed.iter().filter(|r| r.kind == "light").count();
             let e = compare(&reference, &render(&culled, &source, &sc, Mode::F32).unwrap());
             eprintln!(

@@ -42,7 +42,6 @@ use shadec::gpu::runner::{
     run_passes, Gpu, PassTarget, RunPass, RunShader, ShaderSource, Target, VertexData,
 };
 use shadec::gpu::scene_run::ScenePlan;
-use shadec::planner::compile_source;
 use shadec::profile::Profile;
 use shadec::renderer::plan::{Mode, PlanRenderer, RoundingBias};
 use shadec::renderer::{BlendState, CompareFunc, CullMode, DepthState, RenderState, StencilState};
@@ -206,7 +205,9 @@ fn try_agreement_in(
     fidelity: Fidelity,
 ) -> Result<Agreement, String> {
     let profile = Profile::resolve(target).map_err(|e| format!("{e:?}"))?;
-    let planned = compile_source(source, &profile).map_err(|d| format!("does not compile: {d:?}"))?;
+    let planned = shadec::driver::compile(source, &profile, &Default::default())
+        .map(|c| c.planned)
+        .map_err(|d| format!("does not compile: {d:?}"))?;
     let (program, _) = shadec::parser::check(source);
     let assets = scene.build().unwrap();
     let (mode, tol) = if fidelity == Fidelity::Hardware { (Mode::Fixed9, 1) } else { (Mode::F32, 2) };

@@ -135,7 +135,7 @@ fn compiled_fragment_lighting_matches_its_formula() {
         std::fs::read_to_string(format!("{}/examples/fragment_lighting.shd", env!("CARGO_MANIFEST_DIR")))
             .unwrap();
     let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
-    let planned = shadec::planner::compile_source(&src, &profile).unwrap();
+    let planned = shadec::driver::compile(&src, &profile, &Default::default()).map(|c| c.planned).unwrap();
     let shaders = codegen::generate(&planned, Some(&src), Fidelity::Exact).unwrap();
     assert_eq!(shaders.len(), 1);
     let s = &shaders[0];

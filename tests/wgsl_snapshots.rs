@@ -26,7 +26,8 @@ fn compile(
     fidelity: Fidelity,
 ) -> Result<Vec<codegen::PassShader>, Vec<shadec::diag::Diagnostic>> {
     let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
-    let planned = shadec::planner::compile_source(src, &profile)
+    let planned = shadec::driver::compile(src, &profile, &Default::default())
+        .map(|c| c.planned)
         .unwrap_or_else(|d| panic!("{name} does not plan on wgsl: {d:#?}"));
     codegen::generate(&planned, Some(src), fidelity)
 }
@@ -92,7 +93,7 @@ fn fat_texels_are_array_layers_written_as_several_outputs() {
     let src = std::fs::read_to_string(format!("{}/examples/solid_mapping.shd", env!("CARGO_MANIFEST_DIR")))
         .unwrap();
     let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
-    let planned = shadec::planner::compile_source(&src, &profile).unwrap();
+    let planned = shadec::driver::compile(&src, &profile, &Default::default()).map(|c| c.planned).unwrap();
     assert_eq!(codegen::fat_layers(&planned.module), vec![1]);
     let passes = codegen::generate(&planned, Some(&src), Fidelity::Exact).unwrap();
     assert_eq!(passes.iter().map(|p| p.outputs).collect::<Vec<_>>(), vec![1, 1, 1]);
@@ -145,7 +146,7 @@ fn geforce256_plan_compiles_to_three_passes() {
         std::fs::read_to_string(format!("{}/examples/kilgard_bump_mapping.shd", env!("CARGO_MANIFEST_DIR")))
             .unwrap();
     let profile = shadec::profile::Profile::resolve("geforce256").unwrap();
-    let planned = shadec::planner::compile_source(&src, &profile).unwrap();
+    let planned = shadec::driver::compile(&src, &profile, &Default::default()).map(|c| c.planned).unwrap();
     let passes = codegen::generate(&planned, Some(&src), Fidelity::Hardware).unwrap();
     assert_eq!(passes.len(), 3);
     for p in &passes {
@@ -162,7 +163,10 @@ fn every_profile_plan_compiles_without_internal_errors() {
     for (name, src) in examples() {
         for profile in ["geforce256", "geforce3", "multitexture", "wgsl"] {
             let p = shadec::profile::Profile::resolve(profile).unwrap();
-            let Ok(planned) = shadec::planner::compile_source(&src, &p) else { continue };
+            let Ok(planned) = shadec::driver::compile(&src, &p, &Default::default()).map(|c| c.planned)
+            else {
+                continue;
+            };
             for fidelity in [Fidelity::Exact, Fidelity::Hardware] {
                 if let Err(diags) = codegen::generate(&planned, Some(&src), fidelity) {
                     assert!(

@@ -17,7 +17,6 @@ use std::path::Path;
 use shadec::backends::wgsl::codegen::Fidelity;
 use shadec::gpu::runner::{Gpu, Target};
 use shadec::gpu::scene_run::ScenePlan;
-use shadec::planner::compile_source;
 use shadec::profile::Profile;
 use shadec::scene::Scene;
 
@@ -39,7 +38,9 @@ fn example(name: &str) -> String {
 /// The program rendered on wgpu (RGBA8 target), with the plan's pass count.
 fn render(gpu: &Gpu, source: &str, scene: &Scene) -> (Vec<u8>, usize) {
     let profile = Profile::resolve("wgsl").unwrap();
-    let planned = compile_source(source, &profile).unwrap_or_else(|d| panic!("{d:?}"));
+    let planned = shadec::driver::compile(source, &profile, &Default::default())
+        .map(|c| c.planned)
+        .unwrap_or_else(|d| panic!("{d:?}"));
     let (program, _) = shadec::parser::check(source);
     let assets = scene.build().unwrap();
     let plan = ScenePlan::new(&planned, &program, Some(source), Fidelity::Exact, scene, &assets)
@@ -153,7 +154,9 @@ fn solid_mapping_equals_the_solid_texture_per_pixel() {
 fn cpu_vs_gpu(gpu: &Gpu, source: &str, scene: &Scene) -> (u8, usize, Vec<u8>, Vec<u8>) {
     use shadec::renderer::plan::{Mode, PlanRenderer};
     let profile = Profile::resolve("wgsl").unwrap();
-    let planned = compile_source(source, &profile).unwrap_or_else(|d| panic!("{d:?}"));
+    let planned = shadec::driver::compile(source, &profile, &Default::default())
+        .map(|c| c.planned)
+        .unwrap_or_else(|d| panic!("{d:?}"));
     let (program, _) = shadec::parser::check(source);
     let assets = scene.build().unwrap();
     let cpu = PlanRenderer::new(&planned, &program, scene, &assets)

@@ -103,19 +103,12 @@ impl Prepared {
     pub fn new(name: &str, source: &str, target: &str, scene_ron: &str) -> Result<Prepared, BenchError> {
         let scene = Scene::parse(scene_ron, Path::new("")).map_err(|e| failed(name, e))?;
         let assets = scene.build().map_err(|e| failed(name, e))?;
-        let (program, diags) = crate::parser::check(source);
-        let first_error =
-            |d: &[crate::diag::Diagnostic]| d.iter().find(|d| d.is_error()).map(|d| d.message.clone());
-        if let Some(e) = first_error(&diags) {
-            return Err(failed(name, e));
-        }
-        let (module, diags) = crate::ir::lower(&program);
-        if let Some(e) = first_error(&diags) {
-            return Err(failed(name, e));
-        }
         let profile = crate::profile::Profile::resolve(target).map_err(|e| failed(name, e))?;
-        let planned = crate::planner::plan(&module, &profile, Some(source))
-            .map_err(|d| failed(&format!("{name} on {target}"), first_error(&d).unwrap_or_default()))?;
+        let first_error =
+            |d: &[crate::diag::Diagnostic]| d.first().map(|d| d.message.clone()).unwrap_or_default();
+        let compiled = crate::driver::compile(source, &profile, &Default::default())
+            .map_err(|d| failed(&format!("{name} on {target}"), first_error(&d)))?;
+        let crate::driver::Compilation { program, module, planned, .. } = compiled;
         Ok(Prepared { planned, module, program, scene, assets })
     }
 
@@ -248,7 +241,7 @@ pub fn removed_work() -> Result<String, BenchError> {
     for (program, source, scene_name, scene_ron, target) in cases {
         let scene = Scene::parse(scene_ron, Path::new("")).map_err(|e| failed(scene_name, e))?;
         let profile = crate::profile::Profile::resolve(target).map_err(|e| failed(target, e))?;
-        let report = crate::planner::specialize::removal_report(source, &profile, &scene)
+        let report = crate::driver::removal_report(source, &profile, &scene)
             .map_err(|d| failed(program, d.first().map(|d| d.message.clone()).unwrap_or_default()))?;
         md.push_str(&format!("### `{program}` on `{scene_name}` ({target})\n\n{}\n", report.to_markdown()));
     }

@@ -51,13 +51,14 @@ pub fn run(args: &CheckArgs) -> ExitCode {
                 continue;
             }
         };
-        let (program, diagnostics) = match target_diagnostics(&text, args.target.as_deref()) {
-            Ok(r) => r,
-            Err(e) => {
-                eprintln!("error: {e}");
-                return ExitCode::from(EXIT_USAGE_OR_IO);
-            }
-        };
+        let shadec::driver::Front { program, diagnostics, .. } =
+            match shadec::driver::check(&text, args.target.as_deref()) {
+                Ok(r) => r,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(EXIT_USAGE_OR_IO);
+                }
+            };
         let file = SourceFile::new(path.display().to_string(), text);
         let n_errors = diagnostics.iter().filter(|d| d.severity == Severity::Error).count();
         let n_warnings = diagnostics.iter().filter(|d| d.severity == Severity::Warning).count();
@@ -114,39 +115,6 @@ pub fn run(args: &CheckArgs) -> ExitCode {
     } else {
         ExitCode::SUCCESS
     }
-}
-
-/// Parse and check; when a target is known (`--target` or the program's
-/// `target X;`) and the program is clean, lower it and check it against the
-/// profile (`shadec::profile::fit`) and plan it (`shadec::planner::plan`,
-/// as `compile` does). Lowering errors are reported too.
-pub fn target_diagnostics(
-    text: &str,
-    target: Option<&str>,
-) -> Result<(shadec::parser::ast::Program, Vec<shadec::diag::Diagnostic>), shadec::profile::ProfileError> {
-    let (program, mut diagnostics) = shadec::parser::check(text);
-    if diagnostics.iter().any(|d| d.is_error()) {
-        return Ok((program, diagnostics));
-    }
-    let (module, lower_diags) = shadec::ir::lower(&program);
-    let lowered_ok = lower_diags.iter().all(|d| !d.is_error());
-    diagnostics.extend(lower_diags);
-    let name = target.map(str::to_string).or_else(|| module.target.as_ref().map(|t| t.value.clone()));
-    if let (Some(name), true) = (name, lowered_ok) {
-        let profile = shadec::profile::Profile::resolve(&name)?;
-        diagnostics.extend(shadec::profile::fit(&module, &profile));
-        // One fitting decision (issue 16 item 3): what `compile` cannot
-        // plan is an error here too, with the planner's own message, and
-        // the "the planner will split it" warnings go with it.
-        if diagnostics.iter().all(|d| !d.is_error()) {
-            if let Err(errors) = shadec::planner::plan(&module, &profile, Some(text)) {
-                diagnostics.retain(|d| d.code != "does-not-fit");
-                diagnostics.extend(errors);
-            }
-        }
-    }
-    diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
-    Ok((program, diagnostics))
 }
 
 fn plural(n: usize) -> &'static str {

@@ -18,85 +18,37 @@ pub fn run(args: &CompileArgs) -> ExitCode {
             return ExitCode::from(EXIT_USAGE_OR_IO);
         }
     };
-    let (program, mut diagnostics) = shadec::parser::check(&text);
-    let mut module = None;
-    let mut plan = None;
-    let scene = match &args.scene {
-        None => None,
-        Some(path) => match shadec::scene::Scene::load(path) {
-            Ok(s) => Some(s),
-            Err(e) => {
-                eprintln!("error: {e}");
-                let missing = matches!(e, shadec::scene::SceneError::Io(_));
-                return ExitCode::from(if missing { EXIT_USAGE_OR_IO } else { EXIT_SOURCE_ERRORS });
-            }
-        },
+    let scene = match args.scene.as_deref().map(load_scene).transpose() {
+        Ok(s) => s,
+        Err(code) => return code,
     };
-    if diagnostics.iter().all(|d| !d.is_error()) {
-        let (m, lower_diags) = shadec::ir::lower(&program);
-        diagnostics.extend(lower_diags);
-        let shaders = matches!(args.emit, Emit::Wgsl | Emit::Spirv | Emit::Glsl);
-        let mut target = args.target.clone().or_else(|| m.target.as_ref().map(|t| t.value.clone()));
-        if shaders && args.target.is_none() {
-            // Shaders are for modern hardware: plan on the wgsl profile
-            // unless --target says otherwise.
-            target = Some("wgsl".to_string());
-        }
-        if args.emit == Emit::Plan && target.is_none() {
-            target = Some("wgsl".to_string());
-        }
-        if let Some(name) = target {
-            match shadec::profile::Profile::resolve(&name) {
-                Ok(p) if diagnostics.iter().all(|d| !d.is_error()) => {
-                    if args.emit == Emit::Plan || shaders {
-                        let planned = match &scene {
-                            // One pass per light, the scene's uniforms folded, lights culled per object.
-                            Some(sc) => match sc.build() {
-                                Ok(assets) => {
-                                    let textures =
-                                        shadec::scene::bind::texture_decls(&program, &sc.constants);
-                                    let spec = shadec::planner::SceneSpecialization {
-                                        scene: sc,
-                                        assets: &assets,
-                                        textures: &textures,
-                                        fold_uniforms: true,
-                                        cull_threshold: Some(shadec::planner::DEFAULT_CULL_THRESHOLD),
-                                    };
-                                    shadec::planner::plan_specialized(&m, &p, Some(&text), &spec)
-                                }
-                                Err(e) => {
-                                    eprintln!("error: {e}");
-                                    return ExitCode::from(EXIT_SOURCE_ERRORS);
-                                }
-                            },
-                            None => shadec::planner::plan(&m, &p, Some(&text)),
-                        };
-                        match planned {
-                            Ok(planned) => {
-                                if scene.is_some() {
-                                    report_removed(&planned.plan);
-                                }
-                                plan = Some(planned)
-                            }
-                            Err(ds) => diagnostics.extend(ds),
-                        }
-                    } else {
-                        diagnostics.extend(shadec::profile::fit(&m, &p));
-                    }
-                }
-                Ok(_) => {}
+    let front = shadec::driver::front(&text);
+    let mut diagnostics = front.diagnostics.clone();
+    let mut plan = None;
+    if let (Some(m), false) = (&front.module, front.has_errors()) {
+        if let Some(name) = target_name(args, m) {
+            let profile = match shadec::profile::Profile::resolve(&name) {
+                Ok(p) => p,
                 Err(e) => {
                     eprintln!("error: {e}");
                     return ExitCode::from(EXIT_USAGE_OR_IO);
                 }
+            };
+            if matches!(args.emit, Emit::Ir) {
+                diagnostics.extend(shadec::profile::fit(m, &profile));
+            } else {
+                match plan_for(&front.program, m, &profile, &text, scene.as_ref()) {
+                    Ok(planned) => plan = Some(planned),
+                    Err(PlanFailure::Scene(code)) => return code,
+                    Err(PlanFailure::Program(ds)) => diagnostics.extend(ds),
+                }
             }
         }
-        module = Some(m);
     }
     diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
     let file = SourceFile::new(args.file.display().to_string(), text.clone());
     report(args, &file, &diagnostics);
-    let module = match module {
+    let module = match front.module {
         Some(m) if diagnostics.iter().all(|d| !d.is_error()) => m,
         _ => return ExitCode::from(EXIT_SOURCE_ERRORS),
     };
@@ -108,6 +60,60 @@ pub fn run(args: &CompileArgs) -> ExitCode {
         (_, None) => return ExitCode::from(EXIT_SOURCE_ERRORS),
     };
     super::write_output(args.output.as_deref(), &out)
+}
+
+/// The target: `--target`, else the program's own `target X;` (shaders are
+/// for modern hardware: `wgsl`), else `wgsl` for a plan.
+fn target_name(args: &CompileArgs, m: &shadec::ir::Module) -> Option<String> {
+    let own = || m.target.as_ref().map(|t| t.value.clone());
+    match (&args.target, args.emit) {
+        (Some(t), _) => Some(t.clone()),
+        (None, Emit::Wgsl | Emit::Spirv | Emit::Glsl) => Some("wgsl".to_string()),
+        (None, Emit::Plan) => own().or(Some("wgsl".to_string())),
+        (None, Emit::Ir) => own(),
+    }
+}
+
+fn load_scene(path: &std::path::Path) -> Result<shadec::scene::Scene, ExitCode> {
+    shadec::scene::Scene::load(path).map_err(|e| {
+        eprintln!("error: {e}");
+        let missing = matches!(e, shadec::scene::SceneError::Io(_));
+        ExitCode::from(if missing { EXIT_USAGE_OR_IO } else { EXIT_SOURCE_ERRORS })
+    })
+}
+
+enum PlanFailure {
+    /// The scene's meshes did not build: reported, with this exit code.
+    Scene(ExitCode),
+    /// The program cannot be planned: its diagnostics.
+    Program(Vec<shadec::diag::Diagnostic>),
+}
+
+/// The plan; with a scene, one pass per light, the scene's uniforms folded
+/// and lights culled per object, and what that removed listed.
+fn plan_for(
+    program: &shadec::parser::ast::Program,
+    m: &shadec::ir::Module,
+    profile: &shadec::profile::Profile,
+    text: &str,
+    scene: Option<&shadec::scene::Scene>,
+) -> Result<shadec::pipeline::Planned, PlanFailure> {
+    use shadec::driver::{ForScene, PlanOptions};
+    let assets = match scene.map(|s| s.build()).transpose() {
+        Ok(a) => a,
+        Err(e) => {
+            eprintln!("error: {e}");
+            return Err(PlanFailure::Scene(ExitCode::from(EXIT_SOURCE_ERRORS)));
+        }
+    };
+    let for_scene = scene.zip(assets.as_ref()).map(|(s, a)| ForScene::specialized(s, a));
+    let options = PlanOptions { scene: for_scene, ..Default::default() };
+    let planned =
+        shadec::driver::plan(m, program, profile, Some(text), &options).map_err(PlanFailure::Program)?;
+    if scene.is_some() {
+        report_removed(&planned.plan);
+    }
+    Ok(planned)
 }
 
 /// Prints diagnostics the way `--format` asks.

@@ -121,112 +121,106 @@ pub fn parse_size(s: &str) -> Option<(u32, u32)> {
 }
 
 pub fn run(args: &RenderArgs) -> ExitCode {
-    // The scene.
-    let scene = match &args.scene {
-        Some(path) => {
-            if !path.is_file() {
-                return usage(format!(
-                    "{}: scene file not found; give the path of a RON scene such as scenes/kilgard_torus.ron",
-                    path.display()
-                ));
-            }
-            match Scene::load(path) {
-                Ok(s) => s,
-                Err(shadec::scene::SceneError::Io(e)) => return usage(e),
-                Err(e) => return input(e),
-            }
-        }
-        None => match Scene::parse(DEFAULT_SCENE, Path::new("")) {
-            Ok(s) => s,
-            Err(e) => return input(format!("the built-in scene: {e}")),
-        },
-    };
-    // The program.
-    let (shader_name, source) = match &args.shader {
-        Some(path) => match shadec::io::read_text(path) {
-            Ok(t) => (path.display().to_string(), t),
-            Err(e) => return usage(e),
-        },
-        None => ("examples/kilgard_bump_mapping.shd (built in)".to_string(), DEFAULT_SHADER.to_string()),
-    };
-    let size = match &args.size {
-        Some(s) => match parse_size(s) {
-            Some(v) => v,
-            None => {
-                return usage(format!(
-                    "--size {s}: expected WxH with 1..=16384 pixels per side, such as 640x480"
-                ))
-            }
-        },
-        None => scene.resolution,
-    };
-    let file = SourceFile::new(shader_name.clone(), source.clone());
-    let (program, diagnostics) = shadec::parser::check(&source);
-    if diagnostics.iter().any(|d| d.is_error()) {
-        let errors: Vec<_> = diagnostics.into_iter().filter(|d| d.is_error()).collect();
-        eprint!("{}", file.render(&errors, color_stderr()));
-        return ExitCode::from(EXIT_SOURCE_ERRORS);
+    match render(args) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(code) => code,
     }
-    let (module, lower_diags) = shadec::ir::lower(&program);
-    if lower_diags.iter().any(|d| d.is_error()) {
-        let errors: Vec<_> = lower_diags.into_iter().filter(|d| d.is_error()).collect();
-        eprint!("{}", file.render(&errors, color_stderr()));
-        return ExitCode::from(EXIT_SOURCE_ERRORS);
+}
+
+/// The scene: the file given, else the built-in torus.
+fn load_scene(args: &RenderArgs) -> Result<Scene, ExitCode> {
+    let Some(path) = &args.scene else {
+        return Scene::parse(DEFAULT_SCENE, Path::new(""))
+            .map_err(|e| input(format!("the built-in scene: {e}")));
+    };
+    if !path.is_file() {
+        return Err(usage(format!(
+            "{}: scene file not found; give the path of a RON scene such as scenes/kilgard_torus.ron",
+            path.display()
+        )));
     }
-    let target = args
-        .target
-        .clone()
-        .or_else(|| module.target.as_ref().map(|t| t.value.clone()))
-        .unwrap_or_else(|| "wgsl".to_string());
-    let profile = match shadec::profile::Profile::resolve(&target) {
-        Ok(p) => p,
-        Err(e) => return usage(e),
-    };
-    let adaptive = match args.adaptive.as_deref().map(parse_adaptive).transpose() {
-        Ok(a) => a,
-        Err(e) => return usage(e),
-    };
-    let assets = match scene.build() {
-        Ok(a) => a,
-        Err(e) => return input(e),
-    };
+    Scene::load(path).map_err(|e| match e {
+        shadec::scene::SceneError::Io(e) => usage(e),
+        e => input(e),
+    })
+}
+
+/// The program's name and text: the file given, else Kilgard's.
+fn load_program(args: &RenderArgs) -> Result<(String, String), ExitCode> {
+    match &args.shader {
+        Some(path) => shadec::io::read_text(path).map(|t| (path.display().to_string(), t)).map_err(usage),
+        None => Ok(("examples/kilgard_bump_mapping.shd (built in)".to_string(), DEFAULT_SHADER.to_string())),
+    }
+}
+
+/// The program compiled for the target the arguments name (`--target`, the
+/// program's `target X;`, else `wgsl`), specialized for the scene unless
+/// `--no-specialize`.
+fn compile(
+    args: &RenderArgs,
+    file: &SourceFile,
+    scene: &Scene,
+    assets: &shadec::scene::SceneAssets,
+) -> Result<(shadec::driver::Compilation, shadec::profile::Profile), ExitCode> {
+    use shadec::driver::{ForScene, PlanOptions};
+    let source = &file.text;
+    let front = shadec::driver::front(source);
+    let errors: Vec<Diagnostic> = front.diagnostics.iter().filter(|d| d.is_error()).cloned().collect();
+    if !errors.is_empty() {
+        eprint!("{}", file.render(&errors, color_stderr()));
+        return Err(ExitCode::from(EXIT_SOURCE_ERRORS));
+    }
+    let own = front.module.as_ref().and_then(|m| m.target.as_ref()).map(|t| t.value.clone());
+    let target = args.target.clone().or(own).unwrap_or_else(|| "wgsl".to_string());
+    let profile = shadec::profile::Profile::resolve(&target).map_err(usage)?;
     // Only what this scene needs (issue 7): a pass per light that reaches
     // the objects, the scene's uniforms folded, zeroed terms removed.
-    let textures = shadec::scene::bind::texture_decls(&program, &scene.constants);
-    let spec = shadec::planner::SceneSpecialization {
-        scene: &scene,
-        assets: &assets,
-        textures: &textures,
-        fold_uniforms: true,
-        cull_threshold: Some(shadec::planner::DEFAULT_CULL_THRESHOLD),
-    };
-    let planned = match if args.no_specialize {
-        shadec::planner::plan(&module, &profile, Some(&source))
-    } else {
-        shadec::planner::plan_specialized(&module, &profile, Some(&source), &spec)
-    } {
-        Ok(p) => p,
-        Err(errors) => {
-            eprint!("{}", file.render(&errors, color_stderr()));
+    let for_scene = (!args.no_specialize).then(|| ForScene::specialized(scene, assets));
+    let options = PlanOptions { scene: for_scene, ..Default::default() };
+    let compiled = shadec::driver::compile(source, &profile, &options).map_err(|errors| {
+        eprint!("{}", file.render(&errors, color_stderr()));
+        ExitCode::from(EXIT_SOURCE_ERRORS)
+    })?;
+    Ok((compiled, profile))
+}
+
+/// A render failure: a pass the CPU cannot render is reported at its statement.
+fn failed(planned: &shadec::pipeline::Planned, file: &SourceFile, e: RenderError) -> ExitCode {
+    if let RenderError::InPass { pass, source } = &e {
+        if let Some(&k) = planned.plan.passes.get(*pass).and_then(|p| p.statements.first()) {
+            let d = Diagnostic::error("cpu-unsupported", format!("the CPU renderer cannot render pass {} of this statement: {source}", pass + 1), planned.module.statements[k].span, "this statement's pass")
+                .with_help("this is a limit of the CPU renderer (README, Status), not an error in the program: `shadec compile --target wgsl` still compiles it; or change the statement as the message says");
+            eprint!("{}", file.render(&[d], color_stderr()));
             return ExitCode::from(EXIT_SOURCE_ERRORS);
         }
+    }
+    input(format!("{}: {e}", file.name))
+}
+
+/// The frames a render compares: the plan's, the program's meaning in
+/// exact arithmetic, and — with adaptive shading — the plan shaded fully.
+struct Frames {
+    frame: shadec::renderer::plan::Frame,
+    reference: shadec::renderer::plan::Frame,
+    full: Option<shadec::renderer::plan::Frame>,
+}
+
+fn render(args: &RenderArgs) -> Result<(), ExitCode> {
+    let scene = load_scene(args)?;
+    let (shader_name, source) = load_program(args)?;
+    let size = match &args.size {
+        None => scene.resolution,
+        Some(s) => parse_size(s).ok_or_else(|| {
+            usage(format!("--size {s}: expected WxH with 1..=16384 pixels per side, such as 640x480"))
+        })?,
     };
-    // A pass the CPU cannot render is reported at its statement.
-    let failed = |e: RenderError| -> ExitCode {
-        if let RenderError::InPass { pass, source } = &e {
-            if let Some(&k) = planned.plan.passes.get(*pass).and_then(|p| p.statements.first()) {
-                let d = Diagnostic::error("cpu-unsupported", format!("the CPU renderer cannot render pass {} of this statement: {source}", pass + 1), planned.module.statements[k].span, "this statement's pass")
-                    .with_help("this is a limit of the CPU renderer (README, Status), not an error in the program: `shadec compile --target wgsl` still compiles it; or change the statement as the message says");
-                eprint!("{}", file.render(&[d], color_stderr()));
-                return ExitCode::from(EXIT_SOURCE_ERRORS);
-            }
-        }
-        input(format!("{shader_name}: {e}"))
-    };
-    let renderer = match PlanRenderer::new(&planned, &program, &scene, &assets) {
-        Ok(r) => r,
-        Err(e) => return failed(e),
-    };
+    let adaptive = args.adaptive.as_deref().map(parse_adaptive).transpose().map_err(usage)?;
+    let assets = scene.build().map_err(input)?;
+    let file = SourceFile::new(shader_name.clone(), source);
+    let (compiled, profile) = compile(args, &file, &scene, &assets)?;
+    let planned = &compiled.planned;
+    let renderer = PlanRenderer::new(planned, &compiled.program, &scene, &assets)
+        .map_err(|e| failed(planned, &file, e))?;
     // The target's own arithmetic unless asked otherwise (issue 16 item 4):
     // the combiners' fixed9 on the old hardware, f32 on a modern target.
     let mode = args.mode.map_or(
@@ -250,75 +244,86 @@ pub fn run(args: &RenderArgs) -> ExitCode {
         println!("note: {note}");
     }
     print!("{}", planned.plan.summary());
-
-    let progress = Progress::new();
-    let rendered = match &adaptive {
-        Some(settings) => renderer
-            .render_adaptive(mode, size.0, size.1, settings, &mut |d, t| progress.tick("adaptive", d, t)),
-        None => renderer.render(mode, size.0, size.1, &mut |d, t| progress.tick(mode.name(), d, t)),
-    };
-    let frame = match rendered {
-        Ok(f) => f,
-        Err(e) => {
-            progress.finish();
-            return failed(e);
-        }
-    };
-    // The reference is the program's own meaning (shadec::meaning), not
-    // this plan rendered exactly: a plan that loses a term shows as error.
     let lights = if args.no_specialize { 1 } else { scene.lights.len() };
-    let meaning = match shadec::meaning::plan(&module, lights) {
-        Ok(p) => p,
-        Err(errors) => {
-            progress.finish();
-            eprint!("{}", file.render(&errors, color_stderr()));
-            return ExitCode::from(EXIT_SOURCE_ERRORS);
+    let meaning = shadec::meaning::plan(&compiled.module, lights).map_err(|errors| {
+        eprint!("{}", file.render(&errors, color_stderr()));
+        ExitCode::from(EXIT_SOURCE_ERRORS)
+    })?;
+    let progress = Progress::new();
+    let frames = render_frames(
+        &renderer,
+        &meaning,
+        (&compiled.program, &scene, &assets),
+        mode,
+        size,
+        adaptive.as_ref(),
+        &progress,
+    );
+    progress.finish();
+    let frames = frames.map_err(|e| failed(planned, &file, e))?;
+    save_opaque_png(&frames.frame.image, &args.out).map_err(usage)?;
+    print_report(planned, &frames, mode, size, adaptive.as_ref());
+    println!("wrote {}", args.out.display());
+    Ok(())
+}
+
+/// Renders the plan, the program's meaning (the reference: a plan that
+/// loses a term shows as error), and full shading when adaptive.
+fn render_frames(
+    renderer: &PlanRenderer,
+    meaning: &shadec::pipeline::Planned,
+    (program, scene, assets): (&shadec::parser::ast::Program, &Scene, &shadec::scene::SceneAssets),
+    mode: Mode,
+    size: (u32, u32),
+    adaptive: Option<&AdaptiveSettings>,
+    progress: &Progress,
+) -> Result<Frames, RenderError> {
+    let (w, h) = size;
+    let frame = match adaptive {
+        Some(settings) => {
+            renderer.render_adaptive(mode, w, h, settings, &mut |d, t| progress.tick("adaptive", d, t))
         }
-    };
-    let reference = match PlanRenderer::new(&meaning, &program, &scene, &assets)
-        .and_then(|r| r.render(Mode::Exact, size.0, size.1, &mut |d, t| progress.tick("meaning", d, t)))
-    {
-        Ok(f) => f,
-        Err(e) => {
-            progress.finish();
-            return failed(e);
-        }
-    };
+        None => renderer.render(mode, w, h, &mut |d, t| progress.tick(mode.name(), d, t)),
+    }?;
+    let reference =
+        PlanRenderer::new(meaning, program, scene, assets)?
+            .render(Mode::Exact, w, h, &mut |d, t| progress.tick("meaning", d, t))?;
     // Adaptive shading is measured against full per-pixel shading of the same plan and mode.
-    let full = match &adaptive {
-        Some(_) => {
-            match renderer.render(mode, size.0, size.1, &mut |d, t| progress.tick("full shading", d, t)) {
-                Ok(f) => Some(f),
-                Err(e) => {
-                    progress.finish();
-                    return failed(e);
-                }
-            }
-        }
+    let full = match adaptive {
+        Some(_) => Some(renderer.render(mode, w, h, &mut |d, t| progress.tick("full shading", d, t))?),
         None => None,
     };
-    progress.finish();
-    if let Err(e) = save_opaque_png(&frame.image, &args.out) {
-        return usage(e);
-    }
+    Ok(Frames { frame, reference, full })
+}
+
+/// Time, shading, and the error against the meaning (and against full
+/// shading when adaptive).
+fn print_report(
+    planned: &shadec::pipeline::Planned,
+    frames: &Frames,
+    mode: Mode,
+    size: (u32, u32),
+    adaptive: Option<&AdaptiveSettings>,
+) {
+    let frame = &frames.frame;
     let secs = frame.time.as_secs_f64().max(1e-9);
     let mpix = (size.0 as f64 * size.1 as f64) / secs / 1e6;
+    let n = planned.plan.passes.len();
     println!(
-        "frame: {:.1} ms ({mpix:.2} Mpixel/s at {}×{}, {} threads), {} fragments shaded over {} pass{}",
+        "frame: {:.1} ms ({mpix:.2} Mpixel/s at {}×{}, {} threads), {} fragments shaded over {n} pass{}",
         secs * 1e3,
         size.0,
         size.1,
         rayon::current_num_threads(),
         frame.adaptive.map_or(frame.stats.shaded, |a| a.shaded()),
-        planned.plan.passes.len(),
-        if planned.plan.passes.len() == 1 { "" } else { "es" }
+        if n == 1 { "" } else { "es" }
     );
     if mode == Mode::Fixed9 {
         for (i, how) in frame.shading.iter().enumerate() {
             println!("pass {}: {}", i + 1, how.describe());
         }
     }
-    if let (Some(full), Some(a), Some(settings)) = (&full, frame.adaptive, &adaptive) {
+    if let (Some(full), Some(a), Some(settings)) = (&frames.full, frame.adaptive, adaptive) {
         let e = compare(&full.image, &frame.image);
         let speedup = full.time.as_secs_f64() / secs;
         println!(
@@ -333,24 +338,19 @@ pub fn run(args: &RenderArgs) -> ExitCode {
             a.interpolated,
             full.time.as_secs_f64() * 1e3
         );
-        println!(
-            "error against full shading: max abs {:.4} ({:.1}/255), RMSE {:.5}, PSNR {}",
-            e.max_abs,
-            e.max_abs * 255.0,
-            e.rmse,
-            psnr(e.psnr)
-        );
+        print_error("full shading", e);
     }
-    let e = compare(&reference.image, &frame.image);
+    print_error("the program's meaning (exact, unsplit)", compare(&frames.reference.image, &frame.image));
+}
+
+fn print_error(against: &str, e: shadec::renderer::plan::ErrorReport) {
     println!(
-        "error against the program's meaning (exact, unsplit): max abs {:.4} ({:.1}/255), RMSE {:.5}, PSNR {}",
+        "error against {against}: max abs {:.4} ({:.1}/255), RMSE {:.5}, PSNR {}",
         e.max_abs,
         e.max_abs * 255.0,
         e.rmse,
         psnr(e.psnr)
     );
-    println!("wrote {}", args.out.display());
-    ExitCode::SUCCESS
 }
 
 fn psnr(p: f64) -> String {

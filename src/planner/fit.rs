@@ -19,39 +19,46 @@
 use std::cell::RefCell;
 use std::collections::HashMap;
 
+use super::realize::Realizer;
 use super::split::{FitCheck, Overflow};
-use crate::backends::combiners::codegen;
 use crate::ir::{BinaryOp, Expr, Handle, MathFunction, Module, Usage};
 use crate::profile::{FragmentStage, Profile};
 
 pub struct ProfileFit<'p> {
     pub profile: &'p Profile,
+    /// The target's fixed-function stage (the combiner code generator);
+    /// `None` on a programmable stage.
+    realizer: Option<&'p dyn Realizer>,
     /// The generator's verdicts by value: the arena only grows, so a
     /// handle's value never changes while the planner runs.
     generated: RefCell<HashMap<Handle<Expr>, Result<(), Overflow>>>,
 }
 
 impl<'p> ProfileFit<'p> {
-    pub fn new(profile: &'p Profile) -> ProfileFit<'p> {
-        ProfileFit { profile, generated: RefCell::default() }
+    pub fn new(profile: &'p Profile, realizer: Option<&'p dyn Realizer>) -> ProfileFit<'p> {
+        ProfileFit { profile, realizer, generated: RefCell::default() }
     }
 
     /// Whether the combiner code generator realizes `value` as one pass,
     /// its texture units bound as the plan binds them (lookups, then
     /// framebuffers read as textures).
     fn generates(&self, module: &Module, value: Handle<Expr>, u: &Usage) -> Result<(), Overflow> {
-        let Some(limits) = self.profile.combiner_limits() else { return Ok(()) };
+        let (Some(realizer), FragmentStage::Combiners(_)) = (self.realizer, &self.profile.fragment) else {
+            return Ok(());
+        };
         if let Some(known) = self.generated.borrow().get(&value) {
             return known.clone();
         }
         let units: Vec<Handle<Expr>> = u.lookups.iter().chain(&u.framebuffer_reads).copied().collect();
-        let input = codegen::PassInput { module, value, units: &units };
-        let verdict = codegen::generate(&input, &limits).map(|_| ()).map_err(|e| {
-            let at = e.span().and_then(|span| {
+        let verdict = realizer.realize(module, value, &units).map_err(|e| {
+            let at = e.span.and_then(|span| {
                 module.reachable(&[value]).into_iter().rev().find(|h| module.span(*h) == span)
             });
             Overflow {
-                resource: format!("has no register-combiner setup the code generator can build: {e}"),
+                resource: format!(
+                    "has no register-combiner setup the code generator can build: {}",
+                    e.reason
+                ),
                 need: 0,
                 have: 0,
                 at,

@@ -25,6 +25,7 @@
 pub mod affine;
 pub mod fit;
 pub mod lights;
+pub mod realize;
 pub mod relevance;
 pub mod specialize;
 pub mod split;
@@ -35,6 +36,7 @@ use crate::pipeline::{
     BlendMode, FragmentWork, Geometry, Pass, PassPlan, Planned, Removed, RenderTarget, TextureBinding, Value,
     VertexWork,
 };
+pub use realize::{Realizer, Refusal};
 pub use split::{FitCheck, Overflow};
 
 use affine::Builder;
@@ -44,7 +46,7 @@ use crate::diag::Diagnostic;
 use crate::ir::{self, BinaryOp, Expr, FbChannel, Frequency, Handle, Module, Statement, Table, Usage};
 use crate::parser::ast::CombineMode;
 use crate::pipeline::{BlendState, CullMode, DepthState, RenderState, StencilOp, StencilState};
-use crate::profile::Profile;
+use crate::profile::{FragmentStage, Profile};
 use crate::span::{LineIndex, Span};
 
 /// At most this many consecutive statements are fused into one value (the
@@ -75,55 +77,33 @@ pub struct Form {
     pub drawn_at: Option<Handle<Expr>>,
 }
 
-/// Plans `module` for `profile`. `source` gives `line:col` positions.
-pub fn plan(module: &Module, profile: &Profile, source: Option<&str>) -> Result<Planned, Vec<Diagnostic>> {
-    plan_with(module, profile, source, Search::Planner)
-}
-
 /// How splits are searched.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Search {
     /// Memoized, exact subset DP for chains, greedy for long ones.
+    #[default]
     Planner,
     /// Brute force over every set partition (the optimality test's reference;
     /// exponential: for programs of a few dozen operations at most).
     Exhaustive,
 }
 
-pub fn plan_with(
-    module: &Module,
-    profile: &Profile,
-    source: Option<&str>,
-    search: Search,
-) -> Result<Planned, Vec<Diagnostic>> {
-    plan_inner(module, profile, source, search, None)
+/// What a plan is asked for, besides the module and the profile. Build one
+/// through [`crate::driver`], which supplies the realizer a target needs.
+#[derive(Clone, Copy, Default)]
+pub struct Request<'a> {
+    /// The program's text: the plan's positions are its `line:col`.
+    pub source: Option<&'a str>,
+    pub search: Search,
+    /// Plan for one scene ([`SceneSpecialization`]); `None`: for any scene.
+    pub scene: Option<&'a SceneSpecialization<'a>>,
+    /// The target's fixed-function fragment stage, which decides whether a
+    /// value fits one pass (the combiner code generator on geforce256 and
+    /// geforce3); required on those targets.
+    pub realizer: Option<&'a dyn Realizer>,
 }
 
-/// Plans `module` for one scene: the scene's values for the program's
-/// uniforms are folded first, so terms they zero go with their textures
-/// and passes (`shadec compile --scene`). The bindings are listed in
-/// `removed` (kind `uniform`); values of the wrong size are errors.
-pub fn plan_for_scene(
-    module: &Module,
-    profile: &Profile,
-    source: Option<&str>,
-    constants: &std::collections::BTreeMap<String, Vec<f32>>,
-) -> Result<Planned, Vec<Diagnostic>> {
-    plan_inner(module, profile, source, Search::Planner, Some(constants))
-}
-
-fn plan_inner(
-    module: &Module,
-    profile: &Profile,
-    source: Option<&str>,
-    search: Search,
-    scene: Option<&std::collections::BTreeMap<String, Vec<f32>>>,
-) -> Result<Planned, Vec<Diagnostic>> {
-    plan_inner_with(module, profile, source, search, scene, None)
-}
-
-/// Scene-driven specialization (issue 7 parts 1-2): what
-/// [`plan_specialized`] does for a scene.
+/// Scene-driven specialization (issue 7 parts 1-2).
 pub struct SceneSpecialization<'s> {
     pub scene: &'s crate::scene::Scene,
     /// The scene's meshes (`Scene::build`): light relevance is per object.
@@ -142,22 +122,6 @@ pub struct SceneSpecialization<'s> {
 /// so that an RGBA8 framebuffer rounds to the same pixel.
 pub const DEFAULT_CULL_THRESHOLD: f64 = 0.5 / 255.0;
 
-/// Plans `module` for a scene: one pass per light for a program written
-/// for light 0 ([`lights`]), then — as `spec` asks — the scene's uniforms
-/// folded with their zero terms, textures and passes, and the lights that
-/// cannot reach an object culled for it ([`relevance`]). With
-/// `fold_uniforms: false, cull_threshold: None` this is the unspecialized
-/// plan of the program on the scene (the reference the tests compare with).
-pub fn plan_specialized(
-    module: &Module,
-    profile: &Profile,
-    source: Option<&str>,
-    spec: &SceneSpecialization,
-) -> Result<Planned, Vec<Diagnostic>> {
-    let constants = spec.fold_uniforms.then_some(&spec.scene.constants);
-    plan_inner_with(module, profile, source, Search::Planner, constants, Some(spec))
-}
-
 /// Per statement of the expanded module: its light, the objects it is
 /// drawn for, and its source statement.
 #[derive(Clone, Debug, Default)]
@@ -167,21 +131,44 @@ struct PerLight {
     source: Vec<usize>,
 }
 
-fn plan_inner_with(
-    module: &Module,
-    profile: &Profile,
-    source: Option<&str>,
-    search: Search,
-    scene: Option<&std::collections::BTreeMap<String, Vec<f32>>>,
-    spec: Option<&SceneSpecialization>,
-) -> Result<Planned, Vec<Diagnostic>> {
+/// The module made ready for planning: what specialization removed, the
+/// statements' lights and names, and the statements culled for every object.
+struct Prepared {
+    removed: Vec<Removed>,
+    per_light: PerLight,
+    culled: Vec<usize>,
+    names: Vec<String>,
+}
+
+/// The two fits a run of statements is planned with: the target's, and the
+/// compiler's own for a `bake` table's texel pass, which runs on the CPU
+/// with no fragment-stage limits (issue 18).
+struct Fits<'p> {
+    target: fit::ProfileFit<'p>,
+    compiler: fit::ProfileFit<'p>,
+    cache: SplitCache,
+    compiler_cache: SplitCache,
+}
+
+/// Plans `module` for `profile` (the numbered steps of this module's doc).
+/// With a scene in `request`: one pass per light for a program written for
+/// light 0 ([`lights`]), then — as the specialization asks — the scene's
+/// uniforms folded with their zero terms, textures and passes, and the
+/// lights that cannot reach an object culled for it ([`relevance`]).
+pub fn plan(module: &Module, profile: &Profile, request: &Request) -> Result<Planned, Vec<Diagnostic>> {
     let errors: Vec<Diagnostic> =
         crate::profile::fit(module, profile).into_iter().filter(|d| d.is_error()).collect();
     if !errors.is_empty() {
         return Err(errors);
     }
+    if matches!(profile.fragment, FragmentStage::Combiners(_)) && request.realizer.is_none() {
+        let what = "planned for a register-combiner target without its code generator";
+        return Err(vec![Diagnostic::error("internal-error", what, Span::DETACHED, "").with_help(
+            "plan through `shadec::driver`, which passes the target's generator to the planner",
+        )]);
+    }
     let mut m = module.clone();
-    let index = source.map(|s| (LineIndex::new(s), s));
+    let index = request.source.map(|s| (LineIndex::new(s), s));
     let at = |span: Span| -> String {
         match (&index, span == Span::DETACHED) {
             (Some((ix, text)), false) => {
@@ -191,249 +178,332 @@ fn plan_inner_with(
             _ => "-".to_string(),
         }
     };
-    let mut removed = Vec::new();
-    let mut per_light = PerLight {
-        light: vec![None; m.statements.len()],
-        objects: vec![None; m.statements.len()],
-        source: (0..m.statements.len()).collect(),
+    let prepared = prepare(&mut m, request.scene, &at)?;
+    let compiler = Profile { fragment: FragmentStage::Programmable, ..profile.clone() };
+    let mut fits = Fits {
+        target: fit::ProfileFit::new(profile, request.realizer),
+        compiler: fit::ProfileFit::new(&compiler, None),
+        cache: SplitCache::default(),
+        compiler_cache: SplitCache::default(),
     };
-    let mut culled_statements: Vec<usize> = Vec::new();
-    let mut names: Vec<String> = (1..=m.statements.len()).map(|i| i.to_string()).collect();
-    if let Some(spec) = spec {
-        let expansion = lights::expand(&mut m, spec.scene.lights.len(), &at);
-        removed.extend(expansion.notes.iter().cloned());
-        let n = m.statements.len();
-        per_light = PerLight { light: vec![None; n], objects: vec![None; n], source: Vec::with_capacity(n) };
-        for i in 0..n {
-            per_light.source.push(expansion.source.get(i).copied().unwrap_or(i));
-            per_light.light[i] = expansion.light_of(i);
-        }
-        names = (0..n)
-            .map(|i| match per_light.light[i] {
-                Some(l) if expansion.light_of(i).is_some() && spec.scene.lights.len() > 1 => {
-                    format!("{} (light {l})", per_light.source[i] + 1)
-                }
-                _ => (per_light.source[i] + 1).to_string(),
-            })
-            .collect();
-        if let Some(threshold) = spec.cull_threshold {
-            let culled = relevance::cull(&mut m, spec, &expansion, threshold, &names, &at);
-            removed.extend(culled.removed);
-            culled_statements = culled.statements;
-            for (i, objects) in culled.objects {
-                per_light.objects[i] = Some(objects);
-            }
-        }
-    }
-    if let Some(values) = scene {
-        let (bound, mismatched) = specialize::bind_uniforms(&mut m, values, &at);
-        if !mismatched.is_empty() {
-            return Err(mismatched
-                .into_iter()
-                .map(|what| {
-                    let name = what.split('`').nth(1).unwrap_or_default().to_string();
-                    let span = m.uniforms.iter().find(|u| u.name == name).map_or(Span::DETACHED, |u| u.span);
-                    Diagnostic::error(
-                        "scene-value",
-                        format!("the scene's value does not fit: {what}"),
-                        span,
-                        "declared here",
-                    )
-                    .with_help("give one number, or one per component, in the scene's `constants`")
-                })
-                .collect());
-        }
-        removed.extend(bound);
-    }
-    removed.extend(specialize::specialize(&mut m, &at));
-    let target_fit = fit::ProfileFit::new(profile);
-    // A `bake(f)` table's texel pass runs on the compiler's CPU, which has
-    // no fragment-stage limits (issue 18).
-    let compiler = Profile { fragment: crate::profile::FragmentStage::Programmable, ..profile.clone() };
-    let compiler_fit = fit::ProfileFit::new(&compiler);
-    let float_temps = profile.float_textures;
-
-    // Texgen statements by the coordinate set they write.
-    let mut texgen: HashMap<u32, String> = HashMap::new();
-    for st in &m.statements {
-        if let Table::TexCoords(id) = st.table {
-            texgen.insert(id, m.texcoord_sets[id as usize].name.clone());
-        }
-    }
-
-    let mut cache = SplitCache::default();
-    let mut compiler_cache = SplitCache::default();
-    let mut diags = Vec::new();
-    let mut chosen: Vec<Chosen> = Vec::new();
-    let live: Vec<usize> = (0..m.statements.len())
-        .filter(|&i| {
-            !matches!(m.statements[i].table, Table::TexCoords(_))
-                && !specialize::is_noop(&m, &m.statements[i])
-                && !culled_statements.contains(&i)
-        })
-        .collect();
-    for &i in (0..m.statements.len())
-        .filter(|i| {
-            !live.contains(i)
-                && !culled_statements.contains(i)
-                && !matches!(m.statements[*i].table, Table::TexCoords(_))
-        })
-        .collect::<Vec<_>>()
-        .iter()
-    {
-        removed.push(Removed {
-            kind: "pass".into(),
-            what: format!("statement {}", names[i]),
-            why: "after specialization it leaves its target unchanged".into(),
-            at: at(m.statements[i].span),
-        });
-    }
-    let mut k = 0;
-    while k < live.len() {
-        // The run of statements fusable with live[k].
-        let mut run = vec![live[k]];
-        let own_pass = |i: usize| per_light.light[i].is_some_and(|l| l > 0);
-        while run.len() < MAX_FUSE
-            && k + run.len() < live.len()
-            && !own_pass(*run.last().unwrap())
-            && !own_pass(live[k + run.len()])
-            && fusable(&m, &m.statements[*run.last().unwrap()], &m.statements[live[k + run.len()]])
-        {
-            run.push(live[k + run.len()]);
-        }
-        let baked = m.is_baked(&m.statements[run[0]]);
-        let (fit, cache) =
-            if baked { (&compiler_fit, &mut compiler_cache) } else { (&target_fit, &mut cache) };
-        // best[j]: the cheapest plan of run[..j].
-        let mut best: Vec<Option<(split::Cost, Vec<Chosen>)>> = vec![None; run.len() + 1];
-        best[0] = Some(((0, 0), vec![]));
-        let mut first_error: Option<Diagnostic> = None;
-        // Why a statement was not fused with the one before it.
-        let mut not_fused: HashMap<usize, String> = HashMap::new();
-        for j in 1..=run.len() {
-            // Each statement alone first: its cost bounds the fused candidates.
-            for i in (0..j).rev() {
-                let Some((base_cost, base)) = best[i].clone() else { continue };
-                let stmts: Vec<usize> = run[i..j].to_vec();
-                let fused = match fuse(&mut m, &stmts) {
-                    Some(v) => v,
-                    None => continue,
-                };
-                let st = m.statements[stmts[0]].clone();
-                // Statements are fused only into one pass: a fused value that
-                // must be split again saves nothing the separate statements'
-                // blends do not already give, and searching its splits is
-                // what would make planning cubic.
-                if stmts.len() > 1 {
-                    if let Err(o) = fit.fits(&m, fused) {
-                        if stmts.len() == 2 {
-                            not_fused
-                                .entry(stmts[1])
-                                .or_insert(format!("fused with statement {} it {o}", names[stmts[0]]));
-                        }
-                        continue;
-                    }
-                }
-                let form = match classify(&mut m, &st, fused) {
-                    Ok(f) => f,
-                    Err(d) => {
-                        if stmts.len() == 1 {
-                            first_error.get_or_insert(d);
-                        } else if stmts.len() == 2 {
-                            not_fused.entry(stmts[1]).or_insert(format!(
-                                "fused with statement {}, {}",
-                                names[stmts[0]], d.message
-                            ));
-                        }
-                        continue;
-                    }
-                };
-                let pieces = match plan_form(&mut m, fit, cache, &st, &form, float_temps, search) {
-                    Ok(p) => p,
-                    Err(o) => {
-                        if stmts.len() == 1 {
-                            first_error.get_or_insert(cannot_split(&m, &st, profile, &o));
-                        } else if stmts.len() == 2 {
-                            not_fused
-                                .entry(stmts[1])
-                                .or_insert(format!("fused with statement {} it {o}", names[stmts[0]]));
-                        }
-                        continue;
-                    }
-                };
-                let c = split::cost(&m, &pieces);
-                if stmts.len() == 2 {
-                    not_fused.entry(stmts[1]).or_insert(format!(
-                        "fused with statement {} it needs {} pass{} on {}, no fewer than apart",
-                        names[stmts[0]],
-                        pieces.len(),
-                        if pieces.len() == 1 { "" } else { "es" },
-                        profile.name
-                    ));
-                }
-                let total = (base_cost.0 + c.0, base_cost.1 + c.1);
-                // On a tie, keep statements as written (more, smaller groups).
-                if best[j]
-                    .as_ref()
-                    .is_none_or(|(b, v)| total < *b || (total == *b && base.len() + 1 > v.len()))
-                {
-                    let mut v = base;
-                    v.push((stmts, form, pieces, String::new()));
-                    best[j] = Some((total, v));
-                }
-            }
-        }
-        match best[run.len()].take() {
-            Some((_, v)) => chosen.extend(v.into_iter().map(|(stmts, form, pieces, _)| {
-                let reason = if stmts.len() > 1 {
-                    format!(
-                        "statements {} fused: together they fit {} pass{} on {}",
-                        stmts.iter().map(|s| names[*s].clone()).collect::<Vec<_>>().join(", "),
-                        pieces.len(),
-                        if pieces.len() == 1 { "" } else { "es" },
-                        profile.name
-                    )
-                } else {
-                    match not_fused.get(&stmts[0]) {
-                        Some(why) => format!("statement {} as written: {why}", names[stmts[0]]),
-                        None => format!("statement {} as written", names[stmts[0]]),
-                    }
-                };
-                (stmts, form, pieces, reason)
-            })),
-            None => diags.push(first_error.unwrap_or_else(|| {
-                let st = &m.statements[run[0]];
-                Diagnostic::error(
-                    "cannot-plan",
-                    format!("cannot plan this statement for {}", profile.name),
-                    st.span,
-                    "here",
-                )
-                .with_help("simplify the statement or target a profile with more resources")
-            })),
-        }
-        k += run.len();
-    }
+    let (chosen, mut diags) = choose(&mut m, profile, request.search, &mut fits, &prepared);
     diags.extend(reused_projection(&m));
     if !diags.is_empty() {
         return Err(diags);
     }
-    let plan = assemble(&m, profile, &chosen, &texgen, removed, &at, &names, &per_light);
+    // Texgen statements by the coordinate set they write.
+    let texgen: HashMap<u32, String> = m
+        .statements
+        .iter()
+        .filter_map(|st| match st.table {
+            Table::TexCoords(id) => Some((id, m.texcoord_sets[id as usize].name.clone())),
+            _ => None,
+        })
+        .collect();
+    let ctx = AssembleCtx { profile, realizer: request.realizer, texgen: &texgen, at: &at };
+    let plan = assemble(&m, &ctx, &chosen, prepared);
     Ok(Planned { module: m, plan, combiners: profile.combiner_limits() })
 }
 
-/// Parse, check, lower and plan `source` for `profile`.
-pub fn compile_source(source: &str, profile: &Profile) -> Result<Planned, Vec<Diagnostic>> {
-    let (program, mut diags) = crate::parser::check(source);
-    if diags.iter().any(|d| d.is_error()) {
-        diags.retain(|d| d.is_error());
-        return Err(diags);
+/// Steps 1-2 for a scene: lights expanded and culled, the scene's uniforms
+/// bound, zero terms removed.
+fn prepare(
+    m: &mut Module,
+    spec: Option<&SceneSpecialization>,
+    at: &dyn Fn(Span) -> String,
+) -> Result<Prepared, Vec<Diagnostic>> {
+    let n = m.statements.len();
+    let mut prepared = Prepared {
+        removed: Vec::new(),
+        per_light: PerLight { light: vec![None; n], objects: vec![None; n], source: (0..n).collect() },
+        culled: Vec::new(),
+        names: (1..=n).map(|i| i.to_string()).collect(),
+    };
+    if let Some(spec) = spec {
+        expand_lights(m, spec, &mut prepared, at);
+        if spec.fold_uniforms {
+            bind_scene_uniforms(m, &spec.scene.constants, &mut prepared.removed, at)?;
+        }
     }
-    let (module, lower_diags) = ir::lower(&program);
-    if lower_diags.iter().any(|d| d.is_error()) {
-        return Err(lower_diags.into_iter().filter(|d| d.is_error()).collect());
+    prepared.removed.extend(specialize::specialize(m, at));
+    let noops = noop_statements(m, &prepared, at);
+    prepared.removed.extend(noops);
+    Ok(prepared)
+}
+
+/// One pass per scene light, then the lights culled per object.
+fn expand_lights(
+    m: &mut Module,
+    spec: &SceneSpecialization,
+    prepared: &mut Prepared,
+    at: &dyn Fn(Span) -> String,
+) {
+    let expansion = lights::expand(m, spec.scene.lights.len(), at);
+    prepared.removed.extend(expansion.notes.iter().cloned());
+    let n = m.statements.len();
+    let mut per_light =
+        PerLight { light: vec![None; n], objects: vec![None; n], source: Vec::with_capacity(n) };
+    for i in 0..n {
+        per_light.source.push(expansion.source.get(i).copied().unwrap_or(i));
+        per_light.light[i] = expansion.light_of(i);
     }
-    plan(&module, profile, Some(source))
+    prepared.names = (0..n)
+        .map(|i| match per_light.light[i] {
+            Some(l) if spec.scene.lights.len() > 1 => format!("{} (light {l})", per_light.source[i] + 1),
+            _ => (per_light.source[i] + 1).to_string(),
+        })
+        .collect();
+    if let Some(threshold) = spec.cull_threshold {
+        let culled = relevance::cull(m, spec, &expansion, threshold, &prepared.names, at);
+        prepared.removed.extend(culled.removed);
+        prepared.culled = culled.statements;
+        for (i, objects) in culled.objects {
+            per_light.objects[i] = Some(objects);
+        }
+    }
+    prepared.per_light = per_light;
+}
+
+/// The scene's values for the program's uniforms, folded; a value of the
+/// wrong size is an error at the uniform's declaration.
+fn bind_scene_uniforms(
+    m: &mut Module,
+    values: &std::collections::BTreeMap<String, Vec<f32>>,
+    removed: &mut Vec<Removed>,
+    at: &dyn Fn(Span) -> String,
+) -> Result<(), Vec<Diagnostic>> {
+    let (bound, mismatched) = specialize::bind_uniforms(m, values, at);
+    if mismatched.is_empty() {
+        removed.extend(bound);
+        return Ok(());
+    }
+    Err(mismatched
+        .into_iter()
+        .map(|what| {
+            let name = what.split('`').nth(1).unwrap_or_default().to_string();
+            let span = m.uniforms.iter().find(|u| u.name == name).map_or(Span::DETACHED, |u| u.span);
+            Diagnostic::error(
+                "scene-value",
+                format!("the scene's value does not fit: {what}"),
+                span,
+                "declared here",
+            )
+            .with_help("give one number, or one per component, in the scene's `constants`")
+        })
+        .collect())
+}
+
+/// Steps 3-5 over the live statements: each run of fusable statements
+/// planned by [`plan_run`]; what cannot be planned is a diagnostic.
+fn choose(
+    m: &mut Module,
+    profile: &Profile,
+    search: Search,
+    fits: &mut Fits,
+    prepared: &Prepared,
+) -> (Vec<Chosen>, Vec<Diagnostic>) {
+    let live: Vec<usize> = (0..m.statements.len())
+        .filter(|&i| {
+            !matches!(m.statements[i].table, Table::TexCoords(_))
+                && !specialize::is_noop(m, &m.statements[i])
+                && !prepared.culled.contains(&i)
+        })
+        .collect();
+    let mut chosen = Vec::new();
+    let mut diags = Vec::new();
+    let mut k = 0;
+    while k < live.len() {
+        let run = fusable_run(m, &live[k..], &prepared.per_light);
+        match plan_run(m, profile, search, fits, &run, &prepared.names) {
+            Ok(v) => chosen.extend(v),
+            Err(d) => diags.push(d),
+        }
+        k += run.len();
+    }
+    (chosen, diags)
+}
+
+/// The statements a statement may be fused with: a run of fusable
+/// statements from `live[0]`, at most [`MAX_FUSE`]; a light after the first
+/// keeps its own passes.
+fn fusable_run(m: &Module, live: &[usize], per_light: &PerLight) -> Vec<usize> {
+    let own_pass = |i: usize| per_light.light[i].is_some_and(|l| l > 0);
+    let mut run = vec![live[0]];
+    while run.len() < MAX_FUSE
+        && run.len() < live.len()
+        && !own_pass(*run.last().unwrap())
+        && !own_pass(live[run.len()])
+        && fusable(m, &m.statements[*run.last().unwrap()], &m.statements[live[run.len()]])
+    {
+        run.push(live[run.len()]);
+    }
+    run
+}
+
+/// The statements live but not planned: left unchanged after specialization.
+fn noop_statements(m: &Module, prepared: &Prepared, at: &dyn Fn(Span) -> String) -> Vec<Removed> {
+    (0..m.statements.len())
+        .filter(|&i| {
+            !prepared.culled.contains(&i)
+                && !matches!(m.statements[i].table, Table::TexCoords(_))
+                && specialize::is_noop(m, &m.statements[i])
+        })
+        .map(|i| Removed {
+            kind: "pass".into(),
+            what: format!("statement {}", prepared.names[i]),
+            why: "after specialization it leaves its target unchanged".into(),
+            at: at(m.statements[i].span),
+        })
+        .collect()
+}
+
+/// Why a candidate group of statements has no plan.
+enum Unplanned {
+    /// Its value is no blend the framebuffer can do.
+    Form(Diagnostic),
+    /// It does not fit (fused: one pass; alone: any split).
+    Overflow(Overflow),
+}
+
+/// Plans one group of statements (fused into one value when more than
+/// one): its blend form and the passes of its split.
+fn candidate(
+    m: &mut Module,
+    search: Search,
+    fits: &mut Fits,
+    baked: bool,
+    stmts: &[usize],
+    float_temps: bool,
+) -> Option<Result<(Form, Vec<Piece>), Unplanned>> {
+    let (fit, cache) =
+        if baked { (&fits.compiler, &mut fits.compiler_cache) } else { (&fits.target, &mut fits.cache) };
+    let fused = fuse(m, stmts)?;
+    let st = m.statements[stmts[0]].clone();
+    // Statements are fused only into one pass: a fused value that must be
+    // split again saves nothing the separate statements' blends do not
+    // already give, and searching its splits is what would make planning cubic.
+    if stmts.len() > 1 {
+        if let Err(o) = fit.fits(m, fused) {
+            return Some(Err(Unplanned::Overflow(o)));
+        }
+    }
+    let form = match classify(m, &st, fused) {
+        Ok(f) => f,
+        Err(d) => return Some(Err(Unplanned::Form(d))),
+    };
+    Some(match plan_form(m, fit, cache, &st, &form, float_temps, search) {
+        Ok(pieces) => Ok((form, pieces)),
+        Err(o) => Err(Unplanned::Overflow(o)),
+    })
+}
+
+fn passes_word(n: usize) -> &'static str {
+    if n == 1 {
+        "pass"
+    } else {
+        "passes"
+    }
+}
+
+/// Steps 4-5 for one run of fusable statements: the cheapest grouping
+/// (fewest passes, then fetches) by dynamic programming over its prefixes,
+/// each group with the reason it was fused or kept as written.
+fn plan_run(
+    m: &mut Module,
+    profile: &Profile,
+    search: Search,
+    fits: &mut Fits,
+    run: &[usize],
+    names: &[String],
+) -> Result<Vec<Chosen>, Diagnostic> {
+    let baked = m.is_baked(&m.statements[run[0]]);
+    // best[j]: the cheapest plan of run[..j].
+    let mut best: Vec<Option<(split::Cost, Vec<Chosen>)>> = vec![None; run.len() + 1];
+    best[0] = Some(((0, 0), vec![]));
+    let mut first_error: Option<Diagnostic> = None;
+    // Why a statement was not fused with the one before it.
+    let mut not_fused: HashMap<usize, String> = HashMap::new();
+    for j in 1..=run.len() {
+        // Each statement alone first: its cost bounds the fused candidates.
+        for i in (0..j).rev() {
+            let Some((base_cost, base)) = best[i].clone() else { continue };
+            let stmts: Vec<usize> = run[i..j].to_vec();
+            let pair_with = (stmts.len() == 2).then(|| names[stmts[0]].clone());
+            let (form, pieces) = match candidate(m, search, fits, baked, &stmts, profile.float_textures) {
+                None => continue,
+                Some(Ok(planned)) => planned,
+                Some(Err(why)) => {
+                    match (&why, stmts.len(), &pair_with) {
+                        (Unplanned::Form(d), 1, _) => {
+                            first_error.get_or_insert(d.clone());
+                        }
+                        (Unplanned::Overflow(o), 1, _) => {
+                            let st = m.statements[stmts[0]].clone();
+                            first_error.get_or_insert(cannot_split(m, &st, profile, o));
+                        }
+                        (Unplanned::Form(d), _, Some(a)) => {
+                            not_fused
+                                .entry(stmts[1])
+                                .or_insert(format!("fused with statement {a}, {}", d.message));
+                        }
+                        (Unplanned::Overflow(o), _, Some(a)) => {
+                            not_fused.entry(stmts[1]).or_insert(format!("fused with statement {a} it {o}"));
+                        }
+                        _ => {}
+                    }
+                    continue;
+                }
+            };
+            let c = split::cost(m, &pieces);
+            if let Some(a) = &pair_with {
+                let n = pieces.len();
+                not_fused.entry(stmts[1]).or_insert(format!(
+                    "fused with statement {a} it needs {n} {} on {}, no fewer than apart",
+                    passes_word(n),
+                    profile.name
+                ));
+            }
+            let total = (base_cost.0 + c.0, base_cost.1 + c.1);
+            // On a tie, keep statements as written (more, smaller groups).
+            if best[j].as_ref().is_none_or(|(b, v)| total < *b || (total == *b && base.len() + 1 > v.len())) {
+                let mut v = base;
+                v.push((stmts, form, pieces, String::new()));
+                best[j] = Some((total, v));
+            }
+        }
+    }
+    let Some((_, groups)) = best[run.len()].take() else {
+        return Err(first_error.unwrap_or_else(|| {
+            let st = &m.statements[run[0]];
+            Diagnostic::error(
+                "cannot-plan",
+                format!("cannot plan this statement for {}", profile.name),
+                st.span,
+                "here",
+            )
+            .with_help("simplify the statement or target a profile with more resources")
+        }));
+    };
+    Ok(groups
+        .into_iter()
+        .map(|(stmts, form, pieces, _)| {
+            let reason = if stmts.len() > 1 {
+                format!(
+                    "statements {} fused: together they fit {} {} on {}",
+                    stmts.iter().map(|s| names[*s].clone()).collect::<Vec<_>>().join(", "),
+                    pieces.len(),
+                    passes_word(pieces.len()),
+                    profile.name
+                )
+            } else {
+                match not_fused.get(&stmts[0]) {
+                    Some(why) => format!("statement {} as written: {why}", names[stmts[0]]),
+                    None => format!("statement {} as written", names[stmts[0]]),
+                }
+            };
+            (stmts, form, pieces, reason)
+        })
+        .collect())
 }
 
 fn cannot_split(m: &Module, st: &Statement, profile: &Profile, o: &Overflow) -> Diagnostic {
@@ -816,16 +886,18 @@ fn plan_form(
 }
 
 #[allow(clippy::too_many_arguments)]
-fn assemble(
-    m: &Module,
-    profile: &Profile,
-    chosen: &[Chosen],
-    texgen: &HashMap<u32, String>,
-    removed: Vec<Removed>,
-    at: &dyn Fn(Span) -> String,
-    names: &[String],
-    per_light: &PerLight,
-) -> PassPlan {
+/// What assembling passes needs besides the chosen groups.
+struct AssembleCtx<'a> {
+    profile: &'a Profile,
+    realizer: Option<&'a dyn Realizer>,
+    /// Texgen statements by the coordinate set they write.
+    texgen: &'a HashMap<u32, String>,
+    at: &'a dyn Fn(Span) -> String,
+}
+
+fn assemble(m: &Module, ctx: &AssembleCtx, chosen: &[Chosen], prepared: Prepared) -> PassPlan {
+    let AssembleCtx { profile, realizer, texgen, at } = *ctx;
+    let Prepared { removed, per_light, names, .. } = prepared;
     let mut passes = Vec::new();
     let mut drawn: Vec<(Table, Handle<Expr>)> = Vec::new();
     let mut drawn_temps: Vec<u32> = Vec::new();
@@ -973,7 +1045,7 @@ fn assemble(
             };
             // A `bake` table is the compiler's: no combiner setup to judge.
             let combiners =
-                if m.is_baked(st) { None } else { combiner_verdict(m, profile, piece.value, &textures, &at) };
+                if m.is_baked(st) { None } else { combiner_verdict(m, realizer, piece.value, &textures, at) };
             roots.push(piece.value);
             roots.push(st.index);
             roots.push(drawn_at);
@@ -1034,18 +1106,16 @@ fn assemble(
 /// source text).
 fn combiner_verdict(
     m: &Module,
-    profile: &Profile,
+    realizer: Option<&dyn Realizer>,
     value: Handle<Expr>,
     textures: &[TextureBinding],
     at: &dyn Fn(Span) -> String,
 ) -> Option<String> {
-    let limits = profile.combiner_limits()?;
     // Unit i holds textures[i]: a lookup, or a framebuffer read as a texture.
     let units: Vec<Handle<Expr>> = textures.iter().map(|t| Handle::new(t.lookup as usize)).collect();
-    let input = crate::backends::combiners::codegen::PassInput { module: m, value, units: &units };
-    let e = crate::backends::combiners::codegen::generate(&input, &limits).err()?;
-    let span = e.span().filter(|s| *s != Span::DETACHED).unwrap_or_else(|| m.span(value));
-    Some(format!("not generated: {}: {e}", at(span)))
+    let e = realizer?.realize(m, value, &units).err()?;
+    let span = e.span.filter(|s| *s != Span::DETACHED).unwrap_or_else(|| m.span(value));
+    Some(format!("not generated: {}: {}", at(span), e.reason))
 }
 
 fn same_framebuffer(a: &Table, b: &Table) -> bool {

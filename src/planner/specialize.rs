@@ -235,7 +235,7 @@ impl RemovalReport {
 }
 
 /// Mesh draws of a plan on a scene with `objects` objects.
-fn draws(plan: &super::PassPlan, objects: usize) -> usize {
+pub fn draws(plan: &super::PassPlan, objects: usize) -> usize {
     plan.passes
         .iter()
         .map(|p| match p.geometry {
@@ -243,67 +243,4 @@ fn draws(plan: &super::PassPlan, objects: usize) -> usize {
             _ => 1,
         })
         .sum()
-}
-
-/// The removal report of `program_source` on `scene` for `profile`: the
-/// program planned for the scene's lights without specialization, then
-/// with the scene's uniforms folded and lights culled at
-/// [`super::DEFAULT_CULL_THRESHOLD`].
-pub fn removal_report(
-    program_source: &str,
-    profile: &crate::profile::Profile,
-    scene: &crate::scene::Scene,
-) -> Result<RemovalReport, Vec<crate::diag::Diagnostic>> {
-    let (before, after) = plan_pair(program_source, profile, scene, super::DEFAULT_CULL_THRESHOLD)?;
-    let objects = scene.objects.len();
-    Ok(RemovalReport {
-        target: after.plan.target.clone(),
-        lights: scene.lights.len(),
-        objects,
-        passes_before: before.plan.passes.len(),
-        passes_after: after.plan.passes.len(),
-        draws_before: draws(&before.plan, objects),
-        draws_after: draws(&after.plan, objects),
-        lights_culled: after.plan.removed.iter().filter(|r| r.kind == "light").count(),
-        removed: after.plan.removed.clone(),
-    })
-}
-
-/// The unspecialized and the specialized plan of a program on a scene
-/// (both with one pass per light): what the report and the tests compare.
-pub fn plan_pair(
-    program_source: &str,
-    profile: &crate::profile::Profile,
-    scene: &crate::scene::Scene,
-    threshold: f64,
-) -> Result<(super::Planned, super::Planned), Vec<crate::diag::Diagnostic>> {
-    let (program, diags) = crate::parser::check(program_source);
-    if diags.iter().any(|d| d.is_error()) {
-        return Err(diags.into_iter().filter(|d| d.is_error()).collect());
-    }
-    let (module, diags) = crate::ir::lower(&program);
-    if diags.iter().any(|d| d.is_error()) {
-        return Err(diags.into_iter().filter(|d| d.is_error()).collect());
-    }
-    let assets = scene.build().map_err(|e| {
-        vec![crate::diag::Diagnostic::error(
-            "scene-error",
-            format!("the scene cannot be built: {e}"),
-            Span::DETACHED,
-            "",
-        )
-        .with_help("fix the scene file (its meshes and textures must load)")]
-    })?;
-    let textures = crate::scene::bind::texture_decls(&program, &scene.constants);
-    let spec = |fold: bool, cull: Option<f64>| super::SceneSpecialization {
-        scene,
-        assets: &assets,
-        textures: &textures,
-        fold_uniforms: fold,
-        cull_threshold: cull,
-    };
-    let before = super::plan_specialized(&module, profile, Some(program_source), &spec(false, None))?;
-    let after =
-        super::plan_specialized(&module, profile, Some(program_source), &spec(true, Some(threshold)))?;
-    Ok((before, after))
 }

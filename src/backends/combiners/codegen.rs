@@ -39,6 +39,7 @@ use thiserror::Error;
 use crate::diag::Diagnostic;
 use crate::ir::{BinaryOp, Constant, Expr, FbChannel, Handle, MathFunction, Module, Ty, UnaryOp};
 use crate::parser::ast::CombineMode;
+use crate::planner::{Realizer, Refusal};
 use crate::span::Span;
 
 use super::config::{
@@ -2330,4 +2331,20 @@ pub fn generate_for_pass(planned: &crate::pipeline::Planned, index: usize) -> Re
         PassInput { module: &planned.module, value: planned.handle(pass.fragment.output), units: &units };
     generate(&input, &limits)
         .map_err(|e| pass.combiners.clone().unwrap_or_else(|| format!("not generated: {e}")))
+}
+
+/// The code generator as the planner's [`Realizer`] (issue 17): a value
+/// fits one pass of a register-combiner target when a setup for it is
+/// generated under the target's own limits (an Appendix B-valid setup).
+pub struct CombinerRealizer {
+    pub limits: CombinerLimits,
+}
+
+impl Realizer for CombinerRealizer {
+    fn realize(&self, module: &Module, value: Handle<Expr>, units: &[Handle<Expr>]) -> Result<(), Refusal> {
+        let input = PassInput { module, value, units };
+        generate(&input, &self.limits)
+            .map(|_| ())
+            .map_err(|e| Refusal { reason: e.to_string(), span: e.span() })
+    }
 }

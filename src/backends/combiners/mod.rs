@@ -15,7 +15,7 @@ pub mod rc1;
 pub mod ts1;
 pub mod validate;
 
-pub use codegen::{generate, CodegenError, Generated, PassInput};
+pub use codegen::{generate, CodegenError, CombinerRealizer, Generated, PassInput};
 pub use config::{
     Bias, Color, CombinerConfig, CombinerLimits, ComponentUsage, FinalCombiner, FinalInput, FinalSource,
     GeneralInput, GeneralPortion, GeneralStage, InputMapping, PortionKind, Register, Scale,

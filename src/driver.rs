@@ -1,0 +1,244 @@
+//! The one way from a program's text to a pass plan (issue 17): parse,
+//! check names, lower to the IR, plan for a target profile. The CLI,
+//! `bench`, the tests and the language server all compile through here, so
+//! a program means the same thing to each of them.
+//!
+//! The driver is also where the layers meet: the planner decides whether a
+//! value fits one pass of a register-combiner target by asking the
+//! combiner code generator, which sits above it (backends); the driver
+//! hands the generator to the planner as its [`Realizer`].
+//!
+//! ```
+//! use shadec::driver::{compile, PlanOptions};
+//! use shadec::profile::Profile;
+//!
+//! let source = "texture T : rgba8 = file(\"wood.png\");\nC δπx ← T δu x;\n";
+//! let geforce256 = Profile::builtin("geforce256").unwrap();
+//! let compilation = compile(source, &geforce256, &PlanOptions::default()).unwrap();
+//! assert_eq!(compilation.planned.plan.passes.len(), 1);
+//! ```
+
+use crate::backends::combiners::CombinerRealizer;
+use crate::diag::Diagnostic;
+use crate::ir::Module;
+use crate::parser::ast::Program;
+use crate::pipeline::Planned;
+use crate::planner::specialize::{draws, RemovalReport};
+use crate::planner::{self, Realizer, Request, SceneSpecialization, Search};
+use crate::profile::{Profile, ProfileError};
+use crate::scene::{Scene, SceneAssets};
+use crate::span::Span;
+
+/// Every problem found in a program, each with its location.
+pub type Diagnostics = Vec<Diagnostic>;
+
+/// How to plan, besides the target.
+#[derive(Clone, Copy, Default)]
+pub struct PlanOptions<'a> {
+    pub search: Search,
+    /// Plan for this scene (`compile --scene`, `render`); `None`: for any scene.
+    pub scene: Option<ForScene<'a>>,
+}
+
+/// A plan made for one scene (issue 7): one pass per light for a program
+/// written for light 0, then the scene's uniforms folded and lights
+/// culled per object as asked.
+#[derive(Clone, Copy)]
+pub struct ForScene<'a> {
+    pub scene: &'a Scene,
+    /// The scene's meshes (`Scene::build`): light relevance is per object.
+    pub assets: &'a SceneAssets,
+    /// Fold the uniforms the scene sets (and drop the terms they zero).
+    pub fold_uniforms: bool,
+    /// Cull lights whose terms add at most this much to any pixel of an
+    /// object; `None`: keep every light.
+    pub cull_threshold: Option<f64>,
+}
+
+impl<'a> ForScene<'a> {
+    /// What `render` and `compile --scene` do: the scene's uniforms folded,
+    /// lights culled below half an 8-bit step
+    /// ([`planner::DEFAULT_CULL_THRESHOLD`]).
+    pub fn specialized(scene: &'a Scene, assets: &'a SceneAssets) -> ForScene<'a> {
+        ForScene { scene, assets, fold_uniforms: true, cull_threshold: Some(planner::DEFAULT_CULL_THRESHOLD) }
+    }
+
+    /// One pass per light and nothing else: the plan a specialized one is
+    /// compared with.
+    pub fn unspecialized(scene: &'a Scene, assets: &'a SceneAssets) -> ForScene<'a> {
+        ForScene { scene, assets, fold_uniforms: false, cull_threshold: None }
+    }
+}
+
+/// A program compiled for a target.
+pub struct Compilation {
+    pub program: Program,
+    /// The lowered program, before planning: what the program means
+    /// (`meaning::plan`) and what `--emit ir` prints.
+    pub module: Module,
+    /// The pass plan with the IR its value ids refer to.
+    pub planned: Planned,
+    /// The warnings of the front end (unused names, …).
+    pub warnings: Diagnostics,
+}
+
+/// The front end's result: the AST, the IR when lowering ran, and every
+/// diagnostic (warnings too), in source order.
+pub struct Front {
+    pub program: Program,
+    /// `None` when the program has errors before lowering.
+    pub module: Option<Module>,
+    pub diagnostics: Diagnostics,
+}
+
+impl Front {
+    pub fn has_errors(&self) -> bool {
+        self.diagnostics.iter().any(Diagnostic::is_error)
+    }
+
+    fn errors(&self) -> Diagnostics {
+        self.diagnostics.iter().filter(|d| d.is_error()).cloned().collect()
+    }
+}
+
+/// Parse, check names, and lower when the program is clean.
+pub fn front(source: &str) -> Front {
+    let (program, mut diagnostics) = crate::parser::check(source);
+    let module = if diagnostics.iter().any(Diagnostic::is_error) {
+        None
+    } else {
+        let (module, lower_diags) = crate::ir::lower(&program);
+        diagnostics.extend(lower_diags);
+        Some(module)
+    };
+    diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
+    Front { program, module, diagnostics }
+}
+
+/// Compiles `source` for `profile`: the front end, then the plan. `Err`
+/// holds every error found (warnings are in [`Compilation::warnings`]).
+pub fn compile(source: &str, profile: &Profile, options: &PlanOptions) -> Result<Compilation, Diagnostics> {
+    let front = front(source);
+    if front.has_errors() {
+        return Err(front.errors());
+    }
+    let Front { program, module, diagnostics } = front;
+    let module = module.expect("a clean program is lowered");
+    let planned = plan(&module, &program, profile, Some(source), options)?;
+    Ok(Compilation { program, module, planned, warnings: diagnostics })
+}
+
+/// Plans a lowered module of `program` for `profile`, with the target's
+/// fragment stage as the planner's realizer. `source` gives the plan its
+/// `line:col` positions.
+pub fn plan(
+    module: &Module,
+    program: &Program,
+    profile: &Profile,
+    source: Option<&str>,
+    options: &PlanOptions,
+) -> Result<Planned, Diagnostics> {
+    let realizer = profile.combiner_limits().map(|limits| CombinerRealizer { limits });
+    let textures;
+    let spec;
+    let scene = match &options.scene {
+        Some(s) => {
+            textures = crate::scene::bind::texture_decls(program, &s.scene.constants);
+            spec = SceneSpecialization {
+                scene: s.scene,
+                assets: s.assets,
+                textures: &textures,
+                fold_uniforms: s.fold_uniforms,
+                cull_threshold: s.cull_threshold,
+            };
+            Some(&spec)
+        }
+        None => None,
+    };
+    let request = Request {
+        source,
+        search: options.search,
+        scene,
+        realizer: realizer.as_ref().map(|r| r as &dyn Realizer),
+    };
+    planner::plan(module, profile, &request)
+}
+
+/// What `check` reports for one program: every diagnostic of the front end
+/// and, when a target is known (`target` or the program's own `target X;`)
+/// and the program is clean, the profile's fit and the planner's refusals
+/// (what `compile` cannot plan is an error here too, with the planner's own
+/// message). Errors only for an unknown target.
+pub fn check(source: &str, target: Option<&str>) -> Result<Front, ProfileError> {
+    let mut front = front(source);
+    let (Some(module), false) = (&front.module, front.has_errors()) else { return Ok(front) };
+    let Some(name) = target.map(str::to_string).or_else(|| module.target.as_ref().map(|t| t.value.clone()))
+    else {
+        return Ok(front);
+    };
+    let profile = Profile::resolve(&name)?;
+    let mut found = crate::profile::fit(module, &profile);
+    if found.iter().all(|d| !d.is_error()) {
+        if let Err(errors) = plan(module, &front.program, &profile, Some(source), &PlanOptions::default()) {
+            // The planner's verdict replaces the "it will be split" warnings.
+            found.retain(|d| d.code != "does-not-fit");
+            found.extend(errors);
+        }
+    }
+    front.diagnostics.extend(found);
+    front.diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
+    Ok(front)
+}
+
+/// The plan of `source` on `scene` for `profile` before and after
+/// specialization (both with one pass per light; after: the scene's
+/// uniforms folded and lights culled at `threshold`): what the removal
+/// report and the tests compare.
+pub fn plan_pair(
+    source: &str,
+    profile: &Profile,
+    scene: &Scene,
+    threshold: f64,
+) -> Result<(Planned, Planned), Diagnostics> {
+    let front = front(source);
+    if front.has_errors() {
+        return Err(front.errors());
+    }
+    let module = front.module.as_ref().expect("a clean program is lowered");
+    let assets = scene.build().map_err(|e| {
+        vec![Diagnostic::error("scene-error", format!("the scene cannot be built: {e}"), Span::DETACHED, "")
+            .with_help("fix the scene file (its meshes and textures must load)")]
+    })?;
+    let plan_for = |scene: ForScene| {
+        plan(
+            module,
+            &front.program,
+            profile,
+            Some(source),
+            &PlanOptions { scene: Some(scene), ..Default::default() },
+        )
+    };
+    let before = plan_for(ForScene::unspecialized(scene, &assets))?;
+    let after =
+        plan_for(ForScene { cull_threshold: Some(threshold), ..ForScene::specialized(scene, &assets) })?;
+    Ok((before, after))
+}
+
+/// What scene-driven specialization removes from `source` on `scene` for
+/// `profile` (issue 7 parts 1-2), lights culled at
+/// [`planner::DEFAULT_CULL_THRESHOLD`].
+pub fn removal_report(source: &str, profile: &Profile, scene: &Scene) -> Result<RemovalReport, Diagnostics> {
+    let (before, after) = plan_pair(source, profile, scene, planner::DEFAULT_CULL_THRESHOLD)?;
+    let objects = scene.objects.len();
+    Ok(RemovalReport {
+        target: after.plan.target.clone(),
+        lights: scene.lights.len(),
+        objects,
+        passes_before: before.plan.passes.len(),
+        passes_after: after.plan.passes.len(),
+        draws_before: draws(&before.plan, objects),
+        draws_after: draws(&after.plan, objects),
+        lights_culled: after.plan.removed.iter().filter(|r| r.kind == "light").count(),
+        removed: after.plan.removed.clone(),
+    })
+}

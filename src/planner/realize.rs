@@ -1,0 +1,26 @@
+//! What the planner asks of a fixed-function fragment stage: can it compute
+//! this value in one pass? On the register-combiner targets only the
+//! combiner code generator knows (seeds/003 Section 4.2: a setup the
+//! Appendix B rules accept), and the generator sits above the planner in
+//! the data flow (backends). So the driver passes it in as a [`Realizer`]
+//! (issue 17): the planner depends on this trait, not on a backend.
+
+use crate::ir::{Expr, Handle, Module};
+use crate::span::Span;
+
+/// Why a fragment stage cannot compute a value in one pass.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Refusal {
+    /// What is missing, in the stage's own words (a register, a stage, an operation).
+    pub reason: String,
+    /// The part of the program the refusal is about, when it is one part.
+    pub span: Option<Span>,
+}
+
+/// Realizes one pass's fragment value on a target's fixed-function stage.
+pub trait Realizer {
+    /// `Ok` when the stage computes `value` in one pass with texture unit
+    /// `i` holding `units[i]` (a lookup, or a framebuffer read as a
+    /// texture); else why not.
+    fn realize(&self, module: &Module, value: Handle<Expr>, units: &[Handle<Expr>]) -> Result<(), Refusal>;
+}
