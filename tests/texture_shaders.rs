@@ -662,3 +662,78 @@ fn translate_writes_the_texture_shader_stages() {
     assert_ne!(code, 0);
     assert!(err.contains("`texture_3d` is not translated"), "{err}");
 }
+
+// ---------------------------------------------------------------------------
+// The code generator (item 4): EMBM on geforce3 through `!!TS1.0`.
+
+fn embm_on_geforce3() -> shadec::backends::combiners::CombinerConfig {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/embm.shd");
+    let source = std::fs::read_to_string(path).unwrap();
+    let profile = shadec::profile::Profile::resolve("geforce3").unwrap();
+    let c = shadec::driver::compile(&source, &profile, &shadec::driver::PlanOptions::default())
+        .unwrap_or_else(|d| panic!("{d:?}"));
+    assert_eq!(c.planned.plan.passes.len(), 1);
+    shadec::backends::combiners::codegen::generate_for_pass(&c.planned, 0).unwrap().config
+}
+
+#[test]
+fn the_generator_writes_embm_as_an_offset_2d_texture_shader_that_reads_back() {
+    let config = embm_on_geforce3();
+    let program = config.texture_shader.clone().expect("EMBM's dependent lookup needs a texture shader");
+    // seeds/001 (8): T′ (unit 0, signed) offsets T's coordinates (unit 1) by the identity.
+    assert_eq!(
+        program.stages,
+        vec![
+            Operation::Texture2d,
+            Operation::Offset { rectangle: false, previous: 0, matrix: [1.0, 0.0, 0.0, 1.0], scale: None }
+        ]
+    );
+    let text = rc1::print(&config);
+    assert_eq!(rc1::parse_and_validate(&text, &CombinerLimits::GEFORCE3).unwrap(), config, "{text}");
+}
+
+#[test]
+fn plain_texturing_generates_no_texture_shader() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/kilgard_bump_mapping.shd");
+    let source = std::fs::read_to_string(path).unwrap();
+    let profile = shadec::profile::Profile::resolve("geforce3").unwrap();
+    let c = shadec::driver::compile(&source, &profile, &shadec::driver::PlanOptions::default()).unwrap();
+    assert!(!c.planned.plan.passes.is_empty());
+    for i in 0..c.planned.plan.passes.len() {
+        let g = shadec::backends::combiners::codegen::generate_for_pass(&c.planned, i).unwrap();
+        assert_eq!(g.config.texture_shader, None, "pass {i}");
+    }
+}
+
+#[test]
+fn embm_emits_emulates_and_translates_through_the_texture_shader() {
+    let dir = data_dir();
+    let d = dir.path();
+    let shd = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/embm.shd");
+    let rc = d.join("embm.rc");
+    let (code, _, err) =
+        shadec(args!["compile", &shd, "--target", "geforce3", "--emit", "combiners", "-o", &rc]);
+    assert_eq!(code, 0, "{err}");
+    let text = std::fs::read_to_string(&rc).unwrap();
+    assert!(text.starts_with("!!TS1.0\n# ==== pass 1 of 1"), "{text}");
+    // A constant bump (ds = 40/127, dt = −20/127) moves every lookup of a 32×32 environment.
+    let (w, h) = (16usize, 16usize);
+    let dsdt = [40u8, 236, 0, 255].repeat(w * h);
+    let env: Vec<u8> = (0..32 * 32).flat_map(|i| [(i % 32 * 8) as u8, (i / 32 * 8) as u8, 77, 255]).collect();
+    let t0 = png(d, "bump.png", 16, 16, dsdt);
+    let t1 = png(d, "env.png", 32, 32, env.clone());
+    let out = d.join("out.png");
+    let (code, _, err) = shadec(args!["emulate", &rc, "--tex0", &t0, "--tex1", &t1, "--out", &out]);
+    assert_eq!(code, 0, "{err}");
+    let img = image::open(&out).unwrap().to_rgba8();
+    let env_image = Image { width: 32, height: 32, rgba: &env };
+    for (x, y, px) in img.enumerate_pixels() {
+        let s = (x as f64 + 0.5) / 16.0 + 40.0 / 127.0;
+        let t = (y as f64 + 0.5) / 16.0 - 20.0 / 127.0;
+        let want = texel(&env_image, nearest(s, 32), nearest(t, 32));
+        assert_eq!(px.0, want, "pixel ({x}, {y})");
+    }
+    let (code, wgsl, err) = shadec(args!["translate", &rc]);
+    assert_eq!(code, 0, "{err}");
+    assert!(wgsl.contains("// Unit 1: offset_2d(tex0, 1, 0, 0, 1);"), "{wgsl}");
+}

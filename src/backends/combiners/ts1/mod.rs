@@ -10,6 +10,7 @@
 
 pub mod emulate;
 mod lexer;
+pub mod lower;
 mod parser;
 mod printer;
 pub mod program;
