@@ -7,6 +7,8 @@
 //! (outside CI), as `tests/gpu_runner.rs` documents.
 #![cfg(feature = "gpu")]
 
+#[path = "combiners_common/mod.rs"]
+mod combiners_common;
 mod common;
 
 use shadec::backends::combiners::config::CombinerLimits;
@@ -298,5 +300,54 @@ fn translated_texture_shaders_are_bit_exact() {
     ];
     for (ts, coords) in programs {
         translated_texture_shader_matches_emulator(&format!("!!TS1.0\n{ts}{rc}"), coords);
+    }
+}
+
+/// The NV2A vectors (`combiners_common::NV2A_COMBINER_OPS`, with their
+/// provenance: nxdk_pgraph_tests CombinerOps, constant colour 0 = (25, 63,
+/// 255)/255) through `translate` on the GPU, compared with the hardware's
+/// numbers, not with the emulator. `translate` wraps
+/// `rc1::combiners_function`, the same function WGSL `--fidelity hardware`
+/// splices into every combiner pass (`wgsl::codegen::with_combiners`), so
+/// this holds for both.
+#[test]
+fn translated_hardware_output_mappings_match_nv2a() {
+    let Some(gpu) = gpu() else { return };
+    for (mapping, hardware) in combiners_common::NV2A_COMBINER_OPS {
+        let config = rc1::parse_and_validate(
+            &combiners_common::nv2a_combiner_ops_program(mapping),
+            &CombinerLimits::GEFORCE3,
+        )
+        .unwrap();
+        let wgsl = shadec::backends::wgsl::rc1::translate(&config, mapping).unwrap();
+        let (w, h) = (4u32, 4u32);
+        let uniforms = vec![0u8; 48];
+        let floats = vec![-1.0, -1.0, 0.0, 1.0, 1.0, -1.0, 0.0, 1.0, 1.0, 1.0, 0.0, 1.0, -1.0, 1.0, 0.0, 1.0];
+        let pass = RunPass {
+            label: mapping.to_string(),
+            shader: RunShader {
+                source: ShaderSource::Wgsl(wgsl),
+                vertex_entry: "vs_main".into(),
+                fragment_entry: "fs_main".into(),
+            },
+            vertices: VertexData { floats, components: vec![4] },
+            indices: vec![0, 1, 2, 0, 2, 3],
+            textures: (0..6)
+                .map(|_| RunTexture {
+                    data: TextureData::D2 { width: w, height: h, rgba: vec![0; (w * h * 4) as usize] },
+                    sampler: SamplerSettings::NEAREST_CLAMP,
+                    texels: TexelUpload::Rgba8,
+                })
+                .collect(),
+            uniforms: Some(uniforms),
+            state: FULL,
+            target: PassTarget::Main,
+            loaded: vec![],
+            outputs: 1,
+        };
+        let got = run_passes(&gpu, &Target::new(w, h), &[pass]).unwrap().into_raw();
+        for px in got.chunks(4) {
+            assert_eq!(px[..3], hardware, "{mapping}");
+        }
     }
 }
