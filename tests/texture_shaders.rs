@@ -511,12 +511,192 @@ fn dot_product_lookups_use_the_dots_of_their_stages() {
     }
 }
 
+/// GL's cube map face selection and face coordinates (NV_texture_shader
+/// refers to ARB_texture_cube_map's table) on real numbers: the face
+/// (+X −X +Y −Y +Z −Z = 0..5) and its (s, t) in [0, 1].
+fn cube_face(v: [f64; 3]) -> (usize, f64, f64) {
+    let [x, y, z] = v;
+    let (face, sc, tc, ma) = if x.abs() >= y.abs() && x.abs() >= z.abs() {
+        if x >= 0.0 {
+            (0, -z, -y, x.abs())
+        } else {
+            (1, z, -y, x.abs())
+        }
+    } else if y.abs() >= z.abs() {
+        if y >= 0.0 {
+            (2, x, z, y.abs())
+        } else {
+            (3, x, -z, y.abs())
+        }
+    } else if z >= 0.0 {
+        (4, x, -y, z.abs())
+    } else {
+        (5, -x, -y, z.abs())
+    };
+    (face, (sc / ma + 1.0) / 2.0, (tc / ma + 1.0) / 2.0)
+}
+
+/// The reference's texel of a stacked cube map at direction v, or `None`
+/// when v lies within `margin` texels of a face or texel edge (where 16-bit
+/// coordinates may round either way).
+fn cube_reference(cube: &Image, v: [f64; 3], margin: f64) -> Option<[u8; 4]> {
+    let size = cube.width as usize;
+    let (face, s, t) = cube_face(v);
+    let sorted = {
+        let mut a = v.map(f64::abs);
+        a.sort_by(|p, q| q.partial_cmp(p).unwrap());
+        a
+    };
+    if sorted[0] - sorted[1] < 1e-3 {
+        return None;
+    }
+    let (fs, ft) = (s * size as f64, t * size as f64);
+    if [fs, ft].iter().any(|f| (f - f.round()).abs() < margin) {
+        return None;
+    }
+    Some(texel(cube, nearest(s, size as u32), face * size + nearest(t, size as u32)))
+}
+
 #[test]
-fn three_d_and_cube_map_stages_are_refused_by_name() {
+fn texture_cube_map_reads_the_face_of_its_direction() {
+    let (w, h) = (16usize, 16usize);
+    let faces = image(8, 48, 14);
+    let cube = Image { width: 8, height: 48, rgba: &faces };
+    let coords = image(16, 16, 15);
+    let p = program("texture_cube_map();\n");
+    let shaded = ts_emulate::shade(
+        &p,
+        &inputs(w, h, [Some(cube), None, None, None], [Some(&coords), None, None, None]),
+    )
+    .unwrap();
+    let mut checked = 0;
+    for y in 0..h {
+        for x in 0..w {
+            let at = (y * w + x) * 4;
+            let v = [0, 1, 2].map(|k| (2.0 * coords[at + k] as f64 - 255.0) / 255.0);
+            if let Some(want) = cube_reference(&cube, v, 0.01) {
+                assert_eq!(register(&shaded.textures[0], w, x, y), want, "pixel ({x}, {y}) direction {v:?}");
+                checked += 1;
+            }
+        }
+    }
+    assert!(checked > 200, "{checked}");
+}
+
+#[test]
+fn dot_product_cube_maps_and_reflections_follow_the_extension() {
+    let (w, h) = (12usize, 12usize);
+    let normals = image(12, 12, 16);
+    let faces = image(8, 48, 17);
+    let cube = Image { width: 8, height: 48, rgba: &faces };
+    let coords: Vec<Vec<u8>> = (0..3).map(|k| image(12, 12, 18 + k)).collect();
+    let t0 = Image { width: 12, height: 12, rgba: &normals };
+    let families = [
+        "cube_map",
+        "reflect_cube_map_eye_from_qs",
+        "reflect_cube_map_const_eye",
+        "cube_map_and_reflect_cube_map_const_eye",
+    ];
+    for family in families {
+        let eye = if family.ends_with("const_eye") { ", 0.25, -0.5, 1" } else { "" };
+        let text = format!(
+            "texture_2d();\ndot_product_{family}_1of3(expand(tex0){eye});\ndot_product_{family}_2of3(expand(tex0));\ndot_product_{family}_3of3(expand(tex0));\n"
+        );
+        let p = program(&text);
+        let ins = inputs(
+            w,
+            h,
+            [Some(t0), None, Some(cube), Some(cube)],
+            [None, Some(&coords[0]), Some(&coords[1]), Some(&coords[2])],
+        );
+        let shaded = ts_emulate::shade(&p, &ins).unwrap();
+        let mut checked = 0;
+        for y in 0..h {
+            for x in 0..w {
+                let at = (y * w + x) * 4;
+                let n = texel(&t0, x, y).map(|k| (2.0 * k as f64 - 255.0) / 255.0);
+                let c = |k: usize, i: usize| (2.0 * coords[k][at + i] as f64 - 255.0) / 255.0;
+                let nv = [0, 1, 2].map(|k| (0..3).map(|i| c(k, i) * n[i]).sum::<f64>());
+                let e = if family.ends_with("const_eye") {
+                    [0.25, -0.5, 1.0]
+                } else {
+                    [c(0, 3), c(1, 3), c(2, 3)]
+                };
+                let direction = if family == "cube_map" {
+                    nv
+                } else {
+                    let ne: f64 = (0..3).map(|k| nv[k] * e[k]).sum();
+                    let nn: f64 = (0..3).map(|k| nv[k] * nv[k]).sum();
+                    if nn < 0.05 {
+                        continue; // nearly zero N: the reflection's direction is ill-conditioned
+                    }
+                    [0, 1, 2].map(|k| 2.0 * nv[k] * ne / nn - e[k])
+                };
+                // Wider margins for reflections: N and E keep 8 fractional bits.
+                let margin = if family == "cube_map" { 0.02 } else { 0.15 };
+                if let Some(want) = cube_reference(&cube, direction, margin) {
+                    assert_eq!(register(&shaded.textures[3], w, x, y), want, "{family} pixel ({x}, {y})");
+                    checked += 1;
+                }
+                if family.starts_with("cube_map_and") {
+                    if let Some(want) = cube_reference(&cube, nv, 0.02) {
+                        assert_eq!(
+                            register(&shaded.textures[2], w, x, y),
+                            want,
+                            "diffuse stage, pixel ({x}, {y})"
+                        );
+                    }
+                }
+            }
+        }
+        assert!(checked > 40, "{family}: {checked}");
+    }
+}
+
+#[test]
+fn three_d_textures_read_stacked_slices() {
+    let (w, h) = (10usize, 10usize);
+    let slices = image(4, 20, 21); // 4×4 slices, depth 5
+    let vol = Image { width: 4, height: 20, rgba: &slices };
+    let coords = image(10, 10, 22);
+    let p = program("texture_3d();\n");
+    let shaded = ts_emulate::shade(
+        &p,
+        &inputs(w, h, [Some(vol), None, None, None], [Some(&coords), None, None, None]),
+    )
+    .unwrap();
+    let mut checked = 0;
+    for y in 0..h {
+        for x in 0..w {
+            let at = (y * w + x) * 4;
+            let [s, t, r, q] = [0, 1, 2, 3].map(|k| coords[at + k] as f64 / 255.0);
+            if q < 0.2 {
+                continue;
+            }
+            let (fs, ft, fr) = (s / q * 4.0, t / q * 4.0, r / q * 5.0);
+            if [fs, ft, fr].iter().any(|f| (f - f.round()).abs() < 0.01) {
+                continue;
+            }
+            let (ix, iy, iz) = (nearest(s / q, 4), nearest(t / q, 4), nearest(r / q, 5));
+            assert_eq!(
+                register(&shaded.textures[0], w, x, y),
+                texel(&vol, ix, iz * 4 + iy),
+                "pixel ({x}, {y})"
+            );
+            checked += 1;
+        }
+    }
+    assert!(checked > 30, "{checked}");
+}
+
+#[test]
+fn a_cube_map_of_the_wrong_shape_is_refused_by_stage() {
+    let flat = image(4, 4, 23);
     let p = program("texture_2d();\ndot_product_cube_map_1of3(expand(tex0));\ndot_product_cube_map_2of3(expand(tex0));\ndot_product_cube_map_3of3(expand(tex0));\n");
-    let err = ts_emulate::shade(&p, &inputs(2, 2, [None; 4], [None; 4])).err().unwrap();
-    assert!(matches!(err, TsEmulateError::Unsupported { stage: 1, .. }), "{err}");
-    assert!(err.to_string().contains("`dot_product_cube_map_1of3` is not emulated"), "{err}");
+    let t = Image { width: 4, height: 4, rgba: &flat };
+    let err = ts_emulate::shade(&p, &inputs(2, 2, [Some(t), None, None, Some(t)], [None; 4])).err().unwrap();
+    assert!(matches!(err, TsEmulateError::Unsupported { stage: 3, .. }), "{err}");
+    assert!(err.to_string().contains("height = 6 × width"), "{err}");
 }
 
 #[test]
@@ -640,7 +820,10 @@ fn emulate_reports_texture_shader_errors_and_misuse() {
     let cube = write(d, "cube.rc", "!!TS1.0\ntexture_cube_map();\n!!RC1.0\nout.rgb = tex0;\n");
     let (code, _, err) = shadec(args!["emulate", &cube, "--tex0", &t0, "--out", &out]);
     assert_eq!(code, 1, "{err}");
-    assert!(err.contains("`texture_cube_map` is not emulated"), "{err}");
+    assert!(
+        err.contains("`texture_cube_map` cannot read its texture image (a cube map is six square faces"),
+        "{err}"
+    );
     assert!(!out.exists(), "no output on failure");
 }
 
@@ -657,10 +840,12 @@ fn translate_writes_the_texture_shader_stages() {
     assert_eq!(code, 0, "{err}");
     assert!(wgsl.contains("// Unit 1: offset_2d(tex0, 0.5, 0, 0, 0.5);"), "{wgsl}");
     assert!(wgsl.contains("ts_offset(2048, 0,"), "the matrix in units of 1/4096: {wgsl}");
-    let cube = write(d, "cube.rc", "!!TS1.0\ntexture_3d();\n!!RC1.0\nout.rgb = tex0;\n");
-    let (code, _, err) = shadec(args!["translate", &cube]);
-    assert_ne!(code, 0);
-    assert!(err.contains("`texture_3d` is not translated"), "{err}");
+    let volume =
+        write(d, "volume.rc", "!!TS1.0\ntexture_3d();\ntexture_cube_map();\n!!RC1.0\nout.rgb = tex0;\n");
+    let (code, wgsl, err) = shadec(args!["translate", &volume]);
+    assert_eq!(code, 0, "{err}");
+    assert!(wgsl.contains("tex0 = ts_volume(texture0_image, c0.xyz, c0.w);"), "{wgsl}");
+    assert!(wgsl.contains("tex1 = ts_cube(texture1_image, c1.xyz);"), "{wgsl}");
 }
 
 // ---------------------------------------------------------------------------

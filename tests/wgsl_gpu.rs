@@ -207,14 +207,13 @@ fn compiled_fragment_lighting_matches_its_formula() {
 /// texture-shader model, bit for bit: textures of other sizes than the
 /// target, some units with coordinate images and some with the default
 /// coordinates (issue 20).
-fn translated_texture_shader_matches_emulator(text: &str, coords_given: [bool; 4]) {
+fn translated_texture_shader_matches_emulator(text: &str, coords_given: [bool; 4], sizes: [(u32, u32); 4]) {
     use shadec::backends::combiners::ts1::emulate::{self as ts_emulate, Image, TextureInputs};
     let Some(gpu) = gpu() else { return };
     let config = rc1::parse_and_validate(text, &CombinerLimits::GEFORCE3).unwrap();
     let program = config.texture_shader.clone().unwrap();
     let wgsl = shadec::backends::wgsl::rc1::translate(&config, "pair").unwrap();
     let (w, h) = (40u32, 24u32);
-    let sizes = [(17u32, 9u32), (32, 32), (5, 13), (64, 3)];
     let textures: Vec<Vec<u8>> =
         sizes.iter().enumerate().map(|(i, &(tw, th))| noise(tw, th, 31 + i as u64)).collect();
     let coords: Vec<Vec<u8>> = (0..4).map(|i| noise(w, h, 41 + i)).collect();
@@ -298,8 +297,22 @@ fn translated_texture_shaders_are_bit_exact() {
         ("pass_through();\ndot_product_rectangle_1of2(tex0);\ndot_product_rectangle_2of2(tex0);\ncull_fragment(GEQUAL_TO_ZERO, LESS_THAN_ZERO, GEQUAL_TO_ZERO, GEQUAL_TO_ZERO);\n", [true, true, false, true]),
         ("texture_2d();\ndot_product_depth_replace_1of2(expand(tex0));\ndot_product_depth_replace_2of2(tex0);\ntexture_2d();\n", [false, false, false, false]),
     ];
+    let flat = [(17u32, 9u32), (32, 32), (5, 13), (64, 3)];
     for (ts, coords) in programs {
-        translated_texture_shader_matches_emulator(&format!("!!TS1.0\n{ts}{rc}"), coords);
+        translated_texture_shader_matches_emulator(&format!("!!TS1.0\n{ts}{rc}"), coords, flat);
+    }
+    // Cube maps (six faces stacked) and 3-D textures (square slices stacked).
+    let volumes = [
+        ("texture_3d();\ntexture_cube_map();\ndot_product_3d_1of3(expand(tex1));\npass_through();\n", [true, true, false, false], [(4, 20), (8, 48), (5, 13), (3, 3)]),
+        ("texture_2d();\ndot_product_3d_1of3(expand(tex0));\ndot_product_3d_2of3(tex0);\ndot_product_3d_3of3(expand(tex0));\n", [false, true, true, true], [(17, 9), (3, 3), (3, 3), (8, 40)]),
+        ("texture_2d();\ndot_product_cube_map_1of3(expand(tex0));\ndot_product_cube_map_2of3(expand(tex0));\ndot_product_cube_map_3of3(expand(tex0));\n", [false, true, true, true], [(17, 9), (3, 3), (3, 3), (16, 96)]),
+        ("texture_2d();\ndot_product_reflect_cube_map_eye_from_qs_1of3(expand(tex0));\ndot_product_reflect_cube_map_eye_from_qs_2of3(expand(tex0));\ndot_product_reflect_cube_map_eye_from_qs_3of3(expand(tex0));\n", [false, true, true, true], [(17, 9), (3, 3), (3, 3), (16, 96)]),
+        ("texture_2d();\ndot_product_reflect_cube_map_const_eye_1of3(expand(tex0), 0.3, -0.7, 1.5);\ndot_product_reflect_cube_map_const_eye_2of3(expand(tex0));\ndot_product_reflect_cube_map_const_eye_3of3(expand(tex0));\n", [false, false, true, true], [(17, 9), (3, 3), (3, 3), (16, 96)]),
+        ("texture_2d();\ndot_product_cube_map_and_reflect_cube_map_eye_from_qs_1of3(expand(tex0));\ndot_product_cube_map_and_reflect_cube_map_eye_from_qs_2of3(expand(tex0));\ndot_product_cube_map_and_reflect_cube_map_eye_from_qs_3of3(expand(tex0));\n", [false, true, true, true], [(17, 9), (3, 3), (8, 48), (16, 96)]),
+        ("texture_2d();\ndot_product_cube_map_and_reflect_cube_map_const_eye_1of3(tex0, -1, 0.5, 0.25);\ndot_product_cube_map_and_reflect_cube_map_const_eye_2of3(expand(tex0));\ndot_product_cube_map_and_reflect_cube_map_const_eye_3of3(expand(tex0));\n", [false, true, false, true], [(17, 9), (3, 3), (8, 48), (16, 96)]),
+    ];
+    for (ts, coords, sizes) in volumes {
+        translated_texture_shader_matches_emulator(&format!("!!TS1.0\n{ts}{rc}"), coords, sizes);
     }
 }
 

@@ -18,7 +18,7 @@
 use std::fmt::Write as _;
 
 use crate::backends::combiners::config::CombinerConfig;
-use crate::backends::combiners::ts1::emulate::{matrix_units, signed_coordinates, unsupported};
+use crate::backends::combiners::ts1::emulate::{eye_units, matrix_units, signed_coordinates};
 use crate::backends::combiners::ts1::{
     CullCondition, DotFamily, DotMapping, Operation, TextureShader, MAX_STAGES,
 };
@@ -79,6 +79,53 @@ fn ts_scale(t: vec4<i32>, f: i32) -> vec4<i32> {
     return vec4<i32>(k, t.w);
 }
 
+// A 3-D texture (square slices stacked top to bottom) at (s, t, r) / q.
+fn ts_volume(t: texture_2d<f32>, c: vec3<i32>, q: i32) -> vec4<i32> {
+    let d = vec2<i32>(textureDimensions(t));
+    let depth = d.y / max(d.x, 1);
+    return ts_fetch(t, ts_index(c.x, q, d.x), ts_index(c.z, q, depth) * d.x + ts_index(c.y, q, d.x));
+}
+
+// A cube map (six faces stacked, +X -X +Y -Y +Z -Z) in direction v.
+fn ts_cube(t: texture_2d<f32>, v0: vec3<i32>) -> vec4<i32> {
+    let size = i32(textureDimensions(t).x);
+    let v = clamp(v0, vec3<i32>(-262144), vec3<i32>(262144));
+    let a = abs(v);
+    var face = 0;
+    var sc = 0;
+    var tc = 0;
+    var ma = 0;
+    if (a.x >= a.y && a.x >= a.z) {
+        ma = a.x;
+        tc = -v.y;
+        if (v.x >= 0) { face = 0; sc = -v.z; } else { face = 1; sc = v.z; }
+    } else if (a.y >= a.z) {
+        ma = a.y;
+        sc = v.x;
+        if (v.y >= 0) { face = 2; tc = v.z; } else { face = 3; tc = -v.z; }
+    } else {
+        ma = a.z;
+        tc = -v.y;
+        if (v.z >= 0) { face = 4; sc = v.x; } else { face = 5; sc = -v.x; }
+    }
+    if (ma == 0) {
+        return ts_fetch(t, 0, 0);
+    }
+    let ix = clamp(floor_div((sc + ma) * size, 2 * ma), 0, size - 1);
+    let iy = clamp(floor_div((tc + ma) * size, 2 * ma), 0, size - 1);
+    return ts_fetch(t, ix, face * size + iy);
+}
+
+// R = 2 N (N.E) / (N.N) - E, per component rounded down; -E when N = 0.
+fn ts_reflect(n: vec3<i32>, e: vec3<i32>) -> vec3<i32> {
+    let ne = n.x * e.x + n.y * e.y + n.z * e.z;
+    let nn = n.x * n.x + n.y * n.y + n.z * n.z;
+    if (nn == 0) {
+        return -e;
+    }
+    return vec3<i32>(floor_div(2 * n.x * ne, nn), floor_div(2 * n.y * ne, nn), floor_div(2 * n.z * ne, nn)) - e;
+}
+
 // The offset floor((a ds + b dt) 16 / 127) in units of 1/65536.
 fn ts_offset(a: i32, b: i32, ds: i32, dt: i32) -> i32 {
     return floor_div((a * ds + b * dt) * 16, 127);
@@ -87,11 +134,6 @@ fn ts_offset(a: i32, b: i32, ds: i32, dt: i32) -> i32 {
 
 /// Translates the pair to a WGSL module (vertex `vs_main`, fragment `fs_main`).
 pub fn translate(config: &CombinerConfig, program: &TextureShader, title: &str) -> Result<String, String> {
-    for (stage, op) in program.stages.iter().enumerate() {
-        if let Some(why) = unsupported(op) {
-            return Err(format!("texture shader stage {stage}: `{}` is not translated ({why})", op.name()));
-        }
-    }
     let mut s = String::new();
     let w = &mut s;
     let _ = writeln!(w, "// shadec translate: {title}");
@@ -156,13 +198,15 @@ fn texture_shader_function(program: &TextureShader) -> String {
     let _ = writeln!(w, "fn texture_shader(p: vec2<i32>) -> TextureShaderOut {{");
     let _ = writeln!(w, "    var culled = false;");
     let _ = writeln!(w, "    var dots = vec3<i32>(0);");
+    let _ = writeln!(w, "    var eyes = vec3<i32>(0);");
+    let _ = writeln!(w, "    var const_eye = vec3<i32>(0);");
     for unit in 0..MAX_STAGES {
         let op = program.stage(unit);
         let _ = writeln!(w, "    // Unit {unit}: {}", crate::backends::combiners::ts1::instruction(&op));
         let signed = signed_coordinates(&op);
         let _ = writeln!(w, "    let c{unit} = ts_coordinates(coord{unit}_image, {unit}u, p, {signed});");
         let _ = writeln!(w, "    var tex{unit} = vec4<i32>(0);");
-        w.push_str(&stage_code(&op, unit));
+        w.push_str(&stage_code(program, &op, unit));
     }
     let _ = writeln!(w, "    return TextureShaderOut(tex0, tex1, tex2, tex3, culled);");
     let _ = writeln!(w, "}}");
@@ -170,12 +214,14 @@ fn texture_shader_function(program: &TextureShader) -> String {
 }
 
 /// The statements that set `tex{unit}` (and `culled`, `dots`) for `op`.
-fn stage_code(op: &Operation, unit: usize) -> String {
+fn stage_code(program: &TextureShader, op: &Operation, unit: usize) -> String {
     let img = format!("texture{unit}_image");
     let c = format!("c{unit}");
     let set = |value: String| format!("    tex{unit} = {value};\n");
     match *op {
-        Operation::Nop | Operation::Texture3d | Operation::TextureCubeMap => String::new(),
+        Operation::Nop => String::new(),
+        Operation::Texture3d => set(format!("ts_volume({img}, {c}.xyz, {c}.w)")),
+        Operation::TextureCubeMap => set(format!("ts_cube({img}, {c}.xyz)")),
         Operation::Texture1d => set(format!("ts_lookup({img}, {c}.x, 0, {c}.w)")),
         Operation::Texture2d | Operation::TextureRectangle => {
             set(format!("ts_lookup({img}, {c}.x, {c}.y, {c}.w)"))
@@ -210,32 +256,66 @@ fn stage_code(op: &Operation, unit: usize) -> String {
                 "ts_lookup({img}, ts_coordinate(tex{previous}.{s}, false), ts_coordinate(tex{previous}.{t}, false), 65536)"
             ))
         }
-        Operation::DotProduct { family, step, previous, mapping, .. } => {
-            let m = |k: &str| match mapping {
-                DotMapping::UnsignedIdentity => format!("tex{previous}.{k}"),
-                DotMapping::ExpandNormal => format!("(2 * tex{previous}.{k} - 255)"),
-            };
+        Operation::DotProduct { family, step, previous, mapping, eye } => {
             let slot = ["x", "y", "z"][step as usize];
-            let mut code = format!(
-                "    dots.{slot} = floor_div({c}.x * {} + {c}.y * {} + {c}.z * {}, 255);\n",
-                m("x"),
-                m("y"),
-                m("z")
-            );
+            let mut code =
+                format!("    dots.{slot} = {};\n    eyes.{slot} = {c}.w;\n", dot_expr(&c, previous, mapping));
+            if let Some(e) = eye {
+                let e = e.map(eye_units);
+                code.push_str(&format!("    const_eye = vec3<i32>({}, {}, {});\n", e[0], e[1], e[2]));
+            }
+            if step == 1 && family.has_output(1) {
+                // The diffuse stage reads N = (dot0, dot1, dot2): the next dot product first.
+                if let Operation::DotProduct { previous: p, mapping: m, .. } = program.stage(unit + 1) {
+                    let next = unit + 1;
+                    let signed = signed_coordinates(&program.stage(next));
+                    code.push_str(&format!(
+                        "    let c{next}_early = ts_coordinates(coord{next}_image, {next}u, p, {signed});\n"
+                    ));
+                    code.push_str(&format!("    dots.z = {};\n", dot_expr(&format!("c{next}_early"), p, m)));
+                }
+            }
             if family.has_output(step) {
-                match family {
-                    DotFamily::Texture2d => {
-                        code.push_str(&set(format!("ts_lookup({img}, dots.x, dots.y, 65536)")))
-                    }
-                    DotFamily::Rectangle => code.push_str(&set(format!(
-                        "ts_fetch({img}, floor_div(dots.x, 65536), floor_div(dots.y, 65536))"
-                    ))),
-                    _ => {}
+                if let Some(value) = dot_lookup(&img, family, step) {
+                    code.push_str(&set(value));
                 }
             }
             code
         }
     }
+}
+
+/// dot((s, t, r), mapped RGB of `tex{previous}`), in coordinate units.
+fn dot_expr(c: &str, previous: u8, mapping: DotMapping) -> String {
+    let m = |k: &str| match mapping {
+        DotMapping::UnsignedIdentity => format!("tex{previous}.{k}"),
+        DotMapping::ExpandNormal => format!("(2 * tex{previous}.{k} - 255)"),
+    };
+    format!("floor_div({c}.x * {} + {c}.y * {} + {c}.z * {}, 255)", m("x"), m("y"), m("z"))
+}
+
+/// The lookup a dot-product family's output stage makes.
+fn dot_lookup(img: &str, family: DotFamily, step: u8) -> Option<String> {
+    let n = "vec3<i32>(floor_div(dots.x, 256), floor_div(dots.y, 256), floor_div(dots.z, 256))";
+    let eyes = "vec3<i32>(floor_div(eyes.x, 256), floor_div(eyes.y, 256), floor_div(eyes.z, 256))";
+    Some(match family {
+        DotFamily::Texture2d => format!("ts_lookup({img}, dots.x, dots.y, 65536)"),
+        DotFamily::Rectangle => {
+            format!("ts_fetch({img}, floor_div(dots.x, 65536), floor_div(dots.y, 65536))")
+        }
+        DotFamily::DepthReplace => return None,
+        DotFamily::Texture3d => format!("ts_volume({img}, dots, 65536)"),
+        DotFamily::CubeMap => format!("ts_cube({img}, dots)"),
+        DotFamily::DiffuseReflectEyeFromQs | DotFamily::DiffuseReflectConstEye if step == 1 => {
+            format!("ts_cube({img}, dots)")
+        }
+        DotFamily::ReflectEyeFromQs | DotFamily::DiffuseReflectEyeFromQs => {
+            format!("ts_cube({img}, ts_reflect({n}, {eyes}))")
+        }
+        DotFamily::ReflectConstEye | DotFamily::DiffuseReflectConstEye => {
+            format!("ts_cube({img}, ts_reflect({n}, const_eye))")
+        }
+    })
 }
 
 fn offset_value(

@@ -29,11 +29,23 @@
 //!   expansion (`expand(texN)`: (2k − 255)/255) against (s, t, r) and keep
 //!   ⌊Σ/255⌋ coordinate units; `dot_product_rectangle_2of2` reads texel
 //!   ⌊dot⌋ directly. Stages without an RGBA result read (0, 0, 0, 0).
+//! - **Cube maps** are one image of six square faces stacked top to bottom
+//!   (+X, −X, +Y, −Y, +Z, −Z; height = 6 × width); the face is GL's
+//!   major-axis choice (ties go to x, then y) and the texel
+//!   ⌊(sc/|ma| + 1)/2 · size⌋, in integers. `texture_cube_map` reads its
+//!   (s, t, r) as a direction (signed coordinate bytes), ignoring q.
+//! - **3-D textures** are square slices stacked top to bottom (height =
+//!   depth × width), r = 0 on top.
+//! - **Reflections** (`dot_product_reflect_cube_map_*`, the diffuse
+//!   family's last stage): N = (dot₀, dot₁, dot₂) and the eye E (the three
+//!   stages' q, or the constant eye clamped to [−2, 2]) in units of 1/256;
+//!   R = ⌊2·N·(N·E)/(N·N)⌋ − E per component (−E when N = 0). The diffuse
+//!   stage reads the cube map at N, its next stage's dot product computed
+//!   first, as the hardware does.
 //!
-//! Not modelled (refused with the stage named): 3-D textures and cube maps
-//! (`texture_3d`, `texture_cube_map`, `dot_product_3d`, the cube-map and
-//! reflection families) — `emulate` takes only 2-D images; the depth that
-//! `dot_product_depth_replace` writes (its RGBA is 0, as the spec says).
+//! Not modelled: the depth that `dot_product_depth_replace` writes (its
+//! RGBA is 0, as the spec says; `emulate` has no depth buffer); filtering
+//! (every lookup is nearest); texture wrap modes other than clamp to edge.
 
 use rayon::prelude::*;
 use thiserror::Error;
@@ -70,7 +82,7 @@ pub struct TextureInputs<'a> {
 
 #[derive(Debug, Error, PartialEq)]
 pub enum TsEmulateError {
-    #[error("texture shader stage {stage}: `{name}` is not emulated ({why})")]
+    #[error("texture shader stage {stage}: `{name}` cannot read its texture image ({why})")]
     Unsupported { stage: usize, name: String, why: &'static str },
     #[error("{what} is {width}x{height}; texture images may be at most {MAX_TEXTURE_SIDE} texels a side")]
     TooLarge { what: String, width: u32, height: u32 },
@@ -101,24 +113,37 @@ pub fn matrix_units(v: f32) -> i32 {
     (v * MATRIX_ONE as f32).round() as i32
 }
 
-/// The operations the emulator refuses, with why.
-pub fn unsupported(op: &Operation) -> Option<&'static str> {
+/// How unit `unit`'s texture image is laid out for `op`: a 2-D image, a
+/// cube map (six square faces stacked top to bottom, +X −X +Y −Y +Z −Z) or
+/// a 3-D texture (square slices stacked top to bottom, r = 0 on top).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Layout {
+    Flat,
+    Cube,
+    Volume,
+}
+
+/// The image layout the stage's lookup reads.
+pub fn layout(op: &Operation) -> Layout {
     match op {
-        Operation::Texture3d | Operation::TextureCubeMap => {
-            Some("emulate reads 2-D images only: 3-D textures and cube maps have no input form")
-        }
-        Operation::DotProduct { family, .. }
-            if !matches!(family, DotFamily::Texture2d | DotFamily::Rectangle | DotFamily::DepthReplace) =>
-        {
-            Some("emulate reads 2-D images only: its 3-D or cube-map lookup has no input form")
-        }
-        _ => None,
+        Operation::TextureCubeMap => Layout::Cube,
+        Operation::Texture3d => Layout::Volume,
+        Operation::DotProduct { family, step, .. } if family.has_output(*step) => match family {
+            DotFamily::Texture3d => Layout::Volume,
+            DotFamily::CubeMap
+            | DotFamily::ReflectEyeFromQs
+            | DotFamily::ReflectConstEye
+            | DotFamily::DiffuseReflectEyeFromQs
+            | DotFamily::DiffuseReflectConstEye => Layout::Cube,
+            _ => Layout::Flat,
+        },
+        _ => Layout::Flat,
     }
 }
 
 /// Whether unit `unit`'s coordinates are read as directions (signed).
 pub fn signed_coordinates(op: &Operation) -> bool {
-    matches!(op, Operation::CullFragment(_) | Operation::DotProduct { .. })
+    matches!(op, Operation::CullFragment(_) | Operation::DotProduct { .. } | Operation::TextureCubeMap)
 }
 
 /// Runs the texture-shader stages on every pixel.
@@ -144,9 +169,17 @@ fn check(program: &TextureShader, inputs: &TextureInputs) -> Result<(), TsEmulat
         return Err(TsEmulateError::Invalid(e.to_string()));
     }
     for (stage, op) in program.stages.iter().enumerate() {
-        if let Some(why) = unsupported(op) {
-            return Err(TsEmulateError::Unsupported { stage, name: op.name(), why });
-        }
+        let Some(t) = inputs.textures.get(stage).copied().flatten() else { continue };
+        let why = match layout(op) {
+            Layout::Cube if t.height != 6 * t.width => {
+                "a cube map is six square faces stacked: height = 6 × width"
+            }
+            Layout::Volume if t.height % t.width != 0 => {
+                "a 3-D texture is square slices stacked: height = depth × width"
+            }
+            _ => continue,
+        };
+        return Err(TsEmulateError::Unsupported { stage, name: op.name(), why });
     }
     let expected = inputs.width.saturating_mul(inputs.height).saturating_mul(4);
     for unit in 0..MAX_STAGES {
@@ -249,8 +282,11 @@ pub fn offset(a: i32, b: i32, ds: i32, dt: i32) -> i32 {
 /// One pixel: the four texture registers and whether it was culled.
 fn pixel(program: &TextureShader, inputs: &TextureInputs, x: usize, y: usize) -> ([[u8; 4]; 4], bool) {
     let mut out = [[0u8; 4]; 4];
-    // Dot products of the current group, in coordinate units.
+    // Dot products of the current group, in coordinate units, its stages'
+    // q (the eye vector of `eye_from_qs`) and its constant eye (1/256).
     let mut dots = [0i32; 3];
+    let mut eyes = [0i32; 3];
+    let mut const_eye = [0i32; 3];
     let mut culled = false;
     for unit in 0..MAX_STAGES {
         let op = program.stage(unit);
@@ -279,11 +315,26 @@ fn pixel(program: &TextureShader, inputs: &TextureInputs, x: usize, y: usize) ->
                 let (s, t) = if green_blue { (p[1], p[2]) } else { (p[3], p[0]) };
                 lookup(image, unit_coordinate(s), unit_coordinate(t), COORD_ONE)
             }
-            Operation::DotProduct { family, step, previous, mapping, .. } => {
+            Operation::DotProduct { family, step, previous, mapping, eye } => {
                 dots[step as usize] = dot(c, out[previous as usize], mapping);
-                dot_result(image, family, step, &dots)
+                if step == 0 {
+                    const_eye = eye.map_or([0; 3], |e| e.map(eye_units));
+                }
+                eyes[step as usize] = c[3];
+                if step == 1 && family.has_output(1) {
+                    // The diffuse cube map reads N = (dot₀, dot₁, dot₂): the
+                    // next stage's dot product is computed here (its unit
+                    // reads a stage before this group, so it is known).
+                    if let Operation::DotProduct { previous: p, mapping: m, .. } = program.stage(unit + 1) {
+                        let next = program.stage(unit + 1);
+                        let c2 = coordinates(inputs, unit + 1, x, y, signed_coordinates(&next));
+                        dots[2] = dot(c2, out[p as usize], m);
+                    }
+                }
+                dot_result(image, family, step, &dots, eyes, const_eye)
             }
-            Operation::Texture3d | Operation::TextureCubeMap => [0; 4],
+            Operation::Texture3d => volume_lookup(image, [c[0], c[1], c[2]], c[3]),
+            Operation::TextureCubeMap => cube_lookup(image, [c[0], c[1], c[2]]),
         };
     }
     (out, culled)
@@ -342,7 +393,14 @@ fn dot(c: [i32; 4], texel: [u8; 4], mapping: DotMapping) -> i32 {
     floor_div(c[0] * m(texel[0]) + c[1] * m(texel[1]) + c[2] * m(texel[2]), 255)
 }
 
-fn dot_result(image: Option<Image>, family: DotFamily, step: u8, dots: &[i32; 3]) -> [u8; 4] {
+fn dot_result(
+    image: Option<Image>,
+    family: DotFamily,
+    step: u8,
+    dots: &[i32; 3],
+    eyes: [i32; 3],
+    const_eye: [i32; 3],
+) -> [u8; 4] {
     if !family.has_output(step) {
         return [0; 4];
     }
@@ -352,8 +410,82 @@ fn dot_result(image: Option<Image>, family: DotFamily, step: u8, dots: &[i32; 3]
             let index = |d: i32| floor_div(d, COORD_ONE);
             fetch(image, index(dots[0]), index(dots[1]))
         }
-        _ => [0; 4],
+        DotFamily::DepthReplace => [0; 4],
+        DotFamily::Texture3d => volume_lookup(image, *dots, COORD_ONE),
+        DotFamily::CubeMap => cube_lookup(image, *dots),
+        DotFamily::DiffuseReflectEyeFromQs | DotFamily::DiffuseReflectConstEye if step == 1 => {
+            cube_lookup(image, *dots)
+        }
+        DotFamily::ReflectEyeFromQs | DotFamily::DiffuseReflectEyeFromQs => {
+            cube_lookup(image, reflect(dots.map(|d| floor_div(d, 256)), eyes.map(|q| floor_div(q, 256))))
+        }
+        DotFamily::ReflectConstEye | DotFamily::DiffuseReflectConstEye => {
+            cube_lookup(image, reflect(dots.map(|d| floor_div(d, 256)), const_eye))
+        }
     }
+}
+
+/// A constant eye component, clamped to [−2, 2], in units of 1/256.
+pub fn eye_units(v: f32) -> i32 {
+    let v = if v.is_nan() { 0.0 } else { v.clamp(-2.0, 2.0) };
+    (v * 256.0).round() as i32
+}
+
+/// R = 2·N·(N·E)/(N·N) − E (NV_texture_shader's reflection), N and E in
+/// units of 1/256, each component's quotient rounded down; R = −E when N = 0.
+pub fn reflect(n: [i32; 3], e: [i32; 3]) -> [i32; 3] {
+    let ne = n[0] * e[0] + n[1] * e[1] + n[2] * e[2];
+    let nn = n[0] * n[0] + n[1] * n[1] + n[2] * n[2];
+    if nn == 0 {
+        return e.map(|v| -v);
+    }
+    [0, 1, 2].map(|k| floor_div(2 * n[k] * ne, nn) - e[k])
+}
+
+/// A nearest, clamp-to-edge lookup of a 3-D texture (square slices stacked)
+/// at (s, t, r) / q.
+fn volume_lookup(image: Option<Image>, c: [i32; 3], q: i32) -> [u8; 4] {
+    let Some(im) = image else { return [0; 4] };
+    let side = im.width as i32;
+    let depth = (im.height / im.width.max(1)) as i32;
+    let (ix, iy, iz) = (texel_index(c[0], q, side), texel_index(c[1], q, side), texel_index(c[2], q, depth));
+    fetch(image, ix, iz * side + iy)
+}
+
+/// The face and texel of direction v (any scale) in a cube map of faces
+/// `size`² (GL's face selection, ties to x then y; s = (sc/|ma| + 1)/2).
+pub fn cube_texel(v: [i32; 3], size: i32) -> (i32, i32, i32) {
+    let [x, y, z] = v.map(|c| c.clamp(-(1 << 18), 1 << 18));
+    let (ax, ay, az) = (x.abs(), y.abs(), z.abs());
+    let (face, sc, tc, ma) = if ax >= ay && ax >= az {
+        if x >= 0 {
+            (0, -z, -y, ax)
+        } else {
+            (1, z, -y, ax)
+        }
+    } else if ay >= az {
+        if y >= 0 {
+            (2, x, z, ay)
+        } else {
+            (3, x, -z, ay)
+        }
+    } else if z >= 0 {
+        (4, x, -y, az)
+    } else {
+        (5, -x, -y, az)
+    };
+    if ma == 0 {
+        return (0, 0, 0);
+    }
+    let index = |c: i32| floor_div((c + ma) * size, 2 * ma).clamp(0, size - 1);
+    (face, index(sc), index(tc))
+}
+
+fn cube_lookup(image: Option<Image>, v: [i32; 3]) -> [u8; 4] {
+    let Some(im) = image else { return [0; 4] };
+    let size = im.width as i32;
+    let (face, ix, iy) = cube_texel(v, size);
+    fetch(image, ix, face * size + iy)
 }
 
 /// A `!!TS1.0` + `!!RC1.0` setup on every pixel: the texture-shader stages
