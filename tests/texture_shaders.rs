@@ -922,3 +922,69 @@ fn embm_emits_emulates_and_translates_through_the_texture_shader() {
     assert_eq!(code, 0, "{err}");
     assert!(wgsl.contains("// Unit 1: offset_2d(tex0, 1, 0, 0, 1);"), "{wgsl}");
 }
+
+/// Token soup from the language's own words: parsing never panics, and what
+/// parses and validates also shades without panicking (errors are fine).
+fn token() -> impl Strategy<Value = String> {
+    let mut words: Vec<String> = ts1::instruction_names();
+    words.extend(
+        [
+            "tex0",
+            "tex1",
+            "tex2",
+            "tex3",
+            "expand",
+            "GEQUAL_TO_ZERO",
+            "LESS_THAN_ZERO",
+            "(",
+            ")",
+            ";",
+            ",",
+            "-",
+            "0",
+            "1.5",
+            "-2",
+            "1e9",
+            "99999999999999999999999999999999999999999",
+            "dot_product_2d_0of2",
+            "#",
+            "\n",
+            "/*",
+            "*/",
+        ]
+        .map(String::from),
+    );
+    prop::sample::select(words)
+}
+
+proptest! {
+    #[test]
+    fn nothing_panics_on_any_token_soup(tokens in prop::collection::vec(token(), 0..40), sizes in prop::array::uniform4((1u32..5, 1u32..13))) {
+        let text = format!("!!TS1.0\n{}", tokens.join(" "));
+        if let Ok(p) = parse_file(&text) {
+            let images: Vec<Vec<u8>> = sizes.iter().enumerate().map(|(k, &(w, h))| image(w, h, k as u64 + 1)).collect();
+            let textures = [0, 1, 2, 3].map(|k| Some(Image { width: sizes[k].0, height: sizes[k].1, rgba: &images[k] }));
+            let coords = image(3, 2, 9);
+            let _ = ts_emulate::shade(&p, &inputs(3, 2, textures, [Some(&coords), None, Some(&coords), None]));
+        }
+    }
+}
+
+proptest! {
+    /// Generated programs (any operations): the consistent ones shade
+    /// without panicking on images of any shape (a wrong cube or 3-D shape
+    /// is an error, not a crash).
+    #[test]
+    fn consistent_generated_programs_shade(stages in prop::collection::vec(operation(), 1..=4), sizes in prop::array::uniform4((1u32..5, 1u32..25))) {
+        let program = TextureShader { stages };
+        if ts1::validate(&program).is_empty() {
+            let images: Vec<Vec<u8>> = sizes.iter().enumerate().map(|(k, &(w, h))| image(w, h, k as u64 + 1)).collect();
+            let textures = [0, 1, 2, 3].map(|k| Some(Image { width: sizes[k].0, height: sizes[k].1, rgba: &images[k] }));
+            let coords = image(3, 2, 9);
+            match ts_emulate::shade(&program, &inputs(3, 2, textures, [Some(&coords), None, Some(&coords), None])) {
+                Ok(s) => prop_assert!(s.textures.iter().all(|t| t.len() == 24)),
+                Err(e) => prop_assert!(matches!(e, TsEmulateError::Unsupported { .. }), "{e}"),
+            }
+        }
+    }
+}

@@ -513,3 +513,65 @@ pub fn emulate(
     }
     Ok(out)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_coordinate_byte_comes_back_through_pass_through() {
+        for b in 0..=255u8 {
+            let c = coordinate_from_byte(b, false);
+            assert_eq!(floor_div(c * 255 + COORD_ONE / 2, COORD_ONE), b as i32);
+        }
+        assert_eq!(coordinate_from_byte(255, true), COORD_ONE);
+        assert_eq!(coordinate_from_byte(0, true), -COORD_ONE);
+    }
+
+    #[test]
+    fn default_coordinates_are_pixel_centres() {
+        assert_eq!(default_coordinate(0, 2), COORD_ONE / 4);
+        assert_eq!(default_coordinate(1, 2), 3 * COORD_ONE / 4);
+        // An image of the output's size is read texel for texel.
+        for n in 1..300 {
+            for i in 0..n {
+                assert_eq!(
+                    texel_index(default_coordinate(i, n), COORD_ONE, n as i32),
+                    i as i32,
+                    "{i} of {n}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn signed_bytes_are_twos_complement_over_127() {
+        assert_eq!([0u8, 1, 127, 128, 129, 255].map(signed_component), [0, 1, 127, -127, -127, -1]);
+        assert_eq!(offset(0, 0, 127, -127), 0, "a zero matrix adds nothing");
+        assert_eq!(
+            offset(MATRIX_ONE, 0, 127, 0),
+            COORD_ONE / 8 * 8 * 16 / 16,
+            "m = 1, ds = 1 → one unit of s"
+        );
+    }
+
+    #[test]
+    fn cube_faces_follow_the_major_axis() {
+        assert_eq!(cube_texel([10, 0, 0], 4).0, 0);
+        assert_eq!(cube_texel([-10, 1, 1], 4).0, 1);
+        assert_eq!(cube_texel([1, 10, 1], 4).0, 2);
+        assert_eq!(cube_texel([1, -10, 1], 4).0, 3);
+        assert_eq!(cube_texel([1, 1, 10], 4).0, 4);
+        assert_eq!(cube_texel([1, 1, -10], 4).0, 5);
+        // The centre of +Z is the centre of the face; its corner (x = y = −z… ) the edge.
+        assert_eq!(cube_texel([0, 0, 10], 4), (4, 2, 2));
+        assert_eq!(cube_texel([0, 0, 0], 4), (0, 0, 0));
+    }
+
+    #[test]
+    fn reflection_of_the_eye_about_the_normal() {
+        // N = z, E = (1, 0, 1): R = 2·(0,0,1)·1/1 − E = (−1, 0, 1).
+        assert_eq!(reflect([0, 0, 256], [256, 0, 256]), [-256, 0, 256]);
+        assert_eq!(reflect([0, 0, 0], [3, 4, 5]), [-3, -4, -5]);
+    }
+}

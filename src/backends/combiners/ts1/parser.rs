@@ -123,7 +123,7 @@ fn kind_of(name: &str) -> Option<Kind> {
         let n = family.len();
         let step = rest.strip_prefix(family.stem())?.strip_prefix('_')?.strip_suffix(&format!("of{n}"))?;
         let k: u8 = step.parse().ok()?;
-        (1..=n).contains(&k).then_some(Kind::Dot { family, step: k - 1 })
+        (1..=n).contains(&k).then(|| Kind::Dot { family, step: k - 1 })
     })
 }
 
@@ -372,4 +372,50 @@ fn unknown_instruction(name: &str, span: Span) -> Diagnostic {
         "not a !!TS1.0 instruction",
     )
     .with_help(help)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_instruction_name_has_a_kind_and_a_usage_that_parses() {
+        for name in instruction_names() {
+            let kind = kind_of(&name).unwrap_or_else(|| panic!("{name}"));
+            // The usage line a help message shows is a valid instruction once
+            // its placeholders are numbers.
+            let mut text = usage(&kind);
+            for placeholder in
+                [", m0", ", m1", ", m2", ", m3", ", scale", ", bias", ", eye_x", ", eye_y", ", eye_z"]
+            {
+                text = text.replace(placeholder, ", 1");
+            }
+            let parsed = parse(&text, 0).unwrap_or_else(|d| panic!("{text}: {d:?}"));
+            assert_eq!(parsed.program.stages[0].name(), name);
+        }
+        assert!(kind_of("dot_product_2d_3of2").is_none());
+        assert!(kind_of("dot_product_2d_0of2").is_none());
+        assert!(kind_of("dot_product_2d").is_none());
+    }
+
+    #[test]
+    fn spans_cover_the_instruction_and_the_stage_it_reads() {
+        let text = "texture_2d();\n  dependent_gb( tex0 ) ;";
+        let parsed = parse(text, 100).unwrap();
+        let s = parsed.spans[1];
+        assert_eq!((s.name.start, s.name.end), (116, 128));
+        let p = s.previous.unwrap();
+        assert_eq!((p.start, p.end), (130, 134));
+        assert_eq!(s.whole.end, 138);
+    }
+
+    #[test]
+    fn numbers_take_a_sign_and_no_exponent() {
+        let parsed = parse("offset_2d(tex0, -1, +0.5, -.25, 2.);", 0).unwrap();
+        assert_eq!(
+            parsed.program.stages[0],
+            Operation::Offset { rectangle: false, previous: 0, matrix: [-1.0, 0.5, -0.25, 2.0], scale: None }
+        );
+        assert!(parse("offset_2d(tex0, 1e3, 0, 0, 1);", 0).is_err());
+    }
 }
