@@ -34,7 +34,9 @@ pub enum ProfileArg {
 pub struct EmulateArgs {
     /// The combiner setup: an nvparse `!!RC1.0` program, or `.ron` for a CombinerConfig.
     pub config: PathBuf,
-    /// Texture unit 0 (RGBA8 PNG).
+    /// Texture unit 0 (RGBA8 PNG): the texture register per pixel, or, with a
+    /// texture shader, the unit's texture image (a cube map: six square
+    /// faces stacked +X −X +Y −Y +Z −Z; a 3-D texture: square slices stacked).
     #[arg(long)]
     pub tex0: Option<PathBuf>,
     #[arg(long)]

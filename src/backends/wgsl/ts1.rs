@@ -7,8 +7,10 @@
 //!
 //! Interface: as `rc1`'s, with these differences.
 //! - Units 0-3 (`@binding(1 + 2i)`) are texture *images* of any size (at
-//!   most 4096 a side), read at the texel the stage computes; bind a 1×1
-//!   black image for a missing one.
+//!   most 4096 a side; cube maps as six faces stacked, 3-D textures as
+//!   square slices stacked, as `emulate` reads them), read with
+//!   `textureLoad` at the texel the stage computes; bind a 1×1 black image
+//!   for a missing one.
 //! - Units 6-9 (`@binding(13 + 2k)`, sampler at `14 + 2k`): the coordinate
 //!   images of units 0-3 (RGBA8 = s, t, r, q; the target's size).
 //! - `Uniforms` gains `texture_shader: vec4<i32>` = (target width, target
