@@ -31,15 +31,34 @@ pub struct CombinerLimits {
     pub per_stage_constants: bool,
     /// Texture units, hence `texture0..` registers (Table 2: 8 + units).
     pub texture_units: u8,
+    /// Dot products in the alpha portion (`spare0.a = tex0.b . tex1.b;`):
+    /// NV_register_combiners forbids them and nvparse refuses them, but
+    /// NV2A (the Xbox GPU) runs them, as the product of the two alpha inputs
+    /// (a one-component dot product). Off in every built-in profile; the
+    /// emulator's and `translate`'s `--permissive` turn it on (issue 20).
+    pub alpha_dot_products: bool,
 }
 
 impl CombinerLimits {
     /// GeForce 256 / Quadro: two general combiners, two texture units.
-    pub const GEFORCE256: CombinerLimits =
-        CombinerLimits { general_combiners: 2, per_stage_constants: false, texture_units: 2 };
+    pub const GEFORCE256: CombinerLimits = CombinerLimits {
+        general_combiners: 2,
+        per_stage_constants: false,
+        texture_units: 2,
+        alpha_dot_products: false,
+    };
     /// GeForce3: eight general combiners, per-stage constants, four units.
-    pub const GEFORCE3: CombinerLimits =
-        CombinerLimits { general_combiners: 8, per_stage_constants: true, texture_units: 4 };
+    pub const GEFORCE3: CombinerLimits = CombinerLimits {
+        general_combiners: 8,
+        per_stage_constants: true,
+        texture_units: 4,
+        alpha_dot_products: false,
+    };
+
+    /// These limits with NV2A's dot products in the alpha portion allowed.
+    pub const fn permissive(self) -> CombinerLimits {
+        CombinerLimits { alpha_dot_products: true, ..self }
+    }
 }
 
 /// The names of the built-in profiles.
@@ -160,6 +179,7 @@ impl Profile {
                 general_combiners: c.general_combiners as usize,
                 per_stage_constants: c.per_stage_constants,
                 texture_units: self.texture_units.min(u8::MAX as u32) as u8,
+                alpha_dot_products: false,
             }),
             _ => None,
         }

@@ -158,3 +158,49 @@ fn bad_arguments_are_usage_errors() {
     let (code, _) = shadec(args![&data("appendix_g.rc"), "--precision", "f16", "--out", &out]);
     assert_eq!(code, 2);
 }
+
+/// Issue 20, item 5: NV2A's dot product in the alpha portion is refused by
+/// default (as nvparse refuses it) and run with `--permissive`, as the
+/// product of the two alpha inputs (the one-component dot product).
+#[test]
+fn permissive_mode_runs_alpha_dot_products_and_is_off_by_default() {
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let cfg = d.join("alpha_dot.rc");
+    std::fs::write(
+        &cfg,
+        "!!RC1.0\n{ alpha { spare0.a = tex0.b . tex1.b; } }\nout.rgb = spare0.a;\nout.a = one;\n",
+    )
+    .unwrap();
+    let t0 = png(d, "a.png", 2, 2, [10, 20, 200, 40]);
+    let t1 = png(d, "b.png", 2, 2, [50, 60, 100, 80]);
+    let out = d.join("out.png");
+    let (code, err) = shadec(args![&cfg, "--tex0", &t0, "--tex1", &t1, "--out", &out]);
+    assert_eq!(code, 1, "{err}");
+    assert!(
+        err.contains("alpha_dot.rc:2:11")
+            && err.contains("error[dot-in-alpha]")
+            && err.contains("--permissive"),
+        "{err}"
+    );
+    assert!(!out.exists());
+    let (code, err) = shadec(args![&cfg, "--tex0", &t0, "--tex1", &t1, "--permissive", "--out", &out]);
+    assert_eq!(code, 0, "{err}");
+    // 200/255 · 100/255 = 0.3076 → 78.4/255, one rounding to nearest: 78.
+    let img = image::open(&out).unwrap().to_rgba8();
+    assert!(img.pixels().all(|p| p.0 == [78, 78, 78, 255]), "{:?}", img.get_pixel(0, 0));
+    // translate: refused by default, accepted with the flag.
+    let translate = |extra: &[&str]| {
+        let o = Command::new(env!("CARGO_BIN_EXE_shadec"))
+            .arg("translate")
+            .arg(&cfg)
+            .args(extra)
+            .output()
+            .unwrap();
+        (o.status.code().unwrap_or(-1), String::from_utf8_lossy(&o.stdout).into_owned())
+    };
+    assert_eq!(translate(&[]).0, 1);
+    let (code, wgsl) = translate(&["--permissive"]);
+    assert_eq!(code, 0);
+    assert!(wgsl.contains("let alpha_ab = alpha_a * alpha_b;"), "{wgsl}");
+}

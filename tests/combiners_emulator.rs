@@ -65,17 +65,8 @@ fn appendix_h_golden_pixel() {
 /// exactly 128 for the −½ bias (255 − 128 = 127) and halves round half up.
 #[test]
 fn hardware_output_mappings() {
-    let cases = [
-        ("", [25, 63, 255]),
-        ("scale_by_two();", [50, 126, 255]),
-        ("scale_by_four();", [100, 252, 255]),
-        ("scale_by_one_half();", [13, 32, 128]),
-        ("bias_by_negative_one_half();", [0, 0, 127]),
-        ("bias_by_negative_one_half_scale_by_two();", [0, 0, 254]),
-    ];
-    for (mapping, hardware) in cases {
-        let text = format!("!!RC1.0\nconst0 = (0.09803922, 0.24705882, 1, 1);\n{{ rgb {{ spare0 = const0 * one; {mapping} }} }}\nout.rgb = spare0;\nout.a = one;\n");
-        let config = program(&text);
+    for (mapping, hardware) in common::NV2A_COMBINER_OPS {
+        let config = program(&common::nv2a_combiner_ops_program(mapping));
         let out = pixel(&config, [[0; 4]; 4], [0; 4], [0; 4], Precision::Fixed9);
         assert_eq!(out[..3], hardware, "{mapping}");
     }
@@ -558,4 +549,18 @@ fn unused_portion_is_cheap_and_harmless() {
     let mut c = program("!!RC1.0\n{ rgb { spare0 = unsigned(tex0); } }\nout.rgb = spare0;\nout.a = spare0;");
     c.general[0].alpha = GeneralPortion::discard_all();
     assert_eq!(pixel(&c, tex01([1, 2, 3, 4], [0; 4]), [0; 4], [0; 4], Precision::Fixed9), [1, 2, 3, 4]);
+}
+
+/// The NV2A vectors (`common::NV2A_COMBINER_OPS`, with their provenance) in
+/// the one-pixel emulator, which is what the CPU renderer's `fixed9` mode
+/// runs for every fragment of a combiner pass (`renderer::plan`, through
+/// `combiners::PixelEmulator`).
+#[test]
+fn hardware_output_mappings_in_the_pixel_emulator() {
+    for (mapping, hardware) in common::NV2A_COMBINER_OPS {
+        let config = program(&common::nv2a_combiner_ops_program(mapping));
+        let machine = PixelEmulator::new(&config, [0.0; 4], [0.0; 4], [0.0; 4], Precision::Fixed9).unwrap();
+        let out = machine.run(&PixelRegisters::default());
+        assert_eq!(out[..3], hardware, "{mapping}");
+    }
 }

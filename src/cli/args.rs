@@ -137,6 +137,10 @@ pub enum Emit {
     Spirv,
     /// GLSL 330, a vertex and a fragment shader per pass, in one document.
     Glsl,
+    /// Each pass's register-combiner setup as nvparse text (a combiner
+    /// target): `!!RC1.0`, after a `!!TS1.0` texture shader where the pass
+    /// has dependent lookups; `shadec emulate` and `translate` read it back.
+    Combiners,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

@@ -61,6 +61,13 @@ pub fn run(args: &CompileArgs) -> ExitCode {
         (Emit::Plan, Some(p)) if args.format == CompileFormat::Json => p.plan.to_json() + "\n",
         (Emit::Plan, Some(p)) => p.plan.to_ron() + "\n",
         (Emit::Wgsl | Emit::Spirv | Emit::Glsl, Some(p)) => return shaders_out(args, &file, &text, &p),
+        (Emit::Combiners, Some(p)) => match combiners_text(&p) {
+            Ok(t) => t,
+            Err(message) => {
+                eprintln!("error: {message}");
+                return ExitCode::from(EXIT_SOURCE_ERRORS);
+            }
+        },
         (_, None) => return ExitCode::from(EXIT_SOURCE_ERRORS),
     };
     super::write_output(args.output.as_deref(), &out)
@@ -74,8 +81,37 @@ fn target_name(args: &CompileArgs, m: &shadec::ir::Module) -> Option<String> {
         (Some(t), _) => Some(t.clone()),
         (None, Emit::Wgsl | Emit::Spirv | Emit::Glsl) => Some("wgsl".to_string()),
         (None, Emit::Plan) => own().or(Some("wgsl".to_string())),
+        (None, Emit::Combiners) => own().or(Some("geforce3".to_string())),
         (None, Emit::Ir) => own(),
     }
+}
+
+/// Every pass's combiner setup as nvparse text, a `#` comment naming the
+/// pass after its first header line (nvparse wants the header first; both
+/// languages read `#` as a comment), so one pass's text is a file
+/// `shadec emulate` and `translate` read.
+fn combiners_text(p: &shadec::pipeline::Planned) -> Result<String, String> {
+    if p.combiners.is_none() {
+        return Err(format!(
+            "target `{}` has no register combiners: emit combiners for geforce256 or geforce3 (--target)",
+            p.plan.target
+        ));
+    }
+    let n = p.plan.passes.len();
+    let mut out = String::new();
+    for (i, pass) in p.plan.passes.iter().enumerate() {
+        let title = format!("# ==== pass {} of {n}: {} ({})\n", i + 1, pass.reason, pass.at);
+        if pass.baked {
+            out.push_str(&title);
+            out.push_str("# a `bake` table, computed by the compiler: no combiner setup\n\n");
+            continue;
+        }
+        let g = shadec::backends::combiners::codegen::generate_for_pass(p, i)?;
+        let text = shadec::backends::combiners::rc1::print(&g.config);
+        let (header, rest) = text.split_once('\n').unwrap_or((&text, ""));
+        out.push_str(&format!("{header}\n{title}{rest}\n"));
+    }
+    Ok(out)
 }
 
 fn load_scene(path: &std::path::Path) -> Result<shadec::scene::Scene, ExitCode> {

@@ -9,6 +9,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 use shadec::backends::combiners::emulator::{emulate, Inputs};
+use shadec::backends::combiners::ts1::{self, TextureShader};
 use shadec::backends::combiners::{rc1, validate, Color, CombinerConfig, CombinerLimits};
 use shadec::diag::SourceFile;
 use shadec::numerics::Precision;
@@ -31,7 +32,9 @@ pub(super) fn profile_limits(name: &str) -> Result<CombinerLimits, Failure> {
 pub struct EmulateArgs {
     /// The combiner setup: an nvparse `!!RC1.0` program, or `.ron` for a CombinerConfig.
     pub config: PathBuf,
-    /// Texture unit 0 (RGBA8 PNG).
+    /// Texture unit 0 (RGBA8 PNG): the texture register per pixel, or, with a
+    /// texture shader, the unit's texture image (a cube map: six square
+    /// faces stacked +X −X +Y −Y +Z −Z; a 3-D texture: square slices stacked).
     #[arg(long)]
     pub tex0: Option<PathBuf>,
     #[arg(long)]
@@ -63,6 +66,26 @@ pub struct EmulateArgs {
     /// or `.ron` file).
     #[arg(long, value_name = "PROFILE", default_value = "geforce3")]
     pub profile: String,
+    /// A `!!TS1.0` texture-shader program computing texture0..3 (instead of
+    /// one in front of the `!!RC1.0` program). With a texture shader,
+    /// --tex0..--tex3 are texture images of any size (docs/combiners.md).
+    #[arg(long, value_name = "TS_FILE")]
+    pub texture_shader: Option<PathBuf>,
+    /// Texture coordinates (s, t, r, q) of unit 0 per pixel, RGBA8 PNG of the
+    /// output's size (default: pixel centres; encoding in docs/combiners.md).
+    #[arg(long)]
+    pub coord0: Option<PathBuf>,
+    #[arg(long)]
+    pub coord1: Option<PathBuf>,
+    #[arg(long)]
+    pub coord2: Option<PathBuf>,
+    #[arg(long)]
+    pub coord3: Option<PathBuf>,
+    /// Accept what NV2A (the Xbox GPU) runs beyond NV_register_combiners:
+    /// dot products in the alpha portion, computed as the product of the two
+    /// alpha inputs (docs/combiners.md). Off by default.
+    #[arg(long)]
+    pub permissive: bool,
     /// The output image (RGBA8 PNG): the final combiner's RGBA.
     #[arg(long)]
     pub out: PathBuf,
@@ -109,61 +132,130 @@ pub fn run(args: &EmulateArgs) -> ExitCode {
 
 fn run_inner(args: &EmulateArgs) -> Result<(), Failure> {
     let limits = profile_limits(&args.profile)?;
-    let config = load_config(&args.config, &limits)?;
-
-    let named = [
-        ("--tex0", &args.tex0),
-        ("--tex1", &args.tex1),
-        ("--tex2", &args.tex2),
-        ("--tex3", &args.tex3),
-        ("--primary", &args.primary),
-        ("--secondary", &args.secondary),
-    ];
-    let mut images: Vec<Option<(PathBuf, image::RgbaImage)>> = Vec::new();
-    for (_, path) in named {
-        images.push(match path {
-            Some(path) => Some((path.clone(), load_png(path)?)),
-            None => None,
-        });
-    }
-    let mut size: Option<(&Path, u32, u32)> = None;
-    for (path, img) in images.iter().flatten() {
-        match size {
-            None => size = Some((path, img.width(), img.height())),
-            Some((first, w, h)) if (w, h) != img.dimensions() => {
-                return Err(Failure::Io(format!(
-                "input images differ in size: {} is {w}x{h} but {} is {}x{}; all inputs must have one size",
-                first.display(),
-                path.display(),
-                img.width(),
-                img.height()
-            )))
-            }
-            _ => {}
+    let limits = if args.permissive { limits.permissive() } else { limits };
+    let mut config = load_config(&args.config, &limits)?;
+    let program = texture_shader(args.texture_shader.as_deref(), &mut config, &args.config)?;
+    let coords = [&args.coord0, &args.coord1, &args.coord2, &args.coord3];
+    if program.is_none() {
+        if let Some(path) = coords.iter().find_map(|c| c.as_ref()) {
+            return Err(Failure::Io(format!(
+                "{}: coordinates are read only by a texture shader: give a `!!TS1.0` program (in front of `!!RC1.0` or with --texture-shader)",
+                path.display()
+            )));
         }
     }
-    let Some((_, width, height)) = size else {
-        return Err(Failure::Io("no input image: give at least one of --tex0..--tex3, --primary, --secondary (they set the output size)".into()));
+    let load = |path: &Option<PathBuf>| -> Result<Option<(PathBuf, image::RgbaImage)>, Failure> {
+        path.as_ref().map(|p| Ok((p.clone(), load_png(p)?))).transpose()
     };
-    let raw = |i: usize| images[i].as_ref().map(|(_, img)| img.as_raw().as_slice());
+    let textures = [load(&args.tex0)?, load(&args.tex1)?, load(&args.tex2)?, load(&args.tex3)?];
+    let per_pixel = [load(&args.primary)?, load(&args.secondary)?];
+    let coord_images = [load(coords[0])?, load(coords[1])?, load(coords[2])?, load(coords[3])?];
+    // With a texture shader, textures are images of any size; the per-pixel
+    // inputs (colours, coordinates) set the output size, else the first texture.
+    let sized: Vec<&(PathBuf, image::RgbaImage)> = match program {
+        Some(_) => per_pixel.iter().chain(&coord_images).flatten().collect(),
+        None => textures.iter().chain(&per_pixel).flatten().collect(),
+    };
+    let (width, height) = match one_size(&sized)? {
+        Some(size) => size,
+        None => match textures.iter().flatten().next() {
+            Some((_, img)) if program.is_some() => img.dimensions(),
+            _ => return Err(Failure::Io("no input image: give at least one of --tex0..--tex3, --primary, --secondary (they set the output size)".into())),
+        },
+    };
+    type Loaded = Option<(PathBuf, image::RgbaImage)>;
+    fn raw(img: &Loaded) -> Option<&[u8]> {
+        img.as_ref().map(|(_, i)| i.as_raw().as_slice())
+    }
+    fn image(img: &Loaded) -> Option<ts1::emulate::Image<'_>> {
+        img.as_ref().map(|(_, i)| ts1::emulate::Image {
+            width: i.width(),
+            height: i.height(),
+            rgba: i.as_raw(),
+        })
+    }
     let inputs = Inputs {
         width: width as usize,
         height: height as usize,
-        textures: [raw(0), raw(1), raw(2), raw(3)],
-        primary: raw(4),
-        secondary: raw(5),
+        textures: [raw(&textures[0]), raw(&textures[1]), raw(&textures[2]), raw(&textures[3])],
+        primary: raw(&per_pixel[0]),
+        secondary: raw(&per_pixel[1]),
         fog: args.fog.unwrap_or([0.0; 4]),
         constant0: args.const0.unwrap_or([0.0; 4]),
         constant1: args.const1.unwrap_or([0.0; 4]),
     };
-    let pixels =
-        emulate(&config, &inputs, args.precision).map_err(|e| Failure::Config(format!("error: {e}")))?;
+    let precision = args.precision;
+    let pixels = match &program {
+        None => emulate(&config, &inputs, precision).map_err(|e| Failure::Config(format!("error: {e}")))?,
+        Some(program) => {
+            let texture_inputs = ts1::emulate::TextureInputs {
+                width: width as usize,
+                height: height as usize,
+                textures: [
+                    image(&textures[0]),
+                    image(&textures[1]),
+                    image(&textures[2]),
+                    image(&textures[3]),
+                ],
+                coords: [
+                    raw(&coord_images[0]),
+                    raw(&coord_images[1]),
+                    raw(&coord_images[2]),
+                    raw(&coord_images[3]),
+                ],
+            };
+            ts1::emulate::emulate(&config, program, &inputs, &texture_inputs, precision)
+                .map_err(|e| Failure::Config(format!("error: {e}")))?
+        }
+    };
     let mut png = Vec::new();
     let encoder = image::codecs::png::PngEncoder::new(&mut png);
     image::ImageEncoder::write_image(encoder, &pixels, width, height, image::ExtendedColorType::Rgba8)
         .map_err(|e| Failure::Io(format!("{}: cannot encode PNG: {e}", args.out.display())))?;
     shadec::io::write_atomic(&args.out, &png).map_err(|e| Failure::Io(e.to_string()))?;
     Ok(())
+}
+
+/// The one size all `images` share (an error naming two that differ).
+fn one_size(images: &[&(PathBuf, image::RgbaImage)]) -> Result<Option<(u32, u32)>, Failure> {
+    let Some((first, img)) = images.first() else { return Ok(None) };
+    let (w, h) = img.dimensions();
+    for (path, other) in &images[1..] {
+        if other.dimensions() != (w, h) {
+            return Err(Failure::Io(format!(
+                "input images differ in size: {} is {w}x{h} but {} is {}x{}; all per-pixel inputs must have one size",
+                first.display(),
+                path.display(),
+                other.width(),
+                other.height()
+            )));
+        }
+    }
+    Ok(Some((w, h)))
+}
+
+/// The texture-shader program: from `--texture-shader`, or the `!!TS1.0`
+/// block in front of the combiners (not both).
+pub(super) fn texture_shader(
+    path: Option<&Path>,
+    config: &mut CombinerConfig,
+    config_path: &Path,
+) -> Result<Option<TextureShader>, Failure> {
+    let Some(path) = path else { return Ok(config.texture_shader.clone()) };
+    if config.texture_shader.is_some() {
+        return Err(Failure::Io(format!(
+            "{} already starts with a `!!TS1.0` program; --texture-shader {} would be a second one: give one of them",
+            config_path.display(),
+            path.display()
+        )));
+    }
+    let text = shadec::io::read_text(path).map_err(|e| Failure::Io(e.to_string()))?;
+    let program = ts1::parse_file(&text).map_err(|diagnostics| {
+        let file = SourceFile::new(path.display().to_string(), text.clone());
+        Failure::Config(file.render(&diagnostics, false))
+    })?;
+    config.texture_shader = Some(program.clone());
+    Ok(Some(program))
 }
 
 pub(super) fn load_config(path: &Path, limits: &CombinerLimits) -> Result<CombinerConfig, Failure> {

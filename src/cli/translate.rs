@@ -5,7 +5,7 @@
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-use super::emulate::{load_config, profile_limits, Failure};
+use super::emulate::{load_config, profile_limits, texture_shader, Failure};
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum TranslateEmit {
@@ -24,13 +24,30 @@ pub struct TranslateArgs {
     /// or `.ron` file).
     #[arg(long, value_name = "PROFILE", default_value = "geforce3")]
     pub profile: String,
+    /// A `!!TS1.0` texture-shader program in front of the combiners (instead
+    /// of one at the top of CONFIG).
+    #[arg(long, value_name = "TS_FILE")]
+    pub texture_shader: Option<PathBuf>,
+    /// Accept what NV2A (the Xbox GPU) runs beyond NV_register_combiners:
+    /// dot products in the alpha portion, computed as the product of the two
+    /// alpha inputs (docs/combiners.md). Off by default.
+    #[arg(long)]
+    pub permissive: bool,
     /// Write here (atomically) instead of standard output.
     #[arg(short, long, value_name = "OUT")]
     pub output: Option<PathBuf>,
 }
 
 pub fn run(args: &TranslateArgs) -> ExitCode {
-    let config = match profile_limits(&args.profile).and_then(|limits| load_config(&args.config, &limits)) {
+    let loaded = profile_limits(&args.profile).and_then(|limits| {
+        let limits = if args.permissive { limits.permissive() } else { limits };
+        load_config(&args.config, &limits)
+    });
+    let loaded = loaded.and_then(|mut c| {
+        texture_shader(args.texture_shader.as_deref(), &mut c, &args.config)?;
+        Ok(c)
+    });
+    let config = match loaded {
         Ok(c) => c,
         Err(Failure::Config(message)) => {
             eprint!("{message}");

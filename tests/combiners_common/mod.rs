@@ -4,6 +4,7 @@
 #![allow(dead_code)]
 
 use proptest::prelude::*;
+use shadec::backends::combiners::ts1::{Operation, TextureShader};
 use shadec::backends::combiners::{
     Bias, CombinerConfig, ComponentUsage, FinalCombiner, FinalInput, FinalSource, GeneralInput,
     GeneralPortion, GeneralStage, InputMapping, PortionKind, Register, Scale,
@@ -171,10 +172,19 @@ pub fn final_combiner() -> impl Strategy<Value = FinalCombiner> {
 
 /// A valid config (geforce3 limits) by construction.
 pub fn config(max_stages: usize) -> impl Strategy<Value = CombinerConfig> {
-    let ts = prop::option::of(prop_oneof![
-        Just("\n".to_string()),
-        "[ -~\n]{0,40}".prop_filter("no header", |s| !s.contains("!!RC1.0"))
-    ]);
+    // Texture shaders made of stages that read no other stage (always consistent).
+    let ts = prop::option::of(
+        prop::collection::vec(
+            prop_oneof![
+                Just(Operation::Texture2d),
+                Just(Operation::Nop),
+                Just(Operation::PassThrough),
+                Just(Operation::TextureCubeMap),
+            ],
+            0..=4,
+        )
+        .prop_map(|stages| TextureShader { stages }),
+    );
     (
         prop::option::of(color()),
         prop::option::of(color()),
@@ -189,4 +199,24 @@ pub fn config(max_stages: usize) -> impl Strategy<Value = CombinerConfig> {
             final_combiner,
             texture_shader,
         })
+}
+
+/// Hardware results (issue 20): NV2A (NV20 family, the Xbox GPU) golden
+/// images of nxdk_pgraph_tests' "Combiner" suite, CombinerOps test —
+/// constant colour 0 = (25, 63, 255)/255 written to spare0 by general
+/// combiner 0 with each output mapping and shown by the final combiner.
+/// The hardware subtracts exactly 128 for the −½ bias (255 − 128 = 127)
+/// and halves round half up. Pairs of (output mapping call, RGB).
+pub const NV2A_COMBINER_OPS: [(&str, [u8; 3]); 6] = [
+    ("", [25, 63, 255]),
+    ("scale_by_two();", [50, 126, 255]),
+    ("scale_by_four();", [100, 252, 255]),
+    ("scale_by_one_half();", [13, 32, 128]),
+    ("bias_by_negative_one_half();", [0, 0, 127]),
+    ("bias_by_negative_one_half_scale_by_two();", [0, 0, 254]),
+];
+
+/// The CombinerOps setup for one output mapping, as `!!RC1.0`.
+pub fn nv2a_combiner_ops_program(mapping: &str) -> String {
+    format!("!!RC1.0\nconst0 = (0.09803922, 0.24705882, 1, 1);\n{{ rgb {{ spare0 = const0 * one; {mapping} }} }}\nout.rgb = spare0;\nout.a = one;\n")
 }

@@ -2209,7 +2209,8 @@ impl Gen<'_> {
             constant1: color(self.assigned.global[1]),
             general,
             final_combiner,
-            texture_shader: None,
+            // Dependent lookups (EMBM's offset) as a `!!TS1.0` program.
+            texture_shader: super::ts1::lower::program(self.m, self.units),
         }
     }
 }

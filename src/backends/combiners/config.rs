@@ -456,10 +456,10 @@ pub struct CombinerConfig {
     pub general: Vec<GeneralStage>,
     #[serde(rename = "final")]
     pub final_combiner: FinalCombiner,
-    /// A `!!TS1.0` texture-shader program that came with the combiners; kept
-    /// verbatim (the text after `!!TS1.0`), not executed.
+    /// The `!!TS1.0` texture-shader program that computes texture0..3 for
+    /// these combiners (NV_texture_shader; `combiners::ts1`), if any.
     #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub texture_shader: Option<String>,
+    pub texture_shader: Option<super::ts1::TextureShader>,
 }
 
 impl Default for CombinerConfig {

@@ -79,8 +79,9 @@ pub fn emulate_into(
     precision: Precision,
     out: &mut [u8],
 ) -> Result<(), EmulateError> {
-    // The emulator runs anything a geforce3 accepts; the caller checks its own profile.
-    validate(config, &CombinerLimits::GEFORCE3).map_err(EmulateError::Invalid)?;
+    // The emulator runs anything a geforce3 accepts (and NV2A's alpha dot
+    // products); the caller checks its own profile.
+    validate(config, &CombinerLimits::GEFORCE3.permissive()).map_err(EmulateError::Invalid)?;
     let expected = inputs.width.saturating_mul(inputs.height).saturating_mul(4);
     if out.len() != expected {
         return Err(EmulateError::OutputSize { got: out.len(), expected });
@@ -145,7 +146,7 @@ impl PixelEmulator {
         fog: Color,
         precision: Precision,
     ) -> Result<PixelEmulator, EmulateError> {
-        validate(config, &CombinerLimits::GEFORCE3).map_err(EmulateError::Invalid)?;
+        validate(config, &CombinerLimits::GEFORCE3.permissive()).map_err(EmulateError::Invalid)?;
         let inputs = Inputs { constant0, constant1, fog, ..Inputs::default() };
         Ok(PixelEmulator { plan: Plan::new(config, &inputs), fog, precision })
     }
@@ -225,9 +226,11 @@ fn pixel_portion<M: Model>(r: &Regs<M>, p: &PortionPlan, kind: PortionKind) -> [
             M::map(input.mapping, one(&r[input.register.index()][src_ch]), one_mut(dst));
         }
     }
+    // A dot product in the alpha portion (NV2A, `--permissive`) is the
+    // one-component dot product: the plain product.
     let product = |a: usize, dot: bool| {
         let mut w = [M::W::default(); 3];
-        if dot {
+        if dot && kind == PortionKind::Rgb {
             M::mul(one(&mapped[a][0]), one(&mapped[a + 1][0]), one_mut(&mut w[0]));
             M::mul_add(one(&mapped[a][1]), one(&mapped[a + 1][1]), one_mut(&mut w[0]));
             M::mul_add(one(&mapped[a][2]), one(&mapped[a + 1][2]), one_mut(&mut w[0]));
@@ -811,8 +814,10 @@ fn portion<M: Model>(s: &mut Scratch<M>, p: &PortionPlan, kind: PortionKind, n: 
     }
     let mapped = &s.mapped;
     let var = |v: usize, ch: usize| &mapped[(v * 3 + ch) * TILE..][..n];
+    // An alpha-portion dot product (NV2A, `--permissive`) is the plain product.
+    let rgb_dot = |dot: bool| dot && kind == PortionKind::Rgb;
     let product = |a: usize, dot: bool, dst: &mut [M::W]| {
-        if dot {
+        if rgb_dot(dot) {
             let dst = &mut dst[..n];
             M::mul(var(a, 0), var(a + 1, 0), dst);
             M::mul_add(var(a, 1), var(a + 1, 1), dst);
@@ -825,13 +830,13 @@ fn portion<M: Model>(s: &mut Scratch<M>, p: &PortionPlan, kind: PortionKind, n: 
     };
     if p.need_ab {
         product(0, p.ab_dot, &mut s.ab);
-        if p.ab_dot {
+        if rgb_dot(p.ab_dot) {
             smear::<M>(&mut s.ab, n);
         }
     }
     if p.need_cd {
         product(2, p.cd_dot, &mut s.cd);
-        if p.cd_dot {
+        if rgb_dot(p.cd_dot) {
             smear::<M>(&mut s.cd, n);
         }
     }

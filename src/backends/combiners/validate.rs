@@ -217,14 +217,14 @@ impl Validator<'_> {
                 );
             }
         }
-        if kind == PortionKind::Alpha {
+        if kind == PortionKind::Alpha && !self.limits.alpha_dot_products {
             for (dot, slot) in [(p.ab_dot, OutputSlot::Ab), (p.cd_dot, OutputSlot::Cd)] {
                 if dot {
                     self.error(
                         "dot-in-alpha",
                         Place::Output(s, kind, slot),
                         "dot products exist only in the RGB portion",
-                        "compute the dot product in the RGB portion and read its result's blue or alpha",
+                        "compute the dot product in the RGB portion and read its result's blue or alpha (or pass `--permissive` to run NV2A's alpha dot product, the product of the two inputs)",
                     );
                 }
             }

@@ -7,12 +7,14 @@
 //! - `emit`: the modules written as WGSL (one document, a header comment per
 //!   pass with its source line), SPIR-V and GLSL.
 //! - `rc1`: legacy `!!RC1.0` combiner setups as WGSL, bit-exact with the
-//!   fixed9 emulator (`shadec translate`).
+//!   fixed9 emulator (`shadec translate`); `ts1`: with a `!!TS1.0` texture
+//!   shader in front, its stages too.
 //!
 //! Running the modules on wgpu is the executor `crate::gpu`'s work.
 
 pub mod codegen;
 pub mod emit;
 pub mod rc1;
+pub mod ts1;
 
 pub use codegen::{generate, PassShader, FRAGMENT_ENTRY, VERTEX_ENTRY};

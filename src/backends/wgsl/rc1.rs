@@ -39,7 +39,7 @@ fn unit_k(v: f32) -> i32 {
 }
 
 /// An RGBA8 input at the pixel, as integers 0..255 (`translate` only).
-const TEXEL_HELPER: &str = r#"
+pub(crate) const TEXEL_HELPER: &str = r#"
 // An RGBA8 input at the pixel, as integers 0..255.
 fn texel(t: texture_2d<f32>, p: vec2<i32>) -> vec4<i32> {
     return vec4<i32>(round(textureLoad(t, p, 0) * 255.0));
@@ -79,7 +79,13 @@ fn unit_k(c: vec4<f32>) -> vec4<i32> {
 "#;
 
 /// Translates `config` to a WGSL module (vertex `vs_main`, fragment `fs_main`).
+///
+/// A config with a `!!TS1.0` texture shader is translated by [`super::ts1`]
+/// (its stages compute texture0..3; the bindings differ, see there).
 pub fn translate(config: &CombinerConfig, title: &str) -> Result<String, String> {
+    if let Some(program) = &config.texture_shader {
+        return super::ts1::translate(config, program, title);
+    }
     let mut s = String::new();
     let w = &mut s;
     writeln!(w, "// shadec translate: {title}").unwrap();

@@ -15,14 +15,29 @@ pub use printer::print;
 use crate::diag::Diagnostic;
 
 use super::config::{CombinerConfig, CombinerLimits};
+use super::ts1;
 use super::validate::validate;
 
 /// Parses and validates a program against `limits`: the config, or every
 /// error as a diagnostic with a span into `text`.
 pub fn parse_and_validate(text: &str, limits: &CombinerLimits) -> Result<CombinerConfig, Vec<Diagnostic>> {
     let parsed = parse(text).map_err(|d| vec![d])?;
-    match validate(&parsed.config, limits) {
-        Ok(()) => Ok(parsed.config),
-        Err(errors) => Err(errors.iter().map(|e| e.to_diagnostic(&|place| parsed.span_of(place))).collect()),
+    let mut diagnostics: Vec<Diagnostic> = match &parsed.config.texture_shader {
+        Some(ts) => {
+            let fallback = crate::span::Span::new(0, 0);
+            ts1::validate(ts)
+                .iter()
+                .map(|e| e.to_diagnostic(&parsed.texture_shader_spans, fallback))
+                .collect()
+        }
+        None => Vec::new(),
+    };
+    if let Err(errors) = validate(&parsed.config, limits) {
+        diagnostics.extend(errors.iter().map(|e| e.to_diagnostic(&|place| parsed.span_of(place))));
+    }
+    if diagnostics.is_empty() {
+        Ok(parsed.config)
+    } else {
+        Err(diagnostics)
     }
 }

@@ -14,6 +14,7 @@ use crate::backends::combiners::config::{
     Bias, Color, CombinerConfig, ComponentUsage, FinalCombiner, FinalInput, FinalSource, GeneralInput,
     GeneralPortion, GeneralStage, InputMapping, PortionKind, Register, Scale,
 };
+use crate::backends::combiners::ts1;
 use crate::backends::combiners::validate::{OutputSlot, Place};
 
 /// A parsed program: the config and where each of its places came from.
@@ -21,6 +22,8 @@ use crate::backends::combiners::validate::{OutputSlot, Place};
 pub struct Parsed {
     pub config: CombinerConfig,
     pub spans: HashMap<Place, Span>,
+    /// Where each stage of the `!!TS1.0` block came from.
+    pub texture_shader_spans: Vec<ts1::StageSpans>,
 }
 
 impl Parsed {
@@ -40,7 +43,7 @@ pub fn parse(text: &str) -> Result<Parsed, Diagnostic> {
     let body = &text[lead..];
     let (texture_shader, rc_start) = if let Some(rest) = body.strip_prefix("!!TS1.0") {
         match rest.find("!!RC1.0") {
-            Some(at) => (Some(rest[..at].to_string()), lead + "!!TS1.0".len() + at),
+            Some(at) => (Some(ts1::parse(&rest[..at], lead + "!!TS1.0".len())?), lead + "!!TS1.0".len() + at),
             None => {
                 return Err(Diagnostic::error(
                     "syntax",
@@ -68,8 +71,9 @@ pub fn parse(text: &str) -> Result<Parsed, Diagnostic> {
     let tokens = lex(&text[start..], start)?;
     let mut parser = Parser { tokens, pos: 0, spans: HashMap::new() };
     let mut config = parser.program()?;
-    config.texture_shader = texture_shader;
-    Ok(Parsed { config, spans: parser.spans })
+    let texture_shader_spans = texture_shader.as_ref().map(|t| t.spans.clone()).unwrap_or_default();
+    config.texture_shader = texture_shader.map(|t| t.program);
+    Ok(Parsed { config, spans: parser.spans, texture_shader_spans })
 }
 
 /// An operand as written: a register (or a pseudo-register) with its mapping.

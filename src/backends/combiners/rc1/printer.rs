@@ -18,8 +18,7 @@ use crate::backends::combiners::config::{
 pub fn print(config: &CombinerConfig) -> String {
     let mut out = String::new();
     if let Some(ts) = &config.texture_shader {
-        out.push_str("!!TS1.0");
-        out.push_str(ts);
+        out.push_str(&crate::backends::combiners::ts1::print(ts));
     }
     out.push_str("!!RC1.0\n");
     for (i, c) in [config.constant0, config.constant1].iter().enumerate() {

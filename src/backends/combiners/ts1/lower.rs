@@ -1,0 +1,78 @@
+//! The texture-shader program a pass's texture units need (issue 20, item
+//! 4): each unit's lookup in the IR, read as an NV_texture_shader operation.
+//! A lookup at interpolated coordinates is `texture_2d` (`texture_1d`,
+//! `texture_3d`, `texture_cube_map` by the texture's kind); a 2-D lookup at
+//! interpolated coordinates plus a signed 2-D lookup of an earlier unit is
+//! seeds/001 equation (8)'s environment-mapped bump mapping, `offset_2d`
+//! with the identity matrix (Section 3.4; Direct3D 6's EMBM), or with
+//! s·I where the offset is scaled by a constant s.
+
+use crate::ir::{BinaryOp, Expr, Handle, Module};
+use crate::parser::ast::{TextureFormat, TextureKind};
+
+use super::program::{Operation, TextureShader};
+
+/// The program for `units` (unit k holds `units[k]`), when at least one unit
+/// is a dependent lookup and every unit has an operation; `None` when no
+/// unit depends on another (plain texturing needs no texture shader) or
+/// some unit's coordinates have no NV_texture_shader operation.
+pub fn program(m: &Module, units: &[Handle<Expr>]) -> Option<TextureShader> {
+    let mut stages = Vec::new();
+    for (k, &unit) in units.iter().enumerate() {
+        stages.push(operation(m, &units[..k], unit)?);
+    }
+    stages.iter().any(|op| op.previous().is_some()).then_some(TextureShader { stages })
+}
+
+fn operation(m: &Module, earlier: &[Handle<Expr>], unit: Handle<Expr>) -> Option<Operation> {
+    let Expr::Lookup { texture, coords } = m.exprs[unit] else { return None };
+    let kind = m.textures.get(texture as usize)?.kind;
+    if interpolated(m, coords) {
+        return Some(match kind {
+            TextureKind::Tex1d => Operation::Texture1d,
+            TextureKind::Tex2d => Operation::Texture2d,
+            TextureKind::Tex3d => Operation::Texture3d,
+            TextureKind::Cube => Operation::TextureCubeMap,
+        });
+    }
+    if kind != TextureKind::Tex2d {
+        return None;
+    }
+    let Expr::Binary { op: BinaryOp::Add, lhs, rhs } = m.exprs[coords] else { return None };
+    let (base, offset) = if interpolated(m, lhs) { (lhs, rhs) } else { (rhs, lhs) };
+    if !interpolated(m, base) {
+        return None;
+    }
+    let (scale, offset) = scaled(m, offset);
+    let previous = earlier.iter().position(|&e| e == offset)?;
+    let Expr::Lookup { texture: dsdt, .. } = m.exprs[offset] else { return None };
+    let signed = m.textures.get(dsdt as usize)?.format;
+    if !matches!(signed, TextureFormat::Signed8 | TextureFormat::Signed16) {
+        return None;
+    }
+    Some(Operation::Offset {
+        rectangle: false,
+        previous: u8::try_from(previous).ok()?,
+        matrix: [scale, 0.0, 0.0, scale],
+        scale: None,
+    })
+}
+
+/// Interpolated texture coordinates (`δ(u x)`).
+fn interpolated(m: &Module, h: Handle<Expr>) -> bool {
+    matches!(m.exprs[h], Expr::Interpolate { .. })
+}
+
+/// `s · e` or `e · s` with a constant scalar s: (s, e); else (1, h).
+fn scaled(m: &Module, h: Handle<Expr>) -> (f32, Handle<Expr>) {
+    if let Expr::Binary { op: BinaryOp::Mul, lhs, rhs } = m.exprs[h] {
+        for (c, e) in [(lhs, rhs), (rhs, lhs)] {
+            if let Expr::Constant(k) = &m.exprs[c] {
+                if let [v] = k.values()[..] {
+                    return (v as f32, e);
+                }
+            }
+        }
+    }
+    (1.0, h)
+}
