@@ -285,7 +285,7 @@ fn operation() -> impl Strategy<Value = Operation> {
             prop::array::uniform3(number)
         )
             .prop_map(|(family, step, previous, mapping, eye)| {
-                let step = step % family.len();
+                let step = step % family.stages();
                 let eye = (step == 0 && family.has_const_eye()).then_some(eye);
                 Operation::DotProduct { family, step, previous, mapping, eye }
             }),

@@ -1,7 +1,7 @@
 //! NVIDIA nvparse's `!!TS1.0` texture-shader programs (NV_texture_shader,
 //! the geforce3's per-unit shader operations that compute texture0..3 for
 //! the register combiners): the program as data ([`program`]), [`parse`]
-//! with located errors, the consistency rules ([`validate`]), [`print`], and
+//! with located errors, the consistency rules ([`validate()`]), [`print()`], and
 //! the per-pixel model the emulator and `translate` share ([`emulate`]).
 //! docs/combiners.md, "Texture shaders", records the conventions.
 

@@ -1,7 +1,7 @@
 //! A recursive-descent parser for `!!TS1.0` after nvparse's
 //! `ts1.0_grammar.y`: one `instruction(arguments);` per texture unit, with
 //! the span of each instruction and of the stage it reads, so that
-//! [`super::validate`] can point at the source.
+//! [`super::validate()`] can point at the source.
 
 use crate::diag::{did_you_mean, Diagnostic};
 use crate::span::Span;
@@ -48,8 +48,8 @@ pub fn instruction_names() -> Vec<String> {
     .map(String::from)
     .to_vec();
     for family in DotFamily::ALL {
-        for k in 1..=family.len() {
-            names.push(format!("dot_product_{}_{k}of{}", family.stem(), family.len()));
+        for k in 1..=family.stages() {
+            names.push(format!("dot_product_{}_{k}of{}", family.stem(), family.stages()));
         }
     }
     names
@@ -120,7 +120,7 @@ fn kind_of(name: &str) -> Option<Kind> {
     }
     let rest = name.strip_prefix("dot_product_")?;
     DotFamily::ALL.into_iter().find_map(|family| {
-        let n = family.len();
+        let n = family.stages();
         let step = rest.strip_prefix(family.stem())?.strip_prefix('_')?.strip_suffix(&format!("of{n}"))?;
         let k: u8 = step.parse().ok()?;
         (1..=n).contains(&k).then(|| Kind::Dot { family, step: k - 1 })
@@ -349,7 +349,7 @@ fn usage(kind: &Kind) -> String {
             format!("{}(tex0);", if *green_blue { "dependent_gb" } else { "dependent_ar" })
         }
         Kind::Dot { family, step } => {
-            let name = format!("dot_product_{}_{}of{}", family.stem(), step + 1, family.len());
+            let name = format!("dot_product_{}_{}of{}", family.stem(), step + 1, family.stages());
             if *step == 0 && family.has_const_eye() {
                 format!("{name}(expand(tex0), eye_x, eye_y, eye_z);")
             } else {

@@ -3,7 +3,7 @@
 //! `!!TS1.0` vocabulary (`ts1.0_grammar.y`, `ts1.0_inst.h`).
 //!
 //! A [`TextureShader`] may hold an inconsistent program (a dependent stage
-//! reading a later stage, a `2of2` with no `1of2`): [`super::validate`]
+//! reading a later stage, a `2of2` with no `1of2`): [`super::validate()`]
 //! says what NV_texture_shader forbids.
 
 use serde::{Deserialize, Serialize};
@@ -97,7 +97,7 @@ impl DotFamily {
     }
 
     /// How many consecutive stages the family takes.
-    pub fn len(self) -> u8 {
+    pub fn stages(self) -> u8 {
         match self {
             DotFamily::Texture2d | DotFamily::Rectangle | DotFamily::DepthReplace => 2,
             _ => 3,
@@ -113,7 +113,7 @@ impl DotFamily {
     /// (`noOutput` in nvparse's `ts1.0_inst.h`): the last stage, and the
     /// diffuse cube map's middle stage.
     pub fn has_output(self, step: u8) -> bool {
-        step + 1 == self.len()
+        step + 1 == self.stages()
             || (step == 1
                 && matches!(self, DotFamily::DiffuseReflectEyeFromQs | DotFamily::DiffuseReflectConstEye))
     }
@@ -187,7 +187,7 @@ impl Operation {
                 if *green_blue { "dependent_gb" } else { "dependent_ar" }.into()
             }
             Operation::DotProduct { family, step, .. } => {
-                format!("dot_product_{}_{}of{}", family.stem(), step + 1, family.len())
+                format!("dot_product_{}_{}of{}", family.stem(), step + 1, family.stages())
             }
         }
     }

@@ -82,7 +82,7 @@ fn group(program: &TextureShader, i: usize, op: &Operation, errors: &mut Vec<TsE
     if step == 0 {
         return i;
     }
-    let first = format!("dot_product_{}_1of{}", family.stem(), family.len());
+    let first = format!("dot_product_{}_1of{}", family.stem(), family.stages());
     if step > i {
         errors.push(TsError {
             code: "ts-group-incomplete",
@@ -92,14 +92,14 @@ fn group(program: &TextureShader, i: usize, op: &Operation, errors: &mut Vec<TsE
             label: "prior stage missing".into(),
             help: format!(
                 "a {}-stage dot product starts with `{first}` {step} unit(s) before this one",
-                family.len()
+                family.stages()
             ),
         });
         return i;
     }
     for k in 0..step {
         let unit = i - step + k;
-        let expected = format!("dot_product_{}_{}of{}", family.stem(), k + 1, family.len());
+        let expected = format!("dot_product_{}_{}of{}", family.stem(), k + 1, family.stages());
         let ok = matches!(program.stages[unit], Operation::DotProduct { family: f, step: s, .. } if f == family && s as usize == k);
         if !ok {
             errors.push(TsError {
