@@ -3,7 +3,7 @@
 //! not smeared, and light culling (Section 2.2) never drops a light that
 //! changes a pixel by more than its tolerance.
 
-mod adaptive_common;
+use crate::adaptive_common;
 
 use adaptive_common::{adaptive, full, lit, max_diff};
 use shadec::renderer::{image_error, AdaptiveSettings, EdgeMode};

@@ -2,7 +2,7 @@
 //! Fig. 10-12): the paper shades 19.25 % of the pixels at threshold 8.5 %
 //! with regular samples every 16 pixels.
 
-mod adaptive_common;
+use crate::adaptive_common;
 
 use adaptive_common::{adaptive, full, lit};
 use shadec::renderer::{image_error, AdaptiveSettings, EdgeMode};

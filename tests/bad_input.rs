@@ -1,7 +1,7 @@
 //! Bad input never panics: each case gives exit code 1 or 2 and a clear message
 //! (issue 2, item 6). Exercised through the CLI, so a crash would show as a signal.
 
-mod common;
+use crate::common;
 
 use std::io::Write as _;
 

@@ -1,7 +1,7 @@
 //! `shadec check` and `shadec fmt` through the binary: exit codes, the
 //! per-file summary, the LSP-shaped JSON document, atomic output.
 
-mod common;
+use crate::common;
 
 use common::{shadec, shadec_in};
 

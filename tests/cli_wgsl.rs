@@ -2,7 +2,7 @@
 //! command line: outputs, files, exit codes and errors.
 #![cfg(feature = "wgsl")]
 
-mod common;
+use crate::common;
 use common::shadec;
 
 #[test]

@@ -4,7 +4,7 @@
 //! a later golden test compares the DSL compiler's output against. Set
 //! `UPDATE_GOLDEN=1` to rewrite the .ron files.
 
-mod combiners_common;
+use crate::combiners_common;
 use combiners_common as common;
 
 use shadec::backends::combiners::emulator::{emulate, Inputs};

@@ -4,7 +4,7 @@
 //! and 3 compile to configs bit-identical in fixed9 to his Appendix G and H
 //! setups; unsupported operations and running out of stages are errors.
 
-mod combiners_common;
+use crate::combiners_common;
 use combiners_common as common;
 
 use shadec::backends::combiners::emulator::{emulate, Inputs};

@@ -5,7 +5,7 @@
 //! accepts, or refuses with a located diagnostic (the renderer then falls
 //! back to its per-operation model for that pass).
 
-mod common;
+use crate::common;
 
 use shadec::backends::combiners::{generate, validate, PassInput};
 use shadec::ir::{Expr, Handle};

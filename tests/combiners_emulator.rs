@@ -3,7 +3,7 @@
 //! docs/combiners.md, agreement with a per-pixel scalar reference written
 //! straight from Section 4.2, the fixed9-vs-f32 bound, and no panics.
 
-mod combiners_common;
+use crate::combiners_common;
 use combiners_common as common;
 
 use proptest::prelude::*;

@@ -2,7 +2,7 @@
 //! programs, the syntax nvparse accepts, the errors it raises (with
 //! file:line:col), and the print → parse round trip.
 
-mod combiners_common;
+use crate::combiners_common;
 use combiners_common as common;
 
 use proptest::prelude::*;

@@ -10,8 +10,8 @@
 //! identical config, and runs in the emulator (f32) to what the IR computes
 //! for the pass on random inputs.
 
-mod combiners_common;
-mod common;
+use crate::combiners_common;
+use crate::common;
 
 use std::fmt::Write as _;
 

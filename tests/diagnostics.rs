@@ -3,7 +3,7 @@
 //! `tests/diagnostics/*.shd`. Review changes with `cargo insta review` or
 //! `INSTA_UPDATE=always cargo test --test diagnostics` and `git diff`.
 
-mod common;
+use crate::common;
 
 use shadec::diag::SourceFile;
 

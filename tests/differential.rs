@@ -487,6 +487,25 @@ fn a_temporary_keeps_its_term() {
     }
 }
 
+/// Found by the generator (issue 22's session): a render-to-texture inside
+/// another moved the inner temporary's passes into the outer temporary, so
+/// `temp0` was read by a pass and never rendered. Nested temporaries keep
+/// their own targets.
+#[test]
+fn a_temporary_inside_a_temporary_is_rendered() {
+    let source = "texture A : 2d rgb8 = image(\"a.png\");\ntexture Env : 2d rgb8 = image(\"env.png\");\n\
+        const kd : rgb = (0.8, 0.6, 0.4);\nuniform I : rgb = (0.9, 0.9, 0.8);\nvector R : reflection in eye;\n\
+        u x ← πR R s x;\nC δπx ← A δu x;\n\
+        C δπx ← (C δπx) ⊕[add] (((kd + Env δu x) * I) ⊕[subtract] ((A δu x) ⊕[add] (A δu x)));\n";
+    let scene = scene();
+    assert!(
+        matches!(check(source, "geforce256", &scene), Ok(Outcome::Planned { split: true, .. })),
+        "{:?}",
+        check(source, "geforce256", &scene)
+    );
+    check_all_targets(source, &scene, &mut [0; 4]).unwrap();
+}
+
 /// A pass the combiner generator cannot realize is split further or
 /// refused, never planned (issue 16 item 2): `x^8` of an interpolated
 /// signed vector's dot product has no setup (interpolated colours are

@@ -8,7 +8,7 @@
 //! only allowed skip, and it is refused when `CI=true`.
 #![cfg(feature = "gpu")]
 
-mod common;
+use crate::common;
 
 use shadec::gpu::runner::{
     run_passes, validate_shader, DepthFormat, GpuError, PassTarget, RunPass, RunShader, RunTexture,

@@ -11,7 +11,7 @@
 //! asserts its expected behaviour: an error bound where the maths gives one,
 //! the documented fallback where it does not.
 
-mod adaptive_common;
+use crate::adaptive_common;
 
 use std::path::{Path, PathBuf};
 

@@ -4,7 +4,7 @@
 //! and every example planned on both combiner targets with every pass
 //! realized, or refused with a located reason.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

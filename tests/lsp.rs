@@ -1,7 +1,7 @@
 //! `shadec lsp` driven over stdio as an editor drives it (issue 21): every
 //! feature, through the real binary and JSON-RPC framing.
 
-mod common_lsp;
+use crate::common_lsp;
 
 use common_lsp::{pos, Client};
 use serde_json::{json, Value};

@@ -2,7 +2,7 @@
 //! profile, plans round-trip through RON and JSON, the papers' pass counts
 //! hold, and the planner's pass counts equal an exhaustive search's.
 
-mod common;
+use crate::common;
 
 use shadec::pipeline::{BlendMode, PassPlan};
 use shadec::planner::{self, Search};

@@ -4,7 +4,7 @@
 //! sample, in f32, up to f32 rounding. Leaves (interpolated values, texels,
 //! earlier framebuffer contents) are pseudo-random but the same for both.
 
-mod common;
+use crate::common;
 
 use std::collections::HashMap;
 

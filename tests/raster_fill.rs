@@ -1,5 +1,5 @@
 //! The fill rule: shared edges are covered exactly once, with no cracks.
-mod common;
+use crate::common;
 
 use common::{hit_counts, ClipVertices};
 use proptest::prelude::*;

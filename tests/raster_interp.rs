@@ -1,5 +1,5 @@
 //! Perspective-correct interpolation and the depth-equal re-rendering test.
-mod common;
+use crate::common;
 
 use common::{ClipVertices, Constant, VaryingsAsColor};
 use glam::{Vec3, Vec4};

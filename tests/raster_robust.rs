@@ -1,7 +1,7 @@
 //! Nothing breaks on hostile geometry: NaN/Inf positions, degenerate and
 //! zero-area triangles, vertices behind the camera, huge coordinates. The
 //! output stays finite and the rasterizer never panics.
-mod common;
+use crate::common;
 
 use common::{ClipVertices, VaryingsAsColor};
 use proptest::prelude::*;

@@ -1,5 +1,5 @@
 //! Fixed-function state: culling, stencil, blending, discard.
-mod common;
+use crate::common;
 
 use common::{ClipVertices, Constant};
 use shadec::renderer::{

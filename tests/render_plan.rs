@@ -2,7 +2,7 @@
 //! modes, the planner's split-correctness at image level, and every example
 //! either rendering cleanly or refusing with a clear error.
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

@@ -1,7 +1,7 @@
 //! Printing and re-parsing gives the same AST: on every example, and on
 //! generated programs (proptest), in Unicode and in ASCII.
 
-mod common;
+use crate::common;
 
 use proptest::prelude::*;
 use shadec::parser::ast::*;

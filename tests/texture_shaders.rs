@@ -4,7 +4,7 @@
 //! extension's formulas on real numbers (f64); and `shadec emulate` /
 //! `translate` end to end.
 
-mod combiners_common;
+use crate::combiners_common;
 use combiners_common::Rng;
 
 use std::path::{Path, PathBuf};

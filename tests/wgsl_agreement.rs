@@ -33,7 +33,7 @@
 //! (outside CI), as `tests/gpu_runner.rs` documents.
 #![cfg(feature = "gpu")]
 
-mod common;
+use crate::common;
 
 use std::path::Path;
 

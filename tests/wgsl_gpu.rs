@@ -7,9 +7,8 @@
 //! (outside CI), as `tests/gpu_runner.rs` documents.
 #![cfg(feature = "gpu")]
 
-#[path = "combiners_common/mod.rs"]
-mod combiners_common;
-mod common;
+use crate::combiners_common;
+use crate::common;
 
 use shadec::backends::combiners::config::CombinerLimits;
 use shadec::backends::combiners::emulator::{emulate, Inputs};

@@ -193,7 +193,7 @@ impl Module {
         let mut stack = roots.to_vec();
         while let Some(h) = stack.pop() {
             if seen.insert(h) {
-                stack.extend(self.operands(h));
+                self.exprs[h].visit_operands(|o| stack.push(o));
             }
         }
         seen.into_iter().collect()
@@ -715,6 +715,14 @@ impl Expr {
     }
 
     pub fn operands(&self) -> Vec<Handle<Expr>> {
+        let mut v = Vec::new();
+        self.visit_operands(|o| v.push(o));
+        v
+    }
+
+    /// Calls `f` on each operand in order, without allocating: the planner
+    /// walks values many times per statement (issue 22).
+    pub fn visit_operands(&self, mut f: impl FnMut(Handle<Expr>)) {
         match self {
             Expr::Constant(_)
             | Expr::Uniform(_)
@@ -722,22 +730,27 @@ impl Expr {
             | Expr::TexCoord { .. }
             | Expr::Vector { .. }
             | Expr::TexelCoord
-            | Expr::Pixel { .. } => vec![],
+            | Expr::Pixel { .. } => {}
             Expr::Project { value, .. }
             | Expr::Interpolate { value, .. }
             | Expr::Unary { value, .. }
             | Expr::Swizzle { value, .. }
-            | Expr::Convert { value, .. } => vec![*value],
-            Expr::Lookup { coords, .. } => vec![*coords],
-            Expr::FramebufferRead { position, .. } => vec![*position],
-            Expr::Depth(h) => vec![*h],
-            Expr::FatMember { texel, .. } => vec![*texel],
-            Expr::Bundle(v) | Expr::Math { args: v, .. } | Expr::Compose { components: v, .. } => v.clone(),
-            Expr::Binary { lhs, rhs, .. } | Expr::Combine { lhs, rhs, .. } => vec![*lhs, *rhs],
+            | Expr::Convert { value, .. } => f(*value),
+            Expr::Lookup { coords, .. } => f(*coords),
+            Expr::FramebufferRead { position, .. } => f(*position),
+            Expr::Depth(h) => f(*h),
+            Expr::FatMember { texel, .. } => f(*texel),
+            Expr::Bundle(v) | Expr::Math { args: v, .. } | Expr::Compose { components: v, .. } => {
+                v.iter().copied().for_each(f)
+            }
+            Expr::Binary { lhs, rhs, .. } | Expr::Combine { lhs, rhs, .. } => {
+                f(*lhs);
+                f(*rhs)
+            }
             Expr::Select { cond, accept, reject } => {
-                let mut v = vec![*cond, *accept];
-                v.extend(*reject);
-                v
+                f(*cond);
+                f(*accept);
+                reject.iter().copied().for_each(f)
             }
         }
     }

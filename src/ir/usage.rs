@@ -3,7 +3,7 @@
 //! (`crate::profile::fit`) compares this with a profile; the pass planner
 //! will use it to decide where to split.
 
-use std::collections::BTreeSet;
+use std::collections::HashMap;
 
 use super::{BinaryOp, Expr, Frequency, Handle, MathFunction, Module, Statement, Table, Ty};
 use crate::parser::ast::{TextureFormat, TextureKind};
@@ -50,16 +50,16 @@ impl Usage {
 
     /// The resources a pass needs to compute `value` per sample.
     pub fn of_value(module: &Module, value: Handle<Expr>) -> Usage {
-        let mut nodes = BTreeSet::new();
-        let mut stack = vec![value];
-        while let Some(h) = stack.pop() {
-            if nodes.insert(h) {
-                stack.extend(module.operands(h));
-            }
+        let nodes = module.reachable(&[value]);
+        // Whether a node depends on a per-sample lookup, bottom-up (operands
+        // precede users in the arena, and `reachable` is in arena order).
+        let mut on_lookup: HashMap<Handle<Expr>, bool> = HashMap::with_capacity(nodes.len());
+        for &h in &nodes {
+            let mut any = matches!(module.exprs[h], Expr::Lookup { .. }) && module.info(h).freq.is_sample();
+            module.exprs[h].visit_operands(|o| any |= on_lookup.get(&o).copied().unwrap_or(false));
+            on_lookup.insert(h, any);
         }
         let mut u = Usage::default();
-        let lookups: BTreeSet<Handle<Expr>> =
-            nodes.iter().copied().filter(|h| matches!(module.exprs[*h], Expr::Lookup { .. })).collect();
         for &h in &nodes {
             let info = module.info(h);
             let sample = info.freq.is_sample();
@@ -72,7 +72,7 @@ impl Usage {
                         continue;
                     }
                     u.lookups.push(h);
-                    if depends_on_any(module, *coords, &lookups) {
+                    if on_lookup.get(coords).copied().unwrap_or(false) {
                         u.dependent_lookups.push(h);
                     }
                     let t = &module.textures[*texture as usize];
@@ -128,21 +128,6 @@ fn is_trivial(module: &Module, h: Handle<Expr>) -> bool {
         Expr::Constant(c) => c.values().iter().all(|v| *v == 0.0) || c.values().iter().all(|v| *v == 1.0),
         _ => false,
     }
-}
-
-fn depends_on_any(module: &Module, h: Handle<Expr>, lookups: &BTreeSet<Handle<Expr>>) -> bool {
-    let mut stack = vec![h];
-    let mut seen = BTreeSet::new();
-    while let Some(h) = stack.pop() {
-        if !seen.insert(h) {
-            continue;
-        }
-        if lookups.contains(&h) && module.info(h).freq.is_sample() {
-            return true;
-        }
-        stack.extend(module.operands(h));
-    }
-    false
 }
 
 /// Per texture of `m` (by id): how many members its fat texels hold — the

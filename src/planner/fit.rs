@@ -32,11 +32,14 @@ pub struct ProfileFit<'p> {
     /// The generator's verdicts by value: the arena only grows, so a
     /// handle's value never changes while the planner runs.
     generated: RefCell<HashMap<Handle<Expr>, Result<(), Overflow>>>,
+    /// Every verdict of [`FitCheck::fits`] by value, for the same reason:
+    /// the splitter asks about the same sub-values many times (issue 22).
+    verdicts: RefCell<HashMap<Handle<Expr>, Result<(), Overflow>>>,
 }
 
 impl<'p> ProfileFit<'p> {
     pub fn new(profile: &'p Profile, realizer: Option<&'p dyn Realizer>) -> ProfileFit<'p> {
-        ProfileFit { profile, realizer, generated: RefCell::default() }
+        ProfileFit { profile, realizer, generated: RefCell::default(), verdicts: RefCell::default() }
     }
 
     /// Whether the combiner code generator realizes `value` as one pass,
@@ -71,6 +74,19 @@ impl<'p> ProfileFit<'p> {
 
 impl FitCheck for ProfileFit<'_> {
     fn fits(&self, module: &Module, value: Handle<Expr>) -> Result<(), Overflow> {
+        if let Some(known) = self.verdicts.borrow().get(&value) {
+            return known.clone();
+        }
+        let verdict = self.measure(module, value);
+        self.verdicts.borrow_mut().insert(value, verdict.clone());
+        verdict
+    }
+}
+
+impl ProfileFit<'_> {
+    /// The verdict for `value`, computed: resources first, then the
+    /// fragment stage's capacity.
+    fn measure(&self, module: &Module, value: Handle<Expr>) -> Result<(), Overflow> {
         let p = self.profile;
         let u = Usage::of_value(module, value);
         let units = u.texture_units() + framebuffer_textures(module, &u);

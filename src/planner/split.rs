@@ -111,11 +111,20 @@ enum ChainOp {
 }
 
 /// What the searches of one program share: plans already found for a
-/// (mode, value, position), and the temporaries introduced.
+/// (mode, value, position), the temporaries introduced, and the texture
+/// units of values already measured. Handles index one module's append-only
+/// arena, so what is recorded for a handle stays true while the program is
+/// planned (issue 22: without the last two, planning 100 000 operations
+/// was quadratic in the number of temporaries and values).
 #[derive(Default)]
 pub struct SplitCache {
     memo: HashMap<(BlendMode, Handle<Expr>, Handle<Expr>), Option<Pieces>>,
     temps: HashMap<Handle<Expr>, u32>,
+    /// Texture name → index for `module.textures[..indexed]` (textures are
+    /// only appended while planning, by either of the planner's caches).
+    texture_index: HashMap<String, u32>,
+    indexed: usize,
+    units: HashMap<Handle<Expr>, usize>,
 }
 
 pub struct Splitter<'a> {
@@ -147,6 +156,16 @@ impl<'a> Splitter<'a> {
 
     fn cost(&self, p: &[Piece]) -> Cost {
         cost(self.module, p)
+    }
+
+    /// The texture units computing `h` takes, measured once per value.
+    fn units(&mut self, h: Handle<Expr>) -> usize {
+        if let Some(&n) = self.cache.units.get(&h) {
+            return n;
+        }
+        let n = Usage::of_value(self.module, h).texture_units();
+        self.cache.units.insert(h, n);
+        n
     }
 
     fn fits(&self, h: Handle<Expr>) -> Result<(), Overflow> {
@@ -370,7 +389,7 @@ impl<'a> Splitter<'a> {
                 (0..n).filter(|i| mask & (1 << i) != 0).map(|i| ops[i]).collect();
             if let Some(h) = self.build_chain(op, &members) {
                 if self.fits(h).is_ok() {
-                    *slot = Some((h, Usage::of_value(self.module, h).texture_units()));
+                    *slot = Some((h, self.units(h)));
                 }
             }
         }
@@ -436,7 +455,7 @@ impl<'a> Splitter<'a> {
     /// first group it fits.
     fn first_fit(&mut self, op: ChainOp, ops: &[Handle<Expr>]) -> Option<Vec<Handle<Expr>>> {
         let mut order: Vec<Handle<Expr>> = ops.to_vec();
-        order.sort_by_key(|h| std::cmp::Reverse(Usage::of_value(self.module, *h).texture_units()));
+        order.sort_by_cached_key(|h| std::cmp::Reverse(self.units(*h)));
         let mut groups: Vec<Vec<Handle<Expr>>> = Vec::new();
         'next: for o in order {
             for g in groups.iter_mut() {
@@ -457,7 +476,7 @@ impl<'a> Splitter<'a> {
     // ---- affine peel ----------------------------------------------------
 
     fn peels(&mut self, e: Handle<Expr>, depth: usize, overflow: &Overflow) -> Vec<Vec<Piece>> {
-        let units = Usage::of_value(self.module, e).texture_units();
+        let units = self.units(e);
         let mut out = Vec::new();
         // `T ⊕[decal] X`: X, then T alpha-blended over it (seeds/001 (12)).
         if let Expr::Combine { mode: CombineMode::Decal, lhs, rhs } = self.module.exprs[e].clone() {
@@ -475,17 +494,24 @@ impl<'a> Splitter<'a> {
                 }
             }
         }
-        let candidates: Vec<Handle<Expr>> = self
+        let sub_values: Vec<Handle<Expr>> = self
             .module
             .reachable(&[e])
             .into_iter()
             .filter(|&x| {
                 x != e && self.module.info(x).freq.is_sample() && self.module.info(x).ty != Ty::Position
             })
-            .filter(|&x| (1..units).contains(&Usage::of_value(self.module, x).texture_units()))
             .rev() // largest sub-values first
-            .take(MAX_PEEL_CANDIDATES)
             .collect();
+        let mut candidates = Vec::new();
+        for x in sub_values {
+            if candidates.len() == MAX_PEEL_CANDIDATES {
+                break;
+            }
+            if (1..units).contains(&self.units(x)) {
+                candidates.push(x);
+            }
+        }
         for x in candidates {
             let Some((m, s)) = affine(&mut Builder { module: self.module }, e, x) else { continue };
             if self.module.is_constant(m, 0.0) {
@@ -541,7 +567,9 @@ impl<'a> Splitter<'a> {
         let mut p: Vec<Piece> = inner
             .iter()
             .map(|q| Piece {
-                dest: Dest::Temp(id),
+                // A nested temporary stays where it is: only what the inner
+                // plan wrote to its own target goes to this temporary.
+                dest: if q.dest == Dest::Main { Dest::Temp(id) } else { q.dest },
                 why: format!("{overflow}: render-to-texture: the term is computed into a temporary first"),
                 ..q.clone()
             })
@@ -563,8 +591,13 @@ impl<'a> Splitter<'a> {
 
     fn temp_texture(&mut self, id: u32) -> u32 {
         let name = format!("temp{id}");
-        if let Some(i) = self.module.textures.iter().position(|t| t.name == name) {
-            return i as u32;
+        let cache = &mut *self.cache;
+        for (i, t) in self.module.textures.iter().enumerate().skip(cache.indexed) {
+            cache.texture_index.entry(t.name.clone()).or_insert(i as u32);
+        }
+        cache.indexed = self.module.textures.len();
+        if let Some(&i) = cache.texture_index.get(&name) {
+            return i;
         }
         self.module.textures.push(Texture {
             name,
