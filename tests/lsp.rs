@@ -775,3 +775,44 @@ fn the_server_reports_what_check_reports_on_every_example() {
     );
     assert!(c.shutdown().success());
 }
+
+/// Hover names the combiner that computes a value and the error of an
+/// approximation the lowering applied to it (issue 21's hover list).
+#[test]
+fn hover_tells_the_combiner_stage_and_the_approximation_error() {
+    let mut c = client();
+    let text = "// target: geforce256\ntexture A, B : 2d rgb8 = image(\"a.png\");\nconst kd : rgb = (0.8, 0.6, 0.4);\n\
+        C δπx ← max(0, expand(A δu x)·expand(B δu x)) * kd;\n";
+    let uri = "file:///tmp/shadec-lsp/stage.shd";
+    c.open(uri, text);
+    let hover = |c: &mut Client, uri: &str, text: &str, needle: &str| -> String {
+        let h = c.result("textDocument/hover", at(uri, text, needle, 0, 0));
+        h["contents"]["value"].as_str().unwrap_or("").to_string()
+    };
+    // The dot product is general combiner 0's RGB portion (seeds/003 §4.2).
+    let h = hover(&mut c, uri, text, "·");
+    assert!(
+        h.contains("1 general stage and the final combiner; computed in general combiner 0 (RGB portion)"),
+        "{h}"
+    );
+    let h = hover(&mut c, uri, text, "B δu x");
+    assert!(
+        h.contains("texture unit 1 (`B`)")
+            && h.contains("read from its texture register by general combiner 0"),
+        "{h}"
+    );
+    // The product with the constant colour is the final combiner's.
+    let h = hover(&mut c, uri, text, "* kd");
+    assert!(h.contains("no general combiner computes it: an input mapping or the final combiner"), "{h}");
+    let lighting =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/fragment_lighting.shd"))
+            .unwrap();
+    let text = format!("// target: geforce256\n{lighting}");
+    let uri = "file:///tmp/shadec-lsp/lighting.shd";
+    c.open(uri, &text);
+    // Lowered for geforce256 (issue 18): the rule and its error bound.
+    let h = hover(&mut c, uri, &text, "normalize(N)");
+    assert!(h.contains("- approximated by `normalization_cube_map`: `normalize` per fragment is a lookup in an 8-bit normalization cube map"), "{h}");
+    assert!(h.contains("(error ≤ 0.004)"), "{h}");
+    assert!(c.shutdown().success());
+}

@@ -8,6 +8,7 @@ use std::fmt::Write as _;
 
 use super::documents::Document;
 use super::index;
+use crate::backends::combiners::codegen::Placement;
 use crate::ir::{Expr, Frequency, Handle, Interval, Module};
 use crate::parser::ast;
 use crate::pipeline::Planned;
@@ -53,7 +54,11 @@ pub fn hover(doc: &Document, offset: usize) -> Option<(String, Span)> {
             interval(info.interval)
         );
         match &a.planned {
-            Some(p) => text.push_str(&placement(p, h, &a.target)),
+            Some(p) => {
+                text.push_str(&placement(p, h, &a.target));
+                let lc = a.file.line_index().line_col(&a.file.text, s.start as usize);
+                text.push_str(&approximations(p, &format!("{}:{}", lc.line, lc.col)));
+            }
             None => {
                 let _ = writeln!(text, "- target {}: not planned (see the diagnostics)", a.target);
             }
@@ -128,7 +133,7 @@ pub fn placement(p: &Planned, h: Handle<Expr>, target: &str) -> String {
         if pass.baked {
             out.push_str(": baked by the compiler into a table");
         } else if combiners {
-            out.push_str(&combiner_note(p, k, stage));
+            out.push_str(&combiner_note(p, k, h, stage));
         } else if stage <= Frequency::Vertex {
             out.push_str(": WGSL vertex shader");
         } else {
@@ -142,17 +147,52 @@ pub fn placement(p: &Planned, h: Handle<Expr>, target: &str) -> String {
     out
 }
 
-fn combiner_note(p: &Planned, pass: usize, freq: Frequency) -> String {
+/// The approximations the lowering applied at `at` (line:col), with their
+/// error against the program's exact meaning (issue 18).
+fn approximations(p: &Planned, at: &str) -> String {
+    let mut out = String::new();
+    for a in p.plan.approximations.iter().filter(|a| a.at == at) {
+        let error =
+            a.error_bound.map_or("error not bounded".to_string(), |e| format!("error ≤ {}", bound(e)));
+        let _ = writeln!(out, "- approximated by `{}`: {} ({error})", a.rule, a.why);
+    }
+    out
+}
+
+fn combiner_note(p: &Planned, pass: usize, h: Handle<Expr>, freq: Frequency) -> String {
     if freq <= Frequency::Vertex {
         return ": per vertex (interpolated into the combiners)".into();
     }
     match crate::backends::combiners::codegen::generate_for_pass(p, pass) {
         Ok(g) => format!(
-            ": register combiners, {} general stage{} and the final combiner",
+            ": register combiners, {} general stage{} and the final combiner; {}",
             g.stages,
-            plural(g.stages)
+            plural(g.stages),
+            combiner_stage(&g.placements, p.module.span(h), matches!(p.module.exprs[h], Expr::Lookup { .. }))
         ),
         Err(why) => format!(": register combiners (no setup generated: {why})"),
+    }
+}
+
+/// Which combiner computes the value spanning `s` (seeds/003 §4.2): the
+/// general stage whose operation has exactly that span, else the stage whose
+/// operation's span holds it (an input), else an input mapping or the final
+/// combiner. Spans do not nest across a `let`: a let's value used inside a
+/// product is placed by its own span only.
+fn combiner_stage(placements: &[Placement], s: Span, lookup: bool) -> String {
+    let portion = |p: &Placement| if p.alpha { "alpha" } else { "RGB" };
+    if let Some(p) = placements.iter().find(|p| p.span == s) {
+        return format!("computed in general combiner {} ({} portion)", p.stage, portion(p));
+    }
+    let within = placements
+        .iter()
+        .filter(|p| p.span.start <= s.start && s.end <= p.span.end)
+        .min_by_key(|p| (p.span.len(), p.stage));
+    match (within, lookup) {
+        (Some(p), true) => format!("read from its texture register by general combiner {}", p.stage),
+        (Some(p), false) => format!("an input of general combiner {} ({} portion)", p.stage, portion(p)),
+        (None, true) => "read from its texture register by the final combiner".into(),
+        (None, false) => "no general combiner computes it: an input mapping or the final combiner".into(),
     }
 }
 

@@ -104,6 +104,20 @@ pub struct Generated {
     pub stage_constants: Vec<[Option<Handle<Expr>>; 2]>,
     /// General combiner stages used (`config.general.len()`).
     pub stages: usize,
+    /// Where each general-combiner operation went, by the source span of
+    /// the value it computes: what the language server's hover shows for
+    /// an expression (issue 21). What no operation computes is a register
+    /// input or the final combiner's work (seeds/003 §4.2).
+    pub placements: Vec<Placement>,
+}
+
+/// One general-combiner operation: the span of the value it computes, its
+/// stage (0-based) and portion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Placement {
+    pub span: Span,
+    pub stage: usize,
+    pub alpha: bool,
 }
 
 #[derive(Clone, Debug, Error, PartialEq)]
@@ -452,6 +466,11 @@ fn generate_with(
             .map(|l| l.map(|k| k.map(|k| g.konsts[k].node).filter(|h| h.index() < original)))
             .collect(),
         stages,
+        placements: g
+            .ops
+            .iter()
+            .map(|op| Placement { span: op.span, stage: op.stage, alpha: op.lane == Lane::Alpha })
+            .collect(),
     })
 }
 
