@@ -507,14 +507,20 @@ fn a_temporary_inside_a_temporary_is_rendered() {
 }
 
 /// A pass the combiner generator cannot realize is split further or
-/// refused, never planned (issue 16 item 2): `x^8` of an interpolated
-/// signed vector's dot product has no setup (interpolated colours are
-/// unsigned), so geforce3 refuses it at the part responsible.
+/// refused, never planned (issue 16 item 2): as written, `x^8` of the dot
+/// product of two interpolated signed vectors has no setup (interpolated
+/// colours are unsigned), so with `--no-approx` geforce3 refuses it at the
+/// part responsible; with the lowering (issue 18) both vectors travel
+/// range-compressed and are expanded in the combiners (seeds/003 §5.2).
 #[test]
 fn a_pass_the_combiners_cannot_compute_is_refused_where_it_is() {
     let source = "vector N : normal;\nvector H : half(0);\nC δπx ← max(0, (δ N s x)·(δ H s x))^8;\n";
     let profile = Profile::builtin("geforce3").unwrap();
-    let err = shadec::driver::compile(source, &profile, &Default::default()).map(|c| c.planned).unwrap_err();
+    let exact = shadec::driver::PlanOptions {
+        lowering: shadec::lowering::LowerOptions { approximate: false, ..Default::default() },
+        ..Default::default()
+    };
+    let err = shadec::driver::compile(source, &profile, &exact).map(|c| c.planned).unwrap_err();
     assert_eq!(err[0].code, "cannot-split");
     assert!(
         err[0].message.contains("has no register-combiner setup the code generator can build"),
@@ -525,6 +531,13 @@ fn a_pass_the_combiners_cannot_compute_is_refused_where_it_is() {
     let part = &err[0].secondary[0];
     assert_eq!(&source[part.span.start as usize..part.span.end as usize], "(δ N s x)");
     assert!(err[0].help.as_deref().is_some_and(|h| h.contains("bake")), "{:?}", err[0].help);
+    // Lowered: one pass, both interpolants range-compressed, within the
+    // plan validator and the meaning on the scene.
+    let planned = shadec::driver::compile(source, &profile, &Default::default()).unwrap().planned;
+    let rules: Vec<&str> = planned.plan.approximations.iter().map(|a| a.rule.as_str()).collect();
+    assert_eq!(rules, ["range_compression", "range_compression"]);
+    assert_eq!(planned.plan.passes.len(), 1);
+    check_all_targets(source, &scene(), &mut [0; 4]).unwrap();
 }
 
 /// No example is planned for a combiner target with a pass its generator

@@ -131,8 +131,11 @@ fn taylor_renormalization_is_formula_6_on_the_vertex_unit_vector() {
         matches!(lowered.module.exprs[h], Expr::Binary { op: shadec::ir::BinaryOp::Dot, lhs, rhs } if lhs == rhs)
     });
     assert!(dots);
-    assert_eq!(lowered.approximations[0].rule, "taylor_renormalization");
+    let rules: Vec<&str> = lowered.approximations.iter().map(|a| a.rule.as_str()).collect();
+    // The interpolated unit vector reaches the combiners range-compressed.
+    assert_eq!(rules, ["taylor_renormalization", "range_compression"]);
     assert_eq!(lowered.approximations[0].error_bound, None, "only a scene knows the vertex angles");
+    assert_eq!(lowered.approximations[1].error_bound, Some(1.0 / 255.0));
 }
 
 fn tabulated(f: &str) -> String {

@@ -21,6 +21,8 @@
 //!   indexed by texgen (seeds/002 Section 3: functions as textures);
 //! - [`power`]: `x^n` beyond the stages of one pass → a product of
 //!   powers that do fit, multiplied in the framebuffer across passes;
+//! - [`range_compress`]: a signed vector interpolated into the combiners
+//!   → `expand(δ (v + 1)/2)` (seeds/003 Section 5.2, Tables 2-3);
 //! - [`texel_bake`]: a texture-shading statement that is a function of the
 //!   texel coordinate and uniforms only → computed by the compiler, as
 //!   `bake(f)` is.
@@ -31,6 +33,7 @@
 pub mod cube_map;
 pub mod per_vertex;
 pub mod power;
+pub mod range_compress;
 pub mod table;
 pub mod taylor;
 pub mod texel_bake;
@@ -156,6 +159,41 @@ impl Rewriter<'_> {
             let lowered = self.rule(h, nh, span);
             map.insert(h, lowered);
         }
+        let lowered = map.get(&value).copied().unwrap_or(value);
+        if self.combiners() {
+            self.compress_interpolants(lowered)
+        } else {
+            lowered
+        }
+    }
+
+    /// After the other rules (whose cube maps and tables take interpolated
+    /// coordinates): every signed vector the combiners still read as an
+    /// interpolated colour, range-compressed ([`range_compress`]).
+    fn compress_interpolants(&mut self, value: Handle<Expr>) -> Handle<Expr> {
+        let address =
+            crate::ir::usage::address_only(&self.m, &crate::ir::usage::fragment_reach(&self.m, &[value]));
+        let mut map: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::new();
+        for h in self.m.reachable(&[value]) {
+            let e = self.m.exprs[h].map_operands(|o| map.get(&o).copied().unwrap_or(o));
+            let span = self.m.span(h);
+            let nh = self.m.intern(e, span).unwrap_or(h);
+            let read_by_combiners = !address.get(h.index()).copied().unwrap_or(true);
+            let out = match self.m.exprs[nh] {
+                Expr::Interpolate { .. } if read_by_combiners => {
+                    range_compress::apply(self, nh, span).unwrap_or(nh)
+                }
+                _ => nh,
+            };
+            map.insert(h, out);
+        }
+        // An approximation's value rebuilt around a compressed interpolant
+        // is still that approximation's (`finish` keeps the live ones).
+        for r in self.results.iter_mut().flatten() {
+            if let Some(&to) = map.get(r) {
+                *r = to;
+            }
+        }
         map.get(&value).copied().unwrap_or(value)
     }
 
@@ -219,6 +257,11 @@ impl Rewriter<'_> {
             .map(|(a, _)| a)
             .collect();
         Lowered { module: self.m, approximations }
+    }
+
+    /// Whether the target's fragment stage is the register combiners.
+    pub fn combiners(&self) -> bool {
+        matches!(self.profile.fragment, crate::profile::FragmentStage::Combiners(_))
     }
 
     /// A node built by a rule (`None` when it would be ill-typed).

@@ -819,7 +819,11 @@ impl Gen<'_> {
                     // GL clamps vertex colours to [0, 1]: exact only where the consumer clamps too.
                     return Err(self.range(h));
                 }
-                if !matches!(info.ty, Ty::Rgb | Ty::Rgba | Ty::Scalar) || info.interval.lo < 0.0 {
+                // A vector range-compressed into [0, 1] (Kilgard's `L·0.5 + 0.5`
+                // per vertex, seeds/003 Section 5) is three colour channels too.
+                let colour = matches!(info.ty, Ty::Rgb | Ty::Rgba | Ty::Scalar)
+                    || (info.ty == Ty::Vec3 && info.interval.hi <= 1.0);
+                if !colour || info.interval.lo < 0.0 {
                     return Err(unsupported(
                         span,
                         format!("an interpolated {} outside [0, 1]", info.ty.name()),
