@@ -74,6 +74,10 @@ enum Scalar {
     Specular(u32),
     /// `(T δu x).a` of an rgba8 texture.
     Alpha(usize),
+    /// `max(0, Nt·(δ Lt s x))`, or `max(0, Nt·(δ Ht s x))^n`: an interpolated
+    /// signed vector read as it comes (seeds/000 Figure 9, "no
+    /// normalization"), which the combiner targets take range-compressed.
+    Unnormalized(Option<u32>),
 }
 
 #[derive(Clone, Debug)]
@@ -109,6 +113,7 @@ fn scalar() -> impl Strategy<Value = Scalar> {
         Just(Scalar::Diffuse),
         prop_oneof![Just(2u32), Just(4), Just(8), Just(16)].prop_map(Scalar::Specular),
         (0..N_TEXTURES).prop_map(Scalar::Alpha),
+        prop_oneof![Just(None), Just(Some(2u32)), Just(Some(8))].prop_map(Scalar::Unnormalized),
     ]
 }
 
@@ -166,6 +171,8 @@ impl Scalar {
             Scalar::Number(k) => format!("0.{k}"),
             Scalar::Diffuse => "max(0, Nt·Ln)".into(),
             Scalar::Specular(n) => format!("max(0, Nt·Hn)^{n}"),
+            Scalar::Unnormalized(None) => "max(0, Nt·(δ Lt s x))".into(),
+            Scalar::Unnormalized(Some(n)) => format!("max(0, Nt·(δ Ht s x))^{n}"),
             Scalar::Alpha(t) if p.rgba[*t] => format!("({} δu x).a", NAMES[*t]),
             Scalar::Alpha(_) => "0.5".into(),
         }
