@@ -158,6 +158,32 @@ fn additive_second_pass_with_depth_equal_sums_where_depth_matches() {
     }
 }
 
+/// A frame prepared once draws the same image every time (issue 22:
+/// pipelines and uploads per scene, not per frame): each draw clears its
+/// targets again, so the additive second pass does not accumulate.
+#[test]
+fn a_prepared_frame_draws_the_same_image_again() {
+    let Some(gpu) = gpu() else { return };
+    let first = color_pass(
+        "base",
+        quads(&[quad(-1.0, 1.0, -1.0, 1.0, 0.5, |_, _| [0.2, 0.4, 0.0, 1.0])]),
+        state(DepthState::LESS_WRITE, BlendState::REPLACE),
+    );
+    let second = color_pass(
+        "add",
+        quads(&[quad(-1.0, 1.0, -1.0, 1.0, 0.5, |_, _| [0.4, 0.2, 0.6, 0.0])]),
+        state(DepthState::EQUAL_NO_WRITE, BlendState::ADD),
+    );
+    let target = Target::new(8, 4);
+    let passes = [first, second];
+    let frame = shadec::gpu::runner::Frame::prepare(&gpu, &target, &passes).unwrap();
+    let once = frame.draw(&gpu).unwrap();
+    let twice = frame.draw(&gpu).unwrap();
+    assert_pixel(&once, 3, 2, [0.6, 0.6, 0.6, 1.0]);
+    assert_eq!(once, twice);
+    assert_eq!(once, run_passes(&gpu, &target, &passes).unwrap());
+}
+
 #[test]
 fn destination_alpha_blending_scales_the_source_by_the_stashed_alpha() {
     let Some(gpu) = gpu() else { return };

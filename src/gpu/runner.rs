@@ -397,368 +397,457 @@ pub fn validate_shader(pass: &str, shader: &RunShader) -> Result<naga::Module, G
 /// Renders `passes` in order into one RGBA8 target and reads it back.
 /// The first pass clears colour, depth and stencil; later passes load them.
 pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<RgbaImage, GpuError> {
-    let max_dim = gpu.device.limits().max_texture_dimension_2d;
-    if target.width == 0 || target.height == 0 || target.width > max_dim || target.height > max_dim {
-        return Err(GpuError::InvalidInput {
-            pass: "target".to_string(),
-            message: format!(
-                "size {}×{} is outside 1..={max_dim} (this adapter's limit)",
-                target.width, target.height
-            ),
-        });
+    Frame::prepare(gpu, target, passes)?.draw(gpu)
+}
+
+/// A frame's GPU objects, made once (issue 22: pipelines, bind groups,
+/// uploads and render targets per scene, not per frame); [`Frame::draw`]
+/// then only records, submits and reads back.
+pub struct Frame<'a> {
+    target: &'a Target,
+    passes: &'a [RunPass],
+    color: wgpu::Texture,
+    depth: wgpu::Texture,
+    depth_view: wgpu::TextureView,
+    /// Rendered textures: (texture, scratch copy, depth/stencil).
+    textures: BTreeMap<String, (wgpu::Texture, wgpu::Texture, wgpu::Texture)>,
+    texture_depth_views: BTreeMap<String, wgpu::TextureView>,
+    snapshots: BTreeMap<(usize, usize), (wgpu::Texture, Option<String>)>,
+    depth_copier: Option<DepthCopier>,
+    prepared: Vec<Prepared>,
+    readback: wgpu::Buffer,
+    padded_row: u32,
+    unpadded_row: u32,
+}
+
+/// Runs `f` inside wgpu error scopes and turns what they caught into an
+/// error. wgpu panics on scopes popped out of order, so `f` returns no early
+/// error of its own between the push and the pops.
+fn in_error_scopes<T>(device: &wgpu::Device, f: impl FnOnce() -> T) -> Result<T, GpuError> {
+    let [validation, out_of_memory, internal] =
+        [wgpu::ErrorFilter::Validation, wgpu::ErrorFilter::OutOfMemory, wgpu::ErrorFilter::Internal]
+            .map(|filter| device.push_error_scope(filter));
+    let out = f();
+    let errors = [internal.pop(), out_of_memory.pop(), validation.pop()].map(pollster::block_on);
+    match errors.into_iter().flatten().next() {
+        Some(err) => Err(GpuError::Wgpu(err.to_string())),
+        None => Ok(out),
     }
-    // The rendered textures, by name: one description each.
-    let mut rendered: BTreeMap<String, RenderedTexture> = BTreeMap::new();
-    for pass in passes {
-        if let PassTarget::Texture(t) = &pass.target {
-            if t.width == 0
-                || t.height == 0
-                || t.width > max_dim
-                || t.height > max_dim
-                || t.layers == 0
-                || t.layers > 8
-            {
-                return Err(GpuError::InvalidInput {
-                    pass: pass.label.clone(),
-                    message: format!(
-                        "rendered texture `{}` is {}×{} with {} layers: sizes 1..={max_dim}, 1 to 8 layers",
-                        t.name, t.width, t.height, t.layers
-                    ),
-                });
-            }
-            match rendered.get(&t.name) {
-                Some(known) if known != t => {
+}
+
+impl<'a> Frame<'a> {
+    /// Checks `passes` against `target` and the adapter, then makes every
+    /// GPU object the frame needs.
+    pub fn prepare(gpu: &Gpu, target: &'a Target, passes: &'a [RunPass]) -> Result<Frame<'a>, GpuError> {
+        let max_dim = gpu.device.limits().max_texture_dimension_2d;
+        if target.width == 0 || target.height == 0 || target.width > max_dim || target.height > max_dim {
+            return Err(GpuError::InvalidInput {
+                pass: "target".to_string(),
+                message: format!(
+                    "size {}×{} is outside 1..={max_dim} (this adapter's limit)",
+                    target.width, target.height
+                ),
+            });
+        }
+        // The rendered textures, by name: one description each.
+        let mut rendered: BTreeMap<String, RenderedTexture> = BTreeMap::new();
+        for pass in passes {
+            if let PassTarget::Texture(t) = &pass.target {
+                if t.width == 0
+                    || t.height == 0
+                    || t.width > max_dim
+                    || t.height > max_dim
+                    || t.layers == 0
+                    || t.layers > 8
+                {
                     return Err(GpuError::InvalidInput {
                         pass: pass.label.clone(),
                         message: format!(
-                            "rendered texture `{}` is described two ways: {known:?} and {t:?}",
-                            t.name
+                            "rendered texture `{}` is {}×{} with {} layers: sizes 1..={max_dim}, 1 to 8 layers",
+                            t.name, t.width, t.height, t.layers
                         ),
                     });
                 }
-                Some(_) => {}
-                None => {
-                    rendered.insert(t.name.clone(), t.clone());
+                match rendered.get(&t.name) {
+                    Some(known) if known != t => {
+                        return Err(GpuError::InvalidInput {
+                            pass: pass.label.clone(),
+                            message: format!(
+                                "rendered texture `{}` is described two ways: {known:?} and {t:?}",
+                                t.name
+                            ),
+                        });
+                    }
+                    Some(_) => {}
+                    None => {
+                        rendered.insert(t.name.clone(), t.clone());
+                    }
                 }
             }
         }
-    }
-    // Check everything we can before touching the device.
-    let mut modules = Vec::with_capacity(passes.len());
-    for pass in passes {
-        check_pass(pass, target, &rendered)?;
-        modules.push(validate_shader(&pass.label, &pass.shader)?);
-    }
-
-    let device = &gpu.device;
-    let scopes = [wgpu::ErrorFilter::Validation, wgpu::ErrorFilter::OutOfMemory, wgpu::ErrorFilter::Internal]
-        .map(|filter| device.push_error_scope(filter));
-
-    let size = wgpu::Extent3d { width: target.width, height: target.height, depth_or_array_layers: 1 };
-    let color = device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("shadec colour target"),
-        size,
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: target.color_format.wgpu(),
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-        view_formats: &[],
-    });
-    let depth_format = match target.depth_format {
-        DepthFormat::Depth24PlusStencil8 => wgpu::TextureFormat::Depth24PlusStencil8,
-        DepthFormat::Depth32Float => wgpu::TextureFormat::Depth32Float,
-    };
-    let depth = device.create_texture(&wgpu::TextureDescriptor {
-        label: Some("shadec depth/stencil"),
-        size,
-        mip_level_count: 1,
-        sample_count: 1,
-        dimension: wgpu::TextureDimension::D2,
-        format: depth_format,
-        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-        view_formats: &[],
-    });
-    let depth_view = depth.create_view(&Default::default());
-    // Rendered textures, each with its own depth/stencil buffer, and a
-    // scratch copy for passes that sample their own target.
-    let mut textures: BTreeMap<String, (wgpu::Texture, wgpu::Texture, wgpu::Texture)> = BTreeMap::new();
-    for (name, t) in &rendered {
-        let size = wgpu::Extent3d { width: t.width, height: t.height, depth_or_array_layers: t.layers };
-        let make = |label: &str, format: wgpu::TextureFormat, usage: wgpu::TextureUsages, layers: u32| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d { depth_or_array_layers: layers, ..size },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            })
-        };
-        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
-            | wgpu::TextureUsages::TEXTURE_BINDING
-            | wgpu::TextureUsages::COPY_SRC
-            | wgpu::TextureUsages::COPY_DST;
-        let texture = make(name, t.format.wgpu(), usage, t.layers);
-        let scratch = make(name, t.format.wgpu(), usage, t.layers);
-        let depth = make(
-            name,
-            depth_format,
-            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            1,
-        );
-        textures.insert(name.clone(), (texture, scratch, depth));
-    }
-
-    // Depth snapshots: per pass, per slot (units, then loaded textures) that
-    // reads a depth buffer, an R32Float copy made just before the pass.
-    let depth_source = |name: &Option<String>| -> (&wgpu::Texture, u32, u32) {
-        match name {
-            None => (&depth, target.width, target.height),
-            Some(n) => (&textures[n].2, rendered[n].width, rendered[n].height),
+        // Check everything we can before touching the device.
+        let mut modules = Vec::with_capacity(passes.len());
+        for pass in passes {
+            check_pass(pass, target, &rendered)?;
+            modules.push(validate_shader(&pass.label, &pass.shader)?);
         }
-    };
-    let mut snapshots: BTreeMap<(usize, usize), (wgpu::Texture, Option<String>)> = BTreeMap::new();
-    for (pass_idx, pass) in passes.iter().enumerate() {
-        let slots = pass.textures.iter().map(|t| &t.data).chain(pass.loaded.iter().map(|l| &l.data));
-        for (slot, data) in slots.enumerate() {
-            if let TextureData::RenderedDepth { name } = data {
-                let (_, width, height) = depth_source(name);
-                let copy = device.create_texture(&wgpu::TextureDescriptor {
-                    label: Some("shadec depth snapshot"),
-                    size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+
+        in_error_scopes(&gpu.device, || Frame::create(gpu, target, passes, rendered, modules))
+    }
+
+    /// The GPU objects (inside error scopes: nothing here returns early).
+    fn create(
+        gpu: &Gpu,
+        target: &'a Target,
+        passes: &'a [RunPass],
+        rendered: BTreeMap<String, RenderedTexture>,
+        modules: Vec<naga::Module>,
+    ) -> Frame<'a> {
+        let device = &gpu.device;
+
+        let size = wgpu::Extent3d { width: target.width, height: target.height, depth_or_array_layers: 1 };
+        let color = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("shadec colour target"),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: target.color_format.wgpu(),
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+            view_formats: &[],
+        });
+        let depth_format = match target.depth_format {
+            DepthFormat::Depth24PlusStencil8 => wgpu::TextureFormat::Depth24PlusStencil8,
+            DepthFormat::Depth32Float => wgpu::TextureFormat::Depth32Float,
+        };
+        let depth = device.create_texture(&wgpu::TextureDescriptor {
+            label: Some("shadec depth/stencil"),
+            size,
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: depth_format,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            view_formats: &[],
+        });
+        let depth_view = depth.create_view(&Default::default());
+        // Rendered textures, each with its own depth/stencil buffer, and a
+        // scratch copy for passes that sample their own target.
+        let mut textures: BTreeMap<String, (wgpu::Texture, wgpu::Texture, wgpu::Texture)> = BTreeMap::new();
+        for (name, t) in &rendered {
+            let size = wgpu::Extent3d { width: t.width, height: t.height, depth_or_array_layers: t.layers };
+            let make = |label: &str, format: wgpu::TextureFormat, usage: wgpu::TextureUsages, layers: u32| {
+                device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size: wgpu::Extent3d { depth_or_array_layers: layers, ..size },
                     mip_level_count: 1,
                     sample_count: 1,
                     dimension: wgpu::TextureDimension::D2,
-                    format: wgpu::TextureFormat::R32Float,
-                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+                    format,
+                    usage,
                     view_formats: &[],
-                });
-                snapshots.insert((pass_idx, slot), (copy, name.clone()));
-            }
-        }
-    }
-    let depth_copier = (!snapshots.is_empty()).then(|| DepthCopier::new(device));
-
-    let prepared: Vec<Prepared> = passes
-        .iter()
-        .zip(modules)
-        .enumerate()
-        .map(|(pass_idx, (pass, module))| {
-            let (color_format, own) = match &pass.target {
-                PassTarget::Main => (target.color_format.wgpu(), None),
-                PassTarget::Texture(t) => (t.format.wgpu(), Some(t.name.as_str())),
-            };
-            let view_of = |slot: usize, data: &TextureData| -> Option<wgpu::TextureView> {
-                match data {
-                    TextureData::Rendered { name, array } => {
-                        let (t, scratch, _) = &textures[name];
-                        let t = if Some(name.as_str()) == own { scratch } else { t };
-                        let dimension = if *array {
-                            wgpu::TextureViewDimension::D2Array
-                        } else {
-                            wgpu::TextureViewDimension::D2
-                        };
-                        Some(t.create_view(&wgpu::TextureViewDescriptor {
-                            dimension: Some(dimension),
-                            base_array_layer: 0,
-                            array_layer_count: if *array { None } else { Some(1) },
-                            ..Default::default()
-                        }))
-                    }
-                    TextureData::RenderedDepth { .. } => {
-                        Some(snapshots[&(pass_idx, slot)].0.create_view(&Default::default()))
-                    }
-                    _ => None,
-                }
-            };
-            prepare(gpu, pass, module, depth_format, color_format, &view_of)
-        })
-        .collect();
-
-    let mut encoder =
-        device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shadec passes") });
-    // Each pass's attachments: the main target, or layers 0..outputs of a
-    // rendered texture. A target is cleared by the first pass that draws
-    // into it (the main target also when no pass does).
-    let texture_depth_views: BTreeMap<String, wgpu::TextureView> = textures
-        .iter()
-        .map(|(name, (_, _, depth))| (name.clone(), depth.create_view(&Default::default())))
-        .collect();
-    let mut cleared: std::collections::BTreeSet<String> = std::collections::BTreeSet::new();
-    let main_key = String::new();
-    let has_stencil = target.depth_format == DepthFormat::Depth24PlusStencil8;
-    for pass_idx in 0..passes.len() + 1 {
-        let (pass, prep) = match (passes.get(pass_idx), prepared.get(pass_idx)) {
-            (Some(pass), Some(prep)) => (Some(pass), Some(prep)),
-            // After the last pass: clear the main target if nothing drew there.
-            _ if !cleared.contains(&main_key) => (None, None),
-            _ => break,
-        };
-        // The depth buffers this pass reads, as they are now.
-        for ((_, _), (copy, name)) in snapshots.range((pass_idx, 0)..(pass_idx + 1, 0)) {
-            let copier = depth_copier.as_ref().expect("made when there are snapshots");
-            copier.copy(device, &mut encoder, depth_source(name).0, copy);
-        }
-        let (key, views, depth_view): (&String, Vec<wgpu::TextureView>, &wgpu::TextureView) = match pass
-            .map(|p| &p.target)
-        {
-            None | Some(PassTarget::Main) => {
-                (&main_key, vec![color.create_view(&Default::default())], &depth_view)
-            }
-            Some(PassTarget::Texture(t)) => {
-                let (texture, scratch, _) = &textures[&t.name];
-                let pass = pass.expect("matched");
-                if pass
-                    .textures
-                    .iter()
-                    .map(|x| &x.data)
-                    .chain(pass.loaded.iter().map(|l| &l.data))
-                    .any(|d| matches!(d, TextureData::Rendered { name, .. } if *name == t.name))
-                {
-                    // It samples its own target: the copy it binds, taken now.
-                    encoder.copy_texture_to_texture(
-                        texture.as_image_copy(),
-                        scratch.as_image_copy(),
-                        wgpu::Extent3d { width: t.width, height: t.height, depth_or_array_layers: t.layers },
-                    );
-                }
-                let views = (0..pass.outputs)
-                    .map(|layer| {
-                        texture.create_view(&wgpu::TextureViewDescriptor {
-                            dimension: Some(wgpu::TextureViewDimension::D2),
-                            base_array_layer: layer,
-                            array_layer_count: Some(1),
-                            ..Default::default()
-                        })
-                    })
-                    .collect();
-                (&t.name, views, &texture_depth_views[&t.name])
-            }
-        };
-        let first = cleared.insert(key.clone());
-        let [r, g, b, a] = target.clear_color.map(f64::from);
-        let clear_color = if key.is_empty() { wgpu::Color { r, g, b, a } } else { wgpu::Color::TRANSPARENT };
-        let color_load = if first { wgpu::LoadOp::Clear(clear_color) } else { wgpu::LoadOp::Load };
-        let depth_load = if first {
-            wgpu::LoadOp::Clear(if key.is_empty() { target.clear_depth } else { 1.0 })
-        } else {
-            wgpu::LoadOp::Load
-        };
-        let stencil_load = if first {
-            wgpu::LoadOp::Clear(if key.is_empty() { u32::from(target.clear_stencil) } else { 0 })
-        } else {
-            wgpu::LoadOp::Load
-        };
-        let color_attachments: Vec<Option<wgpu::RenderPassColorAttachment>> = views
-            .iter()
-            .map(|view| {
-                Some(wgpu::RenderPassColorAttachment {
-                    view,
-                    depth_slice: None,
-                    resolve_target: None,
-                    ops: wgpu::Operations { load: color_load, store: wgpu::StoreOp::Store },
                 })
+            };
+            let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
+                | wgpu::TextureUsages::TEXTURE_BINDING
+                | wgpu::TextureUsages::COPY_SRC
+                | wgpu::TextureUsages::COPY_DST;
+            let texture = make(name, t.format.wgpu(), usage, t.layers);
+            let scratch = make(name, t.format.wgpu(), usage, t.layers);
+            let depth = make(
+                name,
+                depth_format,
+                wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+                1,
+            );
+            textures.insert(name.clone(), (texture, scratch, depth));
+        }
+
+        // Depth snapshots: per pass, per slot (units, then loaded textures) that
+        // reads a depth buffer, an R32Float copy made just before the pass.
+        let depth_source = |name: &Option<String>| -> (&wgpu::Texture, u32, u32) {
+            match name {
+                None => (&depth, target.width, target.height),
+                Some(n) => (&textures[n].2, rendered[n].width, rendered[n].height),
+            }
+        };
+        let mut snapshots: BTreeMap<(usize, usize), (wgpu::Texture, Option<String>)> = BTreeMap::new();
+        for (pass_idx, pass) in passes.iter().enumerate() {
+            let slots = pass.textures.iter().map(|t| &t.data).chain(pass.loaded.iter().map(|l| &l.data));
+            for (slot, data) in slots.enumerate() {
+                if let TextureData::RenderedDepth { name } = data {
+                    let (_, width, height) = depth_source(name);
+                    let copy = device.create_texture(&wgpu::TextureDescriptor {
+                        label: Some("shadec depth snapshot"),
+                        size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+                        mip_level_count: 1,
+                        sample_count: 1,
+                        dimension: wgpu::TextureDimension::D2,
+                        format: wgpu::TextureFormat::R32Float,
+                        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+                        view_formats: &[],
+                    });
+                    snapshots.insert((pass_idx, slot), (copy, name.clone()));
+                }
+            }
+        }
+        let depth_copier = (!snapshots.is_empty()).then(|| DepthCopier::new(device));
+
+        let prepared: Vec<Prepared> = passes
+            .iter()
+            .zip(modules)
+            .enumerate()
+            .map(|(pass_idx, (pass, module))| {
+                let (color_format, own) = match &pass.target {
+                    PassTarget::Main => (target.color_format.wgpu(), None),
+                    PassTarget::Texture(t) => (t.format.wgpu(), Some(t.name.as_str())),
+                };
+                let view_of = |slot: usize, data: &TextureData| -> Option<wgpu::TextureView> {
+                    match data {
+                        TextureData::Rendered { name, array } => {
+                            let (t, scratch, _) = &textures[name];
+                            let t = if Some(name.as_str()) == own { scratch } else { t };
+                            let dimension = if *array {
+                                wgpu::TextureViewDimension::D2Array
+                            } else {
+                                wgpu::TextureViewDimension::D2
+                            };
+                            Some(t.create_view(&wgpu::TextureViewDescriptor {
+                                dimension: Some(dimension),
+                                base_array_layer: 0,
+                                array_layer_count: if *array { None } else { Some(1) },
+                                ..Default::default()
+                            }))
+                        }
+                        TextureData::RenderedDepth { .. } => {
+                            Some(snapshots[&(pass_idx, slot)].0.create_view(&Default::default()))
+                        }
+                        _ => None,
+                    }
+                };
+                prepare(gpu, pass, module, depth_format, color_format, &view_of)
             })
             .collect();
-        let mut render_pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
-            label: pass.map(|p| p.label.as_str()),
-            color_attachments: &color_attachments,
-            depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
-                view: depth_view,
-                depth_ops: Some(wgpu::Operations { load: depth_load, store: wgpu::StoreOp::Store }),
-                stencil_ops: has_stencil
-                    .then_some(wgpu::Operations { load: stencil_load, store: wgpu::StoreOp::Store }),
-            }),
-            timestamp_writes: None,
-            occlusion_query_set: None,
-            multiview_mask: None,
+
+        let texture_depth_views: BTreeMap<String, wgpu::TextureView> = textures
+            .iter()
+            .map(|(name, (_, _, depth))| (name.clone(), depth.create_view(&Default::default())))
+            .collect();
+        // Copy out with rows padded to wgpu's 256-byte alignment.
+        let unpadded_row = target.width * target.color_format.bytes_per_pixel();
+        let padded_row =
+            unpadded_row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+        let readback = device.create_buffer(&wgpu::BufferDescriptor {
+            label: Some("shadec readback"),
+            size: u64::from(padded_row) * u64::from(target.height),
+            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+            mapped_at_creation: false,
         });
-        let (Some(pass), Some(prep)) = (pass, prep) else {
-            continue;
-        };
-        if pass.indices.is_empty() {
-            continue;
+        Frame {
+            target,
+            passes,
+            color,
+            depth,
+            depth_view,
+            textures,
+            texture_depth_views,
+            snapshots,
+            depth_copier,
+            prepared,
+            readback,
+            padded_row,
+            unpadded_row,
         }
-        render_pass.set_pipeline(&prep.pipeline);
-        if let Some(bind_group) = &prep.bind_group {
-            render_pass.set_bind_group(0, bind_group, &[]);
-        }
-        let [cr, cg, cb, ca] = pass.state.blend.constant.map(f64::from);
-        render_pass.set_blend_constant(wgpu::Color { r: cr, g: cg, b: cb, a: ca });
-        render_pass.set_stencil_reference(u32::from(pass.state.stencil.reference));
-        render_pass.set_vertex_buffer(0, prep.vertex_buffer.slice(..));
-        render_pass.set_index_buffer(prep.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
-        render_pass.draw_indexed(0..pass.indices.len() as u32, 0, 0..1);
     }
 
-    // Copy out with rows padded to wgpu's 256-byte alignment.
-    let unpadded_row = target.width * target.color_format.bytes_per_pixel();
-    let padded_row =
-        unpadded_row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-    let readback = device.create_buffer(&wgpu::BufferDescriptor {
-        label: Some("shadec readback"),
-        size: u64::from(padded_row) * u64::from(target.height),
-        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-        mapped_at_creation: false,
-    });
-    encoder.copy_texture_to_buffer(
-        wgpu::TexelCopyTextureInfo {
-            texture: &color,
-            mip_level: 0,
-            origin: wgpu::Origin3d::ZERO,
-            aspect: wgpu::TextureAspect::All,
-        },
-        wgpu::TexelCopyBufferInfo {
-            buffer: &readback,
-            layout: wgpu::TexelCopyBufferLayout {
-                offset: 0,
-                bytes_per_row: Some(padded_row),
-                rows_per_image: Some(target.height),
+    /// The depth buffer a snapshot copies: the main one or a rendered texture's.
+    fn depth_source(&self, name: &Option<String>) -> &wgpu::Texture {
+        match name {
+            None => &self.depth,
+            Some(n) => &self.textures[n].2,
+        }
+    }
+
+    /// Records and submits the passes, and reads the main target back.
+    pub fn draw(&self, gpu: &Gpu) -> Result<RgbaImage, GpuError> {
+        let device = &gpu.device;
+        in_error_scopes(device, || self.submit(gpu))?;
+        self.read_back(device)
+    }
+
+    fn submit(&self, gpu: &Gpu) {
+        let device = &gpu.device;
+        let (target, passes, prepared) = (self.target, self.passes, &self.prepared);
+        let (textures, texture_depth_views) = (&self.textures, &self.texture_depth_views);
+        let (color, depth_view, snapshots) = (&self.color, &self.depth_view, &self.snapshots);
+        let (padded_row, readback) = (self.padded_row, &self.readback);
+        let size = wgpu::Extent3d { width: target.width, height: target.height, depth_or_array_layers: 1 };
+        let mut encoder =
+            device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shadec passes") });
+        let mut cleared: std::collections::BTreeSet<String> = std::collections::BTreeSet::new();
+        let main_key = String::new();
+        let has_stencil = target.depth_format == DepthFormat::Depth24PlusStencil8;
+        for pass_idx in 0..passes.len() + 1 {
+            let (pass, prep) = match (passes.get(pass_idx), prepared.get(pass_idx)) {
+                (Some(pass), Some(prep)) => (Some(pass), Some(prep)),
+                // After the last pass: clear the main target if nothing drew there.
+                _ if !cleared.contains(&main_key) => (None, None),
+                _ => break,
+            };
+            // The depth buffers this pass reads, as they are now.
+            for ((_, _), (copy, name)) in snapshots.range((pass_idx, 0)..(pass_idx + 1, 0)) {
+                let copier = self.depth_copier.as_ref().expect("made when there are snapshots");
+                copier.copy(device, &mut encoder, self.depth_source(name), copy);
+            }
+            let (key, views, depth_view): (&String, Vec<wgpu::TextureView>, &wgpu::TextureView) =
+                match pass.map(|p| &p.target) {
+                    None | Some(PassTarget::Main) => {
+                        (&main_key, vec![color.create_view(&Default::default())], depth_view)
+                    }
+                    Some(PassTarget::Texture(t)) => {
+                        let (texture, scratch, _) = &textures[&t.name];
+                        let pass = pass.expect("matched");
+                        if pass
+                            .textures
+                            .iter()
+                            .map(|x| &x.data)
+                            .chain(pass.loaded.iter().map(|l| &l.data))
+                            .any(|d| matches!(d, TextureData::Rendered { name, .. } if *name == t.name))
+                        {
+                            // It samples its own target: the copy it binds, taken now.
+                            encoder.copy_texture_to_texture(
+                                texture.as_image_copy(),
+                                scratch.as_image_copy(),
+                                wgpu::Extent3d {
+                                    width: t.width,
+                                    height: t.height,
+                                    depth_or_array_layers: t.layers,
+                                },
+                            );
+                        }
+                        let views = (0..pass.outputs)
+                            .map(|layer| {
+                                texture.create_view(&wgpu::TextureViewDescriptor {
+                                    dimension: Some(wgpu::TextureViewDimension::D2),
+                                    base_array_layer: layer,
+                                    array_layer_count: Some(1),
+                                    ..Default::default()
+                                })
+                            })
+                            .collect();
+                        (&t.name, views, &texture_depth_views[&t.name])
+                    }
+                };
+            let first = cleared.insert(key.clone());
+            let [r, g, b, a] = target.clear_color.map(f64::from);
+            let clear_color =
+                if key.is_empty() { wgpu::Color { r, g, b, a } } else { wgpu::Color::TRANSPARENT };
+            let color_load = if first { wgpu::LoadOp::Clear(clear_color) } else { wgpu::LoadOp::Load };
+            let depth_load = if first {
+                wgpu::LoadOp::Clear(if key.is_empty() { target.clear_depth } else { 1.0 })
+            } else {
+                wgpu::LoadOp::Load
+            };
+            let stencil_load = if first {
+                wgpu::LoadOp::Clear(if key.is_empty() { u32::from(target.clear_stencil) } else { 0 })
+            } else {
+                wgpu::LoadOp::Load
+            };
+            let color_attachments: Vec<Option<wgpu::RenderPassColorAttachment>> = views
+                .iter()
+                .map(|view| {
+                    Some(wgpu::RenderPassColorAttachment {
+                        view,
+                        depth_slice: None,
+                        resolve_target: None,
+                        ops: wgpu::Operations { load: color_load, store: wgpu::StoreOp::Store },
+                    })
+                })
+                .collect();
+            let mut render_pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
+                label: pass.map(|p| p.label.as_str()),
+                color_attachments: &color_attachments,
+                depth_stencil_attachment: Some(wgpu::RenderPassDepthStencilAttachment {
+                    view: depth_view,
+                    depth_ops: Some(wgpu::Operations { load: depth_load, store: wgpu::StoreOp::Store }),
+                    stencil_ops: has_stencil
+                        .then_some(wgpu::Operations { load: stencil_load, store: wgpu::StoreOp::Store }),
+                }),
+                timestamp_writes: None,
+                occlusion_query_set: None,
+                multiview_mask: None,
+            });
+            let (Some(pass), Some(prep)) = (pass, prep) else {
+                continue;
+            };
+            if pass.indices.is_empty() {
+                continue;
+            }
+            render_pass.set_pipeline(&prep.pipeline);
+            if let Some(bind_group) = &prep.bind_group {
+                render_pass.set_bind_group(0, bind_group, &[]);
+            }
+            let [cr, cg, cb, ca] = pass.state.blend.constant.map(f64::from);
+            render_pass.set_blend_constant(wgpu::Color { r: cr, g: cg, b: cb, a: ca });
+            render_pass.set_stencil_reference(u32::from(pass.state.stencil.reference));
+            render_pass.set_vertex_buffer(0, prep.vertex_buffer.slice(..));
+            render_pass.set_index_buffer(prep.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
+            render_pass.draw_indexed(0..pass.indices.len() as u32, 0, 0..1);
+        }
+
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture: color,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
             },
-        },
-        size,
-    );
-    gpu.queue.submit([encoder.finish()]);
-
-    // Pop every scope, innermost first: wgpu panics on scopes popped (or
-    // dropped) out of order, so no early return may happen between the push
-    // and here. wgpu's Display already prints the "Caused by" chain.
-    let [validation, out_of_memory, internal] = scopes;
-    let errors = [internal.pop(), out_of_memory.pop(), validation.pop()].map(pollster::block_on);
-    if let Some(err) = errors.into_iter().flatten().next() {
-        return Err(GpuError::Wgpu(err.to_string()));
+            wgpu::TexelCopyBufferInfo {
+                buffer: readback,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(padded_row),
+                    rows_per_image: Some(target.height),
+                },
+            },
+            size,
+        );
+        gpu.queue.submit([encoder.finish()]);
     }
 
-    let slice = readback.slice(..);
-    let (sender, receiver) = std::sync::mpsc::channel();
-    slice.map_async(wgpu::MapMode::Read, move |res| {
-        let _ = sender.send(res);
-    });
-    device.poll(wgpu::PollType::wait_indefinitely()).map_err(|err| GpuError::Readback(err.to_string()))?;
-    receiver
-        .recv()
-        .map_err(|_| GpuError::Readback("the map callback never ran".to_string()))?
-        .map_err(|err| GpuError::Readback(err.to_string()))?;
-    let mapped = slice.get_mapped_range().map_err(|err| GpuError::Readback(err.to_string()))?;
-    let mut pixels = Vec::with_capacity((target.width * 4 * target.height) as usize);
-    for row in mapped.chunks_exact(padded_row as usize) {
-        let row = &row[..unpadded_row as usize];
-        match target.color_format {
-            ColorTarget::Rgba8 => pixels.extend_from_slice(row),
-            // Half floats to 8 bits as the CPU renderer's framebuffer does.
-            ColorTarget::Rgba16Float => pixels.extend(row.chunks_exact(2).map(|h| {
-                let v = half::f16::from_bits(u16::from_le_bytes([h[0], h[1]])).to_f32();
-                crate::renderer::quantize_unorm8(v)
-            })),
+    fn read_back(&self, device: &wgpu::Device) -> Result<RgbaImage, GpuError> {
+        let (target, readback) = (self.target, &self.readback);
+        let (padded_row, unpadded_row) = (self.padded_row, self.unpadded_row);
+        let slice = readback.slice(..);
+        let (sender, receiver) = std::sync::mpsc::channel();
+        slice.map_async(wgpu::MapMode::Read, move |res| {
+            let _ = sender.send(res);
+        });
+        device
+            .poll(wgpu::PollType::wait_indefinitely())
+            .map_err(|err| GpuError::Readback(err.to_string()))?;
+        receiver
+            .recv()
+            .map_err(|_| GpuError::Readback("the map callback never ran".to_string()))?
+            .map_err(|err| GpuError::Readback(err.to_string()))?;
+        let mapped = slice.get_mapped_range().map_err(|err| GpuError::Readback(err.to_string()))?;
+        let mut pixels = Vec::with_capacity((target.width * 4 * target.height) as usize);
+        for row in mapped.chunks_exact(padded_row as usize) {
+            let row = &row[..unpadded_row as usize];
+            match target.color_format {
+                ColorTarget::Rgba8 => pixels.extend_from_slice(row),
+                // Half floats to 8 bits as the CPU renderer's framebuffer does.
+                ColorTarget::Rgba16Float => pixels.extend(row.chunks_exact(2).map(|h| {
+                    let v = half::f16::from_bits(u16::from_le_bytes([h[0], h[1]])).to_f32();
+                    crate::renderer::quantize_unorm8(v)
+                })),
+            }
         }
+        drop(mapped);
+        readback.unmap();
+        RgbaImage::from_raw(target.width, target.height, pixels)
+            .ok_or_else(|| GpuError::Readback("the image has the wrong size".to_string()))
     }
-    drop(mapped);
-    readback.unmap();
-    RgbaImage::from_raw(target.width, target.height, pixels)
-        .ok_or_else(|| GpuError::Readback("the image has the wrong size".to_string()))
 }
 
 /// Copies a depth buffer into an `R32Float` texture (`.x`): a full-screen
