@@ -34,12 +34,12 @@ fn emit_wgsl_labels_passes_and_source_lines() {
         shadec(&["compile", "examples/kilgard_bump_mapping.shd", "--target", "geforce256", "--emit", "wgsl"]);
     assert_eq!(exact.code, 0, "{}", exact.stderr);
     assert!(exact.stdout.contains("let s_self = "), "{}", exact.stdout);
-    // A target without combiners runs hardware fidelity's per-operation
-    // model (on geforce3 the combiner generator cannot realize this program,
-    // and the planner refuses it).
+    // A program the combiner generator cannot realize on geforce3 (Kajiya-Kay's
+    // per-fragment `sqrt` of a texture's value) is refused; a target without
+    // combiners runs hardware fidelity's per-operation model.
     let refused = shadec(&[
         "compile",
-        "src/bench/programs/phong_taylor.shd",
+        "examples/kajiya_kay_hair.shd",
         "--target",
         "geforce3",
         "--emit",

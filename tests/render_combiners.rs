@@ -176,14 +176,17 @@ fn default_plan_runs_every_pass_in_the_combiners() {
 /// target without combiners, fixed9 runs the per-operation model.
 #[test]
 fn a_pass_the_generator_refuses_is_not_planned_and_fixed9_elsewhere_is_per_operation() {
-    let source =
-        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/src/bench/programs/phong_taylor.shd"))
+    let refused =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kajiya_kay_hair.shd"))
             .unwrap();
-    let err = shadec::driver::compile(&source, &Profile::resolve("geforce3").unwrap(), &Default::default())
+    let err = shadec::driver::compile(&refused, &Profile::resolve("geforce3").unwrap(), &Default::default())
         .map(|c| c.planned)
         .unwrap_err();
     assert_eq!(err[0].code, "cannot-split", "{err:?}");
     assert!(err[0].primary.span.end > err[0].primary.span.start, "located: {err:?}");
+    let source =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/src/bench/programs/phong_taylor.shd"))
+            .unwrap();
     let text =
         std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/bench_sphere.ron")).unwrap();
     let scene = Scene::parse(&text, Path::new("scenes/bench_sphere.ron")).unwrap();

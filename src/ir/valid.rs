@@ -220,7 +220,9 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
             out(Ty::Bundle(members.len().min(255) as u8), join_all(m, members)?, Interval::ALL)
         }
         Expr::Unary { op, value } => unary(m, *op, *value),
-        Expr::Binary { op, lhs, rhs } => binary(m, *op, info(lhs), info(rhs)),
+        Expr::Binary { op, lhs, rhs } => {
+            binary(m, *op, info(lhs), info(rhs)).map(|i| refine(m, *op, *lhs, *rhs, i))
+        }
         Expr::Combine { mode, lhs, rhs } => combine(m, *mode, *lhs, *rhs),
         Expr::Math { fun, args } => math(m, *fun, args),
         Expr::Swizzle { value, pattern, len, ty } => swizzle(m, *value, pattern, *len, *ty),
@@ -481,6 +483,53 @@ fn select(
     out(ty, freq, interval)
 }
 
+/// Ranges interval arithmetic cannot see, because an operand occurs twice.
+/// With this module's convention for a vec3 whose components lie in
+/// [−1, 1] (a direction of length at most 1: `Dot` reads two of them as a
+/// cosine), `w·w` is a squared length in [0, 1], and Formula 6 of seeds/000
+/// (Section 4.2.3), `w + ½w(1 − w·w)`, has length l(3 − l²)/2 ≤ 1 — so the
+/// register combiners compute the Taylor renormalization without a clamp
+/// changing it, as the paper does on a GeForce3.
+fn refine(m: &Module, op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr>, info: ExprInfo) -> ExprInfo {
+    let direction = |h: Handle<Expr>| {
+        let i = m.info(h);
+        i.ty.width() == 3 && i.interval.lo >= -1.0 && i.interval.hi <= 1.0
+    };
+    let interval = match op {
+        BinaryOp::Dot if lhs == rhs && direction(lhs) => Interval::UNSIGNED,
+        BinaryOp::Add if direction(lhs) && is_taylor_step(m, lhs, rhs) => Interval::SIGNED,
+        _ => return info,
+    };
+    ExprInfo { interval, ..info }
+}
+
+/// Whether `step` is `½w(1 − w·w)`: the three factors in any order and
+/// grouping (the combiner generator floats the ½ out to an output scale).
+fn is_taylor_step(m: &Module, w: Handle<Expr>, step: Handle<Expr>) -> bool {
+    fn factors(m: &Module, h: Handle<Expr>, out: &mut Vec<Handle<Expr>>) {
+        match m.exprs[h] {
+            Expr::Binary { op: BinaryOp::Mul, lhs, rhs } if out.len() < 4 => {
+                factors(m, lhs, out);
+                factors(m, rhs, out);
+            }
+            _ => out.push(h),
+        }
+    }
+    let defect = |h: Handle<Expr>| match m.exprs[h] {
+        Expr::Binary { op: BinaryOp::Sub, lhs, rhs } => {
+            m.is_constant(lhs, 1.0)
+                && matches!(m.exprs[rhs], Expr::Binary { op: BinaryOp::Dot, lhs: a, rhs: b } if a == w && b == w)
+        }
+        _ => false,
+    };
+    let mut f = Vec::new();
+    factors(m, step, &mut f);
+    f.len() == 3
+        && f.iter().filter(|&&h| m.is_constant(h, 0.5)).count() == 1
+        && f.iter().filter(|&&h| h == w).count() == 1
+        && f.iter().filter(|&&h| defect(h)).count() == 1
+}
+
 fn binary(_m: &Module, op: BinaryOp, a: ExprInfo, b: ExprInfo) -> Result<ExprInfo, TypeError> {
     use BinaryOp::*;
     numeric(a.ty, "an operation")?;
@@ -674,6 +723,33 @@ pub fn fold(m: &Module, e: &Expr, ty: Ty) -> Option<Constant> {
 mod tests {
     use super::*;
     use crate::ir::Frequency::*;
+
+    /// The interval of the value of the last statement of `source`.
+    fn statement_range(source: &str) -> Interval {
+        let (program, _) = crate::parser::check(source);
+        let (m, diags) = crate::ir::lower(&program);
+        assert!(diags.iter().all(|d| !d.is_error()), "{diags:?}");
+        let value = m.statements.last().unwrap().value;
+        let root = match m.exprs[value] {
+            Expr::Convert { value, .. } => value,
+            _ => value,
+        };
+        m.info(root).interval
+    }
+
+    #[test]
+    fn formula_6_stays_within_unit_range_and_near_misses_do_not() {
+        let decl = "vector L : light(0) in tangent;\nvector H : half(0) in tangent;\nlet w = δ L s x;\n";
+        let range = |e: &str| statement_range(&format!("{decl}C δπx ← rgb({e});\n"));
+        assert_eq!(range("w·w"), Interval::UNSIGNED, "a squared length");
+        assert_eq!(range("w + 0.5 * w * (1 - w·w)"), Interval::SIGNED, "seeds/000 Formula 6");
+        assert_eq!(range("w + (1 - w·w) * (w * 0.5)"), Interval::SIGNED, "any order and grouping");
+        // Not Formula 6: another vector in the dot product, or another factor.
+        let v = "vector V : view in tangent;\n";
+        let other = statement_range(&format!("{decl}{v}C δπx ← rgb(w + 0.5 * w * (1 - w·(δ V s x)));\n"));
+        assert!(other.hi > 1.0, "{other:?}");
+        assert!(range("w + 0.6 * w * (1 - w·w)").hi > 1.0);
+    }
 
     #[test]
     fn frequencies_join_up_to_one_sample_frequency() {
