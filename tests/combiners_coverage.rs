@@ -133,10 +133,13 @@ fn every_example_generates_or_is_located_on_both_combiner_profiles() {
 /// (seeds/003 §5.2) then planned `phong_unnormalized.shd`: three passes on
 /// geforce256, one on geforce3: 34 and 23. Formula 6's range, seen
 /// through its repeated operand, then planned `phong_exponent_squaring.shd`
-/// (1 pass) and `phong_taylor_renormalized.shd` (4) on geforce3: 28.)
+/// (1 pass) and `phong_taylor_renormalized.shd` (4) on geforce3: 28.
+/// Holding splits to the 8-bit clamps between passes then refused the
+/// latter again: its 4-pass plan stored (diffuse + specular) > 1 before
+/// the decal modulated it: 24.)
 #[test]
 fn every_planned_pass_is_generated() {
-    for (profile, planned) in [("geforce256", 34), ("geforce3", 28)] {
+    for (profile, planned) in [("geforce256", 34), ("geforce3", 24)] {
         let r = report(profile);
         let passes: Vec<&Result<usize, String>> =
             r.iter().filter_map(|(_, r)| r.as_ref().ok()).flatten().collect();

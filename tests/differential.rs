@@ -505,12 +505,43 @@ fn a_temporary_inside_a_temporary_is_rendered() {
         u x ← πR R s x;\nC δπx ← A δu x;\n\
         C δπx ← (C δπx) ⊕[add] (((kd + Env δu x) * I) ⊕[subtract] ((A δu x) ⊕[add] (A δu x)));\n";
     let scene = scene();
-    assert!(
-        matches!(check(source, "geforce256", &scene), Ok(Outcome::Planned { split: true, .. })),
-        "{:?}",
-        check(source, "geforce256", &scene)
-    );
     check_all_targets(source, &scene, &mut [0; 4]).unwrap();
+    // Since splits are held to the 8-bit clamps between passes, geforce256
+    // refuses it, and says why: `kd + Env` (up to 1.8) would be stored in
+    // an 8-bit temporary.
+    let profile = Profile::builtin("geforce256").unwrap();
+    let err = shadec::driver::compile(source, &profile, &Default::default()).map(|c| c.planned).unwrap_err();
+    let text = format!("{} {}", err[0].message, err[0].help.clone().unwrap_or_default());
+    assert!(
+        text.contains("outside [0, 1] between passes, where the 8-bit framebuffer's clamp changes it"),
+        "{text}"
+    );
+}
+
+/// A split is held to the clamps between passes (8-bit framebuffer and
+/// temporaries): `(diffuse + specular) · decal` with the sum above 1 is
+/// not rendered as `clamp(sum) · decal` (91.5/255 off the meaning on the
+/// bump torus before); a split whose stored values stay in [0, 1] plans.
+#[test]
+fn a_split_never_stores_a_value_its_clamp_would_change() {
+    let decl = "texture A, B, D : 2d rgb8 = image(\"a.png\");\n";
+    let profile = Profile::builtin("geforce256").unwrap();
+    let compile = |statement: &str| {
+        shadec::driver::compile(&format!("{decl}{statement}\n"), &profile, &Default::default())
+            .map(|c| c.planned)
+    };
+    // (A + B) reaches 2: not stored and then modulated by D (2 passes,
+    // clamp(A + B)·D), but D distributed: B, ·D, + A·D (3 passes).
+    let planned = compile("C δπx ← ((A δu x) + (B δu x)) * (D δu x);").unwrap();
+    let blends: Vec<_> = planned.plan.passes.iter().map(|p| p.blend).collect();
+    use shadec::pipeline::BlendMode;
+    assert_eq!(blends, [BlendMode::Replace, BlendMode::Modulate, BlendMode::Add]);
+    // (A·B + B·D)·½ stays in [0, 1]: it splits.
+    let planned = compile("C δπx ← ((A δu x) * (B δu x) + (B δu x) * (D δu x)) * 0.5;").unwrap();
+    assert!(planned.plan.passes.len() > 1);
+    for (k, pass) in planned.plan.passes.iter().enumerate() {
+        assert!(pass.reason.contains("split"), "pass {k}: {}", pass.reason);
+    }
 }
 
 /// A pass the combiner generator cannot realize is split further or

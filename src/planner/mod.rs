@@ -172,17 +172,37 @@ pub fn plan(module: &Module, profile: &Profile, request: &Request) -> Result<Pla
     }
     let index = request.source.map(|s| (LineIndex::new(s), s));
     let at = |span: Span| at_text(&index, span);
+    let mut tried: Option<(Vec<String>, String)> = None;
     for choice in crate::lowering::choices(profile) {
         let lowered = crate::lowering::lower(module, profile, choice, &at);
         if lowered.approximations.is_empty() || !lowered.within(&request.lowering) {
             continue;
         }
-        if let Ok(mut planned) = plan_as_written(&lowered.module, profile, request) {
-            planned.plan.approximations = lowered.approximations;
-            return Ok(planned);
+        match plan_as_written(&lowered.module, profile, request) {
+            Ok(mut planned) => {
+                planned.plan.approximations = lowered.approximations;
+                return Ok(planned);
+            }
+            Err(errors) => {
+                let mut rules: Vec<String> = lowered.approximations.iter().map(|a| a.rule.clone()).collect();
+                rules.dedup();
+                let first = errors.first().map_or(String::new(), |d| d.message.clone());
+                tried.get_or_insert((rules, first));
+            }
         }
     }
-    written
+    written.map_err(|mut errors| {
+        // What the lowering tried, so that the refusal does not read as if
+        // the first obstacle were the only one.
+        if let (Some(d), Some((rules, message))) = (errors.first_mut(), tried) {
+            let help = d.help.take().unwrap_or_default();
+            d.help = Some(format!(
+                "{help}; the lowering ({}) does not make it plan either: {message}",
+                rules.join(", ")
+            ));
+        }
+        errors
+    })
 }
 
 /// `line:col` of `span`, `-` without a source or for a built node.
@@ -887,6 +907,7 @@ fn plan_form(
         }]);
     }
     let overflow = fit.fits(m, form.value).err();
+    let clamp_refusals = cache.clamp_refusals;
     let mut splitter = Splitter::new(m, fit, cache, st.index, float_temps);
     if search == Search::Exhaustive {
         splitter = splitter.exhaustive();
@@ -894,12 +915,22 @@ fn plan_form(
     let mut pieces: Vec<Piece> = match splitter.plan(form.blend, form.value) {
         Some(p) => p.iter().cloned().collect(),
         None => {
-            return Err(overflow.unwrap_or(Overflow {
+            let o = overflow.unwrap_or(Overflow {
                 resource: "has no split into passes of this target".into(),
                 need: 0,
                 have: 0,
                 at: None,
-            }))
+            });
+            return Err(if cache.clamp_refusals > clamp_refusals {
+                Overflow {
+                    resource: format!("{o}, and the splits that fit would store a value outside [0, 1] between passes, where the 8-bit framebuffer's clamp changes it"),
+                    need: 0,
+                    have: 0,
+                    ..o
+                }
+            } else {
+                o
+            });
         }
     };
     if let Some(s) = form.then_add {

@@ -31,7 +31,7 @@ use std::collections::HashMap;
 use std::rc::Rc;
 
 use super::affine::{affine, contains, Builder};
-use crate::ir::{BinaryOp, Expr, Handle, Module, Texture, Ty, Usage};
+use crate::ir::{BinaryOp, Expr, Handle, Interval, Module, Texture, Ty, Usage};
 use crate::parser::ast::{CombineMode, TextureFormat, TextureKind};
 use crate::pipeline::BlendMode;
 use crate::span::Span;
@@ -125,6 +125,9 @@ pub struct SplitCache {
     texture_index: HashMap<String, u32>,
     indexed: usize,
     units: HashMap<Handle<Expr>, usize>,
+    /// Splits refused because a clamp between passes would change the
+    /// value ([`exact_through_clamps`]): the refusal says so.
+    pub clamp_refusals: usize,
 }
 
 pub struct Splitter<'a> {
@@ -230,7 +233,11 @@ impl<'a> Splitter<'a> {
             }
         }
         let mut best: Option<Vec<Piece>> = None;
-        let consider = |s: &Self, cand: Vec<Piece>, best: &mut Option<Vec<Piece>>| {
+        let consider = |s: &mut Self, cand: Vec<Piece>, best: &mut Option<Vec<Piece>>| {
+            if !exact_through_clamps(s.module, &cand, s.float_temps) {
+                s.cache.clamp_refusals += 1;
+                return;
+            }
             if best.as_ref().is_none_or(|b| s.cost(&cand) < s.cost(b)) {
                 *best = Some(cand);
             }
@@ -610,6 +617,47 @@ impl<'a> Splitter<'a> {
         });
         (self.module.textures.len() - 1) as u32
     }
+}
+
+/// Whether a split gives what the unsplit value gives on a framebuffer
+/// that stores [0, 1] (8-bit, seeds/003 Section 5: every pass's result is
+/// clamped when written). The meaning clamps once, at the end; a split
+/// clamps after every pass, which is the same only while what a pass
+/// leaves behind is in [0, 1], or when only non-negative terms are added
+/// after it (clamp(clamp(a) + b) = clamp(a + b) for b ≥ 0). Otherwise —
+/// `(diffuse + specular) · decal` with the sum above 1 — the later pass
+/// modulates a clamped value: the split is refused here and another one
+/// (the decal distributed over the terms) is taken, or the statement is
+/// refused. A temporary on an 8-bit texture is clamped when stored, so what
+/// it ends with must be in [0, 1] too.
+pub fn exact_through_clamps(module: &Module, pieces: &[Piece], float_temps: bool) -> bool {
+    let mut held: HashMap<Dest, Interval> = HashMap::new();
+    for p in pieces {
+        let v = module.info(p.value).interval;
+        // Before a target's first piece: what the framebuffer holds, [0, 1].
+        let b = held.get(&p.dest).copied().unwrap_or(Interval::UNSIGNED);
+        // A pass's own output is clamped before it is blended: only a
+        // replace (whose clamp the held range carries on) may exceed [0, 1].
+        if p.blend != BlendMode::Replace && (v.lo < 0.0 || v.hi > 1.0) {
+            return false;
+        }
+        let after = match p.blend {
+            BlendMode::Replace => v,
+            BlendMode::Add => Interval { lo: b.lo + v.lo, hi: b.hi + v.hi },
+            _ if b.lo < 0.0 || b.hi > 1.0 => return false,
+            BlendMode::Modulate => {
+                let c = [b.lo * v.lo, b.lo * v.hi, b.hi * v.lo, b.hi * v.hi];
+                Interval {
+                    lo: c.into_iter().fold(f64::INFINITY, f64::min),
+                    hi: c.into_iter().fold(f64::NEG_INFINITY, f64::max),
+                }
+            }
+            _ => Interval::UNSIGNED,
+        };
+        held.insert(p.dest, after);
+    }
+    // A temporary is read as it was stored: in [0, 1] unless it is float.
+    float_temps || held.iter().all(|(d, i)| *d == Dest::Main || (i.lo >= 0.0 && i.hi <= 1.0))
 }
 
 /// Whether `h` depends on `x` (re-exported for the planner).
