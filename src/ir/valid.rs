@@ -134,13 +134,15 @@ fn dot3(t: Interval, f: Interval, scalar: bool) -> Interval {
 fn hull(a: Interval, b: Interval) -> Interval {
     iv(a.lo.min(b.lo), a.hi.max(b.hi))
 }
-fn add(a: Interval, b: Interval) -> Interval {
+/// Interval sum (also the planner's clamp check between passes).
+pub fn add(a: Interval, b: Interval) -> Interval {
     iv(a.lo + b.lo, a.hi + b.hi)
 }
 fn neg(a: Interval) -> Interval {
     iv(-a.hi, -a.lo)
 }
-fn mul(a: Interval, b: Interval) -> Interval {
+/// Interval product (also the planner's clamp check between passes).
+pub fn mul(a: Interval, b: Interval) -> Interval {
     let c = [a.lo * b.lo, a.lo * b.hi, a.hi * b.lo, a.hi * b.hi];
     if c.iter().any(|v| v.is_nan()) {
         return Interval::ALL;
@@ -497,7 +499,12 @@ fn refine(m: &Module, op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr>, info: 
     };
     let interval = match op {
         BinaryOp::Dot if lhs == rhs && direction(lhs) => Interval::UNSIGNED,
-        BinaryOp::Add if direction(lhs) && is_taylor_step(m, lhs, rhs) => Interval::SIGNED,
+        BinaryOp::Add
+            if (direction(lhs) && is_taylor_step(m, lhs, rhs))
+                || (direction(rhs) && is_taylor_step(m, rhs, lhs)) =>
+        {
+            Interval::SIGNED
+        }
         _ => return info,
     };
     ExprInfo { interval, ..info }
@@ -744,6 +751,7 @@ mod tests {
         assert_eq!(range("w·w"), Interval::UNSIGNED, "a squared length");
         assert_eq!(range("w + 0.5 * w * (1 - w·w)"), Interval::SIGNED, "seeds/000 Formula 6");
         assert_eq!(range("w + (1 - w·w) * (w * 0.5)"), Interval::SIGNED, "any order and grouping");
+        assert_eq!(range("0.5 * w * (1 - w·w) + w"), Interval::SIGNED, "either side of the sum");
         // Not Formula 6: another vector in the dot product, or another factor.
         let v = "vector V : view in tangent;\n";
         let other = statement_range(&format!("{decl}{v}C δπx ← rgb(w + 0.5 * w * (1 - w·(δ V s x)));\n"));

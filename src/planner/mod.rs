@@ -195,11 +195,12 @@ pub fn plan(module: &Module, profile: &Profile, request: &Request) -> Result<Pla
         // What the lowering tried, so that the refusal does not read as if
         // the first obstacle were the only one.
         if let (Some(d), Some((rules, message))) = (errors.first_mut(), tried) {
-            let help = d.help.take().unwrap_or_default();
-            d.help = Some(format!(
-                "{help}; the lowering ({}) does not make it plan either: {message}",
-                rules.join(", ")
-            ));
+            let tried =
+                format!("the lowering ({}) does not make it plan either: {message}", rules.join(", "));
+            d.help = Some(match d.help.take() {
+                Some(help) if !help.is_empty() => format!("{help}; {tried}"),
+                _ => tried,
+            });
         }
         errors
     })

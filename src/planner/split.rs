@@ -643,15 +643,9 @@ pub fn exact_through_clamps(module: &Module, pieces: &[Piece], float_temps: bool
         }
         let after = match p.blend {
             BlendMode::Replace => v,
-            BlendMode::Add => Interval { lo: b.lo + v.lo, hi: b.hi + v.hi },
+            BlendMode::Add => crate::ir::valid::add(b, v),
             _ if b.lo < 0.0 || b.hi > 1.0 => return false,
-            BlendMode::Modulate => {
-                let c = [b.lo * v.lo, b.lo * v.hi, b.hi * v.lo, b.hi * v.hi];
-                Interval {
-                    lo: c.into_iter().fold(f64::INFINITY, f64::min),
-                    hi: c.into_iter().fold(f64::NEG_INFINITY, f64::max),
-                }
-            }
+            BlendMode::Modulate => crate::ir::valid::mul(b, v),
             _ => Interval::UNSIGNED,
         };
         held.insert(p.dest, after);
