@@ -19,6 +19,7 @@
 //! ```
 
 use crate::backends::combiners::CombinerRealizer;
+use crate::cost::Workload;
 use crate::diag::Diagnostic;
 use crate::ir::Module;
 use crate::parser::ast::Program;
@@ -164,7 +165,30 @@ pub fn plan(
         realizer: realizer.as_ref().map(|r| r as &dyn Realizer),
         lowering: options.lowering,
     };
-    planner::plan(module, profile, &request)
+    let mut planned = planner::plan(module, profile, &request)?;
+    if let Some(model) = &profile.cost {
+        let workload = workload(program, options.scene.as_ref());
+        crate::cost::annotate(&mut planned.plan, &planned.module, model, &workload);
+    }
+    Ok(planned)
+}
+
+/// What a plan's time is predicted on (issue 19): the scene planned for, or
+/// seeds/000 Section 5.4's screen-filling mesh; with the program's
+/// trilinear textures.
+pub fn workload(program: &Program, scene: Option<&ForScene>) -> Workload {
+    let (workload, constants) = match scene {
+        Some(s) => {
+            let name =
+                s.scene.path.file_name().map_or("the scene".into(), |f| f.to_string_lossy().into_owned());
+            (Workload::of_scene(s.scene, &s.assets.meshes, &name), &s.scene.constants)
+        }
+        None => (Workload::nominal(), &Default::default()),
+    };
+    let decls = crate::scene::bind::texture_decls(program, constants);
+    let trilinear =
+        decls.into_iter().filter(|d| d.filter == crate::textures::Filter::Trilinear).map(|d| d.name);
+    workload.with_trilinear(trilinear)
 }
 
 /// What `check` reports for one program: every diagnostic of the front end

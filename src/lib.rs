@@ -11,6 +11,7 @@
 
 pub mod backends;
 pub mod bench;
+pub mod cost;
 pub mod diag;
 pub mod driver;
 #[cfg(feature = "gpu")]

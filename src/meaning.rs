@@ -151,6 +151,7 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
                 output: output.index() as u32,
                 operations: 0,
                 condition: form.condition.map(|c| c.index() as u32),
+                general_combiners: None,
             },
             blend: BlendMode::Replace,
             state: RenderState {
@@ -166,6 +167,7 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
             geometry,
             combiners: None,
             baked: m.is_baked(st),
+            predicted: None,
         });
     }
     if !errors.is_empty() {
@@ -179,6 +181,7 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
             removed: Vec::new(),
             values: Vec::new(),
             approximations: Vec::new(),
+            predicted: None,
         },
         combiners: None,
     })

@@ -90,6 +90,48 @@ pub struct Profile {
     pub framebuffer_bits: u8,
     /// ⊕ modes framebuffer blending can do (`C δπx ← (C δπx) ⊕ …`).
     pub blend_modes: Vec<String>,
+    /// How fast the target runs a pass (issue 19, `docs/cost-model.md`):
+    /// `None` for a profile with no timing model (`wgsl`, `multitexture`),
+    /// whose plans get no predicted time.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cost: Option<CostModel>,
+}
+
+/// The parameters of the cost model (issue 19): what a pass costs on the
+/// target, as a bottleneck of vertex work, triangle setup and fill
+/// (`crate::cost`). Every number's source is in `docs/cost-model.md`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CostModel {
+    /// Core clock.
+    pub clock_mhz: f64,
+    /// Pixel pipelines: pixels started per clock.
+    pub pixel_pipes: u32,
+    /// Bilinear texture samples one pipe fetches per clock (its texture
+    /// units); a pixel needing more loops back (GeForce3: 3–4 textures take
+    /// two clocks).
+    pub samples_per_clock: u32,
+    /// Clocks a general combiner stage adds to a pixel's trip through a
+    /// pipe (fractional: the stages are pipelined).
+    pub clocks_per_general_combiner: f64,
+    /// Vertex work: clocks per vertex-program instruction (or fixed-function
+    /// T&L operation) of one vertex.
+    pub vertex_clocks_per_op: f64,
+    /// Clocks of triangle setup per triangle.
+    pub setup_clocks_per_triangle: f64,
+    /// Memory bandwidth (GB/s): the fill of a pass is at least its bytes
+    /// over this.
+    pub memory_gb_per_s: f64,
+    /// Depth bytes per depth-tested pixel (read and write, after any
+    /// depth compression).
+    pub depth_bytes_per_pixel: f64,
+    /// Memory bytes per texture sample after the texture cache.
+    pub texel_bytes_per_sample: f64,
+    /// Memory bytes per pixel of clearing the frame (colour, and depth
+    /// unless the target clears it by its compression tags).
+    pub clear_bytes_per_pixel: f64,
+    /// Fixed cost of a pass: state changes and the pipeline's drain (µs).
+    pub pass_overhead_us: f64,
 }
 
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]

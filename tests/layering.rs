@@ -15,6 +15,7 @@ const LAYERS: &[&[&str]] = &[
     &["ir"],
     &["profile", "scene"],
     &["pipeline"],
+    &["cost"],
     &["lowering"],
     &["planner"],
     &["backends"],

@@ -23,6 +23,7 @@ mod combiners_coverage;
 mod combiners_emulator;
 mod combiners_rc1;
 mod combiners_snapshots;
+mod cost_model;
 mod diagnostics;
 mod differential;
 mod docs;

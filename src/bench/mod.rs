@@ -15,6 +15,7 @@
 pub mod adaptive;
 pub mod plot;
 pub mod report;
+pub mod timing;
 pub mod variants;
 
 use std::path::Path;
@@ -68,6 +69,9 @@ pub struct Measured {
     /// Median wall time of one frame.
     pub time: Duration,
     pub error: ErrorReport,
+    /// The frame time the target's cost model predicts on the group's scene
+    /// at the bench size (issue 19); `None` on a target without one.
+    pub predicted_ms: Option<f64>,
     /// How each pass was shaded (fixed9: the generated combiner setup or
     /// the per-operation fallback, and why).
     pub shading: Vec<crate::renderer::plan::PassShading>,
@@ -85,7 +89,7 @@ pub enum BenchError {
     Io(String),
 }
 
-fn failed(what: &str, message: impl std::fmt::Display) -> BenchError {
+pub(crate) fn failed(what: &str, message: impl std::fmt::Display) -> BenchError {
     BenchError::Variant { what: what.to_string(), message: message.to_string() }
 }
 
@@ -126,6 +130,18 @@ impl Prepared {
             scene: self.scene.clone(),
             assets: self.assets.clone(),
         })
+    }
+
+    /// The frame time `target`'s cost model predicts for this plan on its
+    /// scene at `size` (issue 19).
+    pub fn predicted_ms(&self, target: &str, size: (u32, u32)) -> Option<f64> {
+        let profile = crate::profile::Profile::resolve(target).ok()?;
+        let model = profile.cost.as_ref()?;
+        let mut scene = self.scene.clone();
+        scene.resolution = size;
+        let for_scene = crate::driver::ForScene::unspecialized(&scene, &self.assets);
+        let workload = crate::driver::workload(&self.program, Some(&for_scene));
+        Some(crate::cost::predict(&self.planned.plan, &self.planned.module, model, &workload).total_ms())
     }
 
     pub fn renderer(&self) -> Result<PlanRenderer<'_>, BenchError> {
@@ -192,6 +208,7 @@ pub fn measure(
                 passes: prepared.planned.plan.passes.len(),
                 time,
                 error: compare(&truth_image, &frame.image),
+                predicted_ms: prepared.predicted_ms(variant.target, options.size),
                 shading: frame.shading,
                 image: frame.image,
                 truth: truth_image.clone(),
@@ -213,7 +230,9 @@ pub fn run(
     let measured = measure(options, progress)?;
     let adaptive = adaptive::measure(options, progress)?;
     let removed = removed_work()?;
-    let report = report::Report { options: options.clone(), measured, adaptive, removed };
+    let hardware = report::Hardware { section_5_4: timing::section_5_4()?, kilgard: timing::kilgard()? };
+    let report =
+        report::Report { options: options.clone(), measured, adaptive, removed, hardware: Some(hardware) };
     report.write(out_dir)?;
     Ok(report)
 }

@@ -4,6 +4,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use super::adaptive::{AdaptiveRow, SPACING};
+use super::timing::Timing;
 use super::{BenchError, BenchOptions, Measured};
 
 /// Difference images show |variant − truth| per channel times this, so that
@@ -16,6 +17,14 @@ pub struct Report {
     pub adaptive: Vec<AdaptiveRow>,
     /// `removal_report`s in Markdown.
     pub removed: String,
+    /// The cost model's predictions checked against the papers (issue 19).
+    pub hardware: Option<Hardware>,
+}
+
+/// seeds/000 Section 5.4 and Kilgard on the cost model ([`super::timing`]).
+pub struct Hardware {
+    pub section_5_4: Vec<Timing>,
+    pub kilgard: [Timing; 2],
 }
 
 fn io(e: impl std::fmt::Display) -> BenchError {
@@ -136,12 +145,103 @@ impl Report {
             }
             let _ = writeln!(md, "\nPlot: `adaptive.png`.");
         }
+        md += &self.predicted_section();
         if !self.removed.is_empty() {
             let _ =
                 writeln!(md, "\n## Removed work (scene-driven specialization, issue 7)\n\n{}", self.removed);
         }
         md
     }
+}
+
+impl Report {
+    /// Speed on the hardware (issue 19): each group's variants on targets
+    /// with a cost model ranked by predicted time, with the CPU's time and
+    /// the error beside; then the papers' own timings against the model.
+    fn predicted_section(&self) -> String {
+        let mut md = String::new();
+        let _ = writeln!(
+            md,
+            "\n## Predicted on the hardware (cost model, issue 19)\n\nThe frame time each plan's target would take \
+             (`docs/cost-model.md`: fill, vertex, setup and memory per pass) on the group's scene at the bench size, \
+             fastest first, beside the CPU renderer's time and the error measured above. Variants planned for `wgsl` \
+             have no cost model and are left out.\n"
+        );
+        let mut groups: Vec<&str> = self.measured.iter().map(|m| m.group).collect();
+        groups.dedup();
+        for group in groups {
+            let mut rows: Vec<&Measured> =
+                self.measured.iter().filter(|m| m.group == group && m.predicted_ms.is_some()).collect();
+            if rows.is_empty() {
+                continue;
+            }
+            rows.sort_by(|a, b| a.predicted_ms.partial_cmp(&b.predicted_ms).expect("finite predictions"));
+            let _ = writeln!(md, "**{group}**\n");
+            let _ = writeln!(
+                md,
+                "| rank | variant | target | passes | predicted ms | CPU ms (measured) | max abs (/255) |"
+            );
+            let _ = writeln!(md, "|---|---|---|---|---|---|---|");
+            for (k, m) in rows.iter().enumerate() {
+                let _ = writeln!(
+                    md,
+                    "| {} | {} | {} | {} | {:.3} | {:.2} | {:.1} |",
+                    k + 1,
+                    m.variant.name,
+                    m.variant.target,
+                    m.passes,
+                    m.predicted_ms.unwrap_or_default(),
+                    m.time.as_secs_f64() * 1e3,
+                    m.error.max_abs * 255.0
+                );
+            }
+            let _ = writeln!(md);
+        }
+        if let Some(h) = &self.hardware {
+            md += &hardware_tables(h);
+        }
+        md
+    }
+}
+
+/// seeds/000 Section 5.4's table and Kilgard's passes, predicted.
+fn hardware_tables(h: &Hardware) -> String {
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "**seeds/000 Section 5.4** — GeForce3, a screen-filling mesh of 20 000 triangles \
+         (`scenes/screen_mesh_20k.ron`, 1280×1024); speed relative to Gouraud shading:\n"
+    );
+    let _ = writeln!(md, "| shader | program | passes | predicted ms | predicted speed | paper |");
+    let _ = writeln!(md, "|---|---|---|---|---|---|");
+    if let Some(gouraud) = h.section_5_4.first() {
+        for t in &h.section_5_4 {
+            let _ = writeln!(
+                md,
+                "| {} | `{}` | {} | {:.3} | {:.0} % | {} |",
+                t.technique,
+                t.program,
+                t.passes,
+                t.predicted_ms,
+                100.0 * t.speed_against(gouraud),
+                t.paper
+            );
+        }
+    }
+    let [g256, g3] = &h.kilgard;
+    let _ = writeln!(
+        md,
+        "\n**Kilgard (seeds/003)**, the bump-mapped torus at 640×480: {} passes on {} predicted {:.3} ms, {} pass on {} \
+         {:.3} ms ({:.1}×).\n",
+        g256.passes,
+        g256.target,
+        g256.predicted_ms,
+        g3.passes,
+        g3.target,
+        g3.predicted_ms,
+        g256.predicted_ms / g3.predicted_ms
+    );
+    md
 }
 
 /// |variant − truth| × [`DIFF_SCALE`] as an opaque RGB PNG.

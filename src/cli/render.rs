@@ -299,13 +299,14 @@ fn print_report(
     let mpix = (size.0 as f64 * size.1 as f64) / secs / 1e6;
     let n = planned.plan.passes.len();
     println!(
-        "frame: {:.1} ms ({mpix:.2} Mpixel/s at {}×{}, {} threads), {} fragments shaded over {n} pass{}",
+        "frame: {:.1} ms on the CPU ({mpix:.2} Mpixel/s at {}×{}, {} threads), {} fragments shaded over {n} pass{}{}",
         secs * 1e3,
         size.0,
         size.1,
         rayon::current_num_threads(),
         frame.adaptive.map_or(frame.stats.shaded, |a| a.shaded()),
-        if n == 1 { "" } else { "es" }
+        if n == 1 { "" } else { "es" },
+        predicted(&planned.plan)
     );
     if mode == Precision::Fixed9 {
         for (i, how) in frame.shading.iter().enumerate() {
@@ -402,11 +403,12 @@ fn render_on_wgpu(
     save_opaque_png(&frame, &args.out).map_err(usage)?;
     let n = planned.plan.passes.len();
     println!(
-        "frame: {:.1} ms on wgpu ({} pass{}, submit to read-back wall time; pipelines and uploads made once for the scene: {:.1} ms)",
+        "frame: {:.1} ms on wgpu ({} pass{}, submit to read-back wall time; pipelines and uploads made once for the scene: {:.1} ms){}",
         time.as_secs_f64() * 1e3,
         n,
         if n == 1 { "" } else { "es" },
-        made.as_secs_f64() * 1e3
+        made.as_secs_f64() * 1e3,
+        predicted(&planned.plan)
     );
     print_error("the program's meaning (exact, unsplit)", compare(&reference.image, &frame));
     println!("wrote {}", args.out.display());
@@ -425,6 +427,14 @@ fn render_on_wgpu(
     Err(usage(
         "this shadec was built without the `gpu` feature: rebuild with default features for --backend wgpu",
     ))
+}
+
+/// `; predicted on geforce3: 2.356 ms` where the target has a cost model
+/// (issue 19), at the scene's resolution.
+fn predicted(plan: &shadec::pipeline::PassPlan) -> String {
+    plan.predicted.as_ref().map_or(String::new(), |p| {
+        format!("; predicted on {}: {:.3} ms at the scene's resolution", plan.target, p.total_us / 1000.0)
+    })
 }
 
 fn print_error(against: &str, e: shadec::renderer::plan::ErrorReport) {

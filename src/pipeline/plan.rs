@@ -26,6 +26,48 @@ pub struct PassPlan {
     /// docs/lowering.md): empty when the program planned as written.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub approximations: Vec<Approximation>,
+    /// The frame time the target's cost model predicts (issue 19,
+    /// docs/cost-model.md); `None` on a target with no cost model.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub predicted: Option<FramePrediction>,
+}
+
+/// A plan's predicted frame time on its target (issue 19).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FramePrediction {
+    /// What was assumed drawn: a scene, or seeds/000 Section 5.4's
+    /// screen-filling mesh when no scene was given.
+    pub workload: String,
+    /// The whole frame (µs): clearing, then every pass.
+    pub total_us: f64,
+    /// Clearing colour and depth (µs).
+    pub clear_us: f64,
+}
+
+impl FramePrediction {
+    /// `predicted on geforce3: 2.356 ms a frame (…)`.
+    pub fn line(&self, target: &str) -> String {
+        format!(
+            "predicted on {target}: {:.3} ms a frame ({:.3} ms clearing), drawing {} (cost model, docs/cost-model.md)",
+            self.total_us / 1000.0,
+            self.clear_us / 1000.0,
+            self.workload
+        )
+    }
+}
+
+/// A pass's predicted time on its target (issue 19).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PassPrediction {
+    /// The pass (µs): its slowest stage, its overhead, any copy.
+    pub us: f64,
+    /// What limits it: `vertex`, `setup`, `fill`, `memory`, or `compiler`
+    /// (a `bake` table, computed at compile time).
+    pub bound: String,
+    /// Pixel clocks per fragment: texture trips, then combiner stages.
+    pub clocks_per_pixel: f64,
+    /// Fragments rasterized.
+    pub pixels: u64,
 }
 
 /// One rendering pass.
@@ -72,6 +114,9 @@ pub struct Pass {
     /// work is therefore not held to the target's limits.
     #[serde(default)]
     pub baked: bool,
+    /// The time the target's cost model predicts for this pass (issue 19).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub predicted: Option<PassPrediction>,
 }
 
 /// Where a pass writes.
@@ -127,6 +172,10 @@ pub struct FragmentWork {
     /// Discard the fragment where this value is zero (`c ? a` with no `:`,
     /// seeds/001 Section 3.5), when the condition is not a stencil test.
     pub condition: Option<u32>,
+    /// On a register-combiner target: the general combiner stages the code
+    /// generator's setup for this pass uses (what the cost model charges).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub general_combiners: Option<u32>,
 }
 
 /// The framebuffer operation of a pass (seeds/001 (9): `C ← C ⊕ …`).
@@ -273,15 +322,24 @@ impl PassPlan {
             };
             let units: Vec<&str> = p.textures.iter().map(|t| t.texture.as_str()).collect();
             s += &format!(
-                "  pass {}: {target} ← {} [{}]  — {}\n",
+                "  pass {}: {target} ← {} [{}]  — {}{}\n",
                 i + 1,
                 p.blend.name(),
                 if units.is_empty() { "no textures".to_string() } else { units.join(", ") },
-                p.reason
+                p.reason,
+                p.predicted.as_ref().map_or(String::new(), |t| format!(
+                    " (predicted {:.3} ms, {}-bound, {:.2} clocks a pixel)",
+                    t.us / 1000.0,
+                    t.bound,
+                    t.clocks_per_pixel
+                ))
             );
         }
         for a in &self.approximations {
             s += &format!("  approximation {} at {}: {}\n", a.rule, a.at, a.why);
+        }
+        if let Some(f) = &self.predicted {
+            s += &format!("  {}\n", f.line(&self.target));
         }
         s
     }

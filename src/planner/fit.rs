@@ -20,8 +20,9 @@ use std::cell::RefCell;
 use std::collections::HashMap;
 
 use super::realize::Realizer;
-use super::split::{FitCheck, Overflow};
+use super::split::{Dest, FitCheck, Overflow, Piece};
 use crate::ir::{BinaryOp, Expr, Handle, MathFunction, Module, Usage};
+use crate::pipeline::BlendMode;
 use crate::profile::{FragmentStage, Profile};
 
 pub struct ProfileFit<'p> {
@@ -31,7 +32,8 @@ pub struct ProfileFit<'p> {
     realizer: Option<&'p dyn Realizer>,
     /// The generator's verdicts by value: the arena only grows, so a
     /// handle's value never changes while the planner runs.
-    generated: RefCell<HashMap<Handle<Expr>, Result<(), Overflow>>>,
+    /// Ok holds the general combiner stages the setup uses.
+    generated: RefCell<HashMap<Handle<Expr>, Result<u32, Overflow>>>,
     /// Every verdict of [`FitCheck::fits`] by value, for the same reason:
     /// the splitter asks about the same sub-values many times (issue 22).
     verdicts: RefCell<HashMap<Handle<Expr>, Result<(), Overflow>>>,
@@ -50,10 +52,10 @@ impl<'p> ProfileFit<'p> {
             return Ok(());
         };
         if let Some(known) = self.generated.borrow().get(&value) {
-            return known.clone();
+            return known.clone().map(|_| ());
         }
         let units: Vec<Handle<Expr>> = u.lookups.iter().chain(&u.framebuffer_reads).copied().collect();
-        let verdict = realizer.realize(module, value, &units).map_err(|e| {
+        let verdict = realizer.realize(module, value, &units).map(|r| r.general_combiners).map_err(|e| {
             let at = e.span.and_then(|span| {
                 module.reachable(&[value]).into_iter().rev().find(|h| module.span(*h) == span)
             });
@@ -68,7 +70,7 @@ impl<'p> ProfileFit<'p> {
             }
         });
         self.generated.borrow_mut().insert(value, verdict.clone());
-        verdict
+        verdict.map(|_| ())
     }
 }
 
@@ -80,6 +82,21 @@ impl FitCheck for ProfileFit<'_> {
         let verdict = self.measure(module, value);
         self.verdicts.borrow_mut().insert(value, verdict.clone());
         verdict
+    }
+
+    /// The pass on the target's cost model (issue 19): its texture units,
+    /// the general combiner stages the generator used for it, whether its
+    /// blend reads the framebuffer and whether it renders to a temporary.
+    fn piece_ns(&self, module: &Module, piece: &Piece) -> u64 {
+        let Some(model) = &self.profile.cost else { return 0 };
+        let u = Usage::of_value(module, piece.value);
+        let samples = (u.texture_units() + framebuffer_textures(module, &u)) as u32;
+        let stages = match self.generated.borrow().get(&piece.value) {
+            Some(Ok(n)) => *n,
+            _ => 0,
+        };
+        let reads = piece.blend != BlendMode::Replace;
+        crate::cost::nominal_pass_ns(model, samples, stages, reads, piece.dest != Dest::Main)
     }
 }
 

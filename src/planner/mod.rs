@@ -36,7 +36,7 @@ use crate::pipeline::{
     BlendMode, FragmentWork, Geometry, Pass, PassPlan, Planned, Removed, RenderTarget, TextureBinding, Value,
     VertexWork,
 };
-pub use realize::{Realizer, Refusal};
+pub use realize::{Realized, Realizer, Refusal};
 pub use split::{FitCheck, Overflow};
 
 use affine::Builder;
@@ -151,6 +151,18 @@ struct Fits<'p> {
     compiler: fit::ProfileFit<'p>,
     cache: SplitCache,
     compiler_cache: SplitCache,
+}
+
+impl Fits<'_> {
+    /// The fit a statement is planned under: the compiler's for a `bake`
+    /// table (computed on the CPU), else the target's.
+    fn fit(&self, baked: bool) -> &dyn split::FitCheck {
+        if baked {
+            &self.compiler
+        } else {
+            &self.target
+        }
+    }
 }
 
 /// Plans `module` for `profile` (the numbered steps of this module's doc).
@@ -463,6 +475,30 @@ fn passes_word(n: usize) -> &'static str {
     }
 }
 
+/// Why a statement was kept apart from the one before (named `a`), when
+/// fused they would take `n` passes at `fused` cost against `apart`: no
+/// fewer passes, or — the target's cost model deciding (issue 19) — fewer
+/// passes predicted slower.
+fn not_fused_reason(
+    a: &str,
+    n: usize,
+    fused: split::Cost,
+    apart: Option<split::Cost>,
+    profile: &Profile,
+) -> String {
+    match apart {
+        Some(apart) if fused.1 < apart.1 && fused.0 > apart.0 => format!(
+            "fused with statement {a} it fits {n} {} on {}, but the cost model predicts that slower than apart \
+             ({:.3} ms against {:.3} ms)",
+            passes_word(n),
+            profile.name,
+            fused.0 as f64 / 1e6,
+            apart.0 as f64 / 1e6
+        ),
+        _ => format!("fused with statement {a} it needs {n} {} on {}, no fewer than apart", passes_word(n), profile.name),
+    }
+}
+
 /// Steps 4-5 for one run of fusable statements: the cheapest grouping
 /// (fewest passes, then fetches) by dynamic programming over its prefixes,
 /// each group with the reason it was fused or kept as written.
@@ -477,7 +513,7 @@ fn plan_run(
     let baked = m.is_baked(&m.statements[run[0]]);
     // best[j]: the cheapest plan of run[..j].
     let mut best: Vec<Option<(split::Cost, Vec<Chosen>)>> = vec![None; run.len() + 1];
-    best[0] = Some(((0, 0), vec![]));
+    best[0] = Some(((0, 0, 0), vec![]));
     let mut first_error: Option<Diagnostic> = None;
     // Why a statement was not fused with the one before it.
     let mut not_fused: HashMap<usize, String> = HashMap::new();
@@ -512,16 +548,12 @@ fn plan_run(
                     continue;
                 }
             };
-            let c = split::cost(m, &pieces);
+            let c = split::cost(m, fits.fit(baked), &pieces);
+            let total = split::add(base_cost, c);
             if let Some(a) = &pair_with {
-                let n = pieces.len();
-                not_fused.entry(stmts[1]).or_insert(format!(
-                    "fused with statement {a} it needs {n} {} on {}, no fewer than apart",
-                    passes_word(n),
-                    profile.name
-                ));
+                let apart = best[j].as_ref().map(|(b, _)| *b);
+                not_fused.entry(stmts[1]).or_insert(not_fused_reason(a, pieces.len(), total, apart, profile));
             }
-            let total = (base_cost.0 + c.0, base_cost.1 + c.1);
             // On a tie, keep statements as written (more, smaller groups).
             if best[j].as_ref().is_none_or(|(b, v)| total < *b || (total == *b && base.len() + 1 > v.len())) {
                 let mut v = base;
@@ -984,6 +1016,7 @@ fn assemble(m: &Module, ctx: &AssembleCtx, chosen: &[Chosen], prepared: Prepared
         removed,
         values: plan_values(m, &roots, ctx.at),
         approximations: Vec::new(),
+        predicted: None,
     }
 }
 
@@ -1045,8 +1078,8 @@ fn assemble_pass(
     let state = pass_state(form, piece, &geometry, in_texture_space, drawn, key);
     // A `bake` table is the compiler's: no combiner setup to judge.
     let baked = m.is_baked(st);
-    let combiners =
-        if baked { None } else { combiner_verdict(m, ctx.realizer, piece.value, &textures, ctx.at) };
+    let verdict =
+        if baked { Ok(None) } else { combiner_verdict(m, ctx.realizer, piece.value, &textures, ctx.at) };
     let reason = pass_reason(group, piece, pi, names, ctx.profile);
     let reached = m.reachable(&[piece.value]);
     let one = |v: &[Option<u32>]| match stmts {
@@ -1083,11 +1116,13 @@ fn assemble_pass(
             output: piece.value.index() as u32,
             operations: fragment_operations(m, &reached),
             condition: form.condition.map(|c| c.index() as u32),
+            general_combiners: verdict.as_ref().ok().copied().flatten().map(|r| r.general_combiners),
         },
         blend: piece.blend,
         state,
-        combiners,
+        combiners: verdict.err(),
         baked,
+        predicted: None,
     };
     (pass, drawn_at)
 }
@@ -1263,12 +1298,14 @@ fn combiner_verdict(
     value: Handle<Expr>,
     textures: &[TextureBinding],
     at: &dyn Fn(Span) -> String,
-) -> Option<String> {
+) -> Result<Option<Realized>, String> {
     // Unit i holds textures[i]: a lookup, or a framebuffer read as a texture.
     let units: Vec<Handle<Expr>> = textures.iter().map(|t| Handle::new(t.lookup as usize)).collect();
-    let e = realizer?.realize(m, value, &units).err()?;
-    let span = e.span.filter(|s| *s != Span::DETACHED).unwrap_or_else(|| m.span(value));
-    Some(format!("not generated: {}: {}", at(span), e.reason))
+    let Some(realizer) = realizer else { return Ok(None) };
+    realizer.realize(m, value, &units).map(Some).map_err(|e| {
+        let span = e.span.filter(|s| *s != Span::DETACHED).unwrap_or_else(|| m.span(value));
+        format!("not generated: {}: {}", at(span), e.reason)
+    })
 }
 
 fn same_framebuffer(a: &Table, b: &Table) -> bool {

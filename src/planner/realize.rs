@@ -21,6 +21,19 @@ pub struct Refusal {
 pub trait Realizer {
     /// `Ok` when the stage computes `value` in one pass with texture unit
     /// `i` holding `units[i]` (a lookup, or a framebuffer read as a
-    /// texture); else why not.
-    fn realize(&self, module: &Module, value: Handle<Expr>, units: &[Handle<Expr>]) -> Result<(), Refusal>;
+    /// texture), with what it took; else why not.
+    fn realize(
+        &self,
+        module: &Module,
+        value: Handle<Expr>,
+        units: &[Handle<Expr>],
+    ) -> Result<Realized, Refusal>;
+}
+
+/// What a realized pass takes of the stage: what the cost model charges
+/// (issue 19, `crate::cost`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Realized {
+    /// General combiner stages used (seeds/003 Section 4.2).
+    pub general_combiners: u32,
 }

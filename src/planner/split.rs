@@ -71,6 +71,13 @@ impl std::fmt::Display for Overflow {
 /// Does a value fit one pass? (A profile's limits; tests may plug in others.)
 pub trait FitCheck {
     fn fits(&self, module: &Module, value: Handle<Expr>) -> Result<(), Overflow>;
+
+    /// The predicted time (ns) of `piece` as one pass on the target's cost
+    /// model, on its nominal workload (issue 19); 0 on a target without
+    /// one, where passes and fetches decide.
+    fn piece_ns(&self, _module: &Module, _piece: &Piece) -> u64 {
+        0
+    }
 }
 
 /// Where a piece is written.
@@ -97,11 +104,48 @@ pub struct Piece {
 
 pub type Pieces = Rc<Vec<Piece>>;
 
-/// (passes, texture fetches): what the planner minimizes, in that order.
-pub type Cost = (usize, usize);
+/// (predicted time in ns, passes, texture fetches): what the planner
+/// minimizes, in that order — the target's cost model first (issue 19),
+/// ties broken by pass count. Without a cost model the time is 0 and
+/// passes, then fetches, decide.
+pub type Cost = (u64, usize, usize);
 
-pub fn cost(module: &Module, pieces: &[Piece]) -> Cost {
-    (pieces.len(), pieces.iter().map(|p| Usage::of_value(module, p.value).texture_units()).sum())
+pub fn cost(module: &Module, fit: &dyn FitCheck, pieces: &[Piece]) -> Cost {
+    pieces.iter().fold((0, 0, 0), |c, p| {
+        add(c, (fit.piece_ns(module, p), 1, Usage::of_value(module, p.value).texture_units()))
+    })
+}
+
+/// The cheapest of the splits that fit (the first on a tie). When the
+/// target's cost model decided between splits it predicts differently, the
+/// first pass's reason says so (issue 19).
+fn fastest(fitting: Vec<(Cost, Vec<Piece>)>) -> Option<Vec<Piece>> {
+    let mut best: Option<usize> = None;
+    for (i, (c, _)) in fitting.iter().enumerate() {
+        if best.is_none_or(|b| *c < fitting[b].0) {
+            best = Some(i);
+        }
+    }
+    let b = best?;
+    let runner_up = fitting.iter().enumerate().filter(|(i, _)| *i != b).map(|(_, (c, _))| c.0).min();
+    let (cost, mut pieces) = fitting.into_iter().nth(b)?;
+    if let Some(next) = runner_up.filter(|&n| cost.0 > 0 && n > cost.0) {
+        let why = &mut pieces[0].why;
+        if why.is_empty() {
+            *why = "the part rendered first".into();
+        }
+        *why += &format!(
+            "; the cost model predicts this split the fastest of those that fit ({:.3} ms against {:.3} ms)",
+            cost.0 as f64 / 1e6,
+            next as f64 / 1e6
+        );
+    }
+    Some(pieces)
+}
+
+/// Costs add componentwise.
+pub fn add(a: Cost, b: Cost) -> Cost {
+    (a.0 + b.0, a.1 + b.1, a.2 + b.2)
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -158,7 +202,7 @@ impl<'a> Splitter<'a> {
     }
 
     fn cost(&self, p: &[Piece]) -> Cost {
-        cost(self.module, p)
+        cost(self.module, self.fit, p)
     }
 
     /// The texture units computing `h` takes, measured once per value.
@@ -232,27 +276,25 @@ impl<'a> Splitter<'a> {
                 return Some(Rc::new(pieces));
             }
         }
-        let mut best: Option<Vec<Piece>> = None;
-        let consider = |s: &mut Self, cand: Vec<Piece>, best: &mut Option<Vec<Piece>>| {
+        let mut fitting: Vec<(Cost, Vec<Piece>)> = Vec::new();
+        let consider = |s: &mut Self, cand: Vec<Piece>, fitting: &mut Vec<(Cost, Vec<Piece>)>| {
             if !exact_through_clamps(s.module, &cand, s.float_temps) {
                 s.cache.clamp_refusals += 1;
                 return;
             }
-            if best.as_ref().is_none_or(|b| s.cost(&cand) < s.cost(b)) {
-                *best = Some(cand);
-            }
+            fitting.push((s.cost(&cand), cand));
         };
         if let Some(c) = self.chain_split(mode, e, depth, &overflow) {
-            consider(self, c, &mut best);
+            consider(self, c, &mut fitting);
         }
         if mode == BlendMode::Replace {
             for c in self.peels(e, depth, &overflow) {
-                consider(self, c, &mut best);
+                consider(self, c, &mut fitting);
             }
         } else if let Some(c) = self.render_to_texture(mode, e, depth, &overflow) {
-            consider(self, c, &mut best);
+            consider(self, c, &mut fitting);
         }
-        best.map(Rc::new)
+        fastest(fitting).map(Rc::new)
     }
 
     // ---- chain split ----------------------------------------------------
@@ -390,26 +432,33 @@ impl<'a> Splitter<'a> {
         }
         // fits[mask]: the group's node when the subset fits one pass.
         let full = (1usize << n) - 1;
-        let mut group: Vec<Option<(Handle<Expr>, usize)>> = vec![None; full + 1];
+        let mut group: Vec<Option<(Handle<Expr>, Cost)>> = vec![None; full + 1];
         for (mask, slot) in group.iter_mut().enumerate().skip(1) {
             let members: Vec<Handle<Expr>> =
                 (0..n).filter(|i| mask & (1 << i) != 0).map(|i| ops[i]).collect();
             if let Some(h) = self.build_chain(op, &members) {
                 if self.fits(h).is_ok() {
-                    *slot = Some((h, self.units(h)));
+                    let piece = Piece {
+                        blend: BlendMode::Add,
+                        value: h,
+                        dest: Dest::Main,
+                        alpha: true,
+                        why: String::new(),
+                    };
+                    *slot = Some((h, (self.fit.piece_ns(self.module, &piece), 1, self.units(h))));
                 }
             }
         }
         // best[mask] = (cost, chosen first subset)
         let mut best: Vec<Option<(Cost, usize)>> = vec![None; full + 1];
-        best[0] = Some(((0, 0), 0));
+        best[0] = Some(((0, 0, 0), 0));
         for mask in 1..=full {
             let low = mask & mask.wrapping_neg();
             let mut sub = mask;
             while sub > 0 {
                 if sub & low != 0 {
                     if let (Some((_, f)), Some((c, _))) = (group[sub], best[mask ^ sub]) {
-                        let cand = (c.0 + 1, c.1 + f);
+                        let cand = add(c, f);
                         if best[mask].is_none_or(|(b, _)| cand < b) {
                             best[mask] = Some((cand, sub));
                         }

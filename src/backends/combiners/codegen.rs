@@ -39,7 +39,7 @@ use thiserror::Error;
 use crate::diag::Diagnostic;
 use crate::ir::{BinaryOp, Constant, Expr, FbChannel, Handle, MathFunction, Module, Ty, UnaryOp};
 use crate::parser::ast::CombineMode;
-use crate::planner::{Realizer, Refusal};
+use crate::planner::{Realized, Realizer, Refusal};
 use crate::span::Span;
 
 use super::config::{
@@ -2273,10 +2273,15 @@ pub struct CombinerRealizer {
 }
 
 impl Realizer for CombinerRealizer {
-    fn realize(&self, module: &Module, value: Handle<Expr>, units: &[Handle<Expr>]) -> Result<(), Refusal> {
+    fn realize(
+        &self,
+        module: &Module,
+        value: Handle<Expr>,
+        units: &[Handle<Expr>],
+    ) -> Result<Realized, Refusal> {
         let input = PassInput { module, value, units };
         generate(&input, &self.limits)
-            .map(|_| ())
+            .map(|g| Realized { general_combiners: g.config.general.len() as u32 })
             .map_err(|e| Refusal { reason: e.to_string(), span: e.span() })
     }
 }

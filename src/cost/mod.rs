@@ -1,0 +1,250 @@
+//! The cost model (issue 19): how long a pass plan takes on the hardware it
+//! was made for, predicted from the plan and the target profile's
+//! [`CostModel`] — the speed the papers report (seeds/000 Section 5.4,
+//! seeds/003 Section 5), not the CPU interpreter's milliseconds.
+//!
+//! # The model (docs/cost-model.md gives each number's source)
+//!
+//! A pass is a pipeline: vertex work, triangle setup and fill overlap, so
+//! the pass takes as long as its slowest stage, plus a fixed overhead:
+//!
+//! ```text
+//! pass  = max(vertex, setup, fill) + overhead (+ the copy of a render-to-texture target)
+//! vertex = vertices · ops · vertex_clocks_per_op / clock
+//! setup  = triangles · setup_clocks_per_triangle / clock
+//! fill   = max(pixels · clocks_per_pixel / (pipes · clock), pixels · bytes_per_pixel / bandwidth)
+//! clocks_per_pixel = max(1, ⌈samples / samples_per_clock⌉) + stages · clocks_per_general_combiner
+//! frame = clear + Σ pass
+//! ```
+//!
+//! `samples` counts bilinear samples (a trilinear lookup is two, seeds/003
+//! Section 5.3's mipmapped normal maps); `stages` are the general combiner
+//! stages the code generator used for the pass. A `bake` table's pass is
+//! the compiler's (issue 18) and costs nothing on the target.
+
+pub mod vertex;
+pub mod workload;
+
+use serde::{Deserialize, Serialize};
+
+use crate::ir::Module;
+use crate::pipeline::{
+    BlendState, CompareFunc, FramePrediction, Pass, PassPlan, PassPrediction, RenderTarget,
+};
+use crate::profile::CostModel;
+pub use workload::{PassLoad, Workload};
+
+/// What limits a pass.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Bound {
+    /// Vertex work (transform, lighting, texgen: the vertex program).
+    Vertex,
+    /// Triangle setup.
+    Setup,
+    /// Pixel clocks: texture samples and combiner stages.
+    Fill,
+    /// Framebuffer, depth and texel bytes.
+    Memory,
+    /// Nothing drawn: a `bake` table, computed by the compiler.
+    Compiler,
+}
+
+/// The predicted time of one pass (µs), and why.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct PassTime {
+    /// The pass's total.
+    pub us: f64,
+    pub vertex_us: f64,
+    pub setup_us: f64,
+    pub fill_us: f64,
+    /// Copying a render-to-texture target into its texture.
+    #[serde(default)]
+    pub copy_us: f64,
+    pub bound: Bound,
+    /// Pixel clocks per fragment (texture samples, combiner stages).
+    pub clocks_per_pixel: f64,
+    /// Fragments rasterized.
+    pub pixels: u64,
+}
+
+/// The predicted time of a whole plan on its target.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Prediction {
+    /// What was assumed drawn: the scene, or the nominal workload.
+    pub workload: String,
+    /// Clearing colour and depth at the start of the frame.
+    pub clear_us: f64,
+    pub passes: Vec<PassTime>,
+    /// `clear_us` + every pass.
+    pub total_us: f64,
+}
+
+impl Prediction {
+    pub fn total_ms(&self) -> f64 {
+        self.total_us / 1000.0
+    }
+}
+
+/// The predicted time of `plan` (its IR `module`) on a target with `model`,
+/// drawing `workload`.
+pub fn predict(plan: &PassPlan, module: &Module, model: &CostModel, workload: &Workload) -> Prediction {
+    let passes: Vec<PassTime> = plan.passes.iter().map(|p| pass_time(p, module, model, workload)).collect();
+    let (w, h) = workload.resolution;
+    let clear_us = f64::from(w) * f64::from(h) * model.clear_bytes_per_pixel / bytes_per_us(model);
+    let total_us = clear_us + passes.iter().map(|p| p.us).sum::<f64>();
+    Prediction { workload: workload.name.clone(), clear_us, passes, total_us }
+}
+
+fn clocks_per_us(model: &CostModel) -> f64 {
+    model.clock_mhz
+}
+
+fn bytes_per_us(model: &CostModel) -> f64 {
+    model.memory_gb_per_s * 1000.0
+}
+
+/// One pass: the slowest of vertex, setup and fill, plus its overhead.
+pub fn pass_time(pass: &Pass, module: &Module, model: &CostModel, workload: &Workload) -> PassTime {
+    let load = workload.pass_load(pass);
+    if pass.baked {
+        let zero = 0.0;
+        return PassTime {
+            us: zero,
+            vertex_us: zero,
+            setup_us: zero,
+            fill_us: zero,
+            copy_us: zero,
+            bound: Bound::Compiler,
+            clocks_per_pixel: zero,
+            pixels: 0,
+        };
+    }
+    let clock = clocks_per_us(model);
+    let ops = vertex::ops_per_vertex(pass, module);
+    let vertex_us = load.vertices as f64 * ops * model.vertex_clocks_per_op / clock;
+    let setup_us = load.triangles as f64 * model.setup_clocks_per_triangle / clock;
+    let samples = texture_samples(pass, workload);
+    let clocks_per_pixel = pixel_clocks(model, samples, pass.fragment.general_combiners.unwrap_or(0));
+    let pixels = load.pixels as f64;
+    let shade_us = pixels * clocks_per_pixel / (f64::from(model.pixel_pipes) * clock);
+    let memory_us = pixels * bytes_per_pixel(pass, model, samples) / bytes_per_us(model);
+    let fill_us = shade_us.max(memory_us);
+    let copy_us = match pass.target {
+        // Rendered, then copied into the texture (glCopyTexSubImage2D): read and write.
+        RenderTarget::Temporary { .. } | RenderTarget::Texture { .. } => {
+            load.target_pixels as f64 * 8.0 / bytes_per_us(model)
+        }
+        RenderTarget::Framebuffer { .. } => 0.0,
+    };
+    let (slowest, bound) = [
+        (vertex_us, Bound::Vertex),
+        (setup_us, Bound::Setup),
+        (shade_us, Bound::Fill),
+        (memory_us, Bound::Memory),
+    ]
+    .into_iter()
+    .fold((0.0, Bound::Fill), |best, c| if c.0 > best.0 { c } else { best });
+    PassTime {
+        us: slowest + model.pass_overhead_us + copy_us,
+        vertex_us,
+        setup_us,
+        fill_us,
+        copy_us,
+        bound,
+        clocks_per_pixel,
+        pixels: load.pixels,
+    }
+}
+
+/// Pixel clocks of one fragment: its texture trips (a pipe fetches
+/// `samples_per_clock` bilinear samples per clock and loops back for more),
+/// then its general combiner stages.
+pub fn pixel_clocks(model: &CostModel, samples: u32, stages: u32) -> f64 {
+    let per_clock = model.samples_per_clock.max(1);
+    let trips = samples.div_ceil(per_clock).max(1);
+    f64::from(trips) + f64::from(stages) * model.clocks_per_general_combiner
+}
+
+/// Bilinear samples a fragment of the pass fetches: one per texture unit,
+/// two for a trilinear (mipmapped) texture, which reads two levels.
+pub fn texture_samples(pass: &Pass, workload: &Workload) -> u32 {
+    pass.textures.iter().map(|b| if workload.trilinear.contains(&b.texture) { 2 } else { 1 }).sum()
+}
+
+/// Memory bytes of one fragment: the colour written (and read, when the
+/// blend reads the destination), depth, and texels after the cache.
+fn bytes_per_pixel(pass: &Pass, model: &CostModel, samples: u32) -> f64 {
+    let reads_destination = !same_factors(&pass.state.blend, &BlendState::REPLACE);
+    let colour = if reads_destination { 8.0 } else { 4.0 };
+    let depth = if pass.state.depth.func == CompareFunc::Always && !pass.state.depth.write {
+        0.0
+    } else {
+        model.depth_bytes_per_pixel
+    };
+    colour + depth + f64::from(samples) * model.texel_bytes_per_sample
+}
+
+fn same_factors(a: &BlendState, b: &BlendState) -> bool {
+    (a.src_rgb, a.dst_rgb, a.src_alpha, a.dst_alpha, a.equation)
+        == (b.src_rgb, b.dst_rgb, b.src_alpha, b.dst_alpha, b.equation)
+}
+
+/// Writes the prediction of `workload` into `plan` (its total, and each
+/// pass's time and bound), where `model` is the target's; what `compile
+/// --emit plan` shows.
+pub fn annotate(plan: &mut PassPlan, module: &Module, model: &CostModel, workload: &Workload) {
+    let prediction = predict(plan, module, model, workload);
+    for (pass, time) in plan.passes.iter_mut().zip(&prediction.passes) {
+        pass.predicted = Some(PassPrediction {
+            us: nanoseconds(time.us),
+            bound: time.bound.name().into(),
+            clocks_per_pixel: time.clocks_per_pixel,
+            pixels: time.pixels,
+        });
+    }
+    plan.predicted = Some(FramePrediction {
+        workload: prediction.workload,
+        total_us: nanoseconds(prediction.total_us),
+        clear_us: nanoseconds(prediction.clear_us),
+    });
+}
+
+/// µs rounded to the nanosecond: what a plan document shows.
+fn nanoseconds(us: f64) -> f64 {
+    (us * 1000.0).round() / 1000.0
+}
+
+impl Bound {
+    pub fn name(self) -> &'static str {
+        match self {
+            Bound::Vertex => "vertex",
+            Bound::Setup => "setup",
+            Bound::Fill => "fill",
+            Bound::Memory => "memory",
+            Bound::Compiler => "compiler",
+        }
+    }
+}
+
+/// The time of one pass on the nominal workload (ns, rounded), for the
+/// planner's comparison of plans that fit (issue 19 item 4): fill (texture
+/// trips, combiner stages), memory (a blend reading the destination), a
+/// render-to-texture copy, the pass overhead. Vertex work is left out: every
+/// piece of one statement draws the same mesh.
+pub fn nominal_pass_ns(
+    model: &CostModel,
+    samples: u32,
+    stages: u32,
+    reads_destination: bool,
+    to_texture: bool,
+) -> u64 {
+    let (w, h) = Workload::nominal().resolution;
+    let pixels = f64::from(w) * f64::from(h);
+    let shade_us =
+        pixels * pixel_clocks(model, samples, stages) / (f64::from(model.pixel_pipes) * model.clock_mhz);
+    let colour = if reads_destination { 8.0 } else { 4.0 };
+    let bytes = colour + model.depth_bytes_per_pixel + f64::from(samples) * model.texel_bytes_per_sample;
+    let memory_us = pixels * bytes / bytes_per_us(model);
+    let copy_us = if to_texture { pixels * 8.0 / bytes_per_us(model) } else { 0.0 };
+    ((shade_us.max(memory_us) + copy_us + model.pass_overhead_us) * 1000.0).round() as u64
+}
