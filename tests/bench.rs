@@ -174,6 +174,19 @@ fn bench_quick_writes_the_report_the_plots_and_the_differences() {
         );
     }
     assert!(md.contains("## Removed work") && md.contains("lights_matte_floor"), "{md}");
+    // Issue 19: the predicted section ranks each group by predicted time
+    // (ascending) and has seeds/000 §5.4's table.
+    let predicted = &md[md.find("## Predicted on the hardware").expect("predicted section")..];
+    let ranked: Vec<f64> = predicted
+        .lines()
+        .take_while(|l| !l.starts_with("**Specular"))
+        .filter(|l| {
+            l.starts_with("| ") && l.split('|').nth(1).is_some_and(|c| c.trim().parse::<u32>().is_ok())
+        })
+        .map(|l| l.split('|').nth(5).unwrap().trim().parse().unwrap())
+        .collect();
+    assert!(ranked.len() >= 5 && ranked.windows(2).all(|w| w[0] <= w[1]), "{ranked:?}\n{predicted}");
+    assert!(predicted.contains("| Phong, register-combiner normalization |"), "{predicted}");
     // Each fixed9 row says what ran: Kilgard's passes on the emulated combiners.
     let kilgard = md
         .lines()

@@ -67,11 +67,13 @@ pub fn run(args: &BenchArgs) -> ExitCode {
         Ok(report) => {
             for m in &report.measured {
                 println!(
-                    "{:<24} {:>10} {:>7} {:>8.2} ms  RMSE {:.5}  max {:>5.1}/255",
+                    "{:<24} {:>10} {:>7} {:>8.2} ms on the CPU  {}  RMSE {:.5}  max {:>5.1}/255",
                     m.variant.name,
                     m.variant.target,
                     m.variant.mode.name(),
                     m.time.as_secs_f64() * 1e3,
+                    m.predicted_ms
+                        .map_or("predicted    —    ".to_string(), |p| format!("predicted {p:>7.3} ms")),
                     m.error.rmse,
                     m.error.max_abs * 255.0
                 );
