@@ -120,7 +120,8 @@ pub struct CompileArgs {
     pub no_approx: bool,
     /// Accept only approximations whose stated error bound is at most E
     /// (an approximation with no bound of its own, such as a per-vertex
-    /// one, is then refused).
+    /// one, is then refused); of the lowerings within E, the one the
+    /// target's cost model predicts fastest (docs/cost-model.md).
     #[arg(long, value_name = "E")]
     pub max_error: Option<f64>,
 }

@@ -173,8 +173,10 @@ impl Fits<'_> {
 ///
 /// The program as written first; only when that does not plan, lowered
 /// (issue 18, [`crate::lowering`]) — each choice of rules, most accurate
-/// first, until one plans within `request.lowering`; the program's own
-/// refusal when none does.
+/// first, until one plans within `request.lowering`; with `--max-error`
+/// every choice within the bound is planned and the one the target's cost
+/// model predicts fastest is taken (issue 19); the program's own refusal
+/// when none plans.
 pub fn plan(module: &Module, profile: &Profile, request: &Request) -> Result<Planned, Vec<Diagnostic>> {
     let written = plan_as_written(module, profile, request);
     // The exhaustive search is the optimality test's reference for the
@@ -185,6 +187,7 @@ pub fn plan(module: &Module, profile: &Profile, request: &Request) -> Result<Pla
     let index = request.source.map(|s| (LineIndex::new(s), s));
     let at = |span: Span| at_text(&index, span);
     let mut tried: Option<(Vec<String>, String)> = None;
+    let mut fitting: Vec<Planned> = Vec::new();
     for choice in crate::lowering::choices(profile) {
         let lowered = crate::lowering::lower(module, profile, choice, &at);
         if lowered.approximations.is_empty() || !lowered.within(&request.lowering) {
@@ -193,7 +196,10 @@ pub fn plan(module: &Module, profile: &Profile, request: &Request) -> Result<Pla
         match plan_as_written(&lowered.module, profile, request) {
             Ok(mut planned) => {
                 planned.plan.approximations = lowered.approximations;
-                return Ok(planned);
+                fitting.push(planned);
+                if request.lowering.max_error.is_none() {
+                    break; // the most accurate that plans
+                }
             }
             Err(errors) => {
                 let mut rules: Vec<String> = lowered.approximations.iter().map(|a| a.rule.clone()).collect();
@@ -202,6 +208,9 @@ pub fn plan(module: &Module, profile: &Profile, request: &Request) -> Result<Pla
                 tried.get_or_insert((rules, first));
             }
         }
+    }
+    if let Some(planned) = fastest_lowering(fitting, profile) {
+        return Ok(planned);
     }
     written.map_err(|mut errors| {
         // What the lowering tried, so that the refusal does not read as if
@@ -216,6 +225,43 @@ pub fn plan(module: &Module, profile: &Profile, request: &Request) -> Result<Pla
         }
         errors
     })
+}
+
+/// Of lowered plans that fit, the one the target's cost model predicts
+/// fastest on the nominal workload (the first, the most accurate, on a tie
+/// or without a model); its first approximation says so when it beat
+/// another.
+fn fastest_lowering(fitting: Vec<Planned>, profile: &Profile) -> Option<Planned> {
+    let Some(model) = &profile.cost else { return fitting.into_iter().next() };
+    let nominal = crate::cost::Workload::nominal();
+    let mut timed: Vec<(f64, Planned)> = fitting
+        .into_iter()
+        .map(|p| (crate::cost::predict(&p.plan, &p.module, model, &nominal).total_ms(), p))
+        .collect();
+    let best = (0..timed.len()).min_by(|&a, &b| timed[a].0.total_cmp(&timed[b].0).then(a.cmp(&b)))?;
+    // Choices that came to the same rules are one plan, not a rival.
+    let others: Vec<String> = timed
+        .iter()
+        .enumerate()
+        .filter(|(i, (ms, p))| {
+            *i != best && *ms > timed[best].0 && rule_names(&p.plan) != rule_names(&timed[best].1.plan)
+        })
+        .map(|(_, (ms, p))| format!("{:.3} ms with {}", ms, rule_names(&p.plan)))
+        .collect();
+    let (ms, mut planned) = timed.swap_remove(best);
+    if let (Some(first), false) = (planned.plan.approximations.first_mut(), others.is_empty()) {
+        first.why += &format!(
+            "; the fastest lowering within --max-error: predicted {ms:.3} ms against {}",
+            others.join(", ")
+        );
+    }
+    Some(planned)
+}
+
+fn rule_names(plan: &PassPlan) -> String {
+    let mut rules: Vec<&str> = plan.approximations.iter().map(|a| a.rule.as_str()).collect();
+    rules.dedup();
+    rules.join(" + ")
 }
 
 /// `line:col` of `span`, `-` without a source or for a built node.
@@ -1382,4 +1428,42 @@ pub fn generated_program(ops: usize) -> String {
         );
     }
     s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::pipeline::{Approximation, ApproximationCost};
+
+    fn planned(source: &str, profile: &Profile, rule: &str) -> Planned {
+        let mut p = crate::driver::compile(source, profile, &Default::default()).unwrap().planned;
+        p.plan.approximations = vec![Approximation {
+            rule: rule.into(),
+            at: "1:1".into(),
+            why: format!("lowered by {rule}"),
+            cost: ApproximationCost::default(),
+            error_bound: Some(0.01),
+        }];
+        p
+    }
+
+    /// With `--max-error`, of the lowerings that fit the faster is taken,
+    /// whatever its place in the accuracy order, and it says so (issue 19).
+    #[test]
+    fn the_fastest_lowering_within_the_error_budget_is_taken() {
+        let source = include_str!("../../examples/kilgard_bump_mapping.shd");
+        let geforce3 = Profile::builtin("geforce3").unwrap();
+        let mut slow = geforce3.clone();
+        slow.cost.as_mut().unwrap().clocks_per_general_combiner = 2.0;
+        let fused = planned(source, &geforce3, "first_rule");
+        let apart = planned(source, &slow, "second_rule");
+        assert_eq!((fused.plan.passes.len(), apart.plan.passes.len()), (1, 3));
+        let chosen = fastest_lowering(vec![fused.clone(), apart], &slow).unwrap();
+        assert_eq!(chosen.plan.approximations[0].rule, "second_rule");
+        assert!(chosen.plan.approximations[0].why.contains("the fastest lowering within --max-error"));
+        // On the real GeForce3 the fused pass is faster: the first is kept.
+        let again = planned(source, &slow, "second_rule");
+        let chosen = fastest_lowering(vec![fused, again], &geforce3).unwrap();
+        assert_eq!(chosen.plan.approximations[0].rule, "first_rule");
+    }
 }
