@@ -155,7 +155,34 @@ fn criterion_sphere(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, criterion_sphere);
+/// Issue 22 item 3: the same plan (tests/data/lights/phong_lights.shd on
+/// wgsl, one pass per light, f32) end to end — full shading against
+/// adaptive shading of the plan's own fragment stage, as `shadec render
+/// --adaptive 0.085` runs it.
+fn criterion_plan_sphere(c: &mut Criterion) {
+    use shadec::driver::{compile, ForScene, PlanOptions};
+    use shadec::numerics::Precision;
+    use shadec::renderer::plan::PlanRenderer;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene = Scene::load(&root.join("scenes/adaptive_sphere_4lights.ron")).unwrap();
+    let assets = scene.build().unwrap();
+    let source = std::fs::read_to_string(root.join("tests/data/lights/phong_lights.shd")).unwrap();
+    let profile = shadec::profile::Profile::builtin("wgsl").unwrap();
+    let options = PlanOptions { scene: Some(ForScene::specialized(&scene, &assets)), ..Default::default() };
+    let compiled = compile(&source, &profile, &options).unwrap();
+    let renderer = PlanRenderer::new(&compiled.planned, &compiled.program, &scene, &assets).unwrap();
+    let (w, h) = scene.resolution;
+    let mut g = c.benchmark_group("plan_sphere_4lights");
+    g.sample_size(20);
+    g.bench_function("full", |b| b.iter(|| renderer.render(Precision::F32, w, h, &mut |_, _| {}).unwrap()));
+    let settings = AdaptiveSettings::new(16, 0.085, EdgeMode::Pass);
+    g.bench_function("adaptive_8.5%", |b| {
+        b.iter(|| renderer.render_adaptive(Precision::F32, w, h, &settings, &mut |_, _| {}).unwrap())
+    });
+    g.finish();
+}
+
+criterion_group!(benches, criterion_sphere, criterion_plan_sphere);
 
 fn main() {
     let md = table();

@@ -162,6 +162,16 @@ const INTERPOLATED: u8 = 4;
 /// Set on top of a state when the fragment stage discarded.
 const DISCARD_BIT: u8 = 0x80;
 
+/// A draw's colour and state buffers, one entry per pixel.
+type Buffers = (Vec<[f32; 4]>, Vec<u8>);
+
+thread_local! {
+    /// The colour and state buffers of the last draw on this thread, reused
+    /// by the next (a plan draws one adaptive pass per light): fresh
+    /// megabytes per pass cost their page faults every time.
+    static SCRATCH: std::cell::Cell<Option<Buffers>> = const { std::cell::Cell::new(None) };
+}
+
 /// Draws `passes` in order with adaptive sample shading. Depth testing,
 /// culling and blending follow each pass's state; the stencil must be disabled.
 pub fn draw_adaptive(
@@ -177,11 +187,26 @@ pub fn draw_adaptive(
     let (ids, depth) = visible(target, passes, &setups, &offsets);
 
     let max_varyings = setups.iter().map(|s| s.n_varyings).max().unwrap_or(0);
-    let ctx = Ctx { passes, setups: &setups, offsets: &offsets, ids: &ids, w, h, settings: *settings };
+    let keys = surface_keys(&ids, &offsets, settings.edges);
+    let edges = edge_map(&keys, w, h);
+    let ctx = Ctx {
+        passes,
+        setups: &setups,
+        offsets: &offsets,
+        ids: &ids,
+        keys: &keys,
+        edges: &edges,
+        w,
+        h,
+        settings: *settings,
+    };
 
     // 2. Scanlines: every `spacing`-th row and the last one.
-    let mut color = vec![[0.0f32; 4]; w * h];
-    let mut state = vec![UNKNOWN; w * h];
+    let (mut color, mut state) = SCRATCH.with(|s| s.take()).unwrap_or_default();
+    color.clear();
+    color.resize(w * h, [0.0; 4]);
+    state.clear();
+    state.resize(w * h, UNKNOWN);
     let row_stats = ctx.scanlines(&mut color, &mut state, max_varyings);
 
     // 3. Columns between consecutive regular rows.
@@ -193,6 +218,7 @@ pub fn draw_adaptive(
     stats.covered = ids.iter().filter(|&&id| id != NONE).count() as u64;
 
     ctx.write_through(target, &depth, &color, &state);
+    SCRATCH.with(|s| s.set(Some((color, state))));
     Ok(stats)
 }
 
@@ -243,8 +269,10 @@ fn visible(
 ) -> (Vec<u32>, Vec<f32>) {
     let (w, h) = (target.width() as usize, target.height() as usize);
     let mut ids = vec![NONE; w * h];
-    let mut depth: Vec<f32> =
-        (0..w * h).map(|i| target.depth((i % w) as u32, (i / w) as u32).unwrap_or(1.0)).collect();
+    let mut depth: Vec<f32> = (0..w * h)
+        .into_par_iter()
+        .map(|i| target.depth((i % w) as u32, (i / w) as u32).unwrap_or(1.0))
+        .collect();
     ids.par_chunks_mut(TILE * w).zip(depth.par_chunks_mut(TILE * w)).enumerate().for_each(
         |(band, (ids, depth))| {
             let y0 = (band * TILE) as i32;
@@ -332,11 +360,41 @@ fn visibility(
     }
 }
 
+/// The surface key of every pixel's visible primitive (see [`EdgeMode`]),
+/// computed once: every later step compares keys of neighbours.
+fn surface_keys(ids: &[u32], offsets: &[usize], edges: EdgeMode) -> Vec<u32> {
+    ids.par_iter()
+        .map(|&id| match edges {
+            _ if id == NONE => NONE,
+            EdgeMode::Triangle => id,
+            EdgeMode::Pass => (offsets.partition_point(|&o| o <= id as usize) - 1) as u32,
+        })
+        .collect()
+}
+
+/// Whether each pixel is an edge sample: a 4-neighbour shows another
+/// surface (Section 2.1.3), computed once per draw.
+fn edge_map(keys: &[u32], w: usize, h: usize) -> Vec<bool> {
+    (0..w * h)
+        .into_par_iter()
+        .map(|i| {
+            let (x, y, k) = (i % w, i / w, keys[i]);
+            (x > 0 && keys[i - 1] != k)
+                || (x + 1 < w && keys[i + 1] != k)
+                || (y > 0 && keys[i - w] != k)
+                || (y + 1 < h && keys[i + w] != k)
+        })
+        .collect()
+}
+
 struct Ctx<'a> {
     passes: &'a [Pass<'a>],
     setups: &'a [PassSetup],
     offsets: &'a [usize],
     ids: &'a [u32],
+    /// Per pixel: the surface key ([`surface_keys`]) and whether it is an edge.
+    keys: &'a [u32],
+    edges: &'a [bool],
     w: usize,
     h: usize,
     settings: AdaptiveSettings,
@@ -387,6 +445,10 @@ impl Ctx<'_> {
                 let mut scratch = vec![0.0f32; max_varyings];
                 let mut stats = AdaptiveStats::default();
                 for x in 0..w {
+                    // A column of background between the rows has nothing to fill.
+                    if (top..=bottom).all(|y| self.keys[y * w + x] == NONE) {
+                        continue;
+                    }
                     vals[0] = reg_color[k * w + x];
                     st[0] = reg_state[k * w + x];
                     vals[len - 1] = reg_color[(k + 1) * w + x];
@@ -411,49 +473,40 @@ impl Ctx<'_> {
             .reduce(AdaptiveStats::default, std::ops::Add::add)
     }
 
-    /// Writes the shaded pixels through each pass's depth and blend state.
+    /// Writes the shaded pixels through each pass's depth and blend state,
+    /// tiles in parallel (each pixel belongs to one tile).
     fn write_through(&self, target: &mut Framebuffer, depth: &[f32], color: &[[f32; 4]], state: &[u8]) {
-        for y in 0..self.h {
-            for x in 0..self.w {
-                let i = y * self.w + x;
-                let id = self.ids[i];
-                if id == NONE || state[i] & DISCARD_BIT != 0 || state[i] == UNKNOWN {
-                    continue;
+        let tiles_x = target.tiles_x();
+        target.tiles.par_iter_mut().enumerate().for_each(|(t, tile)| {
+            let (x0, y0) = ((t % tiles_x) * TILE, (t / tiles_x) * TILE);
+            for y in y0..(y0 + TILE).min(self.h) {
+                for x in x0..(x0 + TILE).min(self.w) {
+                    let i = y * self.w + x;
+                    let id = self.ids[i];
+                    if id == NONE || state[i] & DISCARD_BIT != 0 || state[i] == UNKNOWN {
+                        continue;
+                    }
+                    let pass = &self.passes[self.pass_of(id)];
+                    let idx = (y - y0) * TILE + (x - x0);
+                    if pass.state.depth.write {
+                        tile.depth[idx] = depth[i];
+                    }
+                    tile.blend_color(idx, &color[i], &pass.state.blend);
                 }
-                let pass = &self.passes[self.pass_of(id)];
-                let (t, idx) = ((y / TILE) * target.tiles_x() + x / TILE, (y % TILE) * TILE + x % TILE);
-                let tile = &mut target.tiles[t];
-                if pass.state.depth.write {
-                    tile.depth[idx] = depth[i];
-                }
-                tile.blend_color(idx, &color[i], &pass.state.blend);
             }
-        }
+        });
     }
     fn pass_of(&self, id: u32) -> usize {
         // offsets is sorted; the pass is the last offset ≤ id.
         self.offsets.partition_point(|&o| o <= id as usize) - 1
     }
 
-    /// The surface key of a primitive id (see [`EdgeMode`]).
-    fn key(&self, id: u32) -> u32 {
-        match self.settings.edges {
-            _ if id == NONE => NONE,
-            EdgeMode::Triangle => id,
-            EdgeMode::Pass => self.pass_of(id) as u32,
-        }
-    }
-
     fn key_at(&self, x: usize, y: usize) -> u32 {
-        self.key(self.ids[y * self.w + x])
+        self.keys[y * self.w + x]
     }
 
     fn is_edge(&self, x: usize, y: usize) -> bool {
-        let k = self.key_at(x, y);
-        (x > 0 && self.key_at(x - 1, y) != k)
-            || (x + 1 < self.w && self.key_at(x + 1, y) != k)
-            || (y > 0 && self.key_at(x, y - 1) != k)
-            || (y + 1 < self.h && self.key_at(x, y + 1) != k)
+        self.edges[y * self.w + x]
     }
 
     /// Runs the fragment stage of the primitive visible at (x, y).
@@ -524,10 +577,24 @@ impl Ctx<'_> {
             }
             work.push(i);
         };
-        for y in 0..h {
+        // Rows with a jump between neighbours of one surface, found in
+        // parallel; the scan below visits only these. A jump that appears
+        // only once a pixel has been reshaded involves that pixel, and the
+        // flood fill from it finds the jump: the result is the same.
+        let jumps = |y: usize| {
+            (0..w).any(|x| {
+                let i = y * w + x;
+                let key = self.keys[i];
+                key != NONE
+                    && ((x + 1 < w && self.keys[i + 1] == key && differs(color[i], color[i + 1]))
+                        || (y + 1 < h && self.keys[i + w] == key && differs(color[i], color[i + w])))
+            })
+        };
+        let rows: Vec<usize> = (0..h).into_par_iter().filter(|&y| jumps(y)).collect();
+        for y in rows {
             for x in 0..w {
                 let i = y * w + x;
-                let key = self.key(self.ids[i]);
+                let key = self.keys[i];
                 if key == NONE {
                     continue;
                 }
@@ -536,7 +603,7 @@ impl Ctx<'_> {
                         .into_iter()
                         .flatten()
                 {
-                    if self.key(self.ids[j]) != key || !differs(color[i], color[j]) {
+                    if self.keys[j] != key || !differs(color[i], color[j]) {
                         continue;
                     }
                     for k in [i, j] {
@@ -549,7 +616,7 @@ impl Ctx<'_> {
         }
         while let Some(i) = work.pop() {
             let (x, y) = (i % w, i / w);
-            let key = self.key(self.ids[i]);
+            let key = self.keys[i];
             let neighbours = [
                 (x > 0).then(|| i - 1),
                 (x + 1 < w).then(|| i + 1),
@@ -557,7 +624,7 @@ impl Ctx<'_> {
                 (y + 1 < h).then(|| i + w),
             ];
             for j in neighbours.into_iter().flatten() {
-                if state[j] == INTERPOLATED && self.key(self.ids[j]) == key && differs(color[i], color[j]) {
+                if state[j] == INTERPOLATED && self.keys[j] == key && differs(color[i], color[j]) {
                     reshade(j, color, state, &mut work, stats);
                 }
             }

@@ -286,7 +286,9 @@ impl<'a> PlanRenderer<'a> {
                     targets.insert(name.clone(), self.new_target(pass, mode, format, size)?);
                 }
                 let reads = framebuffer_reads(m, &pi, &targets);
-                let own_depth = targets.get(&name).cloned();
+                // A copy of the target only for the passes that read it (its
+                // size or depth at the pixel): a copy per pass is megabytes.
+                let own_depth = reads_own_target(m, &pi).then(|| targets.get(&name).cloned()).flatten();
                 // A `bake` table is the compiler's work, in float, whatever
                 // the target's arithmetic (issue 18).
                 let mode = if pass.baked && mode == Precision::Fixed9 { Precision::F32 } else { mode };
@@ -520,6 +522,13 @@ impl<'a> PlanRenderer<'a> {
 
 /// Snapshots of the framebuffers a pass reads (another's, or its own in a
 /// screen pass), by framebuffer id.
+/// Whether the pass reads its own target's size or depth (`xs`, `δu`).
+fn reads_own_target(m: &Module, pi: &PassInterface) -> bool {
+    let mut roots = vec![pi.output];
+    roots.extend(pi.condition);
+    m.reachable(&roots).into_iter().any(|h| matches!(m.exprs[h], Expr::Pixel { .. } | Expr::TexelCoord))
+}
+
 fn framebuffer_reads(
     m: &Module,
     pi: &PassInterface,
