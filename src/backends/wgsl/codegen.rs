@@ -79,8 +79,9 @@
 //! 4.2): a pass whose setup the combiner code generator makes
 //! ([`crate::backends::combiners::codegen::generate_for_pass`]) computes in
 //! f32 only its texels and interpolated colours, rounds them to 8 bits and
-//! calls the setup as integer code (`rc1::combiners_function`, spliced in
-//! by `with_combiners`), bit-exact with the emulator and so with the CPU
+//! calls the setup as integer code (`rc1::combiners_function`, parsed into
+//! the module the pass is built on: `combiners_module`), bit-exact with the
+//! emulator and so with the CPU
 //! renderer's `fixed9`. A pass the generator refuses models the combiners
 //! per operation (seeds/000 Section 5.2, `docs/combiners.md`): every
 //! per-fragment arithmetic result is rounded to 1/255 (nearest, ties toward
@@ -209,6 +210,9 @@ fn generate_pass(
     let mut g = Gen::new(planned, index, interface.clone(), names, precision);
     if precision == Precision::Fixed9 {
         g.combiners = crate::backends::combiners::codegen::generate_for_pass(planned, index).ok();
+        if let Some(generated) = &g.combiners {
+            g.module = combiners_module(&generated.config).map_err(|e| internal(span, &e))?;
+        }
     }
     g.build().map_err(|e| match e {
         GenError::Unsupported { what, at } => {
@@ -227,12 +231,6 @@ fn generate_pass(
         naga::valid::Capabilities::default(),
     );
     let info = validator.validate(&module).map_err(|e| internal(span, &error_chain(&e)))?;
-    let (module, info) = match &g.combiners {
-        Some(generated) => {
-            with_combiners(&module, &info, &generated.config).map_err(|e| internal(span, &e))?
-        }
-        None => (module, info),
-    };
     let label = pass_label(planned, index);
     let mut src = Vec::new();
     if let Some(text) = source {
@@ -262,36 +260,17 @@ fn generate_pass(
     })
 }
 
-/// Replaces the stub `register_combiners` of `module` by the setup's text
-/// (`rc1::combiners_function`) and its helpers, through WGSL: the module is
-/// written, the stub's text swapped, and the result parsed and validated
-/// again by naga.
-fn with_combiners(
-    module: &naga::Module,
-    info: &naga::valid::ModuleInfo,
-    config: &crate::backends::combiners::CombinerConfig,
-) -> Result<(naga::Module, naga::valid::ModuleInfo), String> {
+/// The module a hardware-fidelity pass is built on (issue 17): the setup as
+/// one WGSL function (`rc1::combiners_function`, the integer code `shadec
+/// translate` writes and the GPU tests hold bit-exact with the emulator)
+/// and its helpers, parsed by naga on their own. The pass's shader is then
+/// appended to this module as IR and calls the function by its handle —
+/// nothing searches or splices generated text. Parsing the function's text
+/// rather than building it as IR keeps one writer of the combiners' WGSL.
+fn combiners_module(config: &crate::backends::combiners::CombinerConfig) -> Result<naga::Module, String> {
     use super::rc1;
-    let text = naga::back::wgsl::write_string(module, info, naga::back::wgsl::WriterFlags::empty())
-        .map_err(|e| e.to_string())?;
-    let head = format!("fn {}(", rc1::COMBINERS_FUNCTION);
-    let start = text.find(&head).ok_or("the combiners stub is missing")?;
-    let end = text[start..].find("\n}\n").map(|e| start + e + 3).ok_or("the combiners stub does not end")?;
-    let spliced = format!(
-        "{}{}{}{}",
-        &text[..start],
-        rc1::combiners_function(config).trim_start(),
-        &text[end..],
-        rc1::combiners_helpers()
-    );
-    let module = naga::front::wgsl::parse_str(&spliced).map_err(|e| e.emit_to_string(&spliced))?;
-    let info = naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::default(),
-    )
-    .validate(&module)
-    .map_err(|e| e.emit_to_string(&spliced))?;
-    Ok((module, info))
+    let text = format!("{}{}", rc1::combiners_function(config), rc1::combiners_helpers());
+    naga::front::wgsl::parse_str(&text).map_err(|e| e.emit_to_string(&text))
 }
 
 fn internal(span: Span, msg: &str) -> Diagnostic {
@@ -1207,8 +1186,7 @@ impl<'a> Gen<'a> {
     /// units and the interpolated primary and secondary colours — rounds
     /// each to 8 bits as the machine's inputs are, and calls the setup as
     /// `rc1::combiners_function` writes it (i32 arithmetic, bit-exact with
-    /// the emulator). The call goes to a stub here; `generate_pass` puts
-    /// the function's text in. The result is widened as the CPU renderer's
+    /// the emulator), already in the module (`combiners_module`). The result is widened as the CPU renderer's
     /// `fixed9` widens it (a scalar splatted, rgb with alpha 1).
     fn fragment_combiners(&mut self, b: &mut Body, g: &crate::backends::combiners::Generated) -> R<NH> {
         let pass = &self.planned.plan.passes[self.pass_index];
@@ -1298,32 +1276,15 @@ impl<'a> Gen<'a> {
             });
         }
         args.push(b.plain(Expression::ZeroValue(vec4))); // fog
-                                                         // The stub: same signature, replaced by the setup's text.
-        let mut stub = Body::new(super::rc1::COMBINERS_FUNCTION, Stage::Fragment);
-        for (i, name) in [
-            "in_texture0",
-            "in_texture1",
-            "in_texture2",
-            "in_texture3",
-            "in_primary",
-            "in_secondary",
-            "in_constant0",
-            "in_constant1",
-            "in_fog",
-        ]
-        .iter()
-        .enumerate()
-        {
-            stub.f.arguments.push(FunctionArgument {
-                name: Some((*name).into()),
-                ty: if i < 6 { ivec4 } else { vec4 },
-                binding: None,
-            });
-        }
-        stub.f.result = Some(FunctionResult { ty: vec4, binding: None });
-        let z = stub.plain(Expression::ZeroValue(vec4));
-        stub.f.body.push(Statement::Return { value: Some(z) }, naga::Span::UNDEFINED);
-        let f = self.module.functions.append(stub.f, naga::Span::UNDEFINED);
+                                                         // The setup's function, parsed into the module before the pass was
+                                                         // built on it (`combiners_module`).
+        let f = self
+            .module
+            .functions
+            .iter()
+            .find(|(_, f)| f.name.as_deref() == Some(super::rc1::COMBINERS_FUNCTION))
+            .map(|(h, _)| h)
+            .ok_or_else(|| GenError::Internal("the module has no register-combiner function".into()))?;
         let result = b.plain(Expression::CallResult(f));
         b.f.body.push(
             Statement::Call { function: f, arguments: args, result: Some(result) },
