@@ -82,23 +82,77 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
     if template.is_empty() {
         return out;
     }
-    if let Some(v) = m.vectors.iter().find(|v| {
-        matches!(v.kind, Some(VectorKind::Light | VectorKind::Half | VectorKind::Intensity))
-            && v.index.unwrap_or(0) > 0
-    }) {
-        out.notes.push(Removed {
-            kind: "note".into(),
-            what: "per-light passes".into(),
-            why: format!(
-                "the program names light {} explicitly (`{}`), so it is not replicated per scene light",
-                v.index.unwrap_or(0),
-                v.name
-            ),
-            at: at(v.span),
-        });
+    if let Some(note) = explicit_light_note(m, at) {
+        out.notes.push(note);
         return out;
     }
-    // Nodes that depend on light 0.
+    let dep = light_dependent(m, &template);
+    // Light i's copies of the template vectors.
+    let mut copies: HashMap<(VectorId, u32), VectorId> = HashMap::new();
+    let mut new_statements: Vec<LightCopy> = Vec::new();
+    for k in 0..m.statements.len() {
+        let st = m.statements[k].clone();
+        if !dep.contains(&st.value) {
+            continue;
+        }
+        let note = |why: String| Removed {
+            kind: "note".into(),
+            what: format!("statement {}", k + 1),
+            why,
+            at: at(st.span),
+        };
+        let split = match split_statement(m, &dep, &st) {
+            Ok(split) => split,
+            Err(Some(why)) => {
+                out.notes.push(note(why));
+                continue;
+            }
+            Err(None) => continue,
+        };
+        out.statements.push(LightStatement {
+            statement: k,
+            source_statement: k,
+            light: 0,
+            without_light: Some(split.without),
+            light_terms: split.light_sum,
+        });
+        let mut lights = Replication { template: &template, copies: &mut copies, split: &split, st: &st };
+        for i in 1..n_lights as u32 {
+            match lights.statement_for(m, i) {
+                Ok(Some((value, term))) => {
+                    new_statements.push((k, Statement { value, ..st.clone() }, i, term))
+                }
+                Ok(None) => {}
+                Err(why) => out.notes.push(note(why)),
+            }
+        }
+    }
+    insert_light_statements(m, new_statements, &mut out);
+    out
+}
+
+/// The note for a program that names a light other than light 0: it
+/// addresses lights explicitly, so it is not replicated (module docs).
+fn explicit_light_note(m: &Module, at: &dyn Fn(Span) -> String) -> Option<Removed> {
+    let v = m.vectors.iter().find(|v| {
+        matches!(v.kind, Some(VectorKind::Light | VectorKind::Half | VectorKind::Intensity))
+            && v.index.unwrap_or(0) > 0
+    })?;
+    Some(Removed {
+        kind: "note".into(),
+        what: "per-light passes".into(),
+        why: format!(
+            "the program names light {} explicitly (`{}`), so it is not replicated per scene light",
+            v.index.unwrap_or(0),
+            v.name
+        ),
+        at: at(v.span),
+    })
+}
+
+/// The nodes that depend on light 0's vectors (`template`): the ones whose
+/// light terms are replicated.
+fn light_dependent(m: &Module, template: &[VectorId]) -> HashSet<Handle<Expr>> {
     let mut dep: HashSet<Handle<Expr>> = HashSet::new();
     for i in 0..m.exprs.len() {
         let h = Handle::new(i);
@@ -111,132 +165,157 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
             dep.insert(h);
         }
     }
-    // Light i's copies of the template vectors.
-    let mut copies: HashMap<(VectorId, u32), VectorId> = HashMap::new();
-    let n_statements = m.statements.len();
-    let mut new_statements: Vec<(usize, Statement, u32, Handle<Expr>)> = Vec::new();
-    for k in 0..n_statements {
-        let st = m.statements[k].clone();
-        if !dep.contains(&st.value) {
-            continue;
+    dep
+}
+
+/// A colour statement read as `own ⊕[add] light terms` (module docs): what
+/// each further light's statement is built from.
+struct LightSplit {
+    /// The statement's own target, `C δπx`.
+    own: Handle<Expr>,
+    /// The sum of its light terms (light 0's vectors).
+    light_sum: Handle<Expr>,
+    /// Its value without the light terms (the once terms, or zero).
+    without: Handle<Expr>,
+}
+
+/// Splits statement `st` into its light and once terms (module docs);
+/// `Err(Some(why))` when it is light 0 only, `Err(None)` when it is skipped
+/// silently.
+fn split_statement(
+    m: &mut Module,
+    dep: &HashSet<Handle<Expr>>,
+    st: &Statement,
+) -> Result<LightSplit, Option<String>> {
+    let (fb, own) = match st.table {
+        Table::Framebuffer { id, channel: FbChannel::Color } if st.freq == Frequency::Fragment => (
+            id,
+            m.exprs.find(&Expr::FramebufferRead {
+                framebuffer: id,
+                channel: FbChannel::Color,
+                position: st.index,
+            }),
+        ),
+        _ => {
+            return Err(Some(
+                "it depends on the light but is not a colour statement on a mesh: light 0 only".into(),
+            ))
         }
-        let note = |why: String| Removed {
-            kind: "note".into(),
-            what: format!("statement {}", k + 1),
-            why,
-            at: at(st.span),
-        };
-        let (fb, own) = match st.table {
-            Table::Framebuffer { id, channel: FbChannel::Color } if st.freq == Frequency::Fragment => (
-                id,
-                m.exprs.find(&Expr::FramebufferRead {
-                    framebuffer: id,
-                    channel: FbChannel::Color,
-                    position: st.index,
-                }),
-            ),
-            _ => {
-                out.notes.push(note(
-                    "it depends on the light but is not a colour statement on a mesh: light 0 only".into(),
-                ));
-                continue;
-            }
-        };
-        let own_alpha = m.exprs.find(&Expr::FramebufferRead {
-            framebuffer: fb,
-            channel: FbChannel::Alpha,
-            position: st.index,
-        });
-        let mut terms = Vec::new();
-        if let Err(why) = decompose(m, &dep, st.value, false, &mut terms) {
-            out.notes.push(note(format!("{why}: light 0 only")));
-            continue;
-        }
-        let reads_own = |m: &Module, h: Handle<Expr>| {
-            m.reachable(&[h]).into_iter().any(|n| {
-                Some(n) == own
-                    || Some(n) == own_alpha
-                    || matches!(m.exprs[n], Expr::FramebufferRead { framebuffer, .. } if framebuffer == fb)
-            })
-        };
-        let (light, once): (Vec<_>, Vec<_>) = terms.into_iter().partition(|(h, _)| dep.contains(h));
-        if light.iter().any(|(h, _)| reads_own(m, *h)) {
-            out.notes.push(note(
-                "its light term reads its own target (as Kilgard's `(α C) · specular` does): light 0 only"
-                    .into(),
-            ));
-            continue;
-        }
-        // The framebuffer appears only as `C + …` (a term C itself) or not at all.
-        if once.iter().any(|(h, neg)| reads_own(m, *h) && (Some(*h) != own || *neg)) {
-            out.notes.push(note("its framebuffer operation is not a replacement or an addition (a product does not distribute over lights): light 0 only".into()));
-            continue;
-        }
-        let ty = m.info(st.value).ty;
-        let without = match sum(m, &once) {
-            Some(h) => Some(h),
-            None if once.is_empty() => Builder { module: m }.constant(ty, 0.0),
-            None => None,
-        };
-        let (Some(light_sum), Some(without)) = (sum(m, &light), without) else {
-            out.notes.push(note("its light terms could not be summed: light 0 only".into()));
-            continue;
-        };
-        let Some(own) = own.or_else(|| {
+    };
+    let own_alpha = m.exprs.find(&Expr::FramebufferRead {
+        framebuffer: fb,
+        channel: FbChannel::Alpha,
+        position: st.index,
+    });
+    let mut terms = Vec::new();
+    if let Err(why) = decompose(m, dep, st.value, false, &mut terms) {
+        return Err(Some(format!("{why}: light 0 only")));
+    }
+    let reads_own = |m: &Module, h: Handle<Expr>| {
+        m.reachable(&[h]).into_iter().any(|n| {
+            Some(n) == own
+                || Some(n) == own_alpha
+                || matches!(m.exprs[n], Expr::FramebufferRead { framebuffer, .. } if framebuffer == fb)
+        })
+    };
+    let (light, once): (Vec<_>, Vec<_>) = terms.into_iter().partition(|(h, _)| dep.contains(h));
+    if light.iter().any(|(h, _)| reads_own(m, *h)) {
+        return Err(Some(
+            "its light term reads its own target (as Kilgard's `(α C) · specular` does): light 0 only".into(),
+        ));
+    }
+    // The framebuffer appears only as `C + …` (a term C itself) or not at all.
+    if once.iter().any(|(h, neg)| reads_own(m, *h) && (Some(*h) != own || *neg)) {
+        return Err(Some("its framebuffer operation is not a replacement or an addition (a product does not distribute over lights): light 0 only".into()));
+    }
+    let ty = m.info(st.value).ty;
+    let without = match sum(m, &once) {
+        Some(h) => Some(h),
+        None if once.is_empty() => Builder { module: m }.constant(ty, 0.0),
+        None => None,
+    };
+    let (Some(light_sum), Some(without)) = (sum(m, &light), without) else {
+        return Err(Some("its light terms could not be summed: light 0 only".into()));
+    };
+    let own = own
+        .or_else(|| {
             m.intern(
                 Expr::FramebufferRead { framebuffer: fb, channel: FbChannel::Color, position: st.index },
                 Span::DETACHED,
             )
             .ok()
-        }) else {
-            continue;
+        })
+        .ok_or(None)?;
+    Ok(LightSplit { own, light_sum, without })
+}
+
+/// Builds light i's statements from a split statement: its light terms
+/// with light 0's vectors replaced by light i's copies (seeds/001 (9)).
+struct Replication<'a> {
+    template: &'a [VectorId],
+    /// Light i's copies of the template vectors, shared by all statements.
+    copies: &'a mut HashMap<(VectorId, u32), VectorId>,
+    split: &'a LightSplit,
+    st: &'a Statement,
+}
+
+/// Light i's statement value and its light terms.
+type LightValue = (Handle<Expr>, Handle<Expr>);
+
+impl Replication<'_> {
+    /// Light i's value `own ⊕[add] terms_i` and its light terms; `Ok(None)`
+    /// when the substitution fails, `Err(why)` when the term does not add.
+    fn statement_for(&mut self, m: &mut Module, i: u32) -> Result<Option<LightValue>, String> {
+        let map = self.light_vectors(m, i);
+        let Some(term) = super::substitute(m, self.split.light_sum, &map) else { return Ok(None) };
+        let term = match m.info(term).ty {
+            Ty::Rgb => m.intern(Expr::Convert { value: term, to: Ty::Rgba }, m.span(term)).ok(),
+            Ty::Rgba | Ty::Scalar => Some(term),
+            _ => None,
         };
-        out.statements.push(LightStatement {
-            statement: k,
-            source_statement: k,
-            light: 0,
-            without_light: Some(without),
-            light_terms: light_sum,
-        });
-        for i in 1..n_lights as u32 {
-            let mut map = HashMap::new();
-            for h in m.reachable(&[light_sum]) {
-                if let Expr::Vector { vector, site } = m.exprs[h] {
-                    if template.contains(&vector) {
-                        let copy = *copies.entry((vector, i)).or_insert_with(|| {
-                            let v = &m.vectors[vector as usize];
-                            let c = Vector {
-                                name: format!("{}#{i}", v.name),
-                                kind: v.kind,
-                                index: Some(i),
-                                space: v.space,
-                                span: v.span,
-                            };
-                            m.vectors.push(c);
-                            (m.vectors.len() - 1) as VectorId
-                        });
-                        if let Ok(n) = m.intern(Expr::Vector { vector: copy, site }, m.span(h)) {
-                            map.insert(h, n);
-                        }
+        let Some(value) = term.and_then(|t| {
+            m.intern(Expr::Combine { mode: CombineMode::Add, lhs: self.split.own, rhs: t }, self.st.span).ok()
+        }) else {
+            return Err(format!("light {i}'s term does not add to a colour: light 0 only"));
+        };
+        Ok(Some((value, term.unwrap_or(value))))
+    }
+
+    /// Light 0's vector nodes under the light terms mapped to light i's
+    /// copies (each copy declared once, named `name#i`).
+    fn light_vectors(&mut self, m: &mut Module, i: u32) -> HashMap<Handle<Expr>, Handle<Expr>> {
+        let mut map = HashMap::new();
+        for h in m.reachable(&[self.split.light_sum]) {
+            if let Expr::Vector { vector, site } = m.exprs[h] {
+                if self.template.contains(&vector) {
+                    let copy = *self.copies.entry((vector, i)).or_insert_with(|| {
+                        let v = &m.vectors[vector as usize];
+                        let c = Vector {
+                            name: format!("{}#{i}", v.name),
+                            kind: v.kind,
+                            index: Some(i),
+                            space: v.space,
+                            span: v.span,
+                        };
+                        m.vectors.push(c);
+                        (m.vectors.len() - 1) as VectorId
+                    });
+                    if let Ok(n) = m.intern(Expr::Vector { vector: copy, site }, m.span(h)) {
+                        map.insert(h, n);
                     }
                 }
             }
-            let Some(term) = super::substitute(m, light_sum, &map) else { continue };
-            let term = match m.info(term).ty {
-                Ty::Rgb => m.intern(Expr::Convert { value: term, to: Ty::Rgba }, m.span(term)).ok(),
-                Ty::Rgba | Ty::Scalar => Some(term),
-                _ => None,
-            };
-            let Some(value) = term.and_then(|t| {
-                m.intern(Expr::Combine { mode: CombineMode::Add, lhs: own, rhs: t }, st.span).ok()
-            }) else {
-                out.notes.push(note(format!("light {i}'s term does not add to a colour: light 0 only")));
-                continue;
-            };
-            new_statements.push((k, Statement { value, ..st.clone() }, i, term.unwrap_or(value)));
         }
+        map
     }
-    // Insert light i's statements right after their statement, in light order.
+}
+
+/// Light i's copy of statement k: (k, the statement, i, its light terms).
+type LightCopy = (usize, Statement, u32, Handle<Expr>);
+
+/// Inserts light i's statements right after their statement, in light
+/// order, and renumbers `out` to the expanded module.
+fn insert_light_statements(m: &mut Module, new_statements: Vec<LightCopy>, out: &mut Expansion) {
     let mut by_source: HashMap<usize, Vec<(Statement, u32, Handle<Expr>)>> = HashMap::new();
     for (k, st, i, term) in new_statements {
         by_source.entry(k).or_default().push((st, i, term));
@@ -271,7 +350,6 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
         .collect();
     out.statements.extend(added);
     out.statements.sort_by_key(|s| s.statement);
-    out
 }
 
 /// The terms of a sum of products (module docs); `Err` when a light term
