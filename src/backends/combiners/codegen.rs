@@ -791,101 +791,13 @@ impl Gen<'_> {
                 let x = if self.is_one(lhs, part) { rhs } else { lhs };
                 self.src(x, part, sat)
             }
-            Expr::Uniform(id) => {
-                let u = &self.m.uniforms[id as usize];
-                let color = u.default.map(|c| to_color(&c)).unwrap_or([0.0; 4]);
-                let comp = match (u.ty, part) {
-                    (Ty::Scalar, _) | (_, Part::Alpha) => Comp::Alpha,
-                    _ => Comp::Rgb,
-                };
-                let k = self.konst(h, color, u.default.is_some(), comp)?;
-                Ok(Src { base: Base::K(k), comp, map: UnsignedIdentity })
-            }
+            Expr::Uniform(id) => self.uniform_src(h, id, part),
             Expr::Lookup { .. } | Expr::FramebufferRead { channel: FbChannel::Color | FbChannel::Alpha, .. } if self.units.contains(&h) || matches!(self.expr(h), Expr::Lookup { .. }) => {
-                let unit = self.units.iter().position(|u| *u == h).ok_or_else(|| {
-                    unsupported(span, "a texture lookup not bound to a texture unit of this pass", "list it in the pass's texture units")
-                })?;
-                let reg = Register::texture(unit as u8).expect("at most four units, checked");
-                let comp = match (self.ty(h), part) {
-                    (Ty::Scalar, _) => Comp::Alpha,
-                    (_, Part::Alpha) => Comp::Alpha,
-                    _ => Comp::Rgb,
-                };
-                Ok(Src { base: Base::Reg(reg), comp, map: UnsignedIdentity })
+                self.texture_src(h, part)
             }
-            Expr::Interpolate { .. } => {
-                let info = self.m.info(h);
-                if info.interval.hi > 1.0 && info.interval.lo >= 0.0 && matches!(info.ty, Ty::Rgb | Ty::Rgba | Ty::Scalar) && !sat {
-                    // GL clamps vertex colours to [0, 1]: exact only where the consumer clamps too.
-                    return Err(self.range(h));
-                }
-                // A vector range-compressed into [0, 1] (Kilgard's `L·0.5 + 0.5`
-                // per vertex, seeds/003 Section 5) is three colour channels too.
-                let colour = matches!(info.ty, Ty::Rgb | Ty::Rgba | Ty::Scalar)
-                    || (info.ty == Ty::Vec3 && info.interval.hi <= 1.0);
-                if !colour || info.interval.lo < 0.0 {
-                    return Err(unsupported(
-                        span,
-                        format!("an interpolated {} outside [0, 1]", info.ty.name()),
-                        "the primary and secondary colours are unsigned (seeds/003 Table 2): interpolate a direction as texture coordinates into a normalization cube map and `expand` the lookup (Section 5.2)",
-                    ));
-                }
-                let reg = match self.colors.iter().position(|c| *c == Some(h)) {
-                    Some(0) => Register::Primary,
-                    Some(_) => Register::Secondary,
-                    None => match self.colors.iter().position(Option::is_none) {
-                        Some(0) => {
-                            self.colors[0] = Some(h);
-                            Register::Primary
-                        }
-                        Some(_) => {
-                            self.colors[1] = Some(h);
-                            Register::Secondary
-                        }
-                        None => return Err(CodegenError::OutOfColors { span }),
-                    },
-                };
-                let comp = match (info.ty, part) {
-                    (Ty::Scalar, _) | (_, Part::Alpha) => Comp::Alpha,
-                    _ => Comp::Rgb,
-                };
-                Ok(Src { base: Base::Reg(reg), comp, map: UnsignedIdentity })
-            }
-            Expr::Swizzle { value, pattern, len, .. } => {
-                let p = &pattern[..len as usize];
-                let vty = self.ty(value);
-                if p == [0, 1, 2] {
-                    self.src(value, Part::Rgb, sat)
-                } else if p == [3] && vty == Ty::Rgba {
-                    self.src(value, Part::Alpha, sat)
-                } else if p == [2] && vty.width() >= 3 {
-                    let s = self.src(value, Part::Rgb, sat)?;
-                    Ok(match s.comp {
-                        Comp::Rgb => Src { comp: Comp::Blue, ..s },
-                        _ => s,
-                    })
-                } else {
-                    Err(unsupported(
-                        span,
-                        "this component selection",
-                        "the combiners read a register's rgb, its alpha, or (in an alpha portion) its blue (seeds/003 B.4): use `.rgb`, `.a` or `.b`, or a lookup texture that stores the component in alpha",
-                    ))
-                }
-            }
-            Expr::Convert { value, to } => {
-                let vty = self.ty(value);
-                if vty == Ty::Rgb && to == Ty::Rgba {
-                    if part == Part::Alpha {
-                        Ok(Src::ONE)
-                    } else {
-                        self.src(value, Part::Rgb, sat)
-                    }
-                } else if vty == Ty::Scalar || vty == to {
-                    self.src(value, Part::Rgb, sat)
-                } else {
-                    Err(unsupported(span, format!("a conversion from {} to {}", vty.name(), to.name()), LOOKUP_HELP))
-                }
-            }
+            Expr::Interpolate { .. } => self.colour_src(h, part, sat),
+            Expr::Swizzle { value, pattern, len, .. } => self.swizzle_src(h, value, &pattern[..len as usize], sat),
+            Expr::Convert { value, to } => self.convert_src(h, value, to, part, sat),
             Expr::Compose { .. } => match self.part_node(h, part) {
                 Some(Some(inner)) => self.src(inner, Part::Rgb, sat),
                 Some(None) => Ok(Src::ONE),
@@ -896,33 +808,9 @@ impl Gen<'_> {
                 )),
             },
             Expr::Math { fun: fun @ (MathFunction::Expand | MathFunction::HalfBias), ref args } => {
-                let s = self.src(args[0], part, false)?;
-                let map = match (fun, s.map) {
-                    (MathFunction::Expand, UnsignedIdentity) => Some(ExpandNormal),
-                    (MathFunction::Expand, UnsignedInvert) => Some(ExpandNegate),
-                    (MathFunction::HalfBias, UnsignedIdentity) => Some(HalfBiasNormal),
-                    (MathFunction::HalfBias, UnsignedInvert) => Some(HalfBiasNegate),
-                    (_, SignedIdentity) if self.lo(args[0]) >= 0.0 => {
-                        Some(if fun == MathFunction::Expand { ExpandNormal } else { HalfBiasNormal })
-                    }
-                    _ => None,
-                };
-                match map {
-                    Some(map) => Ok(Src { map, ..s }),
-                    None => self.materialise(h, part, sat),
-                }
+                self.mapped_src(h, fun, args[0], part, sat)
             }
-            Expr::Unary { op: UnaryOp::Neg, value } => {
-                let s = self.src(value, part, false)?;
-                let map = match s.map {
-                    UnsignedIdentity if self.lo(value) >= 0.0 => Some(SignedNegate),
-                    m => negated(m),
-                };
-                match map {
-                    Some(map) => Ok(Src { map, ..s }),
-                    None => self.materialise(h, part, sat),
-                }
-            }
+            Expr::Unary { op: UnaryOp::Neg, value } => self.negated_src(h, value, part, sat),
             Expr::Math { fun: MathFunction::Saturate, ref args } => {
                 let s = self.src(args[0], part, true)?;
                 self.unsigned(s, span)
@@ -959,6 +847,171 @@ impl Gen<'_> {
             | Expr::Select { reject: Some(_), .. }
             | Expr::Math { fun: MathFunction::Mix | MathFunction::Compress, .. } => self.materialise(h, part, sat),
             other => Err(self.unsupported_node(h, &other)),
+        }
+    }
+
+    /// A uniform as a source: its default value in a constant register
+    /// (CONSTANT_COLOR0/1, seeds/003 Table 2).
+    fn uniform_src(&mut self, h: Handle<Expr>, id: u32, part: Part) -> R<Src> {
+        let u = &self.m.uniforms[id as usize];
+        let color = u.default.map(|c| to_color(&c)).unwrap_or([0.0; 4]);
+        let comp = match (u.ty, part) {
+            (Ty::Scalar, _) | (_, Part::Alpha) => Comp::Alpha,
+            _ => Comp::Rgb,
+        };
+        let k = self.konst(h, color, u.default.is_some(), comp)?;
+        Ok(Src { base: Base::K(k), comp, map: UnsignedIdentity })
+    }
+
+    /// A texture lookup (or a framebuffer read bound to a unit) as a
+    /// source: the TEXTUREi register of its texture unit (seeds/003 Table 2).
+    fn texture_src(&mut self, h: Handle<Expr>, part: Part) -> R<Src> {
+        let span = self.m.span(h);
+        let unit = self.units.iter().position(|u| *u == h).ok_or_else(|| {
+            unsupported(
+                span,
+                "a texture lookup not bound to a texture unit of this pass",
+                "list it in the pass's texture units",
+            )
+        })?;
+        let reg = Register::texture(unit as u8).expect("at most four units, checked");
+        let comp = match (self.ty(h), part) {
+            (Ty::Scalar, _) => Comp::Alpha,
+            (_, Part::Alpha) => Comp::Alpha,
+            _ => Comp::Rgb,
+        };
+        Ok(Src { base: Base::Reg(reg), comp, map: UnsignedIdentity })
+    }
+
+    /// An interpolated colour as a source: the PRIMARY_COLOR or
+    /// SECONDARY_COLOR register (seeds/003 Table 2), unsigned, so only a
+    /// value in [0, 1] (or one the consumer clamps) is exact.
+    fn colour_src(&mut self, h: Handle<Expr>, part: Part, sat: bool) -> R<Src> {
+        let span = self.m.span(h);
+        let info = self.m.info(h);
+        if info.interval.hi > 1.0
+            && info.interval.lo >= 0.0
+            && matches!(info.ty, Ty::Rgb | Ty::Rgba | Ty::Scalar)
+            && !sat
+        {
+            // GL clamps vertex colours to [0, 1]: exact only where the consumer clamps too.
+            return Err(self.range(h));
+        }
+        // A vector range-compressed into [0, 1] (Kilgard's `L·0.5 + 0.5`
+        // per vertex, seeds/003 Section 5) is three colour channels too.
+        let colour = matches!(info.ty, Ty::Rgb | Ty::Rgba | Ty::Scalar)
+            || (info.ty == Ty::Vec3 && info.interval.hi <= 1.0);
+        if !colour || info.interval.lo < 0.0 {
+            return Err(unsupported(
+                span,
+                format!("an interpolated {} outside [0, 1]", info.ty.name()),
+                "the primary and secondary colours are unsigned (seeds/003 Table 2): interpolate a direction as texture coordinates into a normalization cube map and `expand` the lookup (Section 5.2)",
+            ));
+        }
+        let reg = match self.colors.iter().position(|c| *c == Some(h)) {
+            Some(0) => Register::Primary,
+            Some(_) => Register::Secondary,
+            None => match self.colors.iter().position(Option::is_none) {
+                Some(0) => {
+                    self.colors[0] = Some(h);
+                    Register::Primary
+                }
+                Some(_) => {
+                    self.colors[1] = Some(h);
+                    Register::Secondary
+                }
+                None => return Err(CodegenError::OutOfColors { span }),
+            },
+        };
+        let comp = match (info.ty, part) {
+            (Ty::Scalar, _) | (_, Part::Alpha) => Comp::Alpha,
+            _ => Comp::Rgb,
+        };
+        Ok(Src { base: Base::Reg(reg), comp, map: UnsignedIdentity })
+    }
+
+    /// A component selection as a source: a register's rgb, its alpha, or
+    /// (in an alpha portion) its blue (seeds/003 B.4).
+    fn swizzle_src(&mut self, h: Handle<Expr>, value: Handle<Expr>, p: &[u8], sat: bool) -> R<Src> {
+        let span = self.m.span(h);
+        let vty = self.ty(value);
+        if p == [0, 1, 2] {
+            self.src(value, Part::Rgb, sat)
+        } else if p == [3] && vty == Ty::Rgba {
+            self.src(value, Part::Alpha, sat)
+        } else if p == [2] && vty.width() >= 3 {
+            let s = self.src(value, Part::Rgb, sat)?;
+            Ok(match s.comp {
+                Comp::Rgb => Src { comp: Comp::Blue, ..s },
+                _ => s,
+            })
+        } else {
+            Err(unsupported(
+                span,
+                "this component selection",
+                "the combiners read a register's rgb, its alpha, or (in an alpha portion) its blue (seeds/003 B.4): use `.rgb`, `.a` or `.b`, or a lookup texture that stores the component in alpha",
+            ))
+        }
+    }
+
+    /// A widening conversion as a source: an rgb's widened alpha reads as
+    /// the constant 1, a scalar's broadcast as itself.
+    fn convert_src(&mut self, h: Handle<Expr>, value: Handle<Expr>, to: Ty, part: Part, sat: bool) -> R<Src> {
+        let span = self.m.span(h);
+        let vty = self.ty(value);
+        if vty == Ty::Rgb && to == Ty::Rgba {
+            if part == Part::Alpha {
+                Ok(Src::ONE)
+            } else {
+                self.src(value, Part::Rgb, sat)
+            }
+        } else if vty == Ty::Scalar || vty == to {
+            self.src(value, Part::Rgb, sat)
+        } else {
+            Err(unsupported(span, format!("a conversion from {} to {}", vty.name(), to.name()), LOOKUP_HELP))
+        }
+    }
+
+    /// `expand(x)` or `half_bias(x)` as a source: an input mapping on `x`'s
+    /// register where one exists (EXPAND_NORMAL, HALF_BIAS_NEGATE, …,
+    /// seeds/003 Table 3), otherwise the value computed in a general
+    /// combiner stage.
+    fn mapped_src(
+        &mut self,
+        h: Handle<Expr>,
+        fun: MathFunction,
+        x: Handle<Expr>,
+        part: Part,
+        sat: bool,
+    ) -> R<Src> {
+        let s = self.src(x, part, false)?;
+        let map = match (fun, s.map) {
+            (MathFunction::Expand, UnsignedIdentity) => Some(ExpandNormal),
+            (MathFunction::Expand, UnsignedInvert) => Some(ExpandNegate),
+            (MathFunction::HalfBias, UnsignedIdentity) => Some(HalfBiasNormal),
+            (MathFunction::HalfBias, UnsignedInvert) => Some(HalfBiasNegate),
+            (_, SignedIdentity) if self.lo(x) >= 0.0 => {
+                Some(if fun == MathFunction::Expand { ExpandNormal } else { HalfBiasNormal })
+            }
+            _ => None,
+        };
+        match map {
+            Some(map) => Ok(Src { map, ..s }),
+            None => self.materialise(h, part, sat),
+        }
+    }
+
+    /// `−x` as a source: the negating input mapping of `x`'s (seeds/003
+    /// Table 3), otherwise the value computed in a general combiner stage.
+    fn negated_src(&mut self, h: Handle<Expr>, value: Handle<Expr>, part: Part, sat: bool) -> R<Src> {
+        let s = self.src(value, part, false)?;
+        let map = match s.map {
+            UnsignedIdentity if self.lo(value) >= 0.0 => Some(SignedNegate),
+            m => negated(m),
+        };
+        match map {
+            Some(map) => Ok(Src { map, ..s }),
+            None => self.materialise(h, part, sat),
         }
     }
 
