@@ -26,7 +26,9 @@
 //! a light term under a ⊕ mode that is not linear in it (`decal`, `blend`,
 //! `replace`, `interpolate`, `add_signed`, `dot3`) or under a selection.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::HashSet;
+
+use rustc_hash::FxHashMap as HashMap;
 
 use super::affine::Builder;
 use crate::ir::{
@@ -112,7 +114,7 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
         }
     }
     // Light i's copies of the template vectors.
-    let mut copies: HashMap<(VectorId, u32), VectorId> = HashMap::new();
+    let mut copies: HashMap<(VectorId, u32), VectorId> = HashMap::default();
     let n_statements = m.statements.len();
     let mut new_statements: Vec<(usize, Statement, u32, Handle<Expr>)> = Vec::new();
     for k in 0..n_statements {
@@ -199,7 +201,7 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
             light_terms: light_sum,
         });
         for i in 1..n_lights as u32 {
-            let mut map = HashMap::new();
+            let mut map = HashMap::default();
             for h in m.reachable(&[light_sum]) {
                 if let Expr::Vector { vector, site } = m.exprs[h] {
                     if template.contains(&vector) {
@@ -237,7 +239,7 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
         }
     }
     // Insert light i's statements right after their statement, in light order.
-    let mut by_source: HashMap<usize, Vec<(Statement, u32, Handle<Expr>)>> = HashMap::new();
+    let mut by_source: HashMap<usize, Vec<(Statement, u32, Handle<Expr>)>> = HashMap::default();
     for (k, st, i, term) in new_statements {
         by_source.entry(k).or_default().push((st, i, term));
     }
