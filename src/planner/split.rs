@@ -662,6 +662,7 @@ impl<'a> Splitter<'a> {
             rendered: true,
             baked: false,
             declaration: None,
+            sampling: crate::ir::Sampling::ADDED,
             span: Span::DETACHED,
         });
         (self.module.textures.len() - 1) as u32

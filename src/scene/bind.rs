@@ -169,20 +169,9 @@ pub fn texture_decls(
     let mut out = Vec::new();
     for item in &program.items {
         let ItemKind::Texture(t) = &item.kind else { continue };
-        let has = |a: TextureAttr| t.attrs.iter().any(|w| w.value == a);
-        let mipmap = has(TextureAttr::Mipmap);
-        let filter = if has(TextureAttr::Nearest) {
-            Filter::Nearest
-        } else if has(TextureAttr::Trilinear) || (mipmap && !has(TextureAttr::Bilinear)) {
-            Filter::Trilinear
-        } else {
-            Filter::Bilinear
-        };
-        let wrap = if has(TextureAttr::Clamp) || t.kind.value == TextureKind::Cube {
-            Wrap::ClampToEdge
-        } else {
-            Wrap::Repeat
-        };
+        // The IR's rule for the attributes (one rule for every reader).
+        let attrs: Vec<TextureAttr> = t.attrs.iter().map(|w| w.value).collect();
+        let crate::ir::Sampling { filter, wrap, mipmap } = crate::ir::Sampling::of(t.kind.value, &attrs);
         let source = match &t.source {
             None => TextureSource::Rendered,
             Some(e) => source(e, &numbers),
