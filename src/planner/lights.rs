@@ -84,23 +84,65 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
     if template.is_empty() {
         return out;
     }
-    if let Some(v) = m.vectors.iter().find(|v| {
-        matches!(v.kind, Some(VectorKind::Light | VectorKind::Half | VectorKind::Intensity))
-            && v.index.unwrap_or(0) > 0
-    }) {
-        out.notes.push(Removed {
-            kind: "note".into(),
-            what: "per-light passes".into(),
-            why: format!(
-                "the program names light {} explicitly (`{}`), so it is not replicated per scene light",
-                v.index.unwrap_or(0),
-                v.name
-            ),
-            at: at(v.span),
-        });
+    if let Some(note) = names_a_light(m, at) {
+        out.notes.push(note);
         return out;
     }
-    // Nodes that depend on light 0.
+    let dep = light_dependent(m, &template);
+    let mut r = Replicator { template: &template, dep: &dep, copies: HashMap::default(), at };
+    let mut new_statements: Vec<(usize, Statement, u32, Handle<Expr>)> = Vec::new();
+    for k in 0..m.statements.len() {
+        let st = m.statements[k].clone();
+        if !dep.contains(&st.value) {
+            continue;
+        }
+        let split = match r.split_light_terms(m, k, &st) {
+            Ok(split) => split,
+            Err(note) => {
+                out.notes.extend(note);
+                continue;
+            }
+        };
+        out.statements.push(LightStatement {
+            statement: k,
+            source_statement: k,
+            light: 0,
+            without_light: Some(split.without),
+            light_terms: split.light_sum,
+        });
+        for i in 1..n_lights as u32 {
+            match r.for_light(m, k, &st, &split, i) {
+                Ok(Some((st, term))) => new_statements.push((k, st, i, term)),
+                Ok(None) => {}
+                Err(note) => out.notes.push(note),
+            }
+        }
+    }
+    insert_per_light(m, &mut out, new_statements);
+    out
+}
+
+/// A note when the program names a light other than 0 explicitly: then it
+/// is not replicated per scene light.
+fn names_a_light(m: &Module, at: &dyn Fn(Span) -> String) -> Option<Removed> {
+    let v = m.vectors.iter().find(|v| {
+        matches!(v.kind, Some(VectorKind::Light | VectorKind::Half | VectorKind::Intensity))
+            && v.index.unwrap_or(0) > 0
+    })?;
+    Some(Removed {
+        kind: "note".into(),
+        what: "per-light passes".into(),
+        why: format!(
+            "the program names light {} explicitly (`{}`), so it is not replicated per scene light",
+            v.index.unwrap_or(0),
+            v.name
+        ),
+        at: at(v.span),
+    })
+}
+
+/// The nodes that depend on light 0's vectors (`template`).
+fn light_dependent(m: &Module, template: &[VectorId]) -> HashSet<Handle<Expr>> {
     let mut dep: HashSet<Handle<Expr>> = HashSet::new();
     for i in 0..m.exprs.len() {
         let h = Handle::new(i);
@@ -113,21 +155,40 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
             dep.insert(h);
         }
     }
-    // Light i's copies of the template vectors.
-    let mut copies: HashMap<(VectorId, u32), VectorId> = HashMap::default();
-    let n_statements = m.statements.len();
-    let mut new_statements: Vec<(usize, Statement, u32, Handle<Expr>)> = Vec::new();
-    for k in 0..n_statements {
-        let st = m.statements[k].clone();
-        if !dep.contains(&st.value) {
-            continue;
-        }
-        let note = |why: String| Removed {
-            kind: "note".into(),
-            what: format!("statement {}", k + 1),
-            why,
-            at: at(st.span),
-        };
+    dep
+}
+
+/// A statement's value as `C + Σ light terms + the rest`: what each light
+/// adds, what is written once, and the target's own colour read.
+struct LightSplit {
+    light_sum: Handle<Expr>,
+    without: Handle<Expr>,
+    own: Handle<Expr>,
+}
+
+/// What the replication shares across statements: light 0's vectors, the
+/// nodes depending on them, and light i's copies of each vector.
+struct Replicator<'r> {
+    template: &'r [VectorId],
+    dep: &'r HashSet<Handle<Expr>>,
+    copies: HashMap<(VectorId, u32), VectorId>,
+    at: &'r dyn Fn(Span) -> String,
+}
+
+impl Replicator<'_> {
+    fn note(&self, k: usize, st: &Statement, why: String) -> Removed {
+        Removed { kind: "note".into(), what: format!("statement {}", k + 1), why, at: (self.at)(st.span) }
+    }
+
+    /// Statement `k` as a sum of light terms and the rest, or why it stays
+    /// light 0 only (a product does not distribute over lights); `Err(None)`:
+    /// light 0 only, with nothing to say.
+    fn split_light_terms(
+        &self,
+        m: &mut Module,
+        k: usize,
+        st: &Statement,
+    ) -> Result<LightSplit, Option<Removed>> {
         let (fb, own) = match st.table {
             Table::Framebuffer { id, channel: FbChannel::Color } if st.freq == Frequency::Fragment => (
                 id,
@@ -138,10 +199,11 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
                 }),
             ),
             _ => {
-                out.notes.push(note(
+                return Err(Some(self.note(
+                    k,
+                    st,
                     "it depends on the light but is not a colour statement on a mesh: light 0 only".into(),
-                ));
-                continue;
+                )))
             }
         };
         let own_alpha = m.exprs.find(&Expr::FramebufferRead {
@@ -150,9 +212,8 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
             position: st.index,
         });
         let mut terms = Vec::new();
-        if let Err(why) = decompose(m, &dep, st.value, false, &mut terms) {
-            out.notes.push(note(format!("{why}: light 0 only")));
-            continue;
+        if let Err(why) = decompose(m, self.dep, st.value, false, &mut terms) {
+            return Err(Some(self.note(k, st, format!("{why}: light 0 only"))));
         }
         let reads_own = |m: &Module, h: Handle<Expr>| {
             m.reachable(&[h]).into_iter().any(|n| {
@@ -161,18 +222,17 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
                     || matches!(m.exprs[n], Expr::FramebufferRead { framebuffer, .. } if framebuffer == fb)
             })
         };
-        let (light, once): (Vec<_>, Vec<_>) = terms.into_iter().partition(|(h, _)| dep.contains(h));
+        let (light, once): (Vec<_>, Vec<_>) = terms.into_iter().partition(|(h, _)| self.dep.contains(h));
         if light.iter().any(|(h, _)| reads_own(m, *h)) {
-            out.notes.push(note(
-                "its light term reads its own target (as Kilgard's `(α C) · specular` does): light 0 only"
-                    .into(),
-            ));
-            continue;
+            return Err(Some(self.note(
+                k,
+                st,
+                "its light term reads its own target (as Kilgard's `(α C) · specular` does): light 0 only".into(),
+            )));
         }
         // The framebuffer appears only as `C + …` (a term C itself) or not at all.
         if once.iter().any(|(h, neg)| reads_own(m, *h) && (Some(*h) != own || *neg)) {
-            out.notes.push(note("its framebuffer operation is not a replacement or an addition (a product does not distribute over lights): light 0 only".into()));
-            continue;
+            return Err(Some(self.note(k, st, "its framebuffer operation is not a replacement or an addition (a product does not distribute over lights): light 0 only".into())));
         }
         let ty = m.info(st.value).ty;
         let without = match sum(m, &once) {
@@ -181,64 +241,85 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
             None => None,
         };
         let (Some(light_sum), Some(without)) = (sum(m, &light), without) else {
-            out.notes.push(note("its light terms could not be summed: light 0 only".into()));
-            continue;
+            return Err(Some(self.note(k, st, "its light terms could not be summed: light 0 only".into())));
         };
-        let Some(own) = own.or_else(|| {
+        let own = own.or_else(|| {
             m.intern(
                 Expr::FramebufferRead { framebuffer: fb, channel: FbChannel::Color, position: st.index },
                 Span::DETACHED,
             )
             .ok()
-        }) else {
-            continue;
-        };
-        out.statements.push(LightStatement {
-            statement: k,
-            source_statement: k,
-            light: 0,
-            without_light: Some(without),
-            light_terms: light_sum,
         });
-        for i in 1..n_lights as u32 {
-            let mut map = HashMap::default();
-            for h in m.reachable(&[light_sum]) {
-                if let Expr::Vector { vector, site } = m.exprs[h] {
-                    if template.contains(&vector) {
-                        let copy = *copies.entry((vector, i)).or_insert_with(|| {
-                            let v = &m.vectors[vector as usize];
-                            let c = Vector {
-                                name: format!("{}#{i}", v.name),
-                                kind: v.kind,
-                                index: Some(i),
-                                space: v.space,
-                                span: v.span,
-                            };
-                            m.vectors.push(c);
-                            (m.vectors.len() - 1) as VectorId
-                        });
-                        if let Ok(n) = m.intern(Expr::Vector { vector: copy, site }, m.span(h)) {
-                            map.insert(h, n);
-                        }
-                    }
-                }
-            }
-            let Some(term) = super::substitute(m, light_sum, &map) else { continue };
-            let term = match m.info(term).ty {
-                Ty::Rgb => m.intern(Expr::Convert { value: term, to: Ty::Rgba }, m.span(term)).ok(),
-                Ty::Rgba | Ty::Scalar => Some(term),
-                _ => None,
-            };
-            let Some(value) = term.and_then(|t| {
-                m.intern(Expr::Combine { mode: CombineMode::Add, lhs: own, rhs: t }, st.span).ok()
-            }) else {
-                out.notes.push(note(format!("light {i}'s term does not add to a colour: light 0 only")));
-                continue;
-            };
-            new_statements.push((k, Statement { value, ..st.clone() }, i, term.unwrap_or(value)));
-        }
+        // No node for the target's colour: nothing to add light i to.
+        let own = own.ok_or(None)?;
+        Ok(LightSplit { light_sum, without, own })
     }
-    // Insert light i's statements right after their statement, in light order.
+
+    /// Light i's statement `C ← C ⊕[add] term_i`, with light 0's vectors
+    /// replaced by light i's copies; `None` when the term cannot be built.
+    fn for_light(
+        &mut self,
+        m: &mut Module,
+        k: usize,
+        st: &Statement,
+        split: &LightSplit,
+        i: u32,
+    ) -> Result<Option<(Statement, Handle<Expr>)>, Removed> {
+        let map = self.light_copies(m, split.light_sum, i);
+        let Some(term) = super::substitute(m, split.light_sum, &map) else { return Ok(None) };
+        let term = match m.info(term).ty {
+            Ty::Rgb => m.intern(Expr::Convert { value: term, to: Ty::Rgba }, m.span(term)).ok(),
+            Ty::Rgba | Ty::Scalar => Some(term),
+            _ => None,
+        };
+        let Some(value) = term.and_then(|t| {
+            m.intern(Expr::Combine { mode: CombineMode::Add, lhs: split.own, rhs: t }, st.span).ok()
+        }) else {
+            return Err(self.note(k, st, format!("light {i}'s term does not add to a colour: light 0 only")));
+        };
+        Ok(Some((Statement { value, ..st.clone() }, term.unwrap_or(value))))
+    }
+
+    /// Light 0's vector nodes under `light_sum`, each mapped to light i's copy.
+    fn light_copies(
+        &mut self,
+        m: &mut Module,
+        light_sum: Handle<Expr>,
+        i: u32,
+    ) -> HashMap<Handle<Expr>, Handle<Expr>> {
+        let mut map = HashMap::default();
+        for h in m.reachable(&[light_sum]) {
+            let Expr::Vector { vector, site } = m.exprs[h] else { continue };
+            if !self.template.contains(&vector) {
+                continue;
+            }
+            let copy = *self.copies.entry((vector, i)).or_insert_with(|| {
+                let v = &m.vectors[vector as usize];
+                let c = Vector {
+                    name: format!("{}#{i}", v.name),
+                    kind: v.kind,
+                    index: Some(i),
+                    space: v.space,
+                    span: v.span,
+                };
+                m.vectors.push(c);
+                (m.vectors.len() - 1) as VectorId
+            });
+            if let Ok(n) = m.intern(Expr::Vector { vector: copy, site }, m.span(h)) {
+                map.insert(h, n);
+            }
+        }
+        map
+    }
+}
+
+/// Inserts light i's statements right after their statement, in light
+/// order, and renumbers `out`'s statements and sources.
+fn insert_per_light(
+    m: &mut Module,
+    out: &mut Expansion,
+    new_statements: Vec<(usize, Statement, u32, Handle<Expr>)>,
+) {
     let mut by_source: HashMap<usize, Vec<(Statement, u32, Handle<Expr>)>> = HashMap::default();
     for (k, st, i, term) in new_statements {
         by_source.entry(k).or_default().push((st, i, term));
@@ -273,7 +354,6 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
         .collect();
     out.statements.extend(added);
     out.statements.sort_by_key(|s| s.statement);
-    out
 }
 
 /// The terms of a sum of products (module docs); `Err` when a light term
