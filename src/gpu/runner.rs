@@ -531,66 +531,8 @@ impl<'a> Frame<'a> {
             view_formats: &[],
         });
         let depth_view = depth.create_view(&Default::default());
-        // Rendered textures, each with its own depth/stencil buffer, and a
-        // scratch copy for passes that sample their own target.
-        let mut textures: BTreeMap<String, (wgpu::Texture, wgpu::Texture, wgpu::Texture)> = BTreeMap::new();
-        for (name, t) in &rendered {
-            let size = wgpu::Extent3d { width: t.width, height: t.height, depth_or_array_layers: t.layers };
-            let make = |label: &str, format: wgpu::TextureFormat, usage: wgpu::TextureUsages, layers: u32| {
-                device.create_texture(&wgpu::TextureDescriptor {
-                    label: Some(label),
-                    size: wgpu::Extent3d { depth_or_array_layers: layers, ..size },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format,
-                    usage,
-                    view_formats: &[],
-                })
-            };
-            let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
-                | wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::COPY_SRC
-                | wgpu::TextureUsages::COPY_DST;
-            let texture = make(name, t.format.wgpu(), usage, t.layers);
-            let scratch = make(name, t.format.wgpu(), usage, t.layers);
-            let depth = make(
-                name,
-                depth_format,
-                wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-                1,
-            );
-            textures.insert(name.clone(), (texture, scratch, depth));
-        }
-
-        // Depth snapshots: per pass, per slot (units, then loaded textures) that
-        // reads a depth buffer, an R32Float copy made just before the pass.
-        let depth_source = |name: &Option<String>| -> (&wgpu::Texture, u32, u32) {
-            match name {
-                None => (&depth, target.width, target.height),
-                Some(n) => (&textures[n].2, rendered[n].width, rendered[n].height),
-            }
-        };
-        let mut snapshots: BTreeMap<(usize, usize), (wgpu::Texture, Option<String>)> = BTreeMap::new();
-        for (pass_idx, pass) in passes.iter().enumerate() {
-            let slots = pass.textures.iter().map(|t| &t.data).chain(pass.loaded.iter().map(|l| &l.data));
-            for (slot, data) in slots.enumerate() {
-                if let TextureData::RenderedDepth { name } = data {
-                    let (_, width, height) = depth_source(name);
-                    let copy = device.create_texture(&wgpu::TextureDescriptor {
-                        label: Some("shadec depth snapshot"),
-                        size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-                        mip_level_count: 1,
-                        sample_count: 1,
-                        dimension: wgpu::TextureDimension::D2,
-                        format: wgpu::TextureFormat::R32Float,
-                        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-                        view_formats: &[],
-                    });
-                    snapshots.insert((pass_idx, slot), (copy, name.clone()));
-                }
-            }
-        }
+        let textures = rendered_targets(device, &rendered, depth_format);
+        let snapshots = depth_snapshots(device, target, passes, &rendered);
         let depth_copier = (!snapshots.is_empty()).then(|| DepthCopier::new(device));
 
         let prepared: Vec<Prepared> = passes
@@ -1077,6 +1019,81 @@ fn check_pass(
         return invalid(format!("{} colour outputs into a target of {layers} layer(s)", pass.outputs));
     }
     Ok(())
+}
+/// Rendered textures, each with its own depth/stencil buffer, and a
+/// scratch copy for passes that sample their own target.
+fn rendered_targets(
+    device: &wgpu::Device,
+    rendered: &BTreeMap<String, RenderedTexture>,
+    depth_format: wgpu::TextureFormat,
+) -> BTreeMap<String, (wgpu::Texture, wgpu::Texture, wgpu::Texture)> {
+    let mut textures: BTreeMap<String, (wgpu::Texture, wgpu::Texture, wgpu::Texture)> = BTreeMap::new();
+    for (name, t) in rendered {
+        let size = wgpu::Extent3d { width: t.width, height: t.height, depth_or_array_layers: t.layers };
+        let make = |label: &str, format: wgpu::TextureFormat, usage: wgpu::TextureUsages, layers: u32| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d { depth_or_array_layers: layers, ..size },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC
+            | wgpu::TextureUsages::COPY_DST;
+        let texture = make(name, t.format.wgpu(), usage, t.layers);
+        let scratch = make(name, t.format.wgpu(), usage, t.layers);
+        let depth = make(
+            name,
+            depth_format,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            1,
+        );
+        textures.insert(name.clone(), (texture, scratch, depth));
+    }
+    textures
+}
+
+/// Depth snapshots: per pass, per slot (units, then loaded textures) that
+/// reads a depth buffer, an R32Float copy made just before the pass.
+fn depth_snapshots(
+    device: &wgpu::Device,
+    target: &Target,
+    passes: &[RunPass],
+    rendered: &BTreeMap<String, RenderedTexture>,
+) -> BTreeMap<(usize, usize), (wgpu::Texture, Option<String>)> {
+    let depth_size = |name: &Option<String>| -> (u32, u32) {
+        match name {
+            None => (target.width, target.height),
+            Some(n) => (rendered[n].width, rendered[n].height),
+        }
+    };
+    let mut snapshots: BTreeMap<(usize, usize), (wgpu::Texture, Option<String>)> = BTreeMap::new();
+    for (pass_idx, pass) in passes.iter().enumerate() {
+        let slots = pass.textures.iter().map(|t| &t.data).chain(pass.loaded.iter().map(|l| &l.data));
+        for (slot, data) in slots.enumerate() {
+            if let TextureData::RenderedDepth { name } = data {
+                let (width, height) = depth_size(name);
+                let copy = device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some("shadec depth snapshot"),
+                    size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::R32Float,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                });
+                snapshots.insert((pass_idx, slot), (copy, name.clone()));
+            }
+        }
+    }
+    snapshots
 }
 
 /// `view_of(slot, data)`: the view of a rendered source (slot: the unit,
