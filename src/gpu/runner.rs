@@ -1179,6 +1179,42 @@ fn prepare(
         };
         owned_samplers.push(device.create_sampler(&sampler_descriptor(&settings)));
     }
+    let loaded_views = loaded_textures(pass, view_of, &mut layout_entries);
+    let bind_group_layout = (!layout_entries.is_empty()).then(|| {
+        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label, entries: &layout_entries })
+    });
+    let bind_group = bind_group_layout.as_ref().map(|layout| {
+        let entries = bind_entries(uniform_buffer.as_ref(), &loaded_views, &owned_views, &owned_samplers);
+        device.create_bind_group(&wgpu::BindGroupDescriptor { label, layout, entries: &entries })
+    });
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label,
+        bind_group_layouts: &[bind_group_layout.as_ref()].into_iter().flatten().map(Some).collect::<Vec<_>>(),
+        immediate_size: 0,
+    });
+
+    let pipeline = render_pipeline(device, pass, &shader, &pipeline_layout, (depth_format, color_format));
+    let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label,
+        contents: bytemuck::cast_slice(&pass.vertices.floats),
+        usage: wgpu::BufferUsages::VERTEX,
+    });
+    let index_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label,
+        contents: bytemuck::cast_slice(&pass.indices),
+        usage: wgpu::BufferUsages::INDEX,
+    });
+    Prepared { pipeline, bind_group, vertex_buffer, index_buffer }
+}
+
+/// The textures a pass reads from its own target as it was before the
+/// pass (unfilterable, at their own bindings): their views, and their
+/// layout entries appended.
+fn loaded_textures(
+    pass: &RunPass,
+    view_of: &dyn Fn(usize, &TextureData) -> Option<wgpu::TextureView>,
+    layout_entries: &mut Vec<wgpu::BindGroupLayoutEntry>,
+) -> Vec<(u32, wgpu::TextureView)> {
     let units = pass.textures.len();
     let mut loaded_views = Vec::new();
     for (i, l) in pass.loaded.iter().enumerate() {
@@ -1195,37 +1231,20 @@ fn prepare(
         });
         loaded_views.push((l.binding, view));
     }
-    let bind_group_layout = (!layout_entries.is_empty()).then(|| {
-        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label, entries: &layout_entries })
-    });
-    let bind_group = bind_group_layout.as_ref().map(|layout| {
-        let mut entries = Vec::new();
-        if let Some(buffer) = &uniform_buffer {
-            entries.push(wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() });
-        }
-        for (binding, view) in &loaded_views {
-            entries.push(wgpu::BindGroupEntry {
-                binding: *binding,
-                resource: wgpu::BindingResource::TextureView(view),
-            });
-        }
-        for (texture_idx, (view, sampler)) in owned_views.iter().zip(&owned_samplers).enumerate() {
-            let binding = 1 + 2 * texture_idx as u32;
-            entries
-                .push(wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) });
-            entries.push(wgpu::BindGroupEntry {
-                binding: binding + 1,
-                resource: wgpu::BindingResource::Sampler(sampler),
-            });
-        }
-        device.create_bind_group(&wgpu::BindGroupDescriptor { label, layout, entries: &entries })
-    });
-    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label,
-        bind_group_layouts: &[bind_group_layout.as_ref()].into_iter().flatten().map(Some).collect::<Vec<_>>(),
-        immediate_size: 0,
-    });
+    loaded_views
+}
 
+/// The pass's pipeline: its vertex layout (one attribute per vertex leaf),
+/// culling, depth and stencil, blending and write mask, one colour target
+/// per output.
+fn render_pipeline(
+    device: &wgpu::Device,
+    pass: &RunPass,
+    shader: &wgpu::ShaderModule,
+    pipeline_layout: &wgpu::PipelineLayout,
+    (depth_format, color_format): (wgpu::TextureFormat, wgpu::TextureFormat),
+) -> wgpu::RenderPipeline {
+    let label = Some(pass.label.as_str());
     let mut offset = 0;
     let attributes: Vec<wgpu::VertexAttribute> = pass
         .vertices
@@ -1245,11 +1264,11 @@ fn prepare(
         })
         .collect();
     let state = &pass.state;
-    let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label,
-        layout: Some(&pipeline_layout),
+        layout: Some(pipeline_layout),
         vertex: wgpu::VertexState {
-            module: &shader,
+            module: shader,
             entry_point: Some(&pass.shader.vertex_entry),
             compilation_options: Default::default(),
             buffers: &[Some(wgpu::VertexBufferLayout {
@@ -1277,7 +1296,7 @@ fn prepare(
         }),
         multisample: Default::default(),
         fragment: Some(wgpu::FragmentState {
-            module: &shader,
+            module: shader,
             entry_point: Some(&pass.shader.fragment_entry),
             compilation_options: Default::default(),
             targets: &vec![
@@ -1291,18 +1310,37 @@ fn prepare(
         }),
         multiview_mask: None,
         cache: None,
-    });
-    let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label,
-        contents: bytemuck::cast_slice(&pass.vertices.floats),
-        usage: wgpu::BufferUsages::VERTEX,
-    });
-    let index_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label,
-        contents: bytemuck::cast_slice(&pass.indices),
-        usage: wgpu::BufferUsages::INDEX,
-    });
-    Prepared { pipeline, bind_group, vertex_buffer, index_buffer }
+    })
+}
+
+/// Bind group 0's entries: the uniform block at 0, textures a pass loads
+/// from its own target at their bindings, unit i's view and sampler at
+/// 1 + 2i and 2 + 2i.
+fn bind_entries<'b>(
+    uniform_buffer: Option<&'b wgpu::Buffer>,
+    loaded_views: &'b [(u32, wgpu::TextureView)],
+    owned_views: &'b [wgpu::TextureView],
+    owned_samplers: &'b [wgpu::Sampler],
+) -> Vec<wgpu::BindGroupEntry<'b>> {
+    let mut entries = Vec::new();
+    if let Some(buffer) = uniform_buffer {
+        entries.push(wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() });
+    }
+    for (binding, view) in loaded_views {
+        entries.push(wgpu::BindGroupEntry {
+            binding: *binding,
+            resource: wgpu::BindingResource::TextureView(view),
+        });
+    }
+    for (texture_idx, (view, sampler)) in owned_views.iter().zip(owned_samplers).enumerate() {
+        let binding = 1 + 2 * texture_idx as u32;
+        entries.push(wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) });
+        entries.push(wgpu::BindGroupEntry {
+            binding: binding + 1,
+            resource: wgpu::BindingResource::Sampler(sampler),
+        });
+    }
+    entries
 }
 
 /// Uploads the texels in `texels`' format (an `Rgba16` image rounded to
