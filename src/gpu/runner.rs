@@ -617,10 +617,46 @@ impl<'a> Frame<'a> {
         self.read_back(device)
     }
 
+    /// The views a pass drawing into rendered texture `t` writes (one per
+    /// output layer); a pass that samples its own target first gets the
+    /// copy it binds, taken now.
+    fn texture_target_views(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        pass: &RunPass,
+        t: &RenderedTexture,
+    ) -> Vec<wgpu::TextureView> {
+        let (texture, scratch, _) = &self.textures[&t.name];
+        if pass
+            .textures
+            .iter()
+            .map(|x| &x.data)
+            .chain(pass.loaded.iter().map(|l| &l.data))
+            .any(|d| matches!(d, TextureData::Rendered { name, .. } if *name == t.name))
+        {
+            // It samples its own target: the copy it binds, taken now.
+            encoder.copy_texture_to_texture(
+                texture.as_image_copy(),
+                scratch.as_image_copy(),
+                wgpu::Extent3d { width: t.width, height: t.height, depth_or_array_layers: t.layers },
+            );
+        }
+        (0..pass.outputs)
+            .map(|layer| {
+                texture.create_view(&wgpu::TextureViewDescriptor {
+                    dimension: Some(wgpu::TextureViewDimension::D2),
+                    base_array_layer: layer,
+                    array_layer_count: Some(1),
+                    ..Default::default()
+                })
+            })
+            .collect()
+    }
+
     fn submit(&self, gpu: &Gpu) {
         let device = &gpu.device;
         let (target, passes, prepared) = (self.target, self.passes, &self.prepared);
-        let (textures, texture_depth_views) = (&self.textures, &self.texture_depth_views);
+        let texture_depth_views = &self.texture_depth_views;
         let (color, depth_view, snapshots) = (&self.color, &self.depth_view, &self.snapshots);
         let (padded_row, readback) = (self.padded_row, &self.readback);
         let size = wgpu::Extent3d { width: target.width, height: target.height, depth_or_array_layers: 1 };
@@ -647,54 +683,12 @@ impl<'a> Frame<'a> {
                         (&main_key, vec![color.create_view(&Default::default())], depth_view)
                     }
                     Some(PassTarget::Texture(t)) => {
-                        let (texture, scratch, _) = &textures[&t.name];
-                        let pass = pass.expect("matched");
-                        if pass
-                            .textures
-                            .iter()
-                            .map(|x| &x.data)
-                            .chain(pass.loaded.iter().map(|l| &l.data))
-                            .any(|d| matches!(d, TextureData::Rendered { name, .. } if *name == t.name))
-                        {
-                            // It samples its own target: the copy it binds, taken now.
-                            encoder.copy_texture_to_texture(
-                                texture.as_image_copy(),
-                                scratch.as_image_copy(),
-                                wgpu::Extent3d {
-                                    width: t.width,
-                                    height: t.height,
-                                    depth_or_array_layers: t.layers,
-                                },
-                            );
-                        }
-                        let views = (0..pass.outputs)
-                            .map(|layer| {
-                                texture.create_view(&wgpu::TextureViewDescriptor {
-                                    dimension: Some(wgpu::TextureViewDimension::D2),
-                                    base_array_layer: layer,
-                                    array_layer_count: Some(1),
-                                    ..Default::default()
-                                })
-                            })
-                            .collect();
+                        let views = self.texture_target_views(&mut encoder, pass.expect("matched"), t);
                         (&t.name, views, &texture_depth_views[&t.name])
                     }
                 };
             let first = cleared.insert(key.clone());
-            let [r, g, b, a] = target.clear_color.map(f64::from);
-            let clear_color =
-                if key.is_empty() { wgpu::Color { r, g, b, a } } else { wgpu::Color::TRANSPARENT };
-            let color_load = if first { wgpu::LoadOp::Clear(clear_color) } else { wgpu::LoadOp::Load };
-            let depth_load = if first {
-                wgpu::LoadOp::Clear(if key.is_empty() { target.clear_depth } else { 1.0 })
-            } else {
-                wgpu::LoadOp::Load
-            };
-            let stencil_load = if first {
-                wgpu::LoadOp::Clear(if key.is_empty() { u32::from(target.clear_stencil) } else { 0 })
-            } else {
-                wgpu::LoadOp::Load
-            };
+            let (color_load, depth_load, stencil_load) = load_ops(target, key.is_empty(), first);
             let color_attachments: Vec<Option<wgpu::RenderPassColorAttachment>> = views
                 .iter()
                 .map(|view| {
@@ -1232,6 +1226,24 @@ fn loaded_textures(
         loaded_views.push((l.binding, view));
     }
     loaded_views
+}
+
+/// How a pass starts on its target: the first pass into a target clears it
+/// (the main target to the frame's clear values, a rendered texture to
+/// transparent black, depth 1, stencil 0), later ones load.
+fn load_ops(
+    target: &Target,
+    main: bool,
+    first: bool,
+) -> (wgpu::LoadOp<wgpu::Color>, wgpu::LoadOp<f32>, wgpu::LoadOp<u32>) {
+    if !first {
+        return (wgpu::LoadOp::Load, wgpu::LoadOp::Load, wgpu::LoadOp::Load);
+    }
+    let [r, g, b, a] = target.clear_color.map(f64::from);
+    let color = if main { wgpu::Color { r, g, b, a } } else { wgpu::Color::TRANSPARENT };
+    let depth = if main { target.clear_depth } else { 1.0 };
+    let stencil = if main { u32::from(target.clear_stencil) } else { 0 };
+    (wgpu::LoadOp::Clear(color), wgpu::LoadOp::Clear(depth), wgpu::LoadOp::Clear(stencil))
 }
 
 /// The pass's pipeline: its vertex layout (one attribute per vertex leaf),
