@@ -791,16 +791,7 @@ impl Gen<'_> {
                 let x = if self.is_one(lhs, part) { rhs } else { lhs };
                 self.src(x, part, sat)
             }
-            Expr::Uniform(id) => {
-                let u = &self.m.uniforms[id as usize];
-                let color = u.default.map(|c| to_color(&c)).unwrap_or([0.0; 4]);
-                let comp = match (u.ty, part) {
-                    (Ty::Scalar, _) | (_, Part::Alpha) => Comp::Alpha,
-                    _ => Comp::Rgb,
-                };
-                let k = self.konst(h, color, u.default.is_some(), comp)?;
-                Ok(Src { base: Base::K(k), comp, map: UnsignedIdentity })
-            }
+            Expr::Uniform(id) => self.uniform_src(h, id, part),
             Expr::Lookup { .. } | Expr::FramebufferRead { channel: FbChannel::Color | FbChannel::Alpha, .. } if self.units.contains(&h) || matches!(self.expr(h), Expr::Lookup { .. }) => {
                 let unit = self.units.iter().position(|u| *u == h).ok_or_else(|| {
                     unsupported(span, "a texture lookup not bound to a texture unit of this pass", "list it in the pass's texture units")
@@ -813,79 +804,9 @@ impl Gen<'_> {
                 };
                 Ok(Src { base: Base::Reg(reg), comp, map: UnsignedIdentity })
             }
-            Expr::Interpolate { .. } => {
-                let info = self.m.info(h);
-                if info.interval.hi > 1.0 && info.interval.lo >= 0.0 && matches!(info.ty, Ty::Rgb | Ty::Rgba | Ty::Scalar) && !sat {
-                    // GL clamps vertex colours to [0, 1]: exact only where the consumer clamps too.
-                    return Err(self.range(h));
-                }
-                // A vector range-compressed into [0, 1] (Kilgard's `L·0.5 + 0.5`
-                // per vertex, seeds/003 Section 5) is three colour channels too.
-                let colour = matches!(info.ty, Ty::Rgb | Ty::Rgba | Ty::Scalar)
-                    || (info.ty == Ty::Vec3 && info.interval.hi <= 1.0);
-                if !colour || info.interval.lo < 0.0 {
-                    return Err(unsupported(
-                        span,
-                        format!("an interpolated {} outside [0, 1]", info.ty.name()),
-                        "the primary and secondary colours are unsigned (seeds/003 Table 2): interpolate a direction as texture coordinates into a normalization cube map and `expand` the lookup (Section 5.2)",
-                    ));
-                }
-                let reg = match self.colors.iter().position(|c| *c == Some(h)) {
-                    Some(0) => Register::Primary,
-                    Some(_) => Register::Secondary,
-                    None => match self.colors.iter().position(Option::is_none) {
-                        Some(0) => {
-                            self.colors[0] = Some(h);
-                            Register::Primary
-                        }
-                        Some(_) => {
-                            self.colors[1] = Some(h);
-                            Register::Secondary
-                        }
-                        None => return Err(CodegenError::OutOfColors { span }),
-                    },
-                };
-                let comp = match (info.ty, part) {
-                    (Ty::Scalar, _) | (_, Part::Alpha) => Comp::Alpha,
-                    _ => Comp::Rgb,
-                };
-                Ok(Src { base: Base::Reg(reg), comp, map: UnsignedIdentity })
-            }
-            Expr::Swizzle { value, pattern, len, .. } => {
-                let p = &pattern[..len as usize];
-                let vty = self.ty(value);
-                if p == [0, 1, 2] {
-                    self.src(value, Part::Rgb, sat)
-                } else if p == [3] && vty == Ty::Rgba {
-                    self.src(value, Part::Alpha, sat)
-                } else if p == [2] && vty.width() >= 3 {
-                    let s = self.src(value, Part::Rgb, sat)?;
-                    Ok(match s.comp {
-                        Comp::Rgb => Src { comp: Comp::Blue, ..s },
-                        _ => s,
-                    })
-                } else {
-                    Err(unsupported(
-                        span,
-                        "this component selection",
-                        "the combiners read a register's rgb, its alpha, or (in an alpha portion) its blue (seeds/003 B.4): use `.rgb`, `.a` or `.b`, or a lookup texture that stores the component in alpha",
-                    ))
-                }
-            }
-            Expr::Convert { value, to } => {
-                let vty = self.ty(value);
-                if vty == Ty::Rgb && to == Ty::Rgba {
-                    if part == Part::Alpha {
-                        Ok(Src::ONE)
-                    } else {
-                        self.src(value, Part::Rgb, sat)
-                    }
-                } else if vty == Ty::Scalar || vty == to {
-                    self.src(value, Part::Rgb, sat)
-                } else {
-                    Err(unsupported(span, format!("a conversion from {} to {}", vty.name(), to.name()), LOOKUP_HELP))
-                }
-            }
+            Expr::Interpolate { .. } => self.interpolant_src(h, part, sat),
+            Expr::Swizzle { value, pattern, len, .. } => self.swizzle_src(value, &pattern, len, sat, span),
+            Expr::Convert { value, to } => self.convert_src(value, to, part, sat, span),
             Expr::Compose { .. } => match self.part_node(h, part) {
                 Some(Some(inner)) => self.src(inner, Part::Rgb, sat),
                 Some(None) => Ok(Src::ONE),
@@ -896,33 +817,9 @@ impl Gen<'_> {
                 )),
             },
             Expr::Math { fun: fun @ (MathFunction::Expand | MathFunction::HalfBias), ref args } => {
-                let s = self.src(args[0], part, false)?;
-                let map = match (fun, s.map) {
-                    (MathFunction::Expand, UnsignedIdentity) => Some(ExpandNormal),
-                    (MathFunction::Expand, UnsignedInvert) => Some(ExpandNegate),
-                    (MathFunction::HalfBias, UnsignedIdentity) => Some(HalfBiasNormal),
-                    (MathFunction::HalfBias, UnsignedInvert) => Some(HalfBiasNegate),
-                    (_, SignedIdentity) if self.lo(args[0]) >= 0.0 => {
-                        Some(if fun == MathFunction::Expand { ExpandNormal } else { HalfBiasNormal })
-                    }
-                    _ => None,
-                };
-                match map {
-                    Some(map) => Ok(Src { map, ..s }),
-                    None => self.materialise(h, part, sat),
-                }
+                self.mapped_src(h, fun, args[0], part, sat)
             }
-            Expr::Unary { op: UnaryOp::Neg, value } => {
-                let s = self.src(value, part, false)?;
-                let map = match s.map {
-                    UnsignedIdentity if self.lo(value) >= 0.0 => Some(SignedNegate),
-                    m => negated(m),
-                };
-                match map {
-                    Some(map) => Ok(Src { map, ..s }),
-                    None => self.materialise(h, part, sat),
-                }
-            }
+            Expr::Unary { op: UnaryOp::Neg, value } => self.negated_src(h, value, part, sat),
             Expr::Math { fun: MathFunction::Saturate, ref args } => {
                 let s = self.src(args[0], part, true)?;
                 self.unsigned(s, span)
@@ -959,6 +856,150 @@ impl Gen<'_> {
             | Expr::Select { reject: Some(_), .. }
             | Expr::Math { fun: MathFunction::Mix | MathFunction::Compress, .. } => self.materialise(h, part, sat),
             other => Err(self.unsupported_node(h, &other)),
+        }
+    }
+
+    /// A uniform: a constant colour holding its value (its default, or what the caller supplies).
+    fn uniform_src(&mut self, h: Handle<Expr>, id: crate::ir::UniformId, part: Part) -> R<Src> {
+        let u = &self.m.uniforms[id as usize];
+        let color = u.default.map(|c| to_color(&c)).unwrap_or([0.0; 4]);
+        let comp = match (u.ty, part) {
+            (Ty::Scalar, _) | (_, Part::Alpha) => Comp::Alpha,
+            _ => Comp::Rgb,
+        };
+        let k = self.konst(h, color, u.default.is_some(), comp)?;
+        Ok(Src { base: Base::K(k), comp, map: UnsignedIdentity })
+    }
+
+    /// `δ v` in the primary or secondary colour (seeds/003 Table 2): unsigned,
+    /// so a value in [0, 1] (or clamped by its consumer) only.
+    fn interpolant_src(&mut self, h: Handle<Expr>, part: Part, sat: bool) -> R<Src> {
+        let span = self.m.span(h);
+        let info = self.m.info(h);
+        if info.interval.hi > 1.0
+            && info.interval.lo >= 0.0
+            && matches!(info.ty, Ty::Rgb | Ty::Rgba | Ty::Scalar)
+            && !sat
+        {
+            // GL clamps vertex colours to [0, 1]: exact only where the consumer clamps too.
+            return Err(self.range(h));
+        }
+        // A vector range-compressed into [0, 1] (Kilgard's `L·0.5 + 0.5`
+        // per vertex, seeds/003 Section 5) is three colour channels too.
+        let colour = matches!(info.ty, Ty::Rgb | Ty::Rgba | Ty::Scalar)
+            || (info.ty == Ty::Vec3 && info.interval.hi <= 1.0);
+        if !colour || info.interval.lo < 0.0 {
+            return Err(unsupported(
+                span,
+                format!("an interpolated {} outside [0, 1]", info.ty.name()),
+                "the primary and secondary colours are unsigned (seeds/003 Table 2): interpolate a direction as texture coordinates into a normalization cube map and `expand` the lookup (Section 5.2)",
+            ));
+        }
+        let reg = match self.colors.iter().position(|c| *c == Some(h)) {
+            Some(0) => Register::Primary,
+            Some(_) => Register::Secondary,
+            None => match self.colors.iter().position(Option::is_none) {
+                Some(0) => {
+                    self.colors[0] = Some(h);
+                    Register::Primary
+                }
+                Some(_) => {
+                    self.colors[1] = Some(h);
+                    Register::Secondary
+                }
+                None => return Err(CodegenError::OutOfColors { span }),
+            },
+        };
+        let comp = match (info.ty, part) {
+            (Ty::Scalar, _) | (_, Part::Alpha) => Comp::Alpha,
+            _ => Comp::Rgb,
+        };
+        Ok(Src { base: Base::Reg(reg), comp, map: UnsignedIdentity })
+    }
+
+    /// A component selection: rgb, alpha, or blue (seeds/003 B.4).
+    fn swizzle_src(
+        &mut self,
+        value: Handle<Expr>,
+        pattern: &[u8; 4],
+        len: u8,
+        sat: bool,
+        span: Span,
+    ) -> R<Src> {
+        let p = &pattern[..len as usize];
+        let vty = self.ty(value);
+        if p == [0, 1, 2] {
+            self.src(value, Part::Rgb, sat)
+        } else if p == [3] && vty == Ty::Rgba {
+            self.src(value, Part::Alpha, sat)
+        } else if p == [2] && vty.width() >= 3 {
+            let s = self.src(value, Part::Rgb, sat)?;
+            Ok(match s.comp {
+                Comp::Rgb => Src { comp: Comp::Blue, ..s },
+                _ => s,
+            })
+        } else {
+            Err(unsupported(
+                span,
+                "this component selection",
+                "the combiners read a register's rgb, its alpha, or (in an alpha portion) its blue (seeds/003 B.4): use `.rgb`, `.a` or `.b`, or a lookup texture that stores the component in alpha",
+            ))
+        }
+    }
+
+    /// `rgb → rgba` (alpha one) or a splat: the value as the part reads it.
+    fn convert_src(&mut self, value: Handle<Expr>, to: Ty, part: Part, sat: bool, span: Span) -> R<Src> {
+        let vty = self.ty(value);
+        if vty == Ty::Rgb && to == Ty::Rgba {
+            if part == Part::Alpha {
+                Ok(Src::ONE)
+            } else {
+                self.src(value, Part::Rgb, sat)
+            }
+        } else if vty == Ty::Scalar || vty == to {
+            self.src(value, Part::Rgb, sat)
+        } else {
+            Err(unsupported(span, format!("a conversion from {} to {}", vty.name(), to.name()), LOOKUP_HELP))
+        }
+    }
+
+    /// `expand(x)` or `half_bias(x)` as an input mapping of x's source
+    /// (seeds/003 Table 3), else computed in a stage.
+    fn mapped_src(
+        &mut self,
+        h: Handle<Expr>,
+        fun: MathFunction,
+        arg: Handle<Expr>,
+        part: Part,
+        sat: bool,
+    ) -> R<Src> {
+        let s = self.src(arg, part, false)?;
+        let map = match (fun, s.map) {
+            (MathFunction::Expand, UnsignedIdentity) => Some(ExpandNormal),
+            (MathFunction::Expand, UnsignedInvert) => Some(ExpandNegate),
+            (MathFunction::HalfBias, UnsignedIdentity) => Some(HalfBiasNormal),
+            (MathFunction::HalfBias, UnsignedInvert) => Some(HalfBiasNegate),
+            (_, SignedIdentity) if self.lo(arg) >= 0.0 => {
+                Some(if fun == MathFunction::Expand { ExpandNormal } else { HalfBiasNormal })
+            }
+            _ => None,
+        };
+        match map {
+            Some(map) => Ok(Src { map, ..s }),
+            None => self.materialise(h, part, sat),
+        }
+    }
+
+    /// `−x` as a negating input mapping, else computed in a stage.
+    fn negated_src(&mut self, h: Handle<Expr>, value: Handle<Expr>, part: Part, sat: bool) -> R<Src> {
+        let s = self.src(value, part, false)?;
+        let map = match s.map {
+            UnsignedIdentity if self.lo(value) >= 0.0 => Some(SignedNegate),
+            m => negated(m),
+        };
+        match map {
+            Some(map) => Ok(Src { map, ..s }),
+            None => self.materialise(h, part, sat),
         }
     }
 
@@ -1181,46 +1222,11 @@ impl Gen<'_> {
         let span = self.m.span(h);
         let spec = match self.expr(h).clone() {
             Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => {
-                let scale =
-                    |g: &Self, k: Handle<Expr>| g.constant(k).filter(|k| [0.5, 2.0, 4.0, 8.0].contains(k));
-                if let Some((k, x)) =
-                    scale(self, lhs).map(|k| (k, rhs)).or_else(|| scale(self, rhs).map(|k| (k, lhs)))
-                {
-                    let inner = self.spec_or_source(x, part)?;
-                    return Ok(Some(self.scaled(inner, k, Some(x), part)?));
+                let (spec, scaled) = self.product_spec(lhs, rhs, part, scalar)?;
+                if scaled {
+                    return Ok(Some(spec));
                 }
-                // `(k · y) · z` where `k · y` is a per-object value seen
-                // through the part it contributes (a uniform colour times a
-                // constant, widened to rgba): `k · (y · z)`, the scale on
-                // the output (issue 16 item 5; Heidrich-Seidel's
-                // `I_light * g_scale * (F·D ⊕ G)`).
-                let scaled_operand = |g: &Self, o: Handle<Expr>| {
-                    let node = match g.part_node(o, part) {
-                        Some(Some(n)) => n,
-                        Some(None) => return None,
-                        None => o,
-                    };
-                    match *g.expr(node) {
-                        Expr::Binary { op: BinaryOp::Mul, lhs: a, rhs: b }
-                            if !g.m.info(node).freq.is_sample() =>
-                        {
-                            scale(g, a).map(|k| (k, b)).or_else(|| scale(g, b).map(|k| (k, a)))
-                        }
-                        _ => None,
-                    }
-                };
-                if let Some((k, y, z)) = scaled_operand(self, lhs)
-                    .map(|(k, y)| (k, y, rhs))
-                    .or_else(|| scaled_operand(self, rhs).map(|(k, y)| (k, y, lhs)))
-                {
-                    let term =
-                        Term { a: self.src(y, part, false)?, b: self.src(z, part, false)?, dot: false };
-                    return Ok(Some(self.scaled(Spec::single(term, scalar), k, None, part)?));
-                }
-                Spec::single(
-                    Term { a: self.src(lhs, part, false)?, b: self.src(rhs, part, false)?, dot: false },
-                    scalar,
-                )
+                spec
             }
             Expr::Binary { op: BinaryOp::Dot, lhs, rhs } => {
                 if self.ty(lhs).width() != 3 || self.is_z_axis(lhs) || self.is_z_axis(rhs) {
@@ -1261,59 +1267,11 @@ impl Gen<'_> {
                 let (ab, cd) = if high { (rej, acc) } else { (acc, rej) };
                 Spec { cd: Some(cd), mux: Some(sel), ..Spec::single(ab, scalar) }
             }
-            Expr::Math { fun: MathFunction::Mix, ref args } => {
-                let (a, b, t) = (args[0], args[1], args[2]);
-                if self.lo(t) < 0.0 || self.hi(t) > 1.0 {
-                    return Err(unsupported(
-                        span,
-                        "`mix` with a weight outside [0, 1]",
-                        "saturate the weight",
-                    ));
-                }
-                let ts = self.src(t, part, false)?;
-                let ts = self.unsigned(ts, span)?;
-                let inv = Src {
-                    map: if ts.map == UnsignedInvert { UnsignedIdentity } else { UnsignedInvert },
-                    ..ts
-                };
-                let ab = Term { a: self.src(a, part, false)?, b: inv, dot: false };
-                let cd = Term { a: self.src(b, part, false)?, b: ts, dot: false };
-                Spec { cd: Some(cd), ..Spec::single(ab, scalar) }
-            }
+            Expr::Math { fun: MathFunction::Mix, ref args } => self.mix_spec(args, part, scalar, span)?,
             Expr::Math {
                 fun: fun @ (MathFunction::Expand | MathFunction::HalfBias | MathFunction::Compress),
                 ref args,
-            } => {
-                let x = args[0];
-                let mut inner = self.spec_or_source(x, part)?;
-                match fun {
-                    MathFunction::Compress => {
-                        // (x + 1) · ½
-                        if inner.cd.is_some()
-                            || inner.mux.is_some()
-                            || inner.ab.dot
-                            || inner.scale != Scale::One
-                            || inner.bias != Bias::Zero
-                        {
-                            inner = Spec::single(Term::times_one(self.src(x, part, false)?), scalar);
-                        }
-                        inner.cd = Some(Term::times_one(Src::ONE));
-                        inner.scale = Scale::OneHalf;
-                    }
-                    _ => {
-                        // expand: (x − ½) · 2; half_bias: x − ½ (bias before scale).
-                        if inner.scale != Scale::One || inner.bias != Bias::Zero {
-                            inner = Spec::single(Term::times_one(self.src(x, part, false)?), scalar);
-                        }
-                        inner.bias = Bias::NegativeOneHalf;
-                        if fun == MathFunction::Expand {
-                            inner.scale = Scale::Two;
-                        }
-                    }
-                }
-                inner.scalar = scalar;
-                inner
-            }
+            } => self.mapped_spec(fun, args[0], part, scalar)?,
             Expr::Unary { op: UnaryOp::Neg, value } => {
                 let t = self.plain_term(value, part)?;
                 Spec::single(self.negate(t, value, part)?, scalar)
@@ -1321,6 +1279,103 @@ impl Gen<'_> {
             _ => return Ok(None),
         };
         Ok(Some(Spec { alpha_only, ..spec }))
+    }
+
+    /// `a · b` as one product, or with a scale of ½, 2, 4 or 8 moved onto
+    /// the portion's output; `true` when scaled (the spec is final).
+    fn product_spec(
+        &mut self,
+        lhs: Handle<Expr>,
+        rhs: Handle<Expr>,
+        part: Part,
+        scalar: bool,
+    ) -> R<(Spec, bool)> {
+        let scale = |g: &Self, k: Handle<Expr>| g.constant(k).filter(|k| [0.5, 2.0, 4.0, 8.0].contains(k));
+        if let Some((k, x)) =
+            scale(self, lhs).map(|k| (k, rhs)).or_else(|| scale(self, rhs).map(|k| (k, lhs)))
+        {
+            let inner = self.spec_or_source(x, part)?;
+            return Ok((self.scaled(inner, k, Some(x), part)?, true));
+        }
+        // `(k · y) · z` where `k · y` is a per-object value seen
+        // through the part it contributes (a uniform colour times a
+        // constant, widened to rgba): `k · (y · z)`, the scale on
+        // the output (issue 16 item 5; Heidrich-Seidel's
+        // `I_light * g_scale * (F·D ⊕ G)`).
+        let scaled_operand = |g: &Self, o: Handle<Expr>| {
+            let node = match g.part_node(o, part) {
+                Some(Some(n)) => n,
+                Some(None) => return None,
+                None => o,
+            };
+            match *g.expr(node) {
+                Expr::Binary { op: BinaryOp::Mul, lhs: a, rhs: b } if !g.m.info(node).freq.is_sample() => {
+                    scale(g, a).map(|k| (k, b)).or_else(|| scale(g, b).map(|k| (k, a)))
+                }
+                _ => None,
+            }
+        };
+        if let Some((k, y, z)) = scaled_operand(self, lhs)
+            .map(|(k, y)| (k, y, rhs))
+            .or_else(|| scaled_operand(self, rhs).map(|(k, y)| (k, y, lhs)))
+        {
+            let term = Term { a: self.src(y, part, false)?, b: self.src(z, part, false)?, dot: false };
+            return Ok((self.scaled(Spec::single(term, scalar), k, None, part)?, true));
+        }
+        Ok((
+            Spec::single(
+                Term { a: self.src(lhs, part, false)?, b: self.src(rhs, part, false)?, dot: false },
+                scalar,
+            ),
+            false,
+        ))
+    }
+
+    /// `mix(a, b, t)` = a·(1 − t) + b·t, t in [0, 1] (UNSIGNED_INVERT).
+    fn mix_spec(&mut self, args: &[Handle<Expr>], part: Part, scalar: bool, span: Span) -> R<Spec> {
+        let (a, b, t) = (args[0], args[1], args[2]);
+        if self.lo(t) < 0.0 || self.hi(t) > 1.0 {
+            return Err(unsupported(span, "`mix` with a weight outside [0, 1]", "saturate the weight"));
+        }
+        let ts = self.src(t, part, false)?;
+        let ts = self.unsigned(ts, span)?;
+        let inv = Src { map: if ts.map == UnsignedInvert { UnsignedIdentity } else { UnsignedInvert }, ..ts };
+        let ab = Term { a: self.src(a, part, false)?, b: inv, dot: false };
+        let cd = Term { a: self.src(b, part, false)?, b: ts, dot: false };
+        Ok(Spec { cd: Some(cd), ..Spec::single(ab, scalar) })
+    }
+
+    /// `expand`, `half_bias` or `compress` of a computed value: the
+    /// portion's output bias and scale (seeds/003 Table 5).
+    fn mapped_spec(&mut self, fun: MathFunction, x: Handle<Expr>, part: Part, scalar: bool) -> R<Spec> {
+        let mut inner = self.spec_or_source(x, part)?;
+        match fun {
+            MathFunction::Compress => {
+                // (x + 1) · ½
+                if inner.cd.is_some()
+                    || inner.mux.is_some()
+                    || inner.ab.dot
+                    || inner.scale != Scale::One
+                    || inner.bias != Bias::Zero
+                {
+                    inner = Spec::single(Term::times_one(self.src(x, part, false)?), scalar);
+                }
+                inner.cd = Some(Term::times_one(Src::ONE));
+                inner.scale = Scale::OneHalf;
+            }
+            _ => {
+                // expand: (x − ½) · 2; half_bias: x − ½ (bias before scale).
+                if inner.scale != Scale::One || inner.bias != Bias::Zero {
+                    inner = Spec::single(Term::times_one(self.src(x, part, false)?), scalar);
+                }
+                inner.bias = Bias::NegativeOneHalf;
+                if fun == MathFunction::Expand {
+                    inner.scale = Scale::Two;
+                }
+            }
+        }
+        inner.scalar = scalar;
+        Ok(inner)
     }
 
     /// The node as a portion computation, or its source times one.
