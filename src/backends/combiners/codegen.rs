@@ -1551,27 +1551,7 @@ impl Gen<'_> {
     /// Adds an operation: picks its portion, fixes up component reads the
     /// portion cannot make, and schedules it. Returns the result's source.
     fn emit(&mut self, mut spec: Spec, span: Span) -> R<Src> {
-        let srcs = |s: &Spec| {
-            let mut v = vec![s.ab.a, s.ab.b];
-            if let Some(cd) = s.cd {
-                v.extend([cd.a, cd.b]);
-            }
-            v
-        };
-        let all = srcs(&spec);
-        let lane = if spec.ab.dot || spec.cd.is_some_and(|t| t.dot) {
-            Lane::Rgb
-        } else if spec.alpha_only {
-            Lane::Alpha
-        } else if !spec.scalar {
-            Lane::Rgb
-        } else if all.iter().any(|s| s.comp == Comp::Blue) {
-            Lane::Alpha
-        } else if all.iter().any(|s| matches!(s.comp, Comp::Bcast | Comp::Rgb) && !self.is_const_reg(s)) {
-            Lane::Rgb
-        } else {
-            Lane::Alpha
-        };
+        let lane = self.lane_of(&spec);
         // A dot product forbids the sum output (B.4): materialise it first.
         if spec.cd.is_some() || spec.mux.is_some() {
             if spec.ab.dot {
@@ -1608,8 +1588,65 @@ impl Gen<'_> {
         if let Some(sel) = spec.mux {
             spec.mux = Some(self.pin_select(sel, span)?);
         }
+        let (stage, in_cd) = self.schedule(&spec, lane, span)?;
+        let out = self.vregs.len();
+        self.vregs.push(VReg { lane, op: self.ops.len(), pin: None, reg: None });
+        self.ops.push(Op {
+            lane,
+            ab: spec.ab,
+            cd: spec.cd,
+            mux: spec.mux,
+            scale: spec.scale,
+            bias: spec.bias,
+            out,
+            stage,
+            in_cd,
+            span,
+        });
+        let comp = match lane {
+            Lane::Alpha => Comp::Alpha,
+            Lane::Rgb if spec.scalar => Comp::Bcast,
+            Lane::Rgb => Comp::Rgb,
+        };
+        Ok(Src { base: Base::V(out), comp, map: SignedIdentity })
+    }
+
+    /// The portion an operation runs in: RGB for dot products and vectors,
+    /// alpha for scalars that read alpha or blue (seeds/003 B.4).
+    fn lane_of(&self, spec: &Spec) -> Lane {
+        let mut all = vec![spec.ab.a, spec.ab.b];
+        if let Some(cd) = spec.cd {
+            all.extend([cd.a, cd.b]);
+        }
+        if spec.ab.dot || spec.cd.is_some_and(|t| t.dot) {
+            Lane::Rgb
+        } else if spec.alpha_only {
+            Lane::Alpha
+        } else if !spec.scalar {
+            Lane::Rgb
+        } else if all.iter().any(|s| s.comp == Comp::Blue) {
+            Lane::Alpha
+        } else if all.iter().any(|s| matches!(s.comp, Comp::Bcast | Comp::Rgb) && !self.is_const_reg(s)) {
+            Lane::Rgb
+        } else {
+            Lane::Alpha
+        }
+    }
+
+    /// The earliest general combiner stage after the operation's inputs
+    /// whose portion is free (or pairs with a lone product of the same
+    /// scale and bias) and whose constant colours fit: its index, and
+    /// whether the operation takes the CD products of a shared portion.
+    fn schedule(&mut self, spec: &Spec, lane: Lane, span: Span) -> R<(usize, bool)> {
+        let srcs = |s: &Spec| {
+            let mut v = vec![s.ab.a, s.ab.b];
+            if let Some(cd) = s.cd {
+                v.extend([cd.a, cd.b]);
+            }
+            v
+        };
         let mut earliest = 0;
-        for s in srcs(&spec).into_iter().chain(spec.mux) {
+        for s in srcs(spec).into_iter().chain(spec.mux) {
             if let Base::V(v) = s.base {
                 earliest = earliest.max(self.ops[self.vregs[v].op].stage + 1);
             }
@@ -1619,7 +1656,7 @@ impl Gen<'_> {
         // constant colours (NV_register_combiners2): an operation goes to a
         // stage whose constants, with its own, are at most two. Without them
         // all constants are global, at most two in all (checked by `konst`).
-        let ks = Self::konsts_of(srcs(&spec).into_iter().chain(spec.mux));
+        let ks = Self::konsts_of(srcs(spec).into_iter().chain(spec.mux));
         let per_stage = self.limits.per_stage_constants;
         if per_stage && ks.len() > 2 {
             return Err(self.out_of_constants(span, "this general combiner operation".into(), &ks));
@@ -1656,26 +1693,7 @@ impl Gen<'_> {
                 self.stage_konsts[stage].push(k);
             }
         }
-        let out = self.vregs.len();
-        self.vregs.push(VReg { lane, op: self.ops.len(), pin: None, reg: None });
-        self.ops.push(Op {
-            lane,
-            ab: spec.ab,
-            cd: spec.cd,
-            mux: spec.mux,
-            scale: spec.scale,
-            bias: spec.bias,
-            out,
-            stage,
-            in_cd,
-            span,
-        });
-        let comp = match lane {
-            Lane::Alpha => Comp::Alpha,
-            Lane::Rgb if spec.scalar => Comp::Bcast,
-            Lane::Rgb => Comp::Rgb,
-        };
-        Ok(Src { base: Base::V(out), comp, map: SignedIdentity })
+        Ok((stage, in_cd))
     }
 
     fn is_const_reg(&self, s: &Src) -> bool {
