@@ -877,33 +877,7 @@ impl<'a> Parser<'a> {
                     if rgb.is_some() || alpha.is_some() {
                         return Err(late("final_product = ...;"));
                     }
-                    self.bump();
-                    self.bump();
-                    let e = self.final_operand()?;
-                    self.expect(Tok::Star, "`*` (final_product = E * F;)")?;
-                    let f = self.final_operand()?;
-                    product = Some(t.span.join(self.expect(Tok::Semi, "`;`")?));
-                    for (op, var) in [(e, 'E'), (f, 'F')] {
-                        if matches!(op.source, Source::FinalProduct | Source::ColorSum) {
-                            return Err(Diagnostic::error(
-                                if op.source == Source::FinalProduct {
-                                    "ef-product-input"
-                                } else {
-                                    "color-sum-input"
-                                },
-                                "invalid input register for final_product",
-                                op.span,
-                                "pseudo-register",
-                            )
-                            .with_help("E and F read ordinary registers"));
-                        }
-                        let input = self.final_input(op, var, true)?;
-                        if var == 'E' {
-                            fc.e = input
-                        } else {
-                            fc.f = input
-                        }
-                    }
+                    product = Some(self.final_product(&mut fc, t.span)?);
                 }
                 Tok::Name("out", Some("rgb")) => {
                     if let Some(first) = rgb {
@@ -920,46 +894,87 @@ impl<'a> Parser<'a> {
                     }
                     self.bump();
                     self.expect(Tok::Equals, "`=`")?;
-                    let g = self.final_operand()?;
-                    if matches!(g.source, Source::FinalProduct | Source::ColorSum) {
-                        return Err(Diagnostic::error(
-                            if g.source == Source::FinalProduct {
-                                "ef-product-input"
-                            } else {
-                                "color-sum-input"
-                            },
-                            "invalid input register for final alpha",
-                            g.span,
-                            "pseudo-register",
-                        )
-                        .with_help("`out.a` reads the alpha of an ordinary register"));
-                    }
-                    fc.g = self.final_input(g, 'G', product.is_some())?;
+                    fc.g = self.final_alpha(product.is_some())?;
                     alpha = Some(t.span.join(self.expect(Tok::Semi, "`;`")?));
                 }
                 _ => break,
             }
         }
         if rgb.is_none() && alpha.is_none() {
-            let t = self.peek();
-            let help = match t.tok {
-                Tok::Name(n, _) => {
-                    match did_you_mean(n, ["out.rgb", "out.a", "clamp_color_sum", "final_product"]) {
-                        Some(m) => format!("did you mean `{m}`?"),
-                        None => "end the program with `out.rgb = ...;` and/or `out.a = ...;`".into(),
-                    }
-                }
-                _ => "end the program with `out.rgb = ...;` and/or `out.a = ...;`".into(),
-            };
-            return Err(syntax(
-                format!("expected the final combiner (`out.rgb = ...;`), found {}", t.tok.describe()),
-                t.span,
-                "expected `out.rgb` or `out.a`",
-                help,
-            ));
+            return Err(self.missing_output());
         }
-        // nvparse's FinalCombinerStruct::Validate: move color_sum out of A
-        // when the expression allows it.
+        self.move_color_sum_out_of_a(&mut fc);
+        Ok(fc)
+    }
+
+    /// `final_product = E * F;` (seeds/003 Table 6): E and F read ordinary
+    /// registers. Returns the statement's span.
+    fn final_product(&mut self, fc: &mut FinalCombiner, start: Span) -> PResult<Span> {
+        self.bump();
+        self.bump();
+        let e = self.final_operand()?;
+        self.expect(Tok::Star, "`*` (final_product = E * F;)")?;
+        let f = self.final_operand()?;
+        let span = start.join(self.expect(Tok::Semi, "`;`")?);
+        for (op, var) in [(e, 'E'), (f, 'F')] {
+            if matches!(op.source, Source::FinalProduct | Source::ColorSum) {
+                return Err(Diagnostic::error(
+                    if op.source == Source::FinalProduct { "ef-product-input" } else { "color-sum-input" },
+                    "invalid input register for final_product",
+                    op.span,
+                    "pseudo-register",
+                )
+                .with_help("E and F read ordinary registers"));
+            }
+            let input = self.final_input(op, var, true)?;
+            if var == 'E' {
+                fc.e = input
+            } else {
+                fc.f = input
+            }
+        }
+
+        Ok(span)
+    }
+
+    /// `out.a = G;`: the alpha of an ordinary register.
+    fn final_alpha(&mut self, has_product: bool) -> PResult<FinalInput> {
+        let g = self.final_operand()?;
+        if matches!(g.source, Source::FinalProduct | Source::ColorSum) {
+            return Err(Diagnostic::error(
+                if g.source == Source::FinalProduct { "ef-product-input" } else { "color-sum-input" },
+                "invalid input register for final alpha",
+                g.span,
+                "pseudo-register",
+            )
+            .with_help("`out.a` reads the alpha of an ordinary register"));
+        }
+        self.final_input(g, 'G', has_product)
+    }
+
+    /// Neither `out.rgb` nor `out.a`: what was found instead, with the name it resembles.
+    fn missing_output(&self) -> Diagnostic {
+        let t = self.peek();
+        let help = match t.tok {
+            Tok::Name(n, _) => {
+                match did_you_mean(n, ["out.rgb", "out.a", "clamp_color_sum", "final_product"]) {
+                    Some(m) => format!("did you mean `{m}`?"),
+                    None => "end the program with `out.rgb = ...;` and/or `out.a = ...;`".into(),
+                }
+            }
+            _ => "end the program with `out.rgb = ...;` and/or `out.a = ...;`".into(),
+        };
+        syntax(
+            format!("expected the final combiner (`out.rgb = ...;`), found {}", t.tok.describe()),
+            t.span,
+            "expected `out.rgb` or `out.a`",
+            help,
+        )
+    }
+
+    /// nvparse's FinalCombinerStruct::Validate: move color_sum out of A
+    /// when the expression allows it.
+    fn move_color_sum_out_of_a(&mut self, fc: &mut FinalCombiner) {
         let is_cs = |i: &FinalInput| i.source == FinalSource::Spare0PlusSecondary;
         let is_reg = |i: &FinalInput, m: InputMapping| {
             i.source == FinalSource::Register(Register::Zero) && i.mapping == m
@@ -976,7 +991,6 @@ impl<'a> Parser<'a> {
             std::mem::swap(&mut fc.a, &mut fc.d);
             self.swap_spans('A', 'D');
         }
-        Ok(fc)
     }
 
     fn swap_spans(&mut self, x: char, y: char) {
