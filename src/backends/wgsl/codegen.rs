@@ -967,35 +967,7 @@ impl<'a> Gen<'a> {
                 let v = b.vals[&p];
                 match self.m.info(p).ty {
                     Ty::Position => v,
-                    Ty::Vec2 => {
-                        // Render into a texture by its coordinates: (2u − 1, 1 − 2v).
-                        let u = b.emit(Expression::AccessIndex { base: v, index: 0 });
-                        let vv = b.emit(Expression::AccessIndex { base: v, index: 1 });
-                        let two = b.lit(2.0);
-                        let one = b.lit(1.0);
-                        let zero = b.lit(0.0);
-                        let u2 = b.emit(Expression::Binary {
-                            op: naga::BinaryOperator::Multiply,
-                            left: u,
-                            right: two,
-                        });
-                        let x = b.emit(Expression::Binary {
-                            op: naga::BinaryOperator::Subtract,
-                            left: u2,
-                            right: one,
-                        });
-                        let v2 = b.emit(Expression::Binary {
-                            op: naga::BinaryOperator::Multiply,
-                            left: vv,
-                            right: two,
-                        });
-                        let y = b.emit(Expression::Binary {
-                            op: naga::BinaryOperator::Subtract,
-                            left: one,
-                            right: v2,
-                        });
-                        b.emit(Expression::Compose { ty: vec4, components: vec![x, y, zero, one] })
-                    }
+                    Ty::Vec2 => texture_space_clip(&mut b, v, vec4),
                     t => {
                         return self
                             .unsupported(format!("a pass positioned by a {} value", t.name()), Some(p))
@@ -1005,18 +977,7 @@ impl<'a> Gen<'a> {
             (_, Some(q)) => q,
             _ => return Err(GenError::Internal("no clip position".into())),
         };
-        // GL clip z (−w..w) → wgpu (0..w): z' = ½z + ½w.
-        let xy = b.emit(Expression::Swizzle {
-            size: VectorSize::Bi,
-            vector: clip,
-            pattern: [COMP[0], COMP[1], COMP[0], COMP[0]],
-        });
-        let z = b.emit(Expression::AccessIndex { base: clip, index: 2 });
-        let w = b.emit(Expression::AccessIndex { base: clip, index: 3 });
-        let half = b.lit(0.5);
-        let zw = b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: z, right: w });
-        let z2 = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: zw, right: half });
-        let position = b.emit(Expression::Compose { ty: vec4, components: vec![xy, z2, w] });
+        let position = wgpu_clip(&mut b, clip, vec4);
         b.name(position, "clip_position");
         let mut comps = vec![position];
         for h in self.iface.interpolants.clone() {
@@ -1026,17 +987,7 @@ impl<'a> Gen<'a> {
             comps.push(wv);
         }
         if let Some(q) = quad {
-            // texel_uv = (½x + ½, ½ − ½y): v = 0 at the top row.
-            let x = b.emit(Expression::AccessIndex { base: q, index: 0 });
-            let y = b.emit(Expression::AccessIndex { base: q, index: 1 });
-            let half = b.lit(0.5);
-            let zero = b.lit(0.0);
-            let xh = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: x, right: half });
-            let u = b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: xh, right: half });
-            let yh = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: y, right: half });
-            let v = b.emit(Expression::Binary { op: naga::BinaryOperator::Subtract, left: half, right: yh });
-            let uv = b.emit(Expression::Compose { ty: vec4, components: vec![u, v, zero, zero] });
-            comps.push(uv);
+            comps.push(texel_uv(&mut b, q, vec4));
         }
         let out = b.emit(Expression::Compose { ty: vout, components: comps });
         b.f.body.push(Statement::Return { value: Some(out) }, naga::Span::UNDEFINED);
@@ -2641,4 +2592,45 @@ pub fn q9_value(v: f64) -> f32 {
 #[allow(dead_code)]
 fn is_sample(f: Frequency) -> bool {
     f.is_sample()
+}
+
+/// Rendering into a texture by its coordinates (seeds/001 (13)): the clip
+/// position (2u − 1, 1 − 2v, 0, 1).
+fn texture_space_clip(b: &mut Body, v: NH, vec4: naga::Handle<Type>) -> NH {
+    let u = b.emit(Expression::AccessIndex { base: v, index: 0 });
+    let vv = b.emit(Expression::AccessIndex { base: v, index: 1 });
+    let (two, one, zero) = (b.lit(2.0), b.lit(1.0), b.lit(0.0));
+    let u2 = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: u, right: two });
+    let x = b.emit(Expression::Binary { op: naga::BinaryOperator::Subtract, left: u2, right: one });
+    let v2 = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: vv, right: two });
+    let y = b.emit(Expression::Binary { op: naga::BinaryOperator::Subtract, left: one, right: v2 });
+    b.emit(Expression::Compose { ty: vec4, components: vec![x, y, zero, one] })
+}
+
+/// GL clip z (−w..w) → wgpu (0..w): z′ = ½z + ½w.
+fn wgpu_clip(b: &mut Body, clip: NH, vec4: naga::Handle<Type>) -> NH {
+    let xy = b.emit(Expression::Swizzle {
+        size: VectorSize::Bi,
+        vector: clip,
+        pattern: [COMP[0], COMP[1], COMP[0], COMP[0]],
+    });
+    let z = b.emit(Expression::AccessIndex { base: clip, index: 2 });
+    let w = b.emit(Expression::AccessIndex { base: clip, index: 3 });
+    let half = b.lit(0.5);
+    let zw = b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: z, right: w });
+    let z2 = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: zw, right: half });
+    b.emit(Expression::Compose { ty: vec4, components: vec![xy, z2, w] })
+}
+
+/// A screen or texel pass's texture coordinate from its rectangle:
+/// (½x + ½, ½ − ½y), v = 0 at the top row.
+fn texel_uv(b: &mut Body, q: NH, vec4: naga::Handle<Type>) -> NH {
+    let x = b.emit(Expression::AccessIndex { base: q, index: 0 });
+    let y = b.emit(Expression::AccessIndex { base: q, index: 1 });
+    let (half, zero) = (b.lit(0.5), b.lit(0.0));
+    let xh = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: x, right: half });
+    let u = b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: xh, right: half });
+    let yh = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: y, right: half });
+    let v = b.emit(Expression::Binary { op: naga::BinaryOperator::Subtract, left: half, right: yh });
+    b.emit(Expression::Compose { ty: vec4, components: vec![u, v, zero, zero] })
 }
