@@ -1064,57 +1064,7 @@ impl<'a> Gen<'a> {
                     b.emit(Expression::Compose { ty: vec4, components: vec![v, one] })
                 }
                 Ty::Rgba | Ty::Position => v,
-                Ty::Bundle(_) => {
-                    // A fat texel (seeds/001 (5), (15)): member i to colour
-                    // attachment i — layer i of the fat texture — as rgb, alpha 1.
-                    let Expr::Bundle(members) = self.m.exprs[o].clone() else {
-                        return Err(GenError::Internal("a bundle-typed value that is not a bundle".into()));
-                    };
-                    let mut comps = Vec::new();
-                    let mut fields = Vec::new();
-                    for (i, h) in members.iter().enumerate() {
-                        let v = b.vals.get(h).copied().ok_or_else(|| {
-                            GenError::Internal(format!("member %{} not computed", h.index()))
-                        })?;
-                        let one = b.lit(1.0);
-                        let c = match width(self.m.info(*h).ty) {
-                            3 => b.emit(Expression::Compose { ty: vec4, components: vec![v, one] }),
-                            w => self.widen_zero(&mut b, v, w),
-                        };
-                        let c = if self.renders_half_floats() { self.round_to_half(&mut b, c) } else { c };
-                        comps.push(c);
-                        let name = match &self.m.exprs[*h] {
-                            Expr::Interpolate { value, .. } => self.value_name(*value),
-                            _ => self.value_name(*h),
-                        }
-                        .unwrap_or_else(|| format!("member{i}"));
-                        fields.push(StructMember {
-                            name: Some(name),
-                            ty: vec4,
-                            binding: Some(Binding::Location {
-                                location: i as u32,
-                                interpolation: None,
-                                sampling: None,
-                                blend_src: None,
-                                per_primitive: false,
-                            }),
-                            offset: 16 * i as u32,
-                        });
-                    }
-                    let n = fields.len() as u32;
-                    let ty = self.module.types.insert(
-                        Type {
-                            name: Some("FatTexel".into()),
-                            inner: TypeInner::Struct { members: fields, span: 16 * n },
-                        },
-                        naga::Span::UNDEFINED,
-                    );
-                    let out = b.emit(Expression::Compose { ty, components: comps });
-                    b.f.body.push(Statement::Return { value: Some(out) }, naga::Span::UNDEFINED);
-                    b.f.result = Some(FunctionResult { ty, binding: None });
-                    self.outputs = n;
-                    return Ok(b.f);
-                }
+                Ty::Bundle(_) => return self.fat_texel_output(b, o, vec4),
             }
         };
         let out = if self.renders_half_floats() { self.round_to_half(&mut b, out) } else { out };
@@ -1129,6 +1079,66 @@ impl<'a> Gen<'a> {
                 per_primitive: false,
             }),
         });
+        Ok(b.f)
+    }
+
+    /// A fat texel (seeds/001 (5), (15)): member i to colour attachment i
+    /// — layer i of the fat texture — as rgb, alpha 1; the function's
+    /// result is a struct of the members.
+    fn fat_texel_output(
+        &mut self,
+        mut b: Body,
+        o: ir::Handle<Expr>,
+        vec4: naga::Handle<Type>,
+    ) -> R<Function> {
+        let Expr::Bundle(members) = self.m.exprs[o].clone() else {
+            return Err(GenError::Internal("a bundle-typed value that is not a bundle".into()));
+        };
+        let mut comps = Vec::new();
+        let mut fields = Vec::new();
+        for (i, h) in members.iter().enumerate() {
+            let v = b
+                .vals
+                .get(h)
+                .copied()
+                .ok_or_else(|| GenError::Internal(format!("member %{} not computed", h.index())))?;
+            let one = b.lit(1.0);
+            let c = match width(self.m.info(*h).ty) {
+                3 => b.emit(Expression::Compose { ty: vec4, components: vec![v, one] }),
+                w => self.widen_zero(&mut b, v, w),
+            };
+            let c = if self.renders_half_floats() { self.round_to_half(&mut b, c) } else { c };
+            comps.push(c);
+            let name = match &self.m.exprs[*h] {
+                Expr::Interpolate { value, .. } => self.value_name(*value),
+                _ => self.value_name(*h),
+            }
+            .unwrap_or_else(|| format!("member{i}"));
+            fields.push(StructMember {
+                name: Some(name),
+                ty: vec4,
+                binding: Some(Binding::Location {
+                    location: i as u32,
+                    interpolation: None,
+                    sampling: None,
+                    blend_src: None,
+                    per_primitive: false,
+                }),
+                offset: 16 * i as u32,
+            });
+        }
+        let n = fields.len() as u32;
+        let ty = self.module.types.insert(
+            Type {
+                name: Some("FatTexel".into()),
+                inner: TypeInner::Struct { members: fields, span: 16 * n },
+            },
+            naga::Span::UNDEFINED,
+        );
+        let out = b.emit(Expression::Compose { ty, components: comps });
+        b.f.body.push(Statement::Return { value: Some(out) }, naga::Span::UNDEFINED);
+        b.f.result = Some(FunctionResult { ty, binding: None });
+        self.outputs = n;
         Ok(b.f)
     }
 
