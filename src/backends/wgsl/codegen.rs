@@ -1197,35 +1197,7 @@ impl<'a> Gen<'a> {
             args.push(match r {
                 Some(h) => {
                     let v = as_rgba(self, b, *h);
-                    // round(clamp(v, 0, 1) · 255): the 8-bit register input.
-                    let (zero, one, k255, half) = (b.lit(0.0), b.lit(1.0), b.lit(255.0), b.lit(0.5));
-                    let (zero, one) = (
-                        b.emit(Expression::Splat { size: VectorSize::Quad, value: zero }),
-                        b.emit(Expression::Splat { size: VectorSize::Quad, value: one }),
-                    );
-                    let c = b.emit(Expression::Math {
-                        fun: naga::MathFunction::Clamp,
-                        arg: v,
-                        arg1: Some(zero),
-                        arg2: Some(one),
-                        arg3: None,
-                    });
-                    let c = b.emit(Expression::Binary {
-                        op: naga::BinaryOperator::Multiply,
-                        left: c,
-                        right: k255,
-                    });
-                    let half = b.emit(Expression::Splat { size: VectorSize::Quad, value: half });
-                    let c =
-                        b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: c, right: half });
-                    let c = b.emit(Expression::Math {
-                        fun: naga::MathFunction::Floor,
-                        arg: c,
-                        arg1: None,
-                        arg2: None,
-                        arg3: None,
-                    });
-                    b.emit(Expression::As { expr: c, kind: ScalarKind::Sint, convert: Some(4) })
+                    register_input(b, v)
                 }
                 None => b.plain(Expression::ZeroValue(ivec4)),
             });
@@ -2643,4 +2615,32 @@ fn texel_uv(b: &mut Body, q: NH, vec4: naga::Handle<Type>) -> NH {
     let yh = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: y, right: half });
     let v = b.emit(Expression::Binary { op: naga::BinaryOperator::Subtract, left: half, right: yh });
     b.emit(Expression::Compose { ty: vec4, components: vec![u, v, zero, zero] })
+}
+
+/// round(clamp(v, 0, 1) · 255) as integers: the 8-bit register input of
+/// the combiners (seeds/003 Table 2).
+fn register_input(b: &mut Body, v: NH) -> NH {
+    let (zero, one, k255, half) = (b.lit(0.0), b.lit(1.0), b.lit(255.0), b.lit(0.5));
+    let (zero, one) = (
+        b.emit(Expression::Splat { size: VectorSize::Quad, value: zero }),
+        b.emit(Expression::Splat { size: VectorSize::Quad, value: one }),
+    );
+    let c = b.emit(Expression::Math {
+        fun: naga::MathFunction::Clamp,
+        arg: v,
+        arg1: Some(zero),
+        arg2: Some(one),
+        arg3: None,
+    });
+    let c = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: c, right: k255 });
+    let half = b.emit(Expression::Splat { size: VectorSize::Quad, value: half });
+    let c = b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: c, right: half });
+    let c = b.emit(Expression::Math {
+        fun: naga::MathFunction::Floor,
+        arg: c,
+        arg1: None,
+        arg2: None,
+        arg3: None,
+    });
+    b.emit(Expression::As { expr: c, kind: ScalarKind::Sint, convert: Some(4) })
 }
