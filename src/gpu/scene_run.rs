@@ -384,9 +384,8 @@ impl<'a> ScenePlan<'a> {
         let m = &self.planned.module;
         let pass = &self.planned.plan.passes[s.pass];
         let main = self.main.as_str();
-        let depth_of =
-            |name: &str| TextureData::RenderedDepth { name: (name != main).then(|| name.to_string()) };
-        let unsupported = |what: String| SceneRunError::Unsupported(format!("pass {} {what}", s.pass + 1));
+        let depth_of = |name: &str| self.depth_of(name);
+        let unsupported = |what: String| unsupported_in(s, what);
         let mut textures = Vec::new();
         for t in &pass.textures {
             if t.unit as usize != textures.len() {
@@ -439,12 +438,16 @@ impl<'a> ScenePlan<'a> {
         Ok(textures)
     }
 
+    /// A depth buffer read as a texture: the main one, or a rendered target's.
+    fn depth_of(&self, name: &str) -> TextureData {
+        TextureData::RenderedDepth { name: (name != self.main).then(|| name.to_string()) }
+    }
+
     /// Reads of pass `s`'s own target, as it was before the pass.
     fn own_target_reads(&self, s: &PassShader) -> Result<Vec<LoadedTexture>, SceneRunError> {
         let main = self.main.as_str();
-        let depth_of =
-            |name: &str| TextureData::RenderedDepth { name: (name != main).then(|| name.to_string()) };
-        let unsupported = |what: String| SceneRunError::Unsupported(format!("pass {} {what}", s.pass + 1));
+        let depth_of = |name: &str| self.depth_of(name);
+        let unsupported = |what: String| unsupported_in(s, what);
         let mut loaded = Vec::new();
         for c in &s.target_copies {
             let data = if c.depth {
@@ -575,4 +578,9 @@ fn flat(t: &Texture2D, filter: Filter, texels: TexelUpload, signed: bool) -> Run
         TextureData::D2 { width, height, rgba: level_rgba(&t.levels[0], signed, texels) }
     };
     RunTexture { data, sampler: sampler(filter, t.wrap, t.levels.len() > 1), texels }
+}
+
+/// What pass `s` does that the GPU runner cannot.
+fn unsupported_in(s: &PassShader, what: String) -> SceneRunError {
+    SceneRunError::Unsupported(format!("pass {} {what}", s.pass + 1))
 }

@@ -918,13 +918,12 @@ impl<'a> Parser<'a> {
         let span = start.join(self.expect(Tok::Semi, "`;`")?);
         for (op, var) in [(e, 'E'), (f, 'F')] {
             if matches!(op.source, Source::FinalProduct | Source::ColorSum) {
-                return Err(Diagnostic::error(
-                    if op.source == Source::FinalProduct { "ef-product-input" } else { "color-sum-input" },
-                    "invalid input register for final_product",
+                return Err(pseudo_register(
+                    op.source,
                     op.span,
-                    "pseudo-register",
-                )
-                .with_help("E and F read ordinary registers"));
+                    "final_product",
+                    "E and F read ordinary registers",
+                ));
             }
             let input = self.final_input(op, var, true)?;
             if var == 'E' {
@@ -933,7 +932,6 @@ impl<'a> Parser<'a> {
                 fc.f = input
             }
         }
-
         Ok(span)
     }
 
@@ -941,13 +939,12 @@ impl<'a> Parser<'a> {
     fn final_alpha(&mut self, has_product: bool) -> PResult<FinalInput> {
         let g = self.final_operand()?;
         if matches!(g.source, Source::FinalProduct | Source::ColorSum) {
-            return Err(Diagnostic::error(
-                if g.source == Source::FinalProduct { "ef-product-input" } else { "color-sum-input" },
-                "invalid input register for final alpha",
+            return Err(pseudo_register(
+                g.source,
                 g.span,
-                "pseudo-register",
-            )
-            .with_help("`out.a` reads the alpha of an ordinary register"));
+                "final alpha",
+                "`out.a` reads the alpha of an ordinary register",
+            ));
         }
         self.final_input(g, 'G', has_product)
     }
@@ -1142,4 +1139,16 @@ fn unreachable_one<T>(span: Span) -> PResult<T> {
 
 fn unreachable_name<T>(span: Span) -> PResult<T> {
     Err(Diagnostic::error("internal", "internal error: expected a name", span, "here"))
+}
+
+/// A pseudo-register (`final_product`, `color_sum`) where the final
+/// combiner reads only ordinary registers (seeds/003 Appendix B).
+fn pseudo_register(source: Source, span: Span, what: &str, help: &str) -> Diagnostic {
+    Diagnostic::error(
+        if source == Source::FinalProduct { "ef-product-input" } else { "color-sum-input" },
+        format!("invalid input register for {what}"),
+        span,
+        "pseudo-register",
+    )
+    .with_help(help)
 }
