@@ -922,13 +922,7 @@ impl<'a> Gen<'a> {
             b.f.arguments.push(FunctionArgument {
                 name: Some(name),
                 ty: vec4,
-                binding: Some(Binding::Location {
-                    location: i as u32,
-                    interpolation: None,
-                    sampling: None,
-                    blend_src: None,
-                    per_primitive: false,
-                }),
+                binding: Some(location(i as u32)),
             });
             let arg = b.plain(Expression::FunctionArgument(i as u32));
             b.args.push(arg);
@@ -938,13 +932,7 @@ impl<'a> Gen<'a> {
             b.f.arguments.push(FunctionArgument {
                 name: Some("quad".into()),
                 ty: vec4,
-                binding: Some(Binding::Location {
-                    location: i,
-                    interpolation: None,
-                    sampling: None,
-                    blend_src: None,
-                    per_primitive: false,
-                }),
+                binding: Some(location(i)),
             });
             Some(b.plain(Expression::FunctionArgument(i)))
         } else {
@@ -1069,16 +1057,7 @@ impl<'a> Gen<'a> {
         };
         let out = if self.renders_half_floats() { self.round_to_half(&mut b, out) } else { out };
         b.f.body.push(Statement::Return { value: Some(out) }, naga::Span::UNDEFINED);
-        b.f.result = Some(FunctionResult {
-            ty: vec4,
-            binding: Some(Binding::Location {
-                location: 0,
-                interpolation: None,
-                sampling: None,
-                blend_src: None,
-                per_primitive: false,
-            }),
-        });
+        b.f.result = Some(FunctionResult { ty: vec4, binding: Some(location(0)) });
         Ok(b.f)
     }
 
@@ -1117,13 +1096,7 @@ impl<'a> Gen<'a> {
             fields.push(StructMember {
                 name: Some(name),
                 ty: vec4,
-                binding: Some(Binding::Location {
-                    location: i as u32,
-                    interpolation: None,
-                    sampling: None,
-                    blend_src: None,
-                    per_primitive: false,
-                }),
+                binding: Some(location(i as u32)),
                 offset: 16 * i as u32,
             });
         }
@@ -2643,4 +2616,15 @@ fn register_input(b: &mut Body, v: NH) -> NH {
         arg3: None,
     });
     b.emit(Expression::As { expr: c, kind: ScalarKind::Sint, convert: Some(4) })
+}
+
+/// `@location(i)` with the default interpolation.
+fn location(i: u32) -> Binding {
+    Binding::Location {
+        location: i,
+        interpolation: None,
+        sampling: None,
+        blend_src: None,
+        per_primitive: false,
+    }
 }
