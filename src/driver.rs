@@ -167,28 +167,23 @@ pub fn plan(
     };
     let mut planned = planner::plan(module, profile, &request)?;
     if let Some(model) = &profile.cost {
-        let workload = workload(program, options.scene.as_ref());
+        let workload = workload(options.scene.as_ref());
         crate::cost::annotate(&mut planned.plan, &planned.module, model, &workload);
     }
     Ok(planned)
 }
 
 /// What a plan's time is predicted on (issue 19): the scene planned for, or
-/// seeds/000 Section 5.4's screen-filling mesh; with the program's
-/// trilinear textures.
-pub fn workload(program: &Program, scene: Option<&ForScene>) -> Workload {
-    let (workload, constants) = match scene {
+/// seeds/000 Section 5.4's screen-filling mesh.
+pub fn workload(scene: Option<&ForScene>) -> Workload {
+    match scene {
         Some(s) => {
             let name =
                 s.scene.path.file_name().map_or("the scene".into(), |f| f.to_string_lossy().into_owned());
-            (Workload::of_scene(s.scene, &s.assets.meshes, &name), &s.scene.constants)
+            Workload::of_scene(s.scene, &s.assets.meshes, &name)
         }
-        None => (Workload::nominal(), &Default::default()),
-    };
-    let decls = crate::scene::bind::texture_decls(program, constants);
-    let trilinear =
-        decls.into_iter().filter(|d| d.filter == crate::textures::Filter::Trilinear).map(|d| d.name);
-    workload.with_trilinear(trilinear)
+        None => Workload::nominal(),
+    }
 }
 
 /// What `check` reports for one program: every diagnostic of the front end

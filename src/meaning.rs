@@ -89,51 +89,14 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
         if matches!(geometry, Geometry::Mesh { .. }) && form.depth.is_none() && !drawn.contains(&key) {
             drawn.push(key);
         }
-        let (target, mask) = match st.table {
-            Table::Framebuffer { id, channel } => {
-                let channels = match channel {
-                    FbChannel::Alpha => "a",
-                    FbChannel::Stencil => "stencil",
-                    _ => "rgba",
-                };
-                let mask = match channel {
-                    FbChannel::Alpha => [false, false, false, true],
-                    FbChannel::Stencil => [false; 4],
-                    _ => [true; 4],
-                };
-                (
-                    RenderTarget::Framebuffer {
-                        name: m.framebuffers[id as usize].name.clone(),
-                        channels: channels.into(),
-                    },
-                    mask,
-                )
-            }
-            Table::Texture(id) => {
-                (RenderTarget::Texture { name: m.textures[id as usize].name.clone() }, [true; 4])
-            }
-            Table::TexCoords(_) => unreachable!("skipped above"),
-        };
+        let (target, mask) = target_of(&m, &st.table);
         // The stencil update's fragment computes nothing: the depth test
         // and the stencil operation are the statement.
         let output =
             if form.channels == "stencil" { constant_one(&mut m, st.value) } else { Some(form.value) };
         let Some(output) = output else { continue };
         let usage = Usage::of_value(&m, output);
-        let textures = usage
-            .lookups
-            .iter()
-            .enumerate()
-            .filter_map(|(unit, &h)| match m.exprs[h] {
-                Expr::Lookup { texture, coords } => Some(TextureBinding {
-                    unit: unit as u32,
-                    texture: m.textures[texture as usize].name.clone(),
-                    lookup: h.index() as u32,
-                    coords: coords.index() as u32,
-                }),
-                _ => None,
-            })
-            .collect();
+        let textures = texture_bindings(&m, &usage);
         passes.push(Pass {
             statements: vec![i],
             light: None,
@@ -185,6 +148,43 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
         },
         combiners: None,
     })
+}
+
+/// Where a statement writes, and the channels it writes.
+fn target_of(m: &Module, table: &Table) -> (RenderTarget, [bool; 4]) {
+    match *table {
+        Table::Framebuffer { id, channel } => {
+            let (channels, mask) = match channel {
+                FbChannel::Alpha => ("a", [false, false, false, true]),
+                FbChannel::Stencil => ("stencil", [false; 4]),
+                _ => ("rgba", [true; 4]),
+            };
+            let name = m.framebuffers[id as usize].name.clone();
+            (RenderTarget::Framebuffer { name, channels: channels.into() }, mask)
+        }
+        Table::Texture(id) => {
+            (RenderTarget::Texture { name: m.textures[id as usize].name.clone() }, [true; 4])
+        }
+        Table::TexCoords(_) => unreachable!("texgen statements are vertex work, not passes"),
+    }
+}
+
+/// Texture unit i holds the value's i-th lookup.
+fn texture_bindings(m: &Module, usage: &Usage) -> Vec<TextureBinding> {
+    usage
+        .lookups
+        .iter()
+        .enumerate()
+        .filter_map(|(unit, &h)| match m.exprs[h] {
+            Expr::Lookup { texture, coords } => Some(TextureBinding {
+                unit: unit as u32,
+                texture: m.textures[texture as usize].name.clone(),
+                lookup: h.index() as u32,
+                coords: coords.index() as u32,
+            }),
+            _ => None,
+        })
+        .collect()
 }
 
 fn constant_one(m: &mut Module, near: Handle<Expr>) -> Option<Handle<Expr>> {

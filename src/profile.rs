@@ -97,6 +97,39 @@ pub struct Profile {
     pub cost: Option<CostModel>,
 }
 
+impl CostModel {
+    /// Why these parameters cannot predict a time (a rate of zero, a
+    /// negative or non-finite number), if they cannot.
+    pub fn problem(&self) -> Option<String> {
+        let positive = [
+            ("clock_mhz", self.clock_mhz),
+            ("memory_gb_per_s", self.memory_gb_per_s),
+            ("pixel_pipes", f64::from(self.pixel_pipes)),
+            ("samples_per_clock", f64::from(self.samples_per_clock)),
+        ];
+        let non_negative = [
+            ("clocks_per_general_combiner", self.clocks_per_general_combiner),
+            ("vertex_clocks_per_op", self.vertex_clocks_per_op),
+            ("setup_clocks_per_triangle", self.setup_clocks_per_triangle),
+            ("depth_bytes_per_pixel", self.depth_bytes_per_pixel),
+            ("texel_bytes_per_sample", self.texel_bytes_per_sample),
+            ("clear_bytes_per_pixel", self.clear_bytes_per_pixel),
+            ("pass_overhead_us", self.pass_overhead_us),
+        ];
+        let bad = positive
+            .iter()
+            .find(|(_, v)| !(v.is_finite() && *v > 0.0))
+            .map(|(name, v)| format!("cost.{name} is {v}; it must be a positive number"))
+            .or_else(|| {
+                non_negative
+                    .iter()
+                    .find(|(_, v)| !(v.is_finite() && *v >= 0.0))
+                    .map(|(name, v)| format!("cost.{name} is {v}; it must be zero or a positive number"))
+            });
+        bad.map(|b| format!("{b} (docs/cost-model.md gives each parameter's meaning)"))
+    }
+}
+
 /// The parameters of the cost model (issue 19): what a pass costs on the
 /// target, as a bottleneck of vertex work, triangle setup and fill
 /// (`crate::cost`). Every number's source is in `docs/cost-model.md`.
@@ -206,8 +239,12 @@ impl Profile {
     }
 
     pub fn from_ron(text: &str, path: &str) -> Result<Profile, ProfileError> {
-        ron::from_str(text)
-            .map_err(|e| ProfileError::Parse { path: path.to_string(), message: e.to_string() })
+        let profile: Profile = ron::from_str(text)
+            .map_err(|e| ProfileError::Parse { path: path.to_string(), message: e.to_string() })?;
+        if let Some(message) = profile.cost.as_ref().and_then(CostModel::problem) {
+            return Err(ProfileError::Parse { path: path.to_string(), message });
+        }
+        Ok(profile)
     }
 
     pub fn to_ron(&self) -> String {
@@ -390,5 +427,16 @@ mod tests {
         assert!(e.contains("unknown target profile `voodoo2`"), "{e}");
         let e = Profile::from_ron("Profile(name: \"x\")", "p.ron").unwrap_err().to_string();
         assert!(e.starts_with("p.ron: not a valid profile:"), "{e}");
+        // A cost model that cannot predict (a clock of zero) is refused, saying which number.
+        let text = include_str!("../profiles/geforce3.ron").replace("clock_mhz: 200.0", "clock_mhz: 0.0");
+        let e = Profile::from_ron(&text, "slow.ron").unwrap_err().to_string();
+        assert!(
+            e.contains("slow.ron: not a valid profile: cost.clock_mhz is 0; it must be a positive number"),
+            "{e}"
+        );
+        let text = include_str!("../profiles/geforce3.ron")
+            .replace("pass_overhead_us: 5.0", "pass_overhead_us: -1.0");
+        let e = Profile::from_ron(&text, "p.ron").unwrap_err().to_string();
+        assert!(e.contains("cost.pass_overhead_us is -1"), "{e}");
     }
 }

@@ -140,12 +140,17 @@ fn bench_quick_writes_the_report_the_plots_and_the_differences() {
         String::from_utf8_lossy(&out.stderr)
     );
     let b = dir.path().join("b");
-    for f in
-        ["report.md", "speed_vs_error.png", "adaptive.png", "diff/gouraud.png", "diff/kilgard_fixed9.png"]
-    {
+    for f in [
+        "report.md",
+        "speed_vs_error.png",
+        "predicted_vs_error.png",
+        "adaptive.png",
+        "diff/gouraud.png",
+        "diff/kilgard_fixed9.png",
+    ] {
         assert!(b.join(f).is_file(), "{f} missing");
     }
-    for png in ["speed_vs_error.png", "adaptive.png"] {
+    for png in ["speed_vs_error.png", "predicted_vs_error.png", "adaptive.png"] {
         let img = image::open(b.join(png)).unwrap();
         assert_eq!((img.width(), img.height()), (1000, 700));
     }
@@ -186,6 +191,31 @@ fn bench_quick_writes_the_report_the_plots_and_the_differences() {
         .map(|l| l.split('|').nth(5).unwrap().trim().parse().unwrap())
         .collect();
     assert!(ranked.len() >= 5 && ranked.windows(2).all(|w| w[0] <= w[1]), "{ranked:?}\n{predicted}");
+    // Each starred row is on its group and target's front: no row of the
+    // same block and target is both predicted faster and more accurate.
+    let mut block: Vec<(bool, String, f64, f64)> = Vec::new();
+    let mut stars = 0;
+    for line in predicted.lines().chain(std::iter::once("**end")) {
+        if line.starts_with("**") {
+            for (_, target, ms, rmse) in block.iter().filter(|r| r.0) {
+                let beaten = block.iter().any(|(_, t, m, r)| t == target && m < ms && r < rmse);
+                assert!(!beaten, "{target} {ms} {rmse} is dominated:\n{predicted}");
+                stars += 1;
+            }
+            block.clear();
+            continue;
+        }
+        let cells: Vec<&str> = line.trim_matches('|').split('|').map(str::trim).collect();
+        if cells.len() == 8 && cells[0].parse::<u32>().is_ok() {
+            block.push((
+                cells[1].ends_with('*'),
+                cells[2].into(),
+                cells[4].parse().unwrap(),
+                cells[6].parse().unwrap(),
+            ));
+        }
+    }
+    assert!(stars >= 4, "{predicted}");
     assert!(predicted.contains("| Phong, register-combiner normalization |"), "{predicted}");
     // Each fixed9 row says what ran: Kilgard's passes on the emulated combiners.
     let kilgard = md

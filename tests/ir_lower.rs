@@ -641,3 +641,23 @@ fn a_huge_normalization_cube_is_a_located_error_at_once() {
         assert!(e.help.is_some(), "{source}");
     }
 }
+
+/// Texture attributes are lowered into the IR (issue 17): the binder and
+/// the cost model read one rule — `nearest` wins, a mipmapped texture is
+/// trilinear unless `bilinear` is said, cube maps and `clamp` clamp.
+#[test]
+fn texture_attributes_are_in_the_ir() {
+    use shadec::textures::{Filter, Wrap};
+    let m = lower_ok(
+        "texture A : 2d rgba8 mipmap repeat = image(\"a.png\");\n\
+         texture B : 2d rgba8 mipmap bilinear = image(\"b.png\");\n\
+         texture Cn : cube rgb8 nearest = normalize_cube(32);\n\
+         texture D : 2d rgba8 clamp = image(\"d.png\");\n\
+         C δπx ← A δu x * B δu x * D δu x;\n",
+    );
+    let s = |name: &str| m.textures.iter().find(|t| t.name == name).unwrap().sampling;
+    assert_eq!(s("A"), ir::Sampling { filter: Filter::Trilinear, wrap: Wrap::Repeat, mipmap: true });
+    assert_eq!(s("B"), ir::Sampling { filter: Filter::Bilinear, wrap: Wrap::Repeat, mipmap: true });
+    assert_eq!(s("Cn"), ir::Sampling { filter: Filter::Nearest, wrap: Wrap::ClampToEdge, mipmap: false });
+    assert_eq!(s("D"), ir::Sampling { filter: Filter::Bilinear, wrap: Wrap::ClampToEdge, mipmap: false });
+}

@@ -140,7 +140,7 @@ impl Prepared {
         let mut scene = self.scene.clone();
         scene.resolution = size;
         let for_scene = crate::driver::ForScene::unspecialized(&scene, &self.assets);
-        let workload = crate::driver::workload(&self.program, Some(&for_scene));
+        let workload = crate::driver::workload(Some(&for_scene));
         Some(crate::cost::predict(&self.planned.plan, &self.planned.module, model, &workload).total_ms())
     }
 

@@ -59,15 +59,61 @@ pub fn pareto_front(points: &[(f64, f64)]) -> Vec<usize> {
 /// variants are the groups' references (zero error by definition) and are
 /// left out: the front is the trade-off among the approximations.
 pub fn group_fronts(measured: &[Measured]) -> Vec<usize> {
+    fronts(measured, TimeAxis::Cpu)
+}
+
+/// The time a variant's error is set against: the CPU renderer's measured
+/// frame, or the frame its target's cost model predicts (issue 19).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum TimeAxis {
+    Cpu,
+    Predicted,
+}
+
+impl TimeAxis {
+    /// The variant's time on this axis (ms); `None` without a prediction.
+    pub fn ms(self, m: &Measured) -> Option<f64> {
+        match self {
+            TimeAxis::Cpu => Some(m.time.as_secs_f64() * 1e3),
+            TimeAxis::Predicted => m.predicted_ms,
+        }
+    }
+
+    fn caption(self) -> &'static str {
+        match self {
+            TimeAxis::Cpu => "shadec bench: error against time per frame",
+            TimeAxis::Predicted => "shadec bench: error against the predicted frame on the target",
+        }
+    }
+
+    fn description(self) -> &'static str {
+        match self {
+            TimeAxis::Cpu => "ms per frame (median, CPU renderer)",
+            TimeAxis::Predicted => "ms per frame predicted on the target (cost model)",
+        }
+    }
+}
+
+/// The Pareto front of each group on `axis` (with the predicted time: of
+/// each group and target, issue 18 item 3): the variants no other of the
+/// same set beats in both time and RMSE. Exact renders are references, not
+/// approximations, and stay off.
+pub fn fronts(measured: &[Measured], axis: TimeAxis) -> Vec<usize> {
     let mut on_front = Vec::new();
-    for group in measured.iter().map(|m| m.group) {
+    for (group, target) in measured.iter().map(|m| (m.group, m.variant.target)) {
         let members: Vec<usize> = (0..measured.len())
             .filter(|&i| {
-                measured[i].group == group && measured[i].variant.mode != crate::numerics::Precision::Exact
+                let m = &measured[i];
+                m.group == group
+                    && (axis == TimeAxis::Cpu || m.variant.target == target)
+                    && m.variant.mode != crate::numerics::Precision::Exact
+                    && axis.ms(m).is_some()
             })
             .collect();
-        let pts: Vec<(f64, f64)> =
-            members.iter().map(|&i| (measured[i].time.as_secs_f64(), measured[i].error.rmse)).collect();
+        let pts: Vec<(f64, f64)> = members
+            .iter()
+            .map(|&i| (axis.ms(&measured[i]).unwrap_or_default(), measured[i].error.rmse))
+            .collect();
         for k in pareto_front(&pts) {
             if !on_front.contains(&members[k]) {
                 on_front.push(members[k]);
@@ -81,10 +127,21 @@ pub fn group_fronts(measured: &[Measured]) -> Vec<usize> {
 /// Error (RMSE against the group's truth) against time per frame, log-log,
 /// one colour per group, the Pareto front joined and its points labelled.
 pub fn speed_vs_error(measured: &[Measured], path: &Path) -> Result<(), BenchError> {
+    error_against(measured, TimeAxis::Cpu, path)
+}
+
+/// Error against the predicted frame on each variant's target (issue 19),
+/// the front of each group and target joined: `predicted_vs_error.png`.
+pub fn predicted_vs_error(measured: &[Measured], path: &Path) -> Result<(), BenchError> {
+    let predicted: Vec<Measured> = measured.iter().filter(|m| m.predicted_ms.is_some()).cloned().collect();
+    error_against(&predicted, TimeAxis::Predicted, path)
+}
+
+fn error_against(measured: &[Measured], axis: TimeAxis, path: &Path) -> Result<(), BenchError> {
     register_font();
     let points: Vec<(f64, f64)> =
-        measured.iter().map(|m| (m.time.as_secs_f64() * 1e3, m.error.rmse.max(RMSE_FLOOR))).collect();
-    let fronts = group_fronts(measured);
+        measured.iter().map(|m| (axis.ms(m).unwrap_or_default(), m.error.rmse.max(RMSE_FLOOR))).collect();
+    let fronts = fronts(measured, axis);
     let (x0, x1) = bounds(points.iter().map(|p| p.0));
     let (y0, y1) = bounds(points.iter().map(|p| p.1));
     // Room above the points for the legend.
@@ -94,7 +151,7 @@ pub fn speed_vs_error(measured: &[Measured], path: &Path) -> Result<(), BenchErr
         let root = BitMapBackend::with_buffer(&mut buf, (W, H)).into_drawing_area();
         root.fill(&WHITE).map_err(plot_error)?;
         let mut chart = ChartBuilder::on(&root)
-            .caption("shadec bench: error against time per frame", (FONT, 24))
+            .caption(axis.caption(), (FONT, 24))
             .margin(20)
             .x_label_area_size(50)
             .y_label_area_size(80)
@@ -102,7 +159,7 @@ pub fn speed_vs_error(measured: &[Measured], path: &Path) -> Result<(), BenchErr
             .map_err(plot_error)?;
         chart
             .configure_mesh()
-            .x_desc("ms per frame (median, CPU renderer)")
+            .x_desc(axis.description())
             .y_desc(format!("RMSE against exact (floor {RMSE_FLOOR:e})"))
             .x_labels(8)
             .y_label_formatter(&|v| format!("{v:.0e}"))
@@ -127,16 +184,26 @@ pub fn speed_vs_error(measured: &[Measured], path: &Path) -> Result<(), BenchErr
         }
         for (gi, group) in groups.iter().enumerate() {
             let colour = Palette99::pick(gi).to_rgba();
-            let front: Vec<(f64, f64)> = (0..measured.len())
-                .filter(|i| measured[*i].group == *group && fronts.contains(i))
-                .map(|i| points[i])
-                .collect();
-            let series =
-                chart.draw_series(LineSeries::new(front, colour.stroke_width(2))).map_err(plot_error)?;
-            if gi == 0 {
-                series
-                    .label("Pareto front of each group (*)")
-                    .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK.stroke_width(2)));
+            let mut targets: Vec<&str> = measured.iter().map(|m| m.variant.target).collect();
+            targets.sort_unstable();
+            targets.dedup();
+            if axis == TimeAxis::Cpu {
+                targets.truncate(1);
+            }
+            for (ti, target) in targets.iter().enumerate() {
+                let mut front: Vec<(f64, f64)> = (0..measured.len())
+                    .filter(|i| measured[*i].group == *group && fronts.contains(i))
+                    .filter(|i| axis == TimeAxis::Cpu || measured[*i].variant.target == *target)
+                    .map(|i| points[i])
+                    .collect();
+                front.sort_by(|a, b| a.0.total_cmp(&b.0));
+                let series =
+                    chart.draw_series(LineSeries::new(front, colour.stroke_width(2))).map_err(plot_error)?;
+                if gi == 0 && ti == 0 {
+                    series
+                        .label("Pareto front of each group (*)")
+                        .legend(|(x, y)| PathElement::new(vec![(x, y), (x + 16, y)], BLACK.stroke_width(2)));
+                }
             }
         }
         for (i, (m, p)) in measured.iter().zip(&points).enumerate() {

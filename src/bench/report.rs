@@ -44,6 +44,9 @@ impl Report {
         if !self.measured.is_empty() {
             super::plot::speed_vs_error(&self.measured, &dir.join("speed_vs_error.png"))?;
         }
+        if self.measured.iter().any(|m| m.predicted_ms.is_some()) {
+            super::plot::predicted_vs_error(&self.measured, &dir.join("predicted_vs_error.png"))?;
+        }
         if !self.adaptive.is_empty() {
             super::plot::adaptive(&self.adaptive, &dir.join("adaptive.png"))?;
         }
@@ -164,34 +167,44 @@ impl Report {
             md,
             "\n## Predicted on the hardware (cost model, issue 19)\n\nThe frame time each plan's target would take \
              (`docs/cost-model.md`: fill, vertex, setup and memory per pass) on the group's scene at the bench size, \
-             fastest first, beside the CPU renderer's time and the error measured above. Variants planned for `wgsl` \
-             have no cost model and are left out.\n"
+             fastest first, beside the CPU renderer's time and the error measured above; `*` marks the Pareto front \
+             of each group and target (no variant for the same target both predicted faster and more accurate; \
+             plot: `predicted_vs_error.png`). Variants planned for `wgsl` have no cost model and are left out.\n"
         );
         let mut groups: Vec<&str> = self.measured.iter().map(|m| m.group).collect();
         groups.dedup();
+        let front = super::plot::fronts(&self.measured, super::plot::TimeAxis::Predicted);
         for group in groups {
-            let mut rows: Vec<&Measured> =
-                self.measured.iter().filter(|m| m.group == group && m.predicted_ms.is_some()).collect();
+            let mut rows: Vec<(usize, &Measured)> = self
+                .measured
+                .iter()
+                .enumerate()
+                .filter(|(_, m)| m.group == group && m.predicted_ms.is_some())
+                .collect();
             if rows.is_empty() {
                 continue;
             }
-            rows.sort_by(|a, b| a.predicted_ms.partial_cmp(&b.predicted_ms).expect("finite predictions"));
+            rows.sort_by(|(_, a), (_, b)| {
+                a.predicted_ms.unwrap_or_default().total_cmp(&b.predicted_ms.unwrap_or_default())
+            });
             let _ = writeln!(md, "**{group}**\n");
             let _ = writeln!(
                 md,
-                "| rank | variant | target | passes | predicted ms | CPU ms (measured) | max abs (/255) |"
+                "| rank | variant | target | passes | predicted ms | CPU ms (measured) | RMSE | max abs (/255) |"
             );
-            let _ = writeln!(md, "|---|---|---|---|---|---|---|");
-            for (k, m) in rows.iter().enumerate() {
+            let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
+            for (k, (i, m)) in rows.iter().enumerate() {
                 let _ = writeln!(
                     md,
-                    "| {} | {} | {} | {} | {:.3} | {:.2} | {:.1} |",
+                    "| {} | {}{} | {} | {} | {:.3} | {:.2} | {:.5} | {:.1} |",
                     k + 1,
                     m.variant.name,
+                    if front.contains(i) { " *" } else { "" },
                     m.variant.target,
                     m.passes,
                     m.predicted_ms.unwrap_or_default(),
                     m.time.as_secs_f64() * 1e3,
+                    m.error.rmse,
                     m.error.max_abs * 255.0
                 );
             }

@@ -123,7 +123,7 @@ pub fn pass_time(pass: &Pass, module: &Module, model: &CostModel, workload: &Wor
     let ops = vertex::ops_per_vertex(pass, module);
     let vertex_us = load.vertices as f64 * ops * model.vertex_clocks_per_op / clock;
     let setup_us = load.triangles as f64 * model.setup_clocks_per_triangle / clock;
-    let samples = texture_samples(pass, workload);
+    let samples = texture_samples(pass, module);
     let clocks_per_pixel = pixel_clocks(model, samples, pass.fragment.general_combiners.unwrap_or(0));
     let pixels = load.pixels as f64;
     let shade_us = pixels * clocks_per_pixel / (f64::from(model.pixel_pipes) * clock);
@@ -167,8 +167,14 @@ pub fn pixel_clocks(model: &CostModel, samples: u32, stages: u32) -> f64 {
 
 /// Bilinear samples a fragment of the pass fetches: one per texture unit,
 /// two for a trilinear (mipmapped) texture, which reads two levels.
-pub fn texture_samples(pass: &Pass, workload: &Workload) -> u32 {
-    pass.textures.iter().map(|b| if workload.trilinear.contains(&b.texture) { 2 } else { 1 }).sum()
+pub fn texture_samples(pass: &Pass, module: &Module) -> u32 {
+    let trilinear = |name: &str| {
+        module
+            .textures
+            .iter()
+            .any(|t| t.name == name && t.sampling.filter == crate::textures::Filter::Trilinear)
+    };
+    pass.textures.iter().map(|b| if trilinear(&b.texture) { 2 } else { 1 }).sum()
 }
 
 /// Memory bytes of one fragment: the colour written (and read, when the

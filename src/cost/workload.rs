@@ -1,11 +1,9 @@
 //! What a frame draws, as the cost model needs it: per object its vertices,
 //! triangles and the pixels its front and back faces cover (overdraw
-//! counted, clipped to the screen), the resolution, and which textures are
-//! filtered trilinearly. Either measured from a scene, or the nominal
+//! counted, clipped to the screen) and the resolution. Either measured from
+//! a scene, or the nominal
 //! workload of seeds/000 Section 5.4: "a screen-filling mesh with 20k
 //! triangles".
-
-use std::collections::HashSet;
 
 use glam::{Mat4, Vec2, Vec4};
 
@@ -34,8 +32,6 @@ pub struct Workload {
     pub name: String,
     pub resolution: (u32, u32),
     pub objects: Vec<ObjectLoad>,
-    /// Textures sampled with a trilinear filter: two bilinear samples a lookup.
-    pub trilinear: HashSet<String>,
 }
 
 /// What one pass draws.
@@ -64,7 +60,6 @@ impl Workload {
                 front_pixels: f64::from(w * h),
                 back_pixels: 0.0,
             }],
-            trilinear: HashSet::new(),
         }
     }
 
@@ -77,18 +72,7 @@ impl Workload {
             .iter()
             .map(|(mesh, model)| object_load(mesh, view_projection * *model, scene.resolution))
             .collect();
-        Workload {
-            name: format!("{name} at {w}×{h}"),
-            resolution: scene.resolution,
-            objects,
-            trilinear: HashSet::new(),
-        }
-    }
-
-    /// These textures as trilinearly filtered.
-    pub fn with_trilinear(mut self, names: impl IntoIterator<Item = String>) -> Workload {
-        self.trilinear.extend(names);
-        self
+        Workload { name: format!("{name} at {w}×{h}"), resolution: scene.resolution, objects }
     }
 
     /// What `pass` draws.

@@ -531,66 +531,8 @@ impl<'a> Frame<'a> {
             view_formats: &[],
         });
         let depth_view = depth.create_view(&Default::default());
-        // Rendered textures, each with its own depth/stencil buffer, and a
-        // scratch copy for passes that sample their own target.
-        let mut textures: BTreeMap<String, (wgpu::Texture, wgpu::Texture, wgpu::Texture)> = BTreeMap::new();
-        for (name, t) in &rendered {
-            let size = wgpu::Extent3d { width: t.width, height: t.height, depth_or_array_layers: t.layers };
-            let make = |label: &str, format: wgpu::TextureFormat, usage: wgpu::TextureUsages, layers: u32| {
-                device.create_texture(&wgpu::TextureDescriptor {
-                    label: Some(label),
-                    size: wgpu::Extent3d { depth_or_array_layers: layers, ..size },
-                    mip_level_count: 1,
-                    sample_count: 1,
-                    dimension: wgpu::TextureDimension::D2,
-                    format,
-                    usage,
-                    view_formats: &[],
-                })
-            };
-            let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
-                | wgpu::TextureUsages::TEXTURE_BINDING
-                | wgpu::TextureUsages::COPY_SRC
-                | wgpu::TextureUsages::COPY_DST;
-            let texture = make(name, t.format.wgpu(), usage, t.layers);
-            let scratch = make(name, t.format.wgpu(), usage, t.layers);
-            let depth = make(
-                name,
-                depth_format,
-                wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-                1,
-            );
-            textures.insert(name.clone(), (texture, scratch, depth));
-        }
-
-        // Depth snapshots: per pass, per slot (units, then loaded textures) that
-        // reads a depth buffer, an R32Float copy made just before the pass.
-        let depth_source = |name: &Option<String>| -> (&wgpu::Texture, u32, u32) {
-            match name {
-                None => (&depth, target.width, target.height),
-                Some(n) => (&textures[n].2, rendered[n].width, rendered[n].height),
-            }
-        };
-        let mut snapshots: BTreeMap<(usize, usize), (wgpu::Texture, Option<String>)> = BTreeMap::new();
-        for (pass_idx, pass) in passes.iter().enumerate() {
-            let slots = pass.textures.iter().map(|t| &t.data).chain(pass.loaded.iter().map(|l| &l.data));
-            for (slot, data) in slots.enumerate() {
-                if let TextureData::RenderedDepth { name } = data {
-                    let (_, width, height) = depth_source(name);
-                    let copy = device.create_texture(&wgpu::TextureDescriptor {
-                        label: Some("shadec depth snapshot"),
-                        size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
-                        mip_level_count: 1,
-                        sample_count: 1,
-                        dimension: wgpu::TextureDimension::D2,
-                        format: wgpu::TextureFormat::R32Float,
-                        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-                        view_formats: &[],
-                    });
-                    snapshots.insert((pass_idx, slot), (copy, name.clone()));
-                }
-            }
-        }
+        let textures = rendered_targets(device, &rendered, depth_format);
+        let snapshots = depth_snapshots(device, target, passes, &rendered);
         let depth_copier = (!snapshots.is_empty()).then(|| DepthCopier::new(device));
 
         let prepared: Vec<Prepared> = passes
@@ -675,10 +617,46 @@ impl<'a> Frame<'a> {
         self.read_back(device)
     }
 
+    /// The views a pass drawing into rendered texture `t` writes (one per
+    /// output layer); a pass that samples its own target first gets the
+    /// copy it binds, taken now.
+    fn texture_target_views(
+        &self,
+        encoder: &mut wgpu::CommandEncoder,
+        pass: &RunPass,
+        t: &RenderedTexture,
+    ) -> Vec<wgpu::TextureView> {
+        let (texture, scratch, _) = &self.textures[&t.name];
+        if pass
+            .textures
+            .iter()
+            .map(|x| &x.data)
+            .chain(pass.loaded.iter().map(|l| &l.data))
+            .any(|d| matches!(d, TextureData::Rendered { name, .. } if *name == t.name))
+        {
+            // It samples its own target: the copy it binds, taken now.
+            encoder.copy_texture_to_texture(
+                texture.as_image_copy(),
+                scratch.as_image_copy(),
+                wgpu::Extent3d { width: t.width, height: t.height, depth_or_array_layers: t.layers },
+            );
+        }
+        (0..pass.outputs)
+            .map(|layer| {
+                texture.create_view(&wgpu::TextureViewDescriptor {
+                    dimension: Some(wgpu::TextureViewDimension::D2),
+                    base_array_layer: layer,
+                    array_layer_count: Some(1),
+                    ..Default::default()
+                })
+            })
+            .collect()
+    }
+
     fn submit(&self, gpu: &Gpu) {
         let device = &gpu.device;
         let (target, passes, prepared) = (self.target, self.passes, &self.prepared);
-        let (textures, texture_depth_views) = (&self.textures, &self.texture_depth_views);
+        let texture_depth_views = &self.texture_depth_views;
         let (color, depth_view, snapshots) = (&self.color, &self.depth_view, &self.snapshots);
         let (padded_row, readback) = (self.padded_row, &self.readback);
         let size = wgpu::Extent3d { width: target.width, height: target.height, depth_or_array_layers: 1 };
@@ -705,54 +683,12 @@ impl<'a> Frame<'a> {
                         (&main_key, vec![color.create_view(&Default::default())], depth_view)
                     }
                     Some(PassTarget::Texture(t)) => {
-                        let (texture, scratch, _) = &textures[&t.name];
-                        let pass = pass.expect("matched");
-                        if pass
-                            .textures
-                            .iter()
-                            .map(|x| &x.data)
-                            .chain(pass.loaded.iter().map(|l| &l.data))
-                            .any(|d| matches!(d, TextureData::Rendered { name, .. } if *name == t.name))
-                        {
-                            // It samples its own target: the copy it binds, taken now.
-                            encoder.copy_texture_to_texture(
-                                texture.as_image_copy(),
-                                scratch.as_image_copy(),
-                                wgpu::Extent3d {
-                                    width: t.width,
-                                    height: t.height,
-                                    depth_or_array_layers: t.layers,
-                                },
-                            );
-                        }
-                        let views = (0..pass.outputs)
-                            .map(|layer| {
-                                texture.create_view(&wgpu::TextureViewDescriptor {
-                                    dimension: Some(wgpu::TextureViewDimension::D2),
-                                    base_array_layer: layer,
-                                    array_layer_count: Some(1),
-                                    ..Default::default()
-                                })
-                            })
-                            .collect();
+                        let views = self.texture_target_views(&mut encoder, pass.expect("matched"), t);
                         (&t.name, views, &texture_depth_views[&t.name])
                     }
                 };
             let first = cleared.insert(key.clone());
-            let [r, g, b, a] = target.clear_color.map(f64::from);
-            let clear_color =
-                if key.is_empty() { wgpu::Color { r, g, b, a } } else { wgpu::Color::TRANSPARENT };
-            let color_load = if first { wgpu::LoadOp::Clear(clear_color) } else { wgpu::LoadOp::Load };
-            let depth_load = if first {
-                wgpu::LoadOp::Clear(if key.is_empty() { target.clear_depth } else { 1.0 })
-            } else {
-                wgpu::LoadOp::Load
-            };
-            let stencil_load = if first {
-                wgpu::LoadOp::Clear(if key.is_empty() { u32::from(target.clear_stencil) } else { 0 })
-            } else {
-                wgpu::LoadOp::Load
-            };
+            let (color_load, depth_load, stencil_load) = load_ops(target, key.is_empty(), first);
             let color_attachments: Vec<Option<wgpu::RenderPassColorAttachment>> = views
                 .iter()
                 .map(|view| {
@@ -1078,6 +1014,81 @@ fn check_pass(
     }
     Ok(())
 }
+/// Rendered textures, each with its own depth/stencil buffer, and a
+/// scratch copy for passes that sample their own target.
+fn rendered_targets(
+    device: &wgpu::Device,
+    rendered: &BTreeMap<String, RenderedTexture>,
+    depth_format: wgpu::TextureFormat,
+) -> BTreeMap<String, (wgpu::Texture, wgpu::Texture, wgpu::Texture)> {
+    let mut textures: BTreeMap<String, (wgpu::Texture, wgpu::Texture, wgpu::Texture)> = BTreeMap::new();
+    for (name, t) in rendered {
+        let size = wgpu::Extent3d { width: t.width, height: t.height, depth_or_array_layers: t.layers };
+        let make = |label: &str, format: wgpu::TextureFormat, usage: wgpu::TextureUsages, layers: u32| {
+            device.create_texture(&wgpu::TextureDescriptor {
+                label: Some(label),
+                size: wgpu::Extent3d { depth_or_array_layers: layers, ..size },
+                mip_level_count: 1,
+                sample_count: 1,
+                dimension: wgpu::TextureDimension::D2,
+                format,
+                usage,
+                view_formats: &[],
+            })
+        };
+        let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
+            | wgpu::TextureUsages::TEXTURE_BINDING
+            | wgpu::TextureUsages::COPY_SRC
+            | wgpu::TextureUsages::COPY_DST;
+        let texture = make(name, t.format.wgpu(), usage, t.layers);
+        let scratch = make(name, t.format.wgpu(), usage, t.layers);
+        let depth = make(
+            name,
+            depth_format,
+            wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            1,
+        );
+        textures.insert(name.clone(), (texture, scratch, depth));
+    }
+    textures
+}
+
+/// Depth snapshots: per pass, per slot (units, then loaded textures) that
+/// reads a depth buffer, an R32Float copy made just before the pass.
+fn depth_snapshots(
+    device: &wgpu::Device,
+    target: &Target,
+    passes: &[RunPass],
+    rendered: &BTreeMap<String, RenderedTexture>,
+) -> BTreeMap<(usize, usize), (wgpu::Texture, Option<String>)> {
+    let depth_size = |name: &Option<String>| -> (u32, u32) {
+        match name {
+            None => (target.width, target.height),
+            Some(n) => (rendered[n].width, rendered[n].height),
+        }
+    };
+    let mut snapshots: BTreeMap<(usize, usize), (wgpu::Texture, Option<String>)> = BTreeMap::new();
+    for (pass_idx, pass) in passes.iter().enumerate() {
+        let slots = pass.textures.iter().map(|t| &t.data).chain(pass.loaded.iter().map(|l| &l.data));
+        for (slot, data) in slots.enumerate() {
+            if let TextureData::RenderedDepth { name } = data {
+                let (width, height) = depth_size(name);
+                let copy = device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some("shadec depth snapshot"),
+                    size: wgpu::Extent3d { width, height, depth_or_array_layers: 1 },
+                    mip_level_count: 1,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format: wgpu::TextureFormat::R32Float,
+                    usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+                    view_formats: &[],
+                });
+                snapshots.insert((pass_idx, slot), (copy, name.clone()));
+            }
+        }
+    }
+    snapshots
+}
 
 /// `view_of(slot, data)`: the view of a rendered source (slot: the unit,
 /// then `units + i` for `loaded[i]`), `None` for data to upload.
@@ -1162,6 +1173,42 @@ fn prepare(
         };
         owned_samplers.push(device.create_sampler(&sampler_descriptor(&settings)));
     }
+    let loaded_views = loaded_textures(pass, view_of, &mut layout_entries);
+    let bind_group_layout = (!layout_entries.is_empty()).then(|| {
+        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label, entries: &layout_entries })
+    });
+    let bind_group = bind_group_layout.as_ref().map(|layout| {
+        let entries = bind_entries(uniform_buffer.as_ref(), &loaded_views, &owned_views, &owned_samplers);
+        device.create_bind_group(&wgpu::BindGroupDescriptor { label, layout, entries: &entries })
+    });
+    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
+        label,
+        bind_group_layouts: &[bind_group_layout.as_ref()].into_iter().flatten().map(Some).collect::<Vec<_>>(),
+        immediate_size: 0,
+    });
+
+    let pipeline = render_pipeline(device, pass, &shader, &pipeline_layout, (depth_format, color_format));
+    let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label,
+        contents: bytemuck::cast_slice(&pass.vertices.floats),
+        usage: wgpu::BufferUsages::VERTEX,
+    });
+    let index_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label,
+        contents: bytemuck::cast_slice(&pass.indices),
+        usage: wgpu::BufferUsages::INDEX,
+    });
+    Prepared { pipeline, bind_group, vertex_buffer, index_buffer }
+}
+
+/// The textures a pass reads from its own target as it was before the
+/// pass (unfilterable, at their own bindings): their views, and their
+/// layout entries appended.
+fn loaded_textures(
+    pass: &RunPass,
+    view_of: &dyn Fn(usize, &TextureData) -> Option<wgpu::TextureView>,
+    layout_entries: &mut Vec<wgpu::BindGroupLayoutEntry>,
+) -> Vec<(u32, wgpu::TextureView)> {
     let units = pass.textures.len();
     let mut loaded_views = Vec::new();
     for (i, l) in pass.loaded.iter().enumerate() {
@@ -1178,37 +1225,38 @@ fn prepare(
         });
         loaded_views.push((l.binding, view));
     }
-    let bind_group_layout = (!layout_entries.is_empty()).then(|| {
-        device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor { label, entries: &layout_entries })
-    });
-    let bind_group = bind_group_layout.as_ref().map(|layout| {
-        let mut entries = Vec::new();
-        if let Some(buffer) = &uniform_buffer {
-            entries.push(wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() });
-        }
-        for (binding, view) in &loaded_views {
-            entries.push(wgpu::BindGroupEntry {
-                binding: *binding,
-                resource: wgpu::BindingResource::TextureView(view),
-            });
-        }
-        for (texture_idx, (view, sampler)) in owned_views.iter().zip(&owned_samplers).enumerate() {
-            let binding = 1 + 2 * texture_idx as u32;
-            entries
-                .push(wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) });
-            entries.push(wgpu::BindGroupEntry {
-                binding: binding + 1,
-                resource: wgpu::BindingResource::Sampler(sampler),
-            });
-        }
-        device.create_bind_group(&wgpu::BindGroupDescriptor { label, layout, entries: &entries })
-    });
-    let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-        label,
-        bind_group_layouts: &[bind_group_layout.as_ref()].into_iter().flatten().map(Some).collect::<Vec<_>>(),
-        immediate_size: 0,
-    });
+    loaded_views
+}
 
+/// How a pass starts on its target: the first pass into a target clears it
+/// (the main target to the frame's clear values, a rendered texture to
+/// transparent black, depth 1, stencil 0), later ones load.
+fn load_ops(
+    target: &Target,
+    main: bool,
+    first: bool,
+) -> (wgpu::LoadOp<wgpu::Color>, wgpu::LoadOp<f32>, wgpu::LoadOp<u32>) {
+    if !first {
+        return (wgpu::LoadOp::Load, wgpu::LoadOp::Load, wgpu::LoadOp::Load);
+    }
+    let [r, g, b, a] = target.clear_color.map(f64::from);
+    let color = if main { wgpu::Color { r, g, b, a } } else { wgpu::Color::TRANSPARENT };
+    let depth = if main { target.clear_depth } else { 1.0 };
+    let stencil = if main { u32::from(target.clear_stencil) } else { 0 };
+    (wgpu::LoadOp::Clear(color), wgpu::LoadOp::Clear(depth), wgpu::LoadOp::Clear(stencil))
+}
+
+/// The pass's pipeline: its vertex layout (one attribute per vertex leaf),
+/// culling, depth and stencil, blending and write mask, one colour target
+/// per output.
+fn render_pipeline(
+    device: &wgpu::Device,
+    pass: &RunPass,
+    shader: &wgpu::ShaderModule,
+    pipeline_layout: &wgpu::PipelineLayout,
+    (depth_format, color_format): (wgpu::TextureFormat, wgpu::TextureFormat),
+) -> wgpu::RenderPipeline {
+    let label = Some(pass.label.as_str());
     let mut offset = 0;
     let attributes: Vec<wgpu::VertexAttribute> = pass
         .vertices
@@ -1228,11 +1276,11 @@ fn prepare(
         })
         .collect();
     let state = &pass.state;
-    let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
+    device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
         label,
-        layout: Some(&pipeline_layout),
+        layout: Some(pipeline_layout),
         vertex: wgpu::VertexState {
-            module: &shader,
+            module: shader,
             entry_point: Some(&pass.shader.vertex_entry),
             compilation_options: Default::default(),
             buffers: &[Some(wgpu::VertexBufferLayout {
@@ -1260,7 +1308,7 @@ fn prepare(
         }),
         multisample: Default::default(),
         fragment: Some(wgpu::FragmentState {
-            module: &shader,
+            module: shader,
             entry_point: Some(&pass.shader.fragment_entry),
             compilation_options: Default::default(),
             targets: &vec![
@@ -1274,18 +1322,37 @@ fn prepare(
         }),
         multiview_mask: None,
         cache: None,
-    });
-    let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label,
-        contents: bytemuck::cast_slice(&pass.vertices.floats),
-        usage: wgpu::BufferUsages::VERTEX,
-    });
-    let index_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
-        label,
-        contents: bytemuck::cast_slice(&pass.indices),
-        usage: wgpu::BufferUsages::INDEX,
-    });
-    Prepared { pipeline, bind_group, vertex_buffer, index_buffer }
+    })
+}
+
+/// Bind group 0's entries: the uniform block at 0, textures a pass loads
+/// from its own target at their bindings, unit i's view and sampler at
+/// 1 + 2i and 2 + 2i.
+fn bind_entries<'b>(
+    uniform_buffer: Option<&'b wgpu::Buffer>,
+    loaded_views: &'b [(u32, wgpu::TextureView)],
+    owned_views: &'b [wgpu::TextureView],
+    owned_samplers: &'b [wgpu::Sampler],
+) -> Vec<wgpu::BindGroupEntry<'b>> {
+    let mut entries = Vec::new();
+    if let Some(buffer) = uniform_buffer {
+        entries.push(wgpu::BindGroupEntry { binding: 0, resource: buffer.as_entire_binding() });
+    }
+    for (binding, view) in loaded_views {
+        entries.push(wgpu::BindGroupEntry {
+            binding: *binding,
+            resource: wgpu::BindingResource::TextureView(view),
+        });
+    }
+    for (texture_idx, (view, sampler)) in owned_views.iter().zip(owned_samplers).enumerate() {
+        let binding = 1 + 2 * texture_idx as u32;
+        entries.push(wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) });
+        entries.push(wgpu::BindGroupEntry {
+            binding: binding + 1,
+            resource: wgpu::BindingResource::Sampler(sampler),
+        });
+    }
+    entries
 }
 
 /// Uploads the texels in `texels`' format (an `Rgba16` image rounded to

@@ -233,121 +233,11 @@ impl<'a> ScenePlan<'a> {
         let fat = codegen::fat_layers(m);
         let fat_textures: Vec<&str> =
             m.textures.iter().zip(&fat).filter(|(_, l)| **l > 0).map(|(t, _)| t.name.as_str()).collect();
-        // The textures the plan renders, and how (seeds/001 (5), (13), (15)).
-        let mut rendered: BTreeMap<String, runner::RenderedTexture> = BTreeMap::new();
-        for s in &self.shaders {
-            let pass = &self.planned.plan.passes[s.pass];
-            if let RenderTarget::Texture { name } = &pass.target {
-                let id =
-                    m.textures.iter().position(|t| t.name == *name).ok_or_else(|| {
-                        SceneRunError::Unsupported(format!("texture `{name}` is not declared"))
-                    })?;
-                // Over its texels, or the mesh in texture space: the CPU's size.
-                let by_texel = matches!(pass.geometry, Geometry::Texels)
-                    || s.interface.position.is_some_and(|p| m.info(p).ty == ir::Ty::Vec2);
-                let (w, h) = if by_texel {
-                    (bind::RENDERED_TEXTURE_SIZE, bind::RENDERED_TEXTURE_SIZE)
-                } else {
-                    (width, height)
-                };
-                let format = if m.textures[id].format.is_wide() {
-                    ColorTarget::Rgba16Float
-                } else {
-                    ColorTarget::Rgba8
-                };
-                rendered.insert(
-                    name.clone(),
-                    runner::RenderedTexture {
-                        name: name.clone(),
-                        width: w,
-                        height: h,
-                        layers: u32::from(fat[id]).max(1),
-                        format,
-                    },
-                );
-            }
-        }
-        // The other framebuffers (shadow mask's C′, Cl): frame-sized textures.
-        for pass in &self.planned.plan.passes {
-            if let RenderTarget::Framebuffer { name, .. } = &pass.target {
-                if *name != self.main {
-                    rendered.insert(
-                        name.clone(),
-                        runner::RenderedTexture {
-                            name: name.clone(),
-                            width,
-                            height,
-                            layers: 1,
-                            format: frame.color_format,
-                        },
-                    );
-                }
-            }
-        }
-        let main = self.main.as_str();
-        let depth_of =
-            |name: &str| TextureData::RenderedDepth { name: (name != main).then(|| name.to_string()) };
+        let rendered = self.rendered_textures(frame, &fat)?;
         let mut out = Vec::new();
         for s in &self.shaders {
             let pass = &self.planned.plan.passes[s.pass];
-            let unsupported =
-                |what: String| SceneRunError::Unsupported(format!("pass {} {what}", s.pass + 1));
-            let mut textures = Vec::new();
-            for t in &pass.textures {
-                if t.unit as usize != textures.len() {
-                    return Err(SceneRunError::Unsupported(format!(
-                        "texture units of pass {} are not 0..n",
-                        s.pass + 1
-                    )));
-                }
-                if let Expr::FramebufferRead { framebuffer, channel, .. } =
-                    m.exprs[self.planned.handle(t.lookup)]
-                {
-                    // Another framebuffer, read in the shader: its colour, or its depth as of now.
-                    let name = m.framebuffers[framebuffer as usize].name.as_str();
-                    let data = match channel {
-                        ir::FbChannel::Depth => depth_of(name),
-                        ir::FbChannel::Color | ir::FbChannel::Alpha if name != main => {
-                            TextureData::Rendered { name: name.to_string(), array: false }
-                        }
-                        _ => {
-                            return Err(unsupported(format!(
-                                "reads the {channel:?} of `{name}` in its shader"
-                            )))
-                        }
-                    };
-                    textures.push(RunTexture {
-                        data,
-                        sampler: runner::SamplerSettings::NEAREST_CLAMP,
-                        texels: TexelUpload::Rgba8,
-                    });
-                    continue;
-                }
-                if let Some(r) = rendered.get(&t.texture) {
-                    let decl = self.decls.iter().find(|d| d.name == t.texture).ok_or_else(|| {
-                        SceneRunError::Unsupported(format!("texture `{}` has no declaration", t.texture))
-                    })?;
-                    // Level 0 only: the GPU runner makes no mip chain of a rendered texture.
-                    textures.push(RunTexture {
-                        data: TextureData::Rendered {
-                            name: t.texture.clone(),
-                            array: fat_textures.contains(&r.name.as_str()),
-                        },
-                        sampler: sampler(decl.filter, decl.wrap, false),
-                        texels: TexelUpload::Rgba8,
-                    });
-                    continue;
-                }
-                let bound = self.textures.get(&t.texture).ok_or_else(|| {
-                    SceneRunError::Unsupported(format!("texture `{}` is not bound", t.texture))
-                })?;
-                let signed = self
-                    .decls
-                    .iter()
-                    .find(|d| d.name == t.texture)
-                    .is_some_and(|d| bind::is_signed(d.format));
-                textures.push(run_texture(bound, self.precision, signed)?);
-            }
+            let textures = self.pass_textures(s, &rendered, &fat_textures)?;
             let target = match &pass.target {
                 RenderTarget::Texture { name } => PassTarget::Texture(rendered[name].clone()),
                 RenderTarget::Framebuffer { name, .. } if *name != self.main => {
@@ -355,21 +245,7 @@ impl<'a> ScenePlan<'a> {
                 }
                 _ => PassTarget::Main,
             };
-            // Reads of the pass's own target, as it was before the pass.
-            let mut loaded = Vec::new();
-            for c in &s.target_copies {
-                let data = if c.depth {
-                    depth_of(&c.framebuffer)
-                } else if c.framebuffer != main {
-                    TextureData::Rendered { name: c.framebuffer.clone(), array: false }
-                } else {
-                    return Err(unsupported(format!(
-                        "reads the colour of `{}`, the framebuffer read back, in its shader",
-                        c.framebuffer
-                    )));
-                };
-                loaded.push(LoadedTexture { binding: c.binding, data });
-            }
+            let loaded = self.own_target_reads(s)?;
             let leaves = &s.interface.vertex_leaves;
             let unis: Vec<[f32; 4]> =
                 s.interface.uniforms.iter().map(|u| self.uniforms[*u as usize]).collect();
@@ -432,6 +308,161 @@ impl<'a> ScenePlan<'a> {
             }
         }
         Ok(out)
+    }
+
+    /// The textures the plan renders, and how (seeds/001 (5), (13), (15)):
+    /// declared ones over their texels or the frame, the other framebuffers
+    /// (shadow mask's C′, Cl) as frame-sized textures.
+    fn rendered_textures(
+        &self,
+        frame: &Target,
+        fat: &[u8],
+    ) -> Result<BTreeMap<String, runner::RenderedTexture>, SceneRunError> {
+        let (width, height) = (frame.width, frame.height);
+        let m = &self.planned.module;
+        let mut rendered: BTreeMap<String, runner::RenderedTexture> = BTreeMap::new();
+        for s in &self.shaders {
+            let pass = &self.planned.plan.passes[s.pass];
+            if let RenderTarget::Texture { name } = &pass.target {
+                let id =
+                    m.textures.iter().position(|t| t.name == *name).ok_or_else(|| {
+                        SceneRunError::Unsupported(format!("texture `{name}` is not declared"))
+                    })?;
+                // Over its texels, or the mesh in texture space: the CPU's size.
+                let by_texel = matches!(pass.geometry, Geometry::Texels)
+                    || s.interface.position.is_some_and(|p| m.info(p).ty == ir::Ty::Vec2);
+                let (w, h) = if by_texel {
+                    (bind::RENDERED_TEXTURE_SIZE, bind::RENDERED_TEXTURE_SIZE)
+                } else {
+                    (width, height)
+                };
+                let format = if m.textures[id].format.is_wide() {
+                    ColorTarget::Rgba16Float
+                } else {
+                    ColorTarget::Rgba8
+                };
+                rendered.insert(
+                    name.clone(),
+                    runner::RenderedTexture {
+                        name: name.clone(),
+                        width: w,
+                        height: h,
+                        layers: u32::from(fat[id]).max(1),
+                        format,
+                    },
+                );
+            }
+        }
+        // The other framebuffers (shadow mask's C′, Cl): frame-sized textures.
+        for pass in &self.planned.plan.passes {
+            if let RenderTarget::Framebuffer { name, .. } = &pass.target {
+                if *name != self.main {
+                    rendered.insert(
+                        name.clone(),
+                        runner::RenderedTexture {
+                            name: name.clone(),
+                            width,
+                            height,
+                            layers: 1,
+                            format: frame.color_format,
+                        },
+                    );
+                }
+            }
+        }
+        Ok(rendered)
+    }
+
+    /// The texture units of pass `s`: other framebuffers read in the shader,
+    /// textures the plan renders, and bound textures uploaded.
+    fn pass_textures(
+        &self,
+        s: &PassShader,
+        rendered: &BTreeMap<String, runner::RenderedTexture>,
+        fat_textures: &[&str],
+    ) -> Result<Vec<RunTexture>, SceneRunError> {
+        let m = &self.planned.module;
+        let pass = &self.planned.plan.passes[s.pass];
+        let main = self.main.as_str();
+        let depth_of = |name: &str| self.depth_of(name);
+        let unsupported = |what: String| unsupported_in(s, what);
+        let mut textures = Vec::new();
+        for t in &pass.textures {
+            if t.unit as usize != textures.len() {
+                return Err(SceneRunError::Unsupported(format!(
+                    "texture units of pass {} are not 0..n",
+                    s.pass + 1
+                )));
+            }
+            if let Expr::FramebufferRead { framebuffer, channel, .. } = m.exprs[self.planned.handle(t.lookup)]
+            {
+                // Another framebuffer, read in the shader: its colour, or its depth as of now.
+                let name = m.framebuffers[framebuffer as usize].name.as_str();
+                let data = match channel {
+                    ir::FbChannel::Depth => depth_of(name),
+                    ir::FbChannel::Color | ir::FbChannel::Alpha if name != main => {
+                        TextureData::Rendered { name: name.to_string(), array: false }
+                    }
+                    _ => return Err(unsupported(format!("reads the {channel:?} of `{name}` in its shader"))),
+                };
+                textures.push(RunTexture {
+                    data,
+                    sampler: runner::SamplerSettings::NEAREST_CLAMP,
+                    texels: TexelUpload::Rgba8,
+                });
+                continue;
+            }
+            if let Some(r) = rendered.get(&t.texture) {
+                let decl = self.decls.iter().find(|d| d.name == t.texture).ok_or_else(|| {
+                    SceneRunError::Unsupported(format!("texture `{}` has no declaration", t.texture))
+                })?;
+                // Level 0 only: the GPU runner makes no mip chain of a rendered texture.
+                textures.push(RunTexture {
+                    data: TextureData::Rendered {
+                        name: t.texture.clone(),
+                        array: fat_textures.contains(&r.name.as_str()),
+                    },
+                    sampler: sampler(decl.filter, decl.wrap, false),
+                    texels: TexelUpload::Rgba8,
+                });
+                continue;
+            }
+            let bound = self
+                .textures
+                .get(&t.texture)
+                .ok_or_else(|| SceneRunError::Unsupported(format!("texture `{}` is not bound", t.texture)))?;
+            let signed =
+                self.decls.iter().find(|d| d.name == t.texture).is_some_and(|d| bind::is_signed(d.format));
+            textures.push(run_texture(bound, self.precision, signed)?);
+        }
+        Ok(textures)
+    }
+
+    /// A depth buffer read as a texture: the main one, or a rendered target's.
+    fn depth_of(&self, name: &str) -> TextureData {
+        TextureData::RenderedDepth { name: (name != self.main).then(|| name.to_string()) }
+    }
+
+    /// Reads of pass `s`'s own target, as it was before the pass.
+    fn own_target_reads(&self, s: &PassShader) -> Result<Vec<LoadedTexture>, SceneRunError> {
+        let main = self.main.as_str();
+        let depth_of = |name: &str| self.depth_of(name);
+        let unsupported = |what: String| unsupported_in(s, what);
+        let mut loaded = Vec::new();
+        for c in &s.target_copies {
+            let data = if c.depth {
+                depth_of(&c.framebuffer)
+            } else if c.framebuffer != main {
+                TextureData::Rendered { name: c.framebuffer.clone(), array: false }
+            } else {
+                return Err(unsupported(format!(
+                    "reads the colour of `{}`, the framebuffer read back, in its shader",
+                    c.framebuffer
+                )));
+            };
+            loaded.push(LoadedTexture { binding: c.binding, data });
+        }
+        Ok(loaded)
     }
 
     /// Renders a frame and reads it back (row 0 at the top).
@@ -547,4 +578,9 @@ fn flat(t: &Texture2D, filter: Filter, texels: TexelUpload, signed: bool) -> Run
         TextureData::D2 { width, height, rgba: level_rgba(&t.levels[0], signed, texels) }
     };
     RunTexture { data, sampler: sampler(filter, t.wrap, t.levels.len() > 1), texels }
+}
+
+/// What pass `s` does that the GPU runner cannot.
+fn unsupported_in(s: &PassShader, what: String) -> SceneRunError {
+    SceneRunError::Unsupported(format!("pass {} {what}", s.pass + 1))
 }

@@ -2,7 +2,7 @@
 //! spans in a parallel side table, and a handle is a 32-bit index whose
 //! `Option` costs nothing (`NonZeroU32` storing index + 1).
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 use std::fmt;
 use std::hash::Hash;
 use std::marker::PhantomData;
@@ -125,7 +125,7 @@ pub struct UniqueArena<T: Eq + Hash + Clone> {
 
 impl<T: Eq + Hash + Clone> Default for UniqueArena<T> {
     fn default() -> Self {
-        UniqueArena { arena: Arena::default(), map: HashMap::new() }
+        UniqueArena { arena: Arena::default(), map: HashMap::default() }
     }
 }
 

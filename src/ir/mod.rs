@@ -216,7 +216,50 @@ pub struct Texture {
     /// 18): its declaration as a user would write it, so that executors
     /// bind it as they bind a declared one (`scene::bind::lowered_decls`).
     pub declaration: Option<String>,
+    /// How it is sampled: its declaration's attributes, read once here
+    /// (issue 17) for the binder and the cost model alike.
+    pub sampling: Sampling,
     pub span: Span,
+}
+
+/// A texture's filter, wrap and mipmaps, from its declaration's attributes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Sampling {
+    pub filter: crate::textures::Filter,
+    pub wrap: crate::textures::Wrap,
+    pub mipmap: bool,
+}
+
+impl Sampling {
+    /// The rules of the language (docs/language.md): `nearest` wins; a
+    /// mipmapped texture is trilinear unless `bilinear` is said; cube maps
+    /// and `clamp` clamp to the edge, everything else repeats.
+    pub fn of(kind: ast::TextureKind, attrs: &[ast::TextureAttr]) -> Sampling {
+        use crate::textures::{Filter, Wrap};
+        let has = |a: ast::TextureAttr| attrs.contains(&a);
+        let mipmap = has(ast::TextureAttr::Mipmap);
+        let filter = if has(ast::TextureAttr::Nearest) {
+            Filter::Nearest
+        } else if has(ast::TextureAttr::Trilinear) || (mipmap && !has(ast::TextureAttr::Bilinear)) {
+            Filter::Trilinear
+        } else {
+            Filter::Bilinear
+        };
+        let wrap = if has(ast::TextureAttr::Clamp) || kind == ast::TextureKind::Cube {
+            Wrap::ClampToEdge
+        } else {
+            Wrap::Repeat
+        };
+        Sampling { filter, wrap, mipmap }
+    }
+
+    /// A texture the compiler adds (a temporary, a table): bilinear,
+    /// clamped, one level.
+    pub const ADDED: Sampling = Sampling {
+        filter: crate::textures::Filter::Bilinear,
+        wrap: crate::textures::Wrap::ClampToEdge,
+        mipmap: false,
+    };
 }
 
 #[derive(Clone, Debug, PartialEq)]

@@ -3,7 +3,7 @@
 //! (`crate::profile::fit`) compares this with a profile; the pass planner
 //! will use it to decide where to split.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 use super::{BinaryOp, Expr, Frequency, Handle, MathFunction, Module, Statement, Table, Ty};
 use crate::parser::ast::{TextureFormat, TextureKind};
@@ -53,7 +53,8 @@ impl Usage {
         let nodes = module.reachable(&[value]);
         // Whether a node depends on a per-sample lookup, bottom-up (operands
         // precede users in the arena, and `reachable` is in arena order).
-        let mut on_lookup: HashMap<Handle<Expr>, bool> = HashMap::with_capacity(nodes.len());
+        let mut on_lookup: HashMap<Handle<Expr>, bool> =
+            HashMap::with_capacity_and_hasher(nodes.len(), Default::default());
         for &h in &nodes {
             let mut any = matches!(module.exprs[h], Expr::Lookup { .. }) && module.info(h).freq.is_sample();
             module.exprs[h].visit_operands(|o| any |= on_lookup.get(&o).copied().unwrap_or(false));

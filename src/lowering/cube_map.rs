@@ -12,7 +12,7 @@
 
 use super::{per_vertex, Rewriter};
 use crate::ir::{Expr, Handle, MathFunction, Texture};
-use crate::parser::ast::{TextureFormat, TextureKind};
+use crate::parser::ast::{TextureAttr, TextureFormat, TextureKind};
 use crate::pipeline::ApproximationCost;
 use crate::span::Span;
 
@@ -70,6 +70,7 @@ fn texture(r: &mut Rewriter) -> u32 {
         declaration: Some(format!(
             "texture {NAME} : cube rgb8 bilinear clamp = normalize_cube({SIZE}, 8);\n"
         )),
+        sampling: crate::ir::Sampling::of(TextureKind::Cube, &[TextureAttr::Bilinear, TextureAttr::Clamp]),
         span: Span::DETACHED,
     });
     (r.m.textures.len() - 1) as u32

@@ -14,7 +14,7 @@
 //!
 //! Both are affine in the incoming colour Cf, not in the texture.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 use crate::ir::{BinaryOp, Constant, Expr, Handle, Module, Ty, UnaryOp};
 use crate::parser::ast::CombineMode;
@@ -137,8 +137,8 @@ pub fn contains(
 /// in `x` (a product of two terms with `x`, a function of `x`, `x` used as a
 /// texture over something else, …).
 pub fn affine(b: &mut Builder, e: Handle<Expr>, x: Handle<Expr>) -> Option<(Handle<Expr>, Handle<Expr>)> {
-    let mut memo = HashMap::new();
-    let mut cache = HashMap::new();
+    let mut memo = HashMap::default();
+    let mut cache = HashMap::default();
     decompose(b, e, x, &mut memo, &mut cache)
 }
 

@@ -16,8 +16,8 @@
 //! Appendix B validator accepts): a pass the target cannot run is split
 //! further or refused, never planned (issue 16).
 
+use rustc_hash::FxHashMap as HashMap;
 use std::cell::RefCell;
-use std::collections::HashMap;
 
 use super::realize::Realizer;
 use super::split::{Dest, FitCheck, Overflow, Piece};
@@ -37,11 +37,20 @@ pub struct ProfileFit<'p> {
     /// Every verdict of [`FitCheck::fits`] by value, for the same reason:
     /// the splitter asks about the same sub-values many times (issue 22).
     verdicts: RefCell<HashMap<Handle<Expr>, Result<(), Overflow>>>,
+    /// Texture samples per value, for [`FitCheck::piece_ns`] (issue 19),
+    /// measured once like the verdicts.
+    samples: RefCell<HashMap<Handle<Expr>, u32>>,
 }
 
 impl<'p> ProfileFit<'p> {
     pub fn new(profile: &'p Profile, realizer: Option<&'p dyn Realizer>) -> ProfileFit<'p> {
-        ProfileFit { profile, realizer, generated: RefCell::default(), verdicts: RefCell::default() }
+        ProfileFit {
+            profile,
+            realizer,
+            generated: RefCell::default(),
+            verdicts: RefCell::default(),
+            samples: RefCell::default(),
+        }
     }
 
     /// Whether the combiner code generator realizes `value` as one pass,
@@ -89,8 +98,10 @@ impl FitCheck for ProfileFit<'_> {
     /// blend reads the framebuffer and whether it renders to a temporary.
     fn piece_ns(&self, module: &Module, piece: &Piece) -> u64 {
         let Some(model) = &self.profile.cost else { return 0 };
-        let u = Usage::of_value(module, piece.value);
-        let samples = (u.texture_units() + framebuffer_textures(module, &u)) as u32;
+        let samples = *self.samples.borrow_mut().entry(piece.value).or_insert_with(|| {
+            let u = Usage::of_value(module, piece.value);
+            (u.texture_units() + framebuffer_textures(module, &u)) as u32
+        });
         let stages = match self.generated.borrow().get(&piece.value) {
             Some(Ok(n)) => *n,
             _ => 0,

@@ -26,7 +26,9 @@
 //! a light term under a ⊕ mode that is not linear in it (`decal`, `blend`,
 //! `replace`, `interpolate`, `add_signed`, `dot3`) or under a selection.
 
-use std::collections::{HashMap, HashSet};
+use std::collections::HashSet;
+
+use rustc_hash::FxHashMap as HashMap;
 
 use super::affine::Builder;
 use crate::ir::{
@@ -82,32 +84,24 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
     if template.is_empty() {
         return out;
     }
-    if let Some(note) = explicit_light_note(m, at) {
+    if let Some(note) = names_a_light(m, at) {
         out.notes.push(note);
         return out;
     }
     let dep = light_dependent(m, &template);
-    // Light i's copies of the template vectors.
-    let mut copies: HashMap<(VectorId, u32), VectorId> = HashMap::new();
-    let mut new_statements: Vec<LightCopy> = Vec::new();
+    let mut r = Replicator { template: &template, dep: &dep, copies: HashMap::default(), at };
+    let mut new_statements: Vec<(usize, Statement, u32, Handle<Expr>)> = Vec::new();
     for k in 0..m.statements.len() {
         let st = m.statements[k].clone();
         if !dep.contains(&st.value) {
             continue;
         }
-        let note = |why: String| Removed {
-            kind: "note".into(),
-            what: format!("statement {}", k + 1),
-            why,
-            at: at(st.span),
-        };
-        let split = match split_statement(m, &dep, &st) {
+        let split = match r.split_light_terms(m, k, &st) {
             Ok(split) => split,
-            Err(Some(why)) => {
-                out.notes.push(note(why));
+            Err(note) => {
+                out.notes.extend(note);
                 continue;
             }
-            Err(None) => continue,
         };
         out.statements.push(LightStatement {
             statement: k,
@@ -116,24 +110,21 @@ pub fn expand(m: &mut Module, n_lights: usize, at: &dyn Fn(Span) -> String) -> E
             without_light: Some(split.without),
             light_terms: split.light_sum,
         });
-        let mut lights = Replication { template: &template, copies: &mut copies, split: &split, st: &st };
         for i in 1..n_lights as u32 {
-            match lights.statement_for(m, i) {
-                Ok(Some((value, term))) => {
-                    new_statements.push((k, Statement { value, ..st.clone() }, i, term))
-                }
+            match r.for_light(m, k, &st, &split, i) {
+                Ok(Some((st, term))) => new_statements.push((k, st, i, term)),
                 Ok(None) => {}
-                Err(why) => out.notes.push(note(why)),
+                Err(note) => out.notes.push(note),
             }
         }
     }
-    insert_light_statements(m, new_statements, &mut out);
+    insert_per_light(m, &mut out, new_statements);
     out
 }
 
-/// The note for a program that names a light other than light 0: it
-/// addresses lights explicitly, so it is not replicated (module docs).
-fn explicit_light_note(m: &Module, at: &dyn Fn(Span) -> String) -> Option<Removed> {
+/// A note when the program names a light other than 0 explicitly: then it
+/// is not replicated per scene light.
+fn names_a_light(m: &Module, at: &dyn Fn(Span) -> String) -> Option<Removed> {
     let v = m.vectors.iter().find(|v| {
         matches!(v.kind, Some(VectorKind::Light | VectorKind::Half | VectorKind::Intensity))
             && v.index.unwrap_or(0) > 0
@@ -150,8 +141,7 @@ fn explicit_light_note(m: &Module, at: &dyn Fn(Span) -> String) -> Option<Remove
     })
 }
 
-/// The nodes that depend on light 0's vectors (`template`): the ones whose
-/// light terms are replicated.
+/// The nodes that depend on light 0's vectors (`template`).
 fn light_dependent(m: &Module, template: &[VectorId]) -> HashSet<Handle<Expr>> {
     let mut dep: HashSet<Handle<Expr>> = HashSet::new();
     for i in 0..m.exprs.len() {
@@ -168,155 +158,169 @@ fn light_dependent(m: &Module, template: &[VectorId]) -> HashSet<Handle<Expr>> {
     dep
 }
 
-/// A colour statement read as `own ⊕[add] light terms` (module docs): what
-/// each further light's statement is built from.
+/// A statement's value as `C + Σ light terms + the rest`: what each light
+/// adds, what is written once, and the target's own colour read.
 struct LightSplit {
-    /// The statement's own target, `C δπx`.
-    own: Handle<Expr>,
-    /// The sum of its light terms (light 0's vectors).
     light_sum: Handle<Expr>,
-    /// Its value without the light terms (the once terms, or zero).
     without: Handle<Expr>,
+    own: Handle<Expr>,
 }
 
-/// Splits statement `st` into its light and once terms (module docs);
-/// `Err(Some(why))` when it is light 0 only, `Err(None)` when it is skipped
-/// silently.
-fn split_statement(
-    m: &mut Module,
-    dep: &HashSet<Handle<Expr>>,
-    st: &Statement,
-) -> Result<LightSplit, Option<String>> {
-    let (fb, own) = match st.table {
-        Table::Framebuffer { id, channel: FbChannel::Color } if st.freq == Frequency::Fragment => (
-            id,
-            m.exprs.find(&Expr::FramebufferRead {
-                framebuffer: id,
-                channel: FbChannel::Color,
-                position: st.index,
-            }),
-        ),
-        _ => {
-            return Err(Some(
-                "it depends on the light but is not a colour statement on a mesh: light 0 only".into(),
-            ))
+/// What the replication shares across statements: light 0's vectors, the
+/// nodes depending on them, and light i's copies of each vector.
+struct Replicator<'r> {
+    template: &'r [VectorId],
+    dep: &'r HashSet<Handle<Expr>>,
+    copies: HashMap<(VectorId, u32), VectorId>,
+    at: &'r dyn Fn(Span) -> String,
+}
+
+impl Replicator<'_> {
+    fn note(&self, k: usize, st: &Statement, why: String) -> Removed {
+        Removed { kind: "note".into(), what: format!("statement {}", k + 1), why, at: (self.at)(st.span) }
+    }
+
+    /// Statement `k` as a sum of light terms and the rest, or why it stays
+    /// light 0 only (a product does not distribute over lights); `Err(None)`:
+    /// light 0 only, with nothing to say.
+    fn split_light_terms(
+        &self,
+        m: &mut Module,
+        k: usize,
+        st: &Statement,
+    ) -> Result<LightSplit, Option<Removed>> {
+        let (fb, own) = match st.table {
+            Table::Framebuffer { id, channel: FbChannel::Color } if st.freq == Frequency::Fragment => (
+                id,
+                m.exprs.find(&Expr::FramebufferRead {
+                    framebuffer: id,
+                    channel: FbChannel::Color,
+                    position: st.index,
+                }),
+            ),
+            _ => {
+                return Err(Some(self.note(
+                    k,
+                    st,
+                    "it depends on the light but is not a colour statement on a mesh: light 0 only".into(),
+                )))
+            }
+        };
+        let own_alpha = m.exprs.find(&Expr::FramebufferRead {
+            framebuffer: fb,
+            channel: FbChannel::Alpha,
+            position: st.index,
+        });
+        let mut terms = Vec::new();
+        if let Err(why) = decompose(m, self.dep, st.value, false, &mut terms) {
+            return Err(Some(self.note(k, st, format!("{why}: light 0 only"))));
         }
-    };
-    let own_alpha = m.exprs.find(&Expr::FramebufferRead {
-        framebuffer: fb,
-        channel: FbChannel::Alpha,
-        position: st.index,
-    });
-    let mut terms = Vec::new();
-    if let Err(why) = decompose(m, dep, st.value, false, &mut terms) {
-        return Err(Some(format!("{why}: light 0 only")));
-    }
-    let reads_own = |m: &Module, h: Handle<Expr>| {
-        m.reachable(&[h]).into_iter().any(|n| {
-            Some(n) == own
-                || Some(n) == own_alpha
-                || matches!(m.exprs[n], Expr::FramebufferRead { framebuffer, .. } if framebuffer == fb)
-        })
-    };
-    let (light, once): (Vec<_>, Vec<_>) = terms.into_iter().partition(|(h, _)| dep.contains(h));
-    if light.iter().any(|(h, _)| reads_own(m, *h)) {
-        return Err(Some(
-            "its light term reads its own target (as Kilgard's `(α C) · specular` does): light 0 only".into(),
-        ));
-    }
-    // The framebuffer appears only as `C + …` (a term C itself) or not at all.
-    if once.iter().any(|(h, neg)| reads_own(m, *h) && (Some(*h) != own || *neg)) {
-        return Err(Some("its framebuffer operation is not a replacement or an addition (a product does not distribute over lights): light 0 only".into()));
-    }
-    let ty = m.info(st.value).ty;
-    let without = match sum(m, &once) {
-        Some(h) => Some(h),
-        None if once.is_empty() => Builder { module: m }.constant(ty, 0.0),
-        None => None,
-    };
-    let (Some(light_sum), Some(without)) = (sum(m, &light), without) else {
-        return Err(Some("its light terms could not be summed: light 0 only".into()));
-    };
-    let own = own
-        .or_else(|| {
+        let reads_own = |m: &Module, h: Handle<Expr>| {
+            m.reachable(&[h]).into_iter().any(|n| {
+                Some(n) == own
+                    || Some(n) == own_alpha
+                    || matches!(m.exprs[n], Expr::FramebufferRead { framebuffer, .. } if framebuffer == fb)
+            })
+        };
+        let (light, once): (Vec<_>, Vec<_>) = terms.into_iter().partition(|(h, _)| self.dep.contains(h));
+        if light.iter().any(|(h, _)| reads_own(m, *h)) {
+            return Err(Some(self.note(
+                k,
+                st,
+                "its light term reads its own target (as Kilgard's `(α C) · specular` does): light 0 only".into(),
+            )));
+        }
+        // The framebuffer appears only as `C + …` (a term C itself) or not at all.
+        if once.iter().any(|(h, neg)| reads_own(m, *h) && (Some(*h) != own || *neg)) {
+            return Err(Some(self.note(k, st, "its framebuffer operation is not a replacement or an addition (a product does not distribute over lights): light 0 only".into())));
+        }
+        let ty = m.info(st.value).ty;
+        let without = match sum(m, &once) {
+            Some(h) => Some(h),
+            None if once.is_empty() => Builder { module: m }.constant(ty, 0.0),
+            None => None,
+        };
+        let (Some(light_sum), Some(without)) = (sum(m, &light), without) else {
+            return Err(Some(self.note(k, st, "its light terms could not be summed: light 0 only".into())));
+        };
+        let own = own.or_else(|| {
             m.intern(
                 Expr::FramebufferRead { framebuffer: fb, channel: FbChannel::Color, position: st.index },
                 Span::DETACHED,
             )
             .ok()
-        })
-        .ok_or(None)?;
-    Ok(LightSplit { own, light_sum, without })
-}
+        });
+        // No node for the target's colour: nothing to add light i to.
+        let own = own.ok_or(None)?;
+        Ok(LightSplit { light_sum, without, own })
+    }
 
-/// Builds light i's statements from a split statement: its light terms
-/// with light 0's vectors replaced by light i's copies (seeds/001 (9)).
-struct Replication<'a> {
-    template: &'a [VectorId],
-    /// Light i's copies of the template vectors, shared by all statements.
-    copies: &'a mut HashMap<(VectorId, u32), VectorId>,
-    split: &'a LightSplit,
-    st: &'a Statement,
-}
-
-/// Light i's statement value and its light terms.
-type LightValue = (Handle<Expr>, Handle<Expr>);
-
-impl Replication<'_> {
-    /// Light i's value `own ⊕[add] terms_i` and its light terms; `Ok(None)`
-    /// when the substitution fails, `Err(why)` when the term does not add.
-    fn statement_for(&mut self, m: &mut Module, i: u32) -> Result<Option<LightValue>, String> {
-        let map = self.light_vectors(m, i);
-        let Some(term) = super::substitute(m, self.split.light_sum, &map) else { return Ok(None) };
+    /// Light i's statement `C ← C ⊕[add] term_i`, with light 0's vectors
+    /// replaced by light i's copies; `None` when the term cannot be built.
+    fn for_light(
+        &mut self,
+        m: &mut Module,
+        k: usize,
+        st: &Statement,
+        split: &LightSplit,
+        i: u32,
+    ) -> Result<Option<(Statement, Handle<Expr>)>, Removed> {
+        let map = self.light_copies(m, split.light_sum, i);
+        let Some(term) = super::substitute(m, split.light_sum, &map) else { return Ok(None) };
         let term = match m.info(term).ty {
             Ty::Rgb => m.intern(Expr::Convert { value: term, to: Ty::Rgba }, m.span(term)).ok(),
             Ty::Rgba | Ty::Scalar => Some(term),
             _ => None,
         };
         let Some(value) = term.and_then(|t| {
-            m.intern(Expr::Combine { mode: CombineMode::Add, lhs: self.split.own, rhs: t }, self.st.span).ok()
+            m.intern(Expr::Combine { mode: CombineMode::Add, lhs: split.own, rhs: t }, st.span).ok()
         }) else {
-            return Err(format!("light {i}'s term does not add to a colour: light 0 only"));
+            return Err(self.note(k, st, format!("light {i}'s term does not add to a colour: light 0 only")));
         };
-        Ok(Some((value, term.unwrap_or(value))))
+        Ok(Some((Statement { value, ..st.clone() }, term.unwrap_or(value))))
     }
 
-    /// Light 0's vector nodes under the light terms mapped to light i's
-    /// copies (each copy declared once, named `name#i`).
-    fn light_vectors(&mut self, m: &mut Module, i: u32) -> HashMap<Handle<Expr>, Handle<Expr>> {
-        let mut map = HashMap::new();
-        for h in m.reachable(&[self.split.light_sum]) {
-            if let Expr::Vector { vector, site } = m.exprs[h] {
-                if self.template.contains(&vector) {
-                    let copy = *self.copies.entry((vector, i)).or_insert_with(|| {
-                        let v = &m.vectors[vector as usize];
-                        let c = Vector {
-                            name: format!("{}#{i}", v.name),
-                            kind: v.kind,
-                            index: Some(i),
-                            space: v.space,
-                            span: v.span,
-                        };
-                        m.vectors.push(c);
-                        (m.vectors.len() - 1) as VectorId
-                    });
-                    if let Ok(n) = m.intern(Expr::Vector { vector: copy, site }, m.span(h)) {
-                        map.insert(h, n);
-                    }
-                }
+    /// Light 0's vector nodes under `light_sum`, each mapped to light i's copy.
+    fn light_copies(
+        &mut self,
+        m: &mut Module,
+        light_sum: Handle<Expr>,
+        i: u32,
+    ) -> HashMap<Handle<Expr>, Handle<Expr>> {
+        let mut map = HashMap::default();
+        for h in m.reachable(&[light_sum]) {
+            let Expr::Vector { vector, site } = m.exprs[h] else { continue };
+            if !self.template.contains(&vector) {
+                continue;
+            }
+            let copy = *self.copies.entry((vector, i)).or_insert_with(|| {
+                let v = &m.vectors[vector as usize];
+                let c = Vector {
+                    name: format!("{}#{i}", v.name),
+                    kind: v.kind,
+                    index: Some(i),
+                    space: v.space,
+                    span: v.span,
+                };
+                m.vectors.push(c);
+                (m.vectors.len() - 1) as VectorId
+            });
+            if let Ok(n) = m.intern(Expr::Vector { vector: copy, site }, m.span(h)) {
+                map.insert(h, n);
             }
         }
         map
     }
 }
 
-/// Light i's copy of statement k: (k, the statement, i, its light terms).
-type LightCopy = (usize, Statement, u32, Handle<Expr>);
-
 /// Inserts light i's statements right after their statement, in light
-/// order, and renumbers `out` to the expanded module.
-fn insert_light_statements(m: &mut Module, new_statements: Vec<LightCopy>, out: &mut Expansion) {
-    let mut by_source: HashMap<usize, Vec<(Statement, u32, Handle<Expr>)>> = HashMap::new();
+/// order, and renumbers `out`'s statements and sources.
+fn insert_per_light(
+    m: &mut Module,
+    out: &mut Expansion,
+    new_statements: Vec<(usize, Statement, u32, Handle<Expr>)>,
+) {
+    let mut by_source: HashMap<usize, Vec<(Statement, u32, Handle<Expr>)>> = HashMap::default();
     for (k, st, i, term) in new_statements {
         by_source.entry(k).or_default().push((st, i, term));
     }

@@ -30,7 +30,7 @@ pub mod relevance;
 pub mod specialize;
 pub mod split;
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 use crate::pipeline::{
     BlendMode, FragmentWork, Geometry, Pass, PassPlan, Planned, Removed, RenderTarget, TextureBinding, Value,
@@ -562,7 +562,7 @@ fn plan_run(
     best[0] = Some(((0, 0, 0), vec![]));
     let mut first_error: Option<Diagnostic> = None;
     // Why a statement was not fused with the one before it.
-    let mut not_fused: HashMap<usize, String> = HashMap::new();
+    let mut not_fused: HashMap<usize, String> = HashMap::default();
     for j in 1..=run.len() {
         // Each statement alone first: its cost bounds the fused candidates.
         for i in (0..j).rev() {
@@ -684,7 +684,7 @@ fn fuse(m: &mut Module, stmts: &[usize]) -> Option<Handle<Expr>> {
     let mut value = m.statements[stmts[0]].value;
     for &s in &stmts[1..] {
         let st = m.statements[s].clone();
-        let mut map: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::new();
+        let mut map: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::default();
         if let Some(r) = self_read(m, &st, FbChannel::Color) {
             let v = widen_rgba(m, value)?;
             map.insert(r, v);

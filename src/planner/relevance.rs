@@ -183,15 +183,7 @@ impl<'a, 's> Bounder<'a, 's> {
         let info = m.info(h);
         match &m.exprs[h] {
             Expr::Constant(c) => Bound::point(ir::eval::value(c)),
-            Expr::Uniform(id) => {
-                let v = self
-                    .uniforms
-                    .get(*id as usize)
-                    .copied()
-                    .flatten()
-                    .or_else(|| m.uniforms[*id as usize].default.as_ref().map(ir::eval::value));
-                v.map_or(Bound::ALL, Bound::point)
-            }
+            Expr::Uniform(id) => self.uniform(*id),
             Expr::Interpolate { value, .. } => self.vertex_hull(*value),
             Expr::Lookup { texture, coords } => self.lookup(*texture, *coords, info.interval),
             Expr::FramebufferRead {
@@ -200,122 +192,12 @@ impl<'a, 's> Bounder<'a, 's> {
             | Expr::Depth(_) => Bound::splat(info.interval.lo, info.interval.hi),
             Expr::Unary { op: UnaryOp::Neg, value } => self.get(*value).map(|lo, hi| (-hi, -lo)),
             Expr::Unary { op: UnaryOp::Not, .. } => Bound::splat(0.0, 1.0),
-            Expr::Binary { op, lhs, rhs } => {
-                let (a, b) = (self.get(*lhs), self.get(*rhs));
-                match op {
-                    BinaryOp::Add => Bound::lanes(&a, &b, |a0, a1, b0, b1| (a0 + b0, a1 + b1)),
-                    BinaryOp::Sub => Bound::lanes(&a, &b, |a0, a1, b0, b1| (a0 - b1, a1 - b0)),
-                    BinaryOp::Mul => Bound::lanes(&a, &b, mul_iv),
-                    BinaryOp::Div => Bound::lanes(&a, &b, |a0, a1, b0, b1| {
-                        if b0 > 0.0 || b1 < 0.0 {
-                            mul_iv(a0, a1, 1.0 / b1, 1.0 / b0)
-                        } else {
-                            (f64::NEG_INFINITY, f64::INFINITY)
-                        }
-                    }),
-                    BinaryOp::Dot => self.dot(&a, &b, m.info(*lhs).ty.width()),
-                    BinaryOp::Pow => {
-                        let r = Bound::lanes(&a, &b, |a0, a1, b0, b1| {
-                            if a0 < 0.0 || b0.is_nan() || b0 <= 0.0 {
-                                return (f64::NEG_INFINITY, f64::INFINITY);
-                            }
-                            let c = [a0.powf(b0), a0.powf(b1), a1.powf(b0), a1.powf(b1)];
-                            (
-                                c.iter().copied().fold(f64::INFINITY, f64::min),
-                                c.iter().copied().fold(f64::NEG_INFINITY, f64::max),
-                            )
-                        });
-                        if a.lo[0] >= 0.0 && a.hi[0] < 1.0 && b.lo[0] > 1.0 {
-                            self.findings.highlight = Some((a.hi[0], b.lo[0]));
-                        }
-                        r
-                    }
-                    _ => Bound::splat(0.0, 1.0),
-                }
-            }
-            Expr::Combine { mode, lhs, rhs } => {
-                let (t, f) = (self.get(*lhs), self.get(*rhs));
-                match mode {
-                    CombineMode::Modulate => Bound::lanes(&t, &f, mul_iv),
-                    CombineMode::Add => Bound::lanes(&t, &f, |a0, a1, b0, b1| (a0 + b0, a1 + b1)),
-                    CombineMode::AddSigned => {
-                        Bound::lanes(&t, &f, |a0, a1, b0, b1| (a0 + b0 - 0.5, a1 + b1 - 0.5))
-                    }
-                    CombineMode::Subtract => Bound::lanes(&t, &f, |a0, a1, b0, b1| (a0 - b1, a1 - b0)),
-                    CombineMode::Blend => {
-                        // rgb = Cf·(1 − Ct) (Cc = 0), alpha = Af·At: the hull of both.
-                        let rgb = Bound::lanes(&t, &f, |t0, t1, f0, f1| mul_iv(f0, f1, 1.0 - t1, 1.0 - t0));
-                        let alpha = Bound::lanes(&t, &f, mul_iv);
-                        Bound::lanes(&rgb, &alpha, |a0, a1, b0, b1| (a0.min(b0), a1.max(b1)))
-                    }
-                    CombineMode::Decal | CombineMode::Interpolate | CombineMode::Replace
-                        if t.lo[3] >= 0.0 && t.hi[3] <= 1.0 =>
-                    {
-                        Bound::lanes(&t, &f, |a0, a1, b0, b1| (a0.min(b0), a1.max(b1)))
-                    }
-                    CombineMode::Dot3Rgb | CombineMode::Dot3Rgba => {
-                        let mut lo = 0.0;
-                        let mut hi = 0.0;
-                        for i in 0..3 {
-                            let (l, u) = mul_iv(t.lo[i] - 0.5, t.hi[i] - 0.5, f.lo[i] - 0.5, f.hi[i] - 0.5);
-                            lo += 4.0 * l;
-                            hi += 4.0 * u;
-                        }
-                        let all = Bound::lanes(&t, &f, mul_iv);
-                        Bound {
-                            lo: [lo, lo, lo, lo.min(all.lo[3])],
-                            hi: [hi, hi, hi, hi.max(all.hi[3])],
-                            cone: None,
-                        }
-                        .clean()
-                    }
-                    _ => Bound::ALL,
-                }
-            }
+            Expr::Binary { op, lhs, rhs } => self.binary(*op, *lhs, *rhs),
+            Expr::Combine { mode, lhs, rhs } => self.combine(*mode, *lhs, *rhs),
             Expr::Math { fun, args } => self.math(*fun, args),
-            Expr::Swizzle { value, pattern, len, .. } => {
-                let v = self.get(*value);
-                let mut out = Bound::ALL;
-                for k in 0..4 {
-                    let src = pattern[k.min(*len as usize - 1).min(3)] as usize;
-                    out.lo[k] = v.lo[src.min(3)];
-                    out.hi[k] = v.hi[src.min(3)];
-                }
-                if *len == 1 {
-                    out = Bound::splat(out.lo[0], out.hi[0]);
-                }
-                out
-            }
-            Expr::Compose { components, .. } => {
-                let mut out = Bound::splat(0.0, 0.0);
-                let mut k = 0;
-                for c in components {
-                    let b = self.get(*c);
-                    for j in 0..m.info(*c).ty.width() {
-                        if k < 4 {
-                            out.lo[k] = b.lo[j.min(3)];
-                            out.hi[k] = b.hi[j.min(3)];
-                        }
-                        k += 1;
-                    }
-                }
-                out
-            }
-            Expr::Convert { value, to } => {
-                let v = self.get(*value);
-                let from = m.info(*value).ty;
-                if from == Ty::Scalar {
-                    Bound::splat(v.lo[0], v.hi[0])
-                } else if from == Ty::Rgb && *to == Ty::Rgba {
-                    Bound {
-                        lo: [v.lo[0], v.lo[1], v.lo[2], 1.0],
-                        hi: [v.hi[0], v.hi[1], v.hi[2], 1.0],
-                        cone: None,
-                    }
-                } else {
-                    Bound { cone: None, ..v }
-                }
-            }
+            Expr::Swizzle { value, pattern, len, .. } => self.swizzle(*value, pattern, *len),
+            Expr::Compose { components, .. } => self.compose(components),
+            Expr::Convert { value, to } => self.convert(*value, *to),
             Expr::Select { accept, reject, .. } => {
                 let a = self.get(*accept);
                 match reject {
@@ -324,6 +206,140 @@ impl<'a, 's> Bounder<'a, 's> {
                 }
             }
             _ => Bound::ALL,
+        }
+    }
+
+    /// A uniform: the scene's value, else its default; unknown, anything.
+    fn uniform(&self, id: ir::UniformId) -> Bound {
+        let m = self.module;
+        let v = self
+            .uniforms
+            .get(id as usize)
+            .copied()
+            .flatten()
+            .or_else(|| m.uniforms[id as usize].default.as_ref().map(ir::eval::value));
+        v.map_or(Bound::ALL, Bound::point)
+    }
+
+    /// Interval arithmetic of a binary operation; a highlight `x^n` with
+    /// x < 1 and n > 1 is noted (its peak is where culling must be careful).
+    fn binary(&mut self, op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr>) -> Bound {
+        let m = self.module;
+        let (lhs, rhs) = (&lhs, &rhs);
+        let op = &op;
+        let (a, b) = (self.get(*lhs), self.get(*rhs));
+        match op {
+            BinaryOp::Add => Bound::lanes(&a, &b, |a0, a1, b0, b1| (a0 + b0, a1 + b1)),
+            BinaryOp::Sub => Bound::lanes(&a, &b, |a0, a1, b0, b1| (a0 - b1, a1 - b0)),
+            BinaryOp::Mul => Bound::lanes(&a, &b, mul_iv),
+            BinaryOp::Div => Bound::lanes(&a, &b, |a0, a1, b0, b1| {
+                if b0 > 0.0 || b1 < 0.0 {
+                    mul_iv(a0, a1, 1.0 / b1, 1.0 / b0)
+                } else {
+                    (f64::NEG_INFINITY, f64::INFINITY)
+                }
+            }),
+            BinaryOp::Dot => self.dot(&a, &b, m.info(*lhs).ty.width()),
+            BinaryOp::Pow => {
+                let r = Bound::lanes(&a, &b, |a0, a1, b0, b1| {
+                    if a0 < 0.0 || b0.is_nan() || b0 <= 0.0 {
+                        return (f64::NEG_INFINITY, f64::INFINITY);
+                    }
+                    let c = [a0.powf(b0), a0.powf(b1), a1.powf(b0), a1.powf(b1)];
+                    (
+                        c.iter().copied().fold(f64::INFINITY, f64::min),
+                        c.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+                    )
+                });
+                if a.lo[0] >= 0.0 && a.hi[0] < 1.0 && b.lo[0] > 1.0 {
+                    self.findings.highlight = Some((a.hi[0], b.lo[0]));
+                }
+                r
+            }
+            _ => Bound::splat(0.0, 1.0),
+        }
+    }
+
+    /// Interval arithmetic of a texture-environment ⊕ (seeds/001 (3)).
+    fn combine(&mut self, mode: CombineMode, lhs: Handle<Expr>, rhs: Handle<Expr>) -> Bound {
+        let (lhs, rhs) = (&lhs, &rhs);
+        let mode = &mode;
+        let (t, f) = (self.get(*lhs), self.get(*rhs));
+        match mode {
+            CombineMode::Modulate => Bound::lanes(&t, &f, mul_iv),
+            CombineMode::Add => Bound::lanes(&t, &f, |a0, a1, b0, b1| (a0 + b0, a1 + b1)),
+            CombineMode::AddSigned => Bound::lanes(&t, &f, |a0, a1, b0, b1| (a0 + b0 - 0.5, a1 + b1 - 0.5)),
+            CombineMode::Subtract => Bound::lanes(&t, &f, |a0, a1, b0, b1| (a0 - b1, a1 - b0)),
+            CombineMode::Blend => {
+                // rgb = Cf·(1 − Ct) (Cc = 0), alpha = Af·At: the hull of both.
+                let rgb = Bound::lanes(&t, &f, |t0, t1, f0, f1| mul_iv(f0, f1, 1.0 - t1, 1.0 - t0));
+                let alpha = Bound::lanes(&t, &f, mul_iv);
+                Bound::lanes(&rgb, &alpha, |a0, a1, b0, b1| (a0.min(b0), a1.max(b1)))
+            }
+            CombineMode::Decal | CombineMode::Interpolate | CombineMode::Replace
+                if t.lo[3] >= 0.0 && t.hi[3] <= 1.0 =>
+            {
+                Bound::lanes(&t, &f, |a0, a1, b0, b1| (a0.min(b0), a1.max(b1)))
+            }
+            CombineMode::Dot3Rgb | CombineMode::Dot3Rgba => {
+                let mut lo = 0.0;
+                let mut hi = 0.0;
+                for i in 0..3 {
+                    let (l, u) = mul_iv(t.lo[i] - 0.5, t.hi[i] - 0.5, f.lo[i] - 0.5, f.hi[i] - 0.5);
+                    lo += 4.0 * l;
+                    hi += 4.0 * u;
+                }
+                let all = Bound::lanes(&t, &f, mul_iv);
+                Bound { lo: [lo, lo, lo, lo.min(all.lo[3])], hi: [hi, hi, hi, hi.max(all.hi[3])], cone: None }
+                    .clean()
+            }
+            _ => Bound::ALL,
+        }
+    }
+
+    fn swizzle(&mut self, value: Handle<Expr>, pattern: &[u8; 4], len: u8) -> Bound {
+        let (value, len) = (&value, &len);
+        let v = self.get(*value);
+        let mut out = Bound::ALL;
+        for k in 0..4 {
+            let src = pattern[k.min(*len as usize - 1).min(3)] as usize;
+            out.lo[k] = v.lo[src.min(3)];
+            out.hi[k] = v.hi[src.min(3)];
+        }
+        if *len == 1 {
+            out = Bound::splat(out.lo[0], out.hi[0]);
+        }
+        out
+    }
+
+    fn compose(&mut self, components: &[Handle<Expr>]) -> Bound {
+        let m = self.module;
+        let mut out = Bound::splat(0.0, 0.0);
+        let mut k = 0;
+        for c in components {
+            let b = self.get(*c);
+            for j in 0..m.info(*c).ty.width() {
+                if k < 4 {
+                    out.lo[k] = b.lo[j.min(3)];
+                    out.hi[k] = b.hi[j.min(3)];
+                }
+                k += 1;
+            }
+        }
+        out
+    }
+
+    fn convert(&mut self, value: Handle<Expr>, to: Ty) -> Bound {
+        let m = self.module;
+        let (value, to) = (&value, &to);
+        let v = self.get(*value);
+        let from = m.info(*value).ty;
+        if from == Ty::Scalar {
+            Bound::splat(v.lo[0], v.hi[0])
+        } else if from == Ty::Rgb && *to == Ty::Rgba {
+            Bound { lo: [v.lo[0], v.lo[1], v.lo[2], 1.0], hi: [v.hi[0], v.hi[1], v.hi[2], 1.0], cone: None }
+        } else {
+            Bound { cone: None, ..v }
         }
     }
 
@@ -611,19 +627,7 @@ pub fn cull(
     }
     let scene = spec.scene;
     let uniforms = bind::uniforms(m, scene);
-    let (w, h) = scene.resolution;
-    let (center, radius) = spec.assets.bounding_sphere();
-    let light_clip = bind::light_view_projection(scene.lights.first(), center, radius);
-    let mut objects: Vec<BoundObject> = spec
-        .assets
-        .meshes
-        .iter()
-        .map(|(mesh, model)| BoundObject::new(scene, mesh, *model, w as f32 / h.max(1) as f32, light_clip))
-        .collect();
-    for o in &mut objects {
-        // Texgen failures leave the mesh UVs: the bound is then only looser.
-        let _ = o.run_texgen(m);
-    }
+    let objects = bound_objects(m, spec);
     // A statement whose target a later statement reads (other than by the
     // per-light accumulation itself) passes its change on: not culled.
     let per_light: Vec<usize> = exp.statements.iter().map(|s| s.statement).collect();
@@ -695,12 +699,61 @@ pub fn cull(
             out.objects.push((ls.statement, keep));
         }
     }
-    for light in 0..n_lights as u32 {
+    report_culled_lights(m, spec, exp, (&dropped, &detail), threshold, at, &mut out);
+    let used_after = super::specialize::used_textures(m, &out.statements);
+    for t in used_before.difference(&used_after) {
+        let tex = &m.textures[*t as usize];
+        out.removed.push(super::Removed {
+            kind: "texture".into(),
+            what: tex.name.clone(),
+            why: "only the culled lights' terms used it".into(),
+            at: at(tex.span),
+        });
+    }
+    out
+}
+
+/// The scene's objects bound for the abstract evaluation, texgen run.
+fn bound_objects<'s>(m: &Module, spec: &super::SceneSpecialization<'s>) -> Vec<BoundObject<'s>> {
+    let scene = spec.scene;
+    let (w, h) = scene.resolution;
+    let (center, radius) = spec.assets.bounding_sphere();
+    let light_clip = bind::light_view_projection(scene.lights.first(), center, radius);
+    let mut objects: Vec<BoundObject> = spec
+        .assets
+        .meshes
+        .iter()
+        .map(|(mesh, model)| BoundObject::new(scene, mesh, *model, w as f32 / h.max(1) as f32, light_clip))
+        .collect();
+    for o in &mut objects {
+        // Texgen failures leave the mesh UVs: the bound is then only looser.
+        let _ = o.run_texgen(m);
+    }
+    objects
+}
+
+/// Light and object pairs whose terms were dropped, and their bounds.
+type Drops<'d> = (&'d [Vec<bool>], &'d BTreeMap<(u32, usize), (f64, Findings)>);
+
+/// One `Removed` and one `Culled` per light culled for an object, with the
+/// criterion that justified it.
+fn report_culled_lights(
+    m: &Module,
+    spec: &super::SceneSpecialization,
+    exp: &super::lights::Expansion,
+    (dropped, detail): Drops,
+    threshold: f64,
+    at: &dyn Fn(crate::span::Span) -> String,
+    out: &mut Culling,
+) {
+    let scene = spec.scene;
+    let n_objects = spec.assets.meshes.len();
+    for light in 0..scene.lights.len() as u32 {
         let Some(first) = exp.statements.iter().find(|s| s.light == light) else { continue };
-        for o in 0..objects.len() {
+        for o in 0..n_objects {
             // Light 0's terms are in a statement drawn for every object: skipped only when no object needs them.
             let effective =
-                dropped[light as usize][o] && (light > 0 || all_objects.iter().all(|&x| dropped[0][x]));
+                dropped[light as usize][o] && (light > 0 || (0..n_objects).all(|x| dropped[0][x]));
             if !effective {
                 continue;
             }
@@ -727,17 +780,6 @@ pub fn cull(
             out.culled.push(Culled { light, object: o, bound, criterion });
         }
     }
-    let used_after = super::specialize::used_textures(m, &out.statements);
-    for t in used_before.difference(&used_after) {
-        let tex = &m.textures[*t as usize];
-        out.removed.push(super::Removed {
-            kind: "texture".into(),
-            what: tex.name.clone(),
-            why: "only the culled lights' terms used it".into(),
-            at: at(tex.span),
-        });
-    }
-    out
 }
 
 /// The world-space bounding sphere of one mesh.

@@ -5,7 +5,7 @@
 //! branch — and every removal is reported, with the textures and passes
 //! that only the removed terms used.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 
 use super::affine::Builder;
 use crate::ir::{BinaryOp, Expr, FbChannel, Handle, Module, Statement, Table};
@@ -55,7 +55,7 @@ fn simplify(
     removed: &mut Vec<Removed>,
     at: &dyn Fn(Span) -> String,
 ) -> Option<Handle<Expr>> {
-    let mut new: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::new();
+    let mut new: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::default();
     for h in m.reachable(&[root]) {
         let e = m.exprs[h].clone();
         let mapped = e.map_operands(|o| new[&o]);
@@ -150,7 +150,7 @@ pub fn bind_uniforms(
     values: &std::collections::BTreeMap<String, Vec<f32>>,
     at: &dyn Fn(Span) -> String,
 ) -> (Vec<Removed>, Vec<String>) {
-    let mut map = HashMap::new();
+    let mut map = HashMap::default();
     let mut bound = Vec::new();
     let mut mismatched = Vec::new();
     for (id, u) in m.uniforms.clone().iter().enumerate() {

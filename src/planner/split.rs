@@ -27,7 +27,7 @@
 //! are off: every set partition is enumerated — the optimality test checks
 //! that both agree on pass counts.
 
-use std::collections::HashMap;
+use rustc_hash::FxHashMap as HashMap;
 use std::rc::Rc;
 
 use super::affine::{affine, contains, Builder};
@@ -662,6 +662,7 @@ impl<'a> Splitter<'a> {
             rendered: true,
             baked: false,
             declaration: None,
+            sampling: crate::ir::Sampling::ADDED,
             span: Span::DETACHED,
         });
         (self.module.textures.len() - 1) as u32
@@ -680,7 +681,7 @@ impl<'a> Splitter<'a> {
 /// refused. A temporary on an 8-bit texture is clamped when stored, so what
 /// it ends with must be in [0, 1] too.
 pub fn exact_through_clamps(module: &Module, pieces: &[Piece], float_temps: bool) -> bool {
-    let mut held: HashMap<Dest, Interval> = HashMap::new();
+    let mut held: HashMap<Dest, Interval> = HashMap::default();
     for p in pieces {
         let v = module.info(p.value).interval;
         // Before a target's first piece: what the framebuffer holds, [0, 1].
@@ -705,5 +706,5 @@ pub fn exact_through_clamps(module: &Module, pieces: &[Piece], float_temps: bool
 
 /// Whether `h` depends on `x` (re-exported for the planner).
 pub fn depends_on(module: &Module, h: Handle<Expr>, x: Handle<Expr>) -> bool {
-    contains(module, h, x, &mut HashMap::new())
+    contains(module, h, x, &mut HashMap::default())
 }

@@ -169,20 +169,9 @@ pub fn texture_decls(
     let mut out = Vec::new();
     for item in &program.items {
         let ItemKind::Texture(t) = &item.kind else { continue };
-        let has = |a: TextureAttr| t.attrs.iter().any(|w| w.value == a);
-        let mipmap = has(TextureAttr::Mipmap);
-        let filter = if has(TextureAttr::Nearest) {
-            Filter::Nearest
-        } else if has(TextureAttr::Trilinear) || (mipmap && !has(TextureAttr::Bilinear)) {
-            Filter::Trilinear
-        } else {
-            Filter::Bilinear
-        };
-        let wrap = if has(TextureAttr::Clamp) || t.kind.value == TextureKind::Cube {
-            Wrap::ClampToEdge
-        } else {
-            Wrap::Repeat
-        };
+        // The IR's rule for the attributes (one rule for every reader).
+        let attrs: Vec<TextureAttr> = t.attrs.iter().map(|w| w.value).collect();
+        let crate::ir::Sampling { filter, wrap, mipmap } = crate::ir::Sampling::of(t.kind.value, &attrs);
         let source = match &t.source {
             None => TextureSource::Rendered,
             Some(e) => source(e, &numbers),
@@ -330,140 +319,216 @@ pub fn load_textures(
     notes: &mut Vec<String>,
 ) -> Result<BTreeMap<String, BoundTexture>, BindError> {
     let mut out = BTreeMap::new();
-    for d in decls {
-        if d.source == TextureSource::Rendered {
-            continue;
-        }
-        let err = |message: String| BindError::Texture { name: d.name.clone(), message };
-        // A scene texture of the same name wins.
-        if scene.textures.contains_key(&d.name) {
-            let one = Scene {
-                textures: [(d.name.clone(), scene.textures[&d.name].clone())].into_iter().collect(),
-                objects: vec![],
-                ..scene.clone()
-            };
-            let built = one.build()?;
-            if let Some(t) = built.textures.get(&d.name) {
-                out.insert(
-                    d.name.clone(),
-                    BoundTexture { name: d.name.clone(), texture: t.clone(), filter: d.filter, exact: None },
-                );
-                continue;
+    for d in decls.iter().filter(|d| d.source != TextureSource::Rendered) {
+        let bound = match from_scene(d, scene)? {
+            Some(t) => t,
+            None => {
+                let (texture, exact) = generate(d, scene, quality, notes)?;
+                BoundTexture { name: d.name.clone(), texture, filter: d.filter, exact }
             }
-        }
-        let format = texel_format(d.format);
-        let signed = is_signed(d.format);
-        let mut exact = None;
-        let texture = match &d.source {
-            TextureSource::Image(file) => {
-                let path = scene.resolve(file);
-                let t = match textures::load_image(&path, format, d.wrap) {
-                    Ok(t) => t,
-                    Err(textures::TextureError::NotFound { .. }) => {
-                        notes.push(format!("texture `{}`: {} not found; using a procedural brick stand-in (256×256)", d.name, path.display()));
-                        Texture2D::new(format, d.wrap, stand_in_image(256))
-                    }
-                    Err(e) => return Err(err(e.to_string())),
-                };
-                let t = if d.mipmap { t.with_box_mipmaps() } else { t };
-                if d.kind == TextureKind::Cube {
-                    return Err(err("a cube map from an image file is not supported; use normalize_cube(…) or a scene texture".into()));
-                }
-                Texture::Flat(t)
-            }
-            TextureSource::NormalizeCube { size, bits } => {
-                if d.kind != TextureKind::Cube {
-                    return Err(err("normalize_cube(…) needs a `cube` texture".into()));
-                }
-                let bits = if *bits >= 16 || matches!(format, TexelFormat::Rgba16) { CubeBits::Sixteen } else { CubeBits::Eight };
-                let mut cube = generators::normalize_cube((*size).clamp(1, generators::MAX_CUBE_FACE), bits);
-                if signed {
-                    // Signed formats hold the vector itself, not its range compression.
-                    for face in cube.faces.iter_mut() {
-                        for level in face.levels.iter_mut() {
-                            for t in level.texels.iter_mut() {
-                                for c in t.iter_mut().take(3) {
-                                    *c = generators::expand(*c);
-                                }
-                            }
-                        }
-                    }
-                }
-                exact = Some(ExactFunction::Normalize { signed });
-                Texture::Cube(cube)
-            }
-            TextureSource::NormalMap { height, scale } => {
-                let hf = match height {
-                    HeightSource::File(file) => {
-                        let path = scene.resolve(file);
-                        match textures::load_height_field(&path) {
-                            Ok(h) => h,
-                            Err(textures::TextureError::NotFound { .. }) => {
-                                notes.push(format!("texture `{}`: height field {} not found; using procedural golf-ball dimples (256×256, 16 cells)", d.name, path.display()));
-                                HeightField::dimples(256, 16)
-                            }
-                            Err(e) => return Err(err(e.to_string())),
-                        }
-                    }
-                    HeightSource::Dimples { size, cells } => HeightField::dimples(*size, *cells),
-                };
-                let nf = if quality == TextureQuality::Exact || format == TexelFormat::F32 { NormalMapFormat::F32 } else { NormalMapFormat::Rgba8 };
-                let mut t = generators::normal_map(&hf, *scale, nf);
-                t.wrap = d.wrap;
-                if !d.mipmap {
-                    t.levels.truncate(1);
-                }
-                Texture::Flat(t)
-            }
-            TextureSource::Bumps { cells } => {
-                let nf = if quality == TextureQuality::Exact { NormalMapFormat::F32 } else { NormalMapFormat::Rgba8 };
-                let mut t = generators::normal_map(&HeightField::dimples(256, *cells), 4.0, nf);
-                if signed {
-                    for level in t.levels.iter_mut() {
-                        for texel in level.texels.iter_mut() {
-                            for c in texel.iter_mut().take(3) {
-                                *c = generators::expand(*c);
-                            }
-                        }
-                    }
-                    t.format = if nf == NormalMapFormat::F32 { TexelFormat::F32 } else { TexelFormat::Signed8 };
-                }
-                t.wrap = d.wrap;
-                if !d.mipmap {
-                    t.levels.truncate(1);
-                }
-                Texture::Flat(t)
-            }
-            TextureSource::DualParaboloid { file, face } => {
-                let path = scene.resolve(file);
-                if path.is_file() {
-                    notes.push(format!("texture `{}`: environment images are not read yet; using the procedural sky", d.name));
-                } else {
-                    notes.push(format!("texture `{}`: {} not found; using the procedural sky", d.name, path.display()));
-                }
-                let dp = generators::dual_paraboloid(128, format, &|dir| generators::sky(dir, [0.3, 0.8, 0.5]));
-                let mut t = if *face == 0 { dp.front } else { dp.back };
-                t.wrap = d.wrap;
-                Texture::Flat(t)
-            }
-            TextureSource::BrdfFd { roughness, index } => {
-                exact = Some(ExactFunction::FresnelDistribution { roughness: *roughness, index: *index });
-                Texture::Flat(generators::hs_fresnel_distribution(64, *roughness, *index, format))
-            }
-            TextureSource::BrdfG { scale } => {
-                exact = Some(ExactFunction::Geometry { roughness: 0.3, scale: *scale });
-                Texture::Flat(generators::hs_geometry(64, 0.3, *scale, format))
-            }
-            TextureSource::ExponentTable { exponent } => {
-                exact = Some(ExactFunction::Exponent(*exponent));
-                Texture::Flat(generators::exponent_lut(256, *exponent, format))
-            }
-            TextureSource::Bake(what) => return Err(err(format!("the texture source `{what}` is not one the renderer knows: use image(\"file\"), a generator (normalize_cube, normal_map, bumps, dual_paraboloid, brdf_fd, brdf_g, exponent_table) or bake(shader)"))),
-            TextureSource::Rendered => unreachable!(),
         };
-        out.insert(d.name.clone(), BoundTexture { name: d.name.clone(), texture, filter: d.filter, exact });
+        out.insert(d.name.clone(), bound);
     }
     Ok(out)
+}
+
+/// A scene texture of the declaration's name: it wins over the program's source.
+fn from_scene(d: &TextureDecl, scene: &Scene) -> Result<Option<BoundTexture>, BindError> {
+    let Some(desc) = scene.textures.get(&d.name) else { return Ok(None) };
+    let one = Scene {
+        textures: [(d.name.clone(), desc.clone())].into_iter().collect(),
+        objects: vec![],
+        ..scene.clone()
+    };
+    let built = one.build()?;
+    Ok(built.textures.get(&d.name).map(|t| BoundTexture {
+        name: d.name.clone(),
+        texture: t.clone(),
+        filter: d.filter,
+        exact: None,
+    }))
+}
+
+fn texture_error(d: &TextureDecl, message: String) -> BindError {
+    BindError::Texture { name: d.name.clone(), message }
+}
+
+/// The texture the declaration's source loads or generates, and the
+/// function it tabulates (what `exact` mode evaluates instead).
+fn generate(
+    d: &TextureDecl,
+    scene: &Scene,
+    quality: TextureQuality,
+    notes: &mut Vec<String>,
+) -> Result<(Texture, Option<ExactFunction>), BindError> {
+    let format = texel_format(d.format);
+    Ok(match &d.source {
+        TextureSource::Image(file) => (image_texture(d, scene, file, notes)?, None),
+        TextureSource::NormalizeCube { size, bits } => {
+            let signed = is_signed(d.format);
+            (normalize_cube_texture(d, *size, *bits)?, Some(ExactFunction::Normalize { signed }))
+        }
+        TextureSource::NormalMap { height, scale } => {
+            (normal_map_texture(d, scene, height, *scale, quality, notes)?, None)
+        }
+        TextureSource::Bumps { cells } => (bumps_texture(d, *cells, quality), None),
+        TextureSource::DualParaboloid { file, face } => {
+            (dual_paraboloid_texture(d, scene, file, *face, notes), None)
+        }
+        TextureSource::BrdfFd { roughness, index } => (
+            Texture::Flat(generators::hs_fresnel_distribution(64, *roughness, *index, format)),
+            Some(ExactFunction::FresnelDistribution { roughness: *roughness, index: *index }),
+        ),
+        TextureSource::BrdfG { scale } => (
+            Texture::Flat(generators::hs_geometry(64, 0.3, *scale, format)),
+            Some(ExactFunction::Geometry { roughness: 0.3, scale: *scale }),
+        ),
+        TextureSource::ExponentTable { exponent } => (
+            Texture::Flat(generators::exponent_lut(256, *exponent, format)),
+            Some(ExactFunction::Exponent(*exponent)),
+        ),
+        TextureSource::Bake(what) => return Err(texture_error(d, format!("the texture source `{what}` is not one the renderer knows: use image(\"file\"), a generator (normalize_cube, normal_map, bumps, dual_paraboloid, brdf_fd, brdf_g, exponent_table) or bake(shader)"))),
+        TextureSource::Rendered => unreachable!("rendered textures are skipped by load_textures"),
+    })
+}
+
+/// `image("file")`: the file, or a procedural brick stand-in when missing.
+fn image_texture(
+    d: &TextureDecl,
+    scene: &Scene,
+    file: &str,
+    notes: &mut Vec<String>,
+) -> Result<Texture, BindError> {
+    let format = texel_format(d.format);
+    let path = scene.resolve(file);
+    let t = match textures::load_image(&path, format, d.wrap) {
+        Ok(t) => t,
+        Err(textures::TextureError::NotFound { .. }) => {
+            notes.push(format!(
+                "texture `{}`: {} not found; using a procedural brick stand-in (256×256)",
+                d.name,
+                path.display()
+            ));
+            Texture2D::new(format, d.wrap, stand_in_image(256))
+        }
+        Err(e) => return Err(texture_error(d, e.to_string())),
+    };
+    let t = if d.mipmap { t.with_box_mipmaps() } else { t };
+    if d.kind == TextureKind::Cube {
+        return Err(texture_error(
+            d,
+            "a cube map from an image file is not supported; use normalize_cube(…) or a scene texture".into(),
+        ));
+    }
+    Ok(Texture::Flat(t))
+}
+
+/// `normalize_cube(size, bits)` (seeds/000 Formula 4): range-compressed,
+/// or the vector itself in a signed format.
+fn normalize_cube_texture(d: &TextureDecl, size: u32, bits: u32) -> Result<Texture, BindError> {
+    if d.kind != TextureKind::Cube {
+        return Err(texture_error(d, "normalize_cube(…) needs a `cube` texture".into()));
+    }
+    let format = texel_format(d.format);
+    let bits =
+        if bits >= 16 || matches!(format, TexelFormat::Rgba16) { CubeBits::Sixteen } else { CubeBits::Eight };
+    let mut cube = generators::normalize_cube(size.clamp(1, generators::MAX_CUBE_FACE), bits);
+    if is_signed(d.format) {
+        // Signed formats hold the vector itself, not its range compression.
+        for level in cube.faces.iter_mut().flat_map(|face| face.levels.iter_mut()) {
+            expand_rgb(&mut level.texels);
+        }
+    }
+    Ok(Texture::Cube(cube))
+}
+
+/// `v ↦ 2v − 1` on the colour channels of `texels`.
+fn expand_rgb(texels: &mut [[f32; 4]]) {
+    for t in texels.iter_mut() {
+        for c in t.iter_mut().take(3) {
+            *c = generators::expand(*c);
+        }
+    }
+}
+
+/// `normal_map(height("file"), scale)` (seeds/003 Section 5.3): from the
+/// height field, or golf-ball dimples when the file is missing.
+fn normal_map_texture(
+    d: &TextureDecl,
+    scene: &Scene,
+    height: &HeightSource,
+    scale: f32,
+    quality: TextureQuality,
+    notes: &mut Vec<String>,
+) -> Result<Texture, BindError> {
+    let hf = match height {
+        HeightSource::File(file) => {
+            let path = scene.resolve(file);
+            match textures::load_height_field(&path) {
+                Ok(h) => h,
+                Err(textures::TextureError::NotFound { .. }) => {
+                    notes.push(format!("texture `{}`: height field {} not found; using procedural golf-ball dimples (256×256, 16 cells)", d.name, path.display()));
+                    HeightField::dimples(256, 16)
+                }
+                Err(e) => return Err(texture_error(d, e.to_string())),
+            }
+        }
+        HeightSource::Dimples { size, cells } => HeightField::dimples(*size, *cells),
+    };
+    let format = texel_format(d.format);
+    let nf = if quality == TextureQuality::Exact || format == TexelFormat::F32 {
+        NormalMapFormat::F32
+    } else {
+        NormalMapFormat::Rgba8
+    };
+    let mut t = generators::normal_map(&hf, scale, nf);
+    t.wrap = d.wrap;
+    if !d.mipmap {
+        t.levels.truncate(1);
+    }
+    Ok(Texture::Flat(t))
+}
+
+/// `bumps(cells)`: a dimpled normal map, expanded in a signed format.
+fn bumps_texture(d: &TextureDecl, cells: u32, quality: TextureQuality) -> Texture {
+    let nf = if quality == TextureQuality::Exact { NormalMapFormat::F32 } else { NormalMapFormat::Rgba8 };
+    let mut t = generators::normal_map(&HeightField::dimples(256, cells), 4.0, nf);
+    if is_signed(d.format) {
+        for level in t.levels.iter_mut() {
+            expand_rgb(&mut level.texels);
+        }
+        t.format = if nf == NormalMapFormat::F32 { TexelFormat::F32 } else { TexelFormat::Signed8 };
+    }
+    t.wrap = d.wrap;
+    if !d.mipmap {
+        t.levels.truncate(1);
+    }
+    Texture::Flat(t)
+}
+
+/// `dual_paraboloid("file", face)`: the procedural sky (images are not read yet).
+fn dual_paraboloid_texture(
+    d: &TextureDecl,
+    scene: &Scene,
+    file: &str,
+    face: u32,
+    notes: &mut Vec<String>,
+) -> Texture {
+    let path = scene.resolve(file);
+    if path.is_file() {
+        notes.push(format!(
+            "texture `{}`: environment images are not read yet; using the procedural sky",
+            d.name
+        ));
+    } else {
+        notes.push(format!("texture `{}`: {} not found; using the procedural sky", d.name, path.display()));
+    }
+    let dp = generators::dual_paraboloid(128, texel_format(d.format), &|dir| {
+        generators::sky(dir, [0.3, 0.8, 0.5])
+    });
+    let mut t = if face == 0 { dp.front } else { dp.back };
+    t.wrap = d.wrap;
+    Texture::Flat(t)
 }
 
 /// Light and eye in one object's model space.

@@ -793,11 +793,20 @@ impl Gen<'_> {
             }
             Expr::Uniform(id) => self.uniform_src(h, id, part),
             Expr::Lookup { .. } | Expr::FramebufferRead { channel: FbChannel::Color | FbChannel::Alpha, .. } if self.units.contains(&h) || matches!(self.expr(h), Expr::Lookup { .. }) => {
-                self.texture_src(h, part)
+                let unit = self.units.iter().position(|u| *u == h).ok_or_else(|| {
+                    unsupported(span, "a texture lookup not bound to a texture unit of this pass", "list it in the pass's texture units")
+                })?;
+                let reg = Register::texture(unit as u8).expect("at most four units, checked");
+                let comp = match (self.ty(h), part) {
+                    (Ty::Scalar, _) => Comp::Alpha,
+                    (_, Part::Alpha) => Comp::Alpha,
+                    _ => Comp::Rgb,
+                };
+                Ok(Src { base: Base::Reg(reg), comp, map: UnsignedIdentity })
             }
-            Expr::Interpolate { .. } => self.colour_src(h, part, sat),
-            Expr::Swizzle { value, pattern, len, .. } => self.swizzle_src(h, value, &pattern[..len as usize], sat),
-            Expr::Convert { value, to } => self.convert_src(h, value, to, part, sat),
+            Expr::Interpolate { .. } => self.interpolant_src(h, part, sat),
+            Expr::Swizzle { value, pattern, len, .. } => self.swizzle_src(value, &pattern, len, sat, span),
+            Expr::Convert { value, to } => self.convert_src(value, to, part, sat, span),
             Expr::Compose { .. } => match self.part_node(h, part) {
                 Some(Some(inner)) => self.src(inner, Part::Rgb, sat),
                 Some(None) => Ok(Src::ONE),
@@ -850,9 +859,8 @@ impl Gen<'_> {
         }
     }
 
-    /// A uniform as a source: its default value in a constant register
-    /// (CONSTANT_COLOR0/1, seeds/003 Table 2).
-    fn uniform_src(&mut self, h: Handle<Expr>, id: u32, part: Part) -> R<Src> {
+    /// A uniform: a constant colour holding its value (its default, or what the caller supplies).
+    fn uniform_src(&mut self, h: Handle<Expr>, id: crate::ir::UniformId, part: Part) -> R<Src> {
         let u = &self.m.uniforms[id as usize];
         let color = u.default.map(|c| to_color(&c)).unwrap_or([0.0; 4]);
         let comp = match (u.ty, part) {
@@ -863,30 +871,9 @@ impl Gen<'_> {
         Ok(Src { base: Base::K(k), comp, map: UnsignedIdentity })
     }
 
-    /// A texture lookup (or a framebuffer read bound to a unit) as a
-    /// source: the TEXTUREi register of its texture unit (seeds/003 Table 2).
-    fn texture_src(&mut self, h: Handle<Expr>, part: Part) -> R<Src> {
-        let span = self.m.span(h);
-        let unit = self.units.iter().position(|u| *u == h).ok_or_else(|| {
-            unsupported(
-                span,
-                "a texture lookup not bound to a texture unit of this pass",
-                "list it in the pass's texture units",
-            )
-        })?;
-        let reg = Register::texture(unit as u8).expect("at most four units, checked");
-        let comp = match (self.ty(h), part) {
-            (Ty::Scalar, _) => Comp::Alpha,
-            (_, Part::Alpha) => Comp::Alpha,
-            _ => Comp::Rgb,
-        };
-        Ok(Src { base: Base::Reg(reg), comp, map: UnsignedIdentity })
-    }
-
-    /// An interpolated colour as a source: the PRIMARY_COLOR or
-    /// SECONDARY_COLOR register (seeds/003 Table 2), unsigned, so only a
-    /// value in [0, 1] (or one the consumer clamps) is exact.
-    fn colour_src(&mut self, h: Handle<Expr>, part: Part, sat: bool) -> R<Src> {
+    /// `δ v` in the primary or secondary colour (seeds/003 Table 2): unsigned,
+    /// so a value in [0, 1] (or clamped by its consumer) only.
+    fn interpolant_src(&mut self, h: Handle<Expr>, part: Part, sat: bool) -> R<Src> {
         let span = self.m.span(h);
         let info = self.m.info(h);
         if info.interval.hi > 1.0
@@ -930,10 +917,16 @@ impl Gen<'_> {
         Ok(Src { base: Base::Reg(reg), comp, map: UnsignedIdentity })
     }
 
-    /// A component selection as a source: a register's rgb, its alpha, or
-    /// (in an alpha portion) its blue (seeds/003 B.4).
-    fn swizzle_src(&mut self, h: Handle<Expr>, value: Handle<Expr>, p: &[u8], sat: bool) -> R<Src> {
-        let span = self.m.span(h);
+    /// A component selection: rgb, alpha, or blue (seeds/003 B.4).
+    fn swizzle_src(
+        &mut self,
+        value: Handle<Expr>,
+        pattern: &[u8; 4],
+        len: u8,
+        sat: bool,
+        span: Span,
+    ) -> R<Src> {
+        let p = &pattern[..len as usize];
         let vty = self.ty(value);
         if p == [0, 1, 2] {
             self.src(value, Part::Rgb, sat)
@@ -954,10 +947,8 @@ impl Gen<'_> {
         }
     }
 
-    /// A widening conversion as a source: an rgb's widened alpha reads as
-    /// the constant 1, a scalar's broadcast as itself.
-    fn convert_src(&mut self, h: Handle<Expr>, value: Handle<Expr>, to: Ty, part: Part, sat: bool) -> R<Src> {
-        let span = self.m.span(h);
+    /// `rgb → rgba` (alpha one) or a splat: the value as the part reads it.
+    fn convert_src(&mut self, value: Handle<Expr>, to: Ty, part: Part, sat: bool, span: Span) -> R<Src> {
         let vty = self.ty(value);
         if vty == Ty::Rgb && to == Ty::Rgba {
             if part == Part::Alpha {
@@ -972,25 +963,23 @@ impl Gen<'_> {
         }
     }
 
-    /// `expand(x)` or `half_bias(x)` as a source: an input mapping on `x`'s
-    /// register where one exists (EXPAND_NORMAL, HALF_BIAS_NEGATE, …,
-    /// seeds/003 Table 3), otherwise the value computed in a general
-    /// combiner stage.
+    /// `expand(x)` or `half_bias(x)` as an input mapping of x's source
+    /// (seeds/003 Table 3), else computed in a stage.
     fn mapped_src(
         &mut self,
         h: Handle<Expr>,
         fun: MathFunction,
-        x: Handle<Expr>,
+        arg: Handle<Expr>,
         part: Part,
         sat: bool,
     ) -> R<Src> {
-        let s = self.src(x, part, false)?;
+        let s = self.src(arg, part, false)?;
         let map = match (fun, s.map) {
             (MathFunction::Expand, UnsignedIdentity) => Some(ExpandNormal),
             (MathFunction::Expand, UnsignedInvert) => Some(ExpandNegate),
             (MathFunction::HalfBias, UnsignedIdentity) => Some(HalfBiasNormal),
             (MathFunction::HalfBias, UnsignedInvert) => Some(HalfBiasNegate),
-            (_, SignedIdentity) if self.lo(x) >= 0.0 => {
+            (_, SignedIdentity) if self.lo(arg) >= 0.0 => {
                 Some(if fun == MathFunction::Expand { ExpandNormal } else { HalfBiasNormal })
             }
             _ => None,
@@ -1001,8 +990,7 @@ impl Gen<'_> {
         }
     }
 
-    /// `−x` as a source: the negating input mapping of `x`'s (seeds/003
-    /// Table 3), otherwise the value computed in a general combiner stage.
+    /// `−x` as a negating input mapping, else computed in a stage.
     fn negated_src(&mut self, h: Handle<Expr>, value: Handle<Expr>, part: Part, sat: bool) -> R<Src> {
         let s = self.src(value, part, false)?;
         let map = match s.map {
@@ -1234,46 +1222,11 @@ impl Gen<'_> {
         let span = self.m.span(h);
         let spec = match self.expr(h).clone() {
             Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => {
-                let scale =
-                    |g: &Self, k: Handle<Expr>| g.constant(k).filter(|k| [0.5, 2.0, 4.0, 8.0].contains(k));
-                if let Some((k, x)) =
-                    scale(self, lhs).map(|k| (k, rhs)).or_else(|| scale(self, rhs).map(|k| (k, lhs)))
-                {
-                    let inner = self.spec_or_source(x, part)?;
-                    return Ok(Some(self.scaled(inner, k, Some(x), part)?));
+                let (spec, scaled) = self.product_spec(lhs, rhs, part, scalar)?;
+                if scaled {
+                    return Ok(Some(spec));
                 }
-                // `(k · y) · z` where `k · y` is a per-object value seen
-                // through the part it contributes (a uniform colour times a
-                // constant, widened to rgba): `k · (y · z)`, the scale on
-                // the output (issue 16 item 5; Heidrich-Seidel's
-                // `I_light * g_scale * (F·D ⊕ G)`).
-                let scaled_operand = |g: &Self, o: Handle<Expr>| {
-                    let node = match g.part_node(o, part) {
-                        Some(Some(n)) => n,
-                        Some(None) => return None,
-                        None => o,
-                    };
-                    match *g.expr(node) {
-                        Expr::Binary { op: BinaryOp::Mul, lhs: a, rhs: b }
-                            if !g.m.info(node).freq.is_sample() =>
-                        {
-                            scale(g, a).map(|k| (k, b)).or_else(|| scale(g, b).map(|k| (k, a)))
-                        }
-                        _ => None,
-                    }
-                };
-                if let Some((k, y, z)) = scaled_operand(self, lhs)
-                    .map(|(k, y)| (k, y, rhs))
-                    .or_else(|| scaled_operand(self, rhs).map(|(k, y)| (k, y, lhs)))
-                {
-                    let term =
-                        Term { a: self.src(y, part, false)?, b: self.src(z, part, false)?, dot: false };
-                    return Ok(Some(self.scaled(Spec::single(term, scalar), k, None, part)?));
-                }
-                Spec::single(
-                    Term { a: self.src(lhs, part, false)?, b: self.src(rhs, part, false)?, dot: false },
-                    scalar,
-                )
+                spec
             }
             Expr::Binary { op: BinaryOp::Dot, lhs, rhs } => {
                 if self.ty(lhs).width() != 3 || self.is_z_axis(lhs) || self.is_z_axis(rhs) {
@@ -1314,59 +1267,11 @@ impl Gen<'_> {
                 let (ab, cd) = if high { (rej, acc) } else { (acc, rej) };
                 Spec { cd: Some(cd), mux: Some(sel), ..Spec::single(ab, scalar) }
             }
-            Expr::Math { fun: MathFunction::Mix, ref args } => {
-                let (a, b, t) = (args[0], args[1], args[2]);
-                if self.lo(t) < 0.0 || self.hi(t) > 1.0 {
-                    return Err(unsupported(
-                        span,
-                        "`mix` with a weight outside [0, 1]",
-                        "saturate the weight",
-                    ));
-                }
-                let ts = self.src(t, part, false)?;
-                let ts = self.unsigned(ts, span)?;
-                let inv = Src {
-                    map: if ts.map == UnsignedInvert { UnsignedIdentity } else { UnsignedInvert },
-                    ..ts
-                };
-                let ab = Term { a: self.src(a, part, false)?, b: inv, dot: false };
-                let cd = Term { a: self.src(b, part, false)?, b: ts, dot: false };
-                Spec { cd: Some(cd), ..Spec::single(ab, scalar) }
-            }
+            Expr::Math { fun: MathFunction::Mix, ref args } => self.mix_spec(args, part, scalar, span)?,
             Expr::Math {
                 fun: fun @ (MathFunction::Expand | MathFunction::HalfBias | MathFunction::Compress),
                 ref args,
-            } => {
-                let x = args[0];
-                let mut inner = self.spec_or_source(x, part)?;
-                match fun {
-                    MathFunction::Compress => {
-                        // (x + 1) · ½
-                        if inner.cd.is_some()
-                            || inner.mux.is_some()
-                            || inner.ab.dot
-                            || inner.scale != Scale::One
-                            || inner.bias != Bias::Zero
-                        {
-                            inner = Spec::single(Term::times_one(self.src(x, part, false)?), scalar);
-                        }
-                        inner.cd = Some(Term::times_one(Src::ONE));
-                        inner.scale = Scale::OneHalf;
-                    }
-                    _ => {
-                        // expand: (x − ½) · 2; half_bias: x − ½ (bias before scale).
-                        if inner.scale != Scale::One || inner.bias != Bias::Zero {
-                            inner = Spec::single(Term::times_one(self.src(x, part, false)?), scalar);
-                        }
-                        inner.bias = Bias::NegativeOneHalf;
-                        if fun == MathFunction::Expand {
-                            inner.scale = Scale::Two;
-                        }
-                    }
-                }
-                inner.scalar = scalar;
-                inner
-            }
+            } => self.mapped_spec(fun, args[0], part, scalar)?,
             Expr::Unary { op: UnaryOp::Neg, value } => {
                 let t = self.plain_term(value, part)?;
                 Spec::single(self.negate(t, value, part)?, scalar)
@@ -1374,6 +1279,103 @@ impl Gen<'_> {
             _ => return Ok(None),
         };
         Ok(Some(Spec { alpha_only, ..spec }))
+    }
+
+    /// `a · b` as one product, or with a scale of ½, 2, 4 or 8 moved onto
+    /// the portion's output; `true` when scaled (the spec is final).
+    fn product_spec(
+        &mut self,
+        lhs: Handle<Expr>,
+        rhs: Handle<Expr>,
+        part: Part,
+        scalar: bool,
+    ) -> R<(Spec, bool)> {
+        let scale = |g: &Self, k: Handle<Expr>| g.constant(k).filter(|k| [0.5, 2.0, 4.0, 8.0].contains(k));
+        if let Some((k, x)) =
+            scale(self, lhs).map(|k| (k, rhs)).or_else(|| scale(self, rhs).map(|k| (k, lhs)))
+        {
+            let inner = self.spec_or_source(x, part)?;
+            return Ok((self.scaled(inner, k, Some(x), part)?, true));
+        }
+        // `(k · y) · z` where `k · y` is a per-object value seen
+        // through the part it contributes (a uniform colour times a
+        // constant, widened to rgba): `k · (y · z)`, the scale on
+        // the output (issue 16 item 5; Heidrich-Seidel's
+        // `I_light * g_scale * (F·D ⊕ G)`).
+        let scaled_operand = |g: &Self, o: Handle<Expr>| {
+            let node = match g.part_node(o, part) {
+                Some(Some(n)) => n,
+                Some(None) => return None,
+                None => o,
+            };
+            match *g.expr(node) {
+                Expr::Binary { op: BinaryOp::Mul, lhs: a, rhs: b } if !g.m.info(node).freq.is_sample() => {
+                    scale(g, a).map(|k| (k, b)).or_else(|| scale(g, b).map(|k| (k, a)))
+                }
+                _ => None,
+            }
+        };
+        if let Some((k, y, z)) = scaled_operand(self, lhs)
+            .map(|(k, y)| (k, y, rhs))
+            .or_else(|| scaled_operand(self, rhs).map(|(k, y)| (k, y, lhs)))
+        {
+            let term = Term { a: self.src(y, part, false)?, b: self.src(z, part, false)?, dot: false };
+            return Ok((self.scaled(Spec::single(term, scalar), k, None, part)?, true));
+        }
+        Ok((
+            Spec::single(
+                Term { a: self.src(lhs, part, false)?, b: self.src(rhs, part, false)?, dot: false },
+                scalar,
+            ),
+            false,
+        ))
+    }
+
+    /// `mix(a, b, t)` = a·(1 − t) + b·t, t in [0, 1] (UNSIGNED_INVERT).
+    fn mix_spec(&mut self, args: &[Handle<Expr>], part: Part, scalar: bool, span: Span) -> R<Spec> {
+        let (a, b, t) = (args[0], args[1], args[2]);
+        if self.lo(t) < 0.0 || self.hi(t) > 1.0 {
+            return Err(unsupported(span, "`mix` with a weight outside [0, 1]", "saturate the weight"));
+        }
+        let ts = self.src(t, part, false)?;
+        let ts = self.unsigned(ts, span)?;
+        let inv = Src { map: if ts.map == UnsignedInvert { UnsignedIdentity } else { UnsignedInvert }, ..ts };
+        let ab = Term { a: self.src(a, part, false)?, b: inv, dot: false };
+        let cd = Term { a: self.src(b, part, false)?, b: ts, dot: false };
+        Ok(Spec { cd: Some(cd), ..Spec::single(ab, scalar) })
+    }
+
+    /// `expand`, `half_bias` or `compress` of a computed value: the
+    /// portion's output bias and scale (seeds/003 Table 5).
+    fn mapped_spec(&mut self, fun: MathFunction, x: Handle<Expr>, part: Part, scalar: bool) -> R<Spec> {
+        let mut inner = self.spec_or_source(x, part)?;
+        match fun {
+            MathFunction::Compress => {
+                // (x + 1) · ½
+                if inner.cd.is_some()
+                    || inner.mux.is_some()
+                    || inner.ab.dot
+                    || inner.scale != Scale::One
+                    || inner.bias != Bias::Zero
+                {
+                    inner = Spec::single(Term::times_one(self.src(x, part, false)?), scalar);
+                }
+                inner.cd = Some(Term::times_one(Src::ONE));
+                inner.scale = Scale::OneHalf;
+            }
+            _ => {
+                // expand: (x − ½) · 2; half_bias: x − ½ (bias before scale).
+                if inner.scale != Scale::One || inner.bias != Bias::Zero {
+                    inner = Spec::single(Term::times_one(self.src(x, part, false)?), scalar);
+                }
+                inner.bias = Bias::NegativeOneHalf;
+                if fun == MathFunction::Expand {
+                    inner.scale = Scale::Two;
+                }
+            }
+        }
+        inner.scalar = scalar;
+        Ok(inner)
     }
 
     /// The node as a portion computation, or its source times one.
@@ -1549,27 +1551,7 @@ impl Gen<'_> {
     /// Adds an operation: picks its portion, fixes up component reads the
     /// portion cannot make, and schedules it. Returns the result's source.
     fn emit(&mut self, mut spec: Spec, span: Span) -> R<Src> {
-        let srcs = |s: &Spec| {
-            let mut v = vec![s.ab.a, s.ab.b];
-            if let Some(cd) = s.cd {
-                v.extend([cd.a, cd.b]);
-            }
-            v
-        };
-        let all = srcs(&spec);
-        let lane = if spec.ab.dot || spec.cd.is_some_and(|t| t.dot) {
-            Lane::Rgb
-        } else if spec.alpha_only {
-            Lane::Alpha
-        } else if !spec.scalar {
-            Lane::Rgb
-        } else if all.iter().any(|s| s.comp == Comp::Blue) {
-            Lane::Alpha
-        } else if all.iter().any(|s| matches!(s.comp, Comp::Bcast | Comp::Rgb) && !self.is_const_reg(s)) {
-            Lane::Rgb
-        } else {
-            Lane::Alpha
-        };
+        let lane = self.lane_of(&spec);
         // A dot product forbids the sum output (B.4): materialise it first.
         if spec.cd.is_some() || spec.mux.is_some() {
             if spec.ab.dot {
@@ -1606,8 +1588,65 @@ impl Gen<'_> {
         if let Some(sel) = spec.mux {
             spec.mux = Some(self.pin_select(sel, span)?);
         }
+        let (stage, in_cd) = self.schedule(&spec, lane, span)?;
+        let out = self.vregs.len();
+        self.vregs.push(VReg { lane, op: self.ops.len(), pin: None, reg: None });
+        self.ops.push(Op {
+            lane,
+            ab: spec.ab,
+            cd: spec.cd,
+            mux: spec.mux,
+            scale: spec.scale,
+            bias: spec.bias,
+            out,
+            stage,
+            in_cd,
+            span,
+        });
+        let comp = match lane {
+            Lane::Alpha => Comp::Alpha,
+            Lane::Rgb if spec.scalar => Comp::Bcast,
+            Lane::Rgb => Comp::Rgb,
+        };
+        Ok(Src { base: Base::V(out), comp, map: SignedIdentity })
+    }
+
+    /// The portion an operation runs in: RGB for dot products and vectors,
+    /// alpha for scalars that read alpha or blue (seeds/003 B.4).
+    fn lane_of(&self, spec: &Spec) -> Lane {
+        let mut all = vec![spec.ab.a, spec.ab.b];
+        if let Some(cd) = spec.cd {
+            all.extend([cd.a, cd.b]);
+        }
+        if spec.ab.dot || spec.cd.is_some_and(|t| t.dot) {
+            Lane::Rgb
+        } else if spec.alpha_only {
+            Lane::Alpha
+        } else if !spec.scalar {
+            Lane::Rgb
+        } else if all.iter().any(|s| s.comp == Comp::Blue) {
+            Lane::Alpha
+        } else if all.iter().any(|s| matches!(s.comp, Comp::Bcast | Comp::Rgb) && !self.is_const_reg(s)) {
+            Lane::Rgb
+        } else {
+            Lane::Alpha
+        }
+    }
+
+    /// The earliest general combiner stage after the operation's inputs
+    /// whose portion is free (or pairs with a lone product of the same
+    /// scale and bias) and whose constant colours fit: its index, and
+    /// whether the operation takes the CD products of a shared portion.
+    fn schedule(&mut self, spec: &Spec, lane: Lane, span: Span) -> R<(usize, bool)> {
+        let srcs = |s: &Spec| {
+            let mut v = vec![s.ab.a, s.ab.b];
+            if let Some(cd) = s.cd {
+                v.extend([cd.a, cd.b]);
+            }
+            v
+        };
         let mut earliest = 0;
-        for s in srcs(&spec).into_iter().chain(spec.mux) {
+        for s in srcs(spec).into_iter().chain(spec.mux) {
             if let Base::V(v) = s.base {
                 earliest = earliest.max(self.ops[self.vregs[v].op].stage + 1);
             }
@@ -1617,7 +1656,7 @@ impl Gen<'_> {
         // constant colours (NV_register_combiners2): an operation goes to a
         // stage whose constants, with its own, are at most two. Without them
         // all constants are global, at most two in all (checked by `konst`).
-        let ks = Self::konsts_of(srcs(&spec).into_iter().chain(spec.mux));
+        let ks = Self::konsts_of(srcs(spec).into_iter().chain(spec.mux));
         let per_stage = self.limits.per_stage_constants;
         if per_stage && ks.len() > 2 {
             return Err(self.out_of_constants(span, "this general combiner operation".into(), &ks));
@@ -1654,26 +1693,7 @@ impl Gen<'_> {
                 self.stage_konsts[stage].push(k);
             }
         }
-        let out = self.vregs.len();
-        self.vregs.push(VReg { lane, op: self.ops.len(), pin: None, reg: None });
-        self.ops.push(Op {
-            lane,
-            ab: spec.ab,
-            cd: spec.cd,
-            mux: spec.mux,
-            scale: spec.scale,
-            bias: spec.bias,
-            out,
-            stage,
-            in_cd,
-            span,
-        });
-        let comp = match lane {
-            Lane::Alpha => Comp::Alpha,
-            Lane::Rgb if spec.scalar => Comp::Bcast,
-            Lane::Rgb => Comp::Rgb,
-        };
-        Ok(Src { base: Base::V(out), comp, map: SignedIdentity })
+        Ok((stage, in_cd))
     }
 
     fn is_const_reg(&self, s: &Src) -> bool {

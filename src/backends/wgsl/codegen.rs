@@ -922,13 +922,7 @@ impl<'a> Gen<'a> {
             b.f.arguments.push(FunctionArgument {
                 name: Some(name),
                 ty: vec4,
-                binding: Some(Binding::Location {
-                    location: i as u32,
-                    interpolation: None,
-                    sampling: None,
-                    blend_src: None,
-                    per_primitive: false,
-                }),
+                binding: Some(location(i as u32)),
             });
             let arg = b.plain(Expression::FunctionArgument(i as u32));
             b.args.push(arg);
@@ -938,13 +932,7 @@ impl<'a> Gen<'a> {
             b.f.arguments.push(FunctionArgument {
                 name: Some("quad".into()),
                 ty: vec4,
-                binding: Some(Binding::Location {
-                    location: i,
-                    interpolation: None,
-                    sampling: None,
-                    blend_src: None,
-                    per_primitive: false,
-                }),
+                binding: Some(location(i)),
             });
             Some(b.plain(Expression::FunctionArgument(i)))
         } else {
@@ -967,35 +955,7 @@ impl<'a> Gen<'a> {
                 let v = b.vals[&p];
                 match self.m.info(p).ty {
                     Ty::Position => v,
-                    Ty::Vec2 => {
-                        // Render into a texture by its coordinates: (2u − 1, 1 − 2v).
-                        let u = b.emit(Expression::AccessIndex { base: v, index: 0 });
-                        let vv = b.emit(Expression::AccessIndex { base: v, index: 1 });
-                        let two = b.lit(2.0);
-                        let one = b.lit(1.0);
-                        let zero = b.lit(0.0);
-                        let u2 = b.emit(Expression::Binary {
-                            op: naga::BinaryOperator::Multiply,
-                            left: u,
-                            right: two,
-                        });
-                        let x = b.emit(Expression::Binary {
-                            op: naga::BinaryOperator::Subtract,
-                            left: u2,
-                            right: one,
-                        });
-                        let v2 = b.emit(Expression::Binary {
-                            op: naga::BinaryOperator::Multiply,
-                            left: vv,
-                            right: two,
-                        });
-                        let y = b.emit(Expression::Binary {
-                            op: naga::BinaryOperator::Subtract,
-                            left: one,
-                            right: v2,
-                        });
-                        b.emit(Expression::Compose { ty: vec4, components: vec![x, y, zero, one] })
-                    }
+                    Ty::Vec2 => texture_space_clip(&mut b, v, vec4),
                     t => {
                         return self
                             .unsupported(format!("a pass positioned by a {} value", t.name()), Some(p))
@@ -1005,18 +965,7 @@ impl<'a> Gen<'a> {
             (_, Some(q)) => q,
             _ => return Err(GenError::Internal("no clip position".into())),
         };
-        // GL clip z (−w..w) → wgpu (0..w): z' = ½z + ½w.
-        let xy = b.emit(Expression::Swizzle {
-            size: VectorSize::Bi,
-            vector: clip,
-            pattern: [COMP[0], COMP[1], COMP[0], COMP[0]],
-        });
-        let z = b.emit(Expression::AccessIndex { base: clip, index: 2 });
-        let w = b.emit(Expression::AccessIndex { base: clip, index: 3 });
-        let half = b.lit(0.5);
-        let zw = b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: z, right: w });
-        let z2 = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: zw, right: half });
-        let position = b.emit(Expression::Compose { ty: vec4, components: vec![xy, z2, w] });
+        let position = wgpu_clip(&mut b, clip, vec4);
         b.name(position, "clip_position");
         let mut comps = vec![position];
         for h in self.iface.interpolants.clone() {
@@ -1026,17 +975,7 @@ impl<'a> Gen<'a> {
             comps.push(wv);
         }
         if let Some(q) = quad {
-            // texel_uv = (½x + ½, ½ − ½y): v = 0 at the top row.
-            let x = b.emit(Expression::AccessIndex { base: q, index: 0 });
-            let y = b.emit(Expression::AccessIndex { base: q, index: 1 });
-            let half = b.lit(0.5);
-            let zero = b.lit(0.0);
-            let xh = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: x, right: half });
-            let u = b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: xh, right: half });
-            let yh = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: y, right: half });
-            let v = b.emit(Expression::Binary { op: naga::BinaryOperator::Subtract, left: half, right: yh });
-            let uv = b.emit(Expression::Compose { ty: vec4, components: vec![u, v, zero, zero] });
-            comps.push(uv);
+            comps.push(texel_uv(&mut b, q, vec4));
         }
         let out = b.emit(Expression::Compose { ty: vout, components: comps });
         b.f.body.push(Statement::Return { value: Some(out) }, naga::Span::UNDEFINED);
@@ -1113,71 +1052,66 @@ impl<'a> Gen<'a> {
                     b.emit(Expression::Compose { ty: vec4, components: vec![v, one] })
                 }
                 Ty::Rgba | Ty::Position => v,
-                Ty::Bundle(_) => {
-                    // A fat texel (seeds/001 (5), (15)): member i to colour
-                    // attachment i — layer i of the fat texture — as rgb, alpha 1.
-                    let Expr::Bundle(members) = self.m.exprs[o].clone() else {
-                        return Err(GenError::Internal("a bundle-typed value that is not a bundle".into()));
-                    };
-                    let mut comps = Vec::new();
-                    let mut fields = Vec::new();
-                    for (i, h) in members.iter().enumerate() {
-                        let v = b.vals.get(h).copied().ok_or_else(|| {
-                            GenError::Internal(format!("member %{} not computed", h.index()))
-                        })?;
-                        let one = b.lit(1.0);
-                        let c = match width(self.m.info(*h).ty) {
-                            3 => b.emit(Expression::Compose { ty: vec4, components: vec![v, one] }),
-                            w => self.widen_zero(&mut b, v, w),
-                        };
-                        let c = if self.renders_half_floats() { self.round_to_half(&mut b, c) } else { c };
-                        comps.push(c);
-                        let name = match &self.m.exprs[*h] {
-                            Expr::Interpolate { value, .. } => self.value_name(*value),
-                            _ => self.value_name(*h),
-                        }
-                        .unwrap_or_else(|| format!("member{i}"));
-                        fields.push(StructMember {
-                            name: Some(name),
-                            ty: vec4,
-                            binding: Some(Binding::Location {
-                                location: i as u32,
-                                interpolation: None,
-                                sampling: None,
-                                blend_src: None,
-                                per_primitive: false,
-                            }),
-                            offset: 16 * i as u32,
-                        });
-                    }
-                    let n = fields.len() as u32;
-                    let ty = self.module.types.insert(
-                        Type {
-                            name: Some("FatTexel".into()),
-                            inner: TypeInner::Struct { members: fields, span: 16 * n },
-                        },
-                        naga::Span::UNDEFINED,
-                    );
-                    let out = b.emit(Expression::Compose { ty, components: comps });
-                    b.f.body.push(Statement::Return { value: Some(out) }, naga::Span::UNDEFINED);
-                    b.f.result = Some(FunctionResult { ty, binding: None });
-                    self.outputs = n;
-                    return Ok(b.f);
-                }
+                Ty::Bundle(_) => return self.fat_texel_output(b, o, vec4),
             }
         };
         let out = if self.renders_half_floats() { self.round_to_half(&mut b, out) } else { out };
         b.f.body.push(Statement::Return { value: Some(out) }, naga::Span::UNDEFINED);
-        b.f.result = Some(FunctionResult {
-            ty: vec4,
-            binding: Some(Binding::Location {
-                location: 0,
-                interpolation: None,
-                sampling: None,
-                blend_src: None,
-                per_primitive: false,
-            }),
-        });
+        b.f.result = Some(FunctionResult { ty: vec4, binding: Some(location(0)) });
+        Ok(b.f)
+    }
+
+    /// A fat texel (seeds/001 (5), (15)): member i to colour attachment i
+    /// — layer i of the fat texture — as rgb, alpha 1; the function's
+    /// result is a struct of the members.
+    fn fat_texel_output(
+        &mut self,
+        mut b: Body,
+        o: ir::Handle<Expr>,
+        vec4: naga::Handle<Type>,
+    ) -> R<Function> {
+        let Expr::Bundle(members) = self.m.exprs[o].clone() else {
+            return Err(GenError::Internal("a bundle-typed value that is not a bundle".into()));
+        };
+        let mut comps = Vec::new();
+        let mut fields = Vec::new();
+        for (i, h) in members.iter().enumerate() {
+            let v = b
+                .vals
+                .get(h)
+                .copied()
+                .ok_or_else(|| GenError::Internal(format!("member %{} not computed", h.index())))?;
+            let one = b.lit(1.0);
+            let c = match width(self.m.info(*h).ty) {
+                3 => b.emit(Expression::Compose { ty: vec4, components: vec![v, one] }),
+                w => self.widen_zero(&mut b, v, w),
+            };
+            let c = if self.renders_half_floats() { self.round_to_half(&mut b, c) } else { c };
+            comps.push(c);
+            let name = match &self.m.exprs[*h] {
+                Expr::Interpolate { value, .. } => self.value_name(*value),
+                _ => self.value_name(*h),
+            }
+            .unwrap_or_else(|| format!("member{i}"));
+            fields.push(StructMember {
+                name: Some(name),
+                ty: vec4,
+                binding: Some(location(i as u32)),
+                offset: 16 * i as u32,
+            });
+        }
+        let n = fields.len() as u32;
+        let ty = self.module.types.insert(
+            Type {
+                name: Some("FatTexel".into()),
+                inner: TypeInner::Struct { members: fields, span: 16 * n },
+            },
+            naga::Span::UNDEFINED,
+        );
+        let out = b.emit(Expression::Compose { ty, components: comps });
+        b.f.body.push(Statement::Return { value: Some(out) }, naga::Span::UNDEFINED);
+        b.f.result = Some(FunctionResult { ty, binding: None });
+        self.outputs = n;
         Ok(b.f)
     }
 
@@ -1236,35 +1170,7 @@ impl<'a> Gen<'a> {
             args.push(match r {
                 Some(h) => {
                     let v = as_rgba(self, b, *h);
-                    // round(clamp(v, 0, 1) · 255): the 8-bit register input.
-                    let (zero, one, k255, half) = (b.lit(0.0), b.lit(1.0), b.lit(255.0), b.lit(0.5));
-                    let (zero, one) = (
-                        b.emit(Expression::Splat { size: VectorSize::Quad, value: zero }),
-                        b.emit(Expression::Splat { size: VectorSize::Quad, value: one }),
-                    );
-                    let c = b.emit(Expression::Math {
-                        fun: naga::MathFunction::Clamp,
-                        arg: v,
-                        arg1: Some(zero),
-                        arg2: Some(one),
-                        arg3: None,
-                    });
-                    let c = b.emit(Expression::Binary {
-                        op: naga::BinaryOperator::Multiply,
-                        left: c,
-                        right: k255,
-                    });
-                    let half = b.emit(Expression::Splat { size: VectorSize::Quad, value: half });
-                    let c =
-                        b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: c, right: half });
-                    let c = b.emit(Expression::Math {
-                        fun: naga::MathFunction::Floor,
-                        arg: c,
-                        arg1: None,
-                        arg2: None,
-                        arg3: None,
-                    });
-                    b.emit(Expression::As { expr: c, kind: ScalarKind::Sint, convert: Some(4) })
+                    register_input(b, v)
                 }
                 None => b.plain(Expression::ZeroValue(ivec4)),
             });
@@ -2641,4 +2547,84 @@ pub fn q9_value(v: f64) -> f32 {
 #[allow(dead_code)]
 fn is_sample(f: Frequency) -> bool {
     f.is_sample()
+}
+
+/// Rendering into a texture by its coordinates (seeds/001 (13)): the clip
+/// position (2u − 1, 1 − 2v, 0, 1).
+fn texture_space_clip(b: &mut Body, v: NH, vec4: naga::Handle<Type>) -> NH {
+    let u = b.emit(Expression::AccessIndex { base: v, index: 0 });
+    let vv = b.emit(Expression::AccessIndex { base: v, index: 1 });
+    let (two, one, zero) = (b.lit(2.0), b.lit(1.0), b.lit(0.0));
+    let u2 = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: u, right: two });
+    let x = b.emit(Expression::Binary { op: naga::BinaryOperator::Subtract, left: u2, right: one });
+    let v2 = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: vv, right: two });
+    let y = b.emit(Expression::Binary { op: naga::BinaryOperator::Subtract, left: one, right: v2 });
+    b.emit(Expression::Compose { ty: vec4, components: vec![x, y, zero, one] })
+}
+
+/// GL clip z (−w..w) → wgpu (0..w): z′ = ½z + ½w.
+fn wgpu_clip(b: &mut Body, clip: NH, vec4: naga::Handle<Type>) -> NH {
+    let xy = b.emit(Expression::Swizzle {
+        size: VectorSize::Bi,
+        vector: clip,
+        pattern: [COMP[0], COMP[1], COMP[0], COMP[0]],
+    });
+    let z = b.emit(Expression::AccessIndex { base: clip, index: 2 });
+    let w = b.emit(Expression::AccessIndex { base: clip, index: 3 });
+    let half = b.lit(0.5);
+    let zw = b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: z, right: w });
+    let z2 = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: zw, right: half });
+    b.emit(Expression::Compose { ty: vec4, components: vec![xy, z2, w] })
+}
+
+/// A screen or texel pass's texture coordinate from its rectangle:
+/// (½x + ½, ½ − ½y), v = 0 at the top row.
+fn texel_uv(b: &mut Body, q: NH, vec4: naga::Handle<Type>) -> NH {
+    let x = b.emit(Expression::AccessIndex { base: q, index: 0 });
+    let y = b.emit(Expression::AccessIndex { base: q, index: 1 });
+    let (half, zero) = (b.lit(0.5), b.lit(0.0));
+    let xh = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: x, right: half });
+    let u = b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: xh, right: half });
+    let yh = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: y, right: half });
+    let v = b.emit(Expression::Binary { op: naga::BinaryOperator::Subtract, left: half, right: yh });
+    b.emit(Expression::Compose { ty: vec4, components: vec![u, v, zero, zero] })
+}
+
+/// round(clamp(v, 0, 1) · 255) as integers: the 8-bit register input of
+/// the combiners (seeds/003 Table 2).
+fn register_input(b: &mut Body, v: NH) -> NH {
+    let (zero, one, k255, half) = (b.lit(0.0), b.lit(1.0), b.lit(255.0), b.lit(0.5));
+    let (zero, one) = (
+        b.emit(Expression::Splat { size: VectorSize::Quad, value: zero }),
+        b.emit(Expression::Splat { size: VectorSize::Quad, value: one }),
+    );
+    let c = b.emit(Expression::Math {
+        fun: naga::MathFunction::Clamp,
+        arg: v,
+        arg1: Some(zero),
+        arg2: Some(one),
+        arg3: None,
+    });
+    let c = b.emit(Expression::Binary { op: naga::BinaryOperator::Multiply, left: c, right: k255 });
+    let half = b.emit(Expression::Splat { size: VectorSize::Quad, value: half });
+    let c = b.emit(Expression::Binary { op: naga::BinaryOperator::Add, left: c, right: half });
+    let c = b.emit(Expression::Math {
+        fun: naga::MathFunction::Floor,
+        arg: c,
+        arg1: None,
+        arg2: None,
+        arg3: None,
+    });
+    b.emit(Expression::As { expr: c, kind: ScalarKind::Sint, convert: Some(4) })
+}
+
+/// `@location(i)` with the default interpolation.
+fn location(i: u32) -> Binding {
+    Binding::Location {
+        location: i,
+        interpolation: None,
+        sampling: None,
+        blend_src: None,
+        per_primitive: false,
+    }
 }

@@ -877,9 +877,7 @@ impl<'a> Parser<'a> {
                     if rgb.is_some() || alpha.is_some() {
                         return Err(late("final_product = ...;"));
                     }
-                    self.bump();
-                    self.bump();
-                    product = Some(t.span.join(self.final_product(&mut fc)?));
+                    product = Some(self.final_product(&mut fc, t.span)?);
                 }
                 Tok::Name("out", Some("rgb")) => {
                     if let Some(first) = rgb {
@@ -903,29 +901,29 @@ impl<'a> Parser<'a> {
             }
         }
         if rgb.is_none() && alpha.is_none() {
-            return Err(self.expected_final_combiner());
+            return Err(self.missing_output());
         }
         self.move_color_sum_out_of_a(&mut fc);
         Ok(fc)
     }
 
-    /// `final_product = E * F;` after its `=`: the final combiner's E and
-    /// F inputs (seeds/003 B.6), which read ordinary registers only; the
-    /// span of the closing `;`.
-    fn final_product(&mut self, fc: &mut FinalCombiner) -> PResult<Span> {
+    /// `final_product = E * F;` (seeds/003 Table 6): E and F read ordinary
+    /// registers. Returns the statement's span.
+    fn final_product(&mut self, fc: &mut FinalCombiner, start: Span) -> PResult<Span> {
+        self.bump();
+        self.bump();
         let e = self.final_operand()?;
         self.expect(Tok::Star, "`*` (final_product = E * F;)")?;
         let f = self.final_operand()?;
-        let semi = self.expect(Tok::Semi, "`;`")?;
+        let span = start.join(self.expect(Tok::Semi, "`;`")?);
         for (op, var) in [(e, 'E'), (f, 'F')] {
             if matches!(op.source, Source::FinalProduct | Source::ColorSum) {
-                return Err(Diagnostic::error(
-                    if op.source == Source::FinalProduct { "ef-product-input" } else { "color-sum-input" },
-                    "invalid input register for final_product",
+                return Err(pseudo_register(
+                    op.source,
                     op.span,
-                    "pseudo-register",
-                )
-                .with_help("E and F read ordinary registers"));
+                    "final_product",
+                    "E and F read ordinary registers",
+                ));
             }
             let input = self.final_input(op, var, true)?;
             if var == 'E' {
@@ -934,28 +932,25 @@ impl<'a> Parser<'a> {
                 fc.f = input
             }
         }
-        Ok(semi)
+        Ok(span)
     }
 
-    /// `out.a = G;` after its `=`: the final combiner's G input, the alpha
-    /// of an ordinary register (seeds/003 B.6).
-    fn final_alpha(&mut self, after_product: bool) -> PResult<FinalInput> {
+    /// `out.a = G;`: the alpha of an ordinary register.
+    fn final_alpha(&mut self, has_product: bool) -> PResult<FinalInput> {
         let g = self.final_operand()?;
         if matches!(g.source, Source::FinalProduct | Source::ColorSum) {
-            return Err(Diagnostic::error(
-                if g.source == Source::FinalProduct { "ef-product-input" } else { "color-sum-input" },
-                "invalid input register for final alpha",
+            return Err(pseudo_register(
+                g.source,
                 g.span,
-                "pseudo-register",
-            )
-            .with_help("`out.a` reads the alpha of an ordinary register"));
+                "final alpha",
+                "`out.a` reads the alpha of an ordinary register",
+            ));
         }
-        self.final_input(g, 'G', after_product)
+        self.final_input(g, 'G', has_product)
     }
 
-    /// The error for a program that does not end with the final combiner's
-    /// `out.rgb` / `out.a`.
-    fn expected_final_combiner(&self) -> Diagnostic {
+    /// Neither `out.rgb` nor `out.a`: what was found instead, with the name it resembles.
+    fn missing_output(&self) -> Diagnostic {
         let t = self.peek();
         let help = match t.tok {
             Tok::Name(n, _) => {
@@ -974,9 +969,8 @@ impl<'a> Parser<'a> {
         )
     }
 
-    /// nvparse's FinalCombinerStruct::Validate: move the color sum
-    /// (spare0 + secondary) out of A when the expression allows it, as
-    /// nvparse does, so the setup is the one it would build.
+    /// nvparse's FinalCombinerStruct::Validate: move color_sum out of A
+    /// when the expression allows it.
     fn move_color_sum_out_of_a(&mut self, fc: &mut FinalCombiner) {
         let is_cs = |i: &FinalInput| i.source == FinalSource::Spare0PlusSecondary;
         let is_reg = |i: &FinalInput, m: InputMapping| {
@@ -1145,4 +1139,16 @@ fn unreachable_one<T>(span: Span) -> PResult<T> {
 
 fn unreachable_name<T>(span: Span) -> PResult<T> {
     Err(Diagnostic::error("internal", "internal error: expected a name", span, "here"))
+}
+
+/// A pseudo-register (`final_product`, `color_sum`) where the final
+/// combiner reads only ordinary registers (seeds/003 Appendix B).
+fn pseudo_register(source: Source, span: Span, what: &str, help: &str) -> Diagnostic {
+    Diagnostic::error(
+        if source == Source::FinalProduct { "ef-product-input" } else { "color-sum-input" },
+        format!("invalid input register for {what}"),
+        span,
+        "pseudo-register",
+    )
+    .with_help(help)
 }
