@@ -377,30 +377,7 @@ impl<'a> Parser<'a> {
                     if self.peek2().tok == Tok::LParen
                         && !matches!(n, "expand" | "half_bias" | "unsigned" | "unsigned_invert") =>
                 {
-                    let (sc, bi) = match n {
-                        "scale_by_two" => (Some(Scale::Two), None),
-                        "scale_by_four" => (Some(Scale::Four), None),
-                        "scale_by_one_half" => (Some(Scale::OneHalf), None),
-                        "bias_by_negative_one_half" => (None, Some(Bias::NegativeOneHalf)),
-                        "bias_by_negative_one_half_scale_by_two" => {
-                            (Some(Scale::Two), Some(Bias::NegativeOneHalf))
-                        }
-                        _ => {
-                            let help = match did_you_mean(n, SCALE_BIAS) {
-                                Some(m) => format!("did you mean `{m}()`?"),
-                                None => format!(
-                                    "the output scale/bias calls are {}",
-                                    SCALE_BIAS.map(|s| format!("`{s}()`")).join(", ")
-                                ),
-                            };
-                            return Err(syntax(
-                                format!("unknown function `{n}`"),
-                                t.span,
-                                "not a scale/bias call",
-                                help,
-                            ));
-                        }
-                    };
+                    let (sc, bi) = scale_bias_call(n, t.span)?;
                     self.bump();
                     self.expect(Tok::LParen, "`(`")?;
                     self.expect(Tok::RParen, "`)`")?;
@@ -1151,4 +1128,26 @@ fn pseudo_register(source: Source, span: Span, what: &str, help: &str) -> Diagno
         "pseudo-register",
     )
     .with_help(help)
+}
+
+/// The output scale and bias of a general combiner portion named by a
+/// scale/bias call (seeds/003 Appendix B: `scale_by_two()`, …).
+fn scale_bias_call(n: &str, span: Span) -> PResult<(Option<Scale>, Option<Bias>)> {
+    Ok(match n {
+        "scale_by_two" => (Some(Scale::Two), None),
+        "scale_by_four" => (Some(Scale::Four), None),
+        "scale_by_one_half" => (Some(Scale::OneHalf), None),
+        "bias_by_negative_one_half" => (None, Some(Bias::NegativeOneHalf)),
+        "bias_by_negative_one_half_scale_by_two" => (Some(Scale::Two), Some(Bias::NegativeOneHalf)),
+        _ => {
+            let help = match did_you_mean(n, SCALE_BIAS) {
+                Some(m) => format!("did you mean `{m}()`?"),
+                None => format!(
+                    "the output scale/bias calls are {}",
+                    SCALE_BIAS.map(|s| format!("`{s}()`")).join(", ")
+                ),
+            };
+            return Err(syntax(format!("unknown function `{n}`"), span, "not a scale/bias call", help));
+        }
+    })
 }
