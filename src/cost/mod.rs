@@ -107,15 +107,14 @@ fn bytes_per_us(model: &CostModel) -> f64 {
 pub fn pass_time(pass: &Pass, module: &Module, model: &CostModel, workload: &Workload) -> PassTime {
     let load = workload.pass_load(pass);
     if pass.baked {
-        let zero = 0.0;
         return PassTime {
-            us: zero,
-            vertex_us: zero,
-            setup_us: zero,
-            fill_us: zero,
-            copy_us: zero,
+            us: 0.0,
+            vertex_us: 0.0,
+            setup_us: 0.0,
+            fill_us: 0.0,
+            copy_us: 0.0,
             bound: Bound::Compiler,
-            clocks_per_pixel: zero,
+            clocks_per_pixel: 0.0,
             pixels: 0,
         };
     }
@@ -123,16 +122,18 @@ pub fn pass_time(pass: &Pass, module: &Module, model: &CostModel, workload: &Wor
     let ops = vertex::ops_per_vertex(pass, module);
     let vertex_us = load.vertices as f64 * ops * model.vertex_clocks_per_op / clock;
     let setup_us = load.triangles as f64 * model.setup_clocks_per_triangle / clock;
-    let samples = texture_samples(pass, module);
-    let clocks_per_pixel = pixel_clocks(model, samples, pass.fragment.general_combiners.unwrap_or(0));
-    let pixels = load.pixels as f64;
-    let shade_us = pixels * clocks_per_pixel / (f64::from(model.pixel_pipes) * clock);
-    let memory_us = pixels * bytes_per_pixel(pass, model, samples) / bytes_per_us(model);
+    let fragment = FragmentLoad {
+        samples: texture_samples(pass, module),
+        stages: pass.fragment.general_combiners.unwrap_or(0),
+        reads_destination: !same_factors(&pass.state.blend, &BlendState::REPLACE),
+        depth_tested: pass.state.depth.func != CompareFunc::Always || pass.state.depth.write,
+    };
+    let clocks_per_pixel = pixel_clocks(model, fragment.samples, fragment.stages);
+    let (shade_us, memory_us) = fill(model, load.pixels as f64, &fragment);
     let fill_us = shade_us.max(memory_us);
     let copy_us = match pass.target {
-        // Rendered, then copied into the texture (glCopyTexSubImage2D): read and write.
         RenderTarget::Temporary { .. } | RenderTarget::Texture { .. } => {
-            load.target_pixels as f64 * 8.0 / bytes_per_us(model)
+            copy(model, load.target_pixels as f64)
         }
         RenderTarget::Framebuffer { .. } => 0.0,
     };
@@ -177,17 +178,32 @@ pub fn texture_samples(pass: &Pass, module: &Module) -> u32 {
     pass.textures.iter().map(|b| if trilinear(&b.texture) { 2 } else { 1 }).sum()
 }
 
-/// Memory bytes of one fragment: the colour written (and read, when the
-/// blend reads the destination), depth, and texels after the cache.
-fn bytes_per_pixel(pass: &Pass, model: &CostModel, samples: u32) -> f64 {
-    let reads_destination = !same_factors(&pass.state.blend, &BlendState::REPLACE);
-    let colour = if reads_destination { 8.0 } else { 4.0 };
-    let depth = if pass.state.depth.func == CompareFunc::Always && !pass.state.depth.write {
-        0.0
-    } else {
-        model.depth_bytes_per_pixel
-    };
-    colour + depth + f64::from(samples) * model.texel_bytes_per_sample
+/// What one fragment of a pass costs the fill: its bilinear samples, its
+/// general combiner stages, whether the blend reads the destination and
+/// whether the depth buffer is tested.
+pub struct FragmentLoad {
+    pub samples: u32,
+    pub stages: u32,
+    pub reads_destination: bool,
+    pub depth_tested: bool,
+}
+
+/// The fill of `pixels` such fragments (µs): pixel clocks over the pipes,
+/// and memory bytes (colour written, and read when blending; depth; texels
+/// after the cache) over the bandwidth.
+fn fill(model: &CostModel, pixels: f64, f: &FragmentLoad) -> (f64, f64) {
+    let shade_us =
+        pixels * pixel_clocks(model, f.samples, f.stages) / (f64::from(model.pixel_pipes) * model.clock_mhz);
+    let colour = if f.reads_destination { 8.0 } else { 4.0 };
+    let depth = if f.depth_tested { model.depth_bytes_per_pixel } else { 0.0 };
+    let bytes = colour + depth + f64::from(f.samples) * model.texel_bytes_per_sample;
+    (shade_us, pixels * bytes / bytes_per_us(model))
+}
+
+/// Copying a rendered target into its texture (glCopyTexSubImage2D):
+/// every pixel read and written.
+fn copy(model: &CostModel, pixels: f64) -> f64 {
+    pixels * 8.0 / bytes_per_us(model)
 }
 
 fn same_factors(a: &BlendState, b: &BlendState) -> bool {
@@ -237,20 +253,10 @@ impl Bound {
 /// trips, combiner stages), memory (a blend reading the destination), a
 /// render-to-texture copy, the pass overhead. Vertex work is left out: every
 /// piece of one statement draws the same mesh.
-pub fn nominal_pass_ns(
-    model: &CostModel,
-    samples: u32,
-    stages: u32,
-    reads_destination: bool,
-    to_texture: bool,
-) -> u64 {
+pub fn nominal_pass_ns(model: &CostModel, fragment: &FragmentLoad, to_texture: bool) -> u64 {
     let (w, h) = Workload::nominal().resolution;
     let pixels = f64::from(w) * f64::from(h);
-    let shade_us =
-        pixels * pixel_clocks(model, samples, stages) / (f64::from(model.pixel_pipes) * model.clock_mhz);
-    let colour = if reads_destination { 8.0 } else { 4.0 };
-    let bytes = colour + model.depth_bytes_per_pixel + f64::from(samples) * model.texel_bytes_per_sample;
-    let memory_us = pixels * bytes / bytes_per_us(model);
-    let copy_us = if to_texture { pixels * 8.0 / bytes_per_us(model) } else { 0.0 };
+    let (shade_us, memory_us) = fill(model, pixels, fragment);
+    let copy_us = if to_texture { copy(model, pixels) } else { 0.0 };
     ((shade_us.max(memory_us) + copy_us + model.pass_overhead_us) * 1000.0).round() as u64
 }

@@ -106,8 +106,13 @@ impl FitCheck for ProfileFit<'_> {
             Some(Ok(n)) => *n,
             _ => 0,
         };
-        let reads = piece.blend != BlendMode::Replace;
-        crate::cost::nominal_pass_ns(model, samples, stages, reads, piece.dest != Dest::Main)
+        let fragment = crate::cost::FragmentLoad {
+            samples,
+            stages,
+            reads_destination: piece.blend != BlendMode::Replace,
+            depth_tested: true,
+        };
+        crate::cost::nominal_pass_ns(model, &fragment, piece.dest != Dest::Main)
     }
 }
 

@@ -225,9 +225,7 @@ impl<'a, 's> Bounder<'a, 's> {
     /// x < 1 and n > 1 is noted (its peak is where culling must be careful).
     fn binary(&mut self, op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr>) -> Bound {
         let m = self.module;
-        let (lhs, rhs) = (&lhs, &rhs);
-        let op = &op;
-        let (a, b) = (self.get(*lhs), self.get(*rhs));
+        let (a, b) = (self.get(lhs), self.get(rhs));
         match op {
             BinaryOp::Add => Bound::lanes(&a, &b, |a0, a1, b0, b1| (a0 + b0, a1 + b1)),
             BinaryOp::Sub => Bound::lanes(&a, &b, |a0, a1, b0, b1| (a0 - b1, a1 - b0)),
@@ -239,7 +237,7 @@ impl<'a, 's> Bounder<'a, 's> {
                     (f64::NEG_INFINITY, f64::INFINITY)
                 }
             }),
-            BinaryOp::Dot => self.dot(&a, &b, m.info(*lhs).ty.width()),
+            BinaryOp::Dot => self.dot(&a, &b, m.info(lhs).ty.width()),
             BinaryOp::Pow => {
                 let r = Bound::lanes(&a, &b, |a0, a1, b0, b1| {
                     if a0 < 0.0 || b0.is_nan() || b0 <= 0.0 {
@@ -262,9 +260,7 @@ impl<'a, 's> Bounder<'a, 's> {
 
     /// Interval arithmetic of a texture-environment ⊕ (seeds/001 (3)).
     fn combine(&mut self, mode: CombineMode, lhs: Handle<Expr>, rhs: Handle<Expr>) -> Bound {
-        let (lhs, rhs) = (&lhs, &rhs);
-        let mode = &mode;
-        let (t, f) = (self.get(*lhs), self.get(*rhs));
+        let (t, f) = (self.get(lhs), self.get(rhs));
         match mode {
             CombineMode::Modulate => Bound::lanes(&t, &f, mul_iv),
             CombineMode::Add => Bound::lanes(&t, &f, |a0, a1, b0, b1| (a0 + b0, a1 + b1)),
@@ -298,15 +294,14 @@ impl<'a, 's> Bounder<'a, 's> {
     }
 
     fn swizzle(&mut self, value: Handle<Expr>, pattern: &[u8; 4], len: u8) -> Bound {
-        let (value, len) = (&value, &len);
-        let v = self.get(*value);
+        let v = self.get(value);
         let mut out = Bound::ALL;
         for k in 0..4 {
-            let src = pattern[k.min(*len as usize - 1).min(3)] as usize;
+            let src = pattern[k.min(len as usize - 1).min(3)] as usize;
             out.lo[k] = v.lo[src.min(3)];
             out.hi[k] = v.hi[src.min(3)];
         }
-        if *len == 1 {
+        if len == 1 {
             out = Bound::splat(out.lo[0], out.hi[0]);
         }
         out
@@ -331,12 +326,11 @@ impl<'a, 's> Bounder<'a, 's> {
 
     fn convert(&mut self, value: Handle<Expr>, to: Ty) -> Bound {
         let m = self.module;
-        let (value, to) = (&value, &to);
-        let v = self.get(*value);
-        let from = m.info(*value).ty;
+        let v = self.get(value);
+        let from = m.info(value).ty;
         if from == Ty::Scalar {
             Bound::splat(v.lo[0], v.hi[0])
-        } else if from == Ty::Rgb && *to == Ty::Rgba {
+        } else if from == Ty::Rgb && to == Ty::Rgba {
             Bound { lo: [v.lo[0], v.lo[1], v.lo[2], 1.0], hi: [v.hi[0], v.hi[1], v.hi[2], 1.0], cone: None }
         } else {
             Bound { cone: None, ..v }

@@ -894,14 +894,7 @@ impl<'a> Parser<'a> {
         let f = self.final_operand()?;
         let span = start.join(self.expect(Tok::Semi, "`;`")?);
         for (op, var) in [(e, 'E'), (f, 'F')] {
-            if matches!(op.source, Source::FinalProduct | Source::ColorSum) {
-                return Err(pseudo_register(
-                    op.source,
-                    op.span,
-                    "final_product",
-                    "E and F read ordinary registers",
-                ));
-            }
+            ordinary(&op, "final_product", "E and F read ordinary registers")?;
             let input = self.final_input(op, var, true)?;
             if var == 'E' {
                 fc.e = input
@@ -915,14 +908,7 @@ impl<'a> Parser<'a> {
     /// `out.a = G;`: the alpha of an ordinary register.
     fn final_alpha(&mut self, has_product: bool) -> PResult<FinalInput> {
         let g = self.final_operand()?;
-        if matches!(g.source, Source::FinalProduct | Source::ColorSum) {
-            return Err(pseudo_register(
-                g.source,
-                g.span,
-                "final alpha",
-                "`out.a` reads the alpha of an ordinary register",
-            ));
-        }
+        ordinary(&g, "final alpha", "`out.a` reads the alpha of an ordinary register")?;
         self.final_input(g, 'G', has_product)
     }
 
@@ -1118,16 +1104,19 @@ fn unreachable_name<T>(span: Span) -> PResult<T> {
     Err(Diagnostic::error("internal", "internal error: expected a name", span, "here"))
 }
 
-/// A pseudo-register (`final_product`, `color_sum`) where the final
-/// combiner reads only ordinary registers (seeds/003 Appendix B).
-fn pseudo_register(source: Source, span: Span, what: &str, help: &str) -> Diagnostic {
-    Diagnostic::error(
-        if source == Source::FinalProduct { "ef-product-input" } else { "color-sum-input" },
+/// Refuses a pseudo-register (`final_product`, `color_sum`) where the
+/// final combiner reads only ordinary registers (seeds/003 Appendix B).
+fn ordinary(op: &Operand, what: &str, help: &str) -> PResult<()> {
+    if !matches!(op.source, Source::FinalProduct | Source::ColorSum) {
+        return Ok(());
+    }
+    Err(Diagnostic::error(
+        if op.source == Source::FinalProduct { "ef-product-input" } else { "color-sum-input" },
         format!("invalid input register for {what}"),
-        span,
+        op.span,
         "pseudo-register",
     )
-    .with_help(help)
+    .with_help(help))
 }
 
 /// The output scale and bias of a general combiner portion named by a
