@@ -35,7 +35,7 @@ fn emit_wgsl_labels_passes_and_source_lines() {
     assert_eq!(exact.code, 0, "{}", exact.stderr);
     assert!(exact.stdout.contains("let s_self = "), "{}", exact.stdout);
     // A program the combiner generator cannot realize on geforce3 (Kajiya-Kay's
-    // per-fragment `sqrt` of a texture's value) is refused; a target without
+    // per-fragment `sqrt`) is refused without the lowering; a target without
     // combiners runs hardware fidelity's per-operation model.
     let refused = shadec(&[
         "compile",
@@ -46,6 +46,7 @@ fn emit_wgsl_labels_passes_and_source_lines() {
         "wgsl",
         "--fidelity",
         "hardware",
+        "--no-approx",
     ]);
     assert_eq!(refused.code, 1, "{}", refused.stderr);
     assert!(refused.stderr.contains("error[cannot-split]"), "{}", refused.stderr);

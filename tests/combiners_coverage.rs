@@ -136,10 +136,15 @@ fn every_example_generates_or_is_located_on_both_combiner_profiles() {
 /// (1 pass) and `phong_taylor_renormalized.shd` (4) on geforce3: 28.
 /// Holding splits to the 8-bit clamps between passes then refused the
 /// latter again: its 4-pass plan stored (diffuse + specular) > 1 before
-/// the decal modulated it: 24.)
+/// the decal modulated it: 24. Powers by squaring in one pass and, as the
+/// last resort, per-vertex shading of what no per-fragment rule makes
+/// plan (issue 18) then planned Cook-Torrance, Kajiya-Kay, the silhouette
+/// and texture shading (13) on both, and the exponent by squaring on
+/// geforce256 (per vertex: its two constant colours run short): 40 and
+/// 29.)
 #[test]
 fn every_planned_pass_is_generated() {
-    for (profile, planned) in [("geforce256", 34), ("geforce3", 24)] {
+    for (profile, planned) in [("geforce256", 40), ("geforce3", 29)] {
         let r = report(profile);
         let passes: Vec<&Result<usize, String>> =
             r.iter().filter_map(|(_, r)| r.as_ref().ok()).flatten().collect();

@@ -179,7 +179,12 @@ fn a_pass_the_generator_refuses_is_not_planned_and_fixed9_elsewhere_is_per_opera
     let refused =
         std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kajiya_kay_hair.shd"))
             .unwrap();
-    let err = shadec::driver::compile(&refused, &Profile::resolve("geforce3").unwrap(), &Default::default())
+    // Without the lowering (whose last resort, per-vertex shading, plans it).
+    let exact = shadec::driver::PlanOptions {
+        lowering: shadec::lowering::LowerOptions { approximate: false, ..Default::default() },
+        ..Default::default()
+    };
+    let err = shadec::driver::compile(&refused, &Profile::resolve("geforce3").unwrap(), &exact)
         .map(|c| c.planned)
         .unwrap_err();
     assert_eq!(err[0].code, "cannot-split", "{err:?}");

@@ -19,13 +19,17 @@
 //!   scalar (`sqrt`, division, `floor`, `fract`, `exp`, a fractional power)
 //!   → a 1-D table baked by the compiler on the CPU (the `bake` path) and
 //!   indexed by texgen (seeds/002 Section 3: functions as textures);
-//! - [`power`]: `x^n` beyond the stages of one pass → a product of
+//! - [`power`]: `x^n` not a power of two → squarings multiplied in one
+//!   pass; beyond the stages of one pass → a product of
 //!   powers that do fit, multiplied in the framebuffer across passes;
 //! - [`range_compress`]: a signed vector interpolated into the combiners
 //!   → `expand(δ (v + 1)/2)` (seeds/003 Section 5.2, Tables 2-3);
 //! - [`texel_bake`]: a texture-shading statement that is a function of the
 //!   texel coordinate and uniforms only → computed by the compiler, as
-//!   `bake(f)` is.
+//!   `bake(f)` is;
+//! - [`per_vertex::gouraud`]: the last resort when no choice above plans —
+//!   every maximal per-fragment part that reads only interpolants computed
+//!   per vertex (Gouraud), reported without a bound.
 //!
 //! What no rule rewrites (a texture indexed by another texture's result on
 //! geforce256, float textures) keeps the planner's located refusal.
@@ -75,6 +79,10 @@ pub enum Normalization {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Choice {
     pub normalization: Normalization,
+    /// Every maximal per-fragment part that reads only interpolated values
+    /// computed per vertex first ([`per_vertex::gouraud`]): the last resort,
+    /// Gouraud shading of what the target cannot shade per fragment.
+    pub gouraud: bool,
 }
 
 /// The choices for `profile`, most accurate first (the planner takes the
@@ -82,9 +90,11 @@ pub struct Choice {
 pub fn choices(profile: &Profile) -> Vec<Choice> {
     let mut out = Vec::new();
     if profile.cube_maps {
-        out.push(Choice { normalization: Normalization::CubeMap });
+        out.push(Choice { normalization: Normalization::CubeMap, gouraud: false });
     }
-    out.push(Choice { normalization: Normalization::Taylor });
+    out.push(Choice { normalization: Normalization::Taylor, gouraud: false });
+    let best = out[0];
+    out.push(Choice { gouraud: true, ..best });
     out
 }
 
@@ -122,7 +132,8 @@ pub fn lower(module: &Module, profile: &Profile, choice: Choice, at: &dyn Fn(Spa
             r.m.statements.push(st);
             continue;
         }
-        let value = r.rewrite(st.value);
+        let value = if choice.gouraud { per_vertex::gouraud(&mut r, st.value) } else { st.value };
+        let value = r.rewrite(value);
         // A table's texel statement runs before the statement sampling it.
         let tables = std::mem::take(&mut r.pending);
         r.m.statements.extend(tables);
