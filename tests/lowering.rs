@@ -280,6 +280,33 @@ fn every_example_plans_realized_or_is_refused_where_it_is() {
     assert!(planned_count >= 43, "{planned_count}");
 }
 
+/// A 16-bit signed normalization cube map on the GeForce 256, which has no
+/// signed formats: rule `signed_texture_compression` binds the same
+/// generator into RGB8, range-compressed, and expands each lookup — within
+/// its bound of the meaning (the meaning samples the declared 16-bit map).
+#[test]
+fn a_signed_cube_map_is_stored_range_compressed_where_the_target_has_no_signed_textures() {
+    let source = "texture Nc : cube signed16 bilinear clamp = normalize_cube(64, 16);\nvector L : light(0);\nC δπx ← rgb(compress(Nc δ L s x));\n";
+    let gf3 = compile(source, &Profile::builtin("geforce3").unwrap()).unwrap();
+    assert!(gf3.plan.approximations.is_empty(), "geforce3 has signed textures");
+    let planned = compile(source, &Profile::builtin("geforce256").unwrap()).expect("lowered and planned");
+    let a = &planned.plan.approximations;
+    assert_eq!(a.len(), 1, "{a:?}");
+    assert_eq!((a[0].rule.as_str(), a[0].at.as_str()), ("signed_texture_compression", "3:21"));
+    let copy = planned.module.textures.iter().find(|t| t.copy_of.as_deref() == Some("Nc")).expect("a copy");
+    assert_eq!(copy.format, shadec::parser::ast::TextureFormat::Rgb8);
+    // compress halves the vector's error.
+    let bound = a[0].error_bound.unwrap() / 2.0 + FRAMEBUFFER;
+    let e = error_against_meaning(source, &planned, &scene());
+    assert!(e <= bound, "measured {e} > stated {bound}");
+    // Where a dependent lookup remains, the refusal names it, not the
+    // signed format the lowering supplied.
+    let err =
+        compile(&example("phong_exponent_lookup.shd"), &Profile::builtin("geforce256").unwrap()).unwrap_err();
+    assert_eq!(err.len(), 1, "{err:?}");
+    assert!(err[0].message.contains("dependent lookup"), "{}", err[0].message);
+}
+
 /// `x^6` of a value the combiners hold: rule `power_by_squaring` makes it
 /// `x^4 · x^2` with `x^4 = (x^2)^2` — every power a square the code
 /// generator builds — in one pass, within its stated bound of the meaning.

@@ -197,7 +197,8 @@ impl<'a> ScenePlan<'a> {
             SceneRunError::Codegen(d.iter().map(|d| d.message.clone()).collect::<Vec<_>>().join("; "))
         })?;
         let mut decls = bind::texture_decls(program, &scene.constants);
-        decls.extend(bind::lowered_decls(&planned.module));
+        let lowered = bind::lowered_decls(&planned.module, &decls);
+        decls.extend(lowered);
         let mut notes = Vec::new();
         let textures = bind::load_textures(&decls, scene, TextureQuality::Stored, &mut notes)
             .map_err(|e| SceneRunError::Unsupported(e.to_string()))?;

@@ -314,6 +314,7 @@ impl<'a> Lowerer<'a> {
                         rendered: t.source.is_none(),
                         baked: t.source.as_ref().is_some_and(is_bake),
                         declaration: None,
+                        copy_of: None,
                         sampling: super::Sampling::of(
                             t.kind.value,
                             &t.attrs.iter().map(|a| a.value).collect::<Vec<_>>(),

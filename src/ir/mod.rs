@@ -216,6 +216,10 @@ pub struct Texture {
     /// 18): its declaration as a user would write it, so that executors
     /// bind it as they bind a declared one (`scene::bind::lowered_decls`).
     pub declaration: Option<String>,
+    /// For a texture the lowering re-stores (rule
+    /// `signed_texture_compression`, issue 18): the declared texture whose
+    /// source it loads or generates again, in this texture's format.
+    pub copy_of: Option<String>,
     /// How it is sampled: its declaration's attributes, read once here
     /// (issue 17) for the binder and the cost model alike.
     pub sampling: Sampling,

@@ -70,6 +70,7 @@ fn texture(r: &mut Rewriter) -> u32 {
         declaration: Some(format!(
             "texture {NAME} : cube rgb8 bilinear clamp = normalize_cube({SIZE}, 8);\n"
         )),
+        copy_of: None,
         sampling: crate::ir::Sampling::of(TextureKind::Cube, &[TextureAttr::Bilinear, TextureAttr::Clamp]),
         span: Span::DETACHED,
     });

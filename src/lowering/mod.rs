@@ -27,6 +27,9 @@
 //! - [`texel_bake`]: a texture-shading statement that is a function of the
 //!   texel coordinate and uniforms only → computed by the compiler, as
 //!   `bake(f)` is;
+//! - [`signed_texture`]: a signed cube or 3-D texture on a target without
+//!   signed formats → the same source stored range-compressed in RGB8 and
+//!   expanded after each lookup (seeds/003 Section 5.2);
 //! - [`per_vertex::gouraud`]: the last resort when no choice above plans —
 //!   every maximal per-fragment part that reads only interpolants computed
 //!   per vertex (Gouraud), reported without a bound.
@@ -38,6 +41,7 @@ pub mod cube_map;
 pub mod per_vertex;
 pub mod power;
 pub mod range_compress;
+pub mod signed_texture;
 pub mod table;
 pub mod taylor;
 pub mod texel_bake;
@@ -127,6 +131,7 @@ pub fn lower(module: &Module, profile: &Profile, choice: Choice, at: &dyn Fn(Spa
         results: Vec::new(),
     };
     texel_bake::apply(&mut r);
+    signed_texture::apply(&mut r);
     for st in std::mem::take(&mut r.m.statements) {
         if matches!(st.table, Table::TexCoords(_)) || r.m.is_baked(&st) {
             r.m.statements.push(st);

@@ -214,6 +214,7 @@ fn add_texture(r: &mut Rewriter) -> u32 {
         rendered: true,
         baked: true,
         declaration: None,
+        copy_of: None,
         sampling: crate::ir::Sampling::ADDED,
         span: Span::DETACHED,
     });

@@ -186,7 +186,7 @@ pub fn plan(module: &Module, profile: &Profile, request: &Request) -> Result<Pla
     }
     let index = request.source.map(|s| (LineIndex::new(s), s));
     let at = |span: Span| at_text(&index, span);
-    let mut tried: Option<(Vec<String>, String)> = None;
+    let mut tried: Option<(Vec<String>, Vec<Diagnostic>)> = None;
     let mut fitting: Vec<Planned> = Vec::new();
     for choice in crate::lowering::choices(profile) {
         let lowered = crate::lowering::lower(module, profile, choice, &at);
@@ -204,8 +204,7 @@ pub fn plan(module: &Module, profile: &Profile, request: &Request) -> Result<Pla
             Err(errors) => {
                 let mut rules: Vec<String> = lowered.approximations.iter().map(|a| a.rule.clone()).collect();
                 rules.dedup();
-                let first = errors.first().map_or(String::new(), |d| d.message.clone());
-                tried.get_or_insert((rules, first));
+                tried.get_or_insert((rules, errors));
             }
         }
     }
@@ -213,9 +212,21 @@ pub fn plan(module: &Module, profile: &Profile, request: &Request) -> Result<Pla
         return Ok(planned);
     }
     written.map_err(|mut errors| {
+        let Some((rules, lowered)) = tried else { return errors };
+        // A missing capability the lowering supplied (signed textures) is
+        // not why the program is refused: the ones it left are.
+        let left: Vec<Diagnostic> = errors
+            .iter()
+            .filter(|d| d.code != "unsupported-by-target" || lowered.iter().any(|l| l.message == d.message))
+            .cloned()
+            .collect();
+        if !left.is_empty() {
+            errors = left;
+        }
         // What the lowering tried, so that the refusal does not read as if
         // the first obstacle were the only one.
-        if let (Some(d), Some((rules, message))) = (errors.first_mut(), tried) {
+        let message = lowered.first().map_or(String::new(), |d| d.message.clone());
+        if let Some(d) = errors.first_mut().filter(|d| d.message != message) {
             let tried =
                 format!("the lowering ({}) does not make it plan either: {message}", rules.join(", "));
             d.help = Some(match d.help.take() {

@@ -662,6 +662,7 @@ impl<'a> Splitter<'a> {
             rendered: true,
             baked: false,
             declaration: None,
+            copy_of: None,
             sampling: crate::ir::Sampling::ADDED,
             span: Span::DETACHED,
         });

@@ -172,7 +172,8 @@ impl<'a> PlanRenderer<'a> {
         assets: &'a SceneAssets,
     ) -> Result<PlanRenderer<'a>, RenderError> {
         let mut decls = bind::texture_decls(program, &scene.constants);
-        decls.extend(bind::lowered_decls(&planned.module));
+        let lowered = bind::lowered_decls(&planned.module, &decls);
+        decls.extend(lowered);
         let mut notes = Vec::new();
         let err = |e: bind::BindError| RenderError::Unsupported(e.to_string());
         let stored = bind::load_textures(&decls, scene, TextureQuality::Stored, &mut notes).map_err(err)?;

@@ -217,13 +217,22 @@ fn string(e: &ast::Expr) -> Option<String> {
 /// The declarations of the textures the lowering added (issue 18: a
 /// normalization cube map), read from the text each carries
 /// (`ir::Texture::declaration`), so that they bind like declared ones.
-pub fn lowered_decls(module: &crate::ir::Module) -> Vec<TextureDecl> {
+///
+/// A texture the lowering re-stores in another format
+/// (`ir::Texture::copy_of`) binds as a copy of its `declared` original
+/// under its own name and format.
+pub fn lowered_decls(module: &crate::ir::Module, declared: &[TextureDecl]) -> Vec<TextureDecl> {
+    let copies = module.textures.iter().filter_map(|t| {
+        let original = declared.iter().find(|d| Some(&d.name) == t.copy_of.as_ref())?;
+        Some(TextureDecl { name: t.name.clone(), format: Some(t.format), ..original.clone() })
+    });
+    let mut out: Vec<TextureDecl> = copies.collect();
     let text: String = module.textures.iter().filter_map(|t| t.declaration.as_deref()).collect();
-    if text.is_empty() {
-        return Vec::new();
+    if !text.is_empty() {
+        let (program, _) = crate::parser::parse(&text);
+        out.extend(texture_decls(&program, &BTreeMap::new()));
     }
-    let (program, _) = crate::parser::parse(&text);
-    texture_decls(&program, &BTreeMap::new())
+    out
 }
 
 fn source(e: &ast::Expr, names: &BTreeMap<String, f32>) -> TextureSource {
@@ -430,8 +439,9 @@ fn normalize_cube_texture(d: &TextureDecl, size: u32, bits: u32) -> Result<Textu
         return Err(texture_error(d, "normalize_cube(…) needs a `cube` texture".into()));
     }
     let format = texel_format(d.format);
-    let bits =
-        if bits >= 16 || matches!(format, TexelFormat::Rgba16) { CubeBits::Sixteen } else { CubeBits::Eight };
+    // The declared format holds the texels: 16 bits only where it has them.
+    let sixteen = matches!(format, TexelFormat::Rgba16) || (bits >= 16 && d.format.is_none());
+    let bits = if sixteen { CubeBits::Sixteen } else { CubeBits::Eight };
     let mut cube = generators::normalize_cube(size.clamp(1, generators::MAX_CUBE_FACE), bits);
     if is_signed(d.format) {
         // Signed formats hold the vector itself, not its range compression.
