@@ -276,8 +276,9 @@ fn every_example_plans_realized_or_is_refused_where_it_is() {
     }
     // 27 of 56 planned before the lowering; fragment_lighting then planned
     // on both; powers by squaring and per-vertex shading as the last resort
-    // then planned 43 of 56.
-    assert!(planned_count >= 43, "{planned_count}");
+    // then planned 43 of 56; signed textures re-stored and fat textures split,
+    // 48.
+    assert!(planned_count >= 48, "{planned_count}");
 }
 
 /// A 16-bit signed normalization cube map on the GeForce 256, which has no
@@ -305,6 +306,50 @@ fn a_signed_cube_map_is_stored_range_compressed_where_the_target_has_no_signed_t
         compile(&example("phong_exponent_lookup.shd"), &Profile::builtin("geforce256").unwrap()).unwrap_err();
     assert_eq!(err.len(), 1, "{err:?}");
     assert!(err[0].message.contains("dependent lookup"), "{}", err[0].message);
+}
+
+/// Deferred shading's fat framebuffer (seeds/001 (5)-(6)) on geforce3:
+/// rule `fat_texture_split` gives each member the shader reads its own
+/// 8-bit texture, range-compressed, with alpha marking written texels; the
+/// f32 render stays within the rule's bounds of the same program planned
+/// for wgsl, which keeps the float fat texture (the written program, no
+/// lowering) — the background too, where a compressed zero would expand
+/// to (−1, −1, −1).
+#[test]
+fn a_fat_texture_becomes_one_compressed_texture_per_member_read() {
+    let source = example("deferred_shading.shd");
+    let planned = compile(&source, &Profile::builtin("geforce3").unwrap()).expect("lowered and planned");
+    let a = &planned.plan.approximations;
+    let splits = a.iter().filter(|a| a.rule == "fat_texture_split").count();
+    assert_eq!(splits, 3, "N, L and H are read, V is not: {a:?}");
+    let m = &planned.module;
+    let roots: Vec<_> = m.statements.iter().map(|st| st.value).collect();
+    assert!(m
+        .reachable(&roots)
+        .iter()
+        .all(|&h| !matches!(m.exprs[h], Expr::Bundle(_) | Expr::FatMember { .. })));
+    let members: Vec<_> = m.textures.iter().filter(|t| t.name.starts_with("T_member")).collect();
+    assert_eq!(members.len(), 3);
+    assert!(members.iter().all(|t| t.format == shadec::parser::ast::TextureFormat::Rgba8));
+    let (program, _) = shadec::parser::check(&source);
+    let wgsl = compile(&source, &Profile::builtin("wgsl").unwrap()).unwrap();
+    assert!(wgsl.plan.approximations.is_empty());
+    let scene = scene();
+    let assets = scene.build().unwrap();
+    let render = |p: &Planned| {
+        PlanRenderer::new(p, &program, &scene, &assets)
+            .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
+            .unwrap()
+    };
+    let reference = render(&wgsl).image;
+    let lit = (0..W * H).filter(|i| reference.color(i % W, i / W).is_some_and(|c| c[0] > 0.2)).count();
+    assert!(lit > (W * H / 10) as usize, "the object is shaded: {lit} lit pixels");
+    let e = compare(&reference, &render(&planned).image);
+    eprintln!("fat texture split against the float fat texture: {e:?}");
+    // Each term reads two members (≤ 1/255 each) into a dot product of
+    // unit vectors; x^24 amplifies the specular term's error near 1.
+    assert!(e.max_abs <= 24.0 * 2.0 / 255.0 + 2.0 * FRAMEBUFFER as f32, "{e:?}");
+    assert!(e.rmse < 2.0 / 255.0, "{e:?}");
 }
 
 /// `x^6` of a value the combiners hold: rule `power_by_squaring` makes it

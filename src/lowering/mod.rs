@@ -30,6 +30,9 @@
 //! - [`signed_texture`]: a signed cube or 3-D texture on a target without
 //!   signed formats → the same source stored range-compressed in RGB8 and
 //!   expanded after each lookup (seeds/003 Section 5.2);
+//! - [`fat_texture`]: a fat texture (a bundle of shading parameters per
+//!   texel, seeds/001 (5), (14)) on the combiners → one 8-bit texture per
+//!   member, range-compressed where signed;
 //! - [`per_vertex::gouraud`]: the last resort when no choice above plans —
 //!   every maximal per-fragment part that reads only interpolants computed
 //!   per vertex (Gouraud), reported without a bound.
@@ -38,6 +41,7 @@
 //! geforce256, float textures) keeps the planner's located refusal.
 
 pub mod cube_map;
+pub mod fat_texture;
 pub mod per_vertex;
 pub mod power;
 pub mod range_compress;
@@ -132,6 +136,7 @@ pub fn lower(module: &Module, profile: &Profile, choice: Choice, at: &dyn Fn(Spa
     };
     texel_bake::apply(&mut r);
     signed_texture::apply(&mut r);
+    fat_texture::apply(&mut r);
     for st in std::mem::take(&mut r.m.statements) {
         if matches!(st.table, Table::TexCoords(_)) || r.m.is_baked(&st) {
             r.m.statements.push(st);
@@ -195,10 +200,16 @@ impl Rewriter<'_> {
             let span = self.m.span(h);
             let nh = self.m.intern(e, span).unwrap_or(h);
             let read_by_combiners = !address.get(h.index()).copied().unwrap_or(true);
-            let out = match self.m.exprs[nh] {
+            let out = match &self.m.exprs[nh] {
                 Expr::Interpolate { .. } if read_by_combiners => {
                     range_compress::apply(self, nh, span).unwrap_or(nh)
                 }
+                // A compressed interpolant stored compressed (a fat texel,
+                // [`fat_texture`]): `compress(expand(y)) = y`.
+                Expr::Math { fun: MathFunction::Compress, args } => match &self.m.exprs[args[0]] {
+                    Expr::Math { fun: MathFunction::Expand, args: inner } => inner[0],
+                    _ => nh,
+                },
                 _ => nh,
             };
             map.insert(h, out);

@@ -1,5 +1,5 @@
 //! Rule `range_compression`: a signed vector interpolated into the register
-//! combiners, `δ v` with `v` in [−1, 1], becomes `expand(δ compress(v))` —
+//! combiners (per fragment, or per texel in texture shading), `δ v` with `v` in [−1, 1], becomes `expand(δ compress(v))` —
 //! `compress(v) = (v + 1)/2` per vertex, interpolated as an unsigned colour,
 //! and the combiners' `expand_normal` input mapping undoing it per fragment.
 //! This is how Kilgard sends the light vector to a GeForce 256 (seeds/003
@@ -16,7 +16,7 @@
 //! values the combiners read).
 
 use super::Rewriter;
-use crate::ir::{Expr, Frequency, Handle, MathFunction, Ty};
+use crate::ir::{Expr, Handle, MathFunction, Ty};
 use crate::pipeline::ApproximationCost;
 use crate::span::Span;
 
@@ -30,7 +30,7 @@ pub fn apply(r: &mut Rewriter, h: Handle<Expr>, span: Span) -> Option<Handle<Exp
     let info = r.m.info(h);
     let signed_vector = info.ty == Ty::Vec3 && info.interval.lo < 0.0;
     let bounded = info.interval.lo >= -1.0 && info.interval.hi <= 1.0;
-    if to != Frequency::Fragment || !signed_vector || !bounded {
+    if !to.is_sample() || !signed_vector || !bounded {
         return None;
     }
     let compressed = r.node(Expr::Math { fun: MathFunction::Compress, args: vec![value] }, span)?;
