@@ -205,9 +205,13 @@ impl Rewriter<'_> {
                     range_compress::apply(self, nh, span).unwrap_or(nh)
                 }
                 // A compressed interpolant stored compressed (a fat texel,
-                // [`fat_texture`]): `compress(expand(y)) = y`.
+                // [`fat_texture`]): `compress(expand(δ y)) = δ y`.
                 Expr::Math { fun: MathFunction::Compress, args } => match &self.m.exprs[args[0]] {
-                    Expr::Math { fun: MathFunction::Expand, args: inner } => inner[0],
+                    Expr::Math { fun: MathFunction::Expand, args: inner }
+                        if matches!(self.m.exprs[inner[0]], Expr::Interpolate { .. }) =>
+                    {
+                        inner[0]
+                    }
                     _ => nh,
                 },
                 _ => nh,
