@@ -7,7 +7,13 @@ use std::process::Command;
 use shadec::bench::{measure, BenchOptions, Measured};
 
 fn options() -> BenchOptions {
-    BenchOptions { size: (96, 96), runs: 1, only: None, thresholds: vec![0.085] }
+    BenchOptions {
+        size: (96, 96),
+        runs: 1,
+        only: None,
+        thresholds: vec![0.085],
+        backend: shadec::bench::Backend::Cpu,
+    }
 }
 
 fn rmse(all: &[Measured], name: &str) -> f64 {
@@ -79,6 +85,36 @@ fn the_bench_numbers_are_consistent_with_the_papers() {
 /// approximate, so it renders its group's truth (to f64 rounding and the
 /// f32 framebuffer) — the reference does not depend on which approximation
 /// it is taken from.
+/// `bench --backend wgpu` (issue 22): the same variants on wgpu (lavapipe
+/// in CI), timed by the GPU's timestamp queries where the adapter has
+/// them, with errors against the same CPU truth — within a few 8-bit steps
+/// of the CPU renderer's own (an independent executor of the same plan).
+#[test]
+fn the_bench_on_wgpu_times_the_gpu_and_agrees_with_the_cpu() {
+    let only = |backend| BenchOptions { only: Some("phong_cube8".into()), backend, ..options() };
+    let cpu = measure(&only(shadec::bench::Backend::Cpu), &mut |_, _, _| {}).unwrap();
+    let gpu = measure(&only(shadec::bench::Backend::Wgpu), &mut |_, _, _| {}).unwrap();
+    assert_eq!(cpu.len(), gpu.len());
+    assert!(!gpu.is_empty());
+    for (c, g) in cpu.iter().zip(&gpu) {
+        assert_eq!(c.variant.name, g.variant.name);
+        assert_eq!(c.clock, shadec::bench::Clock::CpuWall);
+        assert!(
+            matches!(g.clock, shadec::bench::Clock::GpuTimestamps | shadec::bench::Clock::WgpuWall),
+            "{:?}",
+            g.clock
+        );
+        assert!(g.time > std::time::Duration::ZERO, "{}", g.variant.name);
+        assert!(
+            (c.error.rmse - g.error.rmse).abs() < 2.0 / 255.0,
+            "{}: {:?} vs {:?}",
+            c.variant.name,
+            c.error,
+            g.error
+        );
+    }
+}
+
 #[test]
 fn exact_renders_of_approximations_are_the_truth() {
     use shadec::bench::{groups, Prepared};

@@ -225,6 +225,11 @@ fn the_wgpu_backend_renders_what_the_cpu_renders() {
         for needle in ["adapter:", "ms on wgpu", "error against the program's meaning", "max abs", "PSNR"] {
             assert!(gpu_out.contains(needle), "missing {needle:?} in:\n{gpu_out}");
         }
+        // GPU time where the adapter has timestamp queries (lavapipe does).
+        assert!(
+            gpu_out.contains("ms GPU time (timestamp queries") || gpu_out.contains("no timestamp queries"),
+            "{gpu_out}"
+        );
         let far = cpu
             .pixels()
             .zip(gpu.pixels())

@@ -13,6 +13,8 @@
 //! [`report`] writes `report.md`, the plots and the difference images.
 
 pub mod adaptive;
+#[cfg(feature = "gpu")]
+pub mod gpu;
 pub mod plot;
 pub mod report;
 pub mod timing;
@@ -39,6 +41,39 @@ pub struct BenchOptions {
     pub only: Option<String>,
     /// Adaptive-shading thresholds (fractions of full intensity).
     pub thresholds: Vec<f32>,
+    /// What renders the variants (`bench --backend`).
+    pub backend: Backend,
+}
+
+/// The executor `bench` times (issue 22).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Backend {
+    /// The CPU plan renderer (`renderer::plan`).
+    #[default]
+    Cpu,
+    /// The plan's WGSL on the adapter wgpu finds (a GPU, or lavapipe).
+    Wgpu,
+}
+
+/// How a variant's time was taken.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Clock {
+    /// The CPU renderer's wall time per frame.
+    CpuWall,
+    /// GPU time between the frame's first and last timestamp query.
+    GpuTimestamps,
+    /// wgpu without timestamp queries: submit to read-back wall time.
+    WgpuWall,
+}
+
+impl Clock {
+    pub fn name(self) -> &'static str {
+        match self {
+            Clock::CpuWall => "CPU wall time",
+            Clock::GpuTimestamps => "GPU time (timestamp queries)",
+            Clock::WgpuWall => "wgpu submit to read-back wall time",
+        }
+    }
 }
 
 impl BenchOptions {
@@ -49,11 +84,18 @@ impl BenchOptions {
             runs: 5,
             only: None,
             thresholds: vec![0.01, 0.02, 0.04, 0.085, 0.16],
+            backend: Backend::Cpu,
         }
     }
     /// A quick look (tests, CI): 128×128, one run, three thresholds.
     pub fn quick() -> BenchOptions {
-        BenchOptions { size: (128, 128), runs: 1, only: None, thresholds: vec![0.02, 0.085, 0.16] }
+        BenchOptions {
+            size: (128, 128),
+            runs: 1,
+            only: None,
+            thresholds: vec![0.02, 0.085, 0.16],
+            backend: Backend::Cpu,
+        }
     }
     pub(crate) fn wants(&self, name: &str) -> bool {
         self.only.as_deref().is_none_or(|p| name.contains(p))
@@ -66,8 +108,9 @@ pub struct Measured {
     pub group: &'static str,
     pub variant: Variant,
     pub passes: usize,
-    /// Median wall time of one frame.
+    /// Median time of one frame, taken by [`Measured::clock`].
     pub time: Duration,
+    pub clock: Clock,
     pub error: ErrorReport,
     /// The frame time the target's cost model predicts on the group's scene
     /// at the bench size (issue 19); `None` on a target without one.
@@ -182,6 +225,7 @@ pub fn measure(
     let total = groups.iter().map(|g| g.variants.iter().filter(|v| options.wants(v.name)).count()).sum();
     let mut done = 0;
     let mut out = Vec::new();
+    let gpu = executor(options.backend)?;
     for group in &groups {
         let truth = Prepared::new(group.truth.name, group.truth.source, group.truth_target, group.scene.ron)?
             .meaning()?;
@@ -199,18 +243,39 @@ pub fn measure(
                 variant.mode.name()
             );
             let prepared = Prepared::new(&what, variant.program.source, variant.target, group.scene.ron)?;
-            let renderer = prepared.renderer()?;
-            let (frame, time) =
-                timed(&renderer, variant.mode, options.size, options.runs).map_err(|e| failed(&what, e))?;
+            let (image, time, clock, shading) = match &gpu {
+                None => {
+                    let renderer = prepared.renderer()?;
+                    let (frame, time) = timed(&renderer, variant.mode, options.size, options.runs)
+                        .map_err(|e| failed(&what, e))?;
+                    (frame.image, time, Clock::CpuWall, frame.shading)
+                }
+                #[cfg(feature = "gpu")]
+                Some(gpu) => {
+                    let (image, time, clock) = gpu::timed(
+                        gpu,
+                        &prepared,
+                        variant.program.source,
+                        variant.mode,
+                        options.size,
+                        options.runs,
+                    )
+                    .map_err(|e| failed(&what, e))?;
+                    (image, time, clock, Vec::new())
+                }
+                #[cfg(not(feature = "gpu"))]
+                Some(never) => match *never {},
+            };
             out.push(Measured {
                 group: group.name,
                 variant: *variant,
                 passes: prepared.planned.plan.passes.len(),
                 time,
-                error: compare(&truth_image, &frame.image),
+                clock,
+                error: compare(&truth_image, &image),
                 predicted_ms: prepared.predicted_ms(variant.target, options.size),
-                shading: frame.shading,
-                image: frame.image,
+                shading,
+                image,
                 truth: truth_image.clone(),
             });
             done += 1;
@@ -218,6 +283,23 @@ pub fn measure(
         }
     }
     Ok(out)
+}
+
+/// The adapter `bench --backend wgpu` runs on; `None` for the CPU.
+#[cfg(feature = "gpu")]
+fn executor(backend: Backend) -> Result<Option<crate::gpu::runner::Gpu>, BenchError> {
+    match backend {
+        Backend::Cpu => Ok(None),
+        Backend::Wgpu => crate::gpu::runner::Gpu::new().map(Some).map_err(|e| failed("wgpu", e)),
+    }
+}
+
+#[cfg(not(feature = "gpu"))]
+fn executor(backend: Backend) -> Result<Option<std::convert::Infallible>, BenchError> {
+    match backend {
+        Backend::Cpu => Ok(None),
+        Backend::Wgpu => Err(failed("wgpu", "this shadec was built without the `gpu` feature")),
+    }
 }
 
 /// Runs the whole bench and writes `report.md`, `speed_vs_error.png`,

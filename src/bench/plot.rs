@@ -88,7 +88,7 @@ impl TimeAxis {
 
     fn description(self) -> &'static str {
         match self {
-            TimeAxis::Cpu => "ms per frame (median, CPU renderer)",
+            TimeAxis::Cpu => "ms per frame (median, measured)",
             TimeAxis::Predicted => "ms per frame predicted on the target (cost model)",
         }
     }

@@ -53,14 +53,26 @@ impl Report {
         crate::io::write_atomic(&dir.join("report.md"), self.markdown().as_bytes()).map_err(io)
     }
 
+    /// How the times were taken: `the CPU renderer's (renderer::plan) wall
+    /// time`, or the wgpu clock(s).
+    fn clocks(&self) -> String {
+        let mut clocks: Vec<&str> = self.measured.iter().map(|m| m.clock.name()).collect();
+        clocks.sort_unstable();
+        clocks.dedup();
+        match clocks.as_slice() {
+            [] | ["CPU wall time"] => "the CPU renderer's (`renderer::plan`) wall time".to_string(),
+            _ => format!("wgpu's ({}; the adapter is named in the run's output)", clocks.join(", ")),
+        }
+    }
+
     pub fn markdown(&self) -> String {
         let o = &self.options;
         let mut md = String::new();
         let _ = writeln!(md, "# shadec bench\n");
         let _ = writeln!(
             md,
-            "`shadec bench` at {}×{}, median of {} run{} after a warm-up, {} threads. Times are the CPU renderer's \
-             (`renderer::plan`) wall time per frame; errors are against each group's ground truth: the `exact` render \
+            "`shadec bench` at {}×{}, median of {} run{} after a warm-up, {} threads. Times are {} per frame \
+             (median); errors are against each group's ground truth: the `exact` render \
              (f64, vectors renormalized after interpolation, true pow, no lookup tables) of the group's reference \
              program on the same scene. RMSE and max abs are over RGB in [0, 1]; PSNR in dB. Difference images: \
              `diff/VARIANT.png`, |variant − truth| × {DIFF_SCALE} per channel. Plot: `speed_vs_error.png`; `*` marks \
@@ -70,7 +82,8 @@ impl Report {
             o.size.1,
             o.runs,
             if o.runs == 1 { "" } else { "s" },
-            rayon::current_num_threads()
+            rayon::current_num_threads(),
+            self.clocks()
         );
         let front = super::plot::group_fronts(&self.measured);
         let mut group = "";
@@ -167,7 +180,7 @@ impl Report {
             md,
             "\n## Predicted on the hardware (cost model, issue 19)\n\nThe frame time each plan's target would take \
              (`docs/cost-model.md`: fill, vertex, setup and memory per pass) on the group's scene at the bench size, \
-             fastest first, beside the CPU renderer's time and the error measured above; `*` marks the Pareto front \
+             fastest first, beside the measured time and the error measured above; `*` marks the Pareto front \
              of each group and target (no variant for the same target both predicted faster and more accurate; \
              plot: `predicted_vs_error.png`). Variants planned for `wgsl` have no cost model and are left out.\n"
         );
@@ -190,7 +203,7 @@ impl Report {
             let _ = writeln!(md, "**{group}**\n");
             let _ = writeln!(
                 md,
-                "| rank | variant | target | passes | predicted ms | CPU ms (measured) | RMSE | max abs (/255) |"
+                "| rank | variant | target | passes | predicted ms | measured ms | RMSE | max abs (/255) |"
             );
             let _ = writeln!(md, "|---|---|---|---|---|---|---|---|");
             for (k, (i, m)) in rows.iter().enumerate() {

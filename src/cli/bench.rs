@@ -28,6 +28,11 @@ pub struct BenchArgs {
     /// Only the variants and adaptive scenes whose name contains PATTERN.
     #[arg(long, value_name = "PATTERN")]
     pub only: Option<String>,
+    /// What renders the variants: the CPU plan renderer, or the plan's WGSL
+    /// on the adapter wgpu finds (a GPU, or lavapipe), timed by GPU
+    /// timestamp queries where the adapter has them.
+    #[arg(long, value_enum, default_value = "cpu")]
+    pub backend: super::render::Backend,
 }
 
 pub fn run(args: &BenchArgs) -> ExitCode {
@@ -49,6 +54,10 @@ pub fn run(args: &BenchArgs) -> ExitCode {
         options.runs = n;
     }
     options.only = args.only.clone();
+    options.backend = match args.backend {
+        super::render::Backend::Cpu => shadec::bench::Backend::Cpu,
+        super::render::Backend::Wgpu => shadec::bench::Backend::Wgpu,
+    };
     println!(
         "shadec bench: {}×{}, median of {} run{}, {} threads → {}",
         options.size.0,
@@ -67,11 +76,12 @@ pub fn run(args: &BenchArgs) -> ExitCode {
         Ok(report) => {
             for m in &report.measured {
                 println!(
-                    "{:<24} {:>10} {:>7} {:>8.2} ms on the CPU  {}  RMSE {:.5}  max {:>5.1}/255",
+                    "{:<24} {:>10} {:>7} {:>8.2} ms {}  {}  RMSE {:.5}  max {:>5.1}/255",
                     m.variant.name,
                     m.variant.target,
                     m.variant.mode.name(),
                     m.time.as_secs_f64() * 1e3,
+                    m.clock.name(),
                     m.predicted_ms
                         .map_or("predicted    —    ".to_string(), |p| format!("predicted {p:>7.3} ms")),
                     m.error.rmse,

@@ -6,7 +6,9 @@
 //!   vertices, textures, uniforms and the GL-style fixed-function state of
 //!   `pipeline::RenderState` — into one target and read it back;
 //! - `scene_run`: a whole plan on a scene, bound by the same scene binder
-//!   as the CPU renderer (`scene::bind`), rendered textures included.
+//!   as the CPU renderer (`scene::bind`), rendered textures included;
+//! - `timer`: a frame's GPU time from timestamp queries.
 
 pub mod runner;
 pub mod scene_run;
+pub mod timer;

@@ -75,7 +75,9 @@ impl Gpu {
             label: Some("shadec runner"),
             // 16-bit unorm textures, where the adapter has them: exact
             // fidelity's uploads (`TexelUpload::Rgba16`).
-            required_features: adapter.features() & wgpu::Features::TEXTURE_FORMAT_16BIT_NORM,
+            // and timestamp queries, where it has them: the frame's GPU time.
+            required_features: adapter.features()
+                & (wgpu::Features::TEXTURE_FORMAT_16BIT_NORM | wgpu::Features::TIMESTAMP_QUERY),
             required_limits: adapter.limits(),
             ..Default::default()
         };
@@ -418,6 +420,10 @@ pub struct Frame<'a> {
     readback: wgpu::Buffer,
     padded_row: u32,
     unpadded_row: u32,
+    /// Timestamps around every render pass, where the device has them.
+    timer: Option<super::timer::Timer>,
+    /// The render passes the last submission recorded.
+    recorded: std::cell::Cell<usize>,
 }
 
 /// Runs `f` inside wgpu error scopes and turns what they caught into an
@@ -599,6 +605,9 @@ impl<'a> Frame<'a> {
             readback,
             padded_row,
             unpadded_row,
+            // Every pass, and the clear of an undrawn main target.
+            timer: super::timer::Timer::new(device, passes.len() + 1),
+            recorded: std::cell::Cell::new(0),
         }
     }
 
@@ -615,6 +624,19 @@ impl<'a> Frame<'a> {
         let device = &gpu.device;
         in_error_scopes(device, || self.submit(gpu))?;
         self.read_back(device)
+    }
+
+    /// [`Frame::draw`], and the frame's GPU time from timestamp queries
+    /// (`None` where the device has none: [`Frame::timestamps`]).
+    pub fn draw_timed(&self, gpu: &Gpu) -> Result<(RgbaImage, Option<std::time::Duration>), GpuError> {
+        let image = self.draw(gpu)?;
+        let time = self.timer.as_ref().and_then(|t| t.elapsed(&gpu.device, &gpu.queue, self.recorded.get()));
+        Ok((image, time))
+    }
+
+    /// Whether [`Frame::draw_timed`] measures GPU time.
+    pub fn timestamps(&self) -> bool {
+        self.timer.is_some()
     }
 
     /// The views a pass drawing into rendered texture `t` writes (one per
@@ -665,6 +687,7 @@ impl<'a> Frame<'a> {
         let mut cleared: std::collections::BTreeSet<String> = std::collections::BTreeSet::new();
         let main_key = String::new();
         let has_stencil = target.depth_format == DepthFormat::Depth24PlusStencil8;
+        let mut recorded = 0;
         for pass_idx in 0..passes.len() + 1 {
             let (pass, prep) = match (passes.get(pass_idx), prepared.get(pass_idx)) {
                 (Some(pass), Some(prep)) => (Some(pass), Some(prep)),
@@ -709,10 +732,11 @@ impl<'a> Frame<'a> {
                     stencil_ops: has_stencil
                         .then_some(wgpu::Operations { load: stencil_load, store: wgpu::StoreOp::Store }),
                 }),
-                timestamp_writes: None,
+                timestamp_writes: self.timer.as_ref().and_then(|t| t.writes(recorded)),
                 occlusion_query_set: None,
                 multiview_mask: None,
             });
+            recorded += 1;
             let (Some(pass), Some(prep)) = (pass, prep) else {
                 continue;
             };
@@ -748,6 +772,10 @@ impl<'a> Frame<'a> {
             },
             size,
         );
+        if let Some(timer) = &self.timer {
+            timer.resolve(&mut encoder, recorded);
+        }
+        self.recorded.set(recorded);
         gpu.queue.submit([encoder.finish()]);
     }
 
