@@ -222,7 +222,7 @@ fn the_wgpu_backend_renders_what_the_cpu_renders() {
     for (target, precision) in [("geforce256", "fixed9"), ("wgsl", "f32")] {
         let (gpu_out, gpu) = render_on(dir.path(), target, "wgpu", precision);
         let (_, cpu) = render_on(dir.path(), target, "cpu", precision);
-        for needle in ["adapter:", "ms on wgpu", "error against the program's meaning", "max abs", "PSNR"] {
+        for needle in ["adapter:", ") on wgpu", "error against the program's meaning", "max abs", "PSNR"] {
             assert!(gpu_out.contains(needle), "missing {needle:?} in:\n{gpu_out}");
         }
         // GPU time where the adapter has timestamp queries (lavapipe does).
