@@ -247,7 +247,7 @@ fn render(args: &RenderArgs) -> Result<(), ExitCode> {
     }
     print!("{}", planned.plan.summary());
     if args.backend == Backend::Wgpu {
-        return render_on_wgpu(args, &compiled, &file, (&scene, &assets), mode, size);
+        return render_on_wgpu(args, &compiled, &file, (&scene, &assets), mode, size, adaptive.as_ref());
     }
     let progress = Progress::new();
     let frames = render_frames(&renderer, mode, size, adaptive.as_ref(), &progress);
@@ -355,7 +355,9 @@ fn meaning_frame(
 
 /// `--backend wgpu`: the plan's WGSL on the adapter wgpu finds (issue 22),
 /// in f32 or, with `--precision fixed9`, the register combiners' integer
-/// model; the same error report as the CPU's.
+/// model; the same error report as the CPU's. With `--adaptive`, each pass
+/// into the picture as a sparse pass and an interpolating full pass
+/// (`gpu::adaptive`), measured against full shading of the same plan.
 #[cfg(feature = "gpu")]
 fn render_on_wgpu(
     args: &RenderArgs,
@@ -364,13 +366,9 @@ fn render_on_wgpu(
     (scene, assets): (&Scene, &shadec::scene::SceneAssets),
     mode: Precision,
     size: (u32, u32),
+    adaptive: Option<&AdaptiveSettings>,
 ) -> Result<(), ExitCode> {
     use shadec::gpu::{runner::Gpu, scene_run::ScenePlan};
-    if args.adaptive.is_some() {
-        return Err(usage(
-            "--adaptive runs on the CPU backend only: WebGPU has no variable-rate shading (issue 22)",
-        ));
-    }
     let gpu = Gpu::new().map_err(usage)?;
     let info = gpu.adapter_info();
     println!("adapter: {} ({:?}, {:?}, driver {})", info.name, info.backend, info.device_type, info.driver);
@@ -384,45 +382,107 @@ fn render_on_wgpu(
     for note in &plan.notes {
         println!("note: {note}");
     }
-    // Pipelines, bind groups, uploads and targets are made once for the
-    // scene; a frame records, submits and reads back. The first frame
-    // warms the driver; the second is timed.
     let target = shadec::gpu::runner::Target::new(size.0, size.1);
-    let made = Instant::now();
     let passes = plan.passes_in(&target).map_err(gpu_failed)?;
-    let frame_objects =
-        shadec::gpu::runner::Frame::prepare(&gpu, &target, &passes).map_err(|e| gpu_failed(e.into()))?;
-    let made = made.elapsed();
-    frame_objects.draw(&gpu).map_err(|e| gpu_failed(e.into()))?;
-    let start = Instant::now();
-    let (image, gpu_time) = frame_objects.draw_timed(&gpu).map_err(|e| gpu_failed(e.into()))?;
-    let wall = start.elapsed();
-    let frame = shadec::renderer::Framebuffer::from_rgba8(size.0, size.1, image.as_raw()).map_err(input)?;
+    let full = timed_on_wgpu(&gpu, &target, &passes).map_err(|e| gpu_failed(e.into()))?;
+    let frame = match adaptive {
+        None => full.clone(),
+        Some(settings) => {
+            let sparse = shadec::gpu::adaptive::GpuAdaptive {
+                spacing: settings.spacing,
+                threshold: settings.threshold,
+            };
+            let (passes, notes) = shadec::gpu::adaptive::adaptive_passes(&passes, &target, sparse);
+            for note in notes {
+                println!("note: {note}");
+            }
+            timed_on_wgpu(&gpu, &target, &passes).map_err(|e| gpu_failed(e.into()))?
+        }
+    };
+    let image =
+        shadec::renderer::Framebuffer::from_rgba8(size.0, size.1, frame.image.as_raw()).map_err(input)?;
     let lights = if args.no_specialize { 1 } else { scene.lights.len() };
     let reference = meaning_frame(compiled, file, (scene, assets), lights, size)?;
-    save_opaque_png(&frame, &args.out).map_err(usage)?;
+    save_opaque_png(&image, &args.out).map_err(usage)?;
     let n = planned.plan.passes.len();
-    let timing = match gpu_time {
-        Some(t) => format!(
-            "{:.2} ms GPU time (timestamp queries; {:.1} ms submit to read-back)",
-            t.as_secs_f64() * 1e3,
-            wall.as_secs_f64() * 1e3
-        ),
-        None => format!(
-            "{:.1} ms submit to read-back wall time (the adapter has no timestamp queries)",
-            wall.as_secs_f64() * 1e3
-        ),
-    };
     println!(
-        "frame: {timing} on wgpu, {} pass{}; pipelines and uploads made once for the scene: {:.1} ms{}",
+        "frame: {} on wgpu, {} pass{}; pipelines and uploads made once for the scene: {:.1} ms{}",
+        frame.timing(),
         n,
         if n == 1 { "" } else { "es" },
-        made.as_secs_f64() * 1e3,
+        frame.made.as_secs_f64() * 1e3,
         predicted(&planned.plan)
     );
-    print_error("the program's meaning (exact, unsplit)", compare(&reference.image, &frame));
+    if let Some(settings) = adaptive {
+        let full_image =
+            shadec::renderer::Framebuffer::from_rgba8(size.0, size.1, full.image.as_raw()).map_err(input)?;
+        println!(
+            "adaptive (threshold {:.1} %, spacing {}): a sparse pass and an interpolating full pass per pass; {:.2}× the speed of full shading ({})",
+            100.0 * settings.threshold,
+            settings.spacing,
+            full.time().as_secs_f64() / frame.time().as_secs_f64().max(1e-9),
+            full.timing()
+        );
+        print_error("full shading", compare(&full_image, &image));
+    }
+    print_error("the program's meaning (exact, unsplit)", compare(&reference.image, &image));
     println!("wrote {}", args.out.display());
     Ok(())
+}
+
+/// One frame on wgpu: its picture and how long it took.
+#[cfg(feature = "gpu")]
+#[derive(Clone)]
+struct GpuFrame {
+    image: image::RgbaImage,
+    gpu: Option<std::time::Duration>,
+    wall: std::time::Duration,
+    made: std::time::Duration,
+}
+
+#[cfg(feature = "gpu")]
+impl GpuFrame {
+    /// GPU time where the adapter has timestamp queries, else wall time.
+    fn time(&self) -> std::time::Duration {
+        self.gpu.unwrap_or(self.wall)
+    }
+    fn timing(&self) -> String {
+        match self.gpu {
+            Some(t) => format!(
+                "{:.2} ms GPU time (timestamp queries; {:.1} ms submit to read-back)",
+                t.as_secs_f64() * 1e3,
+                self.wall.as_secs_f64() * 1e3
+            ),
+            None => format!(
+                "{:.1} ms submit to read-back wall time (the adapter has no timestamp queries)",
+                self.wall.as_secs_f64() * 1e3
+            ),
+        }
+    }
+}
+
+/// Pipelines, bind groups, uploads and targets made once; a warm-up
+/// frame, then the median of five timed ones.
+#[cfg(feature = "gpu")]
+fn timed_on_wgpu(
+    gpu: &shadec::gpu::runner::Gpu,
+    target: &shadec::gpu::runner::Target,
+    passes: &[shadec::gpu::runner::RunPass],
+) -> Result<GpuFrame, shadec::gpu::runner::GpuError> {
+    let made = Instant::now();
+    let frame = shadec::gpu::runner::Frame::prepare(gpu, target, passes)?;
+    let made = made.elapsed();
+    let mut image = frame.draw(gpu)?;
+    let mut runs = Vec::new();
+    for _ in 0..5 {
+        let start = Instant::now();
+        let (drawn, gpu_time) = frame.draw_timed(gpu)?;
+        runs.push((gpu_time, start.elapsed()));
+        image = drawn;
+    }
+    runs.sort_by_key(|&(g, w)| g.unwrap_or(w));
+    let (gpu_time, wall) = runs[runs.len() / 2];
+    Ok(GpuFrame { image, gpu: gpu_time, wall, made })
 }
 
 #[cfg(not(feature = "gpu"))]
@@ -433,6 +493,7 @@ fn render_on_wgpu(
     _: (&Scene, &shadec::scene::SceneAssets),
     _: Precision,
     _: (u32, u32),
+    _: Option<&AdaptiveSettings>,
 ) -> Result<(), ExitCode> {
     Err(usage(
         "this shadec was built without the `gpu` feature: rebuild with default features for --backend wgpu",

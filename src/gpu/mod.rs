@@ -7,8 +7,11 @@
 //!   `pipeline::RenderState` — into one target and read it back;
 //! - `scene_run`: a whole plan on a scene, bound by the same scene binder
 //!   as the CPU renderer (`scene::bind`), rendered textures included;
-//! - `timer`: a frame's GPU time from timestamp queries.
+//! - `timer`: a frame's GPU time from timestamp queries;
+//! - `adaptive`: adaptive sample shading as a sparse pass and an
+//!   interpolating full pass (seeds/004 Section 2.1).
 
+pub mod adaptive;
 pub mod runner;
 pub mod scene_run;
 pub mod timer;
