@@ -9,6 +9,7 @@
 // them would cost every caller a pointer chase for nothing.
 #![allow(clippy::result_large_err)]
 
+pub mod accuracy;
 pub mod backends;
 pub mod bench;
 pub mod cost;

@@ -145,6 +145,7 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
             values: Vec::new(),
             approximations: Vec::new(),
             predicted: None,
+            measured: None,
         },
         combiners: None,
     })

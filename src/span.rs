@@ -86,6 +86,16 @@ impl LineIndex {
         LineCol { line: line + 1, col: text[start..offset].chars().count() + 1 }
     }
 
+    /// The byte offset of 1-based `line` and `col` (in characters), the
+    /// inverse of [`LineIndex::line_col`]; `None` outside the text.
+    pub fn offset(&self, text: &str, line: usize, col: usize) -> Option<usize> {
+        let start = *self.line_starts.get(line.checked_sub(1)?)?;
+        let end = self.line_starts.get(line).copied().unwrap_or(text.len());
+        let mut chars = text[start..end].char_indices();
+        let (i, _) = chars.nth(col.checked_sub(1)?)?;
+        Some(start + i)
+    }
+
     /// LSP position: 0-based line, and the character offset in UTF-16 code units.
     pub fn lsp_position(&self, text: &str, offset: usize) -> (u32, u32) {
         let offset = clamp_to_char_boundary(text, offset);

@@ -23,6 +23,7 @@ const LAYERS: &[&[&str]] = &[
     &["renderer"],
     &["gpu"],
     &["meaning"],
+    &["accuracy"],
     &["bench"],
     &["lsp"],
 ];

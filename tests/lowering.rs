@@ -180,11 +180,11 @@ fn what_no_rule_lowers_keeps_its_located_refusal() {
     assert!(err[0].primary.span.end > 0);
     // --no-approx refuses as before issue 18.
     let source = example("fragment_lighting.shd");
-    let off = LowerOptions { approximate: false, max_error: None };
+    let off = LowerOptions { approximate: false, max_error: None, only: None };
     let err = compile_with(&source, &profile, off).unwrap_err();
     assert!(err[0].message.contains("`normalize` per fragment"), "{}", err[0].message);
     // A bound tighter than the cube map's refuses it too.
-    let tight = LowerOptions { approximate: true, max_error: Some(1e-4) };
+    let tight = LowerOptions { approximate: true, max_error: Some(1e-4), only: None };
     assert!(compile_with(&source, &profile, tight).is_err());
     let on = compile(&source, &profile).unwrap();
     assert!(on.plan.approximations.iter().any(|a| a.rule == "normalization_cube_map"));
@@ -396,13 +396,92 @@ fn per_vertex_shading_is_the_last_resort_and_is_reported() {
         let e = error_against_meaning(&source, &planned, &scene());
         assert!(e > 0.0 && e < 0.5, "{target}: {e}");
         for refuse in [
-            LowerOptions { approximate: false, max_error: None },
-            LowerOptions { approximate: true, max_error: Some(0.5) },
+            LowerOptions { approximate: false, max_error: None, only: None },
+            LowerOptions { approximate: true, max_error: Some(0.5), only: None },
         ] {
             let err = compile_with(&source, &profile, refuse).unwrap_err();
             assert_eq!(err[0].code, "cannot-split", "{target}: {refuse:?}");
         }
     }
+}
+
+/// `--max-error` on a scene (issue 18 item 2): Cook-Torrance has only
+/// unbounded lowerings on geforce3 (per-vertex shading), which the bound
+/// check refuses; measured on the scene they are judged by what they do to
+/// the picture: accepted within a loose E, with the measured error in the
+/// plan; a tight E is refused at the approximation, naming the error the
+/// closest lowering would need.
+#[test]
+fn max_error_on_a_scene_is_measured_against_the_meaning() {
+    let source = example("cook_torrance.shd");
+    let (program, _) = shadec::parser::check(&source);
+    let (module, _) = shadec::ir::lower(&program);
+    let profile = Profile::builtin("geforce3").unwrap();
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/bench_sphere.ron")).unwrap();
+    let scene = Scene::parse(&text, Path::new("scenes/bench_sphere.ron")).unwrap();
+    let assets = scene.build().unwrap();
+    let options = PlanOptions {
+        scene: Some(shadec::driver::ForScene::specialized(&scene, &assets)),
+        ..Default::default()
+    };
+    let bounded = LowerOptions { max_error: Some(0.1), ..Default::default() };
+    assert!(compile_with(&source, &profile, bounded).is_err(), "no stated bound: refused without a scene");
+    let choose = |e: f64| shadec::accuracy::choose(&module, &program, &profile, &source, &options, e, 1);
+    let (planned, candidates) = choose(0.1).expect("measured within 0.1");
+    let measured = planned.plan.measured.as_ref().expect("the measured error is recorded");
+    assert!(measured.max_abs > 0.0 && measured.max_abs <= 0.1, "{measured:?}");
+    assert_eq!((measured.width, measured.height), (256, 256));
+    assert!(candidates.iter().any(|c| c.within && c.rules == "per_vertex"), "{candidates:?}");
+    let err = choose(measured.max_abs / 2.0).unwrap_err();
+    assert_eq!(err[0].code, "max-error");
+    let at = shadec::span::LineIndex::new(&source).line_col(&source, err[0].primary.span.start as usize);
+    assert_eq!((at.line, at.col), (40, 9), "{err:?}");
+    assert!(
+        err[0].help.as_deref().is_some_and(|h| h.contains(&format!("{:.4}", measured.max_abs))),
+        "{err:?}"
+    );
+}
+
+/// The same through the CLI: `compile --scene S --max-error E` records the
+/// measured error in the plan; `render --max-error E` lists every lowering
+/// it measured.
+#[test]
+fn the_cli_measures_max_error_on_the_scene() {
+    let common = ["examples/cook_torrance.shd", "--target", "geforce3", "--max-error", "0.1"];
+    let r = common::shadec(
+        &[
+            &["compile"][..],
+            &common,
+            &["--emit", "plan", "--format", "json", "--scene", "scenes/bench_sphere.ron"],
+        ]
+        .concat(),
+    );
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let plan = shadec::pipeline::PassPlan::from_json(&r.stdout).unwrap();
+    assert!(plan.measured.is_some_and(|m| m.scene == "bench_sphere.ron" && m.max_abs <= 0.1));
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("m.png");
+    let r = common::shadec(&[
+        "render",
+        "scenes/bench_sphere.ron",
+        "--shader",
+        common[0],
+        "--target",
+        "geforce3",
+        "--max-error",
+        "0.1",
+        "--size",
+        "48x48",
+        "-o",
+        out.to_str().unwrap(),
+    ]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(
+        r.stdout.contains("lowering per_vertex: ") && r.stdout.contains("from the meaning on the scene"),
+        "{}",
+        r.stdout
+    );
 }
 
 /// `compile --emit plan` lists each approximation with its rule, place,

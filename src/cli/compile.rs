@@ -40,6 +40,7 @@ pub fn run(args: &CompileArgs) -> ExitCode {
                 let lowering = shadec::lowering::LowerOptions {
                     approximate: !args.no_approx,
                     max_error: args.max_error,
+                    only: None,
                 };
                 match plan_for(&front.program, m, &profile, &text, scene.as_ref(), lowering) {
                     Ok(planned) => plan = Some(planned),
@@ -149,8 +150,15 @@ fn plan_for(
     };
     let for_scene = scene.zip(assets.as_ref()).map(|(s, a)| ForScene::specialized(s, a));
     let options = PlanOptions { scene: for_scene, lowering, ..Default::default() };
-    let planned =
-        shadec::driver::plan(m, program, profile, Some(text), &options).map_err(PlanFailure::Program)?;
+    let planned = match (lowering.max_error, lowering.approximate, scene) {
+        // --max-error with --scene: the lowerings measured on it (issue 18);
+        // the plan records the chosen one's error (`measured`).
+        (Some(e), true, Some(s)) => {
+            shadec::accuracy::choose(m, program, profile, text, &options, e, s.lights.len()).map(|(p, _)| p)
+        }
+        _ => shadec::driver::plan(m, program, profile, Some(text), &options),
+    }
+    .map_err(PlanFailure::Program)?;
     if scene.is_some() {
         report_removed(&planned.plan);
     }

@@ -178,12 +178,48 @@ fn compile(
     // Only what this scene needs (issue 7): a pass per light that reaches
     // the objects, the scene's uniforms folded, zeroed terms removed.
     let for_scene = (!args.no_specialize).then(|| ForScene::specialized(scene, assets));
-    let lowering = shadec::lowering::LowerOptions { approximate: !args.no_approx, max_error: args.max_error };
+    let lowering = shadec::lowering::LowerOptions {
+        approximate: !args.no_approx,
+        max_error: args.max_error,
+        only: None,
+    };
     let options = PlanOptions { scene: for_scene, lowering, ..Default::default() };
-    let compiled = shadec::driver::compile(source, &profile, &options).map_err(|errors| {
+    let refused = |errors: Vec<Diagnostic>| {
         eprint!("{}", file.render(&errors, color_stderr()));
         ExitCode::from(EXIT_SOURCE_ERRORS)
-    })?;
+    };
+    // --max-error on a scene: the lowerings measured on it (issue 18).
+    if let (Some(e), true, Some(module)) =
+        (args.max_error, lowering.approximate && for_scene.is_some(), &front.module)
+    {
+        let measured = shadec::accuracy::choose(
+            module,
+            &front.program,
+            &profile,
+            source,
+            &options,
+            e,
+            scene.lights.len(),
+        );
+        let (planned, candidates) = measured.map_err(refused)?;
+        for c in &candidates {
+            println!(
+                "lowering {}: {:.1}/255 max, RMSE {:.5} from the meaning on the scene{}{}",
+                c.rules,
+                c.error.max_abs * 255.0,
+                c.error.rmse,
+                c.predicted_ms.map_or(String::new(), |t| format!(", predicted {t:.3} ms")),
+                if c.within { "" } else { " — over --max-error" }
+            );
+        }
+        let shadec::driver::Front { program, module, diagnostics } = front;
+        let module = module.expect("checked above");
+        return Ok((
+            shadec::driver::Compilation { program, module, planned, warnings: diagnostics },
+            profile,
+        ));
+    }
+    let compiled = shadec::driver::compile(source, &profile, &options).map_err(refused)?;
     Ok((compiled, profile))
 }
 

@@ -65,11 +65,14 @@ pub struct LowerOptions {
     /// Accept only approximations whose stated bound is at most this
     /// (an approximation with no bound is then refused); `None`: any.
     pub max_error: Option<f64>,
+    /// Plan only this choice of rules, whatever its bounds (the
+    /// scene-measured choice, `accuracy::choose`, tries each in turn).
+    pub only: Option<Choice>,
 }
 
 impl Default for LowerOptions {
     fn default() -> LowerOptions {
-        LowerOptions { approximate: true, max_error: None }
+        LowerOptions { approximate: true, max_error: None, only: None }
     }
 }
 

@@ -13,7 +13,7 @@
 //!
 //! A power whose squarings and products fit the stages, or whose base may
 //! be negative (which no 8-bit framebuffer holds), is computed in one pass
-//! instead by [`by_squaring`] (rule `power_by_squaring`).
+//! instead by `by_squaring` (rule `power_by_squaring`).
 
 use super::Rewriter;
 use crate::ir::{BinaryOp, Constant, Expr, Handle};

@@ -12,8 +12,8 @@ pub mod state;
 
 pub use interface::PassInterface;
 pub use plan::{
-    Approximation, ApproximationCost, BlendMode, FragmentWork, FramePrediction, Geometry, Pass, PassPlan,
-    PassPrediction, Removed, RenderTarget, TextureBinding, Value, VertexWork,
+    Approximation, ApproximationCost, BlendMode, FragmentWork, FramePrediction, Geometry, MeasuredError,
+    Pass, PassPlan, PassPrediction, Removed, RenderTarget, TextureBinding, Value, VertexWork,
 };
 pub use state::{
     BlendEquation, BlendFactor, BlendState, CompareFunc, CullMode, DepthState, RenderState, StencilOp,

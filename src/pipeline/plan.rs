@@ -30,6 +30,22 @@ pub struct PassPlan {
     /// docs/cost-model.md); `None` on a target with no cost model.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub predicted: Option<FramePrediction>,
+    /// The approximations' error measured on a scene, when `--max-error`
+    /// chose among the lowerings by it (issue 18, `accuracy::choose`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub measured: Option<MeasuredError>,
+}
+
+/// A lowered plan's f32 render against the f32 render of the program's
+/// meaning on a scene: what its approximations cost in accuracy.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MeasuredError {
+    pub scene: String,
+    pub width: u32,
+    pub height: u32,
+    /// Largest difference of a colour channel, in [0, 1].
+    pub max_abs: f64,
+    pub rmse: f64,
 }
 
 /// A plan's predicted frame time on its target (issue 19).

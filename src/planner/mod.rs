@@ -188,9 +188,14 @@ pub fn plan(module: &Module, profile: &Profile, request: &Request) -> Result<Pla
     let at = |span: Span| at_text(&index, span);
     let mut tried: Option<(Vec<String>, Vec<Diagnostic>)> = None;
     let mut fitting: Vec<Planned> = Vec::new();
-    for choice in crate::lowering::choices(profile) {
+    let choices = match request.lowering.only {
+        Some(only) => vec![only],
+        None => crate::lowering::choices(profile),
+    };
+    for choice in choices {
         let lowered = crate::lowering::lower(module, profile, choice, &at);
-        if lowered.approximations.is_empty() || !lowered.within(&request.lowering) {
+        let within = request.lowering.only.is_some() || lowered.within(&request.lowering);
+        if lowered.approximations.is_empty() || !within {
             continue;
         }
         match plan_as_written(&lowered.module, profile, request) {
@@ -1074,6 +1079,7 @@ fn assemble(m: &Module, ctx: &AssembleCtx, chosen: &[Chosen], prepared: Prepared
         values: plan_values(m, &roots, ctx.at),
         approximations: Vec::new(),
         predicted: None,
+        measured: None,
     }
 }
 

@@ -1,0 +1,176 @@
+//! `--max-error E` on a scene (issue 18 item 2): among the lowerings a
+//! program has for a target, the one the cost model predicts fastest whose
+//! render stays within E of the program's meaning **on that scene** — so
+//! that an approximation without a stated bound (per-vertex shading,
+//! Taylor renormalization) is judged by what it does to this picture,
+//! not refused for having no bound.
+//!
+//! Each candidate (every choice of rules that plans, `lowering::choices`)
+//! is rendered in f32 by the CPU plan renderer and compared with the f32
+//! render of the program's meaning (`meaning::plan`: every statement one
+//! unsplit pass, `normalize`, `sqrt`, `pow` themselves), through the same
+//! texture units and rasterizer, so that what differs is the lowering and
+//! the planner's splits. The error is the largest channel difference (as
+//! `bench` reports it), at the scene's resolution up to 256 pixels a side.
+
+use crate::diag::Diagnostic;
+use crate::driver::{Diagnostics, PlanOptions};
+use crate::ir::Module;
+use crate::numerics::Precision;
+use crate::parser::ast::Program;
+use crate::pipeline::{MeasuredError, Planned};
+use crate::profile::Profile;
+use crate::renderer::plan::{compare, ErrorReport, PlanRenderer};
+use crate::span::{LineIndex, Span};
+
+/// Largest side the candidates are rendered at.
+const MAX_SIDE: u32 = 256;
+
+/// One lowering tried, with its measured error.
+#[derive(Clone, Debug)]
+pub struct Candidate {
+    /// Its rules, `normalization_cube_map + power_by_passes`.
+    pub rules: String,
+    pub error: ErrorReport,
+    /// Predicted frame time on the scene (ms), where the target has a model.
+    pub predicted_ms: Option<f64>,
+    pub within: bool,
+}
+
+/// Plans `module` for `profile` on `options.scene` with the lowering whose
+/// measured error is within `max_error`, predicted fastest; the plan
+/// carries its [`MeasuredError`]. A program that plans as written is
+/// returned as planned. `lights`: the lights the meaning shades.
+pub fn choose(
+    module: &Module,
+    program: &Program,
+    profile: &Profile,
+    source: &str,
+    options: &PlanOptions,
+    max_error: f64,
+    lights: usize,
+) -> Result<(Planned, Vec<Candidate>), Diagnostics> {
+    let scene = options.scene.as_ref().expect("a scene to measure on");
+    let any = PlanOptions { lowering: crate::lowering::LowerOptions::default(), ..*options };
+    let first = crate::driver::plan(module, program, profile, Some(source), &any)?;
+    if first.plan.approximations.is_empty() {
+        return Ok((first, Vec::new()));
+    }
+    let size = measuring_size(scene.scene.resolution);
+    let reference = render(&crate::meaning::plan(module, lights)?, program, scene, size)?;
+    let mut candidates: Vec<(Planned, Candidate)> = Vec::new();
+    for choice in crate::lowering::choices(profile) {
+        let only = crate::lowering::LowerOptions { only: Some(choice), ..Default::default() };
+        let Ok(planned) = crate::driver::plan(
+            module,
+            program,
+            profile,
+            Some(source),
+            &PlanOptions { lowering: only, ..*options },
+        ) else {
+            continue;
+        };
+        let rules = rule_names(&planned);
+        if candidates.iter().any(|(_, c)| c.rules == rules) {
+            continue;
+        }
+        let error = compare(&reference, &render(&planned, program, scene, size)?);
+        let predicted_ms = planned.plan.predicted.as_ref().map(|p| p.total_us / 1000.0);
+        let within = f64::from(error.max_abs) <= max_error;
+        candidates.push((planned, Candidate { rules, error, predicted_ms, within }));
+    }
+    let best = (0..candidates.len()).filter(|&i| candidates[i].1.within).min_by(|&a, &b| {
+        let t = |i: usize| candidates[i].1.predicted_ms.unwrap_or(0.0);
+        t(a).total_cmp(&t(b)).then(a.cmp(&b))
+    });
+    let report: Vec<Candidate> = candidates.iter().map(|(_, c)| c.clone()).collect();
+    let Some(best) = best else {
+        return Err(vec![refusal(&candidates, profile, source, scene, max_error)]);
+    };
+    let (mut planned, chosen) = candidates.swap_remove(best);
+    planned.plan.measured = Some(MeasuredError {
+        scene: scene_name(scene),
+        width: size.0,
+        height: size.1,
+        max_abs: f64::from(chosen.error.max_abs),
+        rmse: chosen.error.rmse,
+    });
+    Ok((planned, report))
+}
+
+/// The scene's resolution, scaled down to at most [`MAX_SIDE`] a side.
+fn measuring_size((w, h): (u32, u32)) -> (u32, u32) {
+    let k = (MAX_SIDE as f64 / w.max(h).max(1) as f64).min(1.0);
+    (((w as f64 * k).round() as u32).max(1), ((h as f64 * k).round() as u32).max(1))
+}
+
+fn render(
+    planned: &Planned,
+    program: &Program,
+    scene: &crate::driver::ForScene,
+    (w, h): (u32, u32),
+) -> Result<crate::renderer::Framebuffer, Diagnostics> {
+    PlanRenderer::new(planned, program, scene.scene, scene.assets)
+        .and_then(|r| r.render(Precision::F32, w, h, &mut |_, _| {}))
+        .map(|f| f.image)
+        .map_err(|e| {
+            let what = format!("the lowering could not be measured on the scene: {e}");
+            vec![Diagnostic::error("max-error", what, Span::DETACHED, "")
+                .with_help("drop --max-error (the most accurate lowering is taken), or render another scene")]
+        })
+}
+
+fn rule_names(planned: &Planned) -> String {
+    let mut rules: Vec<&str> = planned.plan.approximations.iter().map(|a| a.rule.as_str()).collect();
+    rules.dedup();
+    rules.join(" + ")
+}
+
+fn scene_name(scene: &crate::driver::ForScene) -> String {
+    scene.scene.path.file_name().map_or("the scene".into(), |f| f.to_string_lossy().into_owned())
+}
+
+/// No lowering within `max_error`: located at the closest one's first
+/// approximation, with the error it would need.
+fn refusal(
+    candidates: &[(Planned, Candidate)],
+    profile: &Profile,
+    source: &str,
+    scene: &crate::driver::ForScene,
+    max_error: f64,
+) -> Diagnostic {
+    let closest = candidates.iter().min_by(|a, b| a.1.error.max_abs.total_cmp(&b.1.error.max_abs));
+    let (message, help, span) = match closest {
+        Some((planned, c)) => (
+            format!(
+                "no lowering for {} is within --max-error {max_error} on {}: the closest ({}) is {:.4} ({:.1}/255) from the program's meaning",
+                profile.name,
+                scene_name(scene),
+                c.rules,
+                c.error.max_abs,
+                c.error.max_abs * 255.0
+            ),
+            format!(
+                "raise --max-error to {:.4} or more, or target a profile that computes this per fragment (wgsl)",
+                c.error.max_abs
+            ),
+            planned.plan.approximations.first().map_or(Span::DETACHED, |a| span_at(source, &a.at)),
+        ),
+        None => (
+            format!("no lowering for {} plans", profile.name),
+            "target a profile that computes this per fragment (wgsl)".to_string(),
+            Span::DETACHED,
+        ),
+    };
+    Diagnostic::error("max-error", message, span, "approximated here").with_help(help)
+}
+
+/// The one-character span at `line:col` (an approximation's `at`).
+fn span_at(source: &str, at: &str) -> Span {
+    let Some((line, col)) = at.split_once(':') else { return Span::DETACHED };
+    let (Ok(line), Ok(col)) = (line.parse::<usize>(), col.parse::<usize>()) else { return Span::DETACHED };
+    let index = LineIndex::new(source);
+    let Some(start) = index.offset(source, line, col) else { return Span::DETACHED };
+    let end = source[start..].chars().next().map_or(start, |c| start + c.len_utf8());
+    Span::new(start, end)
+}
