@@ -352,6 +352,46 @@ fn a_fat_texture_becomes_one_compressed_texture_per_member_read() {
     assert!(e.rmse < 2.0 / 255.0, "{e:?}");
 }
 
+/// geforce3's texture shaders (rule `dependent_table`): a function of a
+/// dot product that reads a normal map — no per-vertex value stands for it
+/// — becomes a table looked up at the dot product by a dot-product stage;
+/// each plan's f32 render stays within the table's measured bound (+ the
+/// framebuffer's rounding) of the same program planned for wgsl, where the
+/// function is computed (the written program, no lowering). geforce256,
+/// without dependent lookups, refuses it, naming that.
+#[test]
+fn a_function_of_a_texel_dot_product_becomes_a_dependent_table_on_geforce3() {
+    let scene = scene();
+    let assets = scene.build().unwrap();
+    for f in ["sqrt(max(0, @))", "max(0, @) ^ 0.7", "exp(-2 * max(0, @))"] {
+        let source = format!(
+            "vector L : light(0) in tangent;\ntexture Tn : 2d rgba8 bilinear repeat = normal_map(height(\"bumps.png\"), 4);\nlet N = expand((Tn δu x).rgb);\nC δπx ← rgb({});\n",
+            f.replace('@', "N·(δ L s x)")
+        );
+        let planned =
+            compile(&source, &Profile::builtin("geforce3").unwrap()).unwrap_or_else(|e| panic!("{f}: {e:?}"));
+        let a = &planned.plan.approximations;
+        assert!(a.iter().any(|a| a.rule == "dependent_table"), "{f}: {a:?}");
+        assert!(planned.plan.passes.iter().all(|p| p.combiners.is_none()), "{f}: every pass generated");
+        let wgsl = compile(&source, &Profile::builtin("wgsl").unwrap()).unwrap();
+        let (program, _) = shadec::parser::check(&source);
+        let render = |p: &Planned| {
+            PlanRenderer::new(p, &program, &scene, &assets)
+                .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
+                .unwrap()
+                .image
+        };
+        let e = compare(&render(&wgsl), &render(&planned));
+        let bound: f64 = a.iter().map(|a| a.error_bound.unwrap()).sum::<f64>() + 2.0 * FRAMEBUFFER;
+        assert!((e.max_abs as f64) <= bound, "{f}: measured {e:?} > stated {bound}");
+        let err = compile(&source, &Profile::builtin("geforce256").unwrap()).unwrap_err();
+        assert!(
+            err.iter().any(|d| d.message.contains("dependent lookup") || d.message.contains("cannot")),
+            "{err:?}"
+        );
+    }
+}
+
 /// `x^6` of a value the combiners hold: rule `power_by_squaring` makes it
 /// `x^4 · x^2` with `x^4 = (x^2)^2` — every power a square the code
 /// generator builds — in one pass, within its stated bound of the meaning.

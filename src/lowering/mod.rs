@@ -18,7 +18,9 @@
 //! - [`table`]: a per-fragment function of one bounded interpolated
 //!   scalar (`sqrt`, division, `floor`, `fract`, `exp`, a fractional power)
 //!   → a 1-D table baked by the compiler on the CPU (the `bake` path) and
-//!   indexed by texgen (seeds/002 Section 3: functions as textures);
+//!   indexed by texgen (seeds/002 Section 3: functions as textures); on
+//!   geforce3 a function of a dot product that reads a texel, looked up at
+//!   the dot product by a texture-shader stage (`dependent_table`);
 //! - [`power`]: `x^n` not a power of two → squarings multiplied in one
 //!   pass; beyond the stages of one pass → a product of
 //!   powers that do fit, multiplied in the framebuffer across passes;

@@ -33,6 +33,9 @@ pub const PROBES: usize = 4096;
 /// interpolated scalar.
 pub fn apply(r: &mut Rewriter, h: Handle<Expr>, written: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
     let (ops, b) = chain(&r.m, h)?;
+    if let Some(looked_up) = dependent(r, &ops, b, span) {
+        return Some(looked_up);
+    }
     // The argument per vertex: `δ v` gives v; another value of
     // interpolants is computed per vertex (rule `per_vertex`, recorded
     // below once the table stands for it).
@@ -56,7 +59,7 @@ pub fn apply(r: &mut Rewriter, h: Handle<Expr>, written: Handle<Expr>, span: Spa
     }
     let store = Storage::for_range(ylo, yhi);
     let bound = table_error(&samples, store, lo, hi, &f);
-    let texel_value = texel_function(r, &ops, b, lo, hi, store, span)?;
+    let texel_value = texel_function(r, &ops, b, Domain::Ends(lo, hi), store, span)?;
     let index = r.node(Expr::TexelCoord, span)?;
     let coords = coordinates(r, a_v, lo, hi, span)?;
     // The table is added once its statement and coordinates exist.
@@ -93,6 +96,94 @@ pub fn apply(r: &mut Rewriter, h: Handle<Expr>, written: Handle<Expr>, span: Spa
         Some(bound),
     );
     Some(decoded)
+}
+
+/// Rule `dependent_table` (geforce3's texture shaders, seeds/000 Section
+/// 5.2, Figure 10 "Texture Shader, Lookup Table"): `f(a·c)` where the dot
+/// product reads a texel (a normal map), so no per-vertex value can stand
+/// for it — a table of `f` over [0, 1] looked up at the dot product itself
+/// by a `DOT_PRODUCT_TEXTURE_1D` stage. The texture coordinate is the dot
+/// product, clamped to the table's edge, so only a chain that is constant
+/// below 0 (`max(0, ·)` first, or a dot product that cannot be negative)
+/// and an argument that cannot exceed 1 are tabulated. Error bound:
+/// measured as [`apply`]'s, over the clamped argument.
+fn dependent(r: &mut Rewriter, ops: &[Expr], b: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
+    let shaders = r.profile.texture_shaders.as_ref()?;
+    if !(shaders.dependent_lookups && shaders.dot_product && r.combiners()) {
+        return None;
+    }
+    let Expr::Binary { op: BinaryOp::Dot, lhs, rhs } = r.m.exprs[b] else { return None };
+    let reads_texel = |h: Handle<Expr>| {
+        r.m.reachable(&[h]).into_iter().any(|x| matches!(r.m.exprs[x], Expr::Lookup { .. }))
+    };
+    let iv = r.m.info(b).interval;
+    let clamped_below = iv.lo >= 0.0 || clamps_at_zero(&r.m, ops, b);
+    if !(reads_texel(lhs) || reads_texel(rhs)) || !clamped_below || iv.hi > 1.0 {
+        return None;
+    }
+    let f = |x: f64| evaluate(&r.m, ops, b, x.max(0.0));
+    let samples: Vec<f64> = (0..TEXELS).map(|i| f((i as f64 + 0.5) / TEXELS as f64)).collect();
+    let (ylo, yhi) =
+        samples.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| (l.min(*y), h.max(*y)));
+    if !(ylo.is_finite() && yhi.is_finite()) {
+        return None;
+    }
+    let store = Storage::for_range(ylo, yhi);
+    let bound = direct_table_error(&samples, store, &f);
+    let texel_value = texel_function(r, ops, b, Domain::Direct, store, span)?;
+    let index = r.node(Expr::TexelCoord, span)?;
+    let id = add_texture(r);
+    let looked_up = r.node(Expr::Lookup { texture: id, coords: b }, span)?;
+    let decoded = store.decode(r, looked_up, span)?;
+    r.pending.push(Statement {
+        table: Table::Texture(id),
+        index,
+        freq: Frequency::Texel,
+        value: texel_value,
+        span,
+        target_span: span,
+    });
+    r.record(
+        "dependent_table",
+        span,
+        Some(decoded),
+        format!(
+            "a function of a per-fragment dot product is a {TEXELS}-texel 8-bit table over [0, 1] baked by the compiler, \
+             looked up at the dot product by a texture-shader dot-product stage"
+        ),
+        ApproximationCost { texture_units: 2, passes: 0, general_combiners: 0, texels: TEXELS as u64 },
+        Some(bound),
+    );
+    Some(decoded)
+}
+
+/// Whether the chain's first operation on `b` is `max(0, b)` (or
+/// `saturate(b)`): the function is constant below 0.
+fn clamps_at_zero(m: &Module, ops: &[Expr], b: Handle<Expr>) -> bool {
+    match ops.last() {
+        Some(Expr::Math { fun: crate::ir::MathFunction::Saturate, .. }) => true,
+        Some(Expr::Math { fun: crate::ir::MathFunction::Max, args }) => {
+            args.iter().any(|&a| m.is_constant(a, 0.0)) && args.contains(&b)
+        }
+        _ => false,
+    }
+}
+
+/// [`table_error`] for a table whose texel i holds f((i + ½)/N) and which
+/// is read at the argument itself (clamped to the edge texels).
+fn direct_table_error(samples: &[f64], store: Storage, f: &dyn Fn(f64) -> f64) -> f64 {
+    let q: Vec<f64> = samples.iter().map(|y| (store.encode(*y) * 255.0).round() / 255.0).collect();
+    let n = TEXELS as f64;
+    let mut worst: f64 = 0.0;
+    for k in 0..PROBES {
+        let s = k as f64 / (PROBES - 1) as f64;
+        let p = (s * n - 0.5).clamp(0.0, n - 1.0);
+        let i = (p.floor() as usize).min(TEXELS - 2);
+        let w = p - i as f64;
+        let t = q[i] * (1.0 - w) + q[i + 1] * w;
+        worst = worst.max((f(s) - store.decode_value(t)).abs());
+    }
+    worst
 }
 
 /// The one per-sample scalar operand of `expr` when its others are
@@ -204,6 +295,16 @@ fn table_error(samples: &[f64], store: Storage, lo: f64, hi: f64, f: &dyn Fn(f64
     worst
 }
 
+/// Which argument texel i of a table holds.
+#[derive(Clone, Copy)]
+enum Domain {
+    /// [lo, hi] with the texel centres at the ends (texgen coordinates
+    /// remapped per vertex).
+    Ends(f64, f64),
+    /// (i + ½)/N: the argument is the texture coordinate itself.
+    Direct,
+}
+
 /// A new 1-D table texture, baked by the compiler.
 fn add_texture(r: &mut Rewriter) -> u32 {
     let k = r.m.textures.iter().filter(|t| t.name.starts_with("table_lowered")).count();
@@ -227,15 +328,19 @@ fn texel_function(
     r: &mut Rewriter,
     chain: &[Expr],
     b: Handle<Expr>,
-    lo: f64,
-    hi: f64,
+    domain: Domain,
     store: Storage,
     span: Span,
 ) -> Option<Handle<Expr>> {
     let n = TEXELS as f64;
     let texel = r.node(Expr::TexelCoord, span)?;
     let t = r.node(Expr::Swizzle { value: texel, pattern: [0, 0, 0, 0], len: 1, ty: Ty::Scalar }, span)?;
-    let x = affine(r, t, (hi - lo) * n / (n - 1.0), lo - (hi - lo) * 0.5 / (n - 1.0), span)?;
+    let x = match domain {
+        Domain::Ends(lo, hi) => {
+            affine(r, t, (hi - lo) * n / (n - 1.0), lo - (hi - lo) * 0.5 / (n - 1.0), span)?
+        }
+        Domain::Direct => t,
+    };
     let mut below = (b, x);
     for expr in chain.iter().rev() {
         let rebuilt = r.node(expr.map_operands(|o| if o == below.0 { below.1 } else { o }), span)?;
