@@ -88,7 +88,9 @@ impl Prediction {
 /// The predicted time of `plan` (its IR `module`) on a target with `model`,
 /// drawing `workload`.
 pub fn predict(plan: &PassPlan, module: &Module, model: &CostModel, workload: &Workload) -> Prediction {
-    let passes: Vec<PassTime> = plan.passes.iter().map(|p| pass_time(p, module, model, workload)).collect();
+    let trilinear = Trilinear::of(module);
+    let passes: Vec<PassTime> =
+        plan.passes.iter().map(|p| pass_time(p, module, &trilinear, model, workload)).collect();
     let (w, h) = workload.resolution;
     let clear_us = f64::from(w) * f64::from(h) * model.clear_bytes_per_pixel / bytes_per_us(model);
     let total_us = clear_us + passes.iter().map(|p| p.us).sum::<f64>();
@@ -104,7 +106,13 @@ fn bytes_per_us(model: &CostModel) -> f64 {
 }
 
 /// One pass: the slowest of vertex, setup and fill, plus its overhead.
-pub fn pass_time(pass: &Pass, module: &Module, model: &CostModel, workload: &Workload) -> PassTime {
+pub fn pass_time(
+    pass: &Pass,
+    module: &Module,
+    trilinear: &Trilinear,
+    model: &CostModel,
+    workload: &Workload,
+) -> PassTime {
     let load = workload.pass_load(pass);
     if pass.baked {
         return PassTime {
@@ -123,7 +131,7 @@ pub fn pass_time(pass: &Pass, module: &Module, model: &CostModel, workload: &Wor
     let vertex_us = load.vertices as f64 * ops * model.vertex_clocks_per_op / clock;
     let setup_us = load.triangles as f64 * model.setup_clocks_per_triangle / clock;
     let fragment = FragmentLoad {
-        samples: texture_samples(pass, module),
+        samples: texture_samples(pass, trilinear),
         stages: pass.fragment.general_combiners.unwrap_or(0),
         reads_destination: !same_factors(&pass.state.blend, &BlendState::REPLACE),
         depth_tested: pass.state.depth.func != CompareFunc::Always || pass.state.depth.write,
@@ -168,14 +176,25 @@ pub fn pixel_clocks(model: &CostModel, samples: u32, stages: u32) -> f64 {
 
 /// Bilinear samples a fragment of the pass fetches: one per texture unit,
 /// two for a trilinear (mipmapped) texture, which reads two levels.
-pub fn texture_samples(pass: &Pass, module: &Module) -> u32 {
-    let trilinear = |name: &str| {
-        module
-            .textures
-            .iter()
-            .any(|t| t.name == name && t.sampling.filter == crate::textures::Filter::Trilinear)
-    };
-    pass.textures.iter().map(|b| if trilinear(&b.texture) { 2 } else { 1 }).sum()
+pub fn texture_samples(pass: &Pass, trilinear: &Trilinear) -> u32 {
+    pass.textures.iter().map(|b| if trilinear.0.contains(b.texture.as_str()) { 2 } else { 1 }).sum()
+}
+
+/// The names of a module's trilinear textures, looked up once per plan
+/// (a plan of 30 000 passes has as many temporaries: issue 22 item 4).
+pub struct Trilinear<'m>(rustc_hash::FxHashSet<&'m str>);
+
+impl<'m> Trilinear<'m> {
+    pub fn of(module: &'m Module) -> Trilinear<'m> {
+        Trilinear(
+            module
+                .textures
+                .iter()
+                .filter(|t| t.sampling.filter == crate::textures::Filter::Trilinear)
+                .map(|t| t.name.as_str())
+                .collect(),
+        )
+    }
 }
 
 /// What one fragment of a pass costs the fill: its bilinear samples, its
