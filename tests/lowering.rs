@@ -392,6 +392,24 @@ fn a_function_of_a_texel_dot_product_becomes_a_dependent_table_on_geforce3() {
     }
 }
 
+/// The shadow mask (seeds/001 Section 3.5) on the combiner targets: the
+/// light's depth map (`Cl δπl x ← δ x`) is a depth-only pass, which the
+/// combiners realize by writing no colour; what is refused is the
+/// per-pixel comparison of two depths, at its statement, with the code
+/// generator's own remedy as help.
+#[test]
+fn the_shadow_mask_is_refused_only_for_its_depth_comparison() {
+    let source = example("shadow_mask.shd");
+    for target in ["geforce256", "geforce3"] {
+        let err = compile(&source, &Profile::builtin(target).unwrap()).unwrap_err();
+        assert_eq!(err.len(), 1, "{target}: {err:?}");
+        let at = shadec::span::LineIndex::new(&source).line_col(&source, err[0].primary.span.start as usize);
+        assert_eq!(at.line, 31, "{target}: {err:?}");
+        assert!(err[0].message.contains("this condition cannot be computed"), "{}", err[0].message);
+        assert!(err[0].help.as_deref().is_some_and(|h| h.contains("spare0.a ≥ ½")), "{:?}", err[0].help);
+    }
+}
+
 /// `x^6` of a value the combiners hold: rule `power_by_squaring` makes it
 /// `x^4 · x^2` with `x^4 = (x^2)^2` — every power a square the code
 /// generator builds — in one pass, within its stated bound of the meaning.

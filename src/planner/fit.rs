@@ -76,6 +76,7 @@ impl<'p> ProfileFit<'p> {
                 need: 0,
                 have: 0,
                 at,
+                help: Some(e.help),
             }
         });
         self.generated.borrow_mut().insert(value, verdict.clone());
@@ -124,7 +125,7 @@ impl ProfileFit<'_> {
         let u = Usage::of_value(module, value);
         let units = u.texture_units() + framebuffer_textures(module, &u);
         let over = |resource: &str, need: usize, have: usize, at: Option<Handle<Expr>>| {
-            Err(Overflow { resource: resource.to_string(), need, have, at })
+            Err(Overflow { resource: resource.to_string(), need, have, at, help: None })
         };
         if units > p.texture_units as usize {
             return over("texture units", units, p.texture_units as usize, u.lookups.last().copied());
@@ -155,6 +156,7 @@ impl ProfileFit<'_> {
                     need: 1,
                     have: 0,
                     at: Some(h),
+                    help: None,
                 })?;
                 let have = 6 * c.general_combiners as usize + 8;
                 if ops > have {

@@ -667,7 +667,10 @@ fn cannot_split(m: &Module, st: &Statement, profile: &Profile, o: &Overflow) -> 
         format!("{o}"),
     )
     .with_label(span, "this part".to_string())
-    .with_help(if o.need == 0 {
+    .with_help(if let Some(help) = o.help.as_deref().filter(|h| !h.is_empty()) {
+        // The code generator's own advice for the part, then the splits'.
+        format!("{help}; framebuffer blending can only split sums and products (and affine ⊕ chains) of parts that fit")
+    } else if o.need == 0 {
         "framebuffer blending can only split sums and products (and affine ⊕ chains); compute the part per vertex, bake it into a lookup texture (`= bake(f)`), or target `wgsl`".to_string()
     } else {
         format!("framebuffer blending can only split sums and products (and affine ⊕ chains); compute the part per vertex, bake it into a lookup texture, or target a profile with more {}", o.resource)
@@ -991,7 +994,13 @@ fn plan_form(
         // (the stored depth `z C δπx′` is the depth buffer, not a unit).
         let one =
             m.intern(Expr::Constant(crate::ir::Constant::scalar(1.0)), m.span(form.value)).map_err(|_| {
-                Overflow { resource: "a constant stencil-pass output".into(), need: 1, have: 0, at: None }
+                Overflow {
+                    resource: "a constant stencil-pass output".into(),
+                    need: 1,
+                    have: 0,
+                    at: None,
+                    help: None,
+                }
             })?;
         return Ok(vec![Piece {
             blend: BlendMode::Replace,
@@ -1015,6 +1024,7 @@ fn plan_form(
                 need: 0,
                 have: 0,
                 at: None,
+                help: None,
             });
             return Err(if cache.clamp_refusals > clamp_refusals {
                 Overflow {
@@ -1041,6 +1051,7 @@ fn plan_form(
                     need: 0,
                     have: 0,
                     at: None,
+                    help: None,
                 }))
             }
         }

@@ -15,6 +15,8 @@ pub struct Refusal {
     pub reason: String,
     /// The part of the program the refusal is about, when it is one part.
     pub span: Option<Span>,
+    /// What the user can do about it, in the stage's own words.
+    pub help: String,
 }
 
 /// Realizes one pass's fragment value on a target's fixed-function stage.

@@ -53,6 +53,9 @@ pub struct Overflow {
     pub have: usize,
     /// The node most responsible (for diagnostics), if one stands out.
     pub at: Option<Handle<Expr>>,
+    /// The fragment stage's own help for a refusal it explained (the
+    /// combiner code generator's), for the planner's diagnostic.
+    pub help: Option<String>,
 }
 
 impl std::fmt::Display for Overflow {

@@ -392,6 +392,20 @@ type R<T> = Result<T, CodegenError>;
 
 /// Generates the register-combiner configuration for one pass.
 pub fn generate(input: &PassInput, limits: &CombinerLimits) -> Result<Generated, CodegenError> {
+    // A depth-only statement (`Cl δπl x ← δ x`, seeds/001 Section 3.5: the
+    // light's depth map, the rasterizer's depth of the position) writes no
+    // colour: the setup that writes zero.
+    let depth_only = matches!(input.module.exprs[input.value], Expr::Depth(_))
+        || input.module.info(input.value).ty == crate::ir::Ty::Position;
+    if depth_only {
+        let mut m = input.module.clone();
+        let zero = crate::ir::Constant::new(crate::ir::Ty::Rgba, &[0.0; 4]);
+        let span = m.span(input.value);
+        let value = m
+            .intern(Expr::Constant(zero), span)
+            .map_err(|_| unsupported(span, "this value", "a depth-only pass"))?;
+        return generate(&PassInput { module: &m, value, units: &[] }, limits);
+    }
     // Two products in one portion save stages but hold two results at once:
     // where that runs out of registers, the unpaired schedule may still fit.
     // Other refusals (range, unsupported operations, constants, stages) do
@@ -2355,7 +2369,7 @@ impl Realizer for CombinerRealizer {
         let input = PassInput { module, value, units };
         generate(&input, &self.limits)
             .map(|g| Realized { general_combiners: g.config.general.len() as u32 })
-            .map_err(|e| Refusal { reason: e.to_string(), span: e.span() })
+            .map_err(|e| Refusal { reason: e.to_string(), span: e.span(), help: e.help() })
     }
 }
 
