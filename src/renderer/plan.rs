@@ -800,6 +800,104 @@ struct Step<'m> {
     raw: bool,
     /// fixed9: how a register write of a power or a quotient is rounded.
     register: RegisterOp,
+    /// The step's arithmetic, decided once (issue 22).
+    kernel: Kernel,
+}
+
+/// A step's arithmetic when it is one of the common operations, decided
+/// when the program is built, so that a fragment does not walk the IR's
+/// expression kinds again for it (issue 22); each computes exactly what
+/// [`ir::eval::apply`] computes, which [`Kernel::General`] calls.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Kernel {
+    Add,
+    Sub,
+    Mul,
+    Neg,
+    /// A dot product of vectors of this width.
+    Dot(usize),
+    Swizzle([u8; 4], u8),
+    /// rgb widened to rgba: alpha 1.
+    RgbToRgba,
+    /// A conversion that keeps the value.
+    Same,
+    Max,
+    Min,
+    Clamp,
+    Saturate,
+    Expand,
+    Compress,
+    Mix,
+    /// `normalize` of a vector of this width.
+    Normalize(usize),
+    General,
+}
+
+impl Kernel {
+    fn of(m: &Module, expr: &Expr, ty: Ty) -> Kernel {
+        use ir::{BinaryOp, UnaryOp};
+        match expr {
+            Expr::Binary { op: BinaryOp::Add, .. } => Kernel::Add,
+            Expr::Binary { op: BinaryOp::Sub, .. } => Kernel::Sub,
+            Expr::Binary { op: BinaryOp::Mul, .. } => Kernel::Mul,
+            Expr::Unary { op: UnaryOp::Neg, .. } => Kernel::Neg,
+            Expr::Binary { op: BinaryOp::Dot, lhs, .. } => Kernel::Dot(m.info(*lhs).ty.width()),
+            Expr::Swizzle { pattern, len, .. } => Kernel::Swizzle(*pattern, *len),
+            Expr::Convert { value, to } if m.info(*value).ty == Ty::Rgb && *to == Ty::Rgba => {
+                Kernel::RgbToRgba
+            }
+            Expr::Convert { .. } => Kernel::Same,
+            Expr::Math { fun, .. } => match fun {
+                ir::MathFunction::Max => Kernel::Max,
+                ir::MathFunction::Min => Kernel::Min,
+                ir::MathFunction::Clamp => Kernel::Clamp,
+                ir::MathFunction::Saturate => Kernel::Saturate,
+                ir::MathFunction::Expand => Kernel::Expand,
+                ir::MathFunction::Compress => Kernel::Compress,
+                ir::MathFunction::Mix => Kernel::Mix,
+                ir::MathFunction::Normalize => Kernel::Normalize(ty.width()),
+                _ => Kernel::General,
+            },
+            _ => Kernel::General,
+        }
+    }
+
+    #[inline]
+    fn apply(self, m: &Module, expr: &Expr, ty: Ty, o: &[Value]) -> Value {
+        match self {
+            Kernel::Add => [0, 1, 2, 3].map(|i| o[0][i] + o[1][i]),
+            Kernel::Sub => [0, 1, 2, 3].map(|i| o[0][i] - o[1][i]),
+            Kernel::Mul => [0, 1, 2, 3].map(|i| o[0][i] * o[1][i]),
+            Kernel::Neg => [0, 1, 2, 3].map(|i| -o[0][i]),
+            Kernel::Dot(width) => [(0..width.min(4)).map(|i| o[0][i] * o[1][i]).sum(); 4],
+            Kernel::Swizzle(pattern, len) => {
+                let mut v = [0.0; 4];
+                for (k, &i) in pattern[..len as usize].iter().enumerate() {
+                    v[k] = o[0][i as usize & 3];
+                }
+                v
+            }
+            Kernel::RgbToRgba => [o[0][0], o[0][1], o[0][2], 1.0],
+            Kernel::Same => o[0],
+            Kernel::Max => [0, 1, 2, 3].map(|i| o[0][i].max(o[1][i])),
+            Kernel::Min => [0, 1, 2, 3].map(|i| o[0][i].min(o[1][i])),
+            Kernel::Clamp => [0, 1, 2, 3].map(|i| o[0][i].max(o[1][i]).min(o[2][i])),
+            Kernel::Saturate => o[0].map(|x| x.clamp(0.0, 1.0)),
+            Kernel::Expand => o[0].map(|x| 2.0 * x - 1.0),
+            Kernel::Compress => o[0].map(|x| (x + 1.0) / 2.0),
+            Kernel::Mix => [0, 1, 2, 3].map(|i| o[0][i] * (1.0 - o[2][i]) + o[1][i] * o[2][i]),
+            Kernel::Normalize(width) => {
+                let a = o[0];
+                let n = (0..width.min(4)).map(|i| a[i] * a[i]).sum::<f64>().sqrt();
+                if n == 0.0 {
+                    [0.0; 4]
+                } else {
+                    a.map(|x| x / n)
+                }
+            }
+            Kernel::General => ir::eval::apply(m, expr, ty, o),
+        }
+    }
 }
 
 /// A fixed9 register write the WGSL's hardware fidelity computes its own
@@ -1020,7 +1118,8 @@ impl<'a> StepBuilder<'_, 'a> {
             }
             (true, None) => RegisterOp::Rounded,
         };
-        Step { expr, ty, slot, ops, n_ops, leaf, quantize, folded, raw, register }
+        let kernel = Kernel::of(m, expr, ty);
+        Step { expr, ty, slot, ops, n_ops, leaf, quantize, folded, raw, register, kernel }
     }
 }
 
@@ -1436,7 +1535,7 @@ impl<'a> FragmentProgram<'a> {
                             discard = true;
                         }
                     }
-                    ir::eval::apply(self.module, s.expr, s.ty, &buf[..ops.len()])
+                    s.kernel.apply(self.module, s.expr, s.ty, &buf[..ops.len()])
                 }
             };
             let v = if s.raw { v } else { ir::eval::canonical(s.ty, v) };
@@ -1637,4 +1736,50 @@ pub fn compare(reference: &Framebuffer, test: &Framebuffer) -> ErrorReport {
     let e = super::image_error(&a, &b);
     let rmse = if e.psnr.is_infinite() { 0.0 } else { 10f64.powf(-e.psnr / 20.0) };
     ErrorReport { max_abs: e.max_abs, rmse, psnr: e.psnr }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Every node of every example whose step gets a specialized
+    /// [`Kernel`] computes, on operand values spanning signs, zero and
+    /// magnitudes, bit for bit what `ir::eval::apply` computes (after the
+    /// canonical form both pass through).
+    #[test]
+    fn kernels_compute_what_eval_computes() {
+        let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/examples");
+        let values = [-2.5, -1.0, -0.25, 0.0, 0.125, 0.5, 1.0, 3.0];
+        let mut checked = 0;
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.extension().is_none_or(|e| e != "shd") {
+                continue;
+            }
+            let (program, _) = crate::parser::check(&std::fs::read_to_string(&path).unwrap());
+            let (m, _) = ir::lower(&program);
+            for (h, expr) in m.exprs.arena().iter() {
+                let ty = m.info(h).ty;
+                let kernel = Kernel::of(&m, expr, ty);
+                if kernel == Kernel::General {
+                    continue;
+                }
+                let n = expr.operands().len();
+                for k in 0..values.len() {
+                    let o: Vec<Value> = (0..n)
+                        .map(|j| [0, 1, 2, 3].map(|c| values[(k + 3 * j + c) % values.len()]))
+                        .collect();
+                    let fast = ir::eval::canonical(ty, kernel.apply(&m, expr, ty, &o));
+                    let slow = ir::eval::apply(&m, expr, ty, &o);
+                    assert_eq!(
+                        fast.map(f64::to_bits),
+                        slow.map(f64::to_bits),
+                        "{kernel:?} {expr:?} on {o:?}"
+                    );
+                    checked += 1;
+                }
+            }
+        }
+        assert!(checked > 500, "{checked}");
+    }
 }
