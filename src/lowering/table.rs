@@ -50,30 +50,13 @@ pub fn apply(r: &mut Rewriter, h: Handle<Expr>, written: Handle<Expr>, span: Spa
     if !(lo.is_finite() && hi.is_finite() && hi > lo) || r.m.info(b).freq != Frequency::Fragment {
         return None;
     }
+    let domain = Domain::Ends(lo, hi);
     let f = |x: f64| evaluate(&r.m, &ops, b, x);
-    let samples: Vec<f64> = (0..TEXELS).map(|i| f(lo + (hi - lo) * i as f64 / (TEXELS - 1) as f64)).collect();
-    let (ylo, yhi) =
-        samples.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| (l.min(*y), h.max(*y)));
-    if !(ylo.is_finite() && yhi.is_finite()) {
-        return None;
-    }
-    let store = Storage::for_range(ylo, yhi);
-    let bound = table_error(&samples, store, lo, hi, &f);
-    let texel_value = texel_function(r, &ops, b, Domain::Ends(lo, hi), store, span)?;
-    let index = r.node(Expr::TexelCoord, span)?;
+    let (samples, store) = tabulate(&f, domain)?;
+    let bound = table_error(&samples, store, domain, &f);
+    let texel_value = texel_function(r, &ops, b, domain, store, span)?;
     let coords = coordinates(r, a_v, lo, hi, span)?;
-    // The table is added once its statement and coordinates exist.
-    let id = add_texture(r);
-    let looked_up = r.node(Expr::Lookup { texture: id, coords }, span)?;
-    let decoded = store.decode(r, looked_up, span)?;
-    r.pending.push(Statement {
-        table: Table::Texture(id),
-        index,
-        freq: Frequency::Texel,
-        value: texel_value,
-        span,
-        target_span: span,
-    });
+    let decoded = baked_lookup(r, texel_value, coords, store, span)?;
     if hoisted {
         r.record(
             "per_vertex",
@@ -122,27 +105,10 @@ fn dependent(r: &mut Rewriter, ops: &[Expr], b: Handle<Expr>, span: Span) -> Opt
         return None;
     }
     let f = |x: f64| evaluate(&r.m, ops, b, x.max(0.0));
-    let samples: Vec<f64> = (0..TEXELS).map(|i| f((i as f64 + 0.5) / TEXELS as f64)).collect();
-    let (ylo, yhi) =
-        samples.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| (l.min(*y), h.max(*y)));
-    if !(ylo.is_finite() && yhi.is_finite()) {
-        return None;
-    }
-    let store = Storage::for_range(ylo, yhi);
-    let bound = direct_table_error(&samples, store, &f);
+    let (samples, store) = tabulate(&f, Domain::Direct)?;
+    let bound = table_error(&samples, store, Domain::Direct, &f);
     let texel_value = texel_function(r, ops, b, Domain::Direct, store, span)?;
-    let index = r.node(Expr::TexelCoord, span)?;
-    let id = add_texture(r);
-    let looked_up = r.node(Expr::Lookup { texture: id, coords: b }, span)?;
-    let decoded = store.decode(r, looked_up, span)?;
-    r.pending.push(Statement {
-        table: Table::Texture(id),
-        index,
-        freq: Frequency::Texel,
-        value: texel_value,
-        span,
-        target_span: span,
-    });
+    let decoded = baked_lookup(r, texel_value, b, store, span)?;
     r.record(
         "dependent_table",
         span,
@@ -169,21 +135,38 @@ fn clamps_at_zero(m: &Module, ops: &[Expr], b: Handle<Expr>) -> bool {
     }
 }
 
-/// [`table_error`] for a table whose texel i holds f((i + ½)/N) and which
-/// is read at the argument itself (clamped to the edge texels).
-fn direct_table_error(samples: &[f64], store: Storage, f: &dyn Fn(f64) -> f64) -> f64 {
-    let q: Vec<f64> = samples.iter().map(|y| (store.encode(*y) * 255.0).round() / 255.0).collect();
-    let n = TEXELS as f64;
-    let mut worst: f64 = 0.0;
-    for k in 0..PROBES {
-        let s = k as f64 / (PROBES - 1) as f64;
-        let p = (s * n - 0.5).clamp(0.0, n - 1.0);
-        let i = (p.floor() as usize).min(TEXELS - 2);
-        let w = p - i as f64;
-        let t = q[i] * (1.0 - w) + q[i + 1] * w;
-        worst = worst.max((f(s) - store.decode_value(t)).abs());
-    }
-    worst
+/// `f` at the table's texels, and the 8-bit storage its values fit;
+/// `None` when a value is not finite.
+fn tabulate(f: &dyn Fn(f64) -> f64, domain: Domain) -> Option<(Vec<f64>, Storage)> {
+    let samples: Vec<f64> = (0..TEXELS).map(|i| f(domain.texel(i))).collect();
+    let (ylo, yhi) =
+        samples.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| (l.min(*y), h.max(*y)));
+    (ylo.is_finite() && yhi.is_finite()).then(|| (samples, Storage::for_range(ylo, yhi)))
+}
+
+/// A new table texture whose texels `texel_value` computes (the compiler
+/// bakes it), looked up at `coords` and decoded.
+fn baked_lookup(
+    r: &mut Rewriter,
+    texel_value: Handle<Expr>,
+    coords: Handle<Expr>,
+    store: Storage,
+    span: Span,
+) -> Option<Handle<Expr>> {
+    let index = r.node(Expr::TexelCoord, span)?;
+    // The table is added once its statement and coordinates exist.
+    let id = add_texture(r);
+    let looked_up = r.node(Expr::Lookup { texture: id, coords }, span)?;
+    let decoded = store.decode(r, looked_up, span)?;
+    r.pending.push(Statement {
+        table: Table::Texture(id),
+        index,
+        freq: Frequency::Texel,
+        value: texel_value,
+        span,
+        target_span: span,
+    });
+    Some(decoded)
 }
 
 /// The one per-sample scalar operand of `expr` when its others are
@@ -278,19 +261,20 @@ impl Storage {
     }
 }
 
-/// The largest |f(x) − table(x)| over [`PROBES`] arguments: the table
-/// rounded to 8 bits and read back with linear filtering between texel
-/// centres, as the target's texture unit reads it.
-fn table_error(samples: &[f64], store: Storage, lo: f64, hi: f64, f: &dyn Fn(f64) -> f64) -> f64 {
+/// The largest |f(x) − table(x)| over [`PROBES`] arguments across the
+/// domain: the table rounded to 8 bits and read back with linear filtering
+/// between texel centres (clamped at the edge texels), as the target's
+/// texture unit reads it.
+fn table_error(samples: &[f64], store: Storage, domain: Domain, f: &dyn Fn(f64) -> f64) -> f64 {
     let q: Vec<f64> = samples.iter().map(|y| (store.encode(*y) * 255.0).round() / 255.0).collect();
     let mut worst: f64 = 0.0;
     for k in 0..PROBES {
         let s = k as f64 / (PROBES - 1) as f64;
-        let p = s * (TEXELS - 1) as f64;
+        let (x, p) = domain.probe(s);
         let i = (p.floor() as usize).min(TEXELS - 2);
         let w = p - i as f64;
         let t = q[i] * (1.0 - w) + q[i + 1] * w;
-        worst = worst.max((f(lo + (hi - lo) * s) - store.decode_value(t)).abs());
+        worst = worst.max((f(x) - store.decode_value(t)).abs());
     }
     worst
 }
@@ -303,6 +287,26 @@ enum Domain {
     Ends(f64, f64),
     /// (i + ½)/N: the argument is the texture coordinate itself.
     Direct,
+}
+
+impl Domain {
+    /// The argument texel `i` holds.
+    fn texel(self, i: usize) -> f64 {
+        let n = TEXELS as f64;
+        match self {
+            Domain::Ends(lo, hi) => lo + (hi - lo) * i as f64 / (n - 1.0),
+            Domain::Direct => (i as f64 + 0.5) / n,
+        }
+    }
+    /// At fraction `s` of the domain: the argument, and where between the
+    /// texels (in texels, from the first) the unit reads it.
+    fn probe(self, s: f64) -> (f64, f64) {
+        let n = TEXELS as f64;
+        match self {
+            Domain::Ends(lo, hi) => (lo + (hi - lo) * s, s * (n - 1.0)),
+            Domain::Direct => (s, (s * n - 0.5).clamp(0.0, n - 1.0)),
+        }
+    }
 }
 
 /// A new 1-D table texture, baked by the compiler.
