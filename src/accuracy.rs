@@ -40,7 +40,8 @@ pub struct Candidate {
 /// Plans `module` for `profile` on `options.scene` with the lowering whose
 /// measured error is within `max_error`, predicted fastest; the plan
 /// carries its [`MeasuredError`]. A program that plans as written is
-/// returned as planned. `lights`: the lights the meaning shades.
+/// returned as planned; without a scene in `options`, the stated bounds
+/// decide. `lights`: the lights the meaning shades.
 pub fn choose(
     module: &Module,
     program: &Program,
@@ -50,7 +51,18 @@ pub fn choose(
     max_error: f64,
     lights: usize,
 ) -> Result<(Planned, Vec<Candidate>), Diagnostics> {
-    let scene = options.scene.as_ref().expect("a scene to measure on");
+    let Some(scene) = options.scene.as_ref() else {
+        // No scene to measure on: the stated bounds decide, as `compile`.
+        let bounded = crate::lowering::LowerOptions { max_error: Some(max_error), ..options.lowering };
+        let planned = crate::driver::plan(
+            module,
+            program,
+            profile,
+            Some(source),
+            &PlanOptions { lowering: bounded, ..*options },
+        )?;
+        return Ok((planned, Vec::new()));
+    };
     let any = PlanOptions { lowering: crate::lowering::LowerOptions::default(), ..*options };
     let first = crate::driver::plan(module, program, profile, Some(source), &any)?;
     if first.plan.approximations.is_empty() {

@@ -110,14 +110,19 @@ fn rewrite_writes(r: &mut Rewriter, t: u32, split: &[Option<u32>], signed: &[boo
                 continue;
             }
         };
-        for (i, m) in members.into_iter().enumerate() {
-            let Some(texture) = split[i] else { continue };
-            let span = r.m.span(m);
-            let Some(stored) = stored(r, m, signed[i], span) else {
-                out.push(st);
-                break;
-            };
-            out.push(Statement { table: Table::Texture(texture), value: stored, ..st.clone() });
+        let per_member: Option<Vec<Statement>> = members
+            .into_iter()
+            .enumerate()
+            .filter_map(|(i, m)| split[i].map(|texture| (i, m, texture)))
+            .map(|(i, m, texture)| {
+                let value = stored(r, m, signed[i], r.m.span(m))?;
+                Some(Statement { table: Table::Texture(texture), value, ..st.clone() })
+            })
+            .collect();
+        match per_member {
+            Some(statements) => out.extend(statements),
+            // A member without an 8-bit form: the statement stays (refused).
+            None => out.push(st),
         }
     }
     r.m.statements = out;
