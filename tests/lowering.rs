@@ -410,6 +410,35 @@ fn the_shadow_mask_is_refused_only_for_its_depth_comparison() {
     }
 }
 
+/// A float texture written only with colours in [0, 1] (texture shading,
+/// seeds/001 (13)) on the combiner targets, which have no float formats:
+/// rule `float_texture_8bit` stores it in RGBA8; the f32 render stays
+/// within the rule's bound, the interpolants' range compression and the
+/// framebuffer's rounding of the wgsl plan, which keeps the float texture.
+#[test]
+fn a_float_texture_of_colours_is_stored_in_rgba8() {
+    let source = "vector N : normal in object;\nvector L : light(0) in object;\nconst kd : rgb = (0.7, 0.5, 0.3);\ntexture T : 2d rgba16f bilinear clamp;\nshader p : s → c = kd * max(0, N·L);\nT δu ← p s δu;\nC δπx ← T δu x;\n";
+    let scene = scene();
+    let assets = scene.build().unwrap();
+    let (program, _) = shadec::parser::check(source);
+    let render = |p: &Planned| {
+        PlanRenderer::new(p, &program, &scene, &assets)
+            .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
+            .unwrap()
+            .image
+    };
+    let wgsl = render(&compile(source, &Profile::builtin("wgsl").unwrap()).unwrap());
+    for target in ["geforce256", "geforce3"] {
+        let planned = compile(source, &Profile::builtin(target).unwrap()).expect("lowered and planned");
+        let a = &planned.plan.approximations;
+        assert!(a.iter().any(|a| a.rule == "float_texture_8bit"), "{target}: {a:?}");
+        assert!(planned.module.textures.iter().any(|t| t.name == "T_rgba8"), "{target}");
+        let bound: f64 = a.iter().map(|a| a.error_bound.unwrap()).sum::<f64>() + 2.0 * FRAMEBUFFER;
+        let e = compare(&wgsl, &render(&planned));
+        assert!((e.max_abs as f64) <= bound, "{target}: {e:?} > {bound}");
+    }
+}
+
 /// `x^6` of a value the combiners hold: rule `power_by_squaring` makes it
 /// `x^4 · x^2` with `x^4 = (x^2)^2` — every power a square the code
 /// generator builds — in one pass, within its stated bound of the meaning.

@@ -35,6 +35,8 @@
 //! - [`fat_texture`]: a fat texture (a bundle of shading parameters per
 //!   texel, seeds/001 (5), (14)) on the combiners → one 8-bit texture per
 //!   member, range-compressed where signed;
+//! - [`float_texture`]: a float texture written only with values in
+//!   [0, 1] → the same texture in RGBA8;
 //! - [`per_vertex::gouraud`]: the last resort when no choice above plans —
 //!   every maximal per-fragment part that reads only interpolants computed
 //!   per vertex (Gouraud), reported without a bound.
@@ -44,6 +46,7 @@
 
 pub mod cube_map;
 pub mod fat_texture;
+pub mod float_texture;
 pub mod per_vertex;
 pub mod power;
 pub mod range_compress;
@@ -142,6 +145,7 @@ pub fn lower(module: &Module, profile: &Profile, choice: Choice, at: &dyn Fn(Spa
     texel_bake::apply(&mut r);
     signed_texture::apply(&mut r);
     fat_texture::apply(&mut r);
+    float_texture::apply(&mut r);
     for st in std::mem::take(&mut r.m.statements) {
         if matches!(st.table, Table::TexCoords(_)) || r.m.is_baked(&st) {
             r.m.statements.push(st);
