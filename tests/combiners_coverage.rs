@@ -146,7 +146,9 @@ fn every_example_generates_or_is_located_on_both_combiner_profiles() {
 /// Fat textures split into one 8-bit texture per member read then planned
 /// deferred shading (14 passes on geforce256, x^24 by passes; 4 on
 /// geforce3) and the fat texture map (10; 4), and texture shading took
-/// the cube map in its texel pass: 77 and 37.)
+/// the cube map in its texel pass: 77 and 37. Kajiya-Kay's specular term
+/// then became a 2-D table and its diffuse term a 1-D one, one pass
+/// besides the baked tables, as per vertex before: 77 and 37.)
 #[test]
 fn every_planned_pass_is_generated() {
     for (profile, planned) in [("geforce256", 77), ("geforce3", 37)] {

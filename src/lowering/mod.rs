@@ -37,6 +37,8 @@
 //!   member, range-compressed where signed;
 //! - [`float_texture`]: a float texture written only with values in
 //!   [0, 1] → the same texture in RGBA8;
+//! - [`table2d`]: a per-fragment function of two per-vertex arguments
+//!   (dot products) → a 2-D table baked by the compiler (seeds/002 §3);
 //! - [`per_vertex::gouraud`]: the last resort when no choice above plans —
 //!   every maximal per-fragment part that reads only interpolants computed
 //!   per vertex (Gouraud), reported without a bound.
@@ -52,6 +54,7 @@ pub mod power;
 pub mod range_compress;
 pub mod signed_texture;
 pub mod table;
+pub mod table2d;
 pub mod taylor;
 pub mod texel_bake;
 
@@ -99,6 +102,9 @@ pub struct Choice {
     /// computed per vertex first ([`per_vertex::gouraud`]): the last resort,
     /// Gouraud shading of what the target cannot shade per fragment.
     pub gouraud: bool,
+    /// Every largest per-fragment function of two per-vertex arguments a
+    /// 2-D table first ([`table2d`]).
+    pub tables_2d: bool,
 }
 
 /// The choices for `profile`, most accurate first (the planner takes the
@@ -106,10 +112,11 @@ pub struct Choice {
 pub fn choices(profile: &Profile) -> Vec<Choice> {
     let mut out = Vec::new();
     if profile.cube_maps {
-        out.push(Choice { normalization: Normalization::CubeMap, gouraud: false });
+        out.push(Choice { normalization: Normalization::CubeMap, gouraud: false, tables_2d: false });
     }
-    out.push(Choice { normalization: Normalization::Taylor, gouraud: false });
+    out.push(Choice { normalization: Normalization::Taylor, gouraud: false, tables_2d: false });
     let best = out[0];
+    out.push(Choice { tables_2d: true, ..best });
     out.push(Choice { gouraud: true, ..best });
     out
 }
@@ -151,7 +158,8 @@ pub fn lower(module: &Module, profile: &Profile, choice: Choice, at: &dyn Fn(Spa
             r.m.statements.push(st);
             continue;
         }
-        let value = if choice.gouraud { per_vertex::gouraud(&mut r, st.value) } else { st.value };
+        let value = if choice.tables_2d { table2d::apply(&mut r, st.value) } else { st.value };
+        let value = if choice.gouraud { per_vertex::gouraud(&mut r, value) } else { value };
         let value = r.rewrite(value);
         // A table's texel statement runs before the statement sampling it.
         let tables = std::mem::take(&mut r.pending);

@@ -227,30 +227,42 @@ fn evaluate(m: &Module, chain: &[Expr], b: Handle<Expr>, x: f64) -> f64 {
     value
 }
 
+/// How far a tabulated function may leave [0, 1] by its own rounding and
+/// still be stored as is (clamped by the 8-bit encoding: an error far
+/// below the 8-bit step).
+const SNAP: f64 = 1e-9;
+
 /// How table values are kept in 8 bits.
 #[derive(Clone, Copy, Debug, PartialEq)]
-struct Storage {
+pub(super) struct Storage {
     lo: f64,
     scale: f64,
 }
 
 impl Storage {
-    /// As they are when in [0, 1]; else range-compressed to [lo, hi].
-    fn for_range(lo: f64, hi: f64) -> Storage {
-        if lo >= 0.0 && hi <= 1.0 {
+    /// As they are when in [0, 1] (up to [`SNAP`], rounding in the
+    /// function's own arithmetic); else range-compressed to [lo, hi].
+    pub(super) fn for_range(lo: f64, hi: f64) -> Storage {
+        if lo >= -SNAP && hi <= 1.0 + SNAP {
             Storage { lo: 0.0, scale: 1.0 }
         } else {
             Storage { lo, scale: (hi - lo).max(f64::MIN_POSITIVE) }
         }
     }
-    fn encode(self, y: f64) -> f64 {
+    pub(super) fn encode(self, y: f64) -> f64 {
         ((y - self.lo) / self.scale).clamp(0.0, 1.0)
     }
-    fn decode_value(self, t: f64) -> f64 {
+    pub(super) fn decode_value(self, t: f64) -> f64 {
         self.lo + self.scale * t
     }
+    /// `saturate((y − lo)/scale)` as IR: what a texel stores of `y`.
+    pub(super) fn encoded(self, r: &mut Rewriter, y: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
+        let encoded = affine(r, y, 1.0 / self.scale, -self.lo / self.scale, span)?;
+        r.node(Expr::Math { fun: crate::ir::MathFunction::Saturate, args: vec![encoded] }, span)
+    }
+
     /// `lo + scale·T` as IR (nothing when stored as is).
-    fn decode(self, r: &mut Rewriter, t: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
+    pub(super) fn decode(self, r: &mut Rewriter, t: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
         if self.lo == 0.0 && self.scale == 1.0 {
             return Some(t);
         }
@@ -350,9 +362,7 @@ fn texel_function(
         let rebuilt = r.node(expr.map_operands(|o| if o == below.0 { below.1 } else { o }), span)?;
         below = (r.m.exprs.find(expr)?, rebuilt);
     }
-    let fx = below.1;
-    let encoded = affine(r, fx, 1.0 / store.scale, -store.lo / store.scale, span)?;
-    r.node(Expr::Math { fun: crate::ir::MathFunction::Saturate, args: vec![encoded] }, span)
+    store.encoded(r, below.1, span)
 }
 
 /// The table coordinate per vertex, `(a − lo)/(hi − lo)·(N − 1)/N + ½/N`,

@@ -1,0 +1,303 @@
+//! Rule `baked_table_2d`: a per-fragment scalar function of **two** scalar
+//! arguments — dot products of interpolated vectors, or interpolated
+//! scalars — that the combiners cannot compute, or whose intermediate
+//! values leave their [−1, 1] (Kajiya-Kay's `(t·l · t·v + √(1 − (t·l)²)
+//! √(1 − (t·v)²))ⁿ`), becomes a 2-D table of the whole function baked by
+//! the compiler and looked up at the two arguments computed per vertex and
+//! interpolated as texture coordinates: Heidrich and Seidel's technique of
+//! BRDFs stored as textures indexed by dot products (seeds/002 Section 3).
+//!
+//! Applied top-down (the largest such part of a statement), as a choice of
+//! its own ([`super::Choice::tables_2d`]), so that the function's inner
+//! square roots are not tabulated one by one first. The arguments per
+//! vertex are recorded as `per_vertex` (no bound); the table's error is
+//! measured while baking: the largest difference between the function
+//! and the 8-bit table read back with bilinear filtering, over a grid of
+//! [`PROBES`]² argument pairs.
+
+use std::collections::HashMap;
+
+use super::table::Storage;
+use super::{per_vertex, Rewriter};
+use crate::ir::eval::{self, Value};
+use crate::ir::{BinaryOp, Constant, Expr, Frequency, Handle, Module, Statement, Table, Texture, Ty};
+use crate::parser::ast::{TextureFormat, TextureKind};
+use crate::pipeline::ApproximationCost;
+use crate::span::Span;
+
+/// Texels a side: the compiler renders baked textures this size
+/// (`scene::bind::RENDERED_TEXTURE_SIZE`).
+pub const TEXELS: usize = 256;
+/// Argument pairs a side at which the table's error is measured.
+pub const PROBES: usize = 160;
+
+/// `value` with every largest per-fragment scalar part that is a function
+/// of two arguments tabulated.
+pub fn apply(r: &mut Rewriter, value: Handle<Expr>) -> Handle<Expr> {
+    let mut done = HashMap::new();
+    visit(r, value, &mut done)
+}
+
+fn visit(r: &mut Rewriter, h: Handle<Expr>, done: &mut HashMap<Handle<Expr>, Handle<Expr>>) -> Handle<Expr> {
+    if let Some(&to) = done.get(&h) {
+        return to;
+    }
+    let info = *r.m.info(h);
+    let to = if !info.freq.is_sample() || super::is_interpolant(&r.m, h) {
+        h
+    } else if let Some(t) = (info.ty == Ty::Scalar).then(|| tabulate(r, h)).flatten() {
+        t
+    } else {
+        let e = r.m.exprs[h].clone();
+        let ops: Vec<Handle<Expr>> = e.operands().into_iter().map(|o| visit(r, o, done)).collect();
+        let mut it = ops.into_iter();
+        let e = e.map_operands(|_| it.next().expect("one per operand"));
+        r.m.intern(e, r.m.span(h)).unwrap_or(h)
+    };
+    done.insert(h, to);
+    to
+}
+
+/// The two arguments `h` is a function of (dot products or interpolated
+/// scalars, reached through arithmetic on them and constants), when it is
+/// one of exactly two and needs what the combiners lack.
+fn arguments(m: &Module, h: Handle<Expr>) -> Option<[Handle<Expr>; 2]> {
+    let mut args: Vec<Handle<Expr>> = Vec::new();
+    let mut needs_table = false;
+    let mut stack = vec![h];
+    let mut seen = std::collections::HashSet::new();
+    while let Some(x) = stack.pop() {
+        if !seen.insert(x) {
+            continue;
+        }
+        let info = m.info(x);
+        match &m.exprs[x] {
+            Expr::Constant(_) => continue,
+            _ if !info.freq.is_sample() => return None, // a uniform: not the compiler's to bake
+            Expr::Binary { op: BinaryOp::Dot, .. } | Expr::Interpolate { .. } if info.ty == Ty::Scalar => {
+                if !args.contains(&x) {
+                    args.push(x);
+                }
+            }
+            Expr::Unary { .. } | Expr::Binary { .. } | Expr::Math { .. } if info.ty == Ty::Scalar => {
+                needs_table |=
+                    super::no_combiner_op(m, x) || info.interval.lo < -1.0 || info.interval.hi > 1.0;
+                stack.extend(m.exprs[x].operands());
+            }
+            _ => return None,
+        }
+    }
+    match args.as_slice() {
+        [a, b] if needs_table => Some([*a, *b]),
+        _ => None,
+    }
+}
+
+/// The table lookup standing for `h`, or `None`.
+fn tabulate(r: &mut Rewriter, h: Handle<Expr>) -> Option<Handle<Expr>> {
+    let [a, b] = arguments(&r.m, h)?;
+    let (a_v, b_v) = (per_vertex::at_vertex(&mut r.m, a)?, per_vertex::at_vertex(&mut r.m, b)?);
+    let range = |x: Handle<Expr>| {
+        let iv = r.m.info(x).interval;
+        (iv.lo.is_finite() && iv.hi.is_finite() && iv.hi > iv.lo).then_some((iv.lo, iv.hi))
+    };
+    let (ra, rb) = (range(a_v)?, range(b_v)?);
+    let function = Function::new(&r.m, h, [a, b]);
+    let f = |x: f64, y: f64| function.at(x, y);
+    let n = TEXELS as f64;
+    let at = |(lo, hi): (f64, f64), i: usize| lo + (hi - lo) * i as f64 / (n - 1.0);
+    let samples: Vec<f64> = (0..TEXELS * TEXELS).map(|k| f(at(ra, k % TEXELS), at(rb, k / TEXELS))).collect();
+    let (ylo, yhi) =
+        samples.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, hi), y| (l.min(*y), hi.max(*y)));
+    if !(ylo.is_finite() && yhi.is_finite()) {
+        return None;
+    }
+    let store = Storage::for_range(ylo, yhi);
+    let bound = table_error(&samples, store, ra, rb, &f);
+    let span = r.m.span(h);
+    let texel_value = texel_function(r, h, [a, b], [ra, rb], store, span)?;
+    let coords = coordinates(r, [a_v, b_v], [ra, rb], span)?;
+    let id = add_texture(r);
+    let index = r.node(Expr::TexelCoord, span)?;
+    let looked_up = r.node(Expr::Lookup { texture: id, coords }, span)?;
+    let decoded = store.decode(r, looked_up, span)?;
+    r.pending.push(Statement {
+        table: Table::Texture(id),
+        index,
+        freq: Frequency::Texel,
+        value: texel_value,
+        span,
+        target_span: span,
+    });
+    r.record(
+        "per_vertex",
+        span,
+        Some(decoded),
+        "the two arguments of the function tabulated here are computed per vertex and interpolated".into(),
+        ApproximationCost::default(),
+        None,
+    );
+    r.record(
+        "baked_table_2d",
+        span,
+        Some(decoded),
+        format!(
+            "a function of two per-fragment values is a {TEXELS}×{TEXELS} 8-bit table over [{:.3}, {:.3}]×[{:.3}, {:.3}] \
+             baked by the compiler, looked up at the interpolated arguments (seeds/002 Section 3)",
+            ra.0, ra.1, rb.0, rb.1
+        ),
+        ApproximationCost { texture_units: 1, passes: 0, general_combiners: 0, texels: (TEXELS * TEXELS) as u64 },
+        Some(bound),
+    );
+    Some(decoded)
+}
+
+/// `h` as a function of its two arguments: the nodes between them and
+/// `h`, in the arena's (topological) order.
+struct Function<'m> {
+    m: &'m Module,
+    nodes: Vec<Handle<Expr>>,
+    args: [Handle<Expr>; 2],
+    h: Handle<Expr>,
+}
+
+impl<'m> Function<'m> {
+    fn new(m: &'m Module, h: Handle<Expr>, args: [Handle<Expr>; 2]) -> Function<'m> {
+        // Only what depends on the arguments or is a constant is evaluated.
+        let mut above: std::collections::HashSet<Handle<Expr>> = args.into_iter().collect();
+        let mut nodes = Vec::new();
+        for node in m.reachable(&[h]) {
+            let e = &m.exprs[node];
+            if args.contains(&node) || matches!(e, Expr::Constant(_)) {
+                nodes.push(node);
+            } else if e.operands().iter().any(|o| above.contains(o)) {
+                above.insert(node);
+                nodes.push(node);
+            }
+        }
+        Function { m, nodes, args, h }
+    }
+
+    /// `h` at `a = x`, `b = y`.
+    fn at(&self, x: f64, y: f64) -> f64 {
+        let mut values: HashMap<Handle<Expr>, Value> = HashMap::with_capacity(self.nodes.len());
+        for &node in &self.nodes {
+            let e = &self.m.exprs[node];
+            let v = if node == self.args[0] {
+                [x; 4]
+            } else if node == self.args[1] {
+                [y; 4]
+            } else if let Expr::Constant(c) = e {
+                eval::value(c)
+            } else {
+                let ops: Vec<Value> =
+                    e.operands().iter().map(|o| values.get(o).copied().unwrap_or([f64::NAN; 4])).collect();
+                eval::apply(self.m, e, self.m.info(node).ty, &ops)
+            };
+            values.insert(node, v);
+        }
+        values.get(&self.h).map_or(f64::NAN, |v| v[0])
+    }
+}
+
+/// The largest |f − table| over a [`PROBES`]² grid of the domain, the table
+/// rounded to 8 bits and read back bilinearly between texel centres.
+fn table_error(
+    samples: &[f64],
+    store: Storage,
+    ra: (f64, f64),
+    rb: (f64, f64),
+    f: &dyn Fn(f64, f64) -> f64,
+) -> f64 {
+    let q: Vec<f64> = samples.iter().map(|y| (store.encode(*y) * 255.0).round() / 255.0).collect();
+    let last = (TEXELS - 1) as f64;
+    let mut worst: f64 = 0.0;
+    for j in 0..PROBES {
+        for i in 0..PROBES {
+            let (s, t) = (i as f64 / (PROBES - 1) as f64, j as f64 / (PROBES - 1) as f64);
+            let (px, py) = (s * last, t * last);
+            let (ix, iy) = ((px.floor() as usize).min(TEXELS - 2), (py.floor() as usize).min(TEXELS - 2));
+            let (wx, wy) = (px - ix as f64, py - iy as f64);
+            let texel = |x: usize, y: usize| q[y * TEXELS + x];
+            let top = texel(ix, iy) * (1.0 - wx) + texel(ix + 1, iy) * wx;
+            let bottom = texel(ix, iy + 1) * (1.0 - wx) + texel(ix + 1, iy + 1) * wx;
+            let table = store.decode_value(top * (1.0 - wy) + bottom * wy);
+            worst = worst.max((f(ra.0 + (ra.1 - ra.0) * s, rb.0 + (rb.1 - rb.0) * t) - table).abs());
+        }
+    }
+    worst
+}
+
+/// The texel statement's value: `h` rebuilt on the texel coordinate's
+/// arguments (texel centres at the domain's ends), encoded to [0, 1].
+fn texel_function(
+    r: &mut Rewriter,
+    h: Handle<Expr>,
+    args: [Handle<Expr>; 2],
+    ranges: [(f64, f64); 2],
+    store: Storage,
+    span: Span,
+) -> Option<Handle<Expr>> {
+    let n = TEXELS as f64;
+    let texel = r.node(Expr::TexelCoord, span)?;
+    let mut map: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::new();
+    for (k, (arg, (a, b))) in args.into_iter().zip(ranges).enumerate() {
+        let t = r.node(
+            Expr::Swizzle { value: texel, pattern: [k as u8, 0, 0, 0], len: 1, ty: Ty::Scalar },
+            span,
+        )?;
+        map.insert(arg, affine(r, t, (b - a) * n / (n - 1.0), a - (b - a) * 0.5 / (n - 1.0), span)?);
+    }
+    for node in r.m.reachable(&[h]) {
+        if map.contains_key(&node) {
+            continue;
+        }
+        let e = r.m.exprs[node].map_operands(|o| map.get(&o).copied().unwrap_or(o));
+        let rebuilt = r.node(e, span)?;
+        map.insert(node, rebuilt);
+    }
+    store.encoded(r, map[&h], span)
+}
+
+/// The table coordinates per vertex, each `(a − lo)/(hi − lo)·(N − 1)/N +
+/// ½/N`, interpolated together.
+fn coordinates(
+    r: &mut Rewriter,
+    args: [Handle<Expr>; 2],
+    ranges: [(f64, f64); 2],
+    span: Span,
+) -> Option<Handle<Expr>> {
+    let n = TEXELS as f64;
+    let mut c = Vec::with_capacity(2);
+    for (a_v, (lo, hi)) in args.into_iter().zip(ranges) {
+        let scale = (n - 1.0) / (n * (hi - lo));
+        c.push(affine(r, a_v, scale, 0.5 / n - lo * scale, span)?);
+    }
+    let pair = r.node(Expr::Compose { ty: Ty::Vec2, components: c }, span)?;
+    r.node(Expr::Interpolate { value: pair, to: Frequency::Fragment }, span)
+}
+
+/// `x·m + b` (scalar).
+fn affine(r: &mut Rewriter, x: Handle<Expr>, m: f64, b: f64, span: Span) -> Option<Handle<Expr>> {
+    let mc = r.node(Expr::Constant(Constant::scalar(m)), span)?;
+    let bc = r.node(Expr::Constant(Constant::scalar(b)), span)?;
+    let scaled = r.node(Expr::Binary { op: BinaryOp::Mul, lhs: x, rhs: mc }, span)?;
+    r.node(Expr::Binary { op: BinaryOp::Add, lhs: scaled, rhs: bc }, span)
+}
+
+/// A new 2-D table texture, baked by the compiler.
+fn add_texture(r: &mut Rewriter) -> u32 {
+    let k = r.m.textures.iter().filter(|t| t.name.starts_with("table2d_lowered")).count();
+    r.m.textures.push(Texture {
+        name: format!("table2d_lowered{k}"),
+        kind: TextureKind::Tex2d,
+        format: TextureFormat::R8,
+        rendered: true,
+        baked: true,
+        declaration: None,
+        copy_of: None,
+        sampling: crate::ir::Sampling::ADDED,
+        span: Span::DETACHED,
+    });
+    (r.m.textures.len() - 1) as u32
+}
