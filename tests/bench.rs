@@ -13,6 +13,7 @@ fn options() -> BenchOptions {
         only: None,
         thresholds: vec![0.085],
         backend: shadec::bench::Backend::Cpu,
+        max_error: None,
     }
 }
 
@@ -113,6 +114,29 @@ fn the_bench_on_wgpu_times_the_gpu_and_agrees_with_the_cpu() {
             g.error
         );
     }
+}
+
+/// `bench --max-error` (issue 18): the variants the compiler lowers take
+/// a lowering measured within E on their scene — a loose E keeps them, with
+/// the lowered plans' errors against the group's truth as before; an E
+/// below what any lowering reaches refuses them, and only them.
+#[test]
+fn bench_max_error_measures_the_lowered_variants_on_their_scene() {
+    let with = |e| BenchOptions { only: Some("phong_lowered".into()), max_error: Some(e), ..options() };
+    let (loose, refused) = shadec::bench::measure_all(&with(0.5), &mut |_, _, _| {}).unwrap();
+    assert_eq!(loose.len(), 2, "{refused:?}");
+    assert!(refused.is_empty());
+    let (tight, refused) = shadec::bench::measure_all(&with(1e-4), &mut |_, _, _| {}).unwrap();
+    assert!(tight.is_empty(), "{:?}", tight.iter().map(|m| m.variant.name).collect::<Vec<_>>());
+    assert_eq!(refused.len(), 2);
+    assert!(refused.iter().all(|r| r.contains("no lowering") && r.contains("--max-error")), "{refused:?}");
+    // Variants that plan as written are not lowered, whatever E.
+    let (written, refused) = shadec::bench::measure_all(
+        &BenchOptions { only: Some("phong_cube8".into()), max_error: Some(1e-4), ..options() },
+        &mut |_, _, _| {},
+    )
+    .unwrap();
+    assert!(!written.is_empty() && refused.is_empty());
 }
 
 #[test]

@@ -43,6 +43,10 @@ pub struct BenchOptions {
     pub thresholds: Vec<f32>,
     /// What renders the variants (`bench --backend`).
     pub backend: Backend,
+    /// `bench --max-error E` (issue 18): a variant whose program the
+    /// compiler lowers takes the fastest lowering within E measured on the
+    /// group's scene (`accuracy::choose`); `None`: the most accurate.
+    pub max_error: Option<f64>,
 }
 
 /// The executor `bench` times (issue 22).
@@ -85,6 +89,7 @@ impl BenchOptions {
             only: None,
             thresholds: vec![0.01, 0.02, 0.04, 0.085, 0.16],
             backend: Backend::Cpu,
+            max_error: None,
         }
     }
     /// A quick look (tests, CI): 128×128, one run, three thresholds.
@@ -95,6 +100,7 @@ impl BenchOptions {
             only: None,
             thresholds: vec![0.02, 0.085, 0.16],
             backend: Backend::Cpu,
+            max_error: None,
         }
     }
     pub(crate) fn wants(&self, name: &str) -> bool {
@@ -149,14 +155,39 @@ pub struct Prepared {
 impl Prepared {
     /// Parses, lowers and plans `source` for `target` on the scene's text.
     pub fn new(name: &str, source: &str, target: &str, scene_ron: &str) -> Result<Prepared, BenchError> {
+        Prepared::within(name, source, target, scene_ron, None)
+    }
+
+    /// [`Prepared::new`]; with `max_error`, a lowering is chosen by its
+    /// error measured on the scene (`accuracy::choose`).
+    pub fn within(
+        name: &str,
+        source: &str,
+        target: &str,
+        scene_ron: &str,
+        max_error: Option<f64>,
+    ) -> Result<Prepared, BenchError> {
         let scene = Scene::parse(scene_ron, Path::new("")).map_err(|e| failed(name, e))?;
         let assets = scene.build().map_err(|e| failed(name, e))?;
         let profile = crate::profile::Profile::resolve(target).map_err(|e| failed(name, e))?;
         let first_error =
             |d: &[crate::diag::Diagnostic]| d.first().map(|d| d.message.clone()).unwrap_or_default();
-        let compiled = crate::driver::compile(source, &profile, &Default::default())
-            .map_err(|d| failed(&format!("{name} on {target}"), first_error(&d)))?;
-        let crate::driver::Compilation { program, module, planned, .. } = compiled;
+        let refused =
+            |d: Vec<crate::diag::Diagnostic>| failed(&format!("{name} on {target}"), first_error(&d));
+        let front = crate::driver::front(source);
+        let (program, module) = match (front.has_errors(), front.module) {
+            (false, Some(module)) => (front.program, module),
+            _ => return Err(refused(front.diagnostics)),
+        };
+        let planned = match max_error {
+            None => crate::driver::plan(&module, &program, &profile, Some(source), &Default::default()),
+            Some(e) => {
+                let for_scene = crate::driver::ForScene::unspecialized(&scene, &assets);
+                let options = crate::driver::PlanOptions { scene: Some(for_scene), ..Default::default() };
+                crate::accuracy::choose(&module, &program, &profile, source, &options, e, 1).map(|(p, _)| p)
+            }
+        }
+        .map_err(refused)?;
         Ok(Prepared { planned, module, program, scene, assets })
     }
 
@@ -220,11 +251,20 @@ pub fn measure(
     options: &BenchOptions,
     progress: &mut dyn FnMut(usize, usize, &str),
 ) -> Result<Vec<Measured>, BenchError> {
+    measure_all(options, progress).map(|(measured, _)| measured)
+}
+
+/// [`measure`], and the variants `--max-error` refused, each with why.
+pub fn measure_all(
+    options: &BenchOptions,
+    progress: &mut dyn FnMut(usize, usize, &str),
+) -> Result<(Vec<Measured>, Vec<String>), BenchError> {
     let groups: Vec<Group> =
         groups().into_iter().filter(|g| g.variants.iter().any(|v| options.wants(v.name))).collect();
     let total = groups.iter().map(|g| g.variants.iter().filter(|v| options.wants(v.name)).count()).sum();
     let mut done = 0;
     let mut out = Vec::new();
+    let mut refused = Vec::new();
     let gpu = executor(options.backend)?;
     for group in &groups {
         let truth = Prepared::new(group.truth.name, group.truth.source, group.truth_target, group.scene.ron)?
@@ -242,7 +282,22 @@ pub fn measure(
                 variant.target,
                 variant.mode.name()
             );
-            let prepared = Prepared::new(&what, variant.program.source, variant.target, group.scene.ron)?;
+            let prepared = match Prepared::within(
+                &what,
+                variant.program.source,
+                variant.target,
+                group.scene.ron,
+                options.max_error,
+            ) {
+                Ok(p) => p,
+                Err(e) if options.max_error.is_some() => {
+                    refused.push(e.to_string());
+                    done += 1;
+                    progress(done, total, variant.name);
+                    continue;
+                }
+                Err(e) => return Err(e),
+            };
             let (image, time, clock, shading) = match &gpu {
                 None => {
                     let renderer = prepared.renderer()?;
@@ -282,7 +337,7 @@ pub fn measure(
             progress(done, total, variant.name);
         }
     }
-    Ok(out)
+    Ok((out, refused))
 }
 
 /// The adapter `bench --backend wgpu` runs on; `None` for the CPU.
@@ -309,12 +364,18 @@ pub fn run(
     out_dir: &Path,
     progress: &mut dyn FnMut(usize, usize, &str),
 ) -> Result<report::Report, BenchError> {
-    let measured = measure(options, progress)?;
+    let (measured, refused) = measure_all(options, progress)?;
     let adaptive = adaptive::measure(options, progress)?;
     let removed = removed_work()?;
     let hardware = report::Hardware { section_5_4: timing::section_5_4()?, kilgard: timing::kilgard()? };
-    let report =
-        report::Report { options: options.clone(), measured, adaptive, removed, hardware: Some(hardware) };
+    let report = report::Report {
+        options: options.clone(),
+        measured,
+        refused,
+        adaptive,
+        removed,
+        hardware: Some(hardware),
+    };
     report.write(out_dir)?;
     Ok(report)
 }

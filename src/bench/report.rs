@@ -14,6 +14,8 @@ pub const DIFF_SCALE: f32 = 8.0;
 pub struct Report {
     pub options: BenchOptions,
     pub measured: Vec<Measured>,
+    /// Variants `--max-error` refused: no lowering within the error.
+    pub refused: Vec<String>,
     pub adaptive: Vec<AdaptiveRow>,
     /// `removal_report`s in Markdown.
     pub removed: String,
@@ -85,6 +87,19 @@ impl Report {
             rayon::current_num_threads(),
             self.clocks()
         );
+        if let Some(e) = o.max_error {
+            let _ = writeln!(
+                md,
+                "With `--max-error {e}`: a variant the compiler lowers takes the lowering predicted fastest whose f32 \
+                 render is within {e} of its program's meaning on the group's scene (docs/lowering.md).\n"
+            );
+            for r in &self.refused {
+                let _ = writeln!(md, "- refused: {r}");
+            }
+            if !self.refused.is_empty() {
+                md.push('\n');
+            }
+        }
         let front = super::plot::group_fronts(&self.measured);
         let mut group = "";
         // What each fixed9 row ran, written under its group's table.

@@ -33,6 +33,12 @@ pub struct BenchArgs {
     /// timestamp queries where the adapter has them.
     #[arg(long, value_enum, default_value = "cpu")]
     pub backend: super::render::Backend,
+    /// A variant the compiler lowers takes the fastest lowering whose
+    /// render is within E of its program's meaning on the group's scene
+    /// (largest channel difference, in [0, 1]); one with none is refused
+    /// and listed.
+    #[arg(long, value_name = "E")]
+    pub max_error: Option<f64>,
 }
 
 pub fn run(args: &BenchArgs) -> ExitCode {
@@ -54,6 +60,12 @@ pub fn run(args: &BenchArgs) -> ExitCode {
         options.runs = n;
     }
     options.only = args.only.clone();
+    if let Some(e) = args.max_error {
+        if !(e.is_finite() && e >= 0.0) {
+            return usage(format!("--max-error {e}: expected a non-negative error such as 0.05"));
+        }
+        options.max_error = Some(e);
+    }
     options.backend = match args.backend {
         super::render::Backend::Cpu => shadec::bench::Backend::Cpu,
         super::render::Backend::Wgpu => shadec::bench::Backend::Wgpu,
@@ -87,6 +99,9 @@ pub fn run(args: &BenchArgs) -> ExitCode {
                     m.error.rmse,
                     m.error.max_abs * 255.0
                 );
+            }
+            for r in &report.refused {
+                println!("refused: {r}");
             }
             for r in &report.adaptive {
                 println!(
