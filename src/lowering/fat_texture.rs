@@ -17,8 +17,6 @@
 //! compiler can choose without the scene: the texture keeps the planner's
 //! refusal.
 
-use std::collections::HashMap;
-
 use super::Rewriter;
 use crate::ir::{Expr, Handle, MathFunction, Statement, Table, Texture, Ty};
 use crate::parser::ast::TextureFormat;
@@ -140,25 +138,15 @@ fn stored(r: &mut Rewriter, m: Handle<Expr>, signed: bool, span: crate::span::Sp
 
 /// Every member read, `member i of T c`, becomes `T#i c` (expanded).
 fn rewrite_reads(r: &mut Rewriter, t: u32, split: &[Option<u32>], signed: &[bool]) {
-    let roots: Vec<Handle<Expr>> = r.m.statements.iter().map(|st| st.value).collect();
-    let mut map: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::new();
-    for h in r.m.reachable(&roots) {
-        let e = r.m.exprs[h].map_operands(|o| map.get(&o).copied().unwrap_or(o));
-        let span = r.m.span(h);
-        let out = match e {
-            Expr::FatMember { texel, member } => match r.m.exprs[texel] {
-                Expr::Lookup { texture, coords } if texture == t => {
-                    split[member as usize].and_then(|to| read(r, to, coords, signed[member as usize], span))
-                }
-                _ => r.node(Expr::FatMember { texel, member }, span),
-            },
-            e => r.node(e, span),
-        };
-        map.insert(h, out.unwrap_or(h));
-    }
-    for st in &mut r.m.statements {
-        st.value = map.get(&st.value).copied().unwrap_or(st.value);
-    }
+    r.rebuild_statements(|r, e, span| match *e {
+        Expr::FatMember { texel, member } => match r.m.exprs[texel] {
+            Expr::Lookup { texture, coords } if texture == t => {
+                split[member as usize].and_then(|to| read(r, to, coords, signed[member as usize], span))
+            }
+            _ => None,
+        },
+        _ => None,
+    });
 }
 
 /// `expand(rgb(T#i c)) · alpha(T#i c)` (or the rgb without `expand`),

@@ -9,10 +9,8 @@
 //! planner's refusal: the compiler cannot choose their 8-bit form without
 //! the scene.
 
-use std::collections::HashMap;
-
 use super::Rewriter;
-use crate::ir::{Expr, Handle, Table, Texture};
+use crate::ir::{Expr, Table, Texture};
 use crate::parser::ast::TextureFormat;
 use crate::pipeline::ApproximationCost;
 
@@ -61,32 +59,22 @@ fn restore(r: &mut Rewriter, t: u32) -> u32 {
 /// Writes of `t` go to `to`; its lookups read `to`, each recorded.
 fn retarget(r: &mut Rewriter, t: u32, to: u32) {
     let name = r.m.textures[t as usize].name.clone();
-    let roots: Vec<Handle<Expr>> = r.m.statements.iter().map(|st| st.value).collect();
-    let mut map: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::new();
-    for h in r.m.reachable(&roots) {
-        let e = r.m.exprs[h].map_operands(|o| map.get(&o).copied().unwrap_or(o));
-        let span = r.m.span(h);
-        let out = match e {
-            Expr::Lookup { texture, coords } if texture == t => {
-                let looked_up = r.node(Expr::Lookup { texture: to, coords }, span);
-                if let Some(l) = looked_up {
-                    r.record(
-                        "float_texture_8bit",
-                        span,
-                        Some(l),
-                        format!("the target has no float textures: `{name}`, written only with values in [0, 1], is stored in rgba8"),
-                        ApproximationCost::default(),
-                        Some(ERROR_BOUND),
-                    );
-                }
-                looked_up
-            }
-            e => r.node(e, span),
-        };
-        map.insert(h, out.unwrap_or(h));
-    }
+    r.rebuild_statements(|r, e, span| match *e {
+        Expr::Lookup { texture, coords } if texture == t => {
+            let looked_up = r.node(Expr::Lookup { texture: to, coords }, span)?;
+            r.record(
+                "float_texture_8bit",
+                span,
+                Some(looked_up),
+                format!("the target has no float textures: `{name}`, written only with values in [0, 1], is stored in rgba8"),
+                ApproximationCost::default(),
+                Some(ERROR_BOUND),
+            );
+            Some(looked_up)
+        }
+        _ => None,
+    });
     for st in &mut r.m.statements {
-        st.value = map.get(&st.value).copied().unwrap_or(st.value);
         if st.table == Table::Texture(t) {
             st.table = Table::Texture(to);
         }

@@ -312,6 +312,27 @@ impl Rewriter<'_> {
         matches!(self.profile.fragment, crate::profile::FragmentStage::Combiners(_))
     }
 
+    /// Every statement's value and index rebuilt bottom-up: `replace` gets
+    /// each node with its operands already rebuilt and returns what stands
+    /// for it, or `None` for the node itself.
+    pub fn rebuild_statements(
+        &mut self,
+        mut replace: impl FnMut(&mut Self, &Expr, Span) -> Option<Handle<Expr>>,
+    ) {
+        let roots: Vec<Handle<Expr>> = self.m.statements.iter().flat_map(|st| [st.value, st.index]).collect();
+        let mut map: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::new();
+        for h in self.m.reachable(&roots) {
+            let e = self.m.exprs[h].map_operands(|o| map.get(&o).copied().unwrap_or(o));
+            let span = self.m.span(h);
+            let out = replace(self, &e, span).or_else(|| self.node(e, span)).unwrap_or(h);
+            map.insert(h, out);
+        }
+        for st in &mut self.m.statements {
+            st.value = map.get(&st.value).copied().unwrap_or(st.value);
+            st.index = map.get(&st.index).copied().unwrap_or(st.index);
+        }
+    }
+
     /// A node built by a rule (`None` when it would be ill-typed).
     pub fn node(&mut self, e: Expr, span: Span) -> Option<Handle<Expr>> {
         self.m.intern(e, span).ok()

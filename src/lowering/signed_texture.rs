@@ -43,24 +43,13 @@ pub fn apply(r: &mut Rewriter) {
     if moved.is_empty() {
         return;
     }
-    let mut map: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::new();
-    let roots: Vec<Handle<Expr>> = r.m.statements.iter().map(|st| st.value).collect();
-    for h in r.m.reachable(&roots) {
-        let e = r.m.exprs[h].map_operands(|o| map.get(&o).copied().unwrap_or(o));
-        let span = r.m.span(h);
-        let out = match e {
-            Expr::Lookup { texture, coords } if moved.contains_key(&texture) => {
-                let name = r.m.textures[texture as usize].name.clone();
-                expanded(r, moved[&texture], coords, span, &name)
-            }
-            e => r.node(e, span),
-        };
-        map.insert(h, out.unwrap_or(h));
-    }
-    for st in &mut r.m.statements {
-        st.value = map.get(&st.value).copied().unwrap_or(st.value);
-        st.index = map.get(&st.index).copied().unwrap_or(st.index);
-    }
+    r.rebuild_statements(|r, e, span| match *e {
+        Expr::Lookup { texture, coords } if moved.contains_key(&texture) => {
+            let name = r.m.textures[texture as usize].name.clone();
+            expanded(r, moved[&texture], coords, span, &name)
+        }
+        _ => None,
+    });
 }
 
 /// The RGB8 copy of signed texture `t`, added to the module.

@@ -56,7 +56,7 @@ pub fn apply(r: &mut Rewriter, h: Handle<Expr>, written: Handle<Expr>, span: Spa
     let bound = table_error(&samples, store, domain, &f);
     let texel_value = texel_function(r, &ops, b, domain, store, span)?;
     let coords = coordinates(r, a_v, lo, hi, span)?;
-    let decoded = baked_lookup(r, texel_value, coords, store, span)?;
+    let decoded = baked_lookup(r, TextureKind::Tex1d, texel_value, coords, store, span)?;
     if hoisted {
         r.record(
             "per_vertex",
@@ -108,7 +108,7 @@ fn dependent(r: &mut Rewriter, ops: &[Expr], b: Handle<Expr>, span: Span) -> Opt
     let (samples, store) = tabulate(&f, Domain::Direct)?;
     let bound = table_error(&samples, store, Domain::Direct, &f);
     let texel_value = texel_function(r, ops, b, Domain::Direct, store, span)?;
-    let decoded = baked_lookup(r, texel_value, b, store, span)?;
+    let decoded = baked_lookup(r, TextureKind::Tex1d, texel_value, b, store, span)?;
     r.record(
         "dependent_table",
         span,
@@ -146,8 +146,9 @@ fn tabulate(f: &dyn Fn(f64) -> f64, domain: Domain) -> Option<(Vec<f64>, Storage
 
 /// A new table texture whose texels `texel_value` computes (the compiler
 /// bakes it), looked up at `coords` and decoded.
-fn baked_lookup(
+pub(super) fn baked_lookup(
     r: &mut Rewriter,
+    kind: TextureKind,
     texel_value: Handle<Expr>,
     coords: Handle<Expr>,
     store: Storage,
@@ -155,7 +156,7 @@ fn baked_lookup(
 ) -> Option<Handle<Expr>> {
     let index = r.node(Expr::TexelCoord, span)?;
     // The table is added once its statement and coordinates exist.
-    let id = add_texture(r);
+    let id = add_texture(r, kind);
     let looked_up = r.node(Expr::Lookup { texture: id, coords }, span)?;
     let decoded = store.decode(r, looked_up, span)?;
     r.pending.push(Statement {
@@ -321,12 +322,13 @@ impl Domain {
     }
 }
 
-/// A new 1-D table texture, baked by the compiler.
-fn add_texture(r: &mut Rewriter) -> u32 {
-    let k = r.m.textures.iter().filter(|t| t.name.starts_with("table_lowered")).count();
+/// A new 1-D or 2-D table texture, baked by the compiler.
+fn add_texture(r: &mut Rewriter, kind: TextureKind) -> u32 {
+    let prefix = if kind == TextureKind::Tex1d { "table_lowered" } else { "table2d_lowered" };
+    let k = r.m.textures.iter().filter(|t| t.name.starts_with(prefix)).count();
     r.m.textures.push(Texture {
-        name: format!("table_lowered{k}"),
-        kind: TextureKind::Tex1d,
+        name: format!("{prefix}{k}"),
+        kind,
         format: TextureFormat::R8,
         rendered: true,
         baked: true,
@@ -375,7 +377,7 @@ fn coordinates(r: &mut Rewriter, a_v: Handle<Expr>, lo: f64, hi: f64, span: Span
 }
 
 /// `x·m + b` (scalar).
-fn affine(r: &mut Rewriter, x: Handle<Expr>, m: f64, b: f64, span: Span) -> Option<Handle<Expr>> {
+pub(super) fn affine(r: &mut Rewriter, x: Handle<Expr>, m: f64, b: f64, span: Span) -> Option<Handle<Expr>> {
     let mc = r.node(Expr::Constant(Constant::scalar(m)), span)?;
     let bc = r.node(Expr::Constant(Constant::scalar(b)), span)?;
     let scaled = r.node(Expr::Binary { op: BinaryOp::Mul, lhs: x, rhs: mc }, span)?;

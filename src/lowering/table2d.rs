@@ -17,11 +17,11 @@
 
 use std::collections::HashMap;
 
-use super::table::Storage;
+use super::table::{affine, baked_lookup, Storage};
 use super::{per_vertex, Rewriter};
 use crate::ir::eval::{self, Value};
-use crate::ir::{BinaryOp, Constant, Expr, Frequency, Handle, Module, Statement, Table, Texture, Ty};
-use crate::parser::ast::{TextureFormat, TextureKind};
+use crate::ir::{BinaryOp, Expr, Frequency, Handle, Module, Ty};
+use crate::parser::ast::TextureKind;
 use crate::pipeline::ApproximationCost;
 use crate::span::Span;
 
@@ -117,18 +117,7 @@ fn tabulate(r: &mut Rewriter, h: Handle<Expr>) -> Option<Handle<Expr>> {
     let span = r.m.span(h);
     let texel_value = texel_function(r, h, [a, b], [ra, rb], store, span)?;
     let coords = coordinates(r, [a_v, b_v], [ra, rb], span)?;
-    let id = add_texture(r);
-    let index = r.node(Expr::TexelCoord, span)?;
-    let looked_up = r.node(Expr::Lookup { texture: id, coords }, span)?;
-    let decoded = store.decode(r, looked_up, span)?;
-    r.pending.push(Statement {
-        table: Table::Texture(id),
-        index,
-        freq: Frequency::Texel,
-        value: texel_value,
-        span,
-        target_span: span,
-    });
+    let decoded = baked_lookup(r, TextureKind::Tex2d, texel_value, coords, store, span)?;
     r.record(
         "per_vertex",
         span,
@@ -275,29 +264,4 @@ fn coordinates(
     }
     let pair = r.node(Expr::Compose { ty: Ty::Vec2, components: c }, span)?;
     r.node(Expr::Interpolate { value: pair, to: Frequency::Fragment }, span)
-}
-
-/// `x·m + b` (scalar).
-fn affine(r: &mut Rewriter, x: Handle<Expr>, m: f64, b: f64, span: Span) -> Option<Handle<Expr>> {
-    let mc = r.node(Expr::Constant(Constant::scalar(m)), span)?;
-    let bc = r.node(Expr::Constant(Constant::scalar(b)), span)?;
-    let scaled = r.node(Expr::Binary { op: BinaryOp::Mul, lhs: x, rhs: mc }, span)?;
-    r.node(Expr::Binary { op: BinaryOp::Add, lhs: scaled, rhs: bc }, span)
-}
-
-/// A new 2-D table texture, baked by the compiler.
-fn add_texture(r: &mut Rewriter) -> u32 {
-    let k = r.m.textures.iter().filter(|t| t.name.starts_with("table2d_lowered")).count();
-    r.m.textures.push(Texture {
-        name: format!("table2d_lowered{k}"),
-        kind: TextureKind::Tex2d,
-        format: TextureFormat::R8,
-        rendered: true,
-        baked: true,
-        declaration: None,
-        copy_of: None,
-        sampling: crate::ir::Sampling::ADDED,
-        span: Span::DETACHED,
-    });
-    (r.m.textures.len() - 1) as u32
 }
