@@ -169,6 +169,10 @@ pub fn lower(module: &Module, profile: &Profile, choice: Choice, at: &dyn Fn(Spa
     r.finish()
 }
 
+/// A top-down rule: what stands for a node, or `None` to try its operands
+/// ([`Rewriter::top_down`]).
+pub type Replace<'a> = dyn FnMut(&mut Rewriter<'a>, Handle<Expr>) -> Option<Handle<Expr>>;
+
 /// The state the rules share.
 pub struct Rewriter<'a> {
     pub m: Module,
@@ -182,7 +186,7 @@ pub struct Rewriter<'a> {
     results: Vec<Option<Handle<Expr>>>,
 }
 
-impl Rewriter<'_> {
+impl<'a> Rewriter<'a> {
     /// `value` with every per-sample node the target cannot compute
     /// rewritten; its operands first (arena order is topological).
     fn rewrite(&mut self, value: Handle<Expr>) -> Handle<Expr> {
@@ -331,6 +335,37 @@ impl Rewriter<'_> {
             st.value = map.get(&st.value).copied().unwrap_or(st.value);
             st.index = map.get(&st.index).copied().unwrap_or(st.index);
         }
+    }
+
+    /// `value` with each largest per-sample part (not an interpolant) that
+    /// `replace` rewrites replaced, top-down: where it declines, the node's
+    /// operands are tried.
+    pub fn top_down(&mut self, value: Handle<Expr>, replace: &mut Replace<'a>) -> Handle<Expr> {
+        fn visit<'a>(
+            r: &mut Rewriter<'a>,
+            h: Handle<Expr>,
+            replace: &mut Replace<'a>,
+            done: &mut HashMap<Handle<Expr>, Handle<Expr>>,
+        ) -> Handle<Expr> {
+            if let Some(&to) = done.get(&h) {
+                return to;
+            }
+            let to = if !r.m.info(h).freq.is_sample() || is_interpolant(&r.m, h) {
+                h
+            } else if let Some(v) = replace(r, h) {
+                v
+            } else {
+                let e = r.m.exprs[h].clone();
+                let ops: Vec<Handle<Expr>> =
+                    e.operands().into_iter().map(|o| visit(r, o, replace, done)).collect();
+                let mut it = ops.into_iter();
+                let e = e.map_operands(|_| it.next().expect("one per operand"));
+                r.m.intern(e, r.m.span(h)).unwrap_or(h)
+            };
+            done.insert(h, to);
+            to
+        }
+        visit(self, value, replace, &mut HashMap::new())
     }
 
     /// A node built by a rule (`None` when it would be ill-typed).

@@ -9,8 +9,6 @@
 //! or a table is indexed by an interpolated value (texgen), which is what
 //! a GeForce 256 can do without texture shaders.
 
-use std::collections::HashMap;
-
 use super::Rewriter;
 use crate::ir::{Expr, Handle, MathFunction, Module};
 use crate::pipeline::ApproximationCost;
@@ -85,29 +83,5 @@ pub fn apply(r: &mut Rewriter, x: Handle<Expr>, what: &str, span: Span) -> Optio
 /// framebuffer reads and the pixel stay per fragment, and so do the parts
 /// of their coordinates that are interpolated values already.
 pub fn gouraud(r: &mut Rewriter, value: Handle<Expr>) -> Handle<Expr> {
-    let mut done = HashMap::new();
-    gouraud_at(r, value, &mut done)
-}
-
-fn gouraud_at(
-    r: &mut Rewriter,
-    h: Handle<Expr>,
-    done: &mut HashMap<Handle<Expr>, Handle<Expr>>,
-) -> Handle<Expr> {
-    if let Some(&to) = done.get(&h) {
-        return to;
-    }
-    let to = if !r.m.info(h).freq.is_sample() || super::is_interpolant(&r.m, h) {
-        h
-    } else if let Some(v) = apply(r, h, "this part of the statement", r.m.span(h)) {
-        v
-    } else {
-        let e = r.m.exprs[h].clone();
-        let ops: Vec<Handle<Expr>> = e.operands().into_iter().map(|o| gouraud_at(r, o, done)).collect();
-        let mut it = ops.into_iter();
-        let e = e.map_operands(|_| it.next().expect("one per operand"));
-        r.m.intern(e, r.m.span(h)).unwrap_or(h)
-    };
-    done.insert(h, to);
-    to
+    r.top_down(value, &mut |r, h| apply(r, h, "this part of the statement", r.m.span(h)))
 }

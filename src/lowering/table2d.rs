@@ -34,28 +34,7 @@ pub const PROBES: usize = 160;
 /// `value` with every largest per-fragment scalar part that is a function
 /// of two arguments tabulated.
 pub fn apply(r: &mut Rewriter, value: Handle<Expr>) -> Handle<Expr> {
-    let mut done = HashMap::new();
-    visit(r, value, &mut done)
-}
-
-fn visit(r: &mut Rewriter, h: Handle<Expr>, done: &mut HashMap<Handle<Expr>, Handle<Expr>>) -> Handle<Expr> {
-    if let Some(&to) = done.get(&h) {
-        return to;
-    }
-    let info = *r.m.info(h);
-    let to = if !info.freq.is_sample() || super::is_interpolant(&r.m, h) {
-        h
-    } else if let Some(t) = (info.ty == Ty::Scalar).then(|| tabulate(r, h)).flatten() {
-        t
-    } else {
-        let e = r.m.exprs[h].clone();
-        let ops: Vec<Handle<Expr>> = e.operands().into_iter().map(|o| visit(r, o, done)).collect();
-        let mut it = ops.into_iter();
-        let e = e.map_operands(|_| it.next().expect("one per operand"));
-        r.m.intern(e, r.m.span(h)).unwrap_or(h)
-    };
-    done.insert(h, to);
-    to
+    r.top_down(value, &mut |r, h| if r.m.info(h).ty == Ty::Scalar { tabulate(r, h) } else { None })
 }
 
 /// The two arguments `h` is a function of (dot products or interpolated
