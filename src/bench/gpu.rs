@@ -4,9 +4,9 @@
 //! warm-up frame and the timed ones. The time is the GPU's, from timestamp
 //! queries, where the adapter has them; else submit-to-read-back wall time.
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-use super::{failed, median, BenchError, Clock, Prepared};
+use super::{failed, BenchError, Clock, Prepared};
 use crate::gpu::runner::{Frame, Gpu, Target};
 use crate::gpu::scene_run::ScenePlan;
 use crate::numerics::Precision;
@@ -34,18 +34,9 @@ pub fn timed(
     let target = Target::new(size.0, size.1);
     let passes = plan.passes_in(&target).map_err(|e| failed(what, e))?;
     let frame = Frame::prepare(gpu, &target, &passes).map_err(|e| failed(what, e))?;
-    let mut image = frame.draw(gpu).map_err(|e| failed(what, e))?;
-    let mut times = Vec::with_capacity(runs);
-    let mut clock = Clock::GpuTimestamps;
-    for _ in 0..runs.max(1) {
-        let start = Instant::now();
-        let (drawn, gpu_time) = frame.draw_timed(gpu).map_err(|e| failed(what, e))?;
-        image = drawn;
-        times.push(gpu_time.unwrap_or_else(|| {
-            clock = Clock::WgpuWall;
-            start.elapsed()
-        }));
-    }
-    let framebuffer = Framebuffer::from_rgba8(size.0, size.1, image.as_raw()).map_err(|e| failed(what, e))?;
-    Ok((framebuffer, median(&mut times), clock))
+    let timed = frame.draw_median(gpu, runs).map_err(|e| failed(what, e))?;
+    let clock = if timed.gpu.is_some() { Clock::GpuTimestamps } else { Clock::WgpuWall };
+    let framebuffer =
+        Framebuffer::from_rgba8(size.0, size.1, timed.image.as_raw()).map_err(|e| failed(what, e))?;
+    Ok((framebuffer, timed.time(), clock))
 }

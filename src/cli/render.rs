@@ -435,8 +435,8 @@ fn render_on_wgpu(
             timed_on_wgpu(&gpu, &target, &passes).map_err(|e| gpu_failed(e.into()))?
         }
     };
-    let image =
-        shadec::renderer::Framebuffer::from_rgba8(size.0, size.1, frame.image.as_raw()).map_err(input)?;
+    let image = shadec::renderer::Framebuffer::from_rgba8(size.0, size.1, frame.timed.image.as_raw())
+        .map_err(input)?;
     let lights = if args.no_specialize { 1 } else { scene.lights.len() };
     let reference = meaning_frame(compiled, file, (scene, assets), lights, size)?;
     save_opaque_png(&image, &args.out).map_err(usage)?;
@@ -450,8 +450,8 @@ fn render_on_wgpu(
         predicted(&planned.plan)
     );
     if let Some(settings) = adaptive {
-        let full_image =
-            shadec::renderer::Framebuffer::from_rgba8(size.0, size.1, full.image.as_raw()).map_err(input)?;
+        let full_image = shadec::renderer::Framebuffer::from_rgba8(size.0, size.1, full.timed.image.as_raw())
+            .map_err(input)?;
         println!(
             "adaptive (threshold {:.1} %, spacing {}): a sparse pass and an interpolating full pass per pass; {:.2}× the speed of full shading ({})",
             100.0 * settings.threshold,
@@ -466,33 +466,29 @@ fn render_on_wgpu(
     Ok(())
 }
 
-/// One frame on wgpu: its picture and how long it took.
+/// One frame on wgpu, timed, and how long its objects took to make.
 #[cfg(feature = "gpu")]
 #[derive(Clone)]
 struct GpuFrame {
-    image: image::RgbaImage,
-    gpu: Option<std::time::Duration>,
-    wall: std::time::Duration,
+    timed: shadec::gpu::runner::TimedFrame,
     made: std::time::Duration,
 }
 
 #[cfg(feature = "gpu")]
 impl GpuFrame {
-    /// GPU time where the adapter has timestamp queries, else wall time.
     fn time(&self) -> std::time::Duration {
-        self.gpu.unwrap_or(self.wall)
+        self.timed.time()
     }
     fn timing(&self) -> String {
-        match self.gpu {
+        let wall = self.timed.wall.as_secs_f64() * 1e3;
+        match self.timed.gpu {
             Some(t) => format!(
-                "{:.2} ms GPU time (timestamp queries; {:.1} ms submit to read-back)",
-                t.as_secs_f64() * 1e3,
-                self.wall.as_secs_f64() * 1e3
+                "{:.2} ms GPU time (timestamp queries; {wall:.1} ms submit to read-back)",
+                t.as_secs_f64() * 1e3
             ),
-            None => format!(
-                "{:.1} ms submit to read-back wall time (the adapter has no timestamp queries)",
-                self.wall.as_secs_f64() * 1e3
-            ),
+            None => {
+                format!("{wall:.1} ms submit to read-back wall time (the adapter has no timestamp queries)")
+            }
         }
     }
 }
@@ -508,17 +504,7 @@ fn timed_on_wgpu(
     let made = Instant::now();
     let frame = shadec::gpu::runner::Frame::prepare(gpu, target, passes)?;
     let made = made.elapsed();
-    let mut image = frame.draw(gpu)?;
-    let mut runs = Vec::new();
-    for _ in 0..5 {
-        let start = Instant::now();
-        let (drawn, gpu_time) = frame.draw_timed(gpu)?;
-        runs.push((gpu_time, start.elapsed()));
-        image = drawn;
-    }
-    runs.sort_by_key(|&(g, w)| g.unwrap_or(w));
-    let (gpu_time, wall) = runs[runs.len() / 2];
-    Ok(GpuFrame { image, gpu: gpu_time, wall, made })
+    Ok(GpuFrame { timed: frame.draw_median(gpu, 5)?, made })
 }
 
 #[cfg(not(feature = "gpu"))]

@@ -426,6 +426,23 @@ pub struct Frame<'a> {
     recorded: std::cell::Cell<usize>,
 }
 
+/// A frame [`Frame::draw_median`] timed.
+#[derive(Clone, Debug)]
+pub struct TimedFrame {
+    pub image: RgbaImage,
+    /// From timestamp queries; `None` where the device has none.
+    pub gpu: Option<std::time::Duration>,
+    /// Submit to read-back.
+    pub wall: std::time::Duration,
+}
+
+impl TimedFrame {
+    /// GPU time where there is one, else wall time.
+    pub fn time(&self) -> std::time::Duration {
+        self.gpu.unwrap_or(self.wall)
+    }
+}
+
 /// Runs `f` inside wgpu error scopes and turns what they caught into an
 /// error. wgpu panics on scopes popped out of order, so `f` returns no early
 /// error of its own between the push and the pops.
@@ -632,6 +649,23 @@ impl<'a> Frame<'a> {
         let image = self.draw(gpu)?;
         let time = self.timer.as_ref().and_then(|t| t.elapsed(&gpu.device, &gpu.queue, self.recorded.get()));
         Ok((image, time))
+    }
+
+    /// A warm-up frame, then `runs` timed ones: the last picture and the
+    /// median frame's times, ordered by GPU time where the device has
+    /// timestamp queries, else by submit-to-read-back wall time.
+    pub fn draw_median(&self, gpu: &Gpu, runs: usize) -> Result<TimedFrame, GpuError> {
+        let mut image = self.draw(gpu)?;
+        let mut times = Vec::with_capacity(runs.max(1));
+        for _ in 0..runs.max(1) {
+            let start = std::time::Instant::now();
+            let (drawn, gpu_time) = self.draw_timed(gpu)?;
+            times.push((gpu_time, start.elapsed()));
+            image = drawn;
+        }
+        times.sort_by_key(|&(g, w)| g.unwrap_or(w));
+        let (gpu_time, wall) = times[times.len() / 2];
+        Ok(TimedFrame { image, gpu: gpu_time, wall })
     }
 
     /// Whether [`Frame::draw_timed`] measures GPU time.
