@@ -62,21 +62,24 @@ fn computes_per_fragment(m: &Module, fun: MathFunction) -> bool {
         .any(|h| m.info(h).freq.is_sample() && matches!(&m.exprs[h], Expr::Math { fun: f, .. } if *f == fun))
 }
 
+/// The f32 render of `planned` (a plan of `source`) on `scene`.
+fn f32_render(planned: &Planned, source: &str, scene: &Scene) -> shadec::renderer::Framebuffer {
+    let (program, _) = shadec::parser::check(source);
+    let assets = scene.build().unwrap();
+    PlanRenderer::new(planned, &program, scene, &assets)
+        .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
+        .unwrap()
+        .image
+}
+
 /// The largest difference between the f32 render of `planned` and the f32
 /// render of the program's meaning (the reference shares nothing with the
 /// lowering: it evaluates `normalize`, `sqrt`, … themselves).
 fn error_against_meaning(source: &str, planned: &Planned, scene: &Scene) -> f64 {
     let (program, _) = shadec::parser::check(source);
     let (written, _) = shadec::ir::lower(&program);
-    let assets = scene.build().unwrap();
     let meaning = shadec::meaning::plan(&written, scene.lights.len()).unwrap();
-    let reference = PlanRenderer::new(&meaning, &program, scene, &assets)
-        .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
-        .unwrap();
-    let frame = PlanRenderer::new(planned, &program, scene, &assets)
-        .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
-        .unwrap();
-    compare(&reference.image, &frame.image).max_abs as f64
+    compare(&f32_render(&meaning, source, scene), &f32_render(planned, source, scene)).max_abs as f64
 }
 
 const NORMALIZED: &str = "vector N : normal;\nC δπx ← rgb(compress(normalize(δ N s x)));\n";
@@ -331,20 +334,13 @@ fn a_fat_texture_becomes_one_compressed_texture_per_member_read() {
     let members: Vec<_> = m.textures.iter().filter(|t| t.name.starts_with("T_member")).collect();
     assert_eq!(members.len(), 3);
     assert!(members.iter().all(|t| t.format == shadec::parser::ast::TextureFormat::Rgba8));
-    let (program, _) = shadec::parser::check(&source);
     let wgsl = compile(&source, &Profile::builtin("wgsl").unwrap()).unwrap();
     assert!(wgsl.plan.approximations.is_empty());
     let scene = scene();
-    let assets = scene.build().unwrap();
-    let render = |p: &Planned| {
-        PlanRenderer::new(p, &program, &scene, &assets)
-            .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
-            .unwrap()
-    };
-    let reference = render(&wgsl).image;
+    let reference = f32_render(&wgsl, &source, &scene);
     let lit = (0..W * H).filter(|i| reference.color(i % W, i / W).is_some_and(|c| c[0] > 0.2)).count();
     assert!(lit > (W * H / 10) as usize, "the object is shaded: {lit} lit pixels");
-    let e = compare(&reference, &render(&planned).image);
+    let e = compare(&reference, &f32_render(&planned, &source, &scene));
     eprintln!("fat texture split against the float fat texture: {e:?}");
     // Each term reads two members (≤ 1/255 each) into a dot product of
     // unit vectors; x^24 amplifies the specular term's error near 1.
@@ -362,7 +358,6 @@ fn a_fat_texture_becomes_one_compressed_texture_per_member_read() {
 #[test]
 fn a_function_of_a_texel_dot_product_becomes_a_dependent_table_on_geforce3() {
     let scene = scene();
-    let assets = scene.build().unwrap();
     for f in ["sqrt(max(0, @))", "max(0, @) ^ 0.7", "exp(-2 * max(0, @))"] {
         let source = format!(
             "vector L : light(0) in tangent;\ntexture Tn : 2d rgba8 bilinear repeat = normal_map(height(\"bumps.png\"), 4);\nlet N = expand((Tn δu x).rgb);\nC δπx ← rgb({});\n",
@@ -374,14 +369,7 @@ fn a_function_of_a_texel_dot_product_becomes_a_dependent_table_on_geforce3() {
         assert!(a.iter().any(|a| a.rule == "dependent_table"), "{f}: {a:?}");
         assert!(planned.plan.passes.iter().all(|p| p.combiners.is_none()), "{f}: every pass generated");
         let wgsl = compile(&source, &Profile::builtin("wgsl").unwrap()).unwrap();
-        let (program, _) = shadec::parser::check(&source);
-        let render = |p: &Planned| {
-            PlanRenderer::new(p, &program, &scene, &assets)
-                .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
-                .unwrap()
-                .image
-        };
-        let e = compare(&render(&wgsl), &render(&planned));
+        let e = compare(&f32_render(&wgsl, &source, &scene), &f32_render(&planned, &source, &scene));
         let bound: f64 = a.iter().map(|a| a.error_bound.unwrap()).sum::<f64>() + 2.0 * FRAMEBUFFER;
         assert!((e.max_abs as f64) <= bound, "{f}: measured {e:?} > stated {bound}");
         let err = compile(&source, &Profile::builtin("geforce256").unwrap()).unwrap_err();
@@ -419,22 +407,14 @@ fn the_shadow_mask_is_refused_only_for_its_depth_comparison() {
 fn a_float_texture_of_colours_is_stored_in_rgba8() {
     let source = "vector N : normal in object;\nvector L : light(0) in object;\nconst kd : rgb = (0.7, 0.5, 0.3);\ntexture T : 2d rgba16f bilinear clamp;\nshader p : s → c = kd * max(0, N·L);\nT δu ← p s δu;\nC δπx ← T δu x;\n";
     let scene = scene();
-    let assets = scene.build().unwrap();
-    let (program, _) = shadec::parser::check(source);
-    let render = |p: &Planned| {
-        PlanRenderer::new(p, &program, &scene, &assets)
-            .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
-            .unwrap()
-            .image
-    };
-    let wgsl = render(&compile(source, &Profile::builtin("wgsl").unwrap()).unwrap());
+    let wgsl = f32_render(&compile(source, &Profile::builtin("wgsl").unwrap()).unwrap(), source, &scene);
     for target in ["geforce256", "geforce3"] {
         let planned = compile(source, &Profile::builtin(target).unwrap()).expect("lowered and planned");
         let a = &planned.plan.approximations;
         assert!(a.iter().any(|a| a.rule == "float_texture_8bit"), "{target}: {a:?}");
         assert!(planned.module.textures.iter().any(|t| t.name == "T_rgba8"), "{target}");
         let bound: f64 = a.iter().map(|a| a.error_bound.unwrap()).sum::<f64>() + 2.0 * FRAMEBUFFER;
-        let e = compare(&wgsl, &render(&planned));
+        let e = compare(&wgsl, &f32_render(&planned, source, &scene));
         assert!((e.max_abs as f64) <= bound, "{target}: {e:?} > {bound}");
     }
 }
