@@ -552,6 +552,38 @@ fn a_split_never_stores_a_value_its_clamp_would_change() {
     }
 }
 
+/// `(diffuse + specular) ⊕ decal` with an rgb sum above 1 and an rgba
+/// decal (seeds/000 (7), `phong_taylor_renormalized.shd`): the sum is
+/// written with alpha 1, so the decal is distributed through that
+/// conversion too — `A` with alpha 1, modulated by the decal, `B ⊕ decal`
+/// added with alpha 0 — and the bit-faithful render of the plan, 8-bit
+/// clamps between passes included, agrees with the meaning.
+#[test]
+fn a_decal_is_distributed_over_an_rgb_sum_written_as_rgba() {
+    let source = "texture A, B : 2d rgb8 = image(\"a.png\");\ntexture T : 2d rgba8 = image(\"decal.png\");\n\
+        const k : rgb = (0.9, 0.8, 0.7);\nC δπx ← ((A δu x) + k * (B δu x)) ⊕ (T δu x);\n";
+    let profile = Profile::builtin("geforce256").unwrap();
+    let planned = shadec::driver::compile(source, &profile, &Default::default()).unwrap().planned;
+    let blends: Vec<_> = planned.plan.passes.iter().map(|p| p.blend).collect();
+    use shadec::pipeline::BlendMode;
+    assert_eq!(blends, [BlendMode::Replace, BlendMode::Modulate, BlendMode::Add]);
+    let scene = scene();
+    let (program, _) = shadec::parser::check(source);
+    let (module, _) = shadec::ir::lower(&program);
+    let assets = scene.build().unwrap();
+    let render = |p: &Planned, precision| {
+        PlanRenderer::new(p, &program, &scene, &assets)
+            .and_then(|r| r.render(precision, 64, 48, &mut |_, _| {}))
+            .unwrap()
+            .image
+    };
+    let meaning = shadec::meaning::plan(&module, scene.lights.len()).unwrap();
+    let err = compare(&render(&meaning, Precision::Exact), &render(&planned, Precision::Fixed9));
+    // 8-bit texels and framebuffer, 9-bit registers: a few steps, not the
+    // clamp of a sum up to 1.9 (which would be off by up to 0.9).
+    assert!(err.max_abs < 4.0 / 255.0, "{err:?}");
+}
+
 /// A pass the combiner generator cannot realize is split further or
 /// refused, never planned (issue 16 item 2): as written, `x^8` of the dot
 /// product of two interpolated signed vectors has no setup (interpolated

@@ -29,7 +29,10 @@ pub fn at_vertex(m: &mut Module, x: Handle<Expr>) -> Option<Handle<Expr>> {
         | Expr::Math { .. }
         | Expr::Swizzle { .. }
         | Expr::Compose { .. }
-        | Expr::Convert { .. } => {
+        | Expr::Convert { .. }
+        // A step (`s_self`, seeds/000 (7)) per vertex is a ramp across the
+        // triangle: the smoothing Section 4.5 suggests against popping.
+        | Expr::Select { reject: Some(_), .. } => {
             let e = m.exprs[x].clone();
             let mut ok = true;
             let mut ops = Vec::new();

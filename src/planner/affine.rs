@@ -192,6 +192,14 @@ fn decompose(
                 let (m, s) = decompose(b, value, x, memo, cache)?;
                 Some((m, b.node(Expr::Convert { value: s, to })?))
             }
+            Expr::Convert { value, to: Ty::Rgba } if matches!(b.ty(value), Ty::Rgb | Ty::Vec3) => {
+                // `rgba(X·m + s, 1)`: X written with alpha 1, modulated by
+                // `(m, 1)`, `(s, 0)` added — `(diffuse + specular) ⊕ decal`
+                // distributed over its terms, each in [0, 1] between passes.
+                let (m, s) = decompose(b, value, x, memo, cache)?;
+                let (one, zero) = (b.constant(Ty::Scalar, 1.0)?, b.constant(Ty::Scalar, 0.0)?);
+                Some((b.color(Ty::Rgba, m, one)?, b.color(Ty::Rgba, s, zero)?))
+            }
             Expr::Combine {
                 mode: mode @ (CombineMode::Decal | CombineMode::Blend),
                 lhs: tex,
