@@ -207,6 +207,12 @@ pub enum ProfileError {
 }
 
 impl Profile {
+    /// Whether a texture can be indexed by another's result: texture
+    /// shaders' dependent stages or EMBM's offset (seeds/003 Section 4.3).
+    pub fn has_dependent_lookups(&self) -> bool {
+        self.texture_shaders.as_ref().is_some_and(|t| t.dependent_lookups || t.offset_2d)
+    }
+
     /// A built-in profile by name.
     pub fn builtin(name: &str) -> Result<Profile, ProfileError> {
         let text = match name {
@@ -340,9 +346,7 @@ pub fn fit(module: &Module, profile: &Profile) -> Vec<Diagnostic> {
             .with_help(help.to_string());
             labels(d, &hs[hs.len().min(1)..], "here too")
         };
-        let has_dependent =
-            profile.texture_shaders.as_ref().is_some_and(|t| t.dependent_lookups || t.offset_2d);
-        if !u.dependent_lookups.is_empty() && !has_dependent {
+        if !u.dependent_lookups.is_empty() && !profile.has_dependent_lookups() {
             out.push(missing(
                 "a texture indexed by another texture's result (dependent lookup)".into(),
                 &u.dependent_lookups,

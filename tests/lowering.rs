@@ -281,8 +281,9 @@ fn every_example_plans_realized_or_is_refused_where_it_is() {
     // on both; powers by squaring and per-vertex shading as the last resort
     // then planned 43 of 56; signed textures re-stored and fat textures split,
     // 48; a decal distributed over an rgb sum written as rgba (and steps per
-    // vertex), phong_taylor_renormalized on both: 50.
-    assert!(planned_count >= 50, "{planned_count}");
+    // vertex), phong_taylor_renormalized on both: 50; the exponent table's
+    // function for a dependent lookup, phong_exponent_lookup on geforce256: 51.
+    assert!(planned_count >= 51, "{planned_count}");
 }
 
 /// A 16-bit signed normalization cube map on the GeForce 256, which has no
@@ -304,10 +305,13 @@ fn a_signed_cube_map_is_stored_range_compressed_where_the_target_has_no_signed_t
     let bound = a[0].error_bound.unwrap() / 2.0 + FRAMEBUFFER;
     let e = error_against_meaning(source, &planned, &scene());
     assert!(e <= bound, "measured {e} > stated {bound}");
-    // Where a dependent lookup remains, the refusal names it, not the
-    // signed format the lowering supplied.
-    let err =
-        compile(&example("phong_exponent_lookup.shd"), &Profile::builtin("geforce256").unwrap()).unwrap_err();
+    // Where a dependent lookup remains (its coordinate reads an image: no
+    // function, no vertex value), the refusal names it, not the signed
+    // format the lowering supplied.
+    let dependent = "vector H : half(0) in tangent;\ntexture Nc : cube signed16 = normalize_cube(64, 16);\n\
+        texture D : 2d r8 = image(\"d.png\");\ntexture Ramp : 1d r8 = image(\"ramp.png\");\n\
+        const N : vec3 = (0, 0, 1);\nC δπx ← rgb(Ramp ((N·(Nc δ H s x)) * (D δu x)));\n";
+    let err = compile(dependent, &Profile::builtin("geforce256").unwrap()).unwrap_err();
     assert_eq!(err.len(), 1, "{err:?}");
     assert!(err[0].message.contains("dependent lookup"), "{}", err[0].message);
 }
@@ -619,4 +623,53 @@ fn compile_lists_approximations_and_honours_the_flags() {
         common::shadec(&["compile", f, "--target", "geforce256", "--emit", "plan", "--max-error", "0.01"]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert!(r.stdout.contains("normalization_cube_map"), "{}", r.stdout);
+}
+
+/// A dependent lookup on the GeForce 256 (no texture shaders), property
+/// over exponents and texels: a table whose generator the compiler knows
+/// (`exponent_table(n)`) becomes xⁿ of the clamped coordinate in the
+/// combiners (`table_function`), within its stated bound of the meaning,
+/// which samples the 8-bit table; a table it does not know is indexed by
+/// the coordinate computed per vertex, where the coordinate reads a
+/// normalization cube map (`normalize` at the vertices), reported without
+/// a bound; EMBM's offset texture is neither and stays refused
+/// ([`what_no_rule_lowers_keeps_its_located_refusal`]).
+#[test]
+fn a_dependent_lookup_on_geforce256_becomes_its_function_or_a_per_vertex_coordinate() {
+    let profile = Profile::builtin("geforce256").unwrap();
+    let scene = scene();
+    let mut runner = TestRunner::new(Config { cases: 6, failure_persistence: None, ..Config::default() });
+    runner
+        .run(&(1u32..=5, 0.3f64..1.0), |(n, k)| {
+            let source = format!(
+                "texture A : 2d r8 = image(\"a.png\");\ntexture Texp : 1d r8 bilinear clamp = exponent_table({n});\n\
+                 const k : rgb = ({k:.2}, {k:.2}, {k:.2});\nC δπx ← k * Texp (A δu x);\n"
+            );
+            let planned = compile(&source, &profile).map_err(|e| TestCaseError::fail(e[0].message.clone()))?;
+            let a = &planned.plan.approximations;
+            prop_assert!(a.iter().any(|a| a.rule == "table_function"), "{a:?}");
+            for pass in &planned.plan.passes {
+                prop_assert!(pass.combiners.is_none(), "{:?}", pass.combiners);
+            }
+            let bound: f64 = a.iter().map(|a| a.error_bound.unwrap()).sum::<f64>() + FRAMEBUFFER;
+            let e = error_against_meaning(&source, &planned, &scene);
+            prop_assert!(e <= bound, "x^{n}: measured {e} > stated {bound}");
+            Ok(())
+        })
+        .unwrap();
+    // A table of unknown content at N·normalize(H): the coordinate per vertex.
+    let source =
+        "vector H : half(0) in tangent;\ntexture Ncube : cube rgb8 bilinear clamp = normalize_cube(64, 8);\n\
+        texture Ramp : 1d r8 bilinear clamp = image(\"ramp.png\");\nconst N : vec3 = (0, 0, 1);\n\
+        C δπx ← rgb(Ramp (N·expand(Ncube δ H s x)));\n";
+    let planned = compile(source, &profile).unwrap();
+    let a = &planned.plan.approximations;
+    assert_eq!(a.iter().map(|a| a.rule.as_str()).collect::<Vec<_>>(), ["per_vertex"], "{a:?}");
+    assert!(a[0].why.contains("coordinate of this lookup") && a[0].error_bound.is_none());
+    let m = &planned.module;
+    let lookup = m.reachable(&[m.statements[0].value]).into_iter().find(|&h| {
+        matches!(&m.exprs[h], Expr::Lookup { texture, .. } if m.textures[*texture as usize].name == "Ramp")
+    });
+    let Some(Expr::Lookup { coords, .. }) = lookup.map(|h| &m.exprs[h]) else { panic!("no Ramp lookup") };
+    assert!(lowering::is_interpolant(m, *coords), "{:?}", m.exprs[*coords]);
 }

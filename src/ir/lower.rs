@@ -87,6 +87,25 @@ fn lower_here(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
 /// or `None` when no texture is baked. Renderers treat a baked texture as
 /// one that statements render into.
 /// Whether a texture source is `bake(f)`.
+/// The function a texture source's generator tabulates (an exponent
+/// given as a number; a named constant is not looked up).
+fn tabulated(src: &ast::Expr) -> Option<super::Tabulated> {
+    let ExprKind::Apply { func, arg } = &src.kind else { return None };
+    let FuncKind::Name(f) = &func.kind else { return None };
+    let first = match &arg.kind {
+        ExprKind::Tuple(items) => items.first()?,
+        _ => arg,
+    };
+    match f.key().as_str() {
+        "normalize_cube" => Some(super::Tabulated::Normalize),
+        "exponent_table" => match first.kind {
+            ExprKind::Number(n) if n >= 1.0 => Some(super::Tabulated::Power(n)),
+            _ => None,
+        },
+        _ => None,
+    }
+}
+
 fn is_bake(src: &ast::Expr) -> bool {
     matches!(&src.kind, ExprKind::Apply { func, arg } if matches!((&func.kind, &arg.kind), (FuncKind::Name(f), ExprKind::Name(_)) if f.key() == "bake"))
 }
@@ -315,6 +334,7 @@ impl<'a> Lowerer<'a> {
                         baked: t.source.as_ref().is_some_and(is_bake),
                         declaration: None,
                         copy_of: None,
+                        tabulates: t.source.as_ref().and_then(tabulated),
                         sampling: super::Sampling::of(
                             t.kind.value,
                             &t.attrs.iter().map(|a| a.value).collect::<Vec<_>>(),

@@ -220,10 +220,28 @@ pub struct Texture {
     /// `signed_texture_compression`, issue 18): the declared texture whose
     /// source it loads or generates again, in this texture's format.
     pub copy_of: Option<String>,
+    /// The function its generator tabulates, which a rule can compute
+    /// instead of sampling it (issue 18); `None` for images and rendered
+    /// textures.
+    pub tabulates: Option<Tabulated>,
     /// How it is sampled: its declaration's attributes, read once here
     /// (issue 17) for the binder and the cost model alike.
     pub sampling: Sampling,
     pub span: Span,
+}
+
+/// The function a generated table holds (its declaration's generator).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Tabulated {
+    /// `normalize_cube(…)`: the unit vector of the direction (seeds/000
+    /// Section 4.2.2), range-compressed unless the format is signed — a
+    /// lookup at `δ v` is `normalize(v)` up to a texel, which is what a
+    /// per-vertex rule computes at the vertices.
+    Normalize,
+    /// `exponent_table(n)`: x ↦ xⁿ on [0, 1] (seeds/000 Figure 10),
+    /// [`crate::textures::generators::EXPONENT_TABLE_SIZE`] texels,
+    /// clamped at the edges.
+    Power(f64),
 }
 
 /// A texture's filter, wrap and mipmaps, from its declaration's attributes.

@@ -71,6 +71,7 @@ fn texture(r: &mut Rewriter) -> u32 {
             "texture {NAME} : cube rgb8 bilinear clamp = normalize_cube({SIZE}, 8);\n"
         )),
         copy_of: None,
+        tabulates: Some(crate::ir::Tabulated::Normalize),
         sampling: crate::ir::Sampling::of(TextureKind::Cube, &[TextureAttr::Bilinear, TextureAttr::Clamp]),
         span: Span::DETACHED,
     });

@@ -91,6 +91,7 @@ fn member_texture(r: &mut Rewriter, t: u32, i: usize) -> u32 {
         format: TextureFormat::Rgba8,
         declaration: None,
         copy_of: None,
+        tabulates: None,
         ..fat.clone()
     };
     r.m.textures.push(texture);

@@ -39,6 +39,10 @@
 //!   [0, 1] → the same texture in RGBA8;
 //! - [`table2d`]: a per-fragment function of two per-vertex arguments
 //!   (dot products) → a 2-D table baked by the compiler (seeds/002 §3);
+//! - [`dependent`]: on a target without dependent lookups (GeForce 256),
+//!   a lookup whose coordinate reads a texel → the function the table
+//!   holds computed in the combiners (`exponent_table(n)` → xⁿ), or the
+//!   coordinate computed per vertex and interpolated;
 //! - [`per_vertex::gouraud`]: the last resort when no choice above plans —
 //!   every maximal per-fragment part that reads only interpolants computed
 //!   per vertex (Gouraud), reported without a bound.
@@ -47,6 +51,7 @@
 //! geforce256, float textures) keeps the planner's located refusal.
 
 pub mod cube_map;
+pub mod dependent;
 pub mod fat_texture;
 pub mod float_texture;
 pub mod per_vertex;
@@ -60,7 +65,7 @@ pub mod texel_bake;
 
 use std::collections::HashMap;
 
-use crate::ir::{BinaryOp, Expr, Frequency, Handle, MathFunction, Module, Statement, Table};
+use crate::ir::{BinaryOp, Constant, Expr, Frequency, Handle, MathFunction, Module, Statement, Table, Ty};
 use crate::pipeline::{Approximation, ApproximationCost};
 use crate::profile::Profile;
 use crate::span::Span;
@@ -267,6 +272,16 @@ impl<'a> Rewriter<'a> {
             Expr::Binary { op: BinaryOp::Pow, .. } if !needs_table(&self.m, h) => {
                 power::apply(self, h, span).unwrap_or(h)
             }
+            // A coordinate that reads a texel, on a target without
+            // dependent lookups: computed per vertex, the lookup indexed by
+            // texgen (issue 18: "on geforce256 a per-vertex approximation").
+            Expr::Lookup { coords, .. }
+                if self.combiners()
+                    && !self.profile.has_dependent_lookups()
+                    && reads_texel(&self.m, *coords) =>
+            {
+                dependent::apply(self, h, original, span).unwrap_or(h)
+            }
             _ if needs_table(&self.m, h) => table::apply(self, h, original, span)
                 .or_else(|| per_vertex::apply(self, original, "this value", span))
                 .unwrap_or(h),
@@ -409,6 +424,27 @@ pub fn no_combiner_op(m: &Module, h: Handle<Expr>) -> bool {
         ),
         _ => false,
     }
+}
+
+/// `value` as `texture`'s texel type: an rgb colour of a vector, alpha 1
+/// added for rgba; `None` when it cannot be (the rule then declines).
+pub fn as_texel(m: &mut Module, texture: u32, value: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
+    let t = &m.textures[texture as usize];
+    let (ty, _) = crate::ir::valid::texel_type(t.kind, t.format);
+    let components = match ty {
+        _ if m.info(value).ty == ty => return Some(value),
+        Ty::Rgba => vec![value, m.intern(Expr::Constant(Constant::new(Ty::Scalar, &[1.0])), span).ok()?],
+        _ => vec![value],
+    };
+    m.intern(Expr::Compose { ty, components }, span).ok()
+}
+
+/// Whether `h` reads a texture per sample (a coordinate made of it makes
+/// a dependent lookup).
+pub fn reads_texel(m: &Module, h: Handle<Expr>) -> bool {
+    m.reachable(&[h])
+        .into_iter()
+        .any(|x| m.info(x).freq.is_sample() && matches!(m.exprs[x], Expr::Lookup { .. }))
 }
 
 /// Whether `h` is `δ v`: a per-vertex value interpolated to a sample.

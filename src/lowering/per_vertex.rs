@@ -11,6 +11,7 @@
 
 use super::Rewriter;
 use crate::ir::{Expr, Handle, MathFunction, Module};
+use crate::parser::ast::TextureFormat;
 use crate::pipeline::ApproximationCost;
 use crate::span::Span;
 
@@ -49,8 +50,25 @@ pub fn at_vertex(m: &mut Module, x: Handle<Expr>) -> Option<Handle<Expr>> {
             let e = e.map_operands(|_| it.next().expect("one per operand"));
             m.intern(e, m.span(x)).ok()
         }
+        Expr::Lookup { texture, coords }
+            if m.textures[*texture as usize].tabulates == Some(crate::ir::Tabulated::Normalize) =>
+        {
+            let (texture, coords) = (*texture, *coords);
+            let v = at_vertex(m, coords)?;
+            normalized_texel(m, texture, v, m.span(x))
+        }
         _ => None,
     }
+}
+
+/// What a normalization cube map holds at direction `v`: `normalize(v)`,
+/// compressed to [0, 1] unless the format is signed, with the texel's type.
+fn normalized_texel(m: &mut Module, texture: u32, v: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
+    let mut n = m.intern(Expr::Math { fun: MathFunction::Normalize, args: vec![v] }, span).ok()?;
+    if !matches!(m.textures[texture as usize].format, TextureFormat::Signed8 | TextureFormat::Signed16) {
+        n = m.intern(Expr::Math { fun: MathFunction::Compress, args: vec![n] }, span).ok()?;
+    }
+    super::as_texel(m, texture, n, span)
 }
 
 /// `δ(x at the vertices)`, recorded as a `per_vertex` approximation of

@@ -334,6 +334,7 @@ fn add_texture(r: &mut Rewriter, kind: TextureKind) -> u32 {
         baked: true,
         declaration: None,
         copy_of: None,
+        tabulates: None,
         sampling: crate::ir::Sampling::ADDED,
         span: Span::DETACHED,
     });

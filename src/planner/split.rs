@@ -666,6 +666,7 @@ impl<'a> Splitter<'a> {
             baked: false,
             declaration: None,
             copy_of: None,
+            tabulates: None,
             sampling: crate::ir::Sampling::ADDED,
             span: Span::DETACHED,
         });

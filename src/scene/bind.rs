@@ -393,7 +393,7 @@ fn generate(
             Some(ExactFunction::Geometry { roughness: 0.3, scale: *scale }),
         ),
         TextureSource::ExponentTable { exponent } => (
-            Texture::Flat(generators::exponent_lut(256, *exponent, format)),
+            Texture::Flat(generators::exponent_lut(generators::EXPONENT_TABLE_SIZE, *exponent, format)),
             Some(ExactFunction::Exponent(*exponent)),
         ),
         TextureSource::Bake(what) => return Err(texture_error(d, format!("the texture source `{what}` is not one the renderer knows: use image(\"file\"), a generator (normalize_cube, normal_map, bumps, dual_paraboloid, brdf_fd, brdf_g, exponent_table) or bake(shader)"))),
