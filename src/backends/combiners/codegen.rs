@@ -1043,6 +1043,14 @@ impl Gen<'_> {
         }
     }
 
+    /// Whether `h` reads a framebuffer's depth channel.
+    fn reads_depth(&self, h: Handle<Expr>) -> bool {
+        self.m
+            .reachable(&[h])
+            .into_iter()
+            .any(|x| matches!(self.m.exprs[x], Expr::FramebufferRead { channel: FbChannel::Depth, .. }))
+    }
+
     fn pow_error(&self, h: Handle<Expr>) -> CodegenError {
         unsupported(
             self.m.span(h),
@@ -1532,6 +1540,15 @@ impl Gen<'_> {
             )
         };
         let Expr::Binary { op, lhs, rhs } = self.expr(cond).clone() else { return Err(bad()) };
+        if self.reads_depth(cond) {
+            // The shadow-mask test (seeds/001 Section 3.5): no setup of the
+            // mux reaches a depth buffer, whatever the comparison.
+            return Err(unsupported(
+                span,
+                "a per-pixel depth comparison (a shadow-map test)",
+                "the register combiners cannot read a depth buffer, and shadec's combiner targets have no depth textures (ARB_shadow's comparison): target wgsl",
+            ));
+        }
         let (x, k, high) = match (self.constant(lhs), self.constant(rhs), op) {
             (_, Some(k), BinaryOp::Ge | BinaryOp::Gt) => (lhs, k, true),
             (_, Some(k), BinaryOp::Lt | BinaryOp::Le) => (lhs, k, false),
