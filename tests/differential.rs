@@ -383,13 +383,15 @@ fn check(source: &str, target: &str, scene: &Scene) -> Result<Outcome, String> {
     };
     validate_plan(&planned, &profile).map_err(|e| format!("an accepted plan the target cannot run: {e}"))?;
     let assets = scene.build().unwrap();
-    // An approximation with a stated bound is held to it against the
-    // program's meaning; one without (per vertex: it depends on the mesh)
-    // is the lowered program's own meaning, so that the planner and the
-    // backends are still checked against a meaning, not against themselves.
+    // Approximations with output bounds (the rule's bound carried to the
+    // output, `lowering::sensitivity`) are held to them against the
+    // program's meaning; without (per vertex: it depends on the mesh; an
+    // error inside a coordinate) the reference is the lowered program's
+    // own meaning, so that the planner and the backends are still checked
+    // against a meaning, not against themselves.
     let approximations = &planned.plan.approximations;
-    let unbounded = approximations.iter().any(|a| a.error_bound.is_none());
-    let bound = approximations.iter().filter_map(|a| a.error_bound).sum::<f64>() as f32;
+    let unbounded = approximations.iter().any(|a| a.output_bound.is_none());
+    let bound = approximations.iter().filter_map(|a| a.output_bound).sum::<f64>() as f32;
     let meant = if unbounded { &planned.module } else { &module };
     let meaning =
         shadec::meaning::plan(meant, scene.lights.len()).map_err(|e| format!("no meaning: {e:?}"))?;

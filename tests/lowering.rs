@@ -118,7 +118,7 @@ fn a_normalization_cube_map_stays_within_its_bound_of_the_meaning() {
     let a = &planned.plan.approximations;
     assert_eq!(a.len(), 1, "{a:?}");
     // compress halves the vector's error.
-    let bound = a[0].error_bound.unwrap() / 2.0 + FRAMEBUFFER;
+    let bound = a[0].output_bound.unwrap() + FRAMEBUFFER;
     let e = error_against_meaning(NORMALIZED, &planned, &scene());
     assert!(e <= bound, "measured {e} > stated {bound}");
     assert!(e > 0.0, "a table is not exact");
@@ -226,7 +226,7 @@ fn lowered_tables_stay_within_their_stated_bounds_of_the_meaning() {
                 .map_err(|e| TestCaseError::fail(format!("{f}: {}", e[0].message)))?;
             let a = &planned.plan.approximations;
             prop_assert!(a.iter().any(|a| a.rule == "baked_table"), "{f}: {a:?}");
-            let bound: f64 = a.iter().map(|a| a.error_bound.unwrap()).sum::<f64>() + FRAMEBUFFER;
+            let bound: f64 = a.iter().map(|a| a.output_bound.unwrap()).sum::<f64>() + FRAMEBUFFER;
             let e = error_against_meaning(&source, &planned, &scene);
             prop_assert!(e <= bound, "{f}: measured {e} > stated {bound}");
             Ok(())
@@ -302,7 +302,7 @@ fn a_signed_cube_map_is_stored_range_compressed_where_the_target_has_no_signed_t
     let copy = planned.module.textures.iter().find(|t| t.copy_of.as_deref() == Some("Nc")).expect("a copy");
     assert_eq!(copy.format, shadec::parser::ast::TextureFormat::Rgb8);
     // compress halves the vector's error.
-    let bound = a[0].error_bound.unwrap() / 2.0 + FRAMEBUFFER;
+    let bound = a[0].output_bound.unwrap() + FRAMEBUFFER;
     let e = error_against_meaning(source, &planned, &scene());
     assert!(e <= bound, "measured {e} > stated {bound}");
     // Where a dependent lookup remains (its coordinate reads an image: no
@@ -375,7 +375,7 @@ fn a_function_of_a_texel_dot_product_becomes_a_dependent_table_on_geforce3() {
         assert!(planned.plan.passes.iter().all(|p| p.combiners.is_none()), "{f}: every pass generated");
         let wgsl = compile(&source, &Profile::builtin("wgsl").unwrap()).unwrap();
         let e = compare(&f32_render(&wgsl, &source, &scene), &f32_render(&planned, &source, &scene));
-        let bound: f64 = a.iter().map(|a| a.error_bound.unwrap()).sum::<f64>() + 2.0 * FRAMEBUFFER;
+        let bound: f64 = a.iter().map(|a| a.output_bound.unwrap()).sum::<f64>() + 2.0 * FRAMEBUFFER;
         assert!((e.max_abs as f64) <= bound, "{f}: measured {e:?} > stated {bound}");
         let err = compile(&source, &Profile::builtin("geforce256").unwrap()).unwrap_err();
         assert!(
@@ -418,7 +418,7 @@ fn a_float_texture_of_colours_is_stored_in_rgba8() {
         let a = &planned.plan.approximations;
         assert!(a.iter().any(|a| a.rule == "float_texture_8bit"), "{target}: {a:?}");
         assert!(planned.module.textures.iter().any(|t| t.name == "T_rgba8"), "{target}");
-        let bound: f64 = a.iter().map(|a| a.error_bound.unwrap()).sum::<f64>() + 2.0 * FRAMEBUFFER;
+        let bound: f64 = a.iter().map(|a| a.output_bound.unwrap()).sum::<f64>() + 2.0 * FRAMEBUFFER;
         let e = compare(&wgsl, &f32_render(&planned, source, &scene));
         assert!((e.max_abs as f64) <= bound, "{target}: {e:?} > {bound}");
     }
@@ -471,7 +471,7 @@ fn a_power_that_is_not_a_power_of_two_is_squared_and_multiplied_in_one_pass() {
             assert!(m.is_constant(rhs, 2.0), "only squares remain: {:?}", m.exprs[h]);
         }
     }
-    let bound: f64 = a.iter().map(|a| a.error_bound.expect("bounded")).sum::<f64>() + FRAMEBUFFER;
+    let bound: f64 = a.iter().map(|a| a.output_bound.expect("bounded")).sum::<f64>() + FRAMEBUFFER;
     let e = error_against_meaning(source, &planned, &scene());
     assert!(e <= bound, "measured {e} > stated {bound}");
 }
@@ -651,7 +651,7 @@ fn a_dependent_lookup_on_geforce256_becomes_its_function_or_a_per_vertex_coordin
             for pass in &planned.plan.passes {
                 prop_assert!(pass.combiners.is_none(), "{:?}", pass.combiners);
             }
-            let bound: f64 = a.iter().map(|a| a.error_bound.unwrap()).sum::<f64>() + FRAMEBUFFER;
+            let bound: f64 = a.iter().map(|a| a.output_bound.unwrap()).sum::<f64>() + FRAMEBUFFER;
             let e = error_against_meaning(&source, &planned, &scene);
             prop_assert!(e <= bound, "x^{n}: measured {e} > stated {bound}");
             Ok(())

@@ -57,6 +57,7 @@ pub mod float_texture;
 pub mod per_vertex;
 pub mod power;
 pub mod range_compress;
+pub mod sensitivity;
 pub mod signed_texture;
 pub mod table;
 pub mod table2d;
@@ -134,11 +135,16 @@ pub struct Lowered {
 }
 
 impl Lowered {
-    /// Whether every approximation is within `options.max_error`.
+    /// Whether the approximations together stay within `options.max_error`
+    /// at the output (the sum of their output bounds, [`sensitivity`]).
     pub fn within(&self, options: &LowerOptions) -> bool {
-        options
-            .max_error
-            .is_none_or(|e| self.approximations.iter().all(|a| a.error_bound.is_some_and(|b| b <= e)))
+        options.max_error.is_none_or(|e| self.output_bound().is_some_and(|b| b <= e))
+    }
+
+    /// The sum of the approximations' output bounds (`None` when one has
+    /// none): first order, as the bounds are.
+    pub fn output_bound(&self) -> Option<f64> {
+        self.approximations.iter().map(|a| a.output_bound).sum()
     }
 }
 
@@ -306,7 +312,15 @@ impl<'a> Rewriter<'a> {
         error_bound: Option<f64>,
     ) {
         let at = (self.at)(span);
-        self.approximations.push(Approximation { rule: rule.into(), at, why, cost, error_bound });
+        let output_bound = None; // set by `finish`, once the program is whole
+        self.approximations.push(Approximation {
+            rule: rule.into(),
+            at,
+            why,
+            cost,
+            error_bound,
+            output_bound,
+        });
         self.results.push(result);
     }
 
@@ -321,7 +335,14 @@ impl<'a> Rewriter<'a> {
             .into_iter()
             .zip(self.results)
             .filter(|(_, r)| r.is_none_or(|h| live.contains(&h)))
-            .map(|(a, _)| a)
+            .map(|(mut a, r)| {
+                let sensitivity = match r {
+                    Some(h) => sensitivity::output_sensitivity(&self.m, h),
+                    None => Some(1.0), // a whole statement's value
+                };
+                a.output_bound = a.error_bound.zip(sensitivity).map(|(b, l)| b * l);
+                a
+            })
             .collect();
         Lowered { module: self.m, approximations }
     }

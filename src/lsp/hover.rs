@@ -152,8 +152,11 @@ pub fn placement(p: &Planned, h: Handle<Expr>, target: &str) -> String {
 fn approximations(p: &Planned, at: &str) -> String {
     let mut out = String::new();
     for a in p.plan.approximations.iter().filter(|a| a.at == at) {
-        let error =
-            a.error_bound.map_or("error not bounded".to_string(), |e| format!("error ≤ {}", bound(e)));
+        let error = match (a.error_bound, a.output_bound) {
+            (Some(e), Some(o)) => format!("error ≤ {} here, ≤ {} at the output", bound(e), bound(o)),
+            (Some(e), None) => format!("error ≤ {} here, not bounded at the output", bound(e)),
+            _ => "error not bounded".to_string(),
+        };
         let _ = writeln!(out, "- approximated by `{}`: {} ({error})", a.rule, a.why);
     }
     out

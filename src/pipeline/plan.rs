@@ -273,6 +273,12 @@ pub struct Approximation {
     /// (per component), when it has one; `None` when only a scene can
     /// say (a per-vertex approximation depends on the triangles).
     pub error_bound: Option<f64>,
+    /// What that error can become at the program's output (per channel):
+    /// the site bound times the output's sensitivity to the replaced value
+    /// (`lowering::sensitivity`) — `x¹⁶` multiplies an error of `x` by up
+    /// to 16. `None` when either is unknown (a coordinate, a condition).
+    #[serde(default)]
+    pub output_bound: Option<f64>,
 }
 
 /// What an approximation spends (issue 18's four resources).

@@ -670,7 +670,8 @@ fn cannot_split(m: &Module, st: &Statement, profile: &Profile, o: &Overflow) -> 
     .with_help(if let Some(help) = o.help.as_deref().filter(|h| !h.is_empty()) {
         // The code generator's own advice for the part, then the splits'.
         format!("{help}; framebuffer blending can only split sums and products (and affine ⊕ chains) of parts that fit")
-    } else if o.need == 0 {
+    } else if o.have == 0 {
+        // Nothing the target has (`length` per fragment), not too little.
         "framebuffer blending can only split sums and products (and affine ⊕ chains); compute the part per vertex, bake it into a lookup texture (`= bake(f)`), or target `wgsl`".to_string()
     } else {
         format!("framebuffer blending can only split sums and products (and affine ⊕ chains); compute the part per vertex, bake it into a lookup texture, or target a profile with more {}", o.resource)
@@ -1471,6 +1472,7 @@ mod tests {
             why: format!("lowered by {rule}"),
             cost: ApproximationCost::default(),
             error_bound: Some(0.01),
+            output_bound: Some(0.01),
         }];
         p
     }
