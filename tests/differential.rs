@@ -78,6 +78,51 @@ enum Scalar {
     /// signed vector read as it comes (seeds/000 Figure 9, "no
     /// normalization"), which the combiner targets take range-compressed.
     Unnormalized(Option<u32>),
+    /// What the lowering rewrites (issue 18), one form per rule family.
+    Lowered(Lowered),
+}
+
+/// A scalar only a lowering makes plan on some target.
+#[derive(Clone, Copy, Debug)]
+enum Lowered {
+    /// `max(0, Nt·normalize(δ Lt s x))`: a cube map or Taylor (Formula 6).
+    Normalize,
+    /// `Tx (Nt·Hn)`, `Tx = exponent_table(n)`: a dependent lookup — texture
+    /// shaders on geforce3, the table's function on geforce256.
+    ExponentTable(u32),
+    /// `max(0, Nt·(Ns δ Ht s x))^n` with `Ns` a signed16 cube map: re-stored
+    /// in RGB8 where the target has no signed formats.
+    SignedCube(u32),
+    /// `f(δ c s x)`, f the combiners lack (√, exp, a fractional power):
+    /// a table baked by the compiler.
+    Function(&'static str),
+    /// `x^n` with n not a power of two: squarings multiplied.
+    Power(u32),
+}
+
+const FUNCTIONS: &[&str] = &["sqrt(@)", "exp(-2 * @)", "@ ^ 0.6", "0.2 / (0.2 + 3 * @)"];
+
+fn lowered() -> impl Strategy<Value = Lowered> {
+    prop_oneof![
+        Just(Lowered::Normalize),
+        prop_oneof![Just(4u32), Just(8), Just(16)].prop_map(Lowered::ExponentTable),
+        prop_oneof![Just(1u32), Just(8)].prop_map(Lowered::SignedCube),
+        prop::sample::select(FUNCTIONS).prop_map(Lowered::Function),
+        prop_oneof![Just(3u32), Just(6), Just(12)].prop_map(Lowered::Power),
+    ]
+}
+
+impl Lowered {
+    fn text(self) -> String {
+        match self {
+            Lowered::Normalize => "max(0, Nt·normalize(δ Lt s x))".into(),
+            Lowered::ExponentTable(n) => format!("Tx{n} (Nt·Hn)"),
+            Lowered::SignedCube(1) => "max(0, Nt·(Ns δ Ht s x))".into(),
+            Lowered::SignedCube(n) => format!("max(0, Nt·(Ns δ Ht s x))^{n}"),
+            Lowered::Function(f) => format!("({})", f.replace('@', "(δ c s x)")),
+            Lowered::Power(n) => format!("max(0, Nt·Hn)^{n}"),
+        }
+    }
 }
 
 #[derive(Clone, Debug)]
@@ -114,6 +159,7 @@ fn scalar() -> impl Strategy<Value = Scalar> {
         prop_oneof![Just(2u32), Just(4), Just(8), Just(16)].prop_map(Scalar::Specular),
         (0..N_TEXTURES).prop_map(Scalar::Alpha),
         prop_oneof![Just(None), Just(Some(2u32)), Just(Some(8))].prop_map(Scalar::Unnormalized),
+        lowered().prop_map(Scalar::Lowered),
     ]
 }
 
@@ -175,6 +221,7 @@ impl Scalar {
             Scalar::Unnormalized(Some(n)) => format!("max(0, Nt·(δ Ht s x))^{n}"),
             Scalar::Alpha(t) if p.rgba[*t] => format!("({} δu x).a", NAMES[*t]),
             Scalar::Alpha(_) => "0.5".into(),
+            Scalar::Lowered(l) => l.text(),
         }
     }
 }
@@ -232,6 +279,11 @@ impl Program {
         s += "texture Env : 2d rgb8 bilinear clamp = image(\"missing-env.png\");\n";
         s += "shader g : s → c = kd * max(0, N·L);\n";
         s += "let Ln = expand(Ncube δ Lt s x);\nlet Hn = expand(Ncube δ Ht s x);\n";
+        s += "texture Ns : cube signed16 bilinear clamp = normalize_cube(32, 16);\n";
+        s += "shader c : s → scalar = max(0, N·L);\n";
+        for n in [4, 8, 16] {
+            s += &format!("texture Tx{n} : 1d r8 bilinear clamp = exponent_table({n});\n");
+        }
         // The texture-shading statement and the texgen only where they are
         // read: a statement nothing reads is still planned. (The compiler
         // computes a bake itself, so the combiner targets plan it too.)
@@ -485,6 +537,38 @@ fn the_generator_covers_plans_and_splits() {
         split[0] + split[1] > 0,
         "the combiner targets split none of them: {split:?} (planned {planned:?})"
     );
+}
+
+/// The generator reaches the lowering (issue 18): over a fixed sample, the
+/// combiner targets' plans use each rule family the generated forms call
+/// for, so the suite above holds them to their output bounds (or to the
+/// lowered program's meaning) on programs nobody wrote by hand.
+#[test]
+fn the_generator_reaches_every_lowering_rule_family() {
+    let mut runner = proptest::test_runner::TestRunner::deterministic();
+    let mut rules = std::collections::BTreeSet::new();
+    for _ in 0..300 {
+        let source = program().new_tree(&mut runner).unwrap().current().source();
+        for target in ["geforce256", "geforce3"] {
+            let profile = Profile::builtin(target).unwrap();
+            if let Ok(c) = shadec::driver::compile(&source, &profile, &Default::default()) {
+                rules.extend(c.planned.plan.approximations.iter().map(|a| format!("{target} {}", a.rule)));
+            }
+        }
+    }
+    eprintln!("rules in generated plans: {rules:?}");
+    for want in [
+        "geforce256 normalization_cube_map",
+        "geforce256 table_function",
+        "geforce256 signed_texture_compression",
+        "geforce256 baked_table",
+        "geforce256 power_by_squaring",
+        "geforce3 normalization_cube_map",
+        "geforce3 baked_table",
+        "geforce3 range_compression",
+    ] {
+        assert!(rules.contains(want), "no generated plan used {want}: {rules:?}");
+    }
 }
 
 // ---- regressions the suite found ------------------------------------------
