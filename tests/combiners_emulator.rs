@@ -456,8 +456,9 @@ proptest! {
         let distractor = PixelEmulator::new(&other, c1, c0, [fog[1], fog[0], fog[3], fog[2]], precision).unwrap();
         for i in (0..w * h).rev() {
             let at = |k: usize| -> [u8; 4] { imgs[k][i * 4..i * 4 + 4].try_into().unwrap() };
-            let regs = PixelRegisters { textures: [at(0), at(1), at(2), at(3)], primary: at(4), secondary: at(5) };
-            distractor.run(&PixelRegisters { textures: [at(5), at(4), at(3), at(2)], primary: at(1), secondary: at(0) });
+            let tex = |k: usize| at(k).map(i16::from);
+            let regs = PixelRegisters { textures: [tex(0), tex(1), tex(2), tex(3)], primary: at(4), secondary: at(5) };
+            distractor.run(&PixelRegisters { textures: [tex(5), tex(4), tex(3), tex(2)], primary: at(1), secondary: at(0) });
             let px = machine.run(&regs);
             prop_assert_eq!(px.as_slice(), &out[i * 4..i * 4 + 4], "pixel {}\n{}", i, rc1::print(&config));
         }

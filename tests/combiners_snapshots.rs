@@ -17,7 +17,7 @@ use std::fmt::Write as _;
 
 use combiners_common::Rng;
 
-use shadec::backends::combiners::emulator::{emulate, Inputs};
+use shadec::backends::combiners::emulator::{Inputs, PixelEmulator, PixelRegisters};
 use shadec::backends::combiners::{generate, rc1, CombinerLimits, Generated, PassInput};
 use shadec::ir::eval::{Env, Evaluator, Value};
 use shadec::ir::{Expr, FbChannel, Frequency, Handle, Module, Ty};
@@ -293,19 +293,36 @@ fn agrees(
             }
         }
     }
-    let mut textures: [Option<&[u8]>; 4] = [None; 4];
-    for (i, img) in imgs.iter().take(units.len()).enumerate() {
-        textures[i] = Some(img);
-    }
-    let inputs = Inputs {
-        width: w,
-        height: h,
-        textures,
-        primary: Some(&imgs[units.len()]),
-        secondary: Some(&imgs[units.len() + 1]),
-        ..Inputs::default()
+    // A signed texel (a HILO normalization map) is its expanded vector, in
+    // the 9-bit register and in the IR alike; an unsigned one as stored.
+    let signed: Vec<bool> = units.iter().map(|&u| m.info(u).interval.lo < 0.0).collect();
+    let register = |k: usize, p: usize| -> [i16; 4] {
+        [0, 1, 2, 3].map(|c| {
+            let b = i16::from(imgs[k][p * 4 + c]);
+            if signed[k] {
+                2 * b - 255
+            } else {
+                b
+            }
+        })
     };
-    let out = emulate(&g.config, &inputs, Precision::F32).unwrap();
+    let d = Inputs::default();
+    let machine = PixelEmulator::new(&g.config, d.constant0, d.constant1, d.fog, Precision::F32).unwrap();
+    let colour = |k: usize, p: usize| -> [u8; 4] { imgs[k][p * 4..p * 4 + 4].try_into().unwrap() };
+    let out: Vec<u8> = (0..n)
+        .flat_map(|p| {
+            let mut textures = [[0i16; 4]; 4];
+            for (k, t) in textures.iter_mut().enumerate().take(units.len()) {
+                *t = register(k, p);
+            }
+            let regs = PixelRegisters {
+                textures,
+                primary: colour(units.len(), p),
+                secondary: colour(units.len() + 1, p),
+            };
+            machine.run(&regs)
+        })
+        .collect();
     let rgba = |img: &[u8], p: usize| [0, 1, 2, 3].map(|c| f64::from(img[p * 4 + c]) / 255.0);
     let mut ev = Evaluator::new(m, &[value], shadec::numerics::Precision::Exact);
     let ty = m.info(value).ty;
@@ -313,7 +330,7 @@ fn agrees(
         let mut env = Leaves {
             m,
             keys: &keys,
-            texels: imgs[..units.len()].iter().map(|img| rgba(img, p)).collect(),
+            texels: (0..units.len()).map(|k| register(k, p).map(|v| f64::from(v) / 255.0)).collect(),
             colors: [
                 (g.primary, rgba(&imgs[units.len()], p)),
                 (g.secondary, rgba(&imgs[units.len() + 1], p)),

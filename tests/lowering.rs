@@ -124,6 +124,38 @@ fn a_normalization_cube_map_stays_within_its_bound_of_the_meaning() {
     assert!(e > 0.0, "a table is not exact");
 }
 
+/// On geforce3, which has signed formats, the cube map is 16-bit signed
+/// (HILO, seeds/000 Section 5.1) and read without `expand`; the combiners
+/// take its negative components as they are (signed identity — unsigned
+/// identity would clamp them to 0, which the bit-faithful render of
+/// `max(0, N·L)` with two signed texels exposed: 101/255 off). In fixed9,
+/// 9-bit registers and an 8-bit framebuffer, the plan stays within a few
+/// steps of the meaning.
+#[test]
+fn a_hilo_normalization_cube_map_is_signed_all_the_way_through_the_combiners() {
+    let source = "vector N : normal;\nvector L : light(0);\nC δπx ← rgb(max(0, normalize(δ N s x)·normalize(δ L s x)));\n";
+    let profile = Profile::builtin("geforce3").unwrap();
+    let planned = compile(source, &profile).unwrap();
+    let a = &planned.plan.approximations;
+    assert!(a.iter().all(|a| a.rule == "normalization_cube_map" && a.why.contains("HILO")), "{a:?}");
+    assert_eq!(a[0].error_bound, Some(lowering::cube_map::error_bound_hilo(lowering::cube_map::SIZE)));
+    let cube = planned.module.textures.iter().find(|t| t.kind == TextureKind::Cube).unwrap();
+    assert_eq!(cube.format, shadec::parser::ast::TextureFormat::Signed16);
+    let scene = scene();
+    let (program, _) = shadec::parser::check(source);
+    let (written, _) = shadec::ir::lower(&program);
+    let assets = scene.build().unwrap();
+    let render = |p: &Planned, precision| {
+        PlanRenderer::new(p, &program, &scene, &assets)
+            .and_then(|r| r.render(precision, W, H, &mut |_, _| {}))
+            .unwrap()
+            .image
+    };
+    let meaning = shadec::meaning::plan(&written, scene.lights.len()).unwrap();
+    let e = compare(&render(&meaning, Precision::Exact), &render(&planned, Precision::Fixed9));
+    assert!(e.max_abs <= 4.0 / 255.0, "{e:?}");
+}
+
 #[test]
 fn taylor_renormalization_is_formula_6_on_the_vertex_unit_vector() {
     let m = module(NORMALIZED);

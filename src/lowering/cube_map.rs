@@ -5,10 +5,15 @@
 //! The texture is the one `examples/phong_cubemap_normalized.shd` declares
 //! by hand (`normalize_cube(size, 8)`, the same generator).
 //!
-//! Error bound (per component of the unit vector): the 8-bit texel's
-//! rounding, ½ step of 1/255 stored, doubled by `expand` = 1/255, plus the
-//! bilinear chord between two texels ≤ (2/size)²/8 (a face spans 2 units
-//! over `size` texels, the chord of an arc θ sags θ²/8).
+//! Where the target has signed formats (geforce3), the cube map is 16-bit
+//! signed — the HILO normalization map of seeds/000 Section 5.1, read by
+//! the texture shaders and the combiners without `expand`.
+//!
+//! Error bound (per component of the unit vector): the texel's rounding —
+//! 8-bit: ½ step of 1/255 stored, doubled by `expand` = 1/255; 16-bit
+//! signed: 1/65535 — plus the bilinear chord between two texels ≤
+//! (2/size)²/8 (a face spans 2 units over `size` texels, the chord of an
+//! arc θ sags θ²/8).
 
 use super::{per_vertex, Rewriter};
 use crate::ir::{Expr, Handle, MathFunction, Texture};
@@ -21,9 +26,18 @@ pub const SIZE: u32 = 128;
 /// The name of the texture the rule adds (one per program).
 pub const NAME: &str = "Ncube_lowered";
 
-/// The rule's analytic bound (see the module doc).
+/// The rule's analytic bound for the 8-bit map (see the module doc).
 pub fn error_bound(size: u32) -> f64 {
-    1.0 / 255.0 + (2.0 / size as f64).powi(2) / 8.0
+    1.0 / 255.0 + chord(size)
+}
+
+/// The bound of the 16-bit signed (HILO) map.
+pub fn error_bound_hilo(size: u32) -> f64 {
+    1.0 / 65535.0 + chord(size)
+}
+
+fn chord(size: u32) -> f64 {
+    (2.0 / size as f64).powi(2) / 8.0
 }
 
 /// `expand(Ncube δ v)` for `normalize(x)` (`x_written`: `x` as the
@@ -35,15 +49,25 @@ pub fn apply(r: &mut Rewriter, x: Handle<Expr>, x_written: Handle<Expr>, span: S
     } else {
         per_vertex::apply(r, x_written, "the vector normalized here", span)?
     };
-    let texture = texture(r);
+    let hilo = r.profile.signed_textures;
+    let texture = texture(r, hilo);
     let lookup = r.node(Expr::Lookup { texture, coords }, span)?;
-    let expanded = r.node(Expr::Math { fun: MathFunction::Expand, args: vec![lookup] }, span)?;
+    let expanded = if hilo {
+        lookup
+    } else {
+        r.node(Expr::Math { fun: MathFunction::Expand, args: vec![lookup] }, span)?
+    };
+    let (what, bound) = if hilo {
+        ("a 16-bit signed (HILO)", error_bound_hilo(SIZE))
+    } else {
+        ("an 8-bit", error_bound(SIZE))
+    };
     r.record(
         "normalization_cube_map",
         span,
         Some(expanded),
         format!(
-            "`normalize` per fragment is a lookup in an 8-bit normalization cube map ({SIZE}² texels a face)"
+            "`normalize` per fragment is a lookup in {what} normalization cube map ({SIZE}² texels a face)"
         ),
         ApproximationCost {
             texture_units: 1,
@@ -51,24 +75,28 @@ pub fn apply(r: &mut Rewriter, x: Handle<Expr>, x_written: Handle<Expr>, span: S
             general_combiners: 0,
             texels: 6 * (SIZE as u64).pow(2),
         },
-        Some(error_bound(SIZE)),
+        Some(bound),
     );
     Some(expanded)
 }
 
-/// The program's normalization cube map, added on first use.
-fn texture(r: &mut Rewriter) -> u32 {
+/// The program's normalization cube map, added on first use: 16-bit
+/// signed where the target has signed formats (`hilo`), else RGB8.
+fn texture(r: &mut Rewriter, hilo: bool) -> u32 {
     if let Some(i) = r.m.textures.iter().position(|t| t.name == NAME) {
         return i as u32;
     }
+    let (format, declared) =
+        if hilo { (TextureFormat::Signed16, "signed16") } else { (TextureFormat::Rgb8, "rgb8") };
+    let bits = if hilo { 16 } else { 8 };
     r.m.textures.push(Texture {
         name: NAME.into(),
         kind: TextureKind::Cube,
-        format: TextureFormat::Rgb8,
+        format,
         rendered: false,
         baked: false,
         declaration: Some(format!(
-            "texture {NAME} : cube rgb8 bilinear clamp = normalize_cube({SIZE}, 8);\n"
+            "texture {NAME} : cube {declared} bilinear clamp = normalize_cube({SIZE}, {bits});\n"
         )),
         copy_of: None,
         tabulates: Some(crate::ir::Tabulated::Normalize),

@@ -1600,29 +1600,32 @@ impl<'a> FragmentProgram<'a> {
     }
 
     /// The fragment colour: the output node, or what the combiners compute
-    /// from the registers the steps loaded (each channel clamped to [0, 1]
-    /// and rounded to 8 bits, as texels and colours reach the machine).
+    /// from the registers the steps loaded (rounded to 8 bits, as texels and
+    /// colours reach the machine: colours clamped to [0, 1], texels to
+    /// [−1, 1] — a signed texel keeps its sign, an unsigned one has none).
     fn colour(&self, slots: &[Value]) -> Value {
         let Some((machine, registers)) = &self.combiners else {
             return slots[self.output as usize];
         };
-        let load = |k: usize| -> [u8; 4] {
+        let load = |k: usize, lo: f64| -> [i16; 4] {
             match registers[k] {
                 Some(slot) => slots[slot as usize].map(|x| {
                     if x.is_nan() {
                         0
                     } else {
-                        (x.clamp(0.0, 1.0) * 255.0 + 0.5 + self.tie.register_steps).floor().clamp(0.0, 255.0)
-                            as u8
+                        (x.clamp(lo, 1.0) * 255.0 + 0.5 + self.tie.register_steps)
+                            .floor()
+                            .clamp(-255.0, 255.0) as i16
                     }
                 }),
                 None => [0; 4],
             }
         };
+        let colour = |k: usize| load(k, 0.0).map(|v| v as u8);
         let r = PixelRegisters {
-            textures: [load(0), load(1), load(2), load(3)],
-            primary: load(4),
-            secondary: load(5),
+            textures: [load(0, -1.0), load(1, -1.0), load(2, -1.0), load(3, -1.0)],
+            primary: colour(4),
+            secondary: colour(5),
         };
         machine.run(&r).map(|c| c as f64 / 255.0)
     }

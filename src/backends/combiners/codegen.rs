@@ -816,7 +816,11 @@ impl Gen<'_> {
                     (_, Part::Alpha) => Comp::Alpha,
                     _ => Comp::Rgb,
                 };
-                Ok(Src { base: Base::Reg(reg), comp, map: UnsignedIdentity })
+                // A signed texel (a HILO normalization map, seeds/000
+                // Section 5.1) reaches the combiners as it is: unsigned
+                // identity would clamp its negative components to 0.
+                let map = if self.lo(h) < 0.0 { SignedIdentity } else { UnsignedIdentity };
+                Ok(Src { base: Base::Reg(reg), comp, map })
             }
             Expr::Interpolate { .. } => self.interpolant_src(h, part, sat),
             Expr::Swizzle { value, pattern, len, .. } => self.swizzle_src(value, &pattern, len, sat, span),

@@ -116,11 +116,14 @@ pub fn emulate_into(
     Ok(())
 }
 
-/// One pixel's per-pixel registers (seeds/003 Table 2), RGBA8: the four
-/// texture registers and the primary and secondary colours.
+/// One pixel's per-pixel registers (seeds/003 Table 2): the four texture
+/// registers and the primary and secondary colours (RGBA8). A texture
+/// register is 9-bit signed, −255..=255 for −1..1: a signed texture's texel
+/// (a HILO normalization map, seeds/000 Section 5.1) is negative where its
+/// component is; an unsigned texel is 0..=255.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PixelRegisters {
-    pub textures: [[u8; 4]; 4],
+    pub textures: [[i16; 4]; 4],
     pub primary: [u8; 4],
     pub secondary: [u8; 4],
 }
@@ -179,7 +182,7 @@ fn pixel<M: Model>(plan: &Plan, fog: Color, input: &PixelRegisters) -> [u8; 4] {
     let mut r: Regs<M> = [[M::R::default(); 4]; N_REGS];
     let load = |px: [u8; 4]| px.map(M::from_u8);
     for (k, t) in input.textures.iter().enumerate() {
-        r[Register::Texture0.index() + k] = load(*t);
+        r[Register::Texture0.index() + k] = t.map(M::from_i9);
     }
     r[Register::Primary.index()] = load(input.primary);
     r[Register::Secondary.index()] = load(input.secondary);
@@ -391,6 +394,8 @@ trait Model {
     /// keeps it in 16 bits so products use 16-bit vector multiplies).
     type V: Copy + Default + Send + Sync;
     fn from_u8(v: u8) -> Self::R;
+    /// A 9-bit signed register value in 1/255 steps (clamped to ±255).
+    fn from_i9(v: i16) -> Self::R;
     fn from_unit(v: f32) -> Self::R;
     fn map(m: InputMapping, src: &[Self::R], dst: &mut [Self::V]);
     fn mul(a: &[Self::V], b: &[Self::V], dst: &mut [Self::W]);
@@ -463,6 +468,10 @@ impl Model for Fixed9 {
 
     fn from_u8(v: u8) -> i16 {
         v as i16
+    }
+
+    fn from_i9(v: i16) -> i16 {
+        v.clamp(-255, 255)
     }
 
     fn from_unit(v: f32) -> i16 {
@@ -570,6 +579,10 @@ macro_rules! float_model {
 
             fn from_u8(v: u8) -> $t {
                 v as $t * (1.0 / 255.0)
+            }
+
+            fn from_i9(v: i16) -> $t {
+                v.clamp(-255, 255) as $t * (1.0 / 255.0)
             }
 
             fn from_unit(v: f32) -> $t {
