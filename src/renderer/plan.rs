@@ -18,11 +18,10 @@
 //!
 //! # Three modes ([`Precision`])
 //!
-//! - `exact` — the reference: every node in f64; varyings that are **unit
-//!   directions** renormalized after interpolation (an interpolant whose
-//!   per-vertex value is a role vector other than `position`, a
-//!   `normalize(…)`, or a negation or reflection of those —
-//!   [`bind::is_unit_direction`]); true `pow` (the IR's `^`); **no lookup
+//! - `exact` — the reference: every node in f64, interpolants as the
+//!   program says (`δ v` of a unit vector is not renormalized: the
+//!   denormalization of seeds/000 Figure 9 is the program's meaning, which
+//!   `normalize(δ v)` asks to undo); true `pow` (the IR's `^`); **no lookup
 //!   tables**: a texture whose *generator* tabulates a function —
 //!   `normalize_cube` (normalize, range-compressed unless the format is
 //!   signed), `exponent_table(n)` (xⁿ), `brdf_fd`, `brdf_g` — is not
@@ -743,10 +742,9 @@ enum Source<'r> {
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Leaf {
     Uniform(Value),
-    /// Interpolant k (varyings 4k..4k+4), normalized (exact, unit directions).
+    /// Interpolant k (varyings 4k..4k+4).
     Varying {
         k: usize,
-        normalize: bool,
     },
     Lookup {
         texture: TextureId,
@@ -963,7 +961,6 @@ struct StepBuilder<'c, 'a> {
     address: Vec<bool>,
     register_reads: Vec<bool>,
     varying_of: HashMap<Handle<Expr>, usize>,
-    normalize_varyings: Vec<bool>,
     sources: &'c [Source<'a>],
     fat: &'c [Vec<&'a Rendered>],
     first_object: Option<&'c BoundObject<'c>>,
@@ -1008,7 +1005,7 @@ impl<'a> StepBuilder<'_, 'a> {
                     .unwrap_or(ir::eval::NAN),
             )),
             Expr::Interpolate { .. } => match self.varying_of.get(&h) {
-                Some(&k) => Some(Leaf::Varying { k, normalize: self.normalize_varyings[k] }),
+                Some(&k) => Some(Leaf::Varying { k }),
                 None => Some(Leaf::Unknown),
             },
             Expr::Lookup { texture, coords } => {
@@ -1161,11 +1158,6 @@ impl<'a> FragmentProgram<'a> {
             address: ir::address_only(m, &reach),
             register_reads: ir::register_reads(m, &reach),
             varying_of: pi.interpolants.iter().enumerate().map(|(k, h)| (*h, k)).collect(),
-            normalize_varyings: pi
-                .interpolants
-                .iter()
-                .map(|h| mode == Precision::Exact && matches!(m.exprs[*h], Expr::Interpolate { value, .. } if bind::is_unit_direction(m, value)))
-                .collect(),
             sources: &sources,
             fat: &fat,
             first_object,
@@ -1291,18 +1283,9 @@ impl<'a> FragmentProgram<'a> {
     ) -> Value {
         match *leaf {
             Leaf::Uniform(v) => v,
-            Leaf::Varying { k, normalize } => {
+            Leaf::Varying { k } => {
                 let v = &varyings[4 * k..4 * k + 4];
-                let mut out = [v[0] as f64, v[1] as f64, v[2] as f64, v[3] as f64];
-                if normalize {
-                    let l = (out[0] * out[0] + out[1] * out[1] + out[2] * out[2]).sqrt();
-                    if l > 0.0 && l.is_finite() {
-                        for c in &mut out[..3] {
-                            *c /= l;
-                        }
-                    }
-                }
-                out
+                [v[0] as f64, v[1] as f64, v[2] as f64, v[3] as f64]
             }
             Leaf::Lookup { texture, coords_ty, lod_from } => {
                 self.lookup(texture, operand, coords_ty, lod_from, None, fragment, varyings)

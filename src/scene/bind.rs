@@ -861,7 +861,7 @@ impl ir::eval::Env for VertexEnv<'_, '_> {
 
 /// Whether the per-vertex value `h` is a unit direction: a role vector other
 /// than a position, a `normalize(…)`, a negation or reflection of those.
-/// Exact mode renormalizes these after interpolation.
+/// Interpolated, its length is at most 1 (the relevance bounds use it).
 pub fn is_unit_direction(m: &Module, h: Handle<Expr>) -> bool {
     match &m.exprs[h] {
         Expr::Vector { vector, .. } => m.vectors[*vector as usize]
