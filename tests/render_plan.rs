@@ -264,3 +264,22 @@ fn dependent_lookups_take_their_level_of_detail_from_the_quad() {
         );
     }
 }
+
+/// `exact` renders the program as written: an interpolated unit normal is
+/// shorter than 1 inside a triangle (seeds/000 Figure 9), and only
+/// `normalize` makes it unit again. (Exact mode used to renormalize
+/// interpolated role vectors, so `phong_unnormalized.shd`'s own
+/// denormalization was reported as a 131/255 error of every plan.)
+#[test]
+fn exact_interpolates_unit_vectors_as_the_program_says() {
+    let scene = default_scene();
+    let length = "vector N : normal;\nC δπx ← rgb(length(δ N s x));\n";
+    let (exact, _) = render(length, "wgsl", &scene, Precision::Exact);
+    let (f32, _) = render(length, "wgsl", &scene, Precision::F32);
+    let lit: Vec<f32> = exact.image.to_rgba_f32().iter().map(|p| p[0]).filter(|&v| v > 0.0).collect();
+    assert!(lit.iter().any(|&v| v < 0.995), "every interpolated normal is unit length in exact mode");
+    assert!(compare(&exact.image, &f32.image).max_abs <= 1.0 / 255.0);
+    let normalized = "vector N : normal;\nC δπx ← rgb(length(normalize(δ N s x)));\n";
+    let (exact, _) = render(normalized, "wgsl", &scene, Precision::Exact);
+    assert!(exact.image.to_rgba_f32().iter().map(|p| p[0]).filter(|&v| v > 0.0).all(|v| (v - 1.0).abs() < 1e-3));
+}
