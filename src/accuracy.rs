@@ -34,6 +34,7 @@ pub struct Candidate {
     pub error: ErrorReport,
     /// Predicted frame time on the scene (ms), where the target has a model.
     pub predicted_ms: Option<f64>,
+    pub passes: usize,
     pub within: bool,
 }
 
@@ -69,27 +70,9 @@ pub fn choose(
         return Ok((first, Vec::new()));
     }
     let size = measuring_size(scene.scene.resolution);
-    let reference = render(&crate::meaning::plan(module, lights)?, program, scene, size)?;
-    let mut candidates: Vec<(Planned, Candidate)> = Vec::new();
-    for choice in crate::lowering::choices(profile) {
-        let only = crate::lowering::LowerOptions { only: Some(choice), ..Default::default() };
-        let Ok(planned) = crate::driver::plan(
-            module,
-            program,
-            profile,
-            Some(source),
-            &PlanOptions { lowering: only, ..*options },
-        ) else {
-            continue;
-        };
-        let rules = rule_names(&planned);
-        if candidates.iter().any(|(_, c)| c.rules == rules) {
-            continue;
-        }
-        let error = compare(&reference, &render(&planned, program, scene, size)?);
-        let predicted_ms = planned.plan.predicted.as_ref().map(|p| p.total_us / 1000.0);
-        let within = f64::from(error.max_abs) <= max_error;
-        candidates.push((planned, Candidate { rules, error, predicted_ms, within }));
+    let mut candidates = measure(module, program, profile, source, options, lights)?;
+    for (_, c) in &mut candidates {
+        c.within = f64::from(c.error.max_abs) <= max_error;
     }
     let best = (0..candidates.len()).filter(|&i| candidates[i].1.within).min_by(|&a, &b| {
         let t = |i: usize| candidates[i].1.predicted_ms.unwrap_or(0.0);
@@ -99,7 +82,48 @@ pub fn choose(
     let Some(best) = best else {
         return Err(vec![refusal(&candidates, profile, source, scene, max_error)]);
     };
-    let (mut planned, chosen) = candidates.swap_remove(best);
+    Ok((with_measured(candidates.swap_remove(best), scene, size), report))
+}
+
+/// Without `--max-error`, on a scene: the plan whose render is closest to
+/// the program's meaning there (largest channel difference, then RMSE,
+/// then the predicted frame) — issue 18's "the most accurate plan that
+/// fits", measured on the picture rather than assumed from the rules'
+/// order (on `fragment_lighting.shd` for geforce256 the per-vertex half
+/// vector beats the 8-bit cube map raised to the 32nd power). A program
+/// that plans as written is returned as planned.
+pub fn most_accurate(
+    module: &Module,
+    program: &Program,
+    profile: &Profile,
+    source: &str,
+    options: &PlanOptions,
+    lights: usize,
+) -> Result<(Planned, Vec<Candidate>), Diagnostics> {
+    let first = crate::driver::plan(module, program, profile, Some(source), options)?;
+    let Some(scene) = options.scene.as_ref().filter(|_| !first.plan.approximations.is_empty()) else {
+        return Ok((first, Vec::new()));
+    };
+    let size = measuring_size(scene.scene.resolution);
+    let mut candidates = measure(module, program, profile, source, options, lights)?;
+    let key = |c: &Candidate| (c.error.max_abs, c.error.rmse, c.predicted_ms.unwrap_or(0.0));
+    let best = (0..candidates.len()).min_by(|&a, &b| {
+        let (x, y) = (key(&candidates[a].1), key(&candidates[b].1));
+        x.0.total_cmp(&y.0).then(x.1.total_cmp(&y.1)).then(x.2.total_cmp(&y.2)).then(a.cmp(&b))
+    });
+    let report: Vec<Candidate> = candidates.iter().map(|(_, c)| c.clone()).collect();
+    match best {
+        Some(best) => Ok((with_measured(candidates.swap_remove(best), scene, size), report)),
+        None => Ok((first, report)),
+    }
+}
+
+/// The chosen plan, its measured error recorded.
+fn with_measured(
+    (mut planned, chosen): (Planned, Candidate),
+    scene: &crate::driver::ForScene,
+    size: (u32, u32),
+) -> Planned {
     planned.plan.measured = Some(MeasuredError {
         scene: scene_name(scene),
         width: size.0,
@@ -107,7 +131,61 @@ pub fn choose(
         max_abs: f64::from(chosen.error.max_abs),
         rmse: chosen.error.rmse,
     });
-    Ok((planned, report))
+    planned
+}
+
+/// Every plan `module` has for `profile` on `options.scene` — as written,
+/// when it plans, then each choice of lowering rules that plans (one per
+/// distinct set of rules) — with its error against the program's meaning
+/// on the scene and its predicted frame: the points of the Pareto front
+/// of passes and error (issue 18 item 3, `shadec bench --program`).
+/// `within` is left `true`; `lights`: the lights the meaning shades.
+pub fn measure(
+    module: &Module,
+    program: &Program,
+    profile: &Profile,
+    source: &str,
+    options: &PlanOptions,
+    lights: usize,
+) -> Result<Vec<(Planned, Candidate)>, Diagnostics> {
+    let Some(scene) = options.scene.as_ref() else {
+        let what = "measuring a plan's error needs a scene".to_string();
+        return Err(vec![Diagnostic::error("max-error", what, Span::DETACHED, "")
+            .with_help("give the scene the plans are measured on")]);
+    };
+    let size = measuring_size(scene.scene.resolution);
+    let reference = render(&crate::meaning::plan(module, lights)?, program, scene, size)?;
+    let exact = crate::lowering::LowerOptions { approximate: false, ..Default::default() };
+    let written = crate::driver::plan(
+        module,
+        program,
+        profile,
+        Some(source),
+        &PlanOptions { lowering: exact, ..*options },
+    );
+    let lowered = crate::lowering::choices(profile).into_iter().filter_map(|choice| {
+        let only = crate::lowering::LowerOptions { only: Some(choice), ..Default::default() };
+        crate::driver::plan(
+            module,
+            program,
+            profile,
+            Some(source),
+            &PlanOptions { lowering: only, ..*options },
+        )
+        .ok()
+    });
+    let mut candidates: Vec<(Planned, Candidate)> = Vec::new();
+    for planned in written.into_iter().chain(lowered) {
+        let rules = rule_names(&planned);
+        if candidates.iter().any(|(_, c)| c.rules == rules) {
+            continue;
+        }
+        let error = compare(&reference, &render(&planned, program, scene, size)?);
+        let predicted_ms = planned.plan.predicted.as_ref().map(|p| p.total_us / 1000.0);
+        let passes = planned.plan.passes.len();
+        candidates.push((planned, Candidate { rules, error, predicted_ms, passes, within: true }));
+    }
+    Ok(candidates)
 }
 
 /// The scene's resolution, scaled down to at most [`MAX_SIDE`] a side.
@@ -132,9 +210,18 @@ fn render(
         })
 }
 
+/// The rules a plan used, `normalization_cube_map + power_by_passes`, or
+/// `as written`.
 fn rule_names(planned: &Planned) -> String {
-    let mut rules: Vec<&str> = planned.plan.approximations.iter().map(|a| a.rule.as_str()).collect();
-    rules.dedup();
+    let mut rules: Vec<&str> = Vec::new();
+    for a in &planned.plan.approximations {
+        if !rules.contains(&a.rule.as_str()) {
+            rules.push(&a.rule);
+        }
+    }
+    if rules.is_empty() {
+        return "as written".into();
+    }
     rules.join(" + ")
 }
 

@@ -292,3 +292,64 @@ fn bad_bench_options_are_usage_errors() {
         assert_eq!(out.status.code(), Some(2), "{args:?}");
     }
 }
+
+/// `bench --program` (issue 18 item 3): one program's Pareto front on each
+/// target. Every row's error is measured against the program's meaning
+/// (the wgsl plan, the program as written, is within a framebuffer step of
+/// it), the front is exactly the undominated rows of each target, and the
+/// command writes front.md and front.png.
+#[test]
+fn bench_program_draws_the_pareto_front_of_each_target() {
+    let dir = std::env::temp_dir().join(format!("shadec-front-{}", std::process::id()));
+    let out = dir.to_str().unwrap();
+    let r =
+        crate::common::shadec(&["bench", "--program", "examples/fragment_lighting.shd", "--out-dir", out]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    let source =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/fragment_lighting.shd"))
+            .unwrap();
+    let scene = shadec::scene::Scene::parse(
+        include_str!("../scenes/kilgard_torus.ron"),
+        std::path::Path::new("/nonexistent-shadec-scene/kilgard_torus.ron"),
+    )
+    .unwrap();
+    let assets = scene.build().unwrap();
+    let profiles: Vec<_> = ["geforce256", "geforce3", "wgsl"]
+        .iter()
+        .map(|t| shadec::profile::Profile::builtin(t).unwrap())
+        .collect();
+    let (rows, refused) = shadec::bench::front::measure(&source, &profiles, &scene, &assets).unwrap();
+    assert!(refused.is_empty(), "{refused:?}");
+    let wgsl: Vec<_> = rows.iter().filter(|r| r.target == "wgsl").collect();
+    assert_eq!(wgsl.len(), 1);
+    assert_eq!(wgsl[0].rules, "as written");
+    assert!(wgsl[0].max_abs <= 1.0 / 255.0, "{:?}", wgsl[0]);
+    for target in ["geforce256", "geforce3"] {
+        let mine: Vec<_> = rows.iter().filter(|r| r.target == target).collect();
+        assert!(mine.len() >= 2, "{target}: {mine:?}");
+        for a in &mine {
+            let dominated = mine.iter().any(|b| {
+                b.time() <= a.time()
+                    && b.max_abs <= a.max_abs
+                    && (b.time() < a.time() || b.max_abs < a.max_abs)
+            });
+            assert_eq!(a.on_front, !dominated, "{target}: {a:?}");
+        }
+    }
+    let report = std::fs::read_to_string(dir.join("front.md")).unwrap();
+    assert!(report.contains("## geforce256") && report.contains("## geforce3"), "{report}");
+    let png = std::fs::read(dir.join("front.png")).unwrap();
+    assert_eq!(&png[1..4], b"PNG");
+    let _ = std::fs::remove_dir_all(&dir);
+    // A target that is not a profile is a usage error.
+    let r = crate::common::shadec(&[
+        "bench",
+        "--program",
+        "examples/fragment_lighting.shd",
+        "--target",
+        "nv99",
+        "--out-dir",
+        out,
+    ]);
+    assert_eq!(r.code, 2, "{}", r.stderr);
+}

@@ -577,6 +577,33 @@ fn max_error_on_a_scene_is_measured_against_the_meaning() {
     );
 }
 
+/// Without `--max-error`, on a scene (`render`, `compile --scene`): the
+/// lowering measured closest to the program's meaning, not the first in
+/// the rules' order. `fragment_lighting.shd` on geforce256 has two: the
+/// cube maps with x³² by passes, and per-vertex shading; whichever renders
+/// closer to the meaning on the scene is taken, and its error recorded.
+#[test]
+fn without_max_error_a_scene_takes_the_measured_most_accurate_lowering() {
+    let source = example("fragment_lighting.shd");
+    let (program, _) = shadec::parser::check(&source);
+    let (module, _) = shadec::ir::lower(&program);
+    let profile = Profile::builtin("geforce256").unwrap();
+    let scene = scene();
+    let assets = scene.build().unwrap();
+    let options = PlanOptions {
+        scene: Some(shadec::driver::ForScene::specialized(&scene, &assets)),
+        ..Default::default()
+    };
+    let (planned, candidates) =
+        shadec::accuracy::most_accurate(&module, &program, &profile, &source, &options, 1).unwrap();
+    assert!(candidates.len() >= 2, "{candidates:?}");
+    let best = candidates.iter().map(|c| c.error.max_abs).fold(f32::INFINITY, f32::min);
+    let measured = planned.plan.measured.as_ref().expect("recorded");
+    assert_eq!(measured.max_abs, f64::from(best), "{candidates:?}");
+    // The chosen plan is one of the measured candidates, and really that close.
+    assert!((error_against_meaning(&source, &planned, &scene) - measured.max_abs).abs() < 0.05);
+}
+
 /// The same through the CLI: `compile --scene S --max-error E` records the
 /// measured error in the plan; `render --max-error E` lists every lowering
 /// it measured.

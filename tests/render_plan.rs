@@ -281,5 +281,11 @@ fn exact_interpolates_unit_vectors_as_the_program_says() {
     assert!(compare(&exact.image, &f32.image).max_abs <= 1.0 / 255.0);
     let normalized = "vector N : normal;\nC δπx ← rgb(length(normalize(δ N s x)));\n";
     let (exact, _) = render(normalized, "wgsl", &scene, Precision::Exact);
-    assert!(exact.image.to_rgba_f32().iter().map(|p| p[0]).filter(|&v| v > 0.0).all(|v| (v - 1.0).abs() < 1e-3));
+    assert!(exact
+        .image
+        .to_rgba_f32()
+        .iter()
+        .map(|p| p[0])
+        .filter(|&v| v > 0.0)
+        .all(|v| (v - 1.0).abs() < 1e-3));
 }

@@ -13,6 +13,7 @@
 //! [`report`] writes `report.md`, the plots and the difference images.
 
 pub mod adaptive;
+pub mod front;
 #[cfg(feature = "gpu")]
 pub mod gpu;
 pub mod plot;

@@ -227,6 +227,78 @@ fn error_against(measured: &[Measured], axis: TimeAxis, path: &Path) -> Result<(
     save(&buf, path)
 }
 
+/// One program's plans on each target (`bench --program`, issue 18 item
+/// 3): largest error against the predicted frame, log-log, one colour per
+/// target, each target's front joined and its points labelled with their
+/// rules. A target without a cost model (wgsl) is in the table only —
+/// unless no target has one, when passes stand in for time.
+pub fn front(rows: &[super::front::FrontRow], program: &str, path: &Path) -> Result<(), BenchError> {
+    register_font();
+    let any_predicted = rows.iter().any(|r| r.predicted_ms.is_some());
+    let rows: Vec<super::front::FrontRow> =
+        rows.iter().filter(|r| !any_predicted || r.predicted_ms.is_some()).cloned().collect();
+    let points: Vec<(f64, f64)> =
+        rows.iter().map(|r| (r.time().max(1e-6), r.max_abs.max(RMSE_FLOOR))).collect();
+    let (x0, x1) = bounds(points.iter().map(|p| p.0));
+    let (y0, y1) = bounds(points.iter().map(|p| p.1));
+    // Room for the labels right of the points and the legend above them.
+    let (x1, y1) = (x1 * 6.0, y1 * 20.0);
+    let mut buf = vec![0u8; (W * H * 3) as usize];
+    {
+        let root = BitMapBackend::with_buffer(&mut buf, (W, H)).into_drawing_area();
+        root.fill(&WHITE).map_err(plot_error)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(format!("{program}: error against the predicted frame"), (FONT, 22))
+            .margin(20)
+            .x_label_area_size(50)
+            .y_label_area_size(80)
+            .build_cartesian_2d((x0..x1).log_scale(), (y0..y1).log_scale())
+            .map_err(plot_error)?;
+        chart
+            .configure_mesh()
+            .x_desc(if any_predicted {
+                "ms per frame predicted on the target (cost model)"
+            } else {
+                "passes"
+            })
+            .y_desc(format!("max abs error against the meaning (floor {RMSE_FLOOR:e})"))
+            .x_labels(8)
+            .y_label_formatter(&|v| format!("{v:.0e}"))
+            .label_style((FONT, 14))
+            .draw()
+            .map_err(plot_error)?;
+        let mut targets: Vec<&str> = rows.iter().map(|r| r.target.as_str()).collect();
+        targets.dedup();
+        for (ti, target) in targets.iter().enumerate() {
+            let colour = Palette99::pick(ti).to_rgba();
+            let mine: Vec<usize> = (0..rows.len()).filter(|&i| rows[i].target == *target).collect();
+            chart
+                .draw_series(mine.iter().map(|&i| Circle::new(points[i], 6, colour.filled())))
+                .map_err(plot_error)?
+                .label(target.to_string())
+                .legend(move |(x, y)| Circle::new((x + 8, y), 6, colour.filled()));
+            let mut on: Vec<(f64, f64)> =
+                mine.iter().filter(|&&i| rows[i].on_front).map(|&i| points[i]).collect();
+            on.sort_by(|a, b| a.0.total_cmp(&b.0));
+            chart.draw_series(LineSeries::new(on, colour.stroke_width(2))).map_err(plot_error)?;
+        }
+        for (r, p) in rows.iter().zip(&points) {
+            let label = format!("{}{}", r.rules, if r.on_front { " *" } else { "" });
+            chart.draw_series(std::iter::once(Text::new(label, *p, (FONT, 12)))).map_err(plot_error)?;
+        }
+        chart
+            .configure_series_labels()
+            .background_style(WHITE.mix(0.85))
+            .border_style(BLACK)
+            .label_font((FONT, 13))
+            .position(SeriesLabelPosition::UpperRight)
+            .draw()
+            .map_err(plot_error)?;
+        root.present().map_err(plot_error)?;
+    }
+    save(&buf, path)
+}
+
 /// Adaptive shading: share of pixels shaded and PSNR against the threshold,
 /// one line per scene.
 pub fn adaptive(rows: &[AdaptiveRow], path: &Path) -> Result<(), BenchError> {

@@ -39,9 +39,78 @@ pub struct BenchArgs {
     /// and listed.
     #[arg(long, value_name = "E")]
     pub max_error: Option<f64>,
+    /// Instead of the papers' variants: the Pareto front of this program —
+    /// every plan the compiler has for it on each `--target` (as written,
+    /// then each choice of lowering rules), its predicted frame against
+    /// its error on `--scene`; writes front.md and front.png.
+    #[arg(long, value_name = "FILE")]
+    pub program: Option<PathBuf>,
+    /// With --program: a target to plan for (repeatable)
+    /// [default: geforce256, geforce3, wgsl].
+    #[arg(long = "target", value_name = "PROFILE", requires = "program")]
+    pub targets: Vec<String>,
+    /// With --program: the scene the plans are measured on [default: the
+    /// built-in Kilgard torus].
+    #[arg(long, value_name = "FILE", requires = "program")]
+    pub scene: Option<PathBuf>,
+}
+
+/// `bench --program`: the program's front on each target.
+fn front(args: &BenchArgs, program: &std::path::Path) -> ExitCode {
+    let source = match shadec::io::read_text(program) {
+        Ok(s) => s,
+        Err(e) => return usage(e),
+    };
+    let names: Vec<String> = if args.targets.is_empty() {
+        ["geforce256", "geforce3", "wgsl"].map(String::from).to_vec()
+    } else {
+        args.targets.clone()
+    };
+    let mut profiles = Vec::new();
+    for name in &names {
+        match shadec::profile::Profile::resolve(name) {
+            Ok(p) => profiles.push(p),
+            Err(e) => return usage(e),
+        }
+    }
+    let scene = match super::render::scene_from(args.scene.as_deref()) {
+        Ok(s) => s,
+        Err(code) => return code,
+    };
+    let name = program.display().to_string();
+    match shadec::bench::front::run(&name, &source, &profiles, &scene, &args.out_dir) {
+        Ok((rows, refused)) => {
+            for r in &rows {
+                println!(
+                    "{} {:<10} {:>3} passes  {}  max {:>5.1}/255  RMSE {:.5}  {}",
+                    if r.on_front { "*" } else { " " },
+                    r.target,
+                    r.passes,
+                    r.predicted_ms
+                        .map_or("predicted    —    ".to_string(), |t| format!("predicted {t:>7.3} ms")),
+                    r.max_abs * 255.0,
+                    r.rmse,
+                    r.rules
+                );
+            }
+            for r in &refused {
+                println!("refused: {r}");
+            }
+            println!("wrote {}", args.out_dir.join("front.md").display());
+            ExitCode::SUCCESS
+        }
+        Err(e @ BenchError::Io(_)) => usage(e),
+        Err(e) => {
+            eprintln!("error: {e}");
+            ExitCode::from(EXIT_SOURCE_ERRORS)
+        }
+    }
 }
 
 pub fn run(args: &BenchArgs) -> ExitCode {
+    if let Some(program) = &args.program {
+        return front(args, program);
+    }
     let mut options = if args.quick { BenchOptions::quick() } else { BenchOptions::full() };
     if let Some(s) = &args.size {
         match parse_size(s) {

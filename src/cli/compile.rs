@@ -151,10 +151,15 @@ fn plan_for(
     let for_scene = scene.zip(assets.as_ref()).map(|(s, a)| ForScene::specialized(s, a));
     let options = PlanOptions { scene: for_scene, lowering, ..Default::default() };
     let planned = match (lowering.max_error, lowering.approximate, scene) {
-        // --max-error with --scene: the lowerings measured on it (issue 18);
-        // the plan records the chosen one's error (`measured`).
+        // With --scene, the lowerings measured on it (issue 18): the fastest
+        // within --max-error, else the most accurate; the plan records the
+        // chosen one's error (`measured`).
         (Some(e), true, Some(s)) => {
             shadec::accuracy::choose(m, program, profile, text, &options, e, s.lights.len()).map(|(p, _)| p)
+        }
+        (None, true, Some(s)) => {
+            shadec::accuracy::most_accurate(m, program, profile, text, &options, s.lights.len())
+                .map(|(p, _)| p)
         }
         _ => shadec::driver::plan(m, program, profile, Some(text), &options),
     }

@@ -131,7 +131,12 @@ pub fn run(args: &RenderArgs) -> ExitCode {
 
 /// The scene: the file given, else the built-in torus.
 fn load_scene(args: &RenderArgs) -> Result<Scene, ExitCode> {
-    let Some(path) = &args.scene else {
+    scene_from(args.scene.as_deref())
+}
+
+/// The scene at `path`, else the built-in torus (`render`, `bench --program`).
+pub fn scene_from(path: Option<&Path>) -> Result<Scene, ExitCode> {
+    let Some(path) = path else {
         return Scene::parse(DEFAULT_SCENE, Path::new(""))
             .map_err(|e| input(format!("the built-in scene: {e}")));
     };
@@ -188,19 +193,14 @@ fn compile(
         eprint!("{}", file.render(&errors, color_stderr()));
         ExitCode::from(EXIT_SOURCE_ERRORS)
     };
-    // --max-error on a scene: the lowerings measured on it (issue 18).
-    if let (Some(e), true, Some(module)) =
-        (args.max_error, lowering.approximate && for_scene.is_some(), &front.module)
-    {
-        let measured = shadec::accuracy::choose(
-            module,
-            &front.program,
-            &profile,
-            source,
-            &options,
-            e,
-            scene.lights.len(),
-        );
+    // On a scene, the lowerings measured on it (issue 18): the fastest
+    // within --max-error, else the most accurate.
+    if let (true, Some(module)) = (lowering.approximate && for_scene.is_some(), &front.module) {
+        let (program, lights) = (&front.program, scene.lights.len());
+        let measured = match args.max_error {
+            Some(e) => shadec::accuracy::choose(module, program, &profile, source, &options, e, lights),
+            None => shadec::accuracy::most_accurate(module, program, &profile, source, &options, lights),
+        };
         let (planned, candidates) = measured.map_err(refused)?;
         for c in &candidates {
             println!(

@@ -40,6 +40,8 @@ pub struct ProfileFit<'p> {
     /// Texture samples per value, for [`FitCheck::piece_ns`] (issue 19),
     /// measured once like the verdicts.
     samples: RefCell<HashMap<Handle<Expr>, u32>>,
+    /// Texture units per value, for [`FitCheck::texture_units`].
+    units: RefCell<HashMap<Handle<Expr>, usize>>,
 }
 
 impl<'p> ProfileFit<'p> {
@@ -50,6 +52,7 @@ impl<'p> ProfileFit<'p> {
             generated: RefCell::default(),
             verdicts: RefCell::default(),
             samples: RefCell::default(),
+            units: RefCell::default(),
         }
     }
 
@@ -85,6 +88,14 @@ impl<'p> ProfileFit<'p> {
 }
 
 impl FitCheck for ProfileFit<'_> {
+    fn texture_units(&self, module: &Module, value: Handle<Expr>) -> usize {
+        *self
+            .units
+            .borrow_mut()
+            .entry(value)
+            .or_insert_with(|| Usage::of_value(module, value).texture_units())
+    }
+
     fn fits(&self, module: &Module, value: Handle<Expr>) -> Result<(), Overflow> {
         if let Some(known) = self.verdicts.borrow().get(&value) {
             return known.clone();

@@ -81,6 +81,12 @@ pub trait FitCheck {
     fn piece_ns(&self, _module: &Module, _piece: &Piece) -> u64 {
         0
     }
+
+    /// The texture units computing `value` takes (a fit may remember it:
+    /// the splitter costs the same pieces many times, issue 22).
+    fn texture_units(&self, module: &Module, value: Handle<Expr>) -> usize {
+        Usage::of_value(module, value).texture_units()
+    }
 }
 
 /// Where a piece is written.
@@ -114,9 +120,9 @@ pub type Pieces = Rc<Vec<Piece>>;
 pub type Cost = (u64, usize, usize);
 
 pub fn cost(module: &Module, fit: &dyn FitCheck, pieces: &[Piece]) -> Cost {
-    pieces.iter().fold((0, 0, 0), |c, p| {
-        add(c, (fit.piece_ns(module, p), 1, Usage::of_value(module, p.value).texture_units()))
-    })
+    pieces
+        .iter()
+        .fold((0, 0, 0), |c, p| add(c, (fit.piece_ns(module, p), 1, fit.texture_units(module, p.value))))
 }
 
 /// The cheapest of the splits that fit (the first on a tie). When the
@@ -158,11 +164,11 @@ enum ChainOp {
 }
 
 /// What the searches of one program share: plans already found for a
-/// (mode, value, position), the temporaries introduced, and the texture
-/// units of values already measured. Handles index one module's append-only
-/// arena, so what is recorded for a handle stays true while the program is
-/// planned (issue 22: without the last two, planning 100 000 operations
-/// was quadratic in the number of temporaries and values).
+/// (mode, value, position) and the temporaries introduced (the fit
+/// remembers each value's texture units). Handles index one module's
+/// append-only arena, so what is recorded for a handle stays true while
+/// the program is planned (issue 22: without the memos, planning 100 000
+/// operations was quadratic in the number of temporaries and values).
 #[derive(Default)]
 pub struct SplitCache {
     memo: HashMap<(BlendMode, Handle<Expr>, Handle<Expr>), Option<Pieces>>,
@@ -171,7 +177,6 @@ pub struct SplitCache {
     /// only appended while planning, by either of the planner's caches).
     texture_index: HashMap<String, u32>,
     indexed: usize,
-    units: HashMap<Handle<Expr>, usize>,
     /// Splits refused because a clamp between passes would change the
     /// value ([`exact_through_clamps`]): the refusal says so.
     pub clamp_refusals: usize,
@@ -208,14 +213,9 @@ impl<'a> Splitter<'a> {
         cost(self.module, self.fit, p)
     }
 
-    /// The texture units computing `h` takes, measured once per value.
+    /// The texture units computing `h` takes (the fit remembers them).
     fn units(&mut self, h: Handle<Expr>) -> usize {
-        if let Some(&n) = self.cache.units.get(&h) {
-            return n;
-        }
-        let n = Usage::of_value(self.module, h).texture_units();
-        self.cache.units.insert(h, n);
-        n
+        self.fit.texture_units(self.module, h)
     }
 
     fn fits(&self, h: Handle<Expr>) -> Result<(), Overflow> {
