@@ -485,6 +485,38 @@ fn a_function_of_two_dot_products_becomes_a_2d_table() {
     }
 }
 
+/// Seeliger's `kd·(N·L)/(N·L + N·V)` (henyey_greenstein_skin.shd) is a
+/// per-object colour times a quotient of two dot products whose
+/// denominator crosses 0: with 2-D tables, the quotient is tabulated
+/// clamped to the combiners' [−1, 1] (recorded without a bound: only a
+/// scene can say what the clamp changes), and on the sphere that is
+/// closer to the program's meaning than per-vertex shading.
+#[test]
+fn a_quotient_that_leaves_the_combiners_range_is_tabulated_clamped() {
+    let source = example("henyey_greenstein_skin.shd");
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/bench_sphere.ron")).unwrap();
+    let sphere = Scene::parse(&text, Path::new("scenes/bench_sphere.ron")).unwrap();
+    for target in ["geforce256", "geforce3"] {
+        let profile = Profile::builtin(target).unwrap();
+        let tables = lowering::choices(&profile).into_iter().find(|c| c.tables_2d).unwrap();
+        let planned =
+            compile_with(&source, &profile, LowerOptions { only: Some(tables), ..Default::default() })
+                .unwrap();
+        let a = &planned.plan.approximations;
+        let table =
+            a.iter().find(|a| a.rule == "baked_table_2d").unwrap_or_else(|| panic!("{target}: {a:?}"));
+        assert!(table.error_bound.is_none() && table.why.contains("clamped to [-1, 1]"), "{table:?}");
+        let first = compile(&source, &profile).unwrap();
+        assert!(first.plan.approximations.iter().all(|a| a.rule != "baked_table_2d"));
+        let (e2d, ev) = (
+            error_against_meaning(&source, &planned, &sphere),
+            error_against_meaning(&source, &first, &sphere),
+        );
+        assert!(e2d < ev, "{target}: the clamped table is {e2d}, per-vertex {ev}");
+    }
+}
+
 /// `x^6` of a value the combiners hold: rule `power_by_squaring` makes it
 /// `x^4 · x^2` with `x^4 = (x^2)^2` — every power a square the code
 /// generator builds — in one pass, within its stated bound of the meaning.

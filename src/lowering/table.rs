@@ -231,7 +231,7 @@ fn evaluate(m: &Module, chain: &[Expr], b: Handle<Expr>, x: f64) -> f64 {
 /// How far a tabulated function may leave [0, 1] by its own rounding and
 /// still be stored as is (clamped by the 8-bit encoding: an error far
 /// below the 8-bit step).
-const SNAP: f64 = 1e-9;
+pub(super) const SNAP: f64 = 1e-9;
 
 /// How table values are kept in 8 bits.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -266,6 +266,10 @@ impl Storage {
     pub(super) fn decode(self, r: &mut Rewriter, t: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
         if self.lo == 0.0 && self.scale == 1.0 {
             return Some(t);
+        }
+        if self.lo == -1.0 && self.scale == 2.0 {
+            // The combiners' expand_normal (seeds/003 Table 3).
+            return r.node(Expr::Math { fun: crate::ir::MathFunction::Expand, args: vec![t] }, span);
         }
         let scale = r.node(Expr::Constant(Constant::scalar(self.scale)), span)?;
         let lo = r.node(Expr::Constant(Constant::scalar(self.lo)), span)?;

@@ -34,7 +34,35 @@ pub const PROBES: usize = 160;
 /// `value` with every largest per-fragment scalar part that is a function
 /// of two arguments tabulated.
 pub fn apply(r: &mut Rewriter, value: Handle<Expr>) -> Handle<Expr> {
-    r.top_down(value, &mut |r, h| if r.m.info(h).ty == Ty::Scalar { tabulate(r, h) } else { None })
+    r.top_down(value, &mut |r, h| {
+        if r.m.info(h).ty == Ty::Scalar {
+            tabulate(r, h)
+        } else {
+            scaled_quotient(r, h)
+        }
+    })
+}
+
+/// `k·s / d` with `k` a per-object colour and `s`, `d` per-fragment
+/// scalars (Seeliger's `kd·(N·L)/(N·L + N·V)`): `k · (s/d)`, the scalar
+/// quotient tabulated.
+fn scaled_quotient(r: &mut Rewriter, h: Handle<Expr>) -> Option<Handle<Expr>> {
+    let Expr::Binary { op: BinaryOp::Div, lhs, rhs } = r.m.exprs[h] else { return None };
+    let Expr::Binary { op: BinaryOp::Mul, lhs: a, rhs: b } = r.m.exprs[lhs] else { return None };
+    let scalar = |x: Handle<Expr>| r.m.info(x).ty == Ty::Scalar;
+    let per_object = |x: Handle<Expr>| !r.m.info(x).freq.is_sample();
+    let (k, s) = match (per_object(a), per_object(b)) {
+        (true, false) if scalar(b) => (a, b),
+        (false, true) if scalar(a) => (b, a),
+        _ => return None,
+    };
+    if !scalar(rhs) {
+        return None;
+    }
+    let span = r.m.span(h);
+    let quotient = r.node(Expr::Binary { op: BinaryOp::Div, lhs: s, rhs }, span)?;
+    let table = tabulate(r, quotient)?;
+    r.node(Expr::Binary { op: BinaryOp::Mul, lhs: k, rhs: table }, span)
 }
 
 /// The two arguments `h` is a function of (dot products or interpolated
@@ -82,19 +110,34 @@ fn tabulate(r: &mut Rewriter, h: Handle<Expr>) -> Option<Handle<Expr>> {
     };
     let (ra, rb) = (range(a_v)?, range(b_v)?);
     let function = Function::new(&r.m, h, [a, b]);
-    let f = |x: f64, y: f64| function.at(x, y);
     let n = TEXELS as f64;
     let at = |(lo, hi): (f64, f64), i: usize| lo + (hi - lo) * i as f64 / (n - 1.0);
-    let samples: Vec<f64> = (0..TEXELS * TEXELS).map(|k| f(at(ra, k % TEXELS), at(rb, k / TEXELS))).collect();
+    let grid = |f: &dyn Fn(f64, f64) -> f64| -> Vec<f64> {
+        (0..TEXELS * TEXELS).map(|k| f(at(ra, k % TEXELS), at(rb, k / TEXELS))).collect()
+    };
+    let raw = grid(&|x, y| function.at(x, y));
+    // A function that leaves [−1, 1] (a quotient whose denominator crosses
+    // 0: Seeliger's N·L/(N·L + N·V)) is tabulated clamped to the range the
+    // combiners hold; what the clamp changes only a scene can say.
+    let clamp = clamp_range(&raw);
+    let f = |x: f64, y: f64| {
+        let v = function.at(x, y);
+        match clamp {
+            Some((lo, hi)) if v.is_nan() => 0.0f64.clamp(lo, hi),
+            Some((lo, hi)) => v.clamp(lo, hi),
+            None => v,
+        }
+    };
+    let samples = if clamp.is_some() { grid(&f) } else { raw };
     let (ylo, yhi) =
         samples.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, hi), y| (l.min(*y), hi.max(*y)));
-    if !(ylo.is_finite() && yhi.is_finite()) {
+    if !(ylo.is_finite() && yhi.is_finite() && yhi > ylo) {
         return None;
     }
     let store = Storage::for_range(ylo, yhi);
-    let bound = table_error(&samples, store, ra, rb, &f);
+    let bound = clamp.is_none().then(|| table_error(&samples, store, ra, rb, &f));
     let span = r.m.span(h);
-    let texel_value = texel_function(r, h, [a, b], [ra, rb], store, span)?;
+    let texel_value = texel_function(r, h, [a, b], [ra, rb], clamp, store, span)?;
     let coords = coordinates(r, [a_v, b_v], [ra, rb], span)?;
     let decoded = baked_lookup(r, TextureKind::Tex2d, texel_value, coords, store, span)?;
     r.record(
@@ -105,19 +148,36 @@ fn tabulate(r: &mut Rewriter, h: Handle<Expr>) -> Option<Handle<Expr>> {
         ApproximationCost::default(),
         None,
     );
+    let clamped = clamp.map_or(String::new(), |(lo, hi)| {
+        format!(
+            ", its values clamped to [{lo:.0}, {hi:.0}] (the function leaves the combiners' range: no bound)"
+        )
+    });
     r.record(
         "baked_table_2d",
         span,
         Some(decoded),
         format!(
             "a function of two per-fragment values is a {TEXELS}×{TEXELS} 8-bit table over [{:.3}, {:.3}]×[{:.3}, {:.3}] \
-             baked by the compiler, looked up at the interpolated arguments (seeds/002 Section 3)",
+             baked by the compiler, looked up at the interpolated arguments (seeds/002 Section 3){clamped}",
             ra.0, ra.1, rb.0, rb.1
         ),
         ApproximationCost { texture_units: 1, passes: 0, general_combiners: 0, texels: (TEXELS * TEXELS) as u64 },
-        Some(bound),
+        bound,
     );
     Some(decoded)
+}
+
+/// The range to clamp a tabulated function to when its samples leave
+/// [−1, 1] or are not finite: [−1, 1] where it goes negative (stored
+/// range-compressed, read back by `expand`), else [0, 1]; `None` when the
+/// function stays within [−1, 1].
+fn clamp_range(samples: &[f64]) -> Option<(f64, f64)> {
+    let finite = samples.iter().filter(|v| v.is_finite());
+    let (lo, hi) = finite.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), v| (l.min(*v), h.max(*v)));
+    let snap = super::table::SNAP;
+    let inside = lo >= -1.0 - snap && hi <= 1.0 + snap && samples.iter().all(|v| v.is_finite());
+    (!inside && lo < hi).then_some((if lo < 0.0 { -1.0 } else { 0.0 }, 1.0))
 }
 
 /// `h` as a function of its two arguments: the nodes between them and
@@ -203,6 +263,7 @@ fn texel_function(
     h: Handle<Expr>,
     args: [Handle<Expr>; 2],
     ranges: [(f64, f64); 2],
+    clamp: Option<(f64, f64)>,
     store: Storage,
     span: Span,
 ) -> Option<Handle<Expr>> {
@@ -224,7 +285,14 @@ fn texel_function(
         let rebuilt = r.node(e, span)?;
         map.insert(node, rebuilt);
     }
-    store.encoded(r, map[&h], span)
+    let mut value = map[&h];
+    if let Some((lo, hi)) = clamp {
+        let constant = |v: f64| Expr::Constant(crate::ir::Constant::new(Ty::Scalar, &[v]));
+        let (lo, hi) = (r.node(constant(lo), span)?, r.node(constant(hi), span)?);
+        value =
+            r.node(Expr::Math { fun: crate::ir::MathFunction::Clamp, args: vec![value, lo, hi] }, span)?;
+    }
+    store.encoded(r, value, span)
 }
 
 /// The table coordinates per vertex, each `(a − lo)/(hi − lo)·(N − 1)/N +
