@@ -89,9 +89,9 @@ pub fn choose(
 /// the program's meaning there (largest channel difference, then RMSE,
 /// then the predicted frame) — issue 18's "the most accurate plan that
 /// fits", measured on the picture rather than assumed from the rules'
-/// order (on `fragment_lighting.shd` for geforce256 the per-vertex half
-/// vector beats the 8-bit cube map raised to the 32nd power). A program
-/// that plans as written is returned as planned.
+/// order (on the Kilgard torus, `fragment_lighting.shd`'s per-vertex
+/// shading on geforce256 beats the 8-bit cube maps raised to the 32nd
+/// power). A program that plans as written is returned as planned.
 pub fn most_accurate(
     module: &Module,
     program: &Program,
