@@ -36,6 +36,8 @@ pub struct Candidate {
     pub predicted_ms: Option<f64>,
     pub passes: usize,
     pub within: bool,
+    /// The one kept (`choose`, `most_accurate`).
+    pub chosen: bool,
 }
 
 /// Plans `module` for `profile` on `options.scene` with the lowering whose
@@ -78,10 +80,11 @@ pub fn choose(
         let t = |i: usize| candidates[i].1.predicted_ms.unwrap_or(0.0);
         t(a).total_cmp(&t(b)).then(a.cmp(&b))
     });
-    let report: Vec<Candidate> = candidates.iter().map(|(_, c)| c.clone()).collect();
     let Some(best) = best else {
         return Err(vec![refusal(&candidates, profile, source, scene, max_error)]);
     };
+    candidates[best].1.chosen = true;
+    let report: Vec<Candidate> = candidates.iter().map(|(_, c)| c.clone()).collect();
     Ok((with_measured(candidates.swap_remove(best), scene, size), report))
 }
 
@@ -111,6 +114,9 @@ pub fn most_accurate(
         let (x, y) = (key(&candidates[a].1), key(&candidates[b].1));
         x.0.total_cmp(&y.0).then(x.1.total_cmp(&y.1)).then(x.2.total_cmp(&y.2)).then(a.cmp(&b))
     });
+    if let Some(best) = best {
+        candidates[best].1.chosen = true;
+    }
     let report: Vec<Candidate> = candidates.iter().map(|(_, c)| c.clone()).collect();
     match best {
         Some(best) => Ok((with_measured(candidates.swap_remove(best), scene, size), report)),
@@ -183,7 +189,8 @@ pub fn measure(
         let error = compare(&reference, &render(&planned, program, scene, size)?);
         let predicted_ms = planned.plan.predicted.as_ref().map(|p| p.total_us / 1000.0);
         let passes = planned.plan.passes.len();
-        candidates.push((planned, Candidate { rules, error, predicted_ms, passes, within: true }));
+        candidates
+            .push((planned, Candidate { rules, error, predicted_ms, passes, within: true, chosen: false }));
     }
     Ok(candidates)
 }

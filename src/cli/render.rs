@@ -209,7 +209,13 @@ fn compile(
                 c.error.max_abs * 255.0,
                 c.error.rmse,
                 c.predicted_ms.map_or(String::new(), |t| format!(", predicted {t:.3} ms")),
-                if c.within { "" } else { " — over --max-error" }
+                if c.chosen {
+                    " — chosen"
+                } else if c.within {
+                    ""
+                } else {
+                    " — over --max-error"
+                }
             );
         }
         let shadec::driver::Front { program, module, diagnostics } = front;
