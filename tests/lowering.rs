@@ -675,6 +675,7 @@ fn the_cli_measures_max_error_on_the_scene() {
         "{}",
         r.stdout
     );
+    assert_eq!(r.stdout.matches("— chosen").count(), 1, "{}", r.stdout);
 }
 
 /// `compile --emit plan` lists each approximation with its rule, place,
