@@ -517,6 +517,43 @@ fn a_quotient_that_leaves_the_combiners_range_is_tabulated_clamped() {
     }
 }
 
+/// A function of one dot product whose intermediate values leave the
+/// combiners' [−1, 1] — the silhouette's `1 − (1 − V·N)⁶` (down to −63),
+/// Schlick's `(1 − N·V)⁵` (up to 32) — becomes one 1-D table of the whole
+/// function (clamped to [−1, 1] where it leaves it: no bound) at the dot
+/// product computed per vertex, closer to the meaning than per-vertex
+/// shading of the whole statement, the choice it was before.
+#[test]
+fn a_function_of_one_dot_product_leaving_the_combiners_range_becomes_one_table() {
+    let schlick = "vector N : normal;\nvector V : view;\nconst F0 : rgb = (0.04, 0.04, 0.04);\n\
+        C δπx ← F0 + (1 - F0) * (1 - (δ N s x)·(δ V s x))^5;\n";
+    for source in [example("silhouette.shd"), schlick.to_string()] {
+        for target in ["geforce256", "geforce3"] {
+            let profile = Profile::builtin(target).unwrap();
+            let tables = lowering::choices(&profile).into_iter().find(|c| c.tables_2d).unwrap();
+            let planned =
+                compile_with(&source, &profile, LowerOptions { only: Some(tables), ..Default::default() })
+                    .unwrap();
+            let a = &planned.plan.approximations;
+            assert!(
+                a.iter().any(|a| a.rule == "baked_table" && a.why.contains("one per-fragment value")),
+                "{a:?}"
+            );
+            let table = planned.module.textures.iter().find(|t| t.baked).expect("a baked table");
+            assert_eq!(table.kind, TextureKind::Tex1d);
+            let gouraud = lowering::choices(&profile).into_iter().find(|c| c.gouraud).unwrap();
+            let per_vertex =
+                compile_with(&source, &profile, LowerOptions { only: Some(gouraud), ..Default::default() })
+                    .unwrap();
+            let (et, ev) = (
+                error_against_meaning(&source, &planned, &scene()),
+                error_against_meaning(&source, &per_vertex, &scene()),
+            );
+            assert!(et < ev, "{target}: the table is {et}, per-vertex shading {ev}");
+        }
+    }
+}
+
 /// `x^6` of a value the combiners hold: rule `power_by_squaring` makes it
 /// `x^4 · x^2` with `x^4 = (x^2)^2` — every power a square the code
 /// generator builds — in one pass, within its stated bound of the meaning.

@@ -6,6 +6,9 @@
 //! the compiler and looked up at the two arguments computed per vertex and
 //! interpolated as texture coordinates: Heidrich and Seidel's technique of
 //! BRDFs stored as textures indexed by dot products (seeds/002 Section 3).
+//! A function of **one** such argument becomes a 1-D table the same way
+//! (rule `baked_table`: the silhouette's `1 − (1 − V·N)⁶`). A function
+//! that itself leaves [−1, 1] is tabulated clamped to it, without a bound.
 //!
 //! Applied top-down (the largest such part of a statement), as a choice of
 //! its own ([`super::Choice::tables_2d`]), so that the function's inner
@@ -65,10 +68,10 @@ fn scaled_quotient(r: &mut Rewriter, h: Handle<Expr>) -> Option<Handle<Expr>> {
     r.node(Expr::Binary { op: BinaryOp::Mul, lhs: k, rhs: table }, span)
 }
 
-/// The two arguments `h` is a function of (dot products or interpolated
-/// scalars, reached through arithmetic on them and constants), when it is
-/// one of exactly two and needs what the combiners lack.
-fn arguments(m: &Module, h: Handle<Expr>) -> Option<[Handle<Expr>; 2]> {
+/// The arguments `h` is a function of (dot products or interpolated
+/// scalars, reached through arithmetic on them and constants), when there
+/// are one or two and it needs what the combiners lack.
+fn arguments(m: &Module, h: Handle<Expr>) -> Option<Vec<Handle<Expr>>> {
     let mut args: Vec<Handle<Expr>> = Vec::new();
     let mut needs_table = false;
     let mut stack = vec![h];
@@ -94,15 +97,17 @@ fn arguments(m: &Module, h: Handle<Expr>) -> Option<[Handle<Expr>; 2]> {
             _ => return None,
         }
     }
-    match args.as_slice() {
-        [a, b] if needs_table => Some([*a, *b]),
-        _ => None,
-    }
+    (needs_table && matches!(args.len(), 1 | 2)).then_some(args)
 }
 
 /// The table lookup standing for `h`, or `None`.
 fn tabulate(r: &mut Rewriter, h: Handle<Expr>) -> Option<Handle<Expr>> {
-    let [a, b] = arguments(&r.m, h)?;
+    let args = arguments(&r.m, h)?;
+    let [a, b] = match args[..] {
+        [a, b] => [a, b],
+        [a] => return tabulate_1d(r, h, a),
+        _ => return None,
+    };
     let (a_v, b_v) = (per_vertex::at_vertex(&mut r.m, a)?, per_vertex::at_vertex(&mut r.m, b)?);
     let range = |x: Handle<Expr>| {
         let iv = r.m.info(x).interval;
@@ -137,7 +142,7 @@ fn tabulate(r: &mut Rewriter, h: Handle<Expr>) -> Option<Handle<Expr>> {
     let store = Storage::for_range(ylo, yhi);
     let bound = clamp.is_none().then(|| table_error(&samples, store, ra, rb, &f));
     let span = r.m.span(h);
-    let texel_value = texel_function(r, h, [a, b], [ra, rb], clamp, store, span)?;
+    let texel_value = texel_function(r, h, &[a, b], &[ra, rb], clamp, store, span)?;
     let coords = coordinates(r, [a_v, b_v], [ra, rb], span)?;
     let decoded = baked_lookup(r, TextureKind::Tex2d, texel_value, coords, store, span)?;
     r.record(
@@ -178,6 +183,82 @@ fn clamp_range(samples: &[f64]) -> Option<(f64, f64)> {
     let snap = super::table::SNAP;
     let inside = lo >= -1.0 - snap && hi <= 1.0 + snap && samples.iter().all(|v| v.is_finite());
     (!inside && lo < hi).then_some((if lo < 0.0 { -1.0 } else { 0.0 }, 1.0))
+}
+
+/// A function of one argument whose intermediate values leave [−1, 1]
+/// (the silhouette's `1 − (1 − V·N)⁶`, Schlick's `(1 − N·V)⁵`): a 1-D
+/// table of the whole function, clamped like the 2-D ones when it leaves
+/// [−1, 1] itself, looked up at the argument computed per vertex.
+fn tabulate_1d(r: &mut Rewriter, h: Handle<Expr>, a: Handle<Expr>) -> Option<Handle<Expr>> {
+    let a_v = per_vertex::at_vertex(&mut r.m, a)?;
+    let iv = r.m.info(a_v).interval;
+    if !(iv.lo.is_finite() && iv.hi.is_finite() && iv.hi > iv.lo) {
+        return None;
+    }
+    let (lo, hi) = (iv.lo, iv.hi);
+    let function = Function::new(&r.m, h, [a, a]);
+    let n = TEXELS as f64;
+    let at = |i: f64| lo + (hi - lo) * i / (n - 1.0);
+    let raw: Vec<f64> = (0..TEXELS).map(|i| function.at(at(i as f64), 0.0)).collect();
+    let clamp = clamp_range(&raw);
+    let f = |x: f64| {
+        let v = function.at(x, 0.0);
+        match clamp {
+            Some((lo, hi)) if v.is_nan() => 0.0f64.clamp(lo, hi),
+            Some((lo, hi)) => v.clamp(lo, hi),
+            None => v,
+        }
+    };
+    let samples: Vec<f64> = (0..TEXELS).map(|i| f(at(i as f64))).collect();
+    let (ylo, yhi) =
+        samples.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| (l.min(*y), h.max(*y)));
+    if !(ylo.is_finite() && yhi.is_finite() && yhi > ylo) {
+        return None;
+    }
+    let store = Storage::for_range(ylo, yhi);
+    let bound = clamp.is_none().then(|| {
+        let q: Vec<f64> = samples.iter().map(|y| (store.encode(*y) * 255.0).round() / 255.0).collect();
+        (0..PROBES * 4)
+            .map(|k| {
+                let p = k as f64 / (PROBES * 4 - 1) as f64 * (n - 1.0);
+                let i = (p.floor() as usize).min(TEXELS - 2);
+                let t = q[i] + (q[i + 1] - q[i]) * (p - i as f64);
+                (f(at(p)) - store.decode_value(t)).abs()
+            })
+            .fold(0.0, f64::max)
+    });
+    let span = r.m.span(h);
+    let texel_value = texel_function(r, h, &[a], &[(lo, hi)], clamp, store, span)?;
+    let scale = (n - 1.0) / (n * (hi - lo));
+    let coord = affine(r, a_v, scale, 0.5 / n - lo * scale, span)?;
+    let coords = r.node(Expr::Interpolate { value: coord, to: Frequency::Fragment }, span)?;
+    let decoded = baked_lookup(r, TextureKind::Tex1d, texel_value, coords, store, span)?;
+    r.record(
+        "per_vertex",
+        span,
+        Some(decoded),
+        "the argument of the function tabulated here is computed per vertex and interpolated".into(),
+        ApproximationCost::default(),
+        None,
+    );
+    let clamped = clamp.map_or(String::new(), |(lo, hi)| {
+        format!(
+            ", its values clamped to [{lo:.0}, {hi:.0}] (the function leaves the combiners' range: no bound)"
+        )
+    });
+    r.record(
+        "baked_table",
+        span,
+        Some(decoded),
+        format!(
+            "a function of one per-fragment value whose intermediate values leave the combiners' [−1, 1] is a \
+             {TEXELS}-texel 8-bit table over [{lo:.3}, {hi:.3}] baked by the compiler, looked up at the \
+             interpolated argument{clamped}"
+        ),
+        ApproximationCost { texture_units: 1, passes: 0, general_combiners: 0, texels: TEXELS as u64 },
+        bound,
+    );
+    Some(decoded)
 }
 
 /// `h` as a function of its two arguments: the nodes between them and
@@ -257,12 +338,13 @@ fn table_error(
 }
 
 /// The texel statement's value: `h` rebuilt on the texel coordinate's
-/// arguments (texel centres at the domain's ends), encoded to [0, 1].
+/// arguments (texel centres at the domain's ends; a 1-D table's coordinate
+/// is the first), clamped where asked, encoded to [0, 1].
 fn texel_function(
     r: &mut Rewriter,
     h: Handle<Expr>,
-    args: [Handle<Expr>; 2],
-    ranges: [(f64, f64); 2],
+    args: &[Handle<Expr>],
+    ranges: &[(f64, f64)],
     clamp: Option<(f64, f64)>,
     store: Storage,
     span: Span,
@@ -270,7 +352,7 @@ fn texel_function(
     let n = TEXELS as f64;
     let texel = r.node(Expr::TexelCoord, span)?;
     let mut map: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::new();
-    for (k, (arg, (a, b))) in args.into_iter().zip(ranges).enumerate() {
+    for (k, (&arg, &(a, b))) in args.iter().zip(ranges).enumerate() {
         let t = r.node(
             Expr::Swizzle { value: texel, pattern: [k as u8, 0, 0, 0], len: 1, ty: Ty::Scalar },
             span,
