@@ -98,6 +98,9 @@ enum Lowered {
     Function(&'static str),
     /// `x^n` with n not a power of two: squarings multiplied.
     Power(u32),
+    /// `k·(1 − Nt·(δ Lt s x))^5`: Schlick's factor, whose intermediate
+    /// values leave [−1, 1] (a 1-D table of the whole function).
+    Schlick,
 }
 
 const FUNCTIONS: &[&str] = &["sqrt(@)", "exp(-2 * @)", "@ ^ 0.6", "0.2 / (0.2 + 3 * @)"];
@@ -109,6 +112,7 @@ fn lowered() -> impl Strategy<Value = Lowered> {
         prop_oneof![Just(1u32), Just(8)].prop_map(Lowered::SignedCube),
         prop::sample::select(FUNCTIONS).prop_map(Lowered::Function),
         prop_oneof![Just(3u32), Just(6), Just(12)].prop_map(Lowered::Power),
+        Just(Lowered::Schlick),
     ]
 }
 
@@ -121,6 +125,7 @@ impl Lowered {
             Lowered::SignedCube(n) => format!("max(0, Nt·(Ns δ Ht s x))^{n}"),
             Lowered::Function(f) => format!("({})", f.replace('@', "(δ c s x)")),
             Lowered::Power(n) => format!("max(0, Nt·Hn)^{n}"),
+            Lowered::Schlick => "(0.03 * (1 - Nt·(δ Lt s x))^5)".into(),
         }
     }
 }
@@ -547,7 +552,7 @@ fn the_generator_covers_plans_and_splits() {
 fn the_generator_reaches_every_lowering_rule_family() {
     let mut runner = proptest::test_runner::TestRunner::deterministic();
     let mut rules = std::collections::BTreeSet::new();
-    for _ in 0..300 {
+    for _ in 0..500 {
         let source = program().new_tree(&mut runner).unwrap().current().source();
         for target in ["geforce256", "geforce3"] {
             let profile = Profile::builtin(target).unwrap();
@@ -566,6 +571,7 @@ fn the_generator_reaches_every_lowering_rule_family() {
         "geforce3 normalization_cube_map",
         "geforce3 baked_table",
         "geforce3 range_compression",
+        "geforce3 baked_table_2d",
     ] {
         assert!(rules.contains(want), "no generated plan used {want}: {rules:?}");
     }
