@@ -125,21 +125,9 @@ fn tabulate(r: &mut Rewriter, h: Handle<Expr>) -> Option<Handle<Expr>> {
     // 0: Seeliger's N·L/(N·L + N·V)) is tabulated clamped to the range the
     // combiners hold; what the clamp changes only a scene can say.
     let clamp = clamp_range(&raw);
-    let f = |x: f64, y: f64| {
-        let v = function.at(x, y);
-        match clamp {
-            Some((lo, hi)) if v.is_nan() => 0.0f64.clamp(lo, hi),
-            Some((lo, hi)) => v.clamp(lo, hi),
-            None => v,
-        }
-    };
+    let f = |x: f64, y: f64| clamped(function.at(x, y), clamp);
     let samples = if clamp.is_some() { grid(&f) } else { raw };
-    let (ylo, yhi) =
-        samples.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, hi), y| (l.min(*y), hi.max(*y)));
-    if !(ylo.is_finite() && yhi.is_finite() && yhi > ylo) {
-        return None;
-    }
-    let store = Storage::for_range(ylo, yhi);
+    let store = storage(&samples)?;
     let bound = clamp.is_none().then(|| table_error(&samples, store, ra, rb, &f));
     let span = r.m.span(h);
     let texel_value = texel_function(r, h, &[a, b], &[ra, rb], clamp, store, span)?;
@@ -153,11 +141,7 @@ fn tabulate(r: &mut Rewriter, h: Handle<Expr>) -> Option<Handle<Expr>> {
         ApproximationCost::default(),
         None,
     );
-    let clamped = clamp.map_or(String::new(), |(lo, hi)| {
-        format!(
-            ", its values clamped to [{lo:.0}, {hi:.0}] (the function leaves the combiners' range: no bound)"
-        )
-    });
+    let clamped = clamp_note(clamp);
     r.record(
         "baked_table_2d",
         span,
@@ -201,21 +185,9 @@ fn tabulate_1d(r: &mut Rewriter, h: Handle<Expr>, a: Handle<Expr>) -> Option<Han
     let at = |i: f64| lo + (hi - lo) * i / (n - 1.0);
     let raw: Vec<f64> = (0..TEXELS).map(|i| function.at(at(i as f64), 0.0)).collect();
     let clamp = clamp_range(&raw);
-    let f = |x: f64| {
-        let v = function.at(x, 0.0);
-        match clamp {
-            Some((lo, hi)) if v.is_nan() => 0.0f64.clamp(lo, hi),
-            Some((lo, hi)) => v.clamp(lo, hi),
-            None => v,
-        }
-    };
+    let f = |x: f64| clamped(function.at(x, 0.0), clamp);
     let samples: Vec<f64> = (0..TEXELS).map(|i| f(at(i as f64))).collect();
-    let (ylo, yhi) =
-        samples.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| (l.min(*y), h.max(*y)));
-    if !(ylo.is_finite() && yhi.is_finite() && yhi > ylo) {
-        return None;
-    }
-    let store = Storage::for_range(ylo, yhi);
+    let store = storage(&samples)?;
     let bound = clamp.is_none().then(|| {
         let q: Vec<f64> = samples.iter().map(|y| (store.encode(*y) * 255.0).round() / 255.0).collect();
         (0..PROBES * 4)
@@ -241,11 +213,7 @@ fn tabulate_1d(r: &mut Rewriter, h: Handle<Expr>, a: Handle<Expr>) -> Option<Han
         ApproximationCost::default(),
         None,
     );
-    let clamped = clamp.map_or(String::new(), |(lo, hi)| {
-        format!(
-            ", its values clamped to [{lo:.0}, {hi:.0}] (the function leaves the combiners' range: no bound)"
-        )
-    });
+    let clamped = clamp_note(clamp);
     r.record(
         "baked_table",
         span,
@@ -259,6 +227,33 @@ fn tabulate_1d(r: &mut Rewriter, h: Handle<Expr>, a: Handle<Expr>) -> Option<Han
         bound,
     );
     Some(decoded)
+}
+
+/// `v` clamped as [`clamp_range`] asks (a NaN, 0/0 on the singular line,
+/// as 0).
+fn clamped(v: f64, clamp: Option<(f64, f64)>) -> f64 {
+    match clamp {
+        Some((lo, hi)) if v.is_nan() => 0.0f64.clamp(lo, hi),
+        Some((lo, hi)) => v.clamp(lo, hi),
+        None => v,
+    }
+}
+
+/// The 8-bit storage of a table's samples; `None` when they are not
+/// finite or all equal.
+fn storage(samples: &[f64]) -> Option<Storage> {
+    let (lo, hi) =
+        samples.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| (l.min(*y), h.max(*y)));
+    (lo.is_finite() && hi.is_finite() && hi > lo).then(|| Storage::for_range(lo, hi))
+}
+
+/// What the approximation's record says of a clamp.
+fn clamp_note(clamp: Option<(f64, f64)>) -> String {
+    clamp.map_or(String::new(), |(lo, hi)| {
+        format!(
+            ", its values clamped to [{lo:.0}, {hi:.0}] (the function leaves the combiners' range: no bound)"
+        )
+    })
 }
 
 /// `h` as a function of its two arguments: the nodes between them and
