@@ -341,6 +341,30 @@ fn bench_program_draws_the_pareto_front_of_each_target() {
     let png = std::fs::read(dir.join("front.png")).unwrap();
     assert_eq!(&png[1..4], b"PNG");
     let _ = std::fs::remove_dir_all(&dir);
+    // An error in the program is located; a target with no plan is
+    // refused with the compiler's located diagnostic.
+    let bad = dir.with_extension("shd");
+    std::fs::write(&bad, "C δπx ← ;\n").unwrap();
+    let r = crate::common::shadec(&["bench", "--program", bad.to_str().unwrap(), "--out-dir", out]);
+    assert_eq!(r.code, 1, "{}", r.stderr);
+    assert!(r.stderr.contains(&format!("{}:1:9", bad.display())), "{}", r.stderr);
+    let _ = std::fs::remove_file(&bad);
+    let r = crate::common::shadec(&[
+        "bench",
+        "--program",
+        "examples/embm.shd",
+        "--target",
+        "geforce256",
+        "--out-dir",
+        out,
+    ]);
+    assert_eq!(r.code, 1, "no target plans it: {}", r.stderr);
+    assert!(
+        r.stdout.contains("refused on geforce256") && r.stderr.contains("examples/embm.shd:13:9"),
+        "{}",
+        r.stderr
+    );
+    let _ = std::fs::remove_dir_all(&dir);
     // A target that is not a profile is a usage error.
     let r = crate::common::shadec(&[
         "bench",

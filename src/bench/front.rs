@@ -37,15 +37,21 @@ impl FrontRow {
     }
 }
 
-/// The rows of `source` on every profile in `targets`, measured on `scene`;
-/// a target the program has no plan for is listed in the second vector
-/// with the compiler's first refusal.
+/// A target the program has no plan for, with the compiler's refusal.
+#[derive(Clone, Debug)]
+pub struct Refused {
+    pub target: String,
+    pub diagnostics: Vec<crate::diag::Diagnostic>,
+}
+
+/// The rows of `source` on every profile in `targets`, measured on `scene`,
+/// and the targets it has no plan for.
 pub fn measure(
     source: &str,
     targets: &[Profile],
     scene: &Scene,
     assets: &SceneAssets,
-) -> Result<(Vec<FrontRow>, Vec<String>), BenchError> {
+) -> Result<(Vec<FrontRow>, Vec<Refused>), BenchError> {
     let front = crate::driver::front(source);
     let Some(module) = front.module.as_ref() else {
         let first =
@@ -60,11 +66,10 @@ pub fn measure(
             crate::accuracy::measure(module, &front.program, profile, source, &options, scene.lights.len())
                 .map_err(|d| super::failed(&profile.name, d.first().map_or("", |d| d.message.as_str())))?;
         if measured.is_empty() {
-            let why = crate::driver::plan(module, &front.program, profile, Some(source), &options)
+            let diagnostics = crate::driver::plan(module, &front.program, profile, Some(source), &options)
                 .err()
-                .and_then(|d| d.first().map(|d| d.message.clone()))
                 .unwrap_or_default();
-            refused.push(format!("{}: {why}", profile.name));
+            refused.push(Refused { target: profile.name.clone(), diagnostics });
             continue;
         }
         let first = rows.len();
@@ -88,7 +93,7 @@ pub fn measure(
 }
 
 /// `front.md`: a table per target, fastest first.
-pub fn report(program: &str, scene: &str, rows: &[FrontRow], refused: &[String]) -> String {
+pub fn report(program: &str, scene: &str, rows: &[FrontRow], refused: &[Refused]) -> String {
     let mut out = format!(
         "# Pareto front of `{program}`\n\nEvery plan the compiler has for the program on each target — as written \
          where it plans, then each choice of lowering rules — measured on `{scene}`: its error is the f32 render \
@@ -119,7 +124,8 @@ pub fn report(program: &str, scene: &str, rows: &[FrontRow], refused: &[String])
         }
     }
     for r in refused {
-        let _ = write!(out, "\nRefused: {r}\n");
+        let why = r.diagnostics.first().map_or(String::new(), |d| d.message.clone());
+        let _ = write!(out, "\nRefused on {}: {why}\n", r.target);
     }
     out
 }
@@ -131,7 +137,7 @@ pub fn run(
     targets: &[Profile],
     scene: &Scene,
     out_dir: &Path,
-) -> Result<(Vec<FrontRow>, Vec<String>), BenchError> {
+) -> Result<(Vec<FrontRow>, Vec<Refused>), BenchError> {
     let assets = scene.build().map_err(|e| super::failed("the scene", e))?;
     let (rows, refused) = measure(source, targets, scene, &assets)?;
     std::fs::create_dir_all(out_dir).map_err(|e| BenchError::Io(format!("{}: {e}", out_dir.display())))?;

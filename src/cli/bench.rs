@@ -61,6 +61,14 @@ fn front(args: &BenchArgs, program: &std::path::Path) -> ExitCode {
         Ok(s) => s,
         Err(e) => return usage(e),
     };
+    // Errors in the program, located, before anything is measured.
+    let errors: Vec<shadec::diag::Diagnostic> =
+        shadec::driver::front(&source).diagnostics.into_iter().filter(|d| d.is_error()).collect();
+    if !errors.is_empty() {
+        let file = shadec::diag::SourceFile::new(program.display().to_string(), source);
+        eprint!("{}", file.render(&errors, super::check::color_stderr()));
+        return ExitCode::from(EXIT_SOURCE_ERRORS);
+    }
     let names: Vec<String> = if args.targets.is_empty() {
         ["geforce256", "geforce3", "wgsl"].map(String::from).to_vec()
     } else {
@@ -93,11 +101,18 @@ fn front(args: &BenchArgs, program: &std::path::Path) -> ExitCode {
                     r.rules
                 );
             }
+            let file = shadec::diag::SourceFile::new(name.clone(), source.clone());
             for r in &refused {
-                println!("refused: {r}");
+                println!("refused on {}:", r.target);
+                eprint!("{}", file.render(&r.diagnostics, super::check::color_stderr()));
             }
             println!("wrote {}", args.out_dir.join("front.md").display());
-            ExitCode::SUCCESS
+            // Nothing planned on any target: no front to draw.
+            if rows.is_empty() {
+                ExitCode::from(EXIT_SOURCE_ERRORS)
+            } else {
+                ExitCode::SUCCESS
+            }
         }
         Err(e @ BenchError::Io(_)) => usage(e),
         Err(e) => {
