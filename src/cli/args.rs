@@ -47,8 +47,11 @@ pub enum Command {
     /// on its scene (time per frame, error against the exact reference), the
     /// adaptive-shading table of seeds/004 and what specialization removes;
     /// writes report.md, speed_vs_error.png, adaptive.png and diff/*.png.
+    /// With --program: that program's Pareto front per target (front.md,
+    /// front.png).
     ///
-    /// Exit status: 0 on success, 1 when a variant fails, 2 on usage or I/O
+    /// Exit status: 0 on success, 1 when a variant fails (with --program:
+    /// the program has errors, or no target plans it), 2 on usage or I/O
     /// errors.
     Bench(super::bench::BenchArgs),
     /// Translate a legacy register-combiner setup (`!!RC1.0` or RON) to a
