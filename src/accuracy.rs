@@ -16,6 +16,7 @@
 use crate::diag::Diagnostic;
 use crate::driver::{Diagnostics, PlanOptions};
 use crate::ir::Module;
+use crate::lowering::LowerOptions;
 use crate::numerics::Precision;
 use crate::parser::ast::Program;
 use crate::pipeline::{MeasuredError, Planned};
@@ -56,18 +57,11 @@ pub fn choose(
 ) -> Result<(Planned, Vec<Candidate>), Diagnostics> {
     let Some(scene) = options.scene.as_ref() else {
         // No scene to measure on: the stated bounds decide, as `compile`.
-        let bounded = crate::lowering::LowerOptions { max_error: Some(max_error), ..options.lowering };
-        let planned = crate::driver::plan(
-            module,
-            program,
-            profile,
-            Some(source),
-            &PlanOptions { lowering: bounded, ..*options },
-        )?;
+        let bounded = LowerOptions { max_error: Some(max_error), ..options.lowering };
+        let planned = plan_with(module, program, profile, source, options, bounded)?;
         return Ok((planned, Vec::new()));
     };
-    let any = PlanOptions { lowering: crate::lowering::LowerOptions::default(), ..*options };
-    let first = crate::driver::plan(module, program, profile, Some(source), &any)?;
+    let first = plan_with(module, program, profile, source, options, LowerOptions::default())?;
     if first.plan.approximations.is_empty() {
         return Ok((first, Vec::new()));
     }
@@ -161,24 +155,11 @@ pub fn measure(
     };
     let size = measuring_size(scene.scene.resolution);
     let reference = render(&crate::meaning::plan(module, lights)?, program, scene, size)?;
-    let exact = crate::lowering::LowerOptions { approximate: false, ..Default::default() };
-    let written = crate::driver::plan(
-        module,
-        program,
-        profile,
-        Some(source),
-        &PlanOptions { lowering: exact, ..*options },
-    );
+    let exact = LowerOptions { approximate: false, ..Default::default() };
+    let written = plan_with(module, program, profile, source, options, exact);
     let lowered = crate::lowering::choices(profile).into_iter().filter_map(|choice| {
-        let only = crate::lowering::LowerOptions { only: Some(choice), ..Default::default() };
-        crate::driver::plan(
-            module,
-            program,
-            profile,
-            Some(source),
-            &PlanOptions { lowering: only, ..*options },
-        )
-        .ok()
+        let only = LowerOptions { only: Some(choice), ..Default::default() };
+        plan_with(module, program, profile, source, options, only).ok()
     });
     let mut candidates: Vec<(Planned, Candidate)> = Vec::new();
     for planned in written.into_iter().chain(lowered) {
@@ -193,6 +174,18 @@ pub fn measure(
             .push((planned, Candidate { rules, error, predicted_ms, passes, within: true, chosen: false }));
     }
     Ok(candidates)
+}
+
+/// `module` planned with `options` and `lowering` in place of its own.
+fn plan_with(
+    module: &Module,
+    program: &Program,
+    profile: &Profile,
+    source: &str,
+    options: &PlanOptions,
+    lowering: LowerOptions,
+) -> Result<Planned, Diagnostics> {
+    crate::driver::plan(module, program, profile, Some(source), &PlanOptions { lowering, ..*options })
 }
 
 /// The scene's resolution, scaled down to at most [`MAX_SIDE`] a side.

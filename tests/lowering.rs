@@ -40,6 +40,12 @@ fn compile_with(source: &str, profile: &Profile, lowering: LowerOptions) -> Resu
     shadec::driver::compile(source, profile, &options).map(|c| c.planned)
 }
 
+/// `source` planned with only the choice of rules `pick` selects.
+fn compile_choice(source: &str, profile: &Profile, pick: impl Fn(&Choice) -> bool) -> Planned {
+    let choice = lowering::choices(profile).into_iter().find(|c| pick(c)).expect("such a choice");
+    compile_with(source, profile, LowerOptions { only: Some(choice), ..Default::default() }).unwrap()
+}
+
 fn compile(source: &str, profile: &Profile) -> Result<Planned, Vec<Diagnostic>> {
     compile_with(source, profile, LowerOptions::default())
 }
@@ -473,10 +479,7 @@ fn a_function_of_two_dot_products_becomes_a_2d_table() {
             a.iter().find(|a| a.rule == "baked_table_2d").unwrap_or_else(|| panic!("{target}: {a:?}"));
         assert!(table.error_bound.is_some_and(|b| b > 0.0 && b < 0.02), "{table:?}");
         assert!(planned.module.textures.iter().any(|t| t.name.starts_with("table2d_lowered") && t.baked));
-        let gouraud = lowering::choices(&profile).into_iter().find(|c| c.gouraud).unwrap();
-        let per_vertex =
-            compile_with(&source, &profile, LowerOptions { only: Some(gouraud), ..Default::default() })
-                .unwrap();
+        let per_vertex = compile_choice(&source, &profile, |c| c.gouraud);
         let (e2d, ev) = (
             error_against_meaning(&source, &planned, &scene()),
             error_against_meaning(&source, &per_vertex, &scene()),
@@ -499,10 +502,7 @@ fn a_quotient_that_leaves_the_combiners_range_is_tabulated_clamped() {
     let sphere = Scene::parse(&text, Path::new("scenes/bench_sphere.ron")).unwrap();
     for target in ["geforce256", "geforce3"] {
         let profile = Profile::builtin(target).unwrap();
-        let tables = lowering::choices(&profile).into_iter().find(|c| c.tables_2d).unwrap();
-        let planned =
-            compile_with(&source, &profile, LowerOptions { only: Some(tables), ..Default::default() })
-                .unwrap();
+        let planned = compile_choice(&source, &profile, |c| c.tables_2d);
         let a = &planned.plan.approximations;
         let table =
             a.iter().find(|a| a.rule == "baked_table_2d").unwrap_or_else(|| panic!("{target}: {a:?}"));
@@ -530,10 +530,7 @@ fn a_function_of_one_dot_product_leaving_the_combiners_range_becomes_one_table()
     for source in [example("silhouette.shd"), schlick.to_string()] {
         for target in ["geforce256", "geforce3"] {
             let profile = Profile::builtin(target).unwrap();
-            let tables = lowering::choices(&profile).into_iter().find(|c| c.tables_2d).unwrap();
-            let planned =
-                compile_with(&source, &profile, LowerOptions { only: Some(tables), ..Default::default() })
-                    .unwrap();
+            let planned = compile_choice(&source, &profile, |c| c.tables_2d);
             let a = &planned.plan.approximations;
             assert!(
                 a.iter().any(|a| a.rule == "baked_table" && a.why.contains("one per-fragment value")),
@@ -541,10 +538,7 @@ fn a_function_of_one_dot_product_leaving_the_combiners_range_becomes_one_table()
             );
             let table = planned.module.textures.iter().find(|t| t.baked).expect("a baked table");
             assert_eq!(table.kind, TextureKind::Tex1d);
-            let gouraud = lowering::choices(&profile).into_iter().find(|c| c.gouraud).unwrap();
-            let per_vertex =
-                compile_with(&source, &profile, LowerOptions { only: Some(gouraud), ..Default::default() })
-                    .unwrap();
+            let per_vertex = compile_choice(&source, &profile, |c| c.gouraud);
             let (et, ev) = (
                 error_against_meaning(&source, &planned, &scene()),
                 error_against_meaning(&source, &per_vertex, &scene()),

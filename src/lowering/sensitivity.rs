@@ -96,8 +96,8 @@ impl Walk<'_> {
 
     fn node(&mut self, h: Handle<Expr>) -> Option<f64> {
         let e = self.m.exprs[h].clone();
-        // A value with no path to the site and no stored error is exact.
-        if e.operands().is_empty() && !self.reads_store(&e) {
+        // A leaf other than the site (a constant, a vector, the pixel) is exact.
+        if e.operands().is_empty() {
             return Some(0.0);
         }
         match e {
@@ -145,9 +145,6 @@ impl Walk<'_> {
                     Expr::Constant(c) if c.components[0] >= 1.0 => c.components[0],
                     _ => return self.unless_depends_on(&[a, b]),
                 };
-                if self.of(b)? != 0.0 {
-                    return None;
-                }
                 Some(nonzero(self.of(a)?, n * self.mag(a).powf(n - 1.0)))
             }
             _ => self.unless_depends_on(&[a, b]),
@@ -189,10 +186,6 @@ impl Walk<'_> {
             }
         }
         Some(0.0)
-    }
-
-    fn reads_store(&self, e: &Expr) -> bool {
-        matches!(e, Expr::Lookup { .. } | Expr::FramebufferRead { .. })
     }
 
     fn stored_at(&self, s: Store) -> f64 {

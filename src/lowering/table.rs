@@ -282,7 +282,7 @@ impl Storage {
 /// domain: the table rounded to 8 bits and read back with linear filtering
 /// between texel centres (clamped at the edge texels), as the target's
 /// texture unit reads it.
-fn table_error(samples: &[f64], store: Storage, domain: Domain, f: &dyn Fn(f64) -> f64) -> f64 {
+pub(super) fn table_error(samples: &[f64], store: Storage, domain: Domain, f: &dyn Fn(f64) -> f64) -> f64 {
     let q: Vec<f64> = samples.iter().map(|y| (store.encode(*y) * 255.0).round() / 255.0).collect();
     let mut worst: f64 = 0.0;
     for k in 0..PROBES {
@@ -298,7 +298,7 @@ fn table_error(samples: &[f64], store: Storage, domain: Domain, f: &dyn Fn(f64) 
 
 /// Which argument texel i of a table holds.
 #[derive(Clone, Copy)]
-enum Domain {
+pub(super) enum Domain {
     /// [lo, hi] with the texel centres at the ends (texgen coordinates
     /// remapped per vertex).
     Ends(f64, f64),
@@ -308,7 +308,7 @@ enum Domain {
 
 impl Domain {
     /// The argument texel `i` holds.
-    fn texel(self, i: usize) -> f64 {
+    pub(super) fn texel(self, i: usize) -> f64 {
         let n = TEXELS as f64;
         match self {
             Domain::Ends(lo, hi) => lo + (hi - lo) * i as f64 / (n - 1.0),
@@ -374,7 +374,13 @@ fn texel_function(
 
 /// The table coordinate per vertex, `(a − lo)/(hi − lo)·(N − 1)/N + ½/N`,
 /// interpolated (exact: interpolation commutes with an affine map).
-fn coordinates(r: &mut Rewriter, a_v: Handle<Expr>, lo: f64, hi: f64, span: Span) -> Option<Handle<Expr>> {
+pub(super) fn coordinates(
+    r: &mut Rewriter,
+    a_v: Handle<Expr>,
+    lo: f64,
+    hi: f64,
+    span: Span,
+) -> Option<Handle<Expr>> {
     let n = TEXELS as f64;
     let scale = (n - 1.0) / (n * (hi - lo));
     let c = affine(r, a_v, scale, 0.5 / n - lo * scale, span)?;

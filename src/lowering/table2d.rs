@@ -20,7 +20,7 @@
 
 use std::collections::HashMap;
 
-use super::table::{affine, baked_lookup, Storage};
+use super::table::{affine, baked_lookup, Domain, Storage};
 use super::{per_vertex, Rewriter};
 use crate::ir::eval::{self, Value};
 use crate::ir::{BinaryOp, Expr, Frequency, Handle, Module, Ty};
@@ -181,29 +181,16 @@ fn tabulate_1d(r: &mut Rewriter, h: Handle<Expr>, a: Handle<Expr>) -> Option<Han
     }
     let (lo, hi) = (iv.lo, iv.hi);
     let function = Function::new(&r.m, h, [a, a]);
-    let n = TEXELS as f64;
-    let at = |i: f64| lo + (hi - lo) * i / (n - 1.0);
-    let raw: Vec<f64> = (0..TEXELS).map(|i| function.at(at(i as f64), 0.0)).collect();
+    let domain = Domain::Ends(lo, hi);
+    let raw: Vec<f64> = (0..TEXELS).map(|i| function.at(domain.texel(i), 0.0)).collect();
     let clamp = clamp_range(&raw);
     let f = |x: f64| clamped(function.at(x, 0.0), clamp);
-    let samples: Vec<f64> = (0..TEXELS).map(|i| f(at(i as f64))).collect();
+    let samples: Vec<f64> = (0..TEXELS).map(|i| f(domain.texel(i))).collect();
     let store = storage(&samples)?;
-    let bound = clamp.is_none().then(|| {
-        let q: Vec<f64> = samples.iter().map(|y| (store.encode(*y) * 255.0).round() / 255.0).collect();
-        (0..PROBES * 4)
-            .map(|k| {
-                let p = k as f64 / (PROBES * 4 - 1) as f64 * (n - 1.0);
-                let i = (p.floor() as usize).min(TEXELS - 2);
-                let t = q[i] + (q[i + 1] - q[i]) * (p - i as f64);
-                (f(at(p)) - store.decode_value(t)).abs()
-            })
-            .fold(0.0, f64::max)
-    });
+    let bound = clamp.is_none().then(|| super::table::table_error(&samples, store, domain, &f));
     let span = r.m.span(h);
     let texel_value = texel_function(r, h, &[a], &[(lo, hi)], clamp, store, span)?;
-    let scale = (n - 1.0) / (n * (hi - lo));
-    let coord = affine(r, a_v, scale, 0.5 / n - lo * scale, span)?;
-    let coords = r.node(Expr::Interpolate { value: coord, to: Frequency::Fragment }, span)?;
+    let coords = super::table::coordinates(r, a_v, lo, hi, span)?;
     let decoded = baked_lookup(r, TextureKind::Tex1d, texel_value, coords, store, span)?;
     r.record(
         "per_vertex",
