@@ -1,9 +1,15 @@
-//! Frame time of Kilgard's bump-mapped torus (`scenes/kilgard_torus.ron`,
-//! the wgsl plan: one pass) at 512×512: wgpu on whatever adapter wgpu picks
-//! (lavapipe where there is no GPU) against the CPU plan renderer in f32 and
-//! fixed9 modes. A simple timer (median of `SHADEC_BENCH_RUNS`, default 15,
-//! after 2 warm-up frames), printed as a table for BENCHMARKS.md.
-//! `cargo bench --bench wgpu_vs_cpu`.
+//! The CPU executor against its peer (issue 22 item 2): frame time of
+//! Kilgard's bump-mapped torus (`scenes/kilgard_torus.ron`, the wgsl plan:
+//! one pass) at `SHADEC_BENCH_SIZE` (default 1024)² — wgpu on whatever
+//! adapter wgpu picks (lavapipe where there is no GPU) in exact and hardware
+//! fidelity, against the CPU plan renderer in f32 and fixed9, batched (the
+//! default) and one fragment at a time (the executor before it), with one
+//! thread and all; then the geforce256 plan (3 passes, fixed9 runs the
+//! generated combiner setups in the emulator). A plain timer (median of
+//! `SHADEC_BENCH_RUNS`, default 9, after 2 warm-up frames), all in one run,
+//! printed as the table of BENCHMARKS.md. `cargo bench --bench wgpu_vs_cpu`;
+//! `SHADEC_BENCH_MODES=fixed9` (or `f32`) runs only that mode's CPU rows
+//! and `SHADEC_BENCH_PEER=0` skips wgpu (for a profiler).
 
 #[path = "common/timing.rs"]
 mod timing;
@@ -11,69 +17,95 @@ mod timing;
 use std::path::Path;
 use std::time::Duration;
 
-use shadec::gpu::runner::{run_passes, Gpu, Target};
+use shadec::gpu::runner::Gpu;
 use shadec::gpu::scene_run::ScenePlan;
 use shadec::numerics::Precision;
 use shadec::renderer::plan::PlanRenderer;
 use shadec::scene::Scene;
 
-const W: u32 = 512;
-const H: u32 = 512;
-
-/// Median of 15 runs (`SHADEC_BENCH_RUNS`) after two warm-ups.
 fn median(f: impl FnMut()) -> Duration {
-    timing::median(15, 2, f)
+    timing::median(9, 2, f)
 }
 
+fn ms(d: Duration) -> f64 {
+    d.as_secs_f64() * 1e3
+}
+
+const SOURCE: &str = include_str!("../examples/kilgard_bump_mapping.shd");
+const SCENE: &str = include_str!("../scenes/kilgard_torus.ron");
+
 fn main() {
-    let src =
-        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd"))
-            .unwrap()
-            .replace("target geforce256;", "");
-    let text =
-        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron")).unwrap();
-    let scene = Scene::parse(&text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap();
+    let side: u32 = std::env::var("SHADEC_BENCH_SIZE").ok().and_then(|v| v.parse().ok()).unwrap_or(1024);
+    let scene = Scene::parse(SCENE, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap();
     let assets = scene.build().unwrap();
-    let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
-    let planned = shadec::driver::compile(&src, &profile, &Default::default()).map(|c| c.planned).unwrap();
-    let (program, _) = shadec::parser::check(&src);
-    let gpu = match Gpu::new() {
-        Ok(g) => g,
+    let (program, _) = shadec::parser::check(SOURCE);
+    let plan_for = |target: &str| {
+        let profile = shadec::profile::Profile::resolve(target).unwrap();
+        shadec::driver::compile(SOURCE, &profile, &Default::default()).map(|c| c.planned).unwrap()
+    };
+    let wgsl = plan_for("wgsl");
+    let geforce256 = plan_for("geforce256");
+    let all = rayon::current_num_threads();
+    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+
+    let modes: Vec<Precision> = match std::env::var("SHADEC_BENCH_MODES") {
+        Ok(list) => {
+            [Precision::F32, Precision::Fixed9].into_iter().filter(|m| list.contains(m.name())).collect()
+        }
+        Err(_) => vec![Precision::F32, Precision::Fixed9],
+    };
+    let gpu = match std::env::var("SHADEC_BENCH_PEER").as_deref() {
+        Ok("0") => Err("SHADEC_BENCH_PEER=0".to_string()),
+        _ => Gpu::new().map_err(|e| e.to_string()),
+    };
+    let peers = match gpu {
+        Ok(gpu) => {
+            let frame = |mode| {
+                let plan = ScenePlan::new(&wgsl, &program, Some(SOURCE), mode, &scene, &assets).unwrap();
+                median(|| drop(plan.render(&gpu, side, side).unwrap()))
+            };
+            println!("adapter: {gpu}");
+            Some([frame(Precision::F32), frame(Precision::Fixed9)])
+        }
         Err(e) => {
-            eprintln!("no GPU adapter: {e}; nothing to compare");
-            return;
+            println!("no GPU adapter ({e}): no peer to compare with");
+            None
         }
     };
-    let plan = ScenePlan::new(&planned, &program, Some(&src), Precision::F32, &scene, &assets).unwrap();
-    let cpu = PlanRenderer::new(&planned, &program, &scene, &assets).unwrap();
-    let passes = plan.passes(W, H).unwrap();
-    let target = Target::new(W, H);
-    let gpu_full = median(|| {
-        plan.render(&gpu, W, H).unwrap();
-    });
-    let gpu_draw = median(|| {
-        run_passes(&gpu, &target, &passes).unwrap();
-    });
-    let f32_ = median(|| {
-        cpu.render(Precision::F32, W, H, &mut |_, _| {}).unwrap();
-    });
-    let fixed9 = median(|| {
-        cpu.render(Precision::Fixed9, W, H, &mut |_, _| {}).unwrap();
-    });
-    let ms = |d: Duration| d.as_secs_f64() * 1e3;
-    println!("adapter: {gpu}");
-    println!("Kilgard torus, wgsl plan ({} pass), {W}×{H}, median frame time", planned.plan.passes.len());
-    println!("| path | ms/frame | CPU time / wgpu frame |");
-    println!("|---|---|---|");
+
     println!(
-        "| wgpu, whole frame (bind vertices + upload + draw + readback) | {:.2} | 1.00× |",
-        ms(gpu_full)
+        "Kilgard torus at {side}×{side}, median whole frame; the peer: the wgsl plan on wgpu (f32: exact fidelity, fixed9: hardware fidelity)"
     );
     println!(
-        "| wgpu, draw + readback only (prepared passes) | {:.2} | {:.2}× |",
-        ms(gpu_draw),
-        ms(gpu_draw) / ms(gpu_full)
+        "| plan | mode | executor | 1 thread: ms | {all} threads: ms | speed-up | {all} threads / wgpu |"
     );
-    println!("| CPU plan renderer, f32 | {:.2} | {:.2}× |", ms(f32_), ms(f32_) / ms(gpu_full));
-    println!("| CPU plan renderer, fixed9 | {:.2} | {:.2}× |", ms(fixed9), ms(fixed9) / ms(gpu_full));
+    println!("|---|---|---|---|---|---|---|");
+    if let Some([f, h]) = peers {
+        println!("| wgsl (1 pass) | f32 | wgpu | | {:.1} | | 1.00× |", ms(f));
+        println!("| wgsl (1 pass) | fixed9 | wgpu | | {:.1} | | 1.00× |", ms(h));
+    }
+    for (name, planned) in [("wgsl (1 pass)", &wgsl), ("geforce256 (3 passes)", &geforce256)] {
+        let mut cpu = PlanRenderer::new(planned, &program, &scene, &assets).unwrap();
+        for &mode in &modes {
+            for batched in [false, true] {
+                cpu.set_batched(batched);
+                let frame = || drop(cpu.render(mode, side, side, &mut |_, _| {}).unwrap());
+                let t1 = one.install(|| median(frame));
+                let tn = median(frame);
+                let peer = match (peers, mode, planned.plan.passes.len()) {
+                    (Some([f, _]), Precision::F32, 1) => format!("{:.2}×", ms(tn) / ms(f)),
+                    (Some([_, h]), Precision::Fixed9, 1) => format!("{:.2}×", ms(tn) / ms(h)),
+                    _ => String::new(),
+                };
+                println!(
+                    "| {name} | {} | CPU, {} | {:.1} | {:.1} | {:.2}× | {peer} |",
+                    mode.name(),
+                    if batched { "batched" } else { "one fragment at a time" },
+                    ms(t1),
+                    ms(tn),
+                    ms(t1) / ms(tn),
+                );
+            }
+        }
+    }
 }

@@ -464,6 +464,24 @@ proptest! {
         }
     }
 
+    /// Many pixels at once through the tile engine (the renderer's batches)
+    /// equal one pixel at a time, signed texture registers included, with
+    /// another machine's run in between on the same thread's scratch.
+    #[test]
+    fn run_many_equals_run(config in common::config(8), other in common::config(8), regs in prop::collection::vec((prop::array::uniform4(prop::array::uniform4(-255i16..=255)), prop::array::uniform4(any::<u8>()), prop::array::uniform4(any::<u8>())), 1..40), fog in common::color(), c0 in common::color(), c1 in common::color(), fixed in any::<bool>()) {
+        let precision = if fixed { Precision::Fixed9 } else { Precision::F32 };
+        let regs: Vec<PixelRegisters> = regs.into_iter().map(|(textures, primary, secondary)| PixelRegisters { textures, primary, secondary }).collect();
+        let machine = PixelEmulator::new(&config, c0, c1, fog, precision).unwrap();
+        let distractor = PixelEmulator::new(&other, c1, c0, [fog[1], fog[0], fog[3], fog[2]], precision).unwrap();
+        let mut ignored = vec![[0u8; 4]; regs.len()];
+        distractor.run_many(&regs, &mut ignored);
+        let mut many = vec![[0u8; 4]; regs.len()];
+        machine.run_many(&regs, &mut many);
+        for (i, r) in regs.iter().enumerate() {
+            prop_assert_eq!(many[i], machine.run(r), "pixel {}\n{}", i, rc1::print(&config));
+        }
+    }
+
     /// fixed9 and f32 agree on Kilgard's passes within the bound of docs/combiners.md.
     #[test]
     fn fixed9_and_f32_agree_on_appendix_g_and_h(imgs in prop::collection::vec(image(256), 2)) {

@@ -458,9 +458,18 @@ fn check(source: &str, target: &str, scene: &Scene) -> Result<Outcome, String> {
     let reference = PlanRenderer::new(&meaning, &program, scene, &assets)
         .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
         .map_err(|e| format!("meaning: {e}"))?;
-    let frame = PlanRenderer::new(&planned, &program, scene, &assets)
-        .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
-        .map_err(|e| format!("plan: {e}"))?;
+    let mut renderer =
+        PlanRenderer::new(&planned, &program, scene, &assets).map_err(|e| format!("plan: {e}"))?;
+    let frame = renderer.render(Precision::F32, W, H, &mut |_, _| {}).map_err(|e| format!("plan: {e}"))?;
+    // The batched fragment stage shades as one fragment at a time does (issue 22).
+    for mode in [Precision::F32, Precision::Fixed9] {
+        let mut frame = |batched| {
+            renderer.set_batched(batched);
+            renderer.render(mode, W, H, &mut |_, _| {}).map_err(|e| format!("plan, {}: {e}", mode.name()))
+        };
+        crate::render_batch::same_frames(&frame(true)?, &frame(false)?)
+            .map_err(|e| format!("batched and one at a time differ in {}: {e}", mode.name()))?;
+    }
     let e = compare(&reference.image, &frame.image);
     if e.max_abs > TOLERANCE + bound {
         return Err(format!(

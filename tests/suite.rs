@@ -43,6 +43,7 @@ mod raster_fill;
 mod raster_interp;
 mod raster_robust;
 mod raster_state;
+mod render_batch;
 mod render_combiners;
 mod render_plan;
 mod roundtrip;

@@ -86,7 +86,27 @@ pub trait FragmentStage: Sync {
     /// vertex varyings; `fragment` gives the pixel position, depth, facing and
     /// screen-space derivatives; `out` receives RGBA.
     fn shade(&self, fragment: &Fragment, varyings: &[f32], out: &mut [f32; 4]) -> FragmentResult;
+
+    /// Shades the fragments of one triangle in one tile together, at most
+    /// [`BATCH`] (`varyings`: the same number per fragment, in order), as
+    /// [`FragmentStage::shade`] would one at a time: the rasterizer has
+    /// already tested them, and each writes a different pixel (issue 22).
+    fn shade_batch(
+        &self,
+        fragments: &[Fragment],
+        varyings: &[f32],
+        out: &mut [[f32; 4]],
+        results: &mut [FragmentResult],
+    ) {
+        let per = varyings.len().checked_div(fragments.len()).unwrap_or(0);
+        for (i, fragment) in fragments.iter().enumerate() {
+            results[i] = self.shade(fragment, &varyings[i * per..(i + 1) * per], &mut out[i]);
+        }
+    }
 }
+
+/// The most fragments [`FragmentStage::shade_batch`] receives at once.
+pub const BATCH: usize = 32;
 
 /// One rendering pass over one mesh.
 pub struct Pass<'a> {

@@ -79,6 +79,8 @@ use crate::textures::{generators, unit, Filter, Level, TexelFormat, Texture, Tex
 
 use crate::numerics::{fixed9_folded_with, fixed9_quotient, fixed9_with, Precision};
 
+mod batch;
+
 /// One rendered frame.
 pub struct Frame {
     /// The framebuffer the last framebuffer pass wrote (the picture).
@@ -158,6 +160,8 @@ pub struct PlanRenderer<'a> {
     uniforms: Vec<Option<Value>>,
     /// See [`PlanRenderer::set_rounding_bias`]; zero renders the model.
     rounding_bias: RoundingBias,
+    /// See [`PlanRenderer::set_batched`].
+    batched: bool,
     /// What stand-ins were used, for the user.
     pub notes: Vec<String>,
 }
@@ -200,6 +204,7 @@ impl<'a> PlanRenderer<'a> {
             exact,
             uniforms,
             rounding_bias: RoundingBias::default(),
+            batched: true,
             notes,
         })
     }
@@ -214,6 +219,13 @@ impl<'a> PlanRenderer<'a> {
     /// triangle edge.
     pub fn set_rounding_bias(&mut self, bias: RoundingBias) {
         self.rounding_bias = bias;
+    }
+
+    /// Whether fragments are shaded in batches (the default; issue 22) or
+    /// one at a time, the executor before it: the images are the same bit
+    /// for bit (`tests/render_batch.rs`); benches compare the two speeds.
+    pub fn set_batched(&mut self, batched: bool) {
+        self.batched = batched;
     }
 
     /// Renders every pass at `width`×`height`; `progress(done, total)` is
@@ -934,6 +946,8 @@ struct FragmentProgram<'a> {
     nonfinite: AtomicU64,
     /// [`PlanRenderer::set_rounding_bias`] (zero: the model).
     tie: RoundingBias,
+    /// [`PlanRenderer::set_batched`].
+    batched: bool,
 }
 
 /// Per texture, the layers of its fat texels a bundle pass rendered (`T`,
@@ -967,9 +981,9 @@ struct StepBuilder<'c, 'a> {
 }
 
 impl<'a> StepBuilder<'_, 'a> {
-    /// The value of constant node `i`: a register value in the combiners'
-    /// precision (as WGSL's hardware fidelity writes it); scale factors
-    /// beyond ±1 and addresses stay exact.
+    /// The value of constant node `i`: in fixed9 a register value in the
+    /// combiners' precision (as WGSL's hardware fidelity writes it; scale
+    /// factors beyond ±1 and addresses stay exact), in f32 an f32.
     fn constant(&self, i: usize, c: &ir::Constant) -> Value {
         let v = ir::eval::value(c);
         let register = self.mode == Precision::Fixed9
@@ -978,6 +992,9 @@ impl<'a> StepBuilder<'_, 'a> {
             && c.values().iter().all(|x| x.abs() <= 1.0);
         if register {
             v.map(|x| fixed9_with(x, self.r.rounding_bias.register_steps))
+        } else if self.mode == Precision::F32 {
+            // f32: every node in f32, constants too (as WGSL holds them).
+            v.map(|x| x as f32 as f64)
         } else {
             v
         }
@@ -1197,6 +1214,7 @@ impl<'a> FragmentProgram<'a> {
             combiners,
             nonfinite: AtomicU64::new(0),
             tie: r.rounding_bias,
+            batched: r.batched,
         })
     }
 
@@ -1474,61 +1492,8 @@ impl<'a> FragmentProgram<'a> {
             for (b, &o) in buf.iter_mut().zip(ops) {
                 *b = slots[o as usize];
             }
-            let v = match &s.leaf {
-                Some(Leaf::Lookup { texture, coords_ty, lod_from: None })
-                    if quad && texel_at.is_none() && self.mipmapped(*texture) =>
-                {
-                    let q = self.quad_coords(i, buf[0], *coords_ty, fragment, varyings);
-                    self.lookup(*texture, buf[0], *coords_ty, None, Some(q), fragment, varyings)
-                }
-                Some(leaf) => self.leaf(leaf, buf[0], fragment, varyings, texel_at),
-                None if let RegisterOp::Squarings(k) = s.register => {
-                    ir::power_by_squaring(buf[0], k, |a, c| {
-                        [0, 1, 2, 3].map(|i| fixed9_with(a[i] * c[i], self.tie.register_steps))
-                    })
-                }
-                None if s.register == RegisterOp::Quotient => {
-                    let steps = |v: f64| (v * 255.0).round_ties_even();
-                    [0, 1, 2, 3]
-                        .map(|i| fixed9_quotient(steps(buf[0][i]), steps(buf[1][i]), self.tie.register_steps))
-                }
-                None if self.tie.comparison_ulps != 0.0
-                    && matches!(
-                        s.expr,
-                        Expr::Binary {
-                            op: ir::BinaryOp::Lt | ir::BinaryOp::Le | ir::BinaryOp::Gt | ir::BinaryOp::Ge,
-                            ..
-                        }
-                    ) =>
-                {
-                    let toward =
-                        if matches!(s.expr, Expr::Binary { op: ir::BinaryOp::Lt | ir::BinaryOp::Le, .. }) {
-                            1.0
-                        } else {
-                            -1.0
-                        };
-                    let ulp = |a: f64, b: f64| a.abs().max(b.abs()) * f32::EPSILON as f64;
-                    let moved = [0, 1, 2, 3]
-                        .map(|i| buf[1][i] + toward * self.tie.comparison_ulps * ulp(buf[0][i], buf[1][i]));
-                    ir::eval::apply(self.module, s.expr, s.ty, &[buf[0], moved])
-                }
-                None => {
-                    if let Expr::Select { reject: None, .. } = s.expr {
-                        if buf[0][0] == 0.0 {
-                            discard = true;
-                        }
-                    }
-                    s.kernel.apply(self.module, s.expr, s.ty, &buf[..ops.len()])
-                }
-            };
-            let v = if s.raw { v } else { ir::eval::canonical(s.ty, v) };
-            slots[s.slot as usize] = match self.mode {
-                Precision::Exact => v,
-                Precision::F32 => v.map(|x| x as f32 as f64),
-                Precision::Fixed9 if s.quantize => v.map(|x| fixed9_with(x, self.tie.register_steps)),
-                Precision::Fixed9 if s.folded => v.map(|x| fixed9_folded_with(x, self.tie.register_steps)),
-                Precision::Fixed9 => v.map(|x| x as f32 as f64),
-            };
+            let v = self.step_value(i, &buf, fragment, varyings, texel_at, quad, &mut discard);
+            slots[s.slot as usize] = self.stored(s, v);
         }
         if let Some(c) = self.condition {
             if slots[c as usize][0] == 0.0 {
@@ -1536,6 +1501,83 @@ impl<'a> FragmentProgram<'a> {
             }
         }
         discard
+    }
+
+    /// Step `i`'s value from its operands `buf`, before [`FragmentProgram::stored`]
+    /// rounds it; sets `discard` where a `select` without a reject drops the
+    /// fragment (parameters as [`FragmentProgram::run_steps`]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline]
+    fn step_value(
+        &self,
+        i: usize,
+        buf: &[Value; 4],
+        fragment: &Fragment,
+        varyings: &[f32],
+        texel_at: Option<[f64; 2]>,
+        quad: bool,
+        discard: &mut bool,
+    ) -> Value {
+        let s = &self.steps[i];
+        match &s.leaf {
+            Some(Leaf::Lookup { texture, coords_ty, lod_from: None })
+                if quad && texel_at.is_none() && self.mipmapped(*texture) =>
+            {
+                let q = self.quad_coords(i, buf[0], *coords_ty, fragment, varyings);
+                self.lookup(*texture, buf[0], *coords_ty, None, Some(q), fragment, varyings)
+            }
+            Some(leaf) => self.leaf(leaf, buf[0], fragment, varyings, texel_at),
+            None if let RegisterOp::Squarings(k) = s.register => ir::power_by_squaring(buf[0], k, |a, c| {
+                [0, 1, 2, 3].map(|i| fixed9_with(a[i] * c[i], self.tie.register_steps))
+            }),
+            None if s.register == RegisterOp::Quotient => {
+                let steps = |v: f64| (v * 255.0).round_ties_even();
+                [0, 1, 2, 3]
+                    .map(|i| fixed9_quotient(steps(buf[0][i]), steps(buf[1][i]), self.tie.register_steps))
+            }
+            None if self.tie.comparison_ulps != 0.0
+                && matches!(
+                    s.expr,
+                    Expr::Binary {
+                        op: ir::BinaryOp::Lt | ir::BinaryOp::Le | ir::BinaryOp::Gt | ir::BinaryOp::Ge,
+                        ..
+                    }
+                ) =>
+            {
+                let toward = if matches!(s.expr, Expr::Binary { op: ir::BinaryOp::Lt | ir::BinaryOp::Le, .. })
+                {
+                    1.0
+                } else {
+                    -1.0
+                };
+                let ulp = |a: f64, b: f64| a.abs().max(b.abs()) * f32::EPSILON as f64;
+                let moved = [0, 1, 2, 3]
+                    .map(|i| buf[1][i] + toward * self.tie.comparison_ulps * ulp(buf[0][i], buf[1][i]));
+                ir::eval::apply(self.module, s.expr, s.ty, &[buf[0], moved])
+            }
+            None => {
+                if let Expr::Select { reject: None, .. } = s.expr {
+                    if buf[0][0] == 0.0 {
+                        *discard = true;
+                    }
+                }
+                s.kernel.apply(self.module, s.expr, s.ty, &buf[..s.n_ops as usize])
+            }
+        }
+    }
+
+    /// Step `s`'s value `v` as its slot keeps it: canonical for its type
+    /// (unless a raw texel), rounded as the mode rounds it.
+    #[inline]
+    fn stored(&self, s: &Step, v: Value) -> Value {
+        let v = if s.raw { v } else { ir::eval::canonical(s.ty, v) };
+        match self.mode {
+            Precision::Exact => v,
+            Precision::F32 => v.map(|x| x as f32 as f64),
+            Precision::Fixed9 if s.quantize => v.map(|x| fixed9_with(x, self.tie.register_steps)),
+            Precision::Fixed9 if s.folded => v.map(|x| fixed9_folded_with(x, self.tie.register_steps)),
+            Precision::Fixed9 => v.map(|x| x as f32 as f64),
+        }
     }
 
     /// Whether `texture` is a bound 2D texture with a mip chain: a lookup
@@ -1586,13 +1628,21 @@ impl<'a> FragmentProgram<'a> {
     /// from the registers the steps loaded (rounded to 8 bits, as texels and
     /// colours reach the machine: colours clamped to [0, 1], texels to
     /// [−1, 1] — a signed texel keeps its sign, an unsigned one has none).
-    fn colour(&self, slots: &[Value]) -> Value {
-        let Some((machine, registers)) = &self.combiners else {
-            return slots[self.output as usize];
-        };
+    fn colour(&self, slot: impl Fn(u32) -> Value) -> Value {
+        match &self.combiners {
+            Some((machine, registers)) => {
+                machine.run(&self.registers(registers, slot)).map(|c| c as f64 / 255.0)
+            }
+            None => slot(self.output),
+        }
+    }
+
+    /// The combiners' per-pixel registers loaded from the slots `registers`
+    /// names (texture 0-3, primary, secondary), rounded as [`FragmentProgram::colour`] says.
+    fn registers(&self, registers: &[Option<u32>; 6], slot: impl Fn(u32) -> Value) -> PixelRegisters {
         let load = |k: usize, lo: f64| -> [i16; 4] {
             match registers[k] {
-                Some(slot) => slots[slot as usize].map(|x| {
+                Some(s) => slot(s).map(|x| {
                     if x.is_nan() {
                         0
                     } else {
@@ -1605,12 +1655,28 @@ impl<'a> FragmentProgram<'a> {
             }
         };
         let colour = |k: usize| load(k, 0.0).map(|v| v as u8);
-        let r = PixelRegisters {
+        PixelRegisters {
             textures: [load(0, -1.0), load(1, -1.0), load(2, -1.0), load(3, -1.0)],
             primary: colour(4),
             secondary: colour(5),
+        }
+    }
+
+    /// The fragment's colour `v` as the framebuffer receives it: widened to
+    /// RGBA ([`PassInterface`]: a scalar splatted, rgb gets alpha 1, as the
+    /// generated combiners widen), NaN as 0; a non-finite value is counted
+    /// ([`Frame::nonfinite`]).
+    fn output(&self, v: Value) -> [f32; 4] {
+        let v = match self.output_ty.width() {
+            1 => [v[0]; 4],
+            2 => [v[0], v[1], 0.0, 1.0],
+            3 => [v[0], v[1], v[2], 1.0],
+            _ => v,
         };
-        machine.run(&r).map(|c| c as f64 / 255.0)
+        if v.iter().any(|x| !x.is_finite()) {
+            self.nonfinite.fetch_add(1, Ordering::Relaxed);
+        }
+        v.map(|x| if x.is_nan() { 0.0 } else { x as f32 })
     }
 }
 
@@ -1685,21 +1751,25 @@ impl FragmentStage for FragmentProgram<'_> {
             if self.run(&mut slots[..self.n_slots], fragment, varyings, None) {
                 return FragmentResult::Discard;
             }
-            let v = self.colour(&slots[..self.n_slots]);
-            // Widened to RGBA (PassInterface): a scalar splatted, rgb gets
-            // alpha 1 (the generated combiners widen the same way).
-            let v = match self.output_ty.width() {
-                1 => [v[0]; 4],
-                2 => [v[0], v[1], 0.0, 1.0],
-                3 => [v[0], v[1], v[2], 1.0],
-                _ => v,
-            };
-            if v.iter().any(|x| !x.is_finite()) {
-                self.nonfinite.fetch_add(1, Ordering::Relaxed);
-            }
-            *out = v.map(|x| if x.is_nan() { 0.0 } else { x as f32 });
+            *out = self.output(self.colour(|s| slots[s as usize]));
             FragmentResult::Keep
         })
+    }
+
+    fn shade_batch(
+        &self,
+        fragments: &[Fragment],
+        varyings: &[f32],
+        out: &mut [[f32; 4]],
+        results: &mut [FragmentResult],
+    ) {
+        if self.batched {
+            return self.shade_lanes(fragments, varyings, out, results);
+        }
+        let per = varyings.len().checked_div(fragments.len()).unwrap_or(0);
+        for (i, fragment) in fragments.iter().enumerate() {
+            results[i] = self.shade(fragment, &varyings[i * per..(i + 1) * per], &mut out[i]);
+        }
     }
 }
 

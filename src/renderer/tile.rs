@@ -7,7 +7,7 @@ use rayon::prelude::*;
 
 use super::framebuffer::{TileBuffers, TILE};
 use super::raster::{Fragment, PassSetup, Tri, SUB};
-use super::{DrawStats, FragmentResult, Framebuffer, Pass, StencilOp};
+use super::{DrawStats, FragmentResult, Framebuffer, Pass, StencilOp, BATCH};
 
 pub(crate) fn rasterize(target: &mut Framebuffer, pass: &Pass, setup: &PassSetup) -> DrawStats {
     let tiles_x = target.tiles_x();
@@ -44,7 +44,159 @@ pub(crate) fn rasterize(target: &mut Framebuffer, pass: &Pass, setup: &PassSetup
 }
 
 /// Scan-converts the binned triangles over one tile; `rect` is inclusive.
+/// Without a stencil test a fragment's fate is decided before it is shaded
+/// (depth test first, then shading, then the writes), so the fragments of
+/// one triangle are shaded in batches ([`FragmentStage::shade_batch`]:
+/// each writes its own pixel, so the order within a triangle does not
+/// matter); with one, fragment by fragment.
 fn raster_tile(
+    tile: &mut TileBuffers,
+    rect: (i32, i32, i32, i32),
+    bin: &[u32],
+    pass: &Pass,
+    setup: &PassSetup,
+) -> DrawStats {
+    if pass.state.stencil.enabled {
+        raster_tile_stencil(tile, rect, bin, pass, setup)
+    } else {
+        raster_tile_batched(tile, rect, bin, pass, setup)
+    }
+}
+
+/// Calls `visit(x, y, idx)` for every pixel of `tri` inside `rect` that
+/// the triangle covers, in scan order (`idx`: the pixel in the tile).
+fn for_each_covered(tri: &Tri, rect: (i32, i32, i32, i32), mut visit: impl FnMut(i32, i32, usize)) {
+    let x0 = tri.x0.max(rect.0);
+    let y0 = tri.y0.max(rect.1);
+    let x1 = tri.x1.min(rect.2);
+    let y1 = tri.y1.min(rect.3);
+    if x0 > x1 || y0 > y1 {
+        return;
+    }
+    // Edge-function steps per pixel in x and y.
+    let step_x = tri.dy.map(|d| -d * SUB);
+    let px0 = x0 as i64 * SUB + SUB / 2;
+    for y in y0..=y1 {
+        let py = y as i64 * SUB + SUB / 2;
+        let mut e = tri.edges_at(px0, py);
+        let row = (y - rect.1) as usize * TILE;
+        let lx0 = (x0 - rect.0) as usize;
+        for x in x0..=x1 {
+            if tri.covers(&e) {
+                visit(x, y, row + lx0 + (x - x0) as usize);
+            }
+            for k in 0..3 {
+                e[k] += step_x[k];
+            }
+        }
+    }
+}
+
+/// The fragment of `tri` at pixel (x, y), its depth and its
+/// perspective-correct weights (`gradients`: the triangle's).
+fn fragment_at<'a>(tri: &Tri, x: i32, y: i32, gradients: &'a [f32]) -> (Fragment<'a>, f32, [f32; 3]) {
+    let l = tri.weights_at(x, y);
+    let z = (l[0] * tri.z[0] + l[1] * tri.z[1] + l[2] * tri.z[2]).clamp(0.0, 1.0);
+    let pw = [l[0] * tri.inv_w[0], l[1] * tri.inv_w[1], l[2] * tri.inv_w[2]];
+    let q = pw[0] + pw[1] + pw[2];
+    let inv_q = 1.0 / q;
+    let fragment =
+        Fragment { x: x as u32, y: y as u32, depth: z, front_facing: tri.front_facing, inv_w: q, gradients };
+    (fragment, z, [pw[0] * inv_q, pw[1] * inv_q, pw[2] * inv_q])
+}
+
+/// Interpolates the triangle's varyings `vary` (three vertices of `n`)
+/// with the weights `p` into `out`.
+fn interpolate(vary: &[f32], n: usize, p: [f32; 3], out: &mut [f32]) {
+    for (i, v) in out.iter_mut().enumerate() {
+        *v = p[0] * vary[i] + p[1] * vary[n + i] + p[2] * vary[2 * n + i];
+    }
+}
+
+/// The fragments of one triangle waiting to be shaded together.
+struct Batch<'a> {
+    fragments: Vec<Fragment<'a>>,
+    pixels: Vec<(usize, f32)>,
+    varyings: Vec<f32>,
+    out: [[f32; 4]; BATCH],
+    results: [FragmentResult; BATCH],
+}
+
+impl Batch<'_> {
+    /// Shades the waiting fragments and writes those kept.
+    fn flush(&mut self, tile: &mut TileBuffers, pass: &Pass, stats: &mut DrawStats) {
+        let k = self.fragments.len();
+        if k == 0 {
+            return;
+        }
+        pass.fragment.shade_batch(
+            &self.fragments,
+            &self.varyings,
+            &mut self.out[..k],
+            &mut self.results[..k],
+        );
+        stats.shaded += k as u64;
+        for (lane, &(idx, z)) in self.pixels.iter().enumerate() {
+            if self.results[lane] == FragmentResult::Keep {
+                if pass.state.depth.write {
+                    tile.depth[idx] = z;
+                }
+                tile.blend_color(idx, &self.out[lane], &pass.state.blend);
+                stats.written += 1;
+            }
+        }
+        self.fragments.clear();
+        self.pixels.clear();
+        self.varyings.clear();
+    }
+}
+
+/// [`raster_tile`] without a stencil test: depth-tested fragments are
+/// shaded in batches of up to [`BATCH`] per triangle.
+fn raster_tile_batched(
+    tile: &mut TileBuffers,
+    rect: (i32, i32, i32, i32),
+    bin: &[u32],
+    pass: &Pass,
+    setup: &PassSetup,
+) -> DrawStats {
+    let n = setup.n_varyings;
+    let mut stats = DrawStats::default();
+    let depth = &pass.state.depth;
+    let mut batch = Batch {
+        fragments: Vec::with_capacity(BATCH),
+        pixels: Vec::with_capacity(BATCH),
+        varyings: Vec::with_capacity(BATCH * n),
+        out: [[0.0; 4]; BATCH],
+        results: [FragmentResult::Discard; BATCH],
+    };
+    for &ti in bin {
+        let tri: &Tri = &setup.tris[ti as usize];
+        let vary = &setup.varyings[tri.varying_offset..tri.varying_offset + 3 * n];
+        let gradients = &setup.gradients[tri.gradient_offset..tri.gradient_offset + 2 * (n + 1)];
+        for_each_covered(tri, rect, |x, y, idx| {
+            let (fragment, z, p) = fragment_at(tri, x, y, gradients);
+            stats.fragments += 1;
+            if !depth.func.test(z, tile.depth[idx]) {
+                return;
+            }
+            let at = batch.varyings.len();
+            batch.varyings.resize(at + n, 0.0);
+            interpolate(vary, n, p, &mut batch.varyings[at..]);
+            batch.fragments.push(fragment);
+            batch.pixels.push((idx, z));
+            if batch.fragments.len() == BATCH {
+                batch.flush(tile, pass, &mut stats);
+            }
+        });
+        batch.flush(tile, pass, &mut stats);
+    }
+    stats
+}
+
+/// [`raster_tile`] with a stencil test: fragment by fragment, since a
+/// fragment that fails a test may still be shaded for its stencil update.
+fn raster_tile_stencil(
     tile: &mut TileBuffers,
     rect: (i32, i32, i32, i32),
     bin: &[u32],
@@ -59,80 +211,39 @@ fn raster_tile(
     let depth = &state.depth;
     for &ti in bin {
         let tri: &Tri = &setup.tris[ti as usize];
-        let x0 = tri.x0.max(rect.0);
-        let y0 = tri.y0.max(rect.1);
-        let x1 = tri.x1.min(rect.2);
-        let y1 = tri.y1.min(rect.3);
-        if x0 > x1 || y0 > y1 {
-            continue;
-        }
         let vary = &setup.varyings[tri.varying_offset..tri.varying_offset + 3 * n];
         let gradients = &setup.gradients[tri.gradient_offset..tri.gradient_offset + 2 * (n + 1)];
-        // Edge-function steps per pixel in x and y.
-        let step_x = tri.dy.map(|d| -d * SUB);
-        let px0 = x0 as i64 * SUB + SUB / 2;
-        for y in y0..=y1 {
-            let py = y as i64 * SUB + SUB / 2;
-            let mut e = tri.edges_at(px0, py);
-            let row = (y - rect.1) as usize * TILE;
-            let lx0 = (x0 - rect.0) as usize;
-            for x in x0..=x1 {
-                let inside = tri.covers(&e);
-                if inside {
-                    let idx = row + lx0 + (x - x0) as usize;
-                    let l = tri.weights_at(x, y);
-                    let z = (l[0] * tri.z[0] + l[1] * tri.z[1] + l[2] * tri.z[2]).clamp(0.0, 1.0);
-                    stats.fragments += 1;
-                    let pw = [l[0] * tri.inv_w[0], l[1] * tri.inv_w[1], l[2] * tri.inv_w[2]];
-                    let q = pw[0] + pw[1] + pw[2];
-                    let fragment = Fragment {
-                        x: x as u32,
-                        y: y as u32,
-                        depth: z,
-                        front_facing: tri.front_facing,
-                        inv_w: q,
-                        gradients,
-                    };
-                    // Interpolates the varyings and runs the fragment stage.
-                    let mut shade = |out: &mut [f32; 4], stats: &mut DrawStats| {
-                        let inv_q = 1.0 / q;
-                        let p = [pw[0] * inv_q, pw[1] * inv_q, pw[2] * inv_q];
-                        for (i, v) in varyings.iter_mut().enumerate() {
-                            *v = p[0] * vary[i] + p[1] * vary[n + i] + p[2] * vary[2 * n + i];
-                        }
-                        stats.shaded += 1;
-                        pass.fragment.shade(&fragment, &varyings, out)
-                    };
-                    let mut color = [0.0f32; 4];
-                    let stored_stencil = tile.stencil[idx];
-                    if !stencil.test(stored_stencil) {
-                        // A discarded fragment must not touch the stencil: shade only if it matters.
-                        if stencil.fail != StencilOp::Keep
-                            && shade(&mut color, &mut stats) == FragmentResult::Keep
-                        {
-                            stencil.update(&mut tile.stencil[idx], stencil.fail);
-                        }
-                    } else if !depth.func.test(z, tile.depth[idx]) {
-                        if stencil.enabled
-                            && stencil.depth_fail != StencilOp::Keep
-                            && shade(&mut color, &mut stats) == FragmentResult::Keep
-                        {
-                            stencil.update(&mut tile.stencil[idx], stencil.depth_fail);
-                        }
-                    } else if shade(&mut color, &mut stats) == FragmentResult::Keep {
-                        stencil.update(&mut tile.stencil[idx], stencil.pass);
-                        if depth.write {
-                            tile.depth[idx] = z;
-                        }
-                        tile.blend_color(idx, &color, &state.blend);
-                        stats.written += 1;
-                    }
+        for_each_covered(tri, rect, |x, y, idx| {
+            let (fragment, z, p) = fragment_at(tri, x, y, gradients);
+            stats.fragments += 1;
+            // Interpolates the varyings and runs the fragment stage.
+            let mut shade = |out: &mut [f32; 4], stats: &mut DrawStats| {
+                interpolate(vary, n, p, &mut varyings);
+                stats.shaded += 1;
+                pass.fragment.shade(&fragment, &varyings, out)
+            };
+            let mut color = [0.0f32; 4];
+            let stored_stencil = tile.stencil[idx];
+            if !stencil.test(stored_stencil) {
+                // A discarded fragment must not touch the stencil: shade only if it matters.
+                if stencil.fail != StencilOp::Keep && shade(&mut color, &mut stats) == FragmentResult::Keep {
+                    stencil.update(&mut tile.stencil[idx], stencil.fail);
                 }
-                for k in 0..3 {
-                    e[k] += step_x[k];
+            } else if !depth.func.test(z, tile.depth[idx]) {
+                if stencil.depth_fail != StencilOp::Keep
+                    && shade(&mut color, &mut stats) == FragmentResult::Keep
+                {
+                    stencil.update(&mut tile.stencil[idx], stencil.depth_fail);
                 }
+            } else if shade(&mut color, &mut stats) == FragmentResult::Keep {
+                stencil.update(&mut tile.stencil[idx], stencil.pass);
+                if depth.write {
+                    tile.depth[idx] = z;
+                }
+                tile.blend_color(idx, &color, &state.blend);
+                stats.written += 1;
             }
-        }
+        });
     }
     stats
 }

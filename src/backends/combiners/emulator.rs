@@ -16,6 +16,8 @@
 //! the CPU renderer's `fixed9` mode, which shades fragment by fragment
 //! (blending and depth need each fragment's colour before the next).
 
+use std::cell::RefCell;
+
 use rayon::prelude::*;
 use thiserror::Error;
 
@@ -162,6 +164,62 @@ impl PixelEmulator {
             Precision::Exact => pixel::<F64>(&self.plan, self.fog, r),
         }
     }
+
+    /// [`PixelEmulator::run`] of many pixels at once (at most [`TILE`]),
+    /// through the tile engine's structure of arrays (issue 22: the CPU
+    /// renderer's batched fragments); the same colours as `run` on each
+    /// (test below).
+    pub fn run_many(&self, registers: &[PixelRegisters], out: &mut [[u8; 4]]) {
+        assert!(registers.len() <= TILE && out.len() == registers.len());
+        match self.precision {
+            Precision::Fixed9 => SCRATCH_FIXED9.with(|c| self.many::<Fixed9>(c, registers, out)),
+            Precision::F32 => SCRATCH_F32.with(|c| self.many::<F32>(c, registers, out)),
+            Precision::Exact => SCRATCH_F64.with(|c| self.many::<F64>(c, registers, out)),
+        }
+    }
+
+    fn many<M: Model>(
+        &self,
+        cell: &RefCell<Option<Scratch<M>>>,
+        registers: &[PixelRegisters],
+        out: &mut [[u8; 4]],
+    ) {
+        let mut cell = cell.borrow_mut();
+        let s = cell.get_or_insert_with(|| Scratch::new(self.fog));
+        s.fill(Register::Fog, self.fog);
+        let n = registers.len();
+        let mut load = |r: Register, ch: usize, value: &dyn Fn(&PixelRegisters) -> M::R| {
+            for (d, px) in s.reg_mut(r.index(), ch)[..n].iter_mut().zip(registers) {
+                *d = value(px);
+            }
+        };
+        for ch in 0..4 {
+            for (k, t) in [Register::Texture0, Register::Texture1, Register::Texture2, Register::Texture3]
+                .into_iter()
+                .enumerate()
+            {
+                load(t, ch, &|px| M::from_i9(px.textures[k][ch]));
+            }
+            load(Register::Primary, ch, &|px| M::from_u8(px.primary[ch]));
+            load(Register::Secondary, ch, &|px| M::from_u8(px.secondary[ch]));
+            // spare0: RGB undefined (zero here), alpha = texture 0 alpha; spare1 zero.
+            load(Register::Spare0, ch, &|px| {
+                if ch == 3 {
+                    M::from_i9(px.textures[0][3])
+                } else {
+                    M::R::default()
+                }
+            });
+            load(Register::Spare1, ch, &|_| M::R::default());
+        }
+        stages::<M>(&self.plan, s, n, out.as_flattened_mut());
+    }
+}
+
+thread_local! {
+    static SCRATCH_FIXED9: RefCell<Option<Scratch<Fixed9>>> = const { RefCell::new(None) };
+    static SCRATCH_F32: RefCell<Option<Scratch<F32>>> = const { RefCell::new(None) };
+    static SCRATCH_F64: RefCell<Option<Scratch<F64>>> = const { RefCell::new(None) };
 }
 
 // ---------------------------------------------------------------------------
@@ -783,7 +841,12 @@ fn tile<M: Model>(plan: &Plan, inputs: &Inputs, s: &mut Scratch<M>, first: usize
     for ch in 0..4 {
         s.reg_mut(Register::Spare1.index(), ch)[..n].fill(M::R::default());
     }
+    stages::<M>(plan, s, n, out);
+}
 
+/// The general stages and the final combiner over the first `n` pixels of
+/// the loaded register file, into `out` (RGBA8).
+fn stages<M: Model>(plan: &Plan, s: &mut Scratch<M>, n: usize, out: &mut [u8]) {
     for stage in &plan.stages {
         s.set_constants(stage.constants);
         portion::<M>(s, &stage.rgb, PortionKind::Rgb, n);
