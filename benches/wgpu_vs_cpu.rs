@@ -9,7 +9,8 @@
 //! `SHADEC_BENCH_RUNS`, default 9, after 2 warm-up frames), all in one run,
 //! printed as the table of BENCHMARKS.md. `cargo bench --bench wgpu_vs_cpu`;
 //! `SHADEC_BENCH_MODES=fixed9` (or `f32`) runs only that mode's CPU rows
-//! and `SHADEC_BENCH_PEER=0` skips wgpu (for a profiler).
+//! `SHADEC_BENCH_PEER=0` skips wgpu, `SHADEC_BENCH_BATCHED=1` the
+//! one-at-a-time executor (for a profiler).
 
 #[path = "common/timing.rs"]
 mod timing;
@@ -54,6 +55,7 @@ fn main() {
         }
         Err(_) => vec![Precision::F32, Precision::Fixed9],
     };
+    let only_batched = std::env::var("SHADEC_BENCH_BATCHED").is_ok_and(|v| v == "1");
     let gpu = match std::env::var("SHADEC_BENCH_PEER").as_deref() {
         Ok("0") => Err("SHADEC_BENCH_PEER=0".to_string()),
         _ => Gpu::new().map_err(|e| e.to_string()),
@@ -87,7 +89,7 @@ fn main() {
     for (name, planned) in [("wgsl (1 pass)", &wgsl), ("geforce256 (3 passes)", &geforce256)] {
         let mut cpu = PlanRenderer::new(planned, &program, &scene, &assets).unwrap();
         for &mode in &modes {
-            for batched in [false, true] {
+            for batched in [false, true].into_iter().filter(|&b| b || !only_batched) {
                 cpu.set_batched(batched);
                 let frame = || drop(cpu.render(mode, side, side, &mut |_, _| {}).unwrap());
                 let t1 = one.install(|| median(frame));

@@ -378,7 +378,7 @@ pub fn fit(module: &Module, profile: &Profile) -> Vec<Diagnostic> {
             out.push(missing(
                 "float textures".into(),
                 &u.float_lookups,
-                "an 8-bit format holds [0, 1]: the lowering re-stores a float texture written only with values in [0, 1] itself; values of a range it cannot know (object-space positions, solid mapping) must be scaled into [0, 1] where they are written and back where they are read (`compress(P / r)`, `expand(T δu x) * r`), or target wgsl",
+                "an 8-bit format holds [0, 1]: the lowering re-stores a float texture itself when every write is a value in [0, 1], or an rgb in [−1, 1] with alpha 1 (range-compressed); values of a range it cannot know (object-space positions, solid mapping) must be scaled into [0, 1] where they are written and back where they are read (`compress(P / r)`, `expand(T δu x) * r`), or target wgsl",
             ));
         }
         if !u.vertex_lookups.is_empty() && !profile.vertex_texture_fetch {

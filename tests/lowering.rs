@@ -462,6 +462,34 @@ fn a_float_texture_of_colours_is_stored_in_rgba8() {
     }
 }
 
+/// A G-buffer of normals in a float texture (`rgba(N δ s x, 1)`, deferred
+/// shading, seeds/001 (5)) on the combiner targets: rule
+/// `float_texture_8bit` stores the signed rgb range-compressed in RGBA8
+/// and reads it expanded (bound 1/255 at the lookup); the f32 render stays
+/// within the output bound, the interpolants' range compression and the
+/// framebuffer's rounding of the wgsl plan, which keeps the float
+/// texture. The same texture with an alpha of its own stays refused.
+#[test]
+fn a_float_texture_of_signed_directions_is_stored_range_compressed() {
+    let source = "vector N : normal in eye;\nconst kd : rgb = (0.7, 0.7, 0.8);\nconst l : vec3 = (0.0, 0.6, 0.8);\ntexture G : 2d rgba16f nearest clamp;\nframebuffer C : rgba8, depth;\nG δπx ← rgba(N δ s x, 1);\nC xs ← rgba(kd * max(0, (G xs).rgb · l), 1);\n";
+    let scene = scene();
+    let wgsl = f32_render(&compile(source, &Profile::builtin("wgsl").unwrap()).unwrap(), source, &scene);
+    for target in ["geforce256", "geforce3"] {
+        let planned = compile(source, &Profile::builtin(target).unwrap()).expect("lowered and planned");
+        let a = &planned.plan.approximations;
+        let rule = a.iter().find(|a| a.rule == "float_texture_8bit").unwrap_or_else(|| panic!("{target}: {a:?}"));
+        assert!(rule.why.contains("range-compressed"), "{}", rule.why);
+        assert_eq!(rule.error_bound, Some(1.0 / 255.0));
+        let bound: f64 = a.iter().map(|a| a.output_bound.unwrap()).sum::<f64>() + 2.0 * FRAMEBUFFER;
+        let e = compare(&wgsl, &f32_render(&planned, source, &scene));
+        assert!((e.max_abs as f64) <= bound, "{target}: {e:?} > {bound}");
+        assert!(e.max_abs > 0.0, "{target}: the 8-bit store changes nothing?");
+        let own_alpha = source.replace("rgba(N δ s x, 1)", "rgba(N δ s x, 0.5)");
+        let err = compile(&own_alpha, &Profile::builtin(target).unwrap()).unwrap_err();
+        assert!(err[0].message.contains("float textures"), "{target}: {err:?}");
+    }
+}
+
 /// Kajiya-Kay's specular term, `(t·l t·v + √(1 − (t·l)²) √(1 − (t·v)²))ⁿ`, a
 /// function of two dot products (seeds/001 (24)): rule `baked_table_2d`
 /// tabulates it whole, indexed by the two computed per vertex (Heidrich and

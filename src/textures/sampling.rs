@@ -80,6 +80,8 @@ impl Level {
         let (w, h) = (self.width as i64, self.height as i64);
         let (x, y) = match wrap {
             Wrap::ClampToEdge => (x.clamp(0, w - 1), y.clamp(0, h - 1)),
+            // A power-of-two size wraps with a mask (the same as rem_euclid).
+            Wrap::Repeat if (w & (w - 1)) == 0 && (h & (h - 1)) == 0 => (x & (w - 1), y & (h - 1)),
             Wrap::Repeat => (x.rem_euclid(w), y.rem_euclid(h)),
         };
         self.texels[(y * w + x) as usize]
@@ -95,7 +97,7 @@ impl Level {
     pub fn sample_bilinear(&self, u: f32, v: f32, wrap: Wrap) -> [f32; 4] {
         let fx = finite_or_zero(u * self.width as f32 - 0.5);
         let fy = finite_or_zero(v * self.height as f32 - 0.5);
-        let (x0, y0) = (fx.floor(), fy.floor());
+        let (x0, y0) = (floor_finite(fx), floor_finite(fy));
         let (ax, ay) = (fx - x0, fy - y0);
         let (x0, y0) = (x0 as i64, y0 as i64);
         let t00 = self.fetch(x0, y0, wrap);
@@ -109,6 +111,20 @@ impl Level {
             out[c] = top + ay * (bottom - top);
         }
         out
+    }
+}
+
+/// `x.floor()` for a finite `x` within ±1e9 ([`finite_or_zero`]'s range),
+/// without the library call (x86-64's baseline has no rounding
+/// instruction): the conversion truncates toward zero, exactly, since such
+/// an `x` fits an i64; a negative non-integer is one below its truncation.
+#[inline(always)]
+pub(crate) fn floor_finite(x: f32) -> f32 {
+    let t = x as i64 as f32;
+    if t > x {
+        t - 1.0
+    } else {
+        t
     }
 }
 
@@ -292,6 +308,20 @@ impl TextureCube {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn floor_finite_is_floor() {
+        let mut x = -1e9f32;
+        while x < 1e9 {
+            for y in [x, -x, x + 0.5, x - 0.25, x.next_up(), x.next_down()] {
+                assert_eq!(floor_finite(y), y.floor(), "{y}");
+            }
+            x = if x.abs() < 1e-3 { 1e-3 } else if x < 0.0 { x * 0.97 } else { x * 1.03 };
+        }
+        for y in [0.0, 0.5, -0.5, 0.999_999_94, -0.999_999_94, 8_388_607.5, -8_388_607.5, 1e9, -1e9] {
+            assert_eq!(floor_finite(y), y.floor(), "{y}");
+        }
+    }
 
     fn ramp(w: u32, h: u32) -> Level {
         Level::new(w, h, (0..w * h).map(|i| [(i % w) as f32, (i / w) as f32, 0.0, 1.0]).collect())

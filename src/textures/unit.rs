@@ -46,7 +46,8 @@
 //!   [`cube_face_uv`]).
 
 use super::sampling::{
-    cube_direction, cube_face_uv, CubeFace, Filter, Level, TexelFormat, Texture2D, TextureCube, Wrap,
+    cube_direction, cube_face_uv, floor_finite, CubeFace, Filter, Level, TexelFormat, Texture2D, TextureCube,
+    Wrap,
 };
 
 /// λ of a lookup from the coarse derivatives of (u, v) in a 2×2 quad,
@@ -157,7 +158,7 @@ pub fn sample_cube(c: &TextureCube, direction: [f32; 3], filter: Filter) -> [f32
     let n = level.width as i64;
     let fx = finite(s * level.width as f32 - 0.5);
     let fy = finite(t * level.height as f32 - 0.5);
-    let (x0, y0) = (fx.floor(), fy.floor());
+    let (x0, y0) = (floor_finite(fx), floor_finite(fy));
     let (ax, ay) = (fx - x0, fy - y0);
     let (x0, y0) = (x0 as i64, y0 as i64);
     let inside = |i: i64| (0..n).contains(&i);
