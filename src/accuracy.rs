@@ -83,12 +83,15 @@ pub fn choose(
 }
 
 /// Without `--max-error`, on a scene: the plan whose render is closest to
-/// the program's meaning there (largest channel difference, then RMSE,
-/// then the predicted frame) — issue 18's "the most accurate plan that
-/// fits", measured on the picture rather than assumed from the rules'
-/// order (on the Kilgard torus, `fragment_lighting.shd`'s per-vertex
+/// the program's meaning there (RMSE, then the largest channel
+/// difference, then the predicted frame) — issue 18's "the most accurate
+/// plan that fits", measured on the picture rather than assumed from the
+/// rules' order (on the Kilgard torus, `fragment_lighting.shd`'s per-vertex
 /// shading on geforce256 beats the 8-bit cube maps raised to the 32nd
-/// power). A program that plans as written is returned as planned.
+/// power). RMSE first: the largest difference of a program with a step
+/// (`floor`, `step`, a toon ramp) is one pixel on either side of the step,
+/// which every approximation moves; the RMSE says how much of the picture
+/// is wrong. A program that plans as written is returned as planned.
 pub fn most_accurate(
     module: &Module,
     program: &Program,
@@ -103,7 +106,7 @@ pub fn most_accurate(
     };
     let size = measuring_size(scene.scene.resolution);
     let mut candidates = measure(module, program, profile, source, options, lights)?;
-    let key = |c: &Candidate| (c.error.max_abs, c.error.rmse, c.predicted_ms.unwrap_or(0.0));
+    let key = |c: &Candidate| (c.error.rmse, f64::from(c.error.max_abs), c.predicted_ms.unwrap_or(0.0));
     let best = (0..candidates.len()).min_by(|&a, &b| {
         let (x, y) = (key(&candidates[a].1), key(&candidates[b].1));
         x.0.total_cmp(&y.0).then(x.1.total_cmp(&y.1)).then(x.2.total_cmp(&y.2)).then(a.cmp(&b))
@@ -204,9 +207,10 @@ fn render(
         .and_then(|r| r.render(Precision::F32, w, h, &mut |_, _| {}))
         .map(|f| f.image)
         .map_err(|e| {
-            let what = format!("the lowering could not be measured on the scene: {e}");
-            vec![Diagnostic::error("max-error", what, Span::DETACHED, "")
-                .with_help("drop --max-error (the most accurate lowering is taken), or render another scene")]
+            let what = format!("the program's lowerings cannot be measured on the scene: {e}");
+            vec![Diagnostic::error("scene", what, Span::DETACHED, "").with_help(
+                "the renderer cannot draw this program on this scene (the message says why); `shadec compile` without `--scene` plans without measuring",
+            )]
         })
 }
 

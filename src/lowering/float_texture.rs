@@ -156,7 +156,8 @@ fn compressed(r: &mut Rewriter, w: Handle<Expr>, span: crate::span::Span) -> Opt
 /// `rgba(expand(rgb) · a, a)` of a lookup (module doc).
 fn expanded(r: &mut Rewriter, lookup: Handle<Expr>, span: crate::span::Span) -> Option<Handle<Expr>> {
     let rgb = r.node(Expr::Swizzle { value: lookup, pattern: [0, 1, 2, 0], len: 3, ty: Ty::Rgb }, span)?;
-    let alpha = r.node(Expr::Swizzle { value: lookup, pattern: [3, 0, 0, 0], len: 1, ty: Ty::Scalar }, span)?;
+    let alpha =
+        r.node(Expr::Swizzle { value: lookup, pattern: [3, 0, 0, 0], len: 1, ty: Ty::Scalar }, span)?;
     let e = r.node(Expr::Math { fun: MathFunction::Expand, args: vec![rgb] }, span)?;
     let scaled = r.node(Expr::Binary { op: crate::ir::BinaryOp::Mul, lhs: e, rhs: alpha }, span)?;
     r.node(Expr::Compose { ty: Ty::Rgba, components: vec![scaled, alpha] }, span)

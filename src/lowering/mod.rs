@@ -177,6 +177,7 @@ pub fn lower(module: &Module, profile: &Profile, choice: Choice, at: &dyn Fn(Spa
         r.m.statements.extend(tables);
         r.m.statements.push(Statement { value, ..st });
     }
+    r.drop_unread_tables(module.textures.len());
     r.finish()
 }
 
@@ -345,6 +346,33 @@ impl<'a> Rewriter<'a> {
             })
             .collect();
         Lowered { module: self.m, approximations }
+    }
+
+    /// Drops the texel statements of tables this lowering made (textures
+    /// from `first` on) that no other statement reads: a rule that
+    /// tabulated part of a value a later rule tabulated whole leaves one
+    /// (`floor(3d)` inside `floor(3d)/3`), which would cost a pass.
+    fn drop_unread_tables(&mut self, first: usize) {
+        loop {
+            let reads = |st: &Statement| -> Vec<u32> {
+                self.m
+                    .reachable(&[st.value, st.index])
+                    .into_iter()
+                    .filter_map(|h| match self.m.exprs[h] {
+                        Expr::Lookup { texture, .. } => Some(texture),
+                        _ => None,
+                    })
+                    .collect()
+            };
+            let read: std::collections::HashSet<u32> = self.m.statements.iter().flat_map(reads).collect();
+            let unread = |st: &Statement| matches!(st.table, Table::Texture(t) if t as usize >= first && !read.contains(&t));
+            let before = self.m.statements.len();
+            let kept: Vec<Statement> = self.m.statements.iter().filter(|st| !unread(st)).cloned().collect();
+            if kept.len() == before {
+                return;
+            }
+            self.m.statements = kept;
+        }
     }
 
     /// Whether the target's fragment stage is the register combiners.

@@ -38,12 +38,16 @@ pub fn apply(r: &mut Rewriter, h: Handle<Expr>, written: Handle<Expr>, span: Spa
     }
     // The argument per vertex: `δ v` gives v; another value of
     // interpolants is computed per vertex (rule `per_vertex`, recorded
-    // below once the table stands for it).
-    let (a_v, hoisted) = match r.m.exprs[b] {
-        Expr::Interpolate { value, to: Frequency::Fragment } => (value, false),
+    // below once the table stands for it) — then the function tabulated
+    // is the chain as written down to that argument: `h`'s own chain may
+    // end at a part already lowered (`floor(3d)/3` with `floor(3d)` a
+    // table of d), which is not the per-vertex argument's function.
+    let (ops, b, a_v, hoisted) = match r.m.exprs[b] {
+        Expr::Interpolate { value, to: Frequency::Fragment } => (ops, b, value, false),
         _ => {
-            let (_, b_written) = chain(&r.m, written)?;
-            (per_vertex::at_vertex(&mut r.m, b_written)?, true)
+            let (ops_written, b_written) = chain(&r.m, written)?;
+            let a_v = per_vertex::at_vertex(&mut r.m, b_written)?;
+            (ops_written, b_written, a_v, true)
         }
     };
     let (lo, hi) = (r.m.info(a_v).interval.lo, r.m.info(a_v).interval.hi);

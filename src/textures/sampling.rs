@@ -316,7 +316,13 @@ mod tests {
             for y in [x, -x, x + 0.5, x - 0.25, x.next_up(), x.next_down()] {
                 assert_eq!(floor_finite(y), y.floor(), "{y}");
             }
-            x = if x.abs() < 1e-3 { 1e-3 } else if x < 0.0 { x * 0.97 } else { x * 1.03 };
+            x = if x.abs() < 1e-3 {
+                1e-3
+            } else if x < 0.0 {
+                x * 0.97
+            } else {
+                x * 1.03
+            };
         }
         for y in [0.0, 0.5, -0.5, 0.999_999_94, -0.999_999_94, 8_388_607.5, -8_388_607.5, 1e9, -1e9] {
             assert_eq!(floor_finite(y), y.floor(), "{y}");
