@@ -188,15 +188,28 @@ impl Module {
     }
 
     /// Every node reachable from `roots`, in arena (topological) order.
+    ///
+    /// Operands precede their users in the arena (it only appends, and a
+    /// node is built from handles that exist), so taking the highest
+    /// pending handle first visits the nodes in decreasing order: a node
+    /// reached twice comes out twice in a row, and no set of the visited
+    /// ones is needed (issue 22: this runs for every value the planner
+    /// measures; a `BTreeSet` per call was 6 % of a 100 000-operation plan).
     pub fn reachable(&self, roots: &[Handle<Expr>]) -> Vec<Handle<Expr>> {
-        let mut seen = std::collections::BTreeSet::new();
-        let mut stack = roots.to_vec();
-        while let Some(h) = stack.pop() {
-            if seen.insert(h) {
-                self.exprs[h].visit_operands(|o| stack.push(o));
+        let mut pending: std::collections::BinaryHeap<Handle<Expr>> = roots.iter().copied().collect();
+        let mut out: Vec<Handle<Expr>> = Vec::with_capacity(pending.len() * 8);
+        while let Some(h) = pending.pop() {
+            if out.last() == Some(&h) {
+                continue;
             }
+            out.push(h);
+            self.exprs[h].visit_operands(|o| {
+                debug_assert!(o < h, "operands precede their users in the arena");
+                pending.push(o)
+            });
         }
-        seen.into_iter().collect()
+        out.reverse();
+        out
     }
 }
 
