@@ -197,33 +197,48 @@ impl Module {
         thread_local! {
             static SEEN: std::cell::RefCell<Vec<u64>> = const { std::cell::RefCell::new(Vec::new()) };
         }
-        SEEN.with(|seen| {
-            let mut seen = seen.borrow_mut();
-            let words = self.exprs.len().div_ceil(64);
-            if seen.len() < words {
-                seen.resize(words, 0);
-            }
-            let mut out: Vec<Handle<Expr>> = Vec::with_capacity(roots.len() * 16);
-            let mut mark = |h: Handle<Expr>, out: &mut Vec<Handle<Expr>>| {
+        /// The marks of one call: cleared when it ends, also by a panic
+        /// (the LSP server catches them and goes on using the thread).
+        struct Marks<'a> {
+            seen: std::cell::RefMut<'a, Vec<u64>>,
+            out: Vec<Handle<Expr>>,
+        }
+        impl Marks<'_> {
+            fn mark(&mut self, h: Handle<Expr>) {
                 let (w, b) = (h.index() / 64, 1u64 << (h.index() % 64));
-                if seen[w] & b == 0 {
-                    seen[w] |= b;
-                    out.push(h);
+                if self.seen[w] & b == 0 {
+                    self.seen[w] |= b;
+                    self.out.push(h);
                 }
-            };
+            }
+        }
+        impl Drop for Marks<'_> {
+            fn drop(&mut self) {
+                for h in &self.out {
+                    self.seen[h.index() / 64] = 0;
+                }
+            }
+        }
+        SEEN.with(|seen| {
+            let mut marks = Marks { seen: seen.borrow_mut(), out: Vec::with_capacity(roots.len() * 16) };
+            let words = self.exprs.len().div_ceil(64);
+            if marks.seen.len() < words {
+                marks.seen.resize(words, 0);
+            }
             for &r in roots {
-                mark(r, &mut out);
+                marks.mark(r);
             }
             // `out` doubles as the work list: everything before `next` has
             // had its operands marked.
             let mut next = 0;
-            while next < out.len() {
-                let h = out[next];
+            while next < marks.out.len() {
+                let h = marks.out[next];
                 next += 1;
-                self.exprs[h].visit_operands(|o| mark(o, &mut out));
+                self.exprs[h].visit_operands(|o| marks.mark(o));
             }
+            let mut out = std::mem::take(&mut marks.out);
             for h in &out {
-                seen[h.index() / 64] = 0;
+                marks.seen[h.index() / 64] = 0;
             }
             out.sort_unstable();
             out
