@@ -3,8 +3,6 @@
 //! (`crate::profile::fit`) compares this with a profile; the pass planner
 //! will use it to decide where to split.
 
-use rustc_hash::FxHashMap as HashMap;
-
 use super::{BinaryOp, Expr, Frequency, Handle, MathFunction, Module, Statement, Table, Ty};
 use crate::parser::ast::{TextureFormat, TextureKind};
 
@@ -48,20 +46,51 @@ impl Usage {
         Usage::of_value(module, st.value)
     }
 
+    /// `Usage::of_value(module, value).texture_units()`, without the rest
+    /// of the usage (the splitter asks it of every candidate piece).
+    pub fn texture_units_of(module: &Module, value: Handle<Expr>) -> usize {
+        module
+            .reachable(&[value])
+            .into_iter()
+            .filter(|&h| matches!(module.exprs[h], Expr::Lookup { .. }) && module.info(h).freq.is_sample())
+            .count()
+    }
+
     /// The resources a pass needs to compute `value` per sample.
     pub fn of_value(module: &Module, value: Handle<Expr>) -> Usage {
-        let nodes = module.reachable(&[value]);
+        Usage::of_reached(module, &module.reachable(&[value]))
+    }
+
+    /// Only the texture units of [`Usage::of_reached`]: its `lookups` and
+    /// `framebuffer_reads`, the rest left empty (the fit check tries these
+    /// first, and most values the planner measures fail on them).
+    pub fn units_of_reached(module: &Module, nodes: &[Handle<Expr>]) -> Usage {
+        let mut u = Usage::default();
+        for &h in nodes {
+            match &module.exprs[h] {
+                Expr::Lookup { .. } if module.info(h).freq.is_sample() => u.lookups.push(h),
+                Expr::FramebufferRead { .. } => u.framebuffer_reads.push(h),
+                _ => {}
+            }
+        }
+        u
+    }
+
+    /// [`Usage::of_value`] of the value whose reachable nodes
+    /// ([`Module::reachable`]) are `nodes`.
+    pub fn of_reached(module: &Module, nodes: &[Handle<Expr>]) -> Usage {
         // Whether a node depends on a per-sample lookup, bottom-up (operands
-        // precede users in the arena, and `reachable` is in arena order).
-        let mut on_lookup: HashMap<Handle<Expr>, bool> =
-            HashMap::with_capacity_and_hasher(nodes.len(), Default::default());
-        for &h in &nodes {
+        // precede users in the arena, and `reachable` is in arena order, so
+        // an operand's entry is found by binary search among `nodes`).
+        let at = |o: Handle<Expr>| nodes.binary_search(&o).expect("an operand of a reached node is reached");
+        let mut on_lookup: Vec<bool> = Vec::with_capacity(nodes.len());
+        for &h in nodes {
             let mut any = matches!(module.exprs[h], Expr::Lookup { .. }) && module.info(h).freq.is_sample();
-            module.exprs[h].visit_operands(|o| any |= on_lookup.get(&o).copied().unwrap_or(false));
-            on_lookup.insert(h, any);
+            module.exprs[h].visit_operands(|o| any |= on_lookup[at(o)]);
+            on_lookup.push(any);
         }
         let mut u = Usage::default();
-        for &h in &nodes {
+        for &h in nodes {
             let info = module.info(h);
             let sample = info.freq.is_sample();
             match &module.exprs[h] {
@@ -73,7 +102,7 @@ impl Usage {
                         continue;
                     }
                     u.lookups.push(h);
-                    if on_lookup.get(coords).copied().unwrap_or(false) {
+                    if on_lookup[at(*coords)] {
                         u.dependent_lookups.push(h);
                     }
                     let t = &module.textures[*texture as usize];
@@ -103,7 +132,7 @@ impl Usage {
                     Expr::Binary { op: BinaryOp::Pow, rhs, .. } => Some(*rhs),
                     _ => None,
                 };
-                for o in module.operands(h) {
+                module.exprs[h].visit_operands(|o| {
                     let oi = module.info(o);
                     let register = matches!(module.exprs[o], Expr::Constant(_) | Expr::Uniform(_))
                         && oi.ty != Ty::Scalar;
@@ -115,7 +144,7 @@ impl Usage {
                     {
                         u.constants.push(o);
                     }
-                }
+                });
             }
         }
         u.constants.sort();

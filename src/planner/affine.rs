@@ -128,7 +128,8 @@ pub fn contains(
     if let Some(&c) = memo.get(&h) {
         return c;
     }
-    let c = module.operands(h).into_iter().any(|o| contains(module, o, x, memo));
+    let mut c = false;
+    module.exprs[h].visit_operands(|o| c = c || contains(module, o, x, memo));
     memo.insert(h, c);
     c
 }

@@ -89,11 +89,7 @@ impl<'p> ProfileFit<'p> {
 
 impl FitCheck for ProfileFit<'_> {
     fn texture_units(&self, module: &Module, value: Handle<Expr>) -> usize {
-        *self
-            .units
-            .borrow_mut()
-            .entry(value)
-            .or_insert_with(|| Usage::of_value(module, value).texture_units())
+        *self.units.borrow_mut().entry(value).or_insert_with(|| Usage::texture_units_of(module, value))
     }
 
     fn fits(&self, module: &Module, value: Handle<Expr>) -> Result<(), Overflow> {
@@ -111,7 +107,7 @@ impl FitCheck for ProfileFit<'_> {
     fn piece_ns(&self, module: &Module, piece: &Piece) -> u64 {
         let Some(model) = &self.profile.cost else { return 0 };
         let samples = *self.samples.borrow_mut().entry(piece.value).or_insert_with(|| {
-            let u = Usage::of_value(module, piece.value);
+            let u = Usage::units_of_reached(module, &module.reachable(&[piece.value]));
             (u.texture_units() + framebuffer_textures(module, &u)) as u32
         });
         let stages = match self.generated.borrow().get(&piece.value) {
@@ -133,14 +129,18 @@ impl ProfileFit<'_> {
     /// fragment stage's capacity.
     fn measure(&self, module: &Module, value: Handle<Expr>) -> Result<(), Overflow> {
         let p = self.profile;
-        let u = Usage::of_value(module, value);
-        let units = u.texture_units() + framebuffer_textures(module, &u);
+        let nodes = module.reachable(&[value]);
         let over = |resource: &str, need: usize, have: usize, at: Option<Handle<Expr>>| {
             Err(Overflow { resource: resource.to_string(), need, have, at, help: None })
         };
+        // The texture units first, from the lookups alone: most values
+        // measured while splitting fail here.
+        let bound = Usage::units_of_reached(module, &nodes);
+        let units = bound.texture_units() + framebuffer_textures(module, &bound);
         if units > p.texture_units as usize {
-            return over("texture units", units, p.texture_units as usize, u.lookups.last().copied());
+            return over("texture units", units, p.texture_units as usize, bound.lookups.last().copied());
         }
+        let u = Usage::of_reached(module, &nodes);
         if u.interpolants.len() > p.interpolants as usize {
             return over(
                 "interpolants",

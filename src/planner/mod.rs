@@ -497,36 +497,36 @@ enum Unplanned {
     Overflow(Overflow),
 }
 
-/// Plans one group of statements (fused into one value when more than
-/// one): its blend form and the passes of its split.
+/// Plans one group of statements, `fused` their value ([`fuse`]): its
+/// blend form and the passes of its split.
 fn candidate(
     m: &mut Module,
     search: Search,
     fits: &mut Fits,
     baked: bool,
     stmts: &[usize],
+    fused: Handle<Expr>,
     float_temps: bool,
-) -> Option<Result<(Form, Vec<Piece>), Unplanned>> {
+) -> Result<(Form, Vec<Piece>), Unplanned> {
     let (fit, cache) =
         if baked { (&fits.compiler, &mut fits.compiler_cache) } else { (&fits.target, &mut fits.cache) };
-    let fused = fuse(m, stmts)?;
     let st = m.statements[stmts[0]].clone();
     // Statements are fused only into one pass: a fused value that must be
     // split again saves nothing the separate statements' blends do not
     // already give, and searching its splits is what would make planning cubic.
     if stmts.len() > 1 {
         if let Err(o) = fit.fits(m, fused) {
-            return Some(Err(Unplanned::Overflow(o)));
+            return Err(Unplanned::Overflow(o));
         }
     }
     let form = match classify(m, &st, fused) {
         Ok(f) => f,
-        Err(d) => return Some(Err(Unplanned::Form(d))),
+        Err(d) => return Err(Unplanned::Form(d)),
     };
-    Some(match plan_form(m, fit, cache, &st, &form, float_temps, search) {
+    match plan_form(m, fit, cache, &st, &form, float_temps, search) {
         Ok(pieces) => Ok((form, pieces)),
         Err(o) => Err(Unplanned::Overflow(o)),
-    })
+    }
 }
 
 fn passes_word(n: usize) -> &'static str {
@@ -579,37 +579,49 @@ fn plan_run(
     let mut first_error: Option<Diagnostic> = None;
     // Why a statement was not fused with the one before it.
     let mut not_fused: HashMap<usize, String> = HashMap::default();
+    // fused[i]: the fused value of run[i..j] for the last j it was made
+    // for, so that run[i..j + 1] is one `fuse_next` from it (the same
+    // nodes `fuse` would intern again, found without walking the prefix).
+    let mut fused: Vec<Option<(usize, Handle<Expr>)>> = vec![None; run.len()];
     for j in 1..=run.len() {
         // Each statement alone first: its cost bounds the fused candidates.
         for i in (0..j).rev() {
             let Some((base_cost, base)) = best[i].clone() else { continue };
             let stmts: Vec<usize> = run[i..j].to_vec();
             let pair_with = (stmts.len() == 2).then(|| names[stmts[0]].clone());
-            let (form, pieces) = match candidate(m, search, fits, baked, &stmts, profile.float_textures) {
-                None => continue,
-                Some(Ok(planned)) => planned,
-                Some(Err(why)) => {
-                    match (&why, stmts.len(), &pair_with) {
-                        (Unplanned::Form(d), 1, _) => {
-                            first_error.get_or_insert(d.clone());
-                        }
-                        (Unplanned::Overflow(o), 1, _) => {
-                            let st = m.statements[stmts[0]].clone();
-                            first_error.get_or_insert(cannot_split(m, &st, profile, o));
-                        }
-                        (Unplanned::Form(d), _, Some(a)) => {
-                            not_fused
-                                .entry(stmts[1])
-                                .or_insert(format!("fused with statement {a}, {}", d.message));
-                        }
-                        (Unplanned::Overflow(o), _, Some(a)) => {
-                            not_fused.entry(stmts[1]).or_insert(format!("fused with statement {a} it {o}"));
-                        }
-                        _ => {}
-                    }
-                    continue;
-                }
+            let value = match fused[i] {
+                Some((k, prefix)) if k + 1 == j => fuse_next(m, prefix, run[j - 1]),
+                _ => fuse(m, &stmts),
             };
+            let Some(value) = value else { continue };
+            fused[i] = Some((j, value));
+            let (form, pieces) =
+                match candidate(m, search, fits, baked, &stmts, value, profile.float_textures) {
+                    Ok(planned) => planned,
+                    Err(why) => {
+                        match (&why, stmts.len(), &pair_with) {
+                            (Unplanned::Form(d), 1, _) => {
+                                first_error.get_or_insert(d.clone());
+                            }
+                            (Unplanned::Overflow(o), 1, _) => {
+                                let st = m.statements[stmts[0]].clone();
+                                first_error.get_or_insert(cannot_split(m, &st, profile, o));
+                            }
+                            (Unplanned::Form(d), _, Some(a)) => {
+                                not_fused
+                                    .entry(stmts[1])
+                                    .or_insert(format!("fused with statement {a}, {}", d.message));
+                            }
+                            (Unplanned::Overflow(o), _, Some(a)) => {
+                                not_fused
+                                    .entry(stmts[1])
+                                    .or_insert(format!("fused with statement {a} it {o}"));
+                            }
+                            _ => {}
+                        }
+                        continue;
+                    }
+                };
             let c = split::cost(m, fits.fit(baked), &pieces);
             let total = split::add(base_cost, c);
             if let Some(a) = &pair_with {
@@ -703,19 +715,25 @@ fn fusable(m: &Module, a: &Statement, b: &Statement) -> bool {
 fn fuse(m: &mut Module, stmts: &[usize]) -> Option<Handle<Expr>> {
     let mut value = m.statements[stmts[0]].value;
     for &s in &stmts[1..] {
-        let st = m.statements[s].clone();
-        let mut map: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::default();
-        if let Some(r) = self_read(m, &st, FbChannel::Color) {
-            let v = widen_rgba(m, value)?;
-            map.insert(r, v);
-        }
-        if let Some(r) = self_read(m, &st, FbChannel::Alpha) {
-            let a = Builder { module: m }.alpha(value)?;
-            map.insert(r, a);
-        }
-        value = substitute(m, st.value, &map)?;
+        value = fuse_next(m, value, s)?;
     }
     Some(value)
+}
+
+/// The value of statement `s` run after `value` (the fused value of the
+/// statements before it): one step of [`fuse`].
+fn fuse_next(m: &mut Module, value: Handle<Expr>, s: usize) -> Option<Handle<Expr>> {
+    let st = m.statements[s].clone();
+    let mut map: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::default();
+    if let Some(r) = self_read(m, &st, FbChannel::Color) {
+        let v = widen_rgba(m, value)?;
+        map.insert(r, v);
+    }
+    if let Some(r) = self_read(m, &st, FbChannel::Alpha) {
+        let a = Builder { module: m }.alpha(value)?;
+        map.insert(r, a);
+    }
+    substitute(m, st.value, &map)
 }
 
 /// An rgb value as the framebuffer holds it: alpha 1.

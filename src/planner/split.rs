@@ -85,7 +85,7 @@ pub trait FitCheck {
     /// The texture units computing `value` takes (a fit may remember it:
     /// the splitter costs the same pieces many times, issue 22).
     fn texture_units(&self, module: &Module, value: Handle<Expr>) -> usize {
-        Usage::of_value(module, value).texture_units()
+        Usage::texture_units_of(module, value)
     }
 }
 
