@@ -361,6 +361,17 @@ fn dot_products_signed_and_unsigned() {
     check("rgba(kd, max(0, expand(a.rgb) · expand(b.rgb)))", TOL);
 }
 
+/// Red or green alone of an rgb, which no input mapping selects (seeds/003
+/// B.4: rgb, alpha, blue): a dot product with a unit constant colour,
+/// smeared over rgb by its stage.
+#[test]
+fn red_and_green_by_a_dot_product_with_a_unit_colour() {
+    check("a.rgb * b.r", TOL);
+    check("rgb(a.g)", TOL);
+    check("a.rgb * b.g + b.rgb * a.r", TOL);
+    check("kd * a.r", TOL);
+}
+
 #[test]
 fn range_expansion_half_bias_and_compression() {
     check("expand(a.rgb) * b.rgb", TOL);
@@ -659,7 +670,8 @@ fn unsupported_operations_name_the_node_and_suggest_a_lookup() {
     assert_eq!(text, "normalize(expand(a.rgb))");
     assert!(e.help().contains("normalization cube map"), "{}", e.help());
 
-    let (e, _) = error("a.r * b.rgb", &CombinerLimits::GEFORCE3);
+    // Red alone is a dot product (below); a two-component selection is not.
+    let (e, _) = error("rgb(a.gr, 0)", &CombinerLimits::GEFORCE3);
     assert!(matches!(e, CodegenError::Unsupported { .. }));
 
     let (e, text) = error("a.a ≥ 0.3 ? a.rgb : b.rgb", &CombinerLimits::GEFORCE3);

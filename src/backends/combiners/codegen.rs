@@ -823,7 +823,7 @@ impl Gen<'_> {
                 Ok(Src { base: Base::Reg(reg), comp, map })
             }
             Expr::Interpolate { .. } => self.interpolant_src(h, part, sat),
-            Expr::Swizzle { value, pattern, len, .. } => self.swizzle_src(value, &pattern, len, sat, span),
+            Expr::Swizzle { value, pattern, len, .. } => self.swizzle_src(h, value, &pattern, len, sat, span),
             Expr::Convert { value, to } => self.convert_src(value, to, part, sat, span),
             Expr::Compose { .. } => match self.part_node(h, part) {
                 Some(Some(inner)) => self.src(inner, Part::Rgb, sat),
@@ -935,9 +935,13 @@ impl Gen<'_> {
         Ok(Src { base: Base::Reg(reg), comp, map: UnsignedIdentity })
     }
 
-    /// A component selection: rgb, alpha, or blue (seeds/003 B.4).
+    /// A component selection: rgb, alpha, or blue (seeds/003 B.4); red or
+    /// green of an rgb as the dot product with a unit constant colour,
+    /// `v · (1, 0, 0)`, which a stage smears over rgb (Section 4.2.2) — a
+    /// stage and a constant register for a selection the inputs cannot make.
     fn swizzle_src(
         &mut self,
+        h: Handle<Expr>,
         value: Handle<Expr>,
         pattern: &[u8; 4],
         len: u8,
@@ -956,11 +960,18 @@ impl Gen<'_> {
                 Comp::Rgb => Src { comp: Comp::Blue, ..s },
                 _ => s,
             })
+        } else if matches!(p, [0] | [1]) && vty.width() >= 3 {
+            let v = self.src(value, Part::Rgb, sat)?;
+            let mut unit = [0.0f32; 4];
+            unit[p[0] as usize] = 1.0;
+            let konst = self.konst(h, unit, true, Comp::Rgb)?;
+            let unit = Src { base: Base::K(konst), comp: Comp::Rgb, map: UnsignedIdentity };
+            self.emit(Spec::single(Term { a: v, b: unit, dot: true }, true), span)
         } else {
             Err(unsupported(
                 span,
                 "this component selection",
-                "the combiners read a register's rgb, its alpha, or (in an alpha portion) its blue (seeds/003 B.4): use `.rgb`, `.a` or `.b`, or a lookup texture that stores the component in alpha",
+                "the combiners read a register's rgb, its alpha, or (in an alpha portion) its blue (seeds/003 B.4), and red or green alone of an rgb by a dot product with a unit colour: use `.rgb`, `.a`, `.r`, `.g` or `.b`, or a lookup texture that stores the component in alpha",
             ))
         }
     }
