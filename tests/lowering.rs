@@ -744,6 +744,30 @@ fn a_table_over_a_tabulated_part_tabulates_the_function_as_written() {
     }
 }
 
+/// A refusal names what is left after the lowering, not what it removed:
+/// `normalize` per fragment becomes a cube map, and the program is then
+/// refused for its variable exponent (a gloss map's) or, on geforce256,
+/// the texture units of the cube maps; the help says the lowering got
+/// past the `normalize` to find it.
+#[test]
+fn a_refusal_names_what_the_lowering_left_not_what_it_removed() {
+    let source = "texture G : 2d rgba8 bilinear repeat = image(\"gloss.png\");\nvector N : normal in eye;\nvector H : half(0) in eye;\nC δπx ← rgb(max(0, normalize(N δ s x) · normalize(H δ s x)) ^ (1 + 63 * (G δu x).a));\n";
+    for target in ["geforce3", "geforce256"] {
+        let err = compile(source, &Profile::builtin(target).unwrap()).unwrap_err();
+        // geforce3 is left with the exponent; geforce256 first with the
+        // third texture unit the two cube maps and the gloss map need.
+        let left =
+            if target == "geforce3" { "non-constant or fractional exponent" } else { "3 texture units" };
+        assert!(err[0].message.contains(left), "{target}: {}", err[0].message);
+        assert!(!err[0].message.contains("normalize"), "{target}: {}", err[0].message);
+        let help = err[0].help.as_deref().unwrap_or("");
+        assert!(
+            help.contains("as written it also needs `normalize` per fragment, which the lowering"),
+            "{target}: {help}"
+        );
+    }
+}
+
 /// Most accurate means the smallest RMSE, not the smallest largest
 /// difference: a toon ramp (`floor`, `step`) has a step that every
 /// approximation moves by a pixel somewhere, so the largest difference is

@@ -228,6 +228,31 @@ pub fn plan(module: &Module, profile: &Profile, request: &Request) -> Result<Pla
         if !left.is_empty() {
             errors = left;
         }
+        // The lowering removed the first obstacle (`normalize` became a cube
+        // map) but not the program's refusal: what it left is the reason,
+        // and the obstacle it removed is named in the help, not as the
+        // reason (a refusal for `normalize` would read as if lowering it
+        // were the user's work).
+        let removed = errors.first().is_some_and(|d| lowered.iter().all(|l| l.message != d.message));
+        if removed && errors.first().is_some_and(|d| d.code == "cannot-split") {
+            if let Some(first) = lowered.first() {
+                let written = errors[0].message.clone();
+                let mut d = first.clone();
+                // "… further needs `normalize` per fragment, which …" → "needs `normalize` per fragment".
+                let tail = written.split(": ").last().unwrap_or(&written);
+                let what = tail.trim_start_matches("a part that cannot be divided further ");
+                let what = what.split(", which").next().unwrap_or(what);
+                let note =
+                    format!("as written it also {what}, which the lowering ({}) supplies", rules.join(", "));
+                d.help = Some(match d.help.take() {
+                    Some(help) if !help.is_empty() => format!("{help}; {note}"),
+                    _ => note,
+                });
+                let mut out = vec![d];
+                out.extend(lowered.iter().skip(1).cloned());
+                return out;
+            }
+        }
         // What the lowering tried, so that the refusal does not read as if
         // the first obstacle were the only one.
         let message = lowered.first().map_or(String::new(), |d| d.message.clone());
