@@ -44,11 +44,18 @@ pub fn apply(r: &mut Rewriter, h: Handle<Expr>, written: Handle<Expr>, span: Spa
     // table of d), which is not the per-vertex argument's function.
     let (ops, b, a_v, hoisted) = match r.m.exprs[b] {
         Expr::Interpolate { value, to: Frequency::Fragment } => (ops, b, value, false),
-        _ => {
-            let (ops_written, b_written) = chain(&r.m, written)?;
-            let a_v = per_vertex::at_vertex(&mut r.m, b_written)?;
-            (ops_written, b_written, a_v, true)
-        }
+        _ => match chain(&r.m, written)? {
+            // The written chain's argument is itself interpolated: exact.
+            (ops_written, b_written)
+                if let Expr::Interpolate { value, to: Frequency::Fragment } = r.m.exprs[b_written] =>
+            {
+                (ops_written, b_written, value, false)
+            }
+            (ops_written, b_written) => {
+                let a_v = per_vertex::at_vertex(&mut r.m, b_written)?;
+                (ops_written, b_written, a_v, true)
+            }
+        },
     };
     let (lo, hi) = (r.m.info(a_v).interval.lo, r.m.info(a_v).interval.hi);
     if !(lo.is_finite() && hi.is_finite() && hi > lo) || r.m.info(b).freq != Frequency::Fragment {
