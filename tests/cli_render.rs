@@ -73,6 +73,35 @@ fn a_bad_shader_is_an_input_error_with_its_location() {
     assert!(!dir.path().join("shadec-out.png").exists());
 }
 
+/// A uniform with no default that the scene does not set is said so (it
+/// would otherwise render black and "identical" to its meaning, silently);
+/// using a shading vector's role as a value gets a help that declares it.
+#[test]
+fn an_unset_uniform_is_noted_and_a_role_used_as_a_value_is_explained() {
+    let dir = tempfile::tempdir().unwrap();
+    let shader = dir.path().join("tint.shd");
+    std::fs::write(&shader, "vector N : normal;\nvector L : light(0);\nuniform tint : rgb;\nC δπx ← tint * max(0, N δ s x · L δ s x);\n").unwrap();
+    let out = shadec()
+        .args(["render", "--size", "32x24", "--shader"])
+        .arg(&shader)
+        .current_dir(dir.path())
+        .output()
+        .unwrap();
+    let (stdout, stderr) = (String::from_utf8_lossy(&out.stdout), String::from_utf8_lossy(&out.stderr));
+    assert!(out.status.success(), "{stderr}");
+    assert!(stdout.contains("uniform `tint` has no default and the scene does not set it"), "{stdout}");
+    std::fs::write(
+        &shader,
+        "vector N : normal;\nvector L : light(0);\nC δπx ← intensity(0) * max(0, N δ s x · L δ s x);\n",
+    )
+    .unwrap();
+    let out = shadec().args(["check"]).arg(&shader).output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1));
+    assert!(stderr.contains("tint.shd:3:"), "{stderr}");
+    assert!(stderr.contains("`vector V : intensity(0) in eye;`"), "{stderr}");
+}
+
 /// What the CPU renderer cannot do yet (a fat texture read from an image:
 /// its members have no layout) is reported at the statement whose pass it
 /// is, with file:line:col and a help line, and nothing is written.

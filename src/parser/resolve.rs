@@ -348,6 +348,14 @@ impl Resolver {
             _ if let Some(help) = symbol_font_help(&key) => help,
             Some(s) => format!("did you mean `{s}`?"),
             None if GENERATORS.contains(&key.as_str()) => format!("`{key}` is a texture generator: use it after `texture … =`"),
+            // A shading vector's role used as a value (`intensity(0) * …`).
+            None if super::ast::VectorKind::from_word(&key).is_some() => {
+                let light = matches!(key.as_str(), "light" | "half" | "intensity");
+                format!(
+                    "`{key}` is a shading vector's role: declare a vector with it, e.g. `vector V : {key}{} in eye;`, and use `V`",
+                    if light { "(0)" } else { "" }
+                )
+            }
             None => format!("declare it first, e.g. `vector {key} : normal;`, `const {key} = 1;` or `texture {key} : 2d rgba8 = image(\"file.png\");`"),
         };
         self.diagnostics.push(

@@ -183,6 +183,22 @@ impl<'a> PlanRenderer<'a> {
         let mut ignore = Vec::new();
         let exact = bind::load_textures(&decls, scene, TextureQuality::Exact, &mut ignore).map_err(err)?;
         let uniforms = bind::uniforms(&planned.module, scene);
+        let m = &planned.module;
+        let roots: Vec<_> = m.statements.iter().map(|st| st.value).collect();
+        let read: Vec<u32> = (m.reachable(&roots).into_iter())
+            .filter_map(|h| match m.exprs[h] {
+                Expr::Uniform(id) => Some(id),
+                _ => None,
+            })
+            .collect();
+        for (id, (u, value)) in m.uniforms.iter().zip(&uniforms).enumerate() {
+            if value.is_none() && u.default.is_none() && read.contains(&(id as u32)) {
+                notes.push(format!(
+                    "uniform `{}` has no default and the scene does not set it: it is NaN, and a colour it reaches is written as 0 (set it in the scene's `constants: {{ \"{}\": [..] }}`)",
+                    u.name, u.name
+                ));
+            }
+        }
         // What the CPU renderer cannot do yet: say so before drawing.
         for (i, _) in planned.plan.passes.iter().enumerate() {
             let pi = PassInterface::of(planned, i);
