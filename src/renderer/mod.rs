@@ -98,10 +98,22 @@ pub trait FragmentStage: Sync {
         out: &mut [[f32; 4]],
         results: &mut [FragmentResult],
     ) {
-        let per = varyings.len().checked_div(fragments.len()).unwrap_or(0);
-        for (i, fragment) in fragments.iter().enumerate() {
-            results[i] = self.shade(fragment, &varyings[i * per..(i + 1) * per], &mut out[i]);
-        }
+        shade_each(self, fragments, varyings, out, results)
+    }
+}
+
+/// [`FragmentStage::shade_batch`] as [`FragmentStage::shade`] of each
+/// fragment in turn.
+pub fn shade_each<S: FragmentStage + ?Sized>(
+    stage: &S,
+    fragments: &[Fragment],
+    varyings: &[f32],
+    out: &mut [[f32; 4]],
+    results: &mut [FragmentResult],
+) {
+    let per = varyings.len().checked_div(fragments.len()).unwrap_or(0);
+    for (i, fragment) in fragments.iter().enumerate() {
+        results[i] = stage.shade(fragment, &varyings[i * per..(i + 1) * per], &mut out[i]);
     }
 }
 

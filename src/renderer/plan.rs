@@ -1780,11 +1780,9 @@ impl FragmentStage for FragmentProgram<'_> {
         results: &mut [FragmentResult],
     ) {
         if self.batched {
-            return self.shade_lanes(fragments, varyings, out, results);
-        }
-        let per = varyings.len().checked_div(fragments.len()).unwrap_or(0);
-        for (i, fragment) in fragments.iter().enumerate() {
-            results[i] = self.shade(fragment, &varyings[i * per..(i + 1) * per], &mut out[i]);
+            self.shade_lanes(fragments, varyings, out, results)
+        } else {
+            super::shade_each(self, fragments, varyings, out, results)
         }
     }
 }

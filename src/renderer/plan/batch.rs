@@ -10,11 +10,13 @@
 //! and in `fixed9` (whose register values are multiples of 1/255, which f32
 //! cannot hold). Each kernel computes a lane with the same formula as
 //! [`Kernel::apply`] and rounds it with [`FragmentProgram::stored`], so a
-//! batch's colours are bit for bit the fragment-at-a-time ones (unit test
-//! below, every example in every mode; `tests/render_batch.rs`). Leaves
-//! (texture lookups, varyings, framebuffer reads), the operations without a
-//! kernel and fixed9's register-rounded powers and quotients run lane by
-//! lane through [`FragmentProgram::step_value`].
+//! batch's colours are bit for bit the fragment-at-a-time ones (every
+//! example on every target in every mode, `tests/render_batch.rs`;
+//! generated programs, `tests/differential.rs`). Varyings are copied lane
+//! by lane in one loop; the other leaves (texture lookups, framebuffer
+//! reads, uniforms), the operations without a kernel and fixed9's
+//! register-rounded powers and quotients run lane by lane through
+//! [`FragmentProgram::step_value`].
 
 use std::cell::RefCell;
 
