@@ -670,6 +670,12 @@ fn unsupported_operations_name_the_node_and_suggest_a_lookup() {
     assert_eq!(text, "normalize(expand(a.rgb))");
     assert!(e.help().contains("normalization cube map"), "{}", e.help());
 
+    // A scale folded into a constant above 1: the help says how to write it
+    // so that it is an output scale, and that form compiles.
+    let (e, _) = error("(kd * 2) * a.rgb", &CombinerLimits::GEFORCE3);
+    assert!(e.help().contains("write `2 * (kd * x)` rather than `kd * 2 * x`"), "{}", e.help());
+    check("2 * (kd * a.rgb)", TOL);
+
     // Red alone is a dot product (below); a two-component selection is not.
     let (e, _) = error("rgb(a.gr, 0)", &CombinerLimits::GEFORCE3);
     assert!(matches!(e, CodegenError::Unsupported { .. }));

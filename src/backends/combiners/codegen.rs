@@ -1147,7 +1147,7 @@ impl Gen<'_> {
             return Err(unsupported(
                 span,
                 "a constant outside [−1, 1]",
-                "constant colours hold [0, 1]; a factor 2, 4, 8 or ½ is an output scale: write it as a factor of a product",
+                "constant colours hold [0, 1]; a factor 2, 4, 8 or ½ is an output scale where it multiplies the rest of a product: write `2 * (kd * x)` rather than `kd * 2 * x`, whose constants fold into one above 1",
             ));
         }
         let mut color = [0.0f32; 4];
