@@ -372,6 +372,17 @@ fn red_and_green_by_a_dot_product_with_a_unit_colour() {
     check("kd * a.r", TOL);
 }
 
+/// A scale folded into a constant above 1 (`kd * 2 * x` is `(1.6, 1.2,
+/// 0.8) * x`): the constant over the smallest scale that brings it into
+/// [0, 1], the scale on the output — as `2 * (kd * x)` is. The emulated
+/// value rounds the constant to 8 bits and doubles it: within a level.
+#[test]
+fn a_constant_above_one_times_a_product_is_an_output_scale() {
+    check("(kd * 2) * (a.rgb * b.a)", 1.5);
+    check("2 * (kd * a.rgb)", TOL);
+    check("1.5 * (a.rgb * b.rgb)", 1.5);
+}
+
 #[test]
 fn range_expansion_half_bias_and_compression() {
     check("expand(a.rgb) * b.rgb", TOL);
@@ -670,11 +681,9 @@ fn unsupported_operations_name_the_node_and_suggest_a_lookup() {
     assert_eq!(text, "normalize(expand(a.rgb))");
     assert!(e.help().contains("normalization cube map"), "{}", e.help());
 
-    // A scale folded into a constant above 1: the help says how to write it
-    // so that it is an output scale, and that form compiles.
-    let (e, _) = error("(kd * 2) * a.rgb", &CombinerLimits::GEFORCE3);
-    assert!(e.help().contains("write `2 * (kd * x)` rather than `kd * 2 * x`"), "{}", e.help());
-    check("2 * (kd * a.rgb)", TOL);
+    // A constant above 8 is no output scale; the help says what is.
+    let (e, _) = error("(kd * 20) * a.rgb", &CombinerLimits::GEFORCE3);
+    assert!(e.help().contains("a constant up to 8 that multiplies the rest of a product"), "{}", e.help());
 
     // Red alone is a dot product (below); a two-component selection is not.
     let (e, _) = error("rgb(a.gr, 0)", &CombinerLimits::GEFORCE3);

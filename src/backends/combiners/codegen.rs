@@ -1147,7 +1147,7 @@ impl Gen<'_> {
             return Err(unsupported(
                 span,
                 "a constant outside [−1, 1]",
-                "constant colours hold [0, 1]; a factor 2, 4, 8 or ½ is an output scale where it multiplies the rest of a product: write `2 * (kd * x)` rather than `kd * 2 * x`, whose constants fold into one above 1",
+                "constant colours hold [0, 1]; a constant up to 8 that multiplies the rest of a product becomes an output scale (`kd * 2 * x`); elsewhere, rescale it into [0, 1]",
             ));
         }
         let mut color = [0.0f32; 4];
@@ -1359,6 +1359,17 @@ impl Gen<'_> {
             let term = Term { a: self.src(y, part, false)?, b: self.src(z, part, false)?, dot: false };
             return Ok((self.scaled(Spec::single(term, scalar), k, None, part)?, true));
         }
+        // A constant above 1 that a scale folded into (`kd * 2 * x` is
+        // `(1.8, 1.6, 1.4) * x`): the constant over the smallest output
+        // scale that brings it into [0, 1], times the rest, scaled.
+        if let Some((k, c, z)) = self
+            .above_one(lhs, part)
+            .map(|(k, c)| (k, c, rhs))
+            .or_else(|| self.above_one(rhs, part).map(|(k, c)| (k, c, lhs)))
+        {
+            let term = Term { a: c, b: self.src(z, part, false)?, dot: false };
+            return Ok((self.scaled(Spec::single(term, scalar), k, None, part)?, true));
+        }
         Ok((
             Spec::single(
                 Term { a: self.src(lhs, part, false)?, b: self.src(rhs, part, false)?, dot: false },
@@ -1366,6 +1377,32 @@ impl Gen<'_> {
             ),
             false,
         ))
+    }
+
+    /// A non-negative constant `h` whose largest component read by `part`
+    /// is in (1, 8]: the smallest scale 2, 4 or 8 that brings it into
+    /// [0, 1], and a constant register holding it divided by that scale.
+    fn above_one(&mut self, h: Handle<Expr>, part: Part) -> Option<(f64, Src)> {
+        let Expr::Constant(c) = self.expr(h).clone() else { return None };
+        let values: Vec<f64> = match (c.ty, part) {
+            (Ty::Rgba, Part::Alpha) => vec![c.components[3]],
+            (Ty::Rgba, Part::Rgb) => c.components[..3].to_vec(),
+            _ => c.values().to_vec(),
+        };
+        let max = values.iter().copied().fold(0.0, f64::max);
+        if values.iter().any(|v| *v < 0.0 || !v.is_finite()) || max <= 1.0 {
+            return None;
+        }
+        let k = [2.0, 4.0, 8.0].into_iter().find(|k| max / k <= 1.0)?;
+        let scalar_like = values.len() == 1;
+        let mut color = [0.0f32; 4];
+        for (i, slot) in color.iter_mut().enumerate() {
+            let v = if scalar_like { values[0] } else { values.get(i).copied().unwrap_or(0.0) };
+            *slot = (v / k) as f32;
+        }
+        let comp = if scalar_like || part == Part::Alpha { Comp::Alpha } else { Comp::Rgb };
+        let konst = self.konst(h, color, true, comp).ok()?;
+        Some((k, Src { base: Base::K(konst), comp, map: UnsignedIdentity }))
     }
 
     /// `mix(a, b, t)` = a·(1 − t) + b·t, t in [0, 1] (UNSIGNED_INVERT).
