@@ -281,6 +281,66 @@ fn lowered_tables_stay_within_their_stated_bounds_of_the_meaning() {
         .unwrap();
 }
 
+/// A table whose argument the lowering computes per vertex (`f(d)`, `d` a
+/// dot product of normalized interpolants) against an independent
+/// reference: the meaning of the same program written with `d` evaluated
+/// per vertex and interpolated by the user (`δ dv s x`), which is what
+/// the approximation claims to compute. Chains of one to three functions
+/// (steps among them) make the lowering tabulate parts before the whole
+/// (the bug `a_table_over_a_tabulated_part_…` pins: the rest of a chain
+/// tabulated as a function of an inner table's value). The per-vertex
+/// approximation has no bound of its own, so the differential suite holds
+/// such plans only to the lowered program's meaning; this holds the
+/// lowering itself to a program the user could have written.
+#[test]
+fn a_table_at_a_per_vertex_argument_computes_the_program_with_that_argument_interpolated() {
+    let step = prop_oneof![
+        Just("sqrt(@)"),
+        Just("@ ^ 0.6"),
+        Just("exp(-2 * @)"),
+        Just("floor(3 * @) / 3"),
+        Just("0.3 + 0.7 * @"),
+        Just("1 - @"),
+        Just("0.2 / (0.2 + 3 * @)"),
+    ];
+    let chain = prop::collection::vec(step, 1..=3).prop_map(|steps| {
+        steps.iter().fold("d".to_string(), |inner, f| f.replace('@', &format!("({inner})")))
+    });
+    let scene = scene();
+    let checked = std::sync::atomic::AtomicUsize::new(0);
+    let mut runner = TestRunner::new(Config { cases: 16, failure_persistence: None, ..Config::default() });
+    runner
+        .run(&(chain, prop::bool::ANY), |(f, gf3)| {
+            let program = |d: &str| {
+                format!(
+                    "vector N : normal in eye;\nvector L : light(0) in eye;\nconst kd : rgb = (0.8, 0.7, 0.6);\n\
+                     shader dv : s → scalar = max(0, normalize(N) · normalize(L));\nlet d = {d};\nC δπx ← kd * saturate({f});\n"
+                )
+            };
+            let source = program("max(0, normalize(N δ s x) · normalize(L δ s x))");
+            let reference = program("δ dv s x");
+            let profile = Profile::builtin(if gf3 { "geforce3" } else { "geforce256" }).unwrap();
+            let Ok(planned) = compile(&source, &profile) else { return Ok(()) };
+            let a = &planned.plan.approximations;
+            if !a.iter().any(|a| a.rule == "per_vertex") || !a.iter().any(|a| a.rule == "baked_table") {
+                return Ok(()); // not this rule: the differential suite's
+            }
+            let tables: f64 = a.iter().filter_map(|a| a.output_bound).sum();
+            let (program_ref, _) = shadec::parser::check(&reference);
+            let (written, _) = shadec::ir::lower(&program_ref);
+            let meaning = shadec::meaning::plan(&written, scene.lights.len()).unwrap();
+            let e = compare(&f32_render(&meaning, &reference, &scene), &f32_render(&planned, &source, &scene));
+            // A step's edge moves by a pixel between the two interpolations
+            // (a table coordinate against the argument itself): RMSE, not max.
+            prop_assert!(e.rmse <= tables + 2.0 * FRAMEBUFFER + 0.01, "{f}: RMSE {} (max {}) from the per-vertex program", e.rmse, e.max_abs);
+            checked.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            Ok(())
+        })
+        .unwrap();
+    let checked = checked.into_inner();
+    assert!(checked >= 4, "only {checked} of 16 programs took a per-vertex table");
+}
+
 /// Issue 18's done-when: every example plans on both combiner targets with
 /// every pass realized by the combiner generator, or is refused with a
 /// located reason and a help line.
