@@ -6,7 +6,7 @@
 const DOC: &str = include_str!("../docs/language.md");
 const GRAMMAR: &str = include_str!("../grammar/shade.pest");
 
-/// `UPDATE_DOCS=1 cargo test --test docs` rewrites the grammar section.
+/// `UPDATE_DOCS=1 cargo test --test suite docs::` rewrites the grammar section.
 #[test]
 fn the_reference_embeds_the_grammar_verbatim() {
     let section = format!("```pest\n{GRAMMAR}```");
@@ -20,7 +20,7 @@ fn the_reference_embeds_the_grammar_verbatim() {
         std::fs::write(concat!(env!("CARGO_MANIFEST_DIR"), "/docs/language.md"), updated).unwrap();
         return;
     }
-    panic!("docs/language.md does not embed grammar/shade.pest as it is now; run `UPDATE_DOCS=1 cargo test --test docs`");
+    panic!("docs/language.md does not embed grammar/shade.pest as it is now; run `UPDATE_DOCS=1 cargo test --test suite docs::`");
 }
 
 /// Every ```` ```shd ```` block of `docs/*.md` and `README.md`: the file,
