@@ -69,14 +69,7 @@ pub fn apply(r: &mut Rewriter, h: Handle<Expr>, written: Handle<Expr>, span: Spa
     let coords = coordinates(r, a_v, lo, hi, span)?;
     let decoded = baked_lookup(r, TextureKind::Tex1d, texel_value, coords, store, span)?;
     if hoisted {
-        r.record(
-            "per_vertex",
-            span,
-            Some(decoded),
-            "the argument of the function tabulated here is computed per vertex and interpolated".into(),
-            ApproximationCost::default(),
-            None,
-        );
+        record_per_vertex_argument(r, decoded, span);
     }
     r.record(
         "baked_table",
@@ -90,6 +83,19 @@ pub fn apply(r: &mut Rewriter, h: Handle<Expr>, written: Handle<Expr>, span: Spa
         Some(bound),
     );
     Some(decoded)
+}
+
+/// Records rule `per_vertex` for a table `decoded` whose argument the
+/// lowering computes per vertex (no bound: it depends on the mesh).
+pub(super) fn record_per_vertex_argument(r: &mut Rewriter, decoded: Handle<Expr>, span: Span) {
+    r.record(
+        "per_vertex",
+        span,
+        Some(decoded),
+        "the argument of the function tabulated here is computed per vertex and interpolated".into(),
+        ApproximationCost::default(),
+        None,
+    );
 }
 
 /// Rule `dependent_table` (geforce3's texture shaders, seeds/000 Section

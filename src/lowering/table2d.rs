@@ -192,14 +192,7 @@ fn tabulate_1d(r: &mut Rewriter, h: Handle<Expr>, a: Handle<Expr>) -> Option<Han
     let texel_value = texel_function(r, h, &[a], &[(lo, hi)], clamp, store, span)?;
     let coords = super::table::coordinates(r, a_v, lo, hi, span)?;
     let decoded = baked_lookup(r, TextureKind::Tex1d, texel_value, coords, store, span)?;
-    r.record(
-        "per_vertex",
-        span,
-        Some(decoded),
-        "the argument of the function tabulated here is computed per vertex and interpolated".into(),
-        ApproximationCost::default(),
-        None,
-    );
+    super::table::record_per_vertex_argument(r, decoded, span);
     let clamped = clamp_note(clamp);
     r.record(
         "baked_table",

@@ -39,7 +39,7 @@
 use rayon::prelude::*;
 
 use super::framebuffer::TILE;
-use super::raster::{setup_pass, Fragment, PassSetup, SUB};
+use super::raster::{setup_pass, PassSetup, SUB};
 use super::{FragmentResult, Framebuffer, Pass, RenderError};
 
 /// What counts as one surface for edge detection.
@@ -516,27 +516,11 @@ impl Ctx<'_> {
         let setup = &self.setups[p];
         let tri = &setup.tris[id as usize - self.offsets[p]];
         let n = setup.n_varyings;
-        // The same arithmetic, in the same order, as the tiled rasterizer.
-        let l = tri.weights_at(x as i32, y as i32);
-        let z = (l[0] * tri.z[0] + l[1] * tri.z[1] + l[2] * tri.z[2]).clamp(0.0, 1.0);
-        let pw = [l[0] * tri.inv_w[0], l[1] * tri.inv_w[1], l[2] * tri.inv_w[2]];
-        let q = pw[0] + pw[1] + pw[2];
-        let inv_q = 1.0 / q;
-        let b = [pw[0] * inv_q, pw[1] * inv_q, pw[2] * inv_q];
-        let vary = &setup.varyings[tri.varying_offset..tri.varying_offset + 3 * n];
+        // The tiled rasterizer's own arithmetic.
+        let (vary, gradients) = setup.inputs(tri);
+        let (fragment, _, weights) = super::tile::fragment_at(tri, x as i32, y as i32, gradients);
         let varyings = &mut scratch[..n];
-        for (i, v) in varyings.iter_mut().enumerate() {
-            *v = b[0] * vary[i] + b[1] * vary[n + i] + b[2] * vary[2 * n + i];
-        }
-        let gradients = &setup.gradients[tri.gradient_offset..tri.gradient_offset + 2 * (n + 1)];
-        let fragment = Fragment {
-            x: x as u32,
-            y: y as u32,
-            depth: z,
-            front_facing: tri.front_facing,
-            inv_w: q,
-            gradients,
-        };
+        super::tile::interpolate(vary, n, weights, varyings);
         self.passes[p].fragment.shade(&fragment, varyings, out)
     }
 

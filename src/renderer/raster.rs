@@ -175,6 +175,16 @@ impl PassSetup {
     pub(crate) fn n_triangles(&self) -> usize {
         self.tris.len()
     }
+
+    /// Triangle `tri`'s varyings (three vertices of `n_varyings`) and its
+    /// gradients (d/dx, d/dy of every varying over w, then of 1/w).
+    pub(crate) fn inputs(&self, tri: &Tri) -> (&[f32], &[f32]) {
+        let n = self.n_varyings;
+        (
+            &self.varyings[tri.varying_offset..tri.varying_offset + 3 * n],
+            &self.gradients[tri.gradient_offset..tri.gradient_offset + 2 * (n + 1)],
+        )
+    }
 }
 
 /// Runs the vertex stage and sets up every triangle of the pass.

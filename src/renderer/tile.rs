@@ -94,7 +94,12 @@ fn for_each_covered(tri: &Tri, rect: (i32, i32, i32, i32), mut visit: impl FnMut
 
 /// The fragment of `tri` at pixel (x, y), its depth and its
 /// perspective-correct weights (`gradients`: the triangle's).
-fn fragment_at<'a>(tri: &Tri, x: i32, y: i32, gradients: &'a [f32]) -> (Fragment<'a>, f32, [f32; 3]) {
+pub(super) fn fragment_at<'a>(
+    tri: &Tri,
+    x: i32,
+    y: i32,
+    gradients: &'a [f32],
+) -> (Fragment<'a>, f32, [f32; 3]) {
     let l = tri.weights_at(x, y);
     let z = (l[0] * tri.z[0] + l[1] * tri.z[1] + l[2] * tri.z[2]).clamp(0.0, 1.0);
     let pw = [l[0] * tri.inv_w[0], l[1] * tri.inv_w[1], l[2] * tri.inv_w[2]];
@@ -107,7 +112,7 @@ fn fragment_at<'a>(tri: &Tri, x: i32, y: i32, gradients: &'a [f32]) -> (Fragment
 
 /// Interpolates the triangle's varyings `vary` (three vertices of `n`)
 /// with the weights `p` into `out`.
-fn interpolate(vary: &[f32], n: usize, p: [f32; 3], out: &mut [f32]) {
+pub(super) fn interpolate(vary: &[f32], n: usize, p: [f32; 3], out: &mut [f32]) {
     for (i, v) in out.iter_mut().enumerate() {
         *v = p[0] * vary[i] + p[1] * vary[n + i] + p[2] * vary[2 * n + i];
     }
@@ -172,8 +177,7 @@ fn raster_tile_batched(
     };
     for &ti in bin {
         let tri: &Tri = &setup.tris[ti as usize];
-        let vary = &setup.varyings[tri.varying_offset..tri.varying_offset + 3 * n];
-        let gradients = &setup.gradients[tri.gradient_offset..tri.gradient_offset + 2 * (n + 1)];
+        let (vary, gradients) = setup.inputs(tri);
         for_each_covered(tri, rect, |x, y, idx| {
             let (fragment, z, p) = fragment_at(tri, x, y, gradients);
             stats.fragments += 1;
@@ -211,8 +215,7 @@ fn raster_tile_stencil(
     let depth = &state.depth;
     for &ti in bin {
         let tri: &Tri = &setup.tris[ti as usize];
-        let vary = &setup.varyings[tri.varying_offset..tri.varying_offset + 3 * n];
-        let gradients = &setup.gradients[tri.gradient_offset..tri.gradient_offset + 2 * (n + 1)];
+        let (vary, gradients) = setup.inputs(tri);
         for_each_covered(tri, rect, |x, y, idx| {
             let (fragment, z, p) = fragment_at(tri, x, y, gradients);
             stats.fragments += 1;
