@@ -23,6 +23,7 @@ pub mod lowering;
 pub mod lsp;
 pub mod meaning;
 pub mod numerics;
+pub mod oracle;
 pub mod parser;
 pub mod pipeline;
 pub mod planner;

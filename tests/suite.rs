@@ -49,6 +49,7 @@ mod render_plan;
 mod roundtrip;
 mod specialize_lights;
 mod texture_shaders;
+mod three_way;
 mod wgsl_agreement;
 mod wgsl_gpu;
 mod wgsl_snapshots;

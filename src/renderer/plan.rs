@@ -1406,11 +1406,11 @@ impl<'a> FragmentProgram<'a> {
                         // point in fixed9, as hardware fidelity uploads them,
                         // in float in f32, as exact fidelity does), so the
                         // wgpu image agrees with them (issue 5).
-                        let (u, v) = if coords_ty == Ty::Scalar { (c[0], 0.5) } else { (c[0], c[1]) };
+                        let (u, v) = texture_uv(c, coords_ty);
                         let lod = match (lod_from, quad) {
                             (Some(k), _) if t.levels.len() > 1 => {
-                                let du = fragment.quad_derivatives(4 * k, varyings[4 * k]);
-                                let dv = fragment.quad_derivatives(4 * k + 1, varyings[4 * k + 1]);
+                                let d = |i| fragment.quad_derivatives(4 * k + i, varyings[4 * k + i]);
+                                let (du, dv) = uv_derivatives(coords_ty, &varyings[4 * k..4 * k + 4], d);
                                 unit::quad_lod(t.width(), t.height(), [du[0], dv[0]], [du[1], dv[1]])
                             }
                             (None, Some([tl, tr, bl])) => {
@@ -1430,11 +1430,11 @@ impl<'a> FragmentProgram<'a> {
                         unit::sample_cube(t, [c[0] as f32, c[1] as f32, c[2] as f32], filter)
                     }
                     Texture::Flat(t) => {
-                        let (u, v) = if coords_ty == Ty::Scalar { (c[0], 0.5) } else { (c[0], c[1]) };
+                        let (u, v) = texture_uv(c, coords_ty);
                         let lod = match (lod_from, quad) {
                             (Some(k), _) if t.levels.len() > 1 => {
-                                let du = fragment.derivatives(4 * k, varyings[4 * k]);
-                                let dv = fragment.derivatives(4 * k + 1, varyings[4 * k + 1]);
+                                let d = |i| fragment.derivatives(4 * k + i, varyings[4 * k + i]);
+                                let (du, dv) = uv_derivatives(coords_ty, &varyings[4 * k..4 * k + 4], d);
                                 t.lod(du, dv)
                             }
                             (None, Some([tl, tr, bl])) => {
@@ -1457,7 +1457,7 @@ impl<'a> FragmentProgram<'a> {
             }
             Source::Rendered(rt) => rt.sample(c, coords_ty, filter),
             Source::Baked { program, wrap } => {
-                let (u, v) = if coords_ty == Ty::Scalar { (c[0], 0.5) } else { (c[0], c[1]) };
+                let (u, v) = texture_uv(c, coords_ty);
                 let at = |x: f64| match wrap {
                     Wrap::Repeat => x - x.floor(),
                     _ => x.clamp(0.0, 1.0),
@@ -1694,6 +1694,31 @@ impl<'a> FragmentProgram<'a> {
         }
         v.map(|x| if x.is_nan() { 0.0 } else { x as f32 })
     }
+}
+
+/// The (u, v) a 2-D or 1-D texture is sampled at: a scalar indexes a 1-D
+/// table at its centre row; a clip-space position (`T δπl x`, Olano &
+/// Lastra's projective texturing) projectively, `(½x/w + ½, ½ − ½y/w)` —
+/// v = 0 is the top row, as the WGSL target's convention.
+fn texture_uv(c: Value, coords_ty: Ty) -> (f64, f64) {
+    match coords_ty {
+        Ty::Scalar => (c[0], 0.5),
+        Ty::Position if c[3] != 0.0 => (0.5 * c[0] / c[3] + 0.5, 0.5 - 0.5 * c[1] / c[3]),
+        _ => (c[0], c[1]),
+    }
+}
+
+/// The screen derivatives `([du/dx, du/dy], [dv/dx, dv/dy])` of
+/// [`texture_uv`] from those of the coordinate varying's lanes (`d(i)` of
+/// lane i, values `lanes`): by the quotient rule for a projective position.
+fn uv_derivatives(coords_ty: Ty, lanes: &[f32], d: impl Fn(usize) -> [f32; 2]) -> ([f32; 2], [f32; 2]) {
+    if coords_ty != Ty::Position || lanes[3] == 0.0 {
+        return (d(0), d(1));
+    }
+    let (x, y, w) = (lanes[0], lanes[1], lanes[3]);
+    let (dx, dy, dw) = (d(0), d(1), d(3));
+    let q = |a: f32, da: [f32; 2], sign: f32| [0, 1].map(|k| sign * 0.5 * (da[k] * w - a * dw[k]) / (w * w));
+    (q(x, dx, 1.0), q(y, dy, -1.0))
 }
 
 /// The varying whose derivatives choose the mipmap level of a lookup at

@@ -48,8 +48,7 @@ use crate::parser::ast::{
     self, ExprKind, FuncKind, ItemKind, Space, TextureAttr, TextureFormat, TextureKind, VectorKind,
 };
 use crate::textures::{
-    self, generators, CubeBits, Filter, HeightField, Level, NormalMapFormat, TexelFormat, Texture, Texture2D,
-    Wrap,
+    self, generators, CubeBits, Filter, HeightField, NormalMapFormat, TexelFormat, Texture, Texture2D, Wrap,
 };
 
 /// What a texture declaration's source says.
@@ -289,26 +288,6 @@ pub(crate) fn is_signed(format: Option<TextureFormat>) -> bool {
     matches!(format, Some(TextureFormat::Signed8 | TextureFormat::Signed16))
 }
 
-/// Stand-in for a missing colour image: warm bricks, alpha 1.
-pub fn stand_in_image(size: u32) -> Level {
-    let texels = (0..size * size)
-        .map(|i| {
-            let (x, y) = ((i % size) as f32 / size as f32, (i / size) as f32 / size as f32);
-            let row = (y * 8.0).floor();
-            let bx = (x * 4.0 + if row as i32 % 2 == 0 { 0.0 } else { 0.5 }).fract();
-            let by = (y * 8.0).fract();
-            let mortar = bx < 0.04 || by < 0.08;
-            if mortar {
-                [0.85, 0.82, 0.75, 1.0]
-            } else {
-                let k = 0.85 + 0.15 * ((row * 1.7 + (x * 4.0).floor() * 2.3).sin() * 0.5 + 0.5);
-                [0.72 * k, 0.32 * k, 0.2 * k, 1.0]
-            }
-        })
-        .collect();
-    Level::new(size, size, texels)
-}
-
 /// How a texture set is built: what the hardware stores, or the exact reference's.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TextureQuality {
@@ -418,7 +397,7 @@ fn image_texture(
                 d.name,
                 path.display()
             ));
-            Texture2D::new(format, d.wrap, stand_in_image(256))
+            Texture2D::new(format, d.wrap, generators::brick_stand_in(256))
         }
         Err(e) => return Err(texture_error(d, e.to_string())),
     };

@@ -444,6 +444,26 @@ pub fn exponent_lut(size: u32, exponent: f32, format: TexelFormat) -> Texture2D 
     Texture2D::new(format, Wrap::ClampToEdge, Level::new(size, 1, texels))
 }
 
+/// Stand-in for a missing colour image: warm bricks, alpha 1.
+pub fn brick_stand_in(size: u32) -> Level {
+    let texels = (0..size * size)
+        .map(|i| {
+            let (x, y) = ((i % size) as f32 / size as f32, (i / size) as f32 / size as f32);
+            let row = (y * 8.0).floor();
+            let bx = (x * 4.0 + if row as i32 % 2 == 0 { 0.0 } else { 0.5 }).fract();
+            let by = (y * 8.0).fract();
+            let mortar = bx < 0.04 || by < 0.08;
+            if mortar {
+                [0.85, 0.82, 0.75, 1.0]
+            } else {
+                let k = 0.85 + 0.15 * ((row * 1.7 + (x * 4.0).floor() * 2.3).sin() * 0.5 + 0.5);
+                [0.72 * k, 0.32 * k, 0.2 * k, 1.0]
+            }
+        })
+        .collect();
+    Level::new(size, size, texels)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

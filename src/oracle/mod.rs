@@ -1,0 +1,176 @@
+//! An independent per-pixel reference: the program evaluated at every pixel
+//! from the papers and the OpenGL 1.x specification alone, sharing no code
+//! with the executors it checks (DESIGN.md, "Reference, speed and error").
+//!
+//! `meaning` says what a program computes, but it runs through the CPU
+//! renderer's rasterizer, interpolation, scene binder and texture sampling,
+//! so a bug there is in both and invisible (a projective lookup sampled at
+//! raw clip coordinates rendered "∞ dB"). This module shares none of it:
+//!
+//! - [`geometry`]: its own matrices (f64), and for each pixel centre the
+//!   nearest front-facing triangle that contains it, found by window-space
+//!   barycentrics — no tiles, no edge functions, no rasterizer;
+//! - [`program`]: each IR node evaluated at the fragment in f64; `δ e` is
+//!   `e` at the triangle's three vertices weighted perspective-correctly
+//!   (GL §3.5.1), shading vectors and light intensities from their
+//!   definitions ([`vectors`]), projective coordinates `(½x/w + ½, ½ − ½y/w)`;
+//! - [`sampling`]: GL §3.8 — wrap, λ from exact per-pixel derivatives,
+//!   NEAREST/LINEAR and the mipmap modes, cube-map faces by Table 3.19;
+//! - [`ops`]: the arithmetic and the ⊕ modes, written again from the
+//!   language's definition and GL's texture environment (Table 3.22);
+//! - framebuffers store what their declared format stores: an `rgba8`
+//!   framebuffer clamps to [0, 1] and rounds to k/255 at every write.
+//!
+//! What it shares: the IR (the lowered program *is* the program's meaning
+//! as the language defines it; a lowering bug is in every executor and
+//! this reference alike — the snapshot and planner tests guard it), the
+//! scene's meshes (data), and the texel data of images and of the
+//! procedural stand-in for a missing image. Normalization cube maps and
+//! exponent tables are built here from their definitions (Kilgard 2000,
+//! Appendix D; Dietrich's exponent table).
+//!
+//! It is slow (every pixel tests every triangle's bounds, every δ evaluates
+//! three vertices) and meant for small images. What it does not evaluate it
+//! refuses with [`Unsupported`], never guesses: stencil, depth-only and
+//! rendered-texture statements, fat textures, 3-D and dual-paraboloid
+//! textures, normal-map generators, triangles crossing the eye plane.
+
+pub mod geometry;
+mod ops;
+mod program;
+pub mod sampling;
+mod textures;
+mod vectors;
+
+use std::collections::HashMap;
+
+use crate::ir::{FbChannel, Frequency, Module, Table};
+use crate::parser::ast;
+use crate::scene::{Scene, SceneAssets};
+use program::{At, Evaluator, Tex};
+
+/// Why the reference cannot evaluate a program (it refuses rather than guess).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Unsupported {
+    pub what: String,
+}
+
+impl Unsupported {
+    fn new(what: impl Into<String>) -> Unsupported {
+        Unsupported { what: what.into() }
+    }
+}
+
+impl std::fmt::Display for Unsupported {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "the independent reference does not evaluate {}", self.what)
+    }
+}
+
+/// The picture: the framebuffer the last framebuffer statement wrote.
+#[derive(Clone, Debug)]
+pub struct Picture {
+    pub width: u32,
+    pub height: u32,
+    /// Row-major, row 0 at the top; what the framebuffer holds.
+    pub pixels: Vec<[f64; 4]>,
+    /// Whether a triangle of the scene covers the pixel.
+    pub covered: Vec<bool>,
+}
+
+/// Renders `module` (the lowered `program`) for `scene` at `width × height`.
+pub fn render(
+    module: &Module,
+    program: &ast::Program,
+    scene: &Scene,
+    assets: &SceneAssets,
+    width: u32,
+    height: u32,
+) -> Result<Picture, Unsupported> {
+    let world = geometry::World::new(scene, assets, f64::from(width) / f64::from(height));
+    let coverage = geometry::Coverage::find(&world, width, height);
+    if coverage.clipped > 0 {
+        return Err(Unsupported::new(format!(
+            "{} triangles crossing the eye plane (no clipping)",
+            coverage.clipped
+        )));
+    }
+    let textures = textures::bind(module, program, scene, assets)?;
+    let mut ev = Evaluator {
+        m: module,
+        world,
+        lights: &scene.lights,
+        scene,
+        coverage,
+        textures,
+        framebuffers: Vec::new(),
+        texgen: HashMap::new(),
+    };
+    ev.framebuffers = (0..module.framebuffers.len()).map(|i| ev.new_store(i)).collect();
+    let mut last = None;
+    for st in &module.statements {
+        match st.table {
+            Table::TexCoords(set) => {
+                ev.texgen.insert(set, st.value);
+            }
+            Table::Texture(id) if module.is_baked(st) => ev.textures[id as usize] = Tex::Baked(st.value),
+            Table::Texture(_) => return Err(Unsupported::new("statements that render into a texture")),
+            Table::Framebuffer { id, channel } => {
+                run(&mut ev, st, id as usize, channel)?;
+                last = Some(id as usize);
+            }
+        }
+    }
+    let Some(fb) = last else { return Err(Unsupported::new("a program that writes no framebuffer")) };
+    let covered = ev.coverage.fragments.iter().map(Option::is_some).collect();
+    Ok(Picture { width, height, pixels: std::mem::take(&mut ev.framebuffers[fb].color), covered })
+}
+
+/// One statement into framebuffer `fb`, every sample of its index: the
+/// visible fragment of each pixel for `C δπx`, every pixel for `C xs`.
+fn run(
+    ev: &mut Evaluator,
+    st: &crate::ir::Statement,
+    fb: usize,
+    channel: FbChannel,
+) -> Result<(), Unsupported> {
+    let (w, h) = (ev.coverage.width, ev.coverage.height);
+    let mut writes = Vec::new();
+    for y in 0..h {
+        for x in 0..w {
+            let i = (y * w + x) as usize;
+            let at = match st.freq {
+                Frequency::Fragment => match ev.coverage.fragments[i] {
+                    Some(f) => At::Fragment(f),
+                    None => continue,
+                },
+                Frequency::Screen => At::Pixel(x, y),
+                _ => return Err(Unsupported::new(format!("statements at {} frequency", st.freq.name()))),
+            };
+            if let Some(v) = ev.value(st.value, at, 0, &mut HashMap::new())? {
+                writes.push((i, v, at));
+            }
+        }
+    }
+    let width = ev.m.info(st.value).ty.width();
+    let store = &mut ev.framebuffers[fb];
+    for (i, v, at) in writes {
+        let v = match width {
+            1 => [v[0], v[0], v[0], 1.0],
+            3 => [v[0], v[1], v[2], 1.0],
+            _ => v,
+        };
+        let stored = |x: f64| if store.fixed { (x.clamp(0.0, 1.0) * 255.0).round() / 255.0 } else { x };
+        match channel {
+            FbChannel::Color => store.color[i] = v.map(stored),
+            FbChannel::Alpha => store.color[i][3] = stored(v[0]),
+            FbChannel::Depth | FbChannel::Stencil => {
+                return Err(Unsupported::new("depth and stencil statements"));
+            }
+        }
+        if let At::Fragment(f) = at {
+            store.depth[i] = f.depth;
+        }
+    }
+    Ok(())
+}

@@ -1,0 +1,329 @@
+//! The program evaluated at a sample: the IR's nodes (the lowered program —
+//! its meaning, before any plan) with every leaf supplied from the scene by
+//! this module's own means, and its statements run in order into
+//! framebuffers that hold what their declared format stores.
+
+use std::collections::HashMap;
+
+use super::geometry::{Coverage, Fragment, World};
+use super::ops::{self, V};
+use super::sampling::{Cube, Image};
+use super::{vectors, Unsupported};
+use crate::ir::{Expr, FbChannel, Handle, Module, Projection, TexCoordId, Ty};
+use crate::parser::ast::{FramebufferChannel, Space, VectorKind};
+use crate::scene::{Light, Scene};
+
+/// A texture as the evaluator holds it.
+pub enum Tex {
+    Flat(Image),
+    Cube(Cube),
+    /// `bake(f)`: its texel statement's value, evaluated at the lookup's
+    /// coordinates (the table's ideal, Olano & Lastra's texture shading (13)).
+    Baked(Handle<Expr>),
+    Missing(String),
+}
+
+/// Where a node is evaluated.
+#[derive(Clone, Copy)]
+pub enum At {
+    Vertex {
+        object: usize,
+        vertex: usize,
+    },
+    Fragment(Fragment),
+    /// A texel of texture shading at (u, v).
+    Texel([f64; 2]),
+    /// A pixel of a screen pass.
+    Pixel(u32, u32),
+}
+
+/// One framebuffer's contents.
+pub struct Store {
+    pub color: Vec<V>,
+    pub depth: Vec<f64>,
+    /// Declared 8-bit: written values are clamped to [0, 1] and rounded to
+    /// k/255, as GL's fixed-point framebuffer stores them (§4.1.8 dithering
+    /// off, §2.13.9 colour clamping).
+    pub fixed: bool,
+}
+
+pub struct Evaluator<'a> {
+    pub m: &'a Module,
+    pub world: World<'a>,
+    pub lights: &'a [Light],
+    pub scene: &'a Scene,
+    pub coverage: Coverage,
+    pub textures: Vec<Tex>,
+    pub framebuffers: Vec<Store>,
+    pub texgen: HashMap<TexCoordId, Handle<Expr>>,
+}
+
+type Memo = HashMap<Handle<Expr>, Option<V>>;
+
+impl<'a> Evaluator<'a> {
+    pub fn new_store(&self, id: usize) -> Store {
+        let n = (self.coverage.width * self.coverage.height) as usize;
+        let channels = &self.m.framebuffers[id].channels;
+        let float =
+            channels.iter().any(|c| matches!(c, FramebufferChannel::Rgba16f | FramebufferChannel::Rgba32f));
+        Store { color: vec![[0.0; 4]; n], depth: vec![1.0; n], fixed: !float }
+    }
+
+    /// The value of `h` at `at`; `None` where a `c ? a` keeps the destination.
+    pub fn value(
+        &self,
+        h: Handle<Expr>,
+        at: At,
+        lod_depth: u8,
+        memo: &mut Memo,
+    ) -> Result<Option<V>, Unsupported> {
+        if let Some(v) = memo.get(&h) {
+            return Ok(*v);
+        }
+        let ty = self.m.info(h).ty;
+        let e = &self.m.exprs[h];
+        let v = match e {
+            Expr::Constant(c) => Some(ops::shape(c.ty, pad(c.values()))),
+            Expr::Interpolate { value, .. } => Some(self.interpolate(*value, at)?),
+            Expr::Lookup { texture, coords } => Some(self.lookup(*texture, *coords, at, lod_depth, memo)?),
+            Expr::FramebufferRead { framebuffer, channel, position } => {
+                let p = self.operand(*position, at, lod_depth, memo)?;
+                Some(self.read(*framebuffer as usize, *channel, p, at))
+            }
+            Expr::Depth(p) => {
+                let [_, _, z, w] = self.operand(*p, at, lod_depth, memo)?;
+                Some([if w == 0.0 { 1.0 } else { 0.5 * z / w + 0.5 }; 4])
+            }
+            Expr::Pixel { .. } => Some(self.pixel(at)),
+            Expr::TexelCoord => match at {
+                At::Texel([u, v]) => Some([u, v, 0.0, 0.0]),
+                _ => return Err(Unsupported::new("`δu` outside texture shading")),
+            },
+            Expr::Uniform(id) => Some(self.uniform(*id as usize)),
+            Expr::Project { projection, value } => {
+                let v = self.operand(*value, at, lod_depth, memo)?;
+                Some(self.project(projection, v, self.m.info(*value).ty, at)?)
+            }
+            e if matches!(e, Expr::VertexPosition(_) | Expr::TexCoord { .. } | Expr::Vector { .. }) => {
+                let At::Vertex { object, vertex } = at else {
+                    return Err(Unsupported::new("a per-vertex leaf outside the vertex stage"));
+                };
+                Some(self.vertex_leaf(e, object, vertex)?)
+            }
+            Expr::FatMember { .. } | Expr::Bundle(_) => {
+                return Err(Unsupported::new("fat textures and bundles as values"));
+            }
+            _ => {
+                let mut operands = Vec::new();
+                for o in e.operands() {
+                    match self.value(o, at, lod_depth, memo)? {
+                        Some(v) => operands.push(v),
+                        None => {
+                            memo.insert(h, None);
+                            return Ok(None);
+                        }
+                    }
+                }
+                ops::compute(self.m, e, ty, &operands)
+            }
+        };
+        let v = v.map(|v| ops::shape(ty, v));
+        memo.insert(h, v);
+        Ok(v)
+    }
+
+    fn operand(&self, h: Handle<Expr>, at: At, lod_depth: u8, memo: &mut Memo) -> Result<V, Unsupported> {
+        Ok(self.value(h, at, lod_depth, memo)?.unwrap_or([f64::NAN; 4]))
+    }
+
+    /// `δ e`: `e` at the triangle's three vertices, weighted perspective-
+    /// correctly (GL §3.5.1 eq. 3.6).
+    fn interpolate(&self, value: Handle<Expr>, at: At) -> Result<V, Unsupported> {
+        let At::Fragment(f) = at else {
+            return Err(Unsupported::new("δ of a per-vertex value outside a mesh pass"));
+        };
+        let tri = self.world.objects[f.object].mesh.triangles[f.triangle];
+        let mut out = [0.0; 4];
+        for (k, &vtx) in tri.iter().enumerate() {
+            let mut memo = Memo::new();
+            let v =
+                self.operand(value, At::Vertex { object: f.object, vertex: vtx as usize }, 0, &mut memo)?;
+            for c in 0..4 {
+                out[c] += f.weights[k] * v[c];
+            }
+        }
+        Ok(out)
+    }
+
+    fn vertex_leaf(&self, e: &Expr, object: usize, vertex: usize) -> Result<V, Unsupported> {
+        let o = &self.world.objects[object];
+        Ok(match e {
+            Expr::VertexPosition(_) => {
+                let p = o.mesh.positions[vertex].as_dvec3();
+                [p.x, p.y, p.z, 1.0]
+            }
+            Expr::TexCoord { set, .. } => match self.texgen.get(set) {
+                Some(h) => self.operand(*h, At::Vertex { object, vertex }, 0, &mut Memo::new())?,
+                None => {
+                    let uv = o.mesh.uvs.get(vertex).copied().unwrap_or_default();
+                    [uv.x.into(), uv.y.into(), 0.0, 0.0]
+                }
+            },
+            Expr::Vector { vector, .. } => {
+                let d = &self.m.vectors[*vector as usize];
+                vectors::at_vertex(
+                    &self.world,
+                    self.lights,
+                    o,
+                    vertex,
+                    d.kind.unwrap_or(VectorKind::Normal),
+                    d.index.unwrap_or(0),
+                    d.space.unwrap_or(Space::Eye),
+                )
+            }
+            _ => unreachable!("called for vertex leaves only"),
+        })
+    }
+
+    fn uniform(&self, id: usize) -> V {
+        let u = &self.m.uniforms[id];
+        match self.scene.constants.get(&u.name) {
+            Some(v) if !v.is_empty() => {
+                ops::shape(u.ty, pad(&v.iter().map(|&x| f64::from(x)).collect::<Vec<_>>()))
+            }
+            _ => u.default.as_ref().map_or([f64::NAN; 4], |c| ops::shape(c.ty, pad(c.values()))),
+        }
+    }
+
+    /// `π v`: a point to clip space by the camera's (`π`, `π*`: no jitter)
+    /// or light 0's (`πl`, any other subscript) matrix; `π⁻¹` back, divided
+    /// by w; `πR d` of a direction: sphere-map coordinates (Olano & Lastra
+    /// (7); GL §2.10.4's `SPHERE_MAP` with m = 2·sqrt(x² + y² + (z + 1)²)).
+    fn project(&self, p: &Projection, v: V, ty: Ty, at: At) -> Result<V, Unsupported> {
+        if ty == Ty::Vec3 {
+            let [x, y, z, _] = v;
+            let m = 2.0 * (x * x + y * y + (z + 1.0) * (z + 1.0)).sqrt();
+            return Ok(if m > 0.0 { [x / m + 0.5, y / m + 0.5, 0.0, 0.0] } else { [0.5, 0.5, 0.0, 0.0] });
+        }
+        let object = match at {
+            At::Vertex { object, .. } => object,
+            At::Fragment(f) => f.object,
+            _ => return Err(Unsupported::new("a projection outside a mesh")),
+        };
+        let o = &self.world.objects[object];
+        let base = match p.subscript.as_deref() {
+            None | Some("") => o.camera_clip,
+            Some(_) => o.light_clip,
+        };
+        let w = if v[3] == 0.0 && !p.inverse { 1.0 } else { v[3] };
+        let point = glam::DVec4::new(v[0], v[1], v[2], w);
+        if p.inverse {
+            let r = base.inverse() * point;
+            return Ok(if r.w != 0.0 { [r.x / r.w, r.y / r.w, r.z / r.w, 1.0] } else { r.to_array() });
+        }
+        Ok((base * point).to_array())
+    }
+
+    /// `xs` (or `δ xs`): the pixel centre in normalized device coordinates,
+    /// with the depth there mapped to −1..1, w = 1.
+    fn pixel(&self, at: At) -> V {
+        let (w, h) = (self.coverage.width, self.coverage.height);
+        let (px, py, depth) = match at {
+            At::Fragment(f) => (f.pixel.0, f.pixel.1, f.depth),
+            At::Pixel(x, y) => (x, y, 1.0),
+            _ => (0, 0, 1.0),
+        };
+        let (x, y) = super::geometry::pixel_ndc(f64::from(px) + 0.5, f64::from(py) + 0.5, w, h);
+        [x, y, 2.0 * depth - 1.0, 1.0]
+    }
+
+    /// A framebuffer channel at a clip-space position; outside it, the
+    /// cleared values (colour 0, depth 1).
+    fn read(&self, fb: usize, channel: FbChannel, p: V, at: At) -> V {
+        let (w, h) = (self.coverage.width, self.coverage.height);
+        let own = match at {
+            At::Fragment(f) => Some(f.pixel),
+            At::Pixel(x, y) => Some((x, y)),
+            _ => None,
+        };
+        let pixel = if p[3] == 0.0 {
+            None
+        } else {
+            let x = ((p[0] / p[3] + 1.0) * 0.5 * f64::from(w)).floor();
+            let y = ((1.0 - p[1] / p[3]) * 0.5 * f64::from(h)).floor();
+            (x >= 0.0 && y >= 0.0 && x < f64::from(w) && y < f64::from(h)).then_some((x as u32, y as u32))
+        };
+        // A read at the fragment's own position is its own pixel, whatever
+        // the rounding of the divided position.
+        let pixel = match (own, pixel) {
+            (Some(o), Some(q)) if o.0.abs_diff(q.0) <= 1 && o.1.abs_diff(q.1) <= 1 => Some(o),
+            (_, q) => q,
+        };
+        let Some((x, y)) = pixel else {
+            return if channel == FbChannel::Depth { [1.0; 4] } else { [0.0; 4] };
+        };
+        let store = &self.framebuffers[fb];
+        let i = (y * w + x) as usize;
+        match channel {
+            FbChannel::Color => store.color[i],
+            FbChannel::Alpha => [store.color[i][3]; 4],
+            FbChannel::Depth => [store.depth[i]; 4],
+            FbChannel::Stencil => [0.0; 4],
+        }
+    }
+
+    /// `T c`: sampled at the coordinates, λ from their change over one
+    /// pixel in x and in y on the same triangle (GL §3.8.8's derivatives,
+    /// of any coordinate expression: dependent lookups too).
+    fn lookup(
+        &self,
+        texture: u32,
+        coords: Handle<Expr>,
+        at: At,
+        lod_depth: u8,
+        memo: &mut Memo,
+    ) -> Result<V, Unsupported> {
+        let cty = self.m.info(coords).ty;
+        let c = self.operand(coords, at, lod_depth, memo)?;
+        match &self.textures[texture as usize] {
+            Tex::Missing(why) => Err(Unsupported::new(why.clone())),
+            Tex::Cube(cube) => Ok(cube.sample([c[0], c[1], c[2]])),
+            Tex::Baked(value) => {
+                let [u, v] = uv(c, cty);
+                let wrap = |x: f64| x.clamp(0.0, 1.0);
+                Ok(self.operand(*value, At::Texel([wrap(u), wrap(v)]), 0, &mut Memo::new())?)
+            }
+            Tex::Flat(image) => {
+                let [u, v] = uv(c, cty);
+                let lambda = match at {
+                    At::Fragment(f) if lod_depth < 2 && image.levels.len() > 1 => {
+                        let near = |dx, dy| -> Result<[f64; 2], Unsupported> {
+                            let g = self.coverage.offset(&self.world, &f, dx, dy);
+                            let c = self.operand(coords, At::Fragment(g), lod_depth + 1, &mut Memo::new())?;
+                            let [a, b] = uv(c, cty);
+                            Ok([a - u, b - v])
+                        };
+                        image.lod(near(1.0, 0.0)?, near(0.0, 1.0)?)
+                    }
+                    _ => 0.0,
+                };
+                Ok(image.sample(u, v, lambda))
+            }
+        }
+    }
+}
+
+/// Texture coordinates of a lookup: a scalar indexes a 1-D table at its
+/// centre row; a clip-space position projectively, `(½x/w + ½, ½ − ½y/w)`
+/// (v = 0 is the top row: docs/language.md, "Texture coordinates").
+fn uv(c: V, ty: Ty) -> [f64; 2] {
+    match ty {
+        Ty::Scalar => [c[0], 0.5],
+        Ty::Position => [0.5 * c[0] / c[3] + 0.5, 0.5 - 0.5 * c[1] / c[3]],
+        _ => [c[0], c[1]],
+    }
+}
+
+fn pad(values: &[f64]) -> V {
+    std::array::from_fn(|i| values.get(i).copied().unwrap_or(0.0))
+}

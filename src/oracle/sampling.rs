@@ -1,0 +1,185 @@
+//! Texture sampling as OpenGL 1.x §3.8 specifies it, in f64: wrap modes
+//! (§3.8.7: REPEAT on texel indices, CLAMP_TO_EDGE), the level of detail
+//! λ = log₂ρ with ρ the larger of the two screen-axis scale factors
+//! (§3.8.8, eq. 3.17, the exact derivatives rather than an approximation),
+//! NEAREST and LINEAR (eq. 3.18-3.19), mipmap selection for
+//! `*_MIPMAP_NEAREST` and the blend of `LINEAR_MIPMAP_LINEAR` (§3.8.8), and
+//! cube-map face selection by the major axis (§3.8.6, Table 3.19, ties to
+//! x, then y), each face clamped to its edge as 2000-era hardware did.
+//!
+//! The texels are data — a generator's or an image's level 0 (and the levels
+//! a generator filters itself, such as Kilgard's normal-map mipmaps); the
+//! other levels are built here by averaging 2×2 blocks, rounded to the
+//! texture's format, as `glGenerateMipmap`-style box filtering does.
+
+use super::ops::V;
+use crate::textures::{Filter, TexelFormat, Wrap};
+
+/// One level: `width × height` texels, row 0 first (v = 0).
+#[derive(Clone, Debug)]
+pub struct Level {
+    pub width: u32,
+    pub height: u32,
+    pub texels: Vec<V>,
+}
+
+/// A 2-D (or 1-D: height 1) texture with its mipmap chain.
+#[derive(Clone, Debug)]
+pub struct Image {
+    pub levels: Vec<Level>,
+    pub wrap: Wrap,
+    pub filter: Filter,
+}
+
+fn quantize(format: TexelFormat, v: f64) -> f64 {
+    match format {
+        TexelFormat::Rgba8 => (v.clamp(0.0, 1.0) * 255.0).round() / 255.0,
+        TexelFormat::Signed8 => (v.clamp(-1.0, 1.0) * 127.0).round() / 127.0,
+        TexelFormat::Rgba16 => (v.clamp(0.0, 1.0) * 65535.0).round() / 65535.0,
+        TexelFormat::F32 => v,
+    }
+}
+
+/// Box-filtered levels down to 1×1 below `base`.
+pub fn mip_chain(base: Level, format: TexelFormat) -> Vec<Level> {
+    let mut levels = vec![base];
+    while let Some(last) = levels.last().filter(|l| l.width > 1 || l.height > 1) {
+        let (w, h) = ((last.width / 2).max(1), (last.height / 2).max(1));
+        let mut texels = Vec::with_capacity((w * h) as usize);
+        for y in 0..h {
+            for x in 0..w {
+                let mut sum = [0.0; 4];
+                let mut n = 0.0;
+                for (sx, sy) in
+                    [(2 * x, 2 * y), (2 * x + 1, 2 * y), (2 * x, 2 * y + 1), (2 * x + 1, 2 * y + 1)]
+                {
+                    if sx < last.width && sy < last.height {
+                        let t = last.texels[(sy * last.width + sx) as usize];
+                        for c in 0..4 {
+                            sum[c] += t[c];
+                        }
+                        n += 1.0;
+                    }
+                }
+                texels.push(sum.map(|s| quantize(format, s / n)));
+            }
+        }
+        levels.push(Level { width: w, height: h, texels });
+    }
+    levels
+}
+
+fn wrap_index(i: i64, size: u32, wrap: Wrap) -> u32 {
+    let n = i64::from(size);
+    match wrap {
+        Wrap::Repeat => i.rem_euclid(n) as u32,
+        Wrap::ClampToEdge => i.clamp(0, n - 1) as u32,
+    }
+}
+
+impl Level {
+    fn texel(&self, i: i64, j: i64, wrap: Wrap) -> V {
+        let (x, y) = (wrap_index(i, self.width, wrap), wrap_index(j, self.height, wrap));
+        self.texels[(y * self.width + x) as usize]
+    }
+
+    /// GL eq. 3.18 (NEAREST) and 3.19 (LINEAR) at (u, v).
+    fn sample(&self, u: f64, v: f64, linear: bool, wrap: Wrap) -> V {
+        let (su, sv) = (u * f64::from(self.width), v * f64::from(self.height));
+        if !linear {
+            return self.texel(su.floor() as i64, sv.floor() as i64, wrap);
+        }
+        let (x, y) = (su - 0.5, sv - 0.5);
+        let (i0, j0) = (x.floor() as i64, y.floor() as i64);
+        let (a, b) = (x - x.floor(), y - y.floor());
+        let t = |i, j| self.texel(i, j, wrap);
+        let (t00, t10, t01, t11) = (t(i0, j0), t(i0 + 1, j0), t(i0, j0 + 1), t(i0 + 1, j0 + 1));
+        let mut out = [0.0; 4];
+        for c in 0..4 {
+            out[c] = (1.0 - a) * (1.0 - b) * t00[c]
+                + a * (1.0 - b) * t10[c]
+                + (1.0 - a) * b * t01[c]
+                + a * b * t11[c];
+        }
+        out
+    }
+}
+
+impl Image {
+    /// λ of GL eq. 3.17 from the coordinates' change over one pixel in x
+    /// (`du_dx`) and in y, scaled by the base level's size.
+    pub fn lod(&self, d_dx: [f64; 2], d_dy: [f64; 2]) -> f64 {
+        let (w, h) = (f64::from(self.levels[0].width), f64::from(self.levels[0].height));
+        let rho_x = (d_dx[0] * w).hypot(d_dx[1] * h);
+        let rho_y = (d_dy[0] * w).hypot(d_dy[1] * h);
+        rho_x.max(rho_y).log2()
+    }
+
+    /// The filtered texel at (u, v) for level of detail `lambda`.
+    pub fn sample(&self, u: f64, v: f64, lambda: f64) -> V {
+        let last = self.levels.len() - 1;
+        let linear = self.filter != Filter::Nearest;
+        // Magnification (λ ≤ 0), or a texture without mipmaps: level 0.
+        if lambda <= 0.0 || last == 0 || !lambda.is_finite() {
+            return self.levels[0].sample(u, v, linear, self.wrap);
+        }
+        match self.filter {
+            Filter::Nearest | Filter::Bilinear => {
+                // `*_MIPMAP_NEAREST`: d = ⌈λ + ½⌉ − 1 for λ > ½, else 0.
+                let d = if lambda > 0.5 { ((lambda + 0.5).ceil() - 1.0) as usize } else { 0 };
+                self.levels[d.min(last)].sample(u, v, linear, self.wrap)
+            }
+            Filter::Trilinear => {
+                let d1 = (lambda.floor() as usize).min(last);
+                let d2 = (d1 + 1).min(last);
+                let f = if d1 == last { 0.0 } else { lambda - lambda.floor() };
+                let (a, b) = (
+                    self.levels[d1].sample(u, v, true, self.wrap),
+                    self.levels[d2].sample(u, v, true, self.wrap),
+                );
+                std::array::from_fn(|c| (1.0 - f) * a[c] + f * b[c])
+            }
+        }
+    }
+}
+
+/// GL Table 3.19: the face (0..6 in +x, −x, +y, −y, +z, −z order) and
+/// (s, t) of direction `r`. A zero direction takes +x's centre.
+pub fn cube_face(r: [f64; 3]) -> (usize, f64, f64) {
+    let [x, y, z] = r.map(|c| if c.is_finite() { c } else { 0.0 });
+    let (ax, ay, az) = (x.abs(), y.abs(), z.abs());
+    let (face, sc, tc, ma) = if ax >= ay && ax >= az {
+        if x >= 0.0 {
+            (0, -z, -y, ax)
+        } else {
+            (1, z, -y, ax)
+        }
+    } else if ay >= az {
+        if y >= 0.0 {
+            (2, x, z, ay)
+        } else {
+            (3, x, -z, ay)
+        }
+    } else if z >= 0.0 {
+        (4, x, -y, az)
+    } else {
+        (5, -x, -y, az)
+    };
+    if ma == 0.0 {
+        return (0, 0.5, 0.5);
+    }
+    (face, 0.5 * (sc / ma + 1.0), 0.5 * (tc / ma + 1.0))
+}
+
+/// A cube map: six faces, each clamped to its edge.
+#[derive(Clone, Debug)]
+pub struct Cube {
+    pub faces: Vec<Image>,
+}
+
+impl Cube {
+    pub fn sample(&self, r: [f64; 3]) -> V {
+        let (face, s, t) = cube_face(r);
+        self.faces[face].sample(s, t, 0.0)
+    }
+}

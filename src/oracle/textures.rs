@@ -1,0 +1,215 @@
+//! The program's textures for the reference: each declaration's source read
+//! from the program text, its texels made or loaded here — a normalization
+//! cube map from Kilgard 2000's Appendix D, an exponent table from its
+//! definition, an image file (or the brick stand-in of a missing one) —
+//! and its filtering from the declaration's attributes. A scene texture of
+//! the same name replaces the program's, as docs/scenes.md says.
+
+use super::program::Tex;
+use super::sampling::{self, Cube, Image, Level};
+use super::Unsupported;
+use crate::ir::Module;
+use crate::parser::ast::{self, ExprKind, FuncKind, ItemKind, TextureFormat, TextureKind};
+use crate::scene::{Scene, SceneAssets};
+use crate::textures::{self as data, Filter, TexelFormat, Texture, Wrap};
+
+/// Every texture of `module`, by id.
+pub fn bind(
+    module: &Module,
+    program: &ast::Program,
+    scene: &Scene,
+    assets: &SceneAssets,
+) -> Result<Vec<Tex>, Unsupported> {
+    let decls: Vec<&ast::TextureDecl> = program
+        .items
+        .iter()
+        .filter_map(|i| match &i.kind {
+            ItemKind::Texture(t) => Some(t),
+            _ => None,
+        })
+        .collect();
+    let mut out = Vec::new();
+    for t in &module.textures {
+        let decl = decls.iter().find(|d| d.names.iter().any(|n| n.key() == t.name));
+        let s = t.sampling;
+        let tex = match (assets.textures.get(&t.name), decl) {
+            (Some(given), _) => from_data(given, s.filter, s.wrap, s.mipmap, store_format(t.format)),
+            (None, Some(d)) => from_source(d, t.kind, t.format, s.filter, s.wrap, s.mipmap, scene)?,
+            (None, None) => Tex::Missing(format!("the texture `{}` the compiler added", t.name)),
+        };
+        out.push(tex);
+    }
+    Ok(out)
+}
+
+/// How a declared format stores texels (8-bit formats as k/255, signed as
+/// k/127, 16-bit as k/65535, float as is).
+fn store_format(f: TextureFormat) -> TexelFormat {
+    match f {
+        TextureFormat::Signed8 => TexelFormat::Signed8,
+        TextureFormat::Rgba16 | TextureFormat::Signed16 => TexelFormat::Rgba16,
+        TextureFormat::Rgba16f | TextureFormat::Rgba32f => TexelFormat::F32,
+        _ => TexelFormat::Rgba8,
+    }
+}
+
+fn level(l: &data::Level) -> Level {
+    Level { width: l.width, height: l.height, texels: l.texels.iter().map(|t| t.map(f64::from)).collect() }
+}
+
+fn image(levels: Vec<Level>, filter: Filter, wrap: Wrap, mipmap: bool, format: TexelFormat) -> Image {
+    let levels = match (mipmap, levels.len()) {
+        (true, 1) => sampling::mip_chain(levels.into_iter().next().expect("one level"), format),
+        (false, _) => levels.into_iter().take(1).collect(),
+        _ => levels,
+    };
+    Image { levels, wrap, filter }
+}
+
+fn from_data(t: &Texture, filter: Filter, wrap: Wrap, mipmap: bool, format: TexelFormat) -> Tex {
+    match t {
+        Texture::Flat(t) => {
+            Tex::Flat(image(t.levels.iter().map(level).collect(), filter, wrap, mipmap, format))
+        }
+        Texture::Cube(c) => Tex::Cube(Cube {
+            faces: c
+                .faces
+                .iter()
+                .map(|f| image(vec![level(&f.levels[0])], filter, Wrap::ClampToEdge, false, format))
+                .collect(),
+        }),
+        Texture::DualParaboloid(_) => Tex::Missing("dual-paraboloid environment maps".into()),
+    }
+}
+
+fn literal_args(e: &ast::Expr) -> Vec<&ast::Expr> {
+    match &e.kind {
+        ExprKind::Tuple(items) => items.iter().collect(),
+        _ => vec![e],
+    }
+}
+
+fn number(e: &ast::Expr) -> Option<f64> {
+    match &e.kind {
+        ExprKind::Number(v) => Some(*v),
+        _ => None,
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn from_source(
+    d: &ast::TextureDecl,
+    kind: TextureKind,
+    format: TextureFormat,
+    filter: Filter,
+    wrap: Wrap,
+    mipmap: bool,
+    scene: &Scene,
+) -> Result<Tex, Unsupported> {
+    let Some(src) = &d.source else {
+        return Ok(Tex::Missing("textures rendered by a statement".into()));
+    };
+    let ExprKind::Apply { func: ast::Func { kind: FuncKind::Name(name), .. }, arg } = &src.kind else {
+        return Ok(Tex::Missing("a texture source other than a call".into()));
+    };
+    let args = literal_args(arg);
+    let store = store_format(format);
+    Ok(match (name.key().as_str(), kind) {
+        ("image", TextureKind::Tex2d | TextureKind::Tex1d) => {
+            let ExprKind::String(file) = &args[0].kind else {
+                return Ok(Tex::Missing("image() without a file name".into()));
+            };
+            let base = match data::load_image(&scene.resolve(file), store, wrap) {
+                Ok(t) => level(&t.levels[0]),
+                Err(data::TextureError::NotFound { .. }) => {
+                    let mut l = level(&data::generators::brick_stand_in(256));
+                    for t in &mut l.texels {
+                        *t = t.map(|c| (c.clamp(0.0, 1.0) * 255.0).round() / 255.0);
+                    }
+                    l
+                }
+                Err(e) => return Err(Unsupported::new(format!("an unreadable image: {e}"))),
+            };
+            Tex::Flat(image(vec![base], filter, wrap, mipmap, store))
+        }
+        ("normalize_cube", TextureKind::Cube) => {
+            let size = args.first().and_then(|a| number(a)).unwrap_or(32.0).clamp(1.0, 4096.0) as u32;
+            let bits = args.get(1).and_then(|a| number(a)).unwrap_or(8.0);
+            Tex::Cube(normalize_cube(size, bits >= 16.0, format, filter))
+        }
+        ("exponent_table", TextureKind::Tex1d) => {
+            let n = args.first().and_then(|a| number(a)).unwrap_or(1.0).max(0.0);
+            let size = data::generators::EXPONENT_TABLE_SIZE;
+            let texels = (0..size)
+                .map(|i| {
+                    let v = quantize(store, ((f64::from(i) + 0.5) / f64::from(size)).powf(n));
+                    [v, v, v, 1.0]
+                })
+                .collect();
+            Tex::Flat(Image {
+                levels: vec![Level { width: size, height: 1, texels }],
+                wrap: Wrap::ClampToEdge,
+                filter,
+            })
+        }
+        ("bake", _) => Tex::Missing("a bake() whose statement was not seen".into()),
+        (other, _) => {
+            Tex::Missing(format!("the texture source `{other}(…)` for a {} texture", kind_name(kind)))
+        }
+    })
+}
+
+fn kind_name(k: TextureKind) -> &'static str {
+    match k {
+        TextureKind::Tex1d => "1d",
+        TextureKind::Tex2d => "2d",
+        TextureKind::Tex3d => "3d",
+        TextureKind::Cube => "cube",
+    }
+}
+
+fn quantize(format: TexelFormat, v: f64) -> f64 {
+    match format {
+        TexelFormat::Rgba8 => (v.clamp(0.0, 1.0) * 255.0).round() / 255.0,
+        TexelFormat::Signed8 => (v.clamp(-1.0, 1.0) * 127.0).round() / 127.0,
+        TexelFormat::Rgba16 => (v.clamp(0.0, 1.0) * 65535.0).round() / 65535.0,
+        TexelFormat::F32 => v,
+    }
+}
+
+/// Kilgard 2000, Appendix D: each texel the unit vector through its centre
+/// (the inverse of GL Table 3.19), range-compressed `(GLubyte)(128 + 127·v)`
+/// in 8 bits, `round(65535·(v + 1)/2)` in 16; a signed format holds the
+/// vector itself.
+fn normalize_cube(size: u32, sixteen: bool, format: TextureFormat, filter: Filter) -> Cube {
+    let signed = matches!(format, TextureFormat::Signed8 | TextureFormat::Signed16);
+    let wide = sixteen || matches!(format, TextureFormat::Rgba16 | TextureFormat::Signed16);
+    let face = |f: usize| {
+        let mut texels = Vec::with_capacity((size * size) as usize);
+        for y in 0..size {
+            for x in 0..size {
+                let sc = 2.0 * (f64::from(x) + 0.5) / f64::from(size) - 1.0;
+                let tc = 2.0 * (f64::from(y) + 0.5) / f64::from(size) - 1.0;
+                let d = match f {
+                    0 => [1.0, -tc, -sc],
+                    1 => [-1.0, -tc, sc],
+                    2 => [sc, 1.0, tc],
+                    3 => [sc, -1.0, -tc],
+                    4 => [sc, -tc, 1.0],
+                    _ => [-sc, -tc, -1.0],
+                };
+                let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+                let v = d.map(|c| c / n);
+                let enc = |c: f64| match (signed, wide) {
+                    (true, true) => (c * 32767.0).round() / 32767.0,
+                    (true, false) => (c * 127.0).round() / 127.0,
+                    (false, true) => ((c + 1.0) * 0.5 * 65535.0).round() / 65535.0,
+                    (false, false) => (128.0 + 127.0 * c).floor().clamp(0.0, 255.0) / 255.0,
+                };
+                texels.push([enc(v[0]), enc(v[1]), enc(v[2]), 1.0]);
+            }
+        }
+        Image { levels: vec![Level { width: size, height: size, texels }], wrap: Wrap::ClampToEdge, filter }
+    };
+    Cube { faces: (0..6).map(face).collect() }
+}

@@ -1,0 +1,177 @@
+//! Three executors that must agree (issue 33): the CPU renderer running a
+//! plan, wgpu running the same plan's WGSL (lavapipe in CI), and
+//! `shadec::oracle`, the per-pixel reference that shares no code with
+//! either (its own triangle search, interpolation, shading vectors,
+//! sampling and arithmetic). Where two agree and one differs, the report
+//! names the odd one out.
+//!
+//! # The bound
+//!
+//! The three pictures are compared as the 8-bit images they are read back
+//! as, pixel by pixel on the pixels a triangle covers in the reference.
+//! A pixel *disagrees* when a channel differs by more than
+//! [`PIXEL_TOLERANCE`] = 3/255: half a step of 8-bit rounding in each image
+//! (1/255), plus 2/255 for filtering arithmetic (8-bit texels filtered in
+//! float by lavapipe and the CPU, in f64 here). GL §3.8.8 lets an
+//! implementation approximate the level of detail (ρ from per-quad rather
+//! than per-pixel derivatives, its max-norm variants), and GL §3.5.1 leaves
+//! the ownership of a pixel whose centre lies on a shared edge to the
+//! implementation; both change a few pixels by more than rounding — at
+//! silhouettes, at texel edges of minified mipmapped textures. So up to
+//! [`PIXEL_FRACTION`] = 2 % of the covered pixels may disagree; a bug
+//! (a lost term, a wrong coordinate, a wrong mode) moves far more.
+
+use std::path::Path;
+
+use shadec::numerics::Precision;
+use shadec::profile::Profile;
+use shadec::renderer::plan::PlanRenderer;
+use shadec::scene::Scene;
+
+pub const PIXEL_TOLERANCE: u8 = 3;
+pub const PIXEL_FRACTION: f64 = 0.02;
+pub const W: u32 = 48;
+pub const H: u32 = 36;
+
+/// The executors' pictures, RGBA8, row 0 at the top.
+pub struct Pictures {
+    pub cpu: Vec<u8>,
+    pub gpu: Option<Vec<u8>>,
+    pub oracle: Vec<u8>,
+    pub covered: Vec<bool>,
+}
+
+pub fn scene(name: &str) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
+    let text = std::fs::read_to_string(&path).unwrap();
+    Scene::parse(&text, Path::new("/nonexistent-shadec-scene").join(name).as_path()).unwrap()
+}
+
+/// Plans `source` for `target` and renders it with the three executors
+/// (`precision` for the CPU and wgpu; the reference is f64, rgba8
+/// framebuffers clamped and rounded at every write).
+pub fn render_three(
+    source: &str,
+    target: &str,
+    scene: &Scene,
+    precision: Precision,
+    gpu: Option<&shadec::gpu::runner::Gpu>,
+) -> Result<Pictures, String> {
+    let profile = Profile::resolve(target).map_err(|e| format!("{e:?}"))?;
+    let compiled = shadec::driver::compile(source, &profile, &Default::default()).map_err(|d| {
+        format!("does not compile: {:?}", d.iter().map(|d| d.message.clone()).collect::<Vec<_>>())
+    })?;
+    let (planned, program, module) = (compiled.planned, compiled.program, compiled.module);
+    let assets = scene.build().map_err(|e| e.to_string())?;
+    let cpu = PlanRenderer::new(&planned, &program, scene, &assets)
+        .and_then(|r| r.render(precision, W, H, &mut |_, _| {}))
+        .map_err(|e| format!("CPU: {e}"))?
+        .image
+        .to_rgba8();
+    let gpu = match gpu {
+        Some(gpu) => Some(
+            shadec::gpu::scene_run::ScenePlan::new(
+                &planned,
+                &program,
+                Some(source),
+                precision,
+                scene,
+                &assets,
+            )
+            .and_then(|p| p.render_into(gpu, &shadec::gpu::runner::Target::new(W, H)))
+            .map_err(|e| format!("wgpu: {e}"))?
+            .into_raw(),
+        ),
+        None => None,
+    };
+    let picture =
+        shadec::oracle::render(&module, &program, scene, &assets, W, H).map_err(|e| e.to_string())?;
+    let oracle =
+        picture.pixels.iter().flat_map(|p| p.map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8)).collect();
+    Ok(Pictures { cpu, gpu, oracle, covered: picture.covered })
+}
+
+/// How two pictures differ on the covered pixels.
+#[derive(Clone, Copy, Debug)]
+pub struct Difference {
+    /// Fraction of covered pixels with a channel off by more than the tolerance.
+    pub fraction: f64,
+    /// The largest channel difference, in 255ths.
+    pub max: u8,
+}
+
+impl Difference {
+    pub fn within(self) -> bool {
+        self.fraction <= PIXEL_FRACTION
+    }
+}
+
+pub fn difference(a: &[u8], b: &[u8], covered: &[bool]) -> Difference {
+    let (mut off, mut n, mut max) = (0usize, 0usize, 0u8);
+    for (i, &c) in covered.iter().enumerate() {
+        if !c {
+            continue;
+        }
+        n += 1;
+        let d = (0..4).map(|k| a[4 * i + k].abs_diff(b[4 * i + k])).max().unwrap_or(0);
+        max = max.max(d);
+        off += usize::from(d > PIXEL_TOLERANCE);
+    }
+    Difference { fraction: off as f64 / n.max(1) as f64, max }
+}
+
+/// `Ok` when the executors agree, else which one is the odd one out.
+pub fn verdict(p: &Pictures) -> Result<(), String> {
+    let co = difference(&p.cpu, &p.oracle, &p.covered);
+    let Some(gpu) = &p.gpu else {
+        return if co.within() { Ok(()) } else { Err(format!("the CPU and the reference differ: {co:?}")) };
+    };
+    let cg = difference(&p.cpu, gpu, &p.covered);
+    let go = difference(gpu, &p.oracle, &p.covered);
+    match (cg.within(), co.within(), go.within()) {
+        (true, true, true) => Ok(()),
+        (true, false, false) => Err(format!("the reference is the odd one out: CPU {co:?}, wgpu {go:?}")),
+        (false, true, false) => {
+            Err(format!("wgpu is the odd one out: against the CPU {cg:?}, the reference {go:?}"))
+        }
+        (false, false, true) => {
+            Err(format!("the CPU is the odd one out: against wgpu {cg:?}, the reference {co:?}"))
+        }
+        _ => Err(format!("no two agree: CPU/wgpu {cg:?}, CPU/reference {co:?}, wgpu/reference {go:?}")),
+    }
+}
+
+fn gpu() -> Option<shadec::gpu::runner::Gpu> {
+    crate::common::gpu::gpu()
+}
+
+const LIT: &str = "vector N : normal;\nvector L : light(0);\nshader diffuse : s → scalar = max(0, N·L);\nframebuffer C : rgba8, depth;\n";
+
+/// A projective lookup (`T δπl x`, the spotlight cookie of Olano & Lastra
+/// Section 3.5) is sampled at `(½x/w + ½, ½ − ½y/w)` of light 0's clip
+/// position by every executor. The CPU sampled at raw clip x, y, and so
+/// did the meaning, which shares its sampling: `render` said ∞ dB.
+#[test]
+fn projective_cookie_agrees() {
+    let source = format!(
+        "{LIT}texture Cookie : 2d rgb8 bilinear clamp = image(\"missing-cookie.png\");\nC δπx ← (Cookie δπl x) * (δ diffuse s x);\n"
+    );
+    let g = gpu();
+    let p = render_three(&source, "wgsl", &scene("kilgard_torus.ron"), Precision::F32, g.as_ref()).unwrap();
+    verdict(&p).unwrap();
+}
+
+#[test]
+fn probe() {
+    let g = gpu();
+    for src in [
+        format!("{LIT}const kd : rgb = (0.8, 0.6, 0.4);\nC δπx ← kd * (δ diffuse s x);\n"),
+        format!("{LIT}texture A : 2d rgb8 mipmap repeat = image(\"missing-a.png\");\nC δπx ← (A δu x) * (δ diffuse s x);\n"),
+    ] {
+        let p = render_three(&src, "wgsl", &scene("kilgard_torus.ron"), Precision::F32, g.as_ref()).unwrap();
+        let co = difference(&p.cpu, &p.oracle, &p.covered);
+        let cg = difference(&p.cpu, p.gpu.as_ref().unwrap(), &p.covered);
+        eprintln!("{co:?} {cg:?} covered {}", p.covered.iter().filter(|c| **c).count());
+        verdict(&p).unwrap();
+    }
+}
