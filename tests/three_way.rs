@@ -175,3 +175,62 @@ fn probe() {
         verdict(&p).unwrap();
     }
 }
+
+/// A light the scene lacks (`light(2)` on a one-light scene) delivers
+/// nothing on every executor: the CPU gave black, wgpu grey.
+#[test]
+fn absent_light_is_black_everywhere() {
+    let head = "vector N : normal;\nvector V : view;\nvector L2 : light(2);\nvector H2 : half(2);\nvector I2 : intensity(2);\nconst kd : rgb = (0.8, 0.6, 0.4);\nframebuffer C : rgba8, depth;\n";
+    let g = gpu();
+    for body in [
+        "shader far : s → scalar = max(0, N·L2);\nC δπx ← kd * (far δ s x) + (0.2, 0.2, 0.2);\n",
+        "shader far : s → scalar = max(0, normalize(N)·normalize(L2));\nC δπx ← kd * (far δ s x) + (0.2, 0.2, 0.2);\n",
+        "shader far : s → scalar = max(0, normalize(N)·normalize(H2))^8;\nC δπx ← kd * (far δ s x) + (0.2, 0.2, 0.2);\n",
+        "shader far : s → c = rgb(I2) * max(0, N·L2);\nC δπx ← (δ far s x) + (0.2, 0.2, 0.2);\n",
+        "shader far : s → c = rgb(I2) * max(0, N·normalize(L2 + V));\nC δπx ← (far δ s x) + (0.2, 0.2, 0.2);\n",
+    ] {
+        let source = format!("{head}{body}");
+        let p = render_three(&source, "wgsl", &scene("kilgard_torus.ron"), Precision::F32, g.as_ref()).unwrap();
+        verdict(&p).map_err(|e| format!("{body}: {e}")).unwrap();
+    }
+}
+
+/// The absent light is named, on both backends.
+#[test]
+fn absent_light_gets_a_note() {
+    let source = "vector N : normal;\nvector L2 : light(2);\nshader far : s → scalar = max(0, N·L2);\nconst kd : rgb = (0.8, 0.6, 0.4);\nframebuffer C : rgba8, depth;\nC δπx ← kd * (far δ s x);\n";
+    let scene = scene("kilgard_torus.ron");
+    let profile = Profile::resolve("wgsl").unwrap();
+    let c = shadec::driver::compile(source, &profile, &Default::default()).unwrap();
+    let assets = scene.build().unwrap();
+    let r = PlanRenderer::new(&c.planned, &c.program, &scene, &assets).unwrap();
+    assert!(
+        r.notes.iter().any(|n| n.contains("`L2` reads light 2") && n.contains("1 light")),
+        "{:?}",
+        r.notes
+    );
+    let plan = shadec::gpu::scene_run::ScenePlan::new(
+        &c.planned,
+        &c.program,
+        Some(source),
+        Precision::F32,
+        &scene,
+        &assets,
+    )
+    .unwrap();
+    assert!(plan.notes.iter().any(|n| n.contains("`L2` reads light 2")), "{:?}", plan.notes);
+}
+
+/// `2 * T ⊕ T′` on a GeForce 256: the register combiners scale the product
+/// `T·T′` by two at the stage's output and clamp there (Kilgard 2000,
+/// §4.2.2); fixed9 clamped `2·T` to 1 before the product (20.8 dB against
+/// the meaning). Against the reference, whose rgba8 framebuffer clamps
+/// `2·T·T′` once.
+#[test]
+fn scaled_modulate_clamps_after_the_scale_in_fixed9() {
+    let source = "texture A : 2d rgb8 bilinear repeat = image(\"missing-a.png\");\ntexture B : 2d rgb8 bilinear repeat = image(\"missing-b.png\");\nframebuffer C : rgba8, depth;\nC δπx ← (2 * (A δu x)) ⊕ (B δu x);\n";
+    let g = gpu();
+    let p = render_three(source, "geforce256", &scene("kilgard_torus.ron"), Precision::Fixed9, g.as_ref())
+        .unwrap();
+    verdict(&p).unwrap();
+}

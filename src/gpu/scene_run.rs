@@ -199,7 +199,7 @@ impl<'a> ScenePlan<'a> {
         let mut decls = bind::texture_decls(program, &scene.constants);
         let lowered = bind::lowered_decls(&planned.module, &decls);
         decls.extend(lowered);
-        let mut notes = Vec::new();
+        let mut notes = bind::absent_light_notes(&planned.module, scene);
         let textures = bind::load_textures(&decls, scene, TextureQuality::Stored, &mut notes)
             .map_err(|e| SceneRunError::Unsupported(e.to_string()))?;
         let m = &planned.module;

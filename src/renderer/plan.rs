@@ -177,7 +177,7 @@ impl<'a> PlanRenderer<'a> {
         let mut decls = bind::texture_decls(program, &scene.constants);
         let lowered = bind::lowered_decls(&planned.module, &decls);
         decls.extend(lowered);
-        let mut notes = Vec::new();
+        let mut notes = bind::absent_light_notes(&planned.module, scene);
         let err = |e: bind::BindError| RenderError::Unsupported(e.to_string());
         let stored = bind::load_textures(&decls, scene, TextureQuality::Stored, &mut notes).map_err(err)?;
         let mut ignore = Vec::new();

@@ -785,6 +785,26 @@ pub fn project_by(matrix: Mat4, inverse: bool, value: [f64; 4], ty: Ty) -> [f64;
     }
 }
 
+/// A note for each shading vector of a light the scene does not have
+/// (`light(2)` with one light): it delivers nothing — a zero vector and
+/// zero intensity — on every executor, which the user should know.
+pub fn absent_light_notes(module: &Module, scene: &Scene) -> Vec<String> {
+    let n = scene.lights.len();
+    let mut out = Vec::new();
+    for v in &module.vectors {
+        let light = matches!(v.kind, Some(VectorKind::Light | VectorKind::Half | VectorKind::Intensity));
+        let index = v.index.unwrap_or(0) as usize;
+        if light && index >= n {
+            out.push(format!(
+                "vector `{}` reads light {index}, and the scene has {n} light{}: it is the zero vector (zero intensity), so its terms are black; add a light to the scene's `lights:` or use an index below {n}",
+                v.name,
+                if n == 1 { "" } else { "s" }
+            ));
+        }
+    }
+    out
+}
+
 /// The uniforms of a module for a scene: the scene's constants by name,
 /// else `None` (the declared default applies).
 pub fn uniforms(module: &Module, scene: &Scene) -> Vec<Option<[f64; 4]>> {

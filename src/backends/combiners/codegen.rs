@@ -518,9 +518,17 @@ fn desugar(module: &Module, value: Handle<Expr>) -> R<Option<(Module, Handle<Exp
         let span = module.span(h);
         let e = e.map_operands(|o| map.get(&o).copied().unwrap_or(o));
         let new = match e {
-            Expr::Combine { mode, lhs, rhs } => {
-                combine_expr(&mut m, mode, lhs, rhs, module.info(h).ty, span)?
-            }
+            Expr::Combine { mode, lhs, rhs } => match scaled_modulate(&m, mode, lhs, rhs) {
+                // `(k·y) ⊕ z`: the scale is the stage's output mapping, applied
+                // after the product and clamped there, as the hardware does
+                // (seeds/003 Section 4.2.2) — not `saturate(k·y)·z`.
+                Some((k, y, z)) => {
+                    let (y, z) = (gl_colour(&mut m, y, span)?, gl_colour(&mut m, z, span)?);
+                    let inner = intern(&mut m, Expr::Binary { op: BinaryOp::Mul, lhs: y, rhs: z }, span)?;
+                    intern(&mut m, Expr::Binary { op: BinaryOp::Mul, lhs: k, rhs: inner }, span)?
+                }
+                None => combine_expr(&mut m, mode, lhs, rhs, module.info(h).ty, span)?,
+            },
             e => match scale_to_float(&m, &e) {
                 Some((k, y, z)) => {
                     let inner = intern(&mut m, Expr::Binary { op: BinaryOp::Mul, lhs: y, rhs: z }, span)?;
@@ -554,6 +562,22 @@ fn scale_to_float(m: &Module, e: &Expr) -> Option<(Handle<Expr>, Handle<Expr>, H
         return None;
     }
     scaled(lhs).map(|(k, y)| (k, y, rhs)).or_else(|| scaled(rhs).map(|(k, y)| (k, y, lhs)))
+}
+
+/// `(k · y) ⊕ z` or `z ⊕ (k · y)` in modulate mode, `k` an output scale and
+/// `y` a colour in [0, 1]: `(k, y, z)`.
+fn scaled_modulate(
+    m: &Module,
+    mode: CombineMode,
+    lhs: Handle<Expr>,
+    rhs: Handle<Expr>,
+) -> Option<(Handle<Expr>, Handle<Expr>, Handle<Expr>)> {
+    if mode != CombineMode::Modulate {
+        return None;
+    }
+    let (k, y, z) = scale_to_float(m, &Expr::Binary { op: BinaryOp::Mul, lhs, rhs })?;
+    let i = m.info(y).interval;
+    (i.lo >= 0.0 && i.hi <= 1.0).then_some((k, y, z))
 }
 
 /// `h` clamped to [0, 1] where its range leaves it (see [`combine_expr`]).
