@@ -234,3 +234,14 @@ fn scaled_modulate_clamps_after_the_scale_in_fixed9() {
         .unwrap();
     verdict(&p).unwrap();
 }
+
+/// `(¬σ C δπx) ? …` — lit where no shadow volume counted (Olano & Lastra
+/// Section 3.5) — is a stencil test `EQUAL 0`, as `σ C δπx ? …` is one of
+/// `NOTEQUAL 0`, so wgpu generates it too (it refused the negated form).
+#[test]
+fn negated_stencil_condition_runs_on_every_executor() {
+    let source = "vector N : normal;\nvector L : light(0);\nshader d : s → scalar = max(0, N·L);\nconst kd : rgb = (0.8, 0.6, 0.4);\nframebuffer C : rgba8, depth, stencil;\nC δπx ← kd * (d δ s x);\nC δπx ← (¬σ C δπx) ? (C δπx) ⊕[add] (0.2 * kd);\n";
+    let g = gpu();
+    let p = render_three(source, "wgsl", &scene("kilgard_torus.ron"), Precision::F32, g.as_ref()).unwrap();
+    verdict(&p).unwrap();
+}

@@ -836,13 +836,17 @@ pub fn whole_form(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result
         }
     }
     if let Expr::Select { cond, accept, reject: None } = m.exprs[form.value].clone() {
-        if Some(cond) == self_read(m, st, FbChannel::Stencil) {
-            form.stencil = Some(StencilState {
-                enabled: true,
-                func: crate::pipeline::CompareFunc::NotEqual,
-                reference: 0,
-                ..StencilState::DISABLED
-            });
+        // `σ C ? a` passes where the stencil is set (0 ≠ stored), `¬σ C ? a`
+        // — the shadow-volume idiom, lit where no volume counted — where it
+        // is clear (0 = stored): both a stencil test, for every executor.
+        let stencil = self_read(m, st, FbChannel::Stencil);
+        let negated = match m.exprs[cond] {
+            Expr::Unary { op: crate::ir::UnaryOp::Not, value } => Some(value) == stencil,
+            _ => false,
+        };
+        if stencil.is_some() && (Some(cond) == stencil || negated) {
+            let func = if negated { crate::pipeline::CompareFunc::Equal } else { crate::pipeline::CompareFunc::NotEqual };
+            form.stencil = Some(StencilState { enabled: true, func, reference: 0, ..StencilState::DISABLED });
         } else {
             form.condition = Some(cond);
         }
