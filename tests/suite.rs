@@ -50,6 +50,7 @@ mod roundtrip;
 mod specialize_lights;
 mod texture_shaders;
 mod three_way;
+mod three_way_generated;
 mod wgsl_agreement;
 mod wgsl_gpu;
 mod wgsl_snapshots;

@@ -91,6 +91,19 @@ pub fn render_three(
     Ok(Pictures { cpu, gpu, oracle, covered: picture.covered })
 }
 
+/// An RGBA8 target, as the declared `rgba8` framebuffer clamps and rounds
+/// every pass; a float one for a framebuffer declared `rgba16f`/`rgba32f`.
+fn gpu_target(m: &shadec::ir::Module) -> shadec::gpu::runner::Target {
+    use shadec::parser::ast::FramebufferChannel as F;
+    let float =
+        m.framebuffers.iter().any(|f| f.channels.iter().any(|c| matches!(c, F::Rgba16f | F::Rgba32f)));
+    if float {
+        shadec::gpu::runner::Target::float(W, H)
+    } else {
+        shadec::gpu::runner::Target::new(W, H)
+    }
+}
+
 /// How two pictures differ on the covered pixels.
 #[derive(Clone, Copy, Debug)]
 pub struct Difference {
@@ -243,5 +256,41 @@ fn negated_stencil_condition_runs_on_every_executor() {
     let source = "vector N : normal;\nvector L : light(0);\nshader d : s → scalar = max(0, N·L);\nconst kd : rgb = (0.8, 0.6, 0.4);\nframebuffer C : rgba8, depth, stencil;\nC δπx ← kd * (d δ s x);\nC δπx ← (¬σ C δπx) ? (C δπx) ⊕[add] (0.2 * kd);\n";
     let g = gpu();
     let p = render_three(source, "wgsl", &scene("kilgard_torus.ron"), Precision::F32, g.as_ref()).unwrap();
+    verdict(&p).unwrap();
+}
+
+#[test]
+#[ignore]
+fn probe_file() {
+    let source = std::fs::read_to_string(std::env::var("PROBE_SHD").unwrap()).unwrap();
+    let g = gpu();
+    for sc in ["kilgard_torus.ron", "adaptive_sphere_4lights.ron"] {
+        for (t, p) in
+            [("wgsl", Precision::F32), ("geforce3", Precision::Fixed9), ("geforce256", Precision::Fixed9)]
+        {
+            match render_three(&source, t, &scene(sc), p, g.as_ref()) {
+                Ok(pic) => eprintln!(
+                    "{sc} {t}: cpu/oracle {:?} cpu/gpu {:?} gpu/oracle {:?}",
+                    difference(&pic.cpu, &pic.oracle, &pic.covered),
+                    difference(&pic.cpu, pic.gpu.as_ref().unwrap(), &pic.covered),
+                    difference(pic.gpu.as_ref().unwrap(), &pic.oracle, &pic.covered)
+                ),
+                Err(e) => eprintln!("{sc} {t}: {e}"),
+            }
+        }
+    }
+}
+
+/// On a GeForce 3 `normalize` per fragment becomes a lookup in a signed
+/// (HILO) normalization cube map; its texels load the texture registers with
+/// their sign. wgpu's hardware-fidelity WGSL clamped every register input
+/// to [0, 1], losing the negative components (106/255 off on 57 % of the
+/// torus); found by the generated three-way comparison.
+#[test]
+fn signed_texels_keep_their_sign_in_wgpu_texture_registers() {
+    let source = "vector N : normal;\nvector L : light(0);\nshader d : s → scalar = max(0, normalize(N)·normalize(L));\ntexture A : 2d rgb8 bilinear repeat = image(\"missing-a.png\");\nframebuffer C : rgba8, depth;\nC δπx ← (d δ s x) * (A δu x);\n";
+    let g = gpu();
+    let p =
+        render_three(source, "geforce3", &scene("kilgard_torus.ron"), Precision::Fixed9, g.as_ref()).unwrap();
     verdict(&p).unwrap();
 }

@@ -95,6 +95,18 @@ pub fn render(
             coverage.clipped
         )));
     }
+    let light_vectors = module.vectors.iter().filter(|v| {
+        matches!(v.kind, Some(ast::VectorKind::Light | ast::VectorKind::Half | ast::VectorKind::Intensity))
+    });
+    if scene.lights.len() > 1
+        && light_vectors.clone().count() > 0
+        && light_vectors.clone().all(|v| v.index.unwrap_or(0) == 0)
+    {
+        // Such a program means one term per scene light (docs/pass-plan.md,
+        // "per-light passes"): a rewrite of the planner's this reference
+        // does not restate.
+        return Err(Unsupported::new("a program written for light 0 on a scene of several lights"));
+    }
     let textures = textures::bind(module, program, scene, assets)?;
     let mut ev = Evaluator {
         m: module,

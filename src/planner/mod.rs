@@ -845,7 +845,11 @@ pub fn whole_form(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result
             _ => false,
         };
         if stencil.is_some() && (Some(cond) == stencil || negated) {
-            let func = if negated { crate::pipeline::CompareFunc::Equal } else { crate::pipeline::CompareFunc::NotEqual };
+            let func = if negated {
+                crate::pipeline::CompareFunc::Equal
+            } else {
+                crate::pipeline::CompareFunc::NotEqual
+            };
             form.stencil = Some(StencilState { enabled: true, func, reference: 0, ..StencilState::DISABLED });
         } else {
             form.condition = Some(cond);

@@ -1166,11 +1166,13 @@ impl<'a> Gen<'a> {
             }
         };
         let mut args = Vec::new();
-        for r in &registers {
+        for (k, r) in registers.iter().enumerate() {
             args.push(match r {
                 Some(h) => {
                     let v = as_rgba(self, b, *h);
-                    register_input(b, v)
+                    // Texture registers 0-3 keep a signed texel's sign (a HILO
+                    // or signed8 map); primary and secondary are colours.
+                    register_input(b, v, if k < 4 { -1.0 } else { 0.0 })
                 }
                 None => b.plain(Expression::ZeroValue(ivec4)),
             });
@@ -2590,10 +2592,12 @@ fn texel_uv(b: &mut Body, q: NH, vec4: naga::Handle<Type>) -> NH {
     b.emit(Expression::Compose { ty: vec4, components: vec![u, v, zero, zero] })
 }
 
-/// round(clamp(v, 0, 1) · 255) as integers: the 8-bit register input of
-/// the combiners (seeds/003 Table 2).
-fn register_input(b: &mut Body, v: NH) -> NH {
-    let (zero, one, k255, half) = (b.lit(0.0), b.lit(1.0), b.lit(255.0), b.lit(0.5));
+/// round(clamp(v, lo, 1) · 255) as integers: the register input of the
+/// combiners (seeds/003 Table 2) — `lo` = −1 for a texture register, which
+/// holds a signed texel's sign, 0 for the colour registers — as the CPU's
+/// fixed9 loads them.
+fn register_input(b: &mut Body, v: NH, lo: f32) -> NH {
+    let (zero, one, k255, half) = (b.lit(lo), b.lit(1.0), b.lit(255.0), b.lit(0.5));
     let (zero, one) = (
         b.emit(Expression::Splat { size: VectorSize::Quad, value: zero }),
         b.emit(Expression::Splat { size: VectorSize::Quad, value: one }),
