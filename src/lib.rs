@@ -1,6 +1,6 @@
-//! shadec — a compiler for the shading-pipeline grammar of seeds/001
+//! shadec — a compiler for the shading-pipeline grammar of Pipeline Grammar
 //! ("A graphics pipeline grammar"): `.shd` text → AST → IR → pass plans for
-//! register combiners (seeds/003) or WGSL.
+//! register combiners (Kilgard 2000) or WGSL.
 //!
 //! See `ARCHITECTURE.md` for the flow and the invariants.
 
@@ -33,7 +33,7 @@ pub mod span;
 pub mod textures;
 
 /// Compiles `source` for `profile` into a pass plan — parse, check, lower,
-/// specialize, plan; never touches a GPU (issue 3 part 4). The plan
+/// specialize, plan; never touches a GPU. The plan
 /// serializes to RON and JSON (`PassPlan::to_ron`, `to_json`); for the IR
 /// the plan's value ids refer to, and for scenes, use [`driver::compile`].
 pub fn compile(source: &str, profile: &profile::Profile) -> Result<pipeline::PassPlan, Diagnostics> {

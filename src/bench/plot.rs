@@ -63,7 +63,7 @@ pub fn group_fronts(measured: &[Measured]) -> Vec<usize> {
 }
 
 /// The time a variant's error is set against: the CPU renderer's measured
-/// frame, or the frame its target's cost model predicts (issue 19).
+/// frame, or the frame its target's cost model predicts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TimeAxis {
     Cpu,
@@ -95,7 +95,7 @@ impl TimeAxis {
 }
 
 /// The Pareto front of each group on `axis` (with the predicted time: of
-/// each group and target, issue 18 item 3): the variants no other of the
+/// each group and target): the variants no other of the
 /// same set beats in both time and RMSE. Exact renders are references, not
 /// approximations, and stay off.
 pub fn fronts(measured: &[Measured], axis: TimeAxis) -> Vec<usize> {
@@ -130,7 +130,7 @@ pub fn speed_vs_error(measured: &[Measured], path: &Path) -> Result<(), BenchErr
     error_against(measured, TimeAxis::Cpu, path)
 }
 
-/// Error against the predicted frame on each variant's target (issue 19),
+/// Error against the predicted frame on each variant's target,
 /// the front of each group and target joined: `predicted_vs_error.png`.
 pub fn predicted_vs_error(measured: &[Measured], path: &Path) -> Result<(), BenchError> {
     let predicted: Vec<Measured> = measured.iter().filter(|m| m.predicted_ms.is_some()).cloned().collect();
@@ -227,8 +227,7 @@ fn error_against(measured: &[Measured], axis: TimeAxis, path: &Path) -> Result<(
     save(&buf, path)
 }
 
-/// One program's plans on each target (`bench --program`, issue 18 item
-/// 3): largest error against the predicted frame, log-log, one colour per
+/// One program's plans on each target (`bench --program`): largest error against the predicted frame, log-log, one colour per
 /// target, each target's front joined and its points labelled with their
 /// rules. A target without a cost model (wgsl) is in the table only —
 /// unless no target has one, when passes stand in for time.

@@ -33,7 +33,7 @@ pub enum Command {
     /// Print a program in canonical form (Unicode, or ASCII with --ascii).
     Fmt(FmtArgs),
     /// Run a register-combiner setup (`!!RC1.0` or RON) on images, as the
-    /// hardware would (seeds/003 Section 4.2, Appendix B).
+    /// hardware would (Kilgard 2000, Section 4.2, Appendix B).
     Emulate(super::emulate::EmulateArgs),
     /// Render a scene with a program's pass plan on the CPU, in `fixed9`
     /// (what the old hardware showed), `f32` or `exact`; print the pass plan,
@@ -45,7 +45,7 @@ pub enum Command {
     Render(super::render::RenderArgs),
     /// Measure speed against error: every technique variant of the papers
     /// on its scene (time per frame, error against the exact reference), the
-    /// adaptive-shading table of seeds/004 and what specialization removes;
+    /// adaptive-shading table of Adaptive Sample Shading and what specialization removes;
     /// writes report.md, speed_vs_error.png, adaptive.png and diff/*.png.
     /// With --program: that program's Pareto front per target (front.md,
     /// front.png).

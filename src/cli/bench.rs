@@ -1,6 +1,5 @@
 //! `shadec bench [--out-dir bench] [--size WxH] [--runs N] [--quick]
-//! [--only PATTERN]`: the speed-against-error report (issue 6 part 5,
-//! issue 7 part 4); the work is `shadec::bench`'s.
+//! [--only PATTERN]`: the speed-against-error report; the work is `shadec::bench`'s.
 
 use std::path::PathBuf;
 use std::process::ExitCode;

@@ -1,5 +1,5 @@
 //! `shadec emulate`: run a register-combiner setup (`!!RC1.0` or RON) on
-//! images with the CPU emulator (seeds/003 Section 4.2), as a user porting
+//! images with the CPU emulator (Kilgard 2000, Section 4.2), as a user porting
 //! legacy content would.
 //!
 //! Exit codes: 0 ok, 1 the config is malformed or invalid, 2 usage or I/O
@@ -16,7 +16,7 @@ use shadec::numerics::Precision;
 
 /// The combiner limits of a profile (built-in name or `.ron` file): a
 /// setup is checked against the machine the user names, never a copy of
-/// its numbers (issue 17: limits come only from profiles).
+/// its numbers (limits come only from profiles).
 pub(super) fn profile_limits(name: &str) -> Result<CombinerLimits, Failure> {
     let profile = shadec::profile::Profile::resolve(name).map_err(|e| Failure::Io(e.to_string()))?;
     profile.combiner_limits().ok_or_else(|| {

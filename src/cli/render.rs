@@ -48,7 +48,7 @@ pub struct RenderArgs {
     /// Where to write the picture (PNG, written atomically).
     #[arg(long, short, value_name = "IMG.png", default_value = "shadec-out.png")]
     pub out: PathBuf,
-    /// Adaptive sample shading (seeds/004 Section 2.1): shade exactly every
+    /// Adaptive sample shading (Adaptive Sample Shading, Section 2.1): shade exactly every
     /// SPACING pixels (default 16) and at edges, subdivide where neighbouring
     /// samples differ by more than THRESHOLD (a fraction, `0.085`, or a
     /// percentage, `8.5%`), interpolate the rest. Reports the pixels shaded
@@ -395,7 +395,7 @@ fn meaning_frame(
     frame.map_err(|e| failed(&meaning, file, e))
 }
 
-/// `--backend wgpu`: the plan's WGSL on the adapter wgpu finds (issue 22),
+/// `--backend wgpu`: the plan's WGSL on the adapter wgpu finds,
 /// in f32 or, with `--precision fixed9`, the register combiners' integer
 /// model; the same error report as the CPU's. With `--adaptive`, each pass
 /// into the picture as a sparse pass and an interpolating full pass
@@ -529,7 +529,7 @@ fn render_on_wgpu(
 }
 
 /// `; predicted on geforce3: 2.356 ms` where the target has a cost model
-/// (issue 19), at the scene's resolution.
+///, at the scene's resolution.
 fn predicted(plan: &shadec::pipeline::PassPlan) -> String {
     plan.predicted.as_ref().map_or(String::new(), |p| {
         format!("; predicted on {}: {:.3} ms at the scene's resolution", plan.target, p.total_us / 1000.0)

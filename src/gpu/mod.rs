@@ -9,7 +9,7 @@
 //!   as the CPU renderer (`scene::bind`), rendered textures included;
 //! - `timer`: a frame's GPU time from timestamp queries;
 //! - `adaptive`: adaptive sample shading as a sparse pass and an
-//!   interpolating full pass (seeds/004 Section 2.1).
+//!   interpolating full pass (Adaptive Sample Shading, Section 2.1).
 
 pub mod adaptive;
 pub mod runner;

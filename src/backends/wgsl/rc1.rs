@@ -151,7 +151,7 @@ pub fn combiners_function(config: &CombinerConfig) -> String {
     let w = &mut s;
     writeln!(
         w,
-        "\n// The register combiners (seeds/003 Section 4.2) in fixed9: {} general combiner(s).",
+        "\n// The register combiners (Kilgard 2000, Section 4.2) in fixed9: {} general combiner(s).",
         config.general.len()
     )
     .unwrap();
