@@ -18,7 +18,8 @@ pub enum Precision {
     /// 32-bit floats: what a programmable GPU computes.
     F32,
     /// The register combiners: 8-bit textures and framebuffer, 9-bit signed
-    /// registers with their clamps ([`fixed9`]), as the GeForce hardware did.
+    /// registers with their clamps (the `fixed9` module), as the GeForce
+    /// hardware did.
     #[value(alias = "hardware")]
     Fixed9,
 }

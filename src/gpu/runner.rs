@@ -67,6 +67,7 @@ impl Gpu {
     /// Picks an adapter (honours `WGPU_BACKEND`, `WGPU_ADAPTER_NAME`, …) and
     /// creates a device with the adapter's own limits.
     pub fn new() -> Result<Gpu, GpuError> {
+        super::runtime_dir::ensure();
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let options = wgpu::RequestAdapterOptions { compatible_surface: None, ..Default::default() };
         let adapter = pollster::block_on(instance.request_adapter(&options))
