@@ -26,7 +26,8 @@ fn writes_with_each_spelling(dir: &Path, args: &[&str], spellings: &[&str], what
         let r = shadec_in(dir, &all);
         assert_eq!(r.code, 0, "{all:?}\n{}\n{}", r.stdout, r.stderr);
         let written = if what == "front.md" { out.join("front.md") } else { out.clone() };
-        let meta = std::fs::metadata(&written).unwrap_or_else(|e| panic!("{all:?} wrote no {}: {e}", written.display()));
+        let meta = std::fs::metadata(&written)
+            .unwrap_or_else(|e| panic!("{all:?} wrote no {}: {e}", written.display()));
         assert!(meta.len() > 0, "{all:?}: {} is empty", written.display());
     }
 }
@@ -49,7 +50,12 @@ fn every_command_that_writes_takes_dash_o_and_dash_dash_output() {
     // The older spellings still work.
     writes_with_each_spelling(d, &["render", "--size", "24x16"], &["--out"], "file");
     writes_with_each_spelling(d, &["emulate", &rc, "--tex0", &tex, "--tex1", &tex], &["--out"], "file");
-    writes_with_each_spelling(d, &["bench", "--program", &shd, "--target", "wgsl"], &["--out-dir"], "front.md");
+    writes_with_each_spelling(
+        d,
+        &["bench", "--program", &shd, "--target", "wgsl"],
+        &["--out-dir"],
+        "front.md",
+    );
 }
 
 /// `check -o` writes what standard output would show; diagnostics stay on
@@ -75,7 +81,9 @@ fn check_output_holds_the_report() {
 /// convention.
 #[test]
 fn old_spellings_are_hidden_from_help() {
-    for (command, old) in [("render", "--out "), ("emulate", "--out "), ("bench", "--out-dir"), ("compile", "--format ")] {
+    for (command, old) in
+        [("render", "--out "), ("emulate", "--out "), ("bench", "--out-dir"), ("compile", "--format ")]
+    {
         let r = shadec(&[command, "--help"]);
         assert_eq!(r.code, 0);
         assert!(r.stdout.contains("-o, --output"), "{command}: {}", r.stdout);

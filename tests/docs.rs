@@ -129,9 +129,9 @@ fn internal_references(what: &str, text: &str) -> Vec<String> {
     let mut found = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let lower = line.to_lowercase();
-        let issue = lower.match_indices("issue ").any(|(at, m)| {
-            lower[at + m.len()..].chars().next().is_some_and(|c| c.is_ascii_digit())
-        });
+        let issue = lower
+            .match_indices("issue ")
+            .any(|(at, m)| lower[at + m.len()..].chars().next().is_some_and(|c| c.is_ascii_digit()));
         if lower.contains("seeds/") || issue {
             found.push(format!("{what}:{}: {line}", i + 1));
         }
@@ -162,7 +162,12 @@ fn user_facing_text_cites_papers_not_seed_files_or_issues() {
     for seed in ["000_", "001_", "002_", "003_", "004_"] {
         assert!(refs.contains(&format!("seeds/{seed}")), "docs/references.md does not list seeds/{seed}");
     }
-    assert!(found.is_empty(), "{} user-facing lines cite seed files or issues:\n{}", found.len(), found.join("\n"));
+    assert!(
+        found.is_empty(),
+        "{} user-facing lines cite seed files or issues:\n{}",
+        found.len(),
+        found.join("\n")
+    );
 }
 
 /// Every relative link and every `docs/…`/`examples/…`/`scenes/…` path the
@@ -211,7 +216,11 @@ fn the_readme_opens_with_two_commands_install_and_tutorial() {
     let status = &status[..status[3..].find("\n## ").unwrap_or(status.len() - 3) + 3];
     for row in status.lines().filter(|l| l.starts_with('|')) {
         for cell in row.split('|') {
-            assert!(cell.chars().count() <= 200, "a status cell of {} characters: {cell}", cell.chars().count());
+            assert!(
+                cell.chars().count() <= 200,
+                "a status cell of {} characters: {cell}",
+                cell.chars().count()
+            );
         }
     }
 }
@@ -236,7 +245,11 @@ fn the_readme_tutorial_runs() {
             assert_eq!(r.code, 0, "`{line}` failed:\n{}\n{}", r.stdout, r.stderr);
             if let Some(i) = args.iter().position(|a| *a == "-o") {
                 let out = dir.path().join(args[i + 1]);
-                assert!(std::fs::metadata(&out).is_ok_and(|m| m.len() > 0), "`{line}` wrote no {}", args[i + 1]);
+                assert!(
+                    std::fs::metadata(&out).is_ok_and(|m| m.len() > 0),
+                    "`{line}` wrote no {}",
+                    args[i + 1]
+                );
             }
             ran += 1;
         }
@@ -245,7 +258,10 @@ fn the_readme_tutorial_runs() {
     // What the text says the commands show.
     let r = crate::common::shadec_in(dir.path(), &["check", "--target", "geforce256", "hello.shd"]);
     assert!(r.stderr.contains("needs 3 texture units; it has 2"), "{}", r.stderr);
-    let r = crate::common::shadec_in(dir.path(), &["render", "--shader", "hello.shd", "--target", "geforce256", "-o", "x.png"]);
+    let r = crate::common::shadec_in(
+        dir.path(),
+        &["render", "--shader", "hello.shd", "--target", "geforce256", "-o", "x.png"],
+    );
     assert!(r.stdout.contains("4 passes on geforce256"), "{}", r.stdout);
     let typo = program.replace("max(0, Nn·Ln)", "max(0, Nn·Lm)");
     std::fs::write(dir.path().join("typo.shd"), typo).unwrap();

@@ -502,14 +502,22 @@ mod tests {
         let corners = place_labels(&anchors, &sizes, area);
         let boxes: Vec<(i32, i32, i32, i32)> =
             corners.iter().zip(&sizes).map(|(&(x, y), &(w, h))| (x, y, x + w, y + h)).collect();
-        let meets = |a: (i32, i32, i32, i32), b: (i32, i32, i32, i32)| a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3;
+        let meets = |a: (i32, i32, i32, i32), b: (i32, i32, i32, i32)| {
+            a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
+        };
         for (i, &a) in boxes.iter().enumerate() {
-            assert!(a.0 >= area.0 && a.1 >= area.1 && a.2 <= area.2 && a.3 <= area.3, "label {i} leaves the area");
+            assert!(
+                a.0 >= area.0 && a.1 >= area.1 && a.2 <= area.2 && a.3 <= area.3,
+                "label {i} leaves the area"
+            );
             for (j, &b) in boxes.iter().enumerate().skip(i + 1) {
                 assert!(!meets(a, b), "labels {i} and {j} overlap: {a:?} {b:?}");
             }
             for &(x, y) in &anchors {
-                assert!(!meets(a, (x - MARKER, y - MARKER, x + MARKER + 1, y + MARKER + 1)), "label {i} covers a point");
+                assert!(
+                    !meets(a, (x - MARKER, y - MARKER, x + MARKER + 1, y + MARKER + 1)),
+                    "label {i} covers a point"
+                );
             }
         }
     }

@@ -178,8 +178,7 @@ impl Report {
         }
         md += &self.predicted_section();
         if !self.removed.is_empty() {
-            let _ =
-                writeln!(md, "\n## Removed work (scene-driven specialization)\n\n{}", self.removed);
+            let _ = writeln!(md, "\n## Removed work (scene-driven specialization)\n\n{}", self.removed);
         }
         md
     }

@@ -164,9 +164,8 @@ pub fn run(args: &BenchArgs) -> ExitCode {
         args.output.display()
     );
     let progress = Progress::counting("variants");
-    let result = shadec::bench::run(&options, &args.output, &mut |done, total, name| {
-        progress.tick(name, done, total)
-    });
+    let result =
+        shadec::bench::run(&options, &args.output, &mut |done, total, name| progress.tick(name, done, total));
     progress.finish();
     match result {
         Ok(report) => {

@@ -47,7 +47,10 @@ pub fn run(args: &FmtArgs) -> ExitCode {
     }
     if args.check && unformatted > 0 {
         let s = if unformatted == 1 { "" } else { "s" };
-        eprintln!("{unformatted} file{s} not in canonical form: run `shadec fmt -w` on {}", if unformatted == 1 { "it" } else { "them" });
+        eprintln!(
+            "{unformatted} file{s} not in canonical form: run `shadec fmt -w` on {}",
+            if unformatted == 1 { "it" } else { "them" }
+        );
     }
     ExitCode::from(worst)
 }

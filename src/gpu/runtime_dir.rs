@@ -63,7 +63,8 @@ fn valid(path: &Path, uid: u32) -> bool {
     use std::os::unix::fs::{MetadataExt as _, PermissionsExt as _};
     path.is_absolute()
         && owned_dir(path, uid)
-        && std::fs::symlink_metadata(path).is_ok_and(|m| m.permissions().mode() & 0o777 == 0o700 && m.uid() == uid)
+        && std::fs::symlink_metadata(path)
+            .is_ok_and(|m| m.permissions().mode() & 0o777 == 0o700 && m.uid() == uid)
 }
 
 #[cfg(unix)]
