@@ -271,7 +271,7 @@ pub(super) fn load_config(path: &Path, limits: &CombinerLimits) -> Result<Combin
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ron")) {
         let config = CombinerConfig::from_ron(&text).map_err(|e| {
             Failure::Config(format!(
-                "{name}:{}:{}: error[ron]: {}\n  = help: see tests/data/combiners/*.ron for the CombinerConfig layout\n",
+                "{name}:{}:{}: error[ron]: {}\n  = help: a CombinerConfig in RON is laid out as docs/combiners.md, \"Translated shaders\", shows (or write the setup as `!!RC1.0` text)\n",
                 e.span.start.line, e.span.start.col, e.code
             ))
         })?;

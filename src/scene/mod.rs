@@ -6,6 +6,9 @@
 //! (Kilgard 2000, Appendices D-F, Heidrich & Seidel 1999, Sections 3.1 and 4.1-4.2, GeForce3 Phong
 //! Section 5.2; see [`crate::textures::generators`]).
 //!
+//! The format, field by field, with a scene to start from, is the
+//! repository's `docs/scenes.md`.
+//!
 //! [`Scene::load`] parses and checks a scene (RON errors carry the path and
 //! line:col; references to unknown materials/textures and missing files are
 //! named); [`Scene::build`] then creates meshes and textures.
@@ -35,7 +38,7 @@ use crate::textures::{
 pub enum SceneError {
     #[error("{0}")]
     Io(#[from] crate::io::IoError),
-    #[error("{path}:{line}:{col}: {message}\n  help: check the RON syntax and field names against scenes/bump_torus.ron")]
+    #[error("{path}:{line}:{col}: {message}\n  help: check the RON syntax and the field names against docs/scenes.md")]
     Syntax { path: String, line: usize, col: usize, message: String },
     #[error("{path}: {what} '{name}' is not defined; {help}")]
     Unknown { path: String, what: &'static str, name: String, help: String },
