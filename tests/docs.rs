@@ -299,3 +299,52 @@ fn the_scene_in_docs_scenes_renders() {
     let lit = img.pixels().filter(|p| p.0.iter().any(|&c| c > 60)).count();
     assert!(lit > 80 * 60 / 10, "{lit} lit pixels");
 }
+
+/// The same for what users read beyond the documents: rustdoc (`///`,
+/// `//!`) and every line of code in `src/` (diagnostics, help, emitted
+/// headers are string literals there), and the files users open — the
+/// examples, the scenes and the profiles. Plain `//` comments in `src/` are
+/// for the project's developers and may cite its files.
+#[test]
+fn rustdoc_messages_and_examples_cite_papers_not_seed_files_or_issues() {
+    fn walk(dir: &std::path::Path, out: &mut Vec<std::path::PathBuf>) {
+        for entry in std::fs::read_dir(dir).unwrap() {
+            let path = entry.unwrap().path();
+            if path.is_dir() {
+                walk(&path, out);
+            } else {
+                out.push(path);
+            }
+        }
+    }
+    let mut files = Vec::new();
+    for dir in ["src", "examples", "scenes", "profiles"] {
+        walk(&std::path::Path::new(ROOT).join(dir), &mut files);
+    }
+    files.sort();
+    let mut found = Vec::new();
+    for path in files {
+        let ext = path.extension().and_then(|e| e.to_str()).unwrap_or("");
+        if !["rs", "shd", "ron", "md"].contains(&ext) {
+            continue;
+        }
+        let name = path.strip_prefix(ROOT).unwrap().display().to_string();
+        let text = std::fs::read_to_string(&path).unwrap();
+        let user_facing: String = text
+            .lines()
+            .map(|line| {
+                let t = line.trim_start();
+                let developer_comment =
+                    ext == "rs" && t.starts_with("//") && !t.starts_with("///") && !t.starts_with("//!");
+                if developer_comment {
+                    ""
+                } else {
+                    line
+                }
+            })
+            .collect::<Vec<_>>()
+            .join("\n");
+        found.extend(internal_references(&name, &user_facing));
+    }
+    assert!(found.is_empty(), "{} lines cite seed files or issues:\n{}", found.len(), found.join("\n"));
+}
