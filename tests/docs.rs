@@ -127,11 +127,18 @@ fn user_docs() -> Vec<(String, String)> {
 /// `what:line: text` lines.
 fn internal_references(what: &str, text: &str) -> Vec<String> {
     let mut found = Vec::new();
-    for (i, line) in text.lines().enumerate() {
+    let lines: Vec<&str> = text.lines().collect();
+    for (i, line) in lines.iter().enumerate() {
         let lower = line.to_lowercase();
         let issue = lower
             .match_indices("issue ")
             .any(|(at, m)| lower[at + m.len()..].chars().next().is_some_and(|c| c.is_ascii_digit()));
+        // "issue" at the end of a line, its number at the start of the next.
+        let next =
+            lines.get(i + 1).map_or("", |l| l.trim_start().trim_start_matches(['/', '!', '#', '-', ' ']));
+        let split = (lower.ends_with(" issue") || lower.ends_with("(issue"))
+            && next.starts_with(|c: char| c.is_ascii_digit());
+        let issue = issue || split;
         if lower.contains("seeds/") || issue {
             found.push(format!("{what}:{}: {line}", i + 1));
         }

@@ -190,8 +190,7 @@ impl Module {
     /// Every node reachable from `roots`, in arena (topological) order.
     ///
     /// The visited set is a bitset over the arena kept per thread and
-    /// cleared after each call, and the result is sorted at the end (issue
-    /// 22: this runs for every value the planner measures; a `BTreeSet` per
+    /// cleared after each call, and the result is sorted at the end (this runs for every value the planner measures; a `BTreeSet` per
     /// call was 6 % of a 100 000-operation plan).
     pub fn reachable(&self, roots: &[Handle<Expr>]) -> Vec<Handle<Expr>> {
         thread_local! {
@@ -258,8 +257,8 @@ pub struct Texture {
     /// compile time, which the target only samples — its texel
     /// pass is never the target's to run.
     pub baked: bool,
-    /// For a texture the lowering added (a normalization cube map, issue
-    /// 18): its declaration as a user would write it, so that executors
+    /// For a texture the lowering added (a normalization cube map):
+    /// its declaration as a user would write it, so that executors
     /// bind it as they bind a declared one (`scene::bind::lowered_decls`).
     pub declaration: Option<String>,
     /// For a texture the lowering re-stores (rule

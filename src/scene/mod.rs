@@ -508,8 +508,7 @@ mod tests {
         assert!(Scene::parse("(((((", Path::new("s.ron")).is_err());
     }
 
-    /// Generated textures are bounded before they are built (item
-    /// 8): a cube face by MAX_CUBE_FACE, a 2-D table side by MAX_TABLE_SIDE.
+    /// Generated textures are bounded before they are built: a cube face by MAX_CUBE_FACE, a 2-D table side by MAX_TABLE_SIDE.
     #[test]
     fn generator_sizes_are_bounded() {
         let text = example().replacen("NormalizeCube(size: 32", "NormalizeCube(size: 100000", 1);

@@ -94,8 +94,12 @@ pub fn translate(config: &CombinerConfig, title: &str) -> Result<String, String>
         "// The register combiners in fixed9 (8 bits + sign), as `shadec emulate --precision fixed9`."
     )
     .unwrap();
-    writeln!(w, "// {} general combiner(s); bindings: docs/combiners.md, \"Translated shaders\".", config.general.len())
-        .unwrap();
+    writeln!(
+        w,
+        "// {} general combiner(s); bindings: docs/combiners.md, \"Translated shaders\".",
+        config.general.len()
+    )
+    .unwrap();
     writeln!(w, "\nstruct Uniforms {{\n    constant0: vec4<f32>,\n    constant1: vec4<f32>,\n    fog: vec4<f32>,\n}}\n").unwrap();
     writeln!(w, "@group(0) @binding(0) var<uniform> uniforms: Uniforms;").unwrap();
     let units = ["texture0", "texture1", "texture2", "texture3", "primary", "secondary"];
