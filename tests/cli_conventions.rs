@@ -146,6 +146,9 @@ fn fmt_check_and_write() {
     let r = shadec_in(d, &["fmt", "--check", "good.shd", "messy.shd"]);
     assert_eq!(r.code, 1, "{}", r.stderr);
     assert!(r.stderr.contains(&format!("messy.shd:{first}: not in canonical form")), "{}", r.stderr);
+    let (found, wanted) =
+        (messy.lines().nth(first - 1).unwrap(), canonical.stdout.lines().nth(first - 1).unwrap());
+    assert!(r.stderr.contains(&format!("  found: {found}\n  canonical: {wanted}\n")), "{}", r.stderr);
     assert!(!r.stderr.contains("good.shd"), "{}", r.stderr);
     assert_eq!(std::fs::read_to_string(d.join("messy.shd")).unwrap(), messy, "--check writes nothing");
 

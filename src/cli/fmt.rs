@@ -75,7 +75,10 @@ fn one(args: &FmtArgs, path: &Path, style: print::Style) -> Outcome {
         return match first_difference(&file.text, &out) {
             None => Outcome::Done,
             Some(line) => {
+                let at = |text: &str| text.lines().nth(line - 1).unwrap_or("(end of file)").to_string();
                 eprintln!("{}:{line}: not in canonical form (first difference on this line)", path.display());
+                eprintln!("  found: {}", at(&file.text));
+                eprintln!("  canonical: {}", at(&out));
                 Outcome::Unformatted
             }
         };
