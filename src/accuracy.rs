@@ -1,4 +1,4 @@
-//! `--max-error E` on a scene (issue 18 item 2): among the lowerings a
+//! `--max-error E` on a scene: among the lowerings a
 //! program has for a target, the one the cost model predicts fastest whose
 //! render stays within E of the program's meaning **on that scene** — so
 //! that an approximation without a stated bound (per-vertex shading,
@@ -84,7 +84,7 @@ pub fn choose(
 
 /// Without `--max-error`, on a scene: the plan whose render is closest to
 /// the program's meaning there (RMSE, then the largest channel
-/// difference, then the predicted frame) — issue 18's "the most accurate
+/// difference, then the predicted frame) — "the most accurate
 /// plan that fits", measured on the picture rather than assumed from the
 /// rules' order (on the Kilgard torus, `fragment_lighting.shd`'s per-vertex
 /// shading on geforce256 beats the 8-bit cube maps raised to the 32nd
@@ -141,7 +141,7 @@ fn with_measured(
 /// when it plans, then each choice of lowering rules that plans (one per
 /// distinct set of rules) — with its error against the program's meaning
 /// on the scene and its predicted frame: the points of the Pareto front
-/// of passes and error (issue 18 item 3, `shadec bench --program`).
+/// of passes and error (`shadec bench --program`).
 /// `within` is left `true`; `lights`: the lights the meaning shades.
 pub fn measure(
     module: &Module,

@@ -328,7 +328,7 @@ pub struct LspRelated {
 
 /// Edit distance for "did you mean" suggestions: insertions, deletions,
 /// substitutions and transpositions of neighbours each cost 1 (optimal
-/// string alignment), so `Ligth` is one edit from `Light` (issue 21).
+/// string alignment), so `Ligth` is one edit from `Light`.
 pub fn edit_distance(a: &str, b: &str) -> usize {
     let (a, b): (Vec<char>, Vec<char>) = (a.chars().collect(), b.chars().collect());
     let mut d = vec![vec![0usize; b.len() + 1]; a.len() + 1];

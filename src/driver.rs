@@ -1,4 +1,4 @@
-//! The one way from a program's text to a pass plan (issue 17): parse,
+//! The one way from a program's text to a pass plan: parse,
 //! check names, lower to the IR, plan for a target profile. The CLI,
 //! `bench`, the tests and the language server all compile through here, so
 //! a program means the same thing to each of them.
@@ -39,11 +39,11 @@ pub struct PlanOptions<'a> {
     pub search: Search,
     /// Plan for this scene (`compile --scene`, `render`); `None`: for any scene.
     pub scene: Option<ForScene<'a>>,
-    /// What the target lacks may be lowered into approximations (issue 18).
+    /// What the target lacks may be lowered into approximations.
     pub lowering: crate::lowering::LowerOptions,
 }
 
-/// A plan made for one scene (issue 7): one pass per light for a program
+/// A plan made for one scene: one pass per light for a program
 /// written for light 0, then the scene's uniforms folded and lights
 /// culled per object as asked.
 #[derive(Clone, Copy)]
@@ -173,8 +173,8 @@ pub fn plan(
     Ok(planned)
 }
 
-/// What a plan's time is predicted on (issue 19): the scene planned for, or
-/// seeds/000 Section 5.4's screen-filling mesh.
+/// What a plan's time is predicted on: the scene planned for, or
+/// GeForce3 Phong, Section 5.4's screen-filling mesh.
 pub fn workload(scene: Option<&ForScene>) -> Workload {
     match scene {
         Some(s) => {
@@ -247,7 +247,7 @@ pub fn plan_pair(
 }
 
 /// What scene-driven specialization removes from `source` on `scene` for
-/// `profile` (issue 7 parts 1-2), lights culled at
+/// `profile`, lights culled at
 /// [`planner::DEFAULT_CULL_THRESHOLD`].
 pub fn removal_report(source: &str, profile: &Profile, scene: &Scene) -> Result<RemovalReport, Diagnostics> {
     let (before, after) = plan_pair(source, profile, scene, planner::DEFAULT_CULL_THRESHOLD)?;

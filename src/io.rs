@@ -36,7 +36,7 @@ pub fn text_from_bytes(path: &Path, bytes: Vec<u8>) -> Result<String, IoError> {
 /// Writes `bytes` to `path` atomically: a temporary file beside it, then
 /// rename. The file gets the permissions a plain create would (0666 less
 /// the umask; a file it replaces keeps its own), not the temporary file's
-/// owner-only 0600 (issue 17).
+/// owner-only 0600.
 pub fn write_atomic(path: &Path, bytes: &[u8]) -> Result<(), IoError> {
     let err = |source| IoError::Write { path: path.display().to_string(), source };
     let dir = match path.parent() {

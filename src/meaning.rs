@@ -1,7 +1,7 @@
 //! The program's own meaning: the reference every plan is measured against
-//! (issue 16; DESIGN.md, "Reference, speed and error").
+//! (DESIGN.md, "Reference, speed and error").
 //!
-//! seeds/001 defines a program as its statements run in order, each one
+//! Pipeline Grammar defines a program as its statements run in order, each one
 //! table assignment `T i ← v` over every sample of its index (Section 3):
 //! the value `v` is computed in full and stored, and a read of the target
 //! (`C δπx` on the right, (9)) is the target's value before the statement.
@@ -67,7 +67,7 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
             .then(|| drawn.iter().rev().find(|(t, _)| same_target(t, &st.table)).map(|(_, h)| *h))
             .flatten();
         if at_pixel && reused.is_none() {
-            errors.push(Diagnostic::error("no-projected-vertices", "this statement at the pixel interpolates per-vertex values, but no earlier statement projects the mesh", st.span, "here").with_help("write a statement `C δπx ← …` into this framebuffer first (seeds/001 (10))"));
+            errors.push(Diagnostic::error("no-projected-vertices", "this statement at the pixel interpolates per-vertex values, but no earlier statement projects the mesh", st.span, "here").with_help("write a statement `C δπx ← …` into this framebuffer first (Pipeline Grammar, eq. (10))"));
             continue;
         }
         let position = reused.or(form.drawn_at).unwrap_or(st.index);

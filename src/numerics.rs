@@ -1,8 +1,8 @@
 //! The arithmetic a plan is run in, and the rounding the executors share
-//! (issue 17: one precision model). Every executor — the CPU renderer, the
+//! (one precision model). Every executor — the CPU renderer, the
 //! combiner emulator, the WGSL it is translated to, the evaluator — takes one
 //! [`Precision`], and where two of them round they call the same functions
-//! here, so the register combiners' 8-bit + sign model (seeds/003 Section
+//! here, so the register combiners' 8-bit + sign model (Kilgard 2000, Section
 //! 4.2) is written once.
 
 /// How a plan's arithmetic is modelled.
@@ -18,7 +18,8 @@ pub enum Precision {
     /// 32-bit floats: what a programmable GPU computes.
     F32,
     /// The register combiners: 8-bit textures and framebuffer, 9-bit signed
-    /// registers with their clamps ([`fixed9`]), as the GeForce hardware did.
+    /// registers with their clamps (the `fixed9` module), as the GeForce
+    /// hardware did.
     #[value(alias = "hardware")]
     Fixed9,
 }
@@ -65,7 +66,7 @@ pub fn fixed9_with(v: f64, bias: f64) -> f64 {
 
 /// A constant or uniform subexpression in the combiner precision model:
 /// the compiler folds it before the combiners run, into an 8-bit constant
-/// register times an output scale of 1, 2 or 4 (seeds/003 Section 4.2:
+/// register times an output scale of 1, 2 or 4 (Kilgard 2000, Section 4.2:
 /// `scale_by_two`, `scale_by_four`), so it keeps its magnitude and is
 /// rounded to 1/255 like the register.
 #[inline]

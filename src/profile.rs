@@ -3,7 +3,7 @@
 //! the built-in ones are `profiles/*.ron`, embedded in the binary — and the
 //! check of a lowered program against them.
 //!
-//! **Policy** (issue 3): a statement is one pass until the planner splits
+//! **Policy**: a statement is one pass until the planner splits
 //! it. A *capacity* overflow (texture units, constant colours, interpolants)
 //! is a warning — "does not fit in one pass on geforce256: needs 3 texture
 //! units; it has 2; the pass planner will split it" — whether or not the
@@ -21,7 +21,7 @@ use crate::diag::Diagnostic;
 use crate::ir::{Expr, Handle, Module, Usage};
 use crate::span::Span;
 
-/// The register combiners a target profile has (seeds/003 Section 4.2.2:
+/// The register combiners a target profile has (Kilgard 2000, Section 4.2.2:
 /// GeForce has two general stages, later GPUs more; NV_register_combiners2
 /// adds per-stage constants). The constants equal the built-in profiles'
 /// limits (a unit test keeps them so).
@@ -35,7 +35,7 @@ pub struct CombinerLimits {
     /// NV_register_combiners forbids them and nvparse refuses them, but
     /// NV2A (the Xbox GPU) runs them, as the product of the two alpha inputs
     /// (a one-component dot product). Off in every built-in profile; the
-    /// emulator's and `translate`'s `--permissive` turn it on (issue 20).
+    /// emulator's and `translate`'s `--permissive` turn it on.
     pub alpha_dot_products: bool,
 }
 
@@ -90,7 +90,7 @@ pub struct Profile {
     pub framebuffer_bits: u8,
     /// ⊕ modes framebuffer blending can do (`C δπx ← (C δπx) ⊕ …`).
     pub blend_modes: Vec<String>,
-    /// How fast the target runs a pass (issue 19, `docs/cost-model.md`):
+    /// How fast the target runs a pass (`docs/cost-model.md`):
     /// `None` for a profile with no timing model (`wgsl`, `multitexture`),
     /// whose plans get no predicted time.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -130,7 +130,7 @@ impl CostModel {
     }
 }
 
-/// The parameters of the cost model (issue 19): what a pass costs on the
+/// The parameters of the cost model: what a pass costs on the
 /// target, as a bottleneck of vertex work, triangle setup and fill
 /// (`crate::cost`). Every number's source is in `docs/cost-model.md`.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -171,7 +171,7 @@ pub struct CostModel {
 pub enum FragmentStage {
     /// OpenGL 1.2.1 texture environment: one ⊕ per unit, nothing else.
     TextureEnv,
-    /// NVIDIA register combiners (seeds/003 Section 4.2).
+    /// NVIDIA register combiners (Kilgard 2000, Section 4.2).
     Combiners(Combiners),
     /// A programmable fragment stage (WGSL).
     Programmable,
@@ -190,7 +190,7 @@ pub struct Combiners {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TextureShaders {
-    /// Offset (EMBM) lookups, seeds/001 (8).
+    /// Offset (EMBM) lookups, Pipeline Grammar, eq. (8).
     pub offset_2d: bool,
     pub dot_product: bool,
     pub dependent_lookups: bool,
@@ -208,7 +208,7 @@ pub enum ProfileError {
 
 impl Profile {
     /// Whether a texture can be indexed by another's result: texture
-    /// shaders' dependent stages or EMBM's offset (seeds/003 Section 4.3).
+    /// shaders' dependent stages or EMBM's offset (Kilgard 2000, Section 4.3).
     pub fn has_dependent_lookups(&self) -> bool {
         self.texture_shaders.as_ref().is_some_and(|t| t.dependent_lookups || t.offset_2d)
     }
@@ -371,7 +371,7 @@ pub fn fit(module: &Module, profile: &Profile) -> Vec<Diagnostic> {
             out.push(missing(
                 "signed textures".into(),
                 &u.signed_lookups,
-                "store range-compressed vectors in rgb8 and `expand` them (seeds/003 Section 5.2)",
+                "store range-compressed vectors in rgb8 and `expand` them (Kilgard 2000, Section 5.2)",
             ));
         }
         if !u.float_lookups.is_empty() && !profile.float_textures {

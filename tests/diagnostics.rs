@@ -35,7 +35,7 @@ fn first_error(text: &str) -> (String, String) {
     (d.message, d.help.unwrap_or_default())
 }
 
-/// Help lines that used to mislead (issue 21, "Diagnostics that never
+/// Help lines that used to mislead ("Diagnostics that never
 /// mislead"), each with its exact text.
 #[test]
 fn help_for_symbols_in_the_wrong_place_says_where_they_belong() {
@@ -71,7 +71,7 @@ fn text_pasted_from_the_papers_symbol_font_gets_the_symbols() {
     // The alpha and stencil channels as printed: `a C xs`, `s C δπx`.
     let (message, help) = first_error("texture T : 2d rgba8;\nC δπx ← a C δπx * (T δu x);\n");
     assert_eq!(message, "unknown name `a`");
-    assert_eq!(help, "did you mean `α` (ASCII `alpha`), the framebuffer's alpha channel? seeds/001 as printed (the Symbol font) shows `α` as `a`");
+    assert_eq!(help, "did you mean `α` (ASCII `alpha`), the framebuffer's alpha channel? Pipeline Grammar as printed (the Symbol font) shows `α` as `a`");
     let (message, help) = first_error("C δπx ← 1;\ns C δπx ← 1;\n");
     assert_eq!(message, "`s` is not a table");
     assert!(help.starts_with("did you mean `σ` (ASCII `stencil`)"), "{help}");
@@ -104,7 +104,7 @@ fn an_unclosed_parenthesis_says_where_it_opened() {
 
 /// A missing `;` is one error at the end of its line; the statement on the
 /// next line is a new statement, and no "unknown name" cascade follows
-/// (issue 21: 50 statements each missing its `;` reported one error).
+/// (50 statements each missing its `;` reported one error).
 #[test]
 fn each_missing_semicolon_is_reported_where_it_belongs() {
     let mut text = String::from("vector N : normal;\nvector L : light\ntexture T : 2d rgb8\n");
@@ -127,9 +127,9 @@ fn each_missing_semicolon_is_reported_where_it_belongs() {
     assert!(diagnostics.iter().all(|d| !d.is_error()), "{diagnostics:?}");
 }
 
-/// seeds/001 (28) as the paper prints it, `ρ = 1 − (1 − V·N)^n`: the help
+/// Pipeline Grammar, eq. (28) as the paper prints it, `ρ = 1 − (1 − V·N)^n`: the help
 /// offers the definition as a shader, and following it gives a program
-/// that checks (issue 21).
+/// that checks.
 #[test]
 fn a_definition_written_as_the_paper_writes_it_gets_a_help_that_leads_to_a_clean_program() {
     let text = "vector N : normal;\nvector V : view;\nρ = 1 − (1 − V·N)^n;\n";
@@ -138,7 +138,7 @@ fn a_definition_written_as_the_paper_writes_it_gets_a_help_that_leads_to_a_clean
     let shader = "shader ρ(n: scalar = 1) : s → c = 1 − (1 − V·N)^n;";
     assert_eq!(
         help,
-        format!("to define `ρ` as a function of the shading parameters (as seeds/001 (28) does), write it as a shader: `{shader}`, then use it in a statement such as `C δπx ← δ ρ s x;`; to assign into a table, write `←` (ASCII `<-`)")
+        format!("to define `ρ` as a function of the shading parameters (as Pipeline Grammar, eq. (28) does), write it as a shader: `{shader}`, then use it in a statement such as `C δπx ← δ ρ s x;`; to assign into a table, write `←` (ASCII `<-`)")
     );
     // Follow the help: replace the line by the shader, add the statement.
     let fixed = format!("vector N : normal;\nvector V : view;\n{shader}\nC δπx ← δ ρ s x;\n");
@@ -157,7 +157,7 @@ fn a_definition_written_as_the_paper_writes_it_gets_a_help_that_leads_to_a_clean
 
 /// `p(16) δ s x`: shader parameters cannot be set where the shader is used
 /// (examples/GAPS.md item 6); the help says so and shows the declaration's
-/// own parameter, not "to multiply, write `*`" alone (issue 21).
+/// own parameter, not "to multiply, write `*`" alone.
 #[test]
 fn setting_shader_parameters_where_used_says_it_cannot_yet() {
     let decl =

@@ -13,6 +13,7 @@ mod adaptive_sphere;
 mod bad_input;
 mod bench;
 mod cli_check;
+mod cli_conventions;
 mod cli_emulate;
 mod cli_render;
 mod cli_wgsl;

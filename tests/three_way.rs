@@ -160,7 +160,7 @@ fn gpu() -> Option<shadec::gpu::runner::Gpu> {
 
 const LIT: &str = "vector N : normal;\nvector L : light(0);\nshader diffuse : s → scalar = max(0, N·L);\nframebuffer C : rgba8, depth;\n";
 
-/// A projective lookup (`T δπl x`, the spotlight cookie of Olano & Lastra
+/// A projective lookup (`T δπl x`, the spotlight cookie of Pipeline Grammar
 /// Section 3.5) is sampled at `(½x/w + ½, ½ − ½y/w)` of light 0's clip
 /// position by every executor. The CPU sampled at raw clip x, y, and so
 /// did the meaning, which shares its sampling: `render` said ∞ dB.
@@ -248,7 +248,7 @@ fn scaled_modulate_clamps_after_the_scale_in_fixed9() {
     verdict(&p).unwrap();
 }
 
-/// `(¬σ C δπx) ? …` — lit where no shadow volume counted (Olano & Lastra
+/// `(¬σ C δπx) ? …` — lit where no shadow volume counted (Pipeline Grammar
 /// Section 3.5) — is a stencil test `EQUAL 0`, as `σ C δπx ? …` is one of
 /// `NOTEQUAL 0`, so wgpu generates it too (it refused the negated form).
 #[test]

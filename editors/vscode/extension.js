@@ -1,4 +1,4 @@
-// A minimal VS Code client for `shadec lsp` (issue 21): starts the server on
+// A minimal VS Code client for `shadec lsp`: starts the server on
 // stdio for `.shd` files and passes the `shadec.target` setting. Not built in
 // CI; see docs/editors.md.
 const vscode = require('vscode');

@@ -1,6 +1,6 @@
 //! Code generators and the machines they target.
 //!
-//! - `combiners`: NV_register_combiners (seeds/003 Section 4.2, Appendix B).
+//! - `combiners`: NV_register_combiners (Kilgard 2000, Section 4.2, Appendix B).
 //! - `wgsl`: WGSL through naga, and a headless wgpu runner (feature `gpu`).
 
 pub mod combiners;

@@ -1,5 +1,5 @@
-//! The Adaptive Sample Shading table of `shadec bench` (issue 7 part 4,
-//! seeds/004 Section 2.1 and Table 1): on the paper's scenes, for each
+//! The Adaptive Sample Shading table of `shadec bench` (Adaptive
+//! Sample Shading, Section 2.1 and Table 1): on the paper's scenes, for each
 //! threshold, the share of pixels shaded, the speed-up over full per-pixel
 //! shading measured in the same run, and the error against it.
 //!
@@ -25,7 +25,7 @@ pub const SCENES: [(&str, &str, Option<f64>); 4] = [
     ("adaptive_cube_4lights", include_str!("../../scenes/adaptive_cube_4lights.ron"), None),
 ];
 
-/// Regular samples every 16 pixels (seeds/004 Section 2.1).
+/// Regular samples every 16 pixels (Adaptive Sample Shading, Section 2.1).
 pub const SPACING: u32 = 16;
 
 #[derive(Clone, Debug)]

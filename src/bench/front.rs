@@ -1,5 +1,5 @@
 //! `shadec bench --program FILE --target T…`: the Pareto front of one
-//! program on each target (issue 18 item 3) — every plan the compiler has
+//! program on each target — every plan the compiler has
 //! for it (as written where it plans, then each choice of lowering rules,
 //! [`crate::accuracy::measure`]) with its passes, its frame predicted on
 //! the target's cost model, and its error against the program's meaning on

@@ -1,4 +1,4 @@
-//! `bench --backend wgpu` (issue 22): a variant's plan run on the adapter
+//! `bench --backend wgpu`: a variant's plan run on the adapter
 //! wgpu finds, through the same scene binder as the CPU renderer
 //! (`gpu::scene_run`); pipelines and uploads made once per variant, then a
 //! warm-up frame and the timed ones. The time is the GPU's, from timestamp

@@ -1,4 +1,4 @@
-//! `shadec bench`: speed against error (issue 6 part 5, issue 7 part 4).
+//! `shadec bench`: speed against error.
 //!
 //! Every technique variant ([`variants::groups`]) is planned for its target
 //! and rendered on its scene by the CPU renderer in its precision mode; the
@@ -8,8 +8,8 @@
 //! unsplit pass each, no plan of the planner's) rendered `exact` (f64,
 //! renormalized vectors, true pow, no lookup tables), so that every variant
 //! of a group is compared with the same picture and a planner bug in the
-//! reference cannot hide in it (issue 16). [`adaptive`] adds the Adaptive Sample Shading table of
-//! seeds/004, and [`removed_work`] what scene-driven specialization removes.
+//! reference cannot hide in it. [`adaptive`] adds the Adaptive Sample Shading table of
+//! Adaptive Sample Shading, and [`removed_work`] what scene-driven specialization removes.
 //! [`report`] writes `report.md`, the plots and the difference images.
 
 pub mod adaptive;
@@ -44,13 +44,13 @@ pub struct BenchOptions {
     pub thresholds: Vec<f32>,
     /// What renders the variants (`bench --backend`).
     pub backend: Backend,
-    /// `bench --max-error E` (issue 18): a variant whose program the
+    /// `bench --max-error E`: a variant whose program the
     /// compiler lowers takes the fastest lowering within E measured on the
     /// group's scene (`accuracy::choose`); `None`: the most accurate.
     pub max_error: Option<f64>,
 }
 
-/// The executor `bench` times (issue 22).
+/// The executor `bench` times.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum Backend {
     /// The CPU plan renderer (`renderer::plan`).
@@ -120,7 +120,7 @@ pub struct Measured {
     pub clock: Clock,
     pub error: ErrorReport,
     /// The frame time the target's cost model predicts on the group's scene
-    /// at the bench size (issue 19); `None` on a target without one.
+    /// at the bench size; `None` on a target without one.
     pub predicted_ms: Option<f64>,
     /// How each pass was shaded (fixed9: the generated combiner setup or
     /// the per-operation fallback, and why).
@@ -208,7 +208,7 @@ impl Prepared {
     }
 
     /// The frame time `target`'s cost model predicts for this plan on its
-    /// scene at `size` (issue 19).
+    /// scene at `size`.
     pub fn predicted_ms(&self, target: &str, size: (u32, u32)) -> Option<f64> {
         let profile = crate::profile::Profile::resolve(target).ok()?;
         let model = profile.cost.as_ref()?;
@@ -381,7 +381,7 @@ pub fn run(
     Ok(report)
 }
 
-/// What scene-driven specialization removes (issue 7 part 1), for the
+/// What scene-driven specialization removes, for the
 /// scenes where it matters: `planner::specialize::removal_report` in
 /// Markdown, one section per (program, scene).
 pub fn removed_work() -> Result<String, BenchError> {

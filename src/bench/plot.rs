@@ -63,7 +63,7 @@ pub fn group_fronts(measured: &[Measured]) -> Vec<usize> {
 }
 
 /// The time a variant's error is set against: the CPU renderer's measured
-/// frame, or the frame its target's cost model predicts (issue 19).
+/// frame, or the frame its target's cost model predicts.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum TimeAxis {
     Cpu,
@@ -95,7 +95,7 @@ impl TimeAxis {
 }
 
 /// The Pareto front of each group on `axis` (with the predicted time: of
-/// each group and target, issue 18 item 3): the variants no other of the
+/// each group and target): the variants no other of the
 /// same set beats in both time and RMSE. Exact renders are references, not
 /// approximations, and stay off.
 pub fn fronts(measured: &[Measured], axis: TimeAxis) -> Vec<usize> {
@@ -130,7 +130,7 @@ pub fn speed_vs_error(measured: &[Measured], path: &Path) -> Result<(), BenchErr
     error_against(measured, TimeAxis::Cpu, path)
 }
 
-/// Error against the predicted frame on each variant's target (issue 19),
+/// Error against the predicted frame on each variant's target,
 /// the front of each group and target joined: `predicted_vs_error.png`.
 pub fn predicted_vs_error(measured: &[Measured], path: &Path) -> Result<(), BenchError> {
     let predicted: Vec<Measured> = measured.iter().filter(|m| m.predicted_ms.is_some()).cloned().collect();
@@ -206,14 +206,19 @@ fn error_against(measured: &[Measured], axis: TimeAxis, path: &Path) -> Result<(
                 }
             }
         }
-        for (i, (m, p)) in measured.iter().zip(&points).enumerate() {
-            let label = if fronts.contains(&i) {
-                format!("{} *", m.variant.name)
-            } else {
-                m.variant.name.to_string()
-            };
-            chart.draw_series(std::iter::once(Text::new(label, *p, (FONT, 13)))).map_err(plot_error)?;
-        }
+        let labels: Vec<String> = measured
+            .iter()
+            .enumerate()
+            .map(|(i, m)| {
+                if fronts.contains(&i) {
+                    format!("{} *", m.variant.name)
+                } else {
+                    m.variant.name.to_string()
+                }
+            })
+            .collect();
+        let anchors: Vec<(i32, i32)> = points.iter().map(|p| chart.backend_coord(p)).collect();
+        draw_labels(&root, &labels, &anchors, plot_box(&chart), 13)?;
         chart
             .configure_series_labels()
             .background_style(WHITE.mix(0.85))
@@ -227,8 +232,7 @@ fn error_against(measured: &[Measured], axis: TimeAxis, path: &Path) -> Result<(
     save(&buf, path)
 }
 
-/// One program's plans on each target (`bench --program`, issue 18 item
-/// 3): largest error against the predicted frame, log-log, one colour per
+/// One program's plans on each target (`bench --program`): largest error against the predicted frame, log-log, one colour per
 /// target, each target's front joined and its points labelled with their
 /// rules. A target without a cost model (wgsl) is in the table only —
 /// unless no target has one, when passes stand in for time.
@@ -282,10 +286,10 @@ pub fn front(rows: &[super::front::FrontRow], program: &str, path: &Path) -> Res
             on.sort_by(|a, b| a.0.total_cmp(&b.0));
             chart.draw_series(LineSeries::new(on, colour.stroke_width(2))).map_err(plot_error)?;
         }
-        for (r, p) in rows.iter().zip(&points) {
-            let label = format!("{}{}", r.rules, if r.on_front { " *" } else { "" });
-            chart.draw_series(std::iter::once(Text::new(label, *p, (FONT, 12)))).map_err(plot_error)?;
-        }
+        let labels: Vec<String> =
+            rows.iter().map(|r| format!("{}{}", r.rules, if r.on_front { " *" } else { "" })).collect();
+        let anchors: Vec<(i32, i32)> = points.iter().map(|p| chart.backend_coord(p)).collect();
+        draw_labels(&root, &labels, &anchors, plot_box(&chart), 12)?;
         chart
             .configure_series_labels()
             .background_style(WHITE.mix(0.85))
@@ -370,6 +374,110 @@ pub fn adaptive(rows: &[AdaptiveRow], path: &Path) -> Result<(), BenchError> {
     save(&buf, path)
 }
 
+/// A box in pixels: left, top, right, bottom (exclusive).
+type PixelBox = (i32, i32, i32, i32);
+
+/// The chart's plotting area in pixels of the root drawing area.
+fn plot_box<DB: DrawingBackend, X: Ranged, Y: Ranged>(
+    chart: &ChartContext<'_, DB, Cartesian2d<X, Y>>,
+) -> PixelBox {
+    let (x, y) = chart.plotting_area().get_pixel_range();
+    (x.start, y.start, x.end, y.end)
+}
+
+/// The marker radius the points are drawn with, kept clear of labels.
+const MARKER: i32 = 6;
+
+/// Draws each label next to its point where it overlaps no other label and
+/// no marker ([`place_labels`]), with a thin leader line when it had to move
+/// away from its point.
+fn draw_labels(
+    root: &DrawingArea<BitMapBackend<'_>, plotters::coord::Shift>,
+    labels: &[String],
+    anchors: &[(i32, i32)],
+    area: PixelBox,
+    size: u32,
+) -> Result<(), BenchError> {
+    let sizes: Vec<(i32, i32)> = labels.iter().map(|l| text_size(l, size)).collect();
+    let placed = place_labels(anchors, &sizes, area);
+    for ((label, &(ax, ay)), &(x, y)) in labels.iter().zip(anchors).zip(&placed) {
+        let (w, h) = text_size(label, size);
+        // The nearest point of the label's box to its point.
+        let (nx, ny) = (ax.clamp(x, x + w), ay.clamp(y, y + h));
+        if (nx - ax).pow(2) + (ny - ay).pow(2) > (3 * MARKER).pow(2) {
+            root.draw(&PathElement::new(vec![(ax, ay), (nx, ny)], BLACK.mix(0.4).stroke_width(1)))
+                .map_err(plot_error)?;
+        }
+        root.draw(&Text::new(label.clone(), (x, y), (FONT, size))).map_err(plot_error)?;
+    }
+    Ok(())
+}
+
+/// The box a label takes in the embedded monospace font: DejaVu Sans
+/// Mono's advance is 0.602 em; a little more keeps a gap between labels.
+fn text_size(label: &str, size: u32) -> (i32, i32) {
+    let size = size as i32;
+    ((label.chars().count() as i32 * size * 64 + 99) / 100 + 2, size + 2)
+}
+
+/// Top-left corners for labels of `sizes`, one beside each of `anchors`
+/// (pixels), inside `area`: for each label in turn, the first of a ring of
+/// candidate positions, nearest first, whose box overlaps no label placed
+/// before it and no marker; where every candidate collides, the one with
+/// the least overlap. Points in a crowd get their labels fanned out around
+/// them instead of printed on top of each other.
+pub fn place_labels(anchors: &[(i32, i32)], sizes: &[(i32, i32)], area: PixelBox) -> Vec<(i32, i32)> {
+    let overlap = |a: PixelBox, b: PixelBox| -> i64 {
+        let w = (a.2.min(b.2) - a.0.max(b.0)).max(0) as i64;
+        let h = (a.3.min(b.3) - a.1.max(b.1)).max(0) as i64;
+        w * h
+    };
+    let markers: Vec<PixelBox> =
+        anchors.iter().map(|&(x, y)| (x - MARKER, y - MARKER, x + MARKER + 1, y + MARKER + 1)).collect();
+    let mut placed: Vec<PixelBox> = Vec::with_capacity(anchors.len());
+    let mut corners = Vec::with_capacity(anchors.len());
+    for (&(ax, ay), &(w, h)) in anchors.iter().zip(sizes) {
+        let gap = MARKER + 3;
+        let mut best: Option<((i32, i32), i64)> = None;
+        // Rings of growing distance; on each, right, left, above and below
+        // first, then the diagonals, then points between.
+        'rings: for ring in 0..12 {
+            let d = ring * (h + 2);
+            let candidates = [
+                (ax + gap + d, ay - h / 2),
+                (ax - gap - d - w, ay - h / 2),
+                (ax - w / 2, ay - gap - d - h),
+                (ax - w / 2, ay + gap + d),
+                (ax + gap + d, ay - gap - d - h),
+                (ax + gap + d, ay + gap + d),
+                (ax - gap - d - w, ay - gap - d - h),
+                (ax - gap - d - w, ay + gap + d),
+                (ax + gap, ay - h / 2 - d - h),
+                (ax + gap, ay - h / 2 + d + h),
+                (ax - gap - w, ay - h / 2 - d - h),
+                (ax - gap - w, ay - h / 2 + d + h),
+            ];
+            for (x, y) in candidates {
+                // Inside the plotting area, or pushed back into it.
+                let x = x.clamp(area.0, (area.2 - w).max(area.0));
+                let y = y.clamp(area.1, (area.3 - h).max(area.1));
+                let b = (x, y, x + w, y + h);
+                let cost: i64 = placed.iter().chain(&markers).map(|&o| overlap(b, o)).sum();
+                if best.is_none_or(|(_, c)| cost < c) {
+                    best = Some(((x, y), cost));
+                }
+                if cost == 0 {
+                    break 'rings;
+                }
+            }
+        }
+        let ((x, y), _) = best.unwrap_or(((ax, ay), 0));
+        placed.push((x, y, x + w, y + h));
+        corners.push((x, y));
+    }
+    corners
+}
+
 /// A log-scale range around the values, a little wider.
 fn bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
     let (lo, hi) = values.fold((f64::INFINITY, 0.0f64), |(lo, hi), v| (lo.min(v), hi.max(v)));
@@ -381,7 +489,46 @@ fn bounds(values: impl Iterator<Item = f64>) -> (f64, f64) {
 
 #[cfg(test)]
 mod tests {
-    use super::pareto_front;
+    use super::{pareto_front, place_labels, MARKER};
+
+    /// A crowd of points, all within a few pixels (what the bench's Phong
+    /// variants are on the plot): every label gets a box of its own, off
+    /// every marker, inside the area.
+    #[test]
+    fn labels_of_a_crowd_do_not_overlap() {
+        let anchors: Vec<(i32, i32)> = (0..9).map(|i| (400 + 3 * (i % 3), 300 + 4 * (i / 3))).collect();
+        let sizes: Vec<(i32, i32)> = (0..9).map(|i| (60 + 10 * i, 15)).collect();
+        let area = (100, 50, 900, 650);
+        let corners = place_labels(&anchors, &sizes, area);
+        let boxes: Vec<(i32, i32, i32, i32)> =
+            corners.iter().zip(&sizes).map(|(&(x, y), &(w, h))| (x, y, x + w, y + h)).collect();
+        let meets = |a: (i32, i32, i32, i32), b: (i32, i32, i32, i32)| {
+            a.0 < b.2 && b.0 < a.2 && a.1 < b.3 && b.1 < a.3
+        };
+        for (i, &a) in boxes.iter().enumerate() {
+            assert!(
+                a.0 >= area.0 && a.1 >= area.1 && a.2 <= area.2 && a.3 <= area.3,
+                "label {i} leaves the area"
+            );
+            for (j, &b) in boxes.iter().enumerate().skip(i + 1) {
+                assert!(!meets(a, b), "labels {i} and {j} overlap: {a:?} {b:?}");
+            }
+            for &(x, y) in &anchors {
+                assert!(
+                    !meets(a, (x - MARKER, y - MARKER, x + MARKER + 1, y + MARKER + 1)),
+                    "label {i} covers a point"
+                );
+            }
+        }
+    }
+
+    /// A lone point keeps its label right beside it.
+    #[test]
+    fn a_lone_label_sits_next_to_its_point() {
+        let corners = place_labels(&[(300, 300)], &[(80, 15)], (0, 0, 1000, 700));
+        let (x, y) = corners[0];
+        assert!(x > 300 && x < 300 + 3 * MARKER && (y - 300).abs() <= 15, "{corners:?}");
+    }
 
     #[test]
     fn the_pareto_front_keeps_only_undominated_points() {

@@ -19,11 +19,11 @@ pub struct Report {
     pub adaptive: Vec<AdaptiveRow>,
     /// `removal_report`s in Markdown.
     pub removed: String,
-    /// The cost model's predictions checked against the papers (issue 19).
+    /// The cost model's predictions checked against the papers.
     pub hardware: Option<Hardware>,
 }
 
-/// seeds/000 Section 5.4 and Kilgard on the cost model ([`super::timing`]).
+/// GeForce3 Phong, Section 5.4 and Kilgard on the cost model ([`super::timing`]).
 pub struct Hardware {
     pub section_5_4: Vec<Timing>,
     pub kilgard: [Timing; 2],
@@ -151,8 +151,8 @@ impl Report {
         if !self.adaptive.is_empty() {
             let _ = writeln!(
                 md,
-                "\n## Adaptive sample shading (seeds/004 Section 2.1)\n\nThe native multi-light Phong stage with per-polygon \
-                 light relevance (seeds/004 Section 2.2) in full, against adaptive shading with regular samples every {SPACING} \
+                "\n## Adaptive sample shading (Adaptive Sample Shading, Section 2.1)\n\nThe native multi-light Phong stage with per-polygon \
+                 light relevance (Adaptive Sample Shading, Section 2.2) in full, against adaptive shading with regular samples every {SPACING} \
                  pixels; both timed in this run. The paper shades 19.25 % of the pixels of its 4-light sphere and 5.12 % of its \
                  cube scene at threshold 8.5 %, with no visible difference.\n"
             );
@@ -178,22 +178,21 @@ impl Report {
         }
         md += &self.predicted_section();
         if !self.removed.is_empty() {
-            let _ =
-                writeln!(md, "\n## Removed work (scene-driven specialization, issue 7)\n\n{}", self.removed);
+            let _ = writeln!(md, "\n## Removed work (scene-driven specialization)\n\n{}", self.removed);
         }
         md
     }
 }
 
 impl Report {
-    /// Speed on the hardware (issue 19): each group's variants on targets
+    /// Speed on the hardware: each group's variants on targets
     /// with a cost model ranked by predicted time, with the CPU's time and
     /// the error beside; then the papers' own timings against the model.
     fn predicted_section(&self) -> String {
         let mut md = String::new();
         let _ = writeln!(
             md,
-            "\n## Predicted on the hardware (cost model, issue 19)\n\nThe frame time each plan's target would take \
+            "\n## Predicted on the hardware (cost model)\n\nThe frame time each plan's target would take \
              (`docs/cost-model.md`: fill, vertex, setup and memory per pass) on the group's scene at the bench size, \
              fastest first, beside the measured time and the error measured above; `*` marks the Pareto front \
              of each group and target (no variant for the same target both predicted faster and more accurate; \
@@ -245,12 +244,12 @@ impl Report {
     }
 }
 
-/// seeds/000 Section 5.4's table and Kilgard's passes, predicted.
+/// GeForce3 Phong, Section 5.4's table and Kilgard's passes, predicted.
 fn hardware_tables(h: &Hardware) -> String {
     let mut md = String::new();
     let _ = writeln!(
         md,
-        "**seeds/000 Section 5.4** — GeForce3, a screen-filling mesh of 20 000 triangles \
+        "**GeForce3 Phong, Section 5.4** — GeForce3, a screen-filling mesh of 20 000 triangles \
          (`scenes/screen_mesh_20k.ron`, 1280×1024); speed relative to Gouraud shading:\n"
     );
     let _ = writeln!(md, "| shader | program | passes | predicted ms | predicted speed | paper |");
@@ -272,7 +271,7 @@ fn hardware_tables(h: &Hardware) -> String {
     let [g256, g3] = &h.kilgard;
     let _ = writeln!(
         md,
-        "\n**Kilgard (seeds/003)**, the bump-mapped torus at 640×480: {} passes on {} predicted {:.3} ms, {} pass on {} \
+        "\n**Kilgard 2000**, the bump-mapped torus at 640×480: {} passes on {} predicted {:.3} ms, {} pass on {} \
          {:.3} ms ({:.1}×).\n",
         g256.passes,
         g256.target,

@@ -1,8 +1,8 @@
-//! seeds/000 Section 5.4's render-time comparison, rebuilt on the cost
-//! model (issue 19): the four shaders the paper times on a GeForce3 — a
+//! GeForce3 Phong, Section 5.4's render-time comparison, rebuilt on the cost
+//! model: the four shaders the paper times on a GeForce3 — a
 //! screen-filling mesh of 20 000 triangles — planned by the compiler and
 //! predicted on `scenes/screen_mesh_20k.ron`, each speed relative to
-//! Gouraud shading beside the paper's; and Kilgard's bump mapping (seeds/003)
+//! Gouraud shading beside the paper's; and Kilgard's bump mapping (Kilgard 2000)
 //! in three passes on a GeForce 256 against one on a GeForce3.
 
 use crate::driver::{ForScene, PlanOptions};
@@ -13,7 +13,7 @@ use crate::scene::Scene;
 use super::variants::{BenchScene, Program, KILGARD, TORUS};
 use super::{failed, BenchError};
 
-/// The timing scene of seeds/000 Section 5.4.
+/// The timing scene of GeForce3 Phong, Section 5.4.
 pub const SCREEN_MESH: BenchScene =
     BenchScene { name: "scenes/screen_mesh_20k.ron", ron: include_str!("../../scenes/screen_mesh_20k.ron") };
 
@@ -32,7 +32,7 @@ pub struct PaperShader {
     pub paper: &'static str,
 }
 
-/// The four shaders of seeds/000 Section 5.4, Gouraud first.
+/// The four shaders of GeForce3 Phong, Section 5.4, Gouraud first.
 pub fn section_5_4_shaders() -> [PaperShader; 4] {
     [
         PaperShader { technique: "Gouraud", program: example!("gouraud.shd"), paper: "100 %" },
@@ -117,7 +117,7 @@ fn timing(
     })
 }
 
-/// seeds/000 Section 5.4 on geforce3, Gouraud first.
+/// GeForce3 Phong, Section 5.4 on geforce3, Gouraud first.
 pub fn section_5_4() -> Result<Vec<Timing>, BenchError> {
     section_5_4_shaders()
         .into_iter()

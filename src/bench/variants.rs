@@ -1,4 +1,4 @@
-//! The technique variants `shadec bench` measures (issue 6 part 5), each a
+//! The technique variants `shadec bench` measures, each a
 //! program, a target and a precision mode on a scene, grouped by the ground
 //! truth they are measured against.
 
@@ -87,17 +87,17 @@ pub fn groups() -> Vec<Group> {
             truth: PHONG_EXACT,
             truth_target: "wgsl",
             variants: vec![
-                v("gouraud", GOURAUD, "geforce3", F32, "shading per vertex, colours interpolated (seeds/001 (1))"),
+                v("gouraud", GOURAUD, "geforce3", F32, "shading per vertex, colours interpolated (Pipeline Grammar, eq. (1))"),
                 v("phong_unnormalized", PHONG_UNNORMALIZED, "wgsl", F32, "per pixel, L and H interpolated and not renormalized (planned for wgsl: geforce3's primary colour cannot carry a signed vector)"),
                 v("phong_unnormalized_fixed9", PHONG_UNNORMALIZED, "wgsl", Fixed9, "the same in a per-operation 8-bit model: the combiner generator cannot realize it on geforce3 yet, so it runs for wgsl"),
-                v("phong_taylor", PHONG_TAYLOR, "wgsl", F32, "renormalized by the Taylor series in the combiners (seeds/000 Formula 6)"),
+                v("phong_taylor", PHONG_TAYLOR, "wgsl", F32, "renormalized by the Taylor series in the combiners (GeForce3 Phong, Formula 6)"),
                 v("phong_taylor_fixed9", PHONG_TAYLOR, "wgsl", Fixed9, "the same in a per-operation 8-bit model (not realized on geforce3 yet: wgsl)"),
-                v("phong_cube8", PHONG_CUBE8, "geforce3", F32, "renormalized by an 8-bit normalization cube map (seeds/003 App. D)"),
+                v("phong_cube8", PHONG_CUBE8, "geforce3", F32, "renormalized by an 8-bit normalization cube map (Kilgard 2000, App. D)"),
                 v("phong_cube8_fixed9", PHONG_CUBE8, "geforce3", Fixed9, "the same in the combiners' 8 bits + sign"),
                 v("phong_cube16", PHONG_CUBE16, "geforce3", F32, "renormalized by a 16-bit normalization cube map"),
                 v("phong_cube8_geforce256", PHONG_CUBE8, "geforce256", Fixed9, "the hand-written 8-bit cube map on a GeForce 256, bit-faithful"),
-                v("phong_lowered_geforce3", PHONG_EXACT, "geforce3", Fixed9, "the reference program lowered by the compiler (issue 18: normalization cube map), bit-faithful"),
-                v("phong_lowered_geforce256", PHONG_EXACT, "geforce256", Fixed9, "the reference program lowered by the compiler (issue 18: cube map, x^16 multiplied across passes), bit-faithful"),
+                v("phong_lowered_geforce3", PHONG_EXACT, "geforce3", Fixed9, "the reference program lowered by the compiler (normalization cube map), bit-faithful"),
+                v("phong_lowered_geforce256", PHONG_EXACT, "geforce256", Fixed9, "the reference program lowered by the compiler (cube map, x^16 multiplied across passes), bit-faithful"),
                 v("phong_exact_f32", PHONG_EXACT, "wgsl", F32, "normalize and pow in f32 (a modern shader)"),
                 v("phong_exact", PHONG_EXACT, "wgsl", Exact, "the reference itself (f64)"),
             ],
@@ -108,13 +108,13 @@ pub fn groups() -> Vec<Group> {
             truth: EXPONENT_POW,
             truth_target: "wgsl",
             variants: vec![
-                v("exponent_squaring", EXPONENT_SQUARING, "geforce3", Fixed9, "x^64 by six squarings, each rounded to 8 bits (seeds/000 Section 4.4)"),
+                v("exponent_squaring", EXPONENT_SQUARING, "geforce3", Fixed9, "x^64 by six squarings, each rounded to 8 bits (GeForce3 Phong, Section 4.4)"),
                 v("exponent_lookup", EXPONENT_LOOKUP, "geforce3", Fixed9, "x^64 from an 8-bit 1-D lookup texture"),
                 v("exponent_pow", EXPONENT_POW, "wgsl", F32, "true pow in f32"),
             ],
         },
         Group {
-            name: "Kilgard's bump mapping (seeds/003, torus, 3 passes on a GeForce 256)",
+            name: "Kilgard's bump mapping (Kilgard 2000, torus, 3 passes on a GeForce 256)",
             scene: TORUS,
             truth: KILGARD,
             truth_target: "geforce256",
@@ -125,7 +125,7 @@ pub fn groups() -> Vec<Group> {
             ],
         },
         Group {
-            name: "Heidrich-Seidel factorized Torrance-Sparrow vs the exact BRDF (seeds/002, coarse sphere)",
+            name: "Heidrich-Seidel factorized Torrance-Sparrow vs the exact BRDF (Heidrich & Seidel 1999, coarse sphere)",
             scene: SPHERE,
             truth: TORRANCE_SPARROW_PER_PIXEL,
             truth_target: "wgsl",

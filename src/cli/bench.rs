@@ -1,6 +1,5 @@
-//! `shadec bench [--out-dir bench] [--size WxH] [--runs N] [--quick]
-//! [--only PATTERN]`: the speed-against-error report (issue 6 part 5,
-//! issue 7 part 4); the work is `shadec::bench`'s.
+//! `shadec bench [-o DIR] [--size WxH] [--runs N] [--quick]
+//! [--only PATTERN]`: the speed-against-error report; the work is `shadec::bench`'s.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -12,9 +11,10 @@ use super::{EXIT_SOURCE_ERRORS, EXIT_USAGE_OR_IO};
 
 #[derive(Debug, clap::Args)]
 pub struct BenchArgs {
-    /// Where to write report.md, the plots and diff/ (created if needed).
-    #[arg(long, value_name = "DIR", default_value = "bench")]
-    pub out_dir: PathBuf,
+    /// The folder to write report.md, the plots and diff/ into (created if
+    /// needed; each file written atomically). `--out-dir` is an older name.
+    #[arg(short, long, alias = "out-dir", value_name = "DIR", default_value = "bench")]
+    pub output: PathBuf,
     /// Image size of every variant [default: 512x512; 128x128 with --quick].
     #[arg(long, value_name = "WxH")]
     pub size: Option<String>,
@@ -86,7 +86,7 @@ fn front(args: &BenchArgs, program: &std::path::Path) -> ExitCode {
         Err(code) => return code,
     };
     let name = program.display().to_string();
-    match shadec::bench::front::run(&name, &source, &profiles, &scene, &args.out_dir) {
+    match shadec::bench::front::run(&name, &source, &profiles, &scene, &args.output) {
         Ok((rows, refused)) => {
             for r in &rows {
                 println!(
@@ -106,7 +106,7 @@ fn front(args: &BenchArgs, program: &std::path::Path) -> ExitCode {
                 println!("refused on {}:", r.target);
                 eprint!("{}", file.render(&r.diagnostics, super::check::color_stderr()));
             }
-            println!("wrote {}", args.out_dir.join("front.md").display());
+            println!("wrote {}", args.output.join("front.md").display());
             // Nothing planned on any target: no front to draw.
             if rows.is_empty() {
                 ExitCode::from(EXIT_SOURCE_ERRORS)
@@ -161,12 +161,11 @@ pub fn run(args: &BenchArgs) -> ExitCode {
         options.runs,
         if options.runs == 1 { "" } else { "s" },
         rayon::current_num_threads(),
-        args.out_dir.display()
+        args.output.display()
     );
     let progress = Progress::counting("variants");
-    let result = shadec::bench::run(&options, &args.out_dir, &mut |done, total, name| {
-        progress.tick(name, done, total)
-    });
+    let result =
+        shadec::bench::run(&options, &args.output, &mut |done, total, name| progress.tick(name, done, total));
     progress.finish();
     match result {
         Ok(report) => {
@@ -197,7 +196,7 @@ pub fn run(args: &BenchArgs) -> ExitCode {
                     r.psnr
                 );
             }
-            println!("wrote {}", args.out_dir.join("report.md").display());
+            println!("wrote {}", args.output.join("report.md").display());
             ExitCode::SUCCESS
         }
         Err(e @ BenchError::Io(_)) => usage(e),

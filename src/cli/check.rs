@@ -43,6 +43,9 @@ pub fn run(args: &CheckArgs) -> ExitCode {
     let files = collect_files(&args.paths, &mut io_errors);
     let mut report = Report { files: Vec::new(), io_errors: Vec::new(), summary: Summary::default() };
     let color = color_stderr();
+    // Standard output's part of the report: printed as it comes, or with
+    // -o gathered and written at the end.
+    let mut out = Out { gathered: args.output.is_some().then(String::new) };
     for path in &files {
         let text = match shadec::io::read_text(path) {
             Ok(t) => t,
@@ -76,9 +79,9 @@ pub fn run(args: &CheckArgs) -> ExitCode {
                     (0, w) => format!("ok, {w} warning{}", plural(w)),
                     (e, w) => format!("{e} error{}, {w} warning{}", plural(e), plural(w)),
                 };
-                println!("{:<48} {status:<22} {} items", path.display(), program.items.len());
+                out.line(format!("{:<48} {status:<22} {} items", path.display(), program.items.len()));
             }
-            Format::Short => print!("{}", file.render_short(&diagnostics)),
+            Format::Short => out.text(file.render_short(&diagnostics)),
             Format::Json => report.files.push(FileReport {
                 uri: file_uri(path),
                 path: path.display().to_string(),
@@ -90,13 +93,13 @@ pub fn run(args: &CheckArgs) -> ExitCode {
     match args.format {
         Format::Json => {
             report.io_errors = io_errors.clone();
-            println!("{}", serde_json::to_string_pretty(&report).expect("the report serializes"));
+            out.line(serde_json::to_string_pretty(&report).expect("the report serializes"));
         }
         _ => {
             for e in &io_errors {
                 eprintln!("error: {e}");
             }
-            println!(
+            out.line(format!(
                 "checked {} file{}: {} clean, {} error{}, {} warning{}",
                 s.files,
                 plural(s.files),
@@ -105,7 +108,12 @@ pub fn run(args: &CheckArgs) -> ExitCode {
                 plural(s.errors),
                 s.warnings,
                 plural(s.warnings)
-            );
+            ));
+        }
+    }
+    if let (Some(path), Some(text)) = (&args.output, out.gathered) {
+        if super::write_output(Some(path), &text) != ExitCode::SUCCESS {
+            return ExitCode::from(EXIT_USAGE_OR_IO);
         }
     }
     if !io_errors.is_empty() {
@@ -114,6 +122,23 @@ pub fn run(args: &CheckArgs) -> ExitCode {
         ExitCode::from(EXIT_SOURCE_ERRORS)
     } else {
         ExitCode::SUCCESS
+    }
+}
+
+/// Standard output's part of the report, or (with `-o`) its text gathered.
+struct Out {
+    gathered: Option<String>,
+}
+
+impl Out {
+    fn text(&mut self, s: String) {
+        match &mut self.gathered {
+            Some(all) => all.push_str(&s),
+            None => print!("{s}"),
+        }
+    }
+    fn line(&mut self, s: String) {
+        self.text(s + "\n");
     }
 }
 

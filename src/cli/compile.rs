@@ -6,7 +6,7 @@ use std::process::ExitCode;
 
 use shadec::diag::SourceFile;
 
-use super::args::{CompileArgs, CompileFormat, Emit};
+use super::args::{CompileArgs, CompileFormat, Emit, Format, PlanFormat};
 use super::check::color_stderr;
 use super::{EXIT_SOURCE_ERRORS, EXIT_USAGE_OR_IO};
 
@@ -59,7 +59,7 @@ pub fn run(args: &CompileArgs) -> ExitCode {
     };
     let out = match (args.emit, plan) {
         (Emit::Ir, _) => shadec::ir::dump::dump(&module, Some(&text)),
-        (Emit::Plan, Some(p)) if args.format == CompileFormat::Json => p.plan.to_json() + "\n",
+        (Emit::Plan, Some(p)) if plan_format(args) == PlanFormat::Json => p.plan.to_json() + "\n",
         (Emit::Plan, Some(p)) => p.plan.to_ron() + "\n",
         (Emit::Wgsl | Emit::Spirv | Emit::Glsl, Some(p)) => return shaders_out(args, &file, &text, &p),
         (Emit::Combiners, Some(p)) => match combiners_text(&p) {
@@ -170,12 +170,31 @@ fn plan_for(
     Ok(planned)
 }
 
-/// Prints diagnostics the way `--format` asks.
+/// The diagnostics' format: `--diagnostics-format`, else what the older
+/// `--format` said, else `human`.
+fn diagnostics_format(args: &CompileArgs) -> Format {
+    args.diagnostics_format.unwrap_or(match args.format {
+        None | Some(CompileFormat::Human | CompileFormat::Ron) => Format::Human,
+        Some(CompileFormat::Short) => Format::Short,
+        Some(CompileFormat::Json) => Format::Json,
+    })
+}
+
+/// The plan's format: `--plan-format`, else JSON where the older `--format
+/// json` asked for it, else RON.
+fn plan_format(args: &CompileArgs) -> PlanFormat {
+    args.plan_format.unwrap_or(match args.format {
+        Some(CompileFormat::Json) => PlanFormat::Json,
+        _ => PlanFormat::Ron,
+    })
+}
+
+/// Prints diagnostics the way `--diagnostics-format` asks.
 fn report(args: &CompileArgs, file: &SourceFile, diagnostics: &[shadec::diag::Diagnostic]) {
-    match args.format {
-        CompileFormat::Human | CompileFormat::Ron => eprint!("{}", file.render(diagnostics, color_stderr())),
-        CompileFormat::Short => eprint!("{}", file.render_short(diagnostics)),
-        CompileFormat::Json => {
+    match diagnostics_format(args) {
+        Format::Human => eprint!("{}", file.render(diagnostics, color_stderr())),
+        Format::Short => eprint!("{}", file.render_short(diagnostics)),
+        Format::Json => {
             let uri = format!("file://{}", args.file.display());
             eprintln!(
                 "{}",

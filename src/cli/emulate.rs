@@ -1,5 +1,5 @@
 //! `shadec emulate`: run a register-combiner setup (`!!RC1.0` or RON) on
-//! images with the CPU emulator (seeds/003 Section 4.2), as a user porting
+//! images with the CPU emulator (Kilgard 2000, Section 4.2), as a user porting
 //! legacy content would.
 //!
 //! Exit codes: 0 ok, 1 the config is malformed or invalid, 2 usage or I/O
@@ -16,7 +16,7 @@ use shadec::numerics::Precision;
 
 /// The combiner limits of a profile (built-in name or `.ron` file): a
 /// setup is checked against the machine the user names, never a copy of
-/// its numbers (issue 17: limits come only from profiles).
+/// its numbers (limits come only from profiles).
 pub(super) fn profile_limits(name: &str) -> Result<CombinerLimits, Failure> {
     let profile = shadec::profile::Profile::resolve(name).map_err(|e| Failure::Io(e.to_string()))?;
     profile.combiner_limits().ok_or_else(|| {
@@ -27,7 +27,7 @@ pub(super) fn profile_limits(name: &str) -> Result<CombinerLimits, Failure> {
     })
 }
 
-/// Run a register-combiner setup on images.
+// The arguments of `shadec emulate` (its help is the variant's, in args.rs).
 #[derive(Clone, Debug, clap::Args)]
 pub struct EmulateArgs {
     /// The combiner setup: an nvparse `!!RC1.0` program, or `.ron` for a CombinerConfig.
@@ -35,28 +35,31 @@ pub struct EmulateArgs {
     /// Texture unit 0 (RGBA8 PNG): the texture register per pixel, or, with a
     /// texture shader, the unit's texture image (a cube map: six square
     /// faces stacked +X −X +Y −Y +Z −Z; a 3-D texture: square slices stacked).
-    #[arg(long)]
+    #[arg(long, value_name = "PNG")]
     pub tex0: Option<PathBuf>,
-    #[arg(long)]
+    /// Texture unit 1 (RGBA8 PNG), as --tex0.
+    #[arg(long, value_name = "PNG")]
     pub tex1: Option<PathBuf>,
-    #[arg(long)]
+    /// Texture unit 2 (RGBA8 PNG), as --tex0 (geforce3: four units).
+    #[arg(long, value_name = "PNG")]
     pub tex2: Option<PathBuf>,
-    #[arg(long)]
+    /// Texture unit 3 (RGBA8 PNG), as --tex0 (geforce3: four units).
+    #[arg(long, value_name = "PNG")]
     pub tex3: Option<PathBuf>,
-    /// Interpolated primary (diffuse) colour per pixel.
-    #[arg(long)]
+    /// Interpolated primary (diffuse) colour per pixel (RGBA8 PNG).
+    #[arg(long, value_name = "PNG")]
     pub primary: Option<PathBuf>,
-    /// Interpolated secondary (specular) colour per pixel.
-    #[arg(long)]
+    /// Interpolated secondary (specular) colour per pixel (RGBA8 PNG).
+    #[arg(long, value_name = "PNG")]
     pub secondary: Option<PathBuf>,
     /// Constant colour 0 as r,g,b,a in [0, 1] (the program's own `const0` wins).
-    #[arg(long, value_parser = parse_color)]
+    #[arg(long, value_name = "R,G,B,A", value_parser = parse_color)]
     pub const0: Option<Color>,
     /// Constant colour 1 as r,g,b,a in [0, 1] (the program's own `const1` wins).
-    #[arg(long, value_parser = parse_color)]
+    #[arg(long, value_name = "R,G,B,A", value_parser = parse_color)]
     pub const1: Option<Color>,
-    /// Fog colour (r,g,b) and fog factor (a).
-    #[arg(long, value_parser = parse_color)]
+    /// Fog colour (r,g,b) and fog factor (a), each in [0, 1].
+    #[arg(long, value_name = "R,G,B,A", value_parser = parse_color)]
     pub fog: Option<Color>,
     /// The combiners' arithmetic: `fixed9` (8 bits + sign, as the hardware
     /// did), `f32`, or `exact` (f64).
@@ -73,22 +76,26 @@ pub struct EmulateArgs {
     pub texture_shader: Option<PathBuf>,
     /// Texture coordinates (s, t, r, q) of unit 0 per pixel, RGBA8 PNG of the
     /// output's size (default: pixel centres; encoding in docs/combiners.md).
-    #[arg(long)]
+    #[arg(long, value_name = "PNG")]
     pub coord0: Option<PathBuf>,
-    #[arg(long)]
+    /// Texture coordinates of unit 1 per pixel, as --coord0.
+    #[arg(long, value_name = "PNG")]
     pub coord1: Option<PathBuf>,
-    #[arg(long)]
+    /// Texture coordinates of unit 2 per pixel, as --coord0.
+    #[arg(long, value_name = "PNG")]
     pub coord2: Option<PathBuf>,
-    #[arg(long)]
+    /// Texture coordinates of unit 3 per pixel, as --coord0.
+    #[arg(long, value_name = "PNG")]
     pub coord3: Option<PathBuf>,
     /// Accept what NV2A (the Xbox GPU) runs beyond NV_register_combiners:
     /// dot products in the alpha portion, computed as the product of the two
     /// alpha inputs (docs/combiners.md). Off by default.
     #[arg(long)]
     pub permissive: bool,
-    /// The output image (RGBA8 PNG): the final combiner's RGBA.
-    #[arg(long)]
-    pub out: PathBuf,
+    /// The output image (RGBA8 PNG, written atomically): the final
+    /// combiner's RGBA. `--out` is an older name.
+    #[arg(short, long, alias = "out", value_name = "OUT.png")]
+    pub output: PathBuf,
 }
 
 fn parse_color(s: &str) -> Result<Color, String> {
@@ -211,8 +218,8 @@ fn run_inner(args: &EmulateArgs) -> Result<(), Failure> {
     let mut png = Vec::new();
     let encoder = image::codecs::png::PngEncoder::new(&mut png);
     image::ImageEncoder::write_image(encoder, &pixels, width, height, image::ExtendedColorType::Rgba8)
-        .map_err(|e| Failure::Io(format!("{}: cannot encode PNG: {e}", args.out.display())))?;
-    shadec::io::write_atomic(&args.out, &png).map_err(|e| Failure::Io(e.to_string()))?;
+        .map_err(|e| Failure::Io(format!("{}: cannot encode PNG: {e}", args.output.display())))?;
+    shadec::io::write_atomic(&args.output, &png).map_err(|e| Failure::Io(e.to_string()))?;
     Ok(())
 }
 
@@ -264,7 +271,7 @@ pub(super) fn load_config(path: &Path, limits: &CombinerLimits) -> Result<Combin
     if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("ron")) {
         let config = CombinerConfig::from_ron(&text).map_err(|e| {
             Failure::Config(format!(
-                "{name}:{}:{}: error[ron]: {}\n  = help: see tests/data/combiners/*.ron for the CombinerConfig layout\n",
+                "{name}:{}:{}: error[ron]: {}\n  = help: a CombinerConfig in RON is laid out as docs/combiners.md, \"Translated shaders\", shows (or write the setup as `!!RC1.0` text)\n",
                 e.span.start.line, e.span.start.col, e.code
             ))
         })?;

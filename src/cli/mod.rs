@@ -24,6 +24,14 @@ pub const EXIT_USAGE_OR_IO: u8 = 2;
 
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
+    // Before any thread starts: a runtime directory for Mesa's drivers
+    // where the environment has no valid one (their complaint is not ours).
+    #[cfg(feature = "gpu")]
+    if matches!(&cli.command, Command::Render(a) if a.backend == render::Backend::Wgpu)
+        || matches!(&cli.command, Command::Bench(a) if a.backend == render::Backend::Wgpu)
+    {
+        shadec::gpu::runtime_dir::ensure();
+    }
     match cli.command {
         Command::Bench(args) => bench::run(&args),
         Command::Check(args) => check::run(&args),

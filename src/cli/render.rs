@@ -1,5 +1,5 @@
-//! `shadec render [SCENE.ron] [--shader FILE.shd] [--target X] [--mode
-//! fixed9|f32|exact] [--size WxH] [--out IMG.png]`: plan a program for a
+//! `shadec render [SCENE.ron] [--shader FILE.shd] [--target X] [--precision
+//! fixed9|f32|exact] [--size WxH] [-o IMG.png]`: plan a program for a
 //! target, run the plan on the CPU for a scene, write the picture, and print
 //! the pass plan, the time per frame and the error against the exact
 //! reference. With no arguments: Kilgard's bump-mapped torus on geforce256.
@@ -45,10 +45,11 @@ pub struct RenderArgs {
     /// Image size; defaults to the scene's resolution.
     #[arg(long, value_name = "WxH")]
     pub size: Option<String>,
-    /// Where to write the picture (PNG, written atomically).
-    #[arg(long, short, value_name = "IMG.png", default_value = "shadec-out.png")]
-    pub out: PathBuf,
-    /// Adaptive sample shading (seeds/004 Section 2.1): shade exactly every
+    /// Where to write the picture (PNG, written atomically). `--out` is an
+    /// older name.
+    #[arg(short, long, alias = "out", value_name = "IMG.png", default_value = "shadec-out.png")]
+    pub output: PathBuf,
+    /// Adaptive sample shading (Adaptive Sample Shading, Section 2.1): shade exactly every
     /// SPACING pixels (default 16) and at edges, subdivide where neighbouring
     /// samples differ by more than THRESHOLD (a fraction, `0.085`, or a
     /// percentage, `8.5%`), interpolate the rest. Reports the pixels shaded
@@ -75,7 +76,9 @@ pub struct RenderArgs {
 /// The executor `render` runs the plan on.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
 pub enum Backend {
+    /// The CPU renderer (tiled, batched, every precision).
     Cpu,
+    /// The plan's WGSL on the adapter wgpu finds: a GPU, or Mesa's lavapipe.
     Wgpu,
 }
 
@@ -298,9 +301,9 @@ fn render(args: &RenderArgs) -> Result<(), ExitCode> {
     let lights = if args.no_specialize { 1 } else { scene.lights.len() };
     let reference = meaning_frame(&compiled, &file, (&scene, &assets), lights, size)?;
     let frames = Frames { frame, reference, full };
-    save_opaque_png(&frames.frame.image, &args.out).map_err(usage)?;
+    save_opaque_png(&frames.frame.image, &args.output).map_err(usage)?;
     print_report(planned, &frames, mode, size, adaptive.as_ref());
-    println!("wrote {}", args.out.display());
+    println!("wrote {}", args.output.display());
     Ok(())
 }
 
@@ -395,7 +398,7 @@ fn meaning_frame(
     frame.map_err(|e| failed(&meaning, file, e))
 }
 
-/// `--backend wgpu`: the plan's WGSL on the adapter wgpu finds (issue 22),
+/// `--backend wgpu`: the plan's WGSL on the adapter wgpu finds,
 /// in f32 or, with `--precision fixed9`, the register combiners' integer
 /// model; the same error report as the CPU's. With `--adaptive`, each pass
 /// into the picture as a sparse pass and an interpolating full pass
@@ -445,7 +448,7 @@ fn render_on_wgpu(
         .map_err(input)?;
     let lights = if args.no_specialize { 1 } else { scene.lights.len() };
     let reference = meaning_frame(compiled, file, (scene, assets), lights, size)?;
-    save_opaque_png(&image, &args.out).map_err(usage)?;
+    save_opaque_png(&image, &args.output).map_err(usage)?;
     let n = planned.plan.passes.len();
     println!(
         "frame: {} on wgpu, {} pass{}; pipelines and uploads made once for the scene: {:.1} ms{}",
@@ -468,7 +471,7 @@ fn render_on_wgpu(
         print_error("full shading", compare(&full_image, &image));
     }
     print_error("the program's meaning (exact, unsplit)", compare(&reference.image, &image));
-    println!("wrote {}", args.out.display());
+    println!("wrote {}", args.output.display());
     Ok(())
 }
 
@@ -529,7 +532,7 @@ fn render_on_wgpu(
 }
 
 /// `; predicted on geforce3: 2.356 ms` where the target has a cost model
-/// (issue 19), at the scene's resolution.
+///, at the scene's resolution.
 fn predicted(plan: &shadec::pipeline::PassPlan) -> String {
     plan.predicted.as_ref().map_or(String::new(), |p| {
         format!("; predicted on {}: {:.3} ms at the scene's resolution", plan.target, p.total_us / 1000.0)

@@ -1,7 +1,7 @@
-//! The cost model (issue 19): how long a pass plan takes on the hardware it
+//! The cost model: how long a pass plan takes on the hardware it
 //! was made for, predicted from the plan and the target profile's
-//! [`CostModel`] — the speed the papers report (seeds/000 Section 5.4,
-//! seeds/003 Section 5), not the CPU interpreter's milliseconds.
+//! [`CostModel`] — the speed the papers report (GeForce3 Phong, Section 5.4,
+//! Kilgard 2000, Section 5), not the CPU interpreter's milliseconds.
 //!
 //! # The model (docs/cost-model.md gives each number's source)
 //!
@@ -17,10 +17,10 @@
 //! frame = clear + Σ pass
 //! ```
 //!
-//! `samples` counts bilinear samples (a trilinear lookup is two, seeds/003
+//! `samples` counts bilinear samples (a trilinear lookup is two, Kilgard 2000
 //! Section 5.3's mipmapped normal maps); `stages` are the general combiner
 //! stages the code generator used for the pass. A `bake` table's pass is
-//! the compiler's (issue 18) and costs nothing on the target.
+//! the compiler's and costs nothing on the target.
 
 pub mod vertex;
 pub mod workload;
@@ -181,7 +181,7 @@ pub fn texture_samples(pass: &Pass, trilinear: &Trilinear) -> u32 {
 }
 
 /// The names of a module's trilinear textures, looked up once per plan
-/// (a plan of 30 000 passes has as many temporaries: issue 22 item 4).
+/// (a plan of 30 000 passes has as many temporaries).
 pub struct Trilinear<'m>(rustc_hash::FxHashSet<&'m str>);
 
 impl<'m> Trilinear<'m> {
@@ -268,7 +268,7 @@ impl Bound {
 }
 
 /// The time of one pass on the nominal workload (ns, rounded), for the
-/// planner's comparison of plans that fit (issue 19 item 4): fill (texture
+/// planner's comparison of plans that fit: fill (texture
 /// trips, combiner stages), memory (a blend reading the destination), a
 /// render-to-texture copy, the pass overhead. Vertex work is left out: every
 /// piece of one statement draws the same mesh.

@@ -1,6 +1,6 @@
 //! The vertex work of a pass, counted as vertex-program instructions (or
 //! fixed-function T&L operations) per vertex — the length of the program a
-//! GeForce3 vertex program would run for the pass (seeds/000 Section 4.1:
+//! GeForce3 vertex program would run for the pass (GeForce3 Phong, Section 4.1:
 //! the light and half-angle vectors transformed into tangent space per
 //! vertex), estimated from the per-vertex IR the pass interpolates.
 
@@ -16,7 +16,7 @@ pub const FRAME_OPS: f64 = 3.0;
 /// A light or view vector: `p_light − p` (one `add`), normalized (`dp3`,
 /// `rsq`, `mul`).
 pub const DIRECTION_OPS: f64 = 4.0;
-/// Into tangent space: three `dp3` more (seeds/000 Section 4.1).
+/// Into tangent space: three `dp3` more (GeForce3 Phong, Section 4.1).
 pub const TANGENT_SPACE_OPS: f64 = 3.0;
 /// Writing one interpolant (`mov` to an output register).
 pub const OUTPUT_OPS: f64 = 1.0;

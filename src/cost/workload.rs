@@ -2,7 +2,7 @@
 //! triangles and the pixels its front and back faces cover (overdraw
 //! counted, clipped to the screen) and the resolution. Either measured from
 //! a scene, or the nominal
-//! workload of seeds/000 Section 5.4: "a screen-filling mesh with 20k
+//! workload of GeForce3 Phong, Section 5.4: "a screen-filling mesh with 20k
 //! triangles".
 
 use glam::{Mat4, Vec2, Vec4};
@@ -45,14 +45,14 @@ pub struct PassLoad {
 }
 
 impl Workload {
-    /// seeds/000 Section 5.4's timing setup: a screen-filling mesh of
+    /// GeForce3 Phong, Section 5.4's timing setup: a screen-filling mesh of
     /// 20 000 triangles (a 100 × 100 grid, 10 201 vertices), at 1280 × 1024
     /// as `scenes/screen_mesh_20k.ron`. What a plan is predicted on when no
     /// scene is given.
     pub fn nominal() -> Workload {
         let (w, h) = (1280, 1024);
         Workload {
-            name: "a screen-filling mesh of 20 000 triangles at 1280×1024 (seeds/000 §5.4)".into(),
+            name: "a screen-filling mesh of 20 000 triangles at 1280×1024 (GeForce3 Phong, §5.4)".into(),
             resolution: (w, h),
             objects: vec![ObjectLoad {
                 vertices: 101 * 101,

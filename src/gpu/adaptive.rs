@@ -1,4 +1,4 @@
-//! Adaptive sample shading on wgpu (issue 22; seeds/004 Section 2.1).
+//! Adaptive sample shading on wgpu (Adaptive Sample Shading, Section 2.1).
 //! WebGPU has no variable-rate shading, so each pass into the picture is
 //! drawn twice:
 //!

@@ -9,9 +9,12 @@
 //!   as the CPU renderer (`scene::bind`), rendered textures included;
 //! - `timer`: a frame's GPU time from timestamp queries;
 //! - `adaptive`: adaptive sample shading as a sparse pass and an
-//!   interpolating full pass (seeds/004 Section 2.1).
+//!   interpolating full pass (Adaptive Sample Shading, Section 2.1);
+//! - `runtime_dir`: a private `XDG_RUNTIME_DIR` where the environment has
+//!   none, so Mesa's drivers do not print an error that is not shadec's.
 
 pub mod adaptive;
 pub mod runner;
+pub mod runtime_dir;
 pub mod scene_run;
 pub mod timer;

@@ -67,6 +67,7 @@ impl Gpu {
     /// Picks an adapter (honours `WGPU_BACKEND`, `WGPU_ADAPTER_NAME`, …) and
     /// creates a device with the adapter's own limits.
     pub fn new() -> Result<Gpu, GpuError> {
+        super::runtime_dir::ensure();
         let instance = wgpu::Instance::new(wgpu::InstanceDescriptor::new_without_display_handle_from_env());
         let options = wgpu::RequestAdapterOptions { compatible_surface: None, ..Default::default() };
         let adapter = pollster::block_on(instance.request_adapter(&options))
@@ -197,11 +198,11 @@ pub enum TextureData {
     /// ([`PassTarget::Texture`] of that name): all its layers as a
     /// `texture_2d_array` when `array` (a fat texture), else its first
     /// layer as a `texture_2d`. A pass that samples its own target reads a
-    /// copy taken just before it (seeds/001 (16): `T δu ← p T δu`).
+    /// copy taken just before it (Pipeline Grammar, eq. (16): `T δu ← p T δu`).
     Rendered { name: String, array: bool },
     /// The depth buffer of a rendered texture (`None`: of the main target)
     /// as it is just before the pass, in `.x` of an `R32Float` texture —
-    /// `z C′ …` read in a shader (seeds/001 Section 3.5, shadow mask).
+    /// `z C′ …` read in a shader (Pipeline Grammar, Section 3.5, shadow mask).
     /// Unfilterable: a unit of this kind samples through a nearest,
     /// non-filtering sampler.
     RenderedDepth { name: Option<String> },
@@ -227,7 +228,7 @@ pub enum PassTarget {
     Texture(RenderedTexture),
 }
 
-/// A texture rendered during a run. A fat texture (seeds/001 (5), (15);
+/// A texture rendered during a run. A fat texture (Pipeline Grammar, eq. (5), (15);
 /// `codegen::fat_layers`) has one array layer per member, and a pass
 /// with `outputs` colour outputs writes layers `0..outputs`.
 #[derive(Clone, Debug, PartialEq)]
@@ -313,7 +314,7 @@ pub struct Target {
 
 /// The colour target's format. The picture read back is RGBA8 either way;
 /// a float target keeps the values *between* passes in float, as the CPU
-/// renderer's `f32` mode does ("the same plan in float", issue 6), so that
+/// renderer's `f32` mode does ("the same plan in float"), so that
 /// multipass plans can be compared with it without the 8-bit rounding of
 /// every intermediate framebuffer.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -402,7 +403,7 @@ pub fn run_passes(gpu: &Gpu, target: &Target, passes: &[RunPass]) -> Result<Rgba
     Frame::prepare(gpu, target, passes)?.draw(gpu)
 }
 
-/// A frame's GPU objects, made once (issue 22: pipelines, bind groups,
+/// A frame's GPU objects, made once (pipelines, bind groups,
 /// uploads and render targets per scene, not per frame); [`Frame::draw`]
 /// then only records, submits and reads back.
 pub struct Frame<'a> {

@@ -98,7 +98,7 @@
 //! precision, dependent lookups sampled at level 0 on the CPU (EMBM),
 //! fixed9 rendering a `rgba16f` G-buffer into 8 bits, hardware WGSL not
 //! rounding conversions like the CPU's per-operation model, and
-//! seeds/001 (10) drawing nothing.
+//! Pipeline Grammar, eq. (10) drawing nothing.
 
 //! # Rendered textures
 //!
@@ -311,7 +311,7 @@ impl<'a> ScenePlan<'a> {
         Ok(out)
     }
 
-    /// The textures the plan renders, and how (seeds/001 (5), (13), (15)):
+    /// The textures the plan renders, and how (Pipeline Grammar, eq. (5), (13), (15)):
     /// declared ones over their texels or the frame, the other framebuffers
     /// (shadow mask's C′, Cl) as frame-sized textures.
     fn rendered_textures(

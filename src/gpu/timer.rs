@@ -1,4 +1,4 @@
-//! GPU frame time from timestamp queries (issue 22): a timestamp at the
+//! GPU frame time from timestamp queries: a timestamp at the
 //! beginning and at the end of every render pass of a frame, resolved into
 //! a buffer and read back after the frame; the frame's GPU time is the last
 //! end minus the first beginning, in the queue's timestamp period. Only on

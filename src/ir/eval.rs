@@ -18,7 +18,7 @@
 //! times a scalar); lanes past a vector's width are zero. Every value `apply`
 //! and the evaluator produce is in this canonical layout ([`canonical`]),
 //! and operands given to `apply` must be too ([`value`] converts a
-//! [`Constant`]). Bundles (three components per member, seeds/001 (5)) do not
+//! [`Constant`]). Bundles (three components per member, Pipeline Grammar, eq. (5)) do not
 //! fit in a value: a [`Expr::Bundle`] evaluates to NaN — evaluate its members.
 //!
 //! # Leaves
@@ -110,14 +110,14 @@ fn bool(x: bool) -> f64 {
 ///   broadcast; `a · b` sums over the operands' width (of two scalars: their
 ///   product). `expand(x) = 2x − 1`, `half_bias(x) = x − ½` and
 ///   `compress(x) = (x + 1)/2` are the register-combiner range mappings of
-///   seeds/003 Table 3 (`GL_EXPAND_NORMAL`, `GL_HALF_BIAS_NORMAL`) and their
-///   inverse, the range compression of seeds/003 Section 5.3.
+///   Kilgard 2000, Table 3 (`GL_EXPAND_NORMAL`, `GL_HALF_BIAS_NORMAL`) and their
+///   inverse, the range compression of Kilgard 2000, Section 5.3.
 ///   `step(e, x) = x < e ? 0 : 1`, `smoothstep(e0, e1, x)` and
 ///   `mix(a, b, t) = a(1 − t) + bt` as in GLSL; `cross(a, b)` the cross
 ///   product and `reflect(I, N) = I − 2(N·I)N` as GLSL's (N unit).
 /// - Comparisons and `∧ ∨ not` give 0 or 1; any nonzero value is true.
 /// - `c ? a : b` is `a` where `c ≠ 0`, else `b`. `c ? a` (no `b`) keeps the
-///   destination where `c = 0` (the shadow-volume pass, seeds/001 Section
+///   destination where `c = 0` (the shadow-volume pass, Pipeline Grammar, Section
 ///   3.5): that is not a value, so `apply` gives [`NAN`] and the
 ///   [`Evaluator`] reports the sample as discarded.
 /// - Swizzles select lanes, `(a, b, …)` concatenates, `rgb` → `rgba` sets
@@ -265,7 +265,7 @@ fn math(module: &Module, fun: MathFunction, args: &[Handle<Expr>], ty: Ty, o: &[
 /// and ARB_texture_env_combine, on values of `width` 1 (a scalar: one colour
 /// channel), 3 (`rgb`) or 4 (`rgba`, alpha in lane 3).
 ///
-/// **Which operand is the texture.** seeds/001 (12) writes chained
+/// **Which operand is the texture.** Pipeline Grammar, eq. (12) writes chained
 /// multitexturing as `C δπx ← T‴ δu‴ x ⊕ (T″ δu″ x ⊕ (T′ δu′ x ⊕ T δu x))`:
 /// each texture unit applies its texture over the colour coming from the
 /// units before it, so the **left operand is the texture** (`Ct`, `At`) and
@@ -382,7 +382,7 @@ pub trait Env {
     }
 
     /// Member `member` of the shading-parameter vector stored in the fat
-    /// texel of `texture` at `coords` (seeds/001 (5), (14)).
+    /// texel of `texture` at `coords` (Pipeline Grammar, eq. (5), (14)).
     fn fat_member(&mut self, texture: TextureId, coords: Value, member: u8) -> Value {
         NAN
     }
@@ -412,7 +412,7 @@ pub trait Env {
     }
 
     /// `π v`: a projection of an evaluated point (`ty` position) or of a
-    /// direction (`ty` vec3, `πR`: sphere-map coordinates, seeds/001 (7)).
+    /// direction (`ty` vec3, `πR`: sphere-map coordinates, Pipeline Grammar, eq. (7)).
     fn project(&mut self, projection: &Projection, value: Value, ty: Ty) -> Value {
         NAN
     }

@@ -80,7 +80,7 @@ fn lower_here(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
     (l.module, l.diagnostics)
 }
 
-/// `texture T … = bake(f)` is texture shading (seeds/001 (13)) of the
+/// `texture T … = bake(f)` is texture shading (Pipeline Grammar, eq. (13)) of the
 /// function `f` over T's texels: the program with the statement
 /// `T δu ← f s δu` added for every such texture (its spans those of the
 /// `bake(…)` source, so it sorts, plans and reports where it was written),
@@ -149,7 +149,7 @@ enum BundleSite {
     Interpolated(VertexId, Frequency),
     /// At the texel being rendered (`s δu`): in a texture-shading statement
     /// of a program with a mesh, a vector is taken at the surface point
-    /// whose coordinate is the texel's (seeds/001 (13)) — a role
+    /// whose coordinate is the texel's (Pipeline Grammar, eq. (13)) — a role
     /// interpolated from the vertex stream in texture space, a computed
     /// vector evaluated per texel from them (see `surface_vertex`); `s.x`
     /// is the texel coordinate (a table, as `bake(f)` makes).
@@ -316,7 +316,7 @@ impl<'a> Lowerer<'a> {
                 span,
                 "the IR cannot express this yet",
             )
-            .with_help("rewrite it with the forms of seeds/001 Sections 2-3, or report it as a gap"),
+            .with_help("rewrite it with the forms of Pipeline Grammar, Sections 2-3, or report it as a gap"),
         );
     }
 
@@ -442,7 +442,7 @@ impl<'a> Lowerer<'a> {
     }
 
     /// Bounds a generated texture where it is declared, before anything
-    /// builds it: `normalize_cube(size[, bits])` (seeds/003 Appendix D)
+    /// builds it: `normalize_cube(size[, bits])` (Kilgard 2000, Appendix D)
     /// needs a `cube` texture, a whole face size from 1 to
     /// [`generators::MAX_CUBE_FACE`] known at compile time (a literal or a
     /// `const`), and 8 or 16 bits. The other generators' sizes are fixed
@@ -493,7 +493,7 @@ impl<'a> Lowerer<'a> {
                 },
                 items[0].span,
                 format!("{n} texels per side"),
-                format!("write a whole face size from 1 to {MAX_CUBE_FACE}: `normalize_cube(32)` is seeds/003's normalization cube, 256 is smooth under magnification"),
+                format!("write a whole face size from 1 to {MAX_CUBE_FACE}: `normalize_cube(32)` is Kilgard 2000's normalization cube, 256 is smooth under magnification"),
             ),
             Some(_) => {}
         }
@@ -610,7 +610,7 @@ impl<'a> Lowerer<'a> {
     /// parameter's annotation, a shader's `s → t`, `rgb(…)`/`vec3(…)`: the
     /// same type is kept; a constant of the same width is retagged; a scalar
     /// splats; rgb widens to rgba (alpha 1); a vec3 and an rgb are the same
-    /// three numbers read as a direction or a colour (seeds/001 (1)-(3)
+    /// three numbers read as a direction or a colour (Pipeline Grammar, eq. (1)-(3)
     /// multiply light intensities, colours, by dot products of directions),
     /// so one is retagged as the other by an identity component selection.
     /// `None` when the value cannot take the type.
@@ -804,7 +804,7 @@ impl<'a> Lowerer<'a> {
                 let (sym, word) = if key == "s" { ("σ", "stencil") } else { ("α", "alpha") };
                 self.diagnostics.push(
                     Diagnostic::error("unknown-name", format!("`{key}` is not a table"), t.table.span, "assigned into here").with_help(format!(
-                        "did you mean `{sym}` (ASCII `{word}`), the framebuffer's {word} channel: `{sym} C δπx ← …`? seeds/001 as printed (the Symbol font) shows `{sym}` as `{key}`"
+                        "did you mean `{sym}` (ASCII `{word}`), the framebuffer's {word} channel: `{sym} C δπx ← …`? Pipeline Grammar as printed (the Symbol font) shows `{sym}` as `{key}`"
                     )),
                 );
                 return Err(());
@@ -937,7 +937,7 @@ impl<'a> Lowerer<'a> {
                         format!("texture coordinates cannot be a {}", ty.name()),
                         span,
                         format!("a {}", ty.name()),
-                        "generate a scalar, vec2 or vec3 (seeds/001 (7))",
+                        "generate a scalar, vec2 or vec3 (Pipeline Grammar, eq. (7))",
                     );
                     return Err(());
                 }
@@ -1106,7 +1106,7 @@ impl<'a> Lowerer<'a> {
         }
     }
 
-    /// A bare `⊕` is modulate: seeds/001's multipass forms (9)-(11),
+    /// A bare `⊕` is modulate: Pipeline Grammar's multipass forms (9)-(11),
     /// `C δπx ← (C δπx) ⊕ (…)`, written literally as a program's first
     /// write of `C` multiply the cleared framebuffer (0) and render black.
     /// Warns when the left operand reads the colour of a framebuffer no
@@ -1670,7 +1670,7 @@ impl<'a> Lowerer<'a> {
                     "texture shading `s δu` on a program with several vertex streams: which surface `u` parameterizes is not said",
                     span,
                     "on which mesh?",
-                    "name the stream: `T δu x ← p δ s x` rasterizes the mesh `x` in texture space (seeds/001 (15))",
+                    "name the stream: `T δu x ← p δ s x` rasterizes the mesh `x` in texture space (Pipeline Grammar, eq. (15))",
                 );
                 return Err(());
             }

@@ -1,12 +1,12 @@
 //! The shading IR: a typed, hash-consed DAG of expressions with computation
-//! frequencies and value ranges, lowered from the checked AST (issue 3).
+//! frequencies and value ranges, lowered from the checked AST.
 //!
 //! # What a module holds
 //!
 //! A [`Module`] is the program after name resolution, inlining and constant
 //! folding. Its resources (textures, framebuffers, shading vectors, uniforms,
 //! vertex streams, texture-coordinate sets) are plain lists indexed by small
-//! ids; its [`Statement`]s are the `←` assignments of seeds/001 in source
+//! ids; its [`Statement`]s are the `←` assignments of Pipeline Grammar in source
 //! order, each one pass until the planner splits it; every value is an
 //! [`Expr`] in one [`UniqueArena`], so identical subexpressions are one node
 //! (hash-consing: `Ncube δ L s x` used by two `let`s is one lookup, hence one
@@ -24,19 +24,19 @@
 //! - **type** ([`Ty`]): `scalar`, `vec2` (texture coordinates), `vec3`
 //!   (direction), `rgb`, `rgba`, plus `position` (a point from `x`, `π x`,
 //!   `xs`) and `bundle(n)` (a whole shading-parameter vector `s`, stored into a
-//!   fat texture, seeds/001 (5), (15)). `vec3` and `rgb` are both
+//!   fat texture, Pipeline Grammar, eq. (5), (15)). `vec3` and `rgb` are both
 //!   three-component and mix freely in arithmetic (a normal-map texel *is* a
-//!   vector, seeds/003 Section 5.3); a dot product needs two three-component
+//!   vector, Kilgard 2000, Section 5.3); a dot product needs two three-component
 //!   operands; an `rgb` widens to `rgba` (alpha 1) where an `rgba` is needed,
 //!   through an explicit [`Expr::Convert`].
 //! - **frequency** ([`Frequency`]): where the value is computed, read from
-//!   where δ stands (seeds/001 Section 3.1-3.2). Constants and uniforms (per
+//!   where δ stands (Pipeline Grammar, Section 3.1-3.2). Constants and uniforms (per
 //!   object) join anything; right of δ is per vertex; `δ e` is
 //!   [`Expr::Interpolate`], which takes a per-vertex value to the statement's
 //!   *sample* frequency: per fragment (`C δπx ←`, `T δπx ←`), or per texel
 //!   when the statement renders into a texture in its own coordinates
-//!   (`T δu ←`, `T δu x ←`, texture shading, seeds/001 (13), (15)). A screen
-//!   pass `C xs ←` (seeds/001 (6)) reads framebuffers per pixel and has no δ.
+//!   (`T δu ←`, `T δu x ←`, texture shading, Pipeline Grammar, eq. (13), (15)). A screen
+//!   pass `C xs ←` (Pipeline Grammar, eq. (6)) reads framebuffers per pixel and has no δ.
 //!   The three sample frequencies do not mix: a value is per fragment, per
 //!   texel or per screen pixel, never two of them.
 //! - **range** ([`Range`], from a conservative interval): unsigned \[0,1\]
@@ -44,9 +44,9 @@
 //!   vectors, the general combiners, signed textures) or unbounded. Dot
 //!   products of two signed operands are taken as dot products of unit
 //!   vectors, hence signed: the register combiners clamp them to [−1,1]
-//!   anyway (seeds/003 Section 4.2).
+//!   anyway (Kilgard 2000, Section 4.2).
 //!
-//! # The semantics of lowering (seeds/001 Sections 2-3)
+//! # The semantics of lowering (Pipeline Grammar, Sections 2-3)
 //!
 //! - `x` is a vertex ([`Expr::VertexPosition`], per vertex); `u x` its
 //!   texture coordinates ([`Expr::TexCoord`]); `s x` its shading parameters,
@@ -57,7 +57,7 @@
 //!   function of the texel coordinate (texture shading); a fat-texture lookup
 //!   `T δu x` used as a bundle gives [`Expr::FatMember`]s.
 //! - `δ e`: `e` per vertex → [`Expr::Interpolate`]; `e` with per-vertex and
-//!   per-sample parts (EMBM, seeds/001 (8): `T δ((u x) + (T′ δu′ x))`) → δ
+//!   per-sample parts (EMBM, Pipeline Grammar, eq. (8): `T δ((u x) + (T′ δu′ x))`) → δ
 //!   distributes over the operators and interpolates only the per-vertex
 //!   operands; `e` already per sample (`δ δ u x`) → error "δ applied twice";
 //!   `e` constant or uniform → `e` (interpolating a constant is the constant).
@@ -71,7 +71,7 @@
 //!   per-vertex shading, `δ p s x` Gouraud (1), `p δ s x` fragment lighting (4).
 //! - `π x` is [`Expr::Project`] of the vertex position (per vertex, a
 //!   position); `δπx` the fragment's position; `πR v` of a direction is a
-//!   vec2 (sphere-map texgen, seeds/001 (7)); `π⁻¹ xs` goes back to model
+//!   vec2 (sphere-map texgen, Pipeline Grammar, eq. (7)); `π⁻¹ xs` goes back to model
 //!   space.
 //! - `C p` reads framebuffer `C` at position `p` ([`Expr::FramebufferRead`]);
 //!   `α`, `z`, `σ` select its alpha, depth or stencil channel; `z` of a
@@ -100,7 +100,7 @@
 //! frequencies say where each cut may go (per-vertex nodes move to the
 //! vertex stage or to interpolants for free), ranges say whether an 8-bit
 //! target can hold the cut value (unsigned) or must range-compress it
-//! (signed, seeds/003 `expand`), or cannot (unbounded). Hash-consing means
+//! (signed, Kilgard 2000 `expand`), or cannot (unbounded). Hash-consing means
 //! a node shared by two statements (Kilgard's `Tn δu x`) is the same handle.
 
 pub mod arena;
@@ -145,7 +145,7 @@ pub struct Module {
 
 impl Module {
     /// Whether `st` is the texel statement of a `bake(f)` table, which the
-    /// compiler computes, not the target (issue 18; `Texture::baked`).
+    /// compiler computes, not the target (`Texture::baked`).
     pub fn is_baked(&self, st: &Statement) -> bool {
         matches!(st.table, Table::Texture(id) if self.textures[id as usize].baked)
             && st.freq == Frequency::Texel
@@ -190,8 +190,7 @@ impl Module {
     /// Every node reachable from `roots`, in arena (topological) order.
     ///
     /// The visited set is a bitset over the arena kept per thread and
-    /// cleared after each call, and the result is sorted at the end (issue
-    /// 22: this runs for every value the planner measures; a `BTreeSet` per
+    /// cleared after each call, and the result is sorted at the end (this runs for every value the planner measures; a `BTreeSet` per
     /// call was 6 % of a 100 000-operation plan).
     pub fn reachable(&self, roots: &[Handle<Expr>]) -> Vec<Handle<Expr>> {
         thread_local! {
@@ -255,23 +254,23 @@ pub struct Texture {
     /// loaded or generated.
     pub rendered: bool,
     /// Filled by `bake(f)`: a table the compiler computes on the CPU at
-    /// compile time (issue 18), which the target only samples — its texel
+    /// compile time, which the target only samples — its texel
     /// pass is never the target's to run.
     pub baked: bool,
-    /// For a texture the lowering added (a normalization cube map, issue
-    /// 18): its declaration as a user would write it, so that executors
+    /// For a texture the lowering added (a normalization cube map):
+    /// its declaration as a user would write it, so that executors
     /// bind it as they bind a declared one (`scene::bind::lowered_decls`).
     pub declaration: Option<String>,
     /// For a texture the lowering re-stores (rule
-    /// `signed_texture_compression`, issue 18): the declared texture whose
+    /// `signed_texture_compression`): the declared texture whose
     /// source it loads or generates again, in this texture's format.
     pub copy_of: Option<String>,
     /// The function its generator tabulates, which a rule can compute
-    /// instead of sampling it (issue 18); `None` for images and rendered
+    /// instead of sampling it; `None` for images and rendered
     /// textures.
     pub tabulates: Option<Tabulated>,
     /// How it is sampled: its declaration's attributes, read once here
-    /// (issue 17) for the binder and the cost model alike.
+    /// for the binder and the cost model alike.
     pub sampling: Sampling,
     pub span: Span,
 }
@@ -279,12 +278,12 @@ pub struct Texture {
 /// The function a generated table holds (its declaration's generator).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Tabulated {
-    /// `normalize_cube(…)`: the unit vector of the direction (seeds/000
+    /// `normalize_cube(…)`: the unit vector of the direction (GeForce3 Phong
     /// Section 4.2.2), range-compressed unless the format is signed — a
     /// lookup at `δ v` is `normalize(v)` up to a texel, which is what a
     /// per-vertex rule computes at the vertices.
     Normalize,
-    /// `exponent_table(n)`: x ↦ xⁿ on [0, 1] (seeds/000 Figure 10),
+    /// `exponent_table(n)`: x ↦ xⁿ on [0, 1] (GeForce3 Phong, Figure 10),
     /// [`crate::textures::generators::EXPONENT_TABLE_SIZE`] texels,
     /// clamped at the edges.
     Power(f64),
@@ -348,7 +347,7 @@ pub struct Vector {
 }
 
 /// A texture-coordinate set: a vertex attribute, or generated by a texgen
-/// statement `u x ← …` (seeds/001 (7)), whose value type it takes.
+/// statement `u x ← …` (Pipeline Grammar, eq. (7)), whose value type it takes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TexCoordSet {
     pub name: String,
@@ -372,7 +371,7 @@ pub type UniformId = u32;
 pub type VertexId = u32;
 pub type TexCoordId = u32;
 
-/// Value types (seeds/001 Figure 2's c is `rgb`).
+/// Value types (Pipeline Grammar, Figure 2's c is `rgb`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Ty {
     Scalar,
@@ -433,7 +432,7 @@ impl Ty {
     }
 }
 
-/// Where a value is computed (seeds/001 Section 3: read from where δ stands).
+/// Where a value is computed (Pipeline Grammar, Section 3: read from where δ stands).
 /// Ordered: `Constant < Uniform < Vertex < {Fragment, Texel, Screen}`; the
 /// last three are sample frequencies that never mix.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord)]
@@ -574,7 +573,7 @@ impl Hash for Constant {
     }
 }
 
-/// Projections π (seeds/001 Figure 2): the camera's, a light's (`πl`), a
+/// Projections π (Pipeline Grammar, Figure 2): the camera's, a light's (`πl`), a
 /// per-pass perturbed one (`π*`, (11)), or the inverse (`π⁻¹`).
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct Projection {
@@ -640,7 +639,7 @@ pub enum MathFunction {
     Step,
     Smoothstep,
     Mix,
-    /// 2x − 1 (seeds/003 Table 3, GL_EXPAND_NORMAL).
+    /// 2x − 1 (Kilgard 2000, Table 3, GL_EXPAND_NORMAL).
     Expand,
     /// x − ½.
     HalfBias,
@@ -749,7 +748,7 @@ pub enum Expr {
         lhs: Handle<Expr>,
         rhs: Handle<Expr>,
     },
-    /// `a ⊕[mode] b` (seeds/001 (3)).
+    /// `a ⊕[mode] b` (Pipeline Grammar, eq. (3)).
     Combine {
         mode: ast::CombineMode,
         lhs: Handle<Expr>,
@@ -832,7 +831,7 @@ impl Expr {
     }
 
     /// Calls `f` on each operand in order, without allocating: the planner
-    /// walks values many times per statement (issue 22).
+    /// walks values many times per statement.
     pub fn visit_operands(&self, mut f: impl FnMut(Handle<Expr>)) {
         match self {
             Expr::Constant(_)
@@ -875,7 +874,7 @@ pub enum Table {
         channel: FbChannel,
     },
     Texture(TextureId),
-    /// `u x ←`: texture-coordinate generation (seeds/001 (7)).
+    /// `u x ←`: texture-coordinate generation (Pipeline Grammar, eq. (7)).
     TexCoords(TexCoordId),
 }
 

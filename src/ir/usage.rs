@@ -163,7 +163,7 @@ fn is_trivial(module: &Module, h: Handle<Expr>) -> bool {
 /// Per texture of `m` (by id): how many members its fat texels hold — the
 /// array layers it is stored in — or 0 for an ordinary texture. A texture
 /// is fat when a statement writes a shading-parameter bundle into it
-/// (seeds/001 (5), (15)) or a shader reads members of its texels ((6), (14), (16)).
+/// (Pipeline Grammar, eq. (5), (15)) or a shader reads members of its texels ((6), (14), (16)).
 pub fn fat_layers(m: &Module) -> Vec<u8> {
     let mut layers = vec![0u8; m.textures.len()];
     for st in &m.statements {
@@ -205,7 +205,7 @@ pub fn fragment_reach(m: &Module, roots: &[Handle<Expr>]) -> Vec<bool> {
 /// texture or a framebuffer: lookup coordinates, read positions, and what
 /// only they use. The texture units iterate them in float, so the register
 /// combiners' precision model (the CPU's `fixed9`, WGSL's hardware
-/// fidelity) does not round them (seeds/003 Section 4.2: the combiners see
+/// fidelity) does not round them (Kilgard 2000, Section 4.2: the combiners see
 /// texels, not coordinates).
 pub fn address_only(m: &Module, reach: &[bool]) -> Vec<bool> {
     let n = m.exprs.len();
@@ -233,11 +233,11 @@ pub fn address_only(m: &Module, reach: &[bool]) -> Vec<bool> {
 /// build): which per-sample nodes are *register reads* — an operand that a
 /// product, dot product, power or function of another per-sample value
 /// takes, so the combiners hold it in a register, clamped to [−1, 1]
-/// (seeds/003 Section 4.2.2). Affine work — sums, constant scales and
+/// (Kilgard 2000, Section 4.2.2). Affine work — sums, constant scales and
 /// biases, negation, the range mappings — rides on input mappings, output
 /// scales and the AB + CD sum of the consumer's portion, where the
 /// hardware does not clamp in between; such a node is rounded to 1/255 but
-/// keeps its magnitude (issue 16 item 4: `2 * Detail`, `2*s.x − 1` on the
+/// keeps its magnitude (`2 * Detail`, `2*s.x − 1` on the
 /// way to a product). Both the CPU's `fixed9` and WGSL's hardware fidelity
 /// clamp exactly these. `reach`: the pass's nodes ([`fragment_reach`]).
 pub fn register_reads(m: &Module, reach: &[bool]) -> Vec<bool> {
@@ -294,8 +294,8 @@ fn mark_register_read(m: &Module, o: Handle<Expr>, reads: &mut [bool]) {
 
 /// In the register combiners' precision model, the exponent `k` of `x^k`
 /// when the power is taken by repeated squaring, each product a register
-/// write rounded to 8 bits + sign (seeds/000 Section 4.4: "exponentiation
-/// by squaring" in the combiners; seeds/003 Section 4.2: every general
+/// write rounded to 8 bits + sign (GeForce3 Phong, Section 4.4: "exponentiation
+/// by squaring" in the combiners; Kilgard 2000, Section 4.2: every general
 /// combiner output is a register). That is a power to a constant whole
 /// exponent in 1..=256; other powers are one operation. The CPU's `fixed9`
 /// and WGSL's hardware fidelity both round where this says, so they agree.

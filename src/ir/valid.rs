@@ -32,7 +32,7 @@ impl TypeError {
 
 /// The texel type of a texture: unsigned formats hold colours; signed
 /// formats hold vectors with as many components as the texture has
-/// coordinates (a 2-D offset map for EMBM, seeds/001 (8): "returns a 2-D
+/// coordinates (a 2-D offset map for EMBM, Pipeline Grammar, eq. (8): "returns a 2-D
 /// vector"; a normalization cube map holds directions).
 pub fn texel_type(kind: TextureKind, format: TextureFormat) -> (Ty, Interval) {
     use TextureFormat::*;
@@ -194,7 +194,7 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
                     format!("π projects a point or a direction, not a {}", t.name()),
                     "projected here",
                 )
-                .help("write `π x` for a vertex, or `πR R s x` for a direction (seeds/001 (7))")),
+                .help("write `π x` for a vertex, or `πR R s x` for a direction (Pipeline Grammar, eq. (7))")),
             }
         }
         Expr::Interpolate { value, to } => interpolate(m, *value, *to),
@@ -417,7 +417,7 @@ fn combine(
     for t in [a.ty, b.ty] {
         if !matches!(t, Ty::Scalar | Ty::Rgb | Ty::Rgba) {
             return Err(err("type-mismatch", format!("⊕ combines colours, not a {}", t.name()), format!("a {}", t.name()))
-                .help("⊕ is a texture-environment or framebuffer operation on colours (seeds/001 (3)); use `*` or `+` for vectors"));
+                .help("⊕ is a texture-environment or framebuffer operation on colours (Pipeline Grammar, eq. (3)); use `*` or `+` for vectors"));
         }
     }
     let ty = unify(a.ty, b.ty).ok_or_else(|| mismatch("⊕", a.ty, b.ty))?;
@@ -488,7 +488,7 @@ fn select(
 /// Ranges interval arithmetic cannot see, because an operand occurs twice.
 /// With this module's convention for a vec3 whose components lie in
 /// [−1, 1] (a direction of length at most 1: `Dot` reads two of them as a
-/// cosine), `w·w` is a squared length in [0, 1], and Formula 6 of seeds/000
+/// cosine), `w·w` is a squared length in [0, 1], and Formula 6 of GeForce3 Phong
 /// (Section 4.2.3), `w + ½w(1 − w·w)`, has length l(3 − l²)/2 ≤ 1 — so the
 /// register combiners compute the Taylor renormalization without a clamp
 /// changing it, as the paper does on a GeForce3.
@@ -749,7 +749,7 @@ mod tests {
         let decl = "vector L : light(0) in tangent;\nvector H : half(0) in tangent;\nlet w = δ L s x;\n";
         let range = |e: &str| statement_range(&format!("{decl}C δπx ← rgb({e});\n"));
         assert_eq!(range("w·w"), Interval::UNSIGNED, "a squared length");
-        assert_eq!(range("w + 0.5 * w * (1 - w·w)"), Interval::SIGNED, "seeds/000 Formula 6");
+        assert_eq!(range("w + 0.5 * w * (1 - w·w)"), Interval::SIGNED, "GeForce3 Phong, Formula 6");
         assert_eq!(range("w + (1 - w·w) * (w * 0.5)"), Interval::SIGNED, "any order and grouping");
         assert_eq!(range("0.5 * w * (1 - w·w) + w"), Interval::SIGNED, "either side of the sum");
         // Not Formula 6: another vector in the dot product, or another factor.

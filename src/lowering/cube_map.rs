@@ -1,12 +1,12 @@
 //! Rule `normalization_cube_map`: `normalize(δ v)` per fragment becomes a
 //! lookup of the interpolated (unnormalized) vector in a cube map that
 //! stores `v/|v|` range-compressed to [0, 1], expanded after the lookup —
-//! seeds/000 Section 4.2.2 (Formula 4, Figure 5) and seeds/003 Section 5.2.
+//! GeForce3 Phong, Section 4.2.2 (Formula 4, Figure 5) and Kilgard 2000, Section 5.2.
 //! The texture is the one `examples/phong_cubemap_normalized.shd` declares
 //! by hand (`normalize_cube(size, 8)`, the same generator).
 //!
 //! Where the target has signed formats (geforce3), the cube map is 16-bit
-//! signed — the HILO normalization map of seeds/000 Section 5.1, read by
+//! signed — the HILO normalization map of GeForce3 Phong, Section 5.1, read by
 //! the texture shaders and the combiners without `expand`.
 //!
 //! Error bound (per component of the unit vector): the texel's rounding —

@@ -1,18 +1,18 @@
 //! A dependent lookup on a target without texture shaders (the GeForce
-//! 256): a table indexed by a value that reads another texel — seeds/000
+//! 256): a table indexed by a value that reads another texel — GeForce3 Phong
 //! Figure 10's `Texp(N·H)` with `H` from a normalization cube map. Two
 //! rules, the more accurate first:
 //!
 //! - `table_function`: the table is a generator whose function the
 //!   combiners can compute (`exponent_table(n)`, n a whole number: xⁿ by
-//!   repeated squaring, seeds/000 Section 5.2's alternative to the lookup)
+//!   repeated squaring, GeForce3 Phong, Section 5.2's alternative to the lookup)
 //!   → that function of the clamped coordinate. It differs from the table
 //!   the meaning samples by the table's own error: the 8-bit rounding, the
 //!   linear interpolation between texels, and the clamp to the edge
 //!   texel's centre near 1;
 //! - `per_vertex` (the coordinate): the coordinate computed at the
 //!   vertices — a normalization cube map's texel as `normalize` there — and
-//!   interpolated into the table by texgen (issue 18: "on geforce256 a
+//!   interpolated into the table by texgen ("on geforce256 a
 //!   per-vertex approximation, reported as one"), no bound.
 //!
 //! What neither reaches (EMBM's offset texture: no function, no vertex

@@ -1,11 +1,11 @@
 //! Rule `fat_texture_split`: a fat texture — each texel a bundle of
-//! shading parameters, the fat framebuffer of deferred shading (seeds/001
+//! shading parameters, the fat framebuffer of deferred shading (Pipeline Grammar
 //! (5)-(6)) or the fat texture map ((14)-(15)) — on the register
 //! combiners, which write one colour per pass and read one per texture
 //! unit: one 8-bit texture per member, each written by its own statement
 //! and read where the member is. A member in [−1, 1] (a direction) is
 //! stored range-compressed, `(v + 1)/2`, and expanded where it is read
-//! (seeds/003 Section 5.2); a member in [0, 1] as it is. The planner then
+//! (Kilgard 2000, Section 5.2); a member in [0, 1] as it is. The planner then
 //! gives each member texture a unit and splits what needs more units than
 //! the target has.
 //!

@@ -1,13 +1,13 @@
 //! Rule `float_texture_8bit`: a float texture (`rgba16f`, `rgba32f`) on a
 //! target without float formats, whose every write is a value in [0, 1] (a
-//! colour a texel pass or a first pass computes, seeds/001 (13)), is the
+//! colour a texel pass or a first pass computes, Pipeline Grammar, eq. (13)), is the
 //! same texture in RGBA8: its writes and lookups retargeted. Error: the
 //! 8-bit store rounds by ½ of 1/255 (filtering does not grow it).
 //!
 //! Whose every write is a direction or other signed rgb in [−1, 1] with
-//! alpha 1 (`rgba(N δ s x, 1)`: a G-buffer of normals, seeds/001 (5)), it
+//! alpha 1 (`rgba(N δ s x, 1)`: a G-buffer of normals, Pipeline Grammar, eq. (5)), it
 //! is stored range-compressed, `rgba(compress(rgb), 1)`, the classic 8-bit
-//! normal map encoding (seeds/000 Section 5.1), and read back as
+//! normal map encoding (GeForce3 Phong, Section 5.1), and read back as
 //! `rgba(expand(rgb) · a, a)`: a written texel gives its value, a cleared
 //! one (0, 0, 0, 0) the float texture's cleared zero, not `expand(0) = −1`.
 //! Error: `expand` doubles the store's rounding, 1/255; where a filtered

@@ -1,5 +1,5 @@
-//! The lowering (issue 18): what a target cannot compute, rewritten into
-//! what it has — the GeForce-era techniques of seeds/000 and seeds/003 as
+//! The lowering: what a target cannot compute, rewritten into
+//! what it has — the GeForce-era techniques of GeForce3 Phong and Kilgard 2000 as
 //! named rules, each recording an [`Approximation`] with its cost and its
 //! error bound.
 //!
@@ -9,36 +9,36 @@
 //! first ([`choices`]). The rules, one file each (docs/lowering.md):
 //!
 //! - [`cube_map`]: `normalize(δ v)` → an 8-bit normalization cube map
-//!   (seeds/000 Section 4.2.2, Formula 4; seeds/003 Section 5.2);
+//!   (GeForce3 Phong, Section 4.2.2, Formula 4; Kilgard 2000, Section 5.2);
 //! - [`taylor`]: `normalize(δ v)` → `v + ½ v (1 − v·v)` in the combiners
-//!   (seeds/000 Formula 6), no texture unit;
+//!   (GeForce3 Phong, Formula 6), no texture unit;
 //! - [`per_vertex`]: a per-fragment function of interpolated values
-//!   computed per vertex and interpolated instead (seeds/001 (1) against
+//!   computed per vertex and interpolated instead (Pipeline Grammar, eq. (1) against
 //!   (4)): what makes the other rules' coordinates;
 //! - [`table`]: a per-fragment function of one bounded interpolated
 //!   scalar (`sqrt`, division, `floor`, `fract`, `exp`, a fractional power)
 //!   → a 1-D table baked by the compiler on the CPU (the `bake` path) and
-//!   indexed by texgen (seeds/002 Section 3: functions as textures); on
+//!   indexed by texgen (Heidrich & Seidel 1999, Section 3: functions as textures); on
 //!   geforce3 a function of a dot product that reads a texel, looked up at
 //!   the dot product by a texture-shader stage (`dependent_table`);
 //! - [`power`]: `x^n` not a power of two → squarings multiplied in one
 //!   pass; beyond the stages of one pass → a product of
 //!   powers that do fit, multiplied in the framebuffer across passes;
 //! - [`range_compress`]: a signed vector interpolated into the combiners
-//!   → `expand(δ (v + 1)/2)` (seeds/003 Section 5.2, Tables 2-3);
+//!   → `expand(δ (v + 1)/2)` (Kilgard 2000, Section 5.2, Tables 2-3);
 //! - [`texel_bake`]: a texture-shading statement that is a function of the
 //!   texel coordinate and uniforms only → computed by the compiler, as
 //!   `bake(f)` is;
 //! - [`signed_texture`]: a signed cube or 3-D texture on a target without
 //!   signed formats → the same source stored range-compressed in RGB8 and
-//!   expanded after each lookup (seeds/003 Section 5.2);
+//!   expanded after each lookup (Kilgard 2000, Section 5.2);
 //! - [`fat_texture`]: a fat texture (a bundle of shading parameters per
-//!   texel, seeds/001 (5), (14)) on the combiners → one 8-bit texture per
+//!   texel, Pipeline Grammar, eq. (5), (14)) on the combiners → one 8-bit texture per
 //!   member, range-compressed where signed;
 //! - [`float_texture`]: a float texture written only with values in
 //!   [0, 1] → the same texture in RGBA8;
 //! - [`table2d`]: a per-fragment function of two per-vertex arguments
-//!   (dot products) → a 2-D table baked by the compiler (seeds/002 §3);
+//!   (dot products) → a 2-D table baked by the compiler (Heidrich & Seidel 1999, §3);
 //! - [`dependent`]: on a target without dependent lookups (GeForce 256),
 //!   a lookup whose coordinate reads a texel → the function the table
 //!   holds computed in the combiners (`exponent_table(n)` → xⁿ), or the
@@ -74,7 +74,7 @@ use crate::span::Span;
 /// What the user allows (`compile --no-approx`, `--max-error E`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct LowerOptions {
-    /// `false`: refuse what the target cannot compute, as before issue 18.
+    /// `false`: refuse what the target cannot compute, as without the lowering.
     pub approximate: bool,
     /// Accept only approximations whose stated bound is at most this
     /// (an approximation with no bound is then refused); `None`: any.
@@ -445,7 +445,7 @@ pub fn needs_table(m: &Module, h: Handle<Expr>) -> bool {
 }
 
 /// A per-sample operation the register combiners have no way to compute
-/// (seeds/003 Section 4.2: products, sums, dots, muxes and the input
+/// (Kilgard 2000, Section 4.2: products, sums, dots, muxes and the input
 /// mappings only).
 pub fn no_combiner_op(m: &Module, h: Handle<Expr>) -> bool {
     if !m.info(h).freq.is_sample() {

@@ -1,6 +1,6 @@
 //! Rule `per_vertex`: a per-fragment value that depends on the fragment
 //! only through interpolated values is computed per vertex and
-//! interpolated instead — seeds/001 (1) `δ p s x` in place of (4)
+//! interpolated instead — Pipeline Grammar, eq. (1) `δ p s x` in place of (4)
 //! `p δ s x` for that part. Exact at the vertices; between them the error
 //! grows with how far the function bends over a triangle, so the rule
 //! states no bound of its own: a scene measures it (`render`, `bench`).
@@ -98,7 +98,7 @@ pub fn apply(r: &mut Rewriter, x: Handle<Expr>, what: &str, span: Span) -> Optio
 }
 
 /// `value` with every maximal per-fragment part that reads nothing per
-/// sample but interpolated values computed per vertex ([`apply`]): seeds/001
+/// sample but interpolated values computed per vertex ([`apply`]): Pipeline Grammar
 /// (1) for everything (1) can express — Gouraud shading, the choice of last
 /// resort when no per-fragment rule makes a statement plan. Lookups,
 /// framebuffer reads and the pixel stay per fragment, and so do the parts

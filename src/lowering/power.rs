@@ -1,11 +1,11 @@
 //! Rule `power_by_passes`: `x^n` per fragment, an integer power the
 //! target's general combiners cannot square out in one pass (⌈log₂ n⌉
-//! stages, seeds/000 Section 4.2.2) or not a power of two (the code
+//! stages, GeForce3 Phong, Section 4.2.2) or not a power of two (the code
 //! generator only squares), becomes the product `x^k · x^k · …`
 //! of powers that fit (k = 2^(stages − 1), small, so that the planner's
 //! product split packs as many factors into each pass as its generated
 //! setup holds — three x² on a GeForce 256), which the planner splits into passes that multiply in
-//! the framebuffer (seeds/001 (9), `C ← C ⊕ …` with GL_DST_COLOR).
+//! the framebuffer (Pipeline Grammar, eq. (9), `C ← C ⊕ …` with GL_DST_COLOR).
 //!
 //! Exact in arithmetic; the error is the framebuffer's rounding, ½ of an
 //! 8-bit step per pass that multiplies, bounded by that sum (each factor
@@ -76,7 +76,7 @@ fn squarings(n: u32) -> usize {
 
 /// Rule `power_by_squaring`: `x^n` in one pass as the product of the
 /// squarings n's set bits name (`x^6 = x^4 · x^2`, `x^4 = (x^2)^2`), so
-/// that every power is a square the code generator builds (seeds/000
+/// that every power is a square the code generator builds (GeForce3 Phong
 /// Section 4.2.2) and each squaring is shared. Exact in arithmetic; each
 /// product rounds by at most ½ of a 9-bit register step.
 fn by_squaring(r: &mut Rewriter, x: Handle<Expr>, n: u32, span: Span) -> Option<Handle<Expr>> {

@@ -2,7 +2,7 @@
 //! combiners (per fragment, or per texel in texture shading), `δ v` with `v` in [−1, 1], becomes `expand(δ compress(v))` —
 //! `compress(v) = (v + 1)/2` per vertex, interpolated as an unsigned colour,
 //! and the combiners' `expand_normal` input mapping undoing it per fragment.
-//! This is how Kilgard sends the light vector to a GeForce 256 (seeds/003
+//! This is how Kilgard sends the light vector to a GeForce 256 (Kilgard 2000
 //! Section 5.2, Table 2: the primary and secondary colours are unsigned;
 //! Table 3: `GL_EXPAND_NORMAL_NV`).
 //!

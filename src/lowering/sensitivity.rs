@@ -6,7 +6,7 @@
 //! by first-order interval arithmetic over the lowered IR: `L` of a sum is
 //! the sum of `L`s, of a product `L_a·max|b| + max|a|·L_b`, of `xⁿ`
 //! `n·max|x|ⁿ⁻¹·L_x`, of `expand` `2L`, of a clamp `L` (the ranges are the
-//! IR's intervals, seeds/003 Section 4.2's register ranges where known).
+//! IR's intervals, Kilgard 2000, Section 4.2's register ranges where known).
 //! Errors stored by one statement (a texture, a framebuffer) are read by
 //! the next through their lookups (filtering is a convex combination).
 //!

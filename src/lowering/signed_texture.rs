@@ -2,7 +2,7 @@
 //! cube or 3-D map: `normalize_cube(n, 16)`, a generated normal field) on
 //! a target without signed formats is stored range-compressed, `(v + 1)/2`
 //! in RGB8, and every lookup of it expanded — how the GeForce 256 keeps its
-//! normalization cube map (seeds/003 Section 5.2: "the vector is
+//! normalization cube map (Kilgard 2000, Section 5.2: "the vector is
 //! range-compressed into [0, 1] … and expanded by the register
 //! combiners' `expand_normal` input mapping", Table 3).
 //!
@@ -13,7 +13,7 @@
 //! convex combination, so it does not grow the rounding).
 //!
 //! A rendered signed texture (a statement writes it) and a signed 1-D or
-//! 2-D map (a scalar or an offset pair, seeds/001 (8)) are left to the
+//! 2-D map (a scalar or an offset pair, Pipeline Grammar, eq. (8)) are left to the
 //! planner's refusal.
 
 use std::collections::HashMap;

@@ -3,7 +3,7 @@
 //! `fract`, `exp`, a fractional power, …) becomes a 1-D table of `f`,
 //! computed by the compiler on the CPU (the `bake(f)` path: a texel pass
 //! `baked: true`), and looked up at the interpolated argument — texgen
-//! indexing, which every target has (seeds/001 (7), (13); seeds/002
+//! indexing, which every target has (Pipeline Grammar, eq. (7), (13); Heidrich & Seidel 1999
 //! Section 3 stores functions as textures the same way). An argument that
 //! is not itself interpolated is first computed per vertex (rule
 //! `per_vertex`, reported).
@@ -98,7 +98,7 @@ pub(super) fn record_per_vertex_argument(r: &mut Rewriter, decoded: Handle<Expr>
     );
 }
 
-/// Rule `dependent_table` (geforce3's texture shaders, seeds/000 Section
+/// Rule `dependent_table` (geforce3's texture shaders, GeForce3 Phong, Section
 /// 5.2, Figure 10 "Texture Shader, Lookup Table"): `f(a·c)` where the dot
 /// product reads a texel (a normal map), so no per-vertex value can stand
 /// for it — a table of `f` over [0, 1] looked up at the dot product itself

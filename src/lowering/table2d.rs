@@ -5,7 +5,7 @@
 //! √(1 − (t·v)²))ⁿ`), becomes a 2-D table of the whole function baked by
 //! the compiler and looked up at the two arguments computed per vertex and
 //! interpolated as texture coordinates: Heidrich and Seidel's technique of
-//! BRDFs stored as textures indexed by dot products (seeds/002 Section 3).
+//! BRDFs stored as textures indexed by dot products (Heidrich & Seidel 1999, Section 3).
 //! A function of **one** such argument becomes a 1-D table the same way
 //! (rule `baked_table`: the silhouette's `1 − (1 − V·N)⁶`). A function
 //! that itself leaves [−1, 1] is tabulated clamped to it, without a bound.
@@ -148,7 +148,7 @@ fn tabulate(r: &mut Rewriter, h: Handle<Expr>) -> Option<Handle<Expr>> {
         Some(decoded),
         format!(
             "a function of two per-fragment values is a {TEXELS}×{TEXELS} 8-bit table over [{:.3}, {:.3}]×[{:.3}, {:.3}] \
-             baked by the compiler, looked up at the interpolated arguments (seeds/002 Section 3){clamped}",
+             baked by the compiler, looked up at the interpolated arguments (Heidrich & Seidel 1999, Section 3){clamped}",
             ra.0, ra.1, rb.0, rb.1
         ),
         ApproximationCost { texture_units: 1, passes: 0, general_combiners: 0, texels: (TEXELS * TEXELS) as u64 },

@@ -1,5 +1,5 @@
 //! Rule `taylor_renormalization`: `normalize(δ v)` per fragment becomes
-//! `w + ½ w (1 − w·w)` with `w = δ(v/|v|)` — seeds/000 Section 4.2.3,
+//! `w + ½ w (1 − w·w)` with `w = δ(v/|v|)` — GeForce3 Phong, Section 4.2.3,
 //! Formula 6 (the Taylor series of Formula 5 cut after the linear term),
 //! as `examples/phong_taylor_renormalized.shd` writes it by hand. It needs
 //! no texture unit, two general combiner stages per vector.
@@ -48,7 +48,7 @@ pub fn apply(r: &mut Rewriter, x: Handle<Expr>, span: Span) -> Option<Handle<Exp
         span,
         Some(out),
         "`normalize` per fragment is the interpolated vertex unit vector renormalized by \
-         w + ½w(1 − w·w) in the combiners (seeds/000 Formula 6)"
+         w + ½w(1 − w·w) in the combiners (GeForce3 Phong, Formula 6)"
             .into(),
         ApproximationCost { texture_units: 0, passes: 0, general_combiners: 2, texels: 0 },
         None,

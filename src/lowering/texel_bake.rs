@@ -1,7 +1,7 @@
 //! Rule `compiler_baked`: a texture-shading statement `T δu ← f s δu`
-//! (seeds/001 (13)) whose value depends on the texel coordinate and
+//! (Pipeline Grammar, eq. (13)) whose value depends on the texel coordinate and
 //! constants only is computed by the compiler on the CPU, as `bake(f)` is
-//! (issue 18), instead of by a pass of the target — whose combiners may
+//!, instead of by a pass of the target — whose combiners may
 //! lack `f`'s operations (`examples/henyey_greenstein_skin.shd`'s power
 //! 1.5). The texture keeps its declared format, so the result differs from
 //! the target's own rendering only where the target could not compute it:

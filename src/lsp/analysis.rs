@@ -2,7 +2,7 @@
 //! diagnostic `shadec check --target` reports out, with the AST, the IR and
 //! the pass plan kept for hover, hints and navigation. No second
 //! parse→lower→plan path: the front end and the planner are the driver's
-//! (`driver::front`, `driver::plan`, issue 17), run as `driver::check` runs
+//! (`driver::front`, `driver::plan`), run as `driver::check` runs
 //! them, keeping the plan it drops.
 
 use crate::diag::{Diagnostic, SourceFile};
@@ -101,7 +101,7 @@ pub fn analyze(name: &str, text: &str, client: Option<&str>) -> Analysis {
 
 /// The profile check and the planner, as `check --target` runs them: what
 /// cannot be planned is an error with the planner's message, and the
-/// "the planner will split it" warnings go with it (issue 16 item 3).
+/// "the planner will split it" warnings go with it.
 fn plan_for_target(
     analysis: &mut Analysis,
     module: &Module,

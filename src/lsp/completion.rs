@@ -1,6 +1,6 @@
 //! Completion: declared names, built-in functions and texture generators,
 //! keywords, and the notation's symbols from their ASCII spellings — typing
-//! `\delta`, `delta`, `<-` or `(+)` offers δ, ←, ⊕ (seeds/001 writes the
+//! `\delta`, `delta`, `<-` or `(+)` offers δ, ←, ⊕ (Pipeline Grammar writes the
 //! symbols; `docs/language.md` lists the ASCII spellings).
 
 use lsp_types::{CompletionItem, CompletionItemKind, CompletionTextEdit, TextEdit};

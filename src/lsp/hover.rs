@@ -1,8 +1,8 @@
 //! Hover: what a name is, and for the value under the cursor its type,
-//! computation frequency (seeds/001 Section 3: where δ stands decides per
+//! computation frequency (Pipeline Grammar, Section 3: where δ stands decides per
 //! vertex or per fragment), value range, and where it lands on the
 //! document's target — the pass, the texture unit of a lookup, the
-//! combiner setup (seeds/003 §4.2) or the WGSL stage.
+//! combiner setup (Kilgard 2000, §4.2) or the WGSL stage.
 
 use std::fmt::Write as _;
 
@@ -148,7 +148,7 @@ pub fn placement(p: &Planned, h: Handle<Expr>, target: &str) -> String {
 }
 
 /// The approximations the lowering applied at `at` (line:col), with their
-/// error against the program's exact meaning (issue 18).
+/// error against the program's exact meaning.
 fn approximations(p: &Planned, at: &str) -> String {
     let mut out = String::new();
     for a in p.plan.approximations.iter().filter(|a| a.at == at) {
@@ -177,7 +177,7 @@ fn combiner_note(p: &Planned, pass: usize, h: Handle<Expr>, freq: Frequency) -> 
     }
 }
 
-/// Which combiner computes the value spanning `s` (seeds/003 §4.2): the
+/// Which combiner computes the value spanning `s` (Kilgard 2000, §4.2): the
 /// general stage whose operation has exactly that span, else the stage whose
 /// operation's span holds it (an input), else an input mapping or the final
 /// combiner. Spans do not nest across a `let`: a let's value used inside a

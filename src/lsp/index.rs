@@ -1,6 +1,6 @@
 //! Every name of a program with what it refers to: declarations, uses,
 //! shader-local names (the input `s`, parameters, `let`s of a block), the
-//! paper's families (`x xs u s C`, seeds/001 Figure 2) and built-in
+//! paper's families (`x xs u s C`, Pipeline Grammar, Figure 2) and built-in
 //! functions. Navigation, hover, rename and semantic tokens read it; the
 //! scoping follows `parser::resolve`.
 

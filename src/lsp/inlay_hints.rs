@@ -1,4 +1,4 @@
-//! Inlay hints: the computation frequency after each `let` (seeds/001
+//! Inlay hints: the computation frequency after each `let` (Pipeline Grammar
 //! Section 3: per vertex, per fragment, per texel…), and after each
 //! statement the passes that implement it on the document's target — the
 //! cost of the line where the cursor is.

@@ -1,4 +1,4 @@
-//! `shadec lsp`: a language server over stdio (issue 21), on `lsp-server`
+//! `shadec lsp`: a language server over stdio, on `lsp-server`
 //! and `lsp-types`, on the compiler's own front end (`analysis.rs`: the
 //! phases `check --target` runs, no second one). One file per concern:
 //! the loop (`server`), the open documents (`documents`), diagnostics,

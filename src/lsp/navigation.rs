@@ -65,7 +65,7 @@ pub fn valid_new_name(name: &str) -> Result<(), String> {
         return Err(format!("`{base}` is a keyword of the language"));
     }
     if ["x", "xs", "u", "s", "C"].contains(&base) {
-        return Err(format!("`{base}` names one of the paper's families (seeds/001 Figure 2)"));
+        return Err(format!("`{base}` names one of the paper's families (Pipeline Grammar, Figure 2)"));
     }
     Ok(())
 }

@@ -1,7 +1,7 @@
 //! `textDocument/semanticTokens/full`: textures, framebuffers, vectors,
 //! shaders, constants and the other declared names by what they are; the
 //! operators of the notation δ π ← ⊕ (and their ASCII spellings); built-in
-//! functions and the paper's families (seeds/001 Figure 2) marked
+//! functions and the paper's families (Pipeline Grammar, Figure 2) marked
 //! `defaultLibrary`; keywords, numbers, strings, comments.
 
 use lsp_types::{SemanticToken, SemanticTokenModifier, SemanticTokenType, SemanticTokensLegend};

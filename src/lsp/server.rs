@@ -1,7 +1,7 @@
 //! The server loop over stdio (JSON-RPC with `Content-Length` framing, by
 //! `lsp-server`): initialize, then one message at a time. Every request
 //! runs under `catch_unwind`: a panic answers that request with an
-//! InternalError and the server goes on (issue 21).
+//! InternalError and the server goes on.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 

@@ -1,6 +1,6 @@
 //! `textDocument/documentSymbol`: the program as an outline — each
 //! declaration (a shader with its parameters and `let`s as children) and
-//! each statement `C δπx ← …` (seeds/001 (2)), named by its left side.
+//! each statement `C δπx ← …` (Pipeline Grammar, eq. (2)), named by its left side.
 
 use lsp_types::{DocumentSymbol, SymbolKind};
 

@@ -1,6 +1,6 @@
 //! `file://` URIs, percent-encoded (RFC 3986 §2.1, §3.3): strict clients
 //! reject a path with a raw space or `ä`, which `check --format json`
-//! used to write (issue 21).
+//! used to write.
 
 use std::path::{Path, PathBuf};
 

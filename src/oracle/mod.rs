@@ -27,7 +27,7 @@
 //! scene's meshes (data), and the texel data of images and of the
 //! procedural stand-in for a missing image. Normalization cube maps and
 //! exponent tables are built here from their definitions (Kilgard 2000,
-//! Appendix D; Dietrich's exponent table).
+//! Appendix D; GeForce3 Phong's exponent table).
 //!
 //! It is slow (every pixel tests every triangle's bounds, every δ evaluates
 //! three vertices) and meant for small images. What it does not evaluate it

@@ -38,7 +38,7 @@ fn dot(a: V, b: V, width: usize) -> f64 {
 
 /// The value of a computing node from its operands' values (in
 /// `Expr::operands` order). `None` for `c ? a` where `c` is false: the
-/// destination is kept (seeds/001 Section 3.5, shadow volumes).
+/// destination is kept (Pipeline Grammar, Section 3.5: shadow volumes).
 pub fn compute(m: &Module, e: &Expr, ty: Ty, o: &[V]) -> Option<V> {
     let v = match e {
         Expr::Unary { op: UnaryOp::Neg, .. } => each(|i| -o[0][i]),
@@ -153,7 +153,7 @@ fn math(fun: MathFunction, o: &[V], width: usize) -> V {
 }
 
 /// `t ⊕[mode] f`, the left operand the texture (Ct, At), the right the
-/// incoming colour (Cf, Af) — seeds' chained multitexturing, Olano et al.'s
+/// incoming colour (Cf, Af) — the chained multitexturing of Pipeline Grammar,
 /// (12). GL 1.2.1 Table 3.22 and the combine extension, unclamped; the
 /// texture environment colour Cc is GL's default 0.
 fn texture_env(mode: CombineMode, width: usize, t: V, f: V, widened: bool) -> V {

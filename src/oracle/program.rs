@@ -18,7 +18,7 @@ pub enum Tex {
     Flat(Image),
     Cube(Cube),
     /// `bake(f)`: its texel statement's value, evaluated at the lookup's
-    /// coordinates (the table's ideal, Olano & Lastra's texture shading (13)).
+    /// coordinates (the table's ideal, Pipeline Grammar's texture shading, eq. (13)).
     Baked(Handle<Expr>),
     Missing(String),
 }
@@ -197,7 +197,7 @@ impl<'a> Evaluator<'a> {
 
     /// `π v`: a point to clip space by the camera's (`π`, `π*`: no jitter)
     /// or light 0's (`πl`, any other subscript) matrix; `π⁻¹` back, divided
-    /// by w; `πR d` of a direction: sphere-map coordinates (Olano & Lastra
+    /// by w; `πR d` of a direction: sphere-map coordinates (Pipeline Grammar
     /// (7); GL §2.10.4's `SPHERE_MAP` with m = 2·sqrt(x² + y² + (z + 1)²)).
     fn project(&self, p: &Projection, v: V, ty: Ty, at: At) -> Result<V, Unsupported> {
         if ty == Ty::Vec3 {

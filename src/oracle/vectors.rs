@@ -1,4 +1,4 @@
-//! The shading vectors of Olano & Lastra's Figure 3 at a mesh vertex, from
+//! The shading vectors of Pipeline Grammar's Figure 3 at a mesh vertex, from
 //! their definitions (docs/language.md, "Shading vectors"): unit vectors to
 //! the light and the eye, `half = normalize(L + V)`, `reflection = 2(N·V)N −
 //! V`, the binormal `w·(N × T)` (Kilgard 2000, §5.1), expressed in object,

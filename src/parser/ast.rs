@@ -1,6 +1,6 @@
 //! The syntax tree of a `.shd` program: owned, every node with its byte span.
 //!
-//! It mirrors the notation of seeds/001 Section 2 (Figure 2): application is
+//! It mirrors the notation of Pipeline Grammar, Section 2 (Figure 2): application is
 //! right to left (`T δ u x` is `T(δ(u(x)))`), δ marks rasterization
 //! (interpolate, then sample), π the projection, ⊕ a colour combination, and
 //! the left side of `←` a table (framebuffer C, texture T, or a vertex
@@ -66,7 +66,7 @@ pub enum ItemKind {
 }
 
 /// A name as the paper writes it: a base, primes (`T'''`, `u′`) and an
-/// optional star mark for per-pass operators (`s*`, `T*`, seeds/001 (9)).
+/// optional star mark for per-pass operators (`s*`, `T*`, Pipeline Grammar, eq. (9)).
 #[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub struct Name {
     pub base: String,
@@ -108,7 +108,7 @@ pub struct TextureDecl {
     pub format: Option<Word<TextureFormat>>,
     pub attrs: Vec<Word<TextureAttr>>,
     /// An image file, a generator (`normalize_cube(32)`), or nothing when
-    /// statements render into it (texture shading, seeds/001 (13)).
+    /// statements render into it (texture shading, Pipeline Grammar, eq. (13)).
     pub source: Option<Expr>,
 }
 
@@ -121,7 +121,7 @@ pub struct FramebufferDecl {
 }
 
 /// `vector L : light(0) in tangent;` or `vector H = normalize(L + V);` —
-/// the shading vectors of seeds/001 Figure 3.
+/// the shading vectors of Pipeline Grammar, Figure 3.
 #[derive(Clone, Debug, PartialEq)]
 pub struct VectorDecl {
     pub names: Vec<Name>,
@@ -167,7 +167,7 @@ pub struct LetDecl {
     pub value: Expr,
 }
 
-/// `shader p(n: scalar = 32) : s → c = …;` — the map p: s → c of seeds/001 Section 2.
+/// `shader p(n: scalar = 32) : s → c = …;` — the map p: s → c of Pipeline Grammar, Section 2.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ShaderDecl {
     pub name: Name,
@@ -197,7 +197,7 @@ pub struct Statement {
 }
 
 /// The left side of `←`: `[channel] table index`, e.g. `α C xs`, `T δu`,
-/// `u x` (texgen, seeds/001 (7)), `Cl δ πl x`.
+/// `u x` (texgen, Pipeline Grammar, eq. (7)), `Cl δ πl x`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Target {
     pub channel: Option<Word<Channel>>,
@@ -238,7 +238,7 @@ pub enum ExprKind {
         lhs: Box<Expr>,
         rhs: Box<Expr>,
     },
-    /// `a ⊕ b` or `a ⊕[add] b`; no mode means modulate (seeds/001 (3)).
+    /// `a ⊕ b` or `a ⊕[add] b`; no mode means modulate (Pipeline Grammar, eq. (3)).
     Combine {
         mode: Option<Word<CombineMode>>,
         lhs: Box<Expr>,
@@ -274,7 +274,7 @@ pub enum FuncKind {
 pub struct Projection {
     /// `l` in πl (the light's projection), `R` in πR (spheremap texgen).
     pub subscript: Option<String>,
-    /// π*: perturbed projection (accumulation buffer, seeds/001 (11)).
+    /// π*: perturbed projection (accumulation buffer, Pipeline Grammar, eq. (11)).
     pub star: bool,
     /// π⁻¹: from screen back to model space.
     pub inverse: bool,
@@ -406,10 +406,10 @@ words! {
 }
 
 words! {
-    /// Shading vectors of seeds/001 Figure 3 (and B, the binormal of seeds/003),
+    /// Shading vectors of Pipeline Grammar, Figure 3 (and B, the binormal of Kilgard 2000),
     /// and `intensity`: the light's colour at the point, times its distance
     /// attenuation and spot factor (the "color of each light source" that
-    /// seeds/001 Section 3.2 lists among the shading parameters).
+    /// Pipeline Grammar, Section 3.2 lists among the shading parameters).
     VectorKind {
         Normal => "normal",
         Tangent => "tangent",

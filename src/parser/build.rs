@@ -401,7 +401,7 @@ impl Builder {
     /// Folds `operand (infix operand)*` by precedence with an explicit stack
     /// (shunting-yard), so no input length can recurse. `c ? a : b` is a
     /// right-associative ternary at the loosest level; `c ? a` without `:`
-    /// is a conditional write (seeds/001, shadow volumes).
+    /// is a conditional write (Pipeline Grammar, shadow volumes).
     fn fold_operators(&mut self, pair: Pair<'_, Rule>) -> Option<Deep> {
         let mut operands: Vec<Deep> = Vec::new();
         let mut ops: Vec<(Op, Span)> = Vec::new();
@@ -576,7 +576,7 @@ impl Builder {
     /// application chain reads as setting a shader's parameters where it is
     /// used, which the language cannot do yet (examples/GAPS.md item 6).
     /// Says so, with what works instead, rather than "to multiply, write
-    /// `*`" (issue 21). `None` after reporting it.
+    /// `*`". `None` after reporting it.
     fn parameters_at_use(&mut self, funcs: &[Pair<'_, Rule>]) -> Option<()> {
         for pair in funcs.windows(2) {
             let (Some(name), value) = (self.atom_name(&pair[0]), &pair[1]) else { continue };

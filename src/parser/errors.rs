@@ -197,9 +197,9 @@ fn join_or(items: &[&str]) -> String {
 }
 
 /// Help for a symbol of the language found where it cannot stand: where it
-/// belongs (issue 21: "`→` is not a symbol of the language; the symbols
+/// belongs ("`→` is not a symbol of the language; the symbols
 /// are … → …" contradicted itself). Also the spellings of text pasted from
-/// a PDF set in the Symbol font, as seeds/001 prints: `¬` for ←, `Å` for ⊕.
+/// a PDF set in the Symbol font, as Pipeline Grammar prints: `¬` for ←, `Å` for ⊕.
 fn symbol_help(found: &str) -> Option<String> {
     let first = found.chars().next()?;
     Some(match first {

@@ -175,14 +175,14 @@ pub fn check(source: &str) -> (ast::Program, Vec<Diagnostic>) {
                 end,
                 "the file ends here",
             )
-            .with_help("add a statement, such as `C δπx ← T δu x;` (seeds/001 equation (2))"),
+            .with_help("add a statement, such as `C δπx ← T δu x;` (Pipeline Grammar, equation (2))"),
         );
     }
     diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
     (program, diagnostics)
 }
 
-/// `p(16) δ s x` (issue 21): when `p` is a declared shader, the help names
+/// `p(16) δ s x`: when `p` is a declared shader, the help names
 /// its own first parameter, or says it has none.
 fn refine_parameter_help(program: &ast::Program, diagnostics: &mut [Diagnostic]) {
     const SUFFIX: &str = "`: a shader's parameters cannot be set where it is used";
@@ -204,8 +204,8 @@ fn refine_parameter_help(program: &ast::Program, diagnostics: &mut [Diagnostic])
     }
 }
 
-/// seeds/001 (28) as printed, `ρ = 1 − (1 − V·N)^n`: a name defined by
-/// `=` where a statement's `←` was expected (issue 21). The help offers the
+/// Pipeline Grammar, eq. (28) as printed, `ρ = 1 − (1 − V·N)^n`: a name defined by
+/// `=` where a statement's `←` was expected. The help offers the
 /// definition as a shader of the shading parameters, its free names as
 /// parameters — and only when the program with that shader in place of the
 /// line resolves without errors there, so following it leads to a program
@@ -235,7 +235,7 @@ fn definition_help(source: &str, program: &ast::Program, d: &Diagnostic) -> Opti
         return None;
     }
     Some(format!(
-        "to define `{name}` as a function of the shading parameters (as seeds/001 (28) does), write it as a shader: `{shader}`, then use it in a statement such as `C δπx ← δ {name} s x;`; to assign into a table, write `←` (ASCII `<-`)"
+        "to define `{name}` as a function of the shading parameters (as Pipeline Grammar, eq. (28) does), write it as a shader: `{shader}`, then use it in a statement such as `C δπx ← δ {name} s x;`; to assign into a table, write `←` (ASCII `<-`)"
     ))
 }
 

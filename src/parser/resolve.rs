@@ -1,5 +1,5 @@
 //! Name resolution: every name a program uses is declared, built in, or a
-//! member of the paper's families (Figure 2 of seeds/001: `x` vertices, `xs`
+//! member of the paper's families (Figure 2 of Pipeline Grammar: `x` vertices, `xs`
 //! pixels, `u` texture coordinates, `s` shading parameters, `C` framebuffers,
 //! each with primes and stars); no name is declared twice; the left of `←` is
 //! a table. Unknown names get a "did you mean" from what is in scope.
@@ -47,8 +47,8 @@ pub const FUNCTIONS: &[&str] = &[
     "vec4",
 ];
 
-/// An undeclared `d` or `p` is most likely text pasted from seeds/001 as
-/// printed, whose Symbol font shows δ as `d` and π as `p` (issue 21): the
+/// An undeclared `d` or `p` is most likely text pasted from Pipeline Grammar as
+/// printed, whose Symbol font shows δ as `d` and π as `p`: the
 /// help names the symbol, not the nearest one-letter name.
 fn symbol_font_help(key: &str) -> Option<String> {
     let (symbol, ascii) = match key {
@@ -260,7 +260,7 @@ impl Resolver {
                         name.span,
                         format!("cannot be a {}", entity.describe()),
                     )
-                    .with_help("x, xs, u, s and C (with primes and stars) keep their meaning from seeds/001 Figure 2; pick another name"),
+                    .with_help("x, xs, u, s and C (with primes and stars) keep their meaning from Pipeline Grammar, Figure 2; pick another name"),
                 );
                 return;
             }
@@ -396,9 +396,9 @@ impl Resolver {
         }
     }
 
-    /// seeds/001 as printed writes the alpha and stencil channels as `a C xs`
+    /// Pipeline Grammar as printed writes the alpha and stencil channels as `a C xs`
     /// and `s C δπx` (the Symbol font's α and σ): an undeclared `a` or `s`
-    /// applied to a framebuffer gets that suggestion (issue 21), not "did
+    /// applied to a framebuffer gets that suggestion, not "did
     /// you mean `N`?". Whether it reported one.
     fn printed_channel(&mut self, n: &Name, arg: &Expr, locals: &[(String, Entity)]) -> bool {
         let key = n.key();
@@ -415,7 +415,7 @@ impl Resolver {
         let (sym, word) = symbol;
         self.diagnostics.push(
             Diagnostic::error("unknown-name", format!("unknown name `{key}`"), n.span, "not declared").with_help(format!(
-                "did you mean `{sym}` (ASCII `{word}`), the framebuffer's {word} channel? seeds/001 as printed (the Symbol font) shows `{sym}` as `{key}`"
+                "did you mean `{sym}` (ASCII `{word}`), the framebuffer's {word} channel? Pipeline Grammar as printed (the Symbol font) shows `{sym}` as `{key}`"
             )),
         );
         true

@@ -15,7 +15,7 @@ pub struct Piece {
     /// Set when the piece cannot be parsed at all (nesting too deep).
     pub error: Option<Diagnostic>,
     /// The piece ends at a line break, not at its `;`: the next line starts
-    /// an item of its own (issue 21's recovery: a missing `;` is one error
+    /// an item of its own (the recovery: a missing `;` is one error
     /// at the end of its line, and the statements after it still parse).
     pub missing_semicolon: bool,
 }

@@ -1,4 +1,4 @@
-//! The plan contract (issue 17): what the planner produces and every
+//! The plan contract: what the planner produces and every
 //! backend and executor consumes — the serializable [`PassPlan`] (its
 //! passes, render targets, texture bindings and fixed-function state,
 //! `docs/pass-plan.md`), the IR it refers to ([`Planned`]), and the
@@ -33,7 +33,7 @@ pub struct Planned {
     /// targets): what each pass's setup is generated under downstream
     /// (fixed9 renders, hardware fidelity), so that a profile given as a
     /// `.ron` file keeps its own limits — the plan names its target only by
-    /// name, and a name is not a profile (issue 17).
+    /// name, and a name is not a profile.
     pub combiners: Option<CombinerLimits>,
 }
 

@@ -22,16 +22,16 @@ pub struct PassPlan {
     pub removed: Vec<Removed>,
     /// Every IR value the passes refer to, in topological order.
     pub values: Vec<Value>,
-    /// What the lowering replaced by what the target has (issue 18,
-    /// docs/lowering.md): empty when the program planned as written.
+    /// What the lowering replaced by what the target has
+    /// (docs/lowering.md): empty when the program planned as written.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub approximations: Vec<Approximation>,
-    /// The frame time the target's cost model predicts (issue 19,
-    /// docs/cost-model.md); `None` on a target with no cost model.
+    /// The frame time the target's cost model predicts
+    /// (docs/cost-model.md); `None` on a target with no cost model.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub predicted: Option<FramePrediction>,
     /// The approximations' error measured on a scene, when `--max-error`
-    /// chose among the lowerings by it (issue 18, `accuracy::choose`).
+    /// chose among the lowerings by it (`accuracy::choose`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub measured: Option<MeasuredError>,
 }
@@ -48,10 +48,10 @@ pub struct MeasuredError {
     pub rmse: f64,
 }
 
-/// A plan's predicted frame time on its target (issue 19).
+/// A plan's predicted frame time on its target.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FramePrediction {
-    /// What was assumed drawn: a scene, or seeds/000 Section 5.4's
+    /// What was assumed drawn: a scene, or GeForce3 Phong, Section 5.4's
     /// screen-filling mesh when no scene was given.
     pub workload: String,
     /// The whole frame (µs): clearing, then every pass.
@@ -72,7 +72,7 @@ impl FramePrediction {
     }
 }
 
-/// A pass's predicted time on its target (issue 19).
+/// A pass's predicted time on its target.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct PassPrediction {
     /// The pass (µs): its slowest stage, its overhead, any copy.
@@ -126,11 +126,11 @@ pub struct Pass {
     pub combiners: Option<String>,
     /// The texel pass of a `bake(f)` table: computed by the compiler on the
     /// CPU at compile time (in float, stored in the texture's format), not
-    /// by the target, which only samples the table (issue 18). Its fragment
+    /// by the target, which only samples the table. Its fragment
     /// work is therefore not held to the target's limits.
     #[serde(default)]
     pub baked: bool,
-    /// The time the target's cost model predicts for this pass (issue 19).
+    /// The time the target's cost model predicts for this pass.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub predicted: Option<PassPrediction>,
 }
@@ -165,7 +165,7 @@ pub struct VertexWork {
     pub position: Option<u32>,
     /// `Interpolate` values the fragment stage reads.
     pub interpolants: Vec<u32>,
-    /// Texgen statements (`u x ← …`, seeds/001 (7)) this pass evaluates per vertex.
+    /// Texgen statements (`u x ← …`, Pipeline Grammar, eq. (7)) this pass evaluates per vertex.
     pub texgen: Vec<String>,
 }
 
@@ -186,7 +186,7 @@ pub struct FragmentWork {
     /// Per-sample operations (nodes) the stage evaluates.
     pub operations: usize,
     /// Discard the fragment where this value is zero (`c ? a` with no `:`,
-    /// seeds/001 Section 3.5), when the condition is not a stencil test.
+    /// Pipeline Grammar, Section 3.5), when the condition is not a stencil test.
     pub condition: Option<u32>,
     /// On a register-combiner target: the general combiner stages the code
     /// generator's setup for this pass uses (what the cost model charges).
@@ -194,7 +194,7 @@ pub struct FragmentWork {
     pub general_combiners: Option<u32>,
 }
 
-/// The framebuffer operation of a pass (seeds/001 (9): `C ← C ⊕ …`).
+/// The framebuffer operation of a pass (Pipeline Grammar, eq. (9): `C ← C ⊕ …`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub enum BlendMode {
     /// `C ← f` (glBlendFunc(GL_ONE, GL_ZERO)).
@@ -203,7 +203,7 @@ pub enum BlendMode {
     Add,
     /// `C ← C · f` (GL_DST_COLOR, GL_ZERO).
     Modulate,
-    /// `C ← C + Cα · f` (GL_DST_ALPHA, GL_ONE): seeds/003 Section 5.5.
+    /// `C ← C + Cα · f` (GL_DST_ALPHA, GL_ONE): Kilgard 2000, Section 5.5.
     DstAlphaAdd,
     /// `C ← Cα · f` (GL_DST_ALPHA, GL_ZERO).
     DstAlphaModulate,
@@ -257,7 +257,7 @@ pub struct Value {
     pub at: String,
 }
 
-/// One rewrite of the lowering (issue 18): a part of the program the
+/// One rewrite of the lowering: a part of the program the
 /// target cannot compute, replaced by what it has — a table, a cube map,
 /// a per-vertex value — with what that costs and how far it may be off.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -281,7 +281,7 @@ pub struct Approximation {
     pub output_bound: Option<f64>,
 }
 
-/// What an approximation spends (issue 18's four resources).
+/// What an approximation spends (the four resources).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ApproximationCost {
     /// Texture units a pass that uses the replacement needs for it.

@@ -1,7 +1,7 @@
 //! The fixed-function state of a pass — culling, depth and stencil tests,
-//! blending, the colour write mask — as GL defines it (seeds/001 Section 3:
+//! blending, the colour write mask — as GL defines it (Pipeline Grammar, Section 3:
 //! the multipass forms (9)-(10), `C ← C ⊕ …`, are framebuffer blends;
-//! seeds/003 Section 5 re-renders with the `Equal` depth test). It is part
+//! Kilgard 2000, Section 5 re-renders with the `Equal` depth test). It is part
 //! of the plan contract: the planner chooses it, every executor applies it.
 
 use serde::{Deserialize, Serialize};
@@ -67,7 +67,7 @@ impl CompareFunc {
 }
 
 /// Depth test and depth write. `func: Equal` with `write: false` is the state
-/// for re-rendering the same geometry in a later pass (seeds/003 Section 5:
+/// for re-rendering the same geometry in a later pass (Kilgard 2000, Section 5:
 /// the diffuse and specular passes are drawn over the ambient pass).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct DepthState {
@@ -230,7 +230,7 @@ impl BlendState {
         BlendState::factors(BlendFactor::SrcAlpha, BlendFactor::OneMinusSrcAlpha);
     /// `C ← src · Ad` (DST_ALPHA, ZERO): modulate by a term stashed in destination alpha.
     pub const DEST_ALPHA_MODULATE: BlendState = BlendState::factors(BlendFactor::DstAlpha, BlendFactor::Zero);
-    /// `C ← C + src · Ad` (DST_ALPHA, ONE): seeds/003 Section 5.5, the specular
+    /// `C ← C + src · Ad` (DST_ALPHA, ONE): Kilgard 2000, Section 5.5, the specular
     /// pass added under the self-shadowing term kept in destination alpha.
     pub const DEST_ALPHA_ADD: BlendState = BlendState::factors(BlendFactor::DstAlpha, BlendFactor::One);
 

@@ -1,13 +1,13 @@
 //! Affine decomposition: writing a value `e` as `X·m + s` where neither `m`
 //! nor `s` depends on the sub-value `X`. This is what framebuffer blending
-//! can do with a value already in the framebuffer (seeds/001 (9):
+//! can do with a value already in the framebuffer (Pipeline Grammar, eq. (9):
 //! `C ← C ⊕ …`): if `X` is rendered first, `e` is reached by modulating by
 //! `m` (GL_DST_COLOR, GL_ZERO) and adding `s` (GL_ONE, GL_ONE) — or by one
 //! pass when `s = 0`, `m = 1`, or `(m, s) = (1 − a, c·a)` (alpha blending).
 //!
 //! The ⊕ modes follow the OpenGL 1.2.1 texture environment with the left
 //! operand the texture (Ct, At) applied over the right one (Cf, Af), as in
-//! chained multitexturing (seeds/001 (12)):
+//! chained multitexturing (Pipeline Grammar, eq. (12)):
 //! - decal: rgb = Cf·(1 − At) + Ct·At, alpha = Af (At = 1 for an rgb texture);
 //! - blend: rgb = Cf·(1 − Ct) + Cc·Ct with the default environment colour
 //!   Cc = 0, alpha = Af·At.

@@ -4,7 +4,7 @@
 //! geforce3, one ⊕ per texture unit on the OpenGL 1.2.1 texture
 //! environment, anything on a programmable stage.
 //!
-//! The combiner capacity is first *bounded* (seeds/003 Section 4.2): every
+//! The combiner capacity is first *bounded* (Kilgard 2000, Section 4.2): every
 //! general combiner portion (RGB and alpha) computes two products or dot
 //! products and their sum or mux — three IR operations, six per stage —
 //! and the final combiner `A·B + (1 − A)·C + D` and `E·F` — at most eight;
@@ -14,7 +14,7 @@
 //! `6 · general + 8`, which no setup exceeds) fits only when the combiner code
 //! generator realizes it under the profile's own limits (a setup the
 //! Appendix B validator accepts): a pass the target cannot run is split
-//! further or refused, never planned (issue 16).
+//! further or refused, never planned.
 
 use rustc_hash::FxHashMap as HashMap;
 use std::cell::RefCell;
@@ -35,9 +35,9 @@ pub struct ProfileFit<'p> {
     /// Ok holds the general combiner stages the setup uses.
     generated: RefCell<HashMap<Handle<Expr>, Result<u32, Overflow>>>,
     /// Every verdict of [`FitCheck::fits`] by value, for the same reason:
-    /// the splitter asks about the same sub-values many times (issue 22).
+    /// the splitter asks about the same sub-values many times.
     verdicts: RefCell<HashMap<Handle<Expr>, Result<(), Overflow>>>,
-    /// Texture samples per value, for [`FitCheck::piece_ns`] (issue 19),
+    /// Texture samples per value, for [`FitCheck::piece_ns`],
     /// measured once like the verdicts.
     samples: RefCell<HashMap<Handle<Expr>, u32>>,
     /// Texture units per value, for [`FitCheck::texture_units`].
@@ -101,7 +101,7 @@ impl FitCheck for ProfileFit<'_> {
         verdict
     }
 
-    /// The pass on the target's cost model (issue 19): its texture units,
+    /// The pass on the target's cost model: its texture units,
     /// the general combiner stages the generator used for it, whether its
     /// blend reads the framebuffer and whether it renders to a temporary.
     fn piece_ns(&self, module: &Module, piece: &Piece) -> u64 {
@@ -222,7 +222,7 @@ fn operation_name(module: &Module, h: Handle<Expr>) -> String {
 
 /// Per-sample operations a combiner program needs (see the module doc), or
 /// the first operation the combiners cannot do at all (normalize, division,
-/// sqrt, …: seeds/003 Section 4.2 has none of them; use a normalization
+/// sqrt, …: Kilgard 2000, Section 4.2 has none of them; use a normalization
 /// cube map or a lookup texture).
 pub fn combiner_operations(module: &Module, value: Handle<Expr>) -> Result<usize, Handle<Expr>> {
     let mut n = 0;

@@ -1,9 +1,9 @@
-//! One pass per light (issue 7 part 1): how a program written for one light
+//! One pass per light: how a program written for one light
 //! runs on a scene with several.
 //!
 //! **The rule.** A program that names only light 0 — vectors declared
 //! `light`, `light(0)`, `half`, `half(0)`, `intensity`, `intensity(0)` — is
-//! written for "one of possibly many light sources" (seeds/001 Figure 3's
+//! written for "one of possibly many light sources" (Pipeline Grammar, Figure 3's
 //! L). On a scene with n lights, each colour statement on a mesh
 //! (`C δπx ← …`) is read as a sum of products (through `+`, `−`, unary `−`,
 //! `*`, `⊕[add]` and `⊕[modulate]`, a product distributed over a sum when
@@ -12,8 +12,8 @@
 //! statement runs as written for light 0, and for every other light i a
 //! statement `C δπx ← (C δπx) ⊕[add] (light terms with light 0's vectors
 //! replaced by light i's)` follows it — the multipass accumulation of
-//! seeds/001 (9) with ⊕ = add, "a separate pass for each light source"
-//! (seeds/001 Section 3.4). These per-light statements are never fused with
+//! Pipeline Grammar, eq. (9) with ⊕ = add, "a separate pass for each light source"
+//! (Pipeline Grammar, Section 3.4). These per-light statements are never fused with
 //! one another, so each light is its own pass and light culling can skip it
 //! per object (`planner::relevance`).
 //!

@@ -1,4 +1,4 @@
-//! The pass planner (issue 3): turns a lowered program into rendering
+//! The pass planner: turns a lowered program into rendering
 //! passes a target can run.
 //!
 //! 1. **Capabilities first.** `profile::fit` errors (a dependent lookup on
@@ -8,9 +8,9 @@
 //!    lowering; terms whose coefficient is exactly zero go, with the
 //!    textures and passes only they used.
 //! 3. **Statements to blends.** A statement `C δπx ← (C δπx) ⊕ e` is `e`
-//!    blended into C (seeds/001 (9)); `classify` reads the blend off the
+//!    blended into C (Pipeline Grammar, eq. (9)); `classify` reads the blend off the
 //!    value's affine form in the framebuffer's own colour (and its alpha:
-//!    Kilgard's GL_DST_ALPHA passes, seeds/003 Section 5.5).
+//!    Kilgard's GL_DST_ALPHA passes, Kilgard 2000, Section 5.5).
 //! 4. **Fusion.** Consecutive statements on the same framebuffer and
 //!    geometry are fused (the later one reading the earlier one's value)
 //!    when the fused value plans into fewer passes — Kilgard's three passes
@@ -19,7 +19,7 @@
 //!    by framebuffer blending or render-to-texture, minimizing passes, then
 //!    texture fetches.
 //!
-//! Texgen statements (`u x ← …`, seeds/001 (7)) are no pass: they are vertex
+//! Texgen statements (`u x ← …`, Pipeline Grammar, eq. (7)) are no pass: they are vertex
 //! work of every pass that reads the coordinates.
 
 pub mod affine;
@@ -102,11 +102,11 @@ pub struct Request<'a> {
     /// geforce3); required on those targets.
     pub realizer: Option<&'a dyn Realizer>,
     /// What the lowering may do when the program as written does not plan
-    /// (issue 18: `--no-approx`, `--max-error`).
+    /// (`--no-approx`, `--max-error`).
     pub lowering: crate::lowering::LowerOptions,
 }
 
-/// Scene-driven specialization (issue 7 parts 1-2).
+/// Scene-driven specialization.
 pub struct SceneSpecialization<'s> {
     pub scene: &'s crate::scene::Scene,
     /// The scene's meshes (`Scene::build`): light relevance is per object.
@@ -145,7 +145,7 @@ struct Prepared {
 
 /// The two fits a run of statements is planned with: the target's, and the
 /// compiler's own for a `bake` table's texel pass, which runs on the CPU
-/// with no fragment-stage limits (issue 18).
+/// with no fragment-stage limits.
 struct Fits<'p> {
     target: fit::ProfileFit<'p>,
     compiler: fit::ProfileFit<'p>,
@@ -172,10 +172,10 @@ impl Fits<'_> {
 /// lights that cannot reach an object culled for it ([`relevance`]).
 ///
 /// The program as written first; only when that does not plan, lowered
-/// (issue 18, [`crate::lowering`]) — each choice of rules, most accurate
+/// ([`crate::lowering`]) — each choice of rules, most accurate
 /// first, until one plans within `request.lowering`; with `--max-error`
 /// every choice within the bound is planned and the one the target's cost
-/// model predicts fastest is taken (issue 19); the program's own refusal
+/// model predicts fastest is taken; the program's own refusal
 /// when none plans.
 pub fn plan(module: &Module, profile: &Profile, request: &Request) -> Result<Planned, Vec<Diagnostic>> {
     let written = plan_as_written(module, profile, request);
@@ -564,7 +564,7 @@ fn passes_word(n: usize) -> &'static str {
 
 /// Why a statement was kept apart from the one before (named `a`), when
 /// fused they would take `n` passes at `fused` cost against `apart`: no
-/// fewer passes, or — the target's cost model deciding (issue 19) — fewer
+/// fewer passes, or — the target's cost model deciding — fewer
 /// passes predicted slower.
 fn not_fused_reason(
     a: &str,
@@ -800,7 +800,7 @@ pub fn substitute(
 /// value: the whole value replaces the target, its reads of the target are
 /// the target's values before the statement. What the target channel, a
 /// discard `c ? a`, a stencil test `σ C ? a` or a stencil update say is
-/// taken out (seeds/001 Sections 3.4-3.5). The program's meaning
+/// taken out (Pipeline Grammar, Sections 3.4-3.5). The program's meaning
 /// (`crate::meaning`) runs statements in this form; `classify` goes on to
 /// read a blend.
 pub fn whole_form(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<Form, Diagnostic> {
@@ -818,7 +818,7 @@ pub fn whole_form(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result
         Table::Texture(_) => return Ok(form),
         Table::TexCoords(_) => unreachable!("texgen statements are vertex work"),
         Table::Framebuffer { channel: FbChannel::Stencil, .. } => {
-            return stencil_write(m, st, value).ok_or_else(|| unsupported_blend(st, "this stencil update (the planner knows `σ C ← (σ C) OR (depth comparison)`, seeds/001 Section 3.5)"))
+            return stencil_write(m, st, value).ok_or_else(|| unsupported_blend(st, "this stencil update (the planner knows `σ C ← (σ C) OR (depth comparison)`, Pipeline Grammar, Section 3.5)"))
         }
         Table::Framebuffer { channel: FbChannel::Depth, .. } => return Err(unsupported_blend(st, "a write to the depth channel")),
         Table::Framebuffer { channel: FbChannel::Alpha, .. } => form.channels = "a",
@@ -986,7 +986,7 @@ fn alpha_factor(m: &Module, h: Handle<Expr>, ra: Handle<Expr>) -> Option<Handle<
     }
 }
 
-/// `σ C δπx ← (σ C δπx) OR (z δπx′ > z C δπx′)` (seeds/001 Section 3.5):
+/// `σ C δπx ← (σ C δπx) OR (z δπx′ > z C δπx′)` (Pipeline Grammar, Section 3.5):
 /// set the stencil where the fragment's depth compares with the stored one;
 /// no colour, no depth write.
 fn stencil_write(m: &Module, st: &Statement, value: Handle<Expr>) -> Option<Form> {
@@ -1440,7 +1440,7 @@ fn same_framebuffer(a: &Table, b: &Table) -> bool {
 
 /// A statement at the pixel (`C δxs`) whose value interpolates per-vertex
 /// values draws the vertices an earlier statement projected into the same
-/// framebuffer (seeds/001 (10): "the passes reuse the projected vertices").
+/// framebuffer (Pipeline Grammar, eq. (10): "the passes reuse the projected vertices").
 /// Errors where there is none: nothing would place the mesh on the screen.
 fn reused_projection(m: &Module) -> Vec<Diagnostic> {
     let mut projected: Vec<&Table> = Vec::new();
@@ -1458,7 +1458,7 @@ fn reused_projection(m: &Module) -> Vec<Diagnostic> {
             };
             diags.push(
                 Diagnostic::error("no-projected-vertices", format!("this statement at the pixel interpolates per-vertex values, but no earlier statement projects the mesh into `{name}`"), m.span(st.index), "the vertices of an earlier pass are reused here")
-                    .with_help(format!("seeds/001 (10) reuses the screen positions an earlier pass computed: write a statement `{name} δπx ← …` first, or index this one by `δπx`")),
+                    .with_help(format!("Pipeline Grammar, eq. (10) reuses the screen positions an earlier pass computed: write a statement `{name} δπx ← …` first, or index this one by `δπx`")),
             );
         }
     }
@@ -1484,7 +1484,7 @@ fn projection_name(m: &Module, index: Handle<Expr>) -> String {
 
 /// Generated programs for the compile-time benchmark and tests: about `ops`
 /// operations in statements of ten, accumulated into one framebuffer the way
-/// multipass lighting is (seeds/001 (9)), over eight textures and four lights.
+/// multipass lighting is (Pipeline Grammar, eq. (9)), over eight textures and four lights.
 #[doc(hidden)]
 pub fn generated_program(ops: usize) -> String {
     let mut s = String::from("vector N : normal in tangent;\n");
@@ -1529,7 +1529,7 @@ mod tests {
     }
 
     /// With `--max-error`, of the lowerings that fit the faster is taken,
-    /// whatever its place in the accuracy order, and it says so (issue 19).
+    /// whatever its place in the accuracy order, and it says so.
     #[test]
     fn the_fastest_lowering_within_the_error_budget_is_taken() {
         let source = include_str!("../../examples/kilgard_bump_mapping.shd");

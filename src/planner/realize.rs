@@ -1,9 +1,9 @@
 //! What the planner asks of a fixed-function fragment stage: can it compute
 //! this value in one pass? On the register-combiner targets only the
-//! combiner code generator knows (seeds/003 Section 4.2: a setup the
+//! combiner code generator knows (Kilgard 2000, Section 4.2: a setup the
 //! Appendix B rules accept), and the generator sits above the planner in
 //! the data flow (backends). So the driver passes it in as a [`Realizer`]
-//! (issue 17): the planner depends on this trait, not on a backend.
+//!: the planner depends on this trait, not on a backend.
 
 use crate::ir::{Expr, Handle, Module};
 use crate::span::Span;
@@ -33,9 +33,9 @@ pub trait Realizer {
 }
 
 /// What a realized pass takes of the stage: what the cost model charges
-/// (issue 19, `crate::cost`).
+/// (`crate::cost`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct Realized {
-    /// General combiner stages used (seeds/003 Section 4.2).
+    /// General combiner stages used (Kilgard 2000, Section 4.2).
     pub general_combiners: u32,
 }

@@ -1,4 +1,4 @@
-//! Light relevance for compiled plans (issue 7 part 2, seeds/004 Section
+//! Light relevance for compiled plans (Adaptive Sample Shading, Section
 //! 2.2): per object and per light, a bound on everything a light's terms
 //! can add to a pixel of the object; a light whose bound is below the
 //! threshold is culled — its pass is not drawn for that object, and when no
@@ -258,7 +258,7 @@ impl<'a, 's> Bounder<'a, 's> {
         }
     }
 
-    /// Interval arithmetic of a texture-environment ⊕ (seeds/001 (3)).
+    /// Interval arithmetic of a texture-environment ⊕ (Pipeline Grammar, eq. (3)).
     fn combine(&mut self, mode: CombineMode, lhs: Handle<Expr>, rhs: Handle<Expr>) -> Bound {
         let (t, f) = (self.get(lhs), self.get(rhs));
         match mode {
@@ -534,7 +534,7 @@ pub struct Culled {
     pub object: usize,
     /// The bound of what the light's terms add to a pixel of the object.
     pub bound: f64,
-    /// The criterion of seeds/004 Section 2.2 that made the bound small.
+    /// The criterion of Adaptive Sample Shading, Section 2.2 that made the bound small.
     pub criterion: String,
 }
 

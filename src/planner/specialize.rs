@@ -1,4 +1,4 @@
-//! Specialization basics (issue 3 part 5): constants are folded while
+//! Specialization basics: constants are folded while
 //! lowering; here terms whose coefficient is exactly zero are dropped
 //! (`0 · T δu x` costs no texture unit), sums with zero and products with
 //! one are simplified, selections on a constant condition take their
@@ -138,7 +138,7 @@ pub fn is_noop(m: &Module, st: &Statement) -> bool {
     }
 }
 
-/// Scene-driven specialization, first step (issue 7 part 1): every uniform
+/// Scene-driven specialization, first step: every uniform
 /// the scene gives a value (`constants: { "ks": [0, 0, 0] }`, by name, one
 /// value or one per component) becomes that constant, so the folding and
 /// zero-term removal of [`specialize`] see it — a matte material loses its
@@ -193,7 +193,7 @@ pub fn bind_uniforms(
 }
 
 /// What scene-driven specialization removed from one program on one scene
-/// (issue 7 parts 1-2): the data `shadec bench` prints and
+///: the data `shadec bench` prints and
 /// `shadec compile --scene` lists.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RemovalReport {

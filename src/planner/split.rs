@@ -1,5 +1,5 @@
 //! Splitting one value into passes joined by framebuffer blending — the
-//! heart of the planner (issue 3 part 3).
+//! heart of the planner.
 //!
 //! # The space of plans
 //!
@@ -11,7 +11,7 @@
 //!    (`+`, `⊕[add]`; `*`, `⊕`): partition the operands into groups that
 //!    each fit a pass; the first group replaces (or is itself planned
 //!    recursively, the *head*), the others are added or modulated in —
-//!    multipass rendering, seeds/001 (9).
+//!    multipass rendering, Pipeline Grammar, eq. (9).
 //! 2. **Affine peel.** `e = X·m + s` for a sub-value `X` (`affine.rs`):
 //!    render `X` first, then modulate by `m` and add `s` (one pass each, or
 //!    none when `m = 1` / `s = 0`); `T ⊕[decal] X` is `X` then one
@@ -76,14 +76,14 @@ pub trait FitCheck {
     fn fits(&self, module: &Module, value: Handle<Expr>) -> Result<(), Overflow>;
 
     /// The predicted time (ns) of `piece` as one pass on the target's cost
-    /// model, on its nominal workload (issue 19); 0 on a target without
+    /// model, on its nominal workload; 0 on a target without
     /// one, where passes and fetches decide.
     fn piece_ns(&self, _module: &Module, _piece: &Piece) -> u64 {
         0
     }
 
     /// The texture units computing `value` takes (a fit may remember it:
-    /// the splitter costs the same pieces many times, issue 22).
+    /// the splitter costs the same pieces many times).
     fn texture_units(&self, module: &Module, value: Handle<Expr>) -> usize {
         Usage::texture_units_of(module, value)
     }
@@ -114,7 +114,7 @@ pub struct Piece {
 pub type Pieces = Rc<Vec<Piece>>;
 
 /// (predicted time in ns, passes, texture fetches): what the planner
-/// minimizes, in that order — the target's cost model first (issue 19),
+/// minimizes, in that order — the target's cost model first,
 /// ties broken by pass count. Without a cost model the time is 0 and
 /// passes, then fetches, decide.
 pub type Cost = (u64, usize, usize);
@@ -127,7 +127,7 @@ pub fn cost(module: &Module, fit: &dyn FitCheck, pieces: &[Piece]) -> Cost {
 
 /// The cheapest of the splits that fit (the first on a tie). When the
 /// target's cost model decided between splits it predicts differently, the
-/// first pass's reason says so (issue 19).
+/// first pass's reason says so.
 fn fastest(fitting: Vec<(Cost, Vec<Piece>)>) -> Option<Vec<Piece>> {
     let mut best: Option<usize> = None;
     for (i, (c, _)) in fitting.iter().enumerate() {
@@ -167,7 +167,7 @@ enum ChainOp {
 /// (mode, value, position) and the temporaries introduced (the fit
 /// remembers each value's texture units). Handles index one module's
 /// append-only arena, so what is recorded for a handle stays true while
-/// the program is planned (issue 22: without the memos, planning 100 000
+/// the program is planned (without the memos, planning 100 000
 /// operations was quadratic in the number of temporaries and values).
 #[derive(Default)]
 pub struct SplitCache {
@@ -675,7 +675,7 @@ impl<'a> Splitter<'a> {
 }
 
 /// Whether a split gives what the unsplit value gives on a framebuffer
-/// that stores [0, 1] (8-bit, seeds/003 Section 5: every pass's result is
+/// that stores [0, 1] (8-bit, Kilgard 2000, Section 5: every pass's result is
 /// clamped when written). The meaning clamps once, at the end; a split
 /// clamps after every pass, which is the same only while what a pass
 /// leaves behind is in [0, 1], or when only non-negative terms are added

@@ -1,4 +1,4 @@
-//! Adaptive Sample Shading (seeds/004 Section 2.1) for any [`FragmentStage`](crate::renderer::FragmentStage):
+//! Adaptive Sample Shading (Adaptive Sample Shading, Section 2.1) for any [`FragmentStage`](crate::renderer::FragmentStage):
 //! shade exactly at regular samples and at edges, subdivide where
 //! neighbouring samples differ by more than a threshold, interpolate the rest.
 //!

@@ -1,6 +1,6 @@
 //! Framebuffers (colour RGBA8 or f32, depth f32, stencil u8) and the
 //! per-fragment operations of the GL pipeline that the pass planner relies on
-//! (seeds/001 Section 3, multipass (9)-(10): C ← C ⊕ …): stencil test, depth
+//! (Pipeline Grammar, Section 3, multipass (9)-(10): C ← C ⊕ …): stencil test, depth
 //! test, blending with the GL blend-factor pairs, and a colour write mask.
 //!
 //! Storage is tiled: the image is cut into `TILE`×`TILE` tiles and every tile

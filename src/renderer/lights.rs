@@ -1,8 +1,8 @@
 //! Native multi-light Phong shading over a scene's lights — the "full per
-//! pixel shading" reference of seeds/004 — and the per-polygon light
-//! relevance of seeds/004 Section 2.2 that lets it skip light terms.
+//! pixel shading" reference of Adaptive Sample Shading — and the per-polygon light
+//! relevance of Adaptive Sample Shading, Section 2.2 that lets it skip light terms.
 //!
-//! **Shading** (seeds/004 Section 3.3: the OpenGL 1.2 equation with the
+//! **Shading** (Adaptive Sample Shading, Section 3.3: the OpenGL 1.2 equation with the
 //! (m·l) model instead of (n·h)). Per pixel, with N the normalized
 //! interpolated normal, V the unit vector to the viewer, L the unit vector
 //! to light i and M = 2(N·V)N − V the reflected eye vector:

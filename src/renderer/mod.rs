@@ -1,9 +1,9 @@
-//! The CPU rasterizer — the δπx of the pipeline grammar (seeds/001 Section 2:
+//! The CPU rasterizer — the δπx of the pipeline grammar (Pipeline Grammar, Section 2:
 //! δ interpolates per-vertex values across a primitive, π projects it, x is
 //! the pixel): clipping (near/far plane and a guard band), a fixed-point
 //! top-left fill rule, perspective-correct interpolation of N varyings,
 //! back-face culling, stencil and depth tests (including the `Equal` test
-//! that re-rendering passes use, seeds/003 Section 5), GL blending into RGBA8
+//! that re-rendering passes use, Kilgard 2000, Section 5), GL blending into RGBA8
 //! or f32 colour, tiled (`TILE`×`TILE`) and parallel over tiles with rayon.
 //!
 //! A pass is a [`Pass`]: triangle indices, a [`VertexStage`] that turns a
@@ -90,7 +90,7 @@ pub trait FragmentStage: Sync {
     /// Shades the fragments of one triangle in one tile together, at most
     /// [`BATCH`] (`varyings`: the same number per fragment, in order), as
     /// [`FragmentStage::shade`] would one at a time: the rasterizer has
-    /// already tested them, and each writes a different pixel (issue 22).
+    /// already tested them, and each writes a different pixel.
     fn shade_batch(
         &self,
         fragments: &[Fragment],

@@ -1,5 +1,5 @@
 //! Executes a pass plan ([`crate::pipeline::Planned`]) on the CPU for a
-//! [`Scene`]: the renderer behind `shadec render` (issue 6, parts 3-4).
+//! [`Scene`]: the renderer behind `shadec render`.
 //!
 //! Per pass, following [`PassInterface`] (the contract every executor
 //! binds): the vertex stage evaluates the per-vertex IR (the interpolants
@@ -20,7 +20,7 @@
 //!
 //! - `exact` — the reference: every node in f64, interpolants as the
 //!   program says (`δ v` of a unit vector is not renormalized: the
-//!   denormalization of seeds/000 Figure 9 is the program's meaning, which
+//!   denormalization of GeForce3 Phong, Figure 9 is the program's meaning, which
 //!   `normalize(δ v)` asks to undo); true `pow` (the IR's `^`); **no lookup
 //!   tables**: a texture whose *generator* tabulates a function —
 //!   `normalize_cube` (normalize, range-compressed unless the format is
@@ -237,7 +237,7 @@ impl<'a> PlanRenderer<'a> {
         self.rounding_bias = bias;
     }
 
-    /// Whether fragments are shaded in batches (the default; issue 22) or
+    /// Whether fragments are shaded in batches (the default) or
     /// one at a time, the executor before it: the images are the same bit
     /// for bit (`tests/render_batch.rs`); benches compare the two speeds.
     pub fn set_batched(&mut self, batched: bool) {
@@ -256,7 +256,7 @@ impl<'a> PlanRenderer<'a> {
         self.render_with(mode, width, height, None, progress)
     }
 
-    /// Renders with Adaptive Sample Shading (seeds/004 Section 2.1): each
+    /// Renders with Adaptive Sample Shading (Adaptive Sample Shading, Section 2.1): each
     /// mesh pass shades exactly at regular samples, at edges and where
     /// neighbouring samples differ by more than the threshold, and
     /// interpolates the rest ([`super::draw_adaptive`]); blending, depth and
@@ -757,7 +757,7 @@ enum Source<'r> {
         exact: Option<ExactFunction>,
     },
     Rendered(&'r Rendered),
-    /// `exact`: a texture shaded over its texels (`bake(f)`, seeds/001
+    /// `exact`: a texture shaded over its texels (`bake(f)`, Pipeline Grammar
     /// (13)) is not sampled; the texel pass's function is evaluated at the
     /// lookup's coordinates (no lookup tables in the reference).
     Baked {
@@ -779,7 +779,7 @@ enum Leaf {
         coords_ty: Ty,
         lod_from: Option<usize>,
     },
-    /// Member `member` of a fat texel of `texture` (seeds/001 (6), (14),
+    /// Member `member` of a fat texel of `texture` (Pipeline Grammar, eq. (6), (14),
     /// (16)): layer `member` sampled at the lookup's coordinates.
     FatMember {
         texture: TextureId,
@@ -793,7 +793,7 @@ enum Leaf {
     Pixel(Frequency),
     TexelCoord,
     Depth,
-    /// `π p` of a per-pixel point (`πl π⁻¹ xs`, seeds/001 Section 3.5):
+    /// `π p` of a per-pixel point (`πl π⁻¹ xs`, Pipeline Grammar, Section 3.5):
     /// by the projection's model → clip matrix of the scene's first object
     /// (in `πl π⁻¹` the model matrix cancels), as the WGSL target does.
     Project {
@@ -826,13 +826,13 @@ struct Step<'m> {
     raw: bool,
     /// fixed9: how a register write of a power or a quotient is rounded.
     register: RegisterOp,
-    /// The step's arithmetic, decided once (issue 22).
+    /// The step's arithmetic, decided once.
     kernel: Kernel,
 }
 
 /// A step's arithmetic when it is one of the common operations, decided
 /// when the program is built, so that a fragment does not walk the IR's
-/// expression kinds again for it (issue 22); each computes exactly what
+/// expression kinds again for it; each computes exactly what
 /// [`ir::eval::apply`] computes, which [`Kernel::General`] calls.
 #[derive(Clone, Copy, Debug, PartialEq)]
 enum Kernel {

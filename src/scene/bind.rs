@@ -6,16 +6,16 @@
 //!   - `x` ([`Expr::VertexPosition`]): the model-space position;
 //!   - `u x` ([`Expr::TexCoord`]): the mesh UVs for a set the program does
 //!     not generate (`u`, `u′`, … all read the mesh's one UV set); a set
-//!     written by a texgen statement `u x ← e` (seeds/001 (7)) is `e`
+//!     written by a texgen statement `u x ← e` (Pipeline Grammar, eq. (7)) is `e`
 //!     evaluated at the vertex;
 //!   - shading vectors ([`Expr::Vector`]) by role — `normal`, `tangent`,
-//!     `binormal` (w·(N × T), seeds/003 Section 5.1), `light(i)` (unit vector
+//!     `binormal` (w·(N × T), Kilgard 2000, Section 5.1), `light(i)` (unit vector
 //!     to scene light i), `view` (unit vector to the eye, or the camera's
 //!     constant direction for an infinite viewer), `half(i)` =
 //!     normalize(L + V), `reflection` = 2(N·V)N − V, `position` (the point) —
 //!     in the declared space: `object` (model), `world`, `eye` (the default
 //!     when a declaration names none) or `tangent`, where a vector v is
-//!     (T·v, B·v, N·v) with the vertex's object-space frame (seeds/003
+//!     (T·v, B·v, N·v) with the vertex's object-space frame (Kilgard 2000
 //!     Appendix C: the per-vertex light vector in tangent space);
 //!     `intensity(i)`, light i's colour times its distance attenuation and
 //!     spot factor at the vertex (a colour, the same in every space).
@@ -23,7 +23,7 @@
 //!   model; `πl` (any other subscript but `R`) = light 0's projection ·
 //!   view · model — a perspective from the light's position (or from far
 //!   along a directional light) towards the scene's centre; `π⁻¹` the
-//!   inverse; `πR d` of a direction: sphere-map coordinates (seeds/001 (7)).
+//!   inverse; `πR d` of a direction: sphere-map coordinates (Pipeline Grammar, eq. (7)).
 //! - **Uniforms**: the scene's `constants` by name, else the program's
 //!   declared default.
 //! - **Textures**: each declaration's source — `image("f.png")`,
@@ -34,7 +34,7 @@
 //!   program's. **Missing image files** fall back to procedural stand-ins,
 //!   with a note for the user: a colour image becomes a checkerboard of
 //!   warm bricks (`decal.png`-like: alpha 1), a height field the golf-ball
-//!   dimples of seeds/003 Section 2.4.2 (256², 16 cells), an environment the
+//!   dimples of Kilgard 2000, Section 2.4.2 (256², 16 cells), an environment the
 //!   procedural sky. So the built-in default renders with no files at all.
 
 use std::collections::BTreeMap;
@@ -106,14 +106,14 @@ pub struct TextureDecl {
 }
 
 /// A function that exact mode evaluates instead of looking a table up
-/// (seeds issue 6 part 3: "no lookup tables").
+/// ("no lookup tables").
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ExactFunction {
     /// normalize(d), range-compressed for an unsigned format.
     Normalize { signed: bool },
     /// x^n on [0, 1].
     Exponent(f32),
-    /// F(u)·D(v) of seeds/002 Section 3.1.
+    /// F(u)·D(v) of Heidrich & Seidel 1999, Section 3.1.
     FresnelDistribution { roughness: f32, index: f32 },
     /// G(u, v)/(π v)/scale.
     Geometry { roughness: f32, scale: f32 },
@@ -213,7 +213,7 @@ fn string(e: &ast::Expr) -> Option<String> {
     }
 }
 
-/// The declarations of the textures the lowering added (issue 18: a
+/// The declarations of the textures the lowering added (a
 /// normalization cube map), read from the text each carries
 /// (`ir::Texture::declaration`), so that they bind like declared ones.
 ///
@@ -411,7 +411,7 @@ fn image_texture(
     Ok(Texture::Flat(t))
 }
 
-/// `normalize_cube(size, bits)` (seeds/000 Formula 4): range-compressed,
+/// `normalize_cube(size, bits)` (GeForce3 Phong, Formula 4): range-compressed,
 /// or the vector itself in a signed format.
 fn normalize_cube_texture(d: &TextureDecl, size: u32, bits: u32) -> Result<Texture, BindError> {
     if d.kind != TextureKind::Cube {
@@ -440,7 +440,7 @@ fn expand_rgb(texels: &mut [[f32; 4]]) {
     }
 }
 
-/// `normal_map(height("file"), scale)` (seeds/003 Section 5.3): from the
+/// `normal_map(height("file"), scale)` (Kilgard 2000, Section 5.3): from the
 /// height field, or golf-ball dimples when the file is missing.
 fn normal_map_texture(
     d: &TextureDecl,
@@ -550,7 +550,7 @@ pub struct BoundObject<'s> {
 }
 
 /// The scene's objects bound for a frame of aspect ratio `aspect`, their
-/// texture coordinates generated (seeds/001 (7)); light 0's projection
+/// texture coordinates generated (Pipeline Grammar, eq. (7)); light 0's projection
 /// looks at the centre of the objects. Every executor binds its objects
 /// through this, so they draw the same vertices.
 pub fn bound_objects<'s>(

@@ -1,6 +1,6 @@
 //! The camera: a perspective projection with GL conventions (clip z in
 //! [−w, w], right-handed eye space looking down −z) and the viewer model of
-//! seeds/003 Section 5.1: a local viewer (V from the eye position per vertex)
+//! Kilgard 2000, Section 5.1: a local viewer (V from the eye position per vertex)
 //! or an infinite viewer (one constant V).
 
 use glam::{Mat4, Vec3, Vec4};

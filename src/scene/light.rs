@@ -1,5 +1,5 @@
-//! Lights with the OpenGL 1.x model that the papers assume (seeds/003
-//! Section 5.1 handles positional and directional lights; seeds/004 Section 3
+//! Lights with the OpenGL 1.x model that the papers assume (Kilgard 2000
+//! Section 5.1 handles positional and directional lights; Adaptive Sample Shading, Section 3
 //! culls by spot cut-off and volume of influence): directional, point, and
 //! spot lights with a cut-off angle and exponent, and distance attenuation
 //! 1/(c + l·d + q·d²).

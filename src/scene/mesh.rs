@@ -2,7 +2,7 @@
 //! coordinates: procedural sphere, torus, plane and cube at a chosen
 //! tessellation, and Wavefront OBJ files (tobj). Procedural surfaces take
 //! their tangents from the parameterization; other meshes derive them from
-//! the texture coordinates (seeds/003 Section 5.1), orthonormalized against
+//! the texture coordinates (Kilgard 2000, Section 5.1), orthonormalized against
 //! the normal, with the binormal B = N × T and a handedness sign in `w`.
 
 use std::f32::consts::{PI, TAU};
@@ -225,7 +225,7 @@ impl Mesh {
         self.normals = acc.into_iter().map(|n| n.try_normalize().unwrap_or(Vec3::Z)).collect();
     }
 
-    /// Tangents from texture coordinates (seeds/003 Section 5.1): per triangle
+    /// Tangents from texture coordinates (Kilgard 2000, Section 5.1): per triangle
     /// T = ∂P/∂u and B_uv = ∂P/∂v from the UV gradients, summed per vertex,
     /// then Gram-Schmidt against N; w is the sign of (N × T)·B_uv. Where the UVs
     /// are degenerate, any unit vector orthogonal to N is used.

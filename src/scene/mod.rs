@@ -1,10 +1,13 @@
-//! Scenes for the renderer, written in RON (issue 6, part 1): meshes
+//! Scenes for the renderer, written in RON: meshes
 //! (procedural or OBJ) with transforms and materials, a perspective camera
 //! with a local or infinite viewer, lights (directional, point, spot with
 //! cut-off, exponent and attenuation), named constants of the shading
 //! program, and textures — image files or the generators of the papers
-//! (seeds/003 Appendices D-F, seeds/002 Sections 3.1 and 4.1-4.2, seeds/000
+//! (Kilgard 2000, Appendices D-F, Heidrich & Seidel 1999, Sections 3.1 and 4.1-4.2, GeForce3 Phong
 //! Section 5.2; see [`crate::textures::generators`]).
+//!
+//! The format, field by field, with a scene to start from, is the
+//! repository's `docs/scenes.md`.
 //!
 //! [`Scene::load`] parses and checks a scene (RON errors carry the path and
 //! line:col; references to unknown materials/textures and missing files are
@@ -35,7 +38,7 @@ use crate::textures::{
 pub enum SceneError {
     #[error("{0}")]
     Io(#[from] crate::io::IoError),
-    #[error("{path}:{line}:{col}: {message}\n  help: check the RON syntax and field names against scenes/bump_torus.ron")]
+    #[error("{path}:{line}:{col}: {message}\n  help: check the RON syntax and the field names against docs/scenes.md")]
     Syntax { path: String, line: usize, col: usize, message: String },
     #[error("{path}: {what} '{name}' is not defined; {help}")]
     Unknown { path: String, what: &'static str, name: String, help: String },
@@ -167,23 +170,23 @@ pub enum TextureDesc {
         #[serde(default)]
         mipmaps: bool,
     },
-    /// seeds/003 Appendix D.
+    /// Kilgard 2000, Appendix D.
     NormalizeCube { size: u32, bits: CubeBits },
-    /// seeds/003 Appendices E-F.
+    /// Kilgard 2000, Appendices E-F.
     NormalMap {
         height: HeightDesc,
         scale: f32,
         #[serde(default = "default_nm_format")]
         format: NormalMapFormat,
     },
-    /// seeds/002 Section 4.1-4.2, of a procedural sky with a sun in direction `sun`.
+    /// Heidrich & Seidel 1999, Section 4.1-4.2, of a procedural sky with a sun in direction `sun`.
     DualParaboloid {
         size: u32,
         sun: Vec3,
         #[serde(default = "default_format")]
         format: TexelFormat,
     },
-    /// seeds/002 Section 3.1: F(cos θ)·D(cos δ).
+    /// Heidrich & Seidel 1999, Section 3.1: F(cos θ)·D(cos δ).
     HsFresnelDistribution {
         size: u32,
         roughness: f32,
@@ -191,7 +194,7 @@ pub enum TextureDesc {
         #[serde(default = "default_format")]
         format: TexelFormat,
     },
-    /// seeds/002 Section 3.1: G(cos α, cos β)/(π cos β), stored divided by `scale`.
+    /// Heidrich & Seidel 1999, Section 3.1: G(cos α, cos β)/(π cos β), stored divided by `scale`.
     HsGeometry {
         size: u32,
         roughness: f32,
@@ -199,7 +202,7 @@ pub enum TextureDesc {
         #[serde(default = "default_format")]
         format: TexelFormat,
     },
-    /// seeds/000 Section 5.2: x^exponent.
+    /// GeForce3 Phong, Section 5.2: x^exponent.
     ExponentLut {
         size: u32,
         exponent: f32,
@@ -229,7 +232,7 @@ use crate::textures::generators::{MAX_CUBE_FACE, MAX_TABLE_SIDE};
 
 impl SceneAssets {
     /// The centre and radius of the world-space bounding sphere of all
-    /// meshes: where light projections aim (seeds/001's `πl`) and what light
+    /// meshes: where light projections aim (Pipeline Grammar's `πl`) and what light
     /// relevance bounds against.
     pub fn bounding_sphere(&self) -> (Vec3, f32) {
         let mut lo = Vec3::splat(f32::INFINITY);
@@ -505,8 +508,7 @@ mod tests {
         assert!(Scene::parse("(((((", Path::new("s.ron")).is_err());
     }
 
-    /// Generated textures are bounded before they are built (issue 16, item
-    /// 8): a cube face by MAX_CUBE_FACE, a 2-D table side by MAX_TABLE_SIDE.
+    /// Generated textures are bounded before they are built: a cube face by MAX_CUBE_FACE, a 2-D table side by MAX_TABLE_SIDE.
     #[test]
     fn generator_sizes_are_bounded() {
         let text = example().replacen("NormalizeCube(size: 32", "NormalizeCube(size: 100000", 1);

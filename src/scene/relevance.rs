@@ -1,6 +1,6 @@
 //! Light relevance geometry shared by the renderer's native Phong stage
 //! (`renderer::lights`, per polygon) and the planner's light culling of
-//! compiled plans (`planner::relevance`, per object): seeds/004 Section 2.2.
+//! compiled plans (`planner::relevance`, per object): Adaptive Sample Shading, Section 2.2.
 //!
 //! - [`Cone`]: a bounding cone of unit directions — Section 2.2.2's
 //!   "bounding cone": the axis is the normalized average of the vectors,

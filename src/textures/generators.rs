@@ -1,21 +1,21 @@
 //! Texture generators from the papers:
-//! - [`normalize_cube`]: the normalization cube map of seeds/003 Section 5.2
+//! - [`normalize_cube`]: the normalization cube map of Kilgard 2000, Section 5.2
 //!   and Appendix D, 8-bit (Kilgard's `128 + 127·v` encoding) or 16-bit;
-//! - [`normal_map`]: a normal map from a height field (seeds/003 Section 5.3,
+//! - [`normal_map`]: a normal map from a height field (Kilgard 2000, Section 5.3,
 //!   Appendix E) with Kilgard's mipmap filter (Appendix F, Section 2.6.3) that
 //!   keeps the averaged normal's length in alpha;
-//! - [`dual_paraboloid`]: dual-paraboloid environment maps (seeds/002
+//! - [`dual_paraboloid`]: dual-paraboloid environment maps (Heidrich & Seidel 1999
 //!   Section 4.1, Eq. 5) with solid-angle-weighted mipmaps (Section 4.2, Eq. 6);
 //! - [`hs_fresnel_distribution`], [`hs_geometry`]: the Torrance-Sparrow
-//!   factor textures F·D and G/(π cos β) of seeds/002 Section 3.1 (Eq. 1-3);
-//! - [`exponent_lut`]: a specular exponent lookup table (seeds/000 Section 5.2).
+//!   factor textures F·D and G/(π cos β) of Heidrich & Seidel 1999, Section 3.1 (Eq. 1-3);
+//! - [`exponent_lut`]: a specular exponent lookup table (GeForce3 Phong, Section 5.2).
 
 use std::f32::consts::PI;
 
 /// The largest face of a generated cube map (`normalize_cube(size)`): 1024²
 /// texels × 6 faces is ~6 M texels, about a second and 400 MB with mipmaps
 /// and the exact reference's copy; the papers' normalization cubes are 32²
-/// (seeds/003 Appendix D) and the GeForce-era limit was 512. A program asking
+/// (Kilgard 2000, Appendix D) and the GeForce-era limit was 512. A program asking
 /// for more is refused where it declares the texture (`ir::lower`); the
 /// generators clamp as a last guard.
 pub const MAX_CUBE_FACE: u32 = 1024;
@@ -26,7 +26,7 @@ pub const MAX_TABLE_SIDE: u32 = 4096;
 
 use super::sampling::{cube_direction, CubeFace, Level, TexelFormat, Texture2D, TextureCube, Wrap};
 
-/// Range compression [−1, 1] → [0, 1] (seeds/003 Section 5.2).
+/// Range compression [−1, 1] → [0, 1] (Kilgard 2000, Section 5.2).
 #[inline]
 pub fn range_compress(v: f32) -> f32 {
     0.5 * v + 0.5
@@ -59,11 +59,11 @@ pub fn kilgard_byte(v: f32) -> u8 {
 pub enum CubeBits {
     /// RGB8 with Kilgard's `128 + 127·v` encoding (Appendix D).
     Eight,
-    /// 16-bit unsigned, range-compressed and rounded to nearest (seeds/000 Section 5.1).
+    /// 16-bit unsigned, range-compressed and rounded to nearest (GeForce3 Phong, Section 5.1).
     Sixteen,
 }
 
-/// The normalization cube map (seeds/003 Appendix D): each texel stores the
+/// The normalization cube map (Kilgard 2000, Appendix D): each texel stores the
 /// range-compressed unit vector through its centre; alpha is 1. Expanding a
 /// fetched texel with [`expand`] gives the normalized direction.
 pub fn normalize_cube(size: u32, bits: CubeBits) -> TextureCube {
@@ -100,7 +100,7 @@ pub struct HeightField {
 }
 
 impl HeightField {
-    /// Procedural dimples on a grid (a golf ball's surface, seeds/003
+    /// Procedural dimples on a grid (a golf ball's surface, Kilgard 2000
     /// Section 2.4.2): `cells` round pits per side.
     pub fn dimples(size: u32, cells: u32) -> HeightField {
         let size = size.clamp(1, MAX_TABLE_SIDE);
@@ -141,7 +141,7 @@ pub enum NormalMapFormat {
     F32,
 }
 
-/// A normal map from a wrapping height field (seeds/003 Appendix E: forward
+/// A normal map from a wrapping height field (Kilgard 2000, Appendix E: forward
 /// differences to the right and up, n = (dcy, −dcx, 1)/|…| with dc = scale·(c − c')),
 /// with every mip level built by Kilgard's filter (Appendix F): each 2×2
 /// block's vectors are denormalized by their alpha, averaged; the average's
@@ -234,7 +234,7 @@ pub enum ParaboloidFace {
     Back,
 }
 
-/// Direction → (face, u, v) of seeds/002 Section 4.1: the paraboloid of Eq. 5
+/// Direction → (face, u, v) of Heidrich & Seidel 1999, Section 4.1: the paraboloid of Eq. 5
 /// has normal (x, y, 1), the halfway vector of d and ±z, so
 /// (x, y) = (dx, dy)/(1 ± dz); u = (x + 1)/2, v = (y + 1)/2.
 pub fn paraboloid_uv(d: [f32; 3]) -> (ParaboloidFace, f32, f32) {
@@ -355,7 +355,7 @@ pub fn sky(direction: [f32; 3], sun: [f32; 3]) -> [f32; 3] {
 }
 
 /// Fresnel reflectance of a dielectric with relative index `n` for unpolarized
-/// light at cos θ = `c` (the F of Torrance-Sparrow, seeds/002 Eq. 1).
+/// light at cos θ = `c` (the F of Torrance-Sparrow, Heidrich & Seidel 1999, Eq. 1).
 pub fn fresnel(c: f32, n: f32) -> f32 {
     let c = c.clamp(0.0, 1.0);
     let g2 = n * n + c * c - 1.0;
@@ -391,7 +391,7 @@ pub fn smith_g1(cos: f32, m: f32) -> f32 {
     }
 }
 
-/// The F·D texture of seeds/002 Section 3.1: u = cos θ (between l and h),
+/// The F·D texture of Heidrich & Seidel 1999, Section 3.1: u = cos θ (between l and h),
 /// v = cos δ (between n and h), texel centres at (i + ½)/size.
 pub fn hs_fresnel_distribution(size: u32, roughness: f32, index: f32, format: TexelFormat) -> Texture2D {
     let size = size.clamp(2, MAX_TABLE_SIDE);
@@ -406,7 +406,7 @@ pub fn hs_fresnel_distribution(size: u32, roughness: f32, index: f32, format: Te
     Texture2D::new(format, Wrap::ClampToEdge, Level::new(size, size, texels))
 }
 
-/// The G/(π cos β) texture of seeds/002 Section 3.1: u = cos α (n·l),
+/// The G/(π cos β) texture of Heidrich & Seidel 1999, Section 3.1: u = cos α (n·l),
 /// v = cos β (n·v). The term is singular at grazing view (cos β → 0); values
 /// are stored divided by `scale` (multiply back after the lookup), and
 /// fixed-point formats clamp to [0, 1] as the paper notes.
@@ -425,7 +425,7 @@ pub fn hs_geometry(size: u32, roughness: f32, scale: f32, format: TexelFormat) -
     Texture2D::new(format, Wrap::ClampToEdge, Level::new(size, size, texels))
 }
 
-/// A 1-texel-high lookup table of x^exponent for x ∈ [0, 1] (seeds/000
+/// A 1-texel-high lookup table of x^exponent for x ∈ [0, 1] (GeForce3 Phong
 /// Section 5.2: the texture-shader exponent by table lookup), texel centres at
 /// (i + ½)/size; bilinear filtering interpolates between them.
 /// Texels of an `exponent_table(n)` (the binder's size; the lowering's

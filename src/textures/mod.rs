@@ -1,10 +1,10 @@
-//! Textures for the renderer: storage and GL sampling (seeds/003 Appendix A
+//! Textures for the renderer: storage and GL sampling (Kilgard 2000, Appendix A
 //! for cube maps; nearest, bilinear, trilinear with mipmaps), image files
 //! (PNG, JPEG, Radiance HDR through `image`), and the generators of the
-//! papers — normalization cube maps (seeds/003 Appendix D), normal maps with
-//! Kilgard's mipmap filter (seeds/003 Appendices E-F), dual-paraboloid
-//! environment maps (seeds/002 Section 4.1-4.2), Heidrich-Seidel BRDF factor
-//! textures (seeds/002 Eq. 1-3) and exponent lookup tables (seeds/000).
+//! papers — normalization cube maps (Kilgard 2000, Appendix D), normal maps with
+//! Kilgard's mipmap filter (Kilgard 2000 Appendices E-F), dual-paraboloid
+//! environment maps (Heidrich & Seidel 1999, Section 4.1-4.2), Heidrich-Seidel BRDF factor
+//! textures (Heidrich & Seidel 1999, Eq. 1-3) and exponent lookup tables (GeForce3 Phong).
 
 pub mod generators;
 pub mod sampling;

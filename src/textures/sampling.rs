@@ -1,5 +1,5 @@
 //! Texture storage and GL-style sampling: 2D textures with mip chains and cube
-//! maps (face selection of the GL spec, seeds/003 Appendix A Table 1),
+//! maps (face selection of the GL spec, Kilgard 2000, Appendix A Table 1),
 //! nearest / bilinear / trilinear filtering, clamp-to-edge or repeat.
 //!
 //! Texels are kept as f32 RGBA but *quantized to their format on creation*
@@ -245,7 +245,7 @@ impl CubeFace {
         [CubeFace::PosX, CubeFace::NegX, CubeFace::PosY, CubeFace::NegY, CubeFace::PosZ, CubeFace::NegZ];
 }
 
-/// GL cube-map face selection (seeds/003 Appendix A, Table 1): the major axis
+/// GL cube-map face selection (Kilgard 2000, Appendix A, Table 1): the major axis
 /// picks the face, then (s, t) = ((sc/|ma| + 1)/2, (tc/|ma| + 1)/2). Ties go to
 /// x before y before z. A zero or non-finite direction gives +X's centre.
 pub fn cube_face_uv(d: [f32; 3]) -> (CubeFace, f32, f32) {
@@ -275,7 +275,7 @@ pub fn cube_face_uv(d: [f32; 3]) -> (CubeFace, f32, f32) {
 }
 
 /// The (unnormalized) direction through (s, t) of a face: the inverse of
-/// [`cube_face_uv`], seeds/003 Appendix D `getCubeVector`.
+/// [`cube_face_uv`], Kilgard 2000, Appendix D `getCubeVector`.
 pub fn cube_direction(face: CubeFace, s: f32, t: f32) -> [f32; 3] {
     let (sc, tc) = (2.0 * s - 1.0, 2.0 * t - 1.0);
     match face {

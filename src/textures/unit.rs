@@ -1,6 +1,6 @@
 //! The texture unit of a modern (Vulkan/WebGPU) implementation, as the CPU
 //! renderer's `f32` and `fixed9` modes model it so that they compute what
-//! the WGSL backend's shaders compute on wgpu (issue 5, part 4). The ideal
+//! the WGSL backend's shaders compute on wgpu. The ideal
 //! GL sampling of [`super::sampling`] stays the `exact` mode's.
 //!
 //! Everything here is what the specifications require, and where they leave
@@ -42,7 +42,7 @@
 //!   out-of-face texel centre's direction hits), and a texel outside both
 //!   edges at a corner is the average of the three that meet there. Seamless
 //!   filtering is float filtering in lavapipe, so cube maps filter in f32 at
-//!   any format. Face selection is GL's (seeds/003 Appendix A Table 1,
+//!   any format. Face selection is GL's (Kilgard 2000, Appendix A Table 1,
 //!   [`cube_face_uv`]).
 
 use super::sampling::{

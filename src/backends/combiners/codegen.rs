@@ -1,9 +1,9 @@
-//! IR → register-combiner configuration for one pass (issue 4 part 5).
+//! IR → register-combiner configuration for one pass.
 //!
 //! The pass computes one per-fragment colour, `PassInput::value`, from the
 //! texels its texture units fetch, the interpolated primary and secondary
 //! colours, and constants. The generator covers the IR sub-DAG below `value`
-//! with what seeds/003 Section 4.2 and Appendix B offer, in three steps:
+//! with what Kilgard 2000, Section 4.2 and Appendix B offer, in three steps:
 //!
 //! 1. **Selection.** A tree-covering selector turns each node into a
 //!    *source* (a register component read through one of the eight input
@@ -23,7 +23,7 @@
 //!    with per-stage constants, whose constant colours, with the
 //!    operation's, are at most two.
 //! 3. **Constant registers.** Without per-stage constants (geforce256) the
-//!    pass has the two global ones (seeds/003 B.3). With them (geforce3,
+//!    pass has the two global ones (Kilgard 2000, B.3). With them (geforce3,
 //!    NV_register_combiners2) each general stage has its own two and the
 //!    final combiner reads the global two: see `Gen::assign_constants`.
 //! 4. **Register allocation.** Virtual registers get `spare0`, `spare1`, or
@@ -106,8 +106,8 @@ pub struct Generated {
     pub stages: usize,
     /// Where each general-combiner operation went, by the source span of
     /// the value it computes: what the language server's hover shows for
-    /// an expression (issue 21). What no operation computes is a register
-    /// input or the final combiner's work (seeds/003 §4.2).
+    /// an expression. What no operation computes is a register
+    /// input or the final combiner's work (Kilgard 2000, §4.2).
     pub placements: Vec<Placement>,
 }
 
@@ -133,7 +133,7 @@ pub enum CodegenError {
     #[error("the pass needs {needed} general combiners, the target has {available}")]
     OutOfStages { needed: usize, available: usize },
     /// More distinct constant colours than a combiner can read: two for the
-    /// whole pass without per-stage constants (seeds/003 B.3), else two per
+    /// whole pass without per-stage constants (Kilgard 2000, B.3), else two per
     /// general stage and two (the global ones) for the final combiner
     /// (NV_register_combiners2). `place` says which combiner, `constants`
     /// which constants compete (the last one did not fit); `span` is a node
@@ -173,7 +173,7 @@ impl CodegenError {
     pub fn help(&self) -> String {
         match self {
             CodegenError::Unsupported { help, .. } => help.clone(),
-            CodegenError::Range { .. } => "clamp it with `saturate(…)` where the clamp is intended, or rescale it into [−1, 1] (seeds/003 Section 4.2.2)".into(),
+            CodegenError::Range { .. } => "clamp it with `saturate(…)` where the clamp is intended, or rescale it into [−1, 1] (Kilgard 2000, Section 4.2.2)".into(),
             CodegenError::OutOfStages { .. } => "split the pass: blend partial results in the framebuffer, or target a profile with more general combiners".into(),
             CodegenError::OutOfConstants { .. } => "fold constants together, or split the pass (a target with per-stage constants, NV_register_combiners2, gives every general combiner two of its own)".into(),
             CodegenError::OutOfColors { .. } => "pass further per-vertex values as texture coordinates (a lookup texture), or split the pass".into(),
@@ -490,7 +490,7 @@ fn generate_with(
 
 /// Rewrites the per-sample `⊕` nodes below `value` into the arithmetic they
 /// stand for (`crate::ir::eval::combine`, the OpenGL 1.2.1 texture
-/// environment of seeds/001 Section 3.6), so that the selector sees
+/// environment of Pipeline Grammar, Section 3.6), so that the selector sees
 /// products, sums, lerps and dot products. `None` when there is no `⊕`.
 /// The rewritten nodes are appended to a copy of the module: every handle
 /// of the original (lookups, interpolants, uniforms) keeps its meaning.
@@ -547,9 +547,9 @@ fn desugar(module: &Module, value: Handle<Expr>) -> R<Option<(Module, Handle<Exp
 
 /// `(k · y) · z` or `z · (k · y)` with `k` an output scale (½, 2, 4, 8):
 /// `(k, y, z)`, to be rewritten `k · (y · z)` so that the scale lands on the
-/// stage's output mapping whatever the order written (seeds/003 Section
-/// 4.2.2: scale_by_two() applies to a stage's output; issue 16 item 5 —
-/// `2 * L * B` was refused where `L * B * 2` mapped).
+/// stage's output mapping whatever the order written (Kilgard 2000, Section
+/// 4.2.2: scale_by_two() applies to a stage's output, so
+/// `2 * L * B` maps as `L * B * 2` does).
 fn scale_to_float(m: &Module, e: &Expr) -> Option<(Handle<Expr>, Handle<Expr>, Handle<Expr>)> {
     let Expr::Binary { op: BinaryOp::Mul, lhs, rhs } = *e else { return None };
     let scale = |h: Handle<Expr>| matches!(&m.exprs[h], Expr::Constant(c) if { let v = c.values(); !v.is_empty() && v.iter().all(|x| *x == v[0]) && [0.5, 2.0, 4.0, 8.0].contains(&v[0]) });
@@ -607,8 +607,8 @@ fn intern(m: &mut Module, e: Expr, span: Span) -> R<Handle<Expr>> {
 /// fragment colours are clamped, texels and fixed-point framebuffer values
 /// are in range). An operand whose range leaves [0, 1] is therefore
 /// `saturate`d here — what the as-written plan does on the hardware, where
-/// the operand is the fragment colour a blend clamps (issue 16 item 5:
-/// Kilgard's `C ⊕ rgba(diffuse, s_self)`, `diffuse` in [0.1, 1.1], fused
+/// the operand is the fragment colour a blend clamps
+/// (Kilgard's `C ⊕ rgba(diffuse, s_self)`, `diffuse` in [0.1, 1.1], fused
 /// into one pass). The IR itself keeps ⊕ unclamped (docs/language.md).
 fn combine_expr(
     m: &mut Module,
@@ -716,7 +716,7 @@ fn unsupported(span: Span, what: impl Into<String>, help: impl Into<String>) -> 
     CodegenError::Unsupported { span, what: what.into(), help: help.into() }
 }
 
-const LOOKUP_HELP: &str = "precompute it into a lookup texture indexed by its per-vertex inputs (seeds/003 Section 5.2 does this for normalization), or compute it per vertex";
+const LOOKUP_HELP: &str = "precompute it into a lookup texture indexed by its per-vertex inputs (Kilgard 2000, Section 5.2 does this for normalization), or compute it per vertex";
 
 impl Gen<'_> {
     fn expr(&self, h: Handle<Expr>) -> &Expr {
@@ -913,7 +913,7 @@ impl Gen<'_> {
         Ok(Src { base: Base::K(k), comp, map: UnsignedIdentity })
     }
 
-    /// `δ v` in the primary or secondary colour (seeds/003 Table 2): unsigned,
+    /// `δ v` in the primary or secondary colour (Kilgard 2000, Table 2): unsigned,
     /// so a value in [0, 1] (or clamped by its consumer) only.
     fn interpolant_src(&mut self, h: Handle<Expr>, part: Part, sat: bool) -> R<Src> {
         let span = self.m.span(h);
@@ -934,7 +934,7 @@ impl Gen<'_> {
             return Err(unsupported(
                 span,
                 format!("an interpolated {} outside [0, 1]", info.ty.name()),
-                "the primary and secondary colours are unsigned (seeds/003 Table 2): interpolate a direction as texture coordinates into a normalization cube map and `expand` the lookup (Section 5.2)",
+                "the primary and secondary colours are unsigned (Kilgard 2000, Table 2): interpolate a direction as texture coordinates into a normalization cube map and `expand` the lookup (Section 5.2)",
             ));
         }
         let reg = match self.colors.iter().position(|c| *c == Some(h)) {
@@ -959,7 +959,7 @@ impl Gen<'_> {
         Ok(Src { base: Base::Reg(reg), comp, map: UnsignedIdentity })
     }
 
-    /// A component selection: rgb, alpha, or blue (seeds/003 B.4); red or
+    /// A component selection: rgb, alpha, or blue (Kilgard 2000, B.4); red or
     /// green of an rgb as the dot product with a unit constant colour,
     /// `v · (1, 0, 0)`, which a stage smears over rgb (Section 4.2.2) — a
     /// stage and a constant register for a selection the inputs cannot make.
@@ -995,7 +995,7 @@ impl Gen<'_> {
             Err(unsupported(
                 span,
                 "this component selection",
-                "the combiners read a register's rgb, its alpha, or (in an alpha portion) its blue (seeds/003 B.4), and red or green alone of an rgb by a dot product with a unit colour: use `.rgb`, `.a`, `.r`, `.g` or `.b`, or a lookup texture that stores the component in alpha",
+                "the combiners read a register's rgb, its alpha, or (in an alpha portion) its blue (Kilgard 2000, B.4), and red or green alone of an rgb by a dot product with a unit colour: use `.rgb`, `.a`, `.r`, `.g` or `.b`, or a lookup texture that stores the component in alpha",
             ))
         }
     }
@@ -1017,7 +1017,7 @@ impl Gen<'_> {
     }
 
     /// `expand(x)` or `half_bias(x)` as an input mapping of x's source
-    /// (seeds/003 Table 3), else computed in a stage.
+    /// (Kilgard 2000, Table 3), else computed in a stage.
     fn mapped_src(
         &mut self,
         h: Handle<Expr>,
@@ -1064,7 +1064,7 @@ impl Gen<'_> {
             Expr::Math { fun: MathFunction::Normalize, .. } => unsupported(
                 span,
                 "`normalize`",
-                "normalize per fragment with a normalization cube map: look the interpolated vector up in `normalize_cube(n)` and `expand` the texel (seeds/003 Section 5.2, Appendix D)",
+                "normalize per fragment with a normalization cube map: look the interpolated vector up in `normalize_cube(n)` and `expand` the texel (Kilgard 2000, Section 5.2, Appendix D)",
             ),
             Expr::Math { fun, .. } => unsupported(span, format!("`{}`", fun.name()), LOOKUP_HELP),
             Expr::Select { reject: None, .. } => unsupported(
@@ -1078,7 +1078,7 @@ impl Gen<'_> {
                 "a framebuffer read",
                 "the combiners cannot read the framebuffer: blend with it (⊕) after the pass, or copy it to a texture",
             ),
-            _ => unsupported(span, "this value", "only texels, interpolated colours and constants reach the combiners (seeds/003 Table 2)"),
+            _ => unsupported(span, "this value", "only texels, interpolated colours and constants reach the combiners (Kilgard 2000, Table 2)"),
         }
     }
 
@@ -1094,7 +1094,7 @@ impl Gen<'_> {
         unsupported(
             self.m.span(h),
             "a power with an exponent that is not a constant power of two",
-            format!("the combiners square by multiplying a value with itself, so x^2, x^4, x^8, … map (seeds/003 Appendix H); {LOOKUP_HELP}"),
+            format!("the combiners square by multiplying a value with itself, so x^2, x^4, x^8, … map (Kilgard 2000, Appendix H); {LOOKUP_HELP}"),
         )
     }
 
@@ -1165,7 +1165,7 @@ impl Gen<'_> {
         } else if values.iter().all(|v| *v >= 0.0) {
             (false, values.clone())
         } else {
-            return Err(unsupported(span, "a constant with components of both signs", "constant colours are unsigned (seeds/003 Table 2): add a signed part with `expand` of an unsigned constant"));
+            return Err(unsupported(span, "a constant with components of both signs", "constant colours are unsigned (Kilgard 2000, Table 2): add a signed part with `expand` of an unsigned constant"));
         };
         if mags.iter().any(|v| *v > 1.0) {
             return Err(unsupported(
@@ -1192,7 +1192,7 @@ impl Gen<'_> {
     }
 
     /// The virtual constant holding `color` for node `h`, read as `comp`
-    /// (its rgb, or its alpha). Constant registers are read-only (seeds/003
+    /// (its rgb, or its alpha). Constant registers are read-only (Kilgard 2000
     /// Table 2), so one register serves every read of a colour: a read
     /// shares the constant of the same node, or of a folded constant equal
     /// on the components read (a uniform with a default shares a folded
@@ -1444,7 +1444,7 @@ impl Gen<'_> {
     }
 
     /// `expand`, `half_bias` or `compress` of a computed value: the
-    /// portion's output bias and scale (seeds/003 Table 5).
+    /// portion's output bias and scale (Kilgard 2000, Table 5).
     fn mapped_spec(&mut self, fun: MathFunction, x: Handle<Expr>, part: Part, scalar: bool) -> R<Spec> {
         let mut inner = self.spec_or_source(x, part)?;
         match fun {
@@ -1515,7 +1515,7 @@ impl Gen<'_> {
         }
     }
 
-    /// `k · spec`: the output scale, or AB + AB for 8 (seeds/003 Appendix G's
+    /// `k · spec`: the output scale, or AB + AB for 8 (Kilgard 2000, Appendix G's
     /// `4 · (Lz + Lz)`).
     /// `x` is the node `inner` computes, read again when the scale cannot
     /// join `inner`'s portion; `None` when `inner` is one fresh product
@@ -1605,14 +1605,14 @@ impl Gen<'_> {
 
     /// A condition as (the value to place in spare0.a, whether the condition
     /// holds when that value is ≥ ½). The mux selects CD when spare0.a ≥ ½
-    /// (seeds/003 Section 4.2.2).
+    /// (Kilgard 2000, Section 4.2.2).
     fn condition(&mut self, cond: Handle<Expr>) -> R<(Src, bool)> {
         let span = self.m.span(cond);
         let bad = || {
             unsupported(
                 span,
                 "this condition",
-                "the mux tests spare0.a ≥ ½ (seeds/003 Section 4.2.2): compare a value with 0 or 0.5, e.g. `Hn.z ≥ 0` (Appendix H), or use a lookup texture",
+                "the mux tests spare0.a ≥ ½ (Kilgard 2000, Section 4.2.2): compare a value with 0 or 0.5, e.g. `Hn.z ≥ 0` (Appendix H), or use a lookup texture",
             )
         };
         let Expr::Binary { op, lhs, rhs } = self.expr(cond).clone() else { return Err(bad()) };
@@ -1679,7 +1679,7 @@ impl Gen<'_> {
                     return Err(unsupported(
                         span,
                         "a vector in an alpha computation",
-                        "the alpha portion reads alpha or blue (seeds/003 B.4)",
+                        "the alpha portion reads alpha or blue (Kilgard 2000, B.4)",
                     ))
                 }
                 _ => s,
@@ -1719,7 +1719,7 @@ impl Gen<'_> {
     }
 
     /// The portion an operation runs in: RGB for dot products and vectors,
-    /// alpha for scalars that read alpha or blue (seeds/003 B.4).
+    /// alpha for scalars that read alpha or blue (Kilgard 2000, B.4).
     fn lane_of(&self, spec: &Spec) -> Lane {
         let mut all = vec![spec.ab.a, spec.ab.b];
         if let Some(cd) = spec.cd {
@@ -2141,7 +2141,7 @@ impl Gen<'_> {
                 return Err(unsupported(
                     span,
                     "an alpha made of a vector",
-                    "G reads an alpha (seeds/003 B.5)",
+                    "G reads an alpha (Kilgard 2000, B.5)",
                 ))
             }
         };
@@ -2155,7 +2155,7 @@ impl Gen<'_> {
     /// Gives every virtual constant a constant register, once operations
     /// have their stages. Without per-stage constants, or when the pass
     /// reads at most two, they are the global `constant0/1` in order of
-    /// first use (seeds/003 B.3; `konst` refused a third). Otherwise
+    /// first use (Kilgard 2000, B.3; `konst` refused a third). Otherwise
     /// (NV_register_combiners2) the final combiner reads the global two and
     /// each general stage its own two, which default to the global ones
     /// (nvparse copies the global constants into the stages that set none;
@@ -2445,7 +2445,7 @@ pub fn generate_for_pass(planned: &crate::pipeline::Planned, index: usize) -> Re
         .map_err(|e| pass.combiners.clone().unwrap_or_else(|| format!("not generated: {e}")))
 }
 
-/// The code generator as the planner's [`Realizer`] (issue 17): a value
+/// The code generator as the planner's [`Realizer`]: a value
 /// fits one pass of a register-combiner target when a setup for it is
 /// generated under the target's own limits (an Appendix B-valid setup).
 pub struct CombinerRealizer {

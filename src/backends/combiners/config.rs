@@ -1,4 +1,4 @@
-//! The whole NV_register_combiners state as data (seeds/003 Section 4.2 and
+//! The whole NV_register_combiners state as data (Kilgard 2000, Section 4.2 and
 //! Appendix B): the register set of Table 2, the general combiner stages with
 //! their RGB and alpha portions (B.4), the final combiner (B.5), the two
 //! constant colours and the colour-sum clamp (Table 4), with the initial
@@ -15,7 +15,7 @@ pub use crate::profile::CombinerLimits;
 /// An RGBA colour with components nominally in [0, 1].
 pub type Color = [f32; 4];
 
-/// The register set of seeds/003 Table 2 (8 + the texture units; this crate
+/// The register set of Kilgard 2000, Table 2 (8 + the texture units; this crate
 /// models up to four units, the geforce3 maximum).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -102,7 +102,7 @@ impl Register {
     }
 }
 
-/// The eight input mappings of seeds/003 Table 3.
+/// The eight input mappings of Kilgard 2000, Table 3.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum InputMapping {
@@ -441,7 +441,7 @@ impl FinalCombiner {
     }
 }
 
-/// The complete register-combiner state (seeds/003 Section 4.2, Appendix B).
+/// The complete register-combiner state (Kilgard 2000, Section 4.2, Appendix B).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct CombinerConfig {
     /// `GL_CONSTANT_COLOR0_NV`; `None` = not set by this config (Table 4's

@@ -1,9 +1,9 @@
-//! A CPU emulator of the register-combiner machine (seeds/003 Section 4.2,
+//! A CPU emulator of the register-combiner machine (Kilgard 2000, Section 4.2,
 //! Figures 7-10): every pixel runs the general stages in order, then the
 //! final combiner.
 //!
 //! Two precision models ([`Precision`]): `Fixed9`, the hardware's 8 bits +
-//! sign (seeds/000 Section 5.2: range [−255, 255]/255) with one rounding per
+//! sign (GeForce3 Phong, Section 5.2: range [−255, 255]/255) with one rounding per
 //! register write, and `F32`. docs/combiners.md states each rule.
 //!
 //! Speed: pixels are processed in tiles of [`TILE`] with the register file
@@ -118,10 +118,10 @@ pub fn emulate_into(
     Ok(())
 }
 
-/// One pixel's per-pixel registers (seeds/003 Table 2): the four texture
+/// One pixel's per-pixel registers (Kilgard 2000, Table 2): the four texture
 /// registers and the primary and secondary colours (RGBA8). A texture
 /// register is 9-bit signed, −255..=255 for −1..1: a signed texture's texel
-/// (a HILO normalization map, seeds/000 Section 5.1) is negative where its
+/// (a HILO normalization map, GeForce3 Phong, Section 5.1) is negative where its
 /// component is; an unsigned texel is 0..=255.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PixelRegisters {
@@ -166,7 +166,7 @@ impl PixelEmulator {
     }
 
     /// [`PixelEmulator::run`] of many pixels at once (at most [`TILE`]),
-    /// through the tile engine's structure of arrays (issue 22: the CPU
+    /// through the tile engine's structure of arrays (the CPU
     /// renderer's batched fragments); the same colours as `run` on each
     /// (test below).
     pub fn run_many(&self, registers: &[PixelRegisters], out: &mut [[u8; 4]]) {
@@ -482,7 +482,7 @@ struct Fixed9;
 /// What the hardware subtracts for "½" in its 8-bit integer units: 128, not
 /// 127.5. Evidence: NV2A (NV20 family) golden images of nxdk_pgraph_tests'
 /// "Combiner" suite, CombinerOps test, constant colour 0 = (25, 63, 255)/255
-/// written through spare0 with each output mapping (issue 20):
+/// written through spare0 with each output mapping:
 /// `bias_by_negative_one_half()` gives (0, 0, 127) — 255 − 128 — and
 /// `bias_by_negative_one_half_scale_by_two()` (0, 0, 254); halving rounds
 /// half up (`scale_by_one_half()`: (13, 32, 128)). The bias works on the

@@ -1,5 +1,5 @@
-//! The register-combiner machine of seeds/003 (Kilgard, "A Practical and
-//! Robust Bump-mapping Technique for Today's GPUs") Section 4.2 and
+//! The register-combiner machine of Kilgard 2000 ("A Practical and
+//! Robust Bump-mapping Technique for Today's GPUs"), Section 4.2 and
 //! Appendix B: the NV_register_combiners state as data ([`CombinerConfig`],
 //! Tables 2-6), its validity rules ([`validate()`]), NVIDIA's `!!RC1.0` text
 //! format ([`rc1`]), the `!!TS1.0` texture shaders in front of them

@@ -1,4 +1,4 @@
-//! Every validity rule seeds/003 Appendix B states (B.4 for general stages,
+//! Every validity rule Kilgard 2000, Appendix B states (B.4 for general stages,
 //! B.5 for the final combiner), plus the target profile's limits.
 //!
 //! Validation reports all problems, not just the first. Each error names a
@@ -96,7 +96,7 @@ impl ValidationError {
     }
 }
 
-/// Checks `config` against seeds/003 Appendix B and `limits`.
+/// Checks `config` against Kilgard 2000, Appendix B and `limits`.
 pub fn validate(config: &CombinerConfig, limits: &CombinerLimits) -> Result<(), Vec<ValidationError>> {
     let mut v = Validator { limits, errors: Vec::new() };
     v.config(config);

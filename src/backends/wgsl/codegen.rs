@@ -26,7 +26,7 @@
 //!   (zeros appended), perspective-correct; a non-mesh pass adds `texel_uv`.
 //! - Output `@location(0)`: the fragment value widened to RGBA (a scalar is
 //!   splatted, rgb gets alpha 1).
-//! - **Fat textures** ([`fat_layers`]; seeds/001 (5), (6), (14)-(16)): a
+//! - **Fat textures** ([`fat_layers`]; Pipeline Grammar, eq. (5), (6), (14)-(16)): a
 //!   texture a statement writes a shading-parameter bundle into, or whose
 //!   texels a shader reads members of, is a `texture_2d_array<f32>` with
 //!   one layer per member (member i in layer i's rgb). A pass writing a
@@ -38,7 +38,7 @@
 //!   (`T δu ← p T δu`, or a framebuffer read away from the pixel) reads it
 //!   as it was before the pass — the runner binds a copy. A read of the
 //!   target framebuffer at the fragment's own pixel that blending does not
-//!   absorb (`α C xs ← (z C xs) > …`, seeds/001 Section 3.5) is a
+//!   absorb (`α C xs ← (z C xs) > …`, Pipeline Grammar, Section 3.5) is a
 //!   `textureLoad` from a copy taken before the pass, at the bindings after
 //!   the units ([`PassShader::target_copies`]: colour, or depth in `.x`).
 //! - **Framebuffer reads** away from the pixel (`z Cl πl π⁻¹ xs`) sample
@@ -75,7 +75,7 @@
 //!
 //! [`Precision::Exact`] and [`Precision::F32`] are f32 arithmetic with true
 //! normalize and pow (a GPU has no f64: the exact reference is the CPU's).
-//! [`Precision::Fixed9`] runs the register combiners (seeds/003 Section
+//! [`Precision::Fixed9`] runs the register combiners (Kilgard 2000, Section
 //! 4.2): a pass whose setup the combiner code generator makes
 //! ([`crate::backends::combiners::codegen::generate_for_pass`]) computes in
 //! f32 only its texels and interpolated colours, rounds them to 8 bits and
@@ -83,7 +83,7 @@
 //! the module the pass is built on: `combiners_module`), bit-exact with the
 //! emulator and so with the CPU
 //! renderer's `fixed9`. A pass the generator refuses models the combiners
-//! per operation (seeds/000 Section 5.2, `docs/combiners.md`): every
+//! per operation (GeForce3 Phong, Section 5.2, `docs/combiners.md`): every
 //! per-fragment arithmetic result is rounded to 1/255 (nearest, ties toward
 //! +∞, as the emulator's register write), and clamped to [−1, 1] only
 //! where the hardware holds it in a register ([`ir::register_reads`]:
@@ -260,7 +260,7 @@ fn generate_pass(
     })
 }
 
-/// The module a hardware-fidelity pass is built on (issue 17): the setup as
+/// The module a hardware-fidelity pass is built on: the setup as
 /// one WGSL function (`rc1::combiners_function`, the integer code `shadec
 /// translate` writes and the GPU tests hold bit-exact with the emulator)
 /// and its helpers, parsed by naga on their own. The pass's shader is then
@@ -1061,7 +1061,7 @@ impl<'a> Gen<'a> {
         Ok(b.f)
     }
 
-    /// A fat texel (seeds/001 (5), (15)): member i to colour attachment i
+    /// A fat texel (Pipeline Grammar, eq. (5), (15)): member i to colour attachment i
     /// — layer i of the fat texture — as rgb, alpha 1; the function's
     /// result is a struct of the members.
     fn fat_texel_output(
@@ -1734,7 +1734,7 @@ impl<'a> Gen<'a> {
         }
     }
 
-    /// Sphere-map texgen (seeds/001 (7)): m = 2·sqrt(Rx² + Ry² + (Rz + 1)²),
+    /// Sphere-map texgen (Pipeline Grammar, eq. (7)): m = 2·sqrt(Rx² + Ry² + (Rz + 1)²),
     /// (s, t) = (Rx/m + ½, Ry/m + ½).
     fn sphere_map(&mut self, b: &mut Body, x: NH) -> NH {
         use naga::BinaryOperator as B;
@@ -1824,7 +1824,7 @@ impl<'a> Gen<'a> {
         Ok(Some(Computed::plain(t)))
     }
 
-    /// `T xs` (seeds/001 (6)): the texel under the pixel of a screen pass, at
+    /// `T xs` (Pipeline Grammar, eq. (6)): the texel under the pixel of a screen pass, at
     /// level 0 (a fat framebuffer is one texel per pixel).
     fn lookup_at_pixel(
         &mut self,
@@ -2389,7 +2389,7 @@ impl<'a> Gen<'a> {
     /// GL normalized device coordinates of the pixel's centre, the depth
     /// there — the target's (a copy taken before the pass) for `xs`, the
     /// fragment's for `δ xs` — mapped to −1..1, and w = 1; what `π⁻¹`
-    /// takes back to model space (seeds/001 Section 3.5, shadow mask).
+    /// takes back to model space (Pipeline Grammar, Section 3.5, shadow mask).
     fn pixel_position(&mut self, b: &mut Body, n: ir::Handle<Expr>) -> R<NH> {
         let Expr::Pixel { freq } = self.m.exprs[n] else {
             return Err(GenError::Internal(format!("%{} is not a pixel", n.index())));
@@ -2551,7 +2551,7 @@ fn is_sample(f: Frequency) -> bool {
     f.is_sample()
 }
 
-/// Rendering into a texture by its coordinates (seeds/001 (13)): the clip
+/// Rendering into a texture by its coordinates (Pipeline Grammar, eq. (13)): the clip
 /// position (2u − 1, 1 − 2v, 0, 1).
 fn texture_space_clip(b: &mut Body, v: NH, vec4: naga::Handle<Type>) -> NH {
     let u = b.emit(Expression::AccessIndex { base: v, index: 0 });
@@ -2593,7 +2593,7 @@ fn texel_uv(b: &mut Body, q: NH, vec4: naga::Handle<Type>) -> NH {
 }
 
 /// round(clamp(v, lo, 1) · 255) as integers: the register input of the
-/// combiners (seeds/003 Table 2) — `lo` = −1 for a texture register, which
+/// combiners (Kilgard 2000, Table 2) — `lo` = −1 for a texture register, which
 /// holds a signed texel's sign, 0 for the colour registers — as the CPU's
 /// fixed9 loads them.
 fn register_input(b: &mut Body, v: NH, lo: f32) -> NH {

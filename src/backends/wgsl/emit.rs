@@ -50,7 +50,7 @@ fn pass_header(pass: &PassShader) -> String {
 pub fn wgsl(title: &str, passes: &[PassShader]) -> Result<String, Diagnostic> {
     let mut out =
         format!("// shadec: {title} — {} pass{}\n", passes.len(), if passes.len() == 1 { "" } else { "es" });
-    out += "// Each section is one WGSL module (vs_main, fs_main); bindings: docs in src/backends/wgsl/codegen.rs.\n";
+    out += "// Each section is one WGSL module (vs_main, fs_main); its bindings: docs/pass-plan.md, \"WGSL bindings\".\n";
     for p in passes {
         out += "\n";
         out += &pass_header(p);

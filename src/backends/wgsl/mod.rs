@@ -1,4 +1,4 @@
-//! The WGSL backend (issue 5): pass plans as WGSL through naga, and a
+//! The WGSL backend: pass plans as WGSL through naga, and a
 //! headless wgpu runner that renders them offscreen.
 //!
 //! - `codegen`: one `naga::Module` per pass of a plan (vertex entry point

@@ -94,8 +94,12 @@ pub fn translate(config: &CombinerConfig, title: &str) -> Result<String, String>
         "// The register combiners in fixed9 (8 bits + sign), as `shadec emulate --precision fixed9`."
     )
     .unwrap();
-    writeln!(w, "// {} general combiner(s); bindings: src/backends/wgsl/rc1.rs.", config.general.len())
-        .unwrap();
+    writeln!(
+        w,
+        "// {} general combiner(s); bindings: docs/combiners.md, \"Translated shaders\".",
+        config.general.len()
+    )
+    .unwrap();
     writeln!(w, "\nstruct Uniforms {{\n    constant0: vec4<f32>,\n    constant1: vec4<f32>,\n    fog: vec4<f32>,\n}}\n").unwrap();
     writeln!(w, "@group(0) @binding(0) var<uniform> uniforms: Uniforms;").unwrap();
     let units = ["texture0", "texture1", "texture2", "texture3", "primary", "secondary"];
@@ -151,7 +155,7 @@ pub fn combiners_function(config: &CombinerConfig) -> String {
     let w = &mut s;
     writeln!(
         w,
-        "\n// The register combiners (seeds/003 Section 4.2) in fixed9: {} general combiner(s).",
+        "\n// The register combiners (Kilgard 2000, Section 4.2) in fixed9: {} general combiner(s).",
         config.general.len()
     )
     .unwrap();

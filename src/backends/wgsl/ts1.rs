@@ -144,7 +144,7 @@ pub fn translate(config: &CombinerConfig, program: &TextureShader, title: &str) 
         "// A !!TS1.0 texture shader ({} stage(s)) and the register combiners in fixed9, as `shadec emulate`.",
         program.stages.len()
     );
-    let _ = writeln!(w, "// Bindings: src/backends/wgsl/ts1.rs.");
+    let _ = writeln!(w, "// Bindings: docs/combiners.md, \"Translated shaders\".");
     let _ = writeln!(w, "\nstruct Uniforms {{\n    constant0: vec4<f32>,\n    constant1: vec4<f32>,\n    fog: vec4<f32>,\n    texture_shader: vec4<i32>,\n}}\n");
     let _ = writeln!(w, "@group(0) @binding(0) var<uniform> uniforms: Uniforms;");
     let units = [

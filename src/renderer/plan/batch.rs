@@ -1,4 +1,4 @@
-//! The fragment stage over batches (issue 22 item 2): the fragments of one
+//! The fragment stage over batches: the fragments of one
 //! triangle in one tile, up to [`BATCH`] of them, run through the pass's
 //! steps together. The registers are a structure of arrays — per slot, per
 //! component, one lane per fragment — and each step's kind is matched once

@@ -884,7 +884,7 @@ impl<'a> Parser<'a> {
         Ok(fc)
     }
 
-    /// `final_product = E * F;` (seeds/003 Table 6): E and F read ordinary
+    /// `final_product = E * F;` (Kilgard 2000, Table 6): E and F read ordinary
     /// registers. Returns the statement's span.
     fn final_product(&mut self, fc: &mut FinalCombiner, start: Span) -> PResult<Span> {
         self.bump();
@@ -1105,7 +1105,7 @@ fn unreachable_name<T>(span: Span) -> PResult<T> {
 }
 
 /// Refuses a pseudo-register (`final_product`, `color_sum`) where the
-/// final combiner reads only ordinary registers (seeds/003 Appendix B).
+/// final combiner reads only ordinary registers (Kilgard 2000, Appendix B).
 fn ordinary(op: &Operand, what: &str, help: &str) -> PResult<()> {
     if !matches!(op.source, Source::FinalProduct | Source::ColorSum) {
         return Ok(());
@@ -1120,7 +1120,7 @@ fn ordinary(op: &Operand, what: &str, help: &str) -> PResult<()> {
 }
 
 /// The output scale and bias of a general combiner portion named by a
-/// scale/bias call (seeds/003 Appendix B: `scale_by_two()`, …).
+/// scale/bias call (Kilgard 2000, Appendix B: `scale_by_two()`, …).
 fn scale_bias_call(n: &str, span: Span) -> PResult<(Option<Scale>, Option<Bias>)> {
     Ok(match n {
         "scale_by_two" => (Some(Scale::Two), None),

@@ -1,9 +1,8 @@
-//! The texture-shader program a pass's texture units need (issue 20, item
-//! 4): each unit's lookup in the IR, read as an NV_texture_shader operation.
+//! The texture-shader program a pass's texture units need: each unit's lookup in the IR, read as an NV_texture_shader operation.
 //! A lookup at interpolated coordinates is `texture_2d` (`texture_1d`,
 //! `texture_3d`, `texture_cube_map` by the texture's kind); a 2-D lookup at
 //! interpolated coordinates plus a signed 2-D lookup of an earlier unit is
-//! seeds/001 equation (8)'s environment-mapped bump mapping, `offset_2d`
+//! Pipeline Grammar, equation (8)'s environment-mapped bump mapping, `offset_2d`
 //! with the identity matrix (Section 3.4; Direct3D 6's EMBM), or with
 //! s·I where the offset is scaled by a constant s.
 
