@@ -37,6 +37,7 @@ mod ir_snapshots;
 mod layering;
 mod lowering;
 mod lsp;
+mod lsp_robust;
 mod planner;
 mod planner_split;
 mod raster_fill;
