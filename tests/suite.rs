@@ -24,6 +24,7 @@ mod combiners_emulator;
 mod combiners_rc1;
 mod combiners_snapshots;
 mod cost_model;
+mod determinism;
 mod diagnostics;
 mod differential;
 mod docs;
