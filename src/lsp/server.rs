@@ -168,7 +168,7 @@ pub enum Event {
     Analysed {
         uri: String,
         generation: u64,
-        document: Option<Document>,
+        document: Option<Box<Document>>,
     },
 }
 
@@ -217,7 +217,7 @@ fn analyser(jobs: &Jobs, events: &Sender<Event>) {
         let superseded = || jobs.has_newer(&uri);
         let document =
             analyze_version(&uri, job.version, &job.text, job.client_target.as_deref(), &superseded);
-        let event = Event::Analysed { uri, generation: job.generation, document };
+        let event = Event::Analysed { uri, generation: job.generation, document: document.map(Box::new) };
         if events.send(event).is_err() {
             return;
         }
@@ -318,14 +318,14 @@ impl Server {
         &mut self,
         uri: &str,
         generation: u64,
-        document: Option<Document>,
+        document: Option<Box<Document>>,
         out: &mut Writer,
     ) -> std::io::Result<()> {
         let (Some(d), Some(document)) = (self.docs.get_mut(uri), document) else { return Ok(()) };
         if generation < d.opened || d.analysed.as_ref().is_some_and(|(g, _)| *g > generation) {
             return Ok(());
         }
-        d.analysed = Some((generation, Arc::new(document)));
+        d.analysed = Some((generation, Arc::new(*document)));
         let Some(fresh) = d.fresh().cloned() else { return Ok(()) };
         let waiting = std::mem::take(&mut d.waiting);
         let Ok(u) = uri.parse::<Uri>() else { return Ok(()) };
