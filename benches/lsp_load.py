@@ -35,14 +35,14 @@ REPEATS = int(os.environ.get("REPEATS", "5"))
 def program(n_consts, n_statements, n_unknown):
     """n constants, n statements using them, n_unknown of the uses
     misspelled (one edit from a declared name)."""
-    lines = ["vector N : normal;", "vector L : light(0);"]
+    lines = []
     lines += [f"const k_{i:05} = 0.5;" for i in range(n_consts)]
     step = max(1, n_statements // max(1, n_unknown)) if n_unknown else 0
     for i in range(n_statements):
         name = f"k_{i % n_consts:05}"
         if n_unknown and i % step == 0 and i // step < n_unknown:
             name = f"kk_{i % n_consts:05}"
-        lines.append(f"C δπx ← {name} * max(0, N·L) + {name};")
+        lines.append(f"C δπx ← {name} * {name} + {name} * 0.25;")
     return "\n".join(lines) + "\n"
 
 
@@ -169,10 +169,10 @@ def check(n):
 
 if __name__ == "__main__":
     two_mb = program(25000, 37000, 0)
-    fifty_k = program(25000, 24998, 0)
+    fifty_k = program(25000, 25000, 0)
     burst(two_mb, "2 MB document")
     burst(fifty_k, "50 000-line document")
     one_change(program(25000, 37000, 1000), "2 MB document, 1 000 unknown names")
-    one_change(program(25000, 24998, 1000), "50 000-line document, 1 000 unknown names")
+    one_change(program(25000, 25000, 1000), "50 000-line document, 1 000 unknown names")
     for n in (2000, 4000, 8000):
         check(n)
