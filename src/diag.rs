@@ -331,34 +331,214 @@ pub struct LspRelated {
 /// string alignment), so `Ligth` is one edit from `Light`.
 pub fn edit_distance(a: &str, b: &str) -> usize {
     let (a, b): (Vec<char>, Vec<char>) = (a.chars().collect(), b.chars().collect());
-    let mut d = vec![vec![0usize; b.len() + 1]; a.len() + 1];
-    for (i, row) in d.iter_mut().enumerate() {
-        row[0] = i;
+    bounded_distance(&a, &b, usize::MAX, &mut Vec::new()).unwrap_or(usize::MAX)
+}
+
+/// The optimal-string-alignment distance of `a` and `b` if it is at most
+/// `limit`, else `None`, in O(|a|·|b|) at worst and stopping as soon as a
+/// whole row exceeds the limit (issue 40: the resolver calls this for every
+/// candidate it cannot rule out by length, so it allocates nothing but the
+/// caller's `rows`).
+fn bounded_distance(a: &[char], b: &[char], limit: usize, rows: &mut Vec<usize>) -> Option<usize> {
+    if a.len().abs_diff(b.len()) > limit {
+        return None;
     }
-    for (j, cell) in d[0].iter_mut().enumerate() {
+    let w = b.len() + 1;
+    rows.clear();
+    rows.resize(3 * w, 0);
+    let (mut prev2, mut prev, mut cur) = (0, w, 2 * w);
+    for (j, cell) in rows[prev..prev + w].iter_mut().enumerate() {
         *cell = j;
     }
     for i in 1..=a.len() {
+        rows[cur] = i;
+        let mut row_min = i;
         for j in 1..=b.len() {
             let cost = usize::from(a[i - 1] != b[j - 1]);
-            d[i][j] = (d[i - 1][j] + 1).min(d[i][j - 1] + 1).min(d[i - 1][j - 1] + cost);
+            let mut d = (rows[prev + j] + 1).min(rows[cur + j - 1] + 1).min(rows[prev + j - 1] + cost);
             if i > 1 && j > 1 && a[i - 1] == b[j - 2] && a[i - 2] == b[j - 1] {
-                d[i][j] = d[i][j].min(d[i - 2][j - 2] + 1);
+                d = d.min(rows[prev2 + j - 2] + 1);
             }
+            rows[cur + j] = d;
+            row_min = row_min.min(d);
         }
+        if row_min > limit {
+            return None;
+        }
+        (prev2, prev, cur) = (prev, cur, prev2);
     }
-    d[a.len()][b.len()]
+    Some(rows[prev + b.len()]).filter(|&d| d <= limit)
 }
 
-/// The candidate closest to `name`, if it is close enough to be a likely typo.
+/// How many edits a name of `n` characters may be from a suggestion: a
+/// third of its length, at least one.
+fn edit_limit(n: usize) -> usize {
+    (n / 3).max(1)
+}
+
+/// The order of suggestions, best first, so that ties are broken the same
+/// way on every run (issue 40: `h8` suggested `h` or `H` by hash order):
+/// fewest edits ignoring case, then the shortest name (in characters), then
+/// fewest edits counting case, then Unicode code-point order.
+fn suggestion_key<'c>(name: &[char], candidate: &'c str, distance: usize) -> (usize, usize, usize, &'c str) {
+    let exact: Vec<char> = candidate.chars().collect();
+    let cased = bounded_distance(name, &exact, usize::MAX, &mut Vec::new()).unwrap_or(usize::MAX);
+    (distance, exact.len(), cased, candidate)
+}
+
+fn lower(s: &str) -> Vec<char> {
+    s.chars().flat_map(char::to_lowercase).collect()
+}
+
+/// The candidate closest to `name`, if it is close enough to be a likely
+/// typo: within a third of its length in edits, ignoring case; ties broken
+/// by [`suggestion_key`]'s order. Compares with every candidate: for a few
+/// dozen keywords; [`Suggester`] serves a program's names.
 pub fn did_you_mean<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
-    let limit = (name.chars().count() / 3).max(1);
+    let (key, exact) = (lower(name), name.chars().collect::<Vec<_>>());
+    let limit = edit_limit(exact.len());
+    let mut rows = Vec::new();
     candidates
         .into_iter()
-        .map(|c| (edit_distance(&name.to_lowercase(), &c.to_lowercase()), c))
-        .filter(|(d, _)| *d <= limit)
-        .min_by_key(|(d, c)| (*d, c.len()))
-        .map(|(_, c)| c)
+        .filter_map(|c| {
+            bounded_distance(&key, &lower(c), limit, &mut rows).map(|d| suggestion_key(&exact, c, d))
+        })
+        .min()
+        .map(|k| k.3)
+}
+
+/// A "did you mean" index over a program's names (issue 40). Comparing each
+/// unknown name with every declared one made `check` quadratic in the number
+/// of errors (15 s for 8 000 misspellings). Here:
+///
+/// - every candidate is filed, lowercased, under itself and each string one
+///   deletion away from it (symmetric deletion, as SymSpell does); a name
+///   within one edit of a candidate — a substitution, an insertion, a
+///   deletion or a swap of neighbours — shares one of those strings with it,
+///   so looking up the name and its own one-deletion strings finds every
+///   candidate within one edit, in time independent of how many there are;
+/// - only when none is that close does it look further (longer names allow
+///   up to a third of their length), among the candidates whose length is
+///   within the limit, nearest length first, at most [`Suggester::MAX_SCAN`]
+///   of them: past that a suggestion two edits away can be missed, which is
+///   the price of a bound on the work per unknown name.
+///
+/// The answer is the same candidate [`did_you_mean`] picks whenever the best
+/// is one edit away or the scan covers the window, with the same tie order.
+#[derive(Debug, Default)]
+pub struct Suggester {
+    /// Candidate names, sorted by (length in characters, name), deduplicated.
+    names: Vec<(String, Vec<char>)>,
+    /// Hashes of each candidate's lowercase text and its one-deletion
+    /// strings, with the candidate's index, sorted. A hash collision only
+    /// costs a comparison: every hit is checked by the distance itself.
+    deletions: Vec<(u64, u32)>,
+}
+
+impl Suggester {
+    /// At most this many candidates are compared with one name past the
+    /// one-edit lookup.
+    pub const MAX_SCAN: usize = 512;
+
+    pub fn new<'a>(candidates: impl IntoIterator<Item = &'a str>) -> Suggester {
+        let mut names: Vec<(String, Vec<char>)> =
+            candidates.into_iter().map(|c| (c.to_string(), lower(c))).collect();
+        names.sort_by(|a, b| (a.1.len(), &a.0).cmp(&(b.1.len(), &b.0)));
+        names.dedup_by(|a, b| a.0 == b.0);
+        let mut deletions = Vec::new();
+        for (i, (_, key)) in names.iter().enumerate() {
+            for_each_deletion(key, |h| deletions.push((h, i as u32)));
+        }
+        deletions.sort_unstable();
+        deletions.dedup();
+        Suggester { names, deletions }
+    }
+
+    /// The best suggestion for `name` among the candidates that `accept`
+    /// lets through, and `extra` (a shader's few locals, compared in full).
+    pub fn suggest<'s>(
+        &'s self,
+        name: &str,
+        accept: impl Fn(&str) -> bool,
+        extra: &[&'s str],
+    ) -> Option<&'s str> {
+        let (key, exact) = (lower(name), name.chars().collect::<Vec<_>>());
+        let limit = edit_limit(exact.len());
+        let mut rows = Vec::new();
+        let mut best: Option<(usize, usize, usize, &str)> = None;
+        let consider = |best: &mut Option<_>, c: &'s str, lowered: &[char], rows: &mut Vec<usize>| {
+            let bound = best.map_or(limit, |b: (usize, usize, usize, &str)| b.0);
+            if let Some(d) = bounded_distance(&key, lowered, bound, rows) {
+                let k = suggestion_key(&exact, c, d);
+                if best.is_none_or(|b| k < b) {
+                    *best = Some(k);
+                }
+            }
+        };
+        for c in extra {
+            consider(&mut best, c, &lower(c), &mut rows);
+        }
+        let mut hits: Vec<u32> = Vec::new();
+        for_each_deletion(&key, |h| {
+            let from = self.deletions.partition_point(|&(x, _)| x < h);
+            hits.extend(self.deletions[from..].iter().take_while(|&&(x, _)| x == h).map(|&(_, i)| i));
+        });
+        hits.sort_unstable();
+        hits.dedup();
+        for i in hits {
+            let (c, lowered) = &self.names[i as usize];
+            if accept(c) {
+                consider(&mut best, c, lowered, &mut rows);
+            }
+        }
+        if best.is_none_or(|b| b.0 > 1) && limit > 1 {
+            // Nearest length first: the window's lengths in the order
+            // L, L-1, L+1, L-2, L+2, ….
+            let mut scanned = 0;
+            'lengths: for delta in 0..=limit {
+                for n in [key.len().wrapping_sub(delta), key.len() + delta] {
+                    if n > key.len() + limit {
+                        continue; // L - delta wrapped below zero
+                    }
+                    let from = self.names.partition_point(|c| c.1.len() < n);
+                    for (c, lowered) in self.names[from..].iter().take_while(|c| c.1.len() == n) {
+                        if scanned == Self::MAX_SCAN {
+                            break 'lengths;
+                        }
+                        if accept(c) {
+                            scanned += 1;
+                            consider(&mut best, c, lowered, &mut rows);
+                        }
+                    }
+                    if delta == 0 {
+                        break;
+                    }
+                }
+            }
+        }
+        best.map(|b| b.3)
+    }
+}
+
+/// Calls `f` with the hash of `key` and of each string one character
+/// shorter than it.
+fn for_each_deletion(key: &[char], mut f: impl FnMut(u64)) {
+    use std::hash::{Hash, Hasher};
+    let hash = |skip: usize| {
+        let mut h = rustc_hash::FxHasher::default();
+        for (i, c) in key.iter().enumerate() {
+            if i != skip {
+                c.hash(&mut h);
+            }
+        }
+        // The length tells "ab" with nothing skipped from "abc" less one.
+        (key.len() - usize::from(skip < key.len())).hash(&mut h);
+        h.finish()
+    };
+    f(hash(usize::MAX));
+    for skip in 0..key.len() {
+        f(hash(skip));
+    }
 }
 
 #[cfg(test)]
@@ -372,6 +552,77 @@ mod tests {
         // A transposition is one edit (it was two, past the limit for 5 letters).
         assert_eq!(edit_distance("Ligth", "Light"), 1);
         assert_eq!(did_you_mean("Ligth", ["Light", "N", "L"]), Some("Light"));
+    }
+
+    /// Issue 40: `h` and `H` are both one edit from `h8` ignoring case; the
+    /// stated order (then fewest edits counting case) picks `h`, whatever
+    /// order the candidates come in.
+    #[test]
+    fn ties_are_broken_by_a_stated_order() {
+        assert_eq!(did_you_mean("h8", ["H", "h"]), Some("h"));
+        assert_eq!(did_you_mean("h8", ["h", "H"]), Some("h"));
+        assert_eq!(did_you_mean("H8", ["h", "H"]), Some("H"));
+        // Same distance, same length, same case distance: code-point order.
+        assert_eq!(did_you_mean("ab", ["ac", "aa"]), Some("aa"));
+        for order in [["H", "h", "hx"], ["hx", "h", "H"]] {
+            assert_eq!(Suggester::new(order).suggest("h8", |_| true, &[]), Some("h"));
+        }
+    }
+
+    /// The index gives what comparing with every candidate gives, on
+    /// pseudo-random names and typos (one to three edits), with fewer
+    /// candidates than its scan bound so that the scan is complete.
+    #[test]
+    fn the_index_agrees_with_the_full_comparison() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = |n: u64| {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            seed % n
+        };
+        let alphabet: Vec<char> = "abcdeABCDE_1δ".chars().collect();
+        for _ in 0..40 {
+            let names: Vec<String> = (0..1 + next(60))
+                .map(|_| (0..1 + next(9)).map(|_| alphabet[next(alphabet.len() as u64) as usize]).collect())
+                .collect();
+            let index = Suggester::new(names.iter().map(String::as_str));
+            for _ in 0..50 {
+                let mut query: Vec<char> = names[next(names.len() as u64) as usize].chars().collect();
+                for _ in 0..1 + next(3) {
+                    let at = next(query.len() as u64 + 1) as usize;
+                    let c = alphabet[next(alphabet.len() as u64) as usize];
+                    match next(3) {
+                        0 if at < query.len() => query[at] = c,
+                        1 if at < query.len() => {
+                            query.remove(at);
+                        }
+                        _ => query.insert(at, c),
+                    }
+                }
+                let query: String = query.into_iter().collect();
+                let full = did_you_mean(&query, names.iter().map(String::as_str));
+                assert_eq!(index.suggest(&query, |_| true, &[]), full, "{query} in {names:?}");
+            }
+        }
+    }
+
+    /// A few thousand unknown names against a few thousand declared ones:
+    /// near-linear, where the full comparison took seconds (issue 40). The
+    /// bound is generous; BENCHMARKS.md has the figures.
+    #[test]
+    fn many_unknown_names_cost_little() {
+        let names: Vec<String> = (0..4000).map(|i| format!("light_{i:04}")).collect();
+        let index = Suggester::new(names.iter().map(String::as_str));
+        let start = std::time::Instant::now();
+        for (i, name) in names.iter().enumerate() {
+            assert_eq!(index.suggest(&format!("ligth_{i:04}"), |_| true, &[]), Some(name.as_str()));
+        }
+        for i in 0..4000 {
+            // Nothing close: the scan runs and is bounded.
+            assert_eq!(index.suggest(&format!("zzzzzzzzz{i}"), |_| true, &[]), None);
+        }
+        assert!(start.elapsed() < std::time::Duration::from_secs(20), "{:?}", start.elapsed());
     }
 
     #[test]

@@ -2,8 +2,6 @@
 
 use std::process::ExitCode;
 
-use super::EXIT_USAGE_OR_IO;
-
 #[derive(Debug, clap::Args)]
 pub struct LspArgs {
     /// Accepted and ignored: editors (VS Code's client among them) pass it
@@ -16,11 +14,12 @@ pub struct LspArgs {
 pub fn run(_args: &LspArgs) -> ExitCode {
     match shadec::lsp::run() {
         Ok(true) => ExitCode::SUCCESS,
-        // LSP 3.17, `exit`: status 1 when no `shutdown` came first.
+        // LSP 3.17, `exit`: status 1 when no `shutdown` came first; the
+        // client gone (standard output closed) is no orderly end either.
         Ok(false) => ExitCode::from(1),
         Err(e) => {
-            eprintln!("error: shadec lsp: {e}");
-            ExitCode::from(EXIT_USAGE_OR_IO)
+            eprintln!("error: shadec lsp: cannot write to the client: {e}");
+            ExitCode::from(1)
         }
     }
 }

@@ -143,7 +143,8 @@ pub fn scene_from(path: Option<&Path>) -> Result<Scene, ExitCode> {
         return Scene::parse(DEFAULT_SCENE, Path::new(""))
             .map_err(|e| input(format!("the built-in scene: {e}")));
     };
-    if !path.is_file() {
+    // A folder goes on to `Scene::load`, which says it is one (issue 40).
+    if !path.exists() {
         return Err(usage(format!(
             "{}: scene file not found; give the path of a RON scene such as scenes/kilgard_torus.ron",
             path.display()

@@ -63,8 +63,24 @@ pub fn target_comment(text: &str) -> Option<(String, Span)> {
 /// target: the program's declaration, else a `// target:` comment, else the
 /// client's setting (`client`), else `wgsl`.
 pub fn analyze(name: &str, text: &str, client: Option<&str>) -> Analysis {
+    analyze_unless(name, text, client, &|| false).expect("never superseded")
+}
+
+/// [`analyze`], or `None` when `superseded()` says a newer version is
+/// waiting once the front end is done (issue 40: the planner's work on a
+/// version nobody will see is skipped).
+pub fn analyze_unless(
+    name: &str,
+    text: &str,
+    client: Option<&str>,
+    superseded: &dyn Fn() -> bool,
+) -> Option<Analysis> {
     let file = SourceFile::new(name, text);
     let driver::Front { program, module, mut diagnostics } = driver::front(text);
+    if superseded() {
+        return None;
+    }
+    diagnostics.extend(replacement_characters(text));
     let comment = target_comment(text);
     let (mut target, mut target_source) = match (&comment, client) {
         (Some((t, _)), _) => (t.clone(), TargetSource::Comment),
@@ -96,7 +112,36 @@ pub fn analyze(name: &str, text: &str, client: Option<&str>) -> Analysis {
     }
     diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
     analysis.diagnostics = diagnostics;
-    analysis
+    Some(analysis)
+}
+
+/// At most this many U+FFFD are reported one by one.
+const MAX_REPLACEMENTS_REPORTED: usize = 20;
+
+/// A warning at each U+FFFD (the first [`MAX_REPLACEMENTS_REPORTED`]): the
+/// server puts one where the client sent a lone UTF-16 surrogate or bytes
+/// that are not UTF-8 (`transport.rs`), rather than refusing the document.
+fn replacement_characters(text: &str) -> Vec<Diagnostic> {
+    let total = text.matches('\u{fffd}').count();
+    text.match_indices('\u{fffd}')
+        .take(MAX_REPLACEMENTS_REPORTED)
+        .map(|(at, r)| {
+            Diagnostic::warning(
+                "replacement-character",
+                "U+FFFD, the replacement character, stands here",
+                Span::new(at, at + r.len()),
+                "not the text that was typed",
+            )
+            .with_help(format!(
+                "the editor sent something that is not Unicode text here (a lone UTF-16 surrogate or bytes that are not UTF-8), which the server replaced{}; retype the character",
+                if total > MAX_REPLACEMENTS_REPORTED {
+                    format!(" ({total} in the document, the first {MAX_REPLACEMENTS_REPORTED} shown)")
+                } else {
+                    String::new()
+                }
+            ))
+        })
+        .collect()
 }
 
 /// The profile check and the planner, as `check --target` runs them: what

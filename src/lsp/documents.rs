@@ -1,14 +1,13 @@
-//! The open documents: text, version and analysis per URI (full-document
-//! sync), and conversions between byte offsets and LSP positions (0-based
-//! line, UTF-16 character, as LSP 3.17 §"Position" defaults to).
-
-use std::collections::HashMap;
-
-use lsp_types::{Position, Range};
+//! An analysed version of a document, the edits that make the next
+//! version (incremental sync), and conversions between byte offsets and LSP
+//! positions (0-based line, UTF-16 character, as LSP 3.17 §"Position"
+//! defaults to). The server keeps the open documents (`server.rs`).
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 
-use super::analysis::{analyze, Analysis, TargetSource};
+use lsp_types::{Position, Range};
+
+use super::analysis::{analyze_unless, Analysis, TargetSource};
 use super::uri;
 use crate::span::Span;
 
@@ -83,42 +82,34 @@ fn crashed(name: &str, text: &str, why: &str) -> Analysis {
     }
 }
 
-/// The documents the client has open, and the target it configured.
-#[derive(Debug, Default)]
-pub struct Documents {
-    docs: HashMap<String, Document>,
-    /// `shadec.target` from `initializationOptions` or the workspace settings.
-    pub client_target: Option<String>,
+/// Analyses one version of a document, unless `superseded` says a newer one
+/// is waiting (checked between the front end and the planner). A panic in
+/// the compiler becomes one located error, so that the document stays open.
+pub fn analyze_version(
+    uri: &str,
+    version: i32,
+    text: &str,
+    client: Option<&str>,
+    superseded: &dyn Fn() -> bool,
+) -> Option<Document> {
+    let name = uri::display_name(uri);
+    let analysis = catch_unwind(AssertUnwindSafe(|| analyze_unless(&name, text, client, superseded)))
+        .unwrap_or_else(|panic| Some(crashed(&name, text, &super::server::panic_text(&panic))))?;
+    Some(Document { version, analysis })
 }
 
-impl Documents {
-    /// Stores and analyses a version of a document.
-    pub fn update(&mut self, uri: &str, version: i32, text: String) -> &Document {
-        let name = uri::display_name(uri);
-        let client = self.client_target.as_deref();
-        let analysis = catch_unwind(AssertUnwindSafe(|| analyze(&name, &text, client)))
-            .unwrap_or_else(|panic| crashed(&name, &text, &super::server::panic_text(&panic)));
-        self.docs.insert(uri.to_string(), Document { version, analysis });
-        &self.docs[uri]
-    }
-
-    /// Re-analyses every document (the configured target changed).
-    pub fn reanalyze_all(&mut self) -> Vec<String> {
-        let uris: Vec<String> = self.docs.keys().cloned().collect();
-        for u in &uris {
-            let doc = &self.docs[u];
-            let (version, text) = (doc.version, doc.text().to_string());
-            self.update(u, version, text);
+/// Applies one `contentChanges` entry to `text`: with a range, the range
+/// (UTF-16 positions, clamped as [`offset_of`] does; an end before the
+/// start is the start) is replaced; without one, the whole text is
+/// (LSP 3.17 `TextDocumentContentChangeEvent`).
+pub fn apply_change(text: &mut String, range: Option<Range>, new_text: &str) {
+    match range {
+        None => new_text.clone_into(text),
+        Some(r) => {
+            let start = offset_of(text, r.start);
+            let end = offset_of(text, r.end).max(start);
+            text.replace_range(start..end, new_text);
         }
-        uris
-    }
-
-    pub fn get(&self, uri: &str) -> Option<&Document> {
-        self.docs.get(uri)
-    }
-
-    pub fn close(&mut self, uri: &str) {
-        self.docs.remove(uri);
     }
 }
 
@@ -133,5 +124,61 @@ mod tests {
         assert_eq!(offset_of(text, Position { line: 1, character: 9 }), text.find('y').unwrap());
         assert_eq!(offset_of(text, Position { line: 0, character: 99 }), 1);
         assert_eq!(offset_of(text, Position { line: 9, character: 0 }), text.len());
+        // Inside a surrogate pair: the character's start, never mid-UTF-8.
+        assert_eq!(offset_of(text, Position { line: 1, character: 7 }), text.find('𝑇').unwrap() + 4);
+    }
+
+    mod incremental {
+        use super::*;
+        use proptest::prelude::*;
+
+        /// The text as UTF-16 code units, edited as a client does.
+        fn edit_utf16(units: &mut Vec<u16>, start: usize, end: usize, new: &str) {
+            units.splice(start..end, new.encode_utf16());
+        }
+
+        fn position_of(units: &[u16], at: usize) -> Position {
+            let before = &units[..at];
+            let line = before.iter().filter(|&&u| u == u16::from(b'\n')).count();
+            let col = before.iter().rev().take_while(|&&u| u != u16::from(b'\n')).count();
+            Position { line: line as u32, character: col as u32 }
+        }
+
+        /// Pieces with one, two and four UTF-8 bytes and one or two UTF-16
+        /// units, and line breaks.
+        fn piece() -> impl Strategy<Value = String> {
+            prop::sample::select(vec!["a", "δ", "←", "𝑇", "\n", "xs", "", "\r\n", "T δu x;"])
+                .prop_map(str::to_string)
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig { cases: 256, failure_persistence: None, ..ProptestConfig::default() })]
+
+            /// Random edit sequences applied as ranges give the text the
+            /// whole-document edits give (issue 40). Ranges fall on code
+            /// points, as a client's do (never inside a surrogate pair).
+            #[test]
+            fn incremental_edits_equal_the_full_text(
+                start in prop::collection::vec(piece(), 0..12),
+                edits in prop::collection::vec((0usize..1000, 0usize..1000, prop::collection::vec(piece(), 0..4)), 1..30),
+            ) {
+                let mut text: String = start.concat();
+                let mut units: Vec<u16> = text.encode_utf16().collect();
+                for (a, b, new) in edits {
+                    // Code-point boundaries of the current text, in units.
+                    let mut bounds = vec![0];
+                    for c in text.chars() {
+                        bounds.push(bounds.last().unwrap() + c.len_utf16());
+                    }
+                    let (a, b) = (bounds[a % bounds.len()], bounds[b % bounds.len()]);
+                    let (a, b) = (a.min(b), a.max(b));
+                    let new = new.concat();
+                    let range = Range { start: position_of(&units, a), end: position_of(&units, b) };
+                    apply_change(&mut text, Some(range), &new);
+                    edit_utf16(&mut units, a, b, &new);
+                    prop_assert_eq!(&text, &String::from_utf16(&units).unwrap());
+                }
+            }
+        }
     }
 }

@@ -25,6 +25,7 @@ pub mod navigation;
 pub mod semantic_tokens;
 pub mod server;
 pub mod symbols;
+pub mod transport;
 pub mod uri;
 
 pub use server::run;

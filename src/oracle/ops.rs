@@ -154,7 +154,7 @@ fn math(fun: MathFunction, o: &[V], width: usize) -> V {
 
 /// `t ⊕[mode] f`, the left operand the texture (Ct, At), the right the
 /// incoming colour (Cf, Af) — the chained multitexturing of Pipeline Grammar,
-/// (12). GL 1.2.1 Table 3.22 and the combine extension, unclamped; the
+/// eq. (12). GL 1.2.1 Table 3.22 and the combine extension, unclamped; the
 /// texture environment colour Cc is GL's default 0.
 fn texture_env(mode: CombineMode, width: usize, t: V, f: V, widened: bool) -> V {
     let alpha = width == 4;

@@ -130,6 +130,8 @@ fn describe_found(found: &str) -> String {
         "" => "the end of the file".to_string(),
         ";" => "`;` (the end of the statement)".to_string(),
         "\n" | "\r" => "the end of the line".to_string(),
+        // Never echoed raw (issue 40): a NUL or an escape garbles a terminal.
+        f if f.chars().any(char::is_control) => format!("the control character `{}`", f.escape_default()),
         f => format!("`{f}`"),
     }
 }

@@ -7,7 +7,7 @@
 use std::collections::HashMap;
 
 use super::ast::*;
-use crate::diag::{did_you_mean, Diagnostic};
+use crate::diag::{did_you_mean, Diagnostic, Suggester};
 use crate::span::Span;
 
 /// Built-in functions, usable in any expression.
@@ -142,6 +142,10 @@ struct Resolver {
     globals: HashMap<String, Declared>,
     order: Vec<String>,
     diagnostics: Vec<Diagnostic>,
+    /// The "did you mean" index over the globals, built-in functions and
+    /// generators, made at the first unknown name (every declaration is
+    /// known by then: they are all read before any use).
+    suggester: Option<Suggester>,
 }
 
 pub fn resolve(program: &Program) -> Vec<Diagnostic> {
@@ -338,13 +342,19 @@ impl Resolver {
 
     fn unknown(&mut self, name: &Name, locals: &[(String, Entity)], in_source: bool) {
         let key = name.key();
-        let mut candidates: Vec<&str> = self.globals.keys().map(String::as_str).collect();
-        candidates.extend(locals.iter().map(|(k, _)| k.as_str()));
-        candidates.extend(FUNCTIONS);
-        if in_source {
-            candidates.extend(GENERATORS);
-        }
-        let help = match did_you_mean(&key, candidates) {
+        let globals = &self.globals;
+        let suggester = self.suggester.get_or_insert_with(|| {
+            Suggester::new(
+                globals
+                    .keys()
+                    .map(String::as_str)
+                    .chain(FUNCTIONS.iter().copied())
+                    .chain(GENERATORS.iter().copied()),
+            )
+        });
+        let accept = |c: &str| in_source || globals.contains_key(c) || !GENERATORS.contains(&c);
+        let local_names: Vec<&str> = locals.iter().map(|(k, _)| k.as_str()).collect();
+        let help = match suggester.suggest(&key, accept, &local_names) {
             _ if let Some(help) = symbol_font_help(&key) => help,
             Some(s) => format!("did you mean `{s}`?"),
             None if GENERATORS.contains(&key.as_str()) => format!("`{key}` is a texture generator: use it after `texture … =`"),

@@ -47,6 +47,13 @@ fn read_message(r: &mut impl BufRead) -> Option<Value> {
 impl Client {
     /// Starts the server and runs `initialize` / `initialized`.
     pub fn start(init_options: Value, env: &[(&str, &str)]) -> Client {
+        let mut c = Client::spawn(env);
+        c.initialize(init_options);
+        c
+    }
+
+    /// Starts the server and says nothing to it yet.
+    pub fn spawn(env: &[(&str, &str)]) -> Client {
         let mut child = Command::new(env!("CARGO_BIN_EXE_shadec"))
             .arg("lsp")
             .envs(env.iter().copied())
@@ -66,14 +73,63 @@ impl Client {
                 }
             }
         });
-        let mut c = Client { child, stdin, incoming, pending: VecDeque::new(), next_id: 1 };
-        let init = c.request(
+        Client { child, stdin, incoming, pending: VecDeque::new(), next_id: 1 }
+    }
+
+    /// `initialize` and `initialized`.
+    pub fn initialize(&mut self, init_options: Value) {
+        let init = self.request(
             "initialize",
             json!({"processId": null, "rootUri": null, "capabilities": {}, "initializationOptions": init_options}),
         );
         assert!(init["result"]["capabilities"]["hoverProvider"].as_bool().unwrap(), "{init}");
-        c.notify("initialized", json!({}));
-        c
+        self.notify("initialized", json!({}));
+    }
+
+    /// Bytes as they are, framed or not.
+    pub fn raw(&mut self, bytes: &[u8]) {
+        self.stdin.write_all(bytes).unwrap();
+        self.stdin.flush().unwrap();
+    }
+
+    /// Sends a request without waiting; its id.
+    pub fn send_request(&mut self, method: &str, params: Value) -> i64 {
+        let id = self.next_id;
+        self.next_id += 1;
+        self.send(&json!({"jsonrpc": "2.0", "id": id, "method": method, "params": params}));
+        id
+    }
+
+    /// The response with this id (`Value::Null` for the id-null ones).
+    pub fn response(&mut self, id: &Value) -> Value {
+        let is_it = |v: &Value| v.get("id") == Some(id) && v.get("method").is_none();
+        if let Some(i) = self.pending.iter().position(is_it) {
+            return self.pending.remove(i).unwrap();
+        }
+        let deadline = Instant::now() + TIMEOUT;
+        loop {
+            let v = self.recv(deadline);
+            if is_it(&v) {
+                return v;
+            }
+            self.pending.push_back(v);
+        }
+    }
+
+    /// Everything received and not yet taken, in order.
+    pub fn take_pending(&mut self) -> Vec<Value> {
+        self.pending.drain(..).collect()
+    }
+
+    /// Whether the server process is still running.
+    pub fn alive(&mut self) -> bool {
+        self.child.try_wait().unwrap().is_none()
+    }
+
+    /// Waits for the process to end (after `exit`).
+    pub fn wait(mut self) -> std::process::ExitStatus {
+        drop(self.stdin);
+        self.child.wait().unwrap()
     }
 
     fn send(&mut self, v: &Value) {
