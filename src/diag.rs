@@ -336,7 +336,7 @@ pub fn edit_distance(a: &str, b: &str) -> usize {
 
 /// The optimal-string-alignment distance of `a` and `b` if it is at most
 /// `limit`, else `None`, in O(|a|·|b|) at worst and stopping as soon as a
-/// whole row exceeds the limit (issue 40: the resolver calls this for every
+/// whole row exceeds the limit (the resolver calls this for every
 /// candidate it cannot rule out by length, so it allocates nothing but the
 /// caller's `rows`).
 fn bounded_distance(a: &[char], b: &[char], limit: usize, rows: &mut Vec<usize>) -> Option<usize> {
@@ -377,7 +377,7 @@ fn edit_limit(n: usize) -> usize {
 }
 
 /// The order of suggestions, best first, so that ties are broken the same
-/// way on every run (issue 40: `h8` suggested `h` or `H` by hash order):
+/// way on every run (`h8` suggested `h` or `H` by hash order):
 /// fewest edits ignoring case, then the shortest name (in characters), then
 /// fewest edits counting case, then Unicode code-point order.
 fn suggestion_key<'c>(name: &[char], candidate: &'c str, distance: usize) -> (usize, usize, usize, &'c str) {
@@ -407,7 +407,7 @@ pub fn did_you_mean<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str
         .map(|k| k.3)
 }
 
-/// A "did you mean" index over a program's names (issue 40). Comparing each
+/// A "did you mean" index over a program's names. Comparing each
 /// unknown name with every declared one made `check` quadratic in the number
 /// of errors (15 s for 8 000 misspellings). Here:
 ///
@@ -554,7 +554,7 @@ mod tests {
         assert_eq!(did_you_mean("Ligth", ["Light", "N", "L"]), Some("Light"));
     }
 
-    /// Issue 40: `h` and `H` are both one edit from `h8` ignoring case; the
+    /// `h` and `H` are both one edit from `h8` ignoring case; the
     /// stated order (then fewest edits counting case) picks `h`, whatever
     /// order the candidates come in.
     #[test]
@@ -608,7 +608,7 @@ mod tests {
     }
 
     /// A few thousand unknown names against a few thousand declared ones:
-    /// near-linear, where the full comparison took seconds (issue 40). The
+    /// near-linear, where the full comparison took seconds. The
     /// bound is generous; BENCHMARKS.md has the figures.
     #[test]
     fn many_unknown_names_cost_little() {

@@ -9,7 +9,7 @@ use std::path::{Path, PathBuf};
 use thiserror::Error;
 
 /// The largest text input shadec reads — a program, a scene, a profile,
-/// a combiner setup: 16 MiB (issue 40). Eight times the largest program
+/// a combiner setup: 16 MiB. Eight times the largest program
 /// the language server is measured on (BENCHMARKS.md); past it a file is
 /// refused before more of it is read, so `check /dev/zero` ends at once.
 pub const MAX_TEXT_BYTES: u64 = 16 << 20;

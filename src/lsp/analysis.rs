@@ -67,7 +67,7 @@ pub fn analyze(name: &str, text: &str, client: Option<&str>) -> Analysis {
 }
 
 /// [`analyze`], or `None` when `superseded()` says a newer version is
-/// waiting once the front end is done (issue 40: the planner's work on a
+/// waiting once the front end is done (the planner's work on a
 /// version nobody will see is skipped).
 pub fn analyze_unless(
     name: &str,

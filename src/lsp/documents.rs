@@ -155,7 +155,7 @@ mod tests {
             #![proptest_config(ProptestConfig { cases: 256, failure_persistence: None, ..ProptestConfig::default() })]
 
             /// Random edit sequences applied as ranges give the text the
-            /// whole-document edits give (issue 40). Ranges fall on code
+            /// whole-document edits give. Ranges fall on code
             /// points, as a client's do (never inside a surrogate pair).
             #[test]
             fn incremental_edits_equal_the_full_text(

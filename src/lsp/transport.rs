@@ -1,5 +1,5 @@
 //! JSON-RPC 2.0 over `Content-Length` frames, read so that no byte sequence
-//! ends the session (issue 40). `lsp-server`'s reader stops at the first
+//! ends the session. `lsp-server`'s reader stops at the first
 //! bad frame and cannot resynchronize, so the framing is ours (it is small);
 //! the messages are still `lsp-types`'.
 //!
