@@ -19,7 +19,10 @@
 //! implementation; both change a few pixels by more than rounding — at
 //! silhouettes, at texel edges of minified mipmapped textures. So up to
 //! [`PIXEL_FRACTION`] = 2 % of the covered pixels may disagree; a bug
-//! (a lost term, a wrong coordinate, a wrong mode) moves far more.
+//! (a lost term, a wrong coordinate, a wrong mode) moves far more. Pixels
+//! whose cube-map lookup filters across a face edge are left out: GL 1.x
+//! clamps each face, Vulkan (and the CPU's f32 texture unit) filter
+//! seamlessly, and both are right (`oracle::Picture::latitude`).
 
 use std::path::Path;
 
@@ -39,6 +42,12 @@ pub struct Pictures {
     pub gpu: Option<Vec<u8>>,
     pub oracle: Vec<u8>,
     pub covered: Vec<bool>,
+    /// The summed output bounds of the plan's approximations (0 when it
+    /// has none); `None` when one has no bound (per-vertex shading: its
+    /// error depends on the mesh).
+    pub approximation_bound: Option<f64>,
+    /// Why wgpu did not run the plan, when it cannot yet.
+    pub gpu_refused: Option<String>,
 }
 
 pub fn scene(name: &str) -> Scene {
@@ -62,15 +71,20 @@ pub fn render_three(
         format!("does not compile: {:?}", d.iter().map(|d| d.message.clone()).collect::<Vec<_>>())
     })?;
     let (planned, program, module) = (compiled.planned, compiled.program, compiled.module);
+    let approximations = &planned.plan.approximations;
+    let approximation_bound = approximations.iter().map(|a| a.output_bound).sum::<Option<f64>>();
     let assets = scene.build().map_err(|e| e.to_string())?;
     let cpu = PlanRenderer::new(&planned, &program, scene, &assets)
         .and_then(|r| r.render(precision, W, H, &mut |_, _| {}))
         .map_err(|e| format!("CPU: {e}"))?
         .image
         .to_rgba8();
+    // A plan the wgpu scene runner cannot run yet (a temporary) is
+    // compared between the CPU and the reference, and said so.
+    let mut gpu_refused = None;
     let gpu = match gpu {
-        Some(gpu) => Some(
-            shadec::gpu::scene_run::ScenePlan::new(
+        Some(gpu) => {
+            let run = shadec::gpu::scene_run::ScenePlan::new(
                 &planned,
                 &program,
                 Some(source),
@@ -78,26 +92,35 @@ pub fn render_three(
                 scene,
                 &assets,
             )
-            .and_then(|p| p.render_into(gpu, &shadec::gpu::runner::Target::new(W, H)))
-            .map_err(|e| format!("wgpu: {e}"))?
-            .into_raw(),
-        ),
+            .and_then(|p| p.render_into(gpu, &gpu_target(&planned.module, precision)));
+            match run {
+                Ok(image) => Some(image.into_raw()),
+                Err(shadec::gpu::scene_run::SceneRunError::Unsupported(why)) => {
+                    gpu_refused = Some(why);
+                    None
+                }
+                Err(e) => return Err(format!("wgpu: {e}")),
+            }
+        }
         None => None,
     };
     let picture =
         shadec::oracle::render(&module, &program, scene, &assets, W, H).map_err(|e| e.to_string())?;
     let oracle =
         picture.pixels.iter().flat_map(|p| p.map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8)).collect();
-    Ok(Pictures { cpu, gpu, oracle, covered: picture.covered })
+    // Pixels where the specifications leave the result open are left out.
+    let covered = picture.covered.iter().zip(&picture.latitude).map(|(c, l)| *c && !l).collect();
+    Ok(Pictures { cpu, gpu, oracle, covered, approximation_bound, gpu_refused })
 }
 
 /// An RGBA8 target, as the declared `rgba8` framebuffer clamps and rounds
-/// every pass; a float one for a framebuffer declared `rgba16f`/`rgba32f`.
-fn gpu_target(m: &shadec::ir::Module) -> shadec::gpu::runner::Target {
+/// every pass; a float one for a framebuffer declared `rgba16f`/`rgba32f`
+/// — except in fixed9, whose framebuffer is the old hardware's RGBA8.
+fn gpu_target(m: &shadec::ir::Module, precision: Precision) -> shadec::gpu::runner::Target {
     use shadec::parser::ast::FramebufferChannel as F;
     let float =
         m.framebuffers.iter().any(|f| f.channels.iter().any(|c| matches!(c, F::Rgba16f | F::Rgba32f)));
-    if float {
+    if float && precision != Precision::Fixed9 {
         shadec::gpu::runner::Target::float(W, H)
     } else {
         shadec::gpu::runner::Target::new(W, H)
@@ -110,6 +133,7 @@ pub struct Difference {
     /// Fraction of covered pixels with a channel off by more than the tolerance.
     pub fraction: f64,
     /// The largest channel difference, in 255ths.
+    #[allow(dead_code)] // read through Debug in failure messages
     pub max: u8,
 }
 
@@ -292,5 +316,21 @@ fn signed_texels_keep_their_sign_in_wgpu_texture_registers() {
     let g = gpu();
     let p =
         render_three(source, "geforce3", &scene("kilgard_torus.ron"), Precision::Fixed9, g.as_ref()).unwrap();
+    verdict(&p).unwrap();
+}
+
+/// GL clamps what an `rgba8` framebuffer stores (§2.13.9, §4.1.8): after
+/// `C ← T·(T + T)` a later `C ← C·T` reads at most 1. The reference clamps;
+/// the meaning, the CPU's f32 mode and the planner's fusion (which computes
+/// `2T³` in one pass) do not, so CPU and wgpu agree with each other and
+/// differ from the reference by up to 52/255 on a quarter of the torus.
+/// Found by the generated three-way comparison; not yet mended — ignored
+/// until it is, and counted as a failure in the closing note, not a pass.
+#[test]
+#[ignore = "known disagreement: framebuffer clamps between statements (see the doc comment)"]
+fn rgba8_framebuffer_clamps_between_statements() {
+    let source = "texture A : 2d rgb8 bilinear repeat = image(\"missing-a.png\");\nframebuffer C : rgba8, depth;\nC δπx ← (A δu x) * ((A δu x) + (A δu x));\nC δπx ← (C δπx) * (A δu x);\n";
+    let g = gpu();
+    let p = render_three(source, "wgsl", &scene("kilgard_torus.ron"), Precision::F32, g.as_ref()).unwrap();
     verdict(&p).unwrap();
 }

@@ -76,6 +76,11 @@ pub struct Picture {
     pub pixels: Vec<[f64; 4]>,
     /// Whether a triangle of the scene covers the pixel.
     pub covered: Vec<bool>,
+    /// Whether the pixel's value depends on a choice the specifications
+    /// leave to the implementation (a cube-map lookup whose filter reaches
+    /// a face edge: GL 1.x clamps each face, Vulkan filters seamlessly), so
+    /// that a comparison can leave it out and say so.
+    pub latitude: Vec<bool>,
 }
 
 /// Renders `module` (the lowered `program`) for `scene` at `width × height`.
@@ -117,7 +122,9 @@ pub fn render(
         textures,
         framebuffers: Vec::new(),
         texgen: HashMap::new(),
+        latitude: std::cell::Cell::new(false),
     };
+    let mut latitude = vec![false; (width * height) as usize];
     ev.framebuffers = (0..module.framebuffers.len()).map(|i| ev.new_store(i)).collect();
     let mut last = None;
     for st in &module.statements {
@@ -128,14 +135,14 @@ pub fn render(
             Table::Texture(id) if module.is_baked(st) => ev.textures[id as usize] = Tex::Baked(st.value),
             Table::Texture(_) => return Err(Unsupported::new("statements that render into a texture")),
             Table::Framebuffer { id, channel } => {
-                run(&mut ev, st, id as usize, channel)?;
+                run(&mut ev, st, id as usize, channel, &mut latitude)?;
                 last = Some(id as usize);
             }
         }
     }
     let Some(fb) = last else { return Err(Unsupported::new("a program that writes no framebuffer")) };
     let covered = ev.coverage.fragments.iter().map(Option::is_some).collect();
-    Ok(Picture { width, height, pixels: std::mem::take(&mut ev.framebuffers[fb].color), covered })
+    Ok(Picture { width, height, pixels: std::mem::take(&mut ev.framebuffers[fb].color), covered, latitude })
 }
 
 /// One statement into framebuffer `fb`, every sample of its index: the
@@ -145,6 +152,7 @@ fn run(
     st: &crate::ir::Statement,
     fb: usize,
     channel: FbChannel,
+    latitude: &mut [bool],
 ) -> Result<(), Unsupported> {
     let (w, h) = (ev.coverage.width, ev.coverage.height);
     let mut writes = Vec::new();
@@ -159,9 +167,11 @@ fn run(
                 Frequency::Screen => At::Pixel(x, y),
                 _ => return Err(Unsupported::new(format!("statements at {} frequency", st.freq.name()))),
             };
+            ev.latitude.set(false);
             if let Some(v) = ev.value(st.value, at, 0, &mut HashMap::new())? {
                 writes.push((i, v, at));
             }
+            latitude[i] |= ev.latitude.get();
         }
     }
     let width = ev.m.info(st.value).ty.width();

@@ -56,6 +56,9 @@ pub struct Evaluator<'a> {
     pub textures: Vec<Tex>,
     pub framebuffers: Vec<Store>,
     pub texgen: HashMap<TexCoordId, Handle<Expr>>,
+    /// Set when the sample just evaluated depends on a choice the
+    /// specifications leave open (a cube-map filter at a face edge).
+    pub latitude: std::cell::Cell<bool>,
 }
 
 type Memo = HashMap<Handle<Expr>, Option<V>>;
@@ -287,7 +290,13 @@ impl<'a> Evaluator<'a> {
         let c = self.operand(coords, at, lod_depth, memo)?;
         match &self.textures[texture as usize] {
             Tex::Missing(why) => Err(Unsupported::new(why.clone())),
-            Tex::Cube(cube) => Ok(cube.sample([c[0], c[1], c[2]])),
+            Tex::Cube(cube) => {
+                let (v, edge) = cube.sample([c[0], c[1], c[2]]);
+                if edge {
+                    self.latitude.set(true);
+                }
+                Ok(v)
+            }
             Tex::Baked(value) => {
                 let [u, v] = uv(c, cty);
                 let wrap = |x: f64| x.clamp(0.0, 1.0);
@@ -295,19 +304,35 @@ impl<'a> Evaluator<'a> {
             }
             Tex::Flat(image) => {
                 let [u, v] = uv(c, cty);
-                let lambda = match at {
-                    At::Fragment(f) if lod_depth < 2 && image.levels.len() > 1 => {
-                        let near = |dx, dy| -> Result<[f64; 2], Unsupported> {
-                            let g = self.coverage.offset(&self.world, &f, dx, dy);
-                            let c = self.operand(coords, At::Fragment(g), lod_depth + 1, &mut Memo::new())?;
-                            let [a, b] = uv(c, cty);
-                            Ok([a - u, b - v])
-                        };
-                        image.lod(near(1.0, 0.0)?, near(0.0, 1.0)?)
-                    }
-                    _ => 0.0,
+                let At::Fragment(f) = at else { return Ok(image.sample(u, v, 0.0)) };
+                if lod_depth >= 2 || image.levels.len() == 1 {
+                    return Ok(image.sample(u, v, 0.0));
+                }
+                // The coordinates at a pixel offset (dx, dy) from `f`.
+                let at_offset = |dx: f64, dy: f64| -> Result<[f64; 2], Unsupported> {
+                    let g = self.coverage.offset(&self.world, &f, dx, dy);
+                    Ok(uv(self.operand(coords, At::Fragment(g), lod_depth + 1, &mut Memo::new())?, cty))
                 };
-                Ok(image.sample(u, v, lambda))
+                let lod_at = |ox: f64, oy: f64| -> Result<f64, Unsupported> {
+                    let base = if ox == 0.0 && oy == 0.0 { [u, v] } else { at_offset(ox, oy)? };
+                    let (px, py) = (at_offset(ox + 1.0, oy)?, at_offset(ox, oy + 1.0)?);
+                    Ok(image.lod([px[0] - base[0], px[1] - base[1]], [py[0] - base[0], py[1] - base[1]]))
+                };
+                let lambda = lod_at(0.0, 0.0)?;
+                let value = image.sample(u, v, lambda);
+                // GL §3.8.8 lets λ be taken per 2×2 quad, as GPUs do, and ρ
+                // and log₂ be approximated (a piecewise-linear log₂ is off by
+                // up to 0.09): where those choices change the texel by more
+                // than half a step, the sample is latitude.
+                let quad = lod_at(-f64::from(f.pixel.0 & 1), -f64::from(f.pixel.1 & 1))?;
+                let open = [quad, lambda - 0.1, lambda + 0.1, quad - 0.1, quad + 0.1];
+                let differs = |l: f64| {
+                    image.sample(u, v, l).iter().zip(value).any(|(a, b)| (a - b).abs() > 0.5 / 255.0)
+                };
+                if open.into_iter().any(differs) {
+                    self.latitude.set(true);
+                }
+                Ok(value)
             }
         }
     }

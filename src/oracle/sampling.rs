@@ -178,8 +178,14 @@ pub struct Cube {
 }
 
 impl Cube {
-    pub fn sample(&self, r: [f64; 3]) -> V {
+    /// The filtered texel at direction `r`, and whether the filter's
+    /// footprint reaches a face edge — where GL 1.x (each face clamped),
+    /// ARB_seamless_cube_map and Vulkan (seamless) may all differ.
+    pub fn sample(&self, r: [f64; 3]) -> (V, bool) {
         let (face, s, t) = cube_face(r);
-        self.faces[face].sample(s, t, 0.0)
+        let image = &self.faces[face];
+        let size = f64::from(image.levels[0].width);
+        let edge = |x: f64| x * size < 1.0 || (1.0 - x) * size < 1.0;
+        (image.sample(s, t, 0.0), edge(s) || edge(t))
     }
 }
