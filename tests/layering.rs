@@ -14,6 +14,9 @@ const LAYERS: &[&[&str]] = &[
     &["parser"],
     &["ir"],
     &["profile", "scene"],
+    // The independent reference sits beside the plan contract's inputs: it
+    // may read the IR and the scene, never the executors it checks.
+    &["oracle"],
     &["pipeline"],
     &["cost"],
     &["lowering"],
