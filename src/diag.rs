@@ -392,7 +392,7 @@ fn lower(s: &str) -> Vec<char> {
 
 /// The candidate closest to `name`, if it is close enough to be a likely
 /// typo: within a third of its length in edits, ignoring case; ties broken
-/// by [`suggestion_key`]'s order. Compares with every candidate: for a few
+/// by `suggestion_key`'s order. Compares with every candidate: for a few
 /// dozen keywords; [`Suggester`] serves a program's names.
 pub fn did_you_mean<'a>(name: &str, candidates: impl IntoIterator<Item = &'a str>) -> Option<&'a str> {
     let (key, exact) = (lower(name), name.chars().collect::<Vec<_>>());

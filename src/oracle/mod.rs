@@ -10,13 +10,13 @@
 //! - [`geometry`]: its own matrices (f64), and for each pixel centre the
 //!   nearest front-facing triangle that contains it, found by window-space
 //!   barycentrics — no tiles, no edge functions, no rasterizer;
-//! - [`program`]: each IR node evaluated at the fragment in f64; `δ e` is
+//! - `program`: each IR node evaluated at the fragment in f64; `δ e` is
 //!   `e` at the triangle's three vertices weighted perspective-correctly
 //!   (GL §3.5.1), shading vectors and light intensities from their
-//!   definitions ([`vectors`]), projective coordinates `(½x/w + ½, ½ − ½y/w)`;
+//!   definitions (`vectors`), projective coordinates `(½x/w + ½, ½ − ½y/w)`;
 //! - [`sampling`]: GL §3.8 — wrap, λ from exact per-pixel derivatives,
 //!   NEAREST/LINEAR and the mipmap modes, cube-map faces by Table 3.19;
-//! - [`ops`]: the arithmetic and the ⊕ modes, written again from the
+//! - `ops`: the arithmetic and the ⊕ modes, written again from the
 //!   language's definition and GL's texture environment (Table 3.22);
 //! - framebuffers store what their declared format stores: an `rgba8`
 //!   framebuffer clamps to [0, 1] and rounds to k/255 at every write.
