@@ -16,6 +16,7 @@ pub mod resolve;
 mod split;
 
 use pest::Parser as _;
+use rayon::prelude::*;
 
 use crate::diag::Diagnostic;
 use crate::span::Span;
@@ -34,7 +35,12 @@ pub const MAX_EXPR_DEPTH: usize = 1000;
 pub fn parse(source: &str) -> (ast::Program, Vec<Diagnostic>) {
     let mut program = ast::Program::default();
     let mut diagnostics = Vec::new();
-    for (n, piece) in split::split_items(source).into_iter().enumerate() {
+    let pieces = split::split_items(source);
+    // The pieces parse independently (pest and the AST builder read nothing
+    // but the piece), so they parse in parallel; comments are attached and
+    // items kept in source order after, one piece at a time.
+    let mut parsed: Vec<Option<Parsed>> = pieces.par_iter().map(|piece| parse_piece(source, piece)).collect();
+    for (n, piece) in pieces.into_iter().enumerate() {
         if let Some(d) = piece.error {
             diagnostics.push(d);
             continue;
@@ -45,11 +51,7 @@ pub fn parse(source: &str) -> (ast::Program, Vec<Diagnostic>) {
             program.trailing_comments = comments.leading;
             continue;
         }
-        // A piece cut at a line break (its `;` missing): parsed with the `;`
-        // added, so later statements see its names, and one error says where
-        // the `;` goes.
-        let owned;
-        let text = if piece.missing_semicolon {
+        if piece.missing_semicolon {
             let end = piece.range.start + text.trim_end().len();
             diagnostics.push(
                 Diagnostic::error(
@@ -60,27 +62,61 @@ pub fn parse(source: &str) -> (ast::Program, Vec<Diagnostic>) {
                 )
                 .with_help("end every statement and declaration with `;`; the next line starts a new one"),
             );
-            owned = format!("{};", text.trim_end());
-            owned.as_str()
-        } else {
-            text
-        };
-        match ShadeParser::parse(Rule::item, text) {
-            Ok(mut pairs) => {
-                let item = pairs.next().expect("the item rule produces one pair");
-                match build::item(item, piece.range.start) {
-                    Ok(item) => {
-                        let mut item = ast::Item { comments, ..item };
-                        attach_inner_comments(&mut item, text, piece.range.start);
-                        program.items.push(item);
-                    }
-                    Err(errs) => diagnostics.extend(errs),
-                }
+        }
+        match parsed[n].take() {
+            Some(Ok(item)) => {
+                let mut item = ast::Item { comments, ..item };
+                attach_inner_comments(
+                    &mut item,
+                    &piece_text(text, piece.missing_semicolon),
+                    piece.range.start,
+                );
+                program.items.push(item);
             }
-            Err(err) => diagnostics.push(errors::from_pest(err, text, piece.range.start)),
+            Some(Err(errs)) => diagnostics.extend(errs),
+            None => {}
         }
     }
     (program, diagnostics)
+}
+
+/// A piece's item, or its syntax errors.
+type Parsed = Result<ast::Item, Vec<Diagnostic>>;
+
+/// The text pest reads for a piece: a piece cut at a line break (its `;`
+/// missing) is parsed with the `;` added, so later statements see its names,
+/// and one error (in [`parse`]) says where the `;` goes.
+fn piece_text(text: &str, missing_semicolon: bool) -> std::borrow::Cow<'_, str> {
+    if missing_semicolon {
+        format!("{};", text.trim_end()).into()
+    } else {
+        text.into()
+    }
+}
+
+/// Parses one piece with pest and builds its item; `None` for a piece that
+/// has no item (a nesting error, or only blanks and comments).
+fn parse_piece(source: &str, piece: &split::Piece) -> Option<Parsed> {
+    let text = &source[piece.range.clone()];
+    if piece.error.is_some() || is_blank(text) {
+        return None;
+    }
+    let text = piece_text(text, piece.missing_semicolon);
+    Some(match ShadeParser::parse(Rule::item, &text) {
+        Ok(mut pairs) => match pairs.next() {
+            Some(item) => build::item(item, piece.range.start),
+            None => {
+                let at = Span::new(piece.range.start, piece.range.start);
+                Err(vec![Diagnostic::error(
+                    "internal-error",
+                    "internal error: the item rule produced nothing",
+                    at,
+                    "here",
+                )])
+            }
+        },
+        Err(err) => Err(vec![errors::from_pest(err, &text, piece.range.start)]),
+    })
 }
 
 /// Reads the comments before an item: one on the line where the previous
