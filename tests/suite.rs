@@ -30,6 +30,7 @@ mod diagnostics;
 mod differential;
 mod docs;
 mod editor_nvim;
+mod fuzz_replay;
 mod gpu_runner;
 mod hard_cases;
 mod ir_cli;

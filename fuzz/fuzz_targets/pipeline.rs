@@ -1,0 +1,6 @@
+//! `cargo fuzz run pipeline`: the property of [`shadec_fuzz::pipeline`] on every
+//! input (fuzz/README.md). `tests/fuzz_replay.rs` replays its corpus.
+
+#![no_main]
+
+libfuzzer_sys::fuzz_target!(|data: &[u8]| shadec_fuzz::pipeline(data));
