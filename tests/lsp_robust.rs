@@ -302,3 +302,33 @@ fn a_waiting_request_can_be_cancelled() {
     assert!(r["error"]["code"] == -32800 || r.get("result").is_some(), "{r}");
     assert!(c.shutdown().success());
 }
+
+/// A hover sent while the server analyses a newer version is answered from
+/// the last analysis, at the characters under the client's cursor: lines
+/// inserted above the position move it, and the answer follows (it used to
+/// read the new position against the old text, one constant off per line
+/// inserted). The hover's range is in the client's text too.
+#[test]
+fn a_hover_answered_from_an_older_analysis_follows_the_edit() {
+    let mut c = Client::start(Value::Null, &[]);
+    let base = large_program(3000, false);
+    c.open(URI, &base);
+    // Three declarations inserted at the top (an incremental change), then
+    // at once a hover on `k_00100`'s declaration, five lines lower now.
+    let inserted = "const a1 = 0.1;\nconst a2 = 0.2;\nconst a3 = 0.3;\n";
+    c.notify(
+        "textDocument/didChange",
+        json!({"textDocument": {"uri": URI, "version": 2}, "contentChanges": [
+            {"range": {"start": {"line": 0, "character": 0}, "end": {"line": 0, "character": 0}}, "text": inserted}
+        ]}),
+    );
+    let line = 2 + 3 + 100;
+    let h = c.request(
+        "textDocument/hover",
+        json!({"textDocument": {"uri": URI}, "position": {"line": line, "character": 8}}),
+    );
+    let text = h["result"]["contents"]["value"].as_str().unwrap_or_else(|| panic!("no hover: {h}"));
+    assert!(text.contains("k_00100"), "the hover is about another line: {h}");
+    assert_eq!(h["result"]["range"]["start"]["line"], json!(line), "{h}");
+    assert!(c.shutdown().success());
+}

@@ -113,6 +113,58 @@ pub fn apply_change(text: &mut String, range: Option<Range>, new_text: &str) {
     }
 }
 
+/// How a newer text differs from the one an analysis saw, as one replaced
+/// region between their common prefix and their common suffix. An answer
+/// from an older analysis (hover, completion while the newest version is
+/// analysed) reads the client's position through it, and its ranges back,
+/// so that it points where the client's text has the same characters.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Drift {
+    /// Bytes the texts share at the start.
+    prefix: usize,
+    /// Where the shared end starts in the older and in the newer text.
+    old_tail: usize,
+    new_tail: usize,
+}
+
+impl Drift {
+    pub fn between(old: &str, new: &str) -> Drift {
+        let (a, b) = (old.as_bytes(), new.as_bytes());
+        let mut prefix = a.iter().zip(b).take_while(|(x, y)| x == y).count();
+        while !old.is_char_boundary(prefix) {
+            prefix -= 1;
+        }
+        let room = a.len().min(b.len()) - prefix;
+        let mut suffix = a.iter().rev().zip(b.iter().rev()).take(room).take_while(|(x, y)| x == y).count();
+        while !old.is_char_boundary(a.len() - suffix) || !new.is_char_boundary(b.len() - suffix) {
+            suffix -= 1;
+        }
+        Drift { prefix, old_tail: a.len() - suffix, new_tail: b.len() - suffix }
+    }
+
+    /// Where an offset of the newer text is in the older; `None` inside
+    /// the replaced region (the older analysis has not seen it).
+    pub fn to_old(&self, offset: usize) -> Option<usize> {
+        Self::map(offset, self.prefix, self.new_tail, self.old_tail)
+    }
+
+    /// Where an offset of the older text is in the newer; `None` inside
+    /// the replaced region.
+    pub fn to_new(&self, offset: usize) -> Option<usize> {
+        Self::map(offset, self.prefix, self.old_tail, self.new_tail)
+    }
+
+    fn map(offset: usize, prefix: usize, from_tail: usize, to_tail: usize) -> Option<usize> {
+        if offset <= prefix {
+            Some(offset)
+        } else if offset >= from_tail {
+            Some(offset - from_tail + to_tail)
+        } else {
+            None
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -126,6 +178,27 @@ mod tests {
         assert_eq!(offset_of(text, Position { line: 9, character: 0 }), text.len());
         // Inside a surrogate pair: the character's start, never mid-UTF-8.
         assert_eq!(offset_of(text, Position { line: 1, character: 7 }), text.find('𝑇').unwrap() + 4);
+    }
+
+    #[test]
+    fn drift_maps_offsets_around_one_replaced_region() {
+        let old = "const a = 1;\nC δπx ← a;\n";
+        let new = "const a = 1;\nconst bb = 2;\nC δπx ← a;\n";
+        let d = Drift::between(old, new);
+        // Before the change: the same offset; after it: shifted by the insertion.
+        assert_eq!(d.to_old(3), Some(3));
+        let a_new = new.rfind('a').unwrap();
+        assert_eq!(d.to_old(a_new), Some(old.rfind('a').unwrap()));
+        assert_eq!(d.to_new(old.rfind('a').unwrap()), Some(a_new));
+        // Inside what the older text has not seen: nothing.
+        assert_eq!(d.to_old(new.find("bb").unwrap()), None);
+        // Identical texts: every offset maps to itself.
+        let same = Drift::between(old, old);
+        assert!((0..=old.len()).all(|o| same.to_old(o) == Some(o) && same.to_new(o) == Some(o)));
+        // A change inside a multi-byte character keeps both ends on boundaries.
+        let d = Drift::between("δπ", "δρ");
+        assert_eq!((d.to_old(0), d.to_old(2), d.to_old(4)), (Some(0), Some(2), Some(4)));
+        assert_eq!(d.to_old(3), None);
     }
 
     mod incremental {

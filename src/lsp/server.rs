@@ -45,7 +45,7 @@ use lsp_types::notification::{self as notif, Notification as _};
 use lsp_types::*;
 use serde_json::{json, Value};
 
-use super::documents::{analyze_version, apply_change, Document};
+use super::documents::{analyze_version, apply_change, offset_of, Document, Drift};
 use super::transport::{Incoming, Reader};
 use super::{
     code_actions, completion, diagnostics, formatting, hover, inlay_hints, navigation, semantic_tokens,
@@ -410,7 +410,7 @@ impl Server {
                 match (current, last) {
                     (Some(doc), _) => out(&answer(id, method, params, &doc)),
                     (None, Some(doc)) if answers_from_last_analysis(&method) => {
-                        out(&answer(id, method, params, &doc))
+                        out(&answer_from_older(id, method, params, &doc, &d.text))
                     }
                     _ => {
                         d.waiting.push((id, method, params));
@@ -533,6 +533,62 @@ fn error_response(id: Value, code: i32, message: &str) -> Value {
 /// A request's answer on a document, under `catch_unwind`.
 fn answer(id: Value, method: String, params: Value, doc: &Document) -> Value {
     respond(id, catch_unwind(AssertUnwindSafe(|| handle_request(Some(doc), &method, params))))
+}
+
+/// A request answered from the analysis of an older version of the text
+/// (`current` is the client's): a hover's or a completion's position is
+/// read through the [`Drift`] between the two texts, and the ranges of the
+/// answer back, so the answer is about the characters under the client's
+/// cursor; where the older analysis has not seen them (inside the edited
+/// region), there is no hover and no completion yet.
+fn answer_from_older(id: Value, method: String, mut params: Value, doc: &Document, current: &str) -> Value {
+    use lsp_types::request::{self as r, Request as _};
+    let position = match method.as_str() {
+        r::HoverRequest::METHOD | r::Completion::METHOD => "/position",
+        _ => return answer(id, method, params, doc),
+    };
+    if doc.text() == current {
+        return answer(id, method, params, doc);
+    }
+    let drift = Drift::between(doc.text(), current);
+    let at = params.pointer(position).and_then(|p| serde_json::from_value::<Position>(p.clone()).ok());
+    let older = at.and_then(|p| drift.to_old(offset_of(current, p)));
+    let (Some(older), Some(slot)) = (older, params.pointer_mut(position)) else {
+        let empty = if method == r::HoverRequest::METHOD { Value::Null } else { json!([]) };
+        return json!({"jsonrpc": "2.0", "id": id, "result": empty});
+    };
+    *slot = json!(doc.range(crate::span::Span::new(older, older)).start);
+    let mut reply = answer(id, method, params, doc);
+    let index = crate::span::LineIndex::new(current);
+    let remap = |range: &mut Value| {
+        let Ok(r) = serde_json::from_value::<Range>(range.clone()) else { return false };
+        let newer =
+            |p: Position| drift.to_new(offset_of(doc.text(), p)).map(|o| index.lsp_position(current, o));
+        match (newer(r.start), newer(r.end)) {
+            (Some(a), Some(b)) => {
+                *range =
+                    json!({"start": {"line": a.0, "character": a.1}, "end": {"line": b.0, "character": b.1}});
+                true
+            }
+            _ => false,
+        }
+    };
+    if let Some(result) = reply.get_mut("result") {
+        if let Some(range) = result.get_mut("range") {
+            if !remap(range) {
+                if let Some(o) = result.as_object_mut() {
+                    o.remove("range");
+                }
+            }
+        }
+        for item in result.as_array_mut().into_iter().flatten() {
+            let ok = item.pointer_mut("/textEdit/range").is_some_and(&remap);
+            if let (false, Some(o)) = (ok, item.as_object_mut()) {
+                o.remove("textEdit");
+            }
+        }
+    }
+    reply
 }
 
 /// A request that names no open document.
