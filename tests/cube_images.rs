@@ -319,6 +319,7 @@ fn a_cube_map_from_an_image_renders() {
         ("hcross", "wgsl", Precision::F32),
         ("vcross", "wgsl", Precision::F32),
         ("hcross", "geforce3", Precision::Fixed9),
+        ("vcross", "geforce256", Precision::Fixed9),
     ];
     for (layout, target, precision) in cases {
         let file = dir.path().join(format!("env_{layout}.png"));
