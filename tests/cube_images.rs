@@ -399,7 +399,7 @@ fn unrenderable_cube_images_are_located_errors() {
         for command in [&["check", "p.shd"][..], &["compile", "p.shd", "--emit", "plan"][..]] {
             let r = shadec_in(d, command);
             assert_eq!(r.code, 1, "{command:?} {source}: {}{}", r.stdout, r.stderr);
-            assert!(r.stderr.contains(&at), "{command:?} {source}: not located at {at}:\n{}", r.stderr);
+            assert!(r.stderr.contains(at), "{command:?} {source}: not located at {at}:\n{}", r.stderr);
             for e in expected {
                 assert!(r.stderr.contains(e), "{command:?} {source}: `{e}` missing:\n{}", r.stderr);
             }
