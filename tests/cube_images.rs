@@ -285,9 +285,17 @@ fn an_equirectangular_image_binds_as_a_cube() {
 }
 
 /// The environment of [`a_cube_map_from_an_image_renders`]: faces of
-/// `n`² in a horizontal cross, each texel the smooth environment at its
-/// centre's direction (continuous across face edges).
+/// `n`² in a horizontal or vertical cross, each texel the smooth
+/// environment at its centre's direction (continuous across face edges),
+/// or a 4n × 2n equirectangular panorama of it.
 fn write_environment(dir: &Path, file: &str, layout: &str, n: u32) {
+    if layout == "equirect" {
+        let level = equirect_level(4 * n, &smooth);
+        let img = image::RgbaImage::from_fn(4 * n, 2 * n, |x, y| {
+            image::Rgba(level.texel(x, y).map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8))
+        });
+        return img.save(dir.join(file)).unwrap();
+    }
     let (a, b) = if layout == "hcross" { (4, 3) } else { (3, 4) };
     let mut img = image::RgbaImage::from_pixel(a * n, b * n, image::Rgba([0, 0, 0, 255]));
     for f in 0..6 {
@@ -318,6 +326,7 @@ fn a_cube_map_from_an_image_renders() {
     let cases = [
         ("hcross", "wgsl", Precision::F32),
         ("vcross", "wgsl", Precision::F32),
+        ("equirect", "wgsl", Precision::F32),
         ("hcross", "geforce3", Precision::Fixed9),
         ("vcross", "geforce256", Precision::Fixed9),
     ];

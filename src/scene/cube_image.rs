@@ -55,7 +55,14 @@ pub fn is_image_call(e: &ast::Expr) -> bool {
 
 /// Reads the arguments of a cube declaration's `image(…)` call `e`.
 pub fn read_source(e: &ast::Expr) -> Result<CubeImageSource, SourceProblem> {
-    let ExprKind::Apply { arg, .. } = &e.kind else { unreachable!("called on image(…) calls") };
+    let ExprKind::Apply { arg, .. } = &e.kind else {
+        return Err(problem(
+            e.span,
+            "a cube map's source is not `image(…)`",
+            "not image(…)",
+            "write `image(\"env.png\")`",
+        ));
+    };
     let items: Vec<&ast::Expr> = match &arg.kind {
         ExprKind::Tuple(items) => items.iter().collect(),
         _ => vec![arg],
