@@ -405,7 +405,12 @@ fn unrenderable_cube_images_are_located_errors() {
         std::fs::write(d.join("p.shd"), &program).unwrap();
         // Line 3: the declaration (its `image(…)`, or the argument at fault).
         let at = "p.shd:3:";
-        for command in [&["check", "p.shd"][..], &["compile", "p.shd", "--emit", "plan"][..]] {
+        let commands = [
+            &["check", "p.shd"][..],
+            &["compile", "p.shd", "--emit", "plan"],
+            &["render", "--shader", "p.shd", "-o", "out.png"],
+        ];
+        for command in commands {
             let r = shadec_in(d, command);
             assert_eq!(r.code, 1, "{command:?} {source}: {}{}", r.stdout, r.stderr);
             assert!(r.stderr.contains(at), "{command:?} {source}: not located at {at}:\n{}", r.stderr);
@@ -415,6 +420,28 @@ fn unrenderable_cube_images_are_located_errors() {
             assert!(r.stderr.contains("help:"), "{}", r.stderr);
         }
     }
+}
+
+/// A scene texture of the declaration's name replaces its image: the
+/// image is not read, and `compile --scene` plans.
+#[test]
+fn a_scene_texture_replaces_an_unrenderable_cube_image() {
+    let dir = tempfile::tempdir().unwrap();
+    grey(dir.path(), "square.png", 100, 100);
+    let program = "vector R : reflection;\ntexture Env : cube rgb8 bilinear clamp = image(\"square.png\");\nC δπx ← Env δ R s x;\n";
+    std::fs::write(dir.path().join("p.shd"), program).unwrap();
+    let base =
+        std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes/kilgard_torus.ron"))
+            .unwrap();
+    std::fs::write(
+        dir.path().join("s.ron"),
+        with_texture(&base, "\"Env\": NormalizeCube(size: 8, bits: Eight)"),
+    )
+    .unwrap();
+    let r = shadec_in(dir.path(), &["compile", "p.shd", "--scene", "s.ron", "--emit", "plan"]);
+    assert_eq!(r.code, 0, "{}{}", r.stdout, r.stderr);
+    let r = shadec_in(dir.path(), &["compile", "p.shd", "--emit", "plan"]);
+    assert_eq!(r.code, 1, "without the scene the image is read: {}", r.stderr);
 }
 
 /// The rendering of one such error, as `check` prints it.
