@@ -25,6 +25,7 @@ mod combiners_emulator;
 mod combiners_rc1;
 mod combiners_snapshots;
 mod cost_model;
+mod cube_images;
 mod determinism;
 mod diagnostics;
 mod differential;

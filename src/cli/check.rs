@@ -54,7 +54,7 @@ pub fn run(args: &CheckArgs) -> ExitCode {
                 continue;
             }
         };
-        let shadec::driver::Front { program, diagnostics, .. } =
+        let shadec::driver::Front { program, mut diagnostics, .. } =
             match shadec::driver::check(&text, args.target.as_deref()) {
                 Ok(r) => r,
                 Err(e) => {
@@ -62,6 +62,9 @@ pub fn run(args: &CheckArgs) -> ExitCode {
                     return ExitCode::from(EXIT_USAGE_OR_IO);
                 }
             };
+        // Cube maps from images that cannot be made (paths as `render` without a scene reads them).
+        diagnostics.extend(shadec::scene::cube_image::diagnose(&program, Path::new(""), &|_| false));
+        diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
         let file = SourceFile::new(path.display().to_string(), text);
         let n_errors = diagnostics.iter().filter(|d| d.severity == Severity::Error).count();
         let n_warnings = diagnostics.iter().filter(|d| d.severity == Severity::Warning).count();

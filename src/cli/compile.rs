@@ -24,6 +24,7 @@ pub fn run(args: &CompileArgs) -> ExitCode {
     };
     let front = shadec::driver::front(&text);
     let mut diagnostics = front.diagnostics.clone();
+    diagnostics.extend(cube_image_errors(&front.program, scene.as_ref()));
     let mut plan = None;
     if let (Some(m), false) = (&front.module, front.has_errors()) {
         if let Some(name) = target_name(args, m) {
@@ -292,4 +293,16 @@ fn report_removed(plan: &shadec::pipeline::PassPlan) {
     for r in &plan.removed {
         eprintln!("  {:<9} {} — {} (at {})", r.kind, r.what, r.why, r.at);
     }
+}
+
+/// Cube maps from images that cannot be made, paths relative to the scene's
+/// folder (`--scene`), else the current folder, as `render` reads them; a
+/// declaration the scene's textures replace is not read.
+fn cube_image_errors(
+    program: &shadec::parser::ast::Program,
+    scene: Option<&shadec::scene::Scene>,
+) -> Vec<shadec::diag::Diagnostic> {
+    let base = scene.map(shadec::scene::bind::scene_dir).unwrap_or_default();
+    let replaced = |name: &str| scene.is_some_and(|s| s.textures.contains_key(name));
+    shadec::scene::cube_image::diagnose(program, &base, &replaced)
 }

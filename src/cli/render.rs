@@ -176,7 +176,10 @@ fn compile(
     use shadec::driver::{ForScene, PlanOptions};
     let source = &file.text;
     let front = shadec::driver::front(source);
-    let errors: Vec<Diagnostic> = front.diagnostics.iter().filter(|d| d.is_error()).cloned().collect();
+    let mut errors: Vec<Diagnostic> = front.diagnostics.iter().filter(|d| d.is_error()).cloned().collect();
+    let base = shadec::scene::bind::scene_dir(scene);
+    let replaced = |name: &str| scene.textures.contains_key(name);
+    errors.extend(shadec::scene::cube_image::diagnose(&front.program, &base, &replaced));
     if !errors.is_empty() {
         eprint!("{}", file.render(&errors, color_stderr()));
         return Err(ExitCode::from(EXIT_SOURCE_ERRORS));

@@ -33,6 +33,12 @@ pub fn bind(
         let decl = decls.iter().find(|d| d.names.iter().any(|n| n.key() == t.name));
         let s = t.sampling;
         let tex = match (assets.textures.get(&t.name), decl) {
+            // A scene's image file for a cube declaration is read as a cube map.
+            (Some(Texture::Flat(image)), _) if t.kind == TextureKind::Cube => {
+                let store = store_format(t.format);
+                cube_from_image(level(&image.levels[0]), None, store, s.filter)
+                    .unwrap_or_else(|why| Tex::Missing(format!("a cube map from the scene's image: {why}")))
+            }
             (Some(given), _) => from_data(given, s.filter, s.wrap, s.mipmap, store_format(t.format)),
             (None, Some(d)) => from_source(d, t.kind, t.format, s.filter, s.wrap, s.mipmap, scene)?,
             (None, None) => Tex::Missing(format!("the texture `{}` the compiler added", t.name)),
@@ -132,6 +138,7 @@ fn from_source(
             };
             Tex::Flat(image(vec![base], filter, wrap, mipmap, store))
         }
+        ("image", TextureKind::Cube) => cube_image(&args, store, filter, scene)?,
         ("normalize_cube", TextureKind::Cube) => {
             let size = args.first().and_then(|a| number(a)).unwrap_or(32.0).clamp(1.0, 4096.0) as u32;
             let bits = args.get(1).and_then(|a| number(a)).unwrap_or(8.0);
@@ -210,6 +217,180 @@ fn normalize_cube(size: u32, sixteen: bool, format: TextureFormat, filter: Filte
             }
         }
         Image { levels: vec![Level { width: size, height: size, texels }], wrap: Wrap::ClampToEdge, filter }
+    };
+    Cube { faces: (0..6).map(face).collect() }
+}
+
+/// `image(…)` of a cube texture, read here from the documented layouts
+/// (docs/language.md): one image — a horizontal cross (4:3), a vertical
+/// cross (3:4, −Z turned 180°), six faces across (6:1) or down (1:6), an
+/// equirectangular panorama (2:1) — its layout named by a second argument
+/// or deduced from its shape; or six face files (`{face}` for px … nz, or
+/// six names). A missing file is the procedural sky, as the renderers'
+/// stand-in.
+fn cube_image(
+    args: &[&ast::Expr],
+    store: TexelFormat,
+    filter: Filter,
+    scene: &Scene,
+) -> Result<Tex, Unsupported> {
+    let names: Vec<&str> = args
+        .iter()
+        .filter_map(|a| match &a.kind {
+            ExprKind::String(s) => Some(s.as_str()),
+            _ => None,
+        })
+        .collect();
+    let files: Vec<String> = match names.as_slice() {
+        [one] if one.contains("{face}") => {
+            ["px", "nx", "py", "ny", "pz", "nz"].iter().map(|f| one.replace("{face}", f)).collect()
+        }
+        [one] | [one, _] => vec![one.to_string()],
+        six if six.len() == 6 => six.iter().map(|f| f.to_string()).collect(),
+        _ => return Ok(Tex::Missing("image() of a cube map with other arguments".into())),
+    };
+    let mut levels = Vec::new();
+    for f in &files {
+        match data::load_image(&scene.resolve(f), TexelFormat::F32, Wrap::ClampToEdge) {
+            Ok(t) => levels.push(level(&t.levels[0])),
+            Err(data::TextureError::NotFound { .. }) => return Ok(Tex::Cube(sky_cube(store, filter))),
+            Err(e) => return Err(Unsupported::new(format!("an unreadable image: {e}"))),
+        }
+    }
+    if levels.len() == 6 {
+        let faces = levels.into_iter().map(|l| face_image(l, store, filter)).collect();
+        return Ok(Tex::Cube(Cube { faces }));
+    }
+    let layout = names.get(1).copied();
+    let image = levels.pop().expect("one image");
+    Ok(cube_from_image(image, layout, store, filter).unwrap_or_else(Tex::Missing))
+}
+
+fn face_image(mut l: Level, store: TexelFormat, filter: Filter) -> Image {
+    for t in &mut l.texels {
+        *t = t.map(|c| quantize(store, c));
+    }
+    Image { levels: vec![l], wrap: Wrap::ClampToEdge, filter }
+}
+
+/// GL Table 3.19 inverted: the direction through (sc, tc) ∈ [−1, 1]² of
+/// face `f` (+x, −x, +y, −y, +z, −z).
+fn face_direction(f: usize, sc: f64, tc: f64) -> [f64; 3] {
+    match f {
+        0 => [1.0, -tc, -sc],
+        1 => [-1.0, -tc, sc],
+        2 => [sc, 1.0, tc],
+        3 => [sc, -1.0, -tc],
+        4 => [sc, -tc, 1.0],
+        _ => [-sc, -tc, -1.0],
+    }
+}
+
+/// One image cut (or resampled) into six faces, by `layout` or its shape.
+fn cube_from_image(
+    image: Level,
+    layout: Option<&str>,
+    store: TexelFormat,
+    filter: Filter,
+) -> Result<Tex, String> {
+    let (w, h) = (image.width, image.height);
+    let shape = match (4 * h == 3 * w, 3 * h == 4 * w, w == 6 * h, h == 6 * w, w == 2 * h) {
+        _ if w == 0 || h == 0 => return Err("an empty image".into()),
+        (true, ..) => "hcross",
+        (_, true, ..) => "vcross",
+        (_, _, true, ..) => "hstrip",
+        (_, _, _, true, _) => "vstrip",
+        (.., true) => "equirect",
+        _ => return Err(format!("a {w}×{h} image is no cube-map layout")),
+    };
+    if layout.is_some_and(|l| l != shape) {
+        return Err(format!("a {w}×{h} image is not in the layout `{}`", layout.unwrap_or_default()));
+    }
+    // (column, row, turned 180°) of each face, in face units.
+    let cross = |neg_z: (u32, u32, bool)| {
+        [(2, 1, false), (0, 1, false), (1, 0, false), (1, 2, false), (1, 1, false), neg_z]
+    };
+    let places: [(u32, u32, bool); 6] = match shape {
+        "hcross" => cross((3, 1, false)),
+        "vcross" => cross((1, 3, true)),
+        "hstrip" => std::array::from_fn(|i| (i as u32, 0, false)),
+        "vstrip" => std::array::from_fn(|i| (0, i as u32, false)),
+        _ => return Ok(Tex::Cube(equirect_cube(&image, store, filter))),
+    };
+    let n = match shape {
+        "hcross" => w / 4,
+        "vcross" => w / 3,
+        "hstrip" => h,
+        _ => w,
+    };
+    let faces = places
+        .iter()
+        .map(|&(col, row, turned)| {
+            let mut texels = Vec::with_capacity((n * n) as usize);
+            for y in 0..n {
+                for x in 0..n {
+                    let (sx, sy) = if turned { (n - 1 - x, n - 1 - y) } else { (x, y) };
+                    texels.push(image.texels[((row * n + sy) * w + col * n + sx) as usize]);
+                }
+            }
+            face_image(Level { width: n, height: n, texels }, store, filter)
+        })
+        .collect();
+    Ok(Tex::Cube(Cube { faces }))
+}
+
+/// An equirectangular image resampled to faces of (width/4)² (at most
+/// 1024²): at each texel centre's direction d, the image's bilinear sample
+/// at u = ½ + atan2(dx, −dz)/2π (repeating), v = acos(dy/|d|)/π (clamped).
+fn equirect_cube(image: &Level, store: TexelFormat, filter: Filter) -> Cube {
+    let (w, h) = (i64::from(image.width), i64::from(image.height));
+    let n = (image.width / 4).clamp(1, 1024);
+    let at = |x: i64, y: i64| image.texels[(y.clamp(0, h - 1) * w + x.rem_euclid(w)) as usize];
+    let sample = |d: [f64; 3]| {
+        let len = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
+        let u = 0.5 + d[0].atan2(-d[2]) / std::f64::consts::TAU;
+        let v = (d[1] / len).acos() / std::f64::consts::PI;
+        let (fx, fy) = (u * w as f64 - 0.5, (v * h as f64 - 0.5).clamp(0.0, (h - 1) as f64));
+        let (x0, y0) = (fx.floor(), fy.floor());
+        let (ax, ay) = (fx - x0, fy - y0);
+        let (x0, y0) = (x0 as i64, y0 as i64);
+        let (a, b, c, e) = (at(x0, y0), at(x0 + 1, y0), at(x0, y0 + 1), at(x0 + 1, y0 + 1));
+        std::array::from_fn(|k| {
+            (1.0 - ay) * ((1.0 - ax) * a[k] + ax * b[k]) + ay * ((1.0 - ax) * c[k] + ax * e[k])
+        })
+    };
+    let face = |f: usize| {
+        let mut texels = Vec::with_capacity((n * n) as usize);
+        for y in 0..n {
+            for x in 0..n {
+                let sc = 2.0 * (f64::from(x) + 0.5) / f64::from(n) - 1.0;
+                let tc = 2.0 * (f64::from(y) + 0.5) / f64::from(n) - 1.0;
+                texels.push(sample(face_direction(f, sc, tc)));
+            }
+        }
+        face_image(Level { width: n, height: n, texels }, store, filter)
+    };
+    Cube { faces: (0..6).map(face).collect() }
+}
+
+/// The renderers' stand-in for a missing cube map image: the procedural
+/// sky at each texel centre's direction, faces of 64².
+fn sky_cube(store: TexelFormat, filter: Filter) -> Cube {
+    let n = 64u32;
+    let face = |f: usize| {
+        let mut texels = Vec::with_capacity((n * n) as usize);
+        for y in 0..n {
+            for x in 0..n {
+                let sc = 2.0 * (f64::from(x) + 0.5) / f64::from(n) - 1.0;
+                let tc = 2.0 * (f64::from(y) + 0.5) / f64::from(n) - 1.0;
+                let c = data::generators::sky(
+                    face_direction(f, sc, tc).map(|v| v as f32),
+                    data::generators::STAND_IN_SUN,
+                );
+                texels.push([f64::from(c[0]), f64::from(c[1]), f64::from(c[2]), 1.0]);
+            }
+        }
+        face_image(Level { width: n, height: n, texels }, store, filter)
     };
     Cube { faces: (0..6).map(face).collect() }
 }

@@ -29,7 +29,9 @@
 //! - **Textures**: each declaration's source — `image("f.png")`,
 //!   `normalize_cube(size[, bits])`, `normal_map(height("f.png"), scale)`,
 //!   `bumps(cells)`, `exponent_table(n)`, `brdf_fd(m, η)`, `brdf_g(scale)`,
-//!   `dual_paraboloid("env.hdr", face)` — loaded or generated with
+//!   `dual_paraboloid("env.hdr", face)`, and a `cube` texture's
+//!   `image(…)` (one image in a layout, six faces, an equirectangular
+//!   panorama: [`super::cube_image`]) — loaded or generated with
 //!   [`crate::textures`]. A scene texture of the same name replaces the
 //!   program's. **Missing image files** fall back to procedural stand-ins,
 //!   with a note for the user: a colour image becomes a checkerboard of
@@ -81,6 +83,10 @@ pub enum TextureSource {
     ExponentTable {
         exponent: f32,
     },
+    /// `image(…)` of a `cube` texture: one image in a layout, or six
+    /// faces ([`super::cube_image`]); `Err` says why the arguments are not
+    /// one of those.
+    CubeImage(Result<super::cube_image::CubeImageSource, String>),
     /// A source the renderer does not know.
     Bake(String),
     /// No source: statements render into it.
@@ -173,6 +179,11 @@ pub fn texture_decls(
         let crate::ir::Sampling { filter, wrap, mipmap } = crate::ir::Sampling::of(t.kind.value, &attrs);
         let source = match &t.source {
             None => TextureSource::Rendered,
+            Some(e) if t.kind.value == TextureKind::Cube && super::cube_image::is_image_call(e) => {
+                TextureSource::CubeImage(
+                    super::cube_image::read_source(e).map_err(|p| format!("{}; {}", p.message, p.help)),
+                )
+            }
             Some(e) => source(e, &numbers),
         };
         for name in &t.names {
@@ -323,6 +334,11 @@ pub fn load_textures(
 /// A scene texture of the declaration's name: it wins over the program's source.
 fn from_scene(d: &TextureDecl, scene: &Scene) -> Result<Option<BoundTexture>, BindError> {
     let Some(desc) = scene.textures.get(&d.name) else { return Ok(None) };
+    if let (TextureKind::Cube, super::TextureDesc::File { path, format, .. }) = (d.kind, desc) {
+        let texture = super::cube_image::scene_file_as_cube(scene, path, *format)
+            .map_err(|message| BindError::Texture { name: d.name.clone(), message })?;
+        return Ok(Some(BoundTexture { name: d.name.clone(), texture, filter: d.filter, exact: None }));
+    }
     let one = Scene {
         textures: [(d.name.clone(), desc.clone())].into_iter().collect(),
         objects: vec![],
@@ -352,6 +368,9 @@ fn generate(
     let format = texel_format(d.format);
     Ok(match &d.source {
         TextureSource::Image(file) => (image_texture(d, scene, file, notes)?, None),
+        TextureSource::CubeImage(source) => {
+            (super::cube_image::cube_image_texture(d, scene, source, format, notes)?, None)
+        }
         TextureSource::NormalizeCube { size, bits } => {
             let signed = is_signed(d.format);
             (normalize_cube_texture(d, *size, *bits)?, Some(ExactFunction::Normalize { signed }))

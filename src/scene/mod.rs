@@ -15,6 +15,7 @@
 
 pub mod bind;
 pub mod camera;
+pub mod cube_image;
 pub mod light;
 pub mod mesh;
 pub mod relevance;
@@ -169,6 +170,23 @@ pub enum TextureDesc {
         wrap: Wrap,
         #[serde(default)]
         mipmaps: bool,
+    },
+    /// A cube map from one image: a cross, a strip of six faces or an
+    /// equirectangular panorama (`layout`, else deduced from the shape), or
+    /// six files where `path` has `{face}` (px nx py ny pz nz); see
+    /// [`textures::cube_image`].
+    CubeImage {
+        path: String,
+        #[serde(default)]
+        layout: Option<textures::CubeLayout>,
+        #[serde(default = "default_format")]
+        format: TexelFormat,
+    },
+    /// A cube map from six face files, in GL order (+X −X +Y −Y +Z −Z).
+    CubeFaces {
+        faces: Vec<String>,
+        #[serde(default = "default_format")]
+        format: TexelFormat,
     },
     /// Kilgard 2000, Appendix D.
     NormalizeCube { size: u32, bits: CubeBits },
@@ -370,6 +388,11 @@ impl Scene {
             };
             match texture {
                 TextureDesc::File { path: file, .. } => file_exists(what.clone(), file)?,
+                TextureDesc::CubeImage { .. } | TextureDesc::CubeFaces { .. } => {
+                    for file in cube_image::scene_files(texture).map_err(|m| invalid(what.clone(), m))? {
+                        file_exists(what.clone(), &file)?;
+                    }
+                }
                 TextureDesc::NormalMap { height: HeightDesc::File(file), .. } => {
                     file_exists(what.clone(), file)?
                 }
@@ -410,6 +433,13 @@ impl Scene {
                 TextureDesc::File { path, format, wrap, mipmaps } => {
                     let t = textures::load_image(&self.resolve(path), *format, *wrap)?;
                     Texture::Flat(if *mipmaps { t.with_box_mipmaps() } else { t })
+                }
+                TextureDesc::CubeImage { format, .. } | TextureDesc::CubeFaces { format, .. } => {
+                    cube_image::scene_cube(self, desc, *format).map_err(|message| SceneError::Invalid {
+                        path: self.path.display().to_string(),
+                        what: format!("texture '{name}'"),
+                        message,
+                    })?
                 }
                 TextureDesc::NormalizeCube { size, bits } => {
                     Texture::Cube(generators::normalize_cube(*size, *bits))

@@ -354,6 +354,28 @@ pub fn sky(direction: [f32; 3], sun: [f32; 3]) -> [f32; 3] {
     base.map(|c| c + glow)
 }
 
+/// The procedural [`sky`] as a cube map of `size`² faces: each texel the sky
+/// in the direction through its centre (GL Table 3.19's inverse,
+/// [`cube_direction`]). The stand-in for a cube map image that is missing.
+pub fn sky_cube(size: u32, format: TexelFormat, sun: [f32; 3]) -> TextureCube {
+    let size = size.clamp(1, MAX_CUBE_FACE);
+    let face = |face: CubeFace| {
+        let mut texels = Vec::with_capacity((size * size) as usize);
+        for y in 0..size {
+            for x in 0..size {
+                let (s, t) = ((x as f32 + 0.5) / size as f32, (y as f32 + 0.5) / size as f32);
+                let c = sky(cube_direction(face, s, t), sun);
+                texels.push([c[0], c[1], c[2], 1.0]);
+            }
+        }
+        Texture2D::new(format, Wrap::ClampToEdge, Level::new(size, size, texels))
+    };
+    TextureCube { faces: CubeFace::ALL.map(face) }
+}
+
+/// The sun of the procedural stand-ins for environment images.
+pub const STAND_IN_SUN: [f32; 3] = [0.3, 0.8, 0.5];
+
 /// Fresnel reflectance of a dielectric with relative index `n` for unpolarized
 /// light at cos θ = `c` (the F of Torrance-Sparrow, Heidrich & Seidel 1999, Eq. 1).
 pub fn fresnel(c: f32, n: f32) -> f32 {

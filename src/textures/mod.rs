@@ -4,8 +4,11 @@
 //! papers — normalization cube maps (Kilgard 2000, Appendix D), normal maps with
 //! Kilgard's mipmap filter (Kilgard 2000 Appendices E-F), dual-paraboloid
 //! environment maps (Heidrich & Seidel 1999, Section 4.1-4.2), Heidrich-Seidel BRDF factor
-//! textures (Heidrich & Seidel 1999, Eq. 1-3) and exponent lookup tables (GeForce3 Phong).
+//! textures (Heidrich & Seidel 1999, Eq. 1-3) and exponent lookup tables (GeForce3 Phong);
+//! cube maps from images (crosses, strips, six faces, equirectangular
+//! panoramas) in [`cube_image`].
 
+pub mod cube_image;
 pub mod generators;
 pub mod sampling;
 pub mod unit;
@@ -14,6 +17,7 @@ use std::path::Path;
 
 use thiserror::Error;
 
+pub use cube_image::{CubeImageError, CubeLayout};
 pub use generators::{CubeBits, DualParaboloid, HeightField, NormalMapFormat, ParaboloidFace};
 pub use sampling::{
     cube_direction, cube_face_uv, CubeFace, Filter, Level, TexelFormat, Texture2D, TextureCube, Wrap,
