@@ -61,6 +61,27 @@ fn symbol_font_help(key: &str) -> Option<String> {
     ))
 }
 
+/// The keywords of the language (`grammar/shade.pest`, rule `keyword`): never names.
+pub const KEYWORDS: &[&str] = &[
+    "target",
+    "texture",
+    "framebuffer",
+    "vector",
+    "params",
+    "const",
+    "uniform",
+    "shader",
+    "let",
+    "in",
+    "delta",
+    "pi",
+    "alpha",
+    "depth",
+    "stencil",
+    "OR",
+    "AND",
+];
+
 /// Texture sources (generators), usable only after `texture … =`.
 pub const GENERATORS: &[&str] = &[
     "image",
@@ -194,6 +215,7 @@ pub fn resolve(program: &Program) -> Vec<Diagnostic> {
             ItemKind::Statement(_) => {}
         }
     }
+    r.declare_poisoned(&program.poisoned);
     for item in &program.items {
         match &item.kind {
             ItemKind::Target(_) | ItemKind::Framebuffer(_) => {}
@@ -240,6 +262,30 @@ pub fn resolve(program: &Program) -> Vec<Diagnostic> {
 }
 
 impl Resolver {
+    /// The names of declarations that failed (reported already): declared
+    /// without a word, so that their uses raise nothing more. A name that
+    /// is declared again, or that a family reserves, is left as it is.
+    fn declare_poisoned(&mut self, poisoned: &[Poisoned]) {
+        for p in poisoned {
+            let entity = match p.keyword.as_str() {
+                "texture" => Entity::Texture,
+                "framebuffer" => Entity::Framebuffer,
+                "vector" => Entity::Vector,
+                "params" => Entity::Params,
+                "const" => Entity::Const,
+                "uniform" => Entity::Uniform,
+                "shader" => Entity::Shader,
+                _ => Entity::Let,
+            };
+            let key = p.name.key();
+            if self.globals.contains_key(&key) || family(&p.name).is_some() {
+                continue;
+            }
+            self.globals.insert(key.clone(), Declared { entity, span: p.name.span, used: true });
+            self.order.push(key);
+        }
+    }
+
     fn declare(&mut self, name: &Name, entity: Entity) {
         let key = name.key();
         if let Some(prev) = self.globals.get(&key) {
