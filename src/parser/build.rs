@@ -643,7 +643,7 @@ impl Builder {
                     "put parentheses around the swizzle or write `*` to multiply",
                 )
             } else {
-                ("a number cannot be applied to a value", "to multiply, write `*`: `2 * x`")
+                ("a number cannot be applied to a value", "to multiply, write `*` after the number: `2 * x`")
             };
             self.errors.push(
                 Diagnostic::error("not-a-function", what, span, "in function position").with_help(help),

@@ -51,13 +51,20 @@ pub fn from_pest(err: pest::error::Error<Rule>, text: &str, offset: usize, line_
     let expected_text = join_or(&expected);
     let found_text =
         if found.is_empty() && line_end { "the end of the line".into() } else { describe_found(found) };
-    let message = if expected.is_empty() {
+    let message = if found == ")" && unclosed_paren(text, pos).is_none() {
+        "this `)` has no matching `(`".to_string()
+    } else if expected.is_empty() {
         format!("unexpected {found_text}")
     } else {
         format!("expected {expected_text}, found {found_text}")
     };
-    let label =
-        if expected.is_empty() { "unexpected here".to_string() } else { format!("expected {expected_text}") };
+    let label = if found == ")" && unclosed_paren(text, pos).is_none() {
+        "no `(` before it".to_string()
+    } else if expected.is_empty() {
+        "unexpected here".to_string()
+    } else {
+        format!("expected {expected_text}")
+    };
     let help = if found.is_empty() && line_end && !expected.contains(&"`;`") {
         "this line ends in the middle of its statement and the next line starts another: complete this one and end it with `;`".into()
     } else {
@@ -94,6 +101,23 @@ fn bad_swizzle(text: &str, pos: usize, offset: usize) -> Option<Diagnostic> {
     let letters = &after[..len];
     let first = letters.chars().next().filter(|c| c.is_alphabetic())?;
     let span = Span::new(offset + pos, offset + pos + 1 + len);
+    const FILES: &[&str] = &["png", "jpg", "jpeg", "ppm", "pgm", "hdr", "exr", "bmp", "tga", "ron"];
+    if FILES.contains(&letters.to_ascii_lowercase().as_str()) {
+        let before = &text[..pos];
+        let stem = &before
+            [before.trim_end_matches(|c: char| c.is_alphanumeric() || matches!(c, '_' | '-' | '/')).len()..];
+        return Some(
+            Diagnostic::error(
+                "syntax",
+                format!("`{stem}.{letters}` is a file name without quotes"),
+                Span::new(offset + pos - stem.len(), offset + pos + 1 + len),
+                "a file name",
+            )
+            .with_help(format!(
+                "a file name is a string: `\"{stem}.{letters}\"`, as in `image(\"{stem}.{letters}\")`"
+            )),
+        );
+    }
     let sets = "a swizzle takes up to four letters from one set: `x y z w` (a vector's coordinates) or `r g b a` (a colour's channels), such as `.xyz` or `.a`";
     let Some(set) = SWIZZLE_SETS.iter().find(|s| s.contains(first)) else {
         let before = &text[..pos];
