@@ -397,6 +397,9 @@ pub fn fit(module: &Module, profile: &Profile) -> Vec<Diagnostic> {
         }
     }
     out.sort_by_key(|d| (d.primary.span.start, d.severity));
+    // One read shared by two statements (equal nodes are one node, with
+    // the first one's span) is one finding, printed once.
+    out.dedup();
     let _ = Span::DETACHED;
     out
 }

@@ -5,6 +5,8 @@
 
 use crate::common;
 
+mod battery;
+
 use shadec::diag::SourceFile;
 
 #[test]

@@ -187,7 +187,7 @@ fn program() -> impl Strategy<Value = Program> {
         |(mut items, trailing_comments)| {
             // The first item has nothing before it to be separated from.
             items[0].comments.blank_line_before = false;
-            Program { items, trailing_comments }
+            Program { items, trailing_comments, ..Program::default() }
         },
     )
 }

@@ -468,8 +468,18 @@ impl<'a> Lowerer<'a> {
                     "a cube map generator",
                 )
                 .with_label(t.kind.span, "declared here")
-                .with_help("declare the texture `cube` (`texture N : cube rgb8 = normalize_cube(32);`)"),
+                .with_help(format!(
+                    "declare the texture `cube`: `texture {} : cube … = normalize_cube(…);`",
+                    t.names.iter().map(ast::Name::key).collect::<Vec<_>>().join(", ")
+                )),
             );
+            // One mistake, one error: its lookups are read as the cube
+            // map the generator makes, not reported again as 2-D lookups.
+            for n in &t.names {
+                if let Some(Global::Texture(id)) = self.globals.get(&n.key()) {
+                    self.module.textures[*id as usize].kind = ast::TextureKind::Cube;
+                }
+            }
             return;
         }
         let items: Vec<&'a ast::Expr> = match &arg.kind {
@@ -1284,7 +1294,15 @@ impl<'a> Lowerer<'a> {
                     format!("`{key}` is a table or shader, not a value"),
                     n.span,
                     "apply it",
-                    format!("apply it to an index, such as `{key} δu x`"),
+                    match self.globals.get(&key) {
+                        Some(Global::Framebuffer(_)) => {
+                            format!("read a framebuffer at an index: `{key} δπx` (the fragment's pixel) or `{key} xs` (in a screen pass)")
+                        }
+                        Some(Global::Shader(_)) => format!(
+                            "apply the shader to the shading parameters: `{key} δ s x` (per fragment) or `δ {key} s x` (per vertex, interpolated)"
+                        ),
+                        _ => format!("apply it to an index, such as `{key} δu x`"),
+                    },
                 );
                 Err(())
             }

@@ -286,17 +286,36 @@ fn swizzle(
     let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
     let v = info(value);
     numeric(v.ty, "a component selection")?;
-    for &i in &pattern[..len as usize] {
-        if i as usize >= v.ty.width() {
-            return Err(err(
-                "bad-swizzle",
-                format!("component {} of a {}", i + 1, v.ty.name()),
-                "no such component",
-            )
-            .help(format!("a {} has {} component(s)", v.ty.name(), v.ty.width())));
-        }
+    if let Some(&i) = pattern[..len as usize].iter().find(|&&i| i as usize >= v.ty.width()) {
+        return Err(component_missing(v.ty, i as usize));
     }
     out(ty, v.freq, v.interval)
+}
+
+/// A swizzle asks for component `i` (0-based) of `ty`, which has fewer:
+/// a scalar has none to select; a vector names the ones it has.
+fn component_missing(ty: Ty, i: usize) -> TypeError {
+    if ty == Ty::Scalar {
+        return err("bad-swizzle", "a scalar has no components to swizzle", "a scalar, swizzled")
+            .help("a scalar is one number: use it as it is, without the swizzle (it spreads to every channel where a colour is needed), or write `vec3(…)` to make a vector of it");
+    }
+    let (n, name) = (ty.width(), ty.name());
+    let have = |set: &str| set[..n].chars().map(String::from).collect::<Vec<_>>().join(" ");
+    err(
+        "bad-swizzle",
+        format!(
+            "a {name} has {n} components, and the swizzle asks for a {} (`{}` or `{}`)",
+            match i + 1 {
+                2 => "2nd".to_string(),
+                3 => "3rd".to_string(),
+                k => format!("{k}th"),
+            },
+            "xyzw".get(i..=i).unwrap_or("?"),
+            "rgba".get(i..=i).unwrap_or("?")
+        ),
+        "no such component",
+    )
+    .help(format!("a {name}'s components are {} (or {})", have("xyzw"), have("rgba")))
 }
 
 /// A widening conversion: rgb to rgba (alpha 1), a scalar splatted, or to its own type.
@@ -332,6 +351,19 @@ fn shading_vector(m: &Module, vector: VectorId, site: Site) -> Result<ExprInfo, 
 }
 
 /// A texel: the coordinates must be the texture kind's.
+/// What indexes a texture of `kind`, with an example of the right form —
+/// never the expression that failed (`Env δu x` for a cube map).
+fn coordinates_help(kind: TextureKind, want: Ty, name: &str, colour: bool) -> String {
+    let example = match kind {
+        TextureKind::Tex2d => format!("its texture coordinates, `{name} δu x`"),
+        TextureKind::Cube => format!("a direction, such as a reflection vector (`vector R : reflection;`) interpolated: `{name} δ R s x`"),
+        TextureKind::Tex3d => format!("a point, such as the surface position (`vector P : position;`): `{name} δ P s x`"),
+        TextureKind::Tex1d => format!("a scalar, such as the result of a scalar shader `shader d : s → scalar = …`: `{name} δ d s x`"),
+    };
+    let colour = if colour { "; a colour is not a coordinate" } else { "" };
+    format!("a {} texture takes {} coordinates: {example}{colour}", kind.as_str(), want.name())
+}
+
 fn lookup(m: &Module, texture: TextureId, coords: Handle<Expr>) -> Result<ExprInfo, TypeError> {
     let info = |h: Handle<Expr>| *m.info(h);
     let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
@@ -345,14 +377,8 @@ fn lookup(m: &Module, texture: TextureId, coords: Handle<Expr>) -> Result<ExprIn
         } else {
             format!("the {} texture `{}` is indexed by a {}", t.kind.as_str(), t.name, c.ty.name())
         };
-        return Err(err("bad-index", message, format!("expected {} coordinates", want.name())).help(
-            format!(
-                "a {} texture takes {} coordinates, such as `{} δu x`; a colour is not a coordinate",
-                t.kind.as_str(),
-                want.name(),
-                t.name
-            ),
-        ));
+        return Err(err("bad-index", message, format!("expected {} coordinates", want.name()))
+            .help(coordinates_help(t.kind, want, &t.name, c.ty.is_color())));
     }
     let (ty, interval) = texel_type(t.kind, t.format);
     out(ty, c.freq.max(Frequency::Uniform), interval)

@@ -14,6 +14,17 @@ pub struct Program {
     pub items: Vec<Item>,
     /// Comments after the last item.
     pub trailing_comments: Vec<String>,
+    /// The names of declarations left out for an error: still declared
+    /// (poisoned), so their uses are not "unknown" too.
+    pub poisoned: Vec<Poisoned>,
+}
+
+/// A name a failed declaration declares, with the keyword that declares it
+/// (`vector`, `shader`, …).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Poisoned {
+    pub keyword: String,
+    pub name: Name,
 }
 
 #[derive(Clone, Debug, PartialEq)]

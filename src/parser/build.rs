@@ -560,7 +560,7 @@ impl Builder {
         }
         let first_span = self.span(&funcs[0]);
         self.check_depth(acc.depth + funcs.len(), first_span.join(acc.expr.span))?;
-        self.parameters_at_use(&funcs)?;
+        self.parameters_at_use(&funcs, acc.expr.span)?;
         for f in funcs.into_iter().rev() {
             let func = self.func(f)?;
             let span = func.span.join(acc.expr.span);
@@ -577,8 +577,8 @@ impl Builder {
     /// used, which the language cannot do yet (examples/GAPS.md item 6).
     /// Says so, with what works instead, rather than "to multiply, write
     /// `*`". `None` after reporting it.
-    fn parameters_at_use(&mut self, funcs: &[Pair<'_, Rule>]) -> Option<()> {
-        for pair in funcs.windows(2) {
+    fn parameters_at_use(&mut self, funcs: &[Pair<'_, Rule>], arg: Span) -> Option<()> {
+        for (k, pair) in funcs.windows(2).enumerate() {
             let (Some(name), value) = (self.atom_name(&pair[0]), &pair[1]) else { continue };
             if value.as_rule() != Rule::postfix || !value.as_str().starts_with('(') {
                 continue;
@@ -586,6 +586,13 @@ impl Builder {
             let key = name.key();
             let args = value.as_str();
             let span = name.span.join(self.span(value));
+            if super::resolve::FUNCTIONS.contains(&key.as_str()) {
+                let rest = funcs.get(k + 2).map_or(arg, |p| self.span(p)).join(arg);
+                let input = pair[0].get_input();
+                let rest_text = &input[rest.start as usize - self.offset..rest.end as usize - self.offset];
+                self.errors.push(builtin_in_chain(&format!("{key}{args}"), span, rest_text, rest, "p"));
+                return None;
+            }
             self.errors.push(
                 Diagnostic::error(
                     "not-supported",
@@ -636,7 +643,7 @@ impl Builder {
                     "put parentheses around the swizzle or write `*` to multiply",
                 )
             } else {
-                ("a number cannot be applied to a value", "to multiply, write `*`: `2 * x`")
+                ("a number cannot be applied to a value", "to multiply, write `*` after the number: `2 * x`")
             };
             self.errors.push(
                 Diagnostic::error("not-a-function", what, span, "in function position").with_help(help),
@@ -844,4 +851,41 @@ pub(super) fn parameters_help(key: &str, args: &str, param: Option<&str>) -> Str
     format!(
         "set the value as the parameter's default where `{key}` is declared, `shader {key}({param} = {value}) : …`, and use it as `{key} δ s x`; for two values declare two shaders (examples/GAPS.md item 6); to multiply instead, write `*`"
     )
+}
+
+/// `δ max(0, N·L) s x`: a built-in's value in an application chain, which
+/// application (right to left) would apply to `s x` — a value is not a
+/// function. What was meant is a function of the shading parameters,
+/// evaluated per vertex and interpolated (Pipeline Grammar, eq. (1),
+/// `δ p s x`) or per fragment (eq. (4), `p δ s x`): a shader. The help
+/// declares one, named `shader` (`parser::check` picks a name the program
+/// does not use), and rewrites the chain with it where the chain's rest
+/// is the shading parameters.
+pub(super) fn builtin_in_chain(
+    value: &str,
+    span: Span,
+    rest: &str,
+    rest_span: Span,
+    shader: &str,
+) -> Diagnostic {
+    let declare = format!("declare it as a shader, `shader {shader} : s → c = {value};`");
+    let params = rest.trim_start_matches(['δ', ' ']).trim_start_matches("delta ").trim_start();
+    let on_params = params.starts_with('s') && !params.starts_with("stencil");
+    let help = if on_params {
+        format!(
+            "a built-in's value cannot be applied to what follows: application reads right to left, so this applies `{value}` to `{rest}`; to compute it from the shading parameters, {declare} and replace `{value}` by `{shader}`: `{shader} {rest}`"
+        )
+    } else {
+        format!(
+            "a built-in's value cannot be applied to what follows: application reads right to left, so this applies `{value}` to `{rest}`; to multiply, write `*` between them; to compute it from the shading parameters, {declare} and use it as `δ {shader} s x` (per vertex, interpolated) or `{shader} δ s x` (per fragment)"
+        )
+    };
+    Diagnostic::error(
+        "value-applied",
+        format!("`{value}` is a value, not a function to apply"),
+        span,
+        "a value",
+    )
+    .with_label(rest_span, "applied to this")
+    .with_help(help)
 }

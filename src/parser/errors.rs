@@ -8,7 +8,9 @@ use super::Rule;
 use crate::diag::Diagnostic;
 use crate::span::Span;
 
-pub fn from_pest(err: pest::error::Error<Rule>, text: &str, offset: usize) -> Diagnostic {
+/// `line_end`: the text is one item cut at a line break (its `;` missing
+/// and the next line starting an item), so its end is the end of a line.
+pub fn from_pest(err: pest::error::Error<Rule>, text: &str, offset: usize, line_end: bool) -> Diagnostic {
     let pos = match err.location {
         InputLocation::Pos(p) => p,
         InputLocation::Span((s, _)) => s,
@@ -26,6 +28,11 @@ pub fn from_pest(err: pest::error::Error<Rule>, text: &str, offset: usize) -> Di
         }
     }
     let found = token_at(text, pos);
+    if found == "." {
+        if let Some(d) = bad_swizzle(text, pos, offset) {
+            return d;
+        }
+    }
     let span = Span::new(offset + pos, offset + pos + found.len());
     let mut expected: Vec<&'static str> = match &err.variant {
         ErrorVariant::ParsingError { positives, .. } => {
@@ -42,27 +49,122 @@ pub fn from_pest(err: pest::error::Error<Rule>, text: &str, offset: usize) -> Di
         expected.retain(|e| !matches!(*e, "a name" | "a number" | "a string"));
     }
     let expected_text = join_or(&expected);
-    let found_text = describe_found(found);
-    let message = if expected.is_empty() {
+    let found_text =
+        if found.is_empty() && line_end { "the end of the line".into() } else { describe_found(found) };
+    let message = if found == ")" && unclosed_paren(text, pos).is_none() {
+        "this `)` has no matching `(`".to_string()
+    } else if expected.is_empty() {
         format!("unexpected {found_text}")
     } else {
         format!("expected {expected_text}, found {found_text}")
     };
-    let label =
-        if expected.is_empty() { "unexpected here".to_string() } else { format!("expected {expected_text}") };
-    let mut d = Diagnostic::error("syntax", message, span, label).with_help(help_for(found, &expected));
+    let label = if found == ")" && unclosed_paren(text, pos).is_none() {
+        "no `(` before it".to_string()
+    } else if expected.is_empty() {
+        "unexpected here".to_string()
+    } else {
+        format!("expected {expected_text}")
+    };
+    let help = if found.is_empty() && line_end && !expected.contains(&"`;`") {
+        "this line ends in the middle of its statement and the next line starts another: complete this one and end it with `;`".into()
+    } else {
+        help_for(found, &expected)
+    };
+    let mut d = Diagnostic::error("syntax", message, span, label).with_help(help);
     // An unclosed `(` says where it opened (issue 21).
     if let Some(open) = unclosed_paren(text, pos).filter(|_| matches!(found, "" | ";" | "←" | "<-")) {
+        d.message = format!("expected `)` to close the `(` opened before, found {found_text}");
+        d.primary.message = "expected `)`".into();
         d = d
             .with_label(Span::new(offset + open, offset + open + 1), "this `(` is never closed")
             .with_help("close the `(` opened here with `)` before the statement ends");
     }
-    if matches!(found, "←" | "<-") {
+    if matches!(found, "←" | "<-") && !expected.contains(&"`→` (or `->`)") {
         if let Some(end) = end_of_previous_line(text, pos) {
             d = d.with_label(Span::new(offset + end, offset + end), "perhaps a `;` is missing here");
         }
     }
     d
+}
+
+/// The letters of a swizzle: coordinates and colour channels.
+const SWIZZLE_SETS: [&str; 2] = ["xyzw", "rgba"];
+
+/// `N.xyq`, `N.xg`, `N.L`: a `.` glued to letters that are no swizzle.
+/// Named for what it is — the letter that is wrong and the sets a swizzle
+/// takes its letters from, or the dot product `·` a `.` between two names
+/// most likely meant — not as a stray `.`. `None` when the letters form a
+/// valid swizzle (then the `.` is wrong for another reason).
+fn bad_swizzle(text: &str, pos: usize, offset: usize) -> Option<Diagnostic> {
+    let after = &text[pos + 1..];
+    let len = after.find(|c: char| !(c.is_alphanumeric() || c == '_')).unwrap_or(after.len());
+    let letters = &after[..len];
+    let first = letters.chars().next().filter(|c| c.is_alphabetic())?;
+    let span = Span::new(offset + pos, offset + pos + 1 + len);
+    const FILES: &[&str] = &["png", "jpg", "jpeg", "ppm", "pgm", "hdr", "exr", "bmp", "tga", "ron"];
+    if FILES.contains(&letters.to_ascii_lowercase().as_str()) {
+        let before = &text[..pos];
+        let stem = &before
+            [before.trim_end_matches(|c: char| c.is_alphanumeric() || matches!(c, '_' | '-' | '/')).len()..];
+        return Some(
+            Diagnostic::error(
+                "syntax",
+                format!("`{stem}.{letters}` is a file name without quotes"),
+                Span::new(offset + pos - stem.len(), offset + pos + 1 + len),
+                "a file name",
+            )
+            .with_help(format!(
+                "a file name is a string: `\"{stem}.{letters}\"`, as in `image(\"{stem}.{letters}\")`"
+            )),
+        );
+    }
+    let sets = "a swizzle takes up to four letters from one set: `x y z w` (a vector's coordinates) or `r g b a` (a colour's channels), such as `.xyz` or `.a`";
+    let Some(set) = SWIZZLE_SETS.iter().find(|s| s.contains(first)) else {
+        let before = &text[..pos];
+        let glued = |c: char| c.is_alphanumeric() || matches!(c, '_' | '\'' | '′' | '″' | '‴');
+        let operand = &before[before.trim_end_matches(glued).len()..];
+        let dot = if operand.is_empty() {
+            String::new()
+        } else {
+            format!("; for the dot product of `{operand}` and `{letters}`, write `{operand}·{letters}` (ASCII `{operand} (.) {letters}`)")
+        };
+        return Some(
+            Diagnostic::error(
+                "bad-swizzle",
+                format!("`.{letters}` is not a swizzle"),
+                span,
+                format!("`{first}` is not a swizzle letter"),
+            )
+            .with_help(format!("{sets}{dot}")),
+        );
+    };
+    let other = SWIZZLE_SETS.iter().find(|s| *s != set).copied().unwrap_or(set);
+    let bad = letters.chars().find(|c| !set.contains(*c))?;
+    if other.contains(bad) {
+        // Both sets mixed: the same positions in the first letter's set.
+        let mapped: String =
+            letters.chars().map(|c| other.find(c).map_or(c, |i| set.as_bytes()[i] as char)).collect();
+        if mapped.len() <= 4 && mapped.chars().all(|c| set.contains(c)) {
+            return Some(
+                Diagnostic::error(
+                    "bad-swizzle",
+                    format!("`.{letters}` mixes the two swizzle sets"),
+                    span,
+                    format!("`{bad}` is from `{other}`, `{first}` from `{set}`"),
+                )
+                .with_help(format!("take every letter from one set: `.{mapped}` (`{set}`); {sets}")),
+            );
+        }
+    }
+    Some(
+        Diagnostic::error(
+            "bad-swizzle",
+            format!("`{bad}` is not a swizzle letter"),
+            span,
+            format!("`{bad}` is not one of x y z w or r g b a"),
+        )
+        .with_help(sets),
+    )
 }
 
 /// The end of the last non-blank text before the line holding `pos`, when a
@@ -221,6 +323,15 @@ fn symbol_help(found: &str) -> Option<String> {
 fn help_for(found: &str, expected: &[&str]) -> String {
     let expects = |what: &str| expected.contains(&what);
     match found {
+        "←" | "<-" if expects("`→` (or `->`)") => format!(
+            "a shader's type is written with `→` (ASCII `->`): `shader d : s → c = …`; `{found}` assigns in a statement (`C δπx {found} …`)"
+        ),
+        "→" | "->" if expects("`←` (or `<-`)") => format!(
+            "a statement assigns with `←` (ASCII `<-`): `C δπx ← …`; `{found}` only separates a shader's argument from its result type (`shader d : s {found} c = …`)"
+        ),
+        "=" if expects("`→` (or `->`)") => {
+            "a shader's declaration names its argument, `→` (ASCII `->`) and its result type before `=`: `shader d : s → c = …`".into()
+        }
         "=" if expects("`←` (or `<-`)") => "assign with `←` (ASCII `<-`): `C δπx ← T δu x;`".into(),
         "=" => "`=` only gives a declaration its value; statements assign with `←` (ASCII `<-`)".into(),
         "←" | "<-" => "a statement has one `←`; if the previous statement lacks its `;`, add it there".into(),

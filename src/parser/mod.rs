@@ -11,6 +11,7 @@
 pub mod ast;
 mod build;
 mod errors;
+mod poison;
 pub mod print;
 pub mod resolve;
 mod split;
@@ -41,11 +42,12 @@ pub fn parse(source: &str) -> (ast::Program, Vec<Diagnostic>) {
     // items kept in source order after, one piece at a time.
     let mut parsed: Vec<Option<Parsed>> = pieces.par_iter().map(|piece| parse_piece(source, piece)).collect();
     for (n, piece) in pieces.into_iter().enumerate() {
+        let text = &source[piece.range.clone()];
         if let Some(d) = piece.error {
             diagnostics.push(d);
+            program.poisoned.extend(poison::declared_names(text, piece.range.start));
             continue;
         }
-        let text = &source[piece.range.clone()];
         let comments = attach_comments(&mut program, text, n == 0);
         if is_blank(text) {
             program.trailing_comments = comments.leading;
@@ -73,7 +75,10 @@ pub fn parse(source: &str) -> (ast::Program, Vec<Diagnostic>) {
                 );
                 program.items.push(item);
             }
-            Some(Err(errs)) => diagnostics.extend(errs),
+            Some(Err(errs)) => {
+                diagnostics.extend(errs);
+                program.poisoned.extend(poison::declared_names(text, piece.range.start));
+            }
             None => {}
         }
     }
@@ -115,7 +120,7 @@ fn parse_piece(source: &str, piece: &split::Piece) -> Option<Parsed> {
                 )])
             }
         },
-        Err(err) => Err(vec![errors::from_pest(err, &text, piece.range.start)]),
+        Err(err) => Err(vec![errors::from_pest(err, &text, piece.range.start, piece.broken_line)]),
     })
 }
 
@@ -196,6 +201,7 @@ pub fn check(source: &str) -> (ast::Program, Vec<Diagnostic>) {
     let syntax_ok = diagnostics.iter().all(|d| !d.is_error());
     diagnostics.extend(resolve::resolve(&program).into_iter().filter(|d| syntax_ok || d.code != "unused"));
     refine_parameter_help(&program, &mut diagnostics);
+    name_the_shader(source, &program, &mut diagnostics);
     for d in diagnostics.iter_mut() {
         if let Some(help) = definition_help(source, &program, d) {
             d.help = Some(help);
@@ -237,6 +243,30 @@ fn refine_parameter_help(program: &ast::Program, diagnostics: &mut [Diagnostic])
             }
             None => format!("the shader `{key}` has no parameters: remove `{args}` and write `{key} δ s x`"),
         });
+    }
+}
+
+/// `δ max(0, N·L) s x`: the help's shader gets a name the program does not
+/// declare (`p`, else `p′`, `p″`, …), so that following it checks.
+fn name_the_shader(source: &str, program: &ast::Program, diagnostics: &mut [Diagnostic]) {
+    let declared: Vec<String> = program
+        .items
+        .iter()
+        .flat_map(declared_names)
+        .chain(program.poisoned.iter().map(|p| p.name.key()))
+        .collect();
+    let Some(free) = (0..).map(|n| format!("p{}", "'".repeat(n))).find(|k| !declared.contains(k)) else {
+        return;
+    };
+    if free == "p" {
+        return;
+    }
+    let free = free.replace('\'', "′");
+    let text = |s: Span| source.get(s.start as usize..s.end as usize).unwrap_or_default();
+    for d in diagnostics.iter_mut().filter(|d| d.code == "value-applied") {
+        let Some(rest) = d.secondary.first().map(|l| l.span) else { continue };
+        let fresh = build::builtin_in_chain(text(d.primary.span), d.primary.span, text(rest), rest, &free);
+        d.help = fresh.help;
     }
 }
 

@@ -61,6 +61,81 @@ fn symbol_font_help(key: &str) -> Option<String> {
     ))
 }
 
+/// The keywords of the language (`grammar/shade.pest`, rule `keyword`): never names.
+pub const KEYWORDS: &[&str] = &[
+    "target",
+    "texture",
+    "framebuffer",
+    "vector",
+    "params",
+    "const",
+    "uniform",
+    "shader",
+    "let",
+    "in",
+    "delta",
+    "pi",
+    "alpha",
+    "depth",
+    "stencil",
+    "OR",
+    "AND",
+];
+
+/// The declaration an unknown name needs, by how it is used: applied to
+/// texture coordinates (`T δu x`) a texture, applied to the shading
+/// parameters (`p δ s x`) a shader or a shading vector, else a value.
+fn declaration_help(key: &str, applied_to: Option<&Expr>) -> String {
+    let mut families = Vec::new();
+    if let Some(arg) = applied_to {
+        arg.walk(&mut |e| {
+            if let Some(f) = e.head_name().and_then(family) {
+                families.push(f);
+            }
+        });
+    }
+    if families.contains(&Entity::TexCoords) {
+        format!("declare it first as a texture: `texture {key} : 2d rgba8 = image(\"file.png\");`")
+    } else if families.contains(&Entity::Params) {
+        format!(
+            "declare it first: a shader, `shader {key} : s → c = …;`, or a shading vector, `vector {key} : normal;`"
+        )
+    } else {
+        format!("declare it first, e.g. `vector {key} : normal;`, `const {key} = 1;` or `texture {key} : 2d rgba8 = image(\"file.png\");`")
+    }
+}
+
+/// `deltapi`, `ux`, `sx`: the ASCII words of δ and π and the paper's
+/// families (`u`, `s`, `x`, `xs`) glued into one name; the parts with
+/// spaces, when the whole name splits into two or more of them.
+fn run_together(key: &str) -> Option<String> {
+    const PARTS: &[&str] = &["delta", "pi", "alpha", "stencil", "depth", "xs", "x", "u", "s"];
+    // The parts are prefix-free but for `x`/`xs`: a search with
+    // backtracking over them.
+    fn split<'k>(rest: &'k str, out: &mut Vec<&'k str>) -> bool {
+        if rest.is_empty() {
+            return true;
+        }
+        for p in PARTS {
+            if let Some(tail) = rest.strip_prefix(p) {
+                out.push(&rest[..p.len()]);
+                if split(tail, out) {
+                    return true;
+                }
+                out.pop();
+            }
+        }
+        false
+    }
+    // `xsxs…` splits two ways at every `xs`: the search is exponential in
+    // the worst case, and no run of glued parts is long.
+    if key.len() > 24 {
+        return None;
+    }
+    let mut parts = Vec::new();
+    (split(key, &mut parts) && parts.len() >= 2).then(|| parts.join(" "))
+}
+
 /// Texture sources (generators), usable only after `texture … =`.
 pub const GENERATORS: &[&str] = &[
     "image",
@@ -194,6 +269,7 @@ pub fn resolve(program: &Program) -> Vec<Diagnostic> {
             ItemKind::Statement(_) => {}
         }
     }
+    r.declare_poisoned(&program.poisoned);
     for item in &program.items {
         match &item.kind {
             ItemKind::Target(_) | ItemKind::Framebuffer(_) => {}
@@ -240,6 +316,30 @@ pub fn resolve(program: &Program) -> Vec<Diagnostic> {
 }
 
 impl Resolver {
+    /// The names of declarations that failed (reported already): declared
+    /// without a word, so that their uses raise nothing more. A name that
+    /// is declared again, or that a family reserves, is left as it is.
+    fn declare_poisoned(&mut self, poisoned: &[Poisoned]) {
+        for p in poisoned {
+            let entity = match p.keyword.as_str() {
+                "texture" => Entity::Texture,
+                "framebuffer" => Entity::Framebuffer,
+                "vector" => Entity::Vector,
+                "params" => Entity::Params,
+                "const" => Entity::Const,
+                "uniform" => Entity::Uniform,
+                "shader" => Entity::Shader,
+                _ => Entity::Let,
+            };
+            let key = p.name.key();
+            if self.globals.contains_key(&key) || family(&p.name).is_some() {
+                continue;
+            }
+            self.globals.insert(key.clone(), Declared { entity, span: p.name.span, used: true });
+            self.order.push(key);
+        }
+    }
+
     fn declare(&mut self, name: &Name, entity: Entity) {
         let key = name.key();
         if let Some(prev) = self.globals.get(&key) {
@@ -304,7 +404,7 @@ impl Resolver {
                     "assign into a framebuffer (`C δπx`), a texture (`T δu`) or a vertex attribute (`u x`)",
                 ),
             ),
-            None => self.unknown(&t.table, &[], false),
+            None => self.unknown(&t.table, &[], false, None),
         }
         if let Some(c) = &t.channel {
             if entity.is_some_and(|e| e != Entity::Framebuffer) {
@@ -336,11 +436,19 @@ impl Resolver {
 
     fn use_name(&mut self, name: &Name, locals: &[(String, Entity)], in_source: bool) {
         if self.lookup(name, locals).is_none() {
-            self.unknown(name, locals, in_source);
+            self.unknown(name, locals, in_source, None);
         }
     }
 
-    fn unknown(&mut self, name: &Name, locals: &[(String, Entity)], in_source: bool) {
+    /// `applied_to`: what the name is applied to, when it stands in
+    /// function position — its declaration's example follows the use.
+    fn unknown(
+        &mut self,
+        name: &Name,
+        locals: &[(String, Entity)],
+        in_source: bool,
+        applied_to: Option<&Expr>,
+    ) {
         let key = name.key();
         let globals = &self.globals;
         let suggester = self.suggester.get_or_insert_with(|| {
@@ -354,9 +462,17 @@ impl Resolver {
         });
         let accept = |c: &str| in_source || globals.contains_key(c) || !GENERATORS.contains(&c);
         let local_names: Vec<&str> = locals.iter().map(|(k, _)| k.as_str()).collect();
+        // The name meant is used, by the mistyped use: no "never used" too.
+        let mut meant = None;
         let help = match suggester.suggest(&key, accept, &local_names) {
             _ if let Some(help) = symbol_font_help(&key) => help,
-            Some(s) => format!("did you mean `{s}`?"),
+            _ if let Some(parts) = run_together(&key) => format!(
+                "`{key}` reads as one name; write its parts with spaces, `{parts}` (only the Greek δ and π may be glued to what follows, as in `δu x` and `δπx`)"
+            ),
+            Some(s) => {
+                meant = Some(s.to_string());
+                format!("did you mean `{s}`?")
+            }
             None if GENERATORS.contains(&key.as_str()) => format!("`{key}` is a texture generator: use it after `texture … =`"),
             // A shading vector's role used as a value (`intensity(0) * …`).
             None if super::ast::VectorKind::from_word(&key).is_some() => {
@@ -366,8 +482,11 @@ impl Resolver {
                     if light { "(0)" } else { "" }
                 )
             }
-            None => format!("declare it first, e.g. `vector {key} : normal;`, `const {key} = 1;` or `texture {key} : 2d rgba8 = image(\"file.png\");`"),
+            None => declaration_help(&key, applied_to),
         };
+        if let Some(d) = meant.and_then(|m| self.globals.get_mut(&m)) {
+            d.used = true;
+        }
         self.diagnostics.push(
             Diagnostic::error("unknown-name", format!("unknown name `{key}`"), name.span, "not declared")
                 .with_help(help),
@@ -386,7 +505,7 @@ impl Resolver {
                 ExprKind::Apply { func, arg } => {
                     if let FuncKind::Name(n) = &func.kind {
                         if !self.printed_channel(n, arg, locals) {
-                            self.func_name(n, locals, in_source);
+                            self.func_name(n, arg, locals, in_source);
                         }
                     }
                     stack.push(arg);
@@ -431,7 +550,7 @@ impl Resolver {
         true
     }
 
-    fn func_name(&mut self, n: &Name, locals: &[(String, Entity)], in_source: bool) {
+    fn func_name(&mut self, n: &Name, arg: &Expr, locals: &[(String, Entity)], in_source: bool) {
         let key = n.key();
         let builtin = FUNCTIONS.contains(&key.as_str()) || (in_source && GENERATORS.contains(&key.as_str()));
         if builtin && !self.globals.contains_key(&key) && !locals.iter().any(|(k, _)| *k == key) {
@@ -450,7 +569,7 @@ impl Resolver {
                 )
             }
             Some(_) => {}
-            None => self.unknown(n, locals, in_source),
+            None => self.unknown(n, locals, in_source, Some(arg)),
         }
     }
 }

@@ -18,6 +18,10 @@ pub struct Piece {
     /// an item of its own (the recovery: a missing `;` is one error
     /// at the end of its line, and the statements after it still parse).
     pub missing_semicolon: bool,
+    /// The piece ends at a line break, incomplete (after an operator, or
+    /// inside a `(`), and the next line surely starts an item: its own
+    /// syntax error is its one error, and it does not swallow the next line.
+    pub broken_line: bool,
 }
 
 /// Keywords that start a declaration.
@@ -33,6 +37,29 @@ fn starts_item(source: &str, j: usize) -> bool {
     (ITEM_KEYWORDS.contains(&word) && line[word.len()..].starts_with(char::is_whitespace))
         || line.contains('←')
         || line.contains("<-")
+}
+
+/// Whether the line `next` starts an item even though the piece `so_far`
+/// before it is incomplete: it starts with a declaration keyword (never
+/// inside an expression), or it assigns with `←` where `so_far` already
+/// has its own `←` or is a declaration (an item has at most one `←`).
+fn surely_new_item(so_far: &str, next: &str) -> bool {
+    let code = |text: &str| -> String {
+        text.lines().map(|l| l.split("//").next().unwrap_or_default()).collect::<Vec<_>>().join("\n")
+    };
+    let first_word = |text: &str| -> String {
+        let t = text.trim_start();
+        t[..t.find(|c: char| !(c.is_alphanumeric() || c == '_')).unwrap_or(t.len())].to_string()
+    };
+    let next_line = code(next.split('\n').next().unwrap_or_default());
+    if ITEM_KEYWORDS.contains(&first_word(&next_line).as_str()) {
+        return true;
+    }
+    let so_far = code(so_far);
+    let assigns = |t: &str| t.contains('←') || t.contains("<-");
+    let start = next_significant(&so_far, 0).unwrap_or(0);
+    assigns(&next_line)
+        && (assigns(&so_far) || ITEM_KEYWORDS.contains(&first_word(&so_far[start..]).as_str()))
 }
 
 /// Whether `text` (a piece so far) ends where a statement or declaration
@@ -53,6 +80,7 @@ pub fn split_items(source: &str) -> Vec<Piece> {
     let mut start = 0;
     let mut depth = 0usize;
     let mut brace_open_at_top = false;
+    let mut braces = 0usize;
     let mut error: Option<Diagnostic> = None;
     let mut i = 0;
     while i < bytes.len() {
@@ -75,6 +103,7 @@ pub fn split_items(source: &str) -> Vec<Piece> {
                 if depth == 0 && open == b'{' {
                     brace_open_at_top = true;
                 }
+                braces += usize::from(open == b'{');
                 depth += 1;
                 if depth > MAX_NESTING && error.is_none() {
                     error = Some(
@@ -90,30 +119,48 @@ pub fn split_items(source: &str) -> Vec<Piece> {
             }
             b')' | b']' | b'}' => {
                 depth = depth.saturating_sub(1);
+                braces = braces.saturating_sub(usize::from(bytes[i] == b'}'));
                 if depth == 0 && bytes[i] == b'}' && brace_open_at_top {
                     brace_open_at_top = false;
                     let mut end = i + 1;
                     if let Some(semi) = next_significant(source, end).filter(|&j| bytes[j] == b';') {
                         end = semi + 1;
                     }
-                    pieces.push(Piece { range: start..end, error: error.take(), missing_semicolon: false });
+                    pieces.push(Piece {
+                        range: start..end,
+                        error: error.take(),
+                        missing_semicolon: false,
+                        broken_line: false,
+                    });
                     start = end;
                     i = end;
                     continue;
                 }
             }
             b';' if depth == 0 => {
-                pieces.push(Piece { range: start..i + 1, error: error.take(), missing_semicolon: false });
+                pieces.push(Piece {
+                    range: start..i + 1,
+                    error: error.take(),
+                    missing_semicolon: false,
+                    broken_line: false,
+                });
                 start = i + 1;
             }
-            b'\n' if depth == 0 && error.is_none() => {
+            b'\n' if braces == 0 && error.is_none() => {
                 let so_far = &source[start..i];
-                if next_significant(source, start).is_some_and(|s| s < i)
-                    && ends_complete(so_far)
-                    && next_significant(source, i).is_some_and(|j| starts_item(source, j))
-                {
-                    pieces.push(Piece { range: start..i, error: None, missing_semicolon: true });
-                    start = i;
+                let next = next_significant(source, i).filter(|&j| starts_item(source, j));
+                if let (Some(j), true) = (next, next_significant(source, start).is_some_and(|s| s < i)) {
+                    let complete = depth == 0 && ends_complete(so_far);
+                    if complete || surely_new_item(so_far, &source[j..]) {
+                        pieces.push(Piece {
+                            range: start..i,
+                            error: None,
+                            missing_semicolon: complete,
+                            broken_line: !complete,
+                        });
+                        start = i;
+                        depth = 0;
+                    }
                 }
             }
             _ => {}
@@ -130,7 +177,7 @@ pub fn split_items(source: &str) -> Vec<Piece> {
             && next_significant(source, start).is_some()
             && ends_complete(rest)
             && rest.trim_end().len() < rest.len();
-        pieces.push(Piece { range: start..bytes.len(), error, missing_semicolon });
+        pieces.push(Piece { range: start..bytes.len(), error, missing_semicolon, broken_line: false });
     }
     pieces
 }

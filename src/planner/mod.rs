@@ -242,8 +242,18 @@ pub fn plan(module: &Module, profile: &Profile, request: &Request) -> Result<Pla
                 let tail = written.split(": ").last().unwrap_or(&written);
                 let what = tail.trim_start_matches("a part that cannot be divided further ");
                 let what = what.split(", which").next().unwrap_or(what);
-                let note =
-                    format!("as written it also {what}, which the lowering ({}) supplies", rules.join(", "));
+                let note = match what.strip_prefix("needs ") {
+                    Some(need) => {
+                        format!(
+                            "as written it also needs {need}, which the lowering ({}) supplies",
+                            rules.join(", ")
+                        )
+                    }
+                    None => format!(
+                        "the lowering ({}) removes another obstacle of the program as written: {what}",
+                        rules.join(", ")
+                    ),
+                };
                 d.help = Some(match d.help.take() {
                     Some(help) if !help.is_empty() => format!("{help}; {note}"),
                     _ => note,

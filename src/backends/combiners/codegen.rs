@@ -807,7 +807,14 @@ impl Gen<'_> {
 
     fn range(&self, h: Handle<Expr>) -> CodegenError {
         let i = self.m.info(h).interval;
-        CodegenError::Range { span: self.m.span(h), what: format!("this value (range [{}, {}])", i.lo, i.hi) }
+        // An infinite bound is "no bound known", not a range to print.
+        let what = match (i.lo.is_finite(), i.hi.is_finite()) {
+            (true, true) => format!("this value (range [{}, {}])", i.lo, i.hi),
+            (true, false) => format!("this value (at least {}, with no upper bound)", i.lo),
+            (false, true) => format!("this value (at most {}, with no lower bound)", i.hi),
+            (false, false) => "this value (no bound on its range is known)".to_string(),
+        };
+        CodegenError::Range { span: self.m.span(h), what }
     }
 
     fn src_uncached(&mut self, h: Handle<Expr>, part: Part, sat: bool) -> R<Src> {
