@@ -30,6 +30,7 @@ mod diagnostics;
 mod differential;
 mod docs;
 mod editor_nvim;
+mod gpu_check;
 mod gpu_runner;
 mod hard_cases;
 mod ir_cli;

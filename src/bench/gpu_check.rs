@@ -153,7 +153,7 @@ pub enum Outcome {
 }
 
 /// How the GPU's picture lies against the CPU's.
-#[derive(Clone, Debug)]
+#[derive(Clone)]
 pub struct Comparison {
     pub class: Class,
     /// Pixels off the edge mask, and those of them the CPU does not leave black.
@@ -169,6 +169,21 @@ pub struct Comparison {
     /// CPU, GPU and per pixel 0 compared / 1 masked / 2 beyond the bound,
     /// kept where the pictures differ (the montage).
     pub pictures: Option<(RgbaImage, RgbaImage, Vec<u8>)>,
+}
+
+/// The counts, without the pictures.
+impl std::fmt::Debug for Comparison {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Comparison")
+            .field("class", &self.class)
+            .field("compared", &self.compared)
+            .field("lit", &self.lit)
+            .field("max_diff", &self.max_diff)
+            .field("beyond_model_picture", &self.beyond_model_picture)
+            .field("beyond_ties", &self.beyond_ties)
+            .field("beyond", &self.beyond)
+            .finish()
+    }
 }
 
 impl Comparison {
