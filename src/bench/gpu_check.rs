@@ -67,6 +67,9 @@ use crate::textures::Filter;
 /// up to 256 ulps).
 pub const TIES: [(f64, f32, f64); 3] = [(1e-3, 1e-2, 8.0), (1e-3, 5e-2, 64.0), (1e-3, 0.2, 256.0)];
 
+/// A file's name and its text, built in.
+type NamedText = (&'static str, &'static str);
+
 /// Kilgard's torus, the comparisons' scene and the default scene's.
 const TORUS: (&str, &str) = ("scenes/kilgard_torus.ron", include_str!("../../scenes/kilgard_torus.ron"));
 /// Adaptive Sample Shading's 4-light sphere.
@@ -612,7 +615,7 @@ fn edge_mask(ids: &[u32], (w, h): (u32, u32)) -> Vec<bool> {
 /// What is timed: the default scene (Kilgard's bump mapping on the
 /// torus: three passes on geforce256, one on wgsl) and Adaptive Sample
 /// Shading's 4-light sphere (one pass per light), in full.
-const TIMED: [((&str, &str), (&str, &str), &str, Precision); 3] = [
+const TIMED: [(NamedText, NamedText, &str, Precision); 3] = [
     (TORUS, KILGARD, "geforce256", Precision::Fixed9),
     (TORUS, KILGARD, "wgsl", Precision::F32),
     (SPHERE, FRAGMENT_LIGHTING, "wgsl", Precision::F32),
@@ -666,6 +669,21 @@ fn time_case(
     })
 }
 
+/// The montage's cases, the worst first: most pixels beyond the bound,
+/// then the largest difference; only cases whose pictures differ.
+fn worst(cases: &[Case]) -> Vec<(&Case, &Comparison)> {
+    let mut worst: Vec<(&Case, &Comparison)> = cases
+        .iter()
+        .filter_map(|c| match &c.outcome {
+            Outcome::Compared(k) if k.pictures.is_some() => Some((c, k)),
+            _ => None,
+        })
+        .collect();
+    worst.sort_by_key(|(_, k)| std::cmp::Reverse((k.beyond, k.max_diff)));
+    worst.truncate(MONTAGE_ROWS);
+    worst
+}
+
 /// Up to this many cases in the montage, the worst first.
 const MONTAGE_ROWS: usize = 6;
 /// A difference of one 8-bit step shows as this grey level in the montage.
@@ -675,15 +693,7 @@ const MONTAGE_SCALE: u32 = 32;
 /// bound, then the largest difference): the difference grey, ×
 /// [`MONTAGE_SCALE`] per step, red beyond the bound, dark blue masked.
 fn montage(cases: &[Case]) -> Result<Vec<u8>, BenchError> {
-    let mut worst: Vec<&Comparison> = cases
-        .iter()
-        .filter_map(|c| match &c.outcome {
-            Outcome::Compared(k) if k.pictures.is_some() => Some(k),
-            _ => None,
-        })
-        .collect();
-    worst.sort_by_key(|k| std::cmp::Reverse((k.beyond, k.max_diff)));
-    worst.truncate(MONTAGE_ROWS);
+    let worst: Vec<&Comparison> = worst(cases).into_iter().map(|(_, k)| k).collect();
     let (w, h) = worst.first().and_then(|k| k.pictures.as_ref()).map_or((1, 1), |p| p.0.dimensions());
     let mut out = RgbaImage::from_pixel(3 * w, h * worst.len().max(1) as u32, image::Rgba([0, 0, 0, 255]));
     for (row, k) in worst.iter().enumerate() {
@@ -729,7 +739,20 @@ impl GpuCheck {
         let _ = writeln!(md, "**{} compared case(s) beyond the model.**\n", self.failures());
         md += &self.cases_table();
         md += &self.timings_table();
-        md += "\nMontage: `gpu-check.png`, the worst cases (most pixels beyond the model, then the largest difference), one per row: CPU | GPU | difference (grey, ×32 per 8-bit step; red: beyond the model; dark blue: edge mask).\n";
+        md += "\nMontage: `gpu-check.png`, the worst cases (most pixels beyond the model, then the largest difference), one per row: CPU | GPU | difference (grey, ×32 per 8-bit step; red: beyond the model; dark blue: edge mask). Rows:";
+        for (row, (c, k)) in worst(&self.cases).iter().enumerate() {
+            let _ = write!(
+                md,
+                " {}. {} on {} ({}/255, {} beyond);",
+                row + 1,
+                c.program,
+                c.target,
+                k.max_diff,
+                k.beyond
+            );
+        }
+        md.pop();
+        md += ".\n";
         md
     }
 
