@@ -165,3 +165,27 @@ fn quick_gpu_check_writes_its_report() {
     let png = image::open(out.path().join("gpu-check.png")).unwrap();
     assert_eq!(png.width(), 3 * SIZE.0, "CPU | GPU | difference, {}×{} each", SIZE.0, SIZE.1);
 }
+
+/// A wrong examples folder is a usage error (exit 2) that says where the
+/// check expects them, before any adapter is sought; `--examples` without
+/// `--gpu-check` is refused by the parser.
+#[test]
+fn gpu_check_without_examples_is_a_usage_error() {
+    let out = tempfile::tempdir().unwrap();
+    let run = Command::new(env!("CARGO_BIN_EXE_shadec"))
+        .args(["bench", "--gpu-check", "--quick", "--examples", "/nonexistent-shadec-examples", "-o"])
+        .arg(out.path())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&run.stderr);
+    assert_eq!(run.status.code(), Some(2), "{stderr}");
+    assert!(
+        stderr.contains("/nonexistent-shadec-examples") && stderr.contains("repository root"),
+        "{stderr}"
+    );
+    let run = Command::new(env!("CARGO_BIN_EXE_shadec"))
+        .args(["bench", "--examples", "examples"])
+        .output()
+        .unwrap();
+    assert_eq!(run.status.code(), Some(2));
+}

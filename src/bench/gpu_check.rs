@@ -254,8 +254,9 @@ pub fn run(
     progress: &mut dyn FnMut(usize, usize, &str),
 ) -> Result<GpuCheck, BenchError> {
     let start = Instant::now();
-    let gpu = Gpu::new().map_err(|e| failed("wgpu", e))?;
+    // The examples first: a wrong folder is said before any adapter is sought.
     let programs = programs(options)?;
+    let gpu = Gpu::new().map_err(|e| failed("wgpu", e))?;
     let setup = Setup::torus(&gpu, options.size)?;
     let mut cases = Vec::new();
     let total = programs.len() + options.timing_sizes.len();

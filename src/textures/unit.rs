@@ -61,6 +61,11 @@
 //!   mipmap: where the level changes), so over that interval it takes its
 //!   extremes at the two ends or at the at most two integers inside
 //!   ([`LodChoice`]): five renders bound every λ a conforming unit takes.
+//!   The independent reference (`oracle::program`'s lookups) takes the
+//!   exact per-pixel λ and marks as latitude the pixels where λ per quad
+//!   or λ ± 0.1 (log₂'s approximation) moves a texel by more than half a
+//!   step; those choices lie inside this interval, which adds the scale
+//!   factor's own approximation the specifications allow.
 //! - **Sub-texel weights** may be quantized to [`SUB_TEXEL_BITS`] bits,
 //!   by truncation or by rounding ([`WeightChoice`]); a bilinear sample
 //!   is bilinear in the two weights, so its extremes over the two
