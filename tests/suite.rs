@@ -32,6 +32,7 @@ mod differential;
 mod docs;
 mod editor_nvim;
 mod fuzz_replay;
+mod gpu_check;
 mod gpu_runner;
 mod hard_cases;
 mod ir_cli;

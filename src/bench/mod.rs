@@ -16,6 +16,8 @@ pub mod adaptive;
 pub mod front;
 #[cfg(feature = "gpu")]
 pub mod gpu;
+#[cfg(feature = "gpu")]
+pub mod gpu_check;
 pub mod plot;
 pub mod report;
 pub mod timing;

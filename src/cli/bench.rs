@@ -1,5 +1,7 @@
 //! `shadec bench [-o DIR] [--size WxH] [--runs N] [--quick]
-//! [--only PATTERN]`: the speed-against-error report; the work is `shadec::bench`'s.
+//! [--only PATTERN]`: the speed-against-error report; `--program FILE`: one
+//! program's front; `--gpu-check`: the CPU against wgpu
+//! (`shadec::bench::gpu_check`). The work is `shadec::bench`'s.
 
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -53,6 +55,96 @@ pub struct BenchArgs {
     /// built-in Kilgard torus].
     #[arg(long, value_name = "FILE", requires = "program")]
     pub scene: Option<PathBuf>,
+    /// Instead of the papers' variants: the GPU check — every example and
+    /// generated programs rendered on wgpu and on the CPU, compared under
+    /// the texture unit's model and its stated latitude, and both timed;
+    /// writes gpu-check.md and gpu-check.png (docs/gpu-check.md). Exits 1
+    /// when a case lies beyond the model. With --quick: three examples,
+    /// small images (what CI runs).
+    #[arg(long, conflicts_with = "program")]
+    pub gpu_check: bool,
+    /// With --gpu-check: the folder of the examples [default: examples].
+    #[arg(long, value_name = "DIR", requires = "gpu_check")]
+    pub examples: Option<PathBuf>,
+    /// With --gpu-check: how many generated programs to compare
+    /// [default: 12; 2 with --quick].
+    #[arg(long, value_name = "N", requires = "gpu_check")]
+    pub generated: Option<usize>,
+    /// With --gpu-check: a square size to time at (repeatable)
+    /// [default: 1024 and 2048; 128 with --quick].
+    #[arg(long = "timing-size", value_name = "N", requires = "gpu_check")]
+    pub timing_sizes: Vec<u32>,
+}
+
+/// `bench --gpu-check`.
+#[cfg(feature = "gpu")]
+fn gpu_check(args: &BenchArgs) -> ExitCode {
+    use shadec::bench::gpu_check::{self, GpuCheckOptions};
+    let examples = args.examples.clone().unwrap_or_else(|| PathBuf::from("examples"));
+    let mut options =
+        if args.quick { GpuCheckOptions::quick(examples) } else { GpuCheckOptions::full(examples) };
+    if let Some(s) = &args.size {
+        match parse_size(s) {
+            Some(v) => options.size = v,
+            None => {
+                return usage(format!(
+                    "--size {s}: expected WxH with 1..=16384 pixels per side, such as 640x480"
+                ))
+            }
+        }
+    }
+    if let Some(n) = args.runs {
+        if !(1..=1000).contains(&n) {
+            return usage(format!("--runs {n}: expected 1 to 1000 timed runs"));
+        }
+        options.runs = n;
+    }
+    if let Some(n) = args.generated {
+        options.generated = n;
+    }
+    if !args.timing_sizes.is_empty() {
+        if let Some(bad) = args.timing_sizes.iter().find(|s| !(1..=16384).contains(*s)) {
+            return usage(format!("--timing-size {bad}: expected 1 to 16384 pixels per side"));
+        }
+        options.timing_sizes = args.timing_sizes.clone();
+    }
+    if let Some(only) = &args.only {
+        options.only_examples = Some(vec![only.clone()]);
+    }
+    let progress = Progress::counting("programs");
+    let result =
+        gpu_check::run(&options, &args.output, &mut |done, total, name| progress.tick(name, done, total));
+    progress.finish();
+    match result {
+        Ok(check) => {
+            println!("adapter: {}", check.adapter);
+            for c in &check.cases {
+                if let gpu_check::Outcome::Compared(k) = &c.outcome {
+                    println!(
+                        "{:<44} {:<10} {:<6} max {:>3}/255  beyond {:>5}  {}",
+                        c.program,
+                        c.target,
+                        c.mode.name(),
+                        k.max_diff,
+                        k.beyond,
+                        k.verdict()
+                    );
+                }
+            }
+            println!("wrote {}", args.output.join("gpu-check.md").display());
+            if check.failures() > 0 {
+                eprintln!("error: {} case(s) beyond the model (gpu-check.md names them)", check.failures());
+                return ExitCode::from(EXIT_SOURCE_ERRORS);
+            }
+            ExitCode::SUCCESS
+        }
+        Err(e) => usage(e),
+    }
+}
+
+#[cfg(not(feature = "gpu"))]
+fn gpu_check(_: &BenchArgs) -> ExitCode {
+    usage("this shadec was built without the `gpu` feature: rebuild with default features for --gpu-check")
 }
 
 /// `bench --program`: the program's front on each target.
@@ -125,6 +217,9 @@ fn front(args: &BenchArgs, program: &std::path::Path) -> ExitCode {
 pub fn run(args: &BenchArgs) -> ExitCode {
     if let Some(program) = &args.program {
         return front(args, program);
+    }
+    if args.gpu_check {
+        return gpu_check(args);
     }
     let mut options = if args.quick { BenchOptions::quick() } else { BenchOptions::full() };
     if let Some(s) = &args.size {

@@ -160,6 +160,8 @@ pub struct PlanRenderer<'a> {
     uniforms: Vec<Option<Value>>,
     /// See [`PlanRenderer::set_rounding_bias`]; zero renders the model.
     rounding_bias: RoundingBias,
+    /// See [`PlanRenderer::set_sampling_latitude`].
+    latitude: unit::Latitude,
     /// See [`PlanRenderer::set_batched`].
     batched: bool,
     /// What stand-ins were used, for the user.
@@ -220,6 +222,7 @@ impl<'a> PlanRenderer<'a> {
             exact,
             uniforms,
             rounding_bias: RoundingBias::default(),
+            latitude: unit::Latitude::MODEL,
             batched: true,
             notes,
         })
@@ -235,6 +238,15 @@ impl<'a> PlanRenderer<'a> {
     /// triangle edge.
     pub fn set_rounding_bias(&mut self, bias: RoundingBias) {
         self.rounding_bias = bias;
+    }
+
+    /// Renders `f32` and `fixed9` with the texture unit taking `latitude`'s
+    /// choice where the specifications leave one (`textures::unit`, "What
+    /// the specifications leave open"): the renders of
+    /// `unit::Latitude::ENVELOPE` bound what another conforming GPU may
+    /// compute. The default, `Latitude::MODEL`, is the model.
+    pub fn set_sampling_latitude(&mut self, latitude: unit::Latitude) {
+        self.latitude = latitude;
     }
 
     /// Whether fragments are shaded in batches (the default) or
@@ -962,6 +974,8 @@ struct FragmentProgram<'a> {
     nonfinite: AtomicU64,
     /// [`PlanRenderer::set_rounding_bias`] (zero: the model).
     tie: RoundingBias,
+    /// [`PlanRenderer::set_sampling_latitude`].
+    latitude: unit::Latitude,
     /// [`PlanRenderer::set_batched`].
     batched: bool,
 }
@@ -1230,6 +1244,7 @@ impl<'a> FragmentProgram<'a> {
             combiners,
             nonfinite: AtomicU64::new(0),
             tie: r.rounding_bias,
+            latitude: r.latitude,
             batched: r.batched,
         })
     }
@@ -1424,10 +1439,11 @@ impl<'a> FragmentProgram<'a> {
                         } else {
                             unit::Arithmetic::Float
                         };
-                        unit::sample_2d(t, u as f32, v as f32, filter, lod, arithmetic)
+                        unit::sample_2d_with(t, u as f32, v as f32, filter, lod, arithmetic, self.latitude)
                     }
                     Texture::Cube(t) if self.mode != Precision::Exact => {
-                        unit::sample_cube(t, [c[0] as f32, c[1] as f32, c[2] as f32], filter)
+                        let d = [c[0] as f32, c[1] as f32, c[2] as f32];
+                        unit::sample_cube_with(t, d, filter, self.latitude.weights)
                     }
                     Texture::Flat(t) => {
                         let (u, v) = texture_uv(c, coords_ty);

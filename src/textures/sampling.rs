@@ -76,7 +76,7 @@ impl Level {
 
     /// Texel with integer coordinates wrapped or clamped.
     #[inline]
-    fn fetch(&self, x: i64, y: i64, wrap: Wrap) -> [f32; 4] {
+    pub(crate) fn fetch(&self, x: i64, y: i64, wrap: Wrap) -> [f32; 4] {
         let (w, h) = (self.width as i64, self.height as i64);
         let (x, y) = match wrap {
             Wrap::ClampToEdge => (x.clamp(0, w - 1), y.clamp(0, h - 1)),

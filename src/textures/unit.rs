@@ -44,6 +44,47 @@
 //!   filtering is float filtering in lavapipe, so cube maps filter in f32 at
 //!   any format. Face selection is GL's (Kilgard 2000, Appendix A Table 1,
 //!   [`cube_face_uv`]).
+//!
+//! # What the specifications leave open: [`Latitude`]
+//!
+//! Another implementation (an NVIDIA GPU) makes other choices where the
+//! specifications allow them. [`Latitude`] names one such choice per
+//! freedom; rendering a plan once per choice of [`Latitude::ENVELOPE`]
+//! (`renderer::plan::PlanRenderer::set_sampling_latitude`) gives, per
+//! pixel, the interval an image comparison accepts (`bench::gpu_check`):
+//!
+//! - **λ** may lie anywhere in [λ − [`LOD_BELOW`], λ + [`LOD_ABOVE`]] of
+//!   this model's λ (the derivation is at the constants: the scale
+//!   factor's max-norm bounds, log₂'s approximation, the mipmap blend
+//!   weight's precision). The sample is a piecewise-linear function of λ
+//!   whose breakpoints are the integers (trilinear: a pure level; nearest
+//!   mipmap: where the level changes), so over that interval it takes its
+//!   extremes at the two ends or at the at most two integers inside
+//!   ([`LodChoice`]): five renders bound every λ a conforming unit takes.
+//!   The independent reference (`oracle::program`'s lookups) takes the
+//!   exact per-pixel λ and marks as latitude the pixels where λ per quad
+//!   or λ ± 0.1 (log₂'s approximation) moves a texel by more than half a
+//!   step; those choices lie inside this interval, which adds the scale
+//!   factor's own approximation the specifications allow.
+//! - **Sub-texel weights** may be quantized to [`SUB_TEXEL_BITS`] bits,
+//!   by truncation or by rounding ([`WeightChoice`]); a bilinear sample
+//!   is bilinear in the two weights, so its extremes over the two
+//!   quantization intervals are at their four corners.
+//! - **Cube-map face selection** at a face edge: filtering is seamless on
+//!   both sides (above), so the face an implementation picks where two
+//!   major-axis magnitudes are equal to float precision samples the same
+//!   footprint, weighted from the other face's side; the difference is
+//!   that of [`WeightChoice`] at the edge and is not modelled further.
+//! - **Dependent lookups** (EMBM, `offset_2d`): a choice is applied to
+//!   every lookup of a render at once, and the second lookup's coordinates
+//!   are computed from the first's result in that render (and its λ from
+//!   those coordinates across the quad), so the latitude of the first
+//!   propagates through the renderer's own arithmetic. The per-pixel hull
+//!   of the renders is then exactly the set of values for one lookup, and
+//!   for a composition a bound where the result is monotone in each
+//!   lookup's choice; where it is not (a nearest lookup whose texel a
+//!   perturbed coordinate changes), a GPU pixel outside the hull is
+//!   reported by the comparison, not hidden.
 
 use super::sampling::{
     cube_direction, cube_face_uv, floor_finite, CubeFace, Filter, Level, TexelFormat, Texture2D, TextureCube,
@@ -92,6 +133,147 @@ impl Arithmetic {
     pub const FIXED8: Arithmetic = Arithmetic::Fixed8 { tie_bias: 0.0 };
 }
 
+/// How far below this model's λ another conforming implementation's λ
+/// may lie. The specifications let ρ be approximated by a function f
+/// bounded by the max-norm and the sum of the scaled derivatives (GL 1.4
+/// §3.8.8: max{m_u, m_v} ≤ f ≤ m_u + m_v; Vulkan, "Scale Factor
+/// Operation": max(|m_ux|, |m_vx|) ≤ f_x ≤ √2(|m_ux| + |m_vx|)). The
+/// lower bound is at least ρ/√2 (the larger of two components of a vector
+/// is at least its length over √2): −½ in log₂. This model's own λ is the
+/// larger end of its ρ ([`quad_lod`] takes the exact length), so nothing
+/// else lowers it, save the blend weight's precision: Vulkan's
+/// `mipmapPrecisionBits` is 8 on lavapipe and on NVIDIA's drivers (the
+/// minimum the spec allows is 4), the fraction of λ within 2⁻⁸ of itself.
+pub const LOD_BELOW: f32 = 0.5 + 1.0 / 256.0;
+
+/// How far above this model's λ another conforming implementation's λ may
+/// lie: the upper bound of [`LOD_BELOW`]'s f is m_u + m_v ≤ 2ρ (for
+/// derivatives (a, 0) and (0, a), ρ = a and the sum is 2a; Vulkan's √2
+/// times the sum of one axis's two components is at most 2ρ_x): +1 in
+/// log₂; plus this model's approximation of log₂ (linear between powers of
+/// two, below log₂ by at most max over m ∈ [0, 1) of log₂(1 + m) − m =
+/// 0.0861 at m = 1/ln 2 − 1, halved since λ = ½·log₂ρ²: 0.0431), plus the
+/// blend weight's 2⁻⁸.
+pub const LOD_ABOVE: f32 = 1.0 + 0.0431 + 1.0 / 256.0;
+
+/// Bits of sub-texel precision of another implementation's filter
+/// weights: Vulkan's `subTexelPrecisionBits` (at least 4), 8 on NVIDIA's
+/// drivers and on lavapipe, whose 8-bit-texture path this model's
+/// [`Arithmetic::Fixed8`] follows; its float path (and this model's
+/// [`Arithmetic::Float`]) keeps full f32 weights.
+pub const SUB_TEXEL_BITS: u32 = 8;
+
+/// One choice, among those the specifications allow, for the level of
+/// detail of a lookup (module docs, "What the specifications leave open").
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum LodChoice {
+    /// This model's λ ([`quad_lod`]).
+    #[default]
+    Model,
+    /// λ + Δ (Δ = −[`LOD_BELOW`] or [`LOD_ABOVE`]: the interval's ends).
+    Shift(f32),
+    /// The lowest integer in [λ − [`LOD_BELOW`], λ + [`LOD_ABOVE`]]
+    /// (a breakpoint of the sample as a function of λ); λ where none is.
+    LowestInteger,
+    /// The highest integer in that interval; λ where none is.
+    HighestInteger,
+}
+
+impl LodChoice {
+    /// λ as this choice takes it.
+    pub fn apply(self, lod: f32) -> f32 {
+        let (low, high) = (lod - LOD_BELOW, lod + LOD_ABOVE);
+        match self {
+            LodChoice::Model => lod,
+            LodChoice::Shift(d) => lod + d,
+            LodChoice::LowestInteger if low.ceil() <= high => low.ceil(),
+            LodChoice::HighestInteger if high.floor() >= low => high.floor(),
+            LodChoice::LowestInteger | LodChoice::HighestInteger => lod,
+        }
+    }
+}
+
+/// One choice for the sub-texel weights of bilinear filtering.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub enum WeightChoice {
+    /// This model's weights (f32, or 8 bits rounded ties to even in
+    /// [`Arithmetic::Fixed8`]).
+    #[default]
+    Model,
+    /// Each axis's weight quantized to [`SUB_TEXEL_BITS`] bits, down
+    /// (truncated) or up: a corner of the two quantization intervals. In
+    /// [`Arithmetic::Fixed8`] the 1/256-texel coordinate is taken ⌊·⌋ or
+    /// ⌈·⌉ instead of rounded (to within 10⁻³ of a quantum).
+    Quantized { x_up: bool, y_up: bool },
+}
+
+impl WeightChoice {
+    /// A float weight as this choice quantizes it on the axis whose
+    /// choice is `up`.
+    fn weight(self, w: f32, up: bool) -> f32 {
+        let scale = (1u32 << SUB_TEXEL_BITS) as f32;
+        match (self, up) {
+            (WeightChoice::Model, _) => w,
+            (WeightChoice::Quantized { .. }, false) => (w * scale).floor() / scale,
+            (WeightChoice::Quantized { .. }, true) => (w * scale).ceil() / scale,
+        }
+    }
+
+    /// The two axes' float weights.
+    fn weights(self, ax: f32, ay: f32) -> (f32, f32) {
+        match self {
+            WeightChoice::Model => (ax, ay),
+            WeightChoice::Quantized { x_up, y_up } => (self.weight(ax, x_up), self.weight(ay, y_up)),
+        }
+    }
+
+    /// The offsets, in 1/256 quanta, that turn [`Arithmetic::Fixed8`]'s
+    /// rounding of the coordinate into ⌊·⌋ or ⌈·⌉, per axis.
+    fn fixed_offsets(self) -> (f32, f32) {
+        let offset = |up: bool| if up { 0.499 } else { -0.499 };
+        match self {
+            WeightChoice::Model => (0.0, 0.0),
+            WeightChoice::Quantized { x_up, y_up } => (offset(x_up), offset(y_up)),
+        }
+    }
+}
+
+/// One choice per freedom the specifications leave a texture unit (module
+/// docs); the default is this model.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Latitude {
+    pub lod: LodChoice,
+    pub weights: WeightChoice,
+}
+
+impl Latitude {
+    /// This model: lavapipe's choices.
+    pub const MODEL: Latitude = Latitude { lod: LodChoice::Model, weights: WeightChoice::Model };
+
+    /// The choices whose renders bound every conforming implementation
+    /// (module docs): the model, the four λ breakpoints, the four weight
+    /// corners.
+    pub const ENVELOPE: [Latitude; 9] = [
+        Latitude::MODEL,
+        Latitude::lod(LodChoice::Shift(-LOD_BELOW)),
+        Latitude::lod(LodChoice::Shift(LOD_ABOVE)),
+        Latitude::lod(LodChoice::LowestInteger),
+        Latitude::lod(LodChoice::HighestInteger),
+        Latitude::weights(false, false),
+        Latitude::weights(false, true),
+        Latitude::weights(true, false),
+        Latitude::weights(true, true),
+    ];
+
+    const fn lod(lod: LodChoice) -> Latitude {
+        Latitude { lod, weights: WeightChoice::Model }
+    }
+
+    const fn weights(x_up: bool, y_up: bool) -> Latitude {
+        Latitude { lod: LodChoice::Model, weights: WeightChoice::Quantized { x_up, y_up } }
+    }
+}
+
 /// Samples a 2D texture at (u, v) with level of detail `lod` ([`quad_lod`]).
 pub fn sample_2d(
     t: &Texture2D,
@@ -101,54 +283,104 @@ pub fn sample_2d(
     lod: f32,
     arithmetic: Arithmetic,
 ) -> [f32; 4] {
+    sample_2d_with(t, u, v, filter, lod, arithmetic, Latitude::MODEL)
+}
+
+/// [`sample_2d`] as another implementation would take it: λ and the
+/// weights as `latitude` chooses (module docs).
+pub fn sample_2d_with(
+    t: &Texture2D,
+    u: f32,
+    v: f32,
+    filter: Filter,
+    lod: f32,
+    arithmetic: Arithmetic,
+    latitude: Latitude,
+) -> [f32; 4] {
     let (fixed, bias) = match arithmetic {
         Arithmetic::Fixed8 { tie_bias } if t.format == TexelFormat::Rgba8 => (true, tie_bias),
         _ => (false, 0.0),
     };
     let last = t.levels.len() - 1;
-    let lod = if lod.is_nan() { f32::NEG_INFINITY } else { lod + bias / 256.0 };
+    let lod = if lod.is_nan() { f32::NEG_INFINITY } else { latitude.lod.apply(lod + bias / 256.0) };
+    let filter_in = |level: usize| {
+        let l = &t.levels[level];
+        match fixed {
+            true => bilinear(l, bias, latitude.weights, u, v, t.wrap),
+            false => float_bilinear(l, latitude.weights, u, v, t.wrap),
+        }
+    };
     match filter {
         // Nearest and bilinear take the level nearest to λ (GL's
         // *_MIPMAP_NEAREST); without a chain, level 0.
         Filter::Nearest | Filter::Bilinear => {
             let level = if lod <= 0.0 { 0 } else { ((lod + 0.5).floor() as usize).min(last) };
-            let l = &t.levels[level];
             if filter == Filter::Nearest {
-                l.sample_nearest(u, v, t.wrap)
+                t.levels[level].sample_nearest(u, v, t.wrap)
             } else {
-                bilinear(l, fixed, bias, u, v, t.wrap)
+                filter_in(level)
             }
         }
         Filter::Trilinear => {
             let floor = lod.floor();
             if lod.is_infinite() || floor < 0.0 || last == 0 {
-                return bilinear(&t.levels[0], fixed, bias, u, v, t.wrap);
+                return filter_in(0);
             }
             let l0 = floor as usize;
             if l0 >= last {
-                return bilinear(&t.levels[last], fixed, bias, u, v, t.wrap);
+                return filter_in(last);
             }
             let fraction = lod - floor;
-            let a = bilinear(&t.levels[l0], fixed, bias, u, v, t.wrap);
+            let a = filter_in(l0);
             if fixed {
                 // mipmapPrecisionBits = 8, truncated.
                 let w = (fraction * 256.0) as i32;
                 if w <= 0 {
                     return a;
                 }
-                let b = bilinear(&t.levels[l0 + 1], fixed, bias, u, v, t.wrap);
+                let b = filter_in(l0 + 1);
                 [0, 1, 2, 3].map(|c| lerp8(w, to_byte(a[c]), to_byte(b[c])) as f32 / 255.0)
             } else {
-                let b = bilinear(&t.levels[l0 + 1], fixed, bias, u, v, t.wrap);
+                let b = filter_in(l0 + 1);
                 [0, 1, 2, 3].map(|c| a[c] + fraction * (b[c] - a[c]))
             }
         }
     }
 }
 
+/// Float bilinear filtering of one level (GL's, [`Level::sample_bilinear`])
+/// with the weights as `weights` quantizes them.
+fn float_bilinear(level: &Level, weights: WeightChoice, u: f32, v: f32, wrap: Wrap) -> [f32; 4] {
+    if weights == WeightChoice::Model {
+        return level.sample_bilinear(u, v, wrap);
+    }
+    let fx = finite(u * level.width as f32 - 0.5);
+    let fy = finite(v * level.height as f32 - 0.5);
+    let (x0, y0) = (floor_finite(fx), floor_finite(fy));
+    let (ax, ay) = weights.weights(fx - x0, fy - y0);
+    let (x0, y0) = (x0 as i64, y0 as i64);
+    let t = |dx: i64, dy: i64| level.fetch(x0 + dx, y0 + dy, wrap);
+    let (t00, t10, t01, t11) = (t(0, 0), t(1, 0), t(0, 1), t(1, 1));
+    [0, 1, 2, 3].map(|c| {
+        let top = t00[c] + ax * (t10[c] - t00[c]);
+        let bottom = t01[c] + ax * (t11[c] - t01[c]);
+        top + ay * (bottom - top)
+    })
+}
+
 /// Samples a cube map along `direction`, seamlessly (level 0: the renderer's
 /// cube maps have no chains).
 pub fn sample_cube(c: &TextureCube, direction: [f32; 3], filter: Filter) -> [f32; 4] {
+    sample_cube_with(c, direction, filter, WeightChoice::Model)
+}
+
+/// [`sample_cube`] with the filter weights as `weights` quantizes them.
+pub fn sample_cube_with(
+    c: &TextureCube,
+    direction: [f32; 3],
+    filter: Filter,
+    weights: WeightChoice,
+) -> [f32; 4] {
     let (face, s, t) = cube_face_uv(direction);
     let f = &c.faces[face as usize];
     let level = &f.levels[0];
@@ -159,7 +391,7 @@ pub fn sample_cube(c: &TextureCube, direction: [f32; 3], filter: Filter) -> [f32
     let fx = finite(s * level.width as f32 - 0.5);
     let fy = finite(t * level.height as f32 - 0.5);
     let (x0, y0) = (floor_finite(fx), floor_finite(fy));
-    let (ax, ay) = (fx - x0, fy - y0);
+    let (ax, ay) = weights.weights(fx - x0, fy - y0);
     let (x0, y0) = (x0 as i64, y0 as i64);
     let inside = |i: i64| (0..n).contains(&i);
     let mut texel = [[[0.0f32; 4]; 2]; 2];
@@ -204,14 +436,12 @@ fn cube_texel(c: &TextureCube, face: CubeFace, i: i64, j: i64) -> [f32; 4] {
     l.texel(x as u32, y as u32)
 }
 
-/// Bilinear filtering of one level: 8.8 fixed point when `fixed` (an 8-bit
-/// texture, [`Arithmetic::Fixed8`]), else f32 (module docs).
-fn bilinear(level: &Level, fixed: bool, bias: f32, u: f32, v: f32, wrap: Wrap) -> [f32; 4] {
-    if !fixed {
-        return level.sample_bilinear(u, v, wrap);
-    }
-    let (x0, x1, wx) = fixed_coordinate(u, level.width, wrap, bias);
-    let (y0, y1, wy) = fixed_coordinate(v, level.height, wrap, bias);
+/// Bilinear filtering of one level of an 8-bit texture in 8.8 fixed point
+/// ([`Arithmetic::Fixed8`], module docs).
+fn bilinear(level: &Level, bias: f32, weights: WeightChoice, u: f32, v: f32, wrap: Wrap) -> [f32; 4] {
+    let (ox, oy) = weights.fixed_offsets();
+    let (x0, x1, wx) = fixed_coordinate(u, level.width, wrap, bias + ox);
+    let (y0, y1, wy) = fixed_coordinate(v, level.height, wrap, bias + oy);
     let t = |x: u32, y: u32| level.texel(x, y).map(to_byte);
     let (t00, t10, t01, t11) = (t(x0, y0), t(x1, y0), t(x0, y1), t(x1, y1));
     [0, 1, 2, 3].map(|c| {
@@ -350,5 +580,83 @@ mod tests {
         let s = sample_cube(&c, [1.0, 1.0 - 1e-6, 1.0 - 1e-6], Filter::Bilinear)[0];
         let expected = (0.0 + 0.2 + 0.4) / 3.0;
         assert!((s - expected).abs() < 1e-3, "{s} vs {expected}");
+    }
+
+    /// A ramp whose mip levels differ: level k holds the value k/8.
+    fn levels_ramp() -> Texture2D {
+        let base = Level::new(64, 64, vec![[0.0, 0.0, 0.0, 1.0]; 64 * 64]);
+        let mut t = Texture2D::new(TexelFormat::F32, Wrap::Repeat, base).with_box_mipmaps();
+        for (k, level) in t.levels.iter_mut().enumerate() {
+            level.texels.fill([k as f32 / 8.0, 0.0, 0.0, 1.0]);
+        }
+        t
+    }
+
+    /// The hull of the envelope's renders holds the sample of every λ in
+    /// [λ − LOD_BELOW, λ + LOD_ABOVE], trilinear and nearest-mipmap alike:
+    /// the breakpoints (integers) are among the choices.
+    #[test]
+    fn envelope_bounds_every_lod_in_the_interval() {
+        let t = levels_ramp();
+        for filter in [Filter::Trilinear, Filter::Bilinear, Filter::Nearest] {
+            for k in 0..400 {
+                let lod = -1.0 + k as f32 * 0.0173;
+                let hull = Latitude::ENVELOPE
+                    .map(|l| sample_2d_with(&t, 0.3, 0.6, filter, lod, Arithmetic::Float, l)[0]);
+                let (lo, hi) = hull.iter().fold((f32::MAX, f32::MIN), |(a, b), &x| (a.min(x), b.max(x)));
+                for j in 0..=64 {
+                    let other = lod - LOD_BELOW + (LOD_BELOW + LOD_ABOVE) * j as f32 / 64.0;
+                    let x = sample_2d(&t, 0.3, 0.6, filter, other, Arithmetic::Float)[0];
+                    assert!(
+                        x >= lo - 1e-6 && x <= hi + 1e-6,
+                        "{filter:?} λ {lod} → {other}: {x} ∉ [{lo}, {hi}]"
+                    );
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn lod_choices_take_the_interval_ends_and_its_integers() {
+        assert_eq!(LodChoice::Model.apply(1.3), 1.3);
+        assert_eq!(LodChoice::Shift(-LOD_BELOW).apply(1.3), 1.3 - LOD_BELOW);
+        assert_eq!(LodChoice::LowestInteger.apply(1.3), 1.0);
+        assert_eq!(LodChoice::HighestInteger.apply(1.3), 2.0);
+        assert_eq!(LodChoice::LowestInteger.apply(0.6), 1.0);
+        assert_eq!(LodChoice::HighestInteger.apply(f32::NEG_INFINITY), f32::NEG_INFINITY);
+    }
+
+    /// The specifications' worst cases of the scale factor land at the
+    /// interval's ends: derivatives (a, 0), (0, a) give ρ = a, the sum
+    /// bound 2a (+1); (a, a) in x gives ρ = √2·a, the max-norm a (−½).
+    #[test]
+    fn scale_factor_bounds_are_the_interval() {
+        let a = 4.0 / 256.0;
+        let model = quad_lod(256, 256, [a, 0.0], [0.0, a]);
+        let sum = (2.0f32 * 4.0).log2();
+        assert!(sum - model <= LOD_ABOVE && sum - model >= 1.0 - 1e-6, "{model} {sum}");
+        let model = quad_lod(256, 256, [a, a], [0.0, 0.0]);
+        let max_norm = 4.0f32.log2();
+        assert!(model - max_norm <= LOD_BELOW, "{model} {max_norm}");
+        // The piecewise log2's worst error, halved, is within the allowance.
+        let m = 1.0 / std::f32::consts::LN_2 - 1.0;
+        assert!(0.5 * ((1.0 + m).log2() - m) < 0.0431);
+    }
+
+    /// 8-bit weights, down and up, bracket the float weight; in fixed
+    /// point they are ⌊·⌋ and ⌈·⌉ of the 1/256-texel coordinate.
+    #[test]
+    fn quantized_weights_bracket_the_model() {
+        let t = two_texels([0.0; 4], [1.0; 4]);
+        let u = 0.25 + 0.5 * 0.3001;
+        let at = |w| sample_2d_with(&t, u, 0.5, Filter::Bilinear, 0.0, Arithmetic::Float, w)[0];
+        let (down, model, up) =
+            (at(Latitude::weights(false, false)), at(Latitude::MODEL), at(Latitude::weights(true, true)));
+        assert!(down < model && model < up && up - down <= 1.0 / 256.0 + 1e-6, "{down} {model} {up}");
+        assert_eq!(down, 76.0 / 256.0);
+        let weight = |u: f32, o: f32| fixed_coordinate(u, 256, Wrap::ClampToEdge, o).2;
+        let x = 192.3 / 65536.0;
+        let (d, _) = (WeightChoice::Quantized { x_up: false, y_up: true }).fixed_offsets();
+        assert_eq!((weight(x, d), weight(x, 0.499)), (64, 65));
     }
 }
