@@ -277,3 +277,245 @@ fn span_at(source: &str, at: &str) -> Span {
     let end = source[start..].chars().next().map_or(start, |c| start + c.len_utf8());
     Span::new(start, end)
 }
+
+/// The rule name of a per-vertex fall-back (`lowering::per_vertex`).
+pub const PER_VERTEX: &str = "per_vertex";
+
+/// The error budget within which a per-vertex fall-back is taken by
+/// default: its plan's largest channel difference from the program's
+/// meaning, rendered in f32 on the scene (or, without one, on the built-in
+/// torus), at most 48/255 ≈ 0.188. Per-vertex (Gouraud) shading of a
+/// specular term moves a highlight by up to a triangle; on the Kilgard
+/// torus the per-fragment Phong of `examples/fragment_lighting.shd` is
+/// 36.8/255 from its meaning on geforce256, which the budget takes; a
+/// highlight lost between the vertices of a large polygon, or a sharp
+/// `^64` over four textures (85/255), is refused. `--max-error E` replaces
+/// the budget with E (and measures it the same way); `--no-approx` refuses
+/// every approximation.
+pub const PER_VERTEX_BUDGET: f64 = 48.0 / 255.0;
+
+/// The built-in scene (Kilgard's bump-mapped torus): what `render` draws
+/// without a scene file, and where an approximation without a stated bound
+/// is measured when no scene is given.
+pub const DEFAULT_SCENE: &str = include_str!("../scenes/kilgard_torus.ron");
+
+/// The built-in scene's name in figures.
+pub const DEFAULT_SCENE_NAME: &str = "the built-in torus, scenes/kilgard_torus.ron,";
+
+/// The built-in scene, its image files looked for in `dir`.
+pub fn default_scene(dir: &std::path::Path) -> Result<crate::scene::Scene, crate::scene::SceneError> {
+    crate::scene::Scene::parse(DEFAULT_SCENE, &dir.join("kilgard_torus.ron"))
+}
+
+/// What [`vet`] found out about a plan's per-vertex fall-backs.
+#[derive(Clone, Debug, Default)]
+pub struct Vetting {
+    /// The budget they were held to (`--max-error`, else [`PER_VERTEX_BUDGET`]).
+    pub budget: f64,
+    /// Why the error could not be measured (it is then unbounded).
+    pub unmeasured: Option<String>,
+}
+
+/// The plan `check`, `compile` and `render` judge: on a scene, the
+/// lowerings measured there (the fastest within `--max-error`, else the
+/// most accurate, a per-vertex one only within [`PER_VERTEX_BUDGET`]);
+/// without one, the planner's (under `--max-error`, a per-vertex fall-back
+/// is let through to be measured by [`vet`]).
+pub fn plan_measured(
+    module: &Module,
+    program: &Program,
+    profile: &Profile,
+    source: &str,
+    options: &PlanOptions,
+) -> Result<(Planned, Vec<Candidate>), Diagnostics> {
+    let approximate = options.lowering.approximate;
+    match (options.scene.as_ref(), options.lowering.max_error) {
+        (Some(s), Some(e)) if approximate => choose(module, program, profile, source, options, e, s.scene.lights.len()),
+        (Some(s), None) if approximate => {
+            let lights = s.scene.lights.len();
+            let best = most_accurate(module, program, profile, source, options, lights)?;
+            if over_budget(&best.0, PER_VERTEX_BUDGET) {
+                // The most accurate is a per-vertex fall-back beyond its
+                // budget: the fastest within it, if any, else `vet` refuses.
+                if let Ok(within) = choose(module, program, profile, source, options, PER_VERTEX_BUDGET, lights) {
+                    return Ok(within);
+                }
+            }
+            Ok(best)
+        }
+        (None, Some(e)) if approximate => {
+            let planned = crate::driver::plan(module, program, profile, Some(source), options);
+            let Err(errors) = planned else { return planned.map(|p| (p, Vec::new())) };
+            let free = LowerOptions { max_error: None, ..options.lowering };
+            match plan_with(module, program, profile, source, options, free) {
+                Ok(p) if only_measurable_beyond(&p, e) => Ok((p, Vec::new())),
+                _ => Err(errors),
+            }
+        }
+        _ => Ok((crate::driver::plan(module, program, profile, Some(source), options)?, Vec::new())),
+    }
+}
+
+/// `planned` falls back to per-vertex shading, and its other
+/// approximations are within `max_error` or have no stated bound: [`vet`]
+/// then measures the whole plan against `max_error`.
+fn only_measurable_beyond(planned: &Planned, max_error: f64) -> bool {
+    let a = &planned.plan.approximations;
+    a.iter().any(|a| a.rule == PER_VERTEX)
+        && a.iter().all(|a| a.rule == PER_VERTEX || a.output_bound.is_none_or(|b| b <= max_error))
+}
+
+/// A per-vertex plan measured beyond `budget`.
+fn over_budget(planned: &Planned, budget: f64) -> bool {
+    planned.plan.approximations.iter().any(|a| a.rule == PER_VERTEX)
+        && planned.plan.measured.as_ref().is_some_and(|m| m.max_abs > budget)
+}
+
+/// Holds a plan's per-vertex fall-backs to their budget (`--max-error`,
+/// else [`PER_VERTEX_BUDGET`]): measured on the scene planned for, else on
+/// the built-in torus (the measure is then recorded in the plan); beyond
+/// the budget the program is refused at the fall-back. Repeated
+/// approximation records (one per light's pass) are kept once.
+pub fn vet(
+    planned: &mut Planned,
+    module: &Module,
+    program: &Program,
+    source: &str,
+    options: &PlanOptions,
+) -> Result<Vetting, Diagnostics> {
+    let mut seen = std::collections::HashSet::new();
+    planned.plan.approximations.retain(|a| seen.insert((a.rule.clone(), a.at.clone(), a.why.clone())));
+    let budget = options.lowering.max_error.unwrap_or(PER_VERTEX_BUDGET);
+    let mut vetting = Vetting { budget, unmeasured: None };
+    let Some(at) = planned.plan.approximations.iter().find(|a| a.rule == PER_VERTEX).map(|a| a.at.clone())
+    else {
+        return Ok(vetting);
+    };
+    if planned.plan.measured.is_none() {
+        match measure_plan(planned, module, program, options) {
+            Ok(m) => planned.plan.measured = Some(m),
+            Err(why) => vetting.unmeasured = Some(why),
+        }
+    }
+    match &planned.plan.measured {
+        Some(m) if m.max_abs > budget => Err(vec![per_vertex_refusal(planned, module, source, &at, m, options)]),
+        _ => Ok(vetting),
+    }
+}
+
+/// `planned`'s error against the program's meaning, rendered in f32 on the
+/// scene planned for, else on the built-in torus.
+fn measure_plan(
+    planned: &Planned,
+    module: &Module,
+    program: &Program,
+    options: &PlanOptions,
+) -> Result<MeasuredError, String> {
+    let text = |d: Diagnostics| d.first().map_or_else(String::new, |d| d.message.clone());
+    let measure = |scene: &crate::driver::ForScene, lights: usize, name: String| {
+        let size = measuring_size(scene.scene.resolution);
+        let meaning = crate::meaning::plan(module, lights).map_err(text)?;
+        let reference = render(&meaning, program, scene, size).map_err(text)?;
+        let e = compare(&reference, &render(planned, program, scene, size).map_err(text)?);
+        Ok(MeasuredError { scene: name, width: size.0, height: size.1, max_abs: f64::from(e.max_abs), rmse: e.rmse })
+    };
+    if let Some(s) = &options.scene {
+        return measure(s, s.scene.lights.len(), scene_name(s));
+    }
+    let scene = default_scene(std::path::Path::new("")).map_err(|e| e.to_string())?;
+    let assets = scene.build().map_err(|e| e.to_string())?;
+    measure(&crate::driver::ForScene::unspecialized(&scene, &assets), 1, DEFAULT_SCENE_NAME.to_string())
+}
+
+/// A per-vertex fall-back measured beyond its budget: refused at the
+/// fall-back, naming its error and the flag that accepts it.
+fn per_vertex_refusal(
+    planned: &Planned,
+    module: &Module,
+    source: &str,
+    at: &str,
+    m: &MeasuredError,
+    options: &PlanOptions,
+) -> Diagnostic {
+    let budget = match options.lowering.max_error {
+        Some(e) => format!("--max-error {e}"),
+        None => format!("the per-vertex budget of {:.1}/255", PER_VERTEX_BUDGET * 255.0),
+    };
+    let message = format!(
+        "{} cannot compute this per fragment, and computing it per vertex (the `per_vertex` fall-back) is {:.1}/255 from the program's meaning on {} (f32, largest channel difference), beyond {budget}",
+        planned.plan.target,
+        m.max_abs * 255.0,
+        m.scene
+    );
+    Diagnostic::error("per-vertex-over-budget", message, expr_span(module, source, at), "computed per vertex here")
+        .with_help(format!(
+            "accept it with --max-error {:.3} (or more), or target a profile that computes this per fragment (wgsl)",
+            (m.max_abs * 1000.0).ceil() / 1000.0
+        ))
+}
+
+/// One warning per approximation `planned` takes, at the expression it
+/// replaces, with its stated bound or its measured error (precision and
+/// reference named) and the options that forbid it.
+pub fn warnings(planned: &Planned, module: &Module, source: &str, vetting: &Vetting) -> Diagnostics {
+    let plan = &planned.plan;
+    plan.approximations
+        .iter()
+        .map(|a| {
+            let figure = match (a.rule == PER_VERTEX, &plan.measured, a.output_bound.or(a.error_bound)) {
+                (true, Some(m), _) => format!(
+                    "measured {:.1}/255 from the program's meaning on {} (f32 render at {}×{}, largest channel difference; RMSE {:.4}), within {}",
+                    m.max_abs * 255.0,
+                    m.scene,
+                    m.width,
+                    m.height,
+                    m.rmse,
+                    budget_text(vetting.budget)
+                ),
+                (_, _, Some(bound)) => format!(
+                    "at most {bound:.4} ({:.1}/255) at the output: the rule's stated bound against exact arithmetic",
+                    bound * 255.0
+                ),
+                (_, Some(m), None) => format!(
+                    "no stated bound; the plan measured {:.1}/255 from the program's meaning on {} (f32, largest channel difference)",
+                    m.max_abs * 255.0,
+                    m.scene
+                ),
+                (_, None, None) => format!(
+                    "unbounded: no stated bound, and it could not be measured ({})",
+                    vetting.unmeasured.as_deref().unwrap_or("give a scene: `compile --scene`")
+                ),
+            };
+            let message = format!("approximation on {} (`{}`): {}", plan.target, a.rule, a.why);
+            Diagnostic::warning("approximation", message, expr_span(module, source, &a.at), "approximated here")
+                .with_help(format!(
+                    "{figure}; --no-approx refuses every approximation, --max-error E those whose error exceeds E"
+                ))
+        })
+        .collect()
+}
+
+fn budget_text(budget: f64) -> String {
+    if (budget - PER_VERTEX_BUDGET).abs() < 1e-12 {
+        format!("the per-vertex budget of {:.1}/255", budget * 255.0)
+    } else {
+        format!("--max-error {budget}")
+    }
+}
+
+/// The span of the largest expression that starts at `at` (`line:col`),
+/// else the one character there.
+pub fn expr_span(module: &Module, source: &str, at: &str) -> Span {
+    let one = span_at(source, at);
+    if one == Span::DETACHED {
+        return one;
+    }
+    module
+        .exprs
+        .arena()
+        .iter()
+        .map(|(h, _)| module.span(h))
+        .filter(|s| s.start == one.start && s.end as usize <= source.len())
+        .max_by_key(|s| s.end - s.start)
+        .unwrap_or(one)
+}

@@ -55,7 +55,7 @@ pub fn run(args: &CheckArgs) -> ExitCode {
             }
         };
         let shadec::driver::Front { program, diagnostics, .. } =
-            match shadec::driver::check(&text, args.target.as_deref()) {
+            match check_one(path, &text, args) {
                 Ok(r) => r,
                 Err(e) => {
                     eprintln!("error: {e}");
@@ -123,6 +123,22 @@ pub fn run(args: &CheckArgs) -> ExitCode {
     } else {
         ExitCode::SUCCESS
     }
+}
+
+/// One file's diagnostics: the driver's `check`, with the flags `compile`
+/// and `render` take and image files looked for next to the program.
+fn check_one(
+    path: &Path,
+    text: &str,
+    args: &CheckArgs,
+) -> Result<shadec::driver::Front, shadec::profile::ProfileError> {
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let judging = shadec::driver::Judging {
+        plan: shadec::driver::PlanOptions { lowering: args.quality.lowering(), ..Default::default() },
+        images: Some(dir),
+        stand_ins: args.quality.stand_ins,
+    };
+    shadec::driver::check_with(text, args.target.as_deref(), &judging)
 }
 
 /// Standard output's part of the report, or (with `-o`) its text gathered.
