@@ -65,21 +65,7 @@ pub fn choose(
     if first.plan.approximations.is_empty() {
         return Ok((first, Vec::new()));
     }
-    let size = measuring_size(scene.scene.resolution);
-    let mut candidates = measure(module, program, profile, source, options, lights)?;
-    for (_, c) in &mut candidates {
-        c.within = f64::from(c.error.max_abs) <= max_error;
-    }
-    let best = (0..candidates.len()).filter(|&i| candidates[i].1.within).min_by(|&a, &b| {
-        let t = |i: usize| candidates[i].1.predicted_ms.unwrap_or(0.0);
-        t(a).total_cmp(&t(b)).then(a.cmp(&b))
-    });
-    let Some(best) = best else {
-        return Err(vec![refusal(&candidates, profile, source, scene, max_error)]);
-    };
-    candidates[best].1.chosen = true;
-    let report: Vec<Candidate> = candidates.iter().map(|(_, c)| c.clone()).collect();
-    Ok((with_measured(candidates.swap_remove(best), scene, size), report))
+    pick_on(module, program, profile, source, options, (scene, &scene_name(scene)), lights, Some(max_error))
 }
 
 /// Without `--max-error`, on a scene: the plan whose render is closest to
@@ -104,31 +90,66 @@ pub fn most_accurate(
     let Some(scene) = options.scene.as_ref().filter(|_| !first.plan.approximations.is_empty()) else {
         return Ok((first, Vec::new()));
     };
-    let size = measuring_size(scene.scene.resolution);
-    let mut candidates = measure(module, program, profile, source, options, lights)?;
-    let key = |c: &Candidate| (c.error.rmse, f64::from(c.error.max_abs), c.predicted_ms.unwrap_or(0.0));
-    let best = (0..candidates.len()).min_by(|&a, &b| {
-        let (x, y) = (key(&candidates[a].1), key(&candidates[b].1));
-        x.0.total_cmp(&y.0).then(x.1.total_cmp(&y.1)).then(x.2.total_cmp(&y.2)).then(a.cmp(&b))
-    });
-    if let Some(best) = best {
-        candidates[best].1.chosen = true;
+    pick_on(module, program, profile, source, options, (scene, &scene_name(scene)), lights, None)
+}
+
+/// The lowerings of `module` planned with `options`, each rendered on `at`
+/// (a scene and its name) against the program's meaning: with `max_error`,
+/// the fastest within it (none: refused); without, the most accurate
+/// (RMSE, then the largest difference, then the predicted frame) of those
+/// that are not a per-vertex fall-back beyond [`PER_VERTEX_BUDGET`] (when
+/// every one is, the most accurate, which [`vet`] refuses).
+#[allow(clippy::too_many_arguments)]
+fn pick_on(
+    module: &Module,
+    program: &Program,
+    profile: &Profile,
+    source: &str,
+    options: &PlanOptions,
+    (at, name): (&crate::driver::ForScene, &str),
+    lights: usize,
+    max_error: Option<f64>,
+) -> Result<(Planned, Vec<Candidate>), Diagnostics> {
+    let size = measuring_size(at.scene.resolution);
+    let mut candidates = measure_on(module, program, profile, source, options, at, lights)?;
+    for (_, c) in &mut candidates {
+        c.within = max_error.is_none_or(|e| f64::from(c.error.max_abs) <= e);
     }
+    let best = match max_error {
+        Some(_) => (0..candidates.len()).filter(|&i| candidates[i].1.within).min_by(|&a, &b| {
+            let t = |i: usize| candidates[i].1.predicted_ms.unwrap_or(0.0);
+            t(a).total_cmp(&t(b)).then(a.cmp(&b))
+        }),
+        None => {
+            let over = |c: &Candidate| {
+                c.rules.contains(PER_VERTEX) && f64::from(c.error.max_abs) > PER_VERTEX_BUDGET
+            };
+            let key = |c: &Candidate| {
+                (over(c), c.error.rmse, f64::from(c.error.max_abs), c.predicted_ms.unwrap_or(0.0))
+            };
+            (0..candidates.len()).min_by(|&a, &b| {
+                let (x, y) = (key(&candidates[a].1), key(&candidates[b].1));
+                x.0.cmp(&y.0)
+                    .then(x.1.total_cmp(&y.1))
+                    .then(x.2.total_cmp(&y.2))
+                    .then(x.3.total_cmp(&y.3))
+                    .then(a.cmp(&b))
+            })
+        }
+    };
+    let Some(best) = best else {
+        let e = max_error.unwrap_or(PER_VERTEX_BUDGET);
+        return Err(vec![refusal(&candidates, profile, source, name, e)]);
+    };
+    candidates[best].1.chosen = true;
     let report: Vec<Candidate> = candidates.iter().map(|(_, c)| c.clone()).collect();
-    match best {
-        Some(best) => Ok((with_measured(candidates.swap_remove(best), scene, size), report)),
-        None => Ok((first, report)),
-    }
+    Ok((with_measured(candidates.swap_remove(best), name, size), report))
 }
 
 /// The chosen plan, its measured error recorded.
-fn with_measured(
-    (mut planned, chosen): (Planned, Candidate),
-    scene: &crate::driver::ForScene,
-    size: (u32, u32),
-) -> Planned {
+fn with_measured((mut planned, chosen): (Planned, Candidate), scene: &str, size: (u32, u32)) -> Planned {
     planned.plan.measured = Some(MeasuredError {
-        scene: scene_name(scene),
+        scene: scene.to_string(),
         width: size.0,
         height: size.1,
         max_abs: f64::from(chosen.error.max_abs),
@@ -156,6 +177,21 @@ pub fn measure(
         return Err(vec![Diagnostic::error("max-error", what, Span::DETACHED, "")
             .with_help("give the scene the plans are measured on")]);
     };
+    measure_on(module, program, profile, source, options, scene, lights)
+}
+
+/// [`measure`], the plans made with `options` (for its scene, or for any)
+/// and rendered on `at`.
+fn measure_on(
+    module: &Module,
+    program: &Program,
+    profile: &Profile,
+    source: &str,
+    options: &PlanOptions,
+    at: &crate::driver::ForScene,
+    lights: usize,
+) -> Result<Vec<(Planned, Candidate)>, Diagnostics> {
+    let scene = at;
     let size = measuring_size(scene.scene.resolution);
     let reference = render(&crate::meaning::plan(module, lights)?, program, scene, size)?;
     let exact = LowerOptions { approximate: false, ..Default::default() };
@@ -239,16 +275,16 @@ fn refusal(
     candidates: &[(Planned, Candidate)],
     profile: &Profile,
     source: &str,
-    scene: &crate::driver::ForScene,
+    scene: &str,
     max_error: f64,
 ) -> Diagnostic {
     let closest = candidates.iter().min_by(|a, b| a.1.error.max_abs.total_cmp(&b.1.error.max_abs));
     let (message, help, span) = match closest {
         Some((planned, c)) => (
             format!(
-                "no lowering for {} is within --max-error {max_error} on {}: the closest ({}) is {:.4} ({:.1}/255) from the program's meaning",
+                "no lowering for {} is within --max-error {max_error} on {}: the closest ({}) is {:.4} ({:.1}/255) from the program's meaning (f32)",
                 profile.name,
-                scene_name(scene),
+                scene,
                 c.rules,
                 c.error.max_abs,
                 c.error.max_abs * 255.0
@@ -287,8 +323,8 @@ pub const PER_VERTEX: &str = "per_vertex";
 /// torus), at most 48/255 ≈ 0.188. Per-vertex (Gouraud) shading of a
 /// specular term moves a highlight by up to a triangle; on the Kilgard
 /// torus the per-fragment Phong of `examples/fragment_lighting.shd` is
-/// 36.8/255 from its meaning on geforce256, which the budget takes; a
-/// highlight lost between the vertices of a large polygon, or a sharp
+/// 41.2/255 from its meaning on geforce256 per vertex (its cube maps'
+/// lowering: 56.8/255), which the budget takes; a highlight lost between the vertices of a large polygon, or a sharp
 /// `^64` over four textures (85/255), is refused. `--max-error E` replaces
 /// the budget with E (and measures it the same way); `--no-approx` refuses
 /// every approximation.
@@ -328,31 +364,46 @@ pub fn plan_measured(
     source: &str,
     options: &PlanOptions,
 ) -> Result<(Planned, Vec<Candidate>), Diagnostics> {
-    let approximate = options.lowering.approximate;
-    match (options.scene.as_ref(), options.lowering.max_error) {
-        (Some(s), Some(e)) if approximate => choose(module, program, profile, source, options, e, s.scene.lights.len()),
-        (Some(s), None) if approximate => {
-            let lights = s.scene.lights.len();
-            let best = most_accurate(module, program, profile, source, options, lights)?;
-            if over_budget(&best.0, PER_VERTEX_BUDGET) {
-                // The most accurate is a per-vertex fall-back beyond its
-                // budget: the fastest within it, if any, else `vet` refuses.
-                if let Ok(within) = choose(module, program, profile, source, options, PER_VERTEX_BUDGET, lights) {
-                    return Ok(within);
-                }
-            }
-            Ok(best)
-        }
-        (None, Some(e)) if approximate => {
-            let planned = crate::driver::plan(module, program, profile, Some(source), options);
-            let Err(errors) = planned else { return planned.map(|p| (p, Vec::new())) };
+    let max_error = options.lowering.max_error;
+    if !options.lowering.approximate {
+        return Ok((crate::driver::plan(module, program, profile, Some(source), options)?, Vec::new()));
+    }
+    if let Some(s) = options.scene.as_ref() {
+        let lights = s.scene.lights.len();
+        return match max_error {
+            Some(e) => choose(module, program, profile, source, options, e, lights),
+            None => most_accurate(module, program, profile, source, options, lights),
+        };
+    }
+    let first = match (crate::driver::plan(module, program, profile, Some(source), options), max_error) {
+        (Ok(p), _) => p,
+        (Err(errors), None) => return Err(errors),
+        (Err(errors), Some(e)) => {
+            // A per-vertex fall-back has no stated bound: let it through to be measured.
             let free = LowerOptions { max_error: None, ..options.lowering };
             match plan_with(module, program, profile, source, options, free) {
-                Ok(p) if only_measurable_beyond(&p, e) => Ok((p, Vec::new())),
-                _ => Err(errors),
+                Ok(p) if only_measurable_beyond(&p, e) => p,
+                _ => return Err(errors),
             }
         }
-        _ => Ok((crate::driver::plan(module, program, profile, Some(source), options)?, Vec::new())),
+    };
+    if !first.plan.approximations.iter().any(|a| a.rule == PER_VERTEX) {
+        return Ok((first, Vec::new()));
+    }
+    // Without a scene, the lowerings are measured on the built-in torus,
+    // as `render` without a scene file measures them.
+    let scene = default_scene(std::path::Path::new(""));
+    let Ok(assets) = scene.as_ref().map_err(|_| ()).and_then(|s| s.build().map_err(|_| ())) else {
+        return Ok((first, Vec::new())); // `vet` says it is unbounded
+    };
+    let scene = scene.expect("built above");
+    let at = crate::driver::ForScene::unspecialized(&scene, &assets);
+    match pick_on(module, program, profile, source, options, (&at, DEFAULT_SCENE_NAME), 1, max_error) {
+        Ok(picked) => Ok(picked),
+        // Refused within --max-error: located at the closest lowering.
+        Err(refused) if refused.iter().any(|d| d.code == "max-error") => Err(refused),
+        // The torus cannot draw it: `vet` tries the plan itself, else says "unbounded".
+        Err(_) => Ok((first, Vec::new())),
     }
 }
 
@@ -363,12 +414,6 @@ fn only_measurable_beyond(planned: &Planned, max_error: f64) -> bool {
     let a = &planned.plan.approximations;
     a.iter().any(|a| a.rule == PER_VERTEX)
         && a.iter().all(|a| a.rule == PER_VERTEX || a.output_bound.is_none_or(|b| b <= max_error))
-}
-
-/// A per-vertex plan measured beyond `budget`.
-fn over_budget(planned: &Planned, budget: f64) -> bool {
-    planned.plan.approximations.iter().any(|a| a.rule == PER_VERTEX)
-        && planned.plan.measured.as_ref().is_some_and(|m| m.max_abs > budget)
 }
 
 /// Holds a plan's per-vertex fall-backs to their budget (`--max-error`,
@@ -398,7 +443,9 @@ pub fn vet(
         }
     }
     match &planned.plan.measured {
-        Some(m) if m.max_abs > budget => Err(vec![per_vertex_refusal(planned, module, source, &at, m, options)]),
+        Some(m) if m.max_abs > budget => {
+            Err(vec![per_vertex_refusal(planned, module, source, &at, m, options)])
+        }
         _ => Ok(vetting),
     }
 }
@@ -417,7 +464,13 @@ fn measure_plan(
         let meaning = crate::meaning::plan(module, lights).map_err(text)?;
         let reference = render(&meaning, program, scene, size).map_err(text)?;
         let e = compare(&reference, &render(planned, program, scene, size).map_err(text)?);
-        Ok(MeasuredError { scene: name, width: size.0, height: size.1, max_abs: f64::from(e.max_abs), rmse: e.rmse })
+        Ok(MeasuredError {
+            scene: name,
+            width: size.0,
+            height: size.1,
+            max_abs: f64::from(e.max_abs),
+            rmse: e.rmse,
+        })
     };
     if let Some(s) = &options.scene {
         return measure(s, s.scene.lights.len(), scene_name(s));

@@ -284,7 +284,8 @@ pub fn judge(
         return Err(missing);
     }
     let options = &judging.plan;
-    let (mut planned, candidates) = crate::accuracy::plan_measured(module, program, profile, source, options)?;
+    let (mut planned, candidates) =
+        crate::accuracy::plan_measured(module, program, profile, source, options)?;
     let measuring = crate::accuracy::vet(&mut planned, module, program, source, options)?;
     let warnings = crate::accuracy::warnings(&planned, module, source, &measuring);
     Ok(Judged { planned, warnings, candidates })

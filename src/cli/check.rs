@@ -54,14 +54,13 @@ pub fn run(args: &CheckArgs) -> ExitCode {
                 continue;
             }
         };
-        let shadec::driver::Front { program, diagnostics, .. } =
-            match check_one(path, &text, args) {
-                Ok(r) => r,
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    return ExitCode::from(EXIT_USAGE_OR_IO);
-                }
-            };
+        let shadec::driver::Front { program, diagnostics, .. } = match check_one(path, &text, args) {
+            Ok(r) => r,
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(EXIT_USAGE_OR_IO);
+            }
+        };
         let file = SourceFile::new(path.display().to_string(), text);
         let n_errors = diagnostics.iter().filter(|d| d.severity == Severity::Error).count();
         let n_warnings = diagnostics.iter().filter(|d| d.severity == Severity::Warning).count();

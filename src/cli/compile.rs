@@ -42,7 +42,11 @@ pub fn run(args: &CompileArgs) -> ExitCode {
                 if matches!(args.emit, Emit::Ir) {
                     diagnostics.extend(shadec::profile::fit(m, &profile));
                     if !args.quality.stand_ins {
-                        diagnostics.extend(shadec::driver::missing_images(&front.program, &dir, scene.as_ref()));
+                        diagnostics.extend(shadec::driver::missing_images(
+                            &front.program,
+                            &dir,
+                            scene.as_ref(),
+                        ));
                     }
                 } else {
                     match plan_for(args, &front.program, m, &profile, &text, scene.as_ref(), &dir) {

@@ -262,7 +262,9 @@ fn differs_from_compile(
     }
     if judged.candidates.iter().any(|c| c.chosen) {
         why.push(match args.quality.max_error {
-            Some(e) => format!("of the lowerings measured on this scene, the fastest within --max-error {e} was chosen"),
+            Some(e) => format!(
+                "of the lowerings measured on this scene, the fastest within --max-error {e} was chosen"
+            ),
             None => "of the lowerings measured on this scene, the most accurate there was chosen".to_string(),
         });
     }
@@ -423,7 +425,7 @@ fn print_report(
             a.interpolated,
             full.time.as_secs_f64() * 1e3
         );
-        print_error(mode, "full shading of the same plan", e);
+        print_error(mode, "full shading", e);
     }
     let e = compare(&frames.reference.image, &frame.image);
     print_error(mode, MEANING, e);
@@ -432,11 +434,15 @@ fn print_report(
 
 /// What the error is measured against: the program's meaning rendered in
 /// exact (f64) arithmetic, every statement one unsplit pass.
-const MEANING: &str = "the program's meaning (rendered exact, in f64, unsplit)";
+const MEANING: &str = "the program's meaning (exact, unsplit)";
 
 /// The one line a render ends with: target, passes, precision, the error
 /// against the meaning, PSNR, and what that PSNR means to the eye.
-fn summary_line(plan: &shadec::pipeline::PassPlan, mode: Precision, e: shadec::renderer::plan::ErrorReport) -> String {
+fn summary_line(
+    plan: &shadec::pipeline::PassPlan,
+    mode: Precision,
+    e: shadec::renderer::plan::ErrorReport,
+) -> String {
     let n = plan.passes.len();
     format!(
         "summary: {} in {n} pass{}, {} arithmetic; against the program's meaning (exact): largest channel difference {:.1}/255, PSNR {} — {}",
@@ -555,7 +561,7 @@ fn render_on_wgpu(
             full.time().as_secs_f64() / frame.time().as_secs_f64().max(1e-9),
             full.timing()
         );
-        print_error(mode, "full shading of the same plan", compare(&full_image, &image));
+        print_error(mode, "full shading", compare(&full_image, &image));
     }
     let e = compare(&reference.image, &image);
     print_error(mode, MEANING, e);
@@ -631,7 +637,7 @@ fn predicted(plan: &shadec::pipeline::PassPlan) -> String {
 /// One error figure, naming the render's precision and its reference.
 fn print_error(mode: Precision, against: &str, e: shadec::renderer::plan::ErrorReport) {
     println!(
-        "error of this {} render against {against}: max abs {:.4} ({:.1}/255), RMSE {:.5}, PSNR {}",
+        "error against {against} of this {} render: max abs {:.4} ({:.1}/255), RMSE {:.5}, PSNR {}",
         mode.name(),
         e.max_abs,
         e.max_abs * 255.0,

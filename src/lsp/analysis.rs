@@ -175,7 +175,9 @@ fn plan_for_target(
         Some(j) => Some(j.planned),
         // Hover and hints still read the plan while an image is missing.
         None if found.iter().any(|d| d.code == "missing-image") => {
-            driver::judge(module, &analysis.program, &profile, &source, &Judging::default()).ok().map(|j| j.planned)
+            driver::judge(module, &analysis.program, &profile, &source, &Judging::default())
+                .ok()
+                .map(|j| j.planned)
         }
         None => None,
     };
