@@ -336,7 +336,7 @@ pub const PER_VERTEX_BUDGET: f64 = 48.0 / 255.0;
 pub const DEFAULT_SCENE: &str = include_str!("../scenes/kilgard_torus.ron");
 
 /// The built-in scene's name in figures.
-pub const DEFAULT_SCENE_NAME: &str = "the built-in torus, scenes/kilgard_torus.ron,";
+pub const DEFAULT_SCENE_NAME: &str = "the built-in torus (scenes/kilgard_torus.ron)";
 
 /// The built-in scene, its image files looked for in `dir`.
 pub fn default_scene(dir: &std::path::Path) -> Result<crate::scene::Scene, crate::scene::SceneError> {
@@ -355,8 +355,10 @@ pub struct Vetting {
 /// The plan `check`, `compile` and `render` judge: on a scene, the
 /// lowerings measured there (the fastest within `--max-error`, else the
 /// most accurate, a per-vertex one only within [`PER_VERTEX_BUDGET`]);
-/// without one, the planner's (under `--max-error`, a per-vertex fall-back
-/// is let through to be measured by [`vet`]).
+/// without one, the planner's, unless it takes an approximation without a
+/// stated bound: then the lowerings are measured on the built-in torus and
+/// chosen the same way (under `--max-error`, a per-vertex fall-back the
+/// planner refused for having no bound is let through to be measured).
 pub fn plan_measured(
     module: &Module,
     program: &Program,
@@ -387,11 +389,12 @@ pub fn plan_measured(
             }
         }
     };
-    if !first.plan.approximations.iter().any(|a| a.rule == PER_VERTEX) {
+    if first.plan.approximations.iter().all(|a| a.rule != PER_VERTEX && a.output_bound.is_some()) {
         return Ok((first, Vec::new()));
     }
-    // Without a scene, the lowerings are measured on the built-in torus,
-    // as `render` without a scene file measures them.
+    // An approximation without a stated bound (per-vertex shading, Taylor
+    // renormalization): without a scene, the lowerings are measured on the
+    // built-in torus, as `render` without a scene file measures them.
     let scene = default_scene(std::path::Path::new(""));
     let Ok(assets) = scene.as_ref().map_err(|_| ()).and_then(|s| s.build().map_err(|_| ())) else {
         return Ok((first, Vec::new())); // `vet` says it is unbounded
@@ -495,7 +498,7 @@ fn per_vertex_refusal(
         None => format!("the per-vertex budget of {:.1}/255", PER_VERTEX_BUDGET * 255.0),
     };
     let message = format!(
-        "{} cannot compute this per fragment, and computing it per vertex (the `per_vertex` fall-back) is {:.1}/255 from the program's meaning on {} (f32, largest channel difference), beyond {budget}",
+        "{} cannot compute this per fragment, and computing it per vertex (the `per_vertex` fall-back) is {:.1}/255 (largest channel difference, f32) from the program's meaning on {}, beyond {budget}",
         planned.plan.target,
         m.max_abs * 255.0,
         m.scene
@@ -517,12 +520,12 @@ pub fn warnings(planned: &Planned, module: &Module, source: &str, vetting: &Vett
         .map(|a| {
             let figure = match (a.rule == PER_VERTEX, &plan.measured, a.output_bound.or(a.error_bound)) {
                 (true, Some(m), _) => format!(
-                    "measured {:.1}/255 from the program's meaning on {} (f32 render at {}×{}, largest channel difference; RMSE {:.4}), within {}",
+                    "measured {:.1}/255 (largest channel difference; RMSE {:.4}) from the program's meaning, both rendered in f32 at {}×{} on {}, within {}",
                     m.max_abs * 255.0,
-                    m.scene,
+                    m.rmse,
                     m.width,
                     m.height,
-                    m.rmse,
+                    m.scene,
                     budget_text(vetting.budget)
                 ),
                 (_, _, Some(bound)) => format!(
@@ -530,7 +533,7 @@ pub fn warnings(planned: &Planned, module: &Module, source: &str, vetting: &Vett
                     bound * 255.0
                 ),
                 (_, Some(m), None) => format!(
-                    "no stated bound; the plan measured {:.1}/255 from the program's meaning on {} (f32, largest channel difference)",
+                    "no stated bound; measured {:.1}/255 (largest channel difference, f32) from the program's meaning on {}",
                     m.max_abs * 255.0,
                     m.scene
                 ),

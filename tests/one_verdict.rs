@@ -182,7 +182,7 @@ fn per_vertex_fall_back_is_a_located_warning_with_its_measured_error() {
     for r in [&check, &compile] {
         let per_vertex: Vec<&str> = r.stderr.lines().filter(|l| l.contains("(`per_vertex`)")).collect();
         assert_eq!(per_vertex.len(), 1, "once: {}", r.stderr);
-        assert!(r.stderr.contains("measured ") && r.stderr.contains("f32 render"), "{}", r.stderr);
+        assert!(r.stderr.contains("measured ") && r.stderr.contains("rendered in f32"), "{}", r.stderr);
         assert!(r.stderr.contains("--no-approx") && r.stderr.contains("--max-error"), "{}", r.stderr);
     }
     let source = std::fs::read_to_string(file).unwrap();
