@@ -7,7 +7,7 @@
 //! precision and reference.
 //!
 //! The sweep calls the driver functions the commands call
-//! (`driver::check_with` for `check`, `driver::judge` for `compile` and, on
+//! (`verdict::check_with` for `check`, `verdict::judge` for `compile` and, on
 //! the built-in scene, for `render`, then the CPU renderer's set-up), and a
 //! few real command runs check that the commands call them.
 
@@ -16,9 +16,10 @@ use std::path::Path;
 use proptest::strategy::{Strategy, ValueTree};
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 use shadec::diag::SourceFile;
-use shadec::driver::{self, ForScene, Judging, PlanOptions, TargetSource};
+use shadec::driver::{self, ForScene, PlanOptions, TargetSource};
 use shadec::renderer::plan::PlanRenderer;
 use shadec::scene::Scene;
+use shadec::verdict::{self, Judging};
 
 use crate::common::{examples, shadec, shadec_in};
 
@@ -45,7 +46,7 @@ fn first_error(ds: &[shadec::diag::Diagnostic]) -> Result<(), String> {
 /// and `render --target` on `scene` (specialized, as `render` plans).
 fn verdicts(source: &str, target: &str, dir: &Path, scene: &Scene) -> Verdicts {
     let judging = Judging { images: Some(dir), stand_ins: true, ..Judging::default() };
-    let checked = driver::check_with(source, Some(target), &judging).expect("a built-in target");
+    let checked = verdict::check_with(source, Some(target), &judging).expect("a built-in target");
     let check = first_error(&checked.diagnostics);
     let front = driver::front(source);
     let Some(module) = front.module.as_ref().filter(|_| !front.has_errors()) else {
@@ -54,7 +55,7 @@ fn verdicts(source: &str, target: &str, dir: &Path, scene: &Scene) -> Verdicts {
     };
     let name = driver::target_for(Some(target), &front.program, Some("wgsl")).unwrap();
     let profile = shadec::profile::Profile::resolve(&name).unwrap();
-    let compile = driver::judge(module, &front.program, &profile, source, &judging)
+    let compile = verdict::judge(module, &front.program, &profile, source, &judging)
         .map(|_| ())
         .map_err(|e| first_error(&e).unwrap_err());
     let assets = scene.build().unwrap();
@@ -62,7 +63,7 @@ fn verdicts(source: &str, target: &str, dir: &Path, scene: &Scene) -> Verdicts {
         plan: PlanOptions { scene: Some(ForScene::specialized(scene, &assets)), ..PlanOptions::default() },
         ..judging
     };
-    let render = match driver::judge(module, &front.program, &profile, source, &on_scene) {
+    let render = match verdict::judge(module, &front.program, &profile, source, &on_scene) {
         Ok(j) => PlanRenderer::new(&j.planned, &front.program, scene, &assets)
             .map(|_| ())
             .map_err(|e| format!("renderer: {e}")),
@@ -186,7 +187,7 @@ fn per_vertex_fall_back_is_a_located_warning_with_its_measured_error() {
         assert!(r.stderr.contains("--no-approx") && r.stderr.contains("--max-error"), "{}", r.stderr);
     }
     let source = std::fs::read_to_string(file).unwrap();
-    let checked = driver::check(&source, Some("geforce256")).unwrap();
+    let checked = verdict::check(&source, Some("geforce256")).unwrap();
     let warnings: Vec<_> =
         checked.diagnostics.iter().filter(|d| d.code == "approximation").cloned().collect();
     let text = SourceFile::new(file, source).render(&warnings, false);
@@ -202,7 +203,7 @@ fn per_vertex_fall_back_is_a_located_warning_with_its_measured_error() {
 #[test]
 fn per_vertex_beyond_its_budget_is_refused_naming_the_flag_that_accepts_it() {
     let source = TEXTURED_PHONG.replace("image(\"wood.png\")", "bumps(8)");
-    let checked = driver::check(&source, Some("multitexture")).unwrap();
+    let checked = verdict::check(&source, Some("multitexture")).unwrap();
     let errors: Vec<_> = checked.diagnostics.iter().filter(|d| d.is_error()).collect();
     assert_eq!(errors.len(), 1, "{errors:?}");
     let e = errors[0];
@@ -218,8 +219,8 @@ fn per_vertex_beyond_its_budget_is_refused_naming_the_flag_that_accepts_it() {
         },
         ..Judging::default()
     };
-    assert!(!driver::check_with(&source, Some("multitexture"), &judging(0.9)).unwrap().has_errors());
-    assert!(driver::check_with(&source, Some("multitexture"), &judging(0.01)).unwrap().has_errors());
+    assert!(!verdict::check_with(&source, Some("multitexture"), &judging(0.9)).unwrap().has_errors());
+    assert!(verdict::check_with(&source, Some("multitexture"), &judging(0.01)).unwrap().has_errors());
 }
 
 /// A missing image file is a located error in `check`, `compile` and
@@ -355,7 +356,7 @@ fn one_precedence_chooses_the_target() {
     // `check` of a program that declares a target checks that target.
     let declared = "target multitexture;\nvector N : normal;\nvector L : light(0);\n\
         shader p(n: scalar = 64) : s → c { max(0, normalize(N)·normalize(L))^n }\nC δπx ← p δ s x;\n";
-    let checked = driver::check(declared, None).unwrap();
+    let checked = verdict::check(declared, None).unwrap();
     assert!(
         checked.diagnostics.iter().any(|d| d.message.contains("multitexture")),
         "{:?}",

@@ -132,12 +132,12 @@ fn check_one(
     args: &CheckArgs,
 ) -> Result<shadec::driver::Front, shadec::profile::ProfileError> {
     let dir = path.parent().unwrap_or(Path::new(""));
-    let judging = shadec::driver::Judging {
+    let judging = shadec::verdict::Judging {
         plan: shadec::driver::PlanOptions { lowering: args.quality.lowering(), ..Default::default() },
         images: Some(dir),
         stand_ins: args.quality.stand_ins,
     };
-    shadec::driver::check_with(text, args.target.as_deref(), &judging)
+    shadec::verdict::check_with(text, args.target.as_deref(), &judging)
 }
 
 /// Standard output's part of the report, or (with `-o`) its text gathered.

@@ -156,7 +156,8 @@ fn plan_for(
     scene: Option<&shadec::scene::Scene>,
     dir: &std::path::Path,
 ) -> Result<(shadec::pipeline::Planned, Vec<shadec::diag::Diagnostic>), PlanFailure> {
-    use shadec::driver::{ForScene, Judging, PlanOptions};
+    use shadec::driver::{ForScene, PlanOptions};
+    use shadec::verdict::Judging;
     let assets = match scene.map(|s| s.build()).transpose() {
         Ok(a) => a,
         Err(e) => {
@@ -167,7 +168,7 @@ fn plan_for(
     let for_scene = scene.zip(assets.as_ref()).map(|(s, a)| ForScene::specialized(s, a));
     let options = PlanOptions { scene: for_scene, lowering: args.quality.lowering(), ..Default::default() };
     let judging = Judging { plan: options, images: Some(dir), stand_ins: args.quality.stand_ins };
-    let judged = shadec::driver::judge(m, program, profile, text, &judging).map_err(PlanFailure::Program)?;
+    let judged = shadec::verdict::judge(m, program, profile, text, &judging).map_err(PlanFailure::Program)?;
     if scene.is_some() {
         report_removed(&judged.planned.plan);
     }

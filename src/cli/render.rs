@@ -178,7 +178,8 @@ fn compile(
     scene: &Scene,
     assets: &shadec::scene::SceneAssets,
 ) -> Result<(shadec::driver::Compilation, shadec::profile::Profile), ExitCode> {
-    use shadec::driver::{ForScene, Judging, PlanOptions};
+    use shadec::driver::{ForScene, PlanOptions};
+    use shadec::verdict::Judging;
     let source = &file.text;
     let front = shadec::driver::front(source);
     let refused = |errors: &[Diagnostic]| {
@@ -201,11 +202,11 @@ fn compile(
     let stand_ins = args.quality.stand_ins || args.shader.is_none();
     let images = shadec::scene::bind::scene_dir(scene);
     let judging = Judging { plan: options, images: Some(&images), stand_ins };
-    let judged = shadec::driver::judge(module, &front.program, &profile, source, &judging)
+    let judged = shadec::verdict::judge(module, &front.program, &profile, source, &judging)
         .map_err(|errors| refused(&errors))?;
     for c in &judged.candidates {
         println!(
-            "lowering {}: {:.1}/255 max, RMSE {:.5} from the program's meaning on the scene (both rendered in f32){}{}",
+            "lowering {}: {:.1}/255 max, RMSE {:.5} from the meaning on the scene (both rendered in f32){}{}",
             c.rules,
             c.error.max_abs * 255.0,
             c.error.rmse,
@@ -242,7 +243,7 @@ fn differs_from_compile(
     program: &shadec::parser::ast::Program,
     profile: &shadec::profile::Profile,
     source: &str,
-    judged: &shadec::driver::Judged,
+    judged: &shadec::verdict::Judged,
 ) -> Option<String> {
     let options = shadec::driver::PlanOptions { lowering: args.quality.lowering(), ..Default::default() };
     let (compiled, _) = shadec::accuracy::plan_measured(module, program, profile, source, &options).ok()?;

@@ -2,16 +2,17 @@
 //! diagnostic `shadec check --target` reports out, with the AST, the IR and
 //! the pass plan kept for hover, hints and navigation. No second
 //! parse→lower→plan path: the front end and the planner are the driver's
-//! (`driver::front`, `driver::plan`), run as `driver::check` runs
+//! (`driver::front`, `driver::plan`), run as `verdict::check` runs
 //! them, keeping the plan it drops.
 
 use crate::diag::{Diagnostic, SourceFile};
-use crate::driver::{self, Judging};
+use crate::driver;
 use crate::ir::Module;
 use crate::parser::{self, ast};
 use crate::pipeline::Planned;
 use crate::profile::Profile;
 use crate::span::Span;
+use crate::verdict::{self, Judging};
 
 /// Where the document's target came from, strongest first: the one
 /// precedence of [`driver::choose_target`] (the editor's setting is a
@@ -146,7 +147,7 @@ fn replacement_characters(text: &str) -> Vec<Diagnostic> {
         .collect()
 }
 
-/// The verdict `check --target` reaches ([`driver::verdict`]): what
+/// The verdict `check --target` reaches ([`verdict::verdict`]): what
 /// cannot be planned is an error with the planner's message, the "the
 /// planner will split it" warnings go with it, and every approximation the
 /// plan takes is a warning.
@@ -170,12 +171,12 @@ fn plan_for_target(
     };
     let source = analysis.file.text.clone();
     let judging = Judging { images, ..Judging::default() };
-    let (judged, found) = driver::verdict(module, &analysis.program, &profile, &source, &judging);
+    let (judged, found) = verdict::verdict(module, &analysis.program, &profile, &source, &judging);
     analysis.planned = match judged {
         Some(j) => Some(j.planned),
         // Hover and hints still read the plan while an image is missing.
         None if found.iter().any(|d| d.code == "missing-image") => {
-            driver::judge(module, &analysis.program, &profile, &source, &Judging::default())
+            verdict::judge(module, &analysis.program, &profile, &source, &Judging::default())
                 .ok()
                 .map(|j| j.planned)
         }
