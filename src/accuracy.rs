@@ -65,21 +65,7 @@ pub fn choose(
     if first.plan.approximations.is_empty() {
         return Ok((first, Vec::new()));
     }
-    let size = measuring_size(scene.scene.resolution);
-    let mut candidates = measure(module, program, profile, source, options, lights)?;
-    for (_, c) in &mut candidates {
-        c.within = f64::from(c.error.max_abs) <= max_error;
-    }
-    let best = (0..candidates.len()).filter(|&i| candidates[i].1.within).min_by(|&a, &b| {
-        let t = |i: usize| candidates[i].1.predicted_ms.unwrap_or(0.0);
-        t(a).total_cmp(&t(b)).then(a.cmp(&b))
-    });
-    let Some(best) = best else {
-        return Err(vec![refusal(&candidates, profile, source, scene, max_error)]);
-    };
-    candidates[best].1.chosen = true;
-    let report: Vec<Candidate> = candidates.iter().map(|(_, c)| c.clone()).collect();
-    Ok((with_measured(candidates.swap_remove(best), scene, size), report))
+    pick_on(module, program, profile, source, options, (scene, &scene_name(scene)), lights, Some(max_error))
 }
 
 /// Without `--max-error`, on a scene: the plan whose render is closest to
@@ -104,31 +90,66 @@ pub fn most_accurate(
     let Some(scene) = options.scene.as_ref().filter(|_| !first.plan.approximations.is_empty()) else {
         return Ok((first, Vec::new()));
     };
-    let size = measuring_size(scene.scene.resolution);
-    let mut candidates = measure(module, program, profile, source, options, lights)?;
-    let key = |c: &Candidate| (c.error.rmse, f64::from(c.error.max_abs), c.predicted_ms.unwrap_or(0.0));
-    let best = (0..candidates.len()).min_by(|&a, &b| {
-        let (x, y) = (key(&candidates[a].1), key(&candidates[b].1));
-        x.0.total_cmp(&y.0).then(x.1.total_cmp(&y.1)).then(x.2.total_cmp(&y.2)).then(a.cmp(&b))
-    });
-    if let Some(best) = best {
-        candidates[best].1.chosen = true;
+    pick_on(module, program, profile, source, options, (scene, &scene_name(scene)), lights, None)
+}
+
+/// The lowerings of `module` planned with `options`, each rendered on `at`
+/// (a scene and its name) against the program's meaning: with `max_error`,
+/// the fastest within it (none: refused); without, the most accurate
+/// (RMSE, then the largest difference, then the predicted frame) of those
+/// that are not a per-vertex fall-back beyond [`PER_VERTEX_BUDGET`] (when
+/// every one is, the most accurate, which [`vet`] refuses).
+#[allow(clippy::too_many_arguments)]
+fn pick_on(
+    module: &Module,
+    program: &Program,
+    profile: &Profile,
+    source: &str,
+    options: &PlanOptions,
+    (at, name): (&crate::driver::ForScene, &str),
+    lights: usize,
+    max_error: Option<f64>,
+) -> Result<(Planned, Vec<Candidate>), Diagnostics> {
+    let size = measuring_size(at.scene.resolution);
+    let mut candidates = measure_on(module, program, profile, source, options, at, lights)?;
+    for (_, c) in &mut candidates {
+        c.within = max_error.is_none_or(|e| f64::from(c.error.max_abs) <= e);
     }
+    let best = match max_error {
+        Some(_) => (0..candidates.len()).filter(|&i| candidates[i].1.within).min_by(|&a, &b| {
+            let t = |i: usize| candidates[i].1.predicted_ms.unwrap_or(0.0);
+            t(a).total_cmp(&t(b)).then(a.cmp(&b))
+        }),
+        None => {
+            let over = |c: &Candidate| {
+                c.rules.contains(PER_VERTEX) && f64::from(c.error.max_abs) > PER_VERTEX_BUDGET
+            };
+            let key = |c: &Candidate| {
+                (over(c), c.error.rmse, f64::from(c.error.max_abs), c.predicted_ms.unwrap_or(0.0))
+            };
+            (0..candidates.len()).min_by(|&a, &b| {
+                let (x, y) = (key(&candidates[a].1), key(&candidates[b].1));
+                x.0.cmp(&y.0)
+                    .then(x.1.total_cmp(&y.1))
+                    .then(x.2.total_cmp(&y.2))
+                    .then(x.3.total_cmp(&y.3))
+                    .then(a.cmp(&b))
+            })
+        }
+    };
+    let Some(best) = best else {
+        let e = max_error.unwrap_or(PER_VERTEX_BUDGET);
+        return Err(vec![refusal(&candidates, profile, source, name, e)]);
+    };
+    candidates[best].1.chosen = true;
     let report: Vec<Candidate> = candidates.iter().map(|(_, c)| c.clone()).collect();
-    match best {
-        Some(best) => Ok((with_measured(candidates.swap_remove(best), scene, size), report)),
-        None => Ok((first, report)),
-    }
+    Ok((with_measured(candidates.swap_remove(best), name, size), report))
 }
 
 /// The chosen plan, its measured error recorded.
-fn with_measured(
-    (mut planned, chosen): (Planned, Candidate),
-    scene: &crate::driver::ForScene,
-    size: (u32, u32),
-) -> Planned {
+fn with_measured((mut planned, chosen): (Planned, Candidate), scene: &str, size: (u32, u32)) -> Planned {
     planned.plan.measured = Some(MeasuredError {
-        scene: scene_name(scene),
+        scene: scene.to_string(),
         width: size.0,
         height: size.1,
         max_abs: f64::from(chosen.error.max_abs),
@@ -156,6 +177,21 @@ pub fn measure(
         return Err(vec![Diagnostic::error("max-error", what, Span::DETACHED, "")
             .with_help("give the scene the plans are measured on")]);
     };
+    measure_on(module, program, profile, source, options, scene, lights)
+}
+
+/// [`measure`], the plans made with `options` (for its scene, or for any)
+/// and rendered on `at`.
+fn measure_on(
+    module: &Module,
+    program: &Program,
+    profile: &Profile,
+    source: &str,
+    options: &PlanOptions,
+    at: &crate::driver::ForScene,
+    lights: usize,
+) -> Result<Vec<(Planned, Candidate)>, Diagnostics> {
+    let scene = at;
     let size = measuring_size(scene.scene.resolution);
     let reference = render(&crate::meaning::plan(module, lights)?, program, scene, size)?;
     let exact = LowerOptions { approximate: false, ..Default::default() };
@@ -239,16 +275,16 @@ fn refusal(
     candidates: &[(Planned, Candidate)],
     profile: &Profile,
     source: &str,
-    scene: &crate::driver::ForScene,
+    scene: &str,
     max_error: f64,
 ) -> Diagnostic {
     let closest = candidates.iter().min_by(|a, b| a.1.error.max_abs.total_cmp(&b.1.error.max_abs));
     let (message, help, span) = match closest {
         Some((planned, c)) => (
             format!(
-                "no lowering for {} is within --max-error {max_error} on {}: the closest ({}) is {:.4} ({:.1}/255) from the program's meaning",
+                "no lowering for {} is within --max-error {max_error} on {}: the closest ({}) is {:.4} ({:.1}/255) from the program's meaning (f32)",
                 profile.name,
-                scene_name(scene),
+                scene,
                 c.rules,
                 c.error.max_abs,
                 c.error.max_abs * 255.0
@@ -276,4 +312,266 @@ fn span_at(source: &str, at: &str) -> Span {
     let Some(start) = index.offset(source, line, col) else { return Span::DETACHED };
     let end = source[start..].chars().next().map_or(start, |c| start + c.len_utf8());
     Span::new(start, end)
+}
+
+/// The rule name of a per-vertex fall-back (`lowering::per_vertex`).
+pub const PER_VERTEX: &str = "per_vertex";
+
+/// The error budget within which a per-vertex fall-back is taken by
+/// default: its plan's largest channel difference from the program's
+/// meaning, rendered in f32 on the scene (or, without one, on the built-in
+/// torus), at most 48/255 ≈ 0.188. Per-vertex (Gouraud) shading of a
+/// specular term moves a highlight by up to a triangle; on the Kilgard
+/// torus the per-fragment Phong of `examples/fragment_lighting.shd` is
+/// 41.2/255 from its meaning on geforce256 per vertex (its cube maps'
+/// lowering: 56.8/255), which the budget takes; a highlight lost between the vertices of a large polygon, or a sharp
+/// `^64` over four textures (85/255), is refused. `--max-error E` replaces
+/// the budget with E (and measures it the same way); `--no-approx` refuses
+/// every approximation.
+pub const PER_VERTEX_BUDGET: f64 = 48.0 / 255.0;
+
+/// The built-in scene (Kilgard's bump-mapped torus): what `render` draws
+/// without a scene file, and where an approximation without a stated bound
+/// is measured when no scene is given.
+pub const DEFAULT_SCENE: &str = include_str!("../scenes/kilgard_torus.ron");
+
+/// The built-in scene's name in figures.
+pub const DEFAULT_SCENE_NAME: &str = "the built-in torus (scenes/kilgard_torus.ron)";
+
+/// The built-in scene, its image files looked for in `dir`.
+pub fn default_scene(dir: &std::path::Path) -> Result<crate::scene::Scene, crate::scene::SceneError> {
+    crate::scene::Scene::parse(DEFAULT_SCENE, &dir.join("kilgard_torus.ron"))
+}
+
+/// What [`vet`] found out about a plan's per-vertex fall-backs.
+#[derive(Clone, Debug, Default)]
+pub struct Vetting {
+    /// The budget they were held to (`--max-error`, else [`PER_VERTEX_BUDGET`]).
+    pub budget: f64,
+    /// Why the error could not be measured (it is then unbounded).
+    pub unmeasured: Option<String>,
+}
+
+/// The plan `check`, `compile` and `render` judge: on a scene, the
+/// lowerings measured there (the fastest within `--max-error`, else the
+/// most accurate, a per-vertex one only within [`PER_VERTEX_BUDGET`]);
+/// without one, the planner's, unless it takes an approximation without a
+/// stated bound: then the lowerings are measured on the built-in torus and
+/// chosen the same way (under `--max-error`, a per-vertex fall-back the
+/// planner refused for having no bound is let through to be measured).
+pub fn plan_measured(
+    module: &Module,
+    program: &Program,
+    profile: &Profile,
+    source: &str,
+    options: &PlanOptions,
+) -> Result<(Planned, Vec<Candidate>), Diagnostics> {
+    let max_error = options.lowering.max_error;
+    if !options.lowering.approximate {
+        return Ok((crate::driver::plan(module, program, profile, Some(source), options)?, Vec::new()));
+    }
+    if let Some(s) = options.scene.as_ref() {
+        let lights = s.scene.lights.len();
+        return match max_error {
+            Some(e) => choose(module, program, profile, source, options, e, lights),
+            None => most_accurate(module, program, profile, source, options, lights),
+        };
+    }
+    let first = match (crate::driver::plan(module, program, profile, Some(source), options), max_error) {
+        (Ok(p), _) => p,
+        (Err(errors), None) => return Err(errors),
+        (Err(errors), Some(e)) => {
+            // A per-vertex fall-back has no stated bound: let it through to be measured.
+            let free = LowerOptions { max_error: None, ..options.lowering };
+            match plan_with(module, program, profile, source, options, free) {
+                Ok(p) if only_measurable_beyond(&p, e) => p,
+                _ => return Err(errors),
+            }
+        }
+    };
+    if first.plan.approximations.iter().all(|a| a.rule != PER_VERTEX && a.output_bound.is_some()) {
+        return Ok((first, Vec::new()));
+    }
+    // An approximation without a stated bound (per-vertex shading, Taylor
+    // renormalization): without a scene, the lowerings are measured on the
+    // built-in torus, as `render` without a scene file measures them.
+    let scene = default_scene(std::path::Path::new(""));
+    let Ok(assets) = scene.as_ref().map_err(|_| ()).and_then(|s| s.build().map_err(|_| ())) else {
+        return Ok((first, Vec::new())); // `vet` says it is unbounded
+    };
+    let scene = scene.expect("built above");
+    let at = crate::driver::ForScene::unspecialized(&scene, &assets);
+    match pick_on(module, program, profile, source, options, (&at, DEFAULT_SCENE_NAME), 1, max_error) {
+        Ok(picked) => Ok(picked),
+        // Refused within --max-error: located at the closest lowering.
+        Err(refused) if refused.iter().any(|d| d.code == "max-error") => Err(refused),
+        // The torus cannot draw it: `vet` tries the plan itself, else says "unbounded".
+        Err(_) => Ok((first, Vec::new())),
+    }
+}
+
+/// `planned` falls back to per-vertex shading, and its other
+/// approximations are within `max_error` or have no stated bound: [`vet`]
+/// then measures the whole plan against `max_error`.
+fn only_measurable_beyond(planned: &Planned, max_error: f64) -> bool {
+    let a = &planned.plan.approximations;
+    a.iter().any(|a| a.rule == PER_VERTEX)
+        && a.iter().all(|a| a.rule == PER_VERTEX || a.output_bound.is_none_or(|b| b <= max_error))
+}
+
+/// Holds a plan's per-vertex fall-backs to their budget (`--max-error`,
+/// else [`PER_VERTEX_BUDGET`]): measured on the scene planned for, else on
+/// the built-in torus (the measure is then recorded in the plan); beyond
+/// the budget the program is refused at the fall-back. Repeated
+/// approximation records (one per light's pass) are kept once.
+pub fn vet(
+    planned: &mut Planned,
+    module: &Module,
+    program: &Program,
+    source: &str,
+    options: &PlanOptions,
+) -> Result<Vetting, Diagnostics> {
+    let mut seen = std::collections::HashSet::new();
+    planned.plan.approximations.retain(|a| seen.insert((a.rule.clone(), a.at.clone(), a.why.clone())));
+    let budget = options.lowering.max_error.unwrap_or(PER_VERTEX_BUDGET);
+    let mut vetting = Vetting { budget, unmeasured: None };
+    let Some(at) = planned.plan.approximations.iter().find(|a| a.rule == PER_VERTEX).map(|a| a.at.clone())
+    else {
+        return Ok(vetting);
+    };
+    if planned.plan.measured.is_none() {
+        match measure_plan(planned, module, program, options) {
+            Ok(m) => planned.plan.measured = Some(m),
+            Err(why) => vetting.unmeasured = Some(why),
+        }
+    }
+    match &planned.plan.measured {
+        Some(m) if m.max_abs > budget => {
+            Err(vec![per_vertex_refusal(planned, module, source, &at, m, options)])
+        }
+        _ => Ok(vetting),
+    }
+}
+
+/// `planned`'s error against the program's meaning, rendered in f32 on the
+/// scene planned for, else on the built-in torus.
+fn measure_plan(
+    planned: &Planned,
+    module: &Module,
+    program: &Program,
+    options: &PlanOptions,
+) -> Result<MeasuredError, String> {
+    let text = |d: Diagnostics| d.first().map_or_else(String::new, |d| d.message.clone());
+    let measure = |scene: &crate::driver::ForScene, lights: usize, name: String| {
+        let size = measuring_size(scene.scene.resolution);
+        let meaning = crate::meaning::plan(module, lights).map_err(text)?;
+        let reference = render(&meaning, program, scene, size).map_err(text)?;
+        let e = compare(&reference, &render(planned, program, scene, size).map_err(text)?);
+        Ok(MeasuredError {
+            scene: name,
+            width: size.0,
+            height: size.1,
+            max_abs: f64::from(e.max_abs),
+            rmse: e.rmse,
+        })
+    };
+    if let Some(s) = &options.scene {
+        return measure(s, s.scene.lights.len(), scene_name(s));
+    }
+    let scene = default_scene(std::path::Path::new("")).map_err(|e| e.to_string())?;
+    let assets = scene.build().map_err(|e| e.to_string())?;
+    measure(&crate::driver::ForScene::unspecialized(&scene, &assets), 1, DEFAULT_SCENE_NAME.to_string())
+}
+
+/// A per-vertex fall-back measured beyond its budget: refused at the
+/// fall-back, naming its error and the flag that accepts it.
+fn per_vertex_refusal(
+    planned: &Planned,
+    module: &Module,
+    source: &str,
+    at: &str,
+    m: &MeasuredError,
+    options: &PlanOptions,
+) -> Diagnostic {
+    let budget = match options.lowering.max_error {
+        Some(e) => format!("--max-error {e}"),
+        None => format!("the per-vertex budget of {:.1}/255", PER_VERTEX_BUDGET * 255.0),
+    };
+    let message = format!(
+        "{} cannot compute this per fragment, and computing it per vertex (the `per_vertex` fall-back) is {:.1}/255 (largest channel difference, f32) from the program's meaning on {}, beyond {budget}",
+        planned.plan.target,
+        m.max_abs * 255.0,
+        m.scene
+    );
+    Diagnostic::error("per-vertex-over-budget", message, expr_span(module, source, at), "computed per vertex here")
+        .with_help(format!(
+            "accept it with --max-error {:.3} (or more), or target a profile that computes this per fragment (wgsl)",
+            (m.max_abs * 1000.0).ceil() / 1000.0
+        ))
+}
+
+/// One warning per approximation `planned` takes, at the expression it
+/// replaces, with its stated bound or its measured error (precision and
+/// reference named) and the options that forbid it.
+pub fn warnings(planned: &Planned, module: &Module, source: &str, vetting: &Vetting) -> Diagnostics {
+    let plan = &planned.plan;
+    plan.approximations
+        .iter()
+        .map(|a| {
+            let figure = match (a.rule == PER_VERTEX, &plan.measured, a.output_bound.or(a.error_bound)) {
+                (true, Some(m), _) => format!(
+                    "measured {:.1}/255 (largest channel difference; RMSE {:.4}) from the program's meaning, both rendered in f32 at {}×{} on {}, within {}",
+                    m.max_abs * 255.0,
+                    m.rmse,
+                    m.width,
+                    m.height,
+                    m.scene,
+                    budget_text(vetting.budget)
+                ),
+                (_, _, Some(bound)) => format!(
+                    "at most {bound:.4} ({:.1}/255) at the output: the rule's stated bound against exact arithmetic",
+                    bound * 255.0
+                ),
+                (_, Some(m), None) => format!(
+                    "no stated bound; measured {:.1}/255 (largest channel difference, f32) from the program's meaning on {}",
+                    m.max_abs * 255.0,
+                    m.scene
+                ),
+                (_, None, None) => format!(
+                    "unbounded: no stated bound, and it could not be measured ({})",
+                    vetting.unmeasured.as_deref().unwrap_or("give a scene: `compile --scene`")
+                ),
+            };
+            let message = format!("approximation on {} (`{}`): {}", plan.target, a.rule, a.why);
+            Diagnostic::warning("approximation", message, expr_span(module, source, &a.at), "approximated here")
+                .with_help(format!(
+                    "{figure}; --no-approx refuses every approximation, --max-error E those whose error exceeds E"
+                ))
+        })
+        .collect()
+}
+
+fn budget_text(budget: f64) -> String {
+    if (budget - PER_VERTEX_BUDGET).abs() < 1e-12 {
+        format!("the per-vertex budget of {:.1}/255", budget * 255.0)
+    } else {
+        format!("--max-error {budget}")
+    }
+}
+
+/// The span of the largest expression that starts at `at` (`line:col`),
+/// else the one character there.
+pub fn expr_span(module: &Module, source: &str, at: &str) -> Span {
+    let one = span_at(source, at);
+    if one == Span::DETACHED {
+        return one;
+    }
+    module
+        .exprs
+        .arena()
+        .iter()
+        .map(|(h, _)| module.span(h))
+        .filter(|s| s.start == one.start && s.end as usize <= source.len())
+        .max_by_key(|s| s.end - s.start)
+        .unwrap_or(one)
 }

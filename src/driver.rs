@@ -26,9 +26,10 @@ use crate::parser::ast::Program;
 use crate::pipeline::Planned;
 use crate::planner::specialize::{draws, RemovalReport};
 use crate::planner::{self, Realizer, Request, SceneSpecialization, Search};
-use crate::profile::{Profile, ProfileError};
+use crate::profile::Profile;
 use crate::scene::{Scene, SceneAssets};
 use crate::span::Span;
+use std::path::Path;
 
 /// Every problem found in a program, each with its location.
 pub type Diagnostics = Vec<Diagnostic>;
@@ -186,30 +187,78 @@ pub fn workload(scene: Option<&ForScene>) -> Workload {
     }
 }
 
-/// What `check` reports for one program: every diagnostic of the front end
-/// and, when a target is known (`target` or the program's own `target X;`)
-/// and the program is clean, the profile's fit and the planner's refusals
-/// (what `compile` cannot plan is an error here too, with the planner's own
-/// message). Errors only for an unknown target.
-pub fn check(source: &str, target: Option<&str>) -> Result<Front, ProfileError> {
-    let mut front = front(source);
-    let (Some(module), false) = (&front.module, front.has_errors()) else { return Ok(front) };
-    let Some(name) = target.map(str::to_string).or_else(|| module.target.as_ref().map(|t| t.value.clone()))
-    else {
-        return Ok(front);
-    };
-    let profile = Profile::resolve(&name)?;
-    let mut found = crate::profile::fit(module, &profile);
-    if found.iter().all(|d| !d.is_error()) {
-        if let Err(errors) = plan(module, &front.program, &profile, Some(source), &PlanOptions::default()) {
-            // The planner's verdict replaces the "it will be split" warnings.
-            found.retain(|d| d.code != "does-not-fit");
-            found.extend(errors);
+/// Where a target came from. The order of the variants is the one
+/// precedence every command and the language server apply
+/// ([`choose_target`]): what the user says for this run, then what the
+/// file says, then a configured default, then the built-in one.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum TargetSource {
+    /// `--target` on the command line.
+    Flag,
+    /// The program's own `target geforce3;` declaration.
+    Declaration,
+    /// A `// target: geforce3` comment (the language server).
+    Comment,
+    /// The editor's `shadec.target` setting: a default for the workspace,
+    /// weaker than what a file declares.
+    Client,
+    /// Nothing said: the command's own default (`wgsl` for a plan).
+    Default,
+}
+
+/// The one choice of a target: of the names said, the one whose source
+/// comes first in [`TargetSource`]'s order (`--target` > the program's
+/// `target X;` > a `// target:` comment > the editor's setting > the
+/// command's default). `None` when nothing names one.
+pub fn choose_target<'a>(
+    said: impl IntoIterator<Item = (TargetSource, Option<&'a str>)>,
+) -> Option<(String, TargetSource)> {
+    said.into_iter()
+        .filter_map(|(source, name)| name.map(|n| (source, n)))
+        .min_by_key(|(source, _)| *source)
+        .map(|(source, name)| (name.to_string(), source))
+}
+
+/// The profile a program's `target X;` declaration names.
+pub fn declared_target(program: &Program) -> Option<&str> {
+    program.items.iter().find_map(|i| match &i.kind {
+        crate::parser::ast::ItemKind::Target(t) => Some(t.profile.value.as_str()),
+        _ => None,
+    })
+}
+
+/// The target of a command: `--target` (`flag`), else the program's
+/// declaration, else the command's `default` ([`choose_target`]).
+pub fn target_for(flag: Option<&str>, program: &Program, default: Option<&str>) -> Option<String> {
+    choose_target([
+        (TargetSource::Flag, flag),
+        (TargetSource::Declaration, declared_target(program)),
+        (TargetSource::Default, default),
+    ])
+    .map(|(name, _)| name)
+}
+
+/// Every `image("…")` and `height("…")` file of `program` that is not in
+/// `dir` (nor replaced by a texture of `scene` of the same name): an error
+/// at the file's name, whose help names `--stand-ins`.
+pub fn missing_images(program: &Program, dir: &Path, scene: Option<&Scene>) -> Diagnostics {
+    let mut out = Vec::new();
+    for f in crate::scene::bind::image_files(program) {
+        if scene.is_some_and(|s| s.textures.contains_key(&f.texture)) {
+            continue;
         }
+        let path = if Path::new(&f.file).is_absolute() { f.file.clone().into() } else { dir.join(&f.file) };
+        if path.is_file() {
+            continue;
+        }
+        let message = format!("texture `{}`: image file `{}` not found", f.texture, path.display());
+        out.push(Diagnostic::error("missing-image", message, f.span, "no such file").with_help(format!(
+            "put the image at {}, give the scene a texture `{}`, or pass --stand-ins to render a procedural stand-in (a brick checkerboard; dimples for a height field)",
+            path.display(),
+            f.texture
+        )));
     }
-    front.diagnostics.extend(found);
-    front.diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
-    Ok(front)
+    out
 }
 
 /// The plan of `source` on `scene` for `profile` before and after

@@ -153,6 +153,7 @@ pub mod renderer;
 pub mod scene;
 pub mod span;
 pub mod textures;
+pub mod verdict;
 
 /// Compiles `source` for `profile` into a pass plan — parse, check, lower,
 /// specialize, plan; never touches a GPU. The plan

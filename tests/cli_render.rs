@@ -38,7 +38,9 @@ fn options_choose_mode_size_target_and_output() {
     // Kilgard's three statements fuse into one pass on geforce3.
     assert!(stdout.contains("1 pass on geforce3"), "{stdout}");
     assert!(
-        stdout.contains("error against the program's meaning (exact, unsplit): max abs 0.0000"),
+        stdout.contains(
+            "error against the program's meaning (exact, unsplit) of this exact render: max abs 0.0000"
+        ),
         "{stdout}"
     );
     assert_eq!(image::open(dir.path().join("x.png")).unwrap().to_rgba8().dimensions(), (80, 60));
@@ -115,7 +117,7 @@ fn a_pass_the_cpu_cannot_render_is_located_at_its_statement() {
     )
     .unwrap();
     let out = shadec()
-        .args(["render", "--size", "64x48", "--shader"])
+        .args(["render", "--stand-ins", "--size", "64x48", "--shader"])
         .arg(&shader)
         .current_dir(dir.path())
         .output()

@@ -9,6 +9,7 @@ use common::shadec;
 fn emit_wgsl_labels_passes_and_source_lines() {
     let r = shadec(&[
         "compile",
+        "--stand-ins",
         "examples/kilgard_bump_mapping.shd",
         "--target",
         "geforce256",
@@ -30,8 +31,15 @@ fn emit_wgsl_labels_passes_and_source_lines() {
     assert!(r.stdout.contains("// 57:1: C δπx ← Tdecal δu x"));
     // Hardware fidelity runs each pass's generated combiner setup.
     assert_eq!(r.stdout.matches("fn register_combiners(").count(), 3, "{}", r.stdout);
-    let exact =
-        shadec(&["compile", "examples/kilgard_bump_mapping.shd", "--target", "geforce256", "--emit", "wgsl"]);
+    let exact = shadec(&[
+        "compile",
+        "--stand-ins",
+        "examples/kilgard_bump_mapping.shd",
+        "--target",
+        "geforce256",
+        "--emit",
+        "wgsl",
+    ]);
     assert_eq!(exact.code, 0, "{}", exact.stderr);
     assert!(exact.stdout.contains("let s_self = "), "{}", exact.stdout);
     // A program the combiner generator cannot realize on geforce3 (Kajiya-Kay's
@@ -39,6 +47,7 @@ fn emit_wgsl_labels_passes_and_source_lines() {
     // combiners runs hardware fidelity's per-operation model.
     let refused = shadec(&[
         "compile",
+        "--stand-ins",
         "examples/kajiya_kay_hair.shd",
         "--target",
         "geforce3",
@@ -52,6 +61,7 @@ fn emit_wgsl_labels_passes_and_source_lines() {
     assert!(refused.stderr.contains("error[cannot-split]"), "{}", refused.stderr);
     let taylor = shadec(&[
         "compile",
+        "--stand-ins",
         "src/bench/programs/phong_taylor.shd",
         "--target",
         "wgsl",
@@ -70,21 +80,22 @@ fn emit_wgsl_labels_passes_and_source_lines() {
 
 #[test]
 fn emit_wgsl_is_stable() {
-    let a = shadec(&["compile", "examples/cook_torrance.shd", "--emit", "wgsl"]);
-    let b = shadec(&["compile", "examples/cook_torrance.shd", "--emit", "wgsl"]);
+    let a = shadec(&["compile", "--stand-ins", "examples/cook_torrance.shd", "--emit", "wgsl"]);
+    let b = shadec(&["compile", "--stand-ins", "examples/cook_torrance.shd", "--emit", "wgsl"]);
     assert_eq!(a.code, 0, "{}", a.stderr);
     assert_eq!(a.stdout, b.stdout);
 }
 
 #[test]
 fn emit_spirv_needs_an_output_and_writes_one_file_per_pass() {
-    let r = shadec(&["compile", "examples/gouraud.shd", "--emit", "spirv"]);
+    let r = shadec(&["compile", "--stand-ins", "examples/gouraud.shd", "--emit", "spirv"]);
     assert_eq!(r.code, 2);
     assert!(r.stderr.contains("-o OUT"), "{}", r.stderr);
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("k.spv");
     let r = shadec(&[
         "compile",
+        "--stand-ins",
         "examples/kilgard_bump_mapping.shd",
         "--target",
         "geforce256",
@@ -99,14 +110,22 @@ fn emit_spirv_needs_an_output_and_writes_one_file_per_pass() {
         assert_eq!(&bytes[..4], &0x0723_0203u32.to_le_bytes());
     }
     let one = dir.path().join("g.spv");
-    let r = shadec(&["compile", "examples/gouraud.shd", "--emit", "spirv", "-o", one.to_str().unwrap()]);
+    let r = shadec(&[
+        "compile",
+        "--stand-ins",
+        "examples/gouraud.shd",
+        "--emit",
+        "spirv",
+        "-o",
+        one.to_str().unwrap(),
+    ]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert!(std::fs::metadata(&one).unwrap().len() > 20);
 }
 
 #[test]
 fn emit_glsl_has_both_stages() {
-    let r = shadec(&["compile", "examples/texture.shd", "--emit", "glsl"]);
+    let r = shadec(&["compile", "--stand-ins", "examples/texture.shd", "--emit", "glsl"]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert!(r.stdout.contains(": vertex shader") && r.stdout.contains(": fragment shader"), "{}", r.stdout);
     assert_eq!(r.stdout.matches("#version 330").count(), 2);
@@ -114,7 +133,7 @@ fn emit_glsl_has_both_stages() {
 
 #[test]
 fn unsupported_constructs_are_diagnostics_with_locations() {
-    let r = shadec(&["compile", "tests/data/own_stencil_read.shd", "--emit", "wgsl"]);
+    let r = shadec(&["compile", "--stand-ins", "tests/data/own_stencil_read.shd", "--emit", "wgsl"]);
     assert_eq!(r.code, 1);
     assert!(
         r.stderr.contains("error[wgsl-unsupported]") && r.stderr.contains("own_stencil_read.shd:5:"),

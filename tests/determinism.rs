@@ -67,7 +67,7 @@ fn report(name: &str, text: &str) -> String {
     let file = SourceFile::new(name, text);
     let mut out = String::new();
     for target in [None, Some("geforce256"), Some("geforce3"), Some("multitexture"), Some("wgsl")] {
-        match driver::check(text, target) {
+        match shadec::verdict::check(text, target) {
             Ok(front) => {
                 out.push_str(&file.render(&front.diagnostics, false));
                 out.push_str(
@@ -102,7 +102,7 @@ fn diagnostics_and_plans_are_the_same_on_every_run() {
 
 #[test]
 fn the_tie_is_broken_by_the_stated_order() {
-    let front = driver::check("const h = 1;\nconst H = 2;\nC δπx ← h8 * H8;\n", None).unwrap();
+    let front = shadec::verdict::check("const h = 1;\nconst H = 2;\nC δπx ← h8 * H8;\n", None).unwrap();
     let helps: Vec<&str> = front.diagnostics.iter().filter_map(|d| d.help.as_deref()).collect();
     assert!(helps.contains(&"did you mean `h`?"), "{helps:?}");
     assert!(helps.contains(&"did you mean `H`?"), "{helps:?}");

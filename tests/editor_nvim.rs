@@ -46,6 +46,8 @@ fn neovim_opens_hovers_and_renames() {
     std::fs::create_dir(&sub).unwrap();
     let file = sub.join("bümp.shd");
     std::fs::write(&file, PROGRAM).unwrap();
+    // The image the program reads (a missing one is an error, as in `shadec check`).
+    image::RgbaImage::new(1, 1).save(sub.join("brick.png")).unwrap();
     let script = concat!(env!("CARGO_MANIFEST_DIR"), "/editors/nvim/test.lua");
     let mut child = Command::new("nvim")
         .args(["--headless", "--clean", "-c"])

@@ -27,6 +27,9 @@ const LAYERS: &[&[&str]] = &[
     &["gpu"],
     &["meaning"],
     &["accuracy"],
+    // The one verdict of `check --target`, `compile` and `render`: it plans
+    // (driver) and measures (accuracy).
+    &["verdict"],
     &["bench"],
     &["lsp"],
 ];

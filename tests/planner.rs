@@ -377,6 +377,7 @@ fn compile_emit_plan_writes_ron_and_json() {
     let out = dir.path().join("plan.json");
     let r = common::shadec(&[
         "compile",
+        "--stand-ins",
         "examples/kilgard_bump_mapping.shd",
         "--target",
         "geforce256",
@@ -392,6 +393,7 @@ fn compile_emit_plan_writes_ron_and_json() {
     assert_eq!(plan.passes.len(), 3);
     let r = common::shadec(&[
         "compile",
+        "--stand-ins",
         "examples/kilgard_bump_mapping.shd",
         "--target",
         "geforce3",
@@ -409,6 +411,7 @@ fn compile_emit_plan_writes_ron_and_json() {
     let out2 = dir.path().join("never.ron");
     let r = common::shadec(&[
         "compile",
+        "--stand-ins",
         bad.to_str().unwrap(),
         "--target",
         "geforce256",
@@ -458,7 +461,8 @@ fn compile_for_a_scene_removes_what_the_scene_zeroes() {
         p
     };
     let run = |scene: Option<&std::path::Path>| {
-        let mut args = vec!["compile", shd.to_str().unwrap(), "--target", "wgsl", "--emit", "plan"];
+        let mut args =
+            vec!["compile", "--stand-ins", shd.to_str().unwrap(), "--target", "wgsl", "--emit", "plan"];
         if let Some(s) = scene {
             args.extend(["--scene", s.to_str().unwrap()]);
         }
@@ -481,6 +485,7 @@ fn compile_for_a_scene_removes_what_the_scene_zeroes() {
     std::fs::write(&bad, format!("{}    constants: {{\"kd\": [1, 2]}},\n)\n", &base[..cut])).unwrap();
     let r = common::shadec(&[
         "compile",
+        "--stand-ins",
         shd.to_str().unwrap(),
         "--emit",
         "plan",

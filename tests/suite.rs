@@ -43,6 +43,7 @@ mod layering;
 mod lowering;
 mod lsp;
 mod lsp_robust;
+mod one_verdict;
 mod planner;
 mod planner_split;
 mod raster_fill;

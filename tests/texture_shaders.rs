@@ -896,8 +896,17 @@ fn embm_emits_emulates_and_translates_through_the_texture_shader() {
     let d = dir.path();
     let shd = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/embm.shd");
     let rc = d.join("embm.rc");
-    let (code, _, err) =
-        shadec(args!["compile", &shd, "--target", "geforce3", "--emit", "combiners", "-o", &rc]);
+    let (code, _, err) = shadec(args![
+        "compile",
+        "--stand-ins",
+        &shd,
+        "--target",
+        "geforce3",
+        "--emit",
+        "combiners",
+        "-o",
+        &rc
+    ]);
     assert_eq!(code, 0, "{err}");
     let text = std::fs::read_to_string(&rc).unwrap();
     assert!(text.starts_with("!!TS1.0\n# ==== pass 1 of 1"), "{text}");

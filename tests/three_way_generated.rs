@@ -116,7 +116,7 @@ struct Texture {
 }
 
 #[derive(Clone, Debug)]
-struct Program {
+pub(crate) struct Program {
     textures: Vec<Texture>,
     first: Colour,
     /// `let e0 = …;`
@@ -131,7 +131,7 @@ fn texture() -> impl Strategy<Value = Texture> {
         .prop_map(|(rgba, sixteen, mipmap, clamp)| Texture { rgba, sixteen, mipmap, clamp })
 }
 
-fn program() -> impl Strategy<Value = Program> {
+pub(crate) fn program() -> impl Strategy<Value = Program> {
     (
         prop::collection::vec(texture(), N_TEXTURES),
         colour(),
@@ -199,7 +199,7 @@ impl Colour {
 }
 
 impl Program {
-    fn source(&self) -> String {
+    pub(crate) fn source(&self) -> String {
         let mut s = String::from("vector N : normal;\nvector R : reflection;\n");
         // A second light where the scene has one; on a one-light scene `L1`
         // is light 0 again. (An absent light is the zero vector, and a

@@ -110,11 +110,44 @@ pub struct CheckArgs {
     /// Treat warnings as errors.
     #[arg(long)]
     pub deny_warnings: bool,
-    /// Also check each statement against a target profile: a built-in name
-    /// (geforce256, geforce3, multitexture, wgsl) or a `.ron` file. Without
-    /// it, a program's own `target X;` line is used.
+    /// Also plan each program for a target profile, as `compile` and
+    /// `render` do, and report what they would refuse and every
+    /// approximation the plan takes: a built-in name (geforce256, geforce3,
+    /// multitexture, wgsl) or a `.ron` file. Without it, a program's own
+    /// `target X;` line is used (docs/language.md, "Which target").
     #[arg(long, value_name = "PROFILE")]
     pub target: Option<String>,
+    #[command(flatten)]
+    pub quality: Quality,
+}
+
+/// What the plan may give up, and what stands in for missing inputs: the
+/// same flags, and the same verdict, for `check`, `compile` and `render`.
+#[derive(Debug, Clone, Copy, Default, clap::Args)]
+pub struct Quality {
+    /// Refuse what the target cannot compute instead of lowering it into
+    /// tables and approximations (docs/lowering.md).
+    #[arg(long)]
+    pub no_approx: bool,
+    /// Accept only approximations whose error is at most E (a fraction of
+    /// full intensity, 0.0039 = 1/255): a rule's stated bound, or for a
+    /// per-vertex fall-back its error measured on the scene (without one,
+    /// on the built-in torus), which otherwise has a budget of 48/255. Of
+    /// the lowerings within E, the one the cost model predicts fastest.
+    #[arg(long, value_name = "E")]
+    pub max_error: Option<f64>,
+    /// Bind a procedural stand-in (a brick checkerboard; golf-ball dimples
+    /// for a height field) for an image file that is missing, instead of
+    /// refusing the program.
+    #[arg(long)]
+    pub stand_ins: bool,
+}
+
+impl Quality {
+    /// The lowering these flags ask for.
+    pub fn lowering(&self) -> shadec::lowering::LowerOptions {
+        shadec::lowering::LowerOptions { approximate: !self.no_approx, max_error: self.max_error, only: None }
+    }
 }
 
 #[derive(Debug, clap::Args)]
@@ -155,16 +188,8 @@ pub struct CompileArgs {
     /// JSON. --diagnostics-format and --plan-format win over it.
     #[arg(long, value_enum, hide = true)]
     pub format: Option<CompileFormat>,
-    /// Refuse what the target cannot compute instead of lowering it into
-    /// tables and approximations (docs/lowering.md).
-    #[arg(long)]
-    pub no_approx: bool,
-    /// Accept only approximations whose stated error bound is at most E
-    /// (an approximation with no bound of its own, such as a per-vertex
-    /// one, is then refused); of the lowerings within E, the one the
-    /// target's cost model predicts fastest (docs/cost-model.md).
-    #[arg(long, value_name = "E")]
-    pub max_error: Option<f64>,
+    #[command(flatten)]
+    pub quality: Quality,
 }
 
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

@@ -54,16 +54,17 @@ pub fn run(args: &CheckArgs) -> ExitCode {
                 continue;
             }
         };
-        let shadec::driver::Front { program, mut diagnostics, .. } =
-            match shadec::driver::check(&text, args.target.as_deref()) {
-                Ok(r) => r,
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    return ExitCode::from(EXIT_USAGE_OR_IO);
-                }
-            };
-        // Cube maps from images that cannot be made (paths as `render` without a scene reads them).
-        diagnostics.extend(shadec::scene::cube_image::diagnose(&program, Path::new(""), &|_| false));
+        let shadec::driver::Front { program, mut diagnostics, .. } = match check_one(path, &text, args) {
+            Ok(r) => r,
+            Err(e) => {
+                eprintln!("error: {e}");
+                return ExitCode::from(EXIT_USAGE_OR_IO);
+            }
+        };
+        // Cube maps from images that cannot be made, read where `render`
+        // reads them without a scene: beside the program.
+        let dir = path.parent().unwrap_or(Path::new(""));
+        diagnostics.extend(shadec::scene::cube_image::diagnose(&program, dir, &|_| false));
         diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
         let file = SourceFile::new(path.display().to_string(), text);
         let n_errors = diagnostics.iter().filter(|d| d.severity == Severity::Error).count();
@@ -126,6 +127,22 @@ pub fn run(args: &CheckArgs) -> ExitCode {
     } else {
         ExitCode::SUCCESS
     }
+}
+
+/// One file's diagnostics: the driver's `check`, with the flags `compile`
+/// and `render` take and image files looked for next to the program.
+fn check_one(
+    path: &Path,
+    text: &str,
+    args: &CheckArgs,
+) -> Result<shadec::driver::Front, shadec::profile::ProfileError> {
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let judging = shadec::verdict::Judging {
+        plan: shadec::driver::PlanOptions { lowering: args.quality.lowering(), ..Default::default() },
+        images: Some(dir),
+        stand_ins: args.quality.stand_ins,
+    };
+    shadec::verdict::check_with(text, args.target.as_deref(), &judging)
 }
 
 /// Standard output's part of the report, or (with `-o`) its text gathered.

@@ -26,29 +26,44 @@ pub fn run(args: &CompileArgs) -> ExitCode {
     let mut diagnostics = front.diagnostics.clone();
     diagnostics.extend(cube_image_errors(&front.program, scene.as_ref()));
     let mut plan = None;
+    let dir = match &args.scene {
+        Some(path) => path.parent().unwrap_or(std::path::Path::new("")).to_path_buf(),
+        None => args.file.parent().unwrap_or(std::path::Path::new("")).to_path_buf(),
+    };
     if let (Some(m), false) = (&front.module, front.has_errors()) {
-        if let Some(name) = target_name(args, m) {
-            let profile = match shadec::profile::Profile::resolve(&name) {
-                Ok(p) => p,
-                Err(e) => {
-                    eprintln!("error: {e}");
-                    return ExitCode::from(EXIT_USAGE_OR_IO);
-                }
-            };
-            if matches!(args.emit, Emit::Ir) {
-                diagnostics.extend(shadec::profile::fit(m, &profile));
-            } else {
-                let lowering = shadec::lowering::LowerOptions {
-                    approximate: !args.no_approx,
-                    max_error: args.max_error,
-                    only: None,
+        match shadec::driver::target_for(args.target.as_deref(), &front.program, default_target(args.emit)) {
+            Some(name) => {
+                let profile = match shadec::profile::Profile::resolve(&name) {
+                    Ok(p) => p,
+                    Err(e) => {
+                        eprintln!("error: {e}");
+                        return ExitCode::from(EXIT_USAGE_OR_IO);
+                    }
                 };
-                match plan_for(&front.program, m, &profile, &text, scene.as_ref(), lowering) {
-                    Ok(planned) => plan = Some(planned),
-                    Err(PlanFailure::Scene(code)) => return code,
-                    Err(PlanFailure::Program(ds)) => diagnostics.extend(ds),
+                if matches!(args.emit, Emit::Ir) {
+                    diagnostics.extend(shadec::profile::fit(m, &profile));
+                    if !args.quality.stand_ins {
+                        diagnostics.extend(shadec::driver::missing_images(
+                            &front.program,
+                            &dir,
+                            scene.as_ref(),
+                        ));
+                    }
+                } else {
+                    match plan_for(args, &front.program, m, &profile, &text, scene.as_ref(), &dir) {
+                        Ok((planned, warnings)) => {
+                            plan = Some(planned);
+                            diagnostics.extend(warnings);
+                        }
+                        Err(PlanFailure::Scene(code)) => return code,
+                        Err(PlanFailure::Program(ds)) => diagnostics.extend(ds),
+                    }
                 }
             }
+            None if !args.quality.stand_ins => {
+                diagnostics.extend(shadec::driver::missing_images(&front.program, &dir, scene.as_ref()));
+            }
+            None => {}
         }
     }
     diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
@@ -75,16 +90,14 @@ pub fn run(args: &CompileArgs) -> ExitCode {
     super::write_output(args.output.as_deref(), &out)
 }
 
-/// The target: `--target`, else the program's own `target X;` (shaders are
-/// for modern hardware: `wgsl`), else `wgsl` for a plan.
-fn target_name(args: &CompileArgs, m: &shadec::ir::Module) -> Option<String> {
-    let own = || m.target.as_ref().map(|t| t.value.clone());
-    match (&args.target, args.emit) {
-        (Some(t), _) => Some(t.clone()),
-        (None, Emit::Wgsl | Emit::Spirv | Emit::Glsl) => Some("wgsl".to_string()),
-        (None, Emit::Plan) => own().or(Some("wgsl".to_string())),
-        (None, Emit::Combiners) => own().or(Some("geforce3".to_string())),
-        (None, Emit::Ir) => own(),
+/// The command's default target, when neither `--target` nor the
+/// program's `target X;` names one (`driver::target_for`): `wgsl` for a
+/// plan or shaders, `geforce3` for combiner setups, none for the IR.
+fn default_target(emit: Emit) -> Option<&'static str> {
+    match emit {
+        Emit::Plan | Emit::Wgsl | Emit::Spirv | Emit::Glsl => Some("wgsl"),
+        Emit::Combiners => Some("geforce3"),
+        Emit::Ir => None,
     }
 }
 
@@ -131,17 +144,21 @@ enum PlanFailure {
     Program(Vec<shadec::diag::Diagnostic>),
 }
 
-/// The plan; with a scene, one pass per light, the scene's uniforms folded
-/// and lights culled per object, and what that removed listed.
+/// The plan and its approximations' warnings, as `check --target` and
+/// `render` judge it (`driver::judge`); with a scene, one pass per light,
+/// the scene's uniforms folded and lights culled per object, the lowerings
+/// measured on it, and what specialization removed listed.
 fn plan_for(
+    args: &CompileArgs,
     program: &shadec::parser::ast::Program,
     m: &shadec::ir::Module,
     profile: &shadec::profile::Profile,
     text: &str,
     scene: Option<&shadec::scene::Scene>,
-    lowering: shadec::lowering::LowerOptions,
-) -> Result<shadec::pipeline::Planned, PlanFailure> {
+    dir: &std::path::Path,
+) -> Result<(shadec::pipeline::Planned, Vec<shadec::diag::Diagnostic>), PlanFailure> {
     use shadec::driver::{ForScene, PlanOptions};
+    use shadec::verdict::Judging;
     let assets = match scene.map(|s| s.build()).transpose() {
         Ok(a) => a,
         Err(e) => {
@@ -150,25 +167,13 @@ fn plan_for(
         }
     };
     let for_scene = scene.zip(assets.as_ref()).map(|(s, a)| ForScene::specialized(s, a));
-    let options = PlanOptions { scene: for_scene, lowering, ..Default::default() };
-    let planned = match (lowering.max_error, lowering.approximate, scene) {
-        // With --scene, the lowerings measured on it (issue 18): the fastest
-        // within --max-error, else the most accurate; the plan records the
-        // chosen one's error (`measured`).
-        (Some(e), true, Some(s)) => {
-            shadec::accuracy::choose(m, program, profile, text, &options, e, s.lights.len()).map(|(p, _)| p)
-        }
-        (None, true, Some(s)) => {
-            shadec::accuracy::most_accurate(m, program, profile, text, &options, s.lights.len())
-                .map(|(p, _)| p)
-        }
-        _ => shadec::driver::plan(m, program, profile, Some(text), &options),
-    }
-    .map_err(PlanFailure::Program)?;
+    let options = PlanOptions { scene: for_scene, lowering: args.quality.lowering(), ..Default::default() };
+    let judging = Judging { plan: options, images: Some(dir), stand_ins: args.quality.stand_ins };
+    let judged = shadec::verdict::judge(m, program, profile, text, &judging).map_err(PlanFailure::Program)?;
     if scene.is_some() {
-        report_removed(&planned.plan);
+        report_removed(&judged.planned.plan);
     }
-    Ok(planned)
+    Ok((judged.planned, judged.warnings))
 }
 
 /// The diagnostics' format: `--diagnostics-format`, else what the older

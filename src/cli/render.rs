@@ -19,7 +19,7 @@ use super::{EXIT_SOURCE_ERRORS, EXIT_USAGE_OR_IO};
 
 /// The built-in default program and scene.
 pub const DEFAULT_SHADER: &str = include_str!("../../examples/kilgard_bump_mapping.shd");
-pub const DEFAULT_SCENE: &str = include_str!("../../scenes/kilgard_torus.ron");
+pub const DEFAULT_SCENE: &str = shadec::accuracy::DEFAULT_SCENE;
 
 #[derive(Debug, clap::Args)]
 pub struct RenderArgs {
@@ -64,13 +64,8 @@ pub struct RenderArgs {
     /// WGSL on whatever adapter there is: a GPU, or Mesa's lavapipe).
     #[arg(long, value_enum, default_value_t = Backend::Cpu)]
     pub backend: Backend,
-    /// Refuse what the target cannot compute instead of lowering it into
-    /// tables and approximations (docs/lowering.md).
-    #[arg(long)]
-    pub no_approx: bool,
-    /// Accept only approximations whose stated error bound is at most E.
-    #[arg(long, value_name = "E")]
-    pub max_error: Option<f64>,
+    #[command(flatten)]
+    pub quality: super::args::Quality,
 }
 
 /// The executor `render` runs the plan on.
@@ -132,9 +127,16 @@ pub fn run(args: &RenderArgs) -> ExitCode {
     }
 }
 
-/// The scene: the file given, else the built-in torus.
+/// The scene: the file given, else the built-in torus, whose image files
+/// (none of its own) are looked for next to the program, as `check` does.
 fn load_scene(args: &RenderArgs) -> Result<Scene, ExitCode> {
-    scene_from(args.scene.as_deref())
+    match (&args.scene, &args.shader) {
+        (None, Some(shader)) => {
+            let dir = shader.parent().unwrap_or(Path::new(""));
+            shadec::accuracy::default_scene(dir).map_err(|e| input(format!("the built-in scene: {e}")))
+        }
+        _ => scene_from(args.scene.as_deref()),
+    }
 }
 
 /// The scene at `path`, else the built-in torus (`render`, `bench --program`).
@@ -164,9 +166,12 @@ fn load_program(args: &RenderArgs) -> Result<(String, String), ExitCode> {
     }
 }
 
-/// The program compiled for the target the arguments name (`--target`, the
-/// program's `target X;`, else `wgsl`), specialized for the scene unless
-/// `--no-specialize`.
+/// The program compiled for the target the arguments name (`--target`,
+/// the program's `target X;`, else `wgsl`: `driver::target_for`) and judged
+/// as `check --target` and `compile` judge it (`driver::judge`),
+/// specialized for the scene unless `--no-specialize`. Its warnings (one
+/// per approximation) are printed, and where the plan is not the one
+/// `compile` prints, why.
 fn compile(
     args: &RenderArgs,
     file: &SourceFile,
@@ -174,66 +179,109 @@ fn compile(
     assets: &shadec::scene::SceneAssets,
 ) -> Result<(shadec::driver::Compilation, shadec::profile::Profile), ExitCode> {
     use shadec::driver::{ForScene, PlanOptions};
+    use shadec::verdict::Judging;
     let source = &file.text;
     let front = shadec::driver::front(source);
-    let mut errors: Vec<Diagnostic> = front.diagnostics.iter().filter(|d| d.is_error()).cloned().collect();
-    let base = shadec::scene::bind::scene_dir(scene);
-    let replaced = |name: &str| scene.textures.contains_key(name);
-    errors.extend(shadec::scene::cube_image::diagnose(&front.program, &base, &replaced));
-    if !errors.is_empty() {
-        eprint!("{}", file.render(&errors, color_stderr()));
-        return Err(ExitCode::from(EXIT_SOURCE_ERRORS));
-    }
-    let own = front.module.as_ref().and_then(|m| m.target.as_ref()).map(|t| t.value.clone());
-    let target = args.target.clone().or(own).unwrap_or_else(|| "wgsl".to_string());
-    let profile = shadec::profile::Profile::resolve(&target).map_err(usage)?;
-    // Only what this scene needs (issue 7): a pass per light that reaches
-    // the objects, the scene's uniforms folded, zeroed terms removed.
-    let for_scene = (!args.no_specialize).then(|| ForScene::specialized(scene, assets));
-    let lowering = shadec::lowering::LowerOptions {
-        approximate: !args.no_approx,
-        max_error: args.max_error,
-        only: None,
-    };
-    let options = PlanOptions { scene: for_scene, lowering, ..Default::default() };
-    let refused = |errors: Vec<Diagnostic>| {
-        eprint!("{}", file.render(&errors, color_stderr()));
+    let refused = |errors: &[Diagnostic]| {
+        eprint!("{}", file.render(errors, color_stderr()));
         ExitCode::from(EXIT_SOURCE_ERRORS)
     };
-    // On a scene, the lowerings measured on it (issue 18): the fastest
-    // within --max-error, else the most accurate.
-    if let (true, Some(module)) = (lowering.approximate && for_scene.is_some(), &front.module) {
-        let (program, lights) = (&front.program, scene.lights.len());
-        let measured = match args.max_error {
-            Some(e) => shadec::accuracy::choose(module, program, &profile, source, &options, e, lights),
-            None => shadec::accuracy::most_accurate(module, program, &profile, source, &options, lights),
-        };
-        let (planned, candidates) = measured.map_err(refused)?;
-        for c in &candidates {
-            println!(
-                "lowering {}: {:.1}/255 max, RMSE {:.5} from the meaning on the scene{}{}",
-                c.rules,
-                c.error.max_abs * 255.0,
-                c.error.rmse,
-                c.predicted_ms.map_or(String::new(), |t| format!(", predicted {t:.3} ms")),
-                if c.chosen {
-                    " — chosen"
-                } else if c.within {
-                    ""
-                } else {
-                    " — over --max-error"
-                }
-            );
-        }
-        let shadec::driver::Front { program, module, diagnostics } = front;
-        let module = module.expect("checked above");
-        return Ok((
-            shadec::driver::Compilation { program, module, planned, warnings: diagnostics },
-            profile,
-        ));
+    let mut errors: Vec<Diagnostic> = front.diagnostics.iter().filter(|d| d.is_error()).cloned().collect();
+    let replaced = |name: &str| scene.textures.contains_key(name);
+    let images = shadec::scene::bind::scene_dir(scene);
+    errors.extend(shadec::scene::cube_image::diagnose(&front.program, &images, &replaced));
+    let Some(module) = front.module.as_ref().filter(|_| errors.is_empty()) else {
+        return Err(refused(&errors));
+    };
+    let target = shadec::driver::target_for(args.target.as_deref(), &front.program, Some("wgsl"));
+    let profile = shadec::profile::Profile::resolve(target.as_deref().unwrap_or("wgsl")).map_err(usage)?;
+    // Only what this scene needs: a pass per light that reaches the
+    // objects, the scene's uniforms folded, zeroed terms removed.
+    let for_scene = (!args.no_specialize).then(|| ForScene::specialized(scene, assets));
+    let lowering = args.quality.lowering();
+    let options = PlanOptions { scene: for_scene, lowering, ..Default::default() };
+    // The built-in program names images nobody has: its stand-ins are the
+    // default, said once (the binder's notes).
+    let stand_ins = args.quality.stand_ins || args.shader.is_none();
+    let judging = Judging { plan: options, images: Some(&images), stand_ins };
+    let judged = shadec::verdict::judge(module, &front.program, &profile, source, &judging)
+        .map_err(|errors| refused(&errors))?;
+    for c in &judged.candidates {
+        println!(
+            "lowering {}: {:.1}/255 max, RMSE {:.5} from the meaning on the scene (both rendered in f32){}{}",
+            c.rules,
+            c.error.max_abs * 255.0,
+            c.error.rmse,
+            c.predicted_ms.map_or(String::new(), |t| format!(", predicted {t:.3} ms")),
+            if c.chosen {
+                " — chosen"
+            } else if c.within {
+                ""
+            } else {
+                " — over --max-error"
+            }
+        );
     }
-    let compiled = shadec::driver::compile(source, &profile, &options).map_err(refused)?;
-    Ok((compiled, profile))
+    if !judged.warnings.is_empty() {
+        eprint!("{}", file.render(&judged.warnings, color_stderr()));
+    }
+    if let Some(why) = differs_from_compile(args, module, &front.program, &profile, source, &judged) {
+        println!("note: {why}");
+    }
+    let shadec::driver::Front { program, module, diagnostics } = front;
+    let module = module.expect("checked above");
+    let planned = judged.planned;
+    Ok((shadec::driver::Compilation { program, module, planned, warnings: diagnostics }, profile))
+}
+
+/// Why the plan `render` runs is not the one `shadec compile --target T
+/// --emit plan` prints for the same program and flags, or `None` when it
+/// is: the scene (one pass per light, its uniforms folded, lights culled)
+/// and the lowerings measured on it (the most accurate there, or the
+/// fastest within `--max-error`).
+fn differs_from_compile(
+    args: &RenderArgs,
+    module: &shadec::ir::Module,
+    program: &shadec::parser::ast::Program,
+    profile: &shadec::profile::Profile,
+    source: &str,
+    judged: &shadec::verdict::Judged,
+) -> Option<String> {
+    let options = shadec::driver::PlanOptions { lowering: args.quality.lowering(), ..Default::default() };
+    let (compiled, _) = shadec::accuracy::plan_measured(module, program, profile, source, &options).ok()?;
+    let shape = |p: &shadec::pipeline::PassPlan| {
+        let mut rules: Vec<&str> = p.approximations.iter().map(|a| a.rule.as_str()).collect();
+        rules.dedup();
+        let rules = if rules.is_empty() { "no approximation".to_string() } else { rules.join(" + ") };
+        (p.passes.len(), rules)
+    };
+    let (ours, theirs) = (shape(&judged.planned.plan), shape(&compiled.plan));
+    if ours == theirs {
+        return None;
+    }
+    let mut why = Vec::new();
+    if !judged.planned.plan.removed.is_empty() || ours.0 != theirs.0 {
+        why.push("the plan is specialized for this scene (a pass per light, its uniforms folded, lights culled; --no-specialize plans without it)".to_string());
+    }
+    if judged.candidates.iter().any(|c| c.chosen) {
+        why.push(match args.quality.max_error {
+            Some(e) => format!(
+                "of the lowerings measured on this scene, the fastest within --max-error {e} was chosen"
+            ),
+            None => "of the lowerings measured on this scene, the most accurate there was chosen".to_string(),
+        });
+    }
+    Some(format!(
+        "this plan ({} pass{}, {}) is not the one `shadec compile --target {}` prints ({} pass{}, {}): {}",
+        ours.0,
+        if ours.0 == 1 { "" } else { "es" },
+        ours.1,
+        profile.name,
+        theirs.0,
+        if theirs.0 == 1 { "" } else { "es" },
+        theirs.1,
+        why.join("; ")
+    ))
 }
 
 /// A render failure: a pass the CPU cannot render is reported at its statement.
@@ -294,7 +342,10 @@ fn render(args: &RenderArgs) -> Result<(), ExitCode> {
     for note in &renderer.notes {
         println!("note: {note}");
     }
-    print!("{}", planned.plan.summary());
+    // The approximations were the warnings above: listed once.
+    let mut shown = planned.plan.clone();
+    shown.approximations.clear();
+    print!("{}", shown.summary());
     if args.backend == Backend::Wgpu {
         return render_on_wgpu(args, &compiled, &file, (&scene, &assets), mode, size, adaptive.as_ref());
     }
@@ -377,9 +428,50 @@ fn print_report(
             a.interpolated,
             full.time.as_secs_f64() * 1e3
         );
-        print_error("full shading", e);
+        print_error(mode, "full shading", e);
     }
-    print_error("the program's meaning (exact, unsplit)", compare(&frames.reference.image, &frame.image));
+    let e = compare(&frames.reference.image, &frame.image);
+    print_error(mode, MEANING, e);
+    println!("{}", summary_line(&planned.plan, mode, e));
+}
+
+/// What the error is measured against: the program's meaning rendered in
+/// exact (f64) arithmetic, every statement one unsplit pass.
+const MEANING: &str = "the program's meaning (exact, unsplit)";
+
+/// The one line a render ends with: target, passes, precision, the error
+/// against the meaning, PSNR, and what that PSNR means to the eye.
+fn summary_line(
+    plan: &shadec::pipeline::PassPlan,
+    mode: Precision,
+    e: shadec::renderer::plan::ErrorReport,
+) -> String {
+    let n = plan.passes.len();
+    format!(
+        "summary: {} in {n} pass{}, {} arithmetic; against the program's meaning (exact): largest channel difference {:.1}/255, PSNR {} — {}",
+        plan.target,
+        if n == 1 { "" } else { "es" },
+        mode.name(),
+        e.max_abs * 255.0,
+        psnr(e.psnr),
+        psnr_word(e.psnr)
+    )
+}
+
+/// What a PSNR against the meaning says to the eye (the usual reading of
+/// 8-bit image PSNR: above 40 dB differences are not seen, below 30 dB they are).
+fn psnr_word(p: f64) -> &'static str {
+    if p.is_infinite() {
+        "identical"
+    } else if p >= 40.0 {
+        "visually indistinguishable (≥ 40 dB)"
+    } else if p >= 30.0 {
+        "close: differences visible on close inspection (30–40 dB)"
+    } else if p >= 20.0 {
+        "visibly different (20–30 dB)"
+    } else {
+        "far from the meaning (< 20 dB)"
+    }
 }
 
 /// The program's meaning rendered exactly on the CPU: the reference both
@@ -472,9 +564,11 @@ fn render_on_wgpu(
             full.time().as_secs_f64() / frame.time().as_secs_f64().max(1e-9),
             full.timing()
         );
-        print_error("full shading", compare(&full_image, &image));
+        print_error(mode, "full shading", compare(&full_image, &image));
     }
-    print_error("the program's meaning (exact, unsplit)", compare(&reference.image, &image));
+    let e = compare(&reference.image, &image);
+    print_error(mode, MEANING, e);
+    println!("{}", summary_line(&planned.plan, mode, e));
     println!("wrote {}", args.output.display());
     Ok(())
 }
@@ -543,9 +637,11 @@ fn predicted(plan: &shadec::pipeline::PassPlan) -> String {
     })
 }
 
-fn print_error(against: &str, e: shadec::renderer::plan::ErrorReport) {
+/// One error figure, naming the render's precision and its reference.
+fn print_error(mode: Precision, against: &str, e: shadec::renderer::plan::ErrorReport) {
     println!(
-        "error against {against}: max abs {:.4} ({:.1}/255), RMSE {:.5}, PSNR {}",
+        "error against {against} of this {} render: max abs {:.4} ({:.1}/255), RMSE {:.5}, PSNR {}",
+        mode.name(),
         e.max_abs,
         e.max_abs * 255.0,
         e.rmse,

@@ -2,29 +2,23 @@
 //! diagnostic `shadec check --target` reports out, with the AST, the IR and
 //! the pass plan kept for hover, hints and navigation. No second
 //! parse→lower→plan path: the front end and the planner are the driver's
-//! (`driver::front`, `driver::plan`), run as `driver::check` runs
+//! (`driver::front`, `driver::plan`), run as `verdict::check` runs
 //! them, keeping the plan it drops.
 
 use crate::diag::{Diagnostic, SourceFile};
-use crate::driver::{self, PlanOptions};
+use crate::driver;
 use crate::ir::Module;
 use crate::parser::{self, ast};
 use crate::pipeline::Planned;
 use crate::profile::Profile;
 use crate::span::Span;
+use crate::verdict::{self, Judging};
 
-/// Where the document's target came from, strongest first.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum TargetSource {
-    /// The program's own `target geforce3;` declaration.
-    Declaration,
-    /// A `// target: geforce3` comment.
-    Comment,
-    /// The client's `initializationOptions` or `shadec.target` setting.
-    Client,
-    /// Nothing said: `wgsl`.
-    Default,
-}
+/// Where the document's target came from, strongest first: the one
+/// precedence of [`driver::choose_target`] (the editor's setting is a
+/// default for the workspace, weaker than what the file declares, as
+/// `--target` on a command line is stronger).
+pub use crate::driver::TargetSource;
 
 /// Everything the server knows about one version of a document.
 #[derive(Clone, Debug)]
@@ -75,6 +69,20 @@ pub fn analyze_unless(
     client: Option<&str>,
     superseded: &dyn Fn() -> bool,
 ) -> Option<Analysis> {
+    analyze_in(name, None, text, client, superseded)
+}
+
+/// [`analyze_unless`] for a document saved in the folder `images` (where
+/// its `image("…")` files are looked for, as `shadec check` looks next to
+/// the file); `None`: an unsaved or remote document, whose images are not
+/// looked for.
+pub fn analyze_in(
+    name: &str,
+    images: Option<&std::path::Path>,
+    text: &str,
+    client: Option<&str>,
+    superseded: &dyn Fn() -> bool,
+) -> Option<Analysis> {
     let file = SourceFile::new(name, text);
     let driver::Front { program, module, mut diagnostics } = driver::front(text);
     if superseded() {
@@ -82,18 +90,13 @@ pub fn analyze_unless(
     }
     diagnostics.extend(replacement_characters(text));
     let comment = target_comment(text);
-    let (mut target, mut target_source) = match (&comment, client) {
-        (Some((t, _)), _) => (t.clone(), TargetSource::Comment),
-        (None, Some(t)) => (t.to_string(), TargetSource::Client),
-        (None, None) => ("wgsl".to_string(), TargetSource::Default),
-    };
-    let declared = program.items.iter().find_map(|i| match &i.kind {
-        ast::ItemKind::Target(t) => Some(t.profile.value.clone()),
-        _ => None,
-    });
-    if let Some(t) = declared {
-        (target, target_source) = (t, TargetSource::Declaration);
-    }
+    let (target, target_source) = driver::choose_target([
+        (TargetSource::Declaration, driver::declared_target(&program)),
+        (TargetSource::Comment, comment.as_ref().map(|c| c.0.as_str())),
+        (TargetSource::Client, client),
+        (TargetSource::Default, Some("wgsl")),
+    ])
+    .unwrap_or_else(|| ("wgsl".to_string(), TargetSource::Default));
     let mut analysis = Analysis {
         file,
         program,
@@ -105,7 +108,7 @@ pub fn analyze_unless(
     };
     match module {
         Some(module) if diagnostics.iter().all(|d| !d.is_error()) => {
-            plan_for_target(&mut analysis, &module, &mut diagnostics, comment.map(|c| c.1));
+            plan_for_target(&mut analysis, &module, images, &mut diagnostics, comment.map(|c| c.1));
             analysis.module = Some(module);
         }
         _ => {}
@@ -144,12 +147,14 @@ fn replacement_characters(text: &str) -> Vec<Diagnostic> {
         .collect()
 }
 
-/// The profile check and the planner, as `check --target` runs them: what
-/// cannot be planned is an error with the planner's message, and the
-/// "the planner will split it" warnings go with it.
+/// The verdict `check --target` reaches ([`verdict::verdict`]): what
+/// cannot be planned is an error with the planner's message, the "the
+/// planner will split it" warnings go with it, and every approximation the
+/// plan takes is a warning.
 fn plan_for_target(
     analysis: &mut Analysis,
     module: &Module,
+    images: Option<&std::path::Path>,
     diagnostics: &mut Vec<Diagnostic>,
     comment: Option<Span>,
 ) {
@@ -164,18 +169,20 @@ fn plan_for_target(
             return;
         }
     };
-    diagnostics.extend(crate::profile::fit(module, &profile));
-    if diagnostics.iter().any(Diagnostic::is_error) {
-        return;
-    }
-    let (program, source) = (&analysis.program, Some(analysis.file.text.as_str()));
-    match driver::plan(module, program, &profile, source, &PlanOptions::default()) {
-        Ok(planned) => analysis.planned = Some(planned),
-        Err(errors) => {
-            diagnostics.retain(|d| d.code != "does-not-fit");
-            diagnostics.extend(errors);
+    let source = analysis.file.text.clone();
+    let judging = Judging { images, ..Judging::default() };
+    let (judged, found) = verdict::verdict(module, &analysis.program, &profile, &source, &judging);
+    analysis.planned = match judged {
+        Some(j) => Some(j.planned),
+        // Hover and hints still read the plan while an image is missing.
+        None if found.iter().any(|d| d.code == "missing-image") => {
+            verdict::judge(module, &analysis.program, &profile, &source, &Judging::default())
+                .ok()
+                .map(|j| j.planned)
         }
-    }
+        None => None,
+    };
+    diagnostics.extend(found);
 }
 
 fn unknown_target(span: Span, why: &str) -> Diagnostic {

@@ -7,7 +7,7 @@ use std::panic::{catch_unwind, AssertUnwindSafe};
 
 use lsp_types::{Position, Range};
 
-use super::analysis::{analyze_unless, Analysis, TargetSource};
+use super::analysis::{analyze_in, Analysis, TargetSource};
 use super::uri;
 use crate::span::Span;
 
@@ -93,7 +93,10 @@ pub fn analyze_version(
     superseded: &dyn Fn() -> bool,
 ) -> Option<Document> {
     let name = uri::display_name(uri);
-    let analysis = catch_unwind(AssertUnwindSafe(|| analyze_unless(&name, text, client, superseded)))
+    // A saved document's images are looked for next to it, as `shadec check` does.
+    let folder = uri::to_path(uri).and_then(|p| p.parent().map(std::path::Path::to_path_buf));
+    let images = folder.as_deref().filter(|f| f.is_dir());
+    let analysis = catch_unwind(AssertUnwindSafe(|| analyze_in(&name, images, text, client, superseded)))
         .unwrap_or_else(|panic| Some(crashed(&name, text, &super::server::panic_text(&panic))))?;
     Some(Document { version, analysis })
 }

@@ -896,3 +896,55 @@ pub fn is_unit_direction(m: &Module, h: Handle<Expr>) -> bool {
 pub fn scene_dir(scene: &Scene) -> PathBuf {
     scene.path.parent().map(Path::to_path_buf).unwrap_or_default()
 }
+
+/// An image file a texture declaration reads (`image("f")`, or a normal
+/// map's `height("f")`), with the span of the file's name: what the driver
+/// looks for before binding, so that a missing file is a located error
+/// unless stand-ins were asked for (`--stand-ins`).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct ImageFile {
+    /// The first texture the declaration names.
+    pub texture: String,
+    pub file: String,
+    pub span: crate::span::Span,
+}
+
+/// Every image file the program's texture declarations read, in source order.
+pub fn image_files(program: &ast::Program) -> Vec<ImageFile> {
+    let mut out = Vec::new();
+    for item in &program.items {
+        let ItemKind::Texture(t) = &item.kind else { continue };
+        let (Some(name), Some(e)) = (t.names.first(), &t.source) else { continue };
+        collect_image_files(e, &name.key(), &mut out);
+    }
+    out
+}
+
+/// The `image("f")` and `height("f")` calls in a texture's source.
+fn collect_image_files(e: &ast::Expr, texture: &str, out: &mut Vec<ImageFile>) {
+    let ExprKind::Apply { func, arg } = &e.kind else { return };
+    let FuncKind::Name(f) = &func.kind else { return };
+    let first = args(arg).into_iter().next();
+    match (f.key().as_str(), first.map(|a| (&a.kind, a))) {
+        // A cube map's: six face files, a `{face}` pattern, or one image
+        // and its layout (docs/language.md, "Cube maps from images").
+        ("image", Some((ExprKind::String(_), _))) => {
+            for a in args(arg) {
+                let ExprKind::String(file) = &a.kind else { continue };
+                if crate::textures::cube_image::CubeLayout::from_name(file).is_some() {
+                    continue;
+                }
+                let faces = crate::textures::cube_image::FACE_NAMES.map(|n| file.replace("{face}", n));
+                let files = if file.contains("{face}") { faces.to_vec() } else { vec![file.clone()] };
+                for file in files {
+                    out.push(ImageFile { texture: texture.to_string(), file, span: a.span });
+                }
+            }
+        }
+        ("height" | "normal_map", Some((ExprKind::String(file), a))) => {
+            out.push(ImageFile { texture: texture.to_string(), file: file.clone(), span: a.span });
+        }
+        ("normal_map", Some((_, a))) => collect_image_files(a, texture, out),
+        _ => {}
+    }
+}

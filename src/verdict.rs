@@ -1,0 +1,122 @@
+//! The one verdict on a program for a target: what `shadec check
+//! --target`, `compile` and `render` all run, and the language server with
+//! them, so that the three commands accept and refuse the same programs
+//! for the same reasons. It sits above the driver (which plans) and
+//! `accuracy` (which measures what an approximation costs).
+
+use std::path::Path;
+
+use crate::driver::{front, missing_images, target_for, Diagnostics, Front, PlanOptions};
+use crate::ir::Module;
+use crate::parser::ast::Program;
+use crate::pipeline::Planned;
+use crate::profile::{Profile, ProfileError};
+
+/// What `check`, `compile` and `render` ask of a program besides its text
+/// and target — the same for the three, so that they reach the same
+/// verdict ([`judge`]).
+#[derive(Clone, Copy, Default)]
+pub struct Judging<'a> {
+    /// The scene planned for (`render`, `compile --scene`) and the
+    /// lowering options (`--no-approx`, `--max-error`).
+    pub plan: PlanOptions<'a>,
+    /// The folder `image("…")` files are looked for in (a scene's, else the
+    /// program's); `None`: files are not looked for (the library's plans).
+    pub images: Option<&'a Path>,
+    /// `--stand-ins`: a missing image file binds a procedural stand-in
+    /// instead of being an error.
+    pub stand_ins: bool,
+}
+
+/// A plan and what it costs in quality.
+pub struct Judged {
+    pub planned: Planned,
+    /// One warning per approximation the plan takes, located, with its
+    /// bound or measured error and the options that forbid it.
+    pub warnings: Diagnostics,
+    /// On a scene: every lowering measured there (`render` lists them).
+    pub candidates: Vec<crate::accuracy::Candidate>,
+}
+
+/// The one verdict on a program for a target: its image files, then the
+/// plan — on a scene, the lowerings measured there (`accuracy::choose`,
+/// `accuracy::most_accurate`) —, then every approximation vetted
+/// (`accuracy::vet`: a per-vertex fall-back only within its budget) and
+/// reported. `check --target`, `compile` and `render` all call this.
+pub fn judge(
+    module: &Module,
+    program: &Program,
+    profile: &Profile,
+    source: &str,
+    judging: &Judging,
+) -> Result<Judged, Diagnostics> {
+    let missing = match judging.images {
+        Some(dir) if !judging.stand_ins => missing_images(program, dir, judging.plan.scene.map(|s| s.scene)),
+        _ => Vec::new(),
+    };
+    if !missing.is_empty() {
+        return Err(missing);
+    }
+    let options = &judging.plan;
+    let (mut planned, candidates) =
+        crate::accuracy::plan_measured(module, program, profile, source, options)?;
+    let measuring = crate::accuracy::vet(&mut planned, module, program, source, options)?;
+    let warnings = crate::accuracy::warnings(&planned, module, source, &measuring);
+    Ok(Judged { planned, warnings, candidates })
+}
+
+/// What `check` reports for one program: every diagnostic of the front end
+/// and, when a target is known (`target`, else the program's own
+/// `target X;`: [`target_for`]) and the program is clean, the verdict of
+/// [`judge`] — what `compile` and `render` refuse for the program is an
+/// error here too, with the same message, and every approximation the plan
+/// takes a warning. Errors only for an unknown target.
+pub fn check(source: &str, target: Option<&str>) -> Result<Front, ProfileError> {
+    check_with(source, target, &Judging::default())
+}
+
+/// [`check`] with the options `compile` and `render` take (`--no-approx`,
+/// `--max-error`, `--stand-ins`) and the folder image files are in.
+pub fn check_with(source: &str, target: Option<&str>, judging: &Judging) -> Result<Front, ProfileError> {
+    let mut front = front(source);
+    let (Some(module), false) = (&front.module, front.has_errors()) else { return Ok(front) };
+    let Some(name) = target_for(target, &front.program, None) else {
+        if let (Some(dir), false) = (judging.images, judging.stand_ins) {
+            let missing = missing_images(&front.program, dir, judging.plan.scene.map(|s| s.scene));
+            front.diagnostics.extend(missing);
+        }
+        return Ok(front);
+    };
+    let profile = Profile::resolve(&name)?;
+    let found = verdict(module, &front.program, &profile, source, judging).1;
+    front.diagnostics.extend(found);
+    front.diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
+    Ok(front)
+}
+
+/// The profile's fit and [`judge`]'s verdict as diagnostics, with the plan
+/// when there is one: what `check --target` and the language server report.
+/// The planner's verdict replaces the fit's "it will be split" warnings
+/// when it refuses, and its refusals are the errors (a capability the
+/// lowering supplies is not one).
+pub fn verdict(
+    module: &Module,
+    program: &Program,
+    profile: &Profile,
+    source: &str,
+    judging: &Judging,
+) -> (Option<Judged>, Diagnostics) {
+    let mut found: Diagnostics =
+        crate::profile::fit(module, profile).into_iter().filter(|d| !d.is_error()).collect();
+    match judge(module, program, profile, source, judging) {
+        Ok(judged) => {
+            found.extend(judged.warnings.iter().cloned());
+            (Some(judged), found)
+        }
+        Err(errors) => {
+            found.retain(|d| d.code != "does-not-fit");
+            found.extend(errors);
+            (None, found)
+        }
+    }
+}
