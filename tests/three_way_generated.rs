@@ -22,7 +22,7 @@ use shadec::numerics::Precision;
 
 use crate::three_way::{difference, render_three, scene, verdict, Pictures};
 
-const CASES: u32 = 48;
+const CASES: u32 = 96;
 const SCENES: &[&str] =
     &["kilgard_torus.ron", "bench_sphere.ron", "adaptive_sphere_4lights.ron", "lights_two_spots.ron"];
 /// fixed9 against the f64 reference: the register combiners hold 8 bits
@@ -141,7 +141,8 @@ fn program() -> impl Strategy<Value = Program> {
     (
         prop::collection::vec(texture(), N_TEXTURES),
         colour(),
-        colour(),
+        // `let e0 = …` may not name itself.
+        colour().prop_filter("a let bound to itself", |c| !c.uses_let()),
         prop::option::of((any::<bool>(), colour())),
         prop_oneof![3 => Just(("C", false)), 1 => Just(("Out", false)), 1 => Just(("Hdr", true))],
         0..SCENES.len(),
@@ -319,7 +320,7 @@ pub fn fixed9_verdict(p: &Pictures, skipped: &mut usize) -> Result<(), String> {
 fn check(
     p: &Program,
     gpu: Option<&shadec::gpu::runner::Gpu>,
-    reached: &mut [usize; 6],
+    reached: &mut [usize; 8],
 ) -> Result<(), String> {
     let source = p.source();
     let scene = scene(SCENES[p.scene]);
@@ -341,7 +342,18 @@ fn check(
         )
     };
     let wgsl = render_three(&source, "wgsl", &scene, Precision::F32, gpu).map_err(|e| fail("wgsl", e))?;
-    verdict(&wgsl).map_err(|e| fail("wgsl", e))?;
+    if wgsl.clamped_blend.is_some() {
+        // Known (`three_way::clamped_blend_source`): wgpu clamps the blend's
+        // source as the hardware does, the CPU's f32 mode does not; the CPU
+        // is held to the reference, wgpu is not compared.
+        reached[6] += 1;
+        let co = difference(&wgsl.cpu, &wgsl.oracle, &wgsl.covered);
+        if !co.within() {
+            return Err(fail("wgsl", format!("the CPU and the reference differ: {co:?}")));
+        }
+    } else {
+        verdict(&wgsl).map_err(|e| fail("wgsl", e))?;
+    }
     reached[0] += 1;
     // Known, not mended (the planner's, not an executor's): the combiner
     // targets store a framebuffer declared float in 8 bits (their profiles'
@@ -355,8 +367,21 @@ fn check(
     }
     for (i, target) in ["geforce3", "geforce256"].iter().enumerate() {
         match render_three(&source, target, &scene, Precision::Fixed9, gpu) {
+            Ok(pictures) if pictures.clamped_blend.is_some() => {
+                // Known (`three_way::clamped_blend_source`): the plan, not
+                // an executor; CPU and wgpu, running one setup, still agree.
+                reached[6] += 1;
+                if let Some(g) = &pictures.gpu {
+                    let cg = difference(&pictures.cpu, g, &pictures.covered);
+                    if !cg.within() {
+                        return Err(fail(target, format!("wgpu and the CPU differ in fixed9: {cg:?}")));
+                    }
+                }
+                reached[1 + i] += 1;
+            }
             Ok(pictures) => {
                 reached[4] += usize::from(pictures.gpu_refused.is_some());
+                reached[7] += usize::from(pictures.texture_env_clamps);
                 fixed9_verdict(&pictures, &mut reached[3]).map_err(|e| fail(target, e))?;
                 reached[1 + i] += 1;
             }
@@ -377,7 +402,7 @@ fn generated_programs_agree_on_three_executors() {
     eprintln!("three-way seed: {seed:?}");
     let config = Config { cases: cases(), failure_persistence: None, ..Config::default() };
     let mut runner = TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &seed));
-    let reached = std::cell::RefCell::new([0usize; 6]);
+    let reached = std::cell::RefCell::new([0usize; 8]);
     let result = runner
         .run(&program(), |p| check(&p, gpu.as_ref(), &mut reached.borrow_mut()).map_err(TestCaseError::fail));
     if let Err(e) = result {
@@ -388,14 +413,19 @@ fn generated_programs_agree_on_three_executors() {
         "{} programs agree: wgsl {}, geforce3 {}, geforce256 {} (the rest refused by the planner); \
          {} combiner plans with an unbounded approximation checked CPU against wgpu only; \
          {} that wgpu cannot run yet (a temporary) checked CPU against the reference; \
-         {} reading back a float framebuffer checked on wgsl only",
+         {} reading back a float framebuffer checked on wgsl only; \
+         {} plans blending a term GL clamps first checked without the executor that clamps it; \
+         {} combiner plans with a ⊕ that may leave [0, 1] checked against the reference reading ⊕ as GL \
+         (clamped)",
         cases(),
         r[0],
         r[1],
         r[2],
         r[3],
         r[4],
-        r[5]
+        r[5],
+        r[6],
+        r[7]
     );
     // The sample reaches the combiner targets, not only wgsl.
     assert!(r[1] > 0 && r[2] > 0, "no generated program planned on a combiner target: {r:?}");

@@ -582,7 +582,12 @@ fn fixed_point_target(m: &Module, target: &RenderTarget) -> bool {
             .is_some_and(|f| !f.channels.iter().any(|c| matches!(c, F::Rgba16f | F::Rgba32f))),
         RenderTarget::Texture { name } => m.textures.iter().any(|t| {
             t.name == *name
-                && matches!(t.format, crate::parser::ast::TextureFormat::Rgba8 | crate::parser::ast::TextureFormat::Rgb8 | crate::parser::ast::TextureFormat::R8)
+                && matches!(
+                    t.format,
+                    crate::parser::ast::TextureFormat::Rgba8
+                        | crate::parser::ast::TextureFormat::Rgb8
+                        | crate::parser::ast::TextureFormat::R8
+                )
         }),
         RenderTarget::Temporary { .. } => false,
     }
