@@ -4,7 +4,9 @@
 //! Pipeline Grammar defines a program as its statements run in order, each one
 //! table assignment `T i ← v` over every sample of its index (Section 3):
 //! the value `v` is computed in full and stored, and a read of the target
-//! (`C δπx` on the right, (9)) is the target's value before the statement.
+//! (`C δπx` on the right, (9)) is the target's value before the statement —
+//! as the target stores it: an `rgba8` framebuffer reads back clamped to
+//! [0, 1] (GL §2.13.9, §4.1.8; the renderer's `ColorFormat::Unorm`).
 //! The meaning does exactly that with unlimited resources: one pass per
 //! statement, the statement's whole value written with `replace`, no
 //! blend read off it, no split, no fusion, no specialization, no light

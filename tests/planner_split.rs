@@ -95,6 +95,18 @@ fn checkable(m: &Module) -> bool {
     })
 }
 
+/// What framebuffer `name` stores of `v`: an `rgba8` one clamps to [0, 1]
+/// (GL §2.13.9, §4.1.8), so a later statement reads at most 1.
+fn stored(m: &Module, name: &str, v: [f32; 4]) -> [f32; 4] {
+    use shadec::parser::ast::FramebufferChannel as F;
+    let f = m.framebuffers.iter().find(|f| f.name == name).expect("declared");
+    if f.channels.iter().any(|c| matches!(c, F::Rgba16f | F::Rgba32f)) {
+        v
+    } else {
+        v.map(|x| x.clamp(0.0, 1.0))
+    }
+}
+
 /// Runs the program as written and as planned on `samples` samples; returns
 /// the largest difference.
 fn compare(original: &Module, planned: &Planned, samples: u64) -> f64 {
@@ -115,6 +127,7 @@ fn compare(original: &Module, planned: &Planned, samples: u64) -> f64 {
             let Table::Framebuffer { id, channel } = st.table else { continue };
             let v = eval(m, st.value, &mut Sample { seed, module: m, framebuffers: &fb, temps: &temps });
             let name = m.framebuffers[id as usize].name.clone();
+            let v = stored(m, &name, v);
             let slot = fb.get_mut(&name).unwrap();
             match channel {
                 FbChannel::Alpha => slot[3] = v[3] as f64,
@@ -131,7 +144,17 @@ fn compare(original: &Module, planned: &Planned, samples: u64) -> f64 {
                 &mut Sample { seed, module: m, framebuffers: &pfb, temps: &ptemps },
             );
             let (store, name) = match &pass.target {
-                RenderTarget::Framebuffer { name, .. } => (&mut pfb, name.clone()),
+                RenderTarget::Framebuffer { name, .. } => {
+                    let blended = pass.state.blend.blend(&src, &pfb[name].map(|x| x as f32));
+                    let mut out = pfb[name].map(|x| x as f32);
+                    for c in 0..4 {
+                        if pass.state.blend.write_mask[c] {
+                            out[c] = blended[c];
+                        }
+                    }
+                    pfb.insert(name.clone(), stored(m, name, out).map(|x| x as f64));
+                    continue;
+                }
                 RenderTarget::Temporary { name } | RenderTarget::Texture { name } => {
                     (&mut ptemps, name.clone())
                 }

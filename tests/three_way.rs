@@ -48,6 +48,10 @@ pub struct Pictures {
     pub approximation_bound: Option<f64>,
     /// Why wgpu did not run the plan, when it cannot yet.
     pub gpu_refused: Option<String>,
+    /// A pass that blends a term GL clamps first ([`clamped_blend_source`]).
+    pub clamped_blend: Option<String>,
+    /// Whether a `⊕` of the program may leave [0, 1] ([`texture_env_clamps`]).
+    pub texture_env_clamps: bool,
 }
 
 pub fn scene(name: &str) -> Scene {
@@ -73,6 +77,8 @@ pub fn render_three(
     let (planned, program, module) = (compiled.planned, compiled.program, compiled.module);
     let approximations = &planned.plan.approximations;
     let approximation_bound = approximations.iter().map(|a| a.output_bound).sum::<Option<f64>>();
+    let clamped_blend = clamped_blend_source(&planned);
+    let texture_env_clamps = texture_env_clamps(&module);
     let assets = scene.build().map_err(|e| e.to_string())?;
     let cpu = PlanRenderer::new(&planned, &program, scene, &assets)
         .and_then(|r| r.render(precision, W, H, &mut |_, _| {}))
@@ -104,13 +110,69 @@ pub fn render_three(
         }
         None => None,
     };
-    let picture =
-        shadec::oracle::render(&module, &program, scene, &assets, W, H).map_err(|e| e.to_string())?;
+    // fixed9 models the hardware, whose texture environment clamps every ⊕
+    // (`texture_env_clamps`): the reference reads ⊕ as GL does there.
+    let options = shadec::oracle::Options { clamp_texture_env: precision == Precision::Fixed9 };
+    let picture = shadec::oracle::render_with(&module, &program, scene, &assets, (W, H), options)
+        .map_err(|e| e.to_string())?;
     let oracle =
         picture.pixels.iter().flat_map(|p| p.map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8)).collect();
     // Pixels where the specifications leave the result open are left out.
     let covered = picture.covered.iter().zip(&picture.latitude).map(|(c, l)| *c && !l).collect();
-    Ok(Pictures { cpu, gpu, oracle, covered, approximation_bound, gpu_refused })
+    Ok(Pictures {
+        cpu,
+        gpu,
+        oracle,
+        covered,
+        approximation_bound,
+        gpu_refused,
+        clamped_blend,
+        texture_env_clamps,
+    })
+}
+
+/// Whether some `a ⊕ b` of the program has a range (the IR's) outside
+/// [0, 1]: where GL's texture environment, which clamps every result to
+/// [0, 1] (GL 1.2.1 §3.8.9; ARB_texture_env_combine, ARB_texture_env_dot3),
+/// and the language, which keeps it unclamped (docs/language.md, "⊕
+/// modes"), may differ. The fixed9 renders model the hardware, so there the
+/// reference reads ⊕ as GL does (`oracle::Options::clamp_texture_env`).
+pub fn texture_env_clamps(m: &shadec::ir::Module) -> bool {
+    let roots: Vec<_> = m.statements.iter().map(|s| s.value).collect();
+    m.reachable(&roots).iter().any(|&h| {
+        let r = m.info(h).interval;
+        matches!(m.exprs[h], shadec::ir::Expr::Combine { .. }) && (r.lo < 0.0 || r.hi > 1.0)
+    })
+}
+
+/// The first pass of `planned` that blends into a fixed-point framebuffer a
+/// term whose range (the IR's) leaves what the blend passes unchanged: GL
+/// clamps a blend's source to [0, 1] there (§2.13.9, §4.1.8; Vulkan
+/// §28.1 for a UNORM attachment), so `C + s` is the statement only for
+/// `s ≥ 0` and `C·m` only for `m ≤ 1`. Known, not mended (the planner's
+/// `classify` reads such blends; guarding it by the IR's ranges refuses
+/// Kilgard's own pass 2, whose `0.1 + 0.9·…` the ranges put in [0, 2]):
+/// wgpu and the CPU's fixed9 clamp the source as the hardware does, the
+/// CPU's float modes do not (`renderer::ColorFormat::Unorm`).
+pub fn clamped_blend_source(planned: &shadec::pipeline::Planned) -> Option<String> {
+    use shadec::parser::ast::FramebufferChannel as F;
+    use shadec::pipeline::{BlendMode, RenderTarget};
+    let m = &planned.module;
+    planned.plan.passes.iter().enumerate().find_map(|(i, pass)| {
+        let RenderTarget::Framebuffer { name, .. } = &pass.target else { return None };
+        let fb = m.framebuffers.iter().find(|f| f.name == *name)?;
+        if fb.channels.iter().any(|c| matches!(c, F::Rgba16f | F::Rgba32f)) {
+            return None;
+        }
+        let r = m.info(planned.handle(pass.fragment.output)).interval;
+        let outside = match pass.blend {
+            BlendMode::Replace => false,
+            BlendMode::Add => r.lo < 0.0,
+            BlendMode::Modulate => r.hi > 1.0,
+            _ => r.lo < 0.0 || r.hi > 1.0,
+        };
+        outside.then(|| format!("pass {} blends ({:?}) a term in [{}, {}]", i + 1, pass.blend, r.lo, r.hi))
+    })
 }
 
 /// An RGBA8 target, as the declared `rgba8` framebuffer clamps and rounds
@@ -198,18 +260,18 @@ fn projective_cookie_agrees() {
     verdict(&p).unwrap();
 }
 
+/// The plainest programs — a constant times Gouraud diffuse
+/// (`δ diffuse s x`), and a mipmapped texture times it — agree on every
+/// executor: the bound holds where nothing is hard.
 #[test]
-fn probe() {
+fn lit_constant_and_mipmapped_texture_agree() {
     let g = gpu();
     for src in [
         format!("{LIT}const kd : rgb = (0.8, 0.6, 0.4);\nC δπx ← kd * (δ diffuse s x);\n"),
         format!("{LIT}texture A : 2d rgb8 mipmap repeat = image(\"missing-a.png\");\nC δπx ← (A δu x) * (δ diffuse s x);\n"),
     ] {
         let p = render_three(&src, "wgsl", &scene("kilgard_torus.ron"), Precision::F32, g.as_ref()).unwrap();
-        let co = difference(&p.cpu, &p.oracle, &p.covered);
-        let cg = difference(&p.cpu, p.gpu.as_ref().unwrap(), &p.covered);
-        eprintln!("{co:?} {cg:?} covered {}", p.covered.iter().filter(|c| **c).count());
-        verdict(&p).unwrap();
+        verdict(&p).map_err(|e| format!("{src}: {e}")).unwrap();
     }
 }
 
@@ -283,22 +345,39 @@ fn negated_stencil_condition_runs_on_every_executor() {
     verdict(&p).unwrap();
 }
 
+/// A tool, not a check (hence ignored): renders the program in
+/// `PROBE_SHD` three ways on the scene `PROBE_SCENE` (a file of `scenes/`;
+/// by default the four of the generated comparison) for wgsl in f32 and the
+/// combiner targets in fixed9, and prints each pair's difference and the
+/// verdict. The generated comparison names this command for a failing case.
 #[test]
-#[ignore]
+#[ignore = "a tool: PROBE_SHD=file.shd [PROBE_SCENE=x.ron] cargo test --test suite three_way::probe_file -- --ignored"]
 fn probe_file() {
     let source = std::fs::read_to_string(std::env::var("PROBE_SHD").unwrap()).unwrap();
+    let scenes = match std::env::var("PROBE_SCENE") {
+        Ok(s) => vec![s],
+        Err(_) => {
+            ["kilgard_torus.ron", "bench_sphere.ron", "adaptive_sphere_4lights.ron", "lights_two_spots.ron"]
+                .map(String::from)
+                .to_vec()
+        }
+    };
     let g = gpu();
-    for sc in ["kilgard_torus.ron", "adaptive_sphere_4lights.ron"] {
+    for sc in &scenes {
         for (t, p) in
             [("wgsl", Precision::F32), ("geforce3", Precision::Fixed9), ("geforce256", Precision::Fixed9)]
         {
             match render_three(&source, t, &scene(sc), p, g.as_ref()) {
-                Ok(pic) => eprintln!(
-                    "{sc} {t}: cpu/oracle {:?} cpu/gpu {:?} gpu/oracle {:?}",
-                    difference(&pic.cpu, &pic.oracle, &pic.covered),
-                    difference(&pic.cpu, pic.gpu.as_ref().unwrap(), &pic.covered),
-                    difference(pic.gpu.as_ref().unwrap(), &pic.oracle, &pic.covered)
-                ),
+                Ok(pic) => {
+                    let gpu = pic.gpu.as_ref();
+                    eprintln!(
+                        "{sc} {t}: cpu/reference {:?} cpu/wgpu {:?} wgpu/reference {:?}: {:?}",
+                        difference(&pic.cpu, &pic.oracle, &pic.covered),
+                        gpu.map(|g| difference(&pic.cpu, g, &pic.covered)),
+                        gpu.map(|g| difference(g, &pic.oracle, &pic.covered)),
+                        verdict(&pic)
+                    )
+                }
                 Err(e) => eprintln!("{sc} {t}: {e}"),
             }
         }
@@ -320,17 +399,100 @@ fn signed_texels_keep_their_sign_in_wgpu_texture_registers() {
 }
 
 /// GL clamps what an `rgba8` framebuffer stores (§2.13.9, §4.1.8): after
-/// `C ← T·(T + T)` a later `C ← C·T` reads at most 1. The reference clamps;
-/// the meaning, the CPU's f32 mode and the planner's fusion (which computes
-/// `2T³` in one pass) do not, so CPU and wgpu agree with each other and
-/// differ from the reference by up to 52/255 on a quarter of the torus.
-/// Found by the generated three-way comparison; not yet mended — ignored
-/// until it is, and counted as a failure in the closing note, not a pass.
+/// `C ← T·(T + T)` a later `C ← C·T` reads at most 1. The reference
+/// clamped; the meaning and the CPU's f32 mode kept the framebuffer in
+/// float unclamped, and the planner's fusion computed `2T³` in one pass, so
+/// CPU and wgpu agreed with each other and differed from the reference by
+/// up to 52/255 on a quarter of the torus (found by the generated
+/// three-way comparison). Fusion now saturates the stored value where its
+/// range leaves [0, 1], and the CPU clamps an `rgba8` framebuffer in every
+/// mode.
 #[test]
-#[ignore = "known disagreement: framebuffer clamps between statements (see the doc comment)"]
 fn rgba8_framebuffer_clamps_between_statements() {
     let source = "texture A : 2d rgb8 bilinear repeat = image(\"missing-a.png\");\nframebuffer C : rgba8, depth;\nC δπx ← (A δu x) * ((A δu x) + (A δu x));\nC δπx ← (C δπx) * (A δu x);\n";
     let g = gpu();
     let p = render_three(source, "wgsl", &scene("kilgard_torus.ron"), Precision::F32, g.as_ref()).unwrap();
     verdict(&p).unwrap();
+}
+
+/// `⊕[dot3]` is `4 (Ct − ½)·(Cf − ½)` unclamped, as every ⊕ mode
+/// (docs/language.md; GL's clamp to [0, 1] belongs to the hardware models
+/// and the 8-bit framebuffer). wgpu saturated it, so a dot3 scaled or
+/// `lerp`ed before the framebuffer's clamp differed from the CPU and the
+/// reference by up to 25/255 on a fifth of the torus — the generated
+/// comparison first saw it as a projective lookup under `lerp`:
+/// `lerp(T ⊕[dot3] Ck δπl x, T, 0.1)`. wgpu was the odd one out.
+#[test]
+fn dot3_is_unclamped_before_a_scale_on_every_executor() {
+    let head = "texture A : 2d rgb8 bilinear repeat = image(\"missing-a.png\");\ntexture B : 2d rgb8 bilinear repeat = image(\"missing-b.png\");\ntexture Ck : 2d rgb8 bilinear clamp = image(\"missing-cookie.png\");\nframebuffer C : rgba8, depth;\n";
+    let g = gpu();
+    for body in [
+        "C δπx ← lerp((A δu x) ⊕[dot3] (Ck δπl x), (A δu x), 0.1);\n",
+        "C δπx ← 0.9 * ((A δu x) ⊕[dot3] (B δu x));\n",
+        "C δπx ← 0.5 * ((A δu x) ⊕[dot3_rgba] (B δu x)) + 0.5 * (B δu x);\n",
+    ] {
+        let source = format!("{head}{body}");
+        let p =
+            render_three(&source, "wgsl", &scene("kilgard_torus.ron"), Precision::F32, g.as_ref()).unwrap();
+        verdict(&p).map_err(|e| format!("{body}: {e}")).unwrap();
+    }
+}
+
+/// `C ← T; C ← C ⊕[add] (I ⊕[dot3] δ g s x)` on a GeForce 3: the dot3 is
+/// mostly negative, and GL clamps a texture-environment result to [0, 1]
+/// (GL 1.2.1 §3.8.9, ARB_texture_env_dot3), as the combiner setup the CPU's
+/// fixed9 and wgpu share does: the term adds nothing. The reference read ⊕
+/// unclamped, as the language defines it, and so differed by 217/255 on
+/// every pixel; for fixed9 it now reads ⊕ as GL does
+/// (`oracle::Options::clamp_texture_env`), and the three agree.
+#[test]
+fn signed_dot3_is_clamped_as_gl_clamps_it_in_fixed9() {
+    let source = "vector N : normal;\nvector L0 : light(0);\nconst kd : rgb = (0.8, 0.6, 0.4);\nuniform I : rgb = (0.9, 0.9, 0.8);\nshader g(k: scalar = 0.7) : s → c = k * kd * max(0, N·L0);\ntexture T0 : 2d rgb8 bilinear repeat = image(\"missing-0.png\");\nframebuffer C : rgba8, depth;\nC δπx ← (T0 δu x);\nC δπx ← (C δπx) ⊕[add] ((I) ⊕[dot3] ((δ g s x)));\n";
+    let g = gpu();
+    let p =
+        render_three(source, "geforce3", &scene("kilgard_torus.ron"), Precision::Fixed9, g.as_ref()).unwrap();
+    assert!(p.texture_env_clamps);
+    crate::three_way_generated::fixed9_verdict(&p, &mut 0).unwrap();
+}
+
+/// A framebuffer declared `rgba16f` keeps `T·(T + Ck)` unclamped for the
+/// statement that reads it back (the reference, wgpu and the CPU in f32
+/// on wgsl). The combiner targets have 8-bit framebuffers (their profiles'
+/// `framebuffer_bits: 8`); when the planner does not fuse the two
+/// statements, the value is clamped in between, and nothing says so:
+/// CPU and wgpu agree (both run the 8-bit framebuffer the target has) and
+/// differ from the reference by up to 51/255 on a fifth of the sphere.
+/// Found by the generated comparison; the mend is the planner's (refuse or
+/// warn on a float framebuffer an 8-bit target cannot hold, or fuse).
+/// Ignored until then, and counted as a failure, not a pass.
+#[test]
+#[ignore = "known disagreement: a float framebuffer stored in 8 bits on a combiner target (see the doc comment)"]
+fn float_framebuffer_read_back_on_an_8_bit_target() {
+    let source = "texture T0 : 2d rgb8 bilinear repeat = image(\"missing-0.png\");\ntexture Ck : 2d rgb8 bilinear clamp = image(\"missing-cookie.png\");\nframebuffer Hdr : rgba16f, depth;\nHdr δπx ← (T0 δu x) * ((T0 δu x) + (Ck δπl x));\nHdr δπx ← (Hdr δπx) * (T0 δu x);\n";
+    let g = gpu();
+    let wgsl = render_three(source, "wgsl", &scene("bench_sphere.ron"), Precision::F32, g.as_ref()).unwrap();
+    verdict(&wgsl).unwrap();
+    let p =
+        render_three(source, "geforce3", &scene("bench_sphere.ron"), Precision::Fixed9, g.as_ref()).unwrap();
+    crate::three_way_generated::fixed9_verdict(&p, &mut 0).unwrap();
+}
+
+/// `(T + T) ⊕[subtract] T` on a GeForce 3: GL's texture environment gives
+/// `clamp(2T − T) = T`; the generated combiner setup holds `T + T` in a
+/// register, which clamps it to 1 (Kilgard 2000, §4.2.2: registers hold
+/// [−1, 1]), and computes `min(2T, 1) − T`. CPU (fixed9) and wgpu run that
+/// one setup and agree; the reference differs by up to 179/255 on every
+/// pixel. The setup is the odd one out: the combiner code generator should
+/// refuse (its `Range` error) or rescale a value beyond [−1, 1] before a
+/// register write. Found by the generated comparison with 200 cases; not
+/// mended (src/backends/combiners is outside this change). Ignored until
+/// then, and counted as a failure, not a pass.
+#[test]
+#[ignore = "known disagreement: a combiner register clamps a sum beyond 1 (see the doc comment)"]
+fn sum_beyond_one_in_a_combiner_register() {
+    let source = "texture T0 : 2d rgb8 bilinear repeat = image(\"missing-0.png\");\nframebuffer C : rgba8, depth;\nC δπx ← ((T0 δu x) + (T0 δu x)) ⊕[subtract] (T0 δu x);\n";
+    let g = gpu();
+    let p =
+        render_three(source, "geforce3", &scene("kilgard_torus.ron"), Precision::Fixed9, g.as_ref()).unwrap();
+    crate::three_way_generated::fixed9_verdict(&p, &mut 0).unwrap();
 }

@@ -3,15 +3,21 @@
 //! independent reference — which must agree within `three_way`'s stated
 //! bound: on `wgsl` in f32, and on the combiner targets in fixed9 where
 //! they plan (the hardware's 8-bit registers, against the reference's f64
-//! within [`FIXED9_TOLERANCE`]).
+//! within [`FIXED9_TOLERANCE`], the reference reading ⊕ clamped as GL's
+//! texture environment does). Known disagreements not yet mended are
+//! left out by a precise test and counted in the summary line (a float
+//! framebuffer read back on a combiner target, whose ignored test is in
+//! `three_way`; a blend of a term GL clamps first,
+//! `three_way::clamped_blend_source`).
 //!
 //! The generator is written here, apart from the differential suite's:
 //! lets, shaders with parameters, several lights (explicit indices, sums of
 //! lights inside one `δ`), projective lookups, cube maps indexed by an
-//! interpolated vector, rgba swizzles and single channels, `lerp`/`mix`/
+//! interpolated vector, rgba swizzles and single channels, a shader that
+//! returns a tuple read by `.r`/`.g`/`.b`, `lerp`/`mix`/
 //! `saturate`, products over sums, every ⊕ mode, framebuffers named other
-//! than `C` and in float, 8- and 16-bit textures with and without mipmaps,
-//! four scenes. CI runs [`CASES`] programs from a fixed seed;
+//! than `C` and in float, 8-bit, 16-bit and float textures with and
+//! without mipmaps, four scenes. CI runs [`CASES`] programs from a fixed seed;
 //! `SHADEC_THREE_WAY_CASES=N` runs more and `SHADEC_THREE_WAY_RANDOM=1`
 //! draws a fresh seed (printed). A failure prints the program as a `.shd`
 //! written to `target/three-way-failure.shd` and the command that renders it.
@@ -22,7 +28,7 @@ use shadec::numerics::Precision;
 
 use crate::three_way::{difference, render_three, scene, verdict, Pictures};
 
-const CASES: u32 = 48;
+const CASES: u32 = 96;
 const SCENES: &[&str] =
     &["kilgard_torus.ron", "bench_sphere.ron", "adaptive_sphere_4lights.ron", "lights_two_spots.ron"];
 /// fixed9 against the f64 reference: the register combiners hold 8 bits
@@ -64,6 +70,9 @@ enum Scalar {
     Specular,
     Alpha(usize),
     Channel(usize, char),
+    /// `(pair δ s x).r` (per fragment) or `(δ pair s x).g` (per vertex): a
+    /// channel of a shader that returns a tuple.
+    Tuple(bool, char),
 }
 
 const N_TEXTURES: usize = 3;
@@ -78,6 +87,7 @@ fn scalar() -> impl Strategy<Value = Scalar> {
         (0..N_TEXTURES).prop_map(Scalar::Alpha),
         (0..N_TEXTURES, prop_oneof![Just('r'), Just('g'), Just('b')])
             .prop_map(|(t, c)| Scalar::Channel(t, c)),
+        (any::<bool>(), prop_oneof![Just('r'), Just('g'), Just('b')]).prop_map(|(f, c)| Scalar::Tuple(f, c)),
     ]
 }
 
@@ -111,6 +121,8 @@ fn colour() -> impl Strategy<Value = Colour> {
 struct Texture {
     rgba: bool,
     sixteen: bool,
+    /// With `sixteen`: `rgba16f` rather than `rgba16`.
+    float: bool,
     mipmap: bool,
     clamp: bool,
 }
@@ -127,15 +139,16 @@ pub(crate) struct Program {
 }
 
 fn texture() -> impl Strategy<Value = Texture> {
-    (any::<bool>(), prop::bool::weighted(0.2), any::<bool>(), any::<bool>())
-        .prop_map(|(rgba, sixteen, mipmap, clamp)| Texture { rgba, sixteen, mipmap, clamp })
+    (any::<bool>(), prop::bool::weighted(0.2), any::<bool>(), any::<bool>(), any::<bool>())
+        .prop_map(|(rgba, sixteen, float, mipmap, clamp)| Texture { rgba, sixteen, float, mipmap, clamp })
 }
 
 pub(crate) fn program() -> impl Strategy<Value = Program> {
     (
         prop::collection::vec(texture(), N_TEXTURES),
         colour(),
-        colour(),
+        // `let e0 = …` may not name itself.
+        colour().prop_filter("a let bound to itself", |c| !c.uses_let()),
         prop::option::of((any::<bool>(), colour())),
         prop_oneof![3 => Just(("C", false)), 1 => Just(("Out", false)), 1 => Just(("Hdr", true))],
         0..SCENES.len(),
@@ -156,9 +169,11 @@ impl Scalar {
             Scalar::Number(k) => format!("0.{k}"),
             Scalar::Diffuse(i) => format!("(d{i} δ s x)"),
             Scalar::Specular => "(h δ s x)".into(),
-            Scalar::Alpha(t) if p.textures[*t].rgba => format!("(T{t} δu x).a"),
+            Scalar::Alpha(t) if p.textures[*t].rgba || p.textures[*t].sixteen => format!("(T{t} δu x).a"),
             Scalar::Alpha(_) => "0.5".into(),
             Scalar::Channel(t, c) => format!("(T{t} δu x).{c}"),
+            Scalar::Tuple(true, c) => format!("(pair δ s x).{c}"),
+            Scalar::Tuple(false, c) => format!("(δ pair s x).{c}"),
         }
     }
 }
@@ -213,8 +228,10 @@ impl Program {
         s += "shader d0 : s → scalar = max(0, normalize(N)·normalize(L0));\n";
         s += "shader d1 : s → scalar = max(0, normalize(N)·normalize(L1));\n";
         s += "shader h(n: scalar = 8) : s → scalar = max(0, normalize(N)·normalize(H0))^n;\n";
+        s += "shader pair : s → c = (max(0, N·L0), max(0, normalize(N)·normalize(H0))^4, 0.5);\n";
         for (i, t) in self.textures.iter().enumerate() {
             let format = match (t.rgba, t.sixteen) {
+                (_, true) if t.float => "rgba16f",
                 (_, true) => "rgba16",
                 (true, false) => "rgba8",
                 (false, false) => "rgb8",
@@ -232,16 +249,7 @@ impl Program {
         }
         let (f, float) = self.framebuffer;
         s += &format!("framebuffer {f} : {}, depth;\n", if float { "rgba16f" } else { "rgba8" });
-        // Known disagreement, not yet mended: GL clamps what an rgba8
-        // framebuffer stores after every statement, and the reference does;
-        // the meaning, the CPU's f32 mode and the planner's fusion keep it
-        // unclamped (`three_way::rgba8_framebuffer_clamps_between_statements`,
-        // ignored until they do). A first statement that a second one reads
-        // is therefore written in range here.
-        let first = match (&self.more, float) {
-            (Some(_), false) => format!("saturate({})", self.first.text(self)),
-            _ => self.first.text(self),
-        };
+        let first = self.first.text(self);
         s += &format!("{f} δπx ← {first};\n");
         if let Some((add, c)) = &self.more {
             let op = if *add { "⊕[add]" } else { "*" };
@@ -261,7 +269,7 @@ fn cases() -> u32 {
 /// A plan with approximations (the compiler's lowerings) is held to the
 /// sum of their stated output bounds on top; one whose approximation has
 /// no bound (per-vertex shading) is checked between the CPU and wgpu only.
-fn fixed9_verdict(p: &Pictures, skipped: &mut usize) -> Result<(), String> {
+pub fn fixed9_verdict(p: &Pictures, skipped: &mut usize) -> Result<(), String> {
     let Some(bound) = p.approximation_bound else {
         *skipped += 1;
         return match &p.gpu {
@@ -284,47 +292,102 @@ fn fixed9_verdict(p: &Pictures, skipped: &mut usize) -> Result<(), String> {
         (off as f64 / n.max(1) as f64 <= crate::three_way::PIXEL_FRACTION, d)
     };
     let (ok_co, co) = wide(&p.cpu, &p.oracle);
-    let gpu_ok = match &p.gpu {
-        Some(g) => {
-            // The CPU's fixed9 and wgpu's hardware-fidelity WGSL run the same
-            // generated setup: they agree to the three-way bound.
-            let cg = difference(&p.cpu, g, &p.covered);
-            if !cg.within() {
-                return Err(format!("wgpu and the CPU differ in fixed9: {cg:?}"));
-            }
-            true
-        }
-        None => true,
+    let Some(g) = &p.gpu else {
+        return if ok_co {
+            Ok(())
+        } else {
+            Err(format!("the CPU's fixed9 is beyond {tolerance}/255 (approximations {bound:.4}) of the reference: {co:?}"))
+        };
     };
-    if ok_co && gpu_ok {
-        Ok(())
-    } else {
-        Err(format!("fixed9 is beyond {tolerance}/255 (approximations {bound:.4}) of the reference: {co:?}"))
+    // The CPU's fixed9 and wgpu's hardware-fidelity WGSL run the same
+    // generated setup: they agree to the three-way bound; each is held to
+    // the wider fixed9 bound against the f64 reference.
+    let cg = difference(&p.cpu, g, &p.covered);
+    let (ok_go, go) = wide(g, &p.oracle);
+    match (cg.within(), ok_co, ok_go) {
+        (true, true, true) => Ok(()),
+        (true, false, false) => Err(format!(
+            "the reference is the odd one out beyond {tolerance}/255 (approximations {bound:.4}) — or the \
+             combiner setup the CPU and wgpu share: CPU {co:?}, wgpu {go:?}"
+        )),
+        (false, true, false) => {
+            Err(format!("wgpu is the odd one out in fixed9: against the CPU {cg:?}, the reference {go:?}"))
+        }
+        (false, false, true) => {
+            Err(format!("the CPU is the odd one out in fixed9: against wgpu {cg:?}, the reference {co:?}"))
+        }
+        _ => Err(format!(
+            "no two agree in fixed9 (reference bound {tolerance}/255): CPU/wgpu {cg:?}, CPU/reference {co:?}, \
+             wgpu/reference {go:?}"
+        )),
     }
 }
 
 fn check(
     p: &Program,
     gpu: Option<&shadec::gpu::runner::Gpu>,
-    reached: &mut [usize; 5],
+    reached: &mut [usize; 8],
 ) -> Result<(), String> {
     let source = p.source();
     let scene = scene(SCENES[p.scene]);
     let fail = |target: &str, e: String| {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/target/three-way-failure.shd");
         let _ = std::fs::write(path, &source);
+        let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/").to_string() + SCENES[p.scene];
+        let precision = if target == "wgsl" { "f32" } else { "fixed9" };
+        let render = format!(
+            "shadec render --shader {path} --target {target} --precision {precision} --size {}x{} {scene}",
+            crate::three_way::W,
+            crate::three_way::H
+        );
         format!(
-            "{target}: {e}\n--- {path} (shadec render --shader {path} --target {target} scenes/{})\n{source}",
+            "{target}: {e}\n--- {path}, scene {scene}; render it on the CPU and on wgpu (all three: \
+             `PROBE_SHD={path} PROBE_SCENE={} cargo test --test suite three_way::probe_file -- --ignored`):\n  \
+             {render}\n  {render} --backend wgpu\n{source}",
             SCENES[p.scene]
         )
     };
     let wgsl = render_three(&source, "wgsl", &scene, Precision::F32, gpu).map_err(|e| fail("wgsl", e))?;
-    verdict(&wgsl).map_err(|e| fail("wgsl", e))?;
+    if wgsl.clamped_blend.is_some() {
+        // Known (`three_way::clamped_blend_source`): wgpu clamps the blend's
+        // source as the hardware does, the CPU's f32 mode does not; the CPU
+        // is held to the reference, wgpu is not compared.
+        reached[6] += 1;
+        let co = difference(&wgsl.cpu, &wgsl.oracle, &wgsl.covered);
+        if !co.within() {
+            return Err(fail("wgsl", format!("the CPU and the reference differ: {co:?}")));
+        }
+    } else {
+        verdict(&wgsl).map_err(|e| fail("wgsl", e))?;
+    }
     reached[0] += 1;
+    // Known, not mended (the planner's, not an executor's): the combiner
+    // targets store a framebuffer declared float in 8 bits (their profiles'
+    // `framebuffer_bits: 8`) without a diagnostic, so a value a later
+    // statement reads back is clamped there and not in the program
+    // (`three_way::float_framebuffer_read_back_on_an_8_bit_target`). Such
+    // programs are checked on wgsl only, and counted.
+    if p.framebuffer.1 && p.more.is_some() {
+        reached[5] += 1;
+        return Ok(());
+    }
     for (i, target) in ["geforce3", "geforce256"].iter().enumerate() {
         match render_three(&source, target, &scene, Precision::Fixed9, gpu) {
+            Ok(pictures) if pictures.clamped_blend.is_some() => {
+                // Known (`three_way::clamped_blend_source`): the plan, not
+                // an executor; CPU and wgpu, running one setup, still agree.
+                reached[6] += 1;
+                if let Some(g) = &pictures.gpu {
+                    let cg = difference(&pictures.cpu, g, &pictures.covered);
+                    if !cg.within() {
+                        return Err(fail(target, format!("wgpu and the CPU differ in fixed9: {cg:?}")));
+                    }
+                }
+                reached[1 + i] += 1;
+            }
             Ok(pictures) => {
                 reached[4] += usize::from(pictures.gpu_refused.is_some());
+                reached[7] += usize::from(pictures.texture_env_clamps);
                 fixed9_verdict(&pictures, &mut reached[3]).map_err(|e| fail(target, e))?;
                 reached[1 + i] += 1;
             }
@@ -338,7 +401,6 @@ fn check(
 }
 
 #[test]
-#[ignore = "finds disagreements not yet mended (wgpu on projective lookups under lerp, 22/255); run with --ignored"]
 fn generated_programs_agree_on_three_executors() {
     let gpu = crate::common::gpu::gpu();
     let random = std::env::var("SHADEC_THREE_WAY_RANDOM").is_ok_and(|v| v == "1");
@@ -346,7 +408,7 @@ fn generated_programs_agree_on_three_executors() {
     eprintln!("three-way seed: {seed:?}");
     let config = Config { cases: cases(), failure_persistence: None, ..Config::default() };
     let mut runner = TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &seed));
-    let reached = std::cell::RefCell::new([0usize; 5]);
+    let reached = std::cell::RefCell::new([0usize; 8]);
     let result = runner
         .run(&program(), |p| check(&p, gpu.as_ref(), &mut reached.borrow_mut()).map_err(TestCaseError::fail));
     if let Err(e) = result {
@@ -356,13 +418,20 @@ fn generated_programs_agree_on_three_executors() {
     eprintln!(
         "{} programs agree: wgsl {}, geforce3 {}, geforce256 {} (the rest refused by the planner); \
          {} combiner plans with an unbounded approximation checked CPU against wgpu only; \
-         {} that wgpu cannot run yet (a temporary) checked CPU against the reference",
+         {} that wgpu cannot run yet (a temporary) checked CPU against the reference; \
+         {} reading back a float framebuffer checked on wgsl only; \
+         {} plans blending a term GL clamps first checked without the executor that clamps it; \
+         {} combiner plans with a ⊕ that may leave [0, 1] checked against the reference reading ⊕ as GL \
+         (clamped)",
         cases(),
         r[0],
         r[1],
         r[2],
         r[3],
-        r[4]
+        r[4],
+        r[5],
+        r[6],
+        r[7]
     );
     // The sample reaches the combiner targets, not only wgsl.
     assert!(r[1] > 0 && r[2] > 0, "no generated program planned on a combiner target: {r:?}");

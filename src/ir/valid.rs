@@ -431,6 +431,11 @@ fn framebuffer_read(
 }
 
 /// `⊕`: a texture-environment or framebuffer operation on colours.
+/// Whether every value of `i` lies in [0, 1].
+fn unit(i: Interval) -> bool {
+    i.lo >= 0.0 && i.hi <= 1.0
+}
+
 fn combine(
     m: &Module,
     mode: CombineMode,
@@ -454,6 +459,14 @@ fn combine(
         CombineMode::AddSigned => add(add(a.interval, b.interval), Interval::point(-0.5)),
         CombineMode::Subtract => add(a.interval, neg(b.interval)),
         CombineMode::Dot3Rgb | CombineMode::Dot3Rgba => dot3(a.interval, b.interval, ty == Ty::Scalar),
+        // `Cf(1 − Ct)`: in the hull of its operands only where Ct ∈ [0, 1].
+        CombineMode::Blend => mul(b.interval, add(Interval::point(1.0), neg(a.interval))),
+        // `Ct·At + Cf(1 − At)`: a convex combination where At ∈ [0, 1]
+        // (bounded by Ct's own range), else bounded term by term.
+        CombineMode::Decal | CombineMode::Interpolate if !unit(a.interval) => {
+            let at = a.interval;
+            add(mul(a.interval, at), mul(b.interval, add(Interval::point(1.0), neg(at))))
+        }
         _ => hull(a.interval, b.interval),
     };
     out(ty, freq, interval)

@@ -83,6 +83,16 @@ pub struct Picture {
     pub latitude: Vec<bool>,
 }
 
+/// How the reference reads the program where GL and the language differ.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Options {
+    /// Clamp every `⊕` result to [0, 1], as GL's texture environment does
+    /// (GL 1.2.1 §3.8.9; ARB_texture_env_combine, ARB_texture_env_dot3).
+    /// The language keeps ⊕ unclamped (docs/language.md, "⊕ modes"); the
+    /// hardware the fixed9 renders model clamps it.
+    pub clamp_texture_env: bool,
+}
+
 /// Renders `module` (the lowered `program`) for `scene` at `width × height`.
 pub fn render(
     module: &Module,
@@ -91,6 +101,18 @@ pub fn render(
     assets: &SceneAssets,
     width: u32,
     height: u32,
+) -> Result<Picture, Unsupported> {
+    render_with(module, program, scene, assets, (width, height), Options::default())
+}
+
+/// [`render`] read with `options`.
+pub fn render_with(
+    module: &Module,
+    program: &ast::Program,
+    scene: &Scene,
+    assets: &SceneAssets,
+    (width, height): (u32, u32),
+    options: Options,
 ) -> Result<Picture, Unsupported> {
     let world = geometry::World::new(scene, assets, f64::from(width) / f64::from(height));
     let coverage = geometry::Coverage::find(&world, width, height);
@@ -123,6 +145,7 @@ pub fn render(
         framebuffers: Vec::new(),
         texgen: HashMap::new(),
         latitude: std::cell::Cell::new(false),
+        clamp_texture_env: options.clamp_texture_env,
     };
     let mut latitude = vec![false; (width * height) as usize];
     ev.framebuffers = (0..module.framebuffers.len()).map(|i| ev.new_store(i)).collect();

@@ -59,6 +59,9 @@ pub struct Evaluator<'a> {
     /// Set when the sample just evaluated depends on a choice the
     /// specifications leave open (a cube-map filter at a face edge).
     pub latitude: std::cell::Cell<bool>,
+    /// `⊕` results clamped to [0, 1], as GL's texture environment clamps
+    /// them ([`super::Options::clamp_texture_env`]).
+    pub clamp_texture_env: bool,
 }
 
 type Memo = HashMap<Handle<Expr>, Option<V>>;
@@ -127,7 +130,12 @@ impl<'a> Evaluator<'a> {
                         }
                     }
                 }
-                ops::compute(self.m, e, ty, &operands)
+                let v = ops::compute(self.m, e, ty, &operands);
+                match e {
+                    // GL clamps a texture-environment result (§3.8.9).
+                    Expr::Combine { .. } if self.clamp_texture_env => v.map(|v| v.map(|x| x.clamp(0.0, 1.0))),
+                    _ => v,
+                }
             }
         };
         let v = v.map(|v| ops::shape(ty, v));

@@ -760,6 +760,8 @@ fn fuse(m: &mut Module, stmts: &[usize]) -> Option<Handle<Expr>> {
 fn fuse_next(m: &mut Module, value: Handle<Expr>, s: usize) -> Option<Handle<Expr>> {
     let st = m.statements[s].clone();
     let mut map: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::default();
+    let reads = [FbChannel::Color, FbChannel::Alpha].iter().any(|&c| self_read(m, &st, c).is_some());
+    let value = if reads { stored(m, &st, value)? } else { value };
     if let Some(r) = self_read(m, &st, FbChannel::Color) {
         let v = widen_rgba(m, value)?;
         map.insert(r, v);
@@ -769,6 +771,37 @@ fn fuse_next(m: &mut Module, value: Handle<Expr>, s: usize) -> Option<Handle<Exp
         map.insert(r, a);
     }
     substitute(m, st.value, &map)
+}
+
+/// What statement `st` reads of `value` stored into its framebuffer: a
+/// fixed-point (`rgba8`) framebuffer clamps to [0, 1] (GL §2.13.9,
+/// §4.1.8), so a fused value whose range leaves [0, 1] is saturated where
+/// the earlier statement would have stored it (`2T³` is not `T·2T·T` on an
+/// rgba8 target: `2T²` was clamped in between). Not needed where `st` only
+/// adds a non-negative term to a non-negative value: `min(v, 1) + s` and
+/// `v + s` are stored alike. A float framebuffer keeps the value.
+fn stored(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Option<Handle<Expr>> {
+    use crate::parser::ast::FramebufferChannel as F;
+    let Table::Framebuffer { id, .. } = st.table else { return Some(value) };
+    let float = m.framebuffers[id as usize].channels.iter().any(|c| matches!(c, F::Rgba16f | F::Rgba32f));
+    let range = m.info(value).interval;
+    if float || range.class() == ir::Range::Unsigned || (range.lo >= 0.0 && adds_non_negative(m, st)) {
+        return Some(value);
+    }
+    Builder { module: m }.node(Expr::Math { fun: ir::MathFunction::Saturate, args: vec![value] })
+}
+
+/// Whether `st`'s value is `C + s` with `s ≥ 0` by its range, reading no
+/// destination alpha.
+fn adds_non_negative(m: &mut Module, st: &Statement) -> bool {
+    let Some(r) = self_read(m, st, FbChannel::Color) else { return false };
+    if self_read(m, st, FbChannel::Alpha).is_some_and(|ra| split::depends_on(m, st.value, ra)) {
+        return false;
+    }
+    match affine::affine(&mut Builder { module: m }, st.value, r) {
+        Some((coef, offset)) => m.is_constant(coef, 1.0) && m.info(offset).interval.lo >= 0.0,
+        None => false,
+    }
 }
 
 /// An rgb value as the framebuffer holds it: alpha 1.

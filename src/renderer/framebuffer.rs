@@ -24,6 +24,14 @@ pub enum ColorFormat {
     Rgba8,
     /// 32-bit float per channel, no clamping.
     F32,
+    /// A fixed-point (`rgba8`) framebuffer or texture in float arithmetic:
+    /// 32-bit floats, not rounded, and whatever is read back — by a later
+    /// pass ([`Framebuffer::read_back`]), as a blend's destination, as a
+    /// rendered texture — clamped to [0, 1], as GL clamps what a
+    /// fixed-point colour buffer stores (§2.13.9, §4.1.8). The last value
+    /// written is kept as computed, so that the exact reference keeps the
+    /// range of its final picture (a picture is clamped when it is shown).
+    Unorm,
     /// 16-bit float per channel (what the WGSL target renders 16-bit and
     /// float textures into, `Rgba16Float`): every write rounds to the
     /// nearest half; no clamping.
@@ -35,6 +43,8 @@ pub enum ColorFormat {
 pub(crate) enum ColorTile {
     Rgba8(Vec<[u8; 4]>),
     F32(Vec<[f32; 4]>),
+    /// Values as written, clamped where read back ([`ColorFormat::Unorm`]).
+    Unorm(Vec<[f32; 4]>),
     /// Values already rounded to half precision.
     F16(Vec<[f32; 4]>),
 }
@@ -53,6 +63,16 @@ pub fn round_f16(v: f32) -> f32 {
     half::f16::from_f32(v).to_f32()
 }
 
+/// `v` as a fixed-point buffer holds it, unrounded: clamped to [0, 1], NaN 0.
+#[inline]
+fn unorm(v: f32) -> f32 {
+    if v.is_nan() {
+        0.0
+    } else {
+        v.clamp(0.0, 1.0)
+    }
+}
+
 #[inline]
 pub fn quantize_unorm8(v: f32) -> u8 {
     // NaN maps to 0 (`as` saturates NaN to 0).
@@ -67,7 +87,7 @@ impl TileBuffers {
                 let p = c[idx];
                 [p[0] as f32 / 255.0, p[1] as f32 / 255.0, p[2] as f32 / 255.0, p[3] as f32 / 255.0]
             }
-            ColorTile::F32(c) | ColorTile::F16(c) => c[idx],
+            ColorTile::F32(c) | ColorTile::F16(c) | ColorTile::Unorm(c) => c[idx],
         }
     }
 
@@ -90,6 +110,18 @@ impl TileBuffers {
                 for ch in 0..4 {
                     if blend.write_mask[ch] {
                         c[idx][ch] = quantize_unorm8(out[ch]);
+                    }
+                }
+            }
+            ColorTile::Unorm(c) => {
+                // The destination is what the buffer holds, clamped. The
+                // source is not clamped first (GL §4.1.8 clamps it on a
+                // fixed-point buffer): a blend of a term outside [0, 1] is
+                // the planner's to avoid.
+                let out = blend.blend(src, &c[idx].map(unorm));
+                for ch in 0..4 {
+                    if blend.write_mask[ch] {
+                        c[idx][ch] = out[ch];
                     }
                 }
             }
@@ -130,6 +162,7 @@ impl Framebuffer {
             ColorFormat::Rgba8 => ColorTile::Rgba8(vec![[0; 4]; n]),
             ColorFormat::F32 => ColorTile::F32(vec![[0.0; 4]; n]),
             ColorFormat::F16 => ColorTile::F16(vec![[0.0; 4]; n]),
+            ColorFormat::Unorm => ColorTile::Unorm(vec![[0.0; 4]; n]),
         };
         let tile = TileBuffers { color, depth: vec![1.0; n], stencil: vec![0; n] };
         Ok(Framebuffer { width, height, format, tiles_x, tiles_y, tiles: vec![tile; tiles_x * tiles_y] })
@@ -164,6 +197,23 @@ impl Framebuffer {
     pub fn color(&self, x: u32, y: u32) -> Option<[f32; 4]> {
         self.locate(x, y).map(|(t, i)| self.tiles[t].read_color(i))
     }
+    /// What a later pass reads at pixel (x, y): the colour, clamped to
+    /// [0, 1] where the buffer is fixed-point ([`ColorFormat::Unorm`]).
+    pub fn read_back(&self, x: u32, y: u32) -> Option<[f32; 4]> {
+        let c = self.color(x, y)?;
+        Some(if self.format == ColorFormat::Unorm { c.map(unorm) } else { c })
+    }
+
+    /// The whole image as later passes read it (see [`Framebuffer::read_back`]).
+    pub fn read_back_rgba_f32(&self) -> Vec<[f32; 4]> {
+        let all = self.to_rgba_f32();
+        if self.format == ColorFormat::Unorm {
+            all.into_iter().map(|c| c.map(unorm)).collect()
+        } else {
+            all
+        }
+    }
+
     pub fn depth(&self, x: u32, y: u32) -> Option<f32> {
         self.locate(x, y).map(|(t, i)| self.tiles[t].depth[i])
     }
@@ -189,6 +239,7 @@ impl Framebuffer {
                 ColorTile::Rgba8(v) => v.fill(c.map(quantize_unorm8)),
                 ColorTile::F32(v) => v.fill(c),
                 ColorTile::F16(v) => v.fill(c.map(round_f16)),
+                ColorTile::Unorm(v) => v.fill(c),
             }
         }
     }
@@ -237,7 +288,9 @@ impl Framebuffer {
                 let (t, i) = self.locate(x, y).expect("in range");
                 match &self.tiles[t].color {
                     ColorTile::Rgba8(c) => out.extend_from_slice(&c[i]),
-                    ColorTile::F32(c) | ColorTile::F16(c) => out.extend(c[i].map(quantize_unorm8)),
+                    ColorTile::F32(c) | ColorTile::F16(c) | ColorTile::Unorm(c) => {
+                        out.extend(c[i].map(quantize_unorm8))
+                    }
                 }
             }
         }
@@ -306,6 +359,19 @@ mod tests {
         let mut f32_fb = Framebuffer::new(2, 1, ColorFormat::F32).unwrap();
         f32_fb.set_color(0, 0, [0.1, -0.7, 3.0, 1.0]);
         assert_eq!(f32_fb.color(0, 0).unwrap(), [0.1, -0.7, 3.0, 1.0]);
+    }
+
+    #[test]
+    fn unorm_reads_back_clamped_without_rounding() {
+        let mut fb = Framebuffer::new(2, 1, ColorFormat::Unorm).unwrap();
+        fb.set_color(0, 0, [0.1, -0.7, 3.0, f32::NAN]);
+        assert_eq!(fb.read_back(0, 0).unwrap(), [0.1, 0.0, 1.0, 0.0]);
+        assert_eq!(fb.read_back_rgba_f32()[0], [0.1, 0.0, 1.0, 0.0]);
+        // The last value written is kept as computed.
+        assert_eq!(fb.color(0, 0).unwrap()[..3], [0.1, -0.7, 3.0]);
+        // A blend reads the destination clamped, the source as it is.
+        fb.tiles[0].blend_color(0, &[2.0, 0.5, -0.5, 0.0], &BlendState::ADD);
+        assert_eq!(fb.color(0, 0).unwrap(), [2.1, 0.5, 0.5, 0.0]);
     }
 
     #[test]

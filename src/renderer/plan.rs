@@ -30,14 +30,20 @@
 //!   texture shaded over its texels (`bake(f)`) is not sampled either: the
 //!   texel pass's function is evaluated at the lookup's coordinates.
 //!   Generated data textures (normal maps) are built unquantized, with the
-//!   same mipmap filter. f32 framebuffers, no clamping.
+//!   same mipmap filter. f32 framebuffers; what a later pass reads of one
+//!   declared `rgba8` (and of a texture declared 8-bit that a pass renders
+//!   into) is clamped to [0, 1], as GL's fixed-point buffers store it
+//!   (§2.13.9, §4.1.8), without rounding (`ColorFormat::Unorm`; the last
+//!   value written is kept as computed); float ones and the planner's
+//!   temporaries do not clamp.
 //! - `f32` — the same plan with every node rounded to f32, textures as
 //!   stored (8-bit where declared so) and sampled as the WGSL target's
 //!   texture unit samples them in exact fidelity (`textures::unit`: λ per
 //!   2×2 quad — for a dependent lookup from its coordinates computed at the
 //!   quad's pixels, `FragmentProgram::quad_coords` — float filtering,
 //!   seamless cube maps; fixed9 too, but with 8-bit textures filtered in 8.8
-//!   fixed point), f32 framebuffers; textures declared 16-bit or float are
+//!   fixed point), f32 framebuffers (clamped where declared `rgba8`, as in
+//!   `exact`); textures declared 16-bit or float are
 //!   rendered into in half floats, as the WGSL target's `Rgba16Float`.
 //! - `fixed9` — what the old hardware showed: 8-bit textures, an RGBA8
 //!   framebuffer (blending clamps and rounds) and 8-bit temporaries, and the
@@ -431,7 +437,18 @@ impl<'a> PlanRenderer<'a> {
     ) -> Result<Framebuffer, RenderError> {
         let m = &self.planned.module;
         let wide = matches!(&pass.target, RenderTarget::Texture { name } if m.textures.iter().any(|t| t.name == *name && t.format.is_wide()));
-        let format = if wide && mode != Precision::Exact { ColorFormat::F16 } else { format };
+        let format = match mode {
+            Precision::Exact | Precision::F32 if wide => {
+                if mode == Precision::Exact {
+                    ColorFormat::F32
+                } else {
+                    ColorFormat::F16
+                }
+            }
+            Precision::Exact | Precision::F32 if fixed_point_target(m, &pass.target) => ColorFormat::Unorm,
+            _ if wide => ColorFormat::F16,
+            _ => format,
+        };
         let mut fb = Framebuffer::new(size.0, size.1, format)?;
         fb.clear_color([0.0, 0.0, 0.0, 0.0]);
         Ok(fb)
@@ -560,6 +577,34 @@ impl<'a> PlanRenderer<'a> {
     }
 }
 
+/// Whether `target` stores fixed-point colour: a framebuffer declared
+/// without a float format (`rgba8`), or a texture declared unsigned 8-bit
+/// (`rgba8`, `rgb8`, `r8`). GL clamps
+/// what such a buffer stores to [0, 1] (§2.13.9, §4.1.8), and the IR's
+/// value ranges say a read of it lies there; `exact` and `f32` keep it in
+/// float clamped ([`ColorFormat::Unorm`]), `fixed9` in RGBA8. A planner
+/// temporary keeps its intermediate value unclamped.
+fn fixed_point_target(m: &Module, target: &RenderTarget) -> bool {
+    use crate::parser::ast::FramebufferChannel as F;
+    match target {
+        RenderTarget::Framebuffer { name, .. } => m
+            .framebuffers
+            .iter()
+            .find(|f| f.name == *name)
+            .is_some_and(|f| !f.channels.iter().any(|c| matches!(c, F::Rgba16f | F::Rgba32f))),
+        RenderTarget::Texture { name } => m.textures.iter().any(|t| {
+            t.name == *name
+                && matches!(
+                    t.format,
+                    crate::parser::ast::TextureFormat::Rgba8
+                        | crate::parser::ast::TextureFormat::Rgb8
+                        | crate::parser::ast::TextureFormat::R8
+                )
+        }),
+        RenderTarget::Temporary { .. } => false,
+    }
+}
+
 /// Snapshots of the framebuffers a pass reads (another's, or its own in a
 /// screen pass), by framebuffer id.
 /// Whether the pass reads its own target's size or depth (`xs`, `δu`).
@@ -649,7 +694,7 @@ impl Rendered {
     }
 
     fn from_framebuffer(fb: &Framebuffer, mipmap: bool) -> Rendered {
-        let pixels = fb.to_rgba_f32();
+        let pixels = fb.read_back_rgba_f32();
         let t = Texture2D::new(
             TexelFormat::F32,
             Wrap::ClampToEdge,
@@ -1350,8 +1395,8 @@ impl<'a> FragmentProgram<'a> {
                     return if channel == FbChannel::Depth { [1.0; 4] } else { [0.0; 4] };
                 };
                 match channel {
-                    FbChannel::Color => fb.color(x, y).unwrap_or([0.0; 4]).map(|c| c as f64),
-                    FbChannel::Alpha => [fb.color(x, y).map_or(0.0, |c| c[3]) as f64; 4],
+                    FbChannel::Color => fb.read_back(x, y).unwrap_or([0.0; 4]).map(|c| c as f64),
+                    FbChannel::Alpha => [fb.read_back(x, y).map_or(0.0, |c| c[3]) as f64; 4],
                     FbChannel::Depth => [fb.depth(x, y).unwrap_or(1.0) as f64; 4],
                     FbChannel::Stencil => [fb.stencil(x, y).unwrap_or(0) as f64; 4],
                 }

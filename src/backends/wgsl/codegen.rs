@@ -66,8 +66,10 @@
 //!   add_signed `a + b − ½`, subtract `a − b`, decal `Cf(1 − At) + Ct·At`
 //!   with alpha Af, blend `Cf(1 − Ct)` with alpha `Af·At`, replace `Ct` (alpha
 //!   At for an rgba texture, else Af), interpolate `Ct·At + Cf(1 − At)` (alpha
-//!   likewise), dot3 `saturate(4 (Ct − ½)·(Cf − ½))` splatted to rgb (alpha
-//!   `Af·At`; dot3_rgba: to all four). At = 1 for an rgb operand.
+//!   likewise), dot3 `4 (Ct − ½)·(Cf − ½)` splatted to rgb (alpha `Af·At`;
+//!   dot3_rgba: to all four). At = 1 for an rgb operand. Like the IR's
+//!   `combine`, no mode clamps its result (GL's clamp to [0, 1] is the
+//!   hardware models', and an 8-bit framebuffer's).
 //! - Comparisons and logic give 1.0 or 0.0; a condition holds where it is
 //!   not 0. `c ? a` (no `:`) discards the fragment where `c` is 0.
 //!
@@ -2513,8 +2515,11 @@ impl<'a> Gen<'a> {
                             self.math(b, naga::MathFunction::Dot, &[a, c])
                         };
                         let four = b.lit(4.0);
+                        // Unclamped, as every ⊕ mode (the IR's `combine`): GL's
+                        // clamp belongs to the hardware models; a saturate here
+                        // made `0.9 · (T ⊕[dot3] T′)` differ from the CPU and the
+                        // reference by 25/255 (issue 33).
                         let d = self.binop(b, B::Multiply, d, four);
-                        let d = self.math(b, naga::MathFunction::Saturate, &[d]);
                         let rgb = self.splat(b, d, 1, cw)?;
                         let alpha = if mode == CombineMode::Dot3Rgba {
                             d
