@@ -326,7 +326,7 @@ fn line_of(text: &str, offset: usize) -> usize {
 }
 
 fn errors_of(source: &str) -> Vec<shadec::diag::Diagnostic> {
-    shadec::driver::check(source, None).expect("the profile resolves").diagnostics
+    shadec::verdict::check(source, None).expect("the profile resolves").diagnostics
 }
 
 #[test]
