@@ -41,6 +41,7 @@ mod lowering;
 mod lsp;
 mod lsp_robust;
 mod planner;
+mod planner_algebra;
 mod planner_split;
 mod raster_fill;
 mod raster_interp;
