@@ -642,48 +642,13 @@ fn plan_run(
             let Some(value) = value else { continue };
             fused[i] = Some((j, value));
             let (form, pieces) =
-                match candidate(m, search, fits, baked, &stmts, value, profile.float_textures) {
-                    Ok((form, pieces)) if stmts.len() == 1 && fits.canonical.contains(&value) => {
-                        // Already rewritten for the target: its other forms may be cheaper.
-                        let c = split::cost(m, fits.fit(baked), &pieces);
-                        match rewritten(m, search, fits, baked, stmts[0], profile.float_textures) {
-                            Ok((f, mut p, what)) if split::cost(m, fits.fit(baked), &p) < c => {
-                                let note = format!("{what} (as written {} cannot run it)", profile.name);
-                                note_rewrite(&mut p, &note);
-                                rewrites.insert(stmts[0], note);
-                                (f, p)
-                            }
-                            _ => {
-                                let mut pieces = pieces;
-                                let note = format!(
-                                    "{} (as written {} cannot run it)",
-                                    algebra::CANONICAL,
-                                    profile.name
-                                );
-                                note_rewrite(&mut pieces, &note);
-                                rewrites.insert(stmts[0], note);
-                                (form, pieces)
-                            }
-                        }
-                    }
+                match planned_or_rewritten(m, profile, search, fits, baked, &stmts, value, &mut rewrites) {
                     Ok(planned) => planned,
-                    Err(Unplanned::Overflow(o)) if stmts.len() == 1 => {
-                        // Before refusing for resources: the equivalent forms.
-                        match rewritten(m, search, fits, baked, stmts[0], profile.float_textures) {
-                            Ok((form, mut pieces, what)) => {
-                                let note = format!("{what} (as written it {o})");
-                                note_rewrite(&mut pieces, &note);
-                                rewrites.insert(stmts[0], note);
-                                (form, pieces)
-                            }
-                            Err(tried) => {
-                                let st = m.statements[stmts[0]].clone();
-                                first_error.get_or_insert(cannot_split(m, &st, profile, &o, &tried));
-                                continue;
-                            }
-                        }
+                    Err(Err(refusal)) => {
+                        first_error.get_or_insert(refusal);
+                        continue;
                     }
-                    Err(why) => {
+                    Err(Ok(why)) => {
                         match (&why, stmts.len(), &pair_with) {
                             (Unplanned::Form(d), 1, _) => {
                                 first_error.get_or_insert(d.clone());
@@ -753,6 +718,66 @@ fn plan_run(
         .collect())
 }
 
+/// A statement's equivalent forms: the value, the value added after a
+/// modulation (`C ← C·m + s`), and what made them.
+type Candidate = (Handle<Expr>, Option<Handle<Expr>>, &'static str);
+/// A statement planned in an equivalent form, with what the form is; or
+/// each form tried and why it does not plan.
+type Rewritten = Result<(Form, Vec<Piece>, &'static str), Vec<(&'static str, Overflow)>>;
+
+/// [`candidate`], then — for a single statement — its equivalent forms
+/// ([`rewritten`]): when it does not plan as written, or when it was
+/// rewritten already so that the target could run it (`Fits::canonical`)
+/// and another form may be cheaper. `rewrites` records the statements
+/// planned in another form, with the reason. `Err(Err(d))`: refused for
+/// resources in every form, `d` saying what was tried.
+#[allow(clippy::too_many_arguments)]
+fn planned_or_rewritten(
+    m: &mut Module,
+    profile: &Profile,
+    search: Search,
+    fits: &mut Fits,
+    baked: bool,
+    stmts: &[usize],
+    value: Handle<Expr>,
+    rewrites: &mut HashMap<usize, String>,
+) -> Result<(Form, Vec<Piece>), Result<Unplanned, Diagnostic>> {
+    let single = stmts.len() == 1;
+    let as_written = candidate(m, search, fits, baked, stmts, value, profile.float_textures);
+    let (written_cost, why) = match &as_written {
+        Ok((_, pieces)) if single && fits.canonical.contains(&value) => (
+            Some(split::cost(m, fits.fit(baked), pieces)),
+            format!("as written {} cannot run it", profile.name),
+        ),
+        Err(Unplanned::Overflow(o)) if single => (None, format!("as written it {o}")),
+        _ => return as_written.map_err(Ok),
+    };
+    let tried = match rewritten(m, search, fits, baked, stmts[0], profile.float_textures) {
+        Ok((f, mut p, what)) if written_cost.is_none_or(|c| split::cost(m, fits.fit(baked), &p) < c) => {
+            let note = format!("{what} ({why})");
+            note_rewrite(&mut p, &note);
+            rewrites.insert(stmts[0], note);
+            return Ok((f, p));
+        }
+        Ok(_) => Vec::new(),
+        Err(tried) => tried,
+    };
+    match as_written {
+        Ok((form, mut pieces)) => {
+            // The canonical form the target runs is the cheapest.
+            let note = format!("{} ({why})", algebra::CANONICAL);
+            note_rewrite(&mut pieces, &note);
+            rewrites.insert(stmts[0], note);
+            Ok((form, pieces))
+        }
+        Err(Unplanned::Overflow(o)) => {
+            let st = m.statements[stmts[0]].clone();
+            Err(Err(cannot_split(m, &st, profile, &o, &tried)))
+        }
+        Err(why) => Err(Ok(why)),
+    }
+}
+
 /// The first pass of a statement planned in an equivalent form says which
 /// (the pass reasons of a split quote their pieces).
 fn note_rewrite(pieces: &mut [Piece], note: &str) {
@@ -774,12 +799,12 @@ fn rewritten(
     baked: bool,
     s: usize,
     float_temps: bool,
-) -> Result<(Form, Vec<Piece>, &'static str), Vec<(&'static str, Overflow)>> {
+) -> Rewritten {
     let st = m.statements[s].clone();
     let Ok(form) = classify(m, &st, st.value) else { return Err(Vec::new()) };
     // The exhaustive search enumerates every grouping of the terms.
     let max = if search == Search::Exhaustive { 8 } else { algebra::MAX_TERMS };
-    let mut candidates: Vec<(Handle<Expr>, Option<Handle<Expr>>, &'static str)> = Vec::new();
+    let mut candidates: Vec<Candidate> = Vec::new();
     let adds = form.then_add.map(|a| algebra::forms(m, a, max)).unwrap_or_default();
     let add_of = |what: &str| adds.iter().find(|f| f.what == what).map(|f| f.value).or(form.then_add);
     for f in algebra::forms(m, form.value, max) {
