@@ -62,8 +62,10 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
     let base = canon.unwrap_or(h);
     let expanded = multiply_out(m, base, max_terms);
     push(&mut out, expanded, "multiplied out");
-    let factored = factor(m, expanded.unwrap_or(base));
-    push(&mut out, factored, "with a common factor taken out");
+    for nth in 0..3 {
+        let factored = factor_nth(m, expanded.unwrap_or(base), nth);
+        push(&mut out, factored, "with a common factor taken out");
+    }
     out
 }
 
@@ -276,6 +278,7 @@ pub fn multiply_out(m: &mut Module, h: Handle<Expr>, max: usize) -> Option<Handl
     let span = m.span(h);
     let mut sum: Option<Handle<Expr>> = None;
     for factors in terms {
+        let factors = constants_into_delta(m, factors, span)?;
         let mut product = factors[0];
         for f in &factors[1..] {
             product = binary(m, BinaryOp::Mul, product, *f, span)?;
@@ -288,12 +291,45 @@ pub fn multiply_out(m: &mut Module, h: Handle<Expr>, max: usize) -> Option<Handl
     sum.filter(|s| *s != h && m.info(*s).ty == m.info(h).ty)
 }
 
+/// A constant factor written just before a δ moved inside it:
+/// `k·δv` = `δ(k·v)` (interpolation is linear), which spends no constant
+/// register and no combiner stage on `k` per fragment, and keeps equal
+/// interpolants one interpolant (`(0.3·δa)·(0.3·δa)` reads one colour).
+fn constants_into_delta(m: &mut Module, factors: Vec<Handle<Expr>>, span: Span) -> Option<Vec<Handle<Expr>>> {
+    let mut out: Vec<Handle<Expr>> = Vec::with_capacity(factors.len());
+    let mut i = 0;
+    while i < factors.len() {
+        let f = factors[i];
+        let next = factors.get(i + 1).map(|n| m.exprs[*n].clone());
+        if let (Expr::Constant(_), Some(Expr::Interpolate { value, to })) = (&m.exprs[f], next) {
+            let k = binary(m, BinaryOp::Mul, f, value, span)?;
+            let moved = node(m, Expr::Interpolate { value: k, to }, span)?;
+            if m.info(moved).ty == m.info(factors[i + 1]).ty {
+                out.push(moved);
+                i += 2;
+                continue;
+            }
+        }
+        out.push(f);
+        i += 1;
+    }
+    Some(out)
+}
+
 /// A sum whose terms share a factor, the factor most terms share taken
-/// out: `a·b + a·c + d` = `a·(b + c) + d`; `None` when no two terms share one.
+/// out, then the same within the factored sum and the rest:
+/// `a·b + a·c + d` = `a·(b + c) + d`; `None` when no two terms share one.
 pub fn factor(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
+    factor_nth(m, h, 0)
+}
+
+/// [`factor`] taking out the `nth` most shared factor first (then the most
+/// shared within): greedy factoring can miss the compact form, so the
+/// planner tries a few.
+pub fn factor_nth(m: &mut Module, h: Handle<Expr>, nth: usize) -> Option<Handle<Expr>> {
     if let Expr::Convert { value, to: Ty::Rgba } = m.exprs[h] {
         if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3) {
-            let inner = factor(m, value)?;
+            let inner = factor_nth(m, value, nth)?;
             return node(m, Expr::Convert { value: inner, to: Ty::Rgba }, m.span(h));
         }
     }
@@ -311,10 +347,9 @@ pub fn factor(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
             *count.entry(f).or_default() += 1;
         }
     }
-    let (&common, &n) = count.iter().max_by_key(|(f, n)| (**n, std::cmp::Reverse(f.index())))?;
-    if n < 2 {
-        return None;
-    }
+    let mut shared: Vec<(Handle<Expr>, usize)> = count.into_iter().filter(|(_, n)| *n >= 2).collect();
+    shared.sort_by_key(|(f, n)| (std::cmp::Reverse(*n), f.index()));
+    let (common, _) = *shared.get(nth)?;
     let span = m.span(h);
     let (mut inner, mut rest): (Option<Handle<Expr>>, Option<Handle<Expr>>) = (None, None);
     for (t, fs) in terms.iter().zip(&factors) {
@@ -336,10 +371,17 @@ pub fn factor(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
             Some(s) => binary(m, BinaryOp::Add, s, p, span)?,
         });
     }
-    let taken = binary(m, BinaryOp::Mul, common, inner?, span)?;
+    // Then the same within what is left (a Horner-like form: the whole
+    // sum of products folded back, as far as shared factors go).
+    let inner = inner?;
+    let inner = factor(m, inner).unwrap_or(inner);
+    let taken = binary(m, BinaryOp::Mul, common, inner, span)?;
     let out = match rest {
         None => taken,
-        Some(r) => binary(m, BinaryOp::Add, taken, r, span)?,
+        Some(r) => {
+            let r = factor(m, r).unwrap_or(r);
+            binary(m, BinaryOp::Add, taken, r, span)?
+        }
     };
     (m.info(out).ty == m.info(h).ty && out != h).then_some(out)
 }
