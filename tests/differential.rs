@@ -340,7 +340,7 @@ impl Program {
 
 /// Why `planned` cannot run on `profile`, if it cannot: checked pass by pass
 /// against the profile's own numbers and seeds/003 Appendix B.
-fn validate_plan(planned: &Planned, profile: &Profile) -> Result<(), String> {
+pub(crate) fn validate_plan(planned: &Planned, profile: &Profile) -> Result<(), String> {
     let m = &planned.module;
     for (i, pass) in planned.plan.passes.iter().enumerate() {
         let at = |what: String| format!("pass {}: {what}", i + 1);

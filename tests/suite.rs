@@ -45,6 +45,7 @@ mod lsp;
 mod lsp_robust;
 mod one_verdict;
 mod planner;
+mod planner_algebra;
 mod planner_split;
 mod raster_fill;
 mod raster_interp;

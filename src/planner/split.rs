@@ -692,8 +692,12 @@ pub fn exact_through_clamps(module: &Module, pieces: &[Piece], float_temps: bool
         // Before a target's first piece: what the framebuffer holds, [0, 1].
         let b = held.get(&p.dest).copied().unwrap_or(Interval::UNSIGNED);
         // A pass's own output is clamped before it is blended: only a
-        // replace (whose clamp the held range carries on) may exceed [0, 1].
-        if p.blend != BlendMode::Replace && (v.lo < 0.0 || v.hi > 1.0) {
+        // replace (whose clamp the held range carries on) may exceed [0, 1]
+        // — or an addition of non-negative values to non-negative ones,
+        // whose clamp to 1 the stored sum's clamp repeats
+        // (min(1, b + min(1, v)) = min(1, b + v) for b, v ≥ 0).
+        let saturating_add = p.blend == BlendMode::Add && v.lo >= 0.0 && b.lo >= 0.0;
+        if p.blend != BlendMode::Replace && (v.lo < 0.0 || v.hi > 1.0) && !saturating_add {
             return false;
         }
         let after = match p.blend {

@@ -1,0 +1,484 @@
+//! Equivalent forms of a value the planner tries before it refuses one for
+//! resources: exact algebra, no approximation.
+//!
+//! Framebuffer blending splits sums and products (Pipeline Grammar,
+//! eq. (9)); a value written another way may hold the same sum of products
+//! in a shape blending cannot divide, or in one whose parts leave [0, 1]
+//! where a pass clamps them. The forms, each equal to the value for every
+//! input:
+//!
+//! - **canonical**: a channel read off a tuple is that component
+//!   (`(a, b, 0).r` = `a`; a shader returning a tuple read by `.r` and
+//!   `.g` plans as two scalar shaders would); `lerp(a, b, f)` =
+//!   `a·(1 − f) + b·f` (affine in `a` and `b`); a sum inside δ is split
+//!   across it, δ(a + b) = δa + δb — interpolation is linear (Pipeline
+//!   Grammar, eq. (1)), so this is exact, and each light of GL's
+//!   per-vertex lighting becomes an interpolant of its own, in [0, 1]
+//!   where their sum was not;
+//! - **multiplied out**: the canonical form with every product distributed
+//!   over its sums, a flat sum of products whose terms blending adds one
+//!   pass (or one group) at a time — `base · light · lerp(fog, 2·detail, f)`
+//!   becomes `base·light·fog·(1 − f) + base·light·(2·detail)·f`;
+//! - **factored**: a sum whose terms share a factor, that factor taken out
+//!   once (`a·b + a·c` = `a·(b + c)`): fewer operations and fetches where
+//!   the sum fits but its terms, written apart, do not.
+//!
+//! The planner plans each form that differs from the one written and keeps
+//! the cheapest by its cost model (`split::cost`); nothing here runs for a
+//! statement that plans as written.
+
+use rustc_hash::FxHashMap as HashMap;
+
+use crate::ir::{BinaryOp, Expr, Frequency, Handle, MathFunction, Module, Ty};
+use crate::parser::ast::CombineMode;
+use crate::span::Span;
+
+/// At most this many terms in a multiplied-out form: beyond it the search
+/// over their groupings is greedy, and the form is not worth its passes.
+pub const MAX_TERMS: usize = 12;
+
+/// The canonical form, in the words of a plan's reason.
+pub const CANONICAL: &str = "with tuples read by channel, lerps and sums inside δ written out";
+
+/// One equivalent form of a value and what made it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Form {
+    pub value: Handle<Expr>,
+    /// In the words of a plan's reason: "multiplied out", ….
+    pub what: &'static str,
+}
+
+/// The forms of `h` other than `h` itself, in the order of the module's
+/// doc (canonical, multiplied out, factored), without repeats.
+pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
+    let mut out: Vec<Form> = Vec::new();
+    let push = |out: &mut Vec<Form>, value: Option<Handle<Expr>>, what| {
+        if let Some(value) = value.filter(|v| *v != h && out.iter().all(|f| f.value != *v)) {
+            out.push(Form { value, what });
+        }
+    };
+    let canon = canonical(m, h);
+    push(&mut out, canon, CANONICAL);
+    let base = canon.unwrap_or(h);
+    let expanded = multiply_out(m, base, max_terms);
+    push(&mut out, expanded, "multiplied out");
+    for nth in 0..3 {
+        let factored = factor_nth(m, expanded.unwrap_or(base), nth);
+        push(&mut out, factored, "with a common factor taken out");
+    }
+    out
+}
+
+/// Interns `e` at `span`; `None` when it is ill-typed.
+fn node(m: &mut Module, e: Expr, span: Span) -> Option<Handle<Expr>> {
+    m.intern(e, span).ok()
+}
+
+fn binary(
+    m: &mut Module,
+    op: BinaryOp,
+    lhs: Handle<Expr>,
+    rhs: Handle<Expr>,
+    span: Span,
+) -> Option<Handle<Expr>> {
+    let one = |m: &Module, h| m.is_constant(h, 1.0) && m.info(h).ty == Ty::Scalar;
+    let zero = |m: &Module, h| m.is_constant(h, 0.0) && m.info(h).ty == Ty::Scalar;
+    match op {
+        BinaryOp::Mul if one(m, lhs) => Some(rhs),
+        BinaryOp::Mul if one(m, rhs) => Some(lhs),
+        BinaryOp::Add if zero(m, lhs) => Some(rhs),
+        BinaryOp::Add if zero(m, rhs) => Some(lhs),
+        _ => node(m, Expr::Binary { op, lhs, rhs }, span),
+    }
+}
+
+/// The canonical form of `h` (tuples read by channel, lerps, sums inside
+/// δ); `None` when that is `h` itself or cannot be built.
+pub fn canonical(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
+    let mut done: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::default();
+    for n in m.reachable(&[h]) {
+        let e = m.exprs[n].map_operands(|o| *done.get(&o).unwrap_or(&o));
+        let span = m.span(n);
+        let rebuilt = if e == m.exprs[n] { n } else { node(m, e.clone(), span)? };
+        let simpler = simplify(m, rebuilt, span).unwrap_or(rebuilt);
+        done.insert(n, simpler);
+    }
+    done.get(&h).copied().filter(|c| *c != h)
+}
+
+/// One canonical step at `h`, its operands already canonical.
+fn simplify(m: &mut Module, h: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
+    match m.exprs[h].clone() {
+        Expr::Swizzle { value, pattern, len, ty } => read_channel(m, value, pattern, len, ty, span),
+        Expr::Math { fun: MathFunction::Mix, args } if m.info(args[2]).ty == Ty::Scalar => {
+            // lerp(a, b, f) = a·(1 − f) + b·f (as `ir::eval` defines it).
+            let one = node(m, Expr::Constant(crate::ir::Constant::scalar(1.0)), span)?;
+            let keep = binary(m, BinaryOp::Sub, one, args[2], span)?;
+            let a = binary(m, BinaryOp::Mul, args[0], keep, span)?;
+            let b = binary(m, BinaryOp::Mul, args[1], args[2], span)?;
+            let sum = binary(m, BinaryOp::Add, a, b, span)?;
+            // `lerp(rgb, scalar, f)` is an rgb: so is its sum.
+            (m.info(sum).ty == m.info(h).ty).then_some(sum)
+        }
+        // Colours and scalars only: a direction's sum (`δ(L + V)`) is a
+        // cube map's coordinate, which must stay one interpolant.
+        Expr::Interpolate { value, to } if matches!(m.info(value).ty, Ty::Rgb | Ty::Rgba | Ty::Scalar) => {
+            // A shader's vec3 result read as a colour (`.rgb`) is its sum's too.
+            let (inner, retype) = match m.exprs[value] {
+                Expr::Swizzle { value: v, pattern: [0, 1, 2, _], len: 3, ty }
+                    if m.info(v).ty.width() == 3 =>
+                {
+                    (v, Some(ty))
+                }
+                _ => (value, None),
+            };
+            // `δ(kd·(a + b))`: the product multiplied out first.
+            let expanded = multiply_out(m, inner, MAX_TERMS).unwrap_or(inner);
+            let terms = sum_terms(m, expanded);
+            if terms.len() < 2 {
+                return None;
+            }
+            let mut acc: Option<Handle<Expr>> = None;
+            for t in terms {
+                let t = match retype {
+                    Some(ty) if m.info(t).ty.width() == 3 && m.info(t).ty != ty => {
+                        node(m, Expr::Swizzle { value: t, pattern: [0, 1, 2, 0], len: 3, ty }, span)?
+                    }
+                    _ => t,
+                };
+                // δ of a constant is the constant.
+                let d = if m.info(t).freq <= Frequency::Uniform {
+                    t
+                } else {
+                    node(m, Expr::Interpolate { value: t, to }, span)?
+                };
+                acc = Some(match acc {
+                    None => d,
+                    Some(a) => binary(m, BinaryOp::Add, a, d, span)?,
+                });
+            }
+            acc.filter(|s| m.info(*s).ty == m.info(h).ty)
+        }
+        _ => None,
+    }
+}
+
+/// `value.pattern` simplified: a swizzle of a swizzle is one swizzle, one
+/// channel of a tuple is that component.
+fn read_channel(
+    m: &mut Module,
+    value: Handle<Expr>,
+    pattern: [u8; 4],
+    len: u8,
+    ty: Ty,
+    span: Span,
+) -> Option<Handle<Expr>> {
+    match m.exprs[value].clone() {
+        Expr::Swizzle { value: inner, pattern: p, .. } => {
+            let mut q = [0u8; 4];
+            for i in 0..len as usize {
+                q[i] = *p.get(pattern[i] as usize)?;
+            }
+            let once = node(m, Expr::Swizzle { value: inner, pattern: q, len, ty }, span)?;
+            Some(read_channel(m, inner, q, len, ty, span).unwrap_or(once))
+        }
+        Expr::Compose { components, .. } if len == 1 => {
+            let mut at = pattern[0] as usize;
+            for c in components {
+                let w = m.info(c).ty.width();
+                if at < w {
+                    return if w == 1 {
+                        (m.info(c).ty == ty).then_some(c)
+                    } else {
+                        node(m, Expr::Swizzle { value: c, pattern: [at as u8, 0, 0, 0], len: 1, ty }, span)
+                    };
+                }
+                at -= w;
+            }
+            None
+        }
+        _ => None,
+    }
+}
+
+/// The terms of a sum (`+`, `⊕[add]`) rooted at `h`; `[h]` for anything else.
+fn sum_terms(m: &Module, h: Handle<Expr>) -> Vec<Handle<Expr>> {
+    let mut out = Vec::new();
+    let mut stack = vec![h];
+    while let Some(x) = stack.pop() {
+        match m.exprs[x] {
+            Expr::Binary { op: BinaryOp::Add, lhs, rhs }
+            | Expr::Combine { mode: CombineMode::Add, lhs, rhs } => {
+                stack.push(rhs);
+                stack.push(lhs);
+            }
+            _ => out.push(x),
+        }
+    }
+    out
+}
+
+/// The factors of a product (`*`, `⊕` modulate) rooted at `h`; `[h]` else.
+fn product_factors(m: &Module, h: Handle<Expr>) -> Vec<Handle<Expr>> {
+    let mut out = Vec::new();
+    let mut stack = vec![h];
+    while let Some(x) = stack.pop() {
+        match m.exprs[x] {
+            Expr::Binary { op: BinaryOp::Mul, lhs, rhs }
+            | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs } => {
+                stack.push(rhs);
+                stack.push(lhs);
+            }
+            _ => out.push(x),
+        }
+    }
+    out
+}
+
+/// `h` as a sum of products, each term its factors in the order written;
+/// `None` past `max` terms.
+fn expansion(m: &Module, h: Handle<Expr>, max: usize) -> Option<Vec<Vec<Handle<Expr>>>> {
+    let terms = sum_terms(m, h);
+    if terms.len() > 1 {
+        let mut out = Vec::new();
+        for t in terms {
+            out.extend(expansion(m, t, max)?);
+            if out.len() > max {
+                return None;
+            }
+        }
+        return Some(out);
+    }
+    let factors = product_factors(m, h);
+    if factors.len() == 1 {
+        return Some(vec![vec![h]]);
+    }
+    let mut out: Vec<Vec<Handle<Expr>>> = vec![vec![]];
+    for f in factors {
+        let sub = expansion(m, f, max)?;
+        if out.len() * sub.len() > max {
+            return None;
+        }
+        out = out.iter().flat_map(|a| sub.iter().map(move |b| [a.clone(), b.clone()].concat())).collect();
+    }
+    Some(out)
+}
+
+/// `h` multiplied out (every product distributed over its sums), under an
+/// rgba conversion too (`rgba(x, 1)` of a sum: the colour multiplied out);
+/// `None` when nothing distributes, past `max` terms, or ill-typed.
+pub fn multiply_out(m: &mut Module, h: Handle<Expr>, max: usize) -> Option<Handle<Expr>> {
+    if let Expr::Convert { value, to: Ty::Rgba } = m.exprs[h] {
+        if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3) {
+            let inner = multiply_out(m, value, max)?;
+            return node(m, Expr::Convert { value: inner, to: Ty::Rgba }, m.span(h));
+        }
+    }
+    let terms = expansion(m, h, max)?;
+    let span = m.span(h);
+    let mut sum: Option<Handle<Expr>> = None;
+    for factors in terms {
+        let factors = constants_into_delta(m, factors, span)?;
+        let mut product = factors[0];
+        for f in &factors[1..] {
+            product = binary(m, BinaryOp::Mul, product, *f, span)?;
+        }
+        sum = Some(match sum {
+            None => product,
+            Some(s) => binary(m, BinaryOp::Add, s, product, span)?,
+        });
+    }
+    sum.filter(|s| *s != h && m.info(*s).ty == m.info(h).ty)
+}
+
+/// A constant factor written just before a δ moved inside it:
+/// `k·δv` = `δ(k·v)` (interpolation is linear), which spends no constant
+/// register and no combiner stage on `k` per fragment, and keeps equal
+/// interpolants one interpolant (`(0.3·δa)·(0.3·δa)` reads one colour).
+fn constants_into_delta(m: &mut Module, factors: Vec<Handle<Expr>>, span: Span) -> Option<Vec<Handle<Expr>>> {
+    let mut out: Vec<Handle<Expr>> = Vec::with_capacity(factors.len());
+    let mut i = 0;
+    while i < factors.len() {
+        let f = factors[i];
+        let next = factors.get(i + 1).map(|n| m.exprs[*n].clone());
+        if let (Expr::Constant(_), Some(Expr::Interpolate { value, to })) = (&m.exprs[f], next) {
+            let k = binary(m, BinaryOp::Mul, f, value, span)?;
+            let moved = node(m, Expr::Interpolate { value: k, to }, span)?;
+            if m.info(moved).ty == m.info(factors[i + 1]).ty {
+                out.push(moved);
+                i += 2;
+                continue;
+            }
+        }
+        out.push(f);
+        i += 1;
+    }
+    Some(out)
+}
+
+/// A sum whose terms share a factor, the factor most terms share taken
+/// out, then the same within the factored sum and the rest:
+/// `a·b + a·c + d` = `a·(b + c) + d`; `None` when no two terms share one.
+pub fn factor(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
+    factor_nth(m, h, 0)
+}
+
+/// [`factor`] taking out the `nth` most shared factor first (then the most
+/// shared within): greedy factoring can miss the compact form, so the
+/// planner tries a few.
+pub fn factor_nth(m: &mut Module, h: Handle<Expr>, nth: usize) -> Option<Handle<Expr>> {
+    if let Expr::Convert { value, to: Ty::Rgba } = m.exprs[h] {
+        if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3) {
+            let inner = factor_nth(m, value, nth)?;
+            return node(m, Expr::Convert { value: inner, to: Ty::Rgba }, m.span(h));
+        }
+    }
+    let terms = sum_terms(m, h);
+    if terms.len() < 2 {
+        return None;
+    }
+    let factors: Vec<Vec<Handle<Expr>>> = terms.iter().map(|t| product_factors(m, *t)).collect();
+    let mut count: HashMap<Handle<Expr>, usize> = HashMap::default();
+    for fs in factors.iter().filter(|fs| fs.len() > 1) {
+        let mut seen = fs.clone();
+        seen.sort();
+        seen.dedup();
+        for f in seen {
+            *count.entry(f).or_default() += 1;
+        }
+    }
+    let mut shared: Vec<(Handle<Expr>, usize)> = count.into_iter().filter(|(_, n)| *n >= 2).collect();
+    shared.sort_by_key(|(f, n)| (std::cmp::Reverse(*n), f.index()));
+    let (common, _) = *shared.get(nth)?;
+    let span = m.span(h);
+    let (mut inner, mut rest): (Option<Handle<Expr>>, Option<Handle<Expr>>) = (None, None);
+    for (t, fs) in terms.iter().zip(&factors) {
+        let Some(i) = fs.iter().position(|f| *f == common).filter(|_| fs.len() > 1) else {
+            rest = Some(match rest {
+                None => *t,
+                Some(r) => binary(m, BinaryOp::Add, r, *t, span)?,
+            });
+            continue;
+        };
+        let mut others = fs.clone();
+        others.remove(i);
+        let mut p = others[0];
+        for f in &others[1..] {
+            p = binary(m, BinaryOp::Mul, p, *f, span)?;
+        }
+        inner = Some(match inner {
+            None => p,
+            Some(s) => binary(m, BinaryOp::Add, s, p, span)?,
+        });
+    }
+    // Then the same within what is left (a Horner-like form: the whole
+    // sum of products folded back, as far as shared factors go).
+    let inner = inner?;
+    let inner = factor(m, inner).unwrap_or(inner);
+    let taken = binary(m, BinaryOp::Mul, common, inner, span)?;
+    let out = match rest {
+        None => taken,
+        Some(r) => {
+            let r = factor(m, r).unwrap_or(r);
+            binary(m, BinaryOp::Add, taken, r, span)?
+        }
+    };
+    (m.info(out).ty == m.info(h).ty && out != h).then_some(out)
+}
+
+/// Rewrites every statement of `m` into its canonical form (what a target
+/// without arithmetic beyond the texture environment needs of a `lerp`),
+/// a `saturate` written whole into an 8-bit framebuffer left to its clamp
+/// (`clamped` says where: `rgba(saturate(x), 1)` → `rgba(x, 1)`); the
+/// statements changed.
+pub fn canonical_statements(
+    m: &mut Module,
+    clamped: impl Fn(&mut Module, usize) -> Option<Handle<Expr>>,
+) -> Vec<usize> {
+    let mut changed = Vec::new();
+    for i in 0..m.statements.len() {
+        let unclamped = clamped(m, i);
+        let v = unclamped.unwrap_or(m.statements[i].value);
+        if let Some(c) = canonical(m, v).or(unclamped) {
+            m.statements[i].value = c;
+            changed.push(i);
+        }
+    }
+    changed
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::ir::eval::{Env, Evaluator};
+    use crate::numerics::Precision;
+
+    fn module(source: &str) -> Module {
+        let (program, diags) = crate::parser::check(source);
+        assert!(diags.iter().all(|d| !d.is_error()), "{diags:?}");
+        crate::ir::lower(&program).0
+    }
+
+    /// Every lookup and interpolant a value fixed by its node: the forms
+    /// must agree for any such leaves.
+    struct Leaves(f64);
+    impl Env for Leaves {
+        fn lookup(&mut self, texture: u32, _: crate::ir::eval::Value, _: Ty) -> crate::ir::eval::Value {
+            let v = (texture as f64 * 0.37 + self.0).fract();
+            [v, 1.0 - v, 0.25, 0.6]
+        }
+        fn interpolate(
+            &mut self,
+            _: Handle<Expr>,
+            value: Handle<Expr>,
+            _: Frequency,
+        ) -> crate::ir::eval::Value {
+            let v = (value.index() as f64 * 0.29 + self.0).fract();
+            [v, v * 0.5, 1.0 - v, 1.0]
+        }
+    }
+
+    fn value(m: &Module, h: Handle<Expr>, leaf: f64) -> crate::ir::eval::Value {
+        let mut e = Evaluator::new(m, &[h], Precision::Exact);
+        e.eval(&mut Leaves(leaf)).values[0]
+    }
+
+    #[test]
+    fn a_product_over_a_lerp_multiplies_out_to_the_same_value() {
+        let mut m = module(
+            "texture A : 2d rgb8;\ntexture B : 2d rgba8;\nconst f = 0.3;\n\
+             C δπx ← A δu x * lerp((B δu x).rgb, 2 * A δu x, (B δu x).a);\n",
+        );
+        let v = m.statements[0].value;
+        let forms = forms(&mut m, v, MAX_TERMS);
+        assert!(forms.iter().any(|f| f.what == "multiplied out"), "{forms:?}");
+        for f in &forms {
+            for leaf in [0.1, 0.5, 0.9] {
+                let (a, b) = (value(&m, v, leaf), value(&m, f.value, leaf));
+                for i in 0..4 {
+                    assert!((a[i] - b[i]).abs() < 1e-12, "{}: {a:?} against {b:?}", f.what);
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn a_channel_of_a_tuple_is_its_component() {
+        let mut m = module("texture A : 2d rgb8;\nlet t = ((A δu x).g, 0.5, 0);\nC δπx ← t.r + t.g;\n");
+        let v = m.statements[0].value;
+        let c = canonical(&mut m, v).expect("the swizzles go");
+        let swizzles = m.reachable(&[c]).into_iter().filter(|h| {
+            matches!(&m.exprs[*h], Expr::Swizzle { value, .. } if matches!(m.exprs[*value], Expr::Compose { .. }))
+        });
+        assert_eq!(swizzles.count(), 0);
+    }
+
+    #[test]
+    fn a_common_factor_is_taken_out_once() {
+        let mut m = module("texture A : 2d rgb8;\ntexture B : 2d rgb8;\ntexture D : 2d rgb8;\nC δπx ← A δu x * B δu x + D δu x * A δu x;\n");
+        let st = m.statements[0].value;
+        let Expr::Convert { value, .. } = m.exprs[st] else { panic!("rgb written as rgba") };
+        let f = factor(&mut m, value).expect("A is shared");
+        let Expr::Binary { op: BinaryOp::Mul, .. } = m.exprs[f] else { panic!("{:?}", m.exprs[f]) };
+    }
+}

@@ -1,0 +1,465 @@
+//! Algebra in the planner (issue 34): before refusing a statement for
+//! resources the planner plans its equivalent forms — a product
+//! distributed over a sum or a `lerp`, a sum split across δ, a tuple read
+//! by channel as its components, a common factor taken out, a clamp left
+//! to the framebuffer's — and keeps the cheapest. Each named case failed
+//! before; each rewritten plan is validated pass by pass
+//! (`differential::validate_plan`) and rendered against the program's
+//! meaning (`shadec::meaning`). The property test multiplies generated
+//! programs out with an expander written here, on the generator's own
+//! tree (not the planner's IR), and asserts the planner's verdict is the
+//! same on both forms on every target.
+
+use std::path::Path;
+
+use proptest::prelude::*;
+use proptest::strategy::ValueTree;
+use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+use shadec::diag::Diagnostic;
+use shadec::numerics::Precision;
+use shadec::pipeline::Planned;
+use shadec::profile::Profile;
+use shadec::renderer::plan::{compare, PlanRenderer};
+use shadec::scene::Scene;
+
+const TARGETS: &[&str] = &["geforce256", "geforce3", "multitexture", "wgsl"];
+const W: u32 = 48;
+const H: u32 = 36;
+/// Both renders rounded to RGBA8 once, and f32 arithmetic in another
+/// order (blends instead of one sum), as `tests/differential.rs` allows.
+const TOLERANCE: f32 = 2.0 / 255.0;
+
+fn compile(source: &str, target: &str) -> Result<Planned, Vec<Diagnostic>> {
+    let profile = Profile::builtin(target).unwrap();
+    shadec::driver::compile(source, &profile, &Default::default()).map(|c| c.planned)
+}
+
+fn scene(name: &str) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
+    let text = std::fs::read_to_string(&path).unwrap();
+    Scene::parse(&text, Path::new("/nonexistent-shadec-scene").join(name).as_path()).unwrap()
+}
+
+fn f32_render(planned: &Planned, source: &str, scene: &Scene) -> shadec::renderer::Framebuffer {
+    let (program, _) = shadec::parser::check(source);
+    let assets = scene.build().unwrap();
+    PlanRenderer::new(planned, &program, scene, &assets)
+        .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
+        .unwrap()
+        .image
+}
+
+/// A plan of `source` on `target`: every pass realized on the target, and
+/// its f32 render within the tolerance (plus the plan's stated output
+/// bounds) of the program's meaning in f32.
+fn plans_and_renders_its_meaning(source: &str, target: &str, scene: &Scene) -> Planned {
+    let planned = compile(source, target).unwrap_or_else(|e| panic!("refused on {target}: {e:#?}"));
+    let profile = Profile::builtin(target).unwrap();
+    crate::differential::validate_plan(&planned, &profile).unwrap_or_else(|e| panic!("{target}: {e}"));
+    let (program, _) = shadec::parser::check(source);
+    let (written, _) = shadec::ir::lower(&program);
+    let meaning = shadec::meaning::plan(&written, scene.lights.len()).unwrap();
+    let bound = planned.plan.approximations.iter().filter_map(|a| a.output_bound).sum::<f64>() as f32;
+    let e = compare(&f32_render(&meaning, source, scene), &f32_render(&planned, source, scene));
+    assert!(
+        e.max_abs <= TOLERANCE + bound,
+        "{target}: {:.1}/255 from the meaning over {} passes",
+        e.max_abs * 255.0,
+        planned.plan.passes.len()
+    );
+    planned
+}
+
+fn reasons(planned: &Planned) -> String {
+    planned.plan.passes.iter().map(|p| p.reason.clone()).collect::<Vec<_>>().join("\n")
+}
+
+// ---- a product over an affine lerp ----------------------------------------
+
+/// A base texture lit per vertex, with fog and a detail texture mixed in by
+/// a constant amount: `base · light · lerp(fog, 2·detail, f)`.
+const LERP_OVER_PRODUCT: &str = "\
+vector N : normal;
+vector L : light(0);
+texture Base : 2d rgb8 mipmap trilinear repeat = image(\"missing-base.png\");
+texture Fog : 2d rgb8 bilinear repeat = image(\"missing-fog.png\");
+texture Detail : 2d rgb8 mipmap trilinear repeat = image(\"missing-detail.png\");
+const kd : rgb = (0.8, 0.8, 0.8);
+const f = 0.3;
+shader light : s → c = kd * max(0, N·L);
+C δπx ← Base δu x * δ light s x * lerp(Fog δu x, 2 * Detail δu x, f);
+";
+
+/// The same, multiplied out by hand.
+const LERP_MULTIPLIED_OUT: &str = "\
+vector N : normal;
+vector L : light(0);
+texture Base : 2d rgb8 mipmap trilinear repeat = image(\"missing-base.png\");
+texture Fog : 2d rgb8 bilinear repeat = image(\"missing-fog.png\");
+texture Detail : 2d rgb8 mipmap trilinear repeat = image(\"missing-detail.png\");
+const kd : rgb = (0.8, 0.8, 0.8);
+const f = 0.3;
+shader light : s → c = kd * max(0, N·L);
+C δπx ← Base δu x * δ light s x * Fog δu x * (1 - f) + Base δu x * δ light s x * (2 * Detail δu x) * f;
+";
+
+#[test]
+fn a_product_over_a_lerp_is_multiplied_out_instead_of_refused() {
+    let scene = scene("kilgard_torus.ron");
+    // Refused before with "a part that cannot be divided further needs 3
+    // texture units" on geforce256, and for `2·detail` leaving [−1, 1] on
+    // geforce3, while multiplied out by hand it plans.
+    for target in ["geforce256", "geforce3", "multitexture", "wgsl"] {
+        let by_hand = plans_and_renders_its_meaning(LERP_MULTIPLIED_OUT, target, &scene);
+        let planned = plans_and_renders_its_meaning(LERP_OVER_PRODUCT, target, &scene);
+        assert!(planned.plan.approximations.is_empty(), "{target}: exact algebra, no approximation");
+        assert!(
+            planned.plan.passes.len() <= by_hand.plan.passes.len(),
+            "{target}: {} passes, by hand {}",
+            planned.plan.passes.len(),
+            by_hand.plan.passes.len()
+        );
+        if target != "wgsl" {
+            assert!(reasons(&planned).contains("as written"), "{target}: {}", reasons(&planned));
+        }
+    }
+    assert_eq!(compile(LERP_OVER_PRODUCT, "geforce256").unwrap().plan.passes.len(), 3);
+    assert_eq!(compile(LERP_OVER_PRODUCT, "geforce3").unwrap().plan.passes.len(), 1);
+}
+
+// ---- a sum of lights inside one δ -----------------------------------------
+
+/// GL's per-vertex lighting of three attenuated lights (Pipeline Grammar,
+/// eq. (1): `δ p s x`), modulating a base texture; each light's term lies
+/// in [0, 1], their sum (with the ambient) does not.
+const LIGHTS_INSIDE_DELTA: &str = "\
+vector N : normal;
+vector L0 : light(0);
+vector L1 : light(1);
+vector L2 : light(2);
+texture Base : 2d rgb8 mipmap trilinear repeat = image(\"missing-base.png\");
+const ka : rgb = (0.1, 0.1, 0.1);
+const c0 : rgb = (0.9, 0.3, 0.3);
+const c1 : rgb = (0.3, 0.9, 0.3);
+const c2 : rgb = (0.3, 0.3, 0.9);
+const a0 = 0.8;
+const a1 = 0.6;
+const a2 = 0.5;
+shader lights : s → c = ka + a0 * c0 * max(0, N·L0) + a1 * c1 * max(0, N·L1) + a2 * c2 * max(0, N·L2);
+C δπx ← Base δu x * δ lights s x;
+";
+
+#[test]
+fn a_sum_of_lights_inside_delta_is_split_across_it() {
+    let scene = scene("adaptive_sphere_4lights.ron");
+    for target in TARGETS {
+        let planned = plans_and_renders_its_meaning(LIGHTS_INSIDE_DELTA, target, &scene);
+        assert!(planned.plan.approximations.is_empty(), "{target}: δ(a + b) = δa + δb is exact");
+    }
+    let geforce256 = compile(LIGHTS_INSIDE_DELTA, "geforce256").unwrap();
+    assert!(reasons(&geforce256).contains("as written it"), "{}", reasons(&geforce256));
+}
+
+/// The same lights with the scene's unbounded intensities: no 8-bit
+/// interpolant holds a term, split or not, so it stays refused — located,
+/// and saying what was tried.
+#[test]
+fn lights_of_unbounded_intensity_are_refused_saying_what_was_tried() {
+    let source = "\
+vector N : normal;
+vector L0 : light(0);
+vector L1 : light(1);
+vector I0 : intensity(0);
+vector I1 : intensity(1);
+texture Base : 2d rgb8 = image(\"missing-base.png\");
+shader lights : s → c = I0 * max(0, N·L0) + I1 * max(0, N·L1);
+C δπx ← Base δu x * δ lights s x;
+";
+    let errors = compile(source, "geforce256").unwrap_err();
+    let d = &errors[0];
+    assert_ne!(d.primary.span.start, d.primary.span.end, "{d:?}");
+    let help = d.help.as_deref().unwrap_or_default();
+    assert!(help.contains("equivalent forms"), "{help}");
+    assert!(compile(source, "wgsl").is_ok());
+}
+
+// ---- a tuple read by channel ----------------------------------------------
+
+const TUPLE: &str = "\
+vector N : normal;
+vector L : light(0);
+vector H : half(0);
+texture Base : 2d rgb8 mipmap trilinear repeat = image(\"missing-base.png\");
+const ks : rgb = (0.5, 0.5, 0.5);
+shader terms : s → c = (max(0, normalize(N)·normalize(L)), max(0, normalize(N)·normalize(H))^8, 0);
+let t = terms δ s x;
+C δπx ← Base δu x * t.r + ks * t.g;
+";
+
+const SCALARS: &str = "\
+vector N : normal;
+vector L : light(0);
+vector H : half(0);
+texture Base : 2d rgb8 mipmap trilinear repeat = image(\"missing-base.png\");
+const ks : rgb = (0.5, 0.5, 0.5);
+shader diffuse : s → c = max(0, normalize(N)·normalize(L));
+shader specular : s → c = max(0, normalize(N)·normalize(H))^8;
+C δπx ← Base δu x * diffuse δ s x + ks * specular δ s x;
+";
+
+fn rules(planned: &Planned) -> Vec<String> {
+    let mut r: Vec<String> = planned.plan.approximations.iter().map(|a| a.rule.clone()).collect();
+    r.dedup();
+    r
+}
+
+#[test]
+fn a_tuple_read_by_channel_plans_per_pixel_like_its_scalars() {
+    let scene = scene("bench_sphere.ron");
+    for target in ["geforce256", "geforce3"] {
+        let tuple = plans_and_renders_its_meaning(TUPLE, target, &scene);
+        let scalars = plans_and_renders_its_meaning(SCALARS, target, &scene);
+        // Before: `per_vertex` (Gouraud), 18/255 off on 5 % of the pixels.
+        assert_eq!(rules(&tuple), rules(&scalars), "{target}");
+        assert!(!rules(&tuple).iter().any(|r| r == "per_vertex"), "{target}: {:?}", rules(&tuple));
+        assert_eq!(tuple.plan.passes.len(), scalars.plan.passes.len(), "{target}");
+        let e = compare(&f32_render(&scalars, SCALARS, &scene), &f32_render(&tuple, TUPLE, &scene));
+        assert!(e.max_abs <= 1.0 / 255.0, "{target}: {:.1}/255 from the scalar form", e.max_abs * 255.0);
+    }
+}
+
+// ---- the framebuffer's clamp ----------------------------------------------
+
+/// `saturate` of a sum written into an 8-bit framebuffer, which clamps it
+/// anyway: the sum splits into added passes once the clamp is left there.
+#[test]
+fn a_clamp_the_framebuffer_applies_anyway_is_left_to_it() {
+    let source = "\
+texture A : 2d rgb8 = image(\"missing-a.png\");
+texture B : 2d rgb8 = image(\"missing-b.png\");
+texture D : 2d rgb8 = image(\"missing-d.png\");
+C δπx ← saturate(A δu x * B δu x + D δu x * A δu x + B δu x * D δu x);
+";
+    let scene = scene("kilgard_torus.ron");
+    for target in ["geforce256", "multitexture", "wgsl"] {
+        let planned = plans_and_renders_its_meaning(source, target, &scene);
+        assert!(planned.plan.approximations.is_empty(), "{target}");
+    }
+}
+
+// ---- the property: the verdict does not depend on how it is written --------
+
+/// A colour of the generated subset, as a tree the expander below reads.
+#[derive(Clone, Debug)]
+enum Colour {
+    /// `T{i} δu x` (rgb8; T3 is rgba8, read `.rgb`).
+    Texture(usize),
+    /// A constant scalar factor (tenths).
+    Number(u8),
+    /// `δ lights{mask} s x`: the lights of `mask` summed inside one δ,
+    /// scaled by a tenth inside the shader.
+    Lights(u8, u8),
+    Mul(Box<Colour>, Box<Colour>),
+    Add(Box<Colour>, Box<Colour>),
+    /// `lerp(a, b, f)` with `f` a constant (tenths) or T3's alpha.
+    Lerp(Box<Colour>, Box<Colour>, Option<u8>),
+}
+
+const LIGHT_COLOURS: [&str; 3] = ["(0.9, 0.4, 0.3)", "(0.3, 0.9, 0.4)", "(0.4, 0.3, 0.9)"];
+
+fn leaf() -> impl Strategy<Value = Colour> {
+    prop_oneof![
+        3 => (0usize..4).prop_map(Colour::Texture),
+        2 => (1u8..8, 3u8..9).prop_map(|(m, k)| Colour::Lights(m, k)),
+    ]
+}
+
+fn colour() -> impl Strategy<Value = Colour> {
+    leaf().prop_recursive(3, 8, 2, |inner| {
+        prop_oneof![
+            3 => (inner.clone(), inner.clone()).prop_map(|(a, b)| Colour::Mul(Box::new(a), Box::new(b))),
+            // A number scales a colour (a sum of numbers folds into one
+            // constant, which past 1 no constant register holds).
+            1 => (2u8..10, inner.clone()).prop_map(|(k, a)| Colour::Mul(Box::new(Colour::Number(k)), Box::new(a))),
+            2 => (inner.clone(), inner.clone()).prop_map(|(a, b)| Colour::Add(Box::new(a), Box::new(b))),
+            2 => (inner.clone(), inner, prop::option::of(1u8..10))
+                // A lerp of equal operands is its operand: multiplied out, it
+                // needs like terms collected ((1 − f) + f = 1), which is not
+                // one of the planner's rewrites.
+                .prop_filter("a lerp of equal operands", |(a, b, _)| written(a) != written(b))
+                .prop_map(|(a, b, f)| Colour::Lerp(Box::new(a), Box::new(b), f)),
+        ]
+    })
+}
+
+fn tenth(k: u8) -> String {
+    format!("{:.1}", k as f64 / 10.0)
+}
+
+fn texture(i: usize) -> String {
+    if i == 3 {
+        "(T3 δu x).rgb".into()
+    } else {
+        format!("T{i} δu x")
+    }
+}
+
+/// The source text of `c`, as written.
+fn written(c: &Colour) -> String {
+    match c {
+        Colour::Texture(i) => texture(*i),
+        Colour::Number(k) => tenth(*k),
+        Colour::Lights(mask, k) => format!("δ lights{mask}_{k} s x"),
+        Colour::Mul(a, b) => format!("({} * {})", written(a), written(b)),
+        Colour::Add(a, b) => format!("({} + {})", written(a), written(b)),
+        Colour::Lerp(a, b, f) => format!("lerp({}, {}, {})", written(a), written(b), factor(*f)),
+    }
+}
+
+fn factor(f: Option<u8>) -> String {
+    f.map_or("(T3 δu x).a".into(), tenth)
+}
+
+/// `c` multiplied out: its terms, each a list of factors (source text),
+/// independent of the planner — lerps as `a·(1 − f) + b·f`, a sum of
+/// lights inside δ as one δ per light (interpolation is linear).
+fn expand(c: &Colour) -> Vec<Vec<String>> {
+    match c {
+        Colour::Texture(_) | Colour::Number(_) => vec![vec![written(c)]],
+        Colour::Lights(mask, k) => (0..3)
+            .filter(|l| mask & (1 << l) != 0)
+            .map(|l| vec![tenth(*k), format!("δ light{l} s x")])
+            .collect(),
+        Colour::Mul(a, b) => {
+            let (a, b) = (expand(a), expand(b));
+            a.iter().flat_map(|x| b.iter().map(move |y| [x.clone(), y.clone()].concat())).collect()
+        }
+        Colour::Add(a, b) => [expand(a), expand(b)].concat(),
+        Colour::Lerp(a, b, f) => {
+            let f = factor(*f);
+            let keep = format!("(1 - {f})");
+            let mut out: Vec<Vec<String>> =
+                expand(a).into_iter().map(|t| [t, vec![keep.clone()]].concat()).collect();
+            out.extend(expand(b).into_iter().map(|t| [t, vec![f.clone()]].concat()));
+            out
+        }
+    }
+}
+
+fn expanded(c: &Colour) -> String {
+    expand(c).iter().map(|t| t.join(" * ")).collect::<Vec<_>>().join(" + ")
+}
+
+/// The declarations every generated program shares: four textures, three
+/// lights, one shader per light and one per (set of lights, scale).
+fn declarations(c: &Colour) -> String {
+    let mut s = String::from("vector N : normal;\n");
+    for l in 0..3 {
+        s += &format!("vector L{l} : light({l});\n");
+    }
+    for i in 0..3 {
+        s += &format!("texture T{i} : 2d rgb8 = image(\"missing-t{i}.png\");\n");
+    }
+    s += "texture T3 : 2d rgba8 = image(\"missing-t3.png\");\n";
+    for (l, c) in LIGHT_COLOURS.iter().enumerate() {
+        s += &format!("shader light{l} : s → c = {c} * max(0, N·L{l});\n");
+    }
+    let mut used = Vec::new();
+    collect_lights(c, &mut used);
+    used.sort();
+    used.dedup();
+    for (mask, k) in used {
+        let terms: Vec<String> = (0..3)
+            .filter(|l| mask & (1 << l) != 0)
+            .map(|l| format!("{} * max(0, N·L{l})", LIGHT_COLOURS[l]))
+            .collect();
+        s += &format!("shader lights{mask}_{k} : s → c = {} * ({});\n", tenth(k), terms.join(" + "));
+    }
+    s
+}
+
+fn collect_lights(c: &Colour, out: &mut Vec<(u8, u8)>) {
+    match c {
+        Colour::Lights(m, k) => out.push((*m, *k)),
+        Colour::Mul(a, b) | Colour::Add(a, b) | Colour::Lerp(a, b, _) => {
+            collect_lights(a, out);
+            collect_lights(b, out);
+        }
+        _ => {}
+    }
+}
+
+fn verdict(source: &str, target: &str) -> bool {
+    match compile(source, target) {
+        Ok(planned) => {
+            let profile = Profile::builtin(target).unwrap();
+            crate::differential::validate_plan(&planned, &profile)
+                .unwrap_or_else(|e| panic!("an accepted plan {target} cannot run: {e}\n{source}"));
+            true
+        }
+        Err(_) => false,
+    }
+}
+
+fn cases() -> u32 {
+    std::env::var("SHADEC_ALGEBRA_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(64)
+}
+
+#[test]
+fn the_verdict_on_a_program_is_its_verdict_multiplied_out() {
+    let config = Config { cases: cases(), failure_persistence: None, ..Config::default() };
+    // A fixed seed: the same programs in CI every time.
+    let rng = TestRng::from_seed(RngAlgorithm::ChaCha, &[34; 32]);
+    let mut runner = TestRunner::new_with_rng(config, rng);
+    let planned = std::cell::RefCell::new([0usize; 4]);
+    let result = runner.run(&colour(), |c| {
+        let terms = expand(&c);
+        if terms.len() > 12 {
+            return Ok(()); // past what the planner multiplies out (`algebra::MAX_TERMS`)
+        }
+        // Lighting modulates textures; a product of two lightings (two
+        // interpolated colours per term, after expansion three or more
+        // where the written form merged them inside one δ) needs δ sums
+        // merged back, δa + δb = δ(a + b), which the planner does not try.
+        if terms.iter().any(|t| t.iter().filter(|f| f.starts_with('δ')).count() > 1) {
+            return Ok(());
+        }
+        let decls = declarations(&c);
+        let original = format!("{decls}C δπx ← {};\n", written(&c));
+        let multiplied = format!("{decls}C δπx ← {};\n", expanded(&c));
+        for (i, target) in TARGETS.iter().enumerate() {
+            let (a, b) = (verdict(&original, target), verdict(&multiplied, target));
+            prop_assert_eq!(
+                a,
+                b,
+                "{}: as written {}, multiplied out {}\n{}\n{}",
+                target,
+                a,
+                b,
+                original,
+                multiplied
+            );
+            planned.borrow_mut()[i] += a as usize;
+        }
+        Ok(())
+    });
+    if let Err(e) = result {
+        panic!("{e}");
+    }
+    let planned = planned.into_inner();
+    eprintln!("planned per target {TARGETS:?}: {planned:?} of {} programs", cases());
+    // The property must not hold by everything being refused.
+    assert!(planned[0] > 0 && planned[1] > 0, "{planned:?}");
+}
+
+/// The generator reaches products over sums and lerps on every run.
+#[test]
+fn the_algebra_generator_writes_products_over_sums() {
+    let mut runner = TestRunner::deterministic();
+    let mut distributed = 0;
+    for _ in 0..32 {
+        let c = colour().new_tree(&mut runner).unwrap().current();
+        distributed += (expand(&c).len() > 1 && written(&c).contains('*')) as usize;
+    }
+    assert!(distributed >= 8, "{distributed}");
+}
