@@ -365,6 +365,7 @@ pub fn plan_measured(
     profile: &Profile,
     source: &str,
     options: &PlanOptions,
+    images: &std::path::Path,
 ) -> Result<(Planned, Vec<Candidate>), Diagnostics> {
     let max_error = options.lowering.max_error;
     if !options.lowering.approximate {
@@ -394,8 +395,9 @@ pub fn plan_measured(
     }
     // An approximation without a stated bound (per-vertex shading, Taylor
     // renormalization): without a scene, the lowerings are measured on the
-    // built-in torus, as `render` without a scene file measures them.
-    let scene = default_scene(std::path::Path::new(""));
+    // built-in torus, as `render` without a scene file measures them (its
+    // image files looked for in `images`, where `render` looks for them).
+    let scene = default_scene(images);
     let Ok(assets) = scene.as_ref().map_err(|_| ()).and_then(|s| s.build().map_err(|_| ())) else {
         return Ok((first, Vec::new())); // `vet` says it is unbounded
     };
@@ -430,6 +432,7 @@ pub fn vet(
     program: &Program,
     source: &str,
     options: &PlanOptions,
+    images: &std::path::Path,
 ) -> Result<Vetting, Diagnostics> {
     let mut seen = std::collections::HashSet::new();
     planned.plan.approximations.retain(|a| seen.insert((a.rule.clone(), a.at.clone(), a.why.clone())));
@@ -440,7 +443,7 @@ pub fn vet(
         return Ok(vetting);
     };
     if planned.plan.measured.is_none() {
-        match measure_plan(planned, module, program, options) {
+        match measure_plan(planned, module, program, options, images) {
             Ok(m) => planned.plan.measured = Some(m),
             Err(why) => vetting.unmeasured = Some(why),
         }
@@ -460,6 +463,7 @@ fn measure_plan(
     module: &Module,
     program: &Program,
     options: &PlanOptions,
+    images: &std::path::Path,
 ) -> Result<MeasuredError, String> {
     let text = |d: Diagnostics| d.first().map_or_else(String::new, |d| d.message.clone());
     let measure = |scene: &crate::driver::ForScene, lights: usize, name: String| {
@@ -478,7 +482,7 @@ fn measure_plan(
     if let Some(s) = &options.scene {
         return measure(s, s.scene.lights.len(), scene_name(s));
     }
-    let scene = default_scene(std::path::Path::new("")).map_err(|e| e.to_string())?;
+    let scene = default_scene(images).map_err(|e| e.to_string())?;
     let assets = scene.build().map_err(|e| e.to_string())?;
     measure(&crate::driver::ForScene::unspecialized(&scene, &assets), 1, DEFAULT_SCENE_NAME.to_string())
 }

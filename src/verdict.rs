@@ -58,9 +58,10 @@ pub fn judge(
         return Err(missing);
     }
     let options = &judging.plan;
+    let images = judging.images.unwrap_or(Path::new(""));
     let (mut planned, candidates) =
-        crate::accuracy::plan_measured(module, program, profile, source, options)?;
-    let measuring = crate::accuracy::vet(&mut planned, module, program, source, options)?;
+        crate::accuracy::plan_measured(module, program, profile, source, options, images)?;
+    let measuring = crate::accuracy::vet(&mut planned, module, program, source, options, images)?;
     let warnings = crate::accuracy::warnings(&planned, module, source, &measuring);
     Ok(Judged { planned, warnings, candidates })
 }

@@ -350,7 +350,8 @@ fn a_cube_map_from_an_image_renders() {
 }
 
 /// A missing cube map image renders with the procedural sky, with a note,
-/// on the CPU binder and the reference alike; `check` says nothing of it.
+/// on the CPU binder and the reference alike; `check` reports it, located,
+/// as it reports any missing image, unless `--stand-ins` asks for the sky.
 #[test]
 fn a_missing_cube_image_renders_the_sky_stand_in() {
     let dir = tempfile::tempdir().unwrap();
@@ -362,7 +363,22 @@ fn a_missing_cube_image_renders_the_sky_stand_in() {
     let p = render_three(source, "wgsl", &scene("kilgard_torus.ron"), Precision::F32, None).unwrap();
     verdict(&p).unwrap();
     std::fs::write(dir.path().join("p.shd"), source).unwrap();
-    let r = shadec_in(dir.path(), &["check", "p.shd"]);
+    let r = shadec_in(dir.path(), &["check", "--format", "short", "p.shd"]);
+    assert_eq!(r.code, 1, "{}{}", r.stdout, r.stderr);
+    assert!(r.stdout.contains("p.shd:2:") && r.stdout.contains("error[missing-image]"), "{}", r.stdout);
+    let r = shadec_in(dir.path(), &["check", "--stand-ins", "p.shd"]);
+    assert_eq!(r.code, 0, "{}{}", r.stdout, r.stderr);
+    // Six face files: each one that is missing is named.
+    let six = source.replace("nowhere.png", "sky_{face}.png");
+    std::fs::write(dir.path().join("six.shd"), six).unwrap();
+    for face in ["px", "nx", "py", "ny", "pz"] {
+        grey(dir.path(), &format!("sky_{face}.png"), 8, 8);
+    }
+    let r = shadec_in(dir.path(), &["check", "--format", "short", "six.shd"]);
+    assert_eq!(r.code, 1, "{}{}", r.stdout, r.stderr);
+    assert!(r.stdout.contains("sky_nz.png") && !r.stdout.contains("sky_px.png"), "{}", r.stdout);
+    grey(dir.path(), "sky_nz.png", 8, 8);
+    let r = shadec_in(dir.path(), &["check", "six.shd"]);
     assert_eq!(r.code, 0, "{}{}", r.stdout, r.stderr);
 }
 

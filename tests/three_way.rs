@@ -168,7 +168,8 @@ pub fn clamped_blend_source(planned: &shadec::pipeline::Planned) -> Option<Strin
         let outside = match pass.blend {
             BlendMode::Replace => false,
             BlendMode::Add => r.lo < 0.0,
-            BlendMode::Modulate => r.hi > 1.0,
+            // dst·min(1, max(0, s)) is dst·s only for s in [0, 1].
+            BlendMode::Modulate => r.lo < 0.0 || r.hi > 1.0,
             _ => r.lo < 0.0 || r.hi > 1.0,
         };
         outside.then(|| format!("pass {} blends ({:?}) a term in [{}, {}]", i + 1, pass.blend, r.lo, r.hi))

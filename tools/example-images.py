@@ -107,8 +107,15 @@ def mirror_ball(x, y, w, h):
     rx, ry, rz = 2 * nz * u, 2 * nz * v, 2 * nz * nz - 1
     return sky(rx, ry, rz)
 
+def bumps(x, y, w, h):
+    # A height field of golf-ball dimples on a 4×4 lattice (Kilgard's torus).
+    cx, cy = (x % 32) - 15.5, (y % 32) - 15.5
+    r2 = (cx * cx + cy * cy) / (12.0 * 12.0)
+    v = 1.0 - 0.8 * max(0.0, 1.0 - r2) ** 1.5
+    return (v, v, v, 1)
+
 out = sys.argv[1]
 for name, fn in [("brick", brick), ("wood", wood), ("paper", paper), ("layer", layer), ("base", base),
                  ("lightmap", lightmap), ("detail", detail), ("decal", decal), ("environment", environment),
-                 ("mirror_ball", mirror_ball)]:
+                 ("mirror_ball", mirror_ball), ("bumps", bumps)]:
     png(os.path.join(out, name + ".png"), 128, 128, image(fn))

@@ -225,7 +225,8 @@ fn compile(
     if !judged.warnings.is_empty() {
         eprint!("{}", file.render(&judged.warnings, color_stderr()));
     }
-    if let Some(why) = differs_from_compile(args, module, &front.program, &profile, source, &judged) {
+    if let Some(why) = differs_from_compile(args, module, &front.program, &profile, source, &judged, &images)
+    {
         println!("note: {why}");
     }
     let shadec::driver::Front { program, module, diagnostics } = front;
@@ -246,9 +247,11 @@ fn differs_from_compile(
     profile: &shadec::profile::Profile,
     source: &str,
     judged: &shadec::verdict::Judged,
+    images: &std::path::Path,
 ) -> Option<String> {
     let options = shadec::driver::PlanOptions { lowering: args.quality.lowering(), ..Default::default() };
-    let (compiled, _) = shadec::accuracy::plan_measured(module, program, profile, source, &options).ok()?;
+    let (compiled, _) =
+        shadec::accuracy::plan_measured(module, program, profile, source, &options, images).ok()?;
     let shape = |p: &shadec::pipeline::PassPlan| {
         let mut rules: Vec<&str> = p.approximations.iter().map(|a| a.rule.as_str()).collect();
         rules.dedup();
