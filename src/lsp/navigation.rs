@@ -71,25 +71,7 @@ pub fn valid_new_name(name: &str) -> Result<(), String> {
 }
 
 /// The grammar's reserved words (`grammar/shade.pest`, `keyword`).
-pub const KEYWORDS: &[&str] = &[
-    "target",
-    "texture",
-    "framebuffer",
-    "vector",
-    "params",
-    "const",
-    "uniform",
-    "shader",
-    "let",
-    "in",
-    "delta",
-    "pi",
-    "alpha",
-    "depth",
-    "stencil",
-    "OR",
-    "AND",
-];
+pub use crate::parser::resolve::KEYWORDS;
 
 /// Every occurrence of the entity under the cursor, renamed.
 pub fn rename(doc: &Document, uri: &Uri, offset: usize, new_name: &str) -> Result<WorkspaceEdit, String> {
