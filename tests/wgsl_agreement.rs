@@ -44,9 +44,8 @@ use shadec::gpu::scene_run::ScenePlan;
 use shadec::numerics::Precision;
 use shadec::profile::Profile;
 use shadec::renderer::plan::{PlanRenderer, RoundingBias};
-use shadec::renderer::{BlendState, CompareFunc, CullMode, DepthState, RenderState, StencilState};
-use shadec::scene::bind::{light_view_projection, BoundObject};
-use shadec::scene::{Scene, SceneAssets};
+use shadec::renderer::{BlendState, CullMode, DepthState, RenderState, StencilState};
+use shadec::scene::Scene;
 
 const W: u32 = 640;
 const H: u32 = 480;
@@ -74,89 +73,6 @@ fn kilgard_scene() -> Scene {
     // Anchored where decal.png / bumps.png do not exist: the binder's
     // procedural stand-ins are used by both executors.
     Scene::parse(&text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap()
-}
-
-const ID_WGSL: &str = r#"
-struct VsOut { @builtin(position) pos: vec4<f32>, @location(0) id: vec4<f32> }
-@vertex
-fn vs_main(@location(0) pos: vec4<f32>, @location(1) id: vec4<f32>) -> VsOut {
-    return VsOut(vec4<f32>(pos.xy, 0.5 * (pos.z + pos.w), pos.w), id);
-}
-@fragment
-fn fs_main(in: VsOut) -> @location(0) vec4<f32> { return in.id; }
-"#;
-
-/// Triangle IDs per pixel (0: background), from the binder's camera clip
-/// matrices, with depth test.
-fn triangle_ids(gpu: &Gpu, scene: &Scene, assets: &SceneAssets) -> Vec<u32> {
-    let (center, radius) = assets.bounding_sphere();
-    let light = light_view_projection(scene.lights.first(), center, radius);
-    let state = RenderState {
-        cull: CullMode::None,
-        depth: DepthState { func: CompareFunc::Less, write: true },
-        stencil: StencilState::DISABLED,
-        blend: BlendState::REPLACE,
-    };
-    let mut next = 1u32;
-    let mut passes = Vec::new();
-    for (mesh, model) in &assets.meshes {
-        let object = BoundObject::new(scene, mesh, *model, W as f32 / H as f32, light);
-        let mut floats = Vec::new();
-        for tri in &mesh.triangles {
-            let id = [
-                (next & 255) as f32 / 255.0,
-                ((next >> 8) & 255) as f32 / 255.0,
-                ((next >> 16) & 255) as f32 / 255.0,
-                1.0,
-            ];
-            next += 1;
-            for &v in tri {
-                let p = object.camera_clip * mesh.positions[v as usize].extend(1.0);
-                floats.extend_from_slice(&p.to_array());
-                floats.extend_from_slice(&id);
-            }
-        }
-        let n = floats.len() as u32 / 8;
-        passes.push(RunPass {
-            label: "triangle ids".into(),
-            shader: RunShader {
-                source: ShaderSource::Wgsl(ID_WGSL.into()),
-                vertex_entry: "vs_main".into(),
-                fragment_entry: "fs_main".into(),
-            },
-            vertices: VertexData { floats, components: vec![4, 4] },
-            indices: (0..n).collect(),
-            textures: vec![],
-            uniforms: None,
-            state,
-            target: PassTarget::Main,
-            loaded: vec![],
-            outputs: 1,
-        });
-    }
-    let img = run_passes(gpu, &Target::new(W, H), &passes).unwrap();
-    img.pixels().map(|p| p.0[0] as u32 | (p.0[1] as u32) << 8 | (p.0[2] as u32) << 16).collect()
-}
-
-/// Pixels whose 3×3 neighbourhood has more than one triangle ID.
-fn edge_mask(ids: &[u32]) -> Vec<bool> {
-    let (w, h) = (W as i64, H as i64);
-    let mut mask = vec![false; ids.len()];
-    for y in 0..h {
-        for x in 0..w {
-            let c = ids[(y * w + x) as usize];
-            'n: for dy in -1..=1 {
-                for dx in -1..=1 {
-                    let (nx, ny) = (x + dx, y + dy);
-                    if nx >= 0 && ny >= 0 && nx < w && ny < h && ids[(ny * w + nx) as usize] != c {
-                        mask[(y * w + x) as usize] = true;
-                        break 'n;
-                    }
-                }
-            }
-        }
-    }
-    mask
 }
 
 struct Agreement {
@@ -233,8 +149,8 @@ fn try_agreement_in(
         shadec::gpu::runner::Target::float(W, H)
     };
     let gpu_img = plan.render_into(gpu, &gpu_target).map_err(|e| format!("wgpu: {e}"))?.into_raw();
-    let ids = triangle_ids(gpu, scene, &assets);
-    let mask = edge_mask(&ids);
+    let ids = shadec::bench::gpu_check::triangle_ids(gpu, scene, &assets, (W, H)).unwrap();
+    let mask = shadec::bench::gpu_check::edge_mask(&ids, (W, H));
     // Per pixel off the edge mask, the difference from the nearest of the CPU `pictures`.
     let differences = |pictures: &[&[u8]]| {
         let (mut max_diff, mut over, mut worst) = (0u8, 0usize, (0usize, [0u8; 4], [0u8; 4]));

@@ -549,8 +549,10 @@ fn fs_main(in: VsOut) -> @location(0) vec4<f32> { return in.id; }
 "#;
 
 /// Triangle IDs per pixel (0: background), drawn on the GPU with the
-/// binder's camera clip matrices and a depth test.
-fn triangle_ids(
+/// binder's camera clip matrices and a depth test: with [`edge_mask`],
+/// the pixels where executors may own a shared edge differently (GL
+/// §3.5.1), which every CPU-against-GPU comparison leaves out.
+pub fn triangle_ids(
     gpu: &Gpu,
     scene: &Scene,
     assets: &SceneAssets,
@@ -601,7 +603,7 @@ fn triangle_ids(
 }
 
 /// Pixels whose 3×3 neighbourhood has more than one triangle ID.
-fn edge_mask(ids: &[u32], (w, h): (u32, u32)) -> Vec<bool> {
+pub fn edge_mask(ids: &[u32], (w, h): (u32, u32)) -> Vec<bool> {
     let (w, h) = (w as i64, h as i64);
     let id = |x: i64, y: i64| (x >= 0 && y >= 0 && x < w && y < h).then(|| ids[(y * w + x) as usize]);
     (0..h * w)
