@@ -273,11 +273,22 @@ fn the_wgpu_backend_renders_what_the_cpu_renders() {
     }
 }
 
-/// `--adaptive` on wgpu (issue 22): each pass into the picture as a
-/// sparse pass and an interpolating full pass of the plan's own shader;
+/// The PSNR of `render`'s "error against full shading" line.
+fn psnr_against_full(stdout: &str) -> f64 {
+    let line = stdout.lines().find(|l| l.starts_with("error against full shading")).expect(stdout);
+    match line.split("PSNR ").nth(1).and_then(|r| r.split(' ').next()) {
+        Some("∞") => f64::INFINITY,
+        Some(p) => p.parse().unwrap(),
+        None => panic!("{line}"),
+    }
+}
+
+/// `--adaptive` on wgpu: a sparse frame of the plan's own passes, a
+/// classification, and the plan's passes where the depth mask leaves them;
 /// against full shading of the same plan on the same adapter it stays
-/// above 40 dB. A pass whose shading needs implicit derivatives (the
-/// default program's cube maps) is shaded in full, and a note says so.
+/// above 40 dB. Textured plans (the default program's cube maps, whose
+/// `textureSample` the old in-shader branch could not skip) are adaptive
+/// too (`gpu::adaptive`'s unit tests: what is left to full shading).
 #[test]
 fn adaptive_shading_on_wgpu_interpolates_the_plans_own_shading() {
     let dir = tempfile::tempdir().unwrap();
@@ -285,28 +296,54 @@ fn adaptive_shading_on_wgpu_interpolates_the_plans_own_shading() {
     let scene = format!("{root}/scenes/adaptive_sphere_4lights.ron");
     let shader = format!("{root}/examples/fragment_lighting.shd");
     let args = ["render", &scene, "--shader", &shader, "--target", "wgsl", "--backend", "wgpu"];
-    let out = shadec()
-        .args(args)
-        .args(["--adaptive", "8.5%,8", "--size", "128x128"])
-        .current_dir(dir.path())
-        .output()
-        .unwrap();
-    let stdout = String::from_utf8_lossy(&out.stdout);
-    assert!(out.status.success(), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
-    let line = stdout.lines().find(|l| l.starts_with("error against full shading")).expect(&stdout);
-    let psnr: f64 = match line.split("PSNR ").nth(1).and_then(|r| r.split(' ').next()) {
-        Some("∞") => f64::INFINITY,
-        Some(p) => p.parse().unwrap(),
-        None => panic!("{line}"),
+    let run = |extra: &[&str]| {
+        let out = shadec().args(extra).current_dir(dir.path()).output().unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout).to_string();
+        assert!(out.status.success(), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
+        stdout
     };
-    assert!(psnr >= 40.0, "{line}");
-    assert!(stdout.contains("adaptive (threshold 8.5 %, spacing 8): a sparse pass"), "{stdout}");
+    let stdout = run(&[&args[..], &["--adaptive", "8.5%,8", "--size", "128x128"]].concat());
+    assert!(psnr_against_full(&stdout) >= 40.0, "{stdout}");
+    assert!(
+        stdout.contains("adaptive (threshold 8.5 %, spacing 8): a sparse frame, a classification"),
+        "{stdout}"
+    );
+    let stdout = run(&["render", "--backend", "wgpu", "--adaptive", "8%,4", "--size", "64x64"]);
+    assert!(!stdout.contains("shaded in full"), "{stdout}");
+    assert!(psnr_against_full(&stdout) >= 30.0, "{stdout}");
+}
+
+/// `--adaptive auto` decides from the plan before rendering, says what it
+/// chose and why: a textured plan in full, an expensive shader adaptively.
+#[test]
+fn adaptive_auto_says_what_it_chose_and_why() {
+    let dir = tempfile::tempdir().unwrap();
     let out = shadec()
-        .args(["render", "--backend", "wgpu", "--adaptive", "8%", "--size", "32x32"])
+        .args(["render", "--adaptive", "auto", "--size", "32x32"])
         .current_dir(dir.path())
         .output()
         .unwrap();
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(out.status.success(), "{stdout}");
-    assert!(stdout.contains("is shaded in full on wgpu: its shading uses implicit derivatives"), "{stdout}");
+    assert!(stdout.contains("adaptive auto: full shading: pass 1 samples a texture"), "{stdout}");
+    assert!(!stdout.contains("error against full shading"), "{stdout}");
+    let root = env!("CARGO_MANIFEST_DIR");
+    let scene = format!("{root}/scenes/adaptive_sphere_4lights.ron");
+    let shader = dir.path().join("lobes.shd");
+    std::fs::write(&shader, shadec::bench::adaptive_crossover::phong_lobes(16)).unwrap();
+    for backend in ["cpu", "wgpu"] {
+        let out = shadec()
+            .args(["render", &scene, "--shader", shader.to_str().unwrap(), "--target", "wgsl"])
+            .args(["--backend", backend, "--adaptive", "auto", "--size", "256x256"])
+            .current_dir(dir.path())
+            .output()
+            .unwrap();
+        let stdout = String::from_utf8_lossy(&out.stdout);
+        assert!(out.status.success(), "{stdout}");
+        assert!(
+            stdout.contains("adaptive auto: adaptive shading (8.5 %, every 16 pixels): 104 operations"),
+            "{backend}: {stdout}"
+        );
+        assert!(psnr_against_full(&stdout) >= 40.0, "{backend}: {stdout}");
+    }
 }

@@ -99,6 +99,11 @@ pub struct GpuCheckOptions {
     pub timing_sizes: Vec<u32>,
     /// Timed frames per executor (the median is reported), after a warm-up.
     pub runs: usize,
+    /// The adaptive crossover's programs (Phong lobes each,
+    /// `bench::adaptive_crossover`) and the square size they are timed at;
+    /// empty: no sweep.
+    pub crossover_lobes: Vec<usize>,
+    pub crossover_size: u32,
 }
 
 impl GpuCheckOptions {
@@ -112,6 +117,8 @@ impl GpuCheckOptions {
             generated: 12,
             timing_sizes: vec![1024, 2048],
             runs: 5,
+            crossover_lobes: vec![0, 1, 2, 4, 8, 16, 32],
+            crossover_size: 1024,
         }
     }
 
@@ -125,6 +132,8 @@ impl GpuCheckOptions {
             generated: 2,
             timing_sizes: vec![128],
             runs: 1,
+            crossover_lobes: vec![0, 8],
+            crossover_size: 128,
         }
     }
 }
@@ -223,6 +232,8 @@ pub struct GpuCheck {
     pub options: GpuCheckOptions,
     pub cases: Vec<Case>,
     pub timings: Vec<Result<Timing, String>>,
+    /// The adaptive crossover sweep, or why it failed.
+    pub crossover: Result<Vec<super::adaptive_crossover::CrossoverRow>, String>,
     pub elapsed: Duration,
 }
 
@@ -274,11 +285,21 @@ pub fn run(
         }
         progress(programs.len() + k + 1, total, &format!("timings at {size}²"));
     }
+    let crossover = scene(SPHERE).map_err(|e| e.to_string()).and_then(|(scene, assets)| {
+        super::adaptive_crossover::sweep(
+            Some(&gpu),
+            (&scene, &assets),
+            &options.crossover_lobes,
+            options.crossover_size,
+            options.runs,
+        )
+    });
     let check = GpuCheck {
         adapter: gpu.to_string(),
         options: options.clone(),
         cases,
         timings,
+        crossover,
         elapsed: start.elapsed(),
     };
     std::fs::create_dir_all(out_dir).map_err(io)?;
@@ -742,6 +763,7 @@ impl GpuCheck {
         let _ = writeln!(md, "**{} compared case(s) beyond the model.**\n", self.failures());
         md += &self.cases_table();
         md += &self.timings_table();
+        md += &self.crossover_section();
         md += "\nMontage: `gpu-check.png`, the worst cases (most pixels beyond the model, then the largest difference), one per row: CPU | GPU | difference (grey, ×32 per 8-bit step; red: beyond the model; dark blue: edge mask). Rows:";
         for (row, (c, k)) in worst(&self.cases).iter().enumerate() {
             let _ = write!(
@@ -791,6 +813,21 @@ impl GpuCheck {
         if !refused.is_empty() {
             md += "\nNot compared (does not plan, or wgpu cannot run the plan yet):\n\n";
             md += &refused;
+        }
+        md
+    }
+
+    fn crossover_section(&self) -> String {
+        let mut md = String::from("\n## Adaptive crossover\n\n");
+        match &self.crossover {
+            Ok(rows) if rows.is_empty() => return String::new(),
+            Ok(rows) => {
+                md += "Phong shaders of k lobes on the 4-light sphere, planned per light on wgsl, f32; full and adaptive shading (threshold 8.5 %, samples every 16 pixels) of the same plan in the same run, median frames (`bench::adaptive_crossover`, docs/gpu-check.md).\n\n";
+                md += &super::adaptive_crossover::markdown(rows);
+            }
+            Err(e) => {
+                let _ = writeln!(md, "The sweep failed: {e}");
+            }
         }
         md
     }

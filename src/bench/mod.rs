@@ -13,6 +13,8 @@
 //! [`report`] writes `report.md`, the plots and the difference images.
 
 pub mod adaptive;
+#[cfg(feature = "gpu")]
+pub mod adaptive_crossover;
 pub mod front;
 #[cfg(feature = "gpu")]
 pub mod gpu;

@@ -74,6 +74,15 @@ pub struct BenchArgs {
     /// [default: 1024 and 2048; 128 with --quick].
     #[arg(long = "timing-size", value_name = "N", requires = "gpu_check")]
     pub timing_sizes: Vec<u32>,
+    /// With --gpu-check: the adaptive crossover's programs, as Phong lobes
+    /// per fragment, comma-separated (0: the diffuse term alone)
+    /// [default: 0,1,2,4,8,16,32; 0,8 with --quick].
+    #[arg(long, value_name = "K,K,…", requires = "gpu_check", value_delimiter = ',')]
+    pub crossover_lobes: Vec<usize>,
+    /// With --gpu-check: the square size the crossover is timed at
+    /// [default: 1024; 128 with --quick].
+    #[arg(long, value_name = "N", requires = "gpu_check")]
+    pub crossover_size: Option<u32>,
 }
 
 /// `bench --gpu-check`.
@@ -110,6 +119,18 @@ fn gpu_check(args: &BenchArgs) -> ExitCode {
     }
     if let Some(only) = &args.only {
         options.only_examples = Some(vec![only.clone()]);
+    }
+    if !args.crossover_lobes.is_empty() {
+        if let Some(bad) = args.crossover_lobes.iter().find(|k| **k > 64) {
+            return usage(format!("--crossover-lobes {bad}: expected 0 to 64 lobes"));
+        }
+        options.crossover_lobes = args.crossover_lobes.clone();
+    }
+    if let Some(n) = args.crossover_size {
+        if !(1..=16384).contains(&n) {
+            return usage(format!("--crossover-size {n}: expected 1 to 16384 pixels per side"));
+        }
+        options.crossover_size = n;
     }
     let progress = Progress::counting("programs");
     let result =

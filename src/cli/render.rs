@@ -54,7 +54,10 @@ pub struct RenderArgs {
     /// samples differ by more than THRESHOLD (a fraction, `0.085`, or a
     /// percentage, `8.5%`), interpolate the rest. Reports the pixels shaded
     /// and the error against full per-pixel shading of the same plan.
-    #[arg(long, value_name = "THRESHOLD[,SPACING]")]
+    /// `auto`: 8.5 % every 16 pixels where the plan's shading costs more
+    /// per fragment than the crossover measured on the backend, full
+    /// shading elsewhere (docs/adaptive.md).
+    #[arg(long, value_name = "THRESHOLD[,SPACING]|auto")]
     pub adaptive: Option<String>,
     /// Plan the program without the scene: no per-light passes (light 0
     /// only), no uniform folding, no light culling (`compile --scene`).
@@ -77,10 +80,23 @@ pub enum Backend {
     Wgpu,
 }
 
+/// `--adaptive auto`: the paper's threshold and spacing, where
+/// `cost::adaptive::choose` says adaptive shading pays.
+fn auto_adaptive(plan: &shadec::pipeline::PassPlan, backend: Backend) -> Option<AdaptiveSettings> {
+    use shadec::cost::adaptive::{choose, Executor};
+    let executor = if backend == Backend::Wgpu { Executor::Wgpu } else { Executor::Cpu };
+    let choice = choose(plan, executor);
+    let what = if choice.adaptive { "adaptive shading (8.5 %, every 16 pixels)" } else { "full shading" };
+    println!("adaptive auto: {what}: {}", choice.why);
+    choice.adaptive.then(|| AdaptiveSettings::new(16, 0.085, EdgeMode::Pass))
+}
+
 /// `--adaptive THRESHOLD[,SPACING]`: `0.085`, `8.5%`, `8.5%,8`.
 fn parse_adaptive(text: &str) -> Result<AdaptiveSettings, String> {
     let bad = |why: &str| {
-        format!("--adaptive {text}: {why}; expected THRESHOLD[,SPACING] such as `8.5%` or `0.085,16`")
+        format!(
+            "--adaptive {text}: {why}; expected THRESHOLD[,SPACING] such as `8.5%` or `0.085,16`, or `auto`"
+        )
     };
     let (t, spacing) = match text.split_once(',') {
         Some((t, sp)) => (
@@ -317,7 +333,11 @@ fn render(args: &RenderArgs) -> Result<(), ExitCode> {
             usage(format!("--size {s}: expected WxH with 1..=16384 pixels per side, such as 640x480"))
         })?,
     };
-    let adaptive = args.adaptive.as_deref().map(parse_adaptive).transpose().map_err(usage)?;
+    let auto = args.adaptive.as_deref().is_some_and(|a| a.trim() == "auto");
+    let adaptive = match args.adaptive.as_deref() {
+        Some(text) if !auto => Some(parse_adaptive(text).map_err(usage)?),
+        _ => None,
+    };
     let assets = scene.build().map_err(input)?;
     let file = SourceFile::new(shader_name.clone(), source);
     let (compiled, profile) = compile(args, &file, &scene, &assets)?;
@@ -349,6 +369,7 @@ fn render(args: &RenderArgs) -> Result<(), ExitCode> {
     let mut shown = planned.plan.clone();
     shown.approximations.clear();
     print!("{}", shown.summary());
+    let adaptive = if auto { auto_adaptive(&planned.plan, args.backend) } else { adaptive };
     if args.backend == Backend::Wgpu {
         return render_on_wgpu(args, &compiled, &file, (&scene, &assets), mode, size, adaptive.as_ref());
     }
@@ -499,8 +520,8 @@ fn meaning_frame(
 
 /// `--backend wgpu`: the plan's WGSL on the adapter wgpu finds,
 /// in f32 or, with `--precision fixed9`, the register combiners' integer
-/// model; the same error report as the CPU's. With `--adaptive`, each pass
-/// into the picture as a sparse pass and an interpolating full pass
+/// model; the same error report as the CPU's. With `--adaptive`, a sparse
+/// frame, a classification and the plan's passes under a depth mask
 /// (`gpu::adaptive`), measured against full shading of the same plan.
 #[cfg(feature = "gpu")]
 fn render_on_wgpu(
@@ -561,7 +582,7 @@ fn render_on_wgpu(
         let full_image = shadec::renderer::Framebuffer::from_rgba8(size.0, size.1, full.timed.image.as_raw())
             .map_err(input)?;
         println!(
-            "adaptive (threshold {:.1} %, spacing {}): a sparse pass and an interpolating full pass per pass; {:.2}× the speed of full shading ({})",
+            "adaptive (threshold {:.1} %, spacing {}): a sparse frame, a classification, and the plan's passes where neighbouring samples differ (a depth mask skips the rest); {:.2}× the speed of full shading ({})",
             100.0 * settings.threshold,
             settings.spacing,
             full.time().as_secs_f64() / frame.time().as_secs_f64().max(1e-9),

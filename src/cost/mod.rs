@@ -22,6 +22,7 @@
 //! stages the code generator used for the pass. A `bake` table's pass is
 //! the compiler's and costs nothing on the target.
 
+pub mod adaptive;
 pub mod vertex;
 pub mod workload;
 

@@ -1,30 +1,37 @@
-//! Adaptive sample shading on wgpu (Adaptive Sample Shading, Section 2.1).
-//! WebGPU has no variable-rate shading, so each pass into the picture is
-//! drawn twice:
+//! Adaptive sample shading on wgpu (Adaptive Sample Shading, Section 2.1),
+//! built the way a GPU rewards it: the work skipped is rejected by the
+//! depth test before the fragment stage runs, not branched around inside it.
+//! WebGPU has no variable-rate shading, so a frame is drawn as
 //!
-//! 1. a **sparse pass**: the pass's own fragment stage at one sample every
-//!    `spacing` pixels each way, into a float texture whose alpha is the
-//!    pass's alpha + 2 (so that a covered sample tells itself from the
-//!    cleared, uncovered ones);
-//! 2. the **full pass**, whose fragment stage first loads the four sparse
-//!    samples around its pixel: where all four are covered and no channel
-//!    differs among them by more than the threshold, it returns their
-//!    bilinear interpolation and skips the pass's shading; elsewhere
-//!    (silhouettes, highlights, edges of the sparse grid's coverage) it
-//!    shades the pixel exactly. Blending, depth and stencil are the pass's.
+//! 1. the **sparse frame**: the plan's passes into the picture, unchanged,
+//!    into a texture of one sample every `spacing` pixels each way (the same
+//!    camera, so the same surface at a coarser grid), with its own depth
+//!    buffer, which tells a covered sample from the cleared background;
+//! 2. the **classification**: one full-screen triangle whose fragment stage
+//!    loads the four sparse samples around its pixel. Where all four are
+//!    covered and no channel differs among them by more than the threshold,
+//!    it writes their bilinear interpolation and depth 0; elsewhere
+//!    (silhouettes, highlights, the grid's border with the background) the
+//!    clear colour and the clear depth 1;
+//! 3. the plan's passes into the picture, unchanged, at full size. Their
+//!    depth test (`Less`, `LessEqual` or `Equal`) fails wherever the
+//!    classification wrote depth 0, so those pixels are never shaded: early
+//!    depth rejection skips the fragment stage, and the interpolated colour
+//!    stays. Elsewhere the plan runs exactly as it would without adaptive
+//!    shading.
 //!
-//! The skipped work is the plan's own shading, in the same shader: the
-//! pass's fragment function is kept as `shade` and called by both entry
-//! points. A pass whose shading needs implicit derivatives (`textureSample`,
-//! `dpdx`, …) is left to full shading, because WGSL allows those only in
-//! uniform control flow; so is a pass that writes several outputs (a fat
-//! texel) or a texture.
+//! Passes into textures run first and once, as in the plan. A plan is left
+//! to full shading (with the reason as a note) when a pass into the
+//! picture does not depth-test with one of those functions, uses the
+//! stencil, reads the picture's depth, or is followed by a pass into a
+//! texture. Like the paper's sparse sampling, a hole in a surface narrower
+//! than the grid can be interpolated over.
 
 use super::runner::{
-    ColorTarget, LoadedTexture, PassTarget, RenderedTexture, RunPass, RunShader, ShaderSource, Target,
-    TextureData,
+    LoadedTexture, PassTarget, RenderedTexture, RunPass, RunShader, ShaderSource, Target, TextureData,
+    VertexData,
 };
-use crate::pipeline::state::{BlendState, CompareFunc, RenderState};
+use crate::pipeline::state::{BlendState, CompareFunc, CullMode, DepthState, RenderState, StencilState};
 
 /// The sparse grid and the interpolation threshold.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -36,182 +43,149 @@ pub struct GpuAdaptive {
     pub threshold: f32,
 }
 
-/// `passes` with every pass into the picture that can be shaded adaptively
-/// preceded by its sparse pass; and a note for each pass left full.
+/// The name of the sparse frame's texture.
+const SPARSE: &str = "adaptive_sparse";
+
+/// `passes` drawn adaptively: the sparse frame, the classification and
+/// the plan's passes; or `passes` unchanged and a note saying why.
 pub fn adaptive_passes(
     passes: &[RunPass],
     target: &Target,
     settings: GpuAdaptive,
 ) -> (Vec<RunPass>, Vec<String>) {
-    let mut out = Vec::with_capacity(2 * passes.len());
-    let mut notes = Vec::new();
-    for (i, pass) in passes.iter().enumerate() {
-        match split(pass, i, target, settings) {
-            Ok((sparse, full)) => {
-                out.push(sparse);
-                out.push(full);
-            }
-            Err(why) => {
-                notes.push(format!("pass {} is shaded in full on wgpu: {why}", i + 1));
-                out.push(pass.clone());
-            }
-        }
+    match eligible(passes) {
+        Ok(first_main) => (adaptive_frame(passes, first_main, target, settings), Vec::new()),
+        Err(why) => (passes.to_vec(), vec![format!("the frame is shaded in full on wgpu: {why}")]),
     }
-    (out, notes)
 }
 
-/// The sparse pass and the full pass that interpolates it.
-fn split(
-    pass: &RunPass,
-    index: usize,
+/// The index of the first pass into the picture, when every pass from it
+/// on can be masked by the depth the classification writes.
+fn eligible(passes: &[RunPass]) -> Result<usize, String> {
+    let first =
+        passes.iter().position(|p| p.target == PassTarget::Main).ok_or("no pass draws into the picture")?;
+    for (i, pass) in passes.iter().enumerate().skip(first) {
+        let n = i + 1;
+        if pass.target != PassTarget::Main {
+            return Err(format!("pass {n} draws into a texture after a pass into the picture"));
+        }
+        if !matches!(pass.state.depth.func, CompareFunc::Less | CompareFunc::LessEqual | CompareFunc::Equal) {
+            return Err(format!(
+                "pass {n} does not test depth with less, less-equal or equal, so the depth mask cannot skip it"
+            ));
+        }
+        if pass.state.stencil.enabled {
+            return Err(format!("pass {n} uses the stencil buffer"));
+        }
+        if pass.loaded.iter().any(|l| l.data == TextureData::RenderedDepth { name: None }) {
+            return Err(format!("pass {n} reads the picture's depth"));
+        }
+    }
+    Ok(first)
+}
+
+fn adaptive_frame(
+    passes: &[RunPass],
+    first_main: usize,
     target: &Target,
     settings: GpuAdaptive,
-) -> Result<(RunPass, RunPass), String> {
-    if pass.target != PassTarget::Main || pass.outputs != 1 {
-        return Err("it does not draw one colour into the picture".into());
-    }
-    let text = wgsl_text(&pass.shader)?;
-    if ["textureSample(", "textureSampleBias(", "dpdx", "dpdy", "fwidth"].iter().any(|f| text.contains(f)) {
-        return Err(
-            "its shading uses implicit derivatives, which WGSL allows only in uniform control flow".into()
-        );
-    }
+) -> Vec<RunPass> {
     let spacing = settings.spacing.max(1);
-    let (w, h) = (target.width.div_ceil(spacing), target.height.div_ceil(spacing));
-    let scale = (w as f32 / target.width as f32, h as f32 / target.height as f32);
-    let binding = next_binding(&text).max(pass.loaded.iter().map(|l| l.binding + 1).max().unwrap_or(0));
-    let source = wrapped(&text, &pass.shader.fragment_entry, binding, scale, settings.threshold)?;
-    let name = format!("adaptive_sparse{index}");
-    let sparse = RunPass {
-        label: format!("{} (sparse samples)", pass.label),
-        shader: RunShader {
-            source: ShaderSource::Wgsl(source.clone()),
-            fragment_entry: "fs_sparse".into(),
-            ..pass.shader.clone()
-        },
-        state: sparse_state(pass.state),
-        target: PassTarget::Texture(RenderedTexture {
-            name: name.clone(),
-            width: w,
-            height: h,
-            layers: 1,
-            format: ColorTarget::Rgba16Float,
-        }),
-        ..pass.clone()
+    let sparse = RenderedTexture {
+        name: SPARSE.into(),
+        width: target.width.div_ceil(spacing),
+        height: target.height.div_ceil(spacing),
+        layers: 1,
+        format: target.color_format,
     };
-    let mut full = RunPass {
-        label: format!("{} (adaptive)", pass.label),
-        shader: RunShader {
-            source: ShaderSource::Wgsl(source),
-            fragment_entry: "fs_adaptive".into(),
-            ..pass.shader.clone()
-        },
-        ..pass.clone()
-    };
-    full.loaded.push(LoadedTexture { binding, data: TextureData::Rendered { name, array: false } });
-    Ok((sparse, full))
+    let scale = (sparse.width as f32 / target.width as f32, sparse.height as f32 / target.height as f32);
+    let main = &passes[first_main..];
+    let mut out = Vec::with_capacity(passes.len() + main.len() + 1);
+    out.extend_from_slice(&passes[..first_main]);
+    out.extend(main.iter().map(|p| RunPass {
+        label: format!("{} (sparse samples)", p.label),
+        target: PassTarget::Texture(sparse.clone()),
+        ..p.clone()
+    }));
+    out.push(classification(target, scale, settings.threshold));
+    out.extend_from_slice(main);
+    out
 }
 
-/// The sparse pass finds its own visible surface (its texture has its own
-/// depth buffer) and stores what the pass computes, unblended.
-fn sparse_state(mut state: RenderState) -> RenderState {
-    state.depth.func = CompareFunc::Less;
-    state.depth.write = true;
-    state.stencil.enabled = false;
-    state.blend = BlendState::REPLACE;
-    state
-}
-
-/// The pass's WGSL (a naga module written out).
-fn wgsl_text(shader: &RunShader) -> Result<String, String> {
-    match &shader.source {
-        ShaderSource::Wgsl(text) => Ok(text.clone()),
-        ShaderSource::Naga(module) => {
-            let info = naga::valid::Validator::new(naga::valid::ValidationFlags::all(), Default::default())
-                .validate(module)
-                .map_err(|e| format!("its module does not validate: {e}"))?;
-            naga::back::wgsl::write_string(module, &info, naga::back::wgsl::WriterFlags::empty())
-                .map_err(|e| format!("its module cannot be written as WGSL: {e}"))
-        }
+/// The full-screen pass that interpolates the sparse frame where it is
+/// smooth (depth 0: the plan's passes are rejected there) and leaves the
+/// rest to them (the clear colour and depth).
+fn classification(target: &Target, scale: (f32, f32), threshold: f32) -> RunPass {
+    RunPass {
+        label: "adaptive classification".into(),
+        shader: RunShader {
+            source: ShaderSource::Wgsl(classification_wgsl(scale, threshold, target.clear_color)),
+            vertex_entry: "vs_main".into(),
+            fragment_entry: "fs_classify".into(),
+        },
+        vertices: VertexData {
+            floats: vec![-1.0, -1.0, 0.0, 1.0, 3.0, -1.0, 0.0, 1.0, -1.0, 3.0, 0.0, 1.0],
+            components: vec![4],
+        },
+        indices: vec![0, 1, 2],
+        textures: Vec::new(),
+        uniforms: None,
+        state: RenderState {
+            cull: CullMode::None,
+            depth: DepthState { func: CompareFunc::Always, write: true },
+            stencil: StencilState::DISABLED,
+            blend: BlendState::REPLACE,
+        },
+        target: PassTarget::Main,
+        loaded: vec![
+            LoadedTexture { binding: 0, data: TextureData::Rendered { name: SPARSE.into(), array: false } },
+            LoadedTexture { binding: 1, data: TextureData::RenderedDepth { name: Some(SPARSE.into()) } },
+        ],
+        outputs: 1,
     }
 }
 
-/// One past the largest `@binding(n)` of group 0 in `text`.
-fn next_binding(text: &str) -> u32 {
-    text.match_indices("@binding(")
-        .filter_map(|(i, m)| text[i + m.len()..].split(')').next()?.trim().parse::<u32>().ok())
-        .max()
-        .map_or(0, |b| b + 1)
-}
-
-/// `text` with the fragment entry `entry(NAME: VertexOutput) -> @location(0)
-/// vec4<f32>` turned into `fn shade` and the two entry points added.
-fn wrapped(
-    text: &str,
-    entry: &str,
-    binding: u32,
-    scale: (f32, f32),
-    threshold: f32,
-) -> Result<String, String> {
-    let head = format!("fn {entry}(");
-    let at = text.find(&head).ok_or("its fragment entry point was not found")?;
-    let open = at + head.len();
-    let close = open + text[open..].find(')').ok_or("its fragment entry point has no parameter list")?;
-    let (param, ty) = text[open..close].split_once(':').ok_or("its fragment entry point takes no input")?;
-    let (param, ty) = (param.trim(), ty.trim());
-    let body = close + text[close..].find('{').ok_or("its fragment entry point has no body")?;
-    if !text[close..body].contains("-> @location(0) vec4<f32>") {
-        return Err("its fragment entry point does not return one vec4 colour".into());
-    }
-    let position = position_member(text, ty).ok_or("its fragment input has no @builtin(position)")?;
-    let attribute = text[..at].rfind("@fragment").ok_or("its fragment entry point has no @fragment")?;
-    let mut out = String::with_capacity(text.len() + 2048);
-    out.push_str(&text[..attribute]);
-    out.push_str(&text[attribute + "@fragment".len()..at]);
-    out.push_str(&format!("fn shade({param}: {ty}) -> vec4<f32> "));
-    out.push_str(&text[body..]);
-    out.push_str(&entry_points(ty, &position, binding, scale, threshold));
-    Ok(out)
-}
-
-/// The member of struct `ty` that is `@builtin(position)`.
-fn position_member(text: &str, ty: &str) -> Option<String> {
-    let start = text.find(&format!("struct {ty} {{"))?;
-    let end = start + text[start..].find('}')?;
-    let member = text[start..end].split("@builtin(position)").nth(1)?;
-    Some(member.split(':').next()?.trim().to_string())
-}
-
-fn entry_points(ty: &str, position: &str, binding: u32, scale: (f32, f32), threshold: f32) -> String {
+fn classification_wgsl(scale: (f32, f32), threshold: f32, clear: [f32; 4]) -> String {
+    let [r, g, b, a] = clear;
     format!(
-        r#"
-@group(0) @binding({binding}) var adaptive_sparse: texture_2d<f32>;
+        r#"struct Position {{
+    @builtin(position) position: vec4<f32>,
+}}
 
-@fragment
-fn fs_sparse(input: {ty}) -> @location(0) vec4<f32> {{
-    let c = shade(input);
-    return vec4<f32>(c.rgb, c.a + 2.0);
+struct Classified {{
+    @location(0) colour: vec4<f32>,
+    @builtin(frag_depth) depth: f32,
+}}
+
+@group(0) @binding(0) var sparse_colour: texture_2d<f32>;
+@group(0) @binding(1) var sparse_depth: texture_2d<f32>;
+
+@vertex
+fn vs_main(@location(0) corner: vec4<f32>) -> Position {{
+    return Position(corner);
 }}
 
 @fragment
-fn fs_adaptive(input: {ty}) -> @location(0) vec4<f32> {{
-    let last = vec2<i32>(textureDimensions(adaptive_sparse)) - vec2<i32>(1);
-    let q = input.{position}.xy * vec2<f32>({sx:?}, {sy:?}) - vec2<f32>(0.5);
+fn fs_classify(input: Position) -> Classified {{
+    let last = vec2<i32>(textureDimensions(sparse_colour)) - vec2<i32>(1);
+    let q = input.position.xy * vec2<f32>({sx:?}, {sy:?}) - vec2<f32>(0.5);
     let base = floor(q);
     let f = q - base;
     let i0 = clamp(vec2<i32>(base), vec2<i32>(0), last);
     let i1 = clamp(vec2<i32>(base) + vec2<i32>(1), vec2<i32>(0), last);
-    let a = textureLoad(adaptive_sparse, i0, 0);
-    let b = textureLoad(adaptive_sparse, vec2<i32>(i1.x, i0.y), 0);
-    let c = textureLoad(adaptive_sparse, vec2<i32>(i0.x, i1.y), 0);
-    let d = textureLoad(adaptive_sparse, i1, 0);
-    let lo = min(min(a, b), min(c, d));
-    let hi = max(max(a, b), max(c, d));
-    if lo.a >= 1.5 && all(hi - lo <= vec4<f32>({threshold:?})) {{
-        let v = mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
-        return vec4<f32>(v.rgb, v.a - 2.0);
+    let j = vec2<i32>(i1.x, i0.y);
+    let k = vec2<i32>(i0.x, i1.y);
+    let far = max(max(textureLoad(sparse_depth, i0, 0).x, textureLoad(sparse_depth, j, 0).x),
+                  max(textureLoad(sparse_depth, k, 0).x, textureLoad(sparse_depth, i1, 0).x));
+    let a = textureLoad(sparse_colour, i0, 0);
+    let b = textureLoad(sparse_colour, j, 0);
+    let c = textureLoad(sparse_colour, k, 0);
+    let d = textureLoad(sparse_colour, i1, 0);
+    let spread = max(max(a, b), max(c, d)) - min(min(a, b), min(c, d));
+    if far < 1.0 && all(spread <= vec4<f32>({threshold:?})) {{
+        return Classified(mix(mix(a, b, f.x), mix(c, d, f.x), f.y), 0.0);
     }}
-    return shade(input);
+    return Classified(vec4<f32>({r:?}, {g:?}, {b:?}, {a:?}), 1.0);
 }}
 "#,
         sx = scale.0,
@@ -222,27 +196,56 @@ fn fs_adaptive(input: {ty}) -> @location(0) vec4<f32> {{
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::gpu::runner::ColorTarget;
 
-    const SHADER: &str = "struct VertexOutput {\n    @builtin(position) position: vec4<f32>,\n    @location(0) n: vec4<f32>,\n}\n@group(0) @binding(0) var<uniform> u: vec4<f32>;\n@vertex \nfn vs_main(@location(0) x: vec4<f32>) -> VertexOutput {\n    return VertexOutput(x, x);\n}\n@fragment \nfn fs_main(input: VertexOutput) -> @location(0) vec4<f32> {\n    return input.n * u;\n}\n";
+    fn pass(target: PassTarget, depth: CompareFunc) -> RunPass {
+        let mut p = classification(&Target::new(8, 8), (0.5, 0.5), 0.1);
+        p.target = target;
+        p.state.depth.func = depth;
+        p.loaded.clear();
+        p
+    }
 
     #[test]
-    fn the_wrapped_shader_validates_with_both_entry_points() {
-        let text = wrapped(SHADER, "fs_main", next_binding(SHADER), (0.25, 0.25), 0.085).unwrap();
+    fn the_classification_validates() {
+        let text = classification_wgsl((0.0625, 0.0625), 0.085, [0.0; 4]);
         let module = naga::front::wgsl::parse_str(&text)
             .unwrap_or_else(|e| panic!("{}\n{text}", e.emit_to_string(&text)));
         naga::valid::Validator::new(naga::valid::ValidationFlags::all(), Default::default())
             .validate(&module)
             .unwrap();
-        let entries: Vec<&str> = module.entry_points.iter().map(|e| e.name.as_str()).collect();
-        assert_eq!(entries, ["vs_main", "fs_sparse", "fs_adaptive"]);
-        assert!(text.contains("@binding(1) var adaptive_sparse"), "{text}");
     }
 
     #[test]
-    fn a_shader_without_the_expected_entry_is_left_alone() {
-        assert!(wrapped(SHADER, "fs_other", 1, (0.25, 0.25), 0.1).is_err());
-        let two =
-            SHADER.replace("-> @location(0) vec4<f32> {\n    return input.n", "-> Out {\n    return input.n");
-        assert!(wrapped(&two, "fs_main", 1, (0.25, 0.25), 0.1).is_err());
+    fn the_frame_is_sparse_passes_the_classification_and_the_plan() {
+        let texture =
+            RenderedTexture { name: "T".into(), width: 4, height: 4, layers: 1, format: ColorTarget::Rgba8 };
+        let passes = [
+            pass(PassTarget::Texture(texture), CompareFunc::Less),
+            pass(PassTarget::Main, CompareFunc::Less),
+            pass(PassTarget::Main, CompareFunc::Equal),
+        ];
+        let settings = GpuAdaptive { spacing: 4, threshold: 0.1 };
+        let (out, notes) = adaptive_passes(&passes, &Target::new(64, 32), settings);
+        assert!(notes.is_empty(), "{notes:?}");
+        let labels: Vec<&str> = out.iter().map(|p| p.label.as_str()).collect();
+        assert_eq!(out.len(), 6, "{labels:?}");
+        let PassTarget::Texture(sparse) = &out[1].target else { panic!("{labels:?}") };
+        assert_eq!((sparse.width, sparse.height), (16, 8));
+        assert_eq!(out[3].label, "adaptive classification");
+        assert_eq!(out[4].target, PassTarget::Main);
+    }
+
+    #[test]
+    fn a_pass_the_depth_mask_cannot_skip_leaves_the_frame_full() {
+        let passes = [pass(PassTarget::Main, CompareFunc::Less), pass(PassTarget::Main, CompareFunc::Always)];
+        let settings = GpuAdaptive { spacing: 4, threshold: 0.1 };
+        let (out, notes) = adaptive_passes(&passes, &Target::new(64, 32), settings);
+        assert_eq!(out.len(), 2);
+        assert!(notes[0].contains("pass 2 does not test depth"), "{notes:?}");
+        let mut stencil = pass(PassTarget::Main, CompareFunc::Less);
+        stencil.state.stencil.enabled = true;
+        let (_, notes) = adaptive_passes(&[stencil], &Target::new(64, 32), settings);
+        assert!(notes[0].contains("pass 1 uses the stencil buffer"), "{notes:?}");
     }
 }
