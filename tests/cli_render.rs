@@ -334,7 +334,7 @@ fn adaptive_auto_says_what_it_chose_and_why() {
     for backend in ["cpu", "wgpu"] {
         let out = shadec()
             .args(["render", &scene, "--shader", shader.to_str().unwrap(), "--target", "wgsl"])
-            .args(["--backend", backend, "--adaptive", "auto", "--size", "256x256"])
+            .args(["--backend", backend, "--adaptive", "auto", "--size", "512x512"])
             .current_dir(dir.path())
             .output()
             .unwrap();

@@ -82,10 +82,16 @@ pub enum Backend {
 
 /// `--adaptive auto`: the paper's threshold and spacing, where
 /// `cost::adaptive::choose` says adaptive shading pays.
-fn auto_adaptive(plan: &shadec::pipeline::PassPlan, backend: Backend) -> Option<AdaptiveSettings> {
-    use shadec::cost::adaptive::{choose, Executor};
+fn auto_adaptive(
+    plan: &shadec::pipeline::PassPlan,
+    (scene, assets): (&Scene, &shadec::scene::SceneAssets),
+    size: (u32, u32),
+    backend: Backend,
+) -> Option<AdaptiveSettings> {
+    use shadec::cost::{adaptive::choose, adaptive::Executor, Workload};
     let executor = if backend == Backend::Wgpu { Executor::Wgpu } else { Executor::Cpu };
-    let choice = choose(plan, executor);
+    let workload = Workload::of_scene(scene, &assets.meshes, "the scene");
+    let choice = choose(plan, &workload, size, executor);
     let what = if choice.adaptive { "adaptive shading (8.5 %, every 16 pixels)" } else { "full shading" };
     println!("adaptive auto: {what}: {}", choice.why);
     choice.adaptive.then(|| AdaptiveSettings::new(16, 0.085, EdgeMode::Pass))
@@ -369,7 +375,8 @@ fn render(args: &RenderArgs) -> Result<(), ExitCode> {
     let mut shown = planned.plan.clone();
     shown.approximations.clear();
     print!("{}", shown.summary());
-    let adaptive = if auto { auto_adaptive(&planned.plan, args.backend) } else { adaptive };
+    let adaptive =
+        if auto { auto_adaptive(&planned.plan, (&scene, &assets), size, args.backend) } else { adaptive };
     if args.backend == Backend::Wgpu {
         return render_on_wgpu(args, &compiled, &file, (&scene, &assets), mode, size, adaptive.as_ref());
     }
