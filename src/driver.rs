@@ -19,11 +19,12 @@
 //! ```
 
 use crate::backends::combiners::CombinerRealizer;
+use crate::backends::combiners::Generated;
 use crate::cost::Workload;
 use crate::diag::Diagnostic;
 use crate::ir::Module;
 use crate::parser::ast::Program;
-use crate::pipeline::Planned;
+use crate::pipeline::{Planned, SetupRefusal};
 use crate::planner::specialize::{draws, RemovalReport};
 use crate::planner::{self, Realizer, Request, SceneSpecialization, Search};
 use crate::profile::Profile;
@@ -172,6 +173,24 @@ pub fn plan(
         crate::cost::annotate(&mut planned.plan, &planned.module, model, &workload);
     }
     Ok(planned)
+}
+
+/// The register-combiner setup of pass `index` as the `fixed9` model runs
+/// it (`--emit combiners`, the hover): the one the plan was assembled with
+/// on a combiner target, else a GeForce 3's, generated once on first use.
+pub fn combiners_of(planned: &Planned, index: usize) -> Result<&Generated, SetupRefusal> {
+    crate::backends::combiners::setup::of(planned, index)
+}
+
+/// Every pass of `planned` as WGSL shaders (`--emit wgsl|spirv|glsl`),
+/// `source` placing their diagnostics.
+#[cfg(feature = "wgsl")]
+pub fn shaders(
+    planned: &Planned,
+    source: Option<&str>,
+    precision: crate::numerics::Precision,
+) -> Result<Vec<crate::backends::wgsl::PassShader>, Diagnostics> {
+    crate::backends::wgsl::generate(planned, source, precision)
 }
 
 /// What a plan's time is predicted on: the scene planned for, or

@@ -317,6 +317,7 @@ impl<'a> Rewriter<'a> {
         self.approximations.push(Approximation {
             rule: rule.into(),
             at,
+            span,
             why,
             cost,
             error_bound,

@@ -101,7 +101,8 @@ pub struct Pass {
     /// for, when light culling skipped it for the others; `None`: all.
     #[serde(default)]
     pub objects: Option<Vec<usize>>,
-    /// `line:col` of the first statement.
+    /// `line:col` of the first statement (text for people: executors read
+    /// the typed span of `Planned::setups`).
     pub at: String,
     /// Why this pass exists: the statement it implements, the limit that
     /// forced a split, or the fusion that made it.
@@ -118,12 +119,6 @@ pub struct Pass {
     pub blend: BlendMode,
     /// Cull, depth, stencil and GL blend factors, as the renderers take them.
     pub state: RenderState,
-    /// On a register-combiner target: what the combiner code generator says
-    /// of this pass — `None` when it generated a setup within the target's
-    /// stages, else why not (the planner's capacity is an estimate; see
-    /// docs/pass-plan.md).
-    #[serde(default)]
-    pub combiners: Option<String>,
     /// The texel pass of a `bake(f)` table: computed by the compiler on the
     /// CPU at compile time (in float, stored in the texture's format), not
     /// by the target, which only samples the table. Its fragment
@@ -264,8 +259,12 @@ pub struct Value {
 pub struct Approximation {
     /// The rule's name (`normalization_cube_map`, `per_vertex`, `baked_table`, …).
     pub rule: String,
-    /// `line:col` of the replaced operation.
+    /// `line:col` of the replaced operation: [`Approximation::span`] as text.
     pub at: String,
+    /// The replaced operation's span: what diagnostics and the language
+    /// server place by (the document's `at` is its text, never read back).
+    #[serde(skip)]
+    pub span: crate::span::Span,
     /// What was replaced, by what, and why the target needed it.
     pub why: String,
     pub cost: ApproximationCost,
