@@ -398,10 +398,9 @@ pub fn plan_measured(
     // built-in torus, as `render` without a scene file measures them (its
     // image files looked for in `images`, where `render` looks for them).
     let scene = default_scene(images);
-    let Ok(assets) = scene.as_ref().map_err(|_| ()).and_then(|s| s.build().map_err(|_| ())) else {
+    let Some((scene, assets)) = scene.ok().and_then(|s| s.build().ok().map(|a| (s, a))) else {
         return Ok((first, Vec::new())); // `vet` says it is unbounded
     };
-    let scene = scene.expect("built above");
     let at = crate::driver::ForScene::unspecialized(&scene, &assets);
     match pick_on(module, program, profile, source, options, (&at, DEFAULT_SCENE_NAME), 1, max_error) {
         Ok(picked) => Ok(picked),

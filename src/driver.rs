@@ -120,6 +120,13 @@ pub fn front(source: &str) -> Front {
     Front { program, module, diagnostics }
 }
 
+/// A clean program the front end did not lower: a compiler bug, said as
+/// one rather than a panic (`front` lowers every program without errors).
+fn unlowered() -> Diagnostic {
+    Diagnostic::error("internal-error", "a program without errors was not lowered", Span::DETACHED, "")
+        .with_help("this is a bug in shadec: please report it with the program")
+}
+
 /// Compiles `source` for `profile`: the front end, then the plan. `Err`
 /// holds every error found (warnings are in [`Compilation::warnings`]).
 pub fn compile(source: &str, profile: &Profile, options: &PlanOptions) -> Result<Compilation, Diagnostics> {
@@ -128,7 +135,7 @@ pub fn compile(source: &str, profile: &Profile, options: &PlanOptions) -> Result
         return Err(front.errors());
     }
     let Front { program, module, diagnostics } = front;
-    let module = module.expect("a clean program is lowered");
+    let Some(module) = module else { return Err(vec![unlowered()]) };
     let planned = plan(&module, &program, profile, Some(source), options)?;
     Ok(Compilation { program, module, planned, warnings: diagnostics })
 }
@@ -294,7 +301,7 @@ pub fn plan_pair(
     if front.has_errors() {
         return Err(front.errors());
     }
-    let module = front.module.as_ref().expect("a clean program is lowered");
+    let Some(module) = front.module.as_ref() else { return Err(vec![unlowered()]) };
     let assets = scene.build().map_err(|e| {
         vec![Diagnostic::error("scene-error", format!("the scene cannot be built: {e}"), Span::DETACHED, "")
             .with_help("fix the scene file (its meshes and textures must load)")]

@@ -202,10 +202,10 @@ fn report(args: &CompileArgs, file: &SourceFile, diagnostics: &[shadec::diag::Di
         Format::Short => eprint!("{}", file.render_short(diagnostics)),
         Format::Json => {
             let uri = format!("file://{}", args.file.display());
-            eprintln!(
-                "{}",
-                serde_json::to_string_pretty(&file.to_lsp(&uri, diagnostics)).expect("diagnostics serialize")
-            );
+            #[allow(clippy::expect_used, reason = "diagnostics are strings and numbers: JSON writes them")]
+            let text =
+                serde_json::to_string_pretty(&file.to_lsp(&uri, diagnostics)).expect("diagnostics serialize");
+            eprintln!("{text}");
         }
     }
 }

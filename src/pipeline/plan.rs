@@ -306,11 +306,15 @@ pub struct Removed {
 }
 
 impl PassPlan {
+    /// The plan as RON (`--emit plan`).
+    #[allow(clippy::expect_used, reason = "a plan is strings, numbers and lists: RON writes every one")]
     pub fn to_ron(&self) -> String {
         ron::ser::to_string_pretty(self, ron::ser::PrettyConfig::default().struct_names(true))
             .expect("a pass plan serializes")
     }
 
+    /// The plan as JSON (`--plan-format json`).
+    #[allow(clippy::expect_used, reason = "a plan has string keys and finite numbers: JSON writes it")]
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).expect("a pass plan serializes")
     }

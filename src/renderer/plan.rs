@@ -354,7 +354,7 @@ impl<'a> PlanRenderer<'a> {
                     objects.first(),
                 )
                 .map_err(|e| e.in_pass(index))?;
-                let target = targets.get_mut(&name).expect("created above");
+                let target = targets.get_mut(&name).ok_or_else(|| lost(&name))?;
                 self.draw_layer(pass, &pi, &objects, &stage, target, &mut draws)?;
                 nonfinite += stage.nonfinite.load(Ordering::Relaxed);
                 match &pass.target {
@@ -371,7 +371,7 @@ impl<'a> PlanRenderer<'a> {
         let name = last_fb.ok_or_else(|| {
             RenderError::Unsupported("the plan writes no framebuffer: nothing to show".into())
         })?;
-        let image = targets.remove(&name).expect("written");
+        let image = targets.remove(&name).ok_or_else(|| lost(&name))?;
         let Draws { stats, adaptive: adaptive_stats, .. } = draws;
         Ok(Frame { image, name, stats, time, nonfinite, adaptive: adaptive_stats, shading })
     }
@@ -428,6 +428,7 @@ impl<'a> PlanRenderer<'a> {
         let state = pass.state;
         match &pass.geometry {
             Geometry::Mesh { .. } if draws.settings.is_some() && !state.stencil.enabled => {
+                let Some(settings) = draws.settings else { unreachable!("matched") };
                 // One adaptive draw over every object of the pass, so that
                 // silhouettes between objects are edges (Section 2.1.3).
                 let drawn: Vec<&BoundObject> = objects
@@ -448,7 +449,7 @@ impl<'a> PlanRenderer<'a> {
                         state,
                     })
                     .collect();
-                let s = super::draw_adaptive(target, &passes, draws.settings.expect("matched"))?;
+                let s = super::draw_adaptive(target, &passes, settings)?;
                 draws.adaptive = draws.adaptive.map(|a| a + s);
                 draws.advance(objects.len());
             }
@@ -520,6 +521,12 @@ impl<'a> PlanRenderer<'a> {
         registers[5] = g.secondary;
         Ok((CombinerSetup { machine, registers }, g.stages))
     }
+}
+
+/// An image the frame loop made and then could not find: a bug, said as
+/// an error rather than a panic.
+fn lost(name: &str) -> RenderError {
+    RenderError::Unsupported(format!("internal: the image `{name}` a pass renders into is missing"))
 }
 
 /// A cleared image for a pass to render into, as its setup says
@@ -1367,7 +1374,7 @@ impl<'a> FragmentProgram<'a> {
                 [x, y, depth * 2.0 - 1.0, 1.0]
             }
             Leaf::TexelCoord if texel_at.is_some() => {
-                let [u, v] = texel_at.expect("matched");
+                let [u, v] = texel_at.unwrap_or_default(); // `Some`: the guard
                 [u, v, 0.0, 0.0]
             }
             Leaf::TexelCoord => {
