@@ -255,7 +255,7 @@ pub struct Value {
 /// One rewrite of the lowering: a part of the program the
 /// target cannot compute, replaced by what it has — a table, a cube map,
 /// a per-vertex value — with what that costs and how far it may be off.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Approximation {
     /// The rule's name (`normalization_cube_map`, `per_vertex`, `baked_table`, …).
     pub rule: String,
@@ -278,6 +278,19 @@ pub struct Approximation {
     /// to 16. `None` when either is unknown (a coordinate, a condition).
     #[serde(default)]
     pub output_bound: Option<f64>,
+}
+
+/// Equal as documents: `span` is the contract's, never written, so a plan
+/// read back from its text equals the plan written.
+impl PartialEq for Approximation {
+    fn eq(&self, other: &Self) -> bool {
+        self.rule == other.rule
+            && self.at == other.at
+            && self.why == other.why
+            && self.cost == other.cost
+            && self.error_bound == other.error_bound
+            && self.output_bound == other.output_bound
+    }
 }
 
 /// What an approximation spends (the four resources).
