@@ -22,7 +22,7 @@ use crate::parser::ast::Program;
 use crate::pipeline::{MeasuredError, Planned};
 use crate::profile::Profile;
 use crate::renderer::plan::{compare, ErrorReport, PlanRenderer};
-use crate::span::{LineIndex, Span};
+use crate::span::Span;
 
 /// Largest side the candidates are rendered at.
 const MAX_SIDE: u32 = 256;
@@ -293,7 +293,7 @@ fn refusal(
                 "raise --max-error to {:.4} or more, or target a profile that computes this per fragment (wgsl)",
                 c.error.max_abs
             ),
-            planned.plan.approximations.first().map_or(Span::DETACHED, |a| span_at(source, &a.at)),
+            planned.plan.approximations.first().map_or(Span::DETACHED, |a| one_char(source, a.span)),
         ),
         None => (
             format!("no lowering for {} plans", profile.name),
@@ -304,12 +304,12 @@ fn refusal(
     Diagnostic::error("max-error", message, span, "approximated here").with_help(help)
 }
 
-/// The one-character span at `line:col` (an approximation's `at`).
-fn span_at(source: &str, at: &str) -> Span {
-    let Some((line, col)) = at.split_once(':') else { return Span::DETACHED };
-    let (Ok(line), Ok(col)) = (line.parse::<usize>(), col.parse::<usize>()) else { return Span::DETACHED };
-    let index = LineIndex::new(source);
-    let Some(start) = index.offset(source, line, col) else { return Span::DETACHED };
+/// The one character where `span` starts (an approximation's place).
+fn one_char(source: &str, span: Span) -> Span {
+    let start = span.start as usize;
+    if span == Span::DETACHED || !source.is_char_boundary(start) {
+        return Span::DETACHED;
+    }
     let end = source[start..].chars().next().map_or(start, |c| start + c.len_utf8());
     Span::new(start, end)
 }
@@ -398,10 +398,9 @@ pub fn plan_measured(
     // built-in torus, as `render` without a scene file measures them (its
     // image files looked for in `images`, where `render` looks for them).
     let scene = default_scene(images);
-    let Ok(assets) = scene.as_ref().map_err(|_| ()).and_then(|s| s.build().map_err(|_| ())) else {
+    let Some((scene, assets)) = scene.ok().and_then(|s| s.build().ok().map(|a| (s, a))) else {
         return Ok((first, Vec::new())); // `vet` says it is unbounded
     };
-    let scene = scene.expect("built above");
     let at = crate::driver::ForScene::unspecialized(&scene, &assets);
     match pick_on(module, program, profile, source, options, (&at, DEFAULT_SCENE_NAME), 1, max_error) {
         Ok(picked) => Ok(picked),
@@ -438,8 +437,7 @@ pub fn vet(
     planned.plan.approximations.retain(|a| seen.insert((a.rule.clone(), a.at.clone(), a.why.clone())));
     let budget = options.lowering.max_error.unwrap_or(PER_VERTEX_BUDGET);
     let mut vetting = Vetting { budget, unmeasured: None };
-    let Some(at) = planned.plan.approximations.iter().find(|a| a.rule == PER_VERTEX).map(|a| a.at.clone())
-    else {
+    let Some(at) = planned.plan.approximations.iter().find(|a| a.rule == PER_VERTEX).map(|a| a.span) else {
         return Ok(vetting);
     };
     if planned.plan.measured.is_none() {
@@ -450,7 +448,7 @@ pub fn vet(
     }
     match &planned.plan.measured {
         Some(m) if m.max_abs > budget => {
-            Err(vec![per_vertex_refusal(planned, module, source, &at, m, options)])
+            Err(vec![per_vertex_refusal(planned, module, source, at, m, options)])
         }
         _ => Ok(vetting),
     }
@@ -493,7 +491,7 @@ fn per_vertex_refusal(
     planned: &Planned,
     module: &Module,
     source: &str,
-    at: &str,
+    at: Span,
     m: &MeasuredError,
     options: &PlanOptions,
 ) -> Diagnostic {
@@ -547,7 +545,7 @@ pub fn warnings(planned: &Planned, module: &Module, source: &str, vetting: &Vett
                 ),
             };
             let message = format!("approximation on {} (`{}`): {}", plan.target, a.rule, a.why);
-            Diagnostic::warning("approximation", message, expr_span(module, source, &a.at), "approximated here")
+            Diagnostic::warning("approximation", message, expr_span(module, source, a.span), "approximated here")
                 .with_help(format!(
                     "{figure}; --no-approx refuses every approximation, --max-error E those whose error exceeds E"
                 ))
@@ -563,10 +561,10 @@ fn budget_text(budget: f64) -> String {
     }
 }
 
-/// The span of the largest expression that starts at `at` (`line:col`),
-/// else the one character there.
-pub fn expr_span(module: &Module, source: &str, at: &str) -> Span {
-    let one = span_at(source, at);
+/// The span of the largest expression that starts where `at` does, else
+/// the one character there.
+pub fn expr_span(module: &Module, source: &str, at: Span) -> Span {
+    let one = one_char(source, at);
     if one == Span::DETACHED {
         return one;
     }

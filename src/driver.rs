@@ -19,11 +19,12 @@
 //! ```
 
 use crate::backends::combiners::CombinerRealizer;
+use crate::backends::combiners::Generated;
 use crate::cost::Workload;
 use crate::diag::Diagnostic;
 use crate::ir::Module;
 use crate::parser::ast::Program;
-use crate::pipeline::Planned;
+use crate::pipeline::{Planned, SetupRefusal};
 use crate::planner::specialize::{draws, RemovalReport};
 use crate::planner::{self, Realizer, Request, SceneSpecialization, Search};
 use crate::profile::Profile;
@@ -119,6 +120,13 @@ pub fn front(source: &str) -> Front {
     Front { program, module, diagnostics }
 }
 
+/// A clean program the front end did not lower: a compiler bug, said as
+/// one rather than a panic (`front` lowers every program without errors).
+fn unlowered() -> Diagnostic {
+    Diagnostic::error("internal-error", "a program without errors was not lowered", Span::DETACHED, "")
+        .with_help("this is a bug in shadec: please report it with the program")
+}
+
 /// Compiles `source` for `profile`: the front end, then the plan. `Err`
 /// holds every error found (warnings are in [`Compilation::warnings`]).
 pub fn compile(source: &str, profile: &Profile, options: &PlanOptions) -> Result<Compilation, Diagnostics> {
@@ -127,7 +135,7 @@ pub fn compile(source: &str, profile: &Profile, options: &PlanOptions) -> Result
         return Err(front.errors());
     }
     let Front { program, module, diagnostics } = front;
-    let module = module.expect("a clean program is lowered");
+    let Some(module) = module else { return Err(vec![unlowered()]) };
     let planned = plan(&module, &program, profile, Some(source), options)?;
     Ok(Compilation { program, module, planned, warnings: diagnostics })
 }
@@ -172,6 +180,24 @@ pub fn plan(
         crate::cost::annotate(&mut planned.plan, &planned.module, model, &workload);
     }
     Ok(planned)
+}
+
+/// The register-combiner setup of pass `index` as the `fixed9` model runs
+/// it (`--emit combiners`, the hover): the one the plan was assembled with
+/// on a combiner target, else a GeForce 3's, generated once on first use.
+pub fn combiners_of(planned: &Planned, index: usize) -> Result<&Generated, SetupRefusal> {
+    crate::backends::combiners::setup::of(planned, index)
+}
+
+/// Every pass of `planned` as WGSL shaders (`--emit wgsl|spirv|glsl`),
+/// `source` placing their diagnostics.
+#[cfg(feature = "wgsl")]
+pub fn shaders(
+    planned: &Planned,
+    source: Option<&str>,
+    precision: crate::numerics::Precision,
+) -> Result<Vec<crate::backends::wgsl::PassShader>, Diagnostics> {
+    crate::backends::wgsl::generate(planned, source, precision)
 }
 
 /// What a plan's time is predicted on: the scene planned for, or
@@ -275,7 +301,7 @@ pub fn plan_pair(
     if front.has_errors() {
         return Err(front.errors());
     }
-    let module = front.module.as_ref().expect("a clean program is lowered");
+    let Some(module) = front.module.as_ref() else { return Err(vec![unlowered()]) };
     let assets = scene.build().map_err(|e| {
         vec![Diagnostic::error("scene-error", format!("the scene cannot be built: {e}"), Span::DETACHED, "")
             .with_help("fix the scene file (its meshes and textures must load)")]

@@ -130,7 +130,6 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
                 blend: BlendState::REPLACE.with_write_mask(mask),
             },
             geometry,
-            combiners: None,
             baked: m.is_baked(st),
             predicted: None,
         });
@@ -150,7 +149,9 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
             measured: None,
         },
         combiners: None,
-    })
+        setups: Vec::new(),
+    }
+    .resolved())
 }
 
 /// Where a statement writes, and the channels it writes.

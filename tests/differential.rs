@@ -398,8 +398,8 @@ pub(crate) fn validate_plan(planned: &Planned, profile: &Profile) -> Result<(), 
             }
         }
         if let Some(limits) = profile.combiner_limits() {
-            if let Some(why) = &pass.combiners {
-                return Err(at(format!("the plan says its combiners are {why}")));
+            if !pass.baked && planned.setups[i].combiners().is_none() {
+                return Err(at("the plan holds no combiner setup for it".to_string()));
             }
             let units: Vec<Handle<Expr>> =
                 pass.textures.iter().map(|t| Handle::new(t.lookup as usize)).collect();
@@ -794,8 +794,8 @@ fn a_scale_factor_maps_to_the_output_scale_in_any_position() {
             .map(|c| c.planned)
             .unwrap();
         assert_eq!(planned.plan.passes.len(), 1, "{statement}");
-        assert_eq!(planned.plan.passes[0].combiners, None, "{statement}");
-        let generated = codegen::generate_for_pass(&planned, 0).unwrap();
+        assert!(planned.setups[0].combiners().is_some(), "{statement}");
+        let generated = shadec::backends::combiners::setup::of(&planned, 0).unwrap();
         assert_eq!(generated.stages, 1, "{statement}");
     }
 }

@@ -136,3 +136,123 @@ fn the_checker_sees_an_upward_import() {
     assert!(code.contains("crate::renderer") && code.contains("crate::ir"));
     assert!(!code.contains("crate::gpu") && !code.contains("crate::bench"));
 }
+
+/// The code of every file under `src/<dir>` (comments and unit tests aside).
+fn code_under(dir: &str) -> Vec<(String, String)> {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let mut files = Vec::new();
+    let root = src.join(dir);
+    if root.is_dir() {
+        rust_files(&root, &mut files);
+    } else {
+        files.push(root.with_extension("rs"));
+    }
+    files
+        .into_iter()
+        .map(|p| {
+            let rel = p.strip_prefix(&src).unwrap().to_string_lossy().replace('\\', "/");
+            (rel, code(&std::fs::read_to_string(&p).unwrap()))
+        })
+        .collect()
+}
+
+/// What only the driver calls (issue 35): the planner, the lowering, the
+/// code generators and the setups they make. The CLI and the language
+/// server sit above it and read its `Planned`.
+const BELOW_THE_DRIVER: &[&str] = &[
+    "planner::",
+    "lowering::lower(",
+    "lowering::choices(",
+    "codegen::generate",
+    "combiners::generate",
+    "combiners::setup",
+    "wgsl::generate",
+    "generate_for_pass",
+    "ir::lower(",
+    "cost::annotate",
+];
+
+#[test]
+fn nothing_above_the_driver_calls_the_planner_the_lowering_or_a_code_generator() {
+    let mut broken = Vec::new();
+    for dir in ["cli", "lsp", "main"] {
+        for (file, text) in code_under(dir) {
+            for call in BELOW_THE_DRIVER {
+                if text.contains(call) {
+                    broken.push(format!("{file} calls `{call}`: go through `driver`"));
+                }
+            }
+        }
+    }
+    assert!(broken.is_empty(), "{}", broken.join("\n"));
+}
+
+/// The combiner code generator runs in two places only: the planner's
+/// realizer (`CombinerRealizer`, which the driver hands it) and the one
+/// `fixed9` model of a pass (`combiners::setup`); every setup kept is a
+/// `CombinerProgram` made there, which is what the counting test
+/// (`tests/contract.rs`) counts.
+#[test]
+fn the_combiner_generator_is_called_by_the_realizer_and_the_setup_only() {
+    let mut broken = Vec::new();
+    for (file, text) in code_under("") {
+        let allowed =
+            ["backends/combiners/codegen.rs", "backends/combiners/setup.rs"].contains(&file.as_str());
+        let calls = ["combiners::generate(", "generate(&input", "generate(&PassInput"];
+        for call in calls.iter().chain(&["CombinerProgram::new("]) {
+            if !allowed && text.contains(call) && !(file == "pipeline/setup.rs" && call.starts_with("Comb")) {
+                broken.push(format!("{file} calls `{call}`: read the pass's setup (`Planned::setups`)"));
+            }
+        }
+    }
+    assert!(broken.is_empty(), "{}", broken.join("\n"));
+}
+
+/// Whether `text` reads a `line:col` back: a `split(':')` followed by a
+/// number parse, or a human line and column turned into a byte offset
+/// (`LineIndex::offset(text, line, col)`, three arguments; the language
+/// server's `offset(position)` takes the protocol's own position).
+fn reads_line_col_back(text: &str) -> bool {
+    let split = ["split_once(':')", "split(':')", "rsplit_once(':')"].iter().any(|pat| {
+        text.match_indices(pat).any(|(i, _)| {
+            let after: String = text[i..].chars().take(300).collect();
+            after.contains("parse::<usize>") || after.contains("parse::<u32>")
+        })
+    });
+    let offset = text.match_indices(".offset(").any(|(i, _)| {
+        let (mut depth, mut commas) = (0, 0);
+        for c in text[i + 8..].chars() {
+            match c {
+                '(' | '[' => depth += 1,
+                ')' | ']' if depth == 0 => break,
+                ')' | ']' => depth -= 1,
+                ',' if depth == 0 => commas += 1,
+                _ => {}
+            }
+        }
+        commas == 2
+    });
+    split || offset
+}
+
+/// Positions travel as `Span`s (issue 35): no module turns a `line:col`
+/// text back into a position; the plan's `at` is text for people, never
+/// read back. `span.rs`, which defines the conversion, aside.
+#[test]
+fn no_module_parses_a_line_col_string() {
+    let broken: Vec<String> = code_under("")
+        .into_iter()
+        .filter(|(file, text)| file != "span.rs" && reads_line_col_back(text))
+        .map(|(file, _)| format!("{file} reads a line:col back into a position"))
+        .collect();
+    assert!(broken.is_empty(), "{}", broken.join("\n"));
+}
+
+#[test]
+fn the_line_col_checker_sees_a_read_back() {
+    let parse = "fn span_at(at: &str) { let (l, c) = at.split_once(':')?; l.parse::<usize>() }";
+    let offset = "fn f(s: &str) { index.offset(s, line, col) }";
+    assert!(reads_line_col_back(parse) && reads_line_col_back(offset));
+    let lsp = "fn f(d: &Document) { d.offset(pos); let (k, v) = l.split_once(':'); }";
+    assert!(!reads_line_col_back(lsp));
+}

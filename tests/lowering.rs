@@ -363,9 +363,8 @@ fn every_example_plans_realized_or_is_refused_where_it_is() {
                     planned_count += 1;
                     for (i, pass) in p.plan.passes.iter().enumerate() {
                         assert!(
-                            pass.combiners.is_none(),
-                            "{path:?} on {target}: pass {i}: {:?}",
-                            pass.combiners
+                            pass.baked || p.setups[i].combiners().is_some(),
+                            "{path:?} on {target}: pass {i}: no combiner setup"
                         );
                     }
                 }
@@ -479,7 +478,10 @@ fn a_function_of_a_texel_dot_product_becomes_a_dependent_table_on_geforce3() {
             compile(&source, &Profile::builtin("geforce3").unwrap()).unwrap_or_else(|e| panic!("{f}: {e:?}"));
         let a = &planned.plan.approximations;
         assert!(a.iter().any(|a| a.rule == "dependent_table"), "{f}: {a:?}");
-        assert!(planned.plan.passes.iter().all(|p| p.combiners.is_none()), "{f}: every pass generated");
+        let generated = |(p, s): (&shadec::pipeline::Pass, &shadec::pipeline::PassSetup)| {
+            p.baked || s.combiners().is_some()
+        };
+        assert!(planned.plan.passes.iter().zip(&planned.setups).all(generated), "{f}: every pass generated");
         let wgsl = compile(&source, &Profile::builtin("wgsl").unwrap()).unwrap();
         let e = compare(&f32_render(&wgsl, &source, &scene), &f32_render(&planned, &source, &scene));
         let bound: f64 = a.iter().map(|a| a.output_bound.unwrap()).sum::<f64>() + 2.0 * FRAMEBUFFER;
@@ -968,8 +970,8 @@ fn a_dependent_lookup_on_geforce256_becomes_its_function_or_a_per_vertex_coordin
             let planned = compile(&source, &profile).map_err(|e| TestCaseError::fail(e[0].message.clone()))?;
             let a = &planned.plan.approximations;
             prop_assert!(a.iter().any(|a| a.rule == "table_function"), "{a:?}");
-            for pass in &planned.plan.passes {
-                prop_assert!(pass.combiners.is_none(), "{:?}", pass.combiners);
+            for (pass, setup) in planned.plan.passes.iter().zip(&planned.setups) {
+                prop_assert!(pass.baked || setup.combiners().is_some(), "{}", pass.reason);
             }
             let bound: f64 = a.iter().map(|a| a.output_bound.unwrap()).sum::<f64>() + FRAMEBUFFER;
             let e = error_against_meaning(&source, &planned, &scene);

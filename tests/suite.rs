@@ -24,6 +24,7 @@ mod combiners_coverage;
 mod combiners_emulator;
 mod combiners_rc1;
 mod combiners_snapshots;
+mod contract;
 mod cost_model;
 mod cube_images;
 mod determinism;

@@ -858,7 +858,7 @@ fn embm_on_geforce3() -> shadec::backends::combiners::CombinerConfig {
     let c = shadec::driver::compile(&source, &profile, &shadec::driver::PlanOptions::default())
         .unwrap_or_else(|d| panic!("{d:?}"));
     assert_eq!(c.planned.plan.passes.len(), 1);
-    shadec::backends::combiners::codegen::generate_for_pass(&c.planned, 0).unwrap().config
+    shadec::backends::combiners::setup::of(&c.planned, 0).unwrap().config.clone()
 }
 
 #[test]
@@ -885,7 +885,7 @@ fn plain_texturing_generates_no_texture_shader() {
     let c = shadec::driver::compile(&source, &profile, &shadec::driver::PlanOptions::default()).unwrap();
     assert!(!c.planned.plan.passes.is_empty());
     for i in 0..c.planned.plan.passes.len() {
-        let g = shadec::backends::combiners::codegen::generate_for_pass(&c.planned, i).unwrap();
+        let g = shadec::backends::combiners::setup::of(&c.planned, i).unwrap();
         assert_eq!(g.config.texture_shader, None, "pass {i}");
     }
 }

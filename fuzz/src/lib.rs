@@ -21,7 +21,7 @@
 
 use std::path::Path;
 
-use shadec::backends::combiners::{codegen, rc1, ts1};
+use shadec::backends::combiners::{rc1, ts1};
 use shadec::driver::{self, PlanOptions};
 use shadec::profile::{CombinerLimits, Profile};
 
@@ -97,7 +97,7 @@ pub fn pipeline(data: &[u8]) {
                 if pass.baked {
                     continue;
                 }
-                let generated = codegen::generate_for_pass(planned, i)
+                let generated = shadec::backends::combiners::setup::of(planned, i)
                     .unwrap_or_else(|e| panic!("{target}: accepted pass {i} does not generate: {e}\n{text}"));
                 let printed = rc1::print(&generated.config);
                 let again = rc1::parse_and_validate(&printed, &limits).unwrap_or_else(|e| {

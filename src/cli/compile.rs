@@ -121,7 +121,7 @@ fn combiners_text(p: &shadec::pipeline::Planned) -> Result<String, String> {
             out.push_str("# a `bake` table, computed by the compiler: no combiner setup\n\n");
             continue;
         }
-        let g = shadec::backends::combiners::codegen::generate_for_pass(p, i)?;
+        let g = shadec::driver::combiners_of(p, i).map_err(|e| format!("not generated: {e}"))?;
         let text = shadec::backends::combiners::rc1::print(&g.config);
         let (header, rest) = text.split_once('\n').unwrap_or((&text, ""));
         out.push_str(&format!("{header}\n{title}{rest}\n"));
@@ -202,10 +202,10 @@ fn report(args: &CompileArgs, file: &SourceFile, diagnostics: &[shadec::diag::Di
         Format::Short => eprint!("{}", file.render_short(diagnostics)),
         Format::Json => {
             let uri = format!("file://{}", args.file.display());
-            eprintln!(
-                "{}",
-                serde_json::to_string_pretty(&file.to_lsp(&uri, diagnostics)).expect("diagnostics serialize")
-            );
+            #[allow(clippy::expect_used, reason = "diagnostics are strings and numbers: JSON writes them")]
+            let text =
+                serde_json::to_string_pretty(&file.to_lsp(&uri, diagnostics)).expect("diagnostics serialize");
+            eprintln!("{text}");
         }
     }
 }
@@ -225,8 +225,8 @@ fn shaders_out(
     text: &str,
     planned: &shadec::pipeline::Planned,
 ) -> ExitCode {
-    use shadec::backends::wgsl::{codegen, emit};
-    let passes = match codegen::generate(planned, Some(text), args.precision) {
+    use shadec::backends::wgsl::emit;
+    let passes = match shadec::driver::shaders(planned, Some(text), args.precision) {
         Ok(p) => p,
         Err(ds) => {
             report(args, file, &ds);

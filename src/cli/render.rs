@@ -252,7 +252,7 @@ fn compile(
         println!("note: {why}");
     }
     let shadec::driver::Front { program, module, diagnostics } = front;
-    let module = module.expect("checked above");
+    let Some(module) = module else { return Err(refused(&[])) }; // lowered: checked above
     let planned = judged.planned;
     Ok((shadec::driver::Compilation { program, module, planned, warnings: diagnostics }, profile))
 }

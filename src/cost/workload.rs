@@ -12,7 +12,7 @@ use crate::scene::mesh::Mesh;
 use crate::scene::Scene;
 
 /// The size of a texture statements render into (texture shading).
-const RENDERED_TEXTURE_SIDE: u64 = crate::scene::bind::RENDERED_TEXTURE_SIZE as u64;
+const RENDERED_TEXTURE_SIDE: u64 = crate::pipeline::RENDERED_TEXTURE_SIZE as u64;
 
 /// One object's share of the frame.
 #[derive(Clone, Debug, PartialEq)]

@@ -732,16 +732,20 @@ impl<'a> Frame<'a> {
             };
             // The depth buffers this pass reads, as they are now.
             for ((_, _), (copy, name)) in snapshots.range((pass_idx, 0)..(pass_idx + 1, 0)) {
+                #[allow(
+                    clippy::expect_used,
+                    reason = "`prepare` makes the copier whenever it plans a snapshot"
+                )]
                 let copier = self.depth_copier.as_ref().expect("made when there are snapshots");
                 copier.copy(device, &mut encoder, self.depth_source(name), copy);
             }
             let (key, views, depth_view): (&String, Vec<wgpu::TextureView>, &wgpu::TextureView) =
-                match pass.map(|p| &p.target) {
-                    None | Some(PassTarget::Main) => {
+                match pass.map(|p| (p, &p.target)) {
+                    None | Some((_, PassTarget::Main)) => {
                         (&main_key, vec![color.create_view(&Default::default())], depth_view)
                     }
-                    Some(PassTarget::Texture(t)) => {
-                        let views = self.texture_target_views(&mut encoder, pass.expect("matched"), t);
+                    Some((pass, PassTarget::Texture(t))) => {
+                        let views = self.texture_target_views(&mut encoder, pass, t);
                         (&t.name, views, &texture_depth_views[&t.name])
                     }
                 };
@@ -1275,6 +1279,7 @@ fn loaded_textures(
     let units = pass.textures.len();
     let mut loaded_views = Vec::new();
     for (i, l) in pass.loaded.iter().enumerate() {
+        #[allow(clippy::expect_used, reason = "`check_pass` refuses a pass whose loaded texture has no view")]
         let view = view_of(units + i, &l.data).expect("loaded textures are rendered (check_pass)");
         layout_entries.push(wgpu::BindGroupLayoutEntry {
             binding: l.binding,

@@ -104,7 +104,7 @@
 //!
 //! A pass that renders into a texture draws into a
 //! [`runner::RenderedTexture`] later passes sample (`TextureData::Rendered`):
-//! 256² (`bind::RENDERED_TEXTURE_SIZE`, as the CPU) when it is rendered over
+//! 256² (`pipeline::RENDERED_TEXTURE_SIZE`, as the CPU) when it is rendered over
 //! its texels or in texture space, else the frame's size; one array layer
 //! per member of a fat texel; `Rgba16Float` for 16-bit and float formats,
 //! else RGBA8. Screen and texel passes draw one rectangle. Unlike the CPU,
@@ -134,7 +134,7 @@ use crate::backends::wgsl::codegen::{self, uniform_bytes, PassShader};
 use crate::ir::{self, Expr};
 use crate::numerics::Precision;
 use crate::parser::ast::Program;
-use crate::pipeline::{Geometry, Planned, RenderTarget};
+use crate::pipeline::{Geometry, Planned, RenderTarget, TargetFormat, TargetKind};
 use crate::scene::bind::{self, BoundObject, BoundTexture, TextureQuality};
 use crate::scene::{Scene, SceneAssets};
 use crate::textures::{Filter, Level, TexelFormat, Texture, Texture2D, Wrap};
@@ -320,35 +320,24 @@ impl<'a> ScenePlan<'a> {
         fat: &[u8],
     ) -> Result<BTreeMap<String, runner::RenderedTexture>, SceneRunError> {
         let (width, height) = (frame.width, frame.height);
-        let m = &self.planned.module;
         let mut rendered: BTreeMap<String, runner::RenderedTexture> = BTreeMap::new();
         for s in &self.shaders {
-            let pass = &self.planned.plan.passes[s.pass];
-            if let RenderTarget::Texture { name } = &pass.target {
-                let id =
-                    m.textures.iter().position(|t| t.name == *name).ok_or_else(|| {
-                        SceneRunError::Unsupported(format!("texture `{name}` is not declared"))
-                    })?;
-                // Over its texels, or the mesh in texture space: the CPU's size.
-                let by_texel = matches!(pass.geometry, Geometry::Texels)
-                    || s.interface.position.is_some_and(|p| m.info(p).ty == ir::Ty::Vec2);
-                let (w, h) = if by_texel {
-                    (bind::RENDERED_TEXTURE_SIZE, bind::RENDERED_TEXTURE_SIZE)
-                } else {
-                    (width, height)
-                };
-                let format = if m.textures[id].format.is_wide() {
+            // What the pass renders into, and its size and format: its setup's.
+            let target = &self.planned.setup(s.pass).target;
+            if let TargetKind::Texture(id) = target.kind {
+                let (w, h) = target.extent.size(width, height);
+                let format = if target.format == TargetFormat::Half {
                     ColorTarget::Rgba16Float
                 } else {
                     ColorTarget::Rgba8
                 };
                 rendered.insert(
-                    name.clone(),
+                    target.name.clone(),
                     runner::RenderedTexture {
-                        name: name.clone(),
+                        name: target.name.clone(),
                         width: w,
                         height: h,
-                        layers: u32::from(fat[id]).max(1),
+                        layers: u32::from(fat[id as usize]).max(1),
                         format,
                     },
                 );

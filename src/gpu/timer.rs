@@ -80,7 +80,14 @@ impl Timer {
         receiver.recv().ok()?.ok()?;
         let ticks: Vec<u64> = {
             let mapped = slice.get_mapped_range().ok()?;
-            mapped.chunks_exact(8).map(|b| u64::from_le_bytes(b.try_into().expect("8 bytes"))).collect()
+            mapped
+                .chunks_exact(8)
+                .map(|b| {
+                    let mut word = [0u8; 8];
+                    word.copy_from_slice(b);
+                    u64::from_le_bytes(word)
+                })
+                .collect()
         };
         self.read.unmap();
         let (first, last) = (ticks.first()?, ticks.last()?);

@@ -317,6 +317,7 @@ impl<'a> Rewriter<'a> {
         self.approximations.push(Approximation {
             rule: rule.into(),
             at,
+            span,
             why,
             cost,
             error_bound,
@@ -423,7 +424,8 @@ impl<'a> Rewriter<'a> {
                 let ops: Vec<Handle<Expr>> =
                     e.operands().into_iter().map(|o| visit(r, o, replace, done)).collect();
                 let mut it = ops.into_iter();
-                let e = e.map_operands(|_| it.next().expect("one per operand"));
+                // One rewritten operand per operand, in order (`operands`).
+                let e = e.map_operands(|o| it.next().unwrap_or(o));
                 r.m.intern(e, r.m.span(h)).unwrap_or(h)
             };
             done.insert(h, to);

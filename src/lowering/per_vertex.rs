@@ -47,7 +47,8 @@ pub fn at_vertex(m: &mut Module, x: Handle<Expr>) -> Option<Handle<Expr>> {
                 return None;
             }
             let mut it = ops.into_iter();
-            let e = e.map_operands(|_| it.next().expect("one per operand"));
+            // One rewritten operand per operand, in order (`operands`).
+            let e = e.map_operands(|o| it.next().unwrap_or(o));
             m.intern(e, m.span(x)).ok()
         }
         Expr::Lookup { texture, coords }

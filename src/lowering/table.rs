@@ -23,7 +23,7 @@ use crate::pipeline::ApproximationCost;
 use crate::span::Span;
 
 /// Entries of a table: the compiler renders baked textures this size
-/// (`scene::bind::RENDERED_TEXTURE_SIZE`).
+/// (`pipeline::RENDERED_TEXTURE_SIZE`).
 pub const TEXELS: usize = 256;
 /// Arguments at which the compiler measures a table's error.
 pub const PROBES: usize = 4096;

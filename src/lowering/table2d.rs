@@ -29,7 +29,7 @@ use crate::pipeline::ApproximationCost;
 use crate::span::Span;
 
 /// Texels a side: the compiler renders baked textures this size
-/// (`scene::bind::RENDERED_TEXTURE_SIZE`).
+/// (`pipeline::RENDERED_TEXTURE_SIZE`).
 pub const TEXELS: usize = 256;
 /// Argument pairs a side at which the table's error is measured.
 pub const PROBES: usize = 160;

@@ -38,7 +38,7 @@ pub fn apply(r: &mut Rewriter) {
             continue;
         }
         let (span, name) = (st.span, t.name.clone());
-        let texels = (crate::scene::bind::RENDERED_TEXTURE_SIZE as u64).pow(2);
+        let texels = (crate::pipeline::RENDERED_TEXTURE_SIZE as u64).pow(2);
         r.m.textures[id as usize].baked = true;
         r.record(
             "compiler_baked",

@@ -57,6 +57,10 @@ pub fn target_comment(text: &str) -> Option<(String, Span)> {
 /// target: the program's declaration, else a `// target:` comment, else the
 /// client's setting (`client`), else `wgsl`.
 pub fn analyze(name: &str, text: &str, client: Option<&str>) -> Analysis {
+    #[allow(
+        clippy::expect_used,
+        reason = "`analyze_unless` returns `None` only when asked to stop, never here"
+    )]
     analyze_unless(name, text, client, &|| false).expect("never superseded")
 }
 

@@ -166,7 +166,7 @@ fn combiner_note(p: &Planned, pass: usize, h: Handle<Expr>, freq: Frequency) -> 
     if freq <= Frequency::Vertex {
         return ": per vertex (interpolated into the combiners)".into();
     }
-    match crate::backends::combiners::codegen::generate_for_pass(p, pass) {
+    match crate::driver::combiners_of(p, pass).map_err(|e| format!("not generated: {e}")) {
         Ok(g) => format!(
             ": register combiners, {} general stage{} and the final combiner; {}",
             g.stages,

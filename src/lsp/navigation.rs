@@ -78,7 +78,7 @@ pub fn rename(doc: &Document, uri: &Uri, offset: usize, new_name: &str) -> Resul
     valid_new_name(new_name)?;
     let occ = index::occurrences(&doc.analysis.program);
     let o = renamable(&occ, offset)?;
-    let decl = o.decl.expect("renamable names are declared");
+    let Some(decl) = o.decl else { return Err(format!("`{}` has no declaration to rename", o.key)) };
     if occ.iter().any(|x| x.key == new_name && x.decl.is_some() && x.decl != Some(decl)) {
         return Err(format!("`{new_name}` is already declared"));
     }

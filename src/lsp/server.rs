@@ -208,8 +208,12 @@ fn analyser(jobs: &Jobs, events: &Sender<Event>) {
             let mut q = jobs.queue.lock().unwrap_or_else(|e| e.into_inner());
             loop {
                 if let Some(uri) = q.0.pop_front() {
-                    let job = q.1.remove(&uri).expect("queued uris have jobs");
-                    break (uri, job);
+                    // A queued uri has its job (`submit` inserts both); one
+                    // without is skipped rather than ending the server.
+                    if let Some(job) = q.1.remove(&uri) {
+                        break (uri, job);
+                    }
+                    continue;
                 }
                 q = jobs.ready.wait(q).unwrap_or_else(|e| e.into_inner());
             }
@@ -301,7 +305,7 @@ impl Server {
         let dirty: Vec<String> = dirty.into_iter().cloned().collect();
         for uri in dirty {
             self.generation += 1;
-            let d = self.docs.get_mut(&uri).expect("listed");
+            let Some(d) = self.docs.get_mut(&uri) else { continue };
             d.dirty = false;
             d.wanted = self.generation;
             let job = Job {
@@ -628,7 +632,8 @@ fn params<P: serde::de::DeserializeOwned>(raw: Value) -> Result<P, (ErrorCode, S
 }
 
 fn json<T: serde::Serialize>(v: T) -> Answer {
-    Ok(serde_json::to_value(v).expect("protocol types serialize"))
+    serde_json::to_value(v)
+        .map_err(|e| (ErrorCode::InternalError, format!("the answer does not serialize: {e}")))
 }
 
 /// The request's document: the one the loop found for its URI, if open.

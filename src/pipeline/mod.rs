@@ -8,12 +8,17 @@
 
 pub mod interface;
 pub mod plan;
+pub mod setup;
 pub mod state;
 
 pub use interface::PassInterface;
 pub use plan::{
     Approximation, ApproximationCost, BlendMode, FragmentWork, FramePrediction, Geometry, MeasuredError,
     Pass, PassPlan, PassPrediction, Removed, RenderTarget, TextureBinding, Value, VertexWork,
+};
+pub use setup::{
+    CombinerProgram, Extent, FragmentSetup, PassSetup, SetupRefusal, TargetFormat, TargetImage, TargetKind,
+    UnitBinding, UnitSource, RENDERED_TEXTURE_SIZE,
 };
 pub use state::{
     BlendEquation, BlendFactor, BlendState, CompareFunc, CullMode, DepthState, RenderState, StencilOp,
@@ -22,6 +27,7 @@ pub use state::{
 
 use crate::ir::{Expr, Handle, Module};
 use crate::profile::CombinerLimits;
+use crate::span::Span;
 
 /// A plan together with the IR it refers to (value ids are handle indices
 /// into `module.exprs`): what backends and renderers take.
@@ -35,9 +41,32 @@ pub struct Planned {
     /// `.ron` file keeps its own limits — the plan names its target only by
     /// name, and a name is not a profile.
     pub combiners: Option<CombinerLimits>,
+    /// Every pass resolved once (`setups[i]` is `plan.passes[i]`'s):
+    /// what every executor, emitter and the language server read.
+    pub setups: Vec<PassSetup>,
 }
 
 impl Planned {
+    /// This plan with every pass resolved on a programmable fragment
+    /// stage (a plan made without the planner: the program's meaning),
+    /// each pass placed at its first statement.
+    pub fn resolved(mut self) -> Planned {
+        let m = &self.module;
+        let stages = self.plan.passes.iter().map(|p| {
+            let span =
+                p.statements.first().and_then(|s| m.statements.get(*s)).map_or(Span::DETACHED, |s| s.span);
+            (span, if p.baked { FragmentSetup::Baked } else { FragmentSetup::Programmable })
+        });
+        self.setups = setup::resolve_all(m, &self.plan, stages);
+        self
+    }
+
+    /// The setup of pass `index`.
+    pub fn setup(&self, index: usize) -> &PassSetup {
+        &self.setups[index]
+    }
+
+    /// The IR handle of a plan's value id.
     pub fn handle(&self, id: u32) -> Handle<Expr> {
         Handle::new(id as usize)
     }

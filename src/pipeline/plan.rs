@@ -101,7 +101,8 @@ pub struct Pass {
     /// for, when light culling skipped it for the others; `None`: all.
     #[serde(default)]
     pub objects: Option<Vec<usize>>,
-    /// `line:col` of the first statement.
+    /// `line:col` of the first statement (text for people: executors read
+    /// the typed span of `Planned::setups`).
     pub at: String,
     /// Why this pass exists: the statement it implements, the limit that
     /// forced a split, or the fusion that made it.
@@ -118,12 +119,6 @@ pub struct Pass {
     pub blend: BlendMode,
     /// Cull, depth, stencil and GL blend factors, as the renderers take them.
     pub state: RenderState,
-    /// On a register-combiner target: what the combiner code generator says
-    /// of this pass — `None` when it generated a setup within the target's
-    /// stages, else why not (the planner's capacity is an estimate; see
-    /// docs/pass-plan.md).
-    #[serde(default)]
-    pub combiners: Option<String>,
     /// The texel pass of a `bake(f)` table: computed by the compiler on the
     /// CPU at compile time (in float, stored in the texture's format), not
     /// by the target, which only samples the table. Its fragment
@@ -260,12 +255,16 @@ pub struct Value {
 /// One rewrite of the lowering: a part of the program the
 /// target cannot compute, replaced by what it has — a table, a cube map,
 /// a per-vertex value — with what that costs and how far it may be off.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Approximation {
     /// The rule's name (`normalization_cube_map`, `per_vertex`, `baked_table`, …).
     pub rule: String,
-    /// `line:col` of the replaced operation.
+    /// `line:col` of the replaced operation: [`Approximation::span`] as text.
     pub at: String,
+    /// The replaced operation's span: what diagnostics and the language
+    /// server place by (the document's `at` is its text, never read back).
+    #[serde(skip)]
+    pub span: crate::span::Span,
     /// What was replaced, by what, and why the target needed it.
     pub why: String,
     pub cost: ApproximationCost,
@@ -279,6 +278,19 @@ pub struct Approximation {
     /// to 16. `None` when either is unknown (a coordinate, a condition).
     #[serde(default)]
     pub output_bound: Option<f64>,
+}
+
+/// Equal as documents: `span` is the contract's, never written, so a plan
+/// read back from its text equals the plan written.
+impl PartialEq for Approximation {
+    fn eq(&self, other: &Self) -> bool {
+        self.rule == other.rule
+            && self.at == other.at
+            && self.why == other.why
+            && self.cost == other.cost
+            && self.error_bound == other.error_bound
+            && self.output_bound == other.output_bound
+    }
 }
 
 /// What an approximation spends (the four resources).
@@ -307,11 +319,15 @@ pub struct Removed {
 }
 
 impl PassPlan {
+    /// The plan as RON (`--emit plan`).
+    #[allow(clippy::expect_used, reason = "a plan is strings, numbers and lists: RON writes every one")]
     pub fn to_ron(&self) -> String {
         ron::ser::to_string_pretty(self, ron::ser::PrettyConfig::default().struct_names(true))
             .expect("a pass plan serializes")
     }
 
+    /// The plan as JSON (`--plan-format json`).
+    #[allow(clippy::expect_used, reason = "a plan has string keys and finite numbers: JSON writes it")]
     pub fn to_json(&self) -> String {
         serde_json::to_string_pretty(self).expect("a pass plan serializes")
     }

@@ -387,8 +387,26 @@ fn plan_as_written(
         })
         .collect();
     let ctx = AssembleCtx { profile, realizer: request.realizer, texgen: &texgen, at: &at };
-    let plan = assemble(&m, &ctx, &chosen, prepared);
-    Ok(Planned { module: m, plan, combiners: profile.combiner_limits() })
+    let (plan, stages) = assemble(&m, &ctx, &chosen, prepared);
+    // A pass the target cannot run is refused here, never planned.
+    let mut refused = Vec::new();
+    let stages: Vec<_> = stages
+        .into_iter()
+        .map(|(span, stage)| {
+            (
+                span,
+                stage.unwrap_or_else(|d| {
+                    refused.push(*d);
+                    crate::pipeline::FragmentSetup::Programmable
+                }),
+            )
+        })
+        .collect();
+    if !refused.is_empty() {
+        return Err(refused);
+    }
+    let setups = crate::pipeline::setup::resolve_all(&m, &plan, stages);
+    Ok(Planned { module: m, plan, combiners: profile.combiner_limits(), setups })
 }
 
 /// Steps 1-2 for a scene: lights expanded and culled, the scene's uniforms
@@ -1360,21 +1378,28 @@ struct AssembleCtx<'a> {
     at: &'a dyn Fn(Span) -> String,
 }
 
-fn assemble(m: &Module, ctx: &AssembleCtx, chosen: &[Chosen], prepared: Prepared) -> PassPlan {
+/// A pass's span and its fragment stage as the target realized it (a
+/// refusal, located, when the generator makes no setup for it).
+type Stage = (Span, Result<crate::pipeline::FragmentSetup, Box<Diagnostic>>);
+
+fn assemble(m: &Module, ctx: &AssembleCtx, chosen: &[Chosen], prepared: Prepared) -> (PassPlan, Vec<Stage>) {
     let Prepared { removed, per_light, names, .. } = prepared;
     let mut passes = Vec::new();
+    let mut stages = Vec::new();
     let mut drawn = Drawn::default();
     let mut roots = Vec::new();
     for (stmts, form, pieces, reason) in chosen {
         let group = Group { stmts, form, reason, n: pieces.len() };
         for (pi, piece) in pieces.iter().enumerate() {
-            let (pass, drawn_at) = assemble_pass(m, ctx, &group, piece, pi, &mut drawn, &names, &per_light);
+            let (pass, drawn_at, stage) =
+                assemble_pass(m, ctx, &group, piece, pi, &mut drawn, &names, &per_light);
+            stages.push(stage);
             roots.extend([piece.value, m.statements[stmts[0]].index, drawn_at]);
             roots.extend(form.condition);
             passes.push(pass);
         }
     }
-    PassPlan {
+    let plan = PassPlan {
         target: ctx.profile.name.clone(),
         passes,
         removed,
@@ -1382,7 +1407,8 @@ fn assemble(m: &Module, ctx: &AssembleCtx, chosen: &[Chosen], prepared: Prepared
         approximations: Vec::new(),
         predicted: None,
         measured: None,
-    }
+    };
+    (plan, stages)
 }
 
 /// A planned group of statements as [`assemble`] walks it.
@@ -1414,7 +1440,7 @@ fn assemble_pass(
     drawn: &mut Drawn,
     names: &[String],
     per_light: &PerLight,
-) -> (Pass, Handle<Expr>) {
+) -> (Pass, Handle<Expr>, Stage) {
     let Group { stmts, form, .. } = *group;
     let st = &m.statements[stmts[0]];
     // A texel statement indexed through a vertex (`T δu x`, seeds/001
@@ -1443,8 +1469,11 @@ fn assemble_pass(
     let state = pass_state(form, piece, &geometry, in_texture_space, drawn, key);
     // A `bake` table is the compiler's: no combiner setup to judge.
     let baked = m.is_baked(st);
-    let verdict =
-        if baked { Ok(None) } else { combiner_verdict(m, ctx.realizer, piece.value, &textures, ctx.at) };
+    let stage = if baked {
+        Ok(crate::pipeline::FragmentSetup::Baked)
+    } else {
+        combiner_setup(m, ctx.realizer, piece.value, &textures)
+    };
     let reason = pass_reason(group, piece, pi, names, ctx.profile);
     let reached = m.reachable(&[piece.value]);
     let one = |v: &[Option<u32>]| match stmts {
@@ -1481,15 +1510,17 @@ fn assemble_pass(
             output: piece.value.index() as u32,
             operations: fragment_operations(m, &reached),
             condition: form.condition.map(|c| c.index() as u32),
-            general_combiners: verdict.as_ref().ok().copied().flatten().map(|r| r.general_combiners),
+            general_combiners: stage.as_ref().ok().and_then(|s| match s {
+                crate::pipeline::FragmentSetup::Combiners(p) => Some(p.stages()),
+                _ => None,
+            }),
         },
         blend: piece.blend,
         state,
-        combiners: verdict.err(),
         baked,
         predicted: None,
     };
-    (pass, drawn_at)
+    (pass, drawn_at, (st.span, stage))
 }
 
 /// Where a pass draws: a temporary, the statement's framebuffer (with the
@@ -1651,25 +1682,25 @@ fn plan_values(m: &Module, roots: &[Handle<Expr>], at: &dyn Fn(Span) -> String) 
         .collect()
 }
 
-/// What the combiner code generator says of a pass on a register-combiner
-/// profile: `None` when it generates a setup, else why not, located:
-/// `not generated: LINE:COL: reason`, at the node the error names
-/// (`CodegenError::span`), or at the pass's value for an error of the
-/// whole pass (too many stages); `at` is the plan's `line:col` (`-` with no
-/// source text).
-fn combiner_verdict(
+/// The fragment stage of a pass: on a register-combiner profile the setup
+/// the combiner code generator makes for it (kept: no consumer generates it
+/// again), else a refusal located at the node the error names
+/// (`CodegenError::span`), or at the pass's value for an error of the whole
+/// pass (too many stages); the programmable stage elsewhere.
+fn combiner_setup(
     m: &Module,
     realizer: Option<&dyn Realizer>,
     value: Handle<Expr>,
     textures: &[TextureBinding],
-    at: &dyn Fn(Span) -> String,
-) -> Result<Option<Realized>, String> {
+) -> Result<crate::pipeline::FragmentSetup, Box<Diagnostic>> {
     // Unit i holds textures[i]: a lookup, or a framebuffer read as a texture.
     let units: Vec<Handle<Expr>> = textures.iter().map(|t| Handle::new(t.lookup as usize)).collect();
-    let Some(realizer) = realizer else { return Ok(None) };
-    realizer.realize(m, value, &units).map(Some).map_err(|e| {
+    let Some(realizer) = realizer else { return Ok(crate::pipeline::FragmentSetup::Programmable) };
+    realizer.setup(m, value, &units).map(crate::pipeline::FragmentSetup::Combiners).map_err(|e| {
         let span = e.span.filter(|s| *s != Span::DETACHED).unwrap_or_else(|| m.span(value));
-        format!("not generated: {}: {}", at(span), e.reason)
+        let message =
+            format!("the register-combiner code generator makes no setup for this pass: {}", e.reason);
+        Box::new(Diagnostic::error("not-generated", message, span, "in this pass").with_help(e.help))
     })
 }
 
@@ -1759,6 +1790,7 @@ mod tests {
         p.plan.approximations = vec![Approximation {
             rule: rule.into(),
             at: "1:1".into(),
+            span: Span::new(0, 1),
             why: format!("lowered by {rule}"),
             cost: ApproximationCost::default(),
             error_bound: Some(0.01),

@@ -30,6 +30,16 @@ pub trait Realizer {
         value: Handle<Expr>,
         units: &[Handle<Expr>],
     ) -> Result<Realized, Refusal>;
+
+    /// The setup itself for a planned pass, kept in its
+    /// `pipeline::PassSetup`: asked once per pass, when the plan is
+    /// assembled, so no consumer generates it again.
+    fn setup(
+        &self,
+        module: &Module,
+        value: Handle<Expr>,
+        units: &[Handle<Expr>],
+    ) -> Result<crate::pipeline::CombinerProgram, Refusal>;
 }
 
 /// What a realized pass takes of the stage: what the cost model charges

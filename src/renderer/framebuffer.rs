@@ -255,6 +255,10 @@ impl Framebuffer {
         let mut out = Vec::with_capacity(self.width as usize * self.height as usize);
         for y in 0..self.height {
             for x in 0..self.width {
+                #[allow(
+                    clippy::expect_used,
+                    reason = "x < width and y < height: `locate` finds every such pixel"
+                )]
                 let (t, i) = self.locate(x, y).expect("in range");
                 out.push(self.tiles[t].read_color(i));
             }
@@ -285,6 +289,10 @@ impl Framebuffer {
         let mut out = Vec::with_capacity(self.width as usize * self.height as usize * 4);
         for y in 0..self.height {
             for x in 0..self.width {
+                #[allow(
+                    clippy::expect_used,
+                    reason = "x < width and y < height: `locate` finds every such pixel"
+                )]
                 let (t, i) = self.locate(x, y).expect("in range");
                 match &self.tiles[t].color {
                     ColorTile::Rgba8(c) => out.extend_from_slice(&c[i]),

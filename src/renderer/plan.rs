@@ -78,7 +78,7 @@ use super::{
 };
 use crate::backends::combiners::{self, PixelEmulator, PixelRegisters};
 use crate::ir::{self, eval::Value, Expr, FbChannel, Frequency, Handle, Module, TextureId, Ty};
-use crate::pipeline::{Geometry, Pass, PassInterface, Planned, RenderTarget};
+use crate::pipeline::{Geometry, Pass, PassInterface, Planned, RenderTarget, TargetFormat, TargetImage};
 use crate::scene::bind::{self, BoundObject, BoundTexture, ExactFunction, TextureDecl, TextureQuality};
 use crate::scene::{Scene, SceneAssets};
 use crate::textures::{generators, unit, Filter, Level, TexelFormat, Texture, Texture2D, Wrap};
@@ -327,9 +327,10 @@ impl<'a> PlanRenderer<'a> {
             };
             for (layer, output) in outputs.iter().enumerate() {
                 let pi = PassInterface { output: *output, ..whole.clone() };
-                let (name, size) = self.target_of(pass, &pi, layer, width, height);
+                let target = &self.planned.setup(index).target;
+                let name = if layer == 0 { target.name.clone() } else { format!("{}#{layer}", target.name) };
                 if !targets.contains_key(&name) {
-                    targets.insert(name.clone(), self.new_target(pass, mode, format, size)?);
+                    targets.insert(name.clone(), new_target(target, mode, format, (width, height))?);
                 }
                 let reads = framebuffer_reads(m, &pi, &targets);
                 // A copy of the target only for the passes that read it (its
@@ -353,7 +354,7 @@ impl<'a> PlanRenderer<'a> {
                     objects.first(),
                 )
                 .map_err(|e| e.in_pass(index))?;
-                let target = targets.get_mut(&name).expect("created above");
+                let target = targets.get_mut(&name).ok_or_else(|| lost(&name))?;
                 self.draw_layer(pass, &pi, &objects, &stage, target, &mut draws)?;
                 nonfinite += stage.nonfinite.load(Ordering::Relaxed);
                 match &pass.target {
@@ -370,7 +371,7 @@ impl<'a> PlanRenderer<'a> {
         let name = last_fb.ok_or_else(|| {
             RenderError::Unsupported("the plan writes no framebuffer: nothing to show".into())
         })?;
-        let image = targets.remove(&name).expect("written");
+        let image = targets.remove(&name).ok_or_else(|| lost(&name))?;
         let Draws { stats, adaptive: adaptive_stats, .. } = draws;
         Ok(Frame { image, name, stats, time, nonfinite, adaptive: adaptive_stats, shading })
     }
@@ -397,61 +398,6 @@ impl<'a> PlanRenderer<'a> {
             .enumerate()
             .map(|(i, p)| layers(i) * if matches!(p.geometry, Geometry::Mesh { .. }) { n_objects } else { 1 })
             .sum::<usize>()
-    }
-
-    /// The name and size of the image layer `layer` of `pass` renders into.
-    fn target_of(
-        &self,
-        pass: &Pass,
-        pi: &PassInterface,
-        layer: usize,
-        width: u32,
-        height: u32,
-    ) -> (String, (u32, u32)) {
-        let m = &self.planned.module;
-        let (name, size) = match &pass.target {
-            RenderTarget::Framebuffer { name, .. } => (name.clone(), (width, height)),
-            RenderTarget::Temporary { name } => (name.clone(), (width, height)),
-            RenderTarget::Texture { name } => {
-                // Over its texels, or the mesh rasterized in texture space (`T δu x ←`).
-                let by_texel = matches!(pass.geometry, Geometry::Texels)
-                    || pi.position.is_some_and(|p| m.info(p).ty == Ty::Vec2);
-                let s = if by_texel { bind::RENDERED_TEXTURE_SIZE } else { width.max(height) };
-                (name.clone(), if by_texel { (s, s) } else { (width, height) })
-            }
-        };
-        let name = if layer == 0 { name } else { format!("{name}#{layer}") };
-        (name, size)
-    }
-
-    /// A cleared image for `pass` to render into. A texture declared
-    /// 16-bit or float keeps what is rendered into it (deferred shading's
-    /// signed vectors) in half floats, as the WGSL target's `Rgba16Float`
-    /// (fixed9 and f32; exact keeps f32).
-    fn new_target(
-        &self,
-        pass: &Pass,
-        mode: Precision,
-        format: ColorFormat,
-        size: (u32, u32),
-    ) -> Result<Framebuffer, RenderError> {
-        let m = &self.planned.module;
-        let wide = matches!(&pass.target, RenderTarget::Texture { name } if m.textures.iter().any(|t| t.name == *name && t.format.is_wide()));
-        let format = match mode {
-            Precision::Exact | Precision::F32 if wide => {
-                if mode == Precision::Exact {
-                    ColorFormat::F32
-                } else {
-                    ColorFormat::F16
-                }
-            }
-            Precision::Exact | Precision::F32 if fixed_point_target(m, &pass.target) => ColorFormat::Unorm,
-            _ if wide => ColorFormat::F16,
-            _ => format,
-        };
-        let mut fb = Framebuffer::new(size.0, size.1, format)?;
-        fb.clear_color([0.0, 0.0, 0.0, 0.0]);
-        Ok(fb)
     }
 
     /// How pass `index` is shaded in `mode`: in `fixed9` by its combiner
@@ -482,6 +428,7 @@ impl<'a> PlanRenderer<'a> {
         let state = pass.state;
         match &pass.geometry {
             Geometry::Mesh { .. } if draws.settings.is_some() && !state.stencil.enabled => {
+                let Some(settings) = draws.settings else { unreachable!("matched") };
                 // One adaptive draw over every object of the pass, so that
                 // silhouettes between objects are edges (Section 2.1.3).
                 let drawn: Vec<&BoundObject> = objects
@@ -502,7 +449,7 @@ impl<'a> PlanRenderer<'a> {
                         state,
                     })
                     .collect();
-                let s = super::draw_adaptive(target, &passes, draws.settings.expect("matched"))?;
+                let s = super::draw_adaptive(target, &passes, settings)?;
                 draws.adaptive = draws.adaptive.map(|a| a + s);
                 draws.advance(objects.len());
             }
@@ -547,8 +494,7 @@ impl<'a> PlanRenderer<'a> {
     /// colours the scene sets. `Err` says why the generator refused.
     fn combiner_setup(&self, index: usize) -> Result<(CombinerSetup, usize), String> {
         let m = &self.planned.module;
-        let pass = &self.planned.plan.passes[index];
-        let g = combiners::codegen::generate_for_pass(self.planned, index)?;
+        let g = combiners::setup::of(self.planned, index).map_err(|e| format!("not generated: {e}"))?;
         // A constant colour the config leaves unset is a uniform: the scene's value.
         let constant = |k: usize| -> [f32; 4] {
             let Some(h) = g.constants[k] else { return [0.0; 4] };
@@ -568,8 +514,8 @@ impl<'a> PlanRenderer<'a> {
         let machine = PixelEmulator::new(&g.config, constant(0), constant(1), [0.0; 4], Precision::Fixed9)
             .map_err(|e| e.to_string())?;
         let mut registers = [None; 6];
-        for (r, t) in registers.iter_mut().zip(&pass.textures) {
-            *r = Some(self.planned.handle(t.lookup));
+        for (r, u) in registers.iter_mut().zip(&self.planned.setup(index).units) {
+            *r = Some(u.lookup);
         }
         registers[4] = g.primary;
         registers[5] = g.secondary;
@@ -577,32 +523,35 @@ impl<'a> PlanRenderer<'a> {
     }
 }
 
-/// Whether `target` stores fixed-point colour: a framebuffer declared
-/// without a float format (`rgba8`), or a texture declared unsigned 8-bit
-/// (`rgba8`, `rgb8`, `r8`). GL clamps
-/// what such a buffer stores to [0, 1] (§2.13.9, §4.1.8), and the IR's
-/// value ranges say a read of it lies there; `exact` and `f32` keep it in
-/// float clamped ([`ColorFormat::Unorm`]), `fixed9` in RGBA8. A planner
-/// temporary keeps its intermediate value unclamped.
-fn fixed_point_target(m: &Module, target: &RenderTarget) -> bool {
-    use crate::parser::ast::FramebufferChannel as F;
-    match target {
-        RenderTarget::Framebuffer { name, .. } => m
-            .framebuffers
-            .iter()
-            .find(|f| f.name == *name)
-            .is_some_and(|f| !f.channels.iter().any(|c| matches!(c, F::Rgba16f | F::Rgba32f))),
-        RenderTarget::Texture { name } => m.textures.iter().any(|t| {
-            t.name == *name
-                && matches!(
-                    t.format,
-                    crate::parser::ast::TextureFormat::Rgba8
-                        | crate::parser::ast::TextureFormat::Rgb8
-                        | crate::parser::ast::TextureFormat::R8
-                )
-        }),
-        RenderTarget::Temporary { .. } => false,
-    }
+/// An image the frame loop made and then could not find: a bug, said as
+/// an error rather than a panic.
+fn lost(name: &str) -> RenderError {
+    RenderError::Unsupported(format!("internal: the image `{name}` a pass renders into is missing"))
+}
+
+/// A cleared image for a pass to render into, as its setup says
+/// (`pipeline::TargetImage`): a texture declared 16-bit or float keeps what
+/// is rendered into it (deferred shading's signed vectors) in half floats,
+/// as the WGSL target's `Rgba16Float` (fixed9 and f32; exact keeps f32); a
+/// fixed-point target (`rgba8`) is clamped to [0, 1] as GL stores it,
+/// which `exact` and `f32` keep in float ([`ColorFormat::Unorm`]) and
+/// `fixed9` in RGBA8; a planner temporary keeps its value unclamped.
+fn new_target(
+    target: &TargetImage,
+    mode: Precision,
+    format: ColorFormat,
+    frame: (u32, u32),
+) -> Result<Framebuffer, RenderError> {
+    let format = match (mode, target.format) {
+        (Precision::Exact, TargetFormat::Half) => ColorFormat::F32,
+        (_, TargetFormat::Half) => ColorFormat::F16,
+        (Precision::Exact | Precision::F32, TargetFormat::Unorm8) => ColorFormat::Unorm,
+        _ => format,
+    };
+    let (width, height) = target.extent.size(frame.0, frame.1);
+    let mut fb = Framebuffer::new(width, height, format)?;
+    fb.clear_color([0.0, 0.0, 0.0, 0.0]);
+    Ok(fb)
 }
 
 /// Snapshots of the framebuffers a pass reads (another's, or its own in a
@@ -1425,7 +1374,7 @@ impl<'a> FragmentProgram<'a> {
                 [x, y, depth * 2.0 - 1.0, 1.0]
             }
             Leaf::TexelCoord if texel_at.is_some() => {
-                let [u, v] = texel_at.expect("matched");
+                let [u, v] = texel_at.unwrap_or_default(); // `Some`: the guard
                 [u, v, 0.0, 0.0]
             }
             Leaf::TexelCoord => {

@@ -283,9 +283,6 @@ fn source(e: &ast::Expr, names: &BTreeMap<String, f32>) -> TextureSource {
     }
 }
 
-/// The size of textures that statements render into (texture shading).
-pub const RENDERED_TEXTURE_SIZE: u32 = 256;
-
 fn texel_format(format: Option<TextureFormat>) -> TexelFormat {
     match format {
         Some(TextureFormat::Rgba16 | TextureFormat::Signed16) => TexelFormat::Rgba16,

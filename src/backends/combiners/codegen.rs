@@ -2434,24 +2434,6 @@ fn to_color(c: &Constant) -> Color {
     out
 }
 
-/// The setup of pass `index` of a plan, as the `fixed9` renderer and WGSL's
-/// `--fidelity hardware` run it: generated for the plan's target when that
-/// is a register-combiner profile, else for a GeForce 3 (the most capable
-/// combiner machine: what `fixed9` models on any target). `Err` is the
-/// plan's located verdict when the plan was made for this machine
-/// (`not generated: LINE:COL: …`), else the generator's reason.
-pub fn generate_for_pass(planned: &crate::pipeline::Planned, index: usize) -> Result<Generated, String> {
-    let pass = &planned.plan.passes[index];
-    // The plan's own target's limits; a GeForce3 models the combiners for a
-    // target that has none (the fixed9 render of a wgsl plan).
-    let limits = planned.combiners.unwrap_or(CombinerLimits::GEFORCE3);
-    let units: Vec<Handle<Expr>> = pass.textures.iter().map(|t| planned.handle(t.lookup)).collect();
-    let input =
-        PassInput { module: &planned.module, value: planned.handle(pass.fragment.output), units: &units };
-    generate(&input, &limits)
-        .map_err(|e| pass.combiners.clone().unwrap_or_else(|| format!("not generated: {e}")))
-}
-
 /// The code generator as the planner's [`Realizer`]: a value
 /// fits one pass of a register-combiner target when a setup for it is
 /// generated under the target's own limits (an Appendix B-valid setup).
@@ -2469,6 +2451,18 @@ impl Realizer for CombinerRealizer {
         let input = PassInput { module, value, units };
         generate(&input, &self.limits)
             .map(|g| Realized { general_combiners: g.config.general.len() as u32 })
+            .map_err(|e| Refusal { reason: e.to_string(), span: e.span(), help: e.help() })
+    }
+
+    fn setup(
+        &self,
+        module: &Module,
+        value: Handle<Expr>,
+        units: &[Handle<Expr>],
+    ) -> Result<crate::pipeline::CombinerProgram, Refusal> {
+        let input = PassInput { module, value, units };
+        generate(&input, &self.limits)
+            .map(|g| crate::pipeline::CombinerProgram::new(g.config.general.len() as u32, g))
             .map_err(|e| Refusal { reason: e.to_string(), span: e.span(), help: e.help() })
     }
 }

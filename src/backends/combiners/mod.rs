@@ -12,6 +12,7 @@ pub mod codegen;
 pub mod config;
 pub mod emulator;
 pub mod rc1;
+pub mod setup;
 pub mod ts1;
 pub mod validate;
 

@@ -79,7 +79,7 @@
 //! normalize and pow (a GPU has no f64: the exact reference is the CPU's).
 //! [`Precision::Fixed9`] runs the register combiners (Kilgard 2000, Section
 //! 4.2): a pass whose setup the combiner code generator makes
-//! ([`crate::backends::combiners::codegen::generate_for_pass`]) computes in
+//! ([`crate::backends::combiners::setup::of`]) computes in
 //! f32 only its texels and interpolated colours, rounds them to 8 bits and
 //! calls the setup as integer code (`rc1::combiners_function`, parsed into
 //! the module the pass is built on: `combiners_module`), bit-exact with the
@@ -191,12 +191,6 @@ pub fn generate(
     }
 }
 
-/// The span of the statement(s) pass `index` implements.
-fn pass_span(planned: &Planned, index: usize) -> Span {
-    let pass = &planned.plan.passes[index];
-    pass.statements.first().and_then(|s| planned.module.statements.get(*s)).map_or(Span::DETACHED, |s| s.span)
-}
-
 fn generate_pass(
     planned: &Planned,
     index: usize,
@@ -205,13 +199,13 @@ fn generate_pass(
     precision: Precision,
 ) -> Result<PassShader, Diagnostic> {
     let pass = &planned.plan.passes[index];
-    let span = pass_span(planned, index);
+    let span = planned.setup(index).span;
     let interface = PassInterface::of(planned, index);
     // A `bake` table is computed by the compiler, in float (issue 18).
     let precision = if pass.baked { Precision::F32 } else { precision };
     let mut g = Gen::new(planned, index, interface.clone(), names, precision);
     if precision == Precision::Fixed9 {
-        g.combiners = crate::backends::combiners::codegen::generate_for_pass(planned, index).ok();
+        g.combiners = crate::backends::combiners::setup::of(planned, index).ok().cloned();
         if let Some(generated) = &g.combiners {
             g.module = combiners_module(&generated.config).map_err(|e| internal(span, &e))?;
         }
@@ -989,7 +983,7 @@ impl<'a> Gen<'a> {
     /// 16-bit or float format: `Rgba16Float` on wgpu, `ColorFormat::F16`
     /// on the CPU).
     fn renders_half_floats(&self) -> bool {
-        matches!(&self.planned.plan.passes[self.pass_index].target, RenderTarget::Texture { name } if self.m.textures.iter().any(|t| t.name == *name && t.format.is_wide()))
+        self.planned.setup(self.pass_index).target.format == crate::pipeline::TargetFormat::Half
     }
 
     fn fragment(&mut self, vout: naga::Handle<Type>) -> R<Function> {

@@ -88,40 +88,37 @@ pub fn translate(config: &CombinerConfig, title: &str) -> Result<String, String>
     }
     let mut s = String::new();
     let w = &mut s;
-    writeln!(w, "// shadec translate: {title}").unwrap();
-    writeln!(
+    let _ = writeln!(w, "// shadec translate: {title}");
+    let _ = writeln!(
         w,
         "// The register combiners in fixed9 (8 bits + sign), as `shadec emulate --precision fixed9`."
-    )
-    .unwrap();
-    writeln!(
+    );
+    let _ = writeln!(
         w,
         "// {} general combiner(s); bindings: docs/combiners.md, \"Translated shaders\".",
         config.general.len()
-    )
-    .unwrap();
-    writeln!(w, "\nstruct Uniforms {{\n    constant0: vec4<f32>,\n    constant1: vec4<f32>,\n    fog: vec4<f32>,\n}}\n").unwrap();
-    writeln!(w, "@group(0) @binding(0) var<uniform> uniforms: Uniforms;").unwrap();
+    );
+    let _ = writeln!(w, "\nstruct Uniforms {{\n    constant0: vec4<f32>,\n    constant1: vec4<f32>,\n    fog: vec4<f32>,\n}}\n");
+    let _ = writeln!(w, "@group(0) @binding(0) var<uniform> uniforms: Uniforms;");
     let units = ["texture0", "texture1", "texture2", "texture3", "primary", "secondary"];
     for (i, name) in units.iter().enumerate() {
-        writeln!(w, "@group(0) @binding({}) var {name}_image: texture_2d<f32>;", 1 + 2 * i).unwrap();
-        writeln!(w, "@group(0) @binding({}) var {name}_sampler: sampler;", 2 + 2 * i).unwrap();
+        let _ = writeln!(w, "@group(0) @binding({}) var {name}_image: texture_2d<f32>;", 1 + 2 * i);
+        let _ = writeln!(w, "@group(0) @binding({}) var {name}_sampler: sampler;", 2 + 2 * i);
     }
     w.push_str(HELPERS);
     w.push_str(TEXEL_HELPER);
     w.push_str(&combiners_function(config));
-    writeln!(w, "\n@vertex\nfn vs_main(@location(0) position: vec4<f32>) -> @builtin(position) vec4<f32> {{\n    return position;\n}}\n").unwrap();
-    writeln!(w, "@fragment\nfn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {{")
-        .unwrap();
-    writeln!(w, "    let p = vec2<i32>(frag.xy);").unwrap();
+    let _ = writeln!(w, "\n@vertex\nfn vs_main(@location(0) position: vec4<f32>) -> @builtin(position) vec4<f32> {{\n    return position;\n}}\n");
+    let _ =
+        writeln!(w, "@fragment\nfn fs_main(@builtin(position) frag: vec4<f32>) -> @location(0) vec4<f32> {{");
+    let _ = writeln!(w, "    let p = vec2<i32>(frag.xy);");
     let args: Vec<String> = units.iter().map(|u| format!("texel({u}_image, p)")).collect();
-    writeln!(
+    let _ = writeln!(
         w,
         "    return {COMBINERS_FUNCTION}({}, uniforms.constant0, uniforms.constant1, uniforms.fog);",
         args.join(", ")
-    )
-    .unwrap();
-    writeln!(w, "}}").unwrap();
+    );
+    let _ = writeln!(w, "}}");
     // A compiler bug if naga rejects it.
     let module = naga::front::wgsl::parse_str(&s).map_err(|e| {
         format!("compiler bug: the translated shader does not parse:\n{}", e.emit_to_string(&s))
@@ -153,47 +150,44 @@ pub fn combiners_helpers() -> &'static str {
 pub fn combiners_function(config: &CombinerConfig) -> String {
     let mut s = String::new();
     let w = &mut s;
-    writeln!(
+    let _ = writeln!(
         w,
         "\n// The register combiners (Kilgard 2000, Section 4.2) in fixed9: {} general combiner(s).",
         config.general.len()
-    )
-    .unwrap();
-    writeln!(
+    );
+    let _ = writeln!(
         w,
         "fn {COMBINERS_FUNCTION}(in_texture0: vec4<i32>, in_texture1: vec4<i32>, in_texture2: vec4<i32>, in_texture3: vec4<i32>, in_primary: vec4<i32>, in_secondary: vec4<i32>, in_constant0: vec4<f32>, in_constant1: vec4<f32>, in_fog: vec4<f32>) -> vec4<f32> {{"
-    )
-    .unwrap();
-    writeln!(w, "    // Registers (Table 2), integers in units of 1/255.").unwrap();
-    writeln!(w, "    var r_zero = vec4<i32>(0);").unwrap();
+    );
+    let _ = writeln!(w, "    // Registers (Table 2), integers in units of 1/255.");
+    let _ = writeln!(w, "    var r_zero = vec4<i32>(0);");
     let constant = |c: Option<[f32; 4]>, given: &str| match c {
         Some(c) => {
             format!("vec4<i32>({}, {}, {}, {})", unit_k(c[0]), unit_k(c[1]), unit_k(c[2]), unit_k(c[3]))
         }
         None => format!("unit_k({given})"),
     };
-    writeln!(w, "    var r_fog = unit_k(in_fog);").unwrap();
-    writeln!(w, "    var r_constant0 = {};", constant(config.constant0, "in_constant0")).unwrap();
-    writeln!(w, "    var r_constant1 = {};", constant(config.constant1, "in_constant1")).unwrap();
-    writeln!(w, "    var r_primary = in_primary;").unwrap();
-    writeln!(w, "    var r_secondary = in_secondary;").unwrap();
+    let _ = writeln!(w, "    var r_fog = unit_k(in_fog);");
+    let _ = writeln!(w, "    var r_constant0 = {};", constant(config.constant0, "in_constant0"));
+    let _ = writeln!(w, "    var r_constant1 = {};", constant(config.constant1, "in_constant1"));
+    let _ = writeln!(w, "    var r_primary = in_primary;");
+    let _ = writeln!(w, "    var r_secondary = in_secondary;");
     for i in 0..4 {
-        writeln!(w, "    var r_texture{i} = in_texture{i};").unwrap();
+        let _ = writeln!(w, "    var r_texture{i} = in_texture{i};");
     }
-    writeln!(w, "    // spare0.rgb and spare1 start at zero, spare0.a = texture0.a (Section 4.2.1).")
-        .unwrap();
-    writeln!(w, "    var r_spare0 = vec4<i32>(0, 0, 0, r_texture0.w);").unwrap();
-    writeln!(w, "    var r_spare1 = vec4<i32>(0);").unwrap();
+    let _ = writeln!(w, "    // spare0.rgb and spare1 start at zero, spare0.a = texture0.a (Section 4.2.1).");
+    let _ = writeln!(w, "    var r_spare0 = vec4<i32>(0, 0, 0, r_texture0.w);");
+    let _ = writeln!(w, "    var r_spare1 = vec4<i32>(0);");
     for (k, stage) in config.general.iter().enumerate() {
-        writeln!(w, "    // General combiner {k}: both portions read the registers as the stage began.")
-            .unwrap();
-        writeln!(w, "    {{").unwrap();
+        let _ =
+            writeln!(w, "    // General combiner {k}: both portions read the registers as the stage began.");
+        let _ = writeln!(w, "    {{");
         let c0 = stage.constant0.or(config.constant0);
         let c1 = stage.constant1.or(config.constant1);
         if stage.constant0.is_some() || stage.constant1.is_some() {
-            writeln!(w, "        // Per-stage constants.").unwrap();
-            writeln!(w, "        let r_constant0 = {};", constant(c0, "in_constant0")).unwrap();
-            writeln!(w, "        let r_constant1 = {};", constant(c1, "in_constant1")).unwrap();
+            let _ = writeln!(w, "        // Per-stage constants.");
+            let _ = writeln!(w, "        let r_constant0 = {};", constant(c0, "in_constant0"));
+            let _ = writeln!(w, "        let r_constant1 = {};", constant(c1, "in_constant1"));
         }
         let mut writes = Vec::new();
         for kind in [PortionKind::Rgb, PortionKind::Alpha] {
@@ -202,14 +196,18 @@ pub fn combiners_function(config: &CombinerConfig) -> String {
         for (r, kind, value) in writes {
             let name = reg_name(r);
             match kind {
-                PortionKind::Rgb => writeln!(w, "        {name} = vec4<i32>({value}, {name}.w);").unwrap(),
-                PortionKind::Alpha => writeln!(w, "        {name}.w = {value};").unwrap(),
+                PortionKind::Rgb => {
+                    let _ = writeln!(w, "        {name} = vec4<i32>({value}, {name}.w);");
+                }
+                PortionKind::Alpha => {
+                    let _ = writeln!(w, "        {name}.w = {value};");
+                }
             }
         }
-        writeln!(w, "    }}").unwrap();
+        let _ = writeln!(w, "    }}");
     }
     final_combiner(w, config);
-    writeln!(w, "}}").unwrap();
+    let _ = writeln!(w, "}}");
     s
 }
 
@@ -250,23 +248,22 @@ fn portion(
     let need_cd = p.cd_output.is_some() || sum;
     let k = if kind == PortionKind::Rgb { "rgb" } else { "alpha" };
     if !need_ab && !need_cd {
-        writeln!(w, "        // {k} portion: computes nothing.").unwrap();
+        let _ = writeln!(w, "        // {k} portion: computes nothing.");
         return;
     }
-    writeln!(w, "        // {k} portion.").unwrap();
+    let _ = writeln!(w, "        // {k} portion.");
     let rgb = kind == PortionKind::Rgb;
     for (v, input, needed) in
         [("a", &p.a, need_ab), ("b", &p.b, need_ab), ("c", &p.c, need_cd), ("d", &p.d, need_cd)]
     {
         if needed {
-            writeln!(
+            let _ = writeln!(
                 w,
                 "        let {k}_{v} = {}; // {} {}",
                 mapped(input, kind),
                 input.mapping.name(),
                 input.register.name()
-            )
-            .unwrap();
+            );
         }
     }
     let product = |x: &str, y: &str, dot: bool| {
@@ -277,20 +274,19 @@ fn portion(
         }
     };
     if need_ab {
-        writeln!(w, "        let {k}_ab = {};", product("a", "b", p.ab_dot)).unwrap();
+        let _ = writeln!(w, "        let {k}_ab = {};", product("a", "b", p.ab_dot));
     }
     if need_cd {
-        writeln!(w, "        let {k}_cd = {};", product("c", "d", p.cd_dot)).unwrap();
+        let _ = writeln!(w, "        let {k}_cd = {};", product("c", "d", p.cd_dot));
     }
     if sum {
         if p.mux_sum {
-            writeln!(
+            let _ = writeln!(
                 w,
                 "        let {k}_sum = select({k}_cd, {k}_ab, r_spare0.w < 128); // mux: spare0.a < ½ → AB"
-            )
-            .unwrap();
+            );
         } else {
-            writeln!(w, "        let {k}_sum = {k}_ab + {k}_cd;").unwrap();
+            let _ = writeln!(w, "        let {k}_sum = {k}_ab + {k}_cd;");
         }
     }
     let b = match p.bias {
@@ -308,7 +304,7 @@ fn portion(
         if let Some(r) = out {
             let v = format!("{k}_{slot}_out");
             let biased = if b == 0 { format!("{k}_{slot}") } else { format!("({k}_{slot} + {b})") };
-            writeln!(w, "        let {v} = {write_fn}({biased} * {s}); // → {}", r.name()).unwrap();
+            let _ = writeln!(w, "        let {v} = {write_fn}({biased} * {s}); // → {}", r.name());
             writes.push((r, kind, v));
         }
     }
@@ -316,7 +312,7 @@ fn portion(
 
 fn final_combiner(w: &mut String, config: &CombinerConfig) {
     let fc = &config.final_combiner;
-    writeln!(w, "    // Final combiner: rgb = A·B + (1 − A)·C + D, alpha = G (Section 4.2.3).").unwrap();
+    let _ = writeln!(w, "    // Final combiner: rgb = A·B + (1 − A)·C + D, alpha = G (Section 4.2.3).");
     // (Per-stage constants were block-scoped: the global ones apply here.)
     let vars = [fc.a, fc.b, fc.c, fc.d, fc.e, fc.f, fc.g];
     let uses = |src: FinalSource| vars[..4].iter().any(|v| v.source == src);
@@ -345,20 +341,22 @@ fn final_combiner(w: &mut String, config: &CombinerConfig) {
         }
     };
     if uses(FinalSource::EfProduct) {
-        writeln!(w, "    let fin_e = {};", load(4)).unwrap();
-        writeln!(w, "    let fin_f = {};", load(5)).unwrap();
-        writeln!(w, "    let ef = round_510_3(fin_e * fin_f);").unwrap();
+        let _ = writeln!(w, "    let fin_e = {};", load(4));
+        let _ = writeln!(w, "    let fin_f = {};", load(5));
+        let _ = writeln!(w, "    let ef = round_510_3(fin_e * fin_f);");
     }
     if uses(FinalSource::Spare0PlusSecondary) {
         let max = if fc.color_sum_clamp { 255 } else { 510 };
-        writeln!(w, "    let color_sum = min(max(r_spare0.xyz, vec3<i32>(0)) + max(r_secondary.xyz, vec3<i32>(0)), vec3<i32>({max}));").unwrap();
+        let _ = writeln!(w, "    let color_sum = min(max(r_spare0.xyz, vec3<i32>(0)) + max(r_secondary.xyz, vec3<i32>(0)), vec3<i32>({max}));");
     }
     for (i, v) in ["a", "b", "c", "d"].iter().enumerate() {
-        writeln!(w, "    let fin_{v} = {};", load(i)).unwrap();
+        let _ = writeln!(w, "    let fin_{v} = {};", load(i));
     }
-    writeln!(w, "    let fin_g = {};", load(6)).unwrap();
-    writeln!(w, "    let rgb = min(round_510_3(fin_a * fin_b + (255 - fin_a) * fin_c + 255 * fin_d), vec3<i32>(255));").unwrap();
-    writeln!(w, "    let out = vec4<i32>(clamp(rgb, vec3<i32>(0), vec3<i32>(255)), clamp(fin_g, 0, 255));")
-        .unwrap();
-    writeln!(w, "    return vec4<f32>(out) / 255.0;").unwrap();
+    let _ = writeln!(w, "    let fin_g = {};", load(6));
+    let _ = writeln!(w, "    let rgb = min(round_510_3(fin_a * fin_b + (255 - fin_a) * fin_c + 255 * fin_d), vec3<i32>(255));");
+    let _ = writeln!(
+        w,
+        "    let out = vec4<i32>(clamp(rgb, vec3<i32>(0), vec3<i32>(255)), clamp(fin_g, 0, 255));"
+    );
+    let _ = writeln!(w, "    return vec4<f32>(out) / 255.0;");
 }
