@@ -231,3 +231,81 @@ fn the_wgsl_stage_validates_with_naga() {
 mod emit;
 #[path = "vertex_programs_gpu.rs"]
 mod gpu;
+
+fn shadec(args: &[&str]) -> (i32, String, String) {
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_shadec")).args(args).output().unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+fn example(name: &str) -> String {
+    std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples").join(name).display().to_string()
+}
+
+/// The `!!VP1.0` blocks of `compile --emit combiners` output.
+fn vertex_blocks(text: &str) -> Vec<String> {
+    text.split("!!VP1.0")
+        .skip(1)
+        .map(|b| format!("!!VP1.0{}", &b[..b.find("END\n").map_or(b.len(), |e| e + 4)]))
+        .collect()
+}
+
+#[test]
+fn compile_emits_a_vertex_program_per_geforce3_pass() {
+    for name in ["gouraud.shd", "kilgard_bump_mapping.shd", "spheremap_texgen.shd"] {
+        let (code, out, err) = shadec(&[
+            "compile",
+            "--stand-ins",
+            &example(name),
+            "--target",
+            "geforce3",
+            "--emit",
+            "combiners",
+        ]);
+        assert_eq!(code, 0, "{name}: {err}");
+        let passes = out.matches("!!RC1.0").count();
+        let blocks = vertex_blocks(&out);
+        assert_eq!(blocks.len(), passes, "{name}: one vertex program per pass\n{out}");
+        for b in &blocks {
+            let p = vp::parse_file(b).unwrap_or_else(|e| panic!("{name}: {e:?}\n{b}"));
+            assert!(p.instructions.len() <= 128);
+        }
+    }
+}
+
+#[test]
+fn geforce256_says_what_the_host_computes_per_vertex() {
+    let (code, out, err) = shadec(&[
+        "compile",
+        "--stand-ins",
+        &example("gouraud.shd"),
+        "--target",
+        "geforce256",
+        "--emit",
+        "combiners",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    assert!(!out.contains("!!VP1.0"), "{out}");
+    assert!(out.contains("# geforce256 has no vertex programs"), "{out}");
+    assert!(out.contains("#   the clip position `πx`"), "{out}");
+    assert!(out.contains("#   the interpolated `kd * max(0, N·L) + ks * max(0, N·H)^n`"), "{out}");
+}
+
+#[test]
+fn translate_reads_a_vertex_program_into_a_wgsl_vertex_stage() {
+    let dir = tempfile::tempdir().unwrap();
+    let good = dir.path().join("t.vp");
+    std::fs::write(&good, TRANSFORM).unwrap();
+    let (code, out, err) = shadec(&["translate", good.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    assert!(out.contains("@vertex") && out.contains("fn vertex_program"), "{out}");
+    let bad = dir.path().join("bad.vp");
+    std::fs::write(&bad, "!!VP1.0\nMOV o[COL0], v[3];\nADD R0, v[0], v[1];\nEND\n").unwrap();
+    let (code, _, err) = shadec(&["translate", bad.to_str().unwrap()]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("bad.vp:3:15") && err.contains("two vertex attribute registers"), "{err}");
+    assert!(err.contains("o[HPOS]"), "{err}");
+}

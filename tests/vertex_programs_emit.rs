@@ -107,8 +107,18 @@ fn rows(m: Mat4) -> [[f32; 4]; 4] {
 
 /// Emits, validates and compares one pass on `vertices` vertices; the
 /// largest difference, or why the host keeps the pass's vertices.
-fn check_pass(m: &Module, pi: &PassInterface, what: &str, vertices: u64) -> Result<f64, String> {
-    let e = emit::emit(m, pi).map_err(|e| e.reason)?;
+fn check_pass(
+    m: &Module,
+    pi: &PassInterface,
+    planned: Option<(&shadec::pipeline::Planned, usize)>,
+    what: &str,
+    vertices: u64,
+) -> Result<f64, String> {
+    let e = match planned {
+        Some((planned, index)) => emit::emit_pass(planned, index),
+        None => emit::emit(m, pi),
+    }
+    .map_err(|e| e.reason)?;
     let errors = vp::validate(&e.program);
     assert!(
         errors.is_empty(),
@@ -160,7 +170,8 @@ fn check_pass(m: &Module, pi: &PassInterface, what: &str, vertices: u64) -> Resu
             }
         };
         for (k, w) in want.iter().take(values.len()).enumerate() {
-            compare(format!("o[TEX{k}]"), *w, got.get(Output::tex(k as u8)));
+            let o = e.outputs[k];
+            compare(format!("o[{}]", o.name()), *w, got.get(o));
         }
         if let Some(p) = pi.position {
             let w = want[values.len()];
@@ -182,7 +193,8 @@ fn check_program(source: &str, what: &str) -> Option<(usize, Vec<String>, f64)> 
             continue;
         }
         let pi = PassInterface::of(planned, i);
-        match check_pass(&planned.module, &pi, &format!("{what} pass {i}"), 16) {
+        let through = if i % 2 == 0 { Some((planned, i)) } else { None };
+        match check_pass(&planned.module, &pi, through, &format!("{what} pass {i}"), 16) {
             Ok(w) => {
                 emitted += 1;
                 worst = worst.max(w);

@@ -46,8 +46,9 @@ pub struct Emitted {
     pub parameters: Vec<Parameter>,
     /// `v[k]` is `attributes[k]` (the pass's vertex leaves).
     pub attributes: Vec<Handle<Expr>>,
-    /// The interpolants (δ nodes) in the order of `o[TEX0]`, `o[TEX1]`, …
+    /// The interpolants (δ nodes), each written to `outputs[k]`.
     pub interpolants: Vec<Handle<Expr>>,
+    pub outputs: Vec<Output>,
 }
 
 /// Why a pass's vertices stay on the host.
@@ -67,13 +68,53 @@ fn refuse<T>(node: Option<Handle<Expr>>, reason: impl Into<String>) -> Result<T,
     Err(EmitError { node, reason: reason.into() })
 }
 
-/// The vertex program of pass `index` of `planned`.
+/// The vertex program of pass `index` of `planned`, each interpolant
+/// written where the pass's combiners read it ([`outputs_for`]).
 pub fn emit_pass(planned: &Planned, index: usize) -> Result<Emitted, EmitError> {
-    emit(&planned.module, &PassInterface::of(planned, index))
+    let pi = PassInterface::of(planned, index);
+    let outputs = outputs_for(planned, index, &pi);
+    emit_to(&planned.module, &pi, &outputs)
 }
 
-/// The vertex program computing `pi`'s interpolants and clip position.
+/// Where each interpolant of pass `index` goes: `o[COL0]` / `o[COL1]` for
+/// the combiners' primary and secondary colours, `o[TEXu]` for the
+/// coordinates of texture unit `u`, else the first texture coordinate set
+/// no unit reads.
+pub fn outputs_for(planned: &Planned, index: usize, pi: &PassInterface) -> Vec<Output> {
+    let pass = &planned.plan.passes[index];
+    let generated = crate::backends::combiners::codegen::generate_for_pass(planned, index).ok();
+    let (primary, secondary) = generated.map_or((None, None), |g| (g.primary, g.secondary));
+    let units: Vec<(Handle<Expr>, u8)> =
+        pass.textures.iter().map(|t| (planned.handle(t.coords), t.unit.min(7) as u8)).collect();
+    let mut taken: Vec<Output> = units.iter().map(|(_, u)| Output::tex(*u)).collect();
+    let mut out = Vec::new();
+    for &h in &pi.interpolants {
+        let o = if Some(h) == primary {
+            Output::COL0
+        } else if Some(h) == secondary {
+            Output::COL1
+        } else if let Some((_, u)) = units.iter().find(|(c, _)| *c == h) {
+            Output::tex(*u)
+        } else {
+            let free = (0..8).map(Output::tex).find(|o| !taken.contains(o)).unwrap_or(Output::tex(7));
+            taken.push(free);
+            free
+        };
+        out.push(o);
+    }
+    out
+}
+
+/// The vertex program computing `pi`'s interpolants (into `o[TEX0]`,
+/// `o[TEX1]`, … in order) and clip position.
 pub fn emit(m: &Module, pi: &PassInterface) -> Result<Emitted, EmitError> {
+    let outputs: Vec<Output> = (0..pi.interpolants.len().min(8)).map(|k| Output::tex(k as u8)).collect();
+    emit_to(m, pi, &outputs)
+}
+
+/// The vertex program computing `pi`'s interpolants into `outputs` and its
+/// clip position into `o[HPOS]`.
+pub fn emit_to(m: &Module, pi: &PassInterface, outputs: &[Output]) -> Result<Emitted, EmitError> {
     if pi.vertex_leaves.len() > ATTRIBUTES {
         return refuse(
             None,
@@ -83,14 +124,9 @@ pub fn emit(m: &Module, pi: &PassInterface) -> Result<Emitted, EmitError> {
             ),
         );
     }
-    if pi.interpolants.len() > 8 {
-        return refuse(
-            None,
-            format!(
-                "the pass interpolates {} values; a vertex program writes 8 texture coordinate sets",
-                pi.interpolants.len()
-            ),
-        );
+    let distinct = outputs.iter().enumerate().all(|(k, o)| !outputs[..k].contains(o));
+    if pi.interpolants.len() > outputs.len() || !distinct {
+        return refuse(None, format!("the pass interpolates {} values; a vertex program writes 8 texture coordinate sets and 2 colours", pi.interpolants.len()));
     }
     let mut roots: Vec<(Handle<Expr>, Option<Output>)> = Vec::new();
     for (k, &h) in pi.interpolants.iter().enumerate() {
@@ -98,7 +134,7 @@ pub fn emit(m: &Module, pi: &PassInterface) -> Result<Emitted, EmitError> {
             Expr::Interpolate { value, .. } => value,
             _ => h,
         };
-        roots.push((value, Some(Output::tex(k as u8))));
+        roots.push((value, outputs.get(k).copied()));
     }
     let mut e = Emitter::new(m, pi);
     if let Some(p) = pi.position {
@@ -141,6 +177,7 @@ pub fn emit(m: &Module, pi: &PassInterface) -> Result<Emitted, EmitError> {
         parameters: e.params,
         attributes: pi.vertex_leaves.clone(),
         interpolants: pi.interpolants.clone(),
+        outputs: outputs.to_vec(),
     })
 }
 
@@ -712,4 +749,134 @@ pub fn parameter_values(
         };
     }
     c
+}
+
+/// Whether a target runs vertex programs: NV_vertex_program came with the
+/// GeForce3 (NV20); the GeForce 256 and GeForce2 transformed and lit
+/// vertices in fixed function, so there the host computes what a pass
+/// needs per vertex.
+pub fn target_has_vertex_programs(target: &str) -> bool {
+    target == "geforce3"
+}
+
+/// A leaf in the program's own words: `x`, `u x`, `N`, a uniform's name.
+pub fn leaf_name(m: &Module, h: Handle<Expr>) -> String {
+    let name = |v: Option<&String>| v.cloned().unwrap_or_else(|| "?".into());
+    match &m.exprs[h] {
+        Expr::VertexPosition(v) => name(m.vertices.get(*v as usize)),
+        Expr::TexCoord { set, vertex } => format!(
+            "{} {}",
+            m.texcoord_sets.get(*set as usize).map_or("?", |s| s.name.as_str()),
+            name(m.vertices.get(*vertex as usize))
+        ),
+        Expr::Vector { vector, .. } => m.vectors.get(*vector as usize).map_or("?".into(), |v| v.name.clone()),
+        Expr::Uniform(u) => m.uniforms.get(*u as usize).map_or("?".into(), |u| u.name.clone()),
+        _ => "a per-object value".into(),
+    }
+}
+
+fn projection_name(p: &Projection) -> String {
+    format!(
+        "π{}{}{}",
+        p.subscript.as_deref().unwrap_or(""),
+        if p.star { "*" } else { "" },
+        if p.inverse { "⁻¹" } else { "" }
+    )
+}
+
+/// The `#` lines naming what the host loads into each register.
+pub fn binding_comment(m: &Module, e: &Emitted) -> String {
+    let mut out = String::new();
+    let attrs: Vec<String> =
+        e.attributes.iter().enumerate().map(|(k, &h)| format!("v[{k}] = {}", leaf_name(m, h))).collect();
+    if !attrs.is_empty() {
+        out.push_str(&format!("# {}\n", attrs.join(", ")));
+    }
+    let mut params = Vec::new();
+    for (k, p) in e.parameters.iter().enumerate() {
+        match p {
+            Parameter::Constant(v) => {
+                params.push(format!("c[{k}] = ({}, {}, {}, {})", v[0], v[1], v[2], v[3]))
+            }
+            Parameter::Leaf(h) => params.push(format!("c[{k}] = {}", leaf_name(m, *h))),
+            Parameter::Row(p, 0) => {
+                params.push(format!("c[{k}]..c[{}] = the rows of {}", k + 3, projection_name(p)))
+            }
+            Parameter::Row(..) => {}
+        }
+    }
+    for chunk in params.chunks(4) {
+        out.push_str(&format!("# {}\n", chunk.join(", ")));
+    }
+    let outs: Vec<String> =
+        e.outputs.iter().enumerate().map(|(k, o)| format!("o[{}] = interpolant {k}", o.name())).collect();
+    if !outs.is_empty() {
+        out.push_str(&format!("# o[HPOS] = the clip position, {}\n", outs.join(", ")));
+    }
+    out
+}
+
+/// What the host computes per vertex for pass `index` where the target
+/// runs no vertex program: the clip position and each interpolated value,
+/// quoted from `source` where the node has a span there.
+pub fn host_work(planned: &Planned, index: usize, source: Option<&str>) -> Vec<String> {
+    let m = &planned.module;
+    let pi = PassInterface::of(planned, index);
+    let quote = |h: Handle<Expr>| -> String {
+        let span = m.span(h);
+        let text = source.and_then(|s| s.get(span.start as usize..span.end as usize)).unwrap_or("");
+        let text: String = text.split_whitespace().collect::<Vec<_>>().join(" ");
+        if text.is_empty() {
+            format!("a {} value", m.info(h).ty.name())
+        } else if text.chars().count() > 60 {
+            format!("`{}…`", text.chars().take(60).collect::<String>())
+        } else {
+            format!("`{text}`")
+        }
+    };
+    let mut out = Vec::new();
+    if let Some(p) = pi.position {
+        out.push(format!("the clip position {}", quote(p)));
+    }
+    for &h in &pi.interpolants {
+        let value = match m.exprs[h] {
+            Expr::Interpolate { value, .. } => value,
+            _ => h,
+        };
+        out.push(format!("the interpolated {}", quote(value)));
+    }
+    out
+}
+
+/// The per-vertex part of pass `index` as text for `compile --emit
+/// combiners`: a `!!VP1.0` program where the target has vertex programs
+/// and the pass's vertex values have a form, else `#` lines saying what the
+/// host computes and why.
+pub fn pass_text(planned: &Planned, index: usize, source: Option<&str>, title: &str) -> String {
+    let target = planned.plan.target.as_str();
+    if !target_has_vertex_programs(target) {
+        let work = host_work(planned, index, source);
+        if work.is_empty() {
+            return String::new();
+        }
+        let mut out = format!("# {target} has no vertex programs (fixed-function transform and lighting): the host computes per vertex\n");
+        for w in work {
+            out.push_str(&format!("#   {w}\n"));
+        }
+        return out + "\n";
+    }
+    match emit_pass(planned, index) {
+        Ok(e) => {
+            let text = super::print(&e.program);
+            let (header, rest) = text.split_once('\n').unwrap_or((&text, ""));
+            format!("{header}\n{title}{}{rest}\n", binding_comment(&planned.module, &e))
+        }
+        Err(why) => {
+            let mut out = format!("# the host computes this pass's vertices: {why}\n");
+            for w in host_work(planned, index, source) {
+                out.push_str(&format!("#   {w}\n"));
+            }
+            out + "\n"
+        }
+    }
 }

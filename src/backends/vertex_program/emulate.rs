@@ -140,13 +140,7 @@ pub fn rcp(x: f32) -> f32 {
 pub fn rcc(x: f32) -> f32 {
     let r = rcp(x);
     let m = r.abs();
-    let m = if m > 1.884467e19 {
-        1.884467e19
-    } else if m < 5.42101e-20 {
-        5.42101e-20
-    } else {
-        m
-    };
+    let m = m.clamp(5.42101e-20, 1.884467e19);
     if r.is_nan() {
         r
     } else {

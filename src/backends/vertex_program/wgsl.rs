@@ -184,7 +184,7 @@ fn value(op: Opcode, s: &[String]) -> String {
         Log => format!("vp_log({a}.x)"),
         Exp => format!("vp_exp({a}.x)"),
         Lit => format!("vp_lit({a})"),
-        Arl => format!("{a}"),
+        Arl => a.to_string(),
     }
 }
 
