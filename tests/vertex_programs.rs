@@ -309,3 +309,39 @@ fn translate_reads_a_vertex_program_into_a_wgsl_vertex_stage() {
     assert!(err.contains("bad.vp:3:15") && err.contains("two vertex attribute registers"), "{err}");
     assert!(err.contains("o[HPOS]"), "{err}");
 }
+
+#[test]
+fn corpus_programs_are_read_or_refused_for_their_reason() {
+    let dir = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("fuzz/corpus/vp1");
+    let cases = [
+        ("transform_diffuse.vp", None),
+        ("skinning_relative.vp", None),
+        ("specular_lit.vp", None),
+        ("vp11_options.vp", None),
+        ("edges.vp", None),
+        ("two_attributes.vp", Some("two-attributes")),
+        ("two_parameters.vp", Some("two-parameters")),
+        ("no_hpos.vp", Some("no-hpos")),
+        ("bad_grammar.vp", Some("register-range")),
+        ("unterminated.vp", Some("syntax")),
+        ("state_program.vp", Some("syntax")),
+    ];
+    for (name, want) in cases {
+        let text = std::fs::read_to_string(dir.join(name)).unwrap();
+        match (vp::parse_file(&text), want) {
+            (Ok(p), None) => {
+                let wgsl = vp::wgsl::translate(&p, name);
+                let module = naga::front::wgsl::parse_str(&wgsl)
+                    .unwrap_or_else(|e| panic!("{name}: {}", e.emit_to_string(&wgsl)));
+                naga::valid::Validator::new(
+                    naga::valid::ValidationFlags::all(),
+                    naga::valid::Capabilities::all(),
+                )
+                .validate(&module)
+                .unwrap_or_else(|e| panic!("{name}: {e:?}"));
+            }
+            (Err(ds), Some(code)) => assert_eq!(ds[0].code, code, "{name}: {ds:?}"),
+            (got, want) => panic!("{name}: {got:?}, wanted {want:?}"),
+        }
+    }
+}

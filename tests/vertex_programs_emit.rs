@@ -127,6 +127,12 @@ fn check_pass(
     );
     let text = vp::print(&e.program);
     assert_eq!(vp::parse_file(&text).unwrap_or_else(|d| panic!("{what}: {d:?}\n{text}")), e.program);
+    let wgsl = vp::wgsl::translate(&e.program, what);
+    let module = naga::front::wgsl::parse_str(&wgsl)
+        .unwrap_or_else(|d| panic!("{what}: {}\n{wgsl}", d.emit_to_string(&wgsl)));
+    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::all())
+        .validate(&module)
+        .unwrap_or_else(|d| panic!("{what}: {d:?}\n{wgsl}"));
     let values: Vec<Handle<Expr>> = pi
         .interpolants
         .iter()

@@ -2,7 +2,7 @@
 //! on `array<vec4<f32>, N>` register files, the parameters `c[]` a uniform
 //! array, each attribute the program reads a `@location(k)` input (`v[k]`),
 //! `o[HPOS]` the clip position and every other result it writes a
-//! `@location` output in the order of [`program::OUTPUT_NAMES`]. The
+//! `@location` output in the order of [`super::program::OUTPUT_NAMES`]. The
 //! instructions' functions are the ones [`super::emulate`] computes, in the
 //! same order of operations (a dot product summed x, y, z, w), so the two
 //! agree within the GPU's f32 rounding of `1/x`, `inverseSqrt`, `log2`,
