@@ -345,3 +345,39 @@ fn corpus_programs_are_read_or_refused_for_their_reason() {
         }
     }
 }
+
+#[test]
+fn snapshot_of_the_diagnostics() {
+    let text = "!!VP1.0\nMOV R1, v[NRML];\nMAD R0, v[0], c[1], c[2];\nRCP R2, R1;\nEND\n";
+    let parsed = vp::read(text).err();
+    let file = SourceFile::new("bad.vp", text);
+    let mut out = String::new();
+    if let Some(d) = parsed {
+        out.push_str(&file.render(&[d], false));
+    }
+    let text2 = "!!VP1.0\nMOV R1, v[NRML];\nMAD R0, v[0], c[1], c[2];\nADD R3, v[1], v[2];\nEND\n";
+    let file2 = SourceFile::new("rules.vp", text2);
+    out.push_str(&file2.render(&vp::parse_file(text2).unwrap_err(), false));
+    insta::assert_snapshot!("vertex_program_diagnostics", out);
+}
+
+#[test]
+fn snapshot_of_the_wgsl_stage() {
+    let p = vp::parse_file(TRANSFORM).unwrap();
+    insta::assert_snapshot!("vertex_program_wgsl", vp::wgsl::translate(&p, "transform.vp"));
+}
+
+#[test]
+fn snapshot_of_gouraud_on_geforce3() {
+    let (code, out, err) = shadec(&[
+        "compile",
+        "--stand-ins",
+        &example("gouraud.shd"),
+        "--target",
+        "geforce3",
+        "--emit",
+        "combiners",
+    ]);
+    assert_eq!(code, 0, "{err}");
+    insta::assert_snapshot!("vertex_program_gouraud_geforce3", out);
+}

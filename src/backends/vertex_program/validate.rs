@@ -125,7 +125,7 @@ fn one_register(
                     at: At::Src(k),
                     message: format!("{} reads two {name} registers, {} and {}", ins.op.name(), reg_name(f), reg_name(s.reg)),
                     label: format!("a second {name} register"),
-                    help: format!("an instruction reads at most one {name} register: move one of them to a temporary first (`MOV R0, {};`)", reg_name(s.reg)),
+                    help: format!("an instruction reads at most one {name} register: move one of them to a temporary first (`MOV R0, {};`)", super::printer::register(s.reg)),
                 });
                 return;
             }

@@ -198,6 +198,9 @@ fn statement(ins: &Instruction) -> String {
         DstReg::Output(o) => format!("o[{}]", o.index()),
         DstReg::Address => return String::new(),
     };
+    if ins.dst.mask & 15 == 15 {
+        return format!("    {target} = {};\n", value(ins.op, &srcs));
+    }
     let mut out = format!("    {{\n        let t = {};\n", value(ins.op, &srcs));
     for (k, c) in ['x', 'y', 'z', 'w'].iter().enumerate() {
         if ins.dst.mask & (1 << k) != 0 {
