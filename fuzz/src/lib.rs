@@ -16,7 +16,8 @@
 //! - `pipeline`: a program that checks clean is planned for geforce256,
 //!   geforce3 and wgsl; every accepted pass of a combiner target generates a
 //!   setup that prints as `!!RC1.0` and reads back, validated, to the same
-//!   setup; every plan's WGSL generates and validates (no internal error).
+//!   setup, and a vertex program that validates where one is emitted;
+//!   every plan's WGSL generates and validates (no internal error).
 //! - `lsp`: the server's frame reader consumes any bytes; a document edited
 //!   by the bytes is analysed after every edit, and hover and completion
 //!   answer at any offset, without a panic.
@@ -124,6 +125,13 @@ pub fn pipeline(data: &[u8]) {
                     again, generated.config,
                     "{target}: pass {i}'s !!RC1.0 reads back to another setup"
                 );
+                if let Ok(e) = shadec::backends::vertex_program::emit::emit_pass(planned, i) {
+                    let errors = shadec::backends::vertex_program::validate(&e.program);
+                    assert!(
+                        errors.is_empty(),
+                        "{target}: pass {i}'s vertex program breaks the spec: {errors:?}"
+                    );
+                }
             }
         }
         wgsl(planned, text, target);
