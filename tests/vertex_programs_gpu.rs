@@ -78,9 +78,15 @@ fn program(rng: &mut Rng) -> VertexProgram {
         let src = sources(rng, op.sources(), t, op.shape() == Shape::Scalar, true);
         instructions.push(Instruction { op, dst: Dest { reg: DstReg::Temporary(t as u8), mask: 15 }, src });
     }
-    let all = [Mov, Mul, Add, Mad, Dst, Min, Max, Slt, Sge, Rcp, Rsq, Dp3, Dp4, Log, Exp, Lit, Arl];
+    // Every other program is `!!VP1.1`, with its four instructions too.
+    let v11 = rng.below(2) == 0;
+    let all = [
+        Mov, Mul, Add, Mad, Dst, Min, Max, Slt, Sge, Rcp, Rsq, Dp3, Dp4, Log, Exp, Lit, Arl, Dph, Rcc, Sub,
+        Abs,
+    ];
+    let n = if v11 { all.len() } else { 17 };
     for out in 0..OUTPUTS as u8 {
-        let op = all[rng.below(all.len())];
+        let op = all[rng.below(n)];
         if op == Arl {
             let src = sources(rng, 1, 0, true, false);
             instructions.push(Instruction { op, dst: Dest { reg: DstReg::Address, mask: 1 }, src });
@@ -98,7 +104,8 @@ fn program(rng: &mut Rng) -> VertexProgram {
         let mask = 1 + rng.below(15) as u8;
         instructions.push(Instruction { op, dst: Dest { reg: DstReg::Output(Output(out)), mask }, src });
     }
-    VertexProgram { version: Version::V10, position_invariant: false, instructions }
+    let version = if v11 { Version::V11 } else { Version::V10 };
+    VertexProgram { version, position_invariant: false, instructions }
 }
 
 fn close(a: f32, b: f32) -> bool {
