@@ -68,6 +68,11 @@ fn ts1_corpus() {
 }
 
 #[test]
+fn vp1_corpus() {
+    assert!(replay("vp1", &[], checks::vp1) > 8);
+}
+
+#[test]
 fn scene_corpus() {
     assert!(replay("scene", &[("scenes", Some("ron"))], checks::scene) > 4);
 }

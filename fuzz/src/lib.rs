@@ -10,11 +10,14 @@
 //!   program prints to text that parses to the same tree.
 //! - `rc1`, `ts1`: no panic; an accepted `!!RC1.0` / `!!TS1.0` text prints
 //!   and reads back to the same setup.
+//! - `vp1`: no panic; an accepted `!!VP1.0` program prints and reads back
+//!   to the same program, and the interpreter runs it on any attributes.
 //! - `scene`: no panic; an accepted scene's RON prints and reads back.
 //! - `pipeline`: a program that checks clean is planned for geforce256,
 //!   geforce3 and wgsl; every accepted pass of a combiner target generates a
 //!   setup that prints as `!!RC1.0` and reads back, validated, to the same
-//!   setup; every plan's WGSL generates and validates (no internal error).
+//!   setup, and a vertex program that validates where one is emitted;
+//!   every plan's WGSL generates and validates (no internal error).
 //! - `lsp`: the server's frame reader consumes any bytes; a document edited
 //!   by the bytes is analysed after every edit, and hover and completion
 //!   answer at any offset, without a panic.
@@ -75,6 +78,21 @@ pub fn ts1(data: &[u8]) {
     assert_eq!(again, program, "printed !!TS1.0 reads back to another program:\n{printed}");
 }
 
+/// The `!!VP1.0` reader (NV_vertex_program) and interpreter.
+pub fn vp1(data: &[u8]) {
+    use shadec::backends::vertex_program as vp;
+    let Some(text) = text(data) else { return };
+    let Ok(program) = vp::parse_file(text) else { return };
+    let printed = vp::print(&program);
+    let again = vp::parse_file(&printed)
+        .unwrap_or_else(|e| panic!("printed !!VP1.0 does not read back: {e:?}\n{printed}"));
+    assert_eq!(again, program, "printed !!VP1.0 reads back to another program:\n{printed}");
+    let seeds = [0.0f32, 1.0, -1.5, 1.0e30, f32::NAN, f32::INFINITY, -0.0, 95.5];
+    let attributes = std::array::from_fn(|k| [0, 1, 2, 3].map(|c| seeds[(k + c) % seeds.len()]));
+    let parameters = std::array::from_fn(|k| [0, 1, 2, 3].map(|c| seeds[(k * 3 + c) % seeds.len()]));
+    let _ = vp::emulate::run(&program, &attributes, &parameters);
+}
+
 /// The scene reader (RON, docs/scenes.md). Only what is written is read:
 /// meshes and textures are built by `render`, not here.
 pub fn scene(data: &[u8]) {
@@ -107,6 +125,13 @@ pub fn pipeline(data: &[u8]) {
                     again, generated.config,
                     "{target}: pass {i}'s !!RC1.0 reads back to another setup"
                 );
+                if let Ok(e) = shadec::backends::vertex_program::emit::emit_pass(planned, i) {
+                    let errors = shadec::backends::vertex_program::validate(&e.program);
+                    assert!(
+                        errors.is_empty(),
+                        "{target}: pass {i}'s vertex program breaks the spec: {errors:?}"
+                    );
+                }
             }
         }
         wgsl(planned, text, target);

@@ -4,5 +4,6 @@
 //! - `wgsl`: WGSL through naga, and a headless wgpu runner (feature `gpu`).
 
 pub mod combiners;
+pub mod vertex_program;
 #[cfg(feature = "wgsl")]
 pub mod wgsl;

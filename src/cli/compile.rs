@@ -78,7 +78,7 @@ pub fn run(args: &CompileArgs) -> ExitCode {
         (Emit::Plan, Some(p)) if plan_format(args) == PlanFormat::Json => p.plan.to_json() + "\n",
         (Emit::Plan, Some(p)) => p.plan.to_ron() + "\n",
         (Emit::Wgsl | Emit::Spirv | Emit::Glsl, Some(p)) => return shaders_out(args, &file, &text, &p),
-        (Emit::Combiners, Some(p)) => match combiners_text(&p) {
+        (Emit::Combiners, Some(p)) => match combiners_text(&p, &text) {
             Ok(t) => t,
             Err(message) => {
                 eprintln!("error: {message}");
@@ -104,8 +104,9 @@ fn default_target(emit: Emit) -> Option<&'static str> {
 /// Every pass's combiner setup as nvparse text, a `#` comment naming the
 /// pass after its first header line (nvparse wants the header first; both
 /// languages read `#` as a comment), so one pass's text is a file
-/// `shadec emulate` and `translate` read.
-fn combiners_text(p: &shadec::pipeline::Planned) -> Result<String, String> {
+/// `shadec emulate` and `translate` read. Each pass's per-vertex part
+/// follows: a `!!VP1.0` program on geforce3, else what the host computes.
+fn combiners_text(p: &shadec::pipeline::Planned, source: &str) -> Result<String, String> {
     if p.combiners.is_none() {
         return Err(format!(
             "target `{}` has no register combiners: emit combiners for geforce256 or geforce3 (--target)",
@@ -125,6 +126,7 @@ fn combiners_text(p: &shadec::pipeline::Planned) -> Result<String, String> {
         let text = shadec::backends::combiners::rc1::print(&g.config);
         let (header, rest) = text.split_once('\n').unwrap_or((&text, ""));
         out.push_str(&format!("{header}\n{title}{rest}\n"));
+        out.push_str(&shadec::backends::vertex_program::emit::pass_text(p, i, Some(source), &title));
     }
     Ok(out)
 }

@@ -39,6 +39,10 @@ pub struct TranslateArgs {
 }
 
 pub fn run(args: &TranslateArgs) -> ExitCode {
+    #[cfg(feature = "wgsl")]
+    if let Some(code) = vertex_program(args) {
+        return code;
+    }
     let loaded = profile_limits(&args.profile).and_then(|limits| {
         let limits = if args.permissive { limits.permissive() } else { limits };
         load_config(&args.config, &limits)
@@ -83,4 +87,24 @@ fn translate(args: &TranslateArgs, config: &shadec::backends::combiners::config:
             }
         },
     }
+}
+
+/// A `!!VP1.0` / `!!VP1.1` file (NV_vertex_program) as a WGSL vertex stage;
+/// `None` when the file is not a vertex program.
+#[cfg(feature = "wgsl")]
+fn vertex_program(args: &TranslateArgs) -> Option<ExitCode> {
+    use shadec::backends::vertex_program as vp;
+    let text = shadec::io::read_text(&args.config).ok()?;
+    if !text.trim_start().starts_with("!!VP1.") {
+        return None;
+    }
+    let name = args.config.display().to_string();
+    Some(match vp::parse_file(&text) {
+        Ok(program) => super::write_output(args.output.as_deref(), &vp::wgsl::translate(&program, &name)),
+        Err(diagnostics) => {
+            let file = shadec::diag::SourceFile::new(name, text.clone());
+            eprint!("{}", file.render(&diagnostics, false));
+            ExitCode::from(super::EXIT_SOURCE_ERRORS)
+        }
+    })
 }

@@ -99,6 +99,10 @@ impl Gpu {
         &self.device
     }
 
+    pub fn queue(&self) -> &wgpu::Queue {
+        &self.queue
+    }
+
     /// Whether [`TexelUpload::Rgba16`] textures are uploaded as
     /// `Rgba16Unorm` (else rounded to `Rgba8Unorm`).
     pub fn filters_16bit_norm(&self) -> bool {

@@ -41,6 +41,10 @@ const REGISTER_NAMES: [&str; 14] = [
 
 /// Parses an `!!RC1.0` program (optionally preceded by a `!!TS1.0` block).
 pub fn parse(text: &str) -> Result<Parsed, Diagnostic> {
+    // A `!!VP1.0` vertex program after the combiners (`compile --emit
+    // combiners` on geforce3) belongs to the vertex stage: the combiner
+    // text ends where it begins.
+    let text = text.find("\n!!VP1.").map_or(text, |at| &text[..at + 1]);
     let lead = text.len() - text.trim_start().len();
     let body = &text[lead..];
     let (texture_shader, rc_start) = if let Some(rest) = body.strip_prefix("!!TS1.0") {
