@@ -82,7 +82,7 @@ pub fn emit_pass(planned: &Planned, index: usize) -> Result<Emitted, EmitError> 
 /// no unit reads.
 pub fn outputs_for(planned: &Planned, index: usize, pi: &PassInterface) -> Vec<Output> {
     let pass = &planned.plan.passes[index];
-    let generated = crate::backends::combiners::codegen::generate_for_pass(planned, index).ok();
+    let generated = crate::backends::combiners::setup::of(planned, index).ok();
     let (primary, secondary) = generated.map_or((None, None), |g| (g.primary, g.secondary));
     let units: Vec<(Handle<Expr>, u8)> =
         pass.textures.iter().map(|t| (planned.handle(t.coords), t.unit.min(7) as u8)).collect();
