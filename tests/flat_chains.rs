@@ -1,4 +1,4 @@
-//! A flat sum or product is not nesting (issue 37): long runs of `+` or `*`
+//! A flat sum or product is not nesting: long runs of `+` or `*`
 //! are built balanced, so only true nesting meets the expression depth
 //! limit, and that limit is a located error, not a stack overflow.
 

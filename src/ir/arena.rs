@@ -66,7 +66,7 @@ impl<T> fmt::Display for Handle<T> {
 }
 
 /// Values of one kind, appended in order; spans in a side table. Both are
-/// [`Layered`]: a clone shares what was frozen (issue 37).
+/// [`Layered`]: a clone shares what was frozen.
 #[derive(Clone, Debug)]
 pub struct Arena<T: Clone> {
     data: Layered<T>,

@@ -1,5 +1,5 @@
 //! Persistent, append-only tables, so that copying a [`super::Module`] costs
-//! a few reference counts instead of the whole program (issue 37: the
+//! a few reference counts instead of the whole program (the
 //! combiner generator copies the module once per candidate pass, which made
 //! planning quadratic in the number of statements).
 //!

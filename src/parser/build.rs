@@ -21,7 +21,7 @@ struct Deep {
 }
 
 /// Runs of one associative operator longer than this are built balanced
-/// (issue 37); shorter ones nest to the left as written, so that every
+/// (a flat sum is not nesting); shorter ones nest to the left as written, so that every
 /// program of ordinary size keeps the order of its operations.
 const BALANCE_FROM: usize = 64;
 
@@ -499,7 +499,7 @@ impl Builder {
 
     /// Applies the operator on top of the stack to its operands. A `+` or
     /// `*` whose left operand is a run of the same operator joins the run
-    /// instead of nesting (issue 37): a flat sum is not nesting.
+    /// instead of nesting: a flat sum is not nesting.
     fn reduce(&mut self, operands: &mut Vec<Operand>, ops: &mut Vec<(Op, Span)>) -> Option<()> {
         let (op, op_span) = ops.pop()?;
         let arity = match op {
