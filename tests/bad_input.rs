@@ -53,21 +53,16 @@ fn random_bytes_are_rejected_cleanly() {
 }
 
 #[test]
-fn ten_megabyte_single_line_expression_is_refused_as_too_deep() {
+fn a_megabyte_single_line_sum_is_not_nesting() {
+    // A flat sum is built balanced (issue 37): 250 000 terms nest 18 deep.
     let mut src = String::from("const a = 1; C xs ← a");
-    while src.len() < 10_000_000 {
+    while src.len() < 1_000_000 {
         src.push_str(" + a");
     }
     src.push(';');
     let r = check_bytes(src.as_bytes());
-    assert_eq!(r.code, 1, "{}", r.stderr);
-    assert!(
-        r.stderr.contains("error[nesting-too-deep]: expression nests more than 1000 levels deep"),
-        "{}",
-        &r.stderr[..r.stderr.len().min(2000)]
-    );
-    // The human rendering must not echo ten megabytes back.
-    assert!(r.stderr.len() < 100_000, "stderr is {} bytes", r.stderr.len());
+    assert_eq!(r.code, 0, "{}", &r.stderr[..r.stderr.len().min(2000)]);
+    assert!(!r.stderr.contains("nesting-too-deep"));
 }
 
 #[test]

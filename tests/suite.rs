@@ -32,6 +32,7 @@ mod diagnostics;
 mod differential;
 mod docs;
 mod editor_nvim;
+mod flat_chains;
 mod fuzz_replay;
 mod gpu_check;
 mod gpu_runner;

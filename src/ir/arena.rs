@@ -2,12 +2,12 @@
 //! spans in a parallel side table, and a handle is a 32-bit index whose
 //! `Option` costs nothing (`NonZeroU32` storing index + 1).
 
-use rustc_hash::FxHashMap as HashMap;
 use std::fmt;
 use std::hash::Hash;
 use std::marker::PhantomData;
 use std::num::NonZeroU32;
 
+use super::persist::{Layered, LayeredMap};
 use crate::span::Span;
 
 /// A typed index into an [`Arena`]. Debug prints `[3]`.
@@ -65,20 +65,21 @@ impl<T> fmt::Display for Handle<T> {
     }
 }
 
-/// Values of one kind, appended in order; spans in a side table.
+/// Values of one kind, appended in order; spans in a side table. Both are
+/// [`Layered`]: a clone shares what was frozen.
 #[derive(Clone, Debug)]
-pub struct Arena<T> {
-    data: Vec<T>,
-    spans: Vec<Span>,
+pub struct Arena<T: Clone> {
+    data: Layered<T>,
+    spans: Layered<Span>,
 }
 
-impl<T> Default for Arena<T> {
+impl<T: Clone> Default for Arena<T> {
     fn default() -> Self {
-        Arena { data: Vec::new(), spans: Vec::new() }
+        Arena { data: Layered::default(), spans: Layered::default() }
     }
 }
 
-impl<T> Arena<T> {
+impl<T: Clone> Arena<T> {
     pub fn append(&mut self, value: T, span: Span) -> Handle<T> {
         let h = Handle::new(self.data.len());
         self.data.push(value);
@@ -107,7 +108,7 @@ impl<T> Arena<T> {
     }
 }
 
-impl<T> std::ops::Index<Handle<T>> for Arena<T> {
+impl<T: Clone> std::ops::Index<Handle<T>> for Arena<T> {
     type Output = T;
     fn index(&self, h: Handle<T>) -> &T {
         &self.data[h.index()]
@@ -120,12 +121,12 @@ impl<T> std::ops::Index<Handle<T>> for Arena<T> {
 #[derive(Clone, Debug)]
 pub struct UniqueArena<T: Eq + Hash + Clone> {
     arena: Arena<T>,
-    map: HashMap<T, Handle<T>>,
+    map: LayeredMap<T, Handle<T>>,
 }
 
 impl<T: Eq + Hash + Clone> Default for UniqueArena<T> {
     fn default() -> Self {
-        UniqueArena { arena: Arena::default(), map: HashMap::default() }
+        UniqueArena { arena: Arena::default(), map: LayeredMap::default() }
     }
 }
 
@@ -136,7 +137,7 @@ impl<T: Eq + Hash + Clone> UniqueArena<T> {
             return (h, false);
         }
         let h = self.arena.append(value.clone(), span);
-        self.map.insert(value, h);
+        self.map.insert_new(value, h);
         (h, true)
     }
 

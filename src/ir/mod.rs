@@ -107,6 +107,7 @@ pub mod arena;
 pub mod dump;
 pub mod eval;
 pub mod lower;
+pub mod persist;
 pub mod usage;
 pub mod valid;
 
@@ -114,6 +115,7 @@ use std::hash::{Hash, Hasher};
 
 pub use arena::{Arena, Handle, UniqueArena};
 pub use lower::lower;
+pub use persist::{Layered, Shared};
 pub use usage::{
     address_only, fat_layers, fragment_reach, power_by_squaring, register_reads, squaring_exponent, Usage,
 };
@@ -126,21 +128,21 @@ use crate::span::Span;
 pub struct Module {
     /// The profile the program names with `target X;`, if any.
     pub target: Option<ast::Word<String>>,
-    pub textures: Vec<Texture>,
-    pub framebuffers: Vec<Framebuffer>,
-    pub vectors: Vec<Vector>,
-    pub uniforms: Vec<Uniform>,
+    pub textures: Shared<Vec<Texture>>,
+    pub framebuffers: Shared<Vec<Framebuffer>>,
+    pub vectors: Shared<Vec<Vector>>,
+    pub uniforms: Shared<Vec<Uniform>>,
     /// Vertex streams by name: `x`, `x'`.
-    pub vertices: Vec<String>,
+    pub vertices: Shared<Vec<String>>,
     /// Texture-coordinate sets: `u`, `u'`, `u*` (vertex attributes).
-    pub texcoord_sets: Vec<TexCoordSet>,
+    pub texcoord_sets: Shared<Vec<TexCoordSet>>,
     /// Every value. Invariant: a node's operands precede it; equal nodes are
     /// one node (the span kept is the first occurrence's).
     pub exprs: UniqueArena<Expr>,
     /// `info[h.index()]` is the type, frequency and range of `exprs[h]`.
-    pub info: Vec<ExprInfo>,
+    pub info: Layered<ExprInfo>,
     /// The assignments, in source order.
-    pub statements: Vec<Statement>,
+    pub statements: Shared<Vec<Statement>>,
 }
 
 impl Module {

@@ -124,7 +124,7 @@ fn rewrite_writes(r: &mut Rewriter, t: u32, split: &[Option<u32>], signed: &[boo
             None => out.push(st),
         }
     }
-    r.m.statements = out;
+    r.m.statements = out.into();
 }
 
 /// `rgba(compress(m), 1)` (or `rgba(m, 1)`): alpha 1 marks a texel a

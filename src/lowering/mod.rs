@@ -372,7 +372,7 @@ impl<'a> Rewriter<'a> {
             if kept.len() == before {
                 return;
             }
-            self.m.statements = kept;
+            self.m.statements = kept.into();
         }
     }
 

@@ -20,6 +20,24 @@ struct Deep {
     depth: usize,
 }
 
+/// Runs of one associative operator longer than this are built balanced
+/// (a flat sum is not nesting); shorter ones nest to the left as written, so that every
+/// program of ordinary size keeps the order of its operations.
+const BALANCE_FROM: usize = 64;
+
+/// An operand on the operator fold's stack: a finished tree, or a run of
+/// `+` or `*` still growing.
+enum Operand {
+    Tree(Deep),
+    Chain(Chain),
+}
+
+/// `t₀ op t₁ op … op tₙ`, one associative operator.
+struct Chain {
+    op: BinaryOp,
+    terms: Vec<Deep>,
+}
+
 pub fn item(pair: Pair<'_, Rule>, offset: usize) -> Result<Item, Errors> {
     let mut b = Builder { offset, errors: Vec::new() };
     let children: Vec<Pair<'_, Rule>> = pair.into_inner().filter(|p| p.as_rule() != Rule::EOI).collect();
@@ -403,7 +421,7 @@ impl Builder {
     /// right-associative ternary at the loosest level; `c ? a` without `:`
     /// is a conditional write (Pipeline Grammar, shadow volumes).
     fn fold_operators(&mut self, pair: Pair<'_, Rule>) -> Option<Deep> {
-        let mut operands: Vec<Deep> = Vec::new();
+        let mut operands: Vec<Operand> = Vec::new();
         let mut ops: Vec<(Op, Span)> = Vec::new();
         for p in pair.into_inner() {
             match p.as_rule() {
@@ -414,7 +432,7 @@ impl Builder {
                         let op = if prefix.as_rule() == Rule::op_not { UnaryOp::Not } else { UnaryOp::Neg };
                         ops.push((Op::Prefix(op), self.span(&prefix)));
                     }
-                    operands.push(self.expr(application)?);
+                    operands.push(Operand::Tree(self.expr(application)?));
                 }
                 Rule::colon => {
                     let span = self.span(&p);
@@ -456,7 +474,8 @@ impl Builder {
         while !ops.is_empty() {
             self.reduce(&mut operands, &mut ops)?;
         }
-        operands.pop()
+        let last = operands.pop()?;
+        self.finish(last)
     }
 
     fn infix(&mut self, p: Pair<'_, Rule>) -> Option<(Op, Span)> {
@@ -478,8 +497,10 @@ impl Builder {
         Some((op, span))
     }
 
-    /// Applies the operator on top of the stack to its operands.
-    fn reduce(&mut self, operands: &mut Vec<Deep>, ops: &mut Vec<(Op, Span)>) -> Option<()> {
+    /// Applies the operator on top of the stack to its operands. A `+` or
+    /// `*` whose left operand is a run of the same operator joins the run
+    /// instead of nesting: a flat sum is not nesting.
+    fn reduce(&mut self, operands: &mut Vec<Operand>, ops: &mut Vec<(Op, Span)>) -> Option<()> {
         let (op, op_span) = ops.pop()?;
         let arity = match op {
             Op::Prefix(_) => 1,
@@ -489,11 +510,25 @@ impl Builder {
         if operands.len() < arity {
             return None;
         }
-        let args: Vec<Deep> = operands.split_off(operands.len() - arity);
+        let args: Vec<Operand> = operands.split_off(operands.len() - arity);
+        if let Op::Binary(bop @ (BinaryOp::Add | BinaryOp::Mul)) = op {
+            let [lhs, rhs]: [Operand; 2] = args.try_into().ok()?;
+            let rhs = self.finish(rhs)?;
+            let chain = match lhs {
+                Operand::Chain(mut chain) if chain.op == bop => {
+                    chain.terms.push(rhs);
+                    chain
+                }
+                lhs => Chain { op: bop, terms: vec![self.finish(lhs)?, rhs] },
+            };
+            operands.push(Operand::Chain(chain));
+            return Some(());
+        }
+        let mut args = args.into_iter().map(|a| self.finish(a)).collect::<Option<Vec<Deep>>>()?;
         let depth = 1 + args.iter().map(|d| d.depth).max().unwrap_or(0);
         let span = args.iter().fold(op_span, |s, d| s.join(d.expr.span));
         self.check_depth(depth, span)?;
-        let mut args = args.into_iter().map(|d| Box::new(d.expr));
+        let mut args = args.drain(..).map(|d| Box::new(d.expr));
         let mut next = || args.next().expect("arity checked");
         let kind = match op {
             Op::Prefix(op) => ExprKind::Unary { op, operand: next() },
@@ -502,8 +537,46 @@ impl Builder {
             Op::Question => ExprKind::Select { cond: next(), then: next(), otherwise: None },
             Op::QuestionColon => ExprKind::Select { cond: next(), then: next(), otherwise: Some(next()) },
         };
-        operands.push(Deep { expr: Expr { kind, span }, depth });
+        operands.push(Operand::Tree(Deep { expr: Expr { kind, span }, depth }));
         Some(())
+    }
+
+    /// The tree of an operand: a run of up to [`BALANCE_FROM`] terms
+    /// nests to the left as written; a longer one is built balanced, pairs
+    /// of neighbours first, so that its depth is the logarithm of its
+    /// length and only true nesting meets `MAX_EXPR_DEPTH`.
+    fn finish(&mut self, operand: Operand) -> Option<Deep> {
+        let Chain { op, terms } = match operand {
+            Operand::Tree(d) => return Some(d),
+            Operand::Chain(c) => c,
+        };
+        if terms.len() <= BALANCE_FROM {
+            let mut terms = terms.into_iter();
+            let first = terms.next()?;
+            return terms.try_fold(first, |lhs, rhs| self.node(op, lhs, rhs));
+        }
+        let mut level = terms;
+        while level.len() > 1 {
+            let mut next = Vec::with_capacity(level.len().div_ceil(2));
+            let mut it = level.into_iter();
+            while let Some(lhs) = it.next() {
+                next.push(match it.next() {
+                    Some(rhs) => self.node(op, lhs, rhs)?,
+                    None => lhs,
+                });
+            }
+            level = next;
+        }
+        level.pop()
+    }
+
+    /// `lhs op rhs`, its depth checked.
+    fn node(&mut self, op: BinaryOp, lhs: Deep, rhs: Deep) -> Option<Deep> {
+        let depth = 1 + lhs.depth.max(rhs.depth);
+        let span = lhs.expr.span.join(rhs.expr.span);
+        self.check_depth(depth, span)?;
+        let kind = ExprKind::Binary { op, lhs: Box::new(lhs.expr), rhs: Box::new(rhs.expr) };
+        Some(Deep { expr: Expr { kind, span }, depth })
     }
 
     /// `f g h x` → f(g(h(x))); swizzles after the argument apply to the
