@@ -135,9 +135,11 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
             predicted: None,
         });
     }
+    errors.extend(crate::scene::shadow_volume::unbound_uses(&m));
     if !errors.is_empty() {
         return Err(errors);
     }
+    crate::scene::shadow_volume::count_by_facing(&m, &mut passes);
     Ok(Planned {
         module: m,
         plan: PassPlan {

@@ -55,6 +55,7 @@ mod render_batch;
 mod render_combiners;
 mod render_plan;
 mod roundtrip;
+mod shadow_volumes;
 mod specialize_lights;
 mod texture_shaders;
 mod three_way;

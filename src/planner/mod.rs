@@ -374,6 +374,7 @@ fn plan_as_written(
     };
     let (chosen, mut diags) = choose(&mut m, profile, request.search, &mut fits, &prepared);
     diags.extend(reused_projection(&m));
+    diags.extend(crate::scene::shadow_volume::unbound_uses(&m));
     if !diags.is_empty() {
         return Err(diags);
     }
@@ -387,7 +388,8 @@ fn plan_as_written(
         })
         .collect();
     let ctx = AssembleCtx { profile, realizer: request.realizer, texgen: &texgen, at: &at };
-    let plan = assemble(&m, &ctx, &chosen, prepared);
+    let mut plan = assemble(&m, &ctx, &chosen, prepared);
+    crate::scene::shadow_volume::count_by_facing(&m, &mut plan.passes);
     Ok(Planned { module: m, plan, combiners: profile.combiner_limits() })
 }
 
