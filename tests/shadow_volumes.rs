@@ -170,3 +170,24 @@ fn reading_the_volume_stream_outside_the_stencil_update_is_refused() {
     assert!(d.message.contains("x'") || d.message.contains("x′"), "{}", d.message);
     assert_ne!(d.primary.span, shadec::span::Span::DETACHED, "located");
 }
+
+/// The eye inside the ball's volume (under the ball, above the floor): the
+/// capped volume counted where the depth test fails (Everitt and Kilgard
+/// 2002) still shadows the floor near the eye and leaves the far floor lit,
+/// where counting the volume in front of the surface ("z-pass") would miss
+/// the front faces behind the eye.
+#[test]
+fn the_eye_inside_the_volume_still_sees_the_shadow() {
+    let text = scene_text().replace(
+        "camera: (eye: (0.0, 4.0, 5.0), target: (0.0, 0.0, 0.0),",
+        "camera: (eye: (0.0, 0.5, 0.0), target: (0.0, 0.0, 3.0),",
+    );
+    assert_ne!(text, scene_text());
+    let p = shadec::bench::Prepared::new("eye inside", &source(), "wgsl", &text).unwrap();
+    let frame = p.renderer().unwrap().render(Precision::F32, W, H, &mut |_, _| {}).unwrap();
+    let rgba = frame.image.to_rgba8();
+    let under = brightness(&rgba, &p.scene, glam::Vec3::new(0.0, 0.0, 0.85));
+    let open = brightness(&rgba, &p.scene, glam::Vec3::new(0.0, 0.0, 2.5));
+    assert!(open > 100.0, "the far floor is lit ({open:.0}/255)");
+    assert!(under < 0.5 * open, "the floor under the ball ({under:.0}/255) is in shadow (far floor {open:.0}/255)");
+}
