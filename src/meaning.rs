@@ -139,7 +139,7 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
     if !errors.is_empty() {
         return Err(errors);
     }
-    crate::scene::shadow_volume::count_by_facing(&m, &mut passes);
+    crate::scene::shadow_volume::count_by_facing(&m, &mut passes, true);
     Ok(Planned {
         module: m,
         plan: PassPlan {

@@ -169,7 +169,7 @@ fn shadow_volume_stencil_pass_is_render_state_only() {
     // write) counting the volume by facing (two passes: back faces +1, front
     // faces −1, Everitt and Kilgard's z-fail); the stored depth is the depth
     // buffer, not a texture unit, and the fragment computes nothing.
-    for target in ["geforce256", "wgsl"] {
+    for target in ["geforce256", "geforce3"] {
         let plan = plan_src(&example("shadow_volumes.shd"), target).unwrap();
         assert_eq!(plan.passes.len(), 4, "{target}");
         for (stencil, op) in [

@@ -93,13 +93,13 @@ fn the_ball_shadows_the_floor_on_wgpu() {
     assert_shadow("wgpu", image.as_raw(), &p.scene);
 }
 
-/// The stencil update over `x′` is two passes on every target (one stencil
-/// state for both faces, as the GeForce 256 and GeForce3 had): back faces
-/// +1, front faces −1, where the volume lies behind the stored depth.
+/// The stencil update over `x′` is two passes where the target had one
+/// stencil state for both faces (GeForce 256, GeForce3): back faces +1,
+/// front faces −1, where the volume lies behind the stored depth.
 #[test]
 fn the_stencil_update_counts_the_volume_by_facing() {
     use shadec::renderer::{CompareFunc, CullMode, StencilOp};
-    for target in ["geforce256", "geforce3", "wgsl"] {
+    for target in ["geforce256", "geforce3"] {
         let plan = &prepared(target).planned.plan;
         assert_eq!(plan.passes.len(), 4, "{target}: {}", plan.summary());
         let (back, front) = (&plan.passes[1], &plan.passes[2]);
@@ -114,6 +114,24 @@ fn the_stencil_update_counts_the_volume_by_facing() {
             CompareFunc::Equal,
             "{target}: lit where the count is 0"
         );
+    }
+}
+
+/// Where the target has a stencil state per face (WebGPU; EXT_stencil_two_side
+/// on a GeForce FX), one pass draws both faces of the volume: −1 on a front
+/// face, +1 on a back face. The meaning counts the same way.
+#[test]
+fn two_sided_stencil_counts_the_volume_in_one_pass() {
+    use shadec::renderer::{CompareFunc, CullMode, StencilOp};
+    let p = prepared("wgsl");
+    let meaning = p.meaning().unwrap();
+    for (what, plan) in [("wgsl", &p.planned.plan), ("meaning", &meaning.planned.plan)] {
+        assert_eq!(plan.passes.len(), 3, "{what}: {}", plan.summary());
+        let s = &plan.passes[1].state;
+        assert_eq!(s.cull, CullMode::None, "{what}");
+        assert_eq!((s.stencil.pass, s.stencil.back_pass), (StencilOp::DecrWrap, Some(StencilOp::IncrWrap)));
+        assert_eq!(s.depth.func, CompareFunc::Greater);
+        assert_eq!(plan.passes[2].state.stencil.func, CompareFunc::Equal);
     }
 }
 
@@ -189,5 +207,8 @@ fn the_eye_inside_the_volume_still_sees_the_shadow() {
     let under = brightness(&rgba, &p.scene, glam::Vec3::new(0.0, 0.0, 0.85));
     let open = brightness(&rgba, &p.scene, glam::Vec3::new(0.0, 0.0, 2.5));
     assert!(open > 100.0, "the far floor is lit ({open:.0}/255)");
-    assert!(under < 0.5 * open, "the floor under the ball ({under:.0}/255) is in shadow (far floor {open:.0}/255)");
+    assert!(
+        under < 0.5 * open,
+        "the floor under the ball ({under:.0}/255) is in shadow (far floor {open:.0}/255)"
+    );
 }

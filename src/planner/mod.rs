@@ -389,7 +389,7 @@ fn plan_as_written(
         .collect();
     let ctx = AssembleCtx { profile, realizer: request.realizer, texgen: &texgen, at: &at };
     let mut plan = assemble(&m, &ctx, &chosen, prepared);
-    crate::scene::shadow_volume::count_by_facing(&m, &mut plan.passes);
+    crate::scene::shadow_volume::count_by_facing(&m, &mut plan.passes, profile.two_sided_stencil);
     Ok(Planned { module: m, plan, combiners: profile.combiner_limits() })
 }
 

@@ -17,8 +17,9 @@
 //! fragments of the volume that lie behind the visible surface — the
 //! fragments z-fail counts. The count is by facing: +1 for a back face of
 //! the volume, −1 for a front face (two passes, culling one face each, as a
-//! GeForce 256 or GeForce3 with its 8-bit stencil and one stencil state
-//! did; [`count_by_facing`]). A pixel is in shadow where the count is not
+//! GeForce 256 or GeForce3 with one stencil state did, or one pass with a
+//! state per face where the target has two-sided stencil;
+//! [`count_by_facing`]). A pixel is in shadow where the count is not
 //! zero; the program reads it as `¬σ C ? …` (lit where no volume counted).
 //!
 //! The extrusion is finite: 2.5 radii of the scene's bounding sphere,
@@ -200,17 +201,27 @@ pub fn draws_volumes(m: &Module, pass: &Pass) -> bool {
 }
 
 /// The stencil update over a shadow volume as the hardware counted it
-/// (Heidmann 1991; z-fail, Everitt and Kilgard 2002): the pass becomes two,
-/// one drawing the volume's back faces (front ones culled) and adding 1
-/// where the depth test `z δπx′ > z C δπx′` passes, one drawing its front
-/// faces and subtracting 1 (wrapping, as `GL_INCR_WRAP`/`GL_DECR_WRAP`).
-/// Targets of the time had one stencil state for both faces, hence two
-/// passes.
-pub fn count_by_facing(m: &Module, passes: &mut Vec<Pass>) {
+/// (Heidmann 1991; z-fail, Everitt and Kilgard 2002): +1 on the volume's
+/// back faces and −1 on its front faces where the depth test
+/// `z δπx′ > z C δπx′` passes (wrapping, as `GL_INCR_WRAP`/`GL_DECR_WRAP`).
+/// With `two_sided` stencil (a state per face) one pass draws both faces;
+/// without (GeForce 256, GeForce3: one state for both) the pass becomes
+/// two, the back faces (front ones culled) then the front faces.
+pub fn count_by_facing(m: &Module, passes: &mut Vec<Pass>, two_sided: bool) {
     let mut out = Vec::with_capacity(passes.len() + 1);
     for pass in passes.drain(..) {
         if !(draws_volumes(m, &pass) && pass.state.stencil.enabled) {
             out.push(pass);
+            continue;
+        }
+        let why = "where the volume lies behind the surface (z-fail)";
+        if two_sided {
+            let mut p = pass.clone();
+            p.state.cull = CullMode::None;
+            p.state.stencil.pass = StencilOp::DecrWrap;
+            p.state.stencil.back_pass = Some(StencilOp::IncrWrap);
+            p.reason = format!("{}: the shadow volume's faces counted by facing in one pass (two-sided stencil: back +1, front −1) {why}", pass.reason);
+            out.push(p);
             continue;
         }
         for (cull, op, faces) in [
@@ -220,10 +231,7 @@ pub fn count_by_facing(m: &Module, passes: &mut Vec<Pass>) {
             let mut p = pass.clone();
             p.state.cull = cull;
             p.state.stencil.pass = op;
-            p.reason = format!(
-                "{}: the shadow volume's {faces} where the volume lies behind the surface (z-fail)",
-                pass.reason
-            );
+            p.reason = format!("{}: the shadow volume's {faces} {why}", pass.reason);
             out.push(p);
         }
     }
