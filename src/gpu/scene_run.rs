@@ -291,7 +291,7 @@ impl<'a> ScenePlan<'a> {
                 continue;
             }
             // A stencil update over `x′`: the scene's shadow volumes.
-            let volume = crate::scene::shadow_volume::for_pass(self.scene, self.assets, m, pass)
+            let volume = crate::planner::shadow_volumes::for_pass(self.scene, self.assets, m, pass)
                 .map_err(SceneRunError::Unsupported)?;
             let volumes: Vec<BoundObject> = volume
                 .iter()

@@ -28,6 +28,7 @@ pub mod fit;
 pub mod lights;
 pub mod realize;
 pub mod relevance;
+pub mod shadow_volumes;
 pub mod specialize;
 pub mod split;
 
@@ -374,7 +375,7 @@ fn plan_as_written(
     };
     let (chosen, mut diags) = choose(&mut m, profile, request.search, &mut fits, &prepared);
     diags.extend(reused_projection(&m));
-    diags.extend(crate::scene::shadow_volume::unbound_uses(&m));
+    diags.extend(crate::planner::shadow_volumes::unbound_uses(&m));
     if !diags.is_empty() {
         return Err(diags);
     }
@@ -389,7 +390,7 @@ fn plan_as_written(
         .collect();
     let ctx = AssembleCtx { profile, realizer: request.realizer, texgen: &texgen, at: &at };
     let mut plan = assemble(&m, &ctx, &chosen, prepared);
-    crate::scene::shadow_volume::count_by_facing(&m, &mut plan.passes, profile.two_sided_stencil);
+    crate::planner::shadow_volumes::count_by_facing(&m, &mut plan.passes, profile.two_sided_stencil);
     Ok(Planned { module: m, plan, combiners: profile.combiner_limits() })
 }
 

@@ -355,7 +355,7 @@ impl<'a> PlanRenderer<'a> {
                 .map_err(|e| e.in_pass(index))?;
                 let target = targets.get_mut(&name).expect("created above");
                 // A stencil update over `x′`: the scene's shadow volumes.
-                let volume = crate::scene::shadow_volume::for_pass(self.scene, self.assets, m, pass)
+                let volume = crate::planner::shadow_volumes::for_pass(self.scene, self.assets, m, pass)
                     .map_err(RenderError::Unsupported)?;
                 let volumes: Vec<BoundObject> = volume
                     .iter()

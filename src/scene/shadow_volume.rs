@@ -19,7 +19,7 @@
 //! the volume, −1 for a front face (two passes, culling one face each, as a
 //! GeForce 256 or GeForce3 with one stencil state did, or one pass with a
 //! state per face where the target has two-sided stencil;
-//! [`count_by_facing`]). A pixel is in shadow where the count is not
+//! `planner::shadow_volumes::count_by_facing`). A pixel is in shadow where the count is not
 //! zero; the program reads it as `¬σ C ? …` (lit where no volume counted).
 //!
 //! The extrusion is finite: 2.5 radii of the scene's bounding sphere,
@@ -33,9 +33,6 @@ use glam::{Mat4, Vec2, Vec3, Vec4};
 
 use super::bind::{self, BoundObject};
 use super::{Light, Mesh, Scene, SceneAssets};
-use crate::diag::Diagnostic;
-use crate::ir::{Expr, Module, Table};
-use crate::pipeline::{CullMode, Geometry, Pass, StencilOp};
 
 /// How far the silhouette is extruded, in radii of the scene's bounding
 /// sphere: from any point inside it, 2 radii along any ray leave it.
@@ -165,109 +162,8 @@ pub fn volumes(scene: &Scene, assets: &SceneAssets, light: usize) -> Option<Mesh
     })
 }
 
-/// The vertex streams that only a stencil update's compared depth
-/// rasterizes (`x′` of `z δπx′ > z C δπx′`): no statement is indexed by
-/// them, so the scene's objects are not their geometry — the shadow
-/// volumes are.
-pub fn volume_streams(m: &Module) -> Vec<u32> {
-    let indexed: Vec<u32> = streams_of(m, &m.statements.iter().map(|s| s.index).collect::<Vec<_>>());
-    let all: Vec<u32> = (0..m.vertices.len() as u32).collect();
-    all.into_iter().filter(|v| !indexed.contains(v)).collect()
-}
-
-fn streams_of(m: &Module, roots: &[crate::ir::Handle<Expr>]) -> Vec<u32> {
-    let mut out: Vec<u32> = m
-        .reachable(roots)
-        .into_iter()
-        .filter_map(|h| match m.exprs[h] {
-            Expr::VertexPosition(v) => Some(v),
-            _ => None,
-        })
-        .collect();
-    out.dedup();
-    out
-}
-
-/// Whether `pass` rasterizes the shadow volumes: a mesh pass whose
-/// position is a volume stream ([`volume_streams`]).
-pub fn draws_volumes(m: &Module, pass: &Pass) -> bool {
-    let Some(position) = pass.vertex.position else { return false };
-    if !matches!(pass.geometry, Geometry::Mesh { .. }) {
-        return false;
-    }
-    let volume = volume_streams(m);
-    let drawn = streams_of(m, &[crate::ir::Handle::new(position as usize)]);
-    !drawn.is_empty() && drawn.iter().all(|v| volume.contains(v))
-}
-
-/// The stencil update over a shadow volume as the hardware counted it
-/// (Heidmann 1991; z-fail, Everitt and Kilgard 2002): +1 on the volume's
-/// back faces and −1 on its front faces where the depth test
-/// `z δπx′ > z C δπx′` passes (wrapping, as `GL_INCR_WRAP`/`GL_DECR_WRAP`).
-/// With `two_sided` stencil (a state per face) one pass draws both faces;
-/// without (GeForce 256, GeForce3: one state for both) the pass becomes
-/// two, the back faces (front ones culled) then the front faces.
-pub fn count_by_facing(m: &Module, passes: &mut Vec<Pass>, two_sided: bool) {
-    let mut out = Vec::with_capacity(passes.len() + 1);
-    for pass in passes.drain(..) {
-        if !(draws_volumes(m, &pass) && pass.state.stencil.enabled) {
-            out.push(pass);
-            continue;
-        }
-        let why = "where the volume lies behind the surface (z-fail)";
-        if two_sided {
-            let mut p = pass.clone();
-            p.state.cull = CullMode::None;
-            p.state.stencil.pass = StencilOp::DecrWrap;
-            p.state.stencil.back_pass = Some(StencilOp::IncrWrap);
-            p.reason = format!("{}: the shadow volume's faces counted by facing in one pass (two-sided stencil: back +1, front −1) {why}", pass.reason);
-            out.push(p);
-            continue;
-        }
-        for (cull, op, faces) in [
-            (CullMode::Front, StencilOp::IncrWrap, "back faces, +1"),
-            (CullMode::Back, StencilOp::DecrWrap, "front faces, −1"),
-        ] {
-            let mut p = pass.clone();
-            p.state.cull = cull;
-            p.state.stencil.pass = op;
-            p.reason = format!("{}: the shadow volume's {faces} {why}", pass.reason);
-            out.push(p);
-        }
-    }
-    *passes = out;
-}
-
-/// Uses of a volume stream other than the depth a stencil update compares
-/// (a colour statement interpolating `x′` over `x`): the scene gives `x′`
-/// no vertices there, so the program is refused at the use.
-pub fn unbound_uses(m: &Module) -> Vec<Diagnostic> {
-    let volume = volume_streams(m);
-    if volume.is_empty() {
-        return Vec::new();
-    }
-    let mut out = Vec::new();
-    for st in &m.statements {
-        if matches!(st.table, Table::Framebuffer { channel: crate::ir::FbChannel::Stencil, .. }) {
-            continue;
-        }
-        for h in m.reachable(&[st.value]) {
-            if matches!(m.exprs[h], Expr::VertexPosition(v) if volume.contains(&v)) {
-                let name = &m.vertices[match m.exprs[h] {
-                    Expr::VertexPosition(v) => v as usize,
-                    _ => 0,
-                }];
-                out.push(Diagnostic::error("no-geometry", format!("`{name}` has no geometry here: no statement draws it, and only a stencil update's compared depth (`z δπ{name} > z C δπ{name}`, Pipeline Grammar, Section 3.5) rasterizes the shadow volumes built for it"), m.span(h), "no vertices for this stream").with_help(format!("index a statement by `{name}` (`C δπ{name} ← …`) or read `{name}` only in a stencil update's depth comparison")));
-                break;
-            }
-        }
-    }
-    out
-}
-
-/// The shadow volumes of `pass`'s light (light 0 for a program written for
-/// one light) bound for drawing like an object (world space: the identity
-/// as model matrix).
+/// A shadow volume (world space: the identity as model matrix) bound for
+/// drawing like an object.
 pub fn bind_volume<'s>(
     scene: &Scene,
     assets: &SceneAssets,
@@ -277,25 +173,4 @@ pub fn bind_volume<'s>(
     let (center, radius) = assets.bounding_sphere();
     let light_clip = bind::light_view_projection(scene.lights.first(), center, radius);
     BoundObject::new(scene, volume, Mat4::IDENTITY, aspect, light_clip)
-}
-
-/// The volume a pass draws, or why it has none: no light, or no closed mesh
-/// in the scene (located at the pass's statement).
-pub fn for_pass(
-    scene: &Scene,
-    assets: &SceneAssets,
-    m: &Module,
-    pass: &Pass,
-) -> Result<Option<Mesh>, String> {
-    if !draws_volumes(m, pass) {
-        return Ok(None);
-    }
-    let light = pass.light.unwrap_or(0) as usize;
-    let stream = streams_of(m, &[crate::ir::Handle::new(pass.vertex.position.unwrap_or(0) as usize)]);
-    let name = stream.first().map_or("x′", |v| m.vertices[*v as usize].as_str());
-    match volumes(scene, assets, light) {
-        Some(mesh) if !mesh.triangles.is_empty() => Ok(Some(mesh)),
-        Some(_) => Err(format!("{}: the shadow volume `{name}` has no geometry: no object of the scene is a closed mesh (each edge shared by two triangles) to cast a shadow from light {light}; help: add a closed mesh (sphere, cube, torus, closed OBJ) between the light and a receiver", pass.at)),
-        None => Err(format!("{}: the shadow volume `{name}` has no geometry: the scene has no light {light} to extrude it from; help: add a light to the scene", pass.at)),
-    }
 }
