@@ -96,15 +96,12 @@ pub fn unbound_uses(m: &Module) -> Vec<Diagnostic> {
         if matches!(st.table, Table::Framebuffer { channel: crate::ir::FbChannel::Stencil, .. }) {
             continue;
         }
-        for h in m.reachable(&[st.value]) {
-            if matches!(m.exprs[h], Expr::VertexPosition(v) if volume.contains(&v)) {
-                let name = &m.vertices[match m.exprs[h] {
-                    Expr::VertexPosition(v) => v as usize,
-                    _ => 0,
-                }];
-                out.push(Diagnostic::error("no-geometry", format!("`{name}` has no geometry here: no statement draws it, and only a stencil update's compared depth (`z δπ{name} > z C δπ{name}`, Pipeline Grammar, Section 3.5) rasterizes the shadow volumes built for it"), m.span(h), "no vertices for this stream").with_help(format!("index a statement by `{name}` (`C δπ{name} ← …`) or read `{name}` only in a stencil update's depth comparison")));
-                break;
-            }
+        let used = m.reachable(&[st.value]).into_iter().find_map(|h| match m.exprs[h] {
+            Expr::VertexPosition(v) if volume.contains(&v) => Some((h, &m.vertices[v as usize])),
+            _ => None,
+        });
+        if let Some((h, name)) = used {
+            out.push(Diagnostic::error("no-geometry", format!("`{name}` has no geometry here: no statement draws it, and only a stencil update's compared depth (`z δπ{name} > z C δπ{name}`, Pipeline Grammar, Section 3.5) rasterizes the shadow volumes built for it"), m.span(h), "no vertices for this stream").with_help(format!("index a statement by `{name}` (`C δπ{name} ← …`) or read `{name}` only in a stencil update's depth comparison")));
         }
     }
     out
