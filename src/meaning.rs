@@ -134,9 +134,11 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
             predicted: None,
         });
     }
+    errors.extend(crate::planner::shadow_volumes::unbound_uses(&m));
     if !errors.is_empty() {
         return Err(errors);
     }
+    crate::planner::shadow_volumes::count_by_facing(&m, &mut passes, true);
     Ok(Planned {
         module: m,
         plan: PassPlan {

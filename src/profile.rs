@@ -90,6 +90,12 @@ pub struct Profile {
     pub framebuffer_bits: u8,
     /// ⊕ modes framebuffer blending can do (`C δπx ← (C δπx) ⊕ …`).
     pub blend_modes: Vec<String>,
+    /// One stencil state per face (EXT_stencil_two_side on GeForce FX,
+    /// WebGPU's per-face stencil): a shadow volume's count by facing in one
+    /// pass (Everitt and Kilgard 2002). GeForce 256 and GeForce3 had one
+    /// state for both faces: two passes.
+    #[serde(default)]
+    pub two_sided_stencil: bool,
     /// How fast the target runs a pass (`docs/cost-model.md`):
     /// `None` for a profile with no timing model (`wgsl`, `multitexture`),
     /// whose plans get no predicted time.

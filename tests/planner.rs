@@ -167,25 +167,31 @@ fn heidrich_seidel_factorization_plans_with_every_pass_generated() {
 #[test]
 fn shadow_volume_stencil_pass_is_render_state_only() {
     // seeds/001 Section 3.5: the stencil update is a depth test (Greater, no
-    // write) with stencil Replace; the stored depth is the depth buffer, not
-    // a texture unit, and the fragment computes nothing.
-    for target in ["geforce256", "wgsl"] {
+    // write) counting the volume by facing (two passes: back faces +1, front
+    // faces −1, Everitt and Kilgard's z-fail); the stored depth is the depth
+    // buffer, not a texture unit, and the fragment computes nothing.
+    for target in ["geforce256", "geforce3"] {
         let plan = plan_src(&example("shadow_volumes.shd"), target).unwrap();
-        assert_eq!(plan.passes.len(), 3, "{target}");
-        let stencil = &plan.passes[1];
-        assert!(stencil.textures.is_empty(), "{target}: {:?}", stencil.textures);
-        assert_eq!(stencil.fragment.operations, 0);
-        assert_eq!(stencil.state.depth.func, shadec::renderer::CompareFunc::Greater);
-        assert!(!stencil.state.depth.write);
-        assert_eq!(stencil.state.stencil.pass, shadec::renderer::StencilOp::Replace);
-        assert_eq!(stencil.state.blend.write_mask, [false; 4]);
-        assert_eq!(plan.passes[2].state.stencil.func, shadec::renderer::CompareFunc::NotEqual);
+        assert_eq!(plan.passes.len(), 4, "{target}");
+        for (stencil, op) in [
+            (&plan.passes[1], shadec::renderer::StencilOp::IncrWrap),
+            (&plan.passes[2], shadec::renderer::StencilOp::DecrWrap),
+        ] {
+            assert!(stencil.textures.is_empty(), "{target}: {:?}", stencil.textures);
+            assert_eq!(stencil.fragment.operations, 0);
+            assert_eq!(stencil.state.depth.func, shadec::renderer::CompareFunc::Greater);
+            assert!(!stencil.state.depth.write);
+            assert_eq!(stencil.state.stencil.pass, op);
+            assert_eq!(stencil.state.blend.write_mask, [false; 4]);
+        }
+        assert_eq!(plan.passes[3].state.stencil.func, shadec::renderer::CompareFunc::Equal);
         // It rasterizes the shadow volume x′, the others the object x.
         let drawn = |p: &shadec::pipeline::Pass| {
             plan.values.iter().find(|v| Some(v.id) == p.vertex.position).map(|v| v.op.clone())
         };
         assert!(drawn(&plan.passes[0]).is_some() && drawn(&plan.passes[1]).is_some());
-        assert_eq!(drawn(&plan.passes[0]), drawn(&plan.passes[2]));
+        assert_eq!(drawn(&plan.passes[0]), drawn(&plan.passes[3]));
+        assert_eq!(drawn(&plan.passes[1]), drawn(&plan.passes[2]));
         assert_ne!(drawn(&plan.passes[1]), drawn(&plan.passes[0]), "{:?}", drawn(&plan.passes[1]));
     }
 }

@@ -57,6 +57,8 @@ mod render_batch;
 mod render_combiners;
 mod render_plan;
 mod roundtrip;
+mod shadow_volumes;
+mod signed_textures;
 mod specialize_lights;
 mod texture_shaders;
 mod three_way;

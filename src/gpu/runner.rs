@@ -1547,9 +1547,11 @@ fn stencil_state(stencil: &StencilState) -> wgpu::StencilState {
         depth_fail_op: op(stencil.depth_fail),
         pass_op: op(stencil.pass),
     };
+    // Two-sided stencil: the back face's own pass operation.
+    let back = wgpu::StencilFaceState { pass_op: op(stencil.back_pass.unwrap_or(stencil.pass)), ..face };
     wgpu::StencilState {
         front: face,
-        back: face,
+        back,
         read_mask: u32::from(stencil.read_mask),
         write_mask: u32::from(stencil.write_mask),
     }

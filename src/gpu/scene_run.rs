@@ -290,7 +290,14 @@ impl<'a> ScenePlan<'a> {
                 ));
                 continue;
             }
-            for object in &objects {
+            // A stencil update over `x′`: the scene's shadow volumes.
+            let volume = crate::planner::shadow_volumes::for_pass(self.scene, self.assets, m, pass)
+                .map_err(SceneRunError::Unsupported)?;
+            let volumes: Vec<BoundObject> = volume
+                .iter()
+                .map(|v| crate::scene::shadow_volume::bind_volume(self.scene, self.assets, v, aspect))
+                .collect();
+            for object in if volume.is_some() { &volumes } else { &objects } {
                 let mut ev = ir::eval::Evaluator::new(m, leaves, crate::numerics::Precision::Exact);
                 let mut floats = Vec::with_capacity(object.n_vertices() * 4 * leaves.len());
                 for v in 0..object.n_vertices() {

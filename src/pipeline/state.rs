@@ -131,6 +131,11 @@ pub struct StencilState {
     pub depth_fail: StencilOp,
     /// Both passed.
     pub pass: StencilOp,
+    /// Both passed, on a back face, where it differs from `pass` (two-sided
+    /// stencil: EXT_stencil_two_side, WebGPU's per-face state; a shadow
+    /// volume counted by facing in one pass). `None`: both faces `pass`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub back_pass: Option<StencilOp>,
 }
 
 impl StencilState {
@@ -143,6 +148,7 @@ impl StencilState {
         fail: StencilOp::Keep,
         depth_fail: StencilOp::Keep,
         pass: StencilOp::Keep,
+        back_pass: None,
     };
 
     #[inline]

@@ -28,6 +28,7 @@ pub mod fit;
 pub mod lights;
 pub mod realize;
 pub mod relevance;
+pub mod shadow_volumes;
 pub mod specialize;
 pub mod split;
 
@@ -374,6 +375,7 @@ fn plan_as_written(
     };
     let (chosen, mut diags) = choose(&mut m, profile, request.search, &mut fits, &prepared);
     diags.extend(reused_projection(&m));
+    diags.extend(crate::planner::shadow_volumes::unbound_uses(&m));
     if !diags.is_empty() {
         return Err(diags);
     }
@@ -387,7 +389,8 @@ fn plan_as_written(
         })
         .collect();
     let ctx = AssembleCtx { profile, realizer: request.realizer, texgen: &texgen, at: &at };
-    let (plan, stages) = assemble(&m, &ctx, &chosen, prepared);
+    let (mut plan, stages) = assemble(&m, &ctx, &chosen, prepared);
+    crate::planner::shadow_volumes::count_by_facing(&m, &mut plan.passes, profile.two_sided_stencil);
     // A pass the target cannot run is refused here, never planned.
     let mut refused = Vec::new();
     let stages: Vec<_> = stages

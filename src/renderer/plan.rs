@@ -355,7 +355,22 @@ impl<'a> PlanRenderer<'a> {
                 )
                 .map_err(|e| e.in_pass(index))?;
                 let target = targets.get_mut(&name).ok_or_else(|| lost(&name))?;
-                self.draw_layer(pass, &pi, &objects, &stage, target, &mut draws)?;
+                // A stencil update over `x′`: the scene's shadow volumes.
+                let volume = crate::planner::shadow_volumes::for_pass(self.scene, self.assets, m, pass)
+                    .map_err(RenderError::Unsupported)?;
+                let volumes: Vec<BoundObject> = volume
+                    .iter()
+                    .map(|v| {
+                        crate::scene::shadow_volume::bind_volume(
+                            self.scene,
+                            self.assets,
+                            v,
+                            width as f32 / height as f32,
+                        )
+                    })
+                    .collect();
+                let drawn = if volume.is_some() { &volumes[..] } else { &objects[..] };
+                self.draw_layer(pass, &pi, drawn, &stage, target, &mut draws)?;
                 nonfinite += stage.nonfinite.load(Ordering::Relaxed);
                 match &pass.target {
                     RenderTarget::Framebuffer { .. } => last_fb = Some(name.clone()),

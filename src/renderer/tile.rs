@@ -239,7 +239,9 @@ fn raster_tile_stencil(
                     stencil.update(&mut tile.stencil[idx], stencil.depth_fail);
                 }
             } else if shade(&mut color, &mut stats) == FragmentResult::Keep {
-                stencil.update(&mut tile.stencil[idx], stencil.pass);
+                let op =
+                    if tri.front_facing { stencil.pass } else { stencil.back_pass.unwrap_or(stencil.pass) };
+                stencil.update(&mut tile.stencil[idx], op);
                 if depth.write {
                     tile.depth[idx] = z;
                 }

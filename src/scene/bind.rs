@@ -494,13 +494,23 @@ fn normal_map_texture(
     Ok(Texture::Flat(t))
 }
 
-/// `bumps(cells)`: a dimpled normal map, expanded in a signed format.
+/// `bumps(cells)`: a dimpled normal map, expanded in a signed format:
+/// `signed8` at 8 bits (Kilgard's bytes), `signed16` at 16 (k/32767, as the texture
+/// shader's signed HILO16 stored it), unquantized for the exact reference.
 fn bumps_texture(d: &TextureDecl, cells: u32, quality: TextureQuality) -> Texture {
-    let nf = if quality == TextureQuality::Exact { NormalMapFormat::F32 } else { NormalMapFormat::Rgba8 };
+    let sixteen = d.format == Some(TextureFormat::Signed16);
+    let nf = if quality == TextureQuality::Exact || sixteen {
+        NormalMapFormat::F32
+    } else {
+        NormalMapFormat::Rgba8
+    };
     let mut t = generators::normal_map(&HeightField::dimples(256, cells), 4.0, nf);
     if is_signed(d.format) {
         for level in t.levels.iter_mut() {
             expand_rgb(&mut level.texels);
+            if sixteen && quality == TextureQuality::Stored {
+                level.texels.iter_mut().for_each(|t| *t = t.map(crate::textures::sampling::signed16));
+            }
         }
         t.format = if nf == NormalMapFormat::F32 { TexelFormat::F32 } else { TexelFormat::Signed8 };
     }

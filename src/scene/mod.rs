@@ -19,6 +19,7 @@ pub mod cube_image;
 pub mod light;
 pub mod mesh;
 pub mod relevance;
+pub mod shadow_volume;
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

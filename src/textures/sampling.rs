@@ -36,6 +36,16 @@ impl TexelFormat {
     }
 }
 
+/// The nearest signed 16-bit normalized value, k/32767 with k ∈
+/// −32767..=32767 (NV_texture_shader's signed HILO16 channels): a `signed16`
+/// texture's stored texel. Its `TexelFormat` is `F32` (filtered in float,
+/// uploaded at 16 bits).
+#[inline]
+pub fn signed16(v: f32) -> f32 {
+    let v = if v.is_nan() { 0.0 } else { v };
+    (v.clamp(-1.0, 1.0) * 32767.0).round() / 32767.0
+}
+
 /// How coordinates outside [0, 1] are treated.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Wrap {
