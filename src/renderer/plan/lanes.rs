@@ -12,18 +12,22 @@
 //! interpreter does.
 //!
 //! Why this shape, measured (BENCHMARKS.md, "An executor that is not an
-//! interpreter"): on one pass (Kilgard's torus, wgsl plan, 1024²) the same
-//! lane kernels dispatched by a `match` per op and per batch and compiled
-//! into boxed closures specialised per op ([`Dispatch::Closures`], the
-//! closure-compilation stand-in for a JIT) differ by less than the noise of
-//! the machine: with 32 lanes a dispatch costs one indirect branch per op
-//! per 32 fragments, so what a JIT would save over kernels is the loads and
-//! stores between ops, while the time is in the per-lane work the kernels
-//! do not cover (texture sampling) and in the rasterizer. A Cranelift JIT
-//! would add some twenty crates and a code generator to maintain for that.
-//! No SIMD crate either: the loops vectorise as written (the `wide` or
-//! `pulp` types would give the same instructions), and the one run-time
-//! choice (AVX2 or not) is a `#[target_feature]` function.
+//! interpreter"): on one pass (Kilgard's torus, wgsl plan) the
+//! same lane kernels dispatched by a `match` per op and per batch
+//! ([`Dispatch::Kernels`]) and compiled into boxed closures specialised per
+//! op ([`Dispatch::Closures`], the closure-compilation stand-in for a JIT)
+//! were both 1.4-2.0× faster than the batch interpreter; between them a
+//! heavily loaded machine did not decide (kernels ahead in one run,
+//! closures in three, by 11-27 %), so the default stays the kernels until
+//! a quiet machine does. With 32 lanes a dispatch costs one indirect
+//! branch per op per batch, so what a JIT (Cranelift) would add over
+//! either is keeping values in registers between ops; the time left is in
+//! the per-lane texture sampling and in the rasterizer and blending, which
+//! a JIT of the fragment program does not touch, and Cranelift would bring
+//! some twenty crates and a code generator to maintain. It was not built.
+//! No SIMD crate either: the fixed-length loops vectorise as written (the
+//! `wide` or `pulp` types would give the same instructions), and the one
+//! run-time choice, AVX2 or not, is a `#[target_feature]` function.
 //!
 //! Precision: every op computes in `f32` (the interpreter computed in `f64`
 //! and rounded each step to `f32`), and `x^k` with a constant integer `k`
@@ -32,7 +36,7 @@
 //! executor with stated tolerances (`tests/render_batch.rs`).
 
 use std::cell::RefCell;
-use std::sync::atomic::{AtomicU8, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicU8, Ordering};
 
 use super::{uv_derivatives, FragmentProgram, Kernel, Leaf, RegisterOp, Source, Step};
 use crate::ir::Ty;
@@ -45,7 +49,7 @@ use crate::textures::{unit, Texture};
 /// chose the default; both compute the same values).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Dispatch {
-    /// A `match` per op per batch over the [`Op`] list (the default).
+    /// A `match` per op per batch over the compiled op list (the default).
     Kernels,
     /// Each op compiled into a boxed closure, called in order.
     Closures,
@@ -60,6 +64,10 @@ pub(super) fn enabled() -> bool {
 }
 
 static DISPATCH: AtomicU8 = AtomicU8::new(0);
+
+/// Numbers compiled programs, so that a thread's registers know whose
+/// constants they hold ([`FragmentProgram::shade_compiled`]).
+static PROGRAMS: AtomicU64 = AtomicU64::new(1);
 
 /// Chooses the dispatch of the `f32` lane executor for programs compiled
 /// from now on (a benchmark's switch; the default is [`Dispatch::Kernels`]).
@@ -134,9 +142,11 @@ type Closure = Box<dyn Fn(&mut [f32], &[f32], usize, usize, &mut [bool; BATCH]) 
 pub(in crate::renderer) struct LaneProgram {
     ops: Vec<Op>,
     closures: Option<Vec<Closure>>,
-    /// Uniform and constant slots, splatted once per batch.
+    /// Uniform and constant slots, splatted into a thread's registers
+    /// when it shades a batch of another program than its last.
     splats: Vec<(u32, [f32; 4])>,
     n_slots: usize,
+    id: u64,
 }
 
 impl LaneProgram {
@@ -163,7 +173,13 @@ impl LaneProgram {
         }
         let closures = (DISPATCH.load(Ordering::Relaxed) == Dispatch::Closures as u8)
             .then(|| ops.iter().map(closure).collect());
-        LaneProgram { ops, closures, splats, n_slots: p.n_slots }
+        LaneProgram {
+            ops,
+            closures,
+            splats,
+            n_slots: p.n_slots,
+            id: PROGRAMS.fetch_add(1, Ordering::Relaxed),
+        }
     }
 }
 
@@ -273,7 +289,8 @@ fn integer_exponent(m: &ir::Module, rhs: ir::Handle<Expr>) -> Option<u32> {
 }
 
 thread_local! {
-    static REGISTERS: RefCell<Vec<f32>> = const { RefCell::new(Vec::new()) };
+    /// A thread's registers, and the program whose constants they hold.
+    static REGISTERS: RefCell<(Vec<f32>, u64)> = const { RefCell::new((Vec::new(), 0)) };
 }
 
 type Lanes = [f32; BATCH];
@@ -294,15 +311,19 @@ impl FragmentProgram<'_> {
         results: &mut [FragmentResult],
     ) {
         REGISTERS.with(|cell| {
-            let mut r = cell.borrow_mut();
+            let (r, holds) = &mut *cell.borrow_mut();
             if r.len() < lp.n_slots * 4 * BATCH {
                 r.resize(lp.n_slots * 4 * BATCH, 0.0);
             }
             let r = &mut r[..lp.n_slots * 4 * BATCH];
-            for &(s, v) in &lp.splats {
-                for (c, x) in v.into_iter().enumerate() {
-                    r[(s as usize * 4 + c) * BATCH..][..BATCH].fill(x);
+            // No op writes a constant's slot: they stay from the last batch.
+            if *holds != lp.id {
+                for &(s, v) in &lp.splats {
+                    for (c, x) in v.into_iter().enumerate() {
+                        r[(s as usize * 4 + c) * BATCH..][..BATCH].fill(x);
+                    }
                 }
+                *holds = lp.id;
             }
             let mut discard = [false; BATCH];
             run(self, lp, r, fragments, varyings, &mut discard);
@@ -450,13 +471,14 @@ fn closure(op: &Op) -> Closure {
     macro_rules! bin {
         ($f:expr) => {{
             let Op::Lanes { dst, ops, width, .. } = op else { unreachable!() };
-            Box::new(move |r: &mut [f32], _: &[f32], _: usize, _: usize, _: &mut [bool; BATCH]| {
+            Box::new(move |r: &mut [f32], _: &[f32], _: usize, n: usize, _: &mut [bool; BATCH]| {
+                let nn = ((n + 7) & !7).min(BATCH);
                 let (lo, hi) = r.split_at_mut(dst as usize * 4 * BATCH);
                 let out = &mut hi[..4 * BATCH];
                 for c in 0..width.max(1) as usize {
                     let (a, b) = (lanes(lo, ops[0], c), lanes(lo, ops[1], c));
                     let o: &mut Lanes = (&mut out[c * BATCH..][..BATCH]).try_into().expect("lanes");
-                    for i in 0..BATCH {
+                    for i in 0..nn {
                         o[i] = $f(a[i], b[i]);
                     }
                 }
@@ -490,10 +512,12 @@ fn canonical(out: &mut [f32], width: u8) {
     }
 }
 
-/// One op over all the lanes (`n`: the lanes in use, for the varyings).
+/// One op over the lanes in use (`n`), in vectors of 8.
 #[inline(always)]
 fn exec(op: Op, r: &mut [f32], varyings: &[f32], per: usize, n: usize, discard: &mut [bool; BATCH]) {
     let Op::Lanes { k, dst, ops, width } = op else { return };
+    // The lanes in use, rounded up to a vector of 8.
+    let nn = ((n + 7) & !7).min(BATCH);
     let (lo, hi) = r.split_at_mut(dst as usize * 4 * BATCH);
     let out = &mut hi[..4 * BATCH];
     // Components computed: a width-1 result only its first (then splatted).
@@ -505,7 +529,7 @@ fn exec(op: Op, r: &mut [f32], varyings: &[f32], per: usize, n: usize, discard: 
         (|$c:ident, $i:ident| $e:expr) => {
             for $c in 0..comps {
                 let o: &mut Lanes = (&mut out[$c * BATCH..][..BATCH]).try_into().expect("lanes");
-                for $i in 0..BATCH {
+                for $i in 0..nn {
                     o[$i] = $e;
                 }
             }
@@ -541,11 +565,11 @@ fn exec(op: Op, r: &mut [f32], varyings: &[f32], per: usize, n: usize, discard: 
         }
         K::Dot(w) => {
             let o: &mut Lanes = (&mut out[..BATCH]).try_into().expect("lanes");
-            for i in 0..BATCH {
+            for i in 0..nn {
                 o[i] = a(0)[i] * b(0)[i];
             }
             for c in 1..w as usize {
-                for i in 0..BATCH {
+                for i in 0..nn {
                     o[i] += a(c)[i] * b(c)[i];
                 }
             }
@@ -554,7 +578,7 @@ fn exec(op: Op, r: &mut [f32], varyings: &[f32], per: usize, n: usize, discard: 
         }
         K::Length(w) => {
             let o: &mut Lanes = (&mut out[..BATCH]).try_into().expect("lanes");
-            length(o, |c| a(c), w);
+            length(o, |c| a(c), w, nn);
             for x in o.iter_mut() {
                 *x = x.sqrt();
             }
@@ -562,14 +586,14 @@ fn exec(op: Op, r: &mut [f32], varyings: &[f32], per: usize, n: usize, discard: 
         }
         K::Normalize(w) => {
             let mut len = [0.0f32; BATCH];
-            length(&mut len, |c| a(c), w);
+            length(&mut len, |c| a(c), w, nn);
             for x in len.iter_mut() {
                 *x = x.sqrt();
             }
             for c in 0..4 {
                 let x = a(c);
                 let o: &mut Lanes = (&mut out[c * BATCH..][..BATCH]).try_into().expect("lanes");
-                for i in 0..BATCH {
+                for i in 0..nn {
                     o[i] = if len[i] == 0.0 { 0.0 } else { x[i] / len[i] };
                 }
             }
@@ -578,7 +602,7 @@ fn exec(op: Op, r: &mut [f32], varyings: &[f32], per: usize, n: usize, discard: 
             for c in 0..comps {
                 let o: &mut Lanes = (&mut out[c * BATCH..][..BATCH]).try_into().expect("lanes");
                 let x = a(c);
-                for i in 0..BATCH {
+                for i in 0..nn {
                     o[i] = ir::power_by_squaring(x[i], e, |p, q| p * q);
                 }
             }
@@ -587,7 +611,7 @@ fn exec(op: Op, r: &mut [f32], varyings: &[f32], per: usize, n: usize, discard: 
         K::Cmp(op) => {
             let (x, y) = (a(0), b(0));
             let o: &mut Lanes = (&mut out[..BATCH]).try_into().expect("lanes");
-            for i in 0..BATCH {
+            for i in 0..nn {
                 let t = match op {
                     BinaryOp::Lt => x[i] < y[i],
                     BinaryOp::Le => x[i] <= y[i],
@@ -605,7 +629,7 @@ fn exec(op: Op, r: &mut [f32], varyings: &[f32], per: usize, n: usize, discard: 
         K::Not => {
             let x = a(0);
             let o: &mut Lanes = (&mut out[..BATCH]).try_into().expect("lanes");
-            for i in 0..BATCH {
+            for i in 0..nn {
                 o[i] = (x[i] == 0.0) as u8 as f32;
             }
             return splat_first(out, width);
@@ -615,7 +639,7 @@ fn exec(op: Op, r: &mut [f32], varyings: &[f32], per: usize, n: usize, discard: 
             for c in 0..comps {
                 let (x, y) = (b(c), if with_reject { cc(c) } else { b(c) });
                 let o: &mut Lanes = (&mut out[c * BATCH..][..BATCH]).try_into().expect("lanes");
-                for i in 0..BATCH {
+                for i in 0..nn {
                     o[i] = if cond[i] != 0.0 { x[i] } else { y[i] };
                 }
             }
@@ -656,14 +680,14 @@ fn exec(op: Op, r: &mut [f32], varyings: &[f32], per: usize, n: usize, discard: 
 
 /// The sum of squares of `a`'s first `w` components, into `o`.
 #[inline(always)]
-fn length<'x>(o: &mut Lanes, a: impl Fn(usize) -> &'x Lanes, w: u8) {
+fn length<'x>(o: &mut Lanes, a: impl Fn(usize) -> &'x Lanes, w: u8, nn: usize) {
     let x = a(0);
-    for i in 0..BATCH {
+    for i in 0..nn {
         o[i] = x[i] * x[i];
     }
     for c in 1..w as usize {
         let x = a(c);
-        for i in 0..BATCH {
+        for i in 0..nn {
             o[i] += x[i] * x[i];
         }
     }
