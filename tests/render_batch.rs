@@ -45,7 +45,11 @@ pub const LANE_OUTLIERS: f64 = 0.005;
 pub fn close_frames(a: &Frame, b: &Frame) -> Result<(), String> {
     let (pa, pb) = (a.image.to_rgba_f32(), b.image.to_rgba_f32());
     let off = |x: &[f32; 4], y: &[f32; 4]| {
-        x.iter().zip(y).any(|(p, q)| !(p.is_nan() && q.is_nan()) && !((p - q).abs() <= LANE_TOLERANCE))
+        x.iter().zip(y).any(|(p, q)| {
+            let both_nan = p.is_nan() && q.is_nan();
+            let close = (p - q).abs() <= LANE_TOLERANCE;
+            !both_nan && !close
+        })
     };
     let outliers = pa.iter().zip(&pb).filter(|(x, y)| off(x, y)).count();
     let allowed = (LANE_OUTLIERS * pa.len() as f64).floor() as usize;

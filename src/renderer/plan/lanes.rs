@@ -513,6 +513,8 @@ fn canonical(out: &mut [f32], width: u8) {
 }
 
 /// One op over the lanes in use (`n`), in vectors of 8.
+// Indexed loops over several lane arrays at once are the form that vectorises.
+#[allow(clippy::needless_range_loop)]
 #[inline(always)]
 fn exec(op: Op, r: &mut [f32], varyings: &[f32], per: usize, n: usize, discard: &mut [bool; BATCH]) {
     let Op::Lanes { k, dst, ops, width } = op else { return };
