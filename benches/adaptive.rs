@@ -34,7 +34,8 @@ fn load(name: &str, cull: Option<f32>) -> (Scene, LitScene) {
 
 fn median_ms(mut f: impl FnMut()) -> f64 {
     f();
-    let mut t: Vec<f64> = (0..RUNS)
+    let runs = std::env::var("SHADEC_BENCH_RUNS").ok().and_then(|v| v.parse().ok()).unwrap_or(RUNS).max(1);
+    let mut t: Vec<f64> = (0..runs)
         .map(|_| {
             let s = Instant::now();
             f();
@@ -42,7 +43,7 @@ fn median_ms(mut f: impl FnMut()) -> f64 {
         })
         .collect();
     t.sort_by(|a, b| a.partial_cmp(b).unwrap());
-    t[RUNS / 2]
+    t[runs / 2]
 }
 
 fn table() -> String {
@@ -184,7 +185,60 @@ fn criterion_plan_sphere(c: &mut Criterion) {
 
 criterion_group!(benches, criterion_sphere, criterion_plan_sphere);
 
+/// Issue 37: the plan sphere end to end at 512² and 1024² (or
+/// `SHADEC_BENCH_SIZES`), full against adaptive shading (8.5 %, spacing 16)
+/// in the same run, plain timer (median of `SHADEC_BENCH_RUNS`, default 7,
+/// after one warm-up), with the error of the adaptive frame against the
+/// full one. `SHADEC_BENCH_PLAN_ONLY=1` prints only this table.
+fn plan_sphere_table() {
+    use shadec::driver::{compile, ForScene, PlanOptions};
+    use shadec::numerics::Precision;
+    use shadec::renderer::plan::{compare, PlanRenderer};
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene = Scene::load(&root.join("scenes/adaptive_sphere_4lights.ron")).unwrap();
+    let assets = scene.build().unwrap();
+    let source = std::fs::read_to_string(root.join("tests/data/lights/phong_lights.shd")).unwrap();
+    let profile = shadec::profile::Profile::builtin("wgsl").unwrap();
+    let options = PlanOptions { scene: Some(ForScene::specialized(&scene, &assets)), ..Default::default() };
+    let compiled = compile(&source, &profile, &options).unwrap();
+    let renderer = PlanRenderer::new(&compiled.planned, &compiled.program, &scene, &assets).unwrap();
+    let sizes: Vec<u32> = std::env::var("SHADEC_BENCH_SIZES")
+        .unwrap_or_else(|_| "512,1024".into())
+        .split(',')
+        .filter_map(|s| s.trim().parse().ok())
+        .collect();
+    let settings = AdaptiveSettings::new(16, 0.085, EdgeMode::Pass);
+    println!(
+        "plan sphere (phong_lights.shd, wgsl plan, 4 passes, f32), {} threads",
+        rayon::current_num_threads()
+    );
+    println!("| size | full ms | adaptive ms | speed-up | shaded % | PSNR dB | max abs |");
+    println!("|---|---|---|---|---|---|---|");
+    for side in sizes {
+        let full = renderer.render(Precision::F32, side, side, &mut |_, _| {}).unwrap();
+        let adaptive =
+            renderer.render_adaptive(Precision::F32, side, side, &settings, &mut |_, _| {}).unwrap();
+        let full_ms =
+            median_ms(|| drop(renderer.render(Precision::F32, side, side, &mut |_, _| {}).unwrap()));
+        let adaptive_ms = median_ms(|| {
+            drop(renderer.render_adaptive(Precision::F32, side, side, &settings, &mut |_, _| {}).unwrap())
+        });
+        let e = compare(&full.image, &adaptive.image);
+        let shaded = adaptive.adaptive.map_or(f64::NAN, |s| 100.0 * s.fraction_shaded());
+        println!(
+            "| {side}² | {full_ms:.1} | {adaptive_ms:.1} | {:.2}× | {shaded:.2} | {:.1} | {:.4} |",
+            full_ms / adaptive_ms,
+            e.psnr,
+            e.max_abs
+        );
+    }
+}
+
 fn main() {
+    plan_sphere_table();
+    if std::env::var("SHADEC_BENCH_PLAN_ONLY").is_ok_and(|v| v == "1") {
+        return;
+    }
     let md = table();
     print!("{md}");
     std::fs::write(Path::new(env!("CARGO_MANIFEST_DIR")).join("BENCHMARKS-adaptive.md"), md).unwrap();

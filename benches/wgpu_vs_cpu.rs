@@ -1,16 +1,21 @@
-//! The CPU executor against its peer (issue 22 item 2): frame time of
-//! Kilgard's bump-mapped torus (`scenes/kilgard_torus.ron`, the wgsl plan:
-//! one pass) at `SHADEC_BENCH_SIZE` (default 1024)² — wgpu on whatever
-//! adapter wgpu picks (lavapipe where there is no GPU) in exact and hardware
-//! fidelity, against the CPU plan renderer in f32 and fixed9, batched (the
-//! default) and one fragment at a time (the executor before it), with one
-//! thread and all; then the geforce256 plan (3 passes, fixed9 runs the
-//! generated combiner setups in the emulator). A plain timer (median of
-//! `SHADEC_BENCH_RUNS`, default 9, after 2 warm-up frames), all in one run,
-//! printed as the table of BENCHMARKS.md. `cargo bench --bench wgpu_vs_cpu`;
-//! `SHADEC_BENCH_MODES=fixed9` (or `f32`) runs only that mode's CPU rows
-//! `SHADEC_BENCH_PEER=0` skips wgpu, `SHADEC_BENCH_BATCHED=1` the
-//! one-at-a-time executor (for a profiler).
+//! The CPU executor against its peer (issue 22 item 2, issue 37): frame
+//! time of Kilgard's bump-mapped torus (`scenes/kilgard_torus.ron`, the
+//! wgsl plan: one pass) at each size of `SHADEC_BENCH_SIZES` (default
+//! `1024,2048`) — wgpu on whatever adapter wgpu picks (lavapipe where there
+//! is no GPU) in exact and hardware fidelity, against the CPU plan renderer
+//! in the same run: f32 through the three lane dispatches (the compiled
+//! lane kernels, the default; the same kernels compiled into closures; the
+//! batch interpreter before them), fixed9 batched; then the share of the
+//! rasterizer (the same scene with a fragment stage that only adds two
+//! interpolated vectors). A plain timer (median of `SHADEC_BENCH_RUNS`,
+//! default 9, after 2 warm-up frames), printed as the table of
+//! BENCHMARKS.md, with the ratio CPU / wgpu of each row.
+//!
+//! Threads: the CPU renderer runs on rayon's pool, lavapipe on its own
+//! (`LP_NUM_THREADS`). For one thread on both sides run
+//! `LP_NUM_THREADS=1 RAYON_NUM_THREADS=1 cargo bench --bench wgpu_vs_cpu`.
+//! `SHADEC_BENCH_PEER=0` skips wgpu, `SHADEC_BENCH_MODES=f32` (or
+//! `fixed9`) runs only that mode's CPU rows.
 
 #[path = "common/timing.rs"]
 mod timing;
@@ -21,7 +26,7 @@ use std::time::Duration;
 use shadec::gpu::runner::Gpu;
 use shadec::gpu::scene_run::ScenePlan;
 use shadec::numerics::Precision;
-use shadec::renderer::plan::PlanRenderer;
+use shadec::renderer::plan::{set_lane_dispatch, LaneDispatch, PlanRenderer};
 use shadec::scene::Scene;
 
 fn median(f: impl FnMut()) -> Duration {
@@ -34,80 +39,90 @@ fn ms(d: Duration) -> f64 {
 
 const SOURCE: &str = include_str!("../examples/kilgard_bump_mapping.shd");
 const SCENE: &str = include_str!("../scenes/kilgard_torus.ron");
+/// The rasterizer's share: Kilgard's two interpolated tangent-space
+/// vectors added, no texture, one pass.
+const RASTER_ONLY: &str = "target wgsl;
+vector L : light(0) in tangent;
+vector H : half(0) in tangent;
+framebuffer C : rgba8, depth;
+C δπx ← rgba(saturate((δ L s x) + (δ H s x)), 1);
+";
 
 fn main() {
-    let side: u32 = std::env::var("SHADEC_BENCH_SIZE").ok().and_then(|v| v.parse().ok()).unwrap_or(1024);
+    let sizes: Vec<u32> = std::env::var("SHADEC_BENCH_SIZES")
+        .unwrap_or_else(|_| "1024,2048".into())
+        .split(',')
+        .filter_map(|s| s.trim().parse().ok())
+        .collect();
     let scene = Scene::parse(SCENE, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap();
     let assets = scene.build().unwrap();
     let (program, _) = shadec::parser::check(SOURCE);
-    let plan_for = |target: &str| {
-        let profile = shadec::profile::Profile::resolve(target).unwrap();
-        shadec::driver::compile(SOURCE, &profile, &Default::default()).map(|c| c.planned).unwrap()
+    let (raster_program, _) = shadec::parser::check(RASTER_ONLY);
+    let plan_for = |source: &str| {
+        let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
+        shadec::driver::compile(source, &profile, &Default::default()).map(|c| c.planned).unwrap()
     };
-    let wgsl = plan_for("wgsl");
-    let geforce256 = plan_for("geforce256");
-    let all = rayon::current_num_threads();
-    let one = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
-
+    let wgsl = plan_for(SOURCE);
+    let raster_only = plan_for(RASTER_ONLY);
     let modes: Vec<Precision> = match std::env::var("SHADEC_BENCH_MODES") {
         Ok(list) => {
             [Precision::F32, Precision::Fixed9].into_iter().filter(|m| list.contains(m.name())).collect()
         }
         Err(_) => vec![Precision::F32, Precision::Fixed9],
     };
-    let only_batched = std::env::var("SHADEC_BENCH_BATCHED").is_ok_and(|v| v == "1");
     let gpu = match std::env::var("SHADEC_BENCH_PEER").as_deref() {
         Ok("0") => Err("SHADEC_BENCH_PEER=0".to_string()),
         _ => Gpu::new().map_err(|e| e.to_string()),
     };
-    let peers = match gpu {
-        Ok(gpu) => {
-            let frame = |mode| {
-                let plan = ScenePlan::new(&wgsl, &program, Some(SOURCE), mode, &scene, &assets).unwrap();
-                median(|| drop(plan.render(&gpu, side, side).unwrap()))
-            };
-            println!("adapter: {gpu}");
-            Some([frame(Precision::F32), frame(Precision::Fixed9)])
-        }
-        Err(e) => {
-            println!("no GPU adapter ({e}): no peer to compare with");
-            None
-        }
-    };
-
-    println!(
-        "Kilgard torus at {side}×{side}, median whole frame; the peer: the wgsl plan on wgpu (f32: exact fidelity, fixed9: hardware fidelity)"
-    );
-    println!(
-        "| plan | mode | executor | 1 thread: ms | {all} threads: ms | speed-up | {all} threads / wgpu |"
-    );
-    println!("|---|---|---|---|---|---|---|");
-    if let Some([f, h]) = peers {
-        println!("| wgsl (1 pass) | f32 | wgpu | | {:.1} | | 1.00× |", ms(f));
-        println!("| wgsl (1 pass) | fixed9 | wgpu | | {:.1} | | 1.00× |", ms(h));
+    match &gpu {
+        Ok(gpu) => println!("adapter: {gpu}, LP_NUM_THREADS={:?}", std::env::var("LP_NUM_THREADS").ok()),
+        Err(e) => println!("no GPU adapter ({e}): no peer to compare with"),
     }
-    for (name, planned) in [("wgsl (1 pass)", &wgsl), ("geforce256 (3 passes)", &geforce256)] {
-        let mut cpu = PlanRenderer::new(planned, &program, &scene, &assets).unwrap();
-        for &mode in &modes {
-            for batched in [false, true].into_iter().filter(|&b| b || !only_batched) {
-                cpu.set_batched(batched);
-                let frame = || drop(cpu.render(mode, side, side, &mut |_, _| {}).unwrap());
-                let t1 = one.install(|| median(frame));
-                let tn = median(frame);
-                let peer = match (peers, mode, planned.plan.passes.len()) {
-                    (Some([f, _]), Precision::F32, 1) => format!("{:.2}×", ms(tn) / ms(f)),
-                    (Some([_, h]), Precision::Fixed9, 1) => format!("{:.2}×", ms(tn) / ms(h)),
-                    _ => String::new(),
-                };
-                println!(
-                    "| {name} | {} | CPU, {} | {:.1} | {:.1} | {:.2}× | {peer} |",
-                    mode.name(),
-                    if batched { "batched" } else { "one fragment at a time" },
-                    ms(t1),
-                    ms(tn),
-                    ms(t1) / ms(tn),
-                );
+    let threads = rayon::current_num_threads();
+    println!("Kilgard torus, wgsl plan (1 pass), median whole frame, CPU on {threads} rayon threads");
+    println!("| size | mode | executor | ms | CPU / wgpu |");
+    println!("|---|---|---|---|---|");
+    for side in sizes {
+        let peer = |mode| {
+            let gpu = gpu.as_ref().ok()?;
+            let plan = ScenePlan::new(&wgsl, &program, Some(SOURCE), mode, &scene, &assets).unwrap();
+            Some(median(|| drop(plan.render(gpu, side, side).unwrap())))
+        };
+        let peers = [peer(Precision::F32), peer(Precision::Fixed9)];
+        for (mode, p) in [Precision::F32, Precision::Fixed9].into_iter().zip(peers) {
+            if let Some(p) = p {
+                println!("| {side}² | {} | wgpu | {:.1} | 1.00× |", mode.name(), ms(p));
             }
         }
+        let ratio = |t: Duration, mode| match peers[(mode == Precision::Fixed9) as usize] {
+            Some(p) => format!("{:.2}×", ms(t) / ms(p)),
+            None => String::new(),
+        };
+        let frame = |planned, prog, mode| {
+            let cpu = PlanRenderer::new(planned, prog, &scene, &assets).unwrap();
+            median(|| drop(cpu.render(mode, side, side, &mut |_, _| {}).unwrap()))
+        };
+        for &mode in &modes {
+            let dispatches: &[(LaneDispatch, &str)] = match mode {
+                Precision::F32 => &[
+                    (LaneDispatch::Kernels, "CPU, lane kernels"),
+                    (LaneDispatch::Closures, "CPU, lane closures"),
+                    (LaneDispatch::Interpreter, "CPU, batch interpreter"),
+                ],
+                _ => &[(LaneDispatch::Kernels, "CPU, batched (combiner emulator)")],
+            };
+            for &(d, name) in dispatches {
+                set_lane_dispatch(d);
+                let t = frame(&wgsl, &program, mode);
+                println!("| {side}² | {} | {name} | {:.1} | {} |", mode.name(), ms(t), ratio(t, mode));
+            }
+            set_lane_dispatch(LaneDispatch::Kernels);
+        }
+        let t = frame(&raster_only, &raster_program, Precision::F32);
+        println!(
+            "| {side}² | f32 | CPU, rasterizer + interpolation only (two varyings added) | {:.1} | {} |",
+            ms(t),
+            ratio(t, Precision::F32)
+        );
     }
 }

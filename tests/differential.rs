@@ -482,7 +482,13 @@ fn check(source: &str, target: &str, scene: &Scene) -> Result<Outcome, String> {
             renderer.set_batched(batched);
             renderer.render(mode, W, H, &mut |_, _| {}).map_err(|e| format!("plan, {}: {e}", mode.name()))
         };
-        crate::render_batch::same_frames(&frame(true)?, &frame(false)?)
+        // f32 batches run lane code in f32 (issue 37): a stated tolerance.
+        let check = if mode == Precision::F32 {
+            crate::render_batch::close_frames
+        } else {
+            crate::render_batch::same_frames
+        };
+        check(&frame(true)?, &frame(false)?)
             .map_err(|e| format!("batched and one at a time differ in {}: {e}", mode.name()))?;
     }
     let e = compare(&reference.image, &frame.image);

@@ -86,6 +86,8 @@ use crate::textures::{generators, unit, Filter, Level, TexelFormat, Texture, Tex
 use crate::numerics::{fixed9_folded_with, fixed9_quotient, fixed9_with, Precision};
 
 mod batch;
+mod lanes;
+pub use lanes::{set_dispatch as set_lane_dispatch, Dispatch as LaneDispatch};
 
 /// One rendered frame.
 pub struct Frame {
@@ -987,6 +989,8 @@ struct FragmentProgram<'a> {
     latitude: unit::Latitude,
     /// [`PlanRenderer::set_batched`].
     batched: bool,
+    /// The `f32` mode's program compiled into lane code (batched only).
+    lanes: Option<lanes::LaneProgram>,
 }
 
 /// Per texture, the layers of its fat texels a bundle pass rendered (`T`,
@@ -1236,7 +1240,7 @@ impl<'a> FragmentProgram<'a> {
             steps.push(steps_of.step(h, expr, slot, ops, n_ops, leaf));
         }
         let combiners = setup.map(|c| (c.machine, c.registers.map(|h| h.map(|h| slot_of[h.index()]))));
-        Ok(FragmentProgram {
+        let mut program = FragmentProgram {
             module: m,
             mode,
             steps,
@@ -1255,7 +1259,12 @@ impl<'a> FragmentProgram<'a> {
             tie: r.rounding_bias,
             latitude: r.latitude,
             batched: r.batched,
-        })
+            lanes: None,
+        };
+        if mode == Precision::F32 && program.combiners.is_none() && lanes::enabled() {
+            program.lanes = Some(lanes::LaneProgram::compile(&program));
+        }
+        Ok(program)
     }
 
     /// Per texture of the module, what its unit reads in this pass and
@@ -1829,7 +1838,9 @@ impl FragmentStage for FragmentProgram<'_> {
         out: &mut [[f32; 4]],
         results: &mut [FragmentResult],
     ) {
-        if self.batched {
+        if let (true, Some(lp)) = (self.batched, &self.lanes) {
+            self.shade_compiled(lp, fragments, varyings, out, results)
+        } else if self.batched {
             self.shade_lanes(fragments, varyings, out, results)
         } else {
             super::shade_each(self, fragments, varyings, out, results)

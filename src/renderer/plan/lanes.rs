@@ -1,0 +1,703 @@
+//! The `f32` mode's fragment stage compiled once per pass into lane code.
+//!
+//! [`LaneProgram::compile`] turns a pass's [`Step`]s into a list of
+//! [`Op`]s whose operands are resolved register offsets; each op runs over
+//! all [`BATCH`] lanes of a batch (the fragments of one triangle in one
+//! tile) in `f32`, as fixed-length loops over `[f32; BATCH]` that the
+//! compiler turns into SIMD code — 8 lanes a vector on a CPU with AVX2
+//! (the whole batch is compiled a second time with AVX2 and FMA enabled and
+//! chosen at run time, [`run`]), 4 with SSE2. Operations the lanes do not
+//! cover (texture lookups, framebuffer reads, the rarely used functions)
+//! run lane by lane through [`FragmentProgram::step_value`], as the
+//! interpreter does.
+//!
+//! Why this shape, measured (BENCHMARKS.md, "An executor that is not an
+//! interpreter"): on one pass (Kilgard's torus, wgsl plan) the
+//! same lane kernels dispatched by a `match` per op and per batch
+//! ([`Dispatch::Kernels`]) and compiled into boxed closures specialised per
+//! op ([`Dispatch::Closures`], the closure-compilation stand-in for a JIT)
+//! were both 1.4-2.0× faster than the batch interpreter; between them a
+//! heavily loaded machine did not decide (kernels ahead in one run,
+//! closures in three, by 11-27 %), so the default stays the kernels until
+//! a quiet machine does. With 32 lanes a dispatch costs one indirect
+//! branch per op per batch, so what a JIT (Cranelift) would add over
+//! either is keeping values in registers between ops; the time left is in
+//! the per-lane texture sampling and in the rasterizer and blending, which
+//! a JIT of the fragment program does not touch, and Cranelift would bring
+//! some twenty crates and a code generator to maintain. It was not built.
+//! No SIMD crate either: the fixed-length loops vectorise as written (the
+//! `wide` or `pulp` types would give the same instructions), and the one
+//! run-time choice, AVX2 or not, is a `#[target_feature]` function.
+//!
+//! Precision: every op computes in `f32` (the interpreter computed in `f64`
+//! and rounded each step to `f32`), and `x^k` with a constant integer `k`
+//! is `k`'s squarings. The difference is a few ulps per op; images are
+//! checked against the exact reference and against the one-at-a-time `f32`
+//! executor with stated tolerances (`tests/render_batch.rs`).
+
+use std::cell::RefCell;
+use std::sync::atomic::{AtomicU64, AtomicU8, Ordering};
+
+use super::{uv_derivatives, FragmentProgram, Kernel, Leaf, RegisterOp, Source, Step};
+use crate::ir::Ty;
+use crate::ir::{self, BinaryOp, Expr, MathFunction, UnaryOp};
+use crate::parser::ast::CombineMode;
+use crate::renderer::{Fragment, FragmentResult, BATCH};
+use crate::textures::{unit, Texture};
+
+/// How a compiled pass's ops are dispatched (for the measurement that
+/// chose the default; both compute the same values).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Dispatch {
+    /// A `match` per op per batch over the compiled op list (the default).
+    Kernels,
+    /// Each op compiled into a boxed closure, called in order.
+    Closures,
+    /// Not compiled: the batch interpreter of `batch.rs`, which computes
+    /// in `f64` and rounds every step to `f32` (the executor before this one).
+    Interpreter,
+}
+
+/// Whether programs compiled now get lane code ([`Dispatch::Interpreter`] not chosen).
+pub(super) fn enabled() -> bool {
+    DISPATCH.load(Ordering::Relaxed) != Dispatch::Interpreter as u8
+}
+
+static DISPATCH: AtomicU8 = AtomicU8::new(0);
+
+/// Numbers compiled programs, so that a thread's registers know whose
+/// constants they hold ([`FragmentProgram::shade_compiled`]).
+static PROGRAMS: AtomicU64 = AtomicU64::new(1);
+
+/// Chooses the dispatch of the `f32` lane executor for programs compiled
+/// from now on (a benchmark's switch; the default is [`Dispatch::Kernels`]).
+pub fn set_dispatch(d: Dispatch) {
+    DISPATCH.store(d as u8, Ordering::Relaxed);
+}
+
+/// A step's arithmetic over the lanes.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum K {
+    Add,
+    Sub,
+    Mul,
+    Div,
+    Neg,
+    Max,
+    Min,
+    Clamp,
+    Saturate,
+    Expand,
+    Compress,
+    HalfBias,
+    /// `a + b − ½`.
+    AddSigned,
+    Abs,
+    Sqrt,
+    Rsqrt,
+    Floor,
+    Fract,
+    Step,
+    Mix,
+    Same,
+    RgbToRgba,
+    Swizzle([u8; 4], u8),
+    Dot(u8),
+    Normalize(u8),
+    Length(u8),
+    /// `x^k`, `k` a constant integer: `k`'s squarings.
+    PowInt(u32),
+    Pow,
+    Cmp(BinaryOp),
+    Not,
+    /// `c ? a : b`; without `b` a lane whose `c` is 0 is discarded.
+    Select(bool),
+    /// Components concatenated: the operands' widths.
+    Compose([u8; 4]),
+    /// A varying, `k`: varyings 4k..4k+4 of each fragment.
+    Varying(u32),
+}
+
+/// One compiled op: the arithmetic, the destination slot and the operand
+/// slots, and the result's width (1: splat, 2-4: zero above, 0: NaN, as
+/// [`ir::eval::canonical`] makes a value canonical).
+#[derive(Clone, Copy, Debug)]
+enum Op {
+    Lanes {
+        k: K,
+        dst: u32,
+        ops: [u32; 4],
+        width: u8,
+    },
+    /// Step `i` lane by lane through [`FragmentProgram::step_value`].
+    Scalar(u32),
+    /// Step `i`, a lookup of a bound 2D or cube texture, lane by lane
+    /// straight into the texture unit's model in `f32`.
+    Sample(u32),
+}
+
+type Closure = Box<dyn Fn(&mut [f32], &[f32], usize, usize, &mut [bool; BATCH]) + Send + Sync>;
+
+/// A pass's fragment program as lane code ([`LaneProgram::compile`]).
+pub(in crate::renderer) struct LaneProgram {
+    ops: Vec<Op>,
+    closures: Option<Vec<Closure>>,
+    /// Uniform and constant slots, splatted into a thread's registers
+    /// when it shades a batch of another program than its last.
+    splats: Vec<(u32, [f32; 4])>,
+    n_slots: usize,
+    id: u64,
+}
+
+impl LaneProgram {
+    /// Compiles `p` (an `f32` program without combiners).
+    pub(super) fn compile(p: &FragmentProgram) -> LaneProgram {
+        let mut splats: Vec<(u32, [f32; 4])> =
+            p.constants.iter().map(|&(s, v)| (s, v.map(|x| x as f32))).collect();
+        let mut ops = Vec::with_capacity(p.steps.len());
+        for (i, s) in p.steps.iter().enumerate() {
+            if let Some(Leaf::Uniform(v)) = s.leaf {
+                let v = p.stored(s, v);
+                splats.push((s.slot, v.map(|x| x as f32)));
+                continue;
+            }
+            if samples_directly(p, s) {
+                ops.push(Op::Sample(i as u32));
+                continue;
+            }
+            let op = lane_kernel(p, s)
+                .filter(|_| s.ops[..s.n_ops as usize].iter().all(|&o| o < s.slot))
+                .map(|k| Op::Lanes { k, dst: s.slot, ops: s.ops, width: width_of(s.ty) })
+                .unwrap_or(Op::Scalar(i as u32));
+            ops.push(op);
+        }
+        let closures = (DISPATCH.load(Ordering::Relaxed) == Dispatch::Closures as u8)
+            .then(|| ops.iter().map(closure).collect());
+        LaneProgram {
+            ops,
+            closures,
+            splats,
+            n_slots: p.n_slots,
+            id: PROGRAMS.fetch_add(1, Ordering::Relaxed),
+        }
+    }
+}
+
+fn width_of(ty: ir::Ty) -> u8 {
+    match ty.width() {
+        w @ 1..=4 => w as u8,
+        _ => 0,
+    }
+}
+
+/// Whether step `s` is a lookup [`Op::Sample`] takes: a bound texture
+/// sampled through the texture unit's model (2D: its level of detail from a
+/// varying's quad derivatives, or a single level; or a cube map).
+fn samples_directly(p: &FragmentProgram, s: &Step) -> bool {
+    let Some(Leaf::Lookup { texture, coords_ty, lod_from }) = s.leaf else { return false };
+    let Source::Bound { texture: b, exact: None } = &p.sources[texture as usize] else { return false };
+    s.register == RegisterOp::Rounded
+        && !s.raw
+        && s.ops[0] < s.slot
+        && match &b.texture {
+            Texture::Flat(t) => coords_ty != Ty::Position && (lod_from.is_some() || t.levels.len() == 1),
+            Texture::Cube(_) => true,
+            _ => false,
+        }
+}
+
+/// The lane arithmetic of step `s`, if it has one.
+fn lane_kernel(p: &FragmentProgram, s: &Step) -> Option<K> {
+    let m = p.module;
+    if s.register != RegisterOp::Rounded || s.raw {
+        return None;
+    }
+    if let Some(leaf) = s.leaf {
+        return match leaf {
+            Leaf::Varying { k } => Some(K::Varying(k as u32)),
+            _ => None,
+        };
+    }
+    let w = |h: ir::Handle<Expr>| m.info(h).ty.width().min(4) as u8;
+    Some(match s.kernel {
+        Kernel::Add => K::Add,
+        Kernel::Sub => K::Sub,
+        Kernel::Mul => K::Mul,
+        Kernel::Neg => K::Neg,
+        Kernel::Dot(width) => K::Dot(width.min(4) as u8),
+        Kernel::Swizzle(p, len) => K::Swizzle(p, len),
+        Kernel::RgbToRgba => K::RgbToRgba,
+        Kernel::Same => K::Same,
+        Kernel::Max => K::Max,
+        Kernel::Min => K::Min,
+        Kernel::Clamp => K::Clamp,
+        Kernel::Saturate => K::Saturate,
+        Kernel::Expand => K::Expand,
+        Kernel::Compress => K::Compress,
+        Kernel::Mix => K::Mix,
+        Kernel::Normalize(width) => K::Normalize(width.min(4) as u8),
+        Kernel::General => match s.expr {
+            Expr::Binary { op: BinaryOp::Div, .. } => K::Div,
+            Expr::Binary { op: BinaryOp::Pow, rhs, .. } => match integer_exponent(m, *rhs) {
+                Some(k) => K::PowInt(k),
+                None => K::Pow,
+            },
+            Expr::Binary {
+                op:
+                    op @ (BinaryOp::Lt | BinaryOp::Le | BinaryOp::Gt | BinaryOp::Ge | BinaryOp::Eq | BinaryOp::Ne),
+                ..
+            } if p.tie.comparison_ulps == 0.0 => K::Cmp(*op),
+            Expr::Binary { op: op @ (BinaryOp::And | BinaryOp::Or), .. } => K::Cmp(*op),
+            Expr::Unary { op: UnaryOp::Not, .. } => K::Not,
+            // The componentwise texture-environment modes (`ir::eval::combine`).
+            Expr::Combine { mode: CombineMode::Modulate, .. } => K::Mul,
+            Expr::Combine { mode: CombineMode::Add, .. } => K::Add,
+            Expr::Combine { mode: CombineMode::Subtract, .. } => K::Sub,
+            Expr::Combine { mode: CombineMode::AddSigned, .. } => K::AddSigned,
+            Expr::Select { reject, .. } => K::Select(reject.is_some()),
+            Expr::Compose { components, .. } if components.len() <= 4 => {
+                let mut ws = [0u8; 4];
+                for (x, &h) in ws.iter_mut().zip(components) {
+                    *x = w(h);
+                }
+                K::Compose(ws)
+            }
+            Expr::Math { fun, args } => match fun {
+                MathFunction::HalfBias => K::HalfBias,
+                MathFunction::Abs => K::Abs,
+                MathFunction::Sqrt => K::Sqrt,
+                MathFunction::Rsqrt => K::Rsqrt,
+                MathFunction::Floor => K::Floor,
+                MathFunction::Fract => K::Fract,
+                MathFunction::Step => K::Step,
+                MathFunction::Length => K::Length(w(args[0])),
+                _ => return None,
+            },
+            _ => return None,
+        },
+    })
+}
+
+/// `k` where the exponent `rhs` is the constant integer `k` in every
+/// component (1 ≤ k ≤ 256, as [`ir::squaring_exponent`] takes it).
+fn integer_exponent(m: &ir::Module, rhs: ir::Handle<Expr>) -> Option<u32> {
+    let Expr::Constant(c) = &m.exprs[rhs] else { return None };
+    let w = c.ty.width().clamp(1, 4);
+    let k = c.components[0];
+    let same = c.components[..w].iter().all(|&x| x == k);
+    (same && (1.0..=256.0).contains(&k) && k.fract() == 0.0).then_some(k as u32)
+}
+
+thread_local! {
+    /// A thread's registers, and the program whose constants they hold.
+    static REGISTERS: RefCell<(Vec<f32>, u64)> = const { RefCell::new((Vec::new(), 0)) };
+}
+
+type Lanes = [f32; BATCH];
+
+#[inline(always)]
+fn lanes(r: &[f32], slot: u32, c: usize) -> &Lanes {
+    (&r[(slot as usize * 4 + c) * BATCH..][..BATCH]).try_into().expect("BATCH lanes")
+}
+
+impl FragmentProgram<'_> {
+    /// Shades a batch through the compiled lane program `lp`.
+    pub(super) fn shade_compiled(
+        &self,
+        lp: &LaneProgram,
+        fragments: &[Fragment],
+        varyings: &[f32],
+        out: &mut [[f32; 4]],
+        results: &mut [FragmentResult],
+    ) {
+        REGISTERS.with(|cell| {
+            let (r, holds) = &mut *cell.borrow_mut();
+            if r.len() < lp.n_slots * 4 * BATCH {
+                r.resize(lp.n_slots * 4 * BATCH, 0.0);
+            }
+            let r = &mut r[..lp.n_slots * 4 * BATCH];
+            // No op writes a constant's slot: they stay from the last batch.
+            if *holds != lp.id {
+                for &(s, v) in &lp.splats {
+                    for (c, x) in v.into_iter().enumerate() {
+                        r[(s as usize * 4 + c) * BATCH..][..BATCH].fill(x);
+                    }
+                }
+                *holds = lp.id;
+            }
+            let mut discard = [false; BATCH];
+            run(self, lp, r, fragments, varyings, &mut discard);
+            let n = fragments.len();
+            for lane in 0..n {
+                let at = |s: u32, c: usize| r[(s as usize * 4 + c) * BATCH + lane];
+                let dropped = discard[lane] || self.condition.is_some_and(|c| at(c, 0) == 0.0);
+                results[lane] = if dropped { FragmentResult::Discard } else { FragmentResult::Keep };
+                if !dropped {
+                    out[lane] = self.output([0, 1, 2, 3].map(|c| at(self.output, c) as f64));
+                }
+            }
+        })
+    }
+
+    /// Lookup step `i` ([`samples_directly`]) of lanes `0..n` in `f32`:
+    /// the coordinates, the level of detail and the filtered texel as
+    /// [`FragmentProgram::lookup`] computes them, without the `f64` values.
+    fn sample_lanes(&self, i: usize, r: &mut [f32], fragments: &[Fragment], varyings: &[f32], per: usize) {
+        let s = &self.steps[i];
+        let Some(Leaf::Lookup { texture, coords_ty, lod_from }) = s.leaf else { return };
+        let Source::Bound { texture: b, .. } = &self.sources[texture as usize] else { return };
+        let filter = self.filters[texture as usize];
+        let (lo, hi) = r.split_at_mut(s.slot as usize * 4 * BATCH);
+        let c = |k: usize| lanes(lo, s.ops[0], k);
+        let (c0, c1, c2) = (c(0), c(1), c(2));
+        let out = &mut hi[..4 * BATCH];
+        for (lane, fragment) in fragments.iter().enumerate() {
+            let texel = match &b.texture {
+                Texture::Flat(t) => {
+                    let (u, v) = if coords_ty == Ty::Scalar { (c0[lane], 0.5) } else { (c0[lane], c1[lane]) };
+                    let lod = match lod_from {
+                        Some(k) if t.levels.len() > 1 => {
+                            let vary = &varyings[lane * per + 4 * k..lane * per + 4 * k + 4];
+                            let d = |j| fragment.quad_derivatives(4 * k + j, vary[j]);
+                            let (du, dv) = uv_derivatives(coords_ty, vary, d);
+                            unit::quad_lod(t.width(), t.height(), [du[0], dv[0]], [du[1], dv[1]])
+                        }
+                        _ => f32::NEG_INFINITY,
+                    };
+                    unit::sample_2d_with(t, u, v, filter, lod, unit::Arithmetic::Float, self.latitude)
+                }
+                Texture::Cube(t) => {
+                    unit::sample_cube_with(t, [c0[lane], c1[lane], c2[lane]], filter, self.latitude.weights)
+                }
+                _ => [f32::NAN; 4],
+            };
+            let texel = match s.ty.width() {
+                1 => [texel[0]; 4],
+                w @ 2..=3 => std::array::from_fn(|k| if k < w { texel[k] } else { 0.0 }),
+                4 => texel,
+                _ => [f32::NAN; 4],
+            };
+            for (k, x) in texel.into_iter().enumerate() {
+                out[k * BATCH + lane] = x;
+            }
+        }
+    }
+
+    /// Step `i` of lane `lane` through the interpreter's [`FragmentProgram::step_value`].
+    fn scalar_lane(
+        &self,
+        i: usize,
+        r: &mut [f32],
+        fragment: &Fragment,
+        vary: &[f32],
+        lane: usize,
+        d: &mut bool,
+    ) {
+        let s = &self.steps[i];
+        let mut buf = [[0.0f64; 4]; 4];
+        for (b, &o) in buf.iter_mut().zip(&s.ops[..s.n_ops as usize]) {
+            *b = [0, 1, 2, 3].map(|c| r[(o as usize * 4 + c) * BATCH + lane] as f64);
+        }
+        let v = self.stored(s, self.step_value(i, &buf, fragment, vary, None, true, d));
+        for (c, x) in v.into_iter().enumerate() {
+            r[(s.slot as usize * 4 + c) * BATCH + lane] = x as f32;
+        }
+    }
+}
+
+/// Runs the ops over the registers `r`: with AVX2 and FMA where the CPU
+/// has them (the same code compiled for 8-lane vectors), else as built.
+fn run(
+    p: &FragmentProgram,
+    lp: &LaneProgram,
+    r: &mut [f32],
+    fragments: &[Fragment],
+    varyings: &[f32],
+    discard: &mut [bool; BATCH],
+) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        // SAFETY: the CPU has the features the function is compiled for.
+        unsafe { run_avx2(p, lp, r, fragments, varyings, discard) };
+        return;
+    }
+    run_body(p, lp, r, fragments, varyings, discard)
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn run_avx2(
+    p: &FragmentProgram,
+    lp: &LaneProgram,
+    r: &mut [f32],
+    fragments: &[Fragment],
+    varyings: &[f32],
+    discard: &mut [bool; BATCH],
+) {
+    run_body(p, lp, r, fragments, varyings, discard)
+}
+
+#[inline(always)]
+fn run_body(
+    p: &FragmentProgram,
+    lp: &LaneProgram,
+    r: &mut [f32],
+    fragments: &[Fragment],
+    varyings: &[f32],
+    discard: &mut [bool; BATCH],
+) {
+    let n = fragments.len();
+    let per = varyings.len().checked_div(n).unwrap_or(0);
+    for (j, op) in lp.ops.iter().enumerate() {
+        match *op {
+            Op::Scalar(i) => {
+                for lane in 0..n {
+                    let vary = &varyings[lane * per..(lane + 1) * per];
+                    p.scalar_lane(i as usize, r, &fragments[lane], vary, lane, &mut discard[lane]);
+                }
+            }
+            Op::Sample(i) => p.sample_lanes(i as usize, r, fragments, varyings, per),
+            Op::Lanes { .. } => match &lp.closures {
+                Some(c) => c[j](r, varyings, per, n, discard),
+                None => exec(*op, r, varyings, per, n, discard),
+            },
+        }
+    }
+}
+
+/// `op` compiled into a closure (the kernel chosen here, once).
+fn closure(op: &Op) -> Closure {
+    let op = *op;
+    macro_rules! bin {
+        ($f:expr) => {{
+            let Op::Lanes { dst, ops, width, .. } = op else { unreachable!() };
+            Box::new(move |r: &mut [f32], _: &[f32], _: usize, n: usize, _: &mut [bool; BATCH]| {
+                let nn = ((n + 7) & !7).min(BATCH);
+                let (lo, hi) = r.split_at_mut(dst as usize * 4 * BATCH);
+                let out = &mut hi[..4 * BATCH];
+                for c in 0..width.max(1) as usize {
+                    let (a, b) = (lanes(lo, ops[0], c), lanes(lo, ops[1], c));
+                    let o: &mut Lanes = (&mut out[c * BATCH..][..BATCH]).try_into().expect("lanes");
+                    for i in 0..nn {
+                        o[i] = $f(a[i], b[i]);
+                    }
+                }
+                canonical(out, width);
+            }) as Closure
+        }};
+    }
+    match op {
+        Op::Lanes { k: K::Add, .. } => bin!(|a: f32, b: f32| a + b),
+        Op::Lanes { k: K::Sub, .. } => bin!(|a: f32, b: f32| a - b),
+        Op::Lanes { k: K::Mul, .. } => bin!(|a: f32, b: f32| a * b),
+        Op::Lanes { k: K::Max, .. } => bin!(|a: f32, b: f32| a.max(b)),
+        Op::Lanes { k: K::Min, .. } => bin!(|a: f32, b: f32| a.min(b)),
+        _ => Box::new(move |r, v, per, n, d| exec(op, r, v, per, n, d)),
+    }
+}
+
+/// Makes the lanes of a result canonical for its width.
+#[inline(always)]
+fn canonical(out: &mut [f32], width: u8) {
+    match width {
+        1 => {
+            let (x, rest) = out.split_at_mut(BATCH);
+            for c in 0..3 {
+                rest[c * BATCH..][..BATCH].copy_from_slice(x);
+            }
+        }
+        2..=3 => out[width as usize * BATCH..].fill(0.0),
+        4 => {}
+        _ => out.fill(f32::NAN),
+    }
+}
+
+/// One op over the lanes in use (`n`), in vectors of 8.
+// Indexed loops over several lane arrays at once are the form that vectorises.
+#[allow(clippy::needless_range_loop)]
+#[inline(always)]
+fn exec(op: Op, r: &mut [f32], varyings: &[f32], per: usize, n: usize, discard: &mut [bool; BATCH]) {
+    let Op::Lanes { k, dst, ops, width } = op else { return };
+    // The lanes in use, rounded up to a vector of 8.
+    let nn = ((n + 7) & !7).min(BATCH);
+    let (lo, hi) = r.split_at_mut(dst as usize * 4 * BATCH);
+    let out = &mut hi[..4 * BATCH];
+    // Components computed: a width-1 result only its first (then splatted).
+    let comps = width.clamp(1, 4) as usize;
+    let a = |c: usize| lanes(lo, ops[0], c);
+    let b = |c: usize| lanes(lo, ops[1], c);
+    let cc = |c: usize| lanes(lo, ops[2], c);
+    macro_rules! each {
+        (|$c:ident, $i:ident| $e:expr) => {
+            for $c in 0..comps {
+                let o: &mut Lanes = (&mut out[$c * BATCH..][..BATCH]).try_into().expect("lanes");
+                for $i in 0..nn {
+                    o[$i] = $e;
+                }
+            }
+        };
+    }
+    match k {
+        K::Add => each!(|c, i| a(c)[i] + b(c)[i]),
+        K::Sub => each!(|c, i| a(c)[i] - b(c)[i]),
+        K::Mul => each!(|c, i| a(c)[i] * b(c)[i]),
+        K::Div => each!(|c, i| a(c)[i] / b(c)[i]),
+        K::Neg => each!(|c, i| -a(c)[i]),
+        K::Max => each!(|c, i| a(c)[i].max(b(c)[i])),
+        K::Min => each!(|c, i| a(c)[i].min(b(c)[i])),
+        K::Clamp => each!(|c, i| a(c)[i].max(b(c)[i]).min(cc(c)[i])),
+        K::Saturate => each!(|c, i| a(c)[i].clamp(0.0, 1.0)),
+        K::Expand => each!(|c, i| 2.0 * a(c)[i] - 1.0),
+        K::Compress => each!(|c, i| (a(c)[i] + 1.0) / 2.0),
+        K::HalfBias => each!(|c, i| a(c)[i] - 0.5),
+        K::AddSigned => each!(|c, i| a(c)[i] + b(c)[i] - 0.5),
+        K::Abs => each!(|c, i| a(c)[i].abs()),
+        K::Sqrt => each!(|c, i| a(c)[i].sqrt()),
+        K::Rsqrt => each!(|c, i| 1.0 / a(c)[i].sqrt()),
+        K::Floor => each!(|c, i| a(c)[i].floor()),
+        K::Fract => each!(|c, i| a(c)[i] - a(c)[i].floor()),
+        K::Step => each!(|c, i| if b(c)[i] < a(c)[i] { 0.0 } else { 1.0 }),
+        K::Mix => each!(|c, i| a(c)[i] * (1.0 - cc(c)[i]) + b(c)[i] * cc(c)[i]),
+        K::Same => each!(|c, i| a(c)[i]),
+        K::RgbToRgba => each!(|c, i| if c == 3 { 1.0 } else { a(c)[i] }),
+        K::Swizzle(pattern, len) => {
+            for (c, &from) in pattern[..len as usize].iter().enumerate() {
+                out[c * BATCH..][..BATCH].copy_from_slice(a(from as usize & 3));
+            }
+        }
+        K::Dot(w) => {
+            let o: &mut Lanes = (&mut out[..BATCH]).try_into().expect("lanes");
+            for i in 0..nn {
+                o[i] = a(0)[i] * b(0)[i];
+            }
+            for c in 1..w as usize {
+                for i in 0..nn {
+                    o[i] += a(c)[i] * b(c)[i];
+                }
+            }
+            // A scalar of a dot product: splat it whatever the node's width.
+            return splat_first(out, width);
+        }
+        K::Length(w) => {
+            let o: &mut Lanes = (&mut out[..BATCH]).try_into().expect("lanes");
+            length(o, |c| a(c), w, nn);
+            for x in o.iter_mut() {
+                *x = x.sqrt();
+            }
+            return splat_first(out, width);
+        }
+        K::Normalize(w) => {
+            let mut len = [0.0f32; BATCH];
+            length(&mut len, |c| a(c), w, nn);
+            for x in len.iter_mut() {
+                *x = x.sqrt();
+            }
+            for c in 0..4 {
+                let x = a(c);
+                let o: &mut Lanes = (&mut out[c * BATCH..][..BATCH]).try_into().expect("lanes");
+                for i in 0..nn {
+                    o[i] = if len[i] == 0.0 { 0.0 } else { x[i] / len[i] };
+                }
+            }
+        }
+        K::PowInt(e) => {
+            for c in 0..comps {
+                let o: &mut Lanes = (&mut out[c * BATCH..][..BATCH]).try_into().expect("lanes");
+                let x = a(c);
+                for i in 0..nn {
+                    o[i] = ir::power_by_squaring(x[i], e, |p, q| p * q);
+                }
+            }
+        }
+        K::Pow => each!(|c, i| a(c)[i].powf(b(c)[i])),
+        K::Cmp(op) => {
+            let (x, y) = (a(0), b(0));
+            let o: &mut Lanes = (&mut out[..BATCH]).try_into().expect("lanes");
+            for i in 0..nn {
+                let t = match op {
+                    BinaryOp::Lt => x[i] < y[i],
+                    BinaryOp::Le => x[i] <= y[i],
+                    BinaryOp::Gt => x[i] > y[i],
+                    BinaryOp::Ge => x[i] >= y[i],
+                    BinaryOp::Eq => x[i] == y[i],
+                    BinaryOp::Ne => x[i] != y[i],
+                    BinaryOp::And => x[i] != 0.0 && y[i] != 0.0,
+                    _ => x[i] != 0.0 || y[i] != 0.0,
+                };
+                o[i] = t as u8 as f32;
+            }
+            return splat_first(out, width);
+        }
+        K::Not => {
+            let x = a(0);
+            let o: &mut Lanes = (&mut out[..BATCH]).try_into().expect("lanes");
+            for i in 0..nn {
+                o[i] = (x[i] == 0.0) as u8 as f32;
+            }
+            return splat_first(out, width);
+        }
+        K::Select(with_reject) => {
+            let cond = a(0);
+            for c in 0..comps {
+                let (x, y) = (b(c), if with_reject { cc(c) } else { b(c) });
+                let o: &mut Lanes = (&mut out[c * BATCH..][..BATCH]).try_into().expect("lanes");
+                for i in 0..nn {
+                    o[i] = if cond[i] != 0.0 { x[i] } else { y[i] };
+                }
+            }
+            if !with_reject {
+                for i in 0..n {
+                    if cond[i] == 0.0 {
+                        discard[i] = true;
+                        for c in 0..4 {
+                            out[c * BATCH + i] = f32::NAN;
+                        }
+                    }
+                }
+            }
+        }
+        K::Compose(ws) => {
+            let mut at = 0;
+            for (j, &w) in ws.iter().enumerate() {
+                for c in 0..w as usize {
+                    if at < 4 {
+                        let from = lanes(lo, ops[j], c);
+                        out[at * BATCH..][..BATCH].copy_from_slice(from);
+                    }
+                    at += 1;
+                }
+            }
+        }
+        K::Varying(kv) => {
+            for c in 0..comps {
+                let o = &mut out[c * BATCH..][..BATCH];
+                for (i, x) in o[..n].iter_mut().enumerate() {
+                    *x = varyings[i * per + 4 * kv as usize + c];
+                }
+            }
+        }
+    }
+    canonical(out, width)
+}
+
+/// The sum of squares of `a`'s first `w` components, into `o`.
+#[inline(always)]
+fn length<'x>(o: &mut Lanes, a: impl Fn(usize) -> &'x Lanes, w: u8, nn: usize) {
+    let x = a(0);
+    for i in 0..nn {
+        o[i] = x[i] * x[i];
+    }
+    for c in 1..w as usize {
+        let x = a(c);
+        for i in 0..nn {
+            o[i] += x[i] * x[i];
+        }
+    }
+}
+
+/// A scalar result in the first component, splatted (or NaN for a node
+/// without a numeric width).
+#[inline(always)]
+fn splat_first(out: &mut [f32], width: u8) {
+    canonical(out, if width == 0 { 0 } else { 1 })
+}
