@@ -138,7 +138,7 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
     if !errors.is_empty() {
         return Err(errors);
     }
-    crate::planner::shadow_volumes::count_by_facing(&m, &mut passes, true);
+    let _ = crate::planner::shadow_volumes::count_by_facing(&m, &mut passes, true);
     Ok(Planned {
         module: m,
         plan: PassPlan {

@@ -390,7 +390,11 @@ fn plan_as_written(
         .collect();
     let ctx = AssembleCtx { profile, realizer: request.realizer, texgen: &texgen, at: &at };
     let (mut plan, stages) = assemble(&m, &ctx, &chosen, prepared);
-    crate::planner::shadow_volumes::count_by_facing(&m, &mut plan.passes, profile.two_sided_stencil);
+    // Counting the volume by facing may draw one pass twice (one-sided
+    // stencil): each copy runs its original's fragment setup.
+    let origins =
+        crate::planner::shadow_volumes::count_by_facing(&m, &mut plan.passes, profile.two_sided_stencil);
+    let stages: Vec<_> = origins.iter().filter_map(|&i| stages.get(i).cloned()).collect();
     // A pass the target cannot run is refused here, never planned.
     let mut refused = Vec::new();
     let stages: Vec<_> = stages

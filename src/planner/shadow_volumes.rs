@@ -51,12 +51,15 @@ pub fn draws_volumes(m: &Module, pass: &Pass) -> bool {
 /// `z δπx′ > z C δπx′` passes (wrapping, as `GL_INCR_WRAP`/`GL_DECR_WRAP`).
 /// With `two_sided` stencil (a state per face) one pass draws both faces;
 /// without (GeForce 256, GeForce3: one state for both) the pass becomes
-/// two, the back faces (front ones culled) then the front faces.
-pub fn count_by_facing(m: &Module, passes: &mut Vec<Pass>, two_sided: bool) {
+/// two, the back faces (front ones culled) then the front faces. Returns,
+/// for each pass now, the index of the pass it was made from.
+pub fn count_by_facing(m: &Module, passes: &mut Vec<Pass>, two_sided: bool) -> Vec<usize> {
     let mut out = Vec::with_capacity(passes.len() + 1);
-    for pass in passes.drain(..) {
+    let mut origins = Vec::with_capacity(passes.len() + 1);
+    for (index, pass) in passes.drain(..).enumerate() {
         if !(draws_volumes(m, &pass) && pass.state.stencil.enabled) {
             out.push(pass);
+            origins.push(index);
             continue;
         }
         let why = "where the volume lies behind the surface (z-fail)";
@@ -67,6 +70,7 @@ pub fn count_by_facing(m: &Module, passes: &mut Vec<Pass>, two_sided: bool) {
             p.state.stencil.back_pass = Some(StencilOp::IncrWrap);
             p.reason = format!("{}: the shadow volume's faces counted by facing in one pass (two-sided stencil: back +1, front −1) {why}", pass.reason);
             out.push(p);
+            origins.push(index);
             continue;
         }
         for (cull, op, faces) in [
@@ -78,9 +82,11 @@ pub fn count_by_facing(m: &Module, passes: &mut Vec<Pass>, two_sided: bool) {
             p.state.stencil.pass = op;
             p.reason = format!("{}: the shadow volume's {faces} {why}", pass.reason);
             out.push(p);
+            origins.push(index);
         }
     }
     *passes = out;
+    origins
 }
 
 /// Uses of a volume stream other than the depth a stencil update compares
