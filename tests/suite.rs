@@ -59,6 +59,7 @@ mod specialize_lights;
 mod texture_shaders;
 mod three_way;
 mod three_way_generated;
+mod three_way_realistic;
 mod wgsl_agreement;
 mod wgsl_gpu;
 mod wgsl_snapshots;

@@ -30,6 +30,7 @@ pub mod realize;
 pub mod relevance;
 pub mod specialize;
 pub mod split;
+pub mod storage;
 
 use rustc_hash::FxHashMap as HashMap;
 
@@ -388,6 +389,9 @@ fn plan_as_written(
         .collect();
     let ctx = AssembleCtx { profile, realizer: request.realizer, texgen: &texgen, at: &at };
     let plan = assemble(&m, &ctx, &chosen, prepared);
+    if let Some(d) = storage::float_framebuffer_read_back(module, &plan, profile) {
+        return Err(vec![d]);
+    }
     Ok(Planned { module: m, plan, combiners: profile.combiner_limits() })
 }
 
@@ -407,6 +411,7 @@ fn prepare(
     };
     if let Some(spec) = spec {
         expand_lights(m, spec, &mut prepared, at);
+        algebra::bound_intensities(m, &spec.scene.lights);
         if spec.fold_uniforms {
             bind_scene_uniforms(m, &spec.scene.constants, &mut prepared.removed, at)?;
         }
