@@ -13,8 +13,9 @@
 //! `saturate`d (its value is at most 0.89 here, but the ranges bound it by
 //! 1.95, and GL clamps a vertex colour to [0, 1]: without the clamp the
 //! combiner targets refuse it, located), and the shadow map, whose screen
-//! pass (`π⁻¹`) the independent reference does not evaluate, is held to
-//! planning on its target and to the CPU and wgpu agreeing.
+//! pass (`π⁻¹`) the independent reference does not evaluate, targets
+//! wgsl (the combiner targets have no depth textures: refused, located)
+//! and is held to the CPU and wgpu agreeing.
 
 use shadec::numerics::Precision;
 
@@ -190,11 +191,21 @@ fn renders_alike(i: usize) -> Result<(), String> {
     Ok(())
 }
 
+/// The shadow map targets wgsl: shadec's combiner targets have no depth
+/// textures, so geforce3 refuses it located at the comparison, saying so
+/// and naming wgsl; on wgsl the CPU and wgpu agree (the reference does not
+/// evaluate a screen pass's `π⁻¹`).
 #[test]
-fn a_shadow_map_plans_on_its_target_and_the_cpu_and_wgpu_agree() {
-    let source = format!("target geforce3;\n{DIFFUSE}{SHADOW_MAP}");
+fn a_shadow_map_plans_on_wgsl_and_is_refused_located_on_geforce3() {
+    let source = format!("target wgsl;\n{DIFFUSE}{SHADOW_MAP}");
+    let geforce3 = shadec::profile::Profile::resolve("geforce3").unwrap();
+    let errors = shadec::driver::compile(&source, &geforce3, &Default::default()).err().expect("refused");
+    let d = &errors[0];
+    let at = &source[d.primary.span.start as usize..d.primary.span.end as usize];
+    assert!(at.contains("z Cl πl π⁻¹ xs"), "{at}");
+    assert!(d.help.as_deref().is_some_and(|h| h.contains("depth") && h.contains("wgsl")), "{d:?}");
     let sc = scene("kilgard_torus.ron");
-    let profile = shadec::profile::Profile::resolve("geforce3").unwrap();
+    let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
     let planned = shadec::driver::compile(&source, &profile, &Default::default())
         .unwrap_or_else(|e| panic!("{e:#?}"))
         .planned;
@@ -203,7 +214,7 @@ fn a_shadow_map_plans_on_its_target_and_the_cpu_and_wgpu_agree() {
     let (program, _) = shadec::parser::check(&source);
     let assets = sc.build().unwrap();
     let cpu = shadec::renderer::plan::PlanRenderer::new(&planned, &program, &sc, &assets)
-        .and_then(|r| r.render(Precision::Fixed9, 48, 36, &mut |_, _| {}))
+        .and_then(|r| r.render(Precision::F32, 48, 36, &mut |_, _| {}))
         .unwrap()
         .image
         .to_rgba8();
@@ -211,7 +222,7 @@ fn a_shadow_map_plans_on_its_target_and_the_cpu_and_wgpu_agree() {
         &planned,
         &program,
         Some(&source),
-        Precision::Fixed9,
+        Precision::F32,
         &sc,
         &assets,
     )

@@ -163,8 +163,36 @@ fn same_terms(a: &mut [Vec<Handle<Expr>>], b: &mut [Vec<Handle<Expr>>]) -> bool 
     a == b
 }
 
-/// The sum of the products `terms`.
+/// `x·(1 − f) + y·f` as `lerp(x, y, f)`, one operation the texture
+/// environment and the combiners compute whole (Pipeline Grammar, Section
+/// 3.6: interpolate); `None` for other sums.
+fn relerp(m: &mut Module, terms: &[Vec<Handle<Expr>>], span: Span) -> Option<Handle<Expr>> {
+    let [a, b] = terms else { return None };
+    let weight = |m: &Module, h: Handle<Expr>| match m.exprs[h] {
+        Expr::Binary { op: BinaryOp::Sub, lhs, rhs }
+            if m.is_constant(lhs, 1.0) && m.info(rhs).ty == Ty::Scalar =>
+        {
+            Some(rhs)
+        }
+        _ => None,
+    };
+    let (keep, take) = [(a, b), (b, a)].into_iter().find_map(|(x, y)| {
+        let f = x.iter().find_map(|h| weight(m, *h))?;
+        y.contains(&f).then_some((x, y))
+    })?;
+    let f = keep.iter().find_map(|h| weight(m, *h))?;
+    let one_minus = *keep.iter().find(|h| weight(m, **h) == Some(f))?;
+    let x = rebuild_sum(m, &[without(keep, one_minus)], span)?;
+    let y = rebuild_sum(m, &[without(take, f)], span)?;
+    let mix = node(m, Expr::Math { fun: MathFunction::Mix, args: vec![x, y, f] }, span)?;
+    (m.info(mix).ty == m.info(x).ty).then_some(mix)
+}
+
+/// The sum of the products `terms` (a `lerp` where two terms are one).
 fn rebuild_sum(m: &mut Module, terms: &[Vec<Handle<Expr>>], span: Span) -> Option<Handle<Expr>> {
+    if let Some(mix) = relerp(m, terms, span) {
+        return Some(mix);
+    }
     let mut sum: Option<Handle<Expr>> = None;
     for t in terms {
         let mut p = *t.first()?;

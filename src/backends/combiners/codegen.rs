@@ -530,7 +530,16 @@ fn desugar(module: &Module, value: Handle<Expr>) -> R<Option<(Module, Handle<Exp
                 None => {
                     let Expr::Combine { lhs: t, rhs: f, .. } = module.exprs[h] else { unreachable!("a ⊕") };
                     let clamped = [t, f].map(|o| !written_arithmetic(module, o));
-                    combine_expr(&mut m, mode, [lhs, rhs], clamped, module.info(h).ty, span)?
+                    let result = combine_expr(&mut m, mode, [lhs, rhs], clamped, module.info(h).ty, span)?;
+                    // GL clamps a texture-environment result to [0, 1]
+                    // (§3.8.9): where arithmetic reads it (`T + (T ⊕[dot3] I)`),
+                    // the combiners read it clamped too. The pass's own
+                    // value is clamped by the output.
+                    if h == value {
+                        result
+                    } else {
+                        gl_colour(&mut m, result, span)?
+                    }
                 }
             },
             e => match scale_to_float(&m, &e) {
