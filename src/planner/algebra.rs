@@ -543,7 +543,7 @@ fn greatest_intensity(lights: &[crate::scene::Light], i: usize) -> Option<f64> {
 }
 
 /// Every `intensity(i)` of `m`'s statements bounded by what the scene's
-/// light `i` delivers ([`greatest_intensity`]): `min(I, b)`, equal to `I`
+/// light `i` delivers (`greatest_intensity`): `min(I, b)`, equal to `I`
 /// on the scene, with the range [0, b] where the declaration's was
 /// [0, ∞). A sum of lights scaled by their intensities then fits the
 /// target's 8-bit interpolants where the scene's lights are dim enough
