@@ -698,12 +698,19 @@ fn unsupported_operations_name_the_node_and_suggest_a_lookup() {
 
 #[test]
 fn intermediate_values_outside_the_combiner_range_are_errors() {
-    // (a + b) may reach 2; the general combiners would clamp it before the product.
-    let (e, text) = error("(a.rgb + b.rgb) * expand(a.a)", &CombinerLimits::GEFORCE3);
+    // (a + b) may reach 2; the general combiners would clamp it before the
+    // product by (a − b), itself computed.
+    let (e, text) = error("(a.rgb + b.rgb) * (a.rgb - b.rgb)", &CombinerLimits::GEFORCE3);
     assert!(matches!(e, CodegenError::Range { .. }), "{e:?}");
     assert_eq!(text, "(a.rgb + b.rgb)");
     // With an explicit clamp it compiles.
     check("saturate(a.rgb + b.rgb) * expand(a.a)", TOL);
+    // By a source, the product distributes into one stage, a·e + b·e,
+    // and no register holds the sum (Kilgard 2000, Section 4.2.2).
+    check("(a.rgb + b.rgb) * expand(a.a)", TOL);
+    // A sum of three whose written grouping leaves [−1, 1] is reordered:
+    // (a + b) − a is computed (a − a) + b.
+    check("(a.rgb + b.rgb) - a.rgb", TOL);
 }
 
 #[test]

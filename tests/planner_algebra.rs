@@ -183,6 +183,43 @@ C δπx ← Base δu x * δ lights s x;
     assert!(compile(source, "wgsl").is_ok());
 }
 
+/// The same lights planned for a scene: each intensity is bounded by what
+/// its light delivers there (colour over constant attenuation, 0.9 on
+/// this scene), so the sum splits across δ into terms the 8-bit
+/// interpolants hold, and the plan renders the program's meaning.
+#[test]
+fn lights_of_intensity_bounded_by_the_scene_plan_for_it() {
+    let source = "\
+vector N : normal;
+vector L0 : light(0);
+vector L1 : light(1);
+vector I0 : intensity(0);
+vector I1 : intensity(1);
+texture Base : 2d rgb8 = image(\"missing-base.png\");
+shader lights : s → c = I0 * max(0, N·L0) + I1 * max(0, N·L1);
+C δπx ← Base δu x * δ lights s x;
+";
+    let scene = scene("adaptive_sphere_4lights.ron");
+    let assets = scene.build().unwrap();
+    let options = shadec::driver::PlanOptions {
+        scene: Some(shadec::driver::ForScene::unspecialized(&scene, &assets)),
+        ..Default::default()
+    };
+    let (program, _) = shadec::parser::check(source);
+    let (written, _) = shadec::ir::lower(&program);
+    let meaning = shadec::meaning::plan(&written, scene.lights.len()).unwrap();
+    for target in ["geforce256", "geforce3"] {
+        let profile = Profile::builtin(target).unwrap();
+        let planned = shadec::driver::compile(source, &profile, &options)
+            .unwrap_or_else(|e| panic!("{target}: {e:#?}"))
+            .planned;
+        crate::differential::validate_plan(&planned, &profile).unwrap_or_else(|e| panic!("{target}: {e}"));
+        assert!(planned.plan.approximations.is_empty(), "{target}: exact");
+        let e = compare(&f32_render(&meaning, source, &scene), &f32_render(&planned, source, &scene));
+        assert!(e.max_abs <= TOLERANCE, "{target}: {:.1}/255 from the meaning", e.max_abs * 255.0);
+    }
+}
+
 // ---- a tuple read by channel ----------------------------------------------
 
 const TUPLE: &str = "\

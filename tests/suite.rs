@@ -63,6 +63,7 @@ mod specialize_lights;
 mod texture_shaders;
 mod three_way;
 mod three_way_generated;
+mod three_way_realistic;
 mod vertex_programs;
 mod wgsl_agreement;
 mod wgsl_gpu;

@@ -4,11 +4,9 @@
 //! bound: on `wgsl` in f32, and on the combiner targets in fixed9 where
 //! they plan (the hardware's 8-bit registers, against the reference's f64
 //! within [`FIXED9_TOLERANCE`], the reference reading ⊕ clamped as GL's
-//! texture environment does). Known disagreements not yet mended are
-//! left out by a precise test and counted in the summary line (a float
-//! framebuffer read back on a combiner target, whose ignored test is in
-//! `three_way`; a blend of a term GL clamps first,
-//! `three_way::clamped_blend_source`).
+//! texture environment does). A known disagreement not yet mended is
+//! left out by a precise test and counted in the summary line (a blend of
+//! a term GL clamps first, `three_way::clamped_blend_source`).
 //!
 //! The generator is written here, apart from the differential suite's:
 //! lets, shaders with parameters, several lights (explicit indices, sums of
@@ -361,16 +359,12 @@ fn check(
         verdict(&wgsl).map_err(|e| fail("wgsl", e))?;
     }
     reached[0] += 1;
-    // Known, not mended (the planner's, not an executor's): the combiner
-    // targets store a framebuffer declared float in 8 bits (their profiles'
-    // `framebuffer_bits: 8`) without a diagnostic, so a value a later
-    // statement reads back is clamped there and not in the program
-    // (`three_way::float_framebuffer_read_back_on_an_8_bit_target`). Such
-    // programs are checked on wgsl only, and counted.
-    if p.framebuffer.1 && p.more.is_some() {
-        reached[5] += 1;
-        return Ok(());
-    }
+    // A framebuffer declared float and read back: the combiner targets'
+    // framebuffers hold 8 bits, so the planner refuses such a plan where
+    // the stored value leaves [0, 1] and nothing fuses the read into the
+    // write (`three_way::float_framebuffer_read_back_on_an_8_bit_target`);
+    // what plans is compared like any other program. Counted.
+    reached[5] += usize::from(p.framebuffer.1 && p.more.is_some());
     for (i, target) in ["geforce3", "geforce256"].iter().enumerate() {
         match render_three(&source, target, &scene, Precision::Fixed9, gpu) {
             Ok(pictures) if pictures.clamped_blend.is_some() => {
@@ -419,7 +413,7 @@ fn generated_programs_agree_on_three_executors() {
         "{} programs agree: wgsl {}, geforce3 {}, geforce256 {} (the rest refused by the planner); \
          {} combiner plans with an unbounded approximation checked CPU against wgpu only; \
          {} that wgpu cannot run yet (a temporary) checked CPU against the reference; \
-         {} reading back a float framebuffer checked on wgsl only; \
+         {} reading back a float framebuffer (refused on the combiner targets unless in [0, 1] or fused); \
          {} plans blending a term GL clamps first checked without the executor that clamps it; \
          {} combiner plans with a ⊕ that may leave [0, 1] checked against the reference reading ⊕ as GL \
          (clamped)",

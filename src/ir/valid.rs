@@ -141,9 +141,13 @@ pub fn add(a: Interval, b: Interval) -> Interval {
 fn neg(a: Interval) -> Interval {
     iv(-a.hi, -a.lo)
 }
-/// Interval product (also the planner's clamp check between passes).
+/// Interval product (also the planner's clamp check between passes). An
+/// infinite bound means "no bound", every value finite: a factor bounded
+/// at 0 times it is 0 there (`[0, 1]·[0, ∞)` is `[0, ∞)`, an intensity
+/// times a cosine), not everything.
 pub fn mul(a: Interval, b: Interval) -> Interval {
-    let c = [a.lo * b.lo, a.lo * b.hi, a.hi * b.lo, a.hi * b.hi];
+    let p = |x: f64, y: f64| if x == 0.0 || y == 0.0 { 0.0 } else { x * y };
+    let c = [p(a.lo, b.lo), p(a.lo, b.hi), p(a.hi, b.lo), p(a.hi, b.hi)];
     if c.iter().any(|v| v.is_nan()) {
         return Interval::ALL;
     }
@@ -720,7 +724,14 @@ fn math(m: &Module, fun: MathFunction, args: &[super::Handle<Expr>]) -> Result<E
                     a.interval.hi.min(infos[2].interval.hi).max(b.interval.lo),
                 ),
                 Step | Smoothstep => Interval::UNSIGNED,
-                _ => hull(a.interval, b.interval),
+                // a·(1 − t) + b·t: between a and b for t in [0, 1] only.
+                _ if infos[2].interval.lo >= 0.0 && infos[2].interval.hi <= 1.0 => {
+                    hull(a.interval, b.interval)
+                }
+                _ => {
+                    let t = infos[2].interval;
+                    add(mul(a.interval, add(Interval::point(1.0), neg(t))), mul(b.interval, t))
+                }
             };
             done(ty, interval)
         }

@@ -66,7 +66,145 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
         let factored = factor_nth(m, expanded.unwrap_or(base), nth);
         push(&mut out, factored, "with a common factor taken out");
     }
+    for distribute_common in [false, true] {
+        let product = product_of_sums(m, expanded.unwrap_or(base), distribute_common);
+        push(&mut out, product, "factored into a product of sums");
+    }
     out
+}
+
+/// A sum of products factored back into a product of sums, as far as
+/// that goes exactly: a factor in every term taken out (`c·x + c·y` =
+/// `c·(x + y)`), and a factor `f` whose terms, without it, are the terms
+/// without it (`f·x + f·y + x + y` = `(f + 1)·(x + y)`), then the same
+/// within the sums. The multiplied-out `(T0·T1 + T0)·lerp(δl, T0, a)` is
+/// its own written form again, which greedy factoring by the most shared
+/// factor does not recover. With `distribute_common`, a factor common to
+/// every term stays inside the first sum (`(c·f + c)·(x + y)`, the form
+/// written); else it is taken out first (`c·(f + 1)·(x + y)`). `None`
+/// when nothing factors so.
+pub fn product_of_sums(m: &mut Module, h: Handle<Expr>, distribute_common: bool) -> Option<Handle<Expr>> {
+    if let Expr::Convert { value, to: Ty::Rgba } = m.exprs[h] {
+        if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3) {
+            let inner = product_of_sums(m, value, distribute_common)?;
+            return node(m, Expr::Convert { value: inner, to: Ty::Rgba }, m.span(h));
+        }
+    }
+    let terms: Vec<Vec<Handle<Expr>>> = sum_terms(m, h).into_iter().map(|t| product_factors(m, t)).collect();
+    let out = factor_terms(m, terms, distribute_common, m.span(h))?;
+    (m.info(out).ty == m.info(h).ty && out != h).then_some(out)
+}
+
+/// [`product_of_sums`] on a sum given as its terms' factors.
+fn factor_terms(
+    m: &mut Module,
+    terms: Vec<Vec<Handle<Expr>>>,
+    distribute_common: bool,
+    span: Span,
+) -> Option<Handle<Expr>> {
+    if terms.len() < 2 {
+        return None;
+    }
+    let common = terms[0].iter().copied().find(|f| terms.iter().all(|t| t.contains(f) && t.len() > 1));
+    if let (Some(c), false) = (common, distribute_common) {
+        let inner: Vec<Vec<Handle<Expr>>> = terms.iter().map(|t| without(t, c)).collect();
+        let rest = factor_terms(m, inner.clone(), false, span).or_else(|| rebuild_sum(m, &inner, span))?;
+        return binary(m, BinaryOp::Mul, c, rest, span);
+    }
+    let mut seen: Vec<Handle<Expr>> = Vec::new();
+    for f in terms.iter().flatten() {
+        if !seen.contains(f) {
+            seen.push(*f);
+        }
+    }
+    for f in seen.into_iter().filter(|f| Some(*f) != common) {
+        let (with, rest): (Vec<_>, Vec<_>) = terms.iter().partition(|t| t.contains(&f) && t.len() > 1);
+        let mut cofactors: Vec<Vec<Handle<Expr>>> = with.iter().map(|t| without(t, f)).collect();
+        let mut others: Vec<Vec<Handle<Expr>>> = rest.into_iter().cloned().collect();
+        if cofactors.is_empty() || others.is_empty() || !same_terms(&mut cofactors, &mut others) {
+            continue;
+        }
+        // `f·x + x` = `(f + 1)·x`, `x` the sum of the others; with the
+        // common factor `c` kept in: `(c·f + c)·(x/c)`.
+        let (selector, sum_terms) = match common.filter(|_| distribute_common) {
+            Some(c) => {
+                let cf = binary(m, BinaryOp::Mul, c, f, span)?;
+                let sum = binary(m, BinaryOp::Add, cf, c, span)?;
+                (sum, others.iter().map(|t| without(t, c)).collect::<Vec<_>>())
+            }
+            None => {
+                let one = node(m, Expr::Constant(crate::ir::Constant::scalar(1.0)), span)?;
+                (node(m, Expr::Binary { op: BinaryOp::Add, lhs: f, rhs: one }, span)?, others)
+            }
+        };
+        let sum =
+            factor_terms(m, sum_terms.clone(), false, span).or_else(|| rebuild_sum(m, &sum_terms, span))?;
+        return binary(m, BinaryOp::Mul, selector, sum, span);
+    }
+    None
+}
+
+/// `t` without one occurrence of `f`.
+fn without(t: &[Handle<Expr>], f: Handle<Expr>) -> Vec<Handle<Expr>> {
+    let mut t = t.to_vec();
+    if let Some(i) = t.iter().position(|x| *x == f) {
+        t.remove(i);
+    }
+    t
+}
+
+/// Whether two sums have the same terms (each a multiset of factors).
+fn same_terms(a: &mut [Vec<Handle<Expr>>], b: &mut [Vec<Handle<Expr>>]) -> bool {
+    let key = |t: &mut Vec<Handle<Expr>>| t.sort();
+    a.iter_mut().for_each(key);
+    b.iter_mut().for_each(key);
+    a.sort();
+    b.sort();
+    a == b
+}
+
+/// `x·(1 − f) + y·f` as `lerp(x, y, f)`, one operation the texture
+/// environment and the combiners compute whole (Pipeline Grammar, Section
+/// 3.6: interpolate); `None` for other sums.
+fn relerp(m: &mut Module, terms: &[Vec<Handle<Expr>>], span: Span) -> Option<Handle<Expr>> {
+    let [a, b] = terms else { return None };
+    let weight = |m: &Module, h: Handle<Expr>| match m.exprs[h] {
+        Expr::Binary { op: BinaryOp::Sub, lhs, rhs }
+            if m.is_constant(lhs, 1.0) && m.info(rhs).ty == Ty::Scalar =>
+        {
+            Some(rhs)
+        }
+        _ => None,
+    };
+    let (keep, take) = [(a, b), (b, a)].into_iter().find_map(|(x, y)| {
+        let f = x.iter().find_map(|h| weight(m, *h))?;
+        y.contains(&f).then_some((x, y))
+    })?;
+    let f = keep.iter().find_map(|h| weight(m, *h))?;
+    let one_minus = *keep.iter().find(|h| weight(m, **h) == Some(f))?;
+    let x = rebuild_sum(m, &[without(keep, one_minus)], span)?;
+    let y = rebuild_sum(m, &[without(take, f)], span)?;
+    let mix = node(m, Expr::Math { fun: MathFunction::Mix, args: vec![x, y, f] }, span)?;
+    (m.info(mix).ty == m.info(x).ty).then_some(mix)
+}
+
+/// The sum of the products `terms` (a `lerp` where two terms are one).
+fn rebuild_sum(m: &mut Module, terms: &[Vec<Handle<Expr>>], span: Span) -> Option<Handle<Expr>> {
+    if let Some(mix) = relerp(m, terms, span) {
+        return Some(mix);
+    }
+    let mut sum: Option<Handle<Expr>> = None;
+    for t in terms {
+        let mut p = *t.first()?;
+        for f in &t[1..] {
+            p = binary(m, BinaryOp::Mul, p, *f, span)?;
+        }
+        sum = Some(match sum {
+            None => p,
+            Some(s) => binary(m, BinaryOp::Add, s, p, span)?,
+        });
+    }
+    sum
 }
 
 /// Interns `e` at `span`; `None` when it is ill-typed.
@@ -386,6 +524,64 @@ pub fn factor_nth(m: &mut Module, h: Handle<Expr>, nth: usize) -> Option<Handle<
     (m.info(out).ty == m.info(h).ty && out != h).then_some(out)
 }
 
+/// The greatest intensity light `i` of `lights` delivers anywhere: its
+/// colour's largest component over the constant attenuation (GL 1.2.1
+/// §2.13.1: colour · spot / (k_c + k_l·d + k_q·d²), the spot factor ≤ 1);
+/// 0 for a light the scene lacks (it is black on every executor); `None`
+/// when the attenuation can grow (a negative or zero coefficient).
+fn greatest_intensity(lights: &[crate::scene::Light], i: usize) -> Option<f64> {
+    use crate::scene::Light;
+    let Some(light) = lights.get(i) else { return Some(0.0) };
+    let (color, attenuation) = match light {
+        Light::Directional { color, .. } => (*color, crate::scene::light::Attenuation::default()),
+        Light::Point { color, attenuation, .. } | Light::Spot { color, attenuation, .. } => {
+            (*color, *attenuation)
+        }
+    };
+    let grows = attenuation.constant <= 0.0 || attenuation.linear < 0.0 || attenuation.quadratic < 0.0;
+    (!grows).then(|| f64::from(color.max_element().max(0.0)) / f64::from(attenuation.constant))
+}
+
+/// Every `intensity(i)` of `m`'s statements bounded by what the scene's
+/// light `i` delivers (`greatest_intensity`): `min(I, b)`, equal to `I`
+/// on the scene, with the range [0, b] where the declaration's was
+/// [0, ∞). A sum of lights scaled by their intensities then fits the
+/// target's 8-bit interpolants where the scene's lights are dim enough
+/// (the planner splits it across δ), instead of being refused for an
+/// unbounded range. The statements changed.
+pub fn bound_intensities(m: &mut Module, lights: &[crate::scene::Light]) -> Vec<usize> {
+    use crate::parser::ast::VectorKind;
+    let roots: Vec<Handle<Expr>> = m.statements.iter().map(|s| s.value).collect();
+    let mut map: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::default();
+    for h in m.reachable(&roots) {
+        let Expr::Vector { vector, .. } = m.exprs[h] else { continue };
+        let d = &m.vectors[vector as usize];
+        if d.kind != Some(VectorKind::Intensity) || m.info(h).interval.hi.is_finite() {
+            continue;
+        }
+        let Some(b) = greatest_intensity(lights, d.index.unwrap_or(0) as usize) else { continue };
+        let span = m.span(h);
+        let bound = node(m, Expr::Constant(crate::ir::Constant::scalar(b)), span);
+        if let Some(min) =
+            bound.and_then(|b| node(m, Expr::Math { fun: MathFunction::Min, args: vec![h, b] }, span))
+        {
+            map.insert(h, min);
+        }
+    }
+    let mut changed = Vec::new();
+    if map.is_empty() {
+        return changed;
+    }
+    for i in 0..m.statements.len() {
+        let v = m.statements[i].value;
+        if let Some(nv) = super::substitute(m, v, &map).filter(|nv| *nv != v) {
+            m.statements[i].value = nv;
+            changed.push(i);
+        }
+    }
+    changed
+}
+
 /// Rewrites every statement of `m` into its canonical form (what a target
 /// without arithmetic beyond the texture environment needs of a `lerp`),
 /// a `saturate` written whole into an 8-bit framebuffer left to its clamp
@@ -471,6 +667,24 @@ mod tests {
             matches!(&m.exprs[*h], Expr::Swizzle { value, .. } if matches!(m.exprs[*value], Expr::Compose { .. }))
         });
         assert_eq!(swizzles.count(), 0);
+    }
+
+    #[test]
+    fn a_sum_of_products_factors_back_into_a_product_of_sums() {
+        let mut m = module(
+            "texture A : 2d rgb8;\ntexture B : 2d rgb8;\ntexture D : 2d rgb8;\n\
+             C δπx ← A δu x * B δu x * D δu x + A δu x * B δu x * A δu x + A δu x * D δu x + A δu x * A δu x;\n",
+        );
+        let st = m.statements[0].value;
+        let Expr::Convert { value, .. } = m.exprs[st] else { panic!("rgb written as rgba") };
+        for keep in [false, true] {
+            let f = product_of_sums(&mut m, value, keep).expect("(A·B + A)·(D + A)");
+            for leaf in [0.1, 0.5, 0.9] {
+                let (a, b) = (self::value(&m, value, leaf), self::value(&m, f, leaf));
+                assert!((0..4).all(|i| (a[i] - b[i]).abs() < 1e-12), "{a:?} against {b:?}");
+            }
+            let Expr::Binary { op: BinaryOp::Mul, .. } = m.exprs[f] else { panic!("{:?}", m.exprs[f]) };
+        }
     }
 
     #[test]

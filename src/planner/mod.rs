@@ -31,6 +31,7 @@ pub mod relevance;
 pub mod shadow_volumes;
 pub mod specialize;
 pub mod split;
+pub mod storage;
 
 use rustc_hash::FxHashMap as HashMap;
 
@@ -390,6 +391,9 @@ fn plan_as_written(
         .collect();
     let ctx = AssembleCtx { profile, realizer: request.realizer, texgen: &texgen, at: &at };
     let (mut plan, stages) = assemble(&m, &ctx, &chosen, prepared);
+    if let Some(d) = storage::float_framebuffer_read_back(module, &plan, profile) {
+        return Err(vec![d]);
+    }
     // Counting the volume by facing may draw one pass twice (one-sided
     // stencil): each copy runs its original's fragment setup.
     let origins =
@@ -432,6 +436,7 @@ fn prepare(
     };
     if let Some(spec) = spec {
         expand_lights(m, spec, &mut prepared, at);
+        algebra::bound_intensities(m, &spec.scene.lights);
         if spec.fold_uniforms {
             bind_scene_uniforms(m, &spec.scene.constants, &mut prepared.removed, at)?;
         }

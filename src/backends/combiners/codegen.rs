@@ -527,7 +527,20 @@ fn desugar(module: &Module, value: Handle<Expr>) -> R<Option<(Module, Handle<Exp
                     let inner = intern(&mut m, Expr::Binary { op: BinaryOp::Mul, lhs: y, rhs: z }, span)?;
                     intern(&mut m, Expr::Binary { op: BinaryOp::Mul, lhs: k, rhs: inner }, span)?
                 }
-                None => combine_expr(&mut m, mode, lhs, rhs, module.info(h).ty, span)?,
+                None => {
+                    let Expr::Combine { lhs: t, rhs: f, .. } = module.exprs[h] else { unreachable!("a ⊕") };
+                    let clamped = [t, f].map(|o| !written_arithmetic(module, o));
+                    let result = combine_expr(&mut m, mode, [lhs, rhs], clamped, module.info(h).ty, span)?;
+                    // GL clamps a texture-environment result to [0, 1]
+                    // (§3.8.9): where arithmetic reads it (`T + (T ⊕[dot3] I)`),
+                    // the combiners read it clamped too. The pass's own
+                    // value is clamped by the output.
+                    if h == value {
+                        result
+                    } else {
+                        gl_colour(&mut m, result, span)?
+                    }
+                }
             },
             e => match scale_to_float(&m, &e) {
                 Some((k, y, z)) => {
@@ -580,6 +593,15 @@ fn scaled_modulate(
     (i.lo >= 0.0 && i.hi <= 1.0).then_some((k, y, z))
 }
 
+/// Whether the `⊕` operand `o` is arithmetic the program writes (`T + T`,
+/// `k · x`), not a colour GL hands the texture environment (a texel, an
+/// interpolated colour, the framebuffer, another `⊕`'s result): the
+/// program means its value unclamped, and the combiners compute it so
+/// (registers hold [−1, 1], the sums reordered to stay there).
+fn written_arithmetic(m: &Module, o: Handle<Expr>) -> bool {
+    m.info(o).freq.is_sample() && matches!(m.exprs[o], Expr::Binary { .. } | Expr::Unary { .. })
+}
+
 /// `h` clamped to [0, 1] where its range leaves it (see [`combine_expr`]).
 fn gl_colour(m: &mut Module, h: Handle<Expr>, span: Span) -> R<Handle<Expr>> {
     let i = m.info(h).interval;
@@ -605,16 +627,18 @@ fn intern(m: &mut Module, e: Expr, span: Span) -> R<Handle<Expr>> {
 /// Each operand enters as GL gives it to the texture environment or the
 /// blender: a colour in [0, 1] (OpenGL 1.2.1 Sections 2.13.6 and 4.1.7:
 /// fragment colours are clamped, texels and fixed-point framebuffer values
-/// are in range). An operand whose range leaves [0, 1] is therefore
-/// `saturate`d here — what the as-written plan does on the hardware, where
-/// the operand is the fragment colour a blend clamps
+/// are in range). Such an operand (`clamped`) whose range leaves [0, 1] is
+/// therefore `saturate`d here — what the as-written plan does on the
+/// hardware, where the operand is the fragment colour a blend clamps
 /// (Kilgard's `C ⊕ rgba(diffuse, s_self)`, `diffuse` in [0.1, 1.1], fused
-/// into one pass). The IR itself keeps ⊕ unclamped (docs/language.md).
+/// into one pass). Arithmetic written as an operand (`(T + T) ⊕ T`) is
+/// not a colour GL clamps: it keeps its value ([`written_arithmetic`]).
+/// The IR itself keeps ⊕ unclamped (docs/language.md).
 fn combine_expr(
     m: &mut Module,
     mode: CombineMode,
-    t: Handle<Expr>,
-    f: Handle<Expr>,
+    [t, f]: [Handle<Expr>; 2],
+    clamped: [bool; 2],
     ty: Ty,
     span: Span,
 ) -> R<Handle<Expr>> {
@@ -623,7 +647,8 @@ fn combine_expr(
     };
     let konst = |m: &mut Module, v: f64| intern(m, Expr::Constant(Constant::scalar(v)), span);
     let lhs_rgb = matches!(m.exprs[t], Expr::Convert { value, to: Ty::Rgba } if m.info(value).ty == Ty::Rgb);
-    let (t, f) = (gl_colour(m, t, span)?, gl_colour(m, f, span)?);
+    let colour = |m: &mut Module, h, clamped| if clamped { gl_colour(m, h, span) } else { Ok(h) };
+    let (t, f) = (colour(m, t, clamped[0])?, colour(m, f, clamped[1])?);
     let rgba = ty == Ty::Rgba;
     // Component selections of a value (a scalar operand splats).
     let rgb_of = |m: &mut Module, h: Handle<Expr>| -> R<Handle<Expr>> {
@@ -709,6 +734,44 @@ fn combine_expr(
                 (_, ty) => intern(m, Expr::Convert { value: d, to: ty }, span)?,
             }
         }
+    })
+}
+
+/// At most this many addends are reordered ([`Gen::reassociated_sum`]).
+const MAX_ADDENDS: usize = 6;
+
+/// An order of addends (their ranges) whose partial sums, from the first
+/// two to all but the last, stay in a register's [−1, 1]; depth-first, the
+/// order written first. `None` when none does (or fewer than three).
+fn order_within_a_register(ranges: &[(f64, f64)]) -> Option<Vec<usize>> {
+    fn extend(ranges: &[(f64, f64)], order: &mut Vec<usize>, lo: f64, hi: f64) -> bool {
+        if order.len() + 1 >= ranges.len() {
+            return true;
+        }
+        for i in 0..ranges.len() {
+            if order.contains(&i) {
+                continue;
+            }
+            let (l, h) = (lo + ranges[i].0, hi + ranges[i].1);
+            if !order.is_empty() && (l < -1.0 || h > 1.0) {
+                continue;
+            }
+            order.push(i);
+            if extend(ranges, order, l, h) {
+                return true;
+            }
+            order.pop();
+        }
+        false
+    }
+    if ranges.len() < 3 || ranges.len() > MAX_ADDENDS {
+        return None;
+    }
+    let mut order = Vec::new();
+    extend(ranges, &mut order, 0.0, 0.0).then(|| {
+        let rest = (0..ranges.len()).filter(|i| !order.contains(i));
+        order.extend(rest.collect::<Vec<_>>());
+        order
     })
 }
 
@@ -1310,6 +1373,9 @@ impl Gen<'_> {
                 )
             }
             Expr::Binary { op: op @ (BinaryOp::Add | BinaryOp::Sub), lhs, rhs } => {
+                if let Some(spec) = self.reassociated_sum(h, part, scalar, span)? {
+                    return Ok(Some(Spec { alpha_only, ..spec }));
+                }
                 let ab = self.sum_term(lhs, part)?;
                 let mut cd = self.sum_term(rhs, part)?;
                 if op == BinaryOp::Sub {
@@ -1401,6 +1467,9 @@ impl Gen<'_> {
             let term = Term { a: c, b: self.src(z, part, false)?, dot: false };
             return Ok((self.scaled(Spec::single(term, scalar), k, None, part)?, true));
         }
+        if let Some(spec) = self.distributed_product(lhs, rhs, part, scalar)? {
+            return Ok((spec, false));
+        }
         Ok((
             Spec::single(
                 Term { a: self.src(lhs, part, false)?, b: self.src(rhs, part, false)?, dot: false },
@@ -1408,6 +1477,34 @@ impl Gen<'_> {
             ),
             false,
         ))
+    }
+
+    /// `(a ± b)·c` with `a ± b` beyond a register's [−1, 1] (which would
+    /// clamp it) and `a`, `b`, `c` sources: `a·c ± b·c` in one portion,
+    /// AB + CD (Kilgard 2000, Section 4.2.2). `None` otherwise.
+    fn distributed_product(
+        &mut self,
+        lhs: Handle<Expr>,
+        rhs: Handle<Expr>,
+        part: Part,
+        scalar: bool,
+    ) -> R<Option<Spec>> {
+        let (sum, c) = if self.sum_beyond_a_register(lhs, part) { (lhs, rhs) } else { (rhs, lhs) };
+        let Expr::Binary { op: op @ (BinaryOp::Add | BinaryOp::Sub), lhs: a, rhs: b } = *self.expr(sum)
+        else {
+            return Ok(None);
+        };
+        let plain = |g: &Self, h: Handle<Expr>| g.is_source(h) || g.cache.contains_key(&(h, g.norm(h, part)));
+        if !self.sum_beyond_a_register(sum, part) || !plain(self, a) || !plain(self, b) || !plain(self, c) {
+            return Ok(None);
+        }
+        let cs = self.src(c, part, false)?;
+        let ab = Term { a: self.src(a, part, false)?, b: cs, dot: false };
+        let mut cd = Term { a: self.src(b, part, false)?, b: cs, dot: false };
+        if op == BinaryOp::Sub {
+            cd = self.negate(cd, b, part)?;
+        }
+        Ok(Some(Spec { cd: Some(cd), ..Spec::single(ab, scalar) }))
     }
 
     /// A non-negative constant `h` whose largest component read by `part`
@@ -1562,6 +1659,69 @@ impl Gen<'_> {
             }
         };
         Ok(inner)
+    }
+
+    /// Whether `o` is a sum (or difference, or negation) not yet computed
+    /// whose range leaves a register's [−1, 1].
+    fn sum_beyond_a_register(&self, o: Handle<Expr>, part: Part) -> bool {
+        matches!(
+            self.expr(o),
+            Expr::Binary { op: BinaryOp::Add | BinaryOp::Sub, .. } | Expr::Unary { op: UnaryOp::Neg, .. }
+        ) && !self.in_unit(o)
+            && !self.cache.contains_key(&(o, self.norm(o, part)))
+    }
+
+    /// The addends of a sum not yet computed, each with whether it is
+    /// subtracted: `(a + b) − c` is `[(a, +), (b, +), (c, −)]`.
+    fn signed_addends(&self, h: Handle<Expr>, part: Part, minus: bool, out: &mut Vec<(Handle<Expr>, bool)>) {
+        let fresh = !self.cache.contains_key(&(h, self.norm(h, part))) && out.len() < MAX_ADDENDS;
+        match *self.expr(h) {
+            Expr::Binary { op: op @ (BinaryOp::Add | BinaryOp::Sub), lhs, rhs } if fresh => {
+                self.signed_addends(lhs, part, minus, out);
+                self.signed_addends(rhs, part, minus ^ (op == BinaryOp::Sub), out);
+            }
+            Expr::Unary { op: UnaryOp::Neg, value } if fresh => self.signed_addends(value, part, !minus, out),
+            _ => out.push((h, minus)),
+        }
+    }
+
+    /// A sum whose written grouping holds a partial sum beyond [−1, 1] in
+    /// a register, which clamps it (Kilgard 2000, Section 4.2.2:
+    /// registers hold [−1, 1]): `(T + T) − T` would compute `min(2T, 1) − T`.
+    /// Its addends in an order whose every partial sum fits — `(T − T) + T`
+    /// — one stage per addend after the first two; `None` when the
+    /// grouping as written fits, or no order does.
+    fn reassociated_sum(&mut self, h: Handle<Expr>, part: Part, scalar: bool, span: Span) -> R<Option<Spec>> {
+        let Expr::Binary { lhs, rhs, .. } = *self.expr(h) else { return Ok(None) };
+        if !self.sum_beyond_a_register(lhs, part) && !self.sum_beyond_a_register(rhs, part) {
+            return Ok(None);
+        }
+        let mut addends = Vec::new();
+        self.signed_addends(h, part, false, &mut addends);
+        let ranges: Vec<(f64, f64)> = addends
+            .iter()
+            .map(|&(t, minus)| {
+                let i = self.m.info(t).interval;
+                if minus {
+                    (-i.hi, -i.lo)
+                } else {
+                    (i.lo, i.hi)
+                }
+            })
+            .collect();
+        let Some(order) = order_within_a_register(&ranges) else { return Ok(None) };
+        let mut terms = Vec::with_capacity(order.len());
+        for i in order {
+            let (t, minus) = addends[i];
+            let term = self.sum_term(t, part)?;
+            terms.push(if minus { self.negate(term, t, part)? } else { term });
+        }
+        let mut spec = Spec { cd: Some(terms[1]), ..Spec::single(terms[0], scalar) };
+        for term in &terms[2..] {
+            let partial = self.emit(Spec { alpha_only: part == Part::Alpha, ..spec }, span)?;
+            spec = Spec { cd: Some(*term), ..Spec::single(Term::times_one(partial), scalar) };
+        }
+        Ok(Some(spec))
     }
 
     /// An addend of AB + CD: a product of two sources, or a source times one.
@@ -1903,7 +2063,11 @@ impl Gen<'_> {
         };
         let mut addends = Vec::new();
         self.flatten(v, BinaryOp::Add, &mut addends);
-        let simple = addends.iter().all(|a| self.nonneg_unit(*a));
+        // Every addend ≥ 0: the output's clamp to 1 makes each addend's own
+        // clamp to 1 exact (once one reaches 1 the sum is 1 anyway), so an
+        // addend beyond 1 (`4·(F·D ⊕ G)`, a stage scaled by four) is read
+        // clamped, as its stage's output is (Kilgard 2000, Section 4.2.2).
+        let simple = addends.iter().all(|a| self.lo(*a) >= 0.0);
         if !simple {
             // Computed in general combiners; the output saturates it.
             let s = self.src(v, part, true)?;
@@ -1929,7 +2093,8 @@ impl Gen<'_> {
         let mut leaf_srcs = Vec::new();
         let extra = if leaves.len() > room { leaves.split_off(room - 1) } else { Vec::new() };
         for l in &leaves {
-            let s = self.src(*l, part, false)?;
+            let s = self.src(*l, part, !self.nonneg_unit(*l))?;
+            let s = if self.nonneg_unit(*l) { s } else { self.unsigned(s, self.m.span(*l))? };
             leaf_srcs.push(self.final_src(s, self.m.span(*l))?);
         }
         if !extra.is_empty() {
@@ -1937,7 +2102,13 @@ impl Gen<'_> {
             let span = self.m.span(extra[0]).join(self.m.span(*extra.last().expect("non-empty")));
             let mut terms = Vec::new();
             for h in &extra {
-                terms.push(self.sum_term(*h, part)?);
+                terms.push(match self.nonneg_unit(*h) {
+                    true => self.sum_term(*h, part)?,
+                    false => {
+                        let s = self.src(*h, part, true)?;
+                        Term::times_one(self.unsigned(s, self.m.span(*h))?)
+                    }
+                });
             }
             while terms.len() > 1 {
                 let y = terms.pop().expect("len > 1");
