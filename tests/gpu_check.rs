@@ -160,8 +160,14 @@ fn quick_gpu_check_writes_its_report() {
         }
     }
     assert!(md.contains("| generated #0 | wgsl | f32 | exact |"), "{md}");
-    let timed = md.lines().filter(|l| l.contains("| 128² |")).count();
+    let timings = md.split("## Adaptive crossover").next().unwrap_or_default();
+    let timed = timings.lines().filter(|l| l.contains("| 128² |")).count();
     assert_eq!(timed, 3, "{md}");
+    let crossover = md.split("## Adaptive crossover").nth(1).expect(&md);
+    for executor in ["CPU", "wgpu"] {
+        let rows = crossover.lines().filter(|l| l.starts_with(&format!("| {executor} |"))).count();
+        assert_eq!(rows, 2, "the quick sweep's two programs on {executor}\n{md}");
+    }
     let png = image::open(out.path().join("gpu-check.png")).unwrap();
     assert_eq!(png.width(), 3 * SIZE.0, "CPU | GPU | difference, {}×{} each", SIZE.0, SIZE.1);
 }

@@ -165,8 +165,13 @@ pub fn clamped_blend_source(planned: &shadec::pipeline::Planned) -> Option<Strin
             return None;
         }
         let r = m.info(planned.handle(pass.fragment.output)).interval;
+        // A later pass that blends onto this one's target reads it back
+        // clamped by the 8-bit framebuffer.
+        let read_back = planned.plan.passes[i + 1..]
+            .iter()
+            .any(|p| p.target == pass.target && p.blend != BlendMode::Replace);
         let outside = match pass.blend {
-            BlendMode::Replace => false,
+            BlendMode::Replace => read_back && (r.lo < 0.0 || r.hi > 1.0),
             BlendMode::Add => r.lo < 0.0,
             // dst·min(1, max(0, s)) is dst·s only for s in [0, 1].
             BlendMode::Modulate => r.lo < 0.0 || r.hi > 1.0,
