@@ -29,23 +29,27 @@ pub enum Executor {
 }
 
 /// Operations per fragment from which adaptive shading was faster on the
-/// CPU renderer: the diffuse term alone (5 operations) was 0.9-1.2× at
-/// 1024², a one-lobe Phong shader (14 operations) 2.7-4× (BENCHMARKS.md);
-/// between them the speed-up depends on the scene, so the threshold is the
-/// first clear win.
-pub const CPU_CROSSOVER: usize = 14;
+/// CPU renderer (the lane executor, quiet machine, BENCHMARKS.md): 32
+/// operations 0.98-1.11× at 512²-2048², 56 operations 1.31-1.59×, 20
+/// operations 0.83-0.91×.
+pub const CPU_CROSSOVER: usize = 32;
+
+/// Operations per fragment from which adaptive shading was faster on wgpu,
+/// measured on lavapipe: 56 operations 0.98-1.01× at 1024², 1.52× at
+/// 2048²; on a GPU the check's sweep measures its own.
+pub const WGPU_CROSSOVER: usize = 56;
 
 /// The fewest pixels (at the rendered size) the largest pass into the
-/// picture must cover: two small spheres at 256² (`scenes/lights_two_spots.ron`,
-/// 5 800 pixels a pass) rendered at 0.56× adaptively on the CPU, a
-/// 39 000-pixel sphere at 1.5×.
+/// picture must cover on the CPU: two small spheres at 256²
+/// (`scenes/lights_two_spots.ron`, 5 800 pixels a pass) rendered at 0.56×
+/// adaptively, a 39 000-pixel sphere at 1.5×.
 pub const MIN_PIXELS: u64 = 32_768;
 
-/// Operations per fragment from which adaptive shading was faster on wgpu:
-/// measured on lavapipe between 32 (0.8×) and 104 (2.5-3.4×) operations,
-/// interpolated at about 42 (BENCHMARKS.md); on a GPU the check's sweep
-/// measures its own.
-pub const WGPU_CROSSOVER: usize = 48;
+/// The same on wgpu, whose sparse frame and full-screen classification
+/// cost the same whatever is shaded: the 4-light sphere at 512² (about
+/// 110 000 pixels a pass) was slower adaptively even at 104 operations
+/// (0.78×), at 1024² (about 590 000) faster from 56.
+pub const MIN_PIXELS_WGPU: u64 = 262_144;
 
 /// The decision and its reason, for `render` to print.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -76,9 +80,10 @@ pub fn choose(plan: &PassPlan, workload: &Workload, size: (u32, u32), executor: 
     let scale = f64::from(size.0) * f64::from(size.1)
         / (f64::from(workload.resolution.0) * f64::from(workload.resolution.1)).max(1.0);
     let pixels = picture.iter().map(|(_, p)| workload.pass_load(p).pixels).max().unwrap_or(0) as f64 * scale;
-    if pixels < MIN_PIXELS as f64 {
+    let least = if executor == Executor::Wgpu { MIN_PIXELS_WGPU } else { MIN_PIXELS };
+    if pixels < least as f64 {
         return full(format!(
-            "its largest pass covers about {pixels:.0} pixels, fewer than the {MIN_PIXELS} adaptive shading needs to pay"
+            "its largest pass covers about {pixels:.0} pixels, fewer than the {least} adaptive shading needs to pay"
         ));
     }
     let (crossover, name) = match executor {
@@ -116,6 +121,17 @@ mod tests {
 
     const PHONG: &str = "vector N : normal;\nvector L : light(0);\nvector V : view;\nshader p : s → c {\n    let Nn = normalize(N);\n    let Hn = normalize(normalize(L) + normalize(V));\n    max(0, Nn·normalize(L)) * 0.5 + max(0, Nn·Hn)^40 * 0.5 + max(0, Nn·Hn)^8 * 0.25\n}\nC δπx ← p δ s x;\n";
 
+    /// Sixteen Phong lobes: 104 operations per fragment.
+    fn costly() -> String {
+        let lobes: Vec<String> = (0..16)
+            .map(|i| format!("max(0, Nn·Hn)^{} * 0.05 + max(0, Nn·normalize(L)) * 0.01", 8 + 4 * i))
+            .collect();
+        PHONG.replace(
+            "max(0, Nn·normalize(L)) * 0.5 + max(0, Nn·Hn)^40 * 0.5 + max(0, Nn·Hn)^8 * 0.25",
+            &lobes.join(" + "),
+        )
+    }
+
     #[test]
     fn a_textured_plan_is_shaded_in_full() {
         let choice =
@@ -125,11 +141,20 @@ mod tests {
     }
 
     #[test]
-    fn cheap_phong_is_adaptive_on_the_cpu_and_full_on_wgpu() {
+    fn cheap_phong_is_shaded_in_full_below_the_crossover() {
         let plan = plan(PHONG, "wgsl");
-        assert!(auto(&plan, Executor::Cpu).adaptive, "{:?}", auto(&plan, Executor::Cpu));
-        let gpu = auto(&plan, Executor::Wgpu);
-        assert!(!gpu.adaptive && gpu.why.contains("below the crossover"), "{}", gpu.why);
+        for executor in [Executor::Cpu, Executor::Wgpu] {
+            let choice = auto(&plan, executor);
+            assert!(!choice.adaptive && choice.why.contains("below the crossover"), "{}", choice.why);
+        }
+    }
+
+    #[test]
+    fn a_costly_shader_on_a_large_frame_is_adaptive() {
+        let plan = plan(&costly(), "wgsl");
+        for executor in [Executor::Cpu, Executor::Wgpu] {
+            assert!(auto(&plan, executor).adaptive, "{:?}", auto(&plan, executor));
+        }
     }
 
     #[test]
