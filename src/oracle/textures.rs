@@ -197,14 +197,7 @@ fn normalize_cube(size: u32, sixteen: bool, format: TextureFormat, filter: Filte
             for x in 0..size {
                 let sc = 2.0 * (f64::from(x) + 0.5) / f64::from(size) - 1.0;
                 let tc = 2.0 * (f64::from(y) + 0.5) / f64::from(size) - 1.0;
-                let d = match f {
-                    0 => [1.0, -tc, -sc],
-                    1 => [-1.0, -tc, sc],
-                    2 => [sc, 1.0, tc],
-                    3 => [sc, -1.0, -tc],
-                    4 => [sc, -tc, 1.0],
-                    _ => [-sc, -tc, -1.0],
-                };
+                let d = face_direction(f, sc, tc);
                 let n = (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]).sqrt();
                 let v = d.map(|c| c / n);
                 let enc = |c: f64| match (signed, wide) {
