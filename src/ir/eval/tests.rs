@@ -4,6 +4,7 @@
 
 use super::*;
 use crate::ir::{valid, FbChannel, Statement, Uniform};
+use crate::numerics::Precision;
 use crate::span::Span;
 use proptest::prelude::*;
 
@@ -269,7 +270,7 @@ fn unanswered_leaves_are_nan_and_uniforms_default() {
 }
 
 fn kilgard() -> Module {
-    let src = include_str!("../../examples/kilgard_bump_mapping.shd");
+    let src = include_str!("../../../examples/kilgard_bump_mapping.shd");
     let (program, d) = crate::parser::check(src);
     assert!(d.iter().all(|d| !d.is_error()), "{d:#?}");
     let (m, d) = crate::ir::lower(&program);
