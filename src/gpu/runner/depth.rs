@@ -11,15 +11,15 @@ pub(super) struct DepthCopier {
     pub(super) layout: wgpu::BindGroupLayout,
 }
 
-pub(super) const DEPTH_COPY_WGSL: &str = "
+const DEPTH_COPY_WGSL: &str = "
 @group(0) @binding(0) var depth: texture_depth_2d;
 @vertex
-pub(super) fn vs_main(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
+fn vs_main(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
     let p = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
     return vec4<f32>(p * 2.0 - 1.0, 0.0, 1.0);
 }
 @fragment
-pub(super) fn fs_main(@builtin(position) at: vec4<f32>) -> @location(0) vec4<f32> {
+fn fs_main(@builtin(position) at: vec4<f32>) -> @location(0) vec4<f32> {
     return vec4<f32>(textureLoad(depth, vec2<i32>(at.xy), 0), 0.0, 0.0, 1.0);
 }
 ";
