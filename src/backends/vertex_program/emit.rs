@@ -763,14 +763,6 @@ pub fn parameter_values(
     c
 }
 
-/// Whether a target runs vertex programs: NV_vertex_program came with the
-/// GeForce3 (NV20); the GeForce 256 and GeForce2 transformed and lit
-/// vertices in fixed function, so there the host computes what a pass
-/// needs per vertex.
-pub fn target_has_vertex_programs(target: &str) -> bool {
-    target == "geforce3"
-}
-
 /// A leaf in the program's own words: `x`, `u x`, `N`, a uniform's name.
 pub fn leaf_name(m: &Module, h: Handle<Expr>) -> String {
     let name = |v: Option<&String>| v.cloned().unwrap_or_else(|| "?".into());
@@ -866,7 +858,10 @@ pub fn host_work(planned: &Planned, index: usize, source: Option<&str>) -> Vec<S
 /// host computes and why.
 pub fn pass_text(planned: &Planned, index: usize, source: Option<&str>, title: &str) -> String {
     let target = planned.plan.target.as_str();
-    if !target_has_vertex_programs(target) {
+    // The profile says (`vertex_programs`): NV_vertex_program came with the
+    // GeForce3 (NV20); the GeForce 256 and GeForce2 transformed and lit
+    // vertices in fixed function, so there the host computes per vertex.
+    if !planned.vertex_programs {
         let work = host_work(planned, index, source);
         if work.is_empty() {
             return String::new();
