@@ -7,8 +7,15 @@
 //! vertex's attributes (`v[k]`: a position, a coordinate set, a shading
 //! vector) and loads the parameters (`c[k]`: constants, uniforms, the rows
 //! of a projection's model → clip matrix), which is what an application
-//! did. The results reach the rasterizer as the spec says
-//! ([`emulate::Results::rasterized`]: colours clamped to [0, 1]).
+//! did.
+//!
+//! The results are interpolated as the program wrote them, *not* clamped
+//! as NV_vertex_program Section 2.14.1.5 clamps the colours before
+//! interpolation ([`emulate::Results::rasterized`]): the wgpu runner still
+//! draws geforce3 passes with the host's unclamped vertex values, and the
+//! two executors must agree (`tools/gpu-check`); clamping here alone moved
+//! `gouraud.shd` on geforce3 by up to 40/255 against it. The clamp joins
+//! both executors when the runner takes the vertex program's WGSL stage.
 //!
 //! A pass whose per-vertex values have no vertex-program form (the emitter
 //! refuses it, and `compile --emit combiners` says why) keeps the host's
@@ -24,10 +31,6 @@ use crate::ir::Module;
 use crate::numerics::Precision;
 use crate::pipeline::Planned;
 use crate::scene::bind::{BoundObject, VertexEnv};
-
-/// The high end of the point size range for `o[PSIZ]`: shadec draws
-/// triangles only, so no point size is ever read and none is limited.
-const POINT_SIZE_MAX: f32 = f32::INFINITY;
 
 /// One pass's vertex program, ready to run on each object's vertices.
 pub struct PassProgram {
@@ -73,7 +76,7 @@ impl PassProgram {
             for (a, value) in attributes.iter_mut().zip(fetch.eval(&mut env).values) {
                 *a = value.map(|x| x as f32);
             }
-            let results = emulate::run(&e.program, &attributes, &parameters).rasterized(POINT_SIZE_MAX);
+            let results = emulate::run(&e.program, &attributes, &parameters);
             for o in e.outputs.iter().take(e.interpolants.len()) {
                 varyings.extend(results.get(*o));
             }
