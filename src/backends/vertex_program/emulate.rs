@@ -33,7 +33,7 @@ impl Results {
     /// Result Register Set"): the colour results `o[COL0]`, `o[COL1]`,
     /// `o[BFC0]`, `o[BFC1]` clamped to [0, 1] before interpolation ("the
     /// selected primary and secondary colors ... are clamped to the range
-    /// [0,1] and then interpolated"; clamping is one of the operations the
+    /// \[0,1\] and then interpolated"; clamping is one of the operations the
     /// spec's overview lists as *not* subsumed by the program), and the x
     /// of `o[PSIZ]` clamped to [0, `max_point_size`], the high end of the
     /// implementation's point size range. `o[FOGC]` is a fog *distance*
