@@ -151,6 +151,7 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
             measured: None,
         },
         combiners: None,
+        vertex_programs: false,
         setups: Vec::new(),
     }
     .resolved())

@@ -96,6 +96,13 @@ pub struct Profile {
     /// state for both faces: two passes.
     #[serde(default)]
     pub two_sided_stencil: bool,
+    /// NV_vertex_program (NVIDIA 2001; Lindholm, Kilgard and Moreton
+    /// 2001): the per-vertex part of a pass runs on the card as a `!!VP1.0`
+    /// program (GeForce3). Without it (GeForce 256, fixed-function
+    /// transform and lighting) the host computes what a pass needs per
+    /// vertex. See docs/vertex-programs.md.
+    #[serde(default)]
+    pub vertex_programs: bool,
     /// How fast the target runs a pass (`docs/cost-model.md`):
     /// `None` for a profile with no timing model (`wgsl`, `multitexture`),
     /// whose plans get no predicted time.

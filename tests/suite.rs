@@ -65,6 +65,8 @@ mod three_way;
 mod three_way_generated;
 mod three_way_realistic;
 mod vertex_programs;
+mod vertex_programs_corpus;
+mod vertex_programs_render;
 mod wgsl_agreement;
 mod wgsl_gpu;
 mod wgsl_snapshots;

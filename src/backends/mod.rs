@@ -4,6 +4,7 @@
 //! - `wgsl`: WGSL through naga, and a headless wgpu runner (feature `gpu`).
 
 pub mod combiners;
+pub mod readers;
 pub mod vertex_program;
 #[cfg(feature = "wgsl")]
 pub mod wgsl;

@@ -41,6 +41,10 @@ pub struct Planned {
     /// `.ron` file keeps its own limits — the plan names its target only by
     /// name, and a name is not a profile.
     pub combiners: Option<CombinerLimits>,
+    /// Whether the target runs each pass's vertices as a `!!VP1.0` program
+    /// (its profile's `vertex_programs`; docs/vertex-programs.md), carried
+    /// for the same reason as `combiners`.
+    pub vertex_programs: bool,
     /// Every pass resolved once (`setups[i]` is `plan.passes[i]`'s):
     /// what every executor, emitter and the language server read.
     pub setups: Vec<PassSetup>,

@@ -417,7 +417,13 @@ fn plan_as_written(
         return Err(refused);
     }
     let setups = crate::pipeline::setup::resolve_all(&m, &plan, stages);
-    Ok(Planned { module: m, plan, combiners: profile.combiner_limits(), setups })
+    Ok(Planned {
+        module: m,
+        plan,
+        combiners: profile.combiner_limits(),
+        vertex_programs: profile.vertex_programs,
+        setups,
+    })
 }
 
 /// Steps 1-2 for a scene: lights expanded and culled, the scene's uniforms

@@ -19,6 +19,7 @@ pub mod lights;
 pub mod plan;
 mod raster;
 mod tile;
+pub mod vertex_program;
 
 /// The fixed-function state the rasterizer applies is the plan contract's.
 pub use crate::pipeline::{

@@ -323,9 +323,11 @@ impl<'a> PlanRenderer<'a> {
             done: 0,
             total: self.n_draws(objects.len()),
             progress,
+            vertex_program: None,
         };
         for (index, pass) in plan.passes.iter().enumerate() {
             let whole = PassInterface::of(self.planned, index);
+            draws.vertex_program = super::vertex_program::PassProgram::of(self.planned, index);
             // A fat texel (seeds/001 (5), (15)): one draw per member, member i
             // into layer i of the texture (`T`, then `T#1`, `T#2`, …).
             let outputs = match &m.exprs[whole.output] {
@@ -459,8 +461,10 @@ impl<'a> PlanRenderer<'a> {
                     .filter(|(oi, _)| pass.objects.as_ref().is_none_or(|keep| keep.contains(oi)))
                     .map(|(_, o)| o)
                     .collect();
-                let vertices: Vec<MeshVertices> =
-                    drawn.iter().map(|o| MeshVertices::new(m, o, pi, &self.uniforms)).collect();
+                let vertices: Vec<MeshVertices> = drawn
+                    .iter()
+                    .map(|o| MeshVertices::new(m, o, pi, &self.uniforms, draws.vertex_program.as_ref()))
+                    .collect();
                 let passes: Vec<RasterPass> = drawn
                     .iter()
                     .zip(&vertices)
@@ -482,7 +486,7 @@ impl<'a> PlanRenderer<'a> {
                         draws.done += 1;
                         continue;
                     }
-                    let vs = MeshVertices::new(m, object, pi, &self.uniforms);
+                    let vs = MeshVertices::new(m, object, pi, &self.uniforms, draws.vertex_program.as_ref());
                     let s = super::draw(
                         target,
                         &RasterPass {
@@ -561,6 +565,8 @@ struct Draws<'p, 's> {
     done: usize,
     total: usize,
     progress: &'p mut dyn FnMut(usize, usize),
+    /// The current pass's vertex program, where the target runs them.
+    vertex_program: Option<super::vertex_program::PassProgram>,
 }
 
 impl Draws<'_, '_> {

@@ -624,6 +624,27 @@ impl<'m> Emitter<'m> {
                 self.per_lane(Opcode::Rcp, t, temp(t), w)?;
             }
             Floor | Fract => self.fract(t, a, w, fun == Floor)?,
+            Expand | HalfBias | Compress | Mix => self.remap(fun, t, [a, b, c], mask)?,
+            Step => self.to(Opcode::Sge, t, mask, &[b, a])?,
+            _ => {
+                return refuse(
+                    self.at,
+                    format!(
+                        "`{}` per vertex has no exact vertex-program form (EXP and LOG are approximations)",
+                        format!("{fun:?}").to_lowercase()
+                    ),
+                )
+            }
+        }
+        Ok(temp(t))
+    }
+
+    /// The range mappings into temporary `t` (the combiners' `expand`,
+    /// `half_bias`, their inverse `compress`, and `mix`): `[a, b, c]` are the
+    /// operands.
+    fn remap(&mut self, fun: MathFunction, t: u8, [a, b, c]: [Source; 3], mask: u8) -> Result<(), EmitError> {
+        use MathFunction::*;
+        match fun {
             Expand => {
                 let one = self.splat(1.0);
                 self.to(Opcode::Add, t, mask, &[a, a])?;
@@ -646,18 +667,9 @@ impl<'m> Emitter<'m> {
                 self.to(Opcode::Mad, t, mask, &[b, c, temp(s)])?;
                 self.free(s);
             }
-            Step => self.to(Opcode::Sge, t, mask, &[b, a])?,
-            _ => {
-                return refuse(
-                    self.at,
-                    format!(
-                        "`{}` per vertex has no exact vertex-program form (EXP and LOG are approximations)",
-                        format!("{fun:?}").to_lowercase()
-                    ),
-                )
-            }
+            _ => {}
         }
-        Ok(temp(t))
+        Ok(())
     }
 
     /// x − ⌊x⌋ from EXP's y, lane by lane; ⌊x⌋ = x − that.
@@ -749,14 +761,6 @@ pub fn parameter_values(
         };
     }
     c
-}
-
-/// Whether a target runs vertex programs: NV_vertex_program came with the
-/// GeForce3 (NV20); the GeForce 256 and GeForce2 transformed and lit
-/// vertices in fixed function, so there the host computes what a pass
-/// needs per vertex.
-pub fn target_has_vertex_programs(target: &str) -> bool {
-    target == "geforce3"
 }
 
 /// A leaf in the program's own words: `x`, `u x`, `N`, a uniform's name.
@@ -854,7 +858,10 @@ pub fn host_work(planned: &Planned, index: usize, source: Option<&str>) -> Vec<S
 /// host computes and why.
 pub fn pass_text(planned: &Planned, index: usize, source: Option<&str>, title: &str) -> String {
     let target = planned.plan.target.as_str();
-    if !target_has_vertex_programs(target) {
+    // The profile says (`vertex_programs`): NV_vertex_program came with the
+    // GeForce3 (NV20); the GeForce 256 and GeForce2 transformed and lit
+    // vertices in fixed function, so there the host computes per vertex.
+    if !planned.vertex_programs {
         let work = host_work(planned, index, source);
         if work.is_empty() {
             return String::new();

@@ -8,7 +8,9 @@
 //!
 //! At the start of every vertex the temporaries are (0, 0, 0, 0), `A0.x` is
 //! 0 and the results are (0, 0, 0, 1); a relative parameter read outside
-//! `c[0]`..`c[95]` reads (0, 0, 0, 0).
+//! `c[0]`..`c[95]` reads (0, 0, 0, 0). What the rasterizer then receives
+//! — the colours clamped to [0, 1], the point size to its range — is
+//! [`Results::rasterized`].
 
 use super::program::*;
 
@@ -24,6 +26,28 @@ pub struct Results {
 impl Results {
     pub fn get(&self, o: Output) -> Vec4 {
         self.outputs[o.index()]
+    }
+
+    /// The results as the rest of the pipeline receives them after the
+    /// program ends (NV_vertex_program, Section 2.14.1.5, "The Vertex
+    /// Result Register Set"): the colour results `o[COL0]`, `o[COL1]`,
+    /// `o[BFC0]`, `o[BFC1]` clamped to [0, 1] before interpolation ("the
+    /// selected primary and secondary colors ... are clamped to the range
+    /// \[0,1\] and then interpolated"; clamping is one of the operations the
+    /// spec's overview lists as *not* subsumed by the program), and the x
+    /// of `o[PSIZ]` clamped to [0, `max_point_size`], the high end of the
+    /// implementation's point size range. `o[FOGC]` is a fog *distance*
+    /// and is not clamped, nor are the position and the texture
+    /// coordinates. The registers themselves are never clamped while the
+    /// program runs, so [`run`] returns them as written. A NaN stays NaN.
+    pub fn rasterized(&self, max_point_size: f32) -> Results {
+        let mut outputs = self.outputs;
+        for o in Output::COLOURS {
+            outputs[o.index()] = outputs[o.index()].map(|x| x.clamp(0.0, 1.0));
+        }
+        let psiz = &mut outputs[Output::PSIZ.index()][0];
+        *psiz = psiz.clamp(0.0, max_point_size.max(0.0));
+        Results { outputs }
     }
 }
 
@@ -229,5 +253,35 @@ mod tests {
         assert_eq!(exponent(f32::from_bits(1)), -149);
         assert_eq!(exponent(1.0), 0);
         assert_eq!(exponent(3.5), 1);
+    }
+
+    fn results_with(o: Output, v: Vec4) -> Results {
+        let mut outputs = [[0.0, 0.0, 0.0, 1.0]; OUTPUTS];
+        outputs[o.index()] = v;
+        Results { outputs }
+    }
+
+    #[test]
+    fn colour_results_are_clamped_to_unit_range_when_rasterized() {
+        for o in Output::COLOURS {
+            let r = results_with(o, [-0.5, 0.25, 1.5, 7.0]).rasterized(64.0);
+            assert_eq!(r.get(o), [0.0, 0.25, 1.0, 1.0], "{}", o.name());
+        }
+    }
+
+    #[test]
+    fn point_size_x_is_clamped_to_the_point_size_range() {
+        let r = results_with(Output::PSIZ, [100.0, -3.0, 5.0, 9.0]).rasterized(64.0);
+        assert_eq!(r.get(Output::PSIZ), [64.0, -3.0, 5.0, 9.0]);
+        let r = results_with(Output::PSIZ, [-2.0, 0.0, 0.0, 0.0]).rasterized(64.0);
+        assert_eq!(r.get(Output::PSIZ)[0], 0.0);
+    }
+
+    #[test]
+    fn fog_position_and_texture_coordinates_are_not_clamped() {
+        for o in [Output::FOGC, Output::HPOS, Output::tex(0), Output::tex(7)] {
+            let v = [-2.0, 3.5, -0.25, 9.0];
+            assert_eq!(results_with(o, v).rasterized(64.0).get(o), v, "{}", o.name());
+        }
     }
 }

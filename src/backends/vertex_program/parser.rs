@@ -6,8 +6,10 @@
 use crate::diag::{did_you_mean, Diagnostic};
 use crate::span::Span;
 
-use super::lexer::{lex, Tok, Token};
+use super::lexer::{Tok, VP1};
 use super::program::*;
+use crate::backends::readers::cursor::Cursor;
+use crate::backends::readers::lex::syntax;
 
 /// Where one instruction came from.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -28,15 +30,6 @@ pub struct Parsed {
 
 type PResult<T> = Result<T, Diagnostic>;
 
-fn syntax(
-    message: impl Into<String>,
-    span: Span,
-    label: impl Into<String>,
-    help: impl Into<String>,
-) -> Diagnostic {
-    Diagnostic::error("syntax", message, span, label).with_help(help)
-}
-
 fn range(
     message: impl Into<String>,
     span: Span,
@@ -48,8 +41,7 @@ fn range(
 
 /// Reads the text after the header (`base`: its byte offset in the file).
 pub fn parse(text: &str, base: usize, version: Version, header: Span) -> PResult<Parsed> {
-    let tokens = lex(text, base)?;
-    let mut p = Parser { tokens, pos: 0 };
+    let mut p = Parser::new(text, base, &VP1, Vp1)?;
     let mut program = VertexProgram { version, ..Default::default() };
     let mut spans = Vec::new();
     loop {
@@ -62,7 +54,7 @@ pub fn parse(text: &str, base: usize, version: Version, header: Span) -> PResult
                 p.expect(Tok::Semi, "`;`", "end the option with `;`")?;
                 program.position_invariant = true;
             }
-            Tok::Eof => {
+            Tok::Eof(_) => {
                 return Err(syntax(
                     "the program has no `END`",
                     t.span,
@@ -80,51 +72,12 @@ pub fn parse(text: &str, base: usize, version: Version, header: Span) -> PResult
     Ok(Parsed { program, spans, header })
 }
 
-struct Parser<'a> {
-    tokens: Vec<Token<'a>>,
-    pos: usize,
-}
+/// The `!!VP1.0` grammar, walked on the shared cursor.
+struct Vp1;
+
+type Parser<'a> = Cursor<'a, Vp1>;
 
 impl<'a> Parser<'a> {
-    fn peek(&self) -> Token<'a> {
-        self.tokens[self.pos.min(self.tokens.len() - 1)]
-    }
-
-    fn bump(&mut self) -> Token<'a> {
-        let t = self.peek();
-        if self.pos < self.tokens.len() - 1 {
-            self.pos += 1;
-        }
-        t
-    }
-
-    fn prev_end(&self) -> Span {
-        let prev = self.tokens[self.pos.saturating_sub(1)].span;
-        Span::new(prev.end as usize, prev.end as usize)
-    }
-
-    fn expect(&mut self, want: Tok<'static>, what: &str, help: &str) -> PResult<Span> {
-        let t = self.peek();
-        if t.tok == want {
-            self.bump();
-            return Ok(t.span);
-        }
-        if want == Tok::Semi {
-            return Err(syntax(
-                format!("expected `;`, found {}", t.tok.describe()),
-                self.prev_end(),
-                "the instruction ends here",
-                help,
-            ));
-        }
-        Err(syntax(
-            format!("expected {what}, found {}", t.tok.describe()),
-            t.span,
-            format!("expected {what}"),
-            help,
-        ))
-    }
-
     fn expect_name(&mut self, name: &str, help: &str) -> PResult<Span> {
         let t = self.peek();
         if t.tok == Tok::Name(name) {

@@ -221,6 +221,13 @@ impl Output {
     pub const HPOS: Output = Output(0);
     pub const COL0: Output = Output(1);
     pub const COL1: Output = Output(2);
+    pub const BFC0: Output = Output(3);
+    pub const BFC1: Output = Output(4);
+    pub const FOGC: Output = Output(5);
+    pub const PSIZ: Output = Output(6);
+    /// The four colour results, which the rasterizer receives clamped to
+    /// [0, 1] (NV_vertex_program, Section 2.14.1.5).
+    pub const COLOURS: [Output; 4] = [Output::COL0, Output::COL1, Output::BFC0, Output::BFC1];
 
     pub fn tex(k: u8) -> Output {
         Output(7 + k)

@@ -54,7 +54,15 @@ pub fn translate(program: &VertexProgram, title: &str) -> String {
     }
     out.push_str("    let o = vertex_program(v);\n    var out: VertexOut;\n    out.hpos = o[0];\n");
     for o in &written {
-        let _ = writeln!(out, "    out.{} = o[{o}];", OUTPUT_NAMES[*o].to_ascii_lowercase());
+        let name = OUTPUT_NAMES[*o].to_ascii_lowercase();
+        // The colours reach the rasterizer clamped to [0, 1]
+        // (NV_vertex_program, Section 2.14.1.5; `Results::rasterized`).
+        // WGSL has no point size, so `o[PSIZ]` is passed on as written.
+        if Output::COLOURS.iter().any(|c| c.index() == *o) {
+            let _ = writeln!(out, "    out.{name} = clamp(o[{o}], vec4<f32>(0.0), vec4<f32>(1.0));");
+        } else {
+            let _ = writeln!(out, "    out.{name} = o[{o}];");
+        }
     }
     out.push_str("    return out;\n}\n");
     out

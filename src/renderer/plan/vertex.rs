@@ -44,7 +44,13 @@ impl MeshVertices {
         object: &BoundObject,
         pi: &PassInterface,
         uniforms: &[Option<Value>],
+        program: Option<&crate::renderer::vertex_program::PassProgram>,
     ) -> MeshVertices {
+        // A target with vertex programs: the pass's program computes them.
+        if let Some(program) = program {
+            let (n_varyings, varyings, clip) = program.vertices(m, object, uniforms);
+            return MeshVertices { n_varyings, varyings, clip };
+        }
         let values: Vec<Handle<Expr>> = pi
             .interpolants
             .iter()

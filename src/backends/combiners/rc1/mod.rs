@@ -14,7 +14,7 @@ pub use printer::print;
 
 use crate::diag::Diagnostic;
 
-use super::config::{CombinerConfig, CombinerLimits};
+use super::config::{CombinerConfig, CombinerLimits, Register};
 use super::ts1;
 use super::validate::validate;
 
@@ -39,5 +39,42 @@ pub fn parse_and_validate(text: &str, limits: &CombinerLimits) -> Result<Combine
         Ok(parsed.config)
     } else {
         Err(diagnostics)
+    }
+}
+
+/// The `!!RC1.0` name of each register (Kilgard 2000, Appendix B: `col0`
+/// for the primary colour, `tex0` for texture 0, ...), held once for the
+/// parser, which reads them, and the printer, which writes them; listed in
+/// the order the parser's help names them.
+pub(crate) const REGISTERS: [(&str, Register); 12] = [
+    ("tex0", Register::Texture0),
+    ("tex1", Register::Texture1),
+    ("tex2", Register::Texture2),
+    ("tex3", Register::Texture3),
+    ("col0", Register::Primary),
+    ("col1", Register::Secondary),
+    ("spare0", Register::Spare0),
+    ("spare1", Register::Spare1),
+    ("fog", Register::Fog),
+    ("const0", Register::Constant0),
+    ("const1", Register::Constant1),
+    ("zero", Register::Zero),
+];
+
+/// The `!!RC1.0` name of `register`.
+pub(crate) fn register_name(register: Register) -> &'static str {
+    // `REGISTERS` names every one of `Register::ALL` (a unit test holds it).
+    REGISTERS.iter().find(|(_, r)| *r == register).map_or("zero", |(name, _)| name)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_register_has_one_rc1_name() {
+        for r in Register::ALL {
+            assert_eq!(REGISTERS.iter().filter(|(_, x)| *x == r).count(), 1, "{r:?}");
+        }
     }
 }

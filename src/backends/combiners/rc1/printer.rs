@@ -10,6 +10,8 @@
 
 use std::fmt::Write as _;
 
+use super::register_name;
+
 use crate::backends::combiners::config::{
     Bias, CombinerConfig, ComponentUsage, FinalCombiner, FinalInput, FinalSource, GeneralInput,
     GeneralPortion, InputMapping, PortionKind, Register, Scale,
@@ -50,23 +52,6 @@ pub fn print(config: &CombinerConfig) -> String {
 
 fn color(c: &[f32; 4]) -> String {
     format!("({}, {}, {}, {})", c[0], c[1], c[2], c[3])
-}
-
-fn register_name(r: Register) -> &'static str {
-    match r {
-        Register::Zero => "zero",
-        Register::Constant0 => "const0",
-        Register::Constant1 => "const1",
-        Register::Fog => "fog",
-        Register::Primary => "col0",
-        Register::Secondary => "col1",
-        Register::Spare0 => "spare0",
-        Register::Spare1 => "spare1",
-        Register::Texture0 => "tex0",
-        Register::Texture1 => "tex1",
-        Register::Texture2 => "tex2",
-        Register::Texture3 => "tex3",
-    }
 }
 
 fn selector(usage: ComponentUsage, default: ComponentUsage) -> &'static str {

@@ -6,8 +6,10 @@
 use crate::diag::{did_you_mean, Diagnostic};
 use crate::span::Span;
 
-use super::lexer::{lex, Tok, Token};
+use super::lexer::{Tok, TS1};
 use super::program::{CullCondition, DotFamily, DotMapping, Operation, TextureShader};
+use crate::backends::readers::cursor::Cursor;
+use crate::backends::readers::lex::syntax;
 
 /// Where one stage came from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -57,11 +59,10 @@ pub fn instruction_names() -> Vec<String> {
 
 /// Parses the text after `!!TS1.0`; `base` is its byte offset in the file.
 pub fn parse(text: &str, base: usize) -> Result<Parsed, Diagnostic> {
-    let tokens = lex(text, base)?;
-    let mut p = Parser { tokens, pos: 0 };
+    let mut p = Parser::new(text, base, &TS1, Ts1)?;
     let mut program = TextureShader::default();
     let mut spans = Vec::new();
-    while p.peek().tok != Tok::Eof {
+    while !p.peek().tok.is_eof() {
         let (op, stage) = p.instruction()?;
         program.stages.push(op);
         spans.push(stage);
@@ -69,21 +70,12 @@ pub fn parse(text: &str, base: usize) -> Result<Parsed, Diagnostic> {
     Ok(Parsed { program, spans })
 }
 
-struct Parser<'a> {
-    tokens: Vec<Token<'a>>,
-    pos: usize,
-}
+/// The `!!TS1.0` grammar, walked on the shared cursor.
+struct Ts1;
+
+type Parser<'a> = Cursor<'a, Ts1>;
 
 type PResult<T> = Result<T, Diagnostic>;
-
-fn syntax(
-    message: impl Into<String>,
-    span: Span,
-    label: impl Into<String>,
-    help: impl Into<String>,
-) -> Diagnostic {
-    Diagnostic::error("syntax", message, span, label).with_help(help)
-}
 
 /// What an instruction name stands for, before its arguments are read.
 enum Kind {
@@ -128,45 +120,6 @@ fn kind_of(name: &str) -> Option<Kind> {
 }
 
 impl<'a> Parser<'a> {
-    fn peek(&self) -> Token<'a> {
-        self.tokens[self.pos.min(self.tokens.len() - 1)]
-    }
-
-    fn bump(&mut self) -> Token<'a> {
-        let t = self.peek();
-        if self.pos < self.tokens.len() - 1 {
-            self.pos += 1;
-        }
-        t
-    }
-
-    fn prev_end(&self) -> Span {
-        let prev = self.tokens[self.pos.saturating_sub(1)].span;
-        Span { start: prev.end, end: prev.end }
-    }
-
-    fn expect(&mut self, want: Tok<'static>, what: &str, help: &str) -> PResult<Span> {
-        let t = self.peek();
-        if t.tok == want {
-            self.bump();
-            return Ok(t.span);
-        }
-        if want == Tok::Semi {
-            return Err(syntax(
-                format!("expected `;`, found {}", t.tok.describe()),
-                self.prev_end(),
-                "instruction ends here",
-                "end every instruction with `;`",
-            ));
-        }
-        Err(syntax(
-            format!("expected {what}, found {}", t.tok.describe()),
-            t.span,
-            format!("expected {what}"),
-            help,
-        ))
-    }
-
     fn instruction(&mut self) -> PResult<(Operation, StageSpans)> {
         let t = self.bump();
         let Tok::Name(name) = t.tok else {
@@ -213,7 +166,7 @@ impl<'a> Parser<'a> {
             }
         };
         self.close(&usage)?;
-        let end = self.expect(Tok::Semi, "`;`", "")?;
+        let end = self.expect(Tok::Semi, "`;`", "end every instruction with `;`")?;
         Ok((op, StageSpans { name: t.span, previous, whole: t.span.join(end) }))
     }
 

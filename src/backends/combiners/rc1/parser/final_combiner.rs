@@ -13,15 +13,15 @@ impl<'a> Parser<'a> {
         let t = self.peek();
         match t.tok {
             Tok::Minus => Err(syntax("the final combiner has no signed mappings", t.span, "negation", "the final combiner reads `r`, `unsigned(r)` or `unsigned_invert(r)`; negate in a general combiner")),
-            Tok::Name(name @ ("unsigned" | "unsigned_invert"), None) if self.peek2().tok == Tok::LParen => {
+            Tok::Name(name @ ("unsigned" | "unsigned_invert")) if self.peek2().tok == Tok::LParen => {
                 self.bump();
                 self.bump();
                 let inner = self.register_operand()?;
-                let close = self.expect(Tok::RParen, "`)`")?;
+                let close = self.expect_token(Tok::RParen, "`)`")?;
                 let mapping = if name == "unsigned" { InputMapping::UnsignedIdentity } else { InputMapping::UnsignedInvert };
                 Ok(Operand { mapping, span: t.span.join(close), ..inner })
             }
-            Tok::Name(name @ ("expand" | "half_bias"), None) => Err(syntax(format!("`{name}()` is not available in the final combiner"), t.span, "signed mapping", "the final combiner reads `r`, `unsigned(r)` or `unsigned_invert(r)`")),
+            Tok::Name(name @ ("expand" | "half_bias")) => Err(syntax(format!("`{name}()` is not available in the final combiner"), t.span, "signed mapping", "the final combiner reads `r`, `unsigned(r)` or `unsigned_invert(r)`")),
             _ => self.register_operand(),
         }
     }
@@ -56,23 +56,13 @@ impl<'a> Parser<'a> {
             }
             Source::One => unreachable_one(op.span)?,
         };
-        self.spans.insert(Place::FinalInput(var), op.span);
+        self.state.spans.insert(Place::FinalInput(var), op.span);
         Ok(FinalInput::new(source, mapping, usage))
     }
 
     /// `[clamp_color_sum();] [final_product = E * F;] out.rgb = ...; out.a = G;`
     pub(super) fn final_combiner(&mut self) -> PResult<FinalCombiner> {
-        let zero_rgb = FinalInput::register(Register::Zero, ComponentUsage::Rgb);
-        let mut fc = FinalCombiner {
-            a: zero_rgb,
-            b: zero_rgb,
-            c: zero_rgb,
-            d: zero_rgb,
-            e: zero_rgb,
-            f: zero_rgb,
-            g: FinalInput::register(Register::Zero, ComponentUsage::Alpha),
-            color_sum_clamp: false,
-        };
+        let mut fc = unset_final_combiner();
         let mut clamp: Option<Span> = None;
         let mut product: Option<Span> = None;
         let mut rgb: Option<Span> = None;
@@ -93,20 +83,17 @@ impl<'a> Parser<'a> {
                 )
             };
             match t.tok {
-                Tok::Name("clamp_color_sum", None) => {
+                Tok::Name("clamp_color_sum") => {
                     if let Some(first) = clamp {
                         return Err(twice(first, "clamp_color_sum();"));
                     }
                     if rgb.is_some() || alpha.is_some() {
                         return Err(late("clamp_color_sum();"));
                     }
-                    self.bump();
-                    self.expect(Tok::LParen, "`(`")?;
-                    self.expect(Tok::RParen, "`)`")?;
-                    clamp = Some(t.span.join(self.expect(Tok::Semi, "`;`")?));
+                    clamp = Some(self.call_statement(t.span)?);
                     fc.color_sum_clamp = true;
                 }
-                Tok::Name("final_product", None) if self.peek2().tok == Tok::Equals => {
+                Tok::Name("final_product") if self.peek2().tok == Tok::Equals => {
                     if let Some(first) = product {
                         return Err(twice(first, "final_product"));
                     }
@@ -115,23 +102,23 @@ impl<'a> Parser<'a> {
                     }
                     product = Some(self.final_product(&mut fc, t.span)?);
                 }
-                Tok::Name("out", Some("rgb")) => {
+                Tok::Selected("out", "rgb") => {
                     if let Some(first) = rgb {
                         return Err(twice(first, "out.rgb"));
                     }
                     self.bump();
-                    self.expect(Tok::Equals, "`=`")?;
+                    self.expect_token(Tok::Equals, "`=`")?;
                     self.final_rgb(&mut fc, product.is_some())?;
-                    rgb = Some(t.span.join(self.expect(Tok::Semi, "`;`")?));
+                    rgb = Some(t.span.join(self.expect_token(Tok::Semi, "`;`")?));
                 }
-                Tok::Name("out", Some("a")) => {
+                Tok::Selected("out", "a") => {
                     if let Some(first) = alpha {
                         return Err(twice(first, "out.a"));
                     }
                     self.bump();
-                    self.expect(Tok::Equals, "`=`")?;
+                    self.expect_token(Tok::Equals, "`=`")?;
                     fc.g = self.final_alpha(product.is_some())?;
-                    alpha = Some(t.span.join(self.expect(Tok::Semi, "`;`")?));
+                    alpha = Some(t.span.join(self.expect_token(Tok::Semi, "`;`")?));
                 }
                 _ => break,
             }
@@ -143,15 +130,24 @@ impl<'a> Parser<'a> {
         Ok(fc)
     }
 
+    /// A call with no arguments, `name();`, its name at `at`: the span of
+    /// the statement.
+    fn call_statement(&mut self, at: Span) -> PResult<Span> {
+        self.bump();
+        self.expect_token(Tok::LParen, "`(`")?;
+        self.expect_token(Tok::RParen, "`)`")?;
+        Ok(at.join(self.expect_token(Tok::Semi, "`;`")?))
+    }
+
     /// `final_product = E * F;` (Kilgard 2000, Table 6): E and F read ordinary
     /// registers. Returns the statement's span.
     fn final_product(&mut self, fc: &mut FinalCombiner, start: Span) -> PResult<Span> {
         self.bump();
         self.bump();
         let e = self.final_operand()?;
-        self.expect(Tok::Star, "`*` (final_product = E * F;)")?;
+        self.expect_token(Tok::Star, "`*` (final_product = E * F;)")?;
         let f = self.final_operand()?;
-        let span = start.join(self.expect(Tok::Semi, "`;`")?);
+        let span = start.join(self.expect_token(Tok::Semi, "`;`")?);
         for (op, var) in [(e, 'E'), (f, 'F')] {
             ordinary(&op, "final_product", "E and F read ordinary registers")?;
             let input = self.final_input(op, var, true)?;
@@ -175,7 +171,7 @@ impl<'a> Parser<'a> {
     fn missing_output(&self) -> Diagnostic {
         let t = self.peek();
         let help = match t.tok {
-            Tok::Name(n, _) => {
+            Tok::Name(n) | Tok::Selected(n, _) => {
                 match did_you_mean(n, ["out.rgb", "out.a", "clamp_color_sum", "final_product"]) {
                     Some(m) => format!("did you mean `{m}`?"),
                     None => "end the program with `out.rgb = ...;` and/or `out.a = ...;`".into(),
@@ -213,13 +209,13 @@ impl<'a> Parser<'a> {
     }
 
     fn swap_spans(&mut self, x: char, y: char) {
-        let sx = self.spans.remove(&Place::FinalInput(x));
-        let sy = self.spans.remove(&Place::FinalInput(y));
+        let sx = self.state.spans.remove(&Place::FinalInput(x));
+        let sy = self.state.spans.remove(&Place::FinalInput(y));
         if let Some(s) = sx {
-            self.spans.insert(Place::FinalInput(y), s);
+            self.state.spans.insert(Place::FinalInput(y), s);
         }
         if let Some(s) = sy {
-            self.spans.insert(Place::FinalInput(x), s);
+            self.state.spans.insert(Place::FinalInput(x), s);
         }
     }
 
@@ -275,7 +271,7 @@ impl<'a> Parser<'a> {
         for (op, var) in [(a, 'A'), (b, 'B'), (c, 'C'), (d, 'D')] {
             let input = self.final_input(op, var, has_product)?;
             if is_filler(&op) {
-                self.spans.remove(&Place::FinalInput(var));
+                self.state.spans.remove(&Place::FinalInput(var));
             }
             match var {
                 'A' => fc.a = input,
@@ -289,13 +285,29 @@ impl<'a> Parser<'a> {
 
     fn lerp(&mut self) -> PResult<(Operand, Operand, Operand)> {
         self.bump();
-        self.expect(Tok::LParen, "`(`")?;
+        self.expect_token(Tok::LParen, "`(`")?;
         let a = self.final_operand()?;
-        self.expect(Tok::Comma, "`,` (lerp takes three operands)")?;
+        self.expect_token(Tok::Comma, "`,` (lerp takes three operands)")?;
         let b = self.final_operand()?;
-        self.expect(Tok::Comma, "`,` (lerp takes three operands)")?;
+        self.expect_token(Tok::Comma, "`,` (lerp takes three operands)")?;
         let c = self.final_operand()?;
-        self.expect(Tok::RParen, "`)`")?;
+        self.expect_token(Tok::RParen, "`)`")?;
         Ok((a, b, c))
+    }
+}
+
+/// The final combiner before its statements: every input zero (RGB, and
+/// alpha for G), the colour-sum clamp off until `clamp_color_sum();`.
+fn unset_final_combiner() -> FinalCombiner {
+    let zero_rgb = FinalInput::register(Register::Zero, ComponentUsage::Rgb);
+    FinalCombiner {
+        a: zero_rgb,
+        b: zero_rgb,
+        c: zero_rgb,
+        d: zero_rgb,
+        e: zero_rgb,
+        f: zero_rgb,
+        g: FinalInput::register(Register::Zero, ComponentUsage::Alpha),
+        color_sum_clamp: false,
     }
 }

@@ -9,13 +9,16 @@ use std::collections::HashMap;
 use crate::diag::{did_you_mean, Diagnostic};
 use crate::span::Span;
 
-use super::lexer::{lex, Tok, Token};
+use super::lexer::{Tok, RC1};
+use super::REGISTERS;
 use crate::backends::combiners::config::{
     Bias, Color, CombinerConfig, ComponentUsage, FinalCombiner, FinalInput, FinalSource, GeneralInput,
     GeneralPortion, GeneralStage, InputMapping, PortionKind, Register, Scale,
 };
 use crate::backends::combiners::ts1;
 use crate::backends::combiners::validate::{OutputSlot, Place};
+use crate::backends::readers::cursor::Cursor;
+use crate::backends::readers::lex::syntax;
 
 mod final_combiner;
 
@@ -34,10 +37,10 @@ impl Parsed {
     }
 }
 
-const REGISTER_NAMES: [&str; 14] = [
-    "tex0", "tex1", "tex2", "tex3", "col0", "col1", "spare0", "spare1", "fog", "const0", "const1", "zero",
-    "one", "discard",
-];
+/// Every name an operand can take: the registers, then `one` and `discard`.
+fn register_names() -> impl Iterator<Item = &'static str> {
+    REGISTERS.iter().map(|(name, _)| *name).chain(["one", "discard"])
+}
 
 /// Parses an `!!RC1.0` program (optionally preceded by a `!!TS1.0` block).
 pub fn parse(text: &str) -> Result<Parsed, Diagnostic> {
@@ -74,12 +77,11 @@ pub fn parse(text: &str) -> Result<Parsed, Diagnostic> {
         .with_help("put `!!RC1.0` on the first line"));
     }
     let start = rc_start + "!!RC1.0".len();
-    let tokens = lex(&text[start..], start)?;
-    let mut parser = Parser { tokens, pos: 0, spans: HashMap::new() };
+    let mut parser = Parser::new(&text[start..], start, &RC1, Rc1 { spans: HashMap::new() })?;
     let mut config = parser.program()?;
     let texture_shader_spans = texture_shader.as_ref().map(|t| t.spans.clone()).unwrap_or_default();
     config.texture_shader = texture_shader.map(|t| t.program);
-    Ok(Parsed { config, spans: parser.spans, texture_shader_spans })
+    Ok(Parsed { config, spans: parser.state.spans, texture_shader_spans })
 }
 
 /// An operand as written: a register (or a pseudo-register) with its mapping.
@@ -127,75 +129,35 @@ enum Op {
     Sum { dest: (Option<Register>, Span), mux: bool, span: Span },
 }
 
-struct Parser<'a> {
-    tokens: Vec<Token<'a>>,
-    pos: usize,
+/// The `!!RC1.0` grammar, walked on the shared cursor, keeping where each
+/// place of the config was written.
+struct Rc1 {
     spans: HashMap<Place, Span>,
 }
 
+type Parser<'a> = Cursor<'a, Rc1>;
+
 type PResult<T> = Result<T, Diagnostic>;
 
-fn syntax(
-    message: impl Into<String>,
-    span: Span,
-    label: impl Into<String>,
-    help: impl Into<String>,
-) -> Diagnostic {
-    Diagnostic::error("syntax", message, span, label).with_help(help)
-}
-
 impl<'a> Parser<'a> {
-    fn peek(&self) -> Token<'a> {
-        self.tokens[self.pos.min(self.tokens.len() - 1)]
-    }
-
-    fn peek2(&self) -> Token<'a> {
-        self.tokens[(self.pos + 1).min(self.tokens.len() - 1)]
-    }
-
-    fn bump(&mut self) -> Token<'a> {
-        let t = self.peek();
-        if self.pos < self.tokens.len() - 1 {
-            self.pos += 1;
-        }
-        t
-    }
-
-    fn prev_end(&self) -> Span {
-        let prev = self.tokens[self.pos.saturating_sub(1)].span;
-        Span { start: prev.end, end: prev.end }
-    }
-
-    fn expect(&mut self, want: Tok<'static>, what: &str) -> PResult<Span> {
-        let t = self.peek();
-        if t.tok == want {
-            self.bump();
-            return Ok(t.span);
-        }
-        if want == Tok::Semi {
-            return Err(syntax(
-                format!("expected `;`, found {}", t.tok.describe()),
-                self.prev_end(),
-                "statement ends here",
-                "end every statement with `;`",
-            ));
-        }
-        Err(syntax(
-            format!("expected {what}, found {}", t.tok.describe()),
-            t.span,
-            format!("expected {what}"),
-            format!("write {what} here"),
-        ))
+    /// `expect` with the statement's help: `;` ends every statement.
+    fn expect_token(&mut self, want: Tok<'static>, what: &str) -> PResult<Span> {
+        let help = if want == Tok::Semi {
+            "end every statement with `;`".into()
+        } else {
+            format!("write {what} here")
+        };
+        self.expect(want, what, &help)
     }
 
     fn is_name(&self, name: &str) -> bool {
-        matches!(self.peek().tok, Tok::Name(n, None) if n == name)
+        matches!(self.peek().tok, Tok::Name(n) if n == name)
     }
 
     fn program(&mut self) -> PResult<CombinerConfig> {
         let mut config = CombinerConfig { general: Vec::new(), ..CombinerConfig::default() };
         // Global constants.
-        while let Tok::Name(n @ ("const0" | "const1"), None) = self.peek().tok {
+        while let Tok::Name(n @ ("const0" | "const1")) = self.peek().tok {
             if self.peek2().tok != Tok::Equals {
                 break;
             }
@@ -203,7 +165,7 @@ impl<'a> Parser<'a> {
             let (color, span) = self.constant()?;
             let slot = if idx == 0 { &mut config.constant0 } else { &mut config.constant1 };
             if slot.is_some() {
-                let first = self.spans[&Place::GlobalConstant(idx)];
+                let first = self.state.spans[&Place::GlobalConstant(idx)];
                 return Err(Diagnostic::error(
                     "constant-twice",
                     format!("global constant `{n}` set twice"),
@@ -214,7 +176,7 @@ impl<'a> Parser<'a> {
                 .with_help("set each constant colour once"));
             }
             *slot = Some(color);
-            self.spans.insert(Place::GlobalConstant(idx), span);
+            self.state.spans.insert(Place::GlobalConstant(idx), span);
         }
         // General combiners.
         while self.peek().tok == Tok::LBrace {
@@ -224,10 +186,10 @@ impl<'a> Parser<'a> {
         }
         config.final_combiner = self.final_combiner()?;
         let t = self.peek();
-        if t.tok != Tok::Eof {
+        if !t.tok.is_eof() {
             let help = match t.tok {
                 Tok::LBrace => "general combiners come before the final combiner statements",
-                Tok::Name("const0" | "const1", _) => {
+                Tok::Name("const0" | "const1") | Tok::Selected("const0" | "const1", _) => {
                     "global constants come first, before any general combiner"
                 }
                 _ => "the program ends after `out.rgb` and `out.a`",
@@ -263,17 +225,17 @@ impl<'a> Parser<'a> {
     /// `const0 = (r, g, b, a);`
     fn constant(&mut self) -> PResult<(Color, Span)> {
         let start = self.bump().span;
-        self.expect(Tok::Equals, "`=`")?;
-        self.expect(Tok::LParen, "`(`")?;
+        self.expect_token(Tok::Equals, "`=`")?;
+        self.expect_token(Tok::LParen, "`(`")?;
         let mut c = [0.0; 4];
         for (i, slot) in c.iter_mut().enumerate() {
             if i > 0 {
-                self.expect(Tok::Comma, "`,` (a constant has four components)")?;
+                self.expect_token(Tok::Comma, "`,` (a constant has four components)")?;
             }
             *slot = self.number()?;
         }
-        self.expect(Tok::RParen, "`)` (a constant has four components)")?;
-        let end = self.expect(Tok::Semi, "`;`")?;
+        self.expect_token(Tok::RParen, "`)` (a constant has four components)")?;
+        let end = self.expect_token(Tok::Semi, "`;`")?;
         Ok((c, start.join(end)))
     }
 
@@ -290,7 +252,7 @@ impl<'a> Parser<'a> {
         loop {
             let t = self.peek();
             match t.tok {
-                Tok::Name(n @ ("const0" | "const1"), None) if self.peek2().tok == Tok::Equals => {
+                Tok::Name(n @ ("const0" | "const1")) if self.peek2().tok == Tok::Equals => {
                     if seen.iter().any(Option::is_some) {
                         return Err(syntax(
                             "per-stage constants come before the portions",
@@ -299,22 +261,9 @@ impl<'a> Parser<'a> {
                             "move the constant to the top of the stage",
                         ));
                     }
-                    let idx = u8::from(n == "const1");
-                    let (color, span) = self.constant()?;
-                    let slot = if idx == 0 { &mut stage.constant0 } else { &mut stage.constant1 };
-                    if slot.is_some() {
-                        return Err(Diagnostic::error(
-                            "constant-twice",
-                            format!("local constant `{n}` set twice in general combiner {s}"),
-                            span,
-                            "set again here",
-                        )
-                        .with_help("set each constant colour once per stage"));
-                    }
-                    *slot = Some(color);
-                    self.spans.insert(Place::StageConstant(s, idx), span);
+                    self.stage_constant(s, n, &mut stage)?;
                 }
-                Tok::Name(n @ ("rgb" | "alpha"), None) => {
+                Tok::Name(n @ ("rgb" | "alpha")) => {
                     let kind = if n == "rgb" { PortionKind::Rgb } else { PortionKind::Alpha };
                     let k = kind as usize;
                     if let Some(first) = seen[k] {
@@ -344,34 +293,36 @@ impl<'a> Parser<'a> {
                             "give it an `rgb { ... }` and/or `alpha { ... }` portion, or remove it",
                         ));
                     }
-                    self.spans.insert(Place::Stage(s), open.join(close));
+                    self.state.spans.insert(Place::Stage(s), open.join(close));
                     return Ok(stage);
                 }
-                _ => {
-                    let help = match t.tok {
-                        Tok::Name(n, _) => match did_you_mean(n, ["rgb", "alpha", "const0", "const1"]) {
-                            Some(m) => format!("did you mean `{m}`?"),
-                            None => {
-                                "a general combiner holds `rgb { ... }` and `alpha { ... }` portions".into()
-                            }
-                        },
-                        Tok::Eof => "close the general combiner with `}`".into(),
-                        _ => "a general combiner holds `rgb { ... }` and `alpha { ... }` portions".into(),
-                    };
-                    return Err(syntax(
-                        format!("expected `rgb`, `alpha` or `}}`, found {}", t.tok.describe()),
-                        t.span,
-                        "not a portion",
-                        help,
-                    ));
-                }
+                _ => return Err(not_a_portion(t)),
             }
         }
     }
 
+    /// `constN = (r, g, b, a);` inside general combiner `s`.
+    fn stage_constant(&mut self, s: usize, n: &str, stage: &mut GeneralStage) -> PResult<()> {
+        let idx = u8::from(n == "const1");
+        let (color, span) = self.constant()?;
+        let slot = if idx == 0 { &mut stage.constant0 } else { &mut stage.constant1 };
+        if slot.is_some() {
+            return Err(Diagnostic::error(
+                "constant-twice",
+                format!("local constant `{n}` set twice in general combiner {s}"),
+                span,
+                "set again here",
+            )
+            .with_help("set each constant colour once per stage"));
+        }
+        *slot = Some(color);
+        self.state.spans.insert(Place::StageConstant(s, idx), span);
+        Ok(())
+    }
+
     fn portion(&mut self, s: usize, kind: PortionKind) -> PResult<GeneralPortion> {
         let start = self.bump().span;
-        self.expect(Tok::LBrace, "`{`")?;
+        self.expect_token(Tok::LBrace, "`{`")?;
         let mut ops: Vec<Op> = Vec::new();
         let mut scale: Option<(Scale, Span)> = None;
         let mut bias: Option<(Bias, Span)> = None;
@@ -379,44 +330,13 @@ impl<'a> Parser<'a> {
             let t = self.peek();
             match t.tok {
                 Tok::RBrace => break,
-                Tok::Name(n, None)
+                Tok::Name(n)
                     if self.peek2().tok == Tok::LParen
                         && !matches!(n, "expand" | "half_bias" | "unsigned" | "unsigned_invert") =>
                 {
-                    let (sc, bi) = scale_bias_call(n, t.span)?;
-                    self.bump();
-                    self.expect(Tok::LParen, "`(`")?;
-                    self.expect(Tok::RParen, "`)`")?;
-                    let end = self.expect(Tok::Semi, "`;`")?;
-                    let span = t.span.join(end);
-                    if let Some(sc) = sc {
-                        if let Some((_, first)) = scale {
-                            return Err(Diagnostic::error(
-                                "scale-twice",
-                                "the output scale is set twice in this portion",
-                                span,
-                                "set again here",
-                            )
-                            .with_label(first, "first set here")
-                            .with_help("a portion has one scale/bias call"));
-                        }
-                        scale = Some((sc, span));
-                    }
-                    if let Some(bi) = bi {
-                        if let Some((_, first)) = bias {
-                            return Err(Diagnostic::error(
-                                "scale-twice",
-                                "the output bias is set twice in this portion",
-                                span,
-                                "set again here",
-                            )
-                            .with_label(first, "first set here")
-                            .with_help("a portion has one scale/bias call"));
-                        }
-                        bias = Some((bi, span));
-                    }
+                    self.scale_bias(n, t.span, &mut scale, &mut bias)?;
                 }
-                Tok::Name(..) => {
+                Tok::Name(_) | Tok::Selected(..) => {
                     if scale.is_some() || bias.is_some() {
                         return Err(syntax(
                             "the scale/bias call comes after the portion's operations",
@@ -428,7 +348,7 @@ impl<'a> Parser<'a> {
                     ops.push(self.op(kind)?);
                 }
                 _ => {
-                    let help = if t.tok == Tok::Eof {
+                    let help = if t.tok.is_eof() {
                         "close the portion with `}`"
                     } else {
                         "write `register = operation;` or a scale/bias call"
@@ -443,10 +363,10 @@ impl<'a> Parser<'a> {
             }
         }
         let close = self.bump().span;
-        self.spans.insert(Place::Portion(s, kind), start.join(close));
+        self.state.spans.insert(Place::Portion(s, kind), start.join(close));
         let scale_bias_span = scale.map(|x| x.1).into_iter().chain(bias.map(|x| x.1)).reduce(Span::join);
         if let Some(span) = scale_bias_span {
-            self.spans.insert(Place::ScaleBias(s, kind), span);
+            self.state.spans.insert(Place::ScaleBias(s, kind), span);
         }
         self.assemble(
             s,
@@ -456,6 +376,34 @@ impl<'a> Parser<'a> {
             bias.map_or(Bias::Zero, |x| x.0),
             start.join(close),
         )
+    }
+
+    /// A scale/bias call `n();` at `at`, into `scale` and `bias` (each once).
+    fn scale_bias(
+        &mut self,
+        n: &str,
+        at: Span,
+        scale: &mut Option<(Scale, Span)>,
+        bias: &mut Option<(Bias, Span)>,
+    ) -> PResult<()> {
+        let (sc, bi) = scale_bias_call(n, at)?;
+        self.bump();
+        self.expect_token(Tok::LParen, "`(`")?;
+        self.expect_token(Tok::RParen, "`)`")?;
+        let span = at.join(self.expect_token(Tok::Semi, "`;`")?);
+        if let Some(sc) = sc {
+            if let Some((_, first)) = *scale {
+                return Err(set_twice("scale", span, first));
+            }
+            *scale = Some((sc, span));
+        }
+        if let Some(bi) = bi {
+            if let Some((_, first)) = *bias {
+                return Err(set_twice("bias", span, first));
+            }
+            *bias = Some((bi, span));
+        }
+        Ok(())
     }
 
     /// Maps the portion's operations onto AB, CD and sum/mux as nvparse does.
@@ -468,25 +416,7 @@ impl<'a> Parser<'a> {
         bias: Bias,
         span: Span,
     ) -> PResult<GeneralPortion> {
-        let default_usage = match kind {
-            PortionKind::Rgb => ComponentUsage::Rgb,
-            PortionKind::Alpha => ComponentUsage::Alpha,
-        };
-        let zero = GeneralInput::new(Register::Zero, InputMapping::UnsignedIdentity, default_usage);
-        let mut p = GeneralPortion {
-            a: zero,
-            b: zero,
-            c: zero,
-            d: zero,
-            ab_output: None,
-            cd_output: None,
-            sum_output: None,
-            ab_dot: false,
-            cd_dot: false,
-            mux_sum: false,
-            scale,
-            bias,
-        };
+        let mut p = unset_portion(kind, scale, bias);
         if ops.is_empty() {
             return Err(syntax(
                 format!("the {} portion of general combiner {s} has no operation", kind.name()),
@@ -510,18 +440,14 @@ impl<'a> Parser<'a> {
                     }
                     let (a_span, b_span) = (a.span, b.span);
                     let (a, b) = (self.general_input(kind, a)?, self.general_input(kind, b)?);
-                    match products {
+                    let (slot, names) = match products {
                         0 => {
                             (p.a, p.b, p.ab_output, p.ab_dot) = (a, b, dest.0, dot);
-                            self.spans.insert(Place::Output(s, kind, OutputSlot::Ab), dest.1);
-                            self.spans.insert(Place::Input(s, kind, 'A'), a_span);
-                            self.spans.insert(Place::Input(s, kind, 'B'), b_span);
+                            (OutputSlot::Ab, ['A', 'B'])
                         }
                         1 => {
                             (p.c, p.d, p.cd_output, p.cd_dot) = (a, b, dest.0, dot);
-                            self.spans.insert(Place::Output(s, kind, OutputSlot::Cd), dest.1);
-                            self.spans.insert(Place::Input(s, kind, 'C'), a_span);
-                            self.spans.insert(Place::Input(s, kind, 'D'), b_span);
+                            (OutputSlot::Cd, ['C', 'D'])
                         }
                         _ => {
                             return Err(syntax(
@@ -531,7 +457,11 @@ impl<'a> Parser<'a> {
                                 "split the work over another general combiner",
                             ));
                         }
-                    }
+                    };
+                    let spans = &mut self.state.spans;
+                    spans.insert(Place::Output(s, kind, slot), dest.1);
+                    spans.insert(Place::Input(s, kind, names[0]), a_span);
+                    spans.insert(Place::Input(s, kind, names[1]), b_span);
                     products += 1;
                 }
                 Op::Sum { dest, mux, span } => {
@@ -554,7 +484,7 @@ impl<'a> Parser<'a> {
                     sum_seen = true;
                     p.sum_output = dest.0;
                     p.mux_sum = mux;
-                    self.spans.insert(Place::Output(s, kind, OutputSlot::Sum), dest.1);
+                    self.state.spans.insert(Place::Output(s, kind, OutputSlot::Sum), dest.1);
                 }
             }
         }
@@ -593,7 +523,7 @@ impl<'a> Parser<'a> {
     /// `dest = a . b;`, `dest = a * b;`, `dest = a;`, `dest = sum();`, `dest = mux();`
     fn op(&mut self, kind: PortionKind) -> PResult<Op> {
         let t = self.bump();
-        let Tok::Name(name, selector) = t.tok else { unreachable_name(t.span)? };
+        let Some((name, selector)) = t.tok.name() else { unreachable_name(t.span)? };
         let dest = match register_by_name(name) {
             Some(Source::Register(r)) => Some(r),
             Some(Source::Discard) => None,
@@ -621,12 +551,12 @@ impl<'a> Parser<'a> {
                 ));
             }
         }
-        self.expect(Tok::Equals, "`=`")?;
-        if let Tok::Name(f @ ("sum" | "mux"), None) = self.peek().tok {
+        self.expect_token(Tok::Equals, "`=`")?;
+        if let Tok::Name(f @ ("sum" | "mux")) = self.peek().tok {
             self.bump();
-            self.expect(Tok::LParen, "`(`")?;
-            self.expect(Tok::RParen, "`)`")?;
-            let end = self.expect(Tok::Semi, "`;`")?;
+            self.expect_token(Tok::LParen, "`(`")?;
+            self.expect_token(Tok::RParen, "`)`")?;
+            let end = self.expect_token(Tok::Semi, "`;`")?;
             return Ok(Op::Sum { dest: (dest, t.span), mux: f == "mux", span: t.span.join(end) });
         }
         let a = self.general_operand()?;
@@ -649,7 +579,7 @@ impl<'a> Parser<'a> {
                 false,
             ),
         };
-        let end = self.expect(Tok::Semi, "`;`")?;
+        let end = self.expect_token(Tok::Semi, "`;`")?;
         Ok(Op::Product { dest: (dest, t.span), a, b, dot, span: t.span.join(end) })
     }
 
@@ -664,7 +594,7 @@ impl<'a> Parser<'a> {
             false
         };
         let t = self.peek();
-        let Tok::Name(name, selector) = t.tok else {
+        let Some((name, selector)) = t.tok.name() else {
             return Err(syntax(
                 format!("expected a register, found {}", t.tok.describe()),
                 t.span,
@@ -705,9 +635,9 @@ impl<'a> Parser<'a> {
         let mut op = match wrapper {
             Some(mapping) => {
                 self.bump();
-                self.expect(Tok::LParen, "`(`")?;
+                self.expect_token(Tok::LParen, "`(`")?;
                 let inner = self.register_operand()?;
-                let close = self.expect(Tok::RParen, "`)`")?;
+                let close = self.expect_token(Tok::RParen, "`)`")?;
                 Operand { mapping, span: start.join(close), ..inner }
             }
             None => {
@@ -727,7 +657,7 @@ impl<'a> Parser<'a> {
 
     fn register_operand(&mut self) -> PResult<Operand> {
         let t = self.bump();
-        let Tok::Name(name, selector) = t.tok else {
+        let Some((name, selector)) = t.tok.name() else {
             return Err(syntax(
                 format!("expected a register, found {}", t.tok.describe()),
                 t.span,
@@ -764,19 +694,10 @@ const SCALE_BIAS: [&str; 5] = [
 ];
 
 fn register_by_name(name: &str) -> Option<Source> {
+    if let Some((_, r)) = REGISTERS.iter().find(|(n, _)| *n == name) {
+        return Some(Source::Register(*r));
+    }
     Some(match name {
-        "tex0" => Source::Register(Register::Texture0),
-        "tex1" => Source::Register(Register::Texture1),
-        "tex2" => Source::Register(Register::Texture2),
-        "tex3" => Source::Register(Register::Texture3),
-        "col0" => Source::Register(Register::Primary),
-        "col1" => Source::Register(Register::Secondary),
-        "spare0" => Source::Register(Register::Spare0),
-        "spare1" => Source::Register(Register::Spare1),
-        "fog" => Source::Register(Register::Fog),
-        "const0" => Source::Register(Register::Constant0),
-        "const1" => Source::Register(Register::Constant1),
-        "zero" => Source::Register(Register::Zero),
         "one" => Source::One,
         "discard" => Source::Discard,
         "final_product" => Source::FinalProduct,
@@ -786,20 +707,15 @@ fn register_by_name(name: &str) -> Option<Source> {
 }
 
 fn unknown_register(name: &str, span: Span, what: &str) -> Diagnostic {
-    let paper = match name {
-        "primary" => Some("col0"),
-        "secondary" => Some("col1"),
-        "texture0" => Some("tex0"),
-        "texture1" => Some("tex1"),
-        "texture2" => Some("tex2"),
-        "texture3" => Some("tex3"),
-        "constant0" => Some("const0"),
-        "constant1" => Some("const1"),
-        _ => None,
-    };
-    let help = match paper.or_else(|| did_you_mean(name, REGISTER_NAMES)) {
+    // The paper's names (`primary`, `texture0`, ...) for the registers
+    // `!!RC1.0` spells `col0`, `tex0`, ...
+    let paper = Register::ALL.into_iter().find(|r| r.name() == name).map(super::register_name);
+    let help = match paper.or_else(|| did_you_mean(name, register_names())) {
         Some(m) => format!("did you mean `{m}`?"),
-        None => format!("the registers are {}", REGISTER_NAMES.map(|r| format!("`{r}`")).join(", ")),
+        None => format!(
+            "the registers are {}",
+            register_names().map(|r| format!("`{r}`")).collect::<Vec<_>>().join(", ")
+        ),
     };
     Diagnostic::error(
         "unknown-register",
@@ -808,6 +724,51 @@ fn unknown_register(name: &str, span: Span, what: &str) -> Diagnostic {
         format!("expected {what}"),
     )
     .with_help(help)
+}
+
+/// A portion before its operations: every input zero read in the
+/// portion's default component usage, every output discarded.
+fn unset_portion(kind: PortionKind, scale: Scale, bias: Bias) -> GeneralPortion {
+    let usage = match kind {
+        PortionKind::Rgb => ComponentUsage::Rgb,
+        PortionKind::Alpha => ComponentUsage::Alpha,
+    };
+    let mut p = GeneralPortion { scale, bias, ..GeneralPortion::discard_all() };
+    for input in [&mut p.a, &mut p.b, &mut p.c, &mut p.d] {
+        input.usage = usage;
+    }
+    p
+}
+
+/// The output `what` (scale or bias) set a second time in one portion.
+fn set_twice(what: &str, again: Span, first: Span) -> Diagnostic {
+    Diagnostic::error(
+        "scale-twice",
+        format!("the output {what} is set twice in this portion"),
+        again,
+        "set again here",
+    )
+    .with_label(first, "first set here")
+    .with_help("a portion has one scale/bias call")
+}
+
+/// A token where a general combiner holds a portion, a constant or `}`.
+fn not_a_portion(t: crate::backends::readers::lex::Token) -> Diagnostic {
+    let portions = "a general combiner holds `rgb { ... }` and `alpha { ... }` portions";
+    let help = match t.tok {
+        Tok::Name(n) | Tok::Selected(n, _) => match did_you_mean(n, ["rgb", "alpha", "const0", "const1"]) {
+            Some(m) => format!("did you mean `{m}`?"),
+            None => portions.into(),
+        },
+        Tok::Eof(_) => "close the general combiner with `}`".into(),
+        _ => portions.into(),
+    };
+    syntax(
+        format!("expected `rgb`, `alpha` or `}}`, found {}", t.tok.describe()),
+        t.span,
+        "not a portion",
+        help,
+    )
 }
 
 fn unreachable_one<T>(span: Span) -> PResult<T> {
