@@ -1,4 +1,4 @@
-//! `--adaptive auto` on every scene of `scenes/` (issue 38): full against
+//! `--adaptive auto` on every scene of `scenes/`: full against
 //! adaptive shading of the same plan, interleaved in the same run, medians,
 //! with auto's choice; on the CPU renderer and on wgpu
 //! (`SHADEC_BENCH_GPU=1`). `SHADEC_BENCH_RUNS` repetitions (default 5);

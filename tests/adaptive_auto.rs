@@ -33,21 +33,30 @@ fn auto(scene: &str, lobes: usize, size: Option<(u32, u32)>, executor: Executor)
 }
 
 /// (scene, lobes, the lowest speed-up of adaptive over full shading on the
-/// CPU measured in two runs of `bench --adaptive-scenes`, 2026-12-05).
-const MEASURED_SLOWER: [(&str, usize, f64); 7] = [
-    ("kilgard_torus", 0, 0.26),
-    ("bump_torus", 0, 0.47),
-    ("bump_torus", 4, 0.74),
+/// CPU in any of the runs of `bench --adaptive-scenes` on 2026-12-05,
+/// BENCHMARKS.md): every case a run measured below 0.95× but one —
+/// `bump_torus` with 16 lobes, 0.92× in one run of four under a load of 20
+/// on 2 cores and 0.95-3.24× in the others (2.18× over 7 repetitions),
+/// where auto stays adaptive.
+const MEASURED_SLOWER: [(&str, usize, f64); 12] = [
     ("adaptive_cube_1light", 0, 0.81),
-    ("lights_two_spots", 0, 0.89),
-    ("lights_two_spots", 4, 0.89),
+    ("adaptive_cube_4lights", 0, 0.59),
+    ("bench_sphere", 0, 0.41),
+    ("bump_torus", 0, 0.28),
+    ("bump_torus", 4, 0.31),
+    ("kilgard_torus", 0, 0.26),
+    ("lights_two_spots", 0, 0.54),
+    ("lights_two_spots", 4, 0.74),
+    ("lights_two_spots", 16, 0.41),
+    ("screen_mesh_20k", 0, 0.79),
+    ("shadow_occluder_floor", 0, 0.36),
     ("shadow_occluder_floor", 4, 0.84),
 ];
 
 #[test]
 fn auto_shades_in_full_wherever_adaptive_measured_slower_on_the_cpu() {
     for (scene, lobes, measured) in MEASURED_SLOWER {
-        assert!(measured < 0.95);
+        assert!(measured < 0.95, "{scene}: the table lists only slower cases");
         let choice = auto(scene, lobes, None, Executor::Cpu);
         assert!(
             !choice.adaptive,
