@@ -546,6 +546,8 @@ impl Operands<'_> {
 }
 
 /// One op over the lanes in use (`n`), in vectors of 8.
+// Indexed loops over several lane arrays at once are the form that vectorises.
+#[allow(clippy::needless_range_loop)]
 #[inline(always)]
 fn exec(op: Op, r: &mut [Lanes], varyings: &[f32], per: usize, n: usize, discard: &mut [bool; BATCH]) {
     let Op::Lanes { k, dst, ops, width } = op else { return };
@@ -716,6 +718,8 @@ fn structural(
 }
 
 /// `c ? a : b`; without `b`, a lane whose `c` is 0 is discarded (NaN).
+// Indexed loops over several lane arrays at once are the form that vectorises.
+#[allow(clippy::needless_range_loop)]
 #[inline(always)]
 fn select(x: &Operands, out: &mut [Lanes], with_reject: bool, n: usize, discard: &mut [bool; BATCH]) {
     let cond = x.a(0);
