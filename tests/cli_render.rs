@@ -341,10 +341,12 @@ fn adaptive_auto_says_what_it_chose_and_why() {
             .unwrap();
         let stdout = String::from_utf8_lossy(&out.stdout);
         assert!(out.status.success(), "{stdout}");
+        // The CPU's reason is its cost model's prediction, wgpu's the crossover.
         assert!(
-            stdout.contains("adaptive auto: adaptive shading (8.5 %, every 16 pixels): 104 operations"),
+            stdout.contains("adaptive auto: adaptive shading (8.5 %, every 16 pixels): "),
             "{backend}: {stdout}"
         );
+        assert!(stdout.contains("104 operations per fragment"), "{backend}: {stdout}");
         assert!(psnr_against_full(&stdout) >= 40.0, "{backend}: {stdout}");
     }
 }

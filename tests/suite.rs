@@ -8,6 +8,7 @@ mod combiners_common;
 mod common;
 mod common_lsp;
 
+mod adaptive_auto;
 mod adaptive_error;
 mod adaptive_sphere;
 mod bad_input;

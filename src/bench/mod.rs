@@ -15,6 +15,8 @@
 pub mod adaptive;
 #[cfg(feature = "gpu")]
 pub mod adaptive_crossover;
+#[cfg(feature = "gpu")]
+pub mod adaptive_scenes;
 pub mod front;
 #[cfg(feature = "gpu")]
 pub mod gpu;

@@ -83,6 +83,12 @@ pub struct BenchArgs {
     /// [default: 1024; 128 with --quick].
     #[arg(long, value_name = "N", requires = "gpu_check")]
     pub crossover_size: Option<u32>,
+    /// Instead of the papers' variants: `--adaptive auto` on every scene of
+    /// scenes/ — full and adaptive shading of the same plan interleaved
+    /// `--runs` times (default 5), medians, with auto's choice — on the CPU
+    /// and, with `--backend wgpu`, on wgpu; prints a markdown table.
+    #[arg(long, conflicts_with_all = ["program", "gpu_check"])]
+    pub adaptive_scenes: bool,
 }
 
 /// `bench --gpu-check`.
@@ -241,6 +247,23 @@ pub fn run(args: &BenchArgs) -> ExitCode {
     }
     if args.gpu_check {
         return gpu_check(args);
+    }
+    #[cfg(feature = "gpu")]
+    if args.adaptive_scenes {
+        let gpu = args.backend == super::render::Backend::Wgpu;
+        let root = std::path::Path::new(".");
+        return match shadec::bench::adaptive_scenes::report(
+            root,
+            args.runs.unwrap_or(5),
+            gpu,
+            args.only.as_deref(),
+        ) {
+            Ok(md) => {
+                println!("{md}");
+                ExitCode::SUCCESS
+            }
+            Err(e) => usage(e),
+        };
     }
     let mut options = if args.quick { BenchOptions::quick() } else { BenchOptions::full() };
     if let Some(s) = &args.size {

@@ -1,15 +1,20 @@
 //! `--adaptive auto`: whether adaptive sample shading (Adaptive Sample
 //! Shading, Section 2.1) pays for a plan on an executor, decided before
-//! rendering from the plan alone.
+//! rendering from the plan and the scene's geometry.
 //!
 //! Adaptive shading saves the shading of the fragments it interpolates and
-//! pays for a sparse frame and a classification (on wgpu) or the sample
-//! bookkeeping (on the CPU); it wins when a fragment's shading costs more
-//! than that overhead. `bench --gpu-check`'s crossover sweep
-//! (`bench::adaptive_crossover`) measures where: Phong shaders of growing
-//! cost, full against adaptive. The crossovers below are those
-//! measurements, in the plan's own measure of a fragment
-//! ([`crate::pipeline::FragmentWork::operations`]), rounded up.
+//! pays for a sparse frame and a classification (on wgpu) or for the
+//! sample bookkeeping and the samples themselves (on the CPU). On wgpu the
+//! crossover measured by `bench --gpu-check`'s sweep
+//! (`bench::adaptive_crossover`) decides, in the plan's own measure of a
+//! fragment ([`crate::pipeline::FragmentWork::operations`]). On the CPU a
+//! cost model ([`CpuModel`]) prices both frames: full shading per covered
+//! pixel, adaptive shading per frame pixel and covered pixel plus the
+//! samples it shades — a fraction of the interior and, along each object's
+//! outline, a band whose length the covered area bounds from below — and
+//! adaptive is chosen where the model predicts a clear gain
+//! ([`CPU_MARGIN`]). Its constants are fitted to `bench --adaptive-scenes`
+//! (every scene of `scenes/`, full against adaptive, in the same run).
 //!
 //! Interpolating between samples 16 pixels apart also smooths what a
 //! texture adds between them (a bump map, a brick pattern): the paper
@@ -27,12 +32,6 @@ pub enum Executor {
     Cpu,
     Wgpu,
 }
-
-/// Operations per fragment from which adaptive shading was faster on the
-/// CPU renderer (the lane executor, quiet machine, BENCHMARKS.md): 32
-/// operations 0.98-1.11× at 512²-2048², 56 operations 1.31-1.59×, 20
-/// operations 0.83-0.91×.
-pub const CPU_CROSSOVER: usize = 32;
 
 /// Operations per fragment from which adaptive shading was faster on wgpu,
 /// measured on lavapipe: 56 operations 0.98-1.01× at 1024², 1.52× at
@@ -86,24 +85,176 @@ pub fn choose(plan: &PassPlan, workload: &Workload, size: (u32, u32), executor: 
             "its largest pass covers about {pixels:.0} pixels, fewer than the {least} adaptive shading needs to pay"
         ));
     }
-    let (crossover, name) = match executor {
-        Executor::Cpu => (CPU_CROSSOVER, "the CPU renderer"),
-        Executor::Wgpu => (WGPU_CROSSOVER, "wgpu"),
-    };
-    let operations = picture.iter().map(|(_, p)| p.fragment.operations).max().unwrap_or(0);
-    if operations < crossover {
-        return full(format!(
-            "{operations} operations per fragment is below the crossover of {crossover} measured on {name}"
-        ));
+    match executor {
+        Executor::Cpu => cpu_choice(&picture, workload, size, scale),
+        Executor::Wgpu => {
+            let operations = picture.iter().map(|(_, p)| p.fragment.operations).max().unwrap_or(0);
+            if operations < WGPU_CROSSOVER {
+                return full(format!(
+                    "{operations} operations per fragment is below the crossover of {WGPU_CROSSOVER} measured on wgpu"
+                ));
+            }
+            AutoChoice {
+                adaptive: true,
+                why: format!(
+                    "{operations} operations per fragment is at or above the crossover of {WGPU_CROSSOVER} measured on wgpu"
+                ),
+            }
+        }
     }
-    AutoChoice {
-        adaptive: true,
-        why: format!("{operations} operations per fragment is at or above the crossover of {crossover} measured on {name}"),
+}
+
+/// The CPU renderer's costs, in units of one lane-executor operation of one
+/// fragment, fitted to the table of `shadec bench --adaptive-scenes`
+/// (BENCHMARKS.md, "`--adaptive auto` on every scene"); [`CpuModel::predict`]
+/// prices a frame both ways with them.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CpuModel {
+    /// A fragment of full shading besides its operations: rasterization,
+    /// interpolation, depth test and blending.
+    pub fragment: f64,
+    /// A covered pixel, per adaptive draw: visibility, the columns'
+    /// interpolation and the write-through.
+    pub covered_pixel: f64,
+    /// A pixel of the frame, per adaptive draw: surface keys, the edge map
+    /// and the refinement's scan run over the whole frame.
+    pub frame_pixel: f64,
+    /// A shaded sample besides its operations: its fragment's set-up, and
+    /// batches the subdivision's levels and the refinement's waves fill
+    /// only in part.
+    pub sample: f64,
+    /// The fraction of covered pixels shaded away from silhouettes
+    /// (regular samples, subdivision, refinement): what the shading decides,
+    /// which the plan does not tell; the most measured on `scenes/` (the
+    /// tori at 13 operations shade 13-18 % in all, their silhouettes
+    /// included).
+    pub interior: f64,
+    /// Samples per silhouette pixel: edge pixels, and the subdivision that
+    /// starts at them.
+    pub per_silhouette_pixel: f64,
+}
+
+/// The model fitted on this project's machine.
+pub const CPU_MODEL: CpuModel = CpuModel {
+    fragment: 8.0,
+    covered_pixel: 15.0,
+    frame_pixel: 2.0,
+    sample: 134.0,
+    interior: 0.10,
+    per_silhouette_pixel: 4.0,
+};
+
+/// Adaptive shading is chosen when the model predicts it at least this much
+/// faster: the margin keeps frames near the crossover, whose measured
+/// speed-up the machine's load moves by tens of percent, on full shading.
+pub const CPU_MARGIN: f64 = 1.15;
+
+/// One pass into the picture as the model sees it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct PassShape {
+    /// Pixels its objects cover (front faces for back-face culling).
+    pub pixels: f64,
+    /// The length of their outlines, in pixels: each object's as a disc's
+    /// of its area (2·√(π·area)), the shortest outline an area can have.
+    pub silhouette: f64,
+    pub operations: usize,
+}
+
+/// A frame's predicted cost each way on the CPU renderer (in the model's
+/// units).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct CpuPrediction {
+    pub full: f64,
+    pub adaptive: f64,
+}
+
+impl CpuPrediction {
+    pub fn speedup(&self) -> f64 {
+        self.full / self.adaptive.max(1e-9)
     }
+}
+
+impl CpuModel {
+    /// The fraction of a pass's covered pixels adaptive shading is taken to
+    /// shade (at most all of them).
+    pub fn shaded(&self, pass: &PassShape) -> f64 {
+        (self.interior + self.per_silhouette_pixel * pass.silhouette / pass.pixels.max(1.0)).min(1.0)
+    }
+
+    /// Prices `passes` on a frame of `frame_pixels`.
+    pub fn predict(&self, passes: &[PassShape], frame_pixels: f64) -> CpuPrediction {
+        let mut prediction = CpuPrediction { full: 0.0, adaptive: 0.0 };
+        for pass in passes {
+            let operations = pass.operations as f64;
+            prediction.full += pass.pixels * (self.fragment + operations);
+            prediction.adaptive += frame_pixels * self.frame_pixel
+                + pass.pixels * self.covered_pixel
+                + pass.pixels * self.shaded(pass) * (self.sample + operations);
+        }
+        prediction
+    }
+}
+
+/// What `pass` draws of `workload`, at `scale` times the workload's
+/// pixels.
+pub fn pass_shape(workload: &Workload, pass: &crate::pipeline::Pass, scale: f64) -> PassShape {
+    let mut shape = PassShape { pixels: 0.0, silhouette: 0.0, operations: pass.fragment.operations };
+    for (i, o) in workload.objects.iter().enumerate() {
+        if pass.objects.as_ref().is_some_and(|only| !only.contains(&i)) {
+            continue;
+        }
+        let pixels = scale
+            * match pass.state.cull {
+                crate::pipeline::CullMode::Back => o.front_pixels,
+                crate::pipeline::CullMode::Front => o.back_pixels,
+                crate::pipeline::CullMode::None => o.front_pixels + o.back_pixels,
+            };
+        shape.pixels += pixels;
+        shape.silhouette += 2.0 * (std::f64::consts::PI * pixels).sqrt();
+    }
+    shape
+}
+
+/// The CPU's choice from [`CPU_MODEL`]: adaptive where it predicts a
+/// speed-up of at least [`CPU_MARGIN`].
+fn cpu_choice(
+    picture: &[(usize, &crate::pipeline::Pass)],
+    workload: &Workload,
+    size: (u32, u32),
+    scale: f64,
+) -> AutoChoice {
+    // Screen and texel passes are shaded in full either way.
+    let passes: Vec<PassShape> = picture
+        .iter()
+        .filter(|(_, p)| matches!(p.geometry, crate::pipeline::Geometry::Mesh { .. }))
+        .map(|(_, p)| pass_shape(workload, p, scale))
+        .collect();
+    let predicted = CPU_MODEL.predict(&passes, f64::from(size.0) * f64::from(size.1));
+    let speedup = predicted.speedup();
+    let operations = passes.iter().map(|p| p.operations).max().unwrap_or(0);
+    let shaded = passes.iter().map(|p| CPU_MODEL.shaded(p)).fold(0.0, f64::max);
+    let why = format!(
+        "the CPU cost model predicts {speedup:.2}× the speed of full shading ({operations} operations per fragment, {} passes into the picture, at most {:.0} % shaded; adaptive needs {CPU_MARGIN:.2}×)",
+        passes.len(),
+        100.0 * shaded
+    );
+    AutoChoice { adaptive: speedup >= CPU_MARGIN, why }
 }
 
 #[cfg(test)]
 mod tests {
+    /// The model's prediction follows its parts: more operations favour
+    /// adaptive shading, a longer outline (more samples) full shading.
+    #[test]
+    fn the_cpu_model_grows_with_operations_and_outline() {
+        let pass = |operations, silhouette| PassShape { pixels: 100_000.0, silhouette, operations };
+        let speedup = |p: PassShape| CPU_MODEL.predict(&[p], 262_144.0).speedup();
+        assert!(speedup(pass(13, 1_000.0)) < speedup(pass(56, 1_000.0)));
+        assert!(speedup(pass(56, 1_000.0)) < speedup(pass(104, 1_000.0)));
+        assert!(speedup(pass(56, 10_000.0)) < speedup(pass(56, 1_000.0)));
+        assert!(speedup(pass(13, 1_000.0)) < CPU_MARGIN, "13 operations never pay on the CPU");
+    }
+
     use super::*;
     use crate::driver::{compile, PlanOptions};
     use crate::profile::Profile;
@@ -143,10 +294,10 @@ mod tests {
     #[test]
     fn cheap_phong_is_shaded_in_full_below_the_crossover() {
         let plan = plan(PHONG, "wgsl");
-        for executor in [Executor::Cpu, Executor::Wgpu] {
-            let choice = auto(&plan, executor);
-            assert!(!choice.adaptive && choice.why.contains("below the crossover"), "{}", choice.why);
-        }
+        let choice = auto(&plan, Executor::Wgpu);
+        assert!(!choice.adaptive && choice.why.contains("below the crossover"), "{}", choice.why);
+        let choice = auto(&plan, Executor::Cpu);
+        assert!(!choice.adaptive && choice.why.contains("cost model predicts"), "{}", choice.why);
     }
 
     #[test]

@@ -38,9 +38,11 @@
 
 use rayon::prelude::*;
 
+mod lines;
+
 use super::framebuffer::TILE;
 use super::raster::{setup_pass, PassSetup, SUB};
-use super::{FragmentResult, Framebuffer, Pass, RenderError};
+use super::{Framebuffer, Pass, RenderError};
 
 /// What counts as one surface for edge detection.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -186,7 +188,6 @@ pub fn draw_adaptive(
     // 1. Visibility, in bands of TILE rows.
     let (ids, depth) = visible(target, passes, &setups, &offsets);
 
-    let max_varyings = setups.iter().map(|s| s.n_varyings).max().unwrap_or(0);
     let keys = surface_keys(&ids, &offsets, settings.edges);
     let edges = edge_map(&keys, w, h);
     let ctx = Ctx {
@@ -201,19 +202,26 @@ pub fn draw_adaptive(
         settings: *settings,
     };
 
-    // 2. Scanlines: every `spacing`-th row and the last one.
+    // 2. Scanlines: every `spacing`-th row and the last one, packed.
+    let regular_rows: Vec<usize> = (0..h).filter(|&y| ctx.is_regular_row(y)).collect();
+    let mut reg_color = vec![[0.0f32; 4]; regular_rows.len() * w];
+    let mut reg_state = vec![UNKNOWN; regular_rows.len() * w];
+    let row_stats = ctx.scanlines(&regular_rows, &mut reg_color, &mut reg_state);
     let (mut color, mut state) = SCRATCH.with(|s| s.take()).unwrap_or_default();
     color.clear();
     color.resize(w * h, [0.0; 4]);
     state.clear();
     state.resize(w * h, UNKNOWN);
-    let row_stats = ctx.scanlines(&mut color, &mut state, max_varyings);
+    for (r, &y) in regular_rows.iter().enumerate() {
+        color[y * w..(y + 1) * w].copy_from_slice(&reg_color[r * w..(r + 1) * w]);
+        state[y * w..(y + 1) * w].copy_from_slice(&reg_state[r * w..(r + 1) * w]);
+    }
 
     // 3. Columns between consecutive regular rows.
-    let column_stats = ctx.columns(&mut color, &mut state, max_varyings);
+    let column_stats = ctx.columns(&regular_rows, (&reg_color, &reg_state), &mut color, &mut state);
     let mut stats = row_stats + column_stats;
     if settings.threshold > 0.0 {
-        ctx.refine(&mut color, &mut state, &mut vec![0.0f32; max_varyings], &mut stats);
+        ctx.refine(&mut color, &mut state, &mut stats);
     }
     stats.covered = ids.iter().filter(|&&id| id != NONE).count() as u64;
 
@@ -406,73 +414,6 @@ impl Ctx<'_> {
         y % self.settings.spacing as usize == 0 || y == self.h - 1
     }
 
-    /// Step 2: shades the scanlines, exactly at every `spacing`-th pixel.
-    fn scanlines(&self, color: &mut [[f32; 4]], state: &mut [u8], max_varyings: usize) -> AdaptiveStats {
-        let n = self.settings.spacing as usize;
-        color
-            .par_chunks_mut(self.w)
-            .zip(state.par_chunks_mut(self.w))
-            .enumerate()
-            .filter(|(y, _)| self.is_regular_row(*y))
-            .map(|(y, (vals, st))| {
-                let mut scratch = vec![0.0f32; max_varyings];
-                let mut stats = AdaptiveStats::default();
-                let pixel = |i: usize| (i, y);
-                self.fill_line(vals, st, &pixel, |i| i % n == 0, &mut scratch, &mut stats);
-                stats
-            })
-            .reduce(AdaptiveStats::default, std::ops::Add::add)
-    }
-
-    /// Step 3: fills the columns between consecutive scanlines, from the
-    /// scanlines' pixels at their ends.
-    fn columns(&self, color: &mut [[f32; 4]], state: &mut [u8], max_varyings: usize) -> AdaptiveStats {
-        let w = self.w;
-        let regular_rows: Vec<usize> = (0..self.h).filter(|&y| self.is_regular_row(y)).collect();
-        let mut reg_color = Vec::with_capacity(regular_rows.len() * w);
-        let mut reg_state = Vec::with_capacity(regular_rows.len() * w);
-        for &y in &regular_rows {
-            reg_color.extend_from_slice(&color[y * w..(y + 1) * w]);
-            reg_state.extend_from_slice(&state[y * w..(y + 1) * w]);
-        }
-        between_rows(color, state, w, &regular_rows)
-            .into_par_iter()
-            .map(|(k, c_band, s_band)| {
-                let (top, bottom) = (regular_rows[k], regular_rows[k + 1]);
-                let len = bottom - top + 1;
-                let mut vals = vec![[0.0f32; 4]; len];
-                let mut st = vec![UNKNOWN; len];
-                let mut scratch = vec![0.0f32; max_varyings];
-                let mut stats = AdaptiveStats::default();
-                for x in 0..w {
-                    // A column of background between the rows has nothing to fill.
-                    if (top..=bottom).all(|y| self.keys[y * w + x] == NONE) {
-                        continue;
-                    }
-                    vals[0] = reg_color[k * w + x];
-                    st[0] = reg_state[k * w + x];
-                    vals[len - 1] = reg_color[(k + 1) * w + x];
-                    st[len - 1] = reg_state[(k + 1) * w + x];
-                    st[1..len - 1].fill(UNKNOWN);
-                    let pixel = |i: usize| (x, top + i);
-                    self.fill_line(
-                        &mut vals,
-                        &mut st,
-                        &pixel,
-                        |i| i == 0 || i == len - 1,
-                        &mut scratch,
-                        &mut stats,
-                    );
-                    for i in 1..len - 1 {
-                        c_band[(i - 1) * w + x] = vals[i];
-                        s_band[(i - 1) * w + x] = st[i];
-                    }
-                }
-                stats
-            })
-            .reduce(AdaptiveStats::default, std::ops::Add::add)
-    }
-
     /// Writes the shaded pixels through each pass's depth and blend state,
     /// tiles in parallel (each pixel belongs to one tile).
     fn write_through(&self, target: &mut Framebuffer, depth: &[f32], color: &[[f32; 4]], state: &[u8]) {
@@ -499,238 +440,5 @@ impl Ctx<'_> {
     fn pass_of(&self, id: u32) -> usize {
         // offsets is sorted; the pass is the last offset ≤ id.
         self.offsets.partition_point(|&o| o <= id as usize) - 1
-    }
-
-    fn key_at(&self, x: usize, y: usize) -> u32 {
-        self.keys[y * self.w + x]
-    }
-
-    fn is_edge(&self, x: usize, y: usize) -> bool {
-        self.edges[y * self.w + x]
-    }
-
-    /// Runs the fragment stage of the primitive visible at (x, y).
-    fn shade(&self, x: usize, y: usize, scratch: &mut [f32], out: &mut [f32; 4]) -> FragmentResult {
-        let id = self.ids[y * self.w + x];
-        let p = self.pass_of(id);
-        let setup = &self.setups[p];
-        let tri = &setup.tris[id as usize - self.offsets[p]];
-        let n = setup.n_varyings;
-        // The tiled rasterizer's own arithmetic.
-        let (vary, gradients) = setup.inputs(tri);
-        let (fragment, _, weights) = super::tile::fragment_at(tri, x as i32, y as i32, gradients);
-        let varyings = &mut scratch[..n];
-        super::tile::interpolate(vary, n, weights, varyings);
-        self.passes[p].fragment.shade(&fragment, varyings, out)
-    }
-
-    /// Step 4, refinement (ours, beyond the paper): a feature that lies
-    /// wholly between two regular rows and two samples of a column — the tip
-    /// of a spot cone, a small highlight — is missed by both 1D passes but
-    /// shows as a jump of more than the threshold between an interpolated
-    /// pixel and its horizontal or vertical neighbour. Such pixels are
-    /// shaded exactly, and the search continues from them (a flood fill
-    /// that follows the feature) until no interpolated pixel next to an
-    /// exact one differs by more than the threshold.
-    fn refine(
-        &self,
-        color: &mut [[f32; 4]],
-        state: &mut [u8],
-        scratch: &mut [f32],
-        stats: &mut AdaptiveStats,
-    ) {
-        let (w, h, t) = (self.w, self.h, self.settings.threshold);
-        let differs = |a: [f32; 4], b: [f32; 4]| (0..4).any(|c| (a[c] - b[c]).abs() > t);
-        let mut work: Vec<usize> = Vec::new();
-        let mut reshade = |i: usize,
-                           color: &mut [[f32; 4]],
-                           state: &mut [u8],
-                           work: &mut Vec<usize>,
-                           stats: &mut AdaptiveStats| {
-            let mut out = [0.0f32; 4];
-            let res = self.shade(i % w, i / w, scratch, &mut out);
-            stats.interpolated -= 1;
-            stats.adaptive += 1;
-            if res == FragmentResult::Discard {
-                stats.discarded += 1;
-                color[i] = [0.0; 4];
-                state[i] = ADAPTIVE | DISCARD_BIT;
-            } else {
-                color[i] = out;
-                state[i] = ADAPTIVE;
-            }
-            work.push(i);
-        };
-        // Rows with a jump between neighbours of one surface, found in
-        // parallel; the scan below visits only these. A jump that appears
-        // only once a pixel has been reshaded involves that pixel, and the
-        // flood fill from it finds the jump: the result is the same.
-        let jumps = |y: usize| {
-            (0..w).any(|x| {
-                let i = y * w + x;
-                let key = self.keys[i];
-                key != NONE
-                    && ((x + 1 < w && self.keys[i + 1] == key && differs(color[i], color[i + 1]))
-                        || (y + 1 < h && self.keys[i + w] == key && differs(color[i], color[i + w])))
-            })
-        };
-        let rows: Vec<usize> = (0..h).into_par_iter().filter(|&y| jumps(y)).collect();
-        for y in rows {
-            for x in 0..w {
-                let i = y * w + x;
-                let key = self.keys[i];
-                if key == NONE {
-                    continue;
-                }
-                for j in
-                    [if x + 1 < w { Some(i + 1) } else { None }, if y + 1 < h { Some(i + w) } else { None }]
-                        .into_iter()
-                        .flatten()
-                {
-                    if self.keys[j] != key || !differs(color[i], color[j]) {
-                        continue;
-                    }
-                    for k in [i, j] {
-                        if state[k] == INTERPOLATED {
-                            reshade(k, color, state, &mut work, stats);
-                        }
-                    }
-                }
-            }
-        }
-        while let Some(i) = work.pop() {
-            let (x, y) = (i % w, i / w);
-            let key = self.keys[i];
-            let neighbours = [
-                (x > 0).then(|| i - 1),
-                (x + 1 < w).then(|| i + 1),
-                (y > 0).then(|| i - w),
-                (y + 1 < h).then(|| i + w),
-            ];
-            for j in neighbours.into_iter().flatten() {
-                if state[j] == INTERPOLATED && self.keys[j] == key && differs(color[i], color[j]) {
-                    reshade(j, color, state, &mut work, stats);
-                }
-            }
-        }
-    }
-
-    /// Shades sample `i` of a line exactly, recording its kind.
-    // The line's buffers are borrowed separately so the caller keeps the others.
-    #[allow(clippy::too_many_arguments)]
-    fn sample(
-        &self,
-        vals: &mut [[f32; 4]],
-        st: &mut [u8],
-        i: usize,
-        (x, y): (usize, usize),
-        kind: u8,
-        scratch: &mut [f32],
-        stats: &mut AdaptiveStats,
-    ) {
-        let mut out = [0.0f32; 4];
-        let res = self.shade(x, y, scratch, &mut out);
-        match kind {
-            REGULAR => stats.regular += 1,
-            EDGE => stats.edge += 1,
-            _ => stats.adaptive += 1,
-        }
-        if res == FragmentResult::Discard {
-            stats.discarded += 1;
-            vals[i] = [0.0; 4];
-            st[i] = kind | DISCARD_BIT;
-        } else {
-            vals[i] = out;
-            st[i] = kind;
-        }
-    }
-
-    /// Processes one line (a row, or a column between two regular rows):
-    /// `pixel(i)` maps position i to (x, y); known values (state ≠ UNKNOWN)
-    /// are samples as they are; `regular(i)` marks regular sample positions.
-    fn fill_line(
-        &self,
-        vals: &mut [[f32; 4]],
-        st: &mut [u8],
-        pixel: &dyn Fn(usize) -> (usize, usize),
-        regular: impl Fn(usize) -> bool,
-        scratch: &mut [f32],
-        stats: &mut AdaptiveStats,
-    ) {
-        let len = vals.len();
-        let all = self.settings.threshold <= 0.0;
-        let mut a = 0;
-        while a < len {
-            let (x, y) = pixel(a);
-            let key = self.key_at(x, y);
-            if key == NONE {
-                a += 1;
-                continue;
-            }
-            let mut b = a;
-            while b + 1 < len && {
-                let (x, y) = pixel(b + 1);
-                self.key_at(x, y) == key
-            } {
-                b += 1;
-            }
-            // Samples of the run [a, b]: its ends, regular positions, edge pixels.
-            let mut prev = None;
-            for i in a..=b {
-                let (x, y) = pixel(i);
-                let is_end = i == a || i == b;
-                let is_sample = st[i] != UNKNOWN || all || is_end || regular(i) || self.is_edge(x, y);
-                if !is_sample {
-                    continue;
-                }
-                if st[i] == UNKNOWN {
-                    let kind = if self.is_edge(x, y) { EDGE } else { REGULAR };
-                    self.sample(vals, st, i, (x, y), kind, scratch, stats);
-                }
-                if let Some(p) = prev {
-                    self.subdivide(vals, st, pixel, p, i, 0, scratch, stats);
-                }
-                prev = Some(i);
-            }
-            a = b + 1;
-        }
-    }
-
-    /// Section 2.1.2: binary subdivision between samples `lo` and `hi`.
-    #[allow(clippy::too_many_arguments)]
-    fn subdivide(
-        &self,
-        vals: &mut [[f32; 4]],
-        st: &mut [u8],
-        pixel: &dyn Fn(usize) -> (usize, usize),
-        lo: usize,
-        hi: usize,
-        depth: u32,
-        scratch: &mut [f32],
-        stats: &mut AdaptiveStats,
-    ) {
-        if hi - lo <= 1 {
-            return;
-        }
-        let (va, vb) = (vals[lo], vals[hi]);
-        let diff = (0..4).map(|c| (va[c] - vb[c]).abs()).fold(0.0f32, f32::max);
-        if diff > self.settings.threshold && depth < self.settings.max_depth {
-            let mid = (lo + hi) / 2;
-            if st[mid] == UNKNOWN {
-                self.sample(vals, st, mid, pixel(mid), ADAPTIVE, scratch, stats);
-            }
-            self.subdivide(vals, st, pixel, lo, mid, depth + 1, scratch, stats);
-            self.subdivide(vals, st, pixel, mid, hi, depth + 1, scratch, stats);
-        } else {
-            let span = (hi - lo) as f32;
-            for i in lo + 1..hi {
-                if st[i] == UNKNOWN {
-                    let t = (i - lo) as f32 / span;
-                    vals[i] = [0, 1, 2, 3].map(|c| va[c] + (vb[c] - va[c]) * t);
-                    st[i] = INTERPOLATED;
-                    stats.interpolated += 1;
-                }
-            }
-        }
     }
 }

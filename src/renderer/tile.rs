@@ -94,7 +94,7 @@ fn for_each_covered(tri: &Tri, rect: (i32, i32, i32, i32), mut visit: impl FnMut
 
 /// The fragment of `tri` at pixel (x, y), its depth and its
 /// perspective-correct weights (`gradients`: the triangle's).
-pub(super) fn fragment_at<'a>(
+pub(crate) fn fragment_at<'a>(
     tri: &Tri,
     x: i32,
     y: i32,
@@ -112,7 +112,7 @@ pub(super) fn fragment_at<'a>(
 
 /// Interpolates the triangle's varyings `vary` (three vertices of `n`)
 /// with the weights `p` into `out`.
-pub(super) fn interpolate(vary: &[f32], n: usize, p: [f32; 3], out: &mut [f32]) {
+pub(crate) fn interpolate(vary: &[f32], n: usize, p: [f32; 3], out: &mut [f32]) {
     for (i, v) in out.iter_mut().enumerate() {
         *v = p[0] * vary[i] + p[1] * vary[n + i] + p[2] * vary[2 * n + i];
     }

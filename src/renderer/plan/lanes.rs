@@ -136,7 +136,7 @@ enum Op {
     Sample(u32),
 }
 
-type Closure = Box<dyn Fn(&mut [f32], &[f32], usize, usize, &mut [bool; BATCH]) + Send + Sync>;
+type Closure = Box<dyn Fn(&mut [Lanes], &[f32], usize, usize, &mut [bool; BATCH]) + Send + Sync>;
 
 /// A pass's fragment program as lane code ([`LaneProgram::compile`]).
 pub(in crate::renderer) struct LaneProgram {
@@ -290,14 +290,14 @@ fn integer_exponent(m: &ir::Module, rhs: ir::Handle<Expr>) -> Option<u32> {
 
 thread_local! {
     /// A thread's registers, and the program whose constants they hold.
-    static REGISTERS: RefCell<(Vec<f32>, u64)> = const { RefCell::new((Vec::new(), 0)) };
+    static REGISTERS: RefCell<(Vec<Lanes>, u64)> = const { RefCell::new((Vec::new(), 0)) };
 }
 
 type Lanes = [f32; BATCH];
 
 #[inline(always)]
-fn lanes(r: &[f32], slot: u32, c: usize) -> &Lanes {
-    (&r[(slot as usize * 4 + c) * BATCH..][..BATCH]).try_into().expect("BATCH lanes")
+fn lanes(r: &[Lanes], slot: u32, c: usize) -> &Lanes {
+    &r[slot as usize * 4 + c]
 }
 
 impl FragmentProgram<'_> {
@@ -312,15 +312,15 @@ impl FragmentProgram<'_> {
     ) {
         REGISTERS.with(|cell| {
             let (r, holds) = &mut *cell.borrow_mut();
-            if r.len() < lp.n_slots * 4 * BATCH {
-                r.resize(lp.n_slots * 4 * BATCH, 0.0);
+            if r.len() < lp.n_slots * 4 {
+                r.resize(lp.n_slots * 4, [0.0; BATCH]);
             }
-            let r = &mut r[..lp.n_slots * 4 * BATCH];
+            let r = &mut r[..lp.n_slots * 4];
             // No op writes a constant's slot: they stay from the last batch.
             if *holds != lp.id {
                 for &(s, v) in &lp.splats {
                     for (c, x) in v.into_iter().enumerate() {
-                        r[(s as usize * 4 + c) * BATCH..][..BATCH].fill(x);
+                        r[s as usize * 4 + c].fill(x);
                     }
                 }
                 *holds = lp.id;
@@ -329,7 +329,7 @@ impl FragmentProgram<'_> {
             run(self, lp, r, fragments, varyings, &mut discard);
             let n = fragments.len();
             for lane in 0..n {
-                let at = |s: u32, c: usize| r[(s as usize * 4 + c) * BATCH + lane];
+                let at = |s: u32, c: usize| r[s as usize * 4 + c][lane];
                 let dropped = discard[lane] || self.condition.is_some_and(|c| at(c, 0) == 0.0);
                 results[lane] = if dropped { FragmentResult::Discard } else { FragmentResult::Keep };
                 if !dropped {
@@ -342,15 +342,15 @@ impl FragmentProgram<'_> {
     /// Lookup step `i` ([`samples_directly`]) of lanes `0..n` in `f32`:
     /// the coordinates, the level of detail and the filtered texel as
     /// [`FragmentProgram::lookup`] computes them, without the `f64` values.
-    fn sample_lanes(&self, i: usize, r: &mut [f32], fragments: &[Fragment], varyings: &[f32], per: usize) {
+    fn sample_lanes(&self, i: usize, r: &mut [Lanes], fragments: &[Fragment], varyings: &[f32], per: usize) {
         let s = &self.steps[i];
         let Some(Leaf::Lookup { texture, coords_ty, lod_from }) = s.leaf else { return };
         let Source::Bound { texture: b, .. } = &self.sources[texture as usize] else { return };
         let filter = self.filters[texture as usize];
-        let (lo, hi) = r.split_at_mut(s.slot as usize * 4 * BATCH);
+        let (lo, hi) = r.split_at_mut(s.slot as usize * 4);
         let c = |k: usize| lanes(lo, s.ops[0], k);
         let (c0, c1, c2) = (c(0), c(1), c(2));
-        let out = &mut hi[..4 * BATCH];
+        let out = &mut hi[..4];
         for (lane, fragment) in fragments.iter().enumerate() {
             let texel = match &b.texture {
                 Texture::Flat(t) => {
@@ -378,7 +378,7 @@ impl FragmentProgram<'_> {
                 _ => [f32::NAN; 4],
             };
             for (k, x) in texel.into_iter().enumerate() {
-                out[k * BATCH + lane] = x;
+                out[k][lane] = x;
             }
         }
     }
@@ -387,7 +387,7 @@ impl FragmentProgram<'_> {
     fn scalar_lane(
         &self,
         i: usize,
-        r: &mut [f32],
+        r: &mut [Lanes],
         fragment: &Fragment,
         vary: &[f32],
         lane: usize,
@@ -396,11 +396,11 @@ impl FragmentProgram<'_> {
         let s = &self.steps[i];
         let mut buf = [[0.0f64; 4]; 4];
         for (b, &o) in buf.iter_mut().zip(&s.ops[..s.n_ops as usize]) {
-            *b = [0, 1, 2, 3].map(|c| r[(o as usize * 4 + c) * BATCH + lane] as f64);
+            *b = [0, 1, 2, 3].map(|c| r[o as usize * 4 + c][lane] as f64);
         }
         let v = self.stored(s, self.step_value(i, &buf, fragment, vary, None, true, d));
         for (c, x) in v.into_iter().enumerate() {
-            r[(s.slot as usize * 4 + c) * BATCH + lane] = x as f32;
+            r[s.slot as usize * 4 + c][lane] = x as f32;
         }
     }
 }
@@ -410,7 +410,7 @@ impl FragmentProgram<'_> {
 fn run(
     p: &FragmentProgram,
     lp: &LaneProgram,
-    r: &mut [f32],
+    r: &mut [Lanes],
     fragments: &[Fragment],
     varyings: &[f32],
     discard: &mut [bool; BATCH],
@@ -429,7 +429,7 @@ fn run(
 unsafe fn run_avx2(
     p: &FragmentProgram,
     lp: &LaneProgram,
-    r: &mut [f32],
+    r: &mut [Lanes],
     fragments: &[Fragment],
     varyings: &[f32],
     discard: &mut [bool; BATCH],
@@ -441,7 +441,7 @@ unsafe fn run_avx2(
 fn run_body(
     p: &FragmentProgram,
     lp: &LaneProgram,
-    r: &mut [f32],
+    r: &mut [Lanes],
     fragments: &[Fragment],
     varyings: &[f32],
     discard: &mut [bool; BATCH],
@@ -471,13 +471,13 @@ fn closure(op: &Op) -> Closure {
     macro_rules! bin {
         ($f:expr) => {{
             let Op::Lanes { dst, ops, width, .. } = op else { unreachable!() };
-            Box::new(move |r: &mut [f32], _: &[f32], _: usize, n: usize, _: &mut [bool; BATCH]| {
+            Box::new(move |r: &mut [Lanes], _: &[f32], _: usize, n: usize, _: &mut [bool; BATCH]| {
                 let nn = ((n + 7) & !7).min(BATCH);
-                let (lo, hi) = r.split_at_mut(dst as usize * 4 * BATCH);
-                let out = &mut hi[..4 * BATCH];
+                let (lo, hi) = r.split_at_mut(dst as usize * 4);
+                let out = &mut hi[..4];
                 for c in 0..width.max(1) as usize {
                     let (a, b) = (lanes(lo, ops[0], c), lanes(lo, ops[1], c));
-                    let o: &mut Lanes = (&mut out[c * BATCH..][..BATCH]).try_into().expect("lanes");
+                    let o = &mut out[c];
                     for i in 0..nn {
                         o[i] = $f(a[i], b[i]);
                     }
@@ -498,17 +498,50 @@ fn closure(op: &Op) -> Closure {
 
 /// Makes the lanes of a result canonical for its width.
 #[inline(always)]
-fn canonical(out: &mut [f32], width: u8) {
+fn canonical(out: &mut [Lanes], width: u8) {
     match width {
         1 => {
-            let (x, rest) = out.split_at_mut(BATCH);
-            for c in 0..3 {
-                rest[c * BATCH..][..BATCH].copy_from_slice(x);
+            let (x, rest) = out.split_at_mut(1);
+            for o in rest {
+                *o = x[0];
             }
         }
-        2..=3 => out[width as usize * BATCH..].fill(0.0),
+        2..=3 => {
+            for o in &mut out[width as usize..] {
+                o.fill(0.0);
+            }
+        }
         4 => {}
-        _ => out.fill(f32::NAN),
+        _ => {
+            for o in out {
+                o.fill(f32::NAN);
+            }
+        }
+    }
+}
+
+/// An op's operands: the registers below its destination, the operand
+/// slots, the components it computes and the lanes in use rounded up to a
+/// vector of 8.
+struct Operands<'r> {
+    lo: &'r [Lanes],
+    ops: [u32; 4],
+    comps: usize,
+    nn: usize,
+}
+
+impl Operands<'_> {
+    #[inline(always)]
+    fn a(&self, c: usize) -> &Lanes {
+        lanes(self.lo, self.ops[0], c)
+    }
+    #[inline(always)]
+    fn b(&self, c: usize) -> &Lanes {
+        lanes(self.lo, self.ops[1], c)
+    }
+    #[inline(always)]
+    fn c(&self, c: usize) -> &Lanes {
+        lanes(self.lo, self.ops[2], c)
     }
 }
 
@@ -516,27 +549,72 @@ fn canonical(out: &mut [f32], width: u8) {
 // Indexed loops over several lane arrays at once are the form that vectorises.
 #[allow(clippy::needless_range_loop)]
 #[inline(always)]
-fn exec(op: Op, r: &mut [f32], varyings: &[f32], per: usize, n: usize, discard: &mut [bool; BATCH]) {
+fn exec(op: Op, r: &mut [Lanes], varyings: &[f32], per: usize, n: usize, discard: &mut [bool; BATCH]) {
     let Op::Lanes { k, dst, ops, width } = op else { return };
-    // The lanes in use, rounded up to a vector of 8.
-    let nn = ((n + 7) & !7).min(BATCH);
-    let (lo, hi) = r.split_at_mut(dst as usize * 4 * BATCH);
-    let out = &mut hi[..4 * BATCH];
+    let (lo, hi) = r.split_at_mut(dst as usize * 4);
+    let out = &mut hi[..4];
     // Components computed: a width-1 result only its first (then splatted).
-    let comps = width.clamp(1, 4) as usize;
-    let a = |c: usize| lanes(lo, ops[0], c);
-    let b = |c: usize| lanes(lo, ops[1], c);
-    let cc = |c: usize| lanes(lo, ops[2], c);
+    let x = Operands { lo, ops, comps: width.clamp(1, 4) as usize, nn: ((n + 7) & !7).min(BATCH) };
+    if componentwise(k, &x, out) {
+        return canonical(out, width);
+    }
+    match k {
+        K::Dot(w) => {
+            let o = &mut out[0];
+            for i in 0..x.nn {
+                o[i] = x.a(0)[i] * x.b(0)[i];
+            }
+            for c in 1..w as usize {
+                for i in 0..x.nn {
+                    o[i] += x.a(c)[i] * x.b(c)[i];
+                }
+            }
+            // A scalar of a dot product: splat it whatever the node's width.
+            splat_first(out, width)
+        }
+        K::Length(w) => {
+            let o = &mut out[0];
+            length(o, |c| x.a(c), w, x.nn);
+            for v in o.iter_mut() {
+                *v = v.sqrt();
+            }
+            splat_first(out, width)
+        }
+        K::Cmp(op) => {
+            compare_lanes(op, &x, &mut out[0]);
+            splat_first(out, width)
+        }
+        K::Not => {
+            let (a, o) = (x.a(0), &mut out[0]);
+            for i in 0..x.nn {
+                o[i] = (a[i] == 0.0) as u8 as f32;
+            }
+            splat_first(out, width)
+        }
+        _ => {
+            structural(k, &x, out, (varyings, per, n), discard);
+            canonical(out, width)
+        }
+    }
+}
+
+/// The ops computed component by component with one formula per lane;
+/// false for the others.
+// Indexed loops over several lane arrays at once are the form that vectorises.
+#[allow(clippy::needless_range_loop)]
+#[inline(always)]
+fn componentwise(k: K, x: &Operands, out: &mut [Lanes]) -> bool {
     macro_rules! each {
         (|$c:ident, $i:ident| $e:expr) => {
-            for $c in 0..comps {
-                let o: &mut Lanes = (&mut out[$c * BATCH..][..BATCH]).try_into().expect("lanes");
-                for $i in 0..nn {
+            for $c in 0..x.comps {
+                let o = &mut out[$c];
+                for $i in 0..x.nn {
                     o[$i] = $e;
                 }
             }
         };
     }
+    let (a, b, cc) = (|c| x.a(c), |c| x.b(c), |c| x.c(c));
     match k {
         K::Add => each!(|c, i| a(c)[i] + b(c)[i]),
         K::Sub => each!(|c, i| a(c)[i] - b(c)[i]),
@@ -560,124 +638,108 @@ fn exec(op: Op, r: &mut [f32], varyings: &[f32], per: usize, n: usize, discard: 
         K::Mix => each!(|c, i| a(c)[i] * (1.0 - cc(c)[i]) + b(c)[i] * cc(c)[i]),
         K::Same => each!(|c, i| a(c)[i]),
         K::RgbToRgba => each!(|c, i| if c == 3 { 1.0 } else { a(c)[i] }),
+        K::Pow => each!(|c, i| a(c)[i].powf(b(c)[i])),
+        K::PowInt(e) => each!(|c, i| ir::power_by_squaring(a(c)[i], e, |p, q| p * q)),
+        _ => return false,
+    }
+    true
+}
+
+/// A comparison or a logical operator of the first components, as 0 or 1.
+#[inline(always)]
+fn compare_lanes(op: BinaryOp, x: &Operands, o: &mut Lanes) {
+    let (a, b) = (x.a(0), x.b(0));
+    for i in 0..x.nn {
+        let t = match op {
+            BinaryOp::Lt => a[i] < b[i],
+            BinaryOp::Le => a[i] <= b[i],
+            BinaryOp::Gt => a[i] > b[i],
+            BinaryOp::Ge => a[i] >= b[i],
+            BinaryOp::Eq => a[i] == b[i],
+            BinaryOp::Ne => a[i] != b[i],
+            BinaryOp::And => a[i] != 0.0 && b[i] != 0.0,
+            _ => a[i] != 0.0 || b[i] != 0.0,
+        };
+        o[i] = t as u8 as f32;
+    }
+}
+
+/// The ops that move components (swizzles, composition, varyings,
+/// selection) and normalization; `vary`: the batch's varyings, per
+/// fragment, and the lanes in use.
+#[inline(always)]
+fn structural(
+    k: K,
+    x: &Operands,
+    out: &mut [Lanes],
+    (varyings, per, n): (&[f32], usize, usize),
+    discard: &mut [bool; BATCH],
+) {
+    match k {
         K::Swizzle(pattern, len) => {
             for (c, &from) in pattern[..len as usize].iter().enumerate() {
-                out[c * BATCH..][..BATCH].copy_from_slice(a(from as usize & 3));
+                out[c] = *x.a(from as usize & 3);
             }
-        }
-        K::Dot(w) => {
-            let o: &mut Lanes = (&mut out[..BATCH]).try_into().expect("lanes");
-            for i in 0..nn {
-                o[i] = a(0)[i] * b(0)[i];
-            }
-            for c in 1..w as usize {
-                for i in 0..nn {
-                    o[i] += a(c)[i] * b(c)[i];
-                }
-            }
-            // A scalar of a dot product: splat it whatever the node's width.
-            return splat_first(out, width);
-        }
-        K::Length(w) => {
-            let o: &mut Lanes = (&mut out[..BATCH]).try_into().expect("lanes");
-            length(o, |c| a(c), w, nn);
-            for x in o.iter_mut() {
-                *x = x.sqrt();
-            }
-            return splat_first(out, width);
         }
         K::Normalize(w) => {
             let mut len = [0.0f32; BATCH];
-            length(&mut len, |c| a(c), w, nn);
-            for x in len.iter_mut() {
-                *x = x.sqrt();
+            length(&mut len, |c| x.a(c), w, x.nn);
+            for v in len.iter_mut() {
+                *v = v.sqrt();
             }
-            for c in 0..4 {
-                let x = a(c);
-                let o: &mut Lanes = (&mut out[c * BATCH..][..BATCH]).try_into().expect("lanes");
-                for i in 0..nn {
-                    o[i] = if len[i] == 0.0 { 0.0 } else { x[i] / len[i] };
+            for (c, o) in out.iter_mut().enumerate() {
+                let a = x.a(c);
+                for i in 0..x.nn {
+                    o[i] = if len[i] == 0.0 { 0.0 } else { a[i] / len[i] };
                 }
             }
         }
-        K::PowInt(e) => {
-            for c in 0..comps {
-                let o: &mut Lanes = (&mut out[c * BATCH..][..BATCH]).try_into().expect("lanes");
-                let x = a(c);
-                for i in 0..nn {
-                    o[i] = ir::power_by_squaring(x[i], e, |p, q| p * q);
-                }
-            }
-        }
-        K::Pow => each!(|c, i| a(c)[i].powf(b(c)[i])),
-        K::Cmp(op) => {
-            let (x, y) = (a(0), b(0));
-            let o: &mut Lanes = (&mut out[..BATCH]).try_into().expect("lanes");
-            for i in 0..nn {
-                let t = match op {
-                    BinaryOp::Lt => x[i] < y[i],
-                    BinaryOp::Le => x[i] <= y[i],
-                    BinaryOp::Gt => x[i] > y[i],
-                    BinaryOp::Ge => x[i] >= y[i],
-                    BinaryOp::Eq => x[i] == y[i],
-                    BinaryOp::Ne => x[i] != y[i],
-                    BinaryOp::And => x[i] != 0.0 && y[i] != 0.0,
-                    _ => x[i] != 0.0 || y[i] != 0.0,
-                };
-                o[i] = t as u8 as f32;
-            }
-            return splat_first(out, width);
-        }
-        K::Not => {
-            let x = a(0);
-            let o: &mut Lanes = (&mut out[..BATCH]).try_into().expect("lanes");
-            for i in 0..nn {
-                o[i] = (x[i] == 0.0) as u8 as f32;
-            }
-            return splat_first(out, width);
-        }
-        K::Select(with_reject) => {
-            let cond = a(0);
-            for c in 0..comps {
-                let (x, y) = (b(c), if with_reject { cc(c) } else { b(c) });
-                let o: &mut Lanes = (&mut out[c * BATCH..][..BATCH]).try_into().expect("lanes");
-                for i in 0..nn {
-                    o[i] = if cond[i] != 0.0 { x[i] } else { y[i] };
-                }
-            }
-            if !with_reject {
-                for i in 0..n {
-                    if cond[i] == 0.0 {
-                        discard[i] = true;
-                        for c in 0..4 {
-                            out[c * BATCH + i] = f32::NAN;
-                        }
-                    }
-                }
-            }
-        }
+        K::Select(with_reject) => select(x, out, with_reject, n, discard),
         K::Compose(ws) => {
             let mut at = 0;
             for (j, &w) in ws.iter().enumerate() {
                 for c in 0..w as usize {
                     if at < 4 {
-                        let from = lanes(lo, ops[j], c);
-                        out[at * BATCH..][..BATCH].copy_from_slice(from);
+                        out[at] = *lanes(x.lo, x.ops[j], c);
                     }
                     at += 1;
                 }
             }
         }
         K::Varying(kv) => {
-            for c in 0..comps {
-                let o = &mut out[c * BATCH..][..BATCH];
-                for (i, x) in o[..n].iter_mut().enumerate() {
-                    *x = varyings[i * per + 4 * kv as usize + c];
+            for (c, o) in out[..x.comps].iter_mut().enumerate() {
+                for (i, v) in o[..n].iter_mut().enumerate() {
+                    *v = varyings[i * per + 4 * kv as usize + c];
+                }
+            }
+        }
+        _ => {}
+    }
+}
+
+/// `c ? a : b`; without `b`, a lane whose `c` is 0 is discarded (NaN).
+// Indexed loops over several lane arrays at once are the form that vectorises.
+#[allow(clippy::needless_range_loop)]
+#[inline(always)]
+fn select(x: &Operands, out: &mut [Lanes], with_reject: bool, n: usize, discard: &mut [bool; BATCH]) {
+    let cond = x.a(0);
+    for c in 0..x.comps {
+        let (a, b) = (x.b(c), if with_reject { x.c(c) } else { x.b(c) });
+        let o = &mut out[c];
+        for i in 0..x.nn {
+            o[i] = if cond[i] != 0.0 { a[i] } else { b[i] };
+        }
+    }
+    if !with_reject {
+        for i in 0..n {
+            if cond[i] == 0.0 {
+                discard[i] = true;
+                for o in out.iter_mut() {
+                    o[i] = f32::NAN;
                 }
             }
         }
     }
-    canonical(out, width)
 }
 
 /// The sum of squares of `a`'s first `w` components, into `o`.
@@ -698,6 +760,6 @@ fn length<'x>(o: &mut Lanes, a: impl Fn(usize) -> &'x Lanes, w: u8, nn: usize) {
 /// A scalar result in the first component, splatted (or NaN for a node
 /// without a numeric width).
 #[inline(always)]
-fn splat_first(out: &mut [f32], width: u8) {
+fn splat_first(out: &mut [Lanes], width: u8) {
     canonical(out, if width == 0 { 0 } else { 1 })
 }
