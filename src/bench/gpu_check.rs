@@ -156,6 +156,7 @@ pub struct Case {
     pub outcome: Outcome,
 }
 
+/// What the check made of one program on one target.
 #[derive(Clone, Debug)]
 pub enum Outcome {
     /// Not compared: it does not plan for the target, or wgpu cannot run
@@ -199,6 +200,8 @@ impl std::fmt::Debug for Comparison {
 }
 
 impl Comparison {
+    /// The comparison in words: bit for bit, within the texture unit's
+    /// model or the specifications' latitude, or beyond them.
     pub fn verdict(&self) -> &'static str {
         match (self.beyond, self.max_diff, self.class) {
             (0, 0, Class::Exact) => "bit for bit",
@@ -523,9 +526,17 @@ fn compare_pictures(
                 }
             })
             .collect();
-        let image = |v: Vec<u8>| RgbaImage::from_raw(w, h, v).expect("w·h·4 bytes");
-        (image(model.clone()), image(gpu.clone()), state)
+        let image = |v: &[u8]| {
+            RgbaImage::from_raw(w, h, v.to_vec()).ok_or_else(|| {
+                crate::renderer::RenderError::Unsupported(format!(
+                    "internal: a {w}×{h} picture of {} bytes, not w·h·4",
+                    v.len()
+                ))
+            })
+        };
+        Ok::<_, crate::renderer::RenderError>((image(&model)?, image(&gpu)?, state))
     });
+    let pictures = pictures.transpose()?;
     Ok(Comparison { class, compared, lit, max_diff, beyond_model_picture, beyond_ties, beyond, pictures })
 }
 

@@ -78,6 +78,7 @@ pub enum Clock {
 }
 
 impl Clock {
+    /// The clock's name in the report.
     pub fn name(self) -> &'static str {
         match self {
             Clock::CpuWall => "CPU wall time",
@@ -225,6 +226,7 @@ impl Prepared {
         Some(crate::cost::predict(&self.planned.plan, &self.planned.module, model, &workload).total_ms())
     }
 
+    /// The CPU renderer bound to the variant's scene.
     pub fn renderer(&self) -> Result<PlanRenderer<'_>, BenchError> {
         PlanRenderer::new(&self.planned, &self.program, &self.scene, &self.assets)
             .map_err(|e| failed("binding", e))
@@ -247,6 +249,7 @@ pub fn timed(
     Ok((frame, median(&mut times)))
 }
 
+/// The median of `times` (sorted in place); zero for none.
 pub fn median(times: &mut [Duration]) -> Duration {
     times.sort();
     times.get(times.len() / 2).copied().unwrap_or_default()
@@ -262,6 +265,38 @@ pub fn measure(
 }
 
 /// [`measure`], and the variants `--max-error` refused, each with why.
+/// A variant rendered and timed on the CPU renderer or on wgpu: its
+/// picture, median frame time, the clock that took it, and (CPU) how each
+/// pass was shaded.
+fn run_variant(
+    gpu: Option<&Executor>,
+    prepared: &Prepared,
+    variant: &Variant,
+    options: &BenchOptions,
+    what: &str,
+) -> Result<(Framebuffer, Duration, Clock, Vec<crate::renderer::plan::PassShading>), BenchError> {
+    match gpu {
+        None => {
+            let renderer = prepared.renderer()?;
+            let (frame, time) =
+                timed(&renderer, variant.mode, options.size, options.runs).map_err(|e| failed(what, e))?;
+            Ok((frame.image, time, Clock::CpuWall, frame.shading))
+        }
+        #[cfg(feature = "gpu")]
+        Some(gpu) => {
+            let (image, time, clock) =
+                gpu::timed(gpu, prepared, variant.program.source, variant.mode, options.size, options.runs)
+                    .map_err(|e| failed(what, e))?;
+            Ok((image, time, clock, Vec::new()))
+        }
+        #[cfg(not(feature = "gpu"))]
+        Some(never) => match *never {},
+    }
+}
+
+/// Every wanted variant of every group rendered and timed against its
+/// group's exact truth, with progress; and, with `--max-error`, the
+/// variants refused because no lowering is within it.
 pub fn measure_all(
     options: &BenchOptions,
     progress: &mut dyn FnMut(usize, usize, &str),
@@ -305,29 +340,8 @@ pub fn measure_all(
                 }
                 Err(e) => return Err(e),
             };
-            let (image, time, clock, shading) = match &gpu {
-                None => {
-                    let renderer = prepared.renderer()?;
-                    let (frame, time) = timed(&renderer, variant.mode, options.size, options.runs)
-                        .map_err(|e| failed(&what, e))?;
-                    (frame.image, time, Clock::CpuWall, frame.shading)
-                }
-                #[cfg(feature = "gpu")]
-                Some(gpu) => {
-                    let (image, time, clock) = gpu::timed(
-                        gpu,
-                        &prepared,
-                        variant.program.source,
-                        variant.mode,
-                        options.size,
-                        options.runs,
-                    )
-                    .map_err(|e| failed(&what, e))?;
-                    (image, time, clock, Vec::new())
-                }
-                #[cfg(not(feature = "gpu"))]
-                Some(never) => match *never {},
-            };
+            let (image, time, clock, shading) =
+                run_variant(gpu.as_ref(), &prepared, variant, options, &what)?;
             out.push(Measured {
                 group: group.name,
                 variant: *variant,
@@ -347,9 +361,16 @@ pub fn measure_all(
     Ok((out, refused))
 }
 
+/// What `bench --backend wgpu` renders on: a wgpu adapter.
+#[cfg(feature = "gpu")]
+type Executor = crate::gpu::runner::Gpu;
+/// Without the `gpu` feature there is no wgpu executor.
+#[cfg(not(feature = "gpu"))]
+type Executor = std::convert::Infallible;
+
 /// The adapter `bench --backend wgpu` runs on; `None` for the CPU.
 #[cfg(feature = "gpu")]
-fn executor(backend: Backend) -> Result<Option<crate::gpu::runner::Gpu>, BenchError> {
+fn executor(backend: Backend) -> Result<Option<Executor>, BenchError> {
     match backend {
         Backend::Cpu => Ok(None),
         Backend::Wgpu => crate::gpu::runner::Gpu::new().map(Some).map_err(|e| failed("wgpu", e)),
@@ -357,7 +378,7 @@ fn executor(backend: Backend) -> Result<Option<crate::gpu::runner::Gpu>, BenchEr
 }
 
 #[cfg(not(feature = "gpu"))]
-fn executor(backend: Backend) -> Result<Option<std::convert::Infallible>, BenchError> {
+fn executor(backend: Backend) -> Result<Option<Executor>, BenchError> {
     match backend {
         Backend::Cpu => Ok(None),
         Backend::Wgpu => Err(failed("wgpu", "this shadec was built without the `gpu` feature")),

@@ -137,6 +137,33 @@ pub fn predicted_vs_error(measured: &[Measured], path: &Path) -> Result<(), Benc
     error_against(&predicted, TimeAxis::Predicted, path)
 }
 
+/// The groups of the measured variants, in the order they first appear.
+fn groups_of(measured: &[Measured]) -> Vec<&str> {
+    measured.iter().fold(Vec::new(), |mut g, m| {
+        if !g.contains(&m.group) {
+            g.push(m.group);
+        }
+        g
+    })
+}
+
+/// Each point's label: its variant, `*` on its group's Pareto front.
+fn point_labels(measured: &[Measured], fronts: &[usize]) -> Vec<String> {
+    measured
+        .iter()
+        .enumerate()
+        .map(
+            |(i, m)| {
+                if fronts.contains(&i) {
+                    format!("{} *", m.variant.name)
+                } else {
+                    m.variant.name.to_string()
+                }
+            },
+        )
+        .collect()
+}
+
 fn error_against(measured: &[Measured], axis: TimeAxis, path: &Path) -> Result<(), BenchError> {
     register_font();
     let points: Vec<(f64, f64)> =
@@ -166,12 +193,7 @@ fn error_against(measured: &[Measured], axis: TimeAxis, path: &Path) -> Result<(
             .label_style((FONT, 14))
             .draw()
             .map_err(plot_error)?;
-        let groups: Vec<&str> = measured.iter().fold(Vec::new(), |mut g, m| {
-            if !g.contains(&m.group) {
-                g.push(m.group);
-            }
-            g
-        });
+        let groups = groups_of(measured);
         for (gi, group) in groups.iter().enumerate() {
             let colour = Palette99::pick(gi).to_rgba();
             let pts: Vec<(f64, f64)> =
@@ -206,17 +228,7 @@ fn error_against(measured: &[Measured], axis: TimeAxis, path: &Path) -> Result<(
                 }
             }
         }
-        let labels: Vec<String> = measured
-            .iter()
-            .enumerate()
-            .map(|(i, m)| {
-                if fronts.contains(&i) {
-                    format!("{} *", m.variant.name)
-                } else {
-                    m.variant.name.to_string()
-                }
-            })
-            .collect();
+        let labels = point_labels(measured, &fronts);
         let anchors: Vec<(i32, i32)> = points.iter().map(|p| chart.backend_coord(p)).collect();
         draw_labels(&root, &labels, &anchors, plot_box(&chart), 13)?;
         chart

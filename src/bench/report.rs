@@ -11,6 +11,7 @@ use super::{BenchError, BenchOptions, Measured};
 /// 1/255 of error is 8 levels (clamped at 255).
 pub const DIFF_SCALE: f32 = 8.0;
 
+/// What a bench run measured, and report.md written from it.
 pub struct Report {
     pub options: BenchOptions,
     pub measured: Vec<Measured>,
@@ -67,7 +68,8 @@ impl Report {
         }
     }
 
-    pub fn markdown(&self) -> String {
+    /// The report's title, how it measured, and the refusals of `--max-error`.
+    fn intro_section(&self) -> String {
         let o = &self.options;
         let mut md = String::new();
         let _ = writeln!(md, "# shadec bench\n");
@@ -100,6 +102,13 @@ impl Report {
                 md.push('\n');
             }
         }
+        md
+    }
+
+    /// One table per group of variants, each followed by what its fixed9
+    /// rows ran.
+    fn measured_section(&self) -> String {
+        let mut md = String::new();
         let front = super::plot::group_fronts(&self.measured);
         let mut group = "";
         // What each fixed9 row ran, written under its group's table.
@@ -148,34 +157,50 @@ impl Report {
             }
         }
         flush(&mut md, &mut fixed9_notes);
-        if !self.adaptive.is_empty() {
+        md
+    }
+
+    /// The Adaptive Sample Shading table (none when it was not measured).
+    fn adaptive_section(&self) -> String {
+        let mut md = String::new();
+        if self.adaptive.is_empty() {
+            return md;
+        }
+        let _ = writeln!(
+            md,
+            "\n## Adaptive sample shading (Adaptive Sample Shading, Section 2.1)\n\nThe native multi-light Phong stage with per-polygon \
+             light relevance (Adaptive Sample Shading, Section 2.2) in full, against adaptive shading with regular samples every {SPACING} \
+             pixels; both timed in this run. The paper shades 19.25 % of the pixels of its 4-light sphere and 5.12 % of its \
+             cube scene at threshold 8.5 %, with no visible difference.\n"
+        );
+        let _ = writeln!(md, "| scene | threshold | pixels shaded | paper | full (ms) | adaptive (ms) | speed-up | max abs (/255) | PSNR (dB) |");
+        let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|");
+        for r in &self.adaptive {
+            let psnr = if r.psnr.is_infinite() { "∞".to_string() } else { format!("{:.2}", r.psnr) };
             let _ = writeln!(
                 md,
-                "\n## Adaptive sample shading (Adaptive Sample Shading, Section 2.1)\n\nThe native multi-light Phong stage with per-polygon \
-                 light relevance (Adaptive Sample Shading, Section 2.2) in full, against adaptive shading with regular samples every {SPACING} \
-                 pixels; both timed in this run. The paper shades 19.25 % of the pixels of its 4-light sphere and 5.12 % of its \
-                 cube scene at threshold 8.5 %, with no visible difference.\n"
+                "| {} | {:.1} % | {:.2} % | {} | {:.2} | {:.2} | {:.2}× | {:.1} | {} |",
+                r.scene,
+                100.0 * r.threshold,
+                100.0 * r.fraction_shaded,
+                r.paper_fraction.map_or(String::new(), |p| format!("{:.2} %", 100.0 * p)),
+                r.full_time.as_secs_f64() * 1e3,
+                r.adaptive_time.as_secs_f64() * 1e3,
+                r.speedup(),
+                r.max_abs * 255.0,
+                psnr
             );
-            let _ = writeln!(md, "| scene | threshold | pixels shaded | paper | full (ms) | adaptive (ms) | speed-up | max abs (/255) | PSNR (dB) |");
-            let _ = writeln!(md, "|---|---|---|---|---|---|---|---|---|");
-            for r in &self.adaptive {
-                let psnr = if r.psnr.is_infinite() { "∞".to_string() } else { format!("{:.2}", r.psnr) };
-                let _ = writeln!(
-                    md,
-                    "| {} | {:.1} % | {:.2} % | {} | {:.2} | {:.2} | {:.2}× | {:.1} | {} |",
-                    r.scene,
-                    100.0 * r.threshold,
-                    100.0 * r.fraction_shaded,
-                    r.paper_fraction.map_or(String::new(), |p| format!("{:.2} %", 100.0 * p)),
-                    r.full_time.as_secs_f64() * 1e3,
-                    r.adaptive_time.as_secs_f64() * 1e3,
-                    r.speedup(),
-                    r.max_abs * 255.0,
-                    psnr
-                );
-            }
-            let _ = writeln!(md, "\nPlot: `adaptive.png`.");
         }
+        let _ = writeln!(md, "\nPlot: `adaptive.png`.");
+        md
+    }
+
+    /// The whole report.md: how it measured, the groups' tables, adaptive
+    /// shading, predicted speed on the hardware and removed work.
+    pub fn markdown(&self) -> String {
+        let mut md = self.intro_section();
+        md += &self.measured_section();
+        md += &self.adaptive_section();
         md += &self.predicted_section();
         if !self.removed.is_empty() {
             let _ = writeln!(md, "\n## Removed work (scene-driven specialization)\n\n{}", self.removed);

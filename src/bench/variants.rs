@@ -34,20 +34,34 @@ macro_rules! program {
     };
 }
 
+/// Phong per pixel with the true `pow` and renormalized vectors: the
+/// shared model's reference.
 pub const PHONG_EXACT: Program = program!("phong_exact.shd");
+/// Phong per vertex, colours interpolated (Gouraud).
 pub const GOURAUD: Program = program!("gouraud.shd");
+/// Phong per pixel from interpolated vectors left unnormalized.
 pub const PHONG_UNNORMALIZED: Program = program!("phong_unnormalized.shd");
+/// Phong per pixel, vectors renormalized by a Taylor step.
 pub const PHONG_TAYLOR: Program = program!("phong_taylor.shd");
+/// Phong per pixel, vectors renormalized by an 8-bit normalization cube map.
 pub const PHONG_CUBE8: Program = program!("phong_cube8.shd");
+/// Phong per pixel, vectors renormalized by a 16-bit normalization cube map.
 pub const PHONG_CUBE16: Program = program!("phong_cube16.shd");
+/// The specular exponent by `pow`.
 pub const EXPONENT_POW: Program = program!("exponent_pow.shd");
+/// The specular exponent by repeated squaring.
 pub const EXPONENT_SQUARING: Program = program!("exponent_squaring.shd");
+/// The specular exponent by a table lookup.
 pub const EXPONENT_LOOKUP: Program = program!("exponent_lookup.shd");
+/// Kilgard 2000's bump mapping, the example program.
 pub const KILGARD: Program = Program {
     name: "examples/kilgard_bump_mapping.shd",
     source: include_str!("../../examples/kilgard_bump_mapping.shd"),
 };
+/// Torrance–Sparrow evaluated per pixel: the factored form's reference.
 pub const TORRANCE_SPARROW_PER_PIXEL: Program = program!("torrance_sparrow_per_pixel.shd");
+/// Torrance–Sparrow factored into tables (Heidrich & Seidel 1999), the
+/// example program.
 pub const HEIDRICH_SEIDEL: Program = Program {
     name: "examples/torrance_sparrow_factored.shd",
     source: include_str!("../../examples/torrance_sparrow_factored.shd"),

@@ -241,6 +241,71 @@ fn front(args: &BenchArgs, program: &std::path::Path) -> ExitCode {
     }
 }
 
+/// The options of a bench run from its flags, or the usage error's exit code.
+fn bench_options(args: &BenchArgs) -> Result<BenchOptions, ExitCode> {
+    let mut options = if args.quick { BenchOptions::quick() } else { BenchOptions::full() };
+    if let Some(s) = &args.size {
+        match parse_size(s) {
+            Some(v) => options.size = v,
+            None => {
+                return Err(usage(format!(
+                    "--size {s}: expected WxH with 1..=16384 pixels per side, such as 512x512"
+                )))
+            }
+        }
+    }
+    if let Some(n) = args.runs {
+        if !(1..=1000).contains(&n) {
+            return Err(usage(format!("--runs {n}: expected 1 to 1000 timed runs")));
+        }
+        options.runs = n;
+    }
+    options.only = args.only.clone();
+    if let Some(e) = args.max_error {
+        if !(e.is_finite() && e >= 0.0) {
+            return Err(usage(format!("--max-error {e}: expected a non-negative error such as 0.05")));
+        }
+        options.max_error = Some(e);
+    }
+    options.backend = match args.backend {
+        super::render::Backend::Cpu => shadec::bench::Backend::Cpu,
+        super::render::Backend::Wgpu => shadec::bench::Backend::Wgpu,
+    };
+    Ok(options)
+}
+
+/// One line per measured variant, refusal and adaptive row.
+fn print_report(report: &shadec::bench::report::Report) {
+    for m in &report.measured {
+        println!(
+            "{:<24} {:>10} {:>7} {:>8.2} ms {}  {}  RMSE {:.5}  max {:>5.1}/255",
+            m.variant.name,
+            m.variant.target,
+            m.variant.mode.name(),
+            m.time.as_secs_f64() * 1e3,
+            m.clock.name(),
+            m.predicted_ms.map_or("predicted    —    ".to_string(), |p| format!("predicted {p:>7.3} ms")),
+            m.error.rmse,
+            m.error.max_abs * 255.0
+        );
+    }
+    for r in &report.refused {
+        println!("refused: {r}");
+    }
+    for r in &report.adaptive {
+        println!(
+            "{:<24} threshold {:>4.1} %: {:>6.2} % shaded, {:.2}× faster, PSNR {:.1} dB",
+            r.scene,
+            100.0 * r.threshold,
+            100.0 * r.fraction_shaded,
+            r.speedup(),
+            r.psnr
+        );
+    }
+}
+
+/// `shadec bench`: the variants' table, one program's front
+/// (`--program`), or the GPU check (`--gpu-check`).
 pub fn run(args: &BenchArgs) -> ExitCode {
     if let Some(program) = &args.program {
         return front(args, program);
@@ -265,33 +330,9 @@ pub fn run(args: &BenchArgs) -> ExitCode {
             Err(e) => usage(e),
         };
     }
-    let mut options = if args.quick { BenchOptions::quick() } else { BenchOptions::full() };
-    if let Some(s) = &args.size {
-        match parse_size(s) {
-            Some(v) => options.size = v,
-            None => {
-                return usage(format!(
-                    "--size {s}: expected WxH with 1..=16384 pixels per side, such as 512x512"
-                ))
-            }
-        }
-    }
-    if let Some(n) = args.runs {
-        if !(1..=1000).contains(&n) {
-            return usage(format!("--runs {n}: expected 1 to 1000 timed runs"));
-        }
-        options.runs = n;
-    }
-    options.only = args.only.clone();
-    if let Some(e) = args.max_error {
-        if !(e.is_finite() && e >= 0.0) {
-            return usage(format!("--max-error {e}: expected a non-negative error such as 0.05"));
-        }
-        options.max_error = Some(e);
-    }
-    options.backend = match args.backend {
-        super::render::Backend::Cpu => shadec::bench::Backend::Cpu,
-        super::render::Backend::Wgpu => shadec::bench::Backend::Wgpu,
+    let options = match bench_options(args) {
+        Ok(options) => options,
+        Err(code) => return code,
     };
     println!(
         "shadec bench: {}×{}, median of {} run{}, {} threads → {}",
@@ -308,33 +349,7 @@ pub fn run(args: &BenchArgs) -> ExitCode {
     progress.finish();
     match result {
         Ok(report) => {
-            for m in &report.measured {
-                println!(
-                    "{:<24} {:>10} {:>7} {:>8.2} ms {}  {}  RMSE {:.5}  max {:>5.1}/255",
-                    m.variant.name,
-                    m.variant.target,
-                    m.variant.mode.name(),
-                    m.time.as_secs_f64() * 1e3,
-                    m.clock.name(),
-                    m.predicted_ms
-                        .map_or("predicted    —    ".to_string(), |p| format!("predicted {p:>7.3} ms")),
-                    m.error.rmse,
-                    m.error.max_abs * 255.0
-                );
-            }
-            for r in &report.refused {
-                println!("refused: {r}");
-            }
-            for r in &report.adaptive {
-                println!(
-                    "{:<24} threshold {:>4.1} %: {:>6.2} % shaded, {:.2}× faster, PSNR {:.1} dB",
-                    r.scene,
-                    100.0 * r.threshold,
-                    100.0 * r.fraction_shaded,
-                    r.speedup(),
-                    r.psnr
-                );
-            }
+            print_report(&report);
             println!("wrote {}", args.output.join("report.md").display());
             ExitCode::SUCCESS
         }

@@ -34,10 +34,13 @@ struct Summary {
     warnings: usize,
 }
 
+/// Whether diagnostics on standard error are coloured: a terminal, and
+/// `NO_COLOR` unset.
 pub fn color_stderr() -> bool {
     std::io::stderr().is_terminal() && std::env::var_os("NO_COLOR").is_none()
 }
 
+/// `shadec check`: every file's diagnostics, then a summary.
 pub fn run(args: &CheckArgs) -> ExitCode {
     let mut io_errors = Vec::new();
     let files = collect_files(&args.paths, &mut io_errors);
@@ -93,16 +96,35 @@ pub fn run(args: &CheckArgs) -> ExitCode {
             }),
         }
     }
+    print_summary(args, &mut report, &io_errors, &mut out);
     let s = &report.summary;
+    if let (Some(path), Some(text)) = (&args.output, out.gathered) {
+        if super::write_output(Some(path), &text) != ExitCode::SUCCESS {
+            return ExitCode::from(EXIT_USAGE_OR_IO);
+        }
+    }
+    if !io_errors.is_empty() {
+        ExitCode::from(EXIT_USAGE_OR_IO)
+    } else if s.errors > 0 || (args.deny_warnings && s.warnings > 0) {
+        ExitCode::from(EXIT_SOURCE_ERRORS)
+    } else {
+        ExitCode::SUCCESS
+    }
+}
+
+/// The end of the report: the JSON document (with the I/O errors), or the
+/// I/O errors and a one-line summary.
+fn print_summary(args: &CheckArgs, report: &mut Report, io_errors: &[String], out: &mut Out) {
     match args.format {
         Format::Json => {
-            report.io_errors = io_errors.clone();
+            report.io_errors = io_errors.to_vec();
             #[allow(clippy::expect_used, reason = "the report is strings and numbers: JSON writes it")]
-            let text = serde_json::to_string_pretty(&report).expect("the report serializes");
+            let text = serde_json::to_string_pretty(&*report).expect("the report serializes");
             out.line(text);
         }
         _ => {
-            for e in &io_errors {
+            let s = &report.summary;
+            for e in io_errors {
                 eprintln!("error: {e}");
             }
             out.line(format!(
@@ -116,18 +138,6 @@ pub fn run(args: &CheckArgs) -> ExitCode {
                 plural(s.warnings)
             ));
         }
-    }
-    if let (Some(path), Some(text)) = (&args.output, out.gathered) {
-        if super::write_output(Some(path), &text) != ExitCode::SUCCESS {
-            return ExitCode::from(EXIT_USAGE_OR_IO);
-        }
-    }
-    if !io_errors.is_empty() {
-        ExitCode::from(EXIT_USAGE_OR_IO)
-    } else if s.errors > 0 || (args.deny_warnings && s.warnings > 0) {
-        ExitCode::from(EXIT_SOURCE_ERRORS)
-    } else {
-        ExitCode::SUCCESS
     }
 }
 

@@ -10,6 +10,7 @@ use super::args::{CompileArgs, CompileFormat, Emit, Format, PlanFormat};
 use super::check::color_stderr;
 use super::{EXIT_SOURCE_ERRORS, EXIT_USAGE_OR_IO};
 
+/// `shadec compile`: the plan, or what `--emit` asks for.
 pub fn run(args: &CompileArgs) -> ExitCode {
     let text = match shadec::io::read_text(&args.file) {
         Ok(t) => t,

@@ -120,6 +120,8 @@ pub(super) enum Failure {
     Io(String),
 }
 
+/// `shadec emulate`: a combiner setup (and texture shader) run on input
+/// images, the result written as a PNG.
 pub fn run(args: &EmulateArgs) -> ExitCode {
     match run_inner(args) {
         Ok(()) => ExitCode::SUCCESS,
@@ -170,17 +172,6 @@ fn run_inner(args: &EmulateArgs) -> Result<(), Failure> {
             _ => return Err(Failure::Io("no input image: give at least one of --tex0..--tex3, --primary, --secondary (they set the output size)".into())),
         },
     };
-    type Loaded = Option<(PathBuf, image::RgbaImage)>;
-    fn raw(img: &Loaded) -> Option<&[u8]> {
-        img.as_ref().map(|(_, i)| i.as_raw().as_slice())
-    }
-    fn image(img: &Loaded) -> Option<ts1::emulate::Image<'_>> {
-        img.as_ref().map(|(_, i)| ts1::emulate::Image {
-            width: i.width(),
-            height: i.height(),
-            rgba: i.as_raw(),
-        })
-    }
     let inputs = Inputs {
         width: width as usize,
         height: height as usize,
@@ -215,12 +206,29 @@ fn run_inner(args: &EmulateArgs) -> Result<(), Failure> {
                 .map_err(|e| Failure::Config(format!("error: {e}")))?
         }
     };
+    write_png(&args.output, &pixels, width, height)
+}
+
+/// An input image, with the path it was read from.
+type Loaded = Option<(PathBuf, image::RgbaImage)>;
+
+/// An input image's RGBA8 bytes.
+fn raw(img: &Loaded) -> Option<&[u8]> {
+    img.as_ref().map(|(_, i)| i.as_raw().as_slice())
+}
+
+/// An input image as a texture shader's texture.
+fn image(img: &Loaded) -> Option<ts1::emulate::Image<'_>> {
+    img.as_ref().map(|(_, i)| ts1::emulate::Image { width: i.width(), height: i.height(), rgba: i.as_raw() })
+}
+
+/// Writes RGBA8 pixels as a PNG file, atomically.
+fn write_png(path: &Path, pixels: &[u8], width: u32, height: u32) -> Result<(), Failure> {
     let mut png = Vec::new();
     let encoder = image::codecs::png::PngEncoder::new(&mut png);
-    image::ImageEncoder::write_image(encoder, &pixels, width, height, image::ExtendedColorType::Rgba8)
-        .map_err(|e| Failure::Io(format!("{}: cannot encode PNG: {e}", args.output.display())))?;
-    shadec::io::write_atomic(&args.output, &png).map_err(|e| Failure::Io(e.to_string()))?;
-    Ok(())
+    image::ImageEncoder::write_image(encoder, pixels, width, height, image::ExtendedColorType::Rgba8)
+        .map_err(|e| Failure::Io(format!("{}: cannot encode PNG: {e}", path.display())))?;
+    shadec::io::write_atomic(path, &png).map_err(|e| Failure::Io(e.to_string()))
 }
 
 /// The one size all `images` share (an error naming two that differ).

@@ -22,6 +22,7 @@ enum Outcome {
     Io,
 }
 
+/// `shadec fmt`: the canonical printing, shown, checked or written.
 pub fn run(args: &FmtArgs) -> ExitCode {
     if args.files.len() > 1 && !(args.check || args.write) {
         eprintln!(

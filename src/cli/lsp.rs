@@ -11,6 +11,7 @@ pub struct LspArgs {
     pub stdio: bool,
 }
 
+/// `shadec lsp`: the language server until the client exits.
 pub fn run(_args: &LspArgs) -> ExitCode {
     match shadec::lsp::run() {
         Ok(true) => ExitCode::SUCCESS,

@@ -19,9 +19,12 @@ use clap::Parser as _;
 
 pub use args::{Cli, Command};
 
+/// Exit code of every command whose input has errors.
 pub const EXIT_SOURCE_ERRORS: u8 = 1;
+/// Exit code of every command misused, or failing to read or write a file.
 pub const EXIT_USAGE_OR_IO: u8 = 2;
 
+/// Parses the arguments and runs the subcommand.
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     // Before any thread starts: a runtime directory for Mesa's drivers

@@ -19,6 +19,7 @@ use super::{EXIT_SOURCE_ERRORS, EXIT_USAGE_OR_IO};
 
 /// The built-in default program and scene.
 pub const DEFAULT_SHADER: &str = include_str!("../../examples/kilgard_bump_mapping.shd");
+/// The built-in scene `render` uses without `--scene`.
 pub const DEFAULT_SCENE: &str = shadec::accuracy::DEFAULT_SCENE;
 
 #[derive(Debug, clap::Args)]
@@ -142,6 +143,7 @@ pub fn parse_size(s: &str) -> Option<(u32, u32)> {
     ((1..=16384).contains(&w) && (1..=16384).contains(&h)).then_some((w, h))
 }
 
+/// `shadec render`: a program's plan rendered for a scene into an image.
 pub fn run(args: &RenderArgs) -> ExitCode {
     match render(args) {
         Ok(()) => ExitCode::SUCCESS,

@@ -38,6 +38,7 @@ pub struct TranslateArgs {
     pub output: Option<PathBuf>,
 }
 
+/// `shadec translate`: a combiner setup as a WGSL module.
 pub fn run(args: &TranslateArgs) -> ExitCode {
     #[cfg(feature = "wgsl")]
     if let Some(code) = vertex_program(args) {

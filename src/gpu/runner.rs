@@ -97,14 +97,17 @@ impl Gpu {
         Ok(Gpu { adapter, device, queue })
     }
 
+    /// The adapter's name, backend, type and driver.
     pub fn adapter_info(&self) -> wgpu::AdapterInfo {
         self.adapter.get_info()
     }
 
+    /// The wgpu device the runner draws with.
     pub fn device(&self) -> &wgpu::Device {
         &self.device
     }
 
+    /// The device's queue.
     pub fn queue(&self) -> &wgpu::Queue {
         &self.queue
     }

@@ -131,14 +131,15 @@ use super::runner::{
     SamplerSettings, ShaderSource, Target, TexelUpload, TextureData, VertexData,
 };
 use crate::backends::wgsl::codegen::{self, uniform_bytes, PassShader};
-use crate::ir::{self, Expr};
+use crate::ir::{self, Expr, Handle, Module};
 use crate::numerics::Precision;
 use crate::parser::ast::Program;
-use crate::pipeline::{Geometry, Planned, RenderTarget, TargetFormat, TargetKind};
+use crate::pipeline::{Geometry, Pass, Planned, RenderTarget, TargetFormat, TargetKind};
 use crate::scene::bind::{self, BoundObject, BoundTexture, TextureQuality};
 use crate::scene::{Scene, SceneAssets};
 use crate::textures::{Filter, Level, TexelFormat, Texture, Texture2D, Wrap};
 
+/// Why a plan could not run on wgpu for a scene.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneRunError {
     #[error("the wgpu scene runner cannot run this plan: {0}")]
@@ -168,6 +169,9 @@ pub struct ScenePlan<'a> {
 }
 
 impl<'a> ScenePlan<'a> {
+    /// Generates the plan's WGSL passes and binds the scene (textures,
+    /// uniforms) once, for `precision`'s texture model; `source` gives the
+    /// passes their source positions.
     pub fn new(
         planned: &'a Planned,
         program: &Program,
@@ -223,6 +227,21 @@ impl<'a> ScenePlan<'a> {
 
     /// The same for `target`: the framebuffers other than the one read back
     /// have its colour format.
+    /// Where a pass renders: the frame's main target, or a rendered texture
+    /// (a texture, or a framebuffer other than the one shown).
+    fn pass_target(&self, pass: &Pass, rendered: &BTreeMap<String, runner::RenderedTexture>) -> PassTarget {
+        match &pass.target {
+            RenderTarget::Texture { name } => PassTarget::Texture(rendered[name].clone()),
+            RenderTarget::Framebuffer { name, .. } if *name != self.main => {
+                PassTarget::Texture(rendered[name].clone())
+            }
+            _ => PassTarget::Main,
+        }
+    }
+
+    /// The runner's passes for one frame of `frame`'s size: every pass's
+    /// shader, vertices (its vertex leaves evaluated at every vertex of every
+    /// object, or a screen rectangle), textures, uniforms and state.
     pub fn passes_in(&self, frame: &Target) -> Result<Vec<RunPass>, SceneRunError> {
         let (width, height) = (frame.width, frame.height);
         let m = &self.planned.module;
@@ -239,13 +258,7 @@ impl<'a> ScenePlan<'a> {
         for s in &self.shaders {
             let pass = &self.planned.plan.passes[s.pass];
             let textures = self.pass_textures(s, &rendered, &fat_textures)?;
-            let target = match &pass.target {
-                RenderTarget::Texture { name } => PassTarget::Texture(rendered[name].clone()),
-                RenderTarget::Framebuffer { name, .. } if *name != self.main => {
-                    PassTarget::Texture(rendered[name].clone())
-                }
-                _ => PassTarget::Main,
-            };
+            let target = self.pass_target(pass, &rendered);
             let loaded = self.own_target_reads(s)?;
             let leaves = &s.interface.vertex_leaves;
             let unis: Vec<[f32; 4]> =
@@ -298,15 +311,7 @@ impl<'a> ScenePlan<'a> {
                 .map(|v| crate::scene::shadow_volume::bind_volume(self.scene, self.assets, v, aspect))
                 .collect();
             for object in if volume.is_some() { &volumes } else { &objects } {
-                let mut ev = ir::eval::Evaluator::new(m, leaves, crate::numerics::Precision::Exact);
-                let mut floats = Vec::with_capacity(object.n_vertices() * 4 * leaves.len());
-                for v in 0..object.n_vertices() {
-                    let mut env = bind::VertexEnv { object, module: m, vertex: v, uniforms: &uniforms64 };
-                    let r = ev.eval(&mut env);
-                    for value in r.values.iter().take(leaves.len()) {
-                        floats.extend(value.map(|c| c as f32));
-                    }
-                }
+                let floats = vertex_floats(m, leaves, object, &uniforms64);
                 let indices = object.mesh.triangles.iter().flatten().copied().collect();
                 out.push(draw(
                     Some(object),
@@ -580,4 +585,24 @@ fn flat(t: &Texture2D, filter: Filter, texels: TexelUpload, signed: bool) -> Run
 /// What pass `s` does that the GPU runner cannot.
 fn unsupported_in(s: &PassShader, what: String) -> SceneRunError {
     SceneRunError::Unsupported(format!("pass {} {what}", s.pass + 1))
+}
+
+/// The vertex leaves of a pass evaluated (in f64) at every vertex of
+/// `object`, as the f32 attributes `@location(i)` reads.
+fn vertex_floats(
+    m: &Module,
+    leaves: &[Handle<Expr>],
+    object: &BoundObject,
+    uniforms: &[Option<[f64; 4]>],
+) -> Vec<f32> {
+    let mut ev = ir::eval::Evaluator::new(m, leaves, crate::numerics::Precision::Exact);
+    let mut floats = Vec::with_capacity(object.n_vertices() * 4 * leaves.len());
+    for v in 0..object.n_vertices() {
+        let mut env = bind::VertexEnv { object, module: m, vertex: v, uniforms };
+        let r = ev.eval(&mut env);
+        for value in r.values.iter().take(leaves.len()) {
+            floats.extend(value.map(|c| c as f32));
+        }
+    }
+    floats
 }

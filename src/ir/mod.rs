@@ -259,10 +259,10 @@ pub struct Texture {
     /// compile time, which the target only samples — its texel
     /// pass is never the target's to run.
     pub baked: bool,
-    /// For a texture the lowering added (a normalization cube map):
-    /// its declaration as a user would write it, so that executors
-    /// bind it as they bind a declared one (`scene::bind::lowered_decls`).
-    pub declaration: Option<String>,
+    /// For a texture the lowering added (a normalization cube map): what
+    /// it is generated from, typed, so that executors bind it as they bind
+    /// a declared one (`scene::bind::lowered_decls`).
+    pub declaration: Option<AddedSource>,
     /// For a texture the lowering re-stores (rule
     /// `signed_texture_compression`): the declared texture whose
     /// source it loads or generates again, in this texture's format.
@@ -275,6 +275,14 @@ pub struct Texture {
     /// for the binder and the cost model alike.
     pub sampling: Sampling,
     pub span: Span,
+}
+
+/// What a texture the lowering added is generated from: the generator a
+/// declaration would name, with its arguments.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum AddedSource {
+    /// `normalize_cube(size, bits)` (Kilgard 2000, Appendix D).
+    NormalizeCube { size: u32, bits: u32 },
 }
 
 /// The function a generated table holds (its declaration's generator).

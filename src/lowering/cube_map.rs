@@ -16,7 +16,7 @@
 //! arc θ sags θ²/8).
 
 use super::{per_vertex, Rewriter};
-use crate::ir::{Expr, Handle, MathFunction, Texture};
+use crate::ir::{AddedSource, Expr, Handle, MathFunction, Texture};
 use crate::parser::ast::{TextureAttr, TextureFormat, TextureKind};
 use crate::pipeline::ApproximationCost;
 use crate::span::Span;
@@ -86,8 +86,7 @@ fn texture(r: &mut Rewriter, hilo: bool) -> u32 {
     if let Some(i) = r.m.textures.iter().position(|t| t.name == NAME) {
         return i as u32;
     }
-    let (format, declared) =
-        if hilo { (TextureFormat::Signed16, "signed16") } else { (TextureFormat::Rgb8, "rgb8") };
+    let format = if hilo { TextureFormat::Signed16 } else { TextureFormat::Rgb8 };
     let bits = if hilo { 16 } else { 8 };
     r.m.textures.push(Texture {
         name: NAME.into(),
@@ -95,9 +94,7 @@ fn texture(r: &mut Rewriter, hilo: bool) -> u32 {
         format,
         rendered: false,
         baked: false,
-        declaration: Some(format!(
-            "texture {NAME} : cube {declared} bilinear clamp = normalize_cube({SIZE}, {bits});\n"
-        )),
+        declaration: Some(AddedSource::NormalizeCube { size: SIZE, bits }),
         copy_of: None,
         tabulates: Some(crate::ir::Tabulated::Normalize),
         sampling: crate::ir::Sampling::of(TextureKind::Cube, &[TextureAttr::Bilinear, TextureAttr::Clamp]),

@@ -19,6 +19,7 @@ pub struct Document {
 }
 
 impl Document {
+    /// The document's text, as last analysed.
     pub fn text(&self) -> &str {
         &self.analysis.file.text
     }
@@ -131,6 +132,7 @@ pub struct Drift {
 }
 
 impl Drift {
+    /// How `new` differs from `old`: the shared start and the shared end.
     pub fn between(old: &str, new: &str) -> Drift {
         let (a, b) = (old.as_bytes(), new.as_bytes());
         let mut prefix = a.iter().zip(b).take_while(|(x, y)| x == y).count();

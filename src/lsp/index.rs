@@ -24,6 +24,7 @@ pub struct Occurrence {
 }
 
 impl Occurrence {
+    /// Whether this occurrence is the name's declaration.
     pub fn is_decl(&self) -> bool {
         self.decl == Some(self.span)
     }

@@ -32,6 +32,8 @@ pub const TYPES: &[&str] = &[
 /// Modifiers, in legend order (bit `1 << i`).
 pub const MODIFIERS: &[&str] = &["declaration", "defaultLibrary"];
 
+/// The token types and modifiers the server announces, in the order
+/// the encoded tokens index them.
 pub fn legend() -> SemanticTokensLegend {
     SemanticTokensLegend {
         token_types: TYPES.iter().map(|t| SemanticTokenType::new(t)).collect(),

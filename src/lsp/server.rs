@@ -641,19 +641,33 @@ fn doc<'d>(docs: Option<&'d Document>, uri: &Uri) -> Result<&'d Document, (Error
     docs.ok_or((ErrorCode::InvalidParams, format!("{} is not open", uri.as_str())))
 }
 
+/// `textDocument/hover`: the hover text of the name under the cursor.
+fn hover_request(docs: Option<&Document>, raw: Value) -> Answer {
+    let p: HoverParams = params(raw)?;
+    let (uri, pos) =
+        (p.text_document_position_params.text_document.uri, p.text_document_position_params.position);
+    let d = doc(docs, &uri)?;
+    json(hover::hover(d, d.offset(pos)).map(|(text, span)| Hover {
+        contents: HoverContents::Markup(MarkupContent { kind: MarkupKind::Markdown, value: text }),
+        range: Some(d.range(span)),
+    }))
+}
+
+/// `textDocument/formatting`: the canonical printing as one edit of the
+/// whole document, or no edit when it is printed so already.
+fn formatting_request(docs: Option<&Document>, raw: Value) -> Answer {
+    let p: DocumentFormattingParams = params(raw)?;
+    let d = doc(docs, &p.text_document.uri)?;
+    let out =
+        formatting::print_document(d.text(), Style::Unicode).map_err(|e| (ErrorCode::RequestFailed, e))?;
+    let whole = d.range(crate::span::Span::new(0, d.text().len()));
+    json(if out == d.text() { vec![] } else { vec![TextEdit { range: whole, new_text: out }] })
+}
+
 fn handle_request(docs: Option<&Document>, method: &str, raw: Value) -> Answer {
     use lsp_types::request::{self as r, Request as _};
     match method {
-        r::HoverRequest::METHOD => {
-            let p: HoverParams = params(raw)?;
-            let (uri, pos) =
-                (p.text_document_position_params.text_document.uri, p.text_document_position_params.position);
-            let d = doc(docs, &uri)?;
-            json(hover::hover(d, d.offset(pos)).map(|(text, span)| Hover {
-                contents: HoverContents::Markup(MarkupContent { kind: MarkupKind::Markdown, value: text }),
-                range: Some(d.range(span)),
-            }))
-        }
+        r::HoverRequest::METHOD => hover_request(docs, raw),
         r::GotoDefinition::METHOD => {
             let p: GotoDefinitionParams = params(raw)?;
             let (uri, pos) =
@@ -686,14 +700,7 @@ fn handle_request(docs: Option<&Document>, method: &str, raw: Value) -> Answer {
             let p: DocumentSymbolParams = params(raw)?;
             json(DocumentSymbolResponse::Nested(symbols::document_symbols(doc(docs, &p.text_document.uri)?)))
         }
-        r::Formatting::METHOD => {
-            let p: DocumentFormattingParams = params(raw)?;
-            let d = doc(docs, &p.text_document.uri)?;
-            let out = formatting::print_document(d.text(), Style::Unicode)
-                .map_err(|e| (ErrorCode::RequestFailed, e))?;
-            let whole = d.range(crate::span::Span::new(0, d.text().len()));
-            json(if out == d.text() { vec![] } else { vec![TextEdit { range: whole, new_text: out }] })
-        }
+        r::Formatting::METHOD => formatting_request(docs, raw),
         r::SemanticTokensFullRequest::METHOD => {
             let p: SemanticTokensParams = params(raw)?;
             let d = doc(docs, &p.text_document.uri)?;

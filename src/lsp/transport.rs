@@ -42,6 +42,7 @@ const PAUSE: Duration = Duration::from_millis(150);
 
 /// JSON-RPC 2.0's codes for what could not be read.
 pub const PARSE_ERROR: i32 = -32700;
+/// JSON-RPC 2.0's code for a message that is JSON but no request.
 pub const INVALID_REQUEST: i32 = -32600;
 
 /// One thing read from the client.
@@ -109,6 +110,7 @@ pub struct Reader<S> {
 const CONTENT_LENGTH: &[u8] = b"content-length:";
 
 impl<S: Source> Reader<S> {
+    /// A reader of `source`, nothing read yet.
     pub fn new(source: S) -> Reader<S> {
         Reader { source, buf: Vec::new(), pos: 0, eof: false, after_error: false }
     }
@@ -222,6 +224,12 @@ impl<S: Source> Reader<S> {
                 }
             }
         }
+        Some(Some(self.body(body_start, length)))
+    }
+
+    /// The message of a whole body of `length` bytes at `body_start`, and
+    /// where the next frame starts.
+    fn body(&mut self, body_start: usize, length: usize) -> Incoming {
         let body = &self.buf[body_start..body_start + length];
         match decode(body) {
             Some(Decoded::Value(v, used)) => {
@@ -230,19 +238,17 @@ impl<S: Source> Reader<S> {
                 let rest_blank = body[used..].iter().all(u8::is_ascii_whitespace);
                 self.pos = if rest_blank { body_start + length } else { body_start + used };
                 self.after_error = false;
-                Some(Some(classify(v)))
+                classify(v)
             }
             Some(Decoded::Error(message)) => {
                 self.pos = body_start + length;
                 self.after_error = true;
-                Some(Some(parse_error(&message)))
+                parse_error(&message)
             }
             None => {
                 self.pos = body_start + length;
                 self.after_error = true;
-                Some(Some(parse_error(
-                    "the message ends before its JSON does (is its Content-Length short?)",
-                )))
+                parse_error("the message ends before its JSON does (is its Content-Length short?)")
             }
         }
     }

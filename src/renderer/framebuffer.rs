@@ -73,6 +73,8 @@ fn unorm(v: f32) -> f32 {
     }
 }
 
+/// A colour channel as GL's fixed-point buffers store it: clamped to [0, 1],
+/// rounded to the nearest of 256 steps (NaN to 0).
 #[inline]
 pub fn quantize_unorm8(v: f32) -> u8 {
     // NaN maps to 0 (`as` saturates NaN to 0).
@@ -168,12 +170,15 @@ impl Framebuffer {
         Ok(Framebuffer { width, height, format, tiles_x, tiles_y, tiles: vec![tile; tiles_x * tiles_y] })
     }
 
+    /// The width in pixels.
     pub fn width(&self) -> u32 {
         self.width
     }
+    /// The height in pixels.
     pub fn height(&self) -> u32 {
         self.height
     }
+    /// How the colour is stored (and rounded on write).
     pub fn format(&self) -> ColorFormat {
         self.format
     }
@@ -214,9 +219,11 @@ impl Framebuffer {
         }
     }
 
+    /// Depth at pixel (x, y); `None` outside.
     pub fn depth(&self, x: u32, y: u32) -> Option<f32> {
         self.locate(x, y).map(|(t, i)| self.tiles[t].depth[i])
     }
+    /// Stencil value at pixel (x, y); `None` outside.
     pub fn stencil(&self, x: u32, y: u32) -> Option<u8> {
         self.locate(x, y).map(|(t, i)| self.tiles[t].stencil[i])
     }
@@ -227,12 +234,14 @@ impl Framebuffer {
             self.tiles[t].blend_color(i, &c, &BlendState::REPLACE);
         }
     }
+    /// Writes a stencil value; ignores pixels outside.
     pub fn set_stencil(&mut self, x: u32, y: u32, s: u8) {
         if let Some((t, i)) = self.locate(x, y) {
             self.tiles[t].stencil[i] = s;
         }
     }
 
+    /// Sets every pixel's colour (rounded as the format stores it).
     pub fn clear_color(&mut self, c: [f32; 4]) {
         for tile in &mut self.tiles {
             match &mut tile.color {
@@ -243,9 +252,11 @@ impl Framebuffer {
             }
         }
     }
+    /// Sets every pixel's depth.
     pub fn clear_depth(&mut self, d: f32) {
         self.tiles.iter_mut().for_each(|t| t.depth.fill(d));
     }
+    /// Sets every pixel's stencil value.
     pub fn clear_stencil(&mut self, s: u8) {
         self.tiles.iter_mut().for_each(|t| t.stencil.fill(s));
     }

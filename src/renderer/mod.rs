@@ -32,6 +32,7 @@ pub use raster::{Fragment, SUBPIXEL_BITS};
 
 use thiserror::Error;
 
+/// Why the CPU renderer could not draw: each message says what to change.
 #[derive(Debug, Error)]
 pub enum RenderError {
     #[error("framebuffer size {width}x{height} is not usable; use 1..=16384 pixels on each side")]

@@ -316,15 +316,7 @@ impl<'a> PlanRenderer<'a> {
         let mut last_fb: Option<String> = None;
         let mut nonfinite = 0;
         let mut shading = Vec::with_capacity(plan.passes.len());
-        let mut draws = Draws {
-            stats: DrawStats::default(),
-            settings: adaptive,
-            adaptive: adaptive.map(|_| super::AdaptiveStats::default()),
-            done: 0,
-            total: self.n_draws(objects.len()),
-            progress,
-            vertex_program: None,
-        };
+        let mut draws = Draws::new(adaptive, self.n_draws(objects.len()), progress);
         for (index, pass) in plan.passes.iter().enumerate() {
             let whole = PassInterface::of(self.planned, index);
             draws.vertex_program = super::vertex_program::PassProgram::of(self.planned, index);
@@ -338,8 +330,8 @@ impl<'a> PlanRenderer<'a> {
                 let pi = PassInterface { output: *output, ..whole.clone() };
                 let target = &self.planned.setup(index).target;
                 let name = if layer == 0 { target.name.clone() } else { format!("{}#{layer}", target.name) };
-                if !targets.contains_key(&name) {
-                    targets.insert(name.clone(), new_target(target, mode, format, (width, height))?);
+                if let std::collections::btree_map::Entry::Vacant(e) = targets.entry(name.clone()) {
+                    e.insert(new_target(target, mode, format, (width, height))?);
                 }
                 let reads = framebuffer_reads(m, &pi, &targets);
                 // A copy of the target only for the passes that read it (its
@@ -364,29 +356,20 @@ impl<'a> PlanRenderer<'a> {
                 )
                 .map_err(|e| e.in_pass(index))?;
                 let target = targets.get_mut(&name).ok_or_else(|| lost(&name))?;
-                // A stencil update over `x′`: the scene's shadow volumes.
+                // A stencil update over `x′`: the scene's shadow volume.
                 let volume = crate::planner::shadow_volumes::for_pass(self.scene, self.assets, m, pass)
                     .map_err(RenderError::Unsupported)?;
-                let volumes: Vec<BoundObject> = volume
-                    .iter()
-                    .map(|v| {
-                        crate::scene::shadow_volume::bind_volume(
-                            self.scene,
-                            self.assets,
-                            v,
-                            width as f32 / height as f32,
-                        )
-                    })
-                    .collect();
-                let drawn = if volume.is_some() { &volumes[..] } else { &objects[..] };
+                let aspect = width as f32 / height as f32;
+                let volume = volume
+                    .as_ref()
+                    .map(|v| crate::scene::shadow_volume::bind_volume(self.scene, self.assets, v, aspect));
+                let drawn = volume.as_ref().map_or(&objects[..], std::slice::from_ref);
                 self.draw_layer(pass, &pi, drawn, &stage, target, &mut draws)?;
                 nonfinite += stage.nonfinite.load(Ordering::Relaxed);
                 match &pass.target {
                     RenderTarget::Framebuffer { .. } => last_fb = Some(name.clone()),
                     RenderTarget::Texture { .. } | RenderTarget::Temporary { .. } => {
-                        let fb = &targets[&name];
-                        let mipmap = self.decls.iter().any(|d| d.name == name && d.mipmap);
-                        rendered.insert(name.clone(), Rendered::from_framebuffer(fb, mipmap));
+                        rendered.insert(name.clone(), self.keep_rendered(&targets[&name], &name));
                     }
                 }
             }
@@ -398,6 +381,13 @@ impl<'a> PlanRenderer<'a> {
         let image = targets.remove(&name).ok_or_else(|| lost(&name))?;
         let Draws { stats, adaptive: adaptive_stats, .. } = draws;
         Ok(Frame { image, name, stats, time, nonfinite, adaptive: adaptive_stats, shading })
+    }
+
+    /// What a pass rendered into texture or temporary `name` leaves for
+    /// later passes to look up (mipmapped where the texture is declared so).
+    fn keep_rendered(&self, fb: &Framebuffer, name: &str) -> Rendered {
+        let mipmap = self.decls.iter().any(|d| d.name == name && d.mipmap);
+        Rendered::from_framebuffer(fb, mipmap)
     }
 
     /// The scene's objects bound for a frame of this aspect ratio, their
@@ -569,7 +559,17 @@ struct Draws<'p, 's> {
     vertex_program: Option<super::vertex_program::PassProgram>,
 }
 
-impl Draws<'_, '_> {
+impl<'p, 's> Draws<'p, 's> {
+    /// No draws yet of `total`, adaptive where `settings` say so.
+    fn new(
+        settings: Option<&'s super::AdaptiveSettings>,
+        total: usize,
+        progress: &'p mut dyn FnMut(usize, usize),
+    ) -> Self {
+        let adaptive = settings.map(|_| super::AdaptiveStats::default());
+        Draws { stats: DrawStats::default(), settings, adaptive, done: 0, total, progress, vertex_program: None }
+    }
+
     /// Counts `n` draws done and reports progress.
     fn advance(&mut self, n: usize) {
         self.done += n;

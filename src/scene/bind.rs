@@ -93,6 +93,7 @@ pub enum TextureSource {
     Rendered,
 }
 
+/// The height field a `normal_map(…)` is derived from.
 #[derive(Clone, Debug, PartialEq)]
 pub enum HeightSource {
     File(String),
@@ -135,6 +136,7 @@ pub struct BoundTexture {
     pub exact: Option<ExactFunction>,
 }
 
+/// Why a texture or an object could not be bound.
 #[derive(Debug, thiserror::Error)]
 pub enum BindError {
     #[error("texture `{name}`: {message}")]
@@ -225,8 +227,9 @@ fn string(e: &ast::Expr) -> Option<String> {
 }
 
 /// The declarations of the textures the lowering added (a
-/// normalization cube map), read from the text each carries
-/// (`ir::Texture::declaration`), so that they bind like declared ones.
+/// normalization cube map), from the typed source each carries
+/// (`ir::Texture::declaration`) and its kind, format and sampling, so that
+/// they bind like declared ones.
 ///
 /// A texture the lowering re-stores in another format
 /// (`ir::Texture::copy_of`) binds as a copy of its `declared` original
@@ -237,11 +240,23 @@ pub fn lowered_decls(module: &crate::ir::Module, declared: &[TextureDecl]) -> Ve
         Some(TextureDecl { name: t.name.clone(), format: Some(t.format), ..original.clone() })
     });
     let mut out: Vec<TextureDecl> = copies.collect();
-    let text: String = module.textures.iter().filter_map(|t| t.declaration.as_deref()).collect();
-    if !text.is_empty() {
-        let (program, _) = crate::parser::parse(&text);
-        out.extend(texture_decls(&program, &BTreeMap::new()));
-    }
+    out.extend(module.textures.iter().filter_map(|t| {
+        let source = match t.declaration? {
+            crate::ir::AddedSource::NormalizeCube { size, bits } => {
+                TextureSource::NormalizeCube { size, bits }
+            }
+        };
+        let crate::ir::Sampling { filter, wrap, mipmap } = t.sampling;
+        Some(TextureDecl {
+            name: t.name.clone(),
+            kind: t.kind,
+            format: Some(t.format),
+            mipmap,
+            filter,
+            wrap,
+            source,
+        })
+    }));
     out
 }
 
@@ -617,6 +632,8 @@ pub fn light_view_projection(light: Option<&Light>, center: Vec3, radius: f32) -
 }
 
 impl<'s> BoundObject<'s> {
+    /// Binds `mesh`, placed by `model`, to the scene's camera (at `aspect`)
+    /// and lights; `light_clip` is light 0's view-projection.
     pub fn new(scene: &Scene, mesh: &'s Mesh, model: Mat4, aspect: f32, light_clip: Mat4) -> BoundObject<'s> {
         let view = scene.camera.view();
         let inv = model.inverse();
@@ -660,6 +677,7 @@ impl<'s> BoundObject<'s> {
         }
     }
 
+    /// The mesh's vertex count.
     pub fn n_vertices(&self) -> usize {
         self.mesh.positions.len()
     }

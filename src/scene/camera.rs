@@ -48,9 +48,11 @@ fn default_far() -> f32 {
 }
 
 impl Camera {
+    /// The view matrix (`gluLookAt`).
     pub fn view(&self) -> Mat4 {
         look_at(self.eye, self.target, self.up)
     }
+    /// The projection matrix (`gluPerspective`, GL's clip z in [−1, 1]).
     pub fn projection(&self, aspect: f32) -> Mat4 {
         perspective_gl(self.fov_y_deg.to_radians(), aspect, self.near, self.far)
     }

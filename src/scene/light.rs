@@ -22,6 +22,8 @@ impl Default for Attenuation {
 }
 
 impl Attenuation {
+    /// GL's distance attenuation 1/(c + l·d + q·d²); 0 where the denominator
+    /// is not positive.
     pub fn factor(&self, distance: f32) -> f32 {
         let d = self.constant + self.linear * distance + self.quadratic * distance * distance;
         if d > 0.0 {
@@ -32,6 +34,7 @@ impl Attenuation {
     }
 }
 
+/// A scene light, as GL's fixed-function lights.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Light {
     /// Light from direction `direction` (pointing *from* the light, as it travels).
@@ -66,6 +69,7 @@ pub struct Incidence {
 }
 
 impl Light {
+    /// The light's colour (before attenuation and spot factor).
     pub fn color(&self) -> Vec3 {
         match *self {
             Light::Directional { color, .. } | Light::Point { color, .. } | Light::Spot { color, .. } => {

@@ -11,6 +11,7 @@ use std::path::Path;
 use glam::{Vec2, Vec3, Vec4};
 use thiserror::Error;
 
+/// Why a mesh could not be loaded.
 #[derive(Debug, Error)]
 pub enum MeshError {
     #[error("{path}: OBJ file not found; check the path (relative paths are relative to the scene file)")]

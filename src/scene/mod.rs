@@ -36,6 +36,7 @@ use crate::textures::{
     self, generators, CubeBits, NormalMapFormat, TexelFormat, Texture, TextureError, Wrap,
 };
 
+/// Why a scene file could not be loaded: each names the file and what to fix.
 #[derive(Debug, Error)]
 pub enum SceneError {
     #[error("{0}")]
@@ -82,6 +83,7 @@ fn default_resolution() -> (u32, u32) {
     (512, 512)
 }
 
+/// A scene object: a mesh, where it is, and its material's name.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Object {
     pub mesh: MeshDesc,
@@ -112,6 +114,7 @@ impl Default for Transform {
 }
 
 impl Transform {
+    /// The model matrix: scale, then rotate (Euler XYZ), then translate.
     pub fn matrix(&self) -> Mat4 {
         let r = self.rotate_deg * (std::f32::consts::PI / 180.0);
         Mat4::from_scale_rotation_translation(
@@ -122,6 +125,7 @@ impl Transform {
     }
 }
 
+/// An object's mesh: a built-in shape or an OBJ file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum MeshDesc {
     Sphere { radius: f32, slices: u32, stacks: u32 },
@@ -160,6 +164,7 @@ pub enum HeightDesc {
     Dimples { size: u32, cells: u32 },
 }
 
+/// A scene texture: a file, or one of the papers' generated tables.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum TextureDesc {
     /// PNG, JPEG or Radiance HDR.
@@ -306,42 +311,60 @@ impl Scene {
     }
 
     fn check(&self) -> Result<(), SceneError> {
-        let path = self.path.display().to_string();
-        let invalid =
-            |what: String, message: String| SceneError::Invalid { path: path.clone(), what, message };
         let (w, h) = self.resolution;
         if w == 0 || h == 0 || w > 16384 || h > 16384 {
-            return Err(invalid(
-                "resolution".into(),
-                format!("{w}x{h} is not usable; use 1..=16384 per side"),
-            ));
+            return Err(
+                self.invalid("resolution".into(), format!("{w}x{h} is not usable; use 1..=16384 per side"))
+            );
         }
         if let Some(problem) = self.camera.problem() {
-            return Err(invalid("camera".into(), problem));
+            return Err(self.invalid("camera".into(), problem));
         }
         for (i, light) in self.lights.iter().enumerate() {
             if let Some(problem) = light.problem() {
-                return Err(invalid(format!("light {i}"), problem));
+                return Err(self.invalid(format!("light {i}"), problem));
             }
         }
-        let file_exists = |what: String, file: &str| {
-            let resolved = self.resolve(file);
-            if resolved.is_file() {
-                Ok(())
-            } else {
-                Err(SceneError::MissingFile {
-                    path: path.clone(),
-                    what,
-                    file: file.into(),
-                    resolved: resolved.display().to_string(),
-                })
+        self.check_objects()?;
+        self.check_materials()?;
+        for (name, texture) in &self.textures {
+            self.check_texture(name, texture)?;
+        }
+        for (name, value) in &self.constants {
+            if value.is_empty() || value.len() > 4 || value.iter().any(|v| !v.is_finite()) {
+                return Err(self.invalid(format!("constant '{name}'"), "needs 1 to 4 finite numbers".into()));
             }
-        };
-        let names = |map: Vec<&String>| map.into_iter().cloned().collect::<Vec<_>>().join(", ");
+        }
+        Ok(())
+    }
+
+    /// `what` of this scene file is invalid: `message` says why.
+    fn invalid(&self, what: String, message: String) -> SceneError {
+        SceneError::Invalid { path: self.path.display().to_string(), what, message }
+    }
+
+    /// `file`, named by `what`, exists (relative to the scene file).
+    fn file_exists(&self, what: String, file: &str) -> Result<(), SceneError> {
+        let resolved = self.resolve(file);
+        if resolved.is_file() {
+            Ok(())
+        } else {
+            Err(SceneError::MissingFile {
+                path: self.path.display().to_string(),
+                what,
+                file: file.into(),
+                resolved: resolved.display().to_string(),
+            })
+        }
+    }
+
+    /// Every object names a defined material, its mesh file exists and its
+    /// transform is finite.
+    fn check_objects(&self) -> Result<(), SceneError> {
         for (i, object) in self.objects.iter().enumerate() {
             if !self.materials.contains_key(&object.material) {
                 return Err(SceneError::Unknown {
-                    path: path.clone(),
+                    path: self.path.display().to_string(),
                     what: "material",
                     name: object.material.clone(),
                     help: format!(
@@ -351,18 +374,23 @@ impl Scene {
                 });
             }
             if let MeshDesc::Obj(file) = &object.mesh {
-                file_exists(format!("object {i}"), file)?;
+                self.file_exists(format!("object {i}"), file)?;
             }
             let t = &object.transform;
             if !(t.translate.is_finite() && t.rotate_deg.is_finite() && t.scale.is_finite()) {
-                return Err(invalid(format!("object {i}"), "transform values must be finite".into()));
+                return Err(self.invalid(format!("object {i}"), "transform values must be finite".into()));
             }
         }
+        Ok(())
+    }
+
+    /// Every texture a material binds is defined.
+    fn check_materials(&self) -> Result<(), SceneError> {
         for (name, material) in &self.materials {
             for (role, texture) in &material.textures {
                 if !self.textures.contains_key(texture) {
                     return Err(SceneError::Unknown {
-                        path: path.clone(),
+                        path: self.path.display().to_string(),
                         what: "texture",
                         name: texture.clone(),
                         help: format!(
@@ -373,42 +401,37 @@ impl Scene {
                 }
             }
         }
-        for (name, texture) in &self.textures {
-            let what = format!("texture '{name}'");
-            let max = if matches!(texture, TextureDesc::NormalizeCube { .. }) {
-                MAX_CUBE_FACE
+        Ok(())
+    }
+
+    /// A texture's files exist and its generated size is in range.
+    fn check_texture(&self, name: &str, texture: &TextureDesc) -> Result<(), SceneError> {
+        let what = format!("texture '{name}'");
+        let max =
+            if matches!(texture, TextureDesc::NormalizeCube { .. }) { MAX_CUBE_FACE } else { MAX_TABLE_SIDE };
+        let size_ok = |size: u32| {
+            if (1..=max).contains(&size) {
+                Ok(())
             } else {
-                MAX_TABLE_SIDE
-            };
-            let size_ok = |size: u32| {
-                if (1..=max).contains(&size) {
-                    Ok(())
-                } else {
-                    Err(invalid(what.clone(), format!("size {size} is out of range; use 1..={max}")))
-                }
-            };
-            match texture {
-                TextureDesc::File { path: file, .. } => file_exists(what.clone(), file)?,
-                TextureDesc::CubeImage { .. } | TextureDesc::CubeFaces { .. } => {
-                    for file in cube_image::scene_files(texture).map_err(|m| invalid(what.clone(), m))? {
-                        file_exists(what.clone(), &file)?;
-                    }
-                }
-                TextureDesc::NormalMap { height: HeightDesc::File(file), .. } => {
-                    file_exists(what.clone(), file)?
-                }
-                TextureDesc::NormalMap { height: HeightDesc::Dimples { size, .. }, .. } => size_ok(*size)?,
-                TextureDesc::NormalizeCube { size, .. }
-                | TextureDesc::DualParaboloid { size, .. }
-                | TextureDesc::HsFresnelDistribution { size, .. }
-                | TextureDesc::HsGeometry { size, .. }
-                | TextureDesc::ExponentLut { size, .. } => size_ok(*size)?,
+                Err(self.invalid(what.clone(), format!("size {size} is out of range; use 1..={max}")))
             }
-        }
-        for (name, value) in &self.constants {
-            if value.is_empty() || value.len() > 4 || value.iter().any(|v| !v.is_finite()) {
-                return Err(invalid(format!("constant '{name}'"), "needs 1 to 4 finite numbers".into()));
+        };
+        match texture {
+            TextureDesc::File { path: file, .. } => self.file_exists(what.clone(), file)?,
+            TextureDesc::CubeImage { .. } | TextureDesc::CubeFaces { .. } => {
+                for file in cube_image::scene_files(texture).map_err(|m| self.invalid(what.clone(), m))? {
+                    self.file_exists(what.clone(), &file)?;
+                }
             }
+            TextureDesc::NormalMap { height: HeightDesc::File(file), .. } => {
+                self.file_exists(what.clone(), file)?
+            }
+            TextureDesc::NormalMap { height: HeightDesc::Dimples { size, .. }, .. } => size_ok(*size)?,
+            TextureDesc::NormalizeCube { size, .. }
+            | TextureDesc::DualParaboloid { size, .. }
+            | TextureDesc::HsFresnelDistribution { size, .. }
+            | TextureDesc::HsGeometry { size, .. }
+            | TextureDesc::ExponentLut { size, .. } => size_ok(*size)?,
         }
         Ok(())
     }
@@ -474,6 +497,11 @@ impl Scene {
         }
         Ok(SceneAssets { meshes, textures: built })
     }
+}
+
+/// Defined names, comma-separated, for a help line.
+fn names(map: Vec<&String>) -> String {
+    map.into_iter().cloned().collect::<Vec<_>>().join(", ")
 }
 
 #[cfg(test)]

@@ -46,6 +46,7 @@ pub enum Rays {
 }
 
 impl Rays {
+    /// The rays of a light: from its position, or along its direction.
     pub fn of(light: &Light) -> Rays {
         match *light {
             Light::Directional { direction, .. } => Rays::Along(direction.normalize_or_zero()),

@@ -56,6 +56,7 @@ pub enum CubeLayout {
 }
 
 impl CubeLayout {
+    /// Every layout, in the order a shape is matched against them.
     pub const ALL: [CubeLayout; 5] = [
         CubeLayout::HorizontalCross,
         CubeLayout::VerticalCross,
@@ -75,6 +76,7 @@ impl CubeLayout {
         }
     }
 
+    /// The layout a program names (`hcross`, …); `None` for another name.
     pub fn from_name(name: &str) -> Option<CubeLayout> {
         CubeLayout::ALL.into_iter().find(|l| l.name() == name)
     }
@@ -226,8 +228,9 @@ pub fn load_cube_image(
 
 /// A cube map from six face images, in GL order (+X −X +Y −Y +Z −Z).
 pub fn load_cube_faces(paths: &[&Path; 6], format: TexelFormat) -> Result<TextureCube, CubeImageError> {
-    let mut levels = Vec::with_capacity(6);
-    for path in paths {
+    let mut faces: [Level; 6] = std::array::from_fn(|_| Level { width: 0, height: 0, texels: Vec::new() });
+    let mut first: Option<u32> = None;
+    for (face, path) in faces.iter_mut().zip(paths) {
         let level = read_level(path)?;
         let display = path.display().to_string();
         if level.width != level.height {
@@ -237,7 +240,7 @@ pub fn load_cube_faces(paths: &[&Path; 6], format: TexelFormat) -> Result<Textur
                 height: level.height,
             });
         }
-        if let Some(first) = levels.first().map(|l: &Level| l.width) {
+        if let Some(first) = first {
             if level.width != first {
                 return Err(CubeImageError::UnequalFaces {
                     first: paths[0].display().to_string(),
@@ -251,10 +254,10 @@ pub fn load_cube_faces(paths: &[&Path; 6], format: TexelFormat) -> Result<Textur
         if level.width > MAX_CUBE_FACE {
             return Err(CubeImageError::TooLarge { path: display, size: level.width });
         }
-        levels.push(level);
+        first = Some(level.width);
+        *face = level;
     }
-    let mut it = levels.into_iter();
-    Ok(cube_of(std::array::from_fn(|_| it.next().expect("six faces")), format))
+    Ok(cube_of(faces, format))
 }
 
 fn cube_of(faces: [Level; 6], format: TexelFormat) -> TextureCube {
@@ -264,7 +267,8 @@ fn cube_of(faces: [Level; 6], format: TexelFormat) -> TextureCube {
 /// Face `f` of an image in `layout`, copied texel for texel (turned 180°
 /// where the layout stores it so).
 pub fn cut_face(image: &Level, layout: CubeLayout, f: CubeFace, size: u32) -> Level {
-    let (col, row, turned) = layout.place(f).expect("a layout of placed faces");
+    // A panorama places no face: its faces are resampled instead.
+    let Some((col, row, turned)) = layout.place(f) else { return equirect_face(image, f, size) };
     let (x0, y0) = (col * size, row * size);
     let mut texels = Vec::with_capacity((size * size) as usize);
     for y in 0..size {

@@ -447,13 +447,13 @@ pub fn hs_geometry(size: u32, roughness: f32, scale: f32, format: TexelFormat) -
     Texture2D::new(format, Wrap::ClampToEdge, Level::new(size, size, texels))
 }
 
-/// A 1-texel-high lookup table of x^exponent for x ∈ [0, 1] (GeForce3 Phong
-/// Section 5.2: the texture-shader exponent by table lookup), texel centres at
-/// (i + ½)/size; bilinear filtering interpolates between them.
 /// Texels of an `exponent_table(n)` (the binder's size; the lowering's
 /// bound of computing xⁿ instead of sampling it depends on it).
 pub const EXPONENT_TABLE_SIZE: u32 = 256;
 
+/// A 1-texel-high lookup table of x^exponent for x ∈ [0, 1] (GeForce3 Phong
+/// Section 5.2: the texture-shader exponent by table lookup), texel centres at
+/// (i + ½)/size; bilinear filtering interpolates between them.
 pub fn exponent_lut(size: u32, exponent: f32, format: TexelFormat) -> Texture2D {
     let size = size.clamp(2, MAX_TABLE_SIDE);
     let texels = (0..size)

@@ -23,6 +23,7 @@ pub use sampling::{
     cube_direction, cube_face_uv, CubeFace, Filter, Level, TexelFormat, Texture2D, TextureCube, Wrap,
 };
 
+/// Why a texture file could not be loaded.
 #[derive(Debug, Error)]
 pub enum TextureError {
     #[error(

@@ -74,11 +74,13 @@ pub struct Level {
 }
 
 impl Level {
+    /// A level of `width`×`height` texels, row-major.
     pub fn new(width: u32, height: u32, texels: Vec<[f32; 4]>) -> Level {
         debug_assert_eq!(texels.len(), width as usize * height as usize);
         Level { width, height, texels }
     }
 
+    /// The texel at (x, y), which must be inside.
     #[inline]
     pub fn texel(&self, x: u32, y: u32) -> [f32; 4] {
         self.texels[y as usize * self.width as usize + x as usize]
@@ -97,6 +99,7 @@ impl Level {
         self.texels[(y * w + x) as usize]
     }
 
+    /// The texel nearest (u, v), wrapped or clamped.
     pub fn sample_nearest(&self, u: f32, v: f32, wrap: Wrap) -> [f32; 4] {
         let x = finite_or_zero(u * self.width as f32).floor() as i64;
         let y = finite_or_zero(v * self.height as f32).floor() as i64;
@@ -179,9 +182,11 @@ impl Texture2D {
         self
     }
 
+    /// Level 0's width in texels.
     pub fn width(&self) -> u32 {
         self.levels[0].width
     }
+    /// Level 0's height in texels.
     pub fn height(&self) -> u32 {
         self.levels[0].height
     }
@@ -251,6 +256,7 @@ pub enum CubeFace {
 }
 
 impl CubeFace {
+    /// The faces in GL order: +X −X +Y −Y +Z −Z.
     pub const ALL: [CubeFace; 6] =
         [CubeFace::PosX, CubeFace::NegX, CubeFace::PosY, CubeFace::NegY, CubeFace::PosZ, CubeFace::NegZ];
 }
@@ -306,10 +312,12 @@ pub struct TextureCube {
 }
 
 impl TextureCube {
+    /// The cube map sampled in `direction` (GL's face selection, Table 3.19).
     pub fn sample(&self, direction: [f32; 3], filter: Filter, lod: f32) -> [f32; 4] {
         let (face, s, t) = cube_face_uv(direction);
         self.faces[face as usize].sample(s, t, filter, lod)
     }
+    /// A face's side in texels.
     pub fn size(&self) -> u32 {
         self.faces[0].width()
     }

@@ -11,6 +11,13 @@ use super::prepare::{check_pass, depth_snapshots, prepare, rendered_targets, Pre
 use super::resources::load_ops;
 use super::{in_error_scopes, validate_shader, Gpu, GpuError};
 
+/// Rendered textures by name: (texture, scratch copy, depth/stencil).
+type RenderedTargets = BTreeMap<String, (wgpu::Texture, wgpu::Texture, wgpu::Texture)>;
+
+/// Depth snapshots by (pass, texture unit): the copy, and the depth buffer
+/// copied (`None`: the main one).
+type DepthSnapshots = BTreeMap<(usize, usize), (wgpu::Texture, Option<String>)>;
+
 /// A frame's GPU objects, made once (pipelines, bind groups,
 /// uploads and render targets per scene, not per frame); [`Frame::draw`]
 /// then only records, submits and reads back.
@@ -21,9 +28,9 @@ pub struct Frame<'a> {
     pub(super) depth: wgpu::Texture,
     pub(super) depth_view: wgpu::TextureView,
     /// Rendered textures: (texture, scratch copy, depth/stencil).
-    pub(super) textures: BTreeMap<String, (wgpu::Texture, wgpu::Texture, wgpu::Texture)>,
+    pub(super) textures: RenderedTargets,
     pub(super) texture_depth_views: BTreeMap<String, wgpu::TextureView>,
-    pub(super) snapshots: BTreeMap<(usize, usize), (wgpu::Texture, Option<String>)>,
+    pub(super) snapshots: DepthSnapshots,
     pub(super) depth_copier: Option<DepthCopier>,
     pub(super) prepared: Vec<Prepared>,
     pub(super) readback: wgpu::Buffer,
@@ -122,86 +129,19 @@ impl<'a> Frame<'a> {
     ) -> Frame<'a> {
         let device = &gpu.device;
 
-        let size = wgpu::Extent3d { width: target.width, height: target.height, depth_or_array_layers: 1 };
-        let color = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("shadec colour target"),
-            size,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: target.color_format.wgpu(),
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
-            view_formats: &[],
-        });
-        let depth_format = match target.depth_format {
-            DepthFormat::Depth24PlusStencil8 => wgpu::TextureFormat::Depth24PlusStencil8,
-            DepthFormat::Depth32Float => wgpu::TextureFormat::Depth32Float,
-        };
-        let depth = device.create_texture(&wgpu::TextureDescriptor {
-            label: Some("shadec depth/stencil"),
-            size,
-            mip_level_count: 1,
-            sample_count: 1,
-            dimension: wgpu::TextureDimension::D2,
-            format: depth_format,
-            usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
-            view_formats: &[],
-        });
+        let (color, depth, depth_format) = main_targets(device, target);
         let depth_view = depth.create_view(&Default::default());
         let textures = rendered_targets(device, &rendered, depth_format);
         let snapshots = depth_snapshots(device, target, passes, &rendered);
         let depth_copier = (!snapshots.is_empty()).then(|| DepthCopier::new(device));
 
-        let prepared: Vec<Prepared> = passes
-            .iter()
-            .zip(modules)
-            .enumerate()
-            .map(|(pass_idx, (pass, module))| {
-                let (color_format, own) = match &pass.target {
-                    PassTarget::Main => (target.color_format.wgpu(), None),
-                    PassTarget::Texture(t) => (t.format.wgpu(), Some(t.name.as_str())),
-                };
-                let view_of = |slot: usize, data: &TextureData| -> Option<wgpu::TextureView> {
-                    match data {
-                        TextureData::Rendered { name, array } => {
-                            let (t, scratch, _) = &textures[name];
-                            let t = if Some(name.as_str()) == own { scratch } else { t };
-                            let dimension = if *array {
-                                wgpu::TextureViewDimension::D2Array
-                            } else {
-                                wgpu::TextureViewDimension::D2
-                            };
-                            Some(t.create_view(&wgpu::TextureViewDescriptor {
-                                dimension: Some(dimension),
-                                base_array_layer: 0,
-                                array_layer_count: if *array { None } else { Some(1) },
-                                ..Default::default()
-                            }))
-                        }
-                        TextureData::RenderedDepth { .. } => {
-                            Some(snapshots[&(pass_idx, slot)].0.create_view(&Default::default()))
-                        }
-                        _ => None,
-                    }
-                };
-                prepare(gpu, pass, module, depth_format, color_format, &view_of)
-            })
-            .collect();
+        let prepared = prepare_passes(gpu, target, passes, modules, &textures, &snapshots, depth_format);
 
         let texture_depth_views: BTreeMap<String, wgpu::TextureView> = textures
             .iter()
             .map(|(name, (_, _, depth))| (name.clone(), depth.create_view(&Default::default())))
             .collect();
-        // Copy out with rows padded to wgpu's 256-byte alignment.
-        let unpadded_row = target.width * target.color_format.bytes_per_pixel();
-        let padded_row =
-            unpadded_row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
-        let readback = device.create_buffer(&wgpu::BufferDescriptor {
-            label: Some("shadec readback"),
-            size: u64::from(padded_row) * u64::from(target.height),
-            usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
-            mapped_at_creation: false,
-        });
+        let (readback, padded_row, unpadded_row) = readback_buffer(device, target);
         Frame {
             target,
             passes,
@@ -308,8 +248,6 @@ impl<'a> Frame<'a> {
         let (target, passes, prepared) = (self.target, self.passes, &self.prepared);
         let texture_depth_views = &self.texture_depth_views;
         let (color, depth_view, snapshots) = (&self.color, &self.depth_view, &self.snapshots);
-        let (padded_row, readback) = (self.padded_row, &self.readback);
-        let size = wgpu::Extent3d { width: target.width, height: target.height, depth_or_array_layers: 1 };
         let mut encoder =
             device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("shadec passes") });
         let mut cleared: std::collections::BTreeSet<String> = std::collections::BTreeSet::new();
@@ -369,46 +307,41 @@ impl<'a> Frame<'a> {
                 multiview_mask: None,
             });
             recorded += 1;
-            let (Some(pass), Some(prep)) = (pass, prep) else {
-                continue;
-            };
-            if pass.indices.is_empty() {
-                continue;
+            if let (Some(pass), Some(prep)) = (pass, prep) {
+                record_draw(&mut render_pass, pass, prep);
             }
-            render_pass.set_pipeline(&prep.pipeline);
-            if let Some(bind_group) = &prep.bind_group {
-                render_pass.set_bind_group(0, bind_group, &[]);
-            }
-            let [cr, cg, cb, ca] = pass.state.blend.constant.map(f64::from);
-            render_pass.set_blend_constant(wgpu::Color { r: cr, g: cg, b: cb, a: ca });
-            render_pass.set_stencil_reference(u32::from(pass.state.stencil.reference));
-            render_pass.set_vertex_buffer(0, prep.vertex_buffer.slice(..));
-            render_pass.set_index_buffer(prep.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
-            render_pass.draw_indexed(0..pass.indices.len() as u32, 0, 0..1);
         }
 
-        encoder.copy_texture_to_buffer(
-            wgpu::TexelCopyTextureInfo {
-                texture: color,
-                mip_level: 0,
-                origin: wgpu::Origin3d::ZERO,
-                aspect: wgpu::TextureAspect::All,
-            },
-            wgpu::TexelCopyBufferInfo {
-                buffer: readback,
-                layout: wgpu::TexelCopyBufferLayout {
-                    offset: 0,
-                    bytes_per_row: Some(padded_row),
-                    rows_per_image: Some(target.height),
-                },
-            },
-            size,
-        );
+        self.copy_to_readback(&mut encoder);
         if let Some(timer) = &self.timer {
             timer.resolve(&mut encoder, recorded);
         }
         self.recorded.set(recorded);
         gpu.queue.submit([encoder.finish()]);
+    }
+
+    /// Records the copy of the main colour target into the read-back
+    /// buffer, rows padded to wgpu's alignment.
+    fn copy_to_readback(&self, encoder: &mut wgpu::CommandEncoder) {
+        let target = self.target;
+        let size = wgpu::Extent3d { width: target.width, height: target.height, depth_or_array_layers: 1 };
+        encoder.copy_texture_to_buffer(
+            wgpu::TexelCopyTextureInfo {
+                texture: &self.color,
+                mip_level: 0,
+                origin: wgpu::Origin3d::ZERO,
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::TexelCopyBufferInfo {
+                buffer: &self.readback,
+                layout: wgpu::TexelCopyBufferLayout {
+                    offset: 0,
+                    bytes_per_row: Some(self.padded_row),
+                    rows_per_image: Some(target.height),
+                },
+            },
+            size,
+        );
     }
 
     pub(super) fn read_back(&self, device: &wgpu::Device) -> Result<RgbaImage, GpuError> {
@@ -444,4 +377,122 @@ impl<'a> Frame<'a> {
         RgbaImage::from_raw(target.width, target.height, pixels)
             .ok_or_else(|| GpuError::Readback("the image has the wrong size".to_string()))
     }
+}
+
+/// Records a pass's draw: its pipeline and bindings, blend constant,
+/// stencil reference and indexed triangles (nothing for a pass without
+/// triangles, which only clears).
+fn record_draw(render_pass: &mut wgpu::RenderPass<'_>, pass: &RunPass, prep: &Prepared) {
+    if pass.indices.is_empty() {
+        return;
+    }
+    render_pass.set_pipeline(&prep.pipeline);
+    if let Some(bind_group) = &prep.bind_group {
+        render_pass.set_bind_group(0, bind_group, &[]);
+    }
+    let [cr, cg, cb, ca] = pass.state.blend.constant.map(f64::from);
+    render_pass.set_blend_constant(wgpu::Color { r: cr, g: cg, b: cb, a: ca });
+    render_pass.set_stencil_reference(u32::from(pass.state.stencil.reference));
+    render_pass.set_vertex_buffer(0, prep.vertex_buffer.slice(..));
+    render_pass.set_index_buffer(prep.index_buffer.slice(..), wgpu::IndexFormat::Uint32);
+    render_pass.draw_indexed(0..pass.indices.len() as u32, 0, 0..1);
+}
+
+/// The frame's main colour target and its depth/stencil buffer, with the
+/// depth format.
+fn main_targets(
+    device: &wgpu::Device,
+    target: &Target,
+) -> (wgpu::Texture, wgpu::Texture, wgpu::TextureFormat) {
+    let size = wgpu::Extent3d { width: target.width, height: target.height, depth_or_array_layers: 1 };
+    let color = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("shadec colour target"),
+        size,
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: target.color_format.wgpu(),
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::COPY_SRC,
+        view_formats: &[],
+    });
+    let depth_format = match target.depth_format {
+        DepthFormat::Depth24PlusStencil8 => wgpu::TextureFormat::Depth24PlusStencil8,
+        DepthFormat::Depth32Float => wgpu::TextureFormat::Depth32Float,
+    };
+    let depth = device.create_texture(&wgpu::TextureDescriptor {
+        label: Some("shadec depth/stencil"),
+        size,
+        mip_level_count: 1,
+        sample_count: 1,
+        dimension: wgpu::TextureDimension::D2,
+        format: depth_format,
+        usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+        view_formats: &[],
+    });
+    (color, depth, depth_format)
+}
+
+/// Each pass's GPU objects ([`prepare`]), its rendered textures viewed as
+/// the pass samples them: a scratch copy of its own target, a whole array
+/// for a fat texture, a depth snapshot for a depth read.
+fn prepare_passes(
+    gpu: &Gpu,
+    target: &Target,
+    passes: &[RunPass],
+    modules: Vec<naga::Module>,
+    textures: &RenderedTargets,
+    snapshots: &DepthSnapshots,
+    depth_format: wgpu::TextureFormat,
+) -> Vec<Prepared> {
+    passes
+        .iter()
+        .zip(modules)
+        .enumerate()
+        .map(|(pass_idx, (pass, module))| {
+            let (color_format, own) = match &pass.target {
+                PassTarget::Main => (target.color_format.wgpu(), None),
+                PassTarget::Texture(t) => (t.format.wgpu(), Some(t.name.as_str())),
+            };
+            let view_of = |slot: usize, data: &TextureData| -> Option<wgpu::TextureView> {
+                match data {
+                    TextureData::Rendered { name, array } => {
+                        let (t, scratch, _) = &textures[name];
+                        let t = if Some(name.as_str()) == own { scratch } else { t };
+                        let dimension = if *array {
+                            wgpu::TextureViewDimension::D2Array
+                        } else {
+                            wgpu::TextureViewDimension::D2
+                        };
+                        Some(t.create_view(&wgpu::TextureViewDescriptor {
+                            dimension: Some(dimension),
+                            base_array_layer: 0,
+                            array_layer_count: if *array { None } else { Some(1) },
+                            ..Default::default()
+                        }))
+                    }
+                    TextureData::RenderedDepth { .. } => {
+                        Some(snapshots[&(pass_idx, slot)].0.create_view(&Default::default()))
+                    }
+                    _ => None,
+                }
+            };
+            prepare(gpu, pass, module, depth_format, color_format, &view_of)
+        })
+        .collect()
+}
+
+/// The buffer the main target is copied into, with its padded and
+/// unpadded row sizes in bytes.
+fn readback_buffer(device: &wgpu::Device, target: &Target) -> (wgpu::Buffer, u32, u32) {
+    // Copy out with rows padded to wgpu's 256-byte alignment.
+    let unpadded_row = target.width * target.color_format.bytes_per_pixel();
+    let padded_row =
+        unpadded_row.div_ceil(wgpu::COPY_BYTES_PER_ROW_ALIGNMENT) * wgpu::COPY_BYTES_PER_ROW_ALIGNMENT;
+    let readback = device.create_buffer(&wgpu::BufferDescriptor {
+        label: Some("shadec readback"),
+        size: u64::from(padded_row) * u64::from(target.height),
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    (readback, padded_row, unpadded_row)
 }

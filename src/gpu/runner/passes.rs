@@ -45,6 +45,7 @@ pub enum AddressMode {
     MirrorRepeat,
 }
 
+/// How a texture unit's sampler filters and addresses its texture.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SamplerSettings {
     pub mag: Filter,
@@ -56,12 +57,14 @@ pub struct SamplerSettings {
 }
 
 impl SamplerSettings {
+    /// Nearest texel, clamped to the edge, level 0 only.
     pub const NEAREST_CLAMP: SamplerSettings = SamplerSettings {
         mag: Filter::Nearest,
         min: Filter::Nearest,
         address: AddressMode::ClampToEdge,
         mipmap: None,
     };
+    /// Bilinear, clamped to the edge, level 0 only.
     pub const LINEAR_CLAMP: SamplerSettings = SamplerSettings {
         mag: Filter::Linear,
         min: Filter::Linear,
@@ -127,6 +130,7 @@ pub struct RenderedTexture {
     pub format: ColorTarget,
 }
 
+/// A texture unit of a pass: its image and how it is sampled.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RunTexture {
     pub data: TextureData,
@@ -150,6 +154,7 @@ pub enum TexelUpload {
 }
 
 impl TexelUpload {
+    /// Bytes per texel in the upload.
     pub fn bytes_per_texel(self) -> usize {
         match self {
             TexelUpload::Rgba8 => 4,

@@ -8,7 +8,7 @@ use std::collections::BTreeMap;
 use wgpu::util::DeviceExt;
 
 use super::passes::{
-    DepthFormat, PassTarget, RenderedTexture, RunPass, SamplerSettings, Target, TextureData,
+    DepthFormat, PassTarget, RenderedTexture, RunPass, RunTexture, SamplerSettings, Target, TextureData,
 };
 use super::resources::{bind_entries, render_pipeline, sampler_descriptor, upload_texture};
 use super::{Gpu, GpuError};
@@ -21,8 +21,6 @@ pub(super) struct Prepared {
     pub(super) index_buffer: wgpu::Buffer,
 }
 
-/// Sizes, indices and formats: what wgpu would reject late or not at all
-/// (out-of-range indices are not an error on every backend).
 /// A rendered source names a texture some pass of the run renders.
 pub(super) fn check_rendered(
     data: &TextureData,
@@ -38,97 +36,113 @@ pub(super) fn check_rendered(
     }
 }
 
+/// Sizes, indices and formats: what wgpu would reject late or not at all
+/// (out-of-range indices are not an error on every backend).
 pub(super) fn check_pass(
     pass: &RunPass,
     target: &Target,
     rendered: &BTreeMap<String, RenderedTexture>,
 ) -> Result<(), GpuError> {
-    let invalid = |message: String| Err(GpuError::InvalidInput { pass: pass.label.clone(), message });
-    let components = &pass.vertices.components;
-    if components.is_empty() || components.iter().any(|&n| !(1..=4).contains(&n)) {
-        return invalid(format!(
-            "vertex attributes must have 1 to 4 components each, at least one attribute (position); got {components:?}"
-        ));
-    }
-    let stride: u32 = components.iter().sum();
-    if pass.vertices.floats.len() % stride as usize != 0 {
-        return invalid(format!(
-            "{} vertex floats is not a multiple of the vertex size {stride} ({components:?})",
-            pass.vertices.floats.len()
-        ));
-    }
-    let n_vertices = pass.vertices.floats.len() / stride as usize;
-    if pass.indices.len() % 3 != 0 {
-        return invalid(format!("{} indices is not a whole number of triangles", pass.indices.len()));
-    }
-    if let Some(&bad) = pass.indices.iter().find(|&&i| i as usize >= n_vertices) {
-        return invalid(format!("index {bad} is out of range: the pass has {n_vertices} vertices"));
-    }
+    let invalid = |message: String| GpuError::InvalidInput { pass: pass.label.clone(), message };
+    check_vertices(pass).map_err(invalid)?;
     for (texture_idx, texture) in pass.textures.iter().enumerate() {
-        let bpt = texture.texels.bytes_per_texel();
-        let (expected, what) = match texture.data {
-            TextureData::D2 { width, height, .. } => (width as usize * height as usize * bpt, "2D"),
-            TextureData::Cube { size, .. } => (size as usize * size as usize * bpt * 6, "cube"),
-            TextureData::Rendered { .. } | TextureData::RenderedDepth { .. } => {
-                check_rendered(&texture.data, rendered).map_err(|message| GpuError::InvalidInput {
-                    pass: pass.label.clone(),
-                    message: format!("texture {texture_idx}: {message}"),
-                })?;
-                continue;
-            }
-            TextureData::D2Mipmapped { width, height, ref levels } => {
-                for (k, level) in levels.iter().enumerate() {
-                    let need = (width >> k).max(1) as usize * (height >> k).max(1) as usize * bpt;
-                    if level.len() != need {
-                        return invalid(format!(
-                            "mip level {k} of texture {texture_idx} has {} bytes, needs {need}",
-                            level.len()
-                        ));
-                    }
-                }
-                (width as usize * height as usize * bpt, "mipmapped 2D")
-            }
-        };
-        let rgba = match &texture.data {
-            TextureData::D2 { rgba, .. } | TextureData::Cube { rgba, .. } => rgba,
-            TextureData::D2Mipmapped { levels, .. } => match levels.first() {
-                Some(l) => l,
-                None => return invalid(format!("mipmapped texture {texture_idx} has no levels")),
-            },
-            TextureData::Rendered { .. } | TextureData::RenderedDepth { .. } => continue,
-        };
-        if expected == 0 || rgba.len() != expected {
-            return invalid(format!(
-                "{what} texture {texture_idx} has {} bytes, its size needs {expected} ({:?}, non-empty)",
-                rgba.len(),
-                texture.texels
-            ));
-        }
+        check_texture(texture_idx, texture, rendered).map_err(invalid)?;
     }
     if pass.state.stencil.enabled && target.depth_format != DepthFormat::Depth24PlusStencil8 {
-        return invalid("the stencil test needs DepthFormat::Depth24PlusStencil8".to_string());
+        return Err(invalid("the stencil test needs DepthFormat::Depth24PlusStencil8".to_string()));
     }
     for l in &pass.loaded {
         if !matches!(l.data, TextureData::Rendered { .. } | TextureData::RenderedDepth { .. }) {
-            return invalid(format!(
+            return Err(invalid(format!(
                 "binding {}: only rendered textures are read with textureLoad",
                 l.binding
-            ));
+            )));
         }
-        check_rendered(&l.data, rendered).map_err(|message| GpuError::InvalidInput {
-            pass: pass.label.clone(),
-            message: format!("binding {}: {message}", l.binding),
-        })?;
+        check_rendered(&l.data, rendered)
+            .map_err(|message| invalid(format!("binding {}: {message}", l.binding)))?;
     }
     let layers = match &pass.target {
         PassTarget::Main => 1,
         PassTarget::Texture(t) => t.layers,
     };
     if pass.outputs == 0 || pass.outputs > layers {
-        return invalid(format!("{} colour outputs into a target of {layers} layer(s)", pass.outputs));
+        return Err(invalid(format!("{} colour outputs into a target of {layers} layer(s)", pass.outputs)));
     }
     Ok(())
 }
+
+/// Vertex attributes of 1 to 4 components, whole vertices, whole
+/// triangles, indices in range.
+fn check_vertices(pass: &RunPass) -> Result<(), String> {
+    let components = &pass.vertices.components;
+    if components.is_empty() || components.iter().any(|&n| !(1..=4).contains(&n)) {
+        return Err(format!(
+            "vertex attributes must have 1 to 4 components each, at least one attribute (position); got {components:?}"
+        ));
+    }
+    let stride: u32 = components.iter().sum();
+    if pass.vertices.floats.len() % stride as usize != 0 {
+        return Err(format!(
+            "{} vertex floats is not a multiple of the vertex size {stride} ({components:?})",
+            pass.vertices.floats.len()
+        ));
+    }
+    let n_vertices = pass.vertices.floats.len() / stride as usize;
+    if pass.indices.len() % 3 != 0 {
+        return Err(format!("{} indices is not a whole number of triangles", pass.indices.len()));
+    }
+    if let Some(&bad) = pass.indices.iter().find(|&&i| i as usize >= n_vertices) {
+        return Err(format!("index {bad} is out of range: the pass has {n_vertices} vertices"));
+    }
+    Ok(())
+}
+
+/// Texture `texture_idx` of a pass: as many bytes as its size needs (every
+/// mip level too), or a rendered source some pass renders.
+fn check_texture(
+    texture_idx: usize,
+    texture: &RunTexture,
+    rendered: &BTreeMap<String, RenderedTexture>,
+) -> Result<(), String> {
+    let bpt = texture.texels.bytes_per_texel();
+    let (expected, what) = match texture.data {
+        TextureData::D2 { width, height, .. } => (width as usize * height as usize * bpt, "2D"),
+        TextureData::Cube { size, .. } => (size as usize * size as usize * bpt * 6, "cube"),
+        TextureData::Rendered { .. } | TextureData::RenderedDepth { .. } => {
+            return check_rendered(&texture.data, rendered)
+                .map_err(|message| format!("texture {texture_idx}: {message}"));
+        }
+        TextureData::D2Mipmapped { width, height, ref levels } => {
+            for (k, level) in levels.iter().enumerate() {
+                let need = (width >> k).max(1) as usize * (height >> k).max(1) as usize * bpt;
+                if level.len() != need {
+                    return Err(format!(
+                        "mip level {k} of texture {texture_idx} has {} bytes, needs {need}",
+                        level.len()
+                    ));
+                }
+            }
+            (width as usize * height as usize * bpt, "mipmapped 2D")
+        }
+    };
+    let rgba = match &texture.data {
+        TextureData::D2 { rgba, .. } | TextureData::Cube { rgba, .. } => rgba,
+        TextureData::D2Mipmapped { levels, .. } => match levels.first() {
+            Some(l) => l,
+            None => return Err(format!("mipmapped texture {texture_idx} has no levels")),
+        },
+        TextureData::Rendered { .. } | TextureData::RenderedDepth { .. } => return Ok(()),
+    };
+    if expected == 0 || rgba.len() != expected {
+        return Err(format!(
+            "{what} texture {texture_idx} has {} bytes, its size needs {expected} ({:?}, non-empty)",
+            rgba.len(),
+            texture.texels
+        ));
+    }
+    Ok(())
+}
+
 /// Rendered textures, each with its own depth/stencil buffer, and a
 /// scratch copy for passes that sample their own target.
 pub(super) fn rendered_targets(
@@ -246,47 +260,10 @@ pub(super) fn prepare(
         })
     });
     for (texture_idx, texture) in pass.textures.iter().enumerate() {
-        let binding = 1 + 2 * texture_idx as u32;
-        let (view_dimension, view) = match view_of(texture_idx, &texture.data) {
-            Some(view) => (
-                if matches!(texture.data, TextureData::Rendered { array: true, .. }) {
-                    wgpu::TextureViewDimension::D2Array
-                } else {
-                    wgpu::TextureViewDimension::D2
-                },
-                view,
-            ),
-            None => upload_texture(gpu, &texture.data, texture.texels),
-        };
-        // A depth snapshot (R32Float) is unfilterable: nearest, non-filtering.
-        let depth = matches!(texture.data, TextureData::RenderedDepth { .. });
-        layout_entries.push(wgpu::BindGroupLayoutEntry {
-            binding,
-            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-            ty: wgpu::BindingType::Texture {
-                sample_type: wgpu::TextureSampleType::Float { filterable: !depth },
-                view_dimension,
-                multisampled: false,
-            },
-            count: None,
-        });
-        layout_entries.push(wgpu::BindGroupLayoutEntry {
-            binding: binding + 1,
-            visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
-            ty: wgpu::BindingType::Sampler(if depth {
-                wgpu::SamplerBindingType::NonFiltering
-            } else {
-                wgpu::SamplerBindingType::Filtering
-            }),
-            count: None,
-        });
+        let (entries, view, sampler) = sampled_texture(gpu, texture_idx, texture, view_of);
+        layout_entries.extend(entries);
         owned_views.push(view);
-        let settings = if depth {
-            SamplerSettings { address: texture.sampler.address, ..SamplerSettings::NEAREST_CLAMP }
-        } else {
-            texture.sampler
-        };
-        owned_samplers.push(device.create_sampler(&sampler_descriptor(&settings)));
+        owned_samplers.push(sampler);
     }
     let loaded_views = loaded_textures(pass, view_of, &mut layout_entries);
     let bind_group_layout = (!layout_entries.is_empty()).then(|| {
@@ -342,4 +319,56 @@ pub(super) fn loaded_textures(
         loaded_views.push((l.binding, view));
     }
     loaded_views
+}
+
+/// Texture unit `texture_idx` of a pass: its texture and sampler layout
+/// entries (bindings 1 + 2i and 2 + 2i), its view (a rendered texture's, or
+/// the upload's) and its sampler.
+fn sampled_texture(
+    gpu: &Gpu,
+    texture_idx: usize,
+    texture: &RunTexture,
+    view_of: &dyn Fn(usize, &TextureData) -> Option<wgpu::TextureView>,
+) -> ([wgpu::BindGroupLayoutEntry; 2], wgpu::TextureView, wgpu::Sampler) {
+    let binding = 1 + 2 * texture_idx as u32;
+    let (view_dimension, view) = match view_of(texture_idx, &texture.data) {
+        Some(view) => (
+            if matches!(texture.data, TextureData::Rendered { array: true, .. }) {
+                wgpu::TextureViewDimension::D2Array
+            } else {
+                wgpu::TextureViewDimension::D2
+            },
+            view,
+        ),
+        None => upload_texture(gpu, &texture.data, texture.texels),
+    };
+    // A depth snapshot (R32Float) is unfilterable: nearest, non-filtering.
+    let depth = matches!(texture.data, TextureData::RenderedDepth { .. });
+    let texture_entry = wgpu::BindGroupLayoutEntry {
+        binding,
+        visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+        ty: wgpu::BindingType::Texture {
+            sample_type: wgpu::TextureSampleType::Float { filterable: !depth },
+            view_dimension,
+            multisampled: false,
+        },
+        count: None,
+    };
+    let sampler_entry = wgpu::BindGroupLayoutEntry {
+        binding: binding + 1,
+        visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,
+        ty: wgpu::BindingType::Sampler(if depth {
+            wgpu::SamplerBindingType::NonFiltering
+        } else {
+            wgpu::SamplerBindingType::Filtering
+        }),
+        count: None,
+    };
+    let settings = if depth {
+        SamplerSettings { address: texture.sampler.address, ..SamplerSettings::NEAREST_CLAMP }
+    } else {
+        texture.sampler
+    };
+    let sampler = gpu.device.create_sampler(&sampler_descriptor(&settings));
+    ([texture_entry, sampler_entry], view, sampler)
 }

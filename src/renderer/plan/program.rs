@@ -234,15 +234,7 @@ impl<'a> StepBuilder<'_, 'a> {
         let mut ops = [u32::MAX; 4];
         let mut n_ops = 0u8;
         let leaf = match expr {
-            Expr::Uniform(id) => Some(Leaf::Uniform(
-                self.r
-                    .uniforms
-                    .get(*id as usize)
-                    .copied()
-                    .flatten()
-                    .or_else(|| m.uniforms[*id as usize].default.as_ref().map(ir::eval::value))
-                    .unwrap_or(ir::eval::NAN),
-            )),
+            Expr::Uniform(id) => Some(Leaf::Uniform(self.uniform(*id))),
             Expr::Interpolate { .. } => match self.varying_of.get(&h) {
                 Some(&k) => Some(Leaf::Varying { k }),
                 None => Some(Leaf::Unknown),
@@ -250,14 +242,7 @@ impl<'a> StepBuilder<'_, 'a> {
             Expr::Lookup { texture, coords } => {
                 ops[0] = slot_of[coords.index()];
                 n_ops = 1;
-                let lod_from = lod_varying(m, *coords).and_then(|c| self.varying_of.get(&c).copied());
-                if matches!(self.sources[*texture as usize], Source::Missing) {
-                    return Err(RenderError::Unsupported(format!(
-                        "texture `{}` is read before any pass renders it",
-                        m.textures[*texture as usize].name
-                    )));
-                }
-                Some(Leaf::Lookup { texture: *texture, coords_ty: m.info(*coords).ty, lod_from })
+                Some(self.lookup_leaf(*texture, *coords)?)
             }
             Expr::FramebufferRead { framebuffer, channel, position } => {
                 ops[0] = slot_of[position.index()];
@@ -272,19 +257,10 @@ impl<'a> StepBuilder<'_, 'a> {
             Expr::Pixel { freq } => Some(Leaf::Pixel(*freq)),
             Expr::TexelCoord => Some(Leaf::TexelCoord),
             Expr::FatMember { texel, member } => {
-                let Expr::Lookup { texture, coords } = m.exprs[*texel] else {
-                    return Err(RenderError::Unsupported("a fat member of something not a lookup".into()));
-                };
-                if self.fat[texture as usize].len() <= *member as usize {
-                    return Err(RenderError::Unsupported(format!(
-                        "member {} of the fat texels of `{}`, which no pass renders (a fat texture from an image has no layout yet)",
-                        member + 1,
-                        m.textures[texture as usize].name
-                    )));
-                }
+                let (leaf, coords) = self.fat_member_leaf(*texel, *member)?;
                 ops[0] = slot_of[coords.index()];
                 n_ops = 1;
-                Some(Leaf::FatMember { texture, member: *member, coords_ty: m.info(coords).ty })
+                Some(leaf)
             }
             Expr::Project { projection, value } if m.info(*value).freq.is_sample() => match self.first_object
             {
@@ -317,6 +293,51 @@ impl<'a> StepBuilder<'_, 'a> {
             }
         };
         Ok((leaf, ops, n_ops))
+    }
+
+    /// Uniform `id`'s value: the scene's, else the declared default, else
+    /// NaN (the renderer's notes say so).
+    fn uniform(&self, id: u32) -> Value {
+        let m = &self.r.planned.module;
+        self.r
+            .uniforms
+            .get(id as usize)
+            .copied()
+            .flatten()
+            .or_else(|| m.uniforms[id as usize].default.as_ref().map(ir::eval::value))
+            .unwrap_or(ir::eval::NAN)
+    }
+
+    /// A lookup of `texture` at `coords`, its mipmap level from the
+    /// derivatives of the coordinate varying where there is one; an error
+    /// where no pass has rendered the texture yet.
+    fn lookup_leaf(&self, texture: TextureId, coords: Handle<Expr>) -> Result<Leaf, RenderError> {
+        let m = &self.r.planned.module;
+        let lod_from = lod_varying(m, coords).and_then(|c| self.varying_of.get(&c).copied());
+        if matches!(self.sources[texture as usize], Source::Missing) {
+            return Err(RenderError::Unsupported(format!(
+                "texture `{}` is read before any pass renders it",
+                m.textures[texture as usize].name
+            )));
+        }
+        Ok(Leaf::Lookup { texture, coords_ty: m.info(coords).ty, lod_from })
+    }
+
+    /// Member `member` of the fat texel `texel` reads, and the coordinates
+    /// of its lookup; an error where no pass rendered that layer.
+    fn fat_member_leaf(&self, texel: Handle<Expr>, member: u8) -> Result<(Leaf, Handle<Expr>), RenderError> {
+        let m = &self.r.planned.module;
+        let Expr::Lookup { texture, coords } = m.exprs[texel] else {
+            return Err(RenderError::Unsupported("a fat member of something not a lookup".into()));
+        };
+        if self.fat[texture as usize].len() <= member as usize {
+            return Err(RenderError::Unsupported(format!(
+                "member {} of the fat texels of `{}`, which no pass renders (a fat texture from an image has no layout yet)",
+                member + 1,
+                m.textures[texture as usize].name
+            )));
+        }
+        Ok((Leaf::FatMember { texture, member, coords_ty: m.info(coords).ty }, coords))
     }
 
     /// Node `h`'s step, with how fixed9 rounds its result.

@@ -13,7 +13,7 @@ use crate::ir::{self, eval::Value, Expr, FbChannel, Frequency, Handle, Module, T
 use crate::pipeline::{Geometry, PassInterface, RenderTarget};
 use crate::renderer::{Fragment, FragmentResult, FragmentStage, Framebuffer, RenderError};
 use crate::scene::bind::{self, BoundObject, BoundTexture, ExactFunction};
-use crate::textures::{generators, unit, Filter, Texture, Wrap};
+use crate::textures::{generators, unit, Filter, Texture, Texture2D, Wrap};
 
 use crate::numerics::{fixed9_folded_with, fixed9_quotient, fixed9_with, Precision};
 
@@ -331,18 +331,7 @@ impl<'a> FragmentProgram<'a> {
                         // in float in f32, as exact fidelity does), so the
                         // wgpu image agrees with them (issue 5).
                         let (u, v) = texture_uv(c, coords_ty);
-                        let lod = match (lod_from, quad) {
-                            (Some(k), _) if t.levels.len() > 1 => {
-                                let d = |i| fragment.quad_derivatives(4 * k + i, varyings[4 * k + i]);
-                                let (du, dv) = uv_derivatives(coords_ty, &varyings[4 * k..4 * k + 4], d);
-                                unit::quad_lod(t.width(), t.height(), [du[0], dv[0]], [du[1], dv[1]])
-                            }
-                            (None, Some([tl, tr, bl])) => {
-                                let d = |a: [f64; 2]| [(a[0] - tl[0]) as f32, (a[1] - tl[1]) as f32];
-                                unit::quad_lod(t.width(), t.height(), d(tr), d(bl))
-                            }
-                            _ => f32::NEG_INFINITY,
-                        };
+                        let lod = unit_lod(t, coords_ty, lod_from, quad, fragment, varyings);
                         let arithmetic = if self.mode == Precision::Fixed9 {
                             unit::Arithmetic::Fixed8 { tie_bias: self.tie.texel_quanta }
                         } else {
@@ -356,21 +345,7 @@ impl<'a> FragmentProgram<'a> {
                     }
                     Texture::Flat(t) => {
                         let (u, v) = texture_uv(c, coords_ty);
-                        let lod = match (lod_from, quad) {
-                            (Some(k), _) if t.levels.len() > 1 => {
-                                let d = |i| fragment.derivatives(4 * k + i, varyings[4 * k + i]);
-                                let (du, dv) = uv_derivatives(coords_ty, &varyings[4 * k..4 * k + 4], d);
-                                t.lod(du, dv)
-                            }
-                            (None, Some([tl, tr, bl])) => {
-                                let (du, dv) = (
-                                    [(tr[0] - tl[0]) as f32, (bl[0] - tl[0]) as f32],
-                                    [(tr[1] - tl[1]) as f32, (bl[1] - tl[1]) as f32],
-                                );
-                                t.lod(du, dv)
-                            }
-                            _ => 0.0,
-                        };
+                        let lod = exact_lod(t, coords_ty, lod_from, quad, fragment, varyings);
                         t.sample(u as f32, v as f32, filter, lod)
                     }
                     Texture::Cube(t) => t.sample([c[0] as f32, c[1] as f32, c[2] as f32], filter, 0.0),
@@ -381,19 +356,7 @@ impl<'a> FragmentProgram<'a> {
                 out.map(|x| x as f64)
             }
             Source::Rendered(rt) => rt.sample(c, coords_ty, filter),
-            Source::Baked { program, wrap } => {
-                let (u, v) = texture_uv(c, coords_ty);
-                let at = |x: f64| match wrap {
-                    Wrap::Repeat => x - x.floor(),
-                    _ => x.clamp(0.0, 1.0),
-                };
-                let fragment =
-                    Fragment { x: 0, y: 0, depth: 0.0, front_facing: true, inv_w: 1.0, gradients: &[] };
-                // The outer fragment's slots are borrowed: the nested program has its own.
-                let mut slots = vec![[0.0; 4]; program.n_slots];
-                program.run(&mut slots, &fragment, &[], Some([at(u), at(v)]));
-                slots[program.output as usize]
-            }
+            Source::Baked { program, wrap } => baked_lookup(program, *wrap, c, coords_ty),
             Source::Missing => ir::eval::NAN,
         }
     }
@@ -622,6 +585,75 @@ impl<'a> FragmentProgram<'a> {
             self.nonfinite.fetch_add(1, Ordering::Relaxed);
         }
         v.map(|x| if x.is_nan() { 0.0 } else { x as f32 })
+    }
+}
+
+/// `exact`'s lookup of a texture shaded over its texels: the texel pass's
+/// function evaluated at the lookup's coordinates, wrapped as the texture.
+fn baked_lookup(program: &FragmentProgram, wrap: Wrap, c: Value, coords_ty: Ty) -> Value {
+    let (u, v) = texture_uv(c, coords_ty);
+    let at = |x: f64| match wrap {
+        Wrap::Repeat => x - x.floor(),
+        _ => x.clamp(0.0, 1.0),
+    };
+    let fragment = Fragment { x: 0, y: 0, depth: 0.0, front_facing: true, inv_w: 1.0, gradients: &[] };
+    // The outer fragment's slots are borrowed: the nested program has its own.
+    let mut slots = vec![[0.0; 4]; program.n_slots];
+    program.run(&mut slots, &fragment, &[], Some([at(u), at(v)]));
+    slots[program.output as usize]
+}
+
+/// The level of detail the WGSL target's texture unit samples `t` at
+/// (`textures::unit`, per 2×2 quad): from the quad derivatives of varying
+/// `lod_from`, else from the coordinates at the quad's pixels (`quad`),
+/// else the base level.
+fn unit_lod(
+    t: &Texture2D,
+    coords_ty: Ty,
+    lod_from: Option<usize>,
+    quad: Option<[[f64; 2]; 3]>,
+    fragment: &Fragment,
+    varyings: &[f32],
+) -> f32 {
+    match (lod_from, quad) {
+        (Some(k), _) if t.levels.len() > 1 => {
+            let d = |i| fragment.quad_derivatives(4 * k + i, varyings[4 * k + i]);
+            let (du, dv) = uv_derivatives(coords_ty, &varyings[4 * k..4 * k + 4], d);
+            unit::quad_lod(t.width(), t.height(), [du[0], dv[0]], [du[1], dv[1]])
+        }
+        (None, Some([tl, tr, bl])) => {
+            let d = |a: [f64; 2]| [(a[0] - tl[0]) as f32, (a[1] - tl[1]) as f32];
+            unit::quad_lod(t.width(), t.height(), d(tr), d(bl))
+        }
+        _ => f32::NEG_INFINITY,
+    }
+}
+
+/// `exact`'s level of detail (ideal GL, `textures::sampling`): from the
+/// analytic derivatives of varying `lod_from`, else from the coordinates
+/// at the quad's pixels (`quad`), else level 0.
+fn exact_lod(
+    t: &Texture2D,
+    coords_ty: Ty,
+    lod_from: Option<usize>,
+    quad: Option<[[f64; 2]; 3]>,
+    fragment: &Fragment,
+    varyings: &[f32],
+) -> f32 {
+    match (lod_from, quad) {
+        (Some(k), _) if t.levels.len() > 1 => {
+            let d = |i| fragment.derivatives(4 * k + i, varyings[4 * k + i]);
+            let (du, dv) = uv_derivatives(coords_ty, &varyings[4 * k..4 * k + 4], d);
+            t.lod(du, dv)
+        }
+        (None, Some([tl, tr, bl])) => {
+            let (du, dv) = (
+                [(tr[0] - tl[0]) as f32, (bl[0] - tl[0]) as f32],
+                [(tr[1] - tl[1]) as f32, (bl[1] - tl[1]) as f32],
+            );
+            t.lod(du, dv)
+        }
+        _ => 0.0,
     }
 }
 
