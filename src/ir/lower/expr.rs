@@ -9,10 +9,12 @@ impl<'a> Lowerer<'a> {
         if self.expr_depth > MAX_EXPR_RECURSION {
             self.error(
                 "too-deep",
-                "the expression is too deep to lower",
+                format!(
+                    "the expression nests more than {MAX_EXPR_RECURSION} levels deep, counting the `let`s, vectors and shaders it inlines"
+                ),
                 e.span,
                 "here",
-                "split it with `let` bindings",
+                "this is shadec's limit on nesting: a sum or product of many terms is flat, not nested; shorten the chain of definitions that build on each other",
             );
             return Err(());
         }
@@ -22,28 +24,28 @@ impl<'a> Lowerer<'a> {
         r
     }
 
-    /// Runs `f` one definition deeper; a cycle shows as too deep a nesting.
+    /// Runs `f` inside the definition `name`. A definition met again while
+    /// it is being inlined uses itself: that is the cycle, found by name, so
+    /// a long chain of `let`s that each use the one before is not mistaken
+    /// for one (only `MAX_EXPR_RECURSION` bounds how deep inlining goes).
     pub(super) fn nested<T>(
         &mut self,
         name: &str,
         span: Span,
         f: impl FnOnce(&mut Self) -> Res<T>,
     ) -> Res<T> {
-        if self.depth >= MAX_DEFINITION_DEPTH {
-            if self.depth == MAX_DEFINITION_DEPTH {
-                self.error(
-                    "cycle",
-                    format!("`{name}` is defined in terms of itself"),
-                    span,
-                    "used here",
-                    "a `let`, computed vector or shader must not use itself, directly or through others",
-                );
-            }
+        if !self.defining.insert(name.to_string()) {
+            self.error(
+                "cycle",
+                format!("`{name}` is defined in terms of itself"),
+                span,
+                "used here",
+                "a `let`, computed vector or shader must not use itself, directly or through others",
+            );
             return Err(());
         }
-        self.depth += 1;
         let r = f(self);
-        self.depth -= 1;
+        self.defining.remove(name);
         r
     }
 

@@ -8,7 +8,7 @@
 //! statements (`u x ← …`) are lowered before the others, because they give
 //! their coordinate set a type.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 use super::valid::{self, TypeError};
 use super::{
@@ -50,9 +50,6 @@ pub fn lower(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
 const LOWER_STACK: usize = 256 << 20;
 /// Deepest recursion over expressions, counting inlined definitions.
 const MAX_EXPR_RECURSION: usize = 20_000;
-/// Deepest nesting of definitions (`let`, computed vectors, shaders): beyond
-/// this, a definition uses itself.
-const MAX_DEFINITION_DEPTH: usize = 64;
 
 fn lower_here(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
     let baked;
@@ -76,7 +73,7 @@ fn lower_here(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
         used: Default::default(),
         locals: Vec::new(),
         bundles: Vec::new(),
-        depth: 0,
+        defining: HashSet::new(),
         expr_depth: 0,
         under_delta: 0,
         distributed: false,
@@ -157,8 +154,8 @@ struct Lowerer<'a> {
     locals: Vec<(String, Value)>,
     /// The bundle the shader being inlined was applied to.
     bundles: Vec<Bundle>,
-    /// Nesting of definitions being inlined: guards against cycles.
-    depth: usize,
+    /// Names of the definitions being inlined: one met again is a cycle.
+    defining: HashSet<String>,
     /// Recursion over expressions.
     expr_depth: usize,
     /// Inside the argument of a δ: nodes mixing per-vertex and per-sample
