@@ -18,31 +18,50 @@ use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 use crate::diag::Diagnostic;
-use crate::ir::{Expr, Handle, Module, Usage};
-use crate::span::Span;
+use crate::ir::{Expr, Handle, Module, Statement, Usage};
 
 /// The register combiners a target profile has (Kilgard 2000, Section 4.2.2:
 /// GeForce has two general stages, later GPUs more; NV_register_combiners2
-/// adds per-stage constants). The constants equal the built-in profiles'
-/// limits (a unit test keeps them so).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+/// adds per-stage constants): the profile's `fragment: Combiners((…))`
+/// section, and the limits the combiner code generator, validator and
+/// emulator work under — one statement of the machine, read from the
+/// profile. The constants equal the built-in profiles' sections (a unit
+/// test keeps them so).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct CombinerLimits {
+    /// General combiner stages.
     pub general_combiners: usize,
+    /// Constant colours (constant0/1) visible to a stage.
+    pub constant_colors: u32,
+    /// Whether each stage has its own constant colours (NV_register_combiners2).
     pub per_stage_constants: bool,
-    /// Texture units, hence `texture0..` registers (Table 2: 8 + units).
-    pub texture_units: u8,
     /// Dot products in the alpha portion (`spare0.a = tex0.b . tex1.b;`):
     /// NV_register_combiners forbids them and nvparse refuses them, but
     /// NV2A (the Xbox GPU) runs them, as the product of the two alpha inputs
     /// (a one-component dot product). Off in every built-in profile; the
     /// emulator's and `translate`'s `--permissive` turn it on.
+    #[serde(default, skip_serializing_if = "is_false")]
     pub alpha_dot_products: bool,
+    /// Texture units, hence `texture0..` registers (Table 2: 8 + units):
+    /// the profile's own `texture_units`, not stated twice in its RON, set
+    /// when the profile is read ([`Profile::from_ron`]).
+    #[serde(skip)]
+    pub texture_units: u8,
+}
+
+/// The profile's combiner section is the combiner limits.
+pub type Combiners = CombinerLimits;
+
+fn is_false(b: &bool) -> bool {
+    !*b
 }
 
 impl CombinerLimits {
     /// GeForce 256 / Quadro: two general combiners, two texture units.
     pub const GEFORCE256: CombinerLimits = CombinerLimits {
         general_combiners: 2,
+        constant_colors: 2,
         per_stage_constants: false,
         texture_units: 2,
         alpha_dot_products: false,
@@ -50,6 +69,7 @@ impl CombinerLimits {
     /// GeForce3: eight general combiners, per-stage constants, four units.
     pub const GEFORCE3: CombinerLimits = CombinerLimits {
         general_combiners: 8,
+        constant_colors: 2,
         per_stage_constants: true,
         texture_units: 4,
         alpha_dot_products: false,
@@ -64,10 +84,13 @@ impl CombinerLimits {
 /// The names of the built-in profiles.
 pub const BUILTIN: &[&str] = &["geforce256", "geforce3", "multitexture", "wgsl"];
 
+/// A target profile: what one GPU generation offers a pass (see the module doc).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct Profile {
+    /// The profile's name (`geforce3`), as `target` and `--target` write it.
     pub name: String,
+    /// One line for humans.
     pub description: String,
     /// Textures one pass can sample (texture units, or WGSL sampled textures).
     pub texture_units: u32,
@@ -79,10 +102,15 @@ pub struct Profile {
     pub texture_shaders: Option<TextureShaders>,
     /// The ⊕ modes the texture environment offers.
     pub texture_env_modes: Vec<String>,
+    /// Cube-map textures.
     pub cube_maps: bool,
+    /// 3-D textures.
     pub textures_3d: bool,
+    /// Signed texture formats (HILO, signed8).
     pub signed_textures: bool,
+    /// Float texture formats.
     pub float_textures: bool,
+    /// Texture lookups in the vertex stage.
     pub vertex_texture_fetch: bool,
     /// Bits per texture channel.
     pub texture_bits: u8,
@@ -180,6 +208,7 @@ pub struct CostModel {
     pub pass_overhead_us: f64,
 }
 
+/// What computes fragments on the target.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum FragmentStage {
     /// OpenGL 1.2.1 texture environment: one ⊕ per unit, nothing else.
@@ -190,25 +219,19 @@ pub enum FragmentStage {
     Programmable,
 }
 
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Combiners {
-    pub general_combiners: u32,
-    /// Constant colours (constant0/1) visible to a stage.
-    pub constant_colors: u32,
-    /// Whether each stage has its own constant colours (NV_register_combiners2).
-    pub per_stage_constants: bool,
-}
-
+/// The NV_texture_shader stages a target has (Kilgard 2000, Section 4.3).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct TextureShaders {
     /// Offset (EMBM) lookups, Pipeline Grammar, eq. (8).
     pub offset_2d: bool,
+    /// Dot-product texture addressing (a dependent lookup by `N·x`).
     pub dot_product: bool,
+    /// Lookups indexed by an earlier stage's result.
     pub dependent_lookups: bool,
 }
 
+/// Why a profile could not be had: an unknown name, an unreadable or invalid file.
 #[derive(Debug, thiserror::Error)]
 pub enum ProfileError {
     #[error("unknown target profile `{name}` (the built-in profiles are: {})", BUILTIN.join(", "))]
@@ -257,15 +280,22 @@ impl Profile {
         Err(ProfileError::Unknown { name: name_or_path.to_string() })
     }
 
+    /// A profile from RON `text` (`path` names it in errors); the combiner
+    /// section's texture units are the profile's.
     pub fn from_ron(text: &str, path: &str) -> Result<Profile, ProfileError> {
-        let profile: Profile = ron::from_str(text)
+        let mut profile: Profile = ron::from_str(text)
             .map_err(|e| ProfileError::Parse { path: path.to_string(), message: e.to_string() })?;
+        if let FragmentStage::Combiners(c) = &mut profile.fragment {
+            c.texture_units = u8::try_from(profile.texture_units).unwrap_or(u8::MAX);
+        }
         if let Some(message) = profile.cost.as_ref().and_then(CostModel::problem) {
             return Err(ProfileError::Parse { path: path.to_string(), message });
         }
         Ok(profile)
     }
 
+    /// The profile as RON, as `from_ron` reads it.
+    #[allow(clippy::expect_used)] // strings, numbers, bools and enums always serialize to RON
     pub fn to_ron(&self) -> String {
         ron::ser::to_string_pretty(self, ron::ser::PrettyConfig::default()).expect("a profile serializes")
     }
@@ -274,10 +304,8 @@ impl Profile {
     pub fn combiner_limits(&self) -> Option<CombinerLimits> {
         match &self.fragment {
             FragmentStage::Combiners(c) => Some(CombinerLimits {
-                general_combiners: c.general_combiners as usize,
-                per_stage_constants: c.per_stage_constants,
-                texture_units: self.texture_units.min(u8::MAX as u32) as u8,
-                alpha_dot_products: false,
+                texture_units: u8::try_from(self.texture_units).unwrap_or(u8::MAX),
+                ..*c
             }),
             _ => None,
         }
@@ -287,7 +315,7 @@ impl Profile {
     pub fn constant_registers(&self) -> Option<u32> {
         match &self.fragment {
             FragmentStage::Combiners(c) if c.per_stage_constants => {
-                Some(c.constant_colors * (c.general_combiners + 1))
+                Some(c.constant_colors * (c.general_combiners as u32 + 1))
             }
             FragmentStage::Combiners(c) => Some(c.constant_colors),
             // The texture environment has one constant colour (GL_TEXTURE_ENV_COLOR) per unit.
@@ -302,119 +330,130 @@ impl Profile {
 /// label at each node that needs the resource.
 pub fn fit(module: &Module, profile: &Profile) -> Vec<Diagnostic> {
     let mut out = Vec::new();
-    let name = &profile.name;
     // A `bake` table is the compiler's work: the target only samples it.
     for st in module.statements.iter().filter(|st| !module.is_baked(st)) {
         let u = Usage::of(module, st);
-        let labels = |d: Diagnostic, hs: &[Handle<Expr>], what: &str| {
-            hs.iter().fold(d, |d, h| d.with_label(module.span(*h), what.to_string()))
-        };
-        let overflow = |resource: &str, need: usize, have: u32, hs: &[Handle<Expr>], what: &str| {
-            let d = Diagnostic::warning(
-                "does-not-fit",
-                format!("does not fit in one pass on {name}: needs {need} {resource}; it has {have}; the pass planner will split it"),
-                st.span,
-                format!("needs {need} {resource}"),
-            )
-            .with_help(format!("{name} offers {have} {resource} per pass; the planner splits the statement with framebuffer blending or render-to-texture"));
-            labels(d, hs, what)
-        };
-        if u.texture_units() > profile.texture_units as usize {
-            out.push(overflow(
-                "texture units",
-                u.texture_units(),
-                profile.texture_units,
-                &u.lookups,
-                "a texture unit",
-            ));
-        }
-        if u.interpolants.len() > profile.interpolants as usize {
-            out.push(overflow(
-                "interpolants",
-                u.interpolants.len(),
-                profile.interpolants,
-                &u.interpolants,
-                "interpolated",
-            ));
-        }
-        if let Some(have) = profile.constant_registers() {
-            if u.constants.len() > have as usize {
-                out.push(overflow(
-                    "constant colours",
-                    u.constants.len(),
-                    have,
-                    &u.constants,
-                    "a constant register",
-                ));
-            }
-        }
-        let missing = |what: String, hs: &[Handle<Expr>], help: &str| {
-            let first = hs.first().map_or(st.span, |h| module.span(*h));
-            let d = Diagnostic::error(
-                "unsupported-by-target",
-                format!("{name} cannot do this: {what}"),
-                first,
-                what.clone(),
-            )
-            .with_help(help.to_string());
-            labels(d, &hs[hs.len().min(1)..], "here too")
-        };
-        if !u.dependent_lookups.is_empty() && !profile.has_dependent_lookups() {
-            out.push(missing(
-                "a texture indexed by another texture's result (dependent lookup)".into(),
-                &u.dependent_lookups,
-                "dependent lookups need texture shaders: target geforce3 or wgsl",
-            ));
-        }
-        if !u.cube_lookups.is_empty() && !profile.cube_maps {
-            out.push(missing(
-                "cube-map lookups".into(),
-                &u.cube_lookups,
-                "target a profile with cube maps (geforce256, geforce3, wgsl)",
-            ));
-        }
-        if !u.lookups_3d.is_empty() && !profile.textures_3d {
-            out.push(missing(
-                "3-D texture lookups".into(),
-                &u.lookups_3d,
-                "target a profile with 3-D textures",
-            ));
-        }
-        if !u.signed_lookups.is_empty() && !profile.signed_textures {
-            out.push(missing(
-                "signed textures".into(),
-                &u.signed_lookups,
-                "store range-compressed vectors in rgb8 and `expand` them (Kilgard 2000, Section 5.2)",
-            ));
-        }
-        if !u.float_lookups.is_empty() && !profile.float_textures {
-            out.push(missing(
-                "float textures".into(),
-                &u.float_lookups,
-                "an 8-bit format holds [0, 1]: the lowering re-stores a float texture itself when every write is a value in [0, 1], or an rgb in [−1, 1] with alpha 1 (range-compressed); values of a range it cannot know (object-space positions, solid mapping) must be scaled into [0, 1] where they are written and back where they are read (`compress(P / r)`, `expand(T δu x) * r`), or target wgsl",
-            ));
-        }
-        if !u.vertex_lookups.is_empty() && !profile.vertex_texture_fetch {
-            out.push(missing(
-                "texture lookups per vertex".into(),
-                &u.vertex_lookups,
-                "interpolate the coordinates first: `T δu x`",
-            ));
-        }
-        if profile.fragment == FragmentStage::TextureEnv && !u.arithmetic.is_empty() {
-            out.push(missing(
-                format!("per-{} arithmetic beyond the texture environment", if st.freq == crate::ir::Frequency::Texel { "texel" } else { "fragment" }),
-                &u.arithmetic,
-                "the OpenGL 1.2.1 texture environment only combines texels (⊕); compute this per vertex (`δ p s x`) or target geforce256/geforce3/wgsl",
-            ));
-        }
+        capacity(module, profile, st, &u, &mut out);
+        capabilities(module, profile, st, &u, &mut out);
     }
     out.sort_by_key(|d| (d.primary.span.start, d.severity));
     // One read shared by two statements (equal nodes are one node, with
     // the first one's span) is one finding, printed once.
     out.dedup();
-    let _ = Span::DETACHED;
     out
+}
+
+/// `d` with a secondary label `what` at each of `hs`.
+fn labelled(module: &Module, d: Diagnostic, hs: &[Handle<Expr>], what: &str) -> Diagnostic {
+    hs.iter().fold(d, |d, h| d.with_label(module.span(*h), what.to_string()))
+}
+
+/// The capacity overflows of statement `st` (warnings: the planner splits).
+fn capacity(module: &Module, profile: &Profile, st: &Statement, u: &Usage, out: &mut Vec<Diagnostic>) {
+    let name = &profile.name;
+    let labels = |d: Diagnostic, hs: &[Handle<Expr>], what: &str| labelled(module, d, hs, what);
+    let overflow = |resource: &str, need: usize, have: u32, hs: &[Handle<Expr>], what: &str| {
+        let d = Diagnostic::warning(
+            "does-not-fit",
+            format!("does not fit in one pass on {name}: needs {need} {resource}; it has {have}; the pass planner will split it"),
+            st.span,
+            format!("needs {need} {resource}"),
+        )
+        .with_help(format!("{name} offers {have} {resource} per pass; the planner splits the statement with framebuffer blending or render-to-texture"));
+        labels(d, hs, what)
+    };
+    if u.texture_units() > profile.texture_units as usize {
+        out.push(overflow(
+            "texture units",
+            u.texture_units(),
+            profile.texture_units,
+            &u.lookups,
+            "a texture unit",
+        ));
+    }
+    if u.interpolants.len() > profile.interpolants as usize {
+        out.push(overflow(
+            "interpolants",
+            u.interpolants.len(),
+            profile.interpolants,
+            &u.interpolants,
+            "interpolated",
+        ));
+    }
+    if let Some(have) = profile.constant_registers() {
+        if u.constants.len() > have as usize {
+            out.push(overflow(
+                "constant colours",
+                u.constants.len(),
+                have,
+                &u.constants,
+                "a constant register",
+            ));
+        }
+    }
+}
+
+/// The capabilities statement `st` needs and `profile` lacks (errors: no
+/// split makes the hardware do it).
+fn capabilities(module: &Module, profile: &Profile, st: &Statement, u: &Usage, out: &mut Vec<Diagnostic>) {
+    let name = &profile.name;
+    let labels = |d: Diagnostic, hs: &[Handle<Expr>], what: &str| labelled(module, d, hs, what);
+    let missing = |what: String, hs: &[Handle<Expr>], help: &str| {
+        let first = hs.first().map_or(st.span, |h| module.span(*h));
+        let d = Diagnostic::error(
+            "unsupported-by-target",
+            format!("{name} cannot do this: {what}"),
+            first,
+            what.clone(),
+        )
+        .with_help(help.to_string());
+        labels(d, &hs[hs.len().min(1)..], "here too")
+    };
+    if !u.dependent_lookups.is_empty() && !profile.has_dependent_lookups() {
+        out.push(missing(
+            "a texture indexed by another texture's result (dependent lookup)".into(),
+            &u.dependent_lookups,
+            "dependent lookups need texture shaders: target geforce3 or wgsl",
+        ));
+    }
+    if !u.cube_lookups.is_empty() && !profile.cube_maps {
+        out.push(missing(
+            "cube-map lookups".into(),
+            &u.cube_lookups,
+            "target a profile with cube maps (geforce256, geforce3, wgsl)",
+        ));
+    }
+    if !u.lookups_3d.is_empty() && !profile.textures_3d {
+        out.push(missing("3-D texture lookups".into(), &u.lookups_3d, "target a profile with 3-D textures"));
+    }
+    if !u.signed_lookups.is_empty() && !profile.signed_textures {
+        out.push(missing(
+            "signed textures".into(),
+            &u.signed_lookups,
+            "store range-compressed vectors in rgb8 and `expand` them (Kilgard 2000, Section 5.2)",
+        ));
+    }
+    if !u.float_lookups.is_empty() && !profile.float_textures {
+        out.push(missing(
+            "float textures".into(),
+            &u.float_lookups,
+            "an 8-bit format holds [0, 1]: the lowering re-stores a float texture itself when every write is a value in [0, 1], or an rgb in [−1, 1] with alpha 1 (range-compressed); values of a range it cannot know (object-space positions, solid mapping) must be scaled into [0, 1] where they are written and back where they are read (`compress(P / r)`, `expand(T δu x) * r`), or target wgsl",
+        ));
+    }
+    if !u.vertex_lookups.is_empty() && !profile.vertex_texture_fetch {
+        out.push(missing(
+            "texture lookups per vertex".into(),
+            &u.vertex_lookups,
+            "interpolate the coordinates first: `T δu x`",
+        ));
+    }
+    if profile.fragment == FragmentStage::TextureEnv && !u.arithmetic.is_empty() {
+        out.push(missing(
+            format!("per-{} arithmetic beyond the texture environment", if st.freq == crate::ir::Frequency::Texel { "texel" } else { "fragment" }),
+            &u.arithmetic,
+            "the OpenGL 1.2.1 texture environment only combines texels (⊕); compute this per vertex (`δ p s x`) or target geforce256/geforce3/wgsl",
+        ));
+    }
 }
 
 #[cfg(test)]

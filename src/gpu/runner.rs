@@ -141,11 +141,7 @@ pub fn validate_shader(pass: &str, shader: &RunShader) -> Result<naga::Module, G
         }
         ShaderSource::Naga(module) => module.clone(),
     };
-    let mut validator = naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::default(),
-    );
-    if let Err(err) = validator.validate(&module) {
+    if let Err(err) = crate::backends::wgsl::validate::validate(&module) {
         return Err(invalid(match &shader.source {
             ShaderSource::Wgsl(text) => err.emit_to_string(text),
             ShaderSource::Naga(_) => error_chain(&err),

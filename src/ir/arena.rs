@@ -17,11 +17,14 @@ pub struct Handle<T> {
 }
 
 impl<T> Handle<T> {
+    /// The handle of the arena entry at `index`.
+    #[allow(clippy::expect_used)] // 2³² nodes exhaust memory first; index + 1 ≥ 1 is nonzero
     pub fn new(index: usize) -> Handle<T> {
         let n = u32::try_from(index + 1).expect("arena larger than u32::MAX - 1");
         Handle { index_plus_one: NonZeroU32::new(n).expect("index + 1 is nonzero"), marker: PhantomData }
     }
 
+    /// The position of the entry in its arena.
     pub fn index(self) -> usize {
         self.index_plus_one.get() as usize - 1
     }
@@ -80,6 +83,7 @@ impl<T: Clone> Default for Arena<T> {
 }
 
 impl<T: Clone> Arena<T> {
+    /// Adds `value` at the end, with the source span it came from.
     pub fn append(&mut self, value: T, span: Span) -> Handle<T> {
         let h = Handle::new(self.data.len());
         self.data.push(value);
@@ -87,22 +91,27 @@ impl<T: Clone> Arena<T> {
         h
     }
 
+    /// How many entries the arena holds.
     pub fn len(&self) -> usize {
         self.data.len()
     }
 
+    /// Whether the arena holds no entry.
     pub fn is_empty(&self) -> bool {
         self.data.is_empty()
     }
 
+    /// The entry of `h`, if it is in this arena.
     pub fn get(&self, h: Handle<T>) -> Option<&T> {
         self.data.get(h.index())
     }
 
+    /// The source span of entry `h`.
     pub fn span(&self, h: Handle<T>) -> Span {
         self.spans.get(h.index()).copied().unwrap_or(Span::DETACHED)
     }
 
+    /// The entries with their handles, in insertion order.
     pub fn iter(&self) -> impl Iterator<Item = (Handle<T>, &T)> {
         self.data.iter().enumerate().map(|(i, v)| (Handle::new(i), v))
     }
@@ -141,18 +150,22 @@ impl<T: Eq + Hash + Clone> UniqueArena<T> {
         (h, true)
     }
 
+    /// The handle of an entry equal to `value`, if there is one.
     pub fn find(&self, value: &T) -> Option<Handle<T>> {
         self.map.get(value).copied()
     }
 
+    /// The entries, as a plain arena.
     pub fn arena(&self) -> &Arena<T> {
         &self.arena
     }
 
+    /// How many distinct entries the arena holds.
     pub fn len(&self) -> usize {
         self.arena.len()
     }
 
+    /// Whether the arena holds no entry.
     pub fn is_empty(&self) -> bool {
         self.arena.is_empty()
     }

@@ -3,7 +3,7 @@
 //! frequency, range and source position, then the statements with the
 //! resources each needs.
 
-use std::fmt::Write as _;
+use std::fmt::{self, Write as _};
 
 use super::{BinaryOp, Expr, FbChannel, Frequency, Handle, Module, Range, Site, Table, UnaryOp, Usage};
 use crate::span::{LineIndex, Span};
@@ -24,19 +24,27 @@ pub fn dump(module: &Module, source: Option<&str>) -> String {
         }
     };
     let mut out = String::new();
-    let w = &mut out;
+    // Writing to a `String` cannot fail: the `fmt::Result`s are all `Ok`.
+    let _ = resources(&mut out, module);
+    let _ = values(&mut out, module, &at);
+    let _ = statements(&mut out, module, &at);
+    out
+}
+
+/// The module's header and its declared resources, one line each.
+fn resources(w: &mut String, module: &Module) -> fmt::Result {
     match &module.target {
-        Some(t) => writeln!(w, "module (target {})", t.value).unwrap(),
-        None => writeln!(w, "module").unwrap(),
+        Some(t) => writeln!(w, "module (target {})", t.value)?,
+        None => writeln!(w, "module")?,
     }
     for (i, t) in module.textures.iter().enumerate() {
         let src = if t.rendered { "rendered" } else { "source" };
-        writeln!(w, "  texture t{i} {} : {} {} ({src})", t.name, t.kind.as_str(), t.format.as_str()).unwrap();
+        writeln!(w, "  texture t{i} {} : {} {} ({src})", t.name, t.kind.as_str(), t.format.as_str())?;
     }
     for (i, f) in module.framebuffers.iter().enumerate() {
         let ch: Vec<&str> = f.channels.iter().map(|c| c.as_str()).collect();
         let ch = if ch.is_empty() { "rgba8, depth, stencil".to_string() } else { ch.join(", ") };
-        writeln!(w, "  framebuffer f{i} {} : {ch}", f.name).unwrap();
+        writeln!(w, "  framebuffer f{i} {} : {ch}", f.name)?;
     }
     for (i, v) in module.vectors.iter().enumerate() {
         let role = match (v.kind, v.index) {
@@ -45,20 +53,25 @@ pub fn dump(module: &Module, source: Option<&str>) -> String {
             (None, _) => "computed".to_string(),
         };
         let space = v.space.map(|s| format!(" in {}", s.as_str())).unwrap_or_default();
-        writeln!(w, "  vector v{i} {} : {role}{space}", v.name).unwrap();
+        writeln!(w, "  vector v{i} {} : {role}{space}", v.name)?;
     }
     for (i, u) in module.uniforms.iter().enumerate() {
         let d = u.default.map(|c| format!(" = {}", constant(&c))).unwrap_or_default();
-        writeln!(w, "  uniform u{i} {} : {}{d}", u.name, u.ty.name()).unwrap();
+        writeln!(w, "  uniform u{i} {} : {}{d}", u.name, u.ty.name())?;
     }
     for (i, v) in module.vertices.iter().enumerate() {
-        writeln!(w, "  vertices x{i} {v}").unwrap();
+        writeln!(w, "  vertices x{i} {v}")?;
     }
     for (i, t) in module.texcoord_sets.iter().enumerate() {
         let g = if t.generated { " (generated)" } else { "" };
-        writeln!(w, "  texcoords c{i} {} : {}{g}", t.name, t.ty.name()).unwrap();
+        writeln!(w, "  texcoords c{i} {} : {}{g}", t.name, t.ty.name())?;
     }
-    // Every node a statement reaches, in arena order.
+    Ok(())
+}
+
+/// Every node a statement reaches, in arena order, with its type,
+/// frequency, range and position.
+fn values(w: &mut String, module: &Module, at: &dyn Fn(Span) -> String) -> fmt::Result {
     let mut live = vec![false; module.exprs.len()];
     for st in &module.statements {
         let mut stack = vec![st.value, st.index];
@@ -69,7 +82,7 @@ pub fn dump(module: &Module, source: Option<&str>) -> String {
             }
         }
     }
-    writeln!(w, "values:").unwrap();
+    writeln!(w, "values:")?;
     for (h, e) in module.exprs.arena().iter() {
         if !live[h.index()] {
             continue;
@@ -88,10 +101,14 @@ pub fn dump(module: &Module, source: Option<&str>) -> String {
             freq(info.freq),
             range,
             at(module.span(h))
-        )
-        .unwrap();
+        )?;
     }
-    writeln!(w, "statements:").unwrap();
+    Ok(())
+}
+
+/// The statements, each with the table it writes and the resources it needs.
+fn statements(w: &mut String, module: &Module, at: &dyn Fn(Span) -> String) -> fmt::Result {
+    writeln!(w, "statements:")?;
     for (i, st) in module.statements.iter().enumerate() {
         let table = match &st.table {
             Table::Framebuffer { id, channel } => {
@@ -115,10 +132,9 @@ pub fn dump(module: &Module, source: Option<&str>) -> String {
             u.texture_units(),
             u.interpolants.len(),
             u.constants.len()
-        )
-        .unwrap();
+        )?;
     }
-    out
+    Ok(())
 }
 
 fn freq(f: Frequency) -> &'static str {
@@ -164,6 +180,27 @@ fn list(hs: &[Handle<Expr>]) -> String {
     hs.iter().map(|h| h.to_string()).collect::<Vec<_>>().join(", ")
 }
 
+/// How the dump writes a binary operator.
+fn binary_symbol(op: BinaryOp) -> &'static str {
+    match op {
+        BinaryOp::Add => "+",
+        BinaryOp::Sub => "-",
+        BinaryOp::Mul => "*",
+        BinaryOp::Div => "/",
+        BinaryOp::Pow => "^",
+        BinaryOp::Dot => "·",
+        BinaryOp::Lt => "<",
+        BinaryOp::Le => "≤",
+        BinaryOp::Gt => ">",
+        BinaryOp::Ge => "≥",
+        BinaryOp::Eq => "=",
+        BinaryOp::Ne => "≠",
+        BinaryOp::And => "and",
+        BinaryOp::Or => "or",
+    }
+}
+
+/// One node as the dump writes it: its operation and operands.
 pub(crate) fn node(m: &Module, e: &Expr) -> String {
     match e {
         Expr::Constant(c) => format!("const {}", constant(c)),
@@ -210,25 +247,7 @@ pub(crate) fn node(m: &Module, e: &Expr) -> String {
             UnaryOp::Neg => format!("neg {value}"),
             UnaryOp::Not => format!("not {value}"),
         },
-        Expr::Binary { op, lhs, rhs } => {
-            let op = match op {
-                BinaryOp::Add => "+",
-                BinaryOp::Sub => "-",
-                BinaryOp::Mul => "*",
-                BinaryOp::Div => "/",
-                BinaryOp::Pow => "^",
-                BinaryOp::Dot => "·",
-                BinaryOp::Lt => "<",
-                BinaryOp::Le => "≤",
-                BinaryOp::Gt => ">",
-                BinaryOp::Ge => "≥",
-                BinaryOp::Eq => "=",
-                BinaryOp::Ne => "≠",
-                BinaryOp::And => "and",
-                BinaryOp::Or => "or",
-            };
-            format!("{lhs} {op} {rhs}")
-        }
+        Expr::Binary { op, lhs, rhs } => format!("{lhs} {} {rhs}", binary_symbol(*op)),
         Expr::Combine { mode, lhs, rhs } => format!("{lhs} ⊕[{}] {rhs}", mode.as_str()),
         Expr::Math { fun, args } => format!("{}({})", fun.name(), list(args)),
         Expr::Swizzle { value, pattern, len, ty } => {

@@ -153,10 +153,12 @@ impl Module {
             && st.freq == Frequency::Texel
     }
 
+    /// What `valid::infer` found for node `h`: type, frequency, interval.
     pub fn info(&self, h: Handle<Expr>) -> &ExprInfo {
         &self.info[h.index()]
     }
 
+    /// The source span of node `h` (the first one, for a node shared by equal expressions).
     pub fn span(&self, h: Handle<Expr>) -> Span {
         self.exprs.arena().span(h)
     }
@@ -247,6 +249,7 @@ impl Module {
     }
 }
 
+/// A declared texture: a source image, a generated table, or a target statements render into.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Texture {
     pub name: String,
@@ -339,6 +342,7 @@ impl Sampling {
     };
 }
 
+/// A declared framebuffer and the channels it has (Pipeline Grammar's `C`).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Framebuffer {
     pub name: String,
@@ -346,6 +350,7 @@ pub struct Framebuffer {
     pub span: Span,
 }
 
+/// A shading vector (`N`, `L`, `H`, …): a vertex attribute by its role, or computed.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Vector {
     pub name: String,
@@ -365,6 +370,7 @@ pub struct TexCoordSet {
     pub generated: bool,
 }
 
+/// A per-object value the scene sets, with its type and declared default.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Uniform {
     pub name: String,
@@ -375,10 +381,15 @@ pub struct Uniform {
 
 /// An index into one of the module's resource lists.
 pub type TextureId = u32;
+/// An index into [`Module::framebuffers`].
 pub type FramebufferId = u32;
+/// An index into [`Module::vectors`].
 pub type VectorId = u32;
+/// An index into [`Module::uniforms`].
 pub type UniformId = u32;
+/// An index into [`Module::vertices`].
 pub type VertexId = u32;
+/// An index into [`Module::texcoord_sets`].
 pub type TexCoordId = u32;
 
 /// Value types (Pipeline Grammar, Figure 2's c is `rgb`).
@@ -409,6 +420,7 @@ impl Ty {
         }
     }
 
+    /// Whether the type is a colour (`rgb` or `rgba`), whose components read as `r g b a`.
     pub fn is_color(self) -> bool {
         matches!(self, Ty::Rgb | Ty::Rgba)
     }
@@ -418,6 +430,7 @@ impl Ty {
         !matches!(self, Ty::Position | Ty::Bundle(_))
     }
 
+    /// The type as the language writes it.
     pub fn name(self) -> String {
         match self {
             Ty::Scalar => "scalar".into(),
@@ -430,6 +443,7 @@ impl Ty {
         }
     }
 
+    /// The IR type of a type the source names.
     pub fn from_ast(ty: ast::Type) -> Ty {
         match ty {
             ast::Type::Scalar => Ty::Scalar,
@@ -462,6 +476,7 @@ pub enum Frequency {
 }
 
 impl Frequency {
+    /// Whether a value of this frequency is computed per sample (fragment, texel or pixel).
     pub fn is_sample(self) -> bool {
         self >= Frequency::Fragment
     }
@@ -478,6 +493,7 @@ impl Frequency {
         }
     }
 
+    /// The frequency as diagnostics and `--emit ir` name it.
     pub fn name(self) -> &'static str {
         match self {
             Frequency::Constant => "constant",
@@ -508,14 +524,19 @@ pub struct Interval {
 }
 
 impl Interval {
+    /// [0, 1]: what an unsigned 8-bit register holds.
     pub const UNSIGNED: Interval = Interval { lo: 0.0, hi: 1.0 };
+    /// [−1, 1]: what a signed register holds.
     pub const SIGNED: Interval = Interval { lo: -1.0, hi: 1.0 };
+    /// Every value: nothing known.
     pub const ALL: Interval = Interval { lo: f64::NEG_INFINITY, hi: f64::INFINITY };
 
+    /// The interval holding `v` only.
     pub fn point(v: f64) -> Interval {
         Interval { lo: v, hi: v }
     }
 
+    /// The narrowest register range the interval fits.
     pub fn class(self) -> Range {
         if self.lo >= 0.0 && self.hi <= 1.0 {
             Range::Unsigned
@@ -536,6 +557,7 @@ pub struct ExprInfo {
 }
 
 impl ExprInfo {
+    /// The register range the node's values fit.
     pub fn range(&self) -> Range {
         self.interval.class()
     }
@@ -550,10 +572,12 @@ pub struct Constant {
 }
 
 impl Constant {
+    /// A scalar constant.
     pub fn scalar(v: f64) -> Constant {
         Constant::new(Ty::Scalar, &[v])
     }
 
+    /// A constant of type `ty` from its components (−0 stored as +0).
     pub fn new(ty: Ty, values: &[f64]) -> Constant {
         let mut components = [0.0; 4];
         for (c, v) in components.iter_mut().zip(values) {
@@ -562,6 +586,7 @@ impl Constant {
         Constant { ty, components }
     }
 
+    /// The components the type has.
     pub fn values(&self) -> &[f64] {
         &self.components[..self.ty.width().min(4)]
     }
@@ -601,12 +626,14 @@ pub enum FbChannel {
     Stencil,
 }
 
+/// A unary operator of the IR.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum UnaryOp {
     Neg,
     Not,
 }
 
+/// A binary operator of the IR (`Dot` is `·`, comparisons give 0 or 1).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum BinaryOp {
     Add,
@@ -658,6 +685,7 @@ pub enum MathFunction {
 }
 
 impl MathFunction {
+    /// The function as the language spells it.
     pub fn name(self) -> &'static str {
         use MathFunction::*;
         match self {
@@ -834,6 +862,7 @@ impl Expr {
         e
     }
 
+    /// The node's operands, in `visit_operands` order.
     pub fn operands(&self) -> Vec<Handle<Expr>> {
         let mut v = Vec::new();
         self.visit_operands(|o| v.push(o));

@@ -37,14 +37,17 @@ impl<T: Clone> Default for Layered<T> {
 }
 
 impl<T: Clone> Layered<T> {
+    /// How many elements, over every layer and the tail.
     pub fn len(&self) -> usize {
         self.tail_start + self.tail.len()
     }
 
+    /// Whether there is no element.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
 
+    /// Element `i`, in whichever layer holds it.
     pub fn get(&self, i: usize) -> Option<&T> {
         if i >= self.tail_start {
             return self.tail.get(i - self.tail_start);
@@ -90,6 +93,7 @@ impl<T: Clone> Layered<T> {
         }
     }
 
+    /// The elements in order, layers first, then the tail.
     pub fn iter(&self) -> impl Iterator<Item = &T> + '_ {
         self.layers.iter().flat_map(|(_, l)| l.iter()).chain(self.tail.iter())
     }
@@ -186,6 +190,7 @@ impl<K, V> Default for LayeredMap<K, V> {
 }
 
 impl<K: Eq + Hash + Clone, V: Clone> LayeredMap<K, V> {
+    /// The value of `key`: the tail's, else the newest layer's that has it.
     pub fn get(&self, key: &K) -> Option<&V> {
         self.tail.get(key).or_else(|| self.layers.iter().rev().find_map(|l| l.get(key)))
     }

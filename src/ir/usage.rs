@@ -37,6 +37,7 @@ pub struct Usage {
 }
 
 impl Usage {
+    /// Texture units the statement needs: one per entry of `lookups`.
     pub fn texture_units(&self) -> usize {
         self.lookups.len()
     }
@@ -82,6 +83,7 @@ impl Usage {
         // Whether a node depends on a per-sample lookup, bottom-up (operands
         // precede users in the arena, and `reachable` is in arena order, so
         // an operand's entry is found by binary search among `nodes`).
+        #[allow(clippy::expect_used)] // `reachable` includes every operand of a node it reaches
         let at = |o: Handle<Expr>| nodes.binary_search(&o).expect("an operand of a reached node is reached");
         let mut on_lookup: Vec<bool> = Vec::with_capacity(nodes.len());
         for &h in nodes {

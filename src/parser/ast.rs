@@ -27,6 +27,7 @@ pub struct Poisoned {
     pub name: Name,
 }
 
+/// One top-level item: a declaration or a statement, with its comments.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Item {
     pub kind: ItemKind,
@@ -62,6 +63,7 @@ pub struct LineComments {
     pub trailing: Option<String>,
 }
 
+/// What a top-level item declares or states.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ItemKind {
     Target(TargetDecl),
@@ -140,6 +142,7 @@ pub struct VectorDecl {
     pub value: Option<Expr>,
 }
 
+/// What a vertex-attribute vector is: its kind, light index and space.
 #[derive(Clone, Debug, PartialEq)]
 pub struct VectorRole {
     pub kind: Word<VectorKind>,
@@ -193,6 +196,7 @@ pub struct ShaderDecl {
     pub block: bool,
 }
 
+/// A shader parameter: its name, type and default.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ShaderParam {
     pub name: Name,
@@ -217,12 +221,14 @@ pub struct Target {
     pub span: Span,
 }
 
+/// An expression of the language, with its source span.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Expr {
     pub kind: ExprKind,
     pub span: Span,
 }
 
+/// The forms of an expression.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ExprKind {
     Number(f64),
@@ -270,6 +276,7 @@ pub struct Func {
     pub span: Span,
 }
 
+/// What an application applies: δ, a projection, a channel or a name.
 #[derive(Clone, Debug, PartialEq)]
 pub enum FuncKind {
     /// δ: rasterization — interpolate across the primitive, then sample.
@@ -281,6 +288,7 @@ pub enum FuncKind {
     Name(Name),
 }
 
+/// A projection π and its decorations.
 #[derive(Clone, Debug, PartialEq, Eq, Default)]
 pub struct Projection {
     /// `l` in πl (the light's projection), `R` in πR (spheremap texgen).
@@ -291,6 +299,7 @@ pub struct Projection {
     pub inverse: bool,
 }
 
+/// A framebuffer channel other than colour (α, z, σ).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Channel {
     Alpha,
@@ -298,12 +307,14 @@ pub enum Channel {
     Stencil,
 }
 
+/// A prefix operator: `-` or `not`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum UnaryOp {
     Neg,
     Not,
 }
 
+/// An infix operator.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum BinaryOp {
     Or,
@@ -335,6 +346,7 @@ macro_rules! words {
             /// Every canonical spelling, for "expected one of" and suggestions.
             pub const ALL: &'static [&'static str] = &[$($canon),+];
 
+            /// The value a word (canonical or an alias) names.
             pub fn from_word(word: &str) -> Option<$name> {
                 match word {
                     $($canon $(| $alias)* => Some($name::$variant),)+
@@ -342,6 +354,7 @@ macro_rules! words {
                 }
             }
 
+            /// The canonical spelling.
             pub fn as_str(self) -> &'static str {
                 match self { $($name::$variant => $canon),+ }
             }
@@ -491,6 +504,7 @@ impl Expr {
 /// Span erasure, so two trees can be compared for structure alone (the
 /// printer round trip: print, re-parse, compare).
 impl Program {
+    /// Every span of the program set to [`Span::DETACHED`].
     pub fn erase_spans(&mut self) {
         for item in &mut self.items {
             item.erase_spans();
@@ -499,43 +513,32 @@ impl Program {
 }
 
 impl Item {
+    /// The item with every span [`Span::DETACHED`]: for trees compared by
+    /// their content, or made by the compiler (`bake`), with no position.
     pub fn erase_spans(&mut self) {
         self.span = Span::DETACHED;
         let names = |names: &mut Vec<Name>| names.iter_mut().for_each(|n| n.span = Span::DETACHED);
-        fn word<T>(w: &mut Word<T>) {
-            w.span = Span::DETACHED;
-        }
-        fn opt_word<T>(w: &mut Option<Word<T>>) {
-            if let Some(w) = w {
-                w.span = Span::DETACHED;
-            }
-        }
-        fn opt_expr(e: &mut Option<Expr>) {
-            if let Some(e) = e {
-                e.erase_spans();
-            }
-        }
         match &mut self.kind {
-            ItemKind::Target(t) => word(&mut t.profile),
+            ItemKind::Target(t) => detach_word(&mut t.profile),
             ItemKind::Texture(t) => {
                 names(&mut t.names);
-                word(&mut t.kind);
-                opt_word(&mut t.format);
-                t.attrs.iter_mut().for_each(word);
-                opt_expr(&mut t.source);
+                detach_word(&mut t.kind);
+                detach_opt_word(&mut t.format);
+                t.attrs.iter_mut().for_each(detach_word);
+                detach_opt_expr(&mut t.source);
             }
             ItemKind::Framebuffer(f) => {
                 names(&mut f.names);
-                f.channels.iter_mut().for_each(word);
+                f.channels.iter_mut().for_each(detach_word);
             }
             ItemKind::Vector(v) => {
                 names(&mut v.names);
                 if let Some(r) = &mut v.role {
-                    word(&mut r.kind);
-                    opt_word(&mut r.index);
-                    opt_word(&mut r.space);
+                    detach_word(&mut r.kind);
+                    detach_opt_word(&mut r.index);
+                    detach_opt_word(&mut r.space);
                 }
-                opt_expr(&mut v.value);
+                detach_opt_expr(&mut v.value);
             }
             ItemKind::Params(p) => {
                 p.name.span = Span::DETACHED;
@@ -543,13 +546,13 @@ impl Item {
             }
             ItemKind::Const(c) => {
                 c.name.span = Span::DETACHED;
-                opt_word(&mut c.ty);
+                detach_opt_word(&mut c.ty);
                 c.value.erase_spans();
             }
             ItemKind::Uniform(u) => {
                 u.name.span = Span::DETACHED;
-                opt_word(&mut u.ty);
-                opt_expr(&mut u.default);
+                detach_opt_word(&mut u.ty);
+                detach_opt_expr(&mut u.default);
             }
             ItemKind::Let(l) => {
                 l.name.span = Span::DETACHED;
@@ -558,11 +561,11 @@ impl Item {
             ItemKind::Shader(s) => {
                 s.name.span = Span::DETACHED;
                 s.input.span = Span::DETACHED;
-                word(&mut s.output);
+                detach_word(&mut s.output);
                 for p in &mut s.params {
                     p.name.span = Span::DETACHED;
-                    opt_word(&mut p.ty);
-                    opt_expr(&mut p.default);
+                    detach_opt_word(&mut p.ty);
+                    detach_opt_expr(&mut p.default);
                 }
                 for l in &mut s.lets {
                     l.name.span = Span::DETACHED;
@@ -574,7 +577,7 @@ impl Item {
                 let t = &mut st.target;
                 t.span = Span::DETACHED;
                 t.table.span = Span::DETACHED;
-                opt_word(&mut t.channel);
+                detach_opt_word(&mut t.channel);
                 t.index.erase_spans();
                 st.value.erase_spans();
             }
@@ -582,7 +585,27 @@ impl Item {
     }
 }
 
+/// `w` without its span.
+fn detach_word<T>(w: &mut Word<T>) {
+    w.span = Span::DETACHED;
+}
+
+/// `w`, if present, without its span.
+fn detach_opt_word<T>(w: &mut Option<Word<T>>) {
+    if let Some(w) = w {
+        w.span = Span::DETACHED;
+    }
+}
+
+/// `e`, if present, without its spans.
+fn detach_opt_expr(e: &mut Option<Expr>) {
+    if let Some(e) = e {
+        e.erase_spans();
+    }
+}
+
 impl Expr {
+    /// Every span of the expression set to [`Span::DETACHED`].
     pub fn erase_spans(&mut self) {
         self.span = Span::DETACHED;
         match &mut self.kind {

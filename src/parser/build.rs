@@ -38,6 +38,9 @@ struct Chain {
     terms: Vec<Deep>,
 }
 
+/// Builds the AST of one top-level item from its parse tree; `offset` is
+/// the item's byte offset in the file, added to every span.
+#[allow(clippy::expect_used)] // the grammar's `item` rule always has one child, a declaration or statement
 pub fn item(pair: Pair<'_, Rule>, offset: usize) -> Result<Item, Errors> {
     let mut b = Builder { offset, errors: Vec::new() };
     let children: Vec<Pair<'_, Rule>> = pair.into_inner().filter(|p| p.as_rule() != Rule::EOI).collect();
@@ -529,6 +532,7 @@ impl Builder {
         let span = args.iter().fold(op_span, |s, d| s.join(d.expr.span));
         self.check_depth(depth, span)?;
         let mut args = args.drain(..).map(|d| Box::new(d.expr));
+        #[allow(clippy::expect_used)] // `args` holds the operator's arity, checked by the grammar
         let mut next = || args.next().expect("arity checked");
         let kind = match op {
             Op::Prefix(op) => ExprKind::Unary { op, operand: next() },

@@ -6,6 +6,7 @@ use std::fmt::Write as _;
 
 use super::ast::*;
 
+/// How the printer writes the notation's symbols: `δ ← →` or their ASCII forms.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Style {
     Unicode,
@@ -41,6 +42,7 @@ pub fn program(p: &Program, style: Style) -> String {
     out
 }
 
+/// Prints one top-level item canonically, in `style`.
 pub fn item(item: &Item, style: Style) -> String {
     let pr = Printer { style };
     let mut s = String::new();
@@ -101,58 +103,62 @@ pub fn item(item: &Item, style: Style) -> String {
         ItemKind::Let(l) => {
             let _ = write!(s, "let {} = {};", pr.name(&l.name), pr.expr(&l.value));
         }
-        ItemKind::Shader(sh) => {
-            let _ = write!(s, "shader {}", pr.name(&sh.name));
-            if !sh.params.is_empty() {
-                let params: Vec<String> = sh
-                    .params
-                    .iter()
-                    .map(|p| {
-                        let mut t = pr.name(&p.name);
-                        if let Some(ty) = &p.ty {
-                            let _ = write!(t, ": {}", ty.value.as_str());
-                        }
-                        if let Some(d) = &p.default {
-                            let _ = write!(t, " = {}", pr.expr(d));
-                        }
-                        t
-                    })
-                    .collect();
-                let _ = write!(s, "({})", params.join(", "));
-            }
-            let arrow = if style == Style::Unicode { "→" } else { "->" };
-            let _ = write!(s, " : {} {arrow} {}", pr.name(&sh.input), sh.output.value.as_str());
-            if sh.block {
-                s.push_str(" {\n");
-                let lines =
-                    sh.lets.iter().map(|l| format!("let {} = {};", pr.name(&l.name), pr.expr(&l.value)));
-                let no_comments = LineComments::default();
-                let comments = |k: usize| item.comments.block.get(k).unwrap_or(&no_comments);
-                for (k, line) in lines.chain([pr.expr(&sh.body)]).enumerate() {
-                    let c = comments(k);
-                    for lead in &c.leading {
-                        let _ = writeln!(s, "    {lead}");
-                    }
-                    let _ = write!(s, "    {line}");
-                    if let Some(t) = &c.trailing {
-                        let _ = write!(s, "  {t}");
-                    }
-                    s.push('\n');
-                }
-                for lead in &comments(sh.lets.len() + 1).leading {
-                    let _ = writeln!(s, "    {lead}");
-                }
-                s.push('}');
-            } else {
-                let _ = write!(s, " = {};", pr.expr(&sh.body));
-            }
-        }
+        ItemKind::Shader(sh) => shader(&mut s, &pr, item, sh),
         ItemKind::Statement(st) => {
             let assign = if style == Style::Unicode { "←" } else { "<-" };
             let _ = write!(s, "{} {assign} {};", pr.target(&st.target), pr.expr(&st.value));
         }
     }
     s
+}
+
+/// A `shader` declaration: its parameters, its type, and its body, a block
+/// of `let`s with the item's comments in place, or one expression.
+fn shader(s: &mut String, pr: &Printer, item: &Item, sh: &ShaderDecl) {
+    let style = pr.style;
+    let _ = write!(s, "shader {}", pr.name(&sh.name));
+    if !sh.params.is_empty() {
+        let params: Vec<String> = sh
+            .params
+            .iter()
+            .map(|p| {
+                let mut t = pr.name(&p.name);
+                if let Some(ty) = &p.ty {
+                    let _ = write!(t, ": {}", ty.value.as_str());
+                }
+                if let Some(d) = &p.default {
+                    let _ = write!(t, " = {}", pr.expr(d));
+                }
+                t
+            })
+            .collect();
+        let _ = write!(s, "({})", params.join(", "));
+    }
+    let arrow = if style == Style::Unicode { "→" } else { "->" };
+    let _ = write!(s, " : {} {arrow} {}", pr.name(&sh.input), sh.output.value.as_str());
+    if sh.block {
+        s.push_str(" {\n");
+        let lines = sh.lets.iter().map(|l| format!("let {} = {};", pr.name(&l.name), pr.expr(&l.value)));
+        let no_comments = LineComments::default();
+        let comments = |k: usize| item.comments.block.get(k).unwrap_or(&no_comments);
+        for (k, line) in lines.chain([pr.expr(&sh.body)]).enumerate() {
+            let c = comments(k);
+            for lead in &c.leading {
+                let _ = writeln!(s, "    {lead}");
+            }
+            let _ = write!(s, "    {line}");
+            if let Some(t) = &c.trailing {
+                let _ = write!(s, "  {t}");
+            }
+            s.push('\n');
+        }
+        for lead in &comments(sh.lets.len() + 1).leading {
+            let _ = writeln!(s, "    {lead}");
+        }
+        s.push('}');
+    } else {
+        let _ = write!(s, " = {};", pr.expr(&sh.body));
+    }
 }
 
 /// Prints one expression canonically.

@@ -175,6 +175,7 @@ pub enum Entity {
 }
 
 impl Entity {
+    /// The kind of entity, as diagnostics name it.
     pub fn describe(self) -> &'static str {
         match self {
             Entity::Texture => "texture",
@@ -223,41 +224,13 @@ struct Resolver {
     suggester: Option<Suggester>,
 }
 
+/// Resolves every name of `program`: declarations first, then uses, then warnings for what is never used.
 pub fn resolve(program: &Program) -> Vec<Diagnostic> {
     let mut r = Resolver::default();
     let mut target: Option<Span> = None;
     for item in &program.items {
         match &item.kind {
-            ItemKind::Target(t) => {
-                if let Some(first) = target {
-                    r.diagnostics.push(
-                        Diagnostic::error(
-                            "duplicate-target",
-                            "the target profile is chosen twice",
-                            t.profile.span,
-                            "second choice",
-                        )
-                        .with_label(first, "first chosen here")
-                        .with_help("keep one `target` line, or choose on the command line with `--target`"),
-                    );
-                }
-                target = Some(t.profile.span);
-                if !PROFILES.contains(&t.profile.value.as_str()) {
-                    let help = match did_you_mean(&t.profile.value, PROFILES.iter().copied()) {
-                        Some(s) => format!("did you mean `{s}`? (profiles: {})", PROFILES.join(", ")),
-                        None => format!("the profiles are: {}", PROFILES.join(", ")),
-                    };
-                    r.diagnostics.push(
-                        Diagnostic::error(
-                            "unknown-profile",
-                            format!("unknown target profile `{}`", t.profile.value),
-                            t.profile.span,
-                            "no such profile",
-                        )
-                        .with_help(help),
-                    );
-                }
-            }
+            ItemKind::Target(t) => r.choose_target(t, &mut target),
             ItemKind::Texture(t) => t.names.iter().for_each(|n| r.declare(n, Entity::Texture)),
             ItemKind::Framebuffer(f) => f.names.iter().for_each(|n| r.declare(n, Entity::Framebuffer)),
             ItemKind::Vector(v) => v.names.iter().for_each(|n| r.declare(n, Entity::Vector)),
@@ -271,48 +244,93 @@ pub fn resolve(program: &Program) -> Vec<Diagnostic> {
     }
     r.declare_poisoned(&program.poisoned);
     for item in &program.items {
+        r.use_item(item);
+    }
+    r.warn_unused();
+    r.diagnostics
+}
+
+impl Resolver {
+    /// A `target` line: at most one, naming a known profile; `target` is
+    /// where the first one chose.
+    fn choose_target(&mut self, t: &TargetDecl, target: &mut Option<Span>) {
+        if let Some(first) = *target {
+            self.diagnostics.push(
+                Diagnostic::error(
+                    "duplicate-target",
+                    "the target profile is chosen twice",
+                    t.profile.span,
+                    "second choice",
+                )
+                .with_label(first, "first chosen here")
+                .with_help("keep one `target` line, or choose on the command line with `--target`"),
+            );
+        }
+        *target = Some(t.profile.span);
+        if !PROFILES.contains(&t.profile.value.as_str()) {
+            let help = match did_you_mean(&t.profile.value, PROFILES.iter().copied()) {
+                Some(s) => format!("did you mean `{s}`? (profiles: {})", PROFILES.join(", ")),
+                None => format!("the profiles are: {}", PROFILES.join(", ")),
+            };
+            self.diagnostics.push(
+                Diagnostic::error(
+                    "unknown-profile",
+                    format!("unknown target profile `{}`", t.profile.value),
+                    t.profile.span,
+                    "no such profile",
+                )
+                .with_help(help),
+            );
+        }
+    }
+
+    /// Resolves the names an item uses (every declaration is known by now).
+    fn use_item(&mut self, item: &Item) {
         match &item.kind {
             ItemKind::Target(_) | ItemKind::Framebuffer(_) => {}
             ItemKind::Texture(t) => {
                 if let Some(src) = &t.source {
-                    r.expr(src, &[], true);
+                    self.expr(src, &[], true);
                 }
             }
             ItemKind::Vector(v) => {
                 if let Some(value) = &v.value {
-                    r.expr(value, &[], false);
+                    self.expr(value, &[], false);
                 }
             }
-            ItemKind::Params(p) => p.members.iter().for_each(|m| r.use_name(m, &[], false)),
-            ItemKind::Const(c) => r.expr(&c.value, &[], false),
+            ItemKind::Params(p) => p.members.iter().for_each(|m| self.use_name(m, &[], false)),
+            ItemKind::Const(c) => self.expr(&c.value, &[], false),
             ItemKind::Uniform(u) => {
                 if let Some(d) = &u.default {
-                    r.expr(d, &[], false);
+                    self.expr(d, &[], false);
                 }
             }
-            ItemKind::Let(l) => r.expr(&l.value, &[], false),
-            ItemKind::Shader(s) => r.shader(s),
+            ItemKind::Let(l) => self.expr(&l.value, &[], false),
+            ItemKind::Shader(s) => self.shader(s),
             ItemKind::Statement(st) => {
-                r.target(&st.target);
-                r.expr(&st.value, &[], false);
+                self.target(&st.target);
+                self.expr(&st.value, &[], false);
             }
         }
     }
-    for key in &r.order {
-        let d = &r.globals[key];
-        if !d.used && d.entity != Entity::Framebuffer {
-            r.diagnostics.push(
-                Diagnostic::warning(
-                    "unused",
-                    format!("{} `{key}` is never used", d.entity.describe()),
-                    d.span,
-                    "declared here",
-                )
-                .with_help("remove the declaration, or use it in a statement"),
-            );
+
+    /// Warns at each declaration nothing uses (framebuffers excepted).
+    fn warn_unused(&mut self) {
+        for key in &self.order {
+            let d = &self.globals[key];
+            if !d.used && d.entity != Entity::Framebuffer {
+                self.diagnostics.push(
+                    Diagnostic::warning(
+                        "unused",
+                        format!("{} `{key}` is never used", d.entity.describe()),
+                        d.span,
+                        "declared here",
+                    )
+                    .with_help("remove the declaration, or use it in a statement"),
+                );
+            }
         }
     }
-    r.diagnostics
 }
 
 impl Resolver {

@@ -10,7 +10,9 @@ use crate::span::Span;
 
 use super::MAX_NESTING;
 
+/// One top-level item's text, before parsing, with how it was cut.
 pub struct Piece {
+    /// The item's byte range in the source.
     pub range: Range<usize>,
     /// Set when the piece cannot be parsed at all (nesting too deep).
     pub error: Option<Diagnostic>,
@@ -74,6 +76,9 @@ fn ends_complete(text: &str) -> bool {
         .is_some_and(|c| c.is_alphanumeric() || matches!(c, ')' | ']' | '\'' | '′' | '"' | '_'))
 }
 
+/// Splits a source file into its top-level items, without parsing them:
+/// at `;` and closing `}` outside brackets, and, to recover, at a line
+/// break before what surely starts a new item.
 pub fn split_items(source: &str) -> Vec<Piece> {
     let bytes = source.as_bytes();
     let mut pieces = Vec::new();
@@ -85,20 +90,10 @@ pub fn split_items(source: &str) -> Vec<Piece> {
     let mut i = 0;
     while i < bytes.len() {
         match bytes[i] {
-            b'"' => {
-                i += 1;
-                while i < bytes.len() && bytes[i] != b'"' && bytes[i] != b'\n' {
-                    i += if bytes[i] == b'\\' { 2 } else { 1 };
-                }
-            }
+            b'"' => i = skip_string(bytes, i),
             b'#' => i = skip_line(bytes, i),
             b'/' if bytes.get(i + 1) == Some(&b'/') => i = skip_line(bytes, i),
-            b'/' if bytes.get(i + 1) == Some(&b'*') => {
-                i = match source[i + 2..].find("*/") {
-                    Some(end) => i + 2 + end + 1,
-                    None => bytes.len(),
-                };
-            }
+            b'/' if bytes.get(i + 1) == Some(&b'*') => i = skip_block_comment(source, i),
             open @ (b'(' | b'[' | b'{') => {
                 if depth == 0 && open == b'{' {
                     brace_open_at_top = true;
@@ -106,15 +101,7 @@ pub fn split_items(source: &str) -> Vec<Piece> {
                 braces += usize::from(open == b'{');
                 depth += 1;
                 if depth > MAX_NESTING && error.is_none() {
-                    error = Some(
-                        Diagnostic::error(
-                            "nesting-too-deep",
-                            format!("brackets nest more than {MAX_NESTING} levels deep"),
-                            Span::new(i, i + 1),
-                            format!("level {} opens here", MAX_NESTING + 1),
-                        )
-                        .with_help("split the expression with `let` bindings; no shading expression needs this depth"),
-                    );
+                    error = Some(nesting_too_deep(i));
                 }
             }
             b')' | b']' | b'}' => {
@@ -168,18 +155,53 @@ pub fn split_items(source: &str) -> Vec<Piece> {
         i += 1;
     }
     if start < bytes.len() || error.is_some() {
-        // The last item without its `;`, complete otherwise: the same
-        // recovery, where white space follows it (the added `;` then lies
-        // within the source, as every span must).
-        let rest = &source[start..];
-        let missing_semicolon = error.is_none()
-            && depth == 0
-            && next_significant(source, start).is_some()
-            && ends_complete(rest)
-            && rest.trim_end().len() < rest.len();
-        pieces.push(Piece { range: start..bytes.len(), error, missing_semicolon, broken_line: false });
+        pieces.push(last_piece(source, start, depth, error));
     }
     pieces
+}
+
+/// The piece from `start` to the end of the source. The last item without
+/// its `;`, complete otherwise, gets the same recovery as one followed by
+/// another item, where white space follows it (the added `;` then lies
+/// within the source, as every span must).
+fn last_piece(source: &str, start: usize, depth: usize, error: Option<Diagnostic>) -> Piece {
+    let rest = &source[start..];
+    let missing_semicolon = error.is_none()
+        && depth == 0
+        && next_significant(source, start).is_some()
+        && ends_complete(rest)
+        && rest.trim_end().len() < rest.len();
+    Piece { range: start..source.len(), error, missing_semicolon, broken_line: false }
+}
+
+/// The error for a bracket opened at byte `i`, one level past [`MAX_NESTING`].
+fn nesting_too_deep(i: usize) -> Diagnostic {
+    Diagnostic::error(
+        "nesting-too-deep",
+        format!("brackets nest more than {MAX_NESTING} levels deep"),
+        Span::new(i, i + 1),
+        format!("level {} opens here", MAX_NESTING + 1),
+    )
+    .with_help("split the expression with `let` bindings; no shading expression needs this depth")
+}
+
+/// The index of the closing quote of the string opening at `i` (or of the
+/// line's end: a string does not span lines).
+fn skip_string(bytes: &[u8], mut i: usize) -> usize {
+    i += 1;
+    while i < bytes.len() && bytes[i] != b'"' && bytes[i] != b'\n' {
+        i += if bytes[i] == b'\\' { 2 } else { 1 };
+    }
+    i
+}
+
+/// The index of the `/` closing the block comment opening at `i`, or the
+/// source's end when it is not closed.
+fn skip_block_comment(source: &str, i: usize) -> usize {
+    match source[i + 2..].find("*/") {
+        Some(end) => i + 2 + end + 1,
+        None => source.len(),
+    }
 }
 
 fn skip_line(bytes: &[u8], mut i: usize) -> usize {

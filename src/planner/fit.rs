@@ -169,7 +169,7 @@ impl ProfileFit<'_> {
                     at: Some(h),
                     help: None,
                 })?;
-                let have = 6 * c.general_combiners as usize + 8;
+                let have = 6 * c.general_combiners + 8;
                 if ops > have {
                     over(
                         "combiner operations (at most six per general combiner, eight in the final one)",

@@ -189,7 +189,43 @@ impl Validator<'_> {
         }
     }
 
+    /// One portion of general stage `s` against Appendix B's rules.
     fn portion(&mut self, s: usize, kind: PortionKind, p: &GeneralPortion) {
+        self.portion_inputs(s, kind, p);
+        if kind == PortionKind::Alpha && !self.limits.alpha_dot_products {
+            for (dot, slot) in [(p.ab_dot, OutputSlot::Ab), (p.cd_dot, OutputSlot::Cd)] {
+                if dot {
+                    self.error(
+                        "dot-in-alpha",
+                        Place::Output(s, kind, slot),
+                        "dot products exist only in the RGB portion",
+                        "compute the dot product in the RGB portion and read its result's blue or alpha (or pass `--permissive` to run NV2A's alpha dot product, the product of the two inputs)",
+                    );
+                }
+            }
+        }
+        if (p.ab_dot || p.cd_dot) && p.sum_output.is_some() {
+            self.error(
+                "dot-with-sum",
+                Place::Output(s, kind, OutputSlot::Sum),
+                "a dot product output forbids the sum/mux output",
+                "discard the sum/mux output (`discard = sum();` or leave it out), or use products instead of dots",
+            );
+        }
+        self.portion_outputs(s, kind, p);
+        if p.bias == Bias::NegativeOneHalf && matches!(p.scale, Scale::OneHalf | Scale::Four) {
+            self.error(
+                "bias-with-scale",
+                Place::ScaleBias(s, kind),
+                "bias by −½ cannot be combined with scale by ½ or 4",
+                "use the bias with scale 1 or 2 (`bias_by_negative_one_half_scale_by_two()`), or drop the bias",
+            );
+        }
+    }
+
+    /// The inputs of one portion: their registers readable, their
+    /// component usage allowed in the portion (Kilgard 2000, Appendix B).
+    fn portion_inputs(&mut self, s: usize, kind: PortionKind, p: &GeneralPortion) {
         for (var, input) in p.inputs() {
             let place = Place::Input(s, kind, var);
             self.register(place, input.register);
@@ -217,26 +253,10 @@ impl Validator<'_> {
                 );
             }
         }
-        if kind == PortionKind::Alpha && !self.limits.alpha_dot_products {
-            for (dot, slot) in [(p.ab_dot, OutputSlot::Ab), (p.cd_dot, OutputSlot::Cd)] {
-                if dot {
-                    self.error(
-                        "dot-in-alpha",
-                        Place::Output(s, kind, slot),
-                        "dot products exist only in the RGB portion",
-                        "compute the dot product in the RGB portion and read its result's blue or alpha (or pass `--permissive` to run NV2A's alpha dot product, the product of the two inputs)",
-                    );
-                }
-            }
-        }
-        if (p.ab_dot || p.cd_dot) && p.sum_output.is_some() {
-            self.error(
-                "dot-with-sum",
-                Place::Output(s, kind, OutputSlot::Sum),
-                "a dot product output forbids the sum/mux output",
-                "discard the sum/mux output (`discard = sum();` or leave it out), or use products instead of dots",
-            );
-        }
+    }
+
+    /// The outputs of one portion: writable registers, none written twice.
+    fn portion_outputs(&mut self, s: usize, kind: PortionKind, p: &GeneralPortion) {
         let outputs =
             [(OutputSlot::Ab, p.ab_output), (OutputSlot::Cd, p.cd_output), (OutputSlot::Sum, p.sum_output)];
         for (i, (slot, out)) in outputs.iter().enumerate() {
@@ -264,14 +284,6 @@ impl Validator<'_> {
                     "each output of a portion needs its own register (several may be discarded)",
                 );
             }
-        }
-        if p.bias == Bias::NegativeOneHalf && matches!(p.scale, Scale::OneHalf | Scale::Four) {
-            self.error(
-                "bias-with-scale",
-                Place::ScaleBias(s, kind),
-                "bias by −½ cannot be combined with scale by ½ or 4",
-                "use the bias with scale 1 or 2 (`bias_by_negative_one_half_scale_by_two()`), or drop the bias",
-            );
         }
     }
 

@@ -1,5 +1,4 @@
-//! The WGSL backend: pass plans as WGSL through naga, and a
-//! headless wgpu runner that renders them offscreen.
+//! The WGSL backend: pass plans as WGSL through naga.
 //!
 //! - `codegen`: one `naga::Module` per pass of a plan (vertex entry point
 //!   `vs_main`, fragment entry point `fs_main`), following
@@ -9,6 +8,8 @@
 //! - `rc1`: legacy `!!RC1.0` combiner setups as WGSL, bit-exact with the
 //!   fixed9 emulator (`shadec translate`); `ts1`: with a `!!TS1.0` texture
 //!   shader in front, its stages too.
+//! - `validate`: naga validation, one validator for every module above and
+//!   for the runner.
 //!
 //! Running the modules on wgpu is the executor `crate::gpu`'s work.
 
@@ -16,5 +17,6 @@ pub mod codegen;
 pub mod emit;
 pub mod rc1;
 pub mod ts1;
+pub mod validate;
 
 pub use codegen::{generate, PassShader, FRAGMENT_ENTRY, VERTEX_ENTRY};

@@ -120,14 +120,8 @@ pub fn translate(config: &CombinerConfig, title: &str) -> Result<String, String>
     );
     let _ = writeln!(w, "}}");
     // A compiler bug if naga rejects it.
-    let module = naga::front::wgsl::parse_str(&s).map_err(|e| {
-        format!("compiler bug: the translated shader does not parse:\n{}", e.emit_to_string(&s))
-    })?;
-    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default())
-        .validate(&module)
-        .map_err(|e| {
-            format!("compiler bug: the translated shader does not validate:\n{}", e.emit_to_string(&s))
-        })?;
+    super::validate::parse_and_validate(&s)
+        .map_err(|e| format!("compiler bug: the translated shader {e}"))?;
     Ok(s)
 }
 

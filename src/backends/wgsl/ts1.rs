@@ -179,14 +179,8 @@ pub fn translate(config: &CombinerConfig, program: &TextureShader, title: &str) 
         "    return {COMBINERS_FUNCTION}(ts.tex0, ts.tex1, ts.tex2, ts.tex3, texel(primary_image, p), texel(secondary_image, p), uniforms.constant0, uniforms.constant1, uniforms.fog);"
     );
     let _ = writeln!(w, "}}");
-    let module = naga::front::wgsl::parse_str(&s).map_err(|e| {
-        format!("compiler bug: the translated shader does not parse:\n{}", e.emit_to_string(&s))
-    })?;
-    naga::valid::Validator::new(naga::valid::ValidationFlags::all(), naga::valid::Capabilities::default())
-        .validate(&module)
-        .map_err(|e| {
-            format!("compiler bug: the translated shader does not validate:\n{}", e.emit_to_string(&s))
-        })?;
+    super::validate::parse_and_validate(&s)
+        .map_err(|e| format!("compiler bug: the translated shader {e}"))?;
     Ok(s)
 }
 

@@ -161,6 +161,7 @@ pub struct Evaluator<'m> {
 }
 
 impl<'m> Evaluator<'m> {
+    /// An evaluator of the nodes below `roots`, in the arithmetic of `precision`.
     pub fn new(module: &'m Module, roots: &[Handle<Expr>], precision: Precision) -> Evaluator<'m> {
         let n = module.exprs.len();
         let mut reach = vec![false; n];
@@ -236,6 +237,7 @@ impl<'m> Evaluator<'m> {
         }
     }
 
+    /// The arithmetic the evaluator models.
     pub fn precision(&self) -> Precision {
         self.precision
     }
@@ -335,6 +337,7 @@ impl<'m> Evaluator<'m> {
         self.steps.len()
     }
 
+    /// Whether one sample evaluates no node.
     pub fn is_empty(&self) -> bool {
         self.steps.is_empty()
     }

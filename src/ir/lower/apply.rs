@@ -190,39 +190,45 @@ impl<'a> Lowerer<'a> {
                 self.unsupported(format!("applying `{key}` to a value"), n.span);
                 Err(())
             }
-            None => match resolve::family(n) {
-                Some(Entity::Params) => {
-                    let a = self.lower_expr(arg)?;
-                    let members = self.all_vectors();
-                    self.params_at(members, a, arg.span)
-                }
-                Some(Entity::TexCoords) => {
-                    let set = self.texcoord_id(n);
-                    match self.lower_expr(arg)? {
-                        Value::Vertex(x) => {
-                            self.append(Expr::TexCoord { set, vertex: x }, span).map(Value::Expr)
-                        }
-                        _ => {
-                            self.error(
-                                "type-mismatch",
-                                format!("`{key}` is indexed by a vertex"),
-                                arg.span,
-                                "not a vertex",
-                                format!("write `{key} x`"),
-                            );
-                            Err(())
-                        }
+            None => self.apply_undeclared(n, arg, span),
+        }
+    }
+
+    /// `n arg` for a name nothing declares: a name of a family the language
+    /// knows by its letter (parameter vectors, texture coordinates,
+    /// framebuffers), or an error.
+    fn apply_undeclared(&mut self, n: &'a ast::Name, arg: &'a ast::Expr, span: Span) -> Res<Value> {
+        let key = n.key();
+        match resolve::family(n) {
+            Some(Entity::Params) => {
+                let a = self.lower_expr(arg)?;
+                let members = self.all_vectors();
+                self.params_at(members, a, arg.span)
+            }
+            Some(Entity::TexCoords) => {
+                let set = self.texcoord_id(n);
+                match self.lower_expr(arg)? {
+                    Value::Vertex(x) => self.append(Expr::TexCoord { set, vertex: x }, span).map(Value::Expr),
+                    _ => {
+                        self.error(
+                            "type-mismatch",
+                            format!("`{key}` is indexed by a vertex"),
+                            arg.span,
+                            "not a vertex",
+                            format!("write `{key} x`"),
+                        );
+                        Err(())
                     }
                 }
-                Some(Entity::Framebuffer) => {
-                    let id = self.framebuffer_id(n, Vec::new());
-                    self.framebuffer_read(id, arg, span)
-                }
-                _ => {
-                    self.unsupported(format!("applying `{key}`"), n.span);
-                    Err(())
-                }
-            },
+            }
+            Some(Entity::Framebuffer) => {
+                let id = self.framebuffer_id(n, Vec::new());
+                self.framebuffer_read(id, arg, span)
+            }
+            _ => {
+                self.unsupported(format!("applying `{key}`"), n.span);
+                Err(())
+            }
         }
     }
 

@@ -10,114 +10,16 @@ impl<'a> Lowerer<'a> {
     pub(super) fn declare(&mut self, item: &'a ast::Item) {
         match &item.kind {
             ItemKind::Target(t) => self.module.target = Some(t.profile.clone()),
-            ItemKind::Texture(t) => {
-                for n in &t.names {
-                    let id = self.module.textures.len() as u32;
-                    self.module.textures.push(Texture {
-                        name: n.key(),
-                        kind: t.kind.value,
-                        format: t.format.as_ref().map_or(ast::TextureFormat::Rgba8, |f| f.value),
-                        rendered: t.source.is_none(),
-                        baked: t.source.as_ref().is_some_and(is_bake),
-                        declaration: None,
-                        copy_of: None,
-                        tabulates: t.source.as_ref().and_then(tabulated),
-                        sampling: super::super::Sampling::of(
-                            t.kind.value,
-                            &t.attrs.iter().map(|a| a.value).collect::<Vec<_>>(),
-                        ),
-                        span: n.span,
-                    });
-                    self.globals.insert(n.key(), Global::Texture(id));
-                }
-            }
+            ItemKind::Texture(t) => self.declare_textures(t),
             ItemKind::Framebuffer(f) => {
                 for n in &f.names {
                     self.framebuffer_id(n, f.channels.iter().map(|c| c.value).collect());
                 }
             }
-            ItemKind::Vector(v) => {
-                for n in &v.names {
-                    let id = self.module.vectors.len() as u32;
-                    self.module.vectors.push(Vector {
-                        name: n.key(),
-                        kind: v.role.as_ref().map(|r| r.kind.value),
-                        index: v.role.as_ref().and_then(|r| r.index.as_ref().map(|i| i.value)),
-                        space: v.role.as_ref().and_then(|r| r.space.as_ref().map(|s| s.value)),
-                        span: n.span,
-                    });
-                    self.vector_decls.push(v.value.as_ref());
-                    self.globals.insert(n.key(), Global::Vector(id));
-                }
-            }
-            ItemKind::Params(p) => {
-                let mut members = Vec::new();
-                for m in &p.members {
-                    match self.globals.get(&m.key()) {
-                        Some(Global::Vector(id)) => members.push(*id),
-                        _ => self.error(
-                            "bad-params",
-                            format!("`{}` is not a shading vector", m.key()),
-                            m.span,
-                            "not a vector",
-                            "list vectors declared with `vector`",
-                        ),
-                    }
-                }
-                self.params.push(members);
-                self.globals.insert(p.name.key(), Global::Params(self.params.len() - 1));
-            }
-            ItemKind::Const(c) => {
-                self.sample = None;
-                let Ok(h) = self.lower_expr(&c.value).and_then(|v| self.expect_expr(v, c.value.span)) else {
-                    return;
-                };
-                let Ok(h) = self.annotate(h, c.ty.as_ref(), c.value.span) else { return };
-                if !matches!(self.module.exprs[h], Expr::Constant(_)) {
-                    self.error(
-                        "not-constant",
-                        format!("the constant `{}` is not computable at compile time", c.name.key()),
-                        c.value.span,
-                        "not a constant",
-                        "use `uniform` for a value the scene sets",
-                    );
-                    return;
-                }
-                self.globals.insert(c.name.key(), Global::Const(h));
-            }
-            ItemKind::Uniform(u) => {
-                self.sample = None;
-                let mut default = None;
-                let mut ty = u.ty.as_ref().map(|t| Ty::from_ast(t.value));
-                if let Some(d) = &u.default {
-                    if let Ok(h) = self
-                        .lower_expr(d)
-                        .and_then(|v| self.expect_expr(v, d.span))
-                        .and_then(|h| self.annotate(h, u.ty.as_ref(), d.span))
-                    {
-                        if let Expr::Constant(c) = self.module.exprs[h] {
-                            ty = Some(c.ty);
-                            default = Some(c);
-                        } else {
-                            self.error(
-                                "not-constant",
-                                "a uniform's default must be a constant",
-                                d.span,
-                                "not a constant",
-                                "write numbers or constants here",
-                            );
-                        }
-                    }
-                }
-                let id = self.module.uniforms.len() as u32;
-                self.module.uniforms.push(Uniform {
-                    name: u.name.key(),
-                    ty: ty.unwrap_or(Ty::Scalar),
-                    default,
-                    span: u.name.span,
-                });
-                self.globals.insert(u.name.key(), Global::Uniform(id));
-            }
+            ItemKind::Vector(v) => self.declare_vectors(v),
+            ItemKind::Params(p) => self.declare_params(p),
+            ItemKind::Const(c) => self.declare_const(c),
+            ItemKind::Uniform(u) => self.declare_uniform(u),
             ItemKind::Let(l) => {
                 self.globals.insert(l.name.key(), Global::Let(l));
             }
@@ -128,6 +30,118 @@ impl<'a> Lowerer<'a> {
         }
     }
 
+    /// Each name of a `texture` declaration, with its source, generator and sampling.
+    fn declare_textures(&mut self, t: &'a ast::TextureDecl) {
+        for n in &t.names {
+            let id = self.module.textures.len() as u32;
+            self.module.textures.push(Texture {
+                name: n.key(),
+                kind: t.kind.value,
+                format: t.format.as_ref().map_or(ast::TextureFormat::Rgba8, |f| f.value),
+                rendered: t.source.is_none(),
+                baked: t.source.as_ref().is_some_and(is_bake),
+                declaration: None,
+                copy_of: None,
+                tabulates: t.source.as_ref().and_then(tabulated),
+                sampling: super::super::Sampling::of(
+                    t.kind.value,
+                    &t.attrs.iter().map(|a| a.value).collect::<Vec<_>>(),
+                ),
+                span: n.span,
+            });
+            self.globals.insert(n.key(), Global::Texture(id));
+        }
+    }
+
+    /// Each name of a `vector` declaration: a shading vector, with its role.
+    fn declare_vectors(&mut self, v: &'a ast::VectorDecl) {
+        for n in &v.names {
+            let id = self.module.vectors.len() as u32;
+            self.module.vectors.push(Vector {
+                name: n.key(),
+                kind: v.role.as_ref().map(|r| r.kind.value),
+                index: v.role.as_ref().and_then(|r| r.index.as_ref().map(|i| i.value)),
+                space: v.role.as_ref().and_then(|r| r.space.as_ref().map(|s| s.value)),
+                span: n.span,
+            });
+            self.vector_decls.push(v.value.as_ref());
+            self.globals.insert(n.key(), Global::Vector(id));
+        }
+    }
+
+    /// A shading-parameter bundle: the vectors it lists.
+    fn declare_params(&mut self, p: &'a ast::ParamsDecl) {
+        let mut members = Vec::new();
+        for m in &p.members {
+            match self.globals.get(&m.key()) {
+                Some(Global::Vector(id)) => members.push(*id),
+                _ => self.error(
+                    "bad-params",
+                    format!("`{}` is not a shading vector", m.key()),
+                    m.span,
+                    "not a vector",
+                    "list vectors declared with `vector`",
+                ),
+            }
+        }
+        self.params.push(members);
+        self.globals.insert(p.name.key(), Global::Params(self.params.len() - 1));
+    }
+
+    /// A `const`: its value, which must fold to a constant.
+    fn declare_const(&mut self, c: &'a ast::ConstDecl) {
+        self.sample = None;
+        let Ok(h) = self.lower_expr(&c.value).and_then(|v| self.expect_expr(v, c.value.span)) else {
+            return;
+        };
+        let Ok(h) = self.annotate(h, c.ty.as_ref(), c.value.span) else { return };
+        if !matches!(self.module.exprs[h], Expr::Constant(_)) {
+            self.error(
+                "not-constant",
+                format!("the constant `{}` is not computable at compile time", c.name.key()),
+                c.value.span,
+                "not a constant",
+                "use `uniform` for a value the scene sets",
+            );
+            return;
+        }
+        self.globals.insert(c.name.key(), Global::Const(h));
+    }
+
+    /// A `uniform`, with its type and constant default.
+    fn declare_uniform(&mut self, u: &'a ast::UniformDecl) {
+        self.sample = None;
+        let mut default = None;
+        let mut ty = u.ty.as_ref().map(|t| Ty::from_ast(t.value));
+        if let Some(d) = &u.default {
+            if let Ok(h) = self
+                .lower_expr(d)
+                .and_then(|v| self.expect_expr(v, d.span))
+                .and_then(|h| self.annotate(h, u.ty.as_ref(), d.span))
+            {
+                if let Expr::Constant(c) = self.module.exprs[h] {
+                    ty = Some(c.ty);
+                    default = Some(c);
+                } else {
+                    self.error(
+                        "not-constant",
+                        "a uniform's default must be a constant",
+                        d.span,
+                        "not a constant",
+                        "write numbers or constants here",
+                    );
+                }
+            }
+        }
+        let id = self.module.uniforms.len() as u32;
+        self.module.uniforms.push(Uniform {
+            name: u.name.key(),
+            ty: ty.unwrap_or(Ty::Scalar),
+            default,
+            span: u.name.span,
+        });
+        self.globals.insert(u.name.key(), Global::Uniform(id));
+    }
     /// Bounds a generated texture where it is declared, before anything
     /// builds it: `normalize_cube(size[, bits])` (Kilgard 2000, Appendix D)
     /// needs a `cube` texture, a whole face size from 1 to

@@ -73,23 +73,7 @@ impl<'a> Lowerer<'a> {
                 self.compose(hs, None, span).map(Value::Expr)
             }
             ExprKind::Apply { func, arg } => self.apply(func, arg, span),
-            ExprKind::Swizzle { base, components } => {
-                let v = self.lower_expr(base)?;
-                if let Value::Bundle(b) = &v {
-                    if b.site == BundleSite::Texel {
-                        let tc = match self.surface {
-                            // On the surface: the texel coordinate there, `δu x`.
-                            Some((_, Some((_, index)))) => index,
-                            _ => self.append(Expr::TexelCoord, base.span)?,
-                        };
-                        return self.swizzle(tc, components, span).map(Value::Expr);
-                    }
-                    self.unsupported("components of a shading-parameter vector outside texture shading; use its vectors by name", span);
-                    return Err(());
-                }
-                let h = self.expect_expr(v, base.span)?;
-                self.swizzle(h, components, span).map(Value::Expr)
-            }
+            ExprKind::Swizzle { base, components } => self.lower_swizzle(base, components, span),
             ExprKind::Unary { op, operand } => {
                 let v = self.lower_expr(operand)?;
                 let h = self.expect_expr(v, operand.span)?;
@@ -104,23 +88,7 @@ impl<'a> Lowerer<'a> {
                 let a = self.expect_expr(a, lhs.span)?;
                 let b = self.lower_expr(rhs)?;
                 let b = self.expect_expr(b, rhs.span)?;
-                let op = match op {
-                    ast::BinaryOp::Or => BinaryOp::Or,
-                    ast::BinaryOp::And => BinaryOp::And,
-                    ast::BinaryOp::Lt => BinaryOp::Lt,
-                    ast::BinaryOp::Le => BinaryOp::Le,
-                    ast::BinaryOp::Gt => BinaryOp::Gt,
-                    ast::BinaryOp::Ge => BinaryOp::Ge,
-                    ast::BinaryOp::Eq => BinaryOp::Eq,
-                    ast::BinaryOp::Ne => BinaryOp::Ne,
-                    ast::BinaryOp::Add => BinaryOp::Add,
-                    ast::BinaryOp::Sub => BinaryOp::Sub,
-                    ast::BinaryOp::Mul => BinaryOp::Mul,
-                    ast::BinaryOp::Div => BinaryOp::Div,
-                    ast::BinaryOp::Dot => BinaryOp::Dot,
-                    ast::BinaryOp::Pow => BinaryOp::Pow,
-                };
-                self.binary(op, a, b, span).map(Value::Expr)
+                self.binary(binary_op(*op), a, b, span).map(Value::Expr)
             }
             ExprKind::Combine { mode, lhs, rhs } => {
                 let a = self.lower_expr(lhs)?;
@@ -152,6 +120,29 @@ impl<'a> Lowerer<'a> {
                 self.append(Expr::Select { cond: c, accept: a, reject }, span).map(Value::Expr)
             }
         }
+    }
+
+    /// `base.components`: a swizzle of a value, or of the texel coordinate
+    /// where `base` is a texel-site shading-parameter bundle.
+    fn lower_swizzle(&mut self, base: &'a ast::Expr, components: &str, span: Span) -> Res<Value> {
+        let v = self.lower_expr(base)?;
+        if let Value::Bundle(b) = &v {
+            if b.site == BundleSite::Texel {
+                let tc = match self.surface {
+                    // On the surface: the texel coordinate there, `δu x`.
+                    Some((_, Some((_, index)))) => index,
+                    _ => self.append(Expr::TexelCoord, base.span)?,
+                };
+                return self.swizzle(tc, components, span).map(Value::Expr);
+            }
+            self.unsupported(
+                "components of a shading-parameter vector outside texture shading; use its vectors by name",
+                span,
+            );
+            return Err(());
+        }
+        let h = self.expect_expr(v, base.span)?;
+        self.swizzle(h, components, span).map(Value::Expr)
     }
 
     /// A bare `⊕` is modulate: Pipeline Grammar's multipass forms (9)-(11),
@@ -480,5 +471,25 @@ impl<'a> Lowerer<'a> {
             v.push(self.member(b, m, span)?);
         }
         Ok(v)
+    }
+}
+
+/// The IR operator of a source binary operator.
+fn binary_op(op: ast::BinaryOp) -> BinaryOp {
+    match op {
+        ast::BinaryOp::Or => BinaryOp::Or,
+        ast::BinaryOp::And => BinaryOp::And,
+        ast::BinaryOp::Lt => BinaryOp::Lt,
+        ast::BinaryOp::Le => BinaryOp::Le,
+        ast::BinaryOp::Gt => BinaryOp::Gt,
+        ast::BinaryOp::Ge => BinaryOp::Ge,
+        ast::BinaryOp::Eq => BinaryOp::Eq,
+        ast::BinaryOp::Ne => BinaryOp::Ne,
+        ast::BinaryOp::Add => BinaryOp::Add,
+        ast::BinaryOp::Sub => BinaryOp::Sub,
+        ast::BinaryOp::Mul => BinaryOp::Mul,
+        ast::BinaryOp::Div => BinaryOp::Div,
+        ast::BinaryOp::Dot => BinaryOp::Dot,
+        ast::BinaryOp::Pow => BinaryOp::Pow,
     }
 }

@@ -314,6 +314,7 @@ impl<'a> Lowerer<'a> {
         self.diagnostics.push(d);
     }
 
+    #[allow(clippy::expect_used)] // a constant node has its constant's type: nothing to check
     fn constant(&mut self, c: Constant, span: Span) -> Handle<Expr> {
         self.append(Expr::Constant(c), span).expect("a constant always types")
     }
@@ -412,6 +413,7 @@ fn contains(e: &ast::Expr, pred: &dyn Fn(&ast::Expr) -> bool) -> bool {
 /// `e` with its operands replaced, in `Expr::operands` order.
 fn replace_operands(e: Expr, new: &[Handle<Expr>]) -> Expr {
     let mut it = new.iter().copied();
+    #[allow(clippy::expect_used)] // callers pass `e`'s own operands, mapped one to one
     let mut next = || it.next().expect("one handle per operand");
     match e {
         Expr::Project { projection, .. } => Expr::Project { projection, value: next() },

@@ -8,6 +8,9 @@ use super::*;
 impl Gen<'_> {
     /// The register a source reads in general stage `stage` (`None`: the
     /// final combiner, which reads the global constants).
+    // `build` runs after `allocate` gave every virtual register a register
+    // and `assign_constants` every virtual constant a slot.
+    #[allow(clippy::expect_used)]
     pub(super) fn register(&self, s: &Src, stage: Option<usize>) -> Register {
         match s.base {
             Base::Reg(r) => r,

@@ -169,24 +169,8 @@ pub(super) fn combine_expr(
     let colour = |m: &mut Module, h, clamped| if clamped { gl_colour(m, h, span) } else { Ok(h) };
     let (t, f) = (colour(m, t, clamped[0])?, colour(m, f, clamped[1])?);
     let rgba = ty == Ty::Rgba;
-    // Component selections of a value (a scalar operand splats).
-    let rgb_of = |m: &mut Module, h: Handle<Expr>| -> R<Handle<Expr>> {
-        match m.info(h).ty {
-            Ty::Rgba => {
-                intern(m, Expr::Swizzle { value: h, pattern: [0, 1, 2, 0], len: 3, ty: Ty::Rgb }, span)
-            }
-            _ => Ok(h),
-        }
-    };
-    let alpha_of = |m: &mut Module, h: Handle<Expr>| -> R<Handle<Expr>> {
-        match m.info(h).ty {
-            Ty::Rgba => {
-                intern(m, Expr::Swizzle { value: h, pattern: [3, 0, 0, 0], len: 1, ty: Ty::Scalar }, span)
-            }
-            Ty::Scalar => Ok(h),
-            _ => konst(m, 1.0),
-        }
-    };
+    let rgb_of = |m: &mut Module, h: Handle<Expr>| rgb_part(m, h, span);
+    let alpha_of = |m: &mut Module, h: Handle<Expr>| alpha_part(m, h, span);
     let compose = |m: &mut Module, c: Handle<Expr>, a: Handle<Expr>| {
         intern(m, Expr::Compose { ty: Ty::Rgba, components: vec![c, a] }, span)
     };
@@ -254,6 +238,25 @@ pub(super) fn combine_expr(
             }
         }
     })
+}
+
+/// The colour part of a value, for `combine_expr` (a scalar or rgb is its own).
+fn rgb_part(m: &mut Module, h: Handle<Expr>, span: Span) -> R<Handle<Expr>> {
+    match m.info(h).ty {
+        Ty::Rgba => intern(m, Expr::Swizzle { value: h, pattern: [0, 1, 2, 0], len: 3, ty: Ty::Rgb }, span),
+        _ => Ok(h),
+    }
+}
+
+/// The alpha of a value, for `combine_expr`: a scalar splats, an rgb has alpha 1.
+fn alpha_part(m: &mut Module, h: Handle<Expr>, span: Span) -> R<Handle<Expr>> {
+    match m.info(h).ty {
+        Ty::Rgba => {
+            intern(m, Expr::Swizzle { value: h, pattern: [3, 0, 0, 0], len: 1, ty: Ty::Scalar }, span)
+        }
+        Ty::Scalar => Ok(h),
+        _ => intern(m, Expr::Constant(Constant::scalar(1.0)), span),
+    }
 }
 
 /// At most this many addends are reordered ([`Gen::reassociated_sum`]).

@@ -101,29 +101,9 @@ impl Gen<'_> {
             let s = if self.nonneg_unit(*l) { s } else { self.unsigned(s, self.m.span(*l))? };
             leaf_srcs.push(self.final_src(s, self.m.span(*l))?);
         }
-        if !extra.is_empty() {
-            let scalar = extra.iter().all(|h| self.scalar(*h, part));
-            let span = self.m.span(extra[0]).join(self.m.span(*extra.last().expect("non-empty")));
-            let mut terms = Vec::new();
-            for h in &extra {
-                terms.push(match self.nonneg_unit(*h) {
-                    true => self.sum_term(*h, part)?,
-                    false => {
-                        let s = self.src(*h, part, true)?;
-                        Term::times_one(self.unsigned(s, self.m.span(*h))?)
-                    }
-                });
-            }
-            while terms.len() > 1 {
-                let y = terms.pop().expect("len > 1");
-                let x = terms.pop().expect("len > 1");
-                let s = self.emit(
-                    Spec { cd: Some(y), alpha_only: part == Part::Alpha, ..Spec::single(x, scalar) },
-                    span,
-                )?;
-                terms.push(Term::times_one(s));
-            }
-            let s = terms[0].a;
+        if let (Some(first), Some(last)) = (extra.first(), extra.last()) {
+            let span = self.m.span(*first).join(self.m.span(*last));
+            let s = self.summed_addends(&extra, part, span)?;
             leaf_srcs.push(self.final_src(s, span)?);
         }
         match (product, leaf_srcs.as_slice()) {
@@ -142,6 +122,31 @@ impl Gen<'_> {
             _ => unreachable!("one or two addends"),
         }
         Ok(())
+    }
+
+    /// The trailing addends of an output sum, beyond what the final
+    /// combiner adds, summed in general combiners (`extra` is not empty).
+    fn summed_addends(&mut self, extra: &[Handle<Expr>], part: Part, span: Span) -> R<Src> {
+        let scalar = extra.iter().all(|h| self.scalar(*h, part));
+        let mut terms = Vec::new();
+        for h in extra {
+            terms.push(match self.nonneg_unit(*h) {
+                true => self.sum_term(*h, part)?,
+                false => {
+                    let s = self.src(*h, part, true)?;
+                    Term::times_one(self.unsigned(s, self.m.span(*h))?)
+                }
+            });
+        }
+        while terms.len() > 1 {
+            let (Some(y), Some(x)) = (terms.pop(), terms.pop()) else { break };
+            let s = self.emit(
+                Spec { cd: Some(y), alpha_only: part == Part::Alpha, ..Spec::single(x, scalar) },
+                span,
+            )?;
+            terms.push(Term::times_one(s));
+        }
+        Ok(terms[0].a)
     }
 
     /// Whether an addend goes to A·B (a product of factors in [0, 1], a
@@ -177,47 +182,64 @@ impl Gen<'_> {
                 fin.a = FinalVal::Src(self.final_src(t, span)?);
                 fin.b = FinalVal::Src(self.final_src(b, span)?);
                 fin.c = FinalVal::Src(self.final_src(a, span)?);
-                return Ok(());
+                Ok(())
             }
             Expr::Binary { op: BinaryOp::Pow, lhs, rhs } => {
-                let k = self.pow2_exponent(rhs).expect("checked");
+                let k = self.pow2_exponent(rhs).ok_or_else(|| self.pow_error(p))?;
                 let m = k.min(2);
                 let base = self.pow_src(lhs, part, k - m)?;
-                return self.final_power(base, m, span, fin);
+                self.final_power(base, m, span, fin)
             }
             Expr::Select { cond, accept, reject: Some(reject) } => {
-                // c ? x^(2^k) : 0 = (c ? x^(2^(k−m)) : 0)^(2^m): the final combiner
-                // squares twice (EF, then EF·EF), the mux stage once (Appendix H).
-                let Expr::Binary { op: BinaryOp::Pow, lhs: x, rhs } = self.expr(accept).clone() else {
-                    unreachable!("checked")
-                };
-                let k = self.pow2_exponent(rhs).expect("checked");
-                let m = k.min(2);
-                let acc = if k - m >= 1 {
-                    let y = self.pow_src(x, part, k - m - 1)?;
-                    Term { a: y, b: y, dot: false }
-                } else {
-                    Term::times_one(self.src(x, part, false)?)
-                };
-                let rej = self.plain_term(reject, part)?;
-                let rej =
-                    if rej.a == Src::ZERO { Term { a: Src::ZERO, b: Src::ZERO, dot: false } } else { rej };
-                let (sel, high) = self.condition(cond)?;
-                let (ab, cd) = if high { (rej, acc) } else { (acc, rej) };
-                let scalar = self.scalar(p, part);
-                let s = self.emit(
-                    Spec {
-                        cd: Some(cd),
-                        mux: Some(sel),
-                        alpha_only: part == Part::Alpha,
-                        ..Spec::single(ab, scalar)
-                    },
-                    span,
-                )?;
-                return self.final_power(s, m, span, fin);
+                self.final_selected_power(p, [cond, accept, reject], part, fin)
             }
-            _ => {}
+            _ => self.final_factors(p, part, fin),
         }
+    }
+
+    /// `c ? x^(2^k) : 0` in the final combiner: `(c ? x^(2^(k−m)) : 0)^(2^m)`,
+    /// the final combiner squaring twice (EF, then EF·EF), the mux stage
+    /// once (Appendix H). `[cond, accept, reject]` are the select's operands.
+    fn final_selected_power(
+        &mut self,
+        p: Handle<Expr>,
+        [cond, accept, reject]: [Handle<Expr>; 3],
+        part: Part,
+        fin: &mut FinalSpec,
+    ) -> R<()> {
+        let span = self.m.span(p);
+        let Expr::Binary { op: BinaryOp::Pow, lhs: x, rhs } = self.expr(accept).clone() else {
+            return Err(self.pow_error(accept));
+        };
+        let k = self.pow2_exponent(rhs).ok_or_else(|| self.pow_error(accept))?;
+        let m = k.min(2);
+        let acc = if k - m >= 1 {
+            let y = self.pow_src(x, part, k - m - 1)?;
+            Term { a: y, b: y, dot: false }
+        } else {
+            Term::times_one(self.src(x, part, false)?)
+        };
+        let rej = self.plain_term(reject, part)?;
+        let rej = if rej.a == Src::ZERO { Term { a: Src::ZERO, b: Src::ZERO, dot: false } } else { rej };
+        let (sel, high) = self.condition(cond)?;
+        let (ab, cd) = if high { (rej, acc) } else { (acc, rej) };
+        let scalar = self.scalar(p, part);
+        let s = self.emit(
+            Spec {
+                cd: Some(cd),
+                mux: Some(sel),
+                alpha_only: part == Part::Alpha,
+                ..Spec::single(ab, scalar)
+            },
+            span,
+        )?;
+        self.final_power(s, m, span, fin)
+    }
+
+    /// A product of up to three factors as A·B or A·EF; more factors are
+    /// multiplied in general combiners first.
+    fn final_factors(&mut self, p: Handle<Expr>, part: Part, fin: &mut FinalSpec) -> R<()> {
+        let span = self.m.span(p);
         let mut factors = Vec::new();
         self.flatten(p, BinaryOp::Mul, &mut factors);
         let mut srcs = Vec::new();
@@ -227,8 +249,7 @@ impl Gen<'_> {
         }
         // More than three factors: multiply the trailing ones in general combiners.
         while srcs.len() > 3 {
-            let b = srcs.pop().expect("len > 3");
-            let a = srcs.pop().expect("len > 3");
+            let (Some(b), Some(a)) = (srcs.pop(), srcs.pop()) else { break };
             let scalar = a.comp != Comp::Rgb && b.comp != Comp::Rgb;
             let a = self.unsigned(a, span)?;
             let b = self.unsigned(b, span)?;

@@ -79,14 +79,18 @@ fn negated(map: InputMapping) -> Option<InputMapping> {
 /// `units[i]`; `value` is the fragment colour the pass outputs (rgb, rgba or
 /// scalar: a scalar broadcasts to rgb; rgb and scalar outputs get alpha 1).
 pub struct PassInput<'a> {
+    /// The module holding the pass's nodes.
     pub module: &'a Module,
+    /// The fragment colour the pass outputs.
     pub value: Handle<Expr>,
+    /// Texture unit `i` holds the lookup node `units[i]`.
     pub units: &'a [Handle<Expr>],
 }
 
 /// A generated configuration and what the caller must bind for it.
 #[derive(Clone, Debug)]
 pub struct Generated {
+    /// The setup itself, valid under the limits it was generated for.
     pub config: CombinerConfig,
     /// The interpolated (`Interpolate`) IR node feeding the primary colour.
     pub primary: Option<Handle<Expr>>,
@@ -126,11 +130,15 @@ pub struct Generated {
 /// stage (0-based) and portion.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Placement {
+    /// The source span of the value the operation computes.
     pub span: Span,
+    /// The general stage, 0-based.
     pub stage: usize,
+    /// Whether the operation is in the alpha portion (else the RGB one).
     pub alpha: bool,
 }
 
+/// Why a value has no register-combiner setup under the target's limits.
 #[derive(Clone, Debug, Error, PartialEq)]
 pub enum CodegenError {
     /// An operation the register combiners cannot compute.
@@ -151,8 +159,10 @@ pub enum CodegenError {
     /// reading the last one.
     #[error("{place} needs more than {} constant colours: {}", if place.starts_with("the pass") { "the two" } else { "its two" }, list(constants))]
     OutOfConstants { span: Span, place: String, constants: Vec<String> },
+    /// More interpolated colours than the primary and secondary ones.
     #[error("the pass needs more than the two interpolated colours (primary and secondary)")]
     OutOfColors { span: Span },
+    /// More live intermediate values than the free registers hold.
     #[error("the pass needs more registers than spare0, spare1 and the free texture registers")]
     OutOfRegisters { span: Span },
     /// A bug in the generator: the config it built breaks an Appendix B rule.
@@ -170,6 +180,7 @@ fn list(items: &[String]) -> String {
 }
 
 impl CodegenError {
+    /// Where in the source the refusal points, when it points at a node.
     pub fn span(&self) -> Option<Span> {
         match self {
             CodegenError::Unsupported { span, .. }
@@ -181,6 +192,7 @@ impl CodegenError {
         }
     }
 
+    /// The help line: what the programmer can do instead.
     pub fn help(&self) -> String {
         match self {
             CodegenError::Unsupported { help, .. } => help.clone(),
@@ -193,6 +205,7 @@ impl CodegenError {
         }
     }
 
+    /// The diagnostic code of the refusal.
     pub fn code(&self) -> &'static str {
         match self {
             CodegenError::Unsupported { .. } => "combiner-unsupported",
@@ -205,6 +218,7 @@ impl CodegenError {
         }
     }
 
+    /// The refusal as a diagnostic at its span.
     pub fn to_diagnostic(&self) -> Diagnostic {
         let span = self.span().unwrap_or(Span::DETACHED);
         Diagnostic::error(self.code(), self.to_string(), span, "here").with_help(self.help())
@@ -585,6 +599,7 @@ fn to_color(c: &Constant) -> Color {
 /// fits one pass of a register-combiner target when a setup for it is
 /// generated under the target's own limits (an Appendix B-valid setup).
 pub struct CombinerRealizer {
+    /// The target's combiners, which every setup must fit.
     pub limits: CombinerLimits,
 }
 

@@ -47,7 +47,7 @@ impl Gen<'_> {
         }
         let mut candidates = vec![Register::Spare0, Register::Spare1];
         for u in 0..self.limits.texture_units.min(4) {
-            candidates.push(Register::texture(u).expect("unit < 4"));
+            candidates.extend(Register::texture(u));
         }
         candidates.extend([Register::Primary, Register::Secondary]);
         let mut order: Vec<usize> = (0..self.vregs.len()).collect();

@@ -57,20 +57,7 @@ impl Gen<'_> {
             }
             Expr::Uniform(id) => self.uniform_src(h, id, part),
             Expr::Lookup { .. } | Expr::FramebufferRead { channel: FbChannel::Color | FbChannel::Alpha, .. } if self.units.contains(&h) || matches!(self.expr(h), Expr::Lookup { .. }) => {
-                let unit = self.units.iter().position(|u| *u == h).ok_or_else(|| {
-                    unsupported(span, "a texture lookup not bound to a texture unit of this pass", "list it in the pass's texture units")
-                })?;
-                let reg = Register::texture(unit as u8).expect("at most four units, checked");
-                let comp = match (self.ty(h), part) {
-                    (Ty::Scalar, _) => Comp::Alpha,
-                    (_, Part::Alpha) => Comp::Alpha,
-                    _ => Comp::Rgb,
-                };
-                // A signed texel (a HILO normalization map, seeds/000
-                // Section 5.1) reaches the combiners as it is: unsigned
-                // identity would clamp its negative components to 0.
-                let map = if self.lo(h) < 0.0 { SignedIdentity } else { UnsignedIdentity };
-                Ok(Src { base: Base::Reg(reg), comp, map })
+                self.texture_src(h, part, span)
             }
             Expr::Interpolate { .. } => self.interpolant_src(h, part, sat),
             Expr::Swizzle { value, pattern, len, .. } => self.swizzle_src(h, value, &pattern, len, sat, span),
@@ -125,6 +112,35 @@ impl Gen<'_> {
             | Expr::Math { fun: MathFunction::Mix | MathFunction::Compress, .. } => self.materialise(h, part, sat),
             other => Err(self.unsupported_node(h, &other)),
         }
+    }
+
+    /// A texel or framebuffer read bound to a texture unit of the pass: its
+    /// texture register, read signed where the texel is.
+    fn texture_src(&self, h: Handle<Expr>, part: Part, span: Span) -> R<Src> {
+        let unit = self.units.iter().position(|u| *u == h).ok_or_else(|| {
+            unsupported(
+                span,
+                "a texture lookup not bound to a texture unit of this pass",
+                "list it in the pass's texture units",
+            )
+        })?;
+        let reg = u8::try_from(unit).ok().and_then(Register::texture).ok_or_else(|| {
+            unsupported(
+                span,
+                "a texture lookup on a fifth texture unit",
+                "split the pass: the combiners read four texture registers",
+            )
+        })?;
+        let comp = match (self.ty(h), part) {
+            (Ty::Scalar, _) => Comp::Alpha,
+            (_, Part::Alpha) => Comp::Alpha,
+            _ => Comp::Rgb,
+        };
+        // A signed texel (a HILO normalization map, seeds/000
+        // Section 5.1) reaches the combiners as it is: unsigned
+        // identity would clamp its negative components to 0.
+        let map = if self.lo(h) < 0.0 { SignedIdentity } else { UnsignedIdentity };
+        Ok(Src { base: Base::Reg(reg), comp, map })
     }
 
     /// A uniform: a constant colour holding its value (its default, or what the caller supplies).

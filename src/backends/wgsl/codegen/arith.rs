@@ -564,6 +564,38 @@ impl Gen<'_> {
 }
 
 impl Gen<'_> {
+    /// `⊕[dot3_rgb]` and `⊕[dot3_rgba]` of colours `[ct, cf]` (width `cw`)
+    /// and alphas `[at, af]`: `4·((ct − ½)·(cf − ½))` in every colour
+    /// component, and in alpha too for `dot3_rgba`.
+    fn combine_dot3(
+        &mut self,
+        b: &mut Body,
+        mode: CombineMode,
+        [ct, cf]: [NH; 2],
+        [at, af]: [NH; 2],
+        cw: usize,
+    ) -> R<(NH, NH)> {
+        use naga::BinaryOperator as B;
+        let half = b.lit(0.5);
+        let hs = self.splat(b, half, 1, cw)?;
+        let a = self.binop(b, B::Subtract, ct, hs);
+        let c = self.binop(b, B::Subtract, cf, hs);
+        let d = if cw == 1 {
+            self.binop(b, B::Multiply, a, c)
+        } else {
+            self.math(b, naga::MathFunction::Dot, &[a, c])
+        };
+        let four = b.lit(4.0);
+        // Unclamped, as every ⊕ mode (the IR's `combine`): GL's
+        // clamp belongs to the hardware models; a saturate here
+        // made `0.9 · (T ⊕[dot3] T′)` differ from the CPU and the
+        // reference by 25/255 (issue 33).
+        let d = self.binop(b, B::Multiply, d, four);
+        let rgb = self.splat(b, d, 1, cw)?;
+        let alpha = if mode == CombineMode::Dot3Rgba { d } else { self.binop(b, B::Multiply, af, at) };
+        Ok((rgb, alpha))
+    }
+
     /// `a ⊕[mode] b` (see the module doc).
     #[allow(clippy::too_many_arguments)]
     pub(super) fn combine(
@@ -629,28 +661,7 @@ impl Gen<'_> {
                     }
                     CombineMode::Replace => (ct, if tx == Ty::Rgba { at } else { af }),
                     CombineMode::Dot3Rgb | CombineMode::Dot3Rgba => {
-                        let half = b.lit(0.5);
-                        let hs = self.splat(b, half, 1, cw)?;
-                        let a = self.binop(b, B::Subtract, ct, hs);
-                        let c = self.binop(b, B::Subtract, cf, hs);
-                        let d = if cw == 1 {
-                            self.binop(b, B::Multiply, a, c)
-                        } else {
-                            self.math(b, naga::MathFunction::Dot, &[a, c])
-                        };
-                        let four = b.lit(4.0);
-                        // Unclamped, as every ⊕ mode (the IR's `combine`): GL's
-                        // clamp belongs to the hardware models; a saturate here
-                        // made `0.9 · (T ⊕[dot3] T′)` differ from the CPU and the
-                        // reference by 25/255 (issue 33).
-                        let d = self.binop(b, B::Multiply, d, four);
-                        let rgb = self.splat(b, d, 1, cw)?;
-                        let alpha = if mode == CombineMode::Dot3Rgba {
-                            d
-                        } else {
-                            self.binop(b, B::Multiply, af, at)
-                        };
-                        (rgb, alpha)
+                        self.combine_dot3(b, mode, [ct, cf], [at, af], cw)?
                     }
                     _ => unreachable!(),
                 };

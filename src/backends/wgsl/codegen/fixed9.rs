@@ -42,6 +42,56 @@ impl Gen<'_> {
             let cv = b.vals[&c];
             self.discard_unless(b, cv);
         }
+        let args = self.combiner_arguments(b, &registers, &constants);
+        // The setup's function, parsed into the module before the pass was
+        // built on it (`combiners_module`).
+        let f = self
+            .module
+            .functions
+            .iter()
+            .find(|(_, f)| f.name.as_deref() == Some(super::super::rc1::COMBINERS_FUNCTION))
+            .map(|(h, _)| h)
+            .ok_or_else(|| GenError::Internal("the module has no register-combiner function".into()))?;
+        let result = b.plain(Expression::CallResult(f));
+        b.f.body.push(
+            Statement::Call { function: f, arguments: args, result: Some(result) },
+            naga::Span::UNDEFINED,
+        );
+        b.name(result, "combiners");
+        let ty = self.m.info(self.iface.output).ty;
+        let vec4 = self.vec_ty(4);
+        Ok(match width(ty) {
+            1 => {
+                let x = b.emit(Expression::AccessIndex { base: result, index: 0 });
+                b.emit(Expression::Splat { size: VectorSize::Quad, value: x })
+            }
+            2 | 3 => {
+                let n = width(ty);
+                let pattern =
+                    [SwizzleComponent::X, SwizzleComponent::Y, SwizzleComponent::Z, SwizzleComponent::W];
+                let v = b.emit(Expression::Swizzle { size: size(n), vector: result, pattern });
+                let one = b.lit(1.0);
+                if n == 3 {
+                    b.emit(Expression::Compose { ty: vec4, components: vec![v, one] })
+                } else {
+                    let zero = b.lit(0.0);
+                    b.emit(Expression::Compose { ty: vec4, components: vec![v, zero, one] })
+                }
+            }
+            _ => result,
+        })
+    }
+}
+
+impl Gen<'_> {
+    /// The arguments of the setup's function: the registers' values as the
+    /// machine loads them (integers 0..255), the unset constants, and fog.
+    fn combiner_arguments(
+        &mut self,
+        b: &mut Body,
+        registers: &[Option<ir::Handle<Expr>>],
+        constants: &[Option<ir::Handle<Expr>>],
+    ) -> Vec<NH> {
         let vec4 = self.vec_ty(4);
         let ivec4 = self.ty(TypeInner::Vector { size: VectorSize::Quad, scalar: Scalar::I32 });
         // A value as the machine's RGBA: texels keep alpha 1 beside rgb, other values alpha 0.
@@ -74,53 +124,16 @@ impl Gen<'_> {
                 None => b.plain(Expression::ZeroValue(ivec4)),
             });
         }
-        for c in &constants {
+        for c in constants {
             args.push(match c {
                 Some(h) => as_rgba(self, b, *h),
                 None => b.plain(Expression::ZeroValue(vec4)),
             });
         }
         args.push(b.plain(Expression::ZeroValue(vec4))); // fog
-                                                         // The setup's function, parsed into the module before the pass was
-                                                         // built on it (`combiners_module`).
-        let f = self
-            .module
-            .functions
-            .iter()
-            .find(|(_, f)| f.name.as_deref() == Some(super::super::rc1::COMBINERS_FUNCTION))
-            .map(|(h, _)| h)
-            .ok_or_else(|| GenError::Internal("the module has no register-combiner function".into()))?;
-        let result = b.plain(Expression::CallResult(f));
-        b.f.body.push(
-            Statement::Call { function: f, arguments: args, result: Some(result) },
-            naga::Span::UNDEFINED,
-        );
-        b.name(result, "combiners");
-        let ty = self.m.info(self.iface.output).ty;
-        Ok(match width(ty) {
-            1 => {
-                let x = b.emit(Expression::AccessIndex { base: result, index: 0 });
-                b.emit(Expression::Splat { size: VectorSize::Quad, value: x })
-            }
-            2 | 3 => {
-                let n = width(ty);
-                let pattern =
-                    [SwizzleComponent::X, SwizzleComponent::Y, SwizzleComponent::Z, SwizzleComponent::W];
-                let v = b.emit(Expression::Swizzle { size: size(n), vector: result, pattern });
-                let one = b.lit(1.0);
-                if n == 3 {
-                    b.emit(Expression::Compose { ty: vec4, components: vec![v, one] })
-                } else {
-                    let zero = b.lit(0.0);
-                    b.emit(Expression::Compose { ty: vec4, components: vec![v, zero, one] })
-                }
-            }
-            _ => result,
-        })
+        args
     }
-}
 
-impl Gen<'_> {
     /// A register write in hardware precision: `q9(v)`.
     pub(super) fn quantize(&mut self, b: &mut Body, v: NH, w: usize) -> NH {
         if self.precision != Precision::Fixed9 || b.stage != Stage::Fragment {

@@ -9,6 +9,13 @@ use super::*;
 
 impl Gen<'_> {
     pub(super) fn globals(&mut self) -> R<()> {
+        self.uniform_globals();
+        self.texture_globals()
+    }
+
+    /// The `Uniforms` block at binding 0: the projections (`mat4`), then
+    /// the uniforms (`vec4`), if the pass reads any.
+    fn uniform_globals(&mut self) {
         let mat4 = self.ty(TypeInner::Matrix {
             columns: VectorSize::Quad,
             rows: VectorSize::Quad,
@@ -52,6 +59,11 @@ impl Gen<'_> {
                 naga::Span::UNDEFINED,
             ));
         }
+    }
+
+    /// Each texture unit of the pass: its image at binding `1 + 2·unit`,
+    /// its sampler at `2 + 2·unit`.
+    fn texture_globals(&mut self) -> R<()> {
         let pass = &self.planned.plan.passes[self.pass_index];
         for t in &pass.textures {
             let node = self.planned.handle(t.lookup);

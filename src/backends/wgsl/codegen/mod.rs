@@ -121,7 +121,9 @@ use body::*;
 use names::*;
 use space::*;
 
+/// The name of every pass's vertex entry point.
 pub const VERTEX_ENTRY: &str = "vs_main";
+/// The name of every pass's fragment entry point.
 pub const FRAGMENT_ENTRY: &str = "fs_main";
 
 /// A texture unit's globals: (texture, sampler), its kind and format.
@@ -137,6 +139,7 @@ pub struct PassShader {
     pub label: String,
     /// The source statement(s) the pass implements, `line:col: text`.
     pub source: Vec<String>,
+    /// What the pass reads and writes, as the plan decided it.
     pub interface: PassInterface,
     /// The vertex stage takes the full-screen rectangle's corners as one
     /// more input after the leaves (non-mesh geometry).
@@ -147,7 +150,9 @@ pub struct PassShader {
     /// Copies of the pass's own target the shader reads, taken before the
     /// pass (module docs, "Own-target reads").
     pub target_copies: Vec<TargetCopy>,
+    /// The shader, as naga IR.
     pub module: naga::Module,
+    /// naga's validation of `module`, which the writers need.
     pub info: naga::valid::ModuleInfo,
 }
 
@@ -155,7 +160,9 @@ pub struct PassShader {
 /// fragment's own pixel (`textureLoad`), bound at `binding` (group 0).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct TargetCopy {
+    /// The binding (group 0) of the copy.
     pub binding: u32,
+    /// The framebuffer copied.
     pub framebuffer: String,
     /// The depth buffer (in `.x`), else the colour buffer.
     pub depth: bool,
@@ -234,11 +241,7 @@ fn generate_pass(
         GenError::Internal(msg) => internal(span, &msg),
     })?;
     let module = std::mem::take(&mut g.module);
-    let mut validator = naga::valid::Validator::new(
-        naga::valid::ValidationFlags::all(),
-        naga::valid::Capabilities::default(),
-    );
-    let info = validator.validate(&module).map_err(|e| internal(span, &error_chain(&e)))?;
+    let info = super::validate::validate(&module).map_err(|e| internal(span, &error_chain(&e)))?;
     let label = pass_label(planned, index);
     let mut src = Vec::new();
     if let Some(text) = source {
