@@ -43,7 +43,7 @@ pub use realize::{Realized, Realizer, Refusal};
 pub use split::{FitCheck, Overflow};
 
 use affine::Builder;
-use split::{Dest, Piece, SplitCache, Splitter};
+use split::{Dest, Piece, SplitCache, Splitter, Storage};
 
 use crate::diag::Diagnostic;
 use crate::ir::{self, BinaryOp, Expr, FbChannel, Frequency, Handle, Module, Statement, Table, Usage};
@@ -590,7 +590,7 @@ fn candidate(
     baked: bool,
     stmts: &[usize],
     fused: Handle<Expr>,
-    float_temps: bool,
+    storage: Storage,
 ) -> Result<(Form, Vec<Piece>), Unplanned> {
     let (fit, cache) =
         if baked { (&fits.compiler, &mut fits.compiler_cache) } else { (&fits.target, &mut fits.cache) };
@@ -607,7 +607,7 @@ fn candidate(
         Ok(f) => f,
         Err(d) => return Err(Unplanned::Form(d)),
     };
-    match plan_form(m, fit, cache, &st, &form, float_temps, search) {
+    match plan_form(m, fit, cache, &st, &form, storage, search) {
         Ok(pieces) => Ok((form, pieces)),
         Err(o) => Err(Unplanned::Overflow(o)),
     }
@@ -783,7 +783,7 @@ fn planned_or_rewritten(
     rewrites: &mut HashMap<usize, String>,
 ) -> Result<(Form, Vec<Piece>), Result<Unplanned, Diagnostic>> {
     let single = stmts.len() == 1;
-    let as_written = candidate(m, search, fits, baked, stmts, value, profile.float_textures);
+    let as_written = candidate(m, search, fits, baked, stmts, value, storage_of(profile));
     let (written_cost, why) = match &as_written {
         Ok((_, pieces)) if single && fits.canonical.contains(&value) => (
             Some(split::cost(m, fits.fit(baked), pieces)),
@@ -792,7 +792,7 @@ fn planned_or_rewritten(
         Err(Unplanned::Overflow(o)) if single => (None, format!("as written it {o}")),
         _ => return as_written.map_err(Ok),
     };
-    let tried = match rewritten(m, search, fits, baked, stmts[0], profile.float_textures) {
+    let tried = match rewritten(m, search, fits, baked, stmts[0], storage_of(profile)) {
         Ok((f, mut p, what)) if written_cost.is_none_or(|c| split::cost(m, fits.fit(baked), &p) < c) => {
             let note = format!("{what} ({why})");
             note_rewrite(&mut p, &note);
@@ -838,7 +838,7 @@ fn rewritten(
     fits: &mut Fits,
     baked: bool,
     s: usize,
-    float_temps: bool,
+    storage: Storage,
 ) -> Rewritten {
     let st = m.statements[s].clone();
     let Ok(form) = classify(m, &st, st.value) else { return Err(Vec::new()) };
@@ -868,7 +868,7 @@ fn rewritten(
         let f = Form { value, then_add, ..form.clone() };
         let (fit, cache) =
             if baked { (&fits.compiler, &mut fits.compiler_cache) } else { (&fits.target, &mut fits.cache) };
-        match plan_form(m, fit, cache, &st, &f, float_temps, search) {
+        match plan_form(m, fit, cache, &st, &f, storage, search) {
             Ok(pieces) => {
                 let c = split::cost(m, fit, &pieces);
                 if best.as_ref().is_none_or(|b| c < b.0) {
@@ -1299,6 +1299,25 @@ fn stencil_write(m: &Module, st: &Statement, value: Handle<Expr>) -> Option<Form
     })
 }
 
+/// What `profile`'s storage does between passes (`Storage::float_main` is
+/// the statement's, set where it is planned).
+fn storage_of(profile: &Profile) -> Storage {
+    Storage {
+        float_temps: profile.float_textures,
+        float_main: false,
+        subtract: profile.blend_modes.iter().any(|b| b == "subtract"),
+    }
+}
+
+/// Whether `st` writes a framebuffer declared `rgba16f`/`rgba32f`.
+fn float_framebuffer(m: &Module, st: &Statement) -> bool {
+    use crate::parser::ast::FramebufferChannel as F;
+    let Table::Framebuffer { id, .. } = st.table else { return false };
+    m.framebuffers
+        .get(id as usize)
+        .is_some_and(|f| f.channels.iter().any(|c| matches!(c, F::Rgba16f | F::Rgba32f)))
+}
+
 /// The pieces of one (fused) statement.
 fn plan_form(
     m: &mut Module,
@@ -1306,7 +1325,7 @@ fn plan_form(
     cache: &mut SplitCache,
     st: &Statement,
     form: &Form,
-    float_temps: bool,
+    storage: Storage,
     search: Search,
 ) -> Result<Vec<Piece>, Overflow> {
     if form.channels == "stencil" {
@@ -1333,7 +1352,8 @@ fn plan_form(
     }
     let overflow = fit.fits(m, form.value).err();
     let clamp_refusals = cache.clamp_refusals;
-    let mut splitter = Splitter::new(m, fit, cache, st.index, float_temps);
+    let storage = Storage { float_main: storage.float_temps && float_framebuffer(m, st), ..storage };
+    let mut splitter = Splitter::new(m, fit, cache, st.index, storage);
     if search == Search::Exhaustive {
         splitter = splitter.exhaustive();
     }
@@ -1377,7 +1397,44 @@ fn plan_form(
             }
         }
     }
-    Ok(pieces)
+    through_clamps(m, fit, cache, &pieces, storage)
+}
+
+/// The statement's pieces as the blender runs them ([`split::signed_terms`]),
+/// or a refusal when a clamp between them, or of a blend's source, would
+/// change what the statement means ([`split::exact_through_clamps`]).
+fn through_clamps(
+    m: &mut Module,
+    fit: &dyn FitCheck,
+    cache: &mut SplitCache,
+    pieces: &[Piece],
+    storage: Storage,
+) -> Result<Vec<Piece>, Overflow> {
+    let refusal = |what: &str| {
+        Overflow {
+        resource: format!(
+            "cannot be blended exactly on this target: {what}, where the 8-bit framebuffer's clamp changes it"
+        ),
+        need: 0,
+        have: 0,
+        at: None,
+        help: Some(
+            "keep each blended term in [0, 1] (a `saturate(…)` where a clamp is meant), or target wgsl with an `rgba16f` framebuffer"
+                .into(),
+        ),
+    }
+    };
+    if !split::exact_through_clamps(m, pieces, storage) {
+        cache.clamp_refusals += 1;
+        return Err(refusal(if storage.subtract {
+            "its passes would blend a term outside [0, 1] or store one between passes"
+        } else {
+            "its passes would blend a term outside [0, 1] or store one between passes, and the target's blender cannot subtract"
+        }));
+    }
+    split::signed_terms(m, fit, pieces, storage).ok_or_else(|| {
+        refusal("the negation of a term below 0, or half of a factor above 1, does not fit a pass")
+    })
 }
 
 #[allow(clippy::too_many_arguments)]
