@@ -125,13 +125,13 @@ pub fn product_by_groups(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>
     None
 }
 
+/// A sum as its terms, each a list of factors.
+type Terms = Vec<Vec<Handle<Expr>>>;
+
 /// `terms` (each sorted, the list sorted) as every selector times every
 /// `x`, the `x` being the cofactors of `selector`: (selectors, xs), each
 /// with at least two members; `None` when the terms are not such a product.
-fn groups_by(
-    terms: &[Vec<Handle<Expr>>],
-    selector: &[Handle<Expr>],
-) -> Option<(Vec<Vec<Handle<Expr>>>, Vec<Vec<Handle<Expr>>>)> {
+fn groups_by(terms: &[Vec<Handle<Expr>>], selector: &[Handle<Expr>]) -> Option<(Terms, Terms)> {
     let cofactor = |t: &[Handle<Expr>], f: &[Handle<Expr>]| -> Option<Vec<Handle<Expr>>> {
         let mut rest = t.to_vec();
         for x in f {

@@ -384,10 +384,9 @@ mod tests {
         // So an add and a reverse subtract of a signed term give it exactly.
         let sub = BlendState { equation: crate::pipeline::BlendEquation::ReverseSubtract, ..BlendState::ADD };
         fb.set_color(1, 0, [0.5, 0.5, 0.5, 0.5]);
-        for v in [[0.25f32, -0.25, 0.0, 0.0]] {
-            fb.tiles[0].blend_color(1, &v, &BlendState::ADD);
-            fb.tiles[0].blend_color(1, &v.map(|x| -x), &sub);
-        }
+        let v = [0.25f32, -0.25, 0.0, 0.0];
+        fb.tiles[0].blend_color(1, &v, &BlendState::ADD);
+        fb.tiles[0].blend_color(1, &v.map(|x| -x), &sub);
         assert_eq!(fb.color(1, 0).unwrap(), [0.75, 0.25, 0.5, 0.5]);
     }
 
