@@ -247,6 +247,12 @@ fn agrees(
     // unit's coordinates depend on another unit (a dependent lookup).
     let mut keys = Vec::new();
     for &u in units {
+        if shadec::planner::shadow_map::depth_texture_read(m, u).is_some() {
+            return Some(
+                "a depth texture: its register holds the comparison, not a texel (tests/shadow_map.rs)"
+                    .into(),
+            );
+        }
         let coords = match &m.exprs[u] {
             Expr::Lookup { coords, .. } => *coords,
             Expr::FramebufferRead { position, .. } => *position,

@@ -122,7 +122,7 @@ fn shadow_map_geforce3_setup_snapshot() {
 #[test]
 fn shadow_map_is_refused_on_geforce256_naming_what_it_lacked() {
     let source = example("shadow_map");
-    let err = plan(&source, "geforce256").err().expect("refused on geforce256");
+    let Err(err) = plan(&source, "geforce256") else { panic!("planned on geforce256") };
     assert_eq!(err.len(), 1, "{err:?}");
     let at = shadec::span::LineIndex::new(&source).line_col(&source, err[0].primary.span.start as usize);
     assert_eq!(at.line, 35, "{err:?}");
@@ -137,7 +137,7 @@ fn shadow_map_is_refused_on_geforce256_naming_what_it_lacked() {
 #[test]
 fn printed_shadow_mask_is_refused_on_geforce3_pointing_at_williams() {
     let source = example("shadow_mask");
-    let err = plan(&source, "geforce3").err().expect("refused on geforce3");
+    let Err(err) = plan(&source, "geforce3") else { panic!("planned on geforce3") };
     assert_eq!(err.len(), 1, "{err:?}");
     let at = shadec::span::LineIndex::new(&source).line_col(&source, err[0].primary.span.start as usize);
     assert_eq!(at.line, 31, "{err:?}");

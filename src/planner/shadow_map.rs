@@ -74,7 +74,7 @@ fn rewritten(m: &mut Module, i: usize) -> Option<(Handle<Expr>, Handle<Expr>)> {
         matches!(m.exprs[h], Expr::FramebufferRead { channel: FbChannel::Depth, position, .. } if reprojected.contains(&position))
     });
     let other_pixel_use =
-        reach.iter().any(|&h| !inverses.contains(&h) && m.exprs[h].operands().iter().any(|o| *o == st.index));
+        reach.iter().any(|&h| !inverses.contains(&h) && m.exprs[h].operands().contains(&st.index));
     if !reads_depth || other_pixel_use {
         return None;
     }
