@@ -1,0 +1,120 @@
+//! The images a frame's passes render into and read back: a pass's
+//! cleared target as its setup says ([`new_target`]), the framebuffers a
+//! pass reads, and a rendered texture or temporary kept for later lookups
+//! ([`Rendered`], fat-texel layers).
+
+use std::collections::{BTreeMap, HashMap};
+
+use crate::ir::{self, eval::Value, Expr, Module, Ty};
+use crate::pipeline::{PassInterface, TargetFormat, TargetImage};
+use crate::renderer::{ColorFormat, Framebuffer, RenderError};
+use crate::textures::{Filter, Level, TexelFormat, Texture2D, Wrap};
+
+use crate::numerics::Precision;
+
+use super::shade::to_pixel;
+
+/// A cleared image for a pass to render into, as its setup says
+/// (`pipeline::TargetImage`): a texture declared 16-bit or float keeps what
+/// is rendered into it (deferred shading's signed vectors) in half floats,
+/// as the WGSL target's `Rgba16Float` (fixed9 and f32; exact keeps f32); a
+/// fixed-point target (`rgba8`) is clamped to [0, 1] as GL stores it,
+/// which `exact` and `f32` keep in float ([`ColorFormat::Unorm`]) and
+/// `fixed9` in RGBA8; a planner temporary keeps its value unclamped.
+pub(super) fn new_target(
+    target: &TargetImage,
+    mode: Precision,
+    format: ColorFormat,
+    frame: (u32, u32),
+) -> Result<Framebuffer, RenderError> {
+    let format = match (mode, target.format) {
+        (Precision::Exact, TargetFormat::Half) => ColorFormat::F32,
+        (_, TargetFormat::Half) => ColorFormat::F16,
+        (Precision::Exact | Precision::F32, TargetFormat::Unorm8) => ColorFormat::Unorm,
+        _ => format,
+    };
+    let (width, height) = target.extent.size(frame.0, frame.1);
+    let mut fb = Framebuffer::new(width, height, format)?;
+    fb.clear_color([0.0, 0.0, 0.0, 0.0]);
+    Ok(fb)
+}
+
+/// Whether the pass reads its own target's size or depth (`xs`, `δu`).
+pub(super) fn reads_own_target(m: &Module, pi: &PassInterface) -> bool {
+    let mut roots = vec![pi.output];
+    roots.extend(pi.condition);
+    m.reachable(&roots).into_iter().any(|h| matches!(m.exprs[h], Expr::Pixel { .. } | Expr::TexelCoord))
+}
+
+/// Snapshots of the framebuffers a pass reads (another's, or its own in a
+/// screen pass), by framebuffer id.
+pub(super) fn framebuffer_reads(
+    m: &Module,
+    pi: &PassInterface,
+    targets: &BTreeMap<String, Framebuffer>,
+) -> HashMap<u32, Framebuffer> {
+    let mut reads: HashMap<u32, Framebuffer> = HashMap::new();
+    let mut roots = vec![pi.output];
+    roots.extend(pi.condition);
+    for h in m.reachable(&roots) {
+        if let Expr::FramebufferRead { framebuffer, .. } = m.exprs[h] {
+            let fname = &m.framebuffers[framebuffer as usize].name;
+            if let Some(fb) = targets.get(fname) {
+                reads.entry(framebuffer).or_insert_with(|| fb.clone());
+            }
+        }
+    }
+    reads
+}
+
+/// A texture or temporary a pass rendered: its pixels (for lookups by
+/// screen position) and a filtered texture (for lookups by coordinates).
+pub(super) struct Rendered {
+    pub(super) width: u32,
+    pub(super) height: u32,
+    pub(super) pixels: Vec<[f32; 4]>,
+    pub(super) texture: Texture2D,
+}
+
+impl Rendered {
+    /// The texel at a pixel position (`T xs`, `T δπx`), or sampled at
+    /// texture coordinates (level 0).
+    pub(super) fn sample(&self, c: Value, coords_ty: Ty, filter: Filter) -> Value {
+        if coords_ty == Ty::Position {
+            match to_pixel(c, self.width, self.height, 0.0) {
+                Some((x, y)) => self.pixels[(y * self.width + x) as usize].map(|v| v as f64),
+                None => [0.0; 4],
+            }
+        } else {
+            self.texture.sample(c[0] as f32, c[1] as f32, filter, 0.0).map(|v| v as f64)
+        }
+    }
+
+    pub(super) fn from_framebuffer(fb: &Framebuffer, mipmap: bool) -> Rendered {
+        let pixels = fb.read_back_rgba_f32();
+        let t = Texture2D::new(
+            TexelFormat::F32,
+            Wrap::ClampToEdge,
+            Level::new(fb.width(), fb.height(), pixels.clone()),
+        );
+        let texture = if mipmap { t.with_box_mipmaps() } else { t };
+        Rendered { width: fb.width(), height: fb.height(), pixels, texture }
+    }
+}
+
+/// Per texture, the layers of its fat texels a bundle pass rendered (`T`,
+/// `T#1`, `T#2`, …).
+pub(super) fn fat_texel_layers<'a>(
+    m: &Module,
+    rendered: &'a BTreeMap<String, Rendered>,
+) -> Vec<Vec<&'a Rendered>> {
+    m.textures
+        .iter()
+        .zip(ir::fat_layers(m))
+        .map(|(t, n)| {
+            (0..n)
+                .map_while(|i| rendered.get(&if i == 0 { t.name.clone() } else { format!("{}#{i}", t.name) }))
+                .collect()
+        })
+        .collect()
+}
