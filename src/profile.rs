@@ -131,6 +131,12 @@ pub struct Profile {
     /// vertex. See docs/vertex-programs.md.
     #[serde(default)]
     pub vertex_programs: bool,
+    /// Depth textures with the hardware's comparison (SGIX_depth_texture,
+    /// SGIX_shadow / ARB_shadow: 24-bit depth, `r ≤ texel` → 0 or 1 per
+    /// sample; Williams 1978's shadow map as Pipeline Grammar, Section 3.5
+    /// writes it). GeForce3 had them; GeForce 256 did not.
+    #[serde(default)]
+    pub depth_textures: bool,
     /// How fast the target runs a pass (`docs/cost-model.md`):
     /// `None` for a profile with no timing model (`wgsl`, `multitexture`),
     /// whose plans get no predicted time.

@@ -246,7 +246,16 @@ fn agrees(
     // Unit coordinates from the markers: the same for every sample unless a
     // unit's coordinates depend on another unit (a dependent lookup).
     let mut keys = Vec::new();
+    if matches!(m.exprs[value], Expr::Depth(_)) {
+        return Some("the depth a depth-only pass writes (the depth test stores it; no colour)".into());
+    }
     for &u in units {
+        if shadec::planner::shadow_map::depth_texture_read(m, u).is_some() {
+            return Some(
+                "a depth texture: its register holds the comparison, not a texel (tests/shadow_map.rs)"
+                    .into(),
+            );
+        }
         let coords = match &m.exprs[u] {
             Expr::Lookup { coords, .. } => *coords,
             Expr::FramebufferRead { position, .. } => *position,

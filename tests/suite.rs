@@ -58,6 +58,7 @@ mod render_batch;
 mod render_combiners;
 mod render_plan;
 mod roundtrip;
+mod shadow_map;
 mod shadow_volumes;
 mod signed_textures;
 mod specialize_lights;

@@ -31,6 +31,7 @@ pub mod lights;
 pub mod realize;
 pub mod relevance;
 mod rewrite;
+pub mod shadow_map;
 pub mod shadow_volumes;
 pub mod specialize;
 pub mod split;
@@ -346,6 +347,7 @@ fn plan_as_written(
     request: &Request,
 ) -> Result<Planned, Vec<Diagnostic>> {
     let mut m = module.clone();
+    shadow_map::redraw_over_geometry(&mut m, profile);
     let errors: Vec<Diagnostic> =
         crate::profile::fit(&m, profile).into_iter().filter(|d| d.is_error()).collect();
     // What the target lacks may be only how the program is written (a
@@ -399,6 +401,7 @@ fn plan_as_written(
         .collect();
     let ctx = AssembleCtx { profile, realizer: request.realizer, texgen: &texgen, at: &at };
     let (mut plan, stages) = assemble(&m, &ctx, &chosen, prepared);
+    shadow_map::equal_depth(&m, &mut plan.passes);
     if let Some(d) = storage::float_framebuffer_read_back(module, &plan, profile) {
         return Err(vec![d]);
     }

@@ -530,8 +530,10 @@ impl<'a> PlanRenderer<'a> {
         let machine = PixelEmulator::new(&g.config, constant(0), constant(1), [0.0; 4], Precision::Fixed9)
             .map_err(|e| e.to_string())?;
         let mut registers = [None; 6];
+        let output = Handle::new(self.planned.plan.passes[index].fragment.output as usize);
         for (r, u) in registers.iter_mut().zip(&self.planned.setup(index).units) {
-            *r = Some(u.lookup);
+            // A depth texture's unit returns its comparison (ARB_shadow), not the depth.
+            *r = Some(crate::planner::shadow_map::compare_node(m, output, u.lookup).unwrap_or(u.lookup));
         }
         registers[4] = g.primary;
         registers[5] = g.secondary;

@@ -486,12 +486,16 @@ impl Gen<'_> {
         };
         let Expr::Binary { op, lhs, rhs } = self.expr(cond).clone() else { return Err(bad()) };
         if self.reads_depth(cond) {
-            // The shadow-mask test (seeds/001 Section 3.5): no setup of the
-            // mux reaches a depth buffer, whatever the comparison.
+            // A depth texture's compare (issue 39): the unit's register holds 1 where lit.
+            if let Some(k) = crate::planner::shadow_map::compare_unit(self.m, self.units, cond) {
+                let reg = Register::texture(k as u8).expect("at most four units, checked");
+                return Ok((Src { base: Base::Reg(reg), comp: Comp::Alpha, map: UnsignedIdentity }, false));
+            }
+            // The shadow-mask test (seeds/001 Section 3.5) in another form.
             return Err(unsupported(
                 span,
                 "a per-pixel depth comparison (a shadow-map test)",
-                "the register combiners cannot read a depth buffer, and shadec's combiner targets have no depth textures (ARB_shadow's comparison): target wgsl",
+                crate::planner::shadow_map::REFUSAL_HELP,
             ));
         }
         let (x, k, high) = match (self.constant(lhs), self.constant(rhs), op) {

@@ -20,10 +20,15 @@ pub fn program(m: &Module, units: &[Handle<Expr>]) -> Option<TextureShader> {
     for (k, &unit) in units.iter().enumerate() {
         stages.push(operation(m, &units[..k], unit)?);
     }
-    stages.iter().any(|op| op.previous().is_some()).then_some(TextureShader { stages })
+    let compares = units.iter().any(|&u| crate::planner::shadow_map::depth_texture_read(m, u).is_some());
+    (compares || stages.iter().any(|op| op.previous().is_some())).then_some(TextureShader { stages })
 }
 
 fn operation(m: &Module, earlier: &[Handle<Expr>], unit: Handle<Expr>) -> Option<Operation> {
+    // A depth texture: TEXTURE_2D divides by q, the unit compares r/q (ARB_shadow).
+    if crate::planner::shadow_map::depth_texture_read(m, unit).is_some() {
+        return Some(Operation::Texture2d);
+    }
     let Expr::Lookup { texture, coords } = m.exprs[unit] else { return None };
     let kind = m.textures.get(texture as usize)?.kind;
     if interpolated(m, coords) {

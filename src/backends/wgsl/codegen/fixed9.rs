@@ -21,8 +21,11 @@ impl Gen<'_> {
         g: &crate::backends::combiners::Generated,
     ) -> R<NH> {
         let pass = &self.planned.plan.passes[self.pass_index];
+        let output = self.planned.handle(pass.fragment.output);
+        // A depth texture's unit returns its comparison (ARB_shadow), as the CPU loads it.
+        let unit = |h| crate::planner::shadow_map::compare_node(&self.planned.module, output, h).unwrap_or(h);
         let mut registers: Vec<Option<ir::Handle<Expr>>> =
-            pass.textures.iter().map(|t| Some(self.planned.handle(t.lookup))).collect();
+            pass.textures.iter().map(|t| Some(unit(self.planned.handle(t.lookup)))).collect();
         registers.resize(4, None);
         registers.push(g.primary);
         registers.push(g.secondary);

@@ -1,0 +1,190 @@
+//! The shadow map's depth test on a target with depth textures (GeForce3:
+//! SGIX_depth_texture and SGIX_shadow, later ARB_depth_texture and
+//! ARB_shadow). Williams 1978's test, as Pipeline Grammar, Section 3.5
+//! writes it at the pixel,
+//!
+//! ```text
+//! α C xs ← (z πl π⁻¹ xs) > (z Cl πl π⁻¹ xs) + b
+//! ```
+//!
+//! takes each pixel back to the model (`π⁻¹`) and into the light's view
+//! (`πl`). A GeForce3 did not invert the camera per pixel: it drew the
+//! scene's meshes again with the depth test `Equal` (the pixel is the
+//! fragment that wrote C's depth, so `π⁻¹ xs` is the interpolated vertex
+//! position `δ x`), with texture coordinates `πl x` generated per vertex
+//! (eye-linear texgen with the light's matrices); the texture unit divided
+//! them by q and compared `r/q` with the depth texel (`r ≤ texel` → 1, lit).
+//! So the statement is rewritten here into that pass, `α C δπx ←
+//! (z δπl x) > (z Cl δπl x) + b`, which is the same value at every pixel
+//! the meshes cover (`δ` is perspective-correct and `πl` projective, so
+//! `δ πl x = πl δ x`), and the compare result `(z δπl x) ≤ (z Cl δπl x) + b`
+//! is what the unit's register holds ([`compare_node`]).
+//!
+//! The example's printed test, `(z C xs) > (z Cl πl π⁻¹ xs)`, compares the
+//! camera's depth with the light's: the unit's `r/q` shares q with `s/q`
+//! and `t/q`, so it cannot be the camera's depth; that form is left to the
+//! code generator, which refuses it, located.
+
+use rustc_hash::FxHashMap as HashMap;
+
+use crate::ir::{BinaryOp, Expr, FbChannel, Frequency, Handle, Module, Table};
+use crate::pipeline::{DepthState, Pass};
+use crate::profile::{FragmentStage, Profile};
+
+/// Rewrites every statement at the pixel whose value is Williams's test
+/// through `πl π⁻¹ xs` into a pass over the meshes an earlier statement
+/// projected into the same framebuffer, on a combiner target with depth
+/// textures. Returns the indices of the statements rewritten.
+pub fn redraw_over_geometry(m: &mut Module, profile: &Profile) -> Vec<usize> {
+    if !profile.depth_textures || !matches!(profile.fragment, FragmentStage::Combiners(_)) {
+        return Vec::new();
+    }
+    let mut done = Vec::new();
+    for i in 0..m.statements.len() {
+        if let Some((index, value)) = rewritten(m, i) {
+            let st = &mut m.statements[i];
+            st.index = index;
+            st.value = value;
+            st.freq = Frequency::Fragment;
+            done.push(i);
+        }
+    }
+    done
+}
+
+/// The new index and value of statement `i`, if it is a depth test
+/// through `πl π⁻¹ xs` at the pixel and an earlier statement drew meshes
+/// into its framebuffer.
+fn rewritten(m: &mut Module, i: usize) -> Option<(Handle<Expr>, Handle<Expr>)> {
+    let st = m.statements[i].clone();
+    let Table::Framebuffer { id, .. } = st.table else { return None };
+    let Expr::Pixel { freq: Frequency::Screen } = m.exprs[st.index] else { return None };
+    let reach = m.reachable(&[st.value]);
+    // Every use of the pixel is `πl π⁻¹ xs`, and a depth texture is read there.
+    let through = |h: Handle<Expr>| match m.exprs[h] {
+        Expr::Project { ref projection, value } if !projection.inverse => match m.exprs[value] {
+            Expr::Project { projection: ref inv, value: p } if inv.inverse && p == st.index => Some(value),
+            _ => None,
+        },
+        _ => None,
+    };
+    let reprojected: Vec<Handle<Expr>> = reach.iter().copied().filter(|&h| through(h).is_some()).collect();
+    let inverses: Vec<Handle<Expr>> = reprojected.iter().filter_map(|&h| through(h)).collect();
+    let reads_depth = reach.iter().any(|&h| {
+        matches!(m.exprs[h], Expr::FramebufferRead { channel: FbChannel::Depth, position, .. } if reprojected.contains(&position))
+    });
+    let other_pixel_use =
+        reach.iter().any(|&h| !inverses.contains(&h) && m.exprs[h].operands().contains(&st.index));
+    if !reads_depth || other_pixel_use {
+        return None;
+    }
+    let index = earlier_mesh_index(m, i, id)?;
+    let Expr::Interpolate { value: clip, .. } = m.exprs[index] else { return None };
+    let Expr::Project { value: vertex, .. } = m.exprs[clip] else { return None };
+    let mut map = HashMap::default();
+    for &h in &reprojected {
+        let Expr::Project { ref projection, .. } = m.exprs[h] else { continue };
+        let light = Expr::Project { projection: projection.clone(), value: vertex };
+        let span = m.span(h);
+        let per_vertex = m.intern(light, span).ok()?;
+        let interpolated =
+            m.intern(Expr::Interpolate { value: per_vertex, to: Frequency::Fragment }, span).ok()?;
+        map.insert(h, interpolated);
+    }
+    let value = super::substitute(m, st.value, &map)?;
+    compare_nodes(m, value);
+    Some((index, value))
+}
+
+/// The index (`δπx`) of the last statement before `i` that drew meshes
+/// into framebuffer `id`.
+fn earlier_mesh_index(m: &Module, i: usize, id: u32) -> Option<Handle<Expr>> {
+    m.statements[..i].iter().rev().find_map(|s| match s.table {
+        Table::Framebuffer { id: f, .. }
+            if f == id && matches!(m.exprs[s.index], Expr::Interpolate { .. }) =>
+        {
+            Some(s.index)
+        }
+        _ => None,
+    })
+}
+
+/// Interns, for every depth test `a > d` (or `a > d + b`) of `value`
+/// whose `d` reads a depth texture at interpolated coordinates, the
+/// compare result `a ≤ d (+ b)` the texture unit returns (ARB_shadow's
+/// `TEXTURE_COMPARE_FUNC` `LEQUAL`, the bias folded into r by the texgen).
+fn compare_nodes(m: &mut Module, value: Handle<Expr>) {
+    for h in m.reachable(&[value]) {
+        if let Expr::Binary { op: BinaryOp::Gt, lhs, rhs } = m.exprs[h] {
+            if depth_texture_read(m, rhs).is_some() {
+                let span = m.span(h);
+                let _ = m.intern(Expr::Binary { op: BinaryOp::Le, lhs, rhs }, span);
+            }
+        }
+    }
+}
+
+/// The depth-texture read of `d` or `d + b` (`b` a constant): a read of a
+/// framebuffer's depth at coordinates interpolated from the vertices,
+/// which is what a texture unit with a depth texture can compare.
+pub fn depth_texture_read(m: &Module, rhs: Handle<Expr>) -> Option<Handle<Expr>> {
+    let read = match m.exprs[rhs] {
+        Expr::Binary { op: BinaryOp::Add, lhs, rhs: b } if matches!(m.exprs[b], Expr::Constant(_)) => lhs,
+        _ => rhs,
+    };
+    match m.exprs[read] {
+        Expr::FramebufferRead { channel: FbChannel::Depth, position, .. }
+            if matches!(m.exprs[position], Expr::Interpolate { .. }) =>
+        {
+            Some(read)
+        }
+        _ => None,
+    }
+}
+
+/// The node whose value the texture unit serving `read` returns, if
+/// `read` is a depth texture compared in `output`: `a ≤ d (+ b)`, 1 where
+/// the fragment is lit (interned by [`redraw_over_geometry`]).
+pub fn compare_node(m: &Module, output: Handle<Expr>, read: Handle<Expr>) -> Option<Handle<Expr>> {
+    m.reachable(&[output]).into_iter().find_map(|h| match m.exprs[h] {
+        Expr::Binary { op: BinaryOp::Gt, lhs, rhs } if depth_texture_read(m, rhs) == Some(read) => {
+            m.exprs.find(&Expr::Binary { op: BinaryOp::Le, lhs, rhs })
+        }
+        _ => None,
+    })
+}
+
+/// The passes that compare a depth texture test depth `Equal` without
+/// writing: their fragment is the one that wrote the framebuffer's depth
+/// (the redraw of Kilgard 2000, Section 5), not a nearer one of its own.
+pub fn equal_depth(m: &Module, passes: &mut [Pass]) {
+    for pass in passes.iter_mut() {
+        let output = Handle::new(pass.fragment.output as usize);
+        let compares = m.reachable(&[output]).into_iter().any(|h| {
+            matches!(m.exprs[h], Expr::Binary { op: BinaryOp::Gt, rhs, .. } if depth_texture_read(m, rhs).is_some())
+        });
+        if compares && matches!(pass.geometry, crate::pipeline::Geometry::Mesh { .. }) {
+            pass.state.depth = DepthState::EQUAL_NO_WRITE;
+        }
+    }
+}
+
+/// The texture unit whose depth comparison is the condition `cond` of a
+/// register-combiner pass, if it is one: `cond` is `(z P) > (z T P)` or
+/// `(z P) > (z T P) + b`, where the unit reads depth texture T at the
+/// interpolated coordinates P and compares their own `r/q` with it —
+/// the only depth a texture unit compares (ARB_shadow). The unit's
+/// register holds the compare result, 1 where the fragment is lit, so
+/// the condition holds where it is below ½.
+pub fn compare_unit(m: &Module, units: &[Handle<Expr>], cond: Handle<Expr>) -> Option<usize> {
+    let Expr::Binary { op: BinaryOp::Gt, lhs, rhs } = m.exprs[cond] else { return None };
+    let read = depth_texture_read(m, rhs)?;
+    let Expr::FramebufferRead { position, .. } = m.exprs[read] else { return None };
+    if !matches!(m.exprs[lhs], Expr::Depth(p) if p == position) {
+        return None;
+    }
+    units.iter().position(|&u| u == read)
+}
+
+/// Why a depth comparison has no combiner setup: what each target had.
+pub const REFUSAL_HELP: &str = "the register combiners cannot read a depth buffer; geforce256 has no depth textures, and geforce3's (ARB_shadow) compare only the depth r/q of the texture coordinates they are read at, interpolated from the vertices: write Williams's test `(z πl π⁻¹ xs) > (z Cl πl π⁻¹ xs) + b` (redrawn over the meshes) or `(z δπl x) > (z Cl δπl x)`, or target wgsl (docs/shadow-maps.md)";
