@@ -61,7 +61,7 @@
 //!   1/255 with the emulator's rule (nearest, ties toward +∞). Constant and
 //!   uniform subexpressions are folded by the compiler into a constant
 //!   register and an output scale, so they are rounded but not clamped
-//!   ([`fixed9_folded_with`]). Values that only address textures (lookup
+//!   ([`fixed9_folded_with`](crate::numerics::fixed9_folded_with)). Values that only address textures (lookup
 //!   coordinates, framebuffer positions) are not quantized: the texture
 //!   units iterate them in float.
 
@@ -569,7 +569,15 @@ impl<'p, 's> Draws<'p, 's> {
         progress: &'p mut dyn FnMut(usize, usize),
     ) -> Self {
         let adaptive = settings.map(|_| super::AdaptiveStats::default());
-        Draws { stats: DrawStats::default(), settings, adaptive, done: 0, total, progress, vertex_program: None }
+        Draws {
+            stats: DrawStats::default(),
+            settings,
+            adaptive,
+            done: 0,
+            total,
+            progress,
+            vertex_program: None,
+        }
     }
 
     /// Counts `n` draws done and reports progress.

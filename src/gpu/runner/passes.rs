@@ -110,7 +110,7 @@ pub struct LoadedTexture {
 /// Where a pass draws.
 #[derive(Clone, Debug, PartialEq)]
 pub enum PassTarget {
-    /// The [`Target`] of [`run_passes`]: the picture read back.
+    /// The [`Target`] of [`run_passes`](super::run_passes): the picture read back.
     Main,
     /// A texture the plan renders for later passes to sample
     /// ([`TextureData::Rendered`]), created and cleared (transparent black,
@@ -149,7 +149,7 @@ pub enum TexelUpload {
     /// `Rgba16Unorm`, four native-endian `u16` (8 bytes) a texel; 8-bit
     /// values k/255 are exact (k·257). Filtered in float: exact fidelity.
     /// On a device without `TEXTURE_FORMAT_16BIT_NORM` the runner uploads
-    /// it rounded to `Rgba8Unorm` (see [`Gpu::filters_16bit_norm`]).
+    /// it rounded to `Rgba8Unorm` (see [`Gpu::filters_16bit_norm`](super::Gpu::filters_16bit_norm)).
     Rgba16,
 }
 
