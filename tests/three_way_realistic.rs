@@ -14,7 +14,8 @@
 //! 1.95, and GL clamps a vertex colour to [0, 1]: without the clamp the
 //! combiner targets refuse it, located), and the shadow map, whose screen
 //! pass (`π⁻¹`) the independent reference does not evaluate, targets
-//! wgsl (the combiner targets have no depth textures: refused, located)
+//! wgsl (geforce256 has no depth textures; geforce3 plans Williams's test
+//! in `examples/shadow_map.shd`, tested in `tests/shadow_map.rs`)
 //! and is held to the CPU and wgpu agreeing.
 
 use shadec::numerics::Precision;
