@@ -1,0 +1,437 @@
+//! A statement's blend form — what framebuffer blending does with what it
+//! reads of its own target (Pipeline Grammar, eq. (9)) — and the pieces it
+//! is split into.
+
+use super::*;
+
+pub(super) fn self_read(m: &Module, st: &Statement, channel: FbChannel) -> Option<Handle<Expr>> {
+    match st.table {
+        Table::Framebuffer { id, .. } => {
+            m.exprs.find(&Expr::FramebufferRead { framebuffer: id, channel, position: st.index })
+        }
+        _ => None,
+    }
+}
+
+/// Whether `b` can be fused after `a`: same framebuffer, colour writes,
+/// same geometry, no stencil or discard.
+pub(super) fn fusable(m: &Module, a: &Statement, b: &Statement) -> bool {
+    matches!((&a.table, &b.table), (Table::Framebuffer { id: x, channel: FbChannel::Color }, Table::Framebuffer { id: y, channel: FbChannel::Color }) if x == y)
+        && a.index == b.index
+        && a.freq == Frequency::Fragment
+        && ![a.value, b.value].iter().any(|v| matches!(m.exprs[*v], Expr::Select { reject: None, .. }))
+}
+
+/// The value of the statements `stmts` run one after another, as one value:
+/// each later statement's reads of the framebuffer replaced by the earlier
+/// value.
+pub(super) fn fuse(m: &mut Module, stmts: &[usize]) -> Option<Handle<Expr>> {
+    let mut value = m.statements[stmts[0]].value;
+    for &s in &stmts[1..] {
+        value = fuse_next(m, value, s)?;
+    }
+    Some(value)
+}
+
+/// The value of statement `s` run after `value` (the fused value of the
+/// statements before it): one step of [`fuse`].
+pub(super) fn fuse_next(m: &mut Module, value: Handle<Expr>, s: usize) -> Option<Handle<Expr>> {
+    let st = m.statements[s].clone();
+    let mut map: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::default();
+    let reads = [FbChannel::Color, FbChannel::Alpha].iter().any(|&c| self_read(m, &st, c).is_some());
+    let value = if reads { stored(m, &st, value)? } else { value };
+    if let Some(r) = self_read(m, &st, FbChannel::Color) {
+        let v = widen_rgba(m, value)?;
+        map.insert(r, v);
+    }
+    if let Some(r) = self_read(m, &st, FbChannel::Alpha) {
+        let a = Builder { module: m }.alpha(value)?;
+        map.insert(r, a);
+    }
+    substitute(m, st.value, &map)
+}
+
+/// What statement `st` reads of `value` stored into its framebuffer: a
+/// fixed-point (`rgba8`) framebuffer clamps to [0, 1] (GL §2.13.9,
+/// §4.1.8), so a fused value whose range leaves [0, 1] is saturated where
+/// the earlier statement would have stored it (`2T³` is not `T·2T·T` on an
+/// rgba8 target: `2T²` was clamped in between). Not needed where `st` only
+/// adds a non-negative term to a non-negative value: `min(v, 1) + s` and
+/// `v + s` are stored alike. A float framebuffer keeps the value.
+pub(super) fn stored(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Option<Handle<Expr>> {
+    use crate::parser::ast::FramebufferChannel as F;
+    let Table::Framebuffer { id, .. } = st.table else { return Some(value) };
+    let float = m.framebuffers[id as usize].channels.iter().any(|c| matches!(c, F::Rgba16f | F::Rgba32f));
+    let range = m.info(value).interval;
+    if float || range.class() == ir::Range::Unsigned || (range.lo >= 0.0 && adds_non_negative(m, st)) {
+        return Some(value);
+    }
+    Builder { module: m }.node(Expr::Math { fun: ir::MathFunction::Saturate, args: vec![value] })
+}
+
+/// Whether `st`'s value is `C + s` with `s ≥ 0` by its range, reading no
+/// destination alpha.
+pub(super) fn adds_non_negative(m: &mut Module, st: &Statement) -> bool {
+    let Some(r) = self_read(m, st, FbChannel::Color) else { return false };
+    if self_read(m, st, FbChannel::Alpha).is_some_and(|ra| split::depends_on(m, st.value, ra)) {
+        return false;
+    }
+    match affine::affine(&mut Builder { module: m }, st.value, r) {
+        Some((coef, offset)) => m.is_constant(coef, 1.0) && m.info(offset).interval.lo >= 0.0,
+        None => false,
+    }
+}
+
+/// An rgb value as the framebuffer holds it: alpha 1.
+pub(super) fn widen_rgba(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
+    match m.info(h).ty {
+        ir::Ty::Rgb | ir::Ty::Vec3 => {
+            Builder { module: m }.node(Expr::Convert { value: h, to: ir::Ty::Rgba })
+        }
+        _ => Some(h),
+    }
+}
+
+/// `h` with the nodes of `map` replaced, rebuilt bottom-up.
+pub fn substitute(
+    m: &mut Module,
+    h: Handle<Expr>,
+    map: &HashMap<Handle<Expr>, Handle<Expr>>,
+) -> Option<Handle<Expr>> {
+    let mut done: HashMap<Handle<Expr>, Handle<Expr>> = map.clone();
+    for n in m.reachable(&[h]) {
+        if done.contains_key(&n) {
+            continue;
+        }
+        let e = m.exprs[n].clone();
+        let ops = e.operands();
+        if ops.iter().all(|o| done.get(o).is_none_or(|x| x == o)) {
+            done.insert(n, n);
+            continue;
+        }
+        let new = e.map_operands(|o| *done.get(&o).unwrap_or(&o));
+        let span = m.span(n);
+        let nh = m.intern(new, span).ok()?;
+        done.insert(n, nh);
+    }
+    done.get(&h).copied()
+}
+
+/// A statement's framebuffer operation as written, no blend read off its
+/// value: the whole value replaces the target, its reads of the target are
+/// the target's values before the statement. What the target channel, a
+/// discard `c ? a`, a stencil test `σ C ? a` or a stencil update say is
+/// taken out (Pipeline Grammar, Sections 3.4-3.5). The program's meaning
+/// (`crate::meaning`) runs statements in this form; `classify` goes on to
+/// read a blend.
+pub fn whole_form(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<Form, Diagnostic> {
+    let mut form = Form {
+        blend: BlendMode::Replace,
+        value,
+        condition: None,
+        stencil: None,
+        depth: None,
+        channels: "rgba",
+        then_add: None,
+        drawn_at: None,
+    };
+    match st.table {
+        Table::Texture(_) => return Ok(form),
+        Table::TexCoords(_) => unreachable!("texgen statements are vertex work"),
+        Table::Framebuffer { channel: FbChannel::Stencil, .. } => {
+            return stencil_write(m, st, value).ok_or_else(|| unsupported_blend(st, "this stencil update (the planner knows `σ C ← (σ C) OR (depth comparison)`, Pipeline Grammar, Section 3.5)"))
+        }
+        Table::Framebuffer { channel: FbChannel::Depth, .. } => return Err(unsupported_blend(st, "a write to the depth channel")),
+        Table::Framebuffer { channel: FbChannel::Alpha, .. } => form.channels = "a",
+        Table::Framebuffer { channel: FbChannel::Color, .. } => {}
+    }
+    // `σ C ? a`: a stencil test; `c ? a`: a discard (also under the
+    // widening to rgba lowering puts around it).
+    if let Expr::Convert { value: inner, to } = m.exprs[value].clone() {
+        if let Expr::Select { cond, accept, reject: None } = m.exprs[inner].clone() {
+            if let Some(widened) = (Builder { module: m }).node(Expr::Convert { value: accept, to }) {
+                form.value = m
+                    .intern(Expr::Select { cond, accept: widened, reject: None }, m.span(inner))
+                    .unwrap_or(value);
+            }
+        }
+    }
+    if let Expr::Select { cond, accept, reject: None } = m.exprs[form.value].clone() {
+        // `σ C ? a` passes where the stencil is set (0 ≠ stored), `¬σ C ? a`
+        // — the shadow-volume idiom, lit where no volume counted — where it
+        // is clear (0 = stored): both a stencil test, for every executor.
+        let stencil = self_read(m, st, FbChannel::Stencil);
+        let negated = match m.exprs[cond] {
+            Expr::Unary { op: crate::ir::UnaryOp::Not, value } => Some(value) == stencil,
+            _ => false,
+        };
+        if stencil.is_some() && (Some(cond) == stencil || negated) {
+            let func = if negated {
+                crate::pipeline::CompareFunc::Equal
+            } else {
+                crate::pipeline::CompareFunc::NotEqual
+            };
+            form.stencil = Some(StencilState { enabled: true, func, reference: 0, ..StencilState::DISABLED });
+        } else {
+            form.condition = Some(cond);
+        }
+        form.value = accept;
+    }
+    Ok(form)
+}
+
+pub(super) fn unsupported_blend(st: &Statement, what: &str) -> Diagnostic {
+    Diagnostic::error("unsupported-blend", format!("framebuffer blending cannot express this: {what}"), st.span, "this statement")
+        .with_help("write the statement as `C ← (C) ⊕ e`, `C ← (C) ⊕[add] e`, `C ← (C) ⊕[add] ((α C) * e)`, or compute the value without reading the framebuffer")
+}
+
+/// Reads the framebuffer operation off a statement's (possibly fused) value.
+pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<Form, Diagnostic> {
+    let mut form = whole_form(m, st, value)?;
+    if matches!(st.table, Table::Texture(_)) || form.channels == "stencil" {
+        return Ok(form);
+    }
+    let unsupported = |what: &str| unsupported_blend(st, what);
+    let r = self_read(m, st, FbChannel::Color);
+    let ra = self_read(m, st, FbChannel::Alpha);
+    let uses =
+        |m: &Module, h: Handle<Expr>, x: Option<Handle<Expr>>| x.is_some_and(|x| split::depends_on(m, h, x));
+    let v = form.value;
+    if !uses(m, v, r) && !uses(m, v, ra) {
+        return Ok(form);
+    }
+    if form.channels == "a" {
+        return Err(unsupported("an alpha write that reads the framebuffer"));
+    }
+    if let Some(r) = r.filter(|r| split::depends_on(m, v, *r)) {
+        // `T ⊕[decal] C`: alpha blending.
+        if let Expr::Combine { mode: CombineMode::Decal, lhs, rhs } = m.exprs[v] {
+            if rhs == r && m.info(lhs).ty == ir::Ty::Rgba && !uses(m, lhs, Some(r)) && !uses(m, lhs, ra) {
+                form.blend = BlendMode::AlphaBlend;
+                form.value = lhs;
+                return Ok(form);
+            }
+        }
+        let (coef, offset) = affine::affine(&mut Builder { module: m }, v, r)
+            .ok_or_else(|| unsupported("the framebuffer's colour is used non-linearly"))?;
+        if let Some(ra) = ra.filter(|ra| coef == *ra) {
+            // Cα·C + (1 − Cα)·f
+            let omr = Builder { module: m }.one_minus(ra);
+            if let Some(x) = omr.and_then(|omr| alpha_factor(m, offset, omr)) {
+                form.blend = BlendMode::DstAlphaMix;
+                form.value = x;
+                return Ok(form);
+            }
+        }
+        if uses(m, coef, ra) {
+            return Err(unsupported("the framebuffer's alpha scales its own colour"));
+        }
+        let one = m.is_constant(coef, 1.0);
+        let zero = m.is_constant(offset, 0.0);
+        if one && zero {
+            form.value = offset; // C ← C: nothing to do (specialization removes it)
+            form.blend = BlendMode::Add;
+            return Ok(form);
+        }
+        if !one && uses(m, offset, ra) {
+            return Err(unsupported("both a colour scale and a destination-alpha term"));
+        }
+        if one {
+            // C + s, or C + Cα·s (GL_DST_ALPHA, GL_ONE).
+            if let Some(x) = ra.and_then(|ra| alpha_factor(m, offset, ra)) {
+                form.blend = BlendMode::DstAlphaAdd;
+                form.value = x;
+            } else if uses(m, offset, ra) {
+                return Err(unsupported(
+                    "the destination alpha appears other than as a factor of the added term",
+                ));
+            } else {
+                form.blend = BlendMode::Add;
+                form.value = offset;
+            }
+        } else if zero {
+            form.blend = BlendMode::Modulate;
+            form.value = coef;
+        } else {
+            // C·m + s: modulate, then add (two passes).
+            form.blend = BlendMode::Modulate;
+            form.value = coef;
+            form.then_add = Some(offset);
+        }
+        return Ok(form);
+    }
+    // Only the alpha is read: `C ← (α C) · x` (GL_DST_ALPHA, GL_ZERO),
+    // `rgba((α C)·x, α C)` = (α C) · rgba(x, 1) included.
+    match ra.and_then(|ra| alpha_factor(m, v, ra).or_else(|| composed_alpha_factor(m, v, ra))) {
+        Some(x) => {
+            form.blend = BlendMode::DstAlphaModulate;
+            form.value = x;
+            Ok(form)
+        }
+        None if ra.is_some_and(|ra| widened_alpha_product(m, v, ra)) => Err(unsupported_blend(st, "the value is rgb, so the statement writes alpha 1, while a blend by the destination alpha would scale the alpha too")
+            .with_help("give the alpha you mean: `rgba((α C δπx) * c, α C δπx)` keeps the alpha (one blend by destination alpha), or write the colour and the alpha in two statements")),
+        None => Err(unsupported("the framebuffer's alpha is used other than as a factor")),
+    }
+}
+
+/// `rgba(α·x, α)` or `rgba(α·x, α·y)` with α the destination alpha `ra`:
+/// the factor `rgba(x, 1)` or `rgba(x, y)`.
+pub(super) fn composed_alpha_factor(
+    m: &mut Module,
+    h: Handle<Expr>,
+    ra: Handle<Expr>,
+) -> Option<Handle<Expr>> {
+    let Expr::Compose { ty: ir::Ty::Rgba, ref components } = m.exprs[h] else { return None };
+    let [c, a] = components[..] else { return None };
+    let x = alpha_factor(m, c, ra)?;
+    let y =
+        if a == ra { Builder { module: m }.constant(ir::Ty::Scalar, 1.0)? } else { alpha_factor(m, a, ra)? };
+    Builder { module: m }.node(Expr::Compose { ty: ir::Ty::Rgba, components: vec![x, y] })
+}
+
+/// `(α C)·x` of an rgb x, widened to rgba (alpha 1): not one blend.
+pub(super) fn widened_alpha_product(m: &Module, h: Handle<Expr>, ra: Handle<Expr>) -> bool {
+    matches!(m.exprs[h], Expr::Convert { value, to: ir::Ty::Rgba } if alpha_factor(m, value, ra).is_some())
+}
+
+/// `h = ra · x` (either order): `x`.
+pub(super) fn alpha_factor(m: &Module, h: Handle<Expr>, ra: Handle<Expr>) -> Option<Handle<Expr>> {
+    match m.exprs[h] {
+        Expr::Binary { op: BinaryOp::Mul, lhs, rhs }
+        | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs } => {
+            if lhs == ra && !split::depends_on(m, rhs, ra) {
+                Some(rhs)
+            } else if rhs == ra && !split::depends_on(m, lhs, ra) {
+                Some(lhs)
+            } else {
+                None
+            }
+        }
+        _ => None,
+    }
+}
+
+/// `σ C δπx ← (σ C δπx) OR (z δπx′ > z C δπx′)` (Pipeline Grammar, Section 3.5):
+/// set the stencil where the fragment's depth compares with the stored one;
+/// no colour, no depth write.
+pub(super) fn stencil_write(m: &Module, st: &Statement, value: Handle<Expr>) -> Option<Form> {
+    let Expr::Binary { op: BinaryOp::Or, lhs, rhs } = m.exprs[value] else { return None };
+    let own = self_read(m, st, FbChannel::Stencil)?;
+    let cmp = if lhs == own {
+        rhs
+    } else if rhs == own {
+        lhs
+    } else {
+        return None;
+    };
+    let Expr::Binary { op, lhs: a, rhs: b } = m.exprs[cmp] else { return None };
+    let stored_is_b = matches!(m.exprs[b], Expr::FramebufferRead { channel: FbChannel::Depth, .. });
+    // The fragment's own depth `z δπx′`: the shadow volume x′ is what this
+    // pass rasterizes (seeds/001 Section 3.5: "the shadow volume vertices
+    // are x′"), not the object x of the statement's index.
+    let Expr::Depth(drawn_at) = m.exprs[if stored_is_b { a } else { b }] else { return None };
+    let func = match (op, stored_is_b) {
+        (BinaryOp::Gt, true) | (BinaryOp::Lt, false) => crate::pipeline::CompareFunc::Greater,
+        (BinaryOp::Ge, true) | (BinaryOp::Le, false) => crate::pipeline::CompareFunc::GreaterEqual,
+        (BinaryOp::Lt, true) | (BinaryOp::Gt, false) => crate::pipeline::CompareFunc::Less,
+        (BinaryOp::Le, true) | (BinaryOp::Ge, false) => crate::pipeline::CompareFunc::LessEqual,
+        _ => return None,
+    };
+    Some(Form {
+        blend: BlendMode::Replace,
+        value,
+        condition: None,
+        stencil: Some(StencilState {
+            enabled: true,
+            func: crate::pipeline::CompareFunc::Always,
+            reference: 1,
+            pass: StencilOp::Replace,
+            ..StencilState::DISABLED
+        }),
+        depth: Some(DepthState { func, write: false }),
+        channels: "stencil",
+        then_add: None,
+        drawn_at: Some(drawn_at),
+    })
+}
+
+/// The pieces of one (fused) statement.
+pub(super) fn plan_form(
+    m: &mut Module,
+    fit: &dyn FitCheck,
+    cache: &mut SplitCache,
+    st: &Statement,
+    form: &Form,
+    float_temps: bool,
+    search: Search,
+) -> Result<Vec<Piece>, Overflow> {
+    if form.channels == "stencil" {
+        // The depth test and the stencil operation of the pass state do the
+        // comparison; the fragment computes nothing and reads no texture
+        // (the stored depth `z C δπx′` is the depth buffer, not a unit).
+        let one =
+            m.intern(Expr::Constant(crate::ir::Constant::scalar(1.0)), m.span(form.value)).map_err(|_| {
+                Overflow {
+                    resource: "a constant stencil-pass output".into(),
+                    need: 1,
+                    have: 0,
+                    at: None,
+                    help: None,
+                }
+            })?;
+        return Ok(vec![Piece {
+            blend: BlendMode::Replace,
+            value: one,
+            dest: Dest::Main,
+            alpha: true,
+            why: String::new(),
+        }]);
+    }
+    let overflow = fit.fits(m, form.value).err();
+    let clamp_refusals = cache.clamp_refusals;
+    let mut splitter = Splitter::new(m, fit, cache, st.index, float_temps);
+    if search == Search::Exhaustive {
+        splitter = splitter.exhaustive();
+    }
+    let mut pieces: Vec<Piece> = match splitter.plan(form.blend, form.value) {
+        Some(p) => p.iter().cloned().collect(),
+        None => {
+            let o = overflow.unwrap_or(Overflow {
+                resource: "has no split into passes of this target".into(),
+                need: 0,
+                have: 0,
+                at: None,
+                help: None,
+            });
+            return Err(if cache.clamp_refusals > clamp_refusals {
+                Overflow {
+                    resource: format!("{o}, and the splits that fit would store a value outside [0, 1] between passes, where the 8-bit framebuffer's clamp changes it"),
+                    need: 0,
+                    have: 0,
+                    ..o
+                }
+            } else {
+                o
+            });
+        }
+    };
+    if let Some(s) = form.then_add {
+        let o = fit.fits(splitter.module, s).err();
+        match splitter.plan(BlendMode::Add, s) {
+            Some(p) => pieces.extend(p.iter().map(|q| Piece {
+                why: "C ← C·m + s: the added term, after the modulation".into(),
+                ..q.clone()
+            })),
+            None => {
+                return Err(o.unwrap_or(Overflow {
+                    resource: "has no split into passes of this target".into(),
+                    need: 0,
+                    have: 0,
+                    at: None,
+                    help: None,
+                }))
+            }
+        }
+    }
+    Ok(pieces)
+}

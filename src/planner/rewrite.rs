@@ -1,0 +1,202 @@
+//! A statement that does not plan as written, planned in its equivalent
+//! forms ([`super::algebra`]), and the refusal that says what was tried.
+
+use super::*;
+
+/// A statement's equivalent forms: the value, the value added after a
+/// modulation (`C ← C·m + s`), and what made them.
+pub(super) type Candidate = (Handle<Expr>, Option<Handle<Expr>>, &'static str);
+/// A statement planned in an equivalent form, with what the form is; or
+/// each form tried and why it does not plan.
+pub(super) type Rewritten = Result<(Form, Vec<Piece>, &'static str), Vec<(&'static str, Overflow)>>;
+
+/// [`candidate`], then — for a single statement — its equivalent forms
+/// ([`rewritten`]): when it does not plan as written, or when it was
+/// rewritten already so that the target could run it (`Fits::canonical`)
+/// and another form may be cheaper. `rewrites` records the statements
+/// planned in another form, with the reason. `Err(Err(d))`: refused for
+/// resources in every form, `d` saying what was tried.
+#[allow(clippy::too_many_arguments)]
+pub(super) fn planned_or_rewritten(
+    m: &mut Module,
+    profile: &Profile,
+    search: Search,
+    fits: &mut Fits,
+    baked: bool,
+    stmts: &[usize],
+    value: Handle<Expr>,
+    rewrites: &mut HashMap<usize, String>,
+) -> Result<(Form, Vec<Piece>), Result<Unplanned, Diagnostic>> {
+    let single = stmts.len() == 1;
+    let as_written = candidate(m, search, fits, baked, stmts, value, profile.float_textures);
+    let (written_cost, why) = match &as_written {
+        Ok((_, pieces)) if single && fits.canonical.contains(&value) => (
+            Some(split::cost(m, fits.fit(baked), pieces)),
+            format!("as written {} cannot run it", profile.name),
+        ),
+        Err(Unplanned::Overflow(o)) if single => (None, format!("as written it {o}")),
+        _ => return as_written.map_err(Ok),
+    };
+    let tried = match rewritten(m, search, fits, baked, stmts[0], profile.float_textures) {
+        Ok((f, mut p, what)) if written_cost.is_none_or(|c| split::cost(m, fits.fit(baked), &p) < c) => {
+            let note = format!("{what} ({why})");
+            note_rewrite(&mut p, &note);
+            rewrites.insert(stmts[0], note);
+            return Ok((f, p));
+        }
+        Ok(_) => Vec::new(),
+        Err(tried) => tried,
+    };
+    match as_written {
+        Ok((form, mut pieces)) => {
+            // The canonical form the target runs is the cheapest.
+            let note = format!("{} ({why})", algebra::CANONICAL);
+            note_rewrite(&mut pieces, &note);
+            rewrites.insert(stmts[0], note);
+            Ok((form, pieces))
+        }
+        Err(Unplanned::Overflow(o)) => {
+            let st = m.statements[stmts[0]].clone();
+            Err(Err(cannot_split(m, &st, profile, &o, &tried)))
+        }
+        Err(why) => Err(Ok(why)),
+    }
+}
+
+/// The first pass of a statement planned in an equivalent form says which
+/// (the pass reasons of a split quote their pieces).
+pub(super) fn note_rewrite(pieces: &mut [Piece], note: &str) {
+    if let Some(first) = pieces.first_mut() {
+        let why = if first.why.is_empty() { "the part rendered first" } else { first.why.as_str() };
+        first.why = format!("{note}; {why}");
+    }
+}
+
+/// A single statement that does not plan as written, planned in the
+/// equivalent forms of its blended value ([`algebra`]; with its clamp left
+/// to the 8-bit framebuffer's, which clamps anyway): the cheapest that
+/// plans by [`split::cost`] (the cost model, then passes, then fetches),
+/// with what it is; else each form tried and why it does not plan.
+pub(super) fn rewritten(
+    m: &mut Module,
+    search: Search,
+    fits: &mut Fits,
+    baked: bool,
+    s: usize,
+    float_temps: bool,
+) -> Rewritten {
+    let st = m.statements[s].clone();
+    let Ok(form) = classify(m, &st, st.value) else { return Err(Vec::new()) };
+    // The exhaustive search enumerates every grouping of the terms.
+    let max = if search == Search::Exhaustive { 8 } else { algebra::MAX_TERMS };
+    let mut candidates: Vec<Candidate> = Vec::new();
+    let adds = form.then_add.map(|a| algebra::forms(m, a, max)).unwrap_or_default();
+    let add_of = |what: &str| adds.iter().find(|f| f.what == what).map(|f| f.value).or(form.then_add);
+    for f in algebra::forms(m, form.value, max) {
+        candidates.push((f.value, add_of(f.what), f.what));
+    }
+    for f in &adds {
+        if candidates.iter().all(|c| c.2 != f.what) {
+            candidates.push((form.value, Some(f.value), f.what));
+        }
+    }
+    if let Some(x) = framebuffer_clamped(m, &st, &form) {
+        let what = "with its clamp left to the framebuffer's";
+        candidates.push((x, form.then_add, what));
+        for f in algebra::forms(m, x, max) {
+            candidates.push((f.value, form.then_add, what));
+        }
+    }
+    let mut best: Option<(split::Cost, Form, Vec<Piece>, &'static str)> = None;
+    let mut tried = Vec::new();
+    for (value, then_add, what) in candidates {
+        let f = Form { value, then_add, ..form.clone() };
+        let (fit, cache) =
+            if baked { (&fits.compiler, &mut fits.compiler_cache) } else { (&fits.target, &mut fits.cache) };
+        match plan_form(m, fit, cache, &st, &f, float_temps, search) {
+            Ok(pieces) => {
+                let c = split::cost(m, fit, &pieces);
+                if best.as_ref().is_none_or(|b| c < b.0) {
+                    best = Some((c, f, pieces, what));
+                }
+            }
+            Err(o) => tried.push((what, o)),
+        }
+    }
+    best.map(|(_, f, p, what)| (f, p, what)).ok_or(tried)
+}
+
+/// `x` of a statement writing `saturate(x)` (or `rgba(saturate(x), 1)`)
+/// whole into an 8-bit colour framebuffer, which stores it clamped to
+/// [0, 1] anyway (Kilgard 2000, Section 5): the clamp happens there, and
+/// `x` may split where `saturate(x)` cannot.
+pub(super) fn framebuffer_clamped(m: &mut Module, st: &Statement, form: &Form) -> Option<Handle<Expr>> {
+    let Table::Framebuffer { id, channel: FbChannel::Color } = st.table else { return None };
+    let float = m.framebuffers[id as usize].channels.iter().any(|c| {
+        matches!(
+            c,
+            crate::parser::ast::FramebufferChannel::Rgba16f | crate::parser::ast::FramebufferChannel::Rgba32f
+        )
+    });
+    if float || form.blend != BlendMode::Replace || form.channels != "rgba" {
+        return None;
+    }
+    let saturated = |m: &Module, h: Handle<Expr>| match &m.exprs[h] {
+        Expr::Math { fun: ir::MathFunction::Saturate, args } => Some(args[0]),
+        _ => None,
+    };
+    match m.exprs[form.value] {
+        Expr::Convert { value, to: ir::Ty::Rgba } => {
+            let x = saturated(m, value)?;
+            Builder { module: m }.node(Expr::Convert { value: x, to: ir::Ty::Rgba })
+        }
+        _ => saturated(m, form.value),
+    }
+}
+
+pub(super) fn cannot_split(
+    m: &Module,
+    st: &Statement,
+    profile: &Profile,
+    o: &Overflow,
+    tried: &[(&str, Overflow)],
+) -> Diagnostic {
+    let span = o.at.map(|h| m.span(h)).filter(|s| *s != Span::DETACHED).unwrap_or(st.span);
+    let d = cannot_split_as_written(st, profile, o, span);
+    if tried.is_empty() {
+        return d;
+    }
+    // What was tried, so that the refusal is not read as if a rewrite
+    // would have planned it.
+    let forms: Vec<String> = tried.iter().map(|(what, o)| format!("{what}, it {o}")).collect();
+    let help = format!(
+        "{}; the planner also tried the statement in its equivalent forms, and none plans: {}",
+        d.help.clone().unwrap_or_default(),
+        forms.join("; ")
+    );
+    d.with_help(help)
+}
+
+pub(super) fn cannot_split_as_written(
+    st: &Statement,
+    profile: &Profile,
+    o: &Overflow,
+    span: Span,
+) -> Diagnostic {
+    Diagnostic::error(
+        "cannot-split",
+        format!("no split of this statement fits {}: a part that cannot be divided further {o}", profile.name),
+        st.span,
+        format!("{o}"),
+    )
+    .with_label(span, "this part".to_string())
+    .with_help(if let Some(help) = o.help.as_deref().filter(|h| !h.is_empty()) {
+        // The code generator's own advice for the part, then the splits'.
+        format!("{help}; framebuffer blending can only split sums and products (and affine ⊕ chains) of parts that fit")
+    } else if o.have == 0 {
+        // Nothing the target has (`length` per fragment), not too little.
+        "framebuffer blending can only split sums and products (and affine ⊕ chains); compute the part per vertex, bake it into a lookup texture (`= bake(f)`), or target `wgsl`".to_string()
+    } else {
+        format!("framebuffer blending can only split sums and products (and affine ⊕ chains); compute the part per vertex, bake it into a lookup texture, or target a profile with more {}", o.resource)
+    })
+}
