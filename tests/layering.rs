@@ -256,3 +256,44 @@ fn the_line_col_checker_sees_a_read_back() {
     let lsp = "fn f(d: &Document) { d.offset(pos); let (k, v) = l.split_once(':'); }";
     assert!(!reads_line_col_back(lsp));
 }
+
+/// The longest a source file may be (issue 35): past it a file holds more
+/// than one concept, and is split along them (ARCHITECTURE.md, § Code map).
+const MAX_FILE_LINES: usize = 1000;
+
+/// The files of `src/` longer than [`MAX_FILE_LINES`], with their lengths.
+fn files_over(dir: &Path, limit: usize) -> Vec<(String, usize)> {
+    let mut files = Vec::new();
+    rust_files(dir, &mut files);
+    let mut over: Vec<(String, usize)> = files
+        .into_iter()
+        .map(|path| {
+            let lines = std::fs::read_to_string(&path).unwrap().lines().count();
+            (path.strip_prefix(dir).unwrap().to_string_lossy().replace('\\', "/"), lines)
+        })
+        .filter(|(_, lines)| *lines > limit)
+        .collect();
+    over.sort();
+    over
+}
+
+#[test]
+fn no_file_in_src_is_over_1000_lines() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let over = files_over(&src, MAX_FILE_LINES);
+    assert!(
+        over.is_empty(),
+        "split these along their concepts (at most {MAX_FILE_LINES} lines a file): {over:?}"
+    );
+}
+
+#[test]
+fn the_file_length_checker_sees_a_long_file() {
+    let dir = std::env::temp_dir().join(format!("shadec-layering-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("short.rs"), "fn f() {}\n".repeat(3)).unwrap();
+    std::fs::write(dir.join("long.rs"), "fn f() {}\n".repeat(MAX_FILE_LINES + 1)).unwrap();
+    let over = files_over(&dir, MAX_FILE_LINES);
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert_eq!(over, vec![("long.rs".to_string(), MAX_FILE_LINES + 1)]);
+}

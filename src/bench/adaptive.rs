@@ -87,6 +87,7 @@ pub fn measure(
                 last = Some((fb.to_rgba_f32(), stats));
             }
             times.remove(0);
+            #[allow(clippy::expect_used, reason = "the loop above runs `runs.max(1) + 1` ≥ 2 times")]
             let (image, stats) = last.expect("at least one run");
             let e = image_error(&reference, &image);
             rows.push(AdaptiveRow {
