@@ -142,10 +142,12 @@ pub fn compile(source: &str, profile: &Profile, options: &PlanOptions) -> Result
 
 /// Plans a lowered module of `program` for `profile`, with the target's
 /// fragment stage as the planner's realizer. `source` gives the plan its
-/// `line:col` positions.
+/// `line:col` positions. The module carries the program's texture
+/// declarations ([`crate::ir::declared`]); `_program` is no longer read,
+/// kept so that callers stay unchanged until they drop it.
 pub fn plan(
     module: &Module,
-    program: &Program,
+    _program: &Program,
     profile: &Profile,
     source: Option<&str>,
     options: &PlanOptions,
@@ -155,7 +157,7 @@ pub fn plan(
     let spec;
     let scene = match &options.scene {
         Some(s) => {
-            textures = crate::scene::bind::texture_decls(program, &s.scene.constants);
+            textures = crate::scene::bind::texture_decls(module, &s.scene.constants);
             spec = SceneSpecialization {
                 scene: s.scene,
                 assets: s.assets,
@@ -269,7 +271,7 @@ pub fn target_for(flag: Option<&str>, program: &Program, default: Option<&str>) 
 /// at the file's name, whose help names `--stand-ins`.
 pub fn missing_images(program: &Program, dir: &Path, scene: Option<&Scene>) -> Diagnostics {
     let mut out = Vec::new();
-    for f in crate::scene::bind::image_files(program) {
+    for f in crate::scene::bind::image_files(&crate::ir::declared::read(program)) {
         if scene.is_some_and(|s| s.textures.contains_key(&f.texture)) {
             continue;
         }

@@ -297,3 +297,31 @@ fn the_file_length_checker_sees_a_long_file() {
     std::fs::remove_dir_all(&dir).unwrap();
     assert_eq!(over, vec![("long.rs".to_string(), MAX_FILE_LINES + 1)]);
 }
+
+/// Whether `text` reads the syntax tree: it names the parser or its AST.
+fn reads_the_syntax_tree(text: &str) -> bool {
+    text.contains("parser::") || text.contains("ast::")
+}
+
+/// Texture declarations are read once (issue 35): the lowering types them
+/// (`ir::declared`), and the scene binder builds textures from the module's
+/// declarations, never from the syntax tree.
+#[test]
+fn the_scene_does_not_read_the_syntax_tree() {
+    let broken: Vec<String> = code_under("scene")
+        .into_iter()
+        .filter(|(_, text)| reads_the_syntax_tree(text))
+        .map(|(file, _)| {
+            format!("{file} reads `parser::ast`: read the module's declarations (`ir::declared`)")
+        })
+        .collect();
+    assert!(broken.is_empty(), "{}", broken.join("\n"));
+}
+
+#[test]
+fn the_syntax_tree_checker_sees_a_read() {
+    assert!(reads_the_syntax_tree("use crate::parser::ast::{self, ExprKind};"));
+    assert!(reads_the_syntax_tree("use crate::parser::{ast, check};"));
+    assert!(reads_the_syntax_tree("fn f(e: &ast::Expr) {}"));
+    assert!(!reads_the_syntax_tree("use crate::ir::declared::{DeclaredSource, TextureKind};"));
+}
