@@ -97,6 +97,7 @@ pub struct Front {
 }
 
 impl Front {
+    /// Whether the front end found an error.
     pub fn has_errors(&self) -> bool {
         self.diagnostics.iter().any(Diagnostic::is_error)
     }

@@ -23,6 +23,7 @@ pub use crate::parser::ast::{Space, TextureAttr, TextureFormat, TextureKind, Vec
 pub struct DeclaredTexture {
     /// The names it declares, each with its span; every one binds the same source.
     pub names: Vec<(String, Span)>,
+    /// 1-D, 2-D, 3-D or cube.
     pub kind: TextureKind,
     /// Where the kind is written (the label of a cube map's errors).
     pub kind_span: Span,
@@ -49,7 +50,12 @@ pub enum DeclaredSource {
         span: Span,
     },
     /// Anything else, as the binder names it when it refuses it (no generator).
-    Other { text: String, span: Span },
+    Other {
+        /// The source as the binder names it.
+        text: String,
+        /// Where it is written.
+        span: Span,
+    },
 }
 
 impl DeclaredSource {
@@ -64,7 +70,9 @@ impl DeclaredSource {
 /// An argument of a generator call.
 #[derive(Clone, Debug, PartialEq)]
 pub struct GeneratorArg {
+    /// What the argument is.
     pub kind: ArgKind,
+    /// Where it is written (a cube map's argument errors are shown there).
     pub span: Span,
 }
 
@@ -77,7 +85,9 @@ pub enum ArgKind {
     /// it is a number (a literal, an earlier such name, a negation of
     /// one): a scene constant of the name takes its place when bound.
     Name {
+        /// The name as written.
         name: String,
+        /// The program's number for it, if it has one.
         value: Option<f32>,
     },
     /// `-a`.
@@ -87,11 +97,14 @@ pub enum ArgKind {
     /// A nested call (`height("f.png")` in `normal_map(…)`): its name and
     /// its argument as written.
     Call {
+        /// The function's name (`None` for an applied expression).
         name: Option<String>,
+        /// Its argument as written (an [`ArgKind::Tuple`] for several).
         arg: Box<GeneratorArg>,
     },
     /// `(a, b, …)`: a nested call's several arguments.
     Tuple(Vec<GeneratorArg>),
+    /// Anything else (an expression the binder reads no value from).
     Other,
 }
 

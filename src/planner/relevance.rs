@@ -56,6 +56,7 @@ pub struct Bound {
 }
 
 impl Bound {
+    /// No bound: every component anywhere.
     pub const ALL: Bound = Bound { lo: [f64::NEG_INFINITY; 4], hi: [f64::INFINITY; 4], cone: None };
 
     fn splat(lo: f64, hi: f64) -> Bound {
@@ -152,6 +153,8 @@ pub struct Bounder<'a, 's> {
 }
 
 impl<'a, 's> Bounder<'a, 's> {
+    /// An evaluator of `module` over `object`, with the scene's `uniforms` and the textures
+    /// `decls` declares.
     pub fn new(
         module: &'a Module,
         object: &'a BoundObject<'s>,
