@@ -38,6 +38,7 @@ pub type Diagnostics = Vec<Diagnostic>;
 /// How to plan, besides the target.
 #[derive(Clone, Copy, Default)]
 pub struct PlanOptions<'a> {
+    /// How splits are searched (the dynamic programme; exhaustive for tests).
     pub search: Search,
     /// Plan for this scene (`compile --scene`, `render`); `None`: for any scene.
     pub scene: Option<ForScene<'a>>,
@@ -50,6 +51,7 @@ pub struct PlanOptions<'a> {
 /// culled per object as asked.
 #[derive(Clone, Copy)]
 pub struct ForScene<'a> {
+    /// The scene: lights, constants, textures.
     pub scene: &'a Scene,
     /// The scene's meshes (`Scene::build`): light relevance is per object.
     pub assets: &'a SceneAssets,
@@ -77,6 +79,7 @@ impl<'a> ForScene<'a> {
 
 /// A program compiled for a target.
 pub struct Compilation {
+    /// The syntax tree.
     pub program: Program,
     /// The lowered program, before planning: what the program means
     /// (`meaning::plan`) and what `--emit ir` prints.
@@ -90,9 +93,11 @@ pub struct Compilation {
 /// The front end's result: the AST, the IR when lowering ran, and every
 /// diagnostic (warnings too), in source order.
 pub struct Front {
+    /// The syntax tree.
     pub program: Program,
     /// `None` when the program has errors before lowering.
     pub module: Option<Module>,
+    /// Every diagnostic of parsing, name resolution and lowering.
     pub diagnostics: Diagnostics,
 }
 

@@ -50,8 +50,12 @@ use crate::scene::relevance::{shininess_cutoff, Cone};
 /// them), and for a direction its cone and length range.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Bound {
+    /// The least value of each component.
     pub lo: [f64; 4],
+    /// The greatest value of each component.
     pub hi: [f64; 4],
+    /// For a direction: the cone its unit vector lies in, and its least and
+    /// greatest length (negative for a range-compressed cone-map lookup).
     pub cone: Option<(Cone, f64, f64)>,
 }
 
@@ -144,10 +148,17 @@ pub struct Findings {
 
 /// The abstract evaluator of one object (module docs).
 pub struct Bounder<'a, 's> {
+    /// The program, lights expanded.
     pub module: &'a Module,
+    /// The object whose vertices bound the per-vertex values.
     pub object: &'a BoundObject<'s>,
+    /// The scene's uniforms, by id (`None`: unset, unbounded).
     pub uniforms: &'a [Option<[f64; 4]>],
+    /// The declared textures: a normalization cube map's lookup keeps the
+    /// cone of the direction it is looked up at.
     pub decls: &'a [TextureDecl],
+    /// What the evaluation found that made a bound small (the criteria of
+    /// Adaptive Sample Shading, Section 2.2), for the report.
     pub findings: Findings,
     memo: BTreeMap<usize, Bound>,
 }
@@ -540,7 +551,9 @@ impl Bound {
 /// A light culled for an object: what the report says.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Culled {
+    /// The scene light.
     pub light: u32,
+    /// The object, by its index in the scene's meshes.
     pub object: usize,
     /// The bound of what the light's terms add to a pixel of the object.
     pub bound: f64,

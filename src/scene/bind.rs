@@ -56,31 +56,53 @@ use crate::textures::{
 /// What a texture declaration's source says.
 #[derive(Clone, Debug, PartialEq)]
 pub enum TextureSource {
+    /// `image("f.png")`: the file, relative to the scene's folder.
     Image(String),
+    /// `normalize_cube(size[, bits])`: the normalization cube map of
+    /// Kilgard 2000, Appendix D.
     NormalizeCube {
+        /// Texels per face side.
         size: u32,
+        /// 8 or 16 bits per component.
         bits: u32,
     },
+    /// `normal_map(height, scale)`: normals derived from a height field
+    /// (Kilgard 2000, Section 2.4.2).
     NormalMap {
+        /// The height field.
         height: HeightSource,
+        /// How steep the bumps are: height differences are multiplied by it.
         scale: f32,
     },
     /// `bumps(cells)`: a normal map of procedural dimples.
     Bumps {
+        /// Dimples per side.
         cells: u32,
     },
+    /// `dual_paraboloid("env", face)`: one face of a dual-paraboloid
+    /// environment map.
     DualParaboloid {
+        /// The environment's file (not read yet: the procedural sky).
         file: String,
+        /// 0 for the front paraboloid (z ≥ 0), any other for the back.
         face: u32,
     },
+    /// `brdf_fd(m, η)`: the Fresnel-times-distribution table of Heidrich &
+    /// Seidel 1999, Section 3.1.
     BrdfFd {
+        /// The surface roughness m.
         roughness: f32,
+        /// The index of refraction η.
         index: f32,
     },
+    /// `brdf_g(scale)`: the geometry-term table of Heidrich & Seidel 1999.
     BrdfG {
+        /// The divisor that keeps the table within [0, 1].
         scale: f32,
     },
+    /// `exponent_table(n)`: x ↦ xⁿ on [0, 1].
     ExponentTable {
+        /// The exponent n.
         exponent: f32,
     },
     /// `image(…)` of a `cube` texture: one image in a layout, or six
@@ -96,19 +118,33 @@ pub enum TextureSource {
 /// The height field a `normal_map(…)` is derived from.
 #[derive(Clone, Debug, PartialEq)]
 pub enum HeightSource {
+    /// `height("f.png")`: an image's luminance.
     File(String),
-    Dimples { size: u32, cells: u32 },
+    /// The golf-ball dimples of Kilgard 2000, Section 2.4.2: the stand-in.
+    Dimples {
+        /// Texels per side.
+        size: u32,
+        /// Dimples per side.
+        cells: u32,
+    },
 }
 
 /// A texture declaration as the renderer needs it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TextureDecl {
+    /// The texture's name (one per name of the declaration).
     pub name: String,
+    /// 1-D, 2-D, 3-D or cube.
     pub kind: TextureKind,
+    /// The declared format; `None` when the declaration names none (8-bit).
     pub format: Option<TextureFormat>,
+    /// Whether it has a mipmap chain.
     pub mipmap: bool,
+    /// How it is filtered (`ir::Sampling`'s one rule).
     pub filter: Filter,
+    /// How coordinates outside [0, 1] wrap.
     pub wrap: Wrap,
+    /// What fills it.
     pub source: TextureSource,
 }
 
@@ -117,20 +153,36 @@ pub struct TextureDecl {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ExactFunction {
     /// normalize(d), range-compressed for an unsigned format.
-    Normalize { signed: bool },
+    Normalize {
+        /// Signed formats store the vector as is, unsigned ones range-compressed.
+        signed: bool,
+    },
     /// x^n on [0, 1].
     Exponent(f32),
     /// F(u)·D(v) of Heidrich & Seidel 1999, Section 3.1.
-    FresnelDistribution { roughness: f32, index: f32 },
+    FresnelDistribution {
+        /// The surface roughness m.
+        roughness: f32,
+        /// The index of refraction η.
+        index: f32,
+    },
     /// G(u, v)/(π v)/scale.
-    Geometry { roughness: f32, scale: f32 },
+    Geometry {
+        /// The surface roughness m.
+        roughness: f32,
+        /// The table's divisor.
+        scale: f32,
+    },
 }
 
 /// A texture ready to sample.
 #[derive(Clone, Debug)]
 pub struct BoundTexture {
+    /// The declared (or lowered) texture's name.
     pub name: String,
+    /// Its texels, loaded or generated.
     pub texture: Texture,
+    /// How it is filtered.
     pub filter: Filter,
     /// The function this texture tabulates, when it is a lookup table.
     pub exact: Option<ExactFunction>,
@@ -139,10 +191,18 @@ pub struct BoundTexture {
 /// Why a texture or an object could not be bound.
 #[derive(Debug, thiserror::Error)]
 pub enum BindError {
+    /// A texture that cannot be loaded or generated.
     #[error("texture `{name}`: {message}")]
-    Texture { name: String, message: String },
+    Texture {
+        /// The texture's name.
+        name: String,
+        /// What is wrong, with what to do.
+        message: String,
+    },
+    /// Something the binder does not support.
     #[error("{0}")]
     Unsupported(String),
+    /// The scene's own error (its file or a mesh that cannot be read).
     #[error(transparent)]
     Scene(#[from] super::SceneError),
 }
@@ -534,10 +594,12 @@ struct ObjectSpace {
 
 /// One object of the scene, bound: per-vertex leaves and projections.
 pub struct BoundObject<'s> {
+    /// The object's mesh.
     pub mesh: &'s Mesh,
     space: ObjectSpace,
     /// Clip matrices: camera π and light πl (model → clip).
     pub camera_clip: Mat4,
+    /// Light 0's: the shadow map's projection.
     pub light_clip: Mat4,
     /// Generated coordinate sets, per vertex.
     texgen: BTreeMap<TexCoordId, Vec<[f64; 4]>>,
@@ -827,9 +889,13 @@ pub fn uniforms(module: &Module, scene: &Scene) -> Vec<Option<[f64; 4]>> {
 
 /// The leaves of one vertex.
 pub struct VertexEnv<'a, 's> {
+    /// The object the vertex belongs to.
     pub object: &'a BoundObject<'s>,
+    /// The program.
     pub module: &'a Module,
+    /// The vertex's index in the object's mesh.
     pub vertex: usize,
+    /// The uniforms' values, by id (`None`: unset).
     pub uniforms: &'a [Option<[f64; 4]>],
 }
 
@@ -883,7 +949,9 @@ pub fn scene_dir(scene: &Scene) -> PathBuf {
 pub struct ImageFile {
     /// The first texture the declaration names.
     pub texture: String,
+    /// The file's name as written.
     pub file: String,
+    /// Where the name is written.
     pub span: crate::span::Span,
 }
 
