@@ -272,6 +272,14 @@ pub fn target_for(flag: Option<&str>, program: &Program, default: Option<&str>) 
     .map(|(name, _)| name)
 }
 
+/// The located errors of the cube-map images `program` declares, paths
+/// relative to `base` (`scene::cube_image::diagnose` over the program's
+/// typed declarations, [`crate::ir::declared`]); a declaration whose every
+/// name `replaced` says a scene texture replaces is not read.
+pub fn cube_image_errors(program: &Program, base: &Path, replaced: &dyn Fn(&str) -> bool) -> Diagnostics {
+    crate::scene::cube_image::diagnose(&crate::ir::declared::read(program), base, replaced)
+}
+
 /// Every `image("…")` and `height("…")` file of `program` that is not in
 /// `dir` (nor replaced by a texture of `scene` of the same name): an error
 /// at the file's name, whose help names `--stand-ins`.

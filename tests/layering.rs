@@ -157,7 +157,8 @@ fn code_under(dir: &str) -> Vec<(String, String)> {
 }
 
 /// What only the driver calls (issue 35): the planner, the lowering, the
-/// code generators and the setups they make. The CLI and the language
+/// code generators and the setups they make, and the reading of texture
+/// declarations (`ir::declared`, the cube-map images' checks). The CLI and the language
 /// server sit above it and read its `Planned`.
 const BELOW_THE_DRIVER: &[&str] = &[
     "planner::",
@@ -169,6 +170,8 @@ const BELOW_THE_DRIVER: &[&str] = &[
     "wgsl::generate",
     "generate_for_pass",
     "ir::lower(",
+    "ir::declared",
+    "cube_image::diagnose",
     "cost::annotate",
 ];
 
