@@ -312,5 +312,5 @@ fn cube_image_errors(
 ) -> Vec<shadec::diag::Diagnostic> {
     let base = scene.map(shadec::scene::bind::scene_dir).unwrap_or_default();
     let replaced = |name: &str| scene.is_some_and(|s| s.textures.contains_key(name));
-    shadec::scene::cube_image::diagnose(program, &base, &replaced)
+    shadec::driver::cube_image_errors(program, &base, &replaced)
 }

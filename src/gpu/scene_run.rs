@@ -173,10 +173,12 @@ pub struct ScenePlan<'a> {
 impl<'a> ScenePlan<'a> {
     /// Generates the plan's WGSL passes and binds the scene (textures,
     /// uniforms) once, for `precision`'s texture model; `source` gives the
-    /// passes their source positions.
+    /// passes their source positions. The module carries the program's
+    /// texture declarations ([`crate::ir::declared`]): `_program` is no
+    /// longer read (kept so that callers stay unchanged until they drop it).
     pub fn new(
         planned: &'a Planned,
-        program: &Program,
+        _program: &Program,
         source: Option<&str>,
         precision: Precision,
         scene: &'a Scene,
@@ -196,7 +198,7 @@ impl<'a> ScenePlan<'a> {
         let shaders = codegen::generate(planned, source, precision).map_err(|d| {
             SceneRunError::Codegen(d.iter().map(|d| d.message.clone()).collect::<Vec<_>>().join("; "))
         })?;
-        let mut decls = bind::texture_decls(program, &scene.constants);
+        let mut decls = bind::texture_decls(&planned.module, &scene.constants);
         let lowered = bind::lowered_decls(&planned.module, &decls);
         decls.extend(lowered);
         let mut notes = bind::absent_light_notes(&planned.module, scene);
