@@ -59,6 +59,7 @@ pub mod power;
 pub mod range_compress;
 pub mod sensitivity;
 pub mod signed_texture;
+pub mod solid;
 pub mod table;
 pub mod table2d;
 pub mod taylor;
@@ -151,6 +152,18 @@ impl Lowered {
 /// Rewrites what `profile` lacks in `module`'s statements. `at` gives the
 /// `line:col` of a span for the record.
 pub fn lower(module: &Module, profile: &Profile, choice: Choice, at: &dyn Fn(Span) -> String) -> Lowered {
+    lower_for(module, profile, choice, at, None)
+}
+
+/// [`lower`] for a scene whose meshes fill `bounds` in object space
+/// ([`solid`]: positions mapped into a 3-D texture's [0, 1]³).
+pub fn lower_for(
+    module: &Module,
+    profile: &Profile,
+    choice: Choice,
+    at: &dyn Fn(Span) -> String,
+    bounds: Option<solid::Bounds>,
+) -> Lowered {
     let mut r = Rewriter {
         m: module.clone(),
         profile,
@@ -159,8 +172,10 @@ pub fn lower(module: &Module, profile: &Profile, choice: Choice, at: &dyn Fn(Spa
         approximations: Vec::new(),
         pending: Vec::new(),
         results: Vec::new(),
+        bounds,
     };
     texel_bake::apply(&mut r);
+    solid::apply(&mut r);
     signed_texture::apply(&mut r);
     fat_texture::apply(&mut r);
     float_texture::apply(&mut r);
@@ -196,6 +211,8 @@ pub struct Rewriter<'a> {
     pub pending: Vec<Statement>,
     /// The value each approximation produced, in the same order.
     results: Vec<Option<Handle<Expr>>>,
+    /// The scene's object bounds, when planning for one ([`solid`]).
+    pub bounds: Option<solid::Bounds>,
 }
 
 impl<'a> Rewriter<'a> {

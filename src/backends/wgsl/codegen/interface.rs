@@ -80,6 +80,9 @@ impl Gen<'_> {
                             Some(node),
                         );
                     }
+                    if tex.kind == TextureKind::Tex3d && tex.rendered {
+                        return self.unsupported("a solid texture baked into a 3-D texture (rule `solid_texture_3d`): the WGSL executor does not read 3-D textures; the CPU renderer does", Some(node));
+                    }
                     (tex.kind, Some(tex.format), fat)
                 }
                 Some(Expr::FramebufferRead { .. }) => (TextureKind::Tex2d, None, false),
