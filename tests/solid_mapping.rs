@@ -48,7 +48,7 @@ fn located(errors: &[shadec::diag::Diagnostic]) -> Vec<(usize, usize)> {
         .iter()
         .map(|d| {
             let at = index.line_col(&source, d.primary.span.start as usize);
-            (at.line as usize, at.col as usize)
+            (at.line, at.col)
         })
         .collect()
 }
@@ -154,4 +154,34 @@ fn solid_mapping_geforce3_combiners_snapshot() {
     ]);
     assert_eq!(run.code, 0, "{}", run.stderr);
     insta::assert_snapshot!("solid_mapping_geforce3_combiners", run.stdout);
+}
+
+/// The geforce3 plan on wgpu (lavapipe here): the 3-D texture's tiled
+/// slices rendered by the baked texel pass, sampled as two bilinear
+/// lookups blended along z (`backends::wgsl::codegen::solid`), against the
+/// CPU's fixed9 render of the same plan.
+#[cfg(feature = "gpu")]
+#[test]
+fn solid_mapping_geforce3_plan_on_wgpu_agrees_with_cpu() {
+    use shadec::gpu::runner::Target;
+    use shadec::gpu::scene_run::ScenePlan;
+    let Some(gpu) = common::gpu::gpu() else { return };
+    let source = example();
+    let planned = plan("geforce3", true).unwrap_or_else(|e| panic!("{e:?}"));
+    let (program, _) = shadec::parser::check(&source);
+    let scene = scene();
+    let assets = scene.build().unwrap();
+    let plan = ScenePlan::new(&planned, &program, Some(&source), Precision::Fixed9, &scene, &assets)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let wgpu = plan.render_into(&gpu, &Target::new(128, 128)).unwrap_or_else(|e| panic!("{e}")).into_raw();
+    let r = PlanRenderer::new(&planned, &program, &scene, &assets).unwrap();
+    let cpu = r.render(Precision::Fixed9, 128, 128, &mut |_, _| {}).unwrap().image.to_rgba8();
+    let n = cpu.len() / 4;
+    let diff = |i: usize| (0..4).map(|c| cpu[4 * i + c].abs_diff(wgpu[4 * i + c])).max().unwrap();
+    let over = (0..n).filter(|&i| diff(i) > 2).count();
+    let max = (0..n).map(diff).max().unwrap();
+    eprintln!(
+        "solid mapping geforce3 plan, wgpu vs CPU fixed9: max {max}/255, {over} of {n} pixels over 2/255"
+    );
+    assert!(max <= 3 && over * 100 <= n, "{over} of {n} pixels differ by more than 2/255 (max {max}/255)");
 }

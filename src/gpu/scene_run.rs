@@ -415,16 +415,26 @@ impl<'a> ScenePlan<'a> {
                 continue;
             }
             if let Some(r) = rendered.get(&t.texture) {
-                let decl = self.decls.iter().find(|d| d.name == t.texture).ok_or_else(|| {
-                    SceneRunError::Unsupported(format!("texture `{}` has no declaration", t.texture))
-                })?;
+                // A texture the lowering added (a baked table, a solid
+                // texture) has no declaration: its IR sampling stands for one.
+                let (filter, wrap) = match self.decls.iter().find(|d| d.name == t.texture) {
+                    Some(d) => (d.filter, d.wrap),
+                    None => m
+                        .textures
+                        .iter()
+                        .find(|x| x.name == t.texture)
+                        .map(|x| (x.sampling.filter, x.sampling.wrap))
+                        .ok_or_else(|| {
+                            SceneRunError::Unsupported(format!("texture `{}` has no declaration", t.texture))
+                        })?,
+                };
                 // Level 0 only: the GPU runner makes no mip chain of a rendered texture.
                 textures.push(RunTexture {
                     data: TextureData::Rendered {
                         name: t.texture.clone(),
                         array: fat_textures.contains(&r.name.as_str()),
                     },
-                    sampler: sampler(decl.filter, decl.wrap, false),
+                    sampler: sampler(filter, wrap, false),
                     texels: TexelUpload::Rgba8,
                 });
                 continue;

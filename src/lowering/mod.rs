@@ -37,6 +37,10 @@
 //!   member, range-compressed where signed;
 //! - [`float_texture`]: a float texture written only with values in
 //!   [0, 1] → the same texture in RGBA8;
+//! - [`solid`]: solid mapping planned for a scene, on a target with 3-D
+//!   textures → the shader baked into a 3-D texture over the scene's
+//!   object bounds, read at the box-mapped position (Pipeline Grammar,
+//!   eq. (15)-(16));
 //! - [`table2d`]: a per-fragment function of two per-vertex arguments
 //!   (dot products) → a 2-D table baked by the compiler (Heidrich & Seidel 1999, §3);
 //! - [`dependent`]: on a target without dependent lookups (GeForce 256),

@@ -80,10 +80,9 @@ impl Gen<'_> {
                             Some(node),
                         );
                     }
-                    if tex.kind == TextureKind::Tex3d && tex.rendered {
-                        return self.unsupported("a solid texture baked into a 3-D texture (rule `solid_texture_3d`): the WGSL executor does not read 3-D textures; the CPU renderer does", Some(node));
-                    }
-                    (tex.kind, Some(tex.format), fat)
+                    // A rendered 3-D texture is its slices tiled in 2-D (`codegen::solid`).
+                    let tiled = tex.kind == TextureKind::Tex3d && tex.rendered;
+                    (if tiled { TextureKind::Tex2d } else { tex.kind }, Some(tex.format), fat)
                 }
                 Some(Expr::FramebufferRead { .. }) => (TextureKind::Tex2d, None, false),
                 _ => return Err(GenError::Internal(format!("texture unit {} is not a lookup", t.unit))),
