@@ -189,6 +189,13 @@ pub fn combiners_of(planned: &Planned, index: usize) -> Result<&Generated, Setup
     crate::backends::combiners::setup::of(planned, index)
 }
 
+/// The per-vertex part of pass `index` as `--emit combiners` prints it:
+/// its `!!VP1.0` program where the target has vertex programs (the one its
+/// setup keeps, emitted once), else what the host computes per vertex.
+pub fn vertex_program_text(planned: &Planned, index: usize, source: Option<&str>, title: &str) -> String {
+    crate::backends::vertex_program::emit::pass_text(planned, index, source, title)
+}
+
 /// Every pass of `planned` as WGSL shaders (`--emit wgsl|spirv|glsl`),
 /// `source` placing their diagnostics.
 #[cfg(feature = "wgsl")]

@@ -168,6 +168,7 @@ const BELOW_THE_DRIVER: &[&str] = &[
     "combiners::setup",
     "wgsl::generate",
     "generate_for_pass",
+    "vertex_program::emit::",
     "ir::lower(",
     "cost::annotate",
 ];

@@ -119,8 +119,10 @@
 //!
 //! # What is not supported (an [`SceneRunError::Unsupported`])
 //!
-//! Temporaries, reading the colour of the framebuffer that is read back
-//! (or any stencil) inside a shader, dual-paraboloid textures.
+//! Reading the colour of the framebuffer that is read back (or any
+//! stencil) inside a shader, dual-paraboloid textures. The planner's
+//! temporaries (render-to-texture splits) render into frame-sized textures
+//! and are read back at the pixel, as on the CPU.
 
 use std::collections::BTreeMap;
 
@@ -181,17 +183,11 @@ impl<'a> ScenePlan<'a> {
         assets: &'a SceneAssets,
     ) -> Result<ScenePlan<'a>, SceneRunError> {
         let mut main = None;
-        for (i, pass) in planned.plan.passes.iter().enumerate() {
+        for pass in &planned.plan.passes {
             match &pass.target {
                 // The picture is the framebuffer written last, as the CPU's.
                 RenderTarget::Framebuffer { name, .. } => main = Some(name.clone()),
-                RenderTarget::Temporary { .. } => {
-                    return Err(SceneRunError::Unsupported(format!(
-                        "pass {} renders into a temporary",
-                        i + 1
-                    )))
-                }
-                RenderTarget::Texture { .. } => {}
+                RenderTarget::Texture { .. } | RenderTarget::Temporary { .. } => {}
             }
         }
         let main = main.ok_or_else(|| {
@@ -231,7 +227,9 @@ impl<'a> ScenePlan<'a> {
     /// (a texture, or a framebuffer other than the one shown).
     fn pass_target(&self, pass: &Pass, rendered: &BTreeMap<String, runner::RenderedTexture>) -> PassTarget {
         match &pass.target {
-            RenderTarget::Texture { name } => PassTarget::Texture(rendered[name].clone()),
+            RenderTarget::Texture { name } | RenderTarget::Temporary { name } => {
+                PassTarget::Texture(rendered[name].clone())
+            }
             RenderTarget::Framebuffer { name, .. } if *name != self.main => {
                 PassTarget::Texture(rendered[name].clone())
             }
@@ -355,9 +353,11 @@ impl<'a> ScenePlan<'a> {
                 );
             }
         }
-        // The other framebuffers (shadow mask's C′, Cl): frame-sized textures.
+        // The other framebuffers (shadow mask's C′, Cl) and the planner's
+        // temporaries (a render-to-texture split, read back at the pixel):
+        // frame-sized textures in the frame's colour format, as the CPU's.
         for pass in &self.planned.plan.passes {
-            if let RenderTarget::Framebuffer { name, .. } = &pass.target {
+            if let RenderTarget::Framebuffer { name, .. } | RenderTarget::Temporary { name } = &pass.target {
                 if *name != self.main {
                     rendered.insert(
                         name.clone(),
@@ -415,19 +415,7 @@ impl<'a> ScenePlan<'a> {
                 continue;
             }
             if let Some(r) = rendered.get(&t.texture) {
-                // A texture the lowering added (a baked table, a solid
-                // texture) has no declaration: its IR sampling stands for one.
-                let (filter, wrap) = match self.decls.iter().find(|d| d.name == t.texture) {
-                    Some(d) => (d.filter, d.wrap),
-                    None => m
-                        .textures
-                        .iter()
-                        .find(|x| x.name == t.texture)
-                        .map(|x| (x.sampling.filter, x.sampling.wrap))
-                        .ok_or_else(|| {
-                            SceneRunError::Unsupported(format!("texture `{}` has no declaration", t.texture))
-                        })?,
-                };
+                let (filter, wrap) = self.rendered_sampling(&t.texture)?;
                 // Level 0 only: the GPU runner makes no mip chain of a rendered texture.
                 textures.push(RunTexture {
                     data: TextureData::Rendered {
@@ -448,6 +436,18 @@ impl<'a> ScenePlan<'a> {
             textures.push(run_texture(bound, self.precision, signed)?);
         }
         Ok(textures)
+    }
+
+    /// How a rendered texture is sampled: as declared, or — a temporary the
+    /// planner added — as the compiler's own textures are (`Sampling::ADDED`).
+    fn rendered_sampling(&self, name: &str) -> Result<(Filter, Wrap), SceneRunError> {
+        if let Some(decl) = self.decls.iter().find(|d| d.name == name) {
+            return Ok((decl.filter, decl.wrap));
+        }
+        let added = self.planned.module.textures.iter().find(|t| t.name == name && t.declaration.is_none());
+        added
+            .map(|t| (t.sampling.filter, t.sampling.wrap))
+            .ok_or_else(|| SceneRunError::Unsupported(format!("texture `{name}` has no declaration")))
     }
 
     /// A depth buffer read as a texture: the main one, or a rendered target's.

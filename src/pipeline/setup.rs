@@ -52,6 +52,13 @@ pub struct PassSetup {
     /// target, else generated for a GeForce 3 on first use, once
     /// (`backends::combiners::setup`).
     pub fixed9: OnceLock<Result<CombinerProgram, SetupRefusal>>,
+    /// The pass's `!!VP1.0` vertex program on a target that has vertex
+    /// programs (NV_vertex_program, NVIDIA 2001), or why the host computes
+    /// its vertices: emitted on first use and kept, so that `--emit
+    /// combiners` and `render` read one program. Held opaque, as the
+    /// combiner setup is, and read back by its type in
+    /// `backends::vertex_program::emit::of`.
+    pub vertex_program: OnceLock<Arc<dyn Any + Send + Sync>>,
 }
 
 /// The image a pass renders into, with its size and format.
@@ -217,6 +224,7 @@ impl PassSetup {
                 .collect(),
             fragment,
             fixed9,
+            vertex_program: OnceLock::new(),
         }
     }
 
