@@ -443,7 +443,7 @@ fn capabilities(module: &Module, profile: &Profile, st: &Statement, u: &Usage, o
         out.push(missing(
             "float textures".into(),
             &u.float_lookups,
-            "an 8-bit format holds [0, 1]: the lowering re-stores a float texture itself when every write is a value in [0, 1], or an rgb in [−1, 1] with alpha 1 (range-compressed); values of a range it cannot know (object-space positions, solid mapping) must be scaled into [0, 1] where they are written and back where they are read (`compress(P / r)`, `expand(T δu x) * r`), or target wgsl",
+            "an 8-bit format holds [0, 1]: the lowering re-stores a float texture itself when every write is a value in [0, 1], or an rgb in [−1, 1] with alpha 1 (range-compressed); values of a range it cannot know (object-space positions, solid mapping) must be scaled into [0, 1] where they are written and back where they are read (`compress(P / r)`, `expand(T δu x) * r`), or target wgsl; solid mapping planned for a scene (`render`, `compile --scene`) on a target with 3-D textures (geforce3) is a 3-D texture of the shader over the scene's object bounds (docs/solid-textures.md)",
         ));
     }
     if !u.vertex_lookups.is_empty() && !profile.vertex_texture_fetch {

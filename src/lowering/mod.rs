@@ -37,6 +37,10 @@
 //!   member, range-compressed where signed;
 //! - [`float_texture`]: a float texture written only with values in
 //!   [0, 1] → the same texture in RGBA8;
+//! - [`solid`]: solid mapping planned for a scene, on a target with 3-D
+//!   textures → the shader baked into a 3-D texture over the scene's
+//!   object bounds, read at the box-mapped position (Pipeline Grammar,
+//!   eq. (15)-(16));
 //! - [`table2d`]: a per-fragment function of two per-vertex arguments
 //!   (dot products) → a 2-D table baked by the compiler (Heidrich & Seidel 1999, §3);
 //! - [`dependent`]: on a target without dependent lookups (GeForce 256),
@@ -59,6 +63,7 @@ pub mod power;
 pub mod range_compress;
 pub mod sensitivity;
 pub mod signed_texture;
+pub mod solid;
 pub mod table;
 pub mod table2d;
 pub mod taylor;
@@ -151,6 +156,18 @@ impl Lowered {
 /// Rewrites what `profile` lacks in `module`'s statements. `at` gives the
 /// `line:col` of a span for the record.
 pub fn lower(module: &Module, profile: &Profile, choice: Choice, at: &dyn Fn(Span) -> String) -> Lowered {
+    lower_for(module, profile, choice, at, None)
+}
+
+/// [`lower`] for a scene whose meshes fill `bounds` in object space
+/// ([`solid`]: positions mapped into a 3-D texture's [0, 1]³).
+pub fn lower_for(
+    module: &Module,
+    profile: &Profile,
+    choice: Choice,
+    at: &dyn Fn(Span) -> String,
+    bounds: Option<solid::Bounds>,
+) -> Lowered {
     let mut r = Rewriter {
         m: module.clone(),
         profile,
@@ -159,8 +176,10 @@ pub fn lower(module: &Module, profile: &Profile, choice: Choice, at: &dyn Fn(Spa
         approximations: Vec::new(),
         pending: Vec::new(),
         results: Vec::new(),
+        bounds,
     };
     texel_bake::apply(&mut r);
+    solid::apply(&mut r);
     signed_texture::apply(&mut r);
     fat_texture::apply(&mut r);
     float_texture::apply(&mut r);
@@ -196,6 +215,8 @@ pub struct Rewriter<'a> {
     pub pending: Vec<Statement>,
     /// The value each approximation produced, in the same order.
     results: Vec<Option<Handle<Expr>>>,
+    /// The scene's object bounds, when planning for one ([`solid`]).
+    pub bounds: Option<solid::Bounds>,
 }
 
 impl<'a> Rewriter<'a> {

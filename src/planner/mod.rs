@@ -230,7 +230,8 @@ fn plan_lowerings(module: &Module, profile: &Profile, request: &Request) -> (Vec
         None => crate::lowering::choices(profile),
     };
     for choice in choices {
-        let lowered = crate::lowering::lower(module, profile, choice, &at);
+        let bounds = request.scene.and_then(|s| crate::lowering::solid::Bounds::of_meshes(&s.assets.meshes));
+        let lowered = crate::lowering::lower_for(module, profile, choice, &at, bounds);
         let within = request.lowering.only.is_some() || lowered.within(&request.lowering);
         if lowered.approximations.is_empty() || !within {
             continue;

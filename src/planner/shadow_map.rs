@@ -187,4 +187,4 @@ pub fn compare_unit(m: &Module, units: &[Handle<Expr>], cond: Handle<Expr>) -> O
 }
 
 /// Why a depth comparison has no combiner setup: what each target had.
-pub const REFUSAL_HELP: &str = "the register combiners cannot read a depth buffer; geforce256 has no depth textures, and geforce3's (ARB_shadow) compare only the depth r/q of the texture coordinates they are read at, interpolated from the vertices: write Williams's test `(z πl π⁻¹ xs) > (z Cl πl π⁻¹ xs) + b` (redrawn over the meshes) or `(z δπl x) > (z Cl δπl x)`, or target wgsl (docs/shadow-maps.md)";
+pub const REFUSAL_HELP: &str = "the register combiners cannot read a depth buffer, and geforce256 has no depth textures (SGIX_shadow came with the GeForce3): there no form of the test plans; geforce3's depth textures (SGIX_shadow / ARB_shadow) compare a texel only with the r/q of the coordinates it is read at, interpolated from the vertices with the light's q — the point's own depth from the light, never the camera's depth `z C xs`: on geforce3 write Williams's test `(z πl π⁻¹ xs) > (z Cl πl π⁻¹ xs) + b` (redrawn over the meshes) or `(z δπl x) > (z Cl δπl x)`; or target wgsl (docs/shadow-maps.md)";

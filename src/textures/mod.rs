@@ -11,6 +11,7 @@
 pub mod cube_image;
 pub mod generators;
 pub mod sampling;
+pub mod solid;
 pub mod unit;
 
 use std::path::Path;

@@ -181,7 +181,11 @@ impl<'a> FragmentProgram<'a> {
             let decl = r.decls.iter().find(|d| d.name == t.name);
             filters.push(decl.map_or(Filter::Bilinear, |d| d.filter));
             let baked = match FragmentProgram::baked_by(r, &t.name) {
-                Some(index) if mode == Precision::Exact && looked_up.contains(&(id as TextureId)) => {
+                Some(index)
+                    if mode == Precision::Exact
+                        && looked_up.contains(&(id as TextureId))
+                        && t.kind != crate::parser::ast::TextureKind::Tex3d =>
+                {
                     FragmentProgram::baked(r, mode, rendered, index)?
                 }
                 _ => None,
@@ -354,6 +358,9 @@ impl<'a> FragmentProgram<'a> {
                     }
                 };
                 out.map(|x| x as f64)
+            }
+            Source::Rendered(rt) if coords_ty == Ty::Vec3 => {
+                crate::textures::solid::sample(&rt.pixels, [c[0], c[1], c[2]], filter)
             }
             Source::Rendered(rt) => rt.sample(c, coords_ty, filter),
             Source::Baked { program, wrap } => baked_lookup(program, *wrap, c, coords_ty),

@@ -80,7 +80,9 @@ impl Gen<'_> {
                             Some(node),
                         );
                     }
-                    (tex.kind, Some(tex.format), fat)
+                    // A rendered 3-D texture is its slices tiled in 2-D (`codegen::solid`).
+                    let tiled = tex.kind == TextureKind::Tex3d && tex.rendered;
+                    (if tiled { TextureKind::Tex2d } else { tex.kind }, Some(tex.format), fat)
                 }
                 Some(Expr::FramebufferRead { .. }) => (TextureKind::Tex2d, None, false),
                 _ => return Err(GenError::Internal(format!("texture unit {} is not a lookup", t.unit))),

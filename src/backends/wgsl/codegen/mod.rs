@@ -115,6 +115,7 @@ mod fixed9;
 mod interface;
 mod names;
 mod resources;
+mod solid;
 mod space;
 
 use body::*;

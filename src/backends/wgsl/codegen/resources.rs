@@ -139,6 +139,10 @@ impl Gen<'_> {
             return self.lookup_at_pixel(b, n, unit, fat);
         }
         let c = b.val(coords)?;
+        if m.textures[texture as usize].kind == TextureKind::Tex3d && m.textures[texture as usize].rendered {
+            let s = self.solid_sample(b, unit, c, naga::SampleLevel::Zero);
+            return Ok(Some(Computed::plain(self.narrow(b, s, 4, w))));
+        }
         let coord = match (kind, ct) {
             (TextureKind::Tex1d, _) => {
                 let half = b.lit(0.5);
