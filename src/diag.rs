@@ -13,6 +13,7 @@ use serde::Serialize;
 
 use crate::span::{LineIndex, Span};
 
+/// How serious a diagnostic is: an error refuses the program, a warning or note does not.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
 pub enum Severity {
     Error,
@@ -33,6 +34,7 @@ impl Severity {
     }
 }
 
+/// A span with a short message: the primary place of a diagnostic, or a related one.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Label {
     pub span: Span,
@@ -54,6 +56,7 @@ pub struct Diagnostic {
 }
 
 impl Diagnostic {
+    /// An error `code` with its `message`, at `span` labelled `label`: the program is refused.
     pub fn error(
         code: &'static str,
         message: impl Into<String>,
@@ -70,6 +73,7 @@ impl Diagnostic {
         }
     }
 
+    /// A warning, built like [`Diagnostic::error`]: the program is still compiled.
     pub fn warning(
         code: &'static str,
         message: impl Into<String>,
@@ -79,11 +83,13 @@ impl Diagnostic {
         Diagnostic { severity: Severity::Warning, ..Diagnostic::error(code, message, span, label) }
     }
 
+    /// The help line: what to do about it (which must be true).
     pub fn with_help(mut self, help: impl Into<String>) -> Diagnostic {
         self.help = Some(help.into());
         self
     }
 
+    /// A secondary place, with its message ("declared here").
     pub fn with_label(mut self, span: Span, message: impl Into<String>) -> Diagnostic {
         self.secondary.push(Label { span, message: message.into() });
         self
@@ -98,6 +104,7 @@ impl Diagnostic {
         self
     }
 
+    /// Whether the diagnostic refuses the program.
     pub fn is_error(&self) -> bool {
         self.severity == Severity::Error
     }
@@ -112,6 +119,7 @@ pub struct SourceFile {
 }
 
 impl SourceFile {
+    /// A source file `name` with its `text`, indexed by line for `file:line:col` positions.
     pub fn new(name: impl Into<String>, text: impl Into<String>) -> SourceFile {
         let text = text.into();
         let index = LineIndex::new(&text);
@@ -124,6 +132,7 @@ impl SourceFile {
         format!("{}:{}:{}", self.name, lc.line, lc.col)
     }
 
+    /// The file's line index, for positions in it.
     pub fn line_index(&self) -> &LineIndex {
         &self.index
     }
@@ -302,24 +311,28 @@ pub struct LspDiagnostic {
     pub related_information: Vec<LspRelated>,
 }
 
+/// A position as the Language Server Protocol counts it (0-based line, UTF-16 character).
 #[derive(Clone, Copy, Debug, Serialize, PartialEq, Eq)]
 pub struct LspPosition {
     pub line: u32,
     pub character: u32,
 }
 
+/// A range of [`LspPosition`]s, end exclusive.
 #[derive(Clone, Copy, Debug, Serialize, PartialEq, Eq)]
 pub struct LspRange {
     pub start: LspPosition,
     pub end: LspPosition,
 }
 
+/// A range in a document, by URI: a related place of an LSP diagnostic.
 #[derive(Clone, Debug, Serialize, PartialEq, Eq)]
 pub struct LspLocation {
     pub uri: String,
     pub range: LspRange,
 }
 
+/// A related place of an LSP diagnostic (a secondary label), with its message.
 #[derive(Clone, Debug, Serialize, PartialEq, Eq)]
 pub struct LspRelated {
     pub location: LspLocation,
@@ -440,6 +453,7 @@ impl Suggester {
     /// one-edit lookup.
     pub const MAX_SCAN: usize = 512;
 
+    /// A suggester over `candidates` (the names in scope, a closed set of words).
     pub fn new<'a>(candidates: impl IntoIterator<Item = &'a str>) -> Suggester {
         let mut names: Vec<(String, Vec<char>)> =
             candidates.into_iter().map(|c| (c.to_string(), lower(c))).collect();

@@ -38,6 +38,7 @@ pub type Diagnostics = Vec<Diagnostic>;
 /// How to plan, besides the target.
 #[derive(Clone, Copy, Default)]
 pub struct PlanOptions<'a> {
+    /// How splits are searched (the dynamic programme; exhaustive for tests).
     pub search: Search,
     /// Plan for this scene (`compile --scene`, `render`); `None`: for any scene.
     pub scene: Option<ForScene<'a>>,
@@ -50,6 +51,7 @@ pub struct PlanOptions<'a> {
 /// culled per object as asked.
 #[derive(Clone, Copy)]
 pub struct ForScene<'a> {
+    /// The scene: lights, constants, textures.
     pub scene: &'a Scene,
     /// The scene's meshes (`Scene::build`): light relevance is per object.
     pub assets: &'a SceneAssets,
@@ -77,6 +79,7 @@ impl<'a> ForScene<'a> {
 
 /// A program compiled for a target.
 pub struct Compilation {
+    /// The syntax tree.
     pub program: Program,
     /// The lowered program, before planning: what the program means
     /// (`meaning::plan`) and what `--emit ir` prints.
@@ -90,13 +93,16 @@ pub struct Compilation {
 /// The front end's result: the AST, the IR when lowering ran, and every
 /// diagnostic (warnings too), in source order.
 pub struct Front {
+    /// The syntax tree.
     pub program: Program,
     /// `None` when the program has errors before lowering.
     pub module: Option<Module>,
+    /// Every diagnostic of parsing, name resolution and lowering.
     pub diagnostics: Diagnostics,
 }
 
 impl Front {
+    /// Whether the front end found an error.
     pub fn has_errors(&self) -> bool {
         self.diagnostics.iter().any(Diagnostic::is_error)
     }
@@ -142,10 +148,12 @@ pub fn compile(source: &str, profile: &Profile, options: &PlanOptions) -> Result
 
 /// Plans a lowered module of `program` for `profile`, with the target's
 /// fragment stage as the planner's realizer. `source` gives the plan its
-/// `line:col` positions.
+/// `line:col` positions. The module carries the program's texture
+/// declarations ([`crate::ir::declared`]); `_program` is no longer read,
+/// kept so that callers stay unchanged until they drop it.
 pub fn plan(
     module: &Module,
-    program: &Program,
+    _program: &Program,
     profile: &Profile,
     source: Option<&str>,
     options: &PlanOptions,
@@ -155,7 +163,7 @@ pub fn plan(
     let spec;
     let scene = match &options.scene {
         Some(s) => {
-            textures = crate::scene::bind::texture_decls(program, &s.scene.constants);
+            textures = crate::scene::bind::texture_decls(module, &s.scene.constants);
             spec = SceneSpecialization {
                 scene: s.scene,
                 assets: s.assets,
@@ -187,6 +195,13 @@ pub fn plan(
 /// on a combiner target, else a GeForce 3's, generated once on first use.
 pub fn combiners_of(planned: &Planned, index: usize) -> Result<&Generated, SetupRefusal> {
     crate::backends::combiners::setup::of(planned, index)
+}
+
+/// The per-vertex part of pass `index` as `--emit combiners` prints it:
+/// its `!!VP1.0` program where the target has vertex programs (the one its
+/// setup keeps, emitted once), else what the host computes per vertex.
+pub fn vertex_program_text(planned: &Planned, index: usize, source: Option<&str>, title: &str) -> String {
+    crate::backends::vertex_program::emit::pass_text(planned, index, source, title)
 }
 
 /// Every pass of `planned` as WGSL shaders (`--emit wgsl|spirv|glsl`),
@@ -264,12 +279,20 @@ pub fn target_for(flag: Option<&str>, program: &Program, default: Option<&str>) 
     .map(|(name, _)| name)
 }
 
+/// The located errors of the cube-map images `program` declares, paths
+/// relative to `base` (`scene::cube_image::diagnose` over the program's
+/// typed declarations, [`crate::ir::declared`]); a declaration whose every
+/// name `replaced` says a scene texture replaces is not read.
+pub fn cube_image_errors(program: &Program, base: &Path, replaced: &dyn Fn(&str) -> bool) -> Diagnostics {
+    crate::scene::cube_image::diagnose(&crate::ir::declared::read(program), base, replaced)
+}
+
 /// Every `image("…")` and `height("…")` file of `program` that is not in
 /// `dir` (nor replaced by a texture of `scene` of the same name): an error
 /// at the file's name, whose help names `--stand-ins`.
 pub fn missing_images(program: &Program, dir: &Path, scene: Option<&Scene>) -> Diagnostics {
     let mut out = Vec::new();
-    for f in crate::scene::bind::image_files(program) {
+    for f in crate::scene::bind::image_files(&crate::ir::declared::read(program)) {
         if scene.is_some_and(|s| s.textures.contains_key(&f.texture)) {
             continue;
         }

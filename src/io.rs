@@ -14,6 +14,7 @@ use thiserror::Error;
 /// refused before more of it is read, so `check /dev/zero` ends at once.
 pub const MAX_TEXT_BYTES: u64 = 16 << 20;
 
+/// Why a file could not be read or written: every case names the path.
 #[derive(Debug, Error)]
 pub enum IoError {
     #[error("{}: cannot read: {source}", shown(path))]
@@ -75,6 +76,7 @@ pub fn read_text_bounded(path: &Path, limit: u64) -> Result<String, IoError> {
     text_from_bytes(path, bytes)
 }
 
+/// The text of `bytes` read from `path`, or an error at the first byte that is not UTF-8.
 pub fn text_from_bytes(path: &Path, bytes: Vec<u8>) -> Result<String, IoError> {
     String::from_utf8(bytes).map_err(|e| {
         let offset = e.utf8_error().valid_up_to();

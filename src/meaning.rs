@@ -23,7 +23,7 @@
 //! what the program says.
 
 use crate::diag::Diagnostic;
-use crate::ir::{Expr, FbChannel, Frequency, Handle, Module, Table, Usage};
+use crate::ir::{Expr, FbChannel, Frequency, Handle, Module, Statement, Table, Usage};
 use crate::pipeline::{
     BlendMode, FragmentWork, Geometry, Pass, PassPlan, Planned, RenderTarget, TextureBinding, VertexWork,
 };
@@ -52,87 +52,11 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
         if matches!(st.table, Table::TexCoords(_)) {
             continue; // texgen: vertex work of the passes that read it
         }
-        let form = match planner::whole_form(&mut m, st, st.value) {
-            Ok(f) => f,
-            Err(d) => {
-                errors.push(d);
-                continue;
-            }
-        };
-        let in_texture_space = st.freq == Frequency::Texel
-            && m.reachable(&[st.index]).iter().any(|h| m.info(*h).freq == Frequency::Vertex);
-        let mesh = st.freq == Frequency::Fragment || in_texture_space;
-        // seeds/001 (10): a statement at the pixel reuses the vertices the
-        // last statement into the same framebuffer projected.
-        let at_pixel = mesh && form.drawn_at.is_none() && matches!(m.exprs[st.index], Expr::Pixel { .. });
-        let reused = at_pixel
-            .then(|| drawn.iter().rev().find(|(t, _)| same_target(t, &st.table)).map(|(_, h)| *h))
-            .flatten();
-        if at_pixel && reused.is_none() {
-            errors.push(Diagnostic::error("no-projected-vertices", "this statement at the pixel interpolates per-vertex values, but no earlier statement projects the mesh", st.span, "here").with_help("write a statement `C δπx ← …` into this framebuffer first (Pipeline Grammar, eq. (10))"));
-            continue;
+        match statement_pass(&mut m, i, st, &mut drawn) {
+            Ok(Some(pass)) => passes.push(pass),
+            Ok(None) => {}
+            Err(d) => errors.push(d),
         }
-        let position = reused.or(form.drawn_at).unwrap_or(st.index);
-        let geometry = match (st.freq, mesh) {
-            (Frequency::Screen, _) => Geometry::Screen,
-            (_, true) => {
-                Geometry::Mesh { projection: if in_texture_space { "u".into() } else { "π".into() } }
-            }
-            _ => Geometry::Texels,
-        };
-        let key = (st.table.clone(), position);
-        let depth = match (&geometry, form.depth) {
-            (_, Some(d)) => d,
-            (Geometry::Mesh { .. }, None) if in_texture_space => DepthState::DISABLED,
-            (Geometry::Mesh { .. }, None) if drawn.contains(&key) => DepthState::EQUAL_NO_WRITE,
-            (Geometry::Mesh { .. }, None) => DepthState::LESS_WRITE,
-            _ => DepthState::DISABLED,
-        };
-        if matches!(geometry, Geometry::Mesh { .. }) && form.depth.is_none() && !drawn.contains(&key) {
-            drawn.push(key);
-        }
-        let (target, mask) = target_of(&m, &st.table);
-        // The stencil update's fragment computes nothing: the depth test
-        // and the stencil operation are the statement.
-        let output =
-            if form.channels == "stencil" { constant_one(&mut m, st.value) } else { Some(form.value) };
-        let Some(output) = output else { continue };
-        let usage = Usage::of_value(&m, output);
-        let textures = texture_bindings(&m, &usage);
-        passes.push(Pass {
-            statements: vec![i],
-            light: None,
-            objects: None,
-            at: "-".into(),
-            reason: format!("statement {} as written (the program's meaning)", i + 1),
-            target,
-            vertex: VertexWork {
-                position: mesh.then_some(position.index() as u32),
-                interpolants: usage.interpolants.iter().map(|h| h.index() as u32).collect(),
-                texgen: Vec::new(),
-            },
-            textures,
-            fragment: FragmentWork {
-                output: output.index() as u32,
-                operations: 0,
-                condition: form.condition.map(|c| c.index() as u32),
-                general_combiners: None,
-            },
-            blend: BlendMode::Replace,
-            state: RenderState {
-                cull: if matches!(geometry, Geometry::Mesh { .. }) && !in_texture_space {
-                    CullMode::Back
-                } else {
-                    CullMode::None
-                },
-                depth,
-                stencil: form.stencil.unwrap_or(StencilState::DISABLED),
-                blend: BlendState::REPLACE.with_write_mask(mask),
-            },
-            geometry,
-            baked: m.is_baked(st),
-            predicted: None,
-        });
     }
     errors.extend(crate::planner::shadow_volumes::unbound_uses(&m));
     if !errors.is_empty() {
@@ -155,6 +79,119 @@ pub fn plan(module: &Module, lights: usize) -> Result<Planned, Vec<Diagnostic>> 
         setups: Vec::new(),
     }
     .resolved())
+}
+
+/// Where a statement of the meaning draws: the geometry its index walks
+/// (Pipeline Grammar, Section 3: the samples of the table's index), the
+/// vertex position a mesh is projected from, and the depth test that keeps
+/// one surface per sample.
+struct Placement {
+    /// A mesh is rasterized (a fragment, or a texel reached through the
+    /// vertices: rendering into texture space).
+    mesh: bool,
+    /// The mesh is unwrapped over its texture coordinates, not projected.
+    in_texture_space: bool,
+    /// The vertex position the mesh is drawn at.
+    position: Handle<Expr>,
+    geometry: Geometry,
+    depth: DepthState,
+}
+
+/// The placement of statement `st`, whose whole form draws at `drawn_at`
+/// with depth state `depth` when it decides them itself; `drawn` is the
+/// mesh draws so far, and gains this one when it resolves visibility.
+fn place(
+    m: &Module,
+    st: &Statement,
+    drawn_at: Option<Handle<Expr>>,
+    depth: Option<DepthState>,
+    drawn: &mut Vec<(Table, Handle<Expr>)>,
+) -> Result<Placement, Diagnostic> {
+    let in_texture_space = st.freq == Frequency::Texel
+        && m.reachable(&[st.index]).iter().any(|h| m.info(*h).freq == Frequency::Vertex);
+    let mesh = st.freq == Frequency::Fragment || in_texture_space;
+    // Pipeline Grammar (10): a statement at the pixel reuses the vertices
+    // the last statement into the same framebuffer projected.
+    let at_pixel = mesh && drawn_at.is_none() && matches!(m.exprs[st.index], Expr::Pixel { .. });
+    let reused = at_pixel
+        .then(|| drawn.iter().rev().find(|(t, _)| same_target(t, &st.table)).map(|(_, h)| *h))
+        .flatten();
+    if at_pixel && reused.is_none() {
+        return Err(Diagnostic::error("no-projected-vertices", "this statement at the pixel interpolates per-vertex values, but no earlier statement projects the mesh", st.span, "here").with_help("write a statement `C δπx ← …` into this framebuffer first (Pipeline Grammar, eq. (10))"));
+    }
+    let position = reused.or(drawn_at).unwrap_or(st.index);
+    let geometry = match (st.freq, mesh) {
+        (Frequency::Screen, _) => Geometry::Screen,
+        (_, true) => Geometry::Mesh { projection: if in_texture_space { "u".into() } else { "π".into() } },
+        _ => Geometry::Texels,
+    };
+    let key = (st.table.clone(), position);
+    let decided = match (&geometry, depth) {
+        (_, Some(d)) => d,
+        (Geometry::Mesh { .. }, None) if in_texture_space => DepthState::DISABLED,
+        (Geometry::Mesh { .. }, None) if drawn.contains(&key) => DepthState::EQUAL_NO_WRITE,
+        (Geometry::Mesh { .. }, None) => DepthState::LESS_WRITE,
+        _ => DepthState::DISABLED,
+    };
+    if matches!(geometry, Geometry::Mesh { .. }) && depth.is_none() && !drawn.contains(&key) {
+        drawn.push(key);
+    }
+    Ok(Placement { mesh, in_texture_space, position, geometry, depth: decided })
+}
+
+/// Statement `i` as one pass of the meaning: its whole value, written with
+/// `replace` where [`place`] puts it. `None` for a statement whose value
+/// leaves nothing to compute.
+fn statement_pass(
+    m: &mut Module,
+    i: usize,
+    st: &Statement,
+    drawn: &mut Vec<(Table, Handle<Expr>)>,
+) -> Result<Option<Pass>, Diagnostic> {
+    let form = planner::whole_form(m, st, st.value)?;
+    let Placement { mesh, in_texture_space, position, geometry, depth } =
+        place(m, st, form.drawn_at, form.depth, drawn)?;
+    let (target, mask) = target_of(m, &st.table);
+    // The stencil update's fragment computes nothing: the depth test
+    // and the stencil operation are the statement.
+    let output = if form.channels == "stencil" { constant_one(m, st.value) } else { Some(form.value) };
+    let Some(output) = output else { return Ok(None) };
+    let usage = Usage::of_value(m, output);
+    let textures = texture_bindings(m, &usage);
+    Ok(Some(Pass {
+        statements: vec![i],
+        light: None,
+        objects: None,
+        at: "-".into(),
+        reason: format!("statement {} as written (the program's meaning)", i + 1),
+        target,
+        vertex: VertexWork {
+            position: mesh.then_some(position.index() as u32),
+            interpolants: usage.interpolants.iter().map(|h| h.index() as u32).collect(),
+            texgen: Vec::new(),
+        },
+        textures,
+        fragment: FragmentWork {
+            output: output.index() as u32,
+            operations: 0,
+            condition: form.condition.map(|c| c.index() as u32),
+            general_combiners: None,
+        },
+        blend: BlendMode::Replace,
+        state: RenderState {
+            cull: if matches!(geometry, Geometry::Mesh { .. }) && !in_texture_space {
+                CullMode::Back
+            } else {
+                CullMode::None
+            },
+            depth,
+            stencil: form.stencil.unwrap_or(StencilState::DISABLED),
+            blend: BlendState::REPLACE.with_write_mask(mask),
+        },
+        geometry,
+        baked: m.is_baked(st),
+        predicted: None,
+    }))
 }
 
 /// Where a statement writes, and the channels it writes.

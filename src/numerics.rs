@@ -25,6 +25,7 @@ pub enum Precision {
 }
 
 impl Precision {
+    /// The precision's name, as `--precision` spells it.
     pub fn name(self) -> &'static str {
         match self {
             Precision::Exact => "exact",

@@ -16,6 +16,7 @@ impl Span {
     /// A span for compiler-made nodes that have no source text.
     pub const DETACHED: Span = Span { start: 0, end: 0 };
 
+    /// The span of bytes `start..end`.
     pub fn new(start: usize, end: usize) -> Span {
         Span { start: start as u32, end: end as u32 }
     }
@@ -30,14 +31,17 @@ impl Span {
         Span { start: self.start + offset as u32, end: self.end + offset as u32 }
     }
 
+    /// The span as a byte range, to slice the text.
     pub fn range(self) -> std::ops::Range<usize> {
         self.start as usize..self.end as usize
     }
 
+    /// Its length in bytes.
     pub fn len(self) -> usize {
         (self.end - self.start) as usize
     }
 
+    /// Whether it covers no byte.
     pub fn is_empty(self) -> bool {
         self.start == self.end
     }
@@ -65,6 +69,7 @@ pub struct LineIndex {
 }
 
 impl LineIndex {
+    /// The index of the line starts of `text`.
     pub fn new(text: &str) -> LineIndex {
         let mut line_starts = vec![0];
         line_starts.extend(text.match_indices('\n').map(|(i, _)| i + 1));

@@ -111,3 +111,34 @@ fn a_pass_setup_holds_its_target_extent_format_and_units_by_id() {
     let at = &source[last.span.start as usize..last.span.end as usize];
     assert!(at.starts_with("C δπx ← T δu x"), "the pass is placed at its statement: {at:?}");
 }
+
+/// The same for the per-vertex part: on geforce3 each pass's `!!VP1.0`
+/// program (NV_vertex_program) is emitted once, on first use, and kept in
+/// its setup; `--emit combiners` and a `render` through the vertex programs
+/// read that one (counted by `emit::emitted_programs`, which every
+/// emission passes through).
+#[test]
+fn the_vertex_program_emitter_runs_once_per_pass_for_emit_and_render() {
+    use shadec::backends::vertex_program::emit::emitted_programs;
+    let source = kilgard();
+    let geforce3 = Profile::builtin("geforce3").unwrap();
+    let planned = driver::compile(&source, &geforce3, &Default::default()).unwrap().planned;
+    assert!(planned.vertex_programs, "geforce3 has vertex programs");
+    let before = emitted_programs();
+    let passes: Vec<usize> =
+        (0..planned.plan.passes.len()).filter(|&i| !planned.plan.passes[i].baked).collect();
+    for _ in 0..2 {
+        for &i in &passes {
+            let text = driver::vertex_program_text(&planned, i, Some(&source), "# pass\n");
+            assert!(text.starts_with("!!VP1.0"), "pass {i} has a vertex program: {text}");
+        }
+        let (program, _) = shadec::parser::check(&source);
+        let scene = scene();
+        let assets = scene.build().unwrap();
+        PlanRenderer::new(&planned, &program, &scene, &assets)
+            .unwrap()
+            .render(Precision::Fixed9, 32, 24, &mut |_, _| {})
+            .unwrap();
+    }
+    assert_eq!(emitted_programs() - before, passes.len(), "one program per pass, however often it is read");
+}

@@ -102,7 +102,7 @@ fn write_layout(dir: &Path, layout: &str, n: u32) -> String {
 fn bind_cube(dir: &Path, arg: &str, notes: &mut Vec<String>) -> Result<TextureCube, String> {
     let source = format!("texture Env : cube rgba8 nearest clamp = image({arg});\nC δπx ← Env δπx;\n");
     let (program, _) = shadec::parser::parse(&source);
-    let decls = bind::texture_decls(&program, &BTreeMap::new());
+    let decls = bind::texture_decls(&shadec::ir::lower(&program).0, &BTreeMap::new());
     let mut scene = scene("kilgard_torus.ron");
     scene.path = dir.join("scene.ron");
     let bound =
@@ -498,7 +498,7 @@ fn scene_textures_give_cube_maps_from_images() {
         let scene = Scene::parse(&text, &path).unwrap_or_else(|e| panic!("{texture}: {e}"));
         let source = "texture Env : cube rgba8 nearest clamp = image(\"absent.png\");\nC δπx ← Env δπx;\n";
         let (program, _) = shadec::parser::parse(source);
-        let decls = bind::texture_decls(&program, &BTreeMap::new());
+        let decls = bind::texture_decls(&shadec::ir::lower(&program).0, &BTreeMap::new());
         let mut notes = Vec::new();
         let bound = bind::load_textures(&decls, &scene, TextureQuality::Stored, &mut notes).unwrap();
         assert!(notes.is_empty(), "{texture}: {notes:?}");

@@ -157,7 +157,8 @@ fn code_under(dir: &str) -> Vec<(String, String)> {
 }
 
 /// What only the driver calls (issue 35): the planner, the lowering, the
-/// code generators and the setups they make. The CLI and the language
+/// code generators and the setups they make, and the reading of texture
+/// declarations (`ir::declared`, the cube-map images' checks). The CLI and the language
 /// server sit above it and read its `Planned`.
 const BELOW_THE_DRIVER: &[&str] = &[
     "planner::",
@@ -168,7 +169,10 @@ const BELOW_THE_DRIVER: &[&str] = &[
     "combiners::setup",
     "wgsl::generate",
     "generate_for_pass",
+    "vertex_program::emit::",
     "ir::lower(",
+    "ir::declared",
+    "cube_image::diagnose",
     "cost::annotate",
 ];
 
@@ -255,4 +259,73 @@ fn the_line_col_checker_sees_a_read_back() {
     assert!(reads_line_col_back(parse) && reads_line_col_back(offset));
     let lsp = "fn f(d: &Document) { d.offset(pos); let (k, v) = l.split_once(':'); }";
     assert!(!reads_line_col_back(lsp));
+}
+
+/// The longest a source file may be (issue 35): past it a file holds more
+/// than one concept, and is split along them (ARCHITECTURE.md, § Code map).
+const MAX_FILE_LINES: usize = 1000;
+
+/// The files of `src/` longer than [`MAX_FILE_LINES`], with their lengths.
+fn files_over(dir: &Path, limit: usize) -> Vec<(String, usize)> {
+    let mut files = Vec::new();
+    rust_files(dir, &mut files);
+    let mut over: Vec<(String, usize)> = files
+        .into_iter()
+        .map(|path| {
+            let lines = std::fs::read_to_string(&path).unwrap().lines().count();
+            (path.strip_prefix(dir).unwrap().to_string_lossy().replace('\\', "/"), lines)
+        })
+        .filter(|(_, lines)| *lines > limit)
+        .collect();
+    over.sort();
+    over
+}
+
+#[test]
+fn no_file_in_src_is_over_1000_lines() {
+    let src = Path::new(env!("CARGO_MANIFEST_DIR")).join("src");
+    let over = files_over(&src, MAX_FILE_LINES);
+    assert!(
+        over.is_empty(),
+        "split these along their concepts (at most {MAX_FILE_LINES} lines a file): {over:?}"
+    );
+}
+
+#[test]
+fn the_file_length_checker_sees_a_long_file() {
+    let dir = std::env::temp_dir().join(format!("shadec-layering-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    std::fs::write(dir.join("short.rs"), "fn f() {}\n".repeat(3)).unwrap();
+    std::fs::write(dir.join("long.rs"), "fn f() {}\n".repeat(MAX_FILE_LINES + 1)).unwrap();
+    let over = files_over(&dir, MAX_FILE_LINES);
+    std::fs::remove_dir_all(&dir).unwrap();
+    assert_eq!(over, vec![("long.rs".to_string(), MAX_FILE_LINES + 1)]);
+}
+
+/// Whether `text` reads the syntax tree: it names the parser or its AST.
+fn reads_the_syntax_tree(text: &str) -> bool {
+    text.contains("parser::") || text.contains("ast::")
+}
+
+/// Texture declarations are read once (issue 35): the lowering types them
+/// (`ir::declared`), and the scene binder builds textures from the module's
+/// declarations, never from the syntax tree.
+#[test]
+fn the_scene_does_not_read_the_syntax_tree() {
+    let broken: Vec<String> = code_under("scene")
+        .into_iter()
+        .filter(|(_, text)| reads_the_syntax_tree(text))
+        .map(|(file, _)| {
+            format!("{file} reads `parser::ast`: read the module's declarations (`ir::declared`)")
+        })
+        .collect();
+    assert!(broken.is_empty(), "{}", broken.join("\n"));
+}
+
+#[test]
+fn the_syntax_tree_checker_sees_a_read() {
+    assert!(reads_the_syntax_tree("use crate::parser::ast::{self, ExprKind};"));
+    assert!(reads_the_syntax_tree("use crate::parser::{ast, check};"));
+    assert!(reads_the_syntax_tree("fn f(e: &ast::Expr) {}"));
+    assert!(!reads_the_syntax_tree("use crate::ir::declared::{DeclaredSource, TextureKind};"));
 }

@@ -18,7 +18,7 @@ fn stored_components(format: &str) -> Vec<f32> {
     let (program, diags) = shadec::parser::check(&source);
     assert!(diags.iter().all(|d| !d.is_error()), "{diags:?}");
     let scene = shadec::scene::Scene::parse(SCENE, Path::new("")).unwrap();
-    let decls = bind::texture_decls(&program, &BTreeMap::new());
+    let decls = bind::texture_decls(&shadec::ir::lower(&program).0, &BTreeMap::new());
     let textures = bind::load_textures(&decls, &scene, TextureQuality::Stored, &mut Vec::new()).unwrap();
     let Texture::Flat(t) = &textures["B"].texture else { panic!("a 2-D texture") };
     t.levels[0].texels.iter().flat_map(|c| c[..3].to_vec()).collect()

@@ -70,6 +70,7 @@ mod three_way_realistic;
 mod vertex_programs;
 mod vertex_programs_corpus;
 mod vertex_programs_render;
+mod wgpu_temporaries;
 mod wgsl_agreement;
 mod wgsl_gpu;
 mod wgsl_snapshots;

@@ -28,6 +28,8 @@ pub const SCENES: [(&str, &str, Option<f64>); 4] = [
 /// Regular samples every 16 pixels (Adaptive Sample Shading, Section 2.1).
 pub const SPACING: u32 = 16;
 
+/// One scene and threshold of the adaptive-shading benchmark (Adaptive Sample Shading, Section
+/// 2.1): the fraction shaded, the times, and the error against full shading.
 #[derive(Clone, Debug)]
 pub struct AdaptiveRow {
     pub scene: &'static str,
@@ -41,6 +43,7 @@ pub struct AdaptiveRow {
 }
 
 impl AdaptiveRow {
+    /// How many times faster adaptive shading ran than full shading.
     pub fn speedup(&self) -> f64 {
         self.full_time.as_secs_f64() / self.adaptive_time.as_secs_f64().max(1e-9)
     }
@@ -87,6 +90,7 @@ pub fn measure(
                 last = Some((fb.to_rgba_f32(), stats));
             }
             times.remove(0);
+            #[allow(clippy::expect_used, reason = "the loop above runs `runs.max(1) + 1` ≥ 2 times")]
             let (image, stats) = last.expect("at least one run");
             let e = image_error(&reference, &image);
             rows.push(AdaptiveRow {

@@ -24,6 +24,7 @@ use crate::scene::{Scene, SceneAssets};
 
 /// The threshold and spacing of the paper's figures (8.5 %, every 16 pixels).
 pub const THRESHOLD: f32 = 0.085;
+/// The sample spacing of the paper's figures, in pixels.
 pub const SPACING: u32 = 16;
 
 /// One program of the sweep on one executor.
@@ -41,6 +42,7 @@ pub struct CrossoverRow {
 }
 
 impl CrossoverRow {
+    /// How many times faster adaptive shading ran than full shading.
     pub fn speedup(&self) -> f64 {
         self.full.as_secs_f64() / self.adaptive.as_secs_f64().max(1e-9)
     }

@@ -127,7 +127,7 @@ fn combiners_text(p: &shadec::pipeline::Planned, source: &str) -> Result<String,
         let text = shadec::backends::combiners::rc1::print(&g.config);
         let (header, rest) = text.split_once('\n').unwrap_or((&text, ""));
         out.push_str(&format!("{header}\n{title}{rest}\n"));
-        out.push_str(&shadec::backends::vertex_program::emit::pass_text(p, i, Some(source), &title));
+        out.push_str(&shadec::driver::vertex_program_text(p, i, Some(source), &title));
     }
     Ok(out)
 }
@@ -312,5 +312,5 @@ fn cube_image_errors(
 ) -> Vec<shadec::diag::Diagnostic> {
     let base = scene.map(shadec::scene::bind::scene_dir).unwrap_or_default();
     let replaced = |name: &str| scene.is_some_and(|s| s.textures.contains_key(name));
-    shadec::scene::cube_image::diagnose(program, &base, &replaced)
+    shadec::driver::cube_image_errors(program, &base, &replaced)
 }

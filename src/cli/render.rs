@@ -213,7 +213,7 @@ fn compile(
     let mut errors: Vec<Diagnostic> = front.diagnostics.iter().filter(|d| d.is_error()).cloned().collect();
     let replaced = |name: &str| scene.textures.contains_key(name);
     let images = shadec::scene::bind::scene_dir(scene);
-    errors.extend(shadec::scene::cube_image::diagnose(&front.program, &images, &replaced));
+    errors.extend(shadec::driver::cube_image_errors(&front.program, &images, &replaced));
     let Some(module) = front.module.as_ref().filter(|_| errors.is_empty()) else {
         return Err(refused(&errors));
     };

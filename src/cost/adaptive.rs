@@ -169,6 +169,7 @@ pub struct CpuPrediction {
 }
 
 impl CpuPrediction {
+    /// How many times faster adaptive shading is predicted than full shading.
     pub fn speedup(&self) -> f64 {
         self.full / self.adaptive.max(1e-9)
     }

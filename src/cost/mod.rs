@@ -81,6 +81,7 @@ pub struct Prediction {
 }
 
 impl Prediction {
+    /// The predicted frame time in milliseconds.
     pub fn total_ms(&self) -> f64 {
         self.total_us / 1000.0
     }
@@ -186,6 +187,8 @@ pub fn texture_samples(pass: &Pass, trilinear: &Trilinear) -> u32 {
 pub struct Trilinear<'m>(rustc_hash::FxHashSet<&'m str>);
 
 impl<'m> Trilinear<'m> {
+    /// The textures of `module` sampled trilinearly (mipmapped), which cost more fetches per
+    /// lookup.
     pub fn of(module: &'m Module) -> Trilinear<'m> {
         Trilinear(
             module
@@ -257,6 +260,7 @@ fn nanoseconds(us: f64) -> f64 {
 }
 
 impl Bound {
+    /// The bound's name, as the plan's prediction reports it.
     pub fn name(self) -> &'static str {
         match self {
             Bound::Vertex => "vertex",

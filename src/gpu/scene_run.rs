@@ -119,8 +119,10 @@
 //!
 //! # What is not supported (an [`SceneRunError::Unsupported`])
 //!
-//! Temporaries, reading the colour of the framebuffer that is read back
-//! (or any stencil) inside a shader, dual-paraboloid textures.
+//! Reading the colour of the framebuffer that is read back (or any
+//! stencil) inside a shader, dual-paraboloid textures. The planner's
+//! temporaries (render-to-texture splits) render into frame-sized textures
+//! and are read back at the pixel, as on the CPU.
 
 use std::collections::BTreeMap;
 
@@ -171,27 +173,23 @@ pub struct ScenePlan<'a> {
 impl<'a> ScenePlan<'a> {
     /// Generates the plan's WGSL passes and binds the scene (textures,
     /// uniforms) once, for `precision`'s texture model; `source` gives the
-    /// passes their source positions.
+    /// passes their source positions. The module carries the program's
+    /// texture declarations ([`crate::ir::declared`]): `_program` is no
+    /// longer read (kept so that callers stay unchanged until they drop it).
     pub fn new(
         planned: &'a Planned,
-        program: &Program,
+        _program: &Program,
         source: Option<&str>,
         precision: Precision,
         scene: &'a Scene,
         assets: &'a SceneAssets,
     ) -> Result<ScenePlan<'a>, SceneRunError> {
         let mut main = None;
-        for (i, pass) in planned.plan.passes.iter().enumerate() {
+        for pass in &planned.plan.passes {
             match &pass.target {
                 // The picture is the framebuffer written last, as the CPU's.
                 RenderTarget::Framebuffer { name, .. } => main = Some(name.clone()),
-                RenderTarget::Temporary { .. } => {
-                    return Err(SceneRunError::Unsupported(format!(
-                        "pass {} renders into a temporary",
-                        i + 1
-                    )))
-                }
-                RenderTarget::Texture { .. } => {}
+                RenderTarget::Texture { .. } | RenderTarget::Temporary { .. } => {}
             }
         }
         let main = main.ok_or_else(|| {
@@ -200,7 +198,7 @@ impl<'a> ScenePlan<'a> {
         let shaders = codegen::generate(planned, source, precision).map_err(|d| {
             SceneRunError::Codegen(d.iter().map(|d| d.message.clone()).collect::<Vec<_>>().join("; "))
         })?;
-        let mut decls = bind::texture_decls(program, &scene.constants);
+        let mut decls = bind::texture_decls(&planned.module, &scene.constants);
         let lowered = bind::lowered_decls(&planned.module, &decls);
         decls.extend(lowered);
         let mut notes = bind::absent_light_notes(&planned.module, scene);
@@ -231,7 +229,9 @@ impl<'a> ScenePlan<'a> {
     /// (a texture, or a framebuffer other than the one shown).
     fn pass_target(&self, pass: &Pass, rendered: &BTreeMap<String, runner::RenderedTexture>) -> PassTarget {
         match &pass.target {
-            RenderTarget::Texture { name } => PassTarget::Texture(rendered[name].clone()),
+            RenderTarget::Texture { name } | RenderTarget::Temporary { name } => {
+                PassTarget::Texture(rendered[name].clone())
+            }
             RenderTarget::Framebuffer { name, .. } if *name != self.main => {
                 PassTarget::Texture(rendered[name].clone())
             }
@@ -355,9 +355,11 @@ impl<'a> ScenePlan<'a> {
                 );
             }
         }
-        // The other framebuffers (shadow mask's C′, Cl): frame-sized textures.
+        // The other framebuffers (shadow mask's C′, Cl) and the planner's
+        // temporaries (a render-to-texture split, read back at the pixel):
+        // frame-sized textures in the frame's colour format, as the CPU's.
         for pass in &self.planned.plan.passes {
-            if let RenderTarget::Framebuffer { name, .. } = &pass.target {
+            if let RenderTarget::Framebuffer { name, .. } | RenderTarget::Temporary { name } = &pass.target {
                 if *name != self.main {
                     rendered.insert(
                         name.clone(),
@@ -415,16 +417,14 @@ impl<'a> ScenePlan<'a> {
                 continue;
             }
             if let Some(r) = rendered.get(&t.texture) {
-                let decl = self.decls.iter().find(|d| d.name == t.texture).ok_or_else(|| {
-                    SceneRunError::Unsupported(format!("texture `{}` has no declaration", t.texture))
-                })?;
+                let (filter, wrap) = self.rendered_sampling(&t.texture)?;
                 // Level 0 only: the GPU runner makes no mip chain of a rendered texture.
                 textures.push(RunTexture {
                     data: TextureData::Rendered {
                         name: t.texture.clone(),
                         array: fat_textures.contains(&r.name.as_str()),
                     },
-                    sampler: sampler(decl.filter, decl.wrap, false),
+                    sampler: sampler(filter, wrap, false),
                     texels: TexelUpload::Rgba8,
                 });
                 continue;
@@ -438,6 +438,18 @@ impl<'a> ScenePlan<'a> {
             textures.push(run_texture(bound, self.precision, signed)?);
         }
         Ok(textures)
+    }
+
+    /// How a rendered texture is sampled: as declared, or — a temporary the
+    /// planner added — as the compiler's own textures are (`Sampling::ADDED`).
+    fn rendered_sampling(&self, name: &str) -> Result<(Filter, Wrap), SceneRunError> {
+        if let Some(decl) = self.decls.iter().find(|d| d.name == name) {
+            return Ok((decl.filter, decl.wrap));
+        }
+        let added = self.planned.module.textures.iter().find(|t| t.name == name && t.declaration.is_none());
+        added
+            .map(|t| (t.sampling.filter, t.sampling.wrap))
+            .ok_or_else(|| SceneRunError::Unsupported(format!("texture `{name}` has no declaration")))
     }
 
     /// A depth buffer read as a texture: the main one, or a rendered target's.

@@ -104,6 +104,7 @@
 //! a node shared by two statements (Kilgard's `Tn δu x`) is the same handle.
 
 pub mod arena;
+pub mod declared;
 pub mod dump;
 pub mod eval;
 pub mod lower;
@@ -143,6 +144,9 @@ pub struct Module {
     pub info: Layered<ExprInfo>,
     /// The assignments, in source order.
     pub statements: Shared<Vec<Statement>>,
+    /// The texture declarations as written, their generators typed
+    /// ([`declared`]): what the scene binder builds textures from.
+    pub declared: Shared<Vec<declared::DeclaredTexture>>,
 }
 
 impl Module {

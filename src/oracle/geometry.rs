@@ -37,6 +37,8 @@ fn d3(v: glam::Vec3) -> DVec3 {
 }
 
 impl<'a> World<'a> {
+    /// The oracle's world for `scene`: its camera's view and projection at `aspect`, and the
+    /// meshes of `assets`.
     pub fn new(scene: &Scene, assets: &'a SceneAssets, aspect: f64) -> World<'a> {
         let cam = &scene.camera;
         let view = look_at(d3(cam.eye), d3(cam.target), d3(cam.up));

@@ -65,7 +65,7 @@ fn level(l: &data::Level) -> Level {
 
 fn image(levels: Vec<Level>, filter: Filter, wrap: Wrap, mipmap: bool, format: TexelFormat) -> Image {
     let levels = match (mipmap, levels.len()) {
-        (true, 1) => sampling::mip_chain(levels.into_iter().next().expect("one level"), format),
+        (true, 1) => levels.into_iter().flat_map(|base| sampling::mip_chain(base, format)).collect(),
         (false, _) => levels.into_iter().take(1).collect(),
         _ => levels,
     };
@@ -255,7 +255,9 @@ fn cube_image(
         return Ok(Tex::Cube(Cube { faces }));
     }
     let layout = names.get(1).copied();
-    let image = levels.pop().expect("one image");
+    let Some(image) = levels.pop() else {
+        return Ok(Tex::Missing("image() of a cube map without a file".into()));
+    };
     Ok(cube_from_image(image, layout, store, filter).unwrap_or_else(Tex::Missing))
 }
 

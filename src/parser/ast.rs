@@ -379,6 +379,8 @@ words! {
 }
 
 words! {
+    /// A texture's dimensionality: 1-D, 2-D and 3-D images, and cube maps
+    /// (looked up by a direction, Pipeline Grammar's `T δ v`).
     TextureKind { Tex1d => "1d", Tex2d => "2d", Tex3d => "3d", Cube => "cube" }
 }
 
@@ -408,6 +410,7 @@ impl TextureFormat {
 }
 
 words! {
+    /// A texture's sampling attributes (`ir::Sampling::of` reads them).
     TextureAttr {
         Mipmap => "mipmap",
         Nearest => "nearest",
@@ -419,6 +422,7 @@ words! {
 }
 
 words! {
+    /// A framebuffer's channels: its colour format, depth and stencil.
     FramebufferChannel {
         Rgba8 => "rgba8",
         Rgb8 => "rgb8",
@@ -448,6 +452,8 @@ words! {
 }
 
 words! {
+    /// The space a shading vector is expressed in (tangent space: Kilgard
+    /// 2000, Appendix C).
     Space { Object => "object", World => "world", Eye => "eye", Tangent => "tangent" }
 }
 

@@ -22,6 +22,8 @@ use std::collections::BTreeSet;
 use super::Planned;
 use crate::ir::{Expr, Handle, Projection, UniformId};
 
+/// What a pass reads from outside its fragment stage: the vertex leaves, projections, uniforms
+/// and texture units an executor binds for it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct PassInterface {
     pub vertex_leaves: Vec<Handle<Expr>>,

@@ -142,6 +142,7 @@ pub enum RenderTarget {
     Temporary { name: String },
 }
 
+/// What a pass rasterizes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Geometry {
     /// The scene's meshes, projected by `projection` (`π`, `πl`, `π*`).
@@ -164,6 +165,7 @@ pub struct VertexWork {
     pub texgen: Vec<String>,
 }
 
+/// A texture bound to a unit of the pass, with the lookup that reads it and its coordinates.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct TextureBinding {
     pub unit: u32,
@@ -174,6 +176,7 @@ pub struct TextureBinding {
     pub coords: u32,
 }
 
+/// What a pass's fragment stage computes.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FragmentWork {
     /// The colour the fragment stage outputs (before blending).
@@ -211,6 +214,7 @@ pub enum BlendMode {
 }
 
 impl BlendMode {
+    /// The blend state of the mode: how the pass's colour meets the framebuffer's.
     pub fn render_state(self) -> super::BlendState {
         use super::BlendState as B;
         match self {
@@ -226,6 +230,7 @@ impl BlendMode {
         }
     }
 
+    /// The mode's name as plans and reports spell it.
     pub fn name(self) -> &'static str {
         match self {
             BlendMode::Replace => "replace",
@@ -332,10 +337,13 @@ impl PassPlan {
         serde_json::to_string_pretty(self).expect("a pass plan serializes")
     }
 
+    /// Reads a plan written as RON (a document derived from `Planned`, for people and tests,
+    /// never planned from).
     pub fn from_ron(text: &str) -> Result<PassPlan, String> {
         ron::from_str(text).map_err(|e| e.to_string())
     }
 
+    /// Reads a plan written as JSON (see [`PassPlan::from_ron`]).
     pub fn from_json(text: &str) -> Result<PassPlan, String> {
         serde_json::from_str(text).map_err(|e| e.to_string())
     }

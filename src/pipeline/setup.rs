@@ -52,15 +52,25 @@ pub struct PassSetup {
     /// target, else generated for a GeForce 3 on first use, once
     /// (`backends::combiners::setup`).
     pub fixed9: OnceLock<Result<CombinerProgram, SetupRefusal>>,
+    /// The pass's `!!VP1.0` vertex program on a target that has vertex
+    /// programs (NV_vertex_program, NVIDIA 2001), or why the host computes
+    /// its vertices: emitted on first use and kept, so that `--emit
+    /// combiners` and `render` read one program. Held opaque, as the
+    /// combiner setup is, and read back by its type in
+    /// `backends::vertex_program::emit::of`.
+    pub vertex_program: OnceLock<Arc<dyn Any + Send + Sync>>,
 }
 
 /// The image a pass renders into, with its size and format.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct TargetImage {
+    /// A framebuffer, a texture or a temporary, by id.
     pub kind: TargetKind,
     /// The name executors key images by (the declared name, or `tempN`).
     pub name: String,
+    /// Its size: the frame's, or a square of texels.
     pub extent: Extent,
+    /// How it stores a colour.
     pub format: TargetFormat,
 }
 
@@ -112,6 +122,7 @@ pub enum TargetFormat {
 /// What a texture unit holds.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct UnitBinding {
+    /// The image the unit reads.
     pub source: UnitSource,
     /// The lookup (or framebuffer read) node the unit serves.
     pub lookup: Handle<Expr>,
@@ -120,8 +131,11 @@ pub struct UnitBinding {
 /// The image bound to a texture unit, by id.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum UnitSource {
+    /// A declared (or lowered) texture, by its id in the module.
     Texture(u32),
+    /// A framebuffer read back, by id.
     Framebuffer(u32),
+    /// A temporary an earlier pass of the split rendered.
     Temporary,
 }
 
@@ -175,7 +189,9 @@ impl fmt::Debug for CombinerProgram {
 /// located at the node it names.
 #[derive(Clone, Debug)]
 pub struct SetupRefusal {
+    /// Where the node the generator refused is written, when it has a place.
     pub span: Option<Span>,
+    /// The generator's error.
     pub error: Arc<dyn std::error::Error + Send + Sync>,
 }
 
@@ -217,6 +233,7 @@ impl PassSetup {
                 .collect(),
             fragment,
             fixed9,
+            vertex_program: OnceLock::new(),
         }
     }
 

@@ -139,6 +139,7 @@ pub struct StencilState {
 }
 
 impl StencilState {
+    /// No stencil test, nothing written: OpenGL's initial state.
     pub const DISABLED: StencilState = StencilState {
         enabled: false,
         func: CompareFunc::Always,

@@ -27,16 +27,21 @@ pub struct Builder<'m> {
 }
 
 impl Builder<'_> {
+    /// The node `e`, interned (an equal node is the same node); `None` when the module is full.
     pub fn node(&mut self, e: Expr) -> Option<Handle<Expr>> {
         self.module.intern(e, Span::DETACHED).ok()
     }
+    /// The constant `v` of type `ty`, splatted.
     pub fn constant(&mut self, ty: Ty, v: f64) -> Option<Handle<Expr>> {
         let w = ty.width().min(4);
         self.node(Expr::Constant(Constant::new(ty, &vec![v; w])))
     }
+    /// The type of `h`.
     pub fn ty(&self, h: Handle<Expr>) -> Ty {
         self.module.info(h).ty
     }
+    /// `lhs op rhs`, with the algebraic identities (x + 0, x − 0, x·1, x·0) applied, so that split
+    /// passes do no dead work.
     pub fn binary(&mut self, op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr>) -> Option<Handle<Expr>> {
         // Algebraic identities keep split passes free of dead work.
         let m = &*self.module;
@@ -62,18 +67,22 @@ impl Builder<'_> {
     fn join_ty(&self, a: Handle<Expr>, b: Handle<Expr>) -> Option<Ty> {
         crate::ir::valid::unify(self.ty(a), self.ty(b))
     }
+    /// `a + b` (see [`Builder::binary`]).
     pub fn add(&mut self, a: Handle<Expr>, b: Handle<Expr>) -> Option<Handle<Expr>> {
         self.binary(BinaryOp::Add, a, b)
     }
+    /// `a · b` (see [`Builder::binary`]).
     pub fn mul(&mut self, a: Handle<Expr>, b: Handle<Expr>) -> Option<Handle<Expr>> {
         self.binary(BinaryOp::Mul, a, b)
     }
+    /// `−a`.
     pub fn neg(&mut self, a: Handle<Expr>) -> Option<Handle<Expr>> {
         if self.module.is_constant(a, 0.0) {
             return Some(a);
         }
         self.node(Expr::Unary { op: UnaryOp::Neg, value: a })
     }
+    /// `1 − a`: the inverted mapping of the combiners and the blend factors.
     pub fn one_minus(&mut self, a: Handle<Expr>) -> Option<Handle<Expr>> {
         let one = self.constant(Ty::Scalar, 1.0)?;
         self.binary(BinaryOp::Sub, one, a)
@@ -93,6 +102,7 @@ impl Builder<'_> {
             _ => self.constant(Ty::Scalar, 1.0),
         }
     }
+    /// The RGB of `h` (`h` itself when it has no alpha).
     pub fn rgb(&mut self, h: Handle<Expr>) -> Option<Handle<Expr>> {
         match self.ty(h) {
             Ty::Rgba => self.node(Expr::Swizzle { value: h, pattern: [0, 1, 2, 0], len: 3, ty: Ty::Rgb }),

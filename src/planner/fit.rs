@@ -25,6 +25,8 @@ use crate::ir::{BinaryOp, Expr, Handle, MathFunction, Module, Usage};
 use crate::pipeline::BlendMode;
 use crate::profile::{FragmentStage, Profile};
 
+/// Whether a value fits one pass of a profile: its units, interpolants, constants and fragment
+/// stage (the combiners through the realizer).
 pub struct ProfileFit<'p> {
     pub profile: &'p Profile,
     /// The target's fixed-function stage (the combiner code generator);
@@ -45,6 +47,8 @@ pub struct ProfileFit<'p> {
 }
 
 impl<'p> ProfileFit<'p> {
+    /// The fit of `profile`, whose fixed-function stage `realizer` judges (none for a
+    /// programmable one).
     pub fn new(profile: &'p Profile, realizer: Option<&'p dyn Realizer>) -> ProfileFit<'p> {
         ProfileFit {
             profile,

@@ -200,9 +200,31 @@ pub fn plan(module: &Module, profile: &Profile, request: &Request) -> Result<Pla
     if written.is_ok() || !request.lowering.approximate || request.search == Search::Exhaustive {
         return written;
     }
+    let (fitting, tried) = plan_lowerings(module, profile, request);
+    if let Some(planned) = fastest_lowering(fitting, profile) {
+        return Ok(planned);
+    }
+    written.map_err(|errors| match tried {
+        Some(tried) => refusal_after_lowering(errors, &tried),
+        None => errors,
+    })
+}
+
+/// A lowering that did not make the program plan: the names of the rules
+/// it applied, and the lowered program's refusal.
+struct Tried {
+    rules: Vec<String>,
+    refusal: Vec<Diagnostic>,
+}
+
+/// The program lowered by each choice of rules ([`crate::lowering`], most
+/// accurate first) and planned as written: the plans that fit — only the
+/// first without `--max-error`, every one within the bound with it — and
+/// the first choice that did not plan.
+fn plan_lowerings(module: &Module, profile: &Profile, request: &Request) -> (Vec<Planned>, Option<Tried>) {
     let index = request.source.map(|s| (LineIndex::new(s), s));
     let at = |span: Span| at_text(&index, span);
-    let mut tried: Option<(Vec<String>, Vec<Diagnostic>)> = None;
+    let mut tried: Option<Tried> = None;
     let mut fitting: Vec<Planned> = Vec::new();
     let choices = match request.lowering.only {
         Some(only) => vec![only],
@@ -222,76 +244,81 @@ pub fn plan(module: &Module, profile: &Profile, request: &Request) -> Result<Pla
                     break; // the most accurate that plans
                 }
             }
-            Err(errors) => {
+            Err(refusal) => {
                 let mut rules: Vec<String> = lowered.approximations.iter().map(|a| a.rule.clone()).collect();
                 rules.dedup();
-                tried.get_or_insert((rules, errors));
+                tried.get_or_insert(Tried { rules, refusal });
             }
         }
     }
-    if let Some(planned) = fastest_lowering(fitting, profile) {
-        return Ok(planned);
+    (fitting, tried)
+}
+
+/// The program's own refusal (`errors`, as written) when no lowering made
+/// it plan either, saying what the lowering `tried` so that the refusal
+/// does not read as if the first obstacle were the only one.
+fn refusal_after_lowering(mut errors: Vec<Diagnostic>, tried: &Tried) -> Vec<Diagnostic> {
+    let Tried { rules, refusal: lowered } = tried;
+    // A missing capability the lowering supplied (signed textures) is
+    // not why the program is refused: the ones it left are.
+    let left: Vec<Diagnostic> = errors
+        .iter()
+        .filter(|d| d.code != "unsupported-by-target" || lowered.iter().any(|l| l.message == d.message))
+        .cloned()
+        .collect();
+    if !left.is_empty() {
+        errors = left;
     }
-    written.map_err(|mut errors| {
-        let Some((rules, lowered)) = tried else { return errors };
-        // A missing capability the lowering supplied (signed textures) is
-        // not why the program is refused: the ones it left are.
-        let left: Vec<Diagnostic> = errors
-            .iter()
-            .filter(|d| d.code != "unsupported-by-target" || lowered.iter().any(|l| l.message == d.message))
-            .cloned()
-            .collect();
-        if !left.is_empty() {
-            errors = left;
+    // The lowering removed the first obstacle (`normalize` became a cube
+    // map) but not the program's refusal: what it left is the reason,
+    // and the obstacle it removed is named in the help, not as the
+    // reason (a refusal for `normalize` would read as if lowering it
+    // were the user's work).
+    let removed = errors.first().is_some_and(|d| lowered.iter().all(|l| l.message != d.message));
+    if let (true, Some(written)) = (removed, errors.first().filter(|d| d.code == "cannot-split")) {
+        if !lowered.is_empty() {
+            return lowered_refusal_naming_the_removed_obstacle(written, tried);
         }
-        // The lowering removed the first obstacle (`normalize` became a cube
-        // map) but not the program's refusal: what it left is the reason,
-        // and the obstacle it removed is named in the help, not as the
-        // reason (a refusal for `normalize` would read as if lowering it
-        // were the user's work).
-        let removed = errors.first().is_some_and(|d| lowered.iter().all(|l| l.message != d.message));
-        if removed && errors.first().is_some_and(|d| d.code == "cannot-split") {
-            if let Some(first) = lowered.first() {
-                let written = errors[0].message.clone();
-                let mut d = first.clone();
-                // "… further needs `normalize` per fragment, which …" → "needs `normalize` per fragment".
-                let tail = written.split(": ").last().unwrap_or(&written);
-                let what = tail.trim_start_matches("a part that cannot be divided further ");
-                let what = what.split(", which").next().unwrap_or(what);
-                let note = match what.strip_prefix("needs ") {
-                    Some(need) => {
-                        format!(
-                            "as written it also needs {need}, which the lowering ({}) supplies",
-                            rules.join(", ")
-                        )
-                    }
-                    None => format!(
-                        "the lowering ({}) removes another obstacle of the program as written: {what}",
-                        rules.join(", ")
-                    ),
-                };
-                d.help = Some(match d.help.take() {
-                    Some(help) if !help.is_empty() => format!("{help}; {note}"),
-                    _ => note,
-                });
-                let mut out = vec![d];
-                out.extend(lowered.iter().skip(1).cloned());
-                return out;
-            }
+    }
+    let message = lowered.first().map_or(String::new(), |d| d.message.clone());
+    if let Some(d) = errors.first_mut().filter(|d| d.message != message) {
+        let tried = format!("the lowering ({}) does not make it plan either: {message}", rules.join(", "));
+        d.help = Some(match d.help.take() {
+            Some(help) if !help.is_empty() => format!("{help}; {tried}"),
+            _ => tried,
+        });
+    }
+    errors
+}
+
+/// The lowered program's refusal, its help naming the obstacle of the
+/// program as `written` (a part that cannot be split) that the lowering
+/// removed. `tried.refusal` is not empty.
+fn lowered_refusal_naming_the_removed_obstacle(written: &Diagnostic, tried: &Tried) -> Vec<Diagnostic> {
+    let Tried { rules, refusal: lowered } = tried;
+    let Some(first) = lowered.first() else { return Vec::new() };
+    let written = written.message.clone();
+    let mut d = first.clone();
+    // "… further needs `normalize` per fragment, which …" → "needs `normalize` per fragment".
+    let tail = written.split(": ").last().unwrap_or(&written);
+    let what = tail.trim_start_matches("a part that cannot be divided further ");
+    let what = what.split(", which").next().unwrap_or(what);
+    let note = match what.strip_prefix("needs ") {
+        Some(need) => {
+            format!("as written it also needs {need}, which the lowering ({}) supplies", rules.join(", "))
         }
-        // What the lowering tried, so that the refusal does not read as if
-        // the first obstacle were the only one.
-        let message = lowered.first().map_or(String::new(), |d| d.message.clone());
-        if let Some(d) = errors.first_mut().filter(|d| d.message != message) {
-            let tried =
-                format!("the lowering ({}) does not make it plan either: {message}", rules.join(", "));
-            d.help = Some(match d.help.take() {
-                Some(help) if !help.is_empty() => format!("{help}; {tried}"),
-                _ => tried,
-            });
-        }
-        errors
-    })
+        None => format!(
+            "the lowering ({}) removes another obstacle of the program as written: {what}",
+            rules.join(", ")
+        ),
+    };
+    d.help = Some(match d.help.take() {
+        Some(help) if !help.is_empty() => format!("{help}; {note}"),
+        _ => note,
+    });
+    let mut out = vec![d];
+    out.extend(lowered.iter().skip(1).cloned());
+    out
 }
 
 /// Of lowered plans that fit, the one the target's cost model predicts
@@ -342,6 +369,8 @@ fn at_text(index: &Option<(LineIndex, &str)>, span: Span) -> String {
     }
 }
 
+/// The program as written planned for `profile` (steps 1-6 of this
+/// module's doc, no lowering), or its refusal.
 fn plan_as_written(
     module: &Module,
     profile: &Profile,
@@ -349,25 +378,7 @@ fn plan_as_written(
 ) -> Result<Planned, Vec<Diagnostic>> {
     let mut m = module.clone();
     shadow_map::redraw_over_geometry(&mut m, profile);
-    let errors: Vec<Diagnostic> =
-        crate::profile::fit(&m, profile).into_iter().filter(|d| d.is_error()).collect();
-    // What the target lacks may be only how the program is written (a
-    // `lerp` on the texture environment is a sum of products it has):
-    // the canonical forms (`algebra`), when they leave no missing capability.
-    let mut canonical = Vec::new();
-    if !errors.is_empty() {
-        let changed = algebra::canonical_statements(&mut m, |m, i| {
-            let st = m.statements[i].clone();
-            if !matches!(st.table, Table::Framebuffer { channel: FbChannel::Color, .. }) {
-                return None;
-            }
-            whole_form(m, &st, st.value).ok().and_then(|f| framebuffer_clamped(m, &st, &f))
-        });
-        if changed.is_empty() || crate::profile::fit(&m, profile).iter().any(|d| d.is_error()) {
-            return Err(errors);
-        }
-        canonical = changed.iter().map(|&i| m.statements[i].value).collect();
-    }
+    let canonical = canonical_when_unfit(&mut m, profile)?;
     if matches!(profile.fragment, FragmentStage::Combiners(_)) && request.realizer.is_none() {
         let what = "planned for a register-combiner target without its code generator";
         return Err(vec![Diagnostic::error("internal-error", what, Span::DETACHED, "").with_help(
@@ -411,7 +422,48 @@ fn plan_as_written(
     let origins =
         crate::planner::shadow_volumes::count_by_facing(&m, &mut plan.passes, profile.two_sided_stencil);
     let stages: Vec<_> = origins.iter().filter_map(|&i| stages.get(i).cloned()).collect();
-    // A pass the target cannot run is refused here, never planned.
+    let stages = runnable_stages(stages)?;
+    let setups = crate::pipeline::setup::resolve_all(&m, &plan, stages);
+    Ok(Planned {
+        module: m,
+        plan,
+        combiners: profile.combiner_limits(),
+        vertex_programs: profile.vertex_programs,
+        setups,
+    })
+}
+
+/// The statements' values rewritten into their canonical forms
+/// ([`algebra`]) when the program as written needs what the target lacks:
+/// the lack may be only how it is written (a `lerp` on the texture
+/// environment is a sum of products it has). The rewritten values, to
+/// compete with their other forms; none when the program fits as written;
+/// the target's refusal when the canonical forms leave a missing capability.
+fn canonical_when_unfit(m: &mut Module, profile: &Profile) -> Result<Vec<Handle<Expr>>, Vec<Diagnostic>> {
+    let errors: Vec<Diagnostic> =
+        crate::profile::fit(m, profile).into_iter().filter(|d| d.is_error()).collect();
+    if errors.is_empty() {
+        return Ok(Vec::new());
+    }
+    let changed = algebra::canonical_statements(m, |m, i| {
+        let st = m.statements[i].clone();
+        if !matches!(st.table, Table::Framebuffer { channel: FbChannel::Color, .. }) {
+            return None;
+        }
+        whole_form(m, &st, st.value).ok().and_then(|f| framebuffer_clamped(m, &st, &f))
+    });
+    if changed.is_empty() || crate::profile::fit(m, profile).iter().any(|d| d.is_error()) {
+        return Err(errors);
+    }
+    Ok(changed.iter().map(|&i| m.statements[i].value).collect())
+}
+
+/// The fragment setup of every pass, or the refusals of the passes the
+/// target cannot run: such a pass is refused here, never planned (a pass
+/// the target cannot run is not representable in `Planned`).
+fn runnable_stages(
+    stages: Vec<Stage>,
+) -> Result<Vec<(Span, crate::pipeline::FragmentSetup)>, Vec<Diagnostic>> {
     let mut refused = Vec::new();
     let stages: Vec<_> = stages
         .into_iter()
@@ -425,17 +477,11 @@ fn plan_as_written(
             )
         })
         .collect();
-    if !refused.is_empty() {
-        return Err(refused);
+    if refused.is_empty() {
+        Ok(stages)
+    } else {
+        Err(refused)
     }
-    let setups = crate::pipeline::setup::resolve_all(&m, &plan, stages);
-    Ok(Planned {
-        module: m,
-        plan,
-        combiners: profile.combiner_limits(),
-        vertex_programs: profile.vertex_programs,
-        setups,
-    })
 }
 
 /// Steps 1-2 for a scene: lights expanded and culled, the scene's uniforms
@@ -565,9 +611,9 @@ fn fusable_run(m: &Module, live: &[usize], per_light: &PerLight) -> Vec<usize> {
     let mut run = vec![live[0]];
     while run.len() < MAX_FUSE
         && run.len() < live.len()
-        && !own_pass(*run.last().unwrap())
+        && !own_pass(run[run.len() - 1])
         && !own_pass(live[run.len()])
-        && fusable(m, &m.statements[*run.last().unwrap()], &m.statements[live[run.len()]])
+        && fusable(m, &m.statements[run[run.len() - 1]], &m.statements[live[run.len()]])
     {
         run.push(live[run.len()]);
     }
@@ -663,6 +709,71 @@ fn not_fused_reason(
     }
 }
 
+/// What [`plan_run`] learns of a run's groups besides their cost: the first
+/// refusal (the run's own when no grouping plans), why a statement was not
+/// fused with the one before it, and the statements planned in an
+/// equivalent form, with why — each group's reason in the plan says so.
+#[derive(Default)]
+struct RunNotes {
+    first_error: Option<Diagnostic>,
+    not_fused: HashMap<usize, String>,
+    rewrites: HashMap<usize, String>,
+}
+
+impl RunNotes {
+    /// Notes why group `stmts` has no plan: a lone statement's form is the
+    /// run's refusal; a pair's is why its second statement stays apart
+    /// from the first (named `pair_with`).
+    fn unplanned(&mut self, why: &Unplanned, stmts: &[usize], pair_with: Option<&str>) {
+        match (why, stmts.len(), pair_with) {
+            (Unplanned::Form(d), 1, _) => {
+                self.first_error.get_or_insert(d.clone());
+            }
+            (Unplanned::Form(d), _, Some(a)) => {
+                self.not_fused.entry(stmts[1]).or_insert(format!("fused with statement {a}, {}", d.message));
+            }
+            (Unplanned::Overflow(o), _, Some(a)) => {
+                self.not_fused.entry(stmts[1]).or_insert(format!("fused with statement {a} it {o}"));
+            }
+            _ => {}
+        }
+    }
+
+    /// The reason the plan gives for a chosen group of `passes` passes:
+    /// fused, rewritten into an equivalent form, or as written (and why
+    /// not fused with the statement before).
+    fn reason(&self, stmts: &[usize], passes: usize, names: &[String], profile: &Profile) -> String {
+        if stmts.len() > 1 {
+            format!(
+                "statements {} fused: together they fit {} {} on {}",
+                stmts.iter().map(|s| names[*s].clone()).collect::<Vec<_>>().join(", "),
+                passes,
+                passes_word(passes),
+                profile.name
+            )
+        } else if let Some(note) = self.rewrites.get(&stmts[0]) {
+            format!("statement {} {note}", names[stmts[0]])
+        } else {
+            match self.not_fused.get(&stmts[0]) {
+                Some(why) => format!("statement {} as written: {why}", names[stmts[0]]),
+                None => format!("statement {} as written", names[stmts[0]]),
+            }
+        }
+    }
+}
+
+/// The refusal of a run no grouping plans and no form refused: `st`, its
+/// first statement, needs more than the target has.
+fn cannot_plan(st: &Statement, profile: &Profile) -> Diagnostic {
+    Diagnostic::error(
+        "cannot-plan",
+        format!("cannot plan this statement for {}", profile.name),
+        st.span,
+        "here",
+    )
+    .with_help("simplify the statement or target a profile with more resources")
+}
+
 /// Steps 4-5 for one run of fusable statements: the cheapest grouping
 /// (fewest passes, then fetches) by dynamic programming over its prefixes,
 /// each group with the reason it was fused or kept as written.
@@ -678,15 +789,11 @@ fn plan_run(
     // best[j]: the cheapest plan of run[..j].
     let mut best: Vec<Option<(split::Cost, Vec<Chosen>)>> = vec![None; run.len() + 1];
     best[0] = Some(((0, 0, 0), vec![]));
-    let mut first_error: Option<Diagnostic> = None;
-    // Why a statement was not fused with the one before it.
-    let mut not_fused: HashMap<usize, String> = HashMap::default();
+    let mut notes = RunNotes::default();
     // fused[i]: the fused value of run[i..j] for the last j it was made
     // for, so that run[i..j + 1] is one `fuse_next` from it (the same
     // nodes `fuse` would intern again, found without walking the prefix).
     let mut fused: Vec<Option<(usize, Handle<Expr>)>> = vec![None; run.len()];
-    // Statements planned in an equivalent form: which, and why.
-    let mut rewrites: HashMap<usize, String> = HashMap::default();
     for j in 1..=run.len() {
         // Each statement alone first: its cost bounds the fused candidates.
         for i in (0..j).rev() {
@@ -699,38 +806,37 @@ fn plan_run(
             };
             let Some(value) = value else { continue };
             fused[i] = Some((j, value));
-            let (form, pieces) =
-                match planned_or_rewritten(m, profile, search, fits, baked, &stmts, value, &mut rewrites) {
-                    Ok(planned) => planned,
-                    Err(Err(refusal)) => {
-                        first_error.get_or_insert(refusal);
-                        continue;
-                    }
-                    Err(Ok(why)) => {
-                        match (&why, stmts.len(), &pair_with) {
-                            (Unplanned::Form(d), 1, _) => {
-                                first_error.get_or_insert(d.clone());
-                            }
-                            (Unplanned::Form(d), _, Some(a)) => {
-                                not_fused
-                                    .entry(stmts[1])
-                                    .or_insert(format!("fused with statement {a}, {}", d.message));
-                            }
-                            (Unplanned::Overflow(o), _, Some(a)) => {
-                                not_fused
-                                    .entry(stmts[1])
-                                    .or_insert(format!("fused with statement {a} it {o}"));
-                            }
-                            _ => {}
-                        }
-                        continue;
-                    }
-                };
+            let (form, pieces) = match planned_or_rewritten(
+                m,
+                profile,
+                search,
+                fits,
+                baked,
+                &stmts,
+                value,
+                &mut notes.rewrites,
+            ) {
+                Ok(planned) => planned,
+                Err(Err(refusal)) => {
+                    notes.first_error.get_or_insert(refusal);
+                    continue;
+                }
+                Err(Ok(why)) => {
+                    notes.unplanned(&why, &stmts, pair_with.as_deref());
+                    continue;
+                }
+            };
             let c = split::cost(m, fits.fit(baked), &pieces);
             let total = split::add(base_cost, c);
             if let Some(a) = &pair_with {
                 let apart = best[j].as_ref().map(|(b, _)| *b);
-                not_fused.entry(stmts[1]).or_insert(not_fused_reason(a, pieces.len(), total, apart, profile));
+                notes.not_fused.entry(stmts[1]).or_insert(not_fused_reason(
+                    a,
+                    pieces.len(),
+                    total,
+                    apart,
+                    profile,
+                ));
             }
             // On a tie, keep statements as written (more, smaller groups).
             if best[j].as_ref().is_none_or(|(b, v)| total < *b || (total == *b && base.len() + 1 > v.len())) {
@@ -741,36 +847,12 @@ fn plan_run(
         }
     }
     let Some((_, groups)) = best[run.len()].take() else {
-        return Err(first_error.unwrap_or_else(|| {
-            let st = &m.statements[run[0]];
-            Diagnostic::error(
-                "cannot-plan",
-                format!("cannot plan this statement for {}", profile.name),
-                st.span,
-                "here",
-            )
-            .with_help("simplify the statement or target a profile with more resources")
-        }));
+        return Err(notes.first_error.unwrap_or_else(|| cannot_plan(&m.statements[run[0]], profile)));
     };
     Ok(groups
         .into_iter()
         .map(|(stmts, form, pieces, _)| {
-            let reason = if stmts.len() > 1 {
-                format!(
-                    "statements {} fused: together they fit {} {} on {}",
-                    stmts.iter().map(|s| names[*s].clone()).collect::<Vec<_>>().join(", "),
-                    pieces.len(),
-                    passes_word(pieces.len()),
-                    profile.name
-                )
-            } else if let Some(note) = rewrites.get(&stmts[0]) {
-                format!("statement {} {note}", names[stmts[0]])
-            } else {
-                match not_fused.get(&stmts[0]) {
-                    Some(why) => format!("statement {} as written: {why}", names[stmts[0]]),
-                    None => format!("statement {} as written", names[stmts[0]]),
-                }
-            };
+            let reason = notes.reason(&stmts, pieces.len(), names, profile);
             (stmts, form, pieces, reason)
         })
         .collect())

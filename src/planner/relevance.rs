@@ -50,12 +50,17 @@ use crate::scene::relevance::{shininess_cutoff, Cone};
 /// them), and for a direction its cone and length range.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Bound {
+    /// The least value of each component.
     pub lo: [f64; 4],
+    /// The greatest value of each component.
     pub hi: [f64; 4],
+    /// For a direction: the cone its unit vector lies in, and its least and
+    /// greatest length (negative for a range-compressed cone-map lookup).
     pub cone: Option<(Cone, f64, f64)>,
 }
 
 impl Bound {
+    /// No bound: every component anywhere.
     pub const ALL: Bound = Bound { lo: [f64::NEG_INFINITY; 4], hi: [f64::INFINITY; 4], cone: None };
 
     fn splat(lo: f64, hi: f64) -> Bound {
@@ -143,15 +148,24 @@ pub struct Findings {
 
 /// The abstract evaluator of one object (module docs).
 pub struct Bounder<'a, 's> {
+    /// The program, lights expanded.
     pub module: &'a Module,
+    /// The object whose vertices bound the per-vertex values.
     pub object: &'a BoundObject<'s>,
+    /// The scene's uniforms, by id (`None`: unset, unbounded).
     pub uniforms: &'a [Option<[f64; 4]>],
+    /// The declared textures: a normalization cube map's lookup keeps the
+    /// cone of the direction it is looked up at.
     pub decls: &'a [TextureDecl],
+    /// What the evaluation found that made a bound small (the criteria of
+    /// Adaptive Sample Shading, Section 2.2), for the report.
     pub findings: Findings,
     memo: BTreeMap<usize, Bound>,
 }
 
 impl<'a, 's> Bounder<'a, 's> {
+    /// An evaluator of `module` over `object`, with the scene's `uniforms` and the textures
+    /// `decls` declares.
     pub fn new(
         module: &'a Module,
         object: &'a BoundObject<'s>,
@@ -427,16 +441,7 @@ impl<'a, 's> Bounder<'a, 's> {
         use MathFunction::*;
         let a = args.first().map_or(Bound::ALL, |h| self.get(*h));
         let b = args.get(1).map_or(Bound::ALL, |h| self.get(*h));
-        let monotone = |f: fn(f64) -> f64| a.map(|lo, hi| (f(lo), f(hi)));
         match fun {
-            Normalize => match a.cone {
-                Some((c, l0, _)) if l0 > 0.0 => Bound::of_cone(c, 1.0, 1.0),
-                _ => Bound::splat(-1.0, 1.0),
-            },
-            Length => match a.cone {
-                Some((_, l0, l1)) if l0 >= 0.0 => Bound::splat(l0, l1),
-                _ => Bound::splat(0.0, f64::INFINITY),
-            },
             Max => {
                 let r = Bound::lanes(&a, &b, |a0, a1, b0, b1| (a0.max(b0), a1.max(b1)));
                 if (a.hi[0] <= 0.0 && b.lo[0] >= 0.0 && b.hi[0] == 0.0)
@@ -452,54 +457,6 @@ impl<'a, 's> Bounder<'a, 's> {
                 let lo_clamped = Bound::lanes(&a, &b, |a0, a1, b0, b1| (a0.max(b0), a1.max(b1)));
                 Bound::lanes(&lo_clamped, &c, |a0, a1, c0, c1| (a0.min(c0), a1.min(c1)))
             }
-            Saturate => a.map(|lo, hi| (lo.clamp(0.0, 1.0), hi.clamp(0.0, 1.0))),
-            Abs => a.map(|lo, hi| {
-                if lo >= 0.0 {
-                    (lo, hi)
-                } else if hi <= 0.0 {
-                    (-hi, -lo)
-                } else {
-                    (0.0, hi.max(-lo))
-                }
-            }),
-            Sign => Bound::splat(-1.0, 1.0),
-            Sqrt => {
-                a.map(
-                    |lo, hi| {
-                        if lo >= 0.0 {
-                            (lo.sqrt(), hi.sqrt())
-                        } else {
-                            (f64::NEG_INFINITY, f64::INFINITY)
-                        }
-                    },
-                )
-            }
-            Rsqrt => a.map(|lo, hi| {
-                if lo > 0.0 {
-                    (1.0 / hi.sqrt(), 1.0 / lo.sqrt())
-                } else {
-                    (f64::NEG_INFINITY, f64::INFINITY)
-                }
-            }),
-            Exp => monotone(f64::exp),
-            Log => {
-                a.map(|lo, hi| if lo > 0.0 { (lo.ln(), hi.ln()) } else { (f64::NEG_INFINITY, f64::INFINITY) })
-            }
-            Floor => monotone(f64::floor),
-            Sin | Cos => Bound::splat(-1.0, 1.0),
-            Fract | Step | Smoothstep => Bound::splat(0.0, 1.0),
-            Expand => {
-                let mut r = a.map(|lo, hi| (2.0 * lo - 1.0, 2.0 * hi - 1.0));
-                // `expand` of a range-compressed cone-map lookup: the cone again.
-                if let Some((c, l0, l1)) = a.cone.filter(|(_, l0, _)| *l0 < 0.0) {
-                    let unit = Bound::of_cone(c, -l0, -l1);
-                    r = Bound::lanes(&r, &unit, |a0, a1, b0, b1| (a0.max(b0), a1.min(b1)))
-                        .with_cone(unit.cone);
-                }
-                r
-            }
-            HalfBias => a.map(|lo, hi| (lo - 0.5, hi - 0.5)),
-            Compress => a.map(|lo, hi| ((lo + 1.0) / 2.0, (hi + 1.0) / 2.0)),
             Mix => {
                 let t = args.get(2).map_or(Bound::ALL, |h| self.get(*h));
                 if t.lo[0] >= 0.0 && t.hi[0] <= 1.0 {
@@ -516,7 +473,71 @@ impl<'a, 's> Bounder<'a, 's> {
                 }
                 _ => Bound::ALL,
             },
+            _ => of_first_argument(fun, a),
         }
+    }
+}
+
+/// The bound of `fun` from its first argument's bound `a` alone, by
+/// interval arithmetic over monotone pieces: every function whose range
+/// does not need its other arguments; `ALL` for those that do, which
+/// [`Bounder::math`] bounds itself.
+fn of_first_argument(fun: MathFunction, a: Bound) -> Bound {
+    use MathFunction::*;
+    let monotone = |f: fn(f64) -> f64| a.map(|lo, hi| (f(lo), f(hi)));
+    match fun {
+        Normalize => match a.cone {
+            Some((c, l0, _)) if l0 > 0.0 => Bound::of_cone(c, 1.0, 1.0),
+            _ => Bound::splat(-1.0, 1.0),
+        },
+        Length => match a.cone {
+            Some((_, l0, l1)) if l0 >= 0.0 => Bound::splat(l0, l1),
+            _ => Bound::splat(0.0, f64::INFINITY),
+        },
+        Saturate => a.map(|lo, hi| (lo.clamp(0.0, 1.0), hi.clamp(0.0, 1.0))),
+        Abs => a.map(|lo, hi| {
+            if lo >= 0.0 {
+                (lo, hi)
+            } else if hi <= 0.0 {
+                (-hi, -lo)
+            } else {
+                (0.0, hi.max(-lo))
+            }
+        }),
+        Sign => Bound::splat(-1.0, 1.0),
+        Sqrt => a.map(
+            |lo, hi| {
+                if lo >= 0.0 {
+                    (lo.sqrt(), hi.sqrt())
+                } else {
+                    (f64::NEG_INFINITY, f64::INFINITY)
+                }
+            },
+        ),
+        Rsqrt => a.map(|lo, hi| {
+            if lo > 0.0 {
+                (1.0 / hi.sqrt(), 1.0 / lo.sqrt())
+            } else {
+                (f64::NEG_INFINITY, f64::INFINITY)
+            }
+        }),
+        Exp => monotone(f64::exp),
+        Log => a.map(|lo, hi| if lo > 0.0 { (lo.ln(), hi.ln()) } else { (f64::NEG_INFINITY, f64::INFINITY) }),
+        Floor => monotone(f64::floor),
+        Sin | Cos => Bound::splat(-1.0, 1.0),
+        Fract | Step | Smoothstep => Bound::splat(0.0, 1.0),
+        Expand => {
+            let mut r = a.map(|lo, hi| (2.0 * lo - 1.0, 2.0 * hi - 1.0));
+            // `expand` of a range-compressed cone-map lookup: the cone again.
+            if let Some((c, l0, l1)) = a.cone.filter(|(_, l0, _)| *l0 < 0.0) {
+                let unit = Bound::of_cone(c, -l0, -l1);
+                r = Bound::lanes(&r, &unit, |a0, a1, b0, b1| (a0.max(b0), a1.min(b1))).with_cone(unit.cone);
+            }
+            r
+        }
+        HalfBias => a.map(|lo, hi| (lo - 0.5, hi - 0.5)),
+        Compress => a.map(|lo, hi| ((lo + 1.0) / 2.0, (hi + 1.0) / 2.0)),
+        Max | Min | Clamp | Mix | Reflect | Cross => Bound::ALL,
     }
 }
 
@@ -530,7 +551,9 @@ impl Bound {
 /// A light culled for an object: what the report says.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Culled {
+    /// The scene light.
     pub light: u32,
+    /// The object, by its index in the scene's meshes.
     pub object: usize,
     /// The bound of what the light's terms add to a pixel of the object.
     pub bound: f64,
@@ -633,7 +656,41 @@ pub fn cull(
                 .any(|n| matches!(m.exprs[n], Expr::FramebufferRead { framebuffer, .. } if framebuffer == id))
         })
     };
-    let n_lights = scene.lights.len();
+    let (dropped, detail) = culled_pairs(m, spec, exp, &objects, &uniforms, threshold, &blocked);
+    let used_before = super::specialize::used_textures(m, &[]);
+    drop_culled_terms(m, exp, &dropped, objects.len(), names, at, &mut out);
+    report_culled_lights(m, spec, exp, (&dropped, &detail), threshold, at, &mut out);
+    let used_after = super::specialize::used_textures(m, &out.statements);
+    for t in used_before.difference(&used_after) {
+        let tex = &m.textures[*t as usize];
+        out.removed.push(super::Removed {
+            kind: "texture".into(),
+            what: tex.name.clone(),
+            why: "only the culled lights' terms used it".into(),
+            at: at(tex.span),
+        });
+    }
+    out
+}
+
+/// Per light and object, whether the light is culled for the object, and
+/// the bound and findings of each culled pair.
+type Dropped = (Vec<Vec<bool>>, BTreeMap<(u32, usize), (f64, Findings)>);
+
+/// The light and object pairs to cull (module docs): per object, the
+/// lights whose terms' bounds, smallest first, sum to at most `threshold`.
+/// A statement that is `blocked` (a later statement reads its target)
+/// counts as unbounded.
+fn culled_pairs(
+    m: &Module,
+    spec: &super::SceneSpecialization,
+    exp: &super::lights::Expansion,
+    objects: &[BoundObject],
+    uniforms: &[Option<[f64; 4]>],
+    threshold: f64,
+    blocked: &dyn Fn(&Module, usize) -> bool,
+) -> Dropped {
+    let n_lights = spec.scene.lights.len();
     let mut dropped: Vec<Vec<bool>> = vec![vec![false; objects.len()]; n_lights.max(1)];
     let mut detail: BTreeMap<(u32, usize), (f64, Findings)> = BTreeMap::new();
     for (oi, object) in objects.iter().enumerate() {
@@ -647,7 +704,7 @@ pub fn cull(
                     total = f64::INFINITY;
                     continue;
                 }
-                let mut b = Bounder::new(m, object, &uniforms, spec.textures);
+                let mut b = Bounder::new(m, object, uniforms, spec.textures);
                 let bound = b.bound(ls.light_terms).magnitude(3);
                 total += bound;
                 if bound > worst {
@@ -670,8 +727,22 @@ pub fn cull(
             detail.insert((light, oi), (total, findings));
         }
     }
-    let all_objects: Vec<usize> = (0..objects.len()).collect();
-    let used_before = super::specialize::used_textures(m, &[]);
+    (dropped, detail)
+}
+
+/// The culling applied to the statements: light 0's statement loses its
+/// light terms when no object needs them; light i's statement is dropped
+/// (noted in `out.removed`) or drawn only for the objects that need it.
+fn drop_culled_terms(
+    m: &mut Module,
+    exp: &super::lights::Expansion,
+    dropped: &[Vec<bool>],
+    n_objects: usize,
+    names: &[String],
+    at: &dyn Fn(crate::span::Span) -> String,
+    out: &mut Culling,
+) {
+    let all_objects: Vec<usize> = (0..n_objects).collect();
     for ls in &exp.statements {
         let keep: Vec<usize> =
             all_objects.iter().copied().filter(|&o| !dropped[ls.light as usize][o]).collect();
@@ -693,18 +764,6 @@ pub fn cull(
             out.objects.push((ls.statement, keep));
         }
     }
-    report_culled_lights(m, spec, exp, (&dropped, &detail), threshold, at, &mut out);
-    let used_after = super::specialize::used_textures(m, &out.statements);
-    for t in used_before.difference(&used_after) {
-        let tex = &m.textures[*t as usize];
-        out.removed.push(super::Removed {
-            kind: "texture".into(),
-            what: tex.name.clone(),
-            why: "only the culled lights' terms used it".into(),
-            at: at(tex.span),
-        });
-    }
-    out
 }
 
 /// The scene's objects bound for the abstract evaluation, texgen run.

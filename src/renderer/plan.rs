@@ -182,14 +182,17 @@ pub struct PlanRenderer<'a> {
 }
 
 impl<'a> PlanRenderer<'a> {
-    /// Binds `planned` (compiled from `program`) to a scene and its assets.
+    /// Binds `planned` to a scene and its assets; its module carries the
+    /// program's texture declarations ([`crate::ir::declared`]), so
+    /// `_program` is no longer read (kept so that callers stay unchanged
+    /// until they drop it).
     pub fn new(
         planned: &'a Planned,
-        program: &crate::parser::ast::Program,
+        _program: &crate::parser::ast::Program,
         scene: &'a Scene,
         assets: &'a SceneAssets,
     ) -> Result<PlanRenderer<'a>, RenderError> {
-        let mut decls = bind::texture_decls(program, &scene.constants);
+        let mut decls = bind::texture_decls(&planned.module, &scene.constants);
         let lowered = bind::lowered_decls(&planned.module, &decls);
         decls.extend(lowered);
         let mut notes = bind::absent_light_notes(&planned.module, scene);

@@ -21,6 +21,8 @@
 //! refuses it, and `compile --emit combiners` says why) keeps the host's
 //! vertex stage.
 
+use std::sync::Arc;
+
 use glam::Mat4;
 
 use crate::backends::vertex_program::emit::{self, Emitted};
@@ -34,7 +36,7 @@ use crate::scene::bind::{BoundObject, VertexEnv};
 
 /// One pass's vertex program, ready to run on each object's vertices.
 pub struct PassProgram {
-    emitted: Emitted,
+    emitted: Arc<Emitted>,
 }
 
 /// A vertex stage's values laid out as the renderer's: the number of
@@ -48,7 +50,7 @@ impl PassProgram {
         if !planned.vertex_programs {
             return None;
         }
-        emit::emit_pass(planned, index).ok().map(|emitted| PassProgram { emitted })
+        emit::of(planned, index).ok().map(|emitted| PassProgram { emitted })
     }
 
     /// The emitted program and how the host binds it.

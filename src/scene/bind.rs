@@ -45,10 +45,10 @@ use std::path::{Path, PathBuf};
 use glam::{Mat3, Mat4, Vec2, Vec3, Vec4};
 
 use super::{Light, Mesh, Scene};
-use crate::ir::{self, Expr, Handle, Module, Projection, Site, Table, TexCoordId, Ty, UniformId, VectorId};
-use crate::parser::ast::{
-    self, ExprKind, FuncKind, ItemKind, Space, TextureAttr, TextureFormat, TextureKind, VectorKind,
+use crate::ir::declared::{
+    ArgKind, DeclaredSource, DeclaredTexture, GeneratorArg, Space, TextureFormat, TextureKind, VectorKind,
 };
+use crate::ir::{self, Expr, Handle, Module, Projection, Site, Table, TexCoordId, Ty, UniformId, VectorId};
 use crate::textures::{
     self, generators, CubeBits, Filter, HeightField, NormalMapFormat, TexelFormat, Texture, Texture2D, Wrap,
 };
@@ -56,31 +56,53 @@ use crate::textures::{
 /// What a texture declaration's source says.
 #[derive(Clone, Debug, PartialEq)]
 pub enum TextureSource {
+    /// `image("f.png")`: the file, relative to the scene's folder.
     Image(String),
+    /// `normalize_cube(size[, bits])`: the normalization cube map of
+    /// Kilgard 2000, Appendix D.
     NormalizeCube {
+        /// Texels per face side.
         size: u32,
+        /// 8 or 16 bits per component.
         bits: u32,
     },
+    /// `normal_map(height, scale)`: normals derived from a height field
+    /// (Kilgard 2000, Section 2.4.2).
     NormalMap {
+        /// The height field.
         height: HeightSource,
+        /// How steep the bumps are: height differences are multiplied by it.
         scale: f32,
     },
     /// `bumps(cells)`: a normal map of procedural dimples.
     Bumps {
+        /// Dimples per side.
         cells: u32,
     },
+    /// `dual_paraboloid("env", face)`: one face of a dual-paraboloid
+    /// environment map.
     DualParaboloid {
+        /// The environment's file (not read yet: the procedural sky).
         file: String,
+        /// 0 for the front paraboloid (z ≥ 0), any other for the back.
         face: u32,
     },
+    /// `brdf_fd(m, η)`: the Fresnel-times-distribution table of Heidrich &
+    /// Seidel 1999, Section 3.1.
     BrdfFd {
+        /// The surface roughness m.
         roughness: f32,
+        /// The index of refraction η.
         index: f32,
     },
+    /// `brdf_g(scale)`: the geometry-term table of Heidrich & Seidel 1999.
     BrdfG {
+        /// The divisor that keeps the table within [0, 1].
         scale: f32,
     },
+    /// `exponent_table(n)`: x ↦ xⁿ on [0, 1].
     ExponentTable {
+        /// The exponent n.
         exponent: f32,
     },
     /// `image(…)` of a `cube` texture: one image in a layout, or six
@@ -96,19 +118,33 @@ pub enum TextureSource {
 /// The height field a `normal_map(…)` is derived from.
 #[derive(Clone, Debug, PartialEq)]
 pub enum HeightSource {
+    /// `height("f.png")`: an image's luminance.
     File(String),
-    Dimples { size: u32, cells: u32 },
+    /// The golf-ball dimples of Kilgard 2000, Section 2.4.2: the stand-in.
+    Dimples {
+        /// Texels per side.
+        size: u32,
+        /// Dimples per side.
+        cells: u32,
+    },
 }
 
 /// A texture declaration as the renderer needs it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TextureDecl {
+    /// The texture's name (one per name of the declaration).
     pub name: String,
+    /// 1-D, 2-D, 3-D or cube.
     pub kind: TextureKind,
+    /// The declared format; `None` when the declaration names none (8-bit).
     pub format: Option<TextureFormat>,
+    /// Whether it has a mipmap chain.
     pub mipmap: bool,
+    /// How it is filtered (`ir::Sampling`'s one rule).
     pub filter: Filter,
+    /// How coordinates outside [0, 1] wrap.
     pub wrap: Wrap,
+    /// What fills it.
     pub source: TextureSource,
 }
 
@@ -117,20 +153,36 @@ pub struct TextureDecl {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum ExactFunction {
     /// normalize(d), range-compressed for an unsigned format.
-    Normalize { signed: bool },
+    Normalize {
+        /// Signed formats store the vector as is, unsigned ones range-compressed.
+        signed: bool,
+    },
     /// x^n on [0, 1].
     Exponent(f32),
     /// F(u)·D(v) of Heidrich & Seidel 1999, Section 3.1.
-    FresnelDistribution { roughness: f32, index: f32 },
+    FresnelDistribution {
+        /// The surface roughness m.
+        roughness: f32,
+        /// The index of refraction η.
+        index: f32,
+    },
     /// G(u, v)/(π v)/scale.
-    Geometry { roughness: f32, scale: f32 },
+    Geometry {
+        /// The surface roughness m.
+        roughness: f32,
+        /// The table's divisor.
+        scale: f32,
+    },
 }
 
 /// A texture ready to sample.
 #[derive(Clone, Debug)]
 pub struct BoundTexture {
+    /// The declared (or lowered) texture's name.
     pub name: String,
+    /// Its texels, loaded or generated.
     pub texture: Texture,
+    /// How it is filtered.
     pub filter: Filter,
     /// The function this texture tabulates, when it is a lookup table.
     pub exact: Option<ExactFunction>,
@@ -139,60 +191,45 @@ pub struct BoundTexture {
 /// Why a texture or an object could not be bound.
 #[derive(Debug, thiserror::Error)]
 pub enum BindError {
+    /// A texture that cannot be loaded or generated.
     #[error("texture `{name}`: {message}")]
-    Texture { name: String, message: String },
+    Texture {
+        /// The texture's name.
+        name: String,
+        /// What is wrong, with what to do.
+        message: String,
+    },
+    /// Something the binder does not support.
     #[error("{0}")]
     Unsupported(String),
+    /// The scene's own error (its file or a mesh that cannot be read).
     #[error(transparent)]
     Scene(#[from] super::SceneError),
 }
 
-/// Reads every texture declaration of a checked program.
-pub fn texture_decls(
-    program: &ast::Program,
-    scene_constants: &BTreeMap<String, Vec<f32>>,
-) -> Vec<TextureDecl> {
-    let mut numbers: BTreeMap<String, f32> = BTreeMap::new();
-    for item in &program.items {
-        match &item.kind {
-            ItemKind::Const(c) => {
-                if let Some(v) = number(&c.value, &numbers) {
-                    numbers.insert(c.name.key(), v);
-                }
-            }
-            ItemKind::Uniform(u) => {
-                if let Some(v) = u.default.as_ref().and_then(|d| number(d, &numbers)) {
-                    numbers.insert(u.name.key(), v);
-                }
-            }
-            _ => {}
-        }
-    }
-    for (k, v) in scene_constants {
-        if v.len() == 1 {
-            numbers.insert(k.clone(), v[0]);
-        }
-    }
+/// The textures `module` declares (its typed declarations,
+/// [`crate::ir::declared`]), one per name, a generator's named numbers
+/// taken from the scene's constants before the program's values.
+pub fn texture_decls(module: &Module, scene_constants: &BTreeMap<String, Vec<f32>>) -> Vec<TextureDecl> {
+    let numbers: BTreeMap<String, f32> =
+        scene_constants.iter().filter(|(_, v)| v.len() == 1).map(|(k, v)| (k.clone(), v[0])).collect();
     let mut out = Vec::new();
-    for item in &program.items {
-        let ItemKind::Texture(t) = &item.kind else { continue };
-        // The IR's rule for the attributes (one rule for every reader).
-        let attrs: Vec<TextureAttr> = t.attrs.iter().map(|w| w.value).collect();
-        let crate::ir::Sampling { filter, wrap, mipmap } = crate::ir::Sampling::of(t.kind.value, &attrs);
+    for t in module.declared.iter() {
+        let crate::ir::Sampling { filter, wrap, mipmap } = t.sampling;
         let source = match &t.source {
             None => TextureSource::Rendered,
-            Some(e) if t.kind.value == TextureKind::Cube && super::cube_image::is_image_call(e) => {
+            Some(e) if t.kind == TextureKind::Cube && super::cube_image::is_image_call(e) => {
                 TextureSource::CubeImage(
                     super::cube_image::read_source(e).map_err(|p| format!("{}; {}", p.message, p.help)),
                 )
             }
             Some(e) => source(e, &numbers),
         };
-        for name in &t.names {
+        for (name, _) in &t.names {
             out.push(TextureDecl {
-                name: name.key(),
-                kind: t.kind.value,
-                format: t.format.as_ref().map(|f| f.value),
+                name: name.clone(),
+                kind: t.kind,
+                format: t.format,
                 mipmap,
                 filter,
                 wrap,
@@ -201,29 +238,6 @@ pub fn texture_decls(
         }
     }
     out
-}
-
-fn number(e: &ast::Expr, names: &BTreeMap<String, f32>) -> Option<f32> {
-    match &e.kind {
-        ExprKind::Number(v) => Some(*v as f32),
-        ExprKind::Name(n) => names.get(&n.key()).copied(),
-        ExprKind::Unary { op: ast::UnaryOp::Neg, operand } => number(operand, names).map(|v| -v),
-        _ => None,
-    }
-}
-
-fn args(e: &ast::Expr) -> Vec<&ast::Expr> {
-    match &e.kind {
-        ExprKind::Tuple(items) => items.iter().collect(),
-        _ => vec![e],
-    }
-}
-
-fn string(e: &ast::Expr) -> Option<String> {
-    match &e.kind {
-        ExprKind::String(s) => Some(s.clone()),
-        _ => None,
-    }
 }
 
 /// The declarations of the textures the lowering added (a
@@ -260,34 +274,33 @@ pub fn lowered_decls(module: &crate::ir::Module, declared: &[TextureDecl]) -> Ve
     out
 }
 
-fn source(e: &ast::Expr, names: &BTreeMap<String, f32>) -> TextureSource {
-    let ExprKind::Apply { func, arg } = &e.kind else {
-        return TextureSource::Bake(format!("{:?}", e.kind));
+fn source(e: &DeclaredSource, names: &BTreeMap<String, f32>) -> TextureSource {
+    let (f, a) = match e {
+        DeclaredSource::Generator { name, args, .. } => (name, args),
+        DeclaredSource::Other { text, .. } => return TextureSource::Bake(text.clone()),
     };
-    let FuncKind::Name(f) = &func.kind else { return TextureSource::Bake("?".into()) };
-    let a = args(arg);
-    let num = |i: usize, default: f32| a.get(i).and_then(|x| number(x, names)).unwrap_or(default);
-    match f.key().as_str() {
-        "image" => TextureSource::Image(a.first().and_then(|x| string(x)).unwrap_or_default()),
+    let num = |i: usize, default: f32| a.get(i).and_then(|x| x.number(names)).unwrap_or(default);
+    let string = |i: usize| a.get(i).and_then(|x| x.text()).map(str::to_string);
+    match f.as_str() {
+        "image" => TextureSource::Image(string(0).unwrap_or_default()),
         "normalize_cube" => {
             TextureSource::NormalizeCube { size: num(0, 32.0).max(1.0) as u32, bits: num(1, 8.0) as u32 }
         }
         "normal_map" => {
             let height = match a.first().map(|x| &x.kind) {
-                Some(ExprKind::Apply { arg, .. }) => match string(arg) {
-                    Some(file) => HeightSource::File(file),
+                Some(ArgKind::Call { arg, .. }) => match arg.text() {
+                    Some(file) => HeightSource::File(file.to_string()),
                     None => HeightSource::Dimples { size: 256, cells: 16 },
                 },
-                Some(ExprKind::String(s)) => HeightSource::File(s.clone()),
+                Some(ArgKind::Text(s)) => HeightSource::File(s.clone()),
                 _ => HeightSource::Dimples { size: 256, cells: 16 },
             };
             TextureSource::NormalMap { height, scale: num(1, 4.0) }
         }
         "bumps" => TextureSource::Bumps { cells: num(0, 16.0).max(1.0) as u32 },
-        "dual_paraboloid" => TextureSource::DualParaboloid {
-            file: a.first().and_then(|x| string(x)).unwrap_or_default(),
-            face: num(1, 0.0) as u32,
-        },
+        "dual_paraboloid" => {
+            TextureSource::DualParaboloid { file: string(0).unwrap_or_default(), face: num(1, 0.0) as u32 }
+        }
         "brdf_fd" => TextureSource::BrdfFd { roughness: num(0, 0.3), index: num(1, 1.5) },
         "brdf_g" => TextureSource::BrdfG { scale: num(0, 1.0) },
         "exponent_table" => TextureSource::ExponentTable { exponent: num(0, 8.0) },
@@ -581,10 +594,12 @@ struct ObjectSpace {
 
 /// One object of the scene, bound: per-vertex leaves and projections.
 pub struct BoundObject<'s> {
+    /// The object's mesh.
     pub mesh: &'s Mesh,
     space: ObjectSpace,
     /// Clip matrices: camera π and light πl (model → clip).
     pub camera_clip: Mat4,
+    /// Light 0's: the shadow map's projection.
     pub light_clip: Mat4,
     /// Generated coordinate sets, per vertex.
     texgen: BTreeMap<TexCoordId, Vec<[f64; 4]>>,
@@ -874,9 +889,13 @@ pub fn uniforms(module: &Module, scene: &Scene) -> Vec<Option<[f64; 4]>> {
 
 /// The leaves of one vertex.
 pub struct VertexEnv<'a, 's> {
+    /// The object the vertex belongs to.
     pub object: &'a BoundObject<'s>,
+    /// The program.
     pub module: &'a Module,
+    /// The vertex's index in the object's mesh.
     pub vertex: usize,
+    /// The uniforms' values, by id (`None`: unset).
     pub uniforms: &'a [Option<[f64; 4]>],
 }
 
@@ -930,32 +949,35 @@ pub fn scene_dir(scene: &Scene) -> PathBuf {
 pub struct ImageFile {
     /// The first texture the declaration names.
     pub texture: String,
+    /// The file's name as written.
     pub file: String,
+    /// Where the name is written.
     pub span: crate::span::Span,
 }
 
-/// Every image file the program's texture declarations read, in source order.
-pub fn image_files(program: &ast::Program) -> Vec<ImageFile> {
+/// Every image file the texture declarations read, in source order.
+pub fn image_files(declared: &[DeclaredTexture]) -> Vec<ImageFile> {
     let mut out = Vec::new();
-    for item in &program.items {
-        let ItemKind::Texture(t) = &item.kind else { continue };
-        let (Some(name), Some(e)) = (t.names.first(), &t.source) else { continue };
-        collect_image_files(e, &name.key(), &mut out);
+    for t in declared {
+        let (Some((name, _)), Some(DeclaredSource::Generator { name: f, args, .. })) =
+            (t.names.first(), &t.source)
+        else {
+            continue;
+        };
+        collect_image_files(f, &args.iter().collect::<Vec<_>>(), name, &mut out);
     }
     out
 }
 
-/// The `image("f")` and `height("f")` calls in a texture's source.
-fn collect_image_files(e: &ast::Expr, texture: &str, out: &mut Vec<ImageFile>) {
-    let ExprKind::Apply { func, arg } = &e.kind else { return };
-    let FuncKind::Name(f) = &func.kind else { return };
-    let first = args(arg).into_iter().next();
-    match (f.key().as_str(), first.map(|a| (&a.kind, a))) {
+/// The `image("f")` and `height("f")` calls in a texture's source: `f`
+/// applied to `args`.
+fn collect_image_files(f: &str, args: &[&GeneratorArg], texture: &str, out: &mut Vec<ImageFile>) {
+    match (f, args.first().map(|a| (&a.kind, *a))) {
         // A cube map's: six face files, a `{face}` pattern, or one image
         // and its layout (docs/language.md, "Cube maps from images").
-        ("image", Some((ExprKind::String(_), _))) => {
-            for a in args(arg) {
-                let ExprKind::String(file) = &a.kind else { continue };
+        ("image", Some((ArgKind::Text(_), _))) => {
+            for a in args {
+                let ArgKind::Text(file) = &a.kind else { continue };
                 if crate::textures::cube_image::CubeLayout::from_name(file).is_some() {
                     continue;
                 }
@@ -966,10 +988,12 @@ fn collect_image_files(e: &ast::Expr, texture: &str, out: &mut Vec<ImageFile>) {
                 }
             }
         }
-        ("height" | "normal_map", Some((ExprKind::String(file), a))) => {
+        ("height" | "normal_map", Some((ArgKind::Text(file), a))) => {
             out.push(ImageFile { texture: texture.to_string(), file: file.clone(), span: a.span });
         }
-        ("normal_map", Some((_, a))) => collect_image_files(a, texture, out),
+        ("normal_map", Some((ArgKind::Call { name: Some(g), arg }, _))) => {
+            collect_image_files(g, &arg.items(), texture, out)
+        }
         _ => {}
     }
 }

@@ -20,7 +20,7 @@ use std::path::{Path, PathBuf};
 use super::bind::{BindError, TextureDecl};
 use super::Scene;
 use crate::diag::Diagnostic;
-use crate::parser::ast::{self, ExprKind, FuncKind, ItemKind, TextureKind};
+use crate::ir::declared::{DeclaredSource, DeclaredTexture, TextureKind};
 use crate::span::Span;
 use crate::textures::cube_image::{self, CubeImageError, CubeLayout, FACE_NAMES};
 use crate::textures::{generators, TexelFormat, Texture, TextureCube};
@@ -48,30 +48,26 @@ pub const STAND_IN_FACE: u32 = 64;
 
 const LAYOUT_HELP: &str = "write one of `hcross` (4:3), `vcross` (3:4), `hstrip` (6:1), `vstrip` (1:6) or `equirect` (2:1), or leave the layout out to deduce it from the image's shape";
 
-/// Whether `e` is a call of `image(…)`.
-pub fn is_image_call(e: &ast::Expr) -> bool {
-    matches!(&e.kind, ExprKind::Apply { func, .. } if matches!(&func.kind, FuncKind::Name(n) if n.key() == "image"))
+/// Whether a declaration's `source` is a call of `image(…)`.
+pub fn is_image_call(source: &DeclaredSource) -> bool {
+    matches!(source, DeclaredSource::Generator { name, .. } if name == "image")
 }
 
-/// Reads the arguments of a cube declaration's `image(…)` call `e`.
-pub fn read_source(e: &ast::Expr) -> Result<CubeImageSource, SourceProblem> {
-    let ExprKind::Apply { arg, .. } = &e.kind else {
+/// Reads the arguments of a cube declaration's `image(…)` call `source`.
+pub fn read_source(source: &DeclaredSource) -> Result<CubeImageSource, SourceProblem> {
+    let DeclaredSource::Generator { args: items, args_span, .. } = source else {
         return Err(problem(
-            e.span,
+            source.span(),
             "a cube map's source is not `image(…)`",
             "not image(…)",
             "write `image(\"env.png\")`",
         ));
     };
-    let items: Vec<&ast::Expr> = match &arg.kind {
-        ExprKind::Tuple(items) => items.iter().collect(),
-        _ => vec![arg],
-    };
     let mut files = Vec::with_capacity(items.len());
-    for item in &items {
-        match &item.kind {
-            ExprKind::String(s) => files.push(s.clone()),
-            _ => {
+    for item in items {
+        match item.text() {
+            Some(s) => files.push(s.to_string()),
+            None => {
                 return Err(problem(
                     item.span,
                     "an argument of `image` is not a file name in quotes",
@@ -93,7 +89,7 @@ pub fn read_source(e: &ast::Expr) -> Result<CubeImageSource, SourceProblem> {
             None => Err(problem(items[1].span, format!("`{layout}` is not a cube-map layout"), "unknown layout", LAYOUT_HELP)),
         },
         six if six.len() == 6 => Ok(CubeImageSource::Faces(six.to_vec())),
-        _ => Err(problem(arg.span, format!("`image` of a cube map takes one image, an image and its layout, or six face files, not {} arguments", items.len()), "image(file[, layout]) or six files", "write `image(\"env.png\")`, `image(\"env.png\", \"hcross\")`, `image(\"env_{face}.png\")` or six file names in the order +X −X +Y −Y +Z −Z")),
+        _ => Err(problem(*args_span, format!("`image` of a cube map takes one image, an image and its layout, or six face files, not {} arguments", items.len()), "image(file[, layout]) or six files", "write `image(\"env.png\")`, `image(\"env.png\", \"hcross\")`, `image(\"env_{face}.png\")` or six file names in the order +X −X +Y −Y +Z −Z")),
     }
 }
 
@@ -151,25 +147,27 @@ pub fn scene_file_as_cube(scene: &Scene, file: &str, format: TexelFormat) -> Res
     load(&source, format, &|f| scene.resolve(f)).map(Texture::Cube).map_err(|e| format!("{e}; {}", e.help()))
 }
 
-/// The located errors of the cube-map images `program` declares, paths
+/// The located errors of the cube-map images of the `declared` textures, paths
 /// relative to `base`, each at its declaration: arguments `image` cannot
 /// take, and images that are there but cannot make a cube map (unreadable,
 /// a shape that is no layout, faces not square or not of one size). A
 /// missing file is no error here (it renders with a stand-in); a
 /// declaration whose every name `replaced` says a scene texture replaces is
 /// not read.
-pub fn diagnose(program: &ast::Program, base: &Path, replaced: &dyn Fn(&str) -> bool) -> Vec<Diagnostic> {
+pub fn diagnose(
+    declared: &[DeclaredTexture],
+    base: &Path,
+    replaced: &dyn Fn(&str) -> bool,
+) -> Vec<Diagnostic> {
     let mut out = Vec::new();
-    for item in &program.items {
-        let ItemKind::Texture(t) = &item.kind else { continue };
-        let Some(e) = t.source.as_ref().filter(|e| t.kind.value == TextureKind::Cube && is_image_call(e))
-        else {
+    for t in declared {
+        let Some(e) = t.source.as_ref().filter(|e| t.kind == TextureKind::Cube && is_image_call(e)) else {
             continue;
         };
-        if !t.names.is_empty() && t.names.iter().all(|n| replaced(&n.key())) {
+        if !t.names.is_empty() && t.names.iter().all(|(n, _)| replaced(n)) {
             continue;
         }
-        let declared = t.names.first().map_or(t.kind.span, |n| n.span);
+        let declared = t.names.first().map_or(t.kind_span, |(_, span)| *span);
         let source = match read_source(e) {
             Ok(s) => s,
             Err(p) => {
@@ -195,7 +193,7 @@ pub fn diagnose(program: &ast::Program, base: &Path, replaced: &dyn Fn(&str) -> 
                 Diagnostic::error(
                     "bad-image",
                     format!("this cube map cannot be made: {err}"),
-                    e.span,
+                    e.span(),
                     "the cube map's images",
                 )
                 .with_label(declared, "declared here")

@@ -44,7 +44,9 @@ pub fn sphere_angle(r: f32, d: f32) -> f32 {
 /// direction).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cone {
+    /// The unit direction at the cone's centre.
     pub axis: Vec3,
+    /// The angle from the axis to the cone's edge, in radians.
     pub half_angle: f32,
 }
 
@@ -97,7 +99,10 @@ impl Cone {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub enum Outside {
     /// The sphere lies outside the spot's cone of influence.
-    SpotCone { cutoff_deg: f32 },
+    SpotCone {
+        /// The spot's cut-off angle, in degrees.
+        cutoff_deg: f32,
+    },
     /// The light's colour is black.
     Black,
 }

@@ -37,6 +37,7 @@ pub enum Register {
 }
 
 impl Register {
+    /// Every register: what the register allocator and the `!!RC1.0` reader enumerate.
     pub const ALL: [Register; 12] = [
         Register::Zero,
         Register::Constant0,
@@ -73,6 +74,8 @@ impl Register {
         }
     }
 
+    /// The register of texture unit `unit` (0 to 3, the four units of the GeForce 3; `None`
+    /// past them).
     pub fn texture(unit: u8) -> Option<Register> {
         match unit {
             0 => Some(Register::Texture0),
@@ -125,6 +128,7 @@ pub enum InputMapping {
 }
 
 impl InputMapping {
+    /// Every input mapping, for readers and exhaustive tests.
     pub const ALL: [InputMapping; 8] = [
         InputMapping::UnsignedIdentity,
         InputMapping::UnsignedInvert,
@@ -136,6 +140,7 @@ impl InputMapping {
         InputMapping::SignedNegate,
     ];
 
+    /// The mapping's name as `!!RC1.0` and the RON configurations spell it.
     pub fn name(self) -> &'static str {
         match self {
             InputMapping::UnsignedIdentity => "unsigned_identity",
@@ -185,6 +190,8 @@ pub struct GeneralInput {
 }
 
 impl GeneralInput {
+    /// A general combiner input: `register`'s `usage` components through `mapping`
+    /// (`glCombinerInputNV`).
     pub fn new(register: Register, mapping: InputMapping, usage: ComponentUsage) -> GeneralInput {
         GeneralInput { register, mapping, usage }
     }
@@ -202,6 +209,7 @@ pub enum Scale {
 }
 
 impl Scale {
+    /// The factor the portion's output is scaled by.
     pub fn factor(self) -> f32 {
         match self {
             Scale::One => 1.0,
@@ -222,6 +230,7 @@ pub enum Bias {
 }
 
 impl Bias {
+    /// The value added to the portion's output (before the scale, Kilgard 2000, B.4).
     pub fn offset(self) -> f32 {
         match self {
             Bias::Zero => 0.0,
@@ -239,6 +248,7 @@ pub enum PortionKind {
 }
 
 impl PortionKind {
+    /// The portion's name as `!!RC1.0` spells it (`rgb`, `alpha`).
     pub fn name(self) -> &'static str {
         match self {
             PortionKind::Rgb => "rgb",
@@ -319,10 +329,12 @@ impl GeneralPortion {
         }
     }
 
+    /// The four variables A-D with their letters, in order: what printers and validators walk.
     pub fn inputs(&self) -> [(char, &GeneralInput); 4] {
         [('A', &self.a), ('B', &self.b), ('C', &self.c), ('D', &self.d)]
     }
 
+    /// The three outputs (AB, CD, sum) with their names and the registers they write, if any.
     pub fn outputs(&self) -> [(&'static str, Option<Register>); 3] {
         [("AB", self.ab_output), ("CD", self.cd_output), ("sum", self.sum_output)]
     }
@@ -352,6 +364,7 @@ impl GeneralStage {
         }
     }
 
+    /// The RGB or the alpha portion of the stage.
     pub fn portion(&self, kind: PortionKind) -> &GeneralPortion {
         match kind {
             PortionKind::Rgb => &self.rgb,
@@ -381,10 +394,13 @@ pub struct FinalInput {
 }
 
 impl FinalInput {
+    /// A final combiner input: `source`'s `usage` components through `mapping`
+    /// (`glFinalCombinerInputNV`).
     pub fn new(source: FinalSource, mapping: InputMapping, usage: ComponentUsage) -> FinalInput {
         FinalInput { source, mapping, usage }
     }
 
+    /// A final combiner input reading `register` unchanged (unsigned identity).
     pub fn register(register: Register, usage: ComponentUsage) -> FinalInput {
         FinalInput::new(FinalSource::Register(register), InputMapping::UnsignedIdentity, usage)
     }
@@ -428,6 +444,7 @@ impl Default for FinalCombiner {
 }
 
 impl FinalCombiner {
+    /// The seven variables A-G with their letters, in order: what printers and validators walk.
     pub fn inputs(&self) -> [(char, &FinalInput); 7] {
         [
             ('A', &self.a),
@@ -477,12 +494,14 @@ impl Default for CombinerConfig {
 }
 
 impl CombinerConfig {
+    /// The configuration as RON, the form `--emit combiners` writes and tests snapshot.
     pub fn to_ron(&self) -> String {
         let config = ron::ser::PrettyConfig::new().depth_limit(6).struct_names(false);
         // Serialising plain data with no maps or non-string keys cannot fail.
         ron::ser::to_string_pretty(self, config).unwrap_or_default()
     }
 
+    /// Reads a configuration written by [`CombinerConfig::to_ron`].
     pub fn from_ron(text: &str) -> Result<CombinerConfig, ron::error::SpannedError> {
         ron::from_str(text)
     }

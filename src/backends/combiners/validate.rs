@@ -25,6 +25,7 @@ pub enum OutputSlot {
 }
 
 impl OutputSlot {
+    /// The output's name as `!!RC1.0` spells it.
     pub fn name(self) -> &'static str {
         match self {
             OutputSlot::Ab => "AB",

@@ -58,6 +58,7 @@ impl Tok<'_> {
         }
     }
 
+    /// Whether this is the end of the text.
     pub fn is_eof(&self) -> bool {
         matches!(self, Tok::Eof(_))
     }
@@ -83,6 +84,8 @@ const PUNCTUATION: [(u8, Tok<'static>); 13] = [
     (b'=', Tok::Equals),
 ];
 
+/// A token of the `!!RC1.0`, `!!TS1.0` and `!!VP1.0` readers' shared lexer, with its span in
+/// the text.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Token<'a> {
     pub tok: Tok<'a>,

@@ -20,7 +20,10 @@
 //! functions, ⊕ modes per vertex, booleans) is refused with its reason, and
 //! the host computes that pass's vertices.
 
+use std::any::Any;
+use std::cell::Cell;
 use std::collections::HashMap;
+use std::sync::Arc;
 
 use crate::ir::{BinaryOp, Expr, Handle, MathFunction, Module, Projection, Ty, UnaryOp};
 use crate::pipeline::{PassInterface, Planned};
@@ -71,9 +74,35 @@ fn refuse<T>(node: Option<Handle<Expr>>, reason: impl Into<String>) -> Result<T,
 /// The vertex program of pass `index` of `planned`, each interpolant
 /// written where the pass's combiners read it ([`outputs_for`]).
 pub fn emit_pass(planned: &Planned, index: usize) -> Result<Emitted, EmitError> {
+    EMITTED.with(|n| n.set(n.get() + 1));
     let pi = PassInterface::of(planned, index);
     let outputs = outputs_for(planned, index, &pi);
     emit_to(&planned.module, &pi, &outputs)
+}
+
+/// Pass `index`'s vertex program as its setup keeps it: emitted by
+/// [`emit_pass`] on first use, then read by `--emit combiners` and
+/// `render` alike (the pass contract: one generation per pass).
+pub fn of(planned: &Planned, index: usize) -> Result<Arc<Emitted>, EmitError> {
+    let kept = planned
+        .setup(index)
+        .vertex_program
+        .get_or_init(|| Arc::new(emit_pass(planned, index).map(Arc::new)) as Arc<dyn Any + Send + Sync>);
+    match kept.downcast_ref::<Result<Arc<Emitted>, EmitError>>() {
+        Some(result) => result.clone(),
+        None => refuse(None, "the pass's vertex program was not made by this emitter"),
+    }
+}
+
+thread_local! {
+    static EMITTED: Cell<usize> = const { Cell::new(0) };
+}
+
+/// How many vertex programs this thread has emitted for passes (every
+/// [`emit_pass`]): what the test that each pass's program is emitted once
+/// counts.
+pub fn emitted_programs() -> usize {
+    EMITTED.with(Cell::get)
 }
 
 /// Where each interpolant of pass `index` goes: `o[COL0]` / `o[COL1]` for
@@ -879,7 +908,7 @@ pub fn pass_text(planned: &Planned, index: usize, source: Option<&str>, title: &
         }
         return out + "\n";
     }
-    match emit_pass(planned, index) {
+    match of(planned, index) {
         Ok(e) => {
             let text = super::print(&e.program);
             let (header, rest) = text.split_once('\n').unwrap_or((&text, ""));

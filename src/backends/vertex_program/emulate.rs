@@ -14,6 +14,7 @@
 
 use super::program::*;
 
+/// A four-component register value, as NV_vertex_program computes in.
 pub type Vec4 = [f32; 4];
 
 /// One vertex's registers after the program ran.
@@ -24,6 +25,7 @@ pub struct Results {
 }
 
 impl Results {
+    /// The value of output register `o`.
     pub fn get(&self, o: Output) -> Vec4 {
         self.outputs[o.index()]
     }

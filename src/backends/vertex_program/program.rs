@@ -51,6 +51,7 @@ pub enum Version {
 }
 
 impl Version {
+    /// The header line the version's programs start with.
     pub fn header(self) -> &'static str {
         match self {
             Version::V10 => "!!VP1.0",
@@ -96,6 +97,7 @@ pub enum Shape {
 }
 
 impl Opcode {
+    /// Every opcode of NV_vertex_program 1.1, for the reader and exhaustive tests.
     pub const ALL: [Opcode; 21] = [
         Opcode::Mov,
         Opcode::Mul,
@@ -120,6 +122,7 @@ impl Opcode {
         Opcode::Abs,
     ];
 
+    /// The opcode's mnemonic as the program text spells it.
     pub fn name(self) -> &'static str {
         use Opcode::*;
         match self {
@@ -147,6 +150,7 @@ impl Opcode {
         }
     }
 
+    /// The opcode of `name` (a mnemonic), if it is one.
     pub fn from_name(name: &str) -> Option<Opcode> {
         Opcode::ALL.into_iter().find(|o| o.name() == name)
     }
@@ -162,6 +166,7 @@ impl Opcode {
         }
     }
 
+    /// How many source operands the opcode reads.
     pub fn sources(self) -> usize {
         match self.shape() {
             Shape::Vector(n) => n,
@@ -201,8 +206,10 @@ pub struct Source {
 }
 
 impl Source {
+    /// The swizzle that reads x, y, z, w as they are.
     pub const IDENTITY: [u8; 4] = [0, 1, 2, 3];
 
+    /// `reg` read as it is: not negated, not swizzled.
     pub fn new(reg: SrcReg) -> Source {
         Source { negate: false, reg, swizzle: Source::IDENTITY }
     }
@@ -218,25 +225,35 @@ impl Source {
 pub struct Output(pub u8);
 
 impl Output {
+    /// `o[HPOS]`: the clip-space position.
     pub const HPOS: Output = Output(0);
+    /// `o[COL0]`: the primary colour.
     pub const COL0: Output = Output(1);
+    /// `o[COL1]`: the secondary colour.
     pub const COL1: Output = Output(2);
+    /// `o[BFC0]`: the back-facing primary colour.
     pub const BFC0: Output = Output(3);
+    /// `o[BFC1]`: the back-facing secondary colour.
     pub const BFC1: Output = Output(4);
+    /// `o[FOGC]`: the fog coordinate.
     pub const FOGC: Output = Output(5);
+    /// `o[PSIZ]`: the point size.
     pub const PSIZ: Output = Output(6);
     /// The four colour results, which the rasterizer receives clamped to
     /// [0, 1] (NV_vertex_program, Section 2.14.1.5).
     pub const COLOURS: [Output; 4] = [Output::COL0, Output::COL1, Output::BFC0, Output::BFC1];
 
+    /// `o[TEXk]`: texture coordinate set `k`.
     pub fn tex(k: u8) -> Output {
         Output(7 + k)
     }
 
+    /// The register's name as the program text spells it.
     pub fn name(self) -> &'static str {
         OUTPUT_NAMES[usize::from(self.0).min(OUTPUTS - 1)]
     }
 
+    /// The register's index in the emulator's output array.
     pub fn index(self) -> usize {
         usize::from(self.0)
     }
@@ -259,9 +276,11 @@ pub struct Dest {
 }
 
 impl Dest {
+    /// The write mask of every component (`.xyzw`).
     pub const ALL: u8 = 0b1111;
 }
 
+/// One instruction: the opcode, its destination with write mask, and its sources.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct Instruction {
     pub op: Opcode,

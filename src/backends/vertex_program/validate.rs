@@ -41,6 +41,8 @@ impl fmt::Display for VpError {
 }
 
 impl VpError {
+    /// The error as a located diagnostic: at the instruction's opcode or operand in `spans`,
+    /// else at the `header`.
     pub fn to_diagnostic(&self, spans: &[InstructionSpans], header: Span) -> Diagnostic {
         let span = spans.get(self.instruction).map_or(header, |s| match self.at {
             At::Opcode => s.opcode,

@@ -81,6 +81,7 @@ fn lower_here(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
         written: Default::default(),
     };
     l.run();
+    l.module.declared = super::declared::read(program).into();
     l.diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
     (l.module, l.diagnostics)
 }

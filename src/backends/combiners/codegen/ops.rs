@@ -488,7 +488,13 @@ impl Gen<'_> {
         if self.reads_depth(cond) {
             // A depth texture's compare (issue 39): the unit's register holds 1 where lit.
             if let Some(k) = crate::planner::shadow_map::compare_unit(self.m, self.units, cond) {
-                let reg = Register::texture(k as u8).expect("at most four units, checked");
+                let Some(reg) = u8::try_from(k).ok().and_then(Register::texture) else {
+                    return Err(unsupported(
+                        span,
+                        "a depth comparison read on a texture unit past the fourth",
+                        "the register combiners have registers for texture units 0 to 3 only (Kilgard 2000): read fewer textures in this statement",
+                    ));
+                };
                 return Ok((Src { base: Base::Reg(reg), comp: Comp::Alpha, map: UnsignedIdentity }, false));
             }
             // The shadow-mask test (seeds/001 Section 3.5) in another form.

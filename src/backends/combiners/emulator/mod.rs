@@ -53,6 +53,7 @@ pub struct Inputs<'a> {
     pub constant1: Color,
 }
 
+/// Why the combiner emulator cannot run a configuration over its inputs.
 #[derive(Debug, Error, PartialEq)]
 pub enum EmulateError {
     #[error("{what} has {got} bytes, but a {width}x{height} RGBA8 image has {expected}")]

@@ -17,6 +17,8 @@ use crate::backends::combiners::config::{
     GeneralPortion, InputMapping, PortionKind, Register, Scale,
 };
 
+/// The configuration as `!!RC1.0` text (nvparse's language for the register combiners),
+/// preceded by its `!!TS1.0` texture shader if it has one.
 pub fn print(config: &CombinerConfig) -> String {
     let mut out = String::new();
     if let Some(ts) = &config.texture_shader {

@@ -80,6 +80,7 @@ pub struct TextureInputs<'a> {
     pub coords: [Option<&'a [u8]>; 4],
 }
 
+/// Why the texture-shader emulator cannot run a program over its texture images.
 #[derive(Debug, Error, PartialEq)]
 pub enum TsEmulateError {
     #[error("texture shader stage {stage}: `{name}` cannot read its texture image ({why})")]

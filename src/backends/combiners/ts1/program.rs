@@ -33,6 +33,7 @@ pub enum CullCondition {
 }
 
 impl CullCondition {
+    /// The condition's name as `!!TS1.0` spells it.
     pub fn name(self) -> &'static str {
         match self {
             CullCondition::GequalToZero => "GEQUAL_TO_ZERO",
@@ -69,6 +70,7 @@ pub enum DotFamily {
 }
 
 impl DotFamily {
+    /// Every dot-product family of NV_texture_shader, for readers and exhaustive tests.
     pub const ALL: [DotFamily; 9] = [
         DotFamily::Texture2d,
         DotFamily::Rectangle,

@@ -38,6 +38,8 @@ impl fmt::Display for TsError {
 }
 
 impl TsError {
+    /// The error as a located diagnostic: at the stage's instruction or its previous-stage
+    /// argument in `spans`, else at `fallback`.
     pub fn to_diagnostic(&self, spans: &[StageSpans], fallback: Span) -> Diagnostic {
         let span = spans.get(self.stage).map_or(fallback, |s| match self.at {
             At::Previous => s.previous.unwrap_or(s.name),

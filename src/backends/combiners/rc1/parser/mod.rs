@@ -32,6 +32,8 @@ pub struct Parsed {
 }
 
 impl Parsed {
+    /// The span of `place` in the `!!RC1.0` text, when the reader recorded one: where a
+    /// validation error is shown.
     pub fn span_of(&self, place: Place) -> Option<Span> {
         self.spans.get(&place).copied()
     }
