@@ -142,7 +142,7 @@ fn bumps(format: &str, quality: shadec::scene::bind::TextureQuality) -> Vec<f32>
         Path::new(""),
     )
     .unwrap();
-    let decls = bind::texture_decls(&program, &BTreeMap::new());
+    let decls = bind::texture_decls(&shadec::ir::lower(&program).0, &BTreeMap::new());
     let textures = bind::load_textures(&decls, &scene, quality, &mut Vec::new()).unwrap();
     let shadec::textures::Texture::Flat(t) = &textures["B"].texture else { panic!("a 2-D texture") };
     t.levels[0].texels.iter().flat_map(|c| c[..3].to_vec()).collect()
