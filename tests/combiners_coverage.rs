@@ -153,10 +153,12 @@ fn every_example_generates_or_is_located_on_both_combiner_profiles() {
 /// shadow volumes' stencil update counted by facing, two passes on both
 /// (one stencil state for both faces): 86 and 41. The shadow map's depth
 /// test on geforce3's depth textures, redrawn over the meshes, then
-/// planned `shadow_map.shd` there in 5 passes: 86 and 46.)
+/// planned `shadow_map.shd` there in 5 passes: 86 and 46. The HILO
+/// normal map `hilo_bump.shd`, refused on geforce256, plans on geforce3 in
+/// one combiner pass beside its `bake` table (the compiler's): 86 and 47.)
 #[test]
 fn every_planned_pass_is_generated() {
-    for (profile, planned) in [("geforce256", 86), ("geforce3", 46)] {
+    for (profile, planned) in [("geforce256", 86), ("geforce3", 47)] {
         let r = report(profile);
         let passes: Vec<&Result<usize, String>> =
             r.iter().filter_map(|(_, r)| r.as_ref().ok()).flatten().collect();

@@ -38,6 +38,7 @@ mod fuzz_replay;
 mod gpu_check;
 mod gpu_runner;
 mod hard_cases;
+mod hilo;
 mod ir_cli;
 mod ir_lower;
 mod ir_profiles;

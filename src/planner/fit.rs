@@ -140,7 +140,9 @@ impl ProfileFit<'_> {
         // The texture units first, from the lookups alone: most values
         // measured while splitting fail here.
         let bound = Usage::units_of_reached(module, &nodes);
-        let units = bound.texture_units() + framebuffer_textures(module, &bound);
+        let units = bound.texture_units()
+            + framebuffer_textures(module, &bound)
+            + super::hilo::extra_units(module, &bound.lookups);
         if units > p.texture_units as usize {
             return over("texture units", units, p.texture_units as usize, bound.lookups.last().copied());
         }
@@ -166,7 +168,8 @@ impl ProfileFit<'_> {
         match &p.fragment {
             FragmentStage::Programmable => Ok(()),
             FragmentStage::Combiners(c) => {
-                let ops = combiner_operations(module, value).map_err(|h| Overflow {
+                let shader = super::hilo::texture_shader_nodes(module, value, p);
+                let ops = combiner_operations_except(module, value, &shader).map_err(|h| Overflow {
                     resource: format!("{} per fragment", operation_name(module, h)),
                     need: 1,
                     have: 0,
@@ -229,9 +232,19 @@ fn operation_name(module: &Module, h: Handle<Expr>) -> String {
 /// sqrt, …: Kilgard 2000, Section 4.2 has none of them; use a normalization
 /// cube map or a lookup texture).
 pub fn combiner_operations(module: &Module, value: Handle<Expr>) -> Result<usize, Handle<Expr>> {
+    combiner_operations_except(module, value, &Default::default())
+}
+
+/// [`combiner_operations`] but for the nodes in `texture_shader`, which
+/// the texture shader computes (a HILO map's dot products, [`super::hilo`]).
+fn combiner_operations_except(
+    module: &Module,
+    value: Handle<Expr>,
+    texture_shader: &rustc_hash::FxHashSet<Handle<Expr>>,
+) -> Result<usize, Handle<Expr>> {
     let mut n = 0;
     for h in module.reachable(&[value]) {
-        if !module.info(h).freq.is_sample() {
+        if !module.info(h).freq.is_sample() || texture_shader.contains(&h) {
             continue;
         }
         n += match &module.exprs[h] {

@@ -27,6 +27,7 @@ pub mod algebra;
 mod assemble;
 pub mod fit;
 mod form;
+pub mod hilo;
 pub mod lights;
 pub mod realize;
 pub mod relevance;

@@ -534,9 +534,12 @@ impl<'a> PlanRenderer<'a> {
             .map_err(|e| e.to_string())?;
         let mut registers = [None; 6];
         let output = Handle::new(self.planned.plan.passes[index].fragment.output as usize);
-        for (r, u) in registers.iter_mut().zip(&self.planned.setup(index).units) {
+        let units: Vec<Handle<Expr>> = self.planned.setup(index).units.iter().map(|u| u.lookup).collect();
+        // A HILO map's dot-product stages take units of their own (planner::hilo).
+        let hardware = crate::planner::hilo::hardware_units(m, &units);
+        for (r, u) in registers.iter_mut().zip(hardware) {
             // A depth texture's unit returns its comparison (ARB_shadow), not the depth.
-            *r = Some(crate::planner::shadow_map::compare_node(m, output, u.lookup).unwrap_or(u.lookup));
+            *r = u.map(|u| crate::planner::shadow_map::compare_node(m, output, u).unwrap_or(u));
         }
         registers[4] = g.primary;
         registers[5] = g.secondary;

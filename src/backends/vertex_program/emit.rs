@@ -113,8 +113,15 @@ pub fn outputs_for(planned: &Planned, index: usize, pi: &PassInterface) -> Vec<O
     let pass = &planned.plan.passes[index];
     let generated = crate::backends::combiners::setup::of(planned, index).ok();
     let (primary, secondary) = generated.map_or((None, None), |g| (g.primary, g.secondary));
-    let units: Vec<(Handle<Expr>, u8)> =
-        pass.textures.iter().map(|t| (planned.handle(t.coords), t.unit.min(7) as u8)).collect();
+    // A HILO map's dot-product stages take units of their own and read
+    // their interpolated vectors as those units' coordinates (planner::hilo).
+    let lookups: Vec<Handle<Expr>> = pass.textures.iter().map(|t| planned.handle(t.lookup)).collect();
+    let hardware = |u: u32| crate::planner::hilo::hardware_unit(&planned.module, &lookups, u as usize);
+    let mut units: Vec<(Handle<Expr>, u8)> =
+        pass.textures.iter().map(|t| (planned.handle(t.coords), hardware(t.unit).min(7) as u8)).collect();
+    units.extend(
+        crate::planner::hilo::row_units(&planned.module, &lookups).into_iter().map(|(h, u)| (h, u as u8)),
+    );
     let mut taken: Vec<Output> = units.iter().map(|(_, u)| Output::tex(*u)).collect();
     let mut out = Vec::new();
     for &h in &pi.interpolants {

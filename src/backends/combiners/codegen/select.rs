@@ -124,6 +124,14 @@ impl Gen<'_> {
                 "list it in the pass's texture units",
             )
         })?;
+        if crate::planner::hilo::is_hilo_unit(self.m, self.units, h) {
+            return Err(unsupported(
+                span,
+                "a HILO texel read by the combiners",
+                "a HILO map reaches the combiners only through the texture shader's dot products (docs/hilo.md)",
+            ));
+        }
+        let unit = crate::planner::hilo::hardware_unit(self.m, self.units, unit);
         let reg = u8::try_from(unit).ok().and_then(Register::texture).ok_or_else(|| {
             unsupported(
                 span,

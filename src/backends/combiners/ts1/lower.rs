@@ -16,6 +16,10 @@ use super::program::{Operation, TextureShader};
 /// unit depends on another (plain texturing needs no texture shader) or
 /// some unit's coordinates have no NV_texture_shader operation.
 pub fn program(m: &Module, units: &[Handle<Expr>]) -> Option<TextureShader> {
+    // A HILO map's dot products: stages of their own (`super::hilo`).
+    if let Some(hilo) = super::hilo::program(m, units, operation) {
+        return hilo;
+    }
     let mut stages = Vec::new();
     for (k, &unit) in units.iter().enumerate() {
         stages.push(operation(m, &units[..k], unit)?);

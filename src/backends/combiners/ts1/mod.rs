@@ -9,6 +9,7 @@
 #![allow(clippy::result_large_err)]
 
 pub mod emulate;
+mod hilo;
 mod lexer;
 pub mod lower;
 mod parser;

@@ -24,8 +24,14 @@ impl Gen<'_> {
         let output = self.planned.handle(pass.fragment.output);
         // A depth texture's unit returns its comparison (ARB_shadow), as the CPU loads it.
         let unit = |h| crate::planner::shadow_map::compare_node(&self.planned.module, output, h).unwrap_or(h);
+        // A HILO map's dot-product stages take units of their own (planner::hilo).
+        let lookups: Vec<ir::Handle<Expr>> =
+            pass.textures.iter().map(|t| self.planned.handle(t.lookup)).collect();
         let mut registers: Vec<Option<ir::Handle<Expr>>> =
-            pass.textures.iter().map(|t| Some(unit(self.planned.handle(t.lookup)))).collect();
+            crate::planner::hilo::hardware_units(&self.planned.module, &lookups)
+                .into_iter()
+                .map(|u| u.map(unit))
+                .collect();
         registers.resize(4, None);
         registers.push(g.primary);
         registers.push(g.secondary);
