@@ -177,7 +177,13 @@ fn check_pass(
         };
         for (k, w) in want.iter().take(values.len()).enumerate() {
             let o = e.outputs[k];
-            compare(format!("o[{}]", o.name()), *w, got.get(o));
+            // Coordinates without a q of their own get q = 1: a texture
+            // unit divides by it (NV_texture_shader's texture_2d, (s/q, t/q)).
+            let mut w = *w;
+            if o.is_texture() && (2..4).contains(&m.info(values[k]).ty.width()) {
+                w[3] = 1.0;
+            }
+            compare(format!("o[{}]", o.name()), w, got.get(o));
         }
         if let Some(p) = pi.position {
             let w = want[values.len()];
@@ -285,4 +291,34 @@ fn generated_per_vertex_programs_emit_vertex_programs_that_agree_with_the_host()
     }
     eprintln!("generated programs: {emitted} passes as vertex programs, worst relative difference {worst:e}");
     assert!(emitted >= 24);
+}
+
+/// Each texture unit reads its own `o[TEXu]` (NV_vertex_program, Section
+/// 2.14.1.3): two units at the same coordinates (a decal and a gloss map
+/// both at `δu x`) get them both, and 2-D coordinates get q = 1, which a
+/// unit divides by. Before, only the first unit's set was written, and q
+/// was 0.
+#[test]
+fn units_sharing_coordinates_each_get_their_set_with_q_one() {
+    let source = "texture A, B : 2d rgb8 = image(\"layer.png\");\nC δπx ← (A δu x) * (B δu x);\n";
+    let profile = Profile::builtin("geforce3").unwrap();
+    let planned = driver::compile(source, &profile, &PlanOptions::default()).unwrap().planned;
+    assert_eq!(planned.plan.passes.len(), 1);
+    assert_eq!(planned.plan.passes[0].textures.len(), 2, "two units");
+    let e = emit::of(&planned, 0).unwrap();
+    let text = vp::print(&e.program);
+    let mut attributes = [[0.0f32; 4]; 16];
+    for (k, &h) in e.attributes.iter().enumerate() {
+        attributes[k] = match planned.module.exprs[h] {
+            Expr::TexCoord { .. } => [0.25, 0.75, 0.0, 0.0],
+            _ => [0.1, 0.2, 0.3, 1.0],
+        };
+    }
+    let parameters = emit::parameter_values(&e, |_| [0.0; 4], |_| rows(Mat4::IDENTITY));
+    let results = emulate::run(&e.program, &attributes, &parameters);
+    for unit in 0..2 {
+        let tex = results.get(Output::tex(unit));
+        assert_eq!(&tex[..2], &[0.25, 0.75], "o[TEX{unit}] holds u x\n{text}");
+        assert_eq!(tex[3], 1.0, "o[TEX{unit}].w is q = 1\n{text}");
+    }
 }

@@ -77,7 +77,45 @@ pub fn emit_pass(planned: &Planned, index: usize) -> Result<Emitted, EmitError> 
     EMITTED.with(|n| n.set(n.get() + 1));
     let pi = PassInterface::of(planned, index);
     let outputs = outputs_for(planned, index, &pi);
-    emit_to(&planned.module, &pi, &outputs)
+    let copies = shared_coordinates(planned, index, &pi, &outputs);
+    emit_with_copies(&planned.module, &pi, &outputs, &copies)
+}
+
+/// The texture units of pass `index` by the coordinates they read, each
+/// with the hardware unit whose `o[TEXu]` feeds it.
+fn unit_coordinates(planned: &Planned, index: usize) -> Vec<(Handle<Expr>, u8)> {
+    let pass = &planned.plan.passes[index];
+    // A HILO map's dot-product stages take units of their own and read
+    // their interpolated vectors as those units' coordinates (planner::hilo).
+    let lookups: Vec<Handle<Expr>> = pass.textures.iter().map(|t| planned.handle(t.lookup)).collect();
+    let hardware = |u: u32| crate::planner::hilo::hardware_unit(&planned.module, &lookups, u as usize);
+    let mut units: Vec<(Handle<Expr>, u8)> =
+        pass.textures.iter().map(|t| (planned.handle(t.coords), hardware(t.unit).min(7) as u8)).collect();
+    units.extend(
+        crate::planner::hilo::row_units(&planned.module, &lookups).into_iter().map(|(h, u)| (h, u as u8)),
+    );
+    units
+}
+
+/// Units that read the same interpolated coordinates as an earlier unit
+/// (a decal and a gloss map both at `δu x`): each texture unit reads its
+/// own `o[TEXu]` (NV_vertex_program, Section 2.14.1.3), so the program
+/// writes the value there too. `(k, o)`: interpolant `k` also goes to `o`.
+pub fn shared_coordinates(
+    planned: &Planned,
+    index: usize,
+    pi: &PassInterface,
+    outputs: &[Output],
+) -> Vec<(usize, Output)> {
+    let mut copies = Vec::new();
+    for (h, u) in unit_coordinates(planned, index) {
+        let Some(k) = pi.interpolants.iter().position(|&i| i == h) else { continue };
+        let o = Output::tex(u);
+        if outputs.get(k) != Some(&o) && !outputs.contains(&o) && !copies.iter().any(|&(_, c)| c == o) {
+            copies.push((k, o));
+        }
+    }
+    copies
 }
 
 /// Pass `index`'s vertex program as its setup keeps it: emitted by
@@ -110,18 +148,9 @@ pub fn emitted_programs() -> usize {
 /// coordinates of texture unit `u`, else the first texture coordinate set
 /// no unit reads.
 pub fn outputs_for(planned: &Planned, index: usize, pi: &PassInterface) -> Vec<Output> {
-    let pass = &planned.plan.passes[index];
     let generated = crate::backends::combiners::setup::of(planned, index).ok();
     let (primary, secondary) = generated.map_or((None, None), |g| (g.primary, g.secondary));
-    // A HILO map's dot-product stages take units of their own and read
-    // their interpolated vectors as those units' coordinates (planner::hilo).
-    let lookups: Vec<Handle<Expr>> = pass.textures.iter().map(|t| planned.handle(t.lookup)).collect();
-    let hardware = |u: u32| crate::planner::hilo::hardware_unit(&planned.module, &lookups, u as usize);
-    let mut units: Vec<(Handle<Expr>, u8)> =
-        pass.textures.iter().map(|t| (planned.handle(t.coords), hardware(t.unit).min(7) as u8)).collect();
-    units.extend(
-        crate::planner::hilo::row_units(&planned.module, &lookups).into_iter().map(|(h, u)| (h, u as u8)),
-    );
+    let units = unit_coordinates(planned, index);
     let mut taken: Vec<Output> = units.iter().map(|(_, u)| Output::tex(*u)).collect();
     let mut out = Vec::new();
     for &h in &pi.interpolants {
@@ -151,6 +180,17 @@ pub fn emit(m: &Module, pi: &PassInterface) -> Result<Emitted, EmitError> {
 /// The vertex program computing `pi`'s interpolants into `outputs` and its
 /// clip position into `o[HPOS]`.
 pub fn emit_to(m: &Module, pi: &PassInterface, outputs: &[Output]) -> Result<Emitted, EmitError> {
+    emit_with_copies(m, pi, outputs, &[])
+}
+
+/// [`emit_to`], with interpolant `k` of each `(k, o)` of `copies` also
+/// written to `o` ([`shared_coordinates`]).
+pub fn emit_with_copies(
+    m: &Module,
+    pi: &PassInterface,
+    outputs: &[Output],
+    copies: &[(usize, Output)],
+) -> Result<Emitted, EmitError> {
     if pi.vertex_leaves.len() > ATTRIBUTES {
         return refuse(
             None,
@@ -171,6 +211,7 @@ pub fn emit_to(m: &Module, pi: &PassInterface, outputs: &[Output]) -> Result<Emi
             _ => h,
         };
         roots.push((value, outputs.get(k).copied()));
+        roots.extend(copies.iter().filter(|c| c.0 == k).map(|c| (value, Some(c.1))));
     }
     let mut e = Emitter::new(m, pi);
     if let Some(p) = pi.position {
@@ -406,8 +447,13 @@ impl<'m> Emitter<'m> {
         let w = ty.width();
         self.op(Opcode::Mov, DstReg::Output(out), lanes(w), &[src])?;
         if (2..4).contains(&w) {
-            let zero = self.splat(0.0);
-            self.op(Opcode::Mov, DstReg::Output(out), 0b1000, &[zero])?;
+            // A texture unit divides its (s, t, r) by q (NV_texture_shader's
+            // texture_2d reads (s/q, t/q), as conventional texturing does):
+            // coordinates without a q of their own get q = 1. A colour's
+            // fourth component is its alpha, 0 where the value has none.
+            let q = if out.is_texture() { 1.0 } else { 0.0 };
+            let q = self.splat(q);
+            self.op(Opcode::Mov, DstReg::Output(out), 0b1000, &[q])?;
         }
         Ok(())
     }

@@ -248,6 +248,11 @@ impl Output {
         Output(7 + k)
     }
 
+    /// Whether this is a texture coordinate set, `o[TEX0]`..`o[TEX7]`.
+    pub fn is_texture(self) -> bool {
+        self.0 >= 7
+    }
+
     /// The register's name as the program text spells it.
     pub fn name(self) -> &'static str {
         OUTPUT_NAMES[usize::from(self.0).min(OUTPUTS - 1)]
