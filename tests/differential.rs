@@ -730,7 +730,8 @@ fn a_negative_term_is_taken_off_by_reverse_subtract() {
 #[test]
 fn kilgard_plans_on_geforce256_with_the_blend_source_clamped() {
     let source =
-        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd")).unwrap();
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd"))
+            .unwrap();
     let outcome = check(&source, "geforce256", &scene()).unwrap();
     assert_eq!(outcome, Outcome::Planned { passes: 3, split: false });
     let profile = Profile::builtin("geforce256").unwrap();

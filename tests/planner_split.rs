@@ -108,7 +108,13 @@ fn is_fixed(m: &Module, name: &str) -> bool {
 /// source's range (the IR's) leaves [0, 1]: this test's leaves are random
 /// and leave the ranges the IR gives them (vectors of any length), where a
 /// clamp of a value its range puts in [0, 1] is not the program's.
-fn as_blended(m: &mut Module, st: &shadec::ir::Statement, fb: u32, channel: FbChannel, fixed: bool) -> Handle<Expr> {
+fn as_blended(
+    m: &mut Module,
+    st: &shadec::ir::Statement,
+    fb: u32,
+    channel: FbChannel,
+    fixed: bool,
+) -> Handle<Expr> {
     let Some(s) = shadec::oracle::blend_source(m, st, fb as usize, channel, fixed) else { return st.value };
     let range = m.info(s).interval;
     if range.lo >= 0.0 && range.hi <= 1.0 {
@@ -175,8 +181,12 @@ fn compare(original: &Module, planned: &Planned, samples: u64) -> f64 {
             );
             let (store, name) = match &pass.target {
                 RenderTarget::Framebuffer { name, .. } => {
-                    // GL clamps a blend's source on a fixed-point framebuffer.
-                    let clamp = is_fixed(m, name) && pass.state.blend != shadec::pipeline::BlendState::REPLACE;
+                    // GL clamps a blend's source on a fixed-point framebuffer
+                    // (where its range leaves [0, 1]: see `as_blended`).
+                    let range = m.info(planned.handle(pass.fragment.output)).interval;
+                    let clamp = is_fixed(m, name)
+                        && pass.state.blend != shadec::pipeline::BlendState::REPLACE
+                        && (range.lo < 0.0 || range.hi > 1.0);
                     let src = if clamp { src.map(|x| x.clamp(0.0, 1.0)) } else { src };
                     let blended = pass.state.blend.blend(&src, &pfb[name].map(|x| x as f32));
                     let mut out = pfb[name].map(|x| x as f32);

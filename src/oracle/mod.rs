@@ -250,7 +250,9 @@ pub fn blend_source(
             if framebuffer as usize == fb && channel == ch && position == st.index)
     };
     let reads_fb = |h| {
-        m.reachable(&[h]).into_iter().any(|n| matches!(m.exprs[n], Expr::FramebufferRead { framebuffer, .. } if framebuffer as usize == fb))
+        m.reachable(&[h]).into_iter().any(
+            |n| matches!(m.exprs[n], Expr::FramebufferRead { framebuffer, .. } if framebuffer as usize == fb),
+        )
     };
     if !fixed || channel != FbChannel::Color {
         return None;

@@ -70,7 +70,13 @@ pub fn clamped_blend_source(m: &Module, st: &Statement, value: Handle<Expr>) -> 
     }
     let r = self_read(m, st, FbChannel::Color)?;
     let Expr::Combine { mode, lhs, rhs } = m.exprs[value] else { return None };
-    let v = if lhs == r { rhs } else if rhs == r { lhs } else { return None };
+    let v = if lhs == r {
+        rhs
+    } else if rhs == r {
+        lhs
+    } else {
+        return None;
+    };
     let ra = self_read(m, st, FbChannel::Alpha);
     let outside = |h: Handle<Expr>| {
         let i = m.info(h).interval;
@@ -96,7 +102,8 @@ pub fn clamped_blend_source(m: &Module, st: &Statement, value: Handle<Expr>) -> 
 /// passes the program writes compute on the hardware.
 pub fn blended_as_gl(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Handle<Expr> {
     let Some(source) = clamped_blend_source(m, st, value) else { return value };
-    let Some(clamped) = Builder { module: m }.node(Expr::Math { fun: ir::MathFunction::Saturate, args: vec![source] })
+    let Some(clamped) =
+        Builder { module: m }.node(Expr::Math { fun: ir::MathFunction::Saturate, args: vec![source] })
     else {
         return value;
     };
@@ -472,7 +479,10 @@ pub(super) fn plan_form(
         let o = fit.fits(splitter.module, s).err();
         let Some(p) = splitter.plan(BlendMode::Add, s) else { return Err(o.unwrap_or_else(no_split)) };
         pieces.extend(
-            p.iter().map(|q| Piece { why: "C ← C·m + s: the added term, after the modulation".into(), ..q.clone() }),
+            p.iter().map(|q| Piece {
+                why: "C ← C·m + s: the added term, after the modulation".into(),
+                ..q.clone()
+            }),
         );
     }
     through_clamps(m, fit, cache, &pieces, storage)
@@ -480,7 +490,13 @@ pub(super) fn plan_form(
 
 /// The refusal of a value no split fits.
 fn no_split() -> Overflow {
-    Overflow { resource: "has no split into passes of this target".into(), need: 0, have: 0, at: None, help: None }
+    Overflow {
+        resource: "has no split into passes of this target".into(),
+        need: 0,
+        have: 0,
+        at: None,
+        help: None,
+    }
 }
 
 /// A stencil update's one pass: the depth test and the stencil operation
@@ -488,10 +504,23 @@ fn no_split() -> Overflow {
 /// reads no texture (the stored depth `z C δπx′` is the depth buffer, not
 /// a unit).
 fn stencil_pieces(m: &mut Module, form: &Form) -> Result<Vec<Piece>, Overflow> {
-    let one = m.intern(Expr::Constant(crate::ir::Constant::scalar(1.0)), m.span(form.value)).map_err(|_| {
-        Overflow { resource: "a constant stencil-pass output".into(), need: 1, have: 0, at: None, help: None }
-    })?;
-    Ok(vec![Piece { blend: BlendMode::Replace, value: one, dest: Dest::Main, alpha: true, why: String::new() }])
+    let one =
+        m.intern(Expr::Constant(crate::ir::Constant::scalar(1.0)), m.span(form.value)).map_err(|_| {
+            Overflow {
+                resource: "a constant stencil-pass output".into(),
+                need: 1,
+                have: 0,
+                at: None,
+                help: None,
+            }
+        })?;
+    Ok(vec![Piece {
+        blend: BlendMode::Replace,
+        value: one,
+        dest: Dest::Main,
+        alpha: true,
+        why: String::new(),
+    }])
 }
 
 /// The one pass of a blend the program writes, `(T) ⊕ saturate(x)` as
@@ -539,10 +568,12 @@ pub(super) fn through_clamps(
         need: 0,
         have: 0,
         at: None,
-        help: Some(
+        help: Some(if storage.float_temps {
+            "keep each blended term in [0, 1] (a `saturate(…)` where a clamp is meant), or declare the framebuffer `rgba16f`"
+        } else {
             "keep each blended term in [0, 1] (a `saturate(…)` where a clamp is meant), or target wgsl with an `rgba16f` framebuffer"
-                .into(),
-        ),
+        }
+        .into()),
     }
     };
     if !split::exact_through_clamps(m, pieces, storage) {

@@ -397,6 +397,7 @@ impl<'a> Splitter<'a> {
                 best = Some((c, cand));
             }
         };
+        let piece = |blend, value, why| Piece { blend, value, dest: Dest::Main, alpha: true, why };
         // Plain partitions: every group one pass.
         for mut groups in self.partitions(op, &ops) {
             self.signed_last(op, &mut groups);
@@ -404,13 +405,7 @@ impl<'a> Splitter<'a> {
             let mut pieces = Vec::new();
             for (k, group) in groups.into_iter().enumerate() {
                 let blend = if k == 0 { first } else { rest };
-                pieces.push(Piece {
-                    blend,
-                    value: group,
-                    dest: Dest::Main,
-                    alpha: true,
-                    why: why(k + 1, g, blend),
-                });
+                pieces.push(piece(blend, group, why(k + 1, g, blend)));
             }
             keep(self, pieces);
         }
@@ -428,13 +423,7 @@ impl<'a> Splitter<'a> {
                     let g = groups.len() + 1;
                     let mut pieces: Vec<Piece> = head.iter().cloned().collect();
                     for (k, group) in groups.into_iter().enumerate() {
-                        pieces.push(Piece {
-                            blend: rest,
-                            value: group,
-                            dest: Dest::Main,
-                            alpha: true,
-                            why: why(k + 2, g, rest),
-                        });
+                        pieces.push(piece(rest, group, why(k + 2, g, rest)));
                     }
                     keep(self, pieces);
                 }

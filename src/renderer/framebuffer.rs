@@ -118,8 +118,8 @@ impl TileBuffers {
             ColorTile::Unorm(c) => {
                 // The destination is what the buffer holds, clamped; a
                 // blended source is clamped first, as GL clamps it on a
-                // fixed-point buffer (§4.1.8): the planner's signed terms
-                // (an add, then a reverse subtract) rely on it.
+                // fixed-point buffer (§4.1.8), as a blend the program
+                // writes means it (`planner::blended_as_gl`).
                 let s = if *blend == BlendState::REPLACE { *src } else { src.map(unorm) };
                 let out = blend.blend(&s, &c[idx].map(unorm));
                 for ch in 0..4 {
