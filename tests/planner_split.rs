@@ -140,6 +140,31 @@ fn stored(m: &Module, name: &str, v: [f32; 4]) -> [f32; 4] {
     }
 }
 
+/// The framebuffers after `original`'s statements as written, from `fb`,
+/// on sample `seed` (`gl`: the planned module, blend sources clamped).
+fn as_written(
+    gl: &mut Module,
+    m: &Module,
+    original: &Module,
+    seed: u64,
+    mut fb: HashMap<String, Value>,
+) -> HashMap<String, Value> {
+    let temps = HashMap::new();
+    for st in &original.statements {
+        let Table::Framebuffer { id, channel } = st.table else { continue };
+        let name = m.framebuffers[id as usize].name.clone();
+        let value = as_blended(gl, st, id, channel, is_fixed(m, &name));
+        let v = eval(gl, value, &mut Sample { seed, module: m, framebuffers: &fb, temps: &temps });
+        let v = stored(m, &name, v);
+        let slot = fb.get_mut(&name).unwrap();
+        match channel {
+            FbChannel::Alpha => slot[3] = v[3] as f64,
+            _ => *slot = v.map(|x| x as f64),
+        }
+    }
+    fb
+}
+
 /// Runs the program as written and as planned on `samples` samples; returns
 /// the largest difference.
 fn compare(original: &Module, planned: &Planned, samples: u64) -> f64 {
@@ -155,21 +180,7 @@ fn compare(original: &Module, planned: &Planned, samples: u64) -> f64 {
             .enumerate()
             .map(|(i, f)| (f.name.clone(), random4(seed ^ (i as u64 + 1000))))
             .collect();
-        // As written.
-        let mut fb = initial.clone();
-        let temps = HashMap::new();
-        for st in &original.statements {
-            let Table::Framebuffer { id, channel } = st.table else { continue };
-            let name = m.framebuffers[id as usize].name.clone();
-            let value = as_blended(&mut gl, st, id, channel, is_fixed(m, &name));
-            let v = eval(&gl, value, &mut Sample { seed, module: m, framebuffers: &fb, temps: &temps });
-            let v = stored(m, &name, v);
-            let slot = fb.get_mut(&name).unwrap();
-            match channel {
-                FbChannel::Alpha => slot[3] = v[3] as f64,
-                _ => *slot = v.map(|x| x as f64),
-            }
-        }
+        let fb = as_written(&mut gl, m, original, seed, initial.clone());
         // As planned.
         let mut pfb = initial.clone();
         let mut ptemps: HashMap<String, Value> = HashMap::new();
