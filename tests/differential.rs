@@ -493,15 +493,6 @@ fn check(source: &str, target: &str, scene: &Scene) -> Result<Outcome, String> {
     }
     let e = compare(&reference.image, &frame.image);
     if e.max_abs > TOLERANCE + bound {
-        // Known, not mended (the planner's): a pass blends a term that GL
-        // clamps to [0, 1] before blending into an 8-bit framebuffer (a
-        // modulation by `A ⊕[subtract] k`, which may be negative), or stores
-        // one that a later pass blends onto (a sum split after a possibly
-        // negative part), so the plan cannot compute what the program means
-        // there. Counted, and named in the CHANGELOG, not passed silently.
-        if let Some(why) = crate::three_way::clamped_blend_source(&planned) {
-            return Ok(Outcome::Known(why));
-        }
         return Err(format!(
             "the plan's f32 render is {:.1}/255 from the meaning (RMSE {:.4}) over {} passes",
             e.max_abs * 255.0,
@@ -516,8 +507,6 @@ fn check(source: &str, target: &str, scene: &Scene) -> Result<Outcome, String> {
 #[derive(Debug, PartialEq)]
 enum Outcome {
     Refused,
-    /// A plan that differs from the meaning for a known reason.
-    Known(String),
     /// Passes, and whether a statement was split into several.
     Planned {
         passes: usize,
@@ -530,9 +519,6 @@ fn check_all_targets(source: &str, scene: &Scene, planned: &mut [usize; 4]) -> R
     for (i, target) in TARGETS.iter().enumerate() {
         let outcome = check(source, target, scene).map_err(|e| format!("{target}: {e}\n{source}"))?;
         planned[i] += matches!(outcome, Outcome::Planned { .. }) as usize;
-        if let Outcome::Known(why) = outcome {
-            eprintln!("known, not mended, on {target}: {why}");
-        }
     }
     Ok(())
 }
@@ -658,16 +644,100 @@ fn a_temporary_inside_a_temporary_is_rendered() {
         C δπx ← (C δπx) ⊕[add] (((kd + Env δu x) * I) ⊕[subtract] ((A δu x) ⊕[add] (A δu x)));\n";
     let scene = scene();
     check_all_targets(source, &scene, &mut [0; 4]).unwrap();
-    // Since splits are held to the 8-bit clamps between passes, geforce256
-    // refuses it, and says why: `kd + Env` (up to 1.8) would be stored in
-    // an 8-bit temporary.
+    // The second statement is a blend the program writes: GL clamps its
+    // source, which may be negative, so the whole source is computed
+    // before the blend. On geforce256 it does not fit a pass, and its part
+    // `kd + Env` (up to 1.8) fits neither a combiner register nor an 8-bit
+    // temporary: refused, and it says why.
     let profile = Profile::builtin("geforce256").unwrap();
     let err = shadec::driver::compile(source, &profile, &Default::default()).map(|c| c.planned).unwrap_err();
     let text = format!("{} {}", err[0].message, err[0].help.clone().unwrap_or_default());
-    assert!(
-        text.contains("outside [0, 1] between passes, where the 8-bit framebuffer's clamp changes it"),
-        "{text}"
-    );
+    assert!(text.contains("range [0.4, 1.8]") && text.contains("[−1, 1]"), "{text}");
+}
+
+/// The fixed seed's clamped intermediate (issue 33): `B2 ⊕[add] (A
+/// ⊕[subtract] saturate(Env + kd))` on geforce256 (two units) stored the
+/// possibly negative difference in the 8-bit framebuffer and added `B2`
+/// after it, 129.8/255 off the meaning where the difference was negative.
+/// Now `B2` is written first and the difference is blended as an add of
+/// its part above 0 and a reverse subtract of its part below 0
+/// (EXT_blend_subtract), which GL's clamp of each source leaves exact.
+#[test]
+fn a_difference_below_zero_is_taken_off_by_the_blender() {
+    let source = "texture A, B2 : 2d rgb8 = image(\"a.png\");\n\
+        texture Env : 2d rgb8 bilinear clamp = image(\"env.png\");\n\
+        const kd : rgb = (0.8, 0.6, 0.4);\n\
+        C δπx ← (B2 δu x) ⊕[add] ((A δu x) ⊕[subtract] saturate((Env δu x) + kd));\n";
+    check_all_targets(source, &scene(), &mut [0; 4]).unwrap();
+    let profile = Profile::builtin("geforce256").unwrap();
+    let planned = shadec::driver::compile(source, &profile, &Default::default()).unwrap().planned;
+    let blends: Vec<&str> = planned.plan.passes.iter().map(|p| p.blend.name()).collect();
+    assert_eq!(blends, ["replace", "add", "reverse_subtract"], "{}", planned.plan.to_ron());
+}
+
+/// A modulation by a factor that may pass 1, written as arithmetic
+/// (`C ← C · 2B`): GL would clamp a blend's source to [0, 1], so
+/// `C·min(1, 2B)` is not the statement. It is blended as `2·C·B`
+/// (GL_DST_COLOR, GL_SRC_COLOR), exact up to 2.
+#[test]
+fn a_modulation_past_one_is_doubled_by_the_blender() {
+    let source = "texture A, B, D : 2d rgb8 = image(\"a.png\");\n\
+        C δπx ← (A δu x) * (D δu x);\nC δπx ← (C δπx) * (2 * (B δu x));\n";
+    check_all_targets(source, &scene(), &mut [0; 4]).unwrap();
+    // geforce256's two units cannot fuse the statements: the second blends.
+    let profile = Profile::builtin("geforce256").unwrap();
+    let planned = shadec::driver::compile(source, &profile, &Default::default()).unwrap().planned;
+    let blends: Vec<&str> = planned.plan.passes.iter().map(|p| p.blend.name()).collect();
+    assert_eq!(blends, ["replace", "modulate_2x"], "{}", planned.plan.to_ron());
+}
+
+/// The same modulation written as the blend `(C δπx) ⊕ 2B` (Pipeline
+/// Grammar, eq. (9)) means GL's blend on the `rgba8` framebuffer: the
+/// source clamped to [0, 1] (OpenGL 1.2.1 §4.1.8), as the hardware runs
+/// it. The plan is the pass as written, and it agrees with the meaning,
+/// which clamps the source too.
+#[test]
+fn a_blend_the_program_writes_clamps_its_source_as_gl_does() {
+    let source = "texture A, B, D : 2d rgb8 = image(\"a.png\");\n\
+        C δπx ← (A δu x) * (D δu x);\nC δπx ← (C δπx) ⊕ (2 * (B δu x));\n";
+    check_all_targets(source, &scene(), &mut [0; 4]).unwrap();
+    let profile = Profile::builtin("geforce256").unwrap();
+    let planned = shadec::driver::compile(source, &profile, &Default::default()).unwrap().planned;
+    let blends: Vec<&str> = planned.plan.passes.iter().map(|p| p.blend.name()).collect();
+    assert_eq!(blends, ["replace", "modulate"], "{}", planned.plan.to_ron());
+}
+
+/// A term that may be negative added by arithmetic (`C ← C + (B − D)`):
+/// an add would have its source clamped to 0 where the term is negative,
+/// so the blender adds its part above 0 and takes off its part below 0
+/// by reverse subtract (EXT_blend_subtract, GL_FUNC_REVERSE_SUBTRACT).
+#[test]
+fn a_negative_term_is_taken_off_by_reverse_subtract() {
+    let source = "texture A, B, D : 2d rgb8 = image(\"a.png\");\n\
+        C δπx ← (A δu x) * (D δu x);\nC δπx ← (C δπx) + ((B δu x) - (D δu x));\n";
+    check_all_targets(source, &scene(), &mut [0; 4]).unwrap();
+    let profile = Profile::builtin("geforce256").unwrap();
+    let planned = shadec::driver::compile(source, &profile, &Default::default()).unwrap().planned;
+    let blends: Vec<&str> = planned.plan.passes.iter().map(|p| p.blend.name()).collect();
+    assert!(blends.contains(&"reverse_subtract"), "{}", planned.plan.to_ron());
+}
+
+/// Kilgard 2000's three passes on the GeForce 256 as the example writes
+/// them: pass 2 modulates by ambient + diffuse, whose range reaches 1.1;
+/// GL clamps that blend's source, and so does the program's meaning, so
+/// the example still plans in its three passes (decal; modulate;
+/// destination-alpha add) and the plan's render agrees with the meaning.
+#[test]
+fn kilgard_plans_on_geforce256_with_the_blend_source_clamped() {
+    let source =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/kilgard_bump_mapping.shd"))
+            .unwrap();
+    let outcome = check(&source, "geforce256", &scene()).unwrap();
+    assert_eq!(outcome, Outcome::Planned { passes: 3, split: false });
+    let profile = Profile::builtin("geforce256").unwrap();
+    let planned = shadec::driver::compile(&source, &profile, &Default::default()).unwrap().planned;
+    let blends: Vec<&str> = planned.plan.passes.iter().map(|p| p.blend.name()).collect();
+    assert_eq!(blends, ["replace", "modulate", "dst_alpha_add"], "{}", planned.plan.to_ron());
 }
 
 /// A split is held to the clamps between passes (8-bit framebuffer and
@@ -683,11 +753,13 @@ fn a_split_never_stores_a_value_its_clamp_would_change() {
             .map(|c| c.planned)
     };
     // (A + B) reaches 2: not stored and then modulated by D (2 passes,
-    // clamp(A + B)·D), but D distributed: B, ·D, + A·D (3 passes).
+    // clamp(A + B)·D), but D first, then doubled by (A + B)/2 (GL_DST_COLOR,
+    // GL_SRC_COLOR: 2 passes, exact up to 2); before that blend, D
+    // distributed: B, ·D, + A·D (3 passes).
     let planned = compile("C δπx ← ((A δu x) + (B δu x)) * (D δu x);").unwrap();
     let blends: Vec<_> = planned.plan.passes.iter().map(|p| p.blend).collect();
     use shadec::pipeline::BlendMode;
-    assert_eq!(blends, [BlendMode::Replace, BlendMode::Modulate, BlendMode::Add]);
+    assert_eq!(blends, [BlendMode::Replace, BlendMode::Modulate2x]);
     // (A·B + B·D)·½ stays in [0, 1]: it splits.
     let planned = compile("C δπx ← ((A δu x) * (B δu x) + (B δu x) * (D δu x)) * 0.5;").unwrap();
     assert!(planned.plan.passes.len() > 1);
@@ -698,10 +770,12 @@ fn a_split_never_stores_a_value_its_clamp_would_change() {
 
 /// `(diffuse + specular) ⊕ decal` with an rgb sum above 1 and an rgba
 /// decal (seeds/000 (7), `phong_taylor_renormalized.shd`): the sum is
-/// written with alpha 1, so the decal is distributed through that
-/// conversion too — `A` with alpha 1, modulated by the decal, `B ⊕ decal`
-/// added with alpha 0 — and the bit-faithful render of the plan, 8-bit
-/// clamps between passes included, agrees with the meaning.
+/// written with alpha 1. It was distributed through that conversion — `A`
+/// with alpha 1, modulated by the decal, `B ⊕ decal` added with alpha 0;
+/// since a factor up to 2 is blended doubled, the decal is written first
+/// and modulated by the sum halved, alpha ½ (`modulate_2x`, two passes) —
+/// and the bit-faithful render of the plan, 8-bit clamps between passes
+/// included, agrees with the meaning.
 #[test]
 fn a_decal_is_distributed_over_an_rgb_sum_written_as_rgba() {
     let source = "texture A, B : 2d rgb8 = image(\"a.png\");\ntexture T : 2d rgba8 = image(\"decal.png\");\n\
@@ -710,7 +784,7 @@ fn a_decal_is_distributed_over_an_rgb_sum_written_as_rgba() {
     let planned = shadec::driver::compile(source, &profile, &Default::default()).unwrap().planned;
     let blends: Vec<_> = planned.plan.passes.iter().map(|p| p.blend).collect();
     use shadec::pipeline::BlendMode;
-    assert_eq!(blends, [BlendMode::Replace, BlendMode::Modulate, BlendMode::Add]);
+    assert_eq!(blends, [BlendMode::Replace, BlendMode::Modulate2x]);
     let scene = scene();
     let (program, _) = shadec::parser::check(source);
     let (module, _) = shadec::ir::lower(&program);

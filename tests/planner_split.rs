@@ -95,6 +95,39 @@ fn checkable(m: &Module) -> bool {
     })
 }
 
+/// Whether framebuffer `name` is fixed-point (`rgba8`).
+fn is_fixed(m: &Module, name: &str) -> bool {
+    use shadec::parser::ast::FramebufferChannel as F;
+    let f = m.framebuffers.iter().find(|f| f.name == name).expect("declared");
+    !f.channels.iter().any(|c| matches!(c, F::Rgba16f | F::Rgba32f))
+}
+
+/// Statement `st`'s value as GL runs the blend it writes: the source the
+/// independent reference finds (`oracle::blend_source`) clamped to [0, 1]
+/// on a fixed-point framebuffer (OpenGL 1.2.1 §4.1.8). Only where the
+/// source's range (the IR's) leaves [0, 1]: this test's leaves are random
+/// and leave the ranges the IR gives them (vectors of any length), where a
+/// clamp of a value its range puts in [0, 1] is not the program's.
+fn as_blended(
+    m: &mut Module,
+    st: &shadec::ir::Statement,
+    fb: u32,
+    channel: FbChannel,
+    fixed: bool,
+) -> Handle<Expr> {
+    let Some(s) = shadec::oracle::blend_source(m, st, fb as usize, channel, fixed) else { return st.value };
+    let range = m.info(s).interval;
+    if range.lo >= 0.0 && range.hi <= 1.0 {
+        return st.value;
+    }
+    let span = m.span(s);
+    let sat = m
+        .intern(Expr::Math { fun: shadec::ir::MathFunction::Saturate, args: vec![s] }, span)
+        .expect("a saturate of a value");
+    let map = [(s, sat)].into_iter().collect();
+    shadec::planner::substitute(m, st.value, &map).expect("the value with its source clamped")
+}
+
 /// What framebuffer `name` stores of `v`: an `rgba8` one clamps to [0, 1]
 /// (GL §2.13.9, §4.1.8), so a later statement reads at most 1.
 fn stored(m: &Module, name: &str, v: [f32; 4]) -> [f32; 4] {
@@ -107,10 +140,37 @@ fn stored(m: &Module, name: &str, v: [f32; 4]) -> [f32; 4] {
     }
 }
 
+/// The framebuffers after `original`'s statements as written, from `fb`,
+/// on sample `seed` (`gl`: the planned module, blend sources clamped).
+fn as_written(
+    gl: &mut Module,
+    m: &Module,
+    original: &Module,
+    seed: u64,
+    mut fb: HashMap<String, Value>,
+) -> HashMap<String, Value> {
+    let temps = HashMap::new();
+    for st in &original.statements {
+        let Table::Framebuffer { id, channel } = st.table else { continue };
+        let name = m.framebuffers[id as usize].name.clone();
+        let value = as_blended(gl, st, id, channel, is_fixed(m, &name));
+        let v = eval(gl, value, &mut Sample { seed, module: m, framebuffers: &fb, temps: &temps });
+        let v = stored(m, &name, v);
+        let slot = fb.get_mut(&name).unwrap();
+        match channel {
+            FbChannel::Alpha => slot[3] = v[3] as f64,
+            _ => *slot = v.map(|x| x as f64),
+        }
+    }
+    fb
+}
+
 /// Runs the program as written and as planned on `samples` samples; returns
 /// the largest difference.
 fn compare(original: &Module, planned: &Planned, samples: u64) -> f64 {
     let m = &planned.module;
+    // The statements as written, GL's clamp of a blend's source included.
+    let mut gl = m.clone();
     let mut worst = 0.0f64;
     for seed in 0..samples {
         let seed = hash(seed + 1);
@@ -120,20 +180,7 @@ fn compare(original: &Module, planned: &Planned, samples: u64) -> f64 {
             .enumerate()
             .map(|(i, f)| (f.name.clone(), random4(seed ^ (i as u64 + 1000))))
             .collect();
-        // As written.
-        let mut fb = initial.clone();
-        let temps = HashMap::new();
-        for st in &original.statements {
-            let Table::Framebuffer { id, channel } = st.table else { continue };
-            let v = eval(m, st.value, &mut Sample { seed, module: m, framebuffers: &fb, temps: &temps });
-            let name = m.framebuffers[id as usize].name.clone();
-            let v = stored(m, &name, v);
-            let slot = fb.get_mut(&name).unwrap();
-            match channel {
-                FbChannel::Alpha => slot[3] = v[3] as f64,
-                _ => *slot = v.map(|x| x as f64),
-            }
-        }
+        let fb = as_written(&mut gl, m, original, seed, initial.clone());
         // As planned.
         let mut pfb = initial.clone();
         let mut ptemps: HashMap<String, Value> = HashMap::new();
@@ -145,6 +192,13 @@ fn compare(original: &Module, planned: &Planned, samples: u64) -> f64 {
             );
             let (store, name) = match &pass.target {
                 RenderTarget::Framebuffer { name, .. } => {
+                    // GL clamps a blend's source on a fixed-point framebuffer
+                    // (where its range leaves [0, 1]: see `as_blended`).
+                    let range = m.info(planned.handle(pass.fragment.output)).interval;
+                    let clamp = is_fixed(m, name)
+                        && pass.state.blend != shadec::pipeline::BlendState::REPLACE
+                        && (range.lo < 0.0 || range.hi > 1.0);
+                    let src = if clamp { src.map(|x| x.clamp(0.0, 1.0)) } else { src };
                     let blended = pass.state.blend.blend(&src, &pfb[name].map(|x| x as f32));
                     let mut out = pfb[name].map(|x| x as f32);
                     for c in 0..4 {

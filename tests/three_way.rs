@@ -48,10 +48,13 @@ pub struct Pictures {
     pub approximation_bound: Option<f64>,
     /// Why wgpu did not run the plan, when it cannot yet.
     pub gpu_refused: Option<String>,
-    /// A pass that blends a term GL clamps first ([`clamped_blend_source`]).
-    pub clamped_blend: Option<String>,
     /// Whether a `⊕` of the program may leave [0, 1] ([`texture_env_clamps`]).
     pub texture_env_clamps: bool,
+    /// In fixed9, where a `⊕` may leave [0, 1]: the reference reading ⊕
+    /// as the language does (unclamped). A plan that blends a difference's
+    /// parts apart (an add, then a reverse subtract) computes that reading
+    /// on the hardware, not the texture environment's clamped one.
+    pub oracle_unclamped: Option<Vec<u8>>,
 }
 
 pub fn scene(name: &str) -> Scene {
@@ -77,7 +80,6 @@ pub fn render_three(
     let (planned, program, module) = (compiled.planned, compiled.program, compiled.module);
     let approximations = &planned.plan.approximations;
     let approximation_bound = approximations.iter().map(|a| a.output_bound).sum::<Option<f64>>();
-    let clamped_blend = clamped_blend_source(&planned);
     let texture_env_clamps = texture_env_clamps(&module);
     let assets = scene.build().map_err(|e| e.to_string())?;
     let cpu = PlanRenderer::new(&planned, &program, scene, &assets)
@@ -115,8 +117,18 @@ pub fn render_three(
     let options = shadec::oracle::Options { clamp_texture_env: precision == Precision::Fixed9 };
     let picture = shadec::oracle::render_with(&module, &program, scene, &assets, (W, H), options)
         .map_err(|e| e.to_string())?;
-    let oracle =
-        picture.pixels.iter().flat_map(|p| p.map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8)).collect();
+    let rgba8 = |p: &[[f64; 4]]| -> Vec<u8> {
+        p.iter().flat_map(|p| p.map(|c| (c.clamp(0.0, 1.0) * 255.0).round() as u8)).collect()
+    };
+    let oracle = rgba8(&picture.pixels);
+    let oracle_unclamped = if options.clamp_texture_env && texture_env_clamps {
+        let options = shadec::oracle::Options { clamp_texture_env: false };
+        let p = shadec::oracle::render_with(&module, &program, scene, &assets, (W, H), options)
+            .map_err(|e| e.to_string())?;
+        Some(rgba8(&p.pixels))
+    } else {
+        None
+    };
     // Pixels where the specifications leave the result open are left out.
     let covered = picture.covered.iter().zip(&picture.latitude).map(|(c, l)| *c && !l).collect();
     Ok(Pictures {
@@ -126,8 +138,8 @@ pub fn render_three(
         covered,
         approximation_bound,
         gpu_refused,
-        clamped_blend,
         texture_env_clamps,
+        oracle_unclamped,
     })
 }
 
@@ -142,42 +154,6 @@ pub fn texture_env_clamps(m: &shadec::ir::Module) -> bool {
     m.reachable(&roots).iter().any(|&h| {
         let r = m.info(h).interval;
         matches!(m.exprs[h], shadec::ir::Expr::Combine { .. }) && (r.lo < 0.0 || r.hi > 1.0)
-    })
-}
-
-/// The first pass of `planned` that blends into a fixed-point framebuffer a
-/// term whose range (the IR's) leaves what the blend passes unchanged: GL
-/// clamps a blend's source to [0, 1] there (§2.13.9, §4.1.8; Vulkan
-/// §28.1 for a UNORM attachment), so `C + s` is the statement only for
-/// `s ≥ 0` and `C·m` only for `m ≤ 1`. Known, not mended (the planner's
-/// `classify` reads such blends; guarding it by the IR's ranges refuses
-/// Kilgard's own pass 2, whose `0.1 + 0.9·…` the ranges put in [0, 2]):
-/// wgpu and the CPU's fixed9 clamp the source as the hardware does, the
-/// CPU's float modes do not (`renderer::ColorFormat::Unorm`).
-pub fn clamped_blend_source(planned: &shadec::pipeline::Planned) -> Option<String> {
-    use shadec::parser::ast::FramebufferChannel as F;
-    use shadec::pipeline::{BlendMode, RenderTarget};
-    let m = &planned.module;
-    planned.plan.passes.iter().enumerate().find_map(|(i, pass)| {
-        let RenderTarget::Framebuffer { name, .. } = &pass.target else { return None };
-        let fb = m.framebuffers.iter().find(|f| f.name == *name)?;
-        if fb.channels.iter().any(|c| matches!(c, F::Rgba16f | F::Rgba32f)) {
-            return None;
-        }
-        let r = m.info(planned.handle(pass.fragment.output)).interval;
-        // A later pass that blends onto this one's target reads it back
-        // clamped by the 8-bit framebuffer.
-        let read_back = planned.plan.passes[i + 1..]
-            .iter()
-            .any(|p| p.target == pass.target && p.blend != BlendMode::Replace);
-        let outside = match pass.blend {
-            BlendMode::Replace => read_back && (r.lo < 0.0 || r.hi > 1.0),
-            BlendMode::Add => r.lo < 0.0,
-            // dst·min(1, max(0, s)) is dst·s only for s in [0, 1].
-            BlendMode::Modulate => r.lo < 0.0 || r.hi > 1.0,
-            _ => r.lo < 0.0 || r.hi > 1.0,
-        };
-        outside.then(|| format!("pass {} blends ({:?}) a term in [{}, {}]", i + 1, pass.blend, r.lo, r.hi))
     })
 }
 

@@ -112,6 +112,19 @@ fn agreement_in(gpu: &Gpu, source: &str, target: &str, scene: &Scene, fidelity: 
     try_agreement_in(gpu, source, target, scene, fidelity).unwrap_or_else(|e| panic!("{target}: {e}"))
 }
 
+/// Whether a pass of `planned` blends a source leaving [0, 1]: into the
+/// declared `rgba8` framebuffer it relies on GL's clamp of the blend's
+/// source (§4.1.8; a blend the program writes means it,
+/// `planner::blended_as_gl`), which a float target does not apply, so
+/// such a plan draws into RGBA8, as declared (rounded per pass, within
+/// the tolerance).
+fn clamps_blend_source(planned: &shadec::pipeline::Planned) -> bool {
+    planned.plan.passes.iter().any(|p| {
+        let r = planned.module.info(planned.handle(p.fragment.output)).interval;
+        p.blend != shadec::pipeline::BlendMode::Replace && (r.lo < 0.0 || r.hi > 1.0)
+    })
+}
+
 /// [`agreement_in`], or why an executor refused the program.
 fn try_agreement_in(
     gpu: &Gpu,
@@ -143,7 +156,7 @@ fn try_agreement_in(
     // f32: a float target — between passes the values stay in float, as in
     // the CPU renderer's f32 mode (the picture is read back in 8 bits, as
     // the CPU's is written). fixed9: RGBA8 between passes, as the CPU's.
-    let gpu_target = if fidelity == Precision::Fixed9 {
+    let gpu_target = if fidelity == Precision::Fixed9 || clamps_blend_source(&planned) {
         shadec::gpu::runner::Target::new(W, H)
     } else {
         shadec::gpu::runner::Target::float(W, H)

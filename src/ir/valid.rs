@@ -464,6 +464,10 @@ fn combine(
         CombineMode::Subtract => add(a.interval, neg(b.interval)),
         CombineMode::Dot3Rgb | CombineMode::Dot3Rgba => dot3(a.interval, b.interval, ty == Ty::Scalar),
         // `Cf(1 − Ct)`: in the hull of its operands only where Ct ∈ [0, 1].
+        // `Cf(1 − Ct)`, and `Af·At` in alpha (rgba): one range covers both.
+        CombineMode::Blend if ty == Ty::Rgba => {
+            hull(mul(b.interval, add(Interval::point(1.0), neg(a.interval))), mul(a.interval, b.interval))
+        }
         CombineMode::Blend => mul(b.interval, add(Interval::point(1.0), neg(a.interval))),
         // `Ct·At + Cf(1 − At)`: a convex combination where At ∈ [0, 1]
         // (bounded by Ct's own range), else bounded term by term.

@@ -178,6 +178,7 @@ fn run(
     latitude: &mut [bool],
 ) -> Result<(), Unsupported> {
     let (w, h) = (ev.coverage.width, ev.coverage.height);
+    let source = blend_source(ev.m, st, fb, channel, ev.framebuffers[fb].fixed);
     let mut writes = Vec::new();
     for y in 0..h {
         for x in 0..w {
@@ -191,7 +192,14 @@ fn run(
                 _ => return Err(Unsupported::new(format!("statements at {} frequency", st.freq.name()))),
             };
             ev.latitude.set(false);
-            if let Some(v) = ev.value(st.value, at, 0, &mut HashMap::new())? {
+            let mut memo = HashMap::new();
+            if let Some(s) = source {
+                // GL clamps the blend's source (see `blend_source`).
+                if let Some(v) = ev.value(s, at, 0, &mut memo)? {
+                    memo.insert(s, Some(v.map(|x| x.clamp(0.0, 1.0))));
+                }
+            }
+            if let Some(v) = ev.value(st.value, at, 0, &mut memo)? {
                 writes.push((i, v, at));
             }
             latitude[i] |= ev.latitude.get();
@@ -218,4 +226,61 @@ fn run(
         }
     }
     Ok(())
+}
+
+/// The source of the framebuffer blend a statement writes into a
+/// fixed-point framebuffer, which GL clamps to [0, 1] before blending
+/// (OpenGL 1.2.1 §2.13.9, §4.1.8): `v` of `(C δπx) ⊕ v` (GL_DST_COLOR,
+/// GL_ZERO) and of `(C δπx) ⊕[add] v` (GL_ONE, GL_ONE), `s` of
+/// `(C δπx) ⊕[add] ((α C δπx)·s)` (GL_DST_ALPHA, GL_ONE) — the passes of
+/// Pipeline Grammar's eq. (9) and of Kilgard 2000, Sections 5.4-5.5. Not
+/// where the source reads the framebuffer otherwise (no one blend), nor
+/// for arithmetic (`+`, `*`), which means what it computes.
+pub fn blend_source(
+    m: &Module,
+    st: &crate::ir::Statement,
+    fb: usize,
+    channel: FbChannel,
+    fixed: bool,
+) -> Option<crate::ir::Handle<crate::ir::Expr>> {
+    use crate::ir::{BinaryOp, Expr};
+    use ast::CombineMode;
+    let own = |h, ch| {
+        matches!(m.exprs[h], Expr::FramebufferRead { framebuffer, channel, position }
+            if framebuffer as usize == fb && channel == ch && position == st.index)
+    };
+    let reads_fb = |h| {
+        m.reachable(&[h]).into_iter().any(
+            |n| matches!(m.exprs[n], Expr::FramebufferRead { framebuffer, .. } if framebuffer as usize == fb),
+        )
+    };
+    if !fixed || channel != FbChannel::Color {
+        return None;
+    }
+    let Expr::Combine { mode, lhs, rhs } = m.exprs[st.value] else { return None };
+    let v = if own(lhs, FbChannel::Color) {
+        rhs
+    } else if own(rhs, FbChannel::Color) {
+        lhs
+    } else {
+        return None;
+    };
+    let alpha_scaled = match m.exprs[v] {
+        Expr::Binary { op: BinaryOp::Mul, lhs: a, rhs: b }
+        | Expr::Combine { mode: CombineMode::Modulate, lhs: a, rhs: b } => {
+            if own(a, FbChannel::Alpha) {
+                Some(b)
+            } else if own(b, FbChannel::Alpha) {
+                Some(a)
+            } else {
+                None
+            }
+        }
+        _ => None,
+    };
+    match (mode, alpha_scaled) {
+        (CombineMode::Add, Some(s)) if !reads_fb(s) => Some(s),
+        (CombineMode::Add | CombineMode::Modulate, _) if !reads_fb(v) => Some(v),
+        _ => None,
+    }
 }

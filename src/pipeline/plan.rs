@@ -201,6 +201,14 @@ pub enum BlendMode {
     Add,
     /// `C ← C · f` (GL_DST_COLOR, GL_ZERO).
     Modulate,
+    /// `C ← C − f` (GL_ONE, GL_ONE, GL_FUNC_REVERSE_SUBTRACT; EXT_blend_subtract,
+    /// which the GeForce 256 and GeForce3 have): a term below zero, taken
+    /// off in the blender, where an addition would have its source clamped to 0.
+    ReverseSubtract,
+    /// `C ← 2·C·f` (GL_DST_COLOR, GL_SRC_COLOR: `f·C + C·f`): a modulation
+    /// by a factor in [0, 2], written with its source halved into [0, 1],
+    /// where GL clamps it (§4.1.8) — the multipass "2× modulate".
+    Modulate2x,
     /// `C ← C + Cα · f` (GL_DST_ALPHA, GL_ONE): Kilgard 2000, Section 5.5.
     DstAlphaAdd,
     /// `C ← Cα · f` (GL_DST_ALPHA, GL_ZERO).
@@ -221,6 +229,8 @@ impl BlendMode {
             BlendMode::Replace => B::REPLACE,
             BlendMode::Add => B::ADD,
             BlendMode::Modulate => B::MODULATE,
+            BlendMode::ReverseSubtract => B { equation: super::BlendEquation::ReverseSubtract, ..B::ADD },
+            BlendMode::Modulate2x => B::factors(super::BlendFactor::DstColor, super::BlendFactor::SrcColor),
             BlendMode::DstAlphaAdd => B::DEST_ALPHA_ADD,
             BlendMode::DstAlphaModulate => B::DEST_ALPHA_MODULATE,
             BlendMode::AlphaBlend => B::ALPHA_BLEND,
@@ -236,6 +246,8 @@ impl BlendMode {
             BlendMode::Replace => "replace",
             BlendMode::Add => "add",
             BlendMode::Modulate => "modulate",
+            BlendMode::ReverseSubtract => "reverse_subtract",
+            BlendMode::Modulate2x => "modulate_2x",
             BlendMode::DstAlphaAdd => "dst_alpha_add",
             BlendMode::DstAlphaModulate => "dst_alpha_modulate",
             BlendMode::AlphaBlend => "alpha_blend",

@@ -70,7 +70,100 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
         let product = product_of_sums(m, expanded.unwrap_or(base), distribute_common);
         push(&mut out, product, "factored into a product of sums");
     }
+    let grouped = product_by_groups(m, expanded.unwrap_or(base));
+    push(&mut out, grouped, "factored into a product of sums");
     out
+}
+
+/// Most factors a term may have for [`product_by_groups`] to try its
+/// sub-products (2ⁿ of them).
+const MAX_GROUPED_FACTORS: usize = 8;
+
+/// A sum of products that is `(Σ sᵢ)·(Σ xⱼ)` with the selectors `sᵢ`
+/// themselves products, written so: the multiplied-out
+/// `(T0·T2 + T1)·lerp(δl, T0, a)` has the selectors `T0·T2` and `T1`,
+/// which no single shared factor ([`product_of_sums`]) finds. The first
+/// term's sub-products are tried as the first selector; the terms holding
+/// it give the `xⱼ`, and every selector times every `xⱼ` must be the terms
+/// exactly (as multisets). `None` when no grouping does.
+pub fn product_by_groups(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
+    if let Expr::Convert { value, to: Ty::Rgba } = m.exprs[h] {
+        if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3) {
+            let inner = product_by_groups(m, value)?;
+            return node(m, Expr::Convert { value: inner, to: Ty::Rgba }, m.span(h));
+        }
+    }
+    let mut terms: Vec<Vec<Handle<Expr>>> =
+        sum_terms(m, h).into_iter().map(|t| product_factors(m, t)).collect();
+    let first = terms.first()?.clone();
+    if terms.len() < 4 || first.len() > MAX_GROUPED_FACTORS {
+        return None;
+    }
+    terms.iter_mut().for_each(|t| t.sort());
+    terms.sort();
+    let span = m.span(h);
+    for mask in 1..(1usize << first.len()) - 1 {
+        let selector: Vec<Handle<Expr>> =
+            (0..first.len()).filter(|i| mask & (1 << i) != 0).map(|i| first[i]).collect();
+        let Some((selectors, xs)) = groups_by(&terms, &selector) else { continue };
+        let ones = |m: &mut Module, t: Vec<Vec<Handle<Expr>>>| -> Option<Vec<Vec<Handle<Expr>>>> {
+            t.into_iter()
+                .map(|t| match t.is_empty() {
+                    true => Some(vec![node(m, Expr::Constant(crate::ir::Constant::scalar(1.0)), span)?]),
+                    false => Some(t),
+                })
+                .collect()
+        };
+        let (selectors, xs) = (ones(m, selectors)?, ones(m, xs)?);
+        let a = rebuild_sum(m, &selectors, span)?;
+        let b = rebuild_sum(m, &xs, span)?;
+        let out = binary(m, BinaryOp::Mul, a, b, span)?;
+        if m.info(out).ty == m.info(h).ty && out != h {
+            return Some(out);
+        }
+    }
+    None
+}
+
+/// A sum as its terms, each a list of factors.
+type Terms = Vec<Vec<Handle<Expr>>>;
+
+/// `terms` (each sorted, the list sorted) as every selector times every
+/// `x`, the `x` being the cofactors of `selector`: (selectors, xs), each
+/// with at least two members; `None` when the terms are not such a product.
+fn groups_by(terms: &[Vec<Handle<Expr>>], selector: &[Handle<Expr>]) -> Option<(Terms, Terms)> {
+    let cofactor = |t: &[Handle<Expr>], f: &[Handle<Expr>]| -> Option<Vec<Handle<Expr>>> {
+        let mut rest = t.to_vec();
+        for x in f {
+            let i = rest.iter().position(|y| y == x)?;
+            rest.remove(i);
+        }
+        Some(rest)
+    };
+    let mut xs: Vec<Vec<Handle<Expr>>> = terms.iter().filter_map(|t| cofactor(t, selector)).collect();
+    xs.sort();
+    xs.dedup();
+    if xs.len() < 2 || terms.len() % xs.len() != 0 {
+        return None;
+    }
+    let mut selectors: Vec<Vec<Handle<Expr>>> = terms.iter().filter_map(|t| cofactor(t, &xs[0])).collect();
+    selectors.sort();
+    selectors.dedup();
+    if selectors.len() < 2 || selectors.len() * xs.len() != terms.len() {
+        return None;
+    }
+    let mut product: Vec<Vec<Handle<Expr>>> = selectors
+        .iter()
+        .flat_map(|s| {
+            xs.iter().map(move |x| {
+                let mut t = [s.clone(), x.clone()].concat();
+                t.sort();
+                t
+            })
+        })
+        .collect();
+    product.sort();
+    (product == terms).then_some((selectors, xs))
 }
 
 /// A sum of products factored back into a product of sums, as far as

@@ -1,9 +1,10 @@
 //! A statement's blend form — what framebuffer blending does with what it
 //! reads of its own target (Pipeline Grammar, eq. (9)) — and the pieces it
-//! is split into.
+//! is split into, exact through the target's clamps.
 
 use super::*;
 
+/// The framebuffer read of `st`'s own target at its own position.
 pub(super) fn self_read(m: &Module, st: &Statement, channel: FbChannel) -> Option<Handle<Expr>> {
     match st.table {
         Table::Framebuffer { id, .. } => {
@@ -26,7 +27,8 @@ pub(super) fn fusable(m: &Module, a: &Statement, b: &Statement) -> bool {
 /// each later statement's reads of the framebuffer replaced by the earlier
 /// value.
 pub(super) fn fuse(m: &mut Module, stmts: &[usize]) -> Option<Handle<Expr>> {
-    let mut value = m.statements[stmts[0]].value;
+    let first = m.statements[stmts[0]].clone();
+    let mut value = blended_as_gl(m, &first, first.value);
     for &s in &stmts[1..] {
         value = fuse_next(m, value, s)?;
     }
@@ -48,7 +50,65 @@ pub(super) fn fuse_next(m: &mut Module, value: Handle<Expr>, s: usize) -> Option
         let a = Builder { module: m }.alpha(value)?;
         map.insert(r, a);
     }
-    substitute(m, st.value, &map)
+    let written = blended_as_gl(m, &st, st.value);
+    substitute(m, written, &map)
+}
+
+/// The source of the framebuffer blend statement `st` writes, where GL
+/// clamps it and the clamp changes it: `v` of `(T) ⊕ v` and of `(T) ⊕[add]
+/// v`, `s` of `(T) ⊕[add] ((α T)·s)` (Pipeline Grammar, eq. (9); Kilgard
+/// 2000, Sections 5.4-5.5), into a fixed-point (`rgba8`) framebuffer, whose
+/// blend clamps its source to [0, 1] (OpenGL 1.2.1 §2.13.9, §4.1.8; Vulkan
+/// clamps a UNORM attachment's alike). `None` where the source's range is
+/// in [0, 1], or only above 1 in an add (`min(1, C + min(1, v))` is
+/// `min(1, C + v)` for `C ≥ 0`). Arithmetic (`C + v`, `C·v`) is not a
+/// blend the program writes: it means what it computes, and the planner
+/// blends it exactly ([`split::exact_through_clamps`]).
+pub fn clamped_blend_source(m: &Module, st: &Statement, value: Handle<Expr>) -> Option<Handle<Expr>> {
+    if !matches!(st.table, Table::Framebuffer { channel: FbChannel::Color, .. }) || float_framebuffer(m, st) {
+        return None;
+    }
+    let r = self_read(m, st, FbChannel::Color)?;
+    let Expr::Combine { mode, lhs, rhs } = m.exprs[value] else { return None };
+    let v = if lhs == r {
+        rhs
+    } else if rhs == r {
+        lhs
+    } else {
+        return None;
+    };
+    let ra = self_read(m, st, FbChannel::Alpha);
+    let outside = |h: Handle<Expr>| {
+        let i = m.info(h).interval;
+        i.lo < 0.0 || i.hi > 1.0
+    };
+    if split::depends_on(m, v, r) {
+        return None;
+    }
+    match mode {
+        CombineMode::Modulate if ra.is_none_or(|ra| !split::depends_on(m, v, ra)) => outside(v).then_some(v),
+        CombineMode::Add => match ra.and_then(|ra| alpha_factor(m, v, ra)) {
+            Some(s) => outside(s).then_some(s),
+            None if ra.is_some_and(|ra| split::depends_on(m, v, ra)) => None,
+            None => (m.info(v).interval.lo < 0.0).then_some(v),
+        },
+        _ => None,
+    }
+}
+
+/// `value` as statement `st` means it: its framebuffer blend's source
+/// clamped where GL clamps it ([`clamped_blend_source`]), so the
+/// program's meaning, a fused value and a split all compute what the
+/// passes the program writes compute on the hardware.
+pub fn blended_as_gl(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Handle<Expr> {
+    let Some(source) = clamped_blend_source(m, st, value) else { return value };
+    let Some(clamped) =
+        Builder { module: m }.node(Expr::Math { fun: ir::MathFunction::Saturate, args: vec![source] })
+    else {
+        return value;
+    };
+    let map = HashMap::from_iter([(source, clamped)]);
+    substitute(m, value, &map).unwrap_or(value)
 }
 
 /// What statement `st` reads of `value` stored into its framebuffer: a
@@ -123,8 +183,10 @@ pub fn substitute(
 /// discard `c ? a`, a stencil test `σ C ? a` or a stencil update say is
 /// taken out (Pipeline Grammar, Sections 3.4-3.5). The program's meaning
 /// (`crate::meaning`) runs statements in this form; `classify` goes on to
-/// read a blend.
+/// read a blend. A framebuffer blend the statement writes has its source
+/// clamped where GL clamps it ([`blended_as_gl`]).
 pub fn whole_form(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<Form, Diagnostic> {
+    let value = blended_as_gl(m, st, value);
     let mut form = Form {
         blend: BlendMode::Replace,
         value,
@@ -355,6 +417,25 @@ pub(super) fn stencil_write(m: &Module, st: &Statement, value: Handle<Expr>) -> 
     })
 }
 
+/// What `profile`'s storage does between passes (`Storage::float_main` is
+/// the statement's, set where it is planned).
+pub(super) fn storage_of(profile: &Profile) -> Storage {
+    Storage {
+        float_temps: profile.float_textures,
+        float_main: false,
+        subtract: profile.blend_modes.iter().any(|b| b == "subtract"),
+    }
+}
+
+/// Whether `st` writes a framebuffer declared `rgba16f`/`rgba32f`.
+pub(super) fn float_framebuffer(m: &Module, st: &Statement) -> bool {
+    use crate::parser::ast::FramebufferChannel as F;
+    let Table::Framebuffer { id, .. } = st.table else { return false };
+    m.framebuffers
+        .get(id as usize)
+        .is_some_and(|f| f.channels.iter().any(|c| matches!(c, F::Rgba16f | F::Rgba32f)))
+}
+
 /// The pieces of one (fused) statement.
 pub(super) fn plan_form(
     m: &mut Module,
@@ -362,47 +443,26 @@ pub(super) fn plan_form(
     cache: &mut SplitCache,
     st: &Statement,
     form: &Form,
-    float_temps: bool,
+    storage: Storage,
     search: Search,
 ) -> Result<Vec<Piece>, Overflow> {
     if form.channels == "stencil" {
-        // The depth test and the stencil operation of the pass state do the
-        // comparison; the fragment computes nothing and reads no texture
-        // (the stored depth `z C δπx′` is the depth buffer, not a unit).
-        let one =
-            m.intern(Expr::Constant(crate::ir::Constant::scalar(1.0)), m.span(form.value)).map_err(|_| {
-                Overflow {
-                    resource: "a constant stencil-pass output".into(),
-                    need: 1,
-                    have: 0,
-                    at: None,
-                    help: None,
-                }
-            })?;
-        return Ok(vec![Piece {
-            blend: BlendMode::Replace,
-            value: one,
-            dest: Dest::Main,
-            alpha: true,
-            why: String::new(),
-        }]);
+        return stencil_pieces(m, form);
+    }
+    let storage = Storage { float_main: storage.float_temps && float_framebuffer(m, st), ..storage };
+    if let Some(one) = gl_clamped_pass(m, fit, cache, st, form, storage) {
+        return Ok(one);
     }
     let overflow = fit.fits(m, form.value).err();
     let clamp_refusals = cache.clamp_refusals;
-    let mut splitter = Splitter::new(m, fit, cache, st.index, float_temps);
+    let mut splitter = Splitter::new(m, fit, cache, st.index, storage);
     if search == Search::Exhaustive {
         splitter = splitter.exhaustive();
     }
     let mut pieces: Vec<Piece> = match splitter.plan(form.blend, form.value) {
         Some(p) => p.iter().cloned().collect(),
         None => {
-            let o = overflow.unwrap_or(Overflow {
-                resource: "has no split into passes of this target".into(),
-                need: 0,
-                have: 0,
-                at: None,
-                help: None,
-            });
+            let o = overflow.unwrap_or_else(no_split);
             return Err(if cache.clamp_refusals > clamp_refusals {
                 Overflow {
                     resource: format!("{o}, and the splits that fit would store a value outside [0, 1] between passes, where the 8-bit framebuffer's clamp changes it"),
@@ -417,21 +477,114 @@ pub(super) fn plan_form(
     };
     if let Some(s) = form.then_add {
         let o = fit.fits(splitter.module, s).err();
-        match splitter.plan(BlendMode::Add, s) {
-            Some(p) => pieces.extend(p.iter().map(|q| Piece {
+        let Some(p) = splitter.plan(BlendMode::Add, s) else { return Err(o.unwrap_or_else(no_split)) };
+        pieces.extend(
+            p.iter().map(|q| Piece {
                 why: "C ← C·m + s: the added term, after the modulation".into(),
                 ..q.clone()
-            })),
-            None => {
-                return Err(o.unwrap_or(Overflow {
-                    resource: "has no split into passes of this target".into(),
-                    need: 0,
-                    have: 0,
-                    at: None,
-                    help: None,
-                }))
-            }
-        }
+            }),
+        );
     }
-    Ok(pieces)
+    through_clamps(m, fit, cache, &pieces, storage)
+}
+
+/// The refusal of a value no split fits.
+fn no_split() -> Overflow {
+    Overflow {
+        resource: "has no split into passes of this target".into(),
+        need: 0,
+        have: 0,
+        at: None,
+        help: None,
+    }
+}
+
+/// A stencil update's one pass: the depth test and the stencil operation
+/// of the pass state do the comparison; the fragment computes nothing and
+/// reads no texture (the stored depth `z C δπx′` is the depth buffer, not
+/// a unit).
+fn stencil_pieces(m: &mut Module, form: &Form) -> Result<Vec<Piece>, Overflow> {
+    let one =
+        m.intern(Expr::Constant(crate::ir::Constant::scalar(1.0)), m.span(form.value)).map_err(|_| {
+            Overflow {
+                resource: "a constant stencil-pass output".into(),
+                need: 1,
+                have: 0,
+                at: None,
+                help: None,
+            }
+        })?;
+    Ok(vec![Piece {
+        blend: BlendMode::Replace,
+        value: one,
+        dest: Dest::Main,
+        alpha: true,
+        why: String::new(),
+    }])
+}
+
+/// The one pass of a blend the program writes, `(T) ⊕ saturate(x)` as
+/// [`blended_as_gl`] reads it, where `x` fits a pass: GL clamps the
+/// blend's source on the fixed-point target, so the pass blends `x` and
+/// the clamp happens in the blender (Kilgard 2000's pass 2 modulates by
+/// ambient + diffuse so). `None` otherwise: `saturate(x)` is then split
+/// like any value, exact through the clamps.
+fn gl_clamped_pass(
+    m: &mut Module,
+    fit: &dyn FitCheck,
+    cache: &mut SplitCache,
+    st: &Statement,
+    form: &Form,
+    storage: Storage,
+) -> Option<Vec<Piece>> {
+    let Expr::Math { fun: ir::MathFunction::Saturate, ref args } = m.exprs[form.value] else { return None };
+    let x = args[0];
+    if form.blend == BlendMode::Replace || form.then_add.is_some() || !storage.clamps(Dest::Main) {
+        return None;
+    }
+    fit.fits(m, x).ok()?;
+    let pieces = Splitter::new(m, fit, cache, st.index, storage).plan(form.blend, x)?;
+    match pieces.as_slice() {
+        [p] if p.dest == Dest::Main && p.blend == form.blend => Some(vec![p.clone()]),
+        _ => None,
+    }
+}
+
+/// The statement's pieces as the blender runs them ([`split::signed_terms`]),
+/// or a refusal when a clamp between them, or of a blend's source, would
+/// change what the statement means ([`split::exact_through_clamps`]).
+pub(super) fn through_clamps(
+    m: &mut Module,
+    fit: &dyn FitCheck,
+    cache: &mut SplitCache,
+    pieces: &[Piece],
+    storage: Storage,
+) -> Result<Vec<Piece>, Overflow> {
+    let refusal = |what: &str| {
+        Overflow {
+        resource: format!(
+            "cannot be blended exactly on this target: {what}, where the 8-bit framebuffer's clamp changes it"
+        ),
+        need: 0,
+        have: 0,
+        at: None,
+        help: Some(if storage.float_temps {
+            "keep each blended term in [0, 1] (a `saturate(…)` where a clamp is meant), or declare the framebuffer `rgba16f`"
+        } else {
+            "keep each blended term in [0, 1] (a `saturate(…)` where a clamp is meant), or target wgsl with an `rgba16f` framebuffer"
+        }
+        .into()),
+    }
+    };
+    if !split::exact_through_clamps(m, pieces, storage) {
+        cache.clamp_refusals += 1;
+        return Err(refusal(if storage.subtract {
+            "its passes would blend a term outside [0, 1] or store one between passes"
+        } else {
+            "its passes would blend a term outside [0, 1] or store one between passes, and the target's blender cannot subtract"
+        }));
+    }
+    split::signed_terms(m, fit, pieces, storage).ok_or_else(|| {
+        refusal("the negation of a term below 0, or half of a factor above 1, does not fit a pass")
+    })
 }

@@ -48,11 +48,11 @@ pub use realize::{Realized, Realizer, Refusal};
 pub use split::{FitCheck, Overflow};
 
 use affine::Builder;
-use split::{Dest, Piece, SplitCache, Splitter};
+use split::{Dest, Piece, SplitCache, Splitter, Storage};
 
 use assemble::*;
 use form::*;
-pub use form::{classify, substitute, whole_form};
+pub use form::{blended_as_gl, clamped_blend_source, classify, substitute, whole_form};
 use rewrite::*;
 
 use crate::diag::Diagnostic;
@@ -655,7 +655,7 @@ fn candidate(
     baked: bool,
     stmts: &[usize],
     fused: Handle<Expr>,
-    float_temps: bool,
+    storage: Storage,
 ) -> Result<(Form, Vec<Piece>), Unplanned> {
     let (fit, cache) =
         if baked { (&fits.compiler, &mut fits.compiler_cache) } else { (&fits.target, &mut fits.cache) };
@@ -672,7 +672,7 @@ fn candidate(
         Ok(f) => f,
         Err(d) => return Err(Unplanned::Form(d)),
     };
-    match plan_form(m, fit, cache, &st, &form, float_temps, search) {
+    match plan_form(m, fit, cache, &st, &form, storage, search) {
         Ok(pieces) => Ok((form, pieces)),
         Err(o) => Err(Unplanned::Overflow(o)),
     }

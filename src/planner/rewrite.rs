@@ -28,7 +28,7 @@ pub(super) fn planned_or_rewritten(
     rewrites: &mut HashMap<usize, String>,
 ) -> Result<(Form, Vec<Piece>), Result<Unplanned, Diagnostic>> {
     let single = stmts.len() == 1;
-    let as_written = candidate(m, search, fits, baked, stmts, value, profile.float_textures);
+    let as_written = candidate(m, search, fits, baked, stmts, value, storage_of(profile));
     let (written_cost, why) = match &as_written {
         Ok((_, pieces)) if single && fits.canonical.contains(&value) => (
             Some(split::cost(m, fits.fit(baked), pieces)),
@@ -37,7 +37,7 @@ pub(super) fn planned_or_rewritten(
         Err(Unplanned::Overflow(o)) if single => (None, format!("as written it {o}")),
         _ => return as_written.map_err(Ok),
     };
-    let tried = match rewritten(m, search, fits, baked, stmts[0], profile.float_textures) {
+    let tried = match rewritten(m, search, fits, baked, stmts[0], storage_of(profile)) {
         Ok((f, mut p, what)) if written_cost.is_none_or(|c| split::cost(m, fits.fit(baked), &p) < c) => {
             let note = format!("{what} ({why})");
             note_rewrite(&mut p, &note);
@@ -83,7 +83,7 @@ pub(super) fn rewritten(
     fits: &mut Fits,
     baked: bool,
     s: usize,
-    float_temps: bool,
+    storage: Storage,
 ) -> Rewritten {
     let st = m.statements[s].clone();
     let Ok(form) = classify(m, &st, st.value) else { return Err(Vec::new()) };
@@ -113,7 +113,7 @@ pub(super) fn rewritten(
         let f = Form { value, then_add, ..form.clone() };
         let (fit, cache) =
             if baked { (&fits.compiler, &mut fits.compiler_cache) } else { (&fits.target, &mut fits.cache) };
-        match plan_form(m, fit, cache, &st, &f, float_temps, search) {
+        match plan_form(m, fit, cache, &st, &f, storage, search) {
             Ok(pieces) => {
                 let c = split::cost(m, fit, &pieces);
                 if best.as_ref().is_none_or(|b| c < b.0) {

@@ -98,6 +98,28 @@ pub enum Dest {
     Temp(u32),
 }
 
+/// What the target's storage does to a value between passes.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Storage {
+    /// Temporaries are float textures, which clamp nothing.
+    pub float_temps: bool,
+    /// The statement's own target is float (an `rgba16f` framebuffer on a
+    /// target that has one), which clamps nothing.
+    pub float_main: bool,
+    /// The blender subtracts (`C ← C − s`, EXT_blend_subtract): a term
+    /// below zero is taken off there ([`signed_terms`]).
+    pub subtract: bool,
+}
+
+impl Storage {
+    pub(super) fn clamps(self, dest: Dest) -> bool {
+        match dest {
+            Dest::Main => !self.float_main,
+            Dest::Temp(_) => !self.float_temps,
+        }
+    }
+}
+
 /// One pass of a split: `dest ← dest <blend> value`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Piece {
@@ -189,7 +211,7 @@ pub struct Splitter<'a> {
     cache: &'a mut SplitCache,
     /// Screen position the temporaries are read at (the statement's index).
     position: Handle<Expr>,
-    float_temps: bool,
+    storage: Storage,
 }
 
 impl<'a> Splitter<'a> {
@@ -198,9 +220,9 @@ impl<'a> Splitter<'a> {
         fit: &'a dyn FitCheck,
         cache: &'a mut SplitCache,
         position: Handle<Expr>,
-        float_temps: bool,
+        storage: Storage,
     ) -> Splitter<'a> {
-        Splitter { module, fit, exhaustive: false, cache, position, float_temps }
+        Splitter { module, fit, exhaustive: false, cache, position, storage }
     }
 
     /// The brute-force variant the optimality test compares against.
@@ -280,12 +302,12 @@ impl<'a> Splitter<'a> {
             }
         }
         let mut fitting: Vec<(Cost, Vec<Piece>)> = Vec::new();
+        // Costed as the blender runs it ([`signed_terms`]), kept as found
+        // (the pieces of a larger split are rewritten once, at the end).
         let consider = |s: &mut Self, cand: Vec<Piece>, fitting: &mut Vec<(Cost, Vec<Piece>)>| {
-            if !exact_through_clamps(s.module, &cand, s.float_temps) {
-                s.cache.clamp_refusals += 1;
-                return;
+            if let Some(c) = s.exact_cost(&cand) {
+                fitting.push((c, cand));
             }
-            fitting.push((s.cost(&cand), cand));
         };
         if let Some(c) = self.chain_split(mode, e, depth, &overflow) {
             consider(self, c, &mut fitting);
@@ -366,25 +388,24 @@ impl<'a> Splitter<'a> {
                 blend.name()
             )
         };
-        let mut best: Option<Vec<Piece>> = None;
-        let mut keep = |s: &Self, cand: Vec<Piece>| {
-            if best.as_ref().is_none_or(|b| s.cost(&cand) < s.cost(b)) {
-                best = Some(cand);
+        // Only partitions exact through the clamps compete (the exhaustive
+        // search yields every partition: its cheapest may not be exact).
+        let mut best: Option<(Cost, Vec<Piece>)> = None;
+        let mut keep = |s: &mut Self, cand: Vec<Piece>| {
+            let Some(c) = s.exact_cost(&cand) else { return };
+            if best.as_ref().is_none_or(|(b, _)| c < *b) {
+                best = Some((c, cand));
             }
         };
+        let piece = |blend, value, why| Piece { blend, value, dest: Dest::Main, alpha: true, why };
         // Plain partitions: every group one pass.
-        for groups in self.partitions(op, &ops) {
+        for mut groups in self.partitions(op, &ops) {
+            self.signed_last(op, &mut groups);
             let g = groups.len();
             let mut pieces = Vec::new();
             for (k, group) in groups.into_iter().enumerate() {
                 let blend = if k == 0 { first } else { rest };
-                pieces.push(Piece {
-                    blend,
-                    value: group,
-                    dest: Dest::Main,
-                    alpha: true,
-                    why: why(k + 1, g, blend),
-                });
+                pieces.push(piece(blend, group, why(k + 1, g, blend)));
             }
             keep(self, pieces);
         }
@@ -397,23 +418,45 @@ impl<'a> Splitter<'a> {
                     continue; // then it is just a group of a plain partition
                 }
                 let Some(head) = self.plan_at(BlendMode::Replace, ops[i], depth + 1) else { continue };
-                for groups in self.partitions(op, &others) {
+                for mut groups in self.partitions(op, &others) {
+                    self.signed_last(op, &mut groups);
                     let g = groups.len() + 1;
                     let mut pieces: Vec<Piece> = head.iter().cloned().collect();
                     for (k, group) in groups.into_iter().enumerate() {
-                        pieces.push(Piece {
-                            blend: rest,
-                            value: group,
-                            dest: Dest::Main,
-                            alpha: true,
-                            why: why(k + 2, g, rest),
-                        });
+                        pieces.push(piece(rest, group, why(k + 2, g, rest)));
                     }
                     keep(self, pieces);
                 }
             }
         }
-        best
+        best.map(|(_, p)| p)
+    }
+
+    /// The cost of `cand` as the blender runs it ([`signed_terms`]), or
+    /// `None` (counted as a clamp refusal) where it is not exact through
+    /// the clamps ([`exact_through_clamps`]).
+    fn exact_cost(&mut self, cand: &[Piece]) -> Option<Cost> {
+        let blended = exact_through_clamps(self.module, cand, self.storage)
+            .then(|| signed_terms(self.module, self.fit, cand, self.storage))
+            .flatten();
+        let Some(blended) = blended else {
+            self.cache.clamp_refusals += 1;
+            return None;
+        };
+        Some(self.cost(&blended))
+    }
+
+    /// A sum's groups in the order a clamped target adds them exactly
+    /// ([`exact_through_clamps`]): the non-negative ones first, then those
+    /// of either sign (while what is held is still in [0, 1]), then the
+    /// non-positive ones; stable otherwise.
+    fn signed_last(&self, op: ChainOp, groups: &mut [Handle<Expr>]) {
+        if op == ChainOp::Add {
+            groups.sort_by_key(|&g| {
+                let v = self.module.info(g).interval;
+                u8::from(v.lo < 0.0) + u8::from(v.hi <= 0.0)
+            });
+        }
     }
 
     /// Partitions of `ops` into groups that each fit one pass, as chain
@@ -474,7 +517,9 @@ impl<'a> Splitter<'a> {
         let mut mask = full;
         while mask != 0 {
             let Some((_, sub)) = best[mask] else { return vec![] };
-            out.push(group[sub].expect("chosen groups fit").0);
+            // `best` only chooses a subset whose group fits: never empty.
+            let Some((h, _)) = group[sub] else { return vec![] };
+            out.push(h);
             mask ^= sub;
         }
         vec![out]
@@ -661,7 +706,7 @@ impl<'a> Splitter<'a> {
         self.module.textures.push(Texture {
             name,
             kind: TextureKind::Tex2d,
-            format: if self.float_temps { TextureFormat::Rgba16f } else { TextureFormat::Rgba8 },
+            format: if self.storage.float_temps { TextureFormat::Rgba16f } else { TextureFormat::Rgba8 },
             rendered: true,
             baked: false,
             declaration: None,
@@ -676,41 +721,160 @@ impl<'a> Splitter<'a> {
 
 /// Whether a split gives what the unsplit value gives on a framebuffer
 /// that stores [0, 1] (8-bit, Kilgard 2000, Section 5: every pass's result is
-/// clamped when written). The meaning clamps once, at the end; a split
-/// clamps after every pass, which is the same only while what a pass
-/// leaves behind is in [0, 1], or when only non-negative terms are added
-/// after it (clamp(clamp(a) + b) = clamp(a + b) for b ≥ 0). Otherwise —
-/// `(diffuse + specular) · decal` with the sum above 1 — the later pass
-/// modulates a clamped value: the split is refused here and another one
-/// (the decal distributed over the terms) is taken, or the statement is
-/// refused. A temporary on an 8-bit texture is clamped when stored, so what
-/// it ends with must be in [0, 1] too.
-pub fn exact_through_clamps(module: &Module, pieces: &[Piece], float_temps: bool) -> bool {
+/// clamped when written, and GL clamps a blend's source there too, OpenGL
+/// 1.2.1 §4.1.8). The meaning clamps once, at the end; a split clamps after
+/// every pass. Tracking the range `h` of what the target would hold
+/// unclamped (the framebuffer's [0, 1] before its first piece), a piece is
+/// exact when:
+/// - `replace v`: always (the stored value's clamp is carried on in `h`);
+/// - `add v`, `v ≥ 0`: `h ≥ 0` (min(1, min(1, h) + v) = min(1, h + v));
+/// - `add v`, `v` of either sign: `h ⊆ [0, 1]` and the blender subtracts —
+///   [`signed_terms`] writes it as `add v` then `reverse_subtract −v`, each
+///   source clamped to its non-negative part, so one of them adds nothing;
+///   `v ≤ 0`: `h ≤ 1` (only the subtraction);
+/// - `reverse_subtract s`, `s ≥ 0`: `h ≤ 1`;
+/// - `modulate m`, `m ≤ 1`, `h ≤ 1`, and `m ≥ 0` or `h ≥ 0` (a negative
+///   factor is clamped to 0, the product is ≤ 0 and clamped to 0 as well);
+///   `m ≤ 2` as `modulate_2x` of `m/2` ([`signed_terms`]; GL 1.1's
+///   GL_DST_COLOR, GL_SRC_COLOR, which every target has).
+///
+/// Otherwise — `(diffuse + specular) · decal` with the sum above 1, a sum
+/// whose first pass may be negative — the later pass reads a clamped value:
+/// the split is refused here and another one (the decal distributed over
+/// the terms, the terms reordered) is taken, or the statement is refused.
+/// A temporary on an 8-bit texture is clamped when stored, so what it ends
+/// with must be in [0, 1] too. A float target clamps nothing.
+pub fn exact_through_clamps(module: &Module, pieces: &[Piece], storage: Storage) -> bool {
     let mut held: HashMap<Dest, Interval> = HashMap::default();
     for p in pieces {
-        let v = module.info(p.value).interval;
-        // Before a target's first piece: what the framebuffer holds, [0, 1].
-        let b = held.get(&p.dest).copied().unwrap_or(Interval::UNSIGNED);
-        // A pass's own output is clamped before it is blended: only a
-        // replace (whose clamp the held range carries on) may exceed [0, 1]
-        // — or an addition of non-negative values to non-negative ones,
-        // whose clamp to 1 the stored sum's clamp repeats
-        // (min(1, b + min(1, v)) = min(1, b + v) for b, v ≥ 0).
-        let saturating_add = p.blend == BlendMode::Add && v.lo >= 0.0 && b.lo >= 0.0;
-        if p.blend != BlendMode::Replace && (v.lo < 0.0 || v.hi > 1.0) && !saturating_add {
-            return false;
+        if !storage.clamps(p.dest) {
+            continue;
         }
-        let after = match p.blend {
-            BlendMode::Replace => v,
-            BlendMode::Add => crate::ir::valid::add(b, v),
-            _ if b.lo < 0.0 || b.hi > 1.0 => return false,
-            BlendMode::Modulate => crate::ir::valid::mul(b, v),
-            _ => Interval::UNSIGNED,
-        };
+        let v = module.info(p.value).interval;
+        let b = held.get(&p.dest).copied().unwrap_or(Interval::UNSIGNED);
+        let Some(after) = exact_blend(p.blend, b, v, storage.subtract) else { return false };
         held.insert(p.dest, after);
     }
-    // A temporary is read as it was stored: in [0, 1] unless it is float.
-    float_temps || held.iter().all(|(d, i)| *d == Dest::Main || (i.lo >= 0.0 && i.hi <= 1.0))
+    held.iter().all(|(d, i)| *d == Dest::Main || (i.lo >= 0.0 && i.hi <= 1.0))
+}
+
+/// What a clamped target holds (unclamped) after `blend` of a value in `v`
+/// onto one holding `b`, when the clamps leave the result exact
+/// ([`exact_through_clamps`]).
+fn exact_blend(blend: BlendMode, b: Interval, v: Interval, subtract: bool) -> Option<Interval> {
+    let unit = |i: Interval| i.lo >= 0.0 && i.hi <= 1.0;
+    let sum = crate::ir::valid::add(b, v);
+    match blend {
+        BlendMode::Replace => Some(v),
+        BlendMode::Add if v.lo >= 0.0 => (b.lo >= 0.0).then_some(sum),
+        BlendMode::Add if v.hi <= 0.0 => (subtract && b.hi <= 1.0).then_some(sum),
+        BlendMode::Add => (subtract && unit(b)).then_some(sum),
+        BlendMode::ReverseSubtract => {
+            (v.lo >= 0.0 && b.hi <= 1.0).then(|| crate::ir::valid::add(b, Interval { lo: -v.hi, hi: -v.lo }))
+        }
+        // Past 1 (up to 2) as `modulate_2x` of `m/2` ([`signed_terms`]).
+        BlendMode::Modulate => {
+            (v.hi <= 2.0 && b.hi <= 1.0 && (v.lo >= 0.0 || b.lo >= 0.0)).then(|| crate::ir::valid::mul(b, v))
+        }
+        // The alpha blends: both in [0, 1], the result too.
+        _ => (unit(b) && unit(v)).then_some(Interval::UNSIGNED),
+    }
+}
+
+/// `pieces` as the blender runs them on a clamped target: an `add` of a
+/// term that may be negative becomes `add v` then `reverse_subtract −v`
+/// (`−v` alone when `v ≤ 0`); a `modulate` by a factor past 1 becomes
+/// `modulate_2x` of half of it. GL clamps each source to [0, 1] on a
+/// fixed-point target (§4.1.8), so at every fragment one of the two is 0
+/// and the other adds or takes off what `v` means there; exact where
+/// [`exact_through_clamps`] accepted the add. `None` when `−v` (or `m/2`)
+/// does not fit a pass of the target.
+pub fn signed_terms(
+    module: &mut Module,
+    fit: &dyn FitCheck,
+    pieces: &[Piece],
+    storage: Storage,
+) -> Option<Vec<Piece>> {
+    let mut out = Vec::with_capacity(pieces.len());
+    for p in pieces {
+        let v = module.info(p.value).interval;
+        if p.blend == BlendMode::Modulate && v.hi > 1.0 && storage.clamps(p.dest) {
+            let half = halved(module, p.value).filter(|&h| fit.fits(module, h).is_ok())?;
+            out.push(Piece {
+                blend: BlendMode::Modulate2x,
+                value: half,
+                why: format!(
+                    "{}{}a factor up to {}, halved into [0, 1] and doubled by the blender (2× modulate)",
+                    p.why,
+                    if p.why.is_empty() { "" } else { "; " },
+                    v.hi
+                ),
+                ..p.clone()
+            });
+            continue;
+        }
+        if p.blend != BlendMode::Add || v.lo >= 0.0 || !storage.clamps(p.dest) {
+            out.push(p.clone());
+            continue;
+        }
+        let negated = negation(module, p.value).filter(|&n| fit.fits(module, n).is_ok())?;
+        if v.hi > 0.0 {
+            out.push(Piece {
+                why: format!("{}; its part above 0 (the blend clamps the rest)", p.why),
+                ..p.clone()
+            });
+        }
+        out.push(Piece {
+            blend: BlendMode::ReverseSubtract,
+            value: negated,
+            why: format!(
+                "{}{}its part below 0, taken off by the blender (reverse subtract), which an add would clamp to 0",
+                p.why,
+                if p.why.is_empty() { "" } else { "; " }
+            ),
+            ..p.clone()
+        });
+    }
+    Some(out)
+}
+
+/// `v/2`, as the target computes it most simply: `2·x` is `x`, an rgb
+/// value written with alpha 1 gets alpha ½.
+fn halved(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Expr>> {
+    if let Expr::Convert { value, to: Ty::Rgba } = module.exprs[v] {
+        if matches!(module.info(value).ty, Ty::Rgb | Ty::Vec3) {
+            let colour = halved(module, value)?;
+            let mut b = Builder { module };
+            let alpha = b.constant(Ty::Scalar, 0.5)?;
+            return b.node(Expr::Compose { ty: Ty::Rgba, components: vec![colour, alpha] });
+        }
+    }
+    if let Expr::Binary { op: BinaryOp::Mul, lhs, rhs }
+    | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs } = module.exprs[v]
+    {
+        for (k, x) in [(lhs, rhs), (rhs, lhs)] {
+            if module.is_constant(k, 2.0) && module.info(x).ty == module.info(v).ty {
+                return Some(x);
+            }
+        }
+    }
+    let mut b = Builder { module };
+    let half = b.constant(Ty::Scalar, 0.5)?;
+    b.mul(v, half).filter(|&h| b.module.info(h).ty == b.module.info(v).ty)
+}
+
+/// `−v`, as the target computes it most simply: a subtraction's operands
+/// swapped, else a negation.
+fn negation(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Expr>> {
+    let mut b = Builder { module };
+    match b.module.exprs[v] {
+        Expr::Combine { mode: CombineMode::Subtract, lhs, rhs } => {
+            b.node(Expr::Combine { mode: CombineMode::Subtract, lhs: rhs, rhs: lhs })
+        }
+        Expr::Binary { op: BinaryOp::Sub, lhs, rhs } => b.binary(BinaryOp::Sub, rhs, lhs),
+        Expr::Unary { op: crate::ir::UnaryOp::Neg, value } => Some(value),
+        _ => b.neg(v),
+    }
 }
 
 /// Whether `h` depends on `x` (re-exported for the planner).

@@ -116,11 +116,12 @@ impl TileBuffers {
                 }
             }
             ColorTile::Unorm(c) => {
-                // The destination is what the buffer holds, clamped. The
-                // source is not clamped first (GL §4.1.8 clamps it on a
-                // fixed-point buffer): a blend of a term outside [0, 1] is
-                // the planner's to avoid.
-                let out = blend.blend(src, &c[idx].map(unorm));
+                // The destination is what the buffer holds, clamped; a
+                // blended source is clamped first, as GL clamps it on a
+                // fixed-point buffer (§4.1.8), as a blend the program
+                // writes means it (`planner::blended_as_gl`).
+                let s = if *blend == BlendState::REPLACE { *src } else { src.map(unorm) };
+                let out = blend.blend(&s, &c[idx].map(unorm));
                 for ch in 0..4 {
                     if blend.write_mask[ch] {
                         c[idx][ch] = out[ch];
@@ -388,9 +389,16 @@ mod tests {
         assert_eq!(fb.read_back_rgba_f32()[0], [0.1, 0.0, 1.0, 0.0]);
         // The last value written is kept as computed.
         assert_eq!(fb.color(0, 0).unwrap()[..3], [0.1, -0.7, 3.0]);
-        // A blend reads the destination clamped, the source as it is.
+        // A blend reads the destination and the source clamped (§4.1.8).
         fb.tiles[0].blend_color(0, &[2.0, 0.5, -0.5, 0.0], &BlendState::ADD);
-        assert_eq!(fb.color(0, 0).unwrap(), [2.1, 0.5, 0.5, 0.0]);
+        assert_eq!(fb.color(0, 0).unwrap(), [1.1, 0.5, 1.0, 0.0]);
+        // So an add and a reverse subtract of a signed term give it exactly.
+        let sub = BlendState { equation: crate::pipeline::BlendEquation::ReverseSubtract, ..BlendState::ADD };
+        fb.set_color(1, 0, [0.5, 0.5, 0.5, 0.5]);
+        let v = [0.25f32, -0.25, 0.0, 0.0];
+        fb.tiles[0].blend_color(1, &v, &BlendState::ADD);
+        fb.tiles[0].blend_color(1, &v.map(|x| -x), &sub);
+        assert_eq!(fb.color(1, 0).unwrap(), [0.75, 0.25, 0.5, 0.5]);
     }
 
     #[test]
