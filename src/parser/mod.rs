@@ -86,9 +86,8 @@ pub fn parse(source: &str) -> (ast::Program, Vec<Diagnostic>) {
 type Parsed = Result<ast::Item, Vec<Diagnostic>>;
 
 /// Fewest items parsed in parallel. Below it the pieces parse on the
-/// calling thread: handing a few items to the pool and waiting costs more
-/// than it saves (the language server parses per keystroke), and under a
-/// fuzzer the pool's scheduling made coverage differ from run to run.
+/// calling thread: handing a few items to the pool and waiting for it costs
+/// more than it saves (the language server parses per keystroke).
 const PARALLEL_ITEMS: usize = 64;
 
 /// Parses every piece, in source order. The pieces parse independently
