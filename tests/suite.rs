@@ -77,3 +77,5 @@ mod wgsl_agreement;
 mod wgsl_gpu;
 mod wgsl_snapshots;
 mod wgsl_texture_targets;
+
+mod chain_growth;

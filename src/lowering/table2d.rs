@@ -237,12 +237,18 @@ fn clamp_note(clamp: Option<(f64, f64)>) -> String {
 }
 
 /// `h` as a function of its two arguments: the nodes between them and
-/// `h`, in the arena's (topological) order.
+/// `h`, in the arena's (topological) order, each with where its operands
+/// are among them, so a texel's evaluation indexes a vector instead of
+/// hashing (it runs for every texel of the table and of the error probe).
 struct Function<'m> {
     m: &'m Module,
     nodes: Vec<Handle<Expr>>,
+    /// Per node, the positions of its operands in `nodes` (`None`: not
+    /// evaluated, read as NaN).
+    operands: Vec<Vec<Option<usize>>>,
     args: [Handle<Expr>; 2],
-    h: Handle<Expr>,
+    /// The position of `h` in `nodes`.
+    result: Option<usize>,
 }
 
 impl<'m> Function<'m> {
@@ -259,13 +265,21 @@ impl<'m> Function<'m> {
                 nodes.push(node);
             }
         }
-        Function { m, nodes, args, h }
+        let mut position: HashMap<Handle<Expr>, usize> = HashMap::with_capacity(nodes.len());
+        let mut operands = Vec::with_capacity(nodes.len());
+        for (k, &node) in nodes.iter().enumerate() {
+            operands.push(m.exprs[node].operands().iter().map(|o| position.get(o).copied()).collect());
+            position.insert(node, k);
+        }
+        let result = position.get(&h).copied();
+        Function { m, nodes, operands, args, result }
     }
 
     /// `h` at `a = x`, `b = y`.
     fn at(&self, x: f64, y: f64) -> f64 {
-        let mut values: HashMap<Handle<Expr>, Value> = HashMap::with_capacity(self.nodes.len());
-        for &node in &self.nodes {
+        let mut values: Vec<Value> = Vec::with_capacity(self.nodes.len());
+        let mut ops: Vec<Value> = Vec::new();
+        for (&node, operands) in self.nodes.iter().zip(&self.operands) {
             let e = &self.m.exprs[node];
             let v = if node == self.args[0] {
                 [x; 4]
@@ -274,13 +288,13 @@ impl<'m> Function<'m> {
             } else if let Expr::Constant(c) = e {
                 eval::value(c)
             } else {
-                let ops: Vec<Value> =
-                    e.operands().iter().map(|o| values.get(o).copied().unwrap_or([f64::NAN; 4])).collect();
+                ops.clear();
+                ops.extend(operands.iter().map(|o| o.map_or([f64::NAN; 4], |i| values[i])));
                 eval::apply(self.m, e, self.m.info(node).ty, &ops)
             };
-            values.insert(node, v);
+            values.push(v);
         }
-        values.get(&self.h).map_or(f64::NAN, |v| v[0])
+        self.result.map_or(f64::NAN, |k| values[k][0])
     }
 }
 

@@ -37,10 +37,7 @@ pub fn parse(source: &str) -> (ast::Program, Vec<Diagnostic>) {
     let mut program = ast::Program::default();
     let mut diagnostics = Vec::new();
     let pieces = split::split_items(source);
-    // The pieces parse independently (pest and the AST builder read nothing
-    // but the piece), so they parse in parallel; comments are attached and
-    // items kept in source order after, one piece at a time.
-    let mut parsed: Vec<Option<Parsed>> = pieces.par_iter().map(|piece| parse_piece(source, piece)).collect();
+    let mut parsed = parse_pieces(source, &pieces, pieces.len() >= PARALLEL_ITEMS);
     for (n, piece) in pieces.into_iter().enumerate() {
         let text = &source[piece.range.clone()];
         if let Some(d) = piece.error {
@@ -87,6 +84,23 @@ pub fn parse(source: &str) -> (ast::Program, Vec<Diagnostic>) {
 
 /// A piece's item, or its syntax errors.
 type Parsed = Result<ast::Item, Vec<Diagnostic>>;
+
+/// Fewest items parsed in parallel. Below it the pieces parse on the
+/// calling thread: handing a few items to the pool and waiting for it costs
+/// more than it saves (the language server parses per keystroke).
+const PARALLEL_ITEMS: usize = 64;
+
+/// Parses every piece, in source order. The pieces parse independently
+/// (pest and the AST builder read nothing but the piece), so they can parse
+/// in parallel; comments are attached and items kept in source order after,
+/// one piece at a time ([`parse`]).
+fn parse_pieces(source: &str, pieces: &[split::Piece], parallel: bool) -> Vec<Option<Parsed>> {
+    if parallel {
+        pieces.par_iter().map(|piece| parse_piece(source, piece)).collect()
+    } else {
+        pieces.iter().map(|piece| parse_piece(source, piece)).collect()
+    }
+}
 
 /// The text pest reads for a piece: a piece cut at a line break (its `;`
 /// missing) is parsed with the `;` added, so later statements see its names,

@@ -319,3 +319,24 @@ fn the_deepest_allowed_nesting_parses_in_a_small_stack() {
     let (_, d) = parse(&src);
     assert!(d.is_empty(), "{d:#?}");
 }
+
+/// Small programs parse on the calling thread, large ones in parallel: both
+/// ways give the same items, with errors, in source order.
+#[test]
+fn pieces_parse_the_same_on_one_thread_and_in_parallel() {
+    use super::{parse_pieces, split::split_items, PARALLEL_ITEMS};
+    let mut source = String::new();
+    for entry in std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/examples")).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "shd") {
+            source += &std::fs::read_to_string(path).unwrap();
+            source += "\nC xs ← (x;\nlet broken = 1 +;\n";
+        }
+    }
+    let pieces = split_items(&source);
+    assert!(pieces.len() > 4 * PARALLEL_ITEMS, "{} pieces", pieces.len());
+    let one_thread = parse_pieces(&source, &pieces, false);
+    let parallel = parse_pieces(&source, &pieces, true);
+    assert!(one_thread.iter().flatten().any(|p| p.is_err()), "no piece with an error");
+    assert!(one_thread == parallel, "the parallel parse differs from the sequential one");
+}

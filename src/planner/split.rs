@@ -27,7 +27,7 @@
 //! are off: every set partition is enumerated — the optimality test checks
 //! that both agree on pass counts.
 
-use rustc_hash::FxHashMap as HashMap;
+use rustc_hash::{FxHashMap as HashMap, FxHashSet};
 use std::rc::Rc;
 
 use super::affine::{affine, contains, Builder};
@@ -412,11 +412,13 @@ impl<'a> Splitter<'a> {
         // A head planned on its own (several passes), the rest grouped after it.
         if mode == BlendMode::Replace {
             for i in 0..n {
-                let others: Vec<Handle<Expr>> =
-                    ops.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, h)| *h).collect();
+                // Checked before the others are gathered: gathering them
+                // for every operand made a long chain quadratic.
                 if self.fits(ops[i]).is_ok() {
                     continue; // then it is just a group of a plain partition
                 }
+                let others: Vec<Handle<Expr>> =
+                    ops.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, h)| *h).collect();
                 let Some(head) = self.plan_at(BlendMode::Replace, ops[i], depth + 1) else { continue };
                 for mut groups in self.partitions(op, &others) {
                     self.signed_last(op, &mut groups);
@@ -557,21 +559,40 @@ impl<'a> Splitter<'a> {
 
     /// Long chains: operands with the most texture units first, each into the
     /// first group it fits.
+    ///
+    /// A group is not tried again with an operand it refused as it stands,
+    /// and once it has refused every distinct operand of the chain it is
+    /// closed (it can never grow): the groups are the same as trying every
+    /// group, but a long chain of repeated lookups stays linear instead of
+    /// trying each of its N/3 passes for each of its N operands.
     fn first_fit(&mut self, op: ChainOp, ops: &[Handle<Expr>]) -> Option<Vec<Handle<Expr>>> {
         let mut order: Vec<Handle<Expr>> = ops.to_vec();
         order.sort_by_cached_key(|h| std::cmp::Reverse(self.units(*h)));
+        let distinct = order.iter().collect::<FxHashSet<_>>().len();
         let mut groups: Vec<Vec<Handle<Expr>>> = Vec::new();
+        // The open groups, in order: each one's index and what it refused.
+        let mut open: Vec<(usize, FxHashSet<Handle<Expr>>)> = Vec::new();
         'next: for o in order {
-            for g in groups.iter_mut() {
-                g.push(o);
-                if let Some(h) = self.build_chain(op, g) {
-                    if self.fits(h).is_ok() {
+            let mut k = 0;
+            while k < open.len() {
+                let g = open[k].0;
+                if !open[k].1.contains(&o) {
+                    groups[g].push(o);
+                    if self.build_chain(op, &groups[g]).is_some_and(|h| self.fits(h).is_ok()) {
+                        open[k].1.clear();
                         continue 'next;
                     }
+                    groups[g].pop();
+                    open[k].1.insert(o);
+                    if open[k].1.len() == distinct {
+                        open.remove(k);
+                        continue;
+                    }
                 }
-                g.pop();
+                k += 1;
             }
             self.fits(o).ok()?;
+            open.push((groups.len(), FxHashSet::default()));
             groups.push(vec![o]);
         }
         groups.iter().map(|g| self.build_chain(op, g)).collect()
