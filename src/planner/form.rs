@@ -70,13 +70,7 @@ pub fn clamped_blend_source(m: &Module, st: &Statement, value: Handle<Expr>) -> 
     }
     let r = self_read(m, st, FbChannel::Color)?;
     let Expr::Combine { mode, lhs, rhs } = m.exprs[value] else { return None };
-    let v = if lhs == r {
-        rhs
-    } else if rhs == r {
-        lhs
-    } else {
-        return None;
-    };
+    let v = other_operand(lhs, rhs, r)?;
     let ra = self_read(m, st, FbChannel::Alpha);
     let outside = |h: Handle<Expr>| {
         let i = m.info(h).interval;
@@ -379,13 +373,7 @@ pub(super) fn alpha_factor(m: &Module, h: Handle<Expr>, ra: Handle<Expr>) -> Opt
 pub(super) fn stencil_write(m: &Module, st: &Statement, value: Handle<Expr>) -> Option<Form> {
     let Expr::Binary { op: BinaryOp::Or, lhs, rhs } = m.exprs[value] else { return None };
     let own = self_read(m, st, FbChannel::Stencil)?;
-    let cmp = if lhs == own {
-        rhs
-    } else if rhs == own {
-        lhs
-    } else {
-        return None;
-    };
+    let cmp = other_operand(lhs, rhs, own)?;
     let Expr::Binary { op, lhs: a, rhs: b } = m.exprs[cmp] else { return None };
     let stored_is_b = matches!(m.exprs[b], Expr::FramebufferRead { channel: FbChannel::Depth, .. });
     // The fragment's own depth `z δπx′`: the shadow volume x′ is what this
@@ -587,4 +575,16 @@ pub(super) fn through_clamps(
     split::signed_terms(m, fit, pieces, storage).ok_or_else(|| {
         refusal("the negation of a term below 0, or half of a factor above 1, does not fit a pass")
     })
+}
+
+/// The operand of a binary node that is not `own` (the statement's read of
+/// its own target), where one of them is.
+fn other_operand(lhs: Handle<Expr>, rhs: Handle<Expr>, own: Handle<Expr>) -> Option<Handle<Expr>> {
+    if lhs == own {
+        Some(rhs)
+    } else if rhs == own {
+        Some(lhs)
+    } else {
+        None
+    }
 }
