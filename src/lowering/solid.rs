@@ -131,20 +131,7 @@ fn matched(r: &Rewriter, t: u32) -> Option<SolidMap> {
     // an 8-bit texture holds.
     let reach = m.reachable(&[s.value]);
     let pure = reach.iter().all(|&h| {
-        h == read
-            || h == texel
-            || h == s.index
-            || matches!(
-                m.exprs[h],
-                Expr::Constant(_)
-                    | Expr::Unary { .. }
-                    | Expr::Binary { .. }
-                    | Expr::Math { .. }
-                    | Expr::Swizzle { .. }
-                    | Expr::Compose { .. }
-                    | Expr::Convert { .. }
-                    | Expr::Select { .. }
-            )
+        h == read || h == texel || h == s.index || crate::ir::eval::is_pure_arithmetic(&m.exprs[h])
     });
     let users_of_texel = reach.iter().filter(|&&h| m.operands(h).contains(&texel)).all(|&h| h == read);
     let iv = m.info(s.value).interval;

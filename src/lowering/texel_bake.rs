@@ -21,18 +21,8 @@ pub fn apply(r: &mut Rewriter) {
             continue;
         }
         let pure = r.m.reachable(&[st.value]).iter().all(|h| {
-            matches!(
-                r.m.exprs[*h],
-                Expr::Constant(_)
-                    | Expr::TexelCoord
-                    | Expr::Unary { .. }
-                    | Expr::Binary { .. }
-                    | Expr::Math { .. }
-                    | Expr::Swizzle { .. }
-                    | Expr::Compose { .. }
-                    | Expr::Convert { .. }
-                    | Expr::Select { .. }
-            )
+            let e = &r.m.exprs[*h];
+            matches!(e, Expr::TexelCoord) || crate::ir::eval::is_pure_arithmetic(e)
         });
         if !pure {
             continue;

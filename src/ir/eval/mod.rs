@@ -90,6 +90,13 @@ pub fn is_computation(e: &Expr) -> bool {
     )
 }
 
+/// A constant, or a computation other than the texture environment's `⊕`
+/// (whose clamp depends on the target): what the compiler may evaluate
+/// ahead of time over a grid (the texel and solid-texture bakes).
+pub fn is_pure_arithmetic(e: &Expr) -> bool {
+    matches!(e, Expr::Constant(_)) || (is_computation(e) && !matches!(e, Expr::Combine { .. }))
+}
+
 #[inline]
 fn lanes(f: impl Fn(usize) -> f64) -> Value {
     [f(0), f(1), f(2), f(3)]
