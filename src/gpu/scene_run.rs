@@ -145,6 +145,10 @@ use crate::scene::bind::{self, BoundObject, BoundTexture, TextureQuality};
 use crate::scene::{Scene, SceneAssets};
 use crate::textures::{Filter, Level, TexelFormat, Texture, Texture2D, Wrap};
 
+/// One draw of a pass: for an object (its projections), its vertices and
+/// triangles.
+type Draw<'d> = dyn Fn(Option<&BoundObject>, VertexData, Vec<u32>) -> RunPass + 'd;
+
 /// Why a plan could not run on wgpu for a scene.
 #[derive(Debug, thiserror::Error)]
 pub enum SceneRunError {
@@ -321,7 +325,7 @@ impl<'a> ScenePlan<'a> {
         objects: &[BoundObject],
         aspect: f32,
         uniforms64: &[Option<[f64; 4]>],
-        draw: &dyn Fn(Option<&BoundObject>, VertexData, Vec<u32>) -> RunPass,
+        draw: &Draw,
         out: &mut Vec<RunPass>,
     ) -> Result<(), SceneRunError> {
         let m = &self.planned.module;

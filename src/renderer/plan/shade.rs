@@ -364,7 +364,7 @@ impl<'a> FragmentProgram<'a> {
     /// (`textures::unit`: a level of detail per 2×2 quad; with `fixed8`, an
     /// 8-bit texture filtered in 8.8 fixed point, as hardware fidelity
     /// uploads it, else in float, as exact fidelity does), so the wgpu
-    /// image agrees with them (issue 5); exact samples ideal GL.
+    /// image agrees with them; exact samples ideal GL.
     pub(super) fn sample_flat(
         &self,
         t: &Texture2D,
