@@ -1,11 +1,12 @@
 //! `render` through the vertex programs (NV_vertex_program on geforce3):
 //! each mesh pass's vertices come from its emitted `!!VP1.0` program run in
 //! the interpreter, and that equals the host's evaluation of the IR within
-//! f32 rounding (the colours interpolated unclamped on both paths, see
-//! `src/renderer/vertex_program.rs`).
+//! f32 rounding, the colour results clamped to [0, 1] as NV_vertex_program
+//! Section 2.14.1.5 says (`src/renderer/vertex_program.rs`).
 
 use std::path::Path;
 
+use shadec::backends::vertex_program::program::Output;
 use shadec::ir::eval::{Evaluator, Value};
 use shadec::ir::Expr;
 use shadec::numerics::Precision;
@@ -108,8 +109,11 @@ fn compare_pass(planned: &Planned, index: usize, program: &PassProgram, scene: &
                 assert!(d <= TOLERANCE, "{what}: vertex {vertex} {name}: host {w}, vertex program {g}");
             };
             for (k, o) in e.outputs.iter().take(e.interpolants.len()).enumerate() {
+                // The colours reach the rasterizer clamped (Section 2.14.1.5).
+                let colour = Output::COLOURS.contains(o);
                 for c in 0..4 {
-                    check(&format!("o[{}].{c}", o.name()), want[k][c], varyings[vertex * nv + 4 * k + c]);
+                    let w = if colour { want[k][c].clamp(0.0, 1.0) } else { want[k][c] };
+                    check(&format!("o[{}].{c}", o.name()), w, varyings[vertex * nv + 4 * k + c]);
                 }
             }
             if want.len() > e.interpolants.len() {

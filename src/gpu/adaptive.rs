@@ -97,6 +97,7 @@ fn adaptive_frame(
         height: target.height.div_ceil(spacing),
         layers: 1,
         format: target.color_format,
+        mip_levels: 1,
     };
     let scale = (sparse.width as f32 / target.width as f32, sparse.height as f32 / target.height as f32);
     let main = &passes[first_main..];
@@ -218,8 +219,14 @@ mod tests {
 
     #[test]
     fn the_frame_is_sparse_passes_the_classification_and_the_plan() {
-        let texture =
-            RenderedTexture { name: "T".into(), width: 4, height: 4, layers: 1, format: ColorTarget::Rgba8 };
+        let texture = RenderedTexture {
+            name: "T".into(),
+            width: 4,
+            height: 4,
+            layers: 1,
+            format: ColorTarget::Rgba8,
+            mip_levels: 1,
+        };
         let passes = [
             pass(PassTarget::Texture(texture), CompareFunc::Less),
             pass(PassTarget::Main, CompareFunc::Less),

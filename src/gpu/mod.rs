@@ -8,6 +8,8 @@
 //! - `scene_run`: a whole plan on a scene, bound by the same scene binder
 //!   as the CPU renderer (`scene::bind`), rendered textures included;
 //! - `timer`: a frame's GPU time from timestamp queries;
+//! - `vertex_stage`: a pass's vertex program (NV_vertex_program) as its
+//!   WGSL vertex stage, on targets that have them;
 //! - `adaptive`: adaptive sample shading as a sparse pass and an
 //!   interpolating full pass (Adaptive Sample Shading, Section 2.1);
 //! - `runtime_dir`: a private `XDG_RUNTIME_DIR` where the environment has
@@ -18,3 +20,4 @@ pub mod runner;
 pub mod runtime_dir;
 pub mod scene_run;
 pub mod timer;
+pub mod vertex_stage;

@@ -26,11 +26,13 @@ use image::RgbaImage;
 mod depth;
 mod fixed_function;
 mod frame;
+mod mips;
 mod passes;
 mod prepare;
 mod resources;
 
 pub use frame::{Frame, TimedFrame};
+pub use mips::full_chain;
 pub use passes::{
     AddressMode, ColorTarget, DepthFormat, Filter, LoadedTexture, PassTarget, RenderedTexture, RunPass,
     RunShader, RunTexture, SamplerSettings, ShaderSource, Target, TexelUpload, TextureData, VertexData,
@@ -131,36 +133,73 @@ impl fmt::Display for Gpu {
     }
 }
 
+/// A pass's shader as naga modules: `vertex` holds the vertex entry point,
+/// and the fragment entry point too unless `fragment` is given.
+#[derive(Debug)]
+pub struct Modules {
+    pub vertex: naga::Module,
+    pub fragment: Option<naga::Module>,
+}
+
 /// Parses (WGSL) and validates a shader with naga, and checks that both
 /// entry points exist with the right stages.
-pub fn validate_shader(pass: &str, shader: &RunShader) -> Result<naga::Module, GpuError> {
+pub fn validate_shader(pass: &str, shader: &RunShader) -> Result<Modules, GpuError> {
+    let (vertex, fragment) = match &shader.source {
+        ShaderSource::Staged { vertex, fragment } => {
+            (module_of(pass, vertex)?, Some(module_of(pass, fragment)?))
+        }
+        source => (module_of(pass, source)?, None),
+    };
+    has_entry(pass, &vertex, &shader.vertex_entry, naga::ShaderStage::Vertex)?;
+    has_entry(
+        pass,
+        fragment.as_ref().unwrap_or(&vertex),
+        &shader.fragment_entry,
+        naga::ShaderStage::Fragment,
+    )?;
+    Ok(Modules { vertex, fragment })
+}
+
+/// One module of a shader, parsed and validated.
+fn module_of(pass: &str, source: &ShaderSource) -> Result<naga::Module, GpuError> {
     let invalid = |message: String| GpuError::InvalidShader { pass: pass.to_string(), message };
-    let module = match &shader.source {
+    let module = match source {
         ShaderSource::Wgsl(text) => {
             naga::front::wgsl::parse_str(text).map_err(|err| invalid(err.emit_to_string(text)))?
         }
         ShaderSource::Naga(module) => module.clone(),
+        ShaderSource::Staged { .. } => {
+            return Err(invalid("a staged shader's stages are modules, not staged shaders".to_string()))
+        }
     };
     if let Err(err) = crate::backends::wgsl::validate::validate(&module) {
-        return Err(invalid(match &shader.source {
+        return Err(invalid(match source {
             ShaderSource::Wgsl(text) => err.emit_to_string(text),
-            ShaderSource::Naga(_) => error_chain(&err),
+            _ => error_chain(&err),
         }));
     }
-    for (name, stage) in [
-        (&shader.vertex_entry, naga::ShaderStage::Vertex),
-        (&shader.fragment_entry, naga::ShaderStage::Fragment),
-    ] {
-        if !module.entry_points.iter().any(|ep| &ep.name == name && ep.stage == stage) {
-            let found: Vec<String> =
-                module.entry_points.iter().map(|ep| format!("{} ({:?})", ep.name, ep.stage)).collect();
-            return Err(invalid(format!(
-                "no {stage:?} entry point named `{name}`; the module has: {}",
-                if found.is_empty() { "none".to_string() } else { found.join(", ") }
-            )));
-        }
-    }
     Ok(module)
+}
+
+/// The module has an entry point `name` of `stage`.
+fn has_entry(
+    pass: &str,
+    module: &naga::Module,
+    name: &str,
+    stage: naga::ShaderStage,
+) -> Result<(), GpuError> {
+    if module.entry_points.iter().any(|ep| ep.name == name && ep.stage == stage) {
+        return Ok(());
+    }
+    let found: Vec<String> =
+        module.entry_points.iter().map(|ep| format!("{} ({:?})", ep.name, ep.stage)).collect();
+    Err(GpuError::InvalidShader {
+        pass: pass.to_string(),
+        message: format!(
+            "no {stage:?} entry point named `{name}`; the module has: {}",
+            if found.is_empty() { "none".to_string() } else { found.join(", ") }
+        ),
+    })
 }
 
 /// Renders `passes` in order into one RGBA8 target and reads it back.

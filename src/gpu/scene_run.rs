@@ -107,8 +107,10 @@
 //! 256² (`pipeline::RENDERED_TEXTURE_SIZE`, as the CPU) when it is rendered over
 //! its texels or in texture space, else the frame's size; one array layer
 //! per member of a fat texel; `Rgba16Float` for 16-bit and float formats,
-//! else RGBA8. Screen and texel passes draw one rectangle. Unlike the CPU,
-//! no mip chain is made of a rendered texture (level 0 is sampled).
+//! else RGBA8. Screen and texel passes draw one rectangle. A texture
+//! declared `mipmap` gets its whole chain, box filtered from level 0 after
+//! the passes into it (`runner::RenderedTexture::mip_levels`), and is
+//! sampled through it, as on the CPU.
 //!
 //! The picture is the framebuffer the plan writes last (as the CPU's); the
 //! others (shadow mask's C′, Cl) are frame-sized rendered textures in the
@@ -120,7 +122,9 @@
 //! # What is not supported (an [`SceneRunError::Unsupported`])
 //!
 //! Reading the colour of the framebuffer that is read back (or any
-//! stencil) inside a shader, dual-paraboloid textures. The planner's
+//! stencil) inside a shader; a scene's dual-paraboloid texture
+//! (`DualParaboloid`, sampled by direction) bound to a program's texture.
+//! A program's `dual_paraboloid(…)` faces are 2-D textures and run. The planner's
 //! temporaries (render-to-texture splits) render into frame-sized textures
 //! and are read back at the pixel, as on the CPU.
 
@@ -140,6 +144,10 @@ use crate::pipeline::{Geometry, Pass, Planned, RenderTarget, TargetFormat, Targe
 use crate::scene::bind::{self, BoundObject, BoundTexture, TextureQuality};
 use crate::scene::{Scene, SceneAssets};
 use crate::textures::{Filter, Level, TexelFormat, Texture, Texture2D, Wrap};
+
+/// One draw of a pass: for an object (its projections), its vertices and
+/// triangles.
+type Draw<'d> = dyn Fn(Option<&BoundObject>, VertexData, Vec<u32>) -> RunPass + 'd;
 
 /// Why a plan could not run on wgpu for a scene.
 #[derive(Debug, thiserror::Error)]
@@ -303,24 +311,52 @@ impl<'a> ScenePlan<'a> {
                 ));
                 continue;
             }
-            // A stencil update over `x′`: the scene's shadow volumes.
-            let volume = crate::planner::shadow_volumes::for_pass(self.scene, self.assets, m, pass)
-                .map_err(SceneRunError::Unsupported)?;
-            let volumes: Vec<BoundObject> = volume
-                .iter()
-                .map(|v| crate::scene::shadow_volume::bind_volume(self.scene, self.assets, v, aspect))
-                .collect();
-            for object in if volume.is_some() { &volumes } else { &objects } {
-                let floats = vertex_floats(m, leaves, object, &uniforms64);
-                let indices = object.mesh.triangles.iter().flatten().copied().collect();
-                out.push(draw(
-                    Some(object),
-                    VertexData { floats, components: vec![4; leaves.len()] },
-                    indices,
-                ));
-            }
+            self.mesh_draws(s, &objects, aspect, &uniforms64, &draw, &mut out)?;
         }
         Ok(out)
+    }
+
+    /// Pass `s`'s draws of meshes: one per object (or shadow volume) the
+    /// pass draws, through the pass's vertex program where the target has
+    /// them, else through the WGSL backend's vertex stage on the leaves.
+    fn mesh_draws(
+        &self,
+        s: &PassShader,
+        objects: &[BoundObject],
+        aspect: f32,
+        uniforms64: &[Option<[f64; 4]>],
+        draw: &Draw,
+        out: &mut Vec<RunPass>,
+    ) -> Result<(), SceneRunError> {
+        let m = &self.planned.module;
+        let pass = &self.planned.plan.passes[s.pass];
+        let leaves = &s.interface.vertex_leaves;
+        // A stencil update over `x′`: the scene's shadow volumes.
+        let volume = crate::planner::shadow_volumes::for_pass(self.scene, self.assets, m, pass)
+            .map_err(SceneRunError::Unsupported)?;
+        let volumes: Vec<BoundObject> = volume
+            .iter()
+            .map(|v| crate::scene::shadow_volume::bind_volume(self.scene, self.assets, v, aspect))
+            .collect();
+        // On a target with vertex programs, the pass's own program (as the CPU).
+        let program = super::vertex_stage::VertexStage::of(self.planned, s);
+        let drawn = if volume.is_some() { &volumes[..] } else { objects };
+        for (oi, object) in drawn.iter().enumerate() {
+            // Light culling (Adaptive Sample Shading, Section 2.2): a
+            // light's pass draws only the objects it can reach, as on the CPU.
+            if pass.objects.as_ref().is_some_and(|keep| !keep.contains(&oi)) {
+                continue;
+            }
+            let indices = object.mesh.triangles.iter().flatten().copied().collect();
+            if let Some(program) = &program {
+                let empty = VertexData { floats: Vec::new(), components: vec![4] };
+                out.push(program.draw(draw(Some(object), empty, indices), m, object, uniforms64));
+                continue;
+            }
+            let floats = vertex_floats(m, leaves, object, uniforms64);
+            out.push(draw(Some(object), VertexData { floats, components: vec![4; leaves.len()] }, indices));
+        }
+        Ok(())
     }
 
     /// The textures the plan renders, and how (Pipeline Grammar, eq. (5), (13), (15)):
@@ -343,6 +379,8 @@ impl<'a> ScenePlan<'a> {
                 } else {
                     ColorTarget::Rgba8
                 };
+                // Mipmapped where the texture is declared so, as on the CPU.
+                let mipmap = self.decls.iter().any(|d| d.name == target.name && d.mipmap);
                 rendered.insert(
                     target.name.clone(),
                     runner::RenderedTexture {
@@ -351,6 +389,7 @@ impl<'a> ScenePlan<'a> {
                         height: h,
                         layers: u32::from(fat[id as usize]).max(1),
                         format,
+                        mip_levels: if mipmap { runner::full_chain(w, h) } else { 1 },
                     },
                 );
             }
@@ -369,6 +408,7 @@ impl<'a> ScenePlan<'a> {
                             height,
                             layers: 1,
                             format: frame.color_format,
+                            mip_levels: 1,
                         },
                     );
                 }
@@ -418,13 +458,13 @@ impl<'a> ScenePlan<'a> {
             }
             if let Some(r) = rendered.get(&t.texture) {
                 let (filter, wrap) = self.rendered_sampling(&t.texture)?;
-                // Level 0 only: the GPU runner makes no mip chain of a rendered texture.
+                // Its mip chain, where it has one (`runner::RenderedTexture::mip_levels`).
                 textures.push(RunTexture {
                     data: TextureData::Rendered {
                         name: t.texture.clone(),
                         array: fat_textures.contains(&r.name.as_str()),
                     },
-                    sampler: sampler(filter, wrap, false),
+                    sampler: sampler(filter, wrap, r.mip_levels > 1),
                     texels: TexelUpload::Rgba8,
                 });
                 continue;

@@ -32,8 +32,10 @@
 //! It is slow (every pixel tests every triangle's bounds, every δ evaluates
 //! three vertices) and meant for small images. What it does not evaluate it
 //! refuses with [`Unsupported`], never guesses: stencil, depth-only and
-//! rendered-texture statements, fat textures, 3-D and dual-paraboloid
-//! textures, normal-map generators, triangles crossing the eye plane.
+//! rendered-texture statements, fat textures, 3-D textures, a scene's
+//! dual-paraboloid maps (a program's `dual_paraboloid(…)` faces are 2-D
+//! textures of the environment's stand-in, data as an image's texels are),
+//! normal-map generators, triangles crossing the eye plane.
 
 pub mod geometry;
 mod ops;

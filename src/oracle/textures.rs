@@ -1,7 +1,8 @@
 //! The program's textures for the reference: each declaration's source read
 //! from the program text, its texels made or loaded here — a normalization
 //! cube map from Kilgard 2000's Appendix D, an exponent table from its
-//! definition, an image file (or the brick stand-in of a missing one) —
+//! definition, an image file (or the brick stand-in of a missing one), a
+//! dual-paraboloid face of the environment's stand-in —
 //! and its filtering from the declaration's attributes. A scene texture of
 //! the same name replaces the program's, as docs/scenes.md says.
 
@@ -158,6 +159,15 @@ fn from_source(
                 wrap: Wrap::ClampToEdge,
                 filter,
             })
+        }
+        ("dual_paraboloid", TextureKind::Tex2d) => {
+            // One face of the environment's stand-in (the scene binder's
+            // data, as an image file's texels are), with the generator's own
+            // mipmaps, weighted by solid angle (Heidrich & Seidel 1999, Section 4.2).
+            let face = args.get(1).and_then(|a| number(a)).unwrap_or(0.0);
+            let dp = data::generators::dual_paraboloid_stand_in(store);
+            let t = if face == 0.0 { dp.front } else { dp.back };
+            Tex::Flat(image(t.levels.iter().map(level).collect(), filter, wrap, mipmap, store))
         }
         ("bake", _) => Tex::Missing("a bake() whose statement was not seen".into()),
         (other, _) => {

@@ -9,13 +9,11 @@
 //! of a projection's model → clip matrix), which is what an application
 //! did.
 //!
-//! The results are interpolated as the program wrote them, *not* clamped
-//! as NV_vertex_program Section 2.14.1.5 clamps the colours before
-//! interpolation ([`emulate::Results::rasterized`]): the wgpu runner still
-//! draws geforce3 passes with the host's unclamped vertex values, and the
-//! two executors must agree (`tools/gpu-check`); clamping here alone moved
-//! `gouraud.shd` on geforce3 by up to 40/255 against it. The clamp joins
-//! both executors when the runner takes the vertex program's WGSL stage.
+//! The colour results reach the rasterizer clamped to [0, 1], as
+//! NV_vertex_program Section 2.14.1.5 says ([`emulate::Results::rasterized`]);
+//! the wgpu runner runs the same program as its WGSL vertex stage
+//! (`backends::vertex_program::wgsl::pass_stage`), which clamps them too,
+//! with the attributes and parameters [`PassProgram::inputs`] gives both.
 //!
 //! A pass whose per-vertex values have no vertex-program form (the emitter
 //! refuses it, and `compile --emit combiners` says why) keeps the host's
@@ -27,12 +25,19 @@ use glam::Mat4;
 
 use crate::backends::vertex_program::emit::{self, Emitted};
 use crate::backends::vertex_program::emulate;
-use crate::backends::vertex_program::program::{Output, ATTRIBUTES};
+use crate::backends::vertex_program::program::{Output, ATTRIBUTES, PARAMETERS};
 use crate::ir::eval::{Evaluator, Value};
 use crate::ir::Module;
 use crate::numerics::Precision;
 use crate::pipeline::Planned;
 use crate::scene::bind::{BoundObject, VertexEnv};
+
+/// The high end of the point size range `o[PSIZ]` is clamped to
+/// (NV_vertex_program 2.14.1.5). The emitter never writes `o[PSIZ]`.
+const MAX_POINT_SIZE: f32 = 64.0;
+
+/// Every vertex's attribute registers, and the parameter registers.
+pub type Inputs = (Vec<[[f32; 4]; ATTRIBUTES]>, [[f32; 4]; PARAMETERS]);
 
 /// One pass's vertex program, ready to run on each object's vertices.
 pub struct PassProgram {
@@ -59,32 +64,46 @@ impl PassProgram {
     }
 
     /// Runs the program on every vertex of `object`: interpolant k is
-    /// varyings 4k..4k+4 (the result register the emitter chose for it),
-    /// the clip position is `o[HPOS]`.
+    /// varyings 4k..4k+4 (the result register the emitter chose for it,
+    /// a colour clamped to [0, 1] as the rasterizer receives it), the clip
+    /// position is `o[HPOS]`.
     pub fn vertices(&self, m: &Module, object: &BoundObject, uniforms: &[Option<Value>]) -> Vertices {
         let e = &self.emitted;
-        let n = object.n_vertices();
         let nv = 4 * e.interpolants.len();
-        if n == 0 {
-            return (nv, Vec::new(), Vec::new());
-        }
-        let parameters = self.parameters(m, object, uniforms);
-        let mut fetch = Evaluator::new(m, &e.attributes, Precision::Exact);
-        let mut varyings = Vec::with_capacity(n * nv);
-        let mut clip = Vec::with_capacity(n);
-        for vertex in 0..n {
-            let mut env = VertexEnv { object, module: m, vertex, uniforms };
-            let mut attributes = [[0.0f32; 4]; ATTRIBUTES];
-            for (a, value) in attributes.iter_mut().zip(fetch.eval(&mut env).values) {
-                *a = value.map(|x| x as f32);
-            }
-            let results = emulate::run(&e.program, &attributes, &parameters);
+        let (attributes, parameters) = self.inputs(m, object, uniforms);
+        let mut varyings = Vec::with_capacity(attributes.len() * nv);
+        let mut clip = Vec::with_capacity(attributes.len());
+        for vertex in &attributes {
+            let results = emulate::run(&e.program, vertex, &parameters).rasterized(MAX_POINT_SIZE);
             for o in e.outputs.iter().take(e.interpolants.len()) {
                 varyings.extend(results.get(*o));
             }
             clip.push(results.get(Output::HPOS));
         }
         (nv, varyings, clip)
+    }
+
+    /// What the host loads for `object`, the same for either executor:
+    /// every vertex's attribute registers `v[]` (the pass's vertex leaves,
+    /// `v[k]` for `attributes[k]`, the rest zero) and the parameters `c[]`.
+    pub fn inputs(&self, m: &Module, object: &BoundObject, uniforms: &[Option<Value>]) -> Inputs {
+        let e = &self.emitted;
+        let n = object.n_vertices();
+        if n == 0 {
+            return (Vec::new(), [[0.0; 4]; PARAMETERS]);
+        }
+        let parameters = self.parameters(m, object, uniforms);
+        let mut fetch = Evaluator::new(m, &e.attributes, Precision::Exact);
+        let mut vertices = Vec::with_capacity(n);
+        for vertex in 0..n {
+            let mut env = VertexEnv { object, module: m, vertex, uniforms };
+            let mut attributes = [[0.0f32; 4]; ATTRIBUTES];
+            for (a, value) in attributes.iter_mut().zip(fetch.eval(&mut env).values) {
+                *a = value.map(|x| x as f32);
+            }
+            vertices.push(attributes);
+        }
+        (vertices, parameters)
     }
 
     /// `c[]` for `object`: per-object leaves evaluated once (at its first
@@ -94,7 +113,7 @@ impl PassProgram {
         m: &Module,
         object: &BoundObject,
         uniforms: &[Option<Value>],
-    ) -> [[f32; 4]; crate::backends::vertex_program::program::PARAMETERS] {
+    ) -> [[f32; 4]; PARAMETERS] {
         let mut env = VertexEnv { object, module: m, vertex: 0, uniforms };
         emit::parameter_values(
             &self.emitted,

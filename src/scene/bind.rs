@@ -566,9 +566,7 @@ fn dual_paraboloid_texture(
     } else {
         notes.push(format!("texture `{}`: {} not found; using the procedural sky", d.name, path.display()));
     }
-    let dp = generators::dual_paraboloid(128, texel_format(d.format), &|dir| {
-        generators::sky(dir, [0.3, 0.8, 0.5])
-    });
+    let dp = generators::dual_paraboloid_stand_in(texel_format(d.format));
     let mut t = if face == 0 { dp.front } else { dp.back };
     t.wrap = d.wrap;
     Texture::Flat(t)

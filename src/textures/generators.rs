@@ -337,6 +337,14 @@ pub fn dual_paraboloid(
     DualParaboloid { front: make(ParaboloidFace::Front), back: make(ParaboloidFace::Back) }
 }
 
+/// The environment `dual_paraboloid("file", face)` stands in with, both
+/// faces (Heidrich & Seidel 1999, Sections 4.1-4.2): the procedural [`sky`],
+/// 128² per face. The scene binder's data, which the reference (`oracle`)
+/// reads too, as it reads the stand-in of a missing image.
+pub fn dual_paraboloid_stand_in(format: TexelFormat) -> DualParaboloid {
+    dual_paraboloid(128, format, &|dir| sky(dir, [0.3, 0.8, 0.5]))
+}
+
 /// A procedural sky for environment maps: a horizon-to-zenith gradient (y up),
 /// a darker ground, and a sun disc around `sun`.
 pub fn sky(direction: [f32; 3], sun: [f32; 3]) -> [f32; 3] {

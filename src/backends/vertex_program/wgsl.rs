@@ -17,7 +17,18 @@ use super::program::*;
 /// of [`translate`] calls it; a test harness may call it from a compute
 /// shader instead.
 pub fn function(program: &VertexProgram) -> String {
-    let mut out = String::from(PRELUDE);
+    let mut out = String::from(DECLARATION);
+    out.push_str(&functions(program, "c"));
+    out
+}
+
+/// The functions of [`function`] reading the parameter registers from
+/// `parameters` (an expression of type `array<vec4<f32>, 96>`).
+fn functions(program: &VertexProgram, parameters: &str) -> String {
+    let mut out = format!(
+        "fn vp_param(i: i32) -> vec4<f32> {{\n    if (i < 0 || i > 95) {{ return vec4<f32>(0.0); }}\n    return {parameters}[i];\n}}\n"
+    );
+    out.push_str(PRELUDE);
     out.push_str("fn vertex_program(v: array<vec4<f32>, 16>) -> array<vec4<f32>, 15> {\n");
     out.push_str("    var r: array<vec4<f32>, 12>;\n");
     out.push_str("    var o: array<vec4<f32>, 15>;\n");
@@ -25,9 +36,64 @@ pub fn function(program: &VertexProgram) -> String {
     out.push_str("    var a0: i32 = 0;\n");
     for ins in &program.instructions {
         let _ = writeln!(out, "    // {}", super::printer::instruction(ins));
-        out.push_str(&statement(ins));
+        out.push_str(&statement(ins, parameters));
     }
     out.push_str("    return o;\n}\n");
+    out
+}
+
+/// The entry point of [`pass_stage`].
+pub const PASS_ENTRY: &str = "vp_main";
+
+/// A pass's vertex program as the vertex stage of a pass whose fragment
+/// stage is another module (the WGSL backend's): `@vertex fn vp_main`
+/// writes `outputs[k]` to `@location(k)` as a perspective-interpolated
+/// `vec4<f32>`, the colours clamped to [0, 1] as they reach the
+/// rasterizer (NV_vertex_program, Section 2.14.1.5; `Results::rasterized`),
+/// and `o[HPOS]` with GL's depth range −w..w mapped to wgpu's 0..w as the
+/// backend's own vertex stage maps it. The parameters share the pass's
+/// uniform buffer (`@group(0) @binding(0)`): the fragment stage's block is
+/// its first `host_vec4s` vectors, `c[0]`..`c[95]` follow.
+pub fn pass_stage(program: &VertexProgram, outputs: &[Output], host_vec4s: usize) -> String {
+    let mut out = String::from("// A vertex program (NV_vertex_program) as a pass's WGSL vertex stage.\n\n");
+    out.push_str("struct VpParameters {\n");
+    if host_vec4s > 0 {
+        let _ = writeln!(out, "    host: array<vec4<f32>, {host_vec4s}>,");
+    }
+    out.push_str(
+        "    c: array<vec4<f32>, 96>,\n}\n\n@group(0) @binding(0) var<uniform> vp: VpParameters;\n\n",
+    );
+    out.push_str(&functions(program, "vp.c"));
+    let read = attributes_read(program);
+    out.push_str("\nstruct VpIn {\n");
+    for k in &read {
+        let _ = writeln!(out, "    @location({k}) v{k}: vec4<f32>,");
+    }
+    if read.is_empty() {
+        out.push_str("    @builtin(vertex_index) index: u32,\n");
+    }
+    out.push_str("}\n\nstruct VpOut {\n    @builtin(position) hpos: vec4<f32>,\n");
+    for k in 0..outputs.len() {
+        let _ = writeln!(out, "    @location({k}) i{k}: vec4<f32>,");
+    }
+    let _ = write!(
+        out,
+        "}}\n\n@vertex\nfn {PASS_ENTRY}(input: VpIn) -> VpOut {{\n    var v: array<vec4<f32>, 16>;\n"
+    );
+    for k in &read {
+        let _ = writeln!(out, "    v[{k}] = input.v{k};");
+    }
+    out.push_str("    let o = vertex_program(v);\n    var out: VpOut;\n");
+    out.push_str("    out.hpos = vec4<f32>(o[0].xy, (o[0].z + o[0].w) * 0.5, o[0].w);\n");
+    for (k, o) in outputs.iter().enumerate() {
+        let i = o.index();
+        if Output::COLOURS.contains(o) {
+            let _ = writeln!(out, "    out.i{k} = clamp(o[{i}], vec4<f32>(0.0), vec4<f32>(1.0));");
+        } else {
+            let _ = writeln!(out, "    out.i{k} = o[{i}];");
+        }
+    }
+    out.push_str("    return out;\n}\n");
     out
 }
 
@@ -90,13 +156,11 @@ pub fn outputs_written(program: &VertexProgram) -> Vec<usize> {
     (1..OUTPUTS).filter(|&k| written[k]).collect()
 }
 
-const PRELUDE: &str = "@group(0) @binding(0) var<uniform> c: array<vec4<f32>, 96>;
+const DECLARATION: &str = "@group(0) @binding(0) var<uniform> c: array<vec4<f32>, 96>;
 
-fn vp_param(i: i32) -> vec4<f32> {
-    if (i < 0 || i > 95) { return vec4<f32>(0.0); }
-    return c[i];
-}
+";
 
+const PRELUDE: &str = "
 fn vp_rcp(x: f32) -> f32 {
     if (x == 1.0) { return 1.0; }
     return 1.0 / x;
@@ -149,10 +213,10 @@ fn vp_dp4(a: vec4<f32>, b: vec4<f32>) -> f32 {
 
 ";
 
-fn operand(s: &Source) -> String {
+fn operand(s: &Source, parameters: &str) -> String {
     let reg = match s.reg {
         SrcReg::Attribute(k) => format!("v[{k}]"),
-        SrcReg::Parameter(k) => format!("c[{k}]"),
+        SrcReg::Parameter(k) => format!("{parameters}[{k}]"),
         SrcReg::Relative(k) => format!("vp_param(a0 + {k})"),
         SrcReg::Temporary(k) => format!("r[{k}]"),
     };
@@ -196,8 +260,8 @@ fn value(op: Opcode, s: &[String]) -> String {
     }
 }
 
-fn statement(ins: &Instruction) -> String {
-    let srcs: Vec<String> = ins.src.iter().map(operand).collect();
+fn statement(ins: &Instruction, parameters: &str) -> String {
+    let srcs: Vec<String> = ins.src.iter().map(|s| operand(s, parameters)).collect();
     if ins.op == Opcode::Arl {
         return format!("    a0 = i32(floor({}.x));\n", srcs[0]);
     }

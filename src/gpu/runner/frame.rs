@@ -32,6 +32,8 @@ pub struct Frame<'a> {
     pub(super) texture_depth_views: BTreeMap<String, wgpu::TextureView>,
     pub(super) snapshots: DepthSnapshots,
     pub(super) depth_copier: Option<DepthCopier>,
+    /// Where some rendered texture has a mip chain.
+    pub(super) mips: Option<super::mips::MipMaker>,
     pub(super) prepared: Vec<Prepared>,
     pub(super) readback: wgpu::Buffer,
     pub(super) padded_row: u32,
@@ -125,7 +127,7 @@ impl<'a> Frame<'a> {
         target: &'a Target,
         passes: &'a [RunPass],
         rendered: BTreeMap<String, RenderedTexture>,
-        modules: Vec<naga::Module>,
+        modules: Vec<super::Modules>,
     ) -> Frame<'a> {
         let device = &gpu.device;
 
@@ -134,6 +136,7 @@ impl<'a> Frame<'a> {
         let textures = rendered_targets(device, &rendered, depth_format);
         let snapshots = depth_snapshots(device, target, passes, &rendered);
         let depth_copier = (!snapshots.is_empty()).then(|| DepthCopier::new(device));
+        let mips = rendered.values().any(|t| t.mip_levels > 1).then(|| super::mips::MipMaker::new(device));
 
         let prepared = prepare_passes(gpu, target, passes, modules, &textures, &snapshots, depth_format);
 
@@ -152,6 +155,7 @@ impl<'a> Frame<'a> {
             texture_depth_views,
             snapshots,
             depth_copier,
+            mips,
             prepared,
             readback,
             padded_row,
@@ -237,6 +241,7 @@ impl<'a> Frame<'a> {
                     dimension: Some(wgpu::TextureViewDimension::D2),
                     base_array_layer: layer,
                     array_layer_count: Some(1),
+                    mip_level_count: Some(1),
                     ..Default::default()
                 })
             })
@@ -309,6 +314,15 @@ impl<'a> Frame<'a> {
             recorded += 1;
             if let (Some(pass), Some(prep)) = (pass, prep) {
                 record_draw(&mut render_pass, pass, prep);
+            }
+            drop(render_pass);
+            // A mipmapped texture's chain, after the last of the passes into it.
+            if let Some(PassTarget::Texture(t)) = pass.map(|p| &p.target) {
+                let next = passes.get(pass_idx + 1).map(|p| &p.target);
+                let last = !matches!(next, Some(PassTarget::Texture(n)) if n.name == t.name);
+                if let (Some(mips), true) = (&self.mips, last && t.mip_levels > 1) {
+                    mips.generate(device, &mut encoder, &self.textures[&t.name].0, t);
+                }
             }
         }
 
@@ -439,7 +453,7 @@ fn prepare_passes(
     gpu: &Gpu,
     target: &Target,
     passes: &[RunPass],
-    modules: Vec<naga::Module>,
+    modules: Vec<super::Modules>,
     textures: &RenderedTargets,
     snapshots: &DepthSnapshots,
     depth_format: wgpu::TextureFormat,

@@ -12,6 +12,14 @@ use crate::pipeline::RenderState;
 pub enum ShaderSource {
     Wgsl(String),
     Naga(naga::Module),
+    /// A vertex stage in a module of its own before the fragment stage's:
+    /// the vertex entry point is read from `vertex`, the fragment entry
+    /// point from `fragment` (a pass's vertex program translated to WGSL,
+    /// NV_vertex_program, before the WGSL backend's fragment stage).
+    Staged {
+        vertex: Box<ShaderSource>,
+        fragment: Box<ShaderSource>,
+    },
 }
 
 /// A shader and the two entry points a pass uses.
@@ -128,6 +136,10 @@ pub struct RenderedTexture {
     pub height: u32,
     pub layers: u32,
     pub format: ColorTarget,
+    /// Mip levels: 1, level 0 only; more, a texture declared `mipmap`
+    /// whose levels 1.. are box filtered from level 0 after the passes
+    /// into it (`mips::full_chain` for the whole chain).
+    pub mip_levels: u32,
 }
 
 /// A texture unit of a pass: its image and how it is sampled.

@@ -153,28 +153,32 @@ pub(super) fn rendered_targets(
     let mut textures: BTreeMap<String, (wgpu::Texture, wgpu::Texture, wgpu::Texture)> = BTreeMap::new();
     for (name, t) in rendered {
         let size = wgpu::Extent3d { width: t.width, height: t.height, depth_or_array_layers: t.layers };
-        let make = |label: &str, format: wgpu::TextureFormat, usage: wgpu::TextureUsages, layers: u32| {
-            device.create_texture(&wgpu::TextureDescriptor {
-                label: Some(label),
-                size: wgpu::Extent3d { depth_or_array_layers: layers, ..size },
-                mip_level_count: 1,
-                sample_count: 1,
-                dimension: wgpu::TextureDimension::D2,
-                format,
-                usage,
-                view_formats: &[],
-            })
-        };
+        // Only the texture itself has the chain (not its scratch copy or depth).
+        let levels = t.mip_levels.clamp(1, super::mips::full_chain(t.width, t.height));
+        let make =
+            |label: &str, format: wgpu::TextureFormat, usage: wgpu::TextureUsages, layers: u32, levels| {
+                device.create_texture(&wgpu::TextureDescriptor {
+                    label: Some(label),
+                    size: wgpu::Extent3d { depth_or_array_layers: layers, ..size },
+                    mip_level_count: levels,
+                    sample_count: 1,
+                    dimension: wgpu::TextureDimension::D2,
+                    format,
+                    usage,
+                    view_formats: &[],
+                })
+            };
         let usage = wgpu::TextureUsages::RENDER_ATTACHMENT
             | wgpu::TextureUsages::TEXTURE_BINDING
             | wgpu::TextureUsages::COPY_SRC
             | wgpu::TextureUsages::COPY_DST;
-        let texture = make(name, t.format.wgpu(), usage, t.layers);
-        let scratch = make(name, t.format.wgpu(), usage, t.layers);
+        let texture = make(name, t.format.wgpu(), usage, t.layers, levels);
+        let scratch = make(name, t.format.wgpu(), usage, t.layers, 1);
         let depth = make(
             name,
             depth_format,
             wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
+            1,
             1,
         );
         textures.insert(name.clone(), (texture, scratch, depth));
@@ -224,17 +228,21 @@ pub(super) fn depth_snapshots(
 pub(super) fn prepare(
     gpu: &Gpu,
     pass: &RunPass,
-    module: naga::Module,
+    modules: super::Modules,
     depth_format: wgpu::TextureFormat,
     color_format: wgpu::TextureFormat,
     view_of: &dyn Fn(usize, &TextureData) -> Option<wgpu::TextureView>,
 ) -> Prepared {
     let device = &gpu.device;
     let label = Some(pass.label.as_str());
-    let shader = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-        label,
-        source: wgpu::ShaderSource::Naga(Cow::Owned(module)),
-    });
+    let shader_module = |module: naga::Module| {
+        device.create_shader_module(wgpu::ShaderModuleDescriptor {
+            label,
+            source: wgpu::ShaderSource::Naga(Cow::Owned(module)),
+        })
+    };
+    let shader = shader_module(modules.vertex);
+    let fragment_shader = modules.fragment.map(shader_module);
 
     // Bind group 0: uniforms at 0, texture i at 1 + 2i, its sampler at 2 + 2i.
     let mut layout_entries = Vec::new();
@@ -279,7 +287,8 @@ pub(super) fn prepare(
         immediate_size: 0,
     });
 
-    let pipeline = render_pipeline(device, pass, &shader, &pipeline_layout, (depth_format, color_format));
+    let shaders = (&shader, fragment_shader.as_ref().unwrap_or(&shader));
+    let pipeline = render_pipeline(device, pass, shaders, &pipeline_layout, (depth_format, color_format));
     let vertex_buffer = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
         label,
         contents: bytemuck::cast_slice(&pass.vertices.floats),

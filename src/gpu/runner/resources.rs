@@ -31,7 +31,7 @@ pub(super) fn load_ops(
 pub(super) fn render_pipeline(
     device: &wgpu::Device,
     pass: &RunPass,
-    shader: &wgpu::ShaderModule,
+    (shader, fragment_shader): (&wgpu::ShaderModule, &wgpu::ShaderModule),
     pipeline_layout: &wgpu::PipelineLayout,
     (depth_format, color_format): (wgpu::TextureFormat, wgpu::TextureFormat),
 ) -> wgpu::RenderPipeline {
@@ -87,7 +87,7 @@ pub(super) fn render_pipeline(
         }),
         multisample: Default::default(),
         fragment: Some(wgpu::FragmentState {
-            module: shader,
+            module: fragment_shader,
             entry_point: Some(&pass.shader.fragment_entry),
             compilation_options: Default::default(),
             targets: &vec![

@@ -327,30 +327,13 @@ impl<'a> FragmentProgram<'a> {
             Source::Bound { exact: Some(f), .. } => exact_lookup(*f, c),
             Source::Bound { texture: b, .. } => {
                 let out = match &b.texture {
-                    Texture::Flat(t) if self.mode != Precision::Exact => {
-                        // f32 and fixed9 sample as the WGSL target's texture
-                        // unit does (`textures::unit`: a level of detail per
-                        // 2×2 quad; 8-bit textures filtered in 8.8 fixed
-                        // point in fixed9, as hardware fidelity uploads them,
-                        // in float in f32, as exact fidelity does), so the
-                        // wgpu image agrees with them (issue 5).
-                        let (u, v) = texture_uv(c, coords_ty);
-                        let lod = unit_lod(t, coords_ty, lod_from, quad, fragment, varyings);
-                        let arithmetic = if self.mode == Precision::Fixed9 {
-                            unit::Arithmetic::Fixed8 { tie_bias: self.tie.texel_quanta }
-                        } else {
-                            unit::Arithmetic::Float
-                        };
-                        unit::sample_2d_with(t, u as f32, v as f32, filter, lod, arithmetic, self.latitude)
+                    Texture::Flat(t) => {
+                        let at = (c, coords_ty, lod_from, quad);
+                        self.sample_flat(t, filter, at, fragment, varyings, self.mode == Precision::Fixed9)
                     }
                     Texture::Cube(t) if self.mode != Precision::Exact => {
                         let d = [c[0] as f32, c[1] as f32, c[2] as f32];
                         unit::sample_cube_with(t, d, filter, self.latitude.weights)
-                    }
-                    Texture::Flat(t) => {
-                        let (u, v) = texture_uv(c, coords_ty);
-                        let lod = exact_lod(t, coords_ty, lod_from, quad, fragment, varyings);
-                        t.sample(u as f32, v as f32, filter, lod)
                     }
                     Texture::Cube(t) => t.sample([c[0] as f32, c[1] as f32, c[2] as f32], filter, 0.0),
                     Texture::DualParaboloid(t) => {
@@ -362,10 +345,47 @@ impl<'a> FragmentProgram<'a> {
             Source::Rendered(rt) if coords_ty == Ty::Vec3 => {
                 crate::textures::solid::sample(&rt.pixels, [c[0], c[1], c[2]], filter)
             }
+            // A rendered texture declared `mipmap`: its chain, at the level
+            // of detail a bound texture's lookup gets (the rendered texels
+            // are floats: filtered in float).
+            Source::Rendered(rt) if coords_ty != Ty::Position && rt.texture.levels.len() > 1 => {
+                let at = (c, coords_ty, lod_from, quad);
+                self.sample_flat(&rt.texture, filter, at, fragment, varyings, false).map(|x| x as f64)
+            }
             Source::Rendered(rt) => rt.sample(c, coords_ty, filter),
             Source::Baked { program, wrap } => baked_lookup(program, *wrap, c, coords_ty),
             Source::Missing => ir::eval::NAN,
         }
+    }
+
+    /// A 2-D (or 1-D) texture sampled at `at` (coordinates, their type, and
+    /// where the level of detail comes from, as [`Self::lookup`] takes
+    /// them). f32 and fixed9 sample as the WGSL target's texture unit does
+    /// (`textures::unit`: a level of detail per 2×2 quad; with `fixed8`, an
+    /// 8-bit texture filtered in 8.8 fixed point, as hardware fidelity
+    /// uploads it, else in float, as exact fidelity does), so the wgpu
+    /// image agrees with them; exact samples ideal GL.
+    pub(super) fn sample_flat(
+        &self,
+        t: &Texture2D,
+        filter: Filter,
+        (c, coords_ty, lod_from, quad): (Value, Ty, Option<usize>, Option<[[f64; 2]; 3]>),
+        fragment: &Fragment,
+        varyings: &[f32],
+        fixed8: bool,
+    ) -> [f32; 4] {
+        let (u, v) = texture_uv(c, coords_ty);
+        if self.mode == Precision::Exact {
+            let lod = exact_lod(t, coords_ty, lod_from, quad, fragment, varyings);
+            return t.sample(u as f32, v as f32, filter, lod);
+        }
+        let lod = unit_lod(t, coords_ty, lod_from, quad, fragment, varyings);
+        let arithmetic = if fixed8 {
+            unit::Arithmetic::Fixed8 { tie_bias: self.tie.texel_quanta }
+        } else {
+            unit::Arithmetic::Float
+        };
+        unit::sample_2d_with(t, u as f32, v as f32, filter, lod, arithmetic, self.latitude)
     }
 
     /// Runs the IR steps; returns whether the fragment is discarded.
@@ -494,7 +514,13 @@ impl<'a> FragmentProgram<'a> {
     /// Whether `texture` is a bound 2D texture with a mip chain: a lookup
     /// of it at computed coordinates needs their quad derivatives.
     pub(super) fn mipmapped(&self, texture: TextureId) -> bool {
-        matches!(&self.sources[texture as usize], Source::Bound { exact: None, texture: b } if matches!(&b.texture, Texture::Flat(t) if t.levels.len() > 1))
+        match &self.sources[texture as usize] {
+            Source::Bound { exact: None, texture: b } => {
+                matches!(&b.texture, Texture::Flat(t) if t.levels.len() > 1)
+            }
+            Source::Rendered(rt) => rt.texture.levels.len() > 1,
+            _ => false,
+        }
     }
 
     /// The coordinates of the dependent lookup of step `step` (`c` at this
