@@ -286,6 +286,18 @@ impl<'a> PlanRenderer<'a> {
         self.keep_images(std::iter::once(frame.image));
     }
 
+    /// A cleared image for a pass ([`targets::new_target`]), from the pool where one fits.
+    fn new_target(
+        &self,
+        target: &crate::pipeline::TargetImage,
+        mode: Precision,
+        format: ColorFormat,
+        frame: (u32, u32),
+    ) -> Result<Framebuffer, RenderError> {
+        let mut pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
+        new_target(target, mode, format, frame, &mut pool)
+    }
+
     fn keep_images(&self, images: impl Iterator<Item = Framebuffer>) {
         let mut pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
         for fb in images {
@@ -357,8 +369,7 @@ impl<'a> PlanRenderer<'a> {
                 let target = &self.planned.setup(index).target;
                 let name = if layer == 0 { target.name.clone() } else { format!("{}#{layer}", target.name) };
                 if let std::collections::btree_map::Entry::Vacant(e) = targets.entry(name.clone()) {
-                    let mut pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
-                    e.insert(new_target(target, mode, format, (width, height), &mut pool)?);
+                    e.insert(self.new_target(target, mode, format, (width, height))?);
                 }
                 let reads = framebuffer_reads(m, &pi, &targets);
                 // A copy of the target only for the passes that read it (its
