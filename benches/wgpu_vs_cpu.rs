@@ -11,11 +11,16 @@
 //! default 9, after 2 warm-up frames), printed as the table of
 //! BENCHMARKS.md, with the ratio CPU / wgpu of each row.
 //!
+//! The CPU renderer renders every frame into the last frame's buffers
+//! (`PlanRenderer::recycle`), as a swap chain does.
+//!
 //! Threads: the CPU renderer runs on rayon's pool, lavapipe on its own
 //! (`LP_NUM_THREADS`). For one thread on both sides run
 //! `LP_NUM_THREADS=1 RAYON_NUM_THREADS=1 cargo bench --bench wgpu_vs_cpu`.
 //! `SHADEC_BENCH_PEER=0` skips wgpu, `SHADEC_BENCH_MODES=f32` (or
-//! `fixed9`) runs only that mode's CPU rows.
+//! `fixed9`) runs only that mode's CPU rows, `SHADEC_BENCH_DISPATCH=kernels`
+//! (a comma list of `kernels`, `closures`, `interpreter`) only those f32
+//! dispatches.
 
 #[path = "common/timing.rs"]
 mod timing;
@@ -100,7 +105,7 @@ fn main() {
         };
         let frame = |planned, prog, mode| {
             let cpu = PlanRenderer::new(planned, prog, &scene, &assets).unwrap();
-            median(|| drop(cpu.render(mode, side, side, &mut |_, _| {}).unwrap()))
+            median(|| cpu.recycle(cpu.render(mode, side, side, &mut |_, _| {}).unwrap()))
         };
         for &mode in &modes {
             let dispatches: &[(LaneDispatch, &str)] = match mode {
@@ -111,7 +116,11 @@ fn main() {
                 ],
                 _ => &[(LaneDispatch::Kernels, "CPU, batched (combiner emulator)")],
             };
-            for &(d, name) in dispatches {
+            let chosen = std::env::var("SHADEC_BENCH_DISPATCH").ok();
+            let wanted = |d: LaneDispatch| {
+                chosen.as_deref().is_none_or(|list| list.contains(&format!("{d:?}").to_lowercase()))
+            };
+            for &(d, name) in dispatches.iter().filter(|(d, _)| mode != Precision::F32 || wanted(*d)) {
                 set_lane_dispatch(d);
                 let t = frame(&wgsl, &program, mode);
                 println!("| {side}² | {} | {name} | {:.1} | {} |", mode.name(), ms(t), ratio(t, mode));

@@ -11,7 +11,9 @@ use std::path::Path;
 
 use serde::{Deserialize, Serialize};
 
-use super::{BlendState, RenderError};
+use rayon::prelude::*;
+
+use super::{BlendState, FragmentResult, RenderError};
 
 /// Edge length of a framebuffer tile in pixels.
 pub const TILE: usize = 64;
@@ -81,6 +83,36 @@ pub fn quantize_unorm8(v: f32) -> u8 {
     (v.clamp(0.0, 1.0) * 255.0 + 0.5) as u8
 }
 
+/// How a pass writes its colours, resolved once per pass from its blend
+/// state ([`Writer::of`]): the two states the plans use most — no blending
+/// (a first pass) and `C ← C + src` (Pipeline Grammar, multipass (9)-(10):
+/// the passes summed) — written without the per-channel factor `match` of
+/// [`BlendState::blend`]; every other state through it. Each computes what
+/// [`TileBuffers::blend_color`] computes, bit for bit (`src · 1 = src`,
+/// `dst · 1 = dst` in IEEE arithmetic).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(crate) enum Writer {
+    /// `C ← src`, every channel written.
+    Replace,
+    /// `C ← C + src` (ONE, ONE, add), every channel written.
+    Add,
+    /// Any other state: [`BlendState::blend`] per fragment.
+    General,
+}
+
+impl Writer {
+    /// The writer of `blend`.
+    pub(crate) fn of(blend: &BlendState) -> Writer {
+        if *blend == BlendState::REPLACE {
+            Writer::Replace
+        } else if *blend == BlendState::ADD {
+            Writer::Add
+        } else {
+            Writer::General
+        }
+    }
+}
+
 impl TileBuffers {
     #[inline]
     pub(crate) fn read_color(&self, idx: usize) -> [f32; 4] {
@@ -90,6 +122,45 @@ impl TileBuffers {
                 [p[0] as f32 / 255.0, p[1] as f32 / 255.0, p[2] as f32 / 255.0, p[3] as f32 / 255.0]
             }
             ColorTile::F32(c) | ColorTile::F16(c) | ColorTile::Unorm(c) => c[idx],
+        }
+    }
+
+    /// Blends `out[k]` into texel `pixels[k].0` for every `k` whose
+    /// result is [`FragmentResult::Keep`], as [`TileBuffers::blend_color`]
+    /// does one at a time, with the format and the blend state (`writer`,
+    /// resolved once per pass) matched once per batch.
+    pub(crate) fn blend_kept(
+        &mut self,
+        pixels: &[(usize, f32)],
+        out: &[[f32; 4]],
+        results: &[FragmentResult],
+        blend: &BlendState,
+        writer: Writer,
+    ) {
+        let kept = pixels
+            .iter()
+            .zip(out)
+            .zip(results)
+            .filter(|(_, r)| **r == FragmentResult::Keep)
+            .map(|((&(idx, _), c), _)| (idx, c));
+        if writer == Writer::General {
+            kept.for_each(|(i, s)| self.blend_color(i, s, blend));
+            return;
+        }
+        let add = |s: [f32; 4], d: [f32; 4]| [s[0] + d[0], s[1] + d[1], s[2] + d[2], s[3] + d[3]];
+        let replace = writer == Writer::Replace;
+        match &mut self.color {
+            ColorTile::F32(c) if replace => kept.for_each(|(i, s)| c[i] = *s),
+            ColorTile::Unorm(c) if replace => kept.for_each(|(i, s)| c[i] = *s),
+            ColorTile::F16(c) if replace => kept.for_each(|(i, s)| c[i] = s.map(round_f16)),
+            ColorTile::Rgba8(c) if replace => kept.for_each(|(i, s)| c[i] = s.map(quantize_unorm8)),
+            ColorTile::F32(c) => kept.for_each(|(i, s)| c[i] = add(*s, c[i])),
+            ColorTile::F16(c) => kept.for_each(|(i, s)| c[i] = add(*s, c[i]).map(round_f16)),
+            ColorTile::Unorm(c) => kept.for_each(|(i, s)| c[i] = add(s.map(unorm), c[i].map(unorm))),
+            ColorTile::Rgba8(c) => kept.for_each(|(i, s)| {
+                let d = c[i].map(|p| p as f32 / 255.0);
+                c[i] = add(s.map(|x| x.clamp(0.0, 1.0)), d).map(quantize_unorm8);
+            }),
         }
     }
 
@@ -169,6 +240,27 @@ impl Framebuffer {
         };
         let tile = TileBuffers { color, depth: vec![1.0; n], stencil: vec![0; n] };
         Ok(Framebuffer { width, height, format, tiles_x, tiles_y, tiles: vec![tile; tiles_x * tiles_y] })
+    }
+
+    /// Whether this framebuffer has that size and colour format (so that
+    /// [`Framebuffer::reset`] makes it what [`Framebuffer::new`] would).
+    pub fn fits(&self, width: u32, height: u32, format: ColorFormat) -> bool {
+        (self.width, self.height, self.format) == (width, height, format)
+    }
+
+    /// Clears it to what [`Framebuffer::new`] makes (colour 0, depth 1,
+    /// stencil 0), in parallel over the tiles: a frame renders into the
+    /// buffers of an earlier one instead of allocating and faulting in
+    /// tens of megabytes per frame.
+    pub fn reset(&mut self) {
+        self.tiles.par_iter_mut().for_each(|t| {
+            match &mut t.color {
+                ColorTile::Rgba8(v) => v.fill([0; 4]),
+                ColorTile::F32(v) | ColorTile::F16(v) | ColorTile::Unorm(v) => v.fill([0.0; 4]),
+            }
+            t.depth.fill(1.0);
+            t.stencil.fill(0);
+        });
     }
 
     /// The width in pixels.

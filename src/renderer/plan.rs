@@ -179,7 +179,12 @@ pub struct PlanRenderer<'a> {
     batched: bool,
     /// What stand-ins were used, for the user.
     pub notes: Vec<String>,
+    /// Images of earlier frames to render into ([`PlanRenderer::recycle`]).
+    pool: std::sync::Mutex<Vec<Framebuffer>>,
 }
+
+/// The most images [`PlanRenderer::recycle`] keeps.
+const POOL: usize = 8;
 
 impl<'a> PlanRenderer<'a> {
     /// Binds `planned` to a scene and its assets; its module carries the
@@ -241,6 +246,7 @@ impl<'a> PlanRenderer<'a> {
             latitude: unit::Latitude::MODEL,
             batched: true,
             notes,
+            pool: Default::default(),
         })
     }
 
@@ -270,6 +276,35 @@ impl<'a> PlanRenderer<'a> {
     /// for bit (`tests/render_batch.rs`); benches compare the two speeds.
     pub fn set_batched(&mut self, batched: bool) {
         self.batched = batched;
+    }
+
+    /// Gives a rendered frame's image back for later frames to render
+    /// into (as a swap chain does): a frame of the same size then clears
+    /// it instead of allocating and faulting in fresh buffers. The images
+    /// a frame renders into and does not return are kept the same way.
+    pub fn recycle(&self, frame: Frame) {
+        self.keep_images(std::iter::once(frame.image));
+    }
+
+    /// A cleared image for a pass ([`targets::new_target`]), from the pool where one fits.
+    fn new_target(
+        &self,
+        target: &crate::pipeline::TargetImage,
+        mode: Precision,
+        format: ColorFormat,
+        frame: (u32, u32),
+    ) -> Result<Framebuffer, RenderError> {
+        let mut pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
+        new_target(target, mode, format, frame, &mut pool)
+    }
+
+    fn keep_images(&self, images: impl Iterator<Item = Framebuffer>) {
+        let mut pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
+        for fb in images {
+            if pool.len() < POOL {
+                pool.push(fb);
+            }
+        }
     }
 
     /// Renders every pass at `width`×`height`; `progress(done, total)` is
@@ -334,7 +369,7 @@ impl<'a> PlanRenderer<'a> {
                 let target = &self.planned.setup(index).target;
                 let name = if layer == 0 { target.name.clone() } else { format!("{}#{layer}", target.name) };
                 if let std::collections::btree_map::Entry::Vacant(e) = targets.entry(name.clone()) {
-                    e.insert(new_target(target, mode, format, (width, height))?);
+                    e.insert(self.new_target(target, mode, format, (width, height))?);
                 }
                 let reads = framebuffer_reads(m, &pi, &targets);
                 // A copy of the target only for the passes that read it (its
@@ -382,6 +417,7 @@ impl<'a> PlanRenderer<'a> {
             RenderError::Unsupported("the plan writes no framebuffer: nothing to show".into())
         })?;
         let image = targets.remove(&name).ok_or_else(|| lost(&name))?;
+        self.keep_images(targets.into_values());
         let Draws { stats, adaptive: adaptive_stats, .. } = draws;
         Ok(Frame { image, name, stats, time, nonfinite, adaptive: adaptive_stats, shading })
     }

@@ -5,9 +5,9 @@
 
 use rayon::prelude::*;
 
-use super::framebuffer::{TileBuffers, TILE};
+use super::framebuffer::{TileBuffers, Writer, TILE};
 use super::raster::{Fragment, PassSetup, Tri, SUB};
-use super::{DrawStats, FragmentResult, Framebuffer, Pass, StencilOp, BATCH};
+use super::{CompareFunc, DrawStats, FragmentResult, Framebuffer, Pass, StencilOp, BATCH};
 
 pub(crate) fn rasterize(target: &mut Framebuffer, pass: &Pass, setup: &PassSetup) -> DrawStats {
     let tiles_x = target.tiles_x();
@@ -129,7 +129,7 @@ struct Batch<'a> {
 
 impl Batch<'_> {
     /// Shades the waiting fragments and writes those kept.
-    fn flush(&mut self, tile: &mut TileBuffers, pass: &Pass, stats: &mut DrawStats) {
+    fn flush(&mut self, tile: &mut TileBuffers, pass: &Pass, writer: Writer, stats: &mut DrawStats) {
         let k = self.fragments.len();
         if k == 0 {
             return;
@@ -141,15 +141,15 @@ impl Batch<'_> {
             &mut self.results[..k],
         );
         stats.shaded += k as u64;
-        for (lane, &(idx, z)) in self.pixels.iter().enumerate() {
-            if self.results[lane] == FragmentResult::Keep {
-                if pass.state.depth.write {
-                    tile.depth[idx] = z;
-                }
-                tile.blend_color(idx, &self.out[lane], &pass.state.blend);
-                stats.written += 1;
+        let results = &self.results[..k];
+        let kept = |&(_, r): &(&(usize, f32), &FragmentResult)| *r == FragmentResult::Keep;
+        if pass.state.depth.write {
+            for (&(idx, z), _) in self.pixels.iter().zip(results).filter(kept) {
+                tile.depth[idx] = z;
             }
         }
+        stats.written += results.iter().filter(|r| **r == FragmentResult::Keep).count() as u64;
+        tile.blend_kept(&self.pixels, &self.out[..k], results, &pass.state.blend, writer);
         self.fragments.clear();
         self.pixels.clear();
         self.varyings.clear();
@@ -157,7 +157,10 @@ impl Batch<'_> {
 }
 
 /// [`raster_tile`] without a stencil test: depth-tested fragments are
-/// shaded in batches of up to [`BATCH`] per triangle.
+/// shaded in batches of up to [`BATCH`] per triangle. Each row's covered
+/// span ([`for_each_span`]) is taken [`SPAN`] pixels at a time: their
+/// weights, depths and depth test as lanes ([`Span`]), the same formulas
+/// as [`fragment_at`] (so the same values, bit for bit).
 fn raster_tile_batched(
     tile: &mut TileBuffers,
     rect: (i32, i32, i32, i32),
@@ -167,7 +170,8 @@ fn raster_tile_batched(
 ) -> DrawStats {
     let n = setup.n_varyings;
     let mut stats = DrawStats::default();
-    let depth = &pass.state.depth;
+    let func = pass.state.depth.func;
+    let writer = Writer::of(&pass.state.blend);
     let mut batch = Batch {
         fragments: Vec::with_capacity(BATCH),
         pixels: Vec::with_capacity(BATCH),
@@ -178,24 +182,122 @@ fn raster_tile_batched(
     for &ti in bin {
         let tri: &Tri = &setup.tris[ti as usize];
         let (vary, gradients) = setup.inputs(tri);
-        for_each_covered(tri, rect, |x, y, idx| {
-            let (fragment, z, p) = fragment_at(tri, x, y, gradients);
-            stats.fragments += 1;
-            if !depth.func.test(z, tile.depth[idx]) {
-                return;
-            }
-            let at = batch.varyings.len();
-            batch.varyings.resize(at + n, 0.0);
-            interpolate(vary, n, p, &mut batch.varyings[at..]);
-            batch.fragments.push(fragment);
-            batch.pixels.push((idx, z));
-            if batch.fragments.len() == BATCH {
-                batch.flush(tile, pass, &mut stats);
+        for_each_span(tri, rect, |y, xa, xb, idx0| {
+            let mut x = xa;
+            while x <= xb {
+                let k = ((xb - x + 1) as usize).min(SPAN);
+                let at = idx0 + (x - xa) as usize;
+                let span = Span::at(tri, x, y);
+                stats.fragments += k as u64;
+                let mut pass_mask = depth_mask(func, &span.z, &tile.depth[at..at + k]);
+                while pass_mask != 0 {
+                    let j = pass_mask.trailing_zeros() as usize;
+                    pass_mask &= pass_mask - 1;
+                    let p = span.p.map(|w| w[j]);
+                    batch
+                        .varyings
+                        .extend((0..n).map(|i| p[0] * vary[i] + p[1] * vary[n + i] + p[2] * vary[2 * n + i]));
+                    batch.fragments.push(Fragment {
+                        x: (x + j as i32) as u32,
+                        y: y as u32,
+                        depth: span.z[j],
+                        front_facing: tri.front_facing,
+                        inv_w: span.q[j],
+                        gradients,
+                    });
+                    batch.pixels.push((at + j, span.z[j]));
+                    if batch.fragments.len() == BATCH {
+                        batch.flush(tile, pass, writer, &mut stats);
+                    }
+                }
+                x += SPAN as i32;
             }
         });
-        batch.flush(tile, pass, &mut stats);
+        batch.flush(tile, pass, writer, &mut stats);
     }
     stats
+}
+
+/// Pixels of a row the scan loop takes together.
+const SPAN: usize = 8;
+
+/// [`SPAN`] pixels of a row from (x, y) on: depth, 1/w and the
+/// perspective-correct weights, as [`fragment_at`] computes each (lanes
+/// past the covered span are computed and not used).
+struct Span {
+    z: [f32; SPAN],
+    q: [f32; SPAN],
+    p: [[f32; SPAN]; 3],
+}
+
+impl Span {
+    #[inline(always)]
+    fn at(tri: &Tri, x: i32, y: i32) -> Span {
+        let py = y as f32 + 0.5;
+        let px: [f32; SPAN] = std::array::from_fn(|j| (x + j as i32) as f32 + 0.5);
+        let l: [[f32; SPAN]; 3] = tri.weights.map(|[a, b, c]| px.map(|px| a * px + b * py + c));
+        let z = std::array::from_fn(|j| {
+            (l[0][j] * tri.z[0] + l[1][j] * tri.z[1] + l[2][j] * tri.z[2]).clamp(0.0, 1.0)
+        });
+        let pw: [[f32; SPAN]; 3] = std::array::from_fn(|k| l[k].map(|l| l * tri.inv_w[k]));
+        let q: [f32; SPAN] = std::array::from_fn(|j| pw[0][j] + pw[1][j] + pw[2][j]);
+        let inv_q = q.map(|q| 1.0 / q);
+        let p = pw.map(|w| std::array::from_fn(|j| w[j] * inv_q[j]));
+        Span { z, q, p }
+    }
+}
+
+/// The lanes of `z` (the first `stored.len()`) that pass the depth test
+/// `func` against `stored`, as bits; the function matched once per span.
+#[inline(always)]
+fn depth_mask(func: CompareFunc, z: &[f32; SPAN], stored: &[f32]) -> u32 {
+    let lanes = |test: fn(f32, f32) -> bool| {
+        z.iter().zip(stored).enumerate().fold(0u32, |m, (j, (&z, &d))| m | ((test(z, d) as u32) << j))
+    };
+    match func {
+        CompareFunc::Never => 0,
+        CompareFunc::Less => lanes(|z, d| z < d),
+        CompareFunc::LessEqual => lanes(|z, d| z <= d),
+        CompareFunc::Equal => lanes(|z, d| z == d),
+        CompareFunc::Greater => lanes(|z, d| z > d),
+        CompareFunc::GreaterEqual => lanes(|z, d| z >= d),
+        CompareFunc::NotEqual => lanes(|z, d| z != d),
+        CompareFunc::Always => (1u32 << stored.len()) - 1,
+    }
+}
+
+/// Calls `visit(y, xa, xb, idx)` for every row of `tri` inside `rect`
+/// with the covered pixels `xa..=xb` (`idx`: pixel `xa` in the tile). The
+/// covered pixels of a row are one run: each edge function is affine in x,
+/// so each edge's inside is a ray of the row, and three rays meet in an
+/// interval.
+fn for_each_span(tri: &Tri, rect: (i32, i32, i32, i32), mut visit: impl FnMut(i32, i32, i32, usize)) {
+    let x0 = tri.x0.max(rect.0);
+    let y0 = tri.y0.max(rect.1);
+    let x1 = tri.x1.min(rect.2);
+    let y1 = tri.y1.min(rect.3);
+    if x0 > x1 || y0 > y1 {
+        return;
+    }
+    let step_x = tri.dy.map(|d| -d * SUB);
+    let px0 = x0 as i64 * SUB + SUB / 2;
+    for y in y0..=y1 {
+        let py = y as i64 * SUB + SUB / 2;
+        let mut e = tri.edges_at(px0, py);
+        let mut x = x0;
+        while x <= x1 && !tri.covers(&e) {
+            e = [e[0] + step_x[0], e[1] + step_x[1], e[2] + step_x[2]];
+            x += 1;
+        }
+        let xa = x;
+        while x <= x1 && tri.covers(&e) {
+            e = [e[0] + step_x[0], e[1] + step_x[1], e[2] + step_x[2]];
+            x += 1;
+        }
+        if x > xa {
+            visit(y, xa, x - 1, (y - rect.1) as usize * TILE + (xa - rect.0) as usize);
+        }
+    }
 }
 
 /// [`raster_tile`] with a stencil test: fragment by fragment, since a

@@ -10,6 +10,7 @@
 
 pub mod cube_image;
 pub mod generators;
+pub mod lanes;
 pub mod sampling;
 pub mod solid;
 pub mod unit;

@@ -43,7 +43,7 @@ use crate::ir::Ty;
 use crate::ir::{self, BinaryOp, Expr, MathFunction, UnaryOp};
 use crate::parser::ast::CombineMode;
 use crate::renderer::{Fragment, FragmentResult, BATCH};
-use crate::textures::{unit, Texture};
+use crate::textures::{lanes as texture_lanes, unit, Texture};
 
 /// How a compiled pass's ops are dispatched (for the measurement that
 /// chose the default; both compute the same values).
@@ -341,45 +341,68 @@ impl FragmentProgram<'_> {
 
     /// Lookup step `i` ([`samples_directly`]) of lanes `0..n` in `f32`:
     /// the coordinates, the level of detail and the filtered texel as
-    /// [`FragmentProgram::lookup`] computes them, without the `f64` values.
+    /// [`FragmentProgram::lookup`] computes them, without the `f64` values;
+    /// the texture unit over the lanes ([`crate::textures::lanes`]) where
+    /// it covers the lookup, else lane by lane.
+    #[inline(always)]
     fn sample_lanes(&self, i: usize, r: &mut [Lanes], fragments: &[Fragment], varyings: &[f32], per: usize) {
         let s = &self.steps[i];
         let Some(Leaf::Lookup { texture, coords_ty, lod_from }) = s.leaf else { return };
         let Source::Bound { texture: b, .. } = &self.sources[texture as usize] else { return };
         let filter = self.filters[texture as usize];
+        let n = fragments.len();
         let (lo, hi) = r.split_at_mut(s.slot as usize * 4);
         let c = |k: usize| lanes(lo, s.ops[0], k);
         let (c0, c1, c2) = (c(0), c(1), c(2));
-        let out = &mut hi[..4];
-        for (lane, fragment) in fragments.iter().enumerate() {
-            let texel = match &b.texture {
-                Texture::Flat(t) => {
-                    let (u, v) = if coords_ty == Ty::Scalar { (c0[lane], 0.5) } else { (c0[lane], c1[lane]) };
-                    let lod = match lod_from {
-                        Some(k) if t.levels.len() > 1 => {
-                            let vary = &varyings[lane * per + 4 * k..lane * per + 4 * k + 4];
-                            let d = |j| fragment.quad_derivatives(4 * k + j, vary[j]);
-                            let (du, dv) = uv_derivatives(coords_ty, vary, d);
-                            unit::quad_lod(t.width(), t.height(), [du[0], dv[0]], [du[1], dv[1]])
-                        }
-                        _ => f32::NEG_INFINITY,
-                    };
-                    unit::sample_2d_with(t, u, v, filter, lod, unit::Arithmetic::Float, self.latitude)
+        let mut texel = [[0.0f32; BATCH]; 4];
+        match &b.texture {
+            Texture::Flat(t) => {
+                let half = [0.5f32; BATCH];
+                let v = if coords_ty == Ty::Scalar { &half } else { c1 };
+                let mut lod = [f32::NEG_INFINITY; BATCH];
+                if let Some(k) = lod_from.filter(|_| t.levels.len() > 1) {
+                    for (lane, fragment) in fragments.iter().enumerate() {
+                        let vary = &varyings[lane * per + 4 * k..lane * per + 4 * k + 4];
+                        let d = |j| fragment.quad_derivatives(4 * k + j, vary[j]);
+                        let (du, dv) = uv_derivatives(coords_ty, vary, d);
+                        lod[lane] = unit::quad_lod(t.width(), t.height(), [du[0], dv[0]], [du[1], dv[1]]);
+                    }
                 }
-                Texture::Cube(t) => {
-                    unit::sample_cube_with(t, [c0[lane], c1[lane], c2[lane]], filter, self.latitude.weights)
+                if !texture_lanes::sample_2d_lanes(t, c0, v, &lod, n, filter, self.latitude, &mut texel) {
+                    for lane in 0..n {
+                        let one = unit::sample_2d_with(
+                            t,
+                            c0[lane],
+                            v[lane],
+                            filter,
+                            lod[lane],
+                            unit::Arithmetic::Float,
+                            self.latitude,
+                        );
+                        (0..4).for_each(|k| texel[k][lane] = one[k]);
+                    }
                 }
-                _ => [f32::NAN; 4],
-            };
-            let texel = match s.ty.width() {
-                1 => [texel[0]; 4],
-                w @ 2..=3 => std::array::from_fn(|k| if k < w { texel[k] } else { 0.0 }),
-                4 => texel,
-                _ => [f32::NAN; 4],
-            };
-            for (k, x) in texel.into_iter().enumerate() {
-                out[k][lane] = x;
             }
+            Texture::Cube(t) => {
+                let weights = self.latitude.weights;
+                if !texture_lanes::sample_cube_lanes(t, [c0, c1, c2], n, filter, weights, &mut texel) {
+                    for lane in 0..n {
+                        let one = unit::sample_cube_with(t, [c0[lane], c1[lane], c2[lane]], filter, weights);
+                        (0..4).for_each(|k| texel[k][lane] = one[k]);
+                    }
+                }
+            }
+            _ => texel = [[f32::NAN; BATCH]; 4],
+        }
+        let out = &mut hi[..4];
+        match s.ty.width() {
+            1 => out.iter_mut().for_each(|o| *o = texel[0]),
+            w @ 2..=4 => {
+                for (k, o) in out.iter_mut().enumerate() {
+                    *o = if k < w { texel[k] } else { [0.0; BATCH] };
+                }
+            }
+            _ => out.iter_mut().for_each(|o| o.fill(f32::NAN)),
         }
     }
 

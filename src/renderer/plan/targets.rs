@@ -20,12 +20,15 @@ use super::shade::to_pixel;
 /// as the WGSL target's `Rgba16Float` (fixed9 and f32; exact keeps f32); a
 /// fixed-point target (`rgba8`) is clamped to [0, 1] as GL stores it,
 /// which `exact` and `f32` keep in float ([`ColorFormat::Unorm`]) and
-/// `fixed9` in RGBA8; a planner temporary keeps its value unclamped.
+/// `fixed9` in RGBA8; a planner temporary keeps its value unclamped. One
+/// of `pool` (images of earlier frames, [`super::PlanRenderer::recycle`])
+/// of that size and format is cleared and taken before a new one is made.
 pub(super) fn new_target(
     target: &TargetImage,
     mode: Precision,
     format: ColorFormat,
     frame: (u32, u32),
+    pool: &mut Vec<Framebuffer>,
 ) -> Result<Framebuffer, RenderError> {
     let format = match (mode, target.format) {
         (Precision::Exact, TargetFormat::Half) => ColorFormat::F32,
@@ -34,9 +37,13 @@ pub(super) fn new_target(
         _ => format,
     };
     let (width, height) = target.extent.size(frame.0, frame.1);
-    let mut fb = Framebuffer::new(width, height, format)?;
-    fb.clear_color([0.0, 0.0, 0.0, 0.0]);
-    Ok(fb)
+    if let Some(at) = pool.iter().position(|fb| fb.fits(width, height, format)) {
+        let mut fb = pool.swap_remove(at);
+        fb.reset();
+        return Ok(fb);
+    }
+    // `Framebuffer::new` clears to colour 0, depth 1, stencil 0.
+    Framebuffer::new(width, height, format)
 }
 
 /// Whether the pass reads its own target's size or depth (`xs`, `δu`).
