@@ -129,6 +129,18 @@ fn shadow_mask_geforce3_texture_shader_reads_back() {
     assert!(run.stdout.contains("dot_product_depth_replace_2of2(tex0);"), "{}", run.stdout);
 }
 
+/// The program with its last statement writing the mask α C as a grey
+/// image (the printed C and C′ are the same image: the mask is what the
+/// test decides).
+fn mask(source: &str) -> String {
+    let masked = source.replace(
+        "C xs ← (α C xs)*(C xs) + (1 – α C xs)*(C′ xs);",
+        "const white : rgba = (1, 1, 1, 1);\nC xs ← (α C xs) * white;",
+    );
+    assert_ne!(masked, source);
+    masked
+}
+
 /// Pixels (of `n`) whose colour differs by more than 2/255 in a channel.
 fn over(a: &[u8], b: &[u8]) -> (usize, u8) {
     let n = a.len() / 4;
@@ -149,12 +161,7 @@ fn shadow_mask_on_geforce3_renders_within_bounds_of_wgsl_and_the_meaning() {
     let gf3 = render(&plan(&source, "geforce3").unwrap(), &source, Precision::Fixed9);
     let wgsl = render(&plan(&source, "wgsl").unwrap(), &source, Precision::F32);
     let exact = meaning(&source);
-    // The mask alone: the last statement writes α C into the colour.
-    let mask_source = source.replace(
-        "C xs ← (α C xs)*(C xs) + (1 – α C xs)*(C′ xs);",
-        "const white : rgba = (1, 1, 1, 1);\nC xs ← (α C xs) * white;",
-    );
-    assert_ne!(mask_source, source);
+    let mask_source = mask(&source);
     let lit_source = source.replace(PRINTED_TEST, "α C xs ← 0;");
     let lit = render(&plan(&lit_source, "wgsl").unwrap(), &lit_source, Precision::F32);
     let n = gf3.len() / 4;
@@ -210,4 +217,66 @@ fn shadow_mask_is_refused_on_geforce256_in_every_form_located() {
             "{help}"
         );
     }
+}
+
+/// The `!!TS1.0` emulator's depth replace: the fragment's depth is z/w of
+/// the two dot products of unit 0's texel, clamped to [0, 1], 1 where
+/// w = 0; both stages' registers are 0. The expectation is computed in
+/// reals from the coordinate bytes' meaning.
+#[test]
+fn texture_shader_emulator_replaces_depth_by_z_over_w() {
+    use ts1::emulate::{replaced_depth, shade, Image, TextureInputs, COORD_ONE};
+    assert_eq!(replaced_depth(5, 0), COORD_ONE);
+    assert_eq!(replaced_depth(COORD_ONE / 4, COORD_ONE), COORD_ONE / 4);
+    assert_eq!(replaced_depth(-COORD_ONE / 4, -COORD_ONE), COORD_ONE / 4);
+    assert_eq!(replaced_depth(3 * COORD_ONE, COORD_ONE), COORD_ONE);
+    assert_eq!(replaced_depth(-5, COORD_ONE), 0);
+    let texel = [200u8, 17, 255, 255];
+    // Directions, as dot-product stages read coordinate bytes: (2b − 255)/255.
+    let (c1, c2) = ([255u8, 128, 128, 255], [128u8, 128, 255, 255]);
+    let inputs = TextureInputs {
+        width: 1,
+        height: 1,
+        textures: [Some(Image { width: 1, height: 1, rgba: &texel }), None, None, None],
+        coords: [None, Some(&c1), Some(&c2), None],
+    };
+    let shaded = shade(&ts1::lower::depth_replace(), &inputs).unwrap();
+    let d = shaded.depth[0].expect("a replaced depth") as f64 / COORD_ONE as f64;
+    let c = |b: u8| (2.0 * b as f64 - 255.0) / 255.0;
+    let k = |b: u8| b as f64 / 255.0;
+    let dot = |cs: [u8; 4]| (0..3).map(|i| c(cs[i]) * k(texel[i])).sum::<f64>();
+    let want = dot(c1) / dot(c2);
+    assert!((d - want).abs() <= 4.0 / 65536.0, "{d} vs {want}");
+    assert_eq!(shaded.textures[1], vec![0; 4]);
+    assert_eq!(shaded.textures[2], vec![0; 4]);
+}
+
+/// The geforce3 plan on wgpu: the redraw's WGSL writes the replaced depth
+/// to `frag_depth` and the pipeline tests it `GEQUAL`; its mask against
+/// the CPU's (fixed9, the depth replaced before the CPU's depth test)
+/// differs on at most 0.5 % of the pixels, and the mask is set on both.
+#[cfg(feature = "gpu")]
+#[test]
+fn shadow_mask_geforce3_plan_on_wgpu_agrees_with_cpu() {
+    use shadec::gpu::runner::Target;
+    use shadec::gpu::scene_run::ScenePlan;
+    let Some(gpu) = crate::common::gpu::gpu() else { return };
+    let source = mask(&printed());
+    let planned = plan(&source, "geforce3").unwrap_or_else(|d| panic!("{d:?}"));
+    let (program, _) = shadec::parser::check(&source);
+    let scene = occluder_floor();
+    let assets = scene.build().unwrap();
+    let (w, h) = scene.resolution;
+    let run = ScenePlan::new(&planned, &program, Some(&source), Precision::Fixed9, &scene, &assets)
+        .unwrap_or_else(|e| panic!("{e}"));
+    let wgpu = run.render_into(&gpu, &Target::new(w, h)).unwrap_or_else(|e| panic!("{e}")).into_raw();
+    let cpu = render(&planned, &source, Precision::Fixed9);
+    let n = cpu.len() / 4;
+    let set = |img: &[u8], i: usize| img[4 * i] > 127;
+    let off = (0..n).filter(|&i| set(&cpu, i) != set(&wgpu, i)).count();
+    let (on_cpu, on_wgpu) =
+        ((0..n).filter(|&i| set(&cpu, i)).count(), (0..n).filter(|&i| set(&wgpu, i)).count());
+    eprintln!("geforce3 shadow mask, wgpu vs CPU: {off} of {n} pixels differ; set on {on_wgpu} (wgpu), {on_cpu} (CPU)");
+    assert!(on_cpu > 300 && on_wgpu > 300, "mask set on {on_cpu} (CPU), {on_wgpu} (wgpu)");
+    assert!(off * 200 <= n, "{off} of {n} pixels differ");
 }

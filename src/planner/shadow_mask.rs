@@ -191,6 +191,8 @@ fn set_replaced(m: &Module, pass: &mut Pass, r: &DepthReplaced) -> bool {
     }
     pass.state.depth = DepthState { func: CompareFunc::GreaterEqual, write: false };
     pass.fragment.depth = Some(r.depth.index() as u32);
+    // The light's coordinates `δπl x`, interpolated for unit 0.
+    pass.vertex.interpolants = vec![position.index() as u32];
     pass.textures = vec![TextureBinding {
         unit: 0,
         texture: fb.name.clone(),
