@@ -176,6 +176,7 @@ fn statement_pass(
             operations: 0,
             condition: form.condition.map(|c| c.index() as u32),
             general_combiners: None,
+            depth: None,
         },
         blend: BlendMode::Replace,
         state: RenderState {

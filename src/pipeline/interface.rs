@@ -36,6 +36,9 @@ pub struct PassInterface {
     pub output: Handle<Expr>,
     /// Discard where this is zero.
     pub condition: Option<Handle<Expr>>,
+    /// The fragment's depth in place of the interpolated one, when the
+    /// pass replaces it (the plan's `fragment.depth`).
+    pub depth: Option<Handle<Expr>>,
 }
 
 impl PassInterface {
@@ -46,8 +49,9 @@ impl PassInterface {
         let h = |id: u32| planned.handle(id);
         let output = h(pass.fragment.output);
         let condition = pass.fragment.condition.map(h);
+        let depth = pass.fragment.depth.map(h);
         let mut frag_roots = vec![output];
-        frag_roots.extend(condition);
+        frag_roots.extend(condition.into_iter().chain(depth));
         // The δ nodes the fragment stage reads (not those under another δ).
         let mut interpolants = BTreeSet::new();
         let mut stack = frag_roots.clone();
@@ -119,6 +123,7 @@ impl PassInterface {
             position,
             output,
             condition,
+            depth,
         }
     }
 }

@@ -190,6 +190,12 @@ pub struct FragmentWork {
     /// generator's setup for this pass uses (what the cost model charges).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub general_combiners: Option<u32>,
+    /// The depth each fragment takes in place of its interpolated one,
+    /// before the depth test (NV_texture_shader's
+    /// `DOT_PRODUCT_DEPTH_REPLACE_NV`; WGSL's `frag_depth`): the shadow
+    /// mask's redraw on a GeForce3 (docs/shadow-maps.md).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub depth: Option<u32>,
 }
 
 /// The framebuffer operation of a pass (Pipeline Grammar, eq. (9): `C ← C ⊕ …`).

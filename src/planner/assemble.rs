@@ -153,6 +153,7 @@ pub(super) fn assemble_pass(
                 crate::pipeline::FragmentSetup::Combiners(p) => Some(p.stages()),
                 _ => None,
             }),
+            depth: None,
         },
         blend: piece.blend,
         state,

@@ -33,6 +33,7 @@ pub mod realize;
 pub mod relevance;
 mod rewrite;
 pub mod shadow_map;
+pub mod shadow_mask;
 pub mod shadow_volumes;
 pub mod specialize;
 pub mod split;
@@ -379,6 +380,7 @@ fn plan_as_written(
 ) -> Result<Planned, Vec<Diagnostic>> {
     let mut m = module.clone();
     shadow_map::redraw_over_geometry(&mut m, profile);
+    let depth_replaced = shadow_mask::redraw_with_replaced_depth(&mut m, profile);
     let canonical = canonical_when_unfit(&mut m, profile)?;
     if matches!(profile.fragment, FragmentStage::Combiners(_)) && request.realizer.is_none() {
         let what = "planned for a register-combiner target without its code generator";
@@ -413,8 +415,9 @@ fn plan_as_written(
         })
         .collect();
     let ctx = AssembleCtx { profile, realizer: request.realizer, texgen: &texgen, at: &at };
-    let (mut plan, stages) = assemble(&m, &ctx, &chosen, prepared);
+    let (mut plan, mut stages) = assemble(&m, &ctx, &chosen, prepared);
     shadow_map::equal_depth(&m, &mut plan.passes);
+    depth_replacing(&m, &ctx, &depth_replaced, &mut plan, &mut stages);
     if let Some(d) = storage::float_framebuffer_read_back(module, &plan, profile) {
         return Err(vec![d]);
     }
@@ -432,6 +435,33 @@ fn plan_as_written(
         vertex_programs: profile.vertex_programs,
         setups,
     })
+}
+
+/// The shadow mask's redraws (`shadow_mask`): their passes replace the
+/// fragment's depth and read the light's map on unit 0, so their combiner
+/// setup is made again with that unit, and the plan lists the new values.
+fn depth_replacing(
+    m: &Module,
+    ctx: &AssembleCtx,
+    replaced: &[shadow_mask::DepthReplaced],
+    plan: &mut PassPlan,
+    stages: &mut [assemble::Stage],
+) {
+    let changed = shadow_mask::depth_replacing_passes(m, plan, replaced);
+    for &k in &changed {
+        let value = Handle::new(plan.passes[k].fragment.output as usize);
+        let stage = assemble::combiner_setup(m, ctx.realizer, value, &plan.passes[k].textures);
+        plan.passes[k].fragment.general_combiners = stage.as_ref().ok().and_then(|s| match s {
+            crate::pipeline::FragmentSetup::Combiners(p) => Some(p.stages()),
+            _ => None,
+        });
+        stages[k].1 = stage;
+    }
+    if !changed.is_empty() {
+        let mut roots: Vec<Handle<Expr>> = plan.values.iter().map(|v| Handle::new(v.id as usize)).collect();
+        roots.extend(replaced.iter().flat_map(|r| [r.read, r.depth]));
+        plan.values = assemble::plan_values(m, &roots, ctx.at);
+    }
 }
 
 /// The statements' values rewritten into their canonical forms

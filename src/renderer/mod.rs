@@ -102,6 +102,26 @@ pub trait FragmentStage: Sync {
     ) {
         shade_each(self, fragments, varyings, out, results)
     }
+
+    /// Whether the stage gives each fragment a depth of its own, which the
+    /// depth test then takes in place of the interpolated one
+    /// (NV_texture_shader's `DOT_PRODUCT_DEPTH_REPLACE_NV`, WGSL's
+    /// `frag_depth`). Such a stage is shaded before the depth test.
+    fn replaces_depth(&self) -> bool {
+        false
+    }
+
+    /// [`FragmentStage::shade`], and the fragment's depth: the replaced one
+    /// where the stage replaces it ([`FragmentStage::replaces_depth`]), else
+    /// the interpolated `fragment.depth`.
+    fn shade_with_depth(
+        &self,
+        fragment: &Fragment,
+        varyings: &[f32],
+        out: &mut [f32; 4],
+    ) -> (FragmentResult, f32) {
+        (self.shade(fragment, varyings, out), fragment.depth)
+    }
 }
 
 /// [`FragmentStage::shade_batch`] as [`FragmentStage::shade`] of each

@@ -56,11 +56,52 @@ fn raster_tile(
     pass: &Pass,
     setup: &PassSetup,
 ) -> DrawStats {
-    if pass.state.stencil.enabled {
+    if pass.fragment.replaces_depth() {
+        raster_tile_replaced_depth(tile, rect, bin, pass, setup)
+    } else if pass.state.stencil.enabled {
         raster_tile_stencil(tile, rect, bin, pass, setup)
     } else {
         raster_tile_batched(tile, rect, bin, pass, setup)
     }
+}
+
+/// [`raster_tile`] for a stage that replaces the fragment's depth: each
+/// fragment is shaded first, then depth-tested with the depth its stage
+/// gave it (NV_texture_shader's `DOT_PRODUCT_DEPTH_REPLACE_NV` runs before
+/// the depth test). The stencil test is not applied: no plan combines it
+/// with a replaced depth.
+fn raster_tile_replaced_depth(
+    tile: &mut TileBuffers,
+    rect: (i32, i32, i32, i32),
+    bin: &[u32],
+    pass: &Pass,
+    setup: &PassSetup,
+) -> DrawStats {
+    let n = setup.n_varyings;
+    let mut varyings = vec![0.0f32; n];
+    let mut stats = DrawStats::default();
+    let depth = &pass.state.depth;
+    for &ti in bin {
+        let tri: &Tri = &setup.tris[ti as usize];
+        let (vary, gradients) = setup.inputs(tri);
+        for_each_covered(tri, rect, |x, y, idx| {
+            let (fragment, _, p) = fragment_at(tri, x, y, gradients);
+            stats.fragments += 1;
+            interpolate(vary, n, p, &mut varyings);
+            stats.shaded += 1;
+            let mut color = [0.0f32; 4];
+            let (result, z) = pass.fragment.shade_with_depth(&fragment, &varyings, &mut color);
+            if result == FragmentResult::Discard || !depth.func.test(z, tile.depth[idx]) {
+                return;
+            }
+            if depth.write {
+                tile.depth[idx] = z;
+            }
+            tile.blend_color(idx, &color, &pass.state.blend);
+            stats.written += 1;
+        });
+    }
+    stats
 }
 
 /// Calls `visit(x, y, idx)` for every pixel of `tri` inside `rect` that

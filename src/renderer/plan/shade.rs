@@ -50,6 +50,8 @@ pub(super) struct FragmentProgram<'a> {
     pub(super) output: u32,
     pub(super) output_ty: Ty,
     pub(super) condition: Option<u32>,
+    /// The slot of the depth the fragment takes, when the pass replaces it.
+    pub(super) depth: Option<u32>,
     pub(super) sources: Vec<Source<'a>>,
     /// Per texture: the layers of its fat texels, rendered by a bundle pass.
     pub(super) fat: Vec<Vec<&'a Rendered>>,
@@ -96,7 +98,7 @@ impl<'a> FragmentProgram<'a> {
             Some(c) => c.registers.iter().flatten().copied().collect(),
             None => vec![pi.output],
         };
-        roots.extend(pi.condition);
+        roots.extend(pi.condition.into_iter().chain(pi.depth));
         let n = m.exprs.len();
         let reach = ir::fragment_reach(m, &roots);
         let (sources, filters) = FragmentProgram::texture_sources(r, mode, rendered, &reach)?;
@@ -140,6 +142,7 @@ impl<'a> FragmentProgram<'a> {
             output: slot_of[pi.output.index()],
             output_ty: m.info(pi.output).ty,
             condition: pi.condition.map(|c| slot_of[c.index()]),
+            depth: pi.depth.map(|d| slot_of[d.index()]),
             sources,
             fat,
             reads,
@@ -781,6 +784,33 @@ pub fn exact_lookup(f: ExactFunction, c: Value) -> Value {
 }
 
 impl FragmentStage for FragmentProgram<'_> {
+    fn replaces_depth(&self) -> bool {
+        self.depth.is_some()
+    }
+
+    /// The replaced depth as the depth buffer holds it: clamped to [0, 1]
+    /// (NV_texture_shader leaves a depth outside it undefined).
+    fn shade_with_depth(
+        &self,
+        fragment: &Fragment,
+        varyings: &[f32],
+        out: &mut [f32; 4],
+    ) -> (FragmentResult, f32) {
+        let Some(d) = self.depth else { return (self.shade(fragment, varyings, out), fragment.depth) };
+        SLOTS.with(|cell| {
+            let mut slots = cell.borrow_mut();
+            if slots.len() < self.n_slots {
+                slots.resize(self.n_slots, [0.0; 4]);
+            }
+            if self.run(&mut slots[..self.n_slots], fragment, varyings, None) {
+                return (FragmentResult::Discard, fragment.depth);
+            }
+            let depth = (slots[d as usize][0] as f32).clamp(0.0, 1.0);
+            *out = self.output(self.colour(|s| slots[s as usize]));
+            (FragmentResult::Keep, depth)
+        })
+    }
+
     fn shade(&self, fragment: &Fragment, varyings: &[f32], out: &mut [f32; 4]) -> FragmentResult {
         SLOTS.with(|cell| {
             let mut slots = cell.borrow_mut();

@@ -49,7 +49,7 @@ pub(super) fn new_target(
 /// Whether the pass reads its own target's size or depth (`xs`, `δu`).
 pub(super) fn reads_own_target(m: &Module, pi: &PassInterface) -> bool {
     let mut roots = vec![pi.output];
-    roots.extend(pi.condition);
+    roots.extend(pi.condition.into_iter().chain(pi.depth));
     m.reachable(&roots).into_iter().any(|h| matches!(m.exprs[h], Expr::Pixel { .. } | Expr::TexelCoord))
 }
 
@@ -62,7 +62,7 @@ pub(super) fn framebuffer_reads(
 ) -> HashMap<u32, Framebuffer> {
     let mut reads: HashMap<u32, Framebuffer> = HashMap::new();
     let mut roots = vec![pi.output];
-    roots.extend(pi.condition);
+    roots.extend(pi.condition.into_iter().chain(pi.depth));
     for h in m.reachable(&roots) {
         if let Expr::FramebufferRead { framebuffer, .. } = m.exprs[h] {
             let fname = &m.framebuffers[framebuffer as usize].name;

@@ -43,9 +43,16 @@
 //!   stage reads the cube map at N, its next stage's dot product computed
 //!   first, as the hardware does.
 //!
-//! Not modelled: the depth that `dot_product_depth_replace` writes (its
-//! RGBA is 0, as the spec says; `emulate` has no depth buffer); filtering
-//! (every lookup is nearest); texture wrap modes other than clamp to edge.
+//! - **Depth replace** (`dot_product_depth_replace_1of2/2of2`): the
+//!   fragment's depth is z/w of the two dot products (z of the first
+//!   stage, w of the second), ⌊z·65536/w⌋ in coordinate units clamped to
+//!   [0, 1], and 1 where w = 0 (as Direct3D's `texm3x2depth` defines the
+//!   same operation); both stages' RGBA is 0, as NV_texture_shader says.
+//!   [`Shaded::depth`] holds it; `emulate` has no depth buffer to test it
+//!   against.
+//!
+//! Not modelled: filtering (every lookup is nearest); texture wrap modes
+//! other than clamp to edge.
 
 use rayon::prelude::*;
 use thiserror::Error;
@@ -100,6 +107,9 @@ pub enum TsEmulateError {
 pub struct Shaded {
     pub textures: [Vec<u8>; 4],
     pub culled: Vec<bool>,
+    /// The depth `dot_product_depth_replace` gave each pixel, in
+    /// coordinate units (1/65536), where the program replaces it.
+    pub depth: Vec<Option<i32>>,
 }
 
 /// `⌊a / b⌋` for b > 0.
@@ -151,7 +161,7 @@ pub fn signed_coordinates(op: &Operation) -> bool {
 pub fn shade(program: &TextureShader, inputs: &TextureInputs) -> Result<Shaded, TsEmulateError> {
     check(program, inputs)?;
     let n = inputs.width * inputs.height;
-    let mut pixels = vec![([[0u8; 4]; 4], false); n];
+    let mut pixels = vec![([[0u8; 4]; 4], false, None); n];
     let width = inputs.width.max(1);
     pixels.par_chunks_mut(width).enumerate().for_each(|(y, row)| {
         for (x, px) in row.iter_mut().enumerate() {
@@ -160,9 +170,13 @@ pub fn shade(program: &TextureShader, inputs: &TextureInputs) -> Result<Shaded, 
     });
     let mut textures: [Vec<u8>; 4] = Default::default();
     for (unit, t) in textures.iter_mut().enumerate() {
-        *t = pixels.iter().flat_map(|(texels, _)| texels[unit]).collect();
+        *t = pixels.iter().flat_map(|(texels, _, _)| texels[unit]).collect();
     }
-    Ok(Shaded { textures, culled: pixels.iter().map(|p| p.1).collect() })
+    Ok(Shaded {
+        textures,
+        culled: pixels.iter().map(|p| p.1).collect(),
+        depth: pixels.iter().map(|p| p.2).collect(),
+    })
 }
 
 fn check(program: &TextureShader, inputs: &TextureInputs) -> Result<(), TsEmulateError> {
@@ -280,8 +294,25 @@ pub fn offset(a: i32, b: i32, ds: i32, dt: i32) -> i32 {
     floor_div((a * ds + b * dt) * 16, 127)
 }
 
-/// One pixel: the four texture registers and whether it was culled.
-fn pixel(program: &TextureShader, inputs: &TextureInputs, x: usize, y: usize) -> ([[u8; 4]; 4], bool) {
+/// The depth `dot_product_depth_replace` gives a fragment: z/w in
+/// coordinate units, ⌊z·65536/w⌋ clamped to [0, 65536]; 65536 (1) where
+/// w = 0.
+pub fn replaced_depth(z: i32, w: i32) -> i32 {
+    if w == 0 {
+        return COORD_ONE;
+    }
+    let (z, w) = if w < 0 { (-(z as i64), -(w as i64)) } else { (z as i64, w as i64) };
+    (z * COORD_ONE as i64).div_euclid(w).clamp(0, COORD_ONE as i64) as i32
+}
+
+/// One pixel: the four texture registers, whether it was culled, and the
+/// depth a depth-replace stage gave it.
+fn pixel(
+    program: &TextureShader,
+    inputs: &TextureInputs,
+    x: usize,
+    y: usize,
+) -> ([[u8; 4]; 4], bool, Option<i32>) {
     let mut out = [[0u8; 4]; 4];
     // Dot products of the current group, in coordinate units, its stages'
     // q (the eye vector of `eye_from_qs`) and its constant eye (1/256).
@@ -289,6 +320,7 @@ fn pixel(program: &TextureShader, inputs: &TextureInputs, x: usize, y: usize) ->
     let mut eyes = [0i32; 3];
     let mut const_eye = [0i32; 3];
     let mut culled = false;
+    let mut depth = None;
     for unit in 0..MAX_STAGES {
         let op = program.stage(unit);
         let c = coordinates(inputs, unit, x, y, signed_coordinates(&op));
@@ -318,6 +350,9 @@ fn pixel(program: &TextureShader, inputs: &TextureInputs, x: usize, y: usize) ->
             }
             Operation::DotProduct { family, step, previous, mapping, eye } => {
                 dots[step as usize] = dot(c, out[previous as usize], mapping);
+                if family == DotFamily::DepthReplace && step == 1 {
+                    depth = Some(replaced_depth(dots[0], dots[1]));
+                }
                 if step == 0 {
                     const_eye = eye.map_or([0; 3], |e| e.map(eye_units));
                 }
@@ -338,7 +373,7 @@ fn pixel(program: &TextureShader, inputs: &TextureInputs, x: usize, y: usize) ->
             Operation::TextureCubeMap => cube_lookup(image, [c[0], c[1], c[2]]),
         };
     }
-    (out, culled)
+    (out, culled, depth)
 }
 
 fn offset_stage(

@@ -9,13 +9,20 @@
 use crate::ir::{BinaryOp, Expr, Handle, Module};
 use crate::parser::ast::{TextureFormat, TextureKind};
 
-use super::program::{Operation, TextureShader};
+use super::program::{DotFamily, DotMapping, Operation, TextureShader};
 
 /// The program for `units` (unit k holds `units[k]`), when at least one unit
 /// is a dependent lookup and every unit has an operation; `None` when no
 /// unit depends on another (plain texturing needs no texture shader) or
 /// some unit's coordinates have no NV_texture_shader operation.
 pub fn program(m: &Module, units: &[Handle<Expr>]) -> Option<TextureShader> {
+    // The shadow mask's redraw: the light's map, then the fragment's depth
+    // replaced by its two dot products (`planner::shadow_mask`).
+    if let [read] = units {
+        if crate::planner::shadow_mask::replaced_depth(m, *read).is_some() {
+            return Some(depth_replace());
+        }
+    }
     // A HILO map's dot products: stages of their own (`super::hilo`).
     if let Some(hilo) = super::hilo::program(m, units, operation) {
         return hilo;
@@ -26,6 +33,23 @@ pub fn program(m: &Module, units: &[Handle<Expr>]) -> Option<TextureShader> {
     }
     let compares = units.iter().any(|&u| crate::planner::shadow_map::depth_texture_read(m, u).is_some());
     (compares || stages.iter().any(|op| op.previous().is_some())).then_some(TextureShader { stages })
+}
+
+/// `texture_2d(); dot_product_depth_replace_1of2(tex0);
+/// dot_product_depth_replace_2of2(tex0);` (NV_texture_shader,
+/// `DOT_PRODUCT_DEPTH_REPLACE_NV`): unit 0 reads the light's depth map
+/// stored as two bytes, units 1 and 2 rebuild it as z / w and replace the
+/// fragment's depth with it. The dot products read unit 0's texel as it
+/// is (unsigned identity).
+pub fn depth_replace() -> TextureShader {
+    let step = |step| Operation::DotProduct {
+        family: DotFamily::DepthReplace,
+        step,
+        previous: 0,
+        mapping: DotMapping::UnsignedIdentity,
+        eye: None,
+    };
+    TextureShader { stages: vec![Operation::Texture2d, step(0), step(1)] }
 }
 
 fn operation(m: &Module, earlier: &[Handle<Expr>], unit: Handle<Expr>) -> Option<Operation> {

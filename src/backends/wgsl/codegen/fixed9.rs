@@ -40,7 +40,7 @@ impl Gen<'_> {
             (0..2).map(|k| g.constants[k].filter(|_| unset[k])).collect();
         let mut roots: Vec<ir::Handle<Expr>> =
             registers.iter().chain(&constants).flatten().copied().collect();
-        roots.extend(self.iface.condition);
+        roots.extend(self.iface.condition.into_iter().chain(self.iface.depth));
         // The registers' sources in float, unrounded (as the CPU's fixed9 loads them).
         let precision = std::mem::replace(&mut self.precision, Precision::F32);
         self.pass_nodes = self.fragment_nodes(&roots);

@@ -238,7 +238,7 @@ impl Gen<'_> {
             self.fragment_combiners(&mut b, &g)?
         } else {
             let mut roots = vec![self.iface.output];
-            roots.extend(self.iface.condition);
+            roots.extend(self.iface.condition.into_iter().chain(self.iface.depth));
             let reach = ir::fragment_reach(self.m, &roots);
             self.address = ir::address_only(self.m, &reach);
             self.register_reads = ir::register_reads(self.m, &reach);
@@ -269,6 +269,9 @@ impl Gen<'_> {
             }
         };
         let out = if self.renders_half_floats() { self.round_to_half(&mut b, out) } else { out };
+        if let Some(d) = self.iface.depth {
+            return self.depth_replaced_output(b, out, d);
+        }
         b.f.body.push(Statement::Return { value: Some(out) }, naga::Span::UNDEFINED);
         b.f.result = Some(FunctionResult { ty: vec4, binding: Some(location(0)) });
         Ok(b.f)

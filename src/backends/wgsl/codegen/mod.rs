@@ -111,6 +111,7 @@ use crate::span::Span;
 
 mod arith;
 mod body;
+mod depth;
 mod fixed9;
 mod interface;
 mod names;
