@@ -4,7 +4,8 @@
 //! r/q of the coordinates they are read at (the point's own depth from the
 //! light, with the light's q), so the printed form is refused there,
 //! located, and the help's form (Williams 1978's test) plans; GeForce 256
-//! had no depth textures and refuses every form.
+//! had no depth textures: it refuses the printed form and plans Williams's
+//! only as the alpha-ramp approximation.
 
 use shadec::profile::Profile;
 
@@ -46,18 +47,23 @@ fn shadow_mask_printed_form_is_refused_on_geforce3_and_the_helps_form_plans() {
     assert!(planned.plan.passes.len() >= 4, "{:#?}", planned.plan.passes);
 }
 
-/// geforce256: refused at the same statement in both forms, the help
-/// saying it had no depth textures and no form plans there.
+/// geforce256: the printed form refused at its statement, the help
+/// saying it had no depth textures and that Williams's test plans there
+/// only as an approximation; Williams's form then plans, as the alpha
+/// ramp (`alpha_ramp_shadow_map`, tests/shadow_map.rs).
 #[test]
-fn shadow_mask_is_refused_on_geforce256_in_every_form_located() {
-    for source in [printed(), williams()] {
-        let Err(errors) = plan(&source, "geforce256") else { panic!("planned on geforce256") };
-        assert_eq!(errors.len(), 1, "{errors:?}");
-        assert_eq!(line_col(&source, &errors[0]), (31, 1));
-        let help = errors[0].help.as_deref().unwrap_or("");
-        assert!(
-            help.contains("geforce256 has no depth textures") && help.contains("no form of the test plans"),
-            "{help}"
-        );
-    }
+fn shadow_mask_printed_form_is_refused_on_geforce256_located() {
+    let source = printed();
+    let Err(errors) = plan(&source, "geforce256") else { panic!("planned on geforce256") };
+    assert_eq!(errors.len(), 1, "{errors:?}");
+    assert_eq!(line_col(&source, &errors[0]), (31, 1));
+    let help = errors[0].help.as_deref().unwrap_or("");
+    assert!(
+        help.contains("geforce256 has no depth textures")
+            && help.contains("Williams's test plans there only as an approximation"),
+        "{help}"
+    );
+    let planned = plan(&williams(), "geforce256").unwrap_or_else(|e| panic!("Williams's form: {e:?}"));
+    let rules: Vec<&str> = planned.plan.approximations.iter().map(|a| a.rule.as_str()).collect();
+    assert_eq!(rules, ["alpha_ramp_shadow_map"]);
 }
