@@ -340,6 +340,22 @@ impl Program {
 
 /// Why `planned` cannot run on `profile`, if it cannot: checked pass by pass
 /// against the profile's own numbers and seeds/003 Appendix B.
+/// `z p` or `z p − b` (b a constant) of an interpolated clip position
+/// `p`: s/q of texture coordinates generated per vertex (s = z·½ + w·(½ − b),
+/// q = w), which every texture unit divides (projective texturing) — the
+/// GeForce 256 shadow map's ramp coordinate (rule `alpha_ramp_shadow_map`).
+fn projective_depth(m: &shadec::ir::Module, coords: Handle<Expr>) -> bool {
+    let depth = match m.exprs[coords] {
+        Expr::Binary { op: shadec::ir::BinaryOp::Sub, lhs, rhs }
+            if matches!(m.exprs[rhs], Expr::Constant(_)) =>
+        {
+            lhs
+        }
+        _ => coords,
+    };
+    matches!(m.exprs[depth], Expr::Depth(p) if matches!(m.exprs[p], Expr::Interpolate { .. }))
+}
+
 pub(crate) fn validate_plan(planned: &Planned, profile: &Profile) -> Result<(), String> {
     let m = &planned.module;
     for (i, pass) in planned.plan.passes.iter().enumerate() {
@@ -375,7 +391,8 @@ pub(crate) fn validate_plan(planned: &Planned, profile: &Profile) -> Result<(), 
         for t in &pass.textures {
             let coords = Handle::<Expr>::new(t.coords as usize);
             let computed = m.info(coords).freq == Frequency::Fragment
-                && !matches!(m.exprs[coords], Expr::Interpolate { .. });
+                && !matches!(m.exprs[coords], Expr::Interpolate { .. })
+                && !projective_depth(m, coords);
             if computed && profile.texture_shaders.is_none() {
                 return Err(at(format!(
                     "`{}` is indexed by a per-fragment value, and the target has no texture shaders",

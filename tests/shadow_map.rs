@@ -4,7 +4,9 @@
 //! depth rendered to a texture, the test redrawn over the meshes with the
 //! light's projection as per-vertex texture coordinates, the unit's
 //! compare result (`r ≤ texel` → 1) read by the combiners' mux. On
-//! geforce256, which had no depth textures, it is refused, located.
+//! geforce256, which had no depth textures, it plans as Kilgard's 8-bit
+//! alpha-ramp approximation (rule `alpha_ramp_shadow_map`), measured
+//! against the meaning, and `--no-approx` refuses it, located.
 
 use crate::common;
 
@@ -124,18 +126,188 @@ fn shadow_map_geforce3_setup_snapshot() {
     insta::assert_snapshot!("shadow_map_geforce3_combiners", run.stdout);
 }
 
-/// GeForce 256 had no depth textures: the test is refused at its
-/// statement, and the help says what each target had.
+/// The example planned for geforce256 on the occluder scene through the
+/// one verdict (`check`, `compile`, `render`): the plan, its warnings and
+/// the error it measured against the meaning.
+fn judged_on_geforce256(
+    source: &str,
+    scene: &Scene,
+    assets: &shadec::scene::SceneAssets,
+) -> shadec::verdict::Judged {
+    let front = shadec::driver::front(source);
+    let module = front.module.as_ref().expect("lowered");
+    let profile = Profile::resolve("geforce256").unwrap();
+    let judging = shadec::verdict::Judging {
+        plan: shadec::driver::PlanOptions {
+            scene: Some(shadec::driver::ForScene::specialized(scene, assets)),
+            ..Default::default()
+        },
+        ..Default::default()
+    };
+    shadec::verdict::judge(module, &front.program, &profile, source, &judging)
+        .unwrap_or_else(|d| panic!("{d:?}"))
+}
+
+/// GeForce 256 had no depth textures: Williams's test plans there as
+/// Kilgard's alpha-ramp approximation (rule `alpha_ramp_shadow_map`), with
+/// one located warning at the test. The plan: the ramp baked by the
+/// compiler, a light pass writing the ramp's texel into `Cl`'s alpha, and
+/// the test redrawn over the meshes (depth `Equal`, no write) with the
+/// ramp and `Cl` on the two texture units and two general combiners.
 #[test]
-fn shadow_map_is_refused_on_geforce256_naming_what_it_lacked() {
+fn shadow_map_plans_on_geforce256_with_the_alpha_ramp_warning() {
     let source = example("shadow_map");
-    let Err(err) = plan(&source, "geforce256") else { panic!("planned on geforce256") };
+    let front = shadec::verdict::check(&source, Some("geforce256")).unwrap();
+    let errors: Vec<_> = front.diagnostics.iter().filter(|d| d.is_error()).collect();
+    assert!(errors.is_empty(), "{errors:?}");
+    let warnings: Vec<_> = front.diagnostics.iter().filter(|d| d.code == "approximation").collect();
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert!(warnings[0].message.contains("alpha_ramp_shadow_map"), "{}", warnings[0].message);
+    let at = shadec::span::LineIndex::new(&source).line_col(&source, warnings[0].primary.span.start as usize);
+    assert_eq!((at.line, at.col), (35, 10), "{:?}", warnings[0]);
+
+    let planned = plan(&source, "geforce256").unwrap_or_else(|d| panic!("{d:?}"));
+    let rules: Vec<&str> = planned.plan.approximations.iter().map(|a| a.rule.as_str()).collect();
+    assert_eq!(rules, ["alpha_ramp_shadow_map"]);
+    let test = planned
+        .plan
+        .passes
+        .iter()
+        .position(|p| p.textures.iter().any(|t| t.texture == "Cl"))
+        .expect("a pass reads Cl");
+    let pass = &planned.plan.passes[test];
+    assert!(matches!(pass.geometry, Geometry::Mesh { .. }), "{:?}", pass.geometry);
+    assert_eq!(pass.state.depth.func, CompareFunc::Equal);
+    assert!(!pass.state.depth.write);
+    let units: Vec<&str> = pass.textures.iter().map(|t| t.texture.as_str()).collect();
+    assert_eq!(units, ["alpha_ramp", "Cl"]);
+    let stages = planned.setups[test].combiners().expect("a combiner setup").stages();
+    assert!(stages <= 2, "{stages} general combiners");
+    let light = planned
+        .plan
+        .passes
+        .iter()
+        .position(
+            |p| matches!(&p.target, shadec::pipeline::RenderTarget::Framebuffer { name, .. } if name == "Cl"),
+        )
+        .expect("a light pass");
+    assert!(light < test);
+    assert_eq!(planned.plan.passes[light].textures.len(), 1);
+    for (i, p) in planned.plan.passes.iter().enumerate() {
+        assert!(p.baked || planned.setups[i].combiners().is_some(), "pass {} has no combiner setup", i + 1);
+    }
+}
+
+/// The alpha-ramp plan against the program's meaning on a ball over a
+/// floor: the verdict's measured error (both in f32) is small — the ramp
+/// loses a shadow only where the depths are within one step (1/256) past
+/// the bias — and the plan's f32 render is within it; in the combiners'
+/// fixed9 the plan agrees with the wgsl plan within 2/255 on 99 % of the
+/// pixels and both shade the same floor pixels in shadow.
+#[test]
+fn shadow_map_alpha_ramp_renders_within_its_measured_error() {
+    let source = example("shadow_map");
+    let scene = occluder_floor();
+    let assets = scene.build().unwrap();
+    let judged = judged_on_geforce256(&source, &scene, &assets);
+    let measured = judged.planned.plan.measured.clone().expect("measured on the scene");
+    eprintln!(
+        "alpha ramp on geforce256: measured {:.2}/255 (RMSE {:.5}) from the meaning",
+        measured.max_abs * 255.0,
+        measured.rmse
+    );
+    assert!(measured.max_abs <= 2.0 / 255.0, "{measured:?}");
+    let help = judged.warnings[0].help.as_deref().unwrap_or("");
+    assert!(help.contains(&format!("measured {:.1}/255", measured.max_abs * 255.0)), "{help}");
+
+    let front = shadec::driver::front(&source);
+    let meaning = shadec::meaning::plan(front.module.as_ref().unwrap(), 1).unwrap();
+    let (program, _) = shadec::parser::check(&source);
+    let (w, h) = scene.resolution;
+    let draw = |p: &Planned, mode| {
+        PlanRenderer::new(p, &program, &scene, &assets)
+            .unwrap()
+            .render(mode, w, h, &mut |_, _| {})
+            .unwrap()
+            .image
+            .to_rgba8()
+    };
+    let reference = draw(&meaning, Precision::F32);
+    let ramp = draw(&judged.planned, Precision::F32);
+    let rgb_max =
+        |a: &[u8], b: &[u8]| (0..a.len()).filter(|i| i % 4 != 3).map(|i| a[i].abs_diff(b[i])).max().unwrap();
+    let f32_error = rgb_max(&reference, &ramp);
+    assert!(
+        f32::from(f32_error) <= (measured.max_abs * 255.0).ceil() as f32,
+        "{f32_error}/255 over {measured:?}"
+    );
+
+    let gf256 = render(&source, "geforce256", Precision::Fixed9);
+    let wgsl = render(&source, "wgsl", Precision::F32);
+    let n = gf256.len() / 4;
+    let diff = |i: usize| (0..3).map(|c| gf256[4 * i + c].abs_diff(wgsl[4 * i + c])).max().unwrap();
+    let over = (0..n).filter(|&i| diff(i) > 2).count();
+    let lit_source = source.replace("α C xs ← (z πl π⁻¹ xs) > (z Cl πl π⁻¹ xs) + b;", "α C xs ← 0;");
+    let lit = render(&lit_source, "wgsl", Precision::F32);
+    let shadow = |img: &[u8]| {
+        (0..n).filter(|&i| lit[4 * i + 3] == 255 && lit[4 * i] as i32 - img[4 * i] as i32 > 40).count()
+    };
+    let (on_gf256, on_wgsl) = (shadow(&gf256), shadow(&wgsl));
+    eprintln!(
+        "geforce256 fixed9 vs wgsl: rgb max {}/255, {over} of {n} pixels over 2/255; shadow {on_gf256} vs {on_wgsl} pixels",
+        (0..n).map(diff).max().unwrap()
+    );
+    assert!(on_wgsl > 300, "the ball's shadow: {on_wgsl} pixels");
+    assert_eq!(on_gf256, on_wgsl, "the shadows differ");
+    assert!(over * 100 <= n, "{over} of {n} pixels differ by more than 2/255");
+}
+
+/// `--no-approx` forbids the alpha ramp: the test is refused at its
+/// statement, naming the rule that would plan it and what geforce256
+/// lacked.
+#[test]
+fn shadow_map_no_approx_refuses_the_alpha_ramp_on_geforce256() {
+    let source = example("shadow_map");
+    let profile = Profile::resolve("geforce256").unwrap();
+    let options = shadec::driver::PlanOptions {
+        lowering: shadec::lowering::LowerOptions { approximate: false, ..Default::default() },
+        ..Default::default()
+    };
+    let Err(err) = shadec::driver::compile(&source, &profile, &options) else {
+        panic!("planned with --no-approx")
+    };
     assert_eq!(err.len(), 1, "{err:?}");
     let at = shadec::span::LineIndex::new(&source).line_col(&source, err[0].primary.span.start as usize);
     assert_eq!(at.line, 35, "{err:?}");
     assert!(err[0].message.contains("a per-pixel depth comparison"), "{}", err[0].message);
     let help = err[0].help.as_deref().unwrap_or("");
     assert!(help.contains("geforce256 has no depth textures"), "{help}");
+    assert!(help.contains("`alpha_ramp_shadow_map`, which --no-approx refuses"), "{help}");
+    let run = common::shadec(&["check", "--no-approx", "--target", "geforce256", "examples/shadow_map.shd"]);
+    assert_eq!(run.code, 1, "{}", run.stderr);
+    assert!(
+        run.stdout.contains("shadow_map.shd:35:") || run.stderr.contains("shadow_map.shd:35:"),
+        "{}{}",
+        run.stdout,
+        run.stderr
+    );
+}
+
+/// The printed shadow mask compares the camera's depth with the light's,
+/// which no alpha ramp of the light's depth encodes: geforce256 keeps a
+/// located refusal, and its help says what plans instead, in sentences
+/// (no garbled phrase).
+#[test]
+fn printed_shadow_mask_is_refused_on_geforce256_with_a_true_help() {
+    let source = example("shadow_mask");
+    let Err(err) = plan(&source, "geforce256") else { panic!("planned on geforce256") };
+    assert_eq!(err.len(), 1, "{err:?}");
+    let at = shadec::span::LineIndex::new(&source).line_col(&source, err[0].primary.span.start as usize);
+    assert_eq!(at.line, 31, "{err:?}");
+    let help = err[0].help.as_deref().unwrap_or("");
+    assert!(!help.contains("there no form"), "{help}");
+    assert!(help.contains("Williams's test plans there only as an approximation"), "{help}");
+    assert!(help.contains("(z πl π⁻¹ xs) > (z Cl πl π⁻¹ xs) + b"), "{help}");
 }
 
 /// The camera's depth compared with the light's plus a bias: a depth

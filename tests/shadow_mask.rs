@@ -7,7 +7,8 @@
 //! (NV_texture_shader's `DOT_PRODUCT_DEPTH_REPLACE_NV`, the light's depth
 //! stored as two bytes), tested `GEQUAL` against the camera's depth buffer
 //! and writing α C = 0 where the test fails. GeForce 256 had no texture
-//! shaders and no depth textures, and refuses every form.
+//! shaders and no depth textures: it refuses the printed form, located,
+//! and plans Williams 1978's test only as the alpha-ramp approximation.
 
 use std::path::Path;
 
@@ -210,20 +211,25 @@ fn shadow_mask_with_a_bias_on_the_cameras_depth_is_refused_on_geforce3() {
     assert!(help.contains("(z πl π⁻¹ xs) > (z Cl πl π⁻¹ xs) + b"), "{help}");
 }
 
-/// geforce256: refused at the same statement in both forms, the help
-/// saying it had no depth textures and no form plans there.
+/// geforce256: the printed form refused at its statement, the help
+/// saying it had no depth textures and that Williams's test plans there
+/// only as an approximation; Williams's form then plans, as the alpha
+/// ramp (`alpha_ramp_shadow_map`, tests/shadow_map.rs).
 #[test]
-fn shadow_mask_is_refused_on_geforce256_in_every_form_located() {
-    for source in [printed(), williams()] {
-        let Err(errors) = plan(&source, "geforce256") else { panic!("planned on geforce256") };
-        assert_eq!(errors.len(), 1, "{errors:?}");
-        assert_eq!(line_col(&source, &errors[0]), (31, 1));
-        let help = errors[0].help.as_deref().unwrap_or("");
-        assert!(
-            help.contains("geforce256 has no depth textures") && help.contains("no form of the test plans"),
-            "{help}"
-        );
-    }
+fn shadow_mask_printed_form_is_refused_on_geforce256_located() {
+    let source = printed();
+    let Err(errors) = plan(&source, "geforce256") else { panic!("planned on geforce256") };
+    assert_eq!(errors.len(), 1, "{errors:?}");
+    assert_eq!(line_col(&source, &errors[0]), (31, 1));
+    let help = errors[0].help.as_deref().unwrap_or("");
+    assert!(
+        help.contains("geforce256 has no depth textures")
+            && help.contains("Williams's test plans there only as an approximation"),
+        "{help}"
+    );
+    let planned = plan(&williams(), "geforce256").unwrap_or_else(|e| panic!("Williams's form: {e:?}"));
+    let rules: Vec<&str> = planned.plan.approximations.iter().map(|a| a.rule.as_str()).collect();
+    assert_eq!(rules, ["alpha_ramp_shadow_map"]);
 }
 
 /// The `!!TS1.0` emulator's depth replace: the fragment's depth is z/w of

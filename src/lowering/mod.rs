@@ -47,6 +47,10 @@
 //!   a lookup whose coordinate reads a texel → the function the table
 //!   holds computed in the combiners (`exponent_table(n)` → xⁿ), or the
 //!   coordinate computed per vertex and interpolated;
+//! - [`alpha_ramp`]: on a target without depth textures (GeForce 256),
+//!   Williams's shadow-map test with both depths from the light encoded in
+//!   an 8-bit alpha ramp and compared in the combiners (Kilgard's shadow
+//!   mapping on the GeForce 1 and 2, GDC 2000), measured, not bounded;
 //! - [`per_vertex::gouraud`]: the last resort when no choice above plans —
 //!   every maximal per-fragment part that reads only interpolants computed
 //!   per vertex (Gouraud), reported without a bound.
@@ -54,6 +58,7 @@
 //! What no rule rewrites (a texture indexed by another texture's result on
 //! geforce256, float textures) keeps the planner's located refusal.
 
+pub mod alpha_ramp;
 pub mod cube_map;
 pub mod dependent;
 pub mod fat_texture;
@@ -183,6 +188,7 @@ pub fn lower_for(
     signed_texture::apply(&mut r);
     fat_texture::apply(&mut r);
     float_texture::apply(&mut r);
+    alpha_ramp::apply(&mut r);
     for st in std::mem::take(&mut r.m.statements) {
         if matches!(st.table, Table::TexCoords(_)) || r.m.is_baked(&st) {
             r.m.statements.push(st);

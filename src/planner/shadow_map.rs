@@ -20,6 +20,12 @@
 //! `δ πl x = πl δ x`), and the compare result `(z δπl x) ≤ (z Cl δπl x) + b`
 //! is what the unit's register holds ([`compare_node`]).
 //!
+//! On a combiner target without depth textures (GeForce 256) the same
+//! redraw runs as the lowering's rule `alpha_ramp_shadow_map`
+//! (`lowering::alpha_ramp`): both depths encoded in an 8-bit ramp and
+//! compared in the combiners; [`equal_depth`] gives its pass the `Equal`
+//! depth test too.
+//!
 //! The example's printed test, `(z C xs) > (z Cl πl π⁻¹ xs)`, compares the
 //! camera's depth with the light's: the unit's `r/q` shares q with `s/q`
 //! and `t/q`, so it cannot be the camera's depth; that form is left to the
@@ -160,13 +166,31 @@ pub fn compare_node(m: &Module, output: Handle<Expr>, read: Handle<Expr>) -> Opt
 pub fn equal_depth(m: &Module, passes: &mut [Pass]) {
     for pass in passes.iter_mut() {
         let output = Handle::new(pass.fragment.output as usize);
-        let compares = m.reachable(&[output]).into_iter().any(|h| {
+        let reach = m.reachable(&[output]);
+        let compares = reach.iter().any(|&h| {
             matches!(m.exprs[h], Expr::Binary { op: BinaryOp::Gt, rhs, .. } if depth_texture_read(m, rhs).is_some())
-        });
+        }) || ramp_compare(m, &reach);
         if compares && matches!(pass.geometry, crate::pipeline::Geometry::Mesh { .. }) {
             pass.state.depth = DepthState::EQUAL_NO_WRITE;
         }
     }
+}
+
+/// Whether the nodes `reach` of a pass are the alpha-ramp compare of
+/// rule `alpha_ramp_shadow_map` (GeForce 256): the ramp read at the
+/// fragment's own depth from the light and a framebuffer's alpha read at
+/// the light's interpolated projection — a redraw over the meshes, whose
+/// fragment must be the one that wrote the camera's depth.
+fn ramp_compare(m: &Module, reach: &[Handle<Expr>]) -> bool {
+    let ramp = reach.iter().any(|&h| {
+        matches!(m.exprs[h], Expr::Lookup { texture, .. }
+            if m.textures[texture as usize].name.starts_with(crate::lowering::alpha_ramp::RAMP) && m.textures[texture as usize].baked)
+    });
+    let projected = reach.iter().any(|&h| {
+        matches!(m.exprs[h], Expr::FramebufferRead { channel: FbChannel::Alpha, position, .. }
+            if matches!(m.exprs[position], Expr::Interpolate { .. }))
+    });
+    ramp && projected
 }
 
 /// The texture unit whose depth comparison is the condition `cond` of a
@@ -186,5 +210,6 @@ pub fn compare_unit(m: &Module, units: &[Handle<Expr>], cond: Handle<Expr>) -> O
     units.iter().position(|&u| u == read)
 }
 
-/// Why a depth comparison has no combiner setup: what each target had.
-pub const REFUSAL_HELP: &str = "the register combiners cannot read a depth buffer, and geforce256 has no depth textures (SGIX_shadow came with the GeForce3): there no form of the test plans; geforce3's depth textures (SGIX_shadow / ARB_shadow) compare a texel only with the r/q of the coordinates it is read at, interpolated from the vertices with the light's q — the point's own depth from the light, never the camera's depth `z C xs`: on geforce3 write Williams's test `(z πl π⁻¹ xs) > (z Cl πl π⁻¹ xs) + b` (redrawn over the meshes) or `(z δπl x) > (z Cl δπl x)`; or target wgsl (docs/shadow-maps.md)";
+/// Why a depth comparison has no combiner setup: what each target had,
+/// and the forms that plan.
+pub const REFUSAL_HELP: &str = "the register combiners cannot read a depth buffer. geforce3's depth textures (SGIX_shadow / ARB_shadow) compare a texel only with the r/q of the coordinates it is read at, interpolated from the vertices with the light's q — the point's own depth from the light, never the camera's depth `z C xs` (on geforce3 the printed comparison `(z C xs) > (z Cl πl π⁻¹ xs)` without a bias plans by the depth test instead); write Williams's test `(z πl π⁻¹ xs) > (z Cl πl π⁻¹ xs) + b` (redrawn over the meshes) or `(z δπl x) > (z Cl δπl x)`. geforce256 has no depth textures (SGIX_shadow came with the GeForce3): Williams's test plans there only as an approximation, both depths from the light encoded in an 8-bit alpha ramp and compared in the combiners (rule `alpha_ramp_shadow_map`, which --no-approx refuses); or target wgsl (docs/shadow-maps.md)";
