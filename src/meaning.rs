@@ -125,7 +125,7 @@ fn place(
         (_, true) => Geometry::Mesh { projection: if in_texture_space { "u".into() } else { "π".into() } },
         _ => Geometry::Texels,
     };
-    let key = (st.table.clone(), position);
+    let key = (st.table.depth_target(), position);
     let decided = match (&geometry, depth) {
         (_, Some(d)) => d,
         (Geometry::Mesh { .. }, None) if in_texture_space => DepthState::DISABLED,

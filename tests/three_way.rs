@@ -515,3 +515,24 @@ fn a_dot3_read_by_a_sum_is_clamped_as_gl_clamps_it() {
         render_three(source, "geforce3", &scene("kilgard_torus.ron"), Precision::Fixed9, g.as_ref()).unwrap();
     crate::three_way_generated::fixed9_verdict(&p, &mut 0).unwrap();
 }
+
+/// `α C δπx ← …` then `C δπx ← …`: both draw the mesh into the one depth
+/// buffer of C, so the second tests `Equal` against the first's depth. The
+/// planner and the meaning keyed "already drawn" by the channel written,
+/// drew the colour with `Less` again, and lost it on every pixel (a black
+/// picture, which the meaning shared); the reference was the odd one out,
+/// and right. Every target, its own arithmetic.
+#[test]
+fn an_alpha_write_then_a_colour_write_keep_the_colour() {
+    let source =
+        format!("{LIT}const kd : rgb = (0.8, 0.7, 0.6);\nα C δπx ← 0.5;\nC δπx ← kd * (δ diffuse s x);\n");
+    let g = gpu();
+    for (target, precision) in
+        [("wgsl", Precision::F32), ("geforce3", Precision::Fixed9), ("geforce256", Precision::Fixed9)]
+    {
+        let p = render_three(&source, target, &scene("kilgard_torus.ron"), precision, g.as_ref()).unwrap();
+        verdict(&p).map_err(|e| format!("{target}: {e}")).unwrap();
+        let lit = p.covered.iter().enumerate().filter(|(i, &c)| c && p.cpu[4 * i] > 0).count();
+        assert!(lit > 0, "{target}: the colour statement drew nothing");
+    }
+}

@@ -921,6 +921,20 @@ pub enum Table {
     TexCoords(TexCoordId),
 }
 
+impl Table {
+    /// The table whose depth buffer a write into this one tests: a
+    /// framebuffer's, whichever channel is written. `α C δπx ← …` and
+    /// `C δπx ← …` draw into the one depth buffer of C (Pipeline Grammar,
+    /// Section 3.5: α, z and σ select channels of one framebuffer), so the
+    /// second draw of the same mesh tests `Equal`, not `Less` again.
+    pub fn depth_target(&self) -> Table {
+        match self {
+            Table::Framebuffer { id, .. } => Table::Framebuffer { id: *id, channel: FbChannel::Color },
+            other => other.clone(),
+        }
+    }
+}
+
 /// One `←` assignment.
 #[derive(Clone, Debug)]
 pub struct Statement {

@@ -104,7 +104,7 @@ pub(super) fn assemble_pass(
     };
     let u = Usage::of_value(m, piece.value);
     let textures = texture_bindings(m, st, &u);
-    let key = reused.unwrap_or((st.table.clone(), st.index));
+    let key = reused.unwrap_or((st.table.depth_target(), st.index));
     let state = pass_state(form, piece, &geometry, in_texture_space, drawn, key);
     // A `bake` table is the compiler's: no combiner setup to judge.
     let baked = m.is_baked(st);
