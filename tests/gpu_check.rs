@@ -105,6 +105,30 @@ fn filtered_cases_lie_within_the_model() {
     }
 }
 
+/// A nearest lookup at a coordinate the vertices compute — a toon ramp
+/// read at `(max(0, N·L), 0.5)`: v = 0.5 lies on a texel edge of an
+/// even-sized texture, and each executor's interpolation of the constant
+/// lands within float noise on either side of it. Before the tie pictures
+/// moved nearest lookups too (`Latitude::nearest_shift`), 12 pixels of a
+/// 128×128 torus were up to 146/255 "beyond the model" on lavapipe; the
+/// case is exact (no latitude), and lies within the model.
+#[test]
+fn a_nearest_lookup_on_a_texel_edge_lies_within_the_model() {
+    let Some(gpu) = gpu() else { return };
+    let setup = Setup::torus(&gpu, SIZE).unwrap();
+    let source = "vector N : normal;\nvector L : light(0);\n\
+         texture Ramp : 2d rgb8 nearest clamp = image(\"missing-ramp.png\");\n\
+         shader at : s → vec2 = (max(0, N·L), 0.5);\nu′ x ← at s x;\nC δπx ← Ramp δu′ x;\n";
+    for (target, mode) in
+        [("geforce3", Precision::Fixed9), ("geforce256", Precision::Fixed9), ("wgsl", Precision::F32)]
+    {
+        let c = compared(setup.compare(&gpu, source, target, mode), "toon ramp");
+        says_something(&c, "toon ramp");
+        assert_eq!(c.class, Class::Exact);
+        assert_eq!(c.beyond, 0, "toon ramp on {target}: {c:?}");
+    }
+}
+
 /// The latitude renders move the pictures of filtered programs (so the
 /// bound they make is wider than the model's picture) and leave those of
 /// programs without texture lookups alone.

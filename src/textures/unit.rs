@@ -244,11 +244,22 @@ impl WeightChoice {
 pub struct Latitude {
     pub lod: LodChoice,
     pub weights: WeightChoice,
+    /// Texels added to the unnormalized coordinates before a `nearest`
+    /// lookup picks its texel; 0 in the model. Not a freedom of the
+    /// texture unit but of the coordinates it is handed: another
+    /// implementation interpolates them in its own float arithmetic
+    /// (Vulkan §3.7 leaves interpolation's precision to it), so a
+    /// coordinate that lies within float noise of a texel edge — a
+    /// constant 0.5 interpolated across a triangle, on a texture of even
+    /// size — may fall on either side. `bench::gpu_check`'s tie pictures
+    /// set it from `RoundingBias::texel_quanta`.
+    pub nearest_shift: f32,
 }
 
 impl Latitude {
     /// This model: lavapipe's choices.
-    pub const MODEL: Latitude = Latitude { lod: LodChoice::Model, weights: WeightChoice::Model };
+    pub const MODEL: Latitude =
+        Latitude { lod: LodChoice::Model, weights: WeightChoice::Model, nearest_shift: 0.0 };
 
     /// The choices whose renders bound every conforming implementation
     /// (module docs): the model, the four λ breakpoints, the four weight
@@ -266,11 +277,15 @@ impl Latitude {
     ];
 
     const fn lod(lod: LodChoice) -> Latitude {
-        Latitude { lod, weights: WeightChoice::Model }
+        Latitude { lod, weights: WeightChoice::Model, nearest_shift: 0.0 }
     }
 
     const fn weights(x_up: bool, y_up: bool) -> Latitude {
-        Latitude { lod: LodChoice::Model, weights: WeightChoice::Quantized { x_up, y_up } }
+        Latitude {
+            lod: LodChoice::Model,
+            weights: WeightChoice::Quantized { x_up, y_up },
+            nearest_shift: 0.0,
+        }
     }
 }
 
@@ -316,7 +331,9 @@ pub fn sample_2d_with(
         Filter::Nearest | Filter::Bilinear => {
             let level = if lod <= 0.0 { 0 } else { ((lod + 0.5).floor() as usize).min(last) };
             if filter == Filter::Nearest {
-                t.levels[level].sample_nearest(u, v, t.wrap)
+                let l = &t.levels[level];
+                let shift = latitude.nearest_shift;
+                l.sample_nearest(u + shift / l.width as f32, v + shift / l.height as f32, t.wrap)
             } else {
                 filter_in(level)
             }

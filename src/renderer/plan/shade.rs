@@ -151,7 +151,8 @@ impl<'a> FragmentProgram<'a> {
             combiners,
             nonfinite: AtomicU64::new(0),
             tie: r.rounding_bias,
-            latitude: r.latitude,
+            // The tie pictures move a nearest lookup's coordinates too.
+            latitude: unit::Latitude { nearest_shift: r.rounding_bias.texel_quanta / 256.0, ..r.latitude },
             batched: r.batched,
             lanes: None,
         };
