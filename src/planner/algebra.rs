@@ -21,7 +21,13 @@
 //!   becomes `base·light·fog·(1 − f) + base·light·(2·detail)·f`;
 //! - **factored**: a sum whose terms share a factor, that factor taken out
 //!   once (`a·b + a·c` = `a·(b + c)`): fewer operations and fetches where
-//!   the sum fits but its terms, written apart, do not.
+//!   the sum fits but its terms, written apart, do not;
+//! - each of these with **sums of interpolants merged** into one δ,
+//!   `δa + δb` = `δ(a + b)`, where the merged one stays in [0, 1].
+//!
+//! Multiplied out, like terms are collected (`ab + ba` = `2·ab`: the
+//! square of a sum has one cross term) and a term's constants go into its
+//! δ (`δa·0.6` = `δ(0.6·a)`), where they cost no combiner stage.
 //!
 //! The planner plans each form that differs from the one written and keeps
 //! the cheapest by its cost model (`split::cost`); nothing here runs for a
