@@ -313,9 +313,24 @@ fn leaf() -> impl Strategy<Value = Colour> {
 }
 
 fn colour() -> impl Strategy<Value = Colour> {
+    prop_oneof![
+        4 => written_freely(),
+        1 => nested_lerps(),
+    ]
+}
+
+/// Any program of the subset, up to three levels deep.
+fn written_freely() -> impl Strategy<Value = Colour> {
     leaf().prop_recursive(3, 8, 2, |inner| {
         prop_oneof![
             3 => (inner.clone(), inner.clone()).prop_map(|(a, b)| Colour::Mul(Box::new(a), Box::new(b))),
+            // A factor repeated (`a·a`, `a·T·T`): its terms repeat when
+            // multiplied out.
+            1 => inner.clone().prop_map(|a| Colour::Mul(Box::new(a.clone()), Box::new(a))),
+            1 => (inner.clone(), 0usize..4).prop_map(|(a, i)| {
+                let t = || Box::new(Colour::Texture(i));
+                Colour::Mul(Box::new(Colour::Mul(Box::new(a), t())), t())
+            }),
             // A number scales a colour (a sum of numbers folds into one
             // constant, which past 1 no constant register holds).
             1 => (2u8..10, inner.clone()).prop_map(|(k, a)| Colour::Mul(Box::new(Colour::Number(k)), Box::new(a))),
@@ -328,6 +343,26 @@ fn colour() -> impl Strategy<Value = Colour> {
                 .prop_map(|(a, b, f)| Colour::Lerp(Box::new(a), Box::new(b), f)),
         ]
     })
+}
+
+/// The class of issue 34's counterexample, which the free generator
+/// reaches rarely: `lerp(lerp(δ lights, T, f), δ lights′, g)·Tⱼⁿ`, lerps
+/// nested (either side), sums of lights inside δ, a factor repeated up to
+/// three times.
+fn nested_lerps() -> impl Strategy<Value = Colour> {
+    let lights = || (1u8..8, 3u8..9).prop_map(|(m, k)| Colour::Lights(m, k));
+    let amount = || prop::option::of(1u8..10);
+    (lights(), 0usize..4, amount(), lights(), amount(), any::<bool>(), 0usize..4, 1usize..4).prop_map(
+        |(l, i, f, l2, g, inside_first, j, n)| {
+            let inner = Colour::Lerp(Box::new(l), Box::new(Colour::Texture(i)), f);
+            let outer = if inside_first {
+                Colour::Lerp(Box::new(inner), Box::new(l2), g)
+            } else {
+                Colour::Lerp(Box::new(l2), Box::new(inner), g)
+            };
+            (0..n).fold(outer, |c, _| Colour::Mul(Box::new(c), Box::new(Colour::Texture(j))))
+        },
+    )
 }
 
 fn tenth(k: u8) -> String {
@@ -350,7 +385,12 @@ fn written(c: &Colour) -> String {
         Colour::Lights(mask, k) => format!("δ lights{mask}_{k} s x"),
         Colour::Mul(a, b) => format!("({} * {})", written(a), written(b)),
         Colour::Add(a, b) => format!("({} + {})", written(a), written(b)),
-        Colour::Lerp(a, b, f) => format!("lerp({}, {}, {})", written(a), written(b), factor(*f)),
+        // `mix` is `lerp` (GLSL's name): spelled so when the amount is
+        // T3's alpha, so that both spellings are generated.
+        Colour::Lerp(a, b, f) => {
+            let name = if f.is_none() { "mix" } else { "lerp" };
+            format!("{name}({}, {}, {})", written(a), written(b), factor(*f))
+        }
     }
 }
 
@@ -490,6 +530,24 @@ fn the_verdict_on_a_program_is_its_verdict_multiplied_out() {
     assert!(planned[0] > 0 && planned[1] > 0, "{planned:?}");
 }
 
+/// The generator reaches issue 34's class on every run: a lerp nested in
+/// a lerp, under a product, with a repeated factor and a sum of lights
+/// inside δ.
+#[test]
+fn the_algebra_generator_writes_nested_lerps_over_repeated_factors() {
+    let mut runner = TestRunner::deterministic();
+    let mut class = 0;
+    for _ in 0..64 {
+        let text = written(&colour().new_tree(&mut runner).unwrap().current());
+        let nested = ["lerp(lerp(", "mix(lerp(", "lerp(mix(", "mix(mix(", ", lerp(", ", mix("]
+            .iter()
+            .any(|p| text.contains(p));
+        let repeated = (0..4).any(|i| text.matches(&format!("T{i} δu x")).count() > 1);
+        class += (nested && repeated && text.contains("δ lights")) as usize;
+    }
+    assert!(class >= 8, "{class}");
+}
+
 /// The generator reaches products over sums and lerps on every run.
 #[test]
 fn the_algebra_generator_writes_products_over_sums() {
@@ -521,5 +579,116 @@ fn a_sum_grouped_by_a_product_is_factored_back() {
             let (a, b) = (verdict(&original, target), verdict(&multiplied, target));
             assert_eq!(a, b, "{target}: as written {a}, multiplied out {b}\n{original}\n{multiplied}");
         }
+    }
+}
+
+fn mul(a: Colour, b: Colour) -> Colour {
+    Colour::Mul(Box::new(a), Box::new(b))
+}
+
+fn lerp(a: Colour, b: Colour, f: Option<u8>) -> Colour {
+    Colour::Lerp(Box::new(a), Box::new(b), f)
+}
+
+/// `lerp(lerp(δ lights, T0, 0.4), δ lights′, T3.a)·T1·T1·T1`: nested
+/// lerps over a product of a repeated factor, with sums of lights inside
+/// δ. Refused before on geforce256 ("a part that cannot be divided
+/// further needs 3 texture units") while its expansion by hand planned:
+/// multiplied out, the outer lerp's `1 − 0.4` came after the δ, so it
+/// stayed a constant of its own — a third general combiner in every term
+/// of the first light — instead of going into the interpolant as a
+/// constant before the δ did.
+#[test]
+fn nested_lerps_over_a_repeated_factor_plan_like_their_expansion() {
+    let scene = scene("adaptive_sphere_4lights.ron");
+    for (first, second) in [((1, 3), (7, 8)), ((3, 8), (3, 8)), ((7, 8), (1, 3))] {
+        let inner = lerp(Colour::Lights(first.0, first.1), Colour::Texture(0), Some(4));
+        let outer = lerp(inner, Colour::Lights(second.0, second.1), None);
+        let c = mul(mul(mul(outer, Colour::Texture(1)), Colour::Texture(1)), Colour::Texture(1));
+        let decls = declarations(&c);
+        let original = format!("{decls}C δπx ← {};\n", written(&c));
+        let multiplied = format!("{decls}C δπx ← {};\n", expanded(&c));
+        let by_hand = plans_and_renders_its_meaning(&multiplied, "geforce256", &scene);
+        let planned = plans_and_renders_its_meaning(&original, "geforce256", &scene);
+        assert!(planned.plan.approximations.is_empty(), "{original}");
+        assert!(
+            planned.plan.passes.len() <= by_hand.plan.passes.len(),
+            "{} passes, by hand {}\n{original}",
+            planned.plan.passes.len(),
+            by_hand.plan.passes.len()
+        );
+        for target in TARGETS {
+            let (a, b) = (verdict(&original, target), verdict(&multiplied, target));
+            assert_eq!(a, b, "{target}: as written {a}, multiplied out {b}\n{original}\n{multiplied}");
+        }
+    }
+}
+
+/// `(T0·T1 + T2·T3)²`: the sum reaches 2, so rendering it and modulating
+/// by it again stores it clamped at 1 (refused before, saying that a part
+/// "needs 4 texture units"). Multiplied out with like terms collected it
+/// is `(T0·T1)² + 2·T0·T1·T2·T3 + (T2·T3)²`, exact through the 8-bit
+/// clamps: `T2·T3` rendered, modulated by `T0·T1` doubled (2× modulate),
+/// the squares added.
+#[test]
+fn the_square_of_a_sum_of_products_plans_exactly_multiplied_out() {
+    let scene = scene("kilgard_torus.ron");
+    let s = "(T0 δu x * T1 δu x + T2 δu x * (T3 δu x).rgb)";
+    let source = format!("{}C δπx ← {s} * {s};\n", SQUARE_DECLARATIONS);
+    for target in TARGETS {
+        let planned = plans_and_renders_its_meaning(&source, target, &scene);
+        assert!(planned.plan.approximations.is_empty(), "{target}");
+    }
+    let planned = compile(&source, "geforce256").unwrap();
+    assert_eq!(planned.plan.passes.len(), 4, "{}", reasons(&planned));
+    assert!(reasons(&planned).contains("multiplied out"), "{}", reasons(&planned));
+    assert!(reasons(&planned).contains("2× modulate"), "{}", reasons(&planned));
+}
+
+const SQUARE_DECLARATIONS: &str = "\
+texture T0 : 2d rgb8 = image(\"missing-t0.png\");
+texture T1 : 2d rgb8 = image(\"missing-t1.png\");
+texture T2 : 2d rgb8 = image(\"missing-t2.png\");
+texture T3 : 2d rgba8 = image(\"missing-t3.png\");
+";
+
+/// `(T0·T1 + T2·T3)³` stays refused on geforce256: multiplied out, its
+/// cross terms `3·T0·T1·T0·T1·T2·T3` reach 3, which no pass blends
+/// exactly (a source is clamped at 1, a modulation doubles at most). The
+/// refusal says that, located, not that a part needs more texture units
+/// (which the splits would give it).
+#[test]
+fn the_cube_of_a_sum_of_products_is_refused_for_the_clamps() {
+    let s = "(T0 δu x * T1 δu x + T2 δu x * (T3 δu x).rgb)";
+    let source = format!("{}C δπx ← {s} * {s} * {s};\n", SQUARE_DECLARATIONS);
+    let errors = compile(&source, "geforce256").unwrap_err();
+    let d = &errors[0];
+    assert_eq!(d.code, "cannot-split");
+    assert_ne!(d.primary.span.start, d.primary.span.end, "{d:?}");
+    let human = shadec::diag::SourceFile::new("cube.shd", source.as_str()).render(&errors[..1], false);
+    insta::assert_snapshot!("cube_of_a_sum_refused_for_the_clamps", human);
+    assert!(compile(&source, "wgsl").is_ok());
+}
+
+/// The widened generator's first finding: `mix(δ l₇, mix(δ l₄, T3, a), a)·T1³`
+/// plans as written (each light sum fits an interpolant), but multiplied
+/// out, one δ per light, it was refused on geforce256 — factoring found
+/// the shared factors again but not `δl0 + δl1 + δl2` = `δ(l0 + l1 + l2)`.
+/// Interpolants summed are merged back into one δ where the sum stays in
+/// [0, 1] (`algebra::delta_sums_merged`).
+#[test]
+fn interpolants_summed_merge_back_into_one_delta() {
+    let scene = scene("adaptive_sphere_4lights.ron");
+    let inner = lerp(Colour::Lights(4, 3), Colour::Texture(3), None);
+    let outer = lerp(Colour::Lights(7, 3), inner, None);
+    let c = mul(mul(mul(outer, Colour::Texture(1)), Colour::Texture(1)), Colour::Texture(1));
+    let decls = declarations(&c);
+    let original = format!("{decls}C δπx ← {};\n", written(&c));
+    let multiplied = format!("{decls}C δπx ← {};\n", expanded(&c));
+    let planned = plans_and_renders_its_meaning(&multiplied, "geforce256", &scene);
+    assert!(reasons(&planned).contains("merged into one δ"), "{}", reasons(&planned));
+    for target in TARGETS {
+        let (a, b) = (verdict(&original, target), verdict(&multiplied, target));
+        assert_eq!(a, b, "{target}: as written {a}, multiplied out {b}\n{original}\n{multiplied}");
     }
 }

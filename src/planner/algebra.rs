@@ -21,7 +21,13 @@
 //!   becomes `base·light·fog·(1 − f) + base·light·(2·detail)·f`;
 //! - **factored**: a sum whose terms share a factor, that factor taken out
 //!   once (`a·b + a·c` = `a·(b + c)`): fewer operations and fetches where
-//!   the sum fits but its terms, written apart, do not.
+//!   the sum fits but its terms, written apart, do not;
+//! - each of these with **sums of interpolants merged** into one δ,
+//!   `δa + δb` = `δ(a + b)`, where the merged one stays in [0, 1].
+//!
+//! Multiplied out, like terms are collected (`ab + ba` = `2·ab`: the
+//! square of a sum has one cross term) and a term's constants go into its
+//! δ (`δa·0.6` = `δ(0.6·a)`), where they cost no combiner stage.
 //!
 //! The planner plans each form that differs from the one written and keeps
 //! the cheapest by its cost model (`split::cost`); nothing here runs for a
@@ -72,7 +78,72 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
     }
     let grouped = product_by_groups(m, expanded.unwrap_or(base));
     push(&mut out, grouped, "factored into a product of sums");
+    // Each form so far (and the value) with its sums of interpolants
+    // merged back into one δ where an 8-bit interpolant holds the sum.
+    let merged: Vec<Option<Handle<Expr>>> =
+        std::iter::once(h).chain(out.iter().map(|f| f.value)).map(|v| delta_sums_merged(m, v)).collect();
+    for v in merged {
+        push(&mut out, v, "with sums of interpolants merged into one δ");
+    }
     out
+}
+
+/// `h` with every sum of two or more interpolants of one frequency and
+/// type merged into one, `δa + δb` = `δ(a + b)` (interpolation is
+/// linear; Pipeline Grammar, eq. (1)), where the merged value stays in
+/// [0, 1] as each was: one interpolant and one add fewer per fragment. The
+/// inverse of splitting a sum across δ: a program written multiplied out
+/// (`δl0·(1 − f) + δl1·(1 − f)`) factors back to its compact form
+/// (`(1 − f)·δ(l0 + l1)`) only so. `None` when nothing merges.
+pub fn delta_sums_merged(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
+    let mut done: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::default();
+    for n in m.reachable(&[h]) {
+        let e = m.exprs[n].map_operands(|o| *done.get(&o).unwrap_or(&o));
+        let span = m.span(n);
+        let rebuilt = if e == m.exprs[n] { n } else { node(m, e, span)? };
+        let merged = match m.exprs[rebuilt] {
+            Expr::Binary { op: BinaryOp::Add, .. } => merge_interpolants(m, rebuilt, span),
+            _ => None,
+        };
+        done.insert(n, merged.unwrap_or(rebuilt));
+    }
+    done.get(&h).copied().filter(|c| *c != h && m.info(*c).ty == m.info(h).ty)
+}
+
+/// The sum at `h` with its interpolant terms of one frequency and type
+/// merged ([`delta_sums_merged`]); `None` when fewer than two merge.
+fn merge_interpolants(m: &mut Module, h: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
+    let unit = |i: crate::ir::Interval| i.lo >= 0.0 && i.hi <= 1.0;
+    let terms = sum_terms(m, h);
+    let mut deltas: Vec<(Handle<Expr>, Frequency, Handle<Expr>)> = Vec::new();
+    let mut rest = Vec::new();
+    for t in terms {
+        match m.exprs[t] {
+            Expr::Interpolate { value, to }
+                if unit(m.info(t).interval)
+                    && deltas.first().is_none_or(|d| d.1 == to && m.info(d.0).ty == m.info(t).ty) =>
+            {
+                deltas.push((t, to, value))
+            }
+            _ => rest.push(t),
+        }
+    }
+    if deltas.len() < 2 {
+        return None;
+    }
+    let mut value = deltas[0].2;
+    for d in &deltas[1..] {
+        value = binary(m, BinaryOp::Add, value, d.2, span)?;
+    }
+    let merged = node(m, Expr::Interpolate { value, to: deltas[0].1 }, span)?;
+    if !unit(m.info(merged).interval) || m.info(merged).ty != m.info(deltas[0].0).ty {
+        return None;
+    }
+    let mut sum = merged;
+    for t in rest {
+        sum = binary(m, BinaryOp::Add, sum, t, span)?;
+    }
+    Some(sum)
 }
 
 /// Most factors a term may have for [`product_by_groups`] to try its
@@ -508,7 +579,7 @@ pub fn multiply_out(m: &mut Module, h: Handle<Expr>, max: usize) -> Option<Handl
     let terms = expansion(m, h, max)?;
     let span = m.span(h);
     let mut sum: Option<Handle<Expr>> = None;
-    for factors in terms {
+    for factors in like_terms_collected(m, terms, span)? {
         let factors = constants_into_delta(m, factors, span)?;
         let mut product = factors[0];
         for f in &factors[1..] {
@@ -522,10 +593,58 @@ pub fn multiply_out(m: &mut Module, h: Handle<Expr>, max: usize) -> Option<Handl
     sum.filter(|s| *s != h && m.info(*s).ty == m.info(h).ty)
 }
 
+/// The terms of a sum of products with like terms collected: terms with
+/// the same factors (in any order) but for scalar constants are one term,
+/// their coefficients added — `ab + ba` = `2·ab`, what the square of a sum
+/// multiplied out needs (`(T0·T1 + T2·T3)²` has one cross term `2·T0·T1·T2·T3`,
+/// one product to split, not two). Terms without like terms are kept as
+/// written.
+fn like_terms_collected(m: &mut Module, terms: Terms, span: Span) -> Option<Terms> {
+    let scalar = |m: &Module, f: Handle<Expr>| match &m.exprs[f] {
+        Expr::Constant(c) if c.ty == Ty::Scalar => Some(c.components[0]),
+        _ => None,
+    };
+    // (the other factors sorted, the coefficient, the term as written, how many)
+    type Like = (Vec<Handle<Expr>>, f64, Vec<Handle<Expr>>, usize);
+    let mut like: Vec<Like> = Vec::new();
+    for t in terms {
+        let mut key: Vec<Handle<Expr>> = t.iter().copied().filter(|f| scalar(m, *f).is_none()).collect();
+        key.sort();
+        let k: f64 = t.iter().filter_map(|f| scalar(m, *f)).product();
+        match like.iter_mut().find(|l| l.0 == key && !key.is_empty()) {
+            Some(l) => {
+                l.1 += k;
+                l.3 += 1;
+            }
+            None => like.push((key, k, t, 1)),
+        }
+    }
+    let mut out = Vec::with_capacity(like.len());
+    for (_, k, written, n) in like {
+        if n == 1 {
+            out.push(written);
+            continue;
+        }
+        let others: Vec<Handle<Expr>> = written.into_iter().filter(|f| scalar(m, *f).is_none()).collect();
+        if k == 0.0 {
+            continue;
+        }
+        let c = node(m, Expr::Constant(crate::ir::Constant::scalar(k)), span)?;
+        out.push([vec![c], others].concat());
+    }
+    if out.is_empty() {
+        out.push(vec![node(m, Expr::Constant(crate::ir::Constant::scalar(0.0)), span)?]);
+    }
+    Some(out)
+}
+
 /// A constant factor written just before a δ moved inside it:
 /// `k·δv` = `δ(k·v)` (interpolation is linear), which spends no constant
 /// register and no combiner stage on `k` per fragment, and keeps equal
 /// interpolants one interpolant (`(0.3·δa)·(0.3·δa)` reads one colour).
+/// Constants elsewhere in the term (`δa·0.6·(1 − f)·T`, the `1 − 0.4` of
+/// an outer `lerp` multiplied out after the δ) go into its last δ before
+/// them, or its first ([`constant_into_delta`]).
 fn constants_into_delta(m: &mut Module, factors: Vec<Handle<Expr>>, span: Span) -> Option<Vec<Handle<Expr>>> {
     let mut out: Vec<Handle<Expr>> = Vec::with_capacity(factors.len());
     let mut i = 0;
@@ -544,7 +663,39 @@ fn constants_into_delta(m: &mut Module, factors: Vec<Handle<Expr>>, span: Span) 
         out.push(f);
         i += 1;
     }
+    let mut i = 0;
+    while i < out.len() {
+        if matches!(m.exprs[out[i]], Expr::Constant(_)) && out.len() > 1 {
+            if let Some(at) = constant_into_delta(m, &mut out, i, span) {
+                out.remove(at);
+                continue;
+            }
+        }
+        i += 1;
+    }
     Some(out)
+}
+
+/// The constant `factors[k]` moved into the term's last δ before it (else
+/// its first after), `δv·k` = `δ(k·v)`, where the δ keeps its type and
+/// stays in [0, 1] if it was (an 8-bit interpolant holds it; `2·δv` may
+/// leave it, and is left to the fragment); the index to remove, or `None`.
+fn constant_into_delta(m: &mut Module, factors: &mut [Handle<Expr>], k: usize, span: Span) -> Option<usize> {
+    let before = (0..k).rev();
+    let after = k + 1..factors.len();
+    for d in before.chain(after) {
+        let Expr::Interpolate { value, to } = m.exprs[factors[d]] else { continue };
+        let scaled = binary(m, BinaryOp::Mul, factors[k], value, span)?;
+        let moved = node(m, Expr::Interpolate { value: scaled, to }, span)?;
+        let (was, now) = (m.info(factors[d]).interval, m.info(moved).interval);
+        let unit = |i: crate::ir::Interval| i.lo >= 0.0 && i.hi <= 1.0;
+        if m.info(moved).ty == m.info(factors[d]).ty && (unit(now) || !unit(was)) {
+            factors[d] = moved;
+            return Some(k);
+        }
+        return None;
+    }
+    None
 }
 
 /// A sum whose terms share a factor, the factor most terms share taken

@@ -452,12 +452,7 @@ pub(super) fn plan_form(
         None => {
             let o = overflow.unwrap_or_else(no_split);
             return Err(if cache.clamp_refusals > clamp_refusals {
-                Overflow {
-                    resource: format!("{o}, and the splits that fit would store a value outside [0, 1] between passes, where the 8-bit framebuffer's clamp changes it"),
-                    need: 0,
-                    have: 0,
-                    ..o
-                }
+                Overflow { resource: format!("{o}, {CLAMPED_BETWEEN_PASSES}"), need: 0, have: 0, ..o }
             } else {
                 o
             });
@@ -475,6 +470,12 @@ pub(super) fn plan_form(
     }
     through_clamps(m, fit, cache, &pieces, storage)
 }
+
+/// How a refusal ends when the splits that fit were refused for the
+/// clamps between passes ([`through_clamps`]): [`super::rewrite`] reads
+/// it to say so first when every form was refused so.
+pub(super) const CLAMPED_BETWEEN_PASSES: &str =
+    "and the splits that fit would store a value outside [0, 1] between passes, where the 8-bit framebuffer's clamp changes it";
 
 /// The refusal of a value no split fits.
 fn no_split() -> Overflow {

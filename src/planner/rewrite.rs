@@ -162,6 +162,10 @@ pub(super) fn cannot_split(
     tried: &[(&str, Overflow)],
 ) -> Diagnostic {
     let span = o.at.map(|h| m.span(h)).filter(|s| *s != Span::DETACHED).unwrap_or(st.span);
+    let clamped = |o: &Overflow| o.resource.ends_with(form::CLAMPED_BETWEEN_PASSES);
+    if !tried.is_empty() && !clamped(o) && tried.iter().all(|(_, t)| clamped(t)) {
+        return not_exact_through_clamps(st, profile, o, span, tried);
+    }
     let d = cannot_split_as_written(st, profile, o, span);
     if tried.is_empty() {
         return d;
@@ -175,6 +179,41 @@ pub(super) fn cannot_split(
         forms.join("; ")
     );
     d.with_help(help)
+}
+
+/// The refusal of a statement whose every equivalent form splits into
+/// passes that fit, but none exactly through the 8-bit clamps (Kilgard
+/// 2000, Section 5): that is what stops it, not the resource the whole
+/// value overflows as one pass (`(a + b)³` of products of textures: each
+/// part fits a pass, but its cross terms `3·a²·b` reach 3).
+fn not_exact_through_clamps(
+    st: &Statement,
+    profile: &Profile,
+    o: &Overflow,
+    span: Span,
+    tried: &[(&str, Overflow)],
+) -> Diagnostic {
+    let mut forms: Vec<&str> = tried.iter().map(|(what, _)| *what).collect();
+    forms.dedup();
+    let wider = if storage_of(profile).float_temps {
+        "declare the framebuffer `rgba16f`"
+    } else {
+        "target wgsl with an `rgba16f` framebuffer"
+    };
+    Diagnostic::error(
+        "cannot-split",
+        format!(
+            "no split of this statement fits {} exactly: as one pass it {o}, and the splits into passes that fit would blend or store a value outside [0, 1], where the 8-bit framebuffer's clamp changes it",
+            profile.name
+        ),
+        st.span,
+        "every split that fits is changed by the clamps between passes".to_string(),
+    )
+    .with_label(span, format!("as one pass, this part {o}"))
+    .with_help(format!(
+        "keep each blended term and each partial product in [0, 1] (a `saturate(…)` where a clamp is meant), or {wider}; the planner also tried the statement in its equivalent forms ({}), and in each the splits that fit are changed by a clamp",
+        forms.join("; ")
+    ))
 }
 
 pub(super) fn cannot_split_as_written(

@@ -185,6 +185,9 @@ enum ChainOp {
     Mul,
 }
 
+/// A plan memoized with the depth its search started at.
+type Memo = (Option<Pieces>, usize);
+
 /// What the searches of one program share: plans already found for a
 /// (mode, value, position) and the temporaries introduced (the fit
 /// remembers each value's texture units). Handles index one module's
@@ -193,7 +196,8 @@ enum ChainOp {
 /// operations was quadratic in the number of temporaries and values).
 #[derive(Default)]
 pub struct SplitCache {
-    memo: HashMap<(BlendMode, Handle<Expr>, Handle<Expr>), Option<Pieces>>,
+    /// Each plan with the depth its search started at.
+    memo: HashMap<(BlendMode, Handle<Expr>, Handle<Expr>), Memo>,
     temps: HashMap<Handle<Expr>, u32>,
     /// Texture name → index for `module.textures[..indexed]` (textures are
     /// only appended while planning, by either of the planner's caches).
@@ -252,13 +256,21 @@ impl<'a> Splitter<'a> {
 
     fn plan_at(&mut self, mode: BlendMode, e: Handle<Expr>, depth: usize) -> Option<Pieces> {
         if !self.exhaustive {
-            if let Some(r) = self.cache.memo.get(&(mode, e, self.position)) {
+            // A search from `at` had `MAX_DEPTH − at` levels left: it
+            // answers for this one only when that was at least as many. A
+            // search cut short by the depth bound is no verdict on the value
+            // reached again nearer the top (issue 34: a term refused deep
+            // inside one equivalent form was refused again as the head of
+            // the next, and the statement with it).
+            if let Some((r, _)) =
+                self.cache.memo.get(&(mode, e, self.position)).filter(|(_, at)| *at <= depth)
+            {
                 return r.clone();
             }
         }
         let r = self.search(mode, e, depth);
         if !self.exhaustive {
-            self.cache.memo.insert((mode, e, self.position), r.clone());
+            self.cache.memo.insert((mode, e, self.position), (r.clone(), depth));
         }
         r
     }
@@ -451,13 +463,17 @@ impl<'a> Splitter<'a> {
     /// A sum's groups in the order a clamped target adds them exactly
     /// ([`exact_through_clamps`]): the non-negative ones first, then those
     /// of either sign (while what is held is still in [0, 1]), then the
-    /// non-positive ones; stable otherwise.
+    /// non-positive ones; stable otherwise. A product's factors past 1
+    /// last on a clamped target: the pass before must hold at most 1, and
+    /// a factor up to 2 is blended doubled (`2·T0·T1 · T2·T3` renders
+    /// `T2·T3`, then modulates by `T0·T1` twice, where rendering the factor
+    /// past 1 first would store it clamped).
     fn signed_last(&self, op: ChainOp, groups: &mut [Handle<Expr>]) {
-        if op == ChainOp::Add {
-            groups.sort_by_key(|&g| {
-                let v = self.module.info(g).interval;
-                u8::from(v.lo < 0.0) + u8::from(v.hi <= 0.0)
-            });
+        let info = |g: Handle<Expr>| self.module.info(g).interval;
+        match op {
+            ChainOp::Add => groups.sort_by_key(|&g| u8::from(info(g).lo < 0.0) + u8::from(info(g).hi <= 0.0)),
+            ChainOp::Mul if self.storage.clamps(Dest::Main) => groups.sort_by_key(|&g| info(g).hi > 1.0),
+            ChainOp::Mul => {}
         }
     }
 
@@ -879,9 +895,45 @@ fn halved(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Expr>> {
             }
         }
     }
+    if let Some(h) = halved_coefficient(module, v) {
+        return Some(h);
+    }
     let mut b = Builder { module };
     let half = b.constant(Ty::Scalar, 0.5)?;
     b.mul(v, half).filter(|&h| b.module.info(h).ty == b.module.info(v).ty)
+}
+
+/// A product with a scalar constant factor `k` anywhere in it, with `k/2`
+/// in its place (none for `k = 2`): `2·T0·T1` halved is `T0·T1`, where
+/// `(2·T0·T1)·½` would compute `2·T0` past 1 first, which a fixed-point
+/// combiner clamps.
+fn halved_coefficient(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Expr>> {
+    let mut factors = Vec::new();
+    let mut stack = vec![v];
+    while let Some(x) = stack.pop() {
+        match module.exprs[x] {
+            Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => {
+                stack.push(rhs);
+                stack.push(lhs);
+            }
+            _ => factors.push(x),
+        }
+    }
+    let k = factors.iter().position(
+        |&f| matches!(&module.exprs[f], Expr::Constant(c) if c.ty == Ty::Scalar && c.components[0] > 0.0),
+    )?;
+    let Expr::Constant(c) = module.exprs[factors[k]].clone() else { return None };
+    let mut b = Builder { module };
+    if c.components[0] == 2.0 {
+        factors.remove(k);
+    } else {
+        factors[k] = b.constant(Ty::Scalar, c.components[0] / 2.0)?;
+    }
+    let mut acc = *factors.first()?;
+    for &f in &factors[1..] {
+        acc = b.mul(acc, f)?;
+    }
+    (b.module.info(acc).ty == b.module.info(v).ty).then_some(acc)
 }
 
 /// `−v`, as the target computes it most simply: a subtraction's operands
