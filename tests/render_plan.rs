@@ -184,14 +184,18 @@ fn bake_is_texture_shading_of_the_function() {
         "pass 1 is at {}, the bake is on line {line}",
         first.at
     );
+    // In f32 the written-out texel pass computes what the bake computes
+    // (float, stored in TF's 8 bits). Not in fixed9: there the written-out
+    // pass is the target's 9-bit arithmetic (`sqrt` and the quotients of
+    // `fresnel` leave [−1, 1]), while a bake is the compiler's, in float
+    // (docs/language.md) — the two agreed only while pass 2 of the example
+    // drew nothing (the alpha write's depth, fixed since).
     let scene = default_scene();
-    for mode in [Precision::F32, Precision::Fixed9] {
-        let (a, _) = render(&baked, "wgsl", &scene, mode);
-        let (b, _) = render(&explicit, "wgsl", &scene, mode);
-        assert_finite(&a);
-        let e = compare(&b.image, &a.image);
-        assert_eq!(e.max_abs, 0.0, "{mode:?}: bake and the written-out statement differ by {}", e.max_abs);
-    }
+    let (a, _) = render(&baked, "wgsl", &scene, Precision::F32);
+    let (b, _) = render(&explicit, "wgsl", &scene, Precision::F32);
+    assert_finite(&a);
+    let e = compare(&b.image, &a.image);
+    assert_eq!(e.max_abs, 0.0, "bake and the written-out statement differ by {}", e.max_abs);
 }
 
 /// Shadow mask's reprojection `πl π⁻¹ xs` (seeds/001 Section 3.5) is
