@@ -997,34 +997,3 @@ proptest! {
         }
     }
 }
-
-/// A cube map read at a direction computed from another unit's texel
-/// (`Ncube vec3(t.x, t.y, t.z)`, t an expanded normal-map texel) has no
-/// NV_texture_shader operation here (the DOT_PRODUCT_TEXTURE_CUBE_MAP
-/// stages would need the three rows). It planned on geforce3 as one pass
-/// with no `!!TS1.0` program — a pass the card could not run; now it is
-/// refused, located at the lookup, on geforce3 and geforce256 alike.
-#[test]
-fn a_cube_lookup_at_a_texel_without_a_texture_shader_operation_is_refused() {
-    let dir = std::env::temp_dir().join(format!("shadec-cube-at-texel-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).unwrap();
-    let file = dir.join("cube_at_texel.shd");
-    std::fs::write(
-        &file,
-        "texture Tn : 2d rgb8 mipmap trilinear repeat = bumps(4);\n\
-         texture Ncube : cube rgb8 bilinear clamp = normalize_cube(32);\n\
-         let t = expand(Tn δu x).rgb;\n\
-         C δπx ← Ncube vec3(t.x, t.y, t.z);\n",
-    )
-    .unwrap();
-    for target in ["geforce3", "geforce256"] {
-        let r = crate::common::shadec(&["check", file.to_str().unwrap(), "--target", target]);
-        assert_eq!(r.code, 1, "{target}: {}{}", r.stdout, r.stderr);
-        assert!(
-            r.stderr.contains("cube_at_texel.shd:4:"),
-            "{target}: not located at the lookup: {}",
-            r.stderr
-        );
-    }
-    let _ = std::fs::remove_dir_all(&dir);
-}

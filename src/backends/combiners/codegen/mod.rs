@@ -464,13 +464,6 @@ fn generate_with(
             help: format!("the target has {} texture units: split the pass", limits.texture_units),
         });
     }
-    if let Some(k) = crate::backends::combiners::ts1::lower::unrealized_unit(m, input.units) {
-        return Err(CodegenError::Unsupported {
-            span: m.span(input.units[k]),
-            what: "a lookup at coordinates computed per fragment that no NV_texture_shader operation computes".into(),
-            help: "texture shaders read a texel at coordinates interpolated from the vertices, offset by an earlier signed texel (offset_2d) or from the dot products of an earlier texel (docs/combiners.md); compute the coordinates per vertex, or target wgsl".into(),
-        });
-    }
     let mut g = Gen {
         m,
         units: input.units,

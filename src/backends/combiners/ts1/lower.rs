@@ -35,23 +35,6 @@ pub fn program(m: &Module, units: &[Handle<Expr>]) -> Option<TextureShader> {
     (compares || stages.iter().any(|op| op.previous().is_some())).then_some(TextureShader { stages })
 }
 
-/// The first unit whose lookup reads coordinates computed from another
-/// lookup's texel when no texture-shader program reads them ([`program`]
-/// is `None`): a dependent lookup nothing on the card would perform, so
-/// the pass cannot run as planned. (Coordinates computed from the
-/// vertices alone — texgen, the texture matrix — are not dependent.)
-pub fn unrealized_unit(m: &Module, units: &[Handle<Expr>]) -> Option<usize> {
-    if program(m, units).is_some() {
-        return None;
-    }
-    units.iter().position(|&u| match m.exprs[u] {
-        Expr::Lookup { coords, .. } => {
-            m.reachable(&[coords]).iter().any(|h| matches!(m.exprs[*h], Expr::Lookup { .. }))
-        }
-        _ => false,
-    })
-}
-
 /// `texture_2d(); dot_product_depth_replace_1of2(tex0);
 /// dot_product_depth_replace_2of2(tex0);` (NV_texture_shader,
 /// `DOT_PRODUCT_DEPTH_REPLACE_NV`): unit 0 reads the light's depth map
