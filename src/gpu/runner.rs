@@ -26,6 +26,7 @@ use image::RgbaImage;
 mod depth;
 mod fixed_function;
 mod frame;
+mod fullscreen;
 mod mips;
 mod passes;
 mod prepare;

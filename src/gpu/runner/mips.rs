@@ -5,8 +5,7 @@
 //! renderer's `Texture2D::with_box_mipmaps` makes its chain, so a later
 //! pass minifies the same texels on either executor.
 
-use std::borrow::Cow;
-
+use super::fullscreen;
 use super::passes::{ColorTarget, RenderedTexture};
 
 /// One full-screen triangle per level and layer, reading the level above
@@ -19,11 +18,6 @@ pub(super) struct MipMaker {
 
 const MIP_WGSL: &str = "
 @group(0) @binding(0) var above: texture_2d<f32>;
-@vertex
-fn vs_main(@builtin(vertex_index) i: u32) -> @builtin(position) vec4<f32> {
-    let p = vec2<f32>(f32((i << 1u) & 2u), f32(i & 2u));
-    return vec4<f32>(p * 2.0 - 1.0, 0.0, 1.0);
-}
 @fragment
 fn fs_main(@builtin(position) at: vec4<f32>) -> @location(0) vec4<f32> {
     let last = vec2<i32>(textureDimensions(above)) - vec2<i32>(1);
@@ -45,57 +39,13 @@ pub fn full_chain(width: u32, height: u32) -> u32 {
 
 impl MipMaker {
     pub(super) fn new(device: &wgpu::Device) -> MipMaker {
-        let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
-            label: Some("shadec mip chain"),
-            source: wgpu::ShaderSource::Wgsl(Cow::Borrowed(MIP_WGSL)),
-        });
-        let layout = device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-            label: Some("shadec mip chain"),
-            entries: &[wgpu::BindGroupLayoutEntry {
-                binding: 0,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Texture {
-                    sample_type: wgpu::TextureSampleType::Float { filterable: false },
-                    view_dimension: wgpu::TextureViewDimension::D2,
-                    multisampled: false,
-                },
-                count: None,
-            }],
-        });
-        let pipeline_layout = device.create_pipeline_layout(&wgpu::PipelineLayoutDescriptor {
-            label: Some("shadec mip chain"),
-            bind_group_layouts: &[Some(&layout)],
-            immediate_size: 0,
-        });
+        let label = "shadec mip chain";
+        let sample_type = wgpu::TextureSampleType::Float { filterable: false };
+        let (module, layout) = fullscreen::module_and_layout(device, label, MIP_WGSL, sample_type);
         let pipelines = [ColorTarget::Rgba8, ColorTarget::Rgba16Float]
             .map(|format| {
                 let format = format.wgpu();
-                let pipeline = device.create_render_pipeline(&wgpu::RenderPipelineDescriptor {
-                    label: Some("shadec mip chain"),
-                    layout: Some(&pipeline_layout),
-                    vertex: wgpu::VertexState {
-                        module: &module,
-                        entry_point: Some("vs_main"),
-                        compilation_options: Default::default(),
-                        buffers: &[],
-                    },
-                    primitive: Default::default(),
-                    depth_stencil: None,
-                    multisample: Default::default(),
-                    fragment: Some(wgpu::FragmentState {
-                        module: &module,
-                        entry_point: Some("fs_main"),
-                        compilation_options: Default::default(),
-                        targets: &[Some(wgpu::ColorTargetState {
-                            format,
-                            blend: None,
-                            write_mask: wgpu::ColorWrites::ALL,
-                        })],
-                    }),
-                    multiview_mask: None,
-                    cache: None,
-                });
-                (format, pipeline)
+                (format, fullscreen::pipeline(device, label, &module, &layout, format))
             })
             .into();
         MipMaker { pipelines, layout }
