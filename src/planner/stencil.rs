@@ -57,7 +57,7 @@ pub(super) fn stencil_form(m: &mut Module, st: &Statement, value: Handle<Expr>) 
 pub(super) fn unsupported(st: &Statement) -> Diagnostic {
     Diagnostic::error(
         "unsupported-stencil",
-        "the stencil cannot be written so: GL writes the stencil through the stencil operation (a constant reference, or a count), not with a computed value",
+        "the stencil cannot be written so: it holds an integer 0-255, which GL writes through the stencil operation (a constant, set or cleared where a condition holds, or a count), not a value computed per fragment",
         st.span,
         "this stencil write",
     )

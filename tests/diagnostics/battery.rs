@@ -311,6 +311,24 @@ fn mistakes() -> Vec<Mistake> {
             }),
         },
         Mistake {
+            name: "image_for_a_3d_texture",
+            source: "vector P : position in object;\ntexture Wood : 3d rgb8 bilinear repeat = image(\"wood.png\");\nC δπx ← Wood δ P s x;\n",
+            code: "bad-generator",
+            at: (2, "image"),
+            fix: Some(Fix {
+                quotes: &["`2d`"],
+                edits: &[("3d rgb8", "2d rgb8"), ("Wood δ P s x", "Wood δu x")],
+                clean: false,
+            }),
+        },
+        Mistake {
+            name: "stencil_written_with_a_fraction",
+            source: "target geforce256;\nframebuffer C : rgba8, depth, stencil;\nC δπx ← 1;\nσ C δπx ← 0.5;\nC δπx ← (σ C δπx) ? 0.2;\n",
+            code: "unsupported-stencil",
+            at: (4, "σ C δπx ← 0.5"),
+            fix: fix(&["`σ C δπx ← 1;`"], &[("← 0.5", "← 1")]),
+        },
+        Mistake {
             name: "family_name_declared",
             source: "texture u : 2d rgb8;\nC δπx ← u δu x;\n",
             code: "reserved-name",

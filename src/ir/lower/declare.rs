@@ -142,6 +142,26 @@ impl<'a> Lowerer<'a> {
         });
         self.globals.insert(u.name.key(), Global::Uniform(id));
     }
+    /// A `3d` texture's `image(…)`: an image file has two axes and the
+    /// language gives no layout of slices in it, so what the executors
+    /// would sample is undefined (the CPU read it as 2-D, wgpu could not
+    /// bind it); refused where it is declared. Solid textures are rendered
+    /// (solid mapping, Pipeline Grammar eq. (15)-(16)), which the lowering
+    /// makes a 3-D texture where the target has them.
+    fn image_3d(&mut self, t: &'a ast::TextureDecl, at: crate::span::Span) {
+        let names = t.names.iter().map(ast::Name::key).collect::<Vec<_>>().join(", ");
+        self.diagnostics.push(
+            Diagnostic::error(
+                "bad-generator",
+                "a 3-D texture cannot be read from an image: an image file has two axes, and shadec defines no layout of slices in one",
+                at,
+                "an image for a 3d texture",
+            )
+            .with_label(t.kind.span, "declared 3d here")
+            .with_help(format!("a solid texture is rendered, not read: declare `{names}` as `2d rgba16f` without a source and write `{names} δu x ← δ P s x;` then `{names} δu ← p {names} δu;` (solid mapping, with `vector P : position in object;`), which on geforce3, planned for a scene, becomes a 3-D texture (docs/solid-textures.md); or declare it `2d` to read the image as one")),
+        );
+    }
+
     /// Bounds a generated texture where it is declared, before anything
     /// builds it: `normalize_cube(size[, bits])` (Kilgard 2000, Appendix D)
     /// needs a `cube` texture, a whole face size from 1 to
@@ -154,6 +174,10 @@ impl<'a> Lowerer<'a> {
         let Some(source) = &t.source else { return };
         let ExprKind::Apply { func, arg } = &source.kind else { return };
         let FuncKind::Name(f) = &func.kind else { return };
+        if f.key() == "image" && t.kind.value == ast::TextureKind::Tex3d {
+            self.image_3d(t, f.span);
+            return;
+        }
         if f.key() != "normalize_cube" {
             return;
         }
