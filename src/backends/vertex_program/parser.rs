@@ -207,38 +207,7 @@ impl<'a> Parser<'a> {
                     "a vertex state program writes program parameters `c[0]`..`c[95]` (and temporaries)",
                 ))
             }
-            Tok::Name("o") => {
-                self.expect(
-                    Tok::LBracket,
-                    "`[`",
-                    "a result register is written `o[HPOS]`, `o[COL0]`, `o[TEX0]` …",
-                )?;
-                let n = self.bump();
-                let out = match n.tok {
-                    Tok::Name(name) => OUTPUT_NAMES.iter().position(|o| *o == name),
-                    _ => None,
-                };
-                let Some(k) = out else {
-                    let hint = match n.tok {
-                        Tok::Name(name) => {
-                            did_you_mean(name, OUTPUT_NAMES).map(|s| format!("did you mean `o[{s}]`? "))
-                        }
-                        _ => None,
-                    };
-                    return Err(syntax(
-                        format!("no result register `o[{}]`", n.tok.describe().trim_matches('`')),
-                        n.span,
-                        "not a result register",
-                        format!(
-                            "{}the result registers are {}",
-                            hint.unwrap_or_default(),
-                            OUTPUT_NAMES.join(", ")
-                        ),
-                    ));
-                };
-                self.expect(Tok::RBracket, "`]`", "close the register with `]`")?;
-                DstReg::Output(Output(k as u8))
-            }
+            Tok::Name("o") => self.result_register()?,
             Tok::Name(name) if temporary(name).is_some() => DstReg::Temporary(self.temp_index(name, t.span)?),
             Tok::Name("c") if self.state.version.is_state_program() => self.written_parameter(start)?,
             Tok::Name("v") | Tok::Name("c") => {
@@ -270,6 +239,32 @@ impl<'a> Parser<'a> {
         }
         let mask = self.mask()?;
         Ok((Dest { reg, mask }, start.join(self.prev_end())))
+    }
+
+    /// `o[NAME]`, the result register a vertex program writes.
+    fn result_register(&mut self) -> PResult<DstReg> {
+        self.expect(Tok::LBracket, "`[`", "a result register is written `o[HPOS]`, `o[COL0]`, `o[TEX0]` …")?;
+        let n = self.bump();
+        let out = match n.tok {
+            Tok::Name(name) => OUTPUT_NAMES.iter().position(|o| *o == name),
+            _ => None,
+        };
+        let Some(k) = out else {
+            let hint = match n.tok {
+                Tok::Name(name) => {
+                    did_you_mean(name, OUTPUT_NAMES).map(|s| format!("did you mean `o[{s}]`? "))
+                }
+                _ => None,
+            };
+            return Err(syntax(
+                format!("no result register `o[{}]`", n.tok.describe().trim_matches('`')),
+                n.span,
+                "not a result register",
+                format!("{}the result registers are {}", hint.unwrap_or_default(), OUTPUT_NAMES.join(", ")),
+            ));
+        };
+        self.expect(Tok::RBracket, "`]`", "close the register with `]`")?;
+        Ok(DstReg::Output(Output(k as u8)))
     }
 
     /// The `c[n]` a vertex state program writes: a number, not `A0.x`.
