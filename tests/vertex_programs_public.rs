@@ -343,3 +343,83 @@ fn a_comment_before_the_header_is_refused_with_where_to_move_it() {
     let help = ds[0].help.clone().unwrap_or_default();
     assert!(help.contains("move the comment below `!!VP1.0`"), "{help}");
 }
+
+/// Runs the WGSL translation of a vertex state program once on wgpu and
+/// reads its parameter buffer back.
+fn run_state_on_gpu(gpu: &shadec::gpu::runner::Gpu, wgsl: &str, v0: Vec4, c: &[Vec4; 96]) -> Vec<Vec4> {
+    use wgpu::util::DeviceExt;
+    let device = gpu.device();
+    let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
+        label: Some("vsp"),
+        source: wgpu::ShaderSource::Wgsl(wgsl.into()),
+    });
+    let pipeline = device.create_compute_pipeline(&wgpu::ComputePipelineDescriptor {
+        label: Some("vsp"),
+        layout: None,
+        module: &module,
+        entry_point: Some("main"),
+        compilation_options: Default::default(),
+        cache: None,
+    });
+    let storage = wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_SRC;
+    let params = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: None,
+        contents: bytemuck::cast_slice(c.as_slice()),
+        usage: storage,
+    });
+    let v = device.create_buffer_init(&wgpu::util::BufferInitDescriptor {
+        label: None,
+        contents: bytemuck::cast_slice(&[v0]),
+        usage: wgpu::BufferUsages::UNIFORM,
+    });
+    let size = (96 * 16) as u64;
+    let read = device.create_buffer(&wgpu::BufferDescriptor {
+        label: None,
+        size,
+        usage: wgpu::BufferUsages::COPY_DST | wgpu::BufferUsages::MAP_READ,
+        mapped_at_creation: false,
+    });
+    let bind = device.create_bind_group(&wgpu::BindGroupDescriptor {
+        label: None,
+        layout: &pipeline.get_bind_group_layout(0),
+        entries: &[
+            wgpu::BindGroupEntry { binding: 0, resource: params.as_entire_binding() },
+            wgpu::BindGroupEntry { binding: 1, resource: v.as_entire_binding() },
+        ],
+    });
+    let mut encoder = device.create_command_encoder(&Default::default());
+    {
+        let mut pass = encoder.begin_compute_pass(&Default::default());
+        pass.set_pipeline(&pipeline);
+        pass.set_bind_group(0, &bind, &[]);
+        pass.dispatch_workgroups(1, 1, 1);
+    }
+    encoder.copy_buffer_to_buffer(&params, 0, &read, 0, size);
+    gpu.queue().submit([encoder.finish()]);
+    let slice = read.slice(..);
+    slice.map_async(wgpu::MapMode::Read, |_| {});
+    device.poll(wgpu::PollType::wait_indefinitely()).unwrap();
+    let data = slice.get_mapped_range().unwrap();
+    bytemuck::cast_slice::<u8, Vec4>(&data).to_vec()
+}
+
+#[test]
+fn a_vertex_state_program_on_wgpu_updates_the_parameters_as_the_interpreter_does() {
+    let Some(gpu) = crate::common::gpu::gpu() else { return };
+    let p = accepted("state_program_normalize.vsp");
+    let wgsl = vp::wgsl::translate(&p, "state_program_normalize.vsp");
+    let mut c = some_parameters();
+    c[20] = [3.0, 0.0, 4.0, 7.0];
+    let v0 = [2.0, 0.5, 0.0, 0.0];
+    let got = run_state_on_gpu(&gpu, &wgsl, v0, &c);
+    emulate::run_state(&p, v0, &mut c);
+    assert_ne!(c[22], some_parameters()[22], "the interpreter wrote c[22]");
+    for (k, (g, w)) in got.iter().zip(c.iter()).enumerate() {
+        for i in 0..4 {
+            assert!(
+                (g[i] - w[i]).abs() <= 1e-5 * (1.0 + w[i].abs()),
+                "c[{k}]: wgpu {g:?}, interpreter {w:?}"
+            );
+        }
+    }
+}
