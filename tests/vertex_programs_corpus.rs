@@ -232,8 +232,9 @@ fn a_scalar_instruction_without_a_component_is_refused() {
 }
 
 #[test]
-fn vertex_state_and_arb_programs_are_named_and_refused() {
-    let (code, at) = refused("!!VSP1.0\nMOV c[0], v[0];\nEND\n");
+fn a_vertex_state_program_is_read_and_an_arb_program_named_and_refused() {
+    let p = vp::parse_file("!!VSP1.0\nMOV c[0], v[0];\nEND\n").unwrap();
+    assert!(p.version.is_state_program());
+    let (code, at) = refused("!!ARBvp1.0\nMOV result.position, vertex.position;\nEND\n");
     assert_eq!((code, at.as_str()), ("syntax", "t.vp:1:1"));
-    assert_eq!(refused("!!ARBvp1.0\nMOV result.position, vertex.position;\nEND\n").0, "syntax");
 }

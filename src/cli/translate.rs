@@ -90,13 +90,19 @@ fn translate(args: &TranslateArgs, config: &shadec::backends::combiners::config:
     }
 }
 
-/// A `!!VP1.0` / `!!VP1.1` file (NV_vertex_program) as a WGSL vertex stage;
+/// A `!!VP1.0` / `!!VP1.1` file (NV_vertex_program) as a WGSL vertex stage
+/// (a `!!VSP1.0` vertex state program: as a compute shader);
 /// `None` when the file is not a vertex program.
 #[cfg(feature = "wgsl")]
 fn vertex_program(args: &TranslateArgs) -> Option<ExitCode> {
     use shadec::backends::vertex_program as vp;
     let text = shadec::io::read_text(&args.config).ok()?;
-    if !text.trim_start().starts_with("!!VP1.") {
+    // Every NV_vertex_program header, and ARB's, which the reader names.
+    // (also behind a comment, which the reader then points at).
+    let headers = ["!!VP1.", "!!VSP1.", "!!ARBvp"];
+    let head = text.trim_start();
+    let behind_comment = !text.contains("!!RC1.0") && headers.iter().any(|h| text.contains(h));
+    if !headers.iter().any(|h| head.starts_with(h)) && !behind_comment {
         return None;
     }
     let name = args.config.display().to_string();

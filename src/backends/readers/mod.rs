@@ -13,3 +13,20 @@
 
 pub mod cursor;
 pub mod lex;
+
+/// The help for a text whose header is not its first characters because a
+/// comment comes first (as some loaders, e.g. the Xbox's fp20 compiler,
+/// tolerate): nvparse and `LoadProgramNV` compare the text's first
+/// characters with the header, so the comment must move below it. `None`
+/// when `rest` (the text from its first non-blank) does not start with a
+/// comment or holds none of `headers`.
+pub fn comment_before_header(rest: &str, headers: &[&str]) -> Option<String> {
+    if !["#", "//", "/*"].iter().any(|c| rest.starts_with(c)) {
+        return None;
+    }
+    let found = headers.iter().filter_map(|h| rest.find(h).map(|at| (at, *h))).min()?;
+    Some(format!(
+        "the header must be the text's first characters (nvparse and the driver compare them): move the comment below `{}`",
+        found.1
+    ))
+}

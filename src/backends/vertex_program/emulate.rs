@@ -12,6 +12,8 @@
 //! — the colours clamped to [0, 1], the point size to its range — is
 //! [`Results::rasterized`].
 
+use std::borrow::Cow;
+
 use super::program::*;
 
 /// A four-component register value, as NV_vertex_program computes in.
@@ -55,7 +57,8 @@ impl Results {
 
 struct Machine<'a> {
     attributes: &'a [Vec4; ATTRIBUTES],
-    parameters: &'a [Vec4; PARAMETERS],
+    /// Borrowed; copied on the first write of a vertex state program.
+    parameters: Cow<'a, [Vec4; PARAMETERS]>,
     temporaries: [Vec4; TEMPORARIES],
     outputs: [Vec4; OUTPUTS],
     address: i32,
@@ -67,20 +70,40 @@ pub fn run(
     attributes: &[Vec4; ATTRIBUTES],
     parameters: &[Vec4; PARAMETERS],
 ) -> Results {
-    let mut m = Machine {
-        attributes,
-        parameters,
-        temporaries: [[0.0; 4]; TEMPORARIES],
-        outputs: [[0.0, 0.0, 0.0, 1.0]; OUTPUTS],
-        address: 0,
-    };
+    let mut m = Machine::new(attributes, Cow::Borrowed(parameters));
     for ins in &program.instructions {
         m.step(ins);
     }
     Results { outputs: m.outputs }
 }
 
-impl Machine<'_> {
+/// Runs a vertex state program (`!!VSP1.0`) once, as `ExecuteProgramNV`
+/// does (NV_vertex_program, Section 2.14.4): `v[0]` is `v0`, the other
+/// attributes (0, 0, 0, 0), and the parameters it writes are updated in
+/// `parameters` (a later instruction reads what an earlier one wrote).
+pub fn run_state(program: &VertexProgram, v0: Vec4, parameters: &mut [Vec4; PARAMETERS]) {
+    let mut attributes = [[0.0; 4]; ATTRIBUTES];
+    attributes[0] = v0;
+    let mut m = Machine::new(&attributes, Cow::Borrowed(&*parameters));
+    for ins in &program.instructions {
+        m.step(ins);
+    }
+    if let Cow::Owned(written) = m.parameters {
+        *parameters = written;
+    }
+}
+
+impl<'a> Machine<'a> {
+    fn new(attributes: &'a [Vec4; ATTRIBUTES], parameters: Cow<'a, [Vec4; PARAMETERS]>) -> Machine<'a> {
+        Machine {
+            attributes,
+            parameters,
+            temporaries: [[0.0; 4]; TEMPORARIES],
+            outputs: [[0.0, 0.0, 0.0, 1.0]; OUTPUTS],
+            address: 0,
+        }
+    }
+
     fn read(&self, s: &Source) -> Vec4 {
         let r = match s.reg {
             SrcReg::Attribute(k) => self.attributes[usize::from(k) % ATTRIBUTES],
@@ -113,6 +136,7 @@ impl Machine<'_> {
         let target = match ins.dst.reg {
             DstReg::Temporary(k) => &mut self.temporaries[usize::from(k) % TEMPORARIES],
             DstReg::Output(o) => &mut self.outputs[o.index() % OUTPUTS],
+            DstReg::Parameter(k) => &mut self.parameters.to_mut()[usize::from(k) % PARAMETERS],
             DstReg::Address => return,
         };
         for (k, t) in target.iter_mut().enumerate() {

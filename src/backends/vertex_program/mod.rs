@@ -27,7 +27,7 @@ pub use validate::{validate, VpError};
 use crate::diag::Diagnostic;
 use crate::span::Span;
 
-/// A whole `!!VP1.0` (or `!!VP1.1`) file, header included: the program, or
+/// A whole `!!VP1.0` (or `!!VP1.1`, `!!VSP1.0`) file, header included: the program, or
 /// every error, located.
 pub fn parse_file(text: &str) -> Result<VertexProgram, Vec<Diagnostic>> {
     let parsed = read(text).map_err(|d| vec![d])?;
@@ -42,21 +42,21 @@ pub fn parse_file(text: &str) -> Result<VertexProgram, Vec<Diagnostic>> {
 pub fn read(text: &str) -> Result<Parsed, Diagnostic> {
     let lead = text.len() - text.trim_start().len();
     let rest = &text[lead..];
-    let found = [Version::V10, Version::V11].into_iter().find(|v| rest.starts_with(v.header()));
+    let found =
+        [Version::V10, Version::V11, Version::Vsp10].into_iter().find(|v| rest.starts_with(v.header()));
     let Some(version) = found else {
         let end = rest.find(char::is_whitespace).map_or(text.len(), |e| lead + e);
-        let (message, help) = if rest.starts_with("!!VSP1.0") {
-            (
-                "a vertex state program (`!!VSP1.0`) is not a vertex program",
-                "shadec reads vertex programs, `!!VP1.0` and `!!VP1.1`",
-            )
-        } else if rest.starts_with("!!ARBvp1.0") {
+        let (message, help) = if rest.starts_with("!!ARBvp1.0") {
             (
                 "an ARB_vertex_program (`!!ARBvp1.0`) is not an NV_vertex_program",
-                "shadec reads `!!VP1.0` and `!!VP1.1`",
+                "shadec reads NV_vertex_program's `!!VP1.0`, `!!VP1.1` and `!!VSP1.0`".to_string(),
             )
         } else {
-            ("expected the `!!VP1.0` header", "put `!!VP1.0` on the first line")
+            let help =
+                crate::backends::readers::comment_before_header(rest, &["!!VP1.0", "!!VP1.1", "!!VSP1.0"]);
+            let help =
+                help.unwrap_or_else(|| "put `!!VP1.0` (or `!!VP1.1`, `!!VSP1.0`) on the first line".into());
+            ("expected the `!!VP1.0` header", help)
         };
         return Err(Diagnostic::error(
             "syntax",

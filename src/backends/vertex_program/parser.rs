@@ -41,17 +41,19 @@ fn range(
 
 /// Reads the text after the header (`base`: its byte offset in the file).
 pub fn parse(text: &str, base: usize, version: Version, header: Span) -> PResult<Parsed> {
-    let mut p = Parser::new(text, base, &VP1, Vp1)?;
+    let mut p = Parser::new(text, base, &VP1, Vp1 { version })?;
     let mut program = VertexProgram { version, ..Default::default() };
     let mut spans = Vec::new();
     loop {
         let t = p.peek();
         match t.tok {
-            Tok::Name("END") => break,
-            Tok::Name("OPTION") if spans.is_empty() && version == Version::V11 => {
+            Tok::Name("END") => {
                 p.bump();
-                p.expect_name("NV_position_invariant", "the only option is `NV_position_invariant`")?;
-                p.expect(Tok::Semi, "`;`", "end the option with `;`")?;
+                p.end_of_text()?;
+                break;
+            }
+            Tok::Name("OPTION") => {
+                p.option(spans.is_empty())?;
                 program.position_invariant = true;
             }
             Tok::Eof(_) => {
@@ -72,12 +74,55 @@ pub fn parse(text: &str, base: usize, version: Version, header: Span) -> PResult
     Ok(Parsed { program, spans, header })
 }
 
-/// The `!!VP1.0` grammar, walked on the shared cursor.
-struct Vp1;
+/// The `!!VP1.0` grammar, walked on the shared cursor; the version decides
+/// what the few differences allow.
+struct Vp1 {
+    version: Version,
+}
 
 type Parser<'a> = Cursor<'a, Vp1>;
 
 impl<'a> Parser<'a> {
+    /// Nothing but blanks and comments may follow `END` (the grammar's
+    /// program ends there; Mesa's and NVIDIA's readers refuse more).
+    fn end_of_text(&mut self) -> PResult<()> {
+        let t = self.peek();
+        if t.tok.is_eof() {
+            return Ok(());
+        }
+        Err(syntax(
+            format!("{} after `END`", t.tok.describe()),
+            t.span,
+            "the program ended at `END`",
+            "remove the text after `END`, or make it a `#` comment",
+        ))
+    }
+
+    /// `OPTION NV_position_invariant;`: NV_vertex_program1_1's one option,
+    /// only in `!!VP1.1` and only before the first instruction.
+    fn option(&mut self, first: bool) -> PResult<()> {
+        let t = self.bump();
+        if self.state.version != Version::V11 {
+            return Err(syntax(
+                format!("`OPTION` is not part of `{}`", self.state.version.header()),
+                t.span,
+                "an NV_vertex_program1_1 statement",
+                "`OPTION NV_position_invariant;` needs the `!!VP1.1` header (NV_vertex_program1_1)",
+            ));
+        }
+        if !first {
+            return Err(syntax(
+                "`OPTION` after an instruction",
+                t.span,
+                "options come first",
+                "move `OPTION NV_position_invariant;` before the first instruction",
+            ));
+        }
+        self.expect_name("NV_position_invariant", "the only option is `NV_position_invariant`")?;
+        self.expect(Tok::Semi, "`;`", "end the option with `;`")?;
+        Ok(())
+    }
+
     fn expect_name(&mut self, name: &str, help: &str) -> PResult<Span> {
         let t = self.peek();
         if t.tok == Tok::Name(name) {
@@ -151,39 +196,20 @@ impl<'a> Parser<'a> {
                 }
                 return Ok((Dest { reg: DstReg::Address, mask: 1 }, start.join(self.prev_end())));
             }
-            Tok::Name("o") => {
-                self.expect(
-                    Tok::LBracket,
-                    "`[`",
-                    "a result register is written `o[HPOS]`, `o[COL0]`, `o[TEX0]` …",
-                )?;
-                let n = self.bump();
-                let out = match n.tok {
-                    Tok::Name(name) => OUTPUT_NAMES.iter().position(|o| *o == name),
-                    _ => None,
-                };
-                let Some(k) = out else {
-                    let hint = match n.tok {
-                        Tok::Name(name) => {
-                            did_you_mean(name, OUTPUT_NAMES).map(|s| format!("did you mean `o[{s}]`? "))
-                        }
-                        _ => None,
-                    };
-                    return Err(syntax(
-                        format!("no result register `o[{}]`", n.tok.describe().trim_matches('`')),
-                        n.span,
-                        "not a result register",
-                        format!(
-                            "{}the result registers are {}",
-                            hint.unwrap_or_default(),
-                            OUTPUT_NAMES.join(", ")
-                        ),
-                    ));
-                };
-                self.expect(Tok::RBracket, "`]`", "close the register with `]`")?;
-                DstReg::Output(Output(k as u8))
+            Tok::Name("o") if self.state.version.is_state_program() => {
+                return Err(Diagnostic::error(
+                    "state-program-result",
+                    "a vertex state program cannot write a result register",
+                    t.span,
+                    "`!!VSP1.0` has no vertex results",
+                )
+                .with_help(
+                    "a vertex state program writes program parameters `c[0]`..`c[95]` (and temporaries)",
+                ))
             }
+            Tok::Name("o") => self.result_register()?,
             Tok::Name(name) if temporary(name).is_some() => DstReg::Temporary(self.temp_index(name, t.span)?),
+            Tok::Name("c") if self.state.version.is_state_program() => self.written_parameter(start)?,
             Tok::Name("v") | Tok::Name("c") => {
                 let kind = if t.tok == Tok::Name("v") { "vertex attribute" } else { "program parameter" };
                 return Err(Diagnostic::error(
@@ -215,9 +241,54 @@ impl<'a> Parser<'a> {
         Ok((Dest { reg, mask }, start.join(self.prev_end())))
     }
 
+    /// `o[NAME]`, the result register a vertex program writes.
+    fn result_register(&mut self) -> PResult<DstReg> {
+        self.expect(Tok::LBracket, "`[`", "a result register is written `o[HPOS]`, `o[COL0]`, `o[TEX0]` …")?;
+        let n = self.bump();
+        let out = match n.tok {
+            Tok::Name(name) => OUTPUT_NAMES.iter().position(|o| *o == name),
+            _ => None,
+        };
+        let Some(k) = out else {
+            let hint = match n.tok {
+                Tok::Name(name) => {
+                    did_you_mean(name, OUTPUT_NAMES).map(|s| format!("did you mean `o[{s}]`? "))
+                }
+                _ => None,
+            };
+            return Err(syntax(
+                format!("no result register `o[{}]`", n.tok.describe().trim_matches('`')),
+                n.span,
+                "not a result register",
+                format!("{}the result registers are {}", hint.unwrap_or_default(), OUTPUT_NAMES.join(", ")),
+            ));
+        };
+        self.expect(Tok::RBracket, "`]`", "close the register with `]`")?;
+        Ok(DstReg::Output(Output(k as u8)))
+    }
+
+    /// The `c[n]` a vertex state program writes: a number, not `A0.x`.
+    fn written_parameter(&mut self, start: Span) -> PResult<DstReg> {
+        match self.parameter()? {
+            SrcReg::Parameter(k) => Ok(DstReg::Parameter(k)),
+            _ => Err(syntax(
+                "a vertex state program writes a parameter register by its number",
+                start.join(self.prev_end()),
+                "relative addressing is for reading",
+                "write `c[0]`..`c[95]`",
+            )),
+        }
+    }
+
     fn temp_index(&mut self, name: &str, span: Span) -> PResult<u8> {
         match temporary(name) {
             Some(k) if (k as usize) < TEMPORARIES => Ok(k as u8),
+            Some(12) => Err(range(
+                "no temporary register `R12`",
+                span,
+                "out of range",
+                "NV_vertex_program has 12 temporaries, `R0`..`R11`; `R12` is the Xbox's (NV2A) name of the position result, which NV_vertex_program reads nowhere: compute the position in a temporary and write it to `o[HPOS]`",
+            )),
             _ => Err(range(
                 format!("no temporary register `{name}`"),
                 span,

@@ -34,6 +34,7 @@ fn dest(d: &Dest) -> String {
         DstReg::Address => return "A0.x".into(),
         DstReg::Temporary(k) => format!("R{k}"),
         DstReg::Output(o) => format!("o[{}]", o.name()),
+        DstReg::Parameter(k) => format!("c[{k}]"),
     };
     if d.mask & 15 == Dest::ALL {
         return reg;

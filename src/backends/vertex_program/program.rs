@@ -48,6 +48,10 @@ pub enum Version {
     V10,
     /// `!!VP1.1`: NV_vertex_program1_1 (adds DPH, RCC, SUB, ABS).
     V11,
+    /// `!!VSP1.0`: a vertex state program (NV_vertex_program, Section
+    /// 2.14.4): run once by `ExecuteProgramNV` on one attribute `v[0]`, it
+    /// writes program parameters `c[n]` instead of a vertex's results.
+    Vsp10,
 }
 
 impl Version {
@@ -56,7 +60,13 @@ impl Version {
         match self {
             Version::V10 => "!!VP1.0",
             Version::V11 => "!!VP1.1",
+            Version::Vsp10 => "!!VSP1.0",
         }
+    }
+
+    /// Whether the program is a vertex state program (`!!VSP1.0`).
+    pub fn is_state_program(self) -> bool {
+        self == Version::Vsp10
     }
 }
 
@@ -271,6 +281,8 @@ pub enum DstReg {
     Output(Output),
     /// `A0.x`, written only by ARL.
     Address,
+    /// `c[n]`, written only by a vertex state program (`!!VSP1.0`).
+    Parameter(u8),
 }
 
 /// A destination with its write mask (bit `k` set: component `k` written).

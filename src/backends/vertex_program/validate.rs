@@ -3,7 +3,8 @@
 //! not enforce: at most 128 instructions; an instruction reads at most one
 //! vertex attribute register and at most one program parameter register
 //! (each may be read several times, with different swizzles); `o[HPOS]` is
-//! written; and the NV_vertex_program1_1 instructions only in `!!VP1.1`.
+//! written; the NV_vertex_program1_1 instructions only in `!!VP1.1`; and a
+//! vertex state program (`!!VSP1.0`) reads only `v[0]` and writes a `c[n]`.
 
 use std::fmt;
 
@@ -72,14 +73,15 @@ pub fn validate(program: &VertexProgram) -> Vec<VpError> {
         });
     }
     for (i, ins) in program.instructions.iter().enumerate() {
-        if ins.op.version() == Version::V11 && program.version == Version::V10 {
+        if ins.op.version() == Version::V11 && program.version != Version::V11 {
             errors.push(VpError {
                 code: "not-in-vp1.0",
                 instruction: i,
                 at: At::Opcode,
                 message: format!(
-                    "{} is an NV_vertex_program1_1 instruction, not in `!!VP1.0`",
-                    ins.op.name()
+                    "{} is an NV_vertex_program1_1 instruction, not in `{}`",
+                    ins.op.name(),
+                    program.version.header()
                 ),
                 label: "needs `!!VP1.1`".into(),
                 help: "start the program with `!!VP1.1`, or write it with VP1.0 instructions".into(),
@@ -94,8 +96,45 @@ pub fn validate(program: &VertexProgram) -> Vec<VpError> {
             &mut errors,
         );
     }
-    hpos(program, &mut errors);
+    if program.version.is_state_program() {
+        state_program(program, &mut errors);
+    } else {
+        hpos(program, &mut errors);
+    }
     errors
+}
+
+/// A vertex state program's own rules (NV_vertex_program, Section 2.14.4,
+/// and the errors of `LoadProgramNV`): it reads no attribute but `v[0]`
+/// (the one `ExecuteProgramNV` passes), and it writes at least one program
+/// parameter register.
+fn state_program(program: &VertexProgram, errors: &mut Vec<VpError>) {
+    for (i, ins) in program.instructions.iter().enumerate() {
+        let other = ins.src.iter().position(|s| matches!(s.reg, SrcReg::Attribute(k) if k != 0));
+        if let Some(k) = other {
+            errors.push(VpError {
+                code: "state-program-attribute",
+                instruction: i,
+                at: At::Src(k),
+                message: format!(
+                    "a vertex state program reads only `v[0]`, not {}",
+                    reg_name(ins.src[k].reg)
+                ),
+                label: "not the attribute `ExecuteProgramNV` passes".into(),
+                help: "read `v[0]`, or pass the value in a program parameter `c[n]`".into(),
+            });
+        }
+    }
+    if !program.instructions.iter().any(|ins| matches!(ins.dst.reg, DstReg::Parameter(_))) {
+        errors.push(VpError {
+            code: "state-program-no-parameter",
+            instruction: program.instructions.len(),
+            at: At::Program,
+            message: "the vertex state program never writes a program parameter `c[n]`".into(),
+            label: "a vertex state program must write at least one".into(),
+            help: "write its result to a parameter, e.g. `MOV c[4], R0;`".into(),
+        });
+    }
 }
 
 /// The spec: "a vertex program instruction may read at most one unique

@@ -97,8 +97,12 @@ pub fn pass_stage(program: &VertexProgram, outputs: &[Output], host_vec4s: usize
     out
 }
 
-/// A whole WGSL module with a `@vertex fn main`.
+/// A whole WGSL module with a `@vertex fn main` (a vertex state program:
+/// with a `@compute fn main`, [`state_program`]).
 pub fn translate(program: &VertexProgram, title: &str) -> String {
+    if program.version.is_state_program() {
+        return state_program(program, title);
+    }
     let mut out = format!("// {title}: a vertex program (NV_vertex_program) as a WGSL vertex stage.\n\n");
     out.push_str(&function(program));
     let read = attributes_read(program);
@@ -131,6 +135,24 @@ pub fn translate(program: &VertexProgram, title: &str) -> String {
         }
     }
     out.push_str("    return out;\n}\n");
+    out
+}
+
+/// A vertex state program (`!!VSP1.0`) as a WGSL compute shader that runs
+/// it once, as `ExecuteProgramNV` does (NV_vertex_program, Section
+/// 2.14.4): the parameters `c[]` a read-write storage buffer the program
+/// updates in place (a later instruction reads what an earlier one wrote),
+/// `v[0]` the uniform the application passes.
+pub fn state_program(program: &VertexProgram, title: &str) -> String {
+    let mut out =
+        format!("// {title}: a vertex state program (NV_vertex_program) as a WGSL compute shader.\n\n");
+    out.push_str("@group(0) @binding(0) var<storage, read_write> c: array<vec4<f32>, 96>;\n");
+    out.push_str("@group(0) @binding(1) var<uniform> v0: vec4<f32>;\n\n");
+    out.push_str(&functions(program, "c"));
+    out.push_str(
+        "\n@compute @workgroup_size(1)\nfn main() {\n    var v: array<vec4<f32>, 16>;\n    v[0] = v0;\n",
+    );
+    out.push_str("    _ = vertex_program(v);\n}\n");
     out
 }
 
@@ -268,6 +290,7 @@ fn statement(ins: &Instruction, parameters: &str) -> String {
     let target = match ins.dst.reg {
         DstReg::Temporary(k) => format!("r[{k}]"),
         DstReg::Output(o) => format!("o[{}]", o.index()),
+        DstReg::Parameter(k) => format!("{parameters}[{k}]"),
         DstReg::Address => return String::new(),
     };
     if ins.dst.mask & 15 == 15 {

@@ -76,7 +76,10 @@ pub fn parse(text: &str) -> Result<Parsed, Diagnostic> {
             Span::new(rc_start, end),
             "a register-combiner program starts with `!!RC1.0`",
         )
-        .with_help("put `!!RC1.0` on the first line"));
+        .with_help(
+            crate::backends::readers::comment_before_header(&text[rc_start..], &["!!TS1.0", "!!RC1.0"])
+                .unwrap_or_else(|| "put `!!RC1.0` on the first line".into()),
+        ));
     }
     let start = rc_start + "!!RC1.0".len();
     let mut parser = Parser::new(&text[start..], start, &RC1, Rc1 { spans: HashMap::new() })?;
