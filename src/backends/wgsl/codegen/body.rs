@@ -30,8 +30,15 @@ impl Body {
     pub(super) fn plain(&mut self, e: Expression) -> NH {
         self.f.expressions.append(e, naga::Span::UNDEFINED)
     }
+    /// The f32 constant `v`. WGSL has no literal for an infinity or a NaN
+    /// (a constant beyond f32's range, such as `x^1e40`, folds to one), so
+    /// those are their bits reinterpreted, the value the CPU computes.
     pub(super) fn lit(&mut self, v: f32) -> NH {
-        self.plain(Expression::Literal(Literal::F32(v)))
+        if v.is_finite() {
+            return self.plain(Expression::Literal(Literal::F32(v)));
+        }
+        let bits = self.plain(Expression::Literal(Literal::U32(v.to_bits())));
+        self.emit(Expression::As { expr: bits, kind: naga::ScalarKind::Float, convert: None })
     }
     /// The value of node `h`, computed earlier in this body.
     pub(super) fn val(&self, h: ir::Handle<Expr>) -> R<NH> {
