@@ -71,7 +71,11 @@ impl<'p> ProfileFit<'p> {
             return known.clone().map(|_| ());
         }
         let units: Vec<Handle<Expr>> = u.lookups.iter().chain(&u.framebuffer_reads).copied().collect();
-        let verdict = realizer.realize(module, value, &units).map(|r| r.general_combiners).map_err(|e| {
+        let shaders = self.profile.texture_shaders.is_some();
+        let verdict = realizer
+            .dependent_lookups(module, &units, shaders)
+            .and_then(|()| realizer.realize(module, value, &units));
+        let verdict = verdict.map(|r| r.general_combiners).map_err(|e| {
             let at = e.span.and_then(|span| {
                 module.reachable(&[value]).into_iter().rev().find(|h| module.span(*h) == span)
             });
