@@ -92,7 +92,10 @@ pub fn texture_shader_form(m: &crate::ir::Module, coords: Handle<Expr>) -> bool 
     let interpolated = |h: Handle<Expr>| matches!(m.exprs[h], Expr::Interpolate { .. });
     let signed_texel = |h: Handle<Expr>| match m.exprs[h] {
         Expr::Lookup { texture, .. } => m.textures.get(texture as usize).is_some_and(|t| {
-            matches!(t.format, crate::parser::ast::TextureFormat::Signed8 | crate::parser::ast::TextureFormat::Signed16)
+            matches!(
+                t.format,
+                crate::parser::ast::TextureFormat::Signed8 | crate::parser::ast::TextureFormat::Signed16
+            )
         }),
         Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => [(lhs, rhs), (rhs, lhs)].into_iter().any(|(c, e)| {
             matches!(m.exprs[c], Expr::Constant(_)) && matches!(m.exprs[e], Expr::Lookup { .. })

@@ -324,7 +324,8 @@ impl<'a> Rewriter<'a> {
             Expr::Lookup { coords, .. }
                 if self.combiners()
                     && reads_texel(&self.m, *coords)
-                    && (!self.profile.has_dependent_lookups() || !dependent::texture_shader_form(&self.m, *coords)) =>
+                    && (!self.profile.has_dependent_lookups()
+                        || !dependent::texture_shader_form(&self.m, *coords)) =>
             {
                 dependent::apply(self, h, original, span).unwrap_or(h)
             }

@@ -25,9 +25,7 @@
 //! combiners as, not the HILO one `cube_map` uses elsewhere on geforce3).
 
 use super::Rewriter;
-use crate::ir::{
-    AddedSource, Constant, Expr, Handle, MathFunction, Module, Texture, Ty,
-};
+use crate::ir::{AddedSource, Constant, Expr, Handle, MathFunction, Module, Texture, Ty};
 use crate::parser::ast::{TextureAttr, TextureFormat, TextureKind};
 use crate::pipeline::ApproximationCost;
 use crate::span::Span;
@@ -37,9 +35,7 @@ pub const NAME: &str = "Ncube8_lowered";
 
 /// Whether `r`'s target reads a cube map at dot products of a texel.
 pub fn available(r: &Rewriter) -> bool {
-    r.combiners()
-        && r.profile.cube_maps
-        && r.profile.texture_shaders.as_ref().is_some_and(|t| t.dot_product)
+    r.combiners() && r.profile.cube_maps && r.profile.texture_shaders.as_ref().is_some_and(|t| t.dot_product)
 }
 
 /// `expand(n)`, `expand(n).rgb` or `vec3(e.x, e.y, e.z)` with `e =
@@ -68,7 +64,8 @@ pub fn expanded_texel(m: &Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
     let Expr::Lookup { texture, coords } = m.exprs[n] else { return None };
     let t = m.textures.get(texture as usize)?;
     let colour = matches!(t.format, TextureFormat::Rgb8 | TextureFormat::Rgba8);
-    (t.kind == TextureKind::Tex2d && colour && matches!(m.exprs[coords], Expr::Interpolate { .. })).then_some(n)
+    (t.kind == TextureKind::Tex2d && colour && matches!(m.exprs[coords], Expr::Interpolate { .. }))
+        .then_some(n)
 }
 
 /// `Ncube vec3(N·δ(1,0,0), N·δ(0,1,0), N·δ(0,0,1))` for the cube lookup
@@ -117,7 +114,12 @@ pub fn normalize_texel(r: &mut Rewriter, x: Handle<Expr>, span: Span) -> Option<
             "`normalize` of a filtered normal-map texel is a lookup in an 8-bit normalization cube map \
              ({size}² texels a face) at the texel, by the texture shader's dot_product_cube_map stages"
         ),
-        ApproximationCost { texture_units: 3, passes: 0, general_combiners: 0, texels: 6 * u64::from(size).pow(2) },
+        ApproximationCost {
+            texture_units: 3,
+            passes: 0,
+            general_combiners: 0,
+            texels: 6 * u64::from(size).pow(2),
+        },
         Some(super::cube_map::error_bound(size)),
     );
     Some(expanded)

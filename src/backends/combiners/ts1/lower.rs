@@ -68,7 +68,7 @@ pub fn dependent_lookups(
     let Some(k) = unrealized_unit(m, units, texture_shaders) else { return Ok(()) };
     let (reason, help) = if texture_shaders {
         (
-            "a lookup at coordinates computed from another texture unit's texel that no NV_texture_shader operation computes",
+            "looks a texture up at coordinates computed from another texture unit's texel, which no NV_texture_shader operation computes",
             "texture shaders look up at interpolated coordinates, offset by an earlier signed texel (offset_2d), \
              or at dot products of an earlier texel with interpolated vectors (a HILO map's 2-D lookup, \
              a cube map at an expanded normal-map texel: docs/combiners.md); \
@@ -76,11 +76,15 @@ pub fn dependent_lookups(
         )
     } else {
         (
-            "a lookup at coordinates computed from another texture unit's texel (a dependent lookup): the target has no texture shaders",
+            "looks a texture up at coordinates computed from another texture unit's texel (a dependent lookup), and the target has no texture shaders",
             "dependent lookups need NV_texture_shader: target geforce3 or wgsl, or compute the coordinates per vertex",
         )
     };
-    Err(crate::planner::realize::Refusal { reason: reason.into(), span: Some(m.span(units[k])), help: help.into() })
+    Err(crate::planner::realize::Refusal {
+        reason: reason.into(),
+        span: Some(m.span(units[k])),
+        help: help.into(),
+    })
 }
 
 /// `texture_2d(); dot_product_depth_replace_1of2(tex0);
