@@ -86,12 +86,15 @@ pub fn hilo_normal(m: &Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
     (m.is_constant(lhs, 1.0) && is_square_of(m, rhs, n)).then_some(n)
 }
 
+/// How a dot-product family finds the lookup whose texel it reads.
+type Normal = fn(&Module, Handle<Expr>) -> Option<Handle<Expr>>;
+
 /// `T (N·a, N·b)` with N a HILO normal and a, b interpolated 3-vectors
 /// (either operand order): the HILO lookup and a, b; or a cube map at
 /// `(N·a, N·b, N·c)` with N an expanded 8-bit texel ([`DotKind::CubeMap`]).
 pub fn dot_lookup(m: &Module, lookup: Handle<Expr>) -> Option<DotLookup> {
     let Expr::Lookup { texture, coords } = m.exprs[lookup] else { return None };
-    let (kind, normal): (DotKind, fn(&Module, Handle<Expr>) -> Option<Handle<Expr>>) =
+    let (kind, normal): (DotKind, Normal) =
         match m.textures.get(texture as usize)?.kind {
             TextureKind::Tex2d => (DotKind::Hilo2d, hilo_normal),
             TextureKind::Cube => (DotKind::CubeMap, crate::lowering::texel_cube::expanded_texel),
