@@ -1267,3 +1267,84 @@ proptest! {
         }
     }
 }
+
+/// With `--no-approx` the lowering does not run, so the cube lookup at the
+/// texel as written is refused — saying that the rewrite is exact and that
+/// `--max-error 0` allows it, which then plans the four stages.
+#[test]
+fn the_cube_lookup_at_a_texel_as_written_names_the_exact_rewrite() {
+    let dir = data_dir();
+    std::fs::write(dir.path().join("cube_at_texel.shd"), CUBE_AT_TEXEL).unwrap();
+    let run = |extra: &[&str]| {
+        let mut args = vec!["compile", "cube_at_texel.shd", "--target", "geforce3", "--emit", "combiners"];
+        args.extend_from_slice(extra);
+        crate::common::shadec_in(dir.path(), &args)
+    };
+    let refused = run(&["--no-approx"]);
+    assert_eq!(refused.code, 1, "{}", refused.stderr);
+    assert!(refused.stderr.contains("cube_at_texel.shd:4:"), "{}", refused.stderr);
+    assert!(refused.stderr.contains("--max-error 0"), "{}", refused.stderr);
+    let planned = run(&["--max-error", "0"]);
+    assert_eq!(planned.code, 0, "{}", planned.stderr);
+    assert!(planned.stdout.contains("dot_product_cube_map_3of3(expand(tex0));"), "{}", planned.stdout);
+}
+
+#[cfg(feature = "gpu")]
+mod cube_at_texel_gpu {
+    use super::*;
+    use shadec::gpu::scene_run::ScenePlan;
+    use shadec::numerics::Precision as P;
+    use shadec::renderer::plan::PlanRenderer;
+
+    const W: u32 = 320;
+    const H: u32 = 240;
+
+    /// (largest channel difference, compared pixels) on the torus off the
+    /// triangle-edge mask, the CPU's render of the plan against the plan's
+    /// WGSL on wgpu, both in `precision`.
+    fn difference(gpu: &shadec::gpu::runner::Gpu, source: &str, precision: P) -> (u8, usize) {
+        let planned = planned_on(source, "geforce3").unwrap();
+        let (program, _) = shadec::parser::check(source);
+        let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron"))
+            .unwrap();
+        let scene =
+            shadec::scene::Scene::parse(&text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron"))
+                .unwrap();
+        let assets = scene.build().unwrap();
+        let cpu = PlanRenderer::new(&planned, &program, &scene, &assets).unwrap();
+        let cpu = cpu.render(precision, W, H, &mut |_, _| {}).unwrap().image.to_rgba8();
+        let target = if precision == P::Fixed9 {
+            shadec::gpu::runner::Target::new(W, H)
+        } else {
+            shadec::gpu::runner::Target::float(W, H)
+        };
+        let run = ScenePlan::new(&planned, &program, Some(source), precision, &scene, &assets).unwrap();
+        let wgpu = run.render_into(gpu, &target).unwrap().into_raw();
+        let ids = shadec::bench::gpu_check::triangle_ids(gpu, &scene, &assets, (W, H)).unwrap();
+        let mask = shadec::bench::gpu_check::edge_mask(&ids, (W, H));
+        let (mut max, mut compared) = (0u8, 0);
+        for i in (0..(W * H) as usize).filter(|&i| !mask[i] && ids[i] != 0) {
+            let d = (0..3).map(|c| cpu[4 * i + c].abs_diff(wgpu[4 * i + c])).max().unwrap();
+            max = max.max(d);
+            compared += 1;
+        }
+        eprintln!("{precision:?}: CPU against wgpu max {max}/255 over {compared} pixels");
+        (max, compared)
+    }
+
+    /// The CPU and the WGSL compute the same lookups in f32 from the same
+    /// 8-bit texels (the cube map at the expanded texel; `normalize`
+    /// through the 8-bit map), and in fixed9 load the same registers: at
+    /// most one 8-bit step apart, where a rounding goes either way.
+    #[test]
+    fn the_cube_lookup_at_a_texel_agrees_with_wgsl_within_one_step() {
+        let Some(gpu) = crate::common::gpu::gpu() else { return };
+        for source in [CUBE_AT_TEXEL, NORMALIZED_TEXEL] {
+            for precision in [P::F32, P::Fixed9] {
+                let (max, compared) = difference(&gpu, source, precision);
+                assert!(compared > 2000, "{compared}");
+                assert!(max <= 1, "{precision:?}: CPU and wgpu differ by {max}/255\n{source}");
+            }
+        }
+    }
+}

@@ -94,12 +94,11 @@ type Normal = fn(&Module, Handle<Expr>) -> Option<Handle<Expr>>;
 /// `(N·a, N·b, N·c)` with N an expanded 8-bit texel ([`DotKind::CubeMap`]).
 pub fn dot_lookup(m: &Module, lookup: Handle<Expr>) -> Option<DotLookup> {
     let Expr::Lookup { texture, coords } = m.exprs[lookup] else { return None };
-    let (kind, normal): (DotKind, Normal) =
-        match m.textures.get(texture as usize)?.kind {
-            TextureKind::Tex2d => (DotKind::Hilo2d, hilo_normal),
-            TextureKind::Cube => (DotKind::CubeMap, crate::lowering::texel_cube::expanded_texel),
-            _ => return None,
-        };
+    let (kind, normal): (DotKind, Normal) = match m.textures.get(texture as usize)?.kind {
+        TextureKind::Tex2d => (DotKind::Hilo2d, hilo_normal),
+        TextureKind::Cube => (DotKind::CubeMap, crate::lowering::texel_cube::expanded_texel),
+        _ => return None,
+    };
     let Expr::Compose { components, .. } = &m.exprs[coords] else { return None };
     if components.len() != if kind == DotKind::Hilo2d { 2 } else { 3 } {
         return None;

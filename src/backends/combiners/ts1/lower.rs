@@ -80,6 +80,18 @@ pub fn dependent_lookups(
             "dependent lookups need NV_texture_shader: target geforce3 or wgsl, or compute the coordinates per vertex",
         )
     };
+    // A cube map at an expanded texel as written: the lowering's
+    // `texel_cube_map` writes it as dot products (exact, but a rewrite).
+    let at_texel = matches!(m.exprs[units[k]], Expr::Lookup { texture, coords }
+        if m.textures.get(texture as usize).is_some_and(|t| t.kind == TextureKind::Cube)
+            && crate::lowering::texel_cube::expanded_texel(m, coords).is_some());
+    let help = if texture_shaders && at_texel {
+        "as written no stage reads the texel as a direction; the lowering's `texel_cube_map` rule writes the lookup \
+         as dot_product_cube_map stages with the identity's rows (the same value): allow it with --max-error 0 \
+         rather than --no-approx"
+    } else {
+        help
+    };
     Err(crate::planner::realize::Refusal {
         reason: reason.into(),
         span: Some(m.span(units[k])),
