@@ -176,3 +176,25 @@ fn every_planned_pass_is_generated() {
         );
     }
 }
+
+/// The invariant over every example on both combiner targets: a pass whose
+/// texture unit looks up at coordinates computed from another unit's
+/// texel has the `!!TS1.0` stage that performs it
+/// (`texture_shaders::dependent_units_are_realized`); the plans with such
+/// a unit are counted, so that the check is seen to run on some.
+#[test]
+fn every_dependent_lookup_of_every_example_has_its_texture_shader_stage() {
+    let mut dependent = 0;
+    for (name, src) in examples() {
+        for target in ["geforce3", "geforce256"] {
+            let profile = Profile::resolve(target).unwrap();
+            let Ok(c) = shadec::driver::compile(&src, &profile, &Default::default()) else { continue };
+            match crate::texture_shaders::dependent_units_are_realized(&c.planned) {
+                Ok(n) => dependent += n,
+                Err(e) => panic!("{name} on {target}: {e}"),
+            }
+        }
+    }
+    // EMBM's offset lookup and the HILO map's dot products at least.
+    assert!(dependent >= 2, "{dependent}");
+}

@@ -997,3 +997,354 @@ proptest! {
         }
     }
 }
+
+// ---------------------------------------------------------------------------
+// A cube map at an expanded normal-map texel (DOT_PRODUCT_TEXTURE_CUBE_MAP),
+// and the invariant that every dependent lookup of a planned pass has the
+// texture-shader stage that performs it.
+
+/// `Ncube vec3(t.x, t.y, t.z)`, t an 8-bit normal map's expanded texel.
+const CUBE_AT_TEXEL: &str = "texture Tn : 2d rgb8 mipmap trilinear repeat = bumps(4);\n\
+     texture Ncube : cube rgb8 bilinear clamp = normalize_cube(32);\n\
+     let t = expand(Tn δu x);\n\
+     C δπx ← Ncube vec3(t.x, t.y, t.z);\n";
+
+/// The filtered normal renormalized, lit by an interpolated light vector.
+const NORMALIZED_TEXEL: &str = "vector L : light(0) in tangent;\n\
+     texture Tn : 2d rgb8 mipmap trilinear repeat = bumps(4);\n\
+     C δπx ← max(0, normalize(expand(Tn δu x)) · δ (L s x));\n";
+
+fn planned_on(
+    source: &str,
+    target: &str,
+) -> Result<shadec::pipeline::Planned, Vec<shadec::diag::Diagnostic>> {
+    let profile = shadec::profile::Profile::resolve(target).unwrap();
+    shadec::driver::compile(source, &profile, &shadec::driver::PlanOptions::default()).map(|c| c.planned)
+}
+
+/// `texture_2d(); dot_product_cube_map_1of3/2of3/3of3(expand(tex0));`.
+fn cube_at_texel_program() -> Vec<Operation> {
+    let dot = |step| Operation::DotProduct {
+        family: DotFamily::CubeMap,
+        step,
+        previous: 0,
+        mapping: DotMapping::ExpandNormal,
+        eye: None,
+    };
+    vec![Operation::Texture2d, dot(0), dot(1), dot(2)]
+}
+
+/// Whether `h` reads a texel (or a framebuffer) per fragment: computed
+/// from the IR here, not by the planner's check.
+fn reads_a_texel(m: &shadec::ir::Module, h: shadec::ir::Handle<shadec::ir::Expr>) -> bool {
+    use shadec::ir::Expr;
+    m.reachable(&[h])
+        .iter()
+        .any(|x| matches!(m.exprs[*x], Expr::Lookup { .. } | Expr::FramebufferRead { .. }))
+}
+
+/// The invariant, checked on a plan: every texture unit of every pass
+/// whose coordinates read another unit's texel has, in the pass's
+/// generated setup, a `!!TS1.0` stage on its hardware unit that reads an
+/// earlier stage (offset_2d, dependent_ar/gb or a dot-product family's
+/// last stage) — the lookup the card performs. Err says which unit does not.
+pub fn dependent_units_are_realized(planned: &shadec::pipeline::Planned) -> Result<usize, String> {
+    use shadec::ir::Expr;
+    let m = &planned.module;
+    let mut dependent = 0;
+    for (i, pass) in planned.plan.passes.iter().enumerate() {
+        let units: Vec<_> = pass.textures.iter().map(|t| planned.handle(t.lookup)).collect();
+        for (k, &u) in units.iter().enumerate() {
+            let Expr::Lookup { coords, .. } = m.exprs[u] else { continue };
+            if !reads_a_texel(m, coords) {
+                continue;
+            }
+            dependent += 1;
+            let g = shadec::backends::combiners::setup::of(planned, i).map_err(|e| {
+                format!("pass {}: unit {k} is dependent and the pass has no setup: {e}", i + 1)
+            })?;
+            let ts = g.config.texture_shader.as_ref().ok_or_else(|| {
+                format!("pass {}: unit {k} is a dependent lookup and the pass has no !!TS1.0 program", i + 1)
+            })?;
+            let hw = shadec::planner::hilo::hardware_unit(m, &units, k);
+            let op = ts.stage(hw);
+            let reads_earlier = op.previous().is_some_and(|p| usize::from(p) < hw) && op.has_output();
+            if !reads_earlier {
+                return Err(format!(
+                    "pass {}: unit {k} (hardware {hw}) is dependent but runs {}",
+                    i + 1,
+                    op.name()
+                ));
+            }
+        }
+    }
+    Ok(dependent)
+}
+
+/// Before: planned as one pass with no `!!TS1.0` program, the cube map
+/// looked up at interpolated coordinates — a pass the card could not run.
+/// Now four units: the normal map, then the three dot products of its
+/// expanded texel with the identity's rows, the last sampling the cube map.
+#[test]
+fn a_cube_lookup_at_an_expanded_texel_plans_on_geforce3_as_dot_product_cube_map() {
+    let planned = planned_on(CUBE_AT_TEXEL, "geforce3").unwrap_or_else(|d| panic!("{d:?}"));
+    assert_eq!(planned.plan.passes.len(), 1);
+    let g = shadec::backends::combiners::setup::of(&planned, 0).unwrap();
+    let ts = g.config.texture_shader.as_ref().expect("a texture-shader program");
+    assert_eq!(ts.stages, cube_at_texel_program());
+    assert!(ts1::validate(ts).is_empty(), "{:?}", ts1::validate(ts));
+    let text = rc1::print(&g.config);
+    let back =
+        rc1::parse_and_validate(&text, &CombinerLimits::GEFORCE3).unwrap_or_else(|d| panic!("{d:?}\n{text}"));
+    assert_eq!(back.texture_shader.as_ref(), Some(ts));
+    // The combiners read the cube map's texel, texture 3, and nothing else.
+    let rc = &text[text.find("!!RC1.0").unwrap()..];
+    assert!(rc.contains("tex3") && !rc.contains("tex0") && !rc.contains("tex1"), "{rc}");
+    // The vertex program writes u x to unit 0 and the rows to units 1-3.
+    let pi = shadec::pipeline::PassInterface::of(&planned, 0);
+    let outputs = shadec::backends::vertex_program::emit::outputs_for(&planned, 0, &pi);
+    let want: Vec<_> = (0..4).map(shadec::backends::vertex_program::program::Output::tex).collect();
+    assert_eq!(outputs, want);
+    assert_eq!(dependent_units_are_realized(&planned), Ok(1));
+    insta::assert_snapshot!("cube_at_texel_geforce3_ts1_rc1", text);
+}
+
+/// `normalize(expand(Tn δu x))` was refused ("needs `normalize` per
+/// fragment"); now the filtered normal is renormalized through an 8-bit
+/// normalization cube map by the same stages, an approximation recorded
+/// with the map's bound.
+#[test]
+fn normalize_of_a_filtered_normal_plans_on_geforce3_through_a_normalization_cube_map() {
+    let planned = planned_on(NORMALIZED_TEXEL, "geforce3").unwrap_or_else(|d| panic!("{d:?}"));
+    let rules: Vec<&str> = planned.plan.approximations.iter().map(|a| a.rule.as_str()).collect();
+    assert!(rules.contains(&"texel_cube_map"), "{rules:?}");
+    let bound = planned.plan.approximations.iter().find(|a| a.rule == "texel_cube_map").unwrap().error_bound;
+    assert!(bound.is_some_and(|b| b > 0.0 && b < 0.01), "{bound:?}");
+    assert_eq!(planned.plan.passes.len(), 1);
+    let g = shadec::backends::combiners::setup::of(&planned, 0).unwrap();
+    assert_eq!(g.config.texture_shader.as_ref().map(|t| t.stages.clone()), Some(cube_at_texel_program()));
+    let cube = &planned.plan.passes[0].textures[1];
+    let texture = planned.module.textures.iter().find(|t| t.name == cube.texture).unwrap();
+    assert_eq!(texture.format, shadec::parser::ast::TextureFormat::Rgb8, "{texture:?}");
+    assert_eq!(dependent_units_are_realized(&planned), Ok(1));
+}
+
+/// The CPU renders of the plan against the program's meaning (which
+/// evaluates `normalize` and samples the written cube map itself): the
+/// cube lookup at the texel is the same value (the rows are the identity),
+/// so f32 is within a float rounding of the meaning; `normalize` through
+/// the 8-bit map within the approximations' stated output bounds; fixed9
+/// (8-bit registers, 9-bit combiner arithmetic) within 2/255 of f32.
+#[test]
+fn the_cube_lookup_at_a_texel_renders_within_bounds_of_its_meaning() {
+    use shadec::numerics::Precision as P;
+    use shadec::renderer::plan::{compare, PlanRenderer};
+    let text =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron")).unwrap();
+    let scene =
+        shadec::scene::Scene::parse(&text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap();
+    let assets = scene.build().unwrap();
+    for (source, tolerance) in [(CUBE_AT_TEXEL, None), (NORMALIZED_TEXEL, Some(()))] {
+        let planned = planned_on(source, "geforce3").unwrap();
+        let (program, _) = shadec::parser::check(source);
+        let (written, _) = shadec::ir::lower(&program);
+        let meaning = shadec::meaning::plan(&written, scene.lights.len()).unwrap();
+        let render = |p: &shadec::pipeline::Planned, mode| {
+            PlanRenderer::new(p, &program, &scene, &assets)
+                .unwrap()
+                .render(mode, 160, 120, &mut |_, _| {})
+                .unwrap()
+        };
+        let meant = render(&meaning, P::F32);
+        let f32_ = render(&planned, P::F32);
+        let fixed = render(&planned, P::Fixed9);
+        assert!(f32_.stats.shaded > 1000, "{:?}", f32_.stats);
+        let e = compare(&meant.image, &f32_.image);
+        let bound: f64 = planned.plan.approximations.iter().filter_map(|a| a.output_bound).sum();
+        let allowed = if tolerance.is_some() { bound + 1e-4 } else { 1e-4 };
+        eprintln!("{source}: f32 against the meaning {e:?}, allowed {allowed}");
+        assert!((e.max_abs as f64) <= allowed, "f32 against the meaning: {e:?}, allowed {allowed}");
+        // fixed9 loads texture 3 rounded to 8 bits (the cube texel
+        // filtered in f32: ½ step, plus the output's own rounding); with
+        // `normalize` the combiners also dot it with the interpolated L
+        // loaded at 8 bits: each expanded vector off by ≤ 1/255 a
+        // component, ≤ √3/255 on the dot product each, plus the 9-bit
+        // result's ½ step: 4/255.
+        let e9 = compare(&f32_.image, &fixed.image);
+        let allowed9 = if tolerance.is_some() { 4.0 / 255.0 } else { 2.0 / 255.0 };
+        eprintln!("fixed9 against f32 {e9:?}, allowed {allowed9}");
+        assert!(e9.max_abs <= allowed9 + 1e-6, "fixed9 against f32: {e9:?}");
+    }
+}
+
+/// A check over `source` on `target` with the CLI, run in a folder of its
+/// own so that the diagnostic names the file alone: (exit code, stderr).
+fn check_in_folder(name: &str, source: &str, target: &str) -> (i32, String) {
+    let dir = data_dir();
+    std::fs::write(dir.path().join(name), source).unwrap();
+    let r = crate::common::shadec_in(dir.path(), &["check", name, "--target", target]);
+    (r.code, r.stderr)
+}
+
+/// A 2-D map looked up at an expanded texel's (x, y): no NV_texture_shader
+/// operation computes that coordinate (offset_2d adds a signed texel to
+/// interpolated coordinates; the dot-product families need interpolated
+/// rows), and no lowering makes it either (a texel has no per-vertex
+/// value): refused, located at the lookup, with what the stages can do.
+#[test]
+fn a_dependent_lookup_the_texture_shader_cannot_do_is_refused_located() {
+    let source = "texture Tn : 2d rgb8 mipmap trilinear repeat = bumps(4);\n\
+         texture T : 2d rgb8 bilinear clamp = bumps(8);\n\
+         let t = expand(Tn δu x);\n\
+         C δπx ← T vec2(t.x, t.y);\n";
+    let (code, stderr) = check_in_folder("texel_coords.shd", source, "geforce3");
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("texel_coords.shd:4:"), "{stderr}");
+    assert!(stderr.contains("which no NV_texture_shader operation computes"), "{stderr}");
+    insta::assert_snapshot!("dependent_lookup_without_a_texture_shader_operation_geforce3", stderr);
+}
+
+/// GeForce 256 has no texture shaders: the cube lookup at a texel is
+/// refused at the lookup, saying so (not planned without its stages).
+#[test]
+fn geforce256_refuses_the_cube_lookup_at_a_texel_located() {
+    let (code, stderr) = check_in_folder("cube_at_texel.shd", CUBE_AT_TEXEL, "geforce256");
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("cube_at_texel.shd:4:9"), "{stderr}");
+    assert!(stderr.contains("dependent lookup"), "{stderr}");
+    insta::assert_snapshot!("cube_at_texel_geforce256", stderr);
+    let (code, stderr) = check_in_folder("normalized_texel.shd", NORMALIZED_TEXEL, "geforce256");
+    assert_eq!(code, 1, "{stderr}");
+    assert!(stderr.contains("normalized_texel.shd:3:"), "{stderr}");
+}
+
+/// One small program with a dependent lookup: a normal map's expanded
+/// texel `t`, a coordinate made of it (`form`), the texture it indexes,
+/// and `extra` further plain lookups in the same statement.
+fn dependent_program(form: usize, extra: usize, scale: bool) -> String {
+    let (decl, coords) = match form {
+        0 => ("texture D : cube rgb8 bilinear clamp = normalize_cube(16);", "vec3(t.x, t.y, t.z)"),
+        1 => ("texture D : 2d rgb8 bilinear clamp = bumps(8);", "vec2(t.x, t.y)"),
+        2 => ("texture D : 2d rgb8 bilinear clamp = bumps(8);", "(δu x) + (S δu x)"),
+        3 => ("texture D : cube rgb8 bilinear clamp = normalize_cube(16);", "vec3(t.x, t.y, t.z) * 2"),
+        _ => ("texture D : 1d r8 bilinear clamp = exponent_table(8);", "t.z"),
+    };
+    let mut s = String::from(
+        "texture Tn : 2d rgb8 mipmap trilinear repeat = bumps(4);\n\
+         texture S : 2d signed8 repeat = bumps(8);\n\
+         texture E : 2d rgb8 bilinear clamp = bumps(8);\n",
+    );
+    s += decl;
+    s += "\nlet t = expand(Tn δu x);\n";
+    let value = if scale { format!("D {coords} * 0.5") } else { format!("D {coords}") };
+    let extras: String = (0..extra).map(|k| format!(" * E δ(u x * {})", k + 2)).collect();
+    s += &format!("C δπx ← rgb({value}){extras};\n");
+    s
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 24, ..ProptestConfig::default() })]
+    /// Over generated programs with dependent lookups, on geforce3 and
+    /// geforce256: a plan has every dependent unit realized by a
+    /// texture-shader stage; a refusal is located and says what to do.
+    #[test]
+    fn every_planned_dependent_lookup_has_its_texture_shader_stage(form in 0usize..5, extra in 0usize..3, scale: bool) {
+        let source = dependent_program(form, extra, scale);
+        for target in ["geforce3", "geforce256"] {
+            match planned_on(&source, target) {
+                Ok(planned) => {
+                    let realized = dependent_units_are_realized(&planned);
+                    prop_assert!(realized.is_ok(), "{target}: {realized:?}\n{source}");
+                }
+                Err(errors) => {
+                    prop_assert!(!errors.is_empty());
+                    for d in &errors {
+                        prop_assert!(d.primary.span.end > d.primary.span.start, "{target}: unlocated {d:?}\n{source}");
+                        prop_assert!(d.help.as_ref().is_some_and(|h| !h.is_empty()), "{target}: no help {d:?}");
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// With `--no-approx` the lowering does not run, so the cube lookup at the
+/// texel as written is refused — saying that the rewrite is exact and that
+/// `--max-error 0` allows it, which then plans the four stages.
+#[test]
+fn the_cube_lookup_at_a_texel_as_written_names_the_exact_rewrite() {
+    let dir = data_dir();
+    std::fs::write(dir.path().join("cube_at_texel.shd"), CUBE_AT_TEXEL).unwrap();
+    let run = |extra: &[&str]| {
+        let mut args = vec!["compile", "cube_at_texel.shd", "--target", "geforce3", "--emit", "combiners"];
+        args.extend_from_slice(extra);
+        crate::common::shadec_in(dir.path(), &args)
+    };
+    let refused = run(&["--no-approx"]);
+    assert_eq!(refused.code, 1, "{}", refused.stderr);
+    assert!(refused.stderr.contains("cube_at_texel.shd:4:"), "{}", refused.stderr);
+    assert!(refused.stderr.contains("--max-error 0"), "{}", refused.stderr);
+    let planned = run(&["--max-error", "0"]);
+    assert_eq!(planned.code, 0, "{}", planned.stderr);
+    assert!(planned.stdout.contains("dot_product_cube_map_3of3(expand(tex0));"), "{}", planned.stdout);
+}
+
+#[cfg(feature = "gpu")]
+mod cube_at_texel_gpu {
+    use super::*;
+    use shadec::gpu::scene_run::ScenePlan;
+    use shadec::numerics::Precision as P;
+    use shadec::renderer::plan::PlanRenderer;
+
+    const W: u32 = 320;
+    const H: u32 = 240;
+
+    /// (largest channel difference, compared pixels) on the torus off the
+    /// triangle-edge mask, the CPU's render of the plan against the plan's
+    /// WGSL on wgpu, both in `precision`.
+    fn difference(gpu: &shadec::gpu::runner::Gpu, source: &str, precision: P) -> (u8, usize) {
+        let planned = planned_on(source, "geforce3").unwrap();
+        let (program, _) = shadec::parser::check(source);
+        let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron"))
+            .unwrap();
+        let scene =
+            shadec::scene::Scene::parse(&text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron"))
+                .unwrap();
+        let assets = scene.build().unwrap();
+        let cpu = PlanRenderer::new(&planned, &program, &scene, &assets).unwrap();
+        let cpu = cpu.render(precision, W, H, &mut |_, _| {}).unwrap().image.to_rgba8();
+        let target = if precision == P::Fixed9 {
+            shadec::gpu::runner::Target::new(W, H)
+        } else {
+            shadec::gpu::runner::Target::float(W, H)
+        };
+        let run = ScenePlan::new(&planned, &program, Some(source), precision, &scene, &assets).unwrap();
+        let wgpu = run.render_into(gpu, &target).unwrap().into_raw();
+        let ids = shadec::bench::gpu_check::triangle_ids(gpu, &scene, &assets, (W, H)).unwrap();
+        let mask = shadec::bench::gpu_check::edge_mask(&ids, (W, H));
+        let (mut max, mut compared) = (0u8, 0);
+        for i in (0..(W * H) as usize).filter(|&i| !mask[i] && ids[i] != 0) {
+            let d = (0..3).map(|c| cpu[4 * i + c].abs_diff(wgpu[4 * i + c])).max().unwrap();
+            max = max.max(d);
+            compared += 1;
+        }
+        eprintln!("{precision:?}: CPU against wgpu max {max}/255 over {compared} pixels");
+        (max, compared)
+    }
+
+    /// The CPU and the WGSL compute the same lookups in f32 from the same
+    /// 8-bit texels (the cube map at the expanded texel; `normalize`
+    /// through the 8-bit map), and in fixed9 load the same registers: at
+    /// most one 8-bit step apart, where a rounding goes either way.
+    #[test]
+    fn the_cube_lookup_at_a_texel_agrees_with_wgsl_within_one_step() {
+        let Some(gpu) = crate::common::gpu::gpu() else { return };
+        for source in [CUBE_AT_TEXEL, NORMALIZED_TEXEL] {
+            for precision in [P::F32, P::Fixed9] {
+                let (max, compared) = difference(&gpu, source, precision);
+                assert!(compared > 2000, "{compared}");
+                assert!(max <= 1, "{precision:?}: CPU and wgpu differ by {max}/255\n{source}");
+            }
+        }
+    }
+}

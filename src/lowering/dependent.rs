@@ -79,3 +79,36 @@ fn table_function(r: &mut Rewriter, texture: u32, coords: Handle<Expr>, span: Sp
     );
     Some(value)
 }
+
+/// Whether `coords` has the form of a coordinate a texture-shader stage
+/// computes from an earlier unit's texel (NV_texture_shader, Section
+/// 3.8.13): interpolated coordinates offset by a signed texel, scaled or
+/// not (`offset_2d`, Pipeline Grammar, eq. (8)), or dot products of a texel
+/// with interpolated vectors (the dot-product families). The lowering
+/// leaves those to the planner and rewrites the other dependent lookups
+/// on geforce3 as on a target without texture shaders; whether the
+/// stages fit the pass is the planner's check (`planner::realize`).
+pub fn texture_shader_form(m: &crate::ir::Module, coords: Handle<Expr>) -> bool {
+    let interpolated = |h: Handle<Expr>| matches!(m.exprs[h], Expr::Interpolate { .. });
+    let signed_texel = |h: Handle<Expr>| match m.exprs[h] {
+        Expr::Lookup { texture, .. } => m.textures.get(texture as usize).is_some_and(|t| {
+            matches!(
+                t.format,
+                crate::parser::ast::TextureFormat::Signed8 | crate::parser::ast::TextureFormat::Signed16
+            )
+        }),
+        Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => [(lhs, rhs), (rhs, lhs)].into_iter().any(|(c, e)| {
+            matches!(m.exprs[c], Expr::Constant(_)) && matches!(m.exprs[e], Expr::Lookup { .. })
+        }),
+        _ => false,
+    };
+    match &m.exprs[coords] {
+        Expr::Binary { op: BinaryOp::Add, lhs, rhs } => {
+            (interpolated(*lhs) && signed_texel(*rhs)) || (interpolated(*rhs) && signed_texel(*lhs))
+        }
+        Expr::Compose { components, .. } => components.iter().all(|&c| {
+            matches!(m.exprs[c], Expr::Binary { op: BinaryOp::Dot, lhs, rhs } if interpolated(lhs) || interpolated(rhs))
+        }),
+        _ => false,
+    }
+}

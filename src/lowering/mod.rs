@@ -73,6 +73,7 @@ pub mod table;
 pub mod table2d;
 pub mod taylor;
 pub mod texel_bake;
+pub mod texel_cube;
 
 use std::collections::HashMap;
 
@@ -296,6 +297,10 @@ impl<'a> Rewriter<'a> {
             Expr::Math { fun: MathFunction::Normalize, args } => {
                 let (x, x_written) = (args[0], self.m.operands(original)[0]);
                 let normalized = match self.choice.normalization {
+                    // A filtered normal-map texel: by the texture shader's dot products.
+                    _ if texel_cube::expanded_texel(&self.m, x).is_some() => {
+                        texel_cube::normalize_texel(self, x, span)
+                    }
                     Normalization::CubeMap if self.profile.cube_maps => {
                         cube_map::apply(self, x, x_written, span)
                     }
@@ -306,13 +311,21 @@ impl<'a> Rewriter<'a> {
             Expr::Binary { op: BinaryOp::Pow, .. } if !needs_table(&self.m, h) => {
                 power::apply(self, h, span).unwrap_or(h)
             }
+            // A cube map at an expanded texel: the texture shader's dot products.
+            Expr::Lookup { coords, .. }
+                if texel_cube::available(self) && texel_cube::expanded_texel(&self.m, *coords).is_some() =>
+            {
+                texel_cube::lookup_at_texel(self, h, span).unwrap_or(h)
+            }
             // A coordinate that reads a texel, on a target without
-            // dependent lookups: computed per vertex, the lookup indexed by
-            // texgen (issue 18: "on geforce256 a per-vertex approximation").
+            // dependent lookups (issue 18: "on geforce256 a per-vertex
+            // approximation"), or one no texture-shader operation computes
+            // (geforce3: `Texp(N·Hn)`, Hn a cube map's texel).
             Expr::Lookup { coords, .. }
                 if self.combiners()
-                    && !self.profile.has_dependent_lookups()
-                    && reads_texel(&self.m, *coords) =>
+                    && reads_texel(&self.m, *coords)
+                    && (!self.profile.has_dependent_lookups()
+                        || !dependent::texture_shader_form(&self.m, *coords)) =>
             {
                 dependent::apply(self, h, original, span).unwrap_or(h)
             }

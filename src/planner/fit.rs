@@ -71,20 +71,20 @@ impl<'p> ProfileFit<'p> {
             return known.clone().map(|_| ());
         }
         let units: Vec<Handle<Expr>> = u.lookups.iter().chain(&u.framebuffer_reads).copied().collect();
-        let verdict = realizer.realize(module, value, &units).map(|r| r.general_combiners).map_err(|e| {
+        // A dependent lookup the texture shader does not perform first:
+        // its own reason, not the combiners'.
+        let shaders = self.profile.texture_shaders.is_some();
+        let verdict = match realizer.dependent_lookups(module, &units, shaders) {
+            Err(e) => Err((e.reason.clone(), e)),
+            Ok(()) => realizer.realize(module, value, &units).map_err(|e| {
+                (format!("has no register-combiner setup the code generator can build: {}", e.reason), e)
+            }),
+        };
+        let verdict = verdict.map(|r| r.general_combiners).map_err(|(resource, e)| {
             let at = e.span.and_then(|span| {
                 module.reachable(&[value]).into_iter().rev().find(|h| module.span(*h) == span)
             });
-            Overflow {
-                resource: format!(
-                    "has no register-combiner setup the code generator can build: {}",
-                    e.reason
-                ),
-                need: 0,
-                have: 0,
-                at,
-                help: Some(e.help),
-            }
+            Overflow { resource, need: 0, have: 0, at, help: Some(e.help) }
         });
         self.generated.borrow_mut().insert(value, verdict.clone());
         verdict.map(|_| ())

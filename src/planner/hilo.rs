@@ -27,14 +27,33 @@ use crate::ir::{BinaryOp, Expr, Handle, MathFunction, Module};
 use crate::parser::ast::{TextureFormat, TextureKind};
 use crate::profile::Profile;
 
-/// A lookup the texture shader addresses by dot products with a HILO normal.
+/// A lookup the texture shader addresses by dot products with an earlier
+/// unit's texel: a HILO normal's (DOT_PRODUCT_TEXTURE_2D) or an 8-bit
+/// normal map's expanded texel (DOT_PRODUCT_TEXTURE_CUBE_MAP).
 #[derive(Clone, Debug, PartialEq)]
 pub struct DotLookup {
-    /// The lookup of the HILO map (a 2-D `signed16` texture).
+    /// The lookup whose texel the dot products read: the HILO map (a 2-D
+    /// `signed16` texture), or the 8-bit normal map for [`DotKind::CubeMap`].
     pub hilo: Handle<Expr>,
     /// The interpolated vectors dotted with the normal, one per stage, in
     /// the order of the lookup's coordinates.
     pub rows: Vec<Handle<Expr>>,
+    /// Which dot-product family reads them.
+    pub kind: DotKind,
+}
+
+/// The NV_texture_shader dot-product family of a [`DotLookup`].
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum DotKind {
+    /// `dot_product_2d_1of2/2of2(texN)`: a 2-D lookup at two dot products
+    /// of a HILO normal (read as it is, unsigned identity).
+    Hilo2d,
+    /// `dot_product_cube_map_1of3/2of3/3of3(expand(texN))`: a cube map
+    /// looked up in the direction (N·a, N·b, N·c), N an unsigned 8-bit
+    /// texel expanded to [-1, 1] (GL_EXPAND_NORMAL_NV) — Kilgard's bump
+    /// mapping with a normalization cube map at a perturbed normal; the rows
+    /// (1,0,0), (0,1,0), (0,0,1) look the cube map up at N itself.
+    CubeMap,
 }
 
 /// Whether `profile` reads HILO textures by dot products: NV_texture_shader's
@@ -67,22 +86,28 @@ pub fn hilo_normal(m: &Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
     (m.is_constant(lhs, 1.0) && is_square_of(m, rhs, n)).then_some(n)
 }
 
+/// How a dot-product family finds the lookup whose texel it reads.
+type Normal = fn(&Module, Handle<Expr>) -> Option<Handle<Expr>>;
+
 /// `T (N·a, N·b)` with N a HILO normal and a, b interpolated 3-vectors
-/// (either operand order): the HILO lookup and a, b.
+/// (either operand order): the HILO lookup and a, b; or a cube map at
+/// `(N·a, N·b, N·c)` with N an expanded 8-bit texel ([`DotKind::CubeMap`]).
 pub fn dot_lookup(m: &Module, lookup: Handle<Expr>) -> Option<DotLookup> {
     let Expr::Lookup { texture, coords } = m.exprs[lookup] else { return None };
-    if m.textures.get(texture as usize)?.kind != TextureKind::Tex2d {
-        return None;
-    }
+    let (kind, normal): (DotKind, Normal) = match m.textures.get(texture as usize)?.kind {
+        TextureKind::Tex2d => (DotKind::Hilo2d, hilo_normal),
+        TextureKind::Cube => (DotKind::CubeMap, crate::lowering::texel_cube::expanded_texel),
+        _ => return None,
+    };
     let Expr::Compose { components, .. } = &m.exprs[coords] else { return None };
-    if components.len() != 2 {
+    if components.len() != if kind == DotKind::Hilo2d { 2 } else { 3 } {
         return None;
     }
     let mut hilo = None;
     let mut rows = Vec::new();
     for &c in components {
         let Expr::Binary { op: BinaryOp::Dot, lhs, rhs } = m.exprs[c] else { return None };
-        let (n, row) = match (hilo_normal(m, lhs), hilo_normal(m, rhs)) {
+        let (n, row) = match (normal(m, lhs), normal(m, rhs)) {
             (Some(n), _) => (n, rhs),
             (_, Some(n)) => (n, lhs),
             _ => return None,
@@ -93,7 +118,7 @@ pub fn dot_lookup(m: &Module, lookup: Handle<Expr>) -> Option<DotLookup> {
         hilo = Some(n);
         rows.push(row);
     }
-    Some(DotLookup { hilo: hilo?, rows })
+    Some(DotLookup { hilo: hilo?, rows, kind })
 }
 
 /// The hardware's texture units for a pass's `units` (lookups in the plan's
@@ -142,7 +167,7 @@ pub fn extra_units(m: &Module, lookups: &[Handle<Expr>]) -> usize {
 /// the combiners never see a HILO texel (NV_texture_shader gives them no
 /// RGBA for it), so a unit holding one is not a combiner input.
 pub fn is_hilo_unit(m: &Module, units: &[Handle<Expr>], h: Handle<Expr>) -> bool {
-    units.iter().filter_map(|&u| dot_lookup(m, u)).any(|d| d.hilo == h)
+    units.iter().filter_map(|&u| dot_lookup(m, u)).any(|d| d.kind == DotKind::Hilo2d && d.hilo == h)
 }
 
 /// The nodes the texture shader computes for the dot-product lookups

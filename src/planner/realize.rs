@@ -31,6 +31,19 @@ pub trait Realizer {
         units: &[Handle<Expr>],
     ) -> Result<Realized, Refusal>;
 
+    /// `Err` when a texture unit of the pass is a dependent lookup (its
+    /// coordinates read another unit's texel) that the target's texture
+    /// stage does not perform (`texture_shaders`: whether the target has
+    /// NV_texture_shader): a pass the card cannot run, which the planner
+    /// then splits or refuses, located at the lookup. Asked of every pass
+    /// before [`Realizer::realize`]; no default, so no realizer forgets it.
+    fn dependent_lookups(
+        &self,
+        module: &Module,
+        units: &[Handle<Expr>],
+        texture_shaders: bool,
+    ) -> Result<(), Refusal>;
+
     /// The setup itself for a planned pass, kept in its
     /// `pipeline::PassSetup`: asked once per pass, when the plan is
     /// assembled, so no consumer generates it again.

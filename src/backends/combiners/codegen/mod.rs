@@ -618,6 +618,15 @@ impl Realizer for CombinerRealizer {
             .map_err(|e| Refusal { reason: e.to_string(), span: e.span(), help: e.help() })
     }
 
+    fn dependent_lookups(
+        &self,
+        module: &Module,
+        units: &[Handle<Expr>],
+        texture_shaders: bool,
+    ) -> Result<(), Refusal> {
+        crate::backends::combiners::ts1::lower::dependent_lookups(module, units, texture_shaders)
+    }
+
     fn setup(
         &self,
         module: &Module,

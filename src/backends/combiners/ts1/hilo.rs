@@ -5,9 +5,16 @@
 //! second unit sampling the lookup's texture at the two dot products. The
 //! previous-stage mapping does not apply to a HILO texel (it is signed), so
 //! nvparse's plain `texN` is written.
+//!
+//! The same layout serves a cube map looked up at dot products of an
+//! 8-bit normal map's expanded texel (`planner::hilo::DotKind::CubeMap`):
+//! `texture_2d` on the normal map, then `dot_product_cube_map_1of3`,
+//! `2of3` and `3of3(expand(texN))`, the third unit sampling the cube map
+//! (Section 3.8.13, DOT_PRODUCT_TEXTURE_CUBE_MAP_NV, with
+//! GL_EXPAND_NORMAL_NV as the previous-texture mapping).
 
 use crate::ir::{Expr, Handle, Module};
-use crate::planner::hilo::{dot_lookup, hardware_units};
+use crate::planner::hilo::{dot_lookup, hardware_units, DotKind};
 
 use super::program::{DotFamily, DotMapping, Operation, TextureShader};
 
@@ -36,14 +43,14 @@ pub fn program(m: &Module, units: &[Handle<Expr>], other: Other) -> Option<Optio
         if usize::from(previous) >= k + 1 - d.rows.len() {
             return Some(None);
         }
+        // A HILO texel is signed (the mapping does not apply: plain
+        // `texN`); an 8-bit normal map's is expanded (`expand(texN)`).
+        let (family, mapping) = match d.kind {
+            DotKind::Hilo2d => (DotFamily::Texture2d, DotMapping::UnsignedIdentity),
+            DotKind::CubeMap => (DotFamily::CubeMap, DotMapping::ExpandNormal),
+        };
         for step in 0..d.rows.len() as u8 {
-            stages.push(Operation::DotProduct {
-                family: DotFamily::Texture2d,
-                step,
-                previous,
-                mapping: DotMapping::UnsignedIdentity,
-                eye: None,
-            });
+            stages.push(Operation::DotProduct { family, step, previous, mapping, eye: None });
         }
     }
     Some(Some(TextureShader { stages }))

@@ -35,6 +35,70 @@ pub fn program(m: &Module, units: &[Handle<Expr>]) -> Option<TextureShader> {
     (compares || stages.iter().any(|op| op.previous().is_some())).then_some(TextureShader { stages })
 }
 
+/// The first unit whose lookup is dependent — its coordinates read
+/// another unit's texel (or a framebuffer read) — when no texture-shader
+/// program performs it: the target has no texture shaders
+/// (`texture_shaders` false), or [`program`] finds no operation for some
+/// unit. A pass with such a unit is a pass the card cannot run as
+/// planned (the units would look up at interpolated coordinates). Every
+/// stage of a [`program`] that is `Some` realizes its unit (it is built
+/// unit by unit, each from its coordinates), so nothing else is asked.
+/// Coordinates computed from the vertices alone (texgen, a texture
+/// matrix) are not dependent.
+pub fn unrealized_unit(m: &Module, units: &[Handle<Expr>], texture_shaders: bool) -> Option<usize> {
+    let dependent = units.iter().position(|&u| match m.exprs[u] {
+        Expr::Lookup { coords, .. } => m
+            .reachable(&[coords])
+            .iter()
+            .any(|h| matches!(m.exprs[*h], Expr::Lookup { .. } | Expr::FramebufferRead { .. })),
+        _ => false,
+    })?;
+    if texture_shaders && program(m, units).is_some() {
+        return None;
+    }
+    Some(dependent)
+}
+
+/// [`unrealized_unit`] as the planner's refusal, located at the lookup.
+pub fn dependent_lookups(
+    m: &Module,
+    units: &[Handle<Expr>],
+    texture_shaders: bool,
+) -> Result<(), crate::planner::realize::Refusal> {
+    let Some(k) = unrealized_unit(m, units, texture_shaders) else { return Ok(()) };
+    let (reason, help) = if texture_shaders {
+        (
+            "looks a texture up at coordinates computed from another texture unit's texel, which no NV_texture_shader operation computes",
+            "texture shaders look up at interpolated coordinates, offset by an earlier signed texel (offset_2d), \
+             or at dot products of an earlier texel with interpolated vectors (a HILO map's 2-D lookup, \
+             a cube map at an expanded normal-map texel: docs/combiners.md); \
+             compute the coordinates per vertex, or target wgsl",
+        )
+    } else {
+        (
+            "looks a texture up at coordinates computed from another texture unit's texel (a dependent lookup), and the target has no texture shaders",
+            "dependent lookups need NV_texture_shader: target geforce3 or wgsl, or compute the coordinates per vertex",
+        )
+    };
+    // A cube map at an expanded texel as written: the lowering's
+    // `texel_cube_map` writes it as dot products (exact, but a rewrite).
+    let at_texel = matches!(m.exprs[units[k]], Expr::Lookup { texture, coords }
+        if m.textures.get(texture as usize).is_some_and(|t| t.kind == TextureKind::Cube)
+            && crate::lowering::texel_cube::expanded_texel(m, coords).is_some());
+    let help = if texture_shaders && at_texel {
+        "as written no stage reads the texel as a direction; the lowering's `texel_cube_map` rule writes the lookup \
+         as dot_product_cube_map stages with the identity's rows (the same value): allow it with --max-error 0 \
+         rather than --no-approx"
+    } else {
+        help
+    };
+    Err(crate::planner::realize::Refusal {
+        reason: reason.into(),
+        span: Some(m.span(units[k])),
+        help: help.into(),
+    })
+}
+
 /// `texture_2d(); dot_product_depth_replace_1of2(tex0);
 /// dot_product_depth_replace_2of2(tex0);` (NV_texture_shader,
 /// `DOT_PRODUCT_DEPTH_REPLACE_NV`): unit 0 reads the light's depth map
