@@ -42,7 +42,7 @@ pub fn section_5_4_shaders() -> [PaperShader; 4] {
             paper: "80 %",
         },
         PaperShader {
-            technique: "Phong, 16-bit cube map + texture-shader dot product",
+            technique: "Phong, 16-bit cube map + texture-shader dot product (planned by squaring: no table stage generated yet)",
             program: example!("phong_exponent_lookup.shd"),
             paper: "about 50 %",
         },
