@@ -638,6 +638,8 @@ fn shadow_map_agrees_three_ways() {
 /// box-filters the chain and samples it with its own GL §3.8 filtering.
 #[test]
 fn texture_shading_agrees_three_ways() {
+    // The reference's own grid is the planner's (it may not import it).
+    assert_eq!(shadec::oracle::rendered::TEXEL_GRID, shadec::pipeline::RENDERED_TEXTURE_SIZE);
     let g = gpu();
     let p = render_three(
         &example("texture_shading.shd"),

@@ -32,7 +32,7 @@
 //!   building no volume and counting nothing; `σ C` then reads it;
 //! - `rendered`: a statement into a texture (texture shading `T δu x ←`,
 //!   `T δu ←` over its texels, `T δπx ←`, `T xs ←`) evaluated into its
-//!   own grid — 256² over texels (`pipeline::RENDERED_TEXTURE_SIZE`), the
+//!   own grid — 256² over texels ([`rendered::TEXEL_GRID`]), the
 //!   frame's size otherwise — stored in the declared format, mipmaps
 //!   box-filtered here, and sampled by later lookups as images are.
 //!
@@ -65,7 +65,7 @@
 pub mod geometry;
 mod ops;
 mod program;
-mod rendered;
+pub mod rendered;
 pub mod sampling;
 mod stencil;
 mod textures;

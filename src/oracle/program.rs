@@ -385,7 +385,7 @@ impl<'a> Evaluator<'a> {
 impl Evaluator<'_> {
     /// `f`'s triangle at a pixel offset, in the raster `f` was found in.
     fn offset(&self, f: &Fragment, dx: f64, dy: f64) -> Fragment {
-        let size = crate::pipeline::RENDERED_TEXTURE_SIZE;
+        let size = super::rendered::TEXEL_GRID;
         let raster = match f.view {
             View::Texels => Coverage { width: size, height: size, fragments: Vec::new(), clipped: 0 },
             _ => Coverage {

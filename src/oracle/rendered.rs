@@ -4,7 +4,7 @@
 //! own texels `T δu ← …`, and a frame rendered into a texture
 //! (`T δπx ← …`, `T xs ← …`; render-to-texture).
 //!
-//! Each is evaluated into its own grid — a [`RENDERED_TEXTURE_SIZE`]²
+//! Each is evaluated into its own grid — a [`TEXEL_GRID`]²
 //! grid over texels (docs/pass-plan.md, the planner's one decision of a
 //! target's size), the frame's size otherwise — cleared to 0, every texel
 //! stored as the declared format stores it (8 bits as k/255, clamped),
@@ -25,8 +25,13 @@ use super::sampling::{mip_chain, Image, Level};
 use super::Unsupported;
 use crate::ir::{Frequency, Statement};
 use crate::parser::ast::TextureKind;
-use crate::pipeline::RENDERED_TEXTURE_SIZE;
 use crate::textures::TexelFormat;
+
+/// The side of the grid a texture rendered over its texels holds: 256,
+/// docs/pass-plan.md's size for a target drawn in texture space (the
+/// planner's `pipeline::RENDERED_TEXTURE_SIZE`, which this reference may
+/// not import: `tests/three_way.rs` checks that the two are one).
+pub const TEXEL_GRID: u32 = 256;
 
 /// Runs `st` into texture `id`; `levels` holds each rendered texture's
 /// base level between statements.
@@ -84,7 +89,7 @@ fn over_texels(st: &Statement) -> bool {
 
 fn raster_size(ev: &Evaluator, st: &Statement) -> (u32, u32) {
     if over_texels(st) {
-        (RENDERED_TEXTURE_SIZE, RENDERED_TEXTURE_SIZE)
+        (TEXEL_GRID, TEXEL_GRID)
     } else {
         (ev.coverage.width, ev.coverage.height)
     }
@@ -95,7 +100,7 @@ fn raster(ev: &Evaluator, st: &Statement) -> Result<Vec<(usize, At)>, Unsupporte
     if !over_texels(st) {
         return super::samples(ev, st);
     }
-    let n = RENDERED_TEXTURE_SIZE;
+    let n = TEXEL_GRID;
     let m = ev.m;
     let through_mesh = m.reachable(&[st.index]).iter().any(|h| m.info(*h).freq == Frequency::Vertex);
     if through_mesh {
