@@ -354,7 +354,7 @@ impl<'a> Evaluator<'a> {
                 }
                 // The coordinates at a pixel offset (dx, dy) from `f`.
                 let at_offset = |dx: f64, dy: f64| -> Result<[f64; 2], Unsupported> {
-                    let g = self.offset(&f, dx, dy);
+                    let g = self.shifted(&f, dx, dy);
                     Ok(uv(self.operand(coords, At::Fragment(g), lod_depth + 1, &mut Memo::new())?, cty))
                 };
                 let lod_at = |ox: f64, oy: f64| -> Result<f64, Unsupported> {
@@ -384,7 +384,7 @@ impl<'a> Evaluator<'a> {
 
 impl Evaluator<'_> {
     /// `f`'s triangle at a pixel offset, in the raster `f` was found in.
-    fn offset(&self, f: &Fragment, dx: f64, dy: f64) -> Fragment {
+    fn shifted(&self, f: &Fragment, dx: f64, dy: f64) -> Fragment {
         let size = super::rendered::TEXEL_GRID;
         let raster = match f.view {
             View::Texels => Coverage { width: size, height: size, fragments: Vec::new(), clipped: 0 },
