@@ -102,7 +102,10 @@ pub(super) fn assemble_pass(
     } else {
         Geometry::Texels
     };
-    let u = Usage::of_value(m, piece.value);
+    // The discard's condition is computed by the pass too: its lookups are
+    // bound and its operations counted with the value's.
+    let reached = m.reachable(&[piece.value].into_iter().chain(form.condition).collect::<Vec<_>>());
+    let u = Usage::of_reached(m, &reached);
     let textures = texture_bindings(m, st, &u);
     let key = reused.unwrap_or((st.table.depth_target(), st.index));
     let state = pass_state(form, piece, &geometry, in_texture_space, drawn, key);
@@ -114,7 +117,6 @@ pub(super) fn assemble_pass(
         combiner_setup(m, ctx.realizer, piece.value, &textures)
     };
     let reason = pass_reason(group, piece, pi, names, ctx.profile);
-    let reached = m.reachable(&[piece.value]);
     let one = |v: &[Option<u32>]| match stmts {
         [s] => v.get(*s).copied().flatten(),
         _ => None,

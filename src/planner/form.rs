@@ -195,9 +195,13 @@ pub fn whole_form(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result
         Table::Texture(_) => return Ok(form),
         Table::TexCoords(_) => unreachable!("texgen statements are vertex work"),
         Table::Framebuffer { channel: FbChannel::Stencil, .. } => {
-            return stencil_write(m, st, value).ok_or_else(|| unsupported_blend(st, "this stencil update (the planner knows `σ C ← (σ C) OR (depth comparison)`, Pipeline Grammar, Section 3.5)"))
+            return stencil_write(m, st, value)
+                .or_else(|| super::stencil::stencil_form(m, st, value))
+                .ok_or_else(|| super::stencil::unsupported(st))
         }
-        Table::Framebuffer { channel: FbChannel::Depth, .. } => return Err(unsupported_blend(st, "a write to the depth channel")),
+        Table::Framebuffer { channel: FbChannel::Depth, .. } => {
+            return Err(unsupported_blend(st, "a write to the depth channel"))
+        }
         Table::Framebuffer { channel: FbChannel::Alpha, .. } => form.channels = "a",
         Table::Framebuffer { channel: FbChannel::Color, .. } => {}
     }

@@ -37,6 +37,7 @@ pub mod shadow_mask;
 pub mod shadow_volumes;
 pub mod specialize;
 pub mod split;
+mod stencil;
 pub mod storage;
 
 use rustc_hash::FxHashMap as HashMap;

@@ -230,9 +230,12 @@ impl Gen<'_> {
         let stencil_only =
             matches!(&pass.target, RenderTarget::Framebuffer { channels, .. } if channels == "stencil");
         let vec4 = self.vec_ty(4);
-        let out = if stencil_only {
-            // The depth and stencil state do the work; no colour is written.
+        if stencil_only {
+            // No colour is written: the depth and stencil state do the work,
+            // after the discard of a conditional stencil write.
             self.combiners = None;
+        }
+        let out = if stencil_only && self.iface.condition.is_none() {
             b.plain(Expression::ZeroValue(vec4))
         } else if let Some(g) = self.combiners.clone() {
             self.fragment_combiners(&mut b, &g)?
