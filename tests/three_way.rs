@@ -691,3 +691,34 @@ fn a_stencil_test_split_into_a_temporary_keeps_its_term() {
     let p = render_three(source, "geforce256", &sc, Precision::Fixed9, g.as_ref()).unwrap();
     crate::three_way_generated::fixed9_verdict(&p, &mut 0).unwrap();
 }
+
+/// The stencil writes GL makes (docs/language.md, "Stencil writes"): a
+/// constant, a condition set (`σ OR c`) or cleared (`σ AND c`) at the
+/// visible fragments, and a condition written where the stencil is clear,
+/// each then read by `σ C δπx ? …` or `¬σ C δπx ? …`. The reference sets
+/// the stencil from the condition's value at the visible fragment; the
+/// executors drop fragments by the alpha test and `REPLACE`/`ZERO`.
+#[test]
+fn stencil_writes_of_every_form_agree_three_ways() {
+    let head = "vector N : normal;\nvector L : light(0);\nshader p : s → c = (0.8, 0.7, 0.6) * max(0, N·L);\ntexture Decal : 2d rgba8 bilinear repeat = image(\"missing-decal.png\");\nframebuffer C : rgba8, depth, stencil;\nC δπx ← δ p s x;\n";
+    let g = gpu();
+    for body in [
+        "σ C δπx ← (Decal δu x).r > 0.5;\nC δπx ← (σ C δπx) ? ((Decal δu x) * (δ p s x));\n",
+        "σ C δπx ← 1;\nσ C δπx ← (σ C δπx) AND ((Decal δu x).g > 0.4);\nC δπx ← (¬σ C δπx) ? (0.3 * (C δπx));\n",
+        "σ C δπx ← 0;\nσ C δπx ← (σ C δπx) OR ((δ p s x).r > 0.3);\nC δπx ← (σ C δπx) ? (C δπx) ⊕[add] (0.2 * (Decal δu x));\n",
+    ] {
+        let source = format!("{head}{body}");
+        for (target, precision) in [("wgsl", Precision::F32), ("geforce3", Precision::Fixed9)] {
+            let p = match render_three(&source, target, &scene("kilgard_torus.ron"), precision, g.as_ref()) {
+                Err(e) if target != "wgsl" && e.starts_with("does not compile") => continue,
+                r => r.unwrap_or_else(|e| panic!("{target}: {body}: {e}")),
+            };
+            let check = if precision == Precision::F32 {
+                verdict(&p)
+            } else {
+                crate::three_way_generated::fixed9_verdict(&p, &mut 0)
+            };
+            check.unwrap_or_else(|e| panic!("{target}: {body}: {e}"));
+        }
+    }
+}

@@ -25,11 +25,13 @@
 //!   carries the depth its framebuffer stores, so `πl π⁻¹ xs` takes the
 //!   pixel back through the camera and into the light (Williams's shadow
 //!   map, docs/shadow-maps.md);
-//! - `stencil`: the stencil update of Pipeline Grammar, Section 3.5, from
-//!   what it says — over the scene's vertices an OR of every fragment's
-//!   depth comparison, over the shadow volumes `x′` the visible point's
-//!   segment to light 0 cast against the closed occluders (Crow 1977),
-//!   building no volume and counting nothing; `σ C` then reads it;
+//! - `stencil`: stencil writes from what they say — a constant, a
+//!   condition set, cleared or written at the visible fragments; the
+//!   depth comparison of Pipeline Grammar, Section 3.5, over the scene's
+//!   vertices an OR of every fragment's comparison, over the shadow
+//!   volumes `x′` the visible point's segment to light 0 cast against the
+//!   closed occluders (Crow 1977), building no volume and counting
+//!   nothing; `σ C` then reads it;
 //! - `rendered`: a statement into a texture (texture shading `T δu x ←`,
 //!   `T δu ←` over its texels, `T δπx ←`, `T xs ←`) evaluated into its
 //!   own grid — 256² over texels ([`rendered::TEXEL_GRID`]), the
@@ -49,7 +51,7 @@
 //! It is slow (every pixel tests every triangle's bounds, every δ evaluates
 //! three vertices) and meant for small images. What it does not evaluate it
 //! refuses with [`Unsupported`], never guesses: writes to the depth
-//! channel, stencil updates of other forms (and shadow volumes compared
+//! channel, stencil writes of other forms (and shadow volumes compared
 //! other than z-fail's `>`), fat textures (bundles rendered into a
 //! texture: deferred shading's), statements rendering into cube or 3-D
 //! textures, 3-D textures, a scene's dual-paraboloid maps (a program's
@@ -207,7 +209,7 @@ pub fn render_with(
 /// visible fragment of each pixel under the index's projection for
 /// `C δπx` and `Cl δπl x`, every pixel for `C xs`; each with its position
 /// in a raster of `width` columns.
-fn samples(ev: &Evaluator, st: &crate::ir::Statement) -> Result<Vec<(usize, At)>, Unsupported> {
+pub(crate) fn samples(ev: &Evaluator, st: &crate::ir::Statement) -> Result<Vec<(usize, At)>, Unsupported> {
     let (w, h) = (ev.coverage.width, ev.coverage.height);
     match st.freq {
         Frequency::Fragment => {

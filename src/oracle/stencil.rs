@@ -1,6 +1,15 @@
-//! The stencil update of Pipeline Grammar, Section 3.5,
-//! `σ C δπy ← (σ C δπy) OR ((z δπy) > (z C δπy))`, evaluated from what it
-//! says rather than from how the hardware counts it.
+//! Stencil writes, evaluated from what they say (docs/language.md,
+//! "Stencil writes") rather than from the stencil operations an executor
+//! runs. The stencil holds an integer 0-255 per pixel, 0 clear.
+//!
+//! - `σ C δπx ← k` (an integer): k at the visible fragment of every pixel
+//!   the geometry covers;
+//! - `σ C δπx ← (σ C δπx) OR c`: set (1) at the visible fragments where
+//!   `c` ≠ 0; `… AND c`: cleared where `c` = 0; `σ C δπx ← c`: the truth
+//!   of `c` (1 or 0) at the visible fragments;
+//!
+//! and the depth comparison of Pipeline Grammar, Section 3.5,
+//! `σ C δπy ← (σ C δπy) OR ((z δπy) > (z C δπy))`:
 //!
 //! - Over a vertex stream some statement draws (the scene's objects), the
 //!   stencil is set at a pixel where any fragment of a front face there
@@ -69,8 +78,9 @@ pub fn update(
     fb: usize,
     latitude: &mut [bool],
 ) -> Result<(), Unsupported> {
-    let (compare, drawn) = read_update(ev.m, st, fb)
-        .ok_or_else(|| Unsupported::new("a stencil update other than `σ C ← (σ C) OR (z δπy ⋚ z C δπy)`"))?;
+    let Some((compare, drawn)) = read_update(ev.m, st, fb) else {
+        return at_visible_fragments(ev, st, fb, latitude);
+    };
     let stream = camera_stream(ev.m, drawn)
         .ok_or_else(|| Unsupported::new("a stencil update over a position other than `δπ` of vertices"))?;
     if drawn_by_a_statement(ev.m, stream) {
@@ -81,6 +91,98 @@ pub fn update(
         return Err(Unsupported::new("a shadow-volume update other than z-fail's `z δπx′ > z C δπx′`"));
     }
     shadow(ev, fb, latitude)
+}
+
+/// What a write at the visible fragment does to the stencil there.
+#[derive(Clone, Copy)]
+enum Write {
+    /// `σ ← k`.
+    Constant(u8),
+    /// `σ ← σ OR c`: 1 where c ≠ 0.
+    SetWhere(Handle<Expr>),
+    /// `σ ← σ AND c`: 0 where c = 0.
+    ClearUnless(Handle<Expr>),
+    /// `σ ← c`: 1 where c ≠ 0, else 0.
+    Truth(Handle<Expr>),
+}
+
+/// The write `st`'s value says, its condition a scalar that does not read
+/// the stencil being written.
+fn read_write(m: &Module, st: &Statement, fb: usize) -> Option<Write> {
+    let own = |h: Handle<Expr>| {
+        matches!(m.exprs[h], Expr::FramebufferRead { framebuffer, channel: FbChannel::Stencil, .. }
+            if framebuffer as usize == fb)
+    };
+    let reads_own = |h: Handle<Expr>| m.reachable(&[h]).into_iter().any(own);
+    let condition = |c: Handle<Expr>| (m.info(c).ty == crate::ir::Ty::Scalar && !reads_own(c)).then_some(c);
+    match &m.exprs[st.value] {
+        Expr::Constant(k) => match k.values() {
+            [v] if v.fract() == 0.0 && (0.0..=255.0).contains(v) => Some(Write::Constant(*v as u8)),
+            _ => None,
+        },
+        Expr::Binary { op: op @ (BinaryOp::Or | BinaryOp::And), lhs, rhs } => {
+            let c = match (own(*lhs), own(*rhs)) {
+                (true, false) => condition(*rhs)?,
+                (false, true) => condition(*lhs)?,
+                _ => return condition(st.value).map(Write::Truth),
+            };
+            Some(if *op == BinaryOp::Or { Write::SetWhere(c) } else { Write::ClearUnless(c) })
+        }
+        _ => condition(st.value).map(Write::Truth),
+    }
+}
+
+/// A stencil write at the visible fragment of each pixel of the
+/// statement's index, which draws its geometry like any statement (and so
+/// stores its depth).
+fn at_visible_fragments(
+    ev: &mut Evaluator,
+    st: &Statement,
+    fb: usize,
+    latitude: &mut [bool],
+) -> Result<(), Unsupported> {
+    let write = read_write(ev.m, st, fb).ok_or_else(|| {
+        Unsupported::new(
+            "a stencil write other than a constant, `σ OR c`, `σ AND c`, `c` or a depth comparison",
+        )
+    })?;
+    ev.target = fb;
+    let mut writes = Vec::new();
+    for (i, at) in super::samples(ev, st)? {
+        ev.latitude.set(false);
+        let truth = |h| -> Result<bool, Unsupported> {
+            Ok(ev.value(h, at, 0, &mut HashMap::new())?.is_some_and(|v| v[0] != 0.0))
+        };
+        let stored = ev.framebuffers[fb].stencil[i];
+        let new = match write {
+            Write::Constant(k) => k,
+            Write::SetWhere(c) => {
+                if truth(c)? {
+                    1
+                } else {
+                    stored
+                }
+            }
+            Write::ClearUnless(c) => {
+                if truth(c)? {
+                    stored
+                } else {
+                    0
+                }
+            }
+            Write::Truth(c) => u8::from(truth(c)?),
+        };
+        latitude[i] |= ev.latitude.get();
+        writes.push((i, new, at));
+    }
+    let store = &mut ev.framebuffers[fb];
+    for (i, new, at) in writes {
+        store.stencil[i] = new;
+        if let super::program::At::Fragment(f) = at {
+            store.depth[i] = f.depth;
+        }
+    }
+    Ok(())
 }
 
 /// `(σ C) OR (a ⋚ b)`, one of a, b the depth stored in C and the other the
