@@ -536,3 +536,189 @@ fn an_alpha_write_then_a_colour_write_keep_the_colour() {
         assert!(lit > 0, "{target}: the colour statement drew nothing");
     }
 }
+
+fn example(name: &str) -> String {
+    std::fs::read_to_string(Path::new(env!("CARGO_MANIFEST_DIR")).join("examples").join(name)).unwrap()
+}
+
+/// The scene file `tests/data/{name}`.
+fn test_scene(name: &str) -> Scene {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(name);
+    Scene::parse(&std::fs::read_to_string(&path).unwrap(), &path).unwrap()
+}
+
+/// Covered pixels (latitude left out) where the reference's red channel is
+/// `value` within a step.
+fn pixels_at(p: &Pictures, value: u8) -> usize {
+    p.covered.iter().enumerate().filter(|(i, &c)| c && p.oracle[4 * i].abs_diff(value) <= 1).count()
+}
+
+/// Shadow volumes as Pipeline Grammar, Section 3.5 writes them
+/// (`examples/shadow_volumes.shd`): the ambient pass, the stencil update
+/// over `x′`, and the diffuse/specular pass where the stencil is clear
+/// (`¬σ C δπx ? …`). The executors count the volumes the scene builds
+/// (z-fail, by facing); the reference casts each visible point's segment
+/// to the light against the occluder (Crow 1977), building no volume. On
+/// both scenes of a ball over a floor, the floor holds a shadow (pixels at
+/// the ambient 0.1 alone), and the three agree, on wgsl (two-sided
+/// stencil, one pass) and on geforce3 (two passes, one per facing).
+#[test]
+fn shadow_volumes_agree_three_ways() {
+    let source = example("shadow_volumes.shd");
+    let g = gpu();
+    for (name, sc) in [
+        ("shadow_occluder_floor.ron", scene("shadow_occluder_floor.ron")),
+        ("shadow_floor.ron", test_scene("shadow_floor.ron")),
+    ] {
+        for (target, precision) in [("wgsl", Precision::F32), ("geforce3", Precision::Fixed9)] {
+            let p = render_three(&source, target, &sc, precision, g.as_ref())
+                .unwrap_or_else(|e| panic!("{name} {target}: {e}"));
+            let check = if precision == Precision::F32 {
+                verdict(&p)
+            } else {
+                crate::three_way_generated::fixed9_verdict(&p, &mut 0)
+            };
+            check.unwrap_or_else(|e| panic!("{name} {target}: {e}"));
+            let shadowed = pixels_at(&p, 26);
+            let covered = p.covered.iter().filter(|c| **c).count();
+            eprintln!("{name} {target}: {shadowed} of {covered} compared pixels in shadow");
+            assert!(shadowed >= 20, "{name} {target}: {shadowed} of {covered} pixels in shadow");
+            assert!(covered > 1000, "{name}: latitude left {covered} pixels");
+        }
+    }
+}
+
+/// `σ C δπx ← (σ C δπx) OR ((z δπx) > (z C δπx))` over the scene's own
+/// vertices: the stencil set where a front face lies behind the visible
+/// one (the floor behind the ball: depth complexity above one), then
+/// `σ C δπx ? …` brightens those pixels. The reference ORs over every
+/// fragment of the pixel; the executors draw the mesh with depth
+/// `GREATER` and stencil `REPLACE 1`.
+#[test]
+fn stencil_set_behind_the_visible_surface_agrees() {
+    let source = format!(
+        "{LIT}const kd : rgb = (0.8, 0.6, 0.4);\nframebuffer D : rgba8, depth, stencil;\nD δπx ← kd * (δ diffuse s x);\nσ D δπx ← (σ D δπx) OR ((z δπx) > (z D δπx));\nD δπx ← (σ D δπx) ? (D δπx) ⊕[add] (0.3 * kd);\n"
+    );
+    let g = gpu();
+    let sc = scene("shadow_occluder_floor.ron");
+    let p = render_three(&source, "wgsl", &sc, Precision::F32, g.as_ref()).unwrap();
+    verdict(&p).unwrap();
+    let plain = render_three(&source.replace("(σ D δπx) ?", "0 ?"), "wgsl", &sc, Precision::F32, None);
+    if let Ok(plain) = plain {
+        let brighter =
+            (0..plain.covered.len()).filter(|&i| p.oracle[4 * i] > plain.oracle[4 * i] + 10).count();
+        assert!(brighter > 20, "the stencil was set on {brighter} pixels");
+    }
+}
+
+/// A shadow map (Williams 1978; `examples/shadow_map.shd`): depth from
+/// the light into a depth-only framebuffer `Cl δπl x ← δ x`, then a
+/// screen pass comparing `z πl π⁻¹ xs` with `z Cl πl π⁻¹ xs` + bias. The
+/// reference rasterizes the light's view itself, takes each pixel back
+/// through the camera at C's stored depth and reads the light's buffer at
+/// the nearest pixel.
+#[test]
+fn shadow_map_agrees_three_ways() {
+    let g = gpu();
+    for (file, name, sc) in [
+        ("shadow_map.shd", "shadow_occluder_floor.ron", scene("shadow_occluder_floor.ron")),
+        ("shadow_map.shd", "shadow_floor.ron", test_scene("shadow_floor.ron")),
+        ("shadow_mask.shd", "shadow_occluder_floor.ron", scene("shadow_occluder_floor.ron")),
+    ] {
+        let p = render_three(&example(file), "wgsl", &sc, Precision::F32, g.as_ref())
+            .unwrap_or_else(|e| panic!("{file} on {name}: {e}"));
+        verdict(&p).unwrap_or_else(|e| panic!("{file} on {name}: {e}"));
+    }
+}
+
+/// Texture shading (Pipeline Grammar, eq. (13); `examples/texture_shading.shd`):
+/// `T δu ← p s δu` renders the shading over the torus's texture
+/// coordinates into a 256² texture, mipmapped, and `C δπx ← T δu x`
+/// samples it. The reference unwraps the mesh over its texels itself,
+/// box-filters the chain and samples it with its own GL §3.8 filtering.
+#[test]
+fn texture_shading_agrees_three_ways() {
+    // The reference's own grid is the planner's (it may not import it).
+    assert_eq!(shadec::oracle::rendered::TEXEL_GRID, shadec::pipeline::RENDERED_TEXTURE_SIZE);
+    let g = gpu();
+    let p = render_three(
+        &example("texture_shading.shd"),
+        "wgsl",
+        &scene("kilgard_torus.ron"),
+        Precision::F32,
+        g.as_ref(),
+    )
+    .unwrap();
+    verdict(&p).unwrap();
+}
+
+/// A frame rendered into a texture and read back at the pixel
+/// (render-to-texture): `T δπx ← …` at the camera's fragments, then
+/// `C xs ← …(T xs)…` a screen pass over it, and a texture computed over its
+/// own texels (`Ramp δu ← …`) looked up per fragment.
+#[test]
+fn rendered_textures_read_back_agree_three_ways() {
+    let g = gpu();
+    for body in [
+        "texture T : 2d rgba8 nearest clamp;\nT δπx ← kd * (δ diffuse s x);\nC xs ← (T xs) * 0.5 + (T xs) * (T xs);\n",
+        "texture Ramp : 2d rgba8 bilinear clamp;\nshader ramp : s → c = rgb(s.x, s.y * s.y, 0.5);\nRamp δu ← ramp s δu;\nC δπx ← (Ramp δu x) * (δ diffuse s x);\n",
+    ] {
+        let source = format!("{LIT}const kd : rgb = (0.8, 0.6, 0.4);\n{body}");
+        let p = render_three(&source, "wgsl", &scene("kilgard_torus.ron"), Precision::F32, g.as_ref())
+            .unwrap_or_else(|e| panic!("{body}: {e}"));
+        verdict(&p).unwrap_or_else(|e| panic!("{body}: {e}"));
+    }
+}
+
+/// `σ C δπx ? (C δπx) ⊕[add] t` whose term needs three texture units on
+/// geforce256 (two normalization cube maps and a texture): the planner
+/// splits it, rendering part of `t` into a temporary first, and gives
+/// those passes the statement's stencil test (`NOTEQUAL 0`,
+/// `planner::assemble::pass_state`, `stencil: form.stencil…` whatever the
+/// pass's destination) — against the temporary's own stencil, which is
+/// clear, so nothing is drawn there and the shadowed pixels get nothing
+/// added. CPU and wgpu run that plan and agree; the reference adds the
+/// term where the shadow volumes set the stencil (85/255 off on every
+/// shadowed pixel). `¬σ` (`EQUAL 0`) passes on the clear stencil and is
+/// right by accident. Found by the generated comparison; the planner is
+/// not this reference's to fix.
+#[test]
+#[ignore = "planner bug: a split's passes into a temporary carry the stencil test (src/planner/assemble.rs, pass_state)"]
+fn a_stencil_test_split_into_a_temporary_keeps_its_term() {
+    let source = "vector N : normal;\nvector L0 : light(0);\nshader d0 : s → scalar = max(0, normalize(N)·normalize(L0));\ntexture T0 : 2d rgb8 bilinear repeat = image(\"missing-0.png\");\nframebuffer C : rgba8, depth, stencil;\nC δπx ← (T0 δu x);\nσ C δπx ← (σ C δπx) OR ((z δπx′) > (z C δπx′));\nC δπx ← (σ C δπx) ? (C δπx) ⊕[add] (0.5 * ((d0 δ s x) * (T0 δu x)));\n";
+    let g = gpu();
+    let sc = scene("shadow_occluder_floor.ron");
+    let p = render_three(source, "geforce256", &sc, Precision::Fixed9, g.as_ref()).unwrap();
+    crate::three_way_generated::fixed9_verdict(&p, &mut 0).unwrap();
+}
+
+/// The stencil writes GL makes (docs/language.md, "Stencil writes"): a
+/// constant, a condition set (`σ OR c`) or cleared (`σ AND c`) at the
+/// visible fragments, and a condition written where the stencil is clear,
+/// each then read by `σ C δπx ? …` or `¬σ C δπx ? …`. The reference sets
+/// the stencil from the condition's value at the visible fragment; the
+/// executors drop fragments by the alpha test and `REPLACE`/`ZERO`.
+#[test]
+fn stencil_writes_of_every_form_agree_three_ways() {
+    let head = "vector N : normal;\nvector L : light(0);\nshader p : s → c = (0.8, 0.7, 0.6) * max(0, N·L);\ntexture Decal : 2d rgba8 bilinear repeat = image(\"missing-decal.png\");\nframebuffer C : rgba8, depth, stencil;\nC δπx ← δ p s x;\n";
+    let g = gpu();
+    for body in [
+        "σ C δπx ← (Decal δu x).r > 0.5;\nC δπx ← (σ C δπx) ? ((Decal δu x) * (δ p s x));\n",
+        "σ C δπx ← 1;\nσ C δπx ← (σ C δπx) AND ((Decal δu x).g > 0.4);\nC δπx ← (¬σ C δπx) ? (0.3 * (C δπx));\n",
+        "σ C δπx ← 0;\nσ C δπx ← (σ C δπx) OR ((δ p s x).r > 0.3);\nC δπx ← (σ C δπx) ? (C δπx) ⊕[add] (0.2 * (Decal δu x));\n",
+    ] {
+        let source = format!("{head}{body}");
+        for (target, precision) in [("wgsl", Precision::F32), ("geforce3", Precision::Fixed9)] {
+            let p = match render_three(&source, target, &scene("kilgard_torus.ron"), precision, g.as_ref()) {
+                Err(e) if target != "wgsl" && e.starts_with("does not compile") => continue,
+                r => r.unwrap_or_else(|e| panic!("{target}: {body}: {e}")),
+            };
+            let check = if precision == Precision::F32 {
+                verdict(&p)
+            } else {
+                crate::three_way_generated::fixed9_verdict(&p, &mut 0)
+            };
+            check.unwrap_or_else(|e| panic!("{target}: {body}: {e}"));
+        }
+    }
+}

@@ -12,11 +12,10 @@
 //! Two are written as a user must today: Oren–Nayar's vertex colour is
 //! `saturate`d (its value is at most 0.89 here, but the ranges bound it by
 //! 1.95, and GL clamps a vertex colour to [0, 1]: without the clamp the
-//! combiner targets refuse it, located), and the shadow map, whose screen
-//! pass (`π⁻¹`) the independent reference does not evaluate, targets
-//! wgsl (geforce256 has no depth textures; geforce3 plans Williams's test
-//! in `examples/shadow_map.shd`, tested in `tests/shadow_map.rs`)
-//! and is held to the CPU and wgpu agreeing.
+//! combiner targets refuse it, located), and the shadow map, written in
+//! the paper's printed form, targets wgsl (geforce256 has no depth
+//! textures; geforce3 plans Williams's test in `examples/shadow_map.shd`,
+//! tested in `tests/shadow_map.rs`).
 
 use shadec::numerics::Precision;
 
@@ -194,8 +193,9 @@ fn renders_alike(i: usize) -> Result<(), String> {
 
 /// The shadow map targets wgsl: shadec's combiner targets have no depth
 /// textures, so geforce3 refuses it located at the comparison, saying so
-/// and naming wgsl; on wgsl the CPU and wgpu agree (the reference does not
-/// evaluate a screen pass's `π⁻¹`).
+/// and naming wgsl; on wgsl the CPU, wgpu and the reference (which
+/// rasterizes the light's view itself and takes each pixel back through
+/// the camera at its stored depth, `π⁻¹ xs`) agree.
 #[test]
 fn a_shadow_map_plans_on_wgsl_and_is_refused_located_on_geforce3() {
     let source = format!("target wgsl;\n{DIFFUSE}{SHADOW_MAP}");
@@ -211,34 +211,9 @@ fn a_shadow_map_plans_on_wgsl_and_is_refused_located_on_geforce3() {
         .unwrap_or_else(|e| panic!("{e:#?}"))
         .planned;
     crate::differential::validate_plan(&planned, &profile).unwrap();
-    let Some(gpu) = crate::common::gpu::gpu() else { return };
-    let (program, _) = shadec::parser::check(&source);
-    let assets = sc.build().unwrap();
-    let cpu = shadec::renderer::plan::PlanRenderer::new(&planned, &program, &sc, &assets)
-        .and_then(|r| r.render(Precision::F32, 48, 36, &mut |_, _| {}))
-        .unwrap()
-        .image
-        .to_rgba8();
-    let run = shadec::gpu::scene_run::ScenePlan::new(
-        &planned,
-        &program,
-        Some(&source),
-        Precision::F32,
-        &sc,
-        &assets,
-    )
-    .and_then(|p| p.render_into(&gpu, &shadec::gpu::runner::Target::new(48, 36)));
-    match run {
-        Ok(image) => {
-            let covered = vec![true; 48 * 36];
-            let d = crate::three_way::difference(&cpu, &image.into_raw(), &covered);
-            assert!(d.within(), "CPU and wgpu differ: {d:?}");
-        }
-        Err(shadec::gpu::scene_run::SceneRunError::Unsupported(why)) => {
-            eprintln!("wgpu does not run it yet: {why}")
-        }
-        Err(e) => panic!("wgpu: {e}"),
-    }
+    let g = crate::common::gpu::gpu();
+    let p = render_three(&source, "wgsl", &sc, Precision::F32, g.as_ref()).unwrap();
+    verdict(&p).unwrap();
 }
 
 #[test]

@@ -30,6 +30,23 @@ pub struct World<'a> {
     /// The direction to an infinite viewer, in world space.
     pub infinite_view: Option<DVec3>,
     pub view: DMat4,
+    /// The camera's projection · view, world to clip: `π` of a pixel,
+    /// which belongs to no object (`π⁻¹ xs` of a screen pass).
+    pub camera_vp: DMat4,
+    /// Light 0's projection · view, world to clip (`πl` of a pixel).
+    pub light_vp: DMat4,
+}
+
+/// Which plane a mesh statement rasterizes its triangles into.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum View {
+    /// `δπx`: the camera's projection.
+    Camera,
+    /// `δπl x`: light 0's projection (docs/language.md), as a camera.
+    Light,
+    /// `T δu x`: the mesh unwrapped over its texture coordinates, u across
+    /// and v down (v = 0 the top row), no culling and no depth test.
+    Texels,
 }
 
 fn d3(v: glam::Vec3) -> DVec3 {
@@ -63,7 +80,14 @@ impl<'a> World<'a> {
             Viewer::Local => None,
             Viewer::Infinite => Some((d3(cam.eye) - d3(cam.target)).normalize_or_zero()),
         };
-        World { objects, eye: d3(cam.eye), infinite_view, view }
+        World {
+            objects,
+            eye: d3(cam.eye),
+            infinite_view,
+            view,
+            camera_vp: projection * view,
+            light_vp: light,
+        }
     }
 }
 
@@ -129,6 +153,20 @@ fn light_projection(scene: &Scene, assets: &SceneAssets) -> DMat4 {
     perspective(f64::to_radians(fov), 1.0, near, far) * look_at(eye, centre, up)
 }
 
+impl Object<'_> {
+    /// Vertex `i` in the clip space of `view`.
+    pub fn clip(&self, view: View, i: usize) -> DVec4 {
+        match view {
+            View::Camera => self.camera_clip * d3(self.mesh.positions[i]).extend(1.0),
+            View::Light => self.light_clip * d3(self.mesh.positions[i]).extend(1.0),
+            View::Texels => {
+                let uv = self.mesh.uvs.get(i).copied().unwrap_or_default();
+                DVec4::new(2.0 * f64::from(uv.x) - 1.0, 1.0 - 2.0 * f64::from(uv.y), 0.0, 1.0)
+            }
+        }
+    }
+}
+
 /// A fragment: a point of one triangle of one object, by its perspective-
 /// correct barycentric weights (GL §3.5.1, eq. 3.6: each attribute weighted
 /// by λᵢ/wᵢ, normalized).
@@ -141,6 +179,8 @@ pub struct Fragment {
     /// Window depth in [0, 1].
     pub depth: f64,
     pub pixel: (u32, u32),
+    /// The projection the triangle was rasterized with.
+    pub view: View,
 }
 
 /// Pixel (column, row; row 0 at the top) → normalized device coordinates.
@@ -151,8 +191,8 @@ pub fn pixel_ndc(x: f64, y: f64, width: u32, height: u32) -> (f64, f64) {
 /// The triangle's vertices in clip space, if all lie in front of the eye
 /// (w > 0): triangles crossing the eye plane would need clipping, which
 /// this reference does not do — it says so instead ([`Coverage::clipped`]).
-fn clip_vertices(o: &Object, t: [u32; 3]) -> Option<[DVec4; 3]> {
-    let c = t.map(|i| o.camera_clip * d3(o.mesh.positions[i as usize]).extend(1.0));
+fn clip_vertices(o: &Object, t: [u32; 3], view: View) -> Option<[DVec4; 3]> {
+    let c = t.map(|i| o.clip(view, i as usize));
     c.iter().all(|v| v.w > 1e-9).then_some(c)
 }
 
@@ -189,52 +229,20 @@ impl Coverage {
     /// For every pixel, the nearest front-facing triangle whose projection
     /// contains the pixel centre (inside the depth range).
     pub fn find(world: &World, width: u32, height: u32) -> Coverage {
+        Coverage::find_in(world, width, height, View::Camera)
+    }
+
+    /// [`Coverage::find`] under `view`; over texels, every triangle (no
+    /// culling) and the last one drawn at a texel keeps it (no depth test),
+    /// as a pass rendering in texture space draws (docs/pass-plan.md).
+    pub fn find_in(world: &World, width: u32, height: u32, view: View) -> Coverage {
         let mut fragments: Vec<Option<Fragment>> = vec![None; (width * height) as usize];
-        let mut clipped = 0;
-        for (oi, o) in world.objects.iter().enumerate() {
-            for (ti, t) in o.mesh.triangles.iter().enumerate() {
-                let Some(clip) = clip_vertices(o, *t) else {
-                    clipped += 1;
-                    continue;
-                };
-                let ndc = clip.map(|c| c.truncate() / c.w);
-                let w = clip.map(|c| c.w);
-                // The pixels whose centres the triangle's bounds include.
-                let to_px = |x: f64, size: u32| (x + 1.0) * 0.5 * f64::from(size);
-                let (xs, ys): (Vec<f64>, Vec<f64>) =
-                    ndc.iter().map(|v| (to_px(v.x, width), to_px(-v.y, height))).unzip();
-                let range = |v: &[f64], size: u32| {
-                    let lo = v.iter().copied().fold(f64::INFINITY, f64::min).floor().max(0.0) as u32;
-                    let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max).ceil().min(f64::from(size))
-                        as u32;
-                    lo..hi
-                };
-                for py in range(&ys, height) {
-                    for px in range(&xs, width) {
-                        let (nx, ny) = pixel_ndc(f64::from(px) + 0.5, f64::from(py) + 0.5, width, height);
-                        let Some((l, front)) = barycentric(&ndc, nx, ny) else { continue };
-                        if !front || l.iter().any(|&v| v < 0.0) {
-                            continue;
-                        }
-                        let z = l[0] * ndc[0].z + l[1] * ndc[1].z + l[2] * ndc[2].z;
-                        let depth = 0.5 * z + 0.5;
-                        if !(0.0..=1.0).contains(&depth) {
-                            continue;
-                        }
-                        let slot = &mut fragments[(py * width + px) as usize];
-                        if slot.is_none_or(|f| depth < f.depth) {
-                            *slot = Some(Fragment {
-                                object: oi,
-                                triangle: ti,
-                                weights: perspective_weights(l, w),
-                                depth,
-                                pixel: (px, py),
-                            });
-                        }
-                    }
-                }
+        let clipped = each_fragment(world, width, height, view, &mut |f| {
+            let slot = &mut fragments[(f.pixel.1 * width + f.pixel.0) as usize];
+            if view == View::Texels || slot.is_none_or(|g| f.depth < g.depth) {
+                *slot = Some(f);
             }
-        }
+        });
         Coverage { width, height, fragments, clipped }
     }
 
@@ -244,7 +252,7 @@ impl Coverage {
     pub fn offset(&self, world: &World, f: &Fragment, dx: f64, dy: f64) -> Fragment {
         let o = &world.objects[f.object];
         let t = o.mesh.triangles[f.triangle];
-        let clip = t.map(|i| o.camera_clip * d3(o.mesh.positions[i as usize]).extend(1.0));
+        let clip = t.map(|i| o.clip(f.view, i as usize));
         let ndc = clip.map(|c| c.truncate() / c.w);
         let (nx, ny) = pixel_ndc(
             f64::from(f.pixel.0) + 0.5 + dx,
@@ -257,4 +265,55 @@ impl Coverage {
             None => *f,
         }
     }
+}
+
+/// Every fragment of every triangle under `view`: each pixel centre inside
+/// a triangle facing the viewer (either facing over texels), within the
+/// depth range, handed to `visit`. Returns the triangles left out because
+/// a vertex lies behind the eye.
+pub fn each_fragment(
+    world: &World,
+    width: u32,
+    height: u32,
+    view: View,
+    visit: &mut dyn FnMut(Fragment),
+) -> usize {
+    let mut clipped = 0;
+    for (oi, o) in world.objects.iter().enumerate() {
+        for (ti, t) in o.mesh.triangles.iter().enumerate() {
+            let Some(clip) = clip_vertices(o, *t, view) else {
+                clipped += 1;
+                continue;
+            };
+            let ndc = clip.map(|c| c.truncate() / c.w);
+            let w = clip.map(|c| c.w);
+            // The pixels whose centres the triangle's bounds include.
+            let to_px = |x: f64, size: u32| (x + 1.0) * 0.5 * f64::from(size);
+            let (xs, ys): (Vec<f64>, Vec<f64>) =
+                ndc.iter().map(|v| (to_px(v.x, width), to_px(-v.y, height))).unzip();
+            let range = |v: &[f64], size: u32| {
+                let lo = v.iter().copied().fold(f64::INFINITY, f64::min).floor().max(0.0) as u32;
+                let hi =
+                    v.iter().copied().fold(f64::NEG_INFINITY, f64::max).ceil().min(f64::from(size)) as u32;
+                lo..hi
+            };
+            for py in range(&ys, height) {
+                for px in range(&xs, width) {
+                    let (nx, ny) = pixel_ndc(f64::from(px) + 0.5, f64::from(py) + 0.5, width, height);
+                    let Some((l, front)) = barycentric(&ndc, nx, ny) else { continue };
+                    if !(front || view == View::Texels) || l.iter().any(|&v| v < 0.0) {
+                        continue;
+                    }
+                    let z = l[0] * ndc[0].z + l[1] * ndc[1].z + l[2] * ndc[2].z;
+                    let depth = 0.5 * z + 0.5;
+                    if !(0.0..=1.0).contains(&depth) {
+                        continue;
+                    }
+                    let weights = perspective_weights(l, w);
+                    visit(Fragment { object: oi, triangle: ti, weights, depth, pixel: (px, py), view });
+                }
+            }
+        }
+    }
+    clipped
 }

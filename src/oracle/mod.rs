@@ -19,7 +19,24 @@
 //! - `ops`: the arithmetic and the ⊕ modes, written again from the
 //!   language's definition and GL's texture environment (Table 3.22);
 //! - framebuffers store what their declared format stores: an `rgba8`
-//!   framebuffer clamps to [0, 1] and rounds to k/255 at every write.
+//!   framebuffer clamps to [0, 1] and rounds to k/255 at every write;
+//! - a statement indexed by `δπl x` is rasterized from light 0 as a camera
+//!   (a depth-only framebuffer keeps its depth), and a screen pass's `xs`
+//!   carries the depth its framebuffer stores, so `πl π⁻¹ xs` takes the
+//!   pixel back through the camera and into the light (Williams's shadow
+//!   map, docs/shadow-maps.md);
+//! - `stencil`: stencil writes from what they say — a constant, a
+//!   condition set, cleared or written at the visible fragments; the
+//!   depth comparison of Pipeline Grammar, Section 3.5, over the scene's
+//!   vertices an OR of every fragment's comparison, over the shadow
+//!   volumes `x′` the visible point's segment to light 0 cast against the
+//!   closed occluders (Crow 1977), building no volume and counting
+//!   nothing; `σ C` then reads it;
+//! - `rendered`: a statement into a texture (texture shading `T δu x ←`,
+//!   `T δu ←` over its texels, `T δπx ←`, `T xs ←`) evaluated into its
+//!   own grid — 256² over texels ([`rendered::TEXEL_GRID`]), the
+//!   frame's size otherwise — stored in the declared format, mipmaps
+//!   box-filtered here, and sampled by later lookups as images are.
 //!
 //! What it shares: the IR (the lowered program *is* the program's meaning
 //! as the language defines it; a lowering bug is in every executor and
@@ -27,20 +44,32 @@
 //! scene's meshes (data), and the texel data of images and of the
 //! procedural stand-in for a missing image. Normalization cube maps and
 //! exponent tables are built here from their definitions (Kilgard 2000,
-//! Appendix D; GeForce3 Phong's exponent table).
+//! Appendix D; GeForce3 Phong's exponent table). It does not use the
+//! scene's shadow-volume geometry (`scene::shadow_volume`): it decides
+//! shadow without volumes, so it checks them too.
 //!
 //! It is slow (every pixel tests every triangle's bounds, every δ evaluates
 //! three vertices) and meant for small images. What it does not evaluate it
-//! refuses with [`Unsupported`], never guesses: stencil, depth-only and
-//! rendered-texture statements, fat textures, 3-D textures, a scene's
-//! dual-paraboloid maps (a program's `dual_paraboloid(…)` faces are 2-D
-//! textures of the environment's stand-in, data as an image's texels are),
-//! normal-map generators, triangles crossing the eye plane.
+//! refuses with [`Unsupported`], never guesses: writes to the depth
+//! channel, stencil writes of other forms (and shadow volumes compared
+//! other than z-fail's `>`), fat textures (bundles rendered into a
+//! texture: deferred shading's), statements rendering into cube or 3-D
+//! textures, 3-D textures, a scene's dual-paraboloid maps (a program's
+//! `dual_paraboloid(…)` faces are 2-D textures of the environment's
+//! stand-in, data as an image's texels are), normal-map generators,
+//! triangles crossing the eye plane (the camera's or, for a `δπl`
+//! statement, the light's). Samples where the specifications leave the
+//! result open are marked [`Picture::latitude`]: a cube-map filter at a
+//! face edge, a light-space read at a pixel edge, a shadow-volume count
+//! decided by a depth tie at the near cap (an occluder's face turned from
+//! the light) or a shadow ray grazing an edge.
 
 pub mod geometry;
 mod ops;
 mod program;
+pub mod rendered;
 pub mod sampling;
+mod stencil;
 mod textures;
 mod vectors;
 
@@ -49,6 +78,7 @@ use std::collections::HashMap;
 use crate::ir::{FbChannel, Frequency, Module, Table};
 use crate::parser::ast;
 use crate::scene::{Scene, SceneAssets};
+use geometry::View;
 use program::{At, Evaluator, Tex};
 
 /// Why the reference cannot evaluate a program (it refuses rather than guess).
@@ -148,9 +178,11 @@ pub fn render_with(
         texgen: HashMap::new(),
         latitude: std::cell::Cell::new(false),
         clamp_texture_env: options.clamp_texture_env,
+        target: 0,
     };
     let mut latitude = vec![false; (width * height) as usize];
     ev.framebuffers = (0..module.framebuffers.len()).map(|i| ev.new_store(i)).collect();
+    let mut rendered = HashMap::new();
     let mut last = None;
     for st in &module.statements {
         match st.table {
@@ -158,7 +190,10 @@ pub fn render_with(
                 ev.texgen.insert(set, st.value);
             }
             Table::Texture(id) if module.is_baked(st) => ev.textures[id as usize] = Tex::Baked(st.value),
-            Table::Texture(_) => return Err(Unsupported::new("statements that render into a texture")),
+            Table::Texture(id) => rendered::statement(&mut ev, st, id as usize, &mut rendered)?,
+            Table::Framebuffer { id, channel: FbChannel::Stencil } => {
+                stencil::update(&mut ev, st, id as usize, &mut latitude)?;
+            }
             Table::Framebuffer { id, channel } => {
                 run(&mut ev, st, id as usize, channel, &mut latitude)?;
                 last = Some(id as usize);
@@ -170,8 +205,53 @@ pub fn render_with(
     Ok(Picture { width, height, pixels: std::mem::take(&mut ev.framebuffers[fb].color), covered, latitude })
 }
 
-/// One statement into framebuffer `fb`, every sample of its index: the
-/// visible fragment of each pixel for `C δπx`, every pixel for `C xs`.
+/// The samples of a statement's index (Pipeline Grammar, Section 3): the
+/// visible fragment of each pixel under the index's projection for
+/// `C δπx` and `Cl δπl x`, every pixel for `C xs`; each with its position
+/// in a raster of `width` columns.
+pub(crate) fn samples(ev: &Evaluator, st: &crate::ir::Statement) -> Result<Vec<(usize, At)>, Unsupported> {
+    let (w, h) = (ev.coverage.width, ev.coverage.height);
+    match st.freq {
+        Frequency::Fragment => {
+            let found;
+            let fragments = match index_view(ev.m, st.index) {
+                View::Camera => &ev.coverage.fragments,
+                view => {
+                    let c = geometry::Coverage::find_in(&ev.world, w, h, view);
+                    if c.clipped > 0 {
+                        return Err(Unsupported::new(format!(
+                            "{} triangles crossing the light's eye plane (no clipping)",
+                            c.clipped
+                        )));
+                    }
+                    found = c.fragments;
+                    &found
+                }
+            };
+            Ok(fragments.iter().enumerate().filter_map(|(i, f)| f.map(|f| (i, At::Fragment(f)))).collect())
+        }
+        Frequency::Screen => {
+            Ok((0..h).flat_map(|y| (0..w).map(move |x| ((y * w + x) as usize, At::Pixel(x, y)))).collect())
+        }
+        _ => Err(Unsupported::new(format!("statements at {} frequency", st.freq.name()))),
+    }
+}
+
+/// The projection a statement's index rasterizes with: light 0's where
+/// it projects by `πl` (any subscript), else the camera's.
+fn index_view(m: &Module, index: crate::ir::Handle<crate::ir::Expr>) -> View {
+    let light = m.reachable(&[index]).into_iter().any(|h| {
+        matches!(&m.exprs[h], crate::ir::Expr::Project { projection, .. }
+            if !projection.inverse && !matches!(projection.subscript.as_deref(), None | Some("")))
+    });
+    if light {
+        View::Light
+    } else {
+        View::Camera
+    }
+}
+
+/// One statement into framebuffer `fb`, every sample of its index.
 fn run(
     ev: &mut Evaluator,
     st: &crate::ir::Statement,
@@ -179,31 +259,23 @@ fn run(
     channel: FbChannel,
     latitude: &mut [bool],
 ) -> Result<(), Unsupported> {
-    let (w, h) = (ev.coverage.width, ev.coverage.height);
+    ev.target = fb;
     let source = blend_source(ev.m, st, fb, channel, ev.framebuffers[fb].fixed);
     let mut writes = Vec::new();
-    for y in 0..h {
-        for x in 0..w {
-            let i = (y * w + x) as usize;
-            let at = match st.freq {
-                Frequency::Fragment => match ev.coverage.fragments[i] {
-                    Some(f) => At::Fragment(f),
-                    None => continue,
-                },
-                Frequency::Screen => At::Pixel(x, y),
-                _ => return Err(Unsupported::new(format!("statements at {} frequency", st.freq.name()))),
-            };
-            ev.latitude.set(false);
-            let mut memo = HashMap::new();
-            if let Some(s) = source {
-                // GL clamps the blend's source (see `blend_source`).
-                if let Some(v) = ev.value(s, at, 0, &mut memo)? {
-                    memo.insert(s, Some(v.map(|x| x.clamp(0.0, 1.0))));
-                }
+    for (i, at) in samples(ev, st)? {
+        ev.latitude.set(false);
+        let mut memo = HashMap::new();
+        if let Some(s) = source {
+            // GL clamps the blend's source (see `blend_source`).
+            if let Some(v) = ev.value(s, at, 0, &mut memo)? {
+                memo.insert(s, Some(v.map(|x| x.clamp(0.0, 1.0))));
             }
-            if let Some(v) = ev.value(st.value, at, 0, &mut memo)? {
-                writes.push((i, v, at));
-            }
+        }
+        if let Some(v) = ev.value(st.value, at, 0, &mut memo)? {
+            writes.push((i, v, at));
+        }
+        // A light's view is another raster: its latitude is not a pixel's.
+        if !matches!(at, At::Fragment(f) if f.view != View::Camera) {
             latitude[i] |= ev.latitude.get();
         }
     }
@@ -220,7 +292,7 @@ fn run(
             FbChannel::Color => store.color[i] = v.map(stored),
             FbChannel::Alpha => store.color[i][3] = stored(v[0]),
             FbChannel::Depth | FbChannel::Stencil => {
-                return Err(Unsupported::new("depth and stencil statements"));
+                return Err(Unsupported::new("a statement that writes the depth channel"));
             }
         }
         if let At::Fragment(f) = at {

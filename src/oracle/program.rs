@@ -5,7 +5,7 @@
 
 use std::collections::HashMap;
 
-use super::geometry::{Coverage, Fragment, World};
+use super::geometry::{Coverage, Fragment, View, World};
 use super::ops::{self, V};
 use super::sampling::{Cube, Image};
 use super::{vectors, Unsupported};
@@ -41,6 +41,9 @@ pub enum At {
 pub struct Store {
     pub color: Vec<V>,
     pub depth: Vec<f64>,
+    /// The stencil, 8 bits wrapping as GL's `INCR_WRAP`/`DECR_WRAP` count
+    /// (GL 1.x §4.1.5 with EXT_stencil_wrap); 0 is clear.
+    pub stencil: Vec<u8>,
     /// Declared 8-bit: written values are clamped to [0, 1] and rounded to
     /// k/255, as GL's fixed-point framebuffer stores them (§4.1.8 dithering
     /// off, §2.13.9 colour clamping).
@@ -62,6 +65,10 @@ pub struct Evaluator<'a> {
     /// `⊕` results clamped to [0, 1], as GL's texture environment clamps
     /// them ([`super::Options::clamp_texture_env`]).
     pub clamp_texture_env: bool,
+    /// The framebuffer the statement being run writes: whose stored depth
+    /// a pixel `xs` of a screen pass carries (`π⁻¹ xs` undoes the camera
+    /// at that depth; docs/shadow-maps.md).
+    pub target: usize,
 }
 
 type Memo = HashMap<Handle<Expr>, Option<V>>;
@@ -72,7 +79,7 @@ impl<'a> Evaluator<'a> {
         let channels = &self.m.framebuffers[id].channels;
         let float =
             channels.iter().any(|c| matches!(c, FramebufferChannel::Rgba16f | FramebufferChannel::Rgba32f));
-        Store { color: vec![[0.0; 4]; n], depth: vec![1.0; n], fixed: !float }
+        Store { color: vec![[0.0; 4]; n], depth: vec![1.0; n], stencil: vec![0; n], fixed: !float }
     }
 
     /// The value of `h` at `at`; `None` where a `c ? a` keeps the destination.
@@ -94,7 +101,12 @@ impl<'a> Evaluator<'a> {
             Expr::Lookup { texture, coords } => Some(self.lookup(*texture, *coords, at, lod_depth, memo)?),
             Expr::FramebufferRead { framebuffer, channel, position } => {
                 let p = self.operand(*position, at, lod_depth, memo)?;
-                Some(self.read(*framebuffer as usize, *channel, p, at))
+                let light = self.through_light(*position);
+                let own = match at {
+                    At::Fragment(f) => f.view != View::Texels && (f.view == View::Light) == light,
+                    _ => !light,
+                };
+                Some(self.read(*framebuffer as usize, *channel, p, at, own))
             }
             Expr::Depth(p) => {
                 let [_, _, z, w] = self.operand(*p, at, lod_depth, memo)?;
@@ -216,15 +228,21 @@ impl<'a> Evaluator<'a> {
             let m = 2.0 * (x * x + y * y + (z + 1.0) * (z + 1.0)).sqrt();
             return Ok(if m > 0.0 { [x / m + 0.5, y / m + 0.5, 0.0, 0.0] } else { [0.5, 0.5, 0.0, 0.0] });
         }
-        let object = match at {
-            At::Vertex { object, .. } => object,
-            At::Fragment(f) => f.object,
-            _ => return Err(Unsupported::new("a projection outside a mesh")),
-        };
-        let o = &self.world.objects[object];
-        let base = match p.subscript.as_deref() {
-            None | Some("") => o.camera_clip,
-            Some(_) => o.light_clip,
+        let light = !matches!(p.subscript.as_deref(), None | Some(""));
+        let base = match at {
+            At::Vertex { object, .. } | At::Fragment(Fragment { object, .. }) => {
+                let o = &self.world.objects[object];
+                if light {
+                    o.light_clip
+                } else {
+                    o.camera_clip
+                }
+            }
+            // A pixel belongs to no object: `π⁻¹` takes it to the world and
+            // `πl` from there (the model matrices cancel in `πl π⁻¹`).
+            At::Pixel(..) if light => self.world.light_vp,
+            At::Pixel(..) => self.world.camera_vp,
+            At::Texel(_) => return Err(Unsupported::new("a projection at a texel")),
         };
         let w = if v[3] == 0.0 && !p.inverse { 1.0 } else { v[3] };
         let point = glam::DVec4::new(v[0], v[1], v[2], w);
@@ -241,27 +259,45 @@ impl<'a> Evaluator<'a> {
         let (w, h) = (self.coverage.width, self.coverage.height);
         let (px, py, depth) = match at {
             At::Fragment(f) => (f.pixel.0, f.pixel.1, f.depth),
-            At::Pixel(x, y) => (x, y, 1.0),
+            At::Pixel(x, y) => (x, y, self.framebuffers[self.target].depth[(y * w + x) as usize]),
             _ => (0, 0, 1.0),
         };
         let (x, y) = super::geometry::pixel_ndc(f64::from(px) + 0.5, f64::from(py) + 0.5, w, h);
         [x, y, 2.0 * depth - 1.0, 1.0]
     }
 
-    /// A framebuffer channel at a clip-space position; outside it, the
-    /// cleared values (colour 0, depth 1).
-    fn read(&self, fb: usize, channel: FbChannel, p: V, at: At) -> V {
+    /// Whether a position is projected by a light (`πl …`): read from
+    /// another view, never the sample's own pixel.
+    fn through_light(&self, position: Handle<Expr>) -> bool {
+        self.m.reachable(&[position]).into_iter().any(|h| {
+            matches!(&self.m.exprs[h], Expr::Project { projection, .. }
+                if !matches!(projection.subscript.as_deref(), None | Some("")))
+        })
+    }
+
+    /// A framebuffer channel at a clip-space position, the nearest pixel
+    /// (a framebuffer read as a texture is sampled NEAREST); outside it,
+    /// the cleared values (colour 0, depth 1). `own`: the position is the
+    /// sample's own (a read at the fragment's pixel).
+    fn read(&self, fb: usize, channel: FbChannel, p: V, at: At, own_view: bool) -> V {
         let (w, h) = (self.coverage.width, self.coverage.height);
         let own = match at {
-            At::Fragment(f) => Some(f.pixel),
-            At::Pixel(x, y) => Some((x, y)),
+            At::Fragment(f) if own_view => Some(f.pixel),
+            At::Pixel(x, y) if own_view => Some((x, y)),
             _ => None,
         };
         let pixel = if p[3] == 0.0 {
             None
         } else {
-            let x = ((p[0] / p[3] + 1.0) * 0.5 * f64::from(w)).floor();
-            let y = ((1.0 - p[1] / p[3]) * 0.5 * f64::from(h)).floor();
+            let (sx, sy) =
+                ((p[0] / p[3] + 1.0) * 0.5 * f64::from(w), (1.0 - p[1] / p[3]) * 0.5 * f64::from(h));
+            // Another view's position near a pixel edge: which pixel is
+            // nearest depends on the last bits of the arithmetic.
+            let edge = |v: f64| (v - v.round()).abs() < 1e-4;
+            if own.is_none() && (edge(sx) || edge(sy)) {
+                self.latitude.set(true);
+            }
+            let (x, y) = (sx.floor(), sy.floor());
             (x >= 0.0 && y >= 0.0 && x < f64::from(w) && y < f64::from(h)).then_some((x as u32, y as u32))
         };
         // A read at the fragment's own position is its own pixel, whatever
@@ -279,7 +315,7 @@ impl<'a> Evaluator<'a> {
             FbChannel::Color => store.color[i],
             FbChannel::Alpha => [store.color[i][3]; 4],
             FbChannel::Depth => [store.depth[i]; 4],
-            FbChannel::Stencil => [0.0; 4],
+            FbChannel::Stencil => [f64::from(store.stencil[i]); 4],
         }
     }
 
@@ -318,7 +354,7 @@ impl<'a> Evaluator<'a> {
                 }
                 // The coordinates at a pixel offset (dx, dy) from `f`.
                 let at_offset = |dx: f64, dy: f64| -> Result<[f64; 2], Unsupported> {
-                    let g = self.coverage.offset(&self.world, &f, dx, dy);
+                    let g = self.shifted(&f, dx, dy);
                     Ok(uv(self.operand(coords, At::Fragment(g), lod_depth + 1, &mut Memo::new())?, cty))
                 };
                 let lod_at = |ox: f64, oy: f64| -> Result<f64, Unsupported> {
@@ -343,6 +379,23 @@ impl<'a> Evaluator<'a> {
                 Ok(value)
             }
         }
+    }
+}
+
+impl Evaluator<'_> {
+    /// `f`'s triangle at a pixel offset, in the raster `f` was found in.
+    fn shifted(&self, f: &Fragment, dx: f64, dy: f64) -> Fragment {
+        let size = super::rendered::TEXEL_GRID;
+        let raster = match f.view {
+            View::Texels => Coverage { width: size, height: size, fragments: Vec::new(), clipped: 0 },
+            _ => Coverage {
+                width: self.coverage.width,
+                height: self.coverage.height,
+                fragments: Vec::new(),
+                clipped: 0,
+            },
+        };
+        raster.offset(&self.world, f, dx, dy)
     }
 }
 

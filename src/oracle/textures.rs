@@ -51,7 +51,7 @@ pub fn bind(
 
 /// How a declared format stores texels (8-bit formats as k/255, signed as
 /// k/127, 16-bit as k/65535, float as is).
-fn store_format(f: TextureFormat) -> TexelFormat {
+pub(super) fn store_format(f: TextureFormat) -> TexelFormat {
     match f {
         TextureFormat::Signed8 => TexelFormat::Signed8,
         TextureFormat::Rgba16 | TextureFormat::Signed16 => TexelFormat::Rgba16,

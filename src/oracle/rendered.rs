@@ -1,0 +1,125 @@
+//! Statements that render into a texture a later statement samples:
+//! texture shading `T δu x ← …` (Pipeline Grammar, eq. (13): the mesh
+//! unwrapped over its texture coordinates), a texture computed over its
+//! own texels `T δu ← …`, and a frame rendered into a texture
+//! (`T δπx ← …`, `T xs ← …`; render-to-texture).
+//!
+//! Each is evaluated into its own grid — a [`TEXEL_GRID`]²
+//! grid over texels (docs/pass-plan.md, the planner's one decision of a
+//! target's size), the frame's size otherwise — cleared to 0, every texel
+//! stored as the declared format stores it (8 bits as k/255, clamped),
+//! and later lookups sample it with this module's own GL §3.8 sampling:
+//! the declared filter and wrap, and where the declaration says `mipmap`
+//! a chain box-filtered from it (each level the mean of 2×2 texels of the
+//! one above, docs/language.md "texture").
+//!
+//! Over texels, the triangles are drawn in order with no depth test and no
+//! culling: where two overlap in texture space, the last one drawn keeps
+//! the texel, as a pass in texture space without depth leaves it.
+
+use std::collections::HashMap;
+
+use super::geometry::{Coverage, View};
+use super::program::{At, Evaluator, Tex};
+use super::sampling::{mip_chain, Image, Level};
+use super::Unsupported;
+use crate::ir::{Frequency, Statement};
+use crate::parser::ast::TextureKind;
+use crate::textures::TexelFormat;
+
+/// The side of the grid a texture rendered over its texels holds: 256,
+/// docs/pass-plan.md's size for a target drawn in texture space (the
+/// planner's `pipeline::RENDERED_TEXTURE_SIZE`, which this reference may
+/// not import: `tests/three_way.rs` checks that the two are one).
+pub const TEXEL_GRID: u32 = 256;
+
+/// Runs `st` into texture `id`; `levels` holds each rendered texture's
+/// base level between statements.
+pub fn statement(
+    ev: &mut Evaluator,
+    st: &Statement,
+    id: usize,
+    levels: &mut HashMap<usize, Level>,
+) -> Result<(), Unsupported> {
+    let decl = &ev.m.textures[id];
+    if !matches!(decl.kind, TextureKind::Tex2d | TextureKind::Tex1d) {
+        return Err(Unsupported::new("a statement that renders into a cube or 3-D texture"));
+    }
+    if matches!(ev.m.info(st.value).ty, crate::ir::Ty::Bundle(_)) {
+        return Err(Unsupported::new("a fat texture (a bundle rendered into a texture)"));
+    }
+    let format = super::textures::store_format(decl.format);
+    let sampling = decl.sampling;
+    let samples = raster(ev, st)?;
+    let size = raster_size(ev, st);
+    let level = levels.entry(id).or_insert_with(|| Level {
+        width: size.0,
+        height: size.1,
+        texels: vec![[0.0; 4]; (size.0 * size.1) as usize],
+    });
+    if (level.width, level.height) != size {
+        return Err(Unsupported::new("statements rendering one texture at two sizes"));
+    }
+    let width = ev.m.info(st.value).ty.width();
+    let mut writes = Vec::with_capacity(samples.len());
+    for (i, at) in samples {
+        if let Some(v) = ev.value(st.value, at, 0, &mut HashMap::new())? {
+            let v = match width {
+                1 => [v[0], v[0], v[0], 1.0],
+                2 => [v[0], v[1], 0.0, 1.0],
+                3 => [v[0], v[1], v[2], 1.0],
+                _ => v,
+            };
+            writes.push((i, v.map(|c| store(format, c))));
+        }
+    }
+    for (i, v) in writes {
+        level.texels[i] = v;
+    }
+    let base = level.clone();
+    let levels = if sampling.mipmap { mip_chain(base, format) } else { vec![base] };
+    ev.textures[id] = Tex::Flat(Image { levels, wrap: sampling.wrap, filter: sampling.filter });
+    Ok(())
+}
+
+/// Whether `st` draws over texels (its size the rendered-texture grid).
+fn over_texels(st: &Statement) -> bool {
+    st.freq == Frequency::Texel
+}
+
+fn raster_size(ev: &Evaluator, st: &Statement) -> (u32, u32) {
+    if over_texels(st) {
+        (TEXEL_GRID, TEXEL_GRID)
+    } else {
+        (ev.coverage.width, ev.coverage.height)
+    }
+}
+
+/// The samples of the statement's index, by their place in the raster.
+fn raster(ev: &Evaluator, st: &Statement) -> Result<Vec<(usize, At)>, Unsupported> {
+    if !over_texels(st) {
+        return super::samples(ev, st);
+    }
+    let n = TEXEL_GRID;
+    let m = ev.m;
+    let through_mesh = m.reachable(&[st.index]).iter().any(|h| m.info(*h).freq == Frequency::Vertex);
+    if through_mesh {
+        let c = Coverage::find_in(&ev.world, n, n, View::Texels);
+        let samples = c.fragments.iter().enumerate().filter_map(|(i, f)| f.map(|f| (i, At::Fragment(f))));
+        return Ok(samples.collect());
+    }
+    let centre = |k: u32| (f64::from(k) + 0.5) / f64::from(n);
+    let samples =
+        (0..n).flat_map(|y| (0..n).map(move |x| ((y * n + x) as usize, At::Texel([centre(x), centre(y)]))));
+    Ok(samples.collect())
+}
+
+/// A texel as `format` stores it.
+fn store(format: TexelFormat, v: f64) -> f64 {
+    match format {
+        TexelFormat::Rgba8 => (v.clamp(0.0, 1.0) * 255.0).round() / 255.0,
+        TexelFormat::Signed8 => (v.clamp(-1.0, 1.0) * 127.0).round() / 127.0,
+        TexelFormat::Rgba16 => (v.clamp(0.0, 1.0) * 65535.0).round() / 65535.0,
+        TexelFormat::F32 => v,
+    }
+}
