@@ -203,15 +203,23 @@ impl<'a> ScenePlan<'a> {
         let main = main.ok_or_else(|| {
             SceneRunError::Unsupported("the plan writes no framebuffer: nothing to show".into())
         })?;
-        let shaders = codegen::generate(planned, source, precision).map_err(|d| {
-            SceneRunError::Codegen(d.iter().map(|d| d.message.clone()).collect::<Vec<_>>().join("; "))
-        })?;
         let mut decls = bind::texture_decls(&planned.module, &scene.constants);
         let lowered = bind::lowered_decls(&planned.module, &decls);
         decls.extend(lowered);
         let mut notes = bind::absent_light_notes(&planned.module, scene);
         let textures = bind::load_textures(&decls, scene, TextureQuality::Stored, &mut notes)
             .map_err(|e| SceneRunError::Unsupported(e.to_string()))?;
+        // A scene's dual-paraboloid map is read by direction (`codegen::texel`).
+        let bindings = codegen::SceneBindings {
+            dual_paraboloid: textures
+                .values()
+                .filter(|t| matches!(t.texture, Texture::DualParaboloid(_)))
+                .map(|t| t.name.clone())
+                .collect(),
+        };
+        let shaders = codegen::generate_bound(planned, source, precision, &bindings).map_err(|d| {
+            SceneRunError::Codegen(d.iter().map(|d| d.message.clone()).collect::<Vec<_>>().join("; "))
+        })?;
         let m = &planned.module;
         let uniforms = bind::uniforms(m, scene)
             .into_iter()
@@ -614,10 +622,36 @@ fn run_texture(
                 texels,
             })
         }
-        Texture::DualParaboloid(_) => {
-            Err(SceneRunError::Unsupported(format!("dual-paraboloid texture `{}`", bound.name)))
-        }
+        Texture::DualParaboloid(t) => dual_paraboloid(bound, t, signed),
     }
+}
+
+/// A scene's dual-paraboloid map (Heidrich & Seidel 1999, Section 4.1):
+/// level 0 of its front and back faces as the two layers of a 2-D array,
+/// which the shader reads by direction and filters itself
+/// (`codegen::texel`), as the CPU's `DualParaboloid::sample` does in
+/// every precision — so 16-bit texels (8-bit ones exactly) whatever the
+/// precision, and no sampler filtering.
+fn dual_paraboloid(
+    bound: &BoundTexture,
+    t: &crate::textures::DualParaboloid,
+    signed: bool,
+) -> Result<RunTexture, SceneRunError> {
+    let (width, height) = (t.front.width(), t.front.height());
+    if t.back.width() != width || t.back.height() != height {
+        return Err(SceneRunError::Unsupported(format!(
+            "dual-paraboloid map `{}` has faces of different sizes",
+            bound.name
+        )));
+    }
+    let texels = TexelUpload::Rgba16;
+    let mut rgba = level_rgba(&t.front.levels[0], signed, texels);
+    rgba.extend(level_rgba(&t.back.levels[0], signed, texels));
+    Ok(RunTexture {
+        data: TextureData::D2Array { width, height, layers: 2, rgba },
+        sampler: SamplerSettings::NEAREST_CLAMP,
+        texels,
+    })
 }
 
 fn flat(t: &Texture2D, filter: Filter, texels: TexelUpload, signed: bool) -> RunTexture {

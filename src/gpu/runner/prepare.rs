@@ -108,6 +108,9 @@ fn check_texture(
     let (expected, what) = match texture.data {
         TextureData::D2 { width, height, .. } => (width as usize * height as usize * bpt, "2D"),
         TextureData::Cube { size, .. } => (size as usize * size as usize * bpt * 6, "cube"),
+        TextureData::D2Array { width, height, layers, .. } => {
+            (width as usize * height as usize * bpt * layers as usize, "2D array")
+        }
         TextureData::Rendered { .. } | TextureData::RenderedDepth { .. } => {
             return check_rendered(&texture.data, rendered)
                 .map_err(|message| format!("texture {texture_idx}: {message}"));
@@ -126,7 +129,9 @@ fn check_texture(
         }
     };
     let rgba = match &texture.data {
-        TextureData::D2 { rgba, .. } | TextureData::Cube { rgba, .. } => rgba,
+        TextureData::D2 { rgba, .. } | TextureData::Cube { rgba, .. } | TextureData::D2Array { rgba, .. } => {
+            rgba
+        }
         TextureData::D2Mipmapped { levels, .. } => match levels.first() {
             Some(l) => l,
             None => return Err(format!("mipmapped texture {texture_idx} has no levels")),
