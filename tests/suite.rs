@@ -82,4 +82,5 @@ mod chain_growth;
 mod wgpu_dual_paraboloid;
 mod wgpu_light_culling;
 mod wgpu_rendered_mipmaps;
+mod wgpu_runs_what_the_cpu_runs;
 mod wgpu_vertex_programs;

@@ -171,6 +171,9 @@ pub struct ScenePlan<'a> {
     decls: Vec<bind::TextureDecl>,
     /// The framebuffer read back (written last); the others are rendered textures.
     main: String,
+    /// A shader reads `main`'s colour or alpha: it is rendered as a texture
+    /// too, and copied to the picture after the last pass ([`present`]).
+    main_read: bool,
     uniforms: Vec<[f32; 4]>,
     /// Stand-ins the binder used (missing images), for the user.
     pub notes: Vec<String>,
@@ -230,7 +233,20 @@ impl<'a> ScenePlan<'a> {
                     .map(|c| c as f32)
             })
             .collect();
-        Ok(ScenePlan { planned, scene, assets, shaders, textures, decls, uniforms, main, notes, precision })
+        let main_read = shaders.iter().any(|s| reads_colour_of(planned, s, &main));
+        Ok(ScenePlan {
+            planned,
+            scene,
+            assets,
+            shaders,
+            textures,
+            decls,
+            uniforms,
+            main,
+            main_read,
+            notes,
+            precision,
+        })
     }
 
     /// The [`RunPass`]es of a `width`×`height` frame: per pass, one draw per
@@ -248,7 +264,7 @@ impl<'a> ScenePlan<'a> {
             RenderTarget::Texture { name } | RenderTarget::Temporary { name } => {
                 PassTarget::Texture(rendered[name].clone())
             }
-            RenderTarget::Framebuffer { name, .. } if *name != self.main => {
+            RenderTarget::Framebuffer { name, .. } if *name != self.main || self.main_read => {
                 PassTarget::Texture(rendered[name].clone())
             }
             _ => PassTarget::Main,
@@ -320,6 +336,9 @@ impl<'a> ScenePlan<'a> {
                 continue;
             }
             self.mesh_draws(s, &objects, aspect, &uniforms64, &draw, &mut out)?;
+        }
+        if self.main_read {
+            out.push(present(&self.main));
         }
         Ok(out)
     }
@@ -407,7 +426,7 @@ impl<'a> ScenePlan<'a> {
         // frame-sized textures in the frame's colour format, as the CPU's.
         for pass in &self.planned.plan.passes {
             if let RenderTarget::Framebuffer { name, .. } | RenderTarget::Temporary { name } = &pass.target {
-                if *name != self.main {
+                if *name != self.main || self.main_read {
                     rendered.insert(
                         name.clone(),
                         runner::RenderedTexture {
@@ -435,7 +454,7 @@ impl<'a> ScenePlan<'a> {
     ) -> Result<Vec<RunTexture>, SceneRunError> {
         let m = &self.planned.module;
         let pass = &self.planned.plan.passes[s.pass];
-        let main = self.main.as_str();
+        let main = if self.main_read { "" } else { self.main.as_str() };
         let depth_of = |name: &str| self.depth_of(name);
         let unsupported = |what: String| unsupported_in(s, what);
         let mut textures = Vec::new();
@@ -502,12 +521,12 @@ impl<'a> ScenePlan<'a> {
 
     /// A depth buffer read as a texture: the main one, or a rendered target's.
     fn depth_of(&self, name: &str) -> TextureData {
-        TextureData::RenderedDepth { name: (name != self.main).then(|| name.to_string()) }
+        TextureData::RenderedDepth { name: (name != self.main || self.main_read).then(|| name.to_string()) }
     }
 
     /// Reads of pass `s`'s own target, as it was before the pass.
     fn own_target_reads(&self, s: &PassShader) -> Result<Vec<LoadedTexture>, SceneRunError> {
-        let main = self.main.as_str();
+        let main = if self.main_read { "" } else { self.main.as_str() };
         let depth_of = |name: &str| self.depth_of(name);
         let unsupported = |what: String| unsupported_in(s, what);
         let mut loaded = Vec::new();
@@ -666,6 +685,56 @@ fn flat(t: &Texture2D, filter: Filter, texels: TexelUpload, signed: bool) -> Run
         TextureData::D2 { width, height, rgba: level_rgba(&t.levels[0], signed, texels) }
     };
     RunTexture { data, sampler: sampler(filter, t.wrap, t.levels.len() > 1), texels }
+}
+
+/// Whether pass `s` reads the colour (or alpha) of framebuffer `name` in
+/// its shader: through a texture unit, or a copy of its own target.
+fn reads_colour_of(planned: &Planned, s: &PassShader, name: &str) -> bool {
+    let m = &planned.module;
+    let unit = planned.plan.passes[s.pass].textures.iter().any(|t| {
+        matches!(m.exprs[planned.handle(t.lookup)], Expr::FramebufferRead { framebuffer, channel, .. }
+            if m.framebuffers[framebuffer as usize].name == name
+                && matches!(channel, ir::FbChannel::Color | ir::FbChannel::Alpha))
+    });
+    unit || s.target_copies.iter().any(|c| !c.depth && c.framebuffer == name)
+}
+
+/// The pass that copies framebuffer `main`, rendered as a texture because a
+/// shader reads its colour (Pipeline Grammar, Section 3.5: `C xs` read in
+/// a screen pass), to the picture read back: each pixel's texel, loaded
+/// unfiltered, so the copy is exact in either colour format.
+fn present(main: &str) -> RunPass {
+    const PRESENT: &str = "@group(0) @binding(1) var picture: texture_2d<f32>;\n\
+        @group(0) @binding(2) var picture_sampler: sampler;\n\
+        @vertex fn vs_main(@location(0) corner: vec4<f32>) -> @builtin(position) vec4<f32> { return corner; }\n\
+        @fragment fn fs_main(@builtin(position) pixel: vec4<f32>) -> @location(0) vec4<f32> {\n\
+            return textureLoad(picture, vec2<i32>(pixel.xy), 0);\n\
+        }\n";
+    let floats = vec![-1.0, -1.0, 0.0, 1.0, 1.0, -1.0, 0.0, 1.0, 1.0, 1.0, 0.0, 1.0, -1.0, 1.0, 0.0, 1.0];
+    RunPass {
+        label: format!("present `{main}`"),
+        shader: RunShader {
+            source: ShaderSource::Wgsl(PRESENT.to_string()),
+            vertex_entry: "vs_main".into(),
+            fragment_entry: "fs_main".into(),
+        },
+        vertices: VertexData { floats, components: vec![4] },
+        indices: vec![0, 1, 2, 0, 2, 3],
+        textures: vec![RunTexture {
+            data: TextureData::Rendered { name: main.to_string(), array: false },
+            sampler: SamplerSettings::NEAREST_CLAMP,
+            texels: TexelUpload::Rgba8,
+        }],
+        uniforms: None,
+        state: crate::pipeline::RenderState {
+            cull: crate::pipeline::CullMode::None,
+            depth: crate::pipeline::DepthState::DISABLED,
+            ..Default::default()
+        },
+        target: PassTarget::Main,
+        loaded: vec![],
+        outputs: 1,
+    }
 }
 
 /// What pass `s` does that the GPU runner cannot.
