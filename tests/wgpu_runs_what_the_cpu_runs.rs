@@ -2,8 +2,9 @@
 //! × the targets `wgsl` (f32), `geforce3` and `geforce256` (fixed9: the
 //! combiner plan on wgpu, `--precision hardware`), and the constructs no
 //! example shows (a scene's dual-paraboloid map read by direction, the
-//! colour of the framebuffer read back read in a shader), on Kilgard's
-//! torus with the binder's stand-ins. Where the target plans it and the
+//! colour of the framebuffer read back and the stencil read in a shader),
+//! on Kilgard's torus with the binder's stand-ins (the stencil reads on
+//! the shadow-volume scene). Where the target plans it and the
 //! CPU renders it, `gpu::scene_run` must render it too — no
 //! `SceneRunError` — and not leave black what the CPU lit. Small (64×48)
 //! so that it stays cheap on two cores under lavapipe; agreement is
@@ -125,6 +126,17 @@ fn wgpu_renders_every_example_the_cpu_renders() {
 fn wgpu_renders_the_constructs_no_example_shows() {
     let dual_paraboloid =
         torus("    textures: { \"Env\": DualParaboloid(size: 32, sun: (0.3, 0.8, 0.5)) },\n");
+    // Shadow volumes' first two statements: the stencil counts the volumes.
+    let volumes: String =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/shadow_volumes.shd"))
+            .unwrap()
+            .lines()
+            .filter(|l| !l.starts_with("C delta pi x <- !"))
+            .map(|l| format!("{l}\n"))
+            .collect();
+    let occluder =
+        Scene::load(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/shadow_occluder_floor.ron")))
+            .unwrap();
     let lit = "vector N : normal;\nvector L : light(0);\nshader d : s → c = max(0, N·L);\nC δπx ← δ d s x;\n";
     let cases = [
         (
@@ -142,11 +154,17 @@ fn wgpu_renders_the_constructs_no_example_shows() {
             format!("{lit}C xs ← ((C xs).r > 0.3) ? (0, 1, 0, 1);\n"),
             torus(""),
         ),
+        (
+            "the stencil read in a mesh pass's shader",
+            format!("{volumes}C delta pi x <- (stencil C delta pi x) * (delta p s' x);\n"),
+            occluder.clone(),
+        ),
+        ("the stencil read in a screen pass's shader", format!("{volumes}C xs <- (stencil C xs) * 0.5 + (C xs);\n"), occluder),
     ];
     let cases: Vec<(String, String, Scene)> =
         cases.into_iter().map(|(n, s, scene)| (n.to_string(), s, scene)).collect();
     let (failures, both, skipped) = sweep(&cases);
     eprintln!("{both} cases rendered on both; not for the CPU:\n{}", skipped.join("\n"));
     assert!(failures.is_empty(), "{}", failures.join("\n"));
-    assert!(both >= 5, "only {both} cases rendered on both:\n{}", skipped.join("\n"));
+    assert!(both >= 9, "only {both} cases rendered on both:\n{}", skipped.join("\n"));
 }

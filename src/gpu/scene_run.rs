@@ -471,6 +471,7 @@ impl<'a> ScenePlan<'a> {
                 let name = m.framebuffers[framebuffer as usize].name.as_str();
                 let data = match channel {
                     ir::FbChannel::Depth => depth_of(name),
+                    ir::FbChannel::Stencil => self.stencil_of(name),
                     ir::FbChannel::Color | ir::FbChannel::Alpha if name != main => {
                         TextureData::Rendered { name: name.to_string(), array: false }
                     }
@@ -524,6 +525,11 @@ impl<'a> ScenePlan<'a> {
         TextureData::RenderedDepth { name: (name != self.main || self.main_read).then(|| name.to_string()) }
     }
 
+    /// A stencil buffer read as a texture (s/255), as [`Self::depth_of`].
+    fn stencil_of(&self, name: &str) -> TextureData {
+        TextureData::RenderedStencil { name: (name != self.main || self.main_read).then(|| name.to_string()) }
+    }
+
     /// Reads of pass `s`'s own target, as it was before the pass.
     fn own_target_reads(&self, s: &PassShader) -> Result<Vec<LoadedTexture>, SceneRunError> {
         let main = if self.main_read { "" } else { self.main.as_str() };
@@ -533,6 +539,8 @@ impl<'a> ScenePlan<'a> {
         for c in &s.target_copies {
             let data = if c.depth {
                 depth_of(&c.framebuffer)
+            } else if c.stencil {
+                self.stencil_of(&c.framebuffer)
             } else if c.framebuffer != main {
                 TextureData::Rendered { name: c.framebuffer.clone(), array: false }
             } else {

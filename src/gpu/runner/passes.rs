@@ -107,6 +107,11 @@ pub enum TextureData {
     /// Unfilterable: a unit of this kind samples through a nearest,
     /// non-filtering sampler.
     RenderedDepth { name: Option<String> },
+    /// The stencil buffer of a rendered texture (`None`: of the main
+    /// target) as it is just before the pass, s/255 in `.x` of an
+    /// `R32Float` texture — `σ C xs` read in a shader (Pipeline Grammar,
+    /// Section 3.5). Unfilterable, as [`TextureData::RenderedDepth`].
+    RenderedStencil { name: Option<String> },
 }
 
 /// A texture a pass reads with `textureLoad` only, at `binding` of group 0

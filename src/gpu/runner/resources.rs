@@ -155,7 +155,9 @@ pub(super) fn upload_texture(
         TextureData::D2Mipmapped { width, height, levels } => {
             (*width, *height, 1, levels.as_slice(), wgpu::TextureViewDimension::D2)
         }
-        TextureData::Rendered { .. } | TextureData::RenderedDepth { .. } => {
+        TextureData::Rendered { .. }
+        | TextureData::RenderedDepth { .. }
+        | TextureData::RenderedStencil { .. } => {
             unreachable!("bound by `prepare`")
         }
     };

@@ -171,6 +171,9 @@ pub struct TargetCopy {
     pub framebuffer: String,
     /// The depth buffer (in `.x`), else the colour buffer.
     pub depth: bool,
+    /// The stencil buffer instead, as s/255 in `.x` (`σ C xs` read in the
+    /// shader, Pipeline Grammar, Section 3.5; `depth` is false).
+    pub stencil: bool,
 }
 
 pub use crate::ir::fat_layers;

@@ -277,10 +277,7 @@ impl Gen<'_> {
                 Some(n),
             );
         }
-        if channel == FbChannel::Stencil {
-            return self.unsupported(format!("reading the stencil of the target framebuffer `{name}` inside the shader (the stencil test can)"), Some(n));
-        }
-        Ok(self.target_copy(&name, channel == FbChannel::Depth))
+        Ok(self.target_copy(&name, channel == FbChannel::Depth, channel == FbChannel::Stencil))
     }
 
     /// A framebuffer sampled at projective `position`; outside it, its
@@ -408,9 +405,16 @@ impl Gen<'_> {
     /// The global of the copy of the target framebuffer `name` (its depth,
     /// or colour) taken before the pass: `texture_2d<f32>` bound after the
     /// units' textures and samplers, read with `textureLoad`.
-    pub(super) fn target_copy(&mut self, name: &str, depth: bool) -> naga::Handle<GlobalVariable> {
-        if let Some((_, var)) =
-            self.target_copies.iter().find(|(c, _)| c.framebuffer == name && c.depth == depth)
+    pub(super) fn target_copy(
+        &mut self,
+        name: &str,
+        depth: bool,
+        stencil: bool,
+    ) -> naga::Handle<GlobalVariable> {
+        if let Some((_, var)) = self
+            .target_copies
+            .iter()
+            .find(|(c, _)| c.framebuffer == name && c.depth == depth && c.stencil == stencil)
         {
             return *var;
         }
@@ -420,7 +424,14 @@ impl Gen<'_> {
             arrayed: false,
             class: ImageClass::Sampled { kind: ScalarKind::Float, multi: false },
         });
-        let var_name = format!("{}_{}before", sanitize(name), if depth { "depth_" } else { "" });
+        let aspect = if depth {
+            "depth_"
+        } else if stencil {
+            "stencil_"
+        } else {
+            ""
+        };
+        let var_name = format!("{}_{aspect}before", sanitize(name));
         let var = self.module.global_variables.append(
             GlobalVariable {
                 name: Some(var_name),
@@ -432,7 +443,7 @@ impl Gen<'_> {
             },
             naga::Span::UNDEFINED,
         );
-        self.target_copies.push((TargetCopy { binding, framebuffer: name.to_string(), depth }, var));
+        self.target_copies.push((TargetCopy { binding, framebuffer: name.to_string(), depth, stencil }, var));
         var
     }
 
@@ -472,7 +483,7 @@ impl Gen<'_> {
                 });
             match target {
                 Some(t) if with_depth => {
-                    let var = self.target_copy(&t, true);
+                    let var = self.target_copy(&t, true, false);
                     let texel = self.load_at_pixel(b, var)?;
                     b.emit(Expression::AccessIndex { base: texel, index: 0 })
                 }
