@@ -21,8 +21,9 @@
 //! - **Texels.** Exact precision uploads every texture as 16-bit unorm
 //!   (`TexelUpload::Rgba16`): 8-bit formats exactly (k/255 → k·257),
 //!   16-bit formats exactly, float formats rounded to 16 bits; hardware
-//!   precision uploads RGBA8 (16-bit and float textures rounded to 8 bits,
-//!   as on the papers' hardware). Signed formats are range-compressed
+//!   precision uploads an 8-bit texture as RGBA8 (filtered in 8.8 fixed
+//!   point, as the CPU's `fixed9` models it) and the others as 16-bit
+//!   unorm (filtered in float, as the CPU does). Signed formats are range-compressed
 //!   `(v + 1)/2` (the codegen contract; the shader expands them). Mip
 //!   chains are the binder's own levels (box filtered), uploaded level by
 //!   level; `trilinear` uses linear mip filtering, `bilinear` the nearest
@@ -119,14 +120,48 @@
 //! an R32Float copy); a pass's reads of its own target
 //! (`PassShader::target_copies`) bind the same copies.
 //!
+//! A shader that reads the colour (or alpha) of the framebuffer read back
+//! (`C xs ← ((α C xs) > ½) ? …`, Pipeline Grammar, Section 3.5) gets it as
+//! the other framebuffers: that framebuffer is rendered as a frame-sized
+//! texture (its own depth and stencil) and copied texel for texel to the
+//! picture after the last pass (`present`). A stencil read in a shader
+//! (`(σ C xs) · …`) binds an `R32Float` snapshot of the stencil aspect as
+//! of the pass (`TextureData::RenderedStencil`, s/255, as the depth's).
+//! The planner's temporaries (render-to-texture splits) render into
+//! frame-sized textures and are read back at the pixel, as on the CPU.
+//!
+//! # Texels the shader filters (`codegen::texel`)
+//!
+//! Where the CPU's sampler is not the texture unit's model, the shader
+//! loads the texels and filters them in f32 as the CPU does
+//! (`Texture2D::sample` at level 0, clamped to the edge):
+//!
+//! - a scene's dual-paraboloid map (`DualParaboloid`, Heidrich & Seidel
+//!   1999, Section 4.1) bound to a program's texture: level 0 of its front
+//!   and back faces are the two layers of a 2-D array (16-bit texels, in
+//!   every precision, as the CPU filters them in float), the direction
+//!   picks the layer and the coordinates as `textures::paraboloid_uv`
+//!   does. On the torus at 640×480 (reflection vector, a 64² sky): f32
+//!   within 1/255 (bilinear) and bit for bit (nearest), fixed9 on
+//!   geforce3/geforce256 within 1/255 (`tests/wgpu_dual_paraboloid.rs`).
+//!   A program's own `dual_paraboloid(…)` faces are 2-D textures and are
+//!   sampled by the unit.
+//! - in hardware precision, a texture the plan renders (a `bake` table,
+//!   a fat texel's member, a texture shaded over its texels) without a
+//!   mip chain: the CPU's `fixed9` filters those in float, where the
+//!   unit filters 8-bit texels in 8.8 fixed point, and a power after the
+//!   lookup magnified the difference (the fat texture map's members under
+//!   `(N·H)^16`: 13/255 on 246 of 3 890 lit pixels at 320×240; now 0/255).
+//!
 //! # What is not supported (an [`SceneRunError::Unsupported`])
 //!
-//! Reading the colour of the framebuffer that is read back (or any
-//! stencil) inside a shader; a scene's dual-paraboloid texture
-//! (`DualParaboloid`, sampled by direction) bound to a program's texture.
-//! A program's `dual_paraboloid(…)` faces are 2-D textures and run. The planner's
-//! temporaries (render-to-texture splits) render into frame-sized textures
-//! and are read back at the pixel, as on the CPU.
+//! What the binder cannot bind (a missing texture, a scene error); a plan
+//! that writes no framebuffer; a full-screen pass with per-vertex inputs;
+//! a cube map or dual-paraboloid map whose faces differ in size; and, in
+//! code generation, a dual-paraboloid map looked up at the pixel (`T xs`).
+//! Every example on `wgsl`, `geforce3` and `geforce256` that plans and
+//! that the CPU renders runs, as do the constructs no example shows
+//! (`tests/wgpu_runs_what_the_cpu_runs.rs`).
 
 use std::collections::BTreeMap;
 

@@ -315,16 +315,18 @@ impl Gen<'_> {
     /// WGSL's `pow` is `exp2(y·log2(x))`, undefined (NaN) for x < 0, where
     /// the IR's `powf` gives ±|x|^y. So an integer power is taken of `|x|`
     /// and negated where x < 0 and y is odd (the same bits as `pow(x, y)`
-    /// for x ≥ 0). Found on the silhouette's baked table, whose last texel
+    /// for x ≥ 0), unless the base's range (`ir::valid`) is non-negative. Found on the silhouette's baked table, whose last texel
     /// took `(1 − 1.0000001)^6`: NaN, then −1 after lavapipe's clamp.
     fn signed_pow(&mut self, b: &mut Body, n: ir::Handle<Expr>, x: NH, y: NH, w: usize) -> NH {
-        let Expr::Binary { rhs, .. } = self.m.exprs[n] else {
+        let Expr::Binary { lhs, rhs, .. } = self.m.exprs[n] else {
             return self.math(b, naga::MathFunction::Pow, &[x, y]);
         };
-        let integers = match &self.m.exprs[rhs] {
-            Expr::Constant(c) => c.values().iter().all(|k| k.fract() == 0.0 && k.abs() < 16_777_216.0),
-            _ => false,
-        };
+        // A base that cannot be negative (`max(0, N·H)^16`) needs nothing.
+        let integers = self.m.info(lhs).interval.lo < 0.0
+            && match &self.m.exprs[rhs] {
+                Expr::Constant(c) => c.values().iter().all(|k| k.fract() == 0.0 && k.abs() < 16_777_216.0),
+                _ => false,
+            };
         if !integers {
             return self.math(b, naga::MathFunction::Pow, &[x, y]);
         }
