@@ -84,4 +84,5 @@ mod vertex_programs_public;
 mod wgpu_dual_paraboloid;
 mod wgpu_light_culling;
 mod wgpu_rendered_mipmaps;
+mod wgpu_runs_what_the_cpu_runs;
 mod wgpu_vertex_programs;

@@ -51,3 +51,52 @@ fn the_dual_paraboloid_environment_agrees_on_cpu_wgpu_and_the_reference() {
         verdict(&p).unwrap_or_else(|e| panic!("{target} {precision:?}: {e}"));
     }
 }
+
+/// A scene's own dual-paraboloid map (`DualParaboloid(…)` in the scene,
+/// Heidrich & Seidel 1999, Section 4.1) bound to a program's cube texture
+/// and looked up by the reflection vector: wgpu reads its two faces as the
+/// layers of an array, picks the face and the coordinates from the
+/// direction and filters at level 0 in the shader, as the CPU's
+/// `DualParaboloid::sample` does. Against the CPU (not the reference,
+/// which has no dual-paraboloid maps) within the agreement suite's bounds
+/// (`tests/wgsl_agreement.rs`): f32 within 2/255, fixed9 within 1/255,
+/// on the torus at 640×480, both filters.
+#[test]
+fn a_scenes_dual_paraboloid_map_by_direction_agrees_with_the_cpu() {
+    let gpu = crate::common::gpu::gpu().expect("no wgpu adapter: the suite needs lavapipe (see .ci/run)");
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron"))
+        .unwrap()
+        .replace(
+            "    objects: [",
+            "    textures: { \"Env\": DualParaboloid(size: 64, sun: (0.3, 0.8, 0.5)) },\n    objects: [",
+        );
+    let scene = shadec::scene::Scene::parse(&text, std::path::Path::new("/nonexistent-shadec-scene/env.ron"))
+        .unwrap();
+    for filter in ["bilinear", "nearest"] {
+        let source = format!(
+            "vector R : reflection in eye;\n\
+             texture Env : cube rgb8 {filter} clamp = image(\"sky.png\");\n\
+             C δπx ← Env δR s x;\n"
+        );
+        for (target, precision, tol) in [
+            ("wgsl", Precision::F32, 2),
+            ("geforce3", Precision::Fixed9, 1),
+            ("geforce256", Precision::Fixed9, 1),
+        ] {
+            let a = crate::wgsl_agreement::try_agreement_in(&gpu, &source, target, &scene, precision)
+                .unwrap_or_else(|e| panic!("{filter} on {target}: {e}"));
+            eprintln!(
+                "{filter} on {target} ({precision:?}): max {}/255, {} of {} compared pixels over {tol}/255, {} lit, {} by ties",
+                a.max_diff, a.over, a.compared, a.lit, a.ties
+            );
+            assert!(a.says_something(), "{filter} on {target}: {} of {} pixels lit", a.lit, a.compared);
+            assert!(
+                a.max_diff <= tol && a.ties * 1000 <= a.lit,
+                "{filter} on {target}: max {}/255 on {} pixels ({} by ties)",
+                a.max_diff,
+                a.over,
+                a.ties
+            );
+        }
+    }
+}

@@ -116,7 +116,7 @@ fn own_target_reads_bind_a_copy_taken_before_the_pass() {
     let p = with_copies[0];
     assert_eq!(
         p.target_copies,
-        vec![codegen::TargetCopy { binding: 3, framebuffer: "C".into(), depth: true }]
+        vec![codegen::TargetCopy { binding: 3, framebuffer: "C".into(), depth: true, stencil: false }]
     );
     assert!(p.source[0].starts_with("31:1:"), "{:?}", p.source);
     // Both projections of `πl π⁻¹ xs` are in the uniform block.

@@ -21,8 +21,9 @@
 //! - **Texels.** Exact precision uploads every texture as 16-bit unorm
 //!   (`TexelUpload::Rgba16`): 8-bit formats exactly (k/255 → k·257),
 //!   16-bit formats exactly, float formats rounded to 16 bits; hardware
-//!   precision uploads RGBA8 (16-bit and float textures rounded to 8 bits,
-//!   as on the papers' hardware). Signed formats are range-compressed
+//!   precision uploads an 8-bit texture as RGBA8 (filtered in 8.8 fixed
+//!   point, as the CPU's `fixed9` models it) and the others as 16-bit
+//!   unorm (filtered in float, as the CPU does). Signed formats are range-compressed
 //!   `(v + 1)/2` (the codegen contract; the shader expands them). Mip
 //!   chains are the binder's own levels (box filtered), uploaded level by
 //!   level; `trilinear` uses linear mip filtering, `bilinear` the nearest
@@ -119,14 +120,48 @@
 //! an R32Float copy); a pass's reads of its own target
 //! (`PassShader::target_copies`) bind the same copies.
 //!
+//! A shader that reads the colour (or alpha) of the framebuffer read back
+//! (`C xs ← ((α C xs) > ½) ? …`, Pipeline Grammar, Section 3.5) gets it as
+//! the other framebuffers: that framebuffer is rendered as a frame-sized
+//! texture (its own depth and stencil) and copied texel for texel to the
+//! picture after the last pass (`present`). A stencil read in a shader
+//! (`(σ C xs) · …`) binds an `R32Float` snapshot of the stencil aspect as
+//! of the pass (`TextureData::RenderedStencil`, s/255, as the depth's).
+//! The planner's temporaries (render-to-texture splits) render into
+//! frame-sized textures and are read back at the pixel, as on the CPU.
+//!
+//! # Texels the shader filters (`codegen::texel`)
+//!
+//! Where the CPU's sampler is not the texture unit's model, the shader
+//! loads the texels and filters them in f32 as the CPU does
+//! (`Texture2D::sample` at level 0, clamped to the edge):
+//!
+//! - a scene's dual-paraboloid map (`DualParaboloid`, Heidrich & Seidel
+//!   1999, Section 4.1) bound to a program's texture: level 0 of its front
+//!   and back faces are the two layers of a 2-D array (16-bit texels, in
+//!   every precision, as the CPU filters them in float), the direction
+//!   picks the layer and the coordinates as `textures::paraboloid_uv`
+//!   does. On the torus at 640×480 (reflection vector, a 64² sky): f32
+//!   within 1/255 (bilinear) and bit for bit (nearest), fixed9 on
+//!   geforce3/geforce256 within 1/255 (`tests/wgpu_dual_paraboloid.rs`).
+//!   A program's own `dual_paraboloid(…)` faces are 2-D textures and are
+//!   sampled by the unit.
+//! - in hardware precision, a texture the plan renders (a `bake` table,
+//!   a fat texel's member, a texture shaded over its texels) without a
+//!   mip chain: the CPU's `fixed9` filters those in float, where the
+//!   unit filters 8-bit texels in 8.8 fixed point, and a power after the
+//!   lookup magnified the difference (the fat texture map's members under
+//!   `(N·H)^16`: 13/255 on 246 of 3 890 lit pixels at 320×240; now 0/255).
+//!
 //! # What is not supported (an [`SceneRunError::Unsupported`])
 //!
-//! Reading the colour of the framebuffer that is read back (or any
-//! stencil) inside a shader; a scene's dual-paraboloid texture
-//! (`DualParaboloid`, sampled by direction) bound to a program's texture.
-//! A program's `dual_paraboloid(…)` faces are 2-D textures and run. The planner's
-//! temporaries (render-to-texture splits) render into frame-sized textures
-//! and are read back at the pixel, as on the CPU.
+//! What the binder cannot bind (a missing texture, a scene error); a plan
+//! that writes no framebuffer; a full-screen pass with per-vertex inputs;
+//! a cube map or dual-paraboloid map whose faces differ in size; and, in
+//! code generation, a dual-paraboloid map looked up at the pixel (`T xs`).
+//! Every example on `wgsl`, `geforce3` and `geforce256` that plans and
+//! that the CPU renders runs, as do the constructs no example shows
+//! (`tests/wgpu_runs_what_the_cpu_runs.rs`).
 
 use std::collections::BTreeMap;
 
@@ -171,6 +206,9 @@ pub struct ScenePlan<'a> {
     decls: Vec<bind::TextureDecl>,
     /// The framebuffer read back (written last); the others are rendered textures.
     main: String,
+    /// A shader reads `main`'s colour or alpha: it is rendered as a texture
+    /// too, and copied to the picture after the last pass ([`present`]).
+    main_read: bool,
     uniforms: Vec<[f32; 4]>,
     /// Stand-ins the binder used (missing images), for the user.
     pub notes: Vec<String>,
@@ -203,15 +241,23 @@ impl<'a> ScenePlan<'a> {
         let main = main.ok_or_else(|| {
             SceneRunError::Unsupported("the plan writes no framebuffer: nothing to show".into())
         })?;
-        let shaders = codegen::generate(planned, source, precision).map_err(|d| {
-            SceneRunError::Codegen(d.iter().map(|d| d.message.clone()).collect::<Vec<_>>().join("; "))
-        })?;
         let mut decls = bind::texture_decls(&planned.module, &scene.constants);
         let lowered = bind::lowered_decls(&planned.module, &decls);
         decls.extend(lowered);
         let mut notes = bind::absent_light_notes(&planned.module, scene);
         let textures = bind::load_textures(&decls, scene, TextureQuality::Stored, &mut notes)
             .map_err(|e| SceneRunError::Unsupported(e.to_string()))?;
+        // A scene's dual-paraboloid map is read by direction (`codegen::texel`).
+        let bindings = codegen::SceneBindings {
+            dual_paraboloid: textures
+                .values()
+                .filter(|t| matches!(t.texture, Texture::DualParaboloid(_)))
+                .map(|t| t.name.clone())
+                .collect(),
+        };
+        let shaders = codegen::generate_bound(planned, source, precision, &bindings).map_err(|d| {
+            SceneRunError::Codegen(d.iter().map(|d| d.message.clone()).collect::<Vec<_>>().join("; "))
+        })?;
         let m = &planned.module;
         let uniforms = bind::uniforms(m, scene)
             .into_iter()
@@ -222,7 +268,20 @@ impl<'a> ScenePlan<'a> {
                     .map(|c| c as f32)
             })
             .collect();
-        Ok(ScenePlan { planned, scene, assets, shaders, textures, decls, uniforms, main, notes, precision })
+        let main_read = shaders.iter().any(|s| reads_colour_of(planned, s, &main));
+        Ok(ScenePlan {
+            planned,
+            scene,
+            assets,
+            shaders,
+            textures,
+            decls,
+            uniforms,
+            main,
+            main_read,
+            notes,
+            precision,
+        })
     }
 
     /// The [`RunPass`]es of a `width`×`height` frame: per pass, one draw per
@@ -240,7 +299,7 @@ impl<'a> ScenePlan<'a> {
             RenderTarget::Texture { name } | RenderTarget::Temporary { name } => {
                 PassTarget::Texture(rendered[name].clone())
             }
-            RenderTarget::Framebuffer { name, .. } if *name != self.main => {
+            RenderTarget::Framebuffer { name, .. } if *name != self.main || self.main_read => {
                 PassTarget::Texture(rendered[name].clone())
             }
             _ => PassTarget::Main,
@@ -312,6 +371,9 @@ impl<'a> ScenePlan<'a> {
                 continue;
             }
             self.mesh_draws(s, &objects, aspect, &uniforms64, &draw, &mut out)?;
+        }
+        if self.main_read {
+            out.push(present(&self.main));
         }
         Ok(out)
     }
@@ -399,7 +461,7 @@ impl<'a> ScenePlan<'a> {
         // frame-sized textures in the frame's colour format, as the CPU's.
         for pass in &self.planned.plan.passes {
             if let RenderTarget::Framebuffer { name, .. } | RenderTarget::Temporary { name } = &pass.target {
-                if *name != self.main {
+                if *name != self.main || self.main_read {
                     rendered.insert(
                         name.clone(),
                         runner::RenderedTexture {
@@ -427,7 +489,7 @@ impl<'a> ScenePlan<'a> {
     ) -> Result<Vec<RunTexture>, SceneRunError> {
         let m = &self.planned.module;
         let pass = &self.planned.plan.passes[s.pass];
-        let main = self.main.as_str();
+        let main = if self.main_read { "" } else { self.main.as_str() };
         let depth_of = |name: &str| self.depth_of(name);
         let unsupported = |what: String| unsupported_in(s, what);
         let mut textures = Vec::new();
@@ -444,6 +506,7 @@ impl<'a> ScenePlan<'a> {
                 let name = m.framebuffers[framebuffer as usize].name.as_str();
                 let data = match channel {
                     ir::FbChannel::Depth => depth_of(name),
+                    ir::FbChannel::Stencil => self.stencil_of(name),
                     ir::FbChannel::Color | ir::FbChannel::Alpha if name != main => {
                         TextureData::Rendered { name: name.to_string(), array: false }
                     }
@@ -494,18 +557,25 @@ impl<'a> ScenePlan<'a> {
 
     /// A depth buffer read as a texture: the main one, or a rendered target's.
     fn depth_of(&self, name: &str) -> TextureData {
-        TextureData::RenderedDepth { name: (name != self.main).then(|| name.to_string()) }
+        TextureData::RenderedDepth { name: (name != self.main || self.main_read).then(|| name.to_string()) }
+    }
+
+    /// A stencil buffer read as a texture (s/255), as [`Self::depth_of`].
+    fn stencil_of(&self, name: &str) -> TextureData {
+        TextureData::RenderedStencil { name: (name != self.main || self.main_read).then(|| name.to_string()) }
     }
 
     /// Reads of pass `s`'s own target, as it was before the pass.
     fn own_target_reads(&self, s: &PassShader) -> Result<Vec<LoadedTexture>, SceneRunError> {
-        let main = self.main.as_str();
+        let main = if self.main_read { "" } else { self.main.as_str() };
         let depth_of = |name: &str| self.depth_of(name);
         let unsupported = |what: String| unsupported_in(s, what);
         let mut loaded = Vec::new();
         for c in &s.target_copies {
             let data = if c.depth {
                 depth_of(&c.framebuffer)
+            } else if c.stencil {
+                self.stencil_of(&c.framebuffer)
             } else if c.framebuffer != main {
                 TextureData::Rendered { name: c.framebuffer.clone(), array: false }
             } else {
@@ -614,10 +684,36 @@ fn run_texture(
                 texels,
             })
         }
-        Texture::DualParaboloid(_) => {
-            Err(SceneRunError::Unsupported(format!("dual-paraboloid texture `{}`", bound.name)))
-        }
+        Texture::DualParaboloid(t) => dual_paraboloid(bound, t, signed),
     }
+}
+
+/// A scene's dual-paraboloid map (Heidrich & Seidel 1999, Section 4.1):
+/// level 0 of its front and back faces as the two layers of a 2-D array,
+/// which the shader reads by direction and filters itself
+/// (`codegen::texel`), as the CPU's `DualParaboloid::sample` does in
+/// every precision — so 16-bit texels (8-bit ones exactly) whatever the
+/// precision, and no sampler filtering.
+fn dual_paraboloid(
+    bound: &BoundTexture,
+    t: &crate::textures::DualParaboloid,
+    signed: bool,
+) -> Result<RunTexture, SceneRunError> {
+    let (width, height) = (t.front.width(), t.front.height());
+    if t.back.width() != width || t.back.height() != height {
+        return Err(SceneRunError::Unsupported(format!(
+            "dual-paraboloid map `{}` has faces of different sizes",
+            bound.name
+        )));
+    }
+    let texels = TexelUpload::Rgba16;
+    let mut rgba = level_rgba(&t.front.levels[0], signed, texels);
+    rgba.extend(level_rgba(&t.back.levels[0], signed, texels));
+    Ok(RunTexture {
+        data: TextureData::D2Array { width, height, layers: 2, rgba },
+        sampler: SamplerSettings::NEAREST_CLAMP,
+        texels,
+    })
 }
 
 fn flat(t: &Texture2D, filter: Filter, texels: TexelUpload, signed: bool) -> RunTexture {
@@ -632,6 +728,56 @@ fn flat(t: &Texture2D, filter: Filter, texels: TexelUpload, signed: bool) -> Run
         TextureData::D2 { width, height, rgba: level_rgba(&t.levels[0], signed, texels) }
     };
     RunTexture { data, sampler: sampler(filter, t.wrap, t.levels.len() > 1), texels }
+}
+
+/// Whether pass `s` reads the colour (or alpha) of framebuffer `name` in
+/// its shader: through a texture unit, or a copy of its own target.
+fn reads_colour_of(planned: &Planned, s: &PassShader, name: &str) -> bool {
+    let m = &planned.module;
+    let unit = planned.plan.passes[s.pass].textures.iter().any(|t| {
+        matches!(m.exprs[planned.handle(t.lookup)], Expr::FramebufferRead { framebuffer, channel, .. }
+            if m.framebuffers[framebuffer as usize].name == name
+                && matches!(channel, ir::FbChannel::Color | ir::FbChannel::Alpha))
+    });
+    unit || s.target_copies.iter().any(|c| !c.depth && c.framebuffer == name)
+}
+
+/// The pass that copies framebuffer `main`, rendered as a texture because a
+/// shader reads its colour (Pipeline Grammar, Section 3.5: `C xs` read in
+/// a screen pass), to the picture read back: each pixel's texel, loaded
+/// unfiltered, so the copy is exact in either colour format.
+fn present(main: &str) -> RunPass {
+    const PRESENT: &str = "@group(0) @binding(1) var picture: texture_2d<f32>;\n\
+        @group(0) @binding(2) var picture_sampler: sampler;\n\
+        @vertex fn vs_main(@location(0) corner: vec4<f32>) -> @builtin(position) vec4<f32> { return corner; }\n\
+        @fragment fn fs_main(@builtin(position) pixel: vec4<f32>) -> @location(0) vec4<f32> {\n\
+            return textureLoad(picture, vec2<i32>(pixel.xy), 0);\n\
+        }\n";
+    let floats = vec![-1.0, -1.0, 0.0, 1.0, 1.0, -1.0, 0.0, 1.0, 1.0, 1.0, 0.0, 1.0, -1.0, 1.0, 0.0, 1.0];
+    RunPass {
+        label: format!("present `{main}`"),
+        shader: RunShader {
+            source: ShaderSource::Wgsl(PRESENT.to_string()),
+            vertex_entry: "vs_main".into(),
+            fragment_entry: "fs_main".into(),
+        },
+        vertices: VertexData { floats, components: vec![4] },
+        indices: vec![0, 1, 2, 0, 2, 3],
+        textures: vec![RunTexture {
+            data: TextureData::Rendered { name: main.to_string(), array: false },
+            sampler: SamplerSettings::NEAREST_CLAMP,
+            texels: TexelUpload::Rgba8,
+        }],
+        uniforms: None,
+        state: crate::pipeline::RenderState {
+            cull: crate::pipeline::CullMode::None,
+            depth: crate::pipeline::DepthState::DISABLED,
+            ..Default::default()
+        },
+        target: PassTarget::Main,
+        loaded: vec![],
+        outputs: 1,
+    }
 }
 
 /// What pass `s` does that the GPU runner cannot.

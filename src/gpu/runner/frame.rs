@@ -14,9 +14,9 @@ use super::{in_error_scopes, validate_shader, Gpu, GpuError};
 /// Rendered textures by name: (texture, scratch copy, depth/stencil).
 type RenderedTargets = BTreeMap<String, (wgpu::Texture, wgpu::Texture, wgpu::Texture)>;
 
-/// Depth snapshots by (pass, texture unit): the copy, and the depth buffer
-/// copied (`None`: the main one).
-type DepthSnapshots = BTreeMap<(usize, usize), (wgpu::Texture, Option<String>)>;
+/// Depth snapshots by (pass, texture unit): the copy, the depth buffer
+/// copied (`None`: the main one), and whether its stencil is copied.
+type DepthSnapshots = BTreeMap<(usize, usize), (wgpu::Texture, Option<String>, bool)>;
 
 /// A frame's GPU objects, made once (pipelines, bind groups,
 /// uploads and render targets per scene, not per frame); [`Frame::draw`]
@@ -267,13 +267,13 @@ impl<'a> Frame<'a> {
                 _ => break,
             };
             // The depth buffers this pass reads, as they are now.
-            for ((_, _), (copy, name)) in snapshots.range((pass_idx, 0)..(pass_idx + 1, 0)) {
+            for ((_, _), (copy, name, stencil)) in snapshots.range((pass_idx, 0)..(pass_idx + 1, 0)) {
                 #[allow(
                     clippy::expect_used,
                     reason = "`prepare` makes the copier whenever it plans a snapshot"
                 )]
                 let copier = self.depth_copier.as_ref().expect("made when there are snapshots");
-                copier.copy(device, &mut encoder, self.depth_source(name), copy);
+                copier.copy(device, &mut encoder, (self.depth_source(name), *stencil), copy);
             }
             let (key, views, depth_view): (&String, Vec<wgpu::TextureView>, &wgpu::TextureView) =
                 match pass.map(|p| (p, &p.target)) {
@@ -484,7 +484,7 @@ fn prepare_passes(
                             ..Default::default()
                         }))
                     }
-                    TextureData::RenderedDepth { .. } => {
+                    TextureData::RenderedDepth { .. } | TextureData::RenderedStencil { .. } => {
                         Some(snapshots[&(pass_idx, slot)].0.create_view(&Default::default()))
                     }
                     _ => None,

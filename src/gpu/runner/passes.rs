@@ -89,6 +89,9 @@ pub enum TextureData {
     D2 { width: u32, height: u32, rgba: Vec<u8> },
     /// Six `size × size` faces in wgpu/GL order +X, −X, +Y, −Y, +Z, −Z.
     Cube { size: u32, rgba: Vec<u8> },
+    /// `layers` images of `width × height` texels one after another, as a
+    /// `texture_2d_array` (a dual-paraboloid map: front, back).
+    D2Array { width: u32, height: u32, layers: u32, rgba: Vec<u8> },
     /// A 2D texture with its mip chain: `levels[k]` is
     /// `max(1, width >> k) × max(1, height >> k)` texels, row 0 at v = 0.
     D2Mipmapped { width: u32, height: u32, levels: Vec<Vec<u8>> },
@@ -104,6 +107,11 @@ pub enum TextureData {
     /// Unfilterable: a unit of this kind samples through a nearest,
     /// non-filtering sampler.
     RenderedDepth { name: Option<String> },
+    /// The stencil buffer of a rendered texture (`None`: of the main
+    /// target) as it is just before the pass, s/255 in `.x` of an
+    /// `R32Float` texture — `σ C xs` read in a shader (Pipeline Grammar,
+    /// Section 3.5). Unfilterable, as [`TextureData::RenderedDepth`].
+    RenderedStencil { name: Option<String> },
 }
 
 /// A texture a pass reads with `textureLoad` only, at `binding` of group 0

@@ -27,7 +27,9 @@ pub(super) fn check_rendered(
     rendered: &BTreeMap<String, RenderedTexture>,
 ) -> Result<(), String> {
     match data {
-        TextureData::Rendered { name, .. } | TextureData::RenderedDepth { name: Some(name) }
+        TextureData::Rendered { name, .. }
+        | TextureData::RenderedDepth { name: Some(name) }
+        | TextureData::RenderedStencil { name: Some(name) }
             if !rendered.contains_key(name) =>
         {
             Err(format!("`{name}` is a rendered texture no pass of this run renders"))
@@ -51,8 +53,22 @@ pub(super) fn check_pass(
     if pass.state.stencil.enabled && target.depth_format != DepthFormat::Depth24PlusStencil8 {
         return Err(invalid("the stencil test needs DepthFormat::Depth24PlusStencil8".to_string()));
     }
+    let reads_stencil = pass
+        .textures
+        .iter()
+        .map(|t| &t.data)
+        .chain(pass.loaded.iter().map(|l| &l.data))
+        .any(|d| matches!(d, TextureData::RenderedStencil { .. }));
+    if reads_stencil && target.depth_format != DepthFormat::Depth24PlusStencil8 {
+        return Err(invalid("reading the stencil needs DepthFormat::Depth24PlusStencil8".to_string()));
+    }
     for l in &pass.loaded {
-        if !matches!(l.data, TextureData::Rendered { .. } | TextureData::RenderedDepth { .. }) {
+        if !matches!(
+            l.data,
+            TextureData::Rendered { .. }
+                | TextureData::RenderedDepth { .. }
+                | TextureData::RenderedStencil { .. }
+        ) {
             return Err(invalid(format!(
                 "binding {}: only rendered textures are read with textureLoad",
                 l.binding
@@ -108,7 +124,12 @@ fn check_texture(
     let (expected, what) = match texture.data {
         TextureData::D2 { width, height, .. } => (width as usize * height as usize * bpt, "2D"),
         TextureData::Cube { size, .. } => (size as usize * size as usize * bpt * 6, "cube"),
-        TextureData::Rendered { .. } | TextureData::RenderedDepth { .. } => {
+        TextureData::D2Array { width, height, layers, .. } => {
+            (width as usize * height as usize * bpt * layers as usize, "2D array")
+        }
+        TextureData::Rendered { .. }
+        | TextureData::RenderedDepth { .. }
+        | TextureData::RenderedStencil { .. } => {
             return check_rendered(&texture.data, rendered)
                 .map_err(|message| format!("texture {texture_idx}: {message}"));
         }
@@ -126,12 +147,16 @@ fn check_texture(
         }
     };
     let rgba = match &texture.data {
-        TextureData::D2 { rgba, .. } | TextureData::Cube { rgba, .. } => rgba,
+        TextureData::D2 { rgba, .. } | TextureData::Cube { rgba, .. } | TextureData::D2Array { rgba, .. } => {
+            rgba
+        }
         TextureData::D2Mipmapped { levels, .. } => match levels.first() {
             Some(l) => l,
             None => return Err(format!("mipmapped texture {texture_idx} has no levels")),
         },
-        TextureData::Rendered { .. } | TextureData::RenderedDepth { .. } => return Ok(()),
+        TextureData::Rendered { .. }
+        | TextureData::RenderedDepth { .. }
+        | TextureData::RenderedStencil { .. } => return Ok(()),
     };
     if expected == 0 || rgba.len() != expected {
         return Err(format!(
@@ -187,24 +212,26 @@ pub(super) fn rendered_targets(
 }
 
 /// Depth snapshots: per pass, per slot (units, then loaded textures) that
-/// reads a depth buffer, an R32Float copy made just before the pass.
+/// reads a depth (or stencil) buffer, an R32Float copy made just before
+/// the pass, the buffer's name, and whether it is the stencil.
 pub(super) fn depth_snapshots(
     device: &wgpu::Device,
     target: &Target,
     passes: &[RunPass],
     rendered: &BTreeMap<String, RenderedTexture>,
-) -> BTreeMap<(usize, usize), (wgpu::Texture, Option<String>)> {
+) -> BTreeMap<(usize, usize), (wgpu::Texture, Option<String>, bool)> {
     let depth_size = |name: &Option<String>| -> (u32, u32) {
         match name {
             None => (target.width, target.height),
             Some(n) => (rendered[n].width, rendered[n].height),
         }
     };
-    let mut snapshots: BTreeMap<(usize, usize), (wgpu::Texture, Option<String>)> = BTreeMap::new();
+    let mut snapshots: BTreeMap<(usize, usize), (wgpu::Texture, Option<String>, bool)> = BTreeMap::new();
     for (pass_idx, pass) in passes.iter().enumerate() {
         let slots = pass.textures.iter().map(|t| &t.data).chain(pass.loaded.iter().map(|l| &l.data));
         for (slot, data) in slots.enumerate() {
-            if let TextureData::RenderedDepth { name } = data {
+            let stencil = matches!(data, TextureData::RenderedStencil { .. });
+            if let TextureData::RenderedDepth { name } | TextureData::RenderedStencil { name } = data {
                 let (width, height) = depth_size(name);
                 let copy = device.create_texture(&wgpu::TextureDescriptor {
                     label: Some("shadec depth snapshot"),
@@ -216,7 +243,7 @@ pub(super) fn depth_snapshots(
                     usage: wgpu::TextureUsages::RENDER_ATTACHMENT | wgpu::TextureUsages::TEXTURE_BINDING,
                     view_formats: &[],
                 });
-                snapshots.insert((pass_idx, slot), (copy, name.clone()));
+                snapshots.insert((pass_idx, slot), (copy, name.clone(), stencil));
             }
         }
     }
@@ -352,7 +379,8 @@ fn sampled_texture(
         None => upload_texture(gpu, &texture.data, texture.texels),
     };
     // A depth snapshot (R32Float) is unfilterable: nearest, non-filtering.
-    let depth = matches!(texture.data, TextureData::RenderedDepth { .. });
+    let depth =
+        matches!(texture.data, TextureData::RenderedDepth { .. } | TextureData::RenderedStencil { .. });
     let texture_entry = wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::VERTEX_FRAGMENT,

@@ -149,10 +149,15 @@ pub(super) fn upload_texture(
         TextureData::Cube { size, rgba } => {
             (*size, *size, 6, std::slice::from_ref(rgba), wgpu::TextureViewDimension::Cube)
         }
+        TextureData::D2Array { width, height, layers, rgba } => {
+            (*width, *height, *layers, std::slice::from_ref(rgba), wgpu::TextureViewDimension::D2Array)
+        }
         TextureData::D2Mipmapped { width, height, levels } => {
             (*width, *height, 1, levels.as_slice(), wgpu::TextureViewDimension::D2)
         }
-        TextureData::Rendered { .. } | TextureData::RenderedDepth { .. } => {
+        TextureData::Rendered { .. }
+        | TextureData::RenderedDepth { .. }
+        | TextureData::RenderedStencil { .. } => {
             unreachable!("bound by `prepare`")
         }
     };

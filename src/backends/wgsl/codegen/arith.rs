@@ -306,9 +306,48 @@ impl Gen<'_> {
             }
             None => {
                 let y = self.splat(b, y, wy, w)?;
-                Ok(Computed::arith(self.math(b, naga::MathFunction::Pow, &[x, y])))
+                Ok(Computed::arith(self.signed_pow(b, n, x, y, w)))
             }
         }
+    }
+
+    /// `pow(x, y)`, for a negative `x` too where `y` is a constant integer:
+    /// WGSL's `pow` is `exp2(y·log2(x))`, undefined (NaN) for x < 0, where
+    /// the IR's `powf` gives ±|x|^y. So an integer power is taken of `|x|`
+    /// and negated where x < 0 and y is odd (the same bits as `pow(x, y)`
+    /// for x ≥ 0), unless the base's range (`ir::valid`) is non-negative. Found on the silhouette's baked table, whose last texel
+    /// took `(1 − 1.0000001)^6`: NaN, then −1 after lavapipe's clamp.
+    fn signed_pow(&mut self, b: &mut Body, n: ir::Handle<Expr>, x: NH, y: NH, w: usize) -> NH {
+        let Expr::Binary { lhs, rhs, .. } = self.m.exprs[n] else {
+            return self.math(b, naga::MathFunction::Pow, &[x, y]);
+        };
+        // A base that cannot be negative (`max(0, N·H)^16`) needs nothing.
+        let integers = self.m.info(lhs).interval.lo < 0.0
+            && match &self.m.exprs[rhs] {
+                Expr::Constant(c) => c.values().iter().all(|k| k.fract() == 0.0 && k.abs() < 16_777_216.0),
+                _ => false,
+            };
+        if !integers {
+            return self.math(b, naga::MathFunction::Pow, &[x, y]);
+        }
+        let odd: Vec<bool> = match &self.m.exprs[rhs] {
+            Expr::Constant(c) => c.values().iter().map(|k| k.rem_euclid(2.0) == 1.0).collect(),
+            _ => vec![],
+        };
+        let magnitude = self.math(b, naga::MathFunction::Abs, &[x]);
+        let p = self.math(b, naga::MathFunction::Pow, &[magnitude, y]);
+        if !odd.iter().any(|o| *o) {
+            return p;
+        }
+        if !odd.iter().all(|o| *o) {
+            // Mixed parities per component: `pow` as written.
+            return self.math(b, naga::MathFunction::Pow, &[x, y]);
+        }
+        let zero = b.lit(0.0);
+        let zero = self.splat(b, zero, 1, w).unwrap_or(zero);
+        let negative = self.binop(b, naga::BinaryOperator::Less, x, zero);
+        let minus = b.emit(Expression::Unary { op: naga::UnaryOperator::Negate, expr: p });
+        b.emit(Expression::Select { condition: negative, accept: minus, reject: p })
     }
 
     /// A comparison or logic operator, as 1.0 or 0.0.

@@ -67,7 +67,12 @@ impl Gen<'_> {
         let pass = &self.planned.plan.passes[self.pass_index];
         for t in &pass.textures {
             let node = self.planned.handle(t.lookup);
+            let read = self.unit_read(node);
             let (kind, format, arrayed) = match self.m.exprs.arena().get(node) {
+                // A scene's dual-paraboloid map: its two faces as layers.
+                Some(Expr::Lookup { texture, .. }) if matches!(read, UnitRead::DualParaboloid(_)) => {
+                    (TextureKind::Tex2d, Some(self.m.textures[*texture as usize].format), true)
+                }
                 Some(Expr::Lookup { texture, .. }) => {
                     let tex = &self.m.textures[*texture as usize];
                     let fat = self.fat[*texture as usize] > 0;
@@ -122,6 +127,7 @@ impl Gen<'_> {
                 naga::Span::UNDEFINED,
             );
             self.units.push((tv, sv, kind, format));
+            self.unit_reads.push(read);
         }
         Ok(())
     }

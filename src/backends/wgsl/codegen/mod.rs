@@ -118,10 +118,13 @@ mod names;
 mod resources;
 mod solid;
 mod space;
+mod texel;
 
 use body::*;
 use names::*;
 use space::*;
+pub use texel::SceneBindings;
+use texel::UnitRead;
 
 /// The name of every pass's vertex entry point.
 pub const VERTEX_ENTRY: &str = "vs_main";
@@ -168,6 +171,9 @@ pub struct TargetCopy {
     pub framebuffer: String,
     /// The depth buffer (in `.x`), else the colour buffer.
     pub depth: bool,
+    /// The stencil buffer instead, as s/255 in `.x` (`σ C xs` read in the
+    /// shader, Pipeline Grammar, Section 3.5; `depth` is false).
+    pub stencil: bool,
 }
 
 pub use crate::ir::fat_layers;
@@ -196,11 +202,23 @@ pub fn generate(
     source: Option<&str>,
     precision: Precision,
 ) -> Result<Vec<PassShader>, Vec<Diagnostic>> {
+    generate_bound(planned, source, precision, &SceneBindings::default())
+}
+
+/// [`generate`] for a plan bound to a scene whose bindings change the
+/// shader ([`SceneBindings`]: a scene's dual-paraboloid map in place of a
+/// declared texture).
+pub fn generate_bound(
+    planned: &Planned,
+    source: Option<&str>,
+    precision: Precision,
+    bindings: &SceneBindings,
+) -> Result<Vec<PassShader>, Vec<Diagnostic>> {
     let names = source_names(planned, source);
     let mut out = Vec::new();
     let mut errors = Vec::new();
     for i in 0..planned.plan.passes.len() {
-        match generate_pass(planned, i, source, &names, precision) {
+        match generate_pass(planned, i, (source, bindings), &names, precision) {
             Ok(s) => out.push(s),
             Err(d) => errors.push(d),
         }
@@ -215,7 +233,7 @@ pub fn generate(
 fn generate_pass(
     planned: &Planned,
     index: usize,
-    source: Option<&str>,
+    (source, bindings): (Option<&str>, &SceneBindings),
     names: &HashMap<ir::Handle<Expr>, String>,
     precision: Precision,
 ) -> Result<PassShader, Diagnostic> {
@@ -225,6 +243,7 @@ fn generate_pass(
     // A `bake` table is computed by the compiler, in float (issue 18).
     let precision = if pass.baked { Precision::F32 } else { precision };
     let mut g = Gen::new(planned, index, interface.clone(), names, precision);
+    g.bindings = bindings.clone();
     if precision == Precision::Fixed9 {
         g.combiners = crate::backends::combiners::setup::of(planned, index).ok().cloned();
         if let Some(generated) = &g.combiners {
@@ -431,9 +450,10 @@ struct Body {
     /// Fragment stage: the varyings by interpolant index, and `position`.
     frag_coord: Option<NH>,
     texel_uv: Option<NH>,
-    /// Lookups of fat textures: (unit, coordinate, level); their members
-    /// are sampled by [`Expr::FatMember`].
-    fat: HashMap<ir::Handle<Expr>, (usize, NH, naga::SampleLevel)>,
+    /// Lookups of fat textures: (unit, coordinate, level, and whether the
+    /// shader filters it, [`UnitRead::Float`]); their members are sampled
+    /// by [`Expr::FatMember`].
+    fat: HashMap<ir::Handle<Expr>, (usize, NH, naga::SampleLevel, bool)>,
     /// Texels loaded at the fragment's pixel, by texture ([`Gen::load_at_pixel`]).
     loads: HashMap<naga::Handle<GlobalVariable>, NH>,
     /// The boolean behind a 0/1 value (comparisons, logic), so that a
@@ -452,6 +472,10 @@ struct Gen<'a> {
     uniforms_var: Option<naga::Handle<GlobalVariable>>,
     /// (texture, sampler) per unit.
     units: Vec<UnitBinding>,
+    /// How each unit is read ([`UnitRead`]).
+    unit_reads: Vec<UnitRead>,
+    /// What the scene binds that changes the shader.
+    bindings: SceneBindings,
     /// `quantize_*` and `divide_*` by width ([`Gen::q9_function`]).
     q9: [[Option<naga::Handle<Function>>; 4]; 2],
     /// `round_to_half`, once built.
@@ -502,6 +526,8 @@ impl<'a> Gen<'a> {
             module: naga::Module::default(),
             uniforms_var: None,
             units: vec![],
+            unit_reads: vec![],
+            bindings: SceneBindings::default(),
             q9: [[None; 4]; 2],
             half: None,
             quad: false,

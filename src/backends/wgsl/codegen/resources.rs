@@ -135,10 +135,22 @@ impl Gen<'_> {
         let (_, _, kind, format) = self.units[unit];
         let ct = m.info(coords).ty;
         let fat = self.fat[texture as usize] > 0;
+        let dual_paraboloid = matches!(self.unit_reads[unit], UnitRead::DualParaboloid(_));
         if matches!(m.exprs[coords], Expr::Pixel { .. }) {
+            if dual_paraboloid {
+                return self.unsupported("a dual-paraboloid map looked up at the pixel", Some(n));
+            }
             return self.lookup_at_pixel(b, n, unit, fat);
         }
         let c = b.val(coords)?;
+        if dual_paraboloid {
+            let s = self.dual_paraboloid_sample(b, unit, c, width(ct))?;
+            let t = self.narrow(b, s, 4, w);
+            if matches!(format, Some(TextureFormat::Signed8 | TextureFormat::Signed16)) {
+                return Ok(Some(Computed::plain(self.expand(b, t, w))));
+            }
+            return Ok(Some(Computed::plain(t)));
+        }
         if m.textures[texture as usize].kind == TextureKind::Tex3d && m.textures[texture as usize].rendered {
             let s = self.solid_sample(b, unit, c, naga::SampleLevel::Zero);
             return Ok(Some(Computed::plain(self.narrow(b, s, 4, w))));
@@ -153,13 +165,20 @@ impl Gen<'_> {
             _ => c,
         };
         let level = if sample { naga::SampleLevel::Auto } else { naga::SampleLevel::Zero };
+        let shader_filter = self.shader_filter(unit, ct);
         if fat && !self.plain_use(n) {
             // Only its members are read (`Expr::FatMember`).
-            b.fat.insert(n, (unit, coord, level));
+            b.fat.insert(n, (unit, coord, level, shader_filter.is_some()));
             return Ok(None);
         }
         // A fat texture read as a colour: its first layer.
-        let s = self.sample_unit(b, unit, coord, fat.then_some(0), level);
+        let s = match shader_filter {
+            Some(filter) => {
+                let layer = fat.then(|| b.plain(Expression::Literal(Literal::I32(0))));
+                self.float_filtered(b, unit, coord, layer, filter)
+            }
+            None => self.sample_unit(b, unit, coord, fat.then_some(0), level),
+        };
         let t = self.narrow(b, s, 4, w);
         if matches!(format, Some(TextureFormat::Signed8 | TextureFormat::Signed16)) {
             return Ok(Some(Computed::plain(self.expand(b, t, w))));
@@ -168,6 +187,7 @@ impl Gen<'_> {
         // hardware precision (`scene_run` uploads it as RGBA8).
         if self.precision == Precision::Fixed9
             && sample
+            && shader_filter.is_none()
             && kind != TextureKind::Cube
             && matches!(format, None | Some(TextureFormat::Rgba8 | TextureFormat::Rgb8 | TextureFormat::R8))
         {
@@ -189,7 +209,7 @@ impl Gen<'_> {
             return self.unsupported("a lookup at the pixel outside a screen pass", Some(n));
         };
         if fat && !self.plain_use(n) {
-            b.fat.insert(n, (unit, uv, naga::SampleLevel::Zero));
+            b.fat.insert(n, (unit, uv, naga::SampleLevel::Zero, false));
             return Ok(None);
         }
         let s = self.sample_unit(b, unit, uv, fat.then_some(0), naga::SampleLevel::Zero);
@@ -257,10 +277,7 @@ impl Gen<'_> {
                 Some(n),
             );
         }
-        if channel == FbChannel::Stencil {
-            return self.unsupported(format!("reading the stencil of the target framebuffer `{name}` inside the shader (the stencil test can)"), Some(n));
-        }
-        Ok(self.target_copy(&name, channel == FbChannel::Depth))
+        Ok(self.target_copy(&name, channel == FbChannel::Depth, channel == FbChannel::Stencil))
     }
 
     /// A framebuffer sampled at projective `position`; outside it, its
@@ -326,14 +343,20 @@ impl Gen<'_> {
         texel: ir::Handle<Expr>,
         member: u8,
     ) -> R<NH> {
-        let Some(&(unit, coordinate, level)) = b.fat.get(&texel) else {
+        let Some(&(unit, coordinate, level, filtered)) = b.fat.get(&texel) else {
             return Err(GenError::Internal(format!(
                 "fat member %{} of %{}, which is not a fat lookup here",
                 n.index(),
                 texel.index()
             )));
         };
-        let s = self.sample_unit(b, unit, coordinate, Some(member as i32), level);
+        let s = match self.unit_reads[unit] {
+            UnitRead::Float(filter) if filtered => {
+                let layer = b.plain(Expression::Literal(Literal::I32(member as i32)));
+                self.float_filtered(b, unit, coordinate, Some(layer), filter)
+            }
+            _ => self.sample_unit(b, unit, coordinate, Some(member as i32), level),
+        };
         let w = self.width_of(n);
         Ok(self.narrow(b, s, 4, w))
     }
@@ -382,9 +405,16 @@ impl Gen<'_> {
     /// The global of the copy of the target framebuffer `name` (its depth,
     /// or colour) taken before the pass: `texture_2d<f32>` bound after the
     /// units' textures and samplers, read with `textureLoad`.
-    pub(super) fn target_copy(&mut self, name: &str, depth: bool) -> naga::Handle<GlobalVariable> {
-        if let Some((_, var)) =
-            self.target_copies.iter().find(|(c, _)| c.framebuffer == name && c.depth == depth)
+    pub(super) fn target_copy(
+        &mut self,
+        name: &str,
+        depth: bool,
+        stencil: bool,
+    ) -> naga::Handle<GlobalVariable> {
+        if let Some((_, var)) = self
+            .target_copies
+            .iter()
+            .find(|(c, _)| c.framebuffer == name && c.depth == depth && c.stencil == stencil)
         {
             return *var;
         }
@@ -394,7 +424,14 @@ impl Gen<'_> {
             arrayed: false,
             class: ImageClass::Sampled { kind: ScalarKind::Float, multi: false },
         });
-        let var_name = format!("{}_{}before", sanitize(name), if depth { "depth_" } else { "" });
+        let aspect = if depth {
+            "depth_"
+        } else if stencil {
+            "stencil_"
+        } else {
+            ""
+        };
+        let var_name = format!("{}_{aspect}before", sanitize(name));
         let var = self.module.global_variables.append(
             GlobalVariable {
                 name: Some(var_name),
@@ -406,7 +443,7 @@ impl Gen<'_> {
             },
             naga::Span::UNDEFINED,
         );
-        self.target_copies.push((TargetCopy { binding, framebuffer: name.to_string(), depth }, var));
+        self.target_copies.push((TargetCopy { binding, framebuffer: name.to_string(), depth, stencil }, var));
         var
     }
 
@@ -446,7 +483,7 @@ impl Gen<'_> {
                 });
             match target {
                 Some(t) if with_depth => {
-                    let var = self.target_copy(&t, true);
+                    let var = self.target_copy(&t, true, false);
                     let texel = self.load_at_pixel(b, var)?;
                     b.emit(Expression::AccessIndex { base: texel, index: 0 })
                 }
