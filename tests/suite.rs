@@ -79,6 +79,7 @@ mod wgsl_snapshots;
 mod wgsl_texture_targets;
 
 mod chain_growth;
+mod planner_heldout;
 mod wgpu_dual_paraboloid;
 mod wgpu_light_culling;
 mod wgpu_rendered_mipmaps;
