@@ -171,7 +171,9 @@ pub(super) fn cannot_split(
 ) -> Diagnostic {
     let span = o.at.map(|h| m.span(h)).filter(|s| *s != Span::DETACHED).unwrap_or(st.span);
     let clamped = |o: &Overflow| o.resource.ends_with(form::CLAMPED_BETWEEN_PASSES);
-    if tried.iter().all(|(_, t)| clamped(t)) && (!tried.is_empty() || clamped(o)) {
+    // As written alone, only where the fragment stage gave no advice of its
+    // own (the code generator's help says more than the clamps do).
+    if tried.iter().all(|(_, t)| clamped(t)) && (!tried.is_empty() || (clamped(o) && o.help.is_none())) {
         // As written too: what the one pass lacks, without the clamp
         // sentence the headline says itself.
         let suffix = format!(", {}", form::CLAMPED_BETWEEN_PASSES);

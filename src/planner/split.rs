@@ -769,17 +769,10 @@ impl<'a> Splitter<'a> {
         depth: usize,
         overflow: &Overflow,
     ) -> Option<Vec<Piece>> {
-        // `saturate(x)` into an 8-bit temporary: `x`, which the store
-        // clamps (`C ⊕ (A + B)` modulates by the sum clamped, as GL's
-        // blend does; both products take several passes).
-        let (computed, clamped) = match &self.module.exprs[e] {
-            Expr::Math { fun: crate::ir::MathFunction::Saturate, args }
-                if self.storage.clamps(Dest::Temp(0)) =>
-            {
-                (args[0], true)
-            }
-            _ => (e, false),
-        };
+        // (`saturate(x)` is not computed as `x` into an 8-bit temporary
+        // relying on its store to clamp: an f32 executor's temporary keeps
+        // `x`, and the differential suite caught it.)
+        let (computed, clamped) = (e, false);
         // `k·x` past 1 into an 8-bit temporary: `x`, the lookup scaled by
         // `k` (`3·T0²·T1²·T2·T3` of a cube multiplied out: the temporary
         // holds the product, the add blends three times it, its source
