@@ -221,6 +221,15 @@ fn compare(original: &Module, planned: &Planned, samples: u64) -> f64 {
                     out[c] = blended[c];
                 }
             }
+            // An 8-bit temporary stores its value clamped to [0, 1], as
+            // the target's texture does (a float one keeps it).
+            let fixed = matches!(pass.target, RenderTarget::Temporary { .. })
+                && m.textures
+                    .iter()
+                    .any(|t| t.name == name && matches!(t.format, shadec::parser::ast::TextureFormat::Rgba8));
+            if fixed {
+                out = out.map(|x| x.clamp(0.0, 1.0));
+            }
             store.insert(name, out.map(|x| x as f64));
         }
         for (name, want) in &fb {

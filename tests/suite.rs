@@ -81,6 +81,7 @@ mod wgsl_texture_targets;
 mod chain_growth;
 mod stencil_writes;
 mod vertex_programs_public;
+mod planner_heldout;
 mod wgpu_dual_paraboloid;
 mod wgpu_light_culling;
 mod wgpu_rendered_mipmaps;

@@ -412,6 +412,17 @@ pub fn canonical(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
 fn simplify(m: &mut Module, h: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
     match m.exprs[h].clone() {
         Expr::Swizzle { value, pattern, len, ty } => read_channel(m, value, pattern, len, ty, span),
+        // x / k = x · (1/k) for a scalar constant k: a scale the
+        // combiners and the blender have, where a division per fragment
+        // is not (`3·T / 3`, the help's scaling of a float framebuffer).
+        Expr::Binary { op: BinaryOp::Div, lhs, rhs } => match m.exprs[rhs].clone() {
+            Expr::Constant(c) if c.ty == Ty::Scalar && c.components[0] != 0.0 => {
+                let inverse =
+                    node(m, Expr::Constant(crate::ir::Constant::scalar(1.0 / c.components[0])), span)?;
+                binary(m, BinaryOp::Mul, lhs, inverse, span)
+            }
+            _ => None,
+        },
         Expr::Math { fun: MathFunction::Mix, args } if m.info(args[2]).ty == Ty::Scalar => {
             // lerp(a, b, f) = a·(1 − f) + b·f (as `ir::eval` defines it).
             let one = node(m, Expr::Constant(crate::ir::Constant::scalar(1.0)), span)?;

@@ -199,9 +199,8 @@ pub fn whole_form(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result
                 .or_else(|| super::stencil::stencil_form(m, st, value))
                 .ok_or_else(|| super::stencil::unsupported(st))
         }
-        Table::Framebuffer { channel: FbChannel::Depth, .. } => {
-            return Err(unsupported_blend(st, "a write to the depth channel"))
-        }
+        Table::Framebuffer { channel: FbChannel::Depth, .. } => return Err(unsupported_blend(st, "a write to the depth channel")
+            .with_help("the depth channel is written by drawing: `Cl δπl x ← δ x` stores the mesh's nearest depth (a shadow map's first pass, Pipeline Grammar, Section 3.5), and every colour statement on a mesh tests and writes it; a computed value cannot be stored there")),
         Table::Framebuffer { channel: FbChannel::Alpha, .. } => form.channels = "a",
         Table::Framebuffer { channel: FbChannel::Color, .. } => {}
     }
@@ -240,6 +239,16 @@ pub fn whole_form(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result
     Ok(form)
 }
 
+/// How to blend an alpha that an alpha write cannot.
+const ALPHA_HELP: &str = "write the alpha without reading the framebuffer (`α C δπx ← (T δu x).a`), or blend colour and alpha together in one rgba statement: `C δπx ← (C δπx) ⊕ rgba((1, 1, 1), a)` modulates the alpha by `a` and keeps the colour";
+
+/// A statement that reads its target's colour other than as one blend.
+fn non_linear(st: &Statement) -> Diagnostic {
+    unsupported_blend(st, "the framebuffer's colour is used non-linearly").with_help(
+        "blending computes `C·m + s` of the framebuffer's colour `C`, with `m` and `s` not reading it (Pipeline Grammar, eq. (9)): write the statement so (`C ← (C) ⊕ m`, `C ← (C) ⊕[add] s`), or compute the value in the statement that wrote `C`",
+    )
+}
+
 pub(super) fn unsupported_blend(st: &Statement, what: &str) -> Diagnostic {
     Diagnostic::error("unsupported-blend", format!("framebuffer blending cannot express this: {what}"), st.span, "this statement")
         .with_help("write the statement as `C ← (C) ⊕ e`, `C ← (C) ⊕[add] e`, `C ← (C) ⊕[add] ((α C) * e)`, or compute the value without reading the framebuffer")
@@ -261,7 +270,7 @@ pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<F
         return Ok(form);
     }
     if form.channels == "a" {
-        return Err(unsupported("an alpha write that reads the framebuffer"));
+        return Err(unsupported("an alpha write that reads the framebuffer").with_help(ALPHA_HELP));
     }
     if let Some(r) = r.filter(|r| split::depends_on(m, v, *r)) {
         // `T ⊕[decal] C`: alpha blending.
@@ -272,8 +281,8 @@ pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<F
                 return Ok(form);
             }
         }
-        let (coef, offset) = affine::affine(&mut Builder { module: m }, v, r)
-            .ok_or_else(|| unsupported("the framebuffer's colour is used non-linearly"))?;
+        let (coef, offset) =
+            affine::affine(&mut Builder { module: m }, v, r).ok_or_else(|| non_linear(st))?;
         if let Some(ra) = ra.filter(|ra| coef == *ra) {
             // Cα·C + (1 − Cα)·f
             let omr = Builder { module: m }.one_minus(ra);
@@ -513,6 +522,7 @@ fn stencil_pieces(m: &mut Module, form: &Form) -> Result<Vec<Piece>, Overflow> {
         dest: Dest::Main,
         alpha: true,
         why: String::new(),
+        holds: None,
     }])
 }
 
@@ -569,7 +579,7 @@ pub(super) fn through_clamps(
         .into()),
     }
     };
-    if !split::exact_through_clamps(m, pieces, storage) {
+    if !split::exact_through_clamps(m, pieces, storage, &cache.clamped_temps) {
         cache.clamp_refusals += 1;
         return Err(refusal(if storage.subtract {
             "its passes would blend a term outside [0, 1] or store one between passes"

@@ -25,6 +25,7 @@
 pub mod affine;
 pub mod algebra;
 mod assemble;
+mod clamps;
 pub mod fit;
 mod form;
 pub mod hilo;

@@ -29,10 +29,17 @@ pub(super) fn planned_or_rewritten(
 ) -> Result<(Form, Vec<Piece>), Result<Unplanned, Diagnostic>> {
     let single = stmts.len() == 1;
     let as_written = candidate(m, search, fits, baked, stmts, value, storage_of(profile));
+    let canonical = fits.canonical.contains(&value);
     let (written_cost, why) = match &as_written {
-        Ok((_, pieces)) if single && fits.canonical.contains(&value) => (
+        Ok((_, pieces)) if single && canonical => (
             Some(split::cost(m, fits.fit(baked), pieces)),
             format!("as written {} cannot run it", profile.name),
+        ),
+        // Render-to-texture is the last resort of a split: a form may
+        // plan without it (a sum of lights merged back into one δ).
+        Ok((_, pieces)) if single && pieces.iter().any(|p| p.dest != Dest::Main) => (
+            Some(split::cost(m, fits.fit(baked), pieces)),
+            format!("as written it takes {} passes through a temporary", pieces.len()),
         ),
         Err(Unplanned::Overflow(o)) if single => (None, format!("as written it {o}")),
         _ => return as_written.map_err(Ok),
@@ -48,6 +55,7 @@ pub(super) fn planned_or_rewritten(
         Err(tried) => tried,
     };
     match as_written {
+        Ok(planned) if !canonical => Ok(planned),
         Ok((form, mut pieces)) => {
             // The canonical form the target runs is the cheapest.
             let note = format!("{} ({why})", algebra::CANONICAL);
@@ -163,8 +171,17 @@ pub(super) fn cannot_split(
 ) -> Diagnostic {
     let span = o.at.map(|h| m.span(h)).filter(|s| *s != Span::DETACHED).unwrap_or(st.span);
     let clamped = |o: &Overflow| o.resource.ends_with(form::CLAMPED_BETWEEN_PASSES);
-    if !tried.is_empty() && !clamped(o) && tried.iter().all(|(_, t)| clamped(t)) {
-        return not_exact_through_clamps(st, profile, o, span, tried);
+    // As written alone, only where the fragment stage gave no advice of its
+    // own (the code generator's help says more than the clamps do).
+    if tried.iter().all(|(_, t)| clamped(t)) && (!tried.is_empty() || (clamped(o) && o.help.is_none())) {
+        // As written too: what the one pass lacks, without the clamp
+        // sentence the headline says itself.
+        let suffix = format!(", {}", form::CLAMPED_BETWEEN_PASSES);
+        let whole = match o.resource.strip_suffix(&suffix) {
+            Some(r) => Overflow { resource: r.to_string(), ..o.clone() },
+            None => o.clone(),
+        };
+        return not_exact_through_clamps(st, profile, &whole, span, tried);
     }
     let d = cannot_split_as_written(st, profile, o, span);
     if tried.is_empty() {
@@ -210,10 +227,14 @@ fn not_exact_through_clamps(
         "every split that fits is changed by the clamps between passes".to_string(),
     )
     .with_label(span, format!("as one pass, this part {o}"))
-    .with_help(format!(
-        "keep each blended term and each partial product in [0, 1] (a `saturate(…)` where a clamp is meant), or {wider}; the planner also tried the statement in its equivalent forms ({}), and in each the splits that fit are changed by a clamp",
-        forms.join("; ")
-    ))
+    .with_help(if forms.is_empty() {
+        format!("keep each blended term and each partial product in [0, 1] (a `saturate(…)` where a clamp is meant), or {wider}")
+    } else {
+        format!(
+            "keep each blended term and each partial product in [0, 1] (a `saturate(…)` where a clamp is meant), or {wider}; the planner also tried the statement in its equivalent forms ({}), and in each the splits that fit are changed by a clamp",
+            forms.join("; ")
+        )
+    })
 }
 
 pub(super) fn cannot_split_as_written(

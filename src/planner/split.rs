@@ -31,6 +31,8 @@ use rustc_hash::{FxHashMap as HashMap, FxHashSet};
 use std::rc::Rc;
 
 use super::affine::{affine, contains, Builder};
+use super::clamps::constant_factor;
+pub use super::clamps::{exact_through_clamps, lerp_bound, signed_terms};
 use crate::ir::{BinaryOp, Expr, Handle, Interval, Module, Texture, Ty, Usage};
 use crate::parser::ast::{CombineMode, TextureFormat, TextureKind};
 use crate::pipeline::BlendMode;
@@ -131,6 +133,11 @@ pub struct Piece {
     pub alpha: bool,
     /// How the split produced this piece.
     pub why: String,
+    /// What the destination holds after this piece, where that is known
+    /// tighter than the sum of the ranges blended into it: a `lerp`
+    /// written out as `x·(1 − f) + y·f` holds what `x` and `y` hold
+    /// ([`lerp_bound`]), so a factor after it is modulated exactly.
+    pub holds: Option<Interval>,
 }
 
 pub type Pieces = Rc<Vec<Piece>>;
@@ -206,6 +213,9 @@ pub struct SplitCache {
     /// Splits refused because a clamp between passes would change the
     /// value ([`exact_through_clamps`]): the refusal says so.
     pub clamp_refusals: usize,
+    /// The 8-bit temporaries that hold `saturate(x)` as `x` clamped by
+    /// the store: what they end with may leave [0, 1].
+    pub clamped_temps: FxHashSet<u32>,
 }
 
 pub struct Splitter<'a> {
@@ -284,6 +294,7 @@ impl<'a> Splitter<'a> {
                     dest: Dest::Main,
                     alpha: true,
                     why: String::new(),
+                    holds: None,
                 }]))
             }
             Err(o) => o,
@@ -324,6 +335,11 @@ impl<'a> Splitter<'a> {
         if let Some(c) = self.chain_split(mode, e, depth, &overflow) {
             consider(self, c, &mut fitting);
         }
+        if let Some(d) = self.widened_operands(mode, e) {
+            if let Some(c) = self.plan_at(mode, d, depth + 1) {
+                consider(self, c.to_vec(), &mut fitting);
+            }
+        }
         if mode == BlendMode::Replace {
             for c in self.peels(e, depth, &overflow) {
                 consider(self, c, &mut fitting);
@@ -331,7 +347,42 @@ impl<'a> Splitter<'a> {
         } else if let Some(c) = self.render_to_texture(mode, e, depth, &overflow) {
             consider(self, c, &mut fitting);
         }
-        fastest(fitting).map(Rc::new)
+        let mut best = fastest(fitting)?;
+        if mode == BlendMode::Replace {
+            if let (Some(bound), Some(last)) =
+                (lerp_bound(self.module, e), best.iter_mut().rev().find(|p| p.dest == Dest::Main))
+            {
+                last.holds = Some(bound);
+            }
+        }
+        Some(Rc::new(best))
+    }
+
+    /// An rgb sum added (or product modulated) in as rgba, alpha 1, as the
+    /// sum (product) of its operands each widened to rgba: the alpha the
+    /// target holds is the same (`min(1, a + 1 + 1)` = `min(1, a + 1)`;
+    /// `a·1·1` = `a·1`), and each operand may then be its own pass or
+    /// temporary (`C ⊕[add] (A + B)` with `A`, `B` products of three
+    /// textures on a 2-unit target).
+    fn widened_operands(&mut self, mode: BlendMode, e: Handle<Expr>) -> Option<Handle<Expr>> {
+        let Expr::Convert { value, to: Ty::Rgba } = self.module.exprs[e] else { return None };
+        if !matches!(self.module.info(value).ty, Ty::Rgb | Ty::Vec3) {
+            return None;
+        }
+        let op = self.chain_op(value)?;
+        if !matches!((mode, op), (BlendMode::Add, ChainOp::Add) | (BlendMode::Modulate, ChainOp::Mul)) {
+            return None;
+        }
+        let mut ops = Vec::new();
+        self.flatten(value, op, &mut ops);
+        if ops.iter().any(|&o| !matches!(self.module.info(o).ty, Ty::Rgb | Ty::Vec3)) {
+            return None;
+        }
+        let widened: Vec<Handle<Expr>> = ops
+            .into_iter()
+            .map(|o| Builder { module: self.module }.node(Expr::Convert { value: o, to: Ty::Rgba }))
+            .collect::<Option<_>>()?;
+        self.build_chain(op, &widened)
     }
 
     // ---- chain split ----------------------------------------------------
@@ -409,7 +460,8 @@ impl<'a> Splitter<'a> {
                 best = Some((c, cand));
             }
         };
-        let piece = |blend, value, why| Piece { blend, value, dest: Dest::Main, alpha: true, why };
+        let piece =
+            |blend, value, why| Piece { blend, value, dest: Dest::Main, alpha: true, why, holds: None };
         // Plain partitions: every group one pass.
         for mut groups in self.partitions(op, &ops) {
             self.signed_last(op, &mut groups);
@@ -421,36 +473,61 @@ impl<'a> Splitter<'a> {
             }
             keep(self, pieces);
         }
-        // A head planned on its own (several passes), the rest grouped after it.
-        if mode == BlendMode::Replace {
-            for i in 0..n {
-                // Checked before the others are gathered: gathering them
-                // for every operand made a long chain quadratic.
-                if self.fits(ops[i]).is_ok() {
-                    continue; // then it is just a group of a plain partition
+        // A head planned on its own (several passes; blended onto the
+        // target, through a temporary), the rest grouped after it, or,
+        // where no grouping of the rest fits, the rest planned on its own
+        // as well: a sum of several terms that each take several passes
+        // (issue 34) renders each into a temporary and adds it.
+        for i in 0..n {
+            // Checked before the others are gathered: gathering them
+            // for every operand made a long chain quadratic.
+            if self.fits(ops[i]).is_ok() {
+                continue; // then it is just a group of a plain partition
+            }
+            let others: Vec<Handle<Expr>> =
+                ops.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, h)| *h).collect();
+            let Some(head) = self.plan_at(first, ops[i], depth + 1) else { continue };
+            let partitions = self.partitions(op, &others);
+            if partitions.is_empty() {
+                if let Some(tail) = self.rest_planned(op, rest, &others, depth) {
+                    keep(self, head.iter().chain(tail.iter()).cloned().collect());
                 }
-                let others: Vec<Handle<Expr>> =
-                    ops.iter().enumerate().filter(|(j, _)| *j != i).map(|(_, h)| *h).collect();
-                let Some(head) = self.plan_at(BlendMode::Replace, ops[i], depth + 1) else { continue };
-                for mut groups in self.partitions(op, &others) {
-                    self.signed_last(op, &mut groups);
-                    let g = groups.len() + 1;
-                    let mut pieces: Vec<Piece> = head.iter().cloned().collect();
-                    for (k, group) in groups.into_iter().enumerate() {
-                        pieces.push(piece(rest, group, why(k + 2, g, rest)));
-                    }
-                    keep(self, pieces);
+            }
+            for mut groups in partitions {
+                self.signed_last(op, &mut groups);
+                let g = groups.len() + 1;
+                let mut pieces: Vec<Piece> = head.iter().cloned().collect();
+                for (k, group) in groups.into_iter().enumerate() {
+                    pieces.push(piece(rest, group, why(k + 2, g, rest)));
                 }
+                keep(self, pieces);
             }
         }
         best.map(|(_, p)| p)
+    }
+
+    /// The operands after a chain's head, as one chain planned on its own
+    /// with `mode` (recursively: a multi-pass term among them becomes the
+    /// next head), where no partition of them into one-pass groups fits.
+    fn rest_planned(
+        &mut self,
+        op: ChainOp,
+        mode: BlendMode,
+        others: &[Handle<Expr>],
+        depth: usize,
+    ) -> Option<Pieces> {
+        if others.is_empty() {
+            return None;
+        }
+        let chain = self.build_chain(op, others)?;
+        self.plan_at(mode, chain, depth + 1)
     }
 
     /// The cost of `cand` as the blender runs it ([`signed_terms`]), or
     /// `None` (counted as a clamp refusal) where it is not exact through
     /// the clamps ([`exact_through_clamps`]).
     fn exact_cost(&mut self, cand: &[Piece]) -> Option<Cost> {
-        let blended = exact_through_clamps(self.module, cand, self.storage)
+        let blended = exact_through_clamps(self.module, cand, self.storage, &self.cache.clamped_temps)
             .then(|| signed_terms(self.module, self.fit, cand, self.storage))
             .flatten();
         let Some(blended) = blended else {
@@ -508,6 +585,7 @@ impl<'a> Splitter<'a> {
                         dest: Dest::Main,
                         alpha: true,
                         why: String::new(),
+                        holds: None,
                     };
                     *slot = Some((h, (self.fit.piece_ns(self.module, &piece), 1, self.units(h))));
                 }
@@ -630,6 +708,7 @@ impl<'a> Splitter<'a> {
                         dest: Dest::Main,
                         alpha: true,
                         why: format!("{overflow}: decal: the texture alpha-blended over the rest"),
+                        holds: None,
                     });
                     out.push(p);
                 }
@@ -690,8 +769,28 @@ impl<'a> Splitter<'a> {
         depth: usize,
         overflow: &Overflow,
     ) -> Option<Vec<Piece>> {
-        let inner = self.plan_at(BlendMode::Replace, e, depth + 1)?;
+        // (`saturate(x)` is not computed as `x` into an 8-bit temporary
+        // relying on its store to clamp: an f32 executor's temporary keeps
+        // `x`, and the differential suite caught it.)
+        let (computed, clamped) = (e, false);
+        // `k·x` past 1 into an 8-bit temporary: `x`, the lookup scaled by
+        // `k` (`3·T0²·T1²·T2·T3` of a cube multiplied out: the temporary
+        // holds the product, the add blends three times it, its source
+        // clamped as the sum would be).
+        let scaled = match self.storage.clamps(Dest::Temp(0)) && self.module.info(computed).interval.hi > 1.0
+        {
+            true => constant_factor(self.module, computed),
+            false => None,
+        };
+        let (computed, scale) = match scaled {
+            Some((k, rest)) => (rest, Some(k)),
+            None => (computed, None),
+        };
+        let inner = self.plan_at(BlendMode::Replace, computed, depth + 1)?;
         let id = self.temp_for(e);
+        if clamped {
+            self.cache.clamped_temps.insert(id);
+        }
         let texture = self.temp_texture(id);
         let lookup = Builder { module: self.module }.node(Expr::Lookup { texture, coords: self.position })?;
         let mut lookup = lookup;
@@ -703,6 +802,10 @@ impl<'a> Splitter<'a> {
                 Ty::Scalar => b.component(lookup, 0)?,
                 _ => lookup,
             };
+        }
+        if let Some(k) = scale {
+            let mut b = Builder { module: self.module };
+            lookup = b.mul(k, lookup).filter(|&h| b.module.info(h).ty == ty)?;
         }
         self.fits(lookup).ok()?;
         let mut p: Vec<Piece> = inner
@@ -721,6 +824,7 @@ impl<'a> Splitter<'a> {
             dest: Dest::Main,
             alpha: true,
             why: format!("{overflow}: the temporary blended in ({})", mode.name()),
+            holds: None,
         });
         Some(p)
     }
@@ -753,200 +857,6 @@ impl<'a> Splitter<'a> {
             span: Span::DETACHED,
         });
         (self.module.textures.len() - 1) as u32
-    }
-}
-
-/// Whether a split gives what the unsplit value gives on a framebuffer
-/// that stores [0, 1] (8-bit, Kilgard 2000, Section 5: every pass's result is
-/// clamped when written, and GL clamps a blend's source there too, OpenGL
-/// 1.2.1 §4.1.8). The meaning clamps once, at the end; a split clamps after
-/// every pass. Tracking the range `h` of what the target would hold
-/// unclamped (the framebuffer's [0, 1] before its first piece), a piece is
-/// exact when:
-/// - `replace v`: always (the stored value's clamp is carried on in `h`);
-/// - `add v`, `v ≥ 0`: `h ≥ 0` (min(1, min(1, h) + v) = min(1, h + v));
-/// - `add v`, `v` of either sign: `h ⊆ [0, 1]` and the blender subtracts —
-///   [`signed_terms`] writes it as `add v` then `reverse_subtract −v`, each
-///   source clamped to its non-negative part, so one of them adds nothing;
-///   `v ≤ 0`: `h ≤ 1` (only the subtraction);
-/// - `reverse_subtract s`, `s ≥ 0`: `h ≤ 1`;
-/// - `modulate m`, `m ≤ 1`, `h ≤ 1`, and `m ≥ 0` or `h ≥ 0` (a negative
-///   factor is clamped to 0, the product is ≤ 0 and clamped to 0 as well);
-///   `m ≤ 2` as `modulate_2x` of `m/2` ([`signed_terms`]; GL 1.1's
-///   GL_DST_COLOR, GL_SRC_COLOR, which every target has).
-///
-/// Otherwise — `(diffuse + specular) · decal` with the sum above 1, a sum
-/// whose first pass may be negative — the later pass reads a clamped value:
-/// the split is refused here and another one (the decal distributed over
-/// the terms, the terms reordered) is taken, or the statement is refused.
-/// A temporary on an 8-bit texture is clamped when stored, so what it ends
-/// with must be in [0, 1] too. A float target clamps nothing.
-pub fn exact_through_clamps(module: &Module, pieces: &[Piece], storage: Storage) -> bool {
-    let mut held: HashMap<Dest, Interval> = HashMap::default();
-    for p in pieces {
-        if !storage.clamps(p.dest) {
-            continue;
-        }
-        let v = module.info(p.value).interval;
-        let b = held.get(&p.dest).copied().unwrap_or(Interval::UNSIGNED);
-        let Some(after) = exact_blend(p.blend, b, v, storage.subtract) else { return false };
-        held.insert(p.dest, after);
-    }
-    held.iter().all(|(d, i)| *d == Dest::Main || (i.lo >= 0.0 && i.hi <= 1.0))
-}
-
-/// What a clamped target holds (unclamped) after `blend` of a value in `v`
-/// onto one holding `b`, when the clamps leave the result exact
-/// ([`exact_through_clamps`]).
-fn exact_blend(blend: BlendMode, b: Interval, v: Interval, subtract: bool) -> Option<Interval> {
-    let unit = |i: Interval| i.lo >= 0.0 && i.hi <= 1.0;
-    let sum = crate::ir::valid::add(b, v);
-    match blend {
-        BlendMode::Replace => Some(v),
-        BlendMode::Add if v.lo >= 0.0 => (b.lo >= 0.0).then_some(sum),
-        BlendMode::Add if v.hi <= 0.0 => (subtract && b.hi <= 1.0).then_some(sum),
-        BlendMode::Add => (subtract && unit(b)).then_some(sum),
-        BlendMode::ReverseSubtract => {
-            (v.lo >= 0.0 && b.hi <= 1.0).then(|| crate::ir::valid::add(b, Interval { lo: -v.hi, hi: -v.lo }))
-        }
-        // Past 1 (up to 2) as `modulate_2x` of `m/2` ([`signed_terms`]).
-        BlendMode::Modulate => {
-            (v.hi <= 2.0 && b.hi <= 1.0 && (v.lo >= 0.0 || b.lo >= 0.0)).then(|| crate::ir::valid::mul(b, v))
-        }
-        // The alpha blends: both in [0, 1], the result too.
-        _ => (unit(b) && unit(v)).then_some(Interval::UNSIGNED),
-    }
-}
-
-/// `pieces` as the blender runs them on a clamped target: an `add` of a
-/// term that may be negative becomes `add v` then `reverse_subtract −v`
-/// (`−v` alone when `v ≤ 0`); a `modulate` by a factor past 1 becomes
-/// `modulate_2x` of half of it. GL clamps each source to [0, 1] on a
-/// fixed-point target (§4.1.8), so at every fragment one of the two is 0
-/// and the other adds or takes off what `v` means there; exact where
-/// [`exact_through_clamps`] accepted the add. `None` when `−v` (or `m/2`)
-/// does not fit a pass of the target.
-pub fn signed_terms(
-    module: &mut Module,
-    fit: &dyn FitCheck,
-    pieces: &[Piece],
-    storage: Storage,
-) -> Option<Vec<Piece>> {
-    let mut out = Vec::with_capacity(pieces.len());
-    for p in pieces {
-        let v = module.info(p.value).interval;
-        if p.blend == BlendMode::Modulate && v.hi > 1.0 && storage.clamps(p.dest) {
-            let half = halved(module, p.value).filter(|&h| fit.fits(module, h).is_ok())?;
-            out.push(Piece {
-                blend: BlendMode::Modulate2x,
-                value: half,
-                why: format!(
-                    "{}{}a factor up to {}, halved into [0, 1] and doubled by the blender (2× modulate)",
-                    p.why,
-                    if p.why.is_empty() { "" } else { "; " },
-                    v.hi
-                ),
-                ..p.clone()
-            });
-            continue;
-        }
-        if p.blend != BlendMode::Add || v.lo >= 0.0 || !storage.clamps(p.dest) {
-            out.push(p.clone());
-            continue;
-        }
-        let negated = negation(module, p.value).filter(|&n| fit.fits(module, n).is_ok())?;
-        if v.hi > 0.0 {
-            out.push(Piece {
-                why: format!("{}; its part above 0 (the blend clamps the rest)", p.why),
-                ..p.clone()
-            });
-        }
-        out.push(Piece {
-            blend: BlendMode::ReverseSubtract,
-            value: negated,
-            why: format!(
-                "{}{}its part below 0, taken off by the blender (reverse subtract), which an add would clamp to 0",
-                p.why,
-                if p.why.is_empty() { "" } else { "; " }
-            ),
-            ..p.clone()
-        });
-    }
-    Some(out)
-}
-
-/// `v/2`, as the target computes it most simply: `2·x` is `x`, an rgb
-/// value written with alpha 1 gets alpha ½.
-fn halved(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Expr>> {
-    if let Expr::Convert { value, to: Ty::Rgba } = module.exprs[v] {
-        if matches!(module.info(value).ty, Ty::Rgb | Ty::Vec3) {
-            let colour = halved(module, value)?;
-            let mut b = Builder { module };
-            let alpha = b.constant(Ty::Scalar, 0.5)?;
-            return b.node(Expr::Compose { ty: Ty::Rgba, components: vec![colour, alpha] });
-        }
-    }
-    if let Expr::Binary { op: BinaryOp::Mul, lhs, rhs }
-    | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs } = module.exprs[v]
-    {
-        for (k, x) in [(lhs, rhs), (rhs, lhs)] {
-            if module.is_constant(k, 2.0) && module.info(x).ty == module.info(v).ty {
-                return Some(x);
-            }
-        }
-    }
-    if let Some(h) = halved_coefficient(module, v) {
-        return Some(h);
-    }
-    let mut b = Builder { module };
-    let half = b.constant(Ty::Scalar, 0.5)?;
-    b.mul(v, half).filter(|&h| b.module.info(h).ty == b.module.info(v).ty)
-}
-
-/// A product with a scalar constant factor `k` anywhere in it, with `k/2`
-/// in its place (none for `k = 2`): `2·T0·T1` halved is `T0·T1`, where
-/// `(2·T0·T1)·½` would compute `2·T0` past 1 first, which a fixed-point
-/// combiner clamps.
-fn halved_coefficient(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Expr>> {
-    let mut factors = Vec::new();
-    let mut stack = vec![v];
-    while let Some(x) = stack.pop() {
-        match module.exprs[x] {
-            Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => {
-                stack.push(rhs);
-                stack.push(lhs);
-            }
-            _ => factors.push(x),
-        }
-    }
-    let k = factors.iter().position(
-        |&f| matches!(&module.exprs[f], Expr::Constant(c) if c.ty == Ty::Scalar && c.components[0] > 0.0),
-    )?;
-    let Expr::Constant(c) = module.exprs[factors[k]].clone() else { return None };
-    let mut b = Builder { module };
-    if c.components[0] == 2.0 {
-        factors.remove(k);
-    } else {
-        factors[k] = b.constant(Ty::Scalar, c.components[0] / 2.0)?;
-    }
-    let mut acc = *factors.first()?;
-    for &f in &factors[1..] {
-        acc = b.mul(acc, f)?;
-    }
-    (b.module.info(acc).ty == b.module.info(v).ty).then_some(acc)
-}
-
-/// `−v`, as the target computes it most simply: a subtraction's operands
-/// swapped, else a negation.
-fn negation(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Expr>> {
-    let mut b = Builder { module };
-    match b.module.exprs[v] {
-        Expr::Combine { mode: CombineMode::Subtract, lhs, rhs } => {
-            b.node(Expr::Combine { mode: CombineMode::Subtract, lhs: rhs, rhs: lhs })
-        }
-        Expr::Binary { op: BinaryOp::Sub, lhs, rhs } => b.binary(BinaryOp::Sub, rhs, lhs),
-        Expr::Unary { op: crate::ir::UnaryOp::Neg, value } => Some(value),
-        _ => b.neg(v),
     }
 }
 

@@ -1,0 +1,287 @@
+//! What the 8-bit clamps between passes do to a split (Kilgard 2000,
+//! Section 5; OpenGL 1.2.1 §2.13.9, §4.1.8): which splits are exact
+//! through them, and the pieces as the blender runs them (a term below 0
+//! taken off by a reverse subtraction, a factor past 1 halved and doubled).
+
+use rustc_hash::{FxHashMap as HashMap, FxHashSet};
+
+use super::affine::Builder;
+use super::split::{Dest, FitCheck, Piece, Storage};
+use crate::ir::{BinaryOp, Expr, Handle, Interval, Module, Ty};
+use crate::parser::ast::CombineMode;
+use crate::pipeline::BlendMode;
+
+/// Whether a split gives what the unsplit value gives on a framebuffer
+/// that stores [0, 1] (8-bit, Kilgard 2000, Section 5: every pass's result is
+/// clamped when written, and GL clamps a blend's source there too, OpenGL
+/// 1.2.1 §4.1.8). The meaning clamps once, at the end; a split clamps after
+/// every pass. Tracking the range `h` of what the target would hold
+/// unclamped (the framebuffer's [0, 1] before its first piece), a piece is
+/// exact when:
+/// - `replace v`: always (the stored value's clamp is carried on in `h`);
+/// - `add v`, `v ≥ 0`: `h ≥ 0` (min(1, min(1, h) + v) = min(1, h + v));
+/// - `add v`, `v` of either sign: `h ⊆ [0, 1]` and the blender subtracts —
+///   [`signed_terms`] writes it as `add v` then `reverse_subtract −v`, each
+///   source clamped to its non-negative part, so one of them adds nothing;
+///   `v ≤ 0`: `h ≤ 1` (only the subtraction);
+/// - `reverse_subtract s`, `s ≥ 0`: `h ≤ 1`;
+/// - `modulate m`, `m ≤ 1`, `h ≤ 1`, and `m ≥ 0` or `h ≥ 0` (a negative
+///   factor is clamped to 0, the product is ≤ 0 and clamped to 0 as well);
+///   `m ≤ 2` as `modulate_2x` of `m/2` ([`signed_terms`]; GL 1.1's
+///   GL_DST_COLOR, GL_SRC_COLOR, which every target has).
+///
+/// Otherwise — `(diffuse + specular) · decal` with the sum above 1, a sum
+/// whose first pass may be negative — the later pass reads a clamped value:
+/// the split is refused here and another one (the decal distributed over
+/// the terms, the terms reordered) is taken, or the statement is refused.
+/// A temporary on an 8-bit texture is clamped when stored, so what it ends
+/// with must be in [0, 1] too, unless it is one of `clamped_temps`, which
+/// hold `saturate(x)` as `x` clamped by the store. A float target clamps
+/// nothing.
+pub fn exact_through_clamps(
+    module: &Module,
+    pieces: &[Piece],
+    storage: Storage,
+    clamped_temps: &FxHashSet<u32>,
+) -> bool {
+    let mut held: HashMap<Dest, Interval> = HashMap::default();
+    for p in pieces {
+        if !storage.clamps(p.dest) {
+            continue;
+        }
+        let v = module.info(p.value).interval;
+        let b = held.get(&p.dest).copied().unwrap_or(Interval::UNSIGNED);
+        let Some(after) = exact_blend(p.blend, b, v, storage.subtract) else { return false };
+        let after = match p.holds {
+            Some(h) => Interval { lo: after.lo.max(h.lo), hi: after.hi.min(h.hi) },
+            None => after,
+        };
+        held.insert(p.dest, after);
+    }
+    held.iter().all(|(d, i)| match d {
+        Dest::Main => true,
+        Dest::Temp(t) => clamped_temps.contains(t) || (i.lo >= 0.0 && i.hi <= 1.0),
+    })
+}
+
+/// What a clamped target holds (unclamped) after `blend` of a value in `v`
+/// onto one holding `b`, when the clamps leave the result exact
+/// ([`exact_through_clamps`]).
+fn exact_blend(blend: BlendMode, b: Interval, v: Interval, subtract: bool) -> Option<Interval> {
+    let unit = |i: Interval| i.lo >= 0.0 && i.hi <= 1.0;
+    let sum = crate::ir::valid::add(b, v);
+    match blend {
+        BlendMode::Replace => Some(v),
+        BlendMode::Add if v.lo >= 0.0 => (b.lo >= 0.0).then_some(sum),
+        BlendMode::Add if v.hi <= 0.0 => (subtract && b.hi <= 1.0).then_some(sum),
+        BlendMode::Add => (subtract && unit(b)).then_some(sum),
+        BlendMode::ReverseSubtract => {
+            (v.lo >= 0.0 && b.hi <= 1.0).then(|| crate::ir::valid::add(b, Interval { lo: -v.hi, hi: -v.lo }))
+        }
+        // Past 1 (up to 2) as `modulate_2x` of `m/2` ([`signed_terms`]).
+        BlendMode::Modulate => {
+            (v.hi <= 2.0 && b.hi <= 1.0 && (v.lo >= 0.0 || b.lo >= 0.0)).then(|| crate::ir::valid::mul(b, v))
+        }
+        // The alpha blends: both in [0, 1], the result too.
+        _ => (unit(b) && unit(v)).then_some(Interval::UNSIGNED),
+    }
+}
+
+/// The range of `x·(1 − f) + y·f` with `f` in [0, 1] (a `lerp` written
+/// out, `algebra::canonical`): the hull of what `x` and `y` range over,
+/// each bounded so in turn, where the sum's own range adds them. `None`
+/// for any other value, or where that is no tighter.
+pub fn lerp_bound(module: &Module, h: Handle<Expr>) -> Option<Interval> {
+    let bound = |x| lerp_bound(module, x).unwrap_or(module.info(x).interval);
+    let (a, b) = match module.exprs[h] {
+        Expr::Binary { op: BinaryOp::Add, lhs, rhs } | Expr::Combine { mode: CombineMode::Add, lhs, rhs } => {
+            (lhs, rhs)
+        }
+        _ => return None,
+    };
+    let factors = |p: Handle<Expr>| match module.exprs[p] {
+        Expr::Binary { op: BinaryOp::Mul, lhs, rhs }
+        | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs } => Some([(lhs, rhs), (rhs, lhs)]),
+        _ => None,
+    };
+    let weight = |w: Handle<Expr>| match module.exprs[w] {
+        Expr::Binary { op: BinaryOp::Sub, lhs, rhs } if module.is_constant(lhs, 1.0) => Some(rhs),
+        _ => None,
+    };
+    for (p, q) in [(a, b), (b, a)] {
+        for (x, w) in factors(p)? {
+            let Some(f) = weight(w) else { continue };
+            let fi = module.info(f).interval;
+            if fi.lo < 0.0 || fi.hi > 1.0 {
+                continue;
+            }
+            for (y, g) in factors(q)? {
+                if g == f {
+                    let (bx, by) = (bound(x), bound(y));
+                    let hull = Interval { lo: bx.lo.min(by.lo), hi: bx.hi.max(by.hi) };
+                    let own = module.info(h).interval;
+                    return (hull.lo > own.lo || hull.hi < own.hi).then_some(hull);
+                }
+            }
+        }
+    }
+    None
+}
+
+/// `pieces` as the blender runs them on a clamped target: an `add` of a
+/// term that may be negative becomes `add v` then `reverse_subtract −v`
+/// (`−v` alone when `v ≤ 0`); a `modulate` by a factor past 1 becomes
+/// `modulate_2x` of half of it. GL clamps each source to [0, 1] on a
+/// fixed-point target (§4.1.8), so at every fragment one of the two is 0
+/// and the other adds or takes off what `v` means there; exact where
+/// [`exact_through_clamps`] accepted the add. `None` when `−v` (or `m/2`)
+/// does not fit a pass of the target.
+pub fn signed_terms(
+    module: &mut Module,
+    fit: &dyn FitCheck,
+    pieces: &[Piece],
+    storage: Storage,
+) -> Option<Vec<Piece>> {
+    let mut out = Vec::with_capacity(pieces.len());
+    for p in pieces {
+        let v = module.info(p.value).interval;
+        if p.blend == BlendMode::Modulate && v.hi > 1.0 && storage.clamps(p.dest) {
+            let half = halved(module, p.value).filter(|&h| fit.fits(module, h).is_ok())?;
+            out.push(Piece {
+                blend: BlendMode::Modulate2x,
+                value: half,
+                why: format!(
+                    "{}{}a factor up to {}, halved into [0, 1] and doubled by the blender (2× modulate)",
+                    p.why,
+                    if p.why.is_empty() { "" } else { "; " },
+                    v.hi
+                ),
+                ..p.clone()
+            });
+            continue;
+        }
+        if p.blend != BlendMode::Add || v.lo >= 0.0 || !storage.clamps(p.dest) {
+            out.push(p.clone());
+            continue;
+        }
+        let negated = negation(module, p.value).filter(|&n| fit.fits(module, n).is_ok())?;
+        if v.hi > 0.0 {
+            out.push(Piece {
+                why: format!("{}; its part above 0 (the blend clamps the rest)", p.why),
+                ..p.clone()
+            });
+        }
+        out.push(Piece {
+            blend: BlendMode::ReverseSubtract,
+            value: negated,
+            why: format!(
+                "{}{}its part below 0, taken off by the blender (reverse subtract), which an add would clamp to 0",
+                p.why,
+                if p.why.is_empty() { "" } else { "; " }
+            ),
+            ..p.clone()
+        });
+    }
+    Some(out)
+}
+
+/// `v/2`, as the target computes it most simply: `2·x` is `x`, an rgb
+/// value written with alpha 1 gets alpha ½.
+fn halved(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Expr>> {
+    if let Expr::Convert { value, to: Ty::Rgba } = module.exprs[v] {
+        if matches!(module.info(value).ty, Ty::Rgb | Ty::Vec3) {
+            let colour = halved(module, value)?;
+            let mut b = Builder { module };
+            let alpha = b.constant(Ty::Scalar, 0.5)?;
+            return b.node(Expr::Compose { ty: Ty::Rgba, components: vec![colour, alpha] });
+        }
+    }
+    if let Expr::Binary { op: BinaryOp::Mul, lhs, rhs }
+    | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs } = module.exprs[v]
+    {
+        for (k, x) in [(lhs, rhs), (rhs, lhs)] {
+            if module.is_constant(k, 2.0) && module.info(x).ty == module.info(v).ty {
+                return Some(x);
+            }
+        }
+    }
+    if let Some(h) = halved_coefficient(module, v) {
+        return Some(h);
+    }
+    let mut b = Builder { module };
+    let half = b.constant(Ty::Scalar, 0.5)?;
+    b.mul(v, half).filter(|&h| b.module.info(h).ty == b.module.info(v).ty)
+}
+
+/// A product with a scalar constant factor `k` anywhere in it, with `k/2`
+/// in its place (none for `k = 2`): `2·T0·T1` halved is `T0·T1`, where
+/// `(2·T0·T1)·½` would compute `2·T0` past 1 first, which a fixed-point
+/// combiner clamps.
+fn halved_coefficient(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Expr>> {
+    let mut factors = Vec::new();
+    let mut stack = vec![v];
+    while let Some(x) = stack.pop() {
+        match module.exprs[x] {
+            Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => {
+                stack.push(rhs);
+                stack.push(lhs);
+            }
+            _ => factors.push(x),
+        }
+    }
+    let k = factors.iter().position(
+        |&f| matches!(&module.exprs[f], Expr::Constant(c) if c.ty == Ty::Scalar && c.components[0] > 0.0),
+    )?;
+    let Expr::Constant(c) = module.exprs[factors[k]].clone() else { return None };
+    let mut b = Builder { module };
+    if c.components[0] == 2.0 {
+        factors.remove(k);
+    } else {
+        factors[k] = b.constant(Ty::Scalar, c.components[0] / 2.0)?;
+    }
+    let mut acc = *factors.first()?;
+    for &f in &factors[1..] {
+        acc = b.mul(acc, f)?;
+    }
+    (b.module.info(acc).ty == b.module.info(v).ty).then_some(acc)
+}
+
+/// A product with a scalar constant factor: the factor, and the product
+/// of the others (`None` without one, or when it is the only factor).
+pub(super) fn constant_factor(module: &mut Module, v: Handle<Expr>) -> Option<(Handle<Expr>, Handle<Expr>)> {
+    let mut factors = Vec::new();
+    let mut stack = vec![v];
+    while let Some(x) = stack.pop() {
+        match module.exprs[x] {
+            Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => {
+                stack.push(rhs);
+                stack.push(lhs);
+            }
+            _ => factors.push(x),
+        }
+    }
+    let k = factors.iter().position(
+        |&f| matches!(&module.exprs[f], Expr::Constant(c) if c.ty == Ty::Scalar && c.components[0] > 0.0),
+    )?;
+    let constant = factors.remove(k);
+    let mut b = Builder { module };
+    let mut acc = *factors.first()?;
+    for &f in &factors[1..] {
+        acc = b.mul(acc, f)?;
+    }
+    (b.module.info(acc).ty == b.module.info(v).ty).then_some((constant, acc))
+}
+
+/// `−v`, as the target computes it most simply: a subtraction's operands
+/// swapped, else a negation.
+fn negation(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Expr>> {
+    let mut b = Builder { module };
+    match b.module.exprs[v] {
+        Expr::Combine { mode: CombineMode::Subtract, lhs, rhs } => {
+            b.node(Expr::Combine { mode: CombineMode::Subtract, lhs: rhs, rhs: lhs })
+        }
+        Expr::Binary { op: BinaryOp::Sub, lhs, rhs } => b.binary(BinaryOp::Sub, rhs, lhs),
+        Expr::Unary { op: crate::ir::UnaryOp::Neg, value } => Some(value),
+        _ => b.neg(v),
+    }
+}
