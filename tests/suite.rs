@@ -79,9 +79,9 @@ mod wgsl_snapshots;
 mod wgsl_texture_targets;
 
 mod chain_growth;
+mod planner_heldout;
 mod stencil_writes;
 mod vertex_programs_public;
-mod planner_heldout;
 mod wgpu_dual_paraboloid;
 mod wgpu_light_culling;
 mod wgpu_rendered_mipmaps;

@@ -673,17 +673,16 @@ fn rendered_textures_read_back_agree_three_ways() {
 /// `σ C δπx ? (C δπx) ⊕[add] t` whose term needs three texture units on
 /// geforce256 (two normalization cube maps and a texture): the planner
 /// splits it, rendering part of `t` into a temporary first, and gives
-/// those passes the statement's stencil test (`NOTEQUAL 0`,
+/// those passes gave the statement's stencil test (`NOTEQUAL 0`,
 /// `planner::assemble::pass_state`, `stencil: form.stencil…` whatever the
 /// pass's destination) — against the temporary's own stencil, which is
-/// clear, so nothing is drawn there and the shadowed pixels get nothing
-/// added. CPU and wgpu run that plan and agree; the reference adds the
+/// clear, so nothing was drawn there and the shadowed pixels got nothing
+/// added. CPU and wgpu ran that plan and agreed; the reference added the
 /// term where the shadow volumes set the stencil (85/255 off on every
-/// shadowed pixel). `¬σ` (`EQUAL 0`) passes on the clear stencil and is
-/// right by accident. Found by the generated comparison; the planner is
-/// not this reference's to fix.
+/// shadowed pixel; `¬σ`, `EQUAL 0`, passed on the clear stencil and was
+/// right by accident). Found by the generated comparison; the passes into
+/// a temporary now draw without the framebuffer's stencil test.
 #[test]
-#[ignore = "planner bug: a split's passes into a temporary carry the stencil test (src/planner/assemble.rs, pass_state)"]
 fn a_stencil_test_split_into_a_temporary_keeps_its_term() {
     let source = "vector N : normal;\nvector L0 : light(0);\nshader d0 : s → scalar = max(0, normalize(N)·normalize(L0));\ntexture T0 : 2d rgb8 bilinear repeat = image(\"missing-0.png\");\nframebuffer C : rgba8, depth, stencil;\nC δπx ← (T0 δu x);\nσ C δπx ← (σ C δπx) OR ((z δπx′) > (z C δπx′));\nC δπx ← (σ C δπx) ? (C δπx) ⊕[add] (0.5 * ((d0 δ s x) * (T0 δu x)));\n";
     let g = gpu();

@@ -280,7 +280,13 @@ pub(super) fn pass_state(
         // In texture space the winding is the parameterization's, not a facing.
         cull: if on_mesh && !in_texture_space { CullMode::Back } else { CullMode::None },
         depth,
-        stencil: form.stencil.unwrap_or(StencilState::DISABLED),
+        // The statement's stencil is its framebuffer's: a split's pass into
+        // a temporary draws where that texture's own stencil says nothing
+        // (it is clear), so only the passes into the framebuffer test it.
+        stencil: match piece.dest {
+            Dest::Main => form.stencil.unwrap_or(StencilState::DISABLED),
+            Dest::Temp(_) => StencilState::DISABLED,
+        },
         blend: BlendState { ..piece.blend.render_state().with_write_mask(mask) },
     }
 }
