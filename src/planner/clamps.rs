@@ -213,11 +213,9 @@ fn halved(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Expr>> {
     b.mul(v, half).filter(|&h| b.module.info(h).ty == b.module.info(v).ty)
 }
 
-/// A product with a scalar constant factor `k` anywhere in it, with `k/2`
-/// in its place (none for `k = 2`): `2·T0·T1` halved is `T0·T1`, where
-/// `(2·T0·T1)·½` would compute `2·T0` past 1 first, which a fixed-point
-/// combiner clamps.
-fn halved_coefficient(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Expr>> {
+/// The factors of a product, left to right, and the index of its first
+/// positive scalar constant (`None` without one).
+fn factors_with_constant(module: &Module, v: Handle<Expr>) -> Option<(Vec<Handle<Expr>>, usize)> {
     let mut factors = Vec::new();
     let mut stack = vec![v];
     while let Some(x) = stack.pop() {
@@ -232,6 +230,15 @@ fn halved_coefficient(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Exp
     let k = factors.iter().position(
         |&f| matches!(&module.exprs[f], Expr::Constant(c) if c.ty == Ty::Scalar && c.components[0] > 0.0),
     )?;
+    Some((factors, k))
+}
+
+/// A product with a scalar constant factor `k` anywhere in it, with `k/2`
+/// in its place (none for `k = 2`): `2·T0·T1` halved is `T0·T1`, where
+/// `(2·T0·T1)·½` would compute `2·T0` past 1 first, which a fixed-point
+/// combiner clamps.
+fn halved_coefficient(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Expr>> {
+    let (mut factors, k) = factors_with_constant(module, v)?;
     let Expr::Constant(c) = module.exprs[factors[k]].clone() else { return None };
     let mut b = Builder { module };
     if c.components[0] == 2.0 {
@@ -249,20 +256,7 @@ fn halved_coefficient(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Exp
 /// A product with a scalar constant factor: the factor, and the product
 /// of the others (`None` without one, or when it is the only factor).
 pub(super) fn constant_factor(module: &mut Module, v: Handle<Expr>) -> Option<(Handle<Expr>, Handle<Expr>)> {
-    let mut factors = Vec::new();
-    let mut stack = vec![v];
-    while let Some(x) = stack.pop() {
-        match module.exprs[x] {
-            Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => {
-                stack.push(rhs);
-                stack.push(lhs);
-            }
-            _ => factors.push(x),
-        }
-    }
-    let k = factors.iter().position(
-        |&f| matches!(&module.exprs[f], Expr::Constant(c) if c.ty == Ty::Scalar && c.components[0] > 0.0),
-    )?;
+    let (mut factors, k) = factors_with_constant(module, v)?;
     let constant = factors.remove(k);
     let mut b = Builder { module };
     let mut acc = *factors.first()?;
