@@ -594,7 +594,7 @@ pub(super) fn through_clamps(
 
 /// The operand of a binary node that is not `own` (the statement's read of
 /// its own target), where one of them is.
-fn other_operand(lhs: Handle<Expr>, rhs: Handle<Expr>, own: Handle<Expr>) -> Option<Handle<Expr>> {
+pub(super) fn other_operand(lhs: Handle<Expr>, rhs: Handle<Expr>, own: Handle<Expr>) -> Option<Handle<Expr>> {
     if lhs == own {
         Some(rhs)
     } else if rhs == own {

@@ -20,7 +20,7 @@ use crate::diag::Diagnostic;
 use crate::ir::{BinaryOp, Expr, FbChannel, Handle, Module, Statement, Table, Ty, UnaryOp};
 use crate::pipeline::{CompareFunc, StencilOp, StencilState};
 
-use super::form::self_read;
+use super::form::{other_operand, self_read};
 use super::Form;
 use crate::pipeline::BlendMode;
 
@@ -34,11 +34,11 @@ pub(super) fn stencil_form(m: &mut Module, st: &Statement, value: Handle<Expr>) 
     let own = self_read(m, st, FbChannel::Stencil);
     match m.exprs[value] {
         Expr::Binary { op: BinaryOp::Or, lhs, rhs } => {
-            let c = other(lhs, rhs, own?)?;
+            let c = other_operand(lhs, rhs, own?)?;
             condition(m, c, own).then(|| form(value, Some(c), 1, StencilOp::Replace))
         }
         Expr::Binary { op: BinaryOp::And, lhs, rhs } => {
-            let c = other(lhs, rhs, own?)?;
+            let c = other_operand(lhs, rhs, own?)?;
             if !condition(m, c, own) {
                 return None;
             }
@@ -88,14 +88,6 @@ fn stencil_constant(m: &Module, h: Handle<Expr>) -> Option<u8> {
     let Expr::Constant(k) = &m.exprs[h] else { return None };
     let [v] = k.values()[..] else { return None };
     (v.fract() == 0.0 && (0.0..=255.0).contains(&v)).then_some(v as u8)
-}
-
-fn other(lhs: Handle<Expr>, rhs: Handle<Expr>, own: Handle<Expr>) -> Option<Handle<Expr>> {
-    match (lhs == own, rhs == own) {
-        (true, false) => Some(rhs),
-        (false, true) => Some(lhs),
-        _ => None,
-    }
 }
 
 /// A computed scalar (not a constant) that does not read the stencil being written: the
