@@ -351,6 +351,9 @@ fn probe_file() {
         {
             match render_three(&source, t, &scene(sc), p, g.as_ref()) {
                 Ok(pic) => {
+                    if let Ok(dir) = std::env::var("PROBE_OUT") {
+                        write_pictures(&dir, &format!("{sc}-{t}"), &pic);
+                    }
                     let gpu = pic.gpu.as_ref();
                     eprintln!(
                         "{sc} {t}: cpu/reference {:?} cpu/wgpu {:?} wgpu/reference {:?}: {:?}",
@@ -363,6 +366,21 @@ fn probe_file() {
                 Err(e) => eprintln!("{sc} {t}: {e}"),
             }
         }
+    }
+}
+
+/// `probe_file`'s pictures as PNGs in `dir` (`PROBE_OUT=dir`), to look at
+/// a disagreement.
+fn write_pictures(dir: &str, name: &str, pic: &Pictures) {
+    let save = |who: &str, rgba: &[u8]| {
+        let path = format!("{dir}/{name}-{who}.png");
+        image::save_buffer(&path, rgba, W, H, image::ColorType::Rgba8).unwrap();
+        eprintln!("wrote {path}");
+    };
+    save("cpu", &pic.cpu);
+    save("reference", &pic.oracle);
+    if let Some(gpu) = &pic.gpu {
+        save("wgpu", gpu);
     }
 }
 
