@@ -199,6 +199,7 @@ pub(crate) fn try_agreement_in(
                     register_steps: sign * register_steps,
                     texel_quanta: sign as f32 * texel_quanta,
                     comparison_ulps: sign * comparison_ulps,
+                    ..RoundingBias::default()
                 })?);
             }
         }

@@ -52,6 +52,7 @@ use crate::gpu::runner::{
 };
 use crate::gpu::scene_run::{ScenePlan, SceneRunError};
 use crate::numerics::Precision;
+use crate::planner::shadow_volumes::draws_volumes;
 use crate::profile::Profile;
 use crate::renderer::plan::{PlanRenderer, RoundingBias};
 use crate::renderer::{BlendState, CompareFunc, CullMode, DepthState, RenderState, StencilState};
@@ -61,11 +62,17 @@ use crate::textures::unit::Latitude;
 use crate::textures::Filter;
 
 /// Float noise between the executors, as (1/255 register steps, 1/256
-/// texture-unit quanta, comparison ulps), each tried ±: the distances
-/// `tests/wgsl_agreement.rs` measured and states (register inputs differ
-/// by up to 1.2·10⁻⁴ steps, λ by up to 0.2 quanta, reprojected depths by
-/// up to 256 ulps).
-pub const TIES: [(f64, f32, f64); 3] = [(1e-3, 1e-2, 8.0), (1e-3, 5e-2, 64.0), (1e-3, 0.2, 256.0)];
+/// texture-unit quanta, comparison ulps, shadow-volume depth in 2⁻²⁴
+/// steps), each tried ±: the distances `tests/wgsl_agreement.rs` measured
+/// and states (register inputs differ by up to 1.2·10⁻⁴ steps, λ by up to
+/// 0.2 quanta, reprojected depths by up to 256 ulps), and a volume's depth
+/// ties with the surface it grazes (`RoundingBias::volume_depth_steps`).
+pub const TIES: [(f64, f32, f64, f32); 3] =
+    [(1e-3, 1e-2, 8.0, 16.0), (1e-3, 5e-2, 64.0, 256.0), (1e-3, 0.2, 256.0, 4096.0)];
+/// How far a shadow volume's vertices are moved on the screen, in 1/256
+/// pixel (±, after [`TIES`]): half of the 1/16 pixel Vulkan lets an
+/// implementation snap them to.
+pub const VOLUME_SUBPIXELS: f32 = 8.0;
 
 /// A file's name and its text, built in.
 type NamedText = (&'static str, &'static str);
@@ -463,7 +470,8 @@ fn compare_case(
         Ok(r) => r,
         Err(e) => return Outcome::Refused(format!("CPU: {e}")),
     };
-    match compare_pictures(&mut renderer, mode, (w, h), class_of(&planned.module), gpu_img, mask) {
+    let volumes = planned.plan.passes.iter().any(|p| draws_volumes(&planned.module, p));
+    match compare_pictures(&mut renderer, mode, (w, h), class_of(&planned.module), gpu_img, mask, volumes) {
         Ok(c) => Outcome::Compared(c),
         Err(e) => Outcome::Refused(format!("CPU: {e}")),
     }
@@ -477,18 +485,30 @@ fn compare_pictures(
     class: Class,
     gpu: Vec<u8>,
     mask: &[bool],
+    volumes: bool,
 ) -> Result<Comparison, crate::renderer::RenderError> {
     let render = |r: &mut PlanRenderer| r.render(mode, w, h, &mut |_, _| {}).map(|f| f.image.to_rgba8());
     let model = render(r)?;
     let mut hull = Hull::new(&model);
     let beyond_model_picture = hull.beyond(&gpu, mask);
     if beyond_model_picture > 0 {
-        for (steps, quanta, ulps) in TIES {
+        for (steps, quanta, ulps, volume) in TIES {
             for sign in [1.0, -1.0] {
                 r.set_rounding_bias(RoundingBias {
                     register_steps: sign * steps,
                     texel_quanta: sign as f32 * quanta,
                     comparison_ulps: sign * ulps,
+                    volume_depth_steps: sign as f32 * volume,
+                    volume_subpixels: 0.0,
+                });
+                hull.add(&render(r)?);
+            }
+        }
+        if volumes && hull.beyond(&gpu, mask) > 0 {
+            for sign in [1.0, -1.0] {
+                r.set_rounding_bias(RoundingBias {
+                    volume_subpixels: sign * VOLUME_SUBPIXELS,
+                    ..Default::default()
                 });
                 hull.add(&render(r)?);
             }

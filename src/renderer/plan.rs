@@ -65,6 +65,7 @@
 //!   coordinates, framebuffer positions) are not quantized: the texture
 //!   units iterate them in float.
 
+use glam::Vec3;
 use std::collections::BTreeMap;
 use std::sync::atomic::Ordering;
 use std::time::{Duration, Instant};
@@ -159,6 +160,27 @@ pub struct RoundingBias {
     /// comparisons `<`, `≤`, `>`, `≥` of the program (a shadow test's
     /// depths), in every mode — positive lets more comparisons hold.
     pub comparison_ulps: f64,
+    /// In steps of 2⁻²⁴ of normalized device depth: how far a shadow volume
+    /// is drawn behind (positive) or before the surfaces it shadows. Its caps
+    /// and walls are other primitives than the surface, and GL guarantees
+    /// depth invariance only for the same primitive (GL 1.x, Appendix A), so
+    /// where a volume grazes a surface at the terminator the depth tests of
+    /// two implementations may tie either way.
+    pub volume_depth_steps: f32,
+    /// In 1/256 pixel, along x and y: how far a shadow volume's vertices
+    /// are moved on the screen. Vulkan lets an implementation snap them to
+    /// 1/16 pixel (`subPixelPrecisionBits` ≥ 4), so which volume triangle
+    /// covers a pixel centre near its edge may differ between two of them.
+    pub volume_subpixels: f32,
+}
+
+impl RoundingBias {
+    /// The shadow volumes' offset in normalized device coordinates at
+    /// `width`×`height` (a pixel is 2/width of them).
+    fn volume_offset(&self, width: u32, height: u32) -> Vec3 {
+        let px = self.volume_subpixels / 256.0;
+        Vec3::new(2.0 * px / width as f32, 2.0 * px / height as f32, self.volume_depth_steps * 2f32.powi(-24))
+    }
 }
 
 /// A program bound to a scene: textures loaded, objects bound. Build once,
@@ -400,7 +422,8 @@ impl<'a> PlanRenderer<'a> {
                 let aspect = width as f32 / height as f32;
                 let volume = volume
                     .as_ref()
-                    .map(|v| crate::scene::shadow_volume::bind_volume(self.scene, self.assets, v, aspect));
+                    .map(|v| crate::scene::shadow_volume::bind_volume(self.scene, self.assets, v, aspect))
+                    .map(|v| v.offset_clip(self.rounding_bias.volume_offset(width, height)));
                 let drawn = volume.as_ref().map_or(&objects[..], std::slice::from_ref);
                 self.draw_layer(pass, &pi, drawn, &stage, target, &mut draws)?;
                 nonfinite += stage.nonfinite.load(Ordering::Relaxed);
