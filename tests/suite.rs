@@ -78,6 +78,7 @@ mod wgsl_gpu;
 mod wgsl_snapshots;
 mod wgsl_texture_targets;
 
+mod adaptive_plan;
 mod chain_growth;
 mod planner_heldout;
 mod stencil_writes;

@@ -36,12 +36,11 @@
 //! written and counts as black for its neighbours' interpolation;
 //! interpolated pixels cannot discard.
 
-use rayon::prelude::*;
-
 mod lines;
+mod visibility;
+mod write;
 
-use super::framebuffer::TILE;
-use super::raster::{setup_pass, PassSetup, SUB};
+use super::raster::{setup_pass, PassSetup};
 use super::{Framebuffer, Pass, RenderError};
 
 /// What counts as one surface for edge detection.
@@ -185,18 +184,18 @@ pub fn draw_adaptive(
     let (w, h) = (target.width() as usize, target.height() as usize);
     let (setups, offsets) = setup_passes(passes, w, h)?;
 
-    // 1. Visibility, in bands of TILE rows.
-    let (ids, depth) = visible(target, passes, &setups, &offsets);
-
-    let keys = surface_keys(&ids, &offsets, settings.edges);
-    let edges = edge_map(&keys, w, h);
+    // 1. Visibility, keys and edges: the last draw's where it drew the same.
+    let shape = (settings.edges, settings.spacing as usize);
+    let vis = visibility::visibility_of(target, passes, &setups, &offsets, shape);
     let ctx = Ctx {
         passes,
         setups: &setups,
         offsets: &offsets,
-        ids: &ids,
-        keys: &keys,
-        edges: &edges,
+        ids: &vis.ids,
+        keys: &vis.keys,
+        edges: &vis.edges,
+        spans: &vis.spans,
+        columns: &vis.columns,
         w,
         h,
         settings: *settings,
@@ -207,9 +206,12 @@ pub fn draw_adaptive(
     let mut reg_color = vec![[0.0f32; 4]; regular_rows.len() * w];
     let mut reg_state = vec![UNKNOWN; regular_rows.len() * w];
     let row_stats = ctx.scanlines(&regular_rows, &mut reg_color, &mut reg_state);
+    // The colour of a pixel is read only once it is known (shaded or
+    // interpolated): a buffer of the right size is not cleared, its states are.
     let (mut color, mut state) = SCRATCH.with(|s| s.take()).unwrap_or_default();
-    color.clear();
-    color.resize(w * h, [0.0; 4]);
+    if color.len() != w * h {
+        color = vec![[0.0; 4]; w * h];
+    }
     state.clear();
     state.resize(w * h, UNKNOWN);
     for (r, &y) in regular_rows.iter().enumerate() {
@@ -218,14 +220,14 @@ pub fn draw_adaptive(
     }
 
     // 3. Columns between consecutive regular rows.
-    let column_stats = ctx.columns(&regular_rows, (&reg_color, &reg_state), &mut color, &mut state);
+    let column_stats = ctx.columns(&regular_rows, &mut color, &mut state);
     let mut stats = row_stats + column_stats;
     if settings.threshold > 0.0 {
         ctx.refine(&mut color, &mut state, &mut stats);
     }
-    stats.covered = ids.iter().filter(|&&id| id != NONE).count() as u64;
+    stats.covered = vis.covered;
 
-    ctx.write_through(target, &depth, &color, &state);
+    ctx.write_through(target, &vis.depth, &color, &state);
     SCRATCH.with(|s| s.set(Some((color, state))));
     Ok(stats)
 }
@@ -267,142 +269,17 @@ fn setup_passes(passes: &[Pass], w: usize, h: usize) -> Result<(Vec<PassSetup>, 
     Ok((setups, offsets))
 }
 
-/// The visible triangle's id and depth at every pixel, starting from the
-/// target's depth, in bands of TILE rows.
-fn visible(
-    target: &Framebuffer,
-    passes: &[Pass],
-    setups: &[PassSetup],
-    offsets: &[usize],
-) -> (Vec<u32>, Vec<f32>) {
-    let (w, h) = (target.width() as usize, target.height() as usize);
-    let mut ids = vec![NONE; w * h];
-    let mut depth: Vec<f32> = (0..w * h)
-        .into_par_iter()
-        .map(|i| target.depth((i % w) as u32, (i / w) as u32).unwrap_or(1.0))
-        .collect();
-    ids.par_chunks_mut(TILE * w).zip(depth.par_chunks_mut(TILE * w)).enumerate().for_each(
-        |(band, (ids, depth))| {
-            let y0 = (band * TILE) as i32;
-            let y1 = y0 + (ids.len() / w) as i32 - 1;
-            for (p, (pass, setup)) in passes.iter().zip(setups).enumerate() {
-                visibility(ids, depth, w, (y0, y1), pass, setup, offsets[p] as u32);
-            }
-        },
-    );
-    (ids, depth)
-}
-
-/// Band k of [`between_rows`]: k, and its colours and states.
-type Band<'c> = (usize, &'c mut [[f32; 4]], &'c mut [u8]);
-
-/// The rows strictly between regular rows k and k + 1 of `color` and
-/// `state`, as band k (disjoint, so the bands fill in parallel).
-fn between_rows<'c>(
-    color: &'c mut [[f32; 4]],
-    state: &'c mut [u8],
-    w: usize,
-    regular_rows: &[usize],
-) -> Vec<Band<'c>> {
-    let mut bands: Vec<Band> = Vec::with_capacity(regular_rows.len());
-    let (mut c_rest, mut s_rest) = (color, state);
-    let mut consumed = 0;
-    for k in 0..regular_rows.len().saturating_sub(1) {
-        let (top, bottom) = (regular_rows[k], regular_rows[k + 1]);
-        let skip = (top + 1 - consumed) * w;
-        let take = (bottom - top - 1) * w;
-        let (_, c) = std::mem::take(&mut c_rest).split_at_mut(skip);
-        let (_, s) = std::mem::take(&mut s_rest).split_at_mut(skip);
-        let (c_band, c_tail) = c.split_at_mut(take);
-        let (s_band, s_tail) = s.split_at_mut(take);
-        bands.push((k, c_band, s_band));
-        c_rest = c_tail;
-        s_rest = s_tail;
-        consumed = bottom;
-    }
-    bands
-}
-/// Scan-converts one pass into the id and depth buffers of rows `y0..=y1`.
-fn visibility(
-    ids: &mut [u32],
-    depth: &mut [f32],
-    w: usize,
-    rows: (i32, i32),
-    pass: &Pass,
-    setup: &PassSetup,
-    offset: u32,
-) {
-    let func = pass.state.depth.func;
-    for (ti, tri) in setup.tris.iter().enumerate() {
-        let y0 = tri.y0.max(rows.0);
-        let y1 = tri.y1.min(rows.1);
-        if y0 > y1 {
-            continue;
-        }
-        let step_x = tri.dy.map(|d| -d * SUB);
-        let px0 = tri.x0 as i64 * SUB + SUB / 2;
-        for y in y0..=y1 {
-            let py = y as i64 * SUB + SUB / 2;
-            let mut e = tri.edges_at(px0, py);
-            let row = (y - rows.0) as usize * w;
-            for x in tri.x0..=tri.x1 {
-                if tri.covers(&e) {
-                    let l = tri.weights_at(x, y);
-                    let z = (l[0] * tri.z[0] + l[1] * tri.z[1] + l[2] * tri.z[2]).clamp(0.0, 1.0);
-                    let idx = row + x as usize;
-                    if func.test(z, depth[idx]) {
-                        // Later passes test against this depth even without depth writes,
-                        // as the tiled rasterizer would see it only with writes: keep GL's
-                        // behaviour by updating the test depth only when the pass writes.
-                        if pass.state.depth.write {
-                            depth[idx] = z;
-                        }
-                        ids[idx] = offset + ti as u32;
-                    }
-                }
-                for k in 0..3 {
-                    e[k] += step_x[k];
-                }
-            }
-        }
-    }
-}
-
-/// The surface key of every pixel's visible primitive (see [`EdgeMode`]),
-/// computed once: every later step compares keys of neighbours.
-fn surface_keys(ids: &[u32], offsets: &[usize], edges: EdgeMode) -> Vec<u32> {
-    ids.par_iter()
-        .map(|&id| match edges {
-            _ if id == NONE => NONE,
-            EdgeMode::Triangle => id,
-            EdgeMode::Pass => (offsets.partition_point(|&o| o <= id as usize) - 1) as u32,
-        })
-        .collect()
-}
-
-/// Whether each pixel is an edge sample: a 4-neighbour shows another
-/// surface (Section 2.1.3), computed once per draw.
-fn edge_map(keys: &[u32], w: usize, h: usize) -> Vec<bool> {
-    (0..w * h)
-        .into_par_iter()
-        .map(|i| {
-            let (x, y, k) = (i % w, i / w, keys[i]);
-            (x > 0 && keys[i - 1] != k)
-                || (x + 1 < w && keys[i + 1] != k)
-                || (y > 0 && keys[i - w] != k)
-                || (y + 1 < h && keys[i + w] != k)
-        })
-        .collect()
-}
-
 struct Ctx<'a> {
     passes: &'a [Pass<'a>],
     setups: &'a [PassSetup],
     offsets: &'a [usize],
     ids: &'a [u32],
-    /// Per pixel: the surface key ([`surface_keys`]) and whether it is an edge.
+    /// Per pixel: the surface key ([`EdgeMode`]) and whether it is an edge.
     keys: &'a [u32],
     edges: &'a [bool],
+    /// Per row the covered columns' span, per band the columns' kinds ([`visibility::Visibility`]).
+    spans: &'a [(usize, usize)],
+    columns: &'a [u8],
     w: usize,
     h: usize,
     settings: AdaptiveSettings,
@@ -414,29 +291,6 @@ impl Ctx<'_> {
         y % self.settings.spacing as usize == 0 || y == self.h - 1
     }
 
-    /// Writes the shaded pixels through each pass's depth and blend state,
-    /// tiles in parallel (each pixel belongs to one tile).
-    fn write_through(&self, target: &mut Framebuffer, depth: &[f32], color: &[[f32; 4]], state: &[u8]) {
-        let tiles_x = target.tiles_x();
-        target.tiles.par_iter_mut().enumerate().for_each(|(t, tile)| {
-            let (x0, y0) = ((t % tiles_x) * TILE, (t / tiles_x) * TILE);
-            for y in y0..(y0 + TILE).min(self.h) {
-                for x in x0..(x0 + TILE).min(self.w) {
-                    let i = y * self.w + x;
-                    let id = self.ids[i];
-                    if id == NONE || state[i] & DISCARD_BIT != 0 || state[i] == UNKNOWN {
-                        continue;
-                    }
-                    let pass = &self.passes[self.pass_of(id)];
-                    let idx = (y - y0) * TILE + (x - x0);
-                    if pass.state.depth.write {
-                        tile.depth[idx] = depth[i];
-                    }
-                    tile.blend_color(idx, &color[i], &pass.state.blend);
-                }
-            }
-        });
-    }
     fn pass_of(&self, id: u32) -> usize {
         // offsets is sorted; the pass is the last offset ≤ id.
         self.offsets.partition_point(|&o| o <= id as usize) - 1

@@ -12,6 +12,7 @@
 
 use rayon::prelude::*;
 
+use super::visibility::{EMPTY, PLAIN};
 use super::{AdaptiveStats, Ctx, ADAPTIVE, DISCARD_BIT, EDGE, INTERPOLATED, NONE, REGULAR, UNKNOWN};
 use crate::renderer::tile::{fragment_at, interpolate};
 use crate::renderer::{FragmentResult, BATCH};
@@ -62,6 +63,9 @@ impl Pending {
         self.kinds.push(kind);
     }
 }
+
+/// Refinement waves of fewer pixels are grown and shaded on the calling thread.
+const SERIAL_WAVE: usize = 4096;
 
 /// The largest per-channel difference between two colours.
 fn difference(a: [f32; 4], b: [f32; 4]) -> f32 {
@@ -268,39 +272,101 @@ impl Ctx<'_> {
             .reduce(AdaptiveStats::default, std::ops::Add::add)
     }
 
-    /// Step 3: the columns between consecutive regular rows, from the
-    /// regular rows' pixels at their ends, band by band in parallel.
+    /// Step 3: the columns between consecutive regular rows, in place in
+    /// the frame's `color`/`state`, whose regular rows are known (only
+    /// read here). Band k is rows k·n ..= min((k + 1)·n, h − 1) (n the
+    /// spacing): bands k and k + 1 share a row, so the even bands run in
+    /// parallel, then the odd ones, each in its own chunk of 2n rows.
     pub(super) fn columns(
         &self,
         regular_rows: &[usize],
-        (reg_color, reg_state): (&[[f32; 4]], &[u8]),
         color: &mut [[f32; 4]],
         state: &mut [u8],
     ) -> AdaptiveStats {
-        let w = self.w;
-        super::between_rows(color, state, w, regular_rows)
-            .into_par_iter()
-            .map(|(k, c_band, s_band)| {
-                let (top, bottom) = (regular_rows[k], regular_rows[k + 1]);
-                let len = bottom - top + 1;
-                let mut vals = vec![[0.0f32; 4]; len * w];
-                let mut st = vec![UNKNOWN; len * w];
-                vals[..w].copy_from_slice(&reg_color[k * w..(k + 1) * w]);
-                st[..w].copy_from_slice(&reg_state[k * w..(k + 1) * w]);
-                vals[(len - 1) * w..].copy_from_slice(&reg_color[(k + 1) * w..(k + 2) * w]);
-                st[(len - 1) * w..].copy_from_slice(&reg_state[(k + 1) * w..(k + 2) * w]);
-                let lines: Vec<Line> = (0..w)
-                    .filter(|&x| (top..=bottom).any(|y| self.keys[y * w + x] != NONE))
-                    .map(|x| Line { base: x, stride: w, len, pixel0: top * w + x, pixel_stride: w })
-                    .collect();
-                let stats =
-                    self.fill_lines(&lines, &mut vals, &mut st, |line, i| i == 0 || i == line.len - 1);
-                c_band.copy_from_slice(&vals[w..(len - 1) * w]);
-                s_band.copy_from_slice(&st[w..(len - 1) * w]);
-                stats
-            })
-            .reduce(AdaptiveStats::default, std::ops::Add::add)
+        let n = self.settings.spacing as usize;
+        let bands = regular_rows.len().saturating_sub(1);
+        let chunk = 2 * n * self.w;
+        let mut stats = AdaptiveStats::default();
+        for parity in 0..2 {
+            let skip = (parity * n * self.w).min(color.len());
+            stats = stats
+                + color[skip..]
+                    .par_chunks_mut(chunk)
+                    .zip(state[skip..].par_chunks_mut(chunk))
+                    .enumerate()
+                    .filter(|(j, _)| 2 * j + parity < bands)
+                    .map(|(j, (c, s))| {
+                        let k = 2 * j + parity;
+                        let rows = (regular_rows[k], regular_rows[k + 1]);
+                        debug_assert_eq!(rows.0, k * n, "regular rows are every n-th");
+                        self.band(k, rows, c, s)
+                    })
+                    .reduce(AdaptiveStats::default, std::ops::Add::add);
+        }
+        stats
     }
+
+    /// Band k, rows `top..=bottom` (`c`/`s` start at row `top`): a plain
+    /// column ([`PLAIN`]) whose ends differ by at most the threshold is one
+    /// segment the subdivision would interpolate whole — it is, row after
+    /// row over all such columns at once, with the subdivision's formula —
+    /// and every other column that shows something goes through
+    /// [`Ctx::fill_lines`].
+    fn band(
+        &self,
+        k: usize,
+        (top, bottom): (usize, usize),
+        c: &mut [[f32; 4]],
+        s: &mut [u8],
+    ) -> AdaptiveStats {
+        let (w, t) = (self.w, self.settings.threshold);
+        let len = bottom - top + 1;
+        let kinds = &self.columns[k * w..(k + 1) * w];
+        let bottom_row = (len - 1) * w;
+        // A plain column is interpolated when the subdivision would not split it.
+        let split = |x: usize| difference(c[x], c[bottom_row + x]) > t && self.settings.max_depth > 0;
+        let direct: Vec<bool> = (0..w).map(|x| t > 0.0 && kinds[x] == PLAIN && !split(x)).collect();
+        let lines: Vec<Line> = (0..w)
+            .filter(|&x| kinds[x] != EMPTY && !direct[x])
+            .map(|x| Line { base: x, stride: w, len, pixel0: top * w + x, pixel_stride: w })
+            .collect();
+        let mut stats = self.fill_lines(&lines, c, s, |line, i| i == 0 || i == line.len - 1);
+        let runs = runs_of(&direct);
+        let n_direct: usize = runs.iter().map(|&(a, b)| b - a).sum();
+        stats.interpolated += (n_direct * len.saturating_sub(2)) as u64;
+        let span = (len - 1) as f32;
+        let (head, rest) = c.split_at_mut(w);
+        let (rows, tail) = rest.split_at_mut(bottom_row - w);
+        let (first, last) = (&*head, &tail[..w]);
+        for (r, row) in rows.chunks_mut(w).enumerate() {
+            let f = (r + 1) as f32 / span;
+            for &(a, b) in &runs {
+                for ((v, va), vb) in row[a..b].iter_mut().zip(&first[a..b]).zip(&last[a..b]) {
+                    *v = [0, 1, 2, 3].map(|ch| va[ch] + (vb[ch] - va[ch]) * f);
+                }
+                s[(r + 1) * w + a..(r + 1) * w + b].fill(INTERPOLATED);
+            }
+        }
+        stats
+    }
+}
+
+/// The runs `a..b` of consecutive `true`s.
+fn runs_of(flags: &[bool]) -> Vec<(usize, usize)> {
+    let mut runs = Vec::new();
+    let mut x = 0;
+    while x < flags.len() {
+        if flags[x] {
+            let a = x;
+            while x < flags.len() && flags[x] {
+                x += 1;
+            }
+            runs.push((a, x));
+        } else {
+            x += 1;
+        }
+    }
+    runs
 }
 
 impl Ctx<'_> {
@@ -316,52 +382,71 @@ impl Ctx<'_> {
     pub(super) fn refine(&self, color: &mut [[f32; 4]], state: &mut [u8], stats: &mut AdaptiveStats) {
         let (w, h, t) = (self.w, self.h, self.settings.threshold);
         let keys = self.keys;
-        let mut wave: Vec<usize> = {
-            let (color, state) = (&*color, &*state);
-            (0..h)
-                .into_par_iter()
-                .flat_map_iter(|y| {
-                    let mut found = Vec::new();
-                    for x in 0..w {
-                        let i = y * w + x;
-                        if keys[i] == NONE {
-                            continue;
-                        }
-                        let right = (x + 1 < w).then(|| i + 1);
-                        let below = (y + 1 < h).then(|| i + w);
-                        for j in [right, below].into_iter().flatten() {
-                            if keys[j] == keys[i] && difference(color[i], color[j]) > t {
-                                found.extend([i, j].into_iter().filter(|&k| state[k] == INTERPOLATED));
-                            }
-                        }
-                    }
-                    found
-                })
-                .collect()
-        };
+        let mut wave = self.first_wave(color, state);
         while !wave.is_empty() {
-            wave.par_sort_unstable();
+            // A small wave runs on this thread: handing it to the pool and
+            // back costs more than it does (the feature's tip grows by a
+            // few pixels a wave).
+            let parallel = wave.len() >= SERIAL_WAVE;
+            if parallel {
+                wave.par_sort_unstable();
+            } else {
+                wave.sort_unstable();
+            }
             wave.dedup();
             self.reshade(&wave, color, state, stats);
             let (color, state) = (&*color, &*state);
-            wave = wave
-                .par_iter()
-                .flat_map_iter(|&i| {
-                    let (x, y) = (i % w, i / w);
-                    [
-                        (x > 0).then(|| i - 1),
-                        (x + 1 < w).then(|| i + 1),
-                        (y > 0).then(|| i - w),
-                        (y + 1 < h).then(|| i + w),
-                    ]
-                    .into_iter()
-                    .flatten()
-                    .filter(move |&j| {
-                        state[j] == INTERPOLATED && keys[j] == keys[i] && difference(color[i], color[j]) > t
-                    })
+            let next = |&i: &usize| {
+                let (x, y) = (i % w, i / w);
+                [
+                    (x > 0).then(|| i - 1),
+                    (x + 1 < w).then(|| i + 1),
+                    (y > 0).then(|| i - w),
+                    (y + 1 < h).then(|| i + w),
+                ]
+                .into_iter()
+                .flatten()
+                .filter(move |&j| {
+                    state[j] == INTERPOLATED && keys[j] == keys[i] && difference(color[i], color[j]) > t
                 })
-                .collect();
+            };
+            wave = if parallel {
+                wave.par_iter().flat_map_iter(next).collect()
+            } else {
+                wave.iter().flat_map(next).collect()
+            };
         }
+    }
+
+    /// The refinement's first wave: the interpolated pixels of every pair
+    /// of horizontal or vertical neighbours on one surface whose colours
+    /// differ by more than the threshold, rows in parallel, each over its
+    /// covered span only.
+    fn first_wave(&self, color: &[[f32; 4]], state: &[u8]) -> Vec<usize> {
+        let (w, h, t, keys) = (self.w, self.h, self.settings.threshold, self.keys);
+        (0..h)
+            .into_par_iter()
+            .with_min_len(8)
+            .flat_map_iter(|y| {
+                let mut found = Vec::new();
+                let (x0, x1) = self.spans[y];
+                for i in y * w + x0..y * w + x1 {
+                    let x = i - y * w;
+                    let right = (x + 1 < w).then(|| i + 1);
+                    let below = (y + 1 < h).then(|| i + w);
+                    for j in [right, below].into_iter().flatten() {
+                        if (state[i] == INTERPOLATED || state[j] == INTERPOLATED)
+                            && keys[i] != NONE
+                            && keys[j] == keys[i]
+                            && difference(color[i], color[j]) > t
+                        {
+                            found.extend([i, j].into_iter().filter(|&k| state[k] == INTERPOLATED));
+                        }
+                    }
+                }
+                found
+            })
+            .collect()
     }
 
     /// Shades the interpolated pixels `wave` exactly, in parallel batches.
@@ -369,10 +454,14 @@ impl Ctx<'_> {
         const CHUNK: usize = 8 * BATCH;
         let mut out = vec![[0.0f32; 4]; wave.len()];
         let mut results = vec![FragmentResult::Keep; wave.len()];
-        wave.par_chunks(CHUNK)
-            .zip(out.par_chunks_mut(CHUNK))
-            .zip(results.par_chunks_mut(CHUNK))
-            .for_each(|((pixels, out), results)| self.shade_many(pixels, out, results));
+        if wave.len() < SERIAL_WAVE {
+            self.shade_many(wave, &mut out, &mut results);
+        } else {
+            wave.par_chunks(CHUNK)
+                .zip(out.par_chunks_mut(CHUNK))
+                .zip(results.par_chunks_mut(CHUNK))
+                .for_each(|((pixels, out), results)| self.shade_many(pixels, out, results));
+        }
         for ((&i, colour), result) in wave.iter().zip(out).zip(results) {
             stats.interpolated -= 1;
             stats.adaptive += 1;
