@@ -4,9 +4,10 @@
 //!
 //! What runs as lanes: a cube map's face selection, face coordinates,
 //! texel addresses and weights (fixed-length loops over `N` lanes that the
-//! compiler turns into vector code); a 2-D texture's level choice per lane.
-//! The texel fetches stay a loop over the lanes (a gather), each lane's
-//! four texels filtered as one 4-wide vector. Every lane computes the
+//! compiler turns into vector code); a 2-D texture's level choice (one
+//! level or two) and each level's coordinates, weights and wrapped texel
+//! indices. The texel fetches stay a loop over the lanes (a gather), each
+//! lane's four texels filtered as one 4-wide vector. Every lane computes the
 //! formulas of [`unit::sample_cube_with`] and [`unit::sample_2d_with`] in
 //! their order, so the values are theirs bit for bit (tests below); a cube
 //! lane whose footprint leaves its face (seamless filtering across faces,
@@ -168,8 +169,8 @@ struct Footprints<const N: usize> {
 
 /// `Level::sample_bilinear`'s coordinates, weights and wrapped texel
 /// indices for each lane at (`u`, `v`) on level `level[lane]`, as
-/// fixed-length loops: the same formulas as [`bilinear`] (with i32 where it
-/// has i64: `finite` keeps the coordinates within ±1e9), so the same values.
+/// fixed-length loops: the same formulas (with i32 where it has i64:
+/// `finite` keeps the coordinates within ±1e9), so the same values.
 #[inline(always)]
 fn footprints<const N: usize>(s: &Levels, level: &[u32; N], u: &[f32; N], v: &[f32; N]) -> Footprints<N> {
     let mut f = Footprints { at: [[0; N]; 4], ax: [0.0; N], ay: [0.0; N] };
