@@ -14,6 +14,12 @@
 //! The CPU renderer renders every frame into the last frame's buffers
 //! (`PlanRenderer::recycle`), as a swap chain does.
 //!
+//! Each row also gives the process's CPU time per frame (user + system of
+//! every thread, rayon's and lavapipe's, from `/proc/self/stat` in 10 ms
+//! ticks, warm-ups included) and its ratio to wgpu's: on a machine shared
+//! with other work the wall time is mostly waiting for a core, the CPU
+//! time is what a frame cost.
+//!
 //! Threads: the CPU renderer runs on rayon's pool, lavapipe on its own
 //! (`LP_NUM_THREADS`). For one thread on both sides run
 //! `LP_NUM_THREADS=1 RAYON_NUM_THREADS=1 cargo bench --bench wgpu_vs_cpu`.
@@ -34,8 +40,31 @@ use shadec::numerics::Precision;
 use shadec::renderer::plan::{set_lane_dispatch, LaneDispatch, PlanRenderer};
 use shadec::scene::Scene;
 
-fn median(f: impl FnMut()) -> Duration {
-    timing::median(9, 2, f)
+/// The median wall time of a frame, and the process's CPU time per frame
+/// over the same frames (warm-ups included), where Linux gives it.
+fn median(f: impl FnMut()) -> (Duration, Option<Duration>) {
+    let runs: u32 = std::env::var("SHADEC_BENCH_RUNS").ok().and_then(|v| v.parse().ok()).unwrap_or(9).max(1);
+    let before = cpu_time();
+    let wall = timing::median(9, 2, f);
+    let per_frame = cpu_time().zip(before).map(|(after, before)| (after - before) / (runs + 2));
+    (wall, per_frame)
+}
+
+/// The CPU time of this process so far, every thread (rayon's and
+/// lavapipe's): user + system from `/proc/self/stat`, in ticks of 10 ms.
+/// On a loaded machine it is what a frame cost, where the wall time is
+/// mostly waiting for a core.
+fn cpu_time() -> Option<Duration> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let fields: Vec<&str> = stat[stat.rfind(')')? + 2..].split(' ').collect();
+    // Fields 14 and 15 (utime, stime); the slice starts at field 3.
+    let ticks: u64 = fields.get(11)?.parse::<u64>().ok()? + fields.get(12)?.parse::<u64>().ok()?;
+    Some(Duration::from_millis(ticks * 10))
+}
+
+/// A per-frame CPU time as a table cell.
+fn cpu_ms(t: Option<Duration>) -> String {
+    t.map(|t| format!("{:.0}", ms(t))).unwrap_or_default()
 }
 
 fn ms(d: Duration) -> f64 {
@@ -85,8 +114,8 @@ fn main() {
     }
     let threads = rayon::current_num_threads();
     println!("Kilgard torus, wgsl plan (1 pass), median whole frame, CPU on {threads} rayon threads");
-    println!("| size | mode | executor | ms | CPU / wgpu |");
-    println!("|---|---|---|---|---|");
+    println!("| size | mode | executor | ms | CPU / wgpu | CPU time ms/frame | CPU time / wgpu's |");
+    println!("|---|---|---|---|---|---|---|");
     for side in sizes {
         let peer = |mode| {
             let gpu = gpu.as_ref().ok()?;
@@ -95,14 +124,23 @@ fn main() {
         };
         let peers = [peer(Precision::F32), peer(Precision::Fixed9)];
         for (mode, p) in [Precision::F32, Precision::Fixed9].into_iter().zip(peers) {
-            if let Some(p) = p {
-                println!("| {side}² | {} | wgpu | {:.1} | 1.00× |", mode.name(), ms(p));
+            if let Some((p, c)) = p {
+                println!(
+                    "| {side}² | {} | wgpu | {:.1} | 1.00× | {} | 1.00× |",
+                    mode.name(),
+                    ms(p),
+                    cpu_ms(c)
+                );
             }
         }
-        let ratio = |t: Duration, mode| match peers[(mode == Precision::Fixed9) as usize] {
-            Some(p) => format!("{:.2}×", ms(t) / ms(p)),
-            None => String::new(),
-        };
+        let ratio =
+            |(t, c): (Duration, Option<Duration>), mode| match peers[(mode == Precision::Fixed9) as usize] {
+                Some((p, pc)) => {
+                    let cpu = c.zip(pc).map(|(c, pc)| format!("{:.2}×", ms(c) / ms(pc))).unwrap_or_default();
+                    format!("{:.2}× | {} | {cpu}", ms(t) / ms(p), cpu_ms(c))
+                }
+                None => format!(" | {} | ", cpu_ms(c)),
+            };
         let frame = |planned, prog, mode| {
             let cpu = PlanRenderer::new(planned, prog, &scene, &assets).unwrap();
             median(|| cpu.recycle(cpu.render(mode, side, side, &mut |_, _| {}).unwrap()))
@@ -123,14 +161,14 @@ fn main() {
             for &(d, name) in dispatches.iter().filter(|(d, _)| mode != Precision::F32 || wanted(*d)) {
                 set_lane_dispatch(d);
                 let t = frame(&wgsl, &program, mode);
-                println!("| {side}² | {} | {name} | {:.1} | {} |", mode.name(), ms(t), ratio(t, mode));
+                println!("| {side}² | {} | {name} | {:.1} | {} |", mode.name(), ms(t.0), ratio(t, mode));
             }
             set_lane_dispatch(LaneDispatch::Kernels);
         }
         let t = frame(&raster_only, &raster_program, Precision::F32);
         println!(
             "| {side}² | f32 | CPU, rasterizer + interpolation only (two varyings added) | {:.1} | {} |",
-            ms(t),
+            ms(t.0),
             ratio(t, Precision::F32)
         );
     }

@@ -81,6 +81,69 @@ impl Fragment<'_> {
     }
 }
 
+/// λ of a 2-D lookup for each of `fragments` (one triangle's: lanes
+/// `0..fragments.len()` of `lod`) whose coordinates (u, v) are the first
+/// two components of varying `k` (`varyings`: `per` a fragment), on a
+/// texture whose level 0 is `width`×`height`: [`Fragment::quad_derivatives`]
+/// of u and v and [`crate::textures::unit::quad_lod`] as fixed-length loops
+/// over the lanes (vector code), the same formulas in the same order, so
+/// the same values bit for bit. Returns the lanes it leaves to the one-lane
+/// code: those whose 1/w degenerates (`quad_derivatives`' fallback), or
+/// all of them where the fragments do not share one triangle's gradients
+/// or the varying has none.
+#[inline(always)]
+pub(crate) fn quad_lod_lanes<const N: usize>(
+    fragments: &[Fragment],
+    varyings: &[f32],
+    (per, k): (usize, usize),
+    (width, height): (u32, u32),
+    lod: &mut [f32; N],
+) -> [bool; N] {
+    let n = fragments.len().min(N);
+    let mut one_lane = [false; N];
+    let Some(first) = fragments.first() else { return one_lane };
+    let g = first.gradients;
+    let m = (g.len() / 2).saturating_sub(1);
+    if 4 * k + 1 >= m || !fragments.iter().all(|f| std::ptr::eq(f.gradients, g)) {
+        one_lane[..n].fill(true);
+        return one_lane;
+    }
+    let (mut ox, mut oy, mut inv_w, mut u, mut v) = ([0.0f32; N], [0.0; N], [1.0; N], [0.0; N], [0.0; N]);
+    for (lane, f) in fragments[..n].iter().enumerate() {
+        // Offsets of the quad's top-left pixel from this one.
+        (ox[lane], oy[lane]) = (-((f.x & 1) as f32), -((f.y & 1) as f32));
+        inv_w[lane] = f.inv_w;
+        (u[lane], v[lane]) = (varyings[lane * per + 4 * k], varyings[lane * per + 4 * k + 1]);
+    }
+    let (qx, qy) = (g[2 * m], g[2 * m + 1]);
+    let q: [f32; N] = std::array::from_fn(|l| inv_w[l] + qx * ox[l] + qy * oy[l]);
+    let (qr, qb) = (q.map(|q| q + qx), q.map(|q| q + qy));
+    let derivatives = |index: usize, value: &[f32; N]| -> [[f32; N]; 2] {
+        let (ax, ay) = (g[2 * index], g[2 * index + 1]);
+        let a: [f32; N] = std::array::from_fn(|l| value[l] * inv_w[l] + ax * ox[l] + ay * oy[l]);
+        let at: [f32; N] = std::array::from_fn(|l| a[l] / q[l]);
+        [
+            std::array::from_fn(|l| (a[l] + ax) / qr[l] - at[l]),
+            std::array::from_fn(|l| (a[l] + ay) / qb[l] - at[l]),
+        ]
+    };
+    let ([ux, uy], [vx, vy]) = (derivatives(4 * k, &u), derivatives(4 * k + 1, &v));
+    let (w, h) = (width as f32, height as f32);
+    for l in 0..N {
+        let (ux, vx, uy, vy) = (ux[l] * w, vx[l] * h, uy[l] * w, vy[l] * h);
+        let rho2 = (ux * ux + vx * vx).max(uy * uy + vy * vy);
+        lod[l] = if !rho2.is_finite() || rho2 <= 0.0 {
+            f32::NEG_INFINITY
+        } else {
+            0.5 * crate::textures::unit::piecewise_log2(rho2)
+        };
+    }
+    for l in 0..n {
+        one_lane[l] = inv_w[l] == 0.0 || q[l] <= 0.0 || qr[l] <= 0.0 || qb[l] <= 0.0;
+    }
+    one_lane
+}
+
 impl Fragment<'_> {
     /// The varyings at the pixel (ox, oy) away from this one, into `out`,
     /// interpolated perspective-correctly from this triangle's planes (as
@@ -537,5 +600,79 @@ mod tests {
             assert!(extent <= 32768.0, "size {size}: extent {extent}");
             assert!(g >= 1.0);
         }
+    }
+
+    /// [`quad_lod_lanes`] is `quad_derivatives` and `quad_lod` lane by
+    /// lane, bit for bit: pixels at every quad position, 1/w near zero,
+    /// zero and negative (the one-lane fallback), partial batches, a
+    /// varying without gradients, fragments of two triangles.
+    #[test]
+    fn quad_lod_lanes_are_the_one_lane_code_bit_for_bit() {
+        use crate::textures::unit;
+        let mut x = 0x9e37_79b9u32;
+        let mut r = move || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            (x >> 8) as f32 / (1u32 << 23) as f32 - 1.0
+        };
+        let per = 12;
+        let mut compared = 0;
+        for round in 0..200 {
+            // Three varyings of four components, then 1/w's gradients.
+            let g: Vec<f32> = (0..2 * 12 + 2).map(|i| r() * if i >= 24 { 0.02 } else { 0.5 }).collect();
+            let other: Vec<f32> = g.iter().map(|v| v * 1.5).collect();
+            let n = 32 - round % 7;
+            let k = round % 2;
+            let fragments: Vec<Fragment> = (0..n)
+                .map(|i| Fragment {
+                    x: (i * 7 + round) as u32,
+                    y: (i / 3 + round) as u32,
+                    depth: 0.5,
+                    front_facing: true,
+                    inv_w: match i % 11 {
+                        0 => 0.0,
+                        1 => -0.01,
+                        2 => 1e-30,
+                        _ => r().abs() * 0.5,
+                    },
+                    gradients: if round % 10 == 9 && i == 5 { &other } else { &g },
+                })
+                .collect();
+            let varyings: Vec<f32> = (0..n * per).map(|_| r() * 4.0).collect();
+            let (w, h) = if round % 3 == 0 { (256, 64) } else { (16, 16) };
+            let mut lod = [0.0f32; 32];
+            let left = quad_lod_lanes(&fragments, &varyings, (per, k), (w, h), &mut lod);
+            for (lane, f) in fragments.iter().enumerate() {
+                let vary = &varyings[lane * per + 4 * k..];
+                let (du, dv) = (f.quad_derivatives(4 * k, vary[0]), f.quad_derivatives(4 * k + 1, vary[1]));
+                let one = unit::quad_lod(w, h, [du[0], dv[0]], [du[1], dv[1]]);
+                // The one-lane lanes: 1/w = 0, a quad whose 1/w reaches 0 (small
+                // or negative 1/w here), or a batch of two triangles.
+                let mixed = round % 10 == 9;
+                assert!(left[lane] || (f.inv_w != 0.0 && !mixed), "round {round} lane {lane}");
+                assert!(!left[lane] || f.inv_w < 0.1 || mixed, "round {round} lane {lane}");
+                if left[lane] {
+                    continue;
+                }
+                compared += 1;
+                assert_eq!(
+                    one.to_bits(),
+                    lod[lane].to_bits(),
+                    "round {round} lane {lane}: {one} {}",
+                    lod[lane]
+                );
+            }
+        }
+        assert!(compared > 3000, "{compared} lanes as lanes");
+        // A varying past the gradients (k = 2: components 8, 9 of 4 components' gradients).
+        let g = [0.1f32; 2 * 4 + 2];
+        let fragments: Vec<Fragment> = (0..9)
+            .map(|i| Fragment { x: i, y: 1, depth: 0.0, front_facing: true, inv_w: 0.5, gradients: &g })
+            .collect();
+        let varyings = vec![1.0f32; 9 * per];
+        let mut lod = [7.0f32; 32];
+        let left = quad_lod_lanes(&fragments, &varyings, (per, 2), (8, 8), &mut lod);
+        assert_eq!(left.iter().filter(|&&l| l).count(), 9);
     }
 }

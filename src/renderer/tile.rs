@@ -153,9 +153,11 @@ pub(crate) fn fragment_at<'a>(
 
 /// Interpolates the triangle's varyings `vary` (three vertices of `n`)
 /// with the weights `p` into `out`.
+#[inline(always)]
 pub(crate) fn interpolate(vary: &[f32], n: usize, p: [f32; 3], out: &mut [f32]) {
-    for (i, v) in out.iter_mut().enumerate() {
-        *v = p[0] * vary[i] + p[1] * vary[n + i] + p[2] * vary[2 * n + i];
+    let (a, b, c) = (&vary[..n], &vary[n..2 * n], &vary[2 * n..3 * n]);
+    for (((v, a), b), c) in out.iter_mut().zip(a).zip(b).zip(c) {
+        *v = p[0] * a + p[1] * b + p[2] * c;
     }
 }
 
@@ -177,7 +179,7 @@ impl Batch<'_> {
         }
         pass.fragment.shade_batch(
             &self.fragments,
-            &self.varyings,
+            &self.varyings[..k * self.varyings.len() / BATCH],
             &mut self.out[..k],
             &mut self.results[..k],
         );
@@ -193,7 +195,6 @@ impl Batch<'_> {
         tile.blend_kept(&self.pixels, &self.out[..k], results, &pass.state.blend, writer);
         self.fragments.clear();
         self.pixels.clear();
-        self.varyings.clear();
     }
 }
 
@@ -216,7 +217,7 @@ fn raster_tile_batched(
     let mut batch = Batch {
         fragments: Vec::with_capacity(BATCH),
         pixels: Vec::with_capacity(BATCH),
-        varyings: Vec::with_capacity(BATCH * n),
+        varyings: vec![0.0; BATCH * n],
         out: [[0.0; 4]; BATCH],
         results: [FragmentResult::Discard; BATCH],
     };
@@ -234,10 +235,9 @@ fn raster_tile_batched(
                 while pass_mask != 0 {
                     let j = pass_mask.trailing_zeros() as usize;
                     pass_mask &= pass_mask - 1;
-                    let p = span.p.map(|w| w[j]);
-                    batch
-                        .varyings
-                        .extend((0..n).map(|i| p[0] * vary[i] + p[1] * vary[n + i] + p[2] * vary[2 * n + i]));
+                    // Into the batch's slice, one loop over the varyings (vector code).
+                    let at_v = batch.fragments.len() * n;
+                    interpolate(vary, n, span.p.map(|w| w[j]), &mut batch.varyings[at_v..at_v + n]);
                     batch.fragments.push(Fragment {
                         x: (x + j as i32) as u32,
                         y: y as u32,

@@ -4,9 +4,10 @@
 //!
 //! What runs as lanes: a cube map's face selection, face coordinates,
 //! texel addresses and weights (fixed-length loops over `N` lanes that the
-//! compiler turns into vector code); a 2-D texture's level choice per lane.
-//! The texel fetches stay a loop over the lanes (a gather), each lane's
-//! four texels filtered as one 4-wide vector. Every lane computes the
+//! compiler turns into vector code); a 2-D texture's level choice (one
+//! level or two) and each level's coordinates, weights and wrapped texel
+//! indices. The texel fetches stay a loop over the lanes (a gather), each
+//! lane's four texels filtered as one 4-wide vector. Every lane computes the
 //! formulas of [`unit::sample_cube_with`] and [`unit::sample_2d_with`] in
 //! their order, so the values are theirs bit for bit (tests below); a cube
 //! lane whose footprint leaves its face (seamless filtering across faces,
@@ -115,44 +116,100 @@ pub fn sample_cube_lanes<const N: usize>(
     true
 }
 
-/// The texel of `level` at (x, y), wrapped or clamped (`Level::fetch`).
-#[inline(always)]
-fn fetch(level: &Level, x: i64, y: i64, wrap: Wrap) -> [f32; 4] {
-    let (w, h) = (level.width as i64, level.height as i64);
-    let (x, y) = match wrap {
-        Wrap::ClampToEdge => (x.clamp(0, w - 1), y.clamp(0, h - 1)),
-        Wrap::Repeat if (w & (w - 1)) == 0 && (h & (h - 1)) == 0 => (x & (w - 1), y & (h - 1)),
-        Wrap::Repeat => (x.rem_euclid(w), y.rem_euclid(h)),
-    };
-    level.texels[(y * w + x) as usize]
+/// The most levels [`sample_2d_lanes`] takes as lanes (a 32768² chain has
+/// 16); a longer chain goes lane by lane.
+const MAX_LEVELS: usize = 16;
+
+/// A texture's levels as the lanes index them: each level's size as f32
+/// (the coordinates' scale) and as the largest texel index, and whether
+/// coordinates wrap with a mask (repeat, every level a power of two) or
+/// clamp to the edge.
+struct Levels {
+    w: [f32; MAX_LEVELS],
+    h: [f32; MAX_LEVELS],
+    w_last: [i32; MAX_LEVELS],
+    h_last: [i32; MAX_LEVELS],
+    repeat: bool,
 }
 
-/// `Level::sample_bilinear`: GL bilinear, texel centres at (i + ½)/size.
-#[inline(always)]
-fn bilinear(level: &Level, u: f32, v: f32, wrap: Wrap) -> [f32; 4] {
-    let fx = finite(u * level.width as f32 - 0.5);
-    let fy = finite(v * level.height as f32 - 0.5);
-    let (x0, y0) = (floor_finite(fx), floor_finite(fy));
-    let (ax, ay) = (fx - x0, fy - y0);
-    let (x0, y0) = (x0 as i64, y0 as i64);
-    let (w, h) = (level.width as i64, level.height as i64);
-    if wrap == Wrap::Repeat && (w & (w - 1)) == 0 && (h & (h - 1)) == 0 {
-        // The common case without a match per texel: a power-of-two size wraps with a mask.
-        let (x1, y1) = ((x0 + 1) & (w - 1), (y0 + 1) & (h - 1));
-        let (x0, y0) = (x0 & (w - 1), y0 & (h - 1));
-        let t = &level.texels;
-        let at = |x: i64, y: i64| t[(y * w + x) as usize];
-        return bilinear4(at(x0, y0), at(x1, y0), at(x0, y1), at(x1, y1), ax, ay);
+impl Levels {
+    /// `None` where the lanes do not cover the texture: repeat on a size
+    /// that is not a power of two (a remainder per texel), or too many levels.
+    fn of(t: &Texture2D) -> Option<Levels> {
+        if t.levels.len() > MAX_LEVELS {
+            return None;
+        }
+        let repeat = t.wrap == Wrap::Repeat;
+        let pot = |x: u32| x.is_power_of_two();
+        if repeat && !t.levels.iter().all(|l| pot(l.width) && pot(l.height)) {
+            return None;
+        }
+        let mut s = Levels {
+            w: [1.0; MAX_LEVELS],
+            h: [1.0; MAX_LEVELS],
+            w_last: [0; MAX_LEVELS],
+            h_last: [0; MAX_LEVELS],
+            repeat,
+        };
+        for (k, l) in t.levels.iter().enumerate() {
+            (s.w[k], s.h[k]) = (l.width as f32, l.height as f32);
+            (s.w_last[k], s.h_last[k]) = (l.width as i32 - 1, l.height as i32 - 1);
+        }
+        Some(s)
     }
-    let t = |dx: i64, dy: i64| fetch(level, x0 + dx, y0 + dy, wrap);
-    bilinear4(t(0, 0), t(1, 0), t(0, 1), t(1, 1), ax, ay)
+}
+
+/// The bilinear footprints of `N` lanes, each on its own level: the four
+/// texels' indices (x0y0, x1y0, x0y1, x1y1) in their level and the weights.
+struct Footprints<const N: usize> {
+    at: [[u32; N]; 4],
+    ax: [f32; N],
+    ay: [f32; N],
+}
+
+/// `Level::sample_bilinear`'s coordinates, weights and wrapped texel
+/// indices for each lane at (`u`, `v`) on level `level[lane]`, as
+/// fixed-length loops: the same formulas (with i32 where it has i64:
+/// `finite` keeps the coordinates within ±1e9), so the same values.
+#[inline(always)]
+fn footprints<const N: usize>(s: &Levels, level: &[u32; N], u: &[f32; N], v: &[f32; N]) -> Footprints<N> {
+    let mut f = Footprints { at: [[0; N]; 4], ax: [0.0; N], ay: [0.0; N] };
+    for lane in 0..N {
+        let k = level[lane] as usize % MAX_LEVELS;
+        let fx = finite(u[lane] * s.w[k] - 0.5);
+        let fy = finite(v[lane] * s.h[k] - 0.5);
+        let (tx, ty) = (fx as i32 as f32, fy as i32 as f32);
+        let x0 = if tx > fx { tx - 1.0 } else { tx };
+        let y0 = if ty > fy { ty - 1.0 } else { ty };
+        (f.ax[lane], f.ay[lane]) = (fx - x0, fy - y0);
+        let (x0, y0) = (x0 as i32, y0 as i32);
+        let (wl, hl) = (s.w_last[k], s.h_last[k]);
+        let wrap = |c: i32, last: i32| if s.repeat { c & last } else { c.clamp(0, last) };
+        let (xa, xb) = (wrap(x0, wl), wrap(x0 + 1, wl));
+        let (ya, yb) = (wrap(y0, hl) * (wl + 1), wrap(y0 + 1, hl) * (wl + 1));
+        f.at[0][lane] = (ya + xa) as u32;
+        f.at[1][lane] = (ya + xb) as u32;
+        f.at[2][lane] = (yb + xa) as u32;
+        f.at[3][lane] = (yb + xb) as u32;
+    }
+    f
+}
+
+/// Lane `lane`'s footprint in `f` on `level` filtered.
+#[inline(always)]
+fn filtered<const N: usize>(level: &Level, f: &Footprints<N>, lane: usize) -> [f32; 4] {
+    let t = |c: usize| level.texels[f.at[c][lane] as usize];
+    bilinear4(t(0), t(1), t(2), t(3), f.ax[lane], f.ay[lane])
 }
 
 /// Lanes `0..n` of a 2-D lookup at (`u`, `v`) with levels of detail `lod`
 /// into `out`, as [`unit::sample_2d_with`] with float arithmetic and the
-/// model's choices: each lane's level (or two, trilinear) chosen from its
-/// λ, then filtered. Returns `false`, touching nothing, for a lookup it
-/// does not cover (nearest filtering, another latitude).
+/// model's choices. Each lane's level (or two, trilinear), coordinates,
+/// weights and texel indices are computed as fixed-length loops (vector
+/// code); then a loop over the lanes fetches each footprint's four texels
+/// and filters them as one 4-wide vector. Returns `false`, touching
+/// nothing, for a lookup it does not cover (nearest filtering, another
+/// latitude).
 #[inline(always)]
 #[allow(clippy::too_many_arguments, reason = "the lanes of one lookup and its one texture's state")]
 pub fn sample_2d_lanes<const N: usize>(
@@ -168,31 +225,72 @@ pub fn sample_2d_lanes<const N: usize>(
     if filter == Filter::Nearest || latitude != unit::Latitude::MODEL {
         return false;
     }
-    let last = t.levels.len() - 1;
-    for lane in 0..n {
-        let lod = lod[lane];
-        let lod = if lod.is_nan() { f32::NEG_INFINITY } else { LodChoice::Model.apply(lod + 0.0) };
-        let at = |level: usize| bilinear(&t.levels[level], u[lane], v[lane], t.wrap);
-        let texel = if filter == Filter::Bilinear {
-            at(if lod <= 0.0 { 0 } else { ((lod + 0.5).floor() as usize).min(last) })
-        } else {
-            let floor = lod.floor();
-            if lod.is_infinite() || floor < 0.0 || last == 0 {
-                at(0)
-            } else if floor as usize >= last {
-                at(last)
-            } else {
-                let l0 = floor as usize;
-                let (a, b) = (at(l0), at(l0 + 1));
-                let fraction = lod - floor;
-                [0, 1, 2, 3].map(|c| a[c] + fraction * (b[c] - a[c]))
-            }
-        };
-        for (k, x) in texel.into_iter().enumerate() {
-            out[k][lane] = x;
+    let Some(s) = Levels::of(t) else {
+        sample_2d_lane_by_lane(t, u, v, lod, n, filter, out);
+        return true;
+    };
+    let last = (t.levels.len() - 1) as f32;
+    // λ as `unit::sample_2d_with` takes it (the model's choice adds nothing).
+    let lod = lod.map(|l| if l.is_nan() { f32::NEG_INFINITY } else { LodChoice::Model.apply(l + 0.0) });
+    if filter == Filter::Bilinear {
+        // The level nearest to λ (GL's LINEAR_MIPMAP_NEAREST).
+        let level = lod.map(|l| if l <= 0.0 { 0 } else { (l + 0.5).floor().min(last) as u32 });
+        let f = footprints(&s, &level, u, v);
+        for lane in 0..n {
+            let texel = filtered(&t.levels[level[lane] as usize], &f, lane);
+            (0..4).for_each(|k| out[k][lane] = texel[k]);
         }
+        return true;
+    }
+    // Trilinear: levels ⌊λ⌋ and ⌊λ⌋ + 1 blended by λ's fraction, or one
+    // level (0 for λ < 0, infinite λ or a single level; the last beyond it).
+    let floor = lod.map(f32::floor);
+    let single: [bool; N] =
+        std::array::from_fn(|l| lod[l].is_infinite() || floor[l] < 0.0 || last == 0.0 || floor[l] >= last);
+    let level0: [u32; N] = std::array::from_fn(|l| match single[l] {
+        true if lod[l].is_infinite() || floor[l] < 0.0 || last == 0.0 => 0,
+        true => last as u32,
+        false => floor[l] as u32,
+    });
+    let level1 = std::array::from_fn(|l| level0[l] + !single[l] as u32);
+    let fraction: [f32; N] = std::array::from_fn(|l| lod[l] - floor[l]);
+    let (fa, fb) = (footprints(&s, &level0, u, v), footprints(&s, &level1, u, v));
+    for lane in 0..n {
+        let a = filtered(&t.levels[level0[lane] as usize], &fa, lane);
+        let texel = if single[lane] {
+            a
+        } else {
+            let b = filtered(&t.levels[level1[lane] as usize], &fb, lane);
+            [0, 1, 2, 3].map(|c| a[c] + fraction[lane] * (b[c] - a[c]))
+        };
+        (0..4).for_each(|k| out[k][lane] = texel[k]);
     }
     true
+}
+
+/// [`sample_2d_lanes`] one lane at a time, for the textures [`Levels`]
+/// does not cover.
+fn sample_2d_lane_by_lane<const N: usize>(
+    t: &Texture2D,
+    u: &[f32; N],
+    v: &[f32; N],
+    lod: &[f32; N],
+    n: usize,
+    filter: Filter,
+    out: &mut [[f32; N]; 4],
+) {
+    for lane in 0..n {
+        let texel = unit::sample_2d_with(
+            t,
+            u[lane],
+            v[lane],
+            filter,
+            lod[lane],
+            unit::Arithmetic::Float,
+            unit::Latitude::MODEL,
+        );
+        (0..4).for_each(|k| out[k][lane] = texel[k]);
+    }
 }
 
 #[cfg(test)]
@@ -253,11 +351,19 @@ mod tests {
     #[test]
     fn texture_2d_lanes_are_the_one_lane_unit_bit_for_bit() {
         let mut r = numbers(11);
-        for (wrap, (w, h)) in
-            [(Wrap::Repeat, (16, 8)), (Wrap::ClampToEdge, (16, 16)), (Wrap::Repeat, (12, 10))]
-        {
-            let t = Texture2D::new(TexelFormat::F32, wrap, level(w, h, w + h)).with_box_mipmaps();
-            for filter in [Filter::Bilinear, Filter::Trilinear] {
+        // Repeat on powers of two and clamp as lanes; repeat on other sizes lane by lane; one level.
+        let cases = [
+            (Wrap::Repeat, (16, 8), true),
+            (Wrap::ClampToEdge, (16, 16), true),
+            (Wrap::Repeat, (12, 10), true),
+            (Wrap::ClampToEdge, (12, 10), true),
+            (Wrap::Repeat, (8, 8), false),
+            (Wrap::ClampToEdge, (5, 3), false),
+        ];
+        for (wrap, (w, h), mipmaps) in cases {
+            let t = Texture2D::new(TexelFormat::F32, wrap, level(w, h, w + h));
+            let t = if mipmaps { t.with_box_mipmaps() } else { t };
+            for (round, filter) in [Filter::Bilinear, Filter::Trilinear].repeat(8).into_iter().enumerate() {
                 let mut u = [0.0f32; 32];
                 let mut v = [0.0f32; 32];
                 let mut lod = [0.0f32; 32];
@@ -265,6 +371,9 @@ mod tests {
                     (u[lane], v[lane], lod[lane]) = (r() * 3.0, r() * 3.0, r() * 6.0);
                 }
                 (lod[0], lod[1], lod[2], u[3]) = (f32::NEG_INFINITY, f32::NAN, 40.0, f32::INFINITY);
+                // +∞ (level 0 in trilinear), exact levels and halves, huge coordinates.
+                (lod[4], lod[5], lod[6], lod[7], lod[8]) = (f32::INFINITY, 1.0, 2.5, 0.0, -0.0);
+                (u[9], v[10], v[11]) = (-3e9, f32::NAN, 7.0e8);
                 let mut out = [[0.0f32; 32]; 4];
                 assert!(sample_2d_lanes(&t, &u, &v, &lod, 32, filter, unit::Latitude::MODEL, &mut out));
                 for lane in 0..32 {
@@ -281,7 +390,7 @@ mod tests {
                     assert_eq!(
                         one.map(f32::to_bits),
                         lanes.map(f32::to_bits),
-                        "{wrap:?} {filter:?} lane {lane}"
+                        "{wrap:?} {w}×{h} {filter:?} round {round} lane {lane}"
                     );
                 }
             }

@@ -106,7 +106,7 @@ pub fn quad_lod(width: u32, height: u32, ddx: [f32; 2], ddy: [f32; 2]) -> f32 {
 }
 
 /// log2 linear between powers of two: (e − 1) + m for x = m·2ᵉ, m ∈ [1, 2).
-fn piecewise_log2(x: f32) -> f32 {
+pub(crate) fn piecewise_log2(x: f32) -> f32 {
     let bits = x.to_bits();
     let e = ((bits >> 23) & 0xff) as i32 - 127;
     let m = f32::from_bits((bits & 0x007f_ffff) | 0x3f80_0000);

@@ -42,6 +42,7 @@ use super::{uv_derivatives, FragmentProgram, Kernel, Leaf, RegisterOp, Source, S
 use crate::ir::Ty;
 use crate::ir::{self, BinaryOp, Expr, MathFunction, UnaryOp};
 use crate::parser::ast::CombineMode;
+use crate::renderer::raster::quad_lod_lanes;
 use crate::renderer::{Fragment, FragmentResult, BATCH};
 use crate::textures::{lanes as texture_lanes, unit, Texture};
 
@@ -361,7 +362,9 @@ impl FragmentProgram<'_> {
                 let v = if coords_ty == Ty::Scalar { &half } else { c1 };
                 let mut lod = [f32::NEG_INFINITY; BATCH];
                 if let Some(k) = lod_from.filter(|_| t.levels.len() > 1) {
-                    for (lane, fragment) in fragments.iter().enumerate() {
+                    let size = (t.width(), t.height());
+                    let left = quad_lod_lanes(fragments, varyings, (per, k), size, &mut lod);
+                    for (lane, fragment) in fragments.iter().enumerate().filter(|&(l, _)| left[l]) {
                         let vary = &varyings[lane * per + 4 * k..lane * per + 4 * k + 4];
                         let d = |j| fragment.quad_derivatives(4 * k + j, vary[j]);
                         let (du, dv) = uv_derivatives(coords_ty, vary, d);
