@@ -81,6 +81,7 @@ mod wgsl_texture_targets;
 mod chain_growth;
 mod planner_heldout;
 mod stencil_writes;
+mod three_way_heldout;
 mod vertex_programs_public;
 mod wgpu_dual_paraboloid;
 mod wgpu_light_culling;

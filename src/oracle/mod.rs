@@ -65,6 +65,7 @@
 //! the light) or a shadow ray grazing an edge.
 
 pub mod geometry;
+pub mod normal_map;
 mod ops;
 mod program;
 pub mod rendered;
@@ -148,12 +149,6 @@ pub fn render_with(
 ) -> Result<Picture, Unsupported> {
     let world = geometry::World::new(scene, assets, f64::from(width) / f64::from(height));
     let coverage = geometry::Coverage::find(&world, width, height);
-    if coverage.clipped > 0 {
-        return Err(Unsupported::new(format!(
-            "{} triangles crossing the eye plane (no clipping)",
-            coverage.clipped
-        )));
-    }
     let light_vectors = module.vectors.iter().filter(|v| {
         matches!(v.kind, Some(ast::VectorKind::Light | ast::VectorKind::Half | ast::VectorKind::Intensity))
     });
@@ -217,14 +212,7 @@ pub(crate) fn samples(ev: &Evaluator, st: &crate::ir::Statement) -> Result<Vec<(
             let fragments = match index_view(ev.m, st.index) {
                 View::Camera => &ev.coverage.fragments,
                 view => {
-                    let c = geometry::Coverage::find_in(&ev.world, w, h, view);
-                    if c.clipped > 0 {
-                        return Err(Unsupported::new(format!(
-                            "{} triangles crossing the light's eye plane (no clipping)",
-                            c.clipped
-                        )));
-                    }
-                    found = c.fragments;
+                    found = geometry::Coverage::find_in(&ev.world, w, h, view).fragments;
                     &found
                 }
             };
