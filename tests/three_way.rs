@@ -813,3 +813,13 @@ fn triangles_crossing_the_lights_eye_plane_agree_three_ways() {
     let source = "vector N : normal;\nvector L : light(0);\ntexture Ck : 2d rgb8 bilinear clamp = image(\"missing-cookie.png\");\nshader diffuse : s → scalar = max(0, N·L);\nC δπx ← (Ck δπl x) * (δ diffuse s x);\n";
     agrees_on(source, "geforce3", &sc);
 }
+
+/// A scene's own generated textures (`bump_torus.ron`: `NormalMap` of
+/// dimples, `NormalizeCube`) replace the program's of the same name; the
+/// reference builds them from the scene's description itself, not from
+/// the scene binder's texels.
+#[test]
+fn a_scenes_generated_normal_map_agrees_three_ways() {
+    let source = "vector L : light(0) in tangent;\ntexture bumps : 2d rgba8 mipmap bilinear repeat = image(\"missing.png\");\ntexture norm_cube : cube rgb8 bilinear clamp = normalize_cube(8);\nconst kd : rgb = (0.9, 0.7, 0.5);\nC δπx ← kd * max(0, expand((bumps δu x).rgb) · expand(norm_cube δ L s x));\n";
+    agrees_on(source, "geforce256", &scene("bump_torus.ron"));
+}

@@ -56,9 +56,10 @@
 //! texture: deferred shading's), statements rendering into cube or 3-D
 //! textures, 3-D textures, a scene's dual-paraboloid maps (a program's
 //! `dual_paraboloid(…)` faces are 2-D textures of the environment's
-//! stand-in, data as an image's texels are), normal-map generators,
-//! triangles crossing the eye plane (the camera's or, for a `δπl`
-//! statement, the light's). Samples where the specifications leave the
+//! stand-in, data as an image's texels are). Normal maps are built here
+//! from Kilgard 2000's Appendices E-F ([`normal_map`]); triangles crossing
+//! the eye plane are clipped to the near plane in clip space (GL §2.12,
+//! [`geometry`]). Samples where the specifications leave the
 //! result open are marked [`Picture::latitude`]: a cube-map filter at a
 //! face edge, a light-space read at a pixel edge, a shadow-volume count
 //! decided by a depth tie at the near cap (an occluder's face turned from

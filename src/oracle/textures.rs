@@ -41,13 +41,41 @@ pub fn bind(
                 cube_from_image(level(&image.levels[0]), None, store, s.filter)
                     .unwrap_or_else(|why| Tex::Missing(format!("a cube map from the scene's image: {why}")))
             }
-            (Some(given), _) => from_data(given, s.filter, s.wrap, s.mipmap, store_format(t.format)),
+            // The papers' generators a scene names are built here too.
+            (Some(given), _) => scene_generated(scene, &t.name, s)?
+                .unwrap_or_else(|| from_data(given, s.filter, s.wrap, s.mipmap, store_format(t.format))),
             (None, Some(d)) => from_source(d, t.kind, t.format, s.filter, s.wrap, s.mipmap, scene)?,
             (None, None) => Tex::Missing(format!("the texture `{}` the compiler added", t.name)),
         };
         out.push(tex);
     }
     Ok(out)
+}
+
+/// A scene texture that is one of the papers' generators (Kilgard 2000's
+/// normal map, Appendices E-F, and normalization cube, Appendix D), built
+/// here from its description rather than taken from the scene binder.
+fn scene_generated(scene: &Scene, name: &str, s: crate::ir::Sampling) -> Result<Option<Tex>, Unsupported> {
+    use crate::scene::{HeightDesc, TextureDesc};
+    use crate::textures::generators::{CubeBits, HeightField, NormalMapFormat};
+    Ok(match scene.textures.get(name) {
+        Some(TextureDesc::NormalMap { height, scale, format: nf }) => {
+            let hf = match height {
+                HeightDesc::File(file) => data::load_height_field(&scene.resolve(file))
+                    .map_err(|e| Unsupported::new(format!("an unreadable height field: {e}")))?,
+                HeightDesc::Dimples { size, cells } => HeightField::dimples(*size, *cells),
+            };
+            let storage = if *nf == NormalMapFormat::F32 { Storage::Float } else { Storage::Bytes };
+            let levels = normal_map::levels(&hf, f64::from(*scale), storage, s.mipmap);
+            Some(Tex::Flat(Image { levels, wrap: s.wrap, filter: s.filter }))
+        }
+        // Stored as the scene says (its bits), whatever the program declares.
+        Some(TextureDesc::NormalizeCube { size, bits }) => {
+            let sixteen = *bits == CubeBits::Sixteen;
+            Some(Tex::Cube(normalize_cube(*size, sixteen, TextureFormat::Rgba8, s.filter)))
+        }
+        _ => None,
+    })
 }
 
 /// How a declared format stores texels (8-bit formats as k/255, signed as
