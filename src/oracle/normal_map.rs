@@ -3,8 +3,8 @@
 //! field (an image's luminance, or the golf-ball dimples that stand in for a
 //! missing file — data, as an image's texels are) is differenced forward to
 //! the right and one row on, `n = (dcy, −dcx, 1)/|…|` with
-//! `dc = scale·(c − c′)`, wrapping at the edges; the base level's alpha is
-//! 1. Each further level is Appendix F's filter: the four vectors of a 2×2
+//! `dc = scale·(c − c′)`, wrapping at the edges, alpha 1 at the base
+//! level. Each further level is Appendix F's filter: the four vectors of a 2×2
 //! block denormalized by their alpha, averaged; the average's direction,
 //! normalized, in RGB and its length (at most 1) in alpha.
 //!
