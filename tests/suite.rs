@@ -82,6 +82,7 @@ mod adaptive_plan;
 mod chain_growth;
 mod planner_heldout;
 mod stencil_writes;
+mod three_way_heldout;
 mod vertex_programs_public;
 mod wgpu_dual_paraboloid;
 mod wgpu_light_culling;

@@ -42,6 +42,8 @@ pub struct Pictures {
     pub gpu: Option<Vec<u8>>,
     pub oracle: Vec<u8>,
     pub covered: Vec<bool>,
+    /// Covered pixels left out as latitude (`oracle::Picture::latitude`).
+    pub left_out: usize,
     /// The summed output bounds of the plan's approximations (0 when it
     /// has none); `None` when one has no bound (per-vertex shading: its
     /// error depends on the mesh).
@@ -131,11 +133,13 @@ pub fn render_three(
     };
     // Pixels where the specifications leave the result open are left out.
     let covered = picture.covered.iter().zip(&picture.latitude).map(|(c, l)| *c && !l).collect();
+    let left_out = picture.covered.iter().zip(&picture.latitude).filter(|(c, l)| **c && **l).count();
     Ok(Pictures {
         cpu,
         gpu,
         oracle,
         covered,
+        left_out,
         approximation_bound,
         gpu_refused,
         texture_env_clamps,
@@ -738,4 +742,102 @@ fn stencil_writes_of_every_form_agree_three_ways() {
             check.unwrap_or_else(|e| panic!("{target}: {body}: {e}"));
         }
     }
+}
+
+/// Renders `source` three ways on wgsl in f32 and on `combiner` in fixed9,
+/// both within their bounds, on a tenth of the frame at least (pixels
+/// left out as latitude do not count: a minified trilinear texture can
+/// leave out most of them).
+fn agrees_on(source: &str, combiner: &str, sc: &Scene) {
+    let g = gpu();
+    let p =
+        render_three(source, "wgsl", sc, Precision::F32, g.as_ref()).unwrap_or_else(|e| panic!("wgsl: {e}"));
+    let compared = p.covered.iter().filter(|&&c| c).count();
+    assert!(compared * 10 >= p.covered.len(), "{compared} pixels compared, {} left out", p.left_out);
+    verdict(&p).unwrap_or_else(|e| panic!("wgsl: {e}"));
+    let p = render_three(source, combiner, sc, Precision::Fixed9, g.as_ref())
+        .unwrap_or_else(|e| panic!("{combiner}: {e}"));
+    crate::three_way_generated::fixed9_verdict(&p, &mut 0).unwrap_or_else(|e| panic!("{combiner}: {e}"));
+}
+
+/// `normal_map(height(…), scale)`: the reference builds the map from
+/// Kilgard 2000's Appendices E and F itself (forward differences, the
+/// filter that keeps the averaged normal's length in alpha, the bytes
+/// `128 + 127·n`); a mipmapped, minified map read by dot3 against the
+/// cube-normalized light and through its alpha.
+#[test]
+fn normal_map_generator_agrees_three_ways() {
+    let source = "vector L : light(0) in tangent;\ntexture Tn : 2d rgba8 mipmap bilinear repeat = normal_map(height(\"missing-bumps.png\"), 4);\ntexture Ncube : cube rgb8 bilinear clamp = normalize_cube(32);\nconst kd : rgb = (0.9, 0.8, 0.6);\nlet n = Tn δu x;\nC δπx ← kd * max(0, expand(n.rgb) · expand(Ncube δ L s x)) * n.a;\n";
+    agrees_on(source, "geforce256", &scene("kilgard_torus.ron"));
+}
+
+/// `bumps(cells)` stored signed: the dimples' normal map expanded. Its
+/// two channels read with the third rebuilt (`sqrt(1 − n·n)`, the texture
+/// shader's HILO rebuild) and dotted with the cube-normalized light, on
+/// wgsl (the combiner targets have no per-fragment `sqrt`); and as the
+/// offset of environment-mapped bump mapping (Pipeline Grammar, eq. (8)),
+/// on geforce3's texture shader in fixed9 too.
+#[test]
+fn signed_bumps_generator_agrees_three_ways() {
+    let g = gpu();
+    let sc = scene("kilgard_torus.ron");
+    let source = "vector L : light(0) in tangent;\ntexture B : 2d signed8 bilinear repeat = bumps(8);\ntexture Ncube : cube rgb8 bilinear clamp = normalize_cube(32);\nconst kd : rgb = (0.8, 0.8, 0.8);\nlet n = B δu x;\nC δπx ← kd * max(0, vec3(n.x, n.y, sqrt(max(0, 1 − n·n))) · expand(Ncube δ L s x));\n";
+    let p = render_three(source, "wgsl", &sc, Precision::F32, g.as_ref()).unwrap();
+    verdict(&p).unwrap();
+    let embm = "vector R : reflection in eye;\ntexture T : 2d rgba8 bilinear clamp = image(\"missing-env.png\");\ntexture B : 2d signed8 bilinear repeat = bumps(16);\nu x ← πR R s x;\nC δπx ← T δ((u x) + 0.2 * (B δu x));\n";
+    agrees_on(embm, "geforce3", &sc);
+}
+
+/// The reference's normal map against the texture unit's generator, texel
+/// by texel on every level: both write Kilgard's bytes, so they agree
+/// to the byte, except where f32 and f64 round `128 + 127·n` to either
+/// side of an integer (a step of 1/255, on few texels).
+#[test]
+fn normal_map_texels_match_the_generator_within_a_byte() {
+    use shadec::oracle::normal_map::{levels, Storage};
+    use shadec::textures::generators::{normal_map, HeightField, NormalMapFormat};
+    let hf = HeightField::dimples(64, 8);
+    let theirs = normal_map(&hf, 4.0, NormalMapFormat::Rgba8);
+    let ours = levels(&hf, 4.0, Storage::Bytes, true);
+    assert_eq!(theirs.levels.len(), ours.len());
+    let (mut off, mut n) = (0usize, 0usize);
+    for (a, b) in theirs.levels.iter().zip(&ours) {
+        assert_eq!((a.width, a.height), (b.width, b.height));
+        for (ta, tb) in a.texels.iter().zip(&b.texels) {
+            let d = (0..4).map(|c| (f64::from(ta[c]) - tb[c]).abs()).fold(0.0, f64::max);
+            assert!(d <= 1.0 / 255.0 + 1e-6, "{ta:?} against {tb:?}");
+            off += usize::from(d > 1e-6);
+            n += 1;
+        }
+    }
+    assert!(off * 100 <= n, "{off} of {n} texels a byte apart");
+}
+
+/// A ground plane running under and behind the camera: its triangles
+/// cross the eye plane, and the reference clips them to the near plane
+/// in clip space (GL §2.11-2.12) before finding the pixels they cover.
+#[test]
+fn triangles_crossing_the_eye_plane_agree_three_ways() {
+    let sc = test_scene("heldout_twelfth/near_floor.ron");
+    let source = "vector N : normal;\nvector L : light(0);\ntexture G : 2d rgb8 mipmap bilinear repeat = image(\"missing-ground.png\");\nshader diffuse : s → c = (0.8, 0.8, 0.7) * max(0, N·L);\nC δπx ← G δu x * δ diffuse s x;\n";
+    agrees_on(source, "geforce256", &sc);
+}
+
+/// A projected cookie over the same ground plane: its far corners lie
+/// behind the light too, so the light's view clips as the camera's does.
+#[test]
+fn triangles_crossing_the_lights_eye_plane_agree_three_ways() {
+    let sc = test_scene("heldout_twelfth/near_floor.ron");
+    let source = "vector N : normal;\nvector L : light(0);\ntexture Ck : 2d rgb8 bilinear clamp = image(\"missing-cookie.png\");\nshader diffuse : s → scalar = max(0, N·L);\nC δπx ← (Ck δπl x) * (δ diffuse s x);\n";
+    agrees_on(source, "geforce3", &sc);
+}
+
+/// A scene's own generated textures (`bump_torus.ron`: `NormalMap` of
+/// dimples, `NormalizeCube`) replace the program's of the same name; the
+/// reference builds them from the scene's description itself, not from
+/// the scene binder's texels.
+#[test]
+fn a_scenes_generated_normal_map_agrees_three_ways() {
+    let source = "vector L : light(0) in tangent;\ntexture bumps : 2d rgba8 mipmap bilinear repeat = image(\"missing.png\");\ntexture norm_cube : cube rgb8 bilinear clamp = normalize_cube(8);\nconst kd : rgb = (0.9, 0.7, 0.5);\nC δπx ← kd * max(0, expand((bumps δu x).rgb) · expand(norm_cube δ L s x));\n";
+    agrees_on(source, "geforce256", &scene("bump_torus.ron"));
 }

@@ -568,3 +568,77 @@ fn generated_programs_with_stencil_and_rendered_textures_agree() {
     eprintln!("{cases} programs agree: wgsl {}, geforce3 {}, geforce256 {}", r[0], r[1], r[2]);
     assert_eq!(r[0], cases as usize, "every program renders on wgsl");
 }
+
+/// A generated program with one of its textures made a generated normal
+/// map (`normal_map(height(…), k)`, built by the reference from Kilgard
+/// 2000's Appendices E and F) and, half the time, rendered over the
+/// ground plane that crosses the camera's and the light's eye plane
+/// (`tests/data/heldout_twelfth/near_floor.ron`: clipped, GL §2.12).
+#[derive(Clone, Debug)]
+struct BumpedOrClipped {
+    program: Program,
+    normal_map: Option<(usize, u8)>,
+    near_floor: bool,
+}
+
+fn bumped_or_clipped() -> impl Strategy<Value = BumpedOrClipped> {
+    (program(), prop::option::weighted(0.7, (0..N_TEXTURES, 1u8..=6)), any::<bool>())
+        .prop_map(|(program, normal_map, near_floor)| BumpedOrClipped { program, normal_map, near_floor })
+}
+
+impl BumpedOrClipped {
+    fn source(&self) -> String {
+        let mut s = self.program.source();
+        if let Some((t, k)) = self.normal_map {
+            s = s.replace(
+                &format!("image(\"missing-{t}.png\")"),
+                &format!("normal_map(height(\"missing-{t}.png\"), {k})"),
+            );
+        }
+        if self.near_floor {
+            // The ground scene has one light.
+            s = s.replace("vector L1 : light(1);", "vector L1 : light(0);");
+        }
+        s
+    }
+}
+
+fn near_floor() -> shadec::scene::Scene {
+    let path =
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/heldout_twelfth/near_floor.ron");
+    shadec::scene::Scene::parse(&std::fs::read_to_string(&path).unwrap(), &path).unwrap()
+}
+
+/// [`BumpedOrClipped`] programs (fixed seed; `SHADEC_THREE_WAY_RANDOM=1`
+/// draws one): wgsl in f32, the combiner targets in fixed9 where they
+/// plan, the three executors within the bounds of the other comparisons.
+#[test]
+fn generated_programs_with_normal_maps_and_clipped_triangles_agree() {
+    let gpu = crate::common::gpu::gpu();
+    let random = std::env::var("SHADEC_THREE_WAY_RANDOM").is_ok_and(|v| v == "1");
+    let seed: [u8; 32] = if random { rand_seed() } else { [13; 32] };
+    eprintln!("three-way seed (normal maps, clipping): {seed:?}");
+    let config = Config { cases: cases().min(24), failure_persistence: None, ..Config::default() };
+    let mut runner = TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &seed));
+    let result = runner.run(&bumped_or_clipped(), |b| {
+        let source = b.source();
+        let sc = if b.near_floor { near_floor() } else { scene(SCENES[b.program.scene]) };
+        let name = if b.near_floor { "near_floor.ron" } else { SCENES[b.program.scene] };
+        let fail =
+            |target: &str, e: String| TestCaseError::fail(format!("{target} on {name}: {e}\n{source}"));
+        let p =
+            render_three(&source, "wgsl", &sc, Precision::F32, gpu.as_ref()).map_err(|e| fail("wgsl", e))?;
+        verdict(&p).map_err(|e| fail("wgsl", e))?;
+        for target in ["geforce3", "geforce256"] {
+            match render_three(&source, target, &sc, Precision::Fixed9, gpu.as_ref()) {
+                Ok(p) => fixed9_verdict(&p, &mut 0).map_err(|e| fail(target, e))?,
+                Err(e) if e.starts_with("does not compile") => {}
+                Err(e) => return Err(fail(target, e)),
+            }
+        }
+        Ok(())
+    });
+    if let Err(e) = result {
+        panic!("{e}");
+    }
+}

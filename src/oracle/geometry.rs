@@ -188,12 +188,70 @@ pub fn pixel_ndc(x: f64, y: f64, width: u32, height: u32) -> (f64, f64) {
     (2.0 * x / f64::from(width) - 1.0, 1.0 - 2.0 * y / f64::from(height))
 }
 
-/// The triangle's vertices in clip space, if all lie in front of the eye
-/// (w > 0): triangles crossing the eye plane would need clipping, which
-/// this reference does not do — it says so instead ([`Coverage::clipped`]).
-fn clip_vertices(o: &Object, t: [u32; 3], view: View) -> Option<[DVec4; 3]> {
+/// A vertex of a clipped polygon: its clip position and its weights over
+/// the original triangle's three vertices (GL §2.12: a vertex made on a
+/// clip plane is `t·P₁ + (1 − t)·P₂`, its attributes weighted alike).
+type ClipVertex = (DVec4, [f64; 3]);
+
+/// The triangle clipped to the near plane `z ≥ −w` in clip space (GL 1.x
+/// §2.11-2.12: the view volume's near face, where a vertex behind the eye
+/// has w ≤ 0 and lies outside it), Sutherland and Hodgman's way: walking
+/// the edges, a vertex inside is kept and an edge crossing the plane adds
+/// the point where `z + w = 0`. The result (empty, a triangle or a
+/// quadrilateral) keeps the triangle's winding. The other five planes need
+/// no clipping here: every vertex left has w > 0 and a pixel outside the
+/// window or the depth range is simply not visited.
+fn clip_near(c: [DVec4; 3]) -> Vec<ClipVertex> {
+    let unit = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]];
+    let d = c.map(|v| v.z + v.w);
+    let mut out = Vec::with_capacity(4);
+    for i in 0..3 {
+        let j = (i + 1) % 3;
+        if d[i] >= 0.0 {
+            out.push((c[i], unit[i]));
+        }
+        if (d[i] >= 0.0) != (d[j] >= 0.0) {
+            let t = d[i] / (d[i] - d[j]);
+            let weights = std::array::from_fn(|k| (1.0 - t) * unit[i][k] + t * unit[j][k]);
+            out.push((c[i] + (c[j] - c[i]) * t, weights));
+        }
+    }
+    out
+}
+
+/// The triangles to rasterize for triangle `t` of `o`: the triangle itself
+/// when every vertex is inside the near plane, else the fan of its clipped
+/// polygon; each vertex with its weights over `t`'s vertices.
+fn clipped_triangles(o: &Object, t: [u32; 3], view: View) -> Vec<[ClipVertex; 3]> {
     let c = t.map(|i| o.clip(view, i as usize));
-    c.iter().all(|v| v.w > 1e-9).then_some(c)
+    let poly = if view == View::Texels || c.iter().all(|v| v.z + v.w >= 0.0 && v.w > 1e-9) {
+        vec![(c[0], [1.0, 0.0, 0.0]), (c[1], [0.0, 1.0, 0.0]), (c[2], [0.0, 0.0, 1.0])]
+    } else {
+        clip_near(c)
+    };
+    (2..poly.len())
+        .map(|k| [poly[0], poly[k - 1], poly[k]])
+        .filter(|v| v.iter().all(|v| v.0.w > 1e-12))
+        .collect()
+}
+
+/// The perspective-correct weights of the window point `(nx, ny)` (NDC)
+/// over a triangle with clip positions `clip`, any of whose w may be ≤ 0:
+/// `k = M⁻¹ (nx, ny, 1)` with M's columns `(xᵢ, yᵢ, wᵢ)`, normalized to sum 1
+/// — the point of the triangle's plane that projects there (Olano and
+/// Greer 1997's 2-D homogeneous form of eq. 3.6).
+fn homogeneous_weights(clip: [DVec4; 3], nx: f64, ny: f64) -> Option<[f64; 3]> {
+    let m = glam::DMat3::from_cols(
+        DVec3::new(clip[0].x, clip[0].y, clip[0].w),
+        DVec3::new(clip[1].x, clip[1].y, clip[1].w),
+        DVec3::new(clip[2].x, clip[2].y, clip[2].w),
+    );
+    if m.determinant().abs() < 1e-300 {
+        return None;
+    }
+    let k = m.inverse() * DVec3::new(nx, ny, 1.0);
+    let s = k.x + k.y + k.z;
+    (s.abs() > 1e-300).then(|| [k.x / s, k.y / s, k.z / s])
 }
 
 /// Window-space barycentrics λ of `(px, py)` (NDC) in the projected triangle
@@ -221,8 +279,6 @@ pub struct Coverage {
     pub width: u32,
     pub height: u32,
     pub fragments: Vec<Option<Fragment>>,
-    /// Triangles skipped because a vertex lies behind the eye.
-    pub clipped: usize,
 }
 
 impl Coverage {
@@ -237,13 +293,13 @@ impl Coverage {
     /// as a pass rendering in texture space draws (docs/pass-plan.md).
     pub fn find_in(world: &World, width: u32, height: u32, view: View) -> Coverage {
         let mut fragments: Vec<Option<Fragment>> = vec![None; (width * height) as usize];
-        let clipped = each_fragment(world, width, height, view, &mut |f| {
+        each_fragment(world, width, height, view, &mut |f| {
             let slot = &mut fragments[(f.pixel.1 * width + f.pixel.0) as usize];
             if view == View::Texels || slot.is_none_or(|g| f.depth < g.depth) {
                 *slot = Some(f);
             }
         });
-        Coverage { width, height, fragments, clipped }
+        Coverage { width, height, fragments }
     }
 
     /// The same triangle's fragment at another window position (a pixel
@@ -260,6 +316,11 @@ impl Coverage {
             self.width,
             self.height,
         );
+        if clip.iter().any(|c| c.w <= 1e-9) {
+            // A vertex behind the eye has no window position.
+            let weights = homogeneous_weights(clip, nx, ny).unwrap_or(f.weights);
+            return Fragment { weights, ..*f };
+        }
         match barycentric(&ndc, nx, ny) {
             Some((l, _)) => Fragment { weights: perspective_weights(l, clip.map(|c| c.w)), ..*f },
             None => *f,
@@ -269,51 +330,57 @@ impl Coverage {
 
 /// Every fragment of every triangle under `view`: each pixel centre inside
 /// a triangle facing the viewer (either facing over texels), within the
-/// depth range, handed to `visit`. Returns the triangles left out because
-/// a vertex lies behind the eye.
-pub fn each_fragment(
-    world: &World,
-    width: u32,
-    height: u32,
-    view: View,
-    visit: &mut dyn FnMut(Fragment),
-) -> usize {
-    let mut clipped = 0;
+/// depth range, handed to `visit`; a triangle crossing the near plane
+/// clipped first (`clip_near`).
+pub fn each_fragment(world: &World, width: u32, height: u32, view: View, visit: &mut dyn FnMut(Fragment)) {
     for (oi, o) in world.objects.iter().enumerate() {
         for (ti, t) in o.mesh.triangles.iter().enumerate() {
-            let Some(clip) = clip_vertices(o, *t, view) else {
-                clipped += 1;
-                continue;
-            };
-            let ndc = clip.map(|c| c.truncate() / c.w);
-            let w = clip.map(|c| c.w);
-            // The pixels whose centres the triangle's bounds include.
-            let to_px = |x: f64, size: u32| (x + 1.0) * 0.5 * f64::from(size);
-            let (xs, ys): (Vec<f64>, Vec<f64>) =
-                ndc.iter().map(|v| (to_px(v.x, width), to_px(-v.y, height))).unzip();
-            let range = |v: &[f64], size: u32| {
-                let lo = v.iter().copied().fold(f64::INFINITY, f64::min).floor().max(0.0) as u32;
-                let hi =
-                    v.iter().copied().fold(f64::NEG_INFINITY, f64::max).ceil().min(f64::from(size)) as u32;
-                lo..hi
-            };
-            for py in range(&ys, height) {
-                for px in range(&xs, width) {
-                    let (nx, ny) = pixel_ndc(f64::from(px) + 0.5, f64::from(py) + 0.5, width, height);
-                    let Some((l, front)) = barycentric(&ndc, nx, ny) else { continue };
-                    if !(front || view == View::Texels) || l.iter().any(|&v| v < 0.0) {
-                        continue;
-                    }
-                    let z = l[0] * ndc[0].z + l[1] * ndc[1].z + l[2] * ndc[2].z;
-                    let depth = 0.5 * z + 0.5;
-                    if !(0.0..=1.0).contains(&depth) {
-                        continue;
-                    }
-                    let weights = perspective_weights(l, w);
-                    visit(Fragment { object: oi, triangle: ti, weights, depth, pixel: (px, py), view });
-                }
+            for part in clipped_triangles(o, *t, view) {
+                rasterize(part, width, height, view, &mut |pixel, weights, depth| {
+                    visit(Fragment { object: oi, triangle: ti, weights, depth, pixel, view });
+                });
             }
         }
     }
-    clipped
+}
+
+/// The pixels whose centres lie in triangle `part` (facing the viewer,
+/// either facing over texels, within the depth range), each with the
+/// perspective-correct weights over the original triangle's vertices and
+/// its window depth.
+fn rasterize(
+    part: [ClipVertex; 3],
+    width: u32,
+    height: u32,
+    view: View,
+    visit: &mut dyn FnMut((u32, u32), [f64; 3], f64),
+) {
+    let clip = part.map(|p| p.0);
+    let ndc = clip.map(|c| c.truncate() / c.w);
+    let w = clip.map(|c| c.w);
+    // The pixels whose centres the triangle's bounds include.
+    let to_px = |x: f64, size: u32| (x + 1.0) * 0.5 * f64::from(size);
+    let (xs, ys): (Vec<f64>, Vec<f64>) = ndc.iter().map(|v| (to_px(v.x, width), to_px(-v.y, height))).unzip();
+    let range = |v: &[f64], size: u32| {
+        let lo = v.iter().copied().fold(f64::INFINITY, f64::min).floor().max(0.0) as u32;
+        let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max).ceil().min(f64::from(size)) as u32;
+        lo..hi
+    };
+    for py in range(&ys, height) {
+        for px in range(&xs, width) {
+            let (nx, ny) = pixel_ndc(f64::from(px) + 0.5, f64::from(py) + 0.5, width, height);
+            let Some((l, front)) = barycentric(&ndc, nx, ny) else { continue };
+            if !(front || view == View::Texels) || l.iter().any(|&v| v < 0.0) {
+                continue;
+            }
+            let z = l[0] * ndc[0].z + l[1] * ndc[1].z + l[2] * ndc[2].z;
+            let depth = 0.5 * z + 0.5;
+            if !(0.0..=1.0).contains(&depth) {
+                continue;
+            }
+            let sub = perspective_weights(l, w);
+            let weights = std::array::from_fn(|k| (0..3).map(|v| sub[v] * part[v].1[k]).sum());
+            visit((px, py), weights, depth);
+        }
+    }
 }

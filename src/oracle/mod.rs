@@ -56,15 +56,17 @@
 //! texture: deferred shading's), statements rendering into cube or 3-D
 //! textures, 3-D textures, a scene's dual-paraboloid maps (a program's
 //! `dual_paraboloid(…)` faces are 2-D textures of the environment's
-//! stand-in, data as an image's texels are), normal-map generators,
-//! triangles crossing the eye plane (the camera's or, for a `δπl`
-//! statement, the light's). Samples where the specifications leave the
+//! stand-in, data as an image's texels are). Normal maps are built here
+//! from Kilgard 2000's Appendices E-F ([`normal_map`]); triangles crossing
+//! the eye plane are clipped to the near plane in clip space (GL §2.12,
+//! [`geometry`]). Samples where the specifications leave the
 //! result open are marked [`Picture::latitude`]: a cube-map filter at a
 //! face edge, a light-space read at a pixel edge, a shadow-volume count
 //! decided by a depth tie at the near cap (an occluder's face turned from
 //! the light) or a shadow ray grazing an edge.
 
 pub mod geometry;
+pub mod normal_map;
 mod ops;
 mod program;
 pub mod rendered;
@@ -148,12 +150,6 @@ pub fn render_with(
 ) -> Result<Picture, Unsupported> {
     let world = geometry::World::new(scene, assets, f64::from(width) / f64::from(height));
     let coverage = geometry::Coverage::find(&world, width, height);
-    if coverage.clipped > 0 {
-        return Err(Unsupported::new(format!(
-            "{} triangles crossing the eye plane (no clipping)",
-            coverage.clipped
-        )));
-    }
     let light_vectors = module.vectors.iter().filter(|v| {
         matches!(v.kind, Some(ast::VectorKind::Light | ast::VectorKind::Half | ast::VectorKind::Intensity))
     });
@@ -217,14 +213,7 @@ pub(crate) fn samples(ev: &Evaluator, st: &crate::ir::Statement) -> Result<Vec<(
             let fragments = match index_view(ev.m, st.index) {
                 View::Camera => &ev.coverage.fragments,
                 view => {
-                    let c = geometry::Coverage::find_in(&ev.world, w, h, view);
-                    if c.clipped > 0 {
-                        return Err(Unsupported::new(format!(
-                            "{} triangles crossing the light's eye plane (no clipping)",
-                            c.clipped
-                        )));
-                    }
-                    found = c.fragments;
+                    found = geometry::Coverage::find_in(&ev.world, w, h, view).fragments;
                     &found
                 }
             };

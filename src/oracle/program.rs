@@ -387,13 +387,8 @@ impl Evaluator<'_> {
     fn shifted(&self, f: &Fragment, dx: f64, dy: f64) -> Fragment {
         let size = super::rendered::TEXEL_GRID;
         let raster = match f.view {
-            View::Texels => Coverage { width: size, height: size, fragments: Vec::new(), clipped: 0 },
-            _ => Coverage {
-                width: self.coverage.width,
-                height: self.coverage.height,
-                fragments: Vec::new(),
-                clipped: 0,
-            },
+            View::Texels => Coverage { width: size, height: size, fragments: Vec::new() },
+            _ => Coverage { width: self.coverage.width, height: self.coverage.height, fragments: Vec::new() },
         };
         raster.offset(&self.world, f, dx, dy)
     }

@@ -6,6 +6,7 @@
 //! and its filtering from the declaration's attributes. A scene texture of
 //! the same name replaces the program's, as docs/scenes.md says.
 
+use super::normal_map::{self, Storage};
 use super::program::Tex;
 use super::sampling::{self, Cube, Image, Level};
 use super::Unsupported;
@@ -40,13 +41,41 @@ pub fn bind(
                 cube_from_image(level(&image.levels[0]), None, store, s.filter)
                     .unwrap_or_else(|why| Tex::Missing(format!("a cube map from the scene's image: {why}")))
             }
-            (Some(given), _) => from_data(given, s.filter, s.wrap, s.mipmap, store_format(t.format)),
+            // The papers' generators a scene names are built here too.
+            (Some(given), _) => scene_generated(scene, &t.name, s)?
+                .unwrap_or_else(|| from_data(given, s.filter, s.wrap, s.mipmap, store_format(t.format))),
             (None, Some(d)) => from_source(d, t.kind, t.format, s.filter, s.wrap, s.mipmap, scene)?,
             (None, None) => Tex::Missing(format!("the texture `{}` the compiler added", t.name)),
         };
         out.push(tex);
     }
     Ok(out)
+}
+
+/// A scene texture that is one of the papers' generators (Kilgard 2000's
+/// normal map, Appendices E-F, and normalization cube, Appendix D), built
+/// here from its description rather than taken from the scene binder.
+fn scene_generated(scene: &Scene, name: &str, s: crate::ir::Sampling) -> Result<Option<Tex>, Unsupported> {
+    use crate::scene::{HeightDesc, TextureDesc};
+    use crate::textures::generators::{CubeBits, HeightField, NormalMapFormat};
+    Ok(match scene.textures.get(name) {
+        Some(TextureDesc::NormalMap { height, scale, format: nf }) => {
+            let hf = match height {
+                HeightDesc::File(file) => data::load_height_field(&scene.resolve(file))
+                    .map_err(|e| Unsupported::new(format!("an unreadable height field: {e}")))?,
+                HeightDesc::Dimples { size, cells } => HeightField::dimples(*size, *cells),
+            };
+            let storage = if *nf == NormalMapFormat::F32 { Storage::Float } else { Storage::Bytes };
+            let levels = normal_map::levels(&hf, f64::from(*scale), storage, s.mipmap);
+            Some(Tex::Flat(Image { levels, wrap: s.wrap, filter: s.filter }))
+        }
+        // Stored as the scene says (its bits), whatever the program declares.
+        Some(TextureDesc::NormalizeCube { size, bits }) => {
+            let sixteen = *bits == CubeBits::Sixteen;
+            Some(Tex::Cube(normalize_cube(*size, sixteen, TextureFormat::Rgba8, s.filter)))
+        }
+        _ => None,
+    })
 }
 
 /// How a declared format stores texels (8-bit formats as k/255, signed as
@@ -169,11 +198,53 @@ fn from_source(
             let t = if face == 0.0 { dp.front } else { dp.back };
             Tex::Flat(image(t.levels.iter().map(level).collect(), filter, wrap, mipmap, store))
         }
+        ("normal_map", TextureKind::Tex2d) => {
+            let hf = height_field(args.first().copied(), scene)?;
+            let scale = args.get(1).and_then(|a| number(a)).unwrap_or(4.0);
+            let storage = if store == TexelFormat::F32 { Storage::Float } else { Storage::Bytes };
+            Tex::Flat(Image { levels: normal_map::levels(&hf, scale, storage, mipmap), wrap, filter })
+        }
+        ("bumps", TextureKind::Tex2d) => {
+            let cells = args.first().and_then(|a| number(a)).unwrap_or(16.0).max(1.0);
+            let hf = data::generators::HeightField::dimples(256, cells as u32);
+            let sixteen = format == TextureFormat::Signed16;
+            let storage = if store == TexelFormat::F32 || sixteen { Storage::Float } else { Storage::Bytes };
+            let mut levels = normal_map::levels(&hf, 4.0, storage, mipmap);
+            if matches!(format, TextureFormat::Signed8 | TextureFormat::Signed16) {
+                normal_map::expanded(&mut levels, sixteen);
+            }
+            Tex::Flat(Image { levels, wrap, filter })
+        }
         ("bake", _) => Tex::Missing("a bake() whose statement was not seen".into()),
         (other, _) => {
             Tex::Missing(format!("the texture source `{other}(…)` for a {} texture", kind_name(kind)))
         }
     })
+}
+
+/// The height field of `normal_map(height("file"), …)` (or of a bare file
+/// name): the image's luminance, read as data; golf-ball dimples (256², 16
+/// cells) where the file is missing or no file is named, as the language
+/// documents the stand-in.
+fn height_field(
+    arg: Option<&ast::Expr>,
+    scene: &Scene,
+) -> Result<data::generators::HeightField, Unsupported> {
+    let file = match arg.map(|a| &a.kind) {
+        Some(ExprKind::String(f)) => Some(f),
+        Some(ExprKind::Apply { arg, .. }) => match &arg.kind {
+            ExprKind::String(f) => Some(f),
+            _ => None,
+        },
+        _ => None,
+    };
+    let dimples = || data::generators::HeightField::dimples(256, 16);
+    let Some(file) = file else { return Ok(dimples()) };
+    match data::load_height_field(&scene.resolve(file)) {
+        Ok(h) => Ok(h),
+        Err(data::TextureError::NotFound { .. }) => Ok(dimples()),
+        Err(e) => Err(Unsupported::new(format!("an unreadable height field: {e}"))),
+    }
 }
 
 fn kind_name(k: TextureKind) -> &'static str {

@@ -1,0 +1,120 @@
+//! Held-out user programs (`tests/data/heldout_twelfth/`), written as a
+//! user would and not among the examples: dot3 bump mapping with generated
+//! normal maps (with a highlight, with Kilgard's filtered length and
+//! self-shadowing, under a cube-map reflection, under a projected cookie,
+//! lit by two lights, signed), a ground plane crossing the eye plane (lit,
+//! bumped, under a cookie projected from a light whose eye plane it also
+//! crosses) and a modulate-2× detail map. Each names its scene and the
+//! targets it plans on in its header (`// scene:`, `// targets:`); on each
+//! it renders alike on the CPU, wgpu and the independent reference within
+//! `three_way`'s bound in f32, and in fixed9 on the combiner targets
+//! within `three_way_generated::fixed9_verdict`'s.
+
+use std::path::Path;
+
+use shadec::numerics::Precision;
+use shadec::scene::Scene;
+
+use crate::three_way::{render_three, scene, verdict};
+
+fn folder() -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/heldout_twelfth")
+}
+
+/// A scene of this folder, else of `scenes/` (images resolved where none
+/// is, so that every program renders with the stand-ins).
+fn held_out_scene(name: &str) -> Scene {
+    let own = folder().join(name);
+    match std::fs::read_to_string(&own) {
+        Ok(text) => Scene::parse(&text, &own).unwrap(),
+        Err(_) => scene(name),
+    }
+}
+
+fn header<'a>(source: &'a str, key: &str) -> &'a str {
+    source
+        .lines()
+        .find_map(|l| l.strip_prefix("// ").and_then(|l| l.strip_prefix(key)))
+        .unwrap_or_else(|| panic!("no `// {key}` line"))
+        .trim()
+}
+
+/// Renders the held-out program `name` three ways on every target its
+/// header names: f32 everywhere, fixed9 too on the combiner targets.
+pub fn renders_alike(name: &str) -> Result<(), String> {
+    let source = std::fs::read_to_string(folder().join(format!("{name}.shd"))).unwrap();
+    let sc = held_out_scene(header(&source, "scene:"));
+    let g = crate::common::gpu::gpu();
+    let mut failures = Vec::new();
+    for target in header(&source, "targets:").split_whitespace() {
+        let program = format!("target {target};\n{source}");
+        let mut runs = vec![Precision::F32];
+        if target != "wgsl" {
+            runs.push(Precision::Fixed9);
+        }
+        for precision in runs {
+            let result = render_three(&program, target, &sc, precision, g.as_ref()).and_then(|p| {
+                if let Some(why) = &p.gpu_refused {
+                    eprintln!("{name} on {target} ({precision:?}): wgpu does not run it: {why}");
+                }
+                // A picture worth comparing: a tenth of the frame covered,
+                // most of it lit.
+                let covered = p.covered.iter().filter(|&&c| c).count();
+                let lit = (0..p.covered.len()).filter(|&i| p.covered[i] && p.oracle[4 * i..4 * i + 3].iter().any(|&c| c > 8)).count();
+                eprintln!("{name} on {target} ({precision:?}): {covered} pixels compared ({lit} lit), {} left out as latitude", p.left_out);
+                if covered * 10 < p.covered.len() || lit * 2 < covered {
+                    return Err(format!("a picture not worth comparing: {covered} covered, {lit} lit, {} left out", p.left_out));
+                }
+                match precision {
+                    Precision::Fixed9 => crate::three_way_generated::fixed9_verdict(&p, &mut 0),
+                    _ => verdict(&p),
+                }
+            });
+            if let Err(e) = result {
+                failures.push(format!("{name} on {target} ({precision:?}): {e}"));
+            }
+        }
+    }
+    if failures.is_empty() {
+        Ok(())
+    } else {
+        Err(failures.join("\n"))
+    }
+}
+
+macro_rules! held_out {
+    ($($name:ident),* $(,)?) => {
+        $(
+            #[test]
+            fn $name() {
+                renders_alike(stringify!($name)).unwrap_or_else(|e| panic!("{e}"));
+            }
+        )*
+    };
+}
+
+held_out!(
+    dot3_specular_normal_map,
+    diffuse_bump_self_shadow,
+    bumped_cube_environment,
+    cookie_over_bumps,
+    two_light_bump,
+    signed_bumps_diffuse,
+    ground_plane_lit,
+    ground_plane_bumped,
+    detail_map_modulate2x,
+    ground_plane_cookie,
+);
+
+/// Every program of the folder has its named test above.
+#[test]
+fn every_held_out_program_has_a_test() {
+    let here = include_str!("three_way_heldout.rs");
+    for entry in std::fs::read_dir(folder()).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "shd") {
+            let stem = path.file_stem().unwrap().to_string_lossy().to_string();
+            assert!(here.contains(&format!("    {stem},\n")), "{stem} has no test");
+        }
+    }
+}
