@@ -78,6 +78,7 @@ mod wgsl_gpu;
 mod wgsl_snapshots;
 mod wgsl_texture_targets;
 
+mod alpha_test;
 mod chain_growth;
 mod planner_heldout;
 mod stencil_writes;
