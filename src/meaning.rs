@@ -188,6 +188,7 @@ fn statement_pass(
             depth,
             stencil: form.stencil.unwrap_or(StencilState::DISABLED),
             blend: BlendState::REPLACE.with_write_mask(mask),
+            alpha_test: crate::pipeline::AlphaTest::DISABLED,
         },
         geometry,
         baked: m.is_baked(st),

@@ -89,7 +89,13 @@ fn color_pass(label: &str, geometry: (Vec<f32>, Vec<u32>), state: RenderState) -
 }
 
 fn state(depth: DepthState, blend: BlendState) -> RenderState {
-    RenderState { cull: CullMode::None, depth, stencil: StencilState::DISABLED, blend }
+    RenderState {
+        cull: CullMode::None,
+        depth,
+        stencil: StencilState::DISABLED,
+        blend,
+        ..RenderState::default()
+    }
 }
 
 /// Asserts |got − round(255·want)| ≤ 1 per channel.

@@ -81,6 +81,7 @@ fn stencil_masks_a_second_pass() {
             ..StencilState::DISABLED
         },
         blend: BlendState::REPLACE.with_write_mask([false; 4]),
+        ..RenderState::default()
     };
     let s1 = draw(
         &mut fb,

@@ -166,5 +166,8 @@ fn wgpu_renders_the_constructs_no_example_shows() {
     let (failures, both, skipped) = sweep(&cases);
     eprintln!("{both} cases rendered on both; not for the CPU:\n{}", skipped.join("\n"));
     assert!(failures.is_empty(), "{}", failures.join("\n"));
-    assert!(both >= 9, "only {both} cases rendered on both:\n{}", skipped.join("\n"));
+    // The conditions on the framebuffer's own colour plan on wgsl only: a
+    // combiner target discards by the alpha test, whose alpha the
+    // combiners compute and cannot read the destination into.
+    assert!(both >= 7, "only {both} cases rendered on both:\n{}", skipped.join("\n"));
 }

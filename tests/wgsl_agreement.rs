@@ -548,6 +548,7 @@ fn draw_rect(gpu: &Gpu, w: u32, h: u32, decls: &str, body: &str, texture: RunTex
             depth: DepthState::DISABLED,
             stencil: StencilState::DISABLED,
             blend: BlendState::REPLACE,
+            alpha_test: shadec::pipeline::AlphaTest::DISABLED,
         },
         target: PassTarget::Main,
         loaded: vec![],

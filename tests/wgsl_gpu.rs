@@ -40,6 +40,7 @@ const FULL: RenderState = RenderState {
     depth: DepthState::DISABLED,
     stencil: StencilState::DISABLED,
     blend: BlendState::REPLACE,
+    alpha_test: shadec::pipeline::AlphaTest::DISABLED,
 };
 
 fn translated_matches_emulator(file: &str) {

@@ -617,6 +617,7 @@ pub fn triangle_ids(
         depth: DepthState { func: CompareFunc::Less, write: true },
         stencil: StencilState::DISABLED,
         blend: BlendState::REPLACE,
+        alpha_test: crate::pipeline::AlphaTest::DISABLED,
     };
     let mut next = 1u32;
     let mut passes = Vec::new();

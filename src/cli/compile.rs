@@ -126,7 +126,10 @@ fn combiners_text(p: &shadec::pipeline::Planned, source: &str) -> Result<String,
         let g = shadec::driver::combiners_of(p, i).map_err(|e| format!("not generated: {e}"))?;
         let text = shadec::backends::combiners::rc1::print(&g.config);
         let (header, rest) = text.split_once('\n').unwrap_or((&text, ""));
-        out.push_str(&format!("{header}\n{title}{rest}\n"));
+        // The fixed-function state the setup needs beside it: a discard's alpha test.
+        let alpha = &pass.state.alpha_test;
+        let state = if alpha.is_disabled() { String::new() } else { format!("# {};\n", alpha.gl_call()) };
+        out.push_str(&format!("{header}\n{title}{state}{rest}\n"));
         out.push_str(&shadec::driver::vertex_program_text(p, i, Some(source), &title));
     }
     Ok(out)

@@ -136,6 +136,7 @@ fn classification(target: &Target, scale: (f32, f32), threshold: f32) -> RunPass
             depth: DepthState { func: CompareFunc::Always, write: true },
             stencil: StencilState::DISABLED,
             blend: BlendState::REPLACE,
+            alpha_test: crate::pipeline::AlphaTest::DISABLED,
         },
         target: PassTarget::Main,
         loaded: vec![

@@ -21,8 +21,8 @@ pub use setup::{
     UnitBinding, UnitSource, RENDERED_TEXTURE_SIZE,
 };
 pub use state::{
-    BlendEquation, BlendFactor, BlendState, CompareFunc, CullMode, DepthState, RenderState, StencilOp,
-    StencilState,
+    AlphaTest, BlendEquation, BlendFactor, BlendState, CompareFunc, CullMode, DepthState, RenderState,
+    StencilOp, StencilState,
 };
 
 use crate::ir::{Expr, Handle, Module};

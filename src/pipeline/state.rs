@@ -22,17 +22,81 @@ pub struct RenderState {
     pub depth: DepthState,
     pub stencil: StencilState,
     pub blend: BlendState,
+    /// The alpha test (OpenGL 1.2.1, Section 4.1.4), which drops a fragment
+    /// before the stencil and depth tests. Disabled unless the planner
+    /// routes a discard's condition to the fragment's alpha (a register-
+    /// combiner target, whose final combiner's alpha is its G input,
+    /// NV_register_combiners). Absent from older plans: disabled.
+    #[serde(default, skip_serializing_if = "AlphaTest::is_disabled")]
+    pub alpha_test: AlphaTest,
 }
 
 impl Default for RenderState {
-    /// Back-face culling, depth `Less` with write, no stencil, replace.
+    /// Back-face culling, depth `Less` with write, no stencil, replace, no alpha test.
     fn default() -> RenderState {
         RenderState {
             cull: CullMode::Back,
             depth: DepthState::LESS_WRITE,
             stencil: StencilState::DISABLED,
             blend: BlendState::REPLACE,
+            alpha_test: AlphaTest::DISABLED,
         }
+    }
+}
+
+/// `glAlphaFunc(func, reference)` enabled, or disabled (`func: Always`):
+/// the fragment passes where `alpha func reference` (OpenGL 1.2.1, Section
+/// 4.1.4). The reference is clamped to [0, 1] and, on a fixed-point
+/// machine, converted to the alpha's fixed-point form before the
+/// comparison ([`AlphaTest::reference_steps`]).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct AlphaTest {
+    pub func: CompareFunc,
+    pub reference: f32,
+}
+
+impl Default for AlphaTest {
+    fn default() -> AlphaTest {
+        AlphaTest::DISABLED
+    }
+}
+
+impl AlphaTest {
+    /// GL's initial state: the test disabled (every fragment passes).
+    pub const DISABLED: AlphaTest = AlphaTest { func: CompareFunc::Always, reference: 0.0 };
+
+    /// Whether the test keeps every fragment.
+    pub fn is_disabled(&self) -> bool {
+        self.func == CompareFunc::Always
+    }
+
+    /// The reference as an 8-bit machine compares it: clamped to [0, 1]
+    /// and converted as a colour component is (OpenGL 1.2.1, Section
+    /// 2.13.9), to the nearest 1/255 with ties up, as the combiner
+    /// emulator rounds (`numerics::fixed9`).
+    pub fn reference_steps(&self) -> u8 {
+        (self.reference.clamp(0.0, 1.0) as f64 * 255.0 + 0.5).floor() as u8
+    }
+
+    /// Whether an 8-bit fragment alpha (0-255) passes.
+    pub fn passes_steps(&self, alpha: u8) -> bool {
+        self.func.test(alpha, self.reference_steps())
+    }
+
+    /// Whether a fragment alpha passes in float: the alpha clamped to
+    /// [0, 1] (a fixed-point colour buffer's fragment, Section 2.13.9),
+    /// the reference clamped.
+    pub fn passes(&self, alpha: f32) -> bool {
+        self.func.test(alpha.clamp(0.0, 1.0), self.reference.clamp(0.0, 1.0))
+    }
+
+    /// The GL call that sets this state: `glAlphaFunc(GL_GREATER, 0.5)`,
+    /// or `glDisable(GL_ALPHA_TEST)`.
+    pub fn gl_call(&self) -> String {
+        if self.is_disabled() {
+            return "glDisable(GL_ALPHA_TEST)".to_string();
+        }
+        format!("glEnable(GL_ALPHA_TEST); glAlphaFunc({}, {})", self.func.gl_name(), self.reference)
     }
 }
 
@@ -50,6 +114,20 @@ pub enum CompareFunc {
 }
 
 impl CompareFunc {
+    /// GL's name of the function (`GL_GREATER`).
+    pub fn gl_name(self) -> &'static str {
+        match self {
+            CompareFunc::Never => "GL_NEVER",
+            CompareFunc::Less => "GL_LESS",
+            CompareFunc::LessEqual => "GL_LEQUAL",
+            CompareFunc::Equal => "GL_EQUAL",
+            CompareFunc::Greater => "GL_GREATER",
+            CompareFunc::GreaterEqual => "GL_GEQUAL",
+            CompareFunc::NotEqual => "GL_NOTEQUAL",
+            CompareFunc::Always => "GL_ALWAYS",
+        }
+    }
+
     /// `incoming FUNC stored`, as GL defines it.
     #[inline]
     pub fn test<T: PartialOrd>(self, incoming: T, stored: T) -> bool {

@@ -272,9 +272,7 @@ pub(super) fn pass_state(
     let mask = match form.channels {
         "a" => [false, false, false, true],
         "stencil" => [false; 4],
-        // A decal keeps the incoming alpha (GL_DECAL: A = Af), so the
-        // alpha-blended texture writes colour only.
-        _ => [true, true, true, piece.alpha && piece.blend != BlendMode::AlphaBlend],
+        _ => [true, true, true, alpha_written(form, piece)],
     };
     RenderState {
         // In texture space the winding is the parameterization's, not a facing.
@@ -288,6 +286,18 @@ pub(super) fn pass_state(
             Dest::Temp(_) => StencilState::DISABLED,
         },
         blend: BlendState { ..piece.blend.render_state().with_write_mask(mask) },
+        alpha_test: AlphaTest::DISABLED,
+    }
+}
+
+/// Whether a pass writes the framebuffer's alpha.
+pub(super) fn alpha_written(form: &Form, piece: &Piece) -> bool {
+    match form.channels {
+        "a" => true,
+        "stencil" => false,
+        // A decal keeps the incoming alpha (GL_DECAL: A = Af), so the
+        // alpha-blended texture writes colour only.
+        _ => piece.alpha && piece.blend != BlendMode::AlphaBlend,
     }
 }
 

@@ -24,6 +24,7 @@
 
 pub mod affine;
 pub mod algebra;
+mod alpha_test;
 mod assemble;
 mod clamps;
 pub mod fit;
@@ -61,7 +62,7 @@ use rewrite::*;
 use crate::diag::Diagnostic;
 use crate::ir::{self, BinaryOp, Expr, FbChannel, Frequency, Handle, Module, Statement, Table, Usage};
 use crate::parser::ast::CombineMode;
-use crate::pipeline::{BlendState, CullMode, DepthState, RenderState, StencilOp, StencilState};
+use crate::pipeline::{AlphaTest, BlendState, CullMode, DepthState, RenderState, StencilOp, StencilState};
 use crate::profile::{FragmentStage, Profile};
 use crate::span::{LineIndex, Span};
 
@@ -401,7 +402,7 @@ fn plan_as_written(
         compiler_cache: SplitCache::default(),
         canonical,
     };
-    let (chosen, mut diags) = choose(&mut m, profile, request.search, &mut fits, &prepared);
+    let (mut chosen, mut diags) = choose(&mut m, profile, request.search, &mut fits, &prepared);
     diags.extend(reused_projection(&m));
     diags.extend(crate::planner::shadow_volumes::unbound_uses(&m));
     if !diags.is_empty() {
@@ -416,8 +417,14 @@ fn plan_as_written(
             _ => None,
         })
         .collect();
+    let routed = alpha_test::route(&mut m, profile, request.realizer, &mut chosen)?;
     let ctx = AssembleCtx { profile, realizer: request.realizer, texgen: &texgen, at: &at };
     let (mut plan, mut stages) = assemble(&m, &ctx, &chosen, prepared);
+    // One pass per piece, in order: each takes its piece's alpha test.
+    for (pass, (test, masked)) in plan.passes.iter_mut().zip(routed) {
+        pass.state.alpha_test = test;
+        pass.state.blend.write_mask[3] &= !masked;
+    }
     shadow_map::equal_depth(&m, &mut plan.passes);
     depth_replacing(&m, &ctx, &depth_replaced, &mut plan, &mut stages);
     if let Some(d) = storage::float_framebuffer_read_back(module, &plan, profile) {

@@ -23,8 +23,8 @@ pub mod vertex_program;
 
 /// The fixed-function state the rasterizer applies is the plan contract's.
 pub use crate::pipeline::{
-    BlendEquation, BlendFactor, BlendState, CompareFunc, CullMode, DepthState, RenderState, StencilOp,
-    StencilState,
+    AlphaTest, BlendEquation, BlendFactor, BlendState, CompareFunc, CullMode, DepthState, RenderState,
+    StencilOp, StencilState,
 };
 pub use adaptive::{draw_adaptive, image_error, AdaptiveSettings, AdaptiveStats, EdgeMode, ImageError};
 pub use framebuffer::{quantize_unorm8, ColorFormat, Framebuffer, TILE};

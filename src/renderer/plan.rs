@@ -602,7 +602,10 @@ impl<'a> PlanRenderer<'a> {
         }
         registers[4] = g.primary;
         registers[5] = g.secondary;
-        Ok((CombinerSetup { machine, registers }, g.stages))
+        // The pass drops a fragment by the alpha test on what the machine
+        // computes, as the card does (planner::alpha_test).
+        let alpha_test = Some(self.planned.plan.passes[index].state.alpha_test).filter(|t| !t.is_disabled());
+        Ok((CombinerSetup { machine, registers, alpha_test }, g.stages))
     }
 }
 
@@ -657,6 +660,8 @@ impl<'p, 's> Draws<'p, 's> {
 struct CombinerSetup {
     machine: PixelEmulator,
     registers: [Option<Handle<Expr>>; 6],
+    /// The pass's alpha test, which replaces its IR condition.
+    alpha_test: Option<crate::pipeline::AlphaTest>,
 }
 
 fn add(total: &mut DrawStats, s: &DrawStats) {

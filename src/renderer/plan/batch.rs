@@ -170,8 +170,14 @@ impl FragmentProgram<'_> {
                 }
                 let mut colours = [[0u8; 4]; BATCH];
                 machine.run_many(&loaded[..n], &mut colours[..n]);
-                for lane in (0..n).filter(|&l| results[l] == FragmentResult::Keep) {
-                    out[lane] = self.output(colours[lane].map(|c| c as f64 / 255.0));
+                for lane in 0..n {
+                    // The pass's alpha test on the machine's alpha (planner::alpha_test).
+                    if self.alpha_test.is_some_and(|t| !t.passes_steps(colours[lane][3])) {
+                        results[lane] = FragmentResult::Discard;
+                    }
+                    if results[lane] == FragmentResult::Keep {
+                        out[lane] = self.output(colours[lane].map(|c| c as f64 / 255.0));
+                    }
                 }
             }
             None => {

@@ -61,6 +61,10 @@ pub(super) struct FragmentProgram<'a> {
     /// fixed9 with a generated setup: the machine, and the slots of the
     /// values that load texture 0-3, primary and secondary.
     pub(super) combiners: Option<(PixelEmulator, [Option<u32>; 6])>,
+    /// fixed9 with a generated setup whose pass has an alpha test: it
+    /// decides on the machine's 8-bit alpha, and the IR condition is not
+    /// evaluated (`condition` is `None`).
+    pub(super) alpha_test: Option<crate::pipeline::AlphaTest>,
     /// Fragments whose value was not finite ([`Frame::nonfinite`]).
     pub(super) nonfinite: AtomicU64,
     /// [`PlanRenderer::set_rounding_bias`] (zero: the model).
@@ -98,7 +102,9 @@ impl<'a> FragmentProgram<'a> {
             Some(c) => c.registers.iter().flatten().copied().collect(),
             None => vec![pi.output],
         };
-        roots.extend(pi.condition.into_iter().chain(pi.depth));
+        let alpha_test = setup.as_ref().and_then(|c| c.alpha_test);
+        let condition = pi.condition.filter(|_| alpha_test.is_none());
+        roots.extend(condition.into_iter().chain(pi.depth));
         let n = m.exprs.len();
         let reach = ir::fragment_reach(m, &roots);
         let (sources, filters) = FragmentProgram::texture_sources(r, mode, rendered, &reach)?;
@@ -141,7 +147,7 @@ impl<'a> FragmentProgram<'a> {
             n_slots: n_slots as usize,
             output: slot_of[pi.output.index()],
             output_ty: m.info(pi.output).ty,
-            condition: pi.condition.map(|c| slot_of[c.index()]),
+            condition: condition.map(|c| slot_of[c.index()]),
             depth: pi.depth.map(|d| slot_of[d.index()]),
             sources,
             fat,
@@ -149,6 +155,7 @@ impl<'a> FragmentProgram<'a> {
             own,
             filters,
             combiners,
+            alpha_test,
             nonfinite: AtomicU64::new(0),
             tie: r.rounding_bias,
             // The tie pictures move a nearest lookup's coordinates too.
@@ -578,6 +585,17 @@ impl<'a> FragmentProgram<'a> {
         }
     }
 
+    /// The fragment colour as [`FragmentProgram::colour`], or `None` where
+    /// the pass's alpha test drops the fragment: tested on the machine's
+    /// 8-bit alpha against the 8-bit reference (OpenGL 1.2.1, Section 4.1.4).
+    pub(super) fn tested_colour(&self, slot: impl Fn(u32) -> Value) -> Option<Value> {
+        let c = self.colour(slot);
+        match self.alpha_test {
+            Some(t) if !t.passes_steps((c[3] * 255.0).round() as u8) => None,
+            _ => Some(c),
+        }
+    }
+
     /// The combiners' per-pixel registers loaded from the slots `registers`
     /// names (texture 0-3, primary, secondary), rounded as [`FragmentProgram::colour`] says.
     pub(super) fn registers(
@@ -807,7 +825,10 @@ impl FragmentStage for FragmentProgram<'_> {
                 return (FragmentResult::Discard, fragment.depth);
             }
             let depth = (slots[d as usize][0] as f32).clamp(0.0, 1.0);
-            *out = self.output(self.colour(|s| slots[s as usize]));
+            let Some(c) = self.tested_colour(|s| slots[s as usize]) else {
+                return (FragmentResult::Discard, fragment.depth);
+            };
+            *out = self.output(c);
             (FragmentResult::Keep, depth)
         })
     }
@@ -821,7 +842,8 @@ impl FragmentStage for FragmentProgram<'_> {
             if self.run(&mut slots[..self.n_slots], fragment, varyings, None) {
                 return FragmentResult::Discard;
             }
-            *out = self.output(self.colour(|s| slots[s as usize]));
+            let Some(c) = self.tested_colour(|s| slots[s as usize]) else { return FragmentResult::Discard };
+            *out = self.output(c);
             FragmentResult::Keep
         })
     }

@@ -21,6 +21,10 @@ impl Gen<'_> {
         g: &crate::backends::combiners::Generated,
     ) -> R<NH> {
         let pass = &self.planned.plan.passes[self.pass_index];
+        // A discard the plan routed to the alpha test (planner::alpha_test)
+        // is decided on the combiners' alpha, not on the IR condition.
+        let alpha_test = Some(pass.state.alpha_test).filter(|t| !t.is_disabled());
+        let condition = self.iface.condition.filter(|_| alpha_test.is_none());
         let output = self.planned.handle(pass.fragment.output);
         // A depth texture's unit returns its comparison (ARB_shadow), as the CPU loads it.
         let unit = |h| crate::planner::shadow_map::compare_node(&self.planned.module, output, h).unwrap_or(h);
@@ -40,14 +44,14 @@ impl Gen<'_> {
             (0..2).map(|k| g.constants[k].filter(|_| unset[k])).collect();
         let mut roots: Vec<ir::Handle<Expr>> =
             registers.iter().chain(&constants).flatten().copied().collect();
-        roots.extend(self.iface.condition.into_iter().chain(self.iface.depth));
+        roots.extend(condition.into_iter().chain(self.iface.depth));
         // The registers' sources in float, unrounded (as the CPU's fixed9 loads them).
         let precision = std::mem::replace(&mut self.precision, Precision::F32);
         self.pass_nodes = self.fragment_nodes(&roots);
         let built: R<()> = self.pass_nodes.clone().into_iter().try_for_each(|n| self.node(b, n));
         self.precision = precision;
         built?;
-        if let Some(c) = self.iface.condition {
+        if let Some(c) = condition {
             let cv = b.vals[&c];
             self.discard_unless(b, cv);
         }
@@ -67,6 +71,9 @@ impl Gen<'_> {
             naga::Span::UNDEFINED,
         );
         b.name(result, "combiners");
+        if let Some(t) = alpha_test {
+            alpha_test_kill(b, result, t);
+        }
         let ty = self.m.info(self.iface.output).ty;
         let vec4 = self.vec_ty(4);
         Ok(match width(ty) {
@@ -370,4 +377,43 @@ pub(super) fn register_input(b: &mut Body, v: NH, lo: f32) -> NH {
         arg3: None,
     });
     b.emit(Expression::As { expr: c, kind: ScalarKind::Sint, convert: Some(4) })
+}
+
+/// `glAlphaFunc`'s test on the combiners' alpha (OpenGL 1.2.1, Section
+/// 4.1.4): the alpha in 1/255 steps (the function returns steps / 255;
+/// `round` undoes the division's error) against the reference's steps,
+/// the fragment killed where it fails — as the CPU's `fixed9` tests it.
+fn alpha_test_kill(b: &mut Body, combiners: NH, t: crate::pipeline::AlphaTest) {
+    use crate::pipeline::CompareFunc;
+    use naga::BinaryOperator as Op;
+    let a = b.emit(Expression::AccessIndex { base: combiners, index: 3 });
+    let c255 = b.lit(255.0);
+    let steps = b.emit(Expression::Binary { op: Op::Multiply, left: a, right: c255 });
+    let steps = b.emit(Expression::Math {
+        fun: naga::MathFunction::Round,
+        arg: steps,
+        arg1: None,
+        arg2: None,
+        arg3: None,
+    });
+    let reference = b.lit(f32::from(t.reference_steps()));
+    // The failing comparison: the negation of the test.
+    let fails = match t.func {
+        CompareFunc::Never => None,
+        CompareFunc::Less => Some(Op::GreaterEqual),
+        CompareFunc::LessEqual => Some(Op::Greater),
+        CompareFunc::Equal => Some(Op::NotEqual),
+        CompareFunc::Greater => Some(Op::LessEqual),
+        CompareFunc::GreaterEqual => Some(Op::Less),
+        CompareFunc::NotEqual => Some(Op::Equal),
+        CompareFunc::Always => return,
+    };
+    let fails = match fails {
+        Some(op) => b.emit(Expression::Binary { op, left: steps, right: reference }),
+        None => b.plain(Expression::Literal(naga::Literal::Bool(true))),
+    };
+    let mut accept = naga::Block::new();
+    accept.push(Statement::Kill, naga::Span::UNDEFINED);
+    b.f.body
+        .push(Statement::If { condition: fails, accept, reject: naga::Block::new() }, naga::Span::UNDEFINED);
 }

@@ -236,9 +236,10 @@ impl Gen<'_> {
         let stencil_only =
             matches!(&pass.target, RenderTarget::Framebuffer { channels, .. } if channels == "stencil");
         let vec4 = self.vec_ty(4);
-        if stencil_only {
+        if stencil_only && pass.state.alpha_test.is_disabled() {
             // No colour is written: the depth and stencil state do the work,
-            // after the discard of a conditional stencil write.
+            // after the discard of a conditional stencil write (with an
+            // alpha test, the combiners compute the alpha it tests).
             self.combiners = None;
         }
         let out = if stencil_only && self.iface.condition.is_none() {

@@ -1,0 +1,358 @@
+//! A discard `c ? a` on the register-combiner targets, as GL 1.x makes it
+//! (`planner::alpha_test`): the condition is brought into the fragment's
+//! alpha (the final combiner's G input, NV_register_combiners) and the
+//! alpha test (`glAlphaFunc`, OpenGL 1.2.1, Section 4.1.4) drops the
+//! fragments. The emitted setup says so; the `fixed9` executors — the CPU's
+//! combiner emulator and wgpu's `--precision hardware` — drop by that test
+//! on the alpha the emulated combiners compute, not by the IR's condition.
+
+use shadec::numerics::Precision;
+use shadec::pipeline::{AlphaTest, CompareFunc, Planned};
+use shadec::profile::Profile;
+
+const W: u32 = 96;
+const H: u32 = 72;
+
+/// Kilgard's torus lit by one light, its diffuse term a vertex colour.
+const HEAD: &str = "vector N : normal;\nvector L : light(0);\ntexture Dec : 2d rgba8 bilinear clamp = image(\"missing-decal.png\");\nshader d : s → c = (0.8, 0.8, 0.8) * max(0, N·L);\n";
+
+/// A colour-only framebuffer: the alpha carries the condition as written.
+fn rgb8(body: &str) -> String {
+    format!("framebuffer C : rgb8, depth;\n{HEAD}{body}")
+}
+
+fn scene_text() -> String {
+    std::fs::read_to_string(format!("{}/scenes/kilgard_torus.ron", env!("CARGO_MANIFEST_DIR"))).unwrap()
+}
+
+fn prepared(source: &str, target: &str) -> shadec::bench::Prepared {
+    shadec::bench::Prepared::new("alpha", source, target, &scene_text())
+        .unwrap_or_else(|e| panic!("{target}: {e}\n{source}"))
+}
+
+fn plan(source: &str, target: &str) -> Result<Planned, Vec<shadec::diag::Diagnostic>> {
+    let profile = Profile::resolve(target).unwrap();
+    shadec::driver::compile(source, &profile, &Default::default()).map(|c| c.planned)
+}
+
+fn cpu(p: &shadec::bench::Prepared, mode: Precision) -> Vec<u8> {
+    p.renderer().unwrap().render(mode, W, H, &mut |_, _| {}).unwrap().image.to_rgba8()
+}
+
+/// Pixels not black (the background is cleared to 0).
+fn drawn(rgba: &[u8]) -> Vec<bool> {
+    rgba.chunks_exact(4).map(|p| p[..3].iter().any(|&c| c > 0)).collect()
+}
+
+fn count(v: &[bool]) -> usize {
+    v.iter().filter(|b| **b).count()
+}
+
+/// The discard of a texture channel compared with a constant.
+const DECAL_DISCARD: &str = "C δπx ← ((Dec δu x).g > 0.5) ? (Dec δu x).rgb * δ d s x;\n";
+
+#[test]
+fn a_discard_on_geforce3_emits_an_alpha_test() {
+    for target in ["geforce3", "geforce256"] {
+        let planned = plan(&rgb8(DECAL_DISCARD), target).unwrap_or_else(|d| panic!("{target}: {d:?}"));
+        let pass = &planned.plan.passes[0];
+        assert!(pass.fragment.condition.is_some(), "{target}");
+        assert_eq!(
+            pass.state.alpha_test,
+            AlphaTest { func: CompareFunc::Greater, reference: 0.5 },
+            "{target}"
+        );
+        // The alpha carries the condition, which the statement does not write.
+        assert!(!pass.state.blend.write_mask[3], "{target}");
+        // What a card is given: the setup and the test beside it.
+        let dir = std::env::temp_dir().join(format!("shadec-alpha-{}-{target}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("discard.shd");
+        // The CLI reads images: a generated texture stands in for the file.
+        std::fs::write(&file, rgb8(DECAL_DISCARD).replace("image(\"missing-decal.png\")", "bumps(4)"))
+            .unwrap();
+        let run = crate::common::shadec(&[
+            "compile",
+            file.to_str().unwrap(),
+            "--target",
+            target,
+            "--emit",
+            "combiners",
+        ]);
+        assert_eq!(run.code, 0, "{target}: {}", run.stderr);
+        assert!(
+            run.stdout.contains("# glEnable(GL_ALPHA_TEST); glAlphaFunc(GL_GREATER, 0.5);"),
+            "{target}:\n{}",
+            run.stdout
+        );
+        // The final combiner's alpha is not the constant it was: it is the green the test reads.
+        assert!(!run.stdout.contains("out.a = one;"), "{target}:\n{}", run.stdout);
+        let rc1: String = run.stdout.split("!!VP1.0").next().unwrap().to_string();
+        if target == "geforce3" {
+            insta::assert_snapshot!("alpha_test_geforce3_decal_discard", rc1);
+        }
+        // The plan dump shows the state too.
+        let ron =
+            crate::common::shadec(&["compile", file.to_str().unwrap(), "--target", target, "--emit", "plan"]);
+        assert!(
+            ron.stdout.contains("alpha_test: AlphaTest(") && ron.stdout.contains("func: Greater"),
+            "{}",
+            ron.stdout
+        );
+    }
+    // A programmable target keeps its discard in the shader: no alpha test.
+    let wgsl = plan(&rgb8(DECAL_DISCARD), "wgsl").unwrap();
+    assert!(wgsl.plan.passes[0].state.alpha_test.is_disabled());
+    assert!(wgsl.plan.passes[0].fragment.condition.is_some());
+}
+
+/// The forms of a condition and the test each becomes: the constant on
+/// either side, negated, a difference of two values.
+#[test]
+fn each_comparison_form_becomes_the_alpha_test_that_keeps_the_same_fragments() {
+    let cases = [
+        ("(Dec δu x).a > 0.25", CompareFunc::Greater, 0.25),
+        ("(Dec δu x).a ≥ 0.75", CompareFunc::GreaterEqual, 0.75),
+        ("0.25 < (Dec δu x).a", CompareFunc::Greater, 0.25),
+        ("(Dec δu x).a < 0.5", CompareFunc::Less, 0.5),
+        ("!((Dec δu x).a > 0.25)", CompareFunc::LessEqual, 0.25),
+        // Out of [0, 1], or `≥ 0`: the clamped alpha cannot tell, a difference can.
+        ("(Dec δu x).a ≥ 0", CompareFunc::LessEqual, 0.0),
+        ("(Dec δu x).a > (Dec δu x).g", CompareFunc::Greater, 0.0),
+    ];
+    for (condition, func, reference) in cases {
+        let source = rgb8(&format!("C δπx ← ({condition}) ? δ d s x;\n"));
+        let planned = plan(&source, "geforce3").unwrap_or_else(|d| panic!("{condition}: {d:?}"));
+        let pass = &planned.plan.passes[0];
+        assert_eq!(pass.state.alpha_test, AlphaTest { func, reference }, "{condition}");
+    }
+}
+
+/// The alpha test, not the IR condition, decides in `fixed9`: the plan's
+/// test changed to `GL_NEVER` draws nothing and to `GL_ALWAYS` draws the
+/// whole torus, though the condition in the plan is the same; `f32`, which
+/// evaluates the condition, does not change.
+#[test]
+fn the_emulated_alpha_decides_the_discard() {
+    let mut p = prepared(&rgb8(DECAL_DISCARD), "geforce3");
+    let as_planned = drawn(&cpu(&p, Precision::Fixed9));
+    let float = drawn(&cpu(&p, Precision::F32));
+    let state = p.planned.plan.passes[0].state.alpha_test;
+    p.planned.plan.passes[0].state.alpha_test = AlphaTest { func: CompareFunc::Never, ..state };
+    assert_eq!(count(&drawn(&cpu(&p, Precision::Fixed9))), 0, "GL_NEVER drops every fragment");
+    assert_eq!(drawn(&cpu(&p, Precision::F32)), float, "f32 evaluates the condition");
+    p.planned.plan.passes[0].state.alpha_test = AlphaTest { func: CompareFunc::Always, ..state };
+    let everything = drawn(&cpu(&p, Precision::Fixed9));
+    // The test as planned keeps part of the torus, and about what f32 keeps.
+    assert!(
+        count(&as_planned) > 0 && count(&as_planned) < count(&everything),
+        "{} of {}",
+        count(&as_planned),
+        count(&everything)
+    );
+    let differ = as_planned.iter().zip(&float).filter(|(a, b)| a != b).count();
+    assert!(differ * 50 < count(&float), "{differ} pixels differ from f32's {}", count(&float));
+}
+
+/// At the boundary the 8-bit alpha decides as the card does: `g > 0.3`
+/// of the interpolated diffuse colour. 0.3·255 = 76.5, so the reference
+/// is 77 steps and a fragment passes where its 8-bit green is 78 or more;
+/// a green in (0.3, 77.5/255) passes the condition in f32 and fails the
+/// test. The reference is the f32 picture: what it keeps, its green rounded.
+#[test]
+fn the_alpha_test_compares_in_8_bit_steps() {
+    let source = rgb8("C δπx ← ((δ d s x).g > 0.3) ? δ d s x;\n");
+    let p = prepared(&source, "geforce3");
+    assert_eq!(
+        p.planned.plan.passes[0].state.alpha_test,
+        AlphaTest { func: CompareFunc::Greater, reference: 0.3 }
+    );
+    assert_eq!(p.planned.plan.passes[0].state.alpha_test.reference_steps(), 77);
+    let float = cpu(&p, Precision::F32);
+    let fixed9 = cpu(&p, Precision::Fixed9);
+    let expected: Vec<bool> = float.chunks_exact(4).map(|px| px[1] > 77).collect();
+    let got = drawn(&fixed9);
+    let boundary = float.chunks_exact(4).filter(|px| px[1] == 77).count();
+    assert!(boundary > 0, "the picture has fragments at the boundary");
+    let differ = expected.iter().zip(&got).filter(|(a, b)| a != b).count();
+    assert!(
+        differ * 20 <= boundary,
+        "{differ} pixels differ from the 8-bit prediction ({boundary} at the boundary)"
+    );
+    // f32 keeps the boundary fragments: the two executors differ exactly there.
+    assert!(count(&drawn(&float)) >= count(&got) + boundary / 2);
+}
+
+/// An rgb value written as rgba (alpha 1): the combiners compute the
+/// condition, 0 or 1, into alpha (their mux), and the test passes 1 — the
+/// alpha written is the 1 the statement writes.
+#[test]
+fn an_rgb_discard_into_rgba_carries_the_condition_as_0_or_1() {
+    let source = format!("framebuffer C : rgba8, depth;\n{HEAD}C δπx ← ((Dec δu x).g ≥ 0.5) ? δ d s x;\n");
+    let p = prepared(&source, "geforce3");
+    let pass = &p.planned.plan.passes[0];
+    assert_eq!(pass.state.alpha_test, AlphaTest { func: CompareFunc::Greater, reference: 0.0 });
+    assert!(pass.state.blend.write_mask[3]);
+    let fixed9 = cpu(&p, Precision::Fixed9);
+    let kept: Vec<&[u8]> = fixed9.chunks_exact(4).filter(|px| px[..3].iter().any(|&c| c > 0)).collect();
+    assert!(!kept.is_empty());
+    assert!(kept.iter().all(|px| px[3] == 255), "the kept fragments write alpha 1");
+    let float = drawn(&cpu(&p, Precision::F32));
+    let differ = drawn(&fixed9).iter().zip(&float).filter(|(a, b)| a != b).count();
+    assert!(differ * 50 < count(&float), "{differ} of {}", count(&float));
+}
+
+/// A stencil write where a condition holds is a discard with no colour:
+/// one alpha test state for both.
+#[test]
+fn a_stencil_write_on_combiner_targets_drops_by_the_alpha_test() {
+    let source = format!(
+        "framebuffer C : rgba8, depth, stencil;\n{HEAD}C δπx ← δ d s x;\nσ C δπx ← (σ C δπx) OR ((Dec δu x).g > 0.5);\n"
+    );
+    for target in ["geforce3", "geforce256"] {
+        let planned = plan(&source, target).unwrap();
+        let pass = &planned.plan.passes[1];
+        assert_eq!(pass.state.blend.write_mask, [false; 4]);
+        assert_eq!(
+            pass.state.alpha_test,
+            AlphaTest { func: CompareFunc::Greater, reference: 0.5 },
+            "{target}"
+        );
+    }
+    assert!(plan(&source, "wgsl").unwrap().plan.passes[1].state.alpha_test.is_disabled());
+}
+
+/// Where the statement writes the alpha itself (an rgba texel times a
+/// colour) and the condition is another value, one alpha cannot hold both:
+/// refused, located at the condition, with forms that plan.
+#[test]
+fn a_discard_whose_alpha_is_written_is_refused_located() {
+    let source = format!(
+        "framebuffer C : rgba8, depth, stencil;\n{HEAD}C δπx ← ((Dec δu x).g > 0.5) ? (Dec δu x * δ d s x);\n"
+    );
+    let dir = std::env::temp_dir().join(format!("shadec-alpha-refused-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("refused.shd");
+    std::fs::write(&file, source.replace("image(\"missing-decal.png\")", "bumps(4)")).unwrap();
+    let run = crate::common::shadec(&["check", file.to_str().unwrap(), "--target", "geforce3"]);
+    assert_eq!(run.code, 1, "{}{}", run.stdout, run.stderr);
+    let out = format!("{}{}", run.stdout, run.stderr).replace(dir.to_str().unwrap(), "DIR");
+    let Some(at) = out.find("error[unsupported-discard]") else { panic!("{out}") };
+    assert!(out.contains("refused.shd:6:9"), "{out}");
+    insta::assert_snapshot!("alpha_test_refused_written_alpha", &out[at..]);
+    // Each form the help names plans on the same target.
+    let forms = [
+        "framebuffer C : rgb8, depth;\nFB C δπx ← ((Dec δu x).g > 0.5) ? (Dec δu x * δ d s x);\n",
+        "framebuffer C : rgba8, depth;\nFB C δπx ← ((Dec δu x).g ≥ 0.5) ? (Dec δu x).rgb;\n",
+    ];
+    for form in forms {
+        let (fb, body) = form.split_once("FB ").unwrap();
+        plan(&format!("{fb}{HEAD}{body}"), "geforce3").unwrap_or_else(|d| panic!("{form}: {d:?}"));
+    }
+    // The help's stencil form plans on the same target.
+    let marked = format!(
+        "framebuffer C : rgba8, depth, stencil;\n{HEAD}σ C δπx ← (σ C δπx) OR ((Dec δu x).g > 0.5);\nC δπx ← (σ C δπx) ? (Dec δu x * δ d s x);\n"
+    );
+    let planned = plan(&marked, "geforce3").unwrap();
+    assert!(!planned.plan.passes[0].state.alpha_test.is_disabled());
+    // The value's own alpha is the compared one: the alpha-tested decal plans.
+    let own = format!("framebuffer C : rgba8, depth;\n{HEAD}C δπx ← ((Dec δu x).a > 0.5) ? Dec δu x;\n");
+    let planned = plan(&own, "geforce3").unwrap();
+    assert_eq!(
+        planned.plan.passes[0].state.alpha_test,
+        AlphaTest { func: CompareFunc::Greater, reference: 0.5 }
+    );
+    assert!(planned.plan.passes[0].state.blend.write_mask[3]);
+}
+
+/// The CPU's `fixed9` and wgpu's `--precision hardware` run the same setup
+/// and the same test: they keep the same fragments.
+#[test]
+fn cpu_fixed9_and_wgpu_agree_on_a_discard() {
+    let Some(gpu) = crate::common::gpu::gpu() else {
+        panic!("no wgpu adapter: the suite needs lavapipe (see .ci/run)")
+    };
+    for (name, source) in [
+        ("rgb8", rgb8(DECAL_DISCARD)),
+        ("boundary", rgb8("C δπx ← ((δ d s x).g > 0.3) ? δ d s x;\n")),
+        (
+            "rgba 0/1",
+            format!("framebuffer C : rgba8, depth;\n{HEAD}C δπx ← ((Dec δu x).g ≥ 0.5) ? δ d s x;\n"),
+        ),
+    ] {
+        let p = prepared(&source, "geforce3");
+        let cpu_image = cpu(&p, Precision::Fixed9);
+        let plan = shadec::gpu::scene_run::ScenePlan::new(
+            &p.planned,
+            &p.program,
+            Some(&source),
+            Precision::Fixed9,
+            &p.scene,
+            &p.assets,
+        )
+        .unwrap();
+        let frame = shadec::gpu::runner::Target::new(W, H);
+        let gpu_image = plan.render_into(&gpu, &frame).unwrap().into_raw();
+        let (a, b) = (drawn(&cpu_image), drawn(&gpu_image));
+        let differ = a.iter().zip(&b).filter(|(x, y)| x != y).count();
+        assert!(count(&a) > 0, "{name}");
+        assert!(
+            differ * 100 <= count(&a),
+            "{name}: {differ} of {} pixels kept by one and not the other",
+            count(&a)
+        );
+    }
+}
+
+mod generated {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn condition() -> impl Strategy<Value = String> {
+        let x = prop_oneof![
+            Just("(Dec δu x).a".to_string()),
+            Just("(Dec δu x).g".to_string()),
+            Just("(δ d s x).r".to_string()),
+            Just("max(0, N·L)".to_string()),
+        ];
+        let op = prop_oneof![Just(">"), Just("≥"), Just("<"), Just("≤")];
+        let k = prop_oneof![Just(0.0), Just(0.25), Just(0.5), Just(1.0), Just(-0.5), Just(1.5)];
+        (x, op, k, any::<bool>(), any::<bool>()).prop_map(|(x, op, k, flip, negate)| {
+            let c = if flip { format!("{k} {op} {x}") } else { format!("{x} {op} {k}") };
+            if negate {
+                format!("!({c})")
+            } else {
+                c
+            }
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 24, .. ProptestConfig::default() })]
+        /// No pass on a combiner target keeps a discard without its alpha
+        /// test: each plans with one, or is refused, located, as
+        /// `unsupported-discard` (or another located refusal).
+        #[test]
+        fn no_combiner_pass_discards_without_an_alpha_test(c in condition(), rgba in any::<bool>()) {
+            let fb = if rgba { "rgba8" } else { "rgb8" };
+            let source = format!("framebuffer C : {fb}, depth;\n{HEAD}C δπx ← ({c}) ? δ d s x;\n");
+            for target in ["geforce3", "geforce256"] {
+                match plan(&source, target) {
+                    Ok(planned) => {
+                        for pass in &planned.plan.passes {
+                            prop_assert!(
+                                pass.fragment.condition.is_none() || !pass.state.alpha_test.is_disabled(),
+                                "{target}: {source}"
+                            );
+                        }
+                    }
+                    Err(ds) => {
+                        for d in &ds {
+                            prop_assert!(d.primary.span != shadec::span::Span::DETACHED, "{target}: unlocated {:?}", d);
+                        }
+                    }
+                }
+            }
+        }
+    }
+}
