@@ -80,6 +80,7 @@ mod wgsl_texture_targets;
 
 mod chain_growth;
 mod planner_heldout;
+mod planner_rewrites;
 mod stencil_writes;
 mod vertex_programs_public;
 mod wgpu_dual_paraboloid;
