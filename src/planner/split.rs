@@ -834,12 +834,23 @@ impl<'a> Splitter<'a> {
         // `x` into the temporary, read back saturated — an 8-bit store
         // clamps it already, an f32 executor's temporary keeps `x` (the
         // differential suite caught a plan that relied on the store alone).
+        // Only of what is never below 0, in passes that add and modulate
+        // nothing below 0: the reverse subtraction of a term's part below
+        // 0 relies on GL's clamp of each source, which an f32 executor's
+        // temporary does not apply (the differential suite: 39/255).
         let (computed, clamped) = match &self.module.exprs[e] {
-            Expr::Math { fun: crate::ir::MathFunction::Saturate, args } => (args[0], true),
+            Expr::Math { fun: crate::ir::MathFunction::Saturate, args }
+                if self.module.info(args[0]).interval.lo >= 0.0 =>
+            {
+                (args[0], true)
+            }
             _ => (e, false),
         };
         let (computed, scale, widened) = self.stored_scaled(computed).unwrap_or((computed, None, false));
         let inner = self.plan_at(BlendMode::Replace, computed, depth + 1)?;
+        if clamped && inner.iter().any(|p| self.module.info(p.value).interval.lo < 0.0) {
+            return None;
+        }
         let id = self.temp_for(e);
         if clamped && scale.is_none() {
             self.cache.clamped_temps.insert(id);
