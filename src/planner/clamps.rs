@@ -28,7 +28,10 @@ use crate::pipeline::BlendMode;
 /// - `modulate m`, `m ≤ 1`, `h ≤ 1`, and `m ≥ 0` or `h ≥ 0` (a negative
 ///   factor is clamped to 0, the product is ≤ 0 and clamped to 0 as well);
 ///   `m ≤ 2` as `modulate_2x` of `m/2` ([`signed_terms`]; GL 1.1's
-///   GL_DST_COLOR, GL_SRC_COLOR, which every target has).
+///   GL_DST_COLOR, GL_SRC_COLOR, which every target has);
+/// - `modulate m`, `1 ≤ m ≤ 2`: whatever `h` is — scaling up what the
+///   framebuffer clamped is scaling before the clamp (`4·T0·T1·T2` on a
+///   2-unit target: `T0·T1`, then 2× modulate by `T2`, then by 1).
 ///
 /// Otherwise — `(diffuse + specular) · decal` with the sum above 1, a sum
 /// whose first pass may be negative — the later pass reads a clamped value:
@@ -79,9 +82,12 @@ fn exact_blend(blend: BlendMode, b: Interval, v: Interval, subtract: bool) -> Op
             (v.lo >= 0.0 && b.hi <= 1.0).then(|| crate::ir::valid::add(b, Interval { lo: -v.hi, hi: -v.lo }))
         }
         // Past 1 (up to 2) as `modulate_2x` of `m/2` ([`signed_terms`]).
-        BlendMode::Modulate => {
-            (v.hi <= 2.0 && b.hi <= 1.0 && (v.lo >= 0.0 || b.lo >= 0.0)).then(|| crate::ir::valid::mul(b, v))
-        }
+        // A factor of at least 1 scales what was clamped exactly, whatever
+        // the target held: min(1, m·min(1, h)) = min(1, m·h) for m ≥ 1
+        // (both 1 where h ≥ 1), and both 0 where h ≤ 0.
+        BlendMode::Modulate => (v.hi <= 2.0
+            && (v.lo >= 1.0 || (b.hi <= 1.0 && (v.lo >= 0.0 || b.lo >= 0.0))))
+            .then(|| crate::ir::valid::mul(b, v)),
         // The alpha blends: both in [0, 1], the result too.
         _ => (unit(b) && unit(v)).then_some(Interval::UNSIGNED),
     }
@@ -188,6 +194,10 @@ pub fn signed_terms(
 /// `v/2`, as the target computes it most simply: `2·x` is `x`, an rgb
 /// value written with alpha 1 gets alpha ½.
 fn halved(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Expr>> {
+    if let Expr::Constant(c) = &module.exprs[v] {
+        let (ty, half): (Ty, Vec<f64>) = (c.ty, c.values().iter().map(|x| x / 2.0).collect());
+        return module.intern(Expr::Constant(crate::ir::Constant::new(ty, &half)), module.span(v)).ok();
+    }
     if let Expr::Convert { value, to: Ty::Rgba } = module.exprs[v] {
         if matches!(module.info(value).ty, Ty::Rgb | Ty::Vec3) {
             let colour = halved(module, value)?;

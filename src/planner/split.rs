@@ -340,6 +340,9 @@ impl<'a> Splitter<'a> {
                 consider(self, c.to_vec(), &mut fitting);
             }
         }
+        if let Some(c) = self.scaled_last(mode, e, depth, &overflow) {
+            consider(self, c, &mut fitting);
+        }
         if mode == BlendMode::Replace {
             for c in self.peels(e, depth, &overflow) {
                 consider(self, c, &mut fitting);
@@ -692,6 +695,64 @@ impl<'a> Splitter<'a> {
         groups.iter().map(|g| self.build_chain(op, g)).collect()
     }
 
+    // ---- a constant scale last ------------------------------------------
+
+    /// `k·X` with a constant `k > 1`, written (or modulated in) on a
+    /// clamped target: `X` planned first, then scaled up by the blender,
+    /// at most 2 a pass (2× modulate, GL_DST_COLOR, GL_SRC_COLOR), the
+    /// first factor taken by `X`'s own last modulation where it has one.
+    /// Scaling up what the framebuffer clamped is scaling before the clamp
+    /// (min(1, k·min(1, h)) = min(1, k·h) for k ≥ 1, [`exact_through_clamps`]),
+    /// where the scale in the first pass would clamp `k·T0·T1` before the
+    /// modulation by `T2` brings it down: `4·T0·T1·T2` on a 2-unit target
+    /// is `T0·T1`, then `2·T2`, then `2`.
+    fn scaled_last(
+        &mut self,
+        mode: BlendMode,
+        e: Handle<Expr>,
+        depth: usize,
+        overflow: &Overflow,
+    ) -> Option<Vec<Piece>> {
+        if !matches!(mode, BlendMode::Replace | BlendMode::Modulate) || !self.storage.clamps(Dest::Main) {
+            return None;
+        }
+        let (k, x) = constant_factor(self.module, e)?;
+        let Expr::Constant(c) = &self.module.exprs[k] else { return None };
+        let mut k = c.components[0];
+        if k <= 1.0 {
+            return None;
+        }
+        let mut pieces: Vec<Piece> = self.plan_at(mode, x, depth + 1)?.to_vec();
+        let ty = self.module.info(e).ty;
+        let why = format!("{overflow}: the constant factor {k} scaled in last, at most 2 a pass, where the clamps leave it exact");
+        if let Some(last) = pieces.last_mut().filter(|p| {
+            let v = self.module.info(p.value).interval;
+            p.dest == Dest::Main && p.blend == BlendMode::Modulate && v.lo >= 0.0 && v.hi <= 1.0
+        }) {
+            let s = k.min(2.0);
+            let mut b = Builder { module: self.module };
+            let scale = b.constant(Ty::Scalar, s)?;
+            let before = last.value;
+            last.value = b.mul(scale, before).filter(|&h| b.module.info(h).ty == b.module.info(before).ty)?;
+            last.why = format!("{}{}{why}", last.why, if last.why.is_empty() { "" } else { "; " });
+            k /= s;
+        }
+        while k > 1.0 + 1e-9 {
+            let s = k.min(2.0);
+            let value = Builder { module: self.module }.constant(ty, s)?;
+            pieces.push(Piece {
+                blend: BlendMode::Modulate,
+                value,
+                dest: Dest::Main,
+                alpha: true,
+                why: why.clone(),
+                holds: None,
+            });
+            k /= s;
+        }
+        Some(pieces)
+    }
+
     // ---- affine peel ----------------------------------------------------
 
     fn peels(&mut self, e: Handle<Expr>, depth: usize, overflow: &Overflow) -> Vec<Vec<Piece>> {
@@ -769,44 +830,36 @@ impl<'a> Splitter<'a> {
         depth: usize,
         overflow: &Overflow,
     ) -> Option<Vec<Piece>> {
-        // (`saturate(x)` is not computed as `x` into an 8-bit temporary
-        // relying on its store to clamp: an f32 executor's temporary keeps
-        // `x`, and the differential suite caught it.)
-        let (computed, clamped) = (e, false);
-        // `k·x` past 1 into an 8-bit temporary: `x`, the lookup scaled by
-        // `k` (`3·T0²·T1²·T2·T3` of a cube multiplied out: the temporary
-        // holds the product, the add blends three times it, its source
-        // clamped as the sum would be).
-        let scaled = match self.storage.clamps(Dest::Temp(0)) && self.module.info(computed).interval.hi > 1.0
-        {
-            true => constant_factor(self.module, computed),
-            false => None,
+        // `saturate(x)` (a blend's source GL clamps, `C ← (C) ⊕ (A + B)`):
+        // `x` into the temporary, read back saturated — an 8-bit store
+        // clamps it already, an f32 executor's temporary keeps `x` (the
+        // differential suite caught a plan that relied on the store alone).
+        // Only of what is never below 0, in passes that add and modulate
+        // nothing below 0: the reverse subtraction of a term's part below
+        // 0 relies on GL's clamp of each source, which an f32 executor's
+        // temporary does not apply (the differential suite: 39/255).
+        let (computed, clamped) = match &self.module.exprs[e] {
+            Expr::Math { fun: crate::ir::MathFunction::Saturate, args }
+                if self.module.info(args[0]).interval.lo >= 0.0 =>
+            {
+                (args[0], true)
+            }
+            _ => (e, false),
         };
-        let (computed, scale) = match scaled {
-            Some((k, rest)) => (rest, Some(k)),
-            None => (computed, None),
-        };
+        let (computed, scale, widened) = self.stored_scaled(computed).unwrap_or((computed, None, false));
         let inner = self.plan_at(BlendMode::Replace, computed, depth + 1)?;
+        if clamped && inner.iter().any(|p| self.module.info(p.value).interval.lo < 0.0) {
+            return None;
+        }
         let id = self.temp_for(e);
-        if clamped {
+        if clamped && scale.is_none() {
             self.cache.clamped_temps.insert(id);
         }
-        let texture = self.temp_texture(id);
-        let lookup = Builder { module: self.module }.node(Expr::Lookup { texture, coords: self.position })?;
-        let mut lookup = lookup;
-        let ty = self.module.info(e).ty;
-        if ty != self.module.info(lookup).ty {
-            let mut b = Builder { module: self.module };
-            lookup = match ty {
-                Ty::Rgb | Ty::Vec3 => b.rgb(lookup)?,
-                Ty::Scalar => b.component(lookup, 0)?,
-                _ => lookup,
-            };
-        }
-        if let Some(k) = scale {
-            let mut b = Builder { module: self.module };
-            lookup = b.mul(k, lookup).filter(|&h| b.module.info(h).ty == ty)?;
-        }
+        let ty = match widened {
+            true => self.module.info(computed).ty,
+            false => self.module.info(e).ty,
+        };
+        let lookup = self.read_back(id, ty, scale, widened, clamped)?;
         self.fits(lookup).ok()?;
         let mut p: Vec<Piece> = inner
             .iter()
@@ -827,6 +880,81 @@ impl<'a> Splitter<'a> {
             holds: None,
         });
         Some(p)
+    }
+
+    /// What an 8-bit temporary stores of a value past 1, and the scale its
+    /// lookup takes back: `k·x` is `x`, scaled by `k` (`3·T0²·T1²·T2·T3` of
+    /// a cube multiplied out: the temporary holds the product, the add
+    /// blends three times it, its source clamped as the sum would be); a
+    /// non-negative sum up to 2 is its terms halved, scaled by 2
+    /// (`C ← C·(A + B)` with `A`, `B` products of three textures: the
+    /// temporary holds `½·A + ½·B`, the blender modulates by twice it; an
+    /// rgb sum written as rgba halves its colour and keeps alpha 1, the
+    /// third value `true`). `None` where the value stays in [0, 1] or the
+    /// temporary is float.
+    fn stored_scaled(
+        &mut self,
+        computed: Handle<Expr>,
+    ) -> Option<(Handle<Expr>, Option<Handle<Expr>>, bool)> {
+        let range = self.module.info(computed).interval;
+        if !self.storage.clamps(Dest::Temp(0)) || range.hi <= 1.0 {
+            return None;
+        }
+        if let Some((k, rest)) = constant_factor(self.module, computed) {
+            return Some((rest, Some(k), false));
+        }
+        let (sum, widened) = match self.module.exprs[computed] {
+            Expr::Convert { value, to: Ty::Rgba }
+                if matches!(self.module.info(value).ty, Ty::Rgb | Ty::Vec3) =>
+            {
+                (value, true)
+            }
+            _ => (computed, false),
+        };
+        let range = self.module.info(sum).interval;
+        if range.lo < 0.0 || range.hi > 2.0 || self.chain_op(sum) != Some(ChainOp::Add) {
+            return None;
+        }
+        let mut terms = Vec::new();
+        self.flatten(sum, ChainOp::Add, &mut terms);
+        let mut b = Builder { module: self.module };
+        let half = b.constant(Ty::Scalar, 0.5)?;
+        let halves: Vec<Handle<Expr>> = terms.iter().map(|&t| b.mul(half, t)).collect::<Option<_>>()?;
+        let two = b.constant(Ty::Scalar, 2.0)?;
+        Some((self.build_chain(ChainOp::Add, &halves)?, Some(two), widened))
+    }
+
+    /// The lookup of temporary `id` at the statement's position, as the
+    /// value it holds: of type `ty`, times `scale`, widened to rgba
+    /// (alpha 1), saturated.
+    fn read_back(
+        &mut self,
+        id: u32,
+        ty: Ty,
+        scale: Option<Handle<Expr>>,
+        widened: bool,
+        clamped: bool,
+    ) -> Option<Handle<Expr>> {
+        let texture = self.temp_texture(id);
+        let mut b = Builder { module: self.module };
+        let mut lookup = b.node(Expr::Lookup { texture, coords: self.position })?;
+        if ty != b.module.info(lookup).ty {
+            lookup = match ty {
+                Ty::Rgb | Ty::Vec3 => b.rgb(lookup)?,
+                Ty::Scalar => b.component(lookup, 0)?,
+                _ => lookup,
+            };
+        }
+        if let Some(k) = scale {
+            lookup = b.mul(k, lookup).filter(|&h| b.module.info(h).ty == ty)?;
+        }
+        if widened {
+            lookup = b.node(Expr::Convert { value: lookup, to: Ty::Rgba })?;
+        }
+        if clamped {
+            lookup = b.node(Expr::Math { fun: crate::ir::MathFunction::Saturate, args: vec![lookup] })?;
+        }
+        Some(lookup)
     }
 
     fn temp_for(&mut self, e: Handle<Expr>) -> u32 {

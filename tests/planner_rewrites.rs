@@ -1,0 +1,72 @@
+//! Refusals the hardware could plan (issue 34, the twelfth session): each
+//! program is a held-out-style file in `tests/data/planner_heldout/`
+//! (its header names the scene and what must happen per target), planned,
+//! validated pass by pass and rendered against the independent reference
+//! (`shadec::oracle`) in f32 and, on the combiner targets, in fixed9 —
+//! as `planner_heldout` holds every program of the battery.
+
+use crate::planner_heldout::outcomes;
+
+fn holds(file: &str) {
+    let failures: Vec<String> = outcomes(file)
+        .into_iter()
+        .filter_map(|(target, o)| match o {
+            Ok(row) => {
+                eprintln!("| {file} | {target} | {row} |");
+                None
+            }
+            Err(e) => Some(format!("{file} on {target}: {e}")),
+        })
+        .collect();
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// `4·Base·Detail·Lmap` on geforce256 (2 texture units): `Base·Detail`,
+/// then a 2× modulation by `Lmap`, then by 1 — the scale after every
+/// factor that brings the value down, where the clamps leave it exact
+/// (was refused: "every split that fits is changed by the clamps").
+#[test]
+fn a_constant_past_two_times_three_maps_is_scaled_in_last() {
+    holds("constant_times_three_maps.shd");
+}
+
+/// `3·Base·Detail·Lmap` into a framebuffer other than `C`, shown by a
+/// screen pass: the scale 3 as 2, then 1.5.
+#[test]
+fn a_scaled_product_into_another_framebuffer_is_scaled_in_last() {
+    holds("other_framebuffer_product.shd");
+}
+
+/// `C ← (C) ⊕ (A0·A1·A2 + B0·B1·B2)`: the blend's source is clamped (GL),
+/// the sum of two multi-pass products is computed into a temporary, read
+/// back saturated (an f32 temporary keeps what an 8-bit one clamps), and
+/// modulated in, on geforce3 (`C ← (C) ⊕ (T1·T2·T3 + T3·T4·T5)` was
+/// refused there and on geforce256). Not yet on geforce256 with six
+/// distinct maps (the header says so).
+#[test]
+fn a_modulation_by_a_sum_of_multi_pass_products_goes_through_a_temporary() {
+    holds("modulate_by_two_layer_products.shd");
+}
+
+/// `C ← C·(A0·A1·A2 + B0·B1·B2)` (arithmetic, up to 2): the temporary
+/// holds half of each product, the blender modulates by twice it
+/// (geforce3; not yet on geforce256 with six distinct maps).
+#[test]
+fn a_product_with_a_sum_past_one_of_multi_pass_products_is_halved_into_a_temporary() {
+    holds("multiply_by_two_layer_products.shd");
+}
+
+/// Further held-out-style programs: detail texturing doubled, a `mix`
+/// inside a doubled product, four lights summed in a product plus gloss,
+/// a product over a sum with a constant below 1.
+#[test]
+fn doubled_products_lerps_in_products_and_sums_of_lights_plan() {
+    for file in [
+        "detail_doubled_lit.shd",
+        "mix_in_product_scaled.shd",
+        "four_lights_and_gloss.shd",
+        "product_over_sum_halved.shd",
+    ] {
+        holds(file);
+    }
+}
