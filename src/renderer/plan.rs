@@ -423,7 +423,12 @@ impl<'a> PlanRenderer<'a> {
                 let volume = volume
                     .as_ref()
                     .map(|v| crate::scene::shadow_volume::bind_volume(self.scene, self.assets, v, aspect))
-                    .map(|v| v.offset_clip(self.rounding_bias.volume_offset(width, height)));
+                    .map(|v| {
+                        crate::scene::shadow_volume::offset_clip(
+                            v,
+                            self.rounding_bias.volume_offset(width, height),
+                        )
+                    });
                 let drawn = volume.as_ref().map_or(&objects[..], std::slice::from_ref);
                 self.draw_layer(pass, &pi, drawn, &stage, target, &mut draws)?;
                 nonfinite += stage.nonfinite.load(Ordering::Relaxed);

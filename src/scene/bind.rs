@@ -690,19 +690,6 @@ impl<'s> BoundObject<'s> {
         }
     }
 
-    /// The object drawn `d` normalized device units off (`xyz + d·w` in
-    /// clip space; in z, glPolygonOffset's constant term): the GPU check's
-    /// model of the ties between different primitives, whose depths and
-    /// snapped positions GL does not make invariant (GL 1.x, Appendix A).
-    pub fn offset_clip(mut self, d: Vec3) -> BoundObject<'s> {
-        if d != Vec3::ZERO {
-            let mut offset = Mat4::IDENTITY;
-            offset.w_axis = d.extend(1.0);
-            self.camera_clip = offset * self.camera_clip;
-        }
-        self
-    }
-
     /// The mesh's vertex count.
     pub fn n_vertices(&self) -> usize {
         self.mesh.positions.len()

@@ -175,3 +175,17 @@ pub fn bind_volume<'s>(
     let light_clip = bind::light_view_projection(scene.lights.first(), center, radius);
     BoundObject::new(scene, volume, Mat4::IDENTITY, aspect, light_clip)
 }
+
+/// `object` drawn `d` normalized device units off (`xyz + d·w` in clip
+/// space; in z, glPolygonOffset's constant term): the GPU check's model of
+/// the ties between a volume and the surface it grazes, whose depths and
+/// snapped positions GL does not make invariant across primitives (GL 1.x,
+/// Appendix A).
+pub fn offset_clip(mut object: BoundObject<'_>, d: Vec3) -> BoundObject<'_> {
+    if d != Vec3::ZERO {
+        let mut offset = Mat4::IDENTITY;
+        offset.w_axis = d.extend(1.0);
+        object.camera_clip = offset * object.camera_clip;
+    }
+    object
+}
