@@ -372,6 +372,8 @@ impl<'a> Rewriter<'a> {
     fn finish(self) -> Lowered {
         let roots: Vec<Handle<Expr>> = self.m.statements.iter().map(|st| st.value).collect();
         let live: std::collections::HashSet<Handle<Expr>> = self.m.reachable(&roots).into_iter().collect();
+        let sites: Vec<Handle<Expr>> = self.results.iter().flatten().copied().collect();
+        let reach = sensitivity::Reach::new(&self.m, &sites);
         let approximations = self
             .approximations
             .into_iter()
@@ -379,7 +381,7 @@ impl<'a> Rewriter<'a> {
             .filter(|(_, r)| r.is_none_or(|h| live.contains(&h)))
             .map(|(mut a, r)| {
                 let sensitivity = match r {
-                    Some(h) => sensitivity::output_sensitivity(&self.m, h),
+                    Some(h) => reach.output_sensitivity(&self.m, h),
                     None => Some(1.0), // a whole statement's value
                 };
                 a.output_bound = a.error_bound.zip(sensitivity).map(|(b, l)| b * l);

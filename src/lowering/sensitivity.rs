@@ -29,16 +29,164 @@ enum Store {
 /// The largest change of any framebuffer's value, per component, per unit
 /// of change at `site` (`None`: unbounded or unknown).
 pub fn output_sensitivity(m: &Module, site: Handle<Expr>) -> Option<f64> {
-    let mut stored: HashMap<Store, f64> = HashMap::new();
-    let mut out: f64 = 0.0;
-    for st in &m.statements {
-        let mut walk = Walk { m, site, stored: &stored, memo: HashMap::new() };
+    Reach::new(m, &[site]).output_sensitivity(m, site)
+}
+
+/// Which statements each site and each store reaches, found once for all
+/// of a lowering's sites, and what an error held in one store goes on to
+/// do. A site's bound walks only the statements its error can move (its
+/// own, and those reading a store it moved); once the site is behind it
+/// and one store holds the error, the rest depends only on where and on
+/// which store — every rule is linear in `L` — so it is remembered as a
+/// gain and shared by the sites that reach the same state. Without it an
+/// accumulation `C ← C ⊕ gᵢ` of N statements, one approximation each,
+/// walked N² statements.
+pub struct Reach {
+    /// The statements whose value or index reaches each site.
+    holding: HashMap<Handle<Expr>, Vec<usize>>,
+    /// The statements reading each store.
+    readers: HashMap<Store, Vec<usize>>,
+    /// After statement `i`, with only `Store` holding an error: the
+    /// output's change per unit of it (`None`: unbounded).
+    gains: std::cell::RefCell<HashMap<(usize, Store), Option<f64>>>,
+    /// Each site's bound, once found (a site shared by many statements'
+    /// approximations is asked for many times).
+    found: std::cell::RefCell<HashMap<Handle<Expr>, Option<f64>>>,
+}
+
+/// A state whose future is a gain: after statement `at`, `store` alone
+/// holding `held`; `seen` framebuffer writes had been made before it.
+struct Waypoint {
+    at: usize,
+    store: Store,
+    held: f64,
+    seen: usize,
+}
+
+/// Sorted lists of statements merged in program order, each from a cursor.
+struct Pending<'a> {
+    lists: Vec<&'a [usize]>,
+    at: Vec<usize>,
+}
+
+impl<'a> Pending<'a> {
+    fn add(&mut self, list: &'a [usize], from: usize) {
+        self.lists.push(list);
+        self.at.push(from);
+    }
+
+    /// The earliest statement left in any list, taken from all of them.
+    fn next(&mut self) -> Option<usize> {
+        let i = (0..self.lists.len()).filter_map(|k| self.lists[k].get(self.at[k]).copied()).min()?;
+        for k in 0..self.lists.len() {
+            if self.lists[k].get(self.at[k]) == Some(&i) {
+                self.at[k] += 1;
+            }
+        }
+        Some(i)
+    }
+}
+
+impl Reach {
+    pub fn new(m: &Module, sites: &[Handle<Expr>]) -> Reach {
+        let sites: std::collections::HashSet<_> = sites.iter().copied().collect();
+        let (mut holding, mut readers) = (HashMap::<_, Vec<usize>>::new(), HashMap::<_, Vec<usize>>::new());
+        for (i, st) in m.statements.iter().enumerate() {
+            for h in m.reachable(&[st.index, st.value]) {
+                if sites.contains(&h) {
+                    holding.entry(h).or_default().push(i);
+                }
+                let read = match m.exprs[h] {
+                    Expr::Lookup { texture, .. } => Store::Texture(texture),
+                    Expr::FramebufferRead { framebuffer, channel, .. } => {
+                        Store::Framebuffer(framebuffer, channel)
+                    }
+                    _ => continue,
+                };
+                let list = readers.entry(read).or_default();
+                if list.last() != Some(&i) {
+                    list.push(i);
+                }
+            }
+        }
+        Reach { holding, readers, gains: Default::default(), found: Default::default() }
+    }
+
+    /// [`output_sensitivity`] of `site`, one of the sites `self` was built for.
+    pub fn output_sensitivity(&self, m: &Module, site: Handle<Expr>) -> Option<f64> {
+        if let Some(&l) = self.found.borrow().get(&site) {
+            return l;
+        }
+        let l = self.walk_from(m, site);
+        self.found.borrow_mut().insert(site, l);
+        l
+    }
+
+    fn walk_from(&self, m: &Module, site: Handle<Expr>) -> Option<f64> {
+        let holding = self.holding.get(&site).map_or(&[][..], |v| &v[..]);
+        let last_holding = holding.last().copied();
+        let mut stored: HashMap<Store, f64> = HashMap::new();
+        // The framebuffer writes' `L`, in order (the output is their max).
+        let mut writes: Vec<f64> = Vec::new();
+        let mut trail: Vec<Waypoint> = Vec::new();
+        // Statements in program order; one neither holding the site nor
+        // reading a moved store has L = 0 and is never walked.
+        let mut pending = Pending { lists: vec![holding], at: vec![0] };
+        let mut woken: Vec<Store> = Vec::new();
+        let mut tail: Option<Option<f64>> = None; // a remembered gain's contribution
+        while let Some(i) = pending.next() {
+            let step = self.step(m, site, i, &mut stored);
+            let Some(write) = step else {
+                tail = Some(None);
+                break;
+            };
+            if let Some((store, l)) = write {
+                if matches!(store, Store::Framebuffer(..)) {
+                    writes.push(l);
+                }
+                if !woken.contains(&store) {
+                    woken.push(store);
+                    let readers = self.readers.get(&store).map_or(&[][..], |v| &v[..]);
+                    pending.add(readers, readers.partition_point(|&r| r <= i));
+                }
+            }
+            if last_holding.is_none_or(|last| i >= last) && stored.len() == 1 {
+                let Some((&store, &held)) = stored.iter().next() else { break };
+                if let Some(&gain) = self.gains.borrow().get(&(i, store)) {
+                    tail = Some(gain.map(|g| held * g));
+                    break;
+                }
+                trail.push(Waypoint { at: i, store, held, seen: writes.len() });
+            }
+        }
+        self.remember(&trail, &writes, tail);
+        let out = writes.iter().copied().fold(0.0f64, f64::max);
+        let out = match tail {
+            Some(t) => out.max(t?),
+            None => out,
+        };
+        out.is_finite().then_some(out)
+    }
+
+    /// Walks statement `i` with the errors `stored` holds: `None` when
+    /// unbounded, else the store it moved and by how much, which `stored`
+    /// now holds.
+    fn step(
+        &self,
+        m: &Module,
+        site: Handle<Expr>,
+        i: usize,
+        stored: &mut HashMap<Store, f64>,
+    ) -> Option<Option<(Store, f64)>> {
+        let st = &m.statements[i];
+        let mut walk = Walk { m, site, stored: &*stored, memo: HashMap::new() };
         if walk.of(st.index)? != 0.0 {
             return None; // the site moves where the statement writes
         }
         let l = walk.of(st.value)?;
+        drop(walk);
         if l == 0.0 {
-            continue;
+            return Some(None);
         }
         let store = match st.table {
             Table::Framebuffer { id, channel } => Store::Framebuffer(id, channel),
@@ -47,11 +195,23 @@ pub fn output_sensitivity(m: &Module, site: Handle<Expr>) -> Option<f64> {
         };
         let held = stored.entry(store).or_insert(0.0);
         *held = held.max(l);
-        if matches!(store, Store::Framebuffer(..)) {
-            out = out.max(l);
+        Some(Some((store, l)))
+    }
+
+    /// The gains of the waypoints a walk passed: the largest later write
+    /// (or the remembered `tail` it ended on) per unit held.
+    fn remember(&self, trail: &[Waypoint], writes: &[f64], tail: Option<Option<f64>>) {
+        let mut gains = self.gains.borrow_mut();
+        let mut after = tail.unwrap_or(Some(0.0));
+        let mut k = writes.len();
+        for w in trail.iter().rev() {
+            while k > w.seen {
+                k -= 1;
+                after = after.map(|a| a.max(writes[k]));
+            }
+            gains.entry((w.at, w.store)).or_insert(after.map(|a| a / w.held));
         }
     }
-    out.is_finite().then_some(out)
 }
 
 struct Walk<'a> {
@@ -204,7 +364,7 @@ fn nonzero(l: f64, k: f64) -> f64 {
 
 #[cfg(test)]
 mod tests {
-    use super::output_sensitivity;
+    use super::{output_sensitivity, Reach};
     use crate::ir::{Expr, Handle, Module};
 
     fn module(source: &str) -> Module {
@@ -258,5 +418,26 @@ mod tests {
         let m = module(source);
         // ½ stored, doubled by expand.
         assert_eq!(output_sensitivity(&m, at(&m, source, "(A δu x)")), Some(1.0));
+    }
+
+    /// Errors carried through an accumulation into `C`: each site's bound
+    /// is the largest write it moves, whether found alone or through the
+    /// gains other sites left behind.
+    #[test]
+    fn an_accumulated_error_keeps_its_bound_whichever_site_is_asked_first() {
+        let source = "texture A : 2d rgb8 = image(\"a.png\");\ntexture B : 2d rgb8 = image(\"b.png\");\n\
+            C δπx ← 0.5 * (A δu x);\nC δπx ← (C δπx) + 0.25 * (B δu x);\nC δπx ← 0.5 * (C δπx);\n\
+            C δπx ← (C δπx) + 0.1 * (B δu x);\n";
+        let m = module(source);
+        let (a, b) = (at(&m, source, "(A δu x)"), at(&m, source, "(B δu x)"));
+        assert_eq!(output_sensitivity(&m, a), Some(0.5));
+        // B is read twice; C holds the larger of what it was given (0.25, then 0.125).
+        assert_eq!(output_sensitivity(&m, b), Some(0.35));
+        for order in [[a, b], [b, a]] {
+            let reach = Reach::new(&m, &order);
+            for site in order {
+                assert_eq!(reach.output_sensitivity(&m, site), output_sensitivity(&m, site), "{order:?}");
+            }
+        }
     }
 }
