@@ -11,7 +11,10 @@
 //! - `wide`: one shader summing N lit terms;
 //! - `chain`: one statement, a product of N texture lookups;
 //! - `lets`: N `let`s, each added by its own statement;
-//! - `lights`: N lights, each a Blinn-Phong highlight added in its own statement.
+//! - `lights`: N lights, each a Blinn-Phong highlight added in its own statement;
+//! - `shaders`: N shaders of one light, `kᵢ · max(0, N·L)`, each added by its
+//!   own statement (each a per-vertex fall-back on the combiner targets, whose
+//!   output bound and interpolants were once found anew for every statement).
 //!
 //! `cargo bench --bench compile`; `SHADEC_BENCH_MAX=N` caps the size,
 //! `SHADEC_BENCH_SHAPES=lit,wide` and `SHADEC_BENCH_TARGETS=wgsl` pick.
@@ -24,7 +27,7 @@ use std::time::{Duration, Instant};
 use shadec::profile::Profile;
 
 const SIZES: [usize; 7] = [100, 300, 1000, 2000, 5000, 10_000, 20_000];
-const SHAPES: [&str; 5] = ["lit", "wide", "chain", "lets", "lights"];
+const SHAPES: [&str; 6] = ["lit", "wide", "chain", "lets", "lights", "shaders"];
 const TARGETS: [&str; 3] = ["geforce256", "geforce3", "wgsl"];
 
 /// The program of `shape` at size `n`.
@@ -81,6 +84,15 @@ fn program(shape: &str, n: usize) -> String {
             }
             for i in 0..n {
                 let _ = writeln!(s, "C δπx ← (C δπx) ⊕[add] (δ p{i} s x);");
+            }
+        }
+        "shaders" => {
+            s += "vector L : light(0);\n";
+            for i in 0..n {
+                let _ = writeln!(s, "shader g{} : s → c = {:.3} * max(0, N·L);", name(i), weight(i));
+            }
+            for i in 0..n {
+                let _ = writeln!(s, "C δπx ← (C δπx) ⊕[add] (δ g{} s x);", name(i));
             }
         }
         other => panic!("unknown shape {other}"),

@@ -231,6 +231,35 @@ pub fn address_only(m: &Module, reach: &[bool]) -> Vec<bool> {
     address
 }
 
+/// [`address_only`] over the nodes reachable from `roots` alone, as a set:
+/// its cost grows with what `roots` reach, not with the arena (a lowering
+/// asks it once per statement, and the arena holds every statement's nodes).
+pub fn address_only_from(m: &Module, roots: &[Handle<Expr>]) -> rustc_hash::FxHashSet<Handle<Expr>> {
+    let mut reach: rustc_hash::FxHashSet<Handle<Expr>> = roots.iter().copied().collect();
+    let mut address = rustc_hash::FxHashSet::default();
+    // Operands precede their users in the arena: descending order visits a
+    // node after every user, as the dense walks do.
+    for h in m.reachable(roots).into_iter().rev() {
+        if !reach.contains(&h) {
+            continue;
+        }
+        let e = &m.exprs[h];
+        match e {
+            Expr::Lookup { coords, .. } => _ = address.insert(*coords),
+            Expr::FramebufferRead { position, .. } => _ = address.insert(*position),
+            Expr::Depth(p) => _ = address.insert(*p),
+            _ if address.contains(&h) && !matches!(e, Expr::Interpolate { .. }) => {
+                e.visit_operands(|o| _ = address.insert(o));
+            }
+            _ => {}
+        }
+        if !matches!(e, Expr::Interpolate { .. }) {
+            e.visit_operands(|o| _ = reach.insert(o));
+        }
+    }
+    address
+}
+
 /// The per-operation fixed9 model (a pass the combiner generator cannot
 /// build): which per-sample nodes are *register reads* — an operand that a
 /// product, dot product, power or function of another per-sample value

@@ -182,6 +182,7 @@ pub fn lower_for(
         approximations: Vec::new(),
         pending: Vec::new(),
         results: Vec::new(),
+        result_at: HashMap::new(),
         bounds,
     };
     texel_bake::apply(&mut r);
@@ -222,6 +223,8 @@ pub struct Rewriter<'a> {
     pub pending: Vec<Statement>,
     /// The value each approximation produced, in the same order.
     results: Vec<Option<Handle<Expr>>>,
+    /// Where each value of `results` stands in it.
+    result_at: HashMap<Handle<Expr>, Vec<usize>>,
     /// The scene's object bounds, when planning for one ([`solid`]).
     pub bounds: Option<solid::Bounds>,
 }
@@ -253,14 +256,13 @@ impl<'a> Rewriter<'a> {
     /// coordinates): every signed vector the combiners still read as an
     /// interpolated colour, range-compressed ([`range_compress`]).
     fn compress_interpolants(&mut self, value: Handle<Expr>) -> Handle<Expr> {
-        let address =
-            crate::ir::usage::address_only(&self.m, &crate::ir::usage::fragment_reach(&self.m, &[value]));
+        let address = crate::ir::usage::address_only_from(&self.m, &[value]);
         let mut map: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::new();
         for h in self.m.reachable(&[value]) {
             let e = self.m.exprs[h].map_operands(|o| map.get(&o).copied().unwrap_or(o));
             let span = self.m.span(h);
             let nh = self.m.intern(e, span).unwrap_or(h);
-            let read_by_combiners = !address.get(h.index()).copied().unwrap_or(true);
+            let read_by_combiners = !address.contains(&h);
             let out = match &self.m.exprs[nh] {
                 Expr::Interpolate { .. } if read_by_combiners => {
                     range_compress::apply(self, nh, span).unwrap_or(nh)
@@ -281,10 +283,17 @@ impl<'a> Rewriter<'a> {
         }
         // An approximation's value rebuilt around a compressed interpolant
         // is still that approximation's (`finish` keeps the live ones).
-        for r in self.results.iter_mut().flatten() {
-            if let Some(&to) = map.get(r) {
-                *r = to;
+        // Each moved once, as `map` says (an index, not a scan of every
+        // statement's approximations: linear in the program).
+        let moved: Vec<(Handle<Expr>, Vec<usize>)> = (map.iter())
+            .filter(|(h, to)| h != to)
+            .filter_map(|(&h, &to)| Some((to, self.result_at.remove(&h)?)))
+            .collect();
+        for (to, at) in moved {
+            for &i in &at {
+                self.results[i] = Some(to);
             }
+            self.result_at.entry(to).or_default().extend(at);
         }
         map.get(&value).copied().unwrap_or(value)
     }
@@ -363,6 +372,9 @@ impl<'a> Rewriter<'a> {
             error_bound,
             output_bound,
         });
+        if let Some(h) = result {
+            self.result_at.entry(h).or_default().push(self.results.len());
+        }
         self.results.push(result);
     }
 

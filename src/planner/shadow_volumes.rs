@@ -57,7 +57,7 @@ pub fn count_by_facing(m: &Module, passes: &mut Vec<Pass>, two_sided: bool) -> V
     let mut out = Vec::with_capacity(passes.len() + 1);
     let mut origins = Vec::with_capacity(passes.len() + 1);
     for (index, pass) in passes.drain(..).enumerate() {
-        if !(draws_volumes(m, &pass) && pass.state.stencil.enabled) {
+        if !(pass.state.stencil.enabled && draws_volumes(m, &pass)) {
             out.push(pass);
             origins.push(index);
             continue;
