@@ -910,7 +910,7 @@ impl Expr {
 }
 
 /// The table a statement writes.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Eq, Hash)]
 pub enum Table {
     Framebuffer {
         id: FramebufferId,

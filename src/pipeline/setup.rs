@@ -20,6 +20,7 @@
 //! on a combiner target every pass that is not a `bake` table has
 //! [`FragmentSetup::Combiners`].
 
+use rustc_hash::FxHashMap as HashMap;
 use std::any::Any;
 use std::cell::Cell;
 use std::fmt;
@@ -215,19 +216,25 @@ pub fn generated_setups() -> usize {
 impl PassSetup {
     /// The setup of `pass` of `module`: its target decided here, its units
     /// by id, with the fragment stage the planner realized.
-    pub fn resolve(module: &Module, pass: &Pass, span: Span, fragment: FragmentSetup) -> PassSetup {
+    pub fn resolve(
+        module: &Module,
+        names: &Names,
+        pass: &Pass,
+        span: Span,
+        fragment: FragmentSetup,
+    ) -> PassSetup {
         let fixed9 = OnceLock::new();
         if let FragmentSetup::Combiners(program) = &fragment {
             let _ = fixed9.set(Ok(program.clone()));
         }
         PassSetup {
             span,
-            target: target_image(module, pass),
+            target: target_image(module, names, pass),
             units: pass
                 .textures
                 .iter()
                 .map(|t| UnitBinding {
-                    source: unit_source(module, &t.texture),
+                    source: names.unit_source(&t.texture),
                     lookup: Handle::new(t.lookup as usize),
                 })
                 .collect(),
@@ -252,16 +259,46 @@ pub fn resolve_all(
     plan: &PassPlan,
     stages: impl IntoIterator<Item = (Span, FragmentSetup)>,
 ) -> Vec<PassSetup> {
-    plan.passes.iter().zip(stages).map(|(p, (span, f))| PassSetup::resolve(module, p, span, f)).collect()
+    let names = Names::of(module);
+    plan.passes
+        .iter()
+        .zip(stages)
+        .map(|(p, (span, f))| PassSetup::resolve(module, &names, p, span, f))
+        .collect()
 }
 
-fn unit_source(m: &Module, name: &str) -> UnitSource {
-    if let Some(id) = m.textures.iter().position(|t| t.name == name) {
-        UnitSource::Texture(id as u32)
-    } else if let Some(id) = m.framebuffers.iter().position(|f| f.name == name) {
-        UnitSource::Framebuffer(id as u32)
-    } else {
-        UnitSource::Temporary
+/// The module's textures and framebuffers by name, looked up once per
+/// plan (a plan of many passes over many rendered textures would otherwise
+/// scan the names for every unit of every pass).
+pub struct Names<'m> {
+    textures: HashMap<&'m str, u32>,
+    framebuffers: HashMap<&'m str, u32>,
+}
+
+impl<'m> Names<'m> {
+    pub fn of(m: &'m Module) -> Self {
+        // The first of equal names, as a scan would find.
+        let index = |names: Vec<&'m str>| {
+            let mut map = HashMap::default();
+            for (i, n) in names.into_iter().enumerate() {
+                map.entry(n).or_insert(i as u32);
+            }
+            map
+        };
+        Names {
+            textures: index(m.textures.iter().map(|t| t.name.as_str()).collect()),
+            framebuffers: index(m.framebuffers.iter().map(|f| f.name.as_str()).collect()),
+        }
+    }
+
+    fn unit_source(&self, name: &str) -> UnitSource {
+        if let Some(&id) = self.textures.get(name) {
+            UnitSource::Texture(id)
+        } else if let Some(&id) = self.framebuffers.get(name) {
+            UnitSource::Framebuffer(id)
+        } else {
+            UnitSource::Temporary
+        }
     }
 }
 
@@ -269,15 +306,15 @@ fn unit_source(m: &Module, name: &str) -> UnitSource {
 /// texture rendered over its texels, or the mesh rasterized in texture
 /// space, `T δu x ←`, is a [`RENDERED_TEXTURE_SIZE`] grid; everything else
 /// frame-sized), and in what format.
-fn target_image(m: &Module, pass: &Pass) -> TargetImage {
+fn target_image(m: &Module, names: &Names, pass: &Pass) -> TargetImage {
     let (kind, name) = match &pass.target {
         RenderTarget::Framebuffer { name, .. } => {
-            let id = m.framebuffers.iter().position(|f| f.name == *name);
-            (id.map_or(TargetKind::Temporary, |i| TargetKind::Framebuffer(i as u32)), name)
+            let id = names.framebuffers.get(name.as_str());
+            (id.map_or(TargetKind::Temporary, |&i| TargetKind::Framebuffer(i)), name)
         }
         RenderTarget::Texture { name } => {
-            let id = m.textures.iter().position(|t| t.name == *name);
-            (id.map_or(TargetKind::Temporary, |i| TargetKind::Texture(i as u32)), name)
+            let id = names.textures.get(name.as_str());
+            (id.map_or(TargetKind::Temporary, |&i| TargetKind::Texture(i)), name)
         }
         RenderTarget::Temporary { name } => (TargetKind::Temporary, name),
     };

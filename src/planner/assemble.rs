@@ -63,8 +63,11 @@ pub(super) struct Group<'a> {
 /// framebuffer's geometry (its table and index) and the temporaries drawn.
 #[derive(Default)]
 pub(super) struct Drawn {
+    /// In the order drawn (the last into a framebuffer is reused).
     pub(super) main: Vec<(Table, Handle<Expr>)>,
-    pub(super) temps: Vec<u32>,
+    /// The same, as a set: a plan of many passes asks once per pass.
+    main_set: rustc_hash::FxHashSet<(Table, Handle<Expr>)>,
+    temps: rustc_hash::FxHashSet<u32>,
 }
 
 /// Pass `pi` of a group: where it draws, what it binds, its state and why;
@@ -252,7 +255,7 @@ pub(super) fn pass_state(
     // framebuffer does (an `Equal` test against the cleared depth drew
     // nothing: issue 16's lost term).
     let first_draw = match piece.dest {
-        Dest::Main => !drawn.main.contains(&key),
+        Dest::Main => !drawn.main_set.contains(&key),
         Dest::Temp(id) => !drawn.temps.contains(&id),
     };
     let on_mesh = matches!(geometry, Geometry::Mesh { .. });
@@ -265,8 +268,11 @@ pub(super) fn pass_state(
     });
     if on_mesh && first_draw {
         match piece.dest {
-            Dest::Main => drawn.main.push(key),
-            Dest::Temp(id) => drawn.temps.push(id),
+            Dest::Main => {
+                drawn.main_set.insert(key.clone());
+                drawn.main.push(key);
+            }
+            Dest::Temp(id) => _ = drawn.temps.insert(id),
         }
     }
     let mask = match form.channels {
