@@ -134,17 +134,23 @@ fn a_nearest_lookup_on_a_texel_edge_lies_within_the_model() {
 /// break those depth and coverage ties differently (GL makes neither
 /// invariant across primitives). The model draws the volume a few depth
 /// steps and 1/32 pixel either way; before it, 10 pixels at 320×240 were
-/// 10/255 "beyond the model" on lavapipe.
+/// 10/255 "beyond the model" on lavapipe. (The agreement sweep of
+/// `wgsl_agreement.rs` leaves this example to this test.)
 #[test]
 fn shadow_volume_terminator_ties_lie_within_the_model() {
     let Some(gpu) = gpu() else { return };
     let setup = Setup::torus(&gpu, SIZE).unwrap();
     let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("examples");
     let source = std::fs::read_to_string(root.join("shadow_volumes.shd")).unwrap();
-    let c = compared(setup.compare(&gpu, &source, "wgsl", Precision::F32), "shadow volumes");
-    says_something(&c, "shadow volumes");
-    assert_eq!(c.class, Class::Exact);
-    assert_eq!(c.beyond, 0, "shadow volumes on wgsl: {c:?}");
+    for (target, mode) in
+        [("wgsl", Precision::F32), ("geforce3", Precision::Fixed9), ("geforce256", Precision::Fixed9)]
+    {
+        let what = format!("shadow volumes on {target}");
+        let c = compared(setup.compare(&gpu, &source, target, mode), &what);
+        says_something(&c, &what);
+        assert_eq!(c.class, Class::Exact);
+        assert_eq!(c.beyond, 0, "{what}: {c:?}");
+    }
 }
 
 /// The latitude renders move the pictures of filtered programs (so the

@@ -386,7 +386,8 @@ fn kilgard_without_mipmaps_agrees_with_cpu_f32() {
 /// Every example on Kilgard's torus, planned for its own target (`wgsl`
 /// when it names none): exact fidelity against f32 within 2/255, hardware
 /// fidelity against fixed9 within 1/255, off the edge mask (allowing for
-/// rounding ties, module docs).
+/// rounding ties, module docs). Shadow volumes are compared by the GPU
+/// check's test instead, under its model of the volume's ties.
 #[test]
 fn every_example_agrees_on_the_torus() {
     let Some(gpu) = gpu() else { return };
@@ -403,6 +404,13 @@ fn every_example_agrees_on_the_torus() {
         .collect();
     names.sort();
     assert!(names.len() >= 28, "{names:?}");
+    // Shadow volumes on the torus shadow the torus itself: along the
+    // terminator the volume's walls graze the surface, depth and coverage
+    // ties the two rasterizers break differently (GL makes neither
+    // invariant across primitives). This sweep has no model of them; the
+    // GPU check's has (`gpu_check::shadow_volume_terminator_ties_lie_within_the_model`,
+    // all three targets), so the example is compared there.
+    names.retain(|n| n != "shadow_volumes.shd");
     // `SHADEC_AGREEMENT_ONLY=embm` narrows the sweep (with `SHADEC_AGREEMENT_DUMP`, its images).
     if let Ok(only) = std::env::var("SHADEC_AGREEMENT_ONLY") {
         names.retain(|n| n.contains(&only));
@@ -428,13 +436,7 @@ fn every_example_agrees_on_the_torus() {
                     if !a.says_something() {
                         failures.push(format!("{name} {fidelity:?}: only {} of {} compared pixels are lit: the agreement says little", a.lit, a.compared));
                     }
-                    // Shadow volumes on the torus shadow the torus itself: along
-                    // the terminator the volume's walls graze the surface, depth
-                    // ties the two rasterizers break differently (as hardware
-                    // did: the shadow-volume terminator problem). Bounded: at
-                    // most 0.2% of the compared pixels.
-                    let self_shadow_ties = name == "shadow_volumes.shd" && a.over * 500 <= a.compared;
-                    if a.max_diff > tol && !self_shadow_ties {
+                    if a.max_diff > tol {
                         failures.push(format!(
                             "{name} {fidelity:?}: max {}/255 on {} pixels",
                             a.max_diff, a.over
