@@ -91,3 +91,4 @@ mod wgpu_light_culling;
 mod wgpu_rendered_mipmaps;
 mod wgpu_runs_what_the_cpu_runs;
 mod wgpu_vertex_programs;
+mod three_way_heldout13;

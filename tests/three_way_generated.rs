@@ -272,8 +272,12 @@ pub fn fixed9_verdict(p: &Pictures, skipped: &mut usize) -> Result<(), String> {
     // differ; a plan computes one of the two readings exactly, whole.
     match (&clamped, &p.oracle_unclamped) {
         (Err(e), Some(unclamped)) => {
+            let (low, high) = p.oracle_unclamped_range.clone().unwrap_or_else(|| (unclamped.clone(), unclamped.clone()));
             let p = Pictures {
                 oracle: unclamped.clone(),
+                oracle_low: low,
+                oracle_high: high,
+                oracle_unclamped_range: None,
                 gpu: p.gpu.clone(),
                 cpu: p.cpu.clone(),
                 covered: p.covered.clone(),
@@ -289,6 +293,7 @@ pub fn fixed9_verdict(p: &Pictures, skipped: &mut usize) -> Result<(), String> {
 }
 
 fn fixed9_verdict_against(p: &Pictures, skipped: &mut usize) -> Result<(), String> {
+    p.enough_compared()?;
     let Some(bound) = p.approximation_bound else {
         *skipped += 1;
         return match &p.gpu {
@@ -310,7 +315,7 @@ fn fixed9_verdict_against(p: &Pictures, skipped: &mut usize) -> Result<(), Strin
         }
         (off as f64 / n.max(1) as f64 <= crate::three_way::PIXEL_FRACTION, d)
     };
-    let (ok_co, co) = wide(&p.cpu, &p.oracle);
+    let (ok_co, co) = wide(&p.cpu, &p.reference_near(&p.cpu));
     let Some(g) = &p.gpu else {
         return if ok_co {
             Ok(())
@@ -322,7 +327,7 @@ fn fixed9_verdict_against(p: &Pictures, skipped: &mut usize) -> Result<(), Strin
     // generated setup: they agree to the three-way bound; each is held to
     // the wider fixed9 bound against the f64 reference.
     let cg = difference(&p.cpu, g, &p.covered);
-    let (ok_go, go) = wide(g, &p.oracle);
+    let (ok_go, go) = wide(g, &p.reference_near(g));
     match (cg.within(), ok_co, ok_go) {
         (true, true, true) => Ok(()),
         (true, false, false) => Err(format!(
