@@ -78,7 +78,10 @@ impl Pictures {
     /// The reference's value nearest the executor's picture `e` within
     /// its level-of-detail range: what `e` is compared with.
     pub fn reference_near(&self, e: &[u8]) -> Vec<u8> {
-        e.iter().zip(self.oracle_low.iter().zip(&self.oracle_high)).map(|(&x, (&lo, &hi))| x.clamp(lo, hi)).collect()
+        e.iter()
+            .zip(self.oracle_low.iter().zip(&self.oracle_high))
+            .map(|(&x, (&lo, &hi))| x.clamp(lo, hi))
+            .collect()
     }
 
     /// The pixels compared (covered, not latitude).
@@ -929,7 +932,8 @@ fn minified_trilinear_texture_is_compared_against_its_lod_range() {
         shader lit : s → scalar = 0.3 + 0.7 * max(0, N·L);\n\
         C δπx ← Brick δu x * δ lit s x;\n";
     let g = gpu();
-    let mut p = render_three(source, "wgsl", &scene("kilgard_torus.ron"), Precision::F32, g.as_ref()).unwrap();
+    let mut p =
+        render_three(source, "wgsl", &scene("kilgard_torus.ron"), Precision::F32, g.as_ref()).unwrap();
     verdict(&p).unwrap();
     let all = p.covered.len();
     assert!(p.compared() * 5 >= all, "{} of {all} compared", p.compared());

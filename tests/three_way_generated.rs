@@ -279,7 +279,11 @@ fn enough_compared_in_run(what: &str) {
     let (n, thin, compared, frames) = TALLY.with(|t| t.replace((0, 0, 0, 0)));
     let fraction = compared as f64 / frames.max(1) as f64;
     eprintln!("{what}: {n} renders, {thin} thin, {:.1} % of their frames compared", 100.0 * fraction);
-    assert!(fraction >= crate::three_way::MIN_COMPARED, "{what}: {:.1} % of the frames compared", 100.0 * fraction);
+    assert!(
+        fraction >= crate::three_way::MIN_COMPARED,
+        "{what}: {:.1} % of the frames compared",
+        100.0 * fraction
+    );
     assert!(thin * 10 <= n, "{what}: {thin} of {n} renders compare too little");
 }
 
@@ -305,7 +309,8 @@ pub fn fixed9_agreement(p: &Pictures, skipped: &mut usize) -> Result<(), String>
     // differ; a plan computes one of the two readings exactly, whole.
     match (&clamped, &p.oracle_unclamped) {
         (Err(e), Some(unclamped)) => {
-            let (low, high) = p.oracle_unclamped_range.clone().unwrap_or_else(|| (unclamped.clone(), unclamped.clone()));
+            let (low, high) =
+                p.oracle_unclamped_range.clone().unwrap_or_else(|| (unclamped.clone(), unclamped.clone()));
             let p = Pictures {
                 oracle: unclamped.clone(),
                 oracle_low: low,

@@ -399,7 +399,12 @@ impl<'a> Evaluator<'a> {
         let lambda = image.lod(d([u, v], right), d([u, v], below));
         let value = image.sample(u, v, lambda);
         let (qx, qy) = (-f64::from(f.pixel.0 & 1), -f64::from(f.pixel.1 & 1));
-        let q = [at_offset(qx, qy)?, at_offset(qx + 1.0, qy)?, at_offset(qx, qy + 1.0)?, at_offset(qx + 1.0, qy + 1.0)?];
+        let q = [
+            at_offset(qx, qy)?,
+            at_offset(qx + 1.0, qy)?,
+            at_offset(qx, qy + 1.0)?,
+            at_offset(qx + 1.0, qy + 1.0)?,
+        ];
         let row = if qy == 0.0 { (q[0], q[1]) } else { (q[2], q[3]) };
         let column = if qx == 0.0 { (q[0], q[2]) } else { (q[1], q[3]) };
         let sets = [
