@@ -85,6 +85,7 @@ mod planner_heldout;
 mod planner_rewrites;
 mod stencil_writes;
 mod three_way_heldout;
+mod three_way_heldout13;
 mod vertex_programs_public;
 mod wgpu_dual_paraboloid;
 mod wgpu_light_culling;

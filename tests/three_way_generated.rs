@@ -23,7 +23,7 @@ use proptest::prelude::*;
 use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 use shadec::numerics::Precision;
 
-use crate::three_way::{difference, render_three, scene, verdict, Pictures};
+use crate::three_way::{agreement, difference, render_three, scene, Pictures};
 
 const CASES: u32 = 96;
 const SCENES: &[&str] =
@@ -256,6 +256,37 @@ impl Program {
     }
 }
 
+thread_local! {
+    /// This thread's generated renders: (renders, thin ones, pixels
+    /// compared, pixels in the frames).
+    static TALLY: std::cell::Cell<(usize, usize, usize, usize)> = const { std::cell::Cell::new((0, 0, 0, 0)) };
+}
+
+/// Counts a generated render toward its run's compared fraction; a render
+/// below `three_way::MIN_COMPARED` on its own is "thin".
+fn tally(p: &Pictures) {
+    let thin = usize::from(p.enough_compared().is_err());
+    TALLY.with(|t| {
+        let (n, k, c, f) = t.get();
+        t.set((n + 1, k + thin, c + p.compared(), f + p.covered.len()));
+    });
+}
+
+/// A generated run compares enough: at least `three_way::MIN_COMPARED` of
+/// all its frames together, and no more than a tenth of its renders thin
+/// (a small scene, or a minified lookup whose λ range a product widens).
+fn enough_compared_in_run(what: &str) {
+    let (n, thin, compared, frames) = TALLY.with(|t| t.replace((0, 0, 0, 0)));
+    let fraction = compared as f64 / frames.max(1) as f64;
+    eprintln!("{what}: {n} renders, {thin} thin, {:.1} % of their frames compared", 100.0 * fraction);
+    assert!(
+        fraction >= crate::three_way::MIN_COMPARED,
+        "{what}: {:.1} % of the frames compared",
+        100.0 * fraction
+    );
+    assert!(thin * 10 <= n, "{what}: {thin} of {n} renders compare too little");
+}
+
 fn cases() -> u32 {
     std::env::var("SHADEC_THREE_WAY_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(CASES)
 }
@@ -267,13 +298,24 @@ fn cases() -> u32 {
 /// sum of their stated output bounds on top; one whose approximation has
 /// no bound (per-vertex shading) is checked between the CPU and wgpu only.
 pub fn fixed9_verdict(p: &Pictures, skipped: &mut usize) -> Result<(), String> {
+    p.enough_compared()?;
+    fixed9_agreement(p, skipped)
+}
+
+/// [`fixed9_verdict`] on however many pixels are compared.
+pub fn fixed9_agreement(p: &Pictures, skipped: &mut usize) -> Result<(), String> {
     let clamped = fixed9_verdict_against(p, skipped);
     // Where a ⊕ may leave [0, 1] the language and GL's texture environment
     // differ; a plan computes one of the two readings exactly, whole.
     match (&clamped, &p.oracle_unclamped) {
         (Err(e), Some(unclamped)) => {
+            let (low, high) =
+                p.oracle_unclamped_range.clone().unwrap_or_else(|| (unclamped.clone(), unclamped.clone()));
             let p = Pictures {
                 oracle: unclamped.clone(),
+                oracle_low: low,
+                oracle_high: high,
+                oracle_unclamped_range: None,
                 gpu: p.gpu.clone(),
                 cpu: p.cpu.clone(),
                 covered: p.covered.clone(),
@@ -310,7 +352,7 @@ fn fixed9_verdict_against(p: &Pictures, skipped: &mut usize) -> Result<(), Strin
         }
         (off as f64 / n.max(1) as f64 <= crate::three_way::PIXEL_FRACTION, d)
     };
-    let (ok_co, co) = wide(&p.cpu, &p.oracle);
+    let (ok_co, co) = wide(&p.cpu, &p.reference_near(&p.cpu));
     let Some(g) = &p.gpu else {
         return if ok_co {
             Ok(())
@@ -322,7 +364,7 @@ fn fixed9_verdict_against(p: &Pictures, skipped: &mut usize) -> Result<(), Strin
     // generated setup: they agree to the three-way bound; each is held to
     // the wider fixed9 bound against the f64 reference.
     let cg = difference(&p.cpu, g, &p.covered);
-    let (ok_go, go) = wide(g, &p.oracle);
+    let (ok_go, go) = wide(g, &p.reference_near(g));
     match (cg.within(), ok_co, ok_go) {
         (true, true, true) => Ok(()),
         (true, false, false) => Err(format!(
@@ -378,7 +420,8 @@ fn check_source(
         )
     };
     let wgsl = render_three(&source, "wgsl", &scene, Precision::F32, gpu).map_err(|e| fail("wgsl", e))?;
-    verdict(&wgsl).map_err(|e| fail("wgsl", e))?;
+    tally(&wgsl);
+    agreement(&wgsl).map_err(|e| fail("wgsl", e))?;
     reached[0] += 1;
     // A framebuffer declared float and read back: the combiner targets'
     // framebuffers hold 8 bits, so the planner refuses such a plan where
@@ -390,7 +433,8 @@ fn check_source(
             Ok(pictures) => {
                 reached[4] += usize::from(pictures.gpu_refused.is_some());
                 reached[7] += usize::from(pictures.texture_env_clamps);
-                fixed9_verdict(&pictures, &mut reached[3]).map_err(|e| fail(target, e))?;
+                tally(&pictures);
+                fixed9_agreement(&pictures, &mut reached[3]).map_err(|e| fail(target, e))?;
                 reached[1 + i] += 1;
             }
             // A refusal is the planner's business (its own suites); a
@@ -433,6 +477,7 @@ fn generated_programs_agree_on_three_executors() {
         r[5],
         r[7]
     );
+    enough_compared_in_run("generated programs");
     // The sample reaches the combiner targets, not only wgsl.
     assert!(r[1] > 0 && r[2] > 0, "no generated program planned on a combiner target: {r:?}");
 }
@@ -566,6 +611,7 @@ fn generated_programs_with_stencil_and_rendered_textures_agree() {
     }
     let r = reached.borrow();
     eprintln!("{cases} programs agree: wgsl {}, geforce3 {}, geforce256 {}", r[0], r[1], r[2]);
+    enough_compared_in_run("generated programs with stencil and rendered textures");
     assert_eq!(r[0], cases as usize, "every program renders on wgsl");
 }
 
@@ -628,10 +674,14 @@ fn generated_programs_with_normal_maps_and_clipped_triangles_agree() {
             |target: &str, e: String| TestCaseError::fail(format!("{target} on {name}: {e}\n{source}"));
         let p =
             render_three(&source, "wgsl", &sc, Precision::F32, gpu.as_ref()).map_err(|e| fail("wgsl", e))?;
-        verdict(&p).map_err(|e| fail("wgsl", e))?;
+        tally(&p);
+        agreement(&p).map_err(|e| fail("wgsl", e))?;
         for target in ["geforce3", "geforce256"] {
             match render_three(&source, target, &sc, Precision::Fixed9, gpu.as_ref()) {
-                Ok(p) => fixed9_verdict(&p, &mut 0).map_err(|e| fail(target, e))?,
+                Ok(p) => {
+                    tally(&p);
+                    fixed9_agreement(&p, &mut 0).map_err(|e| fail(target, e))?;
+                }
                 Err(e) if e.starts_with("does not compile") => {}
                 Err(e) => return Err(fail(target, e)),
             }
@@ -641,4 +691,5 @@ fn generated_programs_with_normal_maps_and_clipped_triangles_agree() {
     if let Err(e) = result {
         panic!("{e}");
     }
+    enough_compared_in_run("generated programs with normal maps and clipped triangles");
 }

@@ -21,10 +21,15 @@ fn folder() -> std::path::PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/heldout_twelfth")
 }
 
+/// A folder of held-out programs under `tests/data/`.
+pub fn data(name: &str) -> std::path::PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(name)
+}
+
 /// A scene of this folder, else of `scenes/` (images resolved where none
 /// is, so that every program renders with the stand-ins).
-fn held_out_scene(name: &str) -> Scene {
-    let own = folder().join(name);
+fn held_out_scene(folder: &Path, name: &str) -> Scene {
+    let own = folder.join(name);
     match std::fs::read_to_string(&own) {
         Ok(text) => Scene::parse(&text, &own).unwrap(),
         Err(_) => scene(name),
@@ -42,8 +47,13 @@ fn header<'a>(source: &'a str, key: &str) -> &'a str {
 /// Renders the held-out program `name` three ways on every target its
 /// header names: f32 everywhere, fixed9 too on the combiner targets.
 pub fn renders_alike(name: &str) -> Result<(), String> {
-    let source = std::fs::read_to_string(folder().join(format!("{name}.shd"))).unwrap();
-    let sc = held_out_scene(header(&source, "scene:"));
+    renders_alike_in(&folder(), name)
+}
+
+/// [`renders_alike`] for the program `name` of `folder`.
+pub fn renders_alike_in(folder: &Path, name: &str) -> Result<(), String> {
+    let source = std::fs::read_to_string(folder.join(format!("{name}.shd"))).unwrap();
+    let sc = held_out_scene(folder, header(&source, "scene:"));
     let g = crate::common::gpu::gpu();
     let mut failures = Vec::new();
     for target in header(&source, "targets:").split_whitespace() {

@@ -16,6 +16,9 @@
 //!   definitions (`vectors`), projective coordinates `(½x/w + ½, ½ − ½y/w)`;
 //! - [`sampling`]: GL §3.8 — wrap, λ from exact per-pixel derivatives,
 //!   NEAREST/LINEAR and the mipmap modes, cube-map faces by Table 3.19;
+//!   the λ an implementation may use instead (§3.8.8's interval for ρ,
+//!   per-quad derivatives) bounds each pixel by a range ([`Picture::low`],
+//!   [`Picture::high`]) over renders at the texels' extremes;
 //! - `ops`: the arithmetic and the ⊕ modes, written again from the
 //!   language's definition and GL's texture environment (Table 3.22);
 //! - framebuffers store what their declared format stores: an `rgba8`
@@ -115,6 +118,13 @@ pub struct Picture {
     /// a face edge: GL 1.x clamps each face, Vulkan filters seamlessly), so
     /// that a comparison can leave it out and say so.
     pub latitude: Vec<bool>,
+    /// The least value of each pixel's channels over the level-of-detail
+    /// choices GL §3.8.8 leaves to an implementation (`pixels` where no
+    /// lookup's choice matters); an implementation's pixel lies in
+    /// `low..=high`.
+    pub low: Vec<[f64; 4]>,
+    /// The greatest, as [`Picture::low`].
+    pub high: Vec<[f64; 4]>,
 }
 
 /// How the reference reads the program where GL and the language differ.
@@ -140,14 +150,47 @@ pub fn render(
 }
 
 /// [`render`] read with `options`.
+///
+/// Where a mipmapped lookup's value moves with λ inside the latitude GL
+/// §3.8.8 gives an implementation, the program is rendered once more per
+/// choice of `program::LOD_CHOICES` (every lookup at its k-th extreme:
+/// one implementation's consistent choice), and [`Picture::low`] and
+/// [`Picture::high`] keep each pixel's range over the renders.
 pub fn render_with(
+    module: &Module,
+    program: &ast::Program,
+    scene: &Scene,
+    assets: &SceneAssets,
+    size: (u32, u32),
+    options: Options,
+) -> Result<Picture, Unsupported> {
+    let (mut picture, open) = render_choice(module, program, scene, assets, size, options, 0)?;
+    if open {
+        for choice in 1..=program::LOD_CHOICES {
+            let (other, _) = render_choice(module, program, scene, assets, size, options, choice)?;
+            for i in 0..picture.pixels.len() {
+                for c in 0..4 {
+                    picture.low[i][c] = picture.low[i][c].min(other.pixels[i][c]);
+                    picture.high[i][c] = picture.high[i][c].max(other.pixels[i][c]);
+                }
+                picture.latitude[i] |= other.latitude[i];
+            }
+        }
+    }
+    Ok(picture)
+}
+
+/// One render with every mipmapped lookup at its `choice`
+/// (`Evaluator::lod_choice`); whether some lookup's choice mattered.
+fn render_choice(
     module: &Module,
     program: &ast::Program,
     scene: &Scene,
     assets: &SceneAssets,
     (width, height): (u32, u32),
     options: Options,
-) -> Result<Picture, Unsupported> {
+    choice: usize,
+) -> Result<(Picture, bool), Unsupported> {
     let world = geometry::World::new(scene, assets, f64::from(width) / f64::from(height));
     let coverage = geometry::Coverage::find(&world, width, height);
     let light_vectors = module.vectors.iter().filter(|v| {
@@ -173,6 +216,8 @@ pub fn render_with(
         framebuffers: Vec::new(),
         texgen: HashMap::new(),
         latitude: std::cell::Cell::new(false),
+        lod_choice: std::cell::Cell::new(choice),
+        lod_open: std::cell::Cell::new(false),
         clamp_texture_env: options.clamp_texture_env,
         target: 0,
     };
@@ -198,7 +243,9 @@ pub fn render_with(
     }
     let Some(fb) = last else { return Err(Unsupported::new("a program that writes no framebuffer")) };
     let covered = ev.coverage.fragments.iter().map(Option::is_some).collect();
-    Ok(Picture { width, height, pixels: std::mem::take(&mut ev.framebuffers[fb].color), covered, latitude })
+    let pixels = std::mem::take(&mut ev.framebuffers[fb].color);
+    let (low, high) = (pixels.clone(), pixels.clone());
+    Ok((Picture { width, height, pixels, covered, latitude, low, high }, ev.lod_open.get()))
 }
 
 /// The samples of a statement's index (Pipeline Grammar, Section 3): the

@@ -62,6 +62,13 @@ pub struct Evaluator<'a> {
     /// Set when the sample just evaluated depends on a choice the
     /// specifications leave open (a cube-map filter at a face edge).
     pub latitude: std::cell::Cell<bool>,
+    /// Which value each mipmapped lookup takes (GL §3.8.8's latitude in
+    /// λ): 0 the value at eq. 3.17's λ, k ≥ 1 the k-th of the lookup's
+    /// extremes over the λ an implementation may use (its own value
+    /// where it has fewer). A render per choice bounds the pixel.
+    pub lod_choice: std::cell::Cell<usize>,
+    /// Set when some lookup's value moves with λ within that latitude.
+    pub lod_open: std::cell::Cell<bool>,
     /// `⊕` results clamped to [0, 1], as GL's texture environment clamps
     /// them ([`super::Options::clamp_texture_env`]).
     pub clamp_texture_env: bool,
@@ -348,39 +355,101 @@ impl<'a> Evaluator<'a> {
             }
             Tex::Flat(image) => {
                 let [u, v] = uv(c, cty);
-                let At::Fragment(f) = at else { return Ok(image.sample(u, v, 0.0)) };
-                if lod_depth >= 2 || image.levels.len() == 1 {
-                    return Ok(image.sample(u, v, 0.0));
+                match at {
+                    At::Fragment(f) if lod_depth < 2 && image.levels.len() > 1 => {
+                        self.minified(image, coords, cty, [u, v], &f, lod_depth)
+                    }
+                    _ => Ok(image.sample(u, v, 0.0)),
                 }
-                // The coordinates at a pixel offset (dx, dy) from `f`.
-                let at_offset = |dx: f64, dy: f64| -> Result<[f64; 2], Unsupported> {
-                    let g = self.shifted(&f, dx, dy);
-                    Ok(uv(self.operand(coords, At::Fragment(g), lod_depth + 1, &mut Memo::new())?, cty))
-                };
-                let lod_at = |ox: f64, oy: f64| -> Result<f64, Unsupported> {
-                    let base = if ox == 0.0 && oy == 0.0 { [u, v] } else { at_offset(ox, oy)? };
-                    let (px, py) = (at_offset(ox + 1.0, oy)?, at_offset(ox, oy + 1.0)?);
-                    Ok(image.lod([px[0] - base[0], px[1] - base[1]], [py[0] - base[0], py[1] - base[1]]))
-                };
-                let lambda = lod_at(0.0, 0.0)?;
-                let value = image.sample(u, v, lambda);
-                // GL §3.8.8 lets λ be taken per 2×2 quad, as GPUs do, and ρ
-                // and log₂ be approximated (a piecewise-linear log₂ is off by
-                // up to 0.09): where those choices change the texel by more
-                // than half a step, the sample is latitude.
-                let quad = lod_at(-f64::from(f.pixel.0 & 1), -f64::from(f.pixel.1 & 1))?;
-                let open = [quad, lambda - 0.1, lambda + 0.1, quad - 0.1, quad + 0.1];
-                let differs = |l: f64| {
-                    image.sample(u, v, l).iter().zip(value).any(|(a, b)| (a - b).abs() > 0.5 / 255.0)
-                };
-                if open.into_iter().any(differs) {
-                    self.latitude.set(true);
-                }
-                Ok(value)
             }
         }
     }
+
+    /// A mipmapped lookup at fragment `f`: sampled at eq. 3.17's λ from
+    /// the coordinates' forward differences over one pixel in x and in y
+    /// on the same triangle (GL §3.8.8's derivatives, of any coordinate
+    /// expression: dependent lookups too), the value
+    /// [`Evaluator::lod_choice`] picks.
+    ///
+    /// What an implementation may use instead: derivatives taken per 2×2
+    /// quad, the quad's corner's (coarse) or the pixel's own row and
+    /// column's (fine) — as GPUs and the Vulkan specification's implicit
+    /// derivatives do —, any ρ in GL §3.8.8's interval
+    /// [`Image::lod_bounds`] for each, and log₂ approximated
+    /// by up to [`LOG2_SLACK`]. λ lies in the hull of those intervals.
+    fn minified(
+        &self,
+        image: &Image,
+        coords: Handle<Expr>,
+        cty: Ty,
+        [u, v]: [f64; 2],
+        f: &Fragment,
+        lod_depth: u8,
+    ) -> Result<V, Unsupported> {
+        // The coordinates at a pixel offset (dx, dy) from `f`.
+        let at_offset = |dx: f64, dy: f64| -> Result<[f64; 2], Unsupported> {
+            if dx == 0.0 && dy == 0.0 {
+                return Ok([u, v]);
+            }
+            let g = self.shifted(f, dx, dy);
+            Ok(uv(self.operand(coords, At::Fragment(g), lod_depth + 1, &mut Memo::new())?, cty))
+        };
+        let d = |a: [f64; 2], b: [f64; 2]| [b[0] - a[0], b[1] - a[1]];
+        let (right, below) = (at_offset(1.0, 0.0)?, at_offset(0.0, 1.0)?);
+        let lambda = image.lod(d([u, v], right), d([u, v], below));
+        let value = image.sample(u, v, lambda);
+        let (qx, qy) = (-f64::from(f.pixel.0 & 1), -f64::from(f.pixel.1 & 1));
+        let q = [
+            at_offset(qx, qy)?,
+            at_offset(qx + 1.0, qy)?,
+            at_offset(qx, qy + 1.0)?,
+            at_offset(qx + 1.0, qy + 1.0)?,
+        ];
+        let row = if qy == 0.0 { (q[0], q[1]) } else { (q[2], q[3]) };
+        let column = if qx == 0.0 { (q[0], q[2]) } else { (q[1], q[3]) };
+        let sets = [
+            (d([u, v], right), d([u, v], below)),
+            (d(q[0], q[1]), d(q[0], q[2])),
+            (d(row.0, row.1), d(column.0, column.1)),
+        ];
+        let (mut lo, mut hi) = (lambda, lambda);
+        for (dx, dy) in sets {
+            let (a, b) = image.lod_bounds(dx, dy);
+            (lo, hi) = (lo.min(a), hi.max(b));
+        }
+        let extremes = image.lod_extremes(u, v, lo - LOG2_SLACK, hi + LOG2_SLACK);
+        Ok(self.lod_choose(value, &extremes))
+    }
+
+    /// The texel [`Evaluator::lod_choice`] asks for among a lookup's
+    /// `extremes` (0: the nominal `value`); notes in
+    /// [`Evaluator::lod_open`] that the choice matters, and marks the
+    /// sample latitude where the extremes are more than the choices.
+    fn lod_choose(&self, value: V, extremes: &[V]) -> V {
+        let moves = extremes.iter().any(|e| e.iter().zip(value).any(|(a, b)| (a - b).abs() > 1e-12));
+        if !moves {
+            return value;
+        }
+        self.lod_open.set(true);
+        if extremes.len() > LOD_CHOICES {
+            self.latitude.set(true);
+        }
+        match self.lod_choice.get() {
+            0 => value,
+            k => extremes.get(k - 1).copied().unwrap_or(value),
+        }
+    }
 }
+
+/// How far an implementation's log₂ of ρ may be from the true one: a
+/// piecewise-linear log₂ (`(e − 1) + m` for `m·2ᵉ`, as fixed-function
+/// hardware and llvmpipe take it) is low by up to 0.086.
+pub const LOG2_SLACK: f64 = 0.1;
+
+/// How many extremes of a lookup's λ interval a render can pick
+/// ([`Evaluator::lod_choice`] 1..=LOD_CHOICES): the two ends and two
+/// levels between. A wider interval leaves the sample open (latitude).
+pub const LOD_CHOICES: usize = 4;
 
 impl Evaluator<'_> {
     /// `f`'s triangle at a pixel offset, in the raster `f` was found in.

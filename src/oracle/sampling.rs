@@ -1,7 +1,8 @@
 //! Texture sampling as OpenGL 1.x §3.8 specifies it, in f64: wrap modes
 //! (§3.8.7: REPEAT on texel indices, CLAMP_TO_EDGE), the level of detail
 //! λ = log₂ρ with ρ the larger of the two screen-axis scale factors
-//! (§3.8.8, eq. 3.17, the exact derivatives rather than an approximation),
+//! (§3.8.8, eq. 3.17, the exact derivatives rather than an approximation,
+//! and the interval §3.8.8 lets an implementation's ρ lie in),
 //! NEAREST and LINEAR (eq. 3.18-3.19), mipmap selection for
 //! `*_MIPMAP_NEAREST` and the blend of `LINEAR_MIPMAP_LINEAR` (§3.8.8), and
 //! cube-map face selection by the major axis (§3.8.6, Table 3.19, ties to
@@ -115,6 +116,45 @@ impl Image {
         rho_x.max(rho_y).log2()
     }
 
+    /// The interval GL 1.x §3.8.8 allows λ in, from one pixel's
+    /// coordinate derivatives: ρ may be approximated by any f with
+    /// `max{m_u, m_v} ≤ f ≤ m_u + m_v`, where `m_u = max{|∂u/∂x|, |∂u/∂y|}`
+    /// (in texels) and `m_v` likewise — an interval holding eq. 3.17's ρ.
+    /// Returns `(log₂ max{m_u, m_v}, log₂ (m_u + m_v))`.
+    pub fn lod_bounds(&self, d_dx: [f64; 2], d_dy: [f64; 2]) -> (f64, f64) {
+        let (w, h) = (f64::from(self.levels[0].width), f64::from(self.levels[0].height));
+        let m_u = (d_dx[0] * w).abs().max((d_dy[0] * w).abs());
+        let m_v = (d_dx[1] * h).abs().max((d_dy[1] * h).abs());
+        (m_u.max(m_v).log2(), (m_u + m_v).log2())
+    }
+
+    /// The filtered texels between which the texel at (u, v) moves as λ
+    /// runs over `[lo, hi]`: its values at the ends and, between them, at
+    /// every integer λ (`LINEAR_MIPMAP_LINEAR` is linear in λ between
+    /// two levels, eq. 3.20, so its extremes lie there) or at every level
+    /// chosen (`*_MIPMAP_NEAREST` steps from level to level). Empty for a
+    /// texture without mipmaps, whose texel does not depend on λ.
+    pub fn lod_extremes(&self, u: f64, v: f64, lo: f64, hi: f64) -> Vec<V> {
+        let last = self.levels.len() - 1;
+        if last == 0 || !lo.is_finite() || !hi.is_finite() || hi <= 0.0 {
+            return Vec::new();
+        }
+        let lo = lo.max(0.0);
+        let mut at = vec![lo, hi];
+        match self.filter {
+            Filter::Trilinear => {
+                let first = lo.floor() + 1.0;
+                at.extend((0..).map(|k| first + f64::from(k)).take_while(|&l| l < hi && l <= last as f64));
+            }
+            Filter::Nearest | Filter::Bilinear => {
+                let level = |l: f64| if l > 0.5 { (l + 0.5).ceil() - 1.0 } else { 0.0 };
+                let (a, b) = (level(lo), level(hi).min(last as f64));
+                at.extend((0..).map(|k| a + 1.0 + f64::from(k)).take_while(|&d| d < b));
+            }
+        }
+        at.into_iter().map(|l| self.sample(u, v, l)).collect()
+    }
+
     /// The filtered texel at (u, v) for level of detail `lambda`.
     pub fn sample(&self, u: f64, v: f64, lambda: f64) -> V {
         let last = self.levels.len() - 1;
@@ -187,5 +227,44 @@ impl Cube {
         let size = f64::from(image.levels[0].width);
         let edge = |x: f64| x * size < 1.0 || (1.0 - x) * size < 1.0;
         (image.sample(s, t, 0.0), edge(s) || edge(t))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn image(filter: Filter) -> Image {
+        // 8×8 of a checker: level 0 black and white, level 1 on grey.
+        let texels = (0..64).map(|i| if (i % 8 + i / 8) % 2 == 0 { [1.0; 4] } else { [0.0; 4] }).collect();
+        let levels = mip_chain(Level { width: 8, height: 8, texels }, TexelFormat::Rgba8);
+        Image { levels, wrap: Wrap::Repeat, filter }
+    }
+
+    /// GL §3.8.8's interval holds eq. 3.17's ρ: for a rotated isotropic
+    /// map, λ lies between log₂ of the larger derivative and of the sum.
+    #[test]
+    fn lod_bounds_hold_the_ideal_lambda() {
+        let t = image(Filter::Trilinear);
+        let (c, s) = (0.3f64.cos(), 0.3f64.sin());
+        let (dx, dy) = ([0.25 * c, 0.25 * s], [-0.25 * s, 0.25 * c]);
+        let (lo, hi) = t.lod_bounds(dx, dy);
+        let ideal = t.lod(dx, dy);
+        assert!(lo <= ideal && ideal <= hi, "{lo} {ideal} {hi}");
+        assert!((ideal - 1.0).abs() < 1e-12 && hi - lo <= 1.0 + 1e-12, "{lo} {hi}");
+    }
+
+    /// Trilinear: the ends and every integer λ between them; a
+    /// `MIPMAP_NEAREST` filter: every level between; no mipmaps: none.
+    #[test]
+    fn lod_extremes_are_the_ends_and_the_levels_between() {
+        let t = image(Filter::Trilinear);
+        assert_eq!(t.lod_extremes(0.3, 0.3, 0.4, 2.6).len(), 4);
+        assert_eq!(t.lod_extremes(0.3, 0.3, 1.2, 1.8).len(), 2);
+        assert!(t.lod_extremes(0.3, 0.3, -2.0, -0.5).is_empty());
+        let n = image(Filter::Bilinear);
+        assert_eq!(n.lod_extremes(0.3, 0.3, 0.2, 2.9).len(), 4);
+        let one = Image { levels: vec![t.levels[0].clone()], ..t };
+        assert!(one.lod_extremes(0.3, 0.3, 0.2, 2.9).is_empty());
     }
 }
