@@ -182,7 +182,7 @@ fn a_joined_condition_drops_in_fixed9_what_f32_drops() {
 fn an_equality_between_8_bit_steps_is_refused_located() {
     let source = rgb8("C δπx ← ((Dec δu x).a == 0.3) ? δ d s x;\n");
     for target in ["geforce3", "geforce256"] {
-        let errors = plan(&source, target).err().expect("a refusal");
+        let Err(errors) = plan(&source, target) else { panic!("{target}: planned, expected a refusal") };
         let d = errors.iter().find(|d| d.is_error()).unwrap();
         assert_eq!(d.code, "unsupported-discard", "{target}");
         assert_ne!(d.primary.span, shadec::span::Span::DETACHED, "{target}");

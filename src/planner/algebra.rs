@@ -785,8 +785,12 @@ pub fn factor_nth(m: &mut Module, h: Handle<Expr>, nth: usize) -> Option<Handle<
     }
     // Then the same within what is left (a Horner-like form: the whole
     // sum of products folded back, as far as shared factors go).
+    // A lerp written out under the factor (`3·T0·(1 − a) + 3·y·a`) is read
+    // back as one, which holds what its operands hold.
     let inner = inner?;
-    let inner = factor(m, inner).unwrap_or(inner);
+    let inner_terms: Vec<Vec<Handle<Expr>>> =
+        sum_terms(m, inner).iter().map(|t| product_factors(m, *t)).collect();
+    let inner = relerp(m, &inner_terms, span).or_else(|| factor(m, inner)).unwrap_or(inner);
     let taken = binary(m, BinaryOp::Mul, common, inner, span)?;
     let out = match rest {
         None => taken,
