@@ -128,6 +128,69 @@ fn each_comparison_form_becomes_the_alpha_test_that_keeps_the_same_fragments() {
     }
 }
 
+/// Equalities with 0 or 1 are `GL_EQUAL`/`GL_NOTEQUAL` (negated, the
+/// other one); two conditions joined by `AND`/`OR` are their 0/1 values'
+/// product or clamped sum in alpha, kept above 0 — on both combiner
+/// targets where the generator fits it (geforce3 here; geforce256 takes
+/// the equalities, its 2 general combiners not the joined comparisons).
+#[test]
+fn equalities_and_joined_conditions_become_alpha_tests() {
+    let cases = [
+        ("(Dec δu x).a == 1", CompareFunc::Equal, 1.0, true),
+        ("(Dec δu x).a != 0", CompareFunc::NotEqual, 0.0, true),
+        ("0 == (Dec δu x).a", CompareFunc::Equal, 0.0, true),
+        ("!((Dec δu x).a == 1)", CompareFunc::NotEqual, 1.0, true),
+        ("(Dec δu x).g ≥ 0.5 AND (Dec δu x).r ≥ 0.5", CompareFunc::Greater, 0.0, false),
+        ("(Dec δu x).g ≥ 0.5 OR (Dec δu x).r < 0.5", CompareFunc::Greater, 0.0, false),
+    ];
+    for (condition, func, reference, on_geforce256) in cases {
+        let source = rgb8(&format!("C δπx ← ({condition}) ? δ d s x;\n"));
+        let mut targets = vec!["geforce3"];
+        if on_geforce256 {
+            targets.push("geforce256");
+        }
+        for target in targets {
+            let planned = plan(&source, target).unwrap_or_else(|d| panic!("{target}: {condition}: {d:?}"));
+            let pass = &planned.plan.passes[0];
+            assert_eq!(pass.state.alpha_test, AlphaTest { func, reference }, "{target}: {condition}");
+        }
+    }
+}
+
+/// The fixed9 render of a joined condition keeps about what f32 (which
+/// evaluates the condition) keeps, and draws something but not all.
+#[test]
+fn a_joined_condition_drops_in_fixed9_what_f32_drops() {
+    for c in ["(Dec δu x).g ≥ 0.5 AND (Dec δu x).r ≥ 0.5", "(Dec δu x).g ≥ 0.5 OR (Dec δu x).r ≥ 0.5"]
+    {
+        let p = prepared(&rgb8(&format!("C δπx ← ({c}) ? δ d s x;\n")), "geforce3");
+        let (fixed9, float) = (drawn(&cpu(&p, Precision::Fixed9)), drawn(&cpu(&p, Precision::F32)));
+        let all = drawn(&cpu(&prepared(&rgb8("C δπx ← δ d s x;\n"), "geforce3"), Precision::F32));
+        assert!(count(&float) > 0, "{c}: draws nothing");
+        if c.contains("AND") {
+            assert!(count(&float) < count(&all), "{c}: {} of {}", count(&float), count(&all));
+        }
+        let differ = fixed9.iter().zip(&float).filter(|(a, b)| a != b).count();
+        assert!(differ * 50 < count(&float), "{c}: {differ} pixels differ from f32's {}", count(&float));
+    }
+}
+
+/// An equality with a level between 0 and 1 is refused at the condition:
+/// the 8-bit steps round 0.3 to 77/255, which the program's arithmetic
+/// does not equal.
+#[test]
+fn an_equality_between_8_bit_steps_is_refused_located() {
+    let source = rgb8("C δπx ← ((Dec δu x).a == 0.3) ? δ d s x;\n");
+    for target in ["geforce3", "geforce256"] {
+        let Err(errors) = plan(&source, target) else { panic!("{target}: planned, expected a refusal") };
+        let d = errors.iter().find(|d| d.is_error()).unwrap();
+        assert_eq!(d.code, "unsupported-discard", "{target}");
+        assert_ne!(d.primary.span, shadec::span::Span::DETACHED, "{target}");
+        assert!(d.message.contains("77 of 255"), "{target}: {}", d.message);
+    }
+    assert!(plan(&source, "wgsl").is_ok());
+}
+
 /// The alpha test, not the IR condition, decides in `fixed9`: the plan's
 /// test changed to `GL_NEVER` draws nothing and to `GL_ALWAYS` draws the
 /// whole torus, though the condition in the plan is the same; `f32`, which
@@ -315,7 +378,7 @@ mod generated {
             Just("(δ d s x).r".to_string()),
             Just("max(0, N·L)".to_string()),
         ];
-        let op = prop_oneof![Just(">"), Just("≥"), Just("<"), Just("≤")];
+        let op = prop_oneof![Just(">"), Just("≥"), Just("<"), Just("≤"), Just("=="), Just("!=")];
         let k = prop_oneof![Just(0.0), Just(0.25), Just(0.5), Just(1.0), Just(-0.5), Just(1.5)];
         (x, op, k, any::<bool>(), any::<bool>()).prop_map(|(x, op, k, flip, negate)| {
             let c = if flip { format!("{k} {op} {x}") } else { format!("{x} {op} {k}") };
@@ -327,13 +390,22 @@ mod generated {
         })
     }
 
+    /// A comparison, or two joined by `AND`/`OR`.
+    fn joined() -> impl Strategy<Value = String> {
+        prop_oneof![
+            2 => condition(),
+            1 => (condition(), condition(), prop_oneof![Just("AND"), Just("OR")])
+                .prop_map(|(a, b, j)| format!("({a}) {j} ({b})")),
+        ]
+    }
+
     proptest! {
         #![proptest_config(ProptestConfig { cases: 24, .. ProptestConfig::default() })]
         /// No pass on a combiner target keeps a discard without its alpha
         /// test: each plans with one, or is refused, located, as
         /// `unsupported-discard` (or another located refusal).
         #[test]
-        fn no_combiner_pass_discards_without_an_alpha_test(c in condition(), rgba in any::<bool>()) {
+        fn no_combiner_pass_discards_without_an_alpha_test(c in joined(), rgba in any::<bool>()) {
             let fb = if rgba { "rgba8" } else { "rgb8" };
             let source = format!("framebuffer C : {fb}, depth;\n{HEAD}C δπx ← ({c}) ? δ d s x;\n");
             for target in ["geforce3", "geforce256"] {

@@ -27,20 +27,20 @@ use crate::three_way::{difference, render_three, scene, Difference};
 
 const FOLDER: &str = "tests/data/planner_heldout";
 
-enum Expect {
+pub(crate) enum Expect {
     Plans,
     Refused { code: String, at: (usize, usize) },
 }
 
-struct Case {
-    name: String,
-    source: String,
+pub(crate) struct Case {
+    pub(crate) name: String,
+    pub(crate) source: String,
     scene: String,
     fixed9_within: u8,
-    expect: Vec<(String, Expect)>,
+    pub(crate) expect: Vec<(String, Expect)>,
 }
 
-fn header(source: &str, key: &str) -> Vec<String> {
+pub(crate) fn header(source: &str, key: &str) -> Vec<String> {
     source
         .lines()
         .filter_map(|l| l.strip_prefix(&format!("// {key}")).map(|r| r.trim().to_string()))
@@ -74,7 +74,12 @@ fn case(path: &Path) -> Case {
 }
 
 fn cases() -> Vec<Case> {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join(FOLDER);
+    cases_in(FOLDER)
+}
+
+/// The programs of a held-out folder (`tests/data/…`), in name order.
+pub(crate) fn cases_in(folder: &str) -> Vec<Case> {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join(folder);
     let mut paths: Vec<PathBuf> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().path())
@@ -85,19 +90,40 @@ fn cases() -> Vec<Case> {
 }
 
 /// Where the render and the reference differ beyond `within` 255ths on
-/// more than 2 % of the covered pixels: how they differ; `None` when
-/// within.
-fn off(cpu: &[u8], oracle: &[u8], covered: &[bool], within: u8) -> Option<Difference> {
+/// more than 2 % of the covered pixels, in the first `channels` channels
+/// (3 for a framebuffer declared `rgb8`, which stores no alpha to compare:
+/// the reference reads it 1, as GL does, an executor keeps what it
+/// cleared): how they differ; `None` when within.
+fn off(cpu: &[u8], oracle: &[u8], covered: &[bool], within: u8, channels: usize) -> Option<Difference> {
     let (mut n, mut beyond) = (0usize, 0usize);
     for (i, &c) in covered.iter().enumerate() {
         if c {
             n += 1;
-            let d = (0..4).map(|k| cpu[4 * i + k].abs_diff(oracle[4 * i + k])).max().unwrap_or(0);
+            let d = (0..channels).map(|k| cpu[4 * i + k].abs_diff(oracle[4 * i + k])).max().unwrap_or(0);
             beyond += usize::from(d > within);
         }
     }
-    let d = difference(cpu, oracle, covered);
+    let d = difference(&opaque(cpu, channels), &opaque(oracle, channels), covered);
     (beyond as f64 > 0.02 * n.max(1) as f64).then_some(d)
+}
+
+/// `rgba` with its alpha set to 255 where only `channels` < 4 are compared.
+fn opaque(rgba: &[u8], channels: usize) -> Vec<u8> {
+    let mut v = rgba.to_vec();
+    if channels < 4 {
+        v.chunks_exact_mut(4).for_each(|p| p[3] = 255);
+    }
+    v
+}
+
+/// The channels a program's framebuffer `C` stores: 3 where it is
+/// declared `rgb8`.
+fn stored_channels(source: &str) -> usize {
+    if source.lines().any(|l| l.starts_with("framebuffer C : rgb8")) {
+        3
+    } else {
+        4
+    }
 }
 
 fn plans(case: &Case, target: &str) -> Result<String, String> {
@@ -111,20 +137,24 @@ fn plans(case: &Case, target: &str) -> Result<String, String> {
     let f32 = render_three(&case.source, target, &scene, Precision::F32, None)?;
     let slack = f32.approximation_bound.unwrap_or(0.0);
     let slack = (slack * 255.0).ceil() as u8;
-    if let Some(d) = off(&f32.cpu, &f32.oracle, &f32.covered, 3 + slack) {
+    let channels = stored_channels(&case.source);
+    if let Some(d) = off(&f32.cpu, &f32.oracle, &f32.covered, 3 + slack, channels) {
         return Err(format!("f32 render off the reference: {d:?}"));
     }
     let mut fixed9 = String::from("-");
     if target != "wgsl" {
         let p = render_three(&case.source, target, &scene, Precision::Fixed9, None)?;
-        if let Some(d) = off(&p.cpu, &p.oracle, &p.covered, case.fixed9_within + slack) {
+        if let Some(d) = off(&p.cpu, &p.oracle, &p.covered, case.fixed9_within + slack, channels) {
             return Err(format!("fixed9 render off the reference beyond {}/255: {d:?}", case.fixed9_within));
         }
-        fixed9 = format!("{}/255", difference(&p.cpu, &p.oracle, &p.covered).max);
+        fixed9 = format!(
+            "{}/255",
+            difference(&opaque(&p.cpu, channels), &opaque(&p.oracle, channels), &p.covered).max
+        );
     }
     Ok(format!(
         "{passes} passes, f32 max {}/255, fixed9 max {fixed9}",
-        difference(&f32.cpu, &f32.oracle, &f32.covered).max
+        difference(&opaque(&f32.cpu, channels), &opaque(&f32.oracle, channels), &f32.covered).max
     ))
 }
 
@@ -152,13 +182,23 @@ fn refused(case: &Case, target: &str, code: &str, at: (usize, usize)) -> Result<
 /// on each target its header names: `Err` where it does not do what the
 /// header says (the named tests of `planner_rewrites` read it).
 pub(crate) fn outcomes(file: &str) -> Vec<(String, Result<String, String>)> {
-    let case = case(&Path::new(env!("CARGO_MANIFEST_DIR")).join(FOLDER).join(file));
+    outcomes_in(FOLDER, file)
+}
+
+/// [`outcomes`] of a program in another held-out folder.
+pub(crate) fn outcomes_in(folder: &str, file: &str) -> Vec<(String, Result<String, String>)> {
+    let case = case(&Path::new(env!("CARGO_MANIFEST_DIR")).join(folder).join(file));
+    outcomes_of(&case)
+}
+
+/// What `case` does on each target its header names.
+pub(crate) fn outcomes_of(case: &Case) -> Vec<(String, Result<String, String>)> {
     case.expect
         .iter()
         .map(|(target, expect)| {
             let outcome = match expect {
-                Expect::Plans => plans(&case, target),
-                Expect::Refused { code, at } => refused(&case, target, code, *at),
+                Expect::Plans => plans(case, target),
+                Expect::Refused { code, at } => refused(case, target, code, *at),
             };
             (target.clone(), outcome)
         })

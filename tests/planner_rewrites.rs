@@ -41,8 +41,11 @@ fn a_scaled_product_into_another_framebuffer_is_scaled_in_last() {
 /// the sum of two multi-pass products is computed into a temporary, read
 /// back saturated (an f32 temporary keeps what an 8-bit one clamps), and
 /// modulated in, on geforce3 (`C ← (C) ⊕ (T1·T2·T3 + T3·T4·T5)` was
-/// refused there and on geforce256). Not yet on geforce256 with six
-/// distinct maps (the header says so).
+/// refused there and on geforce256). On geforce256 with six distinct
+/// maps the sum is halved into one temporary and its second product goes
+/// through another, nested (was refused with "the splits that fit would
+/// store a value outside [0, 1]": the second temporary's read-back was
+/// bounded by a texture's [0, 1], not by the ½ it holds).
 #[test]
 fn a_modulation_by_a_sum_of_multi_pass_products_goes_through_a_temporary() {
     holds("modulate_by_two_layer_products.shd");
@@ -50,7 +53,7 @@ fn a_modulation_by_a_sum_of_multi_pass_products_goes_through_a_temporary() {
 
 /// `C ← C·(A0·A1·A2 + B0·B1·B2)` (arithmetic, up to 2): the temporary
 /// holds half of each product, the blender modulates by twice it
-/// (geforce3; not yet on geforce256 with six distinct maps).
+/// (geforce3, and geforce256 through nested temporaries).
 #[test]
 fn a_product_with_a_sum_past_one_of_multi_pass_products_is_halved_into_a_temporary() {
     holds("multiply_by_two_layer_products.shd");

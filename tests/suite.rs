@@ -82,6 +82,7 @@ mod adaptive_plan;
 mod alpha_test;
 mod chain_growth;
 mod planner_heldout;
+mod planner_heldout_thirteenth;
 mod planner_rewrites;
 mod stencil_writes;
 mod three_way_heldout;

@@ -118,8 +118,8 @@ fn merge_interpolants(m: &mut Module, h: Handle<Expr>, span: Span) -> Option<Han
     let mut deltas: Vec<(Handle<Expr>, Frequency, Handle<Expr>)> = Vec::new();
     let mut rest = Vec::new();
     for t in terms {
-        match m.exprs[t] {
-            Expr::Interpolate { value, to }
+        match scaled_interpolant(m, t, span) {
+            Some((value, to))
                 if unit(m.info(t).interval)
                     && deltas.first().is_none_or(|d| d.1 == to && m.info(d.0).ty == m.info(t).ty) =>
             {
@@ -144,6 +144,25 @@ fn merge_interpolants(m: &mut Module, h: Handle<Expr>, span: Span) -> Option<Han
         sum = binary(m, BinaryOp::Add, sum, t, span)?;
     }
     Some(sum)
+}
+
+/// A term `δv` as (`v`, its frequency), or `k·δv` with a constant `k` as
+/// `δ(k·v)` (`k·δv` = `δ(k·v)`: interpolation is linear), so that
+/// `0.6·δl0 + 0.6·δl1` merges as `δl0 + δl1` does.
+fn scaled_interpolant(m: &mut Module, t: Handle<Expr>, span: Span) -> Option<(Handle<Expr>, Frequency)> {
+    match m.exprs[t] {
+        Expr::Interpolate { value, to } => Some((value, to)),
+        Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => {
+            let (k, d) = if matches!(m.exprs[lhs], Expr::Constant(_)) { (lhs, rhs) } else { (rhs, lhs) };
+            let (Expr::Constant(_), Expr::Interpolate { value, to }) = (&m.exprs[k], &m.exprs[d]) else {
+                return None;
+            };
+            let (value, to) = (*value, *to);
+            let inside = binary(m, BinaryOp::Mul, k, value, span)?;
+            (m.info(inside).ty == m.info(t).ty).then_some((inside, to))
+        }
+        _ => None,
+    }
 }
 
 /// Most factors a term may have for [`product_by_groups`] to try its
@@ -766,8 +785,12 @@ pub fn factor_nth(m: &mut Module, h: Handle<Expr>, nth: usize) -> Option<Handle<
     }
     // Then the same within what is left (a Horner-like form: the whole
     // sum of products folded back, as far as shared factors go).
+    // A lerp written out under the factor (`3·T0·(1 − a) + 3·y·a`) is read
+    // back as one, which holds what its operands hold.
     let inner = inner?;
-    let inner = factor(m, inner).unwrap_or(inner);
+    let inner_terms: Vec<Vec<Handle<Expr>>> =
+        sum_terms(m, inner).iter().map(|t| product_factors(m, *t)).collect();
+    let inner = relerp(m, &inner_terms, span).or_else(|| factor(m, inner)).unwrap_or(inner);
     let taken = binary(m, BinaryOp::Mul, common, inner, span)?;
     let out = match rest {
         None => taken,

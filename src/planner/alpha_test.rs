@@ -104,7 +104,30 @@ fn routed_piece(
             Err(r) => why = why.or(Some(r)),
         }
     }
+    if let (None, Some(eq)) = (&why, inexact_equality(m, c)) {
+        let d = unsupported(m, c, false, Some(eq));
+        return Err(Box::new(d.with_help("compare with a level instead (`(T δu x).a ≥ 0.3 ? …`, which the alpha test keeps as the program does), test equality with 0 or 1 (`(T δu x).a == 1 ? …`), or target wgsl")));
+    }
+    let why = why.map(|r| r.reason);
     Err(Box::new(unsupported(m, c, alpha.is_some() || (writes_alpha && rgb.is_none()), why)))
+}
+
+/// Why an equality no way brought into alpha is not one the alpha test
+/// keeps exactly (`None` for another condition).
+fn inexact_equality(m: &Module, c: Handle<Expr>) -> Option<String> {
+    let (p, op, q) = comparison(m, c)?;
+    if !matches!(op, BinaryOp::Eq | BinaryOp::Ne) {
+        return None;
+    }
+    let k = constant(m, q).or(constant(m, p));
+    Some(match k {
+        Some(k) if k != 0.0 && k != 1.0 => format!(
+            "the test compares 8-bit steps, and an alpha equal to {k} in 8-bit steps ({} of 255) is not equal to it in the program's arithmetic; an equality is exact with 0 or 1",
+            (k.clamp(0.0, 1.0) * 255.0).round()
+        ),
+        Some(_) => "the compared value may leave [0, 1], where the alpha clamps it".to_string(),
+        None => "the test compares the alpha with a constant, and neither side is one".to_string(),
+    })
 }
 
 /// Whether the generator makes a setup for `value` with the pass's units
@@ -124,7 +147,7 @@ fn realizes(
 }
 
 /// The located refusal of a discard no way brings into alpha.
-fn unsupported(m: &Module, c: Handle<Expr>, alpha_used: bool, why: Option<Refusal>) -> Diagnostic {
+fn unsupported(m: &Module, c: Handle<Expr>, alpha_used: bool, why: Option<String>) -> Diagnostic {
     let what = if alpha_used {
         "the fragment's alpha is needed for the value this statement writes"
     } else {
@@ -132,7 +155,7 @@ fn unsupported(m: &Module, c: Handle<Expr>, alpha_used: bool, why: Option<Refusa
     };
     let mut message = format!("a register-combiner target drops a fragment only by the alpha test (glAlphaFunc), which tests the fragment's alpha, and {what}");
     if let Some(r) = why {
-        message += &format!(": {}", r.reason);
+        message += &format!(": {r}");
     }
     Diagnostic::error("unsupported-discard", message, m.span(c), "this condition")
         .with_help("test the value's own alpha (`(T δu x).a > 0.5 ? T δu x`); or write no alpha (a framebuffer declared `rgb8`), or an rgb value under a comparison with 0 or ½, which the combiners compute into alpha (`(T δu x).g ≥ 0.5 ? (T δu x).rgb`); or mark the stencil where the condition holds (`σ C δπx ← (σ C δπx) OR c;`, with a `stencil` framebuffer) and draw where it is set (`C δπx ← (σ C δπx) ? …;`); or target wgsl")
@@ -210,7 +233,11 @@ fn comparison(m: &Module, mut c: Handle<Expr>) -> Option<(Handle<Expr>, BinaryOp
         return None;
     }
     let op = match (op, negated) {
-        (BinaryOp::Lt | BinaryOp::Le | BinaryOp::Gt | BinaryOp::Ge, false) => op,
+        (BinaryOp::Lt | BinaryOp::Le | BinaryOp::Gt | BinaryOp::Ge | BinaryOp::Eq | BinaryOp::Ne, false) => {
+            op
+        }
+        (BinaryOp::Eq, true) => BinaryOp::Ne,
+        (BinaryOp::Ne, true) => BinaryOp::Eq,
         (BinaryOp::Lt, true) => BinaryOp::Ge,
         (BinaryOp::Le, true) => BinaryOp::Gt,
         (BinaryOp::Gt, true) => BinaryOp::Le,
@@ -223,6 +250,11 @@ fn comparison(m: &Module, mut c: Handle<Expr>) -> Option<(Handle<Expr>, BinaryOp
 /// The alpha `x` and the test that keeps the fragments `c` keeps, as
 /// the module's table says; `None` for a condition of another form.
 pub(super) fn direct(m: &mut Module, c: Handle<Expr>) -> Option<(Handle<Expr>, AlphaTest)> {
+    if let Expr::Binary { op: BinaryOp::And | BinaryOp::Or, .. } = m.exprs[c] {
+        // Two conditions: their 0/1 values combined (below), kept above 0.
+        let both = zero_one(m, c)?;
+        return Some((both, AlphaTest { func: CompareFunc::Greater, reference: 0.0 }));
+    }
     let Some((p, op, q)) = comparison(m, c) else {
         // A scalar that is never negative is kept where it is above 0.
         let unsigned = m.info(c).ty == Ty::Scalar && m.info(c).interval.lo >= 0.0;
@@ -235,6 +267,9 @@ pub(super) fn direct(m: &mut Module, c: Handle<Expr>) -> Option<(Handle<Expr>, A
         (Some(k), None) => (q, Some(k), swapped(op)),
         _ => (p, None, op),
     };
+    if matches!(op, BinaryOp::Eq | BinaryOp::Ne) {
+        return equality(m, x, k?, op);
+    }
     if let Some(k) = k {
         let exact = match op {
             BinaryOp::Gt | BinaryOp::Le => (0.0..1.0).contains(&k),
@@ -254,11 +289,40 @@ pub(super) fn direct(m: &mut Module, c: Handle<Expr>) -> Option<(Handle<Expr>, A
     Some((d, AlphaTest { func: f, reference: 0.0 }))
 }
 
+/// `x == k` (`x != k`) as `GL_EQUAL` (`GL_NOTEQUAL`) against `k`: exact
+/// where `k` is 0 or 1 and `x` lies in [0, 1] — the 8-bit alpha is 0 (255
+/// steps) exactly where `x` is, at the ends of the range every executor
+/// holds exactly. Another `k` (0.2 is 51 steps) would keep the texels the
+/// 8-bit steps round to it, which the program's real arithmetic does not
+/// equal: `None`, refused by the caller.
+fn equality(m: &Module, x: Handle<Expr>, k: f64, op: BinaryOp) -> Option<(Handle<Expr>, AlphaTest)> {
+    let range = m.info(x).interval;
+    if !(k == 0.0 || k == 1.0) || range.lo < 0.0 || range.hi > 1.0 {
+        return None;
+    }
+    let func = if op == BinaryOp::Eq { CompareFunc::Equal } else { CompareFunc::NotEqual };
+    Some((x, AlphaTest { func, reference: k as f32 }))
+}
+
 /// The condition as a value 0 or 1 the combiners compute (their mux,
 /// Kilgard 2000, Section 4.2.2), its `¬`s applied; `None` for another form.
+/// Two conditions joined: `a AND b` is the product of their 0/1 values,
+/// `a OR b` their sum clamped (the combiners' output clamp, free), so one
+/// alpha test (`GL_GREATER 0`) keeps what both (either) keep.
 fn zero_one(m: &mut Module, c: Handle<Expr>) -> Option<Handle<Expr>> {
-    let (lhs, op, rhs) = comparison(m, c)?;
     let span = m.span(c);
+    if let Expr::Binary { op: op @ (BinaryOp::And | BinaryOp::Or), lhs, rhs } = m.exprs[c] {
+        let (a, b) = (zero_one(m, lhs)?, zero_one(m, rhs)?);
+        if op == BinaryOp::And {
+            return m.intern(Expr::Binary { op: BinaryOp::Mul, lhs: a, rhs: b }, span).ok();
+        }
+        let sum = m.intern(Expr::Binary { op: BinaryOp::Add, lhs: a, rhs: b }, span).ok()?;
+        return m.intern(Expr::Math { fun: crate::ir::MathFunction::Saturate, args: vec![sum] }, span).ok();
+    }
+    let (lhs, op, rhs) = comparison(m, c)?;
+    if matches!(op, BinaryOp::Eq | BinaryOp::Ne) {
+        return None; // the mux compares with a threshold, not for equality
+    }
     m.intern(Expr::Binary { op, lhs, rhs }, span).ok()
 }
 
@@ -281,6 +345,7 @@ fn swapped(op: BinaryOp) -> BinaryOp {
         BinaryOp::Lt => BinaryOp::Gt,
         BinaryOp::Le => BinaryOp::Ge,
         BinaryOp::Gt => BinaryOp::Lt,
+        BinaryOp::Eq | BinaryOp::Ne => op,
         _ => BinaryOp::Le,
     }
 }

@@ -52,7 +52,10 @@ pub fn exact_through_clamps(
         if !storage.clamps(p.dest) {
             continue;
         }
-        let v = module.info(p.value).interval;
+        let v = read_range(module, p.value, &held, storage).map_or(module.info(p.value).interval, |r| {
+            let own = module.info(p.value).interval;
+            Interval { lo: own.lo.max(r.lo), hi: own.hi.min(r.hi) }
+        });
         let b = held.get(&p.dest).copied().unwrap_or(Interval::UNSIGNED);
         let Some(after) = exact_blend(p.blend, b, v, storage.subtract) else { return false };
         let after = match p.holds {
@@ -65,6 +68,50 @@ pub fn exact_through_clamps(
         Dest::Main => true,
         Dest::Temp(t) => clamped_temps.contains(t) || (i.lo >= 0.0 && i.hi <= 1.0),
     })
+}
+
+/// The range of a temporary's read-back (`temp{id}` looked up, its rgb
+/// or a channel, scaled by a constant, widened, saturated) from what the
+/// split's earlier pieces left in it, where that is tighter than a
+/// texture's [0, 1]: a product halved into a temporary (`½·E·F·G`) holds
+/// at most ½, so what it is added to may hold ½ more and stay in [0, 1]
+/// (`C ← C·(A·B·D + E·F·G)` on a 2-unit target: the sum halved into one
+/// temporary, its second product through another). `None` for any other
+/// value.
+fn read_range(
+    module: &Module,
+    v: Handle<Expr>,
+    held: &HashMap<Dest, Interval>,
+    storage: Storage,
+) -> Option<Interval> {
+    match &module.exprs[v] {
+        Expr::Lookup { texture, .. } => {
+            let name = &module.textures.get(*texture as usize)?.name;
+            let id: u32 = name.strip_prefix("temp")?.parse().ok()?;
+            let dest = Dest::Temp(id);
+            let h = *held.get(&dest)?;
+            Some(if storage.clamps(dest) { Interval { lo: h.lo.max(0.0), hi: h.hi.min(1.0) } } else { h })
+        }
+        Expr::Swizzle { value, .. } => read_range(module, *value, held, storage),
+        Expr::Convert { value, to: Ty::Rgba } => {
+            let r = read_range(module, *value, held, storage)?;
+            Some(Interval { lo: r.lo.min(1.0), hi: r.hi.max(1.0) })
+        }
+        Expr::Math { fun: crate::ir::MathFunction::Saturate, args } => {
+            let r = read_range(module, args[0], held, storage)?;
+            Some(Interval { lo: r.lo.clamp(0.0, 1.0), hi: r.hi.clamp(0.0, 1.0) })
+        }
+        Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => {
+            let constant = |h: Handle<Expr>| matches!(module.exprs[h], Expr::Constant(_));
+            let (k, x) = if constant(*lhs) { (*lhs, *rhs) } else { (*rhs, *lhs) };
+            if !constant(k) {
+                return None;
+            }
+            let r = read_range(module, x, held, storage)?;
+            Some(crate::ir::valid::mul(module.info(k).interval, r))
+        }
+        _ => None,
+    }
 }
 
 /// What a clamped target holds (unclamped) after `blend` of a value in `v`

@@ -115,6 +115,9 @@ pub(super) fn rewritten(
             candidates.push((f.value, form.then_add, what));
         }
     }
+    for (value, what) in clamped_source_forms(m, form.value, max) {
+        candidates.push((value, add_of(what), what));
+    }
     let mut best: Option<(split::Cost, Form, Vec<Piece>, &'static str)> = None;
     let mut tried = Vec::new();
     for (value, then_add, what) in candidates {
@@ -132,6 +135,31 @@ pub(super) fn rewritten(
         }
     }
     best.map(|(_, f, p, what)| (f, p, what)).ok_or(tried)
+}
+
+/// The blend's source GL clamps (`C ← (C) ⊕ x` reads `saturate(x)`,
+/// [`super::form::blended_as_gl`]; widened to rgba or not) with `x` in
+/// each of its equivalent forms: the clamp is of the value, whatever form
+/// it is written in, so `(C) ⊕ (mix(T0, δl, T3.a) + T0)` plans as its
+/// expansion does.
+fn clamped_source_forms(m: &mut Module, v: Handle<Expr>, max: usize) -> Vec<(Handle<Expr>, &'static str)> {
+    let (x, widened) = match m.exprs[v] {
+        Expr::Convert { value, to: ir::Ty::Rgba } => (value, true),
+        _ => (v, false),
+    };
+    let Expr::Math { fun: ir::MathFunction::Saturate, ref args } = m.exprs[x] else { return Vec::new() };
+    let inner = args[0];
+    let mut out = Vec::new();
+    for f in algebra::forms(m, inner, max) {
+        let mut b = Builder { module: m };
+        let clamped = b.node(Expr::Math { fun: ir::MathFunction::Saturate, args: vec![f.value] });
+        let value = match (clamped, widened) {
+            (Some(c), true) => b.node(Expr::Convert { value: c, to: ir::Ty::Rgba }),
+            (c, _) => c,
+        };
+        out.extend(value.map(|value| (value, f.what)));
+    }
+    out
 }
 
 /// `x` of a statement writing `saturate(x)` (or `rgba(saturate(x), 1)`)
