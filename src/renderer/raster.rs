@@ -91,6 +91,8 @@ impl Fragment<'_> {
 /// same values bit for bit. Returns the lanes it leaves to the one-lane
 /// code: those whose 1/w degenerates (`quad_derivatives`' fallback), or
 /// whose varying has no gradients.
+// Indexed loops over several lane arrays at once are the form that vectorises.
+#[allow(clippy::needless_range_loop)]
 #[inline(always)]
 pub(crate) fn quad_lod_lanes<const N: usize>(
     fragments: &[Fragment],
