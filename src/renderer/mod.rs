@@ -89,10 +89,10 @@ pub trait FragmentStage: Sync {
     /// screen-space derivatives; `out` receives RGBA.
     fn shade(&self, fragment: &Fragment, varyings: &[f32], out: &mut [f32; 4]) -> FragmentResult;
 
-    /// Shades the fragments of one triangle in one tile together, at most
-    /// [`BATCH`] (`varyings`: the same number per fragment, in order), as
-    /// [`FragmentStage::shade`] would one at a time: the rasterizer has
-    /// already tested them, and each writes a different pixel.
+    /// Shades fragments of one tile together, at most [`BATCH`], of one
+    /// triangle or of several (`varyings`: the same number per fragment, in
+    /// order), as [`FragmentStage::shade`] would one at a time: the
+    /// rasterizer has already tested them, and each writes a different pixel.
     fn shade_batch(
         &self,
         fragments: &[Fragment],

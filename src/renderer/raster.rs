@@ -81,16 +81,18 @@ impl Fragment<'_> {
     }
 }
 
-/// λ of a 2-D lookup for each of `fragments` (one triangle's: lanes
-/// `0..fragments.len()` of `lod`) whose coordinates (u, v) are the first
-/// two components of varying `k` (`varyings`: `per` a fragment), on a
-/// texture whose level 0 is `width`×`height`: [`Fragment::quad_derivatives`]
-/// of u and v and [`crate::textures::unit::quad_lod`] as fixed-length loops
-/// over the lanes (vector code), the same formulas in the same order, so
-/// the same values bit for bit. Returns the lanes it leaves to the one-lane
+/// λ of a 2-D lookup for each of `fragments` (lanes `0..fragments.len()`
+/// of `lod`; of one triangle or of several, each lane with its own
+/// triangle's gradients) whose coordinates (u, v) are the first two
+/// components of varying `k` (`varyings`: `per` a fragment), on a texture
+/// whose level 0 is `width`×`height`: [`Fragment::quad_derivatives`] of u
+/// and v and [`crate::textures::unit::quad_lod`] as fixed-length loops over
+/// the lanes (vector code), the same formulas in the same order, so the
+/// same values bit for bit. Returns the lanes it leaves to the one-lane
 /// code: those whose 1/w degenerates (`quad_derivatives`' fallback), or
-/// all of them where the fragments do not share one triangle's gradients
-/// or the varying has none.
+/// whose varying has no gradients.
+// Indexed loops over several lane arrays at once are the form that vectorises.
+#[allow(clippy::needless_range_loop)]
 #[inline(always)]
 pub(crate) fn quad_lod_lanes<const N: usize>(
     fragments: &[Fragment],
@@ -101,33 +103,31 @@ pub(crate) fn quad_lod_lanes<const N: usize>(
 ) -> [bool; N] {
     let n = fragments.len().min(N);
     let mut one_lane = [false; N];
-    let Some(first) = fragments.first() else { return one_lane };
-    let g = first.gradients;
-    let m = (g.len() / 2).saturating_sub(1);
-    if 4 * k + 1 >= m || !fragments.iter().all(|f| std::ptr::eq(f.gradients, g)) {
-        one_lane[..n].fill(true);
-        return one_lane;
-    }
     let (mut ox, mut oy, mut inv_w, mut u, mut v) = ([0.0f32; N], [0.0; N], [1.0; N], [0.0; N], [0.0; N]);
+    // Each lane's gradients of 1/w, u and v: x and y.
+    let (mut gq, mut gu, mut gv) = ([[0.0f32; N]; 2], [[0.0f32; N]; 2], [[0.0f32; N]; 2]);
     for (lane, f) in fragments[..n].iter().enumerate() {
+        let g = f.gradients;
+        let m = (g.len() / 2).saturating_sub(1);
+        if 4 * k + 1 >= m {
+            one_lane[lane] = true;
+            continue;
+        }
         // Offsets of the quad's top-left pixel from this one.
         (ox[lane], oy[lane]) = (-((f.x & 1) as f32), -((f.y & 1) as f32));
         inv_w[lane] = f.inv_w;
         (u[lane], v[lane]) = (varyings[lane * per + 4 * k], varyings[lane * per + 4 * k + 1]);
+        (gq[0][lane], gq[1][lane]) = (g[2 * m], g[2 * m + 1]);
+        (gu[0][lane], gu[1][lane], gv[0][lane], gv[1][lane]) =
+            (g[8 * k], g[8 * k + 1], g[8 * k + 2], g[8 * k + 3]);
     }
-    let (qx, qy) = (g[2 * m], g[2 * m + 1]);
-    let q: [f32; N] = std::array::from_fn(|l| inv_w[l] + qx * ox[l] + qy * oy[l]);
-    let (qr, qb) = (q.map(|q| q + qx), q.map(|q| q + qy));
-    let derivatives = |index: usize, value: &[f32; N]| -> [[f32; N]; 2] {
-        let (ax, ay) = (g[2 * index], g[2 * index + 1]);
-        let a: [f32; N] = std::array::from_fn(|l| value[l] * inv_w[l] + ax * ox[l] + ay * oy[l]);
-        let at: [f32; N] = std::array::from_fn(|l| a[l] / q[l]);
-        [
-            std::array::from_fn(|l| (a[l] + ax) / qr[l] - at[l]),
-            std::array::from_fn(|l| (a[l] + ay) / qb[l] - at[l]),
-        ]
-    };
-    let ([ux, uy], [vx, vy]) = (derivatives(4 * k, &u), derivatives(4 * k + 1, &v));
+    let (mut q, mut qr, mut qb) = ([0.0f32; N], [0.0f32; N], [0.0f32; N]);
+    for l in 0..N {
+        q[l] = inv_w[l] + gq[0][l] * ox[l] + gq[1][l] * oy[l];
+        (qr[l], qb[l]) = (q[l] + gq[0][l], q[l] + gq[1][l]);
+    }
+    let quad = QuadLanes { ox, oy, inv_w, q, qr, qb };
+    let ([ux, uy], [vx, vy]) = (quad.derivatives(&gu, &u), quad.derivatives(&gv, &v));
     let (w, h) = (width as f32, height as f32);
     for l in 0..N {
         let (ux, vx, uy, vy) = (ux[l] * w, vx[l] * h, uy[l] * w, vy[l] * h);
@@ -139,9 +139,37 @@ pub(crate) fn quad_lod_lanes<const N: usize>(
         };
     }
     for l in 0..n {
-        one_lane[l] = inv_w[l] == 0.0 || q[l] <= 0.0 || qr[l] <= 0.0 || qb[l] <= 0.0;
+        one_lane[l] |= quad.inv_w[l] == 0.0 || quad.q[l] <= 0.0 || quad.qr[l] <= 0.0 || quad.qb[l] <= 0.0;
     }
     one_lane
+}
+
+/// The lanes of [`quad_lod_lanes`]: each lane's offsets to its quad's
+/// top-left pixel, its 1/w, and 1/w at that pixel and its right and lower
+/// neighbours.
+struct QuadLanes<const N: usize> {
+    ox: [f32; N],
+    oy: [f32; N],
+    inv_w: [f32; N],
+    q: [f32; N],
+    qr: [f32; N],
+    qb: [f32; N],
+}
+
+impl<const N: usize> QuadLanes<N> {
+    /// [`Fragment::quad_derivatives`] of a varying whose gradients are
+    /// `g` (x and y) and values `value`, per lane.
+    #[inline(always)]
+    fn derivatives(&self, g: &[[f32; N]; 2], value: &[f32; N]) -> [[f32; N]; 2] {
+        let mut d = [[0.0f32; N]; 2];
+        for l in 0..N {
+            let (ax, ay) = (g[0][l], g[1][l]);
+            let a = value[l] * self.inv_w[l] + ax * self.ox[l] + ay * self.oy[l];
+            let at = a / self.q[l];
+            (d[0][l], d[1][l]) = ((a + ax) / self.qr[l] - at, (a + ay) / self.qb[l] - at);
+        }
+        d
+    }
 }
 
 impl Fragment<'_> {
@@ -617,7 +645,7 @@ mod tests {
             (x >> 8) as f32 / (1u32 << 23) as f32 - 1.0
         };
         let per = 12;
-        let mut compared = 0;
+        let (mut compared, mut mixed_compared) = (0, 0);
         for round in 0..200 {
             // Three varyings of four components, then 1/w's gradients.
             let g: Vec<f32> = (0..2 * 12 + 2).map(|i| r() * if i >= 24 { 0.02 } else { 0.5 }).collect();
@@ -647,15 +675,15 @@ mod tests {
                 let vary = &varyings[lane * per + 4 * k..];
                 let (du, dv) = (f.quad_derivatives(4 * k, vary[0]), f.quad_derivatives(4 * k + 1, vary[1]));
                 let one = unit::quad_lod(w, h, [du[0], dv[0]], [du[1], dv[1]]);
-                // The one-lane lanes: 1/w = 0, a quad whose 1/w reaches 0 (small
-                // or negative 1/w here), or a batch of two triangles.
-                let mixed = round % 10 == 9;
-                assert!(left[lane] || (f.inv_w != 0.0 && !mixed), "round {round} lane {lane}");
-                assert!(!left[lane] || f.inv_w < 0.1 || mixed, "round {round} lane {lane}");
+                // The one-lane lanes: 1/w = 0 or a quad whose 1/w reaches 0 (small
+                // or negative 1/w here); a batch of two triangles is lanes too.
+                assert!(left[lane] || f.inv_w != 0.0, "round {round} lane {lane}");
+                assert!(!left[lane] || f.inv_w < 0.1, "round {round} lane {lane}");
                 if left[lane] {
                     continue;
                 }
                 compared += 1;
+                mixed_compared += (round % 10 == 9) as u32;
                 assert_eq!(
                     one.to_bits(),
                     lod[lane].to_bits(),
@@ -665,6 +693,7 @@ mod tests {
             }
         }
         assert!(compared > 3000, "{compared} lanes as lanes");
+        assert!(mixed_compared > 40, "{mixed_compared} lanes of two-triangle batches as lanes");
         // A varying past the gradients (k = 2: components 8, 9 of 4 components' gradients).
         let g = [0.1f32; 2 * 4 + 2];
         let fragments: Vec<Fragment> = (0..9)

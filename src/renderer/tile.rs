@@ -45,10 +45,10 @@ pub(crate) fn rasterize(target: &mut Framebuffer, pass: &Pass, setup: &PassSetup
 
 /// Scan-converts the binned triangles over one tile; `rect` is inclusive.
 /// Without a stencil test a fragment's fate is decided before it is shaded
-/// (depth test first, then shading, then the writes), so the fragments of
-/// one triangle are shaded in batches ([`FragmentStage::shade_batch`]:
-/// each writes its own pixel, so the order within a triangle does not
-/// matter); with one, fragment by fragment.
+/// (depth test first, then shading, then the writes), so fragments are
+/// shaded in batches ([`FragmentStage::shade_batch`]: each writes its own
+/// pixel, so the order within a batch does not matter); with one,
+/// fragment by fragment.
 fn raster_tile(
     tile: &mut TileBuffers,
     rect: (i32, i32, i32, i32),
@@ -161,13 +161,16 @@ pub(crate) fn interpolate(vary: &[f32], n: usize, p: [f32; 3], out: &mut [f32]) 
     }
 }
 
-/// The fragments of one triangle waiting to be shaded together.
+/// The fragments waiting to be shaded together, of one triangle or of
+/// several: at most one per pixel (`pending`: a bit per pixel of each of
+/// the tile's rows), so that each writes its own pixel.
 struct Batch<'a> {
     fragments: Vec<Fragment<'a>>,
     pixels: Vec<(usize, f32)>,
     varyings: Vec<f32>,
     out: [[f32; 4]; BATCH],
     results: [FragmentResult; BATCH],
+    pending: [u64; TILE],
 }
 
 impl Batch<'_> {
@@ -193,17 +196,54 @@ impl Batch<'_> {
         }
         stats.written += results.iter().filter(|r| **r == FragmentResult::Keep).count() as u64;
         tile.blend_kept(&self.pixels, &self.out[..k], results, &pass.state.blend, writer);
+        for &(idx, _) in &self.pixels {
+            self.pending[idx / TILE] = 0;
+        }
         self.fragments.clear();
         self.pixels.clear();
     }
 }
 
 /// [`raster_tile`] without a stencil test: depth-tested fragments are
-/// shaded in batches of up to [`BATCH`] per triangle. Each row's covered
-/// span ([`for_each_span`]) is taken [`SPAN`] pixels at a time: their
+/// shaded in batches of up to [`BATCH`], filled across triangles (Kilgard's
+/// torus at 1024² has triangles of a few dozen pixels per tile): a span
+/// that reaches a pixel already waiting in the batch flushes it first, so
+/// its depth test sees the earlier fragment's depth and the blends keep
+/// the submission order. Each row's covered
+/// span ([`Spans`]) is taken [`SPAN`] pixels at a time: their
 /// weights, depths and depth test as lanes ([`Span`]), the same formulas
 /// as [`fragment_at`] (so the same values, bit for bit).
 fn raster_tile_batched(
+    tile: &mut TileBuffers,
+    rect: (i32, i32, i32, i32),
+    bin: &[u32],
+    pass: &Pass,
+    setup: &PassSetup,
+) -> DrawStats {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
+        // SAFETY: the CPU has the features the function is compiled for.
+        return unsafe { raster_tile_batched_avx2(tile, rect, bin, pass, setup) };
+    }
+    raster_tile_batched_body(tile, rect, bin, pass, setup)
+}
+
+/// [`raster_tile_batched`] compiled for 8-lane vectors (the same values:
+/// no operation is contracted into a fused one).
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,fma")]
+unsafe fn raster_tile_batched_avx2(
+    tile: &mut TileBuffers,
+    rect: (i32, i32, i32, i32),
+    bin: &[u32],
+    pass: &Pass,
+    setup: &PassSetup,
+) -> DrawStats {
+    raster_tile_batched_body(tile, rect, bin, pass, setup)
+}
+
+#[inline(always)]
+fn raster_tile_batched_body(
     tile: &mut TileBuffers,
     rect: (i32, i32, i32, i32),
     bin: &[u32],
@@ -220,15 +260,20 @@ fn raster_tile_batched(
         varyings: vec![0.0; BATCH * n],
         out: [[0.0; 4]; BATCH],
         results: [FragmentResult::Discard; BATCH],
+        pending: [0; TILE],
     };
     for &ti in bin {
         let tri: &Tri = &setup.tris[ti as usize];
         let (vary, gradients) = setup.inputs(tri);
-        for_each_span(tri, rect, |y, xa, xb, idx0| {
+        for (y, xa, xb, idx0) in Spans::of(tri, rect) {
             let mut x = xa;
             while x <= xb {
                 let k = ((xb - x + 1) as usize).min(SPAN);
                 let at = idx0 + (x - xa) as usize;
+                let (row, bit) = (at / TILE, at % TILE);
+                if batch.pending[row] & (((1u64 << k) - 1) << bit) != 0 {
+                    batch.flush(tile, pass, writer, &mut stats);
+                }
                 let span = Span::at(tri, x, y);
                 stats.fragments += k as u64;
                 let mut pass_mask = depth_mask(func, &span.z, &tile.depth[at..at + k]);
@@ -237,7 +282,8 @@ fn raster_tile_batched(
                     pass_mask &= pass_mask - 1;
                     // Into the batch's slice, one loop over the varyings (vector code).
                     let at_v = batch.fragments.len() * n;
-                    interpolate(vary, n, span.p.map(|w| w[j]), &mut batch.varyings[at_v..at_v + n]);
+                    let p = [span.p[0][j], span.p[1][j], span.p[2][j]];
+                    interpolate(vary, n, p, &mut batch.varyings[at_v..at_v + n]);
                     batch.fragments.push(Fragment {
                         x: (x + j as i32) as u32,
                         y: y as u32,
@@ -247,15 +293,16 @@ fn raster_tile_batched(
                         gradients,
                     });
                     batch.pixels.push((at + j, span.z[j]));
+                    batch.pending[row] |= 1 << (bit + j);
                     if batch.fragments.len() == BATCH {
                         batch.flush(tile, pass, writer, &mut stats);
                     }
                 }
                 x += SPAN as i32;
             }
-        });
-        batch.flush(tile, pass, writer, &mut stats);
+        }
     }
+    batch.flush(tile, pass, writer, &mut stats);
     stats
 }
 
@@ -272,19 +319,28 @@ struct Span {
 }
 
 impl Span {
+    /// One loop over the pixels (vector code), each lane [`fragment_at`]'s
+    /// formulas in its order.
     #[inline(always)]
     fn at(tri: &Tri, x: i32, y: i32) -> Span {
         let py = y as f32 + 0.5;
-        let px: [f32; SPAN] = std::array::from_fn(|j| (x + j as i32) as f32 + 0.5);
-        let l: [[f32; SPAN]; 3] = tri.weights.map(|[a, b, c]| px.map(|px| a * px + b * py + c));
-        let z = std::array::from_fn(|j| {
-            (l[0][j] * tri.z[0] + l[1][j] * tri.z[1] + l[2][j] * tri.z[2]).clamp(0.0, 1.0)
-        });
-        let pw: [[f32; SPAN]; 3] = std::array::from_fn(|k| l[k].map(|l| l * tri.inv_w[k]));
-        let q: [f32; SPAN] = std::array::from_fn(|j| pw[0][j] + pw[1][j] + pw[2][j]);
-        let inv_q = q.map(|q| 1.0 / q);
-        let p = pw.map(|w| std::array::from_fn(|j| w[j] * inv_q[j]));
-        Span { z, q, p }
+        let mut s = Span { z: [0.0; SPAN], q: [0.0; SPAN], p: [[0.0; SPAN]; 3] };
+        let [w0, w1, w2] = tri.weights;
+        for j in 0..SPAN {
+            let px = (x + j as i32) as f32 + 0.5;
+            let l = [
+                w0[0] * px + w0[1] * py + w0[2],
+                w1[0] * px + w1[1] * py + w1[2],
+                w2[0] * px + w2[1] * py + w2[2],
+            ];
+            s.z[j] = (l[0] * tri.z[0] + l[1] * tri.z[1] + l[2] * tri.z[2]).clamp(0.0, 1.0);
+            let pw = [l[0] * tri.inv_w[0], l[1] * tri.inv_w[1], l[2] * tri.inv_w[2]];
+            let q = pw[0] + pw[1] + pw[2];
+            let inv_q = 1.0 / q;
+            s.q[j] = q;
+            (s.p[0][j], s.p[1][j], s.p[2][j]) = (pw[0] * inv_q, pw[1] * inv_q, pw[2] * inv_q);
+        }
+        s
     }
 }
 
@@ -307,37 +363,58 @@ fn depth_mask(func: CompareFunc, z: &[f32; SPAN], stored: &[f32]) -> u32 {
     }
 }
 
-/// Calls `visit(y, xa, xb, idx)` for every row of `tri` inside `rect`
+/// The covered spans of `tri` inside `rect`, row by row: (y, xa, xb, idx)
 /// with the covered pixels `xa..=xb` (`idx`: pixel `xa` in the tile). The
 /// covered pixels of a row are one run: each edge function is affine in x,
 /// so each edge's inside is a ray of the row, and three rays meet in an
-/// interval.
-fn for_each_span(tri: &Tri, rect: (i32, i32, i32, i32), mut visit: impl FnMut(i32, i32, i32, usize)) {
-    let x0 = tri.x0.max(rect.0);
-    let y0 = tri.y0.max(rect.1);
-    let x1 = tri.x1.min(rect.2);
-    let y1 = tri.y1.min(rect.3);
-    if x0 > x1 || y0 > y1 {
-        return;
+/// interval. An iterator rather than a visitor, so that the loop over the
+/// spans is compiled with the function it is in (a closure would not
+/// share [`raster_tile_batched`]'s vector features).
+struct Spans<'t> {
+    tri: &'t Tri,
+    rect: (i32, i32, i32, i32),
+    y: i32,
+    x0: i32,
+    x1: i32,
+    y1: i32,
+}
+
+impl Spans<'_> {
+    fn of(tri: &Tri, rect: (i32, i32, i32, i32)) -> Spans<'_> {
+        let (x0, x1) = (tri.x0.max(rect.0), tri.x1.min(rect.2));
+        let (y0, y1) = (tri.y0.max(rect.1), tri.y1.min(rect.3));
+        // An empty column range leaves no row.
+        Spans { tri, rect, y: y0, x0, x1, y1: if x0 > x1 { y0 - 1 } else { y1 } }
     }
-    let step_x = tri.dy.map(|d| -d * SUB);
-    let px0 = x0 as i64 * SUB + SUB / 2;
-    for y in y0..=y1 {
-        let py = y as i64 * SUB + SUB / 2;
-        let mut e = tri.edges_at(px0, py);
-        let mut x = x0;
-        while x <= x1 && !tri.covers(&e) {
-            e = [e[0] + step_x[0], e[1] + step_x[1], e[2] + step_x[2]];
-            x += 1;
+}
+
+impl Iterator for Spans<'_> {
+    type Item = (i32, i32, i32, usize);
+
+    #[inline(always)]
+    fn next(&mut self) -> Option<Self::Item> {
+        let (tri, x1) = (self.tri, self.x1);
+        let step_x = [-tri.dy[0] * SUB, -tri.dy[1] * SUB, -tri.dy[2] * SUB];
+        let px0 = self.x0 as i64 * SUB + SUB / 2;
+        while self.y <= self.y1 {
+            let y = self.y;
+            self.y += 1;
+            let mut e = tri.edges_at(px0, y as i64 * SUB + SUB / 2);
+            let mut x = self.x0;
+            while x <= x1 && !tri.covers(&e) {
+                e = [e[0] + step_x[0], e[1] + step_x[1], e[2] + step_x[2]];
+                x += 1;
+            }
+            let xa = x;
+            while x <= x1 && tri.covers(&e) {
+                e = [e[0] + step_x[0], e[1] + step_x[1], e[2] + step_x[2]];
+                x += 1;
+            }
+            if x > xa {
+                return Some((y, xa, x - 1, (y - self.rect.1) as usize * TILE + (xa - self.rect.0) as usize));
+            }
         }
-        let xa = x;
-        while x <= x1 && tri.covers(&e) {
-            e = [e[0] + step_x[0], e[1] + step_x[1], e[2] + step_x[2]];
-            x += 1;
-        }
-        if x > xa {
-            visit(y, xa, x - 1, (y - rect.1) as usize * TILE + (xa - rect.0) as usize);
-        }
+        None
     }
 }
 

@@ -13,7 +13,7 @@
 //! lane whose footprint leaves its face (seamless filtering across faces,
 //! a few per cent of the lookups) is handed to the one-lane code.
 
-use super::sampling::{floor_finite, Filter, Level, Texture2D, TextureCube, Wrap};
+use super::sampling::{Filter, Level, Texture2D, TextureCube, Wrap};
 use super::unit::{self, LodChoice, WeightChoice};
 
 /// `v` clamped to ±1e9, or 0 where not finite (the texture unit's rule
@@ -24,6 +24,21 @@ fn finite(v: f32) -> f32 {
         v.clamp(-1e9, 1e9)
     } else {
         0.0
+    }
+}
+
+/// `x.floor()` as vector code: a truncation to i32 moved down where it
+/// rose, its sign `x`'s (−0 stays −0); beyond 2²³ (and ±∞, NaN) `x`
+/// itself, already an integer. `f32::floor` is a libm call where a
+/// function is compiled without SSE4.1, which keeps the loop scalar.
+#[inline(always)]
+fn floor_lane(x: f32) -> f32 {
+    let t = x as i32 as f32;
+    let t = if t > x { t - 1.0 } else { t };
+    if x.abs() < 8_388_608.0 {
+        t.copysign(x)
+    } else {
+        x
     }
 }
 
@@ -67,8 +82,9 @@ pub fn sample_cube_lanes<const N: usize>(
     let mut fx = [0.0f32; N];
     let mut fy = [0.0f32; N];
     for lane in 0..N {
-        let r = [d[0][lane], d[1][lane], d[2][lane]].map(|c| if c.is_finite() { c } else { 0.0 });
-        let a = r.map(f32::abs);
+        let fin = |c: f32| if c.is_finite() { c } else { 0.0 };
+        let r = [fin(d[0][lane]), fin(d[1][lane]), fin(d[2][lane])];
+        let a = [r[0].abs(), r[1].abs(), r[2].abs()];
         let x_major = a[0] >= a[1] && a[0] >= a[2];
         let y_major = !x_major && a[1] >= a[2];
         let (f, sc, tc, ma) = if x_major {
@@ -94,10 +110,13 @@ pub fn sample_cube_lanes<const N: usize>(
         fx[lane] = finite(s * w - 0.5);
         fy[lane] = finite(t * h - 0.5);
     }
-    let x0 = fx.map(floor_finite);
-    let y0 = fy.map(floor_finite);
-    let ax: [f32; N] = std::array::from_fn(|l| fx[l] - x0[l]);
-    let ay: [f32; N] = std::array::from_fn(|l| fy[l] - y0[l]);
+    // `sampling::floor_finite` (the coordinates are within ±1e9) as lanes:
+    // it and `floor` differ only at −0, which `s·w − 0.5` never is.
+    let (mut x0, mut y0, mut ax, mut ay) = ([0.0f32; N], [0.0f32; N], [0.0f32; N], [0.0f32; N]);
+    for l in 0..N {
+        (x0[l], y0[l]) = (floor_lane(fx[l]), floor_lane(fy[l]));
+        (ax[l], ay[l]) = (fx[l] - x0[l], fy[l] - y0[l]);
+    }
     for lane in 0..n {
         let (x, y) = (x0[lane] as i64, y0[lane] as i64);
         let texel = if x >= 0 && y >= 0 && x + 1 < size && y + 1 < size {
@@ -170,27 +189,37 @@ struct Footprints<const N: usize> {
 /// `Level::sample_bilinear`'s coordinates, weights and wrapped texel
 /// indices for each lane at (`u`, `v`) on level `level[lane]`, as
 /// fixed-length loops: the same formulas (with i32 where it has i64:
-/// `finite` keeps the coordinates within ±1e9), so the same values.
+/// `finite` keeps the coordinates within ±1e9), so the same values. The
+/// levels' sizes are looked up first, in a loop of their own: a table
+/// lookup inside the arithmetic keeps it from becoming vector code.
+// Indexed loops over several lane arrays at once are the form that vectorises.
+#[allow(clippy::needless_range_loop)]
 #[inline(always)]
 fn footprints<const N: usize>(s: &Levels, level: &[u32; N], u: &[f32; N], v: &[f32; N]) -> Footprints<N> {
-    let mut f = Footprints { at: [[0; N]; 4], ax: [0.0; N], ay: [0.0; N] };
+    let (mut w, mut h, mut wl, mut hl) = ([0.0f32; N], [0.0f32; N], [0i32; N], [0i32; N]);
     for lane in 0..N {
         let k = level[lane] as usize % MAX_LEVELS;
-        let fx = finite(u[lane] * s.w[k] - 0.5);
-        let fy = finite(v[lane] * s.h[k] - 0.5);
+        (w[lane], h[lane], wl[lane], hl[lane]) = (s.w[k], s.h[k], s.w_last[k], s.h_last[k]);
+    }
+    let mut f = Footprints { at: [[0; N]; 4], ax: [0.0; N], ay: [0.0; N] };
+    // Repeat (a mask) or clamp to the edge: both computed, one kept (a select).
+    let repeat = s.repeat;
+    for lane in 0..N {
+        let fx = finite(u[lane] * w[lane] - 0.5);
+        let fy = finite(v[lane] * h[lane] - 0.5);
         let (tx, ty) = (fx as i32 as f32, fy as i32 as f32);
         let x0 = if tx > fx { tx - 1.0 } else { tx };
         let y0 = if ty > fy { ty - 1.0 } else { ty };
         (f.ax[lane], f.ay[lane]) = (fx - x0, fy - y0);
         let (x0, y0) = (x0 as i32, y0 as i32);
-        let (wl, hl) = (s.w_last[k], s.h_last[k]);
-        let wrap = |c: i32, last: i32| if s.repeat { c & last } else { c.clamp(0, last) };
-        let (xa, xb) = (wrap(x0, wl), wrap(x0 + 1, wl));
-        let (ya, yb) = (wrap(y0, hl) * (wl + 1), wrap(y0 + 1, hl) * (wl + 1));
-        f.at[0][lane] = (ya + xa) as u32;
-        f.at[1][lane] = (ya + xb) as u32;
-        f.at[2][lane] = (yb + xa) as u32;
-        f.at[3][lane] = (yb + xb) as u32;
+        let (wl, hl) = (wl[lane], hl[lane]);
+        let wrap = |c: i32, last: i32| if repeat { c & last } else { c.max(0).min(last) };
+        let (xa, xb) = (wrap(x0, wl), wrap(x0.wrapping_add(1), wl));
+        let (ya, yb) = (wrap(y0, hl).wrapping_mul(wl + 1), wrap(y0.wrapping_add(1), hl).wrapping_mul(wl + 1));
+        f.at[0][lane] = ya.wrapping_add(xa) as u32;
+        f.at[1][lane] = ya.wrapping_add(xb) as u32;
+        f.at[2][lane] = yb.wrapping_add(xa) as u32;
+        f.at[3][lane] = yb.wrapping_add(xb) as u32;
     }
     f
 }
@@ -231,10 +260,17 @@ pub fn sample_2d_lanes<const N: usize>(
     };
     let last = (t.levels.len() - 1) as f32;
     // λ as `unit::sample_2d_with` takes it (the model's choice adds nothing).
-    let lod = lod.map(|l| if l.is_nan() { f32::NEG_INFINITY } else { LodChoice::Model.apply(l + 0.0) });
+    let mut lod_in = [0.0f32; N];
+    for l in 0..N {
+        lod_in[l] = if lod[l].is_nan() { f32::NEG_INFINITY } else { LodChoice::Model.apply(lod[l] + 0.0) };
+    }
+    let lod = &lod_in;
     if filter == Filter::Bilinear {
         // The level nearest to λ (GL's LINEAR_MIPMAP_NEAREST).
-        let level = lod.map(|l| if l <= 0.0 { 0 } else { (l + 0.5).floor().min(last) as u32 });
+        let mut level = [0u32; N];
+        for l in 0..N {
+            level[l] = if lod[l] <= 0.0 { 0 } else { floor_lane(lod[l] + 0.5).min(last) as u32 };
+        }
         let f = footprints(&s, &level, u, v);
         for lane in 0..n {
             let texel = filtered(&t.levels[level[lane] as usize], &f, lane);
@@ -242,18 +278,7 @@ pub fn sample_2d_lanes<const N: usize>(
         }
         return true;
     }
-    // Trilinear: levels ⌊λ⌋ and ⌊λ⌋ + 1 blended by λ's fraction, or one
-    // level (0 for λ < 0, infinite λ or a single level; the last beyond it).
-    let floor = lod.map(f32::floor);
-    let single: [bool; N] =
-        std::array::from_fn(|l| lod[l].is_infinite() || floor[l] < 0.0 || last == 0.0 || floor[l] >= last);
-    let level0: [u32; N] = std::array::from_fn(|l| match single[l] {
-        true if lod[l].is_infinite() || floor[l] < 0.0 || last == 0.0 => 0,
-        true => last as u32,
-        false => floor[l] as u32,
-    });
-    let level1 = std::array::from_fn(|l| level0[l] + !single[l] as u32);
-    let fraction: [f32; N] = std::array::from_fn(|l| lod[l] - floor[l]);
+    let (level0, level1, single, fraction) = trilinear_levels(lod, last);
     let (fa, fb) = (footprints(&s, &level0, u, v), footprints(&s, &level1, u, v));
     for lane in 0..n {
         let a = filtered(&t.levels[level0[lane] as usize], &fa, lane);
@@ -261,11 +286,41 @@ pub fn sample_2d_lanes<const N: usize>(
             a
         } else {
             let b = filtered(&t.levels[level1[lane] as usize], &fb, lane);
-            [0, 1, 2, 3].map(|c| a[c] + fraction[lane] * (b[c] - a[c]))
+            let f = fraction[lane];
+            [
+                a[0] + f * (b[0] - a[0]),
+                a[1] + f * (b[1] - a[1]),
+                a[2] + f * (b[2] - a[2]),
+                a[3] + f * (b[3] - a[3]),
+            ]
         };
         (0..4).for_each(|k| out[k][lane] = texel[k]);
     }
     true
+}
+
+/// Trilinear filtering's levels per lane: ⌊λ⌋ and ⌊λ⌋ + 1 blended by
+/// λ's fraction, or one level (0 for λ < 0, infinite λ or a single level;
+/// the last beyond it) — the levels, whether one, and the fraction.
+#[inline(always)]
+#[allow(clippy::type_complexity, reason = "four lane arrays of one choice")]
+fn trilinear_levels<const N: usize>(lod: &[f32; N], last: f32) -> ([u32; N], [u32; N], [bool; N], [f32; N]) {
+    let (mut level0, mut level1, mut single, mut fraction) = ([0u32; N], [0u32; N], [false; N], [0.0f32; N]);
+    for l in 0..N {
+        let floor = floor_lane(lod[l]);
+        let low = lod[l].is_infinite() || floor < 0.0 || last == 0.0;
+        single[l] = low || floor >= last;
+        level0[l] = if low {
+            0
+        } else if single[l] {
+            last as u32
+        } else {
+            floor as u32
+        };
+        level1[l] = level0[l] + !single[l] as u32;
+        fraction[l] = lod[l] - floor;
+    }
+    (level0, level1, single, fraction)
 }
 
 /// [`sample_2d_lanes`] one lane at a time, for the textures [`Levels`]

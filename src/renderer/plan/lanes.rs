@@ -2,11 +2,13 @@
 //!
 //! [`LaneProgram::compile`] turns a pass's [`Step`]s into a list of
 //! [`Op`]s whose operands are resolved register offsets; each op runs over
-//! all [`BATCH`] lanes of a batch (the fragments of one triangle in one
-//! tile) in `f32`, as fixed-length loops over `[f32; BATCH]` that the
+//! all [`BATCH`] lanes of a batch (fragments of one tile, of one triangle
+//! or several) in `f32`, as fixed-length loops over `[f32; BATCH]` that the
 //! compiler turns into SIMD code — 8 lanes a vector on a CPU with AVX2
 //! (the whole batch is compiled a second time with AVX2 and FMA enabled and
-//! chosen at run time, [`run`]), 4 with SSE2. Operations the lanes do not
+//! chosen at run time, [`run`]), 4 with SSE2. A third copy for AVX-512
+//! (16 lanes) spent 8 % more time in the lane program on the project's
+//! Xeon in one measurement (BENCHMARKS.md, thirteenth session): not kept. Operations the lanes do not
 //! cover (texture lookups, framebuffer reads, the rarely used functions)
 //! run lane by lane through [`FragmentProgram::step_value`], as the
 //! interpreter does.
@@ -328,16 +330,46 @@ impl FragmentProgram<'_> {
             }
             let mut discard = [false; BATCH];
             run(self, lp, r, fragments, varyings, &mut discard);
-            let n = fragments.len();
-            for lane in 0..n {
-                let at = |s: u32, c: usize| r[s as usize * 4 + c][lane];
-                let dropped = discard[lane] || self.condition.is_some_and(|c| at(c, 0) == 0.0);
-                results[lane] = if dropped { FragmentResult::Discard } else { FragmentResult::Keep };
-                if !dropped {
-                    out[lane] = self.output([0, 1, 2, 3].map(|c| at(self.output, c) as f64));
-                }
-            }
+            self.lane_outputs(r, &discard, fragments.len(), out, results);
         })
+    }
+
+    /// Each lane's fate and colour from the registers `r`: as
+    /// [`FragmentProgram::output`] computes them (the `f32` values are the
+    /// `f64` ones it takes, exactly), without the round trip through `f64`
+    /// and with one count of non-finite values per batch.
+    #[inline(always)]
+    fn lane_outputs(
+        &self,
+        r: &[Lanes],
+        discard: &[bool; BATCH],
+        n: usize,
+        out: &mut [[f32; 4]],
+        results: &mut [FragmentResult],
+    ) {
+        let o = |c: usize| lanes(r, self.output, c);
+        let (o0, o1, o2, o3) = (o(0), o(1), o(2), o(3));
+        let width = self.output_ty.width();
+        let mut nonfinite = 0;
+        for lane in 0..n.min(BATCH) {
+            let dropped = discard[lane] || self.condition.is_some_and(|c| r[c as usize * 4][lane] == 0.0);
+            results[lane] = if dropped { FragmentResult::Discard } else { FragmentResult::Keep };
+            if dropped {
+                continue;
+            }
+            let v = match width {
+                1 => [o0[lane]; 4],
+                2 => [o0[lane], o1[lane], 0.0, 1.0],
+                3 => [o0[lane], o1[lane], o2[lane], 1.0],
+                _ => [o0[lane], o1[lane], o2[lane], o3[lane]],
+            };
+            nonfinite += !v.iter().all(|x| x.is_finite()) as u64;
+            let zero_nan = |x: f32| if x.is_nan() { 0.0 } else { x };
+            out[lane] = [zero_nan(v[0]), zero_nan(v[1]), zero_nan(v[2]), zero_nan(v[3])];
+        }
+        if nonfinite > 0 {
+            self.nonfinite.fetch_add(nonfinite, Ordering::Relaxed);
+        }
     }
 
     /// Lookup step `i` ([`samples_directly`]) of lanes `0..n` in `f32`:
@@ -497,8 +529,8 @@ fn closure(op: &Op) -> Closure {
     macro_rules! bin {
         ($f:expr) => {{
             let Op::Lanes { dst, ops, width, .. } = op else { unreachable!() };
-            Box::new(move |r: &mut [Lanes], _: &[f32], _: usize, n: usize, _: &mut [bool; BATCH]| {
-                let nn = ((n + 7) & !7).min(BATCH);
+            Box::new(move |r: &mut [Lanes], _: &[f32], _: usize, _: usize, _: &mut [bool; BATCH]| {
+                let nn = BATCH;
                 let (lo, hi) = r.split_at_mut(dst as usize * 4);
                 let out = &mut hi[..4];
                 for c in 0..width.max(1) as usize {
@@ -547,8 +579,10 @@ fn canonical(out: &mut [Lanes], width: u8) {
 }
 
 /// An op's operands: the registers below its destination, the operand
-/// slots, the components it computes and the lanes in use rounded up to a
-/// vector of 8.
+/// slots, the components it computes and the lanes it computes: all
+/// [`BATCH`] (a constant trip count, so straight vector code without a
+/// remainder; batches are filled across triangles, so most are full, and a
+/// lane past the batch's fragments computes on stale values no one reads).
 struct Operands<'r> {
     lo: &'r [Lanes],
     ops: [u32; 4],
@@ -571,7 +605,7 @@ impl Operands<'_> {
     }
 }
 
-/// One op over the lanes in use (`n`), in vectors of 8.
+/// One op over the [`BATCH`] lanes (the first `n` in use).
 // Indexed loops over several lane arrays at once are the form that vectorises.
 #[allow(clippy::needless_range_loop)]
 #[inline(always)]
@@ -580,7 +614,7 @@ fn exec(op: Op, r: &mut [Lanes], varyings: &[f32], per: usize, n: usize, discard
     let (lo, hi) = r.split_at_mut(dst as usize * 4);
     let out = &mut hi[..4];
     // Components computed: a width-1 result only its first (then splatted).
-    let x = Operands { lo, ops, comps: width.clamp(1, 4) as usize, nn: ((n + 7) & !7).min(BATCH) };
+    let x = Operands { lo, ops, comps: width.clamp(1, 4) as usize, nn: BATCH };
     if componentwise(k, &x, out) {
         return canonical(out, width);
     }
