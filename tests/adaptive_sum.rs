@@ -28,9 +28,8 @@ impl FragmentStage for Light<'_> {
             return FragmentResult::Discard;
         }
         let result = self.inner.shade(fragment, varyings, out);
-        for c in 0..4 {
-            out[c] = out[c] * self.scale[c] + self.offset[c];
-        }
+        let shaded = *out;
+        *out = std::array::from_fn(|c| shaded[c] * self.scale[c] + self.offset[c]);
         result
     }
 }

@@ -403,15 +403,8 @@ impl<'a> PlanRenderer<'a> {
             if let Some(run) = adaptive.and_then(|_| self.fused_run(index)) {
                 let name = self.planned.setup(index).target.name.clone();
                 let target = self.target_named(&mut targets, &name, index, mode, format, (width, height))?;
-                nonfinite += self.draw_fused(
-                    index..index + run,
-                    mode,
-                    &rendered,
-                    &objects,
-                    target,
-                    &mut draws,
-                    &mut shading,
-                )?;
+                let (passes, drawn) = (index..index + run, (&rendered, &objects[..]));
+                nonfinite += self.draw_fused(passes, mode, drawn, target, &mut draws, &mut shading)?;
                 (last_fb, fused_until) = (Some(name), index + run);
                 continue;
             }
@@ -454,16 +447,7 @@ impl<'a> PlanRenderer<'a> {
                 // A stencil update over `x′`: the scene's shadow volume.
                 let volume = crate::planner::shadow_volumes::for_pass(self.scene, self.assets, m, pass)
                     .map_err(RenderError::Unsupported)?;
-                let aspect = width as f32 / height as f32;
-                let volume = volume
-                    .as_ref()
-                    .map(|v| crate::scene::shadow_volume::bind_volume(self.scene, self.assets, v, aspect))
-                    .map(|v| {
-                        crate::scene::shadow_volume::offset_clip(
-                            v,
-                            self.rounding_bias.volume_offset(width, height),
-                        )
-                    });
+                let volume = volume.as_ref().map(|v| self.bound_volume(v, width, height));
                 let drawn = volume.as_ref().map_or(&objects[..], std::slice::from_ref);
                 self.draw_layer(pass, &pi, drawn, &stage, target, &mut draws)?;
                 nonfinite += stage.nonfinite.load(Ordering::Relaxed);
@@ -483,6 +467,14 @@ impl<'a> PlanRenderer<'a> {
         self.keep_images(targets.into_values());
         let Draws { stats, adaptive: adaptive_stats, .. } = draws;
         Ok(Frame { image, name, stats, time, nonfinite, adaptive: adaptive_stats, shading })
+    }
+
+    /// The scene's shadow volume `volume` bound like an object for a frame
+    /// of `width`×`height`, moved by the rounding bias's volume offset.
+    fn bound_volume<'v>(&self, volume: &'v crate::scene::Mesh, width: u32, height: u32) -> BoundObject<'v> {
+        let aspect = width as f32 / height as f32;
+        let bound = crate::scene::shadow_volume::bind_volume(self.scene, self.assets, volume, aspect);
+        crate::scene::shadow_volume::offset_clip(bound, self.rounding_bias.volume_offset(width, height))
     }
 
     /// What a pass rendered into texture or temporary `name` leaves for
@@ -653,13 +645,11 @@ impl<'a> PlanRenderer<'a> {
     /// Draws passes `run` ([`PlanRenderer::fused_run`]) adaptively as one
     /// draw of their sum, or one by one where the draw cannot fuse them;
     /// returns the fragments whose value was not finite.
-    #[allow(clippy::too_many_arguments)] // the frame loop's state, each borrowed differently
     fn draw_fused(
         &self,
         run: std::ops::Range<usize>,
         mode: Precision,
-        rendered: &BTreeMap<String, Rendered>,
-        objects: &[BoundObject],
+        (rendered, objects): (&BTreeMap<String, Rendered>, &[BoundObject]),
         target: &mut Framebuffer,
         draws: &mut Draws,
         shading: &mut Vec<PassShading>,
