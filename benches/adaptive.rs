@@ -46,6 +46,27 @@ fn median_ms(mut f: impl FnMut()) -> f64 {
     t[runs / 2]
 }
 
+/// The CPU time of this process so far, every thread: user + system from
+/// `/proc/self/stat`, in ticks of 10 ms (as `benches/wgpu_vs_cpu.rs`). On a
+/// machine shared with other work the wall time is mostly waiting for a
+/// core; the CPU time is what a frame cost.
+fn cpu_time_ms() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    let fields: Vec<&str> = stat[stat.rfind(')')? + 2..].split(' ').collect();
+    // Fields 14 and 15 (utime, stime); the slice starts at field 3.
+    let ticks: u64 = fields.get(11)?.parse::<u64>().ok()? + fields.get(12)?.parse::<u64>().ok()?;
+    Some(ticks as f64 * 10.0)
+}
+
+/// [`median_ms`] of `f`, and the process's CPU time per call (warm-up included).
+fn median_and_cpu_ms(mut f: impl FnMut()) -> (f64, f64) {
+    let runs = std::env::var("SHADEC_BENCH_RUNS").ok().and_then(|v| v.parse().ok()).unwrap_or(RUNS).max(1);
+    let before = cpu_time_ms();
+    let wall = median_ms(&mut f);
+    let cpu = cpu_time_ms().zip(before).map_or(f64::NAN, |(a, b)| (a - b) / (runs + 1) as f64);
+    (wall, cpu)
+}
+
 fn table() -> String {
     let mut out = String::new();
     let threads = rayon::current_num_threads();
@@ -188,7 +209,8 @@ criterion_group!(benches, criterion_sphere, criterion_plan_sphere);
 /// Issue 37: the plan sphere end to end at 512² and 1024² (or
 /// `SHADEC_BENCH_SIZES`), full against adaptive shading (8.5 %, spacing 16)
 /// in the same run, plain timer (median of `SHADEC_BENCH_RUNS`, default 7,
-/// after one warm-up), with the error of the adaptive frame against the
+/// after one warm-up) and the process's CPU time per frame (user + system
+/// of every thread over the warm-up and the runs), with the error of the adaptive frame against the
 /// full one. `SHADEC_BENCH_PLAN_ONLY=1` prints only this table.
 fn plan_sphere_table() {
     use shadec::driver::{compile, ForScene, PlanOptions};
@@ -212,25 +234,35 @@ fn plan_sphere_table() {
         "plan sphere (phong_lights.shd, wgsl plan, 4 passes, f32), {} threads",
         rayon::current_num_threads()
     );
-    println!("| size | full ms | adaptive ms | speed-up | shaded % | PSNR dB | max abs |");
-    println!("|---|---|---|---|---|---|---|");
+    println!("| size | full ms | adaptive ms | speed-up | full CPU ms | adaptive CPU ms | CPU speed-up | shaded % | PSNR dB | max abs |");
+    println!("|---|---|---|---|---|---|---|---|---|---|");
     for side in sizes {
         let full = renderer.render(Precision::F32, side, side, &mut |_, _| {}).unwrap();
         let adaptive =
             renderer.render_adaptive(Precision::F32, side, side, &settings, &mut |_, _| {}).unwrap();
-        let full_ms =
-            median_ms(|| drop(renderer.render(Precision::F32, side, side, &mut |_, _| {}).unwrap()));
-        let adaptive_ms = median_ms(|| {
-            drop(renderer.render_adaptive(Precision::F32, side, side, &settings, &mut |_, _| {}).unwrap())
-        });
-        let e = compare(&full.image, &adaptive.image);
-        let shaded = adaptive.adaptive.map_or(f64::NAN, |s| 100.0 * s.fraction_shaded());
-        println!(
-            "| {side}² | {full_ms:.1} | {adaptive_ms:.1} | {:.2}× | {shaded:.2} | {:.1} | {:.4} |",
+        let (full_ms, full_cpu) =
+            median_and_cpu_ms(|| drop(renderer.render(Precision::F32, side, side, &mut |_, _| {}).unwrap()));
+        // Each frame draws the same triangles over the same cleared depth, so
+        // a frame could take the last frame's visibility; "cold" forgets it
+        // first, as a frame of a moving camera would have to, "kept" does not.
+        for kept in [false, true] {
+            let (adaptive_ms, adaptive_cpu) = median_and_cpu_ms(|| {
+                if !kept {
+                    shadec::renderer::adaptive::forget_visibility();
+                }
+                drop(renderer.render_adaptive(Precision::F32, side, side, &settings, &mut |_, _| {}).unwrap())
+            });
+            let e = compare(&full.image, &adaptive.image);
+            let shaded = adaptive.adaptive.map_or(f64::NAN, |s| 100.0 * s.fraction_shaded());
+            println!(
+            "| {side}² {} | {full_ms:.1} | {adaptive_ms:.1} | {:.2}× | {full_cpu:.0} | {adaptive_cpu:.0} | {:.2}× | {shaded:.2} | {:.1} | {:.4} |",
+            if kept { "kept" } else { "cold" },
             full_ms / adaptive_ms,
+            full_cpu / adaptive_cpu,
             e.psnr,
             e.max_abs
         );
+        }
     }
 }
 

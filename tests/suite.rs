@@ -79,6 +79,7 @@ mod wgsl_snapshots;
 mod wgsl_texture_targets;
 
 mod adaptive_plan;
+mod adaptive_sum;
 mod alpha_test;
 mod chain_growth;
 mod planner_heldout;

@@ -37,11 +37,13 @@
 //! interpolated pixels cannot discard.
 
 mod lines;
+mod sum;
 mod visibility;
 mod write;
 
 use super::raster::{setup_pass, PassSetup};
-use super::{Framebuffer, Pass, RenderError};
+use super::{ColorFormat, Framebuffer, Pass, RenderError};
+pub use sum::draw_adaptive_sum;
 
 /// What counts as one surface for edge detection.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -183,14 +185,34 @@ pub fn draw_adaptive(
     check_adaptive(passes, settings)?;
     let (w, h) = (target.width() as usize, target.height() as usize);
     let (setups, offsets) = setup_passes(passes, w, h)?;
+    let drawn = draw_with(target, passes, (&setups, &offsets), &[], settings);
+    // Without followers nothing makes the draw give up.
+    drawn.ok_or_else(|| RenderError::Unsupported("internal: an adaptive draw gave up".into()))
+}
 
+/// The steps of an adaptive draw of `passes` (set up as `setups`, ids
+/// from `offsets`) and of the `followers` added to it ([`draw_adaptive_sum`]);
+/// `None`, with `target` untouched, where the followers cannot be fused.
+fn draw_with(
+    target: &mut Framebuffer,
+    passes: &[Pass],
+    (setups, offsets): (&[PassSetup], &[usize]),
+    followers: &[sum::Follower],
+    settings: &AdaptiveSettings,
+) -> Option<AdaptiveStats> {
+    let (w, h) = (target.width() as usize, target.height() as usize);
     // 1. Visibility, keys and edges: the last draw's where it drew the same.
     let shape = (settings.edges, settings.spacing as usize);
-    let vis = visibility::visibility_of(target, passes, &setups, &offsets, shape);
+    let vis = visibility::visibility_of(target, passes, setups, offsets, shape);
+    if !followers.is_empty() && !vis.repeatable {
+        return None;
+    }
     let ctx = Ctx {
         passes,
-        setups: &setups,
-        offsets: &offsets,
+        setups,
+        offsets,
+        followers,
+        format: target.format(),
         ids: &vis.ids,
         keys: &vis.keys,
         edges: &vis.edges,
@@ -226,10 +248,22 @@ pub fn draw_adaptive(
         ctx.refine(&mut color, &mut state, &mut stats);
     }
     stats.covered = vis.covered;
-
-    ctx.write_through(target, &vis.depth, &color, &state);
+    // A fused draw whose first pass dropped a fragment is not the passes' sum.
+    let fused = followers.is_empty() || stats.discarded == 0;
+    if fused {
+        ctx.write_through(target, &vis.depth, &color, &state);
+    }
     SCRATCH.with(|s| s.set(Some((color, state))));
-    Ok(stats)
+    fused.then_some(stats)
+}
+
+/// Forgets the visibility the last adaptive draw on this thread kept, so
+/// that the next draw rasterizes its own even where its inputs are the
+/// same: a benchmark of identical frames measures then what a frame of a
+/// moving camera costs (the kept visibility is the same bit for bit, only
+/// the time differs).
+pub fn forget_visibility() {
+    visibility::forget();
 }
 
 /// Refuses what adaptive shading cannot draw: a stencil test, a spacing of 0.
@@ -273,6 +307,11 @@ struct Ctx<'a> {
     passes: &'a [Pass<'a>],
     setups: &'a [PassSetup],
     offsets: &'a [usize],
+    /// Passes added to these at every pixel ([`draw_adaptive_sum`]); empty
+    /// for a draw of its own.
+    followers: &'a [sum::Follower<'a>],
+    /// The target's colour format, which the sum stores as it would each pass.
+    format: ColorFormat,
     ids: &'a [u32],
     /// Per pixel: the surface key ([`EdgeMode`]) and whether it is an edge.
     keys: &'a [u32],

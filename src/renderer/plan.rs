@@ -320,6 +320,24 @@ impl<'a> PlanRenderer<'a> {
         new_target(target, mode, format, frame, &mut pool)
     }
 
+    /// The image `name` pass `index` renders into, made (cleared) the
+    /// first time a pass renders into it.
+    fn target_named<'t>(
+        &self,
+        targets: &'t mut BTreeMap<String, Framebuffer>,
+        name: &str,
+        index: usize,
+        mode: Precision,
+        format: ColorFormat,
+        frame: (u32, u32),
+    ) -> Result<&'t mut Framebuffer, RenderError> {
+        if !targets.contains_key(name) {
+            let fb = self.new_target(&self.planned.setup(index).target, mode, format, frame)?;
+            targets.insert(name.to_string(), fb);
+        }
+        targets.get_mut(name).ok_or_else(|| lost(name))
+    }
+
     fn keep_images(&self, images: impl Iterator<Item = Framebuffer>) {
         let mut pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
         for fb in images {
@@ -377,7 +395,19 @@ impl<'a> PlanRenderer<'a> {
         let mut nonfinite = 0;
         let mut shading = Vec::with_capacity(plan.passes.len());
         let mut draws = Draws::new(adaptive, self.n_draws(objects.len()), progress);
+        let mut fused_until = 0;
         for (index, pass) in plan.passes.iter().enumerate() {
+            if index < fused_until {
+                continue;
+            }
+            if let Some(run) = adaptive.and_then(|_| self.fused_run(index)) {
+                let name = self.planned.setup(index).target.name.clone();
+                let target = self.target_named(&mut targets, &name, index, mode, format, (width, height))?;
+                let (passes, drawn) = (index..index + run, (&rendered, &objects[..]));
+                nonfinite += self.draw_fused(passes, mode, drawn, target, &mut draws, &mut shading)?;
+                (last_fb, fused_until) = (Some(name), index + run);
+                continue;
+            }
             let whole = PassInterface::of(self.planned, index);
             draws.vertex_program = super::vertex_program::PassProgram::of(self.planned, index);
             // A fat texel (seeds/001 (5), (15)): one draw per member, member i
@@ -390,9 +420,7 @@ impl<'a> PlanRenderer<'a> {
                 let pi = PassInterface { output: *output, ..whole.clone() };
                 let target = &self.planned.setup(index).target;
                 let name = if layer == 0 { target.name.clone() } else { format!("{}#{layer}", target.name) };
-                if let std::collections::btree_map::Entry::Vacant(e) = targets.entry(name.clone()) {
-                    e.insert(self.new_target(target, mode, format, (width, height))?);
-                }
+                self.target_named(&mut targets, &name, index, mode, format, (width, height))?;
                 let reads = framebuffer_reads(m, &pi, &targets);
                 // A copy of the target only for the passes that read it (its
                 // size or depth at the pixel): a copy per pass is megabytes.
@@ -419,16 +447,7 @@ impl<'a> PlanRenderer<'a> {
                 // A stencil update over `x′`: the scene's shadow volume.
                 let volume = crate::planner::shadow_volumes::for_pass(self.scene, self.assets, m, pass)
                     .map_err(RenderError::Unsupported)?;
-                let aspect = width as f32 / height as f32;
-                let volume = volume
-                    .as_ref()
-                    .map(|v| crate::scene::shadow_volume::bind_volume(self.scene, self.assets, v, aspect))
-                    .map(|v| {
-                        crate::scene::shadow_volume::offset_clip(
-                            v,
-                            self.rounding_bias.volume_offset(width, height),
-                        )
-                    });
+                let volume = volume.as_ref().map(|v| self.bound_volume(v, width, height));
                 let drawn = volume.as_ref().map_or(&objects[..], std::slice::from_ref);
                 self.draw_layer(pass, &pi, drawn, &stage, target, &mut draws)?;
                 nonfinite += stage.nonfinite.load(Ordering::Relaxed);
@@ -448,6 +467,14 @@ impl<'a> PlanRenderer<'a> {
         self.keep_images(targets.into_values());
         let Draws { stats, adaptive: adaptive_stats, .. } = draws;
         Ok(Frame { image, name, stats, time, nonfinite, adaptive: adaptive_stats, shading })
+    }
+
+    /// The scene's shadow volume `volume` bound like an object for a frame
+    /// of `width`×`height`, moved by the rounding bias's volume offset.
+    fn bound_volume<'v>(&self, volume: &'v crate::scene::Mesh, width: u32, height: u32) -> BoundObject<'v> {
+        let aspect = width as f32 / height as f32;
+        let bound = crate::scene::shadow_volume::bind_volume(self.scene, self.assets, volume, aspect);
+        crate::scene::shadow_volume::offset_clip(bound, self.rounding_bias.volume_offset(width, height))
     }
 
     /// What a pass rendered into texture or temporary `name` leaves for
@@ -569,6 +596,122 @@ impl<'a> PlanRenderer<'a> {
             }
         }
         Ok(())
+    }
+
+    /// How many passes from `index` on the adaptive frame draws as one
+    /// adaptive draw of their sum ([`super::adaptive::draw_adaptive_sum`]),
+    /// at least 2, or `None`: a mesh pass into the picture that replaces
+    /// the colour and writes depth, followed by mesh passes into the same
+    /// image over the same objects that add (`ADD`) and test `Equal`
+    /// without depth writes (a plan's passes per light, Kilgard 2000,
+    /// Section 5). None of them may read a framebuffer or its own target's
+    /// depth or size (it would see the sum half done), draw a shadow
+    /// volume, use the stencil or render the layers of a fat texel. The
+    /// draw checks the rest (same triangles, no ties, no discard of the
+    /// first pass) and says when it cannot fuse them.
+    fn fused_run(&self, index: usize) -> Option<usize> {
+        let (m, plan) = (&self.planned.module, &self.planned.plan);
+        let name = &self.planned.setup(index).target.name;
+        let fusable = |i: usize, first: bool| {
+            let pass = &plan.passes[i];
+            let pi = PassInterface::of(self.planned, i);
+            let (state, blend) = (pass.state, pass.state.blend);
+            let roots: Vec<Handle<Expr>> = std::iter::once(pi.output).chain(pi.condition).collect();
+            let reads_framebuffer =
+                m.reachable(&roots).into_iter().any(|h| matches!(m.exprs[h], Expr::FramebufferRead { .. }));
+            matches!(pass.geometry, Geometry::Mesh { .. })
+                && matches!(pass.target, RenderTarget::Framebuffer { .. })
+                && self.planned.setup(i).target.name == *name
+                && pass.objects == plan.passes[index].objects
+                && !matches!(m.exprs[pi.output], Expr::Bundle(_))
+                && !state.stencil.enabled
+                && !crate::planner::shadow_volumes::draws_volumes(m, pass)
+                && !reads_framebuffer
+                && !reads_own_target(m, &pi)
+                && pi.depth.is_none()
+                && if first {
+                    blend == super::BlendState::REPLACE && state.depth.write
+                } else {
+                    blend == super::BlendState::ADD && state.depth == super::DepthState::EQUAL_NO_WRITE
+                }
+        };
+        if !fusable(index, true) {
+            return None;
+        }
+        let run = 1 + (index + 1..plan.passes.len()).take_while(|&i| fusable(i, false)).count();
+        (run >= 2).then_some(run)
+    }
+
+    /// Draws passes `run` ([`PlanRenderer::fused_run`]) adaptively as one
+    /// draw of their sum, or one by one where the draw cannot fuse them;
+    /// returns the fragments whose value was not finite.
+    fn draw_fused(
+        &self,
+        run: std::ops::Range<usize>,
+        mode: Precision,
+        (rendered, objects): (&BTreeMap<String, Rendered>, &[BoundObject]),
+        target: &mut Framebuffer,
+        draws: &mut Draws,
+        shading: &mut Vec<PassShading>,
+    ) -> Result<u64, RenderError> {
+        let (m, plan) = (&self.planned.module, &self.planned.plan);
+        let settings = draws
+            .settings
+            .ok_or_else(|| RenderError::Unsupported("internal: a fused draw of a full frame".into()))?;
+        let mut stages = Vec::with_capacity(run.len());
+        for i in run.clone() {
+            let pass = &plan.passes[i];
+            let mode = if pass.baked && mode == Precision::Fixed9 { Precision::F32 } else { mode };
+            let (machine, how) = self.shading_of(mode, i);
+            shading.push(how);
+            let pi = PassInterface::of(self.planned, i);
+            let stage = FragmentProgram::new(
+                self,
+                mode,
+                &pi,
+                rendered,
+                Default::default(),
+                None,
+                machine,
+                objects.first(),
+            )
+            .map_err(|e| e.in_pass(i))?;
+            stages.push((pi, super::vertex_program::PassProgram::of(self.planned, i), stage));
+        }
+        let keep = &plan.passes[run.start].objects;
+        let drawn: Vec<&BoundObject> = (objects.iter().enumerate())
+            .filter(|(oi, _)| keep.as_ref().is_none_or(|keep| keep.contains(oi)))
+            .map(|(_, o)| o)
+            .collect();
+        let vertices: Vec<Vec<MeshVertices>> = (stages.iter())
+            .map(|(pi, program, _)| {
+                drawn.iter().map(|o| MeshVertices::new(m, o, pi, &self.uniforms, program.as_ref())).collect()
+            })
+            .collect();
+        let passes: Vec<Vec<RasterPass>> = (run.clone().zip(&stages).zip(&vertices))
+            .map(|((i, (_, _, stage)), vs)| {
+                let state = plan.passes[i].state;
+                (drawn.iter().zip(vs))
+                    .map(|(o, vertex)| RasterPass {
+                        triangles: &o.mesh.triangles,
+                        vertex,
+                        fragment: stage,
+                        state,
+                    })
+                    .collect()
+            })
+            .collect();
+        let members: Vec<&[RasterPass]> = passes.iter().map(Vec::as_slice).collect();
+        let fused = super::adaptive::draw_adaptive_sum(target, &members, settings)?;
+        let each = match fused {
+            Some(s) => vec![s],
+            None => {
+                members.iter().map(|p| super::draw_adaptive(target, p, settings)).collect::<Result<_, _>>()?
+            }
+        };
+        draws.adaptive = draws.adaptive.map(|a| each.into_iter().fold(a, |a, s| a + s));
+        draws.advance(run.len() * objects.len());
+        Ok(stages.iter().map(|(_, _, s)| s.nonfinite.load(Ordering::Relaxed)).sum())
     }
 
     /// The register-combiner setup of pass `index` for `fixed9`: generated

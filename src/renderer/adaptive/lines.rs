@@ -14,8 +14,9 @@ use rayon::prelude::*;
 
 use super::visibility::{EMPTY, PLAIN};
 use super::{AdaptiveStats, Ctx, ADAPTIVE, DISCARD_BIT, EDGE, INTERPOLATED, NONE, REGULAR, UNKNOWN};
+use crate::renderer::raster::PassSetup;
 use crate::renderer::tile::{fragment_at, interpolate};
-use crate::renderer::{FragmentResult, BATCH};
+use crate::renderer::{Fragment, FragmentResult, BATCH};
 
 /// One line of samples inside a buffer: position `i` is the buffer's entry
 /// `base + i * stride` and the frame's pixel `pixel0 + i * pixel_stride`.
@@ -74,41 +75,52 @@ fn difference(a: [f32; 4], b: [f32; 4]) -> f32 {
 
 impl Ctx<'_> {
     /// Shades the visible primitive at each of `pixels` (frame indices),
-    /// in batches of at most [`BATCH`] fragments of one pass.
+    /// in batches of at most [`BATCH`] fragments of one pass; in a fused
+    /// draw each batch is then shaded by every follower and added
+    /// ([`Ctx::add_followers`]).
     pub(super) fn shade_many(&self, pixels: &[usize], out: &mut [[f32; 4]], results: &mut [FragmentResult]) {
-        let w = self.w;
         let mut fragments = Vec::with_capacity(BATCH);
         let mut varyings = Vec::new();
         let mut start = 0;
         while start < pixels.len() {
             let p = self.pass_of(self.ids[pixels[start]]);
-            let setup = &self.setups[p];
-            let n = setup.n_varyings;
-            fragments.clear();
-            varyings.clear();
-            let mut end = start;
-            while end < pixels.len() && end - start < BATCH {
-                let i = pixels[end];
-                let id = self.ids[i];
-                if id < self.offsets[p] as u32 || id >= self.offsets[p + 1] as u32 {
-                    break;
-                }
-                let tri = &setup.tris[id as usize - self.offsets[p]];
-                let (vary, gradients) = setup.inputs(tri);
-                let (fragment, _, weights) = fragment_at(tri, (i % w) as i32, (i / w) as i32, gradients);
-                let at = varyings.len();
-                varyings.resize(at + n, 0.0);
-                interpolate(vary, n, weights, &mut varyings[at..]);
-                fragments.push(fragment);
+            let (lo, hi) = (self.offsets[p] as u32, self.offsets[p + 1] as u32);
+            let mut end = start + 1;
+            while end < pixels.len() && end - start < BATCH && (lo..hi).contains(&self.ids[pixels[end]]) {
                 end += 1;
             }
-            self.passes[p].fragment.shade_batch(
-                &fragments,
-                &varyings,
-                &mut out[start..end],
-                &mut results[start..end],
-            );
+            let batch = &pixels[start..end];
+            self.gather(&self.setups[p], p, batch, &mut fragments, &mut varyings);
+            let (out, results) = (&mut out[start..end], &mut results[start..end]);
+            self.passes[p].fragment.shade_batch(&fragments, &varyings, out, results);
+            if !self.followers.is_empty() {
+                self.add_followers(p, batch, out, &mut fragments, &mut varyings);
+            }
             start = end;
+        }
+    }
+
+    /// The fragments and interpolated varyings of pass `p` (set up as
+    /// `setup`) at `pixels`, all of which show a triangle of that pass.
+    pub(super) fn gather<'s>(
+        &self,
+        setup: &'s PassSetup,
+        p: usize,
+        pixels: &[usize],
+        fragments: &mut Vec<Fragment<'s>>,
+        varyings: &mut Vec<f32>,
+    ) {
+        let (w, n) = (self.w, setup.n_varyings);
+        fragments.clear();
+        varyings.clear();
+        for &i in pixels {
+            let tri = &setup.tris[self.ids[i] as usize - self.offsets[p]];
+            let (vary, gradients) = setup.inputs(tri);
+            let (fragment, _, weights) = fragment_at(tri, (i % w) as i32, (i / w) as i32, gradients);
+            let at = varyings.len();
+            varyings.resize(at + n, 0.0);
+            interpolate(vary, n, weights, &mut varyings[at..]);
+            fragments.push(fragment);
         }
     }
 

@@ -83,6 +83,11 @@ thread_local! {
     static LAST: std::cell::Cell<Option<(Inputs, Arc<Visibility>)>> = const { std::cell::Cell::new(None) };
 }
 
+/// Drops the visibility kept on this thread ([`super::forget_visibility`]).
+pub(super) fn forget() {
+    LAST.with(|l| drop(l.take()));
+}
+
 /// The visibility of `passes` (set up as `setups`, triangle ids starting
 /// at `offsets`) over `target`: the last draw's on this thread where its
 /// inputs are the same, else computed and kept for the next draw.
@@ -134,6 +139,12 @@ pub(super) fn visibility_of(
     let inputs = Inputs { size, edges, spacing, depth_states, offsets: offsets.to_vec(), tris, start_depth };
     LAST.with(|l| l.set(Some((inputs, vis.clone()))));
     vis
+}
+
+/// Whether two draws' setups have, pass by pass, the same triangles in
+/// everything scan conversion and the depth test read (bit for bit).
+pub(super) fn same_setups(a: &[PassSetup], b: &[PassSetup]) -> bool {
+    a.len() == b.len() && a.iter().zip(b).all(|(a, b)| same_triangles(&a.tris, std::slice::from_ref(b)))
 }
 
 /// Whether `kept` are, in order, the triangles of `setups`, the same in
