@@ -70,8 +70,9 @@ use crate::textures::Filter;
 pub const TIES: [(f64, f32, f64, f32); 3] =
     [(1e-3, 1e-2, 8.0, 16.0), (1e-3, 5e-2, 64.0, 256.0), (1e-3, 0.2, 256.0, 4096.0)];
 /// How far a shadow volume's vertices are moved on the screen, in 1/256
-/// pixel (±, after [`TIES`]): half of the 1/16 pixel Vulkan lets an
-/// implementation snap them to.
+/// pixel (after [`TIES`], along each axis and each diagonal, either way:
+/// the corners and edge midpoints of the snapping box): half of the 1/16
+/// pixel Vulkan lets an implementation snap them to.
 pub const VOLUME_SUBPIXELS: f32 = 8.0;
 
 /// A file's name and its text, built in.
@@ -499,17 +500,17 @@ fn compare_pictures(
                     texel_quanta: sign as f32 * quanta,
                     comparison_ulps: sign * ulps,
                     volume_depth_steps: sign as f32 * volume,
-                    volume_subpixels: 0.0,
+                    volume_subpixels: [0.0; 2],
                 });
                 hull.add(&render(r)?);
             }
         }
         if volumes && hull.beyond(&gpu, mask) > 0 {
-            for sign in [1.0, -1.0] {
-                r.set_rounding_bias(RoundingBias {
-                    volume_subpixels: sign * VOLUME_SUBPIXELS,
-                    ..Default::default()
-                });
+            // A shift along one diagonal alone leaves the ties on edges
+            // parallel to it where they were.
+            let v = VOLUME_SUBPIXELS;
+            for shift in [[v, 0.0], [-v, 0.0], [0.0, v], [0.0, -v], [v, v], [-v, -v], [v, -v], [-v, v]] {
+                r.set_rounding_bias(RoundingBias { volume_subpixels: shift, ..Default::default() });
                 hull.add(&render(r)?);
             }
         }

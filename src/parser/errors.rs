@@ -221,7 +221,12 @@ fn token_at(text: &str, pos: usize) -> &str {
     let first = rest.chars().next().unwrap_or(' ');
     if first.is_alphanumeric() || first == '_' {
         let end = rest.find(|c: char| !(c.is_alphanumeric() || c == '_' || c == '\'')).unwrap_or(rest.len());
-        &rest[..end.min(64)]
+        // At most 64 bytes, cut at a character's start (`δ` is a letter of two).
+        let mut cut = end.min(64);
+        while !rest.is_char_boundary(cut) {
+            cut -= 1;
+        }
+        &rest[..cut]
     } else {
         &rest[..first.len_utf8()]
     }
@@ -349,5 +354,21 @@ fn help_for(found: &str, expected: &[&str]) -> String {
             "the expression ends here: add an operator to continue it, or `;` to end the statement".into()
         }
         _ => "see docs/language.md for the grammar, with an example of every construct".into(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::token_at;
+
+    /// A long word is cut at 64 bytes, never inside a character: the
+    /// language server's fuzz target found `δyyy…δyyy` (a letter of two
+    /// bytes at bytes 63-64) ending a check with a panic.
+    #[test]
+    fn a_long_word_is_cut_at_a_character_boundary() {
+        let word = format!("δ{}δ{}", "y".repeat(61), "y".repeat(13));
+        assert_eq!(token_at(&word, 0), format!("δ{}", "y".repeat(61)));
+        let ascii = "a".repeat(100);
+        assert_eq!(token_at(&ascii, 0).len(), 64);
     }
 }

@@ -171,15 +171,15 @@ pub struct RoundingBias {
     /// are moved on the screen. Vulkan lets an implementation snap them to
     /// 1/16 pixel (`subPixelPrecisionBits` ≥ 4), so which volume triangle
     /// covers a pixel centre near its edge may differ between two of them.
-    pub volume_subpixels: f32,
+    pub volume_subpixels: [f32; 2],
 }
 
 impl RoundingBias {
     /// The shadow volumes' offset in normalized device coordinates at
     /// `width`×`height` (a pixel is 2/width of them).
     fn volume_offset(&self, width: u32, height: u32) -> Vec3 {
-        let px = self.volume_subpixels / 256.0;
-        Vec3::new(2.0 * px / width as f32, 2.0 * px / height as f32, self.volume_depth_steps * 2f32.powi(-24))
+        let [x, y] = self.volume_subpixels.map(|p| p / 256.0);
+        Vec3::new(2.0 * x / width as f32, 2.0 * y / height as f32, self.volume_depth_steps * 2f32.powi(-24))
     }
 }
 
