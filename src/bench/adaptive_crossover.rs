@@ -115,6 +115,8 @@ pub fn sweep(
         let settings = AdaptiveSettings::new(SPACING, THRESHOLD, EdgeMode::Pass);
         let render = |adaptive: bool| {
             let frame = if adaptive {
+                // Each frame rasterizes its own visibility, as one of a moving camera would.
+                crate::renderer::adaptive::forget_visibility();
                 renderer.render_adaptive(Precision::F32, size, size, &settings, &mut |_, _| {})
             } else {
                 renderer.render(Precision::F32, size, size, &mut |_, _| {})

@@ -124,6 +124,8 @@ pub fn cpu_row(
         runs,
         || renderer.render(Precision::F32, w, h, &mut |_, _| {}).map_err(|e| e.to_string()),
         || {
+            // Each frame rasterizes its own visibility, as one of a moving camera would.
+            crate::renderer::adaptive::forget_visibility();
             renderer
                 .render_adaptive(Precision::F32, w, h, &settings, &mut |_, _| {})
                 .map_err(|e| e.to_string())
