@@ -236,9 +236,9 @@ fn filtered<const N: usize>(level: &Level, f: &Footprints<N>, lane: usize) -> [f
 /// model's choices. Each lane's level (or two, trilinear), coordinates,
 /// weights and texel indices are computed as fixed-length loops (vector
 /// code); then a loop over the lanes fetches each footprint's four texels
-/// and filters them as one 4-wide vector. Returns `false`, touching
-/// nothing, for a lookup it does not cover (nearest filtering, another
-/// latitude).
+/// and filters them as one 4-wide vector. A lookup the vector code does
+/// not cover (nearest filtering, another latitude, a texture [`Levels`]
+/// does not cover) runs lane by lane through the one-lane unit.
 #[inline(always)]
 #[allow(clippy::too_many_arguments, reason = "the lanes of one lookup and its one texture's state")]
 pub fn sample_2d_lanes<const N: usize>(
@@ -250,13 +250,10 @@ pub fn sample_2d_lanes<const N: usize>(
     filter: Filter,
     latitude: unit::Latitude,
     out: &mut [[f32; N]; 4],
-) -> bool {
-    if filter == Filter::Nearest || latitude != unit::Latitude::MODEL {
-        return false;
-    }
-    let Some(s) = Levels::of(t) else {
-        sample_2d_lane_by_lane(t, u, v, lod, n, filter, out);
-        return true;
+) {
+    let covered = filter != Filter::Nearest && latitude == unit::Latitude::MODEL;
+    let Some(s) = Levels::of(t).filter(|_| covered) else {
+        return sample_2d_lane_by_lane(t, u, v, lod, n, filter, latitude, out);
     };
     let last = (t.levels.len() - 1) as f32;
     // λ as `unit::sample_2d_with` takes it (the model's choice adds nothing).
@@ -276,7 +273,7 @@ pub fn sample_2d_lanes<const N: usize>(
             let texel = filtered(&t.levels[level[lane] as usize], &f, lane);
             (0..4).for_each(|k| out[k][lane] = texel[k]);
         }
-        return true;
+        return;
     }
     let (level0, level1, single, fraction) = trilinear_levels(lod, last);
     let (fa, fb) = (footprints(&s, &level0, u, v), footprints(&s, &level1, u, v));
@@ -296,7 +293,6 @@ pub fn sample_2d_lanes<const N: usize>(
         };
         (0..4).for_each(|k| out[k][lane] = texel[k]);
     }
-    true
 }
 
 /// Trilinear filtering's levels per lane: ⌊λ⌋ and ⌊λ⌋ + 1 blended by
@@ -323,8 +319,9 @@ fn trilinear_levels<const N: usize>(lod: &[f32; N], last: f32) -> ([u32; N], [u3
     (level0, level1, single, fraction)
 }
 
-/// [`sample_2d_lanes`] one lane at a time, for the textures [`Levels`]
-/// does not cover.
+/// [`sample_2d_lanes`] one lane at a time, for the lookups its vector
+/// code does not cover.
+#[allow(clippy::too_many_arguments, reason = "the lanes of one lookup and its one texture's state")]
 fn sample_2d_lane_by_lane<const N: usize>(
     t: &Texture2D,
     u: &[f32; N],
@@ -332,18 +329,12 @@ fn sample_2d_lane_by_lane<const N: usize>(
     lod: &[f32; N],
     n: usize,
     filter: Filter,
+    latitude: unit::Latitude,
     out: &mut [[f32; N]; 4],
 ) {
     for lane in 0..n {
-        let texel = unit::sample_2d_with(
-            t,
-            u[lane],
-            v[lane],
-            filter,
-            lod[lane],
-            unit::Arithmetic::Float,
-            unit::Latitude::MODEL,
-        );
+        let texel =
+            unit::sample_2d_with(t, u[lane], v[lane], filter, lod[lane], unit::Arithmetic::Float, latitude);
         (0..4).for_each(|k| out[k][lane] = texel[k]);
     }
 }
@@ -430,7 +421,7 @@ mod tests {
                 (lod[4], lod[5], lod[6], lod[7], lod[8]) = (f32::INFINITY, 1.0, 2.5, 0.0, -0.0);
                 (u[9], v[10], v[11]) = (-3e9, f32::NAN, 7.0e8);
                 let mut out = [[0.0f32; 32]; 4];
-                assert!(sample_2d_lanes(&t, &u, &v, &lod, 32, filter, unit::Latitude::MODEL, &mut out));
+                sample_2d_lanes(&t, &u, &v, &lod, 32, filter, unit::Latitude::MODEL, &mut out);
                 for lane in 0..32 {
                     let one = unit::sample_2d_with(
                         &t,

@@ -403,20 +403,7 @@ impl FragmentProgram<'_> {
                         lod[lane] = unit::quad_lod(t.width(), t.height(), [du[0], dv[0]], [du[1], dv[1]]);
                     }
                 }
-                if !texture_lanes::sample_2d_lanes(t, c0, v, &lod, n, filter, self.latitude, &mut texel) {
-                    for lane in 0..n {
-                        let one = unit::sample_2d_with(
-                            t,
-                            c0[lane],
-                            v[lane],
-                            filter,
-                            lod[lane],
-                            unit::Arithmetic::Float,
-                            self.latitude,
-                        );
-                        (0..4).for_each(|k| texel[k][lane] = one[k]);
-                    }
-                }
+                texture_lanes::sample_2d_lanes(t, c0, v, &lod, n, filter, self.latitude, &mut texel);
             }
             Texture::Cube(t) => {
                 let weights = self.latitude.weights;
