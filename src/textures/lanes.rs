@@ -237,7 +237,7 @@ fn filtered<const N: usize>(level: &Level, f: &Footprints<N>, lane: usize) -> [f
 /// weights and texel indices are computed as fixed-length loops (vector
 /// code); then a loop over the lanes fetches each footprint's four texels
 /// and filters them as one 4-wide vector. A lookup the vector code does
-/// not cover (nearest filtering, another latitude, a texture [`Levels`]
+/// not cover (nearest filtering, another latitude, a texture the level table
 /// does not cover) runs lane by lane through the one-lane unit.
 #[inline(always)]
 #[allow(clippy::too_many_arguments, reason = "the lanes of one lookup and its one texture's state")]
