@@ -772,3 +772,95 @@ fn interpolants_summed_merge_back_into_one_delta() {
         assert_eq!(a, b, "{target}: as written {a}, multiplied out {b}\n{original}\n{multiplied}");
     }
 }
+
+// ---- the property's counterexamples past its CI count ----------------------
+
+/// `c` written `how`, as written and multiplied out: both plan on
+/// `target` (each pass realized), and where `render` both render within
+/// the tolerance of the program's meaning.
+fn both_plan(c: &Colour, how: Written, target: &str, render: bool) {
+    let decls = declarations(c);
+    let original = format!("{decls}{}", how.statement(&written(c)));
+    let multiplied = format!("{decls}{}", how.statement(&expanded(c)));
+    for source in [&original, &multiplied] {
+        if render {
+            plans_and_renders_its_meaning(source, target, &scene("kilgard_torus.ron"));
+        } else {
+            assert!(verdict(source, target), "refused on {target}:\n{source}");
+        }
+    }
+}
+
+fn add(a: Colour, b: Colour) -> Colour {
+    Colour::Add(Box::new(a), Box::new(b))
+}
+
+/// `(T0 + T1)·mix(T0, T1, a)` multiplied out is four products in which
+/// `T0` selects three terms: grouped back only around the rest of a term
+/// (`algebra::product_by_groups`), and only with `C`, which every term
+/// shares, taken out first. Refused multiplied out on geforce3 before.
+#[test]
+fn a_product_whose_selectors_recur_in_its_cofactors_is_grouped_back() {
+    let t = |i| Colour::Texture(i);
+    let c = mul(add(t(0), t(1)), lerp(t(0), t(1), None));
+    both_plan(&c, Written::Multiplied, "geforce3", true);
+}
+
+/// A shader summing three lights, scaled: each channel stays below 1
+/// (`0.6·(0.9 + 0.3 + 0.4)` = 0.96) where the hull over the channels
+/// gave 1.62 (`ir::valid`'s channel ranges), and a constant that would
+/// take an interpolant past 1 stays a combiner's scale. Refused as
+/// written on geforce256 before, while multiplied out it planned.
+#[test]
+fn lights_summed_in_one_shader_are_bounded_channel_by_channel() {
+    let t = || Colour::Texture(0);
+    let scaled = |c: Colour| mul(Colour::Number(20), c);
+    both_plan(&scaled(mul(mul(Colour::Lights(7, 6), t()), t())), Written::Replace, "geforce256", true);
+    both_plan(&scaled(mul(Colour::Lights(7, 8), t())), Written::Replace, "geforce256", true);
+}
+
+/// `T0 + T0·(1 − a) + δl·a` is `T0 + lerp(T0, δl, a)`, in [0, 2] where its
+/// terms' bounds add to more: the pair read back as a lerp
+/// (`algebra::lerps_recovered`). Refused multiplied out on geforce256 before.
+#[test]
+fn a_lerp_among_other_terms_is_read_back_as_a_lerp() {
+    let t = || Colour::Texture(0);
+    let c = add(t(), lerp(t(), Colour::Lights(1, 3), None));
+    both_plan(&c, Written::Multiplied, "geforce256", true);
+}
+
+/// `T0⁴·(δg + δg)` multiplied out with like terms collected is
+/// `2·T0⁴·δg`, whose partial products leave [0, 1] in a temporary; kept
+/// apart, each `T0⁴·δg` fits. Refused as written on geforce256 before.
+#[test]
+fn like_terms_are_also_kept_apart() {
+    let t = || Colour::Texture(0);
+    let c = mul(mul(mul(mul(t(), t()), t()), t()), add(Colour::Channel(1), Colour::Channel(1)));
+    both_plan(&c, Written::Multiplied, "geforce256", false);
+}
+
+/// `C ← T4; C ← C·(T0 + T1)²` fuses into one pass on multitexture; its
+/// expansion fuses too once the fused value is tried in its forms
+/// (`rewrite::fused_rewritten`), grouped back into `T4·(T0 + T1)²`.
+#[test]
+fn statements_fuse_in_an_equivalent_form() {
+    let t = |i| Colour::Texture(i);
+    let c = mul(add(t(0), t(1)), add(t(0), t(1)));
+    both_plan(&c, Written::Multiplied, "multitexture", true);
+    let decls = declarations(&c);
+    let planned =
+        compile(&format!("{decls}{}", Written::Multiplied.statement(&expanded(&c))), "multitexture").unwrap();
+    assert_eq!(planned.plan.passes.len(), 1, "{}", reasons(&planned));
+    assert!(reasons(&planned).contains("fused"), "{}", reasons(&planned));
+}
+
+/// `T0 + 0.3·δl0 + (δ pair).r`: the Gouraud rule takes the interpolated
+/// terms as one part however the sum is parenthesized
+/// (`lowering::per_vertex::gouraud`), as it does for
+/// `T0 + (δ lights + (δ pair).r)`. Refused multiplied out on geforce256
+/// before; both plan with the measured `per_vertex` approximation.
+#[test]
+fn gouraud_takes_the_interpolated_terms_of_a_sum_together() {
+    let c = add(Colour::Texture(0), add(Colour::Lights(1, 3), Colour::Channel(0)));
+    both_plan(&c, Written::Multiplied, "geforce256", false);
+}

@@ -293,7 +293,11 @@ fn swizzle(
     if let Some(&i) = pattern[..len as usize].iter().find(|&&i| i as usize >= v.ty.width()) {
         return Err(component_missing(v.ty, i as usize));
     }
-    out(ty, v.freq, v.interval)
+    // The channels read, not the hull of all (`(0.8·d, 0.6·d′, 0).g` is
+    // in [0, 0.6]).
+    let c = channels_of(m, value, CHANNEL_DEPTH);
+    let read = pattern[..len as usize].iter().map(|&i| c[(i as usize).min(3)]).reduce(hull);
+    out(ty, v.freq, read.unwrap_or(v.interval))
 }
 
 /// A swizzle asks for component `i` (0-based) of `ty`, which has fewer:
@@ -552,9 +556,73 @@ fn refine(m: &Module, op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr>, info: 
         {
             Interval::SIGNED
         }
+        BinaryOp::Add | BinaryOp::Sub | BinaryOp::Mul if matches!(info.ty, Ty::Rgb | Ty::Rgba | Ty::Vec3) => {
+            let c = channels(m, op, lhs, rhs, CHANNEL_DEPTH);
+            let hull = c[..info.ty.width()].iter().copied().reduce(hull).unwrap_or(info.interval);
+            iv(hull.lo.max(info.interval.lo), hull.hi.min(info.interval.hi))
+        }
         _ => return info,
     };
     ExprInfo { interval, ..info }
+}
+
+/// How deep [`channels`] looks below a node: a colour's channels are
+/// usually fixed a few operations down (a constant colour times a
+/// cosine), and the walk must stay cheap on every node appended.
+const CHANNEL_DEPTH: u32 = 4;
+
+/// The range of each channel of `lhs op rhs`: the hull over the channels
+/// loses what they differ in — `(0.9, 0.4, 0.3)·d + (0.3, 0.9, 0.4)·d′`
+/// is at most 1.3 in each channel, where the hulls give 1.8 — and a sum
+/// of lights in one shader (GL's per-vertex lighting) is refused for a
+/// bound it never reaches.
+fn channels(m: &Module, op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr>, depth: u32) -> [Interval; 4] {
+    let (a, b) = (channels_of(m, lhs, depth), channels_of(m, rhs, depth));
+    std::array::from_fn(|i| match op {
+        BinaryOp::Add => add(a[i], b[i]),
+        BinaryOp::Sub => add(a[i], neg(b[i])),
+        _ => mul(a[i], b[i]),
+    })
+}
+
+/// The range of each channel of `h` (a scalar's in all four), looking
+/// `depth` operations down; the node's own interval where it stops.
+fn channels_of(m: &Module, h: Handle<Expr>, depth: u32) -> [Interval; 4] {
+    let info = m.info(h);
+    let splat = [info.interval; 4];
+    if depth == 0 || info.ty.width() == 1 {
+        return splat;
+    }
+    let c = match &m.exprs[h] {
+        Expr::Constant(c) => std::array::from_fn(|i| Interval::point(c.components[i])),
+        Expr::Interpolate { value, .. } => channels_of(m, *value, depth - 1),
+        Expr::Binary { op: op @ (BinaryOp::Add | BinaryOp::Sub | BinaryOp::Mul), lhs, rhs } => {
+            channels(m, *op, *lhs, *rhs, depth - 1)
+        }
+        Expr::Convert { value, to: Ty::Rgba } if m.info(*value).ty == Ty::Rgb => {
+            let c = channels_of(m, *value, depth - 1);
+            [c[0], c[1], c[2], Interval::point(1.0)]
+        }
+        Expr::Swizzle { value, pattern, .. } => {
+            let c = channels_of(m, *value, depth - 1);
+            std::array::from_fn(|i| c[(pattern[i] as usize).min(3)])
+        }
+        Expr::Compose { components, .. } => {
+            let mut out = splat;
+            let mut i = 0;
+            for part in components {
+                let w = m.info(*part).ty.width();
+                let c = channels_of(m, *part, depth - 1);
+                let n = w.min(4 - i.min(4));
+                out[i.min(4)..i.min(4) + n].copy_from_slice(&c[..n]);
+                i += w;
+            }
+            out
+        }
+        _ => return splat,
+    };
+    // Never wider than the node's own range.
+    c.map(|x| iv(x.lo.max(info.interval.lo), x.hi.min(info.interval.hi)))
 }
 
 /// Whether `step` is `½w(1 − w·w)`: the three factors in any order and
@@ -811,6 +879,23 @@ mod tests {
         let other = statement_range(&format!("{decl}{v}C δπx ← rgb(w + 0.5 * w * (1 - w·(δ V s x)));\n"));
         assert!(other.hi > 1.0, "{other:?}");
         assert!(range("w + 0.6 * w * (1 - w·w)").hi > 1.0);
+    }
+
+    #[test]
+    fn coloured_lights_summed_are_bounded_channel_by_channel() {
+        let decl = "vector N : normal;\nvector L0 : light(0);\nvector L1 : light(1);\n";
+        let lights = "(0.9, 0.4, 0.3) * max(0, N·L0) + (0.3, 0.9, 0.4) * max(0, N·L1)";
+        let sum = statement_range(&format!("{decl}shader l : s → c = {lights};\nC δπx ← δ l s x;\n"));
+        // 0.9 + 0.3 in red and green, 0.7 in blue: not the hulls' 0.9 + 0.9.
+        assert!((sum.hi - 1.3).abs() < 1e-9 && sum.lo == 0.0, "{sum:?}");
+        let scaled =
+            statement_range(&format!("{decl}shader l : s → c = 0.6 * ({lights});\nC δπx ← δ l s x;\n"));
+        assert!((scaled.hi - 0.78).abs() < 1e-9, "{scaled:?}");
+        // One channel read off a tuple: that channel's range.
+        let g = statement_range(&format!(
+            "{decl}shader p : s → c = (0.8 * max(0, N·L0), 0.6 * max(0, N·L1), 0);\nC δπx ← (δ p s x).g;\n"
+        ));
+        assert!((g.hi - 0.6).abs() < 1e-9, "{g:?}");
     }
 
     #[test]

@@ -10,7 +10,7 @@
 //! a GeForce 256 can do without texture shaders.
 
 use super::Rewriter;
-use crate::ir::{Expr, Handle, MathFunction, Module};
+use crate::ir::{BinaryOp, Expr, Handle, MathFunction, Module};
 use crate::parser::ast::TextureFormat;
 use crate::pipeline::ApproximationCost;
 use crate::span::Span;
@@ -104,6 +104,57 @@ pub fn apply(r: &mut Rewriter, x: Handle<Expr>, what: &str, span: Span) -> Optio
 /// resort when no per-fragment rule makes a statement plan. Lookups,
 /// framebuffer reads and the pixel stay per fragment, and so do the parts
 /// of their coordinates that are interpolated values already.
+///
+/// The terms of a sum that can be computed per vertex are one part
+/// however the sum is parenthesized (`T0 + δa + δb` is `T0 + δ(a + b)`,
+/// as `T0 + (δa + δb)` is): addition is associative, and the rule's
+/// verdict should not depend on how the sum was written.
 pub fn gouraud(r: &mut Rewriter, value: Handle<Expr>) -> Handle<Expr> {
+    let value = vertex_terms_grouped(&mut r.m, value);
     r.top_down(value, &mut |r, h| apply(r, h, "this part of the statement", r.m.span(h)))
+}
+
+/// `h` with each sum's per-sample terms that [`at_vertex`] can compute
+/// gathered into one sum of their own, after the other terms.
+fn vertex_terms_grouped(m: &mut Module, h: Handle<Expr>) -> Handle<Expr> {
+    let mut done: std::collections::HashMap<Handle<Expr>, Handle<Expr>> = std::collections::HashMap::new();
+    for n in m.reachable(&[h]) {
+        let e = m.exprs[n].map_operands(|o| *done.get(&o).unwrap_or(&o));
+        let rebuilt = if e == m.exprs[n] { n } else { m.intern(e, m.span(n)).unwrap_or(n) };
+        let grouped = match m.exprs[rebuilt] {
+            Expr::Binary { op: BinaryOp::Add, .. } => regrouped(m, rebuilt),
+            _ => None,
+        };
+        done.insert(n, grouped.unwrap_or(rebuilt));
+    }
+    done.get(&h).copied().unwrap_or(h)
+}
+
+/// The sum at `h` as (its other terms) + (its terms computable per
+/// vertex), where at least two are computable and one is not; `None`
+/// else or when ill-typed.
+fn regrouped(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
+    let mut terms = Vec::new();
+    let mut stack = vec![h];
+    while let Some(x) = stack.pop() {
+        match m.exprs[x] {
+            Expr::Binary { op: BinaryOp::Add, lhs, rhs } => stack.extend([rhs, lhs]),
+            _ => terms.push(x),
+        }
+    }
+    let (vertex, others): (Vec<_>, Vec<_>) =
+        terms.into_iter().partition(|t| m.info(*t).freq.is_sample() && at_vertex(m, *t).is_some());
+    if vertex.len() < 2 || others.is_empty() {
+        return None;
+    }
+    let span = m.span(h);
+    let sum = |m: &mut Module, terms: &[Handle<Expr>]| -> Option<Handle<Expr>> {
+        let mut s = terms[0];
+        for t in &terms[1..] {
+            s = m.intern(Expr::Binary { op: BinaryOp::Add, lhs: s, rhs: *t }, span).ok()?;
+        }
+        Some(s)
+    };
+    let (a, b) = (sum(m, &others)?, sum(m, &vertex)?);
+    m.intern(Expr::Binary { op: BinaryOp::Add, lhs: a, rhs: b }, span).ok()
 }

@@ -68,16 +68,13 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
     let base = canon.unwrap_or(h);
     let expanded = multiply_out(m, base, max_terms);
     push(&mut out, expanded, "multiplied out");
-    for nth in 0..3 {
-        let factored = factor_nth(m, expanded.unwrap_or(base), nth);
-        push(&mut out, factored, "with a common factor taken out");
+    // Like terms kept apart too: `T0·T0 + T0·T1 + T1·T0 + T1·T1` groups
+    // back into `(T0 + T1)²`, its collected `T0² + 2·T0·T1 + T1²` does not.
+    let apart = multiplied_out(m, base, max_terms, false).filter(|a| Some(*a) != expanded);
+    push(&mut out, apart, "multiplied out");
+    for sum in [expanded.unwrap_or(base)].into_iter().chain(apart) {
+        factored_forms(m, sum, &mut |v, what| push(&mut out, v, what));
     }
-    for distribute_common in [false, true] {
-        let product = product_of_sums(m, expanded.unwrap_or(base), distribute_common);
-        push(&mut out, product, "factored into a product of sums");
-    }
-    let grouped = product_by_groups(m, expanded.unwrap_or(base));
-    push(&mut out, grouped, "factored into a product of sums");
     // Each form so far (and the value) with its sums of interpolants
     // merged back into one δ where an 8-bit interpolant holds the sum.
     let merged: Vec<Option<Handle<Expr>>> =
@@ -86,6 +83,22 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
         push(&mut out, v, "with sums of interpolants merged into one δ");
     }
     out
+}
+
+/// The factored forms of a multiplied-out `sum`, each given to `push`.
+fn factored_forms(
+    m: &mut Module,
+    sum: Handle<Expr>,
+    push: &mut dyn FnMut(Option<Handle<Expr>>, &'static str),
+) {
+    for nth in 0..3 {
+        push(factor_nth(m, sum, nth), "with a common factor taken out");
+    }
+    for distribute_common in [false, true] {
+        push(product_of_sums(m, sum, distribute_common), "factored into a product of sums");
+    }
+    push(product_by_groups(m, sum), "factored into a product of sums");
+    push(lerps_recovered(m, sum), "with its lerps written as lerps");
 }
 
 /// `h` with every sum of two or more interpolants of one frequency and
@@ -113,7 +126,6 @@ pub fn delta_sums_merged(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>
 /// The sum at `h` with its interpolant terms of one frequency and type
 /// merged ([`delta_sums_merged`]); `None` when fewer than two merge.
 fn merge_interpolants(m: &mut Module, h: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
-    let unit = |i: crate::ir::Interval| i.lo >= 0.0 && i.hi <= 1.0;
     let terms = sum_terms(m, h);
     let mut deltas: Vec<(Handle<Expr>, Frequency, Handle<Expr>)> = Vec::new();
     let mut rest = Vec::new();
@@ -169,13 +181,14 @@ fn scaled_interpolant(m: &mut Module, t: Handle<Expr>, span: Span) -> Option<(Ha
 /// sub-products (2ⁿ of them).
 const MAX_GROUPED_FACTORS: usize = 8;
 
-/// A sum of products that is `(Σ sᵢ)·(Σ xⱼ)` with the selectors `sᵢ`
+/// A sum of products that is `c·(Σ sᵢ)·(Σ xⱼ)` with the selectors `sᵢ`
 /// themselves products, written so: the multiplied-out
 /// `(T0·T2 + T1)·lerp(δl, T0, a)` has the selectors `T0·T2` and `T1`,
-/// which no single shared factor ([`product_of_sums`]) finds. The first
-/// term's sub-products are tried as the first selector; the terms holding
-/// it give the `xⱼ`, and every selector times every `xⱼ` must be the terms
-/// exactly (as multisets). `None` when no grouping does.
+/// which no single shared factor ([`product_of_sums`]) finds. `c` is what
+/// every term shares (the `C` of `C·((T0 + T1)·mix(T0, T1, a))`
+/// multiplied out), taken out first. The first term's sub-products are
+/// tried as the first selector; every selector times every `xⱼ` must be
+/// the terms exactly (as multisets). `None` when no grouping does.
 pub fn product_by_groups(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
     if let Expr::Convert { value, to: Ty::Rgba } = m.exprs[h] {
         if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3) {
@@ -183,53 +196,87 @@ pub fn product_by_groups(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>
             return node(m, Expr::Convert { value: inner, to: Ty::Rgba }, m.span(h));
         }
     }
-    let mut terms: Vec<Vec<Handle<Expr>>> =
-        sum_terms(m, h).into_iter().map(|t| product_factors(m, t)).collect();
+    let terms: Vec<Vec<Handle<Expr>>> = sum_terms(m, h).into_iter().map(|t| product_factors(m, t)).collect();
+    let common = shared_factors(&terms);
+    let stripped: Terms =
+        terms.iter().map(|t| common.iter().fold(t.clone(), |t, c| without(&t, *c))).collect();
+    let span = m.span(h);
+    // What every term shares is taken out first (the fused `T4·(T0 + T1)²`
+    // is `T4·((T0 + T1)·(T0 + T1))`, not `(T4·T0 + T4·T1)·(T0 + T1)`).
+    let out = if common.is_empty() { None } else { grouped(m, stripped, &common, span) }
+        .or_else(|| grouped(m, terms, &[], span))?;
+    (m.info(out).ty == m.info(h).ty && out != h).then_some(out)
+}
+
+/// `common·(Σ sᵢ)·(Σ xⱼ)` for the sum of `terms` ([`product_by_groups`]).
+fn grouped(m: &mut Module, mut terms: Terms, common: &[Handle<Expr>], span: Span) -> Option<Handle<Expr>> {
     let first = terms.first()?.clone();
     if terms.len() < 4 || first.len() > MAX_GROUPED_FACTORS {
         return None;
     }
     terms.iter_mut().for_each(|t| t.sort());
     terms.sort();
-    let span = m.span(h);
+    let ones = |m: &mut Module, t: Terms| -> Option<Terms> {
+        t.into_iter()
+            .map(|t| match t.is_empty() {
+                true => Some(vec![node(m, Expr::Constant(crate::ir::Constant::scalar(1.0)), span)?]),
+                false => Some(t),
+            })
+            .collect()
+    };
     for mask in 1..(1usize << first.len()) - 1 {
-        let selector: Vec<Handle<Expr>> =
-            (0..first.len()).filter(|i| mask & (1 << i) != 0).map(|i| first[i]).collect();
-        let Some((selectors, xs)) = groups_by(&terms, &selector) else { continue };
-        let ones = |m: &mut Module, t: Vec<Vec<Handle<Expr>>>| -> Option<Vec<Vec<Handle<Expr>>>> {
-            t.into_iter()
-                .map(|t| match t.is_empty() {
-                    true => Some(vec![node(m, Expr::Constant(crate::ir::Constant::scalar(1.0)), span)?]),
-                    false => Some(t),
-                })
-                .collect()
+        let (selector, rest): (Vec<(usize, &Handle<Expr>)>, Vec<_>) =
+            first.iter().enumerate().partition(|(i, _)| mask & (1 << i) != 0);
+        let selector: Vec<Handle<Expr>> = selector.into_iter().map(|(_, h)| *h).collect();
+        let rest: Vec<Handle<Expr>> = rest.into_iter().map(|(_, h)| *h).collect();
+        let Some((selectors, xs)) = groups_by(&terms, &selector).or_else(|| groups_around(&terms, &rest))
+        else {
+            continue;
         };
         let (selectors, xs) = (ones(m, selectors)?, ones(m, xs)?);
         let a = rebuild_sum(m, &selectors, span)?;
         let b = rebuild_sum(m, &xs, span)?;
-        let out = binary(m, BinaryOp::Mul, a, b, span)?;
-        if m.info(out).ty == m.info(h).ty && out != h {
-            return Some(out);
+        let mut out = binary(m, BinaryOp::Mul, a, b, span)?;
+        for c in common.iter().rev() {
+            out = binary(m, BinaryOp::Mul, *c, out, span)?;
         }
+        return Some(out);
     }
     None
+}
+
+/// The factors every term holds (as a multiset: `a·a·b + a·a·c` shares
+/// `a` twice), in the first term's order.
+fn shared_factors(terms: &[Vec<Handle<Expr>>]) -> Vec<Handle<Expr>> {
+    let Some(first) = terms.first() else { return Vec::new() };
+    let mut rests: Vec<Vec<Handle<Expr>>> = terms.to_vec();
+    let mut out = Vec::new();
+    for f in first {
+        if rests.iter().all(|t| t.contains(f) && t.len() > 1) {
+            rests.iter_mut().for_each(|t| *t = without(t, *f));
+            out.push(*f);
+        }
+    }
+    out
 }
 
 /// A sum as its terms, each a list of factors.
 type Terms = Vec<Vec<Handle<Expr>>>;
 
+/// `t` less the multiset `f`; `None` when `t` does not hold all of `f`.
+fn cofactor(t: &[Handle<Expr>], f: &[Handle<Expr>]) -> Option<Vec<Handle<Expr>>> {
+    let mut rest = t.to_vec();
+    for x in f {
+        let i = rest.iter().position(|y| y == x)?;
+        rest.remove(i);
+    }
+    Some(rest)
+}
+
 /// `terms` (each sorted, the list sorted) as every selector times every
 /// `x`, the `x` being the cofactors of `selector`: (selectors, xs), each
 /// with at least two members; `None` when the terms are not such a product.
 fn groups_by(terms: &[Vec<Handle<Expr>>], selector: &[Handle<Expr>]) -> Option<(Terms, Terms)> {
-    let cofactor = |t: &[Handle<Expr>], f: &[Handle<Expr>]| -> Option<Vec<Handle<Expr>>> {
-        let mut rest = t.to_vec();
-        for x in f {
-            let i = rest.iter().position(|y| y == x)?;
-            rest.remove(i);
-        }
-        Some(rest)
-    };
     let mut xs: Vec<Vec<Handle<Expr>>> = terms.iter().filter_map(|t| cofactor(t, selector)).collect();
     xs.sort();
     xs.dedup();
@@ -239,7 +286,36 @@ fn groups_by(terms: &[Vec<Handle<Expr>>], selector: &[Handle<Expr>]) -> Option<(
     let mut selectors: Vec<Vec<Handle<Expr>>> = terms.iter().filter_map(|t| cofactor(t, &xs[0])).collect();
     selectors.sort();
     selectors.dedup();
-    if selectors.len() < 2 || selectors.len() * xs.len() != terms.len() {
+    is_product(terms, selectors, xs)
+}
+
+/// [`groups_by`] where a selector's factors also occur in the `x`s
+/// (`(T0 + T1)·(T0·(1 − a) + T1·a)` multiplied out: `T0` selects three
+/// terms, not two): the selectors are the cofactors of `x0`, the first
+/// term without its selector, and the `x`s the cofactors every selector
+/// shares.
+fn groups_around(terms: &[Vec<Handle<Expr>>], x0: &[Handle<Expr>]) -> Option<(Terms, Terms)> {
+    let mut selectors: Vec<Vec<Handle<Expr>>> = terms.iter().filter_map(|t| cofactor(t, x0)).collect();
+    selectors.sort();
+    selectors.dedup();
+    let mut xs: Option<Terms> = None;
+    for s in &selectors {
+        let of_s: Terms = terms.iter().filter_map(|t| cofactor(t, s)).collect();
+        xs = Some(match xs {
+            None => of_s,
+            Some(xs) => xs.into_iter().filter(|x| of_s.contains(x)).collect(),
+        });
+    }
+    let mut xs = xs?;
+    xs.sort();
+    xs.dedup();
+    is_product(terms, selectors, xs)
+}
+
+/// `(selectors, xs)` when each has at least two members and every
+/// selector times every `x` is `terms` exactly (as multisets).
+fn is_product(terms: &[Vec<Handle<Expr>>], selectors: Terms, xs: Terms) -> Option<(Terms, Terms)> {
+    if selectors.len() < 2 || xs.len() < 2 || selectors.len() * xs.len() != terms.len() {
         return None;
     }
     let mut product: Vec<Vec<Handle<Expr>>> = selectors
@@ -365,10 +441,56 @@ fn relerp(m: &mut Module, terms: &[Vec<Handle<Expr>>], span: Span) -> Option<Han
     })?;
     let f = keep.iter().find_map(|h| weight(m, *h))?;
     let one_minus = *keep.iter().find(|h| weight(m, **h) == Some(f))?;
-    let x = rebuild_sum(m, &[without(keep, one_minus)], span)?;
-    let y = rebuild_sum(m, &[without(take, f)], span)?;
-    let mix = node(m, Expr::Math { fun: MathFunction::Mix, args: vec![x, y, f] }, span)?;
-    (m.info(mix).ty == m.info(x).ty).then_some(mix)
+    let (x, y) = (without(keep, one_minus), without(take, f));
+    // What both sides share is taken out: `3·a·(1 − f) + 3·b·f` is
+    // `3·lerp(a, b, f)`, bounded by `a` and `b` times 3.
+    let shared = shared_factors(&[x.clone(), y.clone()]);
+    let strip = |t: &[Handle<Expr>]| shared.iter().fold(t.to_vec(), |t, c| without(&t, *c));
+    let (x, y) = if shared.is_empty() { (x, y) } else { (strip(&x), strip(&y)) };
+    let x = rebuild_sum(m, &[x], span)?;
+    let y = rebuild_sum(m, &[y], span)?;
+    let mut mix = node(m, Expr::Math { fun: MathFunction::Mix, args: vec![x, y, f] }, span)?;
+    if m.info(mix).ty != m.info(x).ty {
+        return None;
+    }
+    for c in shared.iter().rev() {
+        mix = binary(m, BinaryOp::Mul, *c, mix, span)?;
+    }
+    Some(mix)
+}
+
+/// A sum with each pair of its terms that is `x·(1 − f) + y·f` written
+/// as `lerp(x, y, f)`, the other terms kept: `T0 + T0·(1 − a) + δl·a` is
+/// `T0 + lerp(T0, δl, a)`, in [0, 2] where its terms' bounds add to more
+/// (a lerp is bounded by its operands, each term of it is not). `None`
+/// when no pair is one.
+pub fn lerps_recovered(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
+    if let Expr::Convert { value, to: Ty::Rgba } = m.exprs[h] {
+        if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3) {
+            let inner = lerps_recovered(m, value)?;
+            return node(m, Expr::Convert { value: inner, to: Ty::Rgba }, m.span(h));
+        }
+    }
+    let span = m.span(h);
+    let mut terms: Terms = sum_terms(m, h).into_iter().map(|t| product_factors(m, t)).collect();
+    if terms.len() < 2 {
+        return None;
+    }
+    let mut found = false;
+    'pairs: loop {
+        for i in 0..terms.len() {
+            for j in i + 1..terms.len() {
+                let Some(mix) = relerp(m, &[terms[i].clone(), terms[j].clone()], span) else { continue };
+                terms[i] = vec![mix];
+                terms.remove(j);
+                found = true;
+                continue 'pairs;
+            }
+        }
+        break;
+    }
+    let out = if found { rebuild_sum(m, &terms, span)? } else { return None };
+    (m.info(out).ty == m.info(h).ty && out != h).then_some(out)
 }
 
 /// The sum of the products `terms` (a `lerp` where two terms are one).
@@ -442,6 +564,18 @@ fn simplify(m: &mut Module, h: Handle<Expr>, span: Span) -> Option<Handle<Expr>>
             }
             _ => None,
         },
+        // rgba(x, 1)·rgba(y, 1) = rgba(x·y, 1): a colour written as rgba
+        // times another (a fused `C ← T; C ← C·x`) is multiplied out as
+        // the colours' product.
+        Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => {
+            let rgb = |m: &Module, h: Handle<Expr>| match m.exprs[h] {
+                Expr::Convert { value, to: Ty::Rgba } if m.info(value).ty == Ty::Rgb => Some(value),
+                _ => None,
+            };
+            let (x, y) = (rgb(m, lhs)?, rgb(m, rhs)?);
+            let product = binary(m, BinaryOp::Mul, x, y, span)?;
+            node(m, Expr::Convert { value: product, to: Ty::Rgba }, span)
+        }
         Expr::Math { fun: MathFunction::Mix, args } if m.info(args[2]).ty == Ty::Scalar => {
             // lerp(a, b, f) = a·(1 − f) + b·f (as `ir::eval` defines it).
             let one = node(m, Expr::Constant(crate::ir::Constant::scalar(1.0)), span)?;
@@ -600,16 +734,24 @@ fn expansion(m: &Module, h: Handle<Expr>, max: usize) -> Option<Vec<Vec<Handle<E
 /// rgba conversion too (`rgba(x, 1)` of a sum: the colour multiplied out);
 /// `None` when nothing distributes, past `max` terms, or ill-typed.
 pub fn multiply_out(m: &mut Module, h: Handle<Expr>, max: usize) -> Option<Handle<Expr>> {
+    multiplied_out(m, h, max, true)
+}
+
+/// [`multiply_out`], with like terms collected or each kept apart: `X + X`
+/// splits into two passes of `X` where `2·X` may leave [0, 1] in a
+/// temporary (`T0⁴·(δg + δg)`, `δg` in [0, 0.6]).
+fn multiplied_out(m: &mut Module, h: Handle<Expr>, max: usize, collect: bool) -> Option<Handle<Expr>> {
     if let Expr::Convert { value, to: Ty::Rgba } = m.exprs[h] {
         if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3) {
-            let inner = multiply_out(m, value, max)?;
+            let inner = multiplied_out(m, value, max, collect)?;
             return node(m, Expr::Convert { value: inner, to: Ty::Rgba }, m.span(h));
         }
     }
     let terms = expansion(m, h, max)?;
     let span = m.span(h);
     let mut sum: Option<Handle<Expr>> = None;
-    for factors in like_terms_collected(m, terms, span)? {
+    let terms = if collect { like_terms_collected(m, terms, span)? } else { terms };
+    for factors in terms {
         let factors = constants_into_delta(m, factors, span)?;
         let mut product = factors[0];
         for f in &factors[1..] {
@@ -684,7 +826,10 @@ fn constants_into_delta(m: &mut Module, factors: Vec<Handle<Expr>>, span: Span) 
         if let (Expr::Constant(_), Some(Expr::Interpolate { value, to })) = (&m.exprs[f], next) {
             let k = binary(m, BinaryOp::Mul, f, value, span)?;
             let moved = node(m, Expr::Interpolate { value: k, to }, span)?;
-            if m.info(moved).ty == m.info(factors[i + 1]).ty {
+            // Not where it would leave the [0, 1] an 8-bit interpolant
+            // holds (`2·δ(0.8·l)`: the 2 is a combiner's output scale).
+            let (was, now) = (m.info(factors[i + 1]).interval, m.info(moved).interval);
+            if m.info(moved).ty == m.info(factors[i + 1]).ty && (unit(now) || !unit(was)) {
                 out.push(moved);
                 i += 2;
                 continue;
@@ -706,6 +851,11 @@ fn constants_into_delta(m: &mut Module, factors: Vec<Handle<Expr>>, span: Span) 
     Some(out)
 }
 
+/// Whether every value of `i` lies in [0, 1] (what an 8-bit interpolant holds).
+fn unit(i: crate::ir::Interval) -> bool {
+    i.lo >= 0.0 && i.hi <= 1.0
+}
+
 /// The constant `factors[k]` moved into the term's last δ before it (else
 /// its first after), `δv·k` = `δ(k·v)`, where the δ keeps its type and
 /// stays in [0, 1] if it was (an 8-bit interpolant holds it; `2·δv` may
@@ -718,7 +868,6 @@ fn constant_into_delta(m: &mut Module, factors: &mut [Handle<Expr>], k: usize, s
         let scaled = binary(m, BinaryOp::Mul, factors[k], value, span)?;
         let moved = node(m, Expr::Interpolate { value: scaled, to }, span)?;
         let (was, now) = (m.info(factors[d]).interval, m.info(moved).interval);
-        let unit = |i: crate::ir::Interval| i.lo >= 0.0 && i.hi <= 1.0;
         if m.info(moved).ty == m.info(factors[d]).ty && (unit(now) || !unit(was)) {
             factors[d] = moved;
             return Some(k);

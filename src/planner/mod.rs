@@ -855,6 +855,9 @@ fn plan_run(
                 &stmts,
                 value,
                 &mut notes.rewrites,
+                // A pair fused in an equivalent form only where the second
+                // statement alone did not plan: cheap where programs fit.
+                stmts.len() == 2 && best[j].is_none(),
             ) {
                 Ok(planned) => planned,
                 Err(Err(refusal)) => {
@@ -892,7 +895,13 @@ fn plan_run(
     Ok(groups
         .into_iter()
         .map(|(stmts, form, pieces, _)| {
-            let reason = notes.reason(&stmts, pieces.len(), names, profile);
+            let mut reason = notes.reason(&stmts, pieces.len(), names, profile);
+            if let ([_, _, ..], [one]) = (stmts.as_slice(), pieces.as_slice()) {
+                if let Some(what) = one.why.split("; ").next().and_then(|w| w.strip_prefix(rewrite::FUSED_IN))
+                {
+                    reason += &format!(",{what} (as written they do not)");
+                }
+            }
             (stmts, form, pieces, reason)
         })
         .collect())

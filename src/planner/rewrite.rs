@@ -26,9 +26,15 @@ pub(super) fn planned_or_rewritten(
     stmts: &[usize],
     value: Handle<Expr>,
     rewrites: &mut HashMap<usize, String>,
+    fused_forms: bool,
 ) -> Result<(Form, Vec<Piece>), Result<Unplanned, Diagnostic>> {
     let single = stmts.len() == 1;
     let as_written = candidate(m, search, fits, baked, stmts, value, storage_of(profile));
+    if !single && as_written.is_err() && fused_forms {
+        if let Some(planned) = fused_rewritten(m, search, fits, baked, stmts, value, storage_of(profile)) {
+            return Ok(planned);
+        }
+    }
     let canonical = fits.canonical.contains(&value);
     let (written_cost, why) = match &as_written {
         Ok((_, pieces)) if single && canonical => (
@@ -69,6 +75,32 @@ pub(super) fn planned_or_rewritten(
         }
         Err(why) => Err(Ok(why)),
     }
+}
+
+/// How [`fused_rewritten`]'s piece begins: the run's reason quotes it.
+pub(super) const FUSED_IN: &str = "fused in a form";
+
+/// Statements fused into one value that does not fit one pass as
+/// written, fused in an equivalent form of that value that does
+/// (`C ← T4; C ← C·(T0·T0 + T0·T0 + …)` is `T4·(4·T0·T0)` multiplied out
+/// with like terms collected). Only one pass, as fusing is
+/// ([`candidate`]); the first form that fits, its piece saying which.
+fn fused_rewritten(
+    m: &mut Module,
+    search: Search,
+    fits: &mut Fits,
+    baked: bool,
+    stmts: &[usize],
+    value: Handle<Expr>,
+    storage: Storage,
+) -> Option<(Form, Vec<Piece>)> {
+    for f in algebra::forms(m, value, algebra::MAX_TERMS) {
+        if let Ok((form, mut pieces)) = candidate(m, search, fits, baked, stmts, f.value, storage) {
+            note_rewrite(&mut pieces, &format!("{FUSED_IN} {}", f.what));
+            return Some((form, pieces));
+        }
+    }
+    None
 }
 
 /// The first pass of a statement planned in an equivalent form says which

@@ -26,6 +26,8 @@ impl Gen<'_> {
 
     pub(super) fn range(&self, h: Handle<Expr>) -> CodegenError {
         let i = self.m.info(h).interval;
+        // To six decimals: the bound's float noise (1.2800000000000002) is no help.
+        let i = crate::ir::Interval { lo: (i.lo * 1e6).round() / 1e6, hi: (i.hi * 1e6).round() / 1e6 };
         // An infinite bound is "no bound known", not a range to print.
         let what = match (i.lo.is_finite(), i.hi.is_finite()) {
             (true, true) => format!("this value (range [{}, {}])", i.lo, i.hi),
