@@ -25,6 +25,7 @@ pub(crate) fn rasterize(target: &mut Framebuffer, pass: &Pass, setup: &PassSetup
     let (width, height) = (target.width() as i32, target.height() as i32);
     target
         .tiles
+        .writing(|t| !bins[t].is_empty())
         .par_iter_mut()
         .zip(bins.par_iter())
         .enumerate()
@@ -492,8 +493,10 @@ mod tests {
     /// A triangle with the snapped vertices `(px, py)` (1/SUB pixel), as
     /// the rasterizer sets its edges up.
     fn triangle(px: [i64; 3], py: [i64; 3], (width, height): (i64, i64)) -> Tri {
-        let lo = |v: [i64; 3]| (v.iter().min().copied().unwrap_or(0) - SUB / 2 + SUB - 1).div_euclid(SUB).max(0);
-        let hi = |v: [i64; 3], n: i64| (v.iter().max().copied().unwrap_or(0) - SUB / 2).div_euclid(SUB).min(n - 1);
+        let lo =
+            |v: [i64; 3]| (v.iter().min().copied().unwrap_or(0) - SUB / 2 + SUB - 1).div_euclid(SUB).max(0);
+        let hi =
+            |v: [i64; 3], n: i64| (v.iter().max().copied().unwrap_or(0) - SUB / 2).div_euclid(SUB).min(n - 1);
         let mut tri = Tri {
             dx: [0; 3],
             dy: [0; 3],
