@@ -299,9 +299,8 @@ impl Framebuffer {
     /// Clears it to what [`Framebuffer::new`] makes (colour 0, depth 1,
     /// stencil 0), in parallel over the tiles: a frame renders into the
     /// buffers of an earlier one instead of allocating and faulting in
-    /// tens of megabytes per frame.
-    /// Tiles nothing has written since their last clear are skipped
-    /// ([`Tiles`]).
+    /// tens of megabytes per frame. Only the tiles written since their last
+    /// clear are cleared (the framebuffer keeps a mark per tile).
     pub fn reset(&mut self) {
         let Tiles { buffers, clean } = &mut self.tiles;
         buffers.par_iter_mut().zip(clean.par_iter_mut()).filter(|(_, c)| !**c).for_each(|(t, c)| {

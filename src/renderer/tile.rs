@@ -410,8 +410,8 @@ impl Iterator for Spans<'_> {
             self.y += 1;
             let e = tri.edges_at(px0, y as i64 * SUB + SUB / 2);
             let (mut lo, mut hi) = (0i64, last);
-            for k in 0..3 {
-                let (a, s) = (e[k] - tri.bias[k], -tri.dy[k] * SUB);
+            for (k, e) in e.iter().enumerate() {
+                let (a, s) = (e - tri.bias[k], -tri.dy[k] * SUB);
                 if s > 0 {
                     if a < 0 {
                         lo = lo.max((s - 1 - a) / s);
