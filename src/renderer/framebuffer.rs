@@ -219,7 +219,53 @@ pub struct Framebuffer {
     format: ColorFormat,
     tiles_x: usize,
     tiles_y: usize,
-    pub(crate) tiles: Vec<TileBuffers>,
+    pub(crate) tiles: Tiles,
+}
+
+/// A framebuffer's tiles, and which of them still hold what
+/// [`Framebuffer::new`] puts there: [`Framebuffer::reset`] clears only the
+/// others, so a frame clears the tiles the last frame wrote, not the whole
+/// target (the clear was 5 % of a frame of Kilgard's torus at 1024²,
+/// BENCHMARKS.md, thirteenth session). Any mutable access through `Deref`
+/// marks every tile written (conservative: the adaptive writers and
+/// `set_color` go through it); the tiled rasterizer marks only the tiles it
+/// has triangles for ([`Tiles::writing`]).
+#[derive(Clone, Debug)]
+pub(crate) struct Tiles {
+    buffers: Vec<TileBuffers>,
+    /// Per tile: nothing written since it was last cleared.
+    clean: Vec<bool>,
+}
+
+impl Tiles {
+    /// The tiles, to write those where `written(t)` (they lose their clean
+    /// mark; the others must not be written).
+    pub(crate) fn writing(&mut self, written: impl Fn(usize) -> bool) -> &mut [TileBuffers] {
+        for (t, c) in self.clean.iter_mut().enumerate() {
+            *c &= !written(t);
+        }
+        &mut self.buffers
+    }
+
+    /// How many tiles are marked clean (for tests).
+    #[cfg(test)]
+    pub(crate) fn clean_count(&self) -> usize {
+        self.clean.iter().filter(|&&c| c).count()
+    }
+}
+
+impl std::ops::Deref for Tiles {
+    type Target = Vec<TileBuffers>;
+    fn deref(&self) -> &Vec<TileBuffers> {
+        &self.buffers
+    }
+}
+
+impl std::ops::DerefMut for Tiles {
+    fn deref_mut(&mut self) -> &mut Vec<TileBuffers> {
+        self.clean.fill(false);
+        &mut self.buffers
+    }
 }
 
 impl Framebuffer {
@@ -239,7 +285,9 @@ impl Framebuffer {
             ColorFormat::Unorm => ColorTile::Unorm(vec![[0.0; 4]; n]),
         };
         let tile = TileBuffers { color, depth: vec![1.0; n], stencil: vec![0; n] };
-        Ok(Framebuffer { width, height, format, tiles_x, tiles_y, tiles: vec![tile; tiles_x * tiles_y] })
+        let n = tiles_x * tiles_y;
+        let tiles = Tiles { buffers: vec![tile; n], clean: vec![true; n] };
+        Ok(Framebuffer { width, height, format, tiles_x, tiles_y, tiles })
     }
 
     /// Whether this framebuffer has that size and colour format (so that
@@ -251,9 +299,12 @@ impl Framebuffer {
     /// Clears it to what [`Framebuffer::new`] makes (colour 0, depth 1,
     /// stencil 0), in parallel over the tiles: a frame renders into the
     /// buffers of an earlier one instead of allocating and faulting in
-    /// tens of megabytes per frame.
+    /// tens of megabytes per frame. Only the tiles written since their last
+    /// clear are cleared (the framebuffer keeps a mark per tile).
     pub fn reset(&mut self) {
-        self.tiles.par_iter_mut().for_each(|t| {
+        let Tiles { buffers, clean } = &mut self.tiles;
+        buffers.par_iter_mut().zip(clean.par_iter_mut()).filter(|(_, c)| !**c).for_each(|(t, c)| {
+            *c = true;
             match &mut t.color {
                 ColorTile::Rgba8(v) => v.fill([0; 4]),
                 ColorTile::F32(v) | ColorTile::F16(v) | ColorTile::Unorm(v) => v.fill([0.0; 4]),
@@ -336,7 +387,7 @@ impl Framebuffer {
 
     /// Sets every pixel's colour (rounded as the format stores it).
     pub fn clear_color(&mut self, c: [f32; 4]) {
-        for tile in &mut self.tiles {
+        for tile in self.tiles.iter_mut() {
             match &mut tile.color {
                 ColorTile::Rgba8(v) => v.fill(c.map(quantize_unorm8)),
                 ColorTile::F32(v) => v.fill(c),
@@ -501,6 +552,46 @@ mod tests {
         assert_eq!(v, 0x30);
         s.update(&mut v, StencilOp::Invert);
         assert_eq!(v, 0x3f);
+    }
+
+    /// A reset framebuffer is a new one wherever it was written — through
+    /// the rasterizer's marked tiles or any other mutable access — and it
+    /// clears only the tiles written since the last reset.
+    #[test]
+    fn reset_clears_every_written_tile_and_only_those() {
+        let (w, h) = (3 * TILE as u32 - 5, 2 * TILE as u32);
+        let mut fb = Framebuffer::new(w, h, ColorFormat::F32).unwrap();
+        let fresh = Framebuffer::new(w, h, ColorFormat::F32).unwrap();
+        let same = |fb: &Framebuffer| {
+            (0..h).all(|y| {
+                (0..w).all(|x| {
+                    fb.color(x, y) == fresh.color(x, y)
+                        && fb.depth(x, y) == fresh.depth(x, y)
+                        && fb.stencil(x, y) == fresh.stencil(x, y)
+                })
+            })
+        };
+        assert_eq!(fb.tiles.clean_count(), 6);
+        // The rasterizer's way: tiles 1 and 4 marked, written.
+        for t in [1, 4] {
+            let tile = &mut fb.tiles.writing(|k| k == 1 || k == 4)[t];
+            tile.depth[7] = 0.25;
+            tile.stencil[9] = 3;
+            tile.blend_color(11, &[1.0, 2.0, 3.0, 4.0], &BlendState::REPLACE);
+        }
+        assert_eq!(fb.tiles.clean_count(), 4);
+        assert!(!same(&fb));
+        fb.reset();
+        assert!(same(&fb) && fb.tiles.clean_count() == 6);
+        // Any other mutable access marks every tile.
+        fb.set_color(w - 1, h - 1, [0.5; 4]);
+        fb.tiles[0].depth[0] = 0.0;
+        assert_eq!(fb.tiles.clean_count(), 0);
+        fb.reset();
+        assert!(same(&fb) && fb.tiles.clean_count() == 6);
+        fb.clear_depth(0.5);
+        fb.reset();
+        assert!(same(&fb));
     }
 
     #[test]

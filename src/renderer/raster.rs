@@ -568,7 +568,7 @@ struct Snapped {
 impl Tri {
     /// The edge functions from the snapped, ordered positions: edge k is
     /// opposite vertex k, with the top-left fill rule's bias.
-    fn set_edges(&mut self, px: [i64; 3], py: [i64; 3]) {
+    pub(crate) fn set_edges(&mut self, px: [i64; 3], py: [i64; 3]) {
         for k in 0..3 {
             let (ia, ib) = ((k + 1) % 3, (k + 2) % 3);
             let (dx, dy) = (px[ib] - px[ia], py[ib] - py[ia]);

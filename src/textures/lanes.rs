@@ -27,19 +27,16 @@ fn finite(v: f32) -> f32 {
     }
 }
 
-/// `x.floor()` as vector code: a truncation to i32 moved down where it
-/// rose, its sign `x`'s (−0 stays −0); beyond 2²³ (and ±∞, NaN) `x`
-/// itself, already an integer. `f32::floor` is a libm call where a
-/// function is compiled without SSE4.1, which keeps the loop scalar.
+/// `x.floor()`. In the lane program's AVX2 copy (SSE4.1 included) this is
+/// one rounding instruction over eight lanes (`vroundps`); the earlier
+/// emulation by truncation (convert, compare, subtract, select, copy the
+/// sign: the same values) cost ~4 % of a frame's samples there
+/// (BENCHMARKS.md, fourteenth session). Where a function is compiled
+/// without SSE4.1 (the copy for CPUs without AVX2) it is a `floorf` call
+/// per lane: the same values, slower.
 #[inline(always)]
 fn floor_lane(x: f32) -> f32 {
-    let t = x as i32 as f32;
-    let t = if t > x { t - 1.0 } else { t };
-    if x.abs() < 8_388_608.0 {
-        t.copysign(x)
-    } else {
-        x
-    }
+    x.floor()
 }
 
 /// `a + w·(b − a)` per channel: the filter's one interpolation.
@@ -149,6 +146,12 @@ struct Levels {
     w_last: [i32; MAX_LEVELS],
     h_last: [i32; MAX_LEVELS],
     repeat: bool,
+    /// Level 0's size where every level `k` is `max(size >> k, 1)` (the
+    /// halving chain of GL 2.1 §3.8.8, which `with_box_mipmaps` builds):
+    /// then a lane's level size is two shifts (vector code) instead of a
+    /// table lookup per lane, whose scalar stores the vector loads after it
+    /// wait for.
+    halving: Option<(u32, u32)>,
 }
 
 impl Levels {
@@ -169,11 +172,16 @@ impl Levels {
             w_last: [0; MAX_LEVELS],
             h_last: [0; MAX_LEVELS],
             repeat,
+            halving: None,
         };
+        let (w0, h0) = (t.levels[0].width, t.levels[0].height);
+        let mut halving = true;
         for (k, l) in t.levels.iter().enumerate() {
             (s.w[k], s.h[k]) = (l.width as f32, l.height as f32);
             (s.w_last[k], s.h_last[k]) = (l.width as i32 - 1, l.height as i32 - 1);
+            halving &= (l.width, l.height) == ((w0 >> k).max(1), (h0 >> k).max(1));
         }
+        s.halving = halving.then_some((w0, h0));
         Some(s)
     }
 }
@@ -197,9 +205,21 @@ struct Footprints<const N: usize> {
 #[inline(always)]
 fn footprints<const N: usize>(s: &Levels, level: &[u32; N], u: &[f32; N], v: &[f32; N]) -> Footprints<N> {
     let (mut w, mut h, mut wl, mut hl) = ([0.0f32; N], [0.0f32; N], [0i32; N], [0i32; N]);
-    for lane in 0..N {
-        let k = level[lane] as usize % MAX_LEVELS;
-        (w[lane], h[lane], wl[lane], hl[lane]) = (s.w[k], s.h[k], s.w_last[k], s.h_last[k]);
+    match s.halving {
+        Some((w0, h0)) => {
+            for lane in 0..N {
+                // A lane's level is one of the chain's (< MAX_LEVELS ≤ 31).
+                let k = level[lane] % MAX_LEVELS as u32;
+                let (lw, lh) = ((w0 >> k).max(1), (h0 >> k).max(1));
+                (w[lane], h[lane], wl[lane], hl[lane]) = (lw as f32, lh as f32, lw as i32 - 1, lh as i32 - 1);
+            }
+        }
+        None => {
+            for lane in 0..N {
+                let k = level[lane] as usize % MAX_LEVELS;
+                (w[lane], h[lane], wl[lane], hl[lane]) = (s.w[k], s.h[k], s.w_last[k], s.h_last[k]);
+            }
+        }
     }
     let mut f = Footprints { at: [[0; N]; 4], ax: [0.0; N], ay: [0.0; N] };
     // Repeat (a mask) or clamp to the edge: both computed, one kept (a select).
@@ -394,6 +414,44 @@ mod tests {
         }
     }
 
+    /// Every lane of [`sample_2d_lanes`] on `t` against the one-lane unit,
+    /// bit for bit, over rounds of random and edge-case lanes.
+    fn assert_2d_lanes_are_the_unit(t: &Texture2D, r: &mut impl FnMut() -> f32, what: &str) {
+        for (round, filter) in [Filter::Bilinear, Filter::Trilinear].repeat(8).into_iter().enumerate() {
+            let mut u = [0.0f32; 32];
+            let mut v = [0.0f32; 32];
+            let mut lod = [0.0f32; 32];
+            for lane in 0..32 {
+                (u[lane], v[lane], lod[lane]) = (r() * 3.0, r() * 3.0, r() * 6.0);
+            }
+            (lod[0], lod[1], lod[2], u[3]) = (f32::NEG_INFINITY, f32::NAN, 40.0, f32::INFINITY);
+            // +∞ (level 0 in trilinear), exact levels and halves, huge coordinates.
+            (lod[4], lod[5], lod[6], lod[7], lod[8]) = (f32::INFINITY, 1.0, 2.5, 0.0, -0.0);
+            (u[9], v[10], v[11]) = (-3e9, f32::NAN, 7.0e8);
+            // Coordinates on texel centres and edges, and −0 (floors of whole numbers).
+            (u[12], v[12], u[13], v[14]) = (-0.0, -0.0, 0.5, -1.0);
+            let mut out = [[0.0f32; 32]; 4];
+            sample_2d_lanes(t, &u, &v, &lod, 32, filter, unit::Latitude::MODEL, &mut out);
+            for lane in 0..32 {
+                let one = unit::sample_2d_with(
+                    t,
+                    u[lane],
+                    v[lane],
+                    filter,
+                    lod[lane],
+                    unit::Arithmetic::Float,
+                    unit::Latitude::MODEL,
+                );
+                let lanes = [0, 1, 2, 3].map(|k| out[k][lane]);
+                assert_eq!(
+                    one.map(f32::to_bits),
+                    lanes.map(f32::to_bits),
+                    "{what} {filter:?} round {round} lane {lane}"
+                );
+            }
+        }
+    }
+
     #[test]
     fn texture_2d_lanes_are_the_one_lane_unit_bit_for_bit() {
         let mut r = numbers(11);
@@ -409,37 +467,23 @@ mod tests {
         for (wrap, (w, h), mipmaps) in cases {
             let t = Texture2D::new(TexelFormat::F32, wrap, level(w, h, w + h));
             let t = if mipmaps { t.with_box_mipmaps() } else { t };
-            for (round, filter) in [Filter::Bilinear, Filter::Trilinear].repeat(8).into_iter().enumerate() {
-                let mut u = [0.0f32; 32];
-                let mut v = [0.0f32; 32];
-                let mut lod = [0.0f32; 32];
-                for lane in 0..32 {
-                    (u[lane], v[lane], lod[lane]) = (r() * 3.0, r() * 3.0, r() * 6.0);
-                }
-                (lod[0], lod[1], lod[2], u[3]) = (f32::NEG_INFINITY, f32::NAN, 40.0, f32::INFINITY);
-                // +∞ (level 0 in trilinear), exact levels and halves, huge coordinates.
-                (lod[4], lod[5], lod[6], lod[7], lod[8]) = (f32::INFINITY, 1.0, 2.5, 0.0, -0.0);
-                (u[9], v[10], v[11]) = (-3e9, f32::NAN, 7.0e8);
-                let mut out = [[0.0f32; 32]; 4];
-                sample_2d_lanes(&t, &u, &v, &lod, 32, filter, unit::Latitude::MODEL, &mut out);
-                for lane in 0..32 {
-                    let one = unit::sample_2d_with(
-                        &t,
-                        u[lane],
-                        v[lane],
-                        filter,
-                        lod[lane],
-                        unit::Arithmetic::Float,
-                        unit::Latitude::MODEL,
-                    );
-                    let lanes = [0, 1, 2, 3].map(|k| out[k][lane]);
-                    assert_eq!(
-                        one.map(f32::to_bits),
-                        lanes.map(f32::to_bits),
-                        "{wrap:?} {w}×{h} {filter:?} round {round} lane {lane}"
-                    );
-                }
-            }
+            // The box chains halve: their level sizes are shifts, not the table.
+            assert!(Levels::of(&t).is_none_or(|s| s.halving.is_some()), "{wrap:?} {w}×{h}");
+            assert_2d_lanes_are_the_unit(&t, &mut r, &format!("{wrap:?} {w}×{h}"));
+        }
+    }
+
+    /// A chain whose levels do not halve (a level set by hand) takes its
+    /// sizes from the table: the same values as the unit, as the shifts
+    /// give them for the halving chains above.
+    #[test]
+    fn texture_2d_lanes_off_the_halving_chain_are_the_one_lane_unit_bit_for_bit() {
+        let mut r = numbers(29);
+        for wrap in [Wrap::ClampToEdge, Wrap::Repeat] {
+            let levels = vec![level(16, 8, 3), level(4, 8, 4), level(2, 1, 5), level(1, 1, 6)];
+            let t = Texture2D { format: TexelFormat::F32, wrap, levels };
+            assert!(Levels::of(&t).is_some_and(|s| s.halving.is_none()));
+            assert_2d_lanes_are_the_unit(&t, &mut r, &format!("{wrap:?} by hand"));
         }
     }
 }
