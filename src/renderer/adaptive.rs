@@ -243,10 +243,10 @@ fn draw_with(
     }
 
     // 3. Columns between consecutive regular rows.
-    let column_stats = ctx.columns(&regular_rows, &mut color, &mut state);
+    let (column_stats, first_wave) = ctx.columns(&regular_rows, &mut color, &mut state);
     let mut stats = row_stats + column_stats;
     if settings.threshold > 0.0 {
-        ctx.refine(&mut color, &mut state, &mut stats);
+        ctx.refine(&mut color, &mut state, &mut stats, first_wave);
     }
     stats.covered = vis.covered;
     // A fused draw whose first pass dropped a fragment is not the passes' sum.
