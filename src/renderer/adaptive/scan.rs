@@ -245,8 +245,8 @@ fn depths(tri: &Tri, x: i32, y: i32) -> [f32; LANES] {
 pub(super) fn covered_span(tri: &Tri, y: i32) -> Option<(i32, i32)> {
     let e = tri.edges_at(tri.x0 as i64 * SUB + SUB / 2, y as i64 * SUB + SUB / 2);
     let (mut lo, mut hi) = (0i64, (tri.x1 - tri.x0) as i64);
-    for k in 0..3 {
-        let (c, s) = (e[k] - tri.bias[k], -tri.dy[k] * SUB);
+    for ((e, bias), dy) in e.iter().zip(tri.bias).zip(tri.dy) {
+        let (c, s) = (e - bias, -dy * SUB);
         if s > 0 {
             // t ≥ ⌈−c / s⌉
             lo = lo.max(-c.div_euclid(s));
