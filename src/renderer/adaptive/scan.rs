@@ -290,7 +290,7 @@ fn band_keys(scene: &Input, rows: &Rows, keys: Option<&mut [u32]>) -> u64 {
 
 /// Each pixel's edge flag (a covered pixel whose 4-neighbour shows another
 /// surface, Section 2.1.3) and each band's column kinds
-/// ([`super::visibility::Visibility::columns`]), band by band in parallel,
+/// (see [`super::visibility::Visibility`]), band by band in parallel,
 /// each over its rows' covered spans.
 fn edges_and_columns(
     keys: &[u32],
