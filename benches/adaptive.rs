@@ -266,7 +266,42 @@ fn plan_sphere_table() {
     }
 }
 
+/// `SHADEC_BENCH_PROFILE=N`: only N cold adaptive frames of the plan sphere
+/// at the first of `SHADEC_BENCH_SIZES` (default 1024), nothing else — a
+/// run for a profiler.
+fn profile_cold(frames: usize) {
+    use shadec::driver::{compile, ForScene, PlanOptions};
+    use shadec::numerics::Precision;
+    use shadec::renderer::plan::PlanRenderer;
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene = Scene::load(&root.join("scenes/adaptive_sphere_4lights.ron")).unwrap();
+    let assets = scene.build().unwrap();
+    let source = std::fs::read_to_string(root.join("tests/data/lights/phong_lights.shd")).unwrap();
+    let profile = shadec::profile::Profile::builtin("wgsl").unwrap();
+    let options = PlanOptions { scene: Some(ForScene::specialized(&scene, &assets)), ..Default::default() };
+    let compiled = compile(&source, &profile, &options).unwrap();
+    let renderer = PlanRenderer::new(&compiled.planned, &compiled.program, &scene, &assets).unwrap();
+    let side: u32 = std::env::var("SHADEC_BENCH_SIZES")
+        .ok()
+        .and_then(|s| s.split(',').next().and_then(|s| s.trim().parse().ok()))
+        .unwrap_or(1024);
+    let settings = AdaptiveSettings::new(16, 0.085, EdgeMode::Pass);
+    let (wall, cpu) = median_and_cpu_ms(|| {
+        for _ in 0..frames {
+            shadec::renderer::adaptive::forget_visibility();
+            drop(renderer.render_adaptive(Precision::F32, side, side, &settings, &mut |_, _| {}).unwrap());
+        }
+    });
+    println!(
+        "{frames} cold adaptive frames at {side}²: {wall:.1} ms wall, {cpu:.0} ms CPU (median of the runs)"
+    );
+}
+
 fn main() {
+    if let Some(frames) = std::env::var("SHADEC_BENCH_PROFILE").ok().and_then(|v| v.parse().ok()) {
+        profile_cold(frames);
+        return;
+    }
     plan_sphere_table();
     if std::env::var("SHADEC_BENCH_PLAN_ONLY").is_ok_and(|v| v == "1") {
         return;

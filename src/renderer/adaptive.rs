@@ -37,6 +37,7 @@
 //! interpolated pixels cannot discard.
 
 mod lines;
+mod scan;
 mod sum;
 mod visibility;
 mod write;
@@ -213,11 +214,11 @@ fn draw_with(
         offsets,
         followers,
         format: target.format(),
-        ids: &vis.ids,
-        keys: &vis.keys,
-        edges: &vis.edges,
-        spans: &vis.spans,
-        columns: &vis.columns,
+        ids: &vis.maps.ids,
+        keys: vis.keys(),
+        edges: &vis.maps.edges,
+        spans: &vis.maps.spans,
+        columns: &vis.maps.columns,
         w,
         h,
         settings: *settings,
@@ -242,16 +243,16 @@ fn draw_with(
     }
 
     // 3. Columns between consecutive regular rows.
-    let column_stats = ctx.columns(&regular_rows, &mut color, &mut state);
+    let (column_stats, first_wave) = ctx.columns(&regular_rows, &mut color, &mut state);
     let mut stats = row_stats + column_stats;
     if settings.threshold > 0.0 {
-        ctx.refine(&mut color, &mut state, &mut stats);
+        ctx.refine(&mut color, &mut state, &mut stats, first_wave);
     }
     stats.covered = vis.covered;
     // A fused draw whose first pass dropped a fragment is not the passes' sum.
     let fused = followers.is_empty() || stats.discarded == 0;
     if fused {
-        ctx.write_through(target, &vis.depth, &color, &state);
+        ctx.write_through(target, &vis.maps.depth, &color, &state);
     }
     SCRATCH.with(|s| s.set(Some((color, state))));
     fused.then_some(stats)

@@ -68,9 +68,22 @@ impl Pending {
 /// Refinement waves of fewer pixels are grown and shaded on the calling thread.
 const SERIAL_WAVE: usize = 4096;
 
-/// The largest per-channel difference between two colours.
+/// The largest per-channel difference between two colours (`f32::max`
+/// passes over a NaN channel).
+#[cfg(test)]
 fn difference(a: [f32; 4], b: [f32; 4]) -> f32 {
     (0..4).map(|c| (a[c] - b[c]).abs()).fold(0.0f32, f32::max)
+}
+
+/// Whether two colours differ by more than `t` in some channel:
+/// `difference(a, b) > t`, without the maximum's chain (a NaN channel
+/// counts in neither: `f32::max` passes over it, `NaN > t` is false).
+#[inline(always)]
+pub(super) fn differs(a: [f32; 4], b: [f32; 4], t: f32) -> bool {
+    ((a[0] - b[0]).abs() > t)
+        | ((a[1] - b[1]).abs() > t)
+        | ((a[2] - b[2]).abs() > t)
+        | ((a[3] - b[3]).abs() > t)
 }
 
 impl Ctx<'_> {
@@ -187,7 +200,7 @@ impl Ctx<'_> {
                 }
                 let line = &lines[s.line];
                 let (va, vb) = (vals[line.at(s.lo)], vals[line.at(s.hi)]);
-                if difference(va, vb) > t && s.depth < max_depth {
+                if differs(va, vb, t) && s.depth < max_depth {
                     let mid = (s.lo + s.hi) / 2;
                     if st[line.at(mid)] == UNKNOWN {
                         pending.push(line.at(mid), line.pixel(mid), ADAPTIVE);
@@ -294,28 +307,75 @@ impl Ctx<'_> {
         regular_rows: &[usize],
         color: &mut [[f32; 4]],
         state: &mut [u8],
-    ) -> AdaptiveStats {
+    ) -> (AdaptiveStats, Option<Vec<usize>>) {
         let n = self.settings.spacing as usize;
         let bands = regular_rows.len().saturating_sub(1);
         let chunk = 2 * n * self.w;
         let mut stats = AdaptiveStats::default();
+        let mut wave = Vec::new();
+        let join = |mut a: (AdaptiveStats, Vec<usize>), mut b: (AdaptiveStats, Vec<usize>)| {
+            a.1.append(&mut b.1);
+            (a.0 + b.0, a.1)
+        };
         for parity in 0..2 {
             let skip = (parity * n * self.w).min(color.len());
-            stats = stats
-                + color[skip..]
-                    .par_chunks_mut(chunk)
-                    .zip(state[skip..].par_chunks_mut(chunk))
-                    .enumerate()
-                    .filter(|(j, _)| 2 * j + parity < bands)
-                    .map(|(j, (c, s))| {
-                        let k = 2 * j + parity;
-                        let rows = (regular_rows[k], regular_rows[k + 1]);
-                        debug_assert_eq!(rows.0, k * n, "regular rows are every n-th");
-                        self.band(k, rows, c, s)
-                    })
-                    .reduce(AdaptiveStats::default, std::ops::Add::add);
+            let (s, mut found) = color[skip..]
+                .par_chunks_mut(chunk)
+                .zip(state[skip..].par_chunks_mut(chunk))
+                .enumerate()
+                .filter(|(j, _)| 2 * j + parity < bands)
+                .map(|(j, (c, s))| {
+                    let k = 2 * j + parity;
+                    let rows = (regular_rows[k], regular_rows[k + 1]);
+                    debug_assert_eq!(rows.0, k * n, "regular rows are every n-th");
+                    let stats = self.band(k, rows, c, s);
+                    let mut found = Vec::new();
+                    if self.settings.threshold > 0.0 {
+                        self.band_wave(rows, c, s, &mut found);
+                    }
+                    (stats, found)
+                })
+                .reduce(|| (AdaptiveStats::default(), Vec::new()), join);
+            stats = stats + s;
+            wave.append(&mut found);
         }
-        stats
+        // Without bands (one row) the regular rows are the whole frame.
+        (stats, (bands > 0).then_some(wave))
+    }
+
+    /// The refinement's first wave ([`Ctx::first_wave`]) among the pairs
+    /// of band `top..=bottom` (`c`/`s` start at row `top`, its columns
+    /// done) whose upper or left pixel lies in rows `top..bottom`, and in
+    /// row `bottom` too where it is the frame's last: every pair of the
+    /// frame is then seen by one band, while the band is in the cache.
+    fn band_wave(&self, (top, bottom): (usize, usize), c: &[[f32; 4]], s: &[u8], found: &mut Vec<usize>) {
+        let (w, t, keys) = (self.w, self.settings.threshold, self.keys);
+        let last = if bottom == self.h - 1 { bottom } else { bottom - 1 };
+        for y in top..=last {
+            let (x0, x1) = self.spans[y];
+            let below = y < bottom;
+            for x in x0..x1 {
+                let (l, i) = ((y - top) * w + x, y * w + x);
+                let key = keys[i];
+                if key == NONE {
+                    continue;
+                }
+                let right = (x + 1 < w).then_some((l + 1, i + 1));
+                for (lj, j) in [right, below.then_some((l + w, i + w))].into_iter().flatten() {
+                    if (s[l] == INTERPOLATED || s[lj] == INTERPOLATED)
+                        && keys[j] == key
+                        && differs(c[l], c[lj], t)
+                    {
+                        found.extend(
+                            [(l, i), (lj, j)]
+                                .into_iter()
+                                .filter(|&(lk, _)| s[lk] == INTERPOLATED)
+                                .map(|(_, k)| k),
+                        );
+                    }
+                }
+            }
+        }
     }
 
     /// Band k, rows `top..=bottom` (`c`/`s` start at row `top`): a plain
@@ -336,7 +396,7 @@ impl Ctx<'_> {
         let kinds = &self.columns[k * w..(k + 1) * w];
         let bottom_row = (len - 1) * w;
         // A plain column is interpolated when the subdivision would not split it.
-        let split = |x: usize| difference(c[x], c[bottom_row + x]) > t && self.settings.max_depth > 0;
+        let split = |x: usize| differs(c[x], c[bottom_row + x], t) && self.settings.max_depth > 0;
         let direct: Vec<bool> = (0..w).map(|x| t > 0.0 && kinds[x] == PLAIN && !split(x)).collect();
         let lines: Vec<Line> = (0..w)
             .filter(|&x| kinds[x] != EMPTY && !direct[x])
@@ -361,6 +421,12 @@ impl Ctx<'_> {
         }
         stats
     }
+}
+
+/// Whether two lists hold the same pixels (in any order, any number of times).
+fn same_pixels(a: &[usize], b: &[usize]) -> bool {
+    let set = |v: &[usize]| v.iter().copied().collect::<std::collections::BTreeSet<usize>>();
+    set(a) == set(b)
 }
 
 /// The runs `a..b` of consecutive `true`s.
@@ -391,10 +457,27 @@ impl Ctx<'_> {
     /// that follows the feature, one wave of pixels at a time, each wave
     /// shaded in batches) until no interpolated pixel next to an exact one
     /// differs by more than the threshold.
-    pub(super) fn refine(&self, color: &mut [[f32; 4]], state: &mut [u8], stats: &mut AdaptiveStats) {
+    /// `first` is the first wave where the columns found it ([`Ctx::columns`]).
+    pub(super) fn refine(
+        &self,
+        color: &mut [[f32; 4]],
+        state: &mut [u8],
+        stats: &mut AdaptiveStats,
+        first: Option<Vec<usize>>,
+    ) {
         let (w, h, t) = (self.w, self.h, self.settings.threshold);
         let keys = self.keys;
-        let mut wave = self.first_wave(color, state);
+        let mut wave = match first {
+            Some(wave) => {
+                // The bands' pairs are the whole frame's, every draw of the tests.
+                debug_assert!(
+                    same_pixels(&wave, &self.first_wave(color, state)),
+                    "the bands' first wave is not the frame's"
+                );
+                wave
+            }
+            None => self.first_wave(color, state),
+        };
         while !wave.is_empty() {
             // A small wave runs on this thread: handing it to the pool and
             // back costs more than it does (the feature's tip grows by a
@@ -419,7 +502,7 @@ impl Ctx<'_> {
                 .into_iter()
                 .flatten()
                 .filter(move |&j| {
-                    state[j] == INTERPOLATED && keys[j] == keys[i] && difference(color[i], color[j]) > t
+                    state[j] == INTERPOLATED && keys[j] == keys[i] && differs(color[i], color[j], t)
                 })
             };
             wave = if parallel {
@@ -450,7 +533,7 @@ impl Ctx<'_> {
                         if (state[i] == INTERPOLATED || state[j] == INTERPOLATED)
                             && keys[i] != NONE
                             && keys[j] == keys[i]
-                            && difference(color[i], color[j]) > t
+                            && differs(color[i], color[j], t)
                         {
                             found.extend([i, j].into_iter().filter(|&k| state[k] == INTERPOLATED));
                         }
@@ -486,5 +569,33 @@ impl Ctx<'_> {
                 state[i] = ADAPTIVE;
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::{difference, differs};
+
+    /// `differs` is `difference(a, b) > t` for every threshold the draw
+    /// compares against (t ≥ 0), with NaN, infinite and signed-zero channels.
+    #[test]
+    fn differs_is_the_largest_channel_difference_above_the_threshold() {
+        let values =
+            [0.0, -0.0, 0.085, 0.1, 0.5, -0.3, 1.0, 1e-9, f32::NAN, f32::INFINITY, f32::NEG_INFINITY];
+        let mut n = 0;
+        for (i, &a) in values.iter().enumerate() {
+            for &b in &values {
+                for t in [0.0, 0.085, 0.5, 2.0] {
+                    let x = [a, 0.2, b, 0.0];
+                    let y = [b, 0.2 + t, a, f32::NAN];
+                    let z = [values[(i + 3) % values.len()], a, b, 0.1];
+                    for (p, q) in [(x, y), (y, x), (x, z), (z, y)] {
+                        assert_eq!(differs(p, q, t), difference(p, q) > t, "{p:?} {q:?} {t}");
+                        n += 1;
+                    }
+                }
+            }
+        }
+        assert!(n > 1000);
     }
 }

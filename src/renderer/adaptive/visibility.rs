@@ -19,23 +19,30 @@ use std::sync::Arc;
 
 use rayon::prelude::*;
 
-use super::{EdgeMode, NONE};
+use super::EdgeMode;
 use crate::pipeline::{CompareFunc, DepthState};
 use crate::renderer::framebuffer::TILE;
-use crate::renderer::raster::{PassSetup, Tri, SUB};
+use crate::renderer::raster::{PassSetup, Tri};
+
+use super::scan::{scan, Input, Maps, Start};
 use crate::renderer::{Framebuffer, Pass};
 
 /// Which primitive each pixel shows, and what the later steps derive from it.
 pub(super) struct Visibility {
-    /// The visible triangle's id (a pass's triangles follow the earlier
-    /// passes'), [`NONE`] where nothing is.
-    pub ids: Vec<u32>,
-    /// The depth after the draw (what a pass that writes depth leaves).
-    pub depth: Vec<f32>,
-    /// Per pixel the surface key ([`EdgeMode`]) of its visible primitive.
-    pub keys: Vec<u32>,
-    /// Per pixel whether it is an edge sample (a 4-neighbour shows another surface).
-    pub edges: Vec<bool>,
+    /// Per pixel (row after row): `ids`, the visible triangle's id (a
+    /// pass's triangles follow the earlier passes'), [`NONE`](super::NONE) where nothing
+    /// is; `depth`, the depth after the draw (what a pass that writes depth
+    /// leaves); `keys`, the surface key ([`EdgeMode`]) of its visible
+    /// primitive (empty in [`EdgeMode::Triangle`], whose keys are the ids:
+    /// see [`Visibility::keys`]); `edges`, whether it is an edge sample (it
+    /// shows something, and a 4-neighbour shows another surface). Per row,
+    /// `spans`: the columns `x0..x1` between its first and last covered
+    /// pixel (empty where none is). Per band between regular rows k and
+    /// k + 1 (`spacing` apart) and per column, `columns`: what the column
+    /// shows from row k·spacing to the next regular row inclusive:
+    /// nothing, one surface without an edge pixel inside ([`PLAIN`]), or
+    /// anything else ([`MIXED`]).
+    pub maps: Maps,
     /// Pixels that show some triangle.
     pub covered: u64,
     /// Whether an `Equal` pass without depth writes over the same
@@ -45,14 +52,17 @@ pub(super) struct Visibility {
     /// depth it was tested against (each pixel's one triangle at that
     /// depth is then the one that won it, or none).
     pub repeatable: bool,
-    /// Per row, the columns `x0..x1` between its first and last covered
-    /// pixel (empty where none is).
-    pub spans: Vec<(usize, usize)>,
-    /// Per band between regular rows k and k + 1 (`spacing` apart) and per
-    /// column, what the column shows from row k·spacing to the next
-    /// regular row inclusive: nothing, one surface without an edge pixel
-    /// inside ([`PLAIN`]), or anything else ([`MIXED`]).
-    pub columns: Vec<u8>,
+}
+
+impl Visibility {
+    /// Each pixel's surface key.
+    pub fn keys(&self) -> &[u32] {
+        if self.maps.keys.is_empty() {
+            &self.maps.ids
+        } else {
+            &self.maps.keys
+        }
+    }
 }
 
 /// A column of a band that shows nothing.
@@ -72,8 +82,16 @@ struct Inputs {
     offsets: Vec<usize>,
     /// Every triangle of every pass, in order.
     tris: Vec<Tri>,
-    /// The target's depth before the draw, row after row.
-    start_depth: Vec<f32>,
+    /// The target's depth before the draw.
+    start_depth: StartDepth,
+}
+
+/// The target's depth before a draw, as kept.
+enum StartDepth {
+    /// One depth everywhere (a cleared target), its bits.
+    Uniform(u32),
+    /// Row after row.
+    Rows(Vec<f32>),
 }
 
 thread_local! {
@@ -81,11 +99,24 @@ thread_local! {
     /// while a draw runs, so that a draw nested on the same thread computes
     /// its own rather than finding it borrowed).
     static LAST: std::cell::Cell<Option<(Inputs, Arc<Visibility>)>> = const { std::cell::Cell::new(None) };
+    /// The buffers of a visibility no draw keeps any more, for the next
+    /// draw that computes its own to overwrite.
+    static SPARE: std::cell::Cell<Option<Maps>> = const { std::cell::Cell::new(None) };
 }
 
-/// Drops the visibility kept on this thread ([`super::forget_visibility`]).
+/// Drops the visibility kept on this thread ([`super::forget_visibility`]),
+/// keeping its buffers for the next draw to fill.
 pub(super) fn forget() {
-    LAST.with(|l| drop(l.take()));
+    if let Some((_, vis)) = LAST.with(|l| l.take()) {
+        recycle(vis);
+    }
+}
+
+/// Keeps the buffers of `vis` for the next computed visibility, unless a draw still holds it.
+fn recycle(vis: Arc<Visibility>) {
+    if let Ok(vis) = Arc::try_unwrap(vis) {
+        SPARE.with(|s| s.set(Some(vis.maps)));
+    }
 }
 
 /// The visibility of `passes` (set up as `setups`, triangle ids starting
@@ -107,7 +138,7 @@ pub(super) fn visibility_of(
             && inputs.spacing == spacing
             && inputs.offsets == offsets
             && same_triangles(&inputs.tris, setups);
-        if same_shape && inputs.depth_states == depth_states && same_depth(&inputs.start_depth, target) {
+        if same_shape && inputs.depth_states == depth_states && inputs.start_depth.is_depth_of(target) {
             LAST.with(|l| l.set(Some((inputs, vis.clone()))));
             return vis;
         }
@@ -116,25 +147,28 @@ pub(super) fn visibility_of(
         if same_shape
             && vis.repeatable
             && depth_states.iter().all(|d| *d == DepthState::EQUAL_NO_WRITE)
-            && same_depth(&vis.depth, target)
+            && same_depth(&vis.maps.depth, target)
         {
-            let inputs = Inputs { depth_states, start_depth: vis.depth.clone(), ..inputs };
+            let inputs =
+                Inputs { depth_states, start_depth: StartDepth::Rows(vis.maps.depth.clone()), ..inputs };
             LAST.with(|l| l.set(Some((inputs, vis.clone()))));
             return vis;
         }
+        recycle(vis);
     }
-    let start_depth = depth_rows(target);
-    let (ids, depth, ties) = visible(target, start_depth.clone(), passes, setups, offsets);
-    let keys = surface_keys(&ids, offsets, edges);
-    let edge = edge_map(&keys, size.0, size.1);
-    let covered = ids.par_iter().filter(|&&id| id != NONE).count() as u64;
-    let spans = row_spans(&keys, size.0);
-    let columns = band_columns(&keys, &edge, size, spacing);
+    let start_depth = start_of(target);
+    let start = match &start_depth {
+        StartDepth::Uniform(bits) => Start::Uniform(f32::from_bits(*bits)),
+        StartDepth::Rows(rows) => Start::Rows(rows),
+    };
+    let mut maps = SPARE.with(|s| s.take()).unwrap_or_default();
+    let input = Input { states: &depth_states, setups, offsets, edges, spacing };
+    let (covered, ties) = scan(&input, start, size, &mut maps);
     let repeatable = !ties
         && depth_states
             .iter()
             .all(|d| d.write && matches!(d.func, CompareFunc::Less | CompareFunc::LessEqual));
-    let vis = Arc::new(Visibility { ids, depth, keys, edges: edge, covered, repeatable, spans, columns });
+    let vis = Arc::new(Visibility { maps, covered, repeatable });
     let tris = setups.iter().flat_map(|s| s.tris.iter().cloned()).collect();
     let inputs = Inputs { size, edges, spacing, depth_states, offsets: offsets.to_vec(), tris, start_depth };
     LAST.with(|l| l.set(Some((inputs, vis.clone()))));
@@ -158,6 +192,30 @@ fn same_triangles(kept: &[Tri], setups: &[PassSetup]) -> bool {
                 && bits(&a.z) == bits(&b.z)
                 && a.weights.iter().zip(&b.weights).all(|(p, q)| bits(p) == bits(q))
         })
+}
+
+/// The target's depth, as kept: one value where every pixel holds the
+/// same bits (a cleared target), else row after row.
+fn start_of(target: &Framebuffer) -> StartDepth {
+    let first = target.tiles.first().and_then(|t| t.depth.first()).map_or(0, |d| d.to_bits());
+    let uniform = target.tiles.par_iter().all(|t| t.depth.iter().all(|d| d.to_bits() == first));
+    if uniform {
+        StartDepth::Uniform(first)
+    } else {
+        StartDepth::Rows(depth_rows(target))
+    }
+}
+
+impl StartDepth {
+    /// Whether the target's depth is this, bit for bit.
+    fn is_depth_of(&self, target: &Framebuffer) -> bool {
+        match self {
+            StartDepth::Uniform(bits) => {
+                target.tiles.par_iter().all(|t| t.depth.iter().all(|d| d.to_bits() == *bits))
+            }
+            StartDepth::Rows(rows) => same_depth(rows, target),
+        }
+    }
 }
 
 /// The target's depth, row after row.
@@ -188,146 +246,4 @@ fn same_depth(kept: &[f32], target: &Framebuffer) -> bool {
                 })
             })
         })
-}
-
-/// The visible triangle's id and the depth at every pixel, starting from
-/// `depth` (the target's), in bands of TILE rows; and whether some
-/// fragment failed its depth test by being equal to the depth it met.
-fn visible(
-    target: &Framebuffer,
-    mut depth: Vec<f32>,
-    passes: &[Pass],
-    setups: &[PassSetup],
-    offsets: &[usize],
-) -> (Vec<u32>, Vec<f32>, bool) {
-    let w = target.width() as usize;
-    let mut ids = vec![NONE; depth.len()];
-    let ties = ids
-        .par_chunks_mut(TILE * w)
-        .zip(depth.par_chunks_mut(TILE * w))
-        .enumerate()
-        .map(|(band, (ids, depth))| {
-            let y0 = (band * TILE) as i32;
-            let y1 = y0 + (ids.len() / w) as i32 - 1;
-            let mut ties = false;
-            for (p, (pass, setup)) in passes.iter().zip(setups).enumerate() {
-                ties |= visibility(ids, depth, w, (y0, y1), pass.state.depth, setup, offsets[p] as u32);
-            }
-            ties
-        })
-        .reduce(|| false, |a, b| a || b);
-    (ids, depth, ties)
-}
-
-/// Scan-converts one pass into the id and depth buffers of rows `y0..=y1`.
-fn visibility(
-    ids: &mut [u32],
-    depth: &mut [f32],
-    w: usize,
-    rows: (i32, i32),
-    state: DepthState,
-    setup: &PassSetup,
-    offset: u32,
-) -> bool {
-    let func = state.func;
-    let mut ties = false;
-    for (ti, tri) in setup.tris.iter().enumerate() {
-        let y0 = tri.y0.max(rows.0);
-        let y1 = tri.y1.min(rows.1);
-        if y0 > y1 {
-            continue;
-        }
-        let step_x = tri.dy.map(|d| -d * SUB);
-        let px0 = tri.x0 as i64 * SUB + SUB / 2;
-        for y in y0..=y1 {
-            let py = y as i64 * SUB + SUB / 2;
-            let mut e = tri.edges_at(px0, py);
-            let row = (y - rows.0) as usize * w;
-            for x in tri.x0..=tri.x1 {
-                if tri.covers(&e) {
-                    let l = tri.weights_at(x, y);
-                    let z = (l[0] * tri.z[0] + l[1] * tri.z[1] + l[2] * tri.z[2]).clamp(0.0, 1.0);
-                    let idx = row + x as usize;
-                    if func.test(z, depth[idx]) {
-                        // Later passes test against this depth even without depth writes,
-                        // as the tiled rasterizer would see it only with writes: keep GL's
-                        // behaviour by updating the test depth only when the pass writes.
-                        if state.write {
-                            depth[idx] = z;
-                        }
-                        ids[idx] = offset + ti as u32;
-                    } else if z == depth[idx] {
-                        ties = true;
-                    }
-                }
-                for k in 0..3 {
-                    e[k] += step_x[k];
-                }
-            }
-        }
-    }
-    ties
-}
-
-/// The surface key of every pixel's visible primitive (see [`EdgeMode`]),
-/// computed once: every later step compares keys of neighbours.
-fn surface_keys(ids: &[u32], offsets: &[usize], edges: EdgeMode) -> Vec<u32> {
-    ids.par_iter()
-        .map(|&id| match edges {
-            _ if id == NONE => NONE,
-            EdgeMode::Triangle => id,
-            EdgeMode::Pass => (offsets.partition_point(|&o| o <= id as usize) - 1) as u32,
-        })
-        .collect()
-}
-
-/// Whether each pixel is an edge sample: a 4-neighbour shows another
-/// surface (Section 2.1.3).
-fn edge_map(keys: &[u32], w: usize, h: usize) -> Vec<bool> {
-    (0..w * h)
-        .into_par_iter()
-        .map(|i| {
-            let (x, y, k) = (i % w, i / w, keys[i]);
-            (x > 0 && keys[i - 1] != k)
-                || (x + 1 < w && keys[i + 1] != k)
-                || (y > 0 && keys[i - w] != k)
-                || (y + 1 < h && keys[i + w] != k)
-        })
-        .collect()
-}
-
-/// Per row, the columns from its first to past its last covered pixel.
-fn row_spans(keys: &[u32], w: usize) -> Vec<(usize, usize)> {
-    keys.par_chunks(w)
-        .map(|row| match row.iter().position(|&k| k != NONE) {
-            None => (0, 0),
-            Some(x0) => (x0, w - row.iter().rev().position(|&k| k != NONE).unwrap_or(0)),
-        })
-        .collect()
-}
-
-/// [`Visibility::columns`]: band k spans rows k·spacing ..= min((k + 1)·spacing, h − 1).
-fn band_columns(keys: &[u32], edges: &[bool], (w, h): (usize, usize), spacing: usize) -> Vec<u8> {
-    let bands = (h - 1).div_ceil(spacing.max(1));
-    let mut columns = vec![EMPTY; bands * w];
-    columns.par_chunks_mut(w).enumerate().for_each(|(k, band)| {
-        let top = k * spacing;
-        let bottom = ((k + 1) * spacing).min(h - 1);
-        let first = &keys[top * w..(top + 1) * w];
-        for (c, &key) in band.iter_mut().zip(first) {
-            *c = if key == NONE { EMPTY } else { PLAIN };
-        }
-        for y in top + 1..=bottom {
-            let (row, edge) = (&keys[y * w..(y + 1) * w], &edges[y * w..(y + 1) * w]);
-            for (((c, &key), &first), &edge) in band.iter_mut().zip(row).zip(first).zip(edge) {
-                let same = key == first && (y == bottom || !edge);
-                *c = match *c {
-                    PLAIN if same => PLAIN,
-                    EMPTY if key == NONE => EMPTY,
-                    _ => MIXED,
-                };
-            }
-        }
-    });
-    columns
 }

@@ -10,7 +10,7 @@
 use rayon::prelude::*;
 
 use super::{Ctx, DISCARD_BIT, NONE, UNKNOWN};
-use crate::renderer::framebuffer::{TileBuffers, Writer, TILE};
+use crate::renderer::framebuffer::{ColorTile, TileBuffers, Writer, TILE};
 use crate::renderer::{FragmentResult, Framebuffer};
 
 impl Ctx<'_> {
@@ -58,6 +58,12 @@ impl Ctx<'_> {
     ) {
         let pass = self.passes[0].state;
         let writer = Writer::of(&pass.blend);
+        if writer == Writer::Replace {
+            if let ColorTile::F32(texels) | ColorTile::Unorm(texels) = &mut tile.color {
+                let depth_out = pass.depth.write.then_some(&mut tile.depth);
+                return self.replace_tile(texels, depth_out, (x0, y0), depth, color, state);
+            }
+        }
         let x1 = (x0 + TILE).min(self.w);
         let mut pixels = [(0usize, 0.0f32); TILE];
         let mut results = [FragmentResult::Discard; TILE];
@@ -84,6 +90,44 @@ impl Ctx<'_> {
                 }
             }
             tile.blend_kept(&pixels[..n], &color[row..row + n], &results[..n], &pass.blend, writer);
+        }
+    }
+
+    /// [`Ctx::write_tile`] for `REPLACE` into float texels, which stores
+    /// each kept colour as it is (what `TileBuffers::blend_kept` does for
+    /// it): a row whose covered span was written whole (the common case)
+    /// is copied, colours and depths, the others pixel by pixel.
+    fn replace_tile(
+        &self,
+        texels: &mut [[f32; 4]],
+        mut depth_out: Option<&mut Vec<f32>>,
+        (x0, y0): (usize, usize),
+        depth: &[f32],
+        color: &[[f32; 4]],
+        state: &[u8],
+    ) {
+        let x1 = (x0 + TILE).min(self.w);
+        let kept = |st: u8| st != UNKNOWN && st & DISCARD_BIT == 0;
+        for y in y0..(y0 + TILE).min(self.h) {
+            let (a, b) = (self.spans[y].0.max(x0), self.spans[y].1.min(x1));
+            if a >= b {
+                continue;
+            }
+            let (row, n) = (y * self.w + a, b - a);
+            let base = (y - y0) * TILE + (a - x0);
+            if state[row..row + n].iter().all(|&st| kept(st)) {
+                texels[base..base + n].copy_from_slice(&color[row..row + n]);
+                if let Some(d) = depth_out.as_deref_mut() {
+                    d[base..base + n].copy_from_slice(&depth[row..row + n]);
+                }
+                continue;
+            }
+            for k in (0..n).filter(|&k| kept(state[row + k])) {
+                texels[base + k] = color[row + k];
+                if let Some(d) = depth_out.as_deref_mut() {
+                    d[base + k] = depth[row + k];
+                }
+            }
         }
     }
 
