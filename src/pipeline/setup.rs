@@ -60,6 +60,10 @@ pub struct PassSetup {
     /// combiner setup is, and read back by its type in
     /// `backends::vertex_program::emit::of`.
     pub vertex_program: OnceLock<Arc<dyn Any + Send + Sync>>,
+    /// Whether the pass rasterizes the scene's shadow volumes rather than
+    /// its objects (`planner::shadow_volumes::VolumeStreams::drawn_by`),
+    /// decided once per plan.
+    pub draws_volumes: bool,
 }
 
 /// The image a pass renders into, with its size and format.
@@ -222,6 +226,7 @@ impl PassSetup {
         pass: &Pass,
         span: Span,
         fragment: FragmentSetup,
+        draws_volumes: bool,
     ) -> PassSetup {
         let fixed9 = OnceLock::new();
         if let FragmentSetup::Combiners(program) = &fragment {
@@ -241,6 +246,7 @@ impl PassSetup {
             fragment,
             fixed9,
             vertex_program: OnceLock::new(),
+            draws_volumes,
         }
     }
 
@@ -260,10 +266,11 @@ pub fn resolve_all(
     stages: impl IntoIterator<Item = (Span, FragmentSetup)>,
 ) -> Vec<PassSetup> {
     let names = Names::of(module);
+    let volumes = crate::planner::shadow_volumes::VolumeStreams::of(module);
     plan.passes
         .iter()
         .zip(stages)
-        .map(|(p, (span, f))| PassSetup::resolve(module, &names, p, span, f))
+        .map(|(p, (span, f))| PassSetup::resolve(module, &names, p, span, f, volumes.drawn_by(module, p)))
         .collect()
 }
 

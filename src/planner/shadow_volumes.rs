@@ -33,16 +33,29 @@ fn streams_of(m: &Module, roots: &[crate::ir::Handle<Expr>]) -> Vec<u32> {
     out
 }
 
-/// Whether `pass` rasterizes the shadow volumes: a mesh pass whose
-/// position is a volume stream ([`volume_streams`]).
-pub fn draws_volumes(m: &Module, pass: &Pass) -> bool {
-    let Some(position) = pass.vertex.position else { return false };
-    if !matches!(pass.geometry, Geometry::Mesh { .. }) {
-        return false;
+/// The volume streams of a module ([`volume_streams`]), found once per
+/// plan: which passes rasterize the shadow volumes is then a look at each
+/// pass's own position (`pipeline::setup::PassSetup::draws_volumes` keeps
+/// the answer per pass), not a walk over every statement for each pass.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct VolumeStreams(Vec<u32>);
+
+impl VolumeStreams {
+    /// The streams of `m` that only a stencil update's compared depth rasterizes.
+    pub fn of(m: &Module) -> VolumeStreams {
+        VolumeStreams(volume_streams(m))
     }
-    let volume = volume_streams(m);
-    let drawn = streams_of(m, &[crate::ir::Handle::new(position as usize)]);
-    !drawn.is_empty() && drawn.iter().all(|v| volume.contains(v))
+
+    /// Whether `pass` rasterizes the shadow volumes: a mesh pass whose
+    /// position is a volume stream.
+    pub fn drawn_by(&self, m: &Module, pass: &Pass) -> bool {
+        let Some(position) = pass.vertex.position else { return false };
+        if self.0.is_empty() || !matches!(pass.geometry, Geometry::Mesh { .. }) {
+            return false;
+        }
+        let drawn = streams_of(m, &[crate::ir::Handle::new(position as usize)]);
+        !drawn.is_empty() && drawn.iter().all(|v| self.0.contains(v))
+    }
 }
 
 /// The stencil update over a shadow volume as the hardware counted it
@@ -56,8 +69,9 @@ pub fn draws_volumes(m: &Module, pass: &Pass) -> bool {
 pub fn count_by_facing(m: &Module, passes: &mut Vec<Pass>, two_sided: bool) -> Vec<usize> {
     let mut out = Vec::with_capacity(passes.len() + 1);
     let mut origins = Vec::with_capacity(passes.len() + 1);
+    let volumes = VolumeStreams::of(m);
     for (index, pass) in passes.drain(..).enumerate() {
-        if !(pass.state.stencil.enabled && draws_volumes(m, &pass)) {
+        if !(pass.state.stencil.enabled && volumes.drawn_by(m, &pass)) {
             out.push(pass);
             origins.push(index);
             continue;
@@ -114,14 +128,16 @@ pub fn unbound_uses(m: &Module) -> Vec<Diagnostic> {
 }
 
 /// The volume a pass draws, or why it has none: no light, or no closed mesh
-/// in the scene (located at the pass's statement).
+/// in the scene (located at the pass's statement). `draws_volumes` is the
+/// pass's [`VolumeStreams::drawn_by`], as its setup keeps it.
 pub fn for_pass(
     scene: &Scene,
     assets: &SceneAssets,
     m: &Module,
     pass: &Pass,
+    draws_volumes: bool,
 ) -> Result<Option<Mesh>, String> {
-    if !draws_volumes(m, pass) {
+    if !draws_volumes {
         return Ok(None);
     }
     let light = pass.light.unwrap_or(0) as usize;
