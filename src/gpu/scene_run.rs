@@ -394,14 +394,8 @@ impl<'a> ScenePlan<'a> {
         let pass = &self.planned.plan.passes[s.pass];
         let leaves = &s.interface.vertex_leaves;
         // A stencil update over `x′`: the scene's shadow volumes.
-        let volume = crate::planner::shadow_volumes::for_pass(
-            self.scene,
-            self.assets,
-            m,
-            pass,
-            self.planned.setup(s.pass).draws_volumes,
-        )
-        .map_err(SceneRunError::Unsupported)?;
+        let volume = crate::planner::shadow_volumes::for_pass(self.scene, self.assets, self.planned, s.pass)
+            .map_err(SceneRunError::Unsupported)?;
         let volumes: Vec<BoundObject> = volume
             .iter()
             .map(|v| crate::scene::shadow_volume::bind_volume(self.scene, self.assets, v, aspect))

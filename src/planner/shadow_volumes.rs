@@ -6,7 +6,7 @@
 
 use crate::diag::Diagnostic;
 use crate::ir::{Expr, Module, Table};
-use crate::pipeline::{CullMode, Geometry, Pass, StencilOp};
+use crate::pipeline::{CullMode, Geometry, Pass, Planned, StencilOp};
 use crate::scene::shadow_volume::volumes;
 use crate::scene::{Mesh, Scene, SceneAssets};
 
@@ -127,19 +127,19 @@ pub fn unbound_uses(m: &Module) -> Vec<Diagnostic> {
     out
 }
 
-/// The volume a pass draws, or why it has none: no light, or no closed mesh
-/// in the scene (located at the pass's statement). `draws_volumes` is the
-/// pass's [`VolumeStreams::drawn_by`], as its setup keeps it.
+/// The volume pass `index` of `planned` draws (where its setup says it
+/// draws the volumes), or why it has none: no light, or no closed mesh in
+/// the scene (located at the pass's statement).
 pub fn for_pass(
     scene: &Scene,
     assets: &SceneAssets,
-    m: &Module,
-    pass: &Pass,
-    draws_volumes: bool,
+    planned: &Planned,
+    index: usize,
 ) -> Result<Option<Mesh>, String> {
-    if !draws_volumes {
+    if !planned.setup(index).draws_volumes {
         return Ok(None);
     }
+    let (m, pass) = (&planned.module, &planned.plan.passes[index]);
     let light = pass.light.unwrap_or(0) as usize;
     let stream = streams_of(m, &[crate::ir::Handle::new(pass.vertex.position.unwrap_or(0) as usize)]);
     let name = stream.first().map_or("x′", |v| m.vertices[*v as usize].as_str());

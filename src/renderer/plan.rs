@@ -445,14 +445,9 @@ impl<'a> PlanRenderer<'a> {
                 .map_err(|e| e.in_pass(index))?;
                 let target = targets.get_mut(&name).ok_or_else(|| lost(&name))?;
                 // A stencil update over `x′`: the scene's shadow volume.
-                let volume = crate::planner::shadow_volumes::for_pass(
-                    self.scene,
-                    self.assets,
-                    m,
-                    pass,
-                    self.planned.setup(index).draws_volumes,
-                )
-                .map_err(RenderError::Unsupported)?;
+                let volume =
+                    crate::planner::shadow_volumes::for_pass(self.scene, self.assets, self.planned, index)
+                        .map_err(RenderError::Unsupported)?;
                 let volume = volume.as_ref().map(|v| self.bound_volume(v, width, height));
                 let drawn = volume.as_ref().map_or(&objects[..], std::slice::from_ref);
                 self.draw_layer(pass, &pi, drawn, &stage, target, &mut draws)?;

@@ -130,13 +130,11 @@ pub fn ambiguous(
     let mut out = vec![false; (w * h) as usize];
     let mut lights = Vec::new();
     for (index, pass) in planned.plan.passes.iter().enumerate() {
-        let draws = planned.setup(index).draws_volumes;
-        if !draws || lights.contains(&pass.light) {
+        if !planned.setup(index).draws_volumes || lights.contains(&pass.light) {
             continue;
         }
         lights.push(pass.light);
-        let m = &planned.module;
-        let Some(volume) = crate::planner::shadow_volumes::for_pass(scene, assets, m, pass, draws)? else {
+        let Some(volume) = crate::planner::shadow_volumes::for_pass(scene, assets, planned, index)? else {
             continue;
         };
         let clip =
