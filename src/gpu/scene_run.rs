@@ -394,7 +394,7 @@ impl<'a> ScenePlan<'a> {
         let pass = &self.planned.plan.passes[s.pass];
         let leaves = &s.interface.vertex_leaves;
         // A stencil update over `x′`: the scene's shadow volumes.
-        let volume = crate::planner::shadow_volumes::for_pass(self.scene, self.assets, m, pass)
+        let volume = crate::planner::shadow_volumes::for_pass(self.scene, self.assets, self.planned, s.pass)
             .map_err(SceneRunError::Unsupported)?;
         let volumes: Vec<BoundObject> = volume
             .iter()

@@ -60,6 +60,10 @@ pub struct PassSetup {
     /// combiner setup is, and read back by its type in
     /// `backends::vertex_program::emit::of`.
     pub vertex_program: OnceLock<Arc<dyn Any + Send + Sync>>,
+    /// Whether the pass rasterizes the scene's shadow volumes rather than
+    /// its objects ([`VolumeStreams::drawn_by`]),
+    /// decided once per plan.
+    pub draws_volumes: bool,
 }
 
 /// The image a pass renders into, with its size and format.
@@ -222,6 +226,7 @@ impl PassSetup {
         pass: &Pass,
         span: Span,
         fragment: FragmentSetup,
+        draws_volumes: bool,
     ) -> PassSetup {
         let fixed9 = OnceLock::new();
         if let FragmentSetup::Combiners(program) = &fragment {
@@ -241,6 +246,7 @@ impl PassSetup {
             fragment,
             fixed9,
             vertex_program: OnceLock::new(),
+            draws_volumes,
         }
     }
 
@@ -260,10 +266,11 @@ pub fn resolve_all(
     stages: impl IntoIterator<Item = (Span, FragmentSetup)>,
 ) -> Vec<PassSetup> {
     let names = Names::of(module);
+    let volumes = VolumeStreams::of(module);
     plan.passes
         .iter()
         .zip(stages)
-        .map(|(p, (span, f))| PassSetup::resolve(module, &names, p, span, f))
+        .map(|(p, (span, f))| PassSetup::resolve(module, &names, p, span, f, volumes.drawn_by(module, p)))
         .collect()
 }
 
@@ -351,5 +358,53 @@ fn target_format(m: &Module, kind: TargetKind) -> TargetFormat {
             }
         }
         TargetKind::Temporary => TargetFormat::Frame,
+    }
+}
+
+/// The vertex streams that only a stencil update's compared depth
+/// rasterizes (`x′` of `z δπx′ > z C δπx′`): no statement is indexed by
+/// them, so the scene's objects are not their geometry — the shadow
+/// volumes are.
+pub fn volume_streams(m: &Module) -> Vec<u32> {
+    let indexed: Vec<u32> = streams_of(m, &m.statements.iter().map(|s| s.index).collect::<Vec<_>>());
+    let all: Vec<u32> = (0..m.vertices.len() as u32).collect();
+    all.into_iter().filter(|v| !indexed.contains(v)).collect()
+}
+
+pub(crate) fn streams_of(m: &Module, roots: &[crate::ir::Handle<Expr>]) -> Vec<u32> {
+    let mut out: Vec<u32> = m
+        .reachable(roots)
+        .into_iter()
+        .filter_map(|h| match m.exprs[h] {
+            Expr::VertexPosition(v) => Some(v),
+            _ => None,
+        })
+        .collect();
+    out.dedup();
+    out
+}
+
+/// The volume streams of a module ([`volume_streams`]), found once per
+/// plan: which passes rasterize the shadow volumes is then a look at each
+/// pass's own position ([`PassSetup::draws_volumes`] keeps the answer per
+/// pass), not a walk over every statement for each pass.
+#[derive(Clone, Debug, Default, PartialEq, Eq)]
+pub struct VolumeStreams(Vec<u32>);
+
+impl VolumeStreams {
+    /// The streams of `m` that only a stencil update's compared depth rasterizes.
+    pub fn of(m: &Module) -> VolumeStreams {
+        VolumeStreams(volume_streams(m))
+    }
+
+    /// Whether `pass` rasterizes the shadow volumes: a mesh pass whose
+    /// position is a volume stream.
+    pub fn drawn_by(&self, m: &Module, pass: &Pass) -> bool {
+        let Some(position) = pass.vertex.position else { return false };
+        if self.0.is_empty() || !matches!(pass.geometry, Geometry::Mesh { .. }) {
+            return false;
+        }
+        let drawn = streams_of(m, &[Handle::new(position as usize)]);
+        !drawn.is_empty() && drawn.iter().all(|v| self.0.contains(v))
     }
 }

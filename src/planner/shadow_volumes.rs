@@ -6,44 +6,11 @@
 
 use crate::diag::Diagnostic;
 use crate::ir::{Expr, Module, Table};
-use crate::pipeline::{CullMode, Geometry, Pass, StencilOp};
+use crate::pipeline::setup::streams_of;
+pub use crate::pipeline::setup::{volume_streams, VolumeStreams};
+use crate::pipeline::{CullMode, Pass, Planned, StencilOp};
 use crate::scene::shadow_volume::volumes;
 use crate::scene::{Mesh, Scene, SceneAssets};
-
-/// The vertex streams that only a stencil update's compared depth
-/// rasterizes (`x′` of `z δπx′ > z C δπx′`): no statement is indexed by
-/// them, so the scene's objects are not their geometry — the shadow
-/// volumes are.
-pub fn volume_streams(m: &Module) -> Vec<u32> {
-    let indexed: Vec<u32> = streams_of(m, &m.statements.iter().map(|s| s.index).collect::<Vec<_>>());
-    let all: Vec<u32> = (0..m.vertices.len() as u32).collect();
-    all.into_iter().filter(|v| !indexed.contains(v)).collect()
-}
-
-fn streams_of(m: &Module, roots: &[crate::ir::Handle<Expr>]) -> Vec<u32> {
-    let mut out: Vec<u32> = m
-        .reachable(roots)
-        .into_iter()
-        .filter_map(|h| match m.exprs[h] {
-            Expr::VertexPosition(v) => Some(v),
-            _ => None,
-        })
-        .collect();
-    out.dedup();
-    out
-}
-
-/// Whether `pass` rasterizes the shadow volumes: a mesh pass whose
-/// position is a volume stream ([`volume_streams`]).
-pub fn draws_volumes(m: &Module, pass: &Pass) -> bool {
-    let Some(position) = pass.vertex.position else { return false };
-    if !matches!(pass.geometry, Geometry::Mesh { .. }) {
-        return false;
-    }
-    let volume = volume_streams(m);
-    let drawn = streams_of(m, &[crate::ir::Handle::new(position as usize)]);
-    !drawn.is_empty() && drawn.iter().all(|v| volume.contains(v))
-}
 
 /// The stencil update over a shadow volume as the hardware counted it
 /// (Heidmann 1991; z-fail, Everitt and Kilgard 2002): +1 on the volume's
@@ -56,8 +23,9 @@ pub fn draws_volumes(m: &Module, pass: &Pass) -> bool {
 pub fn count_by_facing(m: &Module, passes: &mut Vec<Pass>, two_sided: bool) -> Vec<usize> {
     let mut out = Vec::with_capacity(passes.len() + 1);
     let mut origins = Vec::with_capacity(passes.len() + 1);
+    let volumes = VolumeStreams::of(m);
     for (index, pass) in passes.drain(..).enumerate() {
-        if !(pass.state.stencil.enabled && draws_volumes(m, &pass)) {
+        if !(pass.state.stencil.enabled && volumes.drawn_by(m, &pass)) {
             out.push(pass);
             origins.push(index);
             continue;
@@ -113,17 +81,19 @@ pub fn unbound_uses(m: &Module) -> Vec<Diagnostic> {
     out
 }
 
-/// The volume a pass draws, or why it has none: no light, or no closed mesh
-/// in the scene (located at the pass's statement).
+/// The volume pass `index` of `planned` draws (where its setup says it
+/// draws the volumes), or why it has none: no light, or no closed mesh in
+/// the scene (located at the pass's statement).
 pub fn for_pass(
     scene: &Scene,
     assets: &SceneAssets,
-    m: &Module,
-    pass: &Pass,
+    planned: &Planned,
+    index: usize,
 ) -> Result<Option<Mesh>, String> {
-    if !draws_volumes(m, pass) {
+    if !planned.setup(index).draws_volumes {
         return Ok(None);
     }
+    let (m, pass) = (&planned.module, &planned.plan.passes[index]);
     let light = pass.light.unwrap_or(0) as usize;
     let stream = streams_of(m, &[crate::ir::Handle::new(pass.vertex.position.unwrap_or(0) as usize)]);
     let name = stream.first().map_or("x′", |v| m.vertices[*v as usize].as_str());

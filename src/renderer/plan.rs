@@ -445,8 +445,9 @@ impl<'a> PlanRenderer<'a> {
                 .map_err(|e| e.in_pass(index))?;
                 let target = targets.get_mut(&name).ok_or_else(|| lost(&name))?;
                 // A stencil update over `x′`: the scene's shadow volume.
-                let volume = crate::planner::shadow_volumes::for_pass(self.scene, self.assets, m, pass)
-                    .map_err(RenderError::Unsupported)?;
+                let volume =
+                    crate::planner::shadow_volumes::for_pass(self.scene, self.assets, self.planned, index)
+                        .map_err(RenderError::Unsupported)?;
                 let volume = volume.as_ref().map(|v| self.bound_volume(v, width, height));
                 let drawn = volume.as_ref().map_or(&objects[..], std::slice::from_ref);
                 self.draw_layer(pass, &pi, drawn, &stage, target, &mut draws)?;
@@ -625,7 +626,7 @@ impl<'a> PlanRenderer<'a> {
                 && pass.objects == plan.passes[index].objects
                 && !matches!(m.exprs[pi.output], Expr::Bundle(_))
                 && !state.stencil.enabled
-                && !crate::planner::shadow_volumes::draws_volumes(m, pass)
+                && !self.planned.setup(i).draws_volumes
                 && !reads_framebuffer
                 && !reads_own_target(m, &pi)
                 && pi.depth.is_none()
