@@ -545,7 +545,14 @@ fn a_destination_alpha_product_keeps_or_explains_its_alpha() {
         plan_src(&format!("{decl}C δπx ← rgba((α C δπx) * (D δu x), α C δπx);\n"), "geforce3").unwrap();
     assert_eq!(kept.passes.len(), 2, "{}", kept.summary());
     assert_eq!(kept.passes[1].blend, BlendMode::DstAlphaModulate);
-    let err = plan_src(&format!("{decl}C δπx ← (α C δπx) * (D δu x);\n"), "geforce3").unwrap_err();
+    // Fused, `α C` is the first statement's alpha read off its tuple: one
+    // pass writing `rgba(A.a·D, 1)`, no blend by the destination alpha.
+    let fused = plan_src(&format!("{decl}C δπx ← (α C δπx) * (D δu x);\n"), "geforce3").unwrap();
+    assert_eq!(fused.passes.len(), 1, "{}", fused.summary());
+    assert!(fused.passes[0].reason.contains("fused"), "{}", fused.passes[0].reason);
+    // An alpha of five textures fuses into no pass of four units: refused.
+    let wide = "texture A : 2d rgba8 = image(\"a.png\");\ntexture B, D, E, G : 2d rgb8 = image(\"d.png\");\nframebuffer C : rgba8, depth;\nC δπx ← rgba((B δu x) * (E δu x), (A δu x).a * (B δu x).r * (E δu x).g * (G δu x).b);\n";
+    let err = plan_src(&format!("{wide}C δπx ← (α C δπx) * (D δu x);\n"), "geforce3").unwrap_err();
     assert_eq!(err[0].message, "framebuffer blending cannot express this: the value is rgb, so the statement writes alpha 1, while a blend by the destination alpha would scale the alpha too");
     assert!(
         err[0].help.as_deref().is_some_and(|h| h.contains("rgba((α C δπx) * c, α C δπx)")),
