@@ -864,3 +864,24 @@ fn gouraud_takes_the_interpolated_terms_of_a_sum_together() {
     let c = add(Colour::Texture(0), add(Colour::Lights(1, 3), Colour::Channel(0)));
     both_plan(&c, Written::Multiplied, "geforce256", false);
 }
+
+/// A scalar written into `C` is splatted to rgba: its forms are found
+/// under the splat as under `rgb → rgba` (`mix(0.2·g, g + g, a)`, `g` an
+/// interpolated channel). Refused as written on geforce3 before.
+#[test]
+fn a_scalar_statement_is_rewritten_under_its_splat() {
+    let g = || Colour::Channel(0);
+    let c = lerp(mul(Colour::Number(2), g()), add(g(), g()), None);
+    both_plan(&c, Written::Replace, "geforce3", true);
+}
+
+/// `lerp(lerp(T0, δl, a), T0, a)` multiplied out has `(1 − a)²` and
+/// `a·(1 − a)`: the inner lerp read back with the `(1 − a)` both of its
+/// terms share taken out, then the outer one around it. Refused
+/// multiplied out on multitexture before.
+#[test]
+fn lerps_nested_on_one_weight_are_read_back_level_by_level() {
+    let t = || Colour::Texture(0);
+    let c = lerp(lerp(t(), Colour::Lights(1, 3), None), t(), None);
+    both_plan(&c, Written::Multiplied, "multitexture", false);
+}

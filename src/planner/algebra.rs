@@ -411,7 +411,7 @@ pub fn multiply_out(m: &mut Module, h: Handle<Expr>, max: usize) -> Option<Handl
 /// temporary (`T0⁴·(δg + δg)`, `δg` in [0, 0.6]).
 fn multiplied_out(m: &mut Module, h: Handle<Expr>, max: usize, collect: bool) -> Option<Handle<Expr>> {
     if let Expr::Convert { value, to: Ty::Rgba } = m.exprs[h] {
-        if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3) {
+        if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3 | Ty::Scalar) {
             let inner = multiplied_out(m, value, max, collect)?;
             return node(m, Expr::Convert { value: inner, to: Ty::Rgba }, m.span(h));
         }

@@ -22,7 +22,7 @@ const MAX_GROUPED_FACTORS: usize = 8;
 /// the terms exactly (as multisets). `None` when no grouping does.
 pub fn product_by_groups(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
     if let Expr::Convert { value, to: Ty::Rgba } = m.exprs[h] {
-        if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3) {
+        if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3 | Ty::Scalar) {
             let inner = product_by_groups(m, value)?;
             return node(m, Expr::Convert { value: inner, to: Ty::Rgba }, m.span(h));
         }
@@ -175,7 +175,7 @@ fn is_product(terms: &[Vec<Handle<Expr>>], selectors: Terms, xs: Terms) -> Optio
 /// when nothing factors so.
 pub fn product_of_sums(m: &mut Module, h: Handle<Expr>, distribute_common: bool) -> Option<Handle<Expr>> {
     if let Expr::Convert { value, to: Ty::Rgba } = m.exprs[h] {
-        if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3) {
+        if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3 | Ty::Scalar) {
             let inner = product_of_sums(m, value, distribute_common)?;
             return node(m, Expr::Convert { value: inner, to: Ty::Rgba }, m.span(h));
         }
@@ -297,7 +297,7 @@ fn relerp(m: &mut Module, terms: &[Vec<Handle<Expr>>], span: Span) -> Option<Han
 /// when no pair is one.
 pub fn lerps_recovered(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
     if let Expr::Convert { value, to: Ty::Rgba } = m.exprs[h] {
-        if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3) {
+        if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3 | Ty::Scalar) {
             let inner = lerps_recovered(m, value)?;
             return node(m, Expr::Convert { value: inner, to: Ty::Rgba }, m.span(h));
         }
@@ -312,7 +312,7 @@ pub fn lerps_recovered(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> 
         for i in 0..terms.len() {
             for j in i + 1..terms.len() {
                 let Some(mix) = relerp(m, &[terms[i].clone(), terms[j].clone()], span) else { continue };
-                terms[i] = vec![mix];
+                terms[i] = product_factors(m, mix);
                 terms.remove(j);
                 found = true;
                 continue 'pairs;
@@ -355,7 +355,7 @@ pub fn factor(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
 /// planner tries a few.
 pub fn factor_nth(m: &mut Module, h: Handle<Expr>, nth: usize) -> Option<Handle<Expr>> {
     if let Expr::Convert { value, to: Ty::Rgba } = m.exprs[h] {
-        if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3) {
+        if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3 | Ty::Scalar) {
             let inner = factor_nth(m, value, nth)?;
             return node(m, Expr::Convert { value: inner, to: Ty::Rgba }, m.span(h));
         }
