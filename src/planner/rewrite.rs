@@ -249,7 +249,16 @@ pub(super) fn cannot_split(
     }
     // What was tried, so that the refusal is not read as if a rewrite
     // would have planned it.
-    let forms: Vec<String> = tried.iter().map(|(what, o)| format!("{what}, it {o}")).collect();
+    // One line per kind of form (several forms of one kind, such as the
+    // three common factors, usually fail alike): the first's reason.
+    let mut forms: Vec<String> = Vec::new();
+    let mut seen: Vec<&str> = Vec::new();
+    for (what, o) in tried {
+        if !seen.contains(what) {
+            seen.push(what);
+            forms.push(format!("{what}, it {o}"));
+        }
+    }
     let help = format!(
         "{}; the planner also tried the statement in its equivalent forms, and none plans: {}",
         d.help.clone().unwrap_or_default(),
@@ -270,8 +279,12 @@ fn not_exact_through_clamps(
     span: Span,
     tried: &[(&str, Overflow)],
 ) -> Diagnostic {
-    let mut forms: Vec<&str> = tried.iter().map(|(what, _)| *what).collect();
-    forms.dedup();
+    let mut forms: Vec<&str> = Vec::new();
+    for (what, _) in tried {
+        if !forms.contains(what) {
+            forms.push(what);
+        }
+    }
     let wider = if storage_of(profile).float_temps {
         "declare the framebuffer `rgba16f`"
     } else {
