@@ -17,7 +17,7 @@ use shadec::scene::Scene;
 
 /// Auto's choice on wgpu for `scene` with Phong `lobes` (0: the fragment
 /// lighting example) at `size` (the scene's own when `None`).
-fn auto(scene: &str, lobes: usize, size: Option<(u32, u32)>) -> AutoChoice {
+fn auto(scene: &str, lobes: usize, size: Size) -> AutoChoice {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let scene = Scene::load(&root.join("scenes").join(format!("{scene}.ron"))).unwrap();
     let assets = scene.build().unwrap();
@@ -32,13 +32,16 @@ fn auto(scene: &str, lobes: usize, size: Option<(u32, u32)>) -> AutoChoice {
     choose(&compiled.planned.plan, &workload, size.unwrap_or(scene.resolution), Executor::Wgpu)
 }
 
-const AT_1024: Option<(u32, u32)> = Some((1024, 1024));
+/// A frame size, or the scene's own where `None`.
+type Size = Option<(u32, u32)>;
+
+const AT_1024: Size = Some((1024, 1024));
 
 /// (scene, lobes, size, the lowest speed-up of adaptive over full shading
 /// on wgpu in the runs of 2026-12-06): the cases above the old crossover
 /// of 56 operations that measured below 0.95×, at frames large enough for
 /// the pixel floor, so that only the crossover can keep them in full.
-const MEASURED_SLOWER: [(&str, usize, Option<(u32, u32)>, f64); 7] = [
+const MEASURED_SLOWER: [(&str, usize, Size, f64); 7] = [
     ("adaptive_cube_1light", 8, None, 0.75),
     ("adaptive_cube_1light", 12, None, 0.88),
     ("adaptive_spot_cutoff", 8, None, 0.82),
