@@ -10,7 +10,7 @@
 
 use std::path::Path;
 
-use shadec::bench::adaptive_scenes::{markdown, programs, run_all};
+use shadec::bench::adaptive_scenes::{markdown, programs, run_all, Measure};
 
 fn env_list(name: &str, default: &str) -> Vec<String> {
     std::env::var(name)
@@ -31,7 +31,8 @@ fn main() {
         .collect();
     let programs = programs(root, &lobes).expect("the programs");
     let only = env_list("SHADEC_BENCH_SCENES", "");
-    let rows = run_all(&root.join("scenes"), &programs, runs, gpu, &only, &mut |line| eprintln!("{line}"))
+    let measure = Measure { runs, cpu: true, gpu, size: None };
+    let rows = run_all(&root.join("scenes"), &programs, &measure, &only, &mut |line| eprintln!("{line}"))
         .expect("the scenes");
     println!("{}", markdown(&rows));
 }

@@ -89,6 +89,7 @@ mod stencil_writes;
 mod three_way_heldout;
 mod three_way_heldout13;
 mod vertex_programs_public;
+mod wgpu_auto;
 mod wgpu_dual_paraboloid;
 mod wgpu_light_culling;
 mod wgpu_rendered_mipmaps;

@@ -40,6 +40,9 @@ pub struct SceneRow {
     /// Fraction of covered fragments adaptive shading shaded (CPU only).
     pub shaded: Option<f64>,
     pub psnr_db: f64,
+    /// What timed the frames: the CPU's clock, or on wgpu the adapter's
+    /// timestamp queries where it has them, else submit to read-back.
+    pub clock: &'static str,
 }
 
 impl SceneRow {
@@ -55,6 +58,21 @@ impl SceneRow {
             1.0
         }
     }
+    /// Auto's speed over the faster of full and adaptive shading: 1 where
+    /// auto chose the faster, below 1 by what its choice lost.
+    pub fn auto_over_best(&self) -> f64 {
+        self.auto_speedup() / self.speedup().max(1.0)
+    }
+}
+
+/// What `run_all` measures: repetitions, executors, and the size (each
+/// scene's own resolution where `None`).
+#[derive(Clone, Copy, Debug)]
+pub struct Measure {
+    pub runs: usize,
+    pub cpu: bool,
+    pub gpu: bool,
+    pub size: Option<(u32, u32)>,
 }
 
 fn median(mut times: Vec<Duration>) -> Duration {
@@ -108,13 +126,12 @@ fn plan(source: &str, scene: &Scene, assets: &SceneAssets) -> Result<crate::driv
 
 /// One row on the CPU renderer (f32): `program` is `(name, source)`.
 pub fn cpu_row(
-    (name, scene, assets): (&str, &Scene, &SceneAssets),
+    (name, scene, assets, size): (&str, &Scene, &SceneAssets, (u32, u32)),
     (program, source): (&str, &str),
     runs: usize,
 ) -> Result<SceneRow, String> {
     let compiled = plan(source, scene, assets)?;
     let planned = &compiled.planned;
-    let size = scene.resolution;
     let workload = Workload::of_scene(scene, &assets.meshes, name);
     let choice = choose(&planned.plan, &workload, size, Executor::Cpu);
     let renderer = PlanRenderer::new(planned, &compiled.program, scene, assets).map_err(|e| e.to_string())?;
@@ -142,6 +159,7 @@ pub fn cpu_row(
         adaptive,
         shaded: a.adaptive.map(|s| s.fraction_shaded()),
         psnr_db: compare(&f.image, &a.image).psnr,
+        clock: "wall",
     })
 }
 
@@ -155,7 +173,7 @@ fn operations(plan: &crate::pipeline::PassPlan) -> usize {
 /// adapter has them, else submit to read-back).
 pub fn gpu_row(
     gpu: &crate::gpu::runner::Gpu,
-    (name, scene, assets): (&str, &Scene, &SceneAssets),
+    (name, scene, assets, size): (&str, &Scene, &SceneAssets, (u32, u32)),
     (program, source): (&str, &str),
     runs: usize,
 ) -> Result<SceneRow, String> {
@@ -163,7 +181,6 @@ pub fn gpu_row(
     use crate::gpu::runner::{Frame, Target};
     let compiled = plan(source, scene, assets)?;
     let planned = &compiled.planned;
-    let size = scene.resolution;
     let workload = Workload::of_scene(scene, &assets.meshes, name);
     let choice = choose(&planned.plan, &workload, size, Executor::Wgpu);
     let run = crate::gpu::scene_run::ScenePlan::new(
@@ -184,9 +201,11 @@ pub fn gpu_row(
     }
     let full_frame = Frame::prepare(gpu, &target, &passes).map_err(|e| e.to_string())?;
     let sparse_frame = Frame::prepare(gpu, &target, &sparse).map_err(|e| e.to_string())?;
+    let stamped = std::cell::Cell::new(true);
     let draw = |frame: &Frame| {
         let start = Instant::now();
         let (image, time) = frame.draw_timed(gpu).map_err(|e| e.to_string())?;
+        stamped.set(stamped.get() && time.is_some());
         let time = time.unwrap_or_else(|| start.elapsed());
         Ok::<_, String>((time, image))
     };
@@ -219,6 +238,7 @@ pub fn gpu_row(
         adaptive: median(a_times),
         shaded: None,
         psnr_db: compare(&image(&f_image)?, &image(&a_image)?).psnr,
+        clock: if stamped.get() { "GPU timestamps" } else { "submit to read-back" },
     })
 }
 
@@ -233,13 +253,14 @@ pub fn load(path: &Path) -> Result<(Scene, SceneAssets), String> {
 /// medians, the speed-up adaptive shading would give, what auto gave.
 pub fn markdown(rows: &[SceneRow]) -> String {
     let mut md = String::from(
-        "| executor | scene | program (ops) | size | auto chose | full ms | adaptive ms | adaptive / full speed | auto's speed | shaded | PSNR |\n|---|---|---|---|---|---|---|---|---|---|---|\n",
+        "| executor (clock) | scene | program (ops) | size | auto chose | full ms | adaptive ms | adaptive / full speed | auto's speed | auto / best | shaded | PSNR |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n",
     );
     for r in rows {
         let _ = writeln!(
             md,
-            "| {} | {} | {} ({}) | {}×{} | {} | {:.1} | {:.1} | {:.2}× | {:.2}× | {} | {:.1} dB |",
+            "| {} ({}) | {} | {} ({}) | {}×{} | {} | {:.1} | {:.1} | {:.2}× | {:.2}× | {:.2} | {} | {:.1} dB |",
             if r.executor == Executor::Cpu { "CPU" } else { "wgpu" },
+            r.clock,
             r.scene,
             r.program,
             r.operations,
@@ -250,6 +271,7 @@ pub fn markdown(rows: &[SceneRow]) -> String {
             r.adaptive.as_secs_f64() * 1e3,
             r.speedup(),
             r.auto_speedup(),
+            r.auto_over_best(),
             r.shaded.map_or("—".into(), |f| format!("{:.1} %", 100.0 * f)),
             r.psnr_db
         );
@@ -272,18 +294,25 @@ pub fn programs(root: &Path, lobes: &[usize]) -> Result<Vec<(String, String)>, S
 }
 
 /// Every scene of `dir` whose name contains one of `only` (all if empty)
-/// with every program, on the CPU and, with `gpu`, on wgpu; `progress`
-/// hears of each row. A row that cannot be measured is reported through
-/// `progress` and left out.
+/// with every program, on the executors `measure` names, at its size;
+/// `progress` hears of each row. A row that cannot be measured is
+/// reported through `progress` and left out.
 pub fn run_all(
     dir: &Path,
     programs: &[(String, String)],
-    runs: usize,
-    gpu: bool,
+    measure: &Measure,
     only: &[String],
     progress: &mut dyn FnMut(&str),
 ) -> Result<Vec<SceneRow>, String> {
-    let device = if gpu { Some(crate::gpu::runner::Gpu::new().map_err(|e| e.to_string())?) } else { None };
+    let device =
+        if measure.gpu { Some(crate::gpu::runner::Gpu::new().map_err(|e| e.to_string())?) } else { None };
+    if let Some(gpu) = &device {
+        let info = gpu.adapter_info();
+        progress(&format!(
+            "adapter: {} ({:?}, {:?}, driver {})",
+            info.name, info.backend, info.device_type, info.driver
+        ));
+    }
     let mut rows = Vec::new();
     for path in scene_files(dir)? {
         let name = path.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_default();
@@ -291,20 +320,25 @@ pub fn run_all(
             continue;
         }
         let (scene, assets) = load(&path)?;
+        let size = measure.size.unwrap_or(scene.resolution);
         for (program, source) in programs {
-            let at = (name.as_str(), &scene, &assets);
-            let mut measured = vec![cpu_row(at, (program, source), runs)];
+            let at = (name.as_str(), &scene, &assets, size);
+            let mut measured = Vec::new();
+            if measure.cpu {
+                measured.push(cpu_row(at, (program, source), measure.runs));
+            }
             if let Some(gpu) = &device {
-                measured.push(gpu_row(gpu, at, (program, source), runs));
+                measured.push(gpu_row(gpu, at, (program, source), measure.runs));
             }
             for row in measured {
                 match row {
                     Ok(row) => {
                         progress(&format!(
-                            "{name} {program} {}: {:.2}× (auto chose {})",
+                            "{name} {program} {}: {:.2}× (auto chose {}, {:.2} of the best)",
                             if row.executor == Executor::Cpu { "CPU" } else { "wgpu" },
                             row.speedup(),
-                            if row.choice.adaptive { "adaptive" } else { "full" }
+                            if row.choice.adaptive { "adaptive" } else { "full" },
+                            row.auto_over_best()
                         ));
                         rows.push(row);
                     }
@@ -317,11 +351,12 @@ pub fn run_all(
 }
 
 /// `shadec bench --adaptive-scenes`: the table over `root`'s `scenes/`
-/// (programs: fragment lighting, 4, 8 and 16 Phong lobes), progress on
-/// standard error.
-pub fn report(root: &Path, runs: usize, gpu: bool, only: Option<&str>) -> Result<String, String> {
-    let programs = programs(root, &[4, 8, 16])?;
+/// (programs: fragment lighting and Phong shaders of each of `lobes`
+/// lobes), progress on standard error; on the CPU renderer, or with
+/// `measure.gpu` on wgpu.
+pub fn report(root: &Path, measure: &Measure, lobes: &[usize], only: Option<&str>) -> Result<String, String> {
+    let programs = programs(root, lobes)?;
     let only: Vec<String> = only.map(|o| o.split(',').map(str::to_string).collect()).unwrap_or_default();
-    let rows = run_all(&root.join("scenes"), &programs, runs, gpu, &only, &mut |line| eprintln!("{line}"))?;
+    let rows = run_all(&root.join("scenes"), &programs, measure, &only, &mut |line| eprintln!("{line}"))?;
     Ok(markdown(&rows))
 }

@@ -12,6 +12,7 @@ use super::render::{parse_size, Progress};
 use super::{EXIT_SOURCE_ERRORS, EXIT_USAGE_OR_IO};
 
 #[derive(Debug, clap::Args)]
+#[command(group(clap::ArgGroup::new("gpu_check_or_scenes").args(["gpu_check", "adaptive_scenes"]).multiple(true)))]
 pub struct BenchArgs {
     /// The folder to write report.md, the plots and diff/ into (created if
     /// needed; each file written atomically). `--out-dir` is an older name.
@@ -76,8 +77,10 @@ pub struct BenchArgs {
     pub timing_sizes: Vec<u32>,
     /// With --gpu-check: the adaptive crossover's programs, as Phong lobes
     /// per fragment, comma-separated (0: the diffuse term alone)
-    /// [default: 0,1,2,4,8,16,32; 0,8 with --quick].
-    #[arg(long, value_name = "K,K,…", requires = "gpu_check", value_delimiter = ',')]
+    /// [default: 0,1,2,4,8,16,32; 0,8 with --quick]. With
+    /// --adaptive-scenes: the Phong programs besides the fragment lighting
+    /// example [default: 4,8,16].
+    #[arg(long, value_name = "K,K,…", requires = "gpu_check_or_scenes", value_delimiter = ',')]
     pub crossover_lobes: Vec<usize>,
     /// With --gpu-check: the square size the crossover is timed at
     /// [default: 1024; 128 with --quick].
@@ -86,7 +89,9 @@ pub struct BenchArgs {
     /// Instead of the papers' variants: `--adaptive auto` on every scene of
     /// scenes/ — full and adaptive shading of the same plan interleaved
     /// `--runs` times (default 5), medians, with auto's choice — on the CPU
-    /// and, with `--backend wgpu`, on wgpu; prints a markdown table.
+    /// or, with `--backend wgpu`, on wgpu (GPU timestamps where the adapter
+    /// has them), at each scene's resolution or `--size`; prints a markdown
+    /// table.
     #[arg(long, conflicts_with_all = ["program", "gpu_check"])]
     pub adaptive_scenes: bool,
 }
@@ -316,13 +321,24 @@ pub fn run(args: &BenchArgs) -> ExitCode {
     #[cfg(feature = "gpu")]
     if args.adaptive_scenes {
         let gpu = args.backend == super::render::Backend::Wgpu;
+        let size = match args.size.as_deref().map(|s| (s, parse_size(s))) {
+            None => None,
+            Some((_, Some(v))) => Some(v),
+            Some((s, None)) => {
+                return usage(format!(
+                    "--size {s}: expected WxH with 1..=16384 pixels per side, such as 640x480"
+                ))
+            }
+        };
+        if let Some(bad) = args.crossover_lobes.iter().find(|k| **k > 64) {
+            return usage(format!("--crossover-lobes {bad}: expected 0 to 64 lobes"));
+        }
+        let lobes =
+            if args.crossover_lobes.is_empty() { vec![4, 8, 16] } else { args.crossover_lobes.clone() };
+        let measure =
+            shadec::bench::adaptive_scenes::Measure { runs: args.runs.unwrap_or(5), cpu: !gpu, gpu, size };
         let root = std::path::Path::new(".");
-        return match shadec::bench::adaptive_scenes::report(
-            root,
-            args.runs.unwrap_or(5),
-            gpu,
-            args.only.as_deref(),
-        ) {
+        return match shadec::bench::adaptive_scenes::report(root, &measure, &lobes, args.only.as_deref()) {
             Ok(md) => {
                 println!("{md}");
                 ExitCode::SUCCESS

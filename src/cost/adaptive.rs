@@ -4,10 +4,12 @@
 //!
 //! Adaptive shading saves the shading of the fragments it interpolates and
 //! pays for a sparse frame and a classification (on wgpu) or for the
-//! sample bookkeeping and the samples themselves (on the CPU). On wgpu the
-//! crossover measured by `bench --gpu-check`'s sweep
-//! (`bench::adaptive_crossover`) decides, in the plan's own measure of a
-//! fragment ([`crate::pipeline::FragmentWork::operations`]). On the CPU a
+//! sample bookkeeping and the samples themselves (on the CPU). On wgpu a
+//! crossover decides, in the plan's own measure of a fragment
+//! ([`crate::pipeline::FragmentWork::operations`]): the fewest operations
+//! at which `bench --adaptive-scenes --backend wgpu` never measured
+//! adaptive shading slower on the scenes of `scenes/` (the sweep of
+//! `bench --gpu-check`, `bench::adaptive_crossover`, measures one sphere). On the CPU a
 //! cost model ([`CpuModel`]) prices both frames: full shading per covered
 //! pixel, adaptive shading per frame pixel and covered pixel plus the
 //! samples it shades — a fraction of the interior and, along each object's
@@ -33,10 +35,14 @@ pub enum Executor {
     Wgpu,
 }
 
-/// Operations per fragment from which adaptive shading was faster on wgpu,
-/// measured on lavapipe: 56 operations 0.98-1.01× at 1024², 1.52× at
-/// 2048²; on a GPU the check's sweep measures its own.
-pub const WGPU_CROSSOVER: usize = 56;
+/// Operations per fragment from which adaptive shading was not slower on
+/// wgpu on any scene of `scenes/` whose largest pass covers
+/// [`MIN_PIXELS_WGPU`], measured on lavapipe by `bench --adaptive-scenes
+/// --backend wgpu` at the scenes' sizes and at 1024² (two runs each): 104
+/// operations 1.01-2.59×; 56 operations 0.77-2.19×, the one-light cube
+/// 0.77-0.97× and the spotlight 0.85-0.88× among them. On a GPU the
+/// check's sweep measures its own.
+pub const WGPU_CROSSOVER: usize = 104;
 
 /// The fewest pixels (at the rendered size) the largest pass into the
 /// picture must cover on the CPU: two small spheres at 256²
@@ -47,7 +53,7 @@ pub const MIN_PIXELS: u64 = 32_768;
 /// The same on wgpu, whose sparse frame and full-screen classification
 /// cost the same whatever is shaded: the 4-light sphere at 512² (about
 /// 110 000 pixels a pass) was slower adaptively even at 104 operations
-/// (0.78×), at 1024² (about 590 000) faster from 56.
+/// (0.78-1.00×), at 1024² (about 590 000) faster at 104 (1.37-1.55×).
 pub const MIN_PIXELS_WGPU: u64 = 262_144;
 
 /// The decision and its reason, for `render` to print.
@@ -273,9 +279,10 @@ mod tests {
 
     const PHONG: &str = "vector N : normal;\nvector L : light(0);\nvector V : view;\nshader p : s → c {\n    let Nn = normalize(N);\n    let Hn = normalize(normalize(L) + normalize(V));\n    max(0, Nn·normalize(L)) * 0.5 + max(0, Nn·Hn)^40 * 0.5 + max(0, Nn·Hn)^8 * 0.25\n}\nC δπx ← p δ s x;\n";
 
-    /// Sixteen Phong lobes: 104 operations per fragment.
+    /// Thirty-two Phong lobes: 137 operations per fragment, above both
+    /// executors' crossovers (sixteen give 73).
     fn costly() -> String {
-        let lobes: Vec<String> = (0..16)
+        let lobes: Vec<String> = (0..32)
             .map(|i| format!("max(0, Nn·Hn)^{} * 0.05 + max(0, Nn·normalize(L)) * 0.01", 8 + 4 * i))
             .collect();
         PHONG.replace(
