@@ -211,7 +211,8 @@ criterion_group!(benches, criterion_sphere, criterion_plan_sphere);
 /// in the same run, plain timer (median of `SHADEC_BENCH_RUNS`, default 7,
 /// after one warm-up) and the process's CPU time per frame (user + system
 /// of every thread over the warm-up and the runs), with the error of the adaptive frame against the
-/// full one. `SHADEC_BENCH_PLAN_ONLY=1` prints only this table.
+/// full one; each first with every frame recycled into the next, then with
+/// every frame dropped. `SHADEC_BENCH_PLAN_ONLY=1` prints only this table.
 fn plan_sphere_table() {
     use shadec::driver::{compile, ForScene, PlanOptions};
     use shadec::numerics::Precision;
@@ -240,33 +241,50 @@ fn plan_sphere_table() {
         let full = renderer.render(Precision::F32, side, side, &mut |_, _| {}).unwrap();
         let adaptive =
             renderer.render_adaptive(Precision::F32, side, side, &settings, &mut |_, _| {}).unwrap();
-        let (full_ms, full_cpu) =
-            median_and_cpu_ms(|| drop(renderer.render(Precision::F32, side, side, &mut |_, _| {}).unwrap()));
-        // Each frame draws the same triangles over the same cleared depth, so
-        // a frame could take the last frame's visibility; "cold" forgets it
-        // first, as a frame of a moving camera would have to, "kept" does not.
-        for kept in [false, true] {
-            let (adaptive_ms, adaptive_cpu) = median_and_cpu_ms(|| {
-                if !kept {
-                    shadec::renderer::adaptive::forget_visibility();
+        let e = compare(&full.image, &adaptive.image);
+        let shaded = adaptive.adaptive.map_or(f64::NAN, |s| 100.0 * s.fraction_shaded());
+        // "recycled": every frame, full and adaptive alike, gives its image
+        // back (`PlanRenderer::recycle`, as a swap chain does) and the next
+        // clears only the tiles written; "dropped": every frame allocates
+        // and faults in a fresh target, the bench before.
+        for recycled in [true, false] {
+            let finish = |frame: shadec::renderer::plan::Frame| {
+                if recycled {
+                    renderer.recycle(frame);
                 }
-                drop(renderer.render_adaptive(Precision::F32, side, side, &settings, &mut |_, _| {}).unwrap())
+            };
+            let (full_ms, full_cpu) = median_and_cpu_ms(|| {
+                finish(renderer.render(Precision::F32, side, side, &mut |_, _| {}).unwrap())
             });
-            let e = compare(&full.image, &adaptive.image);
-            let shaded = adaptive.adaptive.map_or(f64::NAN, |s| 100.0 * s.fraction_shaded());
-            println!(
-            "| {side}² {} | {full_ms:.1} | {adaptive_ms:.1} | {:.2}× | {full_cpu:.0} | {adaptive_cpu:.0} | {:.2}× | {shaded:.2} | {:.1} | {:.4} |",
-            if kept { "kept" } else { "cold" },
-            full_ms / adaptive_ms,
-            full_cpu / adaptive_cpu,
-            e.psnr,
-            e.max_abs
-        );
+            // Each frame draws the same triangles over the same cleared depth, so
+            // a frame could take the last frame's visibility; "cold" forgets it
+            // first, as a frame of a moving camera would have to, "kept" does not.
+            for kept in [false, true] {
+                let (adaptive_ms, adaptive_cpu) = median_and_cpu_ms(|| {
+                    if !kept {
+                        shadec::renderer::adaptive::forget_visibility();
+                    }
+                    finish(
+                        renderer
+                            .render_adaptive(Precision::F32, side, side, &settings, &mut |_, _| {})
+                            .unwrap(),
+                    )
+                });
+                println!(
+                    "| {side}² {}, {} | {full_ms:.1} | {adaptive_ms:.1} | {:.2}× | {full_cpu:.0} | {adaptive_cpu:.0} | {:.2}× | {shaded:.2} | {:.1} | {:.4} |",
+                    if kept { "kept" } else { "cold" },
+                    if recycled { "recycled" } else { "dropped" },
+                    full_ms / adaptive_ms,
+                    full_cpu / adaptive_cpu,
+                    e.psnr,
+                    e.max_abs
+                );
+            }
         }
     }
 }
 
-/// `SHADEC_BENCH_PROFILE=N`: only N cold adaptive frames of the plan sphere
+/// `SHADEC_BENCH_PROFILE=N`: only N cold adaptive frames (recycled) of the plan sphere
 /// at the first of `SHADEC_BENCH_SIZES` (default 1024), nothing else — a
 /// run for a profiler.
 fn profile_cold(frames: usize) {
@@ -289,7 +307,9 @@ fn profile_cold(frames: usize) {
     let (wall, cpu) = median_and_cpu_ms(|| {
         for _ in 0..frames {
             shadec::renderer::adaptive::forget_visibility();
-            drop(renderer.render_adaptive(Precision::F32, side, side, &settings, &mut |_, _| {}).unwrap());
+            renderer.recycle(
+                renderer.render_adaptive(Precision::F32, side, side, &settings, &mut |_, _| {}).unwrap(),
+            );
         }
     });
     println!(
