@@ -17,7 +17,7 @@ use shadec::scene::Scene;
 
 /// Auto's choice for `scene` with Phong `lobes` (0: the fragment lighting
 /// example) at `size` (the scene's own when `None`).
-fn auto(scene: &str, lobes: usize, size: Option<(u32, u32)>, executor: Executor) -> AutoChoice {
+pub(crate) fn auto(scene: &str, lobes: usize, size: Option<(u32, u32)>, executor: Executor) -> AutoChoice {
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let scene = Scene::load(&root.join("scenes").join(format!("{scene}.ron"))).unwrap();
     let assets = scene.build().unwrap();

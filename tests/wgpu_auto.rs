@@ -6,30 +6,11 @@
 //! measured below 0.95× full shading in a run, auto must shade in full;
 //! where it measured at least 1.3× in every run, auto must be adaptive.
 
-use std::path::Path;
+use shadec::cost::adaptive::{AutoChoice, Executor};
 
-use shadec::bench::adaptive_crossover::phong_lobes;
-use shadec::cost::adaptive::{choose, AutoChoice, Executor};
-use shadec::cost::Workload;
-use shadec::driver::{compile, ForScene, PlanOptions};
-use shadec::profile::Profile;
-use shadec::scene::Scene;
-
-/// Auto's choice on wgpu for `scene` with Phong `lobes` (0: the fragment
-/// lighting example) at `size` (the scene's own when `None`).
+/// Auto's choice on wgpu (`tests/adaptive_auto.rs`'s helper).
 fn auto(scene: &str, lobes: usize, size: Size) -> AutoChoice {
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let scene = Scene::load(&root.join("scenes").join(format!("{scene}.ron"))).unwrap();
-    let assets = scene.build().unwrap();
-    let source = if lobes == 0 {
-        std::fs::read_to_string(root.join("examples/fragment_lighting.shd")).unwrap()
-    } else {
-        phong_lobes(lobes)
-    };
-    let options = PlanOptions { scene: Some(ForScene::specialized(&scene, &assets)), ..Default::default() };
-    let compiled = compile(&source, &Profile::resolve("wgsl").unwrap(), &options).unwrap();
-    let workload = Workload::of_scene(&scene, &assets.meshes, "test");
-    choose(&compiled.planned.plan, &workload, size.unwrap_or(scene.resolution), Executor::Wgpu)
+    crate::adaptive_auto::auto(scene, lobes, size, Executor::Wgpu)
 }
 
 /// A frame size, or the scene's own where `None`.
