@@ -181,10 +181,10 @@ fn criterion_sphere(c: &mut Criterion) {
 /// wgsl, one pass per light, f32) end to end — full shading against
 /// adaptive shading of the plan's own fragment stage, as `shadec render
 /// --adaptive 0.085` runs it.
-fn criterion_plan_sphere(c: &mut Criterion) {
+/// `phong_lights.shd` planned on wgsl for the 4-light sphere, specialized
+/// to it: the plan every plan-renderer row of this bench draws.
+fn sphere_plan() -> (Scene, shadec::scene::SceneAssets, shadec::driver::Compilation) {
     use shadec::driver::{compile, ForScene, PlanOptions};
-    use shadec::numerics::Precision;
-    use shadec::renderer::plan::PlanRenderer;
     let root = Path::new(env!("CARGO_MANIFEST_DIR"));
     let scene = Scene::load(&root.join("scenes/adaptive_sphere_4lights.ron")).unwrap();
     let assets = scene.build().unwrap();
@@ -192,6 +192,13 @@ fn criterion_plan_sphere(c: &mut Criterion) {
     let profile = shadec::profile::Profile::builtin("wgsl").unwrap();
     let options = PlanOptions { scene: Some(ForScene::specialized(&scene, &assets)), ..Default::default() };
     let compiled = compile(&source, &profile, &options).unwrap();
+    (scene, assets, compiled)
+}
+
+fn criterion_plan_sphere(c: &mut Criterion) {
+    use shadec::numerics::Precision;
+    use shadec::renderer::plan::PlanRenderer;
+    let (scene, assets, compiled) = sphere_plan();
     let renderer = PlanRenderer::new(&compiled.planned, &compiled.program, &scene, &assets).unwrap();
     let (w, h) = scene.resolution;
     let mut g = c.benchmark_group("plan_sphere_4lights");
@@ -214,16 +221,9 @@ criterion_group!(benches, criterion_sphere, criterion_plan_sphere);
 /// full one; each first with every frame recycled into the next, then with
 /// every frame dropped. `SHADEC_BENCH_PLAN_ONLY=1` prints only this table.
 fn plan_sphere_table() {
-    use shadec::driver::{compile, ForScene, PlanOptions};
     use shadec::numerics::Precision;
     use shadec::renderer::plan::{compare, PlanRenderer};
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let scene = Scene::load(&root.join("scenes/adaptive_sphere_4lights.ron")).unwrap();
-    let assets = scene.build().unwrap();
-    let source = std::fs::read_to_string(root.join("tests/data/lights/phong_lights.shd")).unwrap();
-    let profile = shadec::profile::Profile::builtin("wgsl").unwrap();
-    let options = PlanOptions { scene: Some(ForScene::specialized(&scene, &assets)), ..Default::default() };
-    let compiled = compile(&source, &profile, &options).unwrap();
+    let (scene, assets, compiled) = sphere_plan();
     let renderer = PlanRenderer::new(&compiled.planned, &compiled.program, &scene, &assets).unwrap();
     let sizes: Vec<u32> = std::env::var("SHADEC_BENCH_SIZES")
         .unwrap_or_else(|_| "512,1024".into())
@@ -288,16 +288,9 @@ fn plan_sphere_table() {
 /// at the first of `SHADEC_BENCH_SIZES` (default 1024), nothing else — a
 /// run for a profiler.
 fn profile_cold(frames: usize) {
-    use shadec::driver::{compile, ForScene, PlanOptions};
     use shadec::numerics::Precision;
     use shadec::renderer::plan::PlanRenderer;
-    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
-    let scene = Scene::load(&root.join("scenes/adaptive_sphere_4lights.ron")).unwrap();
-    let assets = scene.build().unwrap();
-    let source = std::fs::read_to_string(root.join("tests/data/lights/phong_lights.shd")).unwrap();
-    let profile = shadec::profile::Profile::builtin("wgsl").unwrap();
-    let options = PlanOptions { scene: Some(ForScene::specialized(&scene, &assets)), ..Default::default() };
-    let compiled = compile(&source, &profile, &options).unwrap();
+    let (scene, assets, compiled) = sphere_plan();
     let renderer = PlanRenderer::new(&compiled.planned, &compiled.program, &scene, &assets).unwrap();
     let side: u32 = std::env::var("SHADEC_BENCH_SIZES")
         .ok()

@@ -117,7 +117,7 @@ pub fn gouraud(r: &mut Rewriter, value: Handle<Expr>) -> Handle<Expr> {
 /// `h` with each sum's per-sample terms that [`at_vertex`] can compute
 /// gathered into one sum of their own, after the other terms.
 fn vertex_terms_grouped(m: &mut Module, h: Handle<Expr>) -> Handle<Expr> {
-    let mut done: std::collections::HashMap<Handle<Expr>, Handle<Expr>> = std::collections::HashMap::new();
+    let mut done: rustc_hash::FxHashMap<Handle<Expr>, Handle<Expr>> = Default::default();
     for n in m.reachable(&[h]) {
         let e = m.exprs[n].map_operands(|o| *done.get(&o).unwrap_or(&o));
         let rebuilt = if e == m.exprs[n] { n } else { m.intern(e, m.span(n)).unwrap_or(n) };

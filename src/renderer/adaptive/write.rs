@@ -78,11 +78,7 @@ impl Ctx<'_> {
             for k in 0..n {
                 let st = state[row + k];
                 pixels[k] = (base + k, depth[row + k]);
-                results[k] = if st != UNKNOWN && st & DISCARD_BIT == 0 {
-                    FragmentResult::Keep
-                } else {
-                    FragmentResult::Discard
-                };
+                results[k] = if kept(st) { FragmentResult::Keep } else { FragmentResult::Discard };
             }
             if pass.depth.write {
                 for k in (0..n).filter(|&k| results[k] == FragmentResult::Keep) {
@@ -107,7 +103,6 @@ impl Ctx<'_> {
         state: &[u8],
     ) {
         let x1 = (x0 + TILE).min(self.w);
-        let kept = |st: u8| st != UNKNOWN && st & DISCARD_BIT == 0;
         for y in y0..(y0 + TILE).min(self.h) {
             let (a, b) = (self.spans[y].0.max(x0), self.spans[y].1.min(x1));
             if a >= b {
@@ -155,4 +150,9 @@ impl Ctx<'_> {
             }
         }
     }
+}
+
+/// Whether a pixel's state says its fragment was shaded and kept.
+fn kept(st: u8) -> bool {
+    st != UNKNOWN && st & DISCARD_BIT == 0
 }
