@@ -328,6 +328,37 @@ fn a_discard_whose_alpha_is_written_is_refused_located() {
     assert!(planned.plan.passes[0].state.blend.write_mask[3]);
 }
 
+/// The alpha-tested decal lit by an rgb shader, `((T).a > k) ? T * δ d s x`:
+/// the value's alpha is `T.a · 1`, the compared alpha, so the first way
+/// applies (it was refused, "the fragment's alpha is needed", because the
+/// value's alpha was read as an opaque `(T * δ d s x).a`). It plans on
+/// both combiner targets with `GL_GREATER 0.5` and the alpha written, and
+/// the three executors keep the same fragments in fixed9.
+#[test]
+fn a_lit_alpha_tested_decal_tests_its_own_alpha() {
+    let body = "C δπx ← ((Dec δu x).a > 0.5) ? (Dec δu x * δ d s x);\n";
+    let source = format!("framebuffer C : rgba8, depth;\n{HEAD}{body}")
+        .replace("missing-decal.png", concat!(env!("CARGO_MANIFEST_DIR"), "/examples/decal.png"));
+    let gpu = crate::common::gpu::gpu();
+    for target in ["geforce3", "geforce256"] {
+        let planned = plan(&source, target).unwrap_or_else(|d| panic!("{target}: {d:?}"));
+        let pass = &planned.plan.passes[0];
+        assert_eq!(
+            pass.state.alpha_test,
+            AlphaTest { func: CompareFunc::Greater, reference: 0.5 },
+            "{target}"
+        );
+        assert!(pass.state.blend.write_mask[3], "{target}");
+        let scene = crate::three_way::scene("kilgard_torus.ron");
+        let p = crate::three_way::render_three(&source, target, &scene, Precision::Fixed9, gpu.as_ref())
+            .unwrap_or_else(|e| panic!("{target}: {e}"));
+        crate::three_way::verdict(&p).unwrap_or_else(|e| panic!("{target}: {e}"));
+        // The decal's alpha varies: the test drops some covered fragments, keeps others.
+        let kept = drawn(&p.cpu).iter().zip(&p.covered).filter(|(d, c)| **d && **c).count();
+        assert!(kept > 0 && kept < count(&p.covered), "{target}: {kept} of {} kept", count(&p.covered));
+    }
+}
+
 /// The CPU's `fixed9` and wgpu's `--precision hardware` run the same setup
 /// and the same test: they keep the same fragments.
 #[test]

@@ -178,11 +178,45 @@ fn parts(m: &mut Module, form: &Form, value: Handle<Expr>) -> (Option<Handle<Exp
                 m.intern(Expr::Swizzle { value, pattern, len, ty }, span).ok()
             };
             let rgb = swizzle(m, [0, 1, 2, 0], 3, Ty::Rgb);
-            let a = swizzle(m, [3, 0, 0, 0], 1, Ty::Scalar);
+            let a = alpha_of(m, value, 8).unwrap_or_else(|| swizzle(m, [3, 0, 0, 0], 1, Ty::Scalar));
             (rgb, a.filter(|a| constant(m, *a) != Some(1.0)))
         }
         (Ty::Scalar, _) => (m.intern(Expr::Convert { value, to: Ty::Rgb }, span).ok(), Some(value)),
         _ => (Some(value), None),
+    }
+}
+
+/// The alpha of `value` pushed through its products, `Some(None)` for 1:
+/// an rgb operand widened has alpha 1 (a texture without alpha, GL 1.2.1
+/// §3.8.9), a scalar operand broadcasts to it, and a product's (`*`, `⊕`
+/// modulate) is the product of its operands'. So the alpha of the
+/// alpha-tested decal lit by an rgb shader, `(T δu x) * δ p s x`, is the
+/// `(T δu x).a` its condition compares, and the first way of the table
+/// above applies. `None` past `depth` or for another form.
+fn alpha_of(m: &mut Module, value: Handle<Expr>, depth: u8) -> Option<Option<Handle<Expr>>> {
+    match m.info(value).ty.width() {
+        1 => return Some(Some(value)),
+        3 => return Some(None),
+        _ => {}
+    }
+    let span = m.span(value);
+    match m.exprs[value].clone() {
+        Expr::Convert { value: v, to: Ty::Rgba } if m.info(v).ty.width() == 3 => Some(None),
+        Expr::Binary { op: BinaryOp::Mul, lhs, rhs }
+        | Expr::Combine { mode: crate::parser::ast::CombineMode::Modulate, lhs, rhs }
+            if depth > 0 =>
+        {
+            match (alpha_of(m, lhs, depth - 1)?, alpha_of(m, rhs, depth - 1)?) {
+                (None, x) | (x, None) => Some(x),
+                (Some(a), Some(b)) => {
+                    m.intern(Expr::Binary { op: BinaryOp::Mul, lhs: a, rhs: b }, span).ok().map(Some)
+                }
+            }
+        }
+        _ => m
+            .intern(Expr::Swizzle { value, pattern: [3, 0, 0, 0], len: 1, ty: Ty::Scalar }, span)
+            .ok()
+            .map(Some),
     }
 }
 
