@@ -71,8 +71,37 @@ fn rgb_of_a_vec3_is_a_colour() {
 fn a_vec3_into_a_framebuffer_says_how_to_convert() {
     let e = errors(&format!("{DECLS}C δπx ← N δ s x;\n"));
     assert_eq!(e.len(), 1, "{e:#?}");
-    assert_eq!(e[0].message, "a vec3 is written into a rgba channel");
+    assert_eq!(e[0].message, "a vec3 is written into an rgba channel");
     assert!(e[0].help.as_deref().is_some_and(|h| h.contains("`rgb(v)`")), "{:?}", e[0].help);
+}
+
+/// A tuple is a vec3 (a direction); where a new user writes one as a
+/// colour — blended by ⊕, scaling an rgba, written into the framebuffer —
+/// the error's help names the colour form, and that form, written as the
+/// help says, checks. A one-channel table baked from a colour shader says
+/// how to make the value a scalar.
+#[test]
+fn a_tuple_where_a_colour_is_wanted_says_how_to_write_one() {
+    let fb = "framebuffer D : rgba8, depth;\nD δπx ← kd;\n";
+    for (wrong, right) in [
+        ("C δπx ← (C δπx) ⊕[add] (0.05, 0.05, 0.05);", "C δπx ← (C δπx) ⊕[add] rgb(0.05, 0.05, 0.05);"),
+        ("C xs ← (D xs) * (0.8, 0.9, 1.0);", "C xs ← (D xs) * rgb(0.8, 0.9, 1.0);"),
+        ("C δπx ← (0.1, 0.1, 0.1);", "C δπx ← rgb(0.1, 0.1, 0.1);"),
+    ] {
+        let e = errors(&format!("{DECLS}{fb}{wrong}\n"));
+        assert_eq!(e.len(), 1, "{wrong}: {e:#?}");
+        assert!(
+            e[0].help.as_deref().is_some_and(|h| h.contains("`rgb(r, g, b)`")),
+            "{wrong}: {:?}",
+            e[0].help
+        );
+        lower_ok(&format!("{DECLS}{fb}{right}\n"));
+    }
+    let table = "texture Tab : 2d r8 bilinear clamp = bake(lobe);\nC δπx ← Tab vec2(0.5, 0.5);\n";
+    let e = errors(&format!("{DECLS}shader lobe : s → c = s.x ^ 24;\n{table}"));
+    assert_eq!(e[0].message, "an rgb is written into the texture `Tab` of scalar texels");
+    assert!(e[0].help.as_deref().is_some_and(|h| h.contains("`s → scalar`")), "{:?}", e[0].help);
+    lower_ok(&format!("{DECLS}shader lobe : s → scalar = s.x ^ 24;\n{table}"));
 }
 
 /// A shader declared `s → c`, `s → rgb` or `s → rgba` that checks where it

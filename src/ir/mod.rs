@@ -447,6 +447,13 @@ impl Ty {
         }
     }
 
+    /// The name with its article, for messages: "an rgb", "a vec3".
+    pub fn a_name(self) -> String {
+        let name = self.name();
+        let article = if name.starts_with('r') { "an" } else { "a" };
+        format!("{article} {name}")
+    }
+
     /// The IR type of a type the source names.
     pub fn from_ast(ty: ast::Type) -> Ty {
         match ty {

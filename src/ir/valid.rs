@@ -94,10 +94,19 @@ pub fn unify(a: Ty, b: Ty) -> Option<Ty> {
 fn mismatch(what: &str, a: Ty, b: Ty) -> TypeError {
     err(
         "type-mismatch",
-        format!("{what} of a {} and a {}", a.name(), b.name()),
+        format!("{what} of {} and {}", a.a_name(), b.a_name()),
         format!("{} and {} do not match", a.name(), b.name()),
     )
-    .help("operands must have the same type, or one must be a scalar; rgb and vec3 mix, rgb widens to rgba")
+    .help(mismatch_help(a, b))
+}
+
+/// What makes two types meet, with the likely fix for the pair: a vec3
+/// (a tuple is one) does not widen to rgba, an rgb does.
+fn mismatch_help(a: Ty, b: Ty) -> &'static str {
+    match (a, b) {
+        (Ty::Rgba, Ty::Vec3) | (Ty::Vec3, Ty::Rgba) => "operands must have the same type, or one must be a scalar; a vec3 meets an rgba only as a colour: write the tuple as a colour, `rgb(r, g, b)` (rgb widens to rgba, alpha 1), or take the rgba's `.rgb`",
+        _ => "operands must have the same type, or one must be a scalar; rgb and vec3 mix, rgb widens to rgba",
+    }
 }
 
 fn numeric(t: Ty, what: &str) -> Result<(), TypeError> {
@@ -106,8 +115,8 @@ fn numeric(t: Ty, what: &str) -> Result<(), TypeError> {
     } else {
         Err(err(
             "type-mismatch",
-            format!("{what} of a {}", t.name()),
-            format!("a {} is not a number", t.name()),
+            format!("{what} of {}", t.a_name()),
+            format!("{} is not a number", t.a_name()),
         )
         .help("positions (x, π x, xs) only index tables; shading-parameter vectors only feed shaders"))
     }
@@ -195,7 +204,7 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
                 Ty::Vec3 => out(Ty::Vec2, v.freq, Interval::UNSIGNED),
                 t => Err(err(
                     "type-mismatch",
-                    format!("π projects a point or a direction, not a {}", t.name()),
+                    format!("π projects a point or a direction, not {}", t.a_name()),
                     "projected here",
                 )
                 .help("write `π x` for a vertex, or `πR R s x` for a direction (Pipeline Grammar, eq. (7))")),
@@ -211,7 +220,7 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
             if p.ty != Ty::Position {
                 return Err(err(
                     "type-mismatch",
-                    format!("z of a {}", p.ty.name()),
+                    format!("z of {}", p.ty.a_name()),
                     "not a position or framebuffer",
                 )
                 .help("z selects the depth of a framebuffer (`z C xs`) or of a fragment (`z δπx`)"));
@@ -269,7 +278,7 @@ fn unary(m: &Module, op: UnaryOp, value: Handle<Expr>) -> Result<ExprInfo, TypeE
             if v.ty != Ty::Scalar {
                 return Err(err(
                     "type-mismatch",
-                    format!("`not` of a {}", v.ty.name()),
+                    format!("`not` of {}", v.ty.a_name()),
                     "a condition is a scalar",
                 ));
             }
@@ -368,7 +377,11 @@ fn coordinates_help(kind: TextureKind, want: Ty, name: &str, colour: bool) -> St
         TextureKind::Tex3d => format!("a point, such as the surface position (`vector P : position;`): `{name} δ P s x`"),
         TextureKind::Tex1d => format!("a scalar, such as the result of a scalar shader `shader d : s → scalar = …`: `{name} δ d s x`"),
     };
-    let colour = if colour { "; a colour is not a coordinate" } else { "" };
+    let colour = if colour {
+        format!("; a colour is not a coordinate (build one from its channels: `{name} vec2(c.r, c.g)`)")
+    } else {
+        String::new()
+    };
     format!("a {} texture takes {} coordinates: {example}{colour}", kind.as_str(), want.name())
 }
 
@@ -406,7 +419,7 @@ fn framebuffer_read(
     if p.ty != Ty::Position {
         return Err(err(
             "bad-index",
-            format!("the framebuffer `{name}` is indexed by a {}", p.ty.name()),
+            format!("the framebuffer `{name}` is indexed by {}", p.ty.a_name()),
             "expected a position",
         )
         .help(format!("read a framebuffer at a fragment (`{name} δπx`) or a pixel (`{name} xs`)")));
@@ -455,8 +468,8 @@ fn combine(
     let (a, b) = (info(lhs), info(rhs));
     for t in [a.ty, b.ty] {
         if !matches!(t, Ty::Scalar | Ty::Rgb | Ty::Rgba) {
-            return Err(err("type-mismatch", format!("⊕ combines colours, not a {}", t.name()), format!("a {}", t.name()))
-                .help("⊕ is a texture-environment or framebuffer operation on colours (Pipeline Grammar, eq. (3)); use `*` or `+` for vectors"));
+            return Err(err("type-mismatch", format!("⊕ combines colours, not {}", t.a_name()), t.a_name())
+                .help("⊕ is a texture-environment or framebuffer operation on colours (Pipeline Grammar, eq. (3)); use `*` or `+` for vectors, or read a vec3 as a colour with `rgb(v)` (a constant colour: `rgb(r, g, b)`)"));
         }
     }
     let ty = unify(a.ty, b.ty).ok_or_else(|| mismatch("⊕", a.ty, b.ty))?;
@@ -499,7 +512,7 @@ fn compose(m: &Module, ty: Ty, components: &[Handle<Expr>]) -> Result<ExprInfo, 
     if width != ty.width() {
         return Err(err(
             "type-mismatch",
-            format!("a {} needs {} components, got {width}", ty.name(), ty.width()),
+            format!("{} needs {} components, got {width}", ty.a_name(), ty.width()),
             "wrong number of components",
         ));
     }
@@ -519,7 +532,7 @@ fn select(
     if c.ty != Ty::Scalar {
         return Err(err(
             "type-mismatch",
-            format!("a condition must be a scalar, not a {}", c.ty.name()),
+            format!("a condition must be a scalar, not {}", c.ty.a_name()),
             "condition",
         )
         .help("compare something: `Hn.z ≥ 0 ? … : …`"));
@@ -665,7 +678,7 @@ fn binary(_m: &Module, op: BinaryOp, a: ExprInfo, b: ExprInfo) -> Result<ExprInf
                     if t.is_color() {
                         format!("a colour ({})", t.name())
                     } else {
-                        format!("a {}", t.name())
+                        t.a_name()
                     }
                 };
                 return Err(err("type-mismatch", format!("dot product of {} with {}", what(a.ty), what(b.ty)), "· needs two vectors of the same size")
@@ -690,7 +703,7 @@ fn binary(_m: &Module, op: BinaryOp, a: ExprInfo, b: ExprInfo) -> Result<ExprInf
             if b.ty != Ty::Scalar {
                 return Err(err(
                     "type-mismatch",
-                    format!("an exponent must be a scalar, not a {}", b.ty.name()),
+                    format!("an exponent must be a scalar, not {}", b.ty.a_name()),
                     "exponent",
                 ));
             }
@@ -714,7 +727,7 @@ fn binary(_m: &Module, op: BinaryOp, a: ExprInfo, b: ExprInfo) -> Result<ExprInf
             if a.ty != Ty::Scalar || b.ty != Ty::Scalar {
                 return Err(err(
                     "type-mismatch",
-                    format!("comparison of a {} and a {}", a.ty.name(), b.ty.name()),
+                    format!("comparison of {} and {}", a.ty.a_name(), b.ty.a_name()),
                     "compare scalars",
                 )
                 .help("select a component first, e.g. `Hn.z ≥ 0`"));

@@ -384,7 +384,7 @@ impl<'a> Lowerer<'a> {
                         want.name()
                     ),
                     s.body.span,
-                    format!("a {}", have.name()),
+                    have.a_name(),
                 )
                 .with_label(s.output.span, "declared here")
                 .with_label(span, "inlined here")

@@ -363,9 +363,9 @@ impl<'a> Lowerer<'a> {
             None => {
                 self.error(
                     "type-mismatch",
-                    format!("declared {} but the value is a {}", want_ty.name(), have.name()),
+                    format!("declared {} but the value is {}", want_ty.name(), have.a_name()),
                     span,
-                    format!("a {}", have.name()),
+                    have.a_name(),
                     format!("change the declared type to `{}`", have.name()),
                 );
                 Err(())

@@ -212,7 +212,7 @@ impl<'a> Lowerer<'a> {
                         self.append(Expr::Depth(index), span)?
                     }
                     (have, want) => {
-                        self.error("type-mismatch", format!("a {} is written into a {} channel", have.name(), want.name()), span, format!("a {}", have.name()), if have == Ty::Vec3 { "a vec3 is a direction: write a colour into a framebuffer (`rgb(v)` reads a vec3 as one), a scalar into α, z or σ" } else { "write a colour (rgb or rgba) into a framebuffer, a scalar into α, z or σ" });
+                        self.error("type-mismatch", format!("{} is written into {} channel", have.a_name(), want.a_name()), span, have.a_name(), if have == Ty::Vec3 { "a vec3 is a direction: write a colour into a framebuffer (`rgb(v)` reads a vec3 as one, `rgb(r, g, b)` is a constant colour), a scalar into α, z or σ" } else { "write a colour (rgb or rgba) into a framebuffer, a scalar into α, z or σ" });
                         return Err(());
                     }
                 };
@@ -231,14 +231,14 @@ impl<'a> Lowerer<'a> {
                     (have, want) => {
                         self.error(
                             "type-mismatch",
-                            format!(
-                                "a {} is written into the texture `{name}` of {} texels",
-                                have.name(),
-                                want.name()
-                            ),
+                            format!("{} is written into the texture `{name}` of {} texels", have.a_name(), want.name()),
                             span,
-                            format!("a {}", have.name()),
-                            "change the texture's format, or the value",
+                            have.a_name(),
+                            if want == Ty::Scalar {
+                                "the texture's one-channel texels hold a scalar: compute one (a shader `s → scalar`, or a channel such as `.r`), or declare the texture `rgb8`"
+                            } else {
+                                "change the texture's format, or the value"
+                            },
                         );
                         return Err(());
                     }
@@ -248,9 +248,9 @@ impl<'a> Lowerer<'a> {
                 if !matches!(ty, Ty::Scalar | Ty::Vec2 | Ty::Vec3) {
                     self.error(
                         "type-mismatch",
-                        format!("texture coordinates cannot be a {}", ty.name()),
+                        format!("texture coordinates cannot be {}", ty.a_name()),
                         span,
-                        format!("a {}", ty.name()),
+                        ty.a_name(),
                         "generate a scalar, vec2 or vec3 (Pipeline Grammar, eq. (7))",
                     );
                     return Err(());
