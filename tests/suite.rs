@@ -88,7 +88,7 @@ mod planner_rewrites;
 mod stencil_writes;
 mod three_way_heldout;
 mod three_way_heldout13;
-mod three_way_heldout15;
+mod three_way_new_user;
 mod vertex_programs_public;
 mod wgpu_auto;
 mod wgpu_dual_paraboloid;

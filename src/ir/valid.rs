@@ -261,7 +261,9 @@ fn interpolate(m: &Module, value: Handle<Expr>, to: Frequency) -> Result<ExprInf
         .help("δ interpolates per-vertex values; remove one δ"));
     }
     if matches!(v.ty, Ty::Bundle(_)) {
-        return Err(err("not-supported", "not yet supported: interpolating a bundle value", "here"));
+        return Err(err("not-supported", "not yet supported: interpolating a bundle value", "here").help(
+            "interpolate each member the shader reads (`δ N s x`, `δ L s x`) instead of the whole bundle",
+        ));
     }
     out(v.ty, to, v.interval)
 }
@@ -280,7 +282,8 @@ fn unary(m: &Module, op: UnaryOp, value: Handle<Expr>) -> Result<ExprInfo, TypeE
                     "type-mismatch",
                     format!("`not` of {}", v.ty.a_name()),
                     "a condition is a scalar",
-                ));
+                )
+                .help("negate a comparison or a channel (`¬((T δu x).a > 0.5)`, `¬σ C δπx`)"));
             }
             out(Ty::Scalar, v.freq, Interval::UNSIGNED)
         }
@@ -514,7 +517,8 @@ fn compose(m: &Module, ty: Ty, components: &[Handle<Expr>]) -> Result<ExprInfo, 
             "type-mismatch",
             format!("{} needs {} components, got {width}", ty.a_name(), ty.width()),
             "wrong number of components",
-        ));
+        )
+        .help(format!("give {} scalars in all: `{}`", ty.width(), components_example(ty))));
     }
     out(ty, join_all(m, components)?, interval.unwrap_or(Interval::ALL))
 }
@@ -705,7 +709,8 @@ fn binary(_m: &Module, op: BinaryOp, a: ExprInfo, b: ExprInfo) -> Result<ExprInf
                     "type-mismatch",
                     format!("an exponent must be a scalar, not {}", b.ty.a_name()),
                     "exponent",
-                ));
+                )
+                .help("raise to a scalar power (`(N·H)^32`, or one channel: `x^(T δu x).r`)"));
             }
             let interval = if a.interval.lo >= 0.0 && b.interval.lo > 0.0 {
                 if a.interval.hi <= 1.0 {
@@ -757,6 +762,32 @@ fn op_word(op: BinaryOp) -> &'static str {
     }
 }
 
+/// A constructor call of `ty` with its components, for a help line.
+fn components_example(ty: Ty) -> &'static str {
+    match ty.width() {
+        2 => "vec2(x, y)",
+        3 if ty == Ty::Rgb => "rgb(r, g, b)",
+        3 => "vec3(x, y, z)",
+        _ => "rgba(r, g, b, a), or rgba(rgb, a)",
+    }
+}
+
+/// A built-in function's arguments, for a help line.
+fn signature(fun: MathFunction) -> String {
+    use MathFunction::*;
+    let args = match fun {
+        Max | Min => "a, b",
+        Step => "edge, x",
+        Cross => "a, b",
+        Reflect => "i, n",
+        Clamp => "x, lo, hi",
+        Smoothstep => "lo, hi, x",
+        Mix => "a, b, t",
+        _ => "x",
+    };
+    format!("{}({args})", fun.name())
+}
+
 fn math(m: &Module, fun: MathFunction, args: &[super::Handle<Expr>]) -> Result<ExprInfo, TypeError> {
     use MathFunction::*;
     let infos: Vec<ExprInfo> = args.iter().map(|h| *m.info(*h)).collect();
@@ -770,7 +801,8 @@ fn math(m: &Module, fun: MathFunction, args: &[super::Handle<Expr>]) -> Result<E
             "arity",
             format!("`{}` takes {arity} argument(s), got {}", fun.name(), infos.len()),
             "wrong number of arguments",
-        ));
+        )
+        .help(format!("write `{}`", signature(fun))));
     }
     for i in &infos {
         numeric(i.ty, &format!("`{}`", fun.name()))?;

@@ -51,7 +51,7 @@ held_out!(
 /// Every program of the folder has its named test above.
 #[test]
 fn every_held_out_program_has_a_test() {
-    let here = include_str!("three_way_heldout15.rs");
+    let here = include_str!("three_way_new_user.rs");
     for entry in std::fs::read_dir(data("heldout_fifteenth")).unwrap() {
         let path = entry.unwrap().path();
         if path.extension().is_some_and(|e| e == "shd") {
