@@ -24,9 +24,8 @@ fn example(name: &str) -> String {
 /// Covered pixels whose reference colour is not black: a picture that
 /// says something.
 fn lit(p: &Pictures) -> usize {
-    (0..p.covered.len())
-        .filter(|&i| p.covered[i] && p.oracle[4 * i..4 * i + 3].iter().any(|&c| c > 8))
-        .count()
+    let compared = p.compared_mask();
+    (0..compared.len()).filter(|&i| compared[i] && p.oracle[4 * i..4 * i + 3].iter().any(|&c| c > 8)).count()
 }
 
 /// Renders `source` three ways on wgsl in f32 and holds the verdict, on a
@@ -128,4 +127,43 @@ fn a_scenes_dual_paraboloid_map_agrees_in_fixed9() {
         assert!(lit(&p) * 2 >= p.compared(), "{target}: {} of {} lit", lit(&p), p.compared());
         crate::three_way_generated::fixed9_verdict(&p, &mut 0).unwrap_or_else(|e| panic!("{target}: {e}"));
     }
+}
+
+/// A fat texture declared `mipmap trilinear`, shaded over the torus's
+/// texels and minified: each member's chain box filtered (the reference's
+/// own, the CPU's and wgpu's `runner::mips` per array layer). On wgpu's GL
+/// backend every level below 0 of the array's layers was black (the mip
+/// pass read a layer through a 2-D view, which GL binds as the whole
+/// array): wgpu was the odd one out by up to 162/255 on 95 % of the torus.
+#[test]
+fn a_mipmapped_fat_texture_agrees_three_ways() {
+    let source = "vector N : normal in object;\nvector L : light(0) in object;\n\
+        texture F : 2d rgba16f mipmap trilinear clamp;\n\
+        shader p : s → c = (0.8, 0.7, 0.5) * (0.2 + 0.8 * max(0, N·L));\n\
+        F δu x ← δ s x;\nC δπx ← p F δu x;\n";
+    let p = agrees(source, &scene("kilgard_torus.ron"));
+    assert!(p.ranged > 0, "no pixel compared against a level-of-detail range: not minified");
+}
+
+/// A G-buffer declared `rgba8` holds what an unsigned 8-bit texture holds:
+/// the vectors' negative components clamp to 0 (the reference, and the
+/// wgsl plan on the CPU and wgpu, agree). On geforce3 the planner splits
+/// the fat texture per member and range-compresses each, `(v + 1)/2`,
+/// keeping the negative components: the same program renders up to 87/255
+/// apart on 66 % of the torus there (CPU and wgpu agree; the reference is
+/// the odd one out). Ignored until the planner's lowering keeps the
+/// declared format's clamp (or refuses the declaration): the lowering is
+/// not the reference's.
+#[test]
+#[ignore = "the geforce3 plan range-compresses an rgba8 fat texture's members instead of clamping them"]
+fn an_rgba8_g_buffer_means_the_same_on_geforce3_as_on_wgsl() {
+    let source = "vector N : normal in eye;\nvector L : light(0) in eye;\nvector V : view in eye;\n\
+        vector H = normalize(L + V);\ntexture G : 2d rgba8 nearest clamp;\n\
+        shader p : s → c = (0.7, 0.6, 0.5) * max(0, N·L) + (0.4, 0.4, 0.4) * max(0, N·H)^16;\n\
+        G δπx ← δ s x;\nC xs ← p G xs;\n";
+    let sc = scene("kilgard_torus.ron");
+    agrees(source, &sc);
+    let g = crate::common::gpu::gpu();
+    let p = render_three(source, "geforce3", &sc, Precision::Fixed9, g.as_ref()).unwrap();
+    crate::three_way_generated::fixed9_verdict(&p, &mut 0).unwrap_or_else(|e| panic!("geforce3: {e}"));
 }

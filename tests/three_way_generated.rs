@@ -319,6 +319,7 @@ pub fn fixed9_agreement(p: &Pictures, skipped: &mut usize) -> Result<(), String>
                 gpu: p.gpu.clone(),
                 cpu: p.cpu.clone(),
                 covered: p.covered.clone(),
+                wide: p.wide.clone(),
                 gpu_refused: None,
                 oracle_unclamped: None,
                 ..*p
@@ -331,20 +332,21 @@ pub fn fixed9_agreement(p: &Pictures, skipped: &mut usize) -> Result<(), String>
 }
 
 fn fixed9_verdict_against(p: &Pictures, skipped: &mut usize) -> Result<(), String> {
+    let compared = p.compared_mask();
     let Some(bound) = p.approximation_bound else {
         *skipped += 1;
         return match &p.gpu {
-            Some(g) if !difference(&p.cpu, g, &p.covered).within() => {
-                Err(format!("wgpu and the CPU differ in fixed9: {:?}", difference(&p.cpu, g, &p.covered)))
+            Some(g) if !difference(&p.cpu, g, &compared).within() => {
+                Err(format!("wgpu and the CPU differ in fixed9: {:?}", difference(&p.cpu, g, &compared)))
             }
             _ => Ok(()),
         };
     };
     let tolerance = FIXED9_TOLERANCE.saturating_add((bound * 255.0).ceil().min(255.0) as u8);
     let wide = |a: &[u8], b: &[u8]| {
-        let d = difference(a, b, &p.covered);
+        let d = difference(a, b, &compared);
         let (mut off, mut n) = (0usize, 0usize);
-        for (i, &c) in p.covered.iter().enumerate() {
+        for (i, &c) in compared.iter().enumerate() {
             if c {
                 n += 1;
                 off += usize::from((0..4).any(|k| a[4 * i + k].abs_diff(b[4 * i + k]) > tolerance));
@@ -363,7 +365,7 @@ fn fixed9_verdict_against(p: &Pictures, skipped: &mut usize) -> Result<(), Strin
     // The CPU's fixed9 and wgpu's hardware-fidelity WGSL run the same
     // generated setup: they agree to the three-way bound; each is held to
     // the wider fixed9 bound against the f64 reference.
-    let cg = difference(&p.cpu, g, &p.covered);
+    let cg = difference(&p.cpu, g, &compared);
     let (ok_go, go) = wide(g, &p.reference_near(g));
     match (cg.within(), ok_co, ok_go) {
         (true, true, true) => Ok(()),
