@@ -36,8 +36,10 @@ pub const PIXEL_FRACTION: f64 = 0.02;
 /// The least fraction of the frame a three-way verdict compares (of a
 /// scene drawn on less than twice that: half of what it draws).
 pub const MIN_COMPARED: f64 = 0.10;
-/// The widest level-of-detail range (in 255ths, per channel) a compared
-/// pixel may have; a pixel whose range is wider is left out as latitude.
+/// The widest level-of-detail range (in 255ths, per channel) a pixel
+/// compared *tightly* has ([`Pictures::covered`]); a wider one is still
+/// compared against its range by the three-way verdicts (an executor
+/// within the tolerance of it agrees), and held apart ([`Pictures::wide`]).
 pub const LOD_RANGE: u8 = 6;
 pub const W: u32 = 48;
 pub const H: u32 = 36;
@@ -47,6 +49,8 @@ pub struct Pictures {
     pub cpu: Vec<u8>,
     pub gpu: Option<Vec<u8>>,
     pub oracle: Vec<u8>,
+    /// Pixels a triangle covers, not latitude, whose level-of-detail range
+    /// is at most [`LOD_RANGE`]: compared tightly.
     pub covered: Vec<bool>,
     /// Covered pixels left out as latitude (`oracle::Picture::latitude`).
     pub left_out: usize,
@@ -72,6 +76,11 @@ pub struct Pictures {
     pub oracle_unclamped_range: Option<(Vec<u8>, Vec<u8>)>,
     /// Compared pixels whose range is wider than one value.
     pub ranged: usize,
+    /// Pixels a triangle covers, not latitude, whose range is wider than
+    /// [`LOD_RANGE`]: compared against the range by the verdicts
+    /// ([`Pictures::compared_mask`]), a weaker check; they were left out
+    /// once (most of a minified `trilinear` lookup under a power).
+    pub wide: Vec<bool>,
 }
 
 impl Pictures {
@@ -84,9 +93,16 @@ impl Pictures {
             .collect()
     }
 
-    /// The pixels compared (covered, not latitude).
+    /// The pixels the verdicts compare: covered, not latitude, against a
+    /// level-of-detail range however wide ([`Pictures::covered`] and
+    /// [`Pictures::wide`]).
+    pub fn compared_mask(&self) -> Vec<bool> {
+        self.covered.iter().zip(&self.wide).map(|(&c, &w)| c || w).collect()
+    }
+
+    /// How many pixels the verdicts compare.
     pub fn compared(&self) -> usize {
-        self.covered.iter().filter(|&&c| c).count()
+        self.compared_mask().iter().filter(|&&c| c).count()
     }
 
     /// `Err` unless at least [`MIN_COMPARED`] of the frame is compared — or,
@@ -96,9 +112,11 @@ impl Pictures {
         let (n, all) = (self.compared(), self.covered.len());
         let drawn = n + self.left_out;
         eprintln!(
-            "three-way: {n} of {all} pixels compared ({:.1} %; {} against a level-of-detail range), {} left out",
+            "three-way: {n} of {all} pixels compared ({:.1} %; {} against a level-of-detail range, {} of them \
+             wider than {LOD_RANGE}/255), {} left out",
             100.0 * n as f64 / all as f64,
             self.ranged,
+            self.wide.iter().filter(|&&w| w).count(),
             self.left_out
         );
         if (n as f64) < (MIN_COMPARED * all as f64).min(0.5 * drawn as f64) {
@@ -186,13 +204,16 @@ pub fn render_three(
     } else {
         (None, None)
     };
-    // Pixels where the specifications leave the result open are left out:
-    // latitude, and a level-of-detail range wider than `LOD_RANGE`.
+    // Pixels where the specifications leave the result open are left out
+    // (latitude); a level-of-detail range, however wide, is compared
+    // against (an executor's pixel lies in it).
     let range = |i: usize| (4 * i..4 * i + 4).map(|k| oracle_high[k] - oracle_low[k]).max().unwrap_or(0);
-    let open = |i: usize| picture.latitude[i] || range(i) > LOD_RANGE;
-    let covered: Vec<bool> = (0..picture.covered.len()).map(|i| picture.covered[i] && !open(i)).collect();
+    let open = |i: usize| picture.latitude[i];
+    let seen: Vec<bool> = (0..picture.covered.len()).map(|i| picture.covered[i] && !open(i)).collect();
+    let covered: Vec<bool> = (0..seen.len()).map(|i| seen[i] && range(i) <= LOD_RANGE).collect();
+    let wide: Vec<bool> = (0..seen.len()).map(|i| seen[i] && range(i) > LOD_RANGE).collect();
     let left_out = (0..picture.covered.len()).filter(|&i| picture.covered[i] && open(i)).count();
-    let ranged = (0..covered.len()).filter(|&i| covered[i] && range(i) > 0).count();
+    let ranged = (0..seen.len()).filter(|&i| seen[i] && range(i) > 0).count();
     Ok(Pictures {
         cpu,
         gpu,
@@ -207,6 +228,7 @@ pub fn render_three(
         oracle_high,
         oracle_unclamped_range,
         ranged,
+        wide,
     })
 }
 
@@ -278,12 +300,13 @@ pub fn verdict(p: &Pictures) -> Result<(), String> {
 /// [`verdict`] on however many pixels are compared (a generated run
 /// holds its renders to the minimum together: `three_way_generated`).
 pub fn agreement(p: &Pictures) -> Result<(), String> {
-    let co = difference(&p.cpu, &p.reference_near(&p.cpu), &p.covered);
+    let compared = p.compared_mask();
+    let co = difference(&p.cpu, &p.reference_near(&p.cpu), &compared);
     let Some(gpu) = &p.gpu else {
         return if co.within() { Ok(()) } else { Err(format!("the CPU and the reference differ: {co:?}")) };
     };
-    let cg = difference(&p.cpu, gpu, &p.covered);
-    let go = difference(gpu, &p.reference_near(gpu), &p.covered);
+    let cg = difference(&p.cpu, gpu, &compared);
+    let go = difference(gpu, &p.reference_near(gpu), &compared);
     match (cg.within(), co.within(), go.within()) {
         (true, true, true) => Ok(()),
         (true, false, false) => Err(format!("the reference is the odd one out: CPU {co:?}, wgpu {go:?}")),

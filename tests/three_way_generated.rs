@@ -319,6 +319,7 @@ pub fn fixed9_agreement(p: &Pictures, skipped: &mut usize) -> Result<(), String>
                 gpu: p.gpu.clone(),
                 cpu: p.cpu.clone(),
                 covered: p.covered.clone(),
+                wide: p.wide.clone(),
                 gpu_refused: None,
                 oracle_unclamped: None,
                 ..*p
@@ -331,20 +332,21 @@ pub fn fixed9_agreement(p: &Pictures, skipped: &mut usize) -> Result<(), String>
 }
 
 fn fixed9_verdict_against(p: &Pictures, skipped: &mut usize) -> Result<(), String> {
+    let compared = p.compared_mask();
     let Some(bound) = p.approximation_bound else {
         *skipped += 1;
         return match &p.gpu {
-            Some(g) if !difference(&p.cpu, g, &p.covered).within() => {
-                Err(format!("wgpu and the CPU differ in fixed9: {:?}", difference(&p.cpu, g, &p.covered)))
+            Some(g) if !difference(&p.cpu, g, &compared).within() => {
+                Err(format!("wgpu and the CPU differ in fixed9: {:?}", difference(&p.cpu, g, &compared)))
             }
             _ => Ok(()),
         };
     };
     let tolerance = FIXED9_TOLERANCE.saturating_add((bound * 255.0).ceil().min(255.0) as u8);
     let wide = |a: &[u8], b: &[u8]| {
-        let d = difference(a, b, &p.covered);
+        let d = difference(a, b, &compared);
         let (mut off, mut n) = (0usize, 0usize);
-        for (i, &c) in p.covered.iter().enumerate() {
+        for (i, &c) in compared.iter().enumerate() {
             if c {
                 n += 1;
                 off += usize::from((0..4).any(|k| a[4 * i + k].abs_diff(b[4 * i + k]) > tolerance));
@@ -363,7 +365,7 @@ fn fixed9_verdict_against(p: &Pictures, skipped: &mut usize) -> Result<(), Strin
     // The CPU's fixed9 and wgpu's hardware-fidelity WGSL run the same
     // generated setup: they agree to the three-way bound; each is held to
     // the wider fixed9 bound against the f64 reference.
-    let cg = difference(&p.cpu, g, &p.covered);
+    let cg = difference(&p.cpu, g, &compared);
     let (ok_go, go) = wide(g, &p.reference_near(g));
     match (cg.within(), ok_co, ok_go) {
         (true, true, true) => Ok(()),
@@ -401,11 +403,19 @@ fn check_source(
     reached: &mut [usize; 8],
 ) -> Result<(), String> {
     let source = source.to_string();
-    let scene = scene(scene_name);
+    // A scene of `tests/data/` where the name has a folder, else of `scenes/`.
+    let scene = match scene_name.split_once('/') {
+        Some(_) => {
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(scene_name);
+            shadec::scene::Scene::parse(&std::fs::read_to_string(&path).unwrap(), &path).unwrap()
+        }
+        None => scene(scene_name),
+    };
     let fail = |target: &str, e: String| {
         let path = concat!(env!("CARGO_MANIFEST_DIR"), "/target/three-way-failure.shd");
         let _ = std::fs::write(path, &source);
-        let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/").to_string() + scene_name;
+        let folder = if scene_name.contains('/') { "/tests/data/" } else { "/scenes/" };
+        let scene = concat!(env!("CARGO_MANIFEST_DIR")).to_string() + folder + scene_name;
         let precision = if target == "wgsl" { "f32" } else { "fixed9" };
         let render = format!(
             "shadec render --shader {path} --target {target} --precision {precision} --size {}x{} {scene}",
@@ -507,6 +517,17 @@ enum Extra {
     ShadowMap,
     /// A frame rendered into a texture and read back at the pixel.
     FrameTexture(Colour),
+    /// A fat texture (Pipeline Grammar, Section 3.3 eq. (5)-(6), Section
+    /// 3.7 eq. (14)-(15)): the shading parameters `δ s x` written as a
+    /// bundle into a float texture — over the frame (a fat framebuffer,
+    /// read back by a screen pass) or over the mesh's texels (read back
+    /// per fragment by a product or a sum) — and a shader applied to the
+    /// texel's members.
+    Fat { term: usize, texels: bool, add: bool },
+    /// The scene's dual-paraboloid sky (Heidrich & Seidel 1999, Section
+    /// 4.1) in place of the program's cube map `Env`, read by the
+    /// reflection vector and added (on [`SKY_SCENE`]).
+    Sky(Colour),
 }
 
 const TEXEL_TERMS: &[&str] =
@@ -514,6 +535,8 @@ const TEXEL_TERMS: &[&str] =
 /// Scenes with a closed mesh (the shadow volumes' occluder) and one light.
 const EXTRA_SCENES: &[&str] = &["kilgard_torus.ron", "shadow_occluder_floor.ron"];
 const EXTRA_CASES: u32 = 24;
+/// The torus with a scene texture `Env`: a dual-paraboloid sky.
+const SKY_SCENE: &str = "heldout_fifteenth_ref/sky_torus.ron";
 
 fn extra() -> impl Strategy<Value = Extra> {
     // `let e0` is declared only where the program's own statements read it.
@@ -524,6 +547,20 @@ fn extra() -> impl Strategy<Value = Extra> {
             .prop_map(|(term, mipmap, add)| Extra::TextureShading { term, mipmap, add }),
         1 => Just(Extra::ShadowMap),
         1 => colour().prop_map(Extra::FrameTexture),
+    ]
+}
+
+/// A fat texture or the scene's dual-paraboloid sky (the constructs the
+/// reference evaluates since the fifteenth session).
+fn fat_or_sky() -> impl Strategy<Value = Extra> {
+    let colour = || colour().prop_filter("a let the program may not declare", |c| !c.uses_let());
+    prop_oneof![
+        (0..TEXEL_TERMS.len(), any::<bool>(), any::<bool>()).prop_map(|(term, texels, add)| Extra::Fat {
+            term,
+            texels,
+            add
+        }),
+        colour().prop_map(Extra::Sky),
     ]
 }
 
@@ -578,6 +615,19 @@ fn extra_source(p: &Program, extra: &Extra) -> String {
             "texture Tf : 2d rgba8 nearest clamp;\nTf δπx ← {};\n{f} xs ← 0.5 * ({f} xs) + 0.5 * (Tf xs);\n",
             colour.text(p)
         ),
+        Extra::Fat { term, texels: false, .. } => format!(
+            "texture Tg : 2d rgba16f nearest clamp;\nshader ft : s → c = {};\nTg δπx ← δ s x;\n{f} xs ← 0.5 * ({f} xs) + 0.5 * (ft Tg xs);\n",
+            TEXEL_TERMS[*term]
+        ),
+        Extra::Fat { term, texels: true, add } => format!(
+            "texture Tt : 2d rgba16f bilinear clamp;\nshader ft : s → c = {};\nTt δu x ← δ s x;\n{f} δπx ← ({f} δπx) {} (ft Tt δu x);\n",
+            TEXEL_TERMS[*term],
+            if *add { "⊕[add]" } else { "*" }
+        ),
+        Extra::Sky(colour) => format!(
+            "{f} δπx ← ({f} δπx) ⊕[add] (0.5 * (Env δ R s x) * ({}));\n",
+            colour.text(p)
+        ),
     };
     s + &tail
 }
@@ -613,6 +663,58 @@ fn generated_programs_with_stencil_and_rendered_textures_agree() {
     eprintln!("{cases} programs agree: wgsl {}, geforce3 {}, geforce256 {}", r[0], r[1], r[2]);
     enough_compared_in_run("generated programs with stencil and rendered textures");
     assert_eq!(r[0], cases as usize, "every program renders on wgsl");
+}
+
+/// Generated programs with a fat framebuffer read by a screen pass, a fat
+/// texture shaded over the texels and read per fragment, or the scene's
+/// dual-paraboloid sky in place of the program's cube map (on
+/// [`SKY_SCENE`]): the three executors agree, wgsl in f32 and the combiner
+/// targets in fixed9 where they plan (they refuse fat textures).
+/// `SHADEC_THREE_WAY_CASES` and `SHADEC_THREE_WAY_RANDOM` apply here too.
+#[test]
+fn generated_programs_with_fat_textures_and_a_sky_agree() {
+    let gpu = crate::common::gpu::gpu();
+    let random = std::env::var("SHADEC_THREE_WAY_RANDOM").is_ok_and(|v| v == "1");
+    let seed: [u8; 32] = if random { rand_seed() } else { [15; 32] };
+    eprintln!("three-way seed (fat textures, sky): {seed:?}");
+    let cases = std::env::var("SHADEC_THREE_WAY_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(16);
+    let config = Config { cases, failure_persistence: None, ..Config::default() };
+    let mut runner = TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &seed));
+    let reached = std::cell::RefCell::new([0usize; 8]);
+    let (fat, sky) = (std::cell::Cell::new(0), std::cell::Cell::new(0));
+    let strategy = (program(), fat_or_sky()).prop_map(|(mut p, e)| {
+        p.scene = 0; // the torus, one light: `L1` is light 0 again
+        (p, e)
+    });
+    let result = runner.run(&strategy, |(p, e)| {
+        let scene_name = match e {
+            Extra::Sky(_) => {
+                sky.set(sky.get() + 1);
+                SKY_SCENE
+            }
+            _ => {
+                fat.set(fat.get() + 1);
+                SCENES[0]
+            }
+        };
+        check_source(&extra_source(&p, &e), scene_name, gpu.as_ref(), &mut reached.borrow_mut())
+            .map_err(TestCaseError::fail)
+    });
+    if let Err(e) = result {
+        panic!("{e}");
+    }
+    let r = reached.borrow();
+    eprintln!(
+        "{cases} programs agree ({} fat, {} sky): wgsl {}, geforce3 {}, geforce256 {}",
+        fat.get(),
+        sky.get(),
+        r[0],
+        r[1],
+        r[2]
+    );
+    enough_compared_in_run("generated programs with fat textures and a sky");
+    assert_eq!(r[0], cases as usize, "every program renders on wgsl");
+    assert!(fat.get() > 0 && sky.get() > 0, "both forms drawn: {} fat, {} sky", fat.get(), sky.get());
 }
 
 /// A generated program with one of its textures made a generated normal

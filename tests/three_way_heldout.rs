@@ -69,8 +69,9 @@ pub fn renders_alike_in(folder: &Path, name: &str) -> Result<(), String> {
                 }
                 // A picture worth comparing: a tenth of the frame covered,
                 // most of it lit.
-                let covered = p.covered.iter().filter(|&&c| c).count();
-                let lit = (0..p.covered.len()).filter(|&i| p.covered[i] && p.oracle[4 * i..4 * i + 3].iter().any(|&c| c > 8)).count();
+                let compared = p.compared_mask();
+                let covered = p.compared();
+                let lit = (0..compared.len()).filter(|&i| compared[i] && p.oracle[4 * i..4 * i + 3].iter().any(|&c| c > 8)).count();
                 eprintln!("{name} on {target} ({precision:?}): {covered} pixels compared ({lit} lit), {} left out as latitude", p.left_out);
                 if covered * 10 < p.covered.len() || lit * 2 < covered {
                     return Err(format!("a picture not worth comparing: {covered} covered, {lit} lit, {} left out", p.left_out));

@@ -51,15 +51,24 @@
 //! scene's shadow-volume geometry (`scene::shadow_volume`): it decides
 //! shadow without volumes, so it checks them too.
 //!
+//! Fat textures (Pipeline Grammar, eq. (5) and (14)-(15): a bundle of
+//! shading parameters written into a texture, deferred shading's fat
+//! framebuffer) hold one image per member, each read back as a flat
+//! texture by the member the shader names. A scene's dual-paraboloid map
+//! is built here from Heidrich & Seidel 1999, Section 4.1 (each texel the
+//! environment in the direction its centre reflects, the front map's
+//! alpha 1 inside the unit circle) and looked up by direction at level 0
+//! (`sampling::Paraboloid`); the environment's radiance (the procedural
+//! sky) is the scene's data, as an image's texels are, and so are a
+//! program's own `dual_paraboloid(…)` faces.
+//!
 //! It is slow (every pixel tests every triangle's bounds, every δ evaluates
 //! three vertices) and meant for small images. What it does not evaluate it
 //! refuses with [`Unsupported`], never guesses: writes to the depth
-//! channel, stencil writes of other forms (and shadow volumes compared
-//! other than z-fail's `>`), fat textures (bundles rendered into a
-//! texture: deferred shading's), statements rendering into cube or 3-D
-//! textures, 3-D textures, a scene's dual-paraboloid maps (a program's
-//! `dual_paraboloid(…)` faces are 2-D textures of the environment's
-//! stand-in, data as an image's texels are). Normal maps are built here
+//! channel (which the planner refuses too: depth is written by drawing),
+//! stencil writes of other forms (and shadow volumes compared other than
+//! z-fail's `>`), statements rendering into cube or 3-D textures, 3-D
+//! textures. Normal maps are built here
 //! from Kilgard 2000's Appendices E-F ([`normal_map`]); triangles crossing
 //! the eye plane are clipped to the near plane in clip space (GL §2.12,
 //! [`geometry`]). Samples where the specifications leave the

@@ -7,7 +7,7 @@ use std::collections::HashMap;
 
 use super::geometry::{Coverage, Fragment, View, World};
 use super::ops::{self, V};
-use super::sampling::{Cube, Image};
+use super::sampling::{Cube, Image, Paraboloid};
 use super::{vectors, Unsupported};
 use crate::ir::{Expr, FbChannel, Handle, Module, Projection, TexCoordId, Ty};
 use crate::parser::ast::{FramebufferChannel, Space, VectorKind};
@@ -16,7 +16,13 @@ use crate::scene::{Light, Scene};
 /// A texture as the evaluator holds it.
 pub enum Tex {
     Flat(Image),
+    /// A fat texture (Pipeline Grammar, Section 3.3, eq. (5) and (14)):
+    /// one image per member of the shading-parameter vector written into
+    /// it, each sampled as a flat texture by `T … .member`.
+    Fat(Vec<Image>),
     Cube(Cube),
+    /// A scene's dual-paraboloid environment map, looked up by direction.
+    Paraboloid(Box<Paraboloid>),
     /// `bake(f)`: its texel statement's value, evaluated at the lookup's
     /// coordinates (the table's ideal, Pipeline Grammar's texture shading, eq. (13)).
     Baked(Handle<Expr>),
@@ -135,9 +141,8 @@ impl<'a> Evaluator<'a> {
                 };
                 Some(self.vertex_leaf(e, object, vertex)?)
             }
-            Expr::FatMember { .. } | Expr::Bundle(_) => {
-                return Err(Unsupported::new("fat textures and bundles as values"));
-            }
+            Expr::FatMember { texel, member } => Some(self.fat_member(*texel, *member, at, lod_depth, memo)?),
+            Expr::Bundle(_) => return Err(Unsupported::new("a bundle other than a fat texture's texel")),
             _ => {
                 let mut operands = Vec::new();
                 for o in e.operands() {
@@ -353,16 +358,54 @@ impl<'a> Evaluator<'a> {
                 let wrap = |x: f64| x.clamp(0.0, 1.0);
                 Ok(self.operand(*value, At::Texel([wrap(u), wrap(v)]), 0, &mut Memo::new())?)
             }
-            Tex::Flat(image) => {
-                let [u, v] = uv(c, cty);
-                match at {
-                    At::Fragment(f) if lod_depth < 2 && image.levels.len() > 1 => {
-                        self.minified(image, coords, cty, [u, v], &f, lod_depth)
-                    }
-                    _ => Ok(image.sample(u, v, 0.0)),
-                }
-            }
+            Tex::Flat(image) => self.flat(image, coords, cty, c, at, lod_depth),
+            Tex::Paraboloid(map) => Ok(map.sample([c[0], c[1], c[2]])),
+            Tex::Fat(_) => Err(Unsupported::new("a fat texel read other than by its members")),
         }
+    }
+
+    /// A 2-D (or 1-D) image sampled at coordinates `c` (of `coords`, of
+    /// type `cty`): minified at a fragment, at level 0 elsewhere.
+    fn flat(
+        &self,
+        image: &Image,
+        coords: Handle<Expr>,
+        cty: Ty,
+        c: V,
+        at: At,
+        lod_depth: u8,
+    ) -> Result<V, Unsupported> {
+        let [u, v] = uv(c, cty);
+        match at {
+            At::Fragment(f) if lod_depth < 2 && image.levels.len() > 1 => {
+                self.minified(image, coords, cty, [u, v], &f, lod_depth)
+            }
+            _ => Ok(image.sample(u, v, 0.0)),
+        }
+    }
+
+    /// Member `member` of a fat texel `T c`: that member's image of the
+    /// fat texture sampled at `c` as a flat texture is (each member its
+    /// own texture of the declared format and filter).
+    fn fat_member(
+        &self,
+        texel: Handle<Expr>,
+        member: u8,
+        at: At,
+        lod_depth: u8,
+        memo: &mut Memo,
+    ) -> Result<V, Unsupported> {
+        let Expr::Lookup { texture, coords } = self.m.exprs[texel] else {
+            return Err(Unsupported::new("a fat member of a value other than a texture lookup"));
+        };
+        let Tex::Fat(members) = &self.textures[texture as usize] else {
+            return Err(Unsupported::new("a fat member of a texture no statement filled with a bundle"));
+        };
+        let image = members
+            .get(usize::from(member))
+            .ok_or_else(|| Unsupported::new("a fat member beyond the bundle written"))?;
+        let c = self.operand(coords, at, lod_depth, memo)?;
+        self.flat(image, coords, self.m.info(coords).ty, c, at, lod_depth)
     }
 
     /// A mipmapped lookup at fragment `f`: sampled at eq. 3.17's λ from

@@ -23,7 +23,7 @@ use super::geometry::{Coverage, View};
 use super::program::{At, Evaluator, Tex};
 use super::sampling::{mip_chain, Image, Level};
 use super::Unsupported;
-use crate::ir::{Frequency, Statement};
+use crate::ir::{Expr, Frequency, Handle, Statement};
 use crate::parser::ast::TextureKind;
 use crate::textures::TexelFormat;
 
@@ -39,46 +39,69 @@ pub fn statement(
     ev: &mut Evaluator,
     st: &Statement,
     id: usize,
-    levels: &mut HashMap<usize, Level>,
+    levels: &mut HashMap<(usize, usize), Level>,
 ) -> Result<(), Unsupported> {
     let decl = &ev.m.textures[id];
     if !matches!(decl.kind, TextureKind::Tex2d | TextureKind::Tex1d) {
         return Err(Unsupported::new("a statement that renders into a cube or 3-D texture"));
     }
-    if matches!(ev.m.info(st.value).ty, crate::ir::Ty::Bundle(_)) {
-        return Err(Unsupported::new("a fat texture (a bundle rendered into a texture)"));
-    }
+    // A bundle (a fat texel, Pipeline Grammar eq. (5), (15)): each member
+    // its own image; any other value: one.
+    let members: Vec<Handle<Expr>> = match (&ev.m.exprs[st.value], ev.m.info(st.value).ty) {
+        (Expr::Bundle(members), _) => members.clone(),
+        (_, crate::ir::Ty::Bundle(_)) => {
+            return Err(Unsupported::new("a fat texture written with a value other than a bundle"))
+        }
+        _ => vec![st.value],
+    };
+    let fat = matches!(ev.m.exprs[st.value], Expr::Bundle(_));
     let format = super::textures::store_format(decl.format);
     let sampling = decl.sampling;
     let samples = raster(ev, st)?;
     let size = raster_size(ev, st);
-    let level = levels.entry(id).or_insert_with(|| Level {
-        width: size.0,
-        height: size.1,
-        texels: vec![[0.0; 4]; (size.0 * size.1) as usize],
-    });
-    if (level.width, level.height) != size {
-        return Err(Unsupported::new("statements rendering one texture at two sizes"));
-    }
-    let width = ev.m.info(st.value).ty.width();
     let mut writes = Vec::with_capacity(samples.len());
     for (i, at) in samples {
-        if let Some(v) = ev.value(st.value, at, 0, &mut HashMap::new())? {
-            let v = match width {
+        let mut memo = HashMap::new();
+        let mut texel = Vec::with_capacity(members.len());
+        for &h in &members {
+            let Some(v) = ev.value(h, at, 0, &mut memo)? else { break };
+            let v = match ev.m.info(h).ty.width() {
                 1 => [v[0], v[0], v[0], 1.0],
                 2 => [v[0], v[1], 0.0, 1.0],
                 3 => [v[0], v[1], v[2], 1.0],
                 _ => v,
             };
-            writes.push((i, v.map(|c| store(format, c))));
+            texel.push(v.map(|c| store(format, c)));
+        }
+        if texel.len() == members.len() {
+            writes.push((i, texel));
         }
     }
-    for (i, v) in writes {
-        level.texels[i] = v;
+    let mut images = Vec::with_capacity(members.len());
+    for k in 0..members.len() {
+        let level = levels.entry((id, k)).or_insert_with(|| Level {
+            width: size.0,
+            height: size.1,
+            texels: vec![[0.0; 4]; (size.0 * size.1) as usize],
+        });
+        if (level.width, level.height) != size {
+            return Err(Unsupported::new("statements rendering one texture at two sizes"));
+        }
+        for (i, texel) in &writes {
+            level.texels[*i] = texel[k];
+        }
+        let base = level.clone();
+        let chain = if sampling.mipmap { mip_chain(base, format) } else { vec![base] };
+        images.push(Image { levels: chain, wrap: sampling.wrap, filter: sampling.filter });
     }
-    let base = level.clone();
-    let levels = if sampling.mipmap { mip_chain(base, format) } else { vec![base] };
-    ev.textures[id] = Tex::Flat(Image { levels, wrap: sampling.wrap, filter: sampling.filter });
+    ev.textures[id] = match images.pop() {
+        Some(image) if !fat => Tex::Flat(image),
+        Some(last) => {
+            images.push(last);
+            Tex::Fat(images)
+        }
+        None => return Err(Unsupported::new("an empty bundle")),
+    };
     Ok(())
 }
 

@@ -32,7 +32,7 @@ pub struct Image {
     pub filter: Filter,
 }
 
-fn quantize(format: TexelFormat, v: f64) -> f64 {
+pub(super) fn quantize(format: TexelFormat, v: f64) -> f64 {
     match format {
         TexelFormat::Rgba8 => (v.clamp(0.0, 1.0) * 255.0).round() / 255.0,
         TexelFormat::Signed8 => (v.clamp(-1.0, 1.0) * 127.0).round() / 127.0,
@@ -227,6 +227,40 @@ impl Cube {
         let size = f64::from(image.levels[0].width);
         let edge = |x: f64| x * size < 1.0 || (1.0 - x) * size < 1.0;
         (image.sample(s, t, 0.0), edge(s) || edge(t))
+    }
+}
+
+/// A dual-paraboloid environment map (Heidrich & Seidel 1999, Section
+/// 4.1): two images over [−1, 1]², the front one holding the directions
+/// with z ≥ 0, the back one the others.
+#[derive(Clone, Debug)]
+pub struct Paraboloid {
+    pub front: Image,
+    pub back: Image,
+}
+
+impl Paraboloid {
+    /// The direction through (x, y) ∈ [−1, 1]² of a face: the point
+    /// (x, y, ½ − ½(x² + y²)) of the paraboloid (eq. 5) reflects ±z into
+    /// the direction whose halfway vector with ±z is the paraboloid's
+    /// normal (x, y, 1): `(2x, 2y, ±(1 − r²)) / (1 + r²)`. Outside the
+    /// unit circle the same formula continues into the other hemisphere.
+    pub fn direction(front: bool, x: f64, y: f64) -> [f64; 3] {
+        let r2 = x * x + y * y;
+        let z = (1.0 - r2) / (1.0 + r2);
+        [2.0 * x / (1.0 + r2), 2.0 * y / (1.0 + r2), if front { z } else { -z }]
+    }
+
+    /// The filtered texel in direction `r`: the front face where
+    /// `r.z ≥ 0`, at `(x, y) = (r_x, r_y)/(1 ± r_z)` of the unit `r`
+    /// (eq. 7 with the identity for the environment's frame), at level 0
+    /// as a lookup by direction without derivatives is.
+    pub fn sample(&self, r: [f64; 3]) -> V {
+        let r = r.map(|c| if c.is_finite() { c } else { 0.0 });
+        let len = (r[0] * r[0] + r[1] * r[1] + r[2] * r[2]).sqrt();
+        let [x, y, z] = if len > 0.0 { r.map(|c| c / len) } else { [0.0, 0.0, 1.0] };
+        let (image, denom) = if z >= 0.0 { (&self.front, 1.0 + z) } else { (&self.back, 1.0 - z) };
+        image.sample(0.5 * (x / denom + 1.0), 0.5 * (y / denom + 1.0), 0.0)
     }
 }
 

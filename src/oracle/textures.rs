@@ -8,7 +8,7 @@
 
 use super::normal_map::{self, Storage};
 use super::program::Tex;
-use super::sampling::{self, Cube, Image, Level};
+use super::sampling::{self, Cube, Image, Level, Paraboloid};
 use super::Unsupported;
 use crate::ir::Module;
 use crate::parser::ast::{self, ExprKind, FuncKind, ItemKind, TextureFormat, TextureKind};
@@ -69,6 +69,9 @@ fn scene_generated(scene: &Scene, name: &str, s: crate::ir::Sampling) -> Result<
             let levels = normal_map::levels(&hf, f64::from(*scale), storage, s.mipmap);
             Some(Tex::Flat(Image { levels, wrap: s.wrap, filter: s.filter }))
         }
+        Some(TextureDesc::DualParaboloid { size, sun, format }) => {
+            Some(Tex::Paraboloid(Box::new(paraboloid(*size, sun.to_array(), *format, s.filter))))
+        }
         // Stored as the scene says (its bits), whatever the program declares.
         Some(TextureDesc::NormalizeCube { size, bits }) => {
             let sixteen = *bits == CubeBits::Sixteen;
@@ -76,6 +79,34 @@ fn scene_generated(scene: &Scene, name: &str, s: crate::ir::Sampling) -> Result<
         }
         _ => None,
     })
+}
+
+/// A scene's `DualParaboloid(size, sun, format)`: each face's texel the
+/// environment in the direction through its centre (Heidrich & Seidel
+/// 1999, Section 4.1; [`Paraboloid::direction`]), stored in `format`; the
+/// front face's alpha 1 inside the unit circle and 0 outside, the back
+/// face's 1. The environment is the scene's procedural sky, data as an
+/// image's texels are (`generators::sky`). Level 0 only: a lookup by
+/// direction has no derivatives.
+fn paraboloid(size: u32, sun: [f32; 3], format: TexelFormat, filter: Filter) -> Paraboloid {
+    let size = size.clamp(1, 4096);
+    let face = |front: bool| {
+        let mut texels = Vec::with_capacity((size * size) as usize);
+        for j in 0..size {
+            for i in 0..size {
+                let centre = |k: u32| 2.0 * (f64::from(k) + 0.5) / f64::from(size) - 1.0;
+                let (x, y) = (centre(i), centre(j));
+                let d = Paraboloid::direction(front, x, y).map(|c| c as f32);
+                let sky = data::generators::sky(d, sun);
+                let alpha = if !front || x * x + y * y <= 1.0 { 1.0 } else { 0.0 };
+                let texel = [f64::from(sky[0]), f64::from(sky[1]), f64::from(sky[2]), alpha];
+                texels.push(texel.map(|c| sampling::quantize(format, c)));
+            }
+        }
+        let level = Level { width: size, height: size, texels };
+        Image { levels: vec![level], wrap: Wrap::ClampToEdge, filter }
+    };
+    Paraboloid { front: face(true), back: face(false) }
 }
 
 /// How a declared format stores texels (8-bit formats as k/255, signed as

@@ -479,9 +479,11 @@ impl<'a> PlanRenderer<'a> {
     }
 
     /// What a pass rendered into texture or temporary `name` leaves for
-    /// later passes to look up (mipmapped where the texture is declared so).
+    /// later passes to look up (mipmapped where the texture is declared so;
+    /// a fat texel's layer `T#k` as its texture `T`).
     fn keep_rendered(&self, fb: &Framebuffer, name: &str) -> Rendered {
-        let mipmap = self.decls.iter().any(|d| d.name == name && d.mipmap);
+        let texture = name.split('#').next().unwrap_or(name);
+        let mipmap = self.decls.iter().any(|d| d.name == texture && d.mipmap);
         Rendered::from_framebuffer(fb, mipmap)
     }
 

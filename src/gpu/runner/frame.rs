@@ -136,7 +136,10 @@ impl<'a> Frame<'a> {
         let textures = rendered_targets(device, &rendered, depth_format);
         let snapshots = depth_snapshots(device, target, passes, &rendered);
         let depth_copier = (!snapshots.is_empty()).then(|| DepthCopier::new(device));
-        let mips = rendered.values().any(|t| t.mip_levels > 1).then(|| super::mips::MipMaker::new(device));
+        let mips = rendered
+            .values()
+            .any(|t| t.mip_levels > 1)
+            .then(|| super::mips::MipMaker::new(device, rendered.values()));
 
         let prepared = prepare_passes(gpu, target, passes, modules, &textures, &snapshots, depth_format);
 

@@ -22,6 +22,18 @@ pub(super) fn module_and_layout(
     fragment: &str,
     sample_type: wgpu::TextureSampleType,
 ) -> (wgpu::ShaderModule, wgpu::BindGroupLayout) {
+    module_and_layout_of(device, label, fragment, sample_type, wgpu::TextureViewDimension::D2)
+}
+
+/// [`module_and_layout`] for a texture of `view_dimension` (a 2-D array's
+/// layers read by index).
+pub(super) fn module_and_layout_of(
+    device: &wgpu::Device,
+    label: &str,
+    fragment: &str,
+    sample_type: wgpu::TextureSampleType,
+    view_dimension: wgpu::TextureViewDimension,
+) -> (wgpu::ShaderModule, wgpu::BindGroupLayout) {
     let module = device.create_shader_module(wgpu::ShaderModuleDescriptor {
         label: Some(label),
         source: wgpu::ShaderSource::Wgsl(Cow::Owned(format!("{fragment}{FULLSCREEN_VS}"))),
@@ -31,11 +43,7 @@ pub(super) fn module_and_layout(
         entries: &[wgpu::BindGroupLayoutEntry {
             binding: 0,
             visibility: wgpu::ShaderStages::FRAGMENT,
-            ty: wgpu::BindingType::Texture {
-                sample_type,
-                view_dimension: wgpu::TextureViewDimension::D2,
-                multisampled: false,
-            },
+            ty: wgpu::BindingType::Texture { sample_type, view_dimension, multisampled: false },
             count: None,
         }],
     });

@@ -11,26 +11,40 @@ use super::passes::{ColorTarget, RenderedTexture};
 /// One full-screen triangle per level and layer, reading the level above
 /// with `textureLoad`.
 pub(super) struct MipMaker {
-    /// Per colour format of a rendered texture.
-    pipelines: Vec<(wgpu::TextureFormat, wgpu::RenderPipeline)>,
-    layout: wgpu::BindGroupLayout,
+    /// Per colour format and, for an array texture (a fat texel's
+    /// members), per layer: each pipeline with its texture's layout.
+    pipelines: Vec<(wgpu::TextureFormat, Option<u32>, wgpu::RenderPipeline, wgpu::BindGroupLayout)>,
 }
 
-const MIP_WGSL: &str = "
-@group(0) @binding(0) var above: texture_2d<f32>;
+/// The mip shader for a 2-D texture, or for layer `layer` of a 2-D array.
+///
+/// An array's layer is read from a view of the whole array by its index,
+/// not through a 2-D view of one layer: a backend without texture views
+/// (wgpu's GL) binds the array itself, which a `texture_2d` does not
+/// sample (a mipmapped fat texture was black there beyond level 0).
+fn mip_wgsl(layer: Option<u32>) -> String {
+    let (texture, at) = match layer {
+        None => ("texture_2d<f32>".to_string(), String::new()),
+        Some(l) => ("texture_2d_array<f32>".to_string(), format!(", {l}")),
+    };
+    format!(
+        "
+@group(0) @binding(0) var above: {texture};
 @fragment
-fn fs_main(@builtin(position) at: vec4<f32>) -> @location(0) vec4<f32> {
+fn fs_main(@builtin(position) at: vec4<f32>) -> @location(0) vec4<f32> {{
     let last = vec2<i32>(textureDimensions(above)) - vec2<i32>(1);
     let p = 2 * vec2<i32>(at.xy);
     var sum = vec4<f32>(0.0);
-    for (var dy = 0; dy < 2; dy++) {
-        for (var dx = 0; dx < 2; dx++) {
-            sum += 0.25 * textureLoad(above, min(p + vec2<i32>(dx, dy), last), 0);
-        }
-    }
+    for (var dy = 0; dy < 2; dy++) {{
+        for (var dx = 0; dx < 2; dx++) {{
+            sum += 0.25 * textureLoad(above, min(p + vec2<i32>(dx, dy), last){at}, 0);
+        }}
+    }}
     return sum;
+}}
+"
+    )
 }
-";
 
 /// The levels of a `width`×`height` texture down to 1×1.
 pub fn full_chain(width: u32, height: u32) -> u32 {
@@ -38,17 +52,35 @@ pub fn full_chain(width: u32, height: u32) -> u32 {
 }
 
 impl MipMaker {
-    pub(super) fn new(device: &wgpu::Device) -> MipMaker {
+    /// Pipelines for 2-D textures of both colour formats, and for each
+    /// layer of the mipmapped arrays among `textures`.
+    pub(super) fn new<'a>(
+        device: &wgpu::Device,
+        textures: impl Iterator<Item = &'a RenderedTexture>,
+    ) -> MipMaker {
         let label = "shadec mip chain";
         let sample_type = wgpu::TextureSampleType::Float { filterable: false };
-        let (module, layout) = fullscreen::module_and_layout(device, label, MIP_WGSL, sample_type);
-        let pipelines = [ColorTarget::Rgba8, ColorTarget::Rgba16Float]
-            .map(|format| {
-                let format = format.wgpu();
-                (format, fullscreen::pipeline(device, label, &module, &layout, format))
-            })
-            .into();
-        MipMaker { pipelines, layout }
+        let make = |format: wgpu::TextureFormat, layer: Option<u32>| {
+            let dimension = if layer.is_some() {
+                wgpu::TextureViewDimension::D2Array
+            } else {
+                wgpu::TextureViewDimension::D2
+            };
+            let (module, layout) =
+                fullscreen::module_and_layout_of(device, label, &mip_wgsl(layer), sample_type, dimension);
+            (format, layer, fullscreen::pipeline(device, label, &module, &layout, format), layout)
+        };
+        let mut pipelines: Vec<_> =
+            [ColorTarget::Rgba8, ColorTarget::Rgba16Float].map(|f| make(f.wgpu(), None)).into();
+        for t in textures.filter(|t| t.mip_levels > 1 && t.layers > 1) {
+            for layer in 0..t.layers {
+                let format = t.format.wgpu();
+                if !pipelines.iter().any(|(f, l, ..)| *f == format && *l == Some(layer)) {
+                    pipelines.push(make(format, Some(layer)));
+                }
+            }
+        }
+        MipMaker { pipelines }
     }
 
     /// Records levels 1.. of every layer of `texture` from its level 0.
@@ -60,29 +92,41 @@ impl MipMaker {
         t: &RenderedTexture,
     ) {
         let format = t.format.wgpu();
-        let Some((_, pipeline)) = self.pipelines.iter().find(|(f, _)| *f == format) else { return };
-        let view = |level: u32, layer: u32| {
+        let array = t.layers > 1;
+        // One layer's 2-D view of `level`, or the whole array's (`None`).
+        let view = |level: u32, layer: Option<u32>| {
+            let dimension = if layer.is_some() {
+                wgpu::TextureViewDimension::D2
+            } else {
+                wgpu::TextureViewDimension::D2Array
+            };
             texture.create_view(&wgpu::TextureViewDescriptor {
-                dimension: Some(wgpu::TextureViewDimension::D2),
+                dimension: Some(dimension),
                 base_mip_level: level,
                 mip_level_count: Some(1),
-                base_array_layer: layer,
-                array_layer_count: Some(1),
+                base_array_layer: layer.unwrap_or(0),
+                array_layer_count: layer.map(|_| 1),
                 ..Default::default()
             })
         };
         for layer in 0..t.layers {
+            let key = array.then_some(layer);
+            let Some((_, _, pipeline, layout)) =
+                self.pipelines.iter().find(|(f, l, ..)| *f == format && *l == key)
+            else {
+                continue;
+            };
             for level in 1..t.mip_levels.min(texture.mip_level_count()) {
-                let above = view(level - 1, layer);
+                let above = view(level - 1, (!array).then_some(layer));
                 let bind_group = device.create_bind_group(&wgpu::BindGroupDescriptor {
                     label: Some("shadec mip chain"),
-                    layout: &self.layout,
+                    layout,
                     entries: &[wgpu::BindGroupEntry {
                         binding: 0,
                         resource: wgpu::BindingResource::TextureView(&above),
                     }],
                 });
-                let target = view(level, layer);
+                let target = view(level, Some(layer));
                 let mut pass = encoder.begin_render_pass(&wgpu::RenderPassDescriptor {
                     label: Some("shadec mip chain"),
                     color_attachments: &[Some(wgpu::RenderPassColorAttachment {

@@ -33,6 +33,7 @@ pub(super) enum Leaf {
         texture: TextureId,
         member: u8,
         coords_ty: Ty,
+        lod_from: Option<usize>,
     },
     Framebuffer {
         framebuffer: u32,
@@ -337,7 +338,8 @@ impl<'a> StepBuilder<'_, 'a> {
                 m.textures[texture as usize].name
             )));
         }
-        Ok((Leaf::FatMember { texture, member, coords_ty: m.info(coords).ty }, coords))
+        let lod_from = lod_varying(m, coords).and_then(|c| self.varying_of.get(&c).copied());
+        Ok((Leaf::FatMember { texture, member, coords_ty: m.info(coords).ty, lod_from }, coords))
     }
 
     /// Node `h`'s step, with how fixed9 rounds its result.

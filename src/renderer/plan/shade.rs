@@ -263,8 +263,18 @@ impl<'a> FragmentProgram<'a> {
             Leaf::Lookup { texture, coords_ty, lod_from } => {
                 self.lookup(texture, operand, coords_ty, lod_from, None, fragment, varyings)
             }
-            Leaf::FatMember { texture, member, coords_ty } => self.fat[texture as usize][member as usize]
-                .sample(operand, coords_ty, self.filters[texture as usize]),
+            // A layer declared `mipmap`: minified through its chain, as a
+            // rendered texture's lookup is (`lookup`).
+            Leaf::FatMember { texture, member, coords_ty, lod_from } => {
+                let (layer, filter) =
+                    (self.fat[texture as usize][member as usize], self.filters[texture as usize]);
+                if coords_ty != Ty::Position && layer.texture.levels.len() > 1 {
+                    let at = (operand, coords_ty, lod_from, None);
+                    self.sample_flat(&layer.texture, filter, at, fragment, varyings, false).map(|x| x as f64)
+                } else {
+                    layer.sample(operand, coords_ty, filter)
+                }
+            }
             Leaf::Framebuffer { framebuffer, channel } => {
                 let Some(fb) = self.reads.get(&framebuffer) else { return [0.0; 4] };
                 // Outside the framebuffer: its cleared values (depth 1: far, not an occluder).
