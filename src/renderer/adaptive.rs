@@ -226,25 +226,13 @@ fn draw_with(
     };
 
     // 2. Scanlines: every `spacing`-th row and the last one, packed.
-    // The colour of a pixel is read only once it is known (shaded or
-    // interpolated): a buffer of the right size is not cleared, its states are.
-    let ((mut color, mut state), (mut reg_color, mut reg_state)) =
-        SCRATCH.with(|s| s.take()).unwrap_or_default();
     let regular_rows: Vec<usize> = (0..h).filter(|&y| ctx.is_regular_row(y)).collect();
     // Where nothing can be dropped, each band is written through as it is
     // done (step 3), and the frame's colours are then the target's.
     let outs = ctx.band_outputs(target, regular_rows.len().saturating_sub(1));
     let written = outs.is_some();
-    if reg_color.len() != regular_rows.len() * w {
-        reg_color = vec![[0.0; 4]; regular_rows.len() * w];
-    }
-    reg_state.clear();
-    reg_state.resize(regular_rows.len() * w, UNKNOWN);
-    if !written && color.len() != w * h {
-        color = vec![[0.0; 4]; w * h];
-    }
-    state.clear();
-    state.resize(w * h, UNKNOWN);
+    let ((mut color, mut state), (mut reg_color, mut reg_state)) =
+        buffers(regular_rows.len() * w, w * h, !written);
     let row_stats = ctx.scanlines(&regular_rows, &mut reg_color, &mut reg_state);
     for (r, &y) in regular_rows.iter().enumerate() {
         if !written {
@@ -280,6 +268,26 @@ fn draw_with(
     }
     SCRATCH.with(|s| s.set(Some(((color, state), (reg_color, reg_state)))));
     fused.then_some(stats)
+}
+
+/// The last draw's buffers (see [`Buffers`]) for `regular` pixels of
+/// regular rows and `pixels` of the frame (colours only where `colors`),
+/// every state unknown. The colour of a pixel is read only once it is known
+/// (shaded or interpolated): a buffer of the right size is not cleared.
+fn buffers(regular: usize, pixels: usize, colors: bool) -> Buffers {
+    let ((mut color, mut state), (mut reg_color, mut reg_state)) =
+        SCRATCH.with(|s| s.take()).unwrap_or_default();
+    if reg_color.len() != regular {
+        reg_color = vec![[0.0; 4]; regular];
+    }
+    if colors && color.len() != pixels {
+        color = vec![[0.0; 4]; pixels];
+    }
+    for (states, n) in [(&mut reg_state, regular), (&mut state, pixels)] {
+        states.clear();
+        states.resize(n, UNKNOWN);
+    }
+    ((color, state), (reg_color, reg_state))
 }
 
 /// Forgets the visibility the last adaptive draw on this thread kept, so
