@@ -166,8 +166,9 @@ const INTERPOLATED: u8 = 4;
 /// Set on top of a state when the fragment stage discarded.
 const DISCARD_BIT: u8 = 0x80;
 
-/// A draw's colour and state buffers, one entry per pixel.
-type Buffers = (Vec<[f32; 4]>, Vec<u8>);
+/// A draw's colour and state buffers, one entry per pixel, and those of
+/// its regular rows (packed).
+type Buffers = ((Vec<[f32; 4]>, Vec<u8>), (Vec<[f32; 4]>, Vec<u8>));
 
 thread_local! {
     /// The colour and state buffers of the last draw on this thread, reused
@@ -226,36 +227,67 @@ fn draw_with(
 
     // 2. Scanlines: every `spacing`-th row and the last one, packed.
     let regular_rows: Vec<usize> = (0..h).filter(|&y| ctx.is_regular_row(y)).collect();
-    let mut reg_color = vec![[0.0f32; 4]; regular_rows.len() * w];
-    let mut reg_state = vec![UNKNOWN; regular_rows.len() * w];
+    // Where nothing can be dropped, each band is written through as it is
+    // done (step 3), and the frame's colours are then the target's.
+    let outs = ctx.band_outputs(target, regular_rows.len().saturating_sub(1));
+    let written = outs.is_some();
+    let ((mut color, mut state), (mut reg_color, mut reg_state)) =
+        buffers(regular_rows.len() * w, w * h, !written);
     let row_stats = ctx.scanlines(&regular_rows, &mut reg_color, &mut reg_state);
-    // The colour of a pixel is read only once it is known (shaded or
-    // interpolated): a buffer of the right size is not cleared, its states are.
-    let (mut color, mut state) = SCRATCH.with(|s| s.take()).unwrap_or_default();
-    if color.len() != w * h {
-        color = vec![[0.0; 4]; w * h];
-    }
-    state.clear();
-    state.resize(w * h, UNKNOWN);
     for (r, &y) in regular_rows.iter().enumerate() {
-        color[y * w..(y + 1) * w].copy_from_slice(&reg_color[r * w..(r + 1) * w]);
+        if !written {
+            color[y * w..(y + 1) * w].copy_from_slice(&reg_color[r * w..(r + 1) * w]);
+        }
         state[y * w..(y + 1) * w].copy_from_slice(&reg_state[r * w..(r + 1) * w]);
     }
 
     // 3. Columns between consecutive regular rows.
-    let (column_stats, first_wave) = ctx.columns(&regular_rows, &mut color, &mut state);
+    let frame = (!written).then_some(&mut color[..]);
+    let (column_stats, first_wave) = ctx.columns(
+        &regular_rows,
+        (frame, &reg_color),
+        &mut state,
+        outs.unwrap_or_default(),
+        &vis.maps.depth,
+    );
     let mut stats = row_stats + column_stats;
     if settings.threshold > 0.0 {
-        ctx.refine(&mut color, &mut state, &mut stats, first_wave);
+        if written {
+            ctx.refine(&mut ctx.tile_colors(target), &mut state, &mut stats, first_wave);
+        } else {
+            ctx.refine(&mut color[..], &mut state, &mut stats, first_wave);
+        }
     }
     stats.covered = vis.covered;
-    // A fused draw whose first pass dropped a fragment is not the passes' sum.
+    // A fused draw whose first pass dropped a fragment is not the passes' sum
+    // (written through already only where no stage may drop one).
     let fused = followers.is_empty() || stats.discarded == 0;
-    if fused {
+    debug_assert!(!written || stats.discarded == 0, "a stage that may not discard dropped a fragment");
+    if !written && fused {
         ctx.write_through(target, &vis.maps.depth, &color, &state);
     }
-    SCRATCH.with(|s| s.set(Some((color, state))));
+    SCRATCH.with(|s| s.set(Some(((color, state), (reg_color, reg_state)))));
     fused.then_some(stats)
+}
+
+/// The last draw's buffers (see [`Buffers`]) for `regular` pixels of
+/// regular rows and `pixels` of the frame (colours only where `colors`),
+/// every state unknown. The colour of a pixel is read only once it is known
+/// (shaded or interpolated): a buffer of the right size is not cleared.
+fn buffers(regular: usize, pixels: usize, colors: bool) -> Buffers {
+    let ((mut color, mut state), (mut reg_color, mut reg_state)) =
+        SCRATCH.with(|s| s.take()).unwrap_or_default();
+    if reg_color.len() != regular {
+        reg_color = vec![[0.0; 4]; regular];
+    }
+    if colors && color.len() != pixels {
+        color = vec![[0.0; 4]; pixels];
+    }
+    for (states, n) in [(&mut reg_state, regular), (&mut state, pixels)] {
+        states.clear();
+        states.resize(n, UNKNOWN);
+    }
+    ((color, state), (reg_color, reg_state))
 }
 
 /// Forgets the visibility the last adaptive draw on this thread kept, so

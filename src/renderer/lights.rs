@@ -148,6 +148,11 @@ fn term_bits(mask: u32, i: usize) -> u32 {
 }
 
 impl FragmentStage for PhongStage {
+    /// Every fragment is lit.
+    fn may_discard(&self) -> bool {
+        false
+    }
+
     fn shade(&self, _: &Fragment, varyings: &[f32], out: &mut [f32; 4]) -> FragmentResult {
         let p = Vec3::new(varyings[0], varyings[1], varyings[2]);
         let n = Vec3::new(varyings[3], varyings[4], varyings[5]).normalize_or_zero();

@@ -111,6 +111,14 @@ pub trait FragmentStage: Sync {
         false
     }
 
+    /// Whether the stage may drop a fragment ([`FragmentResult::Discard`]).
+    /// `false` is a promise: an adaptive draw then writes its pixels as it
+    /// interpolates them, before the refinement has shaded them all. The
+    /// default, `true`, is always right.
+    fn may_discard(&self) -> bool {
+        true
+    }
+
     /// [`FragmentStage::shade`], and the fragment's depth: the replaced one
     /// where the stage replaces it ([`FragmentStage::replaces_depth`]), else
     /// the interpolated `fragment.depth`.

@@ -392,43 +392,48 @@ impl Spans<'_> {
 impl Iterator for Spans<'_> {
     type Item = (i32, i32, i32, usize);
 
-    /// Each row's span from the edge functions at the row's first pixel,
-    /// solved for the pixels where each is ≥ its bias (a division per
-    /// edge that bounds it, instead of stepping the three functions pixel by
-    /// pixel across the row's bounding box): edge k is `a + i·s` at the
-    /// i-th pixel, `s = −dy·SUB`; with `s > 0` it holds from ⌈−a/s⌉ on,
-    /// with `s < 0` up to ⌊a/−s⌋, with `s = 0` everywhere or nowhere. The
-    /// same integers as [`for_each_covered`]'s per-pixel test, so the same
-    /// pixels (`spans_are_the_covered_pixels`).
+    /// Each row's span ([`row_span`]): the same integers as
+    /// [`for_each_covered`]'s per-pixel test, so the same pixels
+    /// (`spans_are_the_covered_pixels`).
     #[inline(always)]
     fn next(&mut self) -> Option<Self::Item> {
-        let tri = self.tri;
-        let last = (self.x1 - self.x0) as i64;
-        let px0 = self.x0 as i64 * SUB + SUB / 2;
         while self.y <= self.y1 {
             let y = self.y;
             self.y += 1;
-            let e = tri.edges_at(px0, y as i64 * SUB + SUB / 2);
-            let (mut lo, mut hi) = (0i64, last);
-            for (k, e) in e.iter().enumerate() {
-                let (a, s) = (e - tri.bias[k], -tri.dy[k] * SUB);
-                if s > 0 {
-                    if a < 0 {
-                        lo = lo.max((s - 1 - a) / s);
-                    }
-                } else if a < 0 {
-                    hi = -1;
-                } else if s < 0 {
-                    hi = hi.min(a / -s);
-                }
-            }
-            if lo <= hi {
-                let (xa, xb) = (self.x0 + lo as i32, self.x0 + hi as i32);
+            if let Some((xa, xb)) = row_span(self.tri, (self.x0, self.x1), y) {
                 return Some((y, xa, xb, (y - self.rect.1) as usize * TILE + (xa - self.rect.0) as usize));
             }
         }
         None
     }
+}
+
+/// The pixels `xa..=xb` of row `y` within columns `x0..=x1` that `tri`
+/// covers by the top-left fill rule (`Tri::covers` at each pixel centre),
+/// `None` where none is: solved from the edge functions at the row's pixel
+/// `x0` (a division per edge that bounds the span, instead of testing the
+/// pixels one by one): edge k at pixel `x0 + i` is `a + i·s` (exact
+/// integers, `a` less its bias, `s = −dy·SUB`); with `s > 0` it holds from
+/// ⌈−a/s⌉ on, with `s < 0` up to ⌊a/−s⌋, with `s = 0` everywhere or
+/// nowhere. The one solver of the tiled rasterizer ([`Spans`]) and of the
+/// adaptive draw's visibility.
+#[inline(always)]
+pub(crate) fn row_span(tri: &Tri, (x0, x1): (i32, i32), y: i32) -> Option<(i32, i32)> {
+    let e = tri.edges_at(x0 as i64 * SUB + SUB / 2, y as i64 * SUB + SUB / 2);
+    let (mut lo, mut hi) = (0i64, (x1 - x0) as i64);
+    for (k, e) in e.iter().enumerate() {
+        let (a, s) = (e - tri.bias[k], -tri.dy[k] * SUB);
+        if s > 0 {
+            if a < 0 {
+                lo = lo.max((s - 1 - a) / s);
+            }
+        } else if a < 0 {
+            return None;
+        } else if s < 0 {
+            hi = hi.min(a / -s);
+        }
+    }
+    (lo <= hi).then(|| (x0 + lo as i32, x0 + hi as i32))
 }
 
 /// [`raster_tile`] with a stencil test: fragment by fragment, since a

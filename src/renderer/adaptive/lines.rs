@@ -13,6 +13,7 @@
 use rayon::prelude::*;
 
 use super::visibility::{EMPTY, PLAIN};
+use super::write::BandOut;
 use super::{AdaptiveStats, Ctx, ADAPTIVE, DISCARD_BIT, EDGE, INTERPOLATED, NONE, REGULAR, UNKNOWN};
 use crate::renderer::raster::PassSetup;
 use crate::renderer::tile::{fragment_at, interpolate};
@@ -67,6 +68,30 @@ impl Pending {
 
 /// Refinement waves of fewer pixels are grown and shaded on the calling thread.
 const SERIAL_WAVE: usize = 4096;
+
+thread_local! {
+    /// A band's colours where the frame has no buffer for them ([`Ctx::columns`]),
+    /// kept for the next band on this thread.
+    static BAND: std::cell::Cell<Vec<[f32; 4]>> = const { std::cell::Cell::new(Vec::new()) };
+}
+
+/// A frame's colours by pixel: the draw's buffer, or the target's texels
+/// where the bands wrote through ([`super::write::TileColors`]).
+pub(super) trait Colors: Sync {
+    fn get(&self, i: usize) -> [f32; 4];
+    fn set(&mut self, i: usize, c: [f32; 4]);
+}
+
+impl Colors for [[f32; 4]] {
+    #[inline(always)]
+    fn get(&self, i: usize) -> [f32; 4] {
+        self[i]
+    }
+    #[inline(always)]
+    fn set(&mut self, i: usize, c: [f32; 4]) {
+        self[i] = c;
+    }
+}
 
 /// The largest per-channel difference between two colours (`f32::max`
 /// passes over a NaN channel).
@@ -302,11 +327,18 @@ impl Ctx<'_> {
     /// read here). Band k is rows k·n ..= min((k + 1)·n, h − 1) (n the
     /// spacing): bands k and k + 1 share a row, so the even bands run in
     /// parallel, then the odd ones, each in its own chunk of 2n rows.
+    /// Where `outs` has a band's rows of the target ([`Ctx::band_outputs`]),
+    /// the band is written there as soon as it is done (`depth`: the
+    /// frame's); without the frame's `color`, each band's colours are then
+    /// found in a buffer of the band's own, from its two regular rows in
+    /// `reg_color` (packed), and are only written to the target.
     pub(super) fn columns(
         &self,
         regular_rows: &[usize],
-        color: &mut [[f32; 4]],
+        (mut color, reg_color): (Option<&mut [[f32; 4]]>, &[[f32; 4]]),
         state: &mut [u8],
+        mut outs: Vec<Option<BandOut>>,
+        depth: &[f32],
     ) -> (AdaptiveStats, Option<Vec<usize>>) {
         let n = self.settings.spacing as usize;
         let bands = regular_rows.len().saturating_sub(1);
@@ -317,21 +349,51 @@ impl Ctx<'_> {
             a.1.append(&mut b.1);
             (a.0 + b.0, a.1)
         };
+        outs.resize_with(bands, || None);
+        let w = self.w;
         for parity in 0..2 {
-            let skip = (parity * n * self.w).min(color.len());
-            let (s, mut found) = color[skip..]
+            let skip = (parity * n * w).min(state.len());
+            // Band 2j + parity's rows of the target, if written here.
+            let mine: Vec<Option<BandOut>> =
+                outs.iter_mut().skip(parity).step_by(2).map(Option::take).collect();
+            let frame: Vec<Option<&mut [[f32; 4]]>> = match color.as_deref_mut() {
+                Some(c) => c[skip..].chunks_mut(chunk).map(Some).collect(),
+                None => mine.iter().map(|_| None).collect(),
+            };
+            let (s, mut found) = state[skip..]
                 .par_chunks_mut(chunk)
-                .zip(state[skip..].par_chunks_mut(chunk))
+                .zip(frame)
+                .zip(mine)
                 .enumerate()
-                .filter(|(j, _)| 2 * j + parity < bands)
-                .map(|(j, (c, s))| {
+                .map(|(j, ((s, c), out))| {
                     let k = 2 * j + parity;
                     let rows = (regular_rows[k], regular_rows[k + 1]);
                     debug_assert_eq!(rows.0, k * n, "regular rows are every n-th");
+                    let mut own = Vec::new();
+                    let c = match c {
+                        Some(c) => c,
+                        None => {
+                            // The band's two regular rows, the rest found below.
+                            let len = (rows.1 - rows.0 + 1) * w;
+                            own = BAND.with(|b| b.take());
+                            if own.len() < len {
+                                own.resize(len, [0.0; 4]);
+                            }
+                            own[..w].copy_from_slice(&reg_color[k * w..(k + 1) * w]);
+                            own[len - w..len].copy_from_slice(&reg_color[(k + 1) * w..(k + 2) * w]);
+                            &mut own[..len]
+                        }
+                    };
                     let stats = self.band(k, rows, c, s);
                     let mut found = Vec::new();
                     if self.settings.threshold > 0.0 {
                         self.band_wave(rows, c, s, &mut found);
+                    }
+                    if let Some(mut out) = out {
+                        self.write_band(&mut out, rows.0, c, s, depth);
+                    }
+                    if !own.is_empty() {
+                        BAND.with(|b| b.set(own));
                     }
                     (stats, found)
                 })
@@ -439,9 +501,9 @@ impl Ctx<'_> {
     /// shaded in batches) until no interpolated pixel next to an exact one
     /// differs by more than the threshold.
     /// `first` is the first wave where the columns found it ([`Ctx::columns`]).
-    pub(super) fn refine(
+    pub(super) fn refine<C: Colors + ?Sized>(
         &self,
-        color: &mut [[f32; 4]],
+        color: &mut C,
         state: &mut [u8],
         stats: &mut AdaptiveStats,
         first: Option<Vec<usize>>,
@@ -483,7 +545,7 @@ impl Ctx<'_> {
                 .into_iter()
                 .flatten()
                 .filter(move |&j| {
-                    state[j] == INTERPOLATED && keys[j] == keys[i] && differs(color[i], color[j], t)
+                    state[j] == INTERPOLATED && keys[j] == keys[i] && differs(color.get(i), color.get(j), t)
                 })
             };
             wave = if parallel {
@@ -498,7 +560,7 @@ impl Ctx<'_> {
     /// of horizontal or vertical neighbours on one surface whose colours
     /// differ by more than the threshold, rows in parallel, each over its
     /// covered span only.
-    fn first_wave(&self, color: &[[f32; 4]], state: &[u8]) -> Vec<usize> {
+    fn first_wave<C: Colors + ?Sized>(&self, color: &C, state: &[u8]) -> Vec<usize> {
         let (w, h, t, keys) = (self.w, self.h, self.settings.threshold, self.keys);
         (0..h)
             .into_par_iter()
@@ -514,7 +576,7 @@ impl Ctx<'_> {
                         if (state[i] == INTERPOLATED || state[j] == INTERPOLATED)
                             && keys[i] != NONE
                             && keys[j] == keys[i]
-                            && differs(color[i], color[j], t)
+                            && differs(color.get(i), color.get(j), t)
                         {
                             found.extend([i, j].into_iter().filter(|&k| state[k] == INTERPOLATED));
                         }
@@ -526,7 +588,13 @@ impl Ctx<'_> {
     }
 
     /// Shades the interpolated pixels `wave` exactly, in parallel batches.
-    fn reshade(&self, wave: &[usize], color: &mut [[f32; 4]], state: &mut [u8], stats: &mut AdaptiveStats) {
+    fn reshade<C: Colors + ?Sized>(
+        &self,
+        wave: &[usize],
+        color: &mut C,
+        state: &mut [u8],
+        stats: &mut AdaptiveStats,
+    ) {
         const CHUNK: usize = 8 * BATCH;
         let mut out = vec![[0.0f32; 4]; wave.len()];
         let mut results = vec![FragmentResult::Keep; wave.len()];
@@ -543,10 +611,10 @@ impl Ctx<'_> {
             stats.adaptive += 1;
             if result == FragmentResult::Discard {
                 stats.discarded += 1;
-                color[i] = [0.0; 4];
+                color.set(i, [0.0; 4]);
                 state[i] = ADAPTIVE | DISCARD_BIT;
             } else {
-                color[i] = colour;
+                color.set(i, colour);
                 state[i] = ADAPTIVE;
             }
         }

@@ -22,7 +22,8 @@ use super::visibility::{EMPTY, MIXED, PLAIN};
 use super::{EdgeMode, NONE};
 use crate::pipeline::{CompareFunc, DepthState};
 use crate::renderer::framebuffer::TILE;
-use crate::renderer::raster::{PassSetup, Tri, SUB};
+use crate::renderer::raster::{PassSetup, Tri};
+use crate::renderer::tile::row_span;
 
 #[cfg(test)]
 mod reference;
@@ -239,25 +240,11 @@ fn depths(tri: &Tri, x: i32, y: i32) -> [f32; LANES] {
 }
 
 /// The pixels `xa..=xb` of row `y` that `tri` covers by the top-left fill
-/// rule (`Tri::covers` at each pixel centre), `None` where none is: edge
-/// function k at the row's pixel `x0 + t` is `c_k + s_k·t` (exact integers),
-/// inside where `c_k − bias_k + s_k·t ≥ 0`, a ray of t for each edge.
+/// rule (`Tri::covers` at each pixel centre), `None` where none is: the
+/// tiled rasterizer's solver ([`row_span`]) over the triangle's columns.
+#[inline(always)]
 pub(super) fn covered_span(tri: &Tri, y: i32) -> Option<(i32, i32)> {
-    let e = tri.edges_at(tri.x0 as i64 * SUB + SUB / 2, y as i64 * SUB + SUB / 2);
-    let (mut lo, mut hi) = (0i64, (tri.x1 - tri.x0) as i64);
-    for ((e, bias), dy) in e.iter().zip(tri.bias).zip(tri.dy) {
-        let (c, s) = (e - bias, -dy * SUB);
-        if s > 0 {
-            // t ≥ ⌈−c / s⌉
-            lo = lo.max(-c.div_euclid(s));
-        } else if s < 0 {
-            // t ≤ ⌊c / −s⌋
-            hi = hi.min(c.div_euclid(-s));
-        } else if c < 0 {
-            return None;
-        }
-    }
-    (lo <= hi).then(|| (tri.x0 + lo as i32, tri.x0 + hi as i32))
+    row_span(tri, (tri.x0, tri.x1), y)
 }
 
 /// The surface keys of a band's rows inside their spans ([`NONE`] outside),

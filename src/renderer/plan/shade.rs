@@ -817,6 +817,15 @@ impl FragmentStage for FragmentProgram<'_> {
         self.depth.is_some()
     }
 
+    /// A fragment is dropped only by the condition, the alpha test or a
+    /// `select` without a reject (what [`FragmentProgram::run`] and
+    /// [`FragmentProgram::tested_colour`] test).
+    fn may_discard(&self) -> bool {
+        self.condition.is_some()
+            || self.alpha_test.is_some()
+            || self.steps.iter().any(|s| matches!(s.expr, Expr::Select { reject: None, .. }))
+    }
+
     /// The replaced depth as the depth buffer holds it: clamped to [0, 1]
     /// (NV_texture_shader leaves a depth outside it undefined).
     fn shade_with_depth(
