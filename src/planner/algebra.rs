@@ -128,57 +128,95 @@ pub fn delta_sums_merged(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>
 }
 
 /// The sum at `h` with its interpolant terms of one frequency and type
-/// merged ([`delta_sums_merged`]); `None` when fewer than two merge.
+/// merged ([`delta_sums_merged`]), also where they share a cofactor:
+/// `δa·X + δb·X` = `δ(a + b)·X` (a sum of lights inside one δ, modulating
+/// a texture, multiplied out: `0.7·δl0·T3 + 0.7·δl2·T3`, each light's
+/// term bounded by the hull of its colour where the merged one is bounded
+/// channel by channel, as written). `None` when fewer than two merge.
 fn merge_interpolants(m: &mut Module, h: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
     let terms = sum_terms(m, h);
-    let mut deltas: Vec<(Handle<Expr>, Frequency, Handle<Expr>)> = Vec::new();
+    // (the cofactors, sorted; the frequency; the δ's type; the values inside δ)
+    type Group = (Vec<Handle<Expr>>, Frequency, Ty, Vec<Handle<Expr>>);
+    let mut groups: Vec<Group> = Vec::new();
     let mut rest = Vec::new();
     for t in terms {
-        match scaled_interpolant(m, t, span) {
-            Some((value, to))
-                if unit(m.info(t).interval)
-                    && deltas.first().is_none_or(|d| d.1 == to && m.info(d.0).ty == m.info(t).ty) =>
-            {
-                deltas.push((t, to, value))
+        match interpolant_term(m, t, span) {
+            Some((value, to, ty, cofactors)) => {
+                match groups.iter_mut().find(|g| g.0 == cofactors && g.1 == to && g.2 == ty) {
+                    Some(g) => g.3.push(value),
+                    None => groups.push((cofactors, to, ty, vec![value])),
+                }
             }
-            _ => rest.push(t),
+            None => rest.push(t),
         }
     }
-    if deltas.len() < 2 {
+    if groups.iter().all(|g| g.3.len() < 2) {
         return None;
     }
-    let mut value = deltas[0].2;
-    for d in &deltas[1..] {
-        value = binary(m, BinaryOp::Add, value, d.2, span)?;
+    let mut merged_terms = Vec::new();
+    for (cofactors, to, ty, values) in groups {
+        let mut value = values[0];
+        for v in &values[1..] {
+            value = binary(m, BinaryOp::Add, value, *v, span)?;
+        }
+        let merged = node(m, Expr::Interpolate { value, to }, span)?;
+        if !unit(m.info(merged).interval) || m.info(merged).ty != ty {
+            return None;
+        }
+        let mut term = merged;
+        for c in cofactors {
+            term = binary(m, BinaryOp::Mul, term, c, span)?;
+        }
+        merged_terms.push(term);
     }
-    let merged = node(m, Expr::Interpolate { value, to: deltas[0].1 }, span)?;
-    if !unit(m.info(merged).interval) || m.info(merged).ty != m.info(deltas[0].0).ty {
-        return None;
+    let mut sum = merged_terms[0];
+    for t in merged_terms[1..].iter().chain(&rest) {
+        sum = binary(m, BinaryOp::Add, sum, *t, span)?;
     }
-    let mut sum = merged;
-    for t in rest {
-        sum = binary(m, BinaryOp::Add, sum, t, span)?;
-    }
-    Some(sum)
+    (m.info(sum).ty == m.info(h).ty).then_some(sum)
 }
 
-/// A term `δv` as (`v`, its frequency), or `k·δv` with a constant `k` as
-/// `δ(k·v)` (`k·δv` = `δ(k·v)`: interpolation is linear), so that
+/// A term with one interpolant factor `δv` and constant factors `k`, as
+/// (`k·v`, its frequency, the type of `δ(k·v)`, the other factors sorted),
+/// where `δ(k·v)` stays in [0, 1] and the product keeps the term's type:
+/// `k·δv·X` = `δ(k·v)·X` (interpolation is linear), so that
 /// `0.6·δl0 + 0.6·δl1` merges as `δl0 + δl1` does.
-fn scaled_interpolant(m: &mut Module, t: Handle<Expr>, span: Span) -> Option<(Handle<Expr>, Frequency)> {
-    match m.exprs[t] {
-        Expr::Interpolate { value, to } => Some((value, to)),
-        Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => {
-            let (k, d) = if matches!(m.exprs[lhs], Expr::Constant(_)) { (lhs, rhs) } else { (rhs, lhs) };
-            let (Expr::Constant(_), Expr::Interpolate { value, to }) = (&m.exprs[k], &m.exprs[d]) else {
-                return None;
-            };
-            let (value, to) = (*value, *to);
-            let inside = binary(m, BinaryOp::Mul, k, value, span)?;
-            (m.info(inside).ty == m.info(t).ty).then_some((inside, to))
+fn interpolant_term(
+    m: &mut Module,
+    t: Handle<Expr>,
+    span: Span,
+) -> Option<(Handle<Expr>, Frequency, Ty, Vec<Handle<Expr>>)> {
+    let factors = product_factors(m, t);
+    let mut delta: Option<(Handle<Expr>, Handle<Expr>, Frequency)> = None;
+    let mut constants = Vec::new();
+    let mut cofactors = Vec::new();
+    for f in factors {
+        match m.exprs[f] {
+            Expr::Interpolate { value, to } if delta.is_none() => delta = Some((f, value, to)),
+            Expr::Constant(_) => constants.push(f),
+            _ => cofactors.push(f),
         }
-        _ => None,
     }
+    let (d, mut value, to) = delta?;
+    for k in constants {
+        value = binary(m, BinaryOp::Mul, k, value, span)?;
+    }
+    let ty = m.info(d).ty;
+    let scaled = node(m, Expr::Interpolate { value, to }, span)?;
+    if m.info(scaled).ty != ty || !unit(m.info(scaled).interval) {
+        return None;
+    }
+    // The term rebuilt so must keep its type (an rgb δ times a scalar
+    // cofactor is rgb either way; a scalar δ times an rgb is too).
+    let mut product = scaled;
+    for c in &cofactors {
+        product = binary(m, BinaryOp::Mul, product, *c, span)?;
+    }
+    if m.info(product).ty != m.info(t).ty {
+        return None;
+    }
+    cofactors.sort();
+    Some((value, to, ty, cofactors))
 }
 
 /// Interns `e` at `span`; `None` when it is ill-typed.
@@ -317,6 +355,20 @@ fn read_channel(
             let once = node(m, Expr::Swizzle { value: inner, pattern: q, len, ty }, span)?;
             Some(read_channel(m, inner, q, len, ty, span).unwrap_or(once))
         }
+        // A channel of an interpolated tuple is the interpolant of that
+        // channel, `(δ v).r` = `δ(v.r)` (interpolation is linear,
+        // component by component): one scalar interpolant, where the
+        // channel of an rgb one costs a combiner to extract.
+        Expr::Interpolate { value: inner, to } if len == 1 && tuple(m, inner) => {
+            let once = node(m, Expr::Swizzle { value: inner, pattern, len, ty }, span)?;
+            let c = read_channel(m, inner, pattern, len, ty, span).unwrap_or(once);
+            let d = if m.info(c).freq <= Frequency::Uniform {
+                c
+            } else {
+                node(m, Expr::Interpolate { value: c, to }, span)?
+            };
+            (m.info(d).ty == ty).then_some(d)
+        }
         Expr::Compose { components, .. } if len == 1 => {
             let mut at = pattern[0] as usize;
             for c in components {
@@ -333,6 +385,16 @@ fn read_channel(
             None
         }
         _ => None,
+    }
+}
+
+/// Whether `h` is a tuple, `(a, b, c)` or its `.rgb`: what a shader
+/// returning several values gives.
+fn tuple(m: &Module, h: Handle<Expr>) -> bool {
+    match m.exprs[h] {
+        Expr::Compose { .. } => true,
+        Expr::Swizzle { value, .. } => matches!(m.exprs[value], Expr::Compose { .. }),
+        _ => false,
     }
 }
 
