@@ -74,9 +74,15 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
     push(&mut out, expanded, "multiplied out");
     // Like terms kept apart too: `T0·T0 + T0·T1 + T1·T0 + T1·T1` groups
     // back into `(T0 + T1)²`, its collected `T0² + 2·T0·T1 + T1²` does not.
-    let apart = multiplied_out(m, base, max_terms, false).filter(|a| Some(*a) != expanded);
+    let apart = multiplied_out(m, base, max_terms, false, true).filter(|a| Some(*a) != expanded);
     push(&mut out, apart, "multiplied out");
-    for sum in [expanded.unwrap_or(base)].into_iter().chain(apart) {
+    // And its constants kept out of the interpolants: a constant several
+    // terms share (`0.2·δ(p.r)·(1 − a) + 0.2·T5·a`) is then a common
+    // factor, where moved into one δ it is not.
+    let kept =
+        multiplied_out(m, base, max_terms, true, false).filter(|k| Some(*k) != expanded && Some(*k) != apart);
+    push(&mut out, kept, "multiplied out");
+    for sum in [expanded.unwrap_or(base)].into_iter().chain(apart).chain(kept) {
         factored_forms(m, sum, &mut |v, what| push(&mut out, v, what));
     }
     // Each form so far (and the value) with its sums of interpolants
@@ -465,16 +471,22 @@ fn expansion(m: &Module, h: Handle<Expr>, max: usize) -> Option<Vec<Vec<Handle<E
 /// rgba conversion too (`rgba(x, 1)` of a sum: the colour multiplied out);
 /// `None` when nothing distributes, past `max` terms, or ill-typed.
 pub fn multiply_out(m: &mut Module, h: Handle<Expr>, max: usize) -> Option<Handle<Expr>> {
-    multiplied_out(m, h, max, true)
+    multiplied_out(m, h, max, true, true)
 }
 
 /// [`multiply_out`], with like terms collected or each kept apart: `X + X`
 /// splits into two passes of `X` where `2·X` may leave [0, 1] in a
 /// temporary (`T0⁴·(δg + δg)`, `δg` in [0, 0.6]).
-fn multiplied_out(m: &mut Module, h: Handle<Expr>, max: usize, collect: bool) -> Option<Handle<Expr>> {
+fn multiplied_out(
+    m: &mut Module,
+    h: Handle<Expr>,
+    max: usize,
+    collect: bool,
+    into_delta: bool,
+) -> Option<Handle<Expr>> {
     if let Expr::Convert { value, to: Ty::Rgba } = m.exprs[h] {
         if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3 | Ty::Scalar) {
-            let inner = multiplied_out(m, value, max, collect)?;
+            let inner = multiplied_out(m, value, max, collect, into_delta)?;
             return node(m, Expr::Convert { value: inner, to: Ty::Rgba }, m.span(h));
         }
     }
@@ -483,7 +495,8 @@ fn multiplied_out(m: &mut Module, h: Handle<Expr>, max: usize, collect: bool) ->
     let mut sum: Option<Handle<Expr>> = None;
     let terms = if collect { like_terms_collected(m, terms, span)? } else { terms };
     for factors in terms {
-        let factors = constants_into_delta(m, factors, span)?;
+        let factors = if into_delta { constants_into_delta(m, factors, span)? } else { factors };
+        let factors = scales_last(m, factors);
         let mut product = factors[0];
         for f in &factors[1..] {
             product = binary(m, BinaryOp::Mul, product, *f, span)?;
@@ -494,6 +507,19 @@ fn multiplied_out(m: &mut Module, h: Handle<Expr>, max: usize, collect: bool) ->
         });
     }
     sum.filter(|s| *s != h && m.info(*s).ty == m.info(h).ty)
+}
+
+/// A term's scalar constants past 1 moved after its other factors, in
+/// order: `3·(δp).r·T1·T1` is computed `((δp).r·T1·T1)·3`, the scale
+/// applied last (a combiner's output scale), where `3·(δp).r` first would
+/// leave [−1, 1] and be clamped by the general combiners before `T1`
+/// brings it down — as `3·mix(…)` written so is.
+fn scales_last(m: &Module, mut factors: Vec<Handle<Expr>>) -> Vec<Handle<Expr>> {
+    let past_one = |h: &Handle<Expr>| matches!(&m.exprs[*h], Expr::Constant(c) if c.ty == Ty::Scalar && c.components[0] > 1.0);
+    if factors.len() > 1 {
+        factors.sort_by_key(past_one);
+    }
+    factors
 }
 
 /// The terms of a sum of products with like terms collected: terms with
