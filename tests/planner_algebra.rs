@@ -912,3 +912,14 @@ fn a_value_in_unit_range_is_planned_in_its_forms_clamped() {
     let m = || lerp(Colour::Texture(0), Colour::Texture(1), None);
     both_plan(&mul(m(), m()), Written::Blended, "geforce256", true);
 }
+
+/// `C ⊕[add] 3·((δ pair).r·T1·T1) + (δ pair).g`: multiplied out,
+/// `3·(δ pair).r·T1·T1` computed the 3 first, past the general combiners'
+/// [−1, 1] before `T1` brought it down, and was refused on geforce3 where
+/// written it plans. A term's constants past 1 are multiplied in last.
+#[test]
+fn a_scale_past_one_is_multiplied_in_last() {
+    let t = |i| Colour::Texture(i);
+    let c = add(mul(Colour::Number(30), mul(mul(Colour::Channel(0), t(1)), t(1))), Colour::Channel(1));
+    both_plan(&c, Written::Added, "geforce3", true);
+}

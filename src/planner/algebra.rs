@@ -182,16 +182,15 @@ fn merge_interpolants(m: &mut Module, h: Handle<Expr>, span: Span) -> Option<Han
     (m.info(sum).ty == m.info(h).ty).then_some(sum)
 }
 
+/// What [`interpolant_term`] reads off a term.
+type InterpolantTerm = (Handle<Expr>, Frequency, Ty, Vec<Handle<Expr>>);
+
 /// A term with one interpolant factor `δv` and constant factors `k`, as
 /// (`k·v`, its frequency, the type of `δ(k·v)`, the other factors sorted),
 /// where `δ(k·v)` stays in [0, 1] and the product keeps the term's type:
 /// `k·δv·X` = `δ(k·v)·X` (interpolation is linear), so that
 /// `0.6·δl0 + 0.6·δl1` merges as `δl0 + δl1` does.
-fn interpolant_term(
-    m: &mut Module,
-    t: Handle<Expr>,
-    span: Span,
-) -> Option<(Handle<Expr>, Frequency, Ty, Vec<Handle<Expr>>)> {
+fn interpolant_term(m: &mut Module, t: Handle<Expr>, span: Span) -> Option<InterpolantTerm> {
     let factors = product_factors(m, t);
     let mut delta: Option<(Handle<Expr>, Handle<Expr>, Frequency)> = None;
     let mut constants = Vec::new();
