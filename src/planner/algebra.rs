@@ -74,9 +74,15 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
     push(&mut out, expanded, "multiplied out");
     // Like terms kept apart too: `T0·T0 + T0·T1 + T1·T0 + T1·T1` groups
     // back into `(T0 + T1)²`, its collected `T0² + 2·T0·T1 + T1²` does not.
-    let apart = multiplied_out(m, base, max_terms, false).filter(|a| Some(*a) != expanded);
+    let apart = multiplied_out(m, base, max_terms, false, true).filter(|a| Some(*a) != expanded);
     push(&mut out, apart, "multiplied out");
-    for sum in [expanded.unwrap_or(base)].into_iter().chain(apart) {
+    // And its constants kept out of the interpolants: a constant several
+    // terms share (`0.2·δ(p.r)·(1 − a) + 0.2·T5·a`) is then a common
+    // factor, where moved into one δ it is not.
+    let kept =
+        multiplied_out(m, base, max_terms, true, false).filter(|k| Some(*k) != expanded && Some(*k) != apart);
+    push(&mut out, kept, "multiplied out");
+    for sum in [expanded.unwrap_or(base)].into_iter().chain(apart).chain(kept) {
         factored_forms(m, sum, &mut |v, what| push(&mut out, v, what));
     }
     // Each form so far (and the value) with its sums of interpolants
@@ -128,57 +134,94 @@ pub fn delta_sums_merged(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>
 }
 
 /// The sum at `h` with its interpolant terms of one frequency and type
-/// merged ([`delta_sums_merged`]); `None` when fewer than two merge.
+/// merged ([`delta_sums_merged`]), also where they share a cofactor:
+/// `δa·X + δb·X` = `δ(a + b)·X` (a sum of lights inside one δ, modulating
+/// a texture, multiplied out: `0.7·δl0·T3 + 0.7·δl2·T3`, each light's
+/// term bounded by the hull of its colour where the merged one is bounded
+/// channel by channel, as written). `None` when fewer than two merge.
 fn merge_interpolants(m: &mut Module, h: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
     let terms = sum_terms(m, h);
-    let mut deltas: Vec<(Handle<Expr>, Frequency, Handle<Expr>)> = Vec::new();
+    // (the cofactors, sorted; the frequency; the δ's type; the values inside δ)
+    type Group = (Vec<Handle<Expr>>, Frequency, Ty, Vec<Handle<Expr>>);
+    let mut groups: Vec<Group> = Vec::new();
     let mut rest = Vec::new();
     for t in terms {
-        match scaled_interpolant(m, t, span) {
-            Some((value, to))
-                if unit(m.info(t).interval)
-                    && deltas.first().is_none_or(|d| d.1 == to && m.info(d.0).ty == m.info(t).ty) =>
-            {
-                deltas.push((t, to, value))
+        match interpolant_term(m, t, span) {
+            Some((value, to, ty, cofactors)) => {
+                match groups.iter_mut().find(|g| g.0 == cofactors && g.1 == to && g.2 == ty) {
+                    Some(g) => g.3.push(value),
+                    None => groups.push((cofactors, to, ty, vec![value])),
+                }
             }
-            _ => rest.push(t),
+            None => rest.push(t),
         }
     }
-    if deltas.len() < 2 {
+    if groups.iter().all(|g| g.3.len() < 2) {
         return None;
     }
-    let mut value = deltas[0].2;
-    for d in &deltas[1..] {
-        value = binary(m, BinaryOp::Add, value, d.2, span)?;
+    let mut merged_terms = Vec::new();
+    for (cofactors, to, ty, values) in groups {
+        let mut value = values[0];
+        for v in &values[1..] {
+            value = binary(m, BinaryOp::Add, value, *v, span)?;
+        }
+        let merged = node(m, Expr::Interpolate { value, to }, span)?;
+        if !unit(m.info(merged).interval) || m.info(merged).ty != ty {
+            return None;
+        }
+        let mut term = merged;
+        for c in cofactors {
+            term = binary(m, BinaryOp::Mul, term, c, span)?;
+        }
+        merged_terms.push(term);
     }
-    let merged = node(m, Expr::Interpolate { value, to: deltas[0].1 }, span)?;
-    if !unit(m.info(merged).interval) || m.info(merged).ty != m.info(deltas[0].0).ty {
-        return None;
+    let mut sum = merged_terms[0];
+    for t in merged_terms[1..].iter().chain(&rest) {
+        sum = binary(m, BinaryOp::Add, sum, *t, span)?;
     }
-    let mut sum = merged;
-    for t in rest {
-        sum = binary(m, BinaryOp::Add, sum, t, span)?;
-    }
-    Some(sum)
+    (m.info(sum).ty == m.info(h).ty).then_some(sum)
 }
 
-/// A term `δv` as (`v`, its frequency), or `k·δv` with a constant `k` as
-/// `δ(k·v)` (`k·δv` = `δ(k·v)`: interpolation is linear), so that
+/// What [`interpolant_term`] reads off a term.
+type InterpolantTerm = (Handle<Expr>, Frequency, Ty, Vec<Handle<Expr>>);
+
+/// A term with one interpolant factor `δv` and constant factors `k`, as
+/// (`k·v`, its frequency, the type of `δ(k·v)`, the other factors sorted),
+/// where `δ(k·v)` stays in [0, 1] and the product keeps the term's type:
+/// `k·δv·X` = `δ(k·v)·X` (interpolation is linear), so that
 /// `0.6·δl0 + 0.6·δl1` merges as `δl0 + δl1` does.
-fn scaled_interpolant(m: &mut Module, t: Handle<Expr>, span: Span) -> Option<(Handle<Expr>, Frequency)> {
-    match m.exprs[t] {
-        Expr::Interpolate { value, to } => Some((value, to)),
-        Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => {
-            let (k, d) = if matches!(m.exprs[lhs], Expr::Constant(_)) { (lhs, rhs) } else { (rhs, lhs) };
-            let (Expr::Constant(_), Expr::Interpolate { value, to }) = (&m.exprs[k], &m.exprs[d]) else {
-                return None;
-            };
-            let (value, to) = (*value, *to);
-            let inside = binary(m, BinaryOp::Mul, k, value, span)?;
-            (m.info(inside).ty == m.info(t).ty).then_some((inside, to))
+fn interpolant_term(m: &mut Module, t: Handle<Expr>, span: Span) -> Option<InterpolantTerm> {
+    let factors = product_factors(m, t);
+    let mut delta: Option<(Handle<Expr>, Handle<Expr>, Frequency)> = None;
+    let mut constants = Vec::new();
+    let mut cofactors = Vec::new();
+    for f in factors {
+        match m.exprs[f] {
+            Expr::Interpolate { value, to } if delta.is_none() => delta = Some((f, value, to)),
+            Expr::Constant(_) => constants.push(f),
+            _ => cofactors.push(f),
         }
-        _ => None,
     }
+    let (d, mut value, to) = delta?;
+    for k in constants {
+        value = binary(m, BinaryOp::Mul, k, value, span)?;
+    }
+    let ty = m.info(d).ty;
+    let scaled = node(m, Expr::Interpolate { value, to }, span)?;
+    if m.info(scaled).ty != ty || !unit(m.info(scaled).interval) {
+        return None;
+    }
+    // The term rebuilt so must keep its type (an rgb δ times a scalar
+    // cofactor is rgb either way; a scalar δ times an rgb is too).
+    let mut product = scaled;
+    for c in &cofactors {
+        product = binary(m, BinaryOp::Mul, product, *c, span)?;
+    }
+    if m.info(product).ty != m.info(t).ty {
+        return None;
+    }
+    cofactors.sort();
+    Some((value, to, ty, cofactors))
 }
 
 /// Interns `e` at `span`; `None` when it is ill-typed.
@@ -317,6 +360,20 @@ fn read_channel(
             let once = node(m, Expr::Swizzle { value: inner, pattern: q, len, ty }, span)?;
             Some(read_channel(m, inner, q, len, ty, span).unwrap_or(once))
         }
+        // A channel of an interpolated tuple is the interpolant of that
+        // channel, `(δ v).r` = `δ(v.r)` (interpolation is linear,
+        // component by component): one scalar interpolant, where the
+        // channel of an rgb one costs a combiner to extract.
+        Expr::Interpolate { value: inner, to } if len == 1 && tuple(m, inner) => {
+            let once = node(m, Expr::Swizzle { value: inner, pattern, len, ty }, span)?;
+            let c = read_channel(m, inner, pattern, len, ty, span).unwrap_or(once);
+            let d = if m.info(c).freq <= Frequency::Uniform {
+                c
+            } else {
+                node(m, Expr::Interpolate { value: c, to }, span)?
+            };
+            (m.info(d).ty == ty).then_some(d)
+        }
         Expr::Compose { components, .. } if len == 1 => {
             let mut at = pattern[0] as usize;
             for c in components {
@@ -333,6 +390,16 @@ fn read_channel(
             None
         }
         _ => None,
+    }
+}
+
+/// Whether `h` is a tuple, `(a, b, c)` or its `.rgb`: what a shader
+/// returning several values gives.
+fn tuple(m: &Module, h: Handle<Expr>) -> bool {
+    match m.exprs[h] {
+        Expr::Compose { .. } => true,
+        Expr::Swizzle { value, .. } => matches!(m.exprs[value], Expr::Compose { .. }),
+        _ => false,
     }
 }
 
@@ -403,16 +470,22 @@ fn expansion(m: &Module, h: Handle<Expr>, max: usize) -> Option<Vec<Vec<Handle<E
 /// rgba conversion too (`rgba(x, 1)` of a sum: the colour multiplied out);
 /// `None` when nothing distributes, past `max` terms, or ill-typed.
 pub fn multiply_out(m: &mut Module, h: Handle<Expr>, max: usize) -> Option<Handle<Expr>> {
-    multiplied_out(m, h, max, true)
+    multiplied_out(m, h, max, true, true)
 }
 
 /// [`multiply_out`], with like terms collected or each kept apart: `X + X`
 /// splits into two passes of `X` where `2·X` may leave [0, 1] in a
 /// temporary (`T0⁴·(δg + δg)`, `δg` in [0, 0.6]).
-fn multiplied_out(m: &mut Module, h: Handle<Expr>, max: usize, collect: bool) -> Option<Handle<Expr>> {
+fn multiplied_out(
+    m: &mut Module,
+    h: Handle<Expr>,
+    max: usize,
+    collect: bool,
+    into_delta: bool,
+) -> Option<Handle<Expr>> {
     if let Expr::Convert { value, to: Ty::Rgba } = m.exprs[h] {
         if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3 | Ty::Scalar) {
-            let inner = multiplied_out(m, value, max, collect)?;
+            let inner = multiplied_out(m, value, max, collect, into_delta)?;
             return node(m, Expr::Convert { value: inner, to: Ty::Rgba }, m.span(h));
         }
     }
@@ -421,7 +494,8 @@ fn multiplied_out(m: &mut Module, h: Handle<Expr>, max: usize, collect: bool) ->
     let mut sum: Option<Handle<Expr>> = None;
     let terms = if collect { like_terms_collected(m, terms, span)? } else { terms };
     for factors in terms {
-        let factors = constants_into_delta(m, factors, span)?;
+        let factors = if into_delta { constants_into_delta(m, factors, span)? } else { factors };
+        let factors = scales_last(m, factors);
         let mut product = factors[0];
         for f in &factors[1..] {
             product = binary(m, BinaryOp::Mul, product, *f, span)?;
@@ -432,6 +506,19 @@ fn multiplied_out(m: &mut Module, h: Handle<Expr>, max: usize, collect: bool) ->
         });
     }
     sum.filter(|s| *s != h && m.info(*s).ty == m.info(h).ty)
+}
+
+/// A term's scalar constants past 1 moved after its other factors, in
+/// order: `3·(δp).r·T1·T1` is computed `((δp).r·T1·T1)·3`, the scale
+/// applied last (a combiner's output scale), where `3·(δp).r` first would
+/// leave [−1, 1] and be clamped by the general combiners before `T1`
+/// brings it down — as `3·mix(…)` written so is.
+fn scales_last(m: &Module, mut factors: Vec<Handle<Expr>>) -> Vec<Handle<Expr>> {
+    let past_one = |h: &Handle<Expr>| matches!(&m.exprs[*h], Expr::Constant(c) if c.ty == Ty::Scalar && c.components[0] > 1.0);
+    if factors.len() > 1 {
+        factors.sort_by_key(past_one);
+    }
+    factors
 }
 
 /// The terms of a sum of products with like terms collected: terms with

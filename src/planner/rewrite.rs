@@ -150,6 +150,9 @@ pub(super) fn rewritten(
     for (value, what) in clamped_source_forms(m, form.value, max) {
         candidates.push((value, add_of(what), what));
     }
+    if storage.clamps(Dest::Temp(0)) {
+        candidates.extend(own_clamp_forms(m, form.value, &candidates));
+    }
     let mut best: Option<(split::Cost, Form, Vec<Piece>, &'static str)> = None;
     let mut tried = Vec::new();
     for (value, then_add, what) in candidates {
@@ -190,6 +193,41 @@ fn clamped_source_forms(m: &mut Module, v: Handle<Expr>, max: usize) -> Vec<(Han
             (c, _) => c,
         };
         out.extend(value.map(|value| (value, f.what)));
+    }
+    out
+}
+
+/// A value in [0, 1] is its own clamp, `v` = `saturate(v)`: each form of
+/// it whose bound leaves [0, 1] (`mix(T0, T1, a)²` multiplied out is three
+/// terms whose bounds add to 4) clamped, so that an 8-bit temporary holds
+/// the form exactly, the store clamping what its bound says it may exceed
+/// (`C ⊕ mix(T0, T1, a)²` on a 2-unit target: the square multiplied out
+/// into a temporary, then modulated in, as its expansion written by hand
+/// plans). The value as written, and values already clamped, give none.
+fn own_clamp_forms(m: &mut Module, v: Handle<Expr>, forms: &[Candidate]) -> Vec<Candidate> {
+    let unit = |i: ir::Interval| i.lo >= 0.0 && i.hi <= 1.0;
+    let clamped = |m: &Module, h: Handle<Expr>| {
+        let x = match m.exprs[h] {
+            Expr::Convert { value, to: ir::Ty::Rgba } => value,
+            _ => h,
+        };
+        matches!(m.exprs[x], Expr::Math { fun: ir::MathFunction::Saturate, .. })
+    };
+    if !unit(m.info(v).interval) || clamped(m, v) {
+        return Vec::new();
+    }
+    let mut out = Vec::new();
+    for &(value, then_add, what) in forms {
+        if then_add.is_some() || unit(m.info(value).interval) || clamped(m, value) {
+            continue;
+        }
+        let mut b = Builder { module: m };
+        let Some(c) = b.node(Expr::Math { fun: ir::MathFunction::Saturate, args: vec![value] }) else {
+            continue;
+        };
+        if b.module.info(c).ty == b.module.info(v).ty {
+            out.push((c, None, what));
+        }
     }
     out
 }
