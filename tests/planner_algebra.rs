@@ -923,3 +923,17 @@ fn a_scale_past_one_is_multiplied_in_last() {
     let c = add(mul(Colour::Number(30), mul(mul(Colour::Channel(0), t(1)), t(1))), Colour::Channel(1));
     both_plan(&c, Written::Added, "geforce3", true);
 }
+
+/// `C ⊕[add] lerp(mix((δ pair).r, T5, a), 0.6·δ l₀ + T4 + T2, 0.8)`
+/// planned in 4 passes on geforce256 until a channel of an interpolated
+/// tuple was read as its own interpolant in the statement itself (the
+/// canonical rewrite), after which neither it nor its expansion planned:
+/// the tuple's one interpolant was never tried. That reading is now one
+/// more form, beside the statement as written.
+#[test]
+fn a_channel_read_as_an_interpolant_is_a_form_not_a_rewrite() {
+    let t = |i| Colour::Texture(i);
+    let inner = lerp(Colour::Channel(0), t(5), None);
+    let other = add(mul(Colour::Number(6), Colour::Lights(1, 8)), add(t(4), t(2)));
+    both_plan(&lerp(inner, other, Some(8)), Written::Added, "geforce256", true);
+}

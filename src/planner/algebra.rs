@@ -69,21 +69,27 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
     };
     let canon = canonical(m, h);
     push(&mut out, canon, CANONICAL);
-    let base = canon.unwrap_or(h);
-    let expanded = multiply_out(m, base, max_terms);
-    push(&mut out, expanded, "multiplied out");
-    // Like terms kept apart too: `T0·T0 + T0·T1 + T1·T0 + T1·T1` groups
-    // back into `(T0 + T1)²`, its collected `T0² + 2·T0·T1 + T1²` does not.
-    let apart = multiplied_out(m, base, max_terms, false, true).filter(|a| Some(*a) != expanded);
-    push(&mut out, apart, "multiplied out");
-    // And its constants kept out of the interpolants: a constant several
-    // terms share (`0.2·δ(p.r)·(1 − a) + 0.2·T5·a`) is then a common
-    // factor, where moved into one δ it is not.
-    let kept =
-        multiplied_out(m, base, max_terms, true, false).filter(|k| Some(*k) != expanded && Some(*k) != apart);
-    push(&mut out, kept, "multiplied out");
-    for sum in [expanded.unwrap_or(base)].into_iter().chain(apart).chain(kept) {
-        factored_forms(m, sum, &mut |v, what| push(&mut out, v, what));
+    // Also with a channel of an interpolated tuple read as its own
+    // interpolant (`(δ v).r` = `δ(v.r)`): a form, not the statement's
+    // rewrite, since some plans need the tuple's one interpolant.
+    let channels = canonical_with(m, h, true).filter(|c| Some(*c) != canon);
+    push(&mut out, channels, CANONICAL);
+    for base in [canon.unwrap_or(h)].into_iter().chain(channels) {
+        let expanded = multiply_out(m, base, max_terms);
+        push(&mut out, expanded, "multiplied out");
+        // Like terms kept apart too: `T0·T0 + T0·T1 + T1·T0 + T1·T1` groups
+        // back into `(T0 + T1)²`, its collected `T0² + 2·T0·T1 + T1²` does not.
+        let apart = multiplied_out(m, base, max_terms, false, true).filter(|a| Some(*a) != expanded);
+        push(&mut out, apart, "multiplied out");
+        // And its constants kept out of the interpolants: a constant several
+        // terms share (`0.2·δ(p.r)·(1 − a) + 0.2·T5·a`) is then a common
+        // factor, where moved into one δ it is not.
+        let kept = multiplied_out(m, base, max_terms, true, false)
+            .filter(|k| Some(*k) != expanded && Some(*k) != apart);
+        push(&mut out, kept, "multiplied out");
+        for sum in [expanded.unwrap_or(base)].into_iter().chain(apart).chain(kept) {
+            factored_forms(m, sum, &mut |v, what| push(&mut out, v, what));
+        }
     }
     // Each form so far (and the value) with its sums of interpolants
     // merged back into one δ where an 8-bit interpolant holds the sum.
@@ -250,21 +256,29 @@ fn binary(
 /// The canonical form of `h` (tuples read by channel, lerps, sums inside
 /// δ); `None` when that is `h` itself or cannot be built.
 pub fn canonical(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
+    canonical_with(m, h, false)
+}
+
+/// [`canonical`], with a channel of an interpolated tuple read as the
+/// interpolant of that channel where `channels` is set.
+fn canonical_with(m: &mut Module, h: Handle<Expr>, channels: bool) -> Option<Handle<Expr>> {
     let mut done: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::default();
     for n in m.reachable(&[h]) {
         let e = m.exprs[n].map_operands(|o| *done.get(&o).unwrap_or(&o));
         let span = m.span(n);
         let rebuilt = if e == m.exprs[n] { n } else { node(m, e.clone(), span)? };
-        let simpler = simplify(m, rebuilt, span).unwrap_or(rebuilt);
+        let simpler = simplify(m, rebuilt, span, channels).unwrap_or(rebuilt);
         done.insert(n, simpler);
     }
     done.get(&h).copied().filter(|c| *c != h)
 }
 
 /// One canonical step at `h`, its operands already canonical.
-fn simplify(m: &mut Module, h: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
+fn simplify(m: &mut Module, h: Handle<Expr>, span: Span, channels: bool) -> Option<Handle<Expr>> {
     match m.exprs[h].clone() {
-        Expr::Swizzle { value, pattern, len, ty } => read_channel(m, value, pattern, len, ty, span),
+        Expr::Swizzle { value, pattern, len, ty } => {
+            read_channel(m, value, (pattern, len, ty), span, channels)
+        }
         // x / k = x · (1/k) for a scalar constant k: a scale the
         // combiners and the blender have, where a division per fragment
         // is not (`3·T / 3`, the help's scaling of a float framebuffer).
@@ -346,10 +360,9 @@ fn simplify(m: &mut Module, h: Handle<Expr>, span: Span) -> Option<Handle<Expr>>
 fn read_channel(
     m: &mut Module,
     value: Handle<Expr>,
-    pattern: [u8; 4],
-    len: u8,
-    ty: Ty,
+    (pattern, len, ty): ([u8; 4], u8, Ty),
     span: Span,
+    channels: bool,
 ) -> Option<Handle<Expr>> {
     match m.exprs[value].clone() {
         Expr::Swizzle { value: inner, pattern: p, .. } => {
@@ -358,15 +371,15 @@ fn read_channel(
                 q[i] = *p.get(pattern[i] as usize)?;
             }
             let once = node(m, Expr::Swizzle { value: inner, pattern: q, len, ty }, span)?;
-            Some(read_channel(m, inner, q, len, ty, span).unwrap_or(once))
+            Some(read_channel(m, inner, (q, len, ty), span, channels).unwrap_or(once))
         }
         // A channel of an interpolated tuple is the interpolant of that
         // channel, `(δ v).r` = `δ(v.r)` (interpolation is linear,
         // component by component): one scalar interpolant, where the
         // channel of an rgb one costs a combiner to extract.
-        Expr::Interpolate { value: inner, to } if len == 1 && tuple(m, inner) => {
+        Expr::Interpolate { value: inner, to } if channels && len == 1 && tuple(m, inner) => {
             let once = node(m, Expr::Swizzle { value: inner, pattern, len, ty }, span)?;
-            let c = read_channel(m, inner, pattern, len, ty, span).unwrap_or(once);
+            let c = read_channel(m, inner, (pattern, len, ty), span, channels).unwrap_or(once);
             let d = if m.info(c).freq <= Frequency::Uniform {
                 c
             } else {
