@@ -360,6 +360,8 @@ impl<const N: usize> Footprints2d<N> {
     /// [`Footprints2d::of`] in place (a batch's footprints are kilobytes:
     /// moving them cost ~1 % of a frame): whether the lanes cover the
     /// lookup; if not, the footprints fit no texture.
+    // Indexed loops over several lane arrays at once are the form that vectorises.
+    #[allow(clippy::needless_range_loop)]
     #[inline(always)]
     pub fn refill(
         &mut self,

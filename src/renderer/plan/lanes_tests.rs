@@ -59,7 +59,8 @@ fn powers_over_lanes_are_the_squarings_of_each_lane_bit_for_bit() {
         seed ^= seed << 13;
         seed ^= seed >> 17;
         seed ^= seed << 5;
-        *v = f32::from_bits(seed % 0x7f80_0000 | (seed & 0x8000_0000)) * if i % 2 == 0 { 1.0 } else { 1e-30 };
+        *v = f32::from_bits((seed % 0x7f80_0000) | (seed & 0x8000_0000))
+            * if i % 2 == 0 { 1.0 } else { 1e-30 };
     }
     x[..6].copy_from_slice(&[0.0, -0.0, f32::INFINITY, f32::NEG_INFINITY, f32::NAN, 1.000_001]);
     for k in 1..=256 {
