@@ -39,6 +39,18 @@ fn floor_lane(x: f32) -> f32 {
     x.floor()
 }
 
+/// `x as i32` for a whole number within ±1e9 (a floor of what [`finite`]
+/// keeps, or a level index): one conversion instruction over the lanes,
+/// where `as` adds the selects that saturate and map NaN to 0 (~3 % of a
+/// frame's samples in the footprints' loop, BENCHMARKS.md, fifteenth session).
+#[inline(always)]
+fn whole_i32(x: f32) -> i32 {
+    debug_assert!(x.abs() <= 1e9 && x.fract() == 0.0, "{x}");
+    // SAFETY: `x` is finite and within ±1e9, so it is an i32 (the callers'
+    // values: floors of `finite` coordinates, levels within a chain).
+    unsafe { x.to_int_unchecked::<i32>() }
+}
+
 /// `a + w·(b − a)` per channel: the filter's one interpolation.
 #[inline(always)]
 fn lerp(a: [f32; 4], b: [f32; 4], w: f32) -> [f32; 4] {
@@ -115,7 +127,7 @@ pub fn sample_cube_lanes<const N: usize>(
         (ax[l], ay[l]) = (fx[l] - x0[l], fy[l] - y0[l]);
     }
     for lane in 0..n {
-        let (x, y) = (x0[lane] as i64, y0[lane] as i64);
+        let (x, y) = (whole_i32(x0[lane]) as i64, whole_i32(y0[lane]) as i64);
         let texel = if x >= 0 && y >= 0 && x + 1 < size && y + 1 < size {
             let texels = &c.faces[face[lane]].levels[0].texels;
             let at = (y * size + x) as usize;
@@ -140,7 +152,10 @@ const MAX_LEVELS: usize = 16;
 /// (the coordinates' scale) and as the largest texel index, and whether
 /// coordinates wrap with a mask (repeat, every level a power of two) or
 /// clamp to the edge.
+#[derive(Clone, Copy, PartialEq)]
 struct Levels {
+    /// How many levels the chain has (the tables past it are unused).
+    count: usize,
     w: [f32; MAX_LEVELS],
     h: [f32; MAX_LEVELS],
     w_last: [i32; MAX_LEVELS],
@@ -155,6 +170,17 @@ struct Levels {
 }
 
 impl Levels {
+    /// No texture's levels (no chain has 0 levels).
+    const EMPTY: Levels = Levels {
+        count: 0,
+        w: [1.0; MAX_LEVELS],
+        h: [1.0; MAX_LEVELS],
+        w_last: [0; MAX_LEVELS],
+        h_last: [0; MAX_LEVELS],
+        repeat: false,
+        halving: None,
+    };
+
     /// `None` where the lanes do not cover the texture: repeat on a size
     /// that is not a power of two (a remainder per texel), or too many levels.
     fn of(t: &Texture2D) -> Option<Levels> {
@@ -166,14 +192,7 @@ impl Levels {
         if repeat && !t.levels.iter().all(|l| pot(l.width) && pot(l.height)) {
             return None;
         }
-        let mut s = Levels {
-            w: [1.0; MAX_LEVELS],
-            h: [1.0; MAX_LEVELS],
-            w_last: [0; MAX_LEVELS],
-            h_last: [0; MAX_LEVELS],
-            repeat,
-            halving: None,
-        };
+        let mut s = Levels { count: t.levels.len(), repeat, ..Levels::EMPTY };
         let (w0, h0) = (t.levels[0].width, t.levels[0].height);
         let mut halving = true;
         for (k, l) in t.levels.iter().enumerate() {
@@ -188,6 +207,7 @@ impl Levels {
 
 /// The bilinear footprints of `N` lanes, each on its own level: the four
 /// texels' indices (x0y0, x1y0, x0y1, x1y1) in their level and the weights.
+#[derive(Clone, Copy)]
 struct Footprints<const N: usize> {
     at: [[u32; N]; 4],
     ax: [f32; N],
@@ -227,11 +247,12 @@ fn footprints<const N: usize>(s: &Levels, level: &[u32; N], u: &[f32; N], v: &[f
     for lane in 0..N {
         let fx = finite(u[lane] * w[lane] - 0.5);
         let fy = finite(v[lane] * h[lane] - 0.5);
-        let (tx, ty) = (fx as i32 as f32, fy as i32 as f32);
-        let x0 = if tx > fx { tx - 1.0 } else { tx };
-        let y0 = if ty > fy { ty - 1.0 } else { ty };
+        // ⌊f⌋ (+ 0: −0 as the truncation this replaced gave it, +0; one
+        // `vroundps`, where the truncation was a conversion, a compare, a
+        // subtraction and a select, ~3 % of a frame's samples).
+        let (x0, y0) = (floor_lane(fx) + 0.0, floor_lane(fy) + 0.0);
         (f.ax[lane], f.ay[lane]) = (fx - x0, fy - y0);
-        let (x0, y0) = (x0 as i32, y0 as i32);
+        let (x0, y0) = (whole_i32(x0), whole_i32(y0));
         let (wl, hl) = (wl[lane], hl[lane]);
         let wrap = |c: i32, last: i32| if repeat { c & last } else { c.max(0).min(last) };
         let (xa, xb) = (wrap(x0, wl), wrap(x0.wrapping_add(1), wl));
@@ -255,10 +276,11 @@ fn filtered<const N: usize>(level: &Level, f: &Footprints<N>, lane: usize) -> [f
 /// into `out`, as [`unit::sample_2d_with`] with float arithmetic and the
 /// model's choices. Each lane's level (or two, trilinear), coordinates,
 /// weights and texel indices are computed as fixed-length loops (vector
-/// code); then a loop over the lanes fetches each footprint's four texels
-/// and filters them as one 4-wide vector. A lookup the vector code does
-/// not cover (nearest filtering, another latitude, a texture the level table
-/// does not cover) runs lane by lane through the one-lane unit.
+/// code, [`Footprints2d::of`]); then a loop over the lanes fetches each
+/// footprint's four texels and filters them as one 4-wide vector
+/// ([`Footprints2d::fetch`]). A lookup the vector code does not cover
+/// (nearest filtering, another latitude, a texture the level table does
+/// not cover) runs lane by lane through the one-lane unit.
 #[inline(always)]
 #[allow(clippy::too_many_arguments, reason = "the lanes of one lookup and its one texture's state")]
 pub fn sample_2d_lanes<const N: usize>(
@@ -271,57 +293,170 @@ pub fn sample_2d_lanes<const N: usize>(
     latitude: unit::Latitude,
     out: &mut [[f32; N]; 4],
 ) {
-    let covered = filter != Filter::Nearest && latitude == unit::Latitude::MODEL;
-    let Some(s) = Levels::of(t).filter(|_| covered) else {
-        return sample_2d_lane_by_lane(t, u, v, lod, n, filter, latitude, out);
-    };
-    let last = (t.levels.len() - 1) as f32;
-    // λ as `unit::sample_2d_with` takes it (the model's choice adds nothing).
-    let mut lod_in = [0.0f32; N];
-    for l in 0..N {
-        lod_in[l] = if lod[l].is_nan() { f32::NEG_INFINITY } else { LodChoice::Model.apply(lod[l] + 0.0) };
+    match Footprints2d::of(t, u, v, lod, filter, latitude) {
+        Some(f) => f.fetch(t, n, out),
+        None => sample_2d_lane_by_lane(t, u, v, lod, n, filter, latitude, out),
     }
-    let lod = &lod_in;
-    if filter == Filter::Bilinear {
-        // The level nearest to λ (GL's LINEAR_MIPMAP_NEAREST).
-        let mut level = [0u32; N];
-        for l in 0..N {
-            level[l] = if lod[l] <= 0.0 { 0 } else { floor_lane(lod[l] + 0.5).min(last) as u32 };
+}
+
+/// What a 2-D lookup over `N` lanes computes before it reads a texel:
+/// each lane's level (or two), its footprints' texel indices and weights.
+/// They depend on the texture only through its levels' sizes and its wrap
+/// mode, so two textures of the same shape looked up at the same
+/// coordinates with the same levels of detail (Kilgard's decal and normal
+/// map, both at the torus's `u`) share them: [`Footprints2d::fits`], then
+/// [`Footprints2d::fetch`] from each — the values [`sample_2d_lanes`] gives
+/// for each texture alone, bit for bit (the same formulas on the same inputs).
+pub struct Footprints2d<const N: usize> {
+    levels: Levels,
+    filter: Filter,
+    /// Trilinear: ⌊λ⌋ and ⌊λ⌋ + 1 blended by λ's fraction, or one level
+    /// (`single`); else bilinear on the level nearest to λ (GL's
+    /// LINEAR_MIPMAP_NEAREST), `level0` and `fa` alone.
+    trilinear: bool,
+    level0: [u32; N],
+    level1: [u32; N],
+    single: [bool; N],
+    fraction: [f32; N],
+    fa: Footprints<N>,
+    fb: Footprints<N>,
+}
+
+impl<const N: usize> Default for Footprints2d<N> {
+    fn default() -> Self {
+        let none = Footprints { at: [[0; N]; 4], ax: [0.0; N], ay: [0.0; N] };
+        Footprints2d {
+            levels: Levels::EMPTY,
+            filter: Filter::Nearest,
+            trilinear: false,
+            level0: [0; N],
+            level1: [0; N],
+            single: [true; N],
+            fraction: [0.0; N],
+            fa: none,
+            fb: none,
         }
-        let f = footprints(&s, &level, u, v);
-        for lane in 0..n {
-            let texel = filtered(&t.levels[level[lane] as usize], &f, lane);
+    }
+}
+
+impl<const N: usize> Footprints2d<N> {
+    /// The footprints of the lookup of `t` at (`u`, `v`) with levels of
+    /// detail `lod`, or `None` where the lanes do not cover it (nearest
+    /// filtering, another latitude than the model's, repeat on a size that
+    /// is not a power of two, more than 16 levels).
+    #[inline(always)]
+    pub fn of(
+        t: &Texture2D,
+        u: &[f32; N],
+        v: &[f32; N],
+        lod: &[f32; N],
+        filter: Filter,
+        latitude: unit::Latitude,
+    ) -> Option<Footprints2d<N>> {
+        let mut f = Footprints2d::default();
+        f.refill(t, u, v, lod, filter, latitude).then_some(f)
+    }
+
+    /// [`Footprints2d::of`] in place (a batch's footprints are kilobytes:
+    /// moving them cost ~1 % of a frame): whether the lanes cover the
+    /// lookup; if not, the footprints fit no texture.
+    // Indexed loops over several lane arrays at once are the form that vectorises.
+    #[allow(clippy::needless_range_loop)]
+    #[inline(always)]
+    pub fn refill(
+        &mut self,
+        t: &Texture2D,
+        u: &[f32; N],
+        v: &[f32; N],
+        lod: &[f32; N],
+        filter: Filter,
+        latitude: unit::Latitude,
+    ) -> bool {
+        let covered = filter != Filter::Nearest && latitude == unit::Latitude::MODEL;
+        let Some(s) = Levels::of(t).filter(|_| covered) else {
+            self.filter = Filter::Nearest;
+            return false;
+        };
+        let last = (t.levels.len() - 1) as f32;
+        // λ as `unit::sample_2d_with` takes it (the model's choice adds nothing).
+        let mut lod_in = [0.0f32; N];
+        for l in 0..N {
+            lod_in[l] =
+                if lod[l].is_nan() { f32::NEG_INFINITY } else { LodChoice::Model.apply(lod[l] + 0.0) };
+        }
+        let lod = &lod_in;
+        (self.levels, self.filter, self.trilinear) = (s, filter, filter == Filter::Trilinear);
+        if filter == Filter::Bilinear {
+            for l in 0..N {
+                // λ > 0 (NaN is −∞ above): ⌊λ + ½⌋ ≥ 0, at most `last`.
+                self.level0[l] =
+                    if lod[l] <= 0.0 { 0 } else { whole_i32(floor_lane(lod[l] + 0.5).min(last)) as u32 };
+            }
+            self.fa = footprints(&self.levels, &self.level0, u, v);
+        } else {
+            trilinear_levels(
+                lod,
+                last,
+                (&mut self.level0, &mut self.level1, &mut self.single, &mut self.fraction),
+            );
+            self.fa = footprints(&self.levels, &self.level0, u, v);
+            self.fb = footprints(&self.levels, &self.level1, u, v);
+        }
+        true
+    }
+
+    /// Whether these footprints are `t`'s for the same coordinates, levels
+    /// of detail and `filter`: its levels have the same sizes and it wraps
+    /// the same way (the model's latitude, which [`Footprints2d::of`]
+    /// requires, is the caller's to keep).
+    #[inline(always)]
+    pub fn fits(&self, t: &Texture2D, filter: Filter) -> bool {
+        filter == self.filter && Levels::of(t).is_some_and(|s| s == self.levels)
+    }
+
+    /// Lanes `0..n` of the lookup of `t` (one these footprints
+    /// [`Footprints2d::fits`]): each footprint's four texels fetched and
+    /// filtered, into `out`.
+    #[inline(always)]
+    pub fn fetch(&self, t: &Texture2D, n: usize, out: &mut [[f32; N]; 4]) {
+        let (level0, level1, fa, fb) = (&self.level0, &self.level1, &self.fa, &self.fb);
+        if !self.trilinear {
+            for lane in 0..n.min(N) {
+                let texel = filtered(&t.levels[level0[lane] as usize], fa, lane);
+                (0..4).for_each(|k| out[k][lane] = texel[k]);
+            }
+            return;
+        }
+        for lane in 0..n.min(N) {
+            let a = filtered(&t.levels[level0[lane] as usize], fa, lane);
+            let texel = if self.single[lane] {
+                a
+            } else {
+                let b = filtered(&t.levels[level1[lane] as usize], fb, lane);
+                let f = self.fraction[lane];
+                [
+                    a[0] + f * (b[0] - a[0]),
+                    a[1] + f * (b[1] - a[1]),
+                    a[2] + f * (b[2] - a[2]),
+                    a[3] + f * (b[3] - a[3]),
+                ]
+            };
             (0..4).for_each(|k| out[k][lane] = texel[k]);
         }
-        return;
-    }
-    let (level0, level1, single, fraction) = trilinear_levels(lod, last);
-    let (fa, fb) = (footprints(&s, &level0, u, v), footprints(&s, &level1, u, v));
-    for lane in 0..n {
-        let a = filtered(&t.levels[level0[lane] as usize], &fa, lane);
-        let texel = if single[lane] {
-            a
-        } else {
-            let b = filtered(&t.levels[level1[lane] as usize], &fb, lane);
-            let f = fraction[lane];
-            [
-                a[0] + f * (b[0] - a[0]),
-                a[1] + f * (b[1] - a[1]),
-                a[2] + f * (b[2] - a[2]),
-                a[3] + f * (b[3] - a[3]),
-            ]
-        };
-        (0..4).for_each(|k| out[k][lane] = texel[k]);
     }
 }
 
 /// Trilinear filtering's levels per lane: ⌊λ⌋ and ⌊λ⌋ + 1 blended by
 /// λ's fraction, or one level (0 for λ < 0, infinite λ or a single level;
-/// the last beyond it) — the levels, whether one, and the fraction.
+/// the last beyond it) — the levels, whether one, and the fraction, into
+/// the four lane arrays given.
 #[inline(always)]
 #[allow(clippy::type_complexity, reason = "four lane arrays of one choice")]
-fn trilinear_levels<const N: usize>(lod: &[f32; N], last: f32) -> ([u32; N], [u32; N], [bool; N], [f32; N]) {
-    let (mut level0, mut level1, mut single, mut fraction) = ([0u32; N], [0u32; N], [false; N], [0.0f32; N]);
+fn trilinear_levels<const N: usize>(
+    lod: &[f32; N],
+    last: f32,
+    (level0, level1, single, fraction): (&mut [u32; N], &mut [u32; N], &mut [bool; N], &mut [f32; N]),
+) {
     for l in 0..N {
         let floor = floor_lane(lod[l]);
         let low = lod[l].is_infinite() || floor < 0.0 || last == 0.0;
@@ -331,12 +466,12 @@ fn trilinear_levels<const N: usize>(lod: &[f32; N], last: f32) -> ([u32; N], [u3
         } else if single[l] {
             last as u32
         } else {
-            floor as u32
+            // 0 ≤ ⌊λ⌋ < last here.
+            whole_i32(floor) as u32
         };
         level1[l] = level0[l] + !single[l] as u32;
         fraction[l] = lod[l] - floor;
     }
-    (level0, level1, single, fraction)
 }
 
 /// [`sample_2d_lanes`] one lane at a time, for the lookups its vector
@@ -470,6 +605,61 @@ mod tests {
             // The box chains halve: their level sizes are shifts, not the table.
             assert!(Levels::of(&t).is_none_or(|s| s.halving.is_some()), "{wrap:?} {w}×{h}");
             assert_2d_lanes_are_the_unit(&t, &mut r, &format!("{wrap:?} {w}×{h}"));
+        }
+    }
+
+    /// Footprints computed on one texture and fetched from another of the
+    /// same shape (what the lane program shares between two lookups at the
+    /// same coordinates) give that other texture's lookups as the one-lane
+    /// unit computes them, bit for bit; a texture of another size, wrap
+    /// mode or number of levels (a chain one 1×1 level shorter: the same
+    /// sizes' tables) does not fit them, nor another filter.
+    #[test]
+    fn footprints_shared_between_textures_of_one_shape_are_the_one_lane_unit_bit_for_bit() {
+        let mut r = numbers(41);
+        let chain =
+            |wrap, (w, h), seed| Texture2D::new(TexelFormat::F32, wrap, level(w, h, seed)).with_box_mipmaps();
+        for (wrap, size) in [(Wrap::Repeat, (16, 8)), (Wrap::ClampToEdge, (12, 10))] {
+            let (first, second) = (chain(wrap, size, 1), chain(wrap, size, 2));
+            let other_wrap = if wrap == Wrap::Repeat { Wrap::ClampToEdge } else { Wrap::Repeat };
+            let mut shorter = chain(wrap, size, 3);
+            shorter.levels.pop();
+            for (round, filter) in [Filter::Bilinear, Filter::Trilinear].repeat(6).into_iter().enumerate() {
+                let (mut u, mut v, mut lod) = ([0.0f32; 32], [0.0f32; 32], [0.0f32; 32]);
+                for lane in 0..32 {
+                    (u[lane], v[lane], lod[lane]) = (r() * 3.0, r() * 3.0, r() * 6.0);
+                }
+                (lod[0], lod[1], lod[2], u[3], lod[4]) = (f32::NEG_INFINITY, f32::NAN, 40.0, f32::NAN, 0.5);
+                let Some(f) = Footprints2d::of(&first, &u, &v, &lod, filter, unit::Latitude::MODEL) else {
+                    panic!("{wrap:?} {size:?} is covered by the lanes")
+                };
+                assert!(f.fits(&second, filter) && f.fits(&first, filter));
+                assert!(!f.fits(&chain(wrap, (size.0 * 2, size.1), 4), filter));
+                assert!(!f.fits(&chain(other_wrap, size, 5), filter));
+                assert!(!f.fits(&shorter, filter), "{wrap:?} {size:?}: a chain one level shorter");
+                let other = if filter == Filter::Bilinear { Filter::Trilinear } else { Filter::Bilinear };
+                assert!(!f.fits(&second, other));
+                let mut out = [[0.0f32; 32]; 4];
+                let n = 32 - round % 3;
+                f.fetch(&second, n, &mut out);
+                for lane in 0..n {
+                    let one = unit::sample_2d_with(
+                        &second,
+                        u[lane],
+                        v[lane],
+                        filter,
+                        lod[lane],
+                        unit::Arithmetic::Float,
+                        unit::Latitude::MODEL,
+                    );
+                    let lanes = [0, 1, 2, 3].map(|k| out[k][lane]);
+                    assert_eq!(
+                        one.map(f32::to_bits),
+                        lanes.map(f32::to_bits),
+                        "{filter:?} round {round} lane {lane}"
+                    );
+                }
+            }
         }
     }
 

@@ -122,8 +122,10 @@ enum K {
 }
 
 /// One compiled op: the arithmetic, the destination slot and the operand
-/// slots, and the result's width (1: splat, 2-4: zero above, 0: NaN, as
-/// [`ir::eval::canonical`] makes a value canonical).
+/// slots, the result's width (1: splat, 2-4: zero above, 0: NaN, as
+/// [`ir::eval::canonical`] makes a value canonical), and the components of
+/// the result some op or the output reads (`keep`, a bit each): the
+/// canonical form is written only there ([`demanded`]).
 #[derive(Clone, Copy, Debug)]
 enum Op {
     Lanes {
@@ -131,6 +133,7 @@ enum Op {
         dst: u32,
         ops: [u32; 4],
         width: u8,
+        keep: u8,
     },
     /// Step `i` lane by lane through [`FragmentProgram::step_value`].
     Scalar(u32),
@@ -170,9 +173,17 @@ impl LaneProgram {
             }
             let op = lane_kernel(p, s)
                 .filter(|_| s.ops[..s.n_ops as usize].iter().all(|&o| o < s.slot))
-                .map(|k| Op::Lanes { k, dst: s.slot, ops: s.ops, width: width_of(s.ty) })
+                .map(|k| Op::Lanes { k, dst: s.slot, ops: s.ops, width: width_of(s.ty), keep: 0b1111 })
                 .unwrap_or(Op::Scalar(i as u32));
             ops.push(op);
+        }
+        if !plain() {
+            let demand = demanded(p, &ops);
+            for op in &mut ops {
+                if let Op::Lanes { dst, keep, .. } = op {
+                    *keep = demand[*dst as usize];
+                }
+            }
         }
         let closures = (DISPATCH.load(Ordering::Relaxed) == Dispatch::Closures as u8)
             .then(|| ops.iter().map(closure).collect());
@@ -191,6 +202,66 @@ fn width_of(ty: ir::Ty) -> u8 {
         w @ 1..=4 => w as u8,
         _ => 0,
     }
+}
+
+/// Per slot, the components that some op of `ops` or the program's
+/// outputs read (a bit each). A scalar result is splatted to four
+/// components and a narrow one zeroed above its width (the canonical form
+/// every kernel may read), but most scalars feed scalar ops, which read
+/// only the first: the copies to components no one reads are skipped. The
+/// components read are the same values either way, so the results are
+/// bit for bit the same (the test of this module renders both).
+fn demanded(p: &FragmentProgram, ops: &[Op]) -> Vec<u8> {
+    let mut demand = vec![0u8; p.n_slots];
+    let mut read = |slot: u32, mask: u8| {
+        if let Some(d) = demand.get_mut(slot as usize) {
+            *d |= mask;
+        }
+    };
+    let below = |w: u8| ((1u16 << w.min(4)) - 1) as u8;
+    for op in ops {
+        let i = match *op {
+            Op::Lanes { k, ops, width, .. } => {
+                let comps = below(width.clamp(1, 4));
+                match k {
+                    K::Dot(w) | K::Length(w) => ops[..2].iter().for_each(|&o| read(o, below(w))),
+                    K::Cmp(_) | K::Not => ops[..2].iter().for_each(|&o| read(o, 1)),
+                    K::Swizzle(pattern, len) => {
+                        pattern[..len as usize].iter().for_each(|&c| read(ops[0], 1 << (c & 3)))
+                    }
+                    K::Select(_) => {
+                        read(ops[0], 1);
+                        ops[1..].iter().for_each(|&o| read(o, comps));
+                    }
+                    K::Compose(ws) => ops.iter().zip(ws).for_each(|(&o, w)| read(o, below(w))),
+                    K::Varying(_) => {}
+                    K::Add | K::Sub | K::Mul | K::Div | K::Neg | K::Max | K::Min | K::Clamp | K::Saturate => {
+                        ops.iter().for_each(|&o| read(o, comps))
+                    }
+                    K::Expand | K::Compress | K::HalfBias | K::AddSigned | K::Abs | K::Sqrt | K::Rsqrt => {
+                        ops.iter().for_each(|&o| read(o, comps))
+                    }
+                    K::Floor
+                    | K::Fract
+                    | K::Step
+                    | K::Mix
+                    | K::Same
+                    | K::RgbToRgba
+                    | K::PowInt(_)
+                    | K::Pow => ops.iter().for_each(|&o| read(o, comps)),
+                    K::Normalize(_) => ops.iter().for_each(|&o| read(o, 0b1111)),
+                }
+                continue;
+            }
+            Op::Scalar(i) | Op::Sample(i) => i,
+        };
+        let s = &p.steps[i as usize];
+        s.ops[..s.n_ops as usize].iter().for_each(|&o| read(o, 0b1111));
+    }
+    for slot in [Some(p.output), p.condition, p.depth].into_iter().flatten() {
+        read(slot, 0b1111);
+    }
+    demand
 }
 
 /// Whether step `s` is a lookup [`Op::Sample`] takes: a bound texture
@@ -291,9 +362,29 @@ fn integer_exponent(m: &ir::Module, rhs: ir::Handle<Expr>) -> Option<u32> {
     (same && (1.0..=256.0).contains(&k) && k.fract() == 0.0).then_some(k as u32)
 }
 
+/// A batch's 2-D lookup whose footprints a later lookup may share
+/// ([`FragmentProgram::sample_lanes`]): whether there is one in this
+/// batch, its coordinates' slot and type, the varying its level of detail
+/// came from, and the footprints (a thread's, refilled in place).
+pub(super) struct SharedLookup {
+    valid: bool,
+    coords: u32,
+    coords_ty: Ty,
+    lod_from: Option<usize>,
+    f: texture_lanes::Footprints2d<BATCH>,
+}
+
 thread_local! {
     /// A thread's registers, and the program whose constants they hold.
     static REGISTERS: RefCell<(Vec<Lanes>, u64)> = const { RefCell::new((Vec::new(), 0)) };
+    /// A thread's shared footprints.
+    static LOOKUP: RefCell<SharedLookup> = RefCell::new(SharedLookup {
+        valid: false,
+        coords: 0,
+        coords_ty: Ty::Scalar,
+        lod_from: None,
+        f: Default::default(),
+    });
 }
 
 type Lanes = [f32; BATCH];
@@ -329,7 +420,11 @@ impl FragmentProgram<'_> {
                 *holds = lp.id;
             }
             let mut discard = [false; BATCH];
-            run(self, lp, r, fragments, varyings, &mut discard);
+            LOOKUP.with(|l| {
+                let shared = &mut *l.borrow_mut();
+                shared.valid = false;
+                run(self, lp, r, (fragments, varyings), &mut discard, shared)
+            });
             self.lane_outputs(r, &discard, fragments.len(), out, results);
         })
     }
@@ -377,8 +472,21 @@ impl FragmentProgram<'_> {
     /// [`FragmentProgram::lookup`] computes them, without the `f64` values;
     /// the texture unit over the lanes ([`crate::textures::lanes`]) where
     /// it covers the lookup, else lane by lane.
+    ///
+    /// `shared`: the batch's last 2-D lookup that went through the lanes'
+    /// footprints; a lookup of a texture of the same shape at the same
+    /// coordinates (the same slot: every slot is written once a batch) and
+    /// the same varying's level of detail reuses its levels and footprints
+    /// and only fetches its own texels (the same values: the same formulas
+    /// on the same inputs).
     #[inline(always)]
-    fn sample_lanes(&self, i: usize, r: &mut [Lanes], fragments: &[Fragment], varyings: &[f32], per: usize) {
+    fn sample_lanes(
+        &self,
+        i: usize,
+        r: &mut [Lanes],
+        (fragments, varyings, per): (&[Fragment], &[f32], usize),
+        shared: &mut SharedLookup,
+    ) {
         let s = &self.steps[i];
         let Some(Leaf::Lookup { texture, coords_ty, lod_from }) = s.leaf else { return };
         let Source::Bound { texture: b, .. } = &self.sources[texture as usize] else { return };
@@ -387,9 +495,18 @@ impl FragmentProgram<'_> {
         let (lo, hi) = r.split_at_mut(s.slot as usize * 4);
         let c = |k: usize| lanes(lo, s.ops[0], k);
         let (c0, c1, c2) = (c(0), c(1), c(2));
-        let mut texel = [[0.0f32; BATCH]; 4];
+        // Straight into the step's registers (no texel array zeroed and copied).
+        let Some(texel) = hi.first_chunk_mut::<4>() else { return };
         match &b.texture {
             Texture::Flat(t) => {
+                let l = &*shared;
+                let same = (l.coords, l.coords_ty, l.lod_from) == (s.ops[0], coords_ty, lod_from);
+                if l.valid && same && !plain() && l.f.fits(t, filter) {
+                    #[cfg(test)]
+                    tests::SHARED.fetch_add(1, Ordering::Relaxed);
+                    l.f.fetch(t, n, texel);
+                    return canonical(texel, width_of(s.ty), 0b1111);
+                }
                 let half = [0.5f32; BATCH];
                 let v = if coords_ty == Ty::Scalar { &half } else { c1 };
                 let mut lod = [f32::NEG_INFINITY; BATCH];
@@ -403,29 +520,28 @@ impl FragmentProgram<'_> {
                         lod[lane] = unit::quad_lod(t.width(), t.height(), [du[0], dv[0]], [du[1], dv[1]]);
                     }
                 }
-                texture_lanes::sample_2d_lanes(t, c0, v, &lod, n, filter, self.latitude, &mut texel);
+                shared.valid = shared.f.refill(t, c0, v, &lod, filter, self.latitude);
+                if shared.valid {
+                    (shared.coords, shared.coords_ty, shared.lod_from) = (s.ops[0], coords_ty, lod_from);
+                    shared.f.fetch(t, n, texel);
+                } else {
+                    // Lane by lane: the lanes do not cover this lookup.
+                    texture_lanes::sample_2d_lanes(t, c0, v, &lod, n, filter, self.latitude, texel)
+                }
             }
             Texture::Cube(t) => {
                 let weights = self.latitude.weights;
-                if !texture_lanes::sample_cube_lanes(t, [c0, c1, c2], n, filter, weights, &mut texel) {
+                if !texture_lanes::sample_cube_lanes(t, [c0, c1, c2], n, filter, weights, texel) {
                     for lane in 0..n {
                         let one = unit::sample_cube_with(t, [c0[lane], c1[lane], c2[lane]], filter, weights);
                         (0..4).for_each(|k| texel[k][lane] = one[k]);
                     }
                 }
             }
-            _ => texel = [[f32::NAN; BATCH]; 4],
+            _ => *texel = [[f32::NAN; BATCH]; 4],
         }
-        let out = &mut hi[..4];
-        match s.ty.width() {
-            1 => out.iter_mut().for_each(|o| *o = texel[0]),
-            w @ 2..=4 => {
-                for (k, o) in out.iter_mut().enumerate() {
-                    *o = if k < w { texel[k] } else { [0.0; BATCH] };
-                }
-            }
-            _ => out.iter_mut().for_each(|o| o.fill(f32::NAN)),
-        }
+        // As `FragmentProgram::lookup` narrows a texel to the node's type.
+        canonical(texel, width_of(s.ty), 0b1111)
     }
 
     /// Step `i` of lane `lane` through the interpreter's [`FragmentProgram::step_value`].
@@ -456,17 +572,17 @@ fn run(
     p: &FragmentProgram,
     lp: &LaneProgram,
     r: &mut [Lanes],
-    fragments: &[Fragment],
-    varyings: &[f32],
+    batch: (&[Fragment], &[f32]),
     discard: &mut [bool; BATCH],
+    shared: &mut SharedLookup,
 ) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
         // SAFETY: the CPU has the features the function is compiled for.
-        unsafe { run_avx2(p, lp, r, fragments, varyings, discard) };
+        unsafe { run_avx2(p, lp, r, batch, discard, shared) };
         return;
     }
-    run_body(p, lp, r, fragments, varyings, discard)
+    run_body(p, lp, r, batch, discard, shared)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -475,11 +591,11 @@ unsafe fn run_avx2(
     p: &FragmentProgram,
     lp: &LaneProgram,
     r: &mut [Lanes],
-    fragments: &[Fragment],
-    varyings: &[f32],
+    batch: (&[Fragment], &[f32]),
     discard: &mut [bool; BATCH],
+    shared: &mut SharedLookup,
 ) {
-    run_body(p, lp, r, fragments, varyings, discard)
+    run_body(p, lp, r, batch, discard, shared)
 }
 
 #[inline(always)]
@@ -487,10 +603,11 @@ fn run_body(
     p: &FragmentProgram,
     lp: &LaneProgram,
     r: &mut [Lanes],
-    fragments: &[Fragment],
-    varyings: &[f32],
+    batch: (&[Fragment], &[f32]),
     discard: &mut [bool; BATCH],
+    shared: &mut SharedLookup,
 ) {
+    let (fragments, varyings) = batch;
     let n = fragments.len();
     let per = varyings.len().checked_div(n).unwrap_or(0);
     for (j, op) in lp.ops.iter().enumerate() {
@@ -501,7 +618,7 @@ fn run_body(
                     p.scalar_lane(i as usize, r, &fragments[lane], vary, lane, &mut discard[lane]);
                 }
             }
-            Op::Sample(i) => p.sample_lanes(i as usize, r, fragments, varyings, per),
+            Op::Sample(i) => p.sample_lanes(i as usize, r, (fragments, varyings, per), shared),
             Op::Lanes { .. } => match &lp.closures {
                 Some(c) => c[j](r, varyings, per, n, discard),
                 None => exec(*op, r, varyings, per, n, discard),
@@ -515,7 +632,7 @@ fn closure(op: &Op) -> Closure {
     let op = *op;
     macro_rules! bin {
         ($f:expr) => {{
-            let Op::Lanes { dst, ops, width, .. } = op else { unreachable!() };
+            let Op::Lanes { dst, ops, width, keep, .. } = op else { unreachable!() };
             Box::new(move |r: &mut [Lanes], _: &[f32], _: usize, _: usize, _: &mut [bool; BATCH]| {
                 let nn = BATCH;
                 let (lo, hi) = r.split_at_mut(dst as usize * 4);
@@ -527,7 +644,7 @@ fn closure(op: &Op) -> Closure {
                         o[i] = $f(a[i], b[i]);
                     }
                 }
-                canonical(out, width);
+                canonical(out, width, keep);
             }) as Closure
         }};
     }
@@ -541,19 +658,24 @@ fn closure(op: &Op) -> Closure {
     }
 }
 
-/// Makes the lanes of a result canonical for its width.
+/// Makes the lanes of a result canonical for its width, in the components
+/// `keep` names (a bit each; the others no one reads, [`demanded`]).
 #[inline(always)]
-fn canonical(out: &mut [Lanes], width: u8) {
+fn canonical(out: &mut [Lanes], width: u8, keep: u8) {
     match width {
         1 => {
             let (x, rest) = out.split_at_mut(1);
-            for o in rest {
-                *o = x[0];
+            for (c, o) in rest.iter_mut().enumerate() {
+                if keep & (2 << c) != 0 {
+                    *o = x[0];
+                }
             }
         }
         2..=3 => {
-            for o in &mut out[width as usize..] {
-                o.fill(0.0);
+            for (c, o) in out.iter_mut().enumerate().skip(width as usize) {
+                if keep & (1 << c) != 0 {
+                    o.fill(0.0);
+                }
             }
         }
         4 => {}
@@ -597,13 +719,13 @@ impl Operands<'_> {
 #[allow(clippy::needless_range_loop)]
 #[inline(always)]
 fn exec(op: Op, r: &mut [Lanes], varyings: &[f32], per: usize, n: usize, discard: &mut [bool; BATCH]) {
-    let Op::Lanes { k, dst, ops, width } = op else { return };
+    let Op::Lanes { k, dst, ops, width, keep } = op else { return };
     let (lo, hi) = r.split_at_mut(dst as usize * 4);
     let out = &mut hi[..4];
     // Components computed: a width-1 result only its first (then splatted).
     let x = Operands { lo, ops, comps: width.clamp(1, 4) as usize, nn: BATCH };
     if componentwise(k, &x, out) {
-        return canonical(out, width);
+        return canonical(out, width, keep);
     }
     match k {
         K::Dot(w) => {
@@ -617,7 +739,7 @@ fn exec(op: Op, r: &mut [Lanes], varyings: &[f32], per: usize, n: usize, discard
                 }
             }
             // A scalar of a dot product: splat it whatever the node's width.
-            splat_first(out, width)
+            splat_first(out, width, keep)
         }
         K::Length(w) => {
             let o = &mut out[0];
@@ -625,22 +747,22 @@ fn exec(op: Op, r: &mut [Lanes], varyings: &[f32], per: usize, n: usize, discard
             for v in o.iter_mut() {
                 *v = v.sqrt();
             }
-            splat_first(out, width)
+            splat_first(out, width, keep)
         }
         K::Cmp(op) => {
             compare_lanes(op, &x, &mut out[0]);
-            splat_first(out, width)
+            splat_first(out, width, keep)
         }
         K::Not => {
             let (a, o) = (x.a(0), &mut out[0]);
             for i in 0..x.nn {
                 o[i] = (a[i] == 0.0) as u8 as f32;
             }
-            splat_first(out, width)
+            splat_first(out, width, keep)
         }
         _ => {
             structural(k, &x, out, (varyings, per, n), discard);
-            canonical(out, width)
+            canonical(out, width, keep)
         }
     }
 }
@@ -686,10 +808,26 @@ fn componentwise(k: K, x: &Operands, out: &mut [Lanes]) -> bool {
         K::Same => each!(|c, i| a(c)[i]),
         K::RgbToRgba => each!(|c, i| if c == 3 { 1.0 } else { a(c)[i] }),
         K::Pow => each!(|c, i| a(c)[i].powf(b(c)[i])),
-        K::PowInt(e) => each!(|c, i| ir::power_by_squaring(a(c)[i], e, |p, q| p * q)),
+        K::PowInt(e) => (0..x.comps).for_each(|c| out[c] = power_lanes(a(c), e)),
         _ => return false,
     }
     true
+}
+
+/// `x^k` in every lane: [`ir::power_by_squaring`]'s products in its
+/// order, each over the lanes (vector code; `power_by_squaring` per lane
+/// kept its loop over `k`'s bits scalar, 2.6 % of a frame's samples for
+/// Kilgard's `^8`), so the same values.
+#[inline(always)]
+fn power_lanes(x: &Lanes, k: u32) -> Lanes {
+    let mul = |p: Lanes, q: Lanes| {
+        let mut o = [0.0f32; BATCH];
+        for ((o, a), b) in o.iter_mut().zip(&p).zip(&q) {
+            *o = a * b;
+        }
+        o
+    };
+    ir::power_by_squaring(*x, k, mul)
 }
 
 /// A comparison or a logical operator of the first components, as 0 or 1.
@@ -807,6 +945,21 @@ fn length<'x>(o: &mut Lanes, a: impl Fn(usize) -> &'x Lanes, w: u8, nn: usize) {
 /// A scalar result in the first component, splatted (or NaN for a node
 /// without a numeric width).
 #[inline(always)]
-fn splat_first(out: &mut [Lanes], width: u8) {
-    canonical(out, if width == 0 { 0 } else { 1 })
+fn splat_first(out: &mut [Lanes], width: u8, keep: u8) {
+    canonical(out, if width == 0 { 0 } else { 1 }, keep)
 }
+
+/// Whether the lane code runs plain: every result written in all four
+/// components and every lookup computing its own footprints — never,
+/// except in this module's test that renders both ways.
+#[inline(always)]
+fn plain() -> bool {
+    #[cfg(test)]
+    return tests::PLAIN.load(Ordering::Relaxed);
+    #[cfg(not(test))]
+    false
+}
+
+#[cfg(test)]
+#[path = "lanes_tests.rs"]
+mod tests;

@@ -1,0 +1,73 @@
+//! The lane program's test against the plain lane code (`super::plain`).
+
+use std::path::Path;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+
+use crate::numerics::Precision;
+use crate::renderer::plan::PlanRenderer;
+use crate::scene::Scene;
+
+/// Set: the lane code runs plain ([`super::plain`]).
+pub(super) static PLAIN: AtomicBool = AtomicBool::new(false);
+/// Lookups that fetched through another's footprints.
+pub(super) static SHARED: AtomicU64 = AtomicU64::new(0);
+
+/// Kilgard's torus on the wgsl plan (the decal and the normal map, both
+/// 256² chains that repeat, looked up at the same `u`; two cube lookups
+/// at other coordinates; a dozen scalar results): the same frame bit for
+/// bit with the second 2-D lookup fetching through the first one's
+/// footprints and results written only in the components read, as
+/// plain, with every lookup computing its own footprints and every
+/// result in all four components; and the sharing did happen.
+#[test]
+fn shared_footprints_and_demanded_components_render_the_plain_frame_bit_for_bit() {
+    let source = include_str!("../../../examples/kilgard_bump_mapping.shd");
+    let text = include_str!("../../../scenes/kilgard_torus.ron");
+    let scene = Scene::parse(text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap();
+    let assets = scene.build().unwrap();
+    let (program, _) = crate::parser::check(source);
+    let profile = crate::profile::Profile::resolve("wgsl").unwrap();
+    let planned = crate::driver::compile(source, &profile, &Default::default()).unwrap().planned;
+    let render = || {
+        let renderer = PlanRenderer::new(&planned, &program, &scene, &assets).unwrap();
+        renderer.render(Precision::F32, 160, 120, &mut |_, _| {}).unwrap()
+    };
+    let before = SHARED.load(Ordering::Relaxed);
+    let fast = render();
+    assert!(SHARED.load(Ordering::Relaxed) > before, "no lookup shared footprints");
+    PLAIN.store(true, Ordering::Relaxed);
+    let plain = std::panic::catch_unwind(std::panic::AssertUnwindSafe(render));
+    PLAIN.store(false, Ordering::Relaxed);
+    let plain = plain.unwrap();
+    let bits = |f: &crate::renderer::plan::Frame| {
+        f.image.to_rgba_f32().into_iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>()
+    };
+    assert!(fast.stats.written > 1000, "{:?}", fast.stats);
+    assert_eq!(bits(&fast), bits(&plain));
+    assert_eq!((fast.stats, fast.nonfinite), (plain.stats, plain.nonfinite));
+}
+
+/// `x^k` over the lanes ([`super::power_lanes`]) is the interpreter's
+/// per-value [`crate::ir::power_by_squaring`] bit for bit, for every
+/// exponent the lanes take (1-256) on values of every sign and magnitude,
+/// ±0, ±∞ and NaN.
+#[test]
+fn powers_over_lanes_are_the_squarings_of_each_lane_bit_for_bit() {
+    let mut x = [0.0f32; super::BATCH];
+    let mut seed = 0x9e37_79b9u32;
+    for (i, v) in x.iter_mut().enumerate() {
+        seed ^= seed << 13;
+        seed ^= seed >> 17;
+        seed ^= seed << 5;
+        *v = f32::from_bits((seed % 0x7f80_0000) | (seed & 0x8000_0000))
+            * if i % 2 == 0 { 1.0 } else { 1e-30 };
+    }
+    x[..6].copy_from_slice(&[0.0, -0.0, f32::INFINITY, f32::NEG_INFINITY, f32::NAN, 1.000_001]);
+    for k in 1..=256 {
+        let lanes = super::power_lanes(&x, k);
+        for (lane, (&v, &p)) in x.iter().zip(&lanes).enumerate() {
+            let one = crate::ir::power_by_squaring(v, k, |a, b| a * b);
+            assert_eq!(one.to_bits(), p.to_bits(), "{v}^{k} (lane {lane})");
+        }
+    }
+}
