@@ -78,6 +78,7 @@
 //! the light) or a shadow ray grazing an edge.
 
 pub mod geometry;
+mod lights;
 pub mod normal_map;
 mod ops;
 mod program;
@@ -205,14 +206,21 @@ fn render_choice(
     let light_vectors = module.vectors.iter().filter(|v| {
         matches!(v.kind, Some(ast::VectorKind::Light | ast::VectorKind::Half | ast::VectorKind::Intensity))
     });
-    if scene.lights.len() > 1
+    // A program written for light 0 means one term per scene light
+    // (`lights.rs`), restated here for colour statements on meshes; other
+    // statements (stencil, light views, rendered textures) are not.
+    let per_light = scene.lights.len() > 1
         && light_vectors.clone().count() > 0
-        && light_vectors.clone().all(|v| v.index.unwrap_or(0) == 0)
+        && light_vectors.clone().all(|v| v.index.unwrap_or(0) == 0);
+    if per_light
+        && module.statements.iter().any(|st| {
+            !matches!(st.table, Table::Framebuffer { channel: FbChannel::Color | FbChannel::Alpha, .. })
+                || index_view(module, st.index) != View::Camera
+        })
     {
-        // Such a program means one term per scene light (docs/pass-plan.md,
-        // "per-light passes"): a rewrite of the planner's this reference
-        // does not restate.
-        return Err(Unsupported::new("a program written for light 0 on a scene of several lights"));
+        return Err(Unsupported::new(
+            "a program written for light 0 on a scene of several lights, with statements other than colour and alpha writes seen by the camera",
+        ));
     }
     let textures = textures::bind(module, program, scene, assets)?;
     let mut ev = Evaluator {
@@ -246,6 +254,9 @@ fn render_choice(
             }
             Table::Framebuffer { id, channel } => {
                 run(&mut ev, st, id as usize, channel, &mut latitude)?;
+                if per_light {
+                    for_each_other_light(&mut ev, st, id as usize)?;
+                }
                 last = Some(id as usize);
             }
         }
@@ -294,6 +305,31 @@ fn index_view(m: &Module, index: crate::ir::Handle<crate::ir::Expr>) -> View {
     } else {
         View::Camera
     }
+}
+
+/// A colour statement's light terms for every scene light after light 0,
+/// each added into framebuffer `fb` and stored, a pass per light
+/// (`lights.rs`); nothing where the statement runs for light 0 only.
+fn for_each_other_light(ev: &mut Evaluator, st: &crate::ir::Statement, fb: usize) -> Result<(), Unsupported> {
+    let Some(terms) = lights::light_terms(ev.m, st)? else { return Ok(()) };
+    let all = ev.lights;
+    let samples = samples(ev, st)?;
+    let widened = ev.m.info(st.value).ty.width() != 4;
+    for i in 1..all.len() {
+        ev.lights = &all[i..];
+        let mut adds = Vec::with_capacity(samples.len());
+        for &(p, at) in &samples {
+            adds.push((p, lights::value(ev, &terms, at)?));
+        }
+        let store = &mut ev.framebuffers[fb];
+        let stored = |x: f64| if store.fixed { (x.clamp(0.0, 1.0) * 255.0).round() / 255.0 } else { x };
+        for (p, v) in adds {
+            let v = if widened { [v[0], v[1], v[2], 1.0] } else { v };
+            store.color[p] = std::array::from_fn(|c| stored(store.color[p][c] + v[c]));
+        }
+    }
+    ev.lights = all;
+    Ok(())
 }
 
 /// One statement into framebuffer `fb`, every sample of its index.

@@ -84,7 +84,7 @@ pub struct Evaluator<'a> {
     pub target: usize,
 }
 
-type Memo = HashMap<Handle<Expr>, Option<V>>;
+pub(super) type Memo = HashMap<Handle<Expr>, Option<V>>;
 
 impl<'a> Evaluator<'a> {
     pub fn new_store(&self, id: usize) -> Store {

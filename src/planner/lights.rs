@@ -211,8 +211,19 @@ impl Replicator<'_> {
             channel: FbChannel::Alpha,
             position: st.index,
         });
+        // An rgb value the framebuffer widens (alpha 1) is split inside the
+        // widening, and each part widened again: its once terms run once
+        // (`C ← ka + δ p s x`), each light's pass adds alpha 1 as written.
+        let (value, widened) = match m.exprs[st.value] {
+            Expr::Convert { value, to: Ty::Rgba }
+                if m.info(value).ty == Ty::Rgb && self.dep.contains(&value) =>
+            {
+                (value, true)
+            }
+            _ => (st.value, false),
+        };
         let mut terms = Vec::new();
-        if let Err(why) = decompose(m, self.dep, st.value, false, &mut terms) {
+        if let Err(why) = decompose(m, self.dep, value, false, &mut terms) {
             return Err(Some(self.note(k, st, format!("{why}: light 0 only"))));
         }
         let reads_own = |m: &Module, h: Handle<Expr>| {
@@ -234,13 +245,18 @@ impl Replicator<'_> {
         if once.iter().any(|(h, neg)| reads_own(m, *h) && (Some(*h) != own || *neg)) {
             return Err(Some(self.note(k, st, "its framebuffer operation is not a replacement or an addition (a product does not distribute over lights): light 0 only".into())));
         }
-        let ty = m.info(st.value).ty;
+        let ty = m.info(value).ty;
         let without = match sum(m, &once) {
             Some(h) => Some(h),
             None if once.is_empty() => Builder { module: m }.constant(ty, 0.0),
             None => None,
         };
-        let (Some(light_sum), Some(without)) = (sum(m, &light), without) else {
+        let widen = |m: &mut Module, h: Option<Handle<Expr>>| match h {
+            Some(h) if widened => m.intern(Expr::Convert { value: h, to: Ty::Rgba }, Span::DETACHED).ok(),
+            h => h,
+        };
+        let (light_sum, without) = (sum(m, &light), without);
+        let (Some(light_sum), Some(without)) = (widen(m, light_sum), widen(m, without)) else {
             return Err(Some(self.note(k, st, "its light terms could not be summed: light 0 only".into())));
         };
         let own = own.or_else(|| {
