@@ -17,10 +17,6 @@ use shadec::scene::Scene;
 
 use crate::three_way::{render_three, scene, verdict};
 
-fn folder() -> std::path::PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/heldout_twelfth")
-}
-
 /// A folder of held-out programs under `tests/data/`.
 pub fn data(name: &str) -> std::path::PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(name)
@@ -44,13 +40,9 @@ fn header<'a>(source: &'a str, key: &str) -> &'a str {
         .trim()
 }
 
-/// Renders the held-out program `name` three ways on every target its
-/// header names: f32 everywhere, fixed9 too on the combiner targets.
-pub fn renders_alike(name: &str) -> Result<(), String> {
-    renders_alike_in(&folder(), name)
-}
-
-/// [`renders_alike`] for the program `name` of `folder`.
+/// Renders the held-out program `name` of `folder` three ways on every
+/// target its header names: f32 everywhere, fixed9 too on the combiner
+/// targets.
 pub fn renders_alike_in(folder: &Path, name: &str) -> Result<(), String> {
     let source = std::fs::read_to_string(folder.join(format!("{name}.shd"))).unwrap();
     let sc = held_out_scene(folder, header(&source, "scene:"));
@@ -93,18 +85,42 @@ pub fn renders_alike_in(folder: &Path, name: &str) -> Result<(), String> {
     }
 }
 
-macro_rules! held_out {
-    ($($name:ident),* $(,)?) => {
+/// The named tests of a folder of held-out programs under `tests/data/`,
+/// one a program ([`renders_alike_in`]), and a test that every program of
+/// the folder has one.
+macro_rules! held_out_in {
+    ($folder:literal: $($name:ident),* $(,)?) => {
         $(
             #[test]
             fn $name() {
-                renders_alike(stringify!($name)).unwrap_or_else(|e| panic!("{e}"));
+                let folder = $crate::three_way_heldout::data($folder);
+                $crate::three_way_heldout::renders_alike_in(&folder, stringify!($name))
+                    .unwrap_or_else(|e| panic!("{e}"));
             }
         )*
+
+        /// Every program of the folder has its named test above.
+        #[test]
+        fn every_program_of_the_folder_has_a_test() {
+            $crate::three_way_heldout::each_has_a_test($folder, &[$(stringify!($name)),*]);
+        }
     };
 }
+pub(crate) use held_out_in;
 
-held_out!(
+/// Asserts that every `.shd` program of `folder` (under `tests/data/`) is
+/// among `named`.
+pub fn each_has_a_test(folder: &str, named: &[&str]) {
+    for entry in std::fs::read_dir(data(folder)).unwrap() {
+        let path = entry.unwrap().path();
+        if path.extension().is_some_and(|e| e == "shd") {
+            let stem = path.file_stem().unwrap().to_string_lossy().to_string();
+            assert!(named.contains(&stem.as_str()), "{stem} has no test");
+        }
+    }
+}
+
+held_out_in!("heldout_twelfth":
     dot3_specular_normal_map,
     diffuse_bump_self_shadow,
     bumped_cube_environment,
@@ -116,16 +132,3 @@ held_out!(
     detail_map_modulate2x,
     ground_plane_cookie,
 );
-
-/// Every program of the folder has its named test above.
-#[test]
-fn every_held_out_program_has_a_test() {
-    let here = include_str!("three_way_heldout.rs");
-    for entry in std::fs::read_dir(folder()).unwrap() {
-        let path = entry.unwrap().path();
-        if path.extension().is_some_and(|e| e == "shd") {
-            let stem = path.file_stem().unwrap().to_string_lossy().to_string();
-            assert!(here.contains(&format!("    {stem},\n")), "{stem} has no test");
-        }
-    }
-}

@@ -13,20 +13,9 @@
 //! header names and in fixed9 on the combiner targets
 //! (`three_way_heldout::renders_alike_in`).
 
-use crate::three_way_heldout::{data, renders_alike_in};
+use crate::three_way_heldout::held_out_in;
 
-macro_rules! held_out {
-    ($($name:ident),* $(,)?) => {
-        $(
-            #[test]
-            fn $name() {
-                renders_alike_in(&data("heldout_thirteenth"), stringify!($name)).unwrap_or_else(|e| panic!("{e}"));
-            }
-        )*
-    };
-}
-
-held_out!(
+held_out_in!("heldout_thirteenth":
     brick_torus_trilinear,
     two_lamps_one_delta,
     slide_projector_sphere,
@@ -37,16 +26,3 @@ held_out!(
     deep_detail_sixteen_bit,
     wet_floor_reflection,
 );
-
-/// Every program of the folder has its named test above.
-#[test]
-fn every_thirteenth_held_out_program_has_a_test() {
-    let here = include_str!("three_way_heldout13.rs");
-    for entry in std::fs::read_dir(data("heldout_thirteenth")).unwrap() {
-        let path = entry.unwrap().path();
-        if path.extension().is_some_and(|e| e == "shd") {
-            let stem = path.file_stem().unwrap().to_string_lossy().to_string();
-            assert!(here.contains(&format!("    {stem},\n")), "{stem} has no test");
-        }
-    }
-}

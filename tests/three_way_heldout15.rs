@@ -12,20 +12,9 @@
 //! (and fixed9 on the combiner targets), on at least a tenth of the frame,
 //! most of it lit (`three_way_heldout::renders_alike_in`).
 
-use crate::three_way_heldout::{data, renders_alike_in};
+use crate::three_way_heldout::held_out_in;
 
-macro_rules! held_out {
-    ($($name:ident),* $(,)?) => {
-        $(
-            #[test]
-            fn $name() {
-                renders_alike_in(&data("heldout_fifteenth_ref"), stringify!($name)).unwrap_or_else(|e| panic!("{e}"));
-            }
-        )*
-    };
-}
-
-held_out!(
+held_out_in!("heldout_fifteenth_ref":
     deferred_toon_ink,
     deferred_two_lobe,
     fat_texels_satin,
@@ -39,16 +28,3 @@ held_out!(
     frame_echo,
     fresnel_alpha_pass,
 );
-
-/// Every program of the folder has its named test above.
-#[test]
-fn every_fifteenth_held_out_program_has_a_test() {
-    let here = include_str!("three_way_heldout15.rs");
-    for entry in std::fs::read_dir(data("heldout_fifteenth_ref")).unwrap() {
-        let path = entry.unwrap().path();
-        if path.extension().is_some_and(|e| e == "shd") {
-            let stem = path.file_stem().unwrap().to_string_lossy().to_string();
-            assert!(here.contains(&format!("    {stem},\n")), "{stem} has no test");
-        }
-    }
-}

@@ -14,20 +14,9 @@
 //! renders alike on the CPU, wgpu and the independent reference on every
 //! target its header names (`three_way_heldout::renders_alike_in`).
 
-use crate::three_way_heldout::{data, renders_alike_in};
+use crate::three_way_heldout::held_out_in;
 
-macro_rules! held_out {
-    ($($name:ident),* $(,)?) => {
-        $(
-            #[test]
-            fn $name() {
-                renders_alike_in(&data("heldout_fifteenth"), stringify!($name)).unwrap_or_else(|e| panic!("{e}"));
-            }
-        )*
-    };
-}
-
-held_out!(
+held_out_in!("heldout_fifteenth":
     decal_cutout,
     aniso_strip,
     emboss,
@@ -47,16 +36,3 @@ held_out!(
     gloss_alpha,
     toon_rim,
 );
-
-/// Every program of the folder has its named test above.
-#[test]
-fn every_held_out_program_has_a_test() {
-    let here = include_str!("three_way_new_user.rs");
-    for entry in std::fs::read_dir(data("heldout_fifteenth")).unwrap() {
-        let path = entry.unwrap().path();
-        if path.extension().is_some_and(|e| e == "shd") {
-            let stem = path.file_stem().unwrap().to_string_lossy().to_string();
-            assert!(here.contains(&format!("    {stem},\n")), "{stem} has no test");
-        }
-    }
-}
