@@ -995,3 +995,21 @@ fn a_light_0_program_on_three_lights_adds_its_once_terms_once() {
         verdict(&p).unwrap_or_else(|e| panic!("{target}: {e}"));
     }
 }
+
+/// A factor times a sum with one light term (`Base · (δ d s x + H − H′)`,
+/// an emboss bump) on a scene of four lights: the planner distributes the
+/// factor and adds `Base · δ d` per light, `Base · (H − H′)` once. The
+/// products it built were new to its set of light-dependent values, so
+/// every term read as a once term and the statement fell back to light 0
+/// only; the reference said so (255/255 off).
+#[test]
+fn a_factor_over_a_sum_with_a_light_term_is_lit_by_every_light() {
+    let source = "vector N : normal;\nvector L : light(0);\ntexture Base : 2d rgb8 bilinear repeat = image(\"missing-base.png\");\ntexture Hgt : 2d r8 bilinear repeat = image(\"missing-h.png\");\nshader d : s → c = (0.6, 0.6, 0.6) * max(0, N·L);\nC δπx ← Base δu x * (δ d s x + (Hgt δu x) - (Hgt δu′ x));\n";
+    let g = gpu();
+    let sc = scene("adaptive_sphere_4lights.ron");
+    for (target, precision) in [("wgsl", Precision::F32), ("geforce256", Precision::Fixed9)] {
+        let p = render_three(source, target, &sc, precision, g.as_ref())
+            .unwrap_or_else(|e| panic!("{target}: {e}"));
+        verdict(&p).unwrap_or_else(|e| panic!("{target}: {e}"));
+    }
+}

@@ -233,7 +233,12 @@ impl Replicator<'_> {
                     || matches!(m.exprs[n], Expr::FramebufferRead { framebuffer, .. } if framebuffer == fb)
             })
         };
-        let (light, once): (Vec<_>, Vec<_>) = terms.into_iter().partition(|(h, _)| self.dep.contains(h));
+        // A product `decompose` built (a factor times one light term) is
+        // new to `dep`: a term is a light term where it reaches the light.
+        let reaches_light = |m: &Module, h: Handle<Expr>| {
+            self.dep.contains(&h) || m.reachable(&[h]).into_iter().any(|n| self.dep.contains(&n))
+        };
+        let (light, once): (Vec<_>, Vec<_>) = terms.into_iter().partition(|(h, _)| reaches_light(m, *h));
         if light.iter().any(|(h, _)| reads_own(m, *h)) {
             return Err(Some(self.note(
                 k,
