@@ -214,13 +214,11 @@ fn render_choice(
         && light_vectors.clone().all(|v| v.index.unwrap_or(0) == 0);
     if per_light
         && module.statements.iter().any(|st| {
+            let seen =
+                matches!(st.table, Table::Framebuffer { channel: FbChannel::Color | FbChannel::Alpha, .. })
+                    && index_view(module, st.index) == View::Camera;
             let baked = matches!(st.table, Table::Texture(_)) && module.is_baked(st);
-            !(baked
-                || matches!(
-                    st.table,
-                    Table::Framebuffer { channel: FbChannel::Color | FbChannel::Alpha, .. }
-                ))
-                || (!baked && index_view(module, st.index) != View::Camera)
+            !(seen || baked)
         })
     {
         return Err(Unsupported::new(
