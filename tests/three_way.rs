@@ -986,14 +986,9 @@ fn minified_trilinear_texture_is_compared_against_its_lod_range() {
 #[test]
 fn a_light_0_program_on_three_lights_adds_its_once_terms_once() {
     let source = "vector N : normal;\nvector L : light(0);\nconst ka : rgb = (0.3, 0.3, 0.3);\nconst kd : rgb = (0.5, 0.4, 0.3);\nshader d : s → c = kd * max(0, N·L);\nC δπx ← ka + δ d s x;\n";
-    let g = gpu();
     let sc = scene("lights_two_spots.ron");
     assert_eq!(sc.lights.len(), 3);
-    for (target, precision) in [("wgsl", Precision::F32), ("geforce256", Precision::Fixed9)] {
-        let p = render_three(source, target, &sc, precision, g.as_ref())
-            .unwrap_or_else(|e| panic!("{target}: {e}"));
-        verdict(&p).unwrap_or_else(|e| panic!("{target}: {e}"));
-    }
+    agrees_in_f32_and_fixed9(source, &sc);
 }
 
 /// A factor times a sum with one light term (`Base · (δ d s x + H − H′)`,
@@ -1005,10 +1000,15 @@ fn a_light_0_program_on_three_lights_adds_its_once_terms_once() {
 #[test]
 fn a_factor_over_a_sum_with_a_light_term_is_lit_by_every_light() {
     let source = "vector N : normal;\nvector L : light(0);\ntexture Base : 2d rgb8 bilinear repeat = image(\"missing-base.png\");\ntexture Hgt : 2d r8 bilinear repeat = image(\"missing-h.png\");\nshader d : s → c = (0.6, 0.6, 0.6) * max(0, N·L);\nC δπx ← Base δu x * (δ d s x + (Hgt δu x) - (Hgt δu′ x));\n";
+    agrees_in_f32_and_fixed9(source, &scene("adaptive_sphere_4lights.ron"));
+}
+
+/// The three executors agree on `source` over `sc`: wgsl in f32, and
+/// geforce256 in fixed9.
+fn agrees_in_f32_and_fixed9(source: &str, sc: &Scene) {
     let g = gpu();
-    let sc = scene("adaptive_sphere_4lights.ron");
     for (target, precision) in [("wgsl", Precision::F32), ("geforce256", Precision::Fixed9)] {
-        let p = render_three(source, target, &sc, precision, g.as_ref())
+        let p = render_three(source, target, sc, precision, g.as_ref())
             .unwrap_or_else(|e| panic!("{target}: {e}"));
         verdict(&p).unwrap_or_else(|e| panic!("{target}: {e}"));
     }

@@ -497,6 +497,31 @@ fn sample_2d_lane_by_lane<const N: usize>(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each of the first `n` lanes of `out` is the one-lane unit's sample at
+    /// that lane's coordinates and level of detail, bit for bit.
+    fn assert_lanes_are_the_unit(
+        t: &Texture2D,
+        (u, v, lod): (&[f32; 32], &[f32; 32], &[f32; 32]),
+        filter: Filter,
+        out: &[[f32; 32]; 4],
+        n: usize,
+        what: &str,
+    ) {
+        for lane in 0..n {
+            let one = unit::sample_2d_with(
+                t,
+                u[lane],
+                v[lane],
+                filter,
+                lod[lane],
+                unit::Arithmetic::Float,
+                unit::Latitude::MODEL,
+            );
+            let lanes = [0, 1, 2, 3].map(|k| out[k][lane]);
+            assert_eq!(one.map(f32::to_bits), lanes.map(f32::to_bits), "{what} lane {lane}");
+        }
+    }
     use crate::textures::sampling::TexelFormat;
 
     /// A deterministic sequence in [−1, 1) (no dependency for a test).
@@ -567,23 +592,14 @@ mod tests {
             (u[12], v[12], u[13], v[14]) = (-0.0, -0.0, 0.5, -1.0);
             let mut out = [[0.0f32; 32]; 4];
             sample_2d_lanes(t, &u, &v, &lod, 32, filter, unit::Latitude::MODEL, &mut out);
-            for lane in 0..32 {
-                let one = unit::sample_2d_with(
-                    t,
-                    u[lane],
-                    v[lane],
-                    filter,
-                    lod[lane],
-                    unit::Arithmetic::Float,
-                    unit::Latitude::MODEL,
-                );
-                let lanes = [0, 1, 2, 3].map(|k| out[k][lane]);
-                assert_eq!(
-                    one.map(f32::to_bits),
-                    lanes.map(f32::to_bits),
-                    "{what} {filter:?} round {round} lane {lane}"
-                );
-            }
+            assert_lanes_are_the_unit(
+                t,
+                (&u, &v, &lod),
+                filter,
+                &out,
+                32,
+                &format!("{what} {filter:?} round {round}"),
+            );
         }
     }
 
@@ -642,23 +658,14 @@ mod tests {
                 let mut out = [[0.0f32; 32]; 4];
                 let n = 32 - round % 3;
                 f.fetch(&second, n, &mut out);
-                for lane in 0..n {
-                    let one = unit::sample_2d_with(
-                        &second,
-                        u[lane],
-                        v[lane],
-                        filter,
-                        lod[lane],
-                        unit::Arithmetic::Float,
-                        unit::Latitude::MODEL,
-                    );
-                    let lanes = [0, 1, 2, 3].map(|k| out[k][lane]);
-                    assert_eq!(
-                        one.map(f32::to_bits),
-                        lanes.map(f32::to_bits),
-                        "{filter:?} round {round} lane {lane}"
-                    );
-                }
+                assert_lanes_are_the_unit(
+                    &second,
+                    (&u, &v, &lod),
+                    filter,
+                    &out,
+                    n,
+                    &format!("{filter:?} round {round}"),
+                );
             }
         }
     }
