@@ -112,18 +112,45 @@ impl Front {
     }
 }
 
-/// Parse, check names, and lower when the program is clean.
+/// Parse, check names, and lower. A program with errors before lowering
+/// is still lowered, so that `check` reports every error at once: the
+/// lowering's errors are kept for the items that have no error of their
+/// own (a missing `;` does not hide a wrong arity three lines down), and
+/// its module is dropped.
 pub fn front(source: &str) -> Front {
     let (program, mut diagnostics) = crate::parser::check(source);
+    let (module, lower_diags) = crate::ir::lower(&program);
     let module = if diagnostics.iter().any(Diagnostic::is_error) {
+        let errors_of_clean_items = errors_in_clean_items(source, &program, &diagnostics, lower_diags);
+        diagnostics.extend(errors_of_clean_items);
         None
     } else {
-        let (module, lower_diags) = crate::ir::lower(&program);
         diagnostics.extend(lower_diags);
         Some(module)
     };
     diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
     Front { program, module, diagnostics }
+}
+
+/// The lowering's errors located in items free of earlier errors, and of
+/// names declared by items with errors ([`crate::parser::poison`]). An
+/// error of the whole program (no location) may be the broken item's.
+fn errors_in_clean_items(
+    source: &str,
+    program: &Program,
+    earlier: &[Diagnostic],
+    lowered: Diagnostics,
+) -> Diagnostics {
+    let errors: Vec<Span> = earlier.iter().filter(|d| d.is_error()).map(|d| d.primary.span).collect();
+    let poisoned = crate::parser::poison::poisoned_items(source, program, &errors);
+    let clean: Vec<Span> =
+        program.items.iter().zip(poisoned).filter(|(_, p)| !p).map(|(i, _)| i.span).collect();
+    let holds = |item: Span, at: Span| item.start <= at.start && at.start < item.end;
+    lowered
+        .into_iter()
+        .filter(|d| d.is_error() && d.primary.span != Span::DETACHED)
+        .filter(|d| clean.iter().any(|&item| holds(item, d.primary.span)))
+        .collect()
 }
 
 /// A clean program the front end did not lower: a compiler bug, said as

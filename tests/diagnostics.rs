@@ -269,3 +269,26 @@ mod generated_type_errors {
         }
     }
 }
+
+/// `check` reports every error at once: a syntax error in one statement
+/// does not hide a type error in another; a statement that reads a name
+/// whose declaration did not parse gets no error of its own (its error may
+/// be the declaration's echo).
+#[test]
+fn a_syntax_error_does_not_hide_a_type_error_elsewhere() {
+    let text = "texture T : 2d rgb8;\ntexture D : 2d rgb8\nlet k = ⊕ 2;\nC δπx ← T δu x ⊕ ;\nC δπx ← clamp(T δu x, 0);\nC δπx ← k * (D δu x);\n";
+    let front = shadec::driver::front(text);
+    let errors: Vec<(usize, String)> = front
+        .diagnostics
+        .iter()
+        .filter(|d| d.is_error())
+        .map(|d| (text[..d.primary.span.start as usize].matches('\n').count() + 1, d.message.clone()))
+        .collect();
+    assert!(front.module.is_none());
+    let on_line = |n: usize| errors.iter().filter(|(l, _)| *l == n).count();
+    // Line 2 misses its `;`, lines 3-4 are broken, line 5 calls `clamp` with
+    // two arguments (a lowering error), line 6 reads the broken `k`.
+    assert!(errors.iter().any(|(l, m)| *l == 5 && m.contains("clamp")), "{errors:#?}");
+    assert_eq!((on_line(2), on_line(5), on_line(6)), (1, 1, 0), "{errors:#?}");
+    assert!(on_line(3) >= 1 && on_line(4) >= 1, "{errors:#?}");
+}

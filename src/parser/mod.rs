@@ -11,7 +11,7 @@
 pub mod ast;
 mod build;
 mod errors;
-mod poison;
+pub(crate) mod poison;
 pub mod print;
 pub mod resolve;
 mod split;

@@ -8,7 +8,9 @@
 //! (a keyword, then names separated by commas), because the item did not
 //! parse and pest gave no tree.
 
-use super::ast::{Name, Poisoned};
+use std::collections::HashSet;
+
+use super::ast::{Name, Poisoned, Program};
 use super::split::next_significant;
 use crate::span::Span;
 
@@ -88,6 +90,51 @@ fn name_at(text: &str, i: usize, offset: usize) -> Option<Name> {
     Some(Name { base: base.to_string(), primes, star, span: Span::new(offset + i, offset + i + end) })
 }
 
+/// Which items of `program` (from `source`) have errors of their own: an
+/// item holding one of `errors`, or using a name that such an item, or a
+/// declaration left out, declares — directly or through other items. The
+/// others' lowering errors are their own; those of the poisoned items may
+/// be the first error's echo.
+pub fn poisoned_items(source: &str, program: &Program, errors: &[Span]) -> Vec<bool> {
+    let text_of = |span: Span| source.get(span.start as usize..span.end as usize).unwrap_or("");
+    let holds = |item: Span, at: Span| item.start <= at.start && at.start < item.end;
+    let items = &program.items;
+    let mut poisoned: Vec<bool> = items.iter().map(|i| errors.iter().any(|&e| holds(i.span, e))).collect();
+    let used: Vec<HashSet<String>> = items.iter().map(|i| names_in(text_of(i.span))).collect();
+    let mut names: HashSet<String> = program.poisoned.iter().map(|p| p.name.key()).collect();
+    let mut declared_by = vec![false; items.len()];
+    loop {
+        for (k, item) in items.iter().enumerate() {
+            if poisoned[k] && !declared_by[k] {
+                declared_by[k] = true;
+                let declared = declared_names(text_of(item.span), item.span.start as usize);
+                names.extend(declared.into_iter().map(|p| p.name.key()));
+            }
+        }
+        let newly: Vec<usize> =
+            (0..items.len()).filter(|&k| !poisoned[k] && used[k].iter().any(|n| names.contains(n))).collect();
+        if newly.is_empty() {
+            return poisoned;
+        }
+        newly.into_iter().for_each(|k| poisoned[k] = true);
+    }
+}
+
+/// Every name written in `text` (keys, primes included), read as
+/// [`declared_names`] reads one.
+fn names_in(text: &str) -> HashSet<String> {
+    let word = |c: char| (c.is_alphanumeric() || c == '_') && !matches!(c, 'δ' | 'π' | 'α' | 'σ');
+    let mut previous = None;
+    let mut names = HashSet::new();
+    for (i, c) in text.char_indices() {
+        if !previous.is_some_and(word) {
+            names.extend(name_at(text, i, 0).map(|n| n.key()));
+        }
+        previous = Some(c);
+    }
+    names
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -108,5 +155,21 @@ mod tests {
         assert!(keys("C δπx ← ⊕;").is_empty());
         assert!(keys("vector : normal;").is_empty());
         assert!(keys("const in = 1;").is_empty());
+    }
+
+    #[test]
+    fn an_error_poisons_its_item_and_the_items_that_use_what_it_declares() {
+        // The shader does not parse (`q`): its name is poisoned, and so is
+        // every item that uses it, directly or through `k`.
+        let source = "shader p : s → c = max(0, N.xyq·L);\nlet k = δ p s x;\nC δπx ← k;\nC δπx ← T′ δu x;\n";
+        let (program, _) = crate::parser::parse(source);
+        assert_eq!(poisoned_items(source, &program, &[]), [true, true, false]);
+        // An error inside a parsed item poisons it and its users.
+        let source = "let a = 1;\nC δπx ← 2 * a;\nC δπx ← 1;\n";
+        let (program, _) = crate::parser::parse(source);
+        let error = Span::new(source.find('1').unwrap_or(0), 0);
+        assert_eq!(poisoned_items(source, &program, &[error]), [true, true, false]);
+        assert_eq!(poisoned_items(source, &program, &[]), [false; 3]);
+        assert_eq!(names_in("C δπx ← T′ δu x"), ["C", "T'", "u", "x"].map(String::from).into());
     }
 }
