@@ -292,3 +292,21 @@ fn a_syntax_error_does_not_hide_a_type_error_elsewhere() {
     assert_eq!((on_line(2), on_line(5), on_line(6)), (1, 1, 0), "{errors:#?}");
     assert!(on_line(3) >= 1 && on_line(4) >= 1, "{errors:#?}");
 }
+
+/// A framebuffer used without its declaration (the light's depth map of a
+/// shadow map) is not "did you mean `L`?" (a vector): the help declares a
+/// framebuffer, at the assignment and at the read.
+#[test]
+fn an_undeclared_light_framebuffer_gets_a_framebuffer_declaration() {
+    let text = "vector N : normal;\nvector L : light;\nCl δπl x ← 1;\nC δπx ← (z δπl x) ≤ (z Cl δπl x) ? max(0, N·L) : 0;\n";
+    let (_, diagnostics) = shadec::parser::check(text);
+    let unknown: Vec<_> = diagnostics.iter().filter(|d| d.code == "unknown-name").collect();
+    assert_eq!(unknown.len(), 2, "{diagnostics:#?}");
+    for d in unknown {
+        let help = d.help.as_deref().unwrap_or_default();
+        assert!(help.contains("`framebuffer Cl : depth;`") && !help.contains("`L`"), "{help}");
+    }
+    // A misspelt framebuffer is still suggested.
+    let (message, help) = first_error("framebuffer Cl : depth;\nCk δπl x ← 1;\nC δπx ← z Cl δπl x;\n");
+    assert_eq!((message.as_str(), help.as_str()), ("unknown name `Ck`", "did you mean `Cl`?"));
+}

@@ -354,3 +354,53 @@ fn shadow_map_geforce3_plan_on_wgpu_agrees_with_cpu() {
     assert!(ambient(&wgpu) > 300, "no shadow on wgpu");
     assert!(over * 100 <= n, "{over} of {n} pixels differ by more than 2/255 (max {max}/255)");
 }
+
+/// The shadow test written the lit way round, `(z δπl x) ≤ (z Cl δπl x) + b
+/// ? lit : ambient` (or with its sides exchanged), is the texture unit's
+/// compare too: it plans on geforce3 (it was refused as "a per-pixel depth
+/// comparison") and renders what the `>` form renders, in fixed9.
+#[test]
+fn a_shadow_test_written_lit_side_first_plans_on_geforce3_as_the_greater_form() {
+    let program = |test: &str| {
+        format!(
+            "vector N : normal;\nvector L : light;\nshader p : s → c = max(0, N·L);\nframebuffer Cl : depth;\nCl δπl x ← δ x;\nC δπx ← 0.15 + ({test});\n"
+        )
+    };
+    let greater =
+        render(&program("(z δπl x) > (z Cl δπl x) + 0.002 ? 0 : δ p s x"), "geforce3", Precision::Fixed9);
+    for test in [
+        "(z δπl x) ≤ (z Cl δπl x) + 0.002 ? δ p s x : 0",
+        "(z Cl δπl x) + 0.002 ≥ (z δπl x) ? δ p s x : 0",
+        "(z Cl δπl x) + 0.002 < (z δπl x) ? 0 : δ p s x",
+    ] {
+        let picture = render(&program(test), "geforce3", Precision::Fixed9);
+        let differ = picture.chunks(4).zip(greater.chunks(4)).filter(|(a, b)| a != b).count();
+        assert_eq!(differ, 0, "{test}: pixels that differ from the `>` form");
+    }
+    let reds: std::collections::BTreeSet<u8> = greater.chunks(4).map(|p| p[0]).collect();
+    assert!(
+        greater.chunks(4).any(|p| p[0] > 100) && greater.chunks(4).any(|p| p[0] < 60),
+        "lit and shadowed pixels: {reds:?}"
+    );
+}
+
+/// A shadow test in the first pass over `C` (no earlier statement draws
+/// the meshes there) draws its fragments: the pass kept its own depth test.
+/// It tested depth `Equal` against the cleared buffer and drew nothing, on
+/// every target, on the CPU and on wgpu alike; only the independent
+/// reference saw it (every covered pixel off, up to 255/255).
+#[test]
+fn a_shadow_test_in_the_first_pass_over_c_draws_and_agrees_with_the_reference() {
+    let source = "vector N : normal;\nvector L : light;\nshader p : s → c = max(0, N·L);\nframebuffer Cl : depth;\nCl δπl x ← δ x;\nC δπx ← 0.15 + ((z δπl x) > (z Cl δπl x) + 0.002 ? 0 : δ p s x);\n";
+    let g = crate::common::gpu::gpu();
+    for (target, precision) in [("wgsl", Precision::F32), ("geforce3", Precision::Fixed9)] {
+        let p = crate::three_way::render_three(source, target, &occluder_floor(), precision, g.as_ref())
+            .unwrap_or_else(|e| panic!("{target}: {e}"));
+        let verdict = match precision {
+            Precision::Fixed9 => crate::three_way_generated::fixed9_verdict(&p, &mut 0),
+            _ => crate::three_way::verdict(&p),
+        };
+        verdict.unwrap_or_else(|e| panic!("{target}: {e}"));
+        assert!(p.cpu.chunks(4).filter(|px| px[0] > 100).count() > 100, "{target}: lit pixels drawn");
+    }
+}

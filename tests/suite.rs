@@ -91,6 +91,7 @@ mod three_way_heldout;
 mod three_way_heldout13;
 mod three_way_heldout15;
 mod three_way_new_user;
+mod three_way_new_user16;
 mod vertex_programs_public;
 mod wgpu_auto;
 mod wgpu_dual_paraboloid;

@@ -86,6 +86,11 @@ pub const KEYWORDS: &[&str] = &[
 /// texture coordinates (`T δu x`) a texture, applied to the shading
 /// parameters (`p δ s x`) a shader or a shading vector, else a value.
 fn declaration_help(key: &str, applied_to: Option<&Expr>) -> String {
+    if applied_to.is_some_and(projects) {
+        return format!(
+            "declare it first as a framebuffer: `framebuffer {key} : rgba8, depth;` (a light's depth map: `framebuffer {key} : depth;`), or use a built-in one, `C` or `C′`"
+        );
+    }
     let mut families = Vec::new();
     if let Some(arg) = applied_to {
         arg.walk(&mut |e| {
@@ -103,6 +108,17 @@ fn declaration_help(key: &str, applied_to: Option<&Expr>) -> String {
     } else {
         format!("declare it first, e.g. `vector {key} : normal;`, `const {key} = 1;` or `texture {key} : 2d rgba8 = image(\"file.png\");`")
     }
+}
+
+/// Whether `e` is read at a projected position (`δπx`, `δπl x`,
+/// `πl π⁻¹ xs`): what a framebuffer is applied to.
+fn projects(e: &Expr) -> bool {
+    let mut found = false;
+    e.walk(&mut |e| {
+        found |=
+            matches!(&e.kind, ExprKind::Apply { func, .. } if matches!(func.kind, FuncKind::Projection(_)))
+    });
+    found
 }
 
 /// `deltapi`, `ux`, `sx`: the ASCII words of δ and π and the paper's
@@ -422,7 +438,7 @@ impl Resolver {
                     "assign into a framebuffer (`C δπx`), a texture (`T δu`) or a vertex attribute (`u x`)",
                 ),
             ),
-            None => self.unknown(&t.table, &[], false, None),
+            None => self.unknown(&t.table, &[], false, Some(&t.index)),
         }
         if let Some(c) = &t.channel {
             if entity.is_some_and(|e| e != Entity::Framebuffer) {
@@ -478,7 +494,16 @@ impl Resolver {
                     .chain(GENERATORS.iter().copied()),
             )
         });
-        let accept = |c: &str| in_source || globals.contains_key(c) || !GENERATORS.contains(&c);
+        // At a projected position only a framebuffer (or a fat one read as
+        // a texture) is meant: `Cl δπl x` is not a misspelt vector `L`.
+        let framebuffer_use = applied_to.is_some_and(projects);
+        let table = |c: &str| {
+            globals.get(c).is_some_and(|d| matches!(d.entity, Entity::Framebuffer | Entity::Texture))
+        };
+        let accept = |c: &str| {
+            (in_source || globals.contains_key(c) || !GENERATORS.contains(&c))
+                && (!framebuffer_use || table(c))
+        };
         let local_names: Vec<&str> = locals.iter().map(|(k, _)| k.as_str()).collect();
         // The name meant is used, by the mistyped use: no "never used" too.
         let mut meant = None;

@@ -382,6 +382,7 @@ fn plan_as_written(
     request: &Request,
 ) -> Result<Planned, Vec<Diagnostic>> {
     let mut m = module.clone();
+    shadow_map::depth_tests_as_greater(&mut m);
     shadow_map::redraw_over_geometry(&mut m, profile);
     let depth_replaced = shadow_mask::redraw_with_replaced_depth(&mut m, profile);
     let canonical = canonical_when_unfit(&mut m, profile)?;

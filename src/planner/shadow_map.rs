@@ -58,6 +58,53 @@ pub fn redraw_over_geometry(m: &mut Module, profile: &Profile) -> Vec<usize> {
     done
 }
 
+/// Writes every selection on a depth-texture test in the form the texture
+/// unit compares, `a > d (+ b)`: `a ≤ d (+ b) ? x : y` as `a > d (+ b) ?
+/// y : x`, and `d (+ b) ≥ a`, `d (+ b) < a` with their sides exchanged.
+/// The same value (depths are never NaN): ARB_shadow's `LEQUAL` returns
+/// `a ≤ d`, and which branch is the lit one is the combiners' choice. The
+/// unit's result, `a ≤ d (+ b)`, is interned for every test
+/// ([`compare_node`] finds it).
+pub fn depth_tests_as_greater(m: &mut Module) {
+    for i in 0..m.statements.len() {
+        let value = m.statements[i].value;
+        let mut map = HashMap::default();
+        for h in m.reachable(&[value]) {
+            let Expr::Select { cond, accept, reject } = m.exprs[h] else { continue };
+            let Some((greater, swap)) = as_greater(m, cond) else { continue };
+            let (accept, reject) = match (swap, reject) {
+                (false, reject) => (accept, reject),
+                (true, Some(reject)) => (reject, Some(accept)),
+                (true, None) => continue,
+            };
+            let span = m.span(h);
+            if let Ok(select) = m.intern(Expr::Select { cond: greater, accept, reject }, span) {
+                map.insert(h, select);
+            }
+        }
+        if let Some(value) = (!map.is_empty()).then(|| super::substitute(m, value, &map)).flatten() {
+            m.statements[i].value = value;
+        }
+        compare_nodes(m, m.statements[i].value);
+    }
+}
+
+/// `cond` as the unit's `a > d (+ b)` and whether the branches exchange,
+/// for a comparison with a depth-texture read on one side; `None` for one
+/// already in that form or not a depth test.
+fn as_greater(m: &mut Module, cond: Handle<Expr>) -> Option<(Handle<Expr>, bool)> {
+    let Expr::Binary { op, lhs, rhs } = m.exprs[cond] else { return None };
+    let (a, d, swap) = match op {
+        BinaryOp::Le if depth_texture_read(m, rhs).is_some() => (lhs, rhs, true),
+        BinaryOp::Ge if depth_texture_read(m, lhs).is_some() => (rhs, lhs, true),
+        BinaryOp::Lt if depth_texture_read(m, lhs).is_some() => (rhs, lhs, false),
+        _ => return None,
+    };
+    let span = m.span(cond);
+    let greater = m.intern(Expr::Binary { op: BinaryOp::Gt, lhs: a, rhs: d }, span).ok()?;
+    Some((greater, swap))
+}
+
 /// The new index and value of statement `i`, if it is a depth test
 /// through `πl π⁻¹ xs` at the pixel and an earlier statement drew meshes
 /// into its framebuffer.
@@ -160,18 +207,33 @@ pub fn compare_node(m: &Module, output: Handle<Expr>, read: Handle<Expr>) -> Opt
     })
 }
 
-/// The passes that compare a depth texture test depth `Equal` without
-/// writing: their fragment is the one that wrote the framebuffer's depth
-/// (the redraw of Kilgard 2000, Section 5), not a nearer one of its own.
+/// The passes that compare a depth texture over a framebuffer whose depth
+/// an earlier pass wrote test depth `Equal` without writing: their
+/// fragment is the one that wrote the framebuffer's depth (the redraw of
+/// Kilgard 2000, Section 5), not a nearer one of its own. The first pass
+/// to draw into a framebuffer keeps its own depth test (nothing is there
+/// to be equal to: `Equal` against the cleared depth drew nothing).
 pub fn equal_depth(m: &Module, passes: &mut [Pass]) {
+    use crate::pipeline::RenderTarget;
+    // Framebuffers by name: a later pass may write other channels.
+    let name = |t: &RenderTarget| match t {
+        RenderTarget::Framebuffer { name, .. }
+        | RenderTarget::Texture { name }
+        | RenderTarget::Temporary { name } => name.clone(),
+    };
+    let mut depth_written: Vec<String> = Vec::new();
     for pass in passes.iter_mut() {
         let output = Handle::new(pass.fragment.output as usize);
         let reach = m.reachable(&[output]);
         let compares = reach.iter().any(|&h| {
             matches!(m.exprs[h], Expr::Binary { op: BinaryOp::Gt, rhs, .. } if depth_texture_read(m, rhs).is_some())
         }) || ramp_compare(m, &reach);
-        if compares && matches!(pass.geometry, crate::pipeline::Geometry::Mesh { .. }) {
+        let mesh = matches!(pass.geometry, crate::pipeline::Geometry::Mesh { .. });
+        if compares && mesh && depth_written.contains(&name(&pass.target)) {
             pass.state.depth = DepthState::EQUAL_NO_WRITE;
+        }
+        if mesh && pass.state.depth.write && !depth_written.contains(&name(&pass.target)) {
+            depth_written.push(name(&pass.target));
         }
     }
 }
