@@ -173,6 +173,36 @@ pub fn compile(source: &str, profile: &Profile, options: &PlanOptions) -> Result
     Ok(Compilation { program, module, planned, warnings: diagnostics })
 }
 
+/// A refusal of a statement that reads a uniform with no bound (a scalar
+/// or vector the scene may set to anything) says so: the ranges the
+/// refusal speaks of are unbounded because of it, and declared a colour
+/// (`: c`, `: rgb`) it holds [0, 1], as a constant colour register does.
+fn name_unbounded_uniforms(module: &Module, mut diagnostics: Diagnostics) -> Diagnostics {
+    for d in diagnostics.iter_mut().filter(|d| d.code == "cannot-split") {
+        let Some(st) = module.statements.iter().find(|st| st.span == d.primary.span) else { continue };
+        let mut names: Vec<&str> = Vec::new();
+        for h in module.reachable(&[st.value]) {
+            if let crate::ir::Expr::Uniform(id) = module.exprs[h] {
+                let u = &module.uniforms[id as usize];
+                if module.info(h).interval.class() == crate::ir::Range::Unbounded
+                    && !names.contains(&u.name.as_str())
+                {
+                    names.push(&u.name);
+                }
+            }
+        }
+        let Some(first) = names.first() else { continue };
+        let list = names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ");
+        let help = format!(
+            "{}; {list} {} a uniform with no bound (the scene may set any value), which leaves every range it enters unbounded: declare it a colour, `uniform {first} : c = …;`, to keep it in [0, 1], or render with a scene that sets it (`render` folds the scene's value)",
+            d.help.clone().unwrap_or_default(),
+            if names.len() == 1 { "is" } else { "are" },
+        );
+        d.help = Some(help);
+    }
+    diagnostics
+}
+
 /// Plans a lowered module of `program` for `profile`, with the target's
 /// fragment stage as the planner's realizer. `source` gives the plan its
 /// `line:col` positions. The module carries the program's texture
@@ -209,7 +239,8 @@ pub fn plan(
         realizer: realizer.as_ref().map(|r| r as &dyn Realizer),
         lowering: options.lowering,
     };
-    let mut planned = planner::plan(module, profile, &request)?;
+    let mut planned =
+        planner::plan(module, profile, &request).map_err(|d| name_unbounded_uniforms(module, d))?;
     if let Some(model) = &profile.cost {
         let workload = workload(options.scene.as_ref());
         crate::cost::annotate(&mut planned.plan, &planned.module, model, &workload);

@@ -310,3 +310,27 @@ fn an_undeclared_light_framebuffer_gets_a_framebuffer_declaration() {
     let (message, help) = first_error("framebuffer Cl : depth;\nCk δπl x ← 1;\nC δπx ← z Cl δπl x;\n");
     assert_eq!((message.as_str(), help.as_str()), ("unknown name `Ck`", "did you mean `Cl`?"));
 }
+
+/// A refusal caused by a uniform with no bound names the uniform, and its
+/// help is true: declared a colour (`: c`), the statement plans.
+#[test]
+fn a_refusal_for_an_unbounded_uniform_names_it_and_its_help_plans() {
+    let program = |decl: &str| {
+        format!("vector N : normal;\nvector L : light;\n{decl}\ntexture Det : 2d rgb8 = image(\"detail.png\");\nshader p : s → c = max(0, N·L);\nC δπx ← exposure * (2 * Det δu x) * δ p s x;\n")
+    };
+    let profile = shadec::profile::Profile::resolve("geforce3").unwrap();
+    let refused = shadec::driver::compile(&program("uniform exposure = 0.8;"), &profile, &Default::default());
+    let help = refused.err().and_then(|d| d.into_iter().find_map(|d| d.help)).unwrap_or_default();
+    assert!(
+        help.contains("`exposure` is a uniform with no bound")
+            && help.contains("`uniform exposure : c = …;`"),
+        "{help}"
+    );
+    let followed =
+        shadec::driver::compile(&program("uniform exposure : c = 0.8;"), &profile, &Default::default());
+    assert!(
+        followed.is_ok(),
+        "{:?}",
+        followed.err().map(|d| d.into_iter().map(|d| d.message).collect::<Vec<_>>())
+    );
+}
