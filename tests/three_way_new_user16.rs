@@ -30,3 +30,21 @@ held_out_in!("heldout_sixteenth":
     shadow_lit,
     four_lights_tex,
 );
+
+/// `layers3`'s `Lm ⊕ (Layer ⊕[add_signed] Base)` plans on the combiner
+/// targets (it was refused: "this value (range [0, 2]) may leave [−1, 1]"
+/// on geforce3, "3 texture units" on geforce256): the stage computing the
+/// sum applies `add_signed`'s −½ as its output bias, and GL's clamp of the
+/// texture environment is the combiners' own. One pass on geforce3.
+#[test]
+fn a_fixed_function_add_signed_layer_plans_on_the_combiner_targets() {
+    let source =
+        std::fs::read_to_string(crate::three_way_heldout::data("heldout_sixteenth").join("layers3.shd"))
+            .unwrap();
+    for (target, passes) in [("geforce3", 1), ("geforce256", 2)] {
+        let profile = shadec::profile::Profile::resolve(target).unwrap();
+        let compiled = shadec::driver::compile(&source, &profile, &Default::default())
+            .unwrap_or_else(|d| panic!("{target}: {:?}", d.iter().map(|d| &d.message).collect::<Vec<_>>()));
+        assert_eq!(compiled.planned.plan.passes.len(), passes, "{target}");
+    }
+}

@@ -285,6 +285,14 @@ impl Gen<'_> {
         part: Part,
         sat: bool,
     ) -> R<Src> {
+        // A sum past [−1, 1] (`half_bias(t + f)`, GL's `add_signed`) is no
+        // register to map: the stage computing it applies the bias itself
+        // (`mapped_spec`), and a saturating consumer clamps what leaves.
+        if !self.in_unit(arg)
+            && matches!(self.expr(arg), Expr::Binary { op: BinaryOp::Add | BinaryOp::Sub, .. })
+        {
+            return self.materialise(h, part, sat);
+        }
         let s = self.src(arg, part, false)?;
         let map = match (fun, s.map) {
             (MathFunction::Expand, UnsignedIdentity) => Some(ExpandNormal),
