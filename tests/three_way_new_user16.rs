@@ -8,7 +8,11 @@
 //! `⊕[interpolate]` over wood plus an accumulated ambient, a computed
 //! sphere-map reflection, three fixed-function layers (`⊕[add_signed]`, a
 //! light map on the second coordinate set), a shadow map written `≤`, and
-//! two explicit lights over a texture. Each renders alike on the CPU, wgpu
+//! two explicit lights over a texture, two framebuffers composited by
+//! alpha in a screen pass, lit values rendered into a texture and read
+//! back, a stencil from a decal's alpha, a gloss map under `pow`, a
+//! `.bgr` swizzle with luminance, and planar texgen from a position
+//! vector. Each renders alike on the CPU, wgpu
 //! and the independent reference on every target its header names
 //! (`three_way_heldout::renders_alike_in`).
 
@@ -29,6 +33,12 @@ held_out_in!("heldout_sixteenth":
     layers3,
     shadow_lit,
     four_lights_tex,
+    composite,
+    rtt_blur,
+    stencil_two,
+    spec_gloss_pow,
+    swizzle_bgr,
+    texgen_planar,
 );
 
 /// `layers3`'s `Lm ⊕ (Layer ⊕[add_signed] Base)` plans on the combiner
@@ -47,4 +57,34 @@ fn a_fixed_function_add_signed_layer_plans_on_the_combiner_targets() {
             .unwrap_or_else(|d| panic!("{target}: {:?}", d.iter().map(|d| &d.message).collect::<Vec<_>>()));
         assert_eq!(compiled.planned.plan.passes.len(), passes, "{target}");
     }
+}
+
+/// `rtt_blur`'s `Lit δu ← δ p s x` (a per-vertex value interpolated into a
+/// texture) rasterizes the mesh in texture space, as `s δu` on the surface
+/// does: it was planned as a quad over the texels, which has no vertices,
+/// and the CPU executor panicked reading the interpolant.
+#[test]
+fn an_interpolated_value_rendered_into_a_texture_rasterizes_the_mesh() {
+    let source =
+        std::fs::read_to_string(crate::three_way_heldout::data("heldout_sixteenth").join("rtt_blur.shd"))
+            .unwrap();
+    let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
+    let compiled = shadec::driver::compile(&source, &profile, &Default::default())
+        .map_err(|d| d[0].message.clone())
+        .unwrap();
+    let first = &compiled.planned.plan.passes[0];
+    assert!(matches!(first.geometry, shadec::pipeline::Geometry::Mesh { .. }), "{:?}", first.geometry);
+}
+
+/// A known bug, left (`tests/data/heldout_sixteenth_known/accum_blur.shd`):
+/// a `C δπ* x` accumulation after a `C δπx` statement is a first draw of
+/// its own key, so it tests depth `Less` against the depth the `π` pass
+/// wrote and adds nothing where the surfaces coincide (the executors do
+/// not jitter `π*`): the CPU and wgpu agree at half the brightness, the
+/// reference is 93/255 brighter on 94 % of the pixels.
+#[test]
+#[ignore = "known bug: a π* pass after a π pass into C is depth-rejected (see the doc comment)"]
+fn accum_blur() {
+    let folder = crate::three_way_heldout::data("heldout_sixteenth_known");
+    crate::three_way_heldout::renders_alike_in(&folder, "accum_blur").unwrap_or_else(|e| panic!("{e}"));
 }

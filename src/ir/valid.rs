@@ -118,7 +118,7 @@ fn numeric(t: Ty, what: &str) -> Result<(), TypeError> {
             format!("{what} of {}", t.a_name()),
             format!("{} is not a number", t.a_name()),
         )
-        .help("positions (x, π x, xs) only index tables; shading-parameter vectors only feed shaders"))
+        .help("positions (x, π x, xs) only index tables, and shading-parameter vectors only feed shaders; for a vertex's coordinates as numbers, declare `vector P : position;` and read it in a shader: `shader g : s → vec2 = vec2(P.x, P.z);`, then `u x ← g s x;` (texgen)"))
     }
 }
 

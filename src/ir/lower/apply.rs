@@ -76,6 +76,13 @@ impl<'a> Lowerer<'a> {
             self.error("frequency", message, delta_span, label, "δ belongs in statements that draw: `C δπx ← …`, `T δu ← …`; a texgen `u x ←` runs per vertex and a screen pass `C xs ←` per pixel");
             return Err(());
         };
+        // In texture shading `T δu ← …`, δ of a per-vertex value interpolates
+        // over the mesh: the statement rasterizes it in texture space (its
+        // index becomes `δu x`, Pipeline Grammar, eq. (15)), as `s δu` taken
+        // on the surface does; a quad over the texels has no vertices.
+        if to == Frequency::Texel && !matches!(v, Value::TexCoordSet) {
+            self.surface_vertex(delta_span)?;
+        }
         match v {
             Value::Bundle(Bundle { members, site: BundleSite::Vertex(x) }) => {
                 Ok(Value::Bundle(Bundle { members, site: BundleSite::Interpolated(x, to) }))
