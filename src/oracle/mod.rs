@@ -91,7 +91,7 @@ mod vectors;
 use std::collections::HashMap;
 
 use crate::ir::{FbChannel, Frequency, Module, Table};
-use crate::parser::ast;
+use crate::parser::ast::{self, TextureKind};
 use crate::scene::{Scene, SceneAssets};
 use geometry::View;
 use program::{At, Evaluator, Tex};
@@ -206,25 +206,12 @@ fn render_choice(
     let light_vectors = module.vectors.iter().filter(|v| {
         matches!(v.kind, Some(ast::VectorKind::Light | ast::VectorKind::Half | ast::VectorKind::Intensity))
     });
-    // A program written for light 0 means one term per scene light
-    // (`lights.rs`), restated here for colour statements on meshes; other
-    // statements (stencil, light views, rendered textures) are not.
+    // A program written for light 0 means one term per scene light in its
+    // colour statements at the fragments (`lights.rs`); every other
+    // statement runs for light 0, as written.
     let per_light = scene.lights.len() > 1
         && light_vectors.clone().count() > 0
         && light_vectors.clone().all(|v| v.index.unwrap_or(0) == 0);
-    if per_light
-        && module.statements.iter().any(|st| {
-            let seen =
-                matches!(st.table, Table::Framebuffer { channel: FbChannel::Color | FbChannel::Alpha, .. })
-                    && index_view(module, st.index) == View::Camera;
-            let baked = matches!(st.table, Table::Texture(_)) && module.is_baked(st);
-            !(seen || baked)
-        })
-    {
-        return Err(Unsupported::new(
-            "a program written for light 0 on a scene of several lights, with statements other than colour and alpha writes seen by the camera",
-        ));
-    }
     let textures = textures::bind(module, program, scene, assets)?;
     let mut ev = Evaluator {
         m: module,
@@ -250,7 +237,18 @@ fn render_choice(
             Table::TexCoords(set) => {
                 ev.texgen.insert(set, st.value);
             }
-            Table::Texture(id) if module.is_baked(st) => ev.textures[id as usize] = Tex::Baked(st.value),
+            // A baked table is its statement's value at the lookup (the
+            // table's ideal); a baked volume or cube map is rendered as any
+            // is, its statement seeing the texel's place in the grid.
+            Table::Texture(id)
+                if module.is_baked(st)
+                    && matches!(
+                        module.textures[id as usize].kind,
+                        TextureKind::Tex1d | TextureKind::Tex2d
+                    ) =>
+            {
+                ev.textures[id as usize] = Tex::Baked(st.value)
+            }
             Table::Texture(id) => rendered::statement(&mut ev, st, id as usize, &mut rendered)?,
             Table::Framebuffer { id, channel: FbChannel::Stencil } => {
                 stencil::update(&mut ev, st, id as usize, &mut latitude)?;

@@ -87,10 +87,7 @@ pub fn update(
         mark_fragments(ev, fb, compare);
         return Ok(());
     }
-    if compare != Compare::Greater {
-        return Err(Unsupported::new("a shadow-volume update other than z-fail's `z δπx′ > z C δπx′`"));
-    }
-    shadow(ev, fb, latitude)
+    shadow(ev, fb, compare, latitude)
 }
 
 /// What a write at the visible fragment does to the stencil there.
@@ -278,32 +275,58 @@ fn light_0(lights: &[Light]) -> Option<Towards> {
     })
 }
 
-/// The shadow-volume update: the stencil set where the visible point is in
-/// light 0's shadow.
-fn shadow(ev: &mut Evaluator, fb: usize, latitude: &mut [bool]) -> Result<(), Unsupported> {
+/// The shadow-volume update: the stencil counts, as GL's `INCR_WRAP` and
+/// `DECR_WRAP` on the volume's back and front faces (GL 1.x §4.1.5), the
+/// volume's faces the comparison passes along the pixel's ray. The
+/// volumes' winding number at a point q (how many of them hold it) is
+/// [`crossings`] from q towards the light (module doc), so:
+///
+/// - `>`, `≥` (z-fail, Everitt and Kilgard 2002): the faces behind the
+///   visible point p, back ones +1 and front ones −1, add up to
+///   winding(p) − winding(far), and the far end is past every volume:
+///   winding(p);
+/// - `<`, `≤` (z-pass, Heidmann 1991): the faces between the near plane
+///   and p, each back face +1 and front face −1 as the plan counts them,
+///   add up to winding(q) − winding(p), q the pixel's ray on the near
+///   plane: 0 − winding(p) with the camera outside every volume, and
+///   wrong where a volume reaches past the near plane, as z-pass is.
+///
+/// The count is added to what the stencil held (8 bits, wrapping).
+fn shadow(ev: &mut Evaluator, fb: usize, compare: Compare, latitude: &mut [bool]) -> Result<(), Unsupported> {
     let light =
         light_0(ev.lights).ok_or_else(|| Unsupported::new("shadow volumes on a scene without a light"))?;
     let faces = dark_faces(ev, light);
+    let z_pass = matches!(compare, Compare::Less | Compare::LessEqual);
     let (w, h) = (ev.coverage.width, ev.coverage.height);
     let unproject = ev.world.camera_vp.inverse();
+    let at = |x: u32, y: u32, ndc_z: f64| {
+        let (nx, ny) = pixel_ndc(f64::from(x) + 0.5, f64::from(y) + 0.5, w, h);
+        let p = unproject * DVec4::new(nx, ny, ndc_z, 1.0);
+        p.truncate() / p.w
+    };
     for y in 0..h {
         for x in 0..w {
             let i = (y * w + x) as usize;
             let depth = ev.framebuffers[fb].depth[i];
-            if depth >= 1.0 {
+            let visible = ev.coverage.fragments[i].map(|f| (f.object, f.triangle));
+            // The volume's faces the comparison passes, counted: winding
+            // numbers at the ends of the stretch of ray they lie on.
+            let (mut count, mut edge) = (0i64, false);
+            if depth < 1.0 {
+                let (s, l) = crossings(&faces, at(x, y, 2.0 * depth - 1.0), light, visible);
+                (count, edge) = (if z_pass { -l } else { l }, s != l);
+            } else if !z_pass {
                 continue; // nothing drawn: no volume face lies behind the far plane
             }
-            let (nx, ny) = pixel_ndc(f64::from(x) + 0.5, f64::from(y) + 0.5, w, h);
-            let p = unproject * DVec4::new(nx, ny, 2.0 * depth - 1.0, 1.0);
-            let p = p.truncate() / p.w;
-            let visible = ev.coverage.fragments[i].map(|f| (f.object, f.triangle));
-            let (strict, loose) = crosses(&faces, p, light, visible);
-            if strict || loose {
-                ev.framebuffers[fb].stencil[i] = 1;
+            if z_pass {
+                let (s, l) = crossings(&faces, at(x, y, -1.0), light, None);
+                (count, edge) = (count + l, edge || s != l);
             }
+            let stencil = &mut ev.framebuffers[fb].stencil[i];
+            *stencil = stencil.wrapping_add(count.rem_euclid(256) as u8);
             // On a face turned from the light (the near cap), or at an edge.
             let on_cap = visible.is_some_and(|v| faces.iter().any(|f| (f.object, f.triangle) == v));
-            latitude[i] |= strict != loose || on_cap;
+            latitude[i] |= edge || on_cap;
         }
     }
     Ok(())
@@ -333,16 +356,16 @@ fn dark_faces(ev: &Evaluator, light: Towards) -> Vec<Face> {
     out
 }
 
-/// Whether the segment from `p` towards the light crosses a face: with
+/// How many faces the segment from `p` towards the light crosses: with
 /// every barycentric at least a rounding margin inside (`strict`) and
 /// within it (`loose`). The visible point's own triangle does not count.
-fn crosses(faces: &[Face], p: DVec3, light: Towards, own: Option<(usize, usize)>) -> (bool, bool) {
+fn crossings(faces: &[Face], p: DVec3, light: Towards, own: Option<(usize, usize)>) -> (i64, i64) {
     const MARGIN: f64 = 1e-7;
     let (dir, t_max) = match light {
         Towards::Point(l) => (l - p, 1.0),
         Towards::Direction(d) => (d, f64::INFINITY),
     };
-    let (mut strict, mut loose) = (false, false);
+    let (mut strict, mut loose) = (0, 0);
     for f in faces {
         if own == Some((f.object, f.triangle)) {
             continue;
@@ -362,11 +385,8 @@ fn crosses(faces: &[Face], p: DVec3, light: Towards, own: Option<(usize, usize)>
             continue;
         }
         let least = u.min(v).min(1.0 - u - v);
-        strict |= least > MARGIN;
-        loose |= least > -MARGIN;
-        if strict {
-            break;
-        }
+        strict += i64::from(least > MARGIN);
+        loose += i64::from(least > -MARGIN);
     }
     (strict, loose)
 }
