@@ -143,6 +143,10 @@ fn for_each_light_splits_products_and_blends_as_the_language_says() {
 /// reference refused statements rendering into 3-D textures.
 #[test]
 fn a_3d_texture_rendered_over_its_texels_agrees_three_ways() {
+    // The reference's volume is the renderer's (it may not import it).
+    use shadec::textures::solid::{SIDE, SLICES, TILES};
+    assert_eq!(shadec::oracle::rendered::VOLUME, [SIDE, SIDE, SLICES]);
+    assert_eq!(shadec::oracle::rendered::SLICES_PER_ROW, TILES);
     let source = "vector P : position in object;\ntexture V : 3d rgba8 bilinear clamp;\nshader f : s → c = rgb(s.x, 0.3 + 0.6 * s.y, fract(3 * s.x + s.y));\nV δu ← f s δu;\nC δπx ← V δ(0.5 + 0.5 * (P s x));\n";
     agrees(source, &["wgsl"], &scene("bench_sphere.ron"));
 }
@@ -157,18 +161,33 @@ fn a_baked_3d_texture_runs_on_wgpu() {
     agrees(source, &["wgsl"], &scene("bench_sphere.ron"));
 }
 
+const CUBE: &str = "vector R : reflection;\ntexture E : cube rgba8 bilinear clamp;\nshader sky : s → c = rgb(s.x, s.y, 0.8);\nE δu ← sky s δu;\nC δπx ← E δ R s x;\n";
+
+/// A cube map a pass renders, then looked up by direction: the reference
+/// evaluates it (six faces, below) and the wgpu scene runner refuses it by
+/// name. Both failed before: the reference refused statements rendering
+/// into a cube map, and wgpu bound the 2-D target to the shader's cube
+/// view, a pipeline validation error that ended the comparison.
+#[test]
+fn a_rendered_cube_map_is_evaluated_and_refused_by_name_on_wgpu() {
+    let g = crate::common::gpu::gpu();
+    let p = render_three(CUBE, "wgsl", &scene("kilgard_torus.ron"), Precision::F32, g.as_ref())
+        .unwrap_or_else(|e| panic!("{e}"));
+    if g.is_some() {
+        let why = p.gpu_refused.unwrap_or_default();
+        assert!(why.contains("cube map `E`"), "{why}");
+    }
+}
+
 /// A cube map filled over its texels (`E δu ← f s δu`): the reference
 /// renders each of its six faces over the face's (s, t) (GL 1.3 §3.8.6,
 /// six 2-D images) and looks the faces up by direction; the CPU samples
 /// the rendered grid as if it were a tiled 3-D texture (its lookups at a
-/// vec3 of a rendered texture are all read so), and wgpu's pipeline
-/// rejects the cube view of a 2-D rendered texture. Ignored until both
-/// executors render into a cube map (not this module's files).
+/// vec3 of a rendered texture are all read so: 251/255 off on every
+/// pixel of the torus), and wgpu refuses it. Ignored until both executors
+/// render into a cube map (not this module's files).
 #[test]
-#[ignore = "executors: the CPU samples a rendered cube map as a tiled volume, wgpu fails pipeline validation"]
+#[ignore = "executors: the CPU samples a rendered cube map as a tiled volume, and wgpu refuses it"]
 fn a_cube_map_rendered_over_its_texels_agrees_three_ways() {
-    let source = "vector R : reflection;\ntexture E : cube rgba8 bilinear clamp;\nshader sky : s → c = rgb(s.x, s.y, 0.8);\nE δu ← sky s δu;\nC δπx ← E δ R s x;\n";
-    let p = render_three(source, "wgsl", &scene("kilgard_torus.ron"), Precision::F32, None).unwrap();
-    verdict(&p).unwrap();
-    agrees(source, &["wgsl"], &scene("kilgard_torus.ron"));
+    agrees(CUBE, &["wgsl"], &scene("kilgard_torus.ron"));
 }

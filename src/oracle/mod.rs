@@ -32,15 +32,31 @@
 //!   condition set, cleared or written at the visible fragments; the
 //!   depth comparison of Pipeline Grammar, Section 3.5, over the scene's
 //!   vertices an OR of every fragment's comparison, over the shadow
-//!   volumes `x′` the visible point's segment to light 0 cast against the
-//!   closed occluders (Crow 1977), building no volume and counting
-//!   nothing; `σ C` then reads it;
+//!   volumes `x′` a count: the volumes' winding number at a point is how
+//!   many faces of the closed occluders turned from light 0 its segment to
+//!   the light crosses (Crow 1977), so the faces z-fail counts behind the
+//!   visible point (`>`, `≥`) add up to its winding number, and those
+//!   z-pass counts in front of it (`<`, `≤`, Heidmann 1991) to the
+//!   winding number on the near plane less its own — building no volume
+//!   and rasterizing nothing; the 8-bit stencil keeps the count
+//!   (wrapping), `σ C` then reads it;
 //! - `rendered`: a statement into a texture (texture shading `T δu x ←`,
 //!   `T δu ←` over its texels, `T δπx ←`, `T xs ←`) evaluated into its
 //!   own grid — 256² over texels ([`rendered::TEXEL_GRID`]), the
 //!   frame's size otherwise — stored in the declared format, mipmaps
-//!   box-filtered here, and sampled by later lookups as images are.
-//!
+//!   box-filtered here, and sampled by later lookups as images are; a
+//!   3-D texture is the volume of 64 × 64 × 16 texels whose slices its
+//!   statements render tiled 4 × 4 over the grid (docs/solid-textures.md;
+//!   a baked one too), sampled as GL 1.2's `TEXTURE_3D` (trilinear within
+//!   its one level, wrapped as declared); a cube map filled over its
+//!   texels is six faces, each the grid at the face's (s, t) (GL 1.3
+//!   §3.8.6);
+//! - `lights`: a program written for light 0 on a scene of several
+//!   lights: its colour statements at the fragments add each other
+//!   light's terms (the language's "For each light"); stencil, alpha,
+//!   light-view, texture and screen statements run for light 0 as
+//!   written.
+
 //! What it shares: the IR (the lowered program *is* the program's meaning
 //! as the language defines it; a lowering bug is in every executor and
 //! this reference alike — the snapshot and planner tests guard it), the
@@ -66,9 +82,13 @@
 //! three vertices) and meant for small images. What it does not evaluate it
 //! refuses with [`Unsupported`], never guesses: writes to the depth
 //! channel (which the planner refuses too: depth is written by drawing),
-//! stencil writes of other forms (and shadow volumes compared other than
-//! z-fail's `>`), statements rendering into cube or 3-D textures, 3-D
-//! textures. Normal maps are built here
+//! stencil writes of forms the language does not define (the planner
+//! refuses them too), a stencil update comparing a position other than
+//! `δπ` of vertices, a frame rendered into a cube map (`E δπx ←`: the
+//! frame is no square face) or into a 3-D texture other than over its
+//! texels, fat cube or 3-D textures, and a 3-D texture looked up before
+//! any statement fills it. Shadow-volume counts assume the volumes end
+//! past every surface, as the executors' do. Normal maps are built here
 //! from Kilgard 2000's Appendices E-F ([`normal_map`]); triangles crossing
 //! the eye plane are clipped to the near plane in clip space (GL §2.12,
 //! [`geometry`]). Samples where the specifications leave the

@@ -343,6 +343,31 @@ mod tests {
         assert!((ideal - 1.0).abs() < 1e-12 && hi - lo <= 1.0 + 1e-12, "{lo} {hi}");
     }
 
+    /// A 2 × 2 × 2 volume whose texel (x, y, z) holds x + 2y + 4z: LINEAR
+    /// returns a texel at its centre and the mean of the eight at the
+    /// volume's centre; NEAREST the texel holding the point; outside,
+    /// CLAMP_TO_EDGE the edge texel and REPEAT the opposite one.
+    #[test]
+    fn a_volume_filters_trilinearly_and_wraps_as_declared() {
+        let texels = (0..8).map(|i| [f64::from(i); 4]).collect();
+        let v = Volume {
+            width: 2,
+            height: 2,
+            depth: 2,
+            texels,
+            wrap: Wrap::ClampToEdge,
+            filter: Filter::Bilinear,
+        };
+        assert_eq!(v.sample(0.75, 0.25, 0.75)[0], 5.0);
+        assert!((v.sample(0.5, 0.5, 0.5)[0] - 3.5).abs() < 1e-12);
+        assert!((v.sample(0.5, 0.25, 0.25)[0] - 0.5).abs() < 1e-12);
+        assert_eq!(v.sample(-0.4, 0.25, 0.25)[0], 0.0);
+        let repeat = Volume { wrap: Wrap::Repeat, ..v.clone() };
+        assert!((repeat.sample(0.0, 0.25, 0.25)[0] - 0.5).abs() < 1e-12);
+        let nearest = Volume { filter: Filter::Nearest, ..v };
+        assert_eq!(nearest.sample(0.9, 0.1, 0.6)[0], 5.0);
+    }
+
     /// Trilinear: the ends and every integer λ between them; a
     /// `MIPMAP_NEAREST` filter: every level between; no mipmaps: none.
     #[test]

@@ -9,31 +9,36 @@
 //!   of `c` (1 or 0) at the visible fragments;
 //!
 //! and the depth comparison of Pipeline Grammar, Section 3.5,
-//! `σ C δπy ← (σ C δπy) OR ((z δπy) > (z C δπy))`:
+//! `σ C δπy ← (σ C δπy) OR ((z δπy) ⋚ (z C δπy))` with any of `>`, `≥`,
+//! `<`, `≤`:
 //!
 //! - Over a vertex stream some statement draws (the scene's objects), the
 //!   stencil is set at a pixel where any fragment of a front face there
 //!   passes the comparison of its depth with the depth stored in C — an
 //!   OR over the fragments, in any order (no depth write).
 //! - Over `x′`, a stream no statement draws — the shadow volumes (Crow
-//!   1977) — the stencil is set where the visible point is in shadow: a
-//!   volume of a closed occluder, its silhouette from light 0 extruded
-//!   away from the light and capped, holds exactly the points from which
-//!   the segment towards the light crosses the occluder, entering it
-//!   through a face turned from the light. Heidmann (1991) counts the
-//!   volume's faces behind the visible point (Everitt and Kilgard 2002's
-//!   z-fail), and the count is not zero exactly there. So this module
-//!   builds no volume: it casts the segment from each visible point (the
-//!   pixel centre at C's stored depth, taken back through the camera)
-//!   towards light 0 against the faces of the scene's closed meshes that
-//!   face away from the light — an independent check of the executors'
-//!   volumes as well as of their counting. A mesh is closed when, its
-//!   coincident vertices welded, every edge borders two triangles (docs/scenes.md:
-//!   a plane receives, a sphere casts). The executors' volumes end
-//!   2.5 radii of the scene's bounding sphere past the silhouette
-//!   (docs/pass-plan.md), beyond every surface of the scene, which is all
-//!   a visible point can lie on.
-//!
+//!   1977) — the stencil counts the volume faces the comparison passes,
+//!   as GL's `INCR_WRAP`/`DECR_WRAP` (GL 1.x §4.1.5, EXT_stencil_wrap) do
+//!   by facing: +1 on a back face, −1 on a front one. A volume of a closed
+//!   occluder, its silhouette from light 0 extruded away from the light
+//!   and capped by the occluder's faces turned from the light, is the
+//!   union of those faces' prisms, so the volumes' winding number at a
+//!   point q — how many hold it — is how many such faces the segment from
+//!   q towards the light crosses. This module builds no volume: it casts
+//!   segments towards light 0 against the faces of the scene's closed
+//!   meshes that face away from the light — an independent check of the
+//!   executors' volumes as well as of their counting. The faces behind
+//!   the visible point p (`>`, `≥`: Everitt and Kilgard 2002's z-fail)
+//!   add up to winding(p); those between the near plane and p (`<`, `≤`:
+//!   Heidmann 1991's z-pass) to winding(q) − winding(p), q where the
+//!   pixel's ray meets the near plane. The visible point is the pixel
+//!   centre at C's stored depth, taken back through the camera. A mesh is
+//!   closed when, its coincident vertices welded, every edge borders two
+//!   triangles (docs/scenes.md: a plane receives, a sphere casts). The
+//!   executors' volumes end 2.5 radii of the scene's bounding sphere past
+//!   the silhouette (docs/pass-plan.md), beyond every surface of the
+//!   scene, which is all a visible point can lie on.
+
 //! Latitude (left out of comparisons): a visible point on an occluder's
 //! face turned from the light, where the volume's near cap coincides with
 //! the surface and the count depends on a depth tie between two
