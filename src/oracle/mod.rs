@@ -56,7 +56,7 @@
 //!   light's terms (the language's "For each light"); stencil, alpha,
 //!   light-view, texture and screen statements run for light 0 as
 //!   written.
-
+//!
 //! What it shares: the IR (the lowered program *is* the program's meaning
 //! as the language defines it; a lowering bug is in every executor and
 //! this reference alike — the snapshot and planner tests guard it), the

@@ -38,7 +38,7 @@
 //!   executors' volumes end 2.5 radii of the scene's bounding sphere past
 //!   the silhouette (docs/pass-plan.md), beyond every surface of the
 //!   scene, which is all a visible point can lie on.
-
+//!
 //! Latitude (left out of comparisons): a visible point on an occluder's
 //! face turned from the light, where the volume's near cap coincides with
 //! the surface and the count depends on a depth tie between two
