@@ -473,6 +473,83 @@ fn probe_file() {
     }
 }
 
+/// A tool, not a check (hence ignored): every `.shd` of the folder
+/// `PROBE_DIR` rendered three ways on the scenes and targets it declares
+/// (`// scene:`, `// targets:` header lines, else a `target` declaration,
+/// else `PROBE_SCENES` — comma-separated, default `kilgard_torus.ron` —
+/// and the three targets): f32 everywhere, fixed9 too on the combiner
+/// targets. One line per run: the verdict, or what refused.
+#[test]
+#[ignore = "a tool: PROBE_DIR=examples [PROBE_SCENES=a.ron,b.ron] cargo test --test suite three_way::probe_dir -- --ignored"]
+fn probe_dir() {
+    let dir = std::path::PathBuf::from(std::env::var("PROBE_DIR").unwrap());
+    let default_scenes = std::env::var("PROBE_SCENES").unwrap_or_else(|_| "kilgard_torus.ron".into());
+    let mut files: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|e| e == "shd"))
+        .collect();
+    files.sort();
+    let g = gpu();
+    let header = |source: &str, key: &str| -> Option<String> {
+        source
+            .lines()
+            .find_map(|l| l.strip_prefix("// ").and_then(|l| l.strip_prefix(key)))
+            .map(|s| s.trim().to_string())
+    };
+    for path in files {
+        let name = path.file_stem().unwrap().to_string_lossy().to_string();
+        let source = std::fs::read_to_string(&path).unwrap();
+        let declared = source
+            .lines()
+            .find_map(|l| l.trim().strip_prefix("target "))
+            .map(|t| t.trim_end_matches(';').trim().to_string());
+        let targets: Vec<String> = match (header(&source, "targets:"), declared) {
+            (Some(t), _) => t.split_whitespace().map(String::from).collect(),
+            (None, Some(t)) => vec![t],
+            (None, None) => ["wgsl", "geforce3", "geforce256"].map(String::from).to_vec(),
+        };
+        let scenes: Vec<String> = header(&source, "scene:")
+            .map_or_else(|| default_scenes.split(',').map(String::from).collect(), |s| vec![s]);
+        for sc in &scenes {
+            let own = dir.join(sc);
+            let scene_of = if own.exists() {
+                Scene::parse(&std::fs::read_to_string(&own).unwrap(), &own).unwrap()
+            } else {
+                scene(sc)
+            };
+            for t in &targets {
+                let program = if header(&source, "targets:").is_some() {
+                    format!("target {t};\n{source}")
+                } else {
+                    source.clone()
+                };
+                let mut runs = vec![Precision::F32];
+                if t != "wgsl" {
+                    runs.push(Precision::Fixed9);
+                }
+                for p in runs {
+                    let line = match render_three(&program, t, &scene_of, p, g.as_ref()) {
+                        Ok(pic) => {
+                            let v = match p {
+                                Precision::Fixed9 => crate::three_way_generated::fixed9_verdict(&pic, &mut 0),
+                                _ => verdict(&pic),
+                            };
+                            let refused = pic
+                                .gpu_refused
+                                .as_ref()
+                                .map_or(String::new(), |w| format!(" [wgpu refused: {w}]"));
+                            format!("{v:?}{refused}")
+                        }
+                        Err(e) => format!("ERROR {e}"),
+                    };
+                    eprintln!("PROBE {name} {sc} {t} {p:?}: {line}");
+                }
+            }
+        }
+    }
+}
+
 /// `probe_file`'s pictures as PNGs in `dir` (`PROBE_OUT=dir`), to look at
 /// a disagreement.
 fn write_pictures(dir: &str, name: &str, pic: &Pictures) {

@@ -44,6 +44,16 @@ fn header<'a>(source: &'a str, key: &str) -> &'a str {
 /// target its header names: f32 everywhere, fixed9 too on the combiner
 /// targets.
 pub fn renders_alike_in(folder: &Path, name: &str) -> Result<(), String> {
+    renders_alike(folder, name, false)
+}
+
+/// [`renders_alike_in`], and where a GPU runs the tests (lavapipe in CI),
+/// wgpu must run every plan too: a refusal of the wgpu scene runner fails.
+pub fn renders_alike_everywhere_in(folder: &Path, name: &str) -> Result<(), String> {
+    renders_alike(folder, name, true)
+}
+
+fn renders_alike(folder: &Path, name: &str, wgpu_must_run: bool) -> Result<(), String> {
     let source = std::fs::read_to_string(folder.join(format!("{name}.shd"))).unwrap();
     let sc = held_out_scene(folder, header(&source, "scene:"));
     let g = crate::common::gpu::gpu();
@@ -58,6 +68,9 @@ pub fn renders_alike_in(folder: &Path, name: &str) -> Result<(), String> {
             let result = render_three(&program, target, &sc, precision, g.as_ref()).and_then(|p| {
                 if let Some(why) = &p.gpu_refused {
                     eprintln!("{name} on {target} ({precision:?}): wgpu does not run it: {why}");
+                    if wgpu_must_run {
+                        return Err(format!("wgpu does not run it: {why}"));
+                    }
                 }
                 // A picture worth comparing: a tenth of the frame covered,
                 // most of it lit.
@@ -107,6 +120,28 @@ macro_rules! held_out_in {
     };
 }
 pub(crate) use held_out_in;
+
+/// [`held_out_in!`] whose programs wgpu must run as well
+/// ([`renders_alike_everywhere_in`]).
+macro_rules! held_out_everywhere_in {
+    ($folder:literal: $($name:ident),* $(,)?) => {
+        $(
+            #[test]
+            fn $name() {
+                let folder = $crate::three_way_heldout::data($folder);
+                $crate::three_way_heldout::renders_alike_everywhere_in(&folder, stringify!($name))
+                    .unwrap_or_else(|e| panic!("{e}"));
+            }
+        )*
+
+        /// Every program of the folder has its named test above.
+        #[test]
+        fn every_program_of_the_folder_has_a_test() {
+            $crate::three_way_heldout::each_has_a_test($folder, &[$(stringify!($name)),*]);
+        }
+    };
+}
+pub(crate) use held_out_everywhere_in;
 
 /// Asserts that every `.shd` program of `folder` (under `tests/data/`) is
 /// among `named`.

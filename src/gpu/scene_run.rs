@@ -157,8 +157,10 @@
 //!
 //! What the binder cannot bind (a missing texture, a scene error); a plan
 //! that writes no framebuffer; a full-screen pass with per-vertex inputs;
-//! a cube map or dual-paraboloid map whose faces differ in size; and, in
-//! code generation, a dual-paraboloid map looked up at the pixel (`T xs`).
+//! a cube map or dual-paraboloid map whose faces differ in size; a cube
+//! map the plan renders (its passes render 2-D targets, and the shader
+//! reads a cube view); and, in code generation, a dual-paraboloid map
+//! looked up at the pixel (`T xs`).
 //! Every example on `wgsl`, `geforce3` and `geforce256` that plans and
 //! that the CPU renders runs, as do the constructs no example shows
 //! (`tests/wgpu_runs_what_the_cpu_runs.rs`).
@@ -520,6 +522,12 @@ impl<'a> ScenePlan<'a> {
                 continue;
             }
             if let Some(r) = rendered.get(&t.texture) {
+                // A rendered texture is a 2-D target; the shader declares a
+                // cube map's lookup a cube view, which it cannot bind.
+                let kind = m.textures.iter().find(|d| d.name == t.texture).map(|d| d.kind);
+                if kind == Some(crate::parser::ast::TextureKind::Cube) {
+                    return Err(unsupported(format!("reads the cube map `{}` a pass renders", t.texture)));
+                }
                 let (filter, wrap) = self.rendered_sampling(&t.texture)?;
                 // Its mip chain, where it has one (`runner::RenderedTexture::mip_levels`).
                 textures.push(RunTexture {

@@ -32,14 +32,30 @@
 //!   condition set, cleared or written at the visible fragments; the
 //!   depth comparison of Pipeline Grammar, Section 3.5, over the scene's
 //!   vertices an OR of every fragment's comparison, over the shadow
-//!   volumes `x′` the visible point's segment to light 0 cast against the
-//!   closed occluders (Crow 1977), building no volume and counting
-//!   nothing; `σ C` then reads it;
+//!   volumes `x′` a count: the volumes' winding number at a point is how
+//!   many faces of the closed occluders turned from light 0 its segment to
+//!   the light crosses (Crow 1977), so the faces z-fail counts behind the
+//!   visible point (`>`, `≥`) add up to its winding number, and those
+//!   z-pass counts in front of it (`<`, `≤`, Heidmann 1991) to the
+//!   winding number on the near plane less its own — building no volume
+//!   and rasterizing nothing; the 8-bit stencil keeps the count
+//!   (wrapping), `σ C` then reads it;
 //! - `rendered`: a statement into a texture (texture shading `T δu x ←`,
 //!   `T δu ←` over its texels, `T δπx ←`, `T xs ←`) evaluated into its
 //!   own grid — 256² over texels ([`rendered::TEXEL_GRID`]), the
 //!   frame's size otherwise — stored in the declared format, mipmaps
-//!   box-filtered here, and sampled by later lookups as images are.
+//!   box-filtered here, and sampled by later lookups as images are; a
+//!   3-D texture is the volume of 64 × 64 × 16 texels whose slices its
+//!   statements render tiled 4 × 4 over the grid (docs/solid-textures.md;
+//!   a baked one too), sampled as GL 1.2's `TEXTURE_3D` (trilinear within
+//!   its one level, wrapped as declared); a cube map filled over its
+//!   texels is six faces, each the grid at the face's (s, t) (GL 1.3
+//!   §3.8.6);
+//! - `lights`: a program written for light 0 on a scene of several
+//!   lights: its colour statements at the fragments add each other
+//!   light's terms (the language's "For each light"); stencil, alpha,
+//!   light-view, texture and screen statements run for light 0 as
+//!   written.
 //!
 //! What it shares: the IR (the lowered program *is* the program's meaning
 //! as the language defines it; a lowering bug is in every executor and
@@ -66,9 +82,13 @@
 //! three vertices) and meant for small images. What it does not evaluate it
 //! refuses with [`Unsupported`], never guesses: writes to the depth
 //! channel (which the planner refuses too: depth is written by drawing),
-//! stencil writes of other forms (and shadow volumes compared other than
-//! z-fail's `>`), statements rendering into cube or 3-D textures, 3-D
-//! textures. Normal maps are built here
+//! stencil writes of forms the language does not define (the planner
+//! refuses them too), a stencil update comparing a position other than
+//! `δπ` of vertices, a frame rendered into a cube map (`E δπx ←`: the
+//! frame is no square face) or into a 3-D texture other than over its
+//! texels, fat cube or 3-D textures, and a 3-D texture looked up before
+//! any statement fills it. Shadow-volume counts assume the volumes end
+//! past every surface, as the executors' do. Normal maps are built here
 //! from Kilgard 2000's Appendices E-F ([`normal_map`]); triangles crossing
 //! the eye plane are clipped to the near plane in clip space (GL §2.12,
 //! [`geometry`]). Samples where the specifications leave the
@@ -91,7 +111,7 @@ mod vectors;
 use std::collections::HashMap;
 
 use crate::ir::{FbChannel, Frequency, Module, Table};
-use crate::parser::ast;
+use crate::parser::ast::{self, TextureKind};
 use crate::scene::{Scene, SceneAssets};
 use geometry::View;
 use program::{At, Evaluator, Tex};
@@ -206,25 +226,12 @@ fn render_choice(
     let light_vectors = module.vectors.iter().filter(|v| {
         matches!(v.kind, Some(ast::VectorKind::Light | ast::VectorKind::Half | ast::VectorKind::Intensity))
     });
-    // A program written for light 0 means one term per scene light
-    // (`lights.rs`), restated here for colour statements on meshes; other
-    // statements (stencil, light views, rendered textures) are not.
+    // A program written for light 0 means one term per scene light in its
+    // colour statements at the fragments (`lights.rs`); every other
+    // statement runs for light 0, as written.
     let per_light = scene.lights.len() > 1
         && light_vectors.clone().count() > 0
         && light_vectors.clone().all(|v| v.index.unwrap_or(0) == 0);
-    if per_light
-        && module.statements.iter().any(|st| {
-            let seen =
-                matches!(st.table, Table::Framebuffer { channel: FbChannel::Color | FbChannel::Alpha, .. })
-                    && index_view(module, st.index) == View::Camera;
-            let baked = matches!(st.table, Table::Texture(_)) && module.is_baked(st);
-            !(seen || baked)
-        })
-    {
-        return Err(Unsupported::new(
-            "a program written for light 0 on a scene of several lights, with statements other than colour and alpha writes seen by the camera",
-        ));
-    }
     let textures = textures::bind(module, program, scene, assets)?;
     let mut ev = Evaluator {
         m: module,
@@ -250,7 +257,18 @@ fn render_choice(
             Table::TexCoords(set) => {
                 ev.texgen.insert(set, st.value);
             }
-            Table::Texture(id) if module.is_baked(st) => ev.textures[id as usize] = Tex::Baked(st.value),
+            // A baked table is its statement's value at the lookup (the
+            // table's ideal); a baked volume or cube map is rendered as any
+            // is, its statement seeing the texel's place in the grid.
+            Table::Texture(id)
+                if module.is_baked(st)
+                    && matches!(
+                        module.textures[id as usize].kind,
+                        TextureKind::Tex1d | TextureKind::Tex2d
+                    ) =>
+            {
+                ev.textures[id as usize] = Tex::Baked(st.value)
+            }
             Table::Texture(id) => rendered::statement(&mut ev, st, id as usize, &mut rendered)?,
             Table::Framebuffer { id, channel: FbChannel::Stencil } => {
                 stencil::update(&mut ev, st, id as usize, &mut latitude)?;

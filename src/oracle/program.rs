@@ -7,7 +7,7 @@ use std::collections::HashMap;
 
 use super::geometry::{Coverage, Fragment, View, World};
 use super::ops::{self, V};
-use super::sampling::{Cube, Image, Paraboloid};
+use super::sampling::{Cube, Image, Paraboloid, Volume};
 use super::{vectors, Unsupported};
 use crate::ir::{Expr, FbChannel, Handle, Module, Projection, TexCoordId, Ty};
 use crate::parser::ast::{FramebufferChannel, Space, VectorKind};
@@ -21,6 +21,8 @@ pub enum Tex {
     /// it, each sampled as a flat texture by `T … .member`.
     Fat(Vec<Image>),
     Cube(Cube),
+    /// A 3-D texture its statements rendered (GL 1.2's `TEXTURE_3D`).
+    Volume(Volume),
     /// A scene's dual-paraboloid environment map, looked up by direction.
     Paraboloid(Box<Paraboloid>),
     /// `bake(f)`: its texel statement's value, evaluated at the lookup's
@@ -360,6 +362,7 @@ impl<'a> Evaluator<'a> {
             }
             Tex::Flat(image) => self.flat(image, coords, cty, c, at, lod_depth),
             Tex::Paraboloid(map) => Ok(map.sample([c[0], c[1], c[2]])),
+            Tex::Volume(volume) => Ok(volume.sample(c[0], c[1], c[2])),
             Tex::Fat(_) => Err(Unsupported::new("a fat texel read other than by its members")),
         }
     }

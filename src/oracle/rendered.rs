@@ -21,11 +21,11 @@ use std::collections::HashMap;
 
 use super::geometry::{Coverage, View};
 use super::program::{At, Evaluator, Tex};
-use super::sampling::{mip_chain, Image, Level};
+use super::sampling::{mip_chain, Cube, Image, Level, Volume};
 use super::Unsupported;
 use crate::ir::{Expr, Frequency, Handle, Statement};
 use crate::parser::ast::TextureKind;
-use crate::textures::TexelFormat;
+use crate::textures::{TexelFormat, Wrap};
 
 /// The side of the grid a texture rendered over its texels holds: 256,
 /// docs/pass-plan.md's size for a target drawn in texture space (the
@@ -42,8 +42,13 @@ pub fn statement(
     levels: &mut HashMap<(usize, usize), Level>,
 ) -> Result<(), Unsupported> {
     let decl = &ev.m.textures[id];
-    if !matches!(decl.kind, TextureKind::Tex2d | TextureKind::Tex1d) {
-        return Err(Unsupported::new("a statement that renders into a cube or 3-D texture"));
+    let volume = decl.kind == TextureKind::Tex3d;
+    if volume && !over_texels(st) {
+        return Err(Unsupported::new("a 3-D texture rendered other than over its texels"));
+    }
+    let cube = decl.kind == TextureKind::Cube;
+    if cube && !over_texels(st) {
+        return Err(Unsupported::new("a frame rendered into a cube map (its faces are square texel grids)"));
     }
     // A bundle (a fat texel, Pipeline Grammar eq. (5), (15)): each member
     // its own image; any other value: one.
@@ -55,6 +60,9 @@ pub fn statement(
         _ => vec![st.value],
     };
     let fat = matches!(ev.m.exprs[st.value], Expr::Bundle(_));
+    if (volume || cube) && fat {
+        return Err(Unsupported::new("a fat 3-D or cube texture"));
+    }
     let format = super::textures::store_format(decl.format);
     let sampling = decl.sampling;
     let samples = raster(ev, st)?;
@@ -90,6 +98,19 @@ pub fn statement(
         for (i, texel) in &writes {
             level.texels[*i] = texel[k];
         }
+        if volume {
+            ev.textures[id] = Tex::Volume(volume_of(level, sampling.wrap, sampling.filter));
+            return Ok(());
+        }
+        if cube {
+            // Six faces, each the grid the statement rendered over its
+            // texels at the face's (s, t) (GL 1.3 §3.8.6: a cube map is six
+            // 2-D images), sampled at level 0, each face clamped.
+            let face =
+                Image { levels: vec![level.clone()], wrap: Wrap::ClampToEdge, filter: sampling.filter };
+            ev.textures[id] = Tex::Cube(Cube { faces: vec![face; 6] });
+            return Ok(());
+        }
         let base = level.clone();
         let chain = if sampling.mipmap { mip_chain(base, format) } else { vec![base] };
         images.push(Image { levels: chain, wrap: sampling.wrap, filter: sampling.filter });
@@ -103,6 +124,33 @@ pub fn statement(
         None => return Err(Unsupported::new("an empty bundle")),
     };
     Ok(())
+}
+
+/// The texels along each axis of a 3-D texture its statements render
+/// (docs/solid-textures.md): 64 × 64 × 16.
+pub const VOLUME: [u32; 3] = [64, 64, 16];
+
+/// How many slices a row of the rendered grid holds: the 16 slices of a
+/// volume lie 4 × 4 over the [`TEXEL_GRID`]² texels its statements render
+/// (docs/solid-textures.md), slice z at column z mod 4 and row ⌊z/4⌋ of
+/// slices, its texel (x, y) at (x, y) within.
+pub const SLICES_PER_ROW: u32 = 4;
+
+/// The volume the statements rendered into `grid` (GL 1.2's `TEXTURE_3D`
+/// of [`VOLUME`] texels, one level).
+fn volume_of(grid: &Level, wrap: Wrap, filter: crate::textures::Filter) -> Volume {
+    let [w, h, d] = VOLUME;
+    let mut texels = Vec::with_capacity((w * h * d) as usize);
+    for z in 0..d {
+        let (col, row) = (z % SLICES_PER_ROW, z / SLICES_PER_ROW);
+        for y in 0..h {
+            for x in 0..w {
+                let (gx, gy) = (col * w + x, row * h + y);
+                texels.push(grid.texels.get((gy * grid.width + gx) as usize).copied().unwrap_or([0.0; 4]));
+            }
+        }
+    }
+    Volume { width: w, height: h, depth: d, texels, wrap, filter }
 }
 
 /// Whether `st` draws over texels (its size the rendered-texture grid).

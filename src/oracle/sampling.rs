@@ -230,6 +230,61 @@ impl Cube {
     }
 }
 
+/// A 3-D texture (GL 1.2 §3.8, `TEXTURE_3D`): `width × height × depth`
+/// texels, slice `r` after slice, each row-major; one level.
+#[derive(Clone, Debug)]
+pub struct Volume {
+    pub width: u32,
+    pub height: u32,
+    pub depth: u32,
+    pub texels: Vec<V>,
+    pub wrap: Wrap,
+    pub filter: Filter,
+}
+
+impl Volume {
+    fn texel(&self, i: i64, j: i64, k: i64) -> V {
+        let (x, y, z) = (
+            wrap_index(i, self.width, self.wrap),
+            wrap_index(j, self.height, self.wrap),
+            wrap_index(k, self.depth, self.wrap),
+        );
+        self.texels[((z * self.height + y) * self.width + x) as usize]
+    }
+
+    /// The filtered texel at (s, t, r): NEAREST the texel holding it (GL
+    /// eq. 3.18 in three dimensions), LINEAR the eight texels around it
+    /// weighted by the distances along each axis (eq. 3.19's trilinear
+    /// form within a level), wrapped per the declaration. A volume has
+    /// one level, so λ only chooses between the minification and
+    /// magnification filters, which are the same one here.
+    pub fn sample(&self, s: f64, t: f64, r: f64) -> V {
+        let [s, t, r] = [s, t, r].map(|c| if c.is_finite() { c } else { 0.0 });
+        let scaled = [s * f64::from(self.width), t * f64::from(self.height), r * f64::from(self.depth)];
+        if self.filter == Filter::Nearest {
+            let [i, j, k] = scaled.map(|c| c.floor() as i64);
+            return self.texel(i, j, k);
+        }
+        let shifted = scaled.map(|c| c - 0.5);
+        let base = shifted.map(|c| c.floor() as i64);
+        let frac: [f64; 3] = std::array::from_fn(|a| shifted[a] - shifted[a].floor());
+        let mut out = [0.0; 4];
+        for corner in 0..8 {
+            let bit = |a: usize| (corner >> a) & 1 == 1;
+            let weight: f64 = (0..3).map(|a| if bit(a) { frac[a] } else { 1.0 - frac[a] }).product();
+            let texel = self.texel(
+                base[0] + i64::from(bit(0)),
+                base[1] + i64::from(bit(1)),
+                base[2] + i64::from(bit(2)),
+            );
+            for c in 0..4 {
+                out[c] += weight * texel[c];
+            }
+        }
+        out
+    }
+}
+
 /// A dual-paraboloid environment map (Heidrich & Seidel 1999, Section
 /// 4.1): two images over [−1, 1]², the front one holding the directions
 /// with z ≥ 0, the back one the others.
@@ -286,6 +341,31 @@ mod tests {
         let ideal = t.lod(dx, dy);
         assert!(lo <= ideal && ideal <= hi, "{lo} {ideal} {hi}");
         assert!((ideal - 1.0).abs() < 1e-12 && hi - lo <= 1.0 + 1e-12, "{lo} {hi}");
+    }
+
+    /// A 2 × 2 × 2 volume whose texel (x, y, z) holds x + 2y + 4z: LINEAR
+    /// returns a texel at its centre and the mean of the eight at the
+    /// volume's centre; NEAREST the texel holding the point; outside,
+    /// CLAMP_TO_EDGE the edge texel and REPEAT the opposite one.
+    #[test]
+    fn a_volume_filters_trilinearly_and_wraps_as_declared() {
+        let texels = (0..8).map(|i| [f64::from(i); 4]).collect();
+        let v = Volume {
+            width: 2,
+            height: 2,
+            depth: 2,
+            texels,
+            wrap: Wrap::ClampToEdge,
+            filter: Filter::Bilinear,
+        };
+        assert_eq!(v.sample(0.75, 0.25, 0.75)[0], 5.0);
+        assert!((v.sample(0.5, 0.5, 0.5)[0] - 3.5).abs() < 1e-12);
+        assert!((v.sample(0.5, 0.25, 0.25)[0] - 0.5).abs() < 1e-12);
+        assert_eq!(v.sample(-0.4, 0.25, 0.25)[0], 0.0);
+        let repeat = Volume { wrap: Wrap::Repeat, ..v.clone() };
+        assert!((repeat.sample(0.0, 0.25, 0.25)[0] - 0.5).abs() < 1e-12);
+        let nearest = Volume { filter: Filter::Nearest, ..v };
+        assert_eq!(nearest.sample(0.9, 0.1, 0.6)[0], 5.0);
     }
 
     /// Trilinear: the ends and every integer λ between them; a

@@ -9,30 +9,35 @@
 //!   of `c` (1 or 0) at the visible fragments;
 //!
 //! and the depth comparison of Pipeline Grammar, Section 3.5,
-//! `σ C δπy ← (σ C δπy) OR ((z δπy) > (z C δπy))`:
+//! `σ C δπy ← (σ C δπy) OR ((z δπy) ⋚ (z C δπy))` with any of `>`, `≥`,
+//! `<`, `≤`:
 //!
 //! - Over a vertex stream some statement draws (the scene's objects), the
 //!   stencil is set at a pixel where any fragment of a front face there
 //!   passes the comparison of its depth with the depth stored in C — an
 //!   OR over the fragments, in any order (no depth write).
 //! - Over `x′`, a stream no statement draws — the shadow volumes (Crow
-//!   1977) — the stencil is set where the visible point is in shadow: a
-//!   volume of a closed occluder, its silhouette from light 0 extruded
-//!   away from the light and capped, holds exactly the points from which
-//!   the segment towards the light crosses the occluder, entering it
-//!   through a face turned from the light. Heidmann (1991) counts the
-//!   volume's faces behind the visible point (Everitt and Kilgard 2002's
-//!   z-fail), and the count is not zero exactly there. So this module
-//!   builds no volume: it casts the segment from each visible point (the
-//!   pixel centre at C's stored depth, taken back through the camera)
-//!   towards light 0 against the faces of the scene's closed meshes that
-//!   face away from the light — an independent check of the executors'
-//!   volumes as well as of their counting. A mesh is closed when, its
-//!   coincident vertices welded, every edge borders two triangles (docs/scenes.md:
-//!   a plane receives, a sphere casts). The executors' volumes end
-//!   2.5 radii of the scene's bounding sphere past the silhouette
-//!   (docs/pass-plan.md), beyond every surface of the scene, which is all
-//!   a visible point can lie on.
+//!   1977) — the stencil counts the volume faces the comparison passes,
+//!   as GL's `INCR_WRAP`/`DECR_WRAP` (GL 1.x §4.1.5, EXT_stencil_wrap) do
+//!   by facing: +1 on a back face, −1 on a front one. A volume of a closed
+//!   occluder, its silhouette from light 0 extruded away from the light
+//!   and capped by the occluder's faces turned from the light, is the
+//!   union of those faces' prisms, so the volumes' winding number at a
+//!   point q — how many hold it — is how many such faces the segment from
+//!   q towards the light crosses. This module builds no volume: it casts
+//!   segments towards light 0 against the faces of the scene's closed
+//!   meshes that face away from the light — an independent check of the
+//!   executors' volumes as well as of their counting. The faces behind
+//!   the visible point p (`>`, `≥`: Everitt and Kilgard 2002's z-fail)
+//!   add up to winding(p); those between the near plane and p (`<`, `≤`:
+//!   Heidmann 1991's z-pass) to winding(q) − winding(p), q where the
+//!   pixel's ray meets the near plane. The visible point is the pixel
+//!   centre at C's stored depth, taken back through the camera. A mesh is
+//!   closed when, its coincident vertices welded, every edge borders two
+//!   triangles (docs/scenes.md: a plane receives, a sphere casts). The
+//!   executors' volumes end 2.5 radii of the scene's bounding sphere past
+//!   the silhouette (docs/pass-plan.md), beyond every surface of the
+//!   scene, which is all a visible point can lie on.
 //!
 //! Latitude (left out of comparisons): a visible point on an occluder's
 //! face turned from the light, where the volume's near cap coincides with
@@ -87,10 +92,7 @@ pub fn update(
         mark_fragments(ev, fb, compare);
         return Ok(());
     }
-    if compare != Compare::Greater {
-        return Err(Unsupported::new("a shadow-volume update other than z-fail's `z δπx′ > z C δπx′`"));
-    }
-    shadow(ev, fb, latitude)
+    shadow(ev, fb, compare, latitude)
 }
 
 /// What a write at the visible fragment does to the stencil there.
@@ -278,32 +280,58 @@ fn light_0(lights: &[Light]) -> Option<Towards> {
     })
 }
 
-/// The shadow-volume update: the stencil set where the visible point is in
-/// light 0's shadow.
-fn shadow(ev: &mut Evaluator, fb: usize, latitude: &mut [bool]) -> Result<(), Unsupported> {
+/// The shadow-volume update: the stencil counts, as GL's `INCR_WRAP` and
+/// `DECR_WRAP` on the volume's back and front faces (GL 1.x §4.1.5), the
+/// volume's faces the comparison passes along the pixel's ray. The
+/// volumes' winding number at a point q (how many of them hold it) is
+/// [`crossings`] from q towards the light (module doc), so:
+///
+/// - `>`, `≥` (z-fail, Everitt and Kilgard 2002): the faces behind the
+///   visible point p, back ones +1 and front ones −1, add up to
+///   winding(p) − winding(far), and the far end is past every volume:
+///   winding(p);
+/// - `<`, `≤` (z-pass, Heidmann 1991): the faces between the near plane
+///   and p, each back face +1 and front face −1 as the plan counts them,
+///   add up to winding(q) − winding(p), q the pixel's ray on the near
+///   plane: 0 − winding(p) with the camera outside every volume, and
+///   wrong where a volume reaches past the near plane, as z-pass is.
+///
+/// The count is added to what the stencil held (8 bits, wrapping).
+fn shadow(ev: &mut Evaluator, fb: usize, compare: Compare, latitude: &mut [bool]) -> Result<(), Unsupported> {
     let light =
         light_0(ev.lights).ok_or_else(|| Unsupported::new("shadow volumes on a scene without a light"))?;
     let faces = dark_faces(ev, light);
+    let z_pass = matches!(compare, Compare::Less | Compare::LessEqual);
     let (w, h) = (ev.coverage.width, ev.coverage.height);
     let unproject = ev.world.camera_vp.inverse();
+    let at = |x: u32, y: u32, ndc_z: f64| {
+        let (nx, ny) = pixel_ndc(f64::from(x) + 0.5, f64::from(y) + 0.5, w, h);
+        let p = unproject * DVec4::new(nx, ny, ndc_z, 1.0);
+        p.truncate() / p.w
+    };
     for y in 0..h {
         for x in 0..w {
             let i = (y * w + x) as usize;
             let depth = ev.framebuffers[fb].depth[i];
-            if depth >= 1.0 {
+            let visible = ev.coverage.fragments[i].map(|f| (f.object, f.triangle));
+            // The volume's faces the comparison passes, counted: winding
+            // numbers at the ends of the stretch of ray they lie on.
+            let (mut count, mut edge) = (0i64, false);
+            if depth < 1.0 {
+                let (s, l) = crossings(&faces, at(x, y, 2.0 * depth - 1.0), light, visible);
+                (count, edge) = (if z_pass { -l } else { l }, s != l);
+            } else if !z_pass {
                 continue; // nothing drawn: no volume face lies behind the far plane
             }
-            let (nx, ny) = pixel_ndc(f64::from(x) + 0.5, f64::from(y) + 0.5, w, h);
-            let p = unproject * DVec4::new(nx, ny, 2.0 * depth - 1.0, 1.0);
-            let p = p.truncate() / p.w;
-            let visible = ev.coverage.fragments[i].map(|f| (f.object, f.triangle));
-            let (strict, loose) = crosses(&faces, p, light, visible);
-            if strict || loose {
-                ev.framebuffers[fb].stencil[i] = 1;
+            if z_pass {
+                let (s, l) = crossings(&faces, at(x, y, -1.0), light, None);
+                (count, edge) = (count + l, edge || s != l);
             }
+            let stencil = &mut ev.framebuffers[fb].stencil[i];
+            *stencil = stencil.wrapping_add(count.rem_euclid(256) as u8);
             // On a face turned from the light (the near cap), or at an edge.
             let on_cap = visible.is_some_and(|v| faces.iter().any(|f| (f.object, f.triangle) == v));
-            latitude[i] |= strict != loose || on_cap;
+            latitude[i] |= edge || on_cap;
         }
     }
     Ok(())
@@ -333,16 +361,16 @@ fn dark_faces(ev: &Evaluator, light: Towards) -> Vec<Face> {
     out
 }
 
-/// Whether the segment from `p` towards the light crosses a face: with
+/// How many faces the segment from `p` towards the light crosses: with
 /// every barycentric at least a rounding margin inside (`strict`) and
 /// within it (`loose`). The visible point's own triangle does not count.
-fn crosses(faces: &[Face], p: DVec3, light: Towards, own: Option<(usize, usize)>) -> (bool, bool) {
+fn crossings(faces: &[Face], p: DVec3, light: Towards, own: Option<(usize, usize)>) -> (i64, i64) {
     const MARGIN: f64 = 1e-7;
     let (dir, t_max) = match light {
         Towards::Point(l) => (l - p, 1.0),
         Towards::Direction(d) => (d, f64::INFINITY),
     };
-    let (mut strict, mut loose) = (false, false);
+    let (mut strict, mut loose) = (0, 0);
     for f in faces {
         if own == Some((f.object, f.triangle)) {
             continue;
@@ -362,11 +390,8 @@ fn crosses(faces: &[Face], p: DVec3, light: Towards, own: Option<(usize, usize)>
             continue;
         }
         let least = u.min(v).min(1.0 - u - v);
-        strict |= least > MARGIN;
-        loose |= least > -MARGIN;
-        if strict {
-            break;
-        }
+        strict += i64::from(least > MARGIN);
+        loose += i64::from(least > -MARGIN);
     }
     (strict, loose)
 }

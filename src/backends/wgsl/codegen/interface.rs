@@ -86,7 +86,7 @@ impl Gen<'_> {
                         );
                     }
                     // A rendered 3-D texture is its slices tiled in 2-D (`codegen::solid`).
-                    let tiled = tex.kind == TextureKind::Tex3d && tex.rendered;
+                    let tiled = tex.kind == TextureKind::Tex3d && (tex.rendered || tex.baked);
                     (if tiled { TextureKind::Tex2d } else { tex.kind }, Some(tex.format), fat)
                 }
                 Some(Expr::FramebufferRead { .. }) => (TextureKind::Tex2d, None, false),

@@ -151,7 +151,9 @@ impl Gen<'_> {
             }
             return Ok(Some(Computed::plain(t)));
         }
-        if m.textures[texture as usize].kind == TextureKind::Tex3d && m.textures[texture as usize].rendered {
+        if m.textures[texture as usize].kind == TextureKind::Tex3d
+            && (m.textures[texture as usize].rendered || m.textures[texture as usize].baked)
+        {
             let s = self.solid_sample(b, unit, c, naga::SampleLevel::Zero);
             return Ok(Some(Computed::plain(self.narrow(b, s, 4, w))));
         }
