@@ -103,20 +103,7 @@ fn renders_alike(folder: &Path, name: &str, wgpu_must_run: bool) -> Result<(), S
 /// the folder has one.
 macro_rules! held_out_in {
     ($folder:literal: $($name:ident),* $(,)?) => {
-        $(
-            #[test]
-            fn $name() {
-                let folder = $crate::three_way_heldout::data($folder);
-                $crate::three_way_heldout::renders_alike_in(&folder, stringify!($name))
-                    .unwrap_or_else(|e| panic!("{e}"));
-            }
-        )*
-
-        /// Every program of the folder has its named test above.
-        #[test]
-        fn every_program_of_the_folder_has_a_test() {
-            $crate::three_way_heldout::each_has_a_test($folder, &[$(stringify!($name)),*]);
-        }
+        $crate::three_way_heldout::held_out_by!(renders_alike_in, $folder: $($name),*);
     };
 }
 pub(crate) use held_out_in;
@@ -125,12 +112,19 @@ pub(crate) use held_out_in;
 /// ([`renders_alike_everywhere_in`]).
 macro_rules! held_out_everywhere_in {
     ($folder:literal: $($name:ident),* $(,)?) => {
+        $crate::three_way_heldout::held_out_by!(renders_alike_everywhere_in, $folder: $($name),*);
+    };
+}
+pub(crate) use held_out_everywhere_in;
+
+/// The tests of both: `$runner` judges each program.
+macro_rules! held_out_by {
+    ($runner:ident, $folder:literal: $($name:ident),*) => {
         $(
             #[test]
             fn $name() {
                 let folder = $crate::three_way_heldout::data($folder);
-                $crate::three_way_heldout::renders_alike_everywhere_in(&folder, stringify!($name))
-                    .unwrap_or_else(|e| panic!("{e}"));
+                $crate::three_way_heldout::$runner(&folder, stringify!($name)).unwrap_or_else(|e| panic!("{e}"));
             }
         )*
 
@@ -141,7 +135,7 @@ macro_rules! held_out_everywhere_in {
         }
     };
 }
-pub(crate) use held_out_everywhere_in;
+pub(crate) use held_out_by;
 
 /// Asserts that every `.shd` program of `folder` (under `tests/data/`) is
 /// among `named`.

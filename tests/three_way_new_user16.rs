@@ -16,9 +16,9 @@
 //! and the independent reference on every target its header names
 //! (`three_way_heldout::renders_alike_in`).
 
-use crate::three_way_heldout::held_out_in;
+use crate::three_way_heldout::held_out_everywhere_in;
 
-held_out_in!("heldout_sixteenth":
+held_out_everywhere_in!("heldout_sixteenth":
     gooch,
     stripes,
     decal_mode,
