@@ -831,14 +831,20 @@ mod tests {
             (u[9], v[10], v[11]) = (-3e9, f32::NAN, 7.0e8);
             // Coordinates on texel centres and edges, and −0 (floors of whole numbers).
             (u[12], v[12], u[13], v[14]) = (-0.0, -0.0, 0.5, -1.0);
+            if round % 4 >= 2 {
+                // Magnified (λ ≤ 0): every lane on level 0, filtered eight
+                // lanes at a time where the CPU gathers.
+                lod.iter_mut().for_each(|l| *l = -r().abs());
+            }
             let mut out = [[0.0f32; 32]; 4];
-            sample_2d_lanes(t, &u, &v, &lod, 32, filter, unit::Latitude::MODEL, &mut out);
+            let n = 32 - round % 3;
+            sample_2d_lanes(t, &u, &v, &lod, n, filter, unit::Latitude::MODEL, &mut out);
             assert_lanes_are_the_unit(
                 t,
                 (&u, &v, &lod),
                 filter,
                 &out,
-                32,
+                n,
                 &format!("{what} {filter:?} round {round}"),
             );
         }
