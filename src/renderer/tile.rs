@@ -207,6 +207,7 @@ impl Batch<'_> {
         let general = fast.is_none();
         // Each kept fragment's depth (when written) and colour (`write`).
         #[inline(always)]
+        #[allow(clippy::type_complexity, reason = "the batch's three arrays, lane by lane")]
         fn each_kept(
             (pixels, out, results): (&[(usize, f32)], &[[f32; 4]], &[FragmentResult]),
             depth: Option<&mut [f32]>,
