@@ -133,36 +133,7 @@ pub fn sample_cube_lanes<const N: usize>(
         (ax[l], ay[l]) = (fx[l] - x0[l], fy[l] - y0[l]);
     }
     if let Some(b) = borders.filter(|b| b.n as i64 == size) {
-        let (s, last) = (b.n + 2, b.n as i32 - 1);
-        // Each lane's footprint in the bordered faces: −1 ≤ x, y < n, the
-        // coordinates being within the face's [−½, n − ½].
-        let (mut at, mut inside) = ([[0u32; N]; 4], true);
-        let (row, side) = (s as i32, (s * s) as i32);
-        for lane in 0..N {
-            let (x, y) = (whole_i32(x0[lane]), whole_i32(y0[lane]));
-            // Without branches (vector code): a lane outside reads texel 0.
-            let fits = (x >= -1) & (y >= -1) & (x <= last) & (y <= last);
-            inside &= fits | (lane >= n);
-            let a = if fits { face[lane] as i32 * side + (y + 1) * row + (x + 1) } else { 0 } as u32;
-            (at[0][lane], at[1][lane], at[2][lane], at[3][lane]) =
-                (a, a + 1, a + row as u32, a + row as u32 + 1);
-        }
-        if inside {
-            bilinear_lanes(&b.texels, (&at, &ax, &ay), n, out);
-            return true;
-        }
-        for lane in 0..n {
-            let (x, y) = (whole_i32(x0[lane]), whole_i32(y0[lane]));
-            let texel = if x >= -1 && y >= -1 && x <= last && y <= last {
-                let t = |c: usize| b.texels[at[c][lane] as usize];
-                bilinear4(t(0), t(1), t(2), t(3), ax[lane], ay[lane])
-            } else {
-                unit::sample_cube_with(c, [d[0][lane], d[1][lane], d[2][lane]], filter, weights)
-            };
-            for (k, x) in texel.into_iter().enumerate() {
-                out[k][lane] = x;
-            }
-        }
+        bordered_cube_lanes(c, b, d, n, (filter, weights), (&face, &x0, &y0, &ax, &ay), out);
         return true;
     }
     for lane in 0..n {
@@ -181,6 +152,53 @@ pub fn sample_cube_lanes<const N: usize>(
         }
     }
     true
+}
+
+/// [`sample_cube_lanes`]' filtering from the bordered faces `b`: each
+/// lane's footprint (face, top-left texel `x0`, `y0`, weights `ax`, `ay`)
+/// read from the borders, all lanes at once where every lane's footprint
+/// is within them, else lane by lane (a lane outside through the one-lane
+/// code).
+#[inline(always)]
+#[allow(clippy::type_complexity, reason = "the footprints' five lane arrays")]
+fn bordered_cube_lanes<const N: usize>(
+    c: &TextureCube,
+    b: &CubeBorders,
+    d: [&[f32; N]; 3],
+    n: usize,
+    (filter, weights): (Filter, WeightChoice),
+    (face, x0, y0, ax, ay): (&[u32; N], &[f32; N], &[f32; N], &[f32; N], &[f32; N]),
+    out: &mut [[f32; N]; 4],
+) {
+    let (s, last) = (b.n + 2, b.n as i32 - 1);
+    // Each lane's footprint in the bordered faces: −1 ≤ x, y < n, the
+    // coordinates being within the face's [−½, n − ½].
+    let (mut at, mut inside) = ([[0u32; N]; 4], true);
+    let (row, side) = (s as i32, (s * s) as i32);
+    for lane in 0..N {
+        let (x, y) = (whole_i32(x0[lane]), whole_i32(y0[lane]));
+        // Without branches (vector code): a lane outside reads texel 0.
+        let fits = (x >= -1) & (y >= -1) & (x <= last) & (y <= last);
+        inside &= fits | (lane >= n);
+        let a = if fits { face[lane] as i32 * side + (y + 1) * row + (x + 1) } else { 0 } as u32;
+        (at[0][lane], at[1][lane], at[2][lane], at[3][lane]) = (a, a + 1, a + row as u32, a + row as u32 + 1);
+    }
+    if inside {
+        bilinear_lanes(&b.texels, (&at, ax, ay), n, out);
+        return;
+    }
+    for lane in 0..n {
+        let (x, y) = (whole_i32(x0[lane]), whole_i32(y0[lane]));
+        let texel = if x >= -1 && y >= -1 && x <= last && y <= last {
+            let t = |c: usize| b.texels[at[c][lane] as usize];
+            bilinear4(t(0), t(1), t(2), t(3), ax[lane], ay[lane])
+        } else {
+            unit::sample_cube_with(c, [d[0][lane], d[1][lane], d[2][lane]], filter, weights)
+        };
+        for (k, x) in texel.into_iter().enumerate() {
+            out[k][lane] = x;
+        }
+    }
 }
 
 /// A cube map's faces (level 0) bordered by one texel of their seams, as
