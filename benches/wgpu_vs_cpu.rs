@@ -26,7 +26,8 @@
 //! `SHADEC_BENCH_PEER=0` skips wgpu, `SHADEC_BENCH_MODES=f32` (or
 //! `fixed9`) runs only that mode's CPU rows, `SHADEC_BENCH_DISPATCH=kernels`
 //! (a comma list of `kernels`, `closures`, `interpreter`) only those f32
-//! dispatches.
+//! dispatches. `SHADEC_BENCH_RASTER=0` skips the rasterizer-only row (to
+//! profile the lane kernels' frame alone).
 
 #[path = "common/timing.rs"]
 mod timing;
@@ -164,6 +165,9 @@ fn main() {
                 println!("| {side}² | {} | {name} | {:.1} | {} |", mode.name(), ms(t.0), ratio(t, mode));
             }
             set_lane_dispatch(LaneDispatch::Kernels);
+        }
+        if std::env::var("SHADEC_BENCH_RASTER").as_deref() == Ok("0") {
+            continue;
         }
         let t = frame(&raster_only, &raster_program, Precision::F32);
         println!(

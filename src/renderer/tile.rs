@@ -5,7 +5,7 @@
 
 use rayon::prelude::*;
 
-use super::framebuffer::{TileBuffers, Writer, TILE};
+use super::framebuffer::{ColorTile, TileBuffers, Writer, TILE};
 use super::raster::{Fragment, PassSetup, Tri, SUB};
 use super::{CompareFunc, DrawStats, FragmentResult, Framebuffer, Pass, StencilOp, BATCH};
 
@@ -175,7 +175,12 @@ struct Batch<'a> {
 }
 
 impl Batch<'_> {
-    /// Shades the waiting fragments and writes those kept.
+    /// Shades the waiting fragments and writes those kept. Inlined into
+    /// the scan loop (compiled with its vector features); a float target
+    /// written without blending or added to (the plans' passes) takes
+    /// depth and colour of each kept fragment in one loop, as
+    /// [`TileBuffers::blend_kept`] writes the colour (the same values).
+    #[inline(always)]
     fn flush(&mut self, tile: &mut TileBuffers, pass: &Pass, writer: Writer, stats: &mut DrawStats) {
         let k = self.fragments.len();
         if k == 0 {
@@ -188,18 +193,54 @@ impl Batch<'_> {
             &mut self.results[..k],
         );
         stats.shaded += k as u64;
-        let results = &self.results[..k];
-        let kept = |&(_, r): &(&(usize, f32), &FragmentResult)| *r == FragmentResult::Keep;
-        if pass.state.depth.write {
-            for (&(idx, z), _) in self.pixels.iter().zip(results).filter(kept) {
-                tile.depth[idx] = z;
+        let (pixels, out, results) = (&self.pixels[..k], &self.out[..k], &self.results[..k]);
+        let depth_write = pass.state.depth.write;
+        let TileBuffers { color, depth, .. } = &mut *tile;
+        // `C ← src` on a float or fixed-point-in-float target (values as
+        // computed, `blend_kept`), `C ← C + src` on a float one.
+        let fast = match (color, writer) {
+            (ColorTile::F32(c) | ColorTile::Unorm(c), Writer::Replace) | (ColorTile::F32(c), Writer::Add) => {
+                Some(c)
             }
+            _ => None,
+        };
+        let general = fast.is_none();
+        // Each kept fragment's depth (when written) and colour (`write`).
+        #[inline(always)]
+        #[allow(clippy::type_complexity, reason = "the batch's three arrays, lane by lane")]
+        fn each_kept(
+            (pixels, out, results): (&[(usize, f32)], &[[f32; 4]], &[FragmentResult]),
+            depth: Option<&mut [f32]>,
+            mut write: impl FnMut(usize, &[f32; 4]),
+        ) -> u64 {
+            let mut written = 0;
+            let mut depth = depth;
+            for ((&(idx, z), s), r) in pixels.iter().zip(out).zip(results) {
+                if *r == FragmentResult::Keep {
+                    if let Some(d) = depth.as_deref_mut() {
+                        d[idx] = z;
+                    }
+                    write(idx, s);
+                    written += 1;
+                }
+            }
+            written
         }
-        stats.written += results.iter().filter(|r| **r == FragmentResult::Keep).count() as u64;
-        tile.blend_kept(&self.pixels, &self.out[..k], results, &pass.state.blend, writer);
-        for &(idx, _) in &self.pixels {
-            self.pending[idx / TILE] = 0;
+        let depth = depth_write.then_some(&mut depth[..]);
+        let batch = (pixels, out, results);
+        let written = match fast {
+            Some(c) if writer == Writer::Replace => each_kept(batch, depth, |i, s| c[i] = *s),
+            Some(c) => each_kept(batch, depth, |i, s| {
+                c[i] = [s[0] + c[i][0], s[1] + c[i][1], s[2] + c[i][2], s[3] + c[i][3]]
+            }),
+            None => each_kept(batch, depth, |_, _| {}),
+        };
+        stats.written += written;
+        if general {
+            tile.blend_kept(pixels, out, results, &pass.state.blend, writer);
         }
+        // Every row clear (a few vector stores) rather than the rows of the batch's pixels.
+        self.pending = [0; TILE];
         self.fragments.clear();
         self.pixels.clear();
     }

@@ -424,15 +424,61 @@ pub fn sample_cube_with(
         }
     }
     if let Some((dx, dy)) = corner {
-        // The three texels that meet at the corner are the other three of
-        // the footprint (GL 4.6 §8.13.1).
-        let others = [(dx ^ 1, dy), (dx, dy ^ 1), (dx ^ 1, dy ^ 1)];
-        texel[dy][dx] = [0, 1, 2, 3].map(|k| others.iter().map(|&(x, y)| texel[y][x][k]).sum::<f32>() / 3.0);
+        texel[dy][dx] = cube_corner(&texel, (dx, dy));
     }
     [0, 1, 2, 3].map(|k| {
         let top = texel[0][0][k] + ax * (texel[0][1][k] - texel[0][0][k]);
         let bottom = texel[1][0][k] + ax * (texel[1][1][k] - texel[1][0][k]);
         top + ay * (bottom - top)
+    })
+}
+
+/// The texel of a seamless footprint `texel` (`[dy][dx]`) at its corner
+/// (`dx`, `dy`) beyond two edges of the face: the three texels that meet
+/// at the corner are the other three of the footprint (GL 4.6 §8.13.1),
+/// averaged.
+fn cube_corner(texel: &[[[f32; 4]; 2]; 2], (dx, dy): (usize, usize)) -> [f32; 4] {
+    let others = [(dx ^ 1, dy), (dx, dy ^ 1), (dx ^ 1, dy ^ 1)];
+    [0, 1, 2, 3].map(|k| others.iter().map(|&(x, y)| texel[y][x][k]).sum::<f32>() / 3.0)
+}
+
+/// Level 0 of each face of `c` with a border of one texel, `(n + 2)²`
+/// texels row-major (texel (i, j) of the face, i and j in −1..=n, at
+/// `(j + 1)·(n + 2) + i + 1`): what [`sample_cube_with`]'s bilinear
+/// footprints read there — the face's texels, one texel beyond an edge the
+/// adjacent face's, and at a corner beyond two edges the average of the
+/// other three texels of the one footprint that reaches it. A footprint
+/// whose top-left texel is (x, y) with −1 ≤ x, y < n reads the four texels
+/// at (x, y)…(x + 1, y + 1) of this grid, the same values the one-lane
+/// code finds. Faces of one size `n` (a cube map's).
+pub(crate) fn cube_bordered_faces(c: &TextureCube) -> [Vec<[f32; 4]>; 6] {
+    let n = c.faces[0].levels[0].width as i64;
+    CubeFace::ALL.map(|face| {
+        let texel = |i: i64, j: i64| cube_texel(c, face, i, j);
+        let mut grid = Vec::with_capacity(((n + 2) * (n + 2)) as usize);
+        for j in -1..=n {
+            for i in -1..=n {
+                let outside = |v: i64| !(0..n).contains(&v);
+                grid.push(if outside(i) && outside(j) {
+                    // The one footprint with this corner: its top-left
+                    // texel and the corner's place in it.
+                    let (x0, dx) = if i < 0 { (i, 0) } else { (i - 1, 1) };
+                    let (y0, dy) = if j < 0 { (j, 0) } else { (j - 1, 1) };
+                    let mut fp = [[[0.0f32; 4]; 2]; 2];
+                    for (ry, row) in fp.iter_mut().enumerate() {
+                        for (rx, t) in row.iter_mut().enumerate() {
+                            if (rx, ry) != (dx, dy) {
+                                *t = texel(x0 + rx as i64, y0 + ry as i64);
+                            }
+                        }
+                    }
+                    cube_corner(&fp, (dx, dy))
+                } else {
+                    texel(i, j)
+                });
+            }
+        }
+        grid
     })
 }
 

@@ -151,6 +151,11 @@ pub(in crate::renderer) struct LaneProgram {
     /// Uniform and constant slots, splatted into a thread's registers
     /// when it shades a batch of another program than its last.
     splats: Vec<(u32, [f32; 4])>,
+    /// Per texture of the program, a bound 2-D texture's levels as the
+    /// lanes index them, computed once here instead of at every lookup.
+    levels: Vec<Option<texture_lanes::Levels>>,
+    /// Per texture, a bound cube map's faces bordered by their seams.
+    cubes: Vec<Option<texture_lanes::CubeBorders>>,
     n_slots: usize,
     id: u64,
 }
@@ -187,10 +192,39 @@ impl LaneProgram {
         }
         let closures = (DISPATCH.load(Ordering::Relaxed) == Dispatch::Closures as u8)
             .then(|| ops.iter().map(closure).collect());
+        // What the lookups of each texture keep from batch to batch (only
+        // the textures some op samples through the lanes).
+        let sampled = |texture: usize| {
+            ops.iter().any(|op| match *op {
+                Op::Sample(i) => {
+                    matches!(p.steps[i as usize].leaf, Some(Leaf::Lookup { texture: t, .. }) if t as usize == texture)
+                }
+                _ => false,
+            })
+        };
+        let bound = |texture: usize| match &p.sources[texture] {
+            Source::Bound { texture: b, exact: None } if sampled(texture) => Some(&b.texture),
+            _ => None,
+        };
+        let n_textures = p.sources.len();
+        let levels = (0..n_textures)
+            .map(|k| match bound(k) {
+                Some(Texture::Flat(t)) => texture_lanes::Levels::of(t),
+                _ => None,
+            })
+            .collect();
+        let cubes = (0..n_textures)
+            .map(|k| match bound(k) {
+                Some(Texture::Cube(c)) if !plain() => texture_lanes::CubeBorders::of(c),
+                _ => None,
+            })
+            .collect();
         LaneProgram {
             ops,
             closures,
             splats,
+            levels,
+            cubes,
             n_slots: p.n_slots,
             id: PROGRAMS.fetch_add(1, Ordering::Relaxed),
         }
@@ -419,52 +453,12 @@ impl FragmentProgram<'_> {
                 }
                 *holds = lp.id;
             }
-            let mut discard = [false; BATCH];
             LOOKUP.with(|l| {
                 let shared = &mut *l.borrow_mut();
                 shared.valid = false;
-                run(self, lp, r, (fragments, varyings), &mut discard, shared)
+                run(self, lp, r, (fragments, varyings), shared, (out, results))
             });
-            self.lane_outputs(r, &discard, fragments.len(), out, results);
         })
-    }
-
-    /// Each lane's fate and colour from the registers `r`: as
-    /// [`FragmentProgram::output`] computes them (the `f32` values are the
-    /// `f64` ones it takes, exactly), without the round trip through `f64`
-    /// and with one count of non-finite values per batch.
-    #[inline(always)]
-    fn lane_outputs(
-        &self,
-        r: &[Lanes],
-        discard: &[bool; BATCH],
-        n: usize,
-        out: &mut [[f32; 4]],
-        results: &mut [FragmentResult],
-    ) {
-        let o = |c: usize| lanes(r, self.output, c);
-        let (o0, o1, o2, o3) = (o(0), o(1), o(2), o(3));
-        let width = self.output_ty.width();
-        let mut nonfinite = 0;
-        for lane in 0..n.min(BATCH) {
-            let dropped = discard[lane] || self.condition.is_some_and(|c| r[c as usize * 4][lane] == 0.0);
-            results[lane] = if dropped { FragmentResult::Discard } else { FragmentResult::Keep };
-            if dropped {
-                continue;
-            }
-            let v = match width {
-                1 => [o0[lane]; 4],
-                2 => [o0[lane], o1[lane], 0.0, 1.0],
-                3 => [o0[lane], o1[lane], o2[lane], 1.0],
-                _ => [o0[lane], o1[lane], o2[lane], o3[lane]],
-            };
-            nonfinite += !v.iter().all(|x| x.is_finite()) as u64;
-            let zero_nan = |x: f32| if x.is_nan() { 0.0 } else { x };
-            out[lane] = [zero_nan(v[0]), zero_nan(v[1]), zero_nan(v[2]), zero_nan(v[3])];
-        }
-        if nonfinite > 0 {
-            self.nonfinite.fetch_add(nonfinite, Ordering::Relaxed);
-        }
     }
 
     /// Lookup step `i` ([`samples_directly`]) of lanes `0..n` in `f32`:
@@ -485,6 +479,7 @@ impl FragmentProgram<'_> {
         i: usize,
         r: &mut [Lanes],
         (fragments, varyings, per): (&[Fragment], &[f32], usize),
+        lp: &LaneProgram,
         shared: &mut SharedLookup,
     ) {
         let s = &self.steps[i];
@@ -501,7 +496,8 @@ impl FragmentProgram<'_> {
             Texture::Flat(t) => {
                 let l = &*shared;
                 let same = (l.coords, l.coords_ty, l.lod_from) == (s.ops[0], coords_ty, lod_from);
-                if l.valid && same && !plain() && l.f.fits(t, filter) {
+                let levels = lp.levels.get(texture as usize).and_then(Option::as_ref);
+                if l.valid && same && !plain() && l.f.fits_levels(levels, filter) {
                     #[cfg(test)]
                     tests::SHARED.fetch_add(1, Ordering::Relaxed);
                     l.f.fetch(t, n, texel);
@@ -520,7 +516,7 @@ impl FragmentProgram<'_> {
                         lod[lane] = unit::quad_lod(t.width(), t.height(), [du[0], dv[0]], [du[1], dv[1]]);
                     }
                 }
-                shared.valid = shared.f.refill(t, c0, v, &lod, filter, self.latitude);
+                shared.valid = shared.f.refill_with(levels, t, (c0, v, &lod), filter, self.latitude);
                 if shared.valid {
                     (shared.coords, shared.coords_ty, shared.lod_from) = (s.ops[0], coords_ty, lod_from);
                     shared.f.fetch(t, n, texel);
@@ -531,7 +527,8 @@ impl FragmentProgram<'_> {
             }
             Texture::Cube(t) => {
                 let weights = self.latitude.weights;
-                if !texture_lanes::sample_cube_lanes(t, [c0, c1, c2], n, filter, weights, texel) {
+                let borders = lp.cubes.get(texture as usize).and_then(Option::as_ref);
+                if !texture_lanes::sample_cube_lanes(t, borders, [c0, c1, c2], n, filter, weights, texel) {
                     for lane in 0..n {
                         let one = unit::sample_cube_with(t, [c0[lane], c1[lane], c2[lane]], filter, weights);
                         (0..4).for_each(|k| texel[k][lane] = one[k]);
@@ -568,21 +565,22 @@ impl FragmentProgram<'_> {
 
 /// Runs the ops over the registers `r`: with AVX2 and FMA where the CPU
 /// has them (the same code compiled for 8-lane vectors), else as built.
+/// Each lane's fate and colour go to `outputs` ([`FragmentProgram::lane_outputs`]).
 fn run(
     p: &FragmentProgram,
     lp: &LaneProgram,
     r: &mut [Lanes],
     batch: (&[Fragment], &[f32]),
-    discard: &mut [bool; BATCH],
     shared: &mut SharedLookup,
+    outputs: (&mut [[f32; 4]], &mut [FragmentResult]),
 ) {
     #[cfg(target_arch = "x86_64")]
     if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
         // SAFETY: the CPU has the features the function is compiled for.
-        unsafe { run_avx2(p, lp, r, batch, discard, shared) };
+        unsafe { run_avx2(p, lp, r, batch, shared, outputs) };
         return;
     }
-    run_body(p, lp, r, batch, discard, shared)
+    run_body(p, lp, r, batch, shared, outputs)
 }
 
 #[cfg(target_arch = "x86_64")]
@@ -592,10 +590,10 @@ unsafe fn run_avx2(
     lp: &LaneProgram,
     r: &mut [Lanes],
     batch: (&[Fragment], &[f32]),
-    discard: &mut [bool; BATCH],
     shared: &mut SharedLookup,
+    outputs: (&mut [[f32; 4]], &mut [FragmentResult]),
 ) {
-    run_body(p, lp, r, batch, discard, shared)
+    run_body(p, lp, r, batch, shared, outputs)
 }
 
 #[inline(always)]
@@ -604,9 +602,11 @@ fn run_body(
     lp: &LaneProgram,
     r: &mut [Lanes],
     batch: (&[Fragment], &[f32]),
-    discard: &mut [bool; BATCH],
     shared: &mut SharedLookup,
+    (out, results): (&mut [[f32; 4]], &mut [FragmentResult]),
 ) {
+    let mut discard = [false; BATCH];
+    let discard = &mut discard;
     let (fragments, varyings) = batch;
     let n = fragments.len();
     let per = varyings.len().checked_div(n).unwrap_or(0);
@@ -618,13 +618,14 @@ fn run_body(
                     p.scalar_lane(i as usize, r, &fragments[lane], vary, lane, &mut discard[lane]);
                 }
             }
-            Op::Sample(i) => p.sample_lanes(i as usize, r, (fragments, varyings, per), shared),
+            Op::Sample(i) => p.sample_lanes(i as usize, r, (fragments, varyings, per), lp, shared),
             Op::Lanes { .. } => match &lp.closures {
                 Some(c) => c[j](r, varyings, per, n, discard),
                 None => exec(*op, r, varyings, per, n, discard),
             },
         }
     }
+    p.lane_outputs(r, discard, n, out, results);
 }
 
 /// `op` compiled into a closure (the kernel chosen here, once).
@@ -950,7 +951,8 @@ fn splat_first(out: &mut [Lanes], width: u8, keep: u8) {
 }
 
 /// Whether the lane code runs plain: every result written in all four
-/// components and every lookup computing its own footprints — never,
+/// components, every lookup computing its own footprints and a cube's
+/// seam lanes going through the one-lane code — never,
 /// except in this module's test that renders both ways.
 #[inline(always)]
 fn plain() -> bool {
@@ -959,6 +961,9 @@ fn plain() -> bool {
     #[cfg(not(test))]
     false
 }
+
+#[path = "lane_outputs.rs"]
+mod outputs;
 
 #[cfg(test)]
 #[path = "lanes_tests.rs"]

@@ -16,9 +16,11 @@ pub(super) static SHARED: AtomicU64 = AtomicU64::new(0);
 /// 256² chains that repeat, looked up at the same `u`; two cube lookups
 /// at other coordinates; a dozen scalar results): the same frame bit for
 /// bit with the second 2-D lookup fetching through the first one's
-/// footprints and results written only in the components read, as
-/// plain, with every lookup computing its own footprints and every
-/// result in all four components; and the sharing did happen.
+/// footprints, results written only in the components read and the cube
+/// lookups reading their faces bordered by the seams, as plain, with
+/// every lookup computing its own footprints, every result in all four
+/// components and the cube's seam lanes through the one-lane code; and
+/// the sharing did happen.
 #[test]
 fn shared_footprints_and_demanded_components_render_the_plain_frame_bit_for_bit() {
     let source = include_str!("../../../examples/kilgard_bump_mapping.shd");
