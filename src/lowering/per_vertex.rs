@@ -200,7 +200,7 @@ fn regrouped(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
 const MAX_LINEAR_TERMS: usize = 12;
 
 /// `h` as a sum of products, each term its factors: sums, `lerp`s with a
-/// scalar weight (`a·(1 − f) + b·f`) and scalar constants distributed
+/// weight not read per fragment (`a·(1 − f) + b·f`) and scalar constants distributed
 /// over them (`4·lerp(g, δl + T, 0.4)` is `4·g·0.6 + 4·δl·0.4 +
 /// 4·T·0.4`); another product's factors kept whole. `None` past
 /// [`MAX_LINEAR_TERMS`].
@@ -223,7 +223,11 @@ fn linear_terms(m: &mut Module, h: Handle<Expr>) -> Option<Vec<Vec<Handle<Expr>>
             a.extend(product_of(m, rhs));
             vec![a]
         }
-        Expr::Math { fun: MathFunction::Mix, args } if m.info(args[2]).ty == crate::ir::Ty::Scalar => {
+        // A weight read per fragment (`T3.a`) keeps the lerp one term: its
+        // terms `x·(1 − a)` share no part a vertex computes.
+        Expr::Math { fun: MathFunction::Mix, args }
+            if m.info(args[2]).ty == crate::ir::Ty::Scalar && !m.info(args[2]).freq.is_sample() =>
+        {
             let span = m.span(h);
             let one = m.intern(Expr::Constant(crate::ir::Constant::scalar(1.0)), span).ok()?;
             let keep = m.intern(Expr::Binary { op: BinaryOp::Sub, lhs: one, rhs: args[2] }, span).ok()?;
@@ -270,7 +274,12 @@ fn cofactors_regrouped(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> 
         let (mut key, mut vertex, mut sampled) = (Vec::new(), Vec::new(), false);
         for &f in t {
             let per_sample = m.info(f).freq.is_sample();
-            if !per_sample || at_vertex(m, f).is_some() {
+            // A scale past 1 stays out of the part (`3·δa + 3·δb` is
+            // `3·δ(a + b)`): inside, it would take the vertex colour past
+            // the [0, 1] GL clamps it to, where written it is the
+            // fragment's.
+            let scale = matches!(&m.exprs[f], Expr::Constant(c) if c.ty == crate::ir::Ty::Scalar && c.components[0] > 1.0);
+            if !scale && (!per_sample || at_vertex(m, f).is_some()) {
                 vertex.push(f);
                 sampled |= per_sample;
             } else {
