@@ -193,7 +193,8 @@ fn joined_conditions_plan_on_geforce256_through_one_mux() {
     assert_eq!(d.code, "unsupported-discard");
     assert_ne!(d.primary.span, shadec::span::Span::DETACHED);
     assert!(d.message.contains("general combiners, the target has 2"), "{}", d.message);
-    for c in ["(Dec δu x).a ≥ 0.5 AND (Dec δu x).b ≥ 0.3", "(Dec δu x).a < 0.5 OR (Dec δu x).b > 0.6"] {
+    for c in ["(Dec δu x).a ≥ 0.5 AND (Dec δu x).b ≥ 0.3", "(Dec δu x).a < 0.5 OR (Dec δu x).b > 0.6"]
+    {
         let source = rgb8(&format!("C δπx ← ({c}) ? δ d s x;\n"));
         let planned = plan(&source, "geforce256").unwrap_or_else(|d| panic!("{c}: {d:?}"));
         for pass in &planned.plan.passes {
@@ -202,7 +203,12 @@ fn joined_conditions_plan_on_geforce256_through_one_mux() {
         let p = prepared(&source, "geforce256");
         let (fixed9, float) = (drawn(&cpu(&p, Precision::Fixed9)), drawn(&cpu(&p, Precision::F32)));
         let all = drawn(&cpu(&prepared(&rgb8("C δπx ← δ d s x;\n"), "geforce256"), Precision::F32));
-        assert!(count(&float) > 0 && count(&float) < count(&all), "{c}: {} of {}", count(&float), count(&all));
+        assert!(
+            count(&float) > 0 && count(&float) < count(&all),
+            "{c}: {} of {}",
+            count(&float),
+            count(&all)
+        );
         let differ = fixed9.iter().zip(&float).filter(|(a, b)| a != b).count();
         assert!(differ * 50 < count(&float), "{c}: {differ} pixels differ from f32's {}", count(&float));
     }

@@ -960,7 +960,10 @@ fn a_product_of_repeated_factors_is_planned_as_its_square() {
 /// written form gives it the same part.
 #[test]
 fn gouraud_reads_a_lerp_and_a_scale_as_their_terms() {
-    let c = mul(Colour::Number(40), lerp(Colour::Channel(1), add(Colour::Lights(4, 5), Colour::Texture(1)), Some(4)));
+    let c = mul(
+        Colour::Number(40),
+        lerp(Colour::Channel(1), add(Colour::Lights(4, 5), Colour::Texture(1)), Some(4)),
+    );
     for target in ["geforce256", "multitexture"] {
         both_plan(&c, Written::Multiplied, target, false);
     }

@@ -205,9 +205,7 @@ const MAX_LINEAR_TERMS: usize = 12;
 /// 4·T·0.4`); another product's factors kept whole. `None` past
 /// [`MAX_LINEAR_TERMS`].
 fn linear_terms(m: &mut Module, h: Handle<Expr>) -> Option<Vec<Vec<Handle<Expr>>>> {
-    let constant = |m: &Module, x: Handle<Expr>| {
-        matches!(&m.exprs[x], Expr::Constant(c) if c.ty == crate::ir::Ty::Scalar)
-    };
+    let constant = |m: &Module, x: Handle<Expr>| matches!(&m.exprs[x], Expr::Constant(c) if c.ty == crate::ir::Ty::Scalar);
     let out = match m.exprs[h].clone() {
         Expr::Binary { op: BinaryOp::Add, lhs, rhs } => {
             let mut a = linear_terms(m, lhs)?;
@@ -289,7 +287,8 @@ fn cofactors_regrouped(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> 
         key.sort();
         split.push((key, vertex, sampled));
     }
-    let shared = |i: usize| split[i].2 && (0..split.len()).any(|j| j != i && split[j].2 && split[j].0 == split[i].0);
+    let shared =
+        |i: usize| split[i].2 && (0..split.len()).any(|j| j != i && split[j].2 && split[j].0 == split[i].0);
     let grouped: Vec<bool> = (0..split.len()).map(shared).collect();
     // Nothing shared, or every term one part already (`top_down` takes it).
     if !grouped.iter().any(|g| *g) || split.iter().all(|s| s.0.is_empty() && s.2) {

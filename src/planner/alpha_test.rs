@@ -396,7 +396,9 @@ fn passes(test: AlphaTest, a: f32) -> bool {
 /// `b`'s 0/1 value, kept above 0. Each order of the operands; the
 /// generator decides which it builds.
 fn joined_by_mux(m: &mut Module, c: Handle<Expr>, exact_alpha: bool) -> Vec<(Handle<Expr>, AlphaTest)> {
-    let Expr::Binary { op: op @ (BinaryOp::And | BinaryOp::Or), lhs, rhs } = m.exprs[c] else { return Vec::new() };
+    let Expr::Binary { op: op @ (BinaryOp::And | BinaryOp::Or), lhs, rhs } = m.exprs[c] else {
+        return Vec::new();
+    };
     let span = m.span(c);
     let mut out = Vec::new();
     for (selector, tested) in [(lhs, rhs), (rhs, lhs)] {
@@ -418,7 +420,9 @@ fn joined_by_mux(m: &mut Module, c: Handle<Expr>, exact_alpha: bool) -> Vec<(Han
         let keep = [1.0f32, 0.0].into_iter().find(|a| passes(test, *a));
         let drop = [0.0f32, 1.0].into_iter().find(|a| !passes(test, *a));
         let Some(k) = (if op == BinaryOp::And { drop } else { keep }) else { continue };
-        let Ok(k) = m.intern(Expr::Constant(crate::ir::Constant::scalar(f64::from(k))), span) else { continue };
+        let Ok(k) = m.intern(Expr::Constant(crate::ir::Constant::scalar(f64::from(k))), span) else {
+            continue;
+        };
         let (accept, reject) = if op == BinaryOp::And { (x, k) } else { (k, x) };
         if let Ok(v) = m.intern(Expr::Select { cond, accept, reject: Some(reject) }, span) {
             out.push((v, test));

@@ -194,12 +194,17 @@ impl ProfileFit<'_> {
                 // colour that may leave it clamped, not as the program means.
                 let wide = u.interpolants.iter().copied().find(|h| {
                     let i = module.info(*h);
-                    i.ty.is_color()
-                        && (i.interval.lo < 0.0 || i.interval.hi > 1.0)
+                    i.ty.is_color() && (i.interval.lo < 0.0 || i.interval.hi > 1.0)
                 });
                 if let Some(h) = wide {
                     let i = module.info(h).interval;
-                    let bound = |x: f64| if x.is_finite() { format!("{}", (x * 100.0).round() / 100.0) } else { "∞".into() };
+                    let bound = |x: f64| {
+                        if x.is_finite() {
+                            format!("{}", (x * 100.0).round() / 100.0)
+                        } else {
+                            "∞".into()
+                        }
+                    };
                     return Err(Overflow {
                         resource: format!(
                             "interpolates a colour in [{}, {}], which GL clamps to [0, 1] as a vertex colour (OpenGL 1.2.1, Section 2.13.9)",

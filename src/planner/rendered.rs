@@ -89,7 +89,8 @@ pub fn bound_rendered_reads(m: &mut Module) -> Vec<usize> {
         let hull = hulls.entry(t).or_insert_with(|| written_hulls(m, t));
         let Some(i) = hull.as_ref().and_then(|h| h.get(member).copied()) else { continue };
         let span = m.span(h);
-        let constant = |m: &mut Module, v: f64| m.intern(Expr::Constant(crate::ir::Constant::scalar(v)), span).ok();
+        let constant =
+            |m: &mut Module, v: f64| m.intern(Expr::Constant(crate::ir::Constant::scalar(v)), span).ok();
         let (Some(lo), Some(hi)) = (constant(m, i.lo), constant(m, i.hi)) else { continue };
         if let Ok(c) = m.intern(Expr::Math { fun: MathFunction::Clamp, args: vec![h, lo, hi] }, span) {
             if m.info(c).ty == m.info(h).ty {
