@@ -55,7 +55,8 @@ fn written_hulls(m: &Module, t: TextureId) -> Option<Vec<Interval>> {
 
 /// Every unbounded read of a texture `m` renders itself — a member of a
 /// fat texel, or a lookup — clamped to what its statements wrote there
-/// ([`written_hulls`]); the statements changed. Nothing is done for a
+/// ([`written_hulls`]), in the statements that blend onto their target;
+/// the statements changed. Nothing is done for a
 /// program that renders no texture, or reads none back unbounded.
 pub fn bound_rendered_reads(m: &mut Module) -> Vec<usize> {
     let mut changed = Vec::new();
@@ -102,6 +103,14 @@ pub fn bound_rendered_reads(m: &mut Module) -> Vec<usize> {
         return changed;
     }
     for i in 0..m.statements.len() {
+        // Only where the range decides the plan: a statement blending onto
+        // what its target holds (elsewhere the clamp would be one more
+        // operation in the pass for nothing).
+        let st = m.statements[i].clone();
+        let channels = [crate::ir::FbChannel::Color, crate::ir::FbChannel::Alpha];
+        if !channels.iter().any(|c| super::form::self_read(m, &st, *c).is_some()) {
+            continue;
+        }
         let v = m.statements[i].value;
         if let Some(nv) = super::substitute(m, v, &map).filter(|nv| *nv != v) {
             m.statements[i].value = nv;
