@@ -175,6 +175,45 @@ fn a_joined_condition_drops_in_fixed9_what_f32_drops() {
     }
 }
 
+/// Two thresholds joined by `AND`/`OR` on geforce256: computed as 0/1
+/// values and multiplied (or added) they need more general combiners than
+/// its two, and were refused; one selects by the mux, the other's value
+/// is tested (`a ? x : 0`, kept where `x` passes the test `b` is), so
+/// they plan where the mux reads its value in one stage (a texel's alpha
+/// or blue, which the alpha portion reads), each pass with its alpha
+/// test, and the fixed9 render keeps about what f32 (which evaluates the
+/// condition) keeps. Of the green and red channels it still needs more
+/// than two general combiners (each moved into alpha through a dot
+/// product first): refused, located, saying so.
+#[test]
+fn joined_conditions_plan_on_geforce256_through_one_mux() {
+    let rg = rgb8("C δπx ← ((Dec δu x).g ≥ 0.5 AND (Dec δu x).r ≥ 0.5) ? δ d s x;\n");
+    let Err(errors) = plan(&rg, "geforce256") else { panic!("planned, expected a refusal") };
+    let d = errors.iter().find(|d| d.is_error()).unwrap();
+    assert_eq!(d.code, "unsupported-discard");
+    assert_ne!(d.primary.span, shadec::span::Span::DETACHED);
+    assert!(d.message.contains("general combiners, the target has 2"), "{}", d.message);
+    for c in ["(Dec δu x).a ≥ 0.5 AND (Dec δu x).b ≥ 0.3", "(Dec δu x).a < 0.5 OR (Dec δu x).b > 0.6"]
+    {
+        let source = rgb8(&format!("C δπx ← ({c}) ? δ d s x;\n"));
+        let planned = plan(&source, "geforce256").unwrap_or_else(|d| panic!("{c}: {d:?}"));
+        for pass in &planned.plan.passes {
+            assert!(!pass.state.alpha_test.is_disabled(), "{c}");
+        }
+        let p = prepared(&source, "geforce256");
+        let (fixed9, float) = (drawn(&cpu(&p, Precision::Fixed9)), drawn(&cpu(&p, Precision::F32)));
+        let all = drawn(&cpu(&prepared(&rgb8("C δπx ← δ d s x;\n"), "geforce256"), Precision::F32));
+        assert!(
+            count(&float) > 0 && count(&float) < count(&all),
+            "{c}: {} of {}",
+            count(&float),
+            count(&all)
+        );
+        let differ = fixed9.iter().zip(&float).filter(|(a, b)| a != b).count();
+        assert!(differ * 50 < count(&float), "{c}: {differ} pixels differ from f32's {}", count(&float));
+    }
+}
+
 /// An equality with a level between 0 and 1 is refused at the condition:
 /// the 8-bit steps round 0.3 to 77/255, which the program's arithmetic
 /// does not equal.

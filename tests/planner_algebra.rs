@@ -937,3 +937,81 @@ fn a_channel_read_as_an_interpolant_is_a_form_not_a_rewrite() {
     let other = add(mul(Colour::Number(6), Colour::Lights(1, 8)), add(t(4), t(2)));
     both_plan(&lerp(inner, other, Some(8)), Written::Added, "geforce256", true);
 }
+
+// ---- the property's counterexamples at 2 000 and 5 000 (sixteenth session) --
+
+/// `C ⊕[add] (T4·2·T0)²` plans on multitexture in one pass (the second
+/// stage squares the first's result); multiplied out, `T4·2·T0·T4·2·T0`
+/// takes a stage per factor, five with the fused `T4`, and was refused.
+/// A product whose factors all repeat is also tried as the square it is
+/// (`algebra::squared`), `(T4·T0·2)²`.
+#[test]
+fn a_product_of_repeated_factors_is_planned_as_its_square() {
+    let t = |i| Colour::Texture(i);
+    let twice = || mul(t(4), mul(Colour::Number(20), t(0)));
+    both_plan(&mul(twice(), twice()), Written::Added, "multitexture", true);
+}
+
+/// `C·4·lerp((δ p).g, δ l₂ + T1, 0.4)` was refused on geforce256 and
+/// multitexture while its expansion `4·(δ p).g·0.6 + 4·0.5·δl₂·0.4 +
+/// 4·T1·0.4` planned with the Gouraud fall-back, which took its two
+/// interpolated terms as one part. The fall-back reads a lerp and a
+/// constant over a sum as their terms (`lowering::per_vertex`), so the
+/// written form gives it the same part.
+#[test]
+fn gouraud_reads_a_lerp_and_a_scale_as_their_terms() {
+    let c = mul(
+        Colour::Number(40),
+        lerp(Colour::Channel(1), add(Colour::Lights(4, 5), Colour::Texture(1)), Some(4)),
+    );
+    for target in ["geforce256", "multitexture"] {
+        both_plan(&c, Written::Multiplied, target, false);
+    }
+}
+
+/// `C·T5·(δ l₀₁₂ + (δ p).g)` planned (Gouraud, one part for the sum) on
+/// geforce256, geforce3 and multitexture, and its expansion `T5·0.8·δl₀ +
+/// T5·0.8·δl₁ + T5·0.8·δl₂ + T5·(δ p).g` did not: each term's
+/// interpolants were a part of their own, five interpolants. Terms that
+/// share their per-fragment factors (`T5` here) are one part times them.
+#[test]
+fn gouraud_takes_terms_sharing_a_lookup_as_one_part() {
+    let c = mul(Colour::Texture(5), add(Colour::Lights(7, 8), Colour::Channel(1)));
+    for target in ["geforce256", "geforce3"] {
+        both_plan(&c, Written::Multiplied, target, false);
+    }
+}
+
+/// `C·(T5·δ l₁₂ + T4 + T3)` with `l₁₂ = 0.8·((0.3, 0.9, 0.4)·d₁ + (0.4,
+/// 0.3, 0.9)·d₂)`, which reaches 1.04 in blue: planned on multitexture
+/// as written, the interpolant read as if GL did not clamp a vertex
+/// colour to [0, 1], while the expansion (each light in [0, 1]) was
+/// refused. The texture environment now refuses a colour interpolant
+/// that may leave [0, 1], located at it: both forms get one verdict, and
+/// the refusal says why.
+#[test]
+fn a_vertex_colour_past_one_is_not_read_unclamped_on_the_texture_environment() {
+    let t = |i| Colour::Texture(i);
+    let c = add(mul(t(5), Colour::Lights(6, 8)), add(t(4), t(3)));
+    let decls = declarations(&c);
+    let original = format!("{decls}{}", Written::Multiplied.statement(&written(&c)));
+    let multiplied = format!("{decls}{}", Written::Multiplied.statement(&expanded(&c)));
+    assert_eq!(verdict(&original, "multitexture"), verdict(&multiplied, "multitexture"));
+    // The light alone, replacing `C`: not planned as written — split
+    // across δ (each light in [0, 1]), the reason saying why not as
+    // written, or refused, located, saying so.
+    let alone = format!("{}C δπx ← δ lights6_8 s x;\n", declarations(&Colour::Lights(6, 8)));
+    let why = match compile(&alone, "multitexture") {
+        Ok(planned) => reasons(&planned),
+        Err(errors) => {
+            let d = errors.iter().find(|d| d.is_error()).unwrap();
+            assert_ne!(d.primary.span.start, d.primary.span.end, "{d:?}");
+            format!("{} {}", d.message, d.primary.message)
+        }
+    };
+    assert!(why.contains("clamps to [0, 1] as a vertex colour"), "{why}");
+    // Within [0, 1] it plans as written.
+    let dim = format!("{}C δπx ← δ lights6_5 s x;\n", declarations(&Colour::Lights(6, 5)));
+    let planned = compile(&dim, "multitexture").unwrap_or_else(|e| panic!("{e:#?}"));
+    assert!(reasons(&planned).contains("as written"), "{}", reasons(&planned));
+}

@@ -73,3 +73,33 @@ fn doubled_products_lerps_in_products_and_sums_of_lights_plan() {
         holds(file);
     }
 }
+
+/// `C xs ← (C xs) * (p G xs)` with `G` a float G-buffer written only with
+/// `δ s x` (a normal and a light direction): refused on wgsl, "its passes
+/// would blend a term outside [0, 1]", while geforce3 planned it — the
+/// lookups of an `rgba16f` texture were unbounded by their format, where
+/// geforce3's lowering stores each member range-compressed in [−1, 1].
+/// What the program reads back is bounded by what it wrote there (and
+/// the 0 it was cleared to): `p` is in [0, 0.8], and the modulation is
+/// exact on both.
+#[test]
+fn a_g_buffer_read_back_is_bounded_by_what_was_written() {
+    holds("deferred_modulated_by_g_buffer.shd");
+}
+
+/// The bound is what was written, not a guess: a float texture written
+/// with `4·T` modulates `C` by up to 4, which the blend's clamped source
+/// cannot do exactly — still refused on wgsl, and planned once the
+/// written value stays in [0, 1].
+#[test]
+fn a_texture_read_back_past_one_is_still_refused() {
+    let source = |k: &str| {
+        format!(
+            "texture T : 2d rgb8;\ntexture G : 2d rgba16f nearest clamp;\n\
+             G δπx ← rgba({k} * T δu x, 1);\nC δπx ← T δu x;\nC xs ← (C xs) * (G xs);\n"
+        )
+    };
+    let wgsl = shadec::profile::Profile::builtin("wgsl").unwrap();
+    assert!(shadec::compile(&source("4"), &wgsl).is_err());
+    shadec::compile(&source("0.5"), &wgsl).unwrap_or_else(|d| panic!("{d:?}"));
+}

@@ -273,6 +273,15 @@ fn check_program(src: &str, what: &str) -> usize {
         if !planned.plan.approximations.is_empty() {
             continue;
         }
+        // `Sample` gives each interpolant a random value of its own, so it
+        // cannot see δ(a + b) = δa + δb nor δ(k + a) = k + δa: a plan of
+        // the canonical form, which splits a sum across δ (on
+        // multitexture where the sum inside one δ may pass 1, which GL
+        // clamps), is held to the meaning by tests/planner_algebra.rs,
+        // which renders it, instead.
+        if planned.plan.passes.iter().any(|p| p.reason.contains("sums inside δ written out")) {
+            continue;
+        }
         let worst = compare(&original, &planned, 200);
         // f32 rounding of a few dozen operations in a different order.
         assert!(

@@ -91,6 +91,10 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
             factored_forms(m, sum, &mut |v, what| push(&mut out, v, what));
         }
     }
+    // A product whose factors all repeat, as the square it is: `x·2·y·x·2·y`
+    // = `(x·y·2)²`, one squaring of what the first factors computed.
+    let square = squared(m, h);
+    push(&mut out, square, "with its repeated factors squared");
     // Each form so far (and the value) with its sums of interpolants
     // merged back into one δ where an 8-bit interpolant holds the sum.
     let merged: Vec<Option<Handle<Expr>>> =
@@ -99,6 +103,55 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
         push(&mut out, v, "with sums of interpolants merged into one δ");
     }
     out
+}
+
+/// A product in which every factor but its scalar constants occurs an even
+/// number of times, written as the square of one of each pair, its
+/// constants' product `k > 0` as `√k` scaled in last: `T4·2·T0·T4·2·T0` =
+/// `(T4·T0·2)²`, what a texture environment computes in three stages (the
+/// second squares the first's result) where the product as written takes
+/// one stage a factor. Under an rgba conversion too. `None` for another
+/// value.
+fn squared(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
+    if let Expr::Convert { value, to: Ty::Rgba } = m.exprs[h] {
+        let inner = squared(m, value)?;
+        return node(m, Expr::Convert { value: inner, to: Ty::Rgba }, m.span(h));
+    }
+    let factors = product_factors(m, h);
+    if factors.len() < 2 {
+        return None;
+    }
+    let mut k = 1.0;
+    let mut counted: Vec<(Handle<Expr>, usize)> = Vec::new();
+    for f in factors {
+        match &m.exprs[f] {
+            Expr::Constant(c) if c.ty == Ty::Scalar => k *= c.components[0],
+            _ => match counted.iter_mut().find(|(g, _)| *g == f) {
+                Some((_, n)) => *n += 1,
+                None => counted.push((f, 1)),
+            },
+        }
+    }
+    if counted.is_empty() || counted.iter().any(|(_, n)| n % 2 != 0) || k <= 0.0 {
+        return None;
+    }
+    let span = m.span(h);
+    let mut half: Option<Handle<Expr>> = None;
+    for (f, n) in counted {
+        for _ in 0..n / 2 {
+            half = Some(match half {
+                None => f,
+                Some(p) => binary(m, BinaryOp::Mul, p, f, span)?,
+            });
+        }
+    }
+    let mut half = half?;
+    if k != 1.0 {
+        let root = node(m, Expr::Constant(crate::ir::Constant::scalar(k.sqrt())), span)?;
+        half = binary(m, BinaryOp::Mul, half, root, span)?;
+    }
+    let square = binary(m, BinaryOp::Mul, half, half, span)?;
+    (m.info(square).ty == m.info(h).ty).then_some(square)
 }
 
 /// The factored forms of a multiplied-out `sum`, each given to `push`.

@@ -92,6 +92,17 @@ fn routed_piece(
             ways.extend(value.map(|v| (v, test, true)));
         }
     }
+    // Two conditions joined, one selecting by the mux and the other's
+    // value tested: fewer general combiners than both computed as 0 or 1.
+    if alpha.is_none() || (!writes_alpha && !blended_by_alpha) {
+        for (x, test) in joined_by_mux(m, c, alpha.is_none() && writes_alpha) {
+            let value = match rgb {
+                Some(rgb) => compose(m, rgb, x),
+                None => m.intern(Expr::Convert { value: x, to: Ty::Rgba }, m.span(c)).ok(),
+            };
+            ways.extend(value.map(|v| (v, test, !writes_alpha)));
+        }
+    }
     if alpha.is_none() {
         if let Some(v) = zero_one(m, c).and_then(|c01| compose(m, rgb?, c01)) {
             ways.push((v, AlphaTest { func: CompareFunc::Greater, reference: 0.0 }, false));
@@ -358,6 +369,66 @@ fn zero_one(m: &mut Module, c: Handle<Expr>) -> Option<Handle<Expr>> {
         return None; // the mux compares with a threshold, not for equality
     }
     m.intern(Expr::Binary { op, lhs, rhs }, span).ok()
+}
+
+/// Whether alpha `a` passes `test` (OpenGL 1.2.1, Section 4.1.4).
+fn passes(test: AlphaTest, a: f32) -> bool {
+    let r = test.reference;
+    match test.func {
+        CompareFunc::Never => false,
+        CompareFunc::Less => a < r,
+        CompareFunc::LessEqual => a <= r,
+        CompareFunc::Equal => a == r,
+        CompareFunc::Greater => a > r,
+        CompareFunc::GreaterEqual => a >= r,
+        CompareFunc::NotEqual => a != r,
+        CompareFunc::Always => true,
+    }
+}
+
+/// `a AND b` (`a OR b`) as one mux of the general combiners (Kilgard 2000,
+/// Section 4.2.2) and one alpha test: `a ? x : k` with `k` a constant the
+/// test drops (`a ? k′ : x`, `k′` one it keeps), tested as `b` alone is
+/// (`x FUNC r`, the table above) — so the test keeps a fragment exactly
+/// where both (either) hold, with one mux and `b`'s value where the 0/1
+/// values of both and their product took three. Where the alpha must end
+/// 1 where kept (`exact_alpha`, an rgb value widened into rgba), `x` is
+/// `b`'s 0/1 value, kept above 0. Each order of the operands; the
+/// generator decides which it builds.
+fn joined_by_mux(m: &mut Module, c: Handle<Expr>, exact_alpha: bool) -> Vec<(Handle<Expr>, AlphaTest)> {
+    let Expr::Binary { op: op @ (BinaryOp::And | BinaryOp::Or), lhs, rhs } = m.exprs[c] else {
+        return Vec::new();
+    };
+    let span = m.span(c);
+    let mut out = Vec::new();
+    for (selector, tested) in [(lhs, rhs), (rhs, lhs)] {
+        // The mux compares with a threshold: not an equality.
+        let Some((p, sel_op, q)) = comparison(m, selector) else { continue };
+        if matches!(sel_op, BinaryOp::Eq | BinaryOp::Ne) {
+            continue;
+        }
+        let Ok(cond) = m.intern(Expr::Binary { op: sel_op, lhs: p, rhs: q }, span) else { continue };
+        let (x, test) = if exact_alpha {
+            let Some(x) = zero_one(m, tested) else { continue };
+            (x, AlphaTest { func: CompareFunc::Greater, reference: 0.0 })
+        } else {
+            match direct(m, tested) {
+                Some(d) => d,
+                None => continue,
+            }
+        };
+        let keep = [1.0f32, 0.0].into_iter().find(|a| passes(test, *a));
+        let drop = [0.0f32, 1.0].into_iter().find(|a| !passes(test, *a));
+        let Some(k) = (if op == BinaryOp::And { drop } else { keep }) else { continue };
+        let Ok(k) = m.intern(Expr::Constant(crate::ir::Constant::scalar(f64::from(k))), span) else {
+            continue;
+        };
+        let (accept, reject) = if op == BinaryOp::And { (x, k) } else { (k, x) };
+        if let Ok(v) = m.intern(Expr::Select { cond, accept, reject: Some(reject) }, span) {
+            out.push((v, test));
+        }
+    }
+    out
 }
 
 /// `p − q` (`p` when q is 0, `−q` when p is 0).

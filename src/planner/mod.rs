@@ -33,6 +33,7 @@ pub mod hilo;
 pub mod lights;
 pub mod realize;
 pub mod relevance;
+mod rendered;
 mod rewrite;
 pub mod shadow_map;
 pub mod shadow_mask;
@@ -546,6 +547,7 @@ fn prepare(
             bind_scene_uniforms(m, &spec.scene.constants, &mut prepared.removed, at)?;
         }
     }
+    rendered::bound_rendered_reads(m);
     prepared.removed.extend(specialize::specialize(m, at));
     let noops = noop_statements(m, &prepared, at);
     prepared.removed.extend(noops);
