@@ -373,17 +373,7 @@ fn zero_one(m: &mut Module, c: Handle<Expr>) -> Option<Handle<Expr>> {
 
 /// Whether alpha `a` passes `test` (OpenGL 1.2.1, Section 4.1.4).
 fn passes(test: AlphaTest, a: f32) -> bool {
-    let r = test.reference;
-    match test.func {
-        CompareFunc::Never => false,
-        CompareFunc::Less => a < r,
-        CompareFunc::LessEqual => a <= r,
-        CompareFunc::Equal => a == r,
-        CompareFunc::Greater => a > r,
-        CompareFunc::GreaterEqual => a >= r,
-        CompareFunc::NotEqual => a != r,
-        CompareFunc::Always => true,
-    }
+    test.func.test(a, test.reference)
 }
 
 /// `a AND b` (`a OR b`) as one mux of the general combiners (Kilgard 2000,
