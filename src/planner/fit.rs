@@ -189,34 +189,7 @@ impl ProfileFit<'_> {
                 }
             }
             FragmentStage::TextureEnv => {
-                // GL clamps a vertex colour to [0, 1] (OpenGL 1.2.1,
-                // Section 2.13.9): the environment reads an interpolated
-                // colour that may leave it clamped, not as the program means.
-                let wide = u.interpolants.iter().copied().find(|h| {
-                    let i = module.info(*h);
-                    i.ty.is_color() && (i.interval.lo < 0.0 || i.interval.hi > 1.0)
-                });
-                if let Some(h) = wide {
-                    let i = module.info(h).interval;
-                    let bound = |x: f64| {
-                        if x.is_finite() {
-                            format!("{}", (x * 100.0).round() / 100.0)
-                        } else {
-                            "∞".into()
-                        }
-                    };
-                    return Err(Overflow {
-                        resource: format!(
-                            "interpolates a colour in [{}, {}], which GL clamps to [0, 1] as a vertex colour (OpenGL 1.2.1, Section 2.13.9)",
-                            bound(i.lo),
-                            bound(i.hi)
-                        ),
-                        need: 0,
-                        have: 0,
-                        at: Some(h),
-                        help: Some("split the sum inside δ into terms that stay in [0, 1], or scale it into [0, 1] and back up by a blend".into()),
-                    });
-                }
+                wide_vertex_colour(module, &u)?;
                 let ops = combines(module, value);
                 let have = (p.texture_units as usize).max(1);
                 if ops > have {
@@ -323,4 +296,29 @@ fn combines(module: &Module, value: Handle<Expr>) -> usize {
                 && matches!(module.exprs[*h], Expr::Combine { .. } | Expr::Binary { .. })
         })
         .count()
+}
+
+/// GL clamps a vertex colour to [0, 1] (OpenGL 1.2.1, Section 2.13.9):
+/// the texture environment reads an interpolated colour that may leave it
+/// clamped, not as the program means. Its refusal, located.
+fn wide_vertex_colour(module: &Module, u: &Usage) -> Result<(), Overflow> {
+    let wide = u.interpolants.iter().copied().find(|h| {
+        let i = module.info(*h);
+        i.ty.is_color() && (i.interval.lo < 0.0 || i.interval.hi > 1.0)
+    });
+    let Some(h) = wide else { return Ok(()) };
+    let i = module.info(h).interval;
+    let bound =
+        |x: f64| if x.is_finite() { format!("{}", (x * 100.0).round() / 100.0) } else { "∞".into() };
+    Err(Overflow {
+        resource: format!(
+            "interpolates a colour in [{}, {}], which GL clamps to [0, 1] as a vertex colour (OpenGL 1.2.1, Section 2.13.9)",
+            bound(i.lo),
+            bound(i.hi)
+        ),
+        need: 0,
+        have: 0,
+        at: Some(h),
+        help: Some("split the sum inside δ into terms that stay in [0, 1], or scale it into [0, 1] and back up by a blend".into()),
+    })
 }
