@@ -587,6 +587,32 @@ fn a_bare_modulate_of_an_unwritten_framebuffer_warns() {
     assert!(d.iter().all(|d| d.code != "modulate-cleared"), "{d:#?}");
 }
 
+/// Fog by `length(V)` of the `view` vector is a constant: the binder
+/// normalizes every role but `position` and `intensity`, so its length is
+/// 1. A located warning says so, and its help (a `position in eye`
+/// vector) is quiet and varies with the distance.
+#[test]
+fn the_length_of_a_unit_vector_warns_and_names_the_position_vector() {
+    let src = "vector V : view;\nshader f : s → c = exp(-0.15 * length(V));\nC δπx ← δ f s x;\n";
+    let (_, d) = lower(src);
+    let w: Vec<&Diagnostic> = d.iter().filter(|d| d.code == "unit-length").collect();
+    assert_eq!(w.len(), 1, "{d:#?}");
+    assert!(!w[0].is_error());
+    let file = shadec::diag::SourceFile::new("fog.shd".to_string(), src.to_string());
+    insta::assert_snapshot!("unit_length_warning", file.render(&d, false));
+    // Interpolated (`length(δ V)` inside a per-pixel shader) too, once.
+    let (_, d) = lower("vector L : light;\nshader a : s → c = 1 / (1 + length(L));\nC δπx ← a δ s x;\n");
+    assert_eq!(d.iter().filter(|d| d.code == "unit-length").count(), 1, "{d:#?}");
+    // The help's form is quiet; a computed vector is not judged.
+    for quiet in [
+        "vector P : position in eye;\nshader f : s → c = exp(-0.15 * length(P));\nC δπx ← δ f s x;\n",
+        "vector L : light;\nvector V : view;\nvector H = L + V;\nshader f : s → c = length(H) / 2;\nC δπx ← δ f s x;\n",
+    ] {
+        let (_, d) = lower(quiet);
+        assert!(d.iter().all(|d| d.code != "unit-length"), "{quiet}: {d:#?}");
+    }
+}
+
 /// Generator sizes are bounded where the texture is declared (issue 16,
 /// item 8): `normalize_cube(100000)` took 15 s and 3 GB to build; now it is
 /// a located error before anything is built.

@@ -231,33 +231,37 @@ pub fn address_only(m: &Module, reach: &[bool]) -> Vec<bool> {
     address
 }
 
-/// [`address_only`] over the nodes reachable from `roots` alone, as a set:
-/// its cost grows with what `roots` reach, not with the arena (a lowering
-/// asks it once per statement, and the arena holds every statement's nodes).
-pub fn address_only_from(m: &Module, roots: &[Handle<Expr>]) -> rustc_hash::FxHashSet<Handle<Expr>> {
-    let mut reach: rustc_hash::FxHashSet<Handle<Expr>> = roots.iter().copied().collect();
-    let mut address = rustc_hash::FxHashSet::default();
-    // Operands precede their users in the arena: descending order visits a
-    // node after every user, as the dense walks do.
+/// The nodes reachable from `roots` whose *value* reaches a root, through
+/// operand positions other than an address (lookup coordinates, read
+/// positions; [`address_only`]): what the register combiners read. A node
+/// may be both an address and a value (`δ L` indexing a normalization cube
+/// map and giving `L.z` for Kilgard's self-shadowing term, Kilgard 2000,
+/// Section 2.4.1); it is in this set.
+pub fn value_read_from(m: &Module, roots: &[Handle<Expr>]) -> rustc_hash::FxHashSet<Handle<Expr>> {
+    let mut value: rustc_hash::FxHashSet<Handle<Expr>> = roots.iter().copied().collect();
     for h in m.reachable(roots).into_iter().rev() {
-        if !reach.contains(&h) {
+        let e = &m.exprs[h];
+        if !value.contains(&h) || matches!(e, Expr::Interpolate { .. }) {
             continue;
         }
-        let e = &m.exprs[h];
-        match e {
-            Expr::Lookup { coords, .. } => _ = address.insert(*coords),
-            Expr::FramebufferRead { position, .. } => _ = address.insert(*position),
-            Expr::Depth(p) => _ = address.insert(*p),
-            _ if address.contains(&h) && !matches!(e, Expr::Interpolate { .. }) => {
-                e.visit_operands(|o| _ = address.insert(o));
+        let address = address_operand(e);
+        e.visit_operands(|o| {
+            if Some(o) != address {
+                value.insert(o);
             }
-            _ => {}
-        }
-        if !matches!(e, Expr::Interpolate { .. }) {
-            e.visit_operands(|o| _ = reach.insert(o));
-        }
+        });
     }
-    address
+    value
+}
+
+/// The operand of `e` that addresses a texture or framebuffer, if any.
+pub fn address_operand(e: &Expr) -> Option<Handle<Expr>> {
+    match e {
+        Expr::Lookup { coords, .. } => Some(*coords),
+        Expr::FramebufferRead { position, .. } => Some(*position),
+        Expr::Depth(p) => Some(*p),
+        _ => None,
+    }
 }
 
 /// The per-operation fixed9 model (a pass the combiner generator cannot

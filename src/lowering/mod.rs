@@ -256,15 +256,25 @@ impl<'a> Rewriter<'a> {
     /// coordinates): every signed vector the combiners still read as an
     /// interpolated colour, range-compressed ([`range_compress`]).
     fn compress_interpolants(&mut self, value: Handle<Expr>) -> Handle<Expr> {
-        let address = crate::ir::usage::address_only_from(&self.m, &[value]);
+        let read_by_combiners = crate::ir::usage::value_read_from(&self.m, &[value]);
         let mut map: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::new();
         for h in self.m.reachable(&[value]) {
-            let e = self.m.exprs[h].map_operands(|o| map.get(&o).copied().unwrap_or(o));
+            // A texture's coordinates stay as they were, even where the
+            // combiners also read their interpolant compressed (`δ L`
+            // indexing a cube map and giving `L.z`): the texture unit
+            // iterates coordinates in float.
+            let address = crate::ir::usage::address_operand(&self.m.exprs[h]);
+            let e = self.m.exprs[h].map_operands(|o| {
+                if Some(o) == address {
+                    o
+                } else {
+                    map.get(&o).copied().unwrap_or(o)
+                }
+            });
             let span = self.m.span(h);
             let nh = self.m.intern(e, span).unwrap_or(h);
-            let read_by_combiners = !address.contains(&h);
             let out = match &self.m.exprs[nh] {
-                Expr::Interpolate { .. } if read_by_combiners => {
+                Expr::Interpolate { .. } if read_by_combiners.contains(&h) => {
                     range_compress::apply(self, nh, span).unwrap_or(nh)
                 }
                 // A compressed interpolant stored compressed (a fat texel,

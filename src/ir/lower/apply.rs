@@ -440,7 +440,12 @@ impl<'a> Lowerer<'a> {
             "vec2" => return self.compose(args, Some(Ty::Vec2), span),
             "vec3" => return self.compose(args, Some(Ty::Vec3), span),
             "normalize" => Normalize,
-            "length" => Length,
+            "length" => {
+                if let [v] = args[..] {
+                    self.warn_unit_length(v, items[0].span);
+                }
+                Length
+            }
             "cross" => Cross,
             "reflect" => Reflect,
             "max" => Max,
@@ -475,5 +480,42 @@ impl<'a> Lowerer<'a> {
             args[1] = b;
         }
         self.append(Expr::Math { fun, args }, span)
+    }
+
+    /// `length(V)` of a direction the scene binder normalizes at each
+    /// vertex (every role but `position` and `intensity`): 1 at the
+    /// vertices, a little less between them. A user reaching for the
+    /// distance to the eye or the light (fog, attenuation) gets a constant;
+    /// the help names the `position` vector, whose length in eye space is
+    /// that distance.
+    fn warn_unit_length(&mut self, v: Handle<Expr>, span: Span) {
+        let at = match self.module.exprs[v] {
+            Expr::Interpolate { value, .. } => value,
+            _ => v,
+        };
+        let Expr::Vector { vector, .. } = self.module.exprs[at] else { return };
+        let decl = &self.module.vectors[vector as usize];
+        let Some(kind) =
+            decl.kind.filter(|k| !matches!(k, ast::VectorKind::Position | ast::VectorKind::Intensity))
+        else {
+            return;
+        };
+        // Once per place: a `let` or shader is lowered again at each use.
+        if self.diagnostics.iter().any(|d| d.code == "unit-length" && d.primary.span == span) {
+            return;
+        }
+        let (name, role) = (decl.name.clone(), kind.as_str());
+        self.diagnostics.push(
+            Diagnostic::warning(
+                "unit-length",
+                format!("`{name}` is a `{role}` vector, a unit direction: its length is 1 everywhere"),
+                span,
+                format!("`length({name})` is 1 (a little less where a unit vector is interpolated)"),
+            )
+            .with_help(
+                "for the distance to the eye (fog), declare `vector P : position in eye;` and write \
+                 `length(P)`; a light's distance attenuation is in the `intensity` vector",
+            ),
+        );
     }
 }
