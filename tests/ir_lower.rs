@@ -587,6 +587,21 @@ fn a_bare_modulate_of_an_unwritten_framebuffer_warns() {
     assert!(d.iter().all(|d| d.code != "modulate-cleared"), "{d:#?}");
 }
 
+/// A constant tuple scaled by scalars is a vec3, not a colour: the error
+/// at the statement labels the tuple with the `rgb(…)` that fixes it, and
+/// that fix lowers.
+#[test]
+fn a_tuple_scaled_into_a_framebuffer_is_labelled_with_its_rgb() {
+    let head = "vector N : normal;\nvector L : light;\nshader d : s → scalar = max(0, N·L);\n";
+    let src = format!("{head}C δπx ← (0.8, 0.75, 0.7) * 0.5 * δ d s x;\n");
+    let (e, _) = lower_err(&src);
+    assert_eq!(e.code, "type-mismatch");
+    let label =
+        e.secondary.iter().find(|l| l.message.contains("rgb(0.8, 0.75, 0.7)")).expect("a label at the tuple");
+    assert_eq!(&src[label.span.range()], "(0.8, 0.75, 0.7)");
+    lower_ok(&format!("{head}C δπx ← rgb(0.8, 0.75, 0.7) * 0.5 * δ d s x;\n"));
+}
+
 /// Fog by `length(V)` of the `view` vector is a constant: the binder
 /// normalizes every role but `position` and `intensity`, so its length is
 /// 1. A located warning says so, and its help (a `position in eye`

@@ -70,7 +70,14 @@ impl<'a> Lowerer<'a> {
                     let v = self.lower_expr(i)?;
                     hs.push(self.expect_expr(v, i.span)?);
                 }
-                self.compose(hs, None, span).map(Value::Expr)
+                let h = self.compose(hs, None, span)?;
+                if let Expr::Constant(c) = &self.module.exprs[h] {
+                    if c.ty == Ty::Vec3 {
+                        let [r, g, b, _] = c.components;
+                        self.vec3_tuples.push((span, [r, g, b]));
+                    }
+                }
+                Ok(Value::Expr(h))
             }
             ExprKind::Apply { func, arg } => self.apply(func, arg, span),
             ExprKind::Swizzle { base, components } => self.lower_swizzle(base, components, span),

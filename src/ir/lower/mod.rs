@@ -79,6 +79,7 @@ fn lower_here(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
         distributed: false,
         surface: None,
         written: Default::default(),
+        vec3_tuples: Vec::new(),
     };
     l.run();
     l.module.declared = super::declared::read(program).into();
@@ -172,6 +173,10 @@ struct Lowerer<'a> {
     /// order, whether or not it lowered): reading one of these is reading
     /// what was drawn, not the cleared buffer.
     written: std::collections::HashSet<u32>,
+    /// Constant tuples that lowered to a vec3, with their components as
+    /// written: a type error naming the `rgb(…)` of one (before any
+    /// folding changed its values) labels it.
+    vec3_tuples: Vec<(Span, [f64; 3])>,
 }
 
 impl<'a> Lowerer<'a> {

@@ -184,6 +184,20 @@ impl<'a> Lowerer<'a> {
         Ok(())
     }
 
+    /// A vec3 written as a colour is most often a constant tuple scaled by
+    /// scalars (`(0.8, 0.7, 0.6) * shadow * max(0, N·L)`): a tuple is a
+    /// vec3, and only `rgb(…)` or a colour operand makes it a colour. The
+    /// last diagnostic gets a label at the first tuple written inside
+    /// `span`, naming its `rgb(…)`.
+    fn label_vec3_tuple(&mut self, span: Span) {
+        let inside = |t: &Span| t.start >= span.start && t.end <= span.end;
+        let Some(&(at, [r, g, b])) = self.vec3_tuples.iter().find(|(t, _)| inside(t)) else { return };
+        if let Some(d) = self.diagnostics.last_mut() {
+            *d =
+                d.clone().with_label(at, format!("this tuple is a vec3: `rgb({r}, {g}, {b})` is the colour"));
+        }
+    }
+
     /// The value as the table holds it (rgb widened to rgba, a position
     /// into a depth buffer as its depth); records a texgen's type.
     pub(super) fn fit_value(
@@ -213,6 +227,9 @@ impl<'a> Lowerer<'a> {
                     }
                     (have, want) => {
                         self.error("type-mismatch", format!("{} is written into {} channel", have.a_name(), want.a_name()), span, have.a_name(), if have == Ty::Vec3 { "a vec3 is a direction: write a colour into a framebuffer (`rgb(v)` reads a vec3 as one, `rgb(r, g, b)` is a constant colour), a scalar into α, z or σ" } else { "write a colour (rgb or rgba) into a framebuffer, a scalar into α, z or σ" });
+                        if have == Ty::Vec3 {
+                            self.label_vec3_tuple(span);
+                        }
                         return Err(());
                     }
                 };
