@@ -11,6 +11,7 @@
 //! every target its header names (`three_way_heldout::renders_alike_in`).
 
 use crate::three_way_heldout::held_out_everywhere_in;
+use shadec::numerics::Precision;
 
 held_out_everywhere_in!("heldout_seventeenth":
     toon_ramp,
@@ -46,5 +47,41 @@ fn a_light_vector_indexing_a_cube_map_and_read_as_a_value_plans_per_fragment() {
             .unwrap_or_else(|d| panic!("{target}: {:?}", d.iter().map(|d| &d.message).collect::<Vec<_>>()));
         let rules: Vec<&str> = compiled.planned.plan.approximations.iter().map(|a| a.rule.as_str()).collect();
         assert_eq!(rules, ["range_compression"], "{target}: only the light vector's compression");
+    }
+}
+
+/// Gouraud shading (`δ p s x`, a diffuse and a white highlight summed per
+/// vertex, up to 1.8) on the combiner targets: GL clamps the interpolated
+/// colour at each vertex (OpenGL 1.2.1, Section 2.13.9; on geforce3 the
+/// vertex program's colour results, NV_vertex_program 2.14.1.5), so one
+/// interpolant of the sum is not the program's meaning. The planner now
+/// refuses such an interpolant on the register combiners as on the texture
+/// environment, and the algebra splits the sum across δ: two interpolants
+/// (the primary and secondary colours), each in [0, 1]. Before, geforce3
+/// rendered the floor under the light 41/255 off the reference on 26 % of
+/// pixels (CPU and wgpu alike, through the vertex program), while
+/// geforce256's CPU path interpolated the sum unclamped.
+#[test]
+fn a_gouraud_sum_past_one_is_two_interpolants_on_the_combiner_targets() {
+    let source = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/gouraud.shd"),
+    )
+    .unwrap();
+    let scene = crate::three_way::scene("shadow_occluder_floor.ron");
+    let g = crate::common::gpu::gpu();
+    for target in ["geforce3", "geforce256"] {
+        let profile = shadec::profile::Profile::resolve(target).unwrap();
+        let compiled = shadec::driver::compile(&source, &profile, &Default::default()).unwrap();
+        assert_eq!(compiled.planned.plan.passes.len(), 1, "{target}");
+        assert_eq!(compiled.planned.plan.passes[0].vertex.interpolants.len(), 2, "{target}");
+        for precision in [Precision::F32, Precision::Fixed9] {
+            let p = crate::three_way::render_three(&source, target, &scene, precision, g.as_ref())
+                .unwrap_or_else(|e| panic!("{target}: {e}"));
+            let verdict = match precision {
+                Precision::Fixed9 => crate::three_way_generated::fixed9_verdict(&p, &mut 0),
+                _ => crate::three_way::verdict(&p),
+            };
+            verdict.unwrap_or_else(|e| panic!("{target} {precision:?}: {e}"));
+        }
     }
 }

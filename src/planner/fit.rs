@@ -168,6 +168,10 @@ impl ProfileFit<'_> {
         match &p.fragment {
             FragmentStage::Programmable => Ok(()),
             FragmentStage::Combiners(c) => {
+                // The combiners read an interpolated colour as the primary
+                // or secondary colour, clamped at the vertex as GL clamps it
+                // (NV_vertex_program, Section 2.14.1.5, on geforce3 alike).
+                wide_vertex_colour(module, &u)?;
                 let shader = super::hilo::texture_shader_nodes(module, value, p);
                 let ops = combiner_operations_except(module, value, &shader).map_err(|h| Overflow {
                     resource: format!("{} per fragment", operation_name(module, h)),
@@ -299,8 +303,9 @@ fn combines(module: &Module, value: Handle<Expr>) -> usize {
 }
 
 /// GL clamps a vertex colour to [0, 1] (OpenGL 1.2.1, Section 2.13.9):
-/// the texture environment reads an interpolated colour that may leave it
-/// clamped, not as the program means. Its refusal, located.
+/// the texture environment and the register combiners read an
+/// interpolated colour that may leave it clamped, not as the program
+/// means. Its refusal, located.
 fn wide_vertex_colour(module: &Module, u: &Usage) -> Result<(), Overflow> {
     let wide = u.interpolants.iter().copied().find(|h| {
         let i = module.info(*h);
