@@ -6,7 +6,13 @@
 //! a rim term beside a light-0 diffuse on four lights, hemisphere ambient
 //! in world space, lights 0 and 1 named, gloss in a texture's alpha, two
 //! framebuffers cross-faded in a screen pass, Kilgard's bump-mapped
-//! diffuse with its self-shadowing term, and linear fog over two spots.
+//! diffuse with its self-shadowing term, linear fog over two spots, an
+//! exposure colour uniform, Schlick's Fresnel over an equirectangular
+//! environment, an ambient pass then lights added, an alpha-tested cutout,
+//! stencil shadow volumes drawn `¬σ`, a rendered frame overlaid in a
+//! screen pass, a projected cookie, a shadow mask choosing a darker image
+//! where shadowed, deferred shading with a rim, a toon outline and two
+//! accumulated textures on four lights.
 //! Each renders alike on the CPU, wgpu and the independent reference on
 //! every target its header names (`three_way_heldout::renders_alike_in`).
 
@@ -26,6 +32,17 @@ held_out_everywhere_in!("heldout_seventeenth":
     crossfade,
     self_shadow_bump,
     fog_linear_two,
+    exposure,
+    env_fresnel,
+    ambient_then_lights,
+    cutout,
+    shadow_vol,
+    rtt_overlay,
+    cookie_floor,
+    mask_dark,
+    deferred_rim,
+    outline,
+    accum_textures,
 );
 
 /// Kilgard's self-shadowing term `saturate(8·L.z)` (Kilgard 2000, Section
@@ -83,5 +100,25 @@ fn a_gouraud_sum_past_one_is_two_interpolants_on_the_combiner_targets() {
             };
             verdict.unwrap_or_else(|e| panic!("{target} {precision:?}: {e}"));
         }
+    }
+}
+
+/// A shadow mask that chooses *another* image where the mask is set,
+/// `C xs ← (α C xs)*(C′ xs) + (1 − α C xs)*(C xs)`, is one blend
+/// (GL_DST_ALPHA, GL_ONE_MINUS_DST_ALPHA), as the other way round
+/// (`(α C)·C + (1 − α C)·C′`, GL_ONE_MINUS_DST_ALPHA, GL_DST_ALPHA) is. It
+/// was refused on every target ("the framebuffer's alpha scales its own
+/// colour"); `mask_dark` renders it alike three ways.
+#[test]
+fn a_mask_choosing_another_image_where_set_is_one_blend() {
+    let source =
+        std::fs::read_to_string(crate::three_way_heldout::data("heldout_seventeenth").join("mask_dark.shd"))
+            .unwrap();
+    for target in ["wgsl", "geforce3"] {
+        let profile = shadec::profile::Profile::resolve(target).unwrap();
+        let compiled = shadec::driver::compile(&source, &profile, &Default::default())
+            .unwrap_or_else(|d| panic!("{target}: {:?}", d.iter().map(|d| &d.message).collect::<Vec<_>>()));
+        let last = compiled.planned.plan.passes.last().unwrap();
+        assert_eq!(last.blend, shadec::pipeline::BlendMode::DstAlphaLerp, "{target}");
     }
 }

@@ -225,6 +225,9 @@ pub enum BlendMode {
     /// a mask kept in destination alpha chooses between C and f (the
     /// shadow-mask compositing pass).
     DstAlphaMix,
+    /// `C ← Cα · f + (1 − Cα) · C` (GL_DST_ALPHA, GL_ONE_MINUS_DST_ALPHA):
+    /// the same choice the other way round, f where the mask is set.
+    DstAlphaLerp,
 }
 
 impl BlendMode {
@@ -243,6 +246,9 @@ impl BlendMode {
             BlendMode::DstAlphaMix => {
                 B::factors(super::BlendFactor::OneMinusDstAlpha, super::BlendFactor::DstAlpha)
             }
+            BlendMode::DstAlphaLerp => {
+                B::factors(super::BlendFactor::DstAlpha, super::BlendFactor::OneMinusDstAlpha)
+            }
         }
     }
 
@@ -258,6 +264,7 @@ impl BlendMode {
             BlendMode::DstAlphaModulate => "dst_alpha_modulate",
             BlendMode::AlphaBlend => "alpha_blend",
             BlendMode::DstAlphaMix => "dst_alpha_mix",
+            BlendMode::DstAlphaLerp => "dst_alpha_lerp",
         }
     }
 }

@@ -292,8 +292,22 @@ pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<F
                 return Ok(form);
             }
         }
+        if let Some(ra) = ra {
+            // (1 − Cα)·C + Cα·f
+            let omr = Builder { module: m }.one_minus(ra);
+            if let Some(x) = alpha_factor(m, offset, ra).filter(|_| omr == Some(coef)) {
+                form.blend = BlendMode::DstAlphaLerp;
+                form.value = x;
+                return Ok(form);
+            }
+        }
         if uses(m, coef, ra) {
-            return Err(unsupported("the framebuffer's alpha scales its own colour"));
+            return Err(unsupported("the framebuffer's alpha scales its own colour").with_help(
+                "blending reads the framebuffer's alpha only to choose between its colour and another, \
+                 `(α C)·(C) + (1 − α C)·f` or `(α C)·f + (1 − α C)·(C)`, with `f` not reading `C`: render the \
+                 other image into a framebuffer of its own (`C′ δπx ← …`) and write \
+                 `C xs ← (α C xs)*(C′ xs) + (1 − α C xs)*(C xs)` (the shadow mask, Pipeline Grammar, Section 3.5)",
+            ));
         }
         let one = m.is_constant(coef, 1.0);
         let zero = m.is_constant(offset, 0.0);
