@@ -522,6 +522,34 @@ fn verdict(source: &str, target: &str) -> bool {
     }
 }
 
+/// With `SHADEC_ALGEBRA_DUMP=DIR`, each generated program and its
+/// expansion written to `DIR/NNNNN_w.shd` and `DIR/NNNNN_m.shd`, and the
+/// verdicts of `driver::compile` on them to `DIR/verdicts.txt` (`NNNNN
+/// target as-written multiplied-out`): a debugging aid (`shadec check
+/// --target` on them, for one). The program's number.
+fn dump(original: &str, multiplied: &str) -> usize {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    static N: AtomicUsize = AtomicUsize::new(0);
+    let n = N.fetch_add(1, Ordering::Relaxed);
+    let Some(dir) = std::env::var_os("SHADEC_ALGEBRA_DUMP") else { return n };
+    let dir = Path::new(&dir);
+    std::fs::create_dir_all(dir).unwrap();
+    std::fs::write(dir.join(format!("{n:05}_w.shd")), original).unwrap();
+    std::fs::write(dir.join(format!("{n:05}_m.shd")), multiplied).unwrap();
+    n
+}
+
+fn dump_verdicts(n: usize, target: &str, a: bool, b: bool) {
+    use std::io::Write as _;
+    let Some(dir) = std::env::var_os("SHADEC_ALGEBRA_DUMP") else { return };
+    let mut f = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(Path::new(&dir).join("verdicts.txt"))
+        .unwrap();
+    writeln!(f, "{n:05} {target} {a} {b}").unwrap();
+}
+
 fn cases() -> u32 {
     std::env::var("SHADEC_ALGEBRA_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(64)
 }
@@ -548,8 +576,10 @@ fn the_verdict_on_a_program_is_its_verdict_multiplied_out() {
         let decls = declarations(&c);
         let original = format!("{decls}{}", how.statement(&written(&c)));
         let multiplied = format!("{decls}{}", how.statement(&expanded(&c)));
+        let n = dump(&original, &multiplied);
         for (i, target) in TARGETS.iter().enumerate() {
             let (a, b) = (verdict(&original, target), verdict(&multiplied, target));
+            dump_verdicts(n, target, a, b);
             if a != b && std::env::var_os("SHADEC_ALGEBRA_LIST").is_some() {
                 // Every counterexample listed, none shrunk: a debugging aid.
                 eprintln!("COUNTEREXAMPLE {target} {how:?} as written {a}: {c:?}");
@@ -1015,3 +1045,20 @@ fn a_vertex_colour_past_one_is_not_read_unclamped_on_the_texture_environment() {
     let planned = compile(&dim, "multitexture").unwrap_or_else(|e| panic!("{e:#?}"));
     assert!(reasons(&planned).contains("as written"), "{}", reasons(&planned));
 }
+
+// ---- the property's counterexamples at 5 000 (seventeenth session) --------
+
+/// `C·(T0·T3 + mix(δ l₀₂, T3, a))` plans on geforce256 in one 2×
+/// modulation (the sum is at most 2); its expansion `T0·T3 + 0.5·δl₀·(1 −
+/// a) + 0.5·δl₂·(1 − a) + T3·a` was refused: read back as lerps, one
+/// light's term paired with `T3·a` and the other's stayed apart, bounded
+/// past 2, and merged into one δ the lights were no longer read back as a
+/// lerp. The expansion is now also factored after its interpolants merge
+/// around the `(1 − a)` they share.
+#[test]
+fn lights_merged_around_a_shared_weight_are_read_back_as_a_lerp() {
+    let t = |i| Colour::Texture(i);
+    let c = add(mul(t(0), t(3)), lerp(Colour::Lights(5, 5), t(3), None));
+    both_plan(&c, Written::Multiplied, "geforce256", true);
+}
+

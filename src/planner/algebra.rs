@@ -89,6 +89,13 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
         push(&mut out, kept, "multiplied out");
         for sum in [expanded.unwrap_or(base)].into_iter().chain(apart).chain(kept) {
             factored_forms(m, sum, &mut |v, what| push(&mut out, v, what));
+            // And factored after its interpolants are merged around the
+            // cofactor they share: `δa·(1 − f) + δb·(1 − f) + T·f` reads
+            // back as `lerp(δ(a + b), T, f)` only once the two lights are
+            // one term (a lerp pairs two terms).
+            if let Some(merged) = delta_sums_merged(m, sum) {
+                factored_forms(m, merged, &mut |v, what| push(&mut out, v, what));
+            }
         }
     }
     // A product whose factors all repeat, as the square it is: `x·2·y·x·2·y`
