@@ -158,6 +158,7 @@ fn eval(m: &Module, h: Handle<Expr>, env: &Env) -> [f64; 4] {
             match &pattern[..*len as usize] {
                 [0, 1, 2] => [v[0], v[1], v[2], 1.0],
                 [i] => [v[*i as usize]; 4],
+                [r, g, b] => [v[*r as usize], v[*g as usize], v[*b as usize], 1.0],
                 p => panic!("swizzle {p:?}"),
             }
         }
@@ -370,6 +371,28 @@ fn red_and_green_by_a_dot_product_with_a_unit_colour() {
     check("rgb(a.g)", TOL);
     check("a.rgb * b.g + b.rgb * a.r", TOL);
     check("kd * a.r", TOL);
+}
+
+/// Three components of an rgb in another order: each component that moves
+/// is the dot product with its unit colour, smeared over rgb and masked
+/// into the places it goes; one that stays is masked in place; the terms
+/// summed two to a stage. Refused before ("this component selection
+/// cannot be computed"). Without per-stage constants (geforce256: two
+/// constant colours in all) `.bgr` needs three, and is refused, located
+/// at the selection.
+#[test]
+fn a_permutation_of_rgb_is_dot_products_masked_and_summed() {
+    check("a.bgr", TOL);
+    check("a.bgr * b.rgb", TOL);
+    check("a.gbr", TOL);
+    check("a.rrg + b.rgb * 0.5", TOL);
+    check("g.bgr * a.rgb", TOL);
+    let (e, text) = error("a.bgr", &CombinerLimits::GEFORCE256);
+    assert!(matches!(e, CodegenError::OutOfConstants { .. }), "{e:?}");
+    assert_eq!(text, "a.bgr");
+    // Four components in another order stay refused, saying what can be.
+    let (e, _) = error("a.bgra", &CombinerLimits::GEFORCE3);
+    assert!(e.help().contains("permutation of `rgb`"), "{}", e.help());
 }
 
 /// A scale folded into a constant above 1 (`kd * 2 * x` is `(1.6, 1.2,

@@ -522,6 +522,34 @@ fn verdict(source: &str, target: &str) -> bool {
     }
 }
 
+/// With `SHADEC_ALGEBRA_DUMP=DIR`, each generated program and its
+/// expansion written to `DIR/NNNNN_w.shd` and `DIR/NNNNN_m.shd`, and the
+/// verdicts of `driver::compile` on them to `DIR/verdicts.txt` (`NNNNN
+/// target as-written multiplied-out`): a debugging aid (`shadec check
+/// --target` on them, for one). The program's number.
+fn dump(original: &str, multiplied: &str) -> usize {
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    static N: AtomicUsize = AtomicUsize::new(0);
+    let n = N.fetch_add(1, Ordering::Relaxed);
+    let Some(dir) = std::env::var_os("SHADEC_ALGEBRA_DUMP") else { return n };
+    let dir = Path::new(&dir);
+    std::fs::create_dir_all(dir).unwrap();
+    std::fs::write(dir.join(format!("{n:05}_w.shd")), original).unwrap();
+    std::fs::write(dir.join(format!("{n:05}_m.shd")), multiplied).unwrap();
+    n
+}
+
+fn dump_verdicts(n: usize, target: &str, a: bool, b: bool) {
+    use std::io::Write as _;
+    let Some(dir) = std::env::var_os("SHADEC_ALGEBRA_DUMP") else { return };
+    let mut f = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(Path::new(&dir).join("verdicts.txt"))
+        .unwrap();
+    writeln!(f, "{n:05} {target} {a} {b}").unwrap();
+}
+
 fn cases() -> u32 {
     std::env::var("SHADEC_ALGEBRA_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(64)
 }
@@ -548,8 +576,10 @@ fn the_verdict_on_a_program_is_its_verdict_multiplied_out() {
         let decls = declarations(&c);
         let original = format!("{decls}{}", how.statement(&written(&c)));
         let multiplied = format!("{decls}{}", how.statement(&expanded(&c)));
+        let n = dump(&original, &multiplied);
         for (i, target) in TARGETS.iter().enumerate() {
             let (a, b) = (verdict(&original, target), verdict(&multiplied, target));
+            dump_verdicts(n, target, a, b);
             if a != b && std::env::var_os("SHADEC_ALGEBRA_LIST").is_some() {
                 // Every counterexample listed, none shrunk: a debugging aid.
                 eprintln!("COUNTEREXAMPLE {target} {how:?} as written {a}: {c:?}");
@@ -829,16 +859,41 @@ fn like_terms_are_also_kept_apart() {
 /// `C ← T4; C ← C·(T0 + T1)²` fuses into one pass on multitexture; its
 /// expansion fuses too once the fused value is tried in its forms
 /// (`rewrite::fused_rewritten`), grouped back into `T4·(T0 + T1)²`.
+///
+/// `(T0 + T1)²` no longer: GL clamps the texture environment's `T0 + T1`
+/// to [0, 1] after its stage (seventeenth session), so neither form
+/// plans on multitexture. `mix(T0, T1, a)²` stays in [0, 1] throughout:
+/// its expansion fuses into one pass as `T4·mix(T0, T1, a)²`.
 #[test]
 fn statements_fuse_in_an_equivalent_form() {
     let t = |i| Colour::Texture(i);
-    let c = mul(add(t(0), t(1)), add(t(0), t(1)));
+    let c = mul(lerp(t(0), t(1), None), lerp(t(0), t(1), None));
     both_plan(&c, Written::Multiplied, "multitexture", true);
     let decls = declarations(&c);
     let planned =
         compile(&format!("{decls}{}", Written::Multiplied.statement(&expanded(&c))), "multitexture").unwrap();
     assert_eq!(planned.plan.passes.len(), 1, "{}", reasons(&planned));
     assert!(reasons(&planned).contains("fused"), "{}", reasons(&planned));
+    assert!(unclamped_stage_results(&planned).is_empty());
+    let sum = mul(add(t(0), t(1)), add(t(0), t(1)));
+    verdicts_agree(&sum, Written::Multiplied, "multitexture");
+}
+
+/// `c` written `how`: the same verdict as written and multiplied out on
+/// `target`, and a plan of either computes no stage result the texture
+/// environment would clamp.
+fn verdicts_agree(c: &Colour, how: Written, target: &str) {
+    let decls = declarations(c);
+    let original = format!("{decls}{}", how.statement(&written(c)));
+    let multiplied = format!("{decls}{}", how.statement(&expanded(c)));
+    let (a, b) = (verdict(&original, target), verdict(&multiplied, target));
+    assert_eq!(a, b, "{target}: as written {a}, multiplied out {b}\n{original}\n{multiplied}");
+    for source in [&original, &multiplied] {
+        if let Ok(planned) = compile(source, target) {
+            let wide = unclamped_stage_results(&planned);
+            assert!(target != "multitexture" || wide.is_empty(), "{wide:?}\n{source}");
+        }
+    }
 }
 
 /// `T0 + 0.3·δl0 + (δ pair).r`: the Gouraud rule takes the interpolated
@@ -945,11 +1000,18 @@ fn a_channel_read_as_an_interpolant_is_a_form_not_a_rewrite() {
 /// takes a stage per factor, five with the fused `T4`, and was refused.
 /// A product whose factors all repeat is also tried as the square it is
 /// (`algebra::squared`), `(T4·T0·2)²`.
+///
+/// Since the texture environment's clamp after each stage is modelled
+/// (seventeenth session), `T4·T0·2` leaves [0, 1] before it is squared,
+/// which GL clamps: neither form plans on multitexture, and no plan of
+/// either reads a clamped stage result.
 #[test]
 fn a_product_of_repeated_factors_is_planned_as_its_square() {
     let t = |i| Colour::Texture(i);
     let twice = || mul(t(4), mul(Colour::Number(20), t(0)));
-    both_plan(&mul(twice(), twice()), Written::Added, "multitexture", true);
+    for target in TARGETS {
+        verdicts_agree(&mul(twice(), twice()), Written::Added, target);
+    }
 }
 
 /// `C·4·lerp((δ p).g, δ l₂ + T1, 0.4)` was refused on geforce256 and
@@ -964,8 +1026,20 @@ fn gouraud_reads_a_lerp_and_a_scale_as_their_terms() {
         Colour::Number(40),
         lerp(Colour::Channel(1), add(Colour::Lights(4, 5), Colour::Texture(1)), Some(4)),
     );
-    for target in ["geforce256", "multitexture"] {
-        both_plan(&c, Written::Multiplied, target, false);
+    both_plan(&c, Written::Multiplied, "geforce256", false);
+    // On multitexture the 4 scales a stage's result, which GL clamps
+    // after the stage: as written the Gouraud part plans as `T4·v +
+    // 1.6·T4·T1` (a partial sum the output's clamp covers); multiplied
+    // out, no form found keeps each stage in [0, 1], and it is refused
+    // (docs/pass-plan.md lists it). Neither reads a clamped stage result.
+    let decls = declarations(&c);
+    for text in [written(&c), expanded(&c)] {
+        if let Ok(planned) =
+            compile(&format!("{decls}{}", Written::Multiplied.statement(&text)), "multitexture")
+        {
+            let wide = unclamped_stage_results(&planned);
+            assert!(wide.is_empty(), "{wide:?}\n{text}");
+        }
     }
 }
 
@@ -1014,4 +1088,106 @@ fn a_vertex_colour_past_one_is_not_read_unclamped_on_the_texture_environment() {
     let dim = format!("{}C δπx ← δ lights6_5 s x;\n", declarations(&Colour::Lights(6, 5)));
     let planned = compile(&dim, "multitexture").unwrap_or_else(|e| panic!("{e:#?}"));
     assert!(reasons(&planned).contains("as written"), "{}", reasons(&planned));
+}
+
+// ---- the property's counterexamples at 5 000 (seventeenth session) --------
+
+/// `C·(T0·T3 + mix(δ l₀₂, T3, a))` plans on geforce256 in one 2×
+/// modulation (the sum is at most 2); its expansion `T0·T3 + 0.5·δl₀·(1 −
+/// a) + 0.5·δl₂·(1 − a) + T3·a` was refused: read back as lerps, one
+/// light's term paired with `T3·a` and the other's stayed apart, bounded
+/// past 2, and merged into one δ the lights were no longer read back as a
+/// lerp. The expansion is now also factored after its interpolants merge
+/// around the `(1 − a)` they share.
+#[test]
+fn lights_merged_around_a_shared_weight_are_read_back_as_a_lerp() {
+    let t = |i| Colour::Texture(i);
+    let c = add(mul(t(0), t(3)), lerp(Colour::Lights(5, 5), t(3), None));
+    both_plan(&c, Written::Multiplied, "geforce256", true);
+}
+
+// ---- the texture environment's clamp after each stage -----------------
+
+/// Each pass's per-sample operations below its output whose range leaves
+/// [0, 1]: on the texture environment each is one stage's result, which
+/// GL clamps to [0, 1] (OpenGL 1.3, Section 3.8.13), so a plan with one
+/// computes another value than the program's.
+fn unclamped_stage_results(planned: &Planned) -> Vec<String> {
+    use shadec::ir::{Expr, Handle, MathFunction};
+    let m = &planned.module;
+    let mut out = Vec::new();
+    for (n, p) in planned.plan.passes.iter().enumerate() {
+        let value = Handle::new(p.fragment.output as usize);
+        let (mut root, mut exempt) = (value, vec![value]);
+        while let Expr::Convert { value: inner, .. } = m.exprs[root] {
+            root = inner;
+            exempt.push(root);
+        }
+        // A partial sum of terms ≥ 0 on the way to the output: its clamp
+        // is the output's, min(1, min(1, a) + b) = min(1, a + b).
+        let mut stack = vec![root];
+        while let Some(h) = stack.pop() {
+            if let Expr::Binary { op: shadec::ir::BinaryOp::Add, lhs, rhs } = m.exprs[h] {
+                if m.info(lhs).interval.lo >= 0.0 && m.info(rhs).interval.lo >= 0.0 {
+                    for o in [lhs, rhs] {
+                        if !exempt.contains(&o) {
+                            exempt.push(o);
+                            stack.push(o);
+                        }
+                    }
+                }
+            }
+        }
+        let nodes = m.reachable(&[value]);
+        for &h in &nodes {
+            if let Expr::Math { fun: MathFunction::Saturate, args } = &m.exprs[h] {
+                exempt.extend(args.iter().copied());
+            }
+        }
+        for h in nodes {
+            let i = m.info(h);
+            if !exempt.contains(&h)
+                && i.freq.is_sample()
+                && matches!(m.exprs[h], Expr::Binary { .. } | Expr::Combine { .. })
+                && (i.interval.lo < 0.0 || i.interval.hi > 1.0)
+            {
+                out.push(format!("pass {}: [{}, {}]", n + 1, i.interval.lo, i.interval.hi));
+            }
+        }
+    }
+    out
+}
+
+/// `C ← T4; C ← C·(T5·δ l₁₂ + T4 + T3)` was planned on multitexture as
+/// one pass of stages computing `T4·(T5·δl + T4 + T3)`, whose partial sum
+/// reaches 3: GL clamps each stage's result to [0, 1], so the pass
+/// computed `T4·min(1, …)`. The fit now refuses a value whose
+/// intermediate results leave [0, 1] on the texture environment
+/// (`planner::fit`): the statement is split where the clamps do not
+/// change it, or refused, located, saying so.
+#[test]
+fn the_texture_environment_clamps_after_each_stage() {
+    let t = |i| Colour::Texture(i);
+    let c = add(mul(t(5), Colour::Lights(6, 5)), add(t(4), t(3)));
+    let decls = declarations(&c);
+    let source = format!("{decls}{}", Written::Multiplied.statement(&written(&c)));
+    match compile(&source, "multitexture") {
+        Ok(planned) => {
+            let wide = unclamped_stage_results(&planned);
+            assert!(wide.is_empty(), "{wide:?}\n{}", reasons(&planned));
+            plans_and_renders_its_meaning(&source, "multitexture", &scene("kilgard_torus.ron"));
+        }
+        Err(errors) => {
+            let d = errors.iter().find(|d| d.is_error()).unwrap();
+            assert_ne!(d.primary.span.start, d.primary.span.end, "{d:?}");
+            let text = format!("{} {} {:?}", d.message, d.primary.message, d.help);
+            assert!(text.contains("clamp"), "{text}");
+        }
+    }
+    // A sum that stays in [0, 1] is one pass still.
+    let dim = mul(t(5), Colour::Lights(6, 5));
+    let source = format!("{}{}", declarations(&dim), Written::Multiplied.statement(&written(&dim)));
+    let planned = compile(&source, "multitexture").unwrap_or_else(|e| panic!("{e:#?}"));
+    assert_eq!(planned.plan.passes.len(), 1, "{}", reasons(&planned));
+    assert!(unclamped_stage_results(&planned).is_empty());
 }

@@ -50,6 +50,10 @@ pub const MAX_TERMS: usize = 12;
 /// The canonical form, in the words of a plan's reason.
 pub const CANONICAL: &str = "with tuples read by channel, lerps and sums inside δ written out";
 
+/// A form with sums of interpolants merged into one δ, in the words of a
+/// plan's reason.
+const MERGED: &str = "with sums of interpolants merged into one δ";
+
 /// One equivalent form of a value and what made it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Form {
@@ -89,6 +93,13 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
         push(&mut out, kept, "multiplied out");
         for sum in [expanded.unwrap_or(base)].into_iter().chain(apart).chain(kept) {
             factored_forms(m, sum, &mut |v, what| push(&mut out, v, what));
+            // And factored after its interpolants are merged around the
+            // cofactor they share: `δa·(1 − f) + δb·(1 − f) + T·f` reads
+            // back as `lerp(δ(a + b), T, f)` only once the two lights are
+            // one term (a lerp pairs two terms).
+            if let Some(merged) = delta_sums_merged(m, sum) {
+                factored_forms(m, merged, &mut |v, _| push(&mut out, v, MERGED));
+            }
         }
     }
     // A product whose factors all repeat, as the square it is: `x·2·y·x·2·y`
@@ -100,7 +111,7 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
     let merged: Vec<Option<Handle<Expr>>> =
         std::iter::once(h).chain(out.iter().map(|f| f.value)).map(|v| delta_sums_merged(m, v)).collect();
     for v in merged {
-        push(&mut out, v, "with sums of interpolants merged into one δ");
+        push(&mut out, v, MERGED);
     }
     out
 }
@@ -161,7 +172,14 @@ fn factored_forms(
     push: &mut dyn FnMut(Option<Handle<Expr>>, &'static str),
 ) {
     for nth in 0..3 {
-        push(factor_nth(m, sum, nth), "with a common factor taken out");
+        let factored = factor_nth(m, sum, nth);
+        push(factored, "with a common factor taken out");
+        // Then its lerps read back around what was taken out:
+        // `T5·(1 − a) + 0.4·T2·T0·a + δl·T0·a` is `mix(T5, T0·(0.4·T2 +
+        // δl), a)` once `T0·a` is one factor of one term.
+        if let Some(f) = factored {
+            push(lerps_recovered(m, f), "with its lerps written as lerps");
+        }
     }
     for distribute_common in [false, true] {
         push(product_of_sums(m, sum, distribute_common), "factored into a product of sums");

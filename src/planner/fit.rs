@@ -194,6 +194,7 @@ impl ProfileFit<'_> {
             }
             FragmentStage::TextureEnv => {
                 wide_vertex_colour(module, &u)?;
+                stage_result_clamped(module, value)?;
                 let ops = combines(module, value);
                 let have = (p.texture_units as usize).max(1);
                 if ops > have {
@@ -325,5 +326,64 @@ fn wide_vertex_colour(module: &Module, u: &Usage) -> Result<(), Overflow> {
         have: 0,
         at: Some(h),
         help: Some("split the sum inside δ into terms that stay in [0, 1], or scale it into [0, 1] and back up by a blend".into()),
+    })
+}
+
+/// The texture environment clamps each stage's result to [0, 1] (OpenGL
+/// 1.3, Section 3.8.13; ARB_texture_env_combine): a value whose
+/// intermediate sum, difference or scaled product may leave [0, 1]
+/// (`T4·(T5·δl + T4 + T3)`, the sum up to 3) is not what one pass of
+/// stages computes. Its refusal, located at that operation; the last
+/// stage's clamp is the framebuffer's (and a `saturate`'s) anyway.
+fn stage_result_clamped(module: &Module, value: Handle<Expr>) -> Result<(), Overflow> {
+    let mut exempt = vec![value];
+    let mut root = value;
+    while let Expr::Convert { value: inner, .. } = module.exprs[root] {
+        root = inner;
+        exempt.push(root);
+    }
+    // Partial sums of terms ≥ 0 on the way to the output: the clamp of
+    // one is the output's, min(1, min(1, a) + b) = min(1, a + b) for a,
+    // b ≥ 0 (as between passes).
+    let mut stack = vec![root];
+    while let Some(h) = stack.pop() {
+        if let Expr::Binary { op: BinaryOp::Add, lhs, rhs } = module.exprs[h] {
+            if module.info(lhs).interval.lo >= 0.0 && module.info(rhs).interval.lo >= 0.0 {
+                for o in [lhs, rhs] {
+                    if !exempt.contains(&o) {
+                        exempt.push(o);
+                        stack.push(o);
+                    }
+                }
+            }
+        }
+    }
+    let nodes = module.reachable(&[value]);
+    for &h in &nodes {
+        if let Expr::Math { fun: MathFunction::Saturate, args } = &module.exprs[h] {
+            exempt.extend(args.iter().copied());
+        }
+    }
+    let wide = nodes.into_iter().find(|&h| {
+        let i = module.info(h);
+        !exempt.contains(&h)
+            && i.freq.is_sample()
+            && matches!(module.exprs[h], Expr::Combine { .. } | Expr::Binary { .. })
+            && (i.interval.lo < 0.0 || i.interval.hi > 1.0)
+    });
+    let Some(h) = wide else { return Ok(()) };
+    let i = module.info(h).interval;
+    let bound =
+        |x: f64| if x.is_finite() { format!("{}", (x * 100.0).round() / 100.0) } else { "∞".into() };
+    Err(Overflow {
+        resource: format!(
+            "computes an intermediate result in [{}, {}], which the texture environment clamps to [0, 1] after each stage (OpenGL 1.3, Section 3.8.13)",
+            bound(i.lo),
+            bound(i.hi)
+        ),
+        need: 0,
+        have: 0,
+        at: Some(h),
+        help: Some("keep each partial sum and scaled product in [0, 1] (halve it and double it back by a blend), or target a programmable stage".into()),
     })
 }

@@ -25,7 +25,10 @@ impl Gen<'_> {
         };
         let is_constant = |g: &Self, n: Handle<Expr>| matches!(g.expr(n), Expr::Constant(_));
         for (i, k) in self.konsts.iter().enumerate() {
-            let same_node = k.node == h && (!is_constant(self, h) || same(&k.color, &color));
+            // One node may need several known colours (the unit colours of
+            // a permutation, `select::permutation_src`): one each.
+            let same_node =
+                k.node == h && (!(is_constant(self, h) || known && k.known) || same(&k.color, &color));
             let same_color = known && k.known && is_constant(self, k.node) && same(&k.color, &color);
             if same_node || same_color {
                 return Ok(i);

@@ -243,13 +243,72 @@ impl Gen<'_> {
             let konst = self.konst(h, unit, true, Comp::Rgb)?;
             let unit = Src { base: Base::K(konst), comp: Comp::Rgb, map: UnsignedIdentity };
             self.emit(Spec::single(Term { a: v, b: unit, dot: true }, true), span)
+        } else if len == 3 && p.iter().all(|c| *c < 3) && vty.width() >= 3 {
+            self.permutation_src(h, value, p, sat, span)
         } else {
             Err(unsupported(
                 span,
                 "this component selection",
-                "the combiners read a register's rgb, its alpha, or (in an alpha portion) its blue (Kilgard 2000, B.4), and red or green alone of an rgb by a dot product with a unit colour: use `.rgb`, `.a`, `.r`, `.g` or `.b`, or a lookup texture that stores the component in alpha",
+                "the combiners read a register's rgb, its alpha, or (in an alpha portion) its blue (Kilgard 2000, B.4), red or green alone of an rgb by a dot product with a unit colour, and three components of an rgb in another order (`.bgr`) by such dot products summed: use `.rgb`, `.a`, `.r`, `.g`, `.b` or a permutation of `rgb`, or a lookup texture that stores the component in alpha",
             ))
         }
+    }
+
+    /// Three components of an rgb in another order (`.bgr`, `.grb`, `.rrg`):
+    /// each component that moves read as the dot product with its unit
+    /// colour, which a stage smears over rgb (Kilgard 2000, Section
+    /// 4.2.2), masked by the unit colours of the places it goes; the
+    /// components that stay masked in place (`v · (0, 1, 0)`); the terms
+    /// summed two to a stage (`AB + CD`). `.bgr` is `v·(0, 1, 0) +
+    /// (v · e_b)·(1, 0, 0) + (v · e_r)·(0, 0, 1)`: three stages and three
+    /// constant colours, which a target without per-stage constants (two in
+    /// all, B.3) does not have.
+    fn permutation_src(
+        &mut self,
+        h: Handle<Expr>,
+        value: Handle<Expr>,
+        p: &[u8],
+        sat: bool,
+        span: Span,
+    ) -> R<Src> {
+        let v = self.src(value, Part::Rgb, sat)?;
+        let mask = |places: &[usize]| {
+            let mut m = [0.0f32; 4];
+            for &j in places {
+                m[j] = 1.0;
+            }
+            m
+        };
+        let mut terms: Vec<Term> = Vec::new();
+        let mut stay: Vec<usize> = Vec::new();
+        for c in 0..3usize {
+            let places: Vec<usize> = (0..3).filter(|&j| p[j] as usize == c).collect();
+            if places.is_empty() {
+                continue;
+            }
+            if places == [c] {
+                stay.push(c);
+                continue;
+            }
+            let unit = self.konst(h, mask(&[c]), true, Comp::Rgb)?;
+            let unit = Src { base: Base::K(unit), comp: Comp::Rgb, map: UnsignedIdentity };
+            let smeared = self.emit(Spec::single(Term { a: v, b: unit, dot: true }, true), span)?;
+            let to = self.konst(h, mask(&places), true, Comp::Rgb)?;
+            let to = Src { base: Base::K(to), comp: Comp::Rgb, map: UnsignedIdentity };
+            terms.push(Term { a: smeared, b: to, dot: false });
+        }
+        if !stay.is_empty() {
+            let kept = self.konst(h, mask(&stay), true, Comp::Rgb)?;
+            let kept = Src { base: Base::K(kept), comp: Comp::Rgb, map: UnsignedIdentity };
+            terms.insert(0, Term { a: v, b: kept, dot: false });
+        }
+        let mut terms = terms.into_iter();
+        let Some(first) = terms.next() else { return self.src(value, Part::Rgb, sat) };
+        let mut sum = self.emit(Spec { cd: terms.next(), ..Spec::single(first, false) }, span)?;
+        for t in terms {
+            sum = self.emit(Spec { cd: Some(t), ..Spec::single(Term::times_one(sum), false) }, span)?;
+        }
+        Ok(sum)
     }
 
     /// `rgb → rgba` (alpha one) or a splat: the value as the part reads it.
