@@ -386,14 +386,17 @@ fn simplify(m: &mut Module, h: Handle<Expr>, span: Span, channels: bool) -> Opti
         // Colours and scalars only: a direction's sum (`δ(L + V)`) is a
         // cube map's coordinate, which must stay one interpolant.
         Expr::Interpolate { value, to } if matches!(m.info(value).ty, Ty::Rgb | Ty::Rgba | Ty::Scalar) => {
-            // A shader's vec3 result read as a colour (`.rgb`) is its sum's too.
-            let (inner, retype) = match m.exprs[value] {
+            // A shader's vec3 result read as a colour (`.rgb`) is its sum's
+            // too; a scalar sum returned as a colour (`s → c = 0.7·a +
+            // 0.4·b`, splat to rgb) is the sum of its terms splat.
+            let (inner, retype, splat) = match m.exprs[value] {
                 Expr::Swizzle { value: v, pattern: [0, 1, 2, _], len: 3, ty }
                     if m.info(v).ty.width() == 3 =>
                 {
-                    (v, Some(ty))
+                    (v, Some(ty), None)
                 }
-                _ => (value, None),
+                Expr::Convert { value: v, to } if m.info(v).ty == Ty::Scalar => (v, None, Some(to)),
+                _ => (value, None, None),
             };
             // `δ(kd·(a + b))`: the product multiplied out first.
             let expanded = multiply_out(m, inner, MAX_TERMS).unwrap_or(inner);
@@ -408,6 +411,10 @@ fn simplify(m: &mut Module, h: Handle<Expr>, span: Span, channels: bool) -> Opti
                         node(m, Expr::Swizzle { value: t, pattern: [0, 1, 2, 0], len: 3, ty }, span)?
                     }
                     _ => t,
+                };
+                let t = match splat {
+                    Some(to) => node(m, Expr::Convert { value: t, to }, span)?,
+                    None => t,
                 };
                 // δ of a constant is the constant.
                 let d = if m.info(t).freq <= Frequency::Uniform {
