@@ -295,6 +295,8 @@ unsafe fn raster_tile_batched_avx2(
 
 /// The scan loop; `AVX2`: compiled with AVX2 (the spans' varyings
 /// compressed into the batch's rows by a permutation).
+// Indexed loops over several lane arrays at once are the form that vectorises.
+#[allow(clippy::needless_range_loop)]
 #[inline(always)]
 fn raster_tile_batched_body<const AVX2: bool>(
     tile: &mut TileBuffers,
