@@ -422,13 +422,7 @@ impl<'a> PlanRenderer<'a> {
                 let target = &self.planned.setup(index).target;
                 let name = if layer == 0 { target.name.clone() } else { format!("{}#{layer}", target.name) };
                 self.target_named(&mut targets, &name, index, mode, format, (width, height))?;
-                settle_targets(&mut targets, &name, plain_draw(pass, &draws) && !reads_own_target(m, &pi));
-                let mut reads = framebuffer_reads(m, &pi, &targets);
-                if !reads.is_empty() {
-                    // Read through a copy: settled first.
-                    settle_targets(&mut targets, &name, false);
-                    reads = framebuffer_reads(m, &pi, &targets);
-                }
+                let reads = settled_reads(m, &pi, &mut targets, &name, plain_draw(pass, &draws));
                 // A copy of the target only for the passes that read it (its
                 // size or depth at the pixel): a copy per pass is megabytes.
                 let own_depth = reads_own_target(m, &pi).then(|| targets.get(&name).cloned()).flatten();
@@ -774,6 +768,26 @@ impl<'a> PlanRenderer<'a> {
 /// tile): a mesh pass drawn in full.
 fn plain_draw(pass: &Pass, draws: &Draws) -> bool {
     matches!(pass.geometry, Geometry::Mesh { .. }) && (draws.settings.is_none() || pass.state.stencil.enabled)
+}
+
+/// The framebuffers pass `pi` reads ([`framebuffer_reads`]), every
+/// target's deferred clear settled first but that of its own target `name`
+/// where the pass draws it plainly (`plain`, [`plain_draw`]) and reads
+/// neither it nor any framebuffer (a copy read must be settled).
+fn settled_reads(
+    m: &ir::Module,
+    pi: &PassInterface,
+    targets: &mut BTreeMap<String, Framebuffer>,
+    name: &str,
+    plain: bool,
+) -> std::collections::HashMap<u32, Framebuffer> {
+    settle_targets(targets, name, plain && !reads_own_target(m, pi));
+    let reads = framebuffer_reads(m, pi, targets);
+    if reads.is_empty() {
+        return reads;
+    }
+    settle_targets(targets, name, false);
+    framebuffer_reads(m, pi, targets)
 }
 
 /// Settles every target's deferred clear ([`Framebuffer::settle`]) but
