@@ -59,6 +59,18 @@ pub(crate) struct TileBuffers {
     pub(crate) stencil: Vec<u8>,
 }
 
+impl TileBuffers {
+    /// What [`Framebuffer::new`] puts in a tile: colour 0, depth 1, stencil 0.
+    pub(crate) fn clear(&mut self) {
+        match &mut self.color {
+            ColorTile::Rgba8(v) => v.fill([0; 4]),
+            ColorTile::F32(v) | ColorTile::F16(v) | ColorTile::Unorm(v) => v.fill([0.0; 4]),
+        }
+        self.depth.fill(1.0);
+        self.stencil.fill(0);
+    }
+}
+
 /// The nearest half-precision value (ties to even), as an `f32`.
 #[inline]
 pub fn round_f16(v: f32) -> f32 {
@@ -230,21 +242,75 @@ pub struct Framebuffer {
 /// marks every tile written (conservative: the adaptive writers and
 /// `set_color` go through it); the tiled rasterizer marks only the tiles it
 /// has triangles for ([`Tiles::writing`]).
+///
+/// A clear may also be deferred ([`Framebuffer::reset_deferred`]): the
+/// tiles to clear are marked `stale` and cleared by the tiled rasterizer's
+/// worker just before it first writes them ([`Tiles::writing_fused`]), in
+/// cache, instead of by a pass over the whole target whose lines the
+/// rasterizer then reads back from memory. A stale tile is never seen:
+/// every mutable access clears the stale tiles first, and the holder of a
+/// framebuffer reset so settles it ([`Framebuffer::settle`]) before any
+/// shared access (checked in debug builds).
 #[derive(Clone, Debug)]
 pub(crate) struct Tiles {
     buffers: Vec<TileBuffers>,
     /// Per tile: nothing written since it was last cleared.
     clean: Vec<bool>,
+    /// Per tile: to be cleared before it is used ([`Framebuffer::reset_deferred`]).
+    stale: Vec<bool>,
+    /// Whether any tile is stale.
+    any_stale: bool,
 }
 
 impl Tiles {
     /// The tiles, to write those where `written(t)` (they lose their clean
     /// mark; the others must not be written).
     pub(crate) fn writing(&mut self, written: impl Fn(usize) -> bool) -> &mut [TileBuffers] {
+        self.settle();
         for (t, c) in self.clean.iter_mut().enumerate() {
             *c &= !written(t);
         }
         &mut self.buffers
+    }
+
+    /// [`Tiles::writing`] with the deferred clear fused into the writer:
+    /// the stale tiles that are not written are cleared here (in
+    /// parallel); those written are returned marked (`true` at their
+    /// index), and the caller must clear each ([`TileBuffers::clear`])
+    /// before it reads or writes it.
+    pub(crate) fn writing_fused(
+        &mut self,
+        written: impl Fn(usize) -> bool + Sync,
+    ) -> (&mut [TileBuffers], Vec<bool>) {
+        let mut fresh = vec![false; self.buffers.len()];
+        if self.any_stale {
+            self.buffers.par_iter_mut().zip(self.stale.par_iter()).enumerate().for_each(|(t, (b, &s))| {
+                if s && !written(t) {
+                    b.clear();
+                }
+            });
+            for (t, (f, s)) in fresh.iter_mut().zip(&mut self.stale).enumerate() {
+                *f = *s && written(t);
+                *s = false;
+            }
+            self.any_stale = false;
+        }
+        for (t, c) in self.clean.iter_mut().enumerate() {
+            *c &= !written(t);
+        }
+        (&mut self.buffers, fresh)
+    }
+
+    /// Clears the stale tiles (in parallel).
+    fn settle(&mut self) {
+        if !self.any_stale {
+            return;
+        }
+        self.buffers.par_iter_mut().zip(self.stale.par_iter_mut()).filter(|(_, s)| **s).for_each(|(b, s)| {
+            b.clear();
+            *s = false;
+        });
+        self.any_stale = false;
     }
 
     /// How many tiles are marked clean (for tests).
@@ -257,12 +323,17 @@ impl Tiles {
 impl std::ops::Deref for Tiles {
     type Target = Vec<TileBuffers>;
     fn deref(&self) -> &Vec<TileBuffers> {
+        debug_assert!(
+            !self.any_stale,
+            "a framebuffer reset with its clear deferred read before it was settled"
+        );
         &self.buffers
     }
 }
 
 impl std::ops::DerefMut for Tiles {
     fn deref_mut(&mut self) -> &mut Vec<TileBuffers> {
+        self.settle();
         self.clean.fill(false);
         &mut self.buffers
     }
@@ -286,7 +357,8 @@ impl Framebuffer {
         };
         let tile = TileBuffers { color, depth: vec![1.0; n], stencil: vec![0; n] };
         let n = tiles_x * tiles_y;
-        let tiles = Tiles { buffers: vec![tile; n], clean: vec![true; n] };
+        let tiles =
+            Tiles { buffers: vec![tile; n], clean: vec![true; n], stale: vec![false; n], any_stale: false };
         Ok(Framebuffer { width, height, format, tiles_x, tiles_y, tiles })
     }
 
@@ -302,16 +374,29 @@ impl Framebuffer {
     /// tens of megabytes per frame. Only the tiles written since their last
     /// clear are cleared (the framebuffer keeps a mark per tile).
     pub fn reset(&mut self) {
-        let Tiles { buffers, clean } = &mut self.tiles;
-        buffers.par_iter_mut().zip(clean.par_iter_mut()).filter(|(_, c)| !**c).for_each(|(t, c)| {
-            *c = true;
-            match &mut t.color {
-                ColorTile::Rgba8(v) => v.fill([0; 4]),
-                ColorTile::F32(v) | ColorTile::F16(v) | ColorTile::Unorm(v) => v.fill([0.0; 4]),
+        self.reset_deferred();
+        self.settle();
+    }
+
+    /// [`Framebuffer::reset`] with the clear deferred: the tiles to clear
+    /// are only marked, and cleared by the tiled rasterizer just before it
+    /// first writes each (in cache), or by any mutable access, or by
+    /// [`Framebuffer::settle`] — which the caller must call before any
+    /// shared access if it does not draw first.
+    pub(crate) fn reset_deferred(&mut self) {
+        let Tiles { clean, stale, any_stale, .. } = &mut self.tiles;
+        for (c, s) in clean.iter_mut().zip(stale.iter_mut()) {
+            if !*c {
+                (*c, *s) = (true, true);
+                *any_stale = true;
             }
-            t.depth.fill(1.0);
-            t.stencil.fill(0);
-        });
+        }
+    }
+
+    /// Clears the tiles whose clear [`Framebuffer::reset_deferred`]
+    /// deferred (nothing when none is).
+    pub(crate) fn settle(&mut self) {
+        self.tiles.settle();
     }
 
     /// The width in pixels.
@@ -592,6 +677,56 @@ mod tests {
         fb.clear_depth(0.5);
         fb.reset();
         assert!(same(&fb));
+    }
+
+    /// A deferred clear ([`Framebuffer::reset_deferred`]) leaves the
+    /// framebuffer [`Framebuffer::new`]'s once its tiles are cleared as
+    /// the rasterizer clears them: the written ones marked by
+    /// [`Tiles::writing_fused`] cleared by the caller, the others by it;
+    /// or by [`Framebuffer::settle`], or by any mutable access.
+    #[test]
+    fn a_deferred_clear_is_made_by_the_writer_or_when_settled() {
+        let (w, h) = (3 * TILE as u32 - 5, 2 * TILE as u32);
+        let fresh = Framebuffer::new(w, h, ColorFormat::F32).unwrap();
+        let same = |fb: &Framebuffer| {
+            (0..h).all(|y| {
+                (0..w).all(|x| {
+                    fb.color(x, y) == fresh.color(x, y)
+                        && fb.depth(x, y) == fresh.depth(x, y)
+                        && fb.stencil(x, y) == fresh.stencil(x, y)
+                })
+            })
+        };
+        let scribble = |fb: &mut Framebuffer| {
+            // Every tile but the last (it stays clean).
+            for t in 0..5 {
+                let tile = &mut fb.tiles.writing(|k| k != 5)[t];
+                tile.depth[7 + t] = 0.25;
+                tile.stencil[9] = 3;
+                tile.blend_color(11 * t, &[1.0, 2.0, 3.0, 4.0], &BlendState::REPLACE);
+            }
+        };
+        let mut fb = Framebuffer::new(w, h, ColorFormat::F32).unwrap();
+        scribble(&mut fb);
+        assert!(!same(&fb));
+        fb.reset_deferred();
+        let (tiles, fresh_tiles) = fb.tiles.writing_fused(|t| t == 1 || t == 5);
+        // Tile 5 was clean, tile 1 is the writer's to clear.
+        assert_eq!(fresh_tiles, [false, true, false, false, false, false]);
+        assert!(tiles[1].depth[8] == 0.25 && tiles[0].depth[7] == 1.0);
+        tiles[1].clear();
+        assert!(same(&fb));
+        assert_eq!(fb.tiles.clean_count(), 4);
+        scribble(&mut fb);
+        fb.reset_deferred();
+        fb.settle();
+        assert!(same(&fb) && fb.tiles.clean_count() == 6);
+        scribble(&mut fb);
+        fb.reset_deferred();
+        fb.set_color(0, 0, [0.0; 4]);
+        assert!(same(&fb));
+        // Nothing deferred: nothing to clear.
+        assert!(!fb.tiles.writing_fused(|_| true).1.contains(&true));
     }
 
     #[test]

@@ -103,6 +103,20 @@ pub trait FragmentStage: Sync {
         shade_each(self, fragments, varyings, out, results)
     }
 
+    /// [`FragmentStage::shade_batch`] with the varyings stored by component
+    /// (the tiled rasterizer's batches): value `c` of fragment `i` at
+    /// `rows[c * row + i]`, `per` values a fragment. The default copies them
+    /// out by fragment ([`shade_rows_by_fragment`]).
+    fn shade_batch_rows(
+        &self,
+        fragments: &[Fragment],
+        (rows, per, row): (&[f32], usize, usize),
+        out: &mut [[f32; 4]],
+        results: &mut [FragmentResult],
+    ) {
+        shade_rows_by_fragment(self, fragments, (rows, per, row), out, results)
+    }
+
     /// Whether the stage gives each fragment a depth of its own, which the
     /// depth test then takes in place of the interpolated one
     /// (NV_texture_shader's `DOT_PRODUCT_DEPTH_REPLACE_NV`, WGSL's
@@ -145,6 +159,25 @@ pub fn shade_each<S: FragmentStage + ?Sized>(
     for (i, fragment) in fragments.iter().enumerate() {
         results[i] = stage.shade(fragment, &varyings[i * per..(i + 1) * per], &mut out[i]);
     }
+}
+
+/// [`FragmentStage::shade_batch_rows`] through [`FragmentStage::shade_batch`]:
+/// the varyings copied out by fragment first.
+pub fn shade_rows_by_fragment<S: FragmentStage + ?Sized>(
+    stage: &S,
+    fragments: &[Fragment],
+    (rows, per, row): (&[f32], usize, usize),
+    out: &mut [[f32; 4]],
+    results: &mut [FragmentResult],
+) {
+    let n = fragments.len();
+    let mut varyings = vec![0.0f32; n * per];
+    for (i, v) in varyings.chunks_exact_mut(per.max(1)).enumerate().take(n) {
+        for (c, x) in v.iter_mut().enumerate() {
+            *x = rows[c * row + i];
+        }
+    }
+    stage.shade_batch(fragments, &varyings, out, results)
 }
 
 /// The most fragments [`FragmentStage::shade_batch`] receives at once.

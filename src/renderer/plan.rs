@@ -403,6 +403,7 @@ impl<'a> PlanRenderer<'a> {
             if let Some(run) = adaptive.and_then(|_| self.fused_run(index)) {
                 let name = self.planned.setup(index).target.name.clone();
                 let target = self.target_named(&mut targets, &name, index, mode, format, (width, height))?;
+                target.settle();
                 let (passes, drawn) = (index..index + run, (&rendered, &objects[..]));
                 nonfinite += self.draw_fused(passes, mode, drawn, target, &mut draws, &mut shading)?;
                 (last_fb, fused_until) = (Some(name), index + run);
@@ -421,7 +422,7 @@ impl<'a> PlanRenderer<'a> {
                 let target = &self.planned.setup(index).target;
                 let name = if layer == 0 { target.name.clone() } else { format!("{}#{layer}", target.name) };
                 self.target_named(&mut targets, &name, index, mode, format, (width, height))?;
-                let reads = framebuffer_reads(m, &pi, &targets);
+                let reads = settled_reads(m, &pi, &mut targets, &name, plain_draw(pass, &draws));
                 // A copy of the target only for the passes that read it (its
                 // size or depth at the pixel): a copy per pass is megabytes.
                 let own_depth = reads_own_target(m, &pi).then(|| targets.get(&name).cloned()).flatten();
@@ -451,6 +452,8 @@ impl<'a> PlanRenderer<'a> {
                 let volume = volume.as_ref().map(|v| self.bound_volume(v, width, height));
                 let drawn = volume.as_ref().map_or(&objects[..], std::slice::from_ref);
                 self.draw_layer(pass, &pi, drawn, &stage, target, &mut draws)?;
+                // A target no draw wrote (no object drawn) still holds its deferred clear.
+                target.settle();
                 nonfinite += stage.nonfinite.load(Ordering::Relaxed);
                 match &pass.target {
                     RenderTarget::Framebuffer { .. } => last_fb = Some(name.clone()),
@@ -757,6 +760,43 @@ impl<'a> PlanRenderer<'a> {
         // computes, as the card does (planner::alpha_test).
         let alpha_test = Some(self.planned.plan.passes[index].state.alpha_test).filter(|t| !t.is_disabled());
         Ok((CombinerSetup { machine, registers, alpha_test }, g.stages))
+    }
+}
+
+/// Whether `pass` draws into its target only through the tiled
+/// rasterizer's draws (`super::draw`, which makes a deferred clear tile by
+/// tile): a mesh pass drawn in full.
+fn plain_draw(pass: &Pass, draws: &Draws) -> bool {
+    matches!(pass.geometry, Geometry::Mesh { .. }) && (draws.settings.is_none() || pass.state.stencil.enabled)
+}
+
+/// The framebuffers pass `pi` reads ([`framebuffer_reads`]), every
+/// target's deferred clear settled first but that of its own target `name`
+/// where the pass draws it plainly (`plain`, [`plain_draw`]) and reads
+/// neither it nor any framebuffer (a copy read must be settled).
+fn settled_reads(
+    m: &ir::Module,
+    pi: &PassInterface,
+    targets: &mut BTreeMap<String, Framebuffer>,
+    name: &str,
+    plain: bool,
+) -> std::collections::HashMap<u32, Framebuffer> {
+    settle_targets(targets, name, plain && !reads_own_target(m, pi));
+    let reads = framebuffer_reads(m, pi, targets);
+    if reads.is_empty() {
+        return reads;
+    }
+    settle_targets(targets, name, false);
+    framebuffer_reads(m, pi, targets)
+}
+
+/// Settles every target's deferred clear ([`Framebuffer::settle`]) but
+/// that of `name` where `keep` (its first draw makes it).
+fn settle_targets(targets: &mut BTreeMap<String, Framebuffer>, name: &str, keep: bool) {
+    for (n, fb) in targets.iter_mut() {
+        if !(keep && n == name) {
+            fb.settle();
+        }
     }
 }
 

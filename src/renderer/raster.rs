@@ -81,10 +81,57 @@ impl Fragment<'_> {
     }
 }
 
+/// A batch's varyings as the lane code reads them: value `c` of fragment
+/// (lane) `i` at `data[i * lane + c * comp]` — stored by fragment (`per`
+/// values each: `lane = per`, `comp = 1`) or by component (a row of lanes
+/// per value: `lane = 1`, `comp` the row's length), so that a row loads
+/// as a vector.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Vary<'v> {
+    data: &'v [f32],
+    lane: usize,
+    comp: usize,
+    /// Values per fragment.
+    pub(crate) per: usize,
+}
+
+impl<'v> Vary<'v> {
+    /// `per` values of each fragment after each other.
+    pub(crate) fn by_fragment(data: &'v [f32], per: usize) -> Vary<'v> {
+        Vary { data, lane: per, comp: 1, per }
+    }
+
+    /// `per` rows of `row` lanes: value `c` of lane `i` at `c * row + i`.
+    pub(crate) fn by_component(data: &'v [f32], per: usize, row: usize) -> Vary<'v> {
+        Vary { data, lane: 1, comp: row, per }
+    }
+
+    /// Value `c` of lane `i`.
+    #[inline(always)]
+    pub(crate) fn get(&self, i: usize, c: usize) -> f32 {
+        self.data[i * self.lane + c * self.comp]
+    }
+
+    /// Value `c` of lanes `0..n` as one slice, where they are stored so.
+    #[inline(always)]
+    pub(crate) fn row(&self, c: usize, n: usize) -> Option<&'v [f32]> {
+        (self.lane == 1).then(|| &self.data[c * self.comp..][..n])
+    }
+
+    /// The values of lane `i` into `out` (`per` of them): a fragment's own
+    /// slice for the one-lane code.
+    #[inline(always)]
+    pub(crate) fn lane_into(&self, i: usize, out: &mut [f32]) {
+        for (c, o) in out.iter_mut().enumerate().take(self.per) {
+            *o = self.get(i, c);
+        }
+    }
+}
+
 /// λ of a 2-D lookup for each of `fragments` (lanes `0..fragments.len()`
 /// of `lod`; of one triangle or of several, each lane with its own
 /// triangle's gradients) whose coordinates (u, v) are the first two
-/// components of varying `k` (`varyings`: `per` a fragment), on a texture
+/// components of varying `k` (`varyings`: stored by fragment or by component), on a texture
 /// whose level 0 is `width`×`height`: [`Fragment::quad_derivatives`] of u
 /// and v and [`crate::textures::unit::quad_lod`] as fixed-length loops over
 /// the lanes (vector code), the same formulas in the same order, so the
@@ -96,8 +143,8 @@ impl Fragment<'_> {
 #[inline(always)]
 pub(crate) fn quad_lod_lanes<const N: usize>(
     fragments: &[Fragment],
-    varyings: &[f32],
-    (per, k): (usize, usize),
+    varyings: Vary,
+    k: usize,
     (width, height): (u32, u32),
     lod: &mut [f32; N],
 ) -> [bool; N] {
@@ -116,7 +163,7 @@ pub(crate) fn quad_lod_lanes<const N: usize>(
         // Offsets of the quad's top-left pixel from this one.
         (ox[lane], oy[lane]) = (-((f.x & 1) as f32), -((f.y & 1) as f32));
         inv_w[lane] = f.inv_w;
-        (u[lane], v[lane]) = (varyings[lane * per + 4 * k], varyings[lane * per + 4 * k + 1]);
+        (u[lane], v[lane]) = (varyings.get(lane, 4 * k), varyings.get(lane, 4 * k + 1));
         (gq[0][lane], gq[1][lane]) = (g[2 * m], g[2 * m + 1]);
         (gu[0][lane], gu[1][lane], gv[0][lane], gv[1][lane]) =
             (g[8 * k], g[8 * k + 1], g[8 * k + 2], g[8 * k + 3]);
@@ -670,7 +717,7 @@ mod tests {
             let varyings: Vec<f32> = (0..n * per).map(|_| r() * 4.0).collect();
             let (w, h) = if round % 3 == 0 { (256, 64) } else { (16, 16) };
             let mut lod = [0.0f32; 32];
-            let left = quad_lod_lanes(&fragments, &varyings, (per, k), (w, h), &mut lod);
+            let left = quad_lod_lanes(&fragments, Vary::by_fragment(&varyings, per), k, (w, h), &mut lod);
             for (lane, f) in fragments.iter().enumerate() {
                 let vary = &varyings[lane * per + 4 * k..];
                 let (du, dv) = (f.quad_derivatives(4 * k, vary[0]), f.quad_derivatives(4 * k + 1, vary[1]));
@@ -701,7 +748,7 @@ mod tests {
             .collect();
         let varyings = vec![1.0f32; 9 * per];
         let mut lod = [7.0f32; 32];
-        let left = quad_lod_lanes(&fragments, &varyings, (per, 2), (8, 8), &mut lod);
+        let left = quad_lod_lanes(&fragments, Vary::by_fragment(&varyings, per), 2, (8, 8), &mut lod);
         assert_eq!(left.iter().filter(|&&l| l).count(), 9);
     }
 }

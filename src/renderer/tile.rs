@@ -23,14 +23,18 @@ pub(crate) fn rasterize(target: &mut Framebuffer, pass: &Pass, setup: &PassSetup
         }
     }
     let (width, height) = (target.width() as i32, target.height() as i32);
-    target
-        .tiles
-        .writing(|t| !bins[t].is_empty())
+    // A clear deferred by `Framebuffer::reset_deferred` is made by each
+    // tile's worker just before it scans the tile (`fresh`), in cache.
+    let (tiles, fresh) = target.tiles.writing_fused(|t| !bins[t].is_empty());
+    tiles
         .par_iter_mut()
         .zip(bins.par_iter())
         .enumerate()
         .filter(|(_, (_, bin))| !bin.is_empty())
         .map(|(t, (tile, bin))| {
+            if fresh[t] {
+                tile.clear();
+            }
             let ox = ((t % tiles_x) * TILE) as i32;
             let oy = ((t / tiles_x) * TILE) as i32;
             let rect = (ox, oy, (ox + TILE as i32).min(width) - 1, (oy + TILE as i32).min(height) - 1);
@@ -168,7 +172,12 @@ pub(crate) fn interpolate(vary: &[f32], n: usize, p: [f32; 3], out: &mut [f32]) 
 struct Batch<'a> {
     fragments: Vec<Fragment<'a>>,
     pixels: Vec<(usize, f32)>,
-    varyings: Vec<f32>,
+    /// The varyings by component: value `c` of fragment `i` at
+    /// `c * ROW + i` (a span's lanes are stored eight at a time, so a row
+    /// has room for a span past the batch's last fragment).
+    rows: Vec<f32>,
+    /// Varyings per fragment.
+    per: usize,
     out: [[f32; 4]; BATCH],
     results: [FragmentResult; BATCH],
     pending: [u64; TILE],
@@ -186,9 +195,9 @@ impl Batch<'_> {
         if k == 0 {
             return;
         }
-        pass.fragment.shade_batch(
+        pass.fragment.shade_batch_rows(
             &self.fragments,
-            &self.varyings[..k * self.varyings.len() / BATCH],
+            (&self.rows, self.per, ROW),
             &mut self.out[..k],
             &mut self.results[..k],
         );
@@ -267,7 +276,7 @@ fn raster_tile_batched(
         // SAFETY: the CPU has the features the function is compiled for.
         return unsafe { raster_tile_batched_avx2(tile, rect, bin, pass, setup) };
     }
-    raster_tile_batched_body(tile, rect, bin, pass, setup)
+    raster_tile_batched_body::<false>(tile, rect, bin, pass, setup)
 }
 
 /// [`raster_tile_batched`] compiled for 8-lane vectors (the same values:
@@ -281,11 +290,15 @@ unsafe fn raster_tile_batched_avx2(
     pass: &Pass,
     setup: &PassSetup,
 ) -> DrawStats {
-    raster_tile_batched_body(tile, rect, bin, pass, setup)
+    raster_tile_batched_body::<true>(tile, rect, bin, pass, setup)
 }
 
+/// The scan loop; `AVX2`: compiled with AVX2 (the spans' varyings
+/// compressed into the batch's rows by a permutation).
+// Indexed loops over several lane arrays at once are the form that vectorises.
+#[allow(clippy::needless_range_loop)]
 #[inline(always)]
-fn raster_tile_batched_body(
+fn raster_tile_batched_body<const AVX2: bool>(
     tile: &mut TileBuffers,
     rect: (i32, i32, i32, i32),
     bin: &[u32],
@@ -299,7 +312,8 @@ fn raster_tile_batched_body(
     let mut batch = Batch {
         fragments: Vec::with_capacity(BATCH),
         pixels: Vec::with_capacity(BATCH),
-        varyings: vec![0.0; BATCH * n],
+        rows: vec![0.0; ROW * n],
+        per: n,
         out: [[0.0; 4]; BATCH],
         results: [FragmentResult::Discard; BATCH],
         pending: [0; TILE],
@@ -320,22 +334,38 @@ fn raster_tile_batched_body(
                 stats.fragments += k as u64;
                 let mut pass_mask = depth_mask(func, &span.z, &tile.depth[at..at + k]);
                 while pass_mask != 0 {
-                    let j = pass_mask.trailing_zeros() as usize;
-                    pass_mask &= pass_mask - 1;
-                    // Into the batch's slice, one loop over the varyings (vector code).
-                    let at_v = batch.fragments.len() * n;
-                    let p = [span.p[0][j], span.p[1][j], span.p[2][j]];
-                    interpolate(vary, n, p, &mut batch.varyings[at_v..at_v + n]);
-                    batch.fragments.push(Fragment {
-                        x: (x + j as i32) as u32,
-                        y: y as u32,
-                        depth: span.z[j],
-                        front_facing: tri.front_facing,
-                        inv_w: span.q[j],
-                        gradients,
-                    });
-                    batch.pixels.push((at + j, span.z[j]));
-                    batch.pending[row] |= 1 << (bit + j);
+                    // The passing lanes that fit in the batch, the rest after a flush.
+                    let take = first_bits(pass_mask, BATCH - batch.fragments.len());
+                    pass_mask &= !take;
+                    let len = batch.fragments.len();
+                    // Each varying of the span's eight lanes (vector code,
+                    // `interpolate`'s formula), the lanes taken packed into its row.
+                    for c in 0..n {
+                        let (a, b, cc) = (vary[c], vary[n + c], vary[2 * n + c]);
+                        let mut v = [0.0f32; SPAN];
+                        for j in 0..SPAN {
+                            v[j] = span.p[0][j] * a + span.p[1][j] * b + span.p[2][j] * cc;
+                        }
+                        // A row has room for a span past the batch's last fragment.
+                        if let Some(dst) = batch.rows[c * ROW + len..].first_chunk_mut::<SPAN>() {
+                            compress::<AVX2>(&v, take, dst);
+                        }
+                    }
+                    let mut m = take;
+                    while m != 0 {
+                        let j = m.trailing_zeros() as usize;
+                        m &= m - 1;
+                        batch.fragments.push(Fragment {
+                            x: (x + j as i32) as u32,
+                            y: y as u32,
+                            depth: span.z[j],
+                            front_facing: tri.front_facing,
+                            inv_w: span.q[j],
+                            gradients,
+                        });
+                        batch.pixels.push((at + j, span.z[j]));
+                        batch.pending[row] |= 1 << (bit + j);
+                    }
                     if batch.fragments.len() == BATCH {
                         batch.flush(tile, pass, writer, &mut stats);
                     }
@@ -350,6 +380,65 @@ fn raster_tile_batched_body(
 
 /// Pixels of a row the scan loop takes together.
 const SPAN: usize = 8;
+
+/// The length of a batch's row of varyings ([`Batch::rows`]).
+const ROW: usize = BATCH + SPAN;
+
+/// The lowest `k` set bits of `mask` (all of them where it has no more).
+#[inline(always)]
+fn first_bits(mask: u32, k: usize) -> u32 {
+    if mask.count_ones() as usize <= k {
+        return mask;
+    }
+    let (mut rest, mut taken) = (mask, 0);
+    for _ in 0..k {
+        taken |= rest & rest.wrapping_neg();
+        rest &= rest - 1;
+    }
+    taken
+}
+
+/// Per mask of a span's lanes, the lanes set in it in order (then 0s): the
+/// permutation that packs them to the front.
+static PACK: [[u32; SPAN]; 1 << SPAN] = {
+    let mut t = [[0u32; SPAN]; 1 << SPAN];
+    let mut m = 0;
+    while m < 1 << SPAN {
+        let (mut j, mut at) = (0, 0);
+        while j < SPAN {
+            if m & (1 << j) != 0 {
+                t[m][at] = j as u32;
+                at += 1;
+            }
+            j += 1;
+        }
+        m += 1;
+    }
+    t
+};
+
+/// The lanes of `v` that `mask` sets, packed to the front of `out` (the
+/// lanes after them hold anything).
+#[inline(always)]
+fn compress<const AVX2: bool>(v: &[f32; SPAN], mask: u32, out: &mut [f32; SPAN]) {
+    let pack = &PACK[mask as usize & ((1 << SPAN) - 1)];
+    #[cfg(target_arch = "x86_64")]
+    if AVX2 {
+        use std::arch::x86_64::{
+            __m256i, _mm256_loadu_ps, _mm256_loadu_si256, _mm256_permutevar8x32_ps, _mm256_storeu_ps,
+        };
+        // SAFETY: only compiled into `raster_tile_batched_avx2`, whose CPU
+        // has AVX2; eight lanes of each array.
+        unsafe {
+            let idx = _mm256_loadu_si256(pack.as_ptr() as *const __m256i);
+            _mm256_storeu_ps(out.as_mut_ptr(), _mm256_permutevar8x32_ps(_mm256_loadu_ps(v.as_ptr()), idx));
+        }
+        return;
+    }
+    for (o, &j) in out.iter_mut().zip(pack) {
+        *o = v[j as usize];
+    }
+}
 
 /// [`SPAN`] pixels of a row from (x, y) on: depth, 1/w and the
 /// perspective-correct weights, as [`fragment_at`] computes each (lanes
@@ -562,6 +651,36 @@ mod tests {
         };
         tri.set_edges(px, py);
         tri
+    }
+
+    /// [`first_bits`] takes the lowest `k` set bits, and [`compress`] packs
+    /// the lanes a mask sets in order, the same with and without AVX2, for
+    /// every mask of a span.
+    #[test]
+    fn first_bits_and_compress_take_the_lanes_in_order() {
+        let v: [f32; SPAN] = std::array::from_fn(|j| j as f32 + 0.5);
+        for mask in 0u32..1 << SPAN {
+            let set: Vec<usize> = (0..SPAN).filter(|&j| mask & (1 << j) != 0).collect();
+            for k in 0..=SPAN + 1 {
+                let want = set.iter().take(k).fold(0u32, |m, &j| m | 1 << j);
+                assert_eq!(first_bits(mask, k), want, "mask {mask:08b}, k {k}");
+            }
+            let mut out = [f32::NAN; SPAN];
+            compress::<false>(&v, mask, &mut out);
+            let packed: Vec<f32> = set.iter().map(|&j| v[j]).collect();
+            assert_eq!(&out[..set.len()], &packed[..], "mask {mask:08b}");
+            #[cfg(target_arch = "x86_64")]
+            if std::arch::is_x86_feature_detected!("avx2") {
+                #[target_feature(enable = "avx2")]
+                unsafe fn avx2(v: &[f32; SPAN], mask: u32, out: &mut [f32; SPAN]) {
+                    compress::<true>(v, mask, out)
+                }
+                let mut vector = [f32::NAN; SPAN];
+                // SAFETY: the CPU has AVX2.
+                unsafe { avx2(&v, mask, &mut vector) };
+                assert_eq!(&vector[..set.len()], &packed[..], "mask {mask:08b}, AVX2");
+            }
+        }
     }
 
     /// The spans solved row by row cover exactly the pixels the per-pixel

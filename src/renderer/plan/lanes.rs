@@ -44,7 +44,7 @@ use super::{uv_derivatives, FragmentProgram, Kernel, Leaf, RegisterOp, Source, S
 use crate::ir::Ty;
 use crate::ir::{self, BinaryOp, Expr, MathFunction, UnaryOp};
 use crate::parser::ast::CombineMode;
-use crate::renderer::raster::quad_lod_lanes;
+use crate::renderer::raster::{quad_lod_lanes, Vary};
 use crate::renderer::{Fragment, FragmentResult, BATCH};
 use crate::textures::{lanes as texture_lanes, unit, Texture};
 
@@ -142,7 +142,7 @@ enum Op {
     Sample(u32),
 }
 
-type Closure = Box<dyn Fn(&mut [Lanes], &[f32], usize, usize, &mut [bool; BATCH]) + Send + Sync>;
+type Closure = Box<dyn Fn(&mut [Lanes], Vary, usize, &mut [bool; BATCH]) + Send + Sync>;
 
 /// A pass's fragment program as lane code ([`LaneProgram::compile`]).
 pub(in crate::renderer) struct LaneProgram {
@@ -434,7 +434,7 @@ impl FragmentProgram<'_> {
         &self,
         lp: &LaneProgram,
         fragments: &[Fragment],
-        varyings: &[f32],
+        varyings: Vary,
         out: &mut [[f32; 4]],
         results: &mut [FragmentResult],
     ) {
@@ -478,7 +478,7 @@ impl FragmentProgram<'_> {
         &self,
         i: usize,
         r: &mut [Lanes],
-        (fragments, varyings, per): (&[Fragment], &[f32], usize),
+        (fragments, varyings): (&[Fragment], Vary),
         lp: &LaneProgram,
         shared: &mut SharedLookup,
     ) {
@@ -508,11 +508,11 @@ impl FragmentProgram<'_> {
                 let mut lod = [f32::NEG_INFINITY; BATCH];
                 if let Some(k) = lod_from.filter(|_| t.levels.len() > 1) {
                     let size = (t.width(), t.height());
-                    let left = quad_lod_lanes(fragments, varyings, (per, k), size, &mut lod);
+                    let left = quad_lod_lanes(fragments, varyings, k, size, &mut lod);
                     for (lane, fragment) in fragments.iter().enumerate().filter(|&(l, _)| left[l]) {
-                        let vary = &varyings[lane * per + 4 * k..lane * per + 4 * k + 4];
+                        let vary = [0, 1, 2, 3].map(|j| varyings.get(lane, 4 * k + j));
                         let d = |j| fragment.quad_derivatives(4 * k + j, vary[j]);
-                        let (du, dv) = uv_derivatives(coords_ty, vary, d);
+                        let (du, dv) = uv_derivatives(coords_ty, &vary, d);
                         lod[lane] = unit::quad_lod(t.width(), t.height(), [du[0], dv[0]], [du[1], dv[1]]);
                     }
                 }
@@ -570,7 +570,7 @@ fn run(
     p: &FragmentProgram,
     lp: &LaneProgram,
     r: &mut [Lanes],
-    batch: (&[Fragment], &[f32]),
+    batch: (&[Fragment], Vary),
     shared: &mut SharedLookup,
     outputs: (&mut [[f32; 4]], &mut [FragmentResult]),
 ) {
@@ -589,7 +589,7 @@ unsafe fn run_avx2(
     p: &FragmentProgram,
     lp: &LaneProgram,
     r: &mut [Lanes],
-    batch: (&[Fragment], &[f32]),
+    batch: (&[Fragment], Vary),
     shared: &mut SharedLookup,
     outputs: (&mut [[f32; 4]], &mut [FragmentResult]),
 ) {
@@ -601,7 +601,7 @@ fn run_body(
     p: &FragmentProgram,
     lp: &LaneProgram,
     r: &mut [Lanes],
-    batch: (&[Fragment], &[f32]),
+    batch: (&[Fragment], Vary),
     shared: &mut SharedLookup,
     (out, results): (&mut [[f32; 4]], &mut [FragmentResult]),
 ) {
@@ -609,19 +609,21 @@ fn run_body(
     let discard = &mut discard;
     let (fragments, varyings) = batch;
     let n = fragments.len();
-    let per = varyings.len().checked_div(n).unwrap_or(0);
+    let mut vary = Vec::new();
     for (j, op) in lp.ops.iter().enumerate() {
         match *op {
             Op::Scalar(i) => {
+                vary.resize(varyings.per, 0.0);
                 for lane in 0..n {
-                    let vary = &varyings[lane * per..(lane + 1) * per];
-                    p.scalar_lane(i as usize, r, &fragments[lane], vary, lane, &mut discard[lane]);
+                    // The fragment's own varyings, as the one-lane code takes them.
+                    varyings.lane_into(lane, &mut vary);
+                    p.scalar_lane(i as usize, r, &fragments[lane], &vary, lane, &mut discard[lane]);
                 }
             }
-            Op::Sample(i) => p.sample_lanes(i as usize, r, (fragments, varyings, per), lp, shared),
+            Op::Sample(i) => p.sample_lanes(i as usize, r, (fragments, varyings), lp, shared),
             Op::Lanes { .. } => match &lp.closures {
-                Some(c) => c[j](r, varyings, per, n, discard),
-                None => exec(*op, r, varyings, per, n, discard),
+                Some(c) => c[j](r, varyings, n, discard),
+                None => exec(*op, r, varyings, n, discard),
             },
         }
     }
@@ -634,7 +636,7 @@ fn closure(op: &Op) -> Closure {
     macro_rules! bin {
         ($f:expr) => {{
             let Op::Lanes { dst, ops, width, keep, .. } = op else { unreachable!() };
-            Box::new(move |r: &mut [Lanes], _: &[f32], _: usize, _: usize, _: &mut [bool; BATCH]| {
+            Box::new(move |r: &mut [Lanes], _: Vary, _: usize, _: &mut [bool; BATCH]| {
                 let nn = BATCH;
                 let (lo, hi) = r.split_at_mut(dst as usize * 4);
                 let out = &mut hi[..4];
@@ -655,7 +657,7 @@ fn closure(op: &Op) -> Closure {
         Op::Lanes { k: K::Mul, .. } => bin!(|a: f32, b: f32| a * b),
         Op::Lanes { k: K::Max, .. } => bin!(|a: f32, b: f32| a.max(b)),
         Op::Lanes { k: K::Min, .. } => bin!(|a: f32, b: f32| a.min(b)),
-        _ => Box::new(move |r, v, per, n, d| exec(op, r, v, per, n, d)),
+        _ => Box::new(move |r, v, n, d| exec(op, r, v, n, d)),
     }
 }
 
@@ -719,7 +721,7 @@ impl Operands<'_> {
 // Indexed loops over several lane arrays at once are the form that vectorises.
 #[allow(clippy::needless_range_loop)]
 #[inline(always)]
-fn exec(op: Op, r: &mut [Lanes], varyings: &[f32], per: usize, n: usize, discard: &mut [bool; BATCH]) {
+fn exec(op: Op, r: &mut [Lanes], varyings: Vary, n: usize, discard: &mut [bool; BATCH]) {
     let Op::Lanes { k, dst, ops, width, keep } = op else { return };
     let (lo, hi) = r.split_at_mut(dst as usize * 4);
     let out = &mut hi[..4];
@@ -762,7 +764,7 @@ fn exec(op: Op, r: &mut [Lanes], varyings: &[f32], per: usize, n: usize, discard
             splat_first(out, width, keep)
         }
         _ => {
-            structural(k, &x, out, (varyings, per, n), discard);
+            structural(k, &x, out, (varyings, n), discard);
             canonical(out, width, keep)
         }
     }
@@ -851,14 +853,14 @@ fn compare_lanes(op: BinaryOp, x: &Operands, o: &mut Lanes) {
 }
 
 /// The ops that move components (swizzles, composition, varyings,
-/// selection) and normalization; `vary`: the batch's varyings, per
-/// fragment, and the lanes in use.
+/// selection) and normalization; `vary`: the batch's varyings (by
+/// fragment or by component: [`Vary`]), and the lanes in use.
 #[inline(always)]
 fn structural(
     k: K,
     x: &Operands,
     out: &mut [Lanes],
-    (varyings, per, n): (&[f32], usize, usize),
+    (varyings, n): (Vary, usize),
     discard: &mut [bool; BATCH],
 ) {
     match k {
@@ -894,8 +896,15 @@ fn structural(
         }
         K::Varying(kv) => {
             for (c, o) in out[..x.comps].iter_mut().enumerate() {
-                for (i, v) in o[..n].iter_mut().enumerate() {
-                    *v = varyings[i * per + 4 * kv as usize + c];
+                let at = 4 * kv as usize + c;
+                match varyings.row(at, n) {
+                    // Stored by component: one row, a vector copy.
+                    Some(row) => o[..n].copy_from_slice(row),
+                    None => {
+                        for (i, v) in o[..n].iter_mut().enumerate() {
+                            *v = varyings.get(i, at);
+                        }
+                    }
                 }
             }
         }

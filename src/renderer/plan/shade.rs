@@ -11,6 +11,7 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use crate::backends::combiners::{PixelEmulator, PixelRegisters};
 use crate::ir::{self, eval::Value, Expr, FbChannel, Frequency, Handle, Module, TextureId, Ty};
 use crate::pipeline::{Geometry, PassInterface, RenderTarget};
+use crate::renderer::raster::Vary;
 use crate::renderer::{Fragment, FragmentResult, FragmentStage, Framebuffer, RenderError};
 use crate::scene::bind::{self, BoundObject, BoundTexture, ExactFunction};
 use crate::textures::{generators, unit, Filter, Texture, Texture2D, Wrap};
@@ -875,11 +876,27 @@ impl FragmentStage for FragmentProgram<'_> {
         results: &mut [FragmentResult],
     ) {
         if let (true, Some(lp)) = (self.batched, &self.lanes) {
-            self.shade_compiled(lp, fragments, varyings, out, results)
+            let per = varyings.len().checked_div(fragments.len()).unwrap_or(0);
+            self.shade_compiled(lp, fragments, Vary::by_fragment(varyings, per), out, results)
         } else if self.batched {
             self.shade_lanes(fragments, varyings, out, results)
         } else {
             crate::renderer::shade_each(self, fragments, varyings, out, results)
+        }
+    }
+
+    fn shade_batch_rows(
+        &self,
+        fragments: &[Fragment],
+        (rows, per, row): (&[f32], usize, usize),
+        out: &mut [[f32; 4]],
+        results: &mut [FragmentResult],
+    ) {
+        match (self.batched, &self.lanes) {
+            (true, Some(lp)) => {
+                self.shade_compiled(lp, fragments, Vary::by_component(rows, per, row), out, results)
+            }
+            _ => crate::renderer::shade_rows_by_fragment(self, fragments, (rows, per, row), out, results),
         }
     }
 }

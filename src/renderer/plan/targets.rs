@@ -22,7 +22,9 @@ use super::shade::to_pixel;
 /// which `exact` and `f32` keep in float ([`ColorFormat::Unorm`]) and
 /// `fixed9` in RGBA8; a planner temporary keeps its value unclamped. One
 /// of `pool` (images of earlier frames, [`super::PlanRenderer::recycle`])
-/// of that size and format is cleared and taken before a new one is made.
+/// of that size and format is taken before a new one is made, its clear
+/// deferred ([`Framebuffer::reset_deferred`]): the caller settles it
+/// ([`Framebuffer::settle`]) unless a plain draw into it comes first.
 pub(super) fn new_target(
     target: &TargetImage,
     mode: Precision,
@@ -39,7 +41,9 @@ pub(super) fn new_target(
     let (width, height) = target.extent.size(frame.0, frame.1);
     if let Some(at) = pool.iter().position(|fb| fb.fits(width, height, format)) {
         let mut fb = pool.swap_remove(at);
-        fb.reset();
+        // Cleared by the first draw's rasterizer tile by tile, or settled
+        // by `PlanRenderer::render_with` before anything else reads it.
+        fb.reset_deferred();
         return Ok(fb);
     }
     // `Framebuffer::new` clears to colour 0, depth 1, stencil 0.
