@@ -334,7 +334,10 @@ fn wide_vertex_colour(module: &Module, u: &Usage) -> Result<(), Overflow> {
 /// intermediate sum, difference or scaled product may leave [0, 1]
 /// (`T4·(T5·δl + T4 + T3)`, the sum up to 3) is not what one pass of
 /// stages computes. Its refusal, located at that operation; the last
-/// stage's clamp is the framebuffer's (and a `saturate`'s) anyway.
+/// stage's clamp is the framebuffer's (and a `saturate`'s) anyway. A `⊕`
+/// the program writes is that stage itself (docs/language.md: the
+/// texture environment's modes, which GL clamps and the hardware models
+/// do), so only arithmetic is judged.
 fn stage_result_clamped(module: &Module, value: Handle<Expr>) -> Result<(), Overflow> {
     let mut exempt = vec![value];
     let mut root = value;
@@ -368,7 +371,7 @@ fn stage_result_clamped(module: &Module, value: Handle<Expr>) -> Result<(), Over
         let i = module.info(h);
         !exempt.contains(&h)
             && i.freq.is_sample()
-            && matches!(module.exprs[h], Expr::Combine { .. } | Expr::Binary { .. })
+            && matches!(module.exprs[h], Expr::Binary { .. })
             && (i.interval.lo < 0.0 || i.interval.hi > 1.0)
     });
     let Some(h) = wide else { return Ok(()) };
