@@ -94,6 +94,7 @@ mod three_way_heldout15;
 mod three_way_heldout16;
 mod three_way_new_user;
 mod three_way_new_user16;
+mod three_way_overlap;
 mod vertex_programs_public;
 mod wgpu_auto;
 mod wgpu_dual_paraboloid;
