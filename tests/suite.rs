@@ -92,6 +92,7 @@ mod three_way_heldout;
 mod three_way_heldout13;
 mod three_way_heldout15;
 mod three_way_heldout16;
+mod three_way_heldout17;
 mod three_way_new_user;
 mod three_way_new_user16;
 mod three_way_overlap;
