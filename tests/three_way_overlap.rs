@@ -39,7 +39,7 @@ fn depth_only(p: &Pass) -> bool {
 }
 
 /// `source` three ways on `lights_matte_floor.ron`: wgsl in f32, the
-/// combiner targets in f32 and fixed9.
+/// combiner targets in f32 and fixed9, wgpu running every plan.
 fn three_ways(source: &str) -> Result<(), String> {
     let sc = scene(SCENE);
     let g = crate::common::gpu::gpu();
@@ -49,6 +49,7 @@ fn three_ways(source: &str) -> Result<(), String> {
         ("geforce3", Precision::F32),
         ("geforce3", Precision::Fixed9),
         ("geforce256", Precision::Fixed9),
+        ("multitexture", Precision::Fixed9),
     ] {
         let program = format!("target {target};\n{source}");
         let result = render_three(&program, target, &sc, precision, g.as_ref()).and_then(|p| {
@@ -120,4 +121,31 @@ fn a_first_draw_that_replaces_gets_no_depth_only_pass() {
         assert_eq!(passes[0].state.depth.func, CompareFunc::Less, "{target}");
         assert!(passes[1..].iter().all(|p| p.state.depth == DepthState::EQUAL_NO_WRITE), "{target}");
     }
+}
+
+/// Adaptive sample shading draws a plan with a depth-only pass as full
+/// shading does: at threshold 0 the same picture, bit for bit (the
+/// depth-only pass writes no colour, the blended pass over it tests `Equal`).
+#[test]
+fn a_plan_with_a_depth_only_pass_shades_adaptively_as_in_full() {
+    use shadec::driver::{compile, ForScene, PlanOptions};
+    use shadec::renderer::plan::{compare, PlanRenderer};
+    use shadec::renderer::{AdaptiveSettings, EdgeMode};
+    let sc = scene(SCENE);
+    let assets = sc.build().unwrap();
+    let profile = Profile::resolve("wgsl").unwrap();
+    let options = PlanOptions { scene: Some(ForScene::specialized(&sc, &assets)), ..Default::default() };
+    let compiled = compile(&example("accumulation_buffer.shd"), &profile, &options).unwrap();
+    let passes = &compiled.planned.plan.passes;
+    assert!(depth_only(&passes[0]), "{:?}", passes[0].state);
+    assert!(passes[1..].iter().all(|p| p.state.depth == DepthState::EQUAL_NO_WRITE));
+    let renderer = PlanRenderer::new(&compiled.planned, &compiled.program, &sc, &assets).unwrap();
+    let settings = AdaptiveSettings::new(16, 0.0, EdgeMode::Pass);
+    let full = renderer.render(Precision::F32, 160, 120, &mut |_, _| {}).unwrap();
+    let adaptive = renderer.render_adaptive(Precision::F32, 160, 120, &settings, &mut |_, _| {}).unwrap();
+    assert!(
+        full.image.to_rgba_f32() == adaptive.image.to_rgba_f32(),
+        "{:?}",
+        compare(&full.image, &adaptive.image)
+    );
 }
