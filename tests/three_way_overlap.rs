@@ -94,7 +94,7 @@ fn a_blended_first_draw_is_preceded_by_a_depth_only_pass() {
         let passes = plan(&example("accumulation_buffer.shd"), target);
         assert_eq!(passes.len(), 2, "{target}");
         assert!(depth_only(&passes[0]), "{target}: {:?}", passes[0].state);
-        assert_eq!(passes[0].state.stencil.enabled, false, "{target}");
+        assert!(!passes[0].state.stencil.enabled, "{target}");
         assert_eq!(passes[1].state.depth, DepthState::EQUAL_NO_WRITE, "{target}");
         assert_eq!(passes[1].state.blend, BlendState::ADD, "{target}");
         // The same geometry and fragment stage: a discard would drop the
