@@ -7,8 +7,9 @@
 //! `π`; an ambient and a diffuse term accumulated, then modulated in the
 //! blender by a texture; a program written for light 0 accumulated from
 //! its first write on a scene of four lights (one pass per light, some
-//! culled per object); and the static viewpoint of eq. (10) after an
-//! accumulation. Each renders alike on the CPU, wgpu and the independent
+//! culled per object); the static viewpoint of eq. (10) after an
+//! accumulation; and holes cut by a discard (`c ? …`) in an accumulation
+//! from the first write on (through a hole, the surface behind). Each renders alike on the CPU, wgpu and the independent
 //! reference on every target its header names, and wgpu runs every one
 //! (`three_way_heldout::renders_alike_everywhere_in`).
 
@@ -20,4 +21,5 @@ held_out_everywhere_in!("heldout_seventeenth_ref":
     ambient_then_modulate,
     lights_added_first,
     static_view_pair,
+    cutout_accum,
 );

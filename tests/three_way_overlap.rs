@@ -97,10 +97,12 @@ fn a_blended_first_draw_is_preceded_by_a_depth_only_pass() {
         assert!(!passes[0].state.stencil.enabled, "{target}");
         assert_eq!(passes[1].state.depth, DepthState::EQUAL_NO_WRITE, "{target}");
         assert_eq!(passes[1].state.blend, BlendState::ADD, "{target}");
-        // The same geometry and fragment stage: a discard would drop the
-        // same fragments from both.
-        assert_eq!(passes[0].vertex, passes[1].vertex, "{target}");
-        assert_eq!(passes[0].fragment, passes[1].fragment, "{target}");
+        // The same geometry; nothing to discard, so no lookups and no
+        // arithmetic in the depth-only pass (its colour is not written).
+        assert_eq!(passes[0].vertex.position, passes[1].vertex.position, "{target}");
+        assert_eq!(passes[0].geometry, passes[1].geometry, "{target}");
+        assert!(passes[0].textures.is_empty() && passes[0].vertex.interpolants.is_empty(), "{target}");
+        assert_eq!((passes[0].fragment.operations, passes[0].fragment.condition), (0, None), "{target}");
     }
 }
 
@@ -148,4 +150,21 @@ fn a_plan_with_a_depth_only_pass_shades_adaptively_as_in_full() {
         "{:?}",
         compare(&full.image, &adaptive.image)
     );
+}
+
+/// Where the blended pass discards (`c ? …`), the depth-only pass discards
+/// the same fragments (a dropped fragment writes no depth, so the surface
+/// behind it is the visible one): it keeps the blended pass's fragment
+/// stage. `tests/data/heldout_seventeenth_ref/cutout_accum.shd` renders
+/// it three ways.
+#[test]
+fn a_depth_only_pass_discards_what_the_blended_pass_discards() {
+    let folder = crate::three_way_heldout::data("heldout_seventeenth_ref");
+    let source = std::fs::read_to_string(folder.join("cutout_accum.shd")).unwrap();
+    let passes = plan(&source, "wgsl");
+    assert_eq!(passes.len(), 2);
+    assert!(depth_only(&passes[0]), "{:?}", passes[0].state);
+    assert!(passes[1].fragment.condition.is_some());
+    assert_eq!(passes[0].fragment, passes[1].fragment);
+    assert_eq!(passes[0].textures, passes[1].textures);
 }

@@ -434,15 +434,21 @@ fn needs_depth_prepass(pass: &Pass) -> bool {
 }
 
 /// Depth-only passes before the blended first draws
-/// ([`needs_depth_prepass`]): each draws the same geometry with the same
-/// fragment stage (a discarded fragment writes no depth) and the same
-/// alpha test, tests `Less` and writes depth, writes no colour and no
-/// stencil, over every object (an object a light's pass leaves out still
-/// hides what is behind it); the blended pass then tests `Equal` without
-/// writing, as the later passes of a multipass plan do (Kilgard 2000,
-/// Section 5). A plan whose first draws replace gets none. `stages` keeps
-/// one entry per pass.
-pub(super) fn depth_prepasses(plan: &mut PassPlan, stages: &mut Vec<Stage>) {
+/// ([`needs_depth_prepass`]): each draws the same geometry, tests `Less`
+/// and writes depth, writes no colour and no stencil, over every object
+/// (an object a light's pass leaves out still hides what is behind it);
+/// the blended pass then tests `Equal` without writing, as the later
+/// passes of a multipass plan do (Kilgard 2000, Section 5). Its fragment
+/// stage is a constant ([`depth_only_stage`]) where the blended pass
+/// discards nothing, else the blended pass's own with its alpha test (a
+/// discarded fragment writes no depth). A plan whose first draws replace
+/// gets none. `stages` keeps one entry per pass.
+pub(super) fn depth_prepasses(
+    m: &mut Module,
+    ctx: &AssembleCtx,
+    plan: &mut PassPlan,
+    stages: &mut Vec<Stage>,
+) {
     let mut k = 0;
     while k < plan.passes.len() {
         if !needs_depth_prepass(&plan.passes[k]) {
@@ -462,11 +468,49 @@ pub(super) fn depth_prepasses(plan: &mut PassPlan, stages: &mut Vec<Stage>) {
              it then tests `Equal` and blends only the visible fragments",
             main.blend.name()
         );
-        let stage = stages[k].clone();
+        let mut stage = stages[k].clone();
+        if let Some((value, setup)) = depth_only_stage(m, ctx, &pre) {
+            pre.fragment = FragmentWork {
+                output: value.index() as u32,
+                operations: 0,
+                condition: None,
+                general_combiners: setup.as_ref().ok().and_then(|s| match s {
+                    crate::pipeline::FragmentSetup::Combiners(p) => Some(p.stages()),
+                    _ => None,
+                }),
+                depth: None,
+            };
+            pre.textures = Vec::new();
+            pre.vertex.interpolants = Vec::new();
+            pre.vertex.texgen = Vec::new();
+            stage.1 = setup;
+            if !plan.values.iter().any(|v| v.id == value.index() as u32) {
+                plan.values.extend(plan_values(m, &[value], ctx.at));
+            }
+        }
         plan.passes.insert(k, pre);
         stages.insert(k, stage);
         k += 2;
     }
+}
+
+/// The fragment stage of a depth-only pass that discards nothing: the
+/// constant 0 (its colour is not written), with the target's setup for
+/// it — no lookups, no interpolants, no arithmetic. `None` where the pass
+/// discards (its condition or alpha test must run), or where the target
+/// makes no setup for a constant: the blended pass's own stage is kept.
+fn depth_only_stage(
+    m: &mut Module,
+    ctx: &AssembleCtx,
+    pre: &Pass,
+) -> Option<(Handle<Expr>, Result<crate::pipeline::FragmentSetup, Box<Diagnostic>>)> {
+    if pre.fragment.condition.is_some() || !pre.state.alpha_test.is_disabled() || pre.fragment.depth.is_some()
+    {
+        return None;
+    }
+    let zero = m.intern(Expr::Constant(ir::Constant::scalar(0.0)), Span::DETACHED).ok()?;
+    let setup = combiner_setup(m, ctx.realizer, zero, &[]);
+    setup.is_ok().then_some((zero, setup))
 }
 
 pub(super) fn same_framebuffer(a: &Table, b: &Table) -> bool {

@@ -430,7 +430,7 @@ fn plan_as_written(
     }
     shadow_map::equal_depth(&m, &mut plan.passes);
     depth_replacing(&m, &ctx, &depth_replaced, &mut plan, &mut stages);
-    assemble::depth_prepasses(&mut plan, &mut stages);
+    assemble::depth_prepasses(&mut m, &ctx, &mut plan, &mut stages);
     if let Some(d) = storage::float_framebuffer_read_back(module, &plan, profile) {
         return Err(vec![d]);
     }
