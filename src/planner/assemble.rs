@@ -14,7 +14,10 @@ pub(super) struct AssembleCtx<'a> {
 
 /// A pass's span and its fragment stage as the target realized it (a
 /// refusal, located, when the generator makes no setup for it).
-pub(super) type Stage = (Span, Result<crate::pipeline::FragmentSetup, Box<Diagnostic>>);
+pub(super) type Stage = (Span, StageSetup);
+
+/// A fragment stage as the target realized it, or its located refusal.
+pub(super) type StageSetup = Result<crate::pipeline::FragmentSetup, Box<Diagnostic>>;
 
 pub(super) fn assemble(
     m: &Module,
@@ -499,11 +502,7 @@ pub(super) fn depth_prepasses(
 /// it — no lookups, no interpolants, no arithmetic. `None` where the pass
 /// discards (its condition or alpha test must run), or where the target
 /// makes no setup for a constant: the blended pass's own stage is kept.
-fn depth_only_stage(
-    m: &mut Module,
-    ctx: &AssembleCtx,
-    pre: &Pass,
-) -> Option<(Handle<Expr>, Result<crate::pipeline::FragmentSetup, Box<Diagnostic>>)> {
+fn depth_only_stage(m: &mut Module, ctx: &AssembleCtx, pre: &Pass) -> Option<(Handle<Expr>, StageSetup)> {
     if pre.fragment.condition.is_some() || !pre.state.alpha_test.is_disabled() || pre.fragment.depth.is_some()
     {
         return None;
