@@ -125,7 +125,8 @@ fn place(
         (_, true) => Geometry::Mesh { projection: if in_texture_space { "u".into() } else { "π".into() } },
         _ => Geometry::Texels,
     };
-    let key = (st.table.depth_target(), position);
+    // `δπ* x` draws `δπ x`'s surface (`planner::depth_key`).
+    let key = (st.table.depth_target(), crate::planner::depth_key(m, position));
     let decided = match (&geometry, depth) {
         (_, Some(d)) => d,
         (Geometry::Mesh { .. }, None) if in_texture_space => DepthState::DISABLED,

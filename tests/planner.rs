@@ -244,16 +244,21 @@ C δπx ← normalize(expand(Tn δu x)) · normalize(δ L s x);
 
 /// seeds/001 (10): `C δxs ← (C δxs) ⊕ …` with a static viewpoint reuses the
 /// vertices (9) projected: the second pass draws the same mesh with the
-/// same projection and the equal depth test, not a screen rectangle.
+/// same projection and the equal depth test, not a screen rectangle. (9)
+/// adds onto the cleared C, so a depth-only pass draws the visible surface
+/// first and both additions test `Equal`.
 #[test]
 fn static_viewpoint_pass_reuses_the_projected_vertices() {
     let plan = plan_src(&example("multipass.shd"), "wgsl").unwrap();
-    assert_eq!(plan.passes.len(), 2);
-    let (first, second) = (&plan.passes[0], &plan.passes[1]);
+    assert_eq!(plan.passes.len(), 3);
+    let (depth, first, second) = (&plan.passes[0], &plan.passes[1], &plan.passes[2]);
+    assert_eq!(depth.state.depth, shadec::renderer::DepthState::LESS_WRITE);
+    assert_eq!(depth.state.blend.write_mask, [false; 4], "colour writes off");
+    assert_eq!(depth.vertex.position, first.vertex.position);
     assert_eq!(second.geometry, shadec::pipeline::Geometry::Mesh { projection: "π".into() });
     assert_eq!(second.vertex.position, first.vertex.position, "the vertices of (9)");
     assert_eq!(second.state.depth, shadec::renderer::DepthState::EQUAL_NO_WRITE);
-    assert_eq!(first.state.depth, shadec::renderer::DepthState::LESS_WRITE);
+    assert_eq!(first.state.depth, shadec::renderer::DepthState::EQUAL_NO_WRITE);
 }
 
 /// Without an earlier pass that projects the mesh, there is nothing to reuse.

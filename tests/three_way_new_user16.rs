@@ -12,7 +12,9 @@
 //! alpha in a screen pass, lit values rendered into a texture and read
 //! back, a stencil from a decal's alpha, a gloss map under `pow`, a
 //! `.bgr` swizzle with luminance, and planar texgen from a position
-//! vector. Each renders alike on the CPU, wgpu
+//! vector, and two projections accumulated at half weight (`C δπ* x`
+//! over `C δπx`: the `π*` pass draws the surface the `π` pass left in the
+//! depth buffer, `Equal`, as the executors do not jitter `π*`). Each renders alike on the CPU, wgpu
 //! and the independent reference on every target its header names
 //! (`three_way_heldout::renders_alike_in`).
 
@@ -39,6 +41,7 @@ held_out_everywhere_in!("heldout_sixteenth":
     spec_gloss_pow,
     swizzle_bgr,
     texgen_planar,
+    accum_blur,
 );
 
 /// `layers3`'s `Lm ⊕ (Layer ⊕[add_signed] Base)` plans on the combiner
@@ -76,15 +79,60 @@ fn an_interpolated_value_rendered_into_a_texture_rasterizes_the_mesh() {
     assert!(matches!(first.geometry, shadec::pipeline::Geometry::Mesh { .. }), "{:?}", first.geometry);
 }
 
-/// A known bug, left (`tests/data/heldout_sixteenth_known/accum_blur.shd`):
-/// a `C δπ* x` accumulation after a `C δπx` statement is a first draw of
-/// its own key, so it tests depth `Less` against the depth the `π` pass
-/// wrote and adds nothing where the surfaces coincide (the executors do
-/// not jitter `π*`): the CPU and wgpu agree at half the brightness, the
-/// reference is 93/255 brighter on 94 % of the pixels.
+/// The plan validator (`shadec::pipeline::validate`) refuses a pass over
+/// texels or the screen — one rectangle, no vertices — whose fragment
+/// stage reads an interpolant, located at the interpolated value; the CPU
+/// executor and the wgpu scene runner refuse it too (the CPU executor
+/// panicked indexing its empty varyings). The plan is `rtt_blur`'s with its
+/// first pass (`Lit δu ← δ p s x`, which rasterizes the mesh in texture
+/// space) turned into a quad over the texels, as the planner made it before.
 #[test]
-#[ignore = "known bug: a π* pass after a π pass into C is depth-rejected (see the doc comment)"]
-fn accum_blur() {
-    let folder = crate::three_way_heldout::data("heldout_sixteenth_known");
-    crate::three_way_heldout::renders_alike_in(&folder, "accum_blur").unwrap_or_else(|e| panic!("{e}"));
+fn the_plan_validator_refuses_an_interpolant_on_a_quad() {
+    use shadec::pipeline::Geometry;
+    let source =
+        std::fs::read_to_string(crate::three_way_heldout::data("heldout_sixteenth").join("rtt_blur.shd"))
+            .unwrap();
+    let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
+    let compiled = shadec::driver::compile(&source, &profile, &Default::default())
+        .map_err(|d| d[0].message.clone())
+        .unwrap();
+    let mut planned = compiled.planned;
+    planned.validate().unwrap_or_else(|d| panic!("the planner's plan is valid: {:?}", d[0].message));
+    for geometry in [Geometry::Texels, Geometry::Screen] {
+        let first = &mut planned.plan.passes[0];
+        first.geometry = geometry.clone();
+        first.vertex.position = None;
+        let errors = planned.validate().unwrap_err();
+        assert_eq!(
+            errors.len(),
+            1,
+            "{geometry:?}: {:?}",
+            errors.iter().map(|d| &d.message).collect::<Vec<_>>()
+        );
+        let e = &errors[0];
+        assert_eq!(e.code, "invalid-plan");
+        assert!(e.message.contains("pass 1") && e.message.contains("no vertices"), "{}", e.message);
+        // Located at the interpolated value of `Lit δu ← δ p s x`.
+        let at = &source[e.primary.span.start as usize..e.primary.span.end as usize];
+        assert!(at.contains("p s x"), "{geometry:?}: located at `{at}`");
+        let sc = crate::three_way::scene("kilgard_torus.ron");
+        let assets = sc.build().unwrap();
+        let cpu = shadec::renderer::plan::PlanRenderer::new(&planned, &compiled.program, &sc, &assets);
+        assert!(
+            cpu.as_ref().is_err_and(|e| e.to_string().contains("no vertices")),
+            "{geometry:?}: the CPU runs it"
+        );
+        let gpu = shadec::gpu::scene_run::ScenePlan::new(
+            &planned,
+            &compiled.program,
+            Some(&source),
+            shadec::numerics::Precision::F32,
+            &sc,
+            &assets,
+        );
+        assert!(
+            gpu.as_ref().is_err_and(|e| e.to_string().contains("no vertices")),
+            "{geometry:?}: wgpu runs it"
+        );
+    }
 }

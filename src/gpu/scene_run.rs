@@ -197,6 +197,15 @@ pub enum SceneRunError {
     Gpu(#[from] GpuError),
 }
 
+/// The contract's refusals of a plan, one line each.
+fn invalid_plan(errors: &[crate::diag::Diagnostic]) -> String {
+    errors
+        .iter()
+        .map(|d| format!("{} (at bytes {}..{})", d.message, d.primary.span.start, d.primary.span.end))
+        .collect::<Vec<_>>()
+        .join("; ")
+}
+
 /// A plan compiled and bound to a scene, ready to render on a device at
 /// any size. Build once (code generation, texture upload data), render many.
 pub struct ScenePlan<'a> {
@@ -232,6 +241,9 @@ impl<'a> ScenePlan<'a> {
         scene: &'a Scene,
         assets: &'a SceneAssets,
     ) -> Result<ScenePlan<'a>, SceneRunError> {
+        // A plan that breaks the contract is refused, located, before any
+        // shader is generated for it.
+        planned.validate().map_err(|d| SceneRunError::Unsupported(invalid_plan(&d)))?;
         let mut main = None;
         for pass in &planned.plan.passes {
             match &pass.target {

@@ -10,6 +10,7 @@ pub mod interface;
 pub mod plan;
 pub mod setup;
 pub mod state;
+pub mod validate;
 
 pub use interface::PassInterface;
 pub use plan::{

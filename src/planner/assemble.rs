@@ -14,7 +14,10 @@ pub(super) struct AssembleCtx<'a> {
 
 /// A pass's span and its fragment stage as the target realized it (a
 /// refusal, located, when the generator makes no setup for it).
-pub(super) type Stage = (Span, Result<crate::pipeline::FragmentSetup, Box<Diagnostic>>);
+pub(super) type Stage = (Span, StageSetup);
+
+/// A fragment stage as the target realized it, or its located refusal.
+pub(super) type StageSetup = Result<crate::pipeline::FragmentSetup, Box<Diagnostic>>;
 
 pub(super) fn assemble(
     m: &Module,
@@ -110,7 +113,7 @@ pub(super) fn assemble_pass(
     let reached = m.reachable(&[piece.value].into_iter().chain(form.condition).collect::<Vec<_>>());
     let u = Usage::of_reached(m, &reached);
     let textures = texture_bindings(m, st, &u);
-    let key = reused.unwrap_or((st.table.depth_target(), st.index));
+    let key = reused.unwrap_or_else(|| (st.table.depth_target(), depth_key(m, st.index)));
     let state = pass_state(form, piece, &geometry, in_texture_space, drawn, key);
     // A `bake` table is the compiler's: no combiner setup to judge.
     let baked = m.is_baked(st);
@@ -372,6 +375,141 @@ pub(super) fn combiner_setup(
             format!("the register-combiner code generator makes no setup for this pass: {}", e.reason);
         Box::new(Diagnostic::error("not-generated", message, span, "in this pass").with_help(e.help))
     })
+}
+
+/// The geometry a statement's index draws, for its depth test: `δπ* x` is
+/// `δπ x`'s where the program projects the mesh by `π` too.
+///
+/// Pipeline Grammar, eq. (11): `C δπ* x ← (C δπ* x) ⊕ …` renders the scene
+/// once more under a perturbed projection and accumulates it; each such
+/// pass sees its own visible surface. The executors render `π*` as `π`
+/// (they do not jitter), so that surface is the one the `π` pass left in
+/// the depth buffer: the `π*` pass is a later draw of the same geometry
+/// (`Equal`, no write), not a first draw of its own testing `Less` against
+/// the very depths it would write (which drew nothing).
+pub fn depth_key(m: &Module, index: Handle<Expr>) -> Handle<Expr> {
+    let unstarred = |h: Handle<Expr>| match &m.exprs[h] {
+        Expr::Project { projection, value } if projection.star => m.exprs.find(&Expr::Project {
+            projection: ir::Projection { star: false, ..projection.clone() },
+            value: *value,
+        }),
+        _ => None,
+    };
+    match &m.exprs[index] {
+        Expr::Interpolate { value, to } => unstarred(*value)
+            .and_then(|p| m.exprs.find(&Expr::Interpolate { value: p, to: *to }))
+            .unwrap_or(index),
+        _ => unstarred(index).unwrap_or(index),
+    }
+}
+
+/// Whether a pass's blend reads the colour already in its target: its
+/// destination factors or a `Dst…` source factor, or `Min`/`Max`.
+fn blend_reads_destination(b: &BlendState) -> bool {
+    use crate::pipeline::{BlendEquation as E, BlendFactor as F};
+    let dst = |f: F| {
+        matches!(
+            f,
+            F::DstColor | F::OneMinusDstColor | F::DstAlpha | F::OneMinusDstAlpha | F::SrcAlphaSaturate
+        )
+    };
+    b.dst_rgb != F::Zero
+        || b.dst_alpha != F::Zero
+        || dst(b.src_rgb)
+        || dst(b.src_alpha)
+        || matches!(b.equation, E::Min | E::Max)
+}
+
+/// Whether a pass needs a depth-only pass before it: the first draw of a
+/// mesh (depth `Less` with write) that blends with what its target holds.
+/// Drawn in the order of the scene's triangles, such a pass blends every
+/// fragment nearer than those drawn before it, also those a nearer surface
+/// drawn later hides (an accumulation `C δπx ← (C δπx) ⊕[add] …` as the
+/// first write into C adds them all). The program means the visible
+/// surface's fragment only, as the meaning's one pass per statement (depth
+/// `Less`, `replace`) and the reference take it.
+fn needs_depth_prepass(pass: &Pass) -> bool {
+    let s = &pass.state;
+    matches!(pass.geometry, Geometry::Mesh { .. })
+        && s.depth == DepthState::LESS_WRITE
+        && s.blend.write_mask.iter().any(|w| *w)
+        && blend_reads_destination(&s.blend)
+}
+
+/// Depth-only passes before the blended first draws
+/// ([`needs_depth_prepass`]): each draws the same geometry, tests `Less`
+/// and writes depth, writes no colour and no stencil, over every object
+/// (an object a light's pass leaves out still hides what is behind it);
+/// the blended pass then tests `Equal` without writing, as the later
+/// passes of a multipass plan do (Kilgard 2000, Section 5). Its fragment
+/// stage is a constant ([`depth_only_stage`]) where the blended pass
+/// discards nothing, else the blended pass's own with its alpha test (a
+/// discarded fragment writes no depth). A plan whose first draws replace
+/// gets none. `stages` keeps one entry per pass.
+pub(super) fn depth_prepasses(
+    m: &mut Module,
+    ctx: &AssembleCtx,
+    plan: &mut PassPlan,
+    stages: &mut Vec<Stage>,
+) {
+    let mut k = 0;
+    while k < plan.passes.len() {
+        if !needs_depth_prepass(&plan.passes[k]) {
+            k += 1;
+            continue;
+        }
+        let main = &mut plan.passes[k];
+        let mut pre = main.clone();
+        main.state.depth = DepthState::EQUAL_NO_WRITE;
+        pre.state.depth = DepthState::LESS_WRITE;
+        pre.state.stencil = StencilState::DISABLED;
+        pre.state.blend = BlendState::REPLACE.with_write_mask([false; 4]);
+        pre.blend = BlendMode::Replace;
+        pre.objects = None;
+        pre.reason = format!(
+            "the depth of the visible surface, colour writes off, before the blended pass that follows ({}): \
+             it then tests `Equal` and blends only the visible fragments",
+            main.blend.name()
+        );
+        let mut stage = stages[k].clone();
+        if let Some((value, setup)) = depth_only_stage(m, ctx, &pre) {
+            pre.fragment = FragmentWork {
+                output: value.index() as u32,
+                operations: 0,
+                condition: None,
+                general_combiners: setup.as_ref().ok().and_then(|s| match s {
+                    crate::pipeline::FragmentSetup::Combiners(p) => Some(p.stages()),
+                    _ => None,
+                }),
+                depth: None,
+            };
+            pre.textures = Vec::new();
+            pre.vertex.interpolants = Vec::new();
+            pre.vertex.texgen = Vec::new();
+            stage.1 = setup;
+            if !plan.values.iter().any(|v| v.id == value.index() as u32) {
+                plan.values.extend(plan_values(m, &[value], ctx.at));
+            }
+        }
+        plan.passes.insert(k, pre);
+        stages.insert(k, stage);
+        k += 2;
+    }
+}
+
+/// The fragment stage of a depth-only pass that discards nothing: the
+/// constant 0 (its colour is not written), with the target's setup for
+/// it — no lookups, no interpolants, no arithmetic. `None` where the pass
+/// discards (its condition or alpha test must run), or where the target
+/// makes no setup for a constant: the blended pass's own stage is kept.
+fn depth_only_stage(m: &mut Module, ctx: &AssembleCtx, pre: &Pass) -> Option<(Handle<Expr>, StageSetup)> {
+    if pre.fragment.condition.is_some() || !pre.state.alpha_test.is_disabled() || pre.fragment.depth.is_some()
+    {
+        return None;
+    }
+    let zero = m.intern(Expr::Constant(ir::Constant::scalar(0.0)), Span::DETACHED).ok()?;
+    let setup = combiner_setup(m, ctx.realizer, zero, &[]);
+    setup.is_ok().then_some((zero, setup))
 }
 
 pub(super) fn same_framebuffer(a: &Table, b: &Table) -> bool {

@@ -55,6 +55,7 @@ pub use split::{FitCheck, Overflow};
 use affine::Builder;
 use split::{Dest, Piece, SplitCache, Splitter, Storage};
 
+pub use assemble::depth_key;
 use assemble::*;
 use form::*;
 pub use form::{blended_as_gl, clamped_blend_source, classify, substitute, whole_form};
@@ -429,6 +430,7 @@ fn plan_as_written(
     }
     shadow_map::equal_depth(&m, &mut plan.passes);
     depth_replacing(&m, &ctx, &depth_replaced, &mut plan, &mut stages);
+    assemble::depth_prepasses(&mut m, &ctx, &mut plan, &mut stages);
     if let Some(d) = storage::float_framebuffer_read_back(module, &plan, profile) {
         return Err(vec![d]);
     }
@@ -439,13 +441,14 @@ fn plan_as_written(
     let stages: Vec<_> = origins.iter().filter_map(|&i| stages.get(i).cloned()).collect();
     let stages = runnable_stages(stages)?;
     let setups = crate::pipeline::setup::resolve_all(&m, &plan, stages);
-    Ok(Planned {
+    let planned = Planned {
         module: m,
         plan,
         combiners: profile.combiner_limits(),
         vertex_programs: profile.vertex_programs,
         setups,
-    })
+    };
+    planned.validate().map(|()| planned)
 }
 
 /// The shadow mask's redraws (`shadow_mask`): their passes replace the

@@ -219,6 +219,10 @@ impl<'a> PlanRenderer<'a> {
         scene: &'a Scene,
         assets: &'a SceneAssets,
     ) -> Result<PlanRenderer<'a>, RenderError> {
+        // A plan that breaks the contract (`pipeline::validate`) is refused, not run.
+        planned.validate().map_err(|d| {
+            RenderError::Unsupported(d.iter().map(|d| d.message.clone()).collect::<Vec<_>>().join("; "))
+        })?;
         let mut decls = bind::texture_decls(&planned.module, &scene.constants);
         let lowered = bind::lowered_decls(&planned.module, &decls);
         decls.extend(lowered);
