@@ -171,7 +171,7 @@ impl ProfileFit<'_> {
                 // The combiners read an interpolated colour as the primary
                 // or secondary colour, clamped at the vertex as GL clamps it
                 // (NV_vertex_program, Section 2.14.1.5, on geforce3 alike).
-                wide_vertex_colour(module, &u)?;
+                wide_vertex_colour(module, &u, &combine_operands(module, value))?;
                 let shader = super::hilo::texture_shader_nodes(module, value, p);
                 let ops = combiner_operations_except(module, value, &shader).map_err(|h| Overflow {
                     resource: format!("{} per fragment", operation_name(module, h)),
@@ -193,7 +193,7 @@ impl ProfileFit<'_> {
                 }
             }
             FragmentStage::TextureEnv => {
-                wide_vertex_colour(module, &u)?;
+                wide_vertex_colour(module, &u, &[])?;
                 stage_result_clamped(module, value)?;
                 let ops = combines(module, value);
                 let have = (p.texture_units as usize).max(1);
@@ -306,9 +306,11 @@ fn combines(module: &Module, value: Handle<Expr>) -> usize {
 /// GL clamps a vertex colour to [0, 1] (OpenGL 1.2.1, Section 2.13.9):
 /// the texture environment and the register combiners read an
 /// interpolated colour that may leave it clamped, not as the program
-/// means. Its refusal, located.
-fn wide_vertex_colour(module: &Module, u: &Usage) -> Result<(), Overflow> {
-    let wide = u.interpolants.iter().copied().find(|h| {
+/// means. Its refusal, located. `exempt`: interpolants a `⊕` the program
+/// writes takes as its incoming colour, which the language's `⊕` (GL's
+/// texture environment, docs/language.md) reads clamped anyway.
+fn wide_vertex_colour(module: &Module, u: &Usage, exempt: &[Handle<Expr>]) -> Result<(), Overflow> {
+    let wide = u.interpolants.iter().copied().filter(|h| !exempt.contains(h)).find(|h| {
         let i = module.info(*h);
         i.ty.is_color() && (i.interval.lo < 0.0 || i.interval.hi > 1.0)
     });
@@ -325,7 +327,11 @@ fn wide_vertex_colour(module: &Module, u: &Usage) -> Result<(), Overflow> {
         need: 0,
         have: 0,
         at: Some(h),
-        help: Some("split the sum inside δ into terms that stay in [0, 1], or scale it into [0, 1] and back up by a blend".into()),
+        help: Some(if i.hi.is_finite() {
+            "split the sum inside δ into terms that stay in [0, 1], or scale it into [0, 1] and back up by a blend".into()
+        } else {
+            "its value has no upper bound (a light's `intensity`, a uniform with no range): clamp it with `saturate(…)` inside δ where GL's clamp is intended, or bound what it is made of".into()
+        }),
     })
 }
 
@@ -389,4 +395,23 @@ fn stage_result_clamped(module: &Module, value: Handle<Expr>) -> Result<(), Over
         at: Some(h),
         help: Some("keep each partial sum and scaled product in [0, 1] (halve it and double it back by a blend), or target a programmable stage".into()),
     })
+}
+
+/// The interpolants a `⊕` takes directly as an operand (through a
+/// widening to rgba): GL's incoming fragment colour.
+fn combine_operands(module: &Module, value: Handle<Expr>) -> Vec<Handle<Expr>> {
+    let through = |h: Handle<Expr>| match module.exprs[h] {
+        Expr::Convert { value, .. } => value,
+        _ => h,
+    };
+    module
+        .reachable(&[value])
+        .into_iter()
+        .filter_map(|h| match module.exprs[h] {
+            Expr::Combine { lhs, rhs, .. } => Some([through(lhs), through(rhs)]),
+            _ => None,
+        })
+        .flatten()
+        .filter(|h| matches!(module.exprs[*h], Expr::Interpolate { .. }))
+        .collect()
 }
