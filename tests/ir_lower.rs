@@ -603,8 +603,8 @@ fn a_tuple_scaled_into_a_framebuffer_is_labelled_with_its_rgb() {
 }
 
 /// Fog by `length(V)` of the `view` vector is a constant: the binder
-/// normalizes every role but `position` and `intensity`, so its length is
-/// 1. A located warning says so, and its help (a `position in eye`
+/// normalizes every role but `position` and `intensity`, so its length
+/// is one. A located warning says so, and its help (a `position in eye`
 /// vector) is quiet and varies with the distance.
 #[test]
 fn the_length_of_a_unit_vector_warns_and_names_the_position_vector() {

@@ -239,6 +239,12 @@ pub fn whole_form(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result
     Ok(form)
 }
 
+/// How the framebuffer's alpha may weigh its own colour.
+const MIX_HELP: &str = "blending reads the framebuffer's alpha only to choose between its colour and another, \
+                 `(α C)·(C) + (1 − α C)·f` or `(α C)·f + (1 − α C)·(C)`, with `f` not reading `C`: render the \
+                 other image into a framebuffer of its own (`C′ δπx ← …`) and write \
+                 `C xs ← (α C xs)*(C′ xs) + (1 − α C xs)*(C xs)` (the shadow mask, Pipeline Grammar, Section 3.5)";
+
 /// How to blend an alpha that an alpha write cannot.
 const ALPHA_HELP: &str = "write the alpha without reading the framebuffer (`α C δπx ← (T δu x).a`), or blend colour and alpha together in one rgba statement: `C δπx ← (C δπx) ⊕ rgba((1, 1, 1), a)` modulates the alpha by `a` and keeps the colour";
 
@@ -283,31 +289,13 @@ pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<F
         }
         let (coef, offset) =
             affine::affine(&mut Builder { module: m }, v, r).ok_or_else(|| non_linear(st))?;
-        if let Some(ra) = ra.filter(|ra| coef == *ra) {
-            // Cα·C + (1 − Cα)·f
-            let omr = Builder { module: m }.one_minus(ra);
-            if let Some(x) = omr.and_then(|omr| alpha_factor(m, offset, omr)) {
-                form.blend = BlendMode::DstAlphaMix;
-                form.value = x;
-                return Ok(form);
-            }
-        }
-        if let Some(ra) = ra {
-            // (1 − Cα)·C + Cα·f
-            let omr = Builder { module: m }.one_minus(ra);
-            if let Some(x) = alpha_factor(m, offset, ra).filter(|_| omr == Some(coef)) {
-                form.blend = BlendMode::DstAlphaLerp;
-                form.value = x;
-                return Ok(form);
-            }
+        if let Some((blend, x)) = ra.and_then(|ra| dst_alpha_choice(m, coef, offset, ra)) {
+            form.blend = blend;
+            form.value = x;
+            return Ok(form);
         }
         if uses(m, coef, ra) {
-            return Err(unsupported("the framebuffer's alpha scales its own colour").with_help(
-                "blending reads the framebuffer's alpha only to choose between its colour and another, \
-                 `(α C)·(C) + (1 − α C)·f` or `(α C)·f + (1 − α C)·(C)`, with `f` not reading `C`: render the \
-                 other image into a framebuffer of its own (`C′ δπx ← …`) and write \
-                 `C xs ← (α C xs)*(C′ xs) + (1 − α C xs)*(C xs)` (the shadow mask, Pipeline Grammar, Section 3.5)",
-            ));
+            return Err(unsupported("the framebuffer's alpha scales its own colour").with_help(MIX_HELP));
         }
         let one = m.is_constant(coef, 1.0);
         let zero = m.is_constant(offset, 0.0);
@@ -377,6 +365,25 @@ pub(super) fn widened_alpha_product(m: &Module, h: Handle<Expr>, ra: Handle<Expr
     matches!(m.exprs[h], Expr::Convert { value, to: ir::Ty::Rgba } if alpha_factor(m, value, ra).is_some())
 }
 
+/// `coef·C + offset` as a choice by the framebuffer's alpha `ra` between
+/// its colour and another value `f`: `Cα·C + (1 − Cα)·f`
+/// ([`BlendMode::DstAlphaMix`], the shadow mask's compositing) or
+/// `(1 − Cα)·C + Cα·f` ([`BlendMode::DstAlphaLerp`]); the mode and `f`.
+fn dst_alpha_choice(
+    m: &mut Module,
+    coef: Handle<Expr>,
+    offset: Handle<Expr>,
+    ra: Handle<Expr>,
+) -> Option<(BlendMode, Handle<Expr>)> {
+    let omr = Builder { module: m }.one_minus(ra)?;
+    if coef == ra {
+        alpha_factor(m, offset, omr).map(|x| (BlendMode::DstAlphaMix, x))
+    } else if coef == omr {
+        alpha_factor(m, offset, ra).map(|x| (BlendMode::DstAlphaLerp, x))
+    } else {
+        None
+    }
+}
 /// `h = ra · x` (either order): `x`.
 pub(super) fn alpha_factor(m: &Module, h: Handle<Expr>, ra: Handle<Expr>) -> Option<Handle<Expr>> {
     match m.exprs[h] {
