@@ -316,13 +316,10 @@ fn wide_vertex_colour(module: &Module, u: &Usage, exempt: &[Handle<Expr>]) -> Re
     });
     let Some(h) = wide else { return Ok(()) };
     let i = module.info(h).interval;
-    let bound =
-        |x: f64| if x.is_finite() { format!("{}", (x * 100.0).round() / 100.0) } else { "∞".into() };
     Err(Overflow {
         resource: format!(
-            "interpolates a colour in [{}, {}], which GL clamps to [0, 1] as a vertex colour (OpenGL 1.2.1, Section 2.13.9)",
-            bound(i.lo),
-            bound(i.hi)
+            "interpolates a colour in {}, which GL clamps to [0, 1] as a vertex colour (OpenGL 1.2.1, Section 2.13.9)",
+            in_words(module, h)
         ),
         need: 0,
         have: 0,
@@ -381,14 +378,10 @@ fn stage_result_clamped(module: &Module, value: Handle<Expr>) -> Result<(), Over
             && (i.interval.lo < 0.0 || i.interval.hi > 1.0)
     });
     let Some(h) = wide else { return Ok(()) };
-    let i = module.info(h).interval;
-    let bound =
-        |x: f64| if x.is_finite() { format!("{}", (x * 100.0).round() / 100.0) } else { "∞".into() };
     Err(Overflow {
         resource: format!(
-            "computes an intermediate result in [{}, {}], which the texture environment clamps to [0, 1] after each stage (OpenGL 1.3, Section 3.8.13)",
-            bound(i.lo),
-            bound(i.hi)
+            "computes an intermediate result in {}, which the texture environment clamps to [0, 1] after each stage (OpenGL 1.3, Section 3.8.13)",
+            in_words(module, h)
         ),
         need: 0,
         have: 0,
@@ -414,4 +407,12 @@ fn combine_operands(module: &Module, value: Handle<Expr>) -> Vec<Handle<Expr>> {
         .flatten()
         .filter(|h| matches!(module.exprs[*h], Expr::Interpolate { .. }))
         .collect()
+}
+
+/// `h`'s range as a refusal prints it, `[0, 1.8]` (`∞` where unbounded).
+fn in_words(module: &Module, h: Handle<Expr>) -> String {
+    let i = module.info(h).interval;
+    let bound =
+        |x: f64| if x.is_finite() { format!("{}", (x * 100.0).round() / 100.0) } else { "∞".into() };
+    format!("[{}, {}]", bound(i.lo), bound(i.hi))
 }
