@@ -639,6 +639,18 @@ mod tests {
         assert_eq!(v, 0x3f);
     }
 
+    /// Whether `a` and `b` hold the same colour, depth and stencil at
+    /// every pixel.
+    fn same_pixels(a: &Framebuffer, b: &Framebuffer) -> bool {
+        (0..a.height()).all(|y| {
+            (0..a.width()).all(|x| {
+                a.color(x, y) == b.color(x, y)
+                    && a.depth(x, y) == b.depth(x, y)
+                    && a.stencil(x, y) == b.stencil(x, y)
+            })
+        })
+    }
+
     /// A reset framebuffer is a new one wherever it was written — through
     /// the rasterizer's marked tiles or any other mutable access — and it
     /// clears only the tiles written since the last reset.
@@ -647,15 +659,7 @@ mod tests {
         let (w, h) = (3 * TILE as u32 - 5, 2 * TILE as u32);
         let mut fb = Framebuffer::new(w, h, ColorFormat::F32).unwrap();
         let fresh = Framebuffer::new(w, h, ColorFormat::F32).unwrap();
-        let same = |fb: &Framebuffer| {
-            (0..h).all(|y| {
-                (0..w).all(|x| {
-                    fb.color(x, y) == fresh.color(x, y)
-                        && fb.depth(x, y) == fresh.depth(x, y)
-                        && fb.stencil(x, y) == fresh.stencil(x, y)
-                })
-            })
-        };
+        let same = |fb: &Framebuffer| same_pixels(fb, &fresh);
         assert_eq!(fb.tiles.clean_count(), 6);
         // The rasterizer's way: tiles 1 and 4 marked, written.
         for t in [1, 4] {
@@ -688,15 +692,7 @@ mod tests {
     fn a_deferred_clear_is_made_by_the_writer_or_when_settled() {
         let (w, h) = (3 * TILE as u32 - 5, 2 * TILE as u32);
         let fresh = Framebuffer::new(w, h, ColorFormat::F32).unwrap();
-        let same = |fb: &Framebuffer| {
-            (0..h).all(|y| {
-                (0..w).all(|x| {
-                    fb.color(x, y) == fresh.color(x, y)
-                        && fb.depth(x, y) == fresh.depth(x, y)
-                        && fb.stencil(x, y) == fresh.stencil(x, y)
-                })
-            })
-        };
+        let same = |fb: &Framebuffer| same_pixels(fb, &fresh);
         let scribble = |fb: &mut Framebuffer| {
             // Every tile but the last (it stays clean).
             for t in 0..5 {
