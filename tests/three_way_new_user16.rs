@@ -68,13 +68,7 @@ fn a_fixed_function_add_signed_layer_plans_on_the_combiner_targets() {
 /// and the CPU executor panicked reading the interpolant.
 #[test]
 fn an_interpolated_value_rendered_into_a_texture_rasterizes_the_mesh() {
-    let source =
-        std::fs::read_to_string(crate::three_way_heldout::data("heldout_sixteenth").join("rtt_blur.shd"))
-            .unwrap();
-    let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
-    let compiled = shadec::driver::compile(&source, &profile, &Default::default())
-        .map_err(|d| d[0].message.clone())
-        .unwrap();
+    let (_, compiled) = rtt_blur_on_wgsl();
     let first = &compiled.planned.plan.passes[0];
     assert!(matches!(first.geometry, shadec::pipeline::Geometry::Mesh { .. }), "{:?}", first.geometry);
 }
@@ -89,13 +83,7 @@ fn an_interpolated_value_rendered_into_a_texture_rasterizes_the_mesh() {
 #[test]
 fn the_plan_validator_refuses_an_interpolant_on_a_quad() {
     use shadec::pipeline::Geometry;
-    let source =
-        std::fs::read_to_string(crate::three_way_heldout::data("heldout_sixteenth").join("rtt_blur.shd"))
-            .unwrap();
-    let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
-    let compiled = shadec::driver::compile(&source, &profile, &Default::default())
-        .map_err(|d| d[0].message.clone())
-        .unwrap();
+    let (source, compiled) = rtt_blur_on_wgsl();
     let mut planned = compiled.planned;
     planned.validate().unwrap_or_else(|d| panic!("the planner's plan is valid: {:?}", d[0].message));
     for geometry in [Geometry::Texels, Geometry::Screen] {
@@ -135,4 +123,16 @@ fn the_plan_validator_refuses_an_interpolant_on_a_quad() {
             "{geometry:?}: wgpu runs it"
         );
     }
+}
+
+/// `rtt_blur`'s text, and it compiled for wgsl.
+fn rtt_blur_on_wgsl() -> (String, shadec::driver::Compilation) {
+    let source =
+        std::fs::read_to_string(crate::three_way_heldout::data("heldout_sixteenth").join("rtt_blur.shd"))
+            .unwrap();
+    let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
+    let compiled = shadec::driver::compile(&source, &profile, &Default::default())
+        .map_err(|d| d[0].message.clone())
+        .unwrap();
+    (source, compiled)
 }

@@ -12,6 +12,19 @@ pub(super) static PLAIN: AtomicBool = AtomicBool::new(false);
 /// Lookups that fetched through another's footprints.
 pub(super) static SHARED: AtomicU64 = AtomicU64::new(0);
 
+/// Kilgard's program planned on wgsl, with the torus scene built.
+fn kilgard_on_wgsl(
+) -> (Scene, crate::scene::SceneAssets, crate::parser::ast::Program, crate::pipeline::Planned) {
+    let source = include_str!("../../../examples/kilgard_bump_mapping.shd");
+    let text = include_str!("../../../scenes/kilgard_torus.ron");
+    let scene = Scene::parse(text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap();
+    let assets = scene.build().unwrap();
+    let (program, _) = crate::parser::check(source);
+    let profile = crate::profile::Profile::resolve("wgsl").unwrap();
+    let planned = crate::driver::compile(source, &profile, &Default::default()).unwrap().planned;
+    (scene, assets, program, planned)
+}
+
 /// Kilgard's torus on the wgsl plan (the decal and the normal map, both
 /// 256² chains that repeat, looked up at the same `u`; two cube lookups
 /// at other coordinates; a dozen scalar results): the same frame bit for
@@ -23,13 +36,7 @@ pub(super) static SHARED: AtomicU64 = AtomicU64::new(0);
 /// the sharing did happen.
 #[test]
 fn shared_footprints_and_demanded_components_render_the_plain_frame_bit_for_bit() {
-    let source = include_str!("../../../examples/kilgard_bump_mapping.shd");
-    let text = include_str!("../../../scenes/kilgard_torus.ron");
-    let scene = Scene::parse(text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap();
-    let assets = scene.build().unwrap();
-    let (program, _) = crate::parser::check(source);
-    let profile = crate::profile::Profile::resolve("wgsl").unwrap();
-    let planned = crate::driver::compile(source, &profile, &Default::default()).unwrap().planned;
+    let (scene, assets, program, planned) = kilgard_on_wgsl();
     let render = || {
         let renderer = PlanRenderer::new(&planned, &program, &scene, &assets).unwrap();
         renderer.render(Precision::F32, 160, 120, &mut |_, _| {}).unwrap()
@@ -82,13 +89,7 @@ fn powers_over_lanes_are_the_squarings_of_each_lane_bit_for_bit() {
 /// everywhere), and again after a frame of its own.
 #[test]
 fn a_frame_into_a_recycled_image_is_the_frame_into_a_new_one_bit_for_bit() {
-    let source = include_str!("../../../examples/kilgard_bump_mapping.shd");
-    let text = include_str!("../../../scenes/kilgard_torus.ron");
-    let scene = Scene::parse(text, Path::new("/nonexistent-shadec-scene/kilgard_torus.ron")).unwrap();
-    let assets = scene.build().unwrap();
-    let (program, _) = crate::parser::check(source);
-    let profile = crate::profile::Profile::resolve("wgsl").unwrap();
-    let planned = crate::driver::compile(source, &profile, &Default::default()).unwrap().planned;
+    let (scene, assets, program, planned) = kilgard_on_wgsl();
     let bits = |f: &crate::renderer::plan::Frame| {
         f.image.to_rgba_f32().into_iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>()
     };
