@@ -96,6 +96,7 @@ mod three_way_heldout17;
 mod three_way_new_user;
 mod three_way_new_user16;
 mod three_way_new_user17;
+mod three_way_new_user18;
 mod three_way_overlap;
 mod vertex_programs_public;
 mod wgpu_auto;

@@ -345,6 +345,9 @@ fn help_for(found: &str, expected: &[&str]) -> String {
         "" if expects("`;`") => "end every statement and declaration with `;`".into(),
         "" => "the file ends in the middle of a statement; complete it and end it with `;`".into(),
         ")" | "]" | "}" => "this closing bracket has no matching opening bracket".into(),
+        ";" if expects("a declaration or a statement") => {
+            "an empty statement: this `;` follows the end of another (`;;`), or starts the file; remove it".into()
+        }
         "¬" if expects("`←` (or `<-`)") => "did you mean `←` (ASCII `<-`)? Text pasted from a PDF set in the Symbol font shows ← as `¬`, ⊕ as `Å`, δ as `d` and π as `p`: write those symbols (or their ASCII spellings `<-`, `(+)`, `delta`, `pi`)".into(),
         f if let Some(help) = symbol_help(f) => help,
         f if f.chars().next().is_some_and(|c| !c.is_ascii() && !c.is_alphanumeric()) => format!(

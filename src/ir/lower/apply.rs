@@ -360,7 +360,14 @@ impl<'a> Lowerer<'a> {
     pub(super) fn shader_body(&mut self, s: &'a ast::ShaderDecl, span: Span) -> Res<Handle<Expr>> {
         for p in &s.params {
             let Some(d) = &p.default else {
-                self.unsupported(format!("the shader parameter `{}` has no default, and parameters cannot be set at the use site yet", p.name.key()), p.name.span);
+                let (name, ty) = (p.name.key(), p.ty.as_ref().map_or("scalar", |t| t.value.as_str()));
+                self.error(
+                    "not-supported",
+                    format!("the shader parameter `{name}` has no default: a shader's parameters cannot be set where it is used yet, so each takes its default"),
+                    p.name.span,
+                    "no default",
+                    format!("give it one, `{name}: {ty} = …`; for a value the scene sets, declare `uniform {name} : {ty} = …;` and drop the parameter"),
+                );
                 return Err(());
             };
             let v = self.lower_expr(d)?;

@@ -183,6 +183,43 @@ impl<'a> Lowerer<'a> {
         );
     }
 
+    /// A framebuffer's colour read where no statement of the program writes
+    /// the framebuffer at all: it holds its clear value, 0, wherever it is
+    /// read (a screen pass `C xs ← F xs` of a forgotten `F δπx ← …`).
+    /// Warned once per framebuffer, at its first read. Reads of `C` that
+    /// accumulate into it (`(C δπx) ⊕[add] …`) write it, so are not warned.
+    pub(super) fn warn_never_written(&mut self) {
+        let written: HashSet<u32> = self
+            .module
+            .statements
+            .iter()
+            .filter_map(|st| match st.table {
+                Table::Framebuffer { id, .. } => Some(id),
+                _ => None,
+            })
+            .collect();
+        let mut warned = HashSet::new();
+        for (h, e) in self.module.exprs.arena().iter() {
+            let Expr::FramebufferRead { framebuffer, channel: FbChannel::Color | FbChannel::Alpha, .. } = *e
+            else {
+                continue;
+            };
+            if written.contains(&framebuffer) || !warned.insert(framebuffer) {
+                continue;
+            }
+            let name = self.module.framebuffers[framebuffer as usize].name.clone();
+            self.diagnostics.push(
+                Diagnostic::warning(
+                    "read-cleared",
+                    format!("the framebuffer `{name}` is read, but no statement writes it: it holds its clear value, 0 (black)"),
+                    self.module.span(h),
+                    format!("`{name}` is never written"),
+                )
+                .with_help(format!("write `{name}` in a statement before this read (e.g. `{name} δπx ← …;`), or read the framebuffer that holds the picture")),
+            );
+        }
+    }
+
     /// rgb meets rgba: the rgb side widens (alpha 1).
     pub(super) fn widen_pair(
         &mut self,

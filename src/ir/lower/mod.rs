@@ -207,6 +207,7 @@ impl<'a> Lowerer<'a> {
             self.statement(st);
         }
         self.module.statements.sort_by_key(|s| s.span.start);
+        self.warn_never_written();
         self.check_unused();
     }
 
