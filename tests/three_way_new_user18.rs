@@ -9,7 +9,12 @@
 //! translucent second draw, colour uniforms, a stencil window, two spot
 //! lights per vertex, a baked checkerboard, a tinted cube-map reflection,
 //! Phong's reflection-vector highlight per pixel and two lights
-//! accumulated over one texture.
+//! accumulated over one texture; then a soft two-tone by `smoothstep`,
+//! `reflect()` into a panorama, a band chosen by two conditions, a
+//! uniform exponent, top-level lets, four lights into a float framebuffer
+//! tone-mapped in a screen pass, `min`/`clamp` of two lights, a 16-bit
+//! texture with gloss in alpha, strand lighting from the tangent and
+//! alpha written then read in a screen pass.
 //! Each renders alike on the CPU, wgpu and the independent reference on
 //! every target its header names (`three_way_heldout::renders_alike_in`).
 
@@ -37,4 +42,14 @@ held_out_everywhere_in!("heldout_eighteenth":
     three_lights,
     two_sided,
     uniform_colour,
+    alpha_out,
+    cross_tangent,
+    float_accum,
+    min_clamp,
+    reflect_fn,
+    rgba16_tex,
+    select_band,
+    smooth_toon,
+    top_lets,
+    uniform_power,
 );
