@@ -53,3 +53,31 @@ held_out_everywhere_in!("heldout_eighteenth":
     top_lets,
     uniform_power,
 );
+
+/// `abs(N·L)` per fragment on geforce3: `max(0, x) + max(0, −x)`, two
+/// unsigned mappings summed in one general combiner stage after `−x` is
+/// copied to a register (Kilgard 2000, Table 3). It was refused per
+/// fragment ("geforce3 cannot compute this per fragment") and computed per
+/// vertex, 54.7/255 off the meaning on `lights_matte_floor.ron`, over the
+/// per-vertex budget. The three-way test `two_sided` renders it.
+#[test]
+fn abs_of_a_dot_product_plans_per_fragment_on_geforce3() {
+    let source =
+        std::fs::read_to_string(crate::three_way_heldout::data("heldout_eighteenth").join("two_sided.shd"))
+            .unwrap();
+    let profile = shadec::profile::Profile::resolve("geforce3").unwrap();
+    let compiled = shadec::driver::compile(&source, &profile, &Default::default())
+        .unwrap_or_else(|d| panic!("{:?}", d.iter().map(|d| &d.message).collect::<Vec<_>>()));
+    let rules: Vec<&str> = compiled.planned.plan.approximations.iter().map(|a| a.rule.as_str()).collect();
+    assert!(rules.iter().all(|r| *r == "range_compression"), "{rules:?}");
+    // An argument the registers cannot hold stays refused per fragment.
+    let wide = source.replace("abs(N·L)", "0.25 * abs(4 * (N·L))");
+    let compiled = shadec::driver::compile(&wide, &profile, &Default::default());
+    if let Ok(c) = compiled {
+        let rules: Vec<&str> = c.planned.plan.approximations.iter().map(|a| a.rule.as_str()).collect();
+        assert!(
+            rules.iter().any(|r| *r != "range_compression"),
+            "abs(4·N·L) cannot be exact per fragment: {rules:?}"
+        );
+    }
+}

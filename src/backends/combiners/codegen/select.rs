@@ -95,6 +95,7 @@ impl Gen<'_> {
                 let s = self.src(x, part, sat)?;
                 self.unsigned(s, span)
             }
+            Expr::Math { fun: MathFunction::Abs, ref args } => self.abs_src(args[0], part, sat, span),
             Expr::Binary { op: BinaryOp::Pow, lhs, rhs } => {
                 let k = self.pow2_exponent(rhs).ok_or_else(|| self.pow_error(h))?;
                 self.pow_src(lhs, part, k)
@@ -386,6 +387,42 @@ impl Gen<'_> {
             Some(map) => Ok(Src { map, ..s }),
             None => self.materialise(h, part, sat),
         }
+    }
+
+    /// `abs(x)` as `max(0, x) + max(0, −x)`: two unsigned mappings summed in
+    /// one stage (Kilgard 2000, Section 4.2.1, Table 3). No input mapping
+    /// negates and clamps at once, so `−x` is copied to a register first
+    /// when its mapping has no negated twin. Registers hold [−1, 1], so `x`
+    /// must stay there unless the consumer clamps to 1 anyway (`sat`), as
+    /// for `max(0, x)`.
+    fn abs_src(&mut self, x: Handle<Expr>, part: Part, sat: bool, span: Span) -> R<Src> {
+        if !sat && (self.lo(x) < -1.0 || self.hi(x) > 1.0) {
+            return Err(unsupported(
+                span,
+                "`abs` of a value that leaves [−1, 1]",
+                "the combiners' registers hold [−1, 1]: scale the argument into it, or compute `abs` on a target with float arithmetic (wgsl)",
+            ));
+        }
+        let s = self.src(x, part, false)?;
+        let scalar = s.comp != Comp::Rgb;
+        let negative = match negated(s.map) {
+            Some(map) => self.copy(Src { map, ..s }, span)?,
+            None => {
+                let v = self.copy(s, span)?;
+                let negate = negated(v.map).ok_or_else(|| {
+                    unsupported(
+                        span,
+                        "`abs` of this value",
+                        "please report this: its copy has no negated mapping",
+                    )
+                })?;
+                self.copy(Src { map: negate, ..v }, span)?
+            }
+        };
+        let (positive, negative) = (self.unsigned(s, span)?, self.unsigned(negative, span)?);
+        let spec =
+            Spec { cd: Some(Term::times_one(negative)), ..Spec::single(Term::times_one(positive), scalar) };
+        self.emit(spec, span)
     }
 
     pub(super) fn unsupported_node(&self, h: Handle<Expr>, e: &Expr) -> CodegenError {
