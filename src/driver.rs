@@ -30,7 +30,7 @@ use crate::planner::{self, Realizer, Request, SceneSpecialization, Search};
 use crate::profile::Profile;
 use crate::scene::{Scene, SceneAssets};
 use crate::span::Span;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// Every problem found in a program, each with its location.
 pub type Diagnostics = Vec<Diagnostic>;
@@ -337,24 +337,38 @@ pub fn target_for(flag: Option<&str>, program: &Program, default: Option<&str>) 
     .map(|(name, _)| name)
 }
 
-/// The located errors of the cube-map images `program` declares, paths
-/// relative to `base` (`scene::cube_image::diagnose` over the program's
-/// typed declarations, [`crate::ir::declared`]); a declaration whose every
-/// name `replaced` says a scene texture replaces is not read.
-pub fn cube_image_errors(program: &Program, base: &Path, replaced: &dyn Fn(&str) -> bool) -> Diagnostics {
-    crate::scene::cube_image::diagnose(&crate::ir::declared::read(program), base, replaced)
+/// The located errors of the cube-map images `program` declares
+/// (`scene::cube_image::diagnose` over the program's typed declarations,
+/// [`crate::ir::declared`]), each file found as [`image_path`] finds it; a
+/// declaration whose every name is a texture of `scene` is not read.
+pub fn cube_image_errors(program: &Program, dir: &Path, scene: Option<&Scene>) -> Diagnostics {
+    let replaced = |name: &str| scene.is_some_and(|s| s.textures.contains_key(name));
+    let resolve = |file: &str| image_path(file, dir, scene);
+    crate::scene::cube_image::diagnose(&crate::ir::declared::read(program), &resolve, &replaced)
 }
 
-/// Every `image("…")` and `height("…")` file of `program` that is not in
-/// `dir` (nor replaced by a texture of `scene` of the same name): an error
-/// at the file's name, whose help names `--stand-ins`.
+/// Where a program's `image("…")` or `height("…")` file is read: on a
+/// scene, beside the program and then beside the scene
+/// ([`Scene::resolve_program_file`]); without one, in `dir` (the program's
+/// folder).
+pub fn image_path(file: &str, dir: &Path, scene: Option<&Scene>) -> PathBuf {
+    match scene {
+        Some(s) => s.resolve_program_file(file),
+        None if Path::new(file).is_absolute() => file.into(),
+        None => dir.join(file),
+    }
+}
+
+/// Every `image("…")` and `height("…")` file of `program` that is not where
+/// [`image_path`] looks (nor replaced by a texture of `scene` of the same
+/// name): an error at the file's name, whose help names `--stand-ins`.
 pub fn missing_images(program: &Program, dir: &Path, scene: Option<&Scene>) -> Diagnostics {
     let mut out = Vec::new();
     for f in crate::scene::bind::image_files(&crate::ir::declared::read(program)) {
         if scene.is_some_and(|s| s.textures.contains_key(&f.texture)) {
             continue;
         }
-        let path = if Path::new(&f.file).is_absolute() { f.file.clone().into() } else { dir.join(&f.file) };
+        let path = image_path(&f.file, dir, scene);
         if path.is_file() {
             continue;
         }

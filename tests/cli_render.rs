@@ -350,3 +350,45 @@ fn adaptive_auto_says_what_it_chose_and_why() {
         assert!(psnr_against_full(&stdout) >= 40.0, "{backend}: {stdout}");
     }
 }
+
+/// An example rendered on a scene of `scenes/` finds its own images beside
+/// it (`examples/brick.png`), as `check` does: program files are looked
+/// for beside the program, then beside the scene. It was a missing-image
+/// error pointing at `scenes/brick.png` — the obvious first command ended
+/// in an error. A file only beside the scene is still found, and one in
+/// neither is named beside the program.
+#[test]
+fn an_example_on_a_scene_finds_its_images_beside_the_program() {
+    let root = env!("CARGO_MANIFEST_DIR");
+    let dir = tempfile::tempdir().unwrap();
+    let render = |scene: &std::path::Path, shader: &std::path::Path| {
+        shadec()
+            .args(["render", "--size", "64x48", "--out"])
+            .arg(dir.path().join("x.png"))
+            .arg(scene)
+            .arg("--shader")
+            .arg(shader)
+            .output()
+            .unwrap()
+    };
+    let scene = std::path::Path::new(root).join("scenes/kilgard_torus.ron");
+    let shader = std::path::Path::new(root).join("examples/texture.shd");
+    let out = render(&scene, &shader);
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{stdout}{}", String::from_utf8_lossy(&out.stderr));
+    assert!(!stdout.contains("stand-in"), "{stdout}");
+    // Only beside the scene: a program in another folder, the image beside a copy of the scene.
+    let (programs, scenes) = (dir.path().join("programs"), dir.path().join("scenes"));
+    std::fs::create_dir_all(&programs).unwrap();
+    std::fs::create_dir_all(&scenes).unwrap();
+    std::fs::copy(&shader, programs.join("t.shd")).unwrap();
+    std::fs::copy(&scene, scenes.join("s.ron")).unwrap();
+    let out = render(&scenes.join("s.ron"), &programs.join("t.shd"));
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    let beside_program = programs.join("brick.png");
+    assert!(stderr.contains(&format!("put the image at {}", beside_program.display())), "{stderr}");
+    std::fs::copy(std::path::Path::new(root).join("examples/brick.png"), scenes.join("brick.png")).unwrap();
+    let out = render(&scenes.join("s.ron"), &programs.join("t.shd"));
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+}

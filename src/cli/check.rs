@@ -67,7 +67,7 @@ pub fn run(args: &CheckArgs) -> ExitCode {
         // Cube maps from images that cannot be made, read where `render`
         // reads them without a scene: beside the program.
         let dir = path.parent().unwrap_or(Path::new(""));
-        diagnostics.extend(shadec::driver::cube_image_errors(&program, dir, &|_| false));
+        diagnostics.extend(shadec::driver::cube_image_errors(&program, dir, None));
         diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
         let file = SourceFile::new(path.display().to_string(), text);
         let n_errors = diagnostics.iter().filter(|d| d.severity == Severity::Error).count();

@@ -19,18 +19,19 @@ pub fn run(args: &CompileArgs) -> ExitCode {
             return ExitCode::from(EXIT_USAGE_OR_IO);
         }
     };
-    let scene = match args.scene.as_deref().map(load_scene).transpose() {
+    let mut scene = match args.scene.as_deref().map(load_scene).transpose() {
         Ok(s) => s,
         Err(code) => return code,
     };
+    // The program's images: beside it, then (on a scene) beside the scene.
+    let dir = args.file.parent().unwrap_or(std::path::Path::new("")).to_path_buf();
+    if let Some(s) = scene.as_mut() {
+        s.program_dir = Some(dir.clone());
+    }
     let front = shadec::driver::front(&text);
     let mut diagnostics = front.diagnostics.clone();
-    diagnostics.extend(cube_image_errors(&front.program, scene.as_ref()));
+    diagnostics.extend(shadec::driver::cube_image_errors(&front.program, &dir, scene.as_ref()));
     let mut plan = None;
-    let dir = match &args.scene {
-        Some(path) => path.parent().unwrap_or(std::path::Path::new("")).to_path_buf(),
-        None => args.file.parent().unwrap_or(std::path::Path::new("")).to_path_buf(),
-    };
     if let (Some(m), false) = (&front.module, front.has_errors()) {
         match shadec::driver::target_for(args.target.as_deref(), &front.program, default_target(args.emit)) {
             Some(name) => {
@@ -304,16 +305,4 @@ fn report_removed(plan: &shadec::pipeline::PassPlan) {
     for r in &plan.removed {
         eprintln!("  {:<9} {} — {} (at {})", r.kind, r.what, r.why, r.at);
     }
-}
-
-/// Cube maps from images that cannot be made, paths relative to the scene's
-/// folder (`--scene`), else the current folder, as `render` reads them; a
-/// declaration the scene's textures replace is not read.
-fn cube_image_errors(
-    program: &shadec::parser::ast::Program,
-    scene: Option<&shadec::scene::Scene>,
-) -> Vec<shadec::diag::Diagnostic> {
-    let base = scene.map(shadec::scene::bind::scene_dir).unwrap_or_default();
-    let replaced = |name: &str| scene.is_some_and(|s| s.textures.contains_key(name));
-    shadec::driver::cube_image_errors(program, &base, &replaced)
 }

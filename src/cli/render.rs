@@ -151,16 +151,19 @@ pub fn run(args: &RenderArgs) -> ExitCode {
     }
 }
 
-/// The scene: the file given, else the built-in torus, whose image files
-/// (none of its own) are looked for next to the program, as `check` does.
+/// The scene: the file given, else the built-in torus. The program's own
+/// image files are looked for next to the program first, as `check` does,
+/// then next to the scene (`Scene::resolve_program_file`).
 fn load_scene(args: &RenderArgs) -> Result<Scene, ExitCode> {
-    match (&args.scene, &args.shader) {
-        (None, Some(shader)) => {
-            let dir = shader.parent().unwrap_or(Path::new(""));
-            shadec::accuracy::default_scene(dir).map_err(|e| input(format!("the built-in scene: {e}")))
+    let program_dir = args.shader.as_deref().map(|s| s.parent().unwrap_or(Path::new("")).to_path_buf());
+    let mut scene = match (&args.scene, &program_dir) {
+        (None, Some(dir)) => {
+            shadec::accuracy::default_scene(dir).map_err(|e| input(format!("the built-in scene: {e}")))?
         }
-        _ => scene_from(args.scene.as_deref()),
-    }
+        _ => scene_from(args.scene.as_deref())?,
+    };
+    scene.program_dir = program_dir;
+    Ok(scene)
 }
 
 /// The scene at `path`, else the built-in torus (`render`, `bench --program`).
@@ -211,9 +214,9 @@ fn compile(
         ExitCode::from(EXIT_SOURCE_ERRORS)
     };
     let mut errors: Vec<Diagnostic> = front.diagnostics.iter().filter(|d| d.is_error()).cloned().collect();
-    let replaced = |name: &str| scene.textures.contains_key(name);
-    let images = shadec::scene::bind::scene_dir(scene);
-    errors.extend(shadec::driver::cube_image_errors(&front.program, &images, &replaced));
+    // Where a plan without the scene (`--no-specialize`) looks for them.
+    let images = scene.program_dir.clone().unwrap_or_else(|| shadec::scene::bind::scene_dir(scene));
+    errors.extend(shadec::driver::cube_image_errors(&front.program, &images, Some(scene)));
     let Some(module) = front.module.as_ref().filter(|_| errors.is_empty()) else {
         return Err(refused(&errors));
     };

@@ -186,7 +186,7 @@ fn from_source(
             let ExprKind::String(file) = &args[0].kind else {
                 return Ok(Tex::Missing("image() without a file name".into()));
             };
-            let base = match data::load_image(&scene.resolve(file), store, wrap) {
+            let base = match data::load_image(&scene.resolve_program_file(file), store, wrap) {
                 Ok(t) => level(&t.levels[0]),
                 Err(data::TextureError::NotFound { .. }) => {
                     let mut l = level(&data::generators::brick_stand_in(256));
@@ -271,7 +271,7 @@ fn height_field(
     };
     let dimples = || data::generators::HeightField::dimples(256, 16);
     let Some(file) = file else { return Ok(dimples()) };
-    match data::load_height_field(&scene.resolve(file)) {
+    match data::load_height_field(&scene.resolve_program_file(file)) {
         Ok(h) => Ok(h),
         Err(data::TextureError::NotFound { .. }) => Ok(dimples()),
         Err(e) => Err(Unsupported::new(format!("an unreadable height field: {e}"))),
@@ -356,7 +356,7 @@ fn cube_image(
     };
     let mut levels = Vec::new();
     for f in &files {
-        match data::load_image(&scene.resolve(f), TexelFormat::F32, Wrap::ClampToEdge) {
+        match data::load_image(&scene.resolve_program_file(f), TexelFormat::F32, Wrap::ClampToEdge) {
             Ok(t) => levels.push(level(&t.levels[0])),
             Err(data::TextureError::NotFound { .. }) => return Ok(Tex::Cube(sky_cube(store, filter))),
             Err(e) => return Err(Unsupported::new(format!("an unreadable image: {e}"))),

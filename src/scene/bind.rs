@@ -432,7 +432,7 @@ fn image_texture(
     notes: &mut Vec<String>,
 ) -> Result<Texture, BindError> {
     let format = texel_format(d.format);
-    let path = scene.resolve(file);
+    let path = scene.resolve_program_file(file);
     let t = match textures::load_image(&path, format, d.wrap) {
         Ok(t) => t,
         Err(textures::TextureError::NotFound { .. }) => {
@@ -496,7 +496,7 @@ fn normal_map_texture(
 ) -> Result<Texture, BindError> {
     let hf = match height {
         HeightSource::File(file) => {
-            let path = scene.resolve(file);
+            let path = scene.resolve_program_file(file);
             match textures::load_height_field(&path) {
                 Ok(h) => h,
                 Err(textures::TextureError::NotFound { .. }) => {
@@ -557,7 +557,7 @@ fn dual_paraboloid_texture(
     face: u32,
     notes: &mut Vec<String>,
 ) -> Texture {
-    let path = scene.resolve(file);
+    let path = scene.resolve_program_file(file);
     if path.is_file() {
         notes.push(format!(
             "texture `{}`: environment images are not read yet; using the procedural sky",

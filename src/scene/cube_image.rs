@@ -127,7 +127,7 @@ pub fn cube_image_texture(
 ) -> Result<Texture, BindError> {
     let error = |message: String| BindError::Texture { name: d.name.clone(), message };
     let source = source.as_ref().map_err(|m| error(m.clone()))?;
-    match load(source, format, &|f| scene.resolve(f)) {
+    match load(source, format, &|f| scene.resolve_program_file(f)) {
         Ok(cube) => Ok(Texture::Cube(cube)),
         Err(CubeImageError::NotFound { path }) => {
             notes.push(format!(
@@ -147,8 +147,8 @@ pub fn scene_file_as_cube(scene: &Scene, file: &str, format: TexelFormat) -> Res
     load(&source, format, &|f| scene.resolve(f)).map(Texture::Cube).map_err(|e| format!("{e}; {}", e.help()))
 }
 
-/// The located errors of the cube-map images of the `declared` textures, paths
-/// relative to `base`, each at its declaration: arguments `image` cannot
+/// The located errors of the cube-map images of the `declared` textures, files
+/// found by `resolve`, each at its declaration: arguments `image` cannot
 /// take, and images that are there but cannot make a cube map (unreadable,
 /// a shape that is no layout, faces not square or not of one size). A
 /// missing file is no error here (it renders with a stand-in); a
@@ -156,7 +156,7 @@ pub fn scene_file_as_cube(scene: &Scene, file: &str, format: TexelFormat) -> Res
 /// not read.
 pub fn diagnose(
     declared: &[DeclaredTexture],
-    base: &Path,
+    resolve: &dyn Fn(&str) -> PathBuf,
     replaced: &dyn Fn(&str) -> bool,
 ) -> Vec<Diagnostic> {
     let mut out = Vec::new();
@@ -179,15 +179,7 @@ pub fn diagnose(
                 continue;
             }
         };
-        let resolve = |f: &str| {
-            let p = Path::new(f);
-            if p.is_absolute() {
-                p.to_path_buf()
-            } else {
-                base.join(p)
-            }
-        };
-        match load(&source, TexelFormat::F32, &resolve) {
+        match load(&source, TexelFormat::F32, resolve) {
             Ok(_) | Err(CubeImageError::NotFound { .. }) => {}
             Err(err) => out.push(
                 Diagnostic::error(

@@ -77,6 +77,11 @@ pub struct Scene {
     /// Where the scene was loaded from (relative paths resolve against its folder).
     #[serde(skip)]
     pub path: PathBuf,
+    /// The folder of the program rendered on the scene, when it is a file:
+    /// the program's own `image(…)` and `height(…)` files are looked up
+    /// there first, then beside the scene ([`Scene::resolve_program_file`]).
+    #[serde(skip)]
+    pub program_dir: Option<PathBuf>,
 }
 
 fn default_resolution() -> (u32, u32) {
@@ -298,6 +303,25 @@ impl Scene {
 
     fn base_dir(&self) -> PathBuf {
         self.path.parent().map(Path::to_path_buf).unwrap_or_default()
+    }
+
+    /// A file a program's texture declaration names (`image("brick.png")`),
+    /// resolved as an include is: beside the program ([`Scene::program_dir`])
+    /// when it is there, else beside the scene. A file in neither is named
+    /// beside the program, where a user puts it.
+    pub fn resolve_program_file(&self, file: &str) -> PathBuf {
+        match &self.program_dir {
+            Some(dir) if !Path::new(file).is_absolute() => {
+                let beside_program = dir.join(file);
+                let beside_scene = self.resolve(file);
+                if beside_program.is_file() || !beside_scene.is_file() {
+                    beside_program
+                } else {
+                    beside_scene
+                }
+            }
+            _ => self.resolve(file),
+        }
     }
 
     /// A path in the scene, resolved against the scene's folder.
