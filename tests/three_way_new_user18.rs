@@ -52,6 +52,8 @@ held_out_everywhere_in!("heldout_eighteenth":
     smooth_toon,
     top_lets,
     uniform_power,
+    grey_in_place,
+    contrast_in_place,
 );
 
 /// `abs(N·L)` per fragment on geforce3: `max(0, x) + max(0, −x)`, two
@@ -80,4 +82,46 @@ fn abs_of_a_dot_product_plans_per_fragment_on_geforce3() {
             "abs(4·N·L) cannot be exact per fragment: {rules:?}"
         );
     }
+}
+
+/// A screen pass reading its own framebuffer other than as a blend
+/// (`C xs ← (C xs) * (C xs)`, a grey conversion in place) was refused on
+/// every target ("framebuffer blending cannot express this: the
+/// framebuffer's colour is used non-linearly"), though each pixel's new
+/// value is a function of its old one. It now reads a copy: a pass
+/// `C° xs ← C xs`, then the statement reading `C°`. The three-way tests
+/// `contrast_in_place`, `grey_in_place` and `alpha_out` render it.
+#[test]
+fn a_screen_pass_reading_its_own_target_non_linearly_reads_a_copy() {
+    let source = std::fs::read_to_string(
+        crate::three_way_heldout::data("heldout_eighteenth").join("contrast_in_place.shd"),
+    )
+    .unwrap();
+    for target in ["wgsl", "geforce3"] {
+        let profile = shadec::profile::Profile::resolve(target).unwrap();
+        let compiled = shadec::driver::compile(&source, &profile, &Default::default())
+            .unwrap_or_else(|d| panic!("{target}: {:?}", d.iter().map(|d| &d.message).collect::<Vec<_>>()));
+        let plan = &compiled.planned.plan;
+        let targets: Vec<String> = plan
+            .passes
+            .iter()
+            .map(|p| match &p.target {
+                shadec::pipeline::RenderTarget::Framebuffer { name, .. } => name.clone(),
+                other => format!("{other:?}"),
+            })
+            .collect();
+        let reasons: Vec<&str> = plan.passes.iter().map(|p| p.reason.as_str()).collect();
+        assert_eq!(
+            reasons[1..],
+            ["statement 2 (copy of C) as written", "statement 2 as written"],
+            "{target}"
+        );
+        assert_eq!(targets.len(), 3, "{target}: {targets:?}");
+        assert!(targets[1].starts_with("C°"), "{target}: the copy first: {targets:?}");
+    }
+    // A pass that blending expresses is not copied.
+    let blend = source.replace("C xs ← (C xs) * (C xs);", "C xs ← 0.5 * (C xs);");
+    let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
+    let compiled = shadec::driver::compile(&blend, &profile, &Default::default()).unwrap();
+    assert_eq!(compiled.planned.plan.passes.len(), 2);
 }

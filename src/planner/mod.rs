@@ -27,6 +27,7 @@ pub mod algebra;
 mod alpha_test;
 mod assemble;
 mod clamps;
+mod copy;
 pub mod fit;
 mod form;
 pub mod hilo;
@@ -387,6 +388,7 @@ fn plan_as_written(
     shadow_map::depth_tests_as_greater(&mut m);
     shadow_map::redraw_over_geometry(&mut m, profile);
     let depth_replaced = shadow_mask::redraw_with_replaced_depth(&mut m, profile);
+    let copies = copy::read_own_colour_through_a_copy(&mut m);
     let canonical = canonical_when_unfit(&mut m, profile)?;
     if matches!(profile.fragment, FragmentStage::Combiners(_)) && request.realizer.is_none() {
         let what = "planned for a register-combiner target without its code generator";
@@ -396,7 +398,8 @@ fn plan_as_written(
     }
     let index = request.source.map(|s| (LineIndex::new(s), s));
     let at = |span: Span| at_text(&index, span);
-    let prepared = prepare(&mut m, request.scene, &at)?;
+    let mut prepared = prepare(&mut m, request.scene, &at)?;
+    copy::renumber(&copies, &mut prepared);
     let compiler = Profile { fragment: FragmentStage::Programmable, ..profile.clone() };
     let mut fits = Fits {
         target: fit::ProfileFit::new(profile, request.realizer),
