@@ -400,11 +400,20 @@ impl<'a> PlanRenderer<'a> {
         let mut shading = Vec::with_capacity(plan.passes.len());
         let mut draws = Draws::new(adaptive, self.n_draws(objects.len()), progress);
         let mut fused_until = 0;
-        for (index, pass) in plan.passes.iter().enumerate() {
+        // In the plan's draw order: a group split in texture space object by object.
+        for draw in plan.draws(objects.len()) {
+            let (index, whole_pass) = (draw.pass, &plan.passes[draw.pass]);
             if index < fused_until {
                 continue;
             }
-            if let Some(run) = adaptive.and_then(|_| self.fused_run(index)) {
+            let one_object;
+            let pass = if draw.objects == whole_pass.objects {
+                whole_pass
+            } else {
+                one_object = Pass { objects: draw.objects.clone(), ..whole_pass.clone() };
+                &one_object
+            };
+            if let Some(run) = adaptive.filter(|_| draw.first).and_then(|_| self.fused_run(index)) {
                 let name = self.planned.setup(index).target.name.clone();
                 let target = self.target_named(&mut targets, &name, index, mode, format, (width, height))?;
                 target.settle();
@@ -434,7 +443,7 @@ impl<'a> PlanRenderer<'a> {
                 // the target's arithmetic (issue 18).
                 let mode = if pass.baked && mode == Precision::Fixed9 { Precision::F32 } else { mode };
                 let (machine, how) = self.shading_of(mode, index);
-                if layer == 0 {
+                if layer == 0 && draw.first {
                     shading.push(how);
                 }
                 let stage = FragmentProgram::new(
