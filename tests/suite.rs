@@ -97,6 +97,7 @@ mod three_way_new_user;
 mod three_way_new_user16;
 mod three_way_new_user17;
 mod three_way_overlap;
+mod three_way_probes;
 mod vertex_programs_public;
 mod wgpu_auto;
 mod wgpu_dual_paraboloid;
