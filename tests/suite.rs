@@ -93,6 +93,7 @@ mod three_way_heldout13;
 mod three_way_heldout15;
 mod three_way_heldout16;
 mod three_way_heldout17;
+mod three_way_heldout18;
 mod three_way_new_user;
 mod three_way_new_user16;
 mod three_way_new_user17;
