@@ -5,7 +5,7 @@
 //! bumped environment map over a minified floor (a dependent lookup, each
 //! lookup's level of detail its own); a solid texture repeated through
 //! space; an 8-bit G-buffer (negative components clamped, on the
-//! combiners too); a slide projected from a spot light on a scene of two;
+//! combiners too); a slide projected from light 0;
 //! a cube-map reflection mixed by a rim weight with a swizzled tuple, a
 //! `let` and a uniform; two framebuffers other than C cross-faded in a
 //! screen pass, in fixed9 too; and a light-0 program with a `let` on a
