@@ -402,17 +402,10 @@ impl<'a> PlanRenderer<'a> {
         let mut fused_until = 0;
         // In the plan's draw order: a group split in texture space object by object.
         for draw in plan.draws(objects.len()) {
-            let (index, whole_pass) = (draw.pass, &plan.passes[draw.pass]);
+            let (index, pass): (usize, &Pass) = (draw.pass, &drawn(plan, &draw));
             if index < fused_until {
                 continue;
             }
-            let one_object;
-            let pass = if draw.objects == whole_pass.objects {
-                whole_pass
-            } else {
-                one_object = Pass { objects: draw.objects.clone(), ..whole_pass.clone() };
-                &one_object
-            };
             if let Some(run) = adaptive.filter(|_| draw.first).and_then(|_| self.fused_run(index)) {
                 let name = self.planned.setup(index).target.name.clone();
                 let target = self.target_named(&mut targets, &name, index, mode, format, (width, height))?;
@@ -876,4 +869,18 @@ fn add(total: &mut DrawStats, s: &DrawStats) {
     total.fragments += s.fragments;
     total.shaded += s.shaded;
     total.written += s.written;
+}
+
+/// The pass a draw of the plan makes: `draw.pass` over the draw's objects
+/// (one object of a group drawn object by object, `Pass::object_major`).
+fn drawn<'p>(
+    plan: &'p crate::pipeline::PassPlan,
+    draw: &crate::pipeline::Draw,
+) -> std::borrow::Cow<'p, Pass> {
+    let pass = &plan.passes[draw.pass];
+    if draw.objects == pass.objects {
+        std::borrow::Cow::Borrowed(pass)
+    } else {
+        std::borrow::Cow::Owned(Pass { objects: draw.objects.clone(), ..pass.clone() })
+    }
 }

@@ -156,7 +156,7 @@ mod tests {
             exact
         };
         let p = [0.3, 0.61, 0.47];
-        let s = sample(&grid, p, Filter::Bilinear);
+        let s = sample(&grid, p, Filter::Bilinear, Wrap::ClampToEdge);
         for k in 0..3 {
             assert!((s[k] - p[k]).abs() < 1e-6, "{s:?} at {p:?}");
         }
@@ -164,5 +164,27 @@ mod tests {
         let baked = bake(&mut f);
         let e = measured_error(&baked, &mut f, 512);
         assert!(e <= 0.5 / 255.0 + 1e-6 && e > 0.0, "{e}");
+    }
+
+    #[test]
+    fn a_repeated_volume_wraps_and_a_clamped_one_does_not() {
+        let grid: Vec<[f32; 4]> = (0..GRID * GRID).map(|i| [(i % 97) as f32 / 97.0, 0.0, 0.0, 1.0]).collect();
+        for filter in [Filter::Nearest, Filter::Bilinear] {
+            let p = [0.23, 0.71, 0.38];
+            let shifted = [p[0] + 1.0, p[1] - 2.0, p[2] + 3.0];
+            let inside = sample(&grid, p, filter, Wrap::Repeat);
+            let wrapped = sample(&grid, shifted, filter, Wrap::Repeat);
+            assert!(
+                wrapped.iter().zip(inside).all(|(a, b)| (a - b).abs() < 1e-6),
+                "{filter:?}: {wrapped:?} {inside:?}"
+            );
+            assert!(inside[0] > 0.0);
+            // Across the edge the filter blends the texels of both sides.
+            let edge = sample(&grid, [0.0, 0.5, 0.5], filter, Wrap::Repeat);
+            let far = sample(&grid, [1.0, 0.5, 0.5], filter, Wrap::Repeat);
+            assert_eq!(edge, far, "{filter:?}");
+            let clamped = sample(&grid, shifted, filter, Wrap::ClampToEdge);
+            assert_eq!(clamped, sample(&grid, [1.0, 0.0, 1.0], filter, Wrap::ClampToEdge), "{filter:?}");
+        }
     }
 }
