@@ -18,7 +18,9 @@
 //!   NEAREST/LINEAR and the mipmap modes, cube-map faces by Table 3.19;
 //!   the λ an implementation may use instead (§3.8.8's interval for ρ,
 //!   per-quad derivatives) bounds each pixel by a range ([`Picture::low`],
-//!   [`Picture::high`]) over renders at the texels' extremes;
+//!   [`Picture::high`]) over renders at the texels' extremes — a
+//!   dependent lookup's extreme chosen apart from those of the lookups
+//!   its coordinates read (each lookup's λ is its own);
 //! - `ops`: the arithmetic and the ⊕ modes, written again from the
 //!   language's definition and GL's texture environment (Table 3.22);
 //! - framebuffers store what their declared format stores: an `rgba8`
