@@ -163,6 +163,7 @@ fn statement_pass(
         statements: vec![i],
         light: None,
         objects: None,
+        object_major: None,
         at: "-".into(),
         reason: format!("statement {} as written (the program's meaning)", i + 1),
         target,

@@ -147,15 +147,13 @@ fn a_mipmapped_fat_texture_agrees_three_ways() {
 
 /// A G-buffer declared `rgba8` holds what an unsigned 8-bit texture holds:
 /// the vectors' negative components clamp to 0 (the reference, and the
-/// wgsl plan on the CPU and wgpu, agree). On geforce3 the planner splits
-/// the fat texture per member and range-compresses each, `(v + 1)/2`,
-/// keeping the negative components: the same program renders up to 87/255
-/// apart on 66 % of the torus there (CPU and wgpu agree; the reference is
-/// the odd one out). Ignored until the planner's lowering keeps the
-/// declared format's clamp (or refuses the declaration): the lowering is
-/// not the reference's.
+/// wgsl plan on the CPU and wgpu, agree). On geforce3 the planner split
+/// the fat texture per member and range-compressed each, `(v + 1)/2`,
+/// keeping the negative components: the same program rendered up to
+/// 87/255 apart on 66 % of the torus there (CPU and wgpu agreed; the
+/// reference was the odd one out). The split now stores the members of an
+/// unsigned fat texture clamped, as the declaration says.
 #[test]
-#[ignore = "the geforce3 plan range-compresses an rgba8 fat texture's members instead of clamping them"]
 fn an_rgba8_g_buffer_means_the_same_on_geforce3_as_on_wgsl() {
     let source = "vector N : normal in eye;\nvector L : light(0) in eye;\nvector V : view in eye;\n\
         vector H = normalize(L + V);\ntexture G : 2d rgba8 nearest clamp;\n\

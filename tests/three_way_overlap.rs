@@ -168,3 +168,86 @@ fn a_depth_only_pass_discards_what_the_blended_pass_discards() {
     assert_eq!(passes[0].fragment, passes[1].fragment);
     assert_eq!(passes[0].textures, passes[1].textures);
 }
+
+/// The plan of `source` for `target` as `render_three` makes it on
+/// `lights_matte_floor.ron` (specialized for its lights).
+fn scene_plan(source: &str, target: &str) -> shadec::pipeline::PassPlan {
+    use shadec::driver::{compile, ForScene, PlanOptions};
+    let sc = scene(SCENE);
+    let assets = sc.build().unwrap();
+    let profile = Profile::resolve(target).unwrap();
+    let options = PlanOptions { scene: Some(ForScene::specialized(&sc, &assets)), ..Default::default() };
+    compile(source, &profile, &options).unwrap().planned.plan
+}
+
+/// Texture shading (Pipeline Grammar, eq. (13), `examples/texture_shading.shd`)
+/// on geforce256, which computes `x^20` as several blended passes
+/// (`power_by_passes`: a pass that writes `x`, then passes that modulate
+/// by it), over a floor and a ball whose texture coordinates both span
+/// [0, 1]²: each object's draw in texture space writes the same texels.
+/// The statement means, per object, its whole value written (the ball,
+/// drawn last, wins); drawn pass by pass, the second pass modulated what
+/// the other object's first pass left (175/255 off on every pixel, the
+/// CPU and wgpu alike). The plan now draws a statement split in texture
+/// space object by object (`Pass::object_major`).
+#[test]
+fn a_statement_split_in_texture_space_is_drawn_object_by_object() {
+    let source = example("texture_shading.shd");
+    let sc = scene(SCENE);
+    let g = crate::common::gpu::gpu();
+    let mut failures = Vec::new();
+    for (target, precision) in [("geforce256", Precision::F32), ("geforce256", Precision::Fixed9)] {
+        let program = format!("target {target};\n{source}");
+        let plan = scene_plan(&program, target);
+        assert!(
+            plan.approximations.iter().any(|a| a.rule == "power_by_passes"),
+            "{target}: {:?}",
+            plan.approximations.iter().map(|a| &a.rule).collect::<Vec<_>>()
+        );
+        let result = render_three(&program, target, &sc, precision, g.as_ref()).and_then(|p| {
+            if let Some(why) = &p.gpu_refused {
+                return Err(format!("wgpu does not run it: {why}"));
+            }
+            match precision {
+                Precision::Fixed9 => crate::three_way_generated::fixed9_verdict(&p, &mut 0),
+                _ => verdict(&p),
+            }
+        });
+        if let Err(e) = result {
+            failures.push(format!("{target} ({precision:?}): {e}"));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// The plan says so: the passes into `T` are one object-major group, the
+/// pass into C is drawn pass by pass; the draws of the two objects are all
+/// of `T`'s passes for the floor, then all for the ball, then C's.
+#[test]
+fn the_passes_of_a_texture_space_split_form_one_object_major_group() {
+    let plan = scene_plan(&format!("target geforce256;\n{}", example("texture_shading.shd")), "geforce256");
+    let into_t: Vec<usize> = (0..plan.passes.len())
+        .filter(|&i| matches!(&plan.passes[i].target, shadec::pipeline::RenderTarget::Texture { name } if name == "T"))
+        .collect();
+    assert!(into_t.len() > 1, "{}", plan.summary());
+    let group = plan.passes[into_t[0]].object_major;
+    assert!(group.is_some(), "{}", plan.summary());
+    assert!(into_t.iter().all(|&i| plan.passes[i].object_major == group));
+    assert!(plan
+        .passes
+        .iter()
+        .filter(|p| !matches!(p.target, shadec::pipeline::RenderTarget::Texture { .. }))
+        .all(|p| p.object_major.is_none()));
+    let draws = plan.draws(2);
+    let order: Vec<(usize, Option<Vec<usize>>)> = draws.iter().map(|d| (d.pass, d.objects.clone())).collect();
+    let mut expected: Vec<(usize, Option<Vec<usize>>)> = Vec::new();
+    for object in 0..2 {
+        expected.extend(into_t.iter().map(|&i| (i, Some(vec![object]))));
+    }
+    expected.extend(
+        (0..plan.passes.len()).filter(|i| !into_t.contains(i)).map(|i| (i, plan.passes[i].objects.clone())),
+    );
+    assert_eq!(order, expected);
+    // Each pass's first draw is marked once.
+    assert_eq!(draws.iter().filter(|d| d.first).count(), plan.passes.len());
+}

@@ -161,6 +161,27 @@ fn a_baked_3d_texture_runs_on_wgpu() {
     agrees(source, &["wgsl"], &scene("bench_sphere.ron"));
 }
 
+/// A 3-D texture declared `repeat` looked up beyond [0, 1]³ (the object
+/// position times 1.5, rendered over its texels and baked): its texel
+/// indices wrap (GL 1.2 §3.8.7), on every axis and in the filter. The CPU
+/// (`textures::solid`) and wgpu (`codegen::solid`) clamped the tiled
+/// volume to its edge whatever the declaration — the same picture as
+/// `clamp`, 224/255 off the reference on 97 % of the sphere.
+#[test]
+fn a_repeated_3d_texture_wraps_on_every_executor() {
+    let rendered = "vector P : position in object;\ntexture V : 3d rgba8 bilinear repeat;\nshader rings : s → c = rgb(0.5 + 0.5 * sin(12 * s.x), 0.4 + 0.4 * s.y, 0.3 + 0.5 * fract(4 * s.y));\nV δu ← rings s δu;\nC δπx ← V δ(1.5 * (P s x));\n";
+    let baked = "vector P : position in object;\nshader f : s → c = rgb(0.6 + 0.4 * s.x, 0.5 + 0.3 * s.y, 0.3);\ntexture V : 3d rgba8 bilinear repeat = bake(f);\nC δπx ← V δ(1.5 * (P s x));\n";
+    let nearest = rendered.replace("bilinear repeat", "nearest repeat");
+    let sc = scene("bench_sphere.ron");
+    for source in [rendered, baked, nearest.as_str()] {
+        let p = agrees(source, &["wgsl"], &sc);
+        // Not the clamped picture: the same lookup declared `clamp` differs.
+        let clamped = agrees(&source.replace(" repeat", " clamp"), &["wgsl"], &sc);
+        let d = crate::three_way::difference(&p[0].cpu, &clamped[0].cpu, &p[0].compared_mask());
+        assert!(!d.within(), "{source}: repeat renders as clamp: {d:?}");
+    }
+}
+
 const CUBE: &str = "vector R : reflection;\ntexture E : cube rgba8 bilinear clamp;\nshader sky : s → c = rgb(s.x, s.y, 0.8);\nE δu ← sky s δu;\nC δπx ← E δ R s x;\n";
 
 /// A cube map a pass renders, then looked up by direction: the reference

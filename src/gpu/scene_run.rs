@@ -336,7 +336,9 @@ impl<'a> ScenePlan<'a> {
             m.textures.iter().zip(&fat).filter(|(_, l)| **l > 0).map(|(t, _)| t.name.as_str()).collect();
         let rendered = self.rendered_textures(frame, &fat)?;
         let mut out = Vec::new();
-        for s in &self.shaders {
+        // In the plan's draw order: a group split in texture space object by object.
+        for step in self.planned.plan.draws(objects.len()) {
+            let Some(s) = self.shaders.iter().find(|s| s.pass == step.pass) else { continue };
             let pass = &self.planned.plan.passes[s.pass];
             let textures = self.pass_textures(s, &rendered, &fat_textures)?;
             let target = self.pass_target(pass, &rendered);
@@ -384,7 +386,7 @@ impl<'a> ScenePlan<'a> {
                 ));
                 continue;
             }
-            self.mesh_draws(s, &objects, aspect, &uniforms64, &draw, &mut out)?;
+            self.mesh_draws(s, (&objects, step.objects.as_deref()), aspect, &uniforms64, &draw, &mut out)?;
         }
         if self.main_read {
             out.push(present(&self.main));
@@ -393,19 +395,19 @@ impl<'a> ScenePlan<'a> {
     }
 
     /// Pass `s`'s draws of meshes: one per object (or shadow volume) the
-    /// pass draws, through the pass's vertex program where the target has
-    /// them, else through the WGSL backend's vertex stage on the leaves.
+    /// pass draws (of `keep`, the draw's objects: `None`, all), through the
+    /// pass's vertex program where the target has them, else through the
+    /// WGSL backend's vertex stage on the leaves.
     fn mesh_draws(
         &self,
         s: &PassShader,
-        objects: &[BoundObject],
+        (objects, keep): (&[BoundObject], Option<&[usize]>),
         aspect: f32,
         uniforms64: &[Option<[f64; 4]>],
         draw: &Draw,
         out: &mut Vec<RunPass>,
     ) -> Result<(), SceneRunError> {
         let m = &self.planned.module;
-        let pass = &self.planned.plan.passes[s.pass];
         let leaves = &s.interface.vertex_leaves;
         // A stencil update over `x′`: the scene's shadow volumes.
         let volume = crate::planner::shadow_volumes::for_pass(self.scene, self.assets, self.planned, s.pass)
@@ -420,7 +422,7 @@ impl<'a> ScenePlan<'a> {
         for (oi, object) in drawn.iter().enumerate() {
             // Light culling (Adaptive Sample Shading, Section 2.2): a
             // light's pass draws only the objects it can reach, as on the CPU.
-            if pass.objects.as_ref().is_some_and(|keep| !keep.contains(&oi)) {
+            if keep.is_some_and(|keep| !keep.contains(&oi)) {
                 continue;
             }
             let indices = object.mesh.triangles.iter().flatten().copied().collect();

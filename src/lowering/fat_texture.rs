@@ -15,7 +15,10 @@
 //!
 //! A member whose range leaves [−1, 1] (a position) has no 8-bit form the
 //! compiler can choose without the scene: the texture keeps the planner's
-//! refusal.
+//! refusal. A fat texture declared unsigned fixed-point (`rgba8`) holds
+//! what GL stores there, every member clamped to [0, 1]: its members are
+//! stored so, not range-compressed (a direction's negative components are
+//! 0, as the program says).
 
 use super::Rewriter;
 use crate::ir::{Expr, Handle, MathFunction, Statement, Table, Texture, Ty};
@@ -60,8 +63,15 @@ fn read_members(r: &Rewriter, t: u32) -> Vec<u8> {
 }
 
 /// Per member of the bundles written to `t`: whether it is signed; `None`
-/// when `t` is not a fat texture, or a member has no 8-bit form.
+/// when `t` is not a fat texture, or a member has no 8-bit form. A fat
+/// texture declared unsigned fixed-point (`rgba8`, `rgb8`, `r8`,
+/// `rgba16`) stores each member clamped to [0, 1], as GL stores it: no
+/// member is signed, and one of any range has its 8-bit form.
 fn members(r: &Rewriter, t: u32) -> Option<Vec<bool>> {
+    let unsigned = matches!(
+        r.m.textures[t as usize].format,
+        TextureFormat::Rgba8 | TextureFormat::Rgb8 | TextureFormat::R8 | TextureFormat::Rgba16
+    );
     let writes: Vec<&Statement> = r.m.statements.iter().filter(|st| st.table == Table::Texture(t)).collect();
     let mut signed: Option<Vec<bool>> = None;
     for st in &writes {
@@ -70,7 +80,7 @@ fn members(r: &Rewriter, t: u32) -> Option<Vec<bool>> {
             .iter()
             .map(|&m| {
                 let iv = r.m.info(m).interval;
-                (iv.lo >= -1.0 && iv.hi <= 1.0).then_some(iv.lo < 0.0)
+                (unsigned || (iv.lo >= -1.0 && iv.hi <= 1.0)).then_some(!unsigned && iv.lo < 0.0)
             })
             .collect();
         let these = these?;

@@ -18,7 +18,9 @@
 //!   NEAREST/LINEAR and the mipmap modes, cube-map faces by Table 3.19;
 //!   the λ an implementation may use instead (§3.8.8's interval for ρ,
 //!   per-quad derivatives) bounds each pixel by a range ([`Picture::low`],
-//!   [`Picture::high`]) over renders at the texels' extremes;
+//!   [`Picture::high`]) over renders at the texels' extremes — a
+//!   dependent lookup's extreme chosen apart from those of the lookups
+//!   its coordinates read (each lookup's λ is its own);
 //! - `ops`: the arithmetic and the ⊕ modes, written again from the
 //!   language's definition and GL's texture environment (Table 3.22);
 //! - framebuffers store what their declared format stores: an `rgba8`
@@ -194,9 +196,16 @@ pub fn render_with(
     size: (u32, u32),
     options: Options,
 ) -> Result<Picture, Unsupported> {
-    let (mut picture, open) = render_choice(module, program, scene, assets, size, options, 0)?;
+    let (mut picture, open) = render_choice(module, program, scene, assets, size, options, (0, 0))?;
     if open {
-        for choice in 1..=program::LOD_CHOICES {
+        // A dependent lookup chooses on its own: every pair of choices.
+        let n = program::LOD_CHOICES;
+        let pairs: Vec<(usize, usize)> = if dependent_lookups(module).is_empty() {
+            (1..=n).map(|k| (k, k)).collect()
+        } else {
+            (0..=n).flat_map(|a| (0..=n).map(move |b| (a, b))).filter(|&p| p != (0, 0)).collect()
+        };
+        for choice in pairs {
             let (other, _) = render_choice(module, program, scene, assets, size, options, choice)?;
             for i in 0..picture.pixels.len() {
                 for c in 0..4 {
@@ -210,8 +219,25 @@ pub fn render_with(
     Ok(picture)
 }
 
+/// The coordinates of the lookups that read another lookup (dependent
+/// lookups, Pipeline Grammar, eq. (8)).
+fn dependent_lookups(m: &Module) -> std::collections::HashSet<crate::ir::Handle<crate::ir::Expr>> {
+    let roots: Vec<_> = m.statements.iter().flat_map(|s| [s.value, s.index]).collect();
+    m.reachable(&roots)
+        .into_iter()
+        .filter_map(|h| match m.exprs[h] {
+            crate::ir::Expr::Lookup { coords, .. } => Some(coords),
+            _ => None,
+        })
+        .filter(|&c| {
+            m.reachable(&[c]).into_iter().any(|h| matches!(m.exprs[h], crate::ir::Expr::Lookup { .. }))
+        })
+        .collect()
+}
+
 /// One render with every mipmapped lookup at its `choice`
-/// (`Evaluator::lod_choice`); whether some lookup's choice mattered.
+/// (`Evaluator::lod_choice`, then `lod_choice_dependent`); whether some
+/// lookup's choice mattered.
 fn render_choice(
     module: &Module,
     program: &ast::Program,
@@ -219,7 +245,7 @@ fn render_choice(
     assets: &SceneAssets,
     (width, height): (u32, u32),
     options: Options,
-    choice: usize,
+    (choice, dependent_choice): (usize, usize),
 ) -> Result<(Picture, bool), Unsupported> {
     let world = geometry::World::new(scene, assets, f64::from(width) / f64::from(height));
     let coverage = geometry::Coverage::find(&world, width, height);
@@ -244,6 +270,8 @@ fn render_choice(
         texgen: HashMap::new(),
         latitude: std::cell::Cell::new(false),
         lod_choice: std::cell::Cell::new(choice),
+        lod_choice_dependent: std::cell::Cell::new(dependent_choice),
+        dependent: dependent_lookups(module),
         lod_open: std::cell::Cell::new(false),
         clamp_texture_env: options.clamp_texture_env,
         target: 0,

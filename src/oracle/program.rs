@@ -75,6 +75,13 @@ pub struct Evaluator<'a> {
     /// extremes over the λ an implementation may use (its own value
     /// where it has fewer). A render per choice bounds the pixel.
     pub lod_choice: std::cell::Cell<usize>,
+    /// The choice of the lookups whose coordinates read another lookup
+    /// (a dependent lookup, `T δ(u x + T′ δu′ x)`): an implementation
+    /// computes each lookup's λ on its own, so the outer lookup's choice
+    /// need not be the inner one's. `lod_choice` is the inner lookups'.
+    pub lod_choice_dependent: std::cell::Cell<usize>,
+    /// The coordinates (handles) of the dependent lookups.
+    pub dependent: std::collections::HashSet<Handle<Expr>>,
     /// Set when some lookup's value moves with λ within that latitude.
     pub lod_open: std::cell::Cell<bool>,
     /// `⊕` results clamped to [0, 1], as GL's texture environment clamps
@@ -464,14 +471,16 @@ impl<'a> Evaluator<'a> {
             (lo, hi) = (lo.min(a), hi.max(b));
         }
         let extremes = image.lod_extremes(u, v, lo - LOG2_SLACK, hi + LOG2_SLACK);
-        Ok(self.lod_choose(value, &extremes))
+        let choice =
+            if self.dependent.contains(&coords) { &self.lod_choice_dependent } else { &self.lod_choice };
+        Ok(self.lod_choose(value, &extremes, choice.get()))
     }
 
-    /// The texel [`Evaluator::lod_choice`] asks for among a lookup's
+    /// The texel `choice` ([`Evaluator::lod_choice`]) asks for among a lookup's
     /// `extremes` (0: the nominal `value`); notes in
     /// [`Evaluator::lod_open`] that the choice matters, and marks the
     /// sample latitude where the extremes are more than the choices.
-    fn lod_choose(&self, value: V, extremes: &[V]) -> V {
+    fn lod_choose(&self, value: V, extremes: &[V], choice: usize) -> V {
         let moves = extremes.iter().any(|e| e.iter().zip(value).any(|(a, b)| (a - b).abs() > 1e-12));
         if !moves {
             return value;
@@ -480,7 +489,7 @@ impl<'a> Evaluator<'a> {
         if extremes.len() > LOD_CHOICES {
             self.latitude.set(true);
         }
-        match self.lod_choice.get() {
+        match choice {
             0 => value,
             k => extremes.get(k - 1).copied().unwrap_or(value),
         }

@@ -7,12 +7,14 @@
 //! it and on none of each other's insides.
 
 pub mod interface;
+pub mod order;
 pub mod plan;
 pub mod setup;
 pub mod state;
 pub mod validate;
 
 pub use interface::PassInterface;
+pub use order::Draw;
 pub use plan::{
     Approximation, ApproximationCost, BlendMode, FragmentWork, FramePrediction, Geometry, MeasuredError,
     Pass, PassPlan, PassPrediction, Removed, RenderTarget, TextureBinding, Value, VertexWork,

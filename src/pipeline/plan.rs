@@ -101,6 +101,16 @@ pub struct Pass {
     /// for, when light culling skipped it for the others; `None`: all.
     #[serde(default)]
     pub objects: Option<Vec<usize>>,
+    /// Drawn object by object with the adjacent passes of the same group
+    /// ([`PassPlan::draws`]): every pass of the group for the scene's first
+    /// object, then every pass for the next. The passes a statement in
+    /// texture space (`T δu ← …` over a mesh) was split into: no depth test
+    /// orders their texels, and objects whose parameterizations overlap
+    /// each leave their whole value, the last drawn winning, as the
+    /// statement drawn once per object does. `None`: drawn over every
+    /// object before the next pass.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub object_major: Option<u32>,
     /// `line:col` of the first statement (text for people: executors read
     /// the typed span of `Planned::setups`).
     pub at: String,

@@ -30,11 +30,19 @@ pub(super) fn assemble(
     let mut stages = Vec::new();
     let mut drawn = Drawn::default();
     let mut roots = Vec::new();
-    for (stmts, form, pieces, reason) in chosen {
+    for (gi, (stmts, form, pieces, reason)) in chosen.iter().enumerate() {
         let group = Group { stmts, form, reason, n: pieces.len() };
+        // The passes of a statement split in texture space are drawn object
+        // by object (`Pass::object_major`): no depth test orders their
+        // texels, and a later object's first pass must replace what an
+        // earlier one left where their parameterizations overlap, before
+        // the rest of its passes blend onto it.
+        let object_major =
+            (pieces.len() > 1 && in_texture_space(m, &m.statements[stmts[0]])).then_some(gi as u32);
         for (pi, piece) in pieces.iter().enumerate() {
-            let (pass, drawn_at, stage) =
+            let (mut pass, drawn_at, stage) =
                 assemble_pass(m, ctx, &group, piece, pi, &mut drawn, &names, &per_light);
+            pass.object_major = object_major;
             stages.push(stage);
             roots.extend([piece.value, m.statements[stmts[0]].index, drawn_at]);
             roots.extend(form.condition);
@@ -88,10 +96,7 @@ pub(super) fn assemble_pass(
 ) -> (Pass, Handle<Expr>, Stage) {
     let Group { stmts, form, .. } = *group;
     let st = &m.statements[stmts[0]];
-    // A texel statement indexed through a vertex (`T δu x`, seeds/001
-    // (15)) rasterizes the mesh in texture space.
-    let in_texture_space = st.freq == Frequency::Texel
-        && m.reachable(&[st.index]).iter().any(|h| m.info(*h).freq == Frequency::Vertex);
+    let in_texture_space = in_texture_space(m, st);
     let mesh = st.freq == Frequency::Fragment || in_texture_space;
     // seeds/001 (10), `C δxs ← (C δxs) ⊕ (δ p s x …)`: a static viewpoint —
     // the pass reuses the vertices the last mesh pass into the same
@@ -139,6 +144,7 @@ pub(super) fn assemble_pass(
             [s] => per_light.objects.get(*s).cloned().flatten(),
             _ => None,
         },
+        object_major: None,
         at: (ctx.at)(st.span),
         reason: if baked {
             format!("{reason}: a `bake` table, computed by the compiler on the CPU, which the target samples")
@@ -169,6 +175,13 @@ pub(super) fn assemble_pass(
         predicted: None,
     };
     (pass, drawn_at, (st.span, stage))
+}
+
+/// Whether a statement rasterizes the mesh in texture space: a texel
+/// statement indexed through a vertex (`T δu x`, Pipeline Grammar, eq. (15)).
+fn in_texture_space(m: &Module, st: &Statement) -> bool {
+    st.freq == Frequency::Texel
+        && m.reachable(&[st.index]).iter().any(|h| m.info(*h).freq == Frequency::Vertex)
 }
 
 /// Where a pass draws: a temporary, the statement's framebuffer (with the

@@ -400,11 +400,13 @@ impl<'a> PlanRenderer<'a> {
         let mut shading = Vec::with_capacity(plan.passes.len());
         let mut draws = Draws::new(adaptive, self.n_draws(objects.len()), progress);
         let mut fused_until = 0;
-        for (index, pass) in plan.passes.iter().enumerate() {
+        // In the plan's draw order: a group split in texture space object by object.
+        for draw in plan.draws(objects.len()) {
+            let (index, pass): (usize, &Pass) = (draw.pass, &drawn(plan, &draw));
             if index < fused_until {
                 continue;
             }
-            if let Some(run) = adaptive.and_then(|_| self.fused_run(index)) {
+            if let Some(run) = adaptive.filter(|_| draw.first).and_then(|_| self.fused_run(index)) {
                 let name = self.planned.setup(index).target.name.clone();
                 let target = self.target_named(&mut targets, &name, index, mode, format, (width, height))?;
                 target.settle();
@@ -434,7 +436,7 @@ impl<'a> PlanRenderer<'a> {
                 // the target's arithmetic (issue 18).
                 let mode = if pass.baked && mode == Precision::Fixed9 { Precision::F32 } else { mode };
                 let (machine, how) = self.shading_of(mode, index);
-                if layer == 0 {
+                if layer == 0 && draw.first {
                     shading.push(how);
                 }
                 let stage = FragmentProgram::new(
@@ -867,4 +869,18 @@ fn add(total: &mut DrawStats, s: &DrawStats) {
     total.fragments += s.fragments;
     total.shaded += s.shaded;
     total.written += s.written;
+}
+
+/// The pass a draw of the plan makes: `draw.pass` over the draw's objects
+/// (one object of a group drawn object by object, `Pass::object_major`).
+fn drawn<'p>(
+    plan: &'p crate::pipeline::PassPlan,
+    draw: &crate::pipeline::Draw,
+) -> std::borrow::Cow<'p, Pass> {
+    let pass = &plan.passes[draw.pass];
+    if draw.objects == pass.objects {
+        std::borrow::Cow::Borrowed(pass)
+    } else {
+        std::borrow::Cow::Owned(Pass { objects: draw.objects.clone(), ..pass.clone() })
+    }
 }

@@ -6,10 +6,12 @@
 //! TEXTURE_3D (OpenGL 1.2's 3-D textures; the texture shader's
 //! `texture_3d()` stage, NV_texture_shader2) filtered trilinearly — the
 //! eight texels around the point, weighted by their distances along each
-//! axis (GL_LINEAR on a 3-D texture, no mipmaps), clamped to the edge.
+//! axis (GL_LINEAR on a 3-D texture, no mipmaps), clamped to the edge or
+//! repeated as the texture is declared (GL 1.2 §3.8.7: a repeated
+//! texel index wraps modulo the size, the filter's too).
 //! The hardware's filter weights were fixed point; here they are `f32`.
 
-use super::Filter;
+use super::{Filter, Wrap};
 
 /// Texels along x and y of one slice.
 pub const SIDE: u32 = 64;
@@ -26,33 +28,38 @@ fn tiled_index(x: u32, y: u32, z: u32) -> usize {
     ((ty * SIDE + y) * GRID + tx * SIDE + x) as usize
 }
 
-/// Volume texel (x, y, z) of the tiled grid `pixels`, clamped to the edge.
-fn fetch(pixels: &[[f32; 4]], x: i64, y: i64, z: i64) -> [f32; 4] {
-    let c = |v: i64, n: u32| v.clamp(0, n as i64 - 1) as u32;
+/// Volume texel (x, y, z) of the tiled grid `pixels`, clamped to the edge
+/// or wrapped (`wrap`).
+fn fetch(pixels: &[[f32; 4]], [x, y, z]: [i64; 3], wrap: Wrap) -> [f32; 4] {
+    let c = |v: i64, n: u32| match wrap {
+        Wrap::ClampToEdge => v.clamp(0, n as i64 - 1) as u32,
+        Wrap::Repeat => v.rem_euclid(n as i64) as u32,
+    };
     pixels.get(tiled_index(c(x, SIDE), c(y, SIDE), c(z, SLICES))).copied().unwrap_or([0.0; 4])
 }
 
-/// The volume sampled at `c` ∈ [0, 1]³ (clamped to the edge): the
+/// The volume sampled at `c` (clamped to [0, 1]³ or repeated, `wrap`): the
 /// nearest texel, or the trilinear blend of the eight around it.
 /// `pixels` is the tiled grid ([`GRID`]² texels, row-major); another size
 /// reads as zero.
-pub fn sample(pixels: &[[f32; 4]], c: [f64; 3], filter: Filter) -> [f64; 4] {
+pub fn sample(pixels: &[[f32; 4]], c: [f64; 3], filter: Filter, wrap: Wrap) -> [f64; 4] {
     if pixels.len() != (GRID * GRID) as usize || c.iter().any(|v| !v.is_finite()) {
         return [0.0; 4];
     }
     let n = [SIDE as f64, SIDE as f64, SLICES as f64];
     if filter == Filter::Nearest {
         let i: [i64; 3] = std::array::from_fn(|k| (c[k] * n[k]).floor() as i64);
-        return fetch(pixels, i[0], i[1], i[2]).map(|v| v as f64);
+        return fetch(pixels, i, wrap).map(|v| v as f64);
     }
-    let f: [f64; 3] = std::array::from_fn(|k| c[k].clamp(0.0, 1.0) * n[k] - 0.5);
+    let inside = |v: f64| if wrap == Wrap::Repeat { v } else { v.clamp(0.0, 1.0) };
+    let f: [f64; 3] = std::array::from_fn(|k| inside(c[k]) * n[k] - 0.5);
     let i0: [i64; 3] = std::array::from_fn(|k| f[k].floor() as i64);
     let a: [f64; 3] = std::array::from_fn(|k| f[k] - i0[k] as f64);
     let mut out = [0.0; 4];
     for corner in 0..8 {
         let b = [corner & 1, (corner >> 1) & 1, (corner >> 2) & 1];
         let w: f64 = (0..3).map(|k| if b[k] == 1 { a[k] } else { 1.0 - a[k] }).product();
-        let t = fetch(pixels, i0[0] + b[0] as i64, i0[1] + b[1] as i64, i0[2] + b[2] as i64);
+        let t = fetch(pixels, std::array::from_fn(|k| i0[k] + b[k] as i64), wrap);
         for (o, v) in out.iter_mut().zip(t) {
             *o += w * v as f64;
         }
@@ -113,7 +120,7 @@ pub fn measured_error(baked: &[[f32; 4]], f: &mut dyn FnMut([f64; 3]) -> [f64; 4
     for k in 0..probes {
         let p: [f64; 3] = std::array::from_fn(|d| (0.5 + alpha[d] * (k as f64 + 1.0)).fract());
         let want = f(p);
-        let got = sample(baked, coordinate(p), Filter::Bilinear);
+        let got = sample(baked, coordinate(p), Filter::Bilinear, Wrap::ClampToEdge);
         for c in 0..4 {
             worst = worst.max((want[c].clamp(0.0, 1.0) - got[c]).abs());
         }
@@ -149,7 +156,7 @@ mod tests {
             exact
         };
         let p = [0.3, 0.61, 0.47];
-        let s = sample(&grid, p, Filter::Bilinear);
+        let s = sample(&grid, p, Filter::Bilinear, Wrap::ClampToEdge);
         for k in 0..3 {
             assert!((s[k] - p[k]).abs() < 1e-6, "{s:?} at {p:?}");
         }
@@ -157,5 +164,27 @@ mod tests {
         let baked = bake(&mut f);
         let e = measured_error(&baked, &mut f, 512);
         assert!(e <= 0.5 / 255.0 + 1e-6 && e > 0.0, "{e}");
+    }
+
+    #[test]
+    fn a_repeated_volume_wraps_and_a_clamped_one_does_not() {
+        let grid: Vec<[f32; 4]> = (0..GRID * GRID).map(|i| [(i % 97) as f32 / 97.0, 0.0, 0.0, 1.0]).collect();
+        for filter in [Filter::Nearest, Filter::Bilinear] {
+            let p = [0.23, 0.71, 0.38];
+            let shifted = [p[0] + 1.0, p[1] - 2.0, p[2] + 3.0];
+            let inside = sample(&grid, p, filter, Wrap::Repeat);
+            let wrapped = sample(&grid, shifted, filter, Wrap::Repeat);
+            assert!(
+                wrapped.iter().zip(inside).all(|(a, b)| (a - b).abs() < 1e-6),
+                "{filter:?}: {wrapped:?} {inside:?}"
+            );
+            assert!(inside[0] > 0.0);
+            // Across the edge the filter blends the texels of both sides.
+            let edge = sample(&grid, [0.0, 0.5, 0.5], filter, Wrap::Repeat);
+            let far = sample(&grid, [1.0, 0.5, 0.5], filter, Wrap::Repeat);
+            assert_eq!(edge, far, "{filter:?}");
+            let clamped = sample(&grid, shifted, filter, Wrap::ClampToEdge);
+            assert_eq!(clamped, sample(&grid, [1.0, 0.0, 1.0], filter, Wrap::ClampToEdge), "{filter:?}");
+        }
     }
 }

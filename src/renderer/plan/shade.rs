@@ -365,7 +365,8 @@ impl<'a> FragmentProgram<'a> {
                 out.map(|x| x as f64)
             }
             Source::Rendered(rt) if coords_ty == Ty::Vec3 => {
-                crate::textures::solid::sample(&rt.pixels, [c[0], c[1], c[2]], filter)
+                let wrap = self.module.textures[texture as usize].sampling.wrap;
+                crate::textures::solid::sample(&rt.pixels, [c[0], c[1], c[2]], filter, wrap)
             }
             // A rendered texture declared `mipmap`: its chain, at the level
             // of detail a bound texture's lookup gets (the rendered texels

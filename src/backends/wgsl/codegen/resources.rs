@@ -154,7 +154,8 @@ impl Gen<'_> {
         if m.textures[texture as usize].kind == TextureKind::Tex3d
             && (m.textures[texture as usize].rendered || m.textures[texture as usize].baked)
         {
-            let s = self.solid_sample(b, unit, c, naga::SampleLevel::Zero);
+            let sampling = m.textures[texture as usize].sampling;
+            let s = self.solid_sample(b, (unit, sampling), c, naga::SampleLevel::Zero);
             return Ok(Some(Computed::plain(self.narrow(b, s, 4, w))));
         }
         let coord = match (kind, ct) {
