@@ -645,8 +645,66 @@ fn pair_hit(a: ([f32; 4], u8, u32), b: ([f32; 4], u8, u32), t: f32) -> u8 {
 }
 
 /// Sets `bit` in `hits[x]` where pixel x of the `a` slices and of the `b`
-/// slices are a first-wave pair ([`pair_hit`]).
+/// slices are a first-wave pair ([`pair_hit`]): with AVX2 where the CPU
+/// has it ([`mark_pairs_avx2`]), else as built.
 fn mark_pairs(
+    hits: &mut [u8],
+    bit: u8,
+    a: (&[[f32; 4]], &[u8], &[u32]),
+    b: (&[[f32; 4]], &[u8], &[u32]),
+    t: f32,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has the feature the function is compiled for.
+        return unsafe { mark_pairs_avx2(hits, bit, a, b, t) };
+    }
+    mark_pairs_body(hits, bit, a, b, t)
+}
+
+/// [`mark_pairs`] two pixels a vector: both pixels' colour differences
+/// in one 8-lane subtraction, their absolute values (the sign bit
+/// cleared, as `f32::abs`) compared with `t` by one ordered comparison
+/// (a NaN channel counts in neither, as in [`differs`]), the surface
+/// conditions of [`pair_hit`] per pixel, without branches. The
+/// compiler's own vector code for [`mark_pairs_body`] transposes four
+/// pixels' colours into channel vectors first, shuffles that cost more
+/// than the arithmetic.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn mark_pairs_avx2(
+    hits: &mut [u8],
+    bit: u8,
+    a: (&[[f32; 4]], &[u8], &[u32]),
+    b: (&[[f32; 4]], &[u8], &[u32]),
+    t: f32,
+) {
+    use std::arch::x86_64::*;
+    let n = hits.len();
+    let (ca, sa, ka, cb, sb, kb) = (&a.0[..n], &a.1[..n], &a.2[..n], &b.0[..n], &b.1[..n], &b.2[..n]);
+    let magnitude = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fff_ffff));
+    let tv = _mm256_set1_ps(t);
+    let pairs = n / 2;
+    for (p, (pa, pb)) in ca.chunks_exact(2).zip(cb.chunks_exact(2)).enumerate() {
+        // SAFETY: two [f32; 4] colours are eight contiguous f32s.
+        let (va, vb) =
+            (_mm256_loadu_ps(pa.as_ptr() as *const f32), _mm256_loadu_ps(pb.as_ptr() as *const f32));
+        let d = _mm256_and_ps(_mm256_sub_ps(va, vb), magnitude);
+        let m = _mm256_movemask_ps(_mm256_cmp_ps::<_CMP_GT_OQ>(d, tv));
+        for j in 0..2 {
+            let x = 2 * p + j;
+            let surface =
+                ((sa[x] == INTERPOLATED) | (sb[x] == INTERPOLATED)) & (ka[x] != NONE) & (ka[x] == kb[x]);
+            hits[x] |= bit * u8::from(surface & ((m >> (4 * j)) & 0xf != 0));
+        }
+    }
+    for x in 2 * pairs..n {
+        hits[x] |= bit * pair_hit((ca[x], sa[x], ka[x]), (cb[x], sb[x], kb[x]), t);
+    }
+}
+
+#[inline(always)]
+fn mark_pairs_body(
     hits: &mut [u8],
     bit: u8,
     a: (&[[f32; 4]], &[u8], &[u32]),
