@@ -404,6 +404,7 @@ fn edge_at(keys: &[u32], (w, h): (usize, usize), x: usize, y: usize) -> bool {
 /// computation: plain while every row shows the top row's surface and no
 /// row between the two regular rows is an edge. `edges` holds the rows
 /// from `top` on (those of rows `top + 1..bottom` are read).
+#[inline(always)]
 fn band_kinds(
     keys: &[u32],
     edges: &[bool],
