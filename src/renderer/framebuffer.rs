@@ -399,6 +399,13 @@ impl Framebuffer {
         self.tiles.settle();
     }
 
+    /// Whether every tile is marked clean (nothing written since its last
+    /// clear, made or deferred): every pixel holds what
+    /// [`Framebuffer::new`] makes, depth 1 included, without reading them.
+    pub(crate) fn is_cleared(&self) -> bool {
+        self.tiles.clean.iter().all(|&c| c)
+    }
+
     /// The width in pixels.
     pub fn width(&self) -> u32 {
         self.width

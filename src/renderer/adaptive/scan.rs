@@ -427,13 +427,28 @@ fn band_kinds(
     for y in top + 1..=bottom {
         let row = &keys[y * w + a..y * w + b];
         let e = (y - top) * w;
-        for (x, ((c, &key), &first)) in out[a..b].iter_mut().zip(row).zip(first).enumerate() {
-            let same = key == first && (y == bottom || !edges[e + a + x]);
-            *c = match *c {
-                PLAIN if same => PLAIN,
-                EMPTY if key == NONE => EMPTY,
-                _ => MIXED,
+        // Without branches (vector code): plain stays plain where the row
+        // shows the top row's surface (off an edge, but on the bottom row,
+        // whose edge flags are the next band's and not read), empty stays
+        // empty where it shows nothing, anything else is mixed.
+        let next = |c: &mut u8, key: u32, first: u32, edge: bool| {
+            let same = (key == first) & !edge;
+            let (plain, empty) = ((*c == PLAIN) & same, (*c == EMPTY) & (key == NONE));
+            *c = if plain {
+                PLAIN
+            } else if empty {
+                EMPTY
+            } else {
+                MIXED
             };
+        };
+        let cells = out[a..b].iter_mut().zip(row).zip(first);
+        if y == bottom {
+            cells.for_each(|((c, &key), &first)| next(c, key, first, false));
+        } else {
+            cells
+                .zip(&edges[e + a..e + b])
+                .for_each(|(((c, &key), &first), &edge)| next(c, key, first, edge));
         }
     }
 }
