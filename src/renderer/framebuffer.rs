@@ -399,6 +399,13 @@ impl Framebuffer {
         self.tiles.settle();
     }
 
+    /// Whether every tile is marked clean (nothing written since its last
+    /// clear, made or deferred): every pixel holds what
+    /// [`Framebuffer::new`] makes, depth 1 included, without reading them.
+    pub(crate) fn is_cleared(&self) -> bool {
+        self.tiles.clean.iter().all(|&c| c)
+    }
+
     /// The width in pixels.
     pub fn width(&self) -> u32 {
         self.width
@@ -723,6 +730,30 @@ mod tests {
         assert!(same(&fb));
         // Nothing deferred: nothing to clear.
         assert!(!fb.tiles.writing_fused(|_| true).1.contains(&true));
+    }
+
+    /// [`Framebuffer::is_cleared`] (what the adaptive draw's visibility
+    /// takes for depth 1 everywhere without reading it) holds exactly
+    /// while every depth is 1: after `new`, `reset` and a deferred reset,
+    /// not after any write, however small.
+    #[test]
+    fn a_framebuffer_is_cleared_exactly_while_nothing_was_written_since_its_clear() {
+        let (w, h) = (2 * TILE as u32 + 3, TILE as u32);
+        let ones = |fb: &Framebuffer| fb.tiles.iter().all(|t| t.depth.iter().all(|&d| d == 1.0));
+        let mut fb = Framebuffer::new(w, h, ColorFormat::F32).unwrap();
+        assert!(fb.is_cleared() && ones(&fb));
+        fb.tiles.writing(|t| t == 2)[2].depth[5] = 0.5;
+        assert!(!fb.is_cleared() && !ones(&fb));
+        fb.reset();
+        assert!(fb.is_cleared() && ones(&fb));
+        fb.clear_depth(0.25);
+        assert!(!fb.is_cleared());
+        fb.reset_deferred();
+        assert!(fb.is_cleared());
+        fb.settle();
+        assert!(ones(&fb));
+        fb.set_color(0, 0, [1.0; 4]);
+        assert!(!fb.is_cleared());
     }
 
     #[test]

@@ -300,31 +300,103 @@ fn edges_and_columns(
                 .chain(rayon::iter::repeat_n((), chunks - bands).map(|_| None)),
         )
         .enumerate()
-        .for_each(|(k, (edges, band))| {
-            let top = k * spacing;
-            for (r, row) in edges.chunks_mut(w).enumerate() {
-                edge_row(keys, spans[top + r], (w, h), top + r, row);
-            }
-            if let Some(band) = band {
-                let bottom = ((k + 1) * spacing).min(h - 1);
-                band_kinds(keys, edges, spans, (w, top, bottom), band);
-            }
-        });
+        .for_each(|(k, (edges, band))| band_edges_and_kinds(keys, spans, (w, h), (k, spacing), edges, band));
 }
 
-/// Row `y`'s edge flags, `out`; inside its span `a..b` only.
+/// Band `k`'s rows' edge flags (`edges`) and, where it has one, its column
+/// kinds (`band`): with AVX2 where the CPU has it (the same code compiled
+/// for 8-lane vectors: comparisons only, so the same flags), else as built.
+fn band_edges_and_kinds(
+    keys: &[u32],
+    spans: &[(usize, usize)],
+    (w, h): (usize, usize),
+    (k, spacing): (usize, usize),
+    edges: &mut [bool],
+    band: Option<&mut [u8]>,
+) {
+    #[cfg(target_arch = "x86_64")]
+    if std::arch::is_x86_feature_detected!("avx2") {
+        // SAFETY: the CPU has the feature the function is compiled for.
+        return unsafe { band_edges_and_kinds_avx2(keys, spans, (w, h), (k, spacing), edges, band) };
+    }
+    band_edges_and_kinds_body(keys, spans, (w, h), (k, spacing), edges, band)
+}
+
+/// [`band_edges_and_kinds`] compiled for 8-lane vectors.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2")]
+unsafe fn band_edges_and_kinds_avx2(
+    keys: &[u32],
+    spans: &[(usize, usize)],
+    (w, h): (usize, usize),
+    (k, spacing): (usize, usize),
+    edges: &mut [bool],
+    band: Option<&mut [u8]>,
+) {
+    band_edges_and_kinds_body(keys, spans, (w, h), (k, spacing), edges, band)
+}
+
+#[inline(always)]
+fn band_edges_and_kinds_body(
+    keys: &[u32],
+    spans: &[(usize, usize)],
+    (w, h): (usize, usize),
+    (k, spacing): (usize, usize),
+    edges: &mut [bool],
+    band: Option<&mut [u8]>,
+) {
+    let top = k * spacing;
+    for (r, row) in edges.chunks_mut(w).enumerate() {
+        edge_row(keys, spans[top + r], (w, h), top + r, row);
+    }
+    if let Some(band) = band {
+        let bottom = ((k + 1) * spacing).min(h - 1);
+        band_kinds(keys, edges, spans, (w, top, bottom), band);
+    }
+}
+
+/// Row `y`'s edge flags, `out`; inside its span `a..b` only. The columns
+/// with both neighbours in one straight loop without branches (vector
+/// code: a missing row above or below is the row itself, which never
+/// differs), the first and last column of the frame one by one: the
+/// flags of the per-pixel formula ([`edge_at`]).
+#[inline(always)]
 fn edge_row(keys: &[u32], (a, b): (usize, usize), (w, h): (usize, usize), y: usize, out: &mut [bool]) {
     out[..a].fill(false);
     out[b.max(a)..].fill(false);
-    let at = y * w;
-    for x in a..b {
-        let (i, k) = (at + x, keys[at + x]);
-        out[x] = k != NONE
-            && ((x > 0 && keys[i - 1] != k)
-                || (x + 1 < w && keys[i + 1] != k)
-                || (y > 0 && keys[i - w] != k)
-                || (y + 1 < h && keys[i + w] != k));
+    if a >= b {
+        return;
     }
+    let at = y * w;
+    let row = &keys[at..at + w];
+    let up = if y > 0 { &keys[at - w..at] } else { row };
+    let down = if y + 1 < h { &keys[at + w..at + 2 * w] } else { row };
+    let (lo, hi) = (a.max(1), b.min(w - 1));
+    if lo < hi {
+        let n = hi - lo;
+        let (left, right) = (&row[lo - 1..][..n], &row[lo + 1..][..n]);
+        let (here, up, down) = (&row[lo..hi], &up[lo..hi], &down[lo..hi]);
+        let out = &mut out[lo..hi];
+        for x in 0..n {
+            let k = here[x];
+            out[x] = (k != NONE) & ((left[x] != k) | (right[x] != k) | (up[x] != k) | (down[x] != k));
+        }
+    }
+    for x in (a..lo).chain(hi.max(a)..b) {
+        out[x] = edge_at(keys, (w, h), x, y);
+    }
+}
+
+/// Pixel (x, y)'s edge flag: covered, and some 4-neighbour in the frame
+/// shows another surface.
+#[inline(always)]
+fn edge_at(keys: &[u32], (w, h): (usize, usize), x: usize, y: usize) -> bool {
+    let (i, k) = (y * w + x, keys[y * w + x]);
+    k != NONE
+        && ((x > 0 && keys[i - 1] != k)
+            || (x + 1 < w && keys[i + 1] != k)
+            || (y > 0 && keys[i - w] != k)
+            || (y + 1 < h && keys[i + w] != k))
 }
 
 /// Band `top..=bottom`'s column kinds, `out`: [`EMPTY`] outside the union
@@ -332,6 +404,7 @@ fn edge_row(keys: &[u32], (a, b): (usize, usize), (w, h): (usize, usize), y: usi
 /// computation: plain while every row shows the top row's surface and no
 /// row between the two regular rows is an edge. `edges` holds the rows
 /// from `top` on (those of rows `top + 1..bottom` are read).
+#[inline(always)]
 fn band_kinds(
     keys: &[u32],
     edges: &[bool],
@@ -354,13 +427,28 @@ fn band_kinds(
     for y in top + 1..=bottom {
         let row = &keys[y * w + a..y * w + b];
         let e = (y - top) * w;
-        for (x, ((c, &key), &first)) in out[a..b].iter_mut().zip(row).zip(first).enumerate() {
-            let same = key == first && (y == bottom || !edges[e + a + x]);
-            *c = match *c {
-                PLAIN if same => PLAIN,
-                EMPTY if key == NONE => EMPTY,
-                _ => MIXED,
+        // Without branches (vector code): plain stays plain where the row
+        // shows the top row's surface (off an edge, but on the bottom row,
+        // whose edge flags are the next band's and not read), empty stays
+        // empty where it shows nothing, anything else is mixed.
+        let next = |c: &mut u8, key: u32, first: u32, edge: bool| {
+            let same = (key == first) & !edge;
+            let (plain, empty) = ((*c == PLAIN) & same, (*c == EMPTY) & (key == NONE));
+            *c = if plain {
+                PLAIN
+            } else if empty {
+                EMPTY
+            } else {
+                MIXED
             };
+        };
+        let cells = out[a..b].iter_mut().zip(row).zip(first);
+        if y == bottom {
+            cells.for_each(|((c, &key), &first)| next(c, key, first, false));
+        } else {
+            cells
+                .zip(&edges[e + a..e + b])
+                .for_each(|(((c, &key), &first), &edge)| next(c, key, first, edge));
         }
     }
 }

@@ -197,6 +197,10 @@ fn same_triangles(kept: &[Tri], setups: &[PassSetup]) -> bool {
 /// The target's depth, as kept: one value where every pixel holds the
 /// same bits (a cleared target), else row after row.
 fn start_of(target: &Framebuffer) -> StartDepth {
+    // A cleared target holds depth 1 everywhere: its megabytes need no reading.
+    if target.is_cleared() {
+        return StartDepth::Uniform(1.0f32.to_bits());
+    }
     let first = target.tiles.first().and_then(|t| t.depth.first()).map_or(0, |d| d.to_bits());
     let uniform = target.tiles.par_iter().all(|t| t.depth.iter().all(|d| d.to_bits() == first));
     if uniform {
@@ -210,6 +214,7 @@ impl StartDepth {
     /// Whether the target's depth is this, bit for bit.
     fn is_depth_of(&self, target: &Framebuffer) -> bool {
         match self {
+            StartDepth::Uniform(bits) if *bits == 1.0f32.to_bits() && target.is_cleared() => true,
             StartDepth::Uniform(bits) => {
                 target.tiles.par_iter().all(|t| t.depth.iter().all(|d| d.to_bits() == *bits))
             }
