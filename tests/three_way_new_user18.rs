@@ -19,7 +19,6 @@
 //! every target its header names (`three_way_heldout::renders_alike_in`).
 
 use crate::three_way_heldout::held_out_everywhere_in;
-use shadec::numerics::Precision;
 
 held_out_everywhere_in!("heldout_eighteenth":
     accum_two_lights_tex,
