@@ -38,20 +38,29 @@ fn depth_only(p: &Pass) -> bool {
         && p.state.blend.write_mask == [false; 4]
 }
 
-/// `source` three ways on `lights_matte_floor.ron`: wgsl in f32, the
-/// combiner targets in f32 and fixed9, wgpu running every plan.
-fn three_ways(source: &str) -> Result<(), String> {
+/// The combinations `three_ways` renders: wgsl in f32, the combiner
+/// targets in f32 and fixed9.
+const EVERY_TARGET: [(&str, Precision); 5] = [
+    ("wgsl", Precision::F32),
+    ("geforce3", Precision::F32),
+    ("geforce3", Precision::Fixed9),
+    ("geforce256", Precision::Fixed9),
+    ("multitexture", Precision::Fixed9),
+];
+
+/// `source` three ways on `lights_matte_floor.ron` for each of `targets`,
+/// wgpu running every plan; `plan_check` first sees each target's program.
+fn three_ways_on(
+    source: &str,
+    targets: &[(&str, Precision)],
+    plan_check: &dyn Fn(&str, &str),
+) -> Result<(), String> {
     let sc = scene(SCENE);
     let g = crate::common::gpu::gpu();
     let mut failures = Vec::new();
-    for (target, precision) in [
-        ("wgsl", Precision::F32),
-        ("geforce3", Precision::F32),
-        ("geforce3", Precision::Fixed9),
-        ("geforce256", Precision::Fixed9),
-        ("multitexture", Precision::Fixed9),
-    ] {
+    for &(target, precision) in targets {
         let program = format!("target {target};\n{source}");
+        plan_check(&program, target);
         let result = render_three(&program, target, &sc, precision, g.as_ref()).and_then(|p| {
             if let Some(why) = &p.gpu_refused {
                 return Err(format!("wgpu does not run it: {why}"));
@@ -70,6 +79,11 @@ fn three_ways(source: &str) -> Result<(), String> {
     } else {
         Err(failures.join("\n"))
     }
+}
+
+/// `source` three ways on every target of [`EVERY_TARGET`].
+fn three_ways(source: &str) -> Result<(), String> {
+    three_ways_on(source, &EVERY_TARGET, &|_, _| {})
 }
 
 /// Pipeline Grammar's accumulation buffer (eq. (11), `examples/accumulation_buffer.shd`)
@@ -193,31 +207,16 @@ fn scene_plan(source: &str, target: &str) -> shadec::pipeline::PassPlan {
 #[test]
 fn a_statement_split_in_texture_space_is_drawn_object_by_object() {
     let source = example("texture_shading.shd");
-    let sc = scene(SCENE);
-    let g = crate::common::gpu::gpu();
-    let mut failures = Vec::new();
-    for (target, precision) in [("geforce256", Precision::F32), ("geforce256", Precision::Fixed9)] {
-        let program = format!("target {target};\n{source}");
-        let plan = scene_plan(&program, target);
+    let targets = [("geforce256", Precision::F32), ("geforce256", Precision::Fixed9)];
+    let split_in_texture_space = |program: &str, target: &str| {
+        let plan = scene_plan(program, target);
         assert!(
             plan.approximations.iter().any(|a| a.rule == "power_by_passes"),
             "{target}: {:?}",
             plan.approximations.iter().map(|a| &a.rule).collect::<Vec<_>>()
         );
-        let result = render_three(&program, target, &sc, precision, g.as_ref()).and_then(|p| {
-            if let Some(why) = &p.gpu_refused {
-                return Err(format!("wgpu does not run it: {why}"));
-            }
-            match precision {
-                Precision::Fixed9 => crate::three_way_generated::fixed9_verdict(&p, &mut 0),
-                _ => verdict(&p),
-            }
-        });
-        if let Err(e) = result {
-            failures.push(format!("{target} ({precision:?}): {e}"));
-        }
-    }
-    assert!(failures.is_empty(), "{}", failures.join("\n"));
+    };
+    three_ways_on(&source, &targets, &split_in_texture_space).unwrap_or_else(|e| panic!("{e}"));
 }
 
 /// The plan says so: the passes into `T` are one object-major group, the
