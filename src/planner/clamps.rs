@@ -279,6 +279,29 @@ impl Piece {
     }
 }
 
+/// `x·k` — a constant scale `k > 1` written inside a product, moved to its
+/// end — where that fits one pass written whole: the last stage's scale
+/// (a texture environment's RGB_SCALE, ARB_texture_env_combine, applied to
+/// a stage's result before its clamp; a combiner's output scale), which
+/// the framebuffer's clamp then clamps as the meaning does:
+/// min(1, k·x). `exposure·tint·(2·Det)·δp` on multitexture, where `2·Det`
+/// first leaves [0, 1] at its stage. `None` for another blend.
+pub(super) fn scaled_in_last_stage(
+    module: &mut Module,
+    fit: &dyn FitCheck,
+    mode: BlendMode,
+    x: Handle<Expr>,
+    k: f64,
+) -> Option<Handle<Expr>> {
+    if mode != BlendMode::Replace {
+        return None;
+    }
+    let mut b = Builder { module };
+    let scale = b.constant(Ty::Scalar, k)?;
+    let last = b.binary(BinaryOp::Mul, x, scale).filter(|&h| b.module.info(h).ty == b.module.info(x).ty)?;
+    fit.fits(module, last).is_ok().then_some(last)
+}
+
 /// Why a value that fits one pass is split further: the blender cannot
 /// apply it exactly ([`signed_terms`]) — a factor past 1 whose half does
 /// not fit a pass (`C·(T1·δl + T1·T5²)` on four texture-environment

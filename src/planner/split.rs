@@ -721,6 +721,10 @@ impl<'a> Splitter<'a> {
         if k <= 1.0 {
             return None;
         }
+        if let Some(one) = super::clamps::scaled_in_last_stage(self.module, self.fit, mode, x, k) {
+            let why = format!("{overflow}: the constant factor {k} applied last, by the pass's last stage");
+            return Some(vec![Piece { why, ..Piece::whole(mode, one) }]);
+        }
         let mut pieces: Vec<Piece> = self.plan_at(mode, x, depth + 1)?.to_vec();
         let ty = self.module.info(e).ty;
         let why = format!("{overflow}: the constant factor {k} scaled in last, at most 2 a pass, where the clamps leave it exact");
