@@ -607,6 +607,10 @@ fn channels(m: &Module, op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr>, dept
 fn channels_of(m: &Module, h: Handle<Expr>, depth: u32) -> [Interval; 4] {
     let info = m.info(h);
     let splat = [info.interval; 4];
+    // A constant's channels are known at any depth (a leaf: no walk).
+    if let (Expr::Constant(c), false) = (&m.exprs[h], info.ty.width() == 1) {
+        return std::array::from_fn(|i| Interval::point(c.components[i]));
+    }
     if depth == 0 || info.ty.width() == 1 {
         return splat;
     }

@@ -54,6 +54,37 @@ pub const CANONICAL: &str = "with tuples read by channel, lerps and sums inside 
 /// plan's reason.
 const MERGED: &str = "with sums of interpolants merged into one δ";
 
+/// A form with its constant scale applied last, in the words of a plan's
+/// reason.
+const SCALED: &str = "with its constant scale applied last";
+
+/// The forms of a multiplied-out `sum` with its greatest constant
+/// coefficient past 1 taken out and applied last
+/// ([`factored::scale_taken_out`]): the sum inside as it is and in its
+/// factored forms, each times the scale (under `sum`'s rgba widening).
+fn scaled_forms(m: &mut Module, sum: Handle<Expr>) -> Vec<Handle<Expr>> {
+    let (value, widened) = match m.exprs[sum] {
+        Expr::Convert { value, to: Ty::Rgba } if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3) => {
+            (value, true)
+        }
+        _ => (sum, false),
+    };
+    let Some((inner, k)) = factored::scale_taken_out(m, value) else { return Vec::new() };
+    let mut found = vec![Some(inner)];
+    factored_forms(m, inner, &mut |v, _| found.push(v));
+    let span = m.span(sum);
+    let mut out = Vec::new();
+    for v in found.into_iter().flatten() {
+        let scaled = binary(m, BinaryOp::Mul, v, k, span);
+        let w = match (scaled, widened) {
+            (Some(s), true) => node(m, Expr::Convert { value: s, to: Ty::Rgba }, span),
+            (s, _) => s,
+        };
+        out.extend(w.filter(|w| m.info(*w).ty == m.info(sum).ty));
+    }
+    out
+}
+
 /// One equivalent form of a value and what made it.
 #[derive(Clone, Debug, PartialEq)]
 pub struct Form {
@@ -99,6 +130,9 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
             // one term (a lerp pairs two terms).
             if let Some(merged) = delta_sums_merged(m, sum) {
                 factored_forms(m, merged, &mut |v, _| push(&mut out, v, MERGED));
+            }
+            for v in scaled_forms(m, sum) {
+                push(&mut out, Some(v), SCALED);
             }
         }
     }
@@ -586,6 +620,7 @@ fn multiplied_out(
     let terms = if collect { like_terms_collected(m, terms, span)? } else { terms };
     for factors in terms {
         let factors = if into_delta { constants_into_delta(m, factors, span)? } else { factors };
+        let factors = constants_folded(m, factors, span)?;
         let factors = scales_last(m, factors);
         let mut product = factors[0];
         for f in &factors[1..] {
@@ -597,6 +632,35 @@ fn multiplied_out(
         });
     }
     sum.filter(|s| *s != h && m.info(*s).ty == m.info(h).ty)
+}
+
+/// A term's scalar constants (those left outside its δ) folded into one,
+/// in the place of the first: `T3·0.9·0.4` is `T3·0.36`, one texture
+/// environment stage and one combiner constant where the product as
+/// written takes two. A term with at most one is as it was.
+fn constants_folded(m: &mut Module, factors: Vec<Handle<Expr>>, span: Span) -> Option<Vec<Handle<Expr>>> {
+    let scalar = |m: &Module, f: Handle<Expr>| match &m.exprs[f] {
+        Expr::Constant(c) if c.ty == Ty::Scalar => Some(c.components[0]),
+        _ => None,
+    };
+    let constants: Vec<f64> = factors.iter().filter_map(|f| scalar(m, *f)).collect();
+    if constants.len() < 2 || factors.len() == constants.len() {
+        return Some(factors);
+    }
+    let k = node(m, Expr::Constant(crate::ir::Constant::scalar(constants.iter().product())), span)?;
+    let mut out = Vec::with_capacity(factors.len());
+    let mut placed = false;
+    for f in factors {
+        match scalar(m, f) {
+            Some(_) if placed => {}
+            Some(_) => {
+                out.push(k);
+                placed = true;
+            }
+            None => out.push(f),
+        }
+    }
+    Some(out)
 }
 
 /// A term's scalar constants past 1 moved after its other factors, in

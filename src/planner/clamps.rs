@@ -6,7 +6,7 @@
 use rustc_hash::{FxHashMap as HashMap, FxHashSet};
 
 use super::affine::Builder;
-use super::split::{Dest, FitCheck, Piece, Storage};
+use super::split::{Dest, FitCheck, Overflow, Piece, Storage};
 use crate::ir::{BinaryOp, Expr, Handle, Interval, Module, Ty};
 use crate::parser::ast::CombineMode;
 use crate::pipeline::BlendMode;
@@ -199,7 +199,9 @@ pub fn signed_terms(
     for p in pieces {
         let v = module.info(p.value).interval;
         if p.blend == BlendMode::Modulate && v.hi > 1.0 && storage.clamps(p.dest) {
-            let half = halved(module, p.value).filter(|&h| fit.fits(module, h).is_ok())?;
+            let half = halved(module, p.value)
+                .filter(|&h| fit.fits(module, h).is_ok())
+                .or_else(|| halved_terms(module, p.value).filter(|&h| fit.fits(module, h).is_ok()))?;
             out.push(Piece {
                 blend: BlendMode::Modulate2x,
                 value: half,
@@ -240,7 +242,7 @@ pub fn signed_terms(
 
 /// `v/2`, as the target computes it most simply: `2·x` is `x`, an rgb
 /// value written with alpha 1 gets alpha ½.
-fn halved(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Expr>> {
+pub(super) fn halved(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Expr>> {
     if let Expr::Constant(c) = &module.exprs[v] {
         let (ty, half): (Ty, Vec<f64>) = (c.ty, c.values().iter().map(|x| x / 2.0).collect());
         return module.intern(Expr::Constant(crate::ir::Constant::new(ty, &half)), module.span(v)).ok();
@@ -268,6 +270,82 @@ fn halved(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Expr>> {
     let mut b = Builder { module };
     let half = b.constant(Ty::Scalar, 0.5)?;
     b.mul(v, half).filter(|&h| b.module.info(h).ty == b.module.info(v).ty)
+}
+
+impl Piece {
+    /// `value` written whole into the target with `blend`, in one pass.
+    pub(super) fn whole(blend: BlendMode, value: Handle<Expr>) -> Piece {
+        Piece { blend, value, dest: Dest::Main, alpha: true, why: String::new(), holds: None }
+    }
+}
+
+/// `x·k` — a constant scale `k > 1` written inside a product, moved to its
+/// end — where that fits one pass written whole: the last stage's scale
+/// (a texture environment's RGB_SCALE, ARB_texture_env_combine, applied to
+/// a stage's result before its clamp; a combiner's output scale), which
+/// the framebuffer's clamp then clamps as the meaning does:
+/// min(1, k·x). `exposure·tint·(2·Det)·δp` on multitexture, where `2·Det`
+/// first leaves [0, 1] at its stage. `None` for another blend.
+pub(super) fn scaled_in_last_stage(
+    module: &mut Module,
+    fit: &dyn FitCheck,
+    mode: BlendMode,
+    x: Handle<Expr>,
+    k: f64,
+) -> Option<Handle<Expr>> {
+    if mode != BlendMode::Replace {
+        return None;
+    }
+    let mut b = Builder { module };
+    let scale = b.constant(Ty::Scalar, k)?;
+    let last = b.binary(BinaryOp::Mul, x, scale).filter(|&h| b.module.info(h).ty == b.module.info(x).ty)?;
+    fit.fits(module, last).is_ok().then_some(last)
+}
+
+/// Why a value that fits one pass is split further: the blender cannot
+/// apply it exactly ([`signed_terms`]) — a factor past 1 whose half does
+/// not fit a pass (`C·(T1·δl + T1·T5²)` on four texture-environment
+/// stages), whose halves then go through a temporary.
+pub(super) fn not_exact_alone() -> Overflow {
+    Overflow {
+        resource: "cannot be blended exactly as one pass (its half, or its negation, does not fit one)"
+            .into(),
+        need: 0,
+        have: 0,
+        at: None,
+        help: None,
+    }
+}
+
+/// `v/2` with the half taken into each term of a sum (and each operand
+/// of a `lerp`, whose weights sum to 1): `(a + b)/2` = `a/2 + b/2`, where
+/// halving the sum computes it first — past 1 on a texture environment,
+/// which clamps each stage's result (OpenGL 1.3, Section 3.8.13), or on
+/// the general combiners, which clamp to [−1, 1]. `0.2·T0 + 0.9·T4`
+/// halved is `0.1·T0 + 0.45·T4`. `None` where `v` is no sum or lerp, or
+/// the halves cannot be built.
+pub(super) fn halved_terms(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Expr>> {
+    let part = |module: &mut Module, h: Handle<Expr>| halved_terms(module, h).or_else(|| halved(module, h));
+    match module.exprs[v].clone() {
+        Expr::Convert { value, to: Ty::Rgba } if matches!(module.info(value).ty, Ty::Rgb | Ty::Vec3) => {
+            let colour = halved_terms(module, value)?;
+            let mut b = Builder { module };
+            let alpha = b.constant(Ty::Scalar, 0.5)?;
+            b.node(Expr::Compose { ty: Ty::Rgba, components: vec![colour, alpha] })
+        }
+        Expr::Binary { op: BinaryOp::Add, lhs, rhs } => {
+            let (a, c) = (part(module, lhs)?, part(module, rhs)?);
+            let mut b = Builder { module };
+            b.binary(BinaryOp::Add, a, c).filter(|&h| b.module.info(h).ty == b.module.info(v).ty)
+        }
+        Expr::Math { fun: crate::ir::MathFunction::Mix, args } if module.info(args[2]).ty == Ty::Scalar => {
+            let (x, y) = (part(module, args[0])?, part(module, args[1])?);
+            let mut b = Builder { module };
+            b.node(Expr::Math { fun: crate::ir::MathFunction::Mix, args: vec![x, y, args[2]] })
+                .filter(|&h| b.module.info(h).ty == b.module.info(v).ty)
+        }
+        _ => None,
+    }
 }
 
 /// The factors of a product, left to right, and the index of its first

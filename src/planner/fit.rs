@@ -21,7 +21,7 @@ use std::cell::RefCell;
 
 use super::realize::Realizer;
 use super::split::{Dest, FitCheck, Overflow, Piece};
-use crate::ir::{BinaryOp, Expr, Handle, MathFunction, Module, Usage};
+use crate::ir::{BinaryOp, Expr, Handle, MathFunction, Module, Ty, Usage};
 use crate::pipeline::BlendMode;
 use crate::profile::{FragmentStage, Profile};
 
@@ -194,6 +194,7 @@ impl ProfileFit<'_> {
             }
             FragmentStage::TextureEnv => {
                 wide_vertex_colour(module, &u, &[])?;
+                wide_scalar_colour(module, &u, value)?;
                 stage_result_clamped(module, value)?;
                 let ops = combines(module, value);
                 let have = (p.texture_units as usize).max(1);
@@ -332,6 +333,46 @@ fn wide_vertex_colour(module: &Module, u: &Usage, exempt: &[Handle<Expr>]) -> Re
     })
 }
 
+/// A scalar interpolant the texture environment reads as a value (not a
+/// lookup's coordinate) is a vertex colour's channel there, which GL
+/// clamps to [0, 1] as it clamps the colour (OpenGL 1.2.1, Section
+/// 2.13.9): `δ(1.2·max(0, N·L))` is read as `min(1, …)`, not as the
+/// program means. Its refusal, located, as [`wide_vertex_colour`]'s.
+fn wide_scalar_colour(module: &Module, u: &Usage, value: Handle<Expr>) -> Result<(), Overflow> {
+    let wide: Vec<Handle<Expr>> = u
+        .interpolants
+        .iter()
+        .copied()
+        .filter(|h| {
+            let i = module.info(*h);
+            i.ty == Ty::Scalar && (i.interval.lo < 0.0 || i.interval.hi > 1.0)
+        })
+        .collect();
+    if wide.is_empty() {
+        return Ok(());
+    }
+    let read = module.reachable(&[value]).into_iter().find_map(|n| match module.exprs[n] {
+        Expr::Lookup { .. } => None,
+        _ => module.operands(n).into_iter().find(|o| wide.contains(o)),
+    });
+    let Some(h) = read else { return Ok(()) };
+    let i = module.info(h).interval;
+    Err(Overflow {
+        resource: format!(
+            "interpolates a value in {}, which GL clamps to [0, 1] as a vertex colour (OpenGL 1.2.1, Section 2.13.9)",
+            in_words(module, h)
+        ),
+        need: 0,
+        have: 0,
+        at: Some(h),
+        help: Some(if i.hi.is_finite() {
+            "keep what is interpolated in [0, 1] (a constant past 1 outside δ), or scale it into [0, 1] and back up by a blend".into()
+        } else {
+            "its value has no upper bound: clamp it with `saturate(…)` inside δ where GL's clamp is intended, or bound what it is made of".into()
+        }),
+    })
+}
+
 /// The texture environment clamps each stage's result to [0, 1] (OpenGL
 /// 1.3, Section 3.8.13; ARB_texture_env_combine): a value whose
 /// intermediate sum, difference or scaled product may leave [0, 1]
@@ -342,33 +383,28 @@ fn wide_vertex_colour(module: &Module, u: &Usage, exempt: &[Handle<Expr>]) -> Re
 /// texture environment's modes, which GL clamps and the hardware models
 /// do), so only arithmetic is judged.
 fn stage_result_clamped(module: &Module, value: Handle<Expr>) -> Result<(), Overflow> {
-    let mut exempt = vec![value];
-    let mut root = value;
-    while let Expr::Convert { value: inner, .. } = module.exprs[root] {
-        root = inner;
-        exempt.push(root);
-    }
-    // Partial sums of terms ≥ 0 on the way to the output: the clamp of
-    // one is the output's, min(1, min(1, a) + b) = min(1, a + b) for a,
-    // b ≥ 0 (as between passes).
-    let mut stack = vec![root];
-    while let Some(h) = stack.pop() {
-        if let Expr::Binary { op: BinaryOp::Add, lhs, rhs } = module.exprs[h] {
-            if module.info(lhs).interval.lo >= 0.0 && module.info(rhs).interval.lo >= 0.0 {
-                for o in [lhs, rhs] {
-                    if !exempt.contains(&o) {
-                        exempt.push(o);
-                        stack.push(o);
-                    }
-                }
-            }
-        }
-    }
     let nodes = module.reachable(&[value]);
+    // The output and what a `saturate` clamps, through widenings and
+    // clamps (`saturate(rgba(x, 1))`, the source of a blend GL clamps):
+    // the stage's clamp is theirs.
+    let mut exempt = Vec::new();
+    let mut roots = vec![value];
     for &h in &nodes {
         if let Expr::Math { fun: MathFunction::Saturate, args } = &module.exprs[h] {
-            exempt.extend(args.iter().copied());
+            roots.extend(args.iter().copied());
         }
+    }
+    while let Some(mut root) = roots.pop() {
+        exempt.push(root);
+        loop {
+            root = match &module.exprs[root] {
+                Expr::Convert { value: inner, .. } => *inner,
+                Expr::Math { fun: MathFunction::Saturate, args } => args[0],
+                _ => break,
+            };
+            exempt.push(root);
+        }
+        exempt_partial_sums(module, root, &mut exempt);
     }
     let wide = nodes.into_iter().find(|&h| {
         let i = module.info(h);
@@ -388,6 +424,25 @@ fn stage_result_clamped(module: &Module, value: Handle<Expr>) -> Result<(), Over
         at: Some(h),
         help: Some("keep each partial sum and scaled product in [0, 1] (halve it and double it back by a blend), or target a programmable stage".into()),
     })
+}
+
+/// Partial sums of terms ≥ 0 on the way to a clamped result: the clamp of
+/// one is the result's, min(1, min(1, a) + b) = min(1, a + b) for a,
+/// b ≥ 0 (as between passes). Added to `exempt`.
+fn exempt_partial_sums(module: &Module, root: Handle<Expr>, exempt: &mut Vec<Handle<Expr>>) {
+    let mut stack = vec![root];
+    while let Some(h) = stack.pop() {
+        if let Expr::Binary { op: BinaryOp::Add, lhs, rhs } = module.exprs[h] {
+            if module.info(lhs).interval.lo >= 0.0 && module.info(rhs).interval.lo >= 0.0 {
+                for o in [lhs, rhs] {
+                    if !exempt.contains(&o) {
+                        exempt.push(o);
+                        stack.push(o);
+                    }
+                }
+            }
+        }
+    }
 }
 
 /// The interpolants a `⊕` takes directly as an operand (through a

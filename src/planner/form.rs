@@ -472,7 +472,7 @@ pub(super) fn plan_form(
         return stencil_pieces(m, form);
     }
     let storage = Storage { float_main: storage.float_temps && float_framebuffer(m, st), ..storage };
-    if let Some(one) = gl_clamped_pass(m, fit, cache, st, form, storage) {
+    if let Some(one) = gl_clamped_pass(m, fit, form, storage) {
         return Ok(one);
     }
     let overflow = fit.fits(m, form.value).err();
@@ -553,25 +553,16 @@ fn stencil_pieces(m: &mut Module, form: &Form) -> Result<Vec<Piece>, Overflow> {
 /// the clamp happens in the blender (Kilgard 2000's pass 2 modulates by
 /// ambient + diffuse so). `None` otherwise: `saturate(x)` is then split
 /// like any value, exact through the clamps.
-fn gl_clamped_pass(
-    m: &mut Module,
-    fit: &dyn FitCheck,
-    cache: &mut SplitCache,
-    st: &Statement,
-    form: &Form,
-    storage: Storage,
-) -> Option<Vec<Piece>> {
+fn gl_clamped_pass(m: &mut Module, fit: &dyn FitCheck, form: &Form, storage: Storage) -> Option<Vec<Piece>> {
     let Expr::Math { fun: ir::MathFunction::Saturate, ref args } = m.exprs[form.value] else { return None };
     let x = args[0];
     if form.blend == BlendMode::Replace || form.then_add.is_some() || !storage.clamps(Dest::Main) {
         return None;
     }
+    // One pass of `x` itself, the blender clamping its source (the
+    // splitter would split a factor past 1 further, to blend it exactly).
     fit.fits(m, x).ok()?;
-    let pieces = Splitter::new(m, fit, cache, st.index, storage).plan(form.blend, x)?;
-    match pieces.as_slice() {
-        [p] if p.dest == Dest::Main && p.blend == form.blend => Some(vec![p.clone()]),
-        _ => None,
-    }
+    Some(vec![Piece::whole(form.blend, x)])
 }
 
 /// The statement's pieces as the blender runs them ([`split::signed_terms`]),

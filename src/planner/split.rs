@@ -288,14 +288,13 @@ impl<'a> Splitter<'a> {
     fn search(&mut self, mode: BlendMode, e: Handle<Expr>, depth: usize) -> Option<Pieces> {
         let overflow = match self.fits(e) {
             Ok(()) => {
-                return Some(Rc::new(vec![Piece {
-                    blend: mode,
-                    value: e,
-                    dest: Dest::Main,
-                    alpha: true,
-                    why: String::new(),
-                    holds: None,
-                }]))
+                let one = vec![Piece::whole(mode, e)];
+                // A factor past 1 whose half does not fit is split further.
+                let past_one = mode == BlendMode::Modulate && self.module.info(e).interval.hi > 1.0;
+                if !past_one || !self.storage.clamps(Dest::Main) || self.exact_cost(&one).is_some() {
+                    return Some(Rc::new(one));
+                }
+                super::clamps::not_exact_alone()
             }
             Err(o) => o,
         };
@@ -722,6 +721,10 @@ impl<'a> Splitter<'a> {
         if k <= 1.0 {
             return None;
         }
+        if let Some(one) = super::clamps::scaled_in_last_stage(self.module, self.fit, mode, x, k) {
+            let why = format!("{overflow}: the constant factor {k} applied last, by the pass's last stage");
+            return Some(vec![Piece { why, ..Piece::whole(mode, one) }]);
+        }
         let mut pieces: Vec<Piece> = self.plan_at(mode, x, depth + 1)?.to_vec();
         let ty = self.module.info(e).ty;
         let why = format!("{overflow}: the constant factor {k} scaled in last, at most 2 a pass, where the clamps leave it exact");
@@ -890,8 +893,8 @@ impl<'a> Splitter<'a> {
     /// (`C ← C·(A + B)` with `A`, `B` products of three textures: the
     /// temporary holds `½·A + ½·B`, the blender modulates by twice it; an
     /// rgb sum written as rgba halves its colour and keeps alpha 1, the
-    /// third value `true`). `None` where the value stays in [0, 1] or the
-    /// temporary is float.
+    /// third value `true`; a lerp of sums, its operands halved). `None`
+    /// where the value stays in [0, 1] or the temporary is float.
     fn stored_scaled(
         &mut self,
         computed: Handle<Expr>,
@@ -912,16 +915,19 @@ impl<'a> Splitter<'a> {
             _ => (computed, false),
         };
         let range = self.module.info(sum).interval;
-        if range.lo < 0.0 || range.hi > 2.0 || self.chain_op(sum) != Some(ChainOp::Add) {
+        if range.lo < 0.0 || range.hi > 2.0 {
             return None;
         }
         let mut terms = Vec::new();
         self.flatten(sum, ChainOp::Add, &mut terms);
-        let mut b = Builder { module: self.module };
-        let half = b.constant(Ty::Scalar, 0.5)?;
-        let halves: Vec<Handle<Expr>> = terms.iter().map(|&t| b.mul(half, t)).collect::<Option<_>>()?;
-        let two = b.constant(Ty::Scalar, 2.0)?;
-        Some((self.build_chain(ChainOp::Add, &halves)?, Some(two), widened))
+        // Each term halved as the target computes it most simply (a
+        // coefficient halved, `2·x` as `x`); a lerp of sums, its operands.
+        let halves: Option<Vec<Handle<Expr>>> = match self.chain_op(sum) {
+            Some(ChainOp::Add) => terms.iter().map(|&t| super::clamps::halved(self.module, t)).collect(),
+            _ => super::clamps::halved_terms(self.module, sum).map(|h| vec![h]),
+        };
+        let two = Builder { module: self.module }.constant(Ty::Scalar, 2.0)?;
+        Some((self.build_chain(ChainOp::Add, &halves?)?, Some(two), widened))
     }
 
     /// The lookup of temporary `id` at the statement's position, as the

@@ -416,3 +416,50 @@ pub fn factor_nth(m: &mut Module, h: Handle<Expr>, nth: usize) -> Option<Handle<
     };
     (m.info(out).ty == m.info(h).ty && out != h).then_some(out)
 }
+
+/// A sum of products with its greatest constant coefficient `k > 1`
+/// taken out, `Σ cᵢ·tᵢ` = `(Σ (cᵢ/k)·tᵢ)·k`: each term's remaining
+/// constant moved into its δ where the interpolant stays in [0, 1]
+/// (`2·T0·(1 − a) + 1.2·δl·(1 − a)·a + 2·T5·a²` is `(T0·(1 − a) +
+/// δ(0.6·l)·(1 − a)·a + T5·a²)·2`, whose lerps read back as
+/// `mix(T0, mix(δ(0.6·l), T5, a), a)`), so that the scale is applied
+/// last — a blender's 2× or a texture environment's last stage — where
+/// a constant past 1 inside a term would leave [0, 1] mid-product and be
+/// clamped there. The sum inside and `k`; `None` without a coefficient
+/// past 1.
+pub fn scale_taken_out(m: &mut Module, h: Handle<Expr>) -> Option<(Handle<Expr>, Handle<Expr>)> {
+    let terms = super::expansion(m, h, super::MAX_TERMS)?;
+    let scalar = |m: &Module, f: Handle<Expr>| match &m.exprs[f] {
+        Expr::Constant(c) if c.ty == Ty::Scalar => Some(c.components[0]),
+        _ => None,
+    };
+    let coefficient =
+        |m: &Module, t: &[Handle<Expr>]| t.iter().filter_map(|f| scalar(m, *f)).product::<f64>();
+    let k = terms.iter().map(|t| coefficient(m, t)).fold(f64::MIN, f64::max);
+    if terms.len() < 2 || k <= 1.0 || terms.iter().any(|t| coefficient(m, t) <= 0.0) {
+        return None;
+    }
+    let span = m.span(h);
+    let mut sum: Option<Handle<Expr>> = None;
+    for t in &terms {
+        let c = coefficient(m, t) / k;
+        let mut rest: Vec<Handle<Expr>> = t.iter().copied().filter(|f| scalar(m, *f).is_none()).collect();
+        if rest.is_empty() {
+            return None;
+        }
+        if (c - 1.0).abs() > 1e-12 {
+            rest.insert(0, node(m, Expr::Constant(crate::ir::Constant::scalar(c)), span)?);
+        }
+        let rest = super::constants_into_delta(m, rest, span)?;
+        let mut product = rest[0];
+        for f in &rest[1..] {
+            product = binary(m, BinaryOp::Mul, product, *f, span)?;
+        }
+        sum = Some(match sum {
+            None => product,
+            Some(s) => binary(m, BinaryOp::Add, s, product, span)?,
+        });
+    }
+    let k = node(m, Expr::Constant(crate::ir::Constant::scalar(k)), span)?;
+    Some((sum?, k))
+}
