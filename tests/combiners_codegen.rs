@@ -712,11 +712,24 @@ fn unsupported_operations_name_the_node_and_suggest_a_lookup() {
     let (e, _) = error("rgb(a.gr, 0)", &CombinerLimits::GEFORCE3);
     assert!(matches!(e, CodegenError::Unsupported { .. }));
 
-    let (e, text) = error("a.a ≥ 0.3 ? a.rgb : b.rgb", &CombinerLimits::GEFORCE3);
+    // The mux tests spare0.a ≥ ½: a threshold k is an offset ½ − k in a
+    // constant colour, so only thresholds in [−½, 1½] map.
+    let (e, text) = error("a.a ≥ 1.7 ? a.rgb : b.rgb", &CombinerLimits::GEFORCE3);
     assert!(matches!(e, CodegenError::Unsupported { .. }));
-    assert_eq!(text, "a.a ≥ 0.3");
+    assert_eq!(text, "a.a ≥ 1.7");
     let d = e.to_diagnostic();
     assert!(d.is_error());
+}
+
+/// A threshold other than 0 or ½ (`a.a ≥ 0.3`) is `a.a + 0.2 ≥ ½`, the
+/// offset a constant colour, computed in the stage before the mux: it
+/// selects as the program does on every pixel (the emulator against the
+/// IR's own evaluation), below and above the threshold, and as `<`.
+#[test]
+fn a_threshold_select_offsets_its_value_to_one_half() {
+    check("a.a ≥ 0.3 ? a.rgb : b.rgb", TOL);
+    check("a.a < 0.7 ? a.rgb : b.rgb", TOL);
+    check("a.g > 0.1 ? b.rgb : a.rgb", TOL);
 }
 
 #[test]

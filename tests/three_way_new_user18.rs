@@ -53,6 +53,7 @@ held_out_everywhere_in!("heldout_eighteenth":
     uniform_power,
     grey_in_place,
     contrast_in_place,
+    toon_threshold,
 );
 
 /// `abs(N·L)` per fragment on geforce3: `max(0, x) + max(0, −x)`, two
@@ -123,4 +124,23 @@ fn a_screen_pass_reading_its_own_target_non_linearly_reads_a_copy() {
     let profile = shadec::profile::Profile::resolve("wgsl").unwrap();
     let compiled = shadec::driver::compile(&blend, &profile, &Default::default()).unwrap();
     assert_eq!(compiled.planned.plan.passes.len(), 2);
+}
+
+/// A select on a threshold other than 0 or ½ (`(d s > 0.3) ? a : b`, a
+/// two-tone cel shade) per fragment on geforce3: the mux tests
+/// `spare0.a ≥ ½`, so `x ≥ k` is `x + (½ − k) ≥ ½`, the offset a constant
+/// colour (Kilgard 2000, Section 4.2.2). Only 0 and ½ were taken: the
+/// statement fell back per vertex, 177/255 off on the torus, refused.
+/// The three-way test `toon_threshold` renders it.
+#[test]
+fn a_threshold_select_plans_per_fragment_on_geforce3() {
+    let source = std::fs::read_to_string(
+        crate::three_way_heldout::data("heldout_eighteenth").join("toon_threshold.shd"),
+    )
+    .unwrap();
+    let profile = shadec::profile::Profile::resolve("geforce3").unwrap();
+    let compiled = shadec::driver::compile(&source, &profile, &Default::default())
+        .unwrap_or_else(|d| panic!("{:?}", d.iter().map(|d| &d.message).collect::<Vec<_>>()));
+    let rules: Vec<&str> = compiled.planned.plan.approximations.iter().map(|a| a.rule.as_str()).collect();
+    assert!(rules.iter().all(|r| *r == "range_compression"), "{rules:?}");
 }

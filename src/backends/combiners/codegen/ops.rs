@@ -528,6 +528,13 @@ impl Gen<'_> {
                     self.emit(Spec { cd: Some(half), ..Spec::single(t, true) }, span)?
                 }
             }
+        } else if (-0.5..=1.5).contains(&k) {
+            // x ≥ k ⟺ x + (½ − k) ≥ ½: the offset is a constant colour (or
+            // its negation), the sum clamped to [−1, 1], which keeps its
+            // side of ½ (Kilgard 2000, Section 4.2.2).
+            let offset = self.constant_src(cond, &Constant::scalar(0.5 - k), Part::Alpha)?;
+            let t = Term::times_one(s);
+            self.emit(Spec { cd: Some(Term::times_one(offset)), ..Spec::single(t, true) }, span)?
         } else {
             return Err(bad());
         };
