@@ -92,8 +92,10 @@ fn through_a_copy(m: &mut Module, st: &Statement) -> Option<(Statement, Statemen
     }
     let value = form::substitute(m, st.value, &map)?;
     let reading = Statement { value, ..st.clone() };
+    // Still no blend (it reads another framebuffer's channel of its own
+    // target, say): refused as written. The copy framebuffer stays
+    // declared, unused, as nodes already name it.
     if form::classify(m, &reading, value).is_err() {
-        m.framebuffers.pop();
         return None;
     }
     let whole = m
