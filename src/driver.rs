@@ -107,7 +107,7 @@ impl Front {
         self.diagnostics.iter().any(Diagnostic::is_error)
     }
 
-    fn errors(&self) -> Diagnostics {
+    pub(crate) fn errors(&self) -> Diagnostics {
         self.diagnostics.iter().filter(|d| d.is_error()).cloned().collect()
     }
 }
@@ -155,13 +155,17 @@ fn errors_in_clean_items(
 
 /// A clean program the front end did not lower: a compiler bug, said as
 /// one rather than a panic (`front` lowers every program without errors).
-fn unlowered() -> Diagnostic {
+pub(crate) fn unlowered() -> Diagnostic {
     Diagnostic::error("internal-error", "a program without errors was not lowered", Span::DETACHED, "")
         .with_help("this is a bug in shadec: please report it with the program")
 }
 
-/// Compiles `source` for `profile`: the front end, then the plan. `Err`
-/// holds every error found (warnings are in [`Compilation::warnings`]).
+/// Compiles `source` for `profile`: the front end, then the planner's plan.
+/// `Err` holds every error found (warnings are in
+/// [`Compilation::warnings`]). The plan is not vetted: a per-vertex
+/// fall-back beyond its error budget, which `check` and `shadec compile`
+/// refuse, is planned here; [`crate::verdict::compile`] (and
+/// [`crate::compile`]) give the verdict the CLI gives.
 pub fn compile(source: &str, profile: &Profile, options: &PlanOptions) -> Result<Compilation, Diagnostics> {
     let front = front(source);
     if front.has_errors() {

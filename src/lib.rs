@@ -156,11 +156,14 @@ pub mod textures;
 pub mod verdict;
 
 /// Compiles `source` for `profile` into a pass plan — parse, check, lower,
-/// specialize, plan; never touches a GPU. The plan
-/// serializes to RON and JSON (`PassPlan::to_ron`, `to_json`); for the IR
-/// the plan's value ids refer to, and for scenes, use [`driver::compile`].
+/// specialize, plan; never touches a GPU. The verdict is `shadec
+/// compile`'s ([`verdict::compile`]): an approximation beyond its error
+/// budget is refused, as `check` refuses it. The plan serializes to RON
+/// and JSON (`PassPlan::to_ron`, `to_json`); for the IR the plan's value
+/// ids refer to, the warnings, and for scenes, use [`verdict::compile`]
+/// (or [`driver::compile`], the planner's plan without the vetting).
 pub fn compile(source: &str, profile: &profile::Profile) -> Result<pipeline::PassPlan, Diagnostics> {
-    driver::compile(source, profile, &driver::PlanOptions::default()).map(|c| c.planned.plan)
+    verdict::compile(source, profile, &verdict::Judging::default()).map(|j| j.planned.plan)
 }
 
 pub use driver::Diagnostics;

@@ -6,7 +6,7 @@
 
 use std::path::Path;
 
-use crate::driver::{front, missing_images, target_for, Diagnostics, Front, PlanOptions};
+use crate::driver::{front, missing_images, target_for, unlowered, Diagnostics, Front, PlanOptions};
 use crate::ir::Module;
 use crate::parser::ast::Program;
 use crate::pipeline::Planned;
@@ -64,6 +64,20 @@ pub fn judge(
     let measuring = crate::accuracy::vet(&mut planned, module, program, source, options, images)?;
     let warnings = crate::accuracy::warnings(&planned, module, source, &measuring);
     Ok(Judged { planned, warnings, candidates })
+}
+
+/// Compiles `source` for `profile` as `shadec compile` does: the front end,
+/// then [`judge`] — the plan with every approximation vetted, so that a
+/// library caller is refused what `check` refuses (a per-vertex fall-back
+/// beyond its budget) and gets the same warnings. `driver::compile` is the
+/// planner's plan alone, without the vetting.
+pub fn compile(source: &str, profile: &Profile, judging: &Judging) -> Result<Judged, Diagnostics> {
+    let front = front(source);
+    if front.has_errors() {
+        return Err(front.errors());
+    }
+    let Some(module) = &front.module else { return Err(vec![unlowered()]) };
+    judge(module, &front.program, profile, source, judging)
 }
 
 /// What `check` reports for one program: every diagnostic of the front end

@@ -236,6 +236,25 @@ fn per_vertex_beyond_its_budget_is_refused_naming_the_flag_that_accepts_it() {
     assert!(verdict::check_with(&source, Some("multitexture"), &judging(0.01)).unwrap().has_errors());
 }
 
+/// The library's `shadec::compile` gives the CLI's verdict: the textured
+/// Phong program whose per-vertex fall-back `check` refuses is refused
+/// there too, with the same error (it used to be planned quietly, since
+/// it went through `driver::compile`, the planner's plan without the
+/// vetting — which still plans it, as its documentation says).
+#[test]
+fn the_library_compile_refuses_what_check_refuses() {
+    let source = TEXTURED_PHONG.replace("image(\"wood.png\")", "bumps(8)");
+    let multitexture = shadec::profile::Profile::resolve("multitexture").unwrap();
+    let refused = shadec::compile(&source, &multitexture).unwrap_err();
+    let codes: Vec<&str> = refused.iter().map(|d| d.code).collect();
+    assert_eq!(codes, ["per-vertex-over-budget"], "{refused:?}");
+    assert!(driver::compile(&source, &multitexture, &PlanOptions::default()).is_ok());
+    let lighting = std::fs::read_to_string("examples/fragment_lighting.shd").unwrap();
+    let geforce256 = shadec::profile::Profile::resolve("geforce256").unwrap();
+    let judged = verdict::compile(&lighting, &geforce256, &Judging::default()).unwrap();
+    assert!(judged.warnings.iter().any(|w| w.code == "approximation"), "the fall-back within its budget is said");
+}
+
 /// A missing image file is a located error in `check`, `compile` and
 /// `render` (it used to become procedural bricks in `render`, exit 0);
 /// `--stand-ins` asks for the bricks.
