@@ -26,6 +26,17 @@ pub struct Judging<'a> {
     /// `--stand-ins`: a missing image file binds a procedural stand-in
     /// instead of being an error.
     pub stand_ins: bool,
+    /// The scene whose folder image files are also looked in when the plan
+    /// is not made for it (`render --no-specialize`); else the planned
+    /// scene's ([`PlanOptions::scene`]).
+    pub rendered_on: Option<&'a crate::scene::Scene>,
+}
+
+impl Judging<'_> {
+    /// The scene beside which image files are looked for after `images`.
+    fn image_scene(&self) -> Option<&crate::scene::Scene> {
+        self.plan.scene.map(|s| s.scene).or(self.rendered_on)
+    }
 }
 
 /// A plan and what it costs in quality.
@@ -51,7 +62,7 @@ pub fn judge(
     judging: &Judging,
 ) -> Result<Judged, Diagnostics> {
     let missing = match judging.images {
-        Some(dir) if !judging.stand_ins => missing_images(program, dir, judging.plan.scene.map(|s| s.scene)),
+        Some(dir) if !judging.stand_ins => missing_images(program, dir, judging.image_scene()),
         _ => Vec::new(),
     };
     if !missing.is_empty() {
@@ -97,7 +108,7 @@ pub fn check_with(source: &str, target: Option<&str>, judging: &Judging) -> Resu
     let (Some(module), false) = (&front.module, front.has_errors()) else { return Ok(front) };
     let Some(name) = target_for(target, &front.program, None) else {
         if let (Some(dir), false) = (judging.images, judging.stand_ins) {
-            let missing = missing_images(&front.program, dir, judging.plan.scene.map(|s| s.scene));
+            let missing = missing_images(&front.program, dir, judging.image_scene());
             front.diagnostics.extend(missing);
         }
         return Ok(front);

@@ -391,4 +391,14 @@ fn an_example_on_a_scene_finds_its_images_beside_the_program() {
     std::fs::copy(std::path::Path::new(root).join("examples/brick.png"), scenes.join("brick.png")).unwrap();
     let out = render(&scenes.join("s.ron"), &programs.join("t.shd"));
     assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    // A plan not made for the scene (`--no-specialize`) still finds it there.
+    let out = shadec()
+        .args(["render", "--no-specialize", "--size", "64x48", "--out"])
+        .arg(dir.path().join("y.png"))
+        .arg(scenes.join("s.ron"))
+        .arg("--shader")
+        .arg(programs.join("t.shd"))
+        .output()
+        .unwrap();
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
 }

@@ -252,7 +252,10 @@ fn the_library_compile_refuses_what_check_refuses() {
     let lighting = std::fs::read_to_string("examples/fragment_lighting.shd").unwrap();
     let geforce256 = shadec::profile::Profile::resolve("geforce256").unwrap();
     let judged = verdict::compile(&lighting, &geforce256, &Judging::default()).unwrap();
-    assert!(judged.warnings.iter().any(|w| w.code == "approximation"), "the fall-back within its budget is said");
+    assert!(
+        judged.warnings.iter().any(|w| w.code == "approximation"),
+        "the fall-back within its budget is said"
+    );
 }
 
 /// A missing image file is a located error in `check`, `compile` and

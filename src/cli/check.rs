@@ -153,6 +153,7 @@ fn check_one(
         plan: shadec::driver::PlanOptions { lowering: args.quality.lowering(), ..Default::default() },
         images: Some(dir),
         stand_ins: args.quality.stand_ins,
+        rendered_on: None,
     };
     shadec::verdict::check_with(text, args.target.as_deref(), &judging)
 }

@@ -175,7 +175,8 @@ fn plan_for(
     };
     let for_scene = scene.zip(assets.as_ref()).map(|(s, a)| ForScene::specialized(s, a));
     let options = PlanOptions { scene: for_scene, lowering: args.quality.lowering(), ..Default::default() };
-    let judging = Judging { plan: options, images: Some(dir), stand_ins: args.quality.stand_ins };
+    let judging =
+        Judging { plan: options, images: Some(dir), stand_ins: args.quality.stand_ins, rendered_on: None };
     let judged = shadec::verdict::judge(m, program, profile, text, &judging).map_err(PlanFailure::Program)?;
     if scene.is_some() {
         report_removed(&judged.planned.plan);

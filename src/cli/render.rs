@@ -230,7 +230,7 @@ fn compile(
     // The built-in program names images nobody has: its stand-ins are the
     // default, said once (the binder's notes).
     let stand_ins = args.quality.stand_ins || args.shader.is_none();
-    let judging = Judging { plan: options, images: Some(&images), stand_ins };
+    let judging = Judging { plan: options, images: Some(&images), stand_ins, rendered_on: Some(scene) };
     let judged = shadec::verdict::judge(module, &front.program, &profile, source, &judging)
         .map_err(|errors| refused(&errors))?;
     for c in &judged.candidates {
