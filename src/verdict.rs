@@ -72,9 +72,38 @@ pub fn judge(
     let images = judging.images.unwrap_or(Path::new(""));
     let (mut planned, candidates) =
         crate::accuracy::plan_measured(module, program, profile, source, options, images)?;
-    let measuring = crate::accuracy::vet(&mut planned, module, program, source, options, images)?;
+    let measuring = crate::accuracy::vet(&mut planned, module, program, source, options, images)
+        .map_err(|refused| why_not_per_fragment(refused, module, program, profile, source, options))?;
     let warnings = crate::accuracy::warnings(&planned, module, source, &measuring);
     Ok(Judged { planned, warnings, candidates })
+}
+
+/// A per-vertex fall-back refused over its budget says why the target
+/// cannot compute the part per fragment: the refusal of the plan that
+/// takes every bounded approximation but not the fall-back (three signed
+/// vectors where the combiners interpolate two colours, …), so that the
+/// help names the real obstacle, not only another target.
+fn why_not_per_fragment(
+    mut refused: Diagnostics,
+    module: &Module,
+    program: &Program,
+    profile: &Profile,
+    source: &str,
+    options: &PlanOptions,
+) -> Diagnostics {
+    let Some(d) = refused.iter_mut().find(|d| d.code == "per-vertex-over-budget") else { return refused };
+    let bounded = crate::lowering::LowerOptions { max_error: Some(f64::INFINITY), ..options.lowering };
+    let exact = PlanOptions { lowering: bounded, ..*options };
+    let Err(why) = crate::driver::plan(module, program, profile, Some(source), &exact) else {
+        return refused;
+    };
+    let Some(first) = why.first() else { return refused };
+    let reason = first.message.split(": ").last().unwrap_or(&first.message);
+    let help = d.help.take().unwrap_or_default();
+    // The refusal's own help, up to the planner's general clauses.
+    let remedy = first.help.as_deref().and_then(|h| h.split("; ").next()).unwrap_or_default();
+    d.help = Some(format!("{help}; per fragment {} refuses it ({reason}): {remedy}", profile.name));
+    refused
 }
 
 /// Compiles `source` for `profile` as `shadec compile` does: the front end,

@@ -689,8 +689,18 @@ fn binary(_m: &Module, op: BinaryOp, a: ExprInfo, b: ExprInfo) -> Result<ExprInf
                         t.a_name()
                     }
                 };
-                return Err(err("type-mismatch", format!("dot product of {} with {}", what(a.ty), what(b.ty)), "· needs two vectors of the same size")
-                    .help("`·` is the dot product of two directions (vec3) or colours used as vectors (dot3); to scale, write `*`"));
+                let help = if a.ty.width().min(b.ty.width()) == 3 && a.ty.width().max(b.ty.width()) == 4 {
+                    // `expand(Tn δu x) · L` with Tn declared rgba8 (the language's default format).
+                    "`·` of a three- and a four-component value: take `.rgb` (or `.xyz`) of the four-component one, or declare the texture it reads `rgb8` (a texture declared `rgba8`, the default, reads as rgba)"
+                } else {
+                    "`·` is the dot product of two directions (vec3) or colours used as vectors (dot3); to scale, write `*`"
+                };
+                return Err(err(
+                    "type-mismatch",
+                    format!("dot product of {} with {}", what(a.ty), what(b.ty)),
+                    "· needs two vectors of the same size",
+                )
+                .help(help));
             }
             let unit = |i: Interval| i.lo >= -1.0 && i.hi <= 1.0;
             let interval = if unit(a.interval) && unit(b.interval) {

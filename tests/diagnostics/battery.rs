@@ -202,6 +202,13 @@ fn mistakes() -> Vec<Mistake> {
             fix: fix(&["`*`"], &[("×", "*")]),
         },
         Mistake {
+            name: "rgba_normal_map_dotted_with_a_vector",
+            source: "vector L : light in tangent;\ntexture Tn : 2d rgba8 = bumps(8);\ntexture Ncube : cube rgb8 bilinear clamp = normalize_cube(32);\nC δπx ← max(0, expand(Tn δu x) · expand(Ncube δ L s x));\n",
+            code: "type-mismatch",
+            at: (4, "expand(Tn δu x) · expand(Ncube δ L s x)"),
+            fix: fix(&["`.rgb`", "`rgb8`"], &[("2d rgba8", "2d rgb8")]),
+        },
+        Mistake {
             name: "cube_map_indexed_by_texture_coordinates",
             source: "texture Env : cube rgb8;\nC δπx ← Env δu x;\n",
             code: "bad-index",

@@ -280,6 +280,15 @@ impl<'a> Lowerer<'a> {
                 return Ok(h);
             }
         }
+        // `rgb(g, g, g)` is the grey `rgb(g)`: one scalar in every
+        // component is a splat, which every target computes (the register
+        // combiners cannot assemble a colour from separate channels).
+        if ty.is_numeric()
+            && hs.len() == ty.width()
+            && hs.iter().all(|&h| h == hs[0] && self.module.info(h).ty == Ty::Scalar)
+        {
+            return self.append(Expr::Convert { value: hs[0], to: ty }, span);
+        }
         self.append(Expr::Compose { ty, components: hs }, span)
     }
 
