@@ -18,6 +18,7 @@ pub enum Viewer {
 
 /// A perspective camera.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Camera {
     pub eye: Vec3,
     pub target: Vec3,

@@ -9,6 +9,7 @@ use serde::{Deserialize, Serialize};
 
 /// Constant, linear and quadratic attenuation coefficients.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Attenuation {
     pub constant: f32,
     pub linear: f32,
@@ -36,6 +37,7 @@ impl Attenuation {
 
 /// A scene light, as GL's fixed-function lights.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum Light {
     /// Light from direction `direction` (pointing *from* the light, as it travels).
     Directional { direction: Vec3, color: Vec3 },

@@ -57,6 +57,7 @@ pub enum SceneError {
 
 /// A scene file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Scene {
     /// Output size in pixels.
     #[serde(default = "default_resolution")]
@@ -90,6 +91,7 @@ fn default_resolution() -> (u32, u32) {
 
 /// A scene object: a mesh, where it is, and its material's name.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Object {
     pub mesh: MeshDesc,
     #[serde(default)]
@@ -99,6 +101,7 @@ pub struct Object {
 
 /// Scale, then rotate (Euler XYZ, degrees), then translate.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Transform {
     #[serde(default)]
     pub translate: Vec3,
@@ -132,17 +135,64 @@ impl Transform {
 
 /// An object's mesh: a built-in shape or an OBJ file.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum MeshDesc {
-    Sphere { radius: f32, slices: u32, stacks: u32 },
-    Torus { major: f32, minor: f32, rings: u32, sides: u32 },
-    Plane { size: f32, subdivisions: u32 },
-    Cube { size: f32, subdivisions: u32 },
+    /// Tessellation by default: 32 slices, 16 stacks.
+    Sphere {
+        radius: f32,
+        #[serde(default = "default_slices")]
+        slices: u32,
+        #[serde(default = "default_stacks")]
+        stacks: u32,
+    },
+    /// Tessellation by default: 48 rings, 24 sides.
+    Torus {
+        major: f32,
+        minor: f32,
+        #[serde(default = "default_rings")]
+        rings: u32,
+        #[serde(default = "default_sides")]
+        sides: u32,
+    },
+    /// One quad by default.
+    Plane {
+        size: f32,
+        #[serde(default = "default_subdivisions")]
+        subdivisions: u32,
+    },
+    /// One quad per face by default.
+    Cube {
+        size: f32,
+        #[serde(default = "default_subdivisions")]
+        subdivisions: u32,
+    },
     Obj(String),
+}
+
+fn default_slices() -> u32 {
+    32
+}
+
+fn default_stacks() -> u32 {
+    16
+}
+
+fn default_rings() -> u32 {
+    48
+}
+
+fn default_sides() -> u32 {
+    24
+}
+
+fn default_subdivisions() -> u32 {
+    1
 }
 
 /// Material parameters; `textures` binds texture names to roles (e.g.
 /// `"normal_map": "bumps"`) that the shading program refers to.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Material {
     #[serde(default)]
     pub ambient: Vec3,
@@ -162,6 +212,7 @@ fn default_shininess() -> f32 {
 
 /// Where a height field comes from.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum HeightDesc {
     /// A grayscale image.
     File(String),
@@ -171,6 +222,7 @@ pub enum HeightDesc {
 
 /// A scene texture: a file, or one of the papers' generated tables.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub enum TextureDesc {
     /// PNG, JPEG or Radiance HDR.
     File {
@@ -534,6 +586,27 @@ mod tests {
 
     fn example() -> String {
         std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/bump_torus.ron")).unwrap()
+    }
+
+    /// A misspelt field (`colour`) is a located error naming the fields
+    /// the place takes; it was ignored, and the error was the missing
+    /// `color` at the end of the light. A sphere's tessellation may be
+    /// left out.
+    #[test]
+    fn an_unknown_field_is_located_and_tessellation_has_defaults() {
+        let text = "(camera: (eye: (0, 0, 3), target: (0, 0, 0), up: (0, 1, 0), fov_y_deg: 45),\n lights: [Point(position: (1, 1, 1), colour: (1, 1, 1))])";
+        let Err(SceneError::Syntax { line, col, message, .. }) = Scene::parse(text, Path::new("s.ron"))
+        else {
+            panic!("a misspelt field is an error")
+        };
+        assert_eq!((line, col), (2, 38), "{message}");
+        assert!(message.contains("`colour`") && message.contains("`color`"), "{message}");
+        let text = text.replace("colour", "color").replace(
+            "])",
+            "], objects: [(mesh: Sphere(radius: 0.6), material: \"m\")], materials: {\"m\": ()})",
+        );
+        let scene = Scene::parse(&text, Path::new("s.ron")).unwrap();
+        assert_eq!(scene.objects[0].mesh, MeshDesc::Sphere { radius: 0.6, slices: 32, stacks: 16 });
     }
 
     #[test]
