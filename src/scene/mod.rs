@@ -43,8 +43,8 @@ pub enum SceneError {
     Io(#[from] crate::io::IoError),
     #[error("{path}:{line}:{col}: {message}\n  help: check the RON syntax and the field names against docs/scenes.md")]
     Syntax { path: String, line: usize, col: usize, message: String },
-    #[error("{path}: {what} '{name}' is not defined; {help}")]
-    Unknown { path: String, what: &'static str, name: String, help: String },
+    #[error("{path}{at}: {what} '{name}' is not defined; {help}")]
+    Unknown { path: String, at: String, what: &'static str, name: String, help: String },
     #[error("{path}: {what} refers to '{file}', which does not exist (looked for {resolved}); fix the path, relative to the scene file")]
     MissingFile { path: String, what: String, file: String, resolved: String },
     #[error("{path}: {what}: {message}")]
@@ -349,7 +349,12 @@ impl Scene {
             message: e.code.to_string(),
         })?;
         scene.path = path.to_path_buf();
-        scene.check()?;
+        scene.check().map_err(|e| match e {
+            SceneError::Unknown { path, what, name, help, .. } => {
+                SceneError::Unknown { at: locate_use(text, &name), path, what, name, help }
+            }
+            other => other,
+        })?;
         Ok(scene)
     }
 
@@ -441,6 +446,7 @@ impl Scene {
             if !self.materials.contains_key(&object.material) {
                 return Err(SceneError::Unknown {
                     path: self.path.display().to_string(),
+                    at: String::new(),
                     what: "material",
                     name: object.material.clone(),
                     help: format!(
@@ -467,6 +473,7 @@ impl Scene {
                 if !self.textures.contains_key(texture) {
                     return Err(SceneError::Unknown {
                         path: self.path.display().to_string(),
+                        at: String::new(),
                         what: "texture",
                         name: texture.clone(),
                         help: format!(
@@ -580,6 +587,21 @@ fn names(map: Vec<&String>) -> String {
     map.into_iter().cloned().collect::<Vec<_>>().join(", ")
 }
 
+/// `:line:col` of the first use of the undefined `name` in the scene's
+/// text: `"name"` not followed by `:` (a use, not a map key); empty when
+/// it is not found.
+fn locate_use(text: &str, name: &str) -> String {
+    let quoted = format!("\"{name}\"");
+    let Some((start, _)) =
+        text.match_indices(&quoted).find(|(i, q)| !text[i + q.len()..].trim_start().starts_with(':'))
+    else {
+        return String::new();
+    };
+    let line = text[..start].matches('\n').count() + 1;
+    let col = text[..start].rsplit('\n').next().map_or(0, |l| l.chars().count()) + 1;
+    format!(":{line}:{col}")
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -607,6 +629,10 @@ mod tests {
         );
         let scene = Scene::parse(&text, Path::new("s.ron")).unwrap();
         assert_eq!(scene.objects[0].mesh, MeshDesc::Sphere { radius: 0.6, slices: 32, stacks: 16 });
+        // An undefined material is located at its use.
+        let text = text.replace("material: \"m\"", "material: \"matte\"");
+        let e = Scene::parse(&text, Path::new("s.ron")).unwrap_err().to_string();
+        assert!(e.starts_with("s.ron:2:106: material 'matte' is not defined"), "{e}");
     }
 
     #[test]
