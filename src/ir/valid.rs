@@ -673,6 +673,24 @@ fn is_taylor_step(m: &Module, w: Handle<Expr>, step: Handle<Expr>) -> bool {
         && f.iter().filter(|&&h| defect(h)).count() == 1
 }
 
+/// `a · b` of operands of different sizes: the help says how to match
+/// them (an rgba normal map, `rgba8` being the default format, is the
+/// common case).
+fn dot_mismatch(a: Ty, b: Ty) -> TypeError {
+    let what = |t: Ty| if t.is_color() { format!("a colour ({})", t.name()) } else { t.a_name() };
+    let help = if a.width().min(b.width()) == 3 && a.width().max(b.width()) == 4 {
+        "`·` of a three- and a four-component value: take `.rgb` (or `.xyz`) of the four-component one, or declare the texture it reads `rgb8` (a texture declared `rgba8`, the default, reads as rgba)"
+    } else {
+        "`·` is the dot product of two directions (vec3) or colours used as vectors (dot3); to scale, write `*`"
+    };
+    err(
+        "type-mismatch",
+        format!("dot product of {} with {}", what(a), what(b)),
+        "· needs two vectors of the same size",
+    )
+    .help(help)
+}
+
 fn binary(_m: &Module, op: BinaryOp, a: ExprInfo, b: ExprInfo) -> Result<ExprInfo, TypeError> {
     use BinaryOp::*;
     numeric(a.ty, "an operation")?;
@@ -682,25 +700,7 @@ fn binary(_m: &Module, op: BinaryOp, a: ExprInfo, b: ExprInfo) -> Result<ExprInf
     match op {
         Dot => {
             if a.ty.width() != b.ty.width() || !a.ty.is_numeric() {
-                let what = |t: Ty| {
-                    if t.is_color() {
-                        format!("a colour ({})", t.name())
-                    } else {
-                        t.a_name()
-                    }
-                };
-                let help = if a.ty.width().min(b.ty.width()) == 3 && a.ty.width().max(b.ty.width()) == 4 {
-                    // `expand(Tn δu x) · L` with Tn declared rgba8 (the language's default format).
-                    "`·` of a three- and a four-component value: take `.rgb` (or `.xyz`) of the four-component one, or declare the texture it reads `rgb8` (a texture declared `rgba8`, the default, reads as rgba)"
-                } else {
-                    "`·` is the dot product of two directions (vec3) or colours used as vectors (dot3); to scale, write `*`"
-                };
-                return Err(err(
-                    "type-mismatch",
-                    format!("dot product of {} with {}", what(a.ty), what(b.ty)),
-                    "· needs two vectors of the same size",
-                )
-                .help(help));
+                return Err(dot_mismatch(a.ty, b.ty));
             }
             let unit = |i: Interval| i.lo >= -1.0 && i.hi <= 1.0;
             let interval = if unit(a.interval) && unit(b.interval) {
