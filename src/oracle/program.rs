@@ -363,8 +363,11 @@ impl<'a> Evaluator<'a> {
                 Ok(v)
             }
             Tex::Baked(value) => {
+                // The table's ideal, at the coordinates its declared wrap
+                // takes them to (GL §3.8.7: REPEAT keeps the fraction).
                 let [u, v] = uv(c, cty);
-                let wrap = |x: f64| x.clamp(0.0, 1.0);
+                let repeat = self.m.textures[texture as usize].sampling.wrap == crate::textures::Wrap::Repeat;
+                let wrap = |x: f64| if repeat { x - x.floor() } else { x.clamp(0.0, 1.0) };
                 Ok(self.operand(*value, At::Texel([wrap(u), wrap(v)]), 0, &mut Memo::new())?)
             }
             Tex::Flat(image) => self.flat(image, coords, cty, c, at, lod_depth),

@@ -105,7 +105,7 @@ impl Rendered {
         }
     }
 
-    pub(super) fn from_framebuffer(fb: &Framebuffer, mipmap: bool, cube: bool) -> Rendered {
+    pub(super) fn from_framebuffer(fb: &Framebuffer, mipmap: bool, cube: bool, wrap: Wrap) -> Rendered {
         let pixels = fb.read_back_rgba_f32();
         let face = || {
             Texture2D::new(
@@ -115,11 +115,7 @@ impl Rendered {
             )
         };
         let cube = cube.then(|| Box::new(TextureCube { faces: std::array::from_fn(|_| face()) }));
-        let t = Texture2D::new(
-            TexelFormat::F32,
-            Wrap::ClampToEdge,
-            Level::new(fb.width(), fb.height(), pixels.clone()),
-        );
+        let t = Texture2D::new(TexelFormat::F32, wrap, Level::new(fb.width(), fb.height(), pixels.clone()));
         let texture = if mipmap { t.with_box_mipmaps() } else { t };
         Rendered { width: fb.width(), height: fb.height(), pixels, texture, cube }
     }
