@@ -162,3 +162,45 @@ fn the_f32_verdict_allows_for_the_stated_approximation_bounds() {
     assert!(beyond.is_err(), "a picture {} steps off passed", tolerance + 1);
     verdict(&alone(moved(tolerance))).unwrap();
 }
+
+/// Each minified lookup chooses its level of detail on its own (GL
+/// §3.8.8 gives each lookup its own interval for λ): the reference's
+/// range for a product of two mipmapped textures read at different
+/// scales holds every pixel's product of the two lookups' own extremes —
+/// its least at most the least of one times the least of the other, its
+/// greatest at least the product of the greatest, up to rounding. The
+/// reference rendered every lookup at the same extreme (5 renders), so
+/// the range of the product missed the pairs of different extremes; it
+/// now renders every combination of the two lookups' choices (25).
+#[test]
+fn independent_lookups_choose_their_level_of_detail_apart() {
+    let head = "texture A : 2d rgb8 mipmap trilinear repeat = image(\"missing-a.png\");\ntexture B : 2d rgb8 mipmap trilinear repeat = image(\"missing-b.png\");\n";
+    let sc = scene("kilgard_torus.ron");
+    let assets = sc.build().unwrap();
+    let profile = Profile::resolve("wgsl").unwrap();
+    let picture = |body: &str| {
+        let c = shadec::driver::compile(&format!("{head}{body}"), &profile, &Default::default()).unwrap();
+        let size = (crate::three_way::W, crate::three_way::H);
+        shadec::oracle::render_with(&c.module, &c.program, &sc, &assets, size, Default::default()).unwrap()
+    };
+    let ab = picture("C δπx ← (A δu x) * (B δ(3 * (u x)));\n");
+    let a = picture("C δπx ← A δu x;\n");
+    let b = picture("C δπx ← B δ(3 * (u x));\n");
+    let slack = 2.0 / 255.0;
+    let (mut ranged, mut outside) = (0, 0);
+    for i in 0..ab.pixels.len() {
+        if !ab.covered[i] || ab.latitude[i] || a.latitude[i] || b.latitude[i] {
+            continue;
+        }
+        ranged += usize::from(
+            (0..3).any(|c| a.high[i][c] > a.low[i][c]) && (0..3).any(|c| b.high[i][c] > b.low[i][c]),
+        );
+        outside += usize::from((0..3).any(|c| {
+            ab.low[i][c] > a.low[i][c] * b.low[i][c] + slack
+                || ab.high[i][c] < a.high[i][c] * b.high[i][c] - slack
+        }));
+    }
+    eprintln!("{ranged} pixels with both lookups ranged, {outside} outside the product's range");
+    assert!(ranged >= 50, "{ranged} pixels with both lookups ranged");
+    assert_eq!(outside, 0, "{outside} of {ranged} pixels: the product's range misses the lookups' extremes");
+}

@@ -158,9 +158,10 @@
 //! What the binder cannot bind (a missing texture, a scene error); a plan
 //! that writes no framebuffer; a full-screen pass with per-vertex inputs;
 //! a cube map or dual-paraboloid map whose faces differ in size; a cube
-//! map the plan renders (its passes render 2-D targets, and the shader
-//! reads a cube view); and, in code generation, a dual-paraboloid map
-//! looked up at the pixel (`T xs`).
+//! map the plan renders other than over its square texel grid (one over
+//! its texels is six layers, its passes drawing layer 0, copied into the
+//! other five after the last of them, read as a cube view); and, in code
+//! generation, a dual-paraboloid map looked up at the pixel (`T xs`).
 //! Every example on `wgsl`, `geforce3` and `geforce256` that plans and
 //! that the CPU renders runs, as do the constructs no example shows
 //! (`tests/wgpu_runs_what_the_cpu_runs.rs`).
