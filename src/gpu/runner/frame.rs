@@ -260,6 +260,22 @@ impl<'a> Frame<'a> {
             .collect()
     }
 
+    /// After pass `pass_idx`, the last of the passes into a rendered
+    /// texture: a cube map's other faces, a mipmapped texture's chain.
+    fn after_pass(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, pass_idx: usize) {
+        let Some(PassTarget::Texture(t)) = self.passes.get(pass_idx).map(|p| &p.target) else { return };
+        let next = self.passes.get(pass_idx + 1).map(|p| &p.target);
+        if matches!(next, Some(PassTarget::Texture(n)) if n.name == t.name) {
+            return;
+        }
+        if t.cube {
+            copy_cube_faces(encoder, &self.textures[&t.name].0, t);
+        }
+        if let (Some(mips), true) = (&self.mips, t.mip_levels > 1) {
+            mips.generate(device, encoder, &self.textures[&t.name].0, t);
+        }
+    }
+
     pub(super) fn submit(&self, gpu: &Gpu) {
         let device = &gpu.device;
         let (target, passes, prepared) = (self.target, self.passes, &self.prepared);
@@ -328,17 +344,7 @@ impl<'a> Frame<'a> {
                 record_draw(&mut render_pass, pass, prep);
             }
             drop(render_pass);
-            // A mipmapped texture's chain, after the last of the passes into it.
-            if let Some(PassTarget::Texture(t)) = pass.map(|p| &p.target) {
-                let next = passes.get(pass_idx + 1).map(|p| &p.target);
-                let last = !matches!(next, Some(PassTarget::Texture(n)) if n.name == t.name);
-                if last && t.cube {
-                    copy_cube_faces(&mut encoder, &self.textures[&t.name].0, t);
-                }
-                if let (Some(mips), true) = (&self.mips, last && t.mip_levels > 1) {
-                    mips.generate(device, &mut encoder, &self.textures[&t.name].0, t);
-                }
-            }
+            self.after_pass(device, &mut encoder, pass_idx);
         }
 
         self.copy_to_readback(&mut encoder);
