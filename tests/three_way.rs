@@ -283,6 +283,11 @@ impl Difference {
 }
 
 pub fn difference(a: &[u8], b: &[u8], covered: &[bool]) -> Difference {
+    difference_beyond(a, b, covered, PIXEL_TOLERANCE)
+}
+
+/// [`difference`] with a pixel off when a channel differs by more than `tolerance`.
+pub fn difference_beyond(a: &[u8], b: &[u8], covered: &[bool], tolerance: u8) -> Difference {
     let (mut off, mut n, mut max) = (0usize, 0usize, 0u8);
     for (i, &c) in covered.iter().enumerate() {
         if !c {
@@ -291,7 +296,7 @@ pub fn difference(a: &[u8], b: &[u8], covered: &[bool]) -> Difference {
         n += 1;
         let d = (0..4).map(|k| a[4 * i + k].abs_diff(b[4 * i + k])).max().unwrap_or(0);
         max = max.max(d);
-        off += usize::from(d > PIXEL_TOLERANCE);
+        off += usize::from(d > tolerance);
     }
     Difference { fraction: off as f64 / n.max(1) as f64, max }
 }
@@ -303,13 +308,31 @@ pub fn verdict(p: &Pictures) -> Result<(), String> {
     agreement(p)
 }
 
+/// The per-channel tolerance of an f32 comparison: [`PIXEL_TOLERANCE`],
+/// plus the plan's stated approximation bounds in 255ths (rounded up) —
+/// a lowering's error is the plan's, on every executor that runs it, and
+/// the executors may store its intermediate values differently (wgpu an
+/// `rgba8` target in 8 bits, the CPU's f32 in float), so each pair is held
+/// to it. A plan with an approximation that states no bound (per-vertex
+/// shading) is held to the plain tolerance.
+pub fn f32_tolerance(p: &Pictures) -> u8 {
+    let bound = p.approximation_bound.unwrap_or(0.0);
+    PIXEL_TOLERANCE.saturating_add((bound * 255.0).ceil().clamp(0.0, 255.0) as u8)
+}
+
 /// [`verdict`] on however many pixels are compared (a generated run
 /// holds its renders to the minimum together: `three_way_generated`).
 pub fn agreement(p: &Pictures) -> Result<(), String> {
     let compared = p.compared_mask();
+    let tolerance = f32_tolerance(p);
+    let difference = |a: &[u8], b: &[u8], compared: &[bool]| difference_beyond(a, b, compared, tolerance);
     let co = difference(&p.cpu, &p.reference_near(&p.cpu), &compared);
     let Some(gpu) = &p.gpu else {
-        return if co.within() { Ok(()) } else { Err(format!("the CPU and the reference differ: {co:?}")) };
+        return if co.within() {
+            Ok(())
+        } else {
+            Err(format!("the CPU and the reference differ beyond {tolerance}/255: {co:?}"))
+        };
     };
     let cg = difference(&p.cpu, gpu, &compared);
     let go = difference(gpu, &p.reference_near(gpu), &compared);

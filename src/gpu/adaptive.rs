@@ -98,6 +98,7 @@ fn adaptive_frame(
         layers: 1,
         format: target.color_format,
         mip_levels: 1,
+        cube: false,
     };
     let scale = (sparse.width as f32 / target.width as f32, sparse.height as f32 / target.height as f32);
     let main = &passes[first_main..];
@@ -227,6 +228,7 @@ mod tests {
             layers: 1,
             format: ColorTarget::Rgba8,
             mip_levels: 1,
+            cube: false,
         };
         let passes = [
             pass(PassTarget::Texture(texture), CompareFunc::Less),

@@ -158,9 +158,10 @@
 //! What the binder cannot bind (a missing texture, a scene error); a plan
 //! that writes no framebuffer; a full-screen pass with per-vertex inputs;
 //! a cube map or dual-paraboloid map whose faces differ in size; a cube
-//! map the plan renders (its passes render 2-D targets, and the shader
-//! reads a cube view); and, in code generation, a dual-paraboloid map
-//! looked up at the pixel (`T xs`).
+//! map the plan renders other than over its square texel grid (one over
+//! its texels is six layers, its passes drawing layer 0, copied into the
+//! other five after the last of them, read as a cube view); and, in code
+//! generation, a dual-paraboloid map looked up at the pixel (`T xs`).
 //! Every example on `wgsl`, `geforce3` and `geforce256` that plans and
 //! that the CPU renders runs, as do the constructs no example shows
 //! (`tests/wgpu_runs_what_the_cpu_runs.rs`).
@@ -457,17 +458,30 @@ impl<'a> ScenePlan<'a> {
                 } else {
                     ColorTarget::Rgba8
                 };
-                // Mipmapped where the texture is declared so, as on the CPU.
+                // Mipmapped where the texture is declared so, as on the CPU;
+                // a cube map six faces (sampled at level 0, docs/language.md).
                 let mipmap = self.decls.iter().any(|d| d.name == target.name && d.mipmap);
+                let cube =
+                    self.planned.module.textures[id as usize].kind == crate::parser::ast::TextureKind::Cube;
+                if cube && (w != h || fat[id as usize] > 1) {
+                    return Err(unsupported_in(
+                        s,
+                        format!(
+                            "renders the cube map `{}` other than over its square texel grid",
+                            target.name
+                        ),
+                    ));
+                }
                 rendered.insert(
                     target.name.clone(),
                     runner::RenderedTexture {
                         name: target.name.clone(),
                         width: w,
                         height: h,
-                        layers: u32::from(fat[id as usize]).max(1),
+                        layers: if cube { 6 } else { u32::from(fat[id as usize]).max(1) },
                         format,
-                        mip_levels: if mipmap { runner::full_chain(w, h) } else { 1 },
+                        mip_levels: if mipmap && !cube { runner::full_chain(w, h) } else { 1 },
+                        cube,
                     },
                 );
             }
@@ -487,6 +501,7 @@ impl<'a> ScenePlan<'a> {
                             layers: 1,
                             format: frame.color_format,
                             mip_levels: 1,
+                            cube: false,
                         },
                     );
                 }
@@ -536,13 +551,16 @@ impl<'a> ScenePlan<'a> {
                 continue;
             }
             if let Some(r) = rendered.get(&t.texture) {
-                // A rendered texture is a 2-D target; the shader declares a
-                // cube map's lookup a cube view, which it cannot bind.
-                let kind = m.textures.iter().find(|d| d.name == t.texture).map(|d| d.kind);
-                if kind == Some(crate::parser::ast::TextureKind::Cube) {
-                    return Err(unsupported(format!("reads the cube map `{}` a pass renders", t.texture)));
-                }
                 let (filter, wrap) = self.rendered_sampling(&t.texture)?;
+                // A cube map: its six faces, looked up by direction (level 0).
+                if r.cube {
+                    textures.push(RunTexture {
+                        data: TextureData::RenderedCube { name: t.texture.clone() },
+                        sampler: sampler(filter, Wrap::ClampToEdge, false),
+                        texels: TexelUpload::Rgba8,
+                    });
+                    continue;
+                }
                 // Its mip chain, where it has one (`runner::RenderedTexture::mip_levels`).
                 textures.push(RunTexture {
                     data: TextureData::Rendered {

@@ -18,9 +18,10 @@
 //!   NEAREST/LINEAR and the mipmap modes, cube-map faces by Table 3.19;
 //!   the λ an implementation may use instead (§3.8.8's interval for ρ,
 //!   per-quad derivatives) bounds each pixel by a range ([`Picture::low`],
-//!   [`Picture::high`]) over renders at the texels' extremes — a
-//!   dependent lookup's extreme chosen apart from those of the lookups
-//!   its coordinates read (each lookup's λ is its own);
+//!   [`Picture::high`]) over renders at the texels' extremes — each
+//!   lookup's extreme chosen on its own (every combination, for up to
+//!   [`LOD_INDEPENDENT`] minified lookups; beyond, a dependent lookup's
+//!   apart from the rest's);
 //! - `ops`: the arithmetic and the ⊕ modes, written again from the
 //!   language's definition and GL's texture environment (Table 3.22);
 //! - framebuffers store what their declared format stores: an `rgba8`
@@ -116,7 +117,7 @@ use crate::ir::{FbChannel, Frequency, Module, Table};
 use crate::parser::ast::{self, TextureKind};
 use crate::scene::{Scene, SceneAssets};
 use geometry::View;
-use program::{At, Evaluator, Tex};
+use program::{At, Evaluator, LodChoices, Tex};
 
 /// Why the reference cannot evaluate a program (it refuses rather than guess).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -185,9 +186,10 @@ pub fn render(
 ///
 /// Where a mipmapped lookup's value moves with λ inside the latitude GL
 /// §3.8.8 gives an implementation, the program is rendered once more per
-/// choice of `program::LOD_CHOICES` (every lookup at its k-th extreme:
-/// one implementation's consistent choice), and [`Picture::low`] and
-/// [`Picture::high`] keep each pixel's range over the renders.
+/// combination of the lookups' choices among `program::LOD_CHOICES`
+/// extremes (each lookup's λ is its own: `lod_combinations`; at most
+/// 24 renders more), and [`Picture::low`] and [`Picture::high`] keep each
+/// pixel's range over the renders.
 pub fn render_with(
     module: &Module,
     program: &ast::Program,
@@ -196,17 +198,11 @@ pub fn render_with(
     size: (u32, u32),
     options: Options,
 ) -> Result<Picture, Unsupported> {
-    let (mut picture, open) = render_choice(module, program, scene, assets, size, options, (0, 0))?;
-    if open {
-        // A dependent lookup chooses on its own: every pair of choices.
-        let n = program::LOD_CHOICES;
-        let pairs: Vec<(usize, usize)> = if dependent_lookups(module).is_empty() {
-            (1..=n).map(|k| (k, k)).collect()
-        } else {
-            (0..=n).flat_map(|a| (0..=n).map(move |b| (a, b))).filter(|&p| p != (0, 0)).collect()
-        };
-        for choice in pairs {
-            let (other, _) = render_choice(module, program, scene, assets, size, options, choice)?;
+    let (mut picture, open) =
+        render_choice(module, program, scene, assets, size, options, &LodChoices::default())?;
+    if let Some(lookups) = open {
+        for choices in lod_combinations(module, &lookups) {
+            let (other, _) = render_choice(module, program, scene, assets, size, options, &choices)?;
             for i in 0..picture.pixels.len() {
                 for c in 0..4 {
                     picture.low[i][c] = picture.low[i][c].min(other.pixels[i][c]);
@@ -217,6 +213,48 @@ pub fn render_with(
         }
     }
     Ok(picture)
+}
+
+/// At most this many lookups choose their λ each on its own
+/// (`lod_combinations`): (`LOD_CHOICES` + 1)² − 1 = 24 renders more.
+pub const LOD_INDEPENDENT: usize = 2;
+
+/// The renders after the first that bound a pixel over the λ choices
+/// (the first rendered every lookup at choice 0): each of the minified
+/// `lookups` choosing on its own — every combination of choices — where
+/// they are at most [`LOD_INDEPENDENT`]; more, and the lookups that read
+/// another lookup (dependent, Pipeline Grammar eq. (8)) choose apart from
+/// the rest, which share one choice (every pair), or all share one where
+/// none is dependent.
+fn lod_combinations(module: &Module, lookups: &[program::LookupKey]) -> Vec<LodChoices> {
+    let n = program::LOD_CHOICES;
+    if lookups.len() <= LOD_INDEPENDENT {
+        let mut all = vec![Vec::new()];
+        for _ in lookups {
+            all = all
+                .into_iter()
+                .flat_map(|v: Vec<usize>| (0..=n).map(move |k| [v.clone(), vec![k]].concat()))
+                .collect();
+        }
+        return all
+            .into_iter()
+            .filter(|v| v.iter().any(|&k| k != 0))
+            .map(|v| LodChoices { default: 0, of: lookups.iter().copied().zip(v).collect() })
+            .collect();
+    }
+    let dependent = dependent_lookups(module);
+    let pairs: Vec<(usize, usize)> = if lookups.iter().all(|l| !dependent.contains(&l.1)) {
+        (1..=n).map(|k| (k, k)).collect()
+    } else {
+        (0..=n).flat_map(|a| (0..=n).map(move |b| (a, b))).filter(|&p| p != (0, 0)).collect()
+    };
+    pairs
+        .into_iter()
+        .map(|(a, b)| LodChoices {
+            default: a,
+            of: lookups.iter().filter(|l| dependent.contains(&l.1)).map(|&l| (l, b)).collect(),
+        })
+        .collect()
 }
 
 /// The coordinates of the lookups that read another lookup (dependent
@@ -235,9 +273,9 @@ fn dependent_lookups(m: &Module) -> std::collections::HashSet<crate::ir::Handle<
         .collect()
 }
 
-/// One render with every mipmapped lookup at its `choice`
-/// (`Evaluator::lod_choice`, then `lod_choice_dependent`); whether some
-/// lookup's choice mattered.
+/// One render with every mipmapped lookup at its choice in `choices`
+/// (`Evaluator::lod_choices`); where some lookup's choice mattered, the
+/// lookups minified.
 fn render_choice(
     module: &Module,
     program: &ast::Program,
@@ -245,8 +283,8 @@ fn render_choice(
     assets: &SceneAssets,
     (width, height): (u32, u32),
     options: Options,
-    (choice, dependent_choice): (usize, usize),
-) -> Result<(Picture, bool), Unsupported> {
+    choices: &LodChoices,
+) -> Result<(Picture, Option<Vec<program::LookupKey>>), Unsupported> {
     let world = geometry::World::new(scene, assets, f64::from(width) / f64::from(height));
     let coverage = geometry::Coverage::find(&world, width, height);
     let light_vectors = module.vectors.iter().filter(|v| {
@@ -269,10 +307,9 @@ fn render_choice(
         framebuffers: Vec::new(),
         texgen: HashMap::new(),
         latitude: std::cell::Cell::new(false),
-        lod_choice: std::cell::Cell::new(choice),
-        lod_choice_dependent: std::cell::Cell::new(dependent_choice),
-        dependent: dependent_lookups(module),
+        lod_choices: choices.clone(),
         lod_open: std::cell::Cell::new(false),
+        lod_seen: std::cell::RefCell::new(std::collections::BTreeSet::new()),
         clamp_texture_env: options.clamp_texture_env,
         target: 0,
     };
@@ -314,7 +351,8 @@ fn render_choice(
     let covered = ev.coverage.fragments.iter().map(Option::is_some).collect();
     let pixels = std::mem::take(&mut ev.framebuffers[fb].color);
     let (low, high) = (pixels.clone(), pixels.clone());
-    Ok((Picture { width, height, pixels, covered, latitude, low, high }, ev.lod_open.get()))
+    let open = ev.lod_open.get().then(|| ev.lod_seen.take().into_iter().collect());
+    Ok((Picture { width, height, pixels, covered, latitude, low, high }, open))
 }
 
 /// The samples of a statement's index (Pipeline Grammar, Section 3): the

@@ -71,19 +71,16 @@ pub struct Evaluator<'a> {
     /// specifications leave open (a cube-map filter at a face edge).
     pub latitude: std::cell::Cell<bool>,
     /// Which value each mipmapped lookup takes (GL §3.8.8's latitude in
-    /// λ): 0 the value at eq. 3.17's λ, k ≥ 1 the k-th of the lookup's
+    /// λ), by lookup ([`LookupKey`]; `LodChoices::default` for the rest):
+    /// 0 the value at eq. 3.17's λ, k ≥ 1 the k-th of the lookup's
     /// extremes over the λ an implementation may use (its own value
-    /// where it has fewer). A render per choice bounds the pixel.
-    pub lod_choice: std::cell::Cell<usize>,
-    /// The choice of the lookups whose coordinates read another lookup
-    /// (a dependent lookup, `T δ(u x + T′ δu′ x)`): an implementation
-    /// computes each lookup's λ on its own, so the outer lookup's choice
-    /// need not be the inner one's. `lod_choice` is the inner lookups'.
-    pub lod_choice_dependent: std::cell::Cell<usize>,
-    /// The coordinates (handles) of the dependent lookups.
-    pub dependent: std::collections::HashSet<Handle<Expr>>,
+    /// where it has fewer). An implementation computes each lookup's λ on
+    /// its own, so a render per combination of choices bounds the pixel.
+    pub lod_choices: LodChoices,
     /// Set when some lookup's value moves with λ within that latitude.
     pub lod_open: std::cell::Cell<bool>,
+    /// The lookups whose λ interval was computed (minified at some fragment).
+    pub lod_seen: std::cell::RefCell<std::collections::BTreeSet<LookupKey>>,
     /// `⊕` results clamped to [0, 1], as GL's texture environment clamps
     /// them ([`super::Options::clamp_texture_env`]).
     pub clamp_texture_env: bool,
@@ -94,6 +91,23 @@ pub struct Evaluator<'a> {
 }
 
 pub(super) type Memo = HashMap<Handle<Expr>, Option<V>>;
+
+/// A lookup, for its choice of λ: the texture and the coordinates' node.
+pub type LookupKey = (u32, Handle<Expr>);
+
+/// The value each mipmapped lookup takes ([`Evaluator::lod_choices`]).
+#[derive(Clone, Debug, Default)]
+pub struct LodChoices {
+    /// The choice of a lookup not in `of`.
+    pub default: usize,
+    pub of: HashMap<LookupKey, usize>,
+}
+
+impl LodChoices {
+    fn of(&self, key: LookupKey) -> usize {
+        self.of.get(&key).copied().unwrap_or(self.default)
+    }
+}
 
 impl<'a> Evaluator<'a> {
     pub fn new_store(&self, id: usize) -> Store {
@@ -363,23 +377,27 @@ impl<'a> Evaluator<'a> {
                 Ok(v)
             }
             Tex::Baked(value) => {
+                // The table's ideal, at the coordinates its declared wrap
+                // takes them to (GL §3.8.7: REPEAT keeps the fraction).
                 let [u, v] = uv(c, cty);
-                let wrap = |x: f64| x.clamp(0.0, 1.0);
+                let repeat = self.m.textures[texture as usize].sampling.wrap == crate::textures::Wrap::Repeat;
+                let wrap = |x: f64| if repeat { x - x.floor() } else { x.clamp(0.0, 1.0) };
                 Ok(self.operand(*value, At::Texel([wrap(u), wrap(v)]), 0, &mut Memo::new())?)
             }
-            Tex::Flat(image) => self.flat(image, coords, cty, c, at, lod_depth),
+            Tex::Flat(image) => self.flat(image, (texture, coords), cty, c, at, lod_depth),
             Tex::Paraboloid(map) => Ok(map.sample([c[0], c[1], c[2]])),
             Tex::Volume(volume) => Ok(volume.sample(c[0], c[1], c[2])),
             Tex::Fat(_) => Err(Unsupported::new("a fat texel read other than by its members")),
         }
     }
 
-    /// A 2-D (or 1-D) image sampled at coordinates `c` (of `coords`, of
-    /// type `cty`): minified at a fragment, at level 0 elsewhere.
+    /// A 2-D (or 1-D) image sampled at coordinates `c` (the value of
+    /// `lookup`'s coordinates, of type `cty`): minified at a fragment, at
+    /// level 0 elsewhere.
     fn flat(
         &self,
         image: &Image,
-        coords: Handle<Expr>,
+        lookup: LookupKey,
         cty: Ty,
         c: V,
         at: At,
@@ -388,7 +406,7 @@ impl<'a> Evaluator<'a> {
         let [u, v] = uv(c, cty);
         match at {
             At::Fragment(f) if lod_depth < 2 && image.levels.len() > 1 => {
-                self.minified(image, coords, cty, [u, v], &f, lod_depth)
+                self.minified(image, lookup, cty, [u, v], &f, lod_depth)
             }
             _ => Ok(image.sample(u, v, 0.0)),
         }
@@ -415,14 +433,14 @@ impl<'a> Evaluator<'a> {
             .get(usize::from(member))
             .ok_or_else(|| Unsupported::new("a fat member beyond the bundle written"))?;
         let c = self.operand(coords, at, lod_depth, memo)?;
-        self.flat(image, coords, self.m.info(coords).ty, c, at, lod_depth)
+        self.flat(image, (texture, coords), self.m.info(coords).ty, c, at, lod_depth)
     }
 
     /// A mipmapped lookup at fragment `f`: sampled at eq. 3.17's λ from
     /// the coordinates' forward differences over one pixel in x and in y
     /// on the same triangle (GL §3.8.8's derivatives, of any coordinate
     /// expression: dependent lookups too), the value
-    /// [`Evaluator::lod_choice`] picks.
+    /// [`Evaluator::lod_choices`] picks.
     ///
     /// What an implementation may use instead: derivatives taken per 2×2
     /// quad, the quad's corner's (coarse) or the pixel's own row and
@@ -433,12 +451,13 @@ impl<'a> Evaluator<'a> {
     fn minified(
         &self,
         image: &Image,
-        coords: Handle<Expr>,
+        lookup: LookupKey,
         cty: Ty,
         [u, v]: [f64; 2],
         f: &Fragment,
         lod_depth: u8,
     ) -> Result<V, Unsupported> {
+        let coords = lookup.1;
         // The coordinates at a pixel offset (dx, dy) from `f`.
         let at_offset = |dx: f64, dy: f64| -> Result<[f64; 2], Unsupported> {
             if dx == 0.0 && dy == 0.0 {
@@ -471,12 +490,11 @@ impl<'a> Evaluator<'a> {
             (lo, hi) = (lo.min(a), hi.max(b));
         }
         let extremes = image.lod_extremes(u, v, lo - LOG2_SLACK, hi + LOG2_SLACK);
-        let choice =
-            if self.dependent.contains(&coords) { &self.lod_choice_dependent } else { &self.lod_choice };
-        Ok(self.lod_choose(value, &extremes, choice.get()))
+        self.lod_seen.borrow_mut().insert(lookup);
+        Ok(self.lod_choose(value, &extremes, self.lod_choices.of(lookup)))
     }
 
-    /// The texel `choice` ([`Evaluator::lod_choice`]) asks for among a lookup's
+    /// The texel `choice` ([`Evaluator::lod_choices`]) asks for among a lookup's
     /// `extremes` (0: the nominal `value`); notes in
     /// [`Evaluator::lod_open`] that the choice matters, and marks the
     /// sample latitude where the extremes are more than the choices.
@@ -502,7 +520,7 @@ impl<'a> Evaluator<'a> {
 pub const LOG2_SLACK: f64 = 0.1;
 
 /// How many extremes of a lookup's λ interval a render can pick
-/// ([`Evaluator::lod_choice`] 1..=LOD_CHOICES): the two ends and two
+/// ([`Evaluator::lod_choices`] 1..=LOD_CHOICES): the two ends and two
 /// levels between. A wider interval leaves the sample open (latitude).
 pub const LOD_CHOICES: usize = 4;
 

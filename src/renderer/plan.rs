@@ -489,11 +489,15 @@ impl<'a> PlanRenderer<'a> {
 
     /// What a pass rendered into texture or temporary `name` leaves for
     /// later passes to look up (mipmapped where the texture is declared so;
-    /// a fat texel's layer `T#k` as its texture `T`).
+    /// six faces where it is declared `cube`; wrapped as declared; a fat
+    /// texel's layer `T#k` as its texture `T`).
     fn keep_rendered(&self, fb: &Framebuffer, name: &str) -> Rendered {
         let texture = name.split('#').next().unwrap_or(name);
-        let mipmap = self.decls.iter().any(|d| d.name == texture && d.mipmap);
-        Rendered::from_framebuffer(fb, mipmap)
+        let decl = self.decls.iter().find(|d| d.name == texture);
+        let mipmap = decl.is_some_and(|d| d.mipmap);
+        let cube = decl.is_some_and(|d| d.kind == crate::parser::ast::TextureKind::Cube);
+        let wrap = decl.map_or(crate::textures::Wrap::ClampToEdge, |d| d.wrap);
+        Rendered::from_framebuffer(fb, mipmap, cube, wrap)
     }
 
     /// The scene's objects bound for a frame of this aspect ratio, their

@@ -94,6 +94,15 @@ impl<'a> Frame<'a> {
                         ),
                     });
                 }
+                if t.cube && (t.width != t.height || t.layers != 6 || t.mip_levels != 1) {
+                    return Err(GpuError::InvalidInput {
+                        pass: pass.label.clone(),
+                        message: format!(
+                            "rendered cube map `{}` is {}×{} with {} layers and {} levels: square, 6 layers, 1 level",
+                            t.name, t.width, t.height, t.layers, t.mip_levels
+                        ),
+                    });
+                }
                 match rendered.get(&t.name) {
                     Some(known) if known != t => {
                         return Err(GpuError::InvalidInput {
@@ -229,7 +238,7 @@ impl<'a> Frame<'a> {
             .iter()
             .map(|x| &x.data)
             .chain(pass.loaded.iter().map(|l| &l.data))
-            .any(|d| matches!(d, TextureData::Rendered { name, .. } if *name == t.name))
+            .any(|d| matches!(d, TextureData::Rendered { name, .. } | TextureData::RenderedCube { name } if *name == t.name))
         {
             // It samples its own target: the copy it binds, taken now.
             encoder.copy_texture_to_texture(
@@ -249,6 +258,22 @@ impl<'a> Frame<'a> {
                 })
             })
             .collect()
+    }
+
+    /// After pass `pass_idx`, the last of the passes into a rendered
+    /// texture: a cube map's other faces, a mipmapped texture's chain.
+    fn after_pass(&self, device: &wgpu::Device, encoder: &mut wgpu::CommandEncoder, pass_idx: usize) {
+        let Some(PassTarget::Texture(t)) = self.passes.get(pass_idx).map(|p| &p.target) else { return };
+        let next = self.passes.get(pass_idx + 1).map(|p| &p.target);
+        if matches!(next, Some(PassTarget::Texture(n)) if n.name == t.name) {
+            return;
+        }
+        if t.cube {
+            copy_cube_faces(encoder, &self.textures[&t.name].0, t);
+        }
+        if let (Some(mips), true) = (&self.mips, t.mip_levels > 1) {
+            mips.generate(device, encoder, &self.textures[&t.name].0, t);
+        }
     }
 
     pub(super) fn submit(&self, gpu: &Gpu) {
@@ -319,14 +344,7 @@ impl<'a> Frame<'a> {
                 record_draw(&mut render_pass, pass, prep);
             }
             drop(render_pass);
-            // A mipmapped texture's chain, after the last of the passes into it.
-            if let Some(PassTarget::Texture(t)) = pass.map(|p| &p.target) {
-                let next = passes.get(pass_idx + 1).map(|p| &p.target);
-                let last = !matches!(next, Some(PassTarget::Texture(n)) if n.name == t.name);
-                if let (Some(mips), true) = (&self.mips, last && t.mip_levels > 1) {
-                    mips.generate(device, &mut encoder, &self.textures[&t.name].0, t);
-                }
-            }
+            self.after_pass(device, &mut encoder, pass_idx);
         }
 
         self.copy_to_readback(&mut encoder);
@@ -393,6 +411,24 @@ impl<'a> Frame<'a> {
         readback.unmap();
         RgbaImage::from_raw(target.width, target.height, pixels)
             .ok_or_else(|| GpuError::Readback("the image has the wrong size".to_string()))
+    }
+}
+
+/// A cube map rendered over its texels: layer 0, which its passes drew,
+/// copied into the other five faces (each face the rendered image at its
+/// own (s, t), as the CPU renderer and the reference read it).
+fn copy_cube_faces(encoder: &mut wgpu::CommandEncoder, texture: &wgpu::Texture, t: &RenderedTexture) {
+    for layer in 1..t.layers {
+        encoder.copy_texture_to_texture(
+            texture.as_image_copy(),
+            wgpu::TexelCopyTextureInfo {
+                texture,
+                mip_level: 0,
+                origin: wgpu::Origin3d { x: 0, y: 0, z: layer },
+                aspect: wgpu::TextureAspect::All,
+            },
+            wgpu::Extent3d { width: t.width, height: t.height, depth_or_array_layers: 1 },
+        );
     }
 }
 
@@ -484,6 +520,17 @@ fn prepare_passes(
                             dimension: Some(dimension),
                             base_array_layer: 0,
                             array_layer_count: if *array { None } else { Some(1) },
+                            ..Default::default()
+                        }))
+                    }
+                    TextureData::RenderedCube { name } => {
+                        let (t, scratch, _) = &textures[name];
+                        let t = if Some(name.as_str()) == own { scratch } else { t };
+                        Some(t.create_view(&wgpu::TextureViewDescriptor {
+                            dimension: Some(wgpu::TextureViewDimension::Cube),
+                            base_array_layer: 0,
+                            array_layer_count: Some(6),
+                            mip_level_count: Some(1),
                             ..Default::default()
                         }))
                     }

@@ -101,6 +101,10 @@ pub enum TextureData {
     /// layer as a `texture_2d`. A pass that samples its own target reads a
     /// copy taken just before it (Pipeline Grammar, eq. (16): `T δu ← p T δu`).
     Rendered { name: String, array: bool },
+    /// A cube map an earlier pass of the run rendered (a
+    /// [`RenderedTexture`] with `cube`: its six layers the faces +X, −X,
+    /// +Y, −Y, +Z, −Z), as a `texture_cube`.
+    RenderedCube { name: String },
     /// The depth buffer of a rendered texture (`None`: of the main target)
     /// as it is just before the pass, in `.x` of an `R32Float` texture —
     /// `z C′ …` read in a shader (Pipeline Grammar, Section 3.5, shadow mask).
@@ -148,6 +152,12 @@ pub struct RenderedTexture {
     /// whose levels 1.. are box filtered from level 0 after the passes
     /// into it (`mips::full_chain` for the whole chain).
     pub mip_levels: u32,
+    /// A cube map rendered over its texels (square, six layers, one
+    /// level): the passes into it draw layer 0, and after the last of them
+    /// layer 0 is copied into the other five — six faces, each the
+    /// rendered image at the face's (s, t) (GL 1.3 §3.8.6) — sampled as
+    /// [`TextureData::RenderedCube`].
+    pub cube: bool,
 }
 
 /// A texture unit of a pass: its image and how it is sampled.

@@ -28,6 +28,7 @@ pub(super) fn check_rendered(
 ) -> Result<(), String> {
     match data {
         TextureData::Rendered { name, .. }
+        | TextureData::RenderedCube { name }
         | TextureData::RenderedDepth { name: Some(name) }
         | TextureData::RenderedStencil { name: Some(name) }
             if !rendered.contains_key(name) =>
@@ -127,7 +128,13 @@ fn check_texture(
         TextureData::D2Array { width, height, layers, .. } => {
             (width as usize * height as usize * bpt * layers as usize, "2D array")
         }
+        TextureData::RenderedCube { ref name } if rendered.get(name).is_some_and(|t| !t.cube) => {
+            return Err(format!(
+                "texture {texture_idx}: `{name}` is sampled as a cube map but not rendered as one"
+            ));
+        }
         TextureData::Rendered { .. }
+        | TextureData::RenderedCube { .. }
         | TextureData::RenderedDepth { .. }
         | TextureData::RenderedStencil { .. } => {
             return check_rendered(&texture.data, rendered)
@@ -155,6 +162,7 @@ fn check_texture(
             None => return Err(format!("mipmapped texture {texture_idx} has no levels")),
         },
         TextureData::Rendered { .. }
+        | TextureData::RenderedCube { .. }
         | TextureData::RenderedDepth { .. }
         | TextureData::RenderedStencil { .. } => return Ok(()),
     };
@@ -371,6 +379,8 @@ fn sampled_texture(
         Some(view) => (
             if matches!(texture.data, TextureData::Rendered { array: true, .. }) {
                 wgpu::TextureViewDimension::D2Array
+            } else if matches!(texture.data, TextureData::RenderedCube { .. }) {
+                wgpu::TextureViewDimension::Cube
             } else {
                 wgpu::TextureViewDimension::D2
             },

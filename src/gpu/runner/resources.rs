@@ -156,6 +156,7 @@ pub(super) fn upload_texture(
             (*width, *height, 1, levels.as_slice(), wgpu::TextureViewDimension::D2)
         }
         TextureData::Rendered { .. }
+        | TextureData::RenderedCube { .. }
         | TextureData::RenderedDepth { .. }
         | TextureData::RenderedStencil { .. } => {
             unreachable!("bound by `prepare`")

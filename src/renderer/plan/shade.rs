@@ -364,6 +364,18 @@ impl<'a> FragmentProgram<'a> {
                 };
                 out.map(|x| x as f64)
             }
+            // A cube map a pass rendered: by direction, as a bound one.
+            Source::Rendered(rt) if rt.cube.is_some() => {
+                let d = [c[0] as f32, c[1] as f32, c[2] as f32];
+                let out = match &rt.cube {
+                    Some(t) if self.mode != Precision::Exact => {
+                        unit::sample_cube_with(t, d, filter, self.latitude.weights)
+                    }
+                    Some(t) => t.sample(d, filter, 0.0),
+                    None => [f32::NAN; 4],
+                };
+                out.map(|x| x as f64)
+            }
             Source::Rendered(rt) if coords_ty == Ty::Vec3 => {
                 let wrap = self.module.textures[texture as usize].sampling.wrap;
                 crate::textures::solid::sample(&rt.pixels, [c[0], c[1], c[2]], filter, wrap)
@@ -376,6 +388,13 @@ impl<'a> FragmentProgram<'a> {
                 self.sample_flat(&rt.texture, filter, at, fragment, varyings, false).map(|x| x as f64)
             }
             Source::Rendered(rt) => rt.sample(c, coords_ty, filter),
+            // A cube map's function at the face's (s, t) (GL 1.3 Table 3.19).
+            Source::Baked { program, .. }
+                if self.module.textures[texture as usize].kind == crate::parser::ast::TextureKind::Cube =>
+            {
+                let (_, s, t) = crate::textures::cube_face_uv([c[0] as f32, c[1] as f32, c[2] as f32]);
+                baked_lookup(program, Wrap::ClampToEdge, [s as f64, t as f64, 0.0, 0.0], Ty::Vec2)
+            }
             Source::Baked { program, wrap } => baked_lookup(program, *wrap, c, coords_ty),
             Source::Missing => ir::eval::NAN,
         }

@@ -8,7 +8,7 @@ use std::collections::{BTreeMap, HashMap};
 use crate::ir::{self, eval::Value, Expr, Module, Ty};
 use crate::pipeline::{PassInterface, TargetFormat, TargetImage};
 use crate::renderer::{ColorFormat, Framebuffer, RenderError};
-use crate::textures::{Filter, Level, TexelFormat, Texture2D, Wrap};
+use crate::textures::{Filter, Level, TexelFormat, Texture2D, TextureCube, Wrap};
 
 use crate::numerics::Precision;
 
@@ -85,6 +85,10 @@ pub(super) struct Rendered {
     pub(super) height: u32,
     pub(super) pixels: Vec<[f32; 4]>,
     pub(super) texture: Texture2D,
+    /// A texture declared `cube`: six faces, each the rendered image at
+    /// the face's (s, t), clamped to its edge, level 0 (GL 1.3 §3.8.6: a
+    /// cube map is six 2-D images; looked up by direction, Table 3.19).
+    pub(super) cube: Option<Box<TextureCube>>,
 }
 
 impl Rendered {
@@ -101,15 +105,19 @@ impl Rendered {
         }
     }
 
-    pub(super) fn from_framebuffer(fb: &Framebuffer, mipmap: bool) -> Rendered {
+    pub(super) fn from_framebuffer(fb: &Framebuffer, mipmap: bool, cube: bool, wrap: Wrap) -> Rendered {
         let pixels = fb.read_back_rgba_f32();
-        let t = Texture2D::new(
-            TexelFormat::F32,
-            Wrap::ClampToEdge,
-            Level::new(fb.width(), fb.height(), pixels.clone()),
-        );
+        let face = || {
+            Texture2D::new(
+                TexelFormat::F32,
+                Wrap::ClampToEdge,
+                Level::new(fb.width(), fb.height(), pixels.clone()),
+            )
+        };
+        let cube = cube.then(|| Box::new(TextureCube { faces: std::array::from_fn(|_| face()) }));
+        let t = Texture2D::new(TexelFormat::F32, wrap, Level::new(fb.width(), fb.height(), pixels.clone()));
         let texture = if mipmap { t.with_box_mipmaps() } else { t };
-        Rendered { width: fb.width(), height: fb.height(), pixels, texture }
+        Rendered { width: fb.width(), height: fb.height(), pixels, texture, cube }
     }
 }
 

@@ -9,8 +9,9 @@
 //!   GeForces). A power after the lookup magnifies that step: the fat
 //!   texture map's `(N·H)^16` was 13/255 off on 6% of its pixels. So the
 //!   shader loads the four texels and weighs them in f32, as
-//!   `Level::sample_bilinear` does (clamped to the edge, as the CPU
-//!   keeps every rendered texture).
+//!   `Level::sample_bilinear` does (clamped to the edge: a texture
+//!   declared `clamp`; one declared `repeat` is read through the unit's
+//!   sampler, which wraps it as the CPU does).
 //! - **A scene's dual-paraboloid map** (Heidrich & Seidel 1999, Section
 //!   4.1) bound to a program's texture and looked up by direction: the
 //!   two faces are the layers of a 2-D array (front, back), the direction
@@ -62,7 +63,10 @@ impl Gen<'_> {
             .iter()
             .any(|p| matches!(&p.target, RenderTarget::Texture { name } if *name == tex.name));
         let flat = matches!(tex.kind, TextureKind::Tex1d | TextureKind::Tex2d);
-        if self.precision == Precision::Fixed9 && rendered && flat && !tex.sampling.mipmap {
+        // Clamped to the edge, as this filter reads; a texture declared
+        // `repeat` wraps through the unit's sampler (as the CPU wraps it).
+        let clamped = tex.sampling.wrap == crate::textures::Wrap::ClampToEdge;
+        if self.precision == Precision::Fixed9 && rendered && flat && !tex.sampling.mipmap && clamped {
             UnitRead::Float(filter)
         } else {
             UnitRead::Sampler
