@@ -349,8 +349,9 @@ fn raster_tile_batched_body<const AVX2: bool>(
                     for (p, s) in p.iter_mut().zip(&span.p) {
                         compress::<AVX2>(s, take, p);
                     }
-                    // A row has room for a span past the batch's last fragment.
-                    let rows = batch.rows[len..].chunks_mut(ROW);
+                    // A row has room for a span past the batch's last
+                    // fragment (no rows at all without varyings).
+                    let rows = batch.rows.get_mut(len..).unwrap_or_default().chunks_mut(ROW);
                     for (((&a, &b), &cc), comp) in va.iter().zip(vb).zip(vc).zip(rows) {
                         if let Some(dst) = comp.first_chunk_mut::<SPAN>() {
                             for j in 0..SPAN {
