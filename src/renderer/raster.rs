@@ -153,20 +153,54 @@ pub(crate) fn quad_lod_lanes<const N: usize>(
     let (mut ox, mut oy, mut inv_w, mut u, mut v) = ([0.0f32; N], [0.0; N], [1.0; N], [0.0; N], [0.0; N]);
     // Each lane's gradients of 1/w, u and v: x and y.
     let (mut gq, mut gu, mut gv) = ([[0.0f32; N]; 2], [[0.0f32; N]; 2], [[0.0f32; N]; 2]);
-    for (lane, f) in fragments[..n].iter().enumerate() {
-        let g = f.gradients;
+    // A batch of one triangle's fragments (most, where triangles cover
+    // more than a batch's pixels in a tile): its gradients once, as splats.
+    let first = fragments.first().map(|f| f.gradients);
+    if let Some(g) = first.filter(|&g| fragments[..n].iter().all(|f| std::ptr::eq(f.gradients, g))) {
         let m = (g.len() / 2).saturating_sub(1);
         if 4 * k + 1 >= m {
-            one_lane[lane] = true;
-            continue;
+            one_lane[..n].fill(true);
+        } else {
+            for (lane, f) in fragments[..n].iter().enumerate() {
+                (ox[lane], oy[lane]) = (-((f.x & 1) as f32), -((f.y & 1) as f32));
+                inv_w[lane] = f.inv_w;
+            }
+            // The coordinates' rows copied where the varyings are stored by component.
+            for (lanes, c) in [(&mut u, 4 * k), (&mut v, 4 * k + 1)] {
+                match varyings.row(c, n) {
+                    Some(row) => lanes[..n].copy_from_slice(row),
+                    None => (0..n).for_each(|lane| lanes[lane] = varyings.get(lane, c)),
+                }
+            }
+            let [[gqx, gqy], [gux, guy], [gvx, gvy]] = [&mut gq, &mut gu, &mut gv];
+            let splats = [
+                (gqx, 2 * m),
+                (gqy, 2 * m + 1),
+                (gux, 8 * k),
+                (guy, 8 * k + 1),
+                (gvx, 8 * k + 2),
+                (gvy, 8 * k + 3),
+            ];
+            for (lanes, at) in splats {
+                lanes[..n].fill(g[at]);
+            }
         }
-        // Offsets of the quad's top-left pixel from this one.
-        (ox[lane], oy[lane]) = (-((f.x & 1) as f32), -((f.y & 1) as f32));
-        inv_w[lane] = f.inv_w;
-        (u[lane], v[lane]) = (varyings.get(lane, 4 * k), varyings.get(lane, 4 * k + 1));
-        (gq[0][lane], gq[1][lane]) = (g[2 * m], g[2 * m + 1]);
-        (gu[0][lane], gu[1][lane], gv[0][lane], gv[1][lane]) =
-            (g[8 * k], g[8 * k + 1], g[8 * k + 2], g[8 * k + 3]);
+    } else {
+        for (lane, f) in fragments[..n].iter().enumerate() {
+            let g = f.gradients;
+            let m = (g.len() / 2).saturating_sub(1);
+            if 4 * k + 1 >= m {
+                one_lane[lane] = true;
+                continue;
+            }
+            // Offsets of the quad's top-left pixel from this one.
+            (ox[lane], oy[lane]) = (-((f.x & 1) as f32), -((f.y & 1) as f32));
+            inv_w[lane] = f.inv_w;
+            (u[lane], v[lane]) = (varyings.get(lane, 4 * k), varyings.get(lane, 4 * k + 1));
+            (gq[0][lane], gq[1][lane]) = (g[2 * m], g[2 * m + 1]);
+            (gu[0][lane], gu[1][lane], gv[0][lane], gv[1][lane]) =
+                (g[8 * k], g[8 * k + 1], g[8 * k + 2], g[8 * k + 3]);
+        }
     }
     let (mut q, mut qr, mut qb) = ([0.0f32; N], [0.0f32; N], [0.0f32; N]);
     for l in 0..N {
@@ -718,6 +752,14 @@ mod tests {
             let (w, h) = if round % 3 == 0 { (256, 64) } else { (16, 16) };
             let mut lod = [0.0f32; 32];
             let left = quad_lod_lanes(&fragments, Vary::by_fragment(&varyings, per), k, (w, h), &mut lod);
+            // The same varyings stored by component (the scan loop's rows): the same lanes.
+            let rows: Vec<f32> = (0..per * n).map(|i| varyings[(i % n) * per + i / n]).collect();
+            let mut by_rows = [0.0f32; 32];
+            let left_rows =
+                quad_lod_lanes(&fragments, Vary::by_component(&rows, per, n), k, (w, h), &mut by_rows);
+            assert_eq!(left_rows, left, "round {round}");
+            let bits = |l: &[f32]| l.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert!(bits(&by_rows[..n]) == bits(&lod[..n]), "round {round}");
             for (lane, f) in fragments.iter().enumerate() {
                 let vary = &varyings[lane * per + 4 * k..];
                 let (du, dv) = (f.quad_derivatives(4 * k, vary[0]), f.quad_derivatives(4 * k + 1, vary[1]));

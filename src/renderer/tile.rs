@@ -293,8 +293,8 @@ unsafe fn raster_tile_batched_avx2(
     raster_tile_batched_body::<true>(tile, rect, bin, pass, setup)
 }
 
-/// The scan loop; `AVX2`: compiled with AVX2 (the spans' varyings
-/// compressed into the batch's rows by a permutation).
+/// The scan loop; `AVX2`: compiled with AVX2 (the lanes taken into the
+/// batch packed by a permutation, [`compress`]).
 // Indexed loops over several lane arrays at once are the form that vectorises.
 #[allow(clippy::needless_range_loop)]
 #[inline(always)]
@@ -321,6 +321,9 @@ fn raster_tile_batched_body<const AVX2: bool>(
     for &ti in bin {
         let tri: &Tri = &setup.tris[ti as usize];
         let (vary, gradients) = setup.inputs(tri);
+        // The three vertices' varyings.
+        let (va, rest) = vary.split_at(n);
+        let (vb, vc) = rest.split_at(n);
         for (y, xa, xb, idx0) in Spans::of(tri, rect) {
             let mut x = xa;
             while x <= xb {
@@ -338,34 +341,37 @@ fn raster_tile_batched_body<const AVX2: bool>(
                     let take = first_bits(pass_mask, BATCH - batch.fragments.len());
                     pass_mask &= !take;
                     let len = batch.fragments.len();
-                    // Each varying of the span's eight lanes (vector code,
-                    // `interpolate`'s formula), the lanes taken packed into its row.
-                    for c in 0..n {
-                        let (a, b, cc) = (vary[c], vary[n + c], vary[2 * n + c]);
-                        let mut v = [0.0f32; SPAN];
-                        for j in 0..SPAN {
-                            v[j] = span.p[0][j] * a + span.p[1][j] * b + span.p[2][j] * cc;
-                        }
-                        // A row has room for a span past the batch's last fragment.
-                        if let Some(dst) = batch.rows[c * ROW + len..].first_chunk_mut::<SPAN>() {
-                            compress::<AVX2>(&v, take, dst);
+                    // The taken lanes' weights packed to the front (a
+                    // permutation each), then each varying's row of the
+                    // batch from them (vector code, `interpolate`'s formula
+                    // lane by lane, so the same values).
+                    let mut p = [[0.0f32; SPAN]; 3];
+                    for (p, s) in p.iter_mut().zip(&span.p) {
+                        compress::<AVX2>(s, take, p);
+                    }
+                    // A row has room for a span past the batch's last
+                    // fragment (no rows at all without varyings).
+                    let rows = batch.rows.get_mut(len..).unwrap_or_default().chunks_mut(ROW);
+                    for (((&a, &b), &cc), comp) in va.iter().zip(vb).zip(vc).zip(rows) {
+                        if let Some(dst) = comp.first_chunk_mut::<SPAN>() {
+                            for j in 0..SPAN {
+                                dst[j] = p[0][j] * a + p[1][j] * b + p[2][j] * cc;
+                            }
                         }
                     }
-                    let mut m = take;
-                    while m != 0 {
-                        let j = m.trailing_zeros() as usize;
-                        m &= m - 1;
-                        batch.fragments.push(Fragment {
-                            x: (x + j as i32) as u32,
-                            y: y as u32,
-                            depth: span.z[j],
-                            front_facing: tri.front_facing,
-                            inv_w: span.q[j],
-                            gradients,
-                        });
-                        batch.pixels.push((at + j, span.z[j]));
-                        batch.pending[row] |= 1 << (bit + j);
-                    }
+                    let taken = &PACK[take as usize % (1 << SPAN)][..take.count_ones() as usize];
+                    let (z, q) = (&span.z, &span.q);
+                    batch.fragments.extend(taken.iter().map(|&j| Fragment {
+                        x: (x + j as i32) as u32,
+                        y: y as u32,
+                        depth: z[j as usize % SPAN],
+                        front_facing: tri.front_facing,
+                        inv_w: q[j as usize % SPAN],
+                        gradients,
+                    }));
+                    batch.pixels.extend(taken.iter().map(|&j| (at + j as usize, z[j as usize % SPAN])));
+                    // The lanes taken lie within the tile's row (bit + k ≤ TILE).
+                    batch.pending[row] |= u64::from(take) << bit;
                     if batch.fragments.len() == BATCH {
                         batch.flush(tile, pass, writer, &mut stats);
                     }

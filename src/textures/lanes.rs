@@ -236,7 +236,7 @@ const MAX_LEVELS: usize = 16;
 /// (the coordinates' scale) and as the largest texel index, and whether
 /// coordinates wrap with a mask (repeat, every level a power of two) or
 /// clamp to the edge.
-#[derive(Clone, Copy, PartialEq)]
+#[derive(Clone, Copy)]
 pub struct Levels {
     /// How many levels the chain has (the tables past it are unused).
     count: usize,
@@ -251,6 +251,19 @@ pub struct Levels {
     /// table lookup per lane, whose scalar stores the vector loads after it
     /// wait for.
     halving: Option<(u32, u32)>,
+}
+
+impl PartialEq for Levels {
+    /// Field by field, but a halving chain's tables are its level 0's
+    /// size and its count ([`Levels::of`] builds them so, the tables past
+    /// the count as `Levels::EMPTY`'s): two such chains compare by those
+    /// alone (the tables' compare was ~0.8 % of a frame's samples, once
+    /// per batch for a shared lookup, BENCHMARKS.md, exec10).
+    fn eq(&self, o: &Levels) -> bool {
+        (self.count, self.repeat, self.halving) == (o.count, o.repeat, o.halving)
+            && (self.halving.is_some()
+                || (self.w, self.h, self.w_last, self.h_last) == (o.w, o.h, o.w_last, o.h_last))
+    }
 }
 
 impl Levels {
@@ -577,11 +590,9 @@ fn fetch_one_level<const N: usize>(level: &Level, f: &Footprints<N>, n: usize, o
 /// `ay[l]` as [`bilinear4`] weights them, into `out` (the lanes past `n`
 /// get values no one reads). The indices are checked against `texels`
 /// once for the batch (their largest); then, on a CPU with AVX2, eight
-/// lanes at a time: each texel channel of eight lanes gathered into one
-/// vector (`vgatherdps`) and the three interpolations done on eight lanes
-/// at once — the same operations per lane in the same order, so the same
-/// values; about twice as fast as four-wide filtering lane by lane on the
-/// project's Xeon. Else lane by lane.
+/// lanes at a time, two lanes' texels a vector
+/// ([`bilinear_paired`]) — the same operations per lane in the same
+/// order, so the same values. Else lane by lane.
 // Indexed loops over several lane arrays at once are the form that vectorises.
 #[allow(clippy::needless_range_loop)]
 #[allow(clippy::type_complexity, reason = "one footprint's three lane arrays")]
@@ -612,10 +623,10 @@ fn bilinear_lanes<const N: usize>(
         return;
     }
     #[cfg(target_arch = "x86_64")]
-    if std::arch::is_x86_feature_detected!("avx2") && texels.len() <= i32::MAX as usize / 4 {
+    if std::arch::is_x86_feature_detected!("avx2") {
         // SAFETY: the CPU has AVX2; the lanes below `n` index within
         // `texels` (checked above) and the others are clamped into it.
-        unsafe { bilinear_gathered(texels, (at, ax, ay), n, out) };
+        unsafe { bilinear_paired(texels, (at, ax, ay), n, out) };
         return;
     }
     for lane in 0..n {
@@ -626,18 +637,24 @@ fn bilinear_lanes<const N: usize>(
     }
 }
 
-/// [`bilinear_lanes`] eight lanes at a time with AVX2 gathers (the lanes
-/// past a multiple of eight one by one). Each lane's value is
-/// [`bilinear4`]'s: `a + w·(b − a)` per channel, top, bottom, then between
-/// them, no fused operation.
+/// [`bilinear_lanes`] eight lanes at a time with AVX2 (the lanes past a
+/// multiple of eight one by one). Each lane's value is [`bilinear4`]'s:
+/// `a + w·(b − a)` per channel, top, bottom, then between them, no fused
+/// operation. Two lanes share a vector, each in one half with its four
+/// channels (lanes `l + j` and `l + j + 4`): each texel is one 16-byte
+/// load into its half, each weight a broadcast, and the four vectors of
+/// results are transposed into the eight lanes of each channel (two
+/// shuffles per vector). Gathering each channel of eight lanes
+/// (`vgatherdps`, 16 gathers per eight footprints) took 1.6× as long in a
+/// stand-alone loop on the project's Xeon (BENCHMARKS.md, exec10).
 ///
 /// # Safety
-/// The CPU has AVX2; `texels` is not empty and has at most `i32::MAX / 4`
-/// texels, and the indices of lanes `0..n` are below its length.
+/// The CPU has AVX2; `texels` is not empty and the indices of lanes `0..n`
+/// are below its length.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
 #[allow(clippy::type_complexity, reason = "one footprint's three lane arrays")]
-unsafe fn bilinear_gathered<const N: usize>(
+unsafe fn bilinear_paired<const N: usize>(
     texels: &[[f32; 4]],
     (at, ax, ay): (&[[u32; N]; 4], &[f32; N], &[f32; N]),
     n: usize,
@@ -646,29 +663,42 @@ unsafe fn bilinear_gathered<const N: usize>(
     use std::arch::x86_64::*;
     let base = texels.as_ptr() as *const f32;
     // Lanes past `n` may index anywhere: clamped to the last texel.
-    let last = _mm256_set1_epi32(texels.len() as i32 - 1);
+    let last = texels.len() as u32 - 1;
     let mut l = 0;
     while l + 8 <= N {
         let (sub, mul, add) = (_mm256_sub_ps, _mm256_mul_ps, _mm256_add_ps);
-        // SAFETY: `l + 8 <= N`: eight lanes of each array.
-        let wx = _mm256_loadu_ps(ax.as_ptr().add(l));
-        let wy = _mm256_loadu_ps(ay.as_ptr().add(l));
-        let mut idx = [_mm256_setzero_si256(); 4];
-        for (i, at) in idx.iter_mut().zip(at) {
-            let lanes = _mm256_loadu_si256(at.as_ptr().add(l) as *const __m256i);
-            // A float's index: four per texel.
-            *i = _mm256_slli_epi32::<2>(_mm256_min_epu32(lanes, last));
-        }
-        for (k, out) in out.iter_mut().enumerate() {
-            // SAFETY: every index is within `texels` (clamped), channel `k` < 4.
-            let b = base.add(k);
-            let t00 = _mm256_i32gather_ps::<4>(b, idx[0]);
-            let t10 = _mm256_i32gather_ps::<4>(b, idx[1]);
-            let t01 = _mm256_i32gather_ps::<4>(b, idx[2]);
-            let t11 = _mm256_i32gather_ps::<4>(b, idx[3]);
+        let mut r = [_mm256_setzero_ps(); 4];
+        for (j, r) in r.iter_mut().enumerate() {
+            let (a, b) = (l + j, l + j + 4);
+            // SAFETY: every index is within `texels` (clamped): four floats each.
+            let texel = |c: usize| {
+                let lo = base.add(4 * at[c][a].min(last) as usize);
+                let hi = base.add(4 * at[c][b].min(last) as usize);
+                _mm256_loadu2_m128(hi, lo)
+            };
+            let (t00, t10, t01, t11) = (texel(0), texel(1), texel(2), texel(3));
+            let both = |w: &[f32; N]| {
+                _mm256_blend_ps::<0xF0>(_mm256_broadcast_ss(&w[a]), _mm256_broadcast_ss(&w[b]))
+            };
+            let (wx, wy) = (both(ax), both(ay));
             let top = add(t00, mul(wx, sub(t10, t00)));
             let bottom = add(t01, mul(wx, sub(t11, t01)));
-            _mm256_storeu_ps(out.as_mut_ptr().add(l), add(top, mul(wy, sub(bottom, top))));
+            *r = add(top, mul(wy, sub(bottom, top)));
+        }
+        // r[j]: lane l + j's channels, then lane l + j + 4's; transposed
+        // within each half, channel k's vector is lanes l..l + 8.
+        let (lo, hi) = (_mm256_unpacklo_ps, _mm256_unpackhi_ps);
+        let (t0, t1, t2, t3) = (lo(r[0], r[1]), hi(r[0], r[1]), lo(r[2], r[3]), hi(r[2], r[3]));
+        let (pd, ps) = (_mm256_castps_pd, _mm256_castpd_ps);
+        let channels = [
+            ps(_mm256_unpacklo_pd(pd(t0), pd(t2))),
+            ps(_mm256_unpackhi_pd(pd(t0), pd(t2))),
+            ps(_mm256_unpacklo_pd(pd(t1), pd(t3))),
+            ps(_mm256_unpackhi_pd(pd(t1), pd(t3))),
+        ];
+        for (out, c) in out.iter_mut().zip(channels) {
+            // SAFETY: `l + 8 <= N`: eight lanes of each array.
+            _mm256_storeu_ps(out.as_mut_ptr().add(l), c);
         }
         l += 8;
     }

@@ -833,22 +833,28 @@ fn power_lanes(x: &Lanes, k: u32) -> Lanes {
     ir::power_by_squaring(*x, k, mul)
 }
 
-/// A comparison or a logical operator of the first components, as 0 or 1.
+/// A comparison or a logical operator of the first components, as 0 or 1:
+/// the operator matched once, then one loop over the lanes (vector code;
+/// matched per lane, the loop stayed scalar, ~2.5 % of a frame's samples
+/// for Kilgard's one `≥`, BENCHMARKS.md, exec10).
 #[inline(always)]
 fn compare_lanes(op: BinaryOp, x: &Operands, o: &mut Lanes) {
-    let (a, b) = (x.a(0), x.b(0));
-    for i in 0..x.nn {
-        let t = match op {
-            BinaryOp::Lt => a[i] < b[i],
-            BinaryOp::Le => a[i] <= b[i],
-            BinaryOp::Gt => a[i] > b[i],
-            BinaryOp::Ge => a[i] >= b[i],
-            BinaryOp::Eq => a[i] == b[i],
-            BinaryOp::Ne => a[i] != b[i],
-            BinaryOp::And => a[i] != 0.0 && b[i] != 0.0,
-            _ => a[i] != 0.0 || b[i] != 0.0,
-        };
-        o[i] = t as u8 as f32;
+    #[inline(always)]
+    fn each(a: &Lanes, b: &Lanes, o: &mut Lanes, nn: usize, test: impl Fn(f32, f32) -> bool) {
+        for i in 0..nn.min(BATCH) {
+            o[i] = test(a[i], b[i]) as u8 as f32;
+        }
+    }
+    let (a, b, nn) = (x.a(0), x.b(0), x.nn);
+    match op {
+        BinaryOp::Lt => each(a, b, o, nn, |a, b| a < b),
+        BinaryOp::Le => each(a, b, o, nn, |a, b| a <= b),
+        BinaryOp::Gt => each(a, b, o, nn, |a, b| a > b),
+        BinaryOp::Ge => each(a, b, o, nn, |a, b| a >= b),
+        BinaryOp::Eq => each(a, b, o, nn, |a, b| a == b),
+        BinaryOp::Ne => each(a, b, o, nn, |a, b| a != b),
+        BinaryOp::And => each(a, b, o, nn, |a, b| (a != 0.0) & (b != 0.0)),
+        _ => each(a, b, o, nn, |a, b| (a != 0.0) | (b != 0.0)),
     }
 }
 
