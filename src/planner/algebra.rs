@@ -40,7 +40,9 @@ use crate::parser::ast::CombineMode;
 use crate::span::Span;
 
 mod factored;
+mod lerps;
 use factored::Terms;
+pub use lerps::lerps_of_sums_split;
 pub use factored::{factor, factor_nth, lerps_recovered, product_by_groups, product_of_sums};
 
 /// At most this many terms in a multiplied-out form: beyond it the search
@@ -146,6 +148,14 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
         std::iter::once(h).chain(out.iter().map(|f| f.value)).map(|v| delta_sums_merged(m, v)).collect();
     for v in merged {
         push(&mut out, v, MERGED);
+    }
+    // Each form so far with its lerps of sums written as sums of lerps:
+    // a multiplied-out sum read back around its weights is one lerp of
+    // two sums, where the program may have been written as two lerps.
+    let split: Vec<Option<Handle<Expr>>> =
+        std::iter::once(h).chain(out.iter().map(|f| f.value)).map(|v| lerps_of_sums_split(m, v)).collect();
+    for v in split {
+        push(&mut out, v, "with its lerp of sums written as a sum of lerps");
     }
     out
 }
