@@ -1425,3 +1425,17 @@ fn a_lerp_of_sums_is_split_into_a_sum_of_lerps() {
         verdicts_agree(&c, Written::Multiplied, "geforce3");
     }
 }
+
+/// `C·mix((δ pair).r, T4 + T5, a)` was refused on geforce256 written and
+/// multiplied out ("needs 3 texture units"): as `mix((δ pair).r, T4, a) +
+/// T5·a`, two lerps of two lookups each, it plans through one temporary
+/// (halved, a 2× modulation). Multiplied out, the lerp is read back
+/// inside the product by `C` first (`C·(a·(T4 + T5) + (δ pair).r·(1 −
+/// a))`), then split the same way. The first counterexample of the finer
+/// verdict once the split above was in (the written form planned).
+#[test]
+fn a_lerp_of_a_sum_is_split_onto_two_texture_units() {
+    let c = lerp(Colour::Channel(0), add(Colour::Texture(4), Colour::Texture(5)), None);
+    both_plan(&c, Written::Multiplied, "geforce256", true);
+    verdicts_agree(&c, Written::Multiplied, "geforce256");
+}

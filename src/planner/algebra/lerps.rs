@@ -21,7 +21,8 @@ const MAX_OPERAND_TERMS: usize = 12;
 
 /// `h` with every `lerp` whose operands are sums (one at least) written as
 /// the sum of two lerps, each of a group of their terms
-/// ([`split_lerp`]). `None` when no lerp is one of sums.
+/// ([`split_lerp`]), also a lerp a sum inside `h` holds written out
+/// (`x·(1 − f) + y·f`). `None` when no lerp is one of sums.
 pub fn lerps_of_sums_split(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
     let mut done: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::default();
     for n in m.reachable(&[h]) {
@@ -30,6 +31,12 @@ pub fn lerps_of_sums_split(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Exp
         let rebuilt = if e == m.exprs[n] { n } else { node(m, e, span)? };
         let split = match m.exprs[rebuilt] {
             Expr::Math { fun: MathFunction::Mix, .. } => split_lerp(m, rebuilt, span),
+            // A sum under a product read back as lerps first: `C·(a·(T4 +
+            // T5) + p·(1 − a))` holds `lerp(p, T4 + T5, a)` only so (the
+            // forms read lerps back at a sum's top).
+            Expr::Binary { op: BinaryOp::Add, .. } => {
+                super::lerps_recovered(m, rebuilt).and_then(|r| lerps_of_sums_split(m, r))
+            }
             _ => None,
         };
         done.insert(n, split.unwrap_or(rebuilt));
