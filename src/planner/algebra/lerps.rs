@@ -11,7 +11,7 @@
 
 use rustc_hash::FxHashMap as HashMap;
 
-use super::{binary, node, sum_terms};
+use super::{binary, node, product_factors, sum_terms};
 use crate::ir::{BinaryOp, Expr, Handle, MathFunction, Module, Ty};
 use crate::span::Span;
 
@@ -34,14 +34,49 @@ pub fn lerps_of_sums_split(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Exp
             // A sum under a product read back as lerps first: `C·(a·(T4 +
             // T5) + p·(1 − a))` holds `lerp(p, T4 + T5, a)` only so (the
             // forms read lerps back at a sum's top).
+            // Only the lerps so recovered are split (not the sum walked
+            // again): a split leaves `x·(1 − f) + y·f` terms, which would
+            // be read back as the lerp just split.
             Expr::Binary { op: BinaryOp::Add, .. } => {
-                super::lerps_recovered(m, rebuilt).and_then(|r| lerps_of_sums_split(m, r))
+                super::lerps_recovered(m, rebuilt).and_then(|r| split_terms(m, r, span))
             }
             _ => None,
         };
         done.insert(n, split.unwrap_or(rebuilt));
     }
     done.get(&h).copied().filter(|c| *c != h && m.info(*c).ty == m.info(h).ty)
+}
+
+/// The sum `h` with each lerp of sums that is one of its terms' factors
+/// split ([`split_lerp`]); `None` when none is.
+fn split_terms(m: &mut Module, h: Handle<Expr>, span: Span) -> Option<Handle<Expr>> {
+    let mut found = false;
+    let mut sum: Option<Handle<Expr>> = None;
+    for t in sum_terms(m, h) {
+        let mut product: Option<Handle<Expr>> = None;
+        for f in product_factors(m, t) {
+            let f = match m.exprs[f] {
+                Expr::Math { fun: MathFunction::Mix, .. } => match split_lerp(m, f, span) {
+                    Some(split) => {
+                        found = true;
+                        split
+                    }
+                    None => f,
+                },
+                _ => f,
+            };
+            product = Some(match product {
+                None => f,
+                Some(p) => binary(m, BinaryOp::Mul, p, f, span)?,
+            });
+        }
+        let product = product?;
+        sum = Some(match sum {
+            None => product,
+            Some(s) => binary(m, BinaryOp::Add, s, product, span)?,
+        });
+    }
+    sum.filter(|s| found && m.info(*s).ty == m.info(h).ty)
 }
 
 /// What a grouping is judged by in one term (or the weight): the
