@@ -42,8 +42,8 @@ use crate::span::Span;
 mod factored;
 mod lerps;
 use factored::Terms;
-pub use lerps::lerps_of_sums_split;
 pub use factored::{factor, factor_nth, lerps_recovered, product_by_groups, product_of_sums};
+pub use lerps::lerps_of_sums_split;
 
 /// At most this many terms in a multiplied-out form: beyond it the search
 /// over their groupings is greedy, and the form is not worth its passes.

@@ -122,9 +122,43 @@ fn split_lerp(m: &mut Module, h: Handle<Expr>, span: Span) -> Option<Handle<Expr
     let terms: Vec<(bool, Handle<Expr>)> =
         xs.iter().map(|t| (false, *t)).chain(ys.iter().map(|t| (true, *t))).collect();
     let term_reads: Vec<Reads> = terms.iter().map(|(_, t)| reads(m, *t)).collect();
-    let weight = reads(m, f);
-    // Each grouping: bit i of `mask` puts term i in the second lerp; the
-    // first term stays in the first (the groupings mirrored are the same).
+    let mask = best_grouping(&terms, &term_reads, &reads(m, f))?;
+    let one = node(m, Expr::Constant(crate::ir::Constant::scalar(1.0)), span)?;
+    let keep = binary(m, BinaryOp::Sub, one, f, span)?;
+    let mut sum: Option<Handle<Expr>> = None;
+    for group in [false, true] {
+        let side = |second: bool| -> Vec<Handle<Expr>> {
+            terms
+                .iter()
+                .enumerate()
+                .filter(|(i, (y, _))| (mask >> i & 1 == 1) == group && *y == second)
+                .map(|(_, (_, t))| *t)
+                .collect()
+        };
+        let (gx, gy) = (added(m, &side(false), span)?, added(m, &side(true), span)?);
+        let lerp = match (gx, gy) {
+            (Some(a), Some(b)) => node(m, Expr::Math { fun: MathFunction::Mix, args: vec![a, b, f] }, span)?,
+            (Some(a), None) => binary(m, BinaryOp::Mul, a, keep, span)?,
+            (None, Some(b)) => binary(m, BinaryOp::Mul, b, f, span)?,
+            (None, None) => continue,
+        };
+        sum = Some(match sum {
+            None => lerp,
+            Some(s) => binary(m, BinaryOp::Add, s, lerp, span)?,
+        });
+    }
+    sum.filter(|s| m.info(*s).ty == m.info(h).ty)
+}
+
+/// The grouping [`split_lerp`] takes of `terms` (each marked `true` when
+/// it is the second operand's), as a mask: bit i puts term i in the
+/// second lerp; the first term stays in the first (the groupings
+/// mirrored are the same). `None` for fewer than two terms.
+fn best_grouping(terms: &[(bool, Handle<Expr>)], term_reads: &[Reads], weight: &Reads) -> Option<u32> {
+    let n = terms.len();
+    if n < 2 {
+        return None;
+    }
     let mut best: Option<((bool, usize, usize, f64), u32)> = None;
     for mask in 0..(1u32 << (n - 1)) {
         let mask = mask << 1;
@@ -167,32 +201,7 @@ fn split_lerp(m: &mut Module, h: Handle<Expr>, span: Span) -> Option<Handle<Expr
             best = Some((score, mask));
         }
     }
-    let (_, mask) = best?;
-    let one = node(m, Expr::Constant(crate::ir::Constant::scalar(1.0)), span)?;
-    let keep = binary(m, BinaryOp::Sub, one, f, span)?;
-    let mut sum: Option<Handle<Expr>> = None;
-    for group in [false, true] {
-        let side = |second: bool| -> Vec<Handle<Expr>> {
-            terms
-                .iter()
-                .enumerate()
-                .filter(|(i, (y, _))| (mask >> i & 1 == 1) == group && *y == second)
-                .map(|(_, (_, t))| *t)
-                .collect()
-        };
-        let (gx, gy) = (added(m, &side(false), span)?, added(m, &side(true), span)?);
-        let lerp = match (gx, gy) {
-            (Some(a), Some(b)) => node(m, Expr::Math { fun: MathFunction::Mix, args: vec![a, b, f] }, span)?,
-            (Some(a), None) => binary(m, BinaryOp::Mul, a, keep, span)?,
-            (None, Some(b)) => binary(m, BinaryOp::Mul, b, f, span)?,
-            (None, None) => continue,
-        };
-        sum = Some(match sum {
-            None => lerp,
-            Some(s) => binary(m, BinaryOp::Add, s, lerp, span)?,
-        });
-    }
-    sum.filter(|s| m.info(*s).ty == m.info(h).ty)
+    best.map(|(_, mask)| mask)
 }
 
 /// The sum of `terms` (`Some(None)` for none; `None` when ill-typed).
