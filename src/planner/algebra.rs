@@ -23,7 +23,12 @@
 //!   once (`a·b + a·c` = `a·(b + c)`): fewer operations and fetches where
 //!   the sum fits but its terms, written apart, do not;
 //! - each of these with **sums of interpolants merged** into one δ,
-//!   `δa + δb` = `δ(a + b)`, where the merged one stays in [0, 1].
+//!   `δa + δb` = `δ(a + b)`, where the merged one stays in [0, 1];
+//! - each with its **lerps of sums split** into sums of two lerps,
+//!   `lerp(x₁ + x₂, y₁ + y₂, f)` = `lerp(x₁, y₁, f) + lerp(x₂, y₂, f)`
+//!   ([`lerps_of_sums_split`]): a lerp read back from a multiplied-out sum
+//!   pairs all its terms, where the program may have been two lerps that
+//!   blending adds one pass at a time.
 //!
 //! Multiplied out, like terms are collected (`ab + ba` = `2·ab`: the
 //! square of a sum has one cross term) and a term's constants go into its

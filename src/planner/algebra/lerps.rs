@@ -21,7 +21,7 @@ const MAX_OPERAND_TERMS: usize = 12;
 
 /// `h` with every `lerp` whose operands are sums (one at least) written as
 /// the sum of two lerps, each of a group of their terms
-/// ([`split_lerp`]), also a lerp a sum inside `h` holds written out
+/// (`split_lerp`), also a lerp a sum inside `h` holds written out
 /// (`x·(1 − f) + y·f`). `None` when no lerp is one of sums.
 pub fn lerps_of_sums_split(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
     let mut done: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::default();
