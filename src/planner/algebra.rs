@@ -23,7 +23,12 @@
 //!   once (`a·b + a·c` = `a·(b + c)`): fewer operations and fetches where
 //!   the sum fits but its terms, written apart, do not;
 //! - each of these with **sums of interpolants merged** into one δ,
-//!   `δa + δb` = `δ(a + b)`, where the merged one stays in [0, 1].
+//!   `δa + δb` = `δ(a + b)`, where the merged one stays in [0, 1];
+//! - each with its **lerps of sums split** into sums of two lerps,
+//!   `lerp(x₁ + x₂, y₁ + y₂, f)` = `lerp(x₁, y₁, f) + lerp(x₂, y₂, f)`
+//!   ([`lerps_of_sums_split`]): a lerp read back from a multiplied-out sum
+//!   pairs all its terms, where the program may have been two lerps that
+//!   blending adds one pass at a time.
 //!
 //! Multiplied out, like terms are collected (`ab + ba` = `2·ab`: the
 //! square of a sum has one cross term) and a term's constants go into its
@@ -40,8 +45,10 @@ use crate::parser::ast::CombineMode;
 use crate::span::Span;
 
 mod factored;
+mod lerps;
 use factored::Terms;
 pub use factored::{factor, factor_nth, lerps_recovered, product_by_groups, product_of_sums};
+pub use lerps::lerps_of_sums_split;
 
 /// At most this many terms in a multiplied-out form: beyond it the search
 /// over their groupings is greedy, and the form is not worth its passes.
@@ -146,6 +153,14 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
         std::iter::once(h).chain(out.iter().map(|f| f.value)).map(|v| delta_sums_merged(m, v)).collect();
     for v in merged {
         push(&mut out, v, MERGED);
+    }
+    // Each form so far with its lerps of sums written as sums of lerps:
+    // a multiplied-out sum read back around its weights is one lerp of
+    // two sums, where the program may have been written as two lerps.
+    let split: Vec<Option<Handle<Expr>>> =
+        std::iter::once(h).chain(out.iter().map(|f| f.value)).map(|v| lerps_of_sums_split(m, v)).collect();
+    for v in split {
+        push(&mut out, v, "with its lerp of sums written as a sum of lerps");
     }
     out
 }

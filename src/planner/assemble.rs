@@ -332,9 +332,6 @@ pub(super) fn pass_reason(
     profile: &Profile,
 ) -> String {
     let n = group.n;
-    if n == 1 {
-        return group.reason.to_string();
-    }
     let label = match group.stmts {
         [s] => format!("statement {}", names[*s]),
         many => format!(
@@ -342,6 +339,15 @@ pub(super) fn pass_reason(
             many.iter().map(|s| names[*s].clone()).collect::<Vec<_>>().join(", ")
         ),
     };
+    if n == 1 {
+        // A split that came to one pass (a constant scale applied by the
+        // pass's last stage) says why, not "as written"; a group
+        // rewritten says so already (its piece repeats it).
+        if piece.why.is_empty() || !group.reason.starts_with(&format!("{label} as written")) {
+            return group.reason.to_string();
+        }
+        return format!("{label} in one pass on {}: {}", profile.name, piece.why);
+    }
     let why = if piece.why.is_empty() { "the part rendered first" } else { piece.why.as_str() };
     format!("{label} split into {n} passes on {} (pass {} of {n}): {why}", profile.name, pi + 1)
 }

@@ -281,7 +281,9 @@ fn relerp(m: &mut Module, terms: &[Vec<Handle<Expr>>], span: Span) -> Option<Han
     let x = rebuild_sum(m, &[x], span)?;
     let y = rebuild_sum(m, &[y], span)?;
     let mut mix = node(m, Expr::Math { fun: MathFunction::Mix, args: vec![x, y, f] }, span)?;
-    if m.info(mix).ty != m.info(x).ty {
+    // Of the type of the wider operand: `lerp(p.r, T4, a)`, a scalar and
+    // a colour, is a colour, as `p.r·(1 − a) + T4·a` is.
+    if m.info(mix).ty != m.info(x).ty && m.info(mix).ty != m.info(y).ty {
         return None;
     }
     for c in shared.iter().rev() {
