@@ -154,16 +154,16 @@ pub enum MeshDesc {
         #[serde(default = "default_sides")]
         sides: u32,
     },
-    /// One quad by default.
+    /// 8 × 8 quads by default (per-vertex terms need vertices).
     Plane {
         size: f32,
-        #[serde(default = "default_subdivisions")]
+        #[serde(default = "default_plane_subdivisions")]
         subdivisions: u32,
     },
-    /// One quad per face by default.
+    /// 4 × 4 quads a face by default.
     Cube {
         size: f32,
-        #[serde(default = "default_subdivisions")]
+        #[serde(default = "default_cube_subdivisions")]
         subdivisions: u32,
     },
     Obj(String),
@@ -185,8 +185,12 @@ fn default_sides() -> u32 {
     24
 }
 
-fn default_subdivisions() -> u32 {
-    1
+fn default_plane_subdivisions() -> u32 {
+    8
+}
+
+fn default_cube_subdivisions() -> u32 {
+    4
 }
 
 /// Material parameters; `textures` binds texture names to roles (e.g.
