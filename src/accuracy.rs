@@ -522,13 +522,14 @@ pub fn warnings(planned: &Planned, module: &Module, source: &str, vetting: &Vett
         .map(|a| {
             let figure = match (a.rule == PER_VERTEX, &plan.measured, a.output_bound.or(a.error_bound)) {
                 (true, Some(m), _) => format!(
-                    "measured {:.1}/255 (largest channel difference; RMSE {:.4}) from the program's meaning, both rendered in f32 at {}×{} on {}, within {}",
+                    "measured {:.1}/255 (largest channel difference; RMSE {:.4}) from the program's meaning, both rendered in f32 at {}×{} on {}, within {}{}",
                     m.max_abs * 255.0,
                     m.rmse,
                     m.width,
                     m.height,
                     m.scene,
-                    budget_text(vetting.budget)
+                    budget_text(vetting.budget),
+                    one_light_caveat(module, m)
                 ),
                 (_, _, Some(bound)) => format!(
                     "at most {bound:.4} ({:.1}/255) at the output: the rule's stated bound against exact arithmetic",
@@ -551,6 +552,18 @@ pub fn warnings(planned: &Planned, module: &Module, source: &str, vetting: &Vett
                 ))
         })
         .collect()
+}
+
+/// Measured on the built-in torus, which has one light, a program that
+/// names a light past light 0 was measured without those lights' terms
+/// (they are zero there): said, with where to measure it instead.
+fn one_light_caveat(module: &Module, m: &MeasuredError) -> &'static str {
+    let names_more = module.vectors.iter().any(|v| v.index.is_some_and(|i| i > 0));
+    if names_more && m.scene == DEFAULT_SCENE_NAME {
+        " (the torus has one light: the terms of the lights past light 0 the program names are zero there; measure on your scene with `compile --scene FILE` or `render FILE`)"
+    } else {
+        ""
+    }
 }
 
 fn budget_text(budget: f64) -> String {

@@ -128,3 +128,23 @@ fn a_sum_of_spot_lights_is_refused_with_a_help_that_splitting_it_fulfils() {
     assert_eq!(accepted.code, 0, "{}", accepted.stderr);
     assert!(accepted.stderr.contains("within the per-vertex budget"), "{}", accepted.stderr);
 }
+
+/// `check` without a scene measures a per-vertex fall-back on the built-in
+/// torus, which has one light: a program naming light 1 (`spot_tex`) was
+/// measured 10/255 there, its light 1 terms zero, and refused at 88.7/255
+/// on its own scene. The warning now says so and where to measure it.
+#[test]
+fn a_fall_back_measured_on_the_one_light_torus_says_other_lights_were_not_there() {
+    let torus =
+        shadec::scene::Scene::parse(shadec::accuracy::DEFAULT_SCENE, std::path::Path::new("t.ron")).unwrap();
+    assert_eq!(torus.lights.len(), 1, "the caveat's text says the torus has one light");
+    let checked = shadec::verdict::check(&source("spot_tex.shd"), Some("geforce3")).unwrap();
+    let per_vertex: Vec<_> =
+        checked.diagnostics.iter().filter(|d| d.message.contains("(`per_vertex`)")).collect();
+    assert_eq!(per_vertex.len(), 1, "{:?}", checked.diagnostics);
+    let help = per_vertex[0].help.as_deref().unwrap_or_default();
+    assert!(help.contains("the torus has one light") && help.contains("--scene"), "{help}");
+    // A program of light 0 only gets no such caveat.
+    let checked = shadec::verdict::check(&source("outline_nv.shd"), Some("geforce3")).unwrap();
+    assert!(checked.diagnostics.iter().all(|d| !d.help.as_deref().unwrap_or_default().contains("one light")));
+}
