@@ -95,7 +95,7 @@ fn the_per_vertex_refusal_says_why_per_fragment_failed_and_its_help_is_true() {
 /// 88.7/255 off on the held-out scene, and `render` refuses it, saying why
 /// per fragment fails and to split the sum inside δ. Split so (one
 /// statement per light, added), each term falls back per vertex within
-/// its budget and renders.
+/// its budget and renders. `check --scene` gives the same two verdicts.
 #[test]
 fn a_sum_of_spot_lights_is_refused_with_a_help_that_splitting_it_fulfils() {
     let dir = tempfile::tempdir().unwrap();
@@ -110,10 +110,19 @@ fn a_sum_of_spot_lights_is_refused_with_a_help_that_splitting_it_fulfils() {
             ["render", "s.ron", "--shader", shd, "--target", "geforce3", "--size", "64x64", "-o", "x.png"];
         crate::common::shadec_in(dir.path(), &args)
     };
-    let refused = render("whole.shd");
-    assert_eq!(refused.code, 1, "{}", refused.stderr);
-    assert!(refused.stderr.contains("error[per-vertex-over-budget]"), "{}", refused.stderr);
-    assert!(refused.stderr.contains("split the sum inside δ"), "{}", refused.stderr);
+    // `check --scene` reaches `render`'s verdict (without the scene it
+    // measures on the one-light torus and accepts).
+    let check = |shd: &str| {
+        let args = ["check", "--scene", "s.ron", "--target", "geforce3", shd];
+        crate::common::shadec_in(dir.path(), &args)
+    };
+    for refused in [render("whole.shd"), check("whole.shd")] {
+        assert_eq!(refused.code, 1, "{}", refused.stderr);
+        assert!(refused.stderr.contains("error[per-vertex-over-budget]"), "{}", refused.stderr);
+        assert!(refused.stderr.contains("split the sum inside δ"), "{}", refused.stderr);
+    }
+    let unscened = crate::common::shadec_in(dir.path(), &["check", "--target", "geforce3", "whole.shd"]);
+    assert_eq!(unscened.code, 0, "{}", unscened.stderr);
     let split = whole
         .replace(
             "shader two : s → c = I0 * max(0, N·L0) + I1 * max(0, N·L1);",
@@ -124,9 +133,10 @@ fn a_sum_of_spot_lights_is_refused_with_a_help_that_splitting_it_fulfils() {
             "C δπx ← Base δu x * t0 δ s x;\nC δπx ← (C δπx) ⊕[add] (Base δu x * t1 δ s x);",
         );
     std::fs::write(dir.path().join("split.shd"), split).unwrap();
-    let accepted = render("split.shd");
-    assert_eq!(accepted.code, 0, "{}", accepted.stderr);
-    assert!(accepted.stderr.contains("within the per-vertex budget"), "{}", accepted.stderr);
+    for accepted in [render("split.shd"), check("split.shd")] {
+        assert_eq!(accepted.code, 0, "{}", accepted.stderr);
+        assert!(accepted.stderr.contains("within the per-vertex budget"), "{}", accepted.stderr);
+    }
 }
 
 /// `check` without a scene measures a per-vertex fall-back on the built-in

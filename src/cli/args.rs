@@ -117,6 +117,12 @@ pub struct CheckArgs {
     /// `target X;` line is used (docs/language.md, "Which target").
     #[arg(long, value_name = "PROFILE")]
     pub target: Option<String>,
+    /// Judge each program on this scene, as `render` and `compile --scene`
+    /// do: one pass per scene light, the scene's uniforms folded, every
+    /// approximation measured there (without it, on the built-in torus);
+    /// image files looked for beside the program, then beside the scene.
+    #[arg(long, value_name = "SCENE.ron")]
+    pub scene: Option<PathBuf>,
     #[command(flatten)]
     pub quality: Quality,
 }

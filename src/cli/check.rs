@@ -49,6 +49,10 @@ pub fn run(args: &CheckArgs) -> ExitCode {
     // Standard output's part of the report: printed as it comes, or with
     // -o gathered and written at the end.
     let mut out = Out { gathered: args.output.is_some().then(String::new) };
+    let on = match load_scene(args.scene.as_deref()) {
+        Ok(on) => on,
+        Err(code) => return code,
+    };
     for path in &files {
         let text = match shadec::io::read_text(path) {
             Ok(t) => t,
@@ -57,7 +61,15 @@ pub fn run(args: &CheckArgs) -> ExitCode {
                 continue;
             }
         };
-        let shadec::driver::Front { program, mut diagnostics, .. } = match check_one(path, &text, args) {
+        // The scene, its program's images looked for beside this program first.
+        let dir = path.parent().unwrap_or(Path::new(""));
+        let scene = on
+            .as_ref()
+            .map(|(s, _)| shadec::scene::Scene { program_dir: Some(dir.to_path_buf()), ..s.clone() });
+        let for_scene =
+            scene.as_ref().zip(on.as_ref()).map(|(s, (_, a))| shadec::driver::ForScene::specialized(s, a));
+        let front = check_one(path, &text, args, for_scene);
+        let shadec::driver::Front { program, mut diagnostics, .. } = match front {
             Ok(r) => r,
             Err(e) => {
                 eprintln!("error: {e}");
@@ -65,9 +77,8 @@ pub fn run(args: &CheckArgs) -> ExitCode {
             }
         };
         // Cube maps from images that cannot be made, read where `render`
-        // reads them without a scene: beside the program.
-        let dir = path.parent().unwrap_or(Path::new(""));
-        diagnostics.extend(shadec::driver::cube_image_errors(&program, dir, None));
+        // reads them: beside the program (then beside the scene).
+        diagnostics.extend(shadec::driver::cube_image_errors(&program, dir, scene.as_ref()));
         diagnostics.sort_by_key(|d| (d.primary.span.start, d.severity));
         let file = SourceFile::new(path.display().to_string(), text);
         let n_errors = diagnostics.iter().filter(|d| d.severity == Severity::Error).count();
@@ -141,16 +152,35 @@ fn print_summary(args: &CheckArgs, report: &mut Report, io_errors: &[String], ou
     }
 }
 
+/// `--scene`: the scene and its meshes, loaded once for every file; a
+/// scene that does not load or build is reported with `render`'s exit
+/// code (2 for a missing file, else 1).
+fn load_scene(
+    path: Option<&Path>,
+) -> Result<Option<(shadec::scene::Scene, shadec::scene::SceneAssets)>, ExitCode> {
+    let Some(path) = path else { return Ok(None) };
+    let fail = |e: shadec::scene::SceneError| {
+        eprintln!("error: {e}");
+        let missing = matches!(e, shadec::scene::SceneError::Io(_));
+        ExitCode::from(if missing { EXIT_USAGE_OR_IO } else { EXIT_SOURCE_ERRORS })
+    };
+    let scene = shadec::scene::Scene::load(path).map_err(fail)?;
+    let assets = scene.build().map_err(fail)?;
+    Ok(Some((scene, assets)))
+}
+
 /// One file's diagnostics: the driver's `check`, with the flags `compile`
-/// and `render` take and image files looked for next to the program.
+/// and `render` take, on the scene when one is given, and image files
+/// looked for next to the program (then the scene).
 fn check_one(
     path: &Path,
     text: &str,
     args: &CheckArgs,
+    scene: Option<shadec::driver::ForScene>,
 ) -> Result<shadec::driver::Front, shadec::profile::ProfileError> {
     let dir = path.parent().unwrap_or(Path::new(""));
     let judging = shadec::verdict::Judging {
-        plan: shadec::driver::PlanOptions { lowering: args.quality.lowering(), ..Default::default() },
+        plan: shadec::driver::PlanOptions { scene, lowering: args.quality.lowering(), ..Default::default() },
         images: Some(dir),
         stand_ins: args.quality.stand_ins,
         rendered_on: None,
