@@ -560,7 +560,7 @@ pub fn warnings(planned: &Planned, module: &Module, source: &str, vetting: &Vett
 fn one_light_caveat(module: &Module, m: &MeasuredError) -> &'static str {
     let names_more = module.vectors.iter().any(|v| v.index.is_some_and(|i| i > 0));
     if names_more && m.scene == DEFAULT_SCENE_NAME {
-        " (the torus has one light: the terms of the lights past light 0 the program names are zero there; measure on your scene with `compile --scene FILE` or `render FILE`)"
+        " (the torus has one light: the terms of the lights past light 0 the program names are zero there; measure on your scene with `check --scene FILE`, `compile --scene FILE` or `render FILE`)"
     } else {
         ""
     }
