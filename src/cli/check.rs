@@ -159,13 +159,8 @@ fn load_scene(
     path: Option<&Path>,
 ) -> Result<Option<(shadec::scene::Scene, shadec::scene::SceneAssets)>, ExitCode> {
     let Some(path) = path else { return Ok(None) };
-    let fail = |e: shadec::scene::SceneError| {
-        eprintln!("error: {e}");
-        let missing = matches!(e, shadec::scene::SceneError::Io(_));
-        ExitCode::from(if missing { EXIT_USAGE_OR_IO } else { EXIT_SOURCE_ERRORS })
-    };
-    let scene = shadec::scene::Scene::load(path).map_err(fail)?;
-    let assets = scene.build().map_err(fail)?;
+    let scene = shadec::scene::Scene::load(path).map_err(super::scene_failed)?;
+    let assets = scene.build().map_err(super::scene_failed)?;
     Ok(Some((scene, assets)))
 }
 

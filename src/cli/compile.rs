@@ -137,11 +137,7 @@ fn combiners_text(p: &shadec::pipeline::Planned, source: &str) -> Result<String,
 }
 
 fn load_scene(path: &std::path::Path) -> Result<shadec::scene::Scene, ExitCode> {
-    shadec::scene::Scene::load(path).map_err(|e| {
-        eprintln!("error: {e}");
-        let missing = matches!(e, shadec::scene::SceneError::Io(_));
-        ExitCode::from(if missing { EXIT_USAGE_OR_IO } else { EXIT_SOURCE_ERRORS })
-    })
+    shadec::scene::Scene::load(path).map_err(super::scene_failed)
 }
 
 enum PlanFailure {

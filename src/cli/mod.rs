@@ -25,6 +25,14 @@ pub const EXIT_SOURCE_ERRORS: u8 = 1;
 pub const EXIT_USAGE_OR_IO: u8 = 2;
 
 /// Parses the arguments and runs the subcommand.
+/// A scene that did not load or build, reported: exit 2 when its file
+/// cannot be read, else 1 (what it says is wrong with the scene).
+fn scene_failed(e: shadec::scene::SceneError) -> ExitCode {
+    eprintln!("error: {e}");
+    let missing = matches!(e, shadec::scene::SceneError::Io(_));
+    ExitCode::from(if missing { EXIT_USAGE_OR_IO } else { EXIT_SOURCE_ERRORS })
+}
+
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     // Before any thread starts: a runtime directory for Mesa's drivers
