@@ -36,6 +36,15 @@ pub struct Usage {
     pub framebuffer_reads: Vec<Handle<Expr>>,
 }
 
+/// Whether node `h` is a lookup a pass makes through a texture unit: one
+/// per sample, or one at coordinates the same for the whole draw
+/// (`T vec2(0.3, 0.6)`: a texel read as a colour, a constant texture
+/// coordinate on every vertex in GL), which is no less a texture read.
+/// Lookups per vertex are the vertex stage's.
+pub fn takes_unit(module: &Module, h: Handle<Expr>) -> bool {
+    matches!(module.exprs[h], Expr::Lookup { .. }) && module.info(h).freq != Frequency::Vertex
+}
+
 impl Usage {
     /// Texture units the statement needs: one per entry of `lookups`.
     pub fn texture_units(&self) -> usize {
@@ -50,11 +59,7 @@ impl Usage {
     /// `Usage::of_value(module, value).texture_units()`, without the rest
     /// of the usage (the splitter asks it of every candidate piece).
     pub fn texture_units_of(module: &Module, value: Handle<Expr>) -> usize {
-        module
-            .reachable(&[value])
-            .into_iter()
-            .filter(|&h| matches!(module.exprs[h], Expr::Lookup { .. }) && module.info(h).freq.is_sample())
-            .count()
+        module.reachable(&[value]).into_iter().filter(|&h| takes_unit(module, h)).count()
     }
 
     /// The resources a pass needs to compute `value` per sample.
@@ -69,7 +74,7 @@ impl Usage {
         let mut u = Usage::default();
         for &h in nodes {
             match &module.exprs[h] {
-                Expr::Lookup { .. } if module.info(h).freq.is_sample() => u.lookups.push(h),
+                Expr::Lookup { .. } if takes_unit(module, h) => u.lookups.push(h),
                 Expr::FramebufferRead { .. } => u.framebuffer_reads.push(h),
                 _ => {}
             }
@@ -87,7 +92,7 @@ impl Usage {
         let at = |o: Handle<Expr>| nodes.binary_search(&o).expect("an operand of a reached node is reached");
         let mut on_lookup: Vec<bool> = Vec::with_capacity(nodes.len());
         for &h in nodes {
-            let mut any = matches!(module.exprs[h], Expr::Lookup { .. }) && module.info(h).freq.is_sample();
+            let mut any = takes_unit(module, h);
             module.exprs[h].visit_operands(|o| any |= on_lookup[at(o)]);
             on_lookup.push(any);
         }
@@ -97,7 +102,7 @@ impl Usage {
             let sample = info.freq.is_sample();
             match &module.exprs[h] {
                 Expr::Lookup { texture, coords } => {
-                    if !sample {
+                    if !takes_unit(module, h) {
                         if info.freq == Frequency::Vertex {
                             u.vertex_lookups.push(h);
                         }

@@ -381,7 +381,13 @@ fn coordinates_help(kind: TextureKind, want: Ty, name: &str, colour: bool) -> St
         TextureKind::Tex1d => format!("a scalar, such as the result of a scalar shader `shader d : s → scalar = …`: `{name} δ d s x`"),
     };
     let colour = if colour {
-        format!("; a colour is not a coordinate (build one from its channels: `{name} vec2(c.r, c.g)`)")
+        let built = match kind {
+            TextureKind::Tex1d => "c.r",
+            TextureKind::Tex2d => "vec2(c.r, c.g)",
+            // A colour-grading table is a volume indexed by a colour.
+            TextureKind::Tex3d | TextureKind::Cube => "vec3(c)",
+        };
+        format!("; a colour is not a coordinate (build one from its channels: `{name} {built}`)")
     } else {
         String::new()
     };

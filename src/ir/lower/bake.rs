@@ -67,3 +67,37 @@ pub(super) fn with_bakes(program: &ast::Program) -> Option<ast::Program> {
     p.items.extend(added);
     Some(p)
 }
+
+impl Lowerer<'_> {
+    /// The texel coordinate `s.xyz` a texture-shading statement's shader
+    /// reads (`T δu ← f s δu`, Pipeline Grammar, eq. (13)): the texel's
+    /// centre in [0, 1]ⁿ of the texture it renders. A 2-D (or 1-D) table
+    /// is rendered over its own texels, so that is `δu` itself. A 3-D
+    /// texture is rendered as [`crate::textures::solid`]'s tiled grid
+    /// (`TILES`² slices of `SIDE`², slice `z` at tile column `z mod TILES`,
+    /// row `z div TILES`): its texel `(x, y, z)` is read back from the grid
+    /// coordinate `g` as `xy = fract(TILES·g)` and
+    /// `z = (TILES·⌊TILES·g⌋.y + ⌊TILES·g⌋.x + ½) / SLICES`, the same map
+    /// solid mapping bakes by (`lowering::solid`), so that `bake(f)` of a
+    /// volume sees its own three coordinates.
+    pub(super) fn texel_coordinate(&mut self, span: Span) -> Res<Handle<Expr>> {
+        let grid = self.append(Expr::TexelCoord, span)?;
+        if !self.texel_volume {
+            return Ok(grid);
+        }
+        use crate::textures::solid::{SLICES, TILES};
+        let tiles = self.constant(Constant::scalar(f64::from(TILES)), span);
+        let scaled = self.append(Expr::Binary { op: BinaryOp::Mul, lhs: grid, rhs: tiles }, span)?;
+        let xy = self.append(Expr::Math { fun: MathFunction::Fract, args: vec![scaled] }, span)?;
+        let cell = self.append(Expr::Math { fun: MathFunction::Floor, args: vec![scaled] }, span)?;
+        let column = self.swizzle(cell, "x", span)?;
+        let row = self.swizzle(cell, "y", span)?;
+        let rows = self.append(Expr::Binary { op: BinaryOp::Mul, lhs: row, rhs: tiles }, span)?;
+        let slice = self.append(Expr::Binary { op: BinaryOp::Add, lhs: rows, rhs: column }, span)?;
+        let half = self.constant(Constant::scalar(0.5), span);
+        let centre = self.append(Expr::Binary { op: BinaryOp::Add, lhs: slice, rhs: half }, span)?;
+        let slices = self.constant(Constant::scalar(f64::from(SLICES)), span);
+        let z = self.append(Expr::Binary { op: BinaryOp::Div, lhs: centre, rhs: slices }, span)?;
+        self.append(Expr::Compose { ty: Ty::Vec3, components: vec![xy, z] }, span)
+    }
+}

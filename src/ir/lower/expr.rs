@@ -138,7 +138,7 @@ impl<'a> Lowerer<'a> {
                 let tc = match self.surface {
                     // On the surface: the texel coordinate there, `δu x`.
                     Some((_, Some((_, index)))) => index,
-                    _ => self.append(Expr::TexelCoord, base.span)?,
+                    _ => self.texel_coordinate(base.span)?,
                 };
                 return self.swizzle(tc, components, span).map(Value::Expr);
             }

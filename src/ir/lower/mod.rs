@@ -78,6 +78,7 @@ fn lower_here(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
         under_delta: 0,
         distributed: false,
         surface: None,
+        texel_volume: false,
         written: Default::default(),
         vec3_tuples: Vec::new(),
     };
@@ -169,6 +170,9 @@ struct Lowerer<'a> {
     /// bundle `s δu` was taken on the surface, its vertex stream and the
     /// index `δu x` that replaces `δu` (see `surface_vertex`).
     surface: Option<(u32, Option<SurfaceVertex>)>,
+    /// In a texture-shading statement of a `3d` texture: `s.xyz` is the
+    /// 3-D texel's coordinate (`texel_coordinate`).
+    texel_volume: bool,
     /// Framebuffers some statement before the current one writes (in source
     /// order, whether or not it lowered): reading one of these is reading
     /// what was drawn, not the cleared buffer.

@@ -12,6 +12,7 @@ impl<'a> Lowerer<'a> {
             self.written.insert(id);
         }
         self.surface = None;
+        self.texel_volume = false;
         self.statement_freq = None;
         self.sample = None;
     }
@@ -37,6 +38,8 @@ impl<'a> Lowerer<'a> {
                 }
             }
         }
+        self.texel_volume = matches!(table, Table::Texture(id)
+            if self.module.textures[id as usize].kind == ast::TextureKind::Tex3d);
         // The index.
         self.statement_freq = Some(sample);
         self.sample = if sample.is_sample() { Some(sample) } else { None };

@@ -1,0 +1,119 @@
+//! Held-out user programs of the twentieth session
+//! (`tests/data/heldout_twentieth/`), written as a new user would and not
+//! among the examples: velvet's sheen, Lommel–Seeliger's lunar
+//! reflectance, an Earth-like day/night blend, translucency from behind,
+//! thin-film iridescence from a baked ramp, a sepia post pass, a chroma-key
+//! cut-out, two materials by a mask, a wet floor, sky and sun, cel bands by
+//! nested selects, a glow post pass, fog by eye depth, a Fresnel clear
+//! coat over a panorama cube map, a roughness map through a baked 2-D
+//! exponent table, colour grading through a baked 3-D table, a rim over
+//! plastic, ambient occlusion under a hemisphere, two fur shells and
+//! Minnaert's limb darkening. Each renders alike on the CPU, wgpu and the
+//! independent reference on every target its header names
+//! (`three_way_heldout::renders_alike_in`).
+
+use crate::three_way_heldout::held_out_everywhere_in;
+
+held_out_everywhere_in!("heldout_twentieth":
+    ao_hemi,
+    back_light,
+    cel_bands,
+    chroma_key,
+    clear_coat,
+    day_night,
+    depth_fog,
+    fur_shell,
+    glow_post,
+    grade_lut,
+    lommel_seeliger,
+    minnaert,
+    rim_fresnel_spec,
+    rough_map,
+    sepia,
+    sky_sun,
+    thin_film,
+    two_materials,
+    velvet,
+    wet_floor,
+);
+
+/// `bake(f)` of a `3d` texture gives `f` the texel's three coordinates:
+/// a table of the identity, `rgb(s.x, s.y, s.z)`, looked up at a point
+/// returns the point. Before, `s` was the coordinate of the tiled 2-D grid
+/// the volume is rendered as (`s.z` an error: "a vec2 has 2 components"),
+/// so a colour-grading table could not be written and `s.x` depended on
+/// the slice.
+#[test]
+fn a_baked_volume_sees_its_three_coordinates() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = "shader id : s → c = rgb(s.x, s.y, s.z);\n\
+                   texture V : 3d rgba8 bilinear clamp = bake(id);\n\
+                   C xs ← V vec3(0.3, 0.6, 0.8);\n";
+    std::fs::write(dir.path().join("v.shd"), program).unwrap();
+    for backend in ["cpu", "wgpu"] {
+        let args = ["render", "--shader", "v.shd", "--backend", backend, "--size", "8x8", "-o", "v.png"];
+        let run = crate::common::shadec_in(dir.path(), &args);
+        assert_eq!(run.code, 0, "{backend}: {}", run.stderr);
+        let image = image::open(dir.path().join("v.png")).unwrap().to_rgba8();
+        let [r, g, b, _] = image.get_pixel(4, 4).0;
+        for (got, want) in [(r, 0.3), (g, 0.6), (b, 0.8)] {
+            // 8-bit storage and trilinear weights: within 2/255.
+            let off = (f64::from(got) - want * 255.0).abs();
+            assert!(off <= 2.0, "{backend}: ({r}, {g}, {b}) for (0.3, 0.6, 0.8)·255");
+        }
+    }
+}
+
+/// A texture read at coordinates the same for the whole draw (one texel
+/// as a colour, `T vec2(0.3, 0.6)`) takes a texture unit like any lookup.
+/// Before, it had none: `--backend wgpu` stopped with "compiler bug: …
+/// lookup has no texture unit" and geforce3 refused the statement, while
+/// the CPU rendered it.
+#[test]
+fn a_texel_read_at_constant_coordinates_renders_on_every_executor() {
+    let dir = tempfile::tempdir().unwrap();
+    let brick = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples/brick.png");
+    std::fs::copy(brick, dir.path().join("brick.png")).unwrap();
+    let program = "texture T : 2d rgba8 bilinear clamp = image(\"brick.png\");\n\
+                   vector N : normal;\n\
+                   vector L : light;\n\
+                   C δπx ← T vec2(0.3, 0.6) * max(0, N δ s x · L δ s x);\n";
+    std::fs::write(dir.path().join("t.shd"), program).unwrap();
+    let mut pixels = Vec::new();
+    for (backend, target, precision) in [
+        ("cpu", "wgsl", "f32"),
+        ("wgpu", "wgsl", "f32"),
+        ("cpu", "geforce3", "fixed9"),
+        ("wgpu", "geforce3", "fixed9"),
+    ] {
+        let args = [
+            "render",
+            "--shader",
+            "t.shd",
+            "--backend",
+            backend,
+            "--target",
+            target,
+            "--precision",
+            precision,
+            "--size",
+            "32x32",
+            "-o",
+            "t.png",
+        ];
+        let run = crate::common::shadec_in(dir.path(), &args);
+        assert_eq!(run.code, 0, "{backend} {target}: {}", run.stderr);
+        pixels.push(image::open(dir.path().join("t.png")).unwrap().to_rgba8());
+    }
+    let lit = pixels[0].pixels().filter(|p| p.0[0] > 8).count();
+    assert!(lit > 50, "{lit} lit pixels");
+    for other in &pixels[1..] {
+        let worst = pixels[0]
+            .pixels()
+            .zip(other.pixels())
+            .flat_map(|(a, b)| (0..3).map(move |c| a.0[c].abs_diff(b.0[c])))
+            .max()
+            .unwrap();
+        assert!(worst <= 4, "{worst}/255 apart");
+    }
+}
