@@ -209,6 +209,20 @@ fn mistakes() -> Vec<Mistake> {
             fix: fix(&["`.rgb`", "`rgb8`"], &[("2d rgba8", "2d rgb8")]),
         },
         Mistake {
+            name: "delta_over_a_per_fragment_coordinate",
+            source: "vector N : normal;\nvector H : half;\nshader nh : s → scalar = max(0, N·H);\ntexture Rough : 2d rgb8 = bumps(4);\ntexture Pow : 2d r8 bilinear clamp;\nPow δu ← 0.5;\nC δπx ← Pow δ(vec2(nh δ s x, (Rough δu x).g));\n",
+            code: "delta-twice",
+            at: (7, "δ"),
+            fix: fix(&["remove this δ", "`T (…)`"], &[("Pow δ(vec2", "Pow (vec2")]),
+        },
+        Mistake {
+            name: "colour_indexing_a_3d_table",
+            source: "shader grade : s → c = rgb(s.x, s.y, s.z);\ntexture Lut : 3d rgba8 bilinear clamp = bake(grade);\nframebuffer Scene : rgba8, depth;\nScene δπx ← 0.5;\nC xs ← Lut ((Scene xs).rgb);\n",
+            code: "bad-index",
+            at: (5, "Lut ((Scene xs).rgb)"),
+            fix: fix(&["`Lut vec3(c)`"], &[("Lut ((Scene xs).rgb)", "Lut vec3((Scene xs).rgb)")]),
+        },
+        Mistake {
             name: "cube_map_indexed_by_texture_coordinates",
             source: "texture Env : cube rgb8;\nC δπx ← Env δu x;\n",
             code: "bad-index",

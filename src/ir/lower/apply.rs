@@ -131,12 +131,13 @@ impl<'a> Lowerer<'a> {
                     // its argument was lowered, interpolating the per-vertex operands.
                     _ if distributed => Ok(Value::Expr(h)),
                     _ => {
+                        let freq = info.freq.name();
                         self.error(
                             "delta-twice",
-                            format!("δ applied to a value that is already {}", info.freq.name()),
+                            format!("δ applied to a value that is already {freq}"),
                             delta_span,
                             "δ applied twice",
-                            "δ interpolates per-vertex values; remove one δ",
+                            format!("δ interpolates per-vertex values, and this δ's argument is computed {freq} already (from δs, texels or framebuffer reads inside it); remove this δ: a texture is looked up at a {freq} coordinate as it is, `T (…)`"),
                         );
                         Err(())
                     }
