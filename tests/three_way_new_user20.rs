@@ -7,8 +7,12 @@
 //! nested selects, a glow post pass, fog by eye depth, a Fresnel clear
 //! coat over a panorama cube map, a roughness map through a baked 2-D
 //! exponent table, colour grading through a baked 3-D table, a rim over
-//! plastic, ambient occlusion under a hemisphere, two fur shells and
-//! Minnaert's limb darkening. Each renders alike on the CPU, wgpu and the
+//! plastic, ambient occlusion under a hemisphere, two fur shells,
+//! Minnaert's limb darkening; and, for the combiner targets, a falloff
+//! from a baked 3-D attenuation volume, a detail texture added signed, a
+//! decal by GL's DECAL mode, (N·H)⁸ squared in the combiners, a bumped
+//! diffuse and specular in two draws, a per-pixel toon ramp, moss over
+//! stone by INTERPOLATE and a gloss-mapped cube-map reflection. Each renders alike on the CPU, wgpu and the
 //! independent reference on every target its header names
 //! (`three_way_heldout::renders_alike_in`).
 
@@ -16,23 +20,31 @@ use crate::three_way_heldout::held_out_everywhere_in;
 
 held_out_everywhere_in!("heldout_twentieth":
     ao_hemi,
+    atten_volume,
     back_light,
     cel_bands,
     chroma_key,
     clear_coat,
     day_night,
+    decal_over_lit,
     depth_fog,
+    detail_signed,
+    env_gloss_cube,
     fur_shell,
     glow_post,
     grade_lut,
+    interpolate_layers,
     lommel_seeliger,
     minnaert,
+    ramp_toon_ps,
     rim_fresnel_spec,
     rough_map,
     sepia,
     sky_sun,
+    spec_squared,
     thin_film,
     two_materials,
+    two_pass_bump_spec,
     velvet,
     wet_floor,
 );
@@ -116,4 +128,29 @@ fn a_texel_read_at_constant_coordinates_renders_on_every_executor() {
             .unwrap();
         assert!(worst <= 4, "{worst}/255 apart");
     }
+}
+
+/// A signed 2-D texture read as a normal (`(Tn δu x).rgb` of a `signed8`
+/// bump map, which holds two components) is one error per read whose help
+/// says what the texture holds and how to rebuild a normal; the statement
+/// that adds to `C` after the one that failed gets no warning that `C` is
+/// never written (it was: a cascade of the first error).
+#[test]
+fn a_signed_bump_map_read_as_a_normal_is_explained_without_a_cascade() {
+    let dir = tempfile::tempdir().unwrap();
+    let program = "vector L : light in tangent;\n\
+                   vector H : half in tangent;\n\
+                   texture Tn : 2d signed8 mipmap trilinear repeat = bumps(8);\n\
+                   texture Ncube : cube rgb8 bilinear clamp = normalize_cube(32);\n\
+                   C δπx ← max(0, (Tn δu x).rgb · expand(Ncube δ L s x));\n\
+                   C δπx ← (C δπx) ⊕[add] (max(0, (Tn δu x).rgb · expand(Ncube δ H s x))^8);\n";
+    std::fs::write(dir.path().join("b.shd"), program).unwrap();
+    let run = crate::common::shadec_in(dir.path(), &["check", "--format", "short", "b.shd"]);
+    assert_eq!(run.code, 1, "{}", run.stdout);
+    let lines: Vec<&str> =
+        run.stderr.lines().chain(run.stdout.lines()).filter(|l| l.starts_with("b.shd:")).collect();
+    assert_eq!(lines.len(), 2, "{lines:#?}");
+    assert!(lines.iter().all(|l| l.contains("error[bad-swizzle]")), "{lines:#?}");
+    let human = crate::common::shadec_in(dir.path(), &["check", "b.shd"]);
+    assert!(human.stderr.contains("`Tn` is a signed 2-D texture"), "{}", human.stderr);
 }

@@ -303,13 +303,27 @@ fn swizzle(
     let v = info(value);
     numeric(v.ty, "a component selection")?;
     if let Some(&i) = pattern[..len as usize].iter().find(|&&i| i as usize >= v.ty.width()) {
-        return Err(component_missing(v.ty, i as usize));
+        let missing = component_missing(v.ty, i as usize);
+        return Err(match signed_2d(m, value) {
+            Some(name) => missing.help(format!(
+                "`{name}` is a signed 2-D texture: two components a texel (an offset texture's ds, dt, or a HILO normal's x, y, as NV_texture_shader stores them); for a normal, rebuild its z, `vec3(n.x, n.y, sqrt(max(0, 1 - n·n)))`, or store the normal as a colour (`texture Tn : 2d rgb8 … = normal_map(height(\"bumps.png\"), 4);`) read by `expand(Tn δu x)`"
+            )),
+            None => missing,
+        });
     }
     // The channels read, not the hull of all (`(0.8·d, 0.6·d′, 0).g` is
     // in [0, 0.6]).
     let c = channels_of(m, value, CHANNEL_DEPTH);
     let read = pattern[..len as usize].iter().map(|&i| c[(i as usize).min(3)]).reduce(hull);
     out(ty, v.freq, read.unwrap_or(v.interval))
+}
+
+/// The name of the signed 2-D texture `value` looks up, if it is one.
+fn signed_2d(m: &Module, value: Handle<Expr>) -> Option<&str> {
+    let Expr::Lookup { texture, .. } = m.exprs[value] else { return None };
+    let t = &m.textures[texture as usize];
+    let signed = matches!(t.format, TextureFormat::Signed8 | TextureFormat::Signed16);
+    (signed && t.kind == TextureKind::Tex2d).then_some(t.name.as_str())
 }
 
 /// A swizzle asks for component `i` (0-based) of `ty`, which has fewer:

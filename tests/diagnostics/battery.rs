@@ -223,6 +223,16 @@ fn mistakes() -> Vec<Mistake> {
             fix: fix(&["`Lut vec3(c)`"], &[("Lut ((Scene xs).rgb)", "Lut vec3((Scene xs).rgb)")]),
         },
         Mistake {
+            name: "signed_2d_bump_map_read_as_a_normal",
+            source: "vector L : light in tangent;\ntexture Tn : 2d signed8 mipmap trilinear repeat = bumps(8);\ntexture Ncube : cube rgb8 bilinear clamp = normalize_cube(32);\nC δπx ← max(0, (Tn δu x).rgb · expand(Ncube δ L s x));\nC δπx ← (C δπx) ⊕[add] 0.1;\n",
+            code: "bad-swizzle",
+            at: (4, "(Tn δu x).rgb"),
+            fix: fix(
+                &["`vec3(n.x, n.y, sqrt(max(0, 1 - n·n)))`"],
+                &[("(Tn δu x).rgb", "vec3((Tn δu x).x, (Tn δu x).y, sqrt(max(0, 1 - (Tn δu x)·(Tn δu x))))")],
+            ),
+        },
+        Mistake {
             name: "cube_map_indexed_by_texture_coordinates",
             source: "texture Env : cube rgb8;\nC δπx ← Env δu x;\n",
             code: "bad-index",

@@ -187,17 +187,15 @@ impl<'a> Lowerer<'a> {
     /// the framebuffer at all: it holds its clear value, 0, wherever it is
     /// read (a screen pass `C xs ← F xs` of a forgotten `F δπx ← …`).
     /// Warned once per framebuffer, at its first read. Reads of `C` that
-    /// accumulate into it (`(C δπx) ⊕[add] …`) write it, so are not warned.
+    /// accumulate into it (`(C δπx) ⊕[add] …`) write it, so are not warned;
+    /// nor are reads of a framebuffer a statement writes that failed to
+    /// lower (its own error is the one to read, not a cascade).
     pub(super) fn warn_never_written(&mut self) {
-        let written: HashSet<u32> = self
-            .module
-            .statements
-            .iter()
-            .filter_map(|st| match st.table {
-                Table::Framebuffer { id, .. } => Some(id),
-                _ => None,
-            })
-            .collect();
+        let lowered = self.module.statements.iter().filter_map(|st| match st.table {
+            Table::Framebuffer { id, .. } => Some(id),
+            _ => None,
+        });
+        let written: HashSet<u32> = lowered.chain(self.written.iter().copied()).collect();
         let mut warned = HashSet::new();
         for (h, e) in self.module.exprs.arena().iter() {
             let Expr::FramebufferRead { framebuffer, channel: FbChannel::Color | FbChannel::Alpha, .. } = *e
