@@ -12,7 +12,10 @@
 //! from a baked 3-D attenuation volume, a detail texture added signed, a
 //! decal by GL's DECAL mode, (N·H)⁸ squared in the combiners, a bumped
 //! diffuse and specular in two draws, a per-pixel toon ramp, moss over
-//! stone by INTERPOLATE and a gloss-mapped cube-map reflection. Each renders alike on the CPU, wgpu and the
+//! stone by INTERPOLATE and a gloss-mapped cube-map reflection; a
+//! shadow map tested with `≤`, shadow volumes under a textured highlight,
+//! a stencil cut-away, a specular term replicated over four lights and a
+//! material set by the scene's uniforms. Each renders alike on the CPU, wgpu and the
 //! independent reference on every target its header names
 //! (`three_way_heldout::renders_alike_in`).
 
@@ -40,11 +43,16 @@ held_out_everywhere_in!("heldout_twentieth":
     rim_fresnel_spec,
     rough_map,
     sepia,
+    shadow_le,
+    shadow_vol_spec,
     sky_sun,
     spec_squared,
+    stencil_cutaway,
     thin_film,
+    three_lights_spec,
     two_materials,
     two_pass_bump_spec,
+    uniform_tint,
     velvet,
     wet_floor,
 );
