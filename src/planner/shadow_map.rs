@@ -33,7 +33,7 @@
 
 use rustc_hash::FxHashMap as HashMap;
 
-use crate::ir::{BinaryOp, Expr, FbChannel, Frequency, Handle, Module, Table};
+use crate::ir::{BinaryOp, Constant, Expr, FbChannel, Frequency, Handle, Module, Table};
 use crate::pipeline::{DepthState, Pass};
 use crate::profile::{FragmentStage, Profile};
 
@@ -55,6 +55,11 @@ pub fn redraw_over_geometry(m: &mut Module, profile: &Profile) -> Vec<usize> {
             done.push(i);
         }
     }
+    if !done.is_empty() {
+        // The tests now read depth textures at interpolated coordinates:
+        // a `≤` among them takes the unit's form too.
+        depth_tests_as_greater(m);
+    }
     done
 }
 
@@ -69,7 +74,9 @@ pub fn depth_tests_as_greater(m: &mut Module) {
     for i in 0..m.statements.len() {
         let value = m.statements[i].value;
         let mut map = HashMap::default();
-        for h in m.reachable(&[value]) {
+        let reach = m.reachable(&[value]);
+        bare_tests_as_greater(m, &reach, &mut map);
+        for h in reach {
             let Expr::Select { cond, accept, reject } = m.exprs[h] else { continue };
             let Some((greater, swap)) = as_greater(m, cond) else { continue };
             let (accept, reject) = match (swap, reject) {
@@ -86,6 +93,43 @@ pub fn depth_tests_as_greater(m: &mut Module) {
             m.statements[i].value = value;
         }
         compare_nodes(m, m.statements[i].value);
+    }
+}
+
+/// A depth test written as a value, not as a selection's condition (the
+/// shadow mask `α C xs ← (z πl π⁻¹ xs) ≤ (z Cl πl π⁻¹ xs) + b`): `a ≤ d`
+/// is `a > d ? 0 : 1` and `d < a` is `a > d`, the unit's form, entered in
+/// `map` for [`depth_tests_as_greater`] to substitute.
+fn bare_tests_as_greater(
+    m: &mut Module,
+    reach: &[Handle<Expr>],
+    map: &mut HashMap<Handle<Expr>, Handle<Expr>>,
+) {
+    let conds: Vec<Handle<Expr>> = reach
+        .iter()
+        .filter_map(|&h| if let Expr::Select { cond, .. } = m.exprs[h] { Some(cond) } else { None })
+        .collect();
+    for &h in reach {
+        if conds.contains(&h) {
+            continue;
+        }
+        let Some((greater, swap)) = as_greater(m, h) else { continue };
+        let span = m.span(h);
+        let replaced = if swap {
+            let (Ok(zero), Ok(one)) = (
+                m.intern(Expr::Constant(Constant::scalar(0.0)), span),
+                m.intern(Expr::Constant(Constant::scalar(1.0)), span),
+            ) else {
+                continue;
+            };
+            match m.intern(Expr::Select { cond: greater, accept: zero, reject: Some(one) }, span) {
+                Ok(select) => select,
+                Err(_) => continue,
+            }
+        } else {
+            greater
+        };
+        map.insert(h, replaced);
     }
 }
 
