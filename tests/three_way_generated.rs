@@ -231,7 +231,7 @@ const FORMS: &[&str] = &[
 
 /// The fewest programs of each of [`FORMS`] that the fixed seed's sample
 /// of [`CASES`] must have agree.
-const MIN_PER_FORM: usize = 3;
+const MIN_PER_FORM: usize = 10;
 
 impl Colour {
     /// Whether `f` holds for this colour or one inside it.
