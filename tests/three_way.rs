@@ -58,6 +58,12 @@ pub struct Pictures {
     /// has none); `None` when one has no bound (per-vertex shading: its
     /// error depends on the mesh).
     pub approximation_bound: Option<f64>,
+    /// Where an approximation of the plan states no bound (a per-vertex
+    /// fall-back, a table baked over per-vertex arguments): the plan's
+    /// largest channel difference from the program's meaning, measured on
+    /// this scene at this size ([`measured_error`]), in [0, 1]; `None`
+    /// where every approximation states its bound.
+    pub measured_error: Option<f64>,
     /// Why wgpu did not run the plan, when it cannot yet.
     pub gpu_refused: Option<String>,
     /// Whether a `⊕` of the program may leave [0, 1] ([`texture_env_clamps`]).
@@ -162,6 +168,16 @@ pub fn render_three(
     let approximations = &planned.plan.approximations;
     let approximation_bound = approximations.iter().map(|a| a.output_bound).sum::<Option<f64>>();
     let texture_env_clamps = texture_env_clamps(&module);
+    let measured_error = if approximations.iter().any(|a| a.output_bound.is_none()) {
+        let e = measured_error(&planned, &program, &module, scene, &assets)?;
+        eprintln!(
+            "three-way: an approximation states no bound; the plan is {:.0}/255 from the meaning here",
+            e * 255.0
+        );
+        Some(e)
+    } else {
+        None
+    };
     let cpu = PlanRenderer::new(&planned, &program, scene, &assets)
         .and_then(|r| r.render(precision, W, H, &mut |_, _| {}))
         .map_err(|e| format!("CPU: {e}"))?
@@ -227,6 +243,7 @@ pub fn render_three(
         covered,
         left_out,
         approximation_bound,
+        measured_error,
         gpu_refused,
         texture_env_clamps,
         oracle_unclamped,
@@ -236,6 +253,34 @@ pub fn render_three(
         ranged,
         wide,
     })
+}
+
+/// The largest channel difference (in [0, 1]) between the picture of
+/// `planned` and that of the program's meaning (`meaning::plan`: every
+/// statement one unsplit pass, the program's own operations), both
+/// rendered by the CPU in f32 on `scene` at the three-way size and read
+/// back as RGBA8: what `render` measures of an approximation with no stated
+/// bound (`accuracy`), here on the very scene and pixels the executors are
+/// compared on, so that it bounds the plan's error there.
+pub fn measured_error(
+    planned: &shadec::pipeline::Planned,
+    program: &shadec::parser::ast::Program,
+    module: &shadec::ir::Module,
+    scene: &Scene,
+    assets: &shadec::scene::SceneAssets,
+) -> Result<f64, String> {
+    let meaning = shadec::meaning::plan(module, scene.lights.len()).map_err(|d| {
+        format!("the meaning does not plan: {:?}", d.iter().map(|d| d.message.clone()).collect::<Vec<_>>())
+    })?;
+    let draw = |p: &shadec::pipeline::Planned| {
+        PlanRenderer::new(p, program, scene, assets)
+            .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
+            .map(|f| f.image.to_rgba8())
+            .map_err(|e| format!("measuring the approximations: {e}"))
+    };
+    let (approximated, exact) = (draw(planned)?, draw(&meaning)?);
+    let max = approximated.iter().zip(&exact).map(|(a, b)| a.abs_diff(*b)).max().unwrap_or(0);
+    Ok(f64::from(max) / 255.0)
 }
 
 /// Whether some `a ⊕ b` of the program has a range (the IR's) outside
@@ -314,28 +359,47 @@ pub fn verdict(p: &Pictures) -> Result<(), String> {
 /// the executors may store its intermediate values differently (wgpu an
 /// `rgba8` target in 8 bits, the CPU's f32 in float), so each pair is held
 /// to it. A plan with an approximation that states no bound (per-vertex
-/// shading) is held to the plain tolerance.
+/// shading) holds the CPU and wgpu, which run the same approximated plan,
+/// to the plain tolerance ([`reference_tolerance`] holds them to the
+/// reference).
 pub fn f32_tolerance(p: &Pictures) -> u8 {
     let bound = p.approximation_bound.unwrap_or(0.0);
     PIXEL_TOLERANCE.saturating_add((bound * 255.0).ceil().clamp(0.0, 255.0) as u8)
+}
+
+/// The per-channel tolerance of an executor against the reference in
+/// f32: [`f32_tolerance`], or, where an approximation of the plan states
+/// no bound, [`PIXEL_TOLERANCE`] plus the plan's error measured on this
+/// scene ([`Pictures::measured_error`]). The reference evaluates the
+/// program's exact meaning, and the approximated plan is that far from it
+/// on the CPU, so an executor running the plan right is within this of
+/// the reference; held to the plain tolerance, the reference was named
+/// the odd one out wherever the CPU and wgpu agreed on the approximation.
+pub fn reference_tolerance(p: &Pictures) -> u8 {
+    match p.measured_error {
+        Some(e) => {
+            f32_tolerance(p).max(PIXEL_TOLERANCE.saturating_add((e * 255.0).round().clamp(0.0, 255.0) as u8))
+        }
+        None => f32_tolerance(p),
+    }
 }
 
 /// [`verdict`] on however many pixels are compared (a generated run
 /// holds its renders to the minimum together: `three_way_generated`).
 pub fn agreement(p: &Pictures) -> Result<(), String> {
     let compared = p.compared_mask();
-    let tolerance = f32_tolerance(p);
-    let difference = |a: &[u8], b: &[u8], compared: &[bool]| difference_beyond(a, b, compared, tolerance);
-    let co = difference(&p.cpu, &p.reference_near(&p.cpu), &compared);
+    let (tolerance, against) = (f32_tolerance(p), reference_tolerance(p));
+    let reference = |e: &[u8]| difference_beyond(e, &p.reference_near(e), &compared, against);
+    let co = reference(&p.cpu);
     let Some(gpu) = &p.gpu else {
         return if co.within() {
             Ok(())
         } else {
-            Err(format!("the CPU and the reference differ beyond {tolerance}/255: {co:?}"))
+            Err(format!("the CPU and the reference differ beyond {against}/255: {co:?}"))
         };
     };
-    let cg = difference(&p.cpu, gpu, &compared);
-    let go = difference(gpu, &p.reference_near(gpu), &compared);
+    let cg = difference_beyond(&p.cpu, gpu, &compared, tolerance);
+    let go = reference(gpu);
     match (cg.within(), co.within(), go.within()) {
         (true, true, true) => Ok(()),
         (true, false, false) => Err(format!("the reference is the odd one out: CPU {co:?}, wgpu {go:?}")),

@@ -8,7 +8,9 @@
 //! targets it plans on in its header (`// scene:`, `// targets:`); on each
 //! it renders alike on the CPU, wgpu and the independent reference within
 //! `three_way`'s bound in f32, and in fixed9 on the combiner targets
-//! within `three_way_generated::fixed9_verdict`'s.
+//! within `three_way_generated::fixed9_verdict`'s. A header may name
+//! targets that refuse the program on its scene (`// refused:`), as
+//! `render` refuses it there: the refusal is asserted.
 
 use std::path::Path;
 
@@ -33,11 +35,37 @@ fn held_out_scene(folder: &Path, name: &str) -> Scene {
 }
 
 fn header<'a>(source: &'a str, key: &str) -> &'a str {
-    source
-        .lines()
-        .find_map(|l| l.strip_prefix("// ").and_then(|l| l.strip_prefix(key)))
-        .unwrap_or_else(|| panic!("no `// {key}` line"))
-        .trim()
+    optional_header(source, key).unwrap_or_else(|| panic!("no `// {key}` line"))
+}
+
+fn optional_header<'a>(source: &'a str, key: &str) -> Option<&'a str> {
+    source.lines().find_map(|l| l.strip_prefix("// ").and_then(|l| l.strip_prefix(key))).map(str::trim)
+}
+
+/// `Err` unless `render` (the one verdict, `verdict::judge`, on the scene,
+/// its approximations measured there) refuses `program` for `target`.
+fn refused_on(program: &str, target: &str, sc: &Scene, folder: &Path) -> Result<(), String> {
+    let profile = shadec::profile::Profile::resolve(target).map_err(|e| format!("{e:?}"))?;
+    let assets = sc.build().map_err(|e| e.to_string())?;
+    let front = shadec::driver::front(program);
+    let Some(module) = &front.module else { return Err("the program does not lower".into()) };
+    let plan = shadec::driver::PlanOptions {
+        scene: Some(shadec::driver::ForScene::specialized(sc, &assets)),
+        ..Default::default()
+    };
+    let judging =
+        shadec::verdict::Judging { plan, images: Some(folder), stand_ins: true, rendered_on: Some(sc) };
+    match shadec::verdict::judge(module, &front.program, &profile, program, &judging) {
+        Ok(judged) => Err(format!(
+            "the header says {target} refuses it, and it plans there ({} passes)",
+            judged.planned.plan.passes.len()
+        )),
+        Err(refused) => {
+            let codes: Vec<_> = refused.iter().map(|d| d.code).collect();
+            eprintln!("refused on {target}, as its header says: {codes:?}");
+            Ok(())
+        }
+    }
 }
 
 /// Renders the held-out program `name` of `folder` three ways on every
@@ -58,6 +86,11 @@ fn renders_alike(folder: &Path, name: &str, wgpu_must_run: bool) -> Result<(), S
     let sc = held_out_scene(folder, header(&source, "scene:"));
     let g = crate::common::gpu::gpu();
     let mut failures = Vec::new();
+    for target in optional_header(&source, "refused:").unwrap_or_default().split_whitespace() {
+        if let Err(e) = refused_on(&format!("target {target};\n{source}"), target, &sc, folder) {
+            failures.push(format!("{name} on {target}: {e}"));
+        }
+    }
     for target in header(&source, "targets:").split_whitespace() {
         let program = format!("target {target};\n{source}");
         let mut runs = vec![Precision::F32];

@@ -163,6 +163,73 @@ fn the_f32_verdict_allows_for_the_stated_approximation_bounds() {
     verdict(&alone(moved(tolerance))).unwrap();
 }
 
+/// An approximation with no stated bound (a table baked over per-vertex
+/// arguments, a per-vertex fall-back) is held to its error measured on
+/// the scene rendered: a lacquer's two lobes (`two_lobes`, held out) on
+/// geforce3 bake `nh^8`, `nh^64` into a 2-D table of per-vertex
+/// arguments, 16-17/255 from the meaning on a third of the sphere, and the
+/// plain tolerance named the reference (which evaluates the meaning) the
+/// odd one out where the CPU and wgpu agreed. Against the reference each
+/// executor is now held to the tolerance plus the measured error — and no
+/// further: the CPU moved one step beyond it fails; the CPU and wgpu stay
+/// held to each other at the plain tolerance.
+#[test]
+fn the_f32_verdict_allows_for_the_measured_error_of_an_unbounded_approximation() {
+    use crate::three_way::{f32_tolerance, reference_tolerance, PIXEL_TOLERANCE};
+    let g = crate::common::gpu::gpu();
+    let sc = scene("bench_sphere.ron");
+    let folder = crate::three_way_heldout::data("heldout_nineteenth");
+    let source = std::fs::read_to_string(folder.join("two_lobes.shd")).unwrap();
+    let p = render_three(&format!("target geforce3;\n{source}"), "geforce3", &sc, Precision::F32, g.as_ref())
+        .unwrap();
+    assert!(p.approximation_bound.is_none(), "{:?}", p.approximation_bound);
+    let measured = p.measured_error.expect("an approximation with no stated bound is measured");
+    let against = reference_tolerance(&p);
+    assert!(measured * 255.0 > 8.0 && against > PIXEL_TOLERANCE + 8, "{measured} ({against}/255)");
+    assert_eq!(f32_tolerance(&p), PIXEL_TOLERANCE);
+    verdict(&p).unwrap();
+    // What the plain tolerance said: the CPU off the reference.
+    let plain = difference(&p.cpu, &p.reference_near(&p.cpu), &p.compared_mask());
+    assert!(!plain.within(), "{plain:?}");
+    // The CPU alone, `by` steps outside the reference's range on the red
+    // channel of every compared pixel (away from the nearer end of 0..255).
+    let moved = |by: u8| {
+        let mask = p.compared_mask();
+        let mut cpu = p.cpu.clone();
+        for i in (0..mask.len()).filter(|&i| mask[i]) {
+            let (lo, hi) = (p.oracle_low[4 * i], p.oracle_high[4 * i]);
+            cpu[4 * i] = if 255 - hi >= by { hi + by } else { lo.saturating_sub(by) };
+        }
+        cpu
+    };
+    let alone = |cpu: Vec<u8>| Pictures {
+        cpu,
+        gpu: None,
+        oracle: p.oracle.clone(),
+        covered: p.covered.clone(),
+        wide: p.wide.clone(),
+        oracle_low: p.oracle_low.clone(),
+        oracle_high: p.oracle_high.clone(),
+        oracle_unclamped: None,
+        oracle_unclamped_range: None,
+        gpu_refused: None,
+        ..p
+    };
+    assert!(verdict(&alone(moved(against + 1))).is_err(), "a picture {} steps off passed", against + 1);
+    verdict(&alone(moved(against))).unwrap();
+    // wgpu moved as far from the CPU is named the odd one out.
+    if let Some(gpu) = &p.gpu {
+        let mut off = gpu.clone();
+        let mask = p.compared_mask();
+        for i in (0..mask.len()).filter(|&i| mask[i]) {
+            off[4 * i + 1] = if off[4 * i + 1] > 127 { 0 } else { 255 };
+        }
+        let p = Pictures { gpu: Some(off), ..alone(p.cpu.clone()) };
+        let e = verdict(&p).unwrap_err();
+        assert!(e.contains("wgpu is the odd one out"), "{e}");
+    }
+}
+
 /// Each minified lookup chooses its level of detail on its own (GL
 /// §3.8.8 gives each lookup its own interval for λ): the reference's
 /// range for a product of two mipmapped textures read at different
