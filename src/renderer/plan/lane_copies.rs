@@ -1,0 +1,79 @@
+//! The lane program's copies forwarded to their readers
+//! ([`forward_copies`]).
+
+use super::{Op, K};
+use crate::renderer::plan::FragmentProgram;
+
+/// Removes the ops of `ops` that only copy components — a swizzle, a
+/// conversion that keeps the value, a composition — where only lane ops
+/// read their result: each reader reads the copied rows instead
+/// (`rows` of [`Op::Lanes`]). A scalar result that only lane ops read is
+/// not splatted either: its readers read its first row in every
+/// component. No arithmetic changes, so the values are the same bit for
+/// bit; a copy over all 32 lanes was a loop over up to four rows, with
+/// its dispatch (eight of the 31 lane ops of Kilgard's pass, and six
+/// splats).
+pub(super) fn forward_copies(p: &FragmentProgram, ops: &mut Vec<Op>) {
+    // The slots that code other than the lane ops reads through their own rows.
+    let mut direct = vec![false; p.n_slots];
+    let mut mark = |s: u32| {
+        if let Some(d) = direct.get_mut(s as usize) {
+            *d = true;
+        }
+    };
+    for op in ops.iter() {
+        if let Op::Scalar(i) | Op::Sample(i) = *op {
+            let s = &p.steps[i as usize];
+            s.ops[..s.n_ops as usize].iter().for_each(|&o| mark(o));
+        }
+    }
+    [Some(p.output), p.condition, p.depth].into_iter().flatten().for_each(mark);
+    // Per slot, the row each component is read from.
+    let mut alias: Vec<[u32; 4]> = (0..p.n_slots as u32).map(|s| [0, 1, 2, 3].map(|c| 4 * s + c)).collect();
+    ops.retain_mut(|op| {
+        let Op::Lanes { k, dst, ops, width, keep, rows } = op else { return true };
+        for (row, &o) in rows.iter_mut().zip(ops.iter()) {
+            if let Some(a) = alias.get(o as usize) {
+                *row = *a;
+            }
+        }
+        let d = *dst as usize;
+        if direct.get(d).copied().unwrap_or(true) || !(1..=4).contains(width) {
+            return true;
+        }
+        let w = *width as usize;
+        let copied = match *k {
+            K::Swizzle(pattern, len) if len as usize == w => Some(pattern.map(|c| rows[0][c as usize & 3])),
+            K::Same => Some(rows[0]),
+            K::Compose(ws) => {
+                let mut a = [0u32; 4];
+                let mut at = 0;
+                for (j, &wj) in ws.iter().enumerate() {
+                    for c in 0..wj as usize {
+                        if let Some(x) = a.get_mut(at) {
+                            *x = rows[j][c];
+                        }
+                        at += 1;
+                    }
+                }
+                (at == w).then_some(a)
+            }
+            _ => None,
+        };
+        // Components above the width that some op reads: zeros to write.
+        let zeros_read = w < 4 && w > 1 && *keep >> w != 0;
+        match copied {
+            Some(a) if w == 1 => alias[d] = [a[0]; 4],
+            Some(a) if !zeros_read => alias[d] = a,
+            Some(_) => return true,
+            None => {
+                if w == 1 {
+                    alias[d] = [4 * d as u32; 4];
+                    *keep = 1;
+                }
+                return true;
+            }
+        }
+        false
+    });
+}
