@@ -1,5 +1,5 @@
-//! The lane program's copies forwarded to their readers
-//! ([`forward_copies`]).
+//! Which components of the lane program's results are read ([`demanded`]),
+//! and its copies forwarded to their readers ([`forward_copies`]).
 
 use super::{Op, K};
 use crate::renderer::plan::FragmentProgram;
@@ -12,8 +12,9 @@ use crate::renderer::plan::FragmentProgram;
 /// component. No arithmetic changes, so the values are the same bit for
 /// bit; a copy over all 32 lanes was a loop over up to four rows, with
 /// its dispatch (eight of the 31 lane ops of Kilgard's pass, and six
-/// splats).
-pub(super) fn forward_copies(p: &FragmentProgram, ops: &mut Vec<Op>) {
+/// splats). Returns per slot whether code other than the lane ops reads
+/// it.
+pub(super) fn forward_copies(p: &FragmentProgram, ops: &mut Vec<Op>) -> Vec<bool> {
     // The slots that code other than the lane ops reads through their own rows.
     let mut direct = vec![false; p.n_slots];
     let mut mark = |s: u32| {
@@ -76,4 +77,66 @@ pub(super) fn forward_copies(p: &FragmentProgram, ops: &mut Vec<Op>) {
         }
         false
     });
+    direct
+}
+
+/// Per slot, the components that some op of `ops` or the program's
+/// outputs read (a bit each). A scalar result is splatted to four
+/// components and a narrow one zeroed above its width (the canonical form
+/// every kernel may read), but most scalars feed scalar ops, which read
+/// only the first: the copies to components no one reads are skipped. The
+/// components read are the same values either way, so the results are
+/// bit for bit the same (the test of this module renders both).
+pub(super) fn demanded(p: &FragmentProgram, ops: &[Op]) -> Vec<u8> {
+    let mut demand = vec![0u8; p.n_slots];
+    let mut read = |slot: u32, mask: u8| {
+        if let Some(d) = demand.get_mut(slot as usize) {
+            *d |= mask;
+        }
+    };
+    let below = |w: u8| ((1u16 << w.min(4)) - 1) as u8;
+    for op in ops {
+        let i = match *op {
+            Op::Lanes { k, ops, width, .. } => {
+                let comps = below(width.clamp(1, 4));
+                match k {
+                    K::Dot(w) | K::Length(w) => ops[..2].iter().for_each(|&o| read(o, below(w))),
+                    K::Cmp(_) | K::Not => ops[..2].iter().for_each(|&o| read(o, 1)),
+                    K::Swizzle(pattern, len) => {
+                        pattern[..len as usize].iter().for_each(|&c| read(ops[0], 1 << (c & 3)))
+                    }
+                    K::Select(_) => {
+                        read(ops[0], 1);
+                        ops[1..].iter().for_each(|&o| read(o, comps));
+                    }
+                    K::Compose(ws) => ops.iter().zip(ws).for_each(|(&o, w)| read(o, below(w))),
+                    K::Varying(_) => {}
+                    K::Add | K::Sub | K::Mul | K::Div | K::Neg | K::Max | K::Min | K::Clamp | K::Saturate => {
+                        ops.iter().for_each(|&o| read(o, comps))
+                    }
+                    K::Expand | K::Compress | K::HalfBias | K::AddSigned | K::Abs | K::Sqrt | K::Rsqrt => {
+                        ops.iter().for_each(|&o| read(o, comps))
+                    }
+                    K::Floor
+                    | K::Fract
+                    | K::Step
+                    | K::Mix
+                    | K::Same
+                    | K::RgbToRgba
+                    | K::PowInt(_)
+                    | K::Pow => ops.iter().for_each(|&o| read(o, comps)),
+                    K::Normalize(_) => ops.iter().for_each(|&o| read(o, 0b1111)),
+                }
+                continue;
+            }
+            Op::Scalar(i) | Op::Sample(i) => i,
+            Op::Run(_) => continue,
+        };
+        let s = &p.steps[i as usize];
+        s.ops[..s.n_ops as usize].iter().for_each(|&o| read(o, 0b1111));
+    }
+    for slot in [Some(p.output), p.condition, p.depth].into_iter().flatten() {
+        read(slot, 0b1111);
+    }
+    demand
 }

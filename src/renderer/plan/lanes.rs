@@ -144,6 +144,8 @@ enum Op {
     /// Step `i`, a lookup of a bound 2D or cube texture, lane by lane
     /// straight into the texture unit's model in `f32`.
     Sample(u32),
+    /// Fused run `i` of [`LaneProgram`]'s runs ([`runs::fuse_runs`]).
+    Run(u32),
 }
 
 type Closure = Box<dyn Fn(&mut [Lanes], Vary, usize, &mut [bool; BATCH]) + Send + Sync>;
@@ -151,6 +153,8 @@ type Closure = Box<dyn Fn(&mut [Lanes], Vary, usize, &mut [bool; BATCH]) + Send 
 /// A pass's fragment program as lane code ([`LaneProgram::compile`]).
 pub(in crate::renderer) struct LaneProgram {
     ops: Vec<Op>,
+    /// The fused runs that [`Op::Run`] names.
+    runs: Vec<runs::Run>,
     closures: Option<Vec<Closure>>,
     /// Uniform and constant slots, splatted into a thread's registers
     /// when it shades a batch of another program than its last.
@@ -200,13 +204,23 @@ impl LaneProgram {
                     *keep = demand[*dst as usize];
                 }
             }
-            forward_copies(p, &mut ops);
         }
+        let runs = if plain() {
+            Vec::new()
+        } else {
+            let direct = forward_copies(p, &mut ops);
+            if fused() {
+                runs::fuse_runs(&mut ops, &direct)
+            } else {
+                Vec::new()
+            }
+        };
         #[cfg(test)]
         tests::COMPILED.with(|c| {
-            let lanes = ops.iter().filter(|op| matches!(op, Op::Lanes { .. })).count();
+            let linked = runs.iter().map(runs::Run::len).sum::<usize>();
+            let lanes = ops.iter().filter(|op| matches!(op, Op::Lanes { .. })).count() + linked;
             let copy = |op: &&Op| matches!(op, Op::Lanes { k: K::Swizzle(..) | K::Same | K::Compose(_), .. });
-            c.borrow_mut().push((lanes, ops.iter().filter(copy).count()))
+            c.borrow_mut().push((lanes, ops.iter().filter(copy).count(), linked))
         });
         let closures = (DISPATCH.load(Ordering::Relaxed) == Dispatch::Closures as u8)
             .then(|| ops.iter().map(closure).collect());
@@ -239,6 +253,7 @@ impl LaneProgram {
             .collect();
         LaneProgram {
             ops,
+            runs,
             closures,
             splats,
             levels,
@@ -254,66 +269,6 @@ fn width_of(ty: ir::Ty) -> u8 {
         w @ 1..=4 => w as u8,
         _ => 0,
     }
-}
-
-/// Per slot, the components that some op of `ops` or the program's
-/// outputs read (a bit each). A scalar result is splatted to four
-/// components and a narrow one zeroed above its width (the canonical form
-/// every kernel may read), but most scalars feed scalar ops, which read
-/// only the first: the copies to components no one reads are skipped. The
-/// components read are the same values either way, so the results are
-/// bit for bit the same (the test of this module renders both).
-fn demanded(p: &FragmentProgram, ops: &[Op]) -> Vec<u8> {
-    let mut demand = vec![0u8; p.n_slots];
-    let mut read = |slot: u32, mask: u8| {
-        if let Some(d) = demand.get_mut(slot as usize) {
-            *d |= mask;
-        }
-    };
-    let below = |w: u8| ((1u16 << w.min(4)) - 1) as u8;
-    for op in ops {
-        let i = match *op {
-            Op::Lanes { k, ops, width, .. } => {
-                let comps = below(width.clamp(1, 4));
-                match k {
-                    K::Dot(w) | K::Length(w) => ops[..2].iter().for_each(|&o| read(o, below(w))),
-                    K::Cmp(_) | K::Not => ops[..2].iter().for_each(|&o| read(o, 1)),
-                    K::Swizzle(pattern, len) => {
-                        pattern[..len as usize].iter().for_each(|&c| read(ops[0], 1 << (c & 3)))
-                    }
-                    K::Select(_) => {
-                        read(ops[0], 1);
-                        ops[1..].iter().for_each(|&o| read(o, comps));
-                    }
-                    K::Compose(ws) => ops.iter().zip(ws).for_each(|(&o, w)| read(o, below(w))),
-                    K::Varying(_) => {}
-                    K::Add | K::Sub | K::Mul | K::Div | K::Neg | K::Max | K::Min | K::Clamp | K::Saturate => {
-                        ops.iter().for_each(|&o| read(o, comps))
-                    }
-                    K::Expand | K::Compress | K::HalfBias | K::AddSigned | K::Abs | K::Sqrt | K::Rsqrt => {
-                        ops.iter().for_each(|&o| read(o, comps))
-                    }
-                    K::Floor
-                    | K::Fract
-                    | K::Step
-                    | K::Mix
-                    | K::Same
-                    | K::RgbToRgba
-                    | K::PowInt(_)
-                    | K::Pow => ops.iter().for_each(|&o| read(o, comps)),
-                    K::Normalize(_) => ops.iter().for_each(|&o| read(o, 0b1111)),
-                }
-                continue;
-            }
-            Op::Scalar(i) | Op::Sample(i) => i,
-        };
-        let s = &p.steps[i as usize];
-        s.ops[..s.n_ops as usize].iter().for_each(|&o| read(o, 0b1111));
-    }
-    for slot in [Some(p.output), p.condition, p.depth].into_iter().flatten() {
-        read(slot, 0b1111);
-    }
-    demand
 }
 
 /// Whether step `s` is a lookup [`Op::Sample`] takes: a bound texture
@@ -639,6 +594,11 @@ fn run_body(
                 }
             }
             Op::Sample(i) => p.sample_lanes(i as usize, r, (fragments, varyings), lp, shared),
+            Op::Run(i) => {
+                if let Some(run) = lp.runs.get(i as usize) {
+                    runs::run_links(run, r)
+                }
+            }
             Op::Lanes { .. } => match &lp.closures {
                 Some(c) => c[j](r, varyings, n, discard),
                 None => exec(*op, r, varyings, n, discard),
@@ -1000,12 +960,25 @@ fn plain() -> bool {
     false
 }
 
+/// Whether straight runs of ops are fused ([`runs::fuse_runs`]): always,
+/// except in this module's test that renders both ways.
+#[inline(always)]
+fn fused() -> bool {
+    #[cfg(test)]
+    return !tests::UNFUSED.load(Ordering::Relaxed);
+    #[cfg(not(test))]
+    true
+}
+
 #[path = "lane_outputs.rs"]
 mod outputs;
 
 #[path = "lane_copies.rs"]
 mod copies;
-use copies::forward_copies;
+use copies::{demanded, forward_copies};
+
+#[path = "lane_runs.rs"]
+mod runs;
 
 #[cfg(test)]
 #[path = "lanes_tests.rs"]
