@@ -49,10 +49,10 @@ pub(super) fn forward_copies(p: &FragmentProgram, ops: &mut Vec<Op>) -> Vec<bool
             K::Compose(ws) => {
                 let mut a = [0u32; 4];
                 let mut at = 0;
-                for (j, &wj) in ws.iter().enumerate() {
-                    for c in 0..wj as usize {
+                for (row, &wj) in rows.iter().zip(&ws) {
+                    for &from in &row[..wj.min(4) as usize] {
                         if let Some(x) = a.get_mut(at) {
-                            *x = rows[j][c];
+                            *x = from;
                         }
                         at += 1;
                     }

@@ -209,92 +209,47 @@ fn link_value<'a>(k: K, x: impl Fn(usize) -> &'a Lanes) -> Lanes {
             }
         };
     }
+    macro_rules! un {
+        (|$a:ident, $i:ident| $e:expr) => {{
+            let $a = x(0);
+            each!(|$i| $e)
+        }};
+    }
+    macro_rules! bin {
+        (|$a:ident, $b:ident, $i:ident| $e:expr) => {{
+            let ($a, $b) = (x(0), x(1));
+            each!(|$i| $e)
+        }};
+    }
+    macro_rules! tri {
+        (|$a:ident, $b:ident, $c:ident, $i:ident| $e:expr) => {{
+            let ($a, $b, $c) = (x(0), x(1), x(2));
+            each!(|$i| $e)
+        }};
+    }
     match k {
-        K::Add => {
-            let (a, b) = (x(0), x(1));
-            each!(|i| a[i] + b[i])
-        }
-        K::Sub => {
-            let (a, b) = (x(0), x(1));
-            each!(|i| a[i] - b[i])
-        }
-        K::Mul => {
-            let (a, b) = (x(0), x(1));
-            each!(|i| a[i] * b[i])
-        }
-        K::Div => {
-            let (a, b) = (x(0), x(1));
-            each!(|i| a[i] / b[i])
-        }
-        K::Neg => {
-            let a = x(0);
-            each!(|i| -a[i])
-        }
-        K::Max => {
-            let (a, b) = (x(0), x(1));
-            each!(|i| a[i].max(b[i]))
-        }
-        K::Min => {
-            let (a, b) = (x(0), x(1));
-            each!(|i| a[i].min(b[i]))
-        }
-        K::Clamp => {
-            let (a, b, cc) = (x(0), x(1), x(2));
-            each!(|i| a[i].max(b[i]).min(cc[i]))
-        }
-        K::Saturate => {
-            let a = x(0);
-            each!(|i| a[i].clamp(0.0, 1.0))
-        }
-        K::Expand => {
-            let a = x(0);
-            each!(|i| 2.0 * a[i] - 1.0)
-        }
-        K::Compress => {
-            let a = x(0);
-            each!(|i| (a[i] + 1.0) / 2.0)
-        }
-        K::HalfBias => {
-            let a = x(0);
-            each!(|i| a[i] - 0.5)
-        }
-        K::AddSigned => {
-            let (a, b) = (x(0), x(1));
-            each!(|i| a[i] + b[i] - 0.5)
-        }
-        K::Abs => {
-            let a = x(0);
-            each!(|i| a[i].abs())
-        }
-        K::Sqrt => {
-            let a = x(0);
-            each!(|i| a[i].sqrt())
-        }
-        K::Rsqrt => {
-            let a = x(0);
-            each!(|i| 1.0 / a[i].sqrt())
-        }
-        K::Floor => {
-            let a = x(0);
-            each!(|i| a[i].floor())
-        }
-        K::Fract => {
-            let a = x(0);
-            each!(|i| a[i] - a[i].floor())
-        }
-        K::Step => {
-            let (a, b) = (x(0), x(1));
-            each!(|i| if b[i] < a[i] { 0.0 } else { 1.0 })
-        }
-        K::Mix => {
-            let (a, b, cc) = (x(0), x(1), x(2));
-            each!(|i| a[i] * (1.0 - cc[i]) + b[i] * cc[i])
-        }
+        K::Add => bin!(|a, b, i| a[i] + b[i]),
+        K::Sub => bin!(|a, b, i| a[i] - b[i]),
+        K::Mul => bin!(|a, b, i| a[i] * b[i]),
+        K::Div => bin!(|a, b, i| a[i] / b[i]),
+        K::Neg => un!(|a, i| -a[i]),
+        K::Max => bin!(|a, b, i| a[i].max(b[i])),
+        K::Min => bin!(|a, b, i| a[i].min(b[i])),
+        K::Clamp => tri!(|a, b, cc, i| a[i].max(b[i]).min(cc[i])),
+        K::Saturate => un!(|a, i| a[i].clamp(0.0, 1.0)),
+        K::Expand => un!(|a, i| 2.0 * a[i] - 1.0),
+        K::Compress => un!(|a, i| (a[i] + 1.0) / 2.0),
+        K::HalfBias => un!(|a, i| a[i] - 0.5),
+        K::AddSigned => bin!(|a, b, i| a[i] + b[i] - 0.5),
+        K::Abs => un!(|a, i| a[i].abs()),
+        K::Sqrt => un!(|a, i| a[i].sqrt()),
+        K::Rsqrt => un!(|a, i| 1.0 / a[i].sqrt()),
+        K::Floor => un!(|a, i| a[i].floor()),
+        K::Fract => un!(|a, i| a[i] - a[i].floor()),
+        K::Step => bin!(|a, b, i| if b[i] < a[i] { 0.0 } else { 1.0 }),
+        K::Mix => tri!(|a, b, cc, i| a[i] * (1.0 - cc[i]) + b[i] * cc[i]),
         K::PowInt(e) => return power_lanes(x(0), e),
-        K::Select(_) => {
-            let (cond, a, b) = (x(0), x(1), x(2));
-            each!(|i| if cond[i] != 0.0 { a[i] } else { b[i] })
-        }
+        K::Select(_) => tri!(|cond, a, b, i| if cond[i] != 0.0 { a[i] } else { b[i] }),
         _ => {}
     }
     o

@@ -205,23 +205,9 @@ impl LaneProgram {
                 }
             }
         }
-        let runs = if plain() {
-            Vec::new()
-        } else {
-            let direct = forward_copies(p, &mut ops);
-            if fused() {
-                runs::fuse_runs(&mut ops, &direct)
-            } else {
-                Vec::new()
-            }
-        };
+        let runs = forward_and_fuse(p, &mut ops);
         #[cfg(test)]
-        tests::COMPILED.with(|c| {
-            let linked = runs.iter().map(runs::Run::len).sum::<usize>();
-            let lanes = ops.iter().filter(|op| matches!(op, Op::Lanes { .. })).count() + linked;
-            let copy = |op: &&Op| matches!(op, Op::Lanes { k: K::Swizzle(..) | K::Same | K::Compose(_), .. });
-            c.borrow_mut().push((lanes, ops.iter().filter(copy).count(), linked))
-        });
+        tests::record(&ops, &runs);
         let closures = (DISPATCH.load(Ordering::Relaxed) == Dispatch::Closures as u8)
             .then(|| ops.iter().map(closure).collect());
         // What the lookups of each texture keep from batch to batch (only
@@ -261,6 +247,20 @@ impl LaneProgram {
             n_slots: p.n_slots,
             id: PROGRAMS.fetch_add(1, Ordering::Relaxed),
         }
+    }
+}
+
+/// `ops` with their copies forwarded ([`forward_copies`]) and their
+/// straight runs fused ([`runs::fuse_runs`]): the runs (none when plain).
+fn forward_and_fuse(p: &FragmentProgram, ops: &mut Vec<Op>) -> Vec<runs::Run> {
+    if plain() {
+        return Vec::new();
+    }
+    let direct = forward_copies(p, ops);
+    if fused() {
+        runs::fuse_runs(ops, &direct)
+    } else {
+        Vec::new()
     }
 }
 

@@ -15,6 +15,15 @@ thread_local! {
     /// many run fused ([`super::runs::fuse_runs`]).
     pub(super) static COMPILED: std::cell::RefCell<Vec<(usize, usize, usize)>> = const { std::cell::RefCell::new(Vec::new()) };
 }
+/// Records a compiled program's counts in [`COMPILED`].
+pub(super) fn record(ops: &[super::Op], runs: &[super::runs::Run]) {
+    use super::{Op, K};
+    let linked = runs.iter().map(super::runs::Run::len).sum::<usize>();
+    let lanes = ops.iter().filter(|op| matches!(op, Op::Lanes { .. })).count() + linked;
+    let copy = |op: &&Op| matches!(op, Op::Lanes { k: K::Swizzle(..) | K::Same | K::Compose(_), .. });
+    COMPILED.with(|c| c.borrow_mut().push((lanes, ops.iter().filter(copy).count(), linked)));
+}
+
 /// Set: straight runs of ops are not fused ([`super::fused`]).
 pub(super) static UNFUSED: AtomicBool = AtomicBool::new(false);
 /// Lookups that fetched through another's footprints.
