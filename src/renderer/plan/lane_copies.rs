@@ -12,9 +12,8 @@ use crate::renderer::plan::FragmentProgram;
 /// component. No arithmetic changes, so the values are the same bit for
 /// bit; a copy over all 32 lanes was a loop over up to four rows, with
 /// its dispatch (eight of the 31 lane ops of Kilgard's pass, and six
-/// splats). Returns per slot whether code other than the lane ops reads
-/// it.
-pub(super) fn forward_copies(p: &FragmentProgram, ops: &mut Vec<Op>) -> Vec<bool> {
+/// splats).
+pub(super) fn forward_copies(p: &FragmentProgram, ops: &mut Vec<Op>) {
     // The slots that code other than the lane ops reads through their own rows.
     let mut direct = vec![false; p.n_slots];
     let mut mark = |s: u32| {
@@ -77,7 +76,6 @@ pub(super) fn forward_copies(p: &FragmentProgram, ops: &mut Vec<Op>) -> Vec<bool
         }
         false
     });
-    direct
 }
 
 /// Per slot, the components that some op of `ops` or the program's
@@ -130,7 +128,6 @@ pub(super) fn demanded(p: &FragmentProgram, ops: &[Op]) -> Vec<u8> {
                 continue;
             }
             Op::Scalar(i) | Op::Sample(i) => i,
-            Op::Run(_) => continue,
         };
         let s = &p.steps[i as usize];
         s.ops[..s.n_ops as usize].iter().for_each(|&o| read(o, 0b1111));

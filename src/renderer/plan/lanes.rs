@@ -144,8 +144,6 @@ enum Op {
     /// Step `i`, a lookup of a bound 2D or cube texture, lane by lane
     /// straight into the texture unit's model in `f32`.
     Sample(u32),
-    /// Fused run `i` of [`LaneProgram`]'s runs ([`runs::fuse_runs`]).
-    Run(u32),
 }
 
 type Closure = Box<dyn Fn(&mut [Lanes], Vary, usize, &mut [bool; BATCH]) + Send + Sync>;
@@ -153,8 +151,6 @@ type Closure = Box<dyn Fn(&mut [Lanes], Vary, usize, &mut [bool; BATCH]) + Send 
 /// A pass's fragment program as lane code ([`LaneProgram::compile`]).
 pub(in crate::renderer) struct LaneProgram {
     ops: Vec<Op>,
-    /// The fused runs that [`Op::Run`] names.
-    runs: Vec<runs::Run>,
     closures: Option<Vec<Closure>>,
     /// Uniform and constant slots, splatted into a thread's registers
     /// when it shades a batch of another program than its last.
@@ -204,10 +200,10 @@ impl LaneProgram {
                     *keep = demand[*dst as usize];
                 }
             }
+            forward_copies(p, &mut ops);
         }
-        let runs = forward_and_fuse(p, &mut ops);
         #[cfg(test)]
-        tests::record(&ops, &runs);
+        tests::record(&ops);
         let closures = (DISPATCH.load(Ordering::Relaxed) == Dispatch::Closures as u8)
             .then(|| ops.iter().map(closure).collect());
         // What the lookups of each texture keep from batch to batch (only
@@ -239,7 +235,6 @@ impl LaneProgram {
             .collect();
         LaneProgram {
             ops,
-            runs,
             closures,
             splats,
             levels,
@@ -247,20 +242,6 @@ impl LaneProgram {
             n_slots: p.n_slots,
             id: PROGRAMS.fetch_add(1, Ordering::Relaxed),
         }
-    }
-}
-
-/// `ops` with their copies forwarded ([`forward_copies`]) and their
-/// straight runs fused ([`runs::fuse_runs`]): the runs (none when plain).
-fn forward_and_fuse(p: &FragmentProgram, ops: &mut Vec<Op>) -> Vec<runs::Run> {
-    if plain() {
-        return Vec::new();
-    }
-    let direct = forward_copies(p, ops);
-    if fused() {
-        runs::fuse_runs(ops, &direct)
-    } else {
-        Vec::new()
     }
 }
 
@@ -594,11 +575,6 @@ fn run_body(
                 }
             }
             Op::Sample(i) => p.sample_lanes(i as usize, r, (fragments, varyings), lp, shared),
-            Op::Run(i) => {
-                if let Some(run) = lp.runs.get(i as usize) {
-                    runs::run_links(run, r)
-                }
-            }
             Op::Lanes { .. } => match &lp.closures {
                 Some(c) => c[j](r, varyings, n, discard),
                 None => exec(*op, r, varyings, n, discard),
@@ -960,25 +936,12 @@ fn plain() -> bool {
     false
 }
 
-/// Whether straight runs of ops are fused ([`runs::fuse_runs`]): always,
-/// except in this module's test that renders both ways.
-#[inline(always)]
-fn fused() -> bool {
-    #[cfg(test)]
-    return !tests::UNFUSED.load(Ordering::Relaxed);
-    #[cfg(not(test))]
-    true
-}
-
 #[path = "lane_outputs.rs"]
 mod outputs;
 
 #[path = "lane_copies.rs"]
 mod copies;
 use copies::{demanded, forward_copies};
-
-#[path = "lane_runs.rs"]
-mod runs;
 
 #[cfg(test)]
 #[path = "lanes_tests.rs"]
