@@ -123,7 +123,8 @@ fn main() {
         let raster_row = std::env::var("SHADEC_BENCH_RASTER").as_deref() != Ok("0");
         let peer = |mode| {
             let gpu = gpu.as_ref().ok()?;
-            if !modes.contains(&mode) && !(mode == Precision::F32 && raster_row) {
+            let compared = modes.contains(&mode) || (mode == Precision::F32 && raster_row);
+            if !compared {
                 return None;
             }
             let plan = ScenePlan::new(&wgsl, &program, Some(SOURCE), mode, &scene, &assets).unwrap();
