@@ -123,9 +123,12 @@ enum K {
 
 /// One compiled op: the arithmetic, the destination slot and the operand
 /// slots, the result's width (1: splat, 2-4: zero above, 0: NaN, as
-/// [`ir::eval::canonical`] makes a value canonical), and the components of
+/// [`ir::eval::canonical`] makes a value canonical), the components of
 /// the result some op or the output reads (`keep`, a bit each): the
-/// canonical form is written only there ([`demanded`]).
+/// canonical form is written only there ([`demanded`]), and per operand
+/// and component the register row the op reads (`rows`: the operand
+/// slot's own rows, or the rows of the value a copy it reads copied,
+/// [`forward_copies`]).
 #[derive(Clone, Copy, Debug)]
 enum Op {
     Lanes {
@@ -134,6 +137,7 @@ enum Op {
         ops: [u32; 4],
         width: u8,
         keep: u8,
+        rows: [[u32; 4]; 4],
     },
     /// Step `i` lane by lane through [`FragmentProgram::step_value`].
     Scalar(u32),
@@ -178,7 +182,14 @@ impl LaneProgram {
             }
             let op = lane_kernel(p, s)
                 .filter(|_| s.ops[..s.n_ops as usize].iter().all(|&o| o < s.slot))
-                .map(|k| Op::Lanes { k, dst: s.slot, ops: s.ops, width: width_of(s.ty), keep: 0b1111 })
+                .map(|k| Op::Lanes {
+                    k,
+                    dst: s.slot,
+                    ops: s.ops,
+                    width: width_of(s.ty),
+                    keep: 0b1111,
+                    rows: s.ops.map(|o| [0, 1, 2, 3].map(|c| o.saturating_mul(4).saturating_add(c))),
+                })
                 .unwrap_or(Op::Scalar(i as u32));
             ops.push(op);
         }
@@ -189,7 +200,10 @@ impl LaneProgram {
                     *keep = demand[*dst as usize];
                 }
             }
+            forward_copies(p, &mut ops);
         }
+        #[cfg(test)]
+        tests::record(&ops);
         let closures = (DISPATCH.load(Ordering::Relaxed) == Dispatch::Closures as u8)
             .then(|| ops.iter().map(closure).collect());
         // What the lookups of each texture keep from batch to batch (only
@@ -236,66 +250,6 @@ fn width_of(ty: ir::Ty) -> u8 {
         w @ 1..=4 => w as u8,
         _ => 0,
     }
-}
-
-/// Per slot, the components that some op of `ops` or the program's
-/// outputs read (a bit each). A scalar result is splatted to four
-/// components and a narrow one zeroed above its width (the canonical form
-/// every kernel may read), but most scalars feed scalar ops, which read
-/// only the first: the copies to components no one reads are skipped. The
-/// components read are the same values either way, so the results are
-/// bit for bit the same (the test of this module renders both).
-fn demanded(p: &FragmentProgram, ops: &[Op]) -> Vec<u8> {
-    let mut demand = vec![0u8; p.n_slots];
-    let mut read = |slot: u32, mask: u8| {
-        if let Some(d) = demand.get_mut(slot as usize) {
-            *d |= mask;
-        }
-    };
-    let below = |w: u8| ((1u16 << w.min(4)) - 1) as u8;
-    for op in ops {
-        let i = match *op {
-            Op::Lanes { k, ops, width, .. } => {
-                let comps = below(width.clamp(1, 4));
-                match k {
-                    K::Dot(w) | K::Length(w) => ops[..2].iter().for_each(|&o| read(o, below(w))),
-                    K::Cmp(_) | K::Not => ops[..2].iter().for_each(|&o| read(o, 1)),
-                    K::Swizzle(pattern, len) => {
-                        pattern[..len as usize].iter().for_each(|&c| read(ops[0], 1 << (c & 3)))
-                    }
-                    K::Select(_) => {
-                        read(ops[0], 1);
-                        ops[1..].iter().for_each(|&o| read(o, comps));
-                    }
-                    K::Compose(ws) => ops.iter().zip(ws).for_each(|(&o, w)| read(o, below(w))),
-                    K::Varying(_) => {}
-                    K::Add | K::Sub | K::Mul | K::Div | K::Neg | K::Max | K::Min | K::Clamp | K::Saturate => {
-                        ops.iter().for_each(|&o| read(o, comps))
-                    }
-                    K::Expand | K::Compress | K::HalfBias | K::AddSigned | K::Abs | K::Sqrt | K::Rsqrt => {
-                        ops.iter().for_each(|&o| read(o, comps))
-                    }
-                    K::Floor
-                    | K::Fract
-                    | K::Step
-                    | K::Mix
-                    | K::Same
-                    | K::RgbToRgba
-                    | K::PowInt(_)
-                    | K::Pow => ops.iter().for_each(|&o| read(o, comps)),
-                    K::Normalize(_) => ops.iter().for_each(|&o| read(o, 0b1111)),
-                }
-                continue;
-            }
-            Op::Scalar(i) | Op::Sample(i) => i,
-        };
-        let s = &p.steps[i as usize];
-        s.ops[..s.n_ops as usize].iter().for_each(|&o| read(o, 0b1111));
-    }
-    for slot in [Some(p.output), p.condition, p.depth].into_iter().flatten() {
-        read(slot, 0b1111);
-    }
-    demand
 }
 
 /// Whether step `s` is a lookup [`Op::Sample`] takes: a bound texture
@@ -635,13 +589,13 @@ fn closure(op: &Op) -> Closure {
     let op = *op;
     macro_rules! bin {
         ($f:expr) => {{
-            let Op::Lanes { dst, ops, width, keep, .. } = op else { unreachable!() };
+            let Op::Lanes { dst, rows, width, keep, .. } = op else { unreachable!() };
             Box::new(move |r: &mut [Lanes], _: Vary, _: usize, _: &mut [bool; BATCH]| {
                 let nn = BATCH;
                 let (lo, hi) = r.split_at_mut(dst as usize * 4);
                 let out = &mut hi[..4];
                 for c in 0..width.max(1) as usize {
-                    let (a, b) = (lanes(lo, ops[0], c), lanes(lo, ops[1], c));
+                    let (a, b) = (&lo[rows[0][c] as usize], &lo[rows[1][c] as usize]);
                     let o = &mut out[c];
                     for i in 0..nn {
                         o[i] = $f(a[i], b[i]);
@@ -697,23 +651,28 @@ fn canonical(out: &mut [Lanes], width: u8, keep: u8) {
 /// lane past the batch's fragments computes on stale values no one reads).
 struct Operands<'r> {
     lo: &'r [Lanes],
-    ops: [u32; 4],
+    rows: [[u32; 4]; 4],
     comps: usize,
     nn: usize,
 }
 
 impl Operands<'_> {
+    /// Component `c` of operand `j`.
+    #[inline(always)]
+    fn at(&self, j: usize, c: usize) -> &Lanes {
+        &self.lo[self.rows[j][c] as usize]
+    }
     #[inline(always)]
     fn a(&self, c: usize) -> &Lanes {
-        lanes(self.lo, self.ops[0], c)
+        self.at(0, c)
     }
     #[inline(always)]
     fn b(&self, c: usize) -> &Lanes {
-        lanes(self.lo, self.ops[1], c)
+        self.at(1, c)
     }
     #[inline(always)]
     fn c(&self, c: usize) -> &Lanes {
-        lanes(self.lo, self.ops[2], c)
+        self.at(2, c)
     }
 }
 
@@ -722,11 +681,11 @@ impl Operands<'_> {
 #[allow(clippy::needless_range_loop)]
 #[inline(always)]
 fn exec(op: Op, r: &mut [Lanes], varyings: Vary, n: usize, discard: &mut [bool; BATCH]) {
-    let Op::Lanes { k, dst, ops, width, keep } = op else { return };
+    let Op::Lanes { k, dst, width, keep, rows, .. } = op else { return };
     let (lo, hi) = r.split_at_mut(dst as usize * 4);
     let out = &mut hi[..4];
     // Components computed: a width-1 result only its first (then splatted).
-    let x = Operands { lo, ops, comps: width.clamp(1, 4) as usize, nn: BATCH };
+    let x = Operands { lo, rows, comps: width.clamp(1, 4) as usize, nn: BATCH };
     if componentwise(k, &x, out) {
         return canonical(out, width, keep);
     }
@@ -894,7 +853,7 @@ fn structural(
             for (j, &w) in ws.iter().enumerate() {
                 for c in 0..w as usize {
                     if at < 4 {
-                        out[at] = *lanes(x.lo, x.ops[j], c);
+                        out[at] = *x.at(j, c);
                     }
                     at += 1;
                 }
@@ -979,6 +938,10 @@ fn plain() -> bool {
 
 #[path = "lane_outputs.rs"]
 mod outputs;
+
+#[path = "lane_copies.rs"]
+mod copies;
+use copies::{demanded, forward_copies};
 
 #[cfg(test)]
 #[path = "lanes_tests.rs"]

@@ -9,6 +9,19 @@ use crate::scene::Scene;
 
 /// Set: the lane code runs plain ([`super::plain`]).
 pub(super) static PLAIN: AtomicBool = AtomicBool::new(false);
+thread_local! {
+    /// Per program compiled on this thread: its lane ops, and how many
+    /// of them copy components (swizzles, compositions, conversions).
+    pub(super) static COMPILED: std::cell::RefCell<Vec<(usize, usize)>> = const { std::cell::RefCell::new(Vec::new()) };
+}
+/// Records a compiled program's counts in [`COMPILED`].
+pub(super) fn record(ops: &[super::Op]) {
+    use super::{Op, K};
+    let lanes = ops.iter().filter(|op| matches!(op, Op::Lanes { .. })).count();
+    let copy = |op: &&Op| matches!(op, Op::Lanes { k: K::Swizzle(..) | K::Same | K::Compose(_), .. });
+    COMPILED.with(|c| c.borrow_mut().push((lanes, ops.iter().filter(copy).count())));
+}
+
 /// Lookups that fetched through another's footprints.
 pub(super) static SHARED: AtomicU64 = AtomicU64::new(0);
 
@@ -106,4 +119,39 @@ fn a_frame_into_a_recycled_image_is_the_frame_into_a_new_one_bit_for_bit() {
     renderer.recycle(recycled);
     let again = renderer.render(Precision::F32, w, h, &mut |_, _| {}).unwrap();
     assert_eq!(bits(&again), bits(&new));
+}
+
+/// Copies forwarded to their readers ([`super::forward_copies`]): Kilgard's
+/// pass compiles to fewer lane ops than plain (its swizzles of texels and
+/// its composition of the colour are gone, read through their rows), and
+/// a frame whose every component goes through them — swizzles of one
+/// component read as a splat, of three, a composition of a vector and a
+/// scalar — is the frame of the plain ops bit for bit (a wrong row read
+/// in any forwarded operand changes its pixels).
+#[test]
+fn forwarded_copies_give_the_values_of_the_copies_bit_for_bit() {
+    let (scene, assets, program, planned) = kilgard_on_wgsl();
+    let (mut fast, mut plain) = (None, None);
+    for (is_plain, out) in [(false, &mut fast), (true, &mut plain)] {
+        PLAIN.store(is_plain, Ordering::Relaxed);
+        let frame = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+            let renderer = PlanRenderer::new(&planned, &program, &scene, &assets).unwrap();
+            COMPILED.with(|c| c.borrow_mut().clear());
+            let frame = renderer.render(Precision::F32, 96, 72, &mut |_, _| {}).unwrap();
+            (frame, COMPILED.with(|c| c.borrow().clone()))
+        }));
+        PLAIN.store(false, Ordering::Relaxed);
+        *out = Some(frame.unwrap());
+    }
+    let ((fast, fast_ops), (plain, plain_ops)) = (fast.unwrap(), plain.unwrap());
+    let copies = |ops: &[(usize, usize)]| ops.iter().map(|&(_, c)| c).sum::<usize>();
+    assert!(copies(&plain_ops) >= 6, "plain ops {plain_ops:?}");
+    assert_eq!(copies(&fast_ops), 0, "copies left: {fast_ops:?}");
+    let lane_ops = |ops: &[(usize, usize)]| ops.iter().map(|&(n, _)| n).sum::<usize>();
+    assert_eq!(lane_ops(&fast_ops) + copies(&plain_ops), lane_ops(&plain_ops));
+    let bits = |f: &crate::renderer::plan::Frame| {
+        f.image.to_rgba_f32().into_iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>()
+    };
+    assert!(fast.stats.written > 500, "{:?}", fast.stats);
+    assert!(bits(&fast) == bits(&plain), "the frames differ");
 }
