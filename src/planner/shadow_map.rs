@@ -55,10 +55,10 @@ pub fn redraw_over_geometry(m: &mut Module, profile: &Profile) -> Vec<usize> {
             done.push(i);
         }
     }
-    if !done.is_empty() {
-        // The tests now read depth textures at interpolated coordinates:
-        // a `≤` among them takes the unit's form too.
-        depth_tests_as_greater(m);
+    // The tests now read depth textures at interpolated coordinates: a
+    // `≤` among them, bare or selecting, takes the unit's form too.
+    for &i in &done {
+        tests_as_greater(m, i, true);
     }
     done
 }
@@ -72,28 +72,38 @@ pub fn redraw_over_geometry(m: &mut Module, profile: &Profile) -> Vec<usize> {
 /// ([`compare_node`] finds it).
 pub fn depth_tests_as_greater(m: &mut Module) {
     for i in 0..m.statements.len() {
-        let value = m.statements[i].value;
-        let mut map = HashMap::default();
-        let reach = m.reachable(&[value]);
-        bare_tests_as_greater(m, &reach, &mut map);
-        for h in reach {
-            let Expr::Select { cond, accept, reject } = m.exprs[h] else { continue };
-            let Some((greater, swap)) = as_greater(m, cond) else { continue };
-            let (accept, reject) = match (swap, reject) {
-                (false, reject) => (accept, reject),
-                (true, Some(reject)) => (reject, Some(accept)),
-                (true, None) => continue,
-            };
-            let span = m.span(h);
-            if let Ok(select) = m.intern(Expr::Select { cond: greater, accept, reject }, span) {
-                map.insert(h, select);
-            }
-        }
-        if let Some(value) = (!map.is_empty()).then(|| super::substitute(m, value, &map)).flatten() {
-            m.statements[i].value = value;
-        }
-        compare_nodes(m, m.statements[i].value);
+        tests_as_greater(m, i, false);
     }
+}
+
+/// [`depth_tests_as_greater`] of statement `i`; with `bare`, a test
+/// written as a value too ([`bare_tests_as_greater`]: only in a statement
+/// [`redraw_over_geometry`] rewrote, whose value is the shadow mask — a
+/// stencil statement's depth comparison is the depth test's, not a unit's).
+fn tests_as_greater(m: &mut Module, i: usize, bare: bool) {
+    let value = m.statements[i].value;
+    let mut map = HashMap::default();
+    let reach = m.reachable(&[value]);
+    if bare {
+        bare_tests_as_greater(m, &reach, &mut map);
+    }
+    for h in reach {
+        let Expr::Select { cond, accept, reject } = m.exprs[h] else { continue };
+        let Some((greater, swap)) = as_greater(m, cond) else { continue };
+        let (accept, reject) = match (swap, reject) {
+            (false, reject) => (accept, reject),
+            (true, Some(reject)) => (reject, Some(accept)),
+            (true, None) => continue,
+        };
+        let span = m.span(h);
+        if let Ok(select) = m.intern(Expr::Select { cond: greater, accept, reject }, span) {
+            map.insert(h, select);
+        }
+    }
+    if let Some(value) = (!map.is_empty()).then(|| super::substitute(m, value, &map)).flatten() {
+        m.statements[i].value = value;
+    }
+    compare_nodes(m, m.statements[i].value);
 }
 
 /// A depth test written as a value, not as a selection's condition (the
