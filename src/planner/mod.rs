@@ -32,6 +32,7 @@ pub mod fit;
 mod form;
 pub mod hilo;
 pub mod lights;
+mod piece;
 pub mod realize;
 pub mod relevance;
 mod rendered;
