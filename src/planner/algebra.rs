@@ -447,6 +447,32 @@ fn simplify(m: &mut Module, h: Handle<Expr>, span: Span, channels: bool) -> Opti
                 Expr::Convert { value: v, to } if m.info(v).ty == Ty::Scalar => (v, None, Some(to)),
                 _ => (value, None, None),
             };
+            // `δ(k·(a + b))` with `k` a scalar constant: `k·(δa + δb)`,
+            // the constant outside the interpolants as the program
+            // multiplied out by hand writes it (`0.8·δl₀ + 0.8·δl₁`),
+            // where a form can halve or scale it; folded into each
+            // light's colour it is no coefficient any more.
+            if let Expr::Binary { op: BinaryOp::Mul, lhs, rhs } = m.exprs[inner] {
+                for (k, x) in [(lhs, rhs), (rhs, lhs)] {
+                    let scalar = matches!(&m.exprs[k], Expr::Constant(c) if c.ty == Ty::Scalar);
+                    if !scalar || sum_terms(m, x).len() < 2 {
+                        continue;
+                    }
+                    let wrapped = match (retype, splat) {
+                        (Some(ty), _) if m.info(x).ty.width() == 3 => {
+                            node(m, Expr::Swizzle { value: x, pattern: [0, 1, 2, 0], len: 3, ty }, span)?
+                        }
+                        (_, Some(to)) => node(m, Expr::Convert { value: x, to }, span)?,
+                        _ => x,
+                    };
+                    let d = node(m, Expr::Interpolate { value: wrapped, to }, span)?;
+                    let split = simplify(m, d, span, channels).unwrap_or(d);
+                    let scaled = binary(m, BinaryOp::Mul, k, split, span)?;
+                    if m.info(scaled).ty == m.info(h).ty {
+                        return Some(scaled);
+                    }
+                }
+            }
             // `δ(kd·(a + b))`: the product multiplied out first.
             let expanded = multiply_out(m, inner, MAX_TERMS).unwrap_or(inner);
             let terms = sum_terms(m, expanded);
