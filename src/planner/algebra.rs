@@ -447,11 +447,8 @@ fn simplify(m: &mut Module, h: Handle<Expr>, span: Span, channels: bool) -> Opti
                 Expr::Convert { value: v, to } if m.info(v).ty == Ty::Scalar => (v, None, Some(to)),
                 _ => (value, None, None),
             };
-            // `δ(k·(a + b))` with `k` a scalar constant: `k·(δa + δb)`,
-            // the constant outside the interpolants as the program
-            // multiplied out by hand writes it (`0.8·δl₀ + 0.8·δl₁`),
-            // where a form can halve or scale it; folded into each
-            // light's colour it is no coefficient any more.
+            // `δ(k·(a + b))` = `k·(δa + δb)`: the scalar stays a coefficient
+            // a form can halve, as `0.8·δl₀ + 0.8·δl₁` written by hand.
             if let Expr::Binary { op: BinaryOp::Mul, lhs, rhs } = m.exprs[inner] {
                 for (k, x) in [(lhs, rhs), (rhs, lhs)] {
                     let scalar = matches!(&m.exprs[k], Expr::Constant(c) if c.ty == Ty::Scalar);
