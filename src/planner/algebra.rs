@@ -44,6 +44,7 @@ use crate::ir::{BinaryOp, Expr, Frequency, Handle, MathFunction, Module, Ty};
 use crate::parser::ast::CombineMode;
 use crate::span::Span;
 
+mod delta;
 mod factored;
 mod lerps;
 use factored::Terms;
@@ -447,28 +448,8 @@ fn simplify(m: &mut Module, h: Handle<Expr>, span: Span, channels: bool) -> Opti
                 Expr::Convert { value: v, to } if m.info(v).ty == Ty::Scalar => (v, None, Some(to)),
                 _ => (value, None, None),
             };
-            // `δ(k·(a + b))` = `k·(δa + δb)`: the scalar stays a coefficient
-            // a form can halve, as `0.8·δl₀ + 0.8·δl₁` written by hand.
-            if let Expr::Binary { op: BinaryOp::Mul, lhs, rhs } = m.exprs[inner] {
-                for (k, x) in [(lhs, rhs), (rhs, lhs)] {
-                    let scalar = matches!(&m.exprs[k], Expr::Constant(c) if c.ty == Ty::Scalar);
-                    if !scalar || sum_terms(m, x).len() < 2 {
-                        continue;
-                    }
-                    let wrapped = match (retype, splat) {
-                        (Some(ty), _) if m.info(x).ty.width() == 3 => {
-                            node(m, Expr::Swizzle { value: x, pattern: [0, 1, 2, 0], len: 3, ty }, span)?
-                        }
-                        (_, Some(to)) => node(m, Expr::Convert { value: x, to }, span)?,
-                        _ => x,
-                    };
-                    let d = node(m, Expr::Interpolate { value: wrapped, to }, span)?;
-                    let split = simplify(m, d, span, channels).unwrap_or(d);
-                    let scaled = binary(m, BinaryOp::Mul, k, split, span)?;
-                    if m.info(scaled).ty == m.info(h).ty {
-                        return Some(scaled);
-                    }
-                }
+            if let Some(scaled) = delta::scale_kept_out(m, h, inner, (retype, splat, to), span, channels) {
+                return Some(scaled);
             }
             // `δ(kd·(a + b))`: the product multiplied out first.
             let expanded = multiply_out(m, inner, MAX_TERMS).unwrap_or(inner);
