@@ -203,7 +203,12 @@ fn measure_on(
     let mut candidates: Vec<(Planned, Candidate)> = Vec::new();
     for planned in written.into_iter().chain(lowered) {
         let rules = rule_names(&planned);
-        if candidates.iter().any(|(_, c)| c.rules == rules) {
+        // One candidate per plan of distinct approximations (a sum split
+        // across δ and the whole sum fall back by the same rule).
+        if candidates
+            .iter()
+            .any(|(p, c)| c.rules == rules && p.plan.approximations == planned.plan.approximations)
+        {
             continue;
         }
         let error = compare(&reference, &render(&planned, program, scene, size)?);

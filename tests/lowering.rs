@@ -106,7 +106,7 @@ fn normalize_per_fragment_becomes_a_normalization_cube_map_lookup() {
     let lowered = lowering::lower(
         &m,
         &profile,
-        Choice { normalization: Normalization::CubeMap, gouraud: false, tables_2d: false },
+        Choice { normalization: Normalization::CubeMap, gouraud: false, tables_2d: false, by_term: false },
         &|_| "-".into(),
     );
     assert!(computes_per_fragment(&m, MathFunction::Normalize));
@@ -178,7 +178,7 @@ fn taylor_renormalization_is_formula_6_on_the_vertex_unit_vector() {
     let lowered = lowering::lower(
         &m,
         &profile,
-        Choice { normalization: Normalization::Taylor, gouraud: false, tables_2d: false },
+        Choice { normalization: Normalization::Taylor, gouraud: false, tables_2d: false, by_term: false },
         &|_| "-".into(),
     );
     assert!(!computes_per_fragment(&lowered.module, MathFunction::Normalize));
@@ -581,7 +581,7 @@ fn a_function_of_two_dot_products_becomes_a_2d_table() {
             a.iter().find(|a| a.rule == "baked_table_2d").unwrap_or_else(|| panic!("{target}: {a:?}"));
         assert!(table.error_bound.is_some_and(|b| b > 0.0 && b < 0.02), "{table:?}");
         assert!(planned.module.textures.iter().any(|t| t.name.starts_with("table2d_lowered") && t.baked));
-        let per_vertex = compile_choice(&source, &profile, |c| c.gouraud);
+        let per_vertex = compile_choice(&source, &profile, |c| c.gouraud && !c.by_term);
         let (e2d, ev) = (
             error_against_meaning(&source, &planned, &scene()),
             error_against_meaning(&source, &per_vertex, &scene()),
@@ -640,7 +640,7 @@ fn a_function_of_one_dot_product_leaving_the_combiners_range_becomes_one_table()
             );
             let table = planned.module.textures.iter().find(|t| t.baked).expect("a baked table");
             assert_eq!(table.kind, TextureKind::Tex1d);
-            let per_vertex = compile_choice(&source, &profile, |c| c.gouraud);
+            let per_vertex = compile_choice(&source, &profile, |c| c.gouraud && !c.by_term);
             let (et, ev) = (
                 error_against_meaning(&source, &planned, &scene()),
                 error_against_meaning(&source, &per_vertex, &scene()),

@@ -570,9 +570,8 @@ fn dump_verdicts(n: usize, target: &str, a: Verdict, b: Verdict) {
 
 fn cases() -> u32 {
     // 1 500 in CI: under a minute and a half in a debug build on two busy
-    // cores. The fixed seed's first disagreement of the finer verdict
-    // (`C·(T2³·δ l₀₁₂)` on geforce3, approximated as written, exact
-    // multiplied out; docs/pass-plan.md) comes at about 2 000.
+    // cores. Run to 5 000 with `SHADEC_ALGEBRA_CASES=5000`
+    // (docs/pass-plan.md lists what it finds).
     std::env::var("SHADEC_ALGEBRA_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(1500)
 }
 
@@ -1439,4 +1438,26 @@ fn a_lerp_of_a_sum_is_split_onto_two_texture_units() {
     let c = lerp(Colour::Channel(0), add(Colour::Texture(4), Colour::Texture(5)), None);
     both_plan(&c, Written::Multiplied, "geforce256", true);
     verdicts_agree(&c, Written::Multiplied, "geforce256");
+}
+
+/// `C·(T2³·δ l₀₁₂)` on geforce3, the three lights scaled by 0.8 inside
+/// one shader: split across δ, the 0.8 was folded into each light's colour
+/// (`δ(0.72·…)`), no coefficient left to halve, and no split of the
+/// product fit exactly, so the statement fell back per vertex; multiplied
+/// out by hand (`0.8·δ light0 + …`) it planned exactly through one
+/// temporary. The scalar over a sum inside δ now stays outside the
+/// interpolants, `δ(k·(a + b))` = `k·(δa + δb)`, and both plan exactly —
+/// the property's first finer difference at 5 000 cases.
+#[test]
+fn a_scale_over_lights_summed_inside_delta_stays_outside_the_interpolants() {
+    let t2 = || Colour::Texture(2);
+    let c = mul(mul(mul(t2(), t2()), t2()), Colour::Lights(7, 8));
+    for how in [Written::Multiplied, Written::Blended] {
+        let decls = declarations(&c);
+        let original = format!("{decls}{}", how.statement(&written(&c)));
+        let multiplied = format!("{decls}{}", how.statement(&expanded(&c)));
+        for source in [&original, &multiplied] {
+            assert_eq!(fine_verdict(source, "geforce3"), Verdict::Exact, "{how:?}:\n{source}");
+        }
+    }
 }

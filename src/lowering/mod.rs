@@ -119,6 +119,10 @@ pub struct Choice {
     /// computed per vertex first ([`per_vertex::gouraud`]): the last resort,
     /// Gouraud shading of what the target cannot shade per fragment.
     pub gouraud: bool,
+    /// With `gouraud`: a sum of colours whose range passes [0, 1], which
+    /// GL would clamp as one vertex colour, falls back term by term, each
+    /// term its own per-vertex part ([`per_vertex::gouraud_by_term`]).
+    pub by_term: bool,
     /// Every largest per-fragment function of two per-vertex arguments a
     /// 2-D table first ([`table2d`]).
     pub tables_2d: bool,
@@ -129,11 +133,24 @@ pub struct Choice {
 pub fn choices(profile: &Profile) -> Vec<Choice> {
     let mut out = Vec::new();
     if profile.cube_maps {
-        out.push(Choice { normalization: Normalization::CubeMap, gouraud: false, tables_2d: false });
+        out.push(Choice {
+            normalization: Normalization::CubeMap,
+            gouraud: false,
+            tables_2d: false,
+            by_term: false,
+        });
     }
-    out.push(Choice { normalization: Normalization::Taylor, gouraud: false, tables_2d: false });
+    out.push(Choice {
+        normalization: Normalization::Taylor,
+        gouraud: false,
+        tables_2d: false,
+        by_term: false,
+    });
     let best = out[0];
     out.push(Choice { tables_2d: true, ..best });
+    // A sum split across δ before the whole sum: each term its own vertex
+    // colour, clamped on its own (planned only where it splits a sum).
+    out.push(Choice { gouraud: true, by_term: true, ..best });
     out.push(Choice { gouraud: true, ..best });
     out
 }
@@ -143,6 +160,9 @@ pub fn choices(profile: &Profile) -> Vec<Choice> {
 pub struct Lowered {
     pub module: Module,
     pub approximations: Vec<Approximation>,
+    /// The sums [`per_vertex::gouraud_by_term`] split across δ (a
+    /// `by_term` choice that split none is the whole-sum one).
+    pub split_sums: usize,
 }
 
 impl Lowered {
@@ -184,6 +204,7 @@ pub fn lower_for(
         results: Vec::new(),
         result_at: HashMap::new(),
         bounds,
+        split_sums: 0,
     };
     texel_bake::apply(&mut r);
     solid::apply(&mut r);
@@ -197,7 +218,11 @@ pub fn lower_for(
             continue;
         }
         let value = if choice.tables_2d { table2d::apply(&mut r, st.value) } else { st.value };
-        let value = if choice.gouraud { per_vertex::gouraud(&mut r, value) } else { value };
+        let value = match (choice.gouraud, choice.by_term) {
+            (true, false) => per_vertex::gouraud(&mut r, value),
+            (true, true) => per_vertex::gouraud_by_term(&mut r, value),
+            (false, _) => value,
+        };
         let value = r.rewrite(value);
         // A table's texel statement runs before the statement sampling it.
         let tables = std::mem::take(&mut r.pending);
@@ -227,6 +252,8 @@ pub struct Rewriter<'a> {
     result_at: HashMap<Handle<Expr>, Vec<usize>>,
     /// The scene's object bounds, when planning for one ([`solid`]).
     pub bounds: Option<solid::Bounds>,
+    /// Sums split across δ ([`Lowered::split_sums`]).
+    pub split_sums: usize,
 }
 
 impl<'a> Rewriter<'a> {
@@ -410,7 +437,7 @@ impl<'a> Rewriter<'a> {
                 a
             })
             .collect();
-        Lowered { module: self.m, approximations }
+        Lowered { module: self.m, approximations, split_sums: self.split_sums }
     }
 
     /// Drops the texel statements of tables this lowering made (textures

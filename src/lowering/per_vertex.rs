@@ -121,6 +121,43 @@ pub fn gouraud(r: &mut Rewriter, value: Handle<Expr>) -> Handle<Expr> {
     wide_interpolants_clamped(r, value)
 }
 
+/// [`gouraud`], except that a sum of colours computable per vertex whose
+/// range leaves [0, 1] is not made one part: GL clamps a vertex colour to
+/// [0, 1] (OpenGL 1.2.1, Section 2.13.9), so two lights summed in one
+/// vertex colour lose what passes 1 between them, where each term
+/// interpolated on its own (clamped on its own, if at all) and summed per
+/// fragment keeps it — the split a user would write by hand, `δ l₁ s x ⊕
+/// δ l₂ s x`. Interpolation is linear, so where nothing is clamped the
+/// two agree; which is closer where something is, a scene measures
+/// (`accuracy`), and the planner splits the sum of interpolants into
+/// passes as the target allows. Each sum split so is counted in
+/// [`Rewriter::split_sums`].
+pub fn gouraud_by_term(r: &mut Rewriter, value: Handle<Expr>) -> Handle<Expr> {
+    let value = vertex_terms_grouped(&mut r.m, value);
+    let mut terms = rustc_hash::FxHashSet::default();
+    let value = r.top_down(value, &mut move |r, h| {
+        if clamped_sum(&mut r.m, h) {
+            r.split_sums += 1;
+            terms.extend(r.m.exprs[h].operands());
+            return None; // its terms, each its own part
+        }
+        let what = if terms.contains(&h) { "this term of a sum" } else { "this part of the statement" };
+        apply(r, h, what, r.m.span(h))
+    });
+    wide_interpolants_clamped(r, value)
+}
+
+/// Whether `h` is a sum of colours, read per sample and computable per
+/// vertex, whose range leaves [0, 1]: one vertex colour would clamp it.
+fn clamped_sum(m: &mut Module, h: Handle<Expr>) -> bool {
+    let i = *m.info(h);
+    matches!(m.exprs[h], Expr::Binary { op: BinaryOp::Add, .. })
+        && i.ty.is_color()
+        && i.freq.is_sample()
+        && (i.interval.lo < 0.0 || i.interval.hi > 1.0)
+        && at_vertex(m, h).is_some()
+}
+
 /// `h` with each interpolated colour whose range is bounded,
 /// not negative and past 1 replaced by its clamped counterpart
 /// ([`apply`]).

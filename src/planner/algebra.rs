@@ -44,6 +44,7 @@ use crate::ir::{BinaryOp, Expr, Frequency, Handle, MathFunction, Module, Ty};
 use crate::parser::ast::CombineMode;
 use crate::span::Span;
 
+mod delta;
 mod factored;
 mod lerps;
 use factored::Terms;
@@ -447,6 +448,9 @@ fn simplify(m: &mut Module, h: Handle<Expr>, span: Span, channels: bool) -> Opti
                 Expr::Convert { value: v, to } if m.info(v).ty == Ty::Scalar => (v, None, Some(to)),
                 _ => (value, None, None),
             };
+            if let Some(scaled) = delta::scale_kept_out(m, h, inner, (retype, splat, to), span, channels) {
+                return Some(scaled);
+            }
             // `δ(kd·(a + b))`: the product multiplied out first.
             let expanded = multiply_out(m, inner, MAX_TERMS).unwrap_or(inner);
             let terms = sum_terms(m, expanded);

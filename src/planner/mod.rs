@@ -32,6 +32,7 @@ pub mod fit;
 mod form;
 pub mod hilo;
 pub mod lights;
+mod piece;
 pub mod realize;
 pub mod relevance;
 mod rendered;
@@ -241,7 +242,8 @@ fn plan_lowerings(module: &Module, profile: &Profile, request: &Request) -> (Vec
         let bounds = request.scene.and_then(|s| crate::lowering::solid::Bounds::of_meshes(&s.assets.meshes));
         let lowered = crate::lowering::lower_for(module, profile, choice, &at, bounds);
         let within = request.lowering.only.is_some() || lowered.within(&request.lowering);
-        if lowered.approximations.is_empty() || !within {
+        // A by-term fall-back that split no sum is the whole-sum one.
+        if lowered.approximations.is_empty() || !within || (choice.by_term && lowered.split_sums == 0) {
             continue;
         }
         match plan_as_written(&lowered.module, profile, request) {
