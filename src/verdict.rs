@@ -74,7 +74,8 @@ pub fn judge(
         crate::accuracy::plan_measured(module, program, profile, source, options, images)?;
     let measuring = crate::accuracy::vet(&mut planned, module, program, source, options, images)
         .map_err(|refused| why_not_per_fragment(refused, module, program, profile, source, options))?;
-    let warnings = crate::accuracy::warnings(&planned, module, source, &measuring);
+    let mut warnings = crate::accuracy::warnings(&planned, module, source, &measuring);
+    say_why_per_vertex(&mut warnings, module, program, profile, source, options);
     Ok(Judged { planned, warnings, candidates })
 }
 
@@ -92,18 +93,62 @@ fn why_not_per_fragment(
     options: &PlanOptions,
 ) -> Diagnostics {
     let Some(d) = refused.iter_mut().find(|d| d.code == "per-vertex-over-budget") else { return refused };
+    if let Some(why) = per_fragment_refusal(module, program, profile, source, options) {
+        let help = d.help.take().unwrap_or_default();
+        d.help = Some(format!("{help}; {why}"));
+    }
+    refused
+}
+
+/// A per-vertex fall-back taken within its budget says why per fragment
+/// was refused too, as the refusal over it does: quality dropped for a
+/// reason the user may remove (an unbounded `uniform`, a third signed
+/// vector), and the warning is where they look.
+fn say_why_per_vertex(
+    warnings: &mut Diagnostics,
+    module: &Module,
+    program: &Program,
+    profile: &Profile,
+    source: &str,
+    options: &PlanOptions,
+) {
+    let marker = format!("(`{}`)", crate::accuracy::PER_VERTEX);
+    let mut fall_backs = warnings.iter_mut().filter(|d| d.message.contains(&marker)).peekable();
+    if fall_backs.peek().is_none() {
+        return;
+    }
+    let Some(why) = per_fragment_refusal(module, program, profile, source, options) else { return };
+    for d in fall_backs {
+        let help = d.help.take().unwrap_or_default();
+        d.help = Some(format!("{why}; {help}"));
+    }
+}
+
+/// Why `profile` refuses the program per fragment: the first refusal of the
+/// plan with every bounded approximation allowed and no per-vertex
+/// fall-back, with the remedies its help names (the planner's general
+/// clause about framebuffer blending left out); `None` when that plan
+/// succeeds.
+fn per_fragment_refusal(
+    module: &Module,
+    program: &Program,
+    profile: &Profile,
+    source: &str,
+    options: &PlanOptions,
+) -> Option<String> {
     let bounded = crate::lowering::LowerOptions { max_error: Some(f64::INFINITY), ..options.lowering };
     let exact = PlanOptions { lowering: bounded, ..*options };
-    let Err(why) = crate::driver::plan(module, program, profile, Some(source), &exact) else {
-        return refused;
-    };
-    let Some(first) = why.first() else { return refused };
+    let why = crate::driver::plan(module, program, profile, Some(source), &exact).err()?;
+    let first = why.first()?;
     let reason = first.message.split(": ").last().unwrap_or(&first.message);
-    let help = d.help.take().unwrap_or_default();
-    // The refusal's own help, up to the planner's general clauses.
-    let remedy = first.help.as_deref().and_then(|h| h.split("; ").next()).unwrap_or_default();
-    d.help = Some(format!("{help}; per fragment {} refuses it ({reason}): {remedy}", profile.name));
-    refused
+    let remedy: Vec<&str> = first
+        .help
+        .as_deref()
+        .unwrap_or_default()
+        .split("; ")
+        .filter(|clause| !clause.starts_with("framebuffer blending can only split"))
+        .collect();
+    Some(format!("per fragment {} refuses it ({reason}): {}", profile.name, remedy.join("; ")))
 }
 
 /// Compiles `source` for `profile` as `shadec compile` does: the front end,

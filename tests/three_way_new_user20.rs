@@ -162,3 +162,30 @@ fn a_signed_bump_map_read_as_a_normal_is_explained_without_a_cascade() {
     let human = crate::common::shadec_in(dir.path(), &["check", "b.shd"]);
     assert!(human.stderr.contains("`Tn` is a signed 2-D texture"), "{}", human.stderr);
 }
+
+/// A per-vertex fall-back taken within its budget says why per fragment
+/// was refused, as the refusal beyond the budget does: a scalar `uniform`
+/// with no type is unbounded, so a product with it leaves the combiners'
+/// ranges and geforce3 shaded the material per vertex, with a warning that
+/// said only "the target cannot compute it per fragment". The help now
+/// names the uniform and what to declare; declared so, it plans per
+/// fragment.
+#[test]
+fn a_per_vertex_fall_back_within_its_budget_says_why_per_fragment_was_refused() {
+    let source =
+        std::fs::read_to_string(crate::three_way_heldout::data("heldout_twentieth").join("uniform_tint.shd"))
+            .unwrap()
+            .replace("../../../examples/", "examples/");
+    let warnings = |source: &str| {
+        let front = shadec::verdict::check(source, Some("geforce3")).unwrap();
+        front.diagnostics.into_iter().filter(|d| d.code == "approximation").collect::<Vec<_>>()
+    };
+    let fell_back = warnings(&source);
+    let per_vertex: Vec<_> = fell_back.iter().filter(|d| d.message.contains("(`per_vertex`)")).collect();
+    let [d] = per_vertex.as_slice() else { panic!("{fell_back:#?}") };
+    let help = d.help.as_deref().unwrap_or_default();
+    assert!(help.contains("per fragment geforce3 refuses it ("), "{help}");
+    assert!(help.contains("`uniform ks : c = …;`"), "{help}");
+    let declared = warnings(&source.replace("uniform ks = 0.6;", "uniform ks : c = 0.6;"));
+    assert!(declared.iter().all(|d| !d.message.contains("(`per_vertex`)")), "{declared:#?}");
+}
