@@ -33,6 +33,24 @@ fn a_dependent_lookup_chooses_its_level_of_detail_on_its_own() {
 
 /// Each pixel's largest channel difference between two pictures, on the
 /// compared pixels.
+/// `p` with its CPU picture replaced by `cpu` and no wgpu picture: the
+/// reference's range against one executor.
+fn cpu_alone(p: &Pictures, cpu: Vec<u8>) -> Pictures {
+    Pictures {
+        cpu,
+        gpu: None,
+        oracle: p.oracle.clone(),
+        covered: p.covered.clone(),
+        wide: p.wide.clone(),
+        oracle_low: p.oracle_low.clone(),
+        oracle_high: p.oracle_high.clone(),
+        oracle_unclamped: None,
+        oracle_unclamped_range: None,
+        gpu_refused: None,
+        ..*p
+    }
+}
+
 fn largest(a: &[u8], b: &[u8], p: &Pictures) -> u8 {
     let compared = p.compared_mask();
     (0..compared.len())
@@ -145,19 +163,7 @@ fn the_f32_verdict_allows_for_the_stated_approximation_bounds() {
         }
         cpu
     };
-    let alone = |cpu: Vec<u8>| Pictures {
-        cpu,
-        gpu: None,
-        oracle: p.oracle.clone(),
-        covered: p.covered.clone(),
-        wide: p.wide.clone(),
-        oracle_low: p.oracle_low.clone(),
-        oracle_high: p.oracle_high.clone(),
-        oracle_unclamped: None,
-        oracle_unclamped_range: None,
-        gpu_refused: None,
-        ..p
-    };
+    let alone = |cpu: Vec<u8>| cpu_alone(&p, cpu);
     let beyond = verdict(&alone(moved(tolerance + 1)));
     assert!(beyond.is_err(), "a picture {} steps off passed", tolerance + 1);
     verdict(&alone(moved(tolerance))).unwrap();
@@ -202,19 +208,7 @@ fn the_f32_verdict_allows_for_the_measured_error_of_an_unbounded_approximation()
         }
         cpu
     };
-    let alone = |cpu: Vec<u8>| Pictures {
-        cpu,
-        gpu: None,
-        oracle: p.oracle.clone(),
-        covered: p.covered.clone(),
-        wide: p.wide.clone(),
-        oracle_low: p.oracle_low.clone(),
-        oracle_high: p.oracle_high.clone(),
-        oracle_unclamped: None,
-        oracle_unclamped_range: None,
-        gpu_refused: None,
-        ..p
-    };
+    let alone = |cpu: Vec<u8>| cpu_alone(&p, cpu);
     assert!(verdict(&alone(moved(against + 1))).is_err(), "a picture {} steps off passed", against + 1);
     verdict(&alone(moved(against))).unwrap();
     // wgpu moved as far from the CPU is named the odd one out.
