@@ -33,6 +33,25 @@ fn a_dependent_lookup_chooses_its_level_of_detail_on_its_own() {
 
 /// Each pixel's largest channel difference between two pictures, on the
 /// compared pixels.
+/// The CPU picture `by` steps outside the reference's range on the red
+/// channel of every compared pixel (away from the nearer end of 0..255;
+/// a pixel with room on neither side is left as it is).
+fn moved_off_reference(p: &Pictures, by: u8) -> Vec<u8> {
+    let mask = p.compared_mask();
+    let mut cpu = p.cpu.clone();
+    for i in (0..mask.len()).filter(|&i| mask[i]) {
+        let (lo, hi) = (p.oracle_low[4 * i], p.oracle_high[4 * i]);
+        cpu[4 * i] = if 255 - hi >= by {
+            hi + by
+        } else if lo >= by {
+            lo - by
+        } else {
+            cpu[4 * i]
+        };
+    }
+    cpu
+}
+
 /// `p` with its CPU picture replaced by `cpu` and no wgpu picture: the
 /// reference's range against one executor.
 fn cpu_alone(p: &Pictures, cpu: Vec<u8>) -> Pictures {
@@ -146,23 +165,7 @@ fn the_f32_verdict_allows_for_the_stated_approximation_bounds() {
         let plain = difference(gpu, &p.reference_near(gpu), &p.compared_mask());
         assert!(!plain.within(), "{plain:?}");
     }
-    // The CPU alone, `by` steps outside the reference's range on the red
-    // channel of every compared pixel (away from the nearer end of 0..255).
-    let moved = |by: u8| {
-        let mask = p.compared_mask();
-        let mut cpu = p.cpu.clone();
-        for i in (0..mask.len()).filter(|&i| mask[i]) {
-            let (lo, hi) = (p.oracle_low[4 * i], p.oracle_high[4 * i]);
-            cpu[4 * i] = if 255 - hi >= by {
-                hi + by
-            } else if lo >= by {
-                lo - by
-            } else {
-                cpu[4 * i]
-            };
-        }
-        cpu
-    };
+    let moved = |by: u8| moved_off_reference(&p, by);
     let alone = |cpu: Vec<u8>| cpu_alone(&p, cpu);
     let beyond = verdict(&alone(moved(tolerance + 1)));
     assert!(beyond.is_err(), "a picture {} steps off passed", tolerance + 1);
@@ -197,17 +200,7 @@ fn the_f32_verdict_allows_for_the_measured_error_of_an_unbounded_approximation()
     // What the plain tolerance said: the CPU off the reference.
     let plain = difference(&p.cpu, &p.reference_near(&p.cpu), &p.compared_mask());
     assert!(!plain.within(), "{plain:?}");
-    // The CPU alone, `by` steps outside the reference's range on the red
-    // channel of every compared pixel (away from the nearer end of 0..255).
-    let moved = |by: u8| {
-        let mask = p.compared_mask();
-        let mut cpu = p.cpu.clone();
-        for i in (0..mask.len()).filter(|&i| mask[i]) {
-            let (lo, hi) = (p.oracle_low[4 * i], p.oracle_high[4 * i]);
-            cpu[4 * i] = if 255 - hi >= by { hi + by } else { lo.saturating_sub(by) };
-        }
-        cpu
-    };
+    let moved = |by: u8| moved_off_reference(&p, by);
     let alone = |cpu: Vec<u8>| cpu_alone(&p, cpu);
     assert!(verdict(&alone(moved(against + 1))).is_err(), "a picture {} steps off passed", against + 1);
     verdict(&alone(moved(against))).unwrap();
