@@ -197,8 +197,16 @@ fn name_unbounded_uniforms(module: &Module, mut diagnostics: Diagnostics) -> Dia
         }
         let Some(first) = names.first() else { continue };
         let list = names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ");
+        // A colour declaration bounds a factor of a colour, but a scalar
+        // compared with a scalar would then be an rgb: clamped where read.
+        let scalar = module.uniforms.iter().any(|u| u.name == *first && u.ty == crate::ir::Ty::Scalar);
+        let bound = if scalar {
+            format!("declare it a colour, `uniform {first} : c = …;`, where it scales a colour, or read it as `saturate({first})` (a comparison, a coordinate), to keep it in [0, 1]")
+        } else {
+            format!("declare it a colour, `uniform {first} : c = …;`, to keep it in [0, 1]")
+        };
         let help = format!(
-            "{}; {list} {} a uniform with no bound (the scene may set any value), which leaves every range it enters unbounded: declare it a colour, `uniform {first} : c = …;`, to keep it in [0, 1], or render with a scene that sets it (`render` folds the scene's value)",
+            "{}; {list} {} a uniform with no bound (the scene may set any value), which leaves every range it enters unbounded: {bound}, or render with a scene that sets it (`render` folds the scene's value)",
             d.help.clone().unwrap_or_default(),
             if names.len() == 1 { "is" } else { "are" },
         );

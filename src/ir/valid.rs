@@ -587,6 +587,9 @@ fn refine(m: &Module, op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr>, info: 
     };
     let interval = match op {
         BinaryOp::Dot if lhs == rhs && direction(lhs) => Interval::UNSIGNED,
+        // A square is never negative: `n.x*n.x`, a triplanar weight, is in
+        // [0, 1], where the product of two intervals says [−1, 1].
+        BinaryOp::Mul if lhs == rhs => square(m.info(lhs).interval),
         BinaryOp::Add
             if (direction(lhs) && is_taylor_step(m, lhs, rhs))
                 || (direction(rhs) && is_taylor_step(m, rhs, lhs)) =>
@@ -601,6 +604,18 @@ fn refine(m: &Module, op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr>, info: 
         _ => return info,
     };
     ExprInfo { interval, ..info }
+}
+
+/// The range of `x·x` for `x` in `i`.
+fn square(i: Interval) -> Interval {
+    let (lo, hi) = (i.lo * i.lo, i.hi * i.hi);
+    if i.lo >= 0.0 {
+        iv(lo, hi)
+    } else if i.hi <= 0.0 {
+        iv(hi, lo)
+    } else {
+        iv(0.0, lo.max(hi))
+    }
 }
 
 /// How deep [`channels`] looks below a node: a colour's channels are

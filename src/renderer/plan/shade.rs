@@ -773,11 +773,18 @@ pub(super) fn uv_derivatives(
 }
 
 /// The varying whose derivatives choose the mipmap level of a lookup at
-/// `coords`: the coordinates themselves when they are a δ (or a swizzle of one).
+/// `coords`: the coordinates themselves when they are a δ, or a swizzle of
+/// one that keeps its components in place (`.xy` of a δ vec3). The level
+/// is taken from the varying's first components ([`uv_derivatives`]), so a
+/// swizzle that moves them (`(P δ s x).yz`, triplanar mapping) has none:
+/// its level comes from the coordinates at the quad's pixels, as a
+/// dependent lookup's does.
 pub(super) fn lod_varying(m: &Module, coords: Handle<Expr>) -> Option<Handle<Expr>> {
     match &m.exprs[coords] {
         Expr::Interpolate { .. } => Some(coords),
-        Expr::Swizzle { value, .. } => lod_varying(m, *value),
+        Expr::Swizzle { value, pattern, len, .. } if (0..*len).all(|i| pattern[i as usize] == i) => {
+            lod_varying(m, *value)
+        }
         _ => None,
     }
 }

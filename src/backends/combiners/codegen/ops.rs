@@ -481,7 +481,7 @@ impl Gen<'_> {
             unsupported(
                 span,
                 "this condition",
-                "the mux tests spare0.a ≥ ½ (Kilgard 2000, Section 4.2.2): compare a value with 0 or 0.5, e.g. `Hn.z ≥ 0` (Appendix H), or use a lookup texture",
+                "the mux tests spare0.a ≥ ½ (Kilgard 2000, Section 4.2.2): compare a scalar with a constant, e.g. `Hn.z ≥ 0` (Appendix H), or with a scalar that stays at or above 0, or use a lookup texture",
             )
         };
         let Expr::Binary { op, lhs, rhs } = self.expr(cond).clone() else { return Err(bad()) };
@@ -509,6 +509,12 @@ impl Gen<'_> {
             (_, Some(k), BinaryOp::Lt | BinaryOp::Le) => (lhs, k, false),
             (Some(k), _, BinaryOp::Le | BinaryOp::Lt) => (rhs, k, true),
             (Some(k), _, BinaryOp::Ge | BinaryOp::Gt) => (rhs, k, false),
+            (None, None, BinaryOp::Ge | BinaryOp::Gt) => {
+                return self.compared(lhs, rhs, span)?.ok_or_else(bad)
+            }
+            (None, None, BinaryOp::Le | BinaryOp::Lt) => {
+                return self.compared(rhs, lhs, span)?.ok_or_else(bad)
+            }
             _ => return Err(bad()),
         };
         let s = self.src(x, Part::Rgb, false)?;
@@ -539,6 +545,28 @@ impl Gen<'_> {
             return Err(bad());
         };
         Ok((sel, high))
+    }
+
+    /// `a ≥ b` of two computed values, as the mux's select: `a + (½ − b)`,
+    /// with `½ − b` the input mapping HALF_BIAS_NEGATE of `b` (Kilgard
+    /// 2000, Table 3), is ≥ ½ exactly when `a ≥ b`, and the register's
+    /// clamp to [−1, 1] keeps it on its side of ½. The mapping first clamps
+    /// its input to [0, 1], so `b` must not go below 0 (`None` otherwise:
+    /// the caller refuses). A tie selects the `≥` side, as the comparisons
+    /// with a constant do.
+    fn compared(&mut self, a: Handle<Expr>, b: Handle<Expr>, span: Span) -> R<Option<(Src, bool)>> {
+        let scalar = |h| self.m.info(h).ty == Ty::Scalar;
+        if self.m.info(b).interval.lo < 0.0 || !scalar(a) || !scalar(b) {
+            return Ok(None);
+        }
+        let sa = self.src(a, Part::Rgb, false)?;
+        let sb = match self.src(b, Part::Rgb, false)? {
+            s @ Src { map: UnsignedIdentity | SignedIdentity, .. } => s,
+            s => self.copy(s, span)?,
+        };
+        let minus_b = Term::times_one(Src { map: HalfBiasNegate, ..sb });
+        let sel = self.emit(Spec { cd: Some(minus_b), ..Spec::single(Term::times_one(sa), true) }, span)?;
+        Ok(Some((sel, true)))
     }
 
     /// Adds an operation: picks its portion, fixes up component reads the
