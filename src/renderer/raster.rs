@@ -118,17 +118,6 @@ impl<'v> Vary<'v> {
         (self.lane == 1).then(|| &self.data[c * self.comp..][..n])
     }
 
-    /// Value `c` of lanes `0..N` as one array, where they are stored so
-    /// and the row holds `N` (lanes past the batch's fragments hold
-    /// values no one reads): a copy of fixed length.
-    #[inline(always)]
-    pub(crate) fn full_row<const N: usize>(&self, c: usize) -> Option<&'v [f32; N]> {
-        if self.lane != 1 {
-            return None;
-        }
-        self.data.get(c * self.comp..)?.first_chunk::<N>()
-    }
-
     /// The values of lane `i` into `out` (`per` of them): a fragment's own
     /// slice for the one-lane code.
     #[inline(always)]
@@ -178,10 +167,6 @@ pub(crate) fn quad_lod_lanes<const N: usize>(
             }
             // The coordinates' rows copied where the varyings are stored by component.
             for (lanes, c) in [(&mut u, 4 * k), (&mut v, 4 * k + 1)] {
-                if let Some(row) = varyings.full_row::<N>(c) {
-                    *lanes = *row;
-                    continue;
-                }
                 match varyings.row(c, n) {
                     Some(row) => lanes[..n].copy_from_slice(row),
                     None => (0..n).for_each(|lane| lanes[lane] = varyings.get(lane, c)),

@@ -487,7 +487,7 @@ impl<const N: usize> Footprints2d<N> {
     ) -> bool {
         debug_assert!(levels.copied() == Levels::of(t), "the levels of another texture");
         let covered = filter != Filter::Nearest && latitude == unit::Latitude::MODEL;
-        let Some(s) = levels.filter(|_| covered) else {
+        let Some(s) = levels.copied().filter(|_| covered) else {
             self.filter = Filter::Nearest;
             return false;
         };
@@ -499,13 +499,7 @@ impl<const N: usize> Footprints2d<N> {
                 if lod[l].is_nan() { f32::NEG_INFINITY } else { LodChoice::Model.apply(lod[l] + 0.0) };
         }
         let lod = &lod_in;
-        // The levels copied only when they change (a few hundred bytes: a
-        // `memmove` call per lookup, ~0.3 % of a frame's samples, where a
-        // pass looks up textures of one shape batch after batch).
-        if self.levels != *s {
-            self.levels = *s;
-        }
-        (self.filter, self.trilinear) = (filter, filter == Filter::Trilinear);
+        (self.levels, self.filter, self.trilinear) = (s, filter, filter == Filter::Trilinear);
         if filter == Filter::Bilinear {
             for l in 0..N {
                 // λ > 0 (NaN is −∞ above): ⌊λ + ½⌋ ≥ 0, at most `last`.

@@ -42,32 +42,19 @@ impl FragmentProgram<'_> {
             3 => [o(0), o(1), o(2), &one],
             _ => [o(0), o(1), o(2), o(3)],
         };
-        let mut finite = [true; BATCH];
+        let (mut finite, mut colour) = ([true; BATCH], [[0.0f32; 4]; BATCH]);
         let zero_nan = |x: f32| if x.is_nan() { 0.0 } else { x };
-        let mut fill = |colour: &mut [[f32; 4]; BATCH]| {
-            for i in 0..BATCH {
-                let x = [v[0][i], v[1][i], v[2][i], v[3][i]];
-                finite[i] = x[0].is_finite() & x[1].is_finite() & x[2].is_finite() & x[3].is_finite();
-                colour[i] = [zero_nan(x[0]), zero_nan(x[1]), zero_nan(x[2]), zero_nan(x[3])];
-            }
-        };
-        // A full batch's colours straight into `out` (copied from an
-        // array of the batch's length, they were a `memcpy` call of 512
-        // bytes per batch); a shorter one's through that array.
-        let full = if n == BATCH { out.first_chunk_mut::<BATCH>() } else { None };
-        match full {
-            Some(o) => fill(o),
-            None => {
-                let mut colour = [[0.0f32; 4]; BATCH];
-                fill(&mut colour);
-                out[..n].copy_from_slice(&colour[..n]);
-            }
+        for i in 0..BATCH {
+            let x = [v[0][i], v[1][i], v[2][i], v[3][i]];
+            finite[i] = x[0].is_finite() & x[1].is_finite() & x[2].is_finite() & x[3].is_finite();
+            colour[i] = [zero_nan(x[0]), zero_nan(x[1]), zero_nan(x[2]), zero_nan(x[3])];
         }
         let mut nonfinite = 0;
         for lane in 0..n {
             results[lane] = if dropped[lane] { FragmentResult::Discard } else { FragmentResult::Keep };
             nonfinite += (!dropped[lane] && !finite[lane]) as u64;
         }
+        out[..n].copy_from_slice(&colour[..n]);
         if nonfinite > 0 {
             self.nonfinite.fetch_add(nonfinite, Ordering::Relaxed);
         }

@@ -862,15 +862,8 @@ fn structural(
         K::Varying(kv) => {
             for (c, o) in out[..x.comps].iter_mut().enumerate() {
                 let at = 4 * kv as usize + c;
-                // Stored by component: one row, a vector copy — of all the
-                // lanes where the row has them (a fixed length: vector
-                // moves, where `n` lanes were a `memcpy` call; the lanes
-                // past `n` get values no one reads).
-                if let Some(row) = varyings.full_row::<BATCH>(at) {
-                    *o = *row;
-                    continue;
-                }
                 match varyings.row(at, n) {
+                    // Stored by component: one row, a vector copy.
                     Some(row) => o[..n].copy_from_slice(row),
                     None => {
                         for (i, v) in o[..n].iter_mut().enumerate() {
