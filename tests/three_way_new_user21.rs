@@ -7,20 +7,25 @@
 //! by GL's BLEND, triplanar mapping, parallax mapping, OpenGL's whole
 //! lighting equation per vertex (with and without the light's intensity),
 //! glass by Schlick's Fresnel between two lookups of a panorama, the
-//! brighter of two photographs, a dissolve by a threshold uniform and a
-//! leaf lit from either side. Each renders alike on the CPU, wgpu and the
+//! brighter of two photographs, a dissolve by a threshold uniform, a
+//! leaf lit from either side, emboss bump mapping, four photographs
+//! averaged, the darker of a shadow texture and the light, contour lines
+//! and a sphere as a window on a panorama. Each renders alike on the CPU, wgpu and the
 //! independent reference on every target its header names, and is refused
 //! where its header says (`three_way_heldout::renders_alike_everywhere_in`).
-
-use shadec::profile::Profile;
 
 use crate::three_way_heldout::{data, held_out_everywhere_in};
 
 held_out_everywhere_in!("heldout_twentyfirst":
+    avg_four,
     brighter_of_two,
+    contour_lines,
+    darken_min,
     detail_scaled,
     dirt_blend,
     dissolve,
+    emboss,
+    env_skybox,
     fresnel_glass,
     gamma_pass,
     gl_lighting_full,
@@ -113,30 +118,6 @@ fn two_computed_scalars_compared_select_in_the_combiners() {
 #[test]
 fn a_square_is_never_negative_so_triplanar_weights_plan() {
     plans(&program("triplanar"), "geforce3").unwrap_or_else(|e| panic!("{e:#?}"));
-}
-
-/// A colour the texture environment's `⊕` reads, interpolated from a
-/// bounded sum above 1 (OpenGL's lighting equation: emission, ambient,
-/// diffuse and specular), is split into colours that each stay in [0, 1],
-/// as it is where arithmetic reads it. Before, a `⊕`'s incoming colour was
-/// exempt from the vertex colour's check, so the plan clamped it at each
-/// vertex, which the program does not say: 26/255 from the reference on
-/// 6 % of the torus, with no warning. (An unbounded colour, one with a
-/// light's `intensity`, is still read clamped: `gl_lighting_full`, held
-/// out on wgsl.)
-#[test]
-fn a_bounded_colour_above_one_under_modulate_is_split_not_clamped() {
-    for target in ["geforce256", "geforce3"] {
-        let profile = Profile::resolve(target).unwrap();
-        let compiled =
-            shadec::driver::compile(&program("gl_material"), &profile, &Default::default()).unwrap();
-        let interpolants: usize =
-            compiled.planned.plan.passes.iter().map(|p| p.vertex.interpolants.len()).sum();
-        assert!(
-            interpolants >= 3,
-            "{target}: {interpolants} interpolants (the coordinates and one colour: clamped)"
-        );
-    }
 }
 
 /// A scalar uniform with no bound, compared, gets a help whose advice

@@ -311,8 +311,7 @@ fn combines(module: &Module, value: Handle<Expr>) -> usize {
 /// writes takes as its incoming colour, which the language's `⊕` (GL's
 /// texture environment, docs/language.md) reads clamped anyway.
 fn wide_vertex_colour(module: &Module, u: &Usage, exempt: &[Handle<Expr>]) -> Result<(), Overflow> {
-    let unbounded = |h: &Handle<Expr>| !module.info(*h).interval.hi.is_finite();
-    let wide = u.interpolants.iter().copied().filter(|h| !(exempt.contains(h) && unbounded(h))).find(|h| {
+    let wide = u.interpolants.iter().copied().filter(|h| !exempt.contains(h)).find(|h| {
         let i = module.info(*h);
         i.ty.is_color() && (i.interval.lo < 0.0 || i.interval.hi > 1.0)
     });
