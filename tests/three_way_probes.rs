@@ -66,6 +66,7 @@ fn cpu_alone(p: &Pictures, cpu: Vec<u8>) -> Pictures {
         oracle_unclamped: None,
         oracle_unclamped_range: None,
         gpu_refused: None,
+        rules: p.rules.clone(),
         ..*p
     }
 }
