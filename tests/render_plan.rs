@@ -42,7 +42,13 @@ fn render(source: &str, target: &str, scene: &Scene, mode: Precision) -> (Frame,
 
 /// [`render`], the 8-bit targets rounded to k/255 (`rounded`, what GL and
 /// wgpu store) or kept unrounded (`PlanRenderer::set_unrounded_targets`).
-fn render_stored(source: &str, target: &str, scene: &Scene, mode: Precision, rounded: bool) -> (Frame, usize) {
+fn render_stored(
+    source: &str,
+    target: &str,
+    scene: &Scene,
+    mode: Precision,
+    rounded: bool,
+) -> (Frame, usize) {
     let (planned, program) = plan(source, target);
     let assets = scene.build().unwrap();
     let mut r = PlanRenderer::new(&planned, &program, scene, &assets).unwrap();

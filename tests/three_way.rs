@@ -265,8 +265,9 @@ pub fn rendered_plan(
     scene: &Scene,
     assets: &shadec::scene::SceneAssets,
 ) -> Result<(shadec::pipeline::Planned, shadec::parser::ast::Program, shadec::ir::Module), String> {
-    let not_compiled =
-        |d: &[shadec::diag::Diagnostic]| format!("does not compile: {:?}", d.iter().map(|d| &d.message).collect::<Vec<_>>());
+    let not_compiled = |d: &[shadec::diag::Diagnostic]| {
+        format!("does not compile: {:?}", d.iter().map(|d| &d.message).collect::<Vec<_>>())
+    };
     let front = shadec::driver::front(source);
     let errors: Vec<_> = front.diagnostics.iter().filter(|d| d.is_error()).cloned().collect();
     let Some(module) = front.module.filter(|_| errors.is_empty()) else { return Err(not_compiled(&errors)) };

@@ -35,7 +35,12 @@ fn a_second_pass_amplifying_an_8_bit_target_agrees_with_wgpu_and_the_reference()
     let compared = p.compared_mask();
     p.enough_compared().unwrap();
     let red = |img: &[u8]| (0..compared.len()).find(|&i| compared[i]).map(|i| img[4 * i]);
-    eprintln!("red: CPU {:?}, reference {:?}, wgpu {:?}", red(&p.cpu), red(&p.oracle), p.gpu.as_deref().map(red));
+    eprintln!(
+        "red: CPU {:?}, reference {:?}, wgpu {:?}",
+        red(&p.cpu),
+        red(&p.oracle),
+        p.gpu.as_deref().map(red)
+    );
     assert_eq!(red(&p.oracle), Some(82), "the reference stores 127/255 in F");
     let cpu = largest(&p.cpu, &p.oracle, &compared);
     assert!(cpu <= 1, "the CPU in f32 is {cpu}/255 from the reference");
@@ -56,8 +61,9 @@ fn a_second_pass_amplifying_an_8_bit_target_agrees_with_wgpu_and_the_reference()
 /// plan's, not the planner's first.
 #[test]
 fn the_three_way_runner_compares_the_plan_render_draws() {
-    let source = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/fragment_lighting.shd"))
-        .unwrap();
+    let source =
+        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/examples/fragment_lighting.shd"))
+            .unwrap();
     let sc = scene("kilgard_torus.ron");
     let assets = sc.build().unwrap();
     let profile = Profile::resolve("geforce256").unwrap();
