@@ -156,9 +156,46 @@ pub fn render_three(
     precision: Precision,
     gpu: Option<&shadec::gpu::runner::Gpu>,
 ) -> Result<Pictures, String> {
+    render_three_of(source, target, scene, precision, gpu, false)
+}
+
+/// [`render_three`] of the plan `shadec render` draws ([`rendered_plan`]:
+/// the one verdict on the scene, its lowerings measured there), which may
+/// be another lowering than `driver::compile`'s.
+pub fn render_three_as_rendered(
+    source: &str,
+    target: &str,
+    scene: &Scene,
+    precision: Precision,
+    gpu: Option<&shadec::gpu::runner::Gpu>,
+) -> Result<Pictures, String> {
+    render_three_of(source, target, scene, precision, gpu, true)
+}
+
+fn render_three_of(
+    source: &str,
+    target: &str,
+    scene: &Scene,
+    precision: Precision,
+    gpu: Option<&shadec::gpu::runner::Gpu>,
+    as_rendered: bool,
+) -> Result<Pictures, String> {
     let profile = Profile::resolve(target).map_err(|e| format!("{e:?}"))?;
     let assets = scene.build().map_err(|e| e.to_string())?;
-    let (planned, program, module) = rendered_plan(source, &profile, scene, &assets)?;
+    let (planned, program, module) = if as_rendered {
+        rendered_plan(source, &profile, scene, &assets)?
+    } else {
+        // On a scene of several lights, planned for it as `render` plans: a
+        // program written for light 0 means a pass per light.
+        let options = shadec::driver::PlanOptions {
+            scene: (scene.lights.len() > 1).then(|| shadec::driver::ForScene::specialized(scene, &assets)),
+            ..Default::default()
+        };
+        let compiled = shadec::driver::compile(source, &profile, &options).map_err(|d| {
+            format!("does not compile: {:?}", d.iter().map(|d| d.message.clone()).collect::<Vec<_>>())
+        })?;
+        (compiled.planned, compiled.program, compiled.module)
+    };
     let approximations = &planned.plan.approximations;
     let rules = approximations.iter().map(|a| a.rule.to_string()).collect();
     let approximation_bound = approximations.iter().map(|a| a.output_bound).sum::<Option<f64>>();
