@@ -6,7 +6,10 @@
 //! the value `v` is computed in full and stored, and a read of the target
 //! (`C δπx` on the right, (9)) is the target's value before the statement —
 //! as the target stores it: an `rgba8` framebuffer reads back clamped to
-//! [0, 1] (GL §2.13.9, §4.1.8; the renderer's `ColorFormat::Unorm`).
+//! [0, 1] (GL §2.13.9, §4.1.8) — in `Precision::Exact` unrounded (the
+//! renderer's `ColorFormat::Unorm`: the program in ideal arithmetic, so
+//! that an 8-bit store between a plan's passes is a loss measured against
+//! it), in `f32` rounded to k/255 as GL and wgpu store it.
 //! The meaning does exactly that with unlimited resources: one pass per
 //! statement, the statement's whole value written with `replace`, no
 //! blend read off it, no split, no fusion, no specialization, no light

@@ -487,11 +487,20 @@ fn check(source: &str, target: &str, scene: &Scene) -> Result<Outcome, String> {
     // The meaning in f32 too, through the same texture unit: what differs
     // is then the plan's structure, not the filtering, which an amplified
     // value (`(2A)·(2A)`) would magnify past any fixed tolerance.
+    // Both with the 8-bit framebuffers unrounded: a split stores its
+    // passes' partial results in 8 bits where the meaning's one pass does
+    // not, a rounding a later pass may amplify (`(A·A)·x^8` over three
+    // passes: 2/255), which is the hardware's, not the split's (the
+    // three-way suite holds the rounded renders to wgpu and the reference).
     let reference = PlanRenderer::new(&meaning, &program, scene, &assets)
-        .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
+        .and_then(|mut r| {
+            r.set_unrounded_targets(true);
+            r.render(Precision::F32, W, H, &mut |_, _| {})
+        })
         .map_err(|e| format!("meaning: {e}"))?;
     let mut renderer =
         PlanRenderer::new(&planned, &program, scene, &assets).map_err(|e| format!("plan: {e}"))?;
+    renderer.set_unrounded_targets(true);
     let frame = renderer.render(Precision::F32, W, H, &mut |_, _| {}).map_err(|e| format!("plan: {e}"))?;
     // The batched fragment stage shades as one fragment at a time does (issue 22).
     for mode in [Precision::F32, Precision::Fixed9] {

@@ -197,7 +197,11 @@ fn shadow_map_plans_on_geforce256_with_the_alpha_ramp_warning() {
 /// The alpha-ramp plan against the program's meaning on a ball over a
 /// floor: the verdict's measured error (both in f32) is small — the ramp
 /// loses a shadow only where the depths are within one step (1/256) past
-/// the bias — and the plan's f32 render is within it; in the combiners'
+/// the bias: 10/255 at a few pixels of the shadow's edge, as wgpu renders
+/// the plan (its 8-bit steps sampled nearest, each stored in 8 bits; the
+/// CPU sampled the ramp bilinearly once, which blended its steps into a
+/// finer encoding, 0.8/255, and with the 8-bit store 174/255 of acne) —
+/// and the plan's f32 render is within it; in the combiners'
 /// fixed9 the plan agrees with the wgsl plan within 2/255 on 99 % of the
 /// pixels and both shade the same floor pixels in shadow.
 #[test]
@@ -212,7 +216,7 @@ fn shadow_map_alpha_ramp_renders_within_its_measured_error() {
         measured.max_abs * 255.0,
         measured.rmse
     );
-    assert!(measured.max_abs <= 2.0 / 255.0, "{measured:?}");
+    assert!(measured.max_abs <= 12.0 / 255.0 && measured.rmse < 0.002, "{measured:?}");
     let help = judged.warnings[0].help.as_deref().unwrap_or("");
     assert!(help.contains(&format!("measured {:.1}/255", measured.max_abs * 255.0)), "{help}");
 

@@ -58,6 +58,9 @@ pub struct Pictures {
     /// has none); `None` when one has no bound (per-vertex shading: its
     /// error depends on the mesh).
     pub approximation_bound: Option<f64>,
+    /// The rules of the approximations the rendered plan takes (the plan
+    /// `render` takes, [`rendered_plan`]).
+    pub rules: Vec<String>,
     /// Where an approximation of the plan states no bound (a per-vertex
     /// fall-back, a table baked over per-vertex arguments): the plan's
     /// largest channel difference from the program's meaning, measured on
@@ -153,19 +156,48 @@ pub fn render_three(
     precision: Precision,
     gpu: Option<&shadec::gpu::runner::Gpu>,
 ) -> Result<Pictures, String> {
+    render_three_of(source, target, scene, precision, gpu, false)
+}
+
+/// [`render_three`] of the plan `shadec render` draws ([`rendered_plan`]:
+/// the one verdict on the scene, its lowerings measured there), which may
+/// be another lowering than `driver::compile`'s.
+pub fn render_three_as_rendered(
+    source: &str,
+    target: &str,
+    scene: &Scene,
+    precision: Precision,
+    gpu: Option<&shadec::gpu::runner::Gpu>,
+) -> Result<Pictures, String> {
+    render_three_of(source, target, scene, precision, gpu, true)
+}
+
+fn render_three_of(
+    source: &str,
+    target: &str,
+    scene: &Scene,
+    precision: Precision,
+    gpu: Option<&shadec::gpu::runner::Gpu>,
+    as_rendered: bool,
+) -> Result<Pictures, String> {
     let profile = Profile::resolve(target).map_err(|e| format!("{e:?}"))?;
     let assets = scene.build().map_err(|e| e.to_string())?;
-    // On a scene of several lights, planned for it as `render` plans: a
-    // program written for light 0 means a pass per light.
-    let options = shadec::driver::PlanOptions {
-        scene: (scene.lights.len() > 1).then(|| shadec::driver::ForScene::specialized(scene, &assets)),
-        ..Default::default()
+    let (planned, program, module) = if as_rendered {
+        rendered_plan(source, &profile, scene, &assets)?
+    } else {
+        // On a scene of several lights, planned for it as `render` plans: a
+        // program written for light 0 means a pass per light.
+        let options = shadec::driver::PlanOptions {
+            scene: (scene.lights.len() > 1).then(|| shadec::driver::ForScene::specialized(scene, &assets)),
+            ..Default::default()
+        };
+        let compiled = shadec::driver::compile(source, &profile, &options).map_err(|d| {
+            format!("does not compile: {:?}", d.iter().map(|d| d.message.clone()).collect::<Vec<_>>())
+        })?;
+        (compiled.planned, compiled.program, compiled.module)
     };
-    let compiled = shadec::driver::compile(source, &profile, &options).map_err(|d| {
-        format!("does not compile: {:?}", d.iter().map(|d| d.message.clone()).collect::<Vec<_>>())
-    })?;
-    let (planned, program, module) = (compiled.planned, compiled.program, compiled.module);
     let approximations = &planned.plan.approximations;
+    let rules = approximations.iter().map(|a| a.rule.to_string()).collect();
     let approximation_bound = approximations.iter().map(|a| a.output_bound).sum::<Option<f64>>();
     let texture_env_clamps = texture_env_clamps(&module);
     let measured_error = if approximations.iter().any(|a| a.output_bound.is_none()) {
@@ -243,6 +275,7 @@ pub fn render_three(
         covered,
         left_out,
         approximation_bound,
+        rules,
         measured_error,
         gpu_refused,
         texture_env_clamps,
@@ -253,6 +286,36 @@ pub fn render_three(
         ranged,
         wide,
     })
+}
+
+/// The plan `shadec render` draws `source` with on `scene`: the one
+/// verdict (`verdict::judge`) on the program planned for the scene
+/// (specialized: a pass per light, its uniforms folded, lights culled),
+/// its lowerings measured there — the most accurate on the scene, a
+/// per-vertex fall-back only within its budget —, image files bound to
+/// their stand-ins where the scene has none. `driver::compile` without the
+/// scene may pick another lowering (the first that plans); the executors
+/// are compared on the plan the user sees rendered.
+pub fn rendered_plan(
+    source: &str,
+    profile: &Profile,
+    scene: &Scene,
+    assets: &shadec::scene::SceneAssets,
+) -> Result<(shadec::pipeline::Planned, shadec::parser::ast::Program, shadec::ir::Module), String> {
+    let not_compiled = |d: &[shadec::diag::Diagnostic]| {
+        format!("does not compile: {:?}", d.iter().map(|d| &d.message).collect::<Vec<_>>())
+    };
+    let front = shadec::driver::front(source);
+    let errors: Vec<_> = front.diagnostics.iter().filter(|d| d.is_error()).cloned().collect();
+    let Some(module) = front.module.filter(|_| errors.is_empty()) else { return Err(not_compiled(&errors)) };
+    let plan = shadec::driver::PlanOptions {
+        scene: Some(shadec::driver::ForScene::specialized(scene, assets)),
+        ..Default::default()
+    };
+    let judging = shadec::verdict::Judging { plan, images: None, stand_ins: true, rendered_on: Some(scene) };
+    let judged = shadec::verdict::judge(&module, &front.program, profile, source, &judging)
+        .map_err(|d| not_compiled(&d))?;
+    Ok((judged.planned, front.program, module))
 }
 
 /// The largest channel difference (in [0, 1]) between the picture of

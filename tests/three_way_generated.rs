@@ -410,6 +410,7 @@ pub fn fixed9_agreement(p: &Pictures, skipped: &mut usize) -> Result<(), String>
                 wide: p.wide.clone(),
                 gpu_refused: None,
                 oracle_unclamped: None,
+                rules: p.rules.clone(),
                 ..*p
             };
             fixed9_verdict_against(&p, &mut 0)

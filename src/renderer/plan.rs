@@ -42,8 +42,17 @@
 //!   2×2 quad — for a dependent lookup from its coordinates computed at the
 //!   quad's pixels, `FragmentProgram::quad_coords` — float filtering,
 //!   seamless cube maps; fixed9 too, but with 8-bit textures filtered in 8.8
-//!   fixed point), f32 framebuffers (clamped where declared `rgba8`, as in
-//!   `exact`); textures declared 16-bit or float are
+//!   fixed point), f32 framebuffers, except that a framebuffer declared
+//!   `rgba8` (the default `C`) and a texture declared 8-bit that a pass
+//!   renders into store 8 bits, clamped and rounded to k/255 at every
+//!   write (`ColorFormat::Rgba8`), as GL's fixed-point buffers and wgpu's
+//!   `Rgba8Unorm` store them (§2.13.9, §4.1.8: clamped, then converted
+//!   with round-to-nearest), so that a later pass reads what the GPU's
+//!   reads (`exact` keeps them unrounded: it is the program in ideal
+//!   arithmetic, the reference a plan's losses are measured against, and
+//!   an 8-bit store between passes is such a loss;
+//!   [`PlanRenderer::set_unrounded_targets`] keeps them so in `f32` too);
+//!   textures declared 16-bit or float are
 //!   rendered into in half floats, as the WGSL target's `Rgba16Float`.
 //! - `fixed9` — what the old hardware showed: 8-bit textures, an RGBA8
 //!   framebuffer (blending clamps and rounds) and 8-bit temporaries, and the
@@ -199,6 +208,8 @@ pub struct PlanRenderer<'a> {
     latitude: unit::Latitude,
     /// See [`PlanRenderer::set_batched`].
     batched: bool,
+    /// See [`PlanRenderer::set_unrounded_targets`].
+    unrounded: bool,
     /// What stand-ins were used, for the user.
     pub notes: Vec<String>,
     /// Images of earlier frames to render into ([`PlanRenderer::recycle`]).
@@ -271,6 +282,7 @@ impl<'a> PlanRenderer<'a> {
             rounding_bias: RoundingBias::default(),
             latitude: unit::Latitude::MODEL,
             batched: true,
+            unrounded: false,
             notes,
             pool: Default::default(),
         })
@@ -304,6 +316,18 @@ impl<'a> PlanRenderer<'a> {
         self.batched = batched;
     }
 
+    /// Whether `f32` keeps the 8-bit (`rgba8`) targets unrounded, as
+    /// `exact` does (values clamped to [0, 1] where read back, not rounded
+    /// to k/255): off by default, where `f32` stores 8 bits as wgpu and GL
+    /// do. On, a plan's render differs from its meaning's only by the
+    /// plan's structure (its split into passes, each pass's arithmetic),
+    /// not by the 8-bit stores between its passes that a single pass does
+    /// not make: the checks of a split against the program's meaning
+    /// (`tests/differential.rs`, `tests/render_plan.rs`) take it.
+    pub fn set_unrounded_targets(&mut self, unrounded: bool) {
+        self.unrounded = unrounded;
+    }
+
     /// Gives a rendered frame's image back for later frames to render
     /// into (as a swap chain does): a frame of the same size then clears
     /// it instead of allocating and faulting in fresh buffers. The images
@@ -321,6 +345,8 @@ impl<'a> PlanRenderer<'a> {
         frame: (u32, u32),
     ) -> Result<Framebuffer, RenderError> {
         let mut pool = self.pool.lock().unwrap_or_else(|e| e.into_inner());
+        // Unrounded 8-bit targets are what `exact` keeps.
+        let mode = if self.unrounded && mode == Precision::F32 { Precision::Exact } else { mode };
         new_target(target, mode, format, frame, &mut pool)
     }
 

@@ -18,7 +18,7 @@
 //! 1. every draw of `P0` blends `REPLACE` and writes depth, and every draw
 //!    of `P1..Pn` blends `ADD` (ONE, ONE, every channel) and tests `Equal`
 //!    without depth writes; no draw uses the stencil or replaces its depth;
-//! 2. the target stores `F32`, `F16` or `Unorm` colour (not `Rgba8`);
+//! 2. the target stores `F32`, `F16`, `Unorm` or `Rgba8` colour;
 //! 3. every `Pk` has, draw by draw, the triangles of `P0` in window
 //!    coordinates bit for bit (the same mesh through the same clip
 //!    positions);
@@ -33,7 +33,8 @@
 //! Under these, at a pixel shaded exactly the fused colour is, bit for
 //! bit, what the passes leave: `v0 = store(c0)`, `vk = store(vk−1 + ck)`
 //! with the format's own write (`F16` rounds each sum to a half, `Unorm`
-//! clamps source and destination to [0, 1] before adding, as
+//! clamps source and destination to [0, 1] before adding, `Rgba8` clamps
+//! the source and rounds each sum to the nearest 1/255, as
 //! `framebuffer::TileBuffers::blend_kept` does), a fragment of `Pk` (k ≥ 1)
 //! that discards adding nothing; the sum is then written with `P0`'s
 //! `REPLACE`, which stores `vn` unchanged. Between samples the fused draw
@@ -44,7 +45,7 @@
 
 use super::{check_adaptive, draw_with, setup_passes, visibility, AdaptiveSettings, AdaptiveStats, Ctx};
 use crate::pipeline::DepthState;
-use crate::renderer::framebuffer::round_f16;
+use crate::renderer::framebuffer::{quantize_unorm8, round_f16};
 use crate::renderer::raster::PassSetup;
 use crate::renderer::{
     BlendState, ColorFormat, Fragment, FragmentResult, Framebuffer, Pass, RenderError, BATCH,
@@ -98,7 +99,7 @@ fn fusable(format: ColorFormat, head: &[Pass], rest: &[&[Pass]]) -> bool {
     let added = |p: &Pass| {
         plain(p) && p.state.blend == BlendState::ADD && p.state.depth == DepthState::EQUAL_NO_WRITE
     };
-    matches!(format, ColorFormat::F32 | ColorFormat::F16 | ColorFormat::Unorm)
+    matches!(format, ColorFormat::F32 | ColorFormat::F16 | ColorFormat::Unorm | ColorFormat::Rgba8)
         && head.iter().all(first)
         && rest.iter().all(|m| m.len() == head.len() && m.iter().all(added))
 }
@@ -107,19 +108,28 @@ fn fusable(format: ColorFormat, head: &[Pass], rest: &[&[Pass]]) -> bool {
 pub(super) fn stored(format: ColorFormat, v: [f32; 4]) -> [f32; 4] {
     match format {
         ColorFormat::F16 => v.map(round_f16),
-        _ => v,
+        ColorFormat::Rgba8 => v.map(rounded8),
+        ColorFormat::F32 | ColorFormat::Unorm => v,
     }
 }
 
+/// A channel as an 8-bit buffer stores it, as a float: `k/255`, clamped
+/// and rounded as [`quantize_unorm8`] writes it and read back as
+/// `framebuffer::TileBuffers::read_color` reads it.
+fn rounded8(v: f32) -> f32 {
+    f32::from(quantize_unorm8(v)) / 255.0
+}
+
 /// What `C ← C + src` leaves in a buffer of `format` holding `dst`, as
-/// `framebuffer::TileBuffers::blend_kept` computes it (`Rgba8` is never fused).
+/// `framebuffer::TileBuffers::blend_kept` computes it.
 pub(super) fn added(format: ColorFormat, src: [f32; 4], dst: [f32; 4]) -> [f32; 4] {
     let unorm = |x: f32| if x.is_nan() { 0.0 } else { x.clamp(0.0, 1.0) };
     let add = |s: [f32; 4], d: [f32; 4]| [s[0] + d[0], s[1] + d[1], s[2] + d[2], s[3] + d[3]];
     match format {
         ColorFormat::F16 => add(src, dst).map(round_f16),
         ColorFormat::Unorm => add(src.map(unorm), dst.map(unorm)),
-        ColorFormat::F32 | ColorFormat::Rgba8 => add(src, dst),
+        ColorFormat::Rgba8 => add(src.map(|x| x.clamp(0.0, 1.0)), dst).map(rounded8),
+        ColorFormat::F32 => add(src, dst),
     }
 }
 
@@ -181,7 +191,7 @@ mod tests {
             [0.123_456_7, -0.6, 2.5, 0.25],
             [1e-4, 0.333_333_34, 0.7, f32::NAN],
         ];
-        for format in [ColorFormat::F32, ColorFormat::F16, ColorFormat::Unorm] {
+        for format in [ColorFormat::F32, ColorFormat::F16, ColorFormat::Unorm, ColorFormat::Rgba8] {
             for n in 1..=colours.len() {
                 let want = through_the_framebuffer(format, &colours[..n]);
                 let got = colours[1..n].iter().fold(stored(format, colours[0]), |v, c| added(format, *c, v));

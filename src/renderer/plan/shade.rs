@@ -191,7 +191,11 @@ impl<'a> FragmentProgram<'a> {
             .collect();
         for (id, t) in m.textures.iter().enumerate() {
             let decl = r.decls.iter().find(|d| d.name == t.name);
-            filters.push(decl.map_or(Filter::Bilinear, |d| d.filter));
+            // A texture the planner made (an alpha ramp, a normalization
+            // cube map) has no declaration: its own sampling (the ramp's
+            // nearest — sampled bilinearly, its 8-bit steps blended, a
+            // stored step then compared against a blend of two).
+            filters.push(decl.map_or(t.sampling.filter, |d| d.filter));
             let baked = match FragmentProgram::baked_by(r, &t.name) {
                 Some(index)
                     if mode == Precision::Exact

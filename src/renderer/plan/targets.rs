@@ -18,9 +18,10 @@ use super::shade::to_pixel;
 /// (`pipeline::TargetImage`): a texture declared 16-bit or float keeps what
 /// is rendered into it (deferred shading's signed vectors) in half floats,
 /// as the WGSL target's `Rgba16Float` (fixed9 and f32; exact keeps f32); a
-/// fixed-point target (`rgba8`) is clamped to [0, 1] as GL stores it,
-/// which `exact` and `f32` keep in float ([`ColorFormat::Unorm`]) and
-/// `fixed9` in RGBA8; a planner temporary keeps its value unclamped. One
+/// fixed-point target (`rgba8`) is clamped to [0, 1] and rounded to k/255
+/// as GL stores it ([`ColorFormat::Rgba8`], `f32` and `fixed9`, as wgpu's
+/// `Rgba8Unorm`), which `exact` keeps clamped but unrounded in float
+/// ([`ColorFormat::Unorm`]: the ideal the stores are measured against); a planner temporary keeps its value unclamped. One
 /// of `pool` (images of earlier frames, [`super::PlanRenderer::recycle`])
 /// of that size and format is taken before a new one is made, its clear
 /// deferred ([`Framebuffer::reset_deferred`]): the caller settles it
@@ -35,8 +36,9 @@ pub(super) fn new_target(
     let format = match (mode, target.format) {
         (Precision::Exact, TargetFormat::Half) => ColorFormat::F32,
         (_, TargetFormat::Half) => ColorFormat::F16,
-        (Precision::Exact | Precision::F32, TargetFormat::Unorm8) => ColorFormat::Unorm,
-        _ => format,
+        (Precision::Exact, TargetFormat::Unorm8) => ColorFormat::Unorm,
+        (Precision::F32 | Precision::Fixed9, TargetFormat::Unorm8) => ColorFormat::Rgba8,
+        (_, TargetFormat::Frame) => format,
     };
     let (width, height) = target.extent.size(frame.0, frame.1);
     if let Some(at) = pool.iter().position(|fb| fb.fits(width, height, format)) {
