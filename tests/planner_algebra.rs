@@ -575,11 +575,17 @@ fn cases() -> u32 {
     std::env::var("SHADEC_ALGEBRA_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(1500)
 }
 
+/// The property's seed (every byte of it): 34 in CI, another with
+/// `SHADEC_ALGEBRA_SEED=N` (0 to 255), other programs.
+fn seed() -> u8 {
+    std::env::var("SHADEC_ALGEBRA_SEED").ok().and_then(|v| v.parse().ok()).unwrap_or(34)
+}
+
 #[test]
 fn the_verdict_on_a_program_is_its_verdict_multiplied_out() {
     let config = Config { cases: cases(), failure_persistence: None, ..Config::default() };
     // A fixed seed: the same programs in CI every time.
-    let rng = TestRng::from_seed(RngAlgorithm::ChaCha, &[34; 32]);
+    let rng = TestRng::from_seed(RngAlgorithm::ChaCha, &[seed(); 32]);
     let mut runner = TestRunner::new_with_rng(config, rng);
     let counts = std::cell::RefCell::new([[0usize; 2]; 4]);
     let result = runner.run(&(colour(), written_as()), |(c, how)| {
@@ -633,7 +639,11 @@ fn the_verdict_on_a_program_is_its_verdict_multiplied_out() {
         panic!("{e}");
     }
     let counts = counts.into_inner();
-    eprintln!("[exact, approximate] per target {TARGETS:?}: {counts:?} of {} programs", cases());
+    eprintln!(
+        "[exact, approximate] per target {TARGETS:?}: {counts:?} of {} programs (seed {})",
+        cases(),
+        seed()
+    );
     // The property must not hold by everything being refused, nor by
     // everything being approximated.
     let planned: Vec<usize> = counts.iter().map(|c| c[0] + c[1]).collect();
@@ -1459,5 +1469,32 @@ fn a_scale_over_lights_summed_inside_delta_stays_outside_the_interpolants() {
         for source in [&original, &multiplied] {
             assert_eq!(fine_verdict(source, "geforce3"), Verdict::Exact, "{how:?}:\n{source}");
         }
+    }
+}
+
+/// Kilgard's self-shadowing term blending two maps, `lerp(Night·0.3, Day,
+/// saturate(4·(N·L) + 0.5))`: `4·(N·L)` leaves [−1, 1] before the 0.5
+/// brings it back, so the combiners refused it per fragment and the term
+/// was tabulated (`baked_table` over a per-vertex argument). As
+/// `saturate(4·(N·L + 0.125))` the offset is added before
+/// `scale_by_four` in one general combiner (Kilgard 2000, Section 4.2):
+/// planned per fragment with no table and no per-vertex fall-back (the
+/// vectors interpolated range-compressed, as every per-fragment N·L on
+/// the combiners), rendering its meaning within that bound, as wgsl does.
+#[test]
+fn a_clamped_affine_term_takes_a_combiner_scale_instead_of_a_table() {
+    let source = "\
+vector N : normal;
+vector L : light;
+texture Day : 2d rgb8 mipmap trilinear repeat = image(\"missing-day.png\");
+texture Night : 2d rgb8 mipmap trilinear repeat = image(\"missing-night.png\");
+shader k : s → scalar = saturate(4 * (N·L) + 0.5);
+C δπx ← lerp(Night δu x * 0.3, Day δu x, k δ s x);
+";
+    let scene = scene("kilgard_torus.ron");
+    for target in ["geforce256", "geforce3", "wgsl"] {
+        let planned = plans_and_renders_its_meaning(source, target, &scene);
+        let rules: Vec<&str> = planned.plan.approximations.iter().map(|a| a.rule.as_str()).collect();
+        assert!(rules.iter().all(|r| *r == "range_compression"), "{target}: {rules:?}");
     }
 }

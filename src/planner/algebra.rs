@@ -44,6 +44,7 @@ use crate::ir::{BinaryOp, Expr, Frequency, Handle, MathFunction, Module, Ty};
 use crate::parser::ast::CombineMode;
 use crate::span::Span;
 
+mod clamp;
 mod delta;
 mod factored;
 mod lerps;
@@ -246,18 +247,31 @@ fn factored_forms(
 /// (`δl0·(1 − f) + δl1·(1 − f)`) factors back to its compact form
 /// (`(1 − f)·δ(l0 + l1)`) only so. `None` when nothing merges.
 pub fn delta_sums_merged(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
+    rebuilt_bottom_up(m, h, |m, n, span| match m.exprs[n] {
+        Expr::Binary { op: BinaryOp::Add, .. } => merge_interpolants(m, n, span),
+        _ => None,
+    })
+    .filter(|c| m.info(*c).ty == m.info(h).ty)
+}
+
+/// `h` rebuilt from its leaves up: each node, its operands replaced by
+/// what they became, is replaced by what `step` makes of it (itself where
+/// `step` gives `None`). `None` when a node cannot be built, or when the
+/// result is `h` itself.
+fn rebuilt_bottom_up(
+    m: &mut Module,
+    h: Handle<Expr>,
+    mut step: impl FnMut(&mut Module, Handle<Expr>, Span) -> Option<Handle<Expr>>,
+) -> Option<Handle<Expr>> {
     let mut done: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::default();
     for n in m.reachable(&[h]) {
         let e = m.exprs[n].map_operands(|o| *done.get(&o).unwrap_or(&o));
         let span = m.span(n);
         let rebuilt = if e == m.exprs[n] { n } else { node(m, e, span)? };
-        let merged = match m.exprs[rebuilt] {
-            Expr::Binary { op: BinaryOp::Add, .. } => merge_interpolants(m, rebuilt, span),
-            _ => None,
-        };
-        done.insert(n, merged.unwrap_or(rebuilt));
+        let replaced = step(m, rebuilt, span).unwrap_or(rebuilt);
+        done.insert(n, replaced);
     }
-    done.get(&h).copied().filter(|c| *c != h && m.info(*c).ty == m.info(h).ty)
+    done.get(&h).copied().filter(|c| *c != h)
 }
 
 /// The sum at `h` with its interpolant terms of one frequency and type
@@ -383,15 +397,7 @@ pub fn canonical(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
 /// [`canonical`], with a channel of an interpolated tuple read as the
 /// interpolant of that channel where `channels` is set.
 fn canonical_with(m: &mut Module, h: Handle<Expr>, channels: bool) -> Option<Handle<Expr>> {
-    let mut done: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::default();
-    for n in m.reachable(&[h]) {
-        let e = m.exprs[n].map_operands(|o| *done.get(&o).unwrap_or(&o));
-        let span = m.span(n);
-        let rebuilt = if e == m.exprs[n] { n } else { node(m, e.clone(), span)? };
-        let simpler = simplify(m, rebuilt, span, channels).unwrap_or(rebuilt);
-        done.insert(n, simpler);
-    }
-    done.get(&h).copied().filter(|c| *c != h)
+    rebuilt_bottom_up(m, h, |m, n, span| simplify(m, n, span, channels))
 }
 
 /// One canonical step at `h`, its operands already canonical.
@@ -482,6 +488,8 @@ fn simplify(m: &mut Module, h: Handle<Expr>, span: Span, channels: bool) -> Opti
             }
             acc.filter(|s| m.info(*s).ty == m.info(h).ty)
         }
+        // saturate(k·x + b) = saturate(k·(x + b/k)): a combiner's scale.
+        Expr::Math { fun: MathFunction::Saturate, .. } => clamp::scale_outside_offset(m, h, span),
         _ => None,
     }
 }

@@ -9,8 +9,6 @@
 //! ([`super::lerps_recovered`]), where the program written may have been
 //! the sum of two lerps.
 
-use rustc_hash::FxHashMap as HashMap;
-
 use super::{binary, node, product_factors, sum_terms};
 use crate::ir::{BinaryOp, Expr, Handle, MathFunction, Module, Ty};
 use crate::span::Span;
@@ -24,12 +22,8 @@ const MAX_OPERAND_TERMS: usize = 12;
 /// (`split_lerp`), also a lerp a sum inside `h` holds written out
 /// (`x·(1 − f) + y·f`). `None` when no lerp is one of sums.
 pub fn lerps_of_sums_split(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
-    let mut done: HashMap<Handle<Expr>, Handle<Expr>> = HashMap::default();
-    for n in m.reachable(&[h]) {
-        let e = m.exprs[n].map_operands(|o| *done.get(&o).unwrap_or(&o));
-        let span = m.span(n);
-        let rebuilt = if e == m.exprs[n] { n } else { node(m, e, span)? };
-        let split = match m.exprs[rebuilt] {
+    super::rebuilt_bottom_up(m, h, |m, rebuilt, span| {
+        match m.exprs[rebuilt] {
             Expr::Math { fun: MathFunction::Mix, .. } => split_lerp(m, rebuilt, span),
             // A sum under a product read back as lerps first: `C·(a·(T4 +
             // T5) + p·(1 − a))` holds `lerp(p, T4 + T5, a)` only so (the
@@ -41,10 +35,9 @@ pub fn lerps_of_sums_split(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Exp
                 super::lerps_recovered(m, rebuilt).and_then(|r| split_terms(m, r, span))
             }
             _ => None,
-        };
-        done.insert(n, split.unwrap_or(rebuilt));
-    }
-    done.get(&h).copied().filter(|c| *c != h && m.info(*c).ty == m.info(h).ty)
+        }
+    })
+    .filter(|c| m.info(*c).ty == m.info(h).ty)
 }
 
 /// The sum `h` with each lerp of sums that is one of its terms' factors
