@@ -244,8 +244,12 @@ fn render(
     scene: &crate::driver::ForScene,
     (w, h): (u32, u32),
 ) -> Result<crate::renderer::Framebuffer, Diagnostics> {
+    // A lowering's error, not the 8-bit stores every plan makes alike.
     PlanRenderer::new(planned, program, scene.scene, scene.assets)
-        .and_then(|r| r.render(Precision::F32, w, h, &mut |_, _| {}))
+        .and_then(|mut r| {
+            r.set_unrounded_targets(true);
+            r.render(Precision::F32, w, h, &mut |_, _| {})
+        })
         .map(|f| f.image)
         .map_err(|e| {
             let what = format!("the program's lowerings cannot be measured on the scene: {e}");

@@ -94,7 +94,10 @@ fn render_counting(what: &str, source: &str, target: &str, scene: &Scene, mode: 
         .unwrap_or_else(|d| panic!("{what}: {d:?}"));
     let (program, _) = shadec::parser::check(source);
     let assets = scene.build().unwrap();
-    let r = PlanRenderer::new(&planned, &program, scene, &assets).unwrap_or_else(|e| panic!("{what}: {e}"));
+    let mut r =
+        PlanRenderer::new(&planned, &program, scene, &assets).unwrap_or_else(|e| panic!("{what}: {e}"));
+    // The hard cases probe the arithmetic, values past 1 included.
+    r.set_unrounded_targets(true);
     let (w, h) = scene.resolution;
     let frame = r.render(mode, w, h, &mut |_, _| {}).unwrap_or_else(|e| panic!("{what}: {e}"));
     let what = format!("{what} [{}]", mode.name());

@@ -44,7 +44,11 @@ fn f32_render(planned: &Planned, source: &str, scene: &Scene) -> shadec::rendere
     let (program, _) = shadec::parser::check(source);
     let assets = scene.build().unwrap();
     PlanRenderer::new(planned, &program, scene, &assets)
-        .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
+        .and_then(|mut r| {
+            // The plan's arithmetic, not the 8-bit store every plan shares.
+            r.set_unrounded_targets(true);
+            r.render(Precision::F32, W, H, &mut |_, _| {})
+        })
         .unwrap()
         .image
 }

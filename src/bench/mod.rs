@@ -277,7 +277,10 @@ fn run_variant(
 ) -> Result<(Framebuffer, Duration, Clock, Vec<crate::renderer::plan::PassShading>), BenchError> {
     match gpu {
         None => {
-            let renderer = prepared.renderer()?;
+            // The error of the variant's arithmetic, not of the 8-bit
+            // framebuffer every variant shares (`set_unrounded_targets`).
+            let mut renderer = prepared.renderer()?;
+            renderer.set_unrounded_targets(true);
             let (frame, time) =
                 timed(&renderer, variant.mode, options.size, options.runs).map_err(|e| failed(what, e))?;
             Ok((frame.image, time, Clock::CpuWall, frame.shading))
