@@ -146,6 +146,16 @@ pub fn scene(name: &str) -> Scene {
     Scene::parse(&text, Path::new("/nonexistent-shadec-scene").join(name).as_path()).unwrap()
 }
 
+/// The largest channel difference between two pictures on the pixels the
+/// verdicts compare (`Pictures::compared_mask`).
+pub fn largest(a: &[u8], b: &[u8], compared: &[bool]) -> u8 {
+    (0..compared.len())
+        .filter(|&i| compared[i])
+        .flat_map(|i| (0..4).map(move |k| a[4 * i + k].abs_diff(b[4 * i + k])))
+        .max()
+        .unwrap_or(0)
+}
+
 /// Plans `source` for `target` and renders it with the three executors
 /// (`precision` for the CPU and wgpu; the reference is f64, rgba8
 /// framebuffers clamped and rounded at every write).

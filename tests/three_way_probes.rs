@@ -4,7 +4,7 @@
 use shadec::numerics::Precision;
 use shadec::profile::Profile;
 
-use crate::three_way::{difference, render_three, scene, verdict, Pictures};
+use crate::three_way::{difference, largest, render_three, scene, verdict, Pictures};
 
 fn example(name: &str) -> String {
     std::fs::read_to_string(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("examples").join(name))
@@ -71,15 +71,6 @@ fn cpu_alone(p: &Pictures, cpu: Vec<u8>) -> Pictures {
     }
 }
 
-fn largest(a: &[u8], b: &[u8], p: &Pictures) -> u8 {
-    let compared = p.compared_mask();
-    (0..compared.len())
-        .filter(|&i| compared[i])
-        .flat_map(|i| (0..4).map(move |k| a[4 * i + k].abs_diff(b[4 * i + k])))
-        .max()
-        .unwrap_or(0)
-}
-
 /// Deferred shading (Pipeline Grammar, eqs. (5)-(6), `examples/deferred_shading.shd`)
 /// on the combiner targets, on `shadow_occluder_floor.ron`. The fat
 /// framebuffer `T` (rgba16f) becomes one 8-bit texture per member, stored
@@ -120,9 +111,9 @@ fn deferred_shading_split_into_8_bit_members_differs_within_the_stated_bound() {
             let Some(gpu) = p.gpu.as_ref() else { continue };
             let (cpu, reference) = (&p.cpu, &p.reference_near(&p.cpu));
             let (cg, go, co) = (
-                largest(cpu, gpu, &p),
-                largest(gpu, &p.reference_near(gpu), &p),
-                largest(cpu, reference, &p),
+                largest(cpu, gpu, &p.compared_mask()),
+                largest(gpu, &p.reference_near(gpu), &p.compared_mask()),
+                largest(cpu, reference, &p.compared_mask()),
             );
             eprintln!("{target} {precision:?}: CPU/wgpu {cg}, wgpu/reference {go}, CPU/reference {co} (bound {bound})");
             assert!(

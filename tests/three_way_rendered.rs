@@ -9,17 +9,9 @@ use shadec::numerics::Precision;
 use shadec::profile::Profile;
 use shadec::renderer::plan::PlanRenderer;
 
-use crate::three_way::{render_three, render_three_as_rendered, rendered_plan, scene, verdict, H, W};
-
-/// The largest channel difference between two pictures on the pixels the
-/// verdicts compare.
-fn largest(a: &[u8], b: &[u8], compared: &[bool]) -> u8 {
-    (0..compared.len())
-        .filter(|&i| compared[i])
-        .flat_map(|i| (0..4).map(move |k| a[4 * i + k].abs_diff(b[4 * i + k])))
-        .max()
-        .unwrap_or(0)
-}
+use crate::three_way::{
+    largest, render_three, render_three_as_rendered, rendered_plan, scene, verdict, H, W,
+};
 
 /// A first pass writes 0.499 into an `rgba8` framebuffer, which stores
 /// 127/255 (0.49804); a second pass reads it back and amplifies its
