@@ -110,6 +110,20 @@ fn two_computed_scalars_compared_select_in_the_combiners() {
     assert!(plans(vectors, "geforce3").is_err());
 }
 
+/// `min` and `max` of two computed scalars pick one by the same mux (`a ≥
+/// b` selects): the darker of a shadow texture and the diffuse light
+/// plans on both combiner targets (`darken_min` renders alike three ways
+/// there). Before, `min` was "cannot be computed by the register
+/// combiners" on both.
+#[test]
+fn min_and_max_of_two_computed_scalars_select_in_the_combiners() {
+    let darker = program("darken_min");
+    for target in ["geforce256", "geforce3"] {
+        plans(&darker, target).unwrap_or_else(|e| panic!("{target}: {e:#?}"));
+        plans(&darker.replace("min(", "max("), target).unwrap_or_else(|e| panic!("{target} max: {e:#?}"));
+    }
+}
+
 /// A square is never negative: the triplanar weights `n.x*n.x` of a
 /// normalized vector are in [0, 1], so the weighted sum of three lookups
 /// fits the combiners. Before, the product of two intervals gave a weight

@@ -80,6 +80,16 @@ impl Gen<'_> {
                 Spec { cd: Some(cd), mux: Some(sel), ..Spec::single(ab, scalar) }
             }
             Expr::Math { fun: MathFunction::Mix, ref args } => self.mix_spec(args, part, scalar, span)?,
+            Expr::Math { fun: fun @ (MathFunction::Min | MathFunction::Max), ref args }
+                if args.len() == 2 && args.iter().all(|&a| self.constant(a).is_none()) =>
+            {
+                // min(a, b) and max(a, b) of two computed scalars pick one by
+                // the mux: `a ≥ b` selects CD ([`Gen::compared`]).
+                let Some((sel, _)) = self.compared(args[0], args[1], span)? else { return Ok(None) };
+                let (a, b) = (self.plain_term(args[0], part)?, self.plain_term(args[1], part)?);
+                let (ab, cd) = if fun == MathFunction::Max { (b, a) } else { (a, b) };
+                Spec { cd: Some(cd), mux: Some(sel), ..Spec::single(ab, scalar) }
+            }
             Expr::Math {
                 fun: fun @ (MathFunction::Expand | MathFunction::HalfBias | MathFunction::Compress),
                 ref args,
