@@ -184,23 +184,23 @@ pub fn compile(source: &str, profile: &Profile, options: &PlanOptions) -> Result
 fn name_unbounded_uniforms(module: &Module, mut diagnostics: Diagnostics) -> Diagnostics {
     for d in diagnostics.iter_mut().filter(|d| d.code == "cannot-split") {
         let Some(st) = module.statements.iter().find(|st| st.span == d.primary.span) else { continue };
-        let mut names: Vec<&str> = Vec::new();
+        let mut unbounded: Vec<&crate::ir::Uniform> = Vec::new();
         for h in module.reachable(&[st.value]) {
             if let crate::ir::Expr::Uniform(id) = module.exprs[h] {
                 let u = &module.uniforms[id as usize];
                 if module.info(h).interval.class() == crate::ir::Range::Unbounded
-                    && !names.contains(&u.name.as_str())
+                    && !unbounded.iter().any(|v| v.name == u.name)
                 {
-                    names.push(&u.name);
+                    unbounded.push(u);
                 }
             }
         }
-        let Some(first) = names.first() else { continue };
-        let list = names.iter().map(|n| format!("`{n}`")).collect::<Vec<_>>().join(", ");
+        let Some(&first_uniform) = unbounded.first() else { continue };
+        let first = &first_uniform.name;
+        let list = unbounded.iter().map(|u| format!("`{}`", u.name)).collect::<Vec<_>>().join(", ");
         // A colour declaration bounds a factor of a colour, but a scalar
         // compared with a scalar would then be an rgb: clamped where read.
-        let scalar = module.uniforms.iter().any(|u| u.name == *first && u.ty == crate::ir::Ty::Scalar);
-        let bound = if scalar {
+        let bound = if first_uniform.ty == crate::ir::Ty::Scalar {
             format!("declare it a colour, `uniform {first} : c = …;`, where it scales a colour, or read it as `saturate({first})` (a comparison, a coordinate), to keep it in [0, 1]")
         } else {
             format!("declare it a colour, `uniform {first} : c = …;`, to keep it in [0, 1]")
@@ -208,7 +208,7 @@ fn name_unbounded_uniforms(module: &Module, mut diagnostics: Diagnostics) -> Dia
         let help = format!(
             "{}; {list} {} a uniform with no bound (the scene may set any value), which leaves every range it enters unbounded: {bound}, or render with a scene that sets it (`render` folds the scene's value)",
             d.help.clone().unwrap_or_default(),
-            if names.len() == 1 { "is" } else { "are" },
+            if unbounded.len() == 1 { "is" } else { "are" },
         );
         d.help = Some(help);
     }

@@ -81,7 +81,7 @@ impl Gen<'_> {
             }
             Expr::Math { fun: MathFunction::Mix, ref args } => self.mix_spec(args, part, scalar, span)?,
             Expr::Math { fun: fun @ (MathFunction::Min | MathFunction::Max), ref args }
-                if args.len() == 2 && args.iter().all(|&a| self.constant(a).is_none()) =>
+                if self.two_computed(args) =>
             {
                 // min(a, b) and max(a, b) of two computed scalars pick one by
                 // the mux: `a ≥ b` selects CD ([`Gen::compared`]).
@@ -555,6 +555,13 @@ impl Gen<'_> {
             return Err(bad());
         };
         Ok((sel, high))
+    }
+
+    /// Whether `args` are two values neither of which is a constant: a
+    /// `min` or `max` of them selects by the mux (a `max` with 0 is an
+    /// input mapping, `select::src_uncached`).
+    pub(super) fn two_computed(&self, args: &[Handle<Expr>]) -> bool {
+        args.len() == 2 && args.iter().all(|&a| self.constant(a).is_none())
     }
 
     /// `a ≥ b` of two computed values, as the mux's select: `a + (½ − b)`,

@@ -114,9 +114,7 @@ impl Gen<'_> {
             | Expr::Select { reject: Some(_), .. }
             | Expr::Math { fun: MathFunction::Mix | MathFunction::Compress, .. } => self.materialise(h, part, sat),
             // min and max of two computed scalars: the mux (`ops::spec`).
-            Expr::Math { fun: MathFunction::Min | MathFunction::Max, ref args }
-                if args.len() == 2 && args.iter().all(|&a| self.constant(a).is_none()) =>
-            {
+            Expr::Math { fun: MathFunction::Min | MathFunction::Max, ref args } if self.two_computed(args) => {
                 self.materialise(h, part, sat)
             }
             other => Err(self.unsupported_node(h, &other)),
