@@ -200,10 +200,11 @@ fn name_unbounded_uniforms(module: &Module, mut diagnostics: Diagnostics) -> Dia
         let list = unbounded.iter().map(|u| format!("`{}`", u.name)).collect::<Vec<_>>().join(", ");
         // A colour declaration bounds a factor of a colour, but a scalar
         // compared with a scalar would then be an rgb: clamped where read.
-        let bound = if first_uniform.ty == crate::ir::Ty::Scalar {
-            format!("declare it a colour, `uniform {first} : c = …;`, where it scales a colour, or read it as `saturate({first})` (a comparison, a coordinate), to keep it in [0, 1]")
-        } else {
-            format!("declare it a colour, `uniform {first} : c = …;`, to keep it in [0, 1]")
+        let bound = match first_uniform.ty {
+            crate::ir::Ty::Scalar => format!("declare it a colour, `uniform {first} : c = …;`, where it scales a colour, or read it as `saturate({first})` (a comparison, a coordinate), to keep it in [0, 1]"),
+            // A direction: its length is what is unbounded, computed once on the host.
+            crate::ir::Ty::Vec3 => format!("read it as `normalize({first})` (a direction, computed once per object) to keep it in [−1, 1], or declare it a colour, `uniform {first} : c = …;`, to keep it in [0, 1]"),
+            _ => format!("declare it a colour, `uniform {first} : c = …;`, to keep it in [0, 1]"),
         };
         let help = format!(
             "{}; {list} {} a uniform with no bound (the scene may set any value), which leaves every range it enters unbounded: {bound}, or render with a scene that sets it (`render` folds the scene's value)",

@@ -550,6 +550,7 @@ pub fn no_combiner_op(m: &Module, h: Handle<Expr>) -> bool {
             Expr::Constant(c) => !(c.components[0] >= 1.0 && c.components[0].fract() == 0.0),
             _ => true,
         },
+        Expr::Math { fun: MathFunction::Step, args } => !step_by_mux(m, args[0], args[1]),
         Expr::Math { fun, .. } => matches!(
             fun,
             MathFunction::Sqrt
@@ -560,11 +561,22 @@ pub fn no_combiner_op(m: &Module, h: Handle<Expr>) -> bool {
                 | MathFunction::Cos
                 | MathFunction::Floor
                 | MathFunction::Fract
-                | MathFunction::Step
                 | MathFunction::Smoothstep
                 | MathFunction::Sign
         ),
         _ => false,
+    }
+}
+
+/// Whether `step(edge, x)` is the combiners' mux: `x ≥ edge` tested as
+/// `x + (½ − edge) ≥ ½` (Kilgard 2000, Section 4.2.2) — a scalar `x`
+/// against a constant edge the offset reaches, or a computed edge that
+/// stays at or above 0 (its HALF_BIAS_NEGATE mapping clamps below 0).
+fn step_by_mux(m: &Module, edge: Handle<Expr>, x: Handle<Expr>) -> bool {
+    let scalar = |h| m.info(h).ty == crate::ir::Ty::Scalar;
+    match &m.exprs[edge] {
+        Expr::Constant(c) => scalar(x) && (-0.5..=1.5).contains(&c.components[0]),
+        _ => scalar(x) && scalar(edge) && m.info(edge).interval.lo >= 0.0,
     }
 }
 

@@ -655,6 +655,7 @@ impl Builder {
     /// Says so, with what works instead, rather than "to multiply, write
     /// `*`". `None` after reporting it.
     fn parameters_at_use(&mut self, funcs: &[Pair<'_, Rule>], arg: Span) -> Option<()> {
+        self.parenthesized_in_chain(funcs, arg)?;
         for (k, pair) in funcs.windows(2).enumerate() {
             let (Some(name), value) = (self.atom_name(&pair[0]), &pair[1]) else { continue };
             if value.as_rule() != Rule::postfix || !value.as_str().starts_with('(') {
@@ -679,6 +680,29 @@ impl Builder {
                 )
                 .with_help(parameters_help(&key, args, None)),
             );
+            return None;
+        }
+        Some(())
+    }
+
+    /// `δ (kd * max(0, N·L)) s x`: a parenthesized value applied to the
+    /// shading parameters, meant as a function of them — a shader, as for a
+    /// built-in ([`builtin_in_chain`]), rather than "to multiply, write `*`".
+    /// A parenthesized value after a name is [`Self::parameters_at_use`]'s;
+    /// one applied to anything else is left to `func`. `None` after reporting it.
+    fn parenthesized_in_chain(&mut self, funcs: &[Pair<'_, Rule>], arg: Span) -> Option<()> {
+        for (k, pair) in funcs.iter().enumerate() {
+            let after_name = k > 0 && self.atom_name(&funcs[k - 1]).is_some();
+            if after_name || pair.as_rule() != Rule::postfix || !pair.as_str().starts_with('(') {
+                continue;
+            }
+            let rest = funcs.get(k + 1).map_or(arg, |p| self.span(p)).join(arg);
+            let input = pair.get_input();
+            let rest_text = &input[rest.start as usize - self.offset..rest.end as usize - self.offset];
+            if !on_shading_parameters(rest_text) {
+                continue;
+            }
+            self.errors.push(builtin_in_chain(pair.as_str(), self.span(pair), rest_text, rest, "p"));
             return None;
         }
         Some(())
@@ -930,6 +954,13 @@ pub(super) fn parameters_help(key: &str, args: &str, param: Option<&str>) -> Str
     )
 }
 
+/// Whether the rest of a chain, `rest`, is the shading parameters (`s x`,
+/// `δ s x`, `s′ x`): what a shader is applied to.
+fn on_shading_parameters(rest: &str) -> bool {
+    let params = rest.trim_start_matches(['δ', ' ']).trim_start_matches("delta ").trim_start();
+    params.starts_with('s') && !params.starts_with("stencil")
+}
+
 /// `δ max(0, N·L) s x`: a built-in's value in an application chain, which
 /// application (right to left) would apply to `s x` — a value is not a
 /// function. What was meant is a function of the shading parameters,
@@ -946,15 +977,14 @@ pub(super) fn builtin_in_chain(
     shader: &str,
 ) -> Diagnostic {
     let declare = format!("declare it as a shader, `shader {shader} : s → c = {value};`");
-    let params = rest.trim_start_matches(['δ', ' ']).trim_start_matches("delta ").trim_start();
-    let on_params = params.starts_with('s') && !params.starts_with("stencil");
-    let help = if on_params {
+    let what = if value.starts_with('(') { "a parenthesized value" } else { "a built-in's value" };
+    let help = if on_shading_parameters(rest) {
         format!(
-            "a built-in's value cannot be applied to what follows: application reads right to left, so this applies `{value}` to `{rest}`; to compute it from the shading parameters, {declare} and replace `{value}` by `{shader}`: `{shader} {rest}`"
+            "{what} cannot be applied to what follows: application reads right to left, so this applies `{value}` to `{rest}`; to compute it from the shading parameters, {declare} and replace `{value}` by `{shader}`: `{shader} {rest}`"
         )
     } else {
         format!(
-            "a built-in's value cannot be applied to what follows: application reads right to left, so this applies `{value}` to `{rest}`; to multiply, write `*` between them; to compute it from the shading parameters, {declare} and use it as `δ {shader} s x` (per vertex, interpolated) or `{shader} δ s x` (per fragment)"
+            "{what} cannot be applied to what follows: application reads right to left, so this applies `{value}` to `{rest}`; to multiply, write `*` between them; to compute it from the shading parameters, {declare} and use it as `δ {shader} s x` (per vertex, interpolated) or `{shader} δ s x` (per fragment)"
         )
     };
     Diagnostic::error(

@@ -284,6 +284,8 @@ fn combiner_operations_except(
                 | MathFunction::Clamp
                 | MathFunction::Mix
                 | MathFunction::Abs => 1,
+                // step(e, x): an offset and the mux (`lowering::no_combiner_op`).
+                MathFunction::Step if !crate::lowering::no_combiner_op(module, h) => 2,
                 _ => return Err(h),
             },
             _ => 0,

@@ -79,6 +79,13 @@ impl Gen<'_> {
                 let (ab, cd) = if high { (rej, acc) } else { (acc, rej) };
                 Spec { cd: Some(cd), mux: Some(sel), ..Spec::single(ab, scalar) }
             }
+            // step(e, x) is `x ≥ e`: 1 or 0 by the mux, as the comparison.
+            Expr::Math { fun: MathFunction::Step, ref args } => {
+                let (sel, high) = self.comparison(h, BinaryOp::Ge, args[1], args[0])?;
+                let (one, zero) = (Term::times_one(Src::ONE), Term::times_one(Src::ZERO));
+                let (ab, cd) = if high { (zero, one) } else { (one, zero) };
+                Spec { cd: Some(cd), mux: Some(sel), ..Spec::single(ab, true) }
+            }
             Expr::Math { fun: MathFunction::Mix, ref args } => self.mix_spec(args, part, scalar, span)?,
             Expr::Math { fun: fun @ (MathFunction::Min | MathFunction::Max), ref args }
                 if self.two_computed(args) =>
@@ -495,25 +502,47 @@ impl Gen<'_> {
             )
         };
         let Expr::Binary { op, lhs, rhs } = self.expr(cond).clone() else { return Err(bad()) };
-        if self.reads_depth(cond) {
-            // A depth texture's compare (issue 39): the unit's register holds 1 where lit.
-            if let Some(k) = crate::planner::shadow_map::compare_unit(self.m, self.units, cond) {
-                let Some(reg) = u8::try_from(k).ok().and_then(Register::texture) else {
-                    return Err(unsupported(
-                        span,
-                        "a depth comparison read on a texture unit past the fourth",
-                        "the register combiners have registers for texture units 0 to 3 only (Kilgard 2000): read fewer textures in this statement",
-                    ));
-                };
-                return Ok((Src { base: Base::Reg(reg), comp: Comp::Alpha, map: UnsignedIdentity }, false));
-            }
-            // The shadow-mask test (seeds/001 Section 3.5) in another form.
-            return Err(unsupported(
-                span,
-                "a per-pixel depth comparison (a shadow-map test)",
-                crate::planner::shadow_map::REFUSAL_HELP,
-            ));
+        if !self.reads_depth(cond) {
+            return self.comparison(cond, op, lhs, rhs);
         }
+        // A depth texture's compare (issue 39): the unit's register holds 1 where lit.
+        if let Some(k) = crate::planner::shadow_map::compare_unit(self.m, self.units, cond) {
+            let Some(reg) = u8::try_from(k).ok().and_then(Register::texture) else {
+                return Err(unsupported(
+                    span,
+                    "a depth comparison read on a texture unit past the fourth",
+                    "the register combiners have registers for texture units 0 to 3 only (Kilgard 2000): read fewer textures in this statement",
+                ));
+            };
+            return Ok((Src { base: Base::Reg(reg), comp: Comp::Alpha, map: UnsignedIdentity }, false));
+        }
+        // The shadow-mask test (seeds/001 Section 3.5) in another form.
+        Err(unsupported(
+            span,
+            "a per-pixel depth comparison (a shadow-map test)",
+            crate::planner::shadow_map::REFUSAL_HELP,
+        ))
+    }
+
+    /// `lhs op rhs` (`op` one of `< ≤ > ≥`) as the mux's select: the
+    /// source tested against ½, and whether the comparison holds on its high
+    /// side. `node` keys the offset constant a comparison with a constant
+    /// other than 0 or ½ needs.
+    pub(super) fn comparison(
+        &mut self,
+        node: Handle<Expr>,
+        op: BinaryOp,
+        lhs: Handle<Expr>,
+        rhs: Handle<Expr>,
+    ) -> R<(Src, bool)> {
+        let span = self.m.span(node);
+        let bad = || {
+            unsupported(
+                span,
+                "this condition",
+                "the mux tests spare0.a ≥ ½ (Kilgard 2000, Section 4.2.2): compare a scalar with a constant, e.g. `Hn.z ≥ 0` (Appendix H), or with a scalar that stays at or above 0, or use a lookup texture",
+            )
+        };
         let (x, k, high) = match (self.constant(lhs), self.constant(rhs), op) {
             (_, Some(k), BinaryOp::Ge | BinaryOp::Gt) => (lhs, k, true),
             (_, Some(k), BinaryOp::Lt | BinaryOp::Le) => (lhs, k, false),
@@ -548,7 +577,7 @@ impl Gen<'_> {
             // x ≥ k ⟺ x + (½ − k) ≥ ½: the offset is a constant colour (or
             // its negation), the sum clamped to [−1, 1], which keeps its
             // side of ½ (Kilgard 2000, Section 4.2.2).
-            let offset = self.constant_src(cond, &Constant::scalar(0.5 - k), Part::Alpha)?;
+            let offset = self.constant_src(node, &Constant::scalar(0.5 - k), Part::Alpha)?;
             let t = Term::times_one(s);
             self.emit(Spec { cd: Some(Term::times_one(offset)), ..Spec::single(t, true) }, span)?
         } else {

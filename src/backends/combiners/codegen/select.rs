@@ -112,13 +112,47 @@ impl Gen<'_> {
             Expr::Binary { op: BinaryOp::Mul | BinaryOp::Add | BinaryOp::Sub | BinaryOp::Dot, .. }
             | Expr::Binary { op: BinaryOp::Lt | BinaryOp::Le | BinaryOp::Gt | BinaryOp::Ge, .. }
             | Expr::Select { reject: Some(_), .. }
-            | Expr::Math { fun: MathFunction::Mix | MathFunction::Compress, .. } => self.materialise(h, part, sat),
+            | Expr::Math { fun: MathFunction::Mix | MathFunction::Compress | MathFunction::Step, .. } => {
+                self.materialise(h, part, sat)
+            }
             // min and max of two computed scalars: the mux (`ops::spec`).
             Expr::Math { fun: MathFunction::Min | MathFunction::Max, ref args } if self.two_computed(args) => {
                 self.materialise(h, part, sat)
             }
-            other => Err(self.unsupported_node(h, &other)),
+            other => match self.host_constant(h) {
+                // A per-object value the combiners cannot compute
+                // (`normalize(Ld)` of a uniform direction): computed once
+                // on the host, as GL programs set constant colours.
+                Some(c) => self.constant_src(h, &c, part).map_err(|_| self.unsupported_node(h, &other)),
+                None => Err(self.unsupported_node(h, &other)),
+            },
         }
+    }
+
+    /// The value of a per-object node (constants and uniforms at their
+    /// values, `uniform_src`'s), computed on the host; `None` for a value
+    /// per vertex or per sample, or one that is not finite.
+    fn host_constant(&self, h: Handle<Expr>) -> Option<Constant> {
+        if self.m.info(h).freq > crate::ir::Frequency::Uniform {
+            return None;
+        }
+        let ty = self.ty(h);
+        let v = self.host_value(h)?;
+        Some(Constant::new(ty, &v[..ty.width().min(4)]))
+    }
+
+    fn host_value(&self, h: Handle<Expr>) -> Option<crate::ir::eval::Value> {
+        use crate::ir::eval;
+        let v = match self.expr(h) {
+            Expr::Constant(c) => eval::value(c),
+            Expr::Uniform(id) => eval::value(self.m.uniforms[*id as usize].default.as_ref()?),
+            e if eval::is_computation(e) => {
+                let operands: Option<Vec<_>> = e.operands().iter().map(|&o| self.host_value(o)).collect();
+                eval::apply(self.m, e, self.ty(h), &operands?)
+            }
+            _ => return None,
+        };
+        v.iter().all(|x| x.is_finite()).then_some(v)
     }
 
     /// A texel or framebuffer read bound to a texture unit of the pass: its
@@ -507,6 +541,24 @@ impl Gen<'_> {
         }
     }
 
+    /// A constant with components of both signs, each in [−1, 1] (a light
+    /// direction given as a constant): stored range-compressed, (v + 1)/2,
+    /// and read through the EXPAND_NORMAL input mapping, as Kilgard stores
+    /// signed vectors in unsigned colours (Kilgard 2000, Section 5.2, Table
+    /// 3). The register's 8 bits put each component within 1/255.
+    fn expanded_constant(&mut self, h: Handle<Expr>, values: &[f64], ty: Ty, part: Part) -> R<Src> {
+        let mut color = [0.5f32; 4];
+        for (slot, v) in color.iter_mut().zip(values) {
+            *slot = ((v + 1.0) / 2.0) as f32;
+        }
+        if ty == Ty::Rgba && part == Part::Alpha {
+            color[3] = color[0];
+        }
+        let comp = if values.len() == 1 || part == Part::Alpha { Comp::Alpha } else { Comp::Rgb };
+        let k = self.konst(h, color, true, comp)?;
+        Ok(Src { base: Base::K(k), comp, map: ExpandNormal })
+    }
+
     /// Copies a mapped source into a virtual register (`dest = s * one`).
     pub(super) fn copy(&mut self, s: Src, span: Span) -> R<Src> {
         let scalar = s.comp != Comp::Rgb;
@@ -537,8 +589,10 @@ impl Gen<'_> {
             (true, values.iter().map(|v| -v).collect())
         } else if values.iter().all(|v| *v >= 0.0) {
             (false, values.clone())
+        } else if values.iter().all(|v| v.abs() <= 1.0) {
+            return self.expanded_constant(h, &values, c.ty, part);
         } else {
-            return Err(unsupported(span, "a constant with components of both signs", "constant colours are unsigned (Kilgard 2000, Table 2): add a signed part with `expand` of an unsigned constant"));
+            return Err(unsupported(span, "a constant with components of both signs outside [−1, 1]", "constant colours are unsigned (Kilgard 2000, Table 2): rescale it into [−1, 1], which is stored as (v + 1)/2 and read through `expand`"));
         };
         if mags.iter().any(|v| *v > 1.0) {
             return Err(unsupported(
