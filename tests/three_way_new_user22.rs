@@ -7,7 +7,11 @@
 //! ASCII, a logarithmic tone curve over a float framebuffer, colour bands by
 //! a sine, a mask in C's alpha read by a screen pass, DOT3 against the
 //! compressed light vector, attenuation by `rsqrt`, two lights by their
-//! intensities and a panorama's reflection mixed over a lit texture. Each
+//! intensities, a panorama's reflection mixed over a lit texture, a decal
+//! cut out by its alpha, a glow pass, a light map baked from a gradient,
+//! hemisphere ambient light, a marble solid texture, a gloss map in alpha,
+//! two statements from a static viewpoint, sphere-map texgen by hand, two
+//! framebuffers mixed on screen and wrap lighting. Each
 //! renders alike on the CPU, wgpu and the independent reference on every
 //! target its header names, and is refused where its header says
 //! (`three_way_heldout::renders_alike_everywhere_in`).
@@ -17,24 +21,34 @@ use shadec::diag::{Diagnostic, Severity};
 
 held_out_everywhere_in!("heldout_twentysecond":
     alpha_mask_pass,
+    alpha_test_cutout,
     ascii_phong,
     blend_mode,
     clamp_band,
     const_dir,
     cube_reflect_mix,
     dot3_rgba,
+    glow_pass,
+    gradient_bake,
+    hemi_ambient,
     interp_mode,
     log_tone,
+    marble_solid,
     rsqrt_atten,
     sin_waves,
     smooth_rim,
+    spec_alpha_gloss,
+    static_view,
     step_shadow,
     step_toon,
     stripes_fract,
     subtract_mode,
+    texgen_sphere_env,
+    two_framebuffers_mix,
     two_intensity,
     uniform_dir,
     uniform_dir_normalized,
+    wrap_diffuse_tex,
 );
 
 /// The program of this session's folder, its images found from the
@@ -129,4 +143,17 @@ fn a_parenthesized_value_applied_to_the_shading_parameters_is_told_to_be_a_shade
     // A parenthesized value applied to a value is still told to multiply.
     let product = checked("C δπx ← (0.5) (0.2);\n", "wgsl");
     assert!(product[0].help.as_deref().unwrap_or_default().contains("write `*`"));
+}
+
+/// `x / k` for a constant `k` is the product `x · (1/k)`, and a constant
+/// times a sum that leaves [−1, 1] is distributed into one portion, AB + CD
+/// (Kilgard 2000, Section 4.2.2): wrap lighting `max(0, (N·L + ½)/1.5)`
+/// plans exactly on both combiner targets. Before, the division sent it to
+/// a table over an argument computed per vertex.
+#[test]
+fn a_division_by_a_constant_is_a_product_the_combiners_distribute() {
+    for target in ["geforce256", "geforce3"] {
+        let rules = approximations(&program("wrap_diffuse_tex"), target);
+        assert!(rules.iter().all(|r| r == "range_compression"), "{target}: {rules:?}");
+    }
 }

@@ -375,9 +375,13 @@ impl<'a> Rewriter<'a> {
             {
                 dependent::apply(self, h, original, span).unwrap_or(h)
             }
-            _ if needs_table(&self.m, h) => table::apply(self, h, original, span)
-                .or_else(|| per_vertex::apply(self, original, "this value", span))
-                .unwrap_or(h),
+            // A `step` the mux computes is tabulated in the choice of
+            // tables too, for a target whose stages the mux does not fit.
+            _ if needs_table(&self.m, h) || self.choice.tables_2d && is_step(&self.m, h) => {
+                table::apply(self, h, original, span)
+                    .or_else(|| per_vertex::apply(self, original, "this value", span))
+                    .unwrap_or(h)
+            }
             // An rgb division (`kd·(N·L)/((N·L) + (N·V))`): no table of one
             // scalar holds it; per vertex is what is left.
             _ if no_combiner_op(&self.m, h) => {
@@ -545,7 +549,7 @@ pub fn no_combiner_op(m: &Module, h: Handle<Expr>) -> bool {
         return false;
     }
     match &m.exprs[h] {
-        Expr::Binary { op: BinaryOp::Div, .. } => true,
+        Expr::Binary { op: BinaryOp::Div, .. } => reciprocal_of_divisor(m, h).is_none(),
         Expr::Binary { op: BinaryOp::Pow, rhs, .. } => match &m.exprs[*rhs] {
             Expr::Constant(c) => !(c.components[0] >= 1.0 && c.components[0].fract() == 0.0),
             _ => true,
@@ -565,6 +569,23 @@ pub fn no_combiner_op(m: &Module, h: Handle<Expr>) -> bool {
                 | MathFunction::Sign
         ),
         _ => false,
+    }
+}
+
+/// Whether `h` is a `step` per sample.
+fn is_step(m: &Module, h: Handle<Expr>) -> bool {
+    m.info(h).freq.is_sample() && matches!(m.exprs[h], Expr::Math { fun: MathFunction::Step, .. })
+}
+
+/// `1/k` for `x / k` with `k` a non-zero scalar constant: a product by a
+/// constant, which the combiners compute (`(N·L + ½)/1.5`, wrap lighting).
+pub fn reciprocal_of_divisor(m: &Module, h: Handle<Expr>) -> Option<f64> {
+    let Expr::Binary { op: BinaryOp::Div, rhs, .. } = &m.exprs[h] else { return None };
+    match &m.exprs[*rhs] {
+        Expr::Constant(c) if c.ty == crate::ir::Ty::Scalar && c.components[0] != 0.0 => {
+            Some(1.0 / c.components[0])
+        }
+        _ => None,
     }
 }
 

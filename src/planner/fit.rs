@@ -261,6 +261,12 @@ fn combiner_operations_except(
                 }
                 _ => return Err(h),
             },
+            // x / k: a product by the constant 1/k (`lowering::reciprocal_of_divisor`).
+            Expr::Binary { op: BinaryOp::Div, .. }
+                if crate::lowering::reciprocal_of_divisor(module, h).is_some() =>
+            {
+                1
+            }
             Expr::Binary { op: BinaryOp::Div, .. } => return Err(h),
             Expr::Binary { .. } | Expr::Combine { .. } | Expr::Select { .. } => 1,
             // max(0, x) and min(1, x) are an unsigned mapping and a clamp: free.

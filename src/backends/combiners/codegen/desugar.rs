@@ -1,5 +1,6 @@
 //! Before selection: the per-sample `⊕` (Pipeline Grammar, Section 3.6)
-//! rewritten into the products, sums and lerps it stands for, and the
+//! rewritten into the products, sums and lerps it stands for, divisions by
+//! a constant into products, and the
 //! reassociation of long sums into register-sized groups.
 //!
 //! It lives apart because it works on a copy of the IR module, before any
@@ -10,7 +11,8 @@ use super::*;
 /// Rewrites the per-sample `⊕` nodes below `value` into the arithmetic they
 /// stand for (`crate::ir::eval::combine`, the OpenGL 1.2.1 texture
 /// environment of Pipeline Grammar, Section 3.6), so that the selector sees
-/// products, sums, lerps and dot products. `None` when there is no `⊕`.
+/// products, sums, lerps and dot products; a division by a constant
+/// becomes the product by its reciprocal. `None` when there is neither.
 /// The rewritten nodes are appended to a copy of the module: every handle
 /// of the original (lookups, interpolants, uniforms) keeps its meaning.
 pub(super) fn desugar(module: &Module, value: Handle<Expr>) -> R<Option<(Module, Handle<Expr>)>> {
@@ -21,7 +23,10 @@ pub(super) fn desugar(module: &Module, value: Handle<Expr>) -> R<Option<(Module,
     let floats_a_scale = |h: &Handle<Expr>| {
         module.info(*h).freq.is_sample() && scale_to_float(module, &module.exprs[*h]).is_some()
     };
-    if !reach.iter().any(|h| is_combine(h) || floats_a_scale(h)) {
+    let by_constant = |h: &Handle<Expr>| {
+        module.info(*h).freq.is_sample() && crate::lowering::reciprocal_of_divisor(module, *h).is_some()
+    };
+    if !reach.iter().any(|h| is_combine(h) || floats_a_scale(h) || by_constant(h)) {
         return Ok(None);
     }
     let mut m = module.clone();
@@ -61,6 +66,12 @@ pub(super) fn desugar(module: &Module, value: Handle<Expr>) -> R<Option<(Module,
                     }
                 }
             },
+            // x / k = x · (1/k): the constant in a register, or an output scale.
+            Expr::Binary { op: BinaryOp::Div, lhs, .. } if by_constant(&h) => {
+                let inverse = crate::lowering::reciprocal_of_divisor(module, h).unwrap_or(1.0);
+                let k = intern(&mut m, Expr::Constant(Constant::scalar(inverse)), span)?;
+                intern(&mut m, Expr::Binary { op: BinaryOp::Mul, lhs, rhs: k }, span)?
+            }
             e => match scale_to_float(&m, &e) {
                 Some((k, y, z)) => {
                     let inner = intern(&mut m, Expr::Binary { op: BinaryOp::Mul, lhs: y, rhs: z }, span)?;

@@ -723,8 +723,15 @@ mod tests {
     }
 
     #[test]
+    fn division_by_a_constant_is_the_product_by_its_reciprocal() {
+        // a / 2 = a · ½: the output scale, one stage.
+        let g = gen("a / 2").unwrap();
+        assert_eq!(g.stages, 1, "{:?}", g.config);
+    }
+
+    #[test]
     fn division_is_unsupported_at_its_span() {
-        let (m, v, units) = module("a / 2");
+        let (m, v, units) = module("a.a / b.a");
         let e = generate(&PassInput { module: &m, value: v, units: &units }, &CombinerLimits::GEFORCE3)
             .unwrap_err();
         assert!(matches!(e, CodegenError::Unsupported { .. }));

@@ -175,8 +175,9 @@ impl Gen<'_> {
     }
 
     /// `(a ± b)·c` with `a ± b` beyond a register's [−1, 1] (which would
-    /// clamp it) and `a`, `b`, `c` sources: `a·c ± b·c` in one portion,
-    /// AB + CD (Kilgard 2000, Section 4.2.2). `None` otherwise.
+    /// clamp it), `a` and `b` sources or values within [−1, 1] and `c` a
+    /// source: `a·c ± b·c` in one portion, AB + CD (Kilgard 2000, Section
+    /// 4.2.2). `None` otherwise.
     pub(super) fn distributed_product(
         &mut self,
         lhs: Handle<Expr>,
@@ -190,7 +191,10 @@ impl Gen<'_> {
             return Ok(None);
         };
         let plain = |g: &Self, h: Handle<Expr>| g.is_source(h) || g.cache.contains_key(&(h, g.norm(h, part)));
-        if !self.sum_beyond_a_register(sum, part) || !plain(self, a) || !plain(self, b) || !plain(self, c) {
+        // An addend within [−1, 1] computed first (`(N·L + ½)·⅔`, wrap
+        // lighting: the dot product in its own portion) is a register.
+        let addend = |g: &Self, h: Handle<Expr>| plain(g, h) || g.in_unit(h);
+        if !self.sum_beyond_a_register(sum, part) || !addend(self, a) || !addend(self, b) || !plain(self, c) {
             return Ok(None);
         }
         let cs = self.src(c, part, false)?;
