@@ -307,7 +307,10 @@ fn differs_from_compile(
         why.push("the plan is specialized for this scene (a pass per light, its uniforms folded, lights culled; --no-specialize plans without it)".to_string());
     }
     if judged.candidates.iter().any(|c| c.chosen) {
-        let drawn = drawn_in(args, profile).name();
+        let drawn = match drawn_in(args, profile) {
+            Precision::F32 => "f32".to_string(),
+            p => format!("{} (the arithmetic drawn; `compile` measures in f32)", p.name()),
+        };
         why.push(match args.quality.max_error {
             Some(e) => format!(
                 "of the lowerings measured on this scene in {drawn}, the fastest within --max-error {e} was chosen"
