@@ -6,8 +6,9 @@
 //! not refused for having no bound.
 //!
 //! Each candidate (every choice of rules that plans, `lowering::choices`)
-//! is rendered in f32 by the CPU plan renderer and compared with the f32
-//! render of the program's meaning (`meaning::plan`: every statement one
+//! is rendered by the CPU plan renderer in the arithmetic it is drawn in
+//! (`PlanOptions::drawn_in`: `render`'s `--precision`; f32 for `check` and
+//! `compile`) and compared with the f32 render of the program's meaning (`meaning::plan`: every statement one
 //! unsplit pass, `normalize`, `sqrt`, `pow` themselves), through the same
 //! texture units and rasterizer, so that what differs is the lowering and
 //! the planner's splits. The error is the largest channel difference (as
@@ -139,23 +140,58 @@ fn pick_on(
     };
     let Some(best) = best else {
         let e = max_error.unwrap_or(PER_VERTEX_BUDGET);
-        return Err(vec![refusal(&candidates, profile, source, name, e)]);
+        return Err(vec![refusal(&candidates, profile, source, (name, measuring_precision(options)), e)]);
     };
     candidates[best].1.chosen = true;
     let report: Vec<Candidate> = candidates.iter().map(|(_, c)| c.clone()).collect();
-    Ok((with_measured(candidates.swap_remove(best), name, size), report))
+    Ok((with_measured(candidates.swap_remove(best), name, size, options), report))
 }
 
 /// The chosen plan, its measured error recorded.
-fn with_measured((mut planned, chosen): (Planned, Candidate), scene: &str, size: (u32, u32)) -> Planned {
+fn with_measured(
+    (mut planned, chosen): (Planned, Candidate),
+    scene: &str,
+    size: (u32, u32),
+    options: &PlanOptions,
+) -> Planned {
     planned.plan.measured = Some(MeasuredError {
         scene: scene.to_string(),
         width: size.0,
         height: size.1,
         max_abs: f64::from(chosen.error.max_abs),
         rmse: chosen.error.rmse,
+        precision: shown_precision(options),
     });
     planned
+}
+
+/// The arithmetic a plan's lowerings are measured in: the one it is drawn
+/// in (`PlanOptions::drawn_in`), else f32.
+pub fn measuring_precision(options: &PlanOptions) -> Precision {
+    options.drawn_in.unwrap_or(Precision::F32)
+}
+
+/// [`measuring_precision`] where it is not f32 (recorded in the plan).
+fn shown_precision(options: &PlanOptions) -> Option<Precision> {
+    Some(measuring_precision(options)).filter(|&p| p != Precision::F32)
+}
+
+/// How both renders of a measured error were made, for messages: `both
+/// rendered in f32`, or the precision the plan was drawn in.
+pub fn rendered_in(precision: Option<Precision>) -> String {
+    match precision {
+        None | Some(Precision::F32) => "both rendered in f32".to_string(),
+        Some(p) => format!("the plan rendered in {}, the meaning in f32", p.name()),
+    }
+}
+
+/// How a measured error was made, for messages: `f32`, or the precision the
+/// plan was drawn in against the meaning in f32.
+fn measured_in(precision: Option<Precision>) -> String {
+    match precision {
+        None | Some(Precision::F32) => "f32".to_string(),
+        Some(p) => format!("the plan in {}, the meaning in f32", p.name()),
+    }
 }
 
 /// Every plan `module` has for `profile` on `options.scene` — as written,
@@ -193,7 +229,8 @@ fn measure_on(
 ) -> Result<Vec<(Planned, Candidate)>, Diagnostics> {
     let scene = at;
     let size = measuring_size(scene.scene.resolution);
-    let reference = render(&crate::meaning::plan(module, lights)?, program, scene, size)?;
+    let reference = render(&crate::meaning::plan(module, lights)?, program, scene, size, Precision::F32)?;
+    let drawn = measuring_precision(options);
     let exact = LowerOptions { approximate: false, ..Default::default() };
     let written = plan_with(module, program, profile, source, options, exact);
     let lowered = crate::lowering::choices(profile).into_iter().filter_map(|choice| {
@@ -211,7 +248,7 @@ fn measure_on(
         {
             continue;
         }
-        let error = compare(&reference, &render(&planned, program, scene, size)?);
+        let error = compare(&reference, &render(&planned, program, scene, size, drawn)?);
         let predicted_ms = planned.plan.predicted.as_ref().map(|p| p.total_us / 1000.0);
         let passes = planned.plan.passes.len();
         candidates
@@ -243,12 +280,14 @@ fn render(
     program: &Program,
     scene: &crate::driver::ForScene,
     (w, h): (u32, u32),
+    precision: Precision,
 ) -> Result<crate::renderer::Framebuffer, Diagnostics> {
-    // A lowering's error, not the 8-bit stores every plan makes alike.
+    // A lowering's error, not the 8-bit stores every plan makes alike
+    // (fixed9 keeps its 8-bit framebuffer: the hardware's).
     PlanRenderer::new(planned, program, scene.scene, scene.assets)
         .and_then(|mut r| {
             r.set_unrounded_targets(true);
-            r.render(Precision::F32, w, h, &mut |_, _| {})
+            r.render(precision, w, h, &mut |_, _| {})
         })
         .map(|f| f.image)
         .map_err(|e| {
@@ -284,19 +323,20 @@ fn refusal(
     candidates: &[(Planned, Candidate)],
     profile: &Profile,
     source: &str,
-    scene: &str,
+    (scene, drawn): (&str, Precision),
     max_error: f64,
 ) -> Diagnostic {
     let closest = candidates.iter().min_by(|a, b| a.1.error.max_abs.total_cmp(&b.1.error.max_abs));
     let (message, help, span) = match closest {
         Some((planned, c)) => (
             format!(
-                "no lowering for {} is within --max-error {max_error} on {}: the closest ({}) is {:.4} ({:.1}/255) from the program's meaning (f32)",
+                "no lowering for {} is within --max-error {max_error} on {}: the closest ({}) is {:.4} ({:.1}/255) from the program's meaning ({})",
                 profile.name,
                 scene,
                 c.rules,
                 c.error.max_abs,
-                c.error.max_abs * 255.0
+                c.error.max_abs * 255.0,
+                measured_in(Some(drawn))
             ),
             format!(
                 "raise --max-error to {:.4} or more, or target a profile that computes this per fragment (wgsl)",
@@ -463,8 +503,9 @@ pub fn vet(
     }
 }
 
-/// `planned`'s error against the program's meaning, rendered in f32 on the
-/// scene planned for, else on the built-in torus.
+/// `planned`'s error against the program's meaning (rendered in f32), the
+/// plan rendered in the arithmetic it is drawn in ([`measuring_precision`]),
+/// on the scene planned for, else on the built-in torus.
 fn measure_plan(
     planned: &Planned,
     module: &Module,
@@ -476,14 +517,16 @@ fn measure_plan(
     let measure = |scene: &crate::driver::ForScene, lights: usize, name: String| {
         let size = measuring_size(scene.scene.resolution);
         let meaning = crate::meaning::plan(module, lights).map_err(text)?;
-        let reference = render(&meaning, program, scene, size).map_err(text)?;
-        let e = compare(&reference, &render(planned, program, scene, size).map_err(text)?);
+        let reference = render(&meaning, program, scene, size, Precision::F32).map_err(text)?;
+        let drawn = render(planned, program, scene, size, measuring_precision(options)).map_err(text)?;
+        let e = compare(&reference, &drawn);
         Ok(MeasuredError {
             scene: name,
             width: size.0,
             height: size.1,
             max_abs: f64::from(e.max_abs),
             rmse: e.rmse,
+            precision: shown_precision(options),
         })
     };
     if let Some(s) = &options.scene {
@@ -509,9 +552,10 @@ fn per_vertex_refusal(
         None => format!("the per-vertex budget of {:.1}/255", PER_VERTEX_BUDGET * 255.0),
     };
     let message = format!(
-        "{} cannot compute this per fragment, and computing it per vertex (the `per_vertex` fall-back) is {:.1}/255 (largest channel difference, f32) from the program's meaning on {}, beyond {budget}",
+        "{} cannot compute this per fragment, and computing it per vertex (the `per_vertex` fall-back) is {:.1}/255 (largest channel difference, {}) from the program's meaning on {}, beyond {budget}",
         planned.plan.target,
         m.max_abs * 255.0,
+        measured_in(m.precision),
         m.scene
     );
     Diagnostic::error("per-vertex-over-budget", message, expr_span(module, source, at), "computed per vertex here")
@@ -531,9 +575,10 @@ pub fn warnings(planned: &Planned, module: &Module, source: &str, vetting: &Vett
         .map(|a| {
             let figure = match (a.rule == PER_VERTEX, &plan.measured, a.output_bound.or(a.error_bound)) {
                 (true, Some(m), _) => format!(
-                    "measured {:.1}/255 (largest channel difference; RMSE {:.4}) from the program's meaning, both rendered in f32 at {}×{} on {}, within {}{}",
+                    "measured {:.1}/255 (largest channel difference; RMSE {:.4}) from the program's meaning, {} at {}×{} on {}, within {}{}",
                     m.max_abs * 255.0,
                     m.rmse,
+                    rendered_in(m.precision),
                     m.width,
                     m.height,
                     m.scene,
@@ -545,8 +590,9 @@ pub fn warnings(planned: &Planned, module: &Module, source: &str, vetting: &Vett
                     bound * 255.0
                 ),
                 (_, Some(m), None) => format!(
-                    "no stated bound; measured {:.1}/255 (largest channel difference, f32) from the program's meaning on {}",
+                    "no stated bound; measured {:.1}/255 (largest channel difference, {}) from the program's meaning on {}",
                     m.max_abs * 255.0,
+                    measured_in(m.precision),
                     m.scene
                 ),
                 (_, None, None) => format!(

@@ -44,6 +44,11 @@ pub struct PlanOptions<'a> {
     pub scene: Option<ForScene<'a>>,
     /// What the target lacks may be lowered into approximations.
     pub lowering: crate::lowering::LowerOptions,
+    /// The arithmetic the plan is drawn in (`render --precision`): on a
+    /// scene, its lowerings are rendered in it when they are measured
+    /// (`accuracy`), so that the one chosen is chosen — and held to its
+    /// budget — by the error it shows; `None`: f32 (`check`, `compile`).
+    pub drawn_in: Option<crate::numerics::Precision>,
 }
 
 /// A plan made for one scene: one pass per light for a program

@@ -319,20 +319,24 @@ fn render_ends_with_one_summary_line_whose_figures_say_what_they_are() {
         "{s}"
     );
     assert!(r.stdout.contains("error against the program's meaning (exact, unsplit) of this fixed9 render"));
+    // Measured in the arithmetic drawn (fixed9), against the meaning in f32.
     for line in r.stdout.lines().filter(|l| l.starts_with("lowering ")) {
-        assert!(line.contains("rendered in f32"), "{line}");
+        assert!(line.contains("the plan rendered in fixed9, the meaning in f32"), "{line}");
     }
     let listed =
         r.stderr.matches("(`per_vertex`)").count() + r.stdout.matches("approximation per_vertex").count();
     assert_eq!(listed, 1, "once:\n{}\n{}", r.stdout, r.stderr);
 }
 
-/// The plan `render` runs is `compile`'s unless the scene changes it, and
-/// then `render` says which and why: on four lights, one pass per light.
-/// On the built-in torus (one light) `compile` measures a per-vertex
-/// fall-back's lowerings there as `render` does, so the two print one plan
-/// (on geforce3 they used to differ: one pass with cube maps against three
-/// with Taylor renormalization).
+/// The plan `render` runs is `compile`'s unless the scene or the
+/// precision drawn changes it, and then `render` says which and why: on
+/// four lights, one pass per light. On the built-in torus (one light)
+/// `compile` measures a per-vertex fall-back's lowerings there as `render`
+/// in f32 does, so the two print one plan; `render` in fixed9, the
+/// combiners' own arithmetic, measures them in fixed9 and on geforce3
+/// draws one pass with normalization cube maps (24/255 from the meaning in
+/// fixed9) where `compile` takes three with Taylor renormalization (35/255
+/// in fixed9, 0.2/255 in f32), and says so.
 #[test]
 fn render_says_why_its_plan_is_not_the_one_compile_prints() {
     let dir = tempfile::tempdir().unwrap();
@@ -350,8 +354,19 @@ fn render_says_why_its_plan_is_not_the_one_compile_prints() {
     assert!(!r.stdout.contains("is not the one"), "{}", r.stdout);
     for target in ["geforce3", "geforce256"] {
         let compile = shadec(&["compile", "--target", target, "--emit", "plan", shader]);
-        let render =
-            shadec(&["render", "--shader", shader, "--target", target, "--size", "32x24", "-o", out]);
+        let render = shadec(&[
+            "render",
+            "--shader",
+            shader,
+            "--target",
+            target,
+            "--precision",
+            "f32",
+            "--size",
+            "32x24",
+            "-o",
+            out,
+        ]);
         assert_eq!((compile.code, render.code), (0, 0), "{}\n{}", compile.stderr, render.stderr);
         assert!(!render.stdout.contains("is not the one"), "{target}: {}", render.stdout);
         let plan = shadec::pipeline::PassPlan::from_ron(&compile.stdout).unwrap();
@@ -359,6 +374,14 @@ fn render_says_why_its_plan_is_not_the_one_compile_prints() {
         let said = format!("{n} pass{} on {target}", if n == 1 { "" } else { "es" });
         assert!(render.stdout.contains(&said), "{target}: compile planned {n} passes:\n{}", render.stdout);
     }
+    let render =
+        shadec(&["render", "--shader", shader, "--target", "geforce3", "--size", "32x24", "-o", out]);
+    assert_eq!(render.code, 0, "{}", render.stderr);
+    assert!(
+        render.stdout.contains("the lowerings measured on this scene in fixed9 (the arithmetic drawn; `compile` measures in f32), the most accurate there was chosen"),
+        "{}",
+        render.stdout
+    );
 }
 
 /// One choice of target: `--target` > the program's declaration > a

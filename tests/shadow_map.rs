@@ -404,3 +404,40 @@ fn a_shadow_test_in_the_first_pass_over_c_draws_and_agrees_with_the_reference() 
         assert!(p.cpu.chunks(4).filter(|px| px[0] > 100).count() > 100, "{target}: lit pixels drawn");
     }
 }
+
+/// The alpha-ramp plan in `exact` arithmetic on the Kilgard torus (what
+/// `shadec render examples/shadow_map.shd --target geforce256 --precision
+/// exact` draws): within the ramp's error of the meaning, as in f32. The
+/// ramp's value at the point's own depth was evaluated in f64 and compared
+/// with the same value stored in the light pass's framebuffer in f32, at
+/// `½·(a + 1 − c) < ½` whose equality is the lit side: the torus shadowed
+/// itself in bands, one a ramp step, 216.8/255 from the meaning.
+#[test]
+fn the_alpha_ramp_plan_in_exact_arithmetic_is_as_close_to_the_meaning_as_in_f32() {
+    let source = example("shadow_map");
+    let scene = crate::three_way::scene("kilgard_torus.ron");
+    let assets = scene.build().unwrap();
+    let judged = judged_on_geforce256(&source, &scene, &assets);
+    let rules: Vec<&str> = judged.planned.plan.approximations.iter().map(|a| a.rule.as_str()).collect();
+    assert_eq!(rules, ["alpha_ramp_shadow_map"]);
+    let front = shadec::driver::front(&source);
+    let meaning = shadec::meaning::plan(front.module.as_ref().unwrap(), 1).unwrap();
+    let draw = |p: &Planned, mode| {
+        PlanRenderer::new(p, &front.program, &scene, &assets)
+            .unwrap()
+            .render(mode, 160, 120, &mut |_, _| {})
+            .unwrap()
+            .image
+            .to_rgba8()
+    };
+    let reference = draw(&meaning, Precision::Exact);
+    let rgb = |a: &[u8], b: &[u8]| {
+        let off = (0..a.len()).filter(|i| i % 4 != 3 && a[*i].abs_diff(b[*i]) > 12).count();
+        ((0..a.len()).filter(|i| i % 4 != 3).map(|i| a[i].abs_diff(b[i])).max().unwrap(), off)
+    };
+    let (in_f32, _) = rgb(&reference, &draw(&judged.planned, Precision::F32));
+    let (in_exact, off) = rgb(&reference, &draw(&judged.planned, Precision::Exact));
+    eprintln!("alpha ramp on the torus: f32 {in_f32}/255, exact {in_exact}/255 ({off} channels over 12/255)");
+    assert!(in_f32 <= 12, "f32: {in_f32}/255 from the meaning");
+    assert!(in_exact <= 12, "exact: {in_exact}/255 from the meaning, {off} channels over 12/255");
+}

@@ -156,9 +156,12 @@ pub fn largest(a: &[u8], b: &[u8], compared: &[bool]) -> u8 {
         .unwrap_or(0)
 }
 
-/// Plans `source` for `target` and renders it with the three executors
-/// (`precision` for the CPU and wgpu; the reference is f64, rgba8
-/// framebuffers clamped and rounded at every write).
+/// Plans `source` for `target` as `shadec render` does on `scene` in
+/// `precision` ([`rendered_plan`]: the one verdict on the scene, its
+/// lowerings measured there in the arithmetic they are drawn in) and
+/// renders that plan with the three executors (`precision` for the CPU and
+/// wgpu; the reference is f64, rgba8 framebuffers clamped and rounded at
+/// every write). The plan may be another lowering than `driver::compile`'s.
 pub fn render_three(
     source: &str,
     target: &str,
@@ -166,52 +169,15 @@ pub fn render_three(
     precision: Precision,
     gpu: Option<&shadec::gpu::runner::Gpu>,
 ) -> Result<Pictures, String> {
-    render_three_of(source, target, scene, precision, gpu, false)
-}
-
-/// [`render_three`] of the plan `shadec render` draws ([`rendered_plan`]:
-/// the one verdict on the scene, its lowerings measured there), which may
-/// be another lowering than `driver::compile`'s.
-pub fn render_three_as_rendered(
-    source: &str,
-    target: &str,
-    scene: &Scene,
-    precision: Precision,
-    gpu: Option<&shadec::gpu::runner::Gpu>,
-) -> Result<Pictures, String> {
-    render_three_of(source, target, scene, precision, gpu, true)
-}
-
-fn render_three_of(
-    source: &str,
-    target: &str,
-    scene: &Scene,
-    precision: Precision,
-    gpu: Option<&shadec::gpu::runner::Gpu>,
-    as_rendered: bool,
-) -> Result<Pictures, String> {
     let profile = Profile::resolve(target).map_err(|e| format!("{e:?}"))?;
     let assets = scene.build().map_err(|e| e.to_string())?;
-    let (planned, program, module) = if as_rendered {
-        rendered_plan(source, &profile, scene, &assets)?
-    } else {
-        // On a scene of several lights, planned for it as `render` plans: a
-        // program written for light 0 means a pass per light.
-        let options = shadec::driver::PlanOptions {
-            scene: (scene.lights.len() > 1).then(|| shadec::driver::ForScene::specialized(scene, &assets)),
-            ..Default::default()
-        };
-        let compiled = shadec::driver::compile(source, &profile, &options).map_err(|d| {
-            format!("does not compile: {:?}", d.iter().map(|d| d.message.clone()).collect::<Vec<_>>())
-        })?;
-        (compiled.planned, compiled.program, compiled.module)
-    };
+    let (planned, program, module) = rendered_plan(source, &profile, scene, &assets, precision)?;
     let approximations = &planned.plan.approximations;
     let rules = approximations.iter().map(|a| a.rule.to_string()).collect();
     let approximation_bound = approximations.iter().map(|a| a.output_bound).sum::<Option<f64>>();
     let texture_env_clamps = texture_env_clamps(&module);
     let measured_error = if approximations.iter().any(|a| a.output_bound.is_none()) {
-        let e = measured_error(&planned, &program, &module, scene, &assets)?;
+        let e = measured_error(&planned, &program, &module, (scene, &assets), precision)?;
         eprintln!(
             "three-way: an approximation states no bound; the plan is {:.0}/255 from the meaning here",
             e * 255.0
@@ -303,14 +269,17 @@ fn render_three_of(
 /// (specialized: a pass per light, its uniforms folded, lights culled),
 /// its lowerings measured there — the most accurate on the scene, a
 /// per-vertex fall-back only within its budget —, image files bound to
-/// their stand-ins where the scene has none. `driver::compile` without the
-/// scene may pick another lowering (the first that plans); the executors
-/// are compared on the plan the user sees rendered.
+/// their stand-ins where the scene has none, drawn in `precision` (the
+/// lowerings measured in it, as `render --precision` measures them).
+/// `driver::compile` without the scene may pick another lowering (the
+/// first that plans); the executors are compared on the plan the user sees
+/// rendered.
 pub fn rendered_plan(
     source: &str,
     profile: &Profile,
     scene: &Scene,
     assets: &shadec::scene::SceneAssets,
+    precision: Precision,
 ) -> Result<(shadec::pipeline::Planned, shadec::parser::ast::Program, shadec::ir::Module), String> {
     let not_compiled = |d: &[shadec::diag::Diagnostic]| {
         format!("does not compile: {:?}", d.iter().map(|d| &d.message).collect::<Vec<_>>())
@@ -320,6 +289,7 @@ pub fn rendered_plan(
     let Some(module) = front.module.filter(|_| errors.is_empty()) else { return Err(not_compiled(&errors)) };
     let plan = shadec::driver::PlanOptions {
         scene: Some(shadec::driver::ForScene::specialized(scene, assets)),
+        drawn_in: Some(precision),
         ..Default::default()
     };
     let judging = shadec::verdict::Judging { plan, images: None, stand_ins: true, rendered_on: Some(scene) };
@@ -329,29 +299,30 @@ pub fn rendered_plan(
 }
 
 /// The largest channel difference (in [0, 1]) between the picture of
-/// `planned` and that of the program's meaning (`meaning::plan`: every
-/// statement one unsplit pass, the program's own operations), both
-/// rendered by the CPU in f32 on `scene` at the three-way size and read
-/// back as RGBA8: what `render` measures of an approximation with no stated
-/// bound (`accuracy`), here on the very scene and pixels the executors are
-/// compared on, so that it bounds the plan's error there.
+/// `planned`, rendered by the CPU in `precision` (the arithmetic it is
+/// drawn in), and that of the program's meaning (`meaning::plan`: every
+/// statement one unsplit pass, the program's own operations) in f32, on
+/// `scene` at the three-way size and read back as RGBA8: what `render`
+/// measures of an approximation with no stated bound (`accuracy`), here on
+/// the very scene and pixels the executors are compared on, so that it
+/// bounds the plan's error there.
 pub fn measured_error(
     planned: &shadec::pipeline::Planned,
     program: &shadec::parser::ast::Program,
     module: &shadec::ir::Module,
-    scene: &Scene,
-    assets: &shadec::scene::SceneAssets,
+    (scene, assets): (&Scene, &shadec::scene::SceneAssets),
+    precision: Precision,
 ) -> Result<f64, String> {
     let meaning = shadec::meaning::plan(module, scene.lights.len()).map_err(|d| {
         format!("the meaning does not plan: {:?}", d.iter().map(|d| d.message.clone()).collect::<Vec<_>>())
     })?;
-    let draw = |p: &shadec::pipeline::Planned| {
+    let draw = |p: &shadec::pipeline::Planned, precision: Precision| {
         PlanRenderer::new(p, program, scene, assets)
-            .and_then(|r| r.render(Precision::F32, W, H, &mut |_, _| {}))
+            .and_then(|r| r.render(precision, W, H, &mut |_, _| {}))
             .map(|f| f.image.to_rgba8())
             .map_err(|e| format!("measuring the approximations: {e}"))
     };
-    let (approximated, exact) = (draw(planned)?, draw(&meaning)?);
+    let (approximated, exact) = (draw(planned, precision)?, draw(&meaning, Precision::F32)?);
     let max = approximated.iter().zip(&exact).map(|(a, b)| a.abs_diff(*b)).max().unwrap_or(0);
     Ok(f64::from(max) / 255.0)
 }

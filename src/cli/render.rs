@@ -226,7 +226,9 @@ fn compile(
     // objects, the scene's uniforms folded, zeroed terms removed.
     let for_scene = (!args.no_specialize).then(|| ForScene::specialized(scene, assets));
     let lowering = args.quality.lowering();
-    let options = PlanOptions { scene: for_scene, lowering, ..Default::default() };
+    // The lowerings are measured in the arithmetic the plan is drawn in.
+    let drawn = drawn_in(args, &profile);
+    let options = PlanOptions { scene: for_scene, lowering, drawn_in: Some(drawn), ..Default::default() };
     // The built-in program names images nobody has: its stand-ins are the
     // default, said once (the binder's notes).
     let stand_ins = args.quality.stand_ins || args.shader.is_none();
@@ -235,10 +237,11 @@ fn compile(
         .map_err(|errors| refused(&errors))?;
     for c in &judged.candidates {
         println!(
-            "lowering {}: {:.1}/255 max, RMSE {:.5} from the meaning on the scene (both rendered in f32){}{}",
+            "lowering {}: {:.1}/255 max, RMSE {:.5} from the meaning on the scene ({}){}{}",
             c.rules,
             c.error.max_abs * 255.0,
             c.error.rmse,
+            shadec::accuracy::rendered_in(Some(drawn)),
             c.predicted_ms.map_or(String::new(), |t| format!(", predicted {t:.3} ms")),
             if c.chosen {
                 " — chosen"
@@ -260,6 +263,16 @@ fn compile(
     let Some(module) = module else { return Err(refused(&[])) }; // lowered: checked above
     let planned = judged.planned;
     Ok((shadec::driver::Compilation { program, module, planned, warnings: diagnostics }, profile))
+}
+
+/// The arithmetic `render` draws in: `--precision`, else the target's own —
+/// the combiners' fixed9 on the old hardware, f32 on a modern target.
+fn drawn_in(args: &RenderArgs, profile: &shadec::profile::Profile) -> Precision {
+    args.precision.unwrap_or(if matches!(profile.fragment, shadec::profile::FragmentStage::Programmable) {
+        Precision::F32
+    } else {
+        Precision::Fixed9
+    })
 }
 
 /// Why the plan `render` runs is not the one `shadec compile --target T
@@ -294,11 +307,15 @@ fn differs_from_compile(
         why.push("the plan is specialized for this scene (a pass per light, its uniforms folded, lights culled; --no-specialize plans without it)".to_string());
     }
     if judged.candidates.iter().any(|c| c.chosen) {
+        let drawn = match drawn_in(args, profile) {
+            Precision::F32 => "f32".to_string(),
+            p => format!("{} (the arithmetic drawn; `compile` measures in f32)", p.name()),
+        };
         why.push(match args.quality.max_error {
             Some(e) => format!(
-                "of the lowerings measured on this scene, the fastest within --max-error {e} was chosen"
+                "of the lowerings measured on this scene in {drawn}, the fastest within --max-error {e} was chosen"
             ),
-            None => "of the lowerings measured on this scene, the most accurate there was chosen".to_string(),
+            None => format!("of the lowerings measured on this scene in {drawn}, the most accurate there was chosen"),
         });
     }
     Some(format!(
@@ -355,15 +372,7 @@ fn render(args: &RenderArgs) -> Result<(), ExitCode> {
     let planned = &compiled.planned;
     let renderer = PlanRenderer::new(planned, &compiled.program, &scene, &assets)
         .map_err(|e| failed(planned, &file, e))?;
-    // The target's own arithmetic unless asked otherwise (issue 16 item 4):
-    // the combiners' fixed9 on the old hardware, f32 on a modern target.
-    let mode = args.precision.unwrap_or(
-        if matches!(profile.fragment, shadec::profile::FragmentStage::Programmable) {
-            Precision::F32
-        } else {
-            Precision::Fixed9
-        },
-    );
+    let mode = drawn_in(args, &profile);
     println!(
         "shadec render: {} with {}, {} on {}, {}×{}",
         args.scene.as_ref().map_or("the built-in torus scene".to_string(), |p| p.display().to_string()),

@@ -36,8 +36,8 @@ pub struct PassPlan {
     pub measured: Option<MeasuredError>,
 }
 
-/// A lowered plan's f32 render against the f32 render of the program's
-/// meaning on a scene: what its approximations cost in accuracy.
+/// A lowered plan's render (f32, or the precision it is drawn in) against
+/// the f32 render of the program's meaning on a scene: what its approximations cost in accuracy.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct MeasuredError {
     pub scene: String,
@@ -46,6 +46,10 @@ pub struct MeasuredError {
     /// Largest difference of a colour channel, in [0, 1].
     pub max_abs: f64,
     pub rmse: f64,
+    /// The arithmetic the plan was rendered in, where not f32 (`render
+    /// --precision fixed9`, `exact`); the meaning is rendered in f32.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub precision: Option<crate::numerics::Precision>,
 }
 
 /// A plan's predicted frame time on its target.

@@ -679,7 +679,14 @@ impl<'a> FragmentProgram<'a> {
 }
 
 /// `exact`'s lookup of a texture shaded over its texels: the texel pass's
-/// function evaluated at the lookup's coordinates, wrapped as the texture.
+/// function evaluated at the lookup's coordinates, wrapped as the texture,
+/// its value held as a texel (and every image of the CPU renderer) holds
+/// it, in f32. A value a pass wrote into a framebuffer from such a lookup
+/// is then the same number as the lookup again: the alpha-ramp shadow map
+/// (`lowering::alpha_ramp`) compares exactly those two, `½·(a + 1 − c) <
+/// ½` at `a = c`, and with `a` in f64 against `c` stored in f32 its
+/// surfaces shadowed themselves in bands of the ramp's steps (216.8/255
+/// from the meaning in `exact`, the f32 render 2/255).
 fn baked_lookup(program: &FragmentProgram, wrap: Wrap, c: Value, coords_ty: Ty) -> Value {
     let (u, v) = texture_uv(c, coords_ty);
     let at = |x: f64| match wrap {
@@ -690,7 +697,7 @@ fn baked_lookup(program: &FragmentProgram, wrap: Wrap, c: Value, coords_ty: Ty) 
     // The outer fragment's slots are borrowed: the nested program has its own.
     let mut slots = vec![[0.0; 4]; program.n_slots];
     program.run(&mut slots, &fragment, &[], Some([at(u), at(v)]));
-    slots[program.output as usize]
+    slots[program.output as usize].map(|x| f64::from(x as f32))
 }
 
 /// The level of detail the WGSL target's texture unit samples `t` at
