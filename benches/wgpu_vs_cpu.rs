@@ -23,6 +23,12 @@
 //! Threads: the CPU renderer runs on rayon's pool, lavapipe on its own
 //! (`LP_NUM_THREADS`). For one thread on both sides run
 //! `LP_NUM_THREADS=1 RAYON_NUM_THREADS=1 cargo bench --bench wgpu_vs_cpu`.
+//! The peer's whole frame makes its pipelines, uploads and targets every
+//! frame (`ScenePlan::render`); a second peer row, `f32` only, times the
+//! same frame prepared once ([`Frame::prepare`]) and drawn and read back
+//! per frame ([`Frame::draw`]), as the CPU renderer binds its textures
+//! once: the difference is the peer's cost per frame that does not grow
+//! with the size.
 //! `SHADEC_BENCH_PEER=0` skips wgpu, `SHADEC_BENCH_MODES=f32` (or
 //! `fixed9`) runs only that mode's CPU rows, `SHADEC_BENCH_DISPATCH=kernels`
 //! (a comma list of `kernels`, `closures`, `interpreter`) only those f32
@@ -35,7 +41,7 @@ mod timing;
 use std::path::Path;
 use std::time::Duration;
 
-use shadec::gpu::runner::Gpu;
+use shadec::gpu::runner::{Frame, Gpu, Target};
 use shadec::gpu::scene_run::ScenePlan;
 use shadec::numerics::Precision;
 use shadec::renderer::plan::{set_lane_dispatch, LaneDispatch, PlanRenderer};
@@ -128,7 +134,21 @@ fn main() {
                 return None;
             }
             let plan = ScenePlan::new(&wgsl, &program, Some(SOURCE), mode, &scene, &assets).unwrap();
-            Some(median(|| drop(plan.render(gpu, side, side).unwrap())))
+            let whole = median(|| drop(plan.render(gpu, side, side).unwrap()));
+            if mode == Precision::F32 {
+                let target = Target::new(side, side);
+                let passes = plan.passes_in(&target).unwrap();
+                let frame = Frame::prepare(gpu, &target, &passes).unwrap();
+                let (t, c) = median(|| drop(frame.draw(gpu).unwrap()));
+                let cpu = c.zip(whole.1).map(|(c, w)| format!("{:.2}×", ms(c) / ms(w))).unwrap_or_default();
+                println!(
+                    "| {side}² | f32 | wgpu, prepared once (draw + read back) | {:.1} | {:.2}× | {} | {cpu} |",
+                    ms(t),
+                    ms(t) / ms(whole.0),
+                    cpu_ms(c)
+                );
+            }
+            Some(whole)
         };
         let peers = [peer(Precision::F32), peer(Precision::Fixed9)];
         for (mode, p) in [Precision::F32, Precision::Fixed9].into_iter().zip(peers) {

@@ -180,7 +180,39 @@ struct Batch<'a> {
     per: usize,
     out: [[f32; 4]; BATCH],
     results: [FragmentResult; BATCH],
+    /// `out` quantized for an 8-bit target.
+    quantized: [[u8; 4]; BATCH],
     pending: [u64; TILE],
+}
+
+/// Where [`Batch::flush`] writes the kept colours without
+/// [`TileBuffers::blend_kept`].
+enum Fast<'t> {
+    /// `C ← src` on a float target (or fixed point held in float).
+    Replace(&'t mut [[f32; 4]]),
+    /// `C ← C + src` on a float target.
+    Add(&'t mut [[f32; 4]]),
+    /// `C ← src` on an 8-bit target.
+    Rgba8(&'t mut [[u8; 4]]),
+    /// Any other target or blend: `blend_kept`.
+    General,
+}
+
+/// [`quantize_unorm8`](super::framebuffer::quantize_unorm8) of every
+/// value of a batch's colours (all [`BATCH`] lanes, those past its
+/// fragments unread), written as one fixed-length loop the compiler
+/// vectorises. The same values: `max` takes a NaN to 0, as `clamp` and the
+/// saturating cast do, and the value is then in [0.5, 255.5], where the
+/// conversion truncates as the cast does.
+#[inline(always)]
+#[allow(clippy::manual_clamp, reason = "`max` then `min` take a NaN to 0; `clamp` keeps it")]
+fn quantize_lanes(src: &[[f32; 4]; BATCH], dst: &mut [[u8; 4]; BATCH]) {
+    for (d, &v) in dst.as_flattened_mut().iter_mut().zip(src.as_flattened()) {
+        let q = v.max(0.0).min(1.0) * 255.0 + 0.5;
+        // SAFETY: `q` is finite and in [0.5, 255.5] (a NaN `v` is 0 after
+        // `max`), so it fits an `i32`.
+        *d = unsafe { q.to_int_unchecked::<i32>() } as u8;
+    }
 }
 
 impl Batch<'_> {
@@ -206,30 +238,33 @@ impl Batch<'_> {
         let depth_write = pass.state.depth.write;
         let TileBuffers { color, depth, .. } = &mut *tile;
         // `C ← src` on a float or fixed-point-in-float target (values as
-        // computed, `blend_kept`), `C ← C + src` on a float one.
+        // computed, `blend_kept`), `C ← C + src` on a float one, `C ← src`
+        // on an 8-bit one (the batch's colours quantized first, as one
+        // vector loop, the values of `quantize_unorm8`).
         let fast = match (color, writer) {
-            (ColorTile::F32(c) | ColorTile::Unorm(c), Writer::Replace) | (ColorTile::F32(c), Writer::Add) => {
-                Some(c)
-            }
-            _ => None,
+            (ColorTile::F32(c) | ColorTile::Unorm(c), Writer::Replace) => Fast::Replace(c),
+            (ColorTile::F32(c), Writer::Add) => Fast::Add(c),
+            (ColorTile::Rgba8(c), Writer::Replace) => Fast::Rgba8(c),
+            _ => Fast::General,
         };
-        let general = fast.is_none();
-        // Each kept fragment's depth (when written) and colour (`write`).
+        let general = matches!(fast, Fast::General);
+        // Each kept fragment's depth (when written) and colour (`write`,
+        // given the fragment's place in the batch, its pixel and colour).
         #[inline(always)]
         #[allow(clippy::type_complexity, reason = "the batch's three arrays, lane by lane")]
         fn each_kept(
             (pixels, out, results): (&[(usize, f32)], &[[f32; 4]], &[FragmentResult]),
             depth: Option<&mut [f32]>,
-            mut write: impl FnMut(usize, &[f32; 4]),
+            mut write: impl FnMut(usize, usize, &[f32; 4]),
         ) -> u64 {
             let mut written = 0;
             let mut depth = depth;
-            for ((&(idx, z), s), r) in pixels.iter().zip(out).zip(results) {
+            for (j, ((&(idx, z), s), r)) in pixels.iter().zip(out).zip(results).enumerate() {
                 if *r == FragmentResult::Keep {
                     if let Some(d) = depth.as_deref_mut() {
                         d[idx] = z;
                     }
-                    write(idx, s);
+                    write(j, idx, s);
                     written += 1;
                 }
             }
@@ -238,11 +273,16 @@ impl Batch<'_> {
         let depth = depth_write.then_some(&mut depth[..]);
         let batch = (pixels, out, results);
         let written = match fast {
-            Some(c) if writer == Writer::Replace => each_kept(batch, depth, |i, s| c[i] = *s),
-            Some(c) => each_kept(batch, depth, |i, s| {
+            Fast::Replace(c) => each_kept(batch, depth, |_, i, s| c[i] = *s),
+            Fast::Add(c) => each_kept(batch, depth, |_, i, s| {
                 c[i] = [s[0] + c[i][0], s[1] + c[i][1], s[2] + c[i][2], s[3] + c[i][3]]
             }),
-            None => each_kept(batch, depth, |_, _| {}),
+            Fast::Rgba8(c) => {
+                let q = &mut self.quantized;
+                quantize_lanes(&self.out, q);
+                each_kept(batch, depth, |j, i, _| c[i] = q[j])
+            }
+            Fast::General => each_kept(batch, depth, |_, _, _| {}),
         };
         stats.written += written;
         if general {
@@ -316,6 +356,7 @@ fn raster_tile_batched_body<const AVX2: bool>(
         per: n,
         out: [[0.0; 4]; BATCH],
         results: [FragmentResult::Discard; BATCH],
+        quantized: [[0; 4]; BATCH],
         pending: [0; TILE],
     };
     for &ti in bin {
@@ -733,5 +774,51 @@ mod tests {
             assert_eq!(got, expected, "round {round}: {px:?} {py:?} in {rect:?}");
         }
         assert!(pixels > 100_000 && rows > 10_000, "{pixels} pixels in {rows} spans");
+    }
+
+    /// The batch's 8-bit colours are [`quantize_unorm8`]'s, bit for bit:
+    /// every value around each of the 256 rounding steps, both zeros, NaN,
+    /// the infinities and values far out of range, a batch at a time (the
+    /// last one's tail of NaN).
+    #[test]
+    fn quantized_lanes_are_quantize_unorm8() {
+        use super::super::framebuffer::quantize_unorm8;
+        let mut values =
+            vec![0.0, -0.0, 1.0, f32::NAN, -f32::NAN, f32::INFINITY, f32::NEG_INFINITY, 1e9, -1e9];
+        for step in 0..=256u32 {
+            let edge = (step as f32 - 0.5) / 255.0;
+            let mut below = edge;
+            let mut above = edge;
+            for _ in 0..3 {
+                below = f32::from_bits(below.to_bits().wrapping_sub(1));
+                above = f32::from_bits(above.to_bits().wrapping_add(1));
+                values.extend([below, above]);
+            }
+            values.push(edge);
+        }
+        values.extend((0..4001).map(|i| i as f32 / 4000.0 * 1.5 - 0.25));
+        let mut got = Vec::with_capacity(values.len());
+        for chunk in values.chunks(4 * BATCH) {
+            let mut src = [[f32::NAN; 4]; BATCH];
+            src.as_flattened_mut()[..chunk.len()].copy_from_slice(chunk);
+            let mut dst = [[7; 4]; BATCH];
+            quantize_lanes(&src, &mut dst);
+            got.extend_from_slice(&dst.as_flattened()[..chunk.len()]);
+        }
+        let expected: Vec<u8> = values.iter().map(|&v| quantize_unorm8(v)).collect();
+        let differ: Vec<(f32, u8, u8)> = values
+            .iter()
+            .zip(got.iter().zip(&expected))
+            .filter(|(_, (g, e))| g != e)
+            .map(|(&v, (&g, &e))| (v, g, e))
+            .collect();
+        assert!(
+            differ.is_empty(),
+            "{} of {} values differ: {:?}",
+            differ.len(),
+            values.len(),
+            &differ[..differ.len().min(8)]
+        );
+        assert!(expected.contains(&255) && expected.contains(&0) && expected.contains(&128));
     }
 }
