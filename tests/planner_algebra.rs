@@ -1476,6 +1476,32 @@ fn a_scale_over_lights_summed_inside_delta_stays_outside_the_interpolants() {
     }
 }
 
+/// `C·lerp(δl₀₁ + T2 + δl₀₂, (δ pair).r + δl₀, 0.2)` (lights ×0.3, ×0.6,
+/// ×0.6) planned exactly as written on geforce256, geforce3 and
+/// multitexture and fell back per vertex multiplied out: its seven terms'
+/// sum is below 2 channel by channel (what a temporary holds halved), but
+/// `ir::valid` followed channels only four operations down, and below
+/// that the partial sum's hull — red's bound in every channel — was added
+/// to the green terms. Each node now keeps its channels. The finer
+/// verdict's counterexample at 5 000 cases.
+#[test]
+fn a_long_multiplied_out_sum_is_bounded_channel_by_channel() {
+    let c = lerp(
+        add(add(Colour::Lights(3, 3), Colour::Texture(2)), Colour::Lights(5, 6)),
+        add(Colour::Channel(0), Colour::Lights(1, 6)),
+        Some(2),
+    );
+    let decls = declarations(&c);
+    let original = format!("{decls}{}", Written::Multiplied.statement(&written(&c)));
+    let multiplied = format!("{decls}{}", Written::Multiplied.statement(&expanded(&c)));
+    for target in ["geforce256", "geforce3", "multitexture"] {
+        for source in [&original, &multiplied] {
+            assert_eq!(fine_verdict(source, target), Verdict::Exact, "{target}:\n{source}");
+        }
+    }
+    plans_and_renders_its_meaning(&multiplied, "geforce3", &scene("kilgard_torus.ron"));
+}
+
 /// Kilgard's self-shadowing term blending two maps, `lerp(Night·0.3, Day,
 /// saturate(4·(N·L) + 0.5))`: `4·(N·L)` leaves [−1, 1] before the 0.5
 /// brings it back, so the combiners refused it per fragment and the term
