@@ -1528,3 +1528,31 @@ C δπx ← lerp(Night δu x * 0.3, Day δu x, k δ s x);
         assert!(rules.iter().all(|r| *r == "range_compression"), "{target}: {rules:?}");
     }
 }
+
+/// `c` written `how` plans exactly on `target` both as written and
+/// multiplied out (the property's finer verdict, for one program).
+fn both_exact(c: &Colour, how: Written, target: &str) {
+    let decls = declarations(c);
+    let original = format!("{decls}{}", how.statement(&written(c)));
+    let multiplied = format!("{decls}{}", how.statement(&expanded(c)));
+    let (a, b) = (fine_verdict(&original, target), fine_verdict(&multiplied, target));
+    assert!(
+        a == Verdict::Exact && b == Verdict::Exact,
+        "{target}: as written {a:?}, multiplied out {b:?}\n{original}\n{multiplied}"
+    );
+}
+
+/// `C·(mix(T0, δl₀₂·0.8, a) + δl₀₁·0.3)` on multitexture: exact as written
+/// (the lerp read back around `0.8·δl₀`, the rest merged into one δ,
+/// through a halved temporary), and approximated per vertex multiplied
+/// out, `T0·(1 − a) + 0.8·δl₀·a + 0.8·δl₂·a + 0.3·δl₀ + 0.3·δl₁`: that
+/// value is its own multiplied-out form with its constants outside the
+/// interpolants, so that form (`None`, the same value) was never factored
+/// or merged — only the one with the constants moved into the δs, whose
+/// lerp `mix(T0, δ(0.8·l₀), a)` does not halve into the temporary. The
+/// value itself is now factored and merged as that form would be.
+#[test]
+fn a_sum_multiplied_out_by_hand_is_factored_as_written() {
+    let c = add(lerp(Colour::Texture(0), Colour::Lights(5, 8), None), Colour::Lights(3, 3));
+    both_exact(&c, Written::Multiplied, "multitexture");
+}
