@@ -264,16 +264,3 @@ pub(crate) fn node(m: &Module, e: &Expr) -> String {
         },
     }
 }
-
-/// A debugging aid (temporary): `h` as one nested expression.
-pub fn dump_expr(m: &Module, h: crate::ir::Handle<crate::ir::Expr>) -> String {
-    let e = &m.exprs[h];
-    let ops = e.operands();
-    let mut s = node(m, e);
-    if !matches!(e, crate::ir::Expr::Interpolate { .. } | crate::ir::Expr::Lookup { .. }) {
-        for o in ops.iter().rev() {
-            s = s.replace(&format!("{o}"), &format!("({})", dump_expr(m, *o)));
-        }
-    }
-    format!("{s}{{{:.2},{:.2}}}", m.info(h).interval.lo, m.info(h).interval.hi)
-}

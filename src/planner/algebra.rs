@@ -131,21 +131,14 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
         let kept = multiplied_out(m, base, max_terms, true, false)
             .filter(|k| Some(*k) != expanded && Some(*k) != apart);
         push(&mut out, kept, "multiplied out");
-        // And the value itself where it is a sum multiplied out already
-        // with its constants outside its interpolants: its `kept` form
-        // is itself (`None`), but its factored and merged forms are not —
-        // `0.8·δl₀·a + T0·(1 − a) + …` reads back as `mix(T0, 0.8·δl₀, a)
-        // + …` only so, as the same program written with the lerp does.
+        // And the value itself, a sum multiplied out with its constants
+        // outside its δs (its `kept` form, `None`), factored and merged.
         let sum_inside = match m.exprs[base] {
             Expr::Convert { value, to: Ty::Rgba } => value,
             _ => base,
         };
-        let itself = (expanded.is_some() && kept.is_none() && sum_terms(m, sum_inside).len() > 1).then_some(base);
-        if std::env::var_os("A12_DEBUG").is_some() {
-            for (n, x) in [("base", Some(base)), ("expanded", expanded), ("apart", apart), ("kept", kept), ("itself", itself)] {
-                eprintln!("  {n}: {}", x.map(|x| crate::ir::dump::dump_expr(m, x)).unwrap_or_default());
-            }
-        }
+        let itself =
+            (expanded.is_some() && kept.is_none() && sum_terms(m, sum_inside).len() > 1).then_some(base);
         for sum in [expanded.unwrap_or(base)].into_iter().chain(apart).chain(kept).chain(itself) {
             factored_forms(m, sum, &mut |v, what| push(&mut out, v, what));
             // And factored after its interpolants are merged around the

@@ -132,9 +132,6 @@ pub(super) fn rewritten(
     let mut candidates: Vec<Candidate> = Vec::new();
     let adds = form.then_add.map(|a| algebra::forms(m, a, max)).unwrap_or_default();
     let add_of = |what: &str| adds.iter().find(|f| f.what == what).map(|f| f.value).or(form.then_add);
-    if std::env::var_os("A12_DEBUG").is_some() {
-        eprintln!("FORMVALUE {}", crate::ir::dump::dump_expr(m, form.value));
-    }
     for f in algebra::forms(m, form.value, max) {
         candidates.push((f.value, add_of(f.what), f.what));
     }
@@ -162,11 +159,7 @@ pub(super) fn rewritten(
         let f = Form { value, then_add, ..form.clone() };
         let (fit, cache) =
             if baked { (&fits.compiler, &mut fits.compiler_cache) } else { (&fits.target, &mut fits.cache) };
-        let dbg_res = plan_form(m, fit, cache, &st, &f, storage, search);
-        if std::env::var_os("A12_DEBUG").is_some() {
-            eprintln!("FORM {what}: {} => {:?}", crate::ir::dump::dump_expr(m, value), dbg_res.as_ref().map(|p| p.len()).map_err(|o| o.to_string()));
-        }
-        match dbg_res {
+        match plan_form(m, fit, cache, &st, &f, storage, search) {
             Ok(pieces) => {
                 let c = split::cost(m, fit, &pieces);
                 if best.as_ref().is_none_or(|b| c < b.0) {
