@@ -34,13 +34,13 @@ fn compile(source: &str, target: &str) -> Result<Planned, Vec<Diagnostic>> {
     shadec::driver::compile(source, &profile, &Default::default()).map(|c| c.planned)
 }
 
-fn scene(name: &str) -> Scene {
+pub(crate) fn scene(name: &str) -> Scene {
     let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("scenes").join(name);
     let text = std::fs::read_to_string(&path).unwrap();
     Scene::parse(&text, Path::new("/nonexistent-shadec-scene").join(name).as_path()).unwrap()
 }
 
-fn f32_render(planned: &Planned, source: &str, scene: &Scene) -> shadec::renderer::Framebuffer {
+pub(crate) fn f32_render(planned: &Planned, source: &str, scene: &Scene) -> shadec::renderer::Framebuffer {
     let (program, _) = shadec::parser::check(source);
     let assets = scene.build().unwrap();
     PlanRenderer::new(planned, &program, scene, &assets)

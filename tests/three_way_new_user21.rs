@@ -147,3 +147,39 @@ fn an_unbounded_scalar_uniform_compared_is_told_to_saturate_where_read() {
     assert!(help.contains("`saturate(t)`"), "{help}");
     plans(&clamped, "geforce3").unwrap_or_else(|e| panic!("{e:#?}"));
 }
+
+/// A stated bound holds: `contour_lines` (`step(0.1, fract(8·y))`, `y` an
+/// interpolated position) on geforce3 computed `fract(8·y)` per vertex
+/// and tabulated `step(0.1, ·)` over [0, 1] at its interpolant; the
+/// per-vertex rule's approximation was dropped once the table read it,
+/// and the plan stated the table's 95.6/255 as its whole error where it
+/// renders 203/255 from the meaning. The per-vertex fall-back is now kept
+/// beside the table, measured on the scene, and past the per-vertex
+/// budget the program is refused, naming it; a plan, where one is made,
+/// is within the bounds it states.
+#[test]
+fn a_table_at_a_per_vertex_argument_states_a_bound_that_holds() {
+    let source = program("contour_lines");
+    let profile = shadec::profile::Profile::builtin("geforce3").unwrap();
+    match shadec::driver::compile(&source, &profile, &Default::default()) {
+        Ok(compiled) => {
+            let planned = compiled.planned;
+            let approximations = &planned.plan.approximations;
+            assert!(approximations.iter().any(|a| a.rule == "per_vertex"), "{approximations:#?}");
+            if approximations.iter().all(|a| a.output_bound.is_some()) {
+                let scene = crate::planner_algebra::scene("kilgard_torus.ron");
+                let (program, _) = shadec::parser::check(&source);
+                let (written, _) = shadec::ir::lower(&program);
+                let meaning = shadec::meaning::plan(&written, scene.lights.len()).unwrap();
+                let render = |p| crate::planner_algebra::f32_render(p, &source, &scene);
+                let e = shadec::renderer::plan::compare(&render(&meaning), &render(&planned));
+                let stated: f64 = approximations.iter().filter_map(|a| a.output_bound).sum();
+                assert!(stated + 2.0 / 255.0 >= e.max_abs as f64, "stated {stated}, measured {}", e.max_abs);
+            }
+        }
+        Err(errors) => {
+            let over = errors.iter().find(|d| d.code == "per-vertex-over-budget");
+            assert!(over.is_some_and(|d| d.message.contains("`per_vertex`")), "{errors:#?}");
+        }
+    }
+}

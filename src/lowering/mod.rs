@@ -419,6 +419,20 @@ impl<'a> Rewriter<'a> {
         self.results.push(result);
     }
 
+    /// The approximations whose value was `from` now stand at `to`, a
+    /// rule's result that reads `from` (or what it was computed from)
+    /// and replaces it: `finish` keeps those `to` reaches.
+    pub fn carry_results(&mut self, from: Handle<Expr>, to: Handle<Expr>) {
+        if from == to {
+            return;
+        }
+        let Some(at) = self.result_at.remove(&from) else { return };
+        for &i in &at {
+            self.results[i] = Some(to);
+        }
+        self.result_at.entry(to).or_default().extend(at);
+    }
+
     /// The lowered module with the approximations some statement still
     /// uses (a rule applied inside a value a later rule computed per vertex
     /// is gone).

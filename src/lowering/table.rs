@@ -71,6 +71,12 @@ pub fn apply(r: &mut Rewriter, h: Handle<Expr>, written: Handle<Expr>, span: Spa
     if hoisted {
         record_per_vertex_argument(r, decoded, span);
     }
+    // An argument an earlier rule computed per vertex (`fract(8·y)` of an
+    // interpolated position: its interpolant is `b`) stays that rule's
+    // approximation: the table, which reads it, now stands for it. Else
+    // it would be dropped as no longer reached, and the table's bound —
+    // of the function at its argument — stated as the whole error.
+    r.carry_results(b, decoded);
     r.record(
         "baked_table",
         span,
