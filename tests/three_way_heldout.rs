@@ -170,6 +170,14 @@ macro_rules! held_out_by {
 }
 pub(crate) use held_out_by;
 
+/// The program `name` of a held-out `folder`, its images found from the
+/// repository's root (as `verdict::check` reads a source, not a file).
+pub fn program_in(folder: &str, name: &str) -> String {
+    std::fs::read_to_string(data(folder).join(format!("{name}.shd")))
+        .unwrap()
+        .replace("../../../examples/", "examples/")
+}
+
 /// Asserts that every `.shd` program of `folder` (under `tests/data/`) is
 /// among `named`.
 pub fn each_has_a_test(folder: &str, named: &[&str]) {

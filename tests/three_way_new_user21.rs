@@ -14,7 +14,7 @@
 //! independent reference on every target its header names, and is refused
 //! where its header says (`three_way_heldout::renders_alike_everywhere_in`).
 
-use crate::three_way_heldout::{data, held_out_everywhere_in};
+use crate::three_way_heldout::{held_out_everywhere_in, program_in};
 
 held_out_everywhere_in!("heldout_twentyfirst":
     avg_four,
@@ -41,12 +41,9 @@ held_out_everywhere_in!("heldout_twentyfirst":
     two_sided_abs,
 );
 
-/// The program of this session's folder, its images found from the
-/// repository's root (as `verdict::check` reads a source, not a file).
+/// The program of this session's folder ([`program_in`]).
 fn program(name: &str) -> String {
-    std::fs::read_to_string(data("heldout_twentyfirst").join(format!("{name}.shd")))
-        .unwrap()
-        .replace("../../../examples/", "examples/")
+    program_in("heldout_twentyfirst", name)
 }
 
 /// The errors `check` gives `source` on `target` (none: it plans).

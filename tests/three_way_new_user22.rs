@@ -16,7 +16,7 @@
 //! target its header names, and is refused where its header says
 //! (`three_way_heldout::renders_alike_everywhere_in`).
 
-use crate::three_way_heldout::{data, held_out_everywhere_in};
+use crate::three_way_heldout::{held_out_everywhere_in, program_in};
 use shadec::diag::{Diagnostic, Severity};
 
 held_out_everywhere_in!("heldout_twentysecond":
@@ -51,12 +51,9 @@ held_out_everywhere_in!("heldout_twentysecond":
     wrap_diffuse_tex,
 );
 
-/// The program of this session's folder, its images found from the
-/// repository's root (as `verdict::check` reads a source, not a file).
+/// The program of this session's folder ([`program_in`]).
 fn program(name: &str) -> String {
-    std::fs::read_to_string(data("heldout_twentysecond").join(format!("{name}.shd")))
-        .unwrap()
-        .replace("../../../examples/", "examples/")
+    program_in("heldout_twentysecond", name)
 }
 
 /// Every diagnostic `check` gives `source` on `target`.

@@ -6,6 +6,23 @@
 
 use super::*;
 
+/// What a condition the mux cannot test is told.
+fn bad_condition(span: Span) -> CodegenError {
+    unsupported(
+        span,
+        "this condition",
+        "the mux tests spare0.a ≥ ½ (Kilgard 2000, Section 4.2.2): compare a scalar with a constant, e.g. `Hn.z ≥ 0` (Appendix H), or with a scalar that stays at or above 0, or use a lookup texture",
+    )
+}
+
+/// A condition's select (`Gen::condition`) as a value: 1 where it holds,
+/// 0 elsewhere, by the mux (spare0.a ≥ ½ selects CD).
+fn one_where((sel, high): (Src, bool)) -> Spec {
+    let (one, zero) = (Term::times_one(Src::ONE), Term::times_one(Src::ZERO));
+    let (ab, cd) = if high { (zero, one) } else { (one, zero) };
+    Spec { cd: Some(cd), mux: Some(sel), ..Spec::single(ab, true) }
+}
+
 impl Gen<'_> {
     pub(super) fn materialise(&mut self, h: Handle<Expr>, part: Part, sat: bool) -> R<Src> {
         if !sat && !self.in_unit(h) {
@@ -67,10 +84,7 @@ impl Gen<'_> {
                 Spec::single(Term { a: p, b: p, dot: false }, scalar)
             }
             Expr::Binary { op: BinaryOp::Lt | BinaryOp::Le | BinaryOp::Gt | BinaryOp::Ge, .. } => {
-                let (sel, high) = self.condition(h)?;
-                let (one, zero) = (Term::times_one(Src::ONE), Term::times_one(Src::ZERO));
-                let (ab, cd) = if high { (zero, one) } else { (one, zero) };
-                Spec { cd: Some(cd), mux: Some(sel), ..Spec::single(ab, true) }
+                one_where(self.condition(h)?)
             }
             Expr::Select { cond, accept, reject: Some(reject) } => {
                 let (sel, high) = self.condition(cond)?;
@@ -81,10 +95,7 @@ impl Gen<'_> {
             }
             // step(e, x) is `x ≥ e`: 1 or 0 by the mux, as the comparison.
             Expr::Math { fun: MathFunction::Step, ref args } => {
-                let (sel, high) = self.comparison(h, BinaryOp::Ge, args[1], args[0])?;
-                let (one, zero) = (Term::times_one(Src::ONE), Term::times_one(Src::ZERO));
-                let (ab, cd) = if high { (zero, one) } else { (one, zero) };
-                Spec { cd: Some(cd), mux: Some(sel), ..Spec::single(ab, true) }
+                one_where(self.comparison(h, BinaryOp::Ge, args[1], args[0])?)
             }
             Expr::Math { fun: MathFunction::Mix, ref args } => self.mix_spec(args, part, scalar, span)?,
             Expr::Math { fun: fun @ (MathFunction::Min | MathFunction::Max), ref args }
@@ -498,13 +509,7 @@ impl Gen<'_> {
     /// (Kilgard 2000, Section 4.2.2).
     pub(super) fn condition(&mut self, cond: Handle<Expr>) -> R<(Src, bool)> {
         let span = self.m.span(cond);
-        let bad = || {
-            unsupported(
-                span,
-                "this condition",
-                "the mux tests spare0.a ≥ ½ (Kilgard 2000, Section 4.2.2): compare a scalar with a constant, e.g. `Hn.z ≥ 0` (Appendix H), or with a scalar that stays at or above 0, or use a lookup texture",
-            )
-        };
+        let bad = || bad_condition(span);
         let Expr::Binary { op, lhs, rhs } = self.expr(cond).clone() else { return Err(bad()) };
         if !self.reads_depth(cond) {
             return self.comparison(cond, op, lhs, rhs);
@@ -540,13 +545,7 @@ impl Gen<'_> {
         rhs: Handle<Expr>,
     ) -> R<(Src, bool)> {
         let span = self.m.span(node);
-        let bad = || {
-            unsupported(
-                span,
-                "this condition",
-                "the mux tests spare0.a ≥ ½ (Kilgard 2000, Section 4.2.2): compare a scalar with a constant, e.g. `Hn.z ≥ 0` (Appendix H), or with a scalar that stays at or above 0, or use a lookup texture",
-            )
-        };
+        let bad = || bad_condition(span);
         let (x, k, high) = match (self.constant(lhs), self.constant(rhs), op) {
             (_, Some(k), BinaryOp::Ge | BinaryOp::Gt) => (lhs, k, true),
             (_, Some(k), BinaryOp::Lt | BinaryOp::Le) => (lhs, k, false),
