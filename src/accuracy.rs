@@ -565,6 +565,18 @@ fn per_vertex_refusal(
         ))
 }
 
+/// What is said of an approximation with no bound at the output: its
+/// rule's bound where the value is computed, if it has one.
+fn no_output_bound(at_site: Option<f64>) -> String {
+    match at_site {
+        Some(b) => format!(
+            "at most {b:.4} ({:.1}/255) where it is computed, but no bound at the output (a step, a condition or a coordinate reads it)",
+            b * 255.0
+        ),
+        None => "no stated bound".into(),
+    }
+}
+
 /// One warning per approximation `planned` takes, at the expression it
 /// replaces, with its stated bound or its measured error (precision and
 /// reference named) and the options that forbid it.
@@ -573,7 +585,11 @@ pub fn warnings(planned: &Planned, module: &Module, source: &str, vetting: &Vett
     plan.approximations
         .iter()
         .map(|a| {
-            let figure = match (a.rule == PER_VERTEX, &plan.measured, a.output_bound.or(a.error_bound)) {
+            // A bound where the value is computed is not one at the output
+            // when what reads it has no first-order bound (a step, a
+            // condition, a coordinate): then the scene's measurement speaks.
+            let at_site = a.error_bound.filter(|_| a.output_bound.is_none());
+            let figure = match (a.rule == PER_VERTEX, &plan.measured, a.output_bound) {
                 (true, Some(m), _) => format!(
                     "measured {:.1}/255 (largest channel difference; RMSE {:.4}) from the program's meaning, {} at {}×{} on {}, within {}{}",
                     m.max_abs * 255.0,
@@ -590,13 +606,15 @@ pub fn warnings(planned: &Planned, module: &Module, source: &str, vetting: &Vett
                     bound * 255.0
                 ),
                 (_, Some(m), None) => format!(
-                    "no stated bound; measured {:.1}/255 (largest channel difference, {}) from the program's meaning on {}",
+                    "{}; measured {:.1}/255 (largest channel difference, {}) from the program's meaning on {}",
+                    no_output_bound(at_site),
                     m.max_abs * 255.0,
                     measured_in(m.precision),
                     m.scene
                 ),
                 (_, None, None) => format!(
-                    "unbounded: no stated bound, and it could not be measured ({})",
+                    "{}, and it could not be measured ({})",
+                    no_output_bound(at_site),
                     vetting.unmeasured.as_deref().unwrap_or("give a scene: `compile --scene`")
                 ),
             };

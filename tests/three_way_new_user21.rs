@@ -153,7 +153,10 @@ fn an_unbounded_scalar_uniform_compared_is_told_to_saturate_where_read() {
 /// renders 203/255 from the meaning. The per-vertex fall-back is now kept
 /// beside the table, measured on the scene, and past the per-vertex
 /// budget the program is refused, naming it; a plan, where one is made,
-/// is within the bounds it states.
+/// is within the bounds it states. (Since the twenty-second session
+/// `fract(8·y)` is a periodic table read with REPEAT wrap at `8·y`,
+/// interpolated exactly: no per-vertex part, and no bound at the output,
+/// which a step reads.)
 #[test]
 fn a_table_at_a_per_vertex_argument_states_a_bound_that_holds() {
     let source = program("contour_lines");
@@ -162,7 +165,6 @@ fn a_table_at_a_per_vertex_argument_states_a_bound_that_holds() {
         Ok(compiled) => {
             let planned = compiled.planned;
             let approximations = &planned.plan.approximations;
-            assert!(approximations.iter().any(|a| a.rule == "per_vertex"), "{approximations:#?}");
             if approximations.iter().all(|a| a.output_bound.is_some()) {
                 let scene = crate::planner_algebra::scene("kilgard_torus.ron");
                 let (program, _) = shadec::parser::check(&source);

@@ -154,3 +154,32 @@ fn a_division_by_a_constant_is_a_product_the_combiners_distribute() {
         assert!(rules.iter().all(|r| r == "range_compression"), "{target}: {rules:?}");
     }
 }
+
+/// `g(fract(t))` with `t` affine in interpolants (stripes `step(0.5,
+/// fract(4·x))` of a position) is one period of `g` in a table read with
+/// REPEAT wrap at `t`, interpolated exactly: stripes plan on geforce3 with
+/// no per-vertex part, and the CPU reads the table repeating as wgpu and
+/// the reference do (`stripes_fract` above). Before, `fract` of a
+/// position went per vertex (175/255 from the meaning, refused), and the
+/// CPU clamped a table the lowering made whatever its wrap.
+#[test]
+fn a_fractional_part_is_one_period_of_a_table_read_with_repeat() {
+    let rules = approximations(&program("stripes_fract"), "geforce3");
+    assert!(rules.contains(&"periodic_table".to_string()), "{rules:?}");
+    assert!(rules.iter().all(|r| r == "periodic_table" || r == "range_compression"), "{rules:?}");
+}
+
+/// A bound where a value is computed is not stated as a bound at the
+/// output when a step reads the value (contour lines: the periodic table
+/// is within 1/255, the line's edge moves a whole step). Before, the
+/// warning said "at most 1.0/255 at the output" beside a render 198/255
+/// from the meaning at the lines' edges.
+#[test]
+fn a_bound_where_a_value_is_computed_is_not_stated_at_the_output_past_a_step() {
+    let source = crate::three_way_heldout::program_in("heldout_twentyfirst", "contour_lines");
+    let warned = checked(&source, "geforce3");
+    let table = warned.iter().find(|d| d.message.contains("`periodic_table`")).unwrap();
+    let help = table.help.as_deref().unwrap_or_default();
+    assert!(help.contains("no bound at the output") && help.contains("measured"), "{help}");
+    assert!(!help.contains("at the output: the rule's stated bound"), "{help}");
+}

@@ -64,6 +64,7 @@ pub mod dependent;
 pub mod fat_texture;
 pub mod float_texture;
 pub mod per_vertex;
+pub mod periodic;
 pub mod power;
 pub mod range_compress;
 pub mod sensitivity;
@@ -378,7 +379,8 @@ impl<'a> Rewriter<'a> {
             // A `step` the mux computes is tabulated in the choice of
             // tables too, for a target whose stages the mux does not fit.
             _ if needs_table(&self.m, h) || self.choice.tables_2d && is_step(&self.m, h) => {
-                table::apply(self, h, original, span)
+                periodic::apply(self, h, span)
+                    .or_else(|| table::apply(self, h, original, span))
                     .or_else(|| per_vertex::apply(self, original, "this value", span))
                     .unwrap_or(h)
             }

@@ -160,7 +160,7 @@ fn clamps_at_zero(m: &Module, ops: &[Expr], b: Handle<Expr>) -> bool {
 
 /// `f` at the table's texels, and the 8-bit storage its values fit;
 /// `None` when a value is not finite.
-fn tabulate(f: &dyn Fn(f64) -> f64, domain: Domain) -> Option<(Vec<f64>, Storage)> {
+pub(super) fn tabulate(f: &dyn Fn(f64) -> f64, domain: Domain) -> Option<(Vec<f64>, Storage)> {
     let samples: Vec<f64> = (0..TEXELS).map(|i| f(domain.texel(i))).collect();
     let (ylo, yhi) =
         samples.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), y| (l.min(*y), h.max(*y)));
@@ -195,7 +195,7 @@ pub(super) fn baked_lookup(
 
 /// The one per-sample scalar operand of `expr` when its others are
 /// constants (a table can only vary with one).
-fn single_argument(m: &Module, expr: &Expr) -> Option<Handle<Expr>> {
+pub(super) fn single_argument(m: &Module, expr: &Expr) -> Option<Handle<Expr>> {
     let mut arg = None;
     for o in expr.operands() {
         match &m.exprs[o] {
@@ -212,7 +212,7 @@ fn single_argument(m: &Module, expr: &Expr) -> Option<Handle<Expr>> {
 /// The operations from `h` down to the bounded scalar `b` they are a
 /// function of (`sqrt(1 − t²)`: sqrt, −, ^ down to t), top first: the
 /// table tabulates the whole chain over b's interval.
-fn chain(m: &Module, h: Handle<Expr>) -> Option<(Vec<Expr>, Handle<Expr>)> {
+pub(super) fn chain(m: &Module, h: Handle<Expr>) -> Option<(Vec<Expr>, Handle<Expr>)> {
     let mut nodes = vec![m.exprs[h].clone()];
     let mut b = single_argument(m, &m.exprs[h])?;
     // As deep as one-argument operations go: an interpolant's affine map
@@ -232,7 +232,7 @@ fn arithmetic(m: &Module, h: Handle<Expr>) -> bool {
 }
 
 /// The chain at `b = x`, evaluated bottom up (its other operands constant).
-fn evaluate(m: &Module, chain: &[Expr], b: Handle<Expr>, x: f64) -> f64 {
+pub(super) fn evaluate(m: &Module, chain: &[Expr], b: Handle<Expr>, x: f64) -> f64 {
     let mut below: (Handle<Expr>, f64) = (b, x);
     let mut value = x;
     for expr in chain.iter().rev() {
@@ -370,7 +370,7 @@ fn add_texture(r: &mut Rewriter, kind: TextureKind) -> u32 {
 
 /// The texel statement's value: `encode(f(lo + (hi − lo)·s))`, with `s`
 /// the texel centre's place in [0, 1] (`(t·N − ½)/(N − 1)`).
-fn texel_function(
+pub(super) fn texel_function(
     r: &mut Rewriter,
     chain: &[Expr],
     b: Handle<Expr>,

@@ -516,13 +516,17 @@ impl<'a> PlanRenderer<'a> {
     /// What a pass rendered into texture or temporary `name` leaves for
     /// later passes to look up (mipmapped where the texture is declared so;
     /// six faces where it is declared `cube`; wrapped as declared; a fat
-    /// texel's layer `T#k` as its texture `T`).
+    /// texel's layer `T#k` as its texture `T`; a table the lowering made,
+    /// which has no declaration, as its own sampling says — a periodic
+    /// table repeats).
     fn keep_rendered(&self, fb: &Framebuffer, name: &str) -> Rendered {
         let texture = name.split('#').next().unwrap_or(name);
         let decl = self.decls.iter().find(|d| d.name == texture);
         let mipmap = decl.is_some_and(|d| d.mipmap);
         let cube = decl.is_some_and(|d| d.kind == crate::parser::ast::TextureKind::Cube);
-        let wrap = decl.map_or(crate::textures::Wrap::ClampToEdge, |d| d.wrap);
+        let added =
+            || self.planned.module.textures.iter().find(|t| t.name == texture).map(|t| t.sampling.wrap);
+        let wrap = decl.map(|d| d.wrap).or_else(added).unwrap_or(crate::textures::Wrap::ClampToEdge);
         Rendered::from_framebuffer(fb, mipmap, cube, wrap)
     }
 
