@@ -39,9 +39,9 @@ pub fn apply(r: &mut Rewriter, h: Handle<Expr>, span: Span) -> Option<Handle<Exp
     let texel_value = table::texel_function(r, period, t, Domain::Direct, store, span)?;
     let t_v = per_vertex::at_vertex(&mut r.m, t)?;
     let coords = r.node(Expr::Interpolate { value: t_v, to: Frequency::Fragment }, span)?;
-    let decoded = table::baked_lookup(r, TextureKind::Tex1d, texel_value, coords, store, span)?;
-    let added = r.m.textures.last_mut()?;
-    added.sampling = crate::ir::Sampling { filter: Filter::Nearest, wrap: Wrap::Repeat, mipmap: false };
+    let repeating = crate::ir::Sampling { filter: Filter::Nearest, wrap: Wrap::Repeat, mipmap: false };
+    let decoded =
+        table::baked_lookup_sampled(r, TextureKind::Tex1d, texel_value, (coords, repeating), store, span)?;
     r.record(
         "periodic_table",
         span,

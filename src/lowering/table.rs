@@ -168,7 +168,8 @@ pub(super) fn tabulate(f: &dyn Fn(f64) -> f64, domain: Domain) -> Option<(Vec<f6
 }
 
 /// A new table texture whose texels `texel_value` computes (the compiler
-/// bakes it), looked up at `coords` and decoded.
+/// bakes it), looked up at `coords` and decoded; sampled bilinearly,
+/// clamped to its edge ([`crate::ir::Sampling::ADDED`]).
 pub(super) fn baked_lookup(
     r: &mut Rewriter,
     kind: TextureKind,
@@ -177,9 +178,24 @@ pub(super) fn baked_lookup(
     store: Storage,
     span: Span,
 ) -> Option<Handle<Expr>> {
+    let at = (coords, crate::ir::Sampling::ADDED);
+    baked_lookup_sampled(r, kind, texel_value, at, store, span)
+}
+
+/// [`baked_lookup`] with the table sampled as `sampling` says (a periodic
+/// table: nearest, repeating).
+pub(super) fn baked_lookup_sampled(
+    r: &mut Rewriter,
+    kind: TextureKind,
+    texel_value: Handle<Expr>,
+    (coords, sampling): (Handle<Expr>, crate::ir::Sampling),
+    store: Storage,
+    span: Span,
+) -> Option<Handle<Expr>> {
     let index = r.node(Expr::TexelCoord, span)?;
     // The table is added once its statement and coordinates exist.
     let id = add_texture(r, kind);
+    r.m.textures[id as usize].sampling = sampling;
     let looked_up = r.node(Expr::Lookup { texture: id, coords }, span)?;
     let decoded = store.decode(r, looked_up, span)?;
     r.pending.push(Statement {

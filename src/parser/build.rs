@@ -637,6 +637,7 @@ impl Builder {
         }
         let first_span = self.span(&funcs[0]);
         self.check_depth(acc.depth + funcs.len(), first_span.join(acc.expr.span))?;
+        self.parenthesized_in_chain(&funcs, acc.expr.span)?;
         self.parameters_at_use(&funcs, acc.expr.span)?;
         for f in funcs.into_iter().rev() {
             let func = self.func(f)?;
@@ -655,7 +656,6 @@ impl Builder {
     /// Says so, with what works instead, rather than "to multiply, write
     /// `*`". `None` after reporting it.
     fn parameters_at_use(&mut self, funcs: &[Pair<'_, Rule>], arg: Span) -> Option<()> {
-        self.parenthesized_in_chain(funcs, arg)?;
         for (k, pair) in funcs.windows(2).enumerate() {
             let (Some(name), value) = (self.atom_name(&pair[0]), &pair[1]) else { continue };
             if value.as_rule() != Rule::postfix || !value.as_str().starts_with('(') {
