@@ -24,14 +24,16 @@ pub fn data(name: &str) -> std::path::PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data").join(name)
 }
 
-/// A scene of this folder, else of `scenes/` (images resolved where none
-/// is, so that every program renders with the stand-ins).
+/// A scene of this folder, else of `scenes/`, with the programs' own
+/// `image(…)` files read from this folder as `render --shader` reads them
+/// (`Scene::program_dir`); a file that is nowhere renders as its stand-in.
 fn held_out_scene(folder: &Path, name: &str) -> Scene {
     let own = folder.join(name);
-    match std::fs::read_to_string(&own) {
+    let sc = match std::fs::read_to_string(&own) {
         Ok(text) => Scene::parse(&text, &own).unwrap(),
         Err(_) => scene(name),
-    }
+    };
+    Scene { program_dir: Some(folder.to_path_buf()), ..sc }
 }
 
 fn header<'a>(source: &'a str, key: &str) -> &'a str {

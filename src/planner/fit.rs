@@ -227,6 +227,11 @@ fn framebuffer_textures(module: &Module, u: &Usage) -> usize {
 /// What an operation is called in a message.
 fn operation_name(module: &Module, h: Handle<Expr>) -> String {
     match &module.exprs[h] {
+        // The mux selects on one scalar, spare0.a (Kilgard 2000, Section
+        // 4.2.2): a step of a colour is one per channel.
+        Expr::Math { fun: MathFunction::Step, args } if module.info(args[1]).ty != crate::ir::Ty::Scalar => {
+            "`step` of each channel of a vector (the mux selects on one scalar, spare0.a)".into()
+        }
         Expr::Math { fun, .. } => format!("`{}`", fun.name()),
         Expr::Binary { op: BinaryOp::Div, .. } => "a division".into(),
         Expr::Binary { op: BinaryOp::Pow, .. } => "a power with a non-constant or fractional exponent".into(),

@@ -65,6 +65,14 @@ impl Gen<'_> {
             Expr::Convert { value, .. } if self.ty(*value) == Ty::Scalar => *value,
             _ => v,
         };
+        // abs(x) = max(0, x) + max(0, −x): the final combiner adds the two
+        // halves (C + D), a general combiner fewer than the sum in a stage.
+        if let Expr::Math { fun: MathFunction::Abs, ref args } = *self.expr(v) {
+            let (positive, negative, _) = self.abs_halves(args[0], part, false, self.m.span(v))?;
+            fin.c = FinalVal::Src(self.final_src(positive, self.m.span(v))?);
+            fin.d = FinalVal::Src(self.final_src(negative, self.m.span(v))?);
+            return Ok(());
+        }
         let mut addends = Vec::new();
         self.flatten(v, BinaryOp::Add, &mut addends);
         // Every addend ≥ 0: the output's clamp to 1 makes each addend's own

@@ -102,11 +102,27 @@ impl Gen<'_> {
                 if self.two_computed(args) =>
             {
                 // min(a, b) and max(a, b) of two computed scalars pick one by
-                // the mux: `a ≥ b` selects CD ([`Gen::compared`]).
-                let Some((sel, _)) = self.compared(args[0], args[1], span)? else { return Ok(None) };
-                let (a, b) = (self.plain_term(args[0], part)?, self.plain_term(args[1], part)?);
-                let (ab, cd) = if fun == MathFunction::Max { (b, a) } else { (a, b) };
-                Spec { cd: Some(cd), mux: Some(sel), ..Spec::single(ab, scalar) }
+                // the mux: `a ≥ b` selects CD ([`Gen::compared`]); other
+                // pairs (colours, a `b` below 0) by an unsigned mapping's clamp.
+                match self.compared(args[0], args[1], span)? {
+                    Some((sel, _)) => {
+                        let (a, b) = (self.plain_term(args[0], part)?, self.plain_term(args[1], part)?);
+                        let (ab, cd) = if fun == MathFunction::Max { (b, a) } else { (a, b) };
+                        Spec { cd: Some(cd), mux: Some(sel), ..Spec::single(ab, scalar) }
+                    }
+                    None if fun == MathFunction::Max => {
+                        let Some(spec) = self.max_by_clamp(args[0], args[1], part, scalar, span)? else {
+                            return Ok(None);
+                        };
+                        spec
+                    }
+                    None => {
+                        let Some(min) = self.min_by_clamp(args[0], args[1], part, scalar, span)? else {
+                            return Ok(None);
+                        };
+                        Spec::single(Term::times_one(min), scalar)
+                    }
+                }
             }
             Expr::Math {
                 fun: fun @ (MathFunction::Expand | MathFunction::HalfBias | MathFunction::Compress),
@@ -596,6 +612,77 @@ impl Gen<'_> {
         args.len() == 2 && args.iter().all(|&a| self.constant(a).is_none())
     }
 
+    /// `a − b` in a register, exact where it stays within the register's
+    /// [−1, 1] on the positive side (`None` otherwise): below −1 it clamps,
+    /// which the `max(0, ·)` reading it forgets anyway.
+    fn clamped_difference(
+        &mut self,
+        a: Handle<Expr>,
+        b: Handle<Expr>,
+        part: Part,
+        scalar: bool,
+        span: Span,
+    ) -> R<Option<Src>> {
+        if !self.in_unit(a) || !self.in_unit(b) || self.hi(a) - self.lo(b) > 1.0 {
+            return Ok(None);
+        }
+        let ta = self.plain_term(a, part)?;
+        let tb = self.plain_term(b, part)?;
+        let minus_b = self.negate(tb, b, part)?;
+        self.emit(Spec { cd: Some(minus_b), ..Spec::single(ta, scalar) }, span).map(Some)
+    }
+
+    /// max(a, b) channel by channel as `b + max(0, a − b)`, the `max(0, ·)`
+    /// the clamp of an UNSIGNED_IDENTITY input mapping (Kilgard 2000,
+    /// Table 3): two general combiners, exact, for colours as for scalars.
+    pub(super) fn max_by_clamp(
+        &mut self,
+        a: Handle<Expr>,
+        b: Handle<Expr>,
+        part: Part,
+        scalar: bool,
+        span: Span,
+    ) -> R<Option<Spec>> {
+        let Some(d) = self.clamped_difference(a, b, part, scalar, span)? else { return Ok(None) };
+        let tb = self.plain_term(b, part)?;
+        let clamped = Term::times_one(Src { map: UnsignedIdentity, ..d });
+        Ok(Some(Spec { cd: Some(clamped), ..Spec::single(tb, scalar) }))
+    }
+
+    /// min(a, b) of values in [0, 1], channel by channel, as the source
+    /// `1 − ((1 − b) + max(0, b − a))`: the register holds max(1 − a, 1 − b)
+    /// (UNSIGNED_INVERT of `b` plus UNSIGNED_IDENTITY of `b − a`, Kilgard
+    /// 2000, Table 3) and its reader's UNSIGNED_INVERT turns it back. Two
+    /// general combiners, exact; `None` outside [0, 1].
+    pub(super) fn min_by_clamp(
+        &mut self,
+        a: Handle<Expr>,
+        b: Handle<Expr>,
+        part: Part,
+        scalar: bool,
+        span: Span,
+    ) -> R<Option<Src>> {
+        if [a, b].iter().any(|&h| self.lo(h) < 0.0 || self.hi(h) > 1.0) {
+            return Ok(None);
+        }
+        let Some(d) = self.clamped_difference(b, a, part, scalar, span)? else { return Ok(None) };
+        let sb = match self.src(b, part, false)? {
+            s @ Src { map: UnsignedIdentity | SignedIdentity, .. } => s,
+            s => self.copy(s, span)?,
+        };
+        let inverted_b = Term::times_one(Src { map: UnsignedInvert, ..sb });
+        let clamped = Term::times_one(Src { map: UnsignedIdentity, ..d });
+        let r = self.emit(Spec { cd: Some(clamped), ..Spec::single(inverted_b, scalar) }, span)?;
+        Ok(Some(Src { map: UnsignedInvert, ..r }))
+    }
+
+    /// Whether [`Gen::compared`] tests `args[0] ≥ args[1]`: two scalars, the
+    /// second not below 0.
+    pub(super) fn both_scalar_compared(&self, args: &[Handle<Expr>]) -> bool {
+        let scalar = |h: Handle<Expr>| self.m.info(h).ty == Ty::Scalar;
+        args.len() == 2 && self.lo(args[1]) >= 0.0 && scalar(args[0]) && scalar(args[1])
+    }
+
     /// `a ≥ b` of two computed values, as the mux's select: `a + (½ − b)`,
     /// with `½ − b` the input mapping HALF_BIAS_NEGATE of `b` (Kilgard
     /// 2000, Table 3), is ≥ ½ exactly when `a ≥ b`, and the register's
@@ -604,8 +691,7 @@ impl Gen<'_> {
     /// the caller refuses). A tie selects the `≥` side, as the comparisons
     /// with a constant do.
     fn compared(&mut self, a: Handle<Expr>, b: Handle<Expr>, span: Span) -> R<Option<(Src, bool)>> {
-        let scalar = |h| self.m.info(h).ty == Ty::Scalar;
-        if self.m.info(b).interval.lo < 0.0 || !scalar(a) || !scalar(b) {
+        if !self.both_scalar_compared(&[a, b]) {
             return Ok(None);
         }
         let sa = self.src(a, Part::Rgb, false)?;

@@ -115,7 +115,17 @@ impl Gen<'_> {
             | Expr::Math { fun: MathFunction::Mix | MathFunction::Compress | MathFunction::Step, .. } => {
                 self.materialise(h, part, sat)
             }
-            // min and max of two computed scalars: the mux (`ops::spec`).
+            // min and max of two computed values: the mux or a clamp
+            // (`ops::spec`); a min read through its UNSIGNED_INVERT.
+            Expr::Math { fun: MathFunction::Min, ref args }
+                if self.two_computed(args) && !self.both_scalar_compared(args) =>
+            {
+                let scalar = self.scalar(h, part);
+                match self.min_by_clamp(args[0], args[1], part, scalar, span)? {
+                    Some(s) => Ok(s),
+                    None => self.materialise(h, part, sat),
+                }
+            }
             Expr::Math { fun: MathFunction::Min | MathFunction::Max, ref args } if self.two_computed(args) => {
                 self.materialise(h, part, sat)
             }
@@ -434,6 +444,16 @@ impl Gen<'_> {
     /// must stay there unless the consumer clamps to 1 anyway (`sat`), as
     /// for `max(0, x)`.
     fn abs_src(&mut self, x: Handle<Expr>, part: Part, sat: bool, span: Span) -> R<Src> {
+        let (positive, negative, scalar) = self.abs_halves(x, part, sat, span)?;
+        let spec =
+            Spec { cd: Some(Term::times_one(negative)), ..Spec::single(Term::times_one(positive), scalar) };
+        self.emit(spec, span)
+    }
+
+    /// `abs(x)` as the sources of its two halves, `max(0, x)` and
+    /// `max(0, −x)` (UNSIGNED_IDENTITY of `x` and of its negation, Kilgard
+    /// 2000, Table 3), whose sum it is; and whether `x` is a scalar.
+    pub(super) fn abs_halves(&mut self, x: Handle<Expr>, part: Part, sat: bool, span: Span) -> R<(Src, Src, bool)> {
         if !sat && (self.lo(x) < -1.0 || self.hi(x) > 1.0) {
             return Err(unsupported(
                 span,
@@ -457,10 +477,7 @@ impl Gen<'_> {
                 self.copy(Src { map: negate, ..v }, span)?
             }
         };
-        let (positive, negative) = (self.unsigned(s, span)?, self.unsigned(negative, span)?);
-        let spec =
-            Spec { cd: Some(Term::times_one(negative)), ..Spec::single(Term::times_one(positive), scalar) };
-        self.emit(spec, span)
+        Ok((self.unsigned(s, span)?, self.unsigned(negative, span)?, scalar))
     }
 
     pub(super) fn unsupported_node(&self, h: Handle<Expr>, e: &Expr) -> CodegenError {
