@@ -108,12 +108,13 @@ fn renders_alike(folder: &Path, name: &str, wgpu_must_run: bool) -> Result<(), S
                     }
                 }
                 // A picture worth comparing: a tenth of the frame covered,
-                // most of it lit.
+                // a quarter of that lit (the programs' own images, a decal
+                // or a cut-out, leave much of it dark).
                 let compared = p.compared_mask();
                 let covered = p.compared();
                 let lit = (0..compared.len()).filter(|&i| compared[i] && p.oracle[4 * i..4 * i + 3].iter().any(|&c| c > 8)).count();
                 eprintln!("{name} on {target} ({precision:?}): {covered} pixels compared ({lit} lit), {} left out as latitude", p.left_out);
-                if covered * 10 < p.covered.len() || lit * 2 < covered {
+                if covered * 10 < p.covered.len() || lit * 4 < covered {
                     return Err(format!("a picture not worth comparing: {covered} covered, {lit} lit, {} left out", p.left_out));
                 }
                 match precision {
