@@ -285,6 +285,13 @@ fn combiner_operations_except(
             {
                 0
             }
+            // min(a, b), max(a, b) of two computed values: the mux after an
+            // offset, or a difference and its clamp (codegen `ops.rs`).
+            Expr::Math { fun: MathFunction::Max | MathFunction::Min, args }
+                if args.iter().all(|a| !matches!(module.exprs[*a], Expr::Constant(_))) =>
+            {
+                2
+            }
             Expr::Math { fun, .. } => match fun {
                 MathFunction::Expand
                 | MathFunction::HalfBias
