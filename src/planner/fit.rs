@@ -285,23 +285,22 @@ fn combiner_operations_except(
             {
                 0
             }
-            // min(a, b), max(a, b) of two computed values: the mux after an
-            // offset, or a difference and its clamp (codegen `ops.rs`).
-            Expr::Math { fun: MathFunction::Max | MathFunction::Min, args }
-                if args.iter().all(|a| !matches!(module.exprs[*a], Expr::Constant(_))) =>
+            Expr::Math { fun: MathFunction::Clamp, args }
+                if module.is_constant(args[1], 0.0) && module.is_constant(args[2], 1.0) =>
             {
-                2
+                0
             }
             Expr::Math { fun, .. } => match fun {
                 MathFunction::Expand
                 | MathFunction::HalfBias
                 | MathFunction::Saturate
                 | MathFunction::Compress => 0,
-                MathFunction::Max
-                | MathFunction::Min
-                | MathFunction::Clamp
-                | MathFunction::Mix
-                | MathFunction::Abs => 1,
+                MathFunction::Mix | MathFunction::Abs => 1,
+                // min(a, b), max(a, b): the mux after an offset, or a
+                // difference and its clamp; clamp(x, lo, hi) both (codegen
+                // `ops.rs`, `desugar.rs`).
+                MathFunction::Max | MathFunction::Min => 2,
+                MathFunction::Clamp => 4,
                 // step(e, x): an offset and the mux (`lowering::no_combiner_op`).
                 MathFunction::Step if !crate::lowering::no_combiner_op(module, h) => 2,
                 _ => return Err(h),

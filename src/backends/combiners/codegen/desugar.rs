@@ -26,7 +26,8 @@ pub(super) fn desugar(module: &Module, value: Handle<Expr>) -> R<Option<(Module,
     let by_constant = |h: &Handle<Expr>| {
         module.info(*h).freq.is_sample() && crate::lowering::reciprocal_of_divisor(module, *h).is_some()
     };
-    if !reach.iter().any(|h| is_combine(h) || floats_a_scale(h) || by_constant(h)) {
+    let banded = |h: &Handle<Expr>| module.info(*h).freq.is_sample() && band(module, *h).is_some();
+    if !reach.iter().any(|h| is_combine(h) || floats_a_scale(h) || by_constant(h) || banded(h)) {
         return Ok(None);
     }
     let mut m = module.clone();
@@ -72,6 +73,13 @@ pub(super) fn desugar(module: &Module, value: Handle<Expr>) -> R<Option<(Module,
                 let k = intern(&mut m, Expr::Constant(Constant::scalar(inverse)), span)?;
                 intern(&mut m, Expr::Binary { op: BinaryOp::Mul, lhs, rhs: k }, span)?
             }
+            // clamp(x, lo, hi) = min(max(x, lo), hi), each by a clamp
+            // (`ops.rs::max_by_clamp`, `min_by_clamp`).
+            Expr::Math { fun: MathFunction::Clamp, ref args } if banded(&h) => {
+                let floor = Expr::Math { fun: MathFunction::Max, args: vec![args[0], args[1]] };
+                let floor = intern(&mut m, floor, span)?;
+                intern(&mut m, Expr::Math { fun: MathFunction::Min, args: vec![floor, args[2]] }, span)?
+            }
             e => match scale_to_float(&m, &e) {
                 Some((k, y, z)) => {
                     let inner = intern(&mut m, Expr::Binary { op: BinaryOp::Mul, lhs: y, rhs: z }, span)?;
@@ -86,6 +94,15 @@ pub(super) fn desugar(module: &Module, value: Handle<Expr>) -> R<Option<(Module,
     }
     let v = map.get(&value).copied().unwrap_or(value);
     Ok(Some((m, v)))
+}
+
+/// `clamp(x, lo, hi)` at `h` with constant bounds other than 0 and 1 (those
+/// are an unsigned mapping, `select.rs`): `(lo, hi)`.
+fn band(m: &Module, h: Handle<Expr>) -> Option<(Handle<Expr>, Handle<Expr>)> {
+    let Expr::Math { fun: MathFunction::Clamp, args } = &m.exprs[h] else { return None };
+    let constant = |a: Handle<Expr>| matches!(m.exprs[a], Expr::Constant(_));
+    let unit = m.is_constant(args[1], 0.0) && m.is_constant(args[2], 1.0);
+    (constant(args[1]) && constant(args[2]) && !unit).then_some((args[1], args[2]))
 }
 
 /// `(k · y) · z` or `z · (k · y)` with `k` an output scale (½, 2, 4, 8):

@@ -99,7 +99,7 @@ impl Gen<'_> {
             }
             Expr::Math { fun: MathFunction::Mix, ref args } => self.mix_spec(args, part, scalar, span)?,
             Expr::Math { fun: fun @ (MathFunction::Min | MathFunction::Max), ref args }
-                if self.two_computed(args) =>
+                if self.two_computed(args) || self.extremum_by_clamp(fun, args) =>
             {
                 // min(a, b) and max(a, b) of two computed scalars pick one by
                 // the mux: `a ≥ b` selects CD ([`Gen::compared`]); other
@@ -674,6 +674,15 @@ impl Gen<'_> {
         let clamped = Term::times_one(Src { map: UnsignedIdentity, ..d });
         let r = self.emit(Spec { cd: Some(clamped), ..Spec::single(inverted_b, scalar) }, span)?;
         Ok(Some(Src { map: UnsignedInvert, ..r }))
+    }
+
+    /// Whether `min` or `max` of `args` with one constant is left to
+    /// [`Gen::max_by_clamp`] or [`Gen::min_by_clamp`]: not `max(0, x)`,
+    /// which is an input mapping (`select::src_uncached`).
+    pub(super) fn extremum_by_clamp(&self, fun: MathFunction, args: &[Handle<Expr>]) -> bool {
+        let constants = args.iter().filter(|&&a| self.constant(a).is_some()).count();
+        let zero = args.iter().any(|&a| self.constant(a) == Some(0.0));
+        args.len() == 2 && constants == 1 && !(fun == MathFunction::Max && zero)
     }
 
     /// Whether [`Gen::compared`] tests `args[0] ≥ args[1]`: two scalars, the

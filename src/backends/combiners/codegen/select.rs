@@ -118,7 +118,8 @@ impl Gen<'_> {
             // min and max of two computed values: the mux or a clamp
             // (`ops::spec`); a min read through its UNSIGNED_INVERT.
             Expr::Math { fun: MathFunction::Min, ref args }
-                if self.two_computed(args) && !self.both_scalar_compared(args) =>
+                if (self.two_computed(args) || self.extremum_by_clamp(MathFunction::Min, args))
+                    && !self.both_scalar_compared(args) =>
             {
                 let scalar = self.scalar(h, part);
                 match self.min_by_clamp(args[0], args[1], part, scalar, span)? {
@@ -126,7 +127,9 @@ impl Gen<'_> {
                     None => self.materialise(h, part, sat),
                 }
             }
-            Expr::Math { fun: MathFunction::Min | MathFunction::Max, ref args } if self.two_computed(args) => {
+            Expr::Math { fun: fun @ (MathFunction::Min | MathFunction::Max), ref args }
+                if self.two_computed(args) || self.extremum_by_clamp(fun, args) =>
+            {
                 self.materialise(h, part, sat)
             }
             other => match self.host_constant(h) {
@@ -453,7 +456,13 @@ impl Gen<'_> {
     /// `abs(x)` as the sources of its two halves, `max(0, x)` and
     /// `max(0, −x)` (UNSIGNED_IDENTITY of `x` and of its negation, Kilgard
     /// 2000, Table 3), whose sum it is; and whether `x` is a scalar.
-    pub(super) fn abs_halves(&mut self, x: Handle<Expr>, part: Part, sat: bool, span: Span) -> R<(Src, Src, bool)> {
+    pub(super) fn abs_halves(
+        &mut self,
+        x: Handle<Expr>,
+        part: Part,
+        sat: bool,
+        span: Span,
+    ) -> R<(Src, Src, bool)> {
         if !sat && (self.lo(x) < -1.0 || self.hi(x) > 1.0) {
             return Err(unsupported(
                 span,
