@@ -445,7 +445,8 @@ fn render_says_specialized_only_where_specialization_changed_the_plan() {
     let r = shadec(&["render", scene, "--shader", shader, "--target", "wgsl", "--size", "32x32", "-o", out]);
     assert_eq!(r.code, 0, "{}", r.stderr);
     assert!(
-        r.stdout.contains("the plan is specialized for this scene (a pass per light, 3 lights after light 0;"),
+        r.stdout
+            .contains("the plan is specialized for this scene (a pass per light, 3 lights after light 0;"),
         "{}",
         r.stdout
     );

@@ -342,9 +342,18 @@ fn differs_from_compile(
 /// lowering measured on the scene is not said to be specialized.
 fn specialization(plan: &shadec::pipeline::PassPlan) -> Vec<String> {
     let mut did = Vec::new();
-    let lights = plan.passes.iter().filter_map(|p| p.light).filter(|&l| l > 0).collect::<std::collections::BTreeSet<_>>();
+    let lights = plan
+        .passes
+        .iter()
+        .filter_map(|p| p.light)
+        .filter(|&l| l > 0)
+        .collect::<std::collections::BTreeSet<_>>();
     if !lights.is_empty() {
-        did.push(format!("a pass per light, {} light{} after light 0", lights.len(), if lights.len() == 1 { "" } else { "s" }));
+        did.push(format!(
+            "a pass per light, {} light{} after light 0",
+            lights.len(),
+            if lights.len() == 1 { "" } else { "s" }
+        ));
     }
     let count = |kinds: &[&str]| plan.removed.iter().filter(|r| kinds.contains(&r.kind.as_str())).count();
     if count(&["uniform"]) > 0 {

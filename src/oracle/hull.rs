@@ -189,7 +189,11 @@ fn binary(op: BinaryOp, a: &R, b: &R, width: usize) -> Result<R, Unsupported> {
             let (x, y) = (lane(a, c), lane(b, c));
             hull_of([x.0.powf(y.0), x.0.powf(y.1), x.1.powf(y.0), x.1.powf(y.1)])
         }),
-        Pow => return Err(Unsupported::new("a power of a value that may be negative over a level-of-detail range")),
+        Pow => {
+            return Err(Unsupported::new(
+                "a power of a value that may be negative over a level-of-detail range",
+            ))
+        }
         Lt => splat(decided(x.1 < y.0, x.0 >= y.1)),
         Le => splat(decided(x.1 <= y.0, x.0 > y.1)),
         Gt => splat(decided(x.0 > y.1, x.1 <= y.0)),
@@ -235,7 +239,13 @@ fn math(fun: MathFunction, o: &[R], width: usize) -> Result<R, Unsupported> {
         Min => lanes(|c| (a.0[c].min(o[1].0[c]), a.1[c].min(o[1].1[c]))),
         Clamp => lanes(|c| (a.0[c].max(o[1].0[c]).min(o[2].0[c]), a.1[c].max(o[1].1[c]).min(o[2].1[c]))),
         Saturate => each(&|x| increasing(x, |v| v.clamp(0.0, 1.0))),
-        Abs => each(&|x| if x.0 >= 0.0 || x.1 <= 0.0 { hull_of([x.0.abs(), x.1.abs()]) } else { (0.0, x.1.max(-x.0)) }),
+        Abs => each(&|x| {
+            if x.0 >= 0.0 || x.1 <= 0.0 {
+                hull_of([x.0.abs(), x.1.abs()])
+            } else {
+                (0.0, x.1.max(-x.0))
+            }
+        }),
         Sign => each(&|x| increasing(x, f64::signum)),
         Sqrt => each(&|x| increasing(x, f64::sqrt)),
         Rsqrt => each(&|x| (x.1.sqrt().recip(), x.0.sqrt().recip())),
@@ -243,7 +253,9 @@ fn math(fun: MathFunction, o: &[R], width: usize) -> Result<R, Unsupported> {
         Log => each(&|x| increasing(x, f64::ln)),
         Sin | Cos => each(&|_| (-1.0, 1.0)),
         Floor => each(&|x| increasing(x, f64::floor)),
-        Fract => each(&|x| if x.0.floor() == x.1.floor() { increasing(x, |v| v - v.floor()) } else { (0.0, 1.0) }),
+        Fract => {
+            each(&|x| if x.0.floor() == x.1.floor() { increasing(x, |v| v - v.floor()) } else { (0.0, 1.0) })
+        }
         Expand => each(&|x| increasing(x, |v| 2.0 * v - 1.0)),
         HalfBias => each(&|x| increasing(x, |v| v - 0.5)),
         Compress => each(&|x| increasing(x, |v| 0.5 * (v + 1.0))),
@@ -253,12 +265,14 @@ fn math(fun: MathFunction, o: &[R], width: usize) -> Result<R, Unsupported> {
             decided(x.0 >= edge.1, x.1 < edge.0)
         }),
         // a + (b − a)·t is multilinear in (a, b, t): extremes at corners.
-        Mix => lanes(|c| {
-            let (x, y, t) = (lane(a, c), lane(&o[1], c), lane(&o[2], c));
-            hull_of([x.0, x.1].into_iter().flat_map(|p| {
-                [y.0, y.1].into_iter().flat_map(move |q| [t.0, t.1].map(|s| p + (q - p) * s))
-            }))
-        }),
+        Mix => {
+            lanes(|c| {
+                let (x, y, t) = (lane(a, c), lane(&o[1], c), lane(&o[2], c));
+                hull_of([x.0, x.1].into_iter().flat_map(|p| {
+                    [y.0, y.1].into_iter().flat_map(move |q| [t.0, t.1].map(|s| p + (q - p) * s))
+                }))
+            })
+        }
         Smoothstep if is_point(a) && is_point(&o[1]) => lanes(|c| {
             let (e0, e1, x) = (a.0[c], o[1].0[c], lane(&o[2], c));
             let f = |v: f64| {
@@ -297,9 +311,10 @@ fn texture_env(mode: CombineMode, width: usize, t: &R, f: &R) -> R {
         CombineMode::Subtract => lanes(|c| sub(lane(t, c), lane(f, c))),
         CombineMode::Decal => with_alpha(lanes(blend), lane(f, 3)),
         CombineMode::Interpolate => lanes(blend),
-        CombineMode::Blend => {
-            with_alpha(lanes(|c| mul(lane(f, c), sub(constant(1.0), lane(t, c)))), mul(lane(t, 3), lane(f, 3)))
-        }
+        CombineMode::Blend => with_alpha(
+            lanes(|c| mul(lane(f, c), sub(constant(1.0), lane(t, c)))),
+            mul(lane(t, 3), lane(f, 3)),
+        ),
         CombineMode::Dot3Rgb => with_alpha(splat(dot3()), mul(lane(t, 3), lane(f, 3))),
         CombineMode::Dot3Rgba => splat(dot3()),
         // Monotone: taken apart in `compute`.
@@ -366,11 +381,16 @@ impl Evaluator<'_> {
             Expr::FramebufferRead { framebuffer, channel, position } => {
                 let p = self.range(*position, at, lod_depth, ranges, values)?.unwrap_or(nan);
                 if !is_point(&p) {
-                    return Err(Unsupported::new("a framebuffer read at a position that moves with a level of detail"));
+                    return Err(Unsupported::new(
+                        "a framebuffer read at a position that moves with a level of detail",
+                    ));
                 }
                 let light = self.through_light(*position);
                 let own = match at {
-                    At::Fragment(f) => f.view != super::geometry::View::Texels && (f.view == super::geometry::View::Light) == light,
+                    At::Fragment(f) => {
+                        f.view != super::geometry::View::Texels
+                            && (f.view == super::geometry::View::Light) == light
+                    }
                     _ => !light,
                 };
                 let fb = &self.framebuffers[*framebuffer as usize];
@@ -383,7 +403,9 @@ impl Evaluator<'_> {
             Expr::Project { value, .. } | Expr::Depth(value) => {
                 let v = self.range(*value, at, lod_depth, ranges, values)?.unwrap_or(nan);
                 if !is_point(&v) {
-                    return Err(Unsupported::new("a projection of a value that moves with a level of detail"));
+                    return Err(Unsupported::new(
+                        "a projection of a value that moves with a level of detail",
+                    ));
                 }
                 self.value(h, at, lod_depth, values)?.map(point)
             }
@@ -434,7 +456,9 @@ impl Evaluator<'_> {
         lod_depth: u8,
         values: &mut Memo,
     ) -> Result<R, Unsupported> {
-        let mut nominal = || -> Result<V, Unsupported> { Ok(self.value(h, at, lod_depth, values)?.unwrap_or([f64::NAN; 4])) };
+        let mut nominal = || -> Result<V, Unsupported> {
+            Ok(self.value(h, at, lod_depth, values)?.unwrap_or([f64::NAN; 4]))
+        };
         let cty = self.m.info(key.1).ty;
         match (image, at) {
             (Some(image), At::Fragment(f)) if lod_depth < 2 && image.levels.len() > 1 => {

@@ -407,16 +407,20 @@ fn render_choice(
             {
                 ev.textures[id as usize] = Tex::Baked(st.value)
             }
-            Table::Texture(id) => {
-                without_hull(&mut ev, "a rendered texture", |ev| rendered::statement(ev, st, id as usize, &mut rendered))?
-            }
+            Table::Texture(id) => without_hull(&mut ev, "a rendered texture", |ev| {
+                rendered::statement(ev, st, id as usize, &mut rendered)
+            })?,
             Table::Framebuffer { id, channel: FbChannel::Stencil } => {
-                without_hull(&mut ev, "a stencil update", |ev| stencil::update(ev, st, id as usize, &mut latitude))?;
+                without_hull(&mut ev, "a stencil update", |ev| {
+                    stencil::update(ev, st, id as usize, &mut latitude)
+                })?;
             }
             Table::Framebuffer { id, channel } => {
                 run(&mut ev, st, id as usize, channel, &mut latitude)?;
                 if per_light {
-                    without_hull(&mut ev, "another light's terms", |ev| for_each_other_light(ev, st, id as usize))?;
+                    without_hull(&mut ev, "another light's terms", |ev| {
+                        for_each_other_light(ev, st, id as usize)
+                    })?;
                 }
                 last = Some(id as usize);
             }
@@ -600,7 +604,8 @@ fn sample_hull(
     match range() {
         Ok(Some(r)) => Some(r),
         Ok(None) => {
-            ev.hull_refused = Some(Unsupported::new("a sample whose hull keeps the destination where its value does not"));
+            ev.hull_refused =
+                Some(Unsupported::new("a sample whose hull keeps the destination where its value does not"));
             ev.hull = false;
             None
         }

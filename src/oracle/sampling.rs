@@ -84,6 +84,35 @@ impl Level {
         self.texels[(y * self.width + x) as usize]
     }
 
+    /// The least and greatest LINEAR sample (eq. 3.19) over the box
+    /// `u × v`: the samples at the corners of the box's pieces between
+    /// texel centres — the box's corners, the texel centres inside it and
+    /// where its edges cross the centres' lines —, since a bilinear form
+    /// on a rectangle is extreme at a corner. `None` for a box wider than
+    /// 32 texels (or not finite).
+    fn bilinear_range(&self, u: (f64, f64), v: (f64, f64), wrap: Wrap) -> Option<(V, V)> {
+        let stops = |(a, b): (f64, f64), size: u32| -> Option<Vec<f64>> {
+            let n = f64::from(size);
+            if !(a.is_finite() && b.is_finite()) || (b - a) * n > 32.0 {
+                return None;
+            }
+            let first = (a * n - 0.5).floor() + 1.0;
+            let inside = (0..).map(|k| (first + f64::from(k) + 0.5) / n).take_while(|&c| c < b);
+            Some([a, b].into_iter().chain(inside).collect())
+        };
+        let (us, vs) = (stops(u, self.width)?, stops(v, self.height)?);
+        let (mut low, mut high) = ([f64::INFINITY; 4], [f64::NEG_INFINITY; 4]);
+        for &y in &vs {
+            for &x in &us {
+                let t = self.sample(x, y, true, wrap);
+                for c in 0..4 {
+                    (low[c], high[c]) = (low[c].min(t[c]), high[c].max(t[c]));
+                }
+            }
+        }
+        Some((low, high))
+    }
+
     /// GL eq. 3.18 (NEAREST) and 3.19 (LINEAR) at (u, v).
     fn sample(&self, u: f64, v: f64, linear: bool, wrap: Wrap) -> V {
         let (su, sv) = (u * f64::from(self.width), v * f64::from(self.height));
@@ -172,6 +201,12 @@ impl Image {
                     (a.floor() as i64, b.floor() as i64)
                 }
             };
+            if let Some((lo, hi)) = level.bilinear_range(u, v, self.wrap).filter(|_| linear) {
+                for c in 0..4 {
+                    (low[c], high[c]) = (low[c].min(lo[c]), high[c].max(hi[c]));
+                }
+                continue;
+            }
             let ((i0, i1), (j0, j1)) = (span(u, level.width), span(v, level.height));
             for j in j0..=j1 {
                 for i in i0..=i1 {
