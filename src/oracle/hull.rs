@@ -27,11 +27,12 @@
 
 use std::collections::HashMap;
 
+use super::geometry::View;
 use super::ops::{self, V};
 use super::program::{uv, At, Evaluator, Memo, Tex};
 use super::sampling::Image;
 use super::Unsupported;
-use crate::ir::{BinaryOp, Expr, Handle, MathFunction, Module, Ty, UnaryOp};
+use crate::ir::{BinaryOp, Expr, FbChannel, Handle, MathFunction, Module, Ty, UnaryOp};
 use crate::parser::ast::CombineMode;
 
 /// Per channel, the least and the greatest value.
@@ -385,19 +386,9 @@ impl Evaluator<'_> {
                         "a framebuffer read at a position that moves with a level of detail",
                     ));
                 }
-                let light = self.through_light(*position);
-                let own = match at {
-                    At::Fragment(f) => {
-                        f.view != super::geometry::View::Texels
-                            && (f.view == super::geometry::View::Light) == light
-                    }
-                    _ => !light,
-                };
-                let fb = &self.framebuffers[*framebuffer as usize];
-                match (channel, self.read_pixel(p.0, at, own)) {
-                    (crate::ir::FbChannel::Color, Some(i)) => Some((fb.low[i], fb.high[i])),
-                    (crate::ir::FbChannel::Alpha, Some(i)) => Some(([fb.low[i][3]; 4], [fb.high[i][3]; 4])),
-                    _ => self.value(h, at, lod_depth, values)?.map(point),
+                match self.read_range(*framebuffer as usize, *channel, *position, p.0, at) {
+                    Some(r) => Some(r),
+                    None => self.value(h, at, lod_depth, values)?.map(point),
                 }
             }
             Expr::Project { value, .. } | Expr::Depth(value) => {
@@ -441,6 +432,24 @@ impl Evaluator<'_> {
         let r = r.map(|(lo, hi)| (ops::shape(ty, lo), ops::shape(ty, hi)));
         ranges.insert(h, r);
         Ok(r)
+    }
+
+    /// The hull a colour or alpha read of framebuffer `fb` at `p` (the
+    /// value of `position`) holds there (`Store::low`, `Store::high`);
+    /// `None` for another channel or outside the framebuffer.
+    fn read_range(&self, fb: usize, channel: FbChannel, position: Handle<Expr>, p: V, at: At) -> Option<R> {
+        let light = self.through_light(position);
+        let own = match at {
+            At::Fragment(f) => f.view != View::Texels && (f.view == View::Light) == light,
+            _ => !light,
+        };
+        let i = self.read_pixel(p, at, own)?;
+        let fb = &self.framebuffers[fb];
+        match channel {
+            FbChannel::Color => Some((fb.low[i], fb.high[i])),
+            FbChannel::Alpha => Some(([fb.low[i][3]; 4], [fb.high[i][3]; 4])),
+            _ => None,
+        }
     }
 
     /// The hull of lookup `h` of a flat image (`image`; `None` for any other
