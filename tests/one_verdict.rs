@@ -421,3 +421,33 @@ fn one_precedence_chooses_the_target() {
         checked.diagnostics
     );
 }
+
+/// `render` says its plan is specialized for the scene only where
+/// specialization changed it: fragment lighting on geforce3 on the
+/// built-in torus (one light, no uniforms) draws in fixed9 one pass with
+/// normalization cube maps where `compile` takes three — a lowering
+/// measured on the scene, not specialization — and `render` said "the plan
+/// is specialized for this scene (a pass per light, its uniforms folded,
+/// lights culled…)" because the pass counts differed. On four lights it
+/// still says so, and names the passes per light.
+#[test]
+fn render_says_specialized_only_where_specialization_changed_the_plan() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = dir.path().join("o.png");
+    let out = out.to_str().unwrap();
+    let shader = "examples/fragment_lighting.shd";
+    let r = shadec(&["render", "--shader", shader, "--target", "geforce3", "--size", "32x24", "-o", out]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(r.stdout.contains("is not the one"), "{}", r.stdout);
+    assert!(r.stdout.contains("the most accurate there was chosen"), "{}", r.stdout);
+    assert!(!r.stdout.contains("specialized"), "{}", r.stdout);
+    let scene = "scenes/adaptive_sphere_4lights.ron";
+    let r = shadec(&["render", scene, "--shader", shader, "--target", "wgsl", "--size", "32x32", "-o", out]);
+    assert_eq!(r.code, 0, "{}", r.stderr);
+    assert!(
+        r.stdout
+            .contains("the plan is specialized for this scene (a pass per light, 3 lights after light 0;"),
+        "{}",
+        r.stdout
+    );
+}

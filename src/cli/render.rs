@@ -303,8 +303,12 @@ fn differs_from_compile(
         return None;
     }
     let mut why = Vec::new();
-    if !judged.planned.plan.removed.is_empty() || ours.0 != theirs.0 {
-        why.push("the plan is specialized for this scene (a pass per light, its uniforms folded, lights culled; --no-specialize plans without it)".to_string());
+    let specialized = specialization(&judged.planned.plan);
+    if !specialized.is_empty() {
+        why.push(format!(
+            "the plan is specialized for this scene ({}; --no-specialize plans without it)",
+            specialized.join(", ")
+        ));
     }
     if judged.candidates.iter().any(|c| c.chosen) {
         let drawn = match drawn_in(args, profile) {
@@ -329,6 +333,40 @@ fn differs_from_compile(
         theirs.1,
         why.join("; ")
     ))
+}
+
+/// What specialization for the scene did to `plan`, as the plan records
+/// it: passes for lights after light 0, uniforms folded, terms, textures
+/// or passes removed, lights culled for objects. Empty where it changed
+/// nothing — a plan whose passes differ from `compile`'s only by the
+/// lowering measured on the scene is not said to be specialized.
+fn specialization(plan: &shadec::pipeline::PassPlan) -> Vec<String> {
+    let mut did = Vec::new();
+    let lights = plan
+        .passes
+        .iter()
+        .filter_map(|p| p.light)
+        .filter(|&l| l > 0)
+        .collect::<std::collections::BTreeSet<_>>();
+    if !lights.is_empty() {
+        did.push(format!(
+            "a pass per light, {} light{} after light 0",
+            lights.len(),
+            if lights.len() == 1 { "" } else { "s" }
+        ));
+    }
+    let count = |kinds: &[&str]| plan.removed.iter().filter(|r| kinds.contains(&r.kind.as_str())).count();
+    if count(&["uniform"]) > 0 {
+        did.push("its uniforms folded".to_string());
+    }
+    let removed = count(&["term", "texture", "pass"]);
+    if removed > 0 {
+        did.push(format!("terms, textures or passes removed ({removed})"));
+    }
+    if count(&["light"]) > 0 || plan.passes.iter().any(|p| p.objects.is_some()) {
+        did.push("lights culled".to_string());
+    }
+    did
 }
 
 /// A render failure: a pass the CPU cannot render is reported at its statement.

@@ -17,11 +17,12 @@
 //! - [`sampling`]: GL §3.8 — wrap, λ from exact per-pixel derivatives,
 //!   NEAREST/LINEAR and the mipmap modes, cube-map faces by Table 3.19;
 //!   the λ an implementation may use instead (§3.8.8's interval for ρ,
-//!   per-quad derivatives) bounds each pixel by a range ([`Picture::low`],
-//!   [`Picture::high`]) over renders at the texels' extremes — each
-//!   lookup's extreme chosen on its own (every combination, for up to
-//!   [`LOD_INDEPENDENT`] minified lookups; beyond, a dependent lookup's
-//!   apart from the rest's);
+//!   per-quad derivatives) bounds each pixel by its hull
+//!   ([`Picture::low`], [`Picture::high`]) over every lookup's λ, each
+//!   lookup's on its own, for any number of lookups: the sample evaluated
+//!   again on intervals (`hull`), a dependent lookup bounded by the texels
+//!   its coordinates' box reaches; where that cannot be computed, the
+//!   range over renders of the lookups' extremes ([`render_enumerated`]);
 //! - `ops`: the arithmetic and the ⊕ modes, written again from the
 //!   language's definition and GL's texture environment (Table 3.22);
 //! - framebuffers store what their declared format stores: an `rgba8`
@@ -101,6 +102,7 @@
 //! the light) or a shadow ray grazing an edge.
 
 pub mod geometry;
+mod hull;
 mod lights;
 pub mod normal_map;
 mod ops;
@@ -117,7 +119,8 @@ use crate::ir::{FbChannel, Frequency, Module, Table};
 use crate::parser::ast::{self, TextureKind};
 use crate::scene::{Scene, SceneAssets};
 use geometry::View;
-use program::{At, Evaluator, LodChoices, Tex};
+use program::{At, Evaluator, Tex};
+pub use program::{LodChoices, LookupKey};
 
 /// Why the reference cannot evaluate a program (it refuses rather than guess).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -158,6 +161,10 @@ pub struct Picture {
     pub low: Vec<[f64; 4]>,
     /// The greatest, as [`Picture::low`].
     pub high: Vec<[f64; 4]>,
+    /// Why `low..=high` is not the hull of every sample over every
+    /// lookup's λ (`hull.rs`) but the range over renders of the lookups'
+    /// extreme choices ([`render_enumerated`]); `None` where it is the hull.
+    pub hull_refused: Option<Unsupported>,
 }
 
 /// How the reference reads the program where GL and the language differ.
@@ -185,11 +192,12 @@ pub fn render(
 /// [`render`] read with `options`.
 ///
 /// Where a mipmapped lookup's value moves with λ inside the latitude GL
-/// §3.8.8 gives an implementation, the program is rendered once more per
-/// combination of the lookups' choices among `program::LOD_CHOICES`
-/// extremes (each lookup's λ is its own: `lod_combinations`; at most
-/// 24 renders more), and [`Picture::low`] and [`Picture::high`] keep each
-/// pixel's range over the renders.
+/// §3.8.8 gives an implementation, [`Picture::low`] and [`Picture::high`]
+/// bound each pixel by its hull over every lookup's λ, each lookup's on
+/// its own, for any number of lookups (`hull.rs`: the sample evaluated on
+/// intervals, in the same render). Where the hull cannot be computed
+/// ([`Picture::hull_refused`]), the range over renders of the lookups'
+/// extreme choices ([`render_enumerated`]).
 pub fn render_with(
     module: &Module,
     program: &ast::Program,
@@ -198,11 +206,38 @@ pub fn render_with(
     size: (u32, u32),
     options: Options,
 ) -> Result<Picture, Unsupported> {
-    let (mut picture, open) =
-        render_choice(module, program, scene, assets, size, options, &LodChoices::default())?;
+    let choices = LodChoices::default();
+    let (picture, open) = render_choice(module, program, scene, assets, size, options, &choices, true)?;
+    match (&picture.hull_refused, open) {
+        (Some(why), Some(_)) => {
+            let mut enumerated = render_enumerated(module, program, scene, assets, size, options)?;
+            enumerated.hull_refused = Some(why.clone());
+            Ok(enumerated)
+        }
+        _ => Ok(picture),
+    }
+}
+
+/// [`render_with`] with the range over renders of the λ choices, as the
+/// reference bounded a pixel before its hull: the program rendered once
+/// more per combination of the lookups' choices among
+/// `program::LOD_CHOICES` extremes (`lod_combinations`: every combination
+/// for up to [`LOD_INDEPENDENT`] lookups, at most 24 renders more), each
+/// pixel's range over the renders. Not a hull beyond two lookups, nor
+/// where the program is not monotone in a lookup.
+pub fn render_enumerated(
+    module: &Module,
+    program: &ast::Program,
+    scene: &Scene,
+    assets: &SceneAssets,
+    size: (u32, u32),
+    options: Options,
+) -> Result<Picture, Unsupported> {
+    let choices = LodChoices::default();
+    let (mut picture, open) = render_choice(module, program, scene, assets, size, options, &choices, false)?;
     if let Some(lookups) = open {
         for choices in lod_combinations(module, &lookups) {
-            let (other, _) = render_choice(module, program, scene, assets, size, options, &choices)?;
+            let (other, _) = render_choice(module, program, scene, assets, size, options, &choices, false)?;
             for i in 0..picture.pixels.len() {
                 for c in 0..4 {
                     picture.low[i][c] = picture.low[i][c].min(other.pixels[i][c]);
@@ -213,6 +248,37 @@ pub fn render_with(
         }
     }
     Ok(picture)
+}
+
+/// One render with each minified lookup at its choice in `choices`
+/// (0: eq. 3.17's λ, k ≥ 1 its k-th extreme; `LodChoices::bias` added to
+/// every λ at choice 0): what one implementation may draw (or, biased, one
+/// off by that much). `low` and `high` are its pixels.
+pub fn render_chosen(
+    module: &Module,
+    program: &ast::Program,
+    scene: &Scene,
+    assets: &SceneAssets,
+    size: (u32, u32),
+    options: Options,
+    choices: &LodChoices,
+) -> Result<Picture, Unsupported> {
+    Ok(render_choice(module, program, scene, assets, size, options, choices, false)?.0)
+}
+
+/// The minified lookups of `module` ([`LookupKey`]s) whose value moved
+/// with λ in a render for `scene` at `size`: what [`LodChoices`] choose
+/// for.
+pub fn minified_lookups(
+    module: &Module,
+    program: &ast::Program,
+    scene: &Scene,
+    assets: &SceneAssets,
+    size: (u32, u32),
+) -> Result<Vec<LookupKey>, Unsupported> {
+    let choices = LodChoices::default();
+    let open = render_choice(module, program, scene, assets, size, Options::default(), &choices, false)?.1;
+    Ok(open.unwrap_or_default())
 }
 
 /// At most this many lookups choose their λ each on its own
@@ -239,7 +305,7 @@ fn lod_combinations(module: &Module, lookups: &[program::LookupKey]) -> Vec<LodC
         return all
             .into_iter()
             .filter(|v| v.iter().any(|&k| k != 0))
-            .map(|v| LodChoices { default: 0, of: lookups.iter().copied().zip(v).collect() })
+            .map(|v| LodChoices { default: 0, of: lookups.iter().copied().zip(v).collect(), bias: 0.0 })
             .collect();
     }
     let dependent = dependent_lookups(module);
@@ -253,6 +319,7 @@ fn lod_combinations(module: &Module, lookups: &[program::LookupKey]) -> Vec<LodC
         .map(|(a, b)| LodChoices {
             default: a,
             of: lookups.iter().filter(|l| dependent.contains(&l.1)).map(|&l| (l, b)).collect(),
+            bias: 0.0,
         })
         .collect()
 }
@@ -275,7 +342,10 @@ fn dependent_lookups(m: &Module) -> std::collections::HashSet<crate::ir::Handle<
 
 /// One render with every mipmapped lookup at its choice in `choices`
 /// (`Evaluator::lod_choices`); where some lookup's choice mattered, the
-/// lookups minified.
+/// lookups minified. With `hull`, `low` and `high` are each pixel's hull
+/// over the λ choices (`hull.rs`), or, where it cannot be computed,
+/// the pixels, with [`Picture::hull_refused`] saying why.
+#[allow(clippy::too_many_arguments)]
 fn render_choice(
     module: &Module,
     program: &ast::Program,
@@ -284,6 +354,7 @@ fn render_choice(
     (width, height): (u32, u32),
     options: Options,
     choices: &LodChoices,
+    hull: bool,
 ) -> Result<(Picture, Option<Vec<program::LookupKey>>), Unsupported> {
     let world = geometry::World::new(scene, assets, f64::from(width) / f64::from(height));
     let coverage = geometry::Coverage::find(&world, width, height);
@@ -310,6 +381,8 @@ fn render_choice(
         lod_choices: choices.clone(),
         lod_open: std::cell::Cell::new(false),
         lod_seen: std::cell::RefCell::new(std::collections::BTreeSet::new()),
+        hull,
+        hull_refused: None,
         clamp_texture_env: options.clamp_texture_env,
         target: 0,
     };
@@ -334,14 +407,20 @@ fn render_choice(
             {
                 ev.textures[id as usize] = Tex::Baked(st.value)
             }
-            Table::Texture(id) => rendered::statement(&mut ev, st, id as usize, &mut rendered)?,
+            Table::Texture(id) => without_hull(&mut ev, "a rendered texture", |ev| {
+                rendered::statement(ev, st, id as usize, &mut rendered)
+            })?,
             Table::Framebuffer { id, channel: FbChannel::Stencil } => {
-                stencil::update(&mut ev, st, id as usize, &mut latitude)?;
+                without_hull(&mut ev, "a stencil update", |ev| {
+                    stencil::update(ev, st, id as usize, &mut latitude)
+                })?;
             }
             Table::Framebuffer { id, channel } => {
                 run(&mut ev, st, id as usize, channel, &mut latitude)?;
                 if per_light {
-                    for_each_other_light(&mut ev, st, id as usize)?;
+                    without_hull(&mut ev, "another light's terms", |ev| {
+                        for_each_other_light(ev, st, id as usize)
+                    })?;
                 }
                 last = Some(id as usize);
             }
@@ -350,9 +429,31 @@ fn render_choice(
     let Some(fb) = last else { return Err(Unsupported::new("a program that writes no framebuffer")) };
     let covered = ev.coverage.fragments.iter().map(Option::is_some).collect();
     let pixels = std::mem::take(&mut ev.framebuffers[fb].color);
-    let (low, high) = (pixels.clone(), pixels.clone());
+    let (low, high) = if ev.hull {
+        (std::mem::take(&mut ev.framebuffers[fb].low), std::mem::take(&mut ev.framebuffers[fb].high))
+    } else {
+        (pixels.clone(), pixels.clone())
+    };
     let open = ev.lod_open.get().then(|| ev.lod_seen.take().into_iter().collect());
-    Ok((Picture { width, height, pixels, covered, latitude, low, high }, open))
+    let hull_refused = ev.hull_refused.take();
+    Ok((Picture { width, height, pixels, covered, latitude, low, high, hull_refused }, open))
+}
+
+/// Runs `statement` (of `what`) without a hull: where a lookup's value
+/// moved with λ in it, the hull is refused ([`Picture::hull_refused`]).
+fn without_hull(
+    ev: &mut Evaluator,
+    what: &str,
+    statement: impl FnOnce(&mut Evaluator) -> Result<(), Unsupported>,
+) -> Result<(), Unsupported> {
+    let open = ev.lod_open.replace(false);
+    statement(ev)?;
+    if ev.hull && ev.lod_open.get() {
+        ev.hull = false;
+        ev.hull_refused = Some(Unsupported::new(format!("{what} whose lookups move with a level of detail")));
+    }
+    ev.lod_open.set(open || ev.lod_open.get());
+    Ok(())
 }
 
 /// The samples of a statement's index (Pipeline Grammar, Section 3): the
@@ -413,6 +514,8 @@ fn for_each_other_light(ev: &mut Evaluator, st: &crate::ir::Statement, fb: usize
         for (p, v) in adds {
             let v = if widened { [v[0], v[1], v[2], 1.0] } else { v };
             store.color[p] = std::array::from_fn(|c| stored(store.color[p][c] + v[c]));
+            store.low[p] = std::array::from_fn(|c| stored(store.low[p][c] + v[c]));
+            store.high[p] = std::array::from_fn(|c| stored(store.high[p][c] + v[c]));
         }
     }
     ev.lights = all;
@@ -440,7 +543,8 @@ fn run(
             }
         }
         if let Some(v) = ev.value(st.value, at, 0, &mut memo)? {
-            writes.push((i, v, at));
+            let range = if ev.hull { sample_hull(ev, st.value, source, at, &mut memo) } else { None };
+            writes.push((i, v, range.unwrap_or((v, v)), at));
         }
         // A light's view is another raster: its latitude is not a pixel's.
         if !matches!(at, At::Fragment(f) if f.view != View::Camera) {
@@ -449,16 +553,23 @@ fn run(
     }
     let width = ev.m.info(st.value).ty.width();
     let store = &mut ev.framebuffers[fb];
-    for (i, v, at) in writes {
-        let v = match width {
-            1 => [v[0], v[0], v[0], 1.0],
-            3 => [v[0], v[1], v[2], 1.0],
-            _ => v,
-        };
+    let widen = |v: [f64; 4]| match width {
+        1 => [v[0], v[0], v[0], 1.0],
+        3 => [v[0], v[1], v[2], 1.0],
+        _ => v,
+    };
+    for (i, v, (lo, hi), at) in writes {
+        let (v, lo, hi) = (widen(v), widen(lo), widen(hi));
         let stored = |x: f64| if store.fixed { (x.clamp(0.0, 1.0) * 255.0).round() / 255.0 } else { x };
         match channel {
-            FbChannel::Color => store.color[i] = v.map(stored),
-            FbChannel::Alpha => store.color[i][3] = stored(v[0]),
+            FbChannel::Color => {
+                store.color[i] = v.map(stored);
+                (store.low[i], store.high[i]) = (lo.map(stored), hi.map(stored));
+            }
+            FbChannel::Alpha => {
+                store.color[i][3] = stored(v[0]);
+                (store.low[i][3], store.high[i][3]) = (stored(lo[0]), stored(hi[0]));
+            }
             FbChannel::Depth | FbChannel::Stencil => {
                 return Err(Unsupported::new("a statement that writes the depth channel"));
             }
@@ -468,6 +579,42 @@ fn run(
         }
     }
     Ok(())
+}
+
+/// The hull of `value` at sample `at` (`hull.rs`; `memo` its nominal
+/// values), the blend's `source` clamped as GL clamps it; `None`, with the
+/// hull turned off and the reason kept, where it cannot be computed.
+fn sample_hull(
+    ev: &mut Evaluator,
+    value: crate::ir::Handle<crate::ir::Expr>,
+    source: Option<crate::ir::Handle<crate::ir::Expr>>,
+    at: At,
+    memo: &mut program::Memo,
+) -> Option<hull::R> {
+    let mut ranges = hull::Ranges::new();
+    let mut range = || -> Result<Option<hull::R>, Unsupported> {
+        if let Some(s) = source {
+            if let Some((lo, hi)) = ev.range(s, at, 0, &mut ranges, memo)? {
+                let clamp = |v: [f64; 4]| v.map(|x| x.clamp(0.0, 1.0));
+                ranges.insert(s, Some((clamp(lo), clamp(hi))));
+            }
+        }
+        ev.range(value, at, 0, &mut ranges, memo)
+    };
+    match range() {
+        Ok(Some(r)) => Some(r),
+        Ok(None) => {
+            ev.hull_refused =
+                Some(Unsupported::new("a sample whose hull keeps the destination where its value does not"));
+            ev.hull = false;
+            None
+        }
+        Err(why) => {
+            ev.hull_refused = Some(why);
+            ev.hull = false;
+            None
+        }
+    }
 }
 
 /// The source of the framebuffer blend a statement writes into a

@@ -52,6 +52,12 @@ pub struct Store {
     /// The stencil, 8 bits wrapping as GL's `INCR_WRAP`/`DECR_WRAP` count
     /// (GL 1.x §4.1.5 with EXT_stencil_wrap); 0 is clear.
     pub stencil: Vec<u8>,
+    /// The least and greatest value each pixel's colour may take over the
+    /// level-of-detail choices GL §3.8.8 leaves to an implementation (the
+    /// hull, `hull.rs`), stored as `color` is; kept while
+    /// [`Evaluator::hull`] is on.
+    pub low: Vec<V>,
+    pub high: Vec<V>,
     /// Declared 8-bit: written values are clamped to [0, 1] and rounded to
     /// k/255, as GL's fixed-point framebuffer stores them (§4.1.8 dithering
     /// off, §2.13.9 colour clamping).
@@ -81,6 +87,11 @@ pub struct Evaluator<'a> {
     pub lod_open: std::cell::Cell<bool>,
     /// The lookups whose λ interval was computed (minified at some fragment).
     pub lod_seen: std::cell::RefCell<std::collections::BTreeSet<LookupKey>>,
+    /// Whether each sample also carries its hull over the level-of-detail
+    /// choices (`hull.rs`); turned off, with the reason in
+    /// [`Evaluator::hull_refused`], where it cannot be computed.
+    pub hull: bool,
+    pub hull_refused: Option<Unsupported>,
     /// `⊕` results clamped to [0, 1], as GL's texture environment clamps
     /// them ([`super::Options::clamp_texture_env`]).
     pub clamp_texture_env: bool,
@@ -101,6 +112,10 @@ pub struct LodChoices {
     /// The choice of a lookup not in `of`.
     pub default: usize,
     pub of: HashMap<LookupKey, usize>,
+    /// Levels added to eq. 3.17's λ of every lookup at choice 0: a render
+    /// as an implementation off by that much would draw it (a check that
+    /// the reference's range is tight enough to tell it).
+    pub bias: f64,
 }
 
 impl LodChoices {
@@ -115,7 +130,15 @@ impl<'a> Evaluator<'a> {
         let channels = &self.m.framebuffers[id].channels;
         let float =
             channels.iter().any(|c| matches!(c, FramebufferChannel::Rgba16f | FramebufferChannel::Rgba32f));
-        Store { color: vec![[0.0; 4]; n], depth: vec![1.0; n], stencil: vec![0; n], fixed: !float }
+        let clear = vec![[0.0; 4]; n];
+        Store {
+            color: clear.clone(),
+            depth: vec![1.0; n],
+            stencil: vec![0; n],
+            low: clear.clone(),
+            high: clear,
+            fixed: !float,
+        }
     }
 
     /// The value of `h` at `at`; `None` where a `c ? a` keeps the destination.
@@ -303,7 +326,7 @@ impl<'a> Evaluator<'a> {
 
     /// Whether a position is projected by a light (`πl …`): read from
     /// another view, never the sample's own pixel.
-    fn through_light(&self, position: Handle<Expr>) -> bool {
+    pub(super) fn through_light(&self, position: Handle<Expr>) -> bool {
         self.m.reachable(&[position]).into_iter().any(|h| {
             matches!(&self.m.exprs[h], Expr::Project { projection, .. }
                 if !matches!(projection.subscript.as_deref(), None | Some("")))
@@ -315,6 +338,21 @@ impl<'a> Evaluator<'a> {
     /// the cleared values (colour 0, depth 1). `own`: the position is the
     /// sample's own (a read at the fragment's pixel).
     fn read(&self, fb: usize, channel: FbChannel, p: V, at: At, own_view: bool) -> V {
+        let Some(i) = self.read_pixel(p, at, own_view) else {
+            return if channel == FbChannel::Depth { [1.0; 4] } else { [0.0; 4] };
+        };
+        let store = &self.framebuffers[fb];
+        match channel {
+            FbChannel::Color => store.color[i],
+            FbChannel::Alpha => [store.color[i][3]; 4],
+            FbChannel::Depth => [store.depth[i]; 4],
+            FbChannel::Stencil => [f64::from(store.stencil[i]); 4],
+        }
+    }
+
+    /// The pixel (its index) a framebuffer read at clip-space position `p`
+    /// reads ([`Evaluator::read`]); `None` outside the framebuffer.
+    pub(super) fn read_pixel(&self, p: V, at: At, own_view: bool) -> Option<usize> {
         let (w, h) = (self.coverage.width, self.coverage.height);
         let own = match at {
             At::Fragment(f) if own_view => Some(f.pixel),
@@ -341,17 +379,7 @@ impl<'a> Evaluator<'a> {
             (Some(o), Some(q)) if o.0.abs_diff(q.0) <= 1 && o.1.abs_diff(q.1) <= 1 => Some(o),
             (_, q) => q,
         };
-        let Some((x, y)) = pixel else {
-            return if channel == FbChannel::Depth { [1.0; 4] } else { [0.0; 4] };
-        };
-        let store = &self.framebuffers[fb];
-        let i = (y * w + x) as usize;
-        match channel {
-            FbChannel::Color => store.color[i],
-            FbChannel::Alpha => [store.color[i][3]; 4],
-            FbChannel::Depth => [store.depth[i]; 4],
-            FbChannel::Stencil => [f64::from(store.stencil[i]); 4],
-        }
+        pixel.map(|(x, y)| (y * w + x) as usize)
     }
 
     /// `T c`: sampled at the coordinates, λ from their change over one
@@ -394,7 +422,7 @@ impl<'a> Evaluator<'a> {
     /// A 2-D (or 1-D) image sampled at coordinates `c` (the value of
     /// `lookup`'s coordinates, of type `cty`): minified at a fragment, at
     /// level 0 elsewhere.
-    fn flat(
+    pub(super) fn flat(
         &self,
         image: &Image,
         lookup: LookupKey,
@@ -468,7 +496,7 @@ impl<'a> Evaluator<'a> {
         };
         let d = |a: [f64; 2], b: [f64; 2]| [b[0] - a[0], b[1] - a[1]];
         let (right, below) = (at_offset(1.0, 0.0)?, at_offset(0.0, 1.0)?);
-        let lambda = image.lod(d([u, v], right), d([u, v], below));
+        let lambda = image.lod(d([u, v], right), d([u, v], below)) + self.lod_choices.bias;
         let value = image.sample(u, v, lambda);
         let (qx, qy) = (-f64::from(f.pixel.0 & 1), -f64::from(f.pixel.1 & 1));
         let q = [
@@ -504,7 +532,7 @@ impl<'a> Evaluator<'a> {
             return value;
         }
         self.lod_open.set(true);
-        if extremes.len() > LOD_CHOICES {
+        if extremes.len() > LOD_CHOICES && !self.hull {
             self.latitude.set(true);
         }
         match choice {
@@ -526,7 +554,7 @@ pub const LOD_CHOICES: usize = 4;
 
 impl Evaluator<'_> {
     /// `f`'s triangle at a pixel offset, in the raster `f` was found in.
-    fn shifted(&self, f: &Fragment, dx: f64, dy: f64) -> Fragment {
+    pub(super) fn shifted(&self, f: &Fragment, dx: f64, dy: f64) -> Fragment {
         let size = super::rendered::TEXEL_GRID;
         let raster = match f.view {
             View::Texels => Coverage { width: size, height: size, fragments: Vec::new() },
@@ -539,7 +567,7 @@ impl Evaluator<'_> {
 /// Texture coordinates of a lookup: a scalar indexes a 1-D table at its
 /// centre row; a clip-space position projectively, `(½x/w + ½, ½ − ½y/w)`
 /// (v = 0 is the top row: docs/language.md, "Texture coordinates").
-fn uv(c: V, ty: Ty) -> [f64; 2] {
+pub(super) fn uv(c: V, ty: Ty) -> [f64; 2] {
     match ty {
         Ty::Scalar => [c[0], 0.5],
         Ty::Position => [0.5 * c[0] / c[3] + 0.5, 0.5 - 0.5 * c[1] / c[3]],

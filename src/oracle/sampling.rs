@@ -84,6 +84,35 @@ impl Level {
         self.texels[(y * self.width + x) as usize]
     }
 
+    /// The least and greatest LINEAR sample (eq. 3.19) over the box
+    /// `u × v`: the samples at the corners of the box's pieces between
+    /// texel centres — the box's corners, the texel centres inside it and
+    /// where its edges cross the centres' lines —, since a bilinear form
+    /// on a rectangle is extreme at a corner. `None` for a box wider than
+    /// 32 texels (or not finite).
+    fn bilinear_range(&self, u: (f64, f64), v: (f64, f64), wrap: Wrap) -> Option<(V, V)> {
+        let stops = |(a, b): (f64, f64), size: u32| -> Option<Vec<f64>> {
+            let n = f64::from(size);
+            if !(a.is_finite() && b.is_finite()) || (b - a) * n > 32.0 {
+                return None;
+            }
+            let first = (a * n - 0.5).floor() + 1.0;
+            let inside = (0..).map(|k| (first + f64::from(k) + 0.5) / n).take_while(|&c| c < b);
+            Some([a, b].into_iter().chain(inside).collect())
+        };
+        let (us, vs) = (stops(u, self.width)?, stops(v, self.height)?);
+        let (mut low, mut high) = ([f64::INFINITY; 4], [f64::NEG_INFINITY; 4]);
+        for &y in &vs {
+            for &x in &us {
+                let t = self.sample(x, y, true, wrap);
+                for c in 0..4 {
+                    (low[c], high[c]) = (low[c].min(t[c]), high[c].max(t[c]));
+                }
+            }
+        }
+        Some((low, high))
+    }
+
     /// GL eq. 3.18 (NEAREST) and 3.19 (LINEAR) at (u, v).
     fn sample(&self, u: f64, v: f64, linear: bool, wrap: Wrap) -> V {
         let (su, sv) = (u * f64::from(self.width), v * f64::from(self.height));
@@ -126,6 +155,69 @@ impl Image {
         let m_u = (d_dx[0] * w).abs().max((d_dy[0] * w).abs());
         let m_v = (d_dx[1] * h).abs().max((d_dy[1] * h).abs());
         (m_u.max(m_v).log2(), (m_u + m_v).log2())
+    }
+
+    /// [`Image::lod_bounds`] for derivatives known only to lie in
+    /// intervals (a dependent lookup whose coordinates move with another
+    /// lookup's λ): the least λ any derivatives within them give and the
+    /// greatest (−∞ where a derivative may be 0: magnified, level 0).
+    pub fn lod_bounds_within(&self, d_dx: [(f64, f64); 2], d_dy: [(f64, f64); 2]) -> (f64, f64) {
+        let (w, h) = (f64::from(self.levels[0].width), f64::from(self.levels[0].height));
+        let least = |d: (f64, f64)| if d.0 <= 0.0 && d.1 >= 0.0 { 0.0 } else { d.0.abs().min(d.1.abs()) };
+        let most = |d: (f64, f64)| d.0.abs().max(d.1.abs());
+        let (u_lo, v_lo) = (least(d_dx[0]).max(least(d_dy[0])) * w, least(d_dx[1]).max(least(d_dy[1])) * h);
+        let (u_hi, v_hi) = (most(d_dx[0]).max(most(d_dy[0])) * w, most(d_dx[1]).max(most(d_dy[1])) * h);
+        (u_lo.max(v_lo).log2(), (u_hi + v_hi).log2())
+    }
+
+    /// The least and greatest value, per channel, of any texel a filtered
+    /// lookup at (u, v) within the box `u × v` may read for λ in
+    /// `[lo, hi]`: every texel of the box's footprint (with its LINEAR
+    /// neighbours, wrapped) on every level those λ select. A filtered
+    /// value is a convex combination of those texels (eq. 3.19-3.20), so
+    /// it lies within.
+    pub fn footprint_hull(&self, u: (f64, f64), v: (f64, f64), lo: f64, hi: f64) -> (V, V) {
+        let last = self.levels.len() - 1;
+        let linear = self.filter != Filter::Nearest;
+        let nearest_level = |l: f64| if l > 0.5 { (l + 0.5).ceil() - 1.0 } else { 0.0 };
+        let (first, end) = if last == 0 || hi <= 0.0 || hi.is_nan() {
+            (0.0, 0.0)
+        } else {
+            let lo = if lo.is_nan() { 0.0 } else { lo.max(0.0) };
+            match self.filter {
+                Filter::Trilinear => (lo.floor(), hi.floor() + 1.0),
+                Filter::Nearest | Filter::Bilinear => (nearest_level(lo), nearest_level(hi)),
+            }
+        };
+        let (first, end) = (first.min(last as f64) as usize, end.min(last as f64) as usize);
+        let (mut low, mut high) = ([f64::INFINITY; 4], [f64::NEG_INFINITY; 4]);
+        for level in &self.levels[first..=end] {
+            let span = |(a, b): (f64, f64), size: u32| -> (i64, i64) {
+                let n = f64::from(size);
+                let (a, b) = if linear { (a * n - 0.5, b * n - 0.5 + 1.0) } else { (a * n, b * n) };
+                if !(a.is_finite() && b.is_finite()) || b - a >= n {
+                    (0, i64::from(size) - 1)
+                } else {
+                    (a.floor() as i64, b.floor() as i64)
+                }
+            };
+            if let Some((lo, hi)) = level.bilinear_range(u, v, self.wrap).filter(|_| linear) {
+                for c in 0..4 {
+                    (low[c], high[c]) = (low[c].min(lo[c]), high[c].max(hi[c]));
+                }
+                continue;
+            }
+            let ((i0, i1), (j0, j1)) = (span(u, level.width), span(v, level.height));
+            for j in j0..=j1 {
+                for i in i0..=i1 {
+                    let t = level.texel(i, j, self.wrap);
+                    for c in 0..4 {
+                        (low[c], high[c]) = (low[c].min(t[c]), high[c].max(t[c]));
+                    }
+                }
+            }
+        }
+        (low, high)
     }
 
     /// The filtered texels between which the texel at (u, v) moves as λ
