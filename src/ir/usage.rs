@@ -349,10 +349,7 @@ pub fn squaring_exponent(m: &Module, pow: Handle<Expr>) -> Option<u32> {
 /// `x^k` by repeated squaring ([`squaring_exponent`]), `round` applied to
 /// every product — the order both executors follow: squarings of the base
 /// from the lowest bit up, the running product multiplied in at each set
-/// bit (the first set bit takes the base itself, unrounded). Inlined:
-/// the lane program's `x^k` over 32 lanes is vector code only inside its
-/// AVX2 copy (a call out of it ran the products without AVX2).
-#[inline(always)]
+/// bit (the first set bit takes the base itself, unrounded).
 pub fn power_by_squaring<T: Copy>(x: T, k: u32, mut mul: impl FnMut(T, T) -> T) -> T {
     let (mut e, mut base, mut acc) = (k, x, None);
     while e > 0 {

@@ -180,19 +180,6 @@ pub fn shade_rows_by_fragment<S: FragmentStage + ?Sized>(
     stage.shade_batch(fragments, &varyings, out, results)
 }
 
-/// Whether the CPU has the features the scan loop's and the lane
-/// program's vector copies are compiled for (`#[target_feature(enable =
-/// "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]`): AVX2 and FMA, and the bit
-/// instructions every AVX2 CPU has. Without `popcnt` the scan loop counted
-/// its lane masks' bits by shifts and masks (`first_bits`, the batch's
-/// taken lanes; the same counts either way).
-#[cfg(target_arch = "x86_64")]
-#[inline(always)]
-pub(crate) fn has_vector_features() -> bool {
-    use std::arch::is_x86_feature_detected as has;
-    has!("avx2") && has!("fma") && has!("popcnt") && has!("bmi1") && has!("bmi2") && has!("lzcnt")
-}
-
 /// The most fragments [`FragmentStage::shade_batch`] receives at once.
 pub const BATCH: usize = 32;
 

@@ -153,25 +153,18 @@ pub(crate) fn quad_lod_lanes<const N: usize>(
     let (mut ox, mut oy, mut inv_w, mut u, mut v) = ([0.0f32; N], [0.0; N], [1.0; N], [0.0; N], [0.0; N]);
     // Each lane's gradients of 1/w, u and v: x and y.
     let (mut gq, mut gu, mut gv) = ([[0.0f32; N]; 2], [[0.0f32; N]; 2], [[0.0f32; N]; 2]);
-    // One pass over the fragments: whether they share the first one's
-    // gradients (one branch-free test each), and each lane's offsets of
-    // the quad's top-left pixel from its own and 1/w (a lane that goes
-    // through the one-lane code has its level of detail replaced, so what
-    // it computes here is not read).
-    let first = fragments.first().map(|f| f.gradients);
-    let mut same = true;
-    for (lane, f) in fragments[..n].iter().enumerate() {
-        same &= first.is_some_and(|g| std::ptr::eq(f.gradients, g));
-        (ox[lane], oy[lane]) = (-((f.x & 1) as f32), -((f.y & 1) as f32));
-        inv_w[lane] = f.inv_w;
-    }
     // A batch of one triangle's fragments (most, where triangles cover
     // more than a batch's pixels in a tile): its gradients once, as splats.
-    if let Some(g) = first.filter(|_| same) {
+    let first = fragments.first().map(|f| f.gradients);
+    if let Some(g) = first.filter(|&g| fragments[..n].iter().all(|f| std::ptr::eq(f.gradients, g))) {
         let m = (g.len() / 2).saturating_sub(1);
         if 4 * k + 1 >= m {
             one_lane[..n].fill(true);
         } else {
+            for (lane, f) in fragments[..n].iter().enumerate() {
+                (ox[lane], oy[lane]) = (-((f.x & 1) as f32), -((f.y & 1) as f32));
+                inv_w[lane] = f.inv_w;
+            }
             // The coordinates' rows copied where the varyings are stored by component.
             for (lanes, c) in [(&mut u, 4 * k), (&mut v, 4 * k + 1)] {
                 match varyings.row(c, n) {
@@ -188,10 +181,8 @@ pub(crate) fn quad_lod_lanes<const N: usize>(
                 (gvx, 8 * k + 2),
                 (gvy, 8 * k + 3),
             ];
-            // Every lane (a fixed length: vector stores; the levels of
-            // detail of the lanes past `n` are computed and not used).
             for (lanes, at) in splats {
-                lanes.fill(g[at]);
+                lanes[..n].fill(g[at]);
             }
         }
     } else {
@@ -202,6 +193,9 @@ pub(crate) fn quad_lod_lanes<const N: usize>(
                 one_lane[lane] = true;
                 continue;
             }
+            // Offsets of the quad's top-left pixel from this one.
+            (ox[lane], oy[lane]) = (-((f.x & 1) as f32), -((f.y & 1) as f32));
+            inv_w[lane] = f.inv_w;
             (u[lane], v[lane]) = (varyings.get(lane, 4 * k), varyings.get(lane, 4 * k + 1));
             (gq[0][lane], gq[1][lane]) = (g[2 * m], g[2 * m + 1]);
             (gu[0][lane], gu[1][lane], gv[0][lane], gv[1][lane]) =

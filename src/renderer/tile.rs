@@ -312,7 +312,7 @@ fn raster_tile_batched(
     setup: &PassSetup,
 ) -> DrawStats {
     #[cfg(target_arch = "x86_64")]
-    if crate::renderer::has_vector_features() {
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
         // SAFETY: the CPU has the features the function is compiled for.
         return unsafe { raster_tile_batched_avx2(tile, rect, bin, pass, setup) };
     }
@@ -320,13 +320,9 @@ fn raster_tile_batched(
 }
 
 /// [`raster_tile_batched`] compiled for 8-lane vectors (the same values:
-/// no operation is contracted into a fused one) and with `popcnt` and BMI
-/// ([`crate::renderer::has_vector_features`]): the lane masks' counts in
-/// [`first_bits`] and the batch's taken lanes are one instruction each,
-/// where without them they were a dozen shifts and masks (~1.5 % of a
-/// frame's samples, BENCHMARKS.md, exec14).
+/// no operation is contracted into a fused one).
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
+#[target_feature(enable = "avx2,fma")]
 unsafe fn raster_tile_batched_avx2(
     tile: &mut TileBuffers,
     rect: (i32, i32, i32, i32),

@@ -518,8 +518,7 @@ impl FragmentProgram<'_> {
 }
 
 /// Runs the ops over the registers `r`: with AVX2 and FMA where the CPU
-/// has them (the same code compiled for 8-lane vectors, with the bit
-/// instructions of [`crate::renderer::has_vector_features`]), else as built.
+/// has them (the same code compiled for 8-lane vectors), else as built.
 /// Each lane's fate and colour go to `outputs` ([`FragmentProgram::lane_outputs`]).
 fn run(
     p: &FragmentProgram,
@@ -530,7 +529,7 @@ fn run(
     outputs: (&mut [[f32; 4]], &mut [FragmentResult]),
 ) {
     #[cfg(target_arch = "x86_64")]
-    if crate::renderer::has_vector_features() {
+    if std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma") {
         // SAFETY: the CPU has the features the function is compiled for.
         unsafe { run_avx2(p, lp, r, batch, shared, outputs) };
         return;
@@ -539,7 +538,7 @@ fn run(
 }
 
 #[cfg(target_arch = "x86_64")]
-#[target_feature(enable = "avx2,fma,popcnt,bmi1,bmi2,lzcnt")]
+#[target_feature(enable = "avx2,fma")]
 unsafe fn run_avx2(
     p: &FragmentProgram,
     lp: &LaneProgram,
