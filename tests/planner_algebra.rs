@@ -1476,6 +1476,32 @@ fn a_scale_over_lights_summed_inside_delta_stays_outside_the_interpolants() {
     }
 }
 
+/// `C·lerp(δl₀₁ + T2 + δl₀₂, (δ pair).r + δl₀, 0.2)` (lights ×0.3, ×0.6,
+/// ×0.6) planned exactly as written on geforce256, geforce3 and
+/// multitexture and fell back per vertex multiplied out: its seven terms'
+/// sum is below 2 channel by channel (what a temporary holds halved), but
+/// `ir::valid` followed channels only four operations down, and below
+/// that the partial sum's hull — red's bound in every channel — was added
+/// to the green terms. Each node now keeps its channels. The finer
+/// verdict's counterexample at 5 000 cases.
+#[test]
+fn a_long_multiplied_out_sum_is_bounded_channel_by_channel() {
+    let c = lerp(
+        add(add(Colour::Lights(3, 3), Colour::Texture(2)), Colour::Lights(5, 6)),
+        add(Colour::Channel(0), Colour::Lights(1, 6)),
+        Some(2),
+    );
+    let decls = declarations(&c);
+    let original = format!("{decls}{}", Written::Multiplied.statement(&written(&c)));
+    let multiplied = format!("{decls}{}", Written::Multiplied.statement(&expanded(&c)));
+    for target in ["geforce256", "geforce3", "multitexture"] {
+        for source in [&original, &multiplied] {
+            assert_eq!(fine_verdict(source, target), Verdict::Exact, "{target}:\n{source}");
+        }
+    }
+    plans_and_renders_its_meaning(&multiplied, "geforce3", &scene("kilgard_torus.ron"));
+}
+
 /// Kilgard's self-shadowing term blending two maps, `lerp(Night·0.3, Day,
 /// saturate(4·(N·L) + 0.5))`: `4·(N·L)` leaves [−1, 1] before the 0.5
 /// brings it back, so the combiners refused it per fragment and the term
@@ -1501,4 +1527,32 @@ C δπx ← lerp(Night δu x * 0.3, Day δu x, k δ s x);
         let rules: Vec<&str> = planned.plan.approximations.iter().map(|a| a.rule.as_str()).collect();
         assert!(rules.iter().all(|r| *r == "range_compression"), "{target}: {rules:?}");
     }
+}
+
+/// `c` written `how` plans exactly on `target` both as written and
+/// multiplied out (the property's finer verdict, for one program).
+fn both_exact(c: &Colour, how: Written, target: &str) {
+    let decls = declarations(c);
+    let original = format!("{decls}{}", how.statement(&written(c)));
+    let multiplied = format!("{decls}{}", how.statement(&expanded(c)));
+    let (a, b) = (fine_verdict(&original, target), fine_verdict(&multiplied, target));
+    assert!(
+        a == Verdict::Exact && b == Verdict::Exact,
+        "{target}: as written {a:?}, multiplied out {b:?}\n{original}\n{multiplied}"
+    );
+}
+
+/// `C·(mix(T0, δl₀₂·0.8, a) + δl₀₁·0.3)` on multitexture: exact as written
+/// (the lerp read back around `0.8·δl₀`, the rest merged into one δ,
+/// through a halved temporary), and approximated per vertex multiplied
+/// out, `T0·(1 − a) + 0.8·δl₀·a + 0.8·δl₂·a + 0.3·δl₀ + 0.3·δl₁`: that
+/// value is its own multiplied-out form with its constants outside the
+/// interpolants, so that form (`None`, the same value) was never factored
+/// or merged — only the one with the constants moved into the δs, whose
+/// lerp `mix(T0, δ(0.8·l₀), a)` does not halve into the temporary. The
+/// value itself is now factored and merged as that form would be.
+#[test]
+fn a_sum_multiplied_out_by_hand_is_factored_as_written() {
+    let c = add(lerp(Colour::Texture(0), Colour::Lights(5, 8), None), Colour::Lights(3, 3));
+    both_exact(&c, Written::Multiplied, "multitexture");
 }

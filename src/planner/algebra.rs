@@ -131,7 +131,15 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
         let kept = multiplied_out(m, base, max_terms, true, false)
             .filter(|k| Some(*k) != expanded && Some(*k) != apart);
         push(&mut out, kept, "multiplied out");
-        for sum in [expanded.unwrap_or(base)].into_iter().chain(apart).chain(kept) {
+        // And the value itself, a sum multiplied out with its constants
+        // outside its δs (its `kept` form, `None`), factored and merged.
+        let sum_inside = match m.exprs[base] {
+            Expr::Convert { value, to: Ty::Rgba } => value,
+            _ => base,
+        };
+        let itself =
+            (expanded.is_some() && kept.is_none() && sum_terms(m, sum_inside).len() > 1).then_some(base);
+        for sum in [expanded.unwrap_or(base)].into_iter().chain(apart).chain(kept).chain(itself) {
             factored_forms(m, sum, &mut |v, what| push(&mut out, v, what));
             // And factored after its interpolants are merged around the
             // cofactor they share: `δa·(1 − f) + δb·(1 − f) + T·f` reads
