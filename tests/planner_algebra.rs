@@ -1389,6 +1389,65 @@ fn a_constant_scale_is_taken_out_of_a_sum_and_applied_last() {
     verdicts_agree(&c, Written::Multiplied, "multitexture");
 }
 
+/// `C·(4·lerp(T4, T3, 0.7))` multiplied out, `1.2·T4 + 2.8·T3`: its
+/// greatest coefficient taken out leaves `0.43·T4 + T3`, up to 1.43, which
+/// no lerp reads back, so the verdict depended on how the program was
+/// written. The hardware's scale 4, or the coefficients' sum (the same
+/// here), leaves `0.3·T4 + 0.7·T3`, the lerp as written
+/// (`algebra::factored::scales_taken_out`). Found at 5 000 cases, seed 7.
+#[test]
+fn a_hardware_scale_is_taken_out_of_a_sum_when_the_greatest_coefficient_is_not_one() {
+    let c = mul(Colour::Number(40), lerp(Colour::Texture(4), Colour::Texture(3), Some(7)));
+    fine_verdicts_agree(&c, Written::Multiplied);
+}
+
+/// Lights inside δ scaled past 1, `C·(3·δ(0.4·(l₀ + l₂))·T4)`: multiplied
+/// out each light's coefficient is 1.2, and with it taken out the lights
+/// merge back into one δ up to 1.3 (green), past what an 8-bit
+/// interpolant holds, so multitexture fell back per vertex where the
+/// program as written is exact. With 2 taken out (a hardware scale) the
+/// merged δ is `δ(0.6·(l₀ + l₂))`, within [0, 1]. So too `C·(2·δ(0.7·(l₀
+/// + l₁))·T3³)`, and `C·(0.8·4·δ(0.6·(l₀ + l₁)))` and `C·(4·δ(0.6·(l₀ +
+/// l₁))·T3)` (4, or the coefficients' sum). Found at 5 000 cases, seeds
+/// 7, 1 and 200.
+#[test]
+fn a_hardware_scale_taken_out_leaves_the_lights_merged_in_one_interpolant() {
+    let t3 = || Colour::Texture(3);
+    for c in [
+        mul(Colour::Number(30), mul(Colour::Lights(5, 4), Colour::Texture(4))),
+        mul(mul(Colour::Number(20), Colour::Lights(3, 7)), mul(mul(t3(), t3()), t3())),
+        mul(Colour::Number(8), mul(Colour::Number(40), Colour::Lights(3, 6))),
+        mul(Colour::Number(40), mul(Colour::Lights(3, 6), t3())),
+    ] {
+        fine_verdicts_agree(&c, Written::Multiplied);
+    }
+}
+
+/// `4·mix((δ p).r, 0.3·(δ p).g, a)`, two channels of one interpolated
+/// tuple: multiplied out with 4 taken out, the 0.3 left went into a δ of
+/// its own, `δ(0.3·p.g)`, a second interpolant, and the statement was
+/// refused on geforce256 and geforce3 where as written it is exact. The
+/// constant is also kept outside the δ (`algebra::factored::scaled_by`).
+/// Found at 5 000 cases, seed 1.
+#[test]
+fn a_scale_taken_out_keeps_a_tuple_channels_constant_outside_its_delta() {
+    let c =
+        mul(Colour::Number(40), lerp(Colour::Channel(0), mul(Colour::Number(3), Colour::Channel(1)), None));
+    fine_verdicts_agree(&c, Written::Replace);
+}
+
+/// `c` written `how` gets the same finer verdict (exact, approximated,
+/// refused) as written and multiplied out on every target.
+fn fine_verdicts_agree(c: &Colour, how: Written) {
+    let decls = declarations(c);
+    let original = format!("{decls}{}", how.statement(&written(c)));
+    let multiplied = format!("{decls}{}", how.statement(&expanded(c)));
+    for target in TARGETS {
+        let (a, b) = (fine_verdict(&original, target), fine_verdict(&multiplied, target));
+        assert_eq!(a, b, "{target}: as written {a:?}, multiplied out {b:?}\n{original}\n{multiplied}");
+    }
+}
+
 /// `exposure·tint·(2·Det)·δp`, a held-out program's statement with its
 /// exposure declared a colour: on multitexture `2·Det` leaves [0, 1] at
 /// its own stage, which the texture environment clamps, so it took two
