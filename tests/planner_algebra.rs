@@ -1411,10 +1411,10 @@ fn a_hardware_scale_is_taken_out_of_a_sum_when_the_greatest_coefficient_is_not_o
 /// merge back into one δ up to 1.3 (green), past what an 8-bit
 /// interpolant holds, so multitexture fell back per vertex where the
 /// program as written is exact. With 2 taken out (a hardware scale) the
-/// merged δ is `δ(0.6·(l₀ + l₂))`, within [0, 1]. So too `C·(2·δ(0.7·(l₀
-/// + l₁))·T3³)`, and `C·(0.8·4·δ(0.6·(l₀ + l₁)))` and `C·(4·δ(0.6·(l₀ +
-/// l₁))·T3)` (4, or the coefficients' sum). Found at 5 000 cases, seeds
-/// 7, 1 and 200.
+/// merged δ is `δ(0.6·(l₀ + l₂))`, within [0, 1]. So too
+/// `C·(2·δ(0.7·(l₀ + l₁))·T3³)`, and `C·(0.8·4·δ(0.6·(l₀ + l₁)))` and
+/// `C·(4·δ(0.6·(l₀ + l₁))·T3)` (4, or the coefficients' sum). Found at
+/// 5 000 cases, seeds 7, 1 and 200.
 #[test]
 fn a_hardware_scale_taken_out_leaves_the_lights_merged_in_one_interpolant() {
     let t3 = || Colour::Texture(3);
