@@ -565,9 +565,19 @@ pub struct ExprInfo {
     pub ty: Ty,
     pub freq: Frequency,
     pub interval: Interval,
+    /// The range of each channel (a scalar's interval in all four), each
+    /// within `interval`: where a colour's channels differ (a constant
+    /// colour times a cosine), a sum of such terms is bounded channel by
+    /// channel, however many terms it has (`valid::infer`).
+    pub channels: [Interval; 4],
 }
 
 impl ExprInfo {
+    /// A node's info with its interval in every channel.
+    pub fn new(ty: Ty, freq: Frequency, interval: Interval) -> ExprInfo {
+        ExprInfo { ty, freq, interval, channels: [interval; 4] }
+    }
+
     /// The register range the node's values fit.
     pub fn range(&self) -> Range {
         self.interval.class()

@@ -173,10 +173,18 @@ fn map_monotone(a: Interval, f: impl Fn(f64) -> f64) -> Interval {
     iv(f(a.lo), f(a.hi))
 }
 
-/// Infers a node's type, frequency and interval from its operands.
+/// Infers a node's type, frequency, interval and channel ranges from its
+/// operands.
 pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
+    let mut info = infer_node(m, e)?;
+    info.channels = node_channels(m, e, &info);
+    Ok(info)
+}
+
+/// [`infer`] but for the channel ranges (the node's interval in each).
+fn infer_node(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
     let info = |h: &super::Handle<Expr>| *m.info(*h);
-    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let out = |ty, freq, interval| Ok(ExprInfo::new(ty, freq, interval));
     match e {
         Expr::Constant(c) => {
             let v = c.values();
@@ -250,7 +258,7 @@ pub fn infer(m: &Module, e: &Expr) -> Result<ExprInfo, TypeError> {
 /// `δ`: a per-vertex value, interpolated once.
 fn interpolate(m: &Module, value: Handle<Expr>, to: Frequency) -> Result<ExprInfo, TypeError> {
     let info = |h: Handle<Expr>| *m.info(h);
-    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let out = |ty, freq, interval| Ok(ExprInfo::new(ty, freq, interval));
     let v = info(value);
     if v.freq.is_sample() {
         return Err(err(
@@ -271,7 +279,7 @@ fn interpolate(m: &Module, value: Handle<Expr>, to: Frequency) -> Result<ExprInf
 /// Negation of a number, or `not` of a condition.
 fn unary(m: &Module, op: UnaryOp, value: Handle<Expr>) -> Result<ExprInfo, TypeError> {
     let info = |h: Handle<Expr>| *m.info(h);
-    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let out = |ty, freq, interval| Ok(ExprInfo::new(ty, freq, interval));
     let v = info(value);
     numeric(v.ty, "negation")?;
     match op {
@@ -299,7 +307,7 @@ fn swizzle(
     ty: Ty,
 ) -> Result<ExprInfo, TypeError> {
     let info = |h: Handle<Expr>| *m.info(h);
-    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let out = |ty, freq, interval| Ok(ExprInfo::new(ty, freq, interval));
     let v = info(value);
     numeric(v.ty, "a component selection")?;
     if let Some(&i) = pattern[..len as usize].iter().find(|&&i| i as usize >= v.ty.width()) {
@@ -313,7 +321,7 @@ fn swizzle(
     }
     // The channels read, not the hull of all (`(0.8·d, 0.6·d′, 0).g` is
     // in [0, 0.6]).
-    let c = channels_of(m, value, CHANNEL_DEPTH);
+    let c = m.info(value).channels;
     let read = pattern[..len as usize].iter().map(|&i| c[(i as usize).min(3)]).reduce(hull);
     out(ty, v.freq, read.unwrap_or(v.interval))
 }
@@ -355,7 +363,7 @@ fn component_missing(ty: Ty, i: usize) -> TypeError {
 /// A widening conversion: rgb to rgba (alpha 1), a scalar splatted, or to its own type.
 fn convert(m: &Module, value: Handle<Expr>, to: Ty) -> Result<ExprInfo, TypeError> {
     let info = |h: Handle<Expr>| *m.info(h);
-    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let out = |ty, freq, interval| Ok(ExprInfo::new(ty, freq, interval));
     let v = info(value);
     let ok = (v.ty == Ty::Rgb && to == Ty::Rgba) || (v.ty == Ty::Scalar && to.is_numeric()) || v.ty == to;
     if !ok {
@@ -368,7 +376,7 @@ fn convert(m: &Module, value: Handle<Expr>, to: Ty) -> Result<ExprInfo, TypeErro
 
 /// A shading vector: per vertex or per texel, a unit direction unless its kind says otherwise.
 fn shading_vector(m: &Module, vector: VectorId, site: Site) -> Result<ExprInfo, TypeError> {
-    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let out = |ty, freq, interval| Ok(ExprInfo::new(ty, freq, interval));
     let freq = match site {
         Site::Vertex(_) => Frequency::Vertex,
         Site::Texel => Frequency::Texel,
@@ -410,7 +418,7 @@ fn coordinates_help(kind: TextureKind, want: Ty, name: &str, colour: bool) -> St
 
 fn lookup(m: &Module, texture: TextureId, coords: Handle<Expr>) -> Result<ExprInfo, TypeError> {
     let info = |h: Handle<Expr>| *m.info(h);
-    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let out = |ty, freq, interval| Ok(ExprInfo::new(ty, freq, interval));
     let t = &m.textures[texture as usize];
     let c = info(coords);
     let want = coord_type(t.kind);
@@ -436,7 +444,7 @@ fn framebuffer_read(
     position: Handle<Expr>,
 ) -> Result<ExprInfo, TypeError> {
     let info = |h: Handle<Expr>| *m.info(h);
-    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let out = |ty, freq, interval| Ok(ExprInfo::new(ty, freq, interval));
     let p = info(position);
     let name = &m.framebuffers[framebuffer as usize].name;
     if p.ty != Ty::Position {
@@ -487,7 +495,7 @@ fn combine(
     rhs: Handle<Expr>,
 ) -> Result<ExprInfo, TypeError> {
     let info = |h: Handle<Expr>| *m.info(h);
-    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let out = |ty, freq, interval| Ok(ExprInfo::new(ty, freq, interval));
     let (a, b) = (info(lhs), info(rhs));
     for t in [a.ty, b.ty] {
         if !matches!(t, Ty::Scalar | Ty::Rgb | Ty::Rgba) {
@@ -523,7 +531,7 @@ fn combine(
 /// A vector from components, whose widths must add up to its own.
 fn compose(m: &Module, ty: Ty, components: &[Handle<Expr>]) -> Result<ExprInfo, TypeError> {
     let info = |h: Handle<Expr>| *m.info(h);
-    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let out = |ty, freq, interval| Ok(ExprInfo::new(ty, freq, interval));
     let mut width = 0;
     let mut interval: Option<Interval> = None;
     for c in components {
@@ -551,7 +559,7 @@ fn select(
     reject: Option<Handle<Expr>>,
 ) -> Result<ExprInfo, TypeError> {
     let info = |h: Handle<Expr>| *m.info(h);
-    let out = |ty, freq, interval| Ok(ExprInfo { ty, freq, interval });
+    let out = |ty, freq, interval| Ok(ExprInfo::new(ty, freq, interval));
     let c = info(cond);
     if c.ty != Ty::Scalar {
         return Err(err(
@@ -597,7 +605,7 @@ fn refine(m: &Module, op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr>, info: 
             Interval::SIGNED
         }
         BinaryOp::Add | BinaryOp::Sub | BinaryOp::Mul if matches!(info.ty, Ty::Rgb | Ty::Rgba | Ty::Vec3) => {
-            let c = channels(m, op, lhs, rhs, CHANNEL_DEPTH);
+            let c = channels(m, op, lhs, rhs);
             let hull = c[..info.ty.width()].iter().copied().reduce(hull).unwrap_or(info.interval);
             iv(hull.lo.max(info.interval.lo), hull.hi.min(info.interval.hi))
         }
@@ -618,18 +626,15 @@ fn square(i: Interval) -> Interval {
     }
 }
 
-/// How deep [`channels`] looks below a node: a colour's channels are
-/// usually fixed a few operations down (a constant colour times a
-/// cosine), and the walk must stay cheap on every node appended.
-const CHANNEL_DEPTH: u32 = 4;
-
 /// The range of each channel of `lhs op rhs`: the hull over the channels
 /// loses what they differ in — `(0.9, 0.4, 0.3)·d + (0.3, 0.9, 0.4)·d′`
 /// is at most 1.3 in each channel, where the hulls give 1.8 — and a sum
 /// of lights in one shader (GL's per-vertex lighting) is refused for a
-/// bound it never reaches.
-fn channels(m: &Module, op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr>, depth: u32) -> [Interval; 4] {
-    let (a, b) = (channels_of(m, lhs, depth), channels_of(m, rhs, depth));
+/// bound it never reaches. Each operand's channels are its own
+/// ([`ExprInfo::channels`], found when it was appended), so a sum of many
+/// terms keeps them however deep it is.
+fn channels(m: &Module, op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr>) -> [Interval; 4] {
+    let (a, b) = (m.info(lhs).channels, m.info(rhs).channels);
     std::array::from_fn(|i| match op {
         BinaryOp::Add => add(a[i], b[i]),
         BinaryOp::Sub => add(a[i], neg(b[i])),
@@ -637,30 +642,29 @@ fn channels(m: &Module, op: BinaryOp, lhs: Handle<Expr>, rhs: Handle<Expr>, dept
     })
 }
 
-/// The range of each channel of `h` (a scalar's in all four), looking
-/// `depth` operations down; the node's own interval where it stops.
-fn channels_of(m: &Module, h: Handle<Expr>, depth: u32) -> [Interval; 4] {
-    let info = m.info(h);
+/// The range of each channel of node `e` (a scalar's in all four) from
+/// its operands' channels; the node's own interval in each where the
+/// operation mixes channels or is not followed.
+fn node_channels(m: &Module, e: &Expr, info: &ExprInfo) -> [Interval; 4] {
     let splat = [info.interval; 4];
-    // A constant's channels are known at any depth (a leaf: no walk).
-    if let (Expr::Constant(c), false) = (&m.exprs[h], info.ty.width() == 1) {
+    // A constant's channels are known (a leaf).
+    if let (Expr::Constant(c), false) = (e, info.ty.width() == 1) {
         return std::array::from_fn(|i| Interval::point(c.components[i]));
     }
-    if depth == 0 || info.ty.width() == 1 {
+    if info.ty.width() == 1 {
         return splat;
     }
-    let c = match &m.exprs[h] {
-        Expr::Constant(c) => std::array::from_fn(|i| Interval::point(c.components[i])),
-        Expr::Interpolate { value, .. } => channels_of(m, *value, depth - 1),
+    let c = match e {
+        Expr::Interpolate { value, .. } => m.info(*value).channels,
         Expr::Binary { op: op @ (BinaryOp::Add | BinaryOp::Sub | BinaryOp::Mul), lhs, rhs } => {
-            channels(m, *op, *lhs, *rhs, depth - 1)
+            channels(m, *op, *lhs, *rhs)
         }
         Expr::Convert { value, to: Ty::Rgba } if m.info(*value).ty == Ty::Rgb => {
-            let c = channels_of(m, *value, depth - 1);
+            let c = m.info(*value).channels;
             [c[0], c[1], c[2], Interval::point(1.0)]
         }
         Expr::Swizzle { value, pattern, .. } => {
-            let c = channels_of(m, *value, depth - 1);
+            let c = m.info(*value).channels;
             std::array::from_fn(|i| c[(pattern[i] as usize).min(3)])
         }
         Expr::Compose { components, .. } => {
@@ -668,7 +672,7 @@ fn channels_of(m: &Module, h: Handle<Expr>, depth: u32) -> [Interval; 4] {
             let mut i = 0;
             for part in components {
                 let w = m.info(*part).ty.width();
-                let c = channels_of(m, *part, depth - 1);
+                let c = m.info(*part).channels;
                 let n = w.min(4 - i.min(4));
                 out[i.min(4)..i.min(4) + n].copy_from_slice(&c[..n]);
                 i += w;
@@ -731,7 +735,7 @@ fn binary(_m: &Module, op: BinaryOp, a: ExprInfo, b: ExprInfo) -> Result<ExprInf
     numeric(a.ty, "an operation")?;
     numeric(b.ty, "an operation")?;
     let freq = join(a.freq, b.freq)?;
-    let done = |ty, interval| Ok(ExprInfo { ty, freq, interval });
+    let done = |ty, interval| Ok(ExprInfo::new(ty, freq, interval));
     match op {
         Dot => {
             if a.ty.width() != b.ty.width() || !a.ty.is_numeric() {
@@ -858,7 +862,7 @@ fn math(m: &Module, fun: MathFunction, args: &[super::Handle<Expr>]) -> Result<E
     }
     let freq = join_all(m, args)?;
     let a = infos[0];
-    let done = |ty, interval| Ok(ExprInfo { ty, freq, interval });
+    let done = |ty, interval| Ok(ExprInfo::new(ty, freq, interval));
     let vec3ish = |t: Ty| t.width() == 3;
     match fun {
         Normalize => {

@@ -67,10 +67,10 @@ const MERGED: &str = "with sums of interpolants merged into one δ";
 /// reason.
 const SCALED: &str = "with its constant scale applied last";
 
-/// The forms of a multiplied-out `sum` with its greatest constant
-/// coefficient past 1 taken out and applied last
-/// ([`factored::scale_taken_out`]): the sum inside as it is and in its
-/// factored forms, each times the scale (under `sum`'s rgba widening).
+/// The forms of a multiplied-out `sum` with a constant scale past 1
+/// taken out and applied last ([`factored::scales_taken_out`]): the sum
+/// inside as it is and in its factored forms, each times the scale (under
+/// `sum`'s rgba widening).
 fn scaled_forms(m: &mut Module, sum: Handle<Expr>) -> Vec<Handle<Expr>> {
     let (value, widened) = match m.exprs[sum] {
         Expr::Convert { value, to: Ty::Rgba } if matches!(m.info(value).ty, Ty::Rgb | Ty::Vec3) => {
@@ -78,18 +78,21 @@ fn scaled_forms(m: &mut Module, sum: Handle<Expr>) -> Vec<Handle<Expr>> {
         }
         _ => (sum, false),
     };
-    let Some((inner, k)) = factored::scale_taken_out(m, value) else { return Vec::new() };
-    let mut found = vec![Some(inner)];
-    factored_forms(m, inner, &mut |v, _| found.push(v));
     let span = m.span(sum);
     let mut out = Vec::new();
-    for v in found.into_iter().flatten() {
-        let scaled = binary(m, BinaryOp::Mul, v, k, span);
-        let w = match (scaled, widened) {
-            (Some(s), true) => node(m, Expr::Convert { value: s, to: Ty::Rgba }, span),
-            (s, _) => s,
-        };
-        out.extend(w.filter(|w| m.info(*w).ty == m.info(sum).ty));
+    for (inner, k) in factored::scales_taken_out(m, value) {
+        let mut found = vec![Some(inner)];
+        factored_forms(m, inner, &mut |v, _| found.push(v));
+        for v in found.into_iter().flatten() {
+            let scaled = binary(m, BinaryOp::Mul, v, k, span);
+            let w = match (scaled, widened) {
+                (Some(s), true) => node(m, Expr::Convert { value: s, to: Ty::Rgba }, span),
+                (s, _) => s,
+            };
+            if let Some(w) = w.filter(|w| m.info(*w).ty == m.info(sum).ty && !out.contains(w)) {
+                out.push(w);
+            }
+        }
     }
     out
 }
@@ -131,7 +134,15 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
         let kept = multiplied_out(m, base, max_terms, true, false)
             .filter(|k| Some(*k) != expanded && Some(*k) != apart);
         push(&mut out, kept, "multiplied out");
-        for sum in [expanded.unwrap_or(base)].into_iter().chain(apart).chain(kept) {
+        // And the value itself, a sum multiplied out with its constants
+        // outside its δs (its `kept` form, `None`), factored and merged.
+        let sum_inside = match m.exprs[base] {
+            Expr::Convert { value, to: Ty::Rgba } => value,
+            _ => base,
+        };
+        let itself =
+            (expanded.is_some() && kept.is_none() && sum_terms(m, sum_inside).len() > 1).then_some(base);
+        for sum in [expanded.unwrap_or(base)].into_iter().chain(apart).chain(kept).chain(itself) {
             factored_forms(m, sum, &mut |v, what| push(&mut out, v, what));
             // And factored after its interpolants are merged around the
             // cofactor they share: `δa·(1 − f) + δb·(1 − f) + T·f` reads

@@ -857,6 +857,13 @@ fn plan_run(
             };
             let Some(value) = value else { continue };
             fused[i] = Some((j, value));
+            // A pair fused in an equivalent form only where the second
+            // statement alone did not plan as written (cheap where
+            // programs fit): refused, or planned only in a form of its
+            // own, whose passes the fused pass then competes with on cost
+            // — a rewrite never costs the pair its fusion.
+            let fused_forms =
+                stmts.len() == 2 && (best[j].is_none() || notes.rewrites.contains_key(&run[j - 1]));
             let (form, pieces) = match planned_or_rewritten(
                 m,
                 profile,
@@ -866,9 +873,7 @@ fn plan_run(
                 &stmts,
                 value,
                 &mut notes.rewrites,
-                // A pair fused in an equivalent form only where the second
-                // statement alone did not plan: cheap where programs fit.
-                stmts.len() == 2 && best[j].is_none(),
+                fused_forms,
             ) {
                 Ok(planned) => planned,
                 Err(Err(refusal)) => {

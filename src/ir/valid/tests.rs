@@ -45,6 +45,20 @@ fn coloured_lights_summed_are_bounded_channel_by_channel() {
     assert!((g.hi - 0.6).abs() < 1e-9, "{g:?}");
 }
 
+/// Channel ranges at any depth: a sum of seven coloured terms, three red
+/// then four green, is at most 0.9 (red) — each node keeps its channels,
+/// where a walk four operations down met the three red terms' sum as its
+/// hull, 0.9 in every channel, and gave 0.9 + 0.8 in green.
+#[test]
+fn a_long_sum_of_coloured_terms_is_bounded_channel_by_channel() {
+    let decl = "vector N : normal;\nvector L0 : light(0);\n";
+    let red = vec!["(0.3, 0, 0) * max(0, N·L0)"; 3];
+    let green = vec!["(0, 0.2, 0) * max(0, N·L0)"; 4];
+    let sum = [red, green].concat().join(" + ");
+    let range = statement_range(&format!("{decl}shader l : s → c = {sum};\nC δπx ← δ l s x;\n"));
+    assert!((range.hi - 0.9).abs() < 1e-9 && range.lo == 0.0, "{range:?}");
+}
+
 #[test]
 fn frequencies_join_up_to_one_sample_frequency() {
     assert_eq!(Constant.join(Uniform), Some(Uniform));

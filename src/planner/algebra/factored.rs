@@ -419,31 +419,74 @@ pub fn factor_nth(m: &mut Module, h: Handle<Expr>, nth: usize) -> Option<Handle<
     (m.info(out).ty == m.info(h).ty && out != h).then_some(out)
 }
 
-/// A sum of products with its greatest constant coefficient `k > 1`
-/// taken out, `Σ cᵢ·tᵢ` = `(Σ (cᵢ/k)·tᵢ)·k`: each term's remaining
-/// constant moved into its δ where the interpolant stays in [0, 1]
-/// (`2·T0·(1 − a) + 1.2·δl·(1 − a)·a + 2·T5·a²` is `(T0·(1 − a) +
-/// δ(0.6·l)·(1 − a)·a + T5·a²)·2`, whose lerps read back as
-/// `mix(T0, mix(δ(0.6·l), T5, a), a)`), so that the scale is applied
-/// last — a blender's 2× or a texture environment's last stage — where
-/// a constant past 1 inside a term would leave [0, 1] mid-product and be
-/// clamped there. The sum inside and `k`; `None` without a coefficient
-/// past 1.
-pub fn scale_taken_out(m: &mut Module, h: Handle<Expr>) -> Option<(Handle<Expr>, Handle<Expr>)> {
-    let terms = super::expansion(m, h, super::MAX_TERMS)?;
+/// A sum of products with a constant scale `k > 1` taken out, `Σ cᵢ·tᵢ`
+/// = `(Σ (cᵢ/k)·tᵢ)·k`: each term's remaining constant moved into its δ
+/// where the interpolant stays in [0, 1] (`2·T0·(1 − a) + 1.2·δl·(1 −
+/// a)·a + 2·T5·a²` is `(T0·(1 − a) + δ(0.6·l)·(1 − a)·a + T5·a²)·2`,
+/// whose lerps read back as `mix(T0, mix(δ(0.6·l), T5, a), a)`), so that
+/// the scale is applied last — a blender's 2× or a texture environment's
+/// last stage — where a constant past 1 inside a term would leave [0, 1]
+/// mid-product and be clamped there. The scales tried, where the greatest
+/// coefficient is past 1: that coefficient; the hardware's scales, 2 and
+/// 4, not below it (the combiners' and the texture
+/// environment's output scales, NVIDIA 1999; OpenGL 1.3, Section 3.8.13);
+/// and the coefficients' sum, which leaves a convex combination inside
+/// (`1.2·T4 + 2.8·T3`, `4·lerp(T4, T3, 0.7)` multiplied out, is `(0.3·T4 +
+/// 0.7·T3)·4`, a lerp again, where 2.8 taken out leaves `0.43·T4 + T3`,
+/// up to 1.43). Each as the sum inside and `k`, without repeats; none
+/// without a coefficient past 1.
+pub fn scales_taken_out(m: &mut Module, h: Handle<Expr>) -> Vec<(Handle<Expr>, Handle<Expr>)> {
+    let Some(terms) = super::expansion(m, h, super::MAX_TERMS) else { return Vec::new() };
     let scalar = |m: &Module, f: Handle<Expr>| match &m.exprs[f] {
         Expr::Constant(c) if c.ty == Ty::Scalar => Some(c.components[0]),
         _ => None,
     };
     let coefficient =
         |m: &Module, t: &[Handle<Expr>]| t.iter().filter_map(|f| scalar(m, *f)).product::<f64>();
-    let k = terms.iter().map(|t| coefficient(m, t)).fold(f64::MIN, f64::max);
-    if terms.len() < 2 || k <= 1.0 || terms.iter().any(|t| coefficient(m, t) <= 0.0) {
-        return None;
+    let greatest = terms.iter().map(|t| coefficient(m, t)).fold(f64::MIN, f64::max);
+    if terms.len() < 2 || greatest <= 1.0 || terms.iter().any(|t| coefficient(m, t) <= 0.0) {
+        return Vec::new();
     }
+    let total: f64 = terms.iter().map(|t| coefficient(m, t)).sum();
+    let hardware = [2.0, 4.0].into_iter().filter(|s| *s >= greatest);
+    let mut scales: Vec<f64> = Vec::new();
+    for k in [greatest].into_iter().chain(hardware).chain([total]) {
+        if scales.iter().all(|s| (s - k).abs() > 1e-9) {
+            scales.push(k);
+        }
+    }
+    let mut out: Vec<(Handle<Expr>, Handle<Expr>)> = Vec::new();
+    for k in scales {
+        for into_delta in [true, false] {
+            if let Some(f) = scaled_by(m, h, &terms, k, into_delta).filter(|f| !out.contains(f)) {
+                out.push(f);
+            }
+        }
+    }
+    out
+}
+
+/// [`scales_taken_out`] for one scale `k`: the sum of `terms` (of `h`)
+/// each divided by `k`, and `k`. What is left of a term's constant goes
+/// into its δ `into_delta`, else stays a factor of the term: a channel of
+/// an interpolated tuple scaled (`4·mix((δ p).r, 0.3·(δ p).g, a)`) reads
+/// the tuple's one interpolant only with its 0.3 outside.
+fn scaled_by(
+    m: &mut Module,
+    h: Handle<Expr>,
+    terms: &[Vec<Handle<Expr>>],
+    k: f64,
+    into_delta: bool,
+) -> Option<(Handle<Expr>, Handle<Expr>)> {
+    let scalar = |m: &Module, f: Handle<Expr>| match &m.exprs[f] {
+        Expr::Constant(c) if c.ty == Ty::Scalar => Some(c.components[0]),
+        _ => None,
+    };
+    let coefficient =
+        |m: &Module, t: &[Handle<Expr>]| t.iter().filter_map(|f| scalar(m, *f)).product::<f64>();
     let span = m.span(h);
     let mut sum: Option<Handle<Expr>> = None;
-    for t in &terms {
+    for t in terms {
         let c = coefficient(m, t) / k;
         let mut rest: Vec<Handle<Expr>> = t.iter().copied().filter(|f| scalar(m, *f).is_none()).collect();
         if rest.is_empty() {
@@ -452,7 +495,7 @@ pub fn scale_taken_out(m: &mut Module, h: Handle<Expr>) -> Option<(Handle<Expr>,
         if (c - 1.0).abs() > 1e-12 {
             rest.insert(0, node(m, Expr::Constant(crate::ir::Constant::scalar(c)), span)?);
         }
-        let rest = super::constants_into_delta(m, rest, span)?;
+        let rest = if into_delta { super::constants_into_delta(m, rest, span)? } else { rest };
         let mut product = rest[0];
         for f in &rest[1..] {
             product = binary(m, BinaryOp::Mul, product, *f, span)?;
