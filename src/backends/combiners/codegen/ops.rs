@@ -99,30 +99,10 @@ impl Gen<'_> {
             }
             Expr::Math { fun: MathFunction::Mix, ref args } => self.mix_spec(args, part, scalar, span)?,
             Expr::Math { fun: fun @ (MathFunction::Min | MathFunction::Max), ref args }
-                if self.two_computed(args) || self.extremum_by_clamp(fun, args) =>
+                if self.is_extremum(fun, args) =>
             {
-                // min(a, b) and max(a, b) of two computed scalars pick one by
-                // the mux: `a ≥ b` selects CD ([`Gen::compared`]); other
-                // pairs (colours, a `b` below 0) by an unsigned mapping's clamp.
-                match self.compared(args[0], args[1], span)? {
-                    Some((sel, _)) => {
-                        let (a, b) = (self.plain_term(args[0], part)?, self.plain_term(args[1], part)?);
-                        let (ab, cd) = if fun == MathFunction::Max { (b, a) } else { (a, b) };
-                        Spec { cd: Some(cd), mux: Some(sel), ..Spec::single(ab, scalar) }
-                    }
-                    None if fun == MathFunction::Max => {
-                        let Some(spec) = self.max_by_clamp(args[0], args[1], part, scalar, span)? else {
-                            return Ok(None);
-                        };
-                        spec
-                    }
-                    None => {
-                        let Some(min) = self.min_by_clamp(args[0], args[1], part, scalar, span)? else {
-                            return Ok(None);
-                        };
-                        Spec::single(Term::times_one(min), scalar)
-                    }
-                }
+                let Some(spec) = self.extremum_spec(fun, args, part, scalar, span)? else { return Ok(None) };
+                spec
             }
             Expr::Math {
                 fun: fun @ (MathFunction::Expand | MathFunction::HalfBias | MathFunction::Compress),
@@ -612,6 +592,30 @@ impl Gen<'_> {
         args.len() == 2 && args.iter().all(|&a| self.constant(a).is_none())
     }
 
+    /// min(a, b) and max(a, b) of two computed scalars pick one by the mux:
+    /// `a ≥ b` selects CD ([`Gen::compared`]); other pairs (colours, a `b`
+    /// below 0, a constant) by an unsigned mapping's clamp.
+    fn extremum_spec(
+        &mut self,
+        fun: MathFunction,
+        args: &[Handle<Expr>],
+        part: Part,
+        scalar: bool,
+        span: Span,
+    ) -> R<Option<Spec>> {
+        Ok(match self.compared(args[0], args[1], span)? {
+            Some((sel, _)) => {
+                let (a, b) = (self.plain_term(args[0], part)?, self.plain_term(args[1], part)?);
+                let (ab, cd) = if fun == MathFunction::Max { (b, a) } else { (a, b) };
+                Some(Spec { cd: Some(cd), mux: Some(sel), ..Spec::single(ab, scalar) })
+            }
+            None if fun == MathFunction::Max => self.max_by_clamp(args[0], args[1], part, scalar, span)?,
+            None => self
+                .min_by_clamp(args[0], args[1], part, scalar, span)?
+                .map(|min| Spec::single(Term::times_one(min), scalar)),
+        })
+    }
+
     /// `a − b` in a register, exact where it stays within the register's
     /// [−1, 1] on the positive side (`None` otherwise): below −1 it clamps,
     /// which the `max(0, ·)` reading it forgets anyway.
@@ -674,6 +678,13 @@ impl Gen<'_> {
         let clamped = Term::times_one(Src { map: UnsignedIdentity, ..d });
         let r = self.emit(Spec { cd: Some(clamped), ..Spec::single(inverted_b, scalar) }, span)?;
         Ok(Some(Src { map: UnsignedInvert, ..r }))
+    }
+
+    /// Whether `fun` of `args` is a `min` or `max` computed here: of two
+    /// computed values, or by a clamp with one constant.
+    pub(super) fn is_extremum(&self, fun: MathFunction, args: &[Handle<Expr>]) -> bool {
+        matches!(fun, MathFunction::Min | MathFunction::Max)
+            && (self.two_computed(args) || self.extremum_by_clamp(fun, args))
     }
 
     /// Whether `min` or `max` of `args` with one constant is left to

@@ -115,23 +115,8 @@ impl Gen<'_> {
             | Expr::Math { fun: MathFunction::Mix | MathFunction::Compress | MathFunction::Step, .. } => {
                 self.materialise(h, part, sat)
             }
-            // min and max of two computed values: the mux or a clamp
-            // (`ops::spec`); a min read through its UNSIGNED_INVERT.
-            Expr::Math { fun: MathFunction::Min, ref args }
-                if (self.two_computed(args) || self.extremum_by_clamp(MathFunction::Min, args))
-                    && !self.both_scalar_compared(args) =>
-            {
-                let scalar = self.scalar(h, part);
-                match self.min_by_clamp(args[0], args[1], part, scalar, span)? {
-                    Some(s) => Ok(s),
-                    None => self.materialise(h, part, sat),
-                }
-            }
-            Expr::Math { fun: fun @ (MathFunction::Min | MathFunction::Max), ref args }
-                if self.two_computed(args) || self.extremum_by_clamp(fun, args) =>
-            {
-                self.materialise(h, part, sat)
-            }
+            // min and max: the mux or a clamp (`extremum_src`).
+            Expr::Math { fun, ref args } if self.is_extremum(fun, args) => self.extremum_src(h, fun, args, part, sat),
             other => match self.host_constant(h) {
                 // A per-object value the combiners cannot compute
                 // (`normalize(Ld)` of a uniform direction): computed once
@@ -140,6 +125,25 @@ impl Gen<'_> {
                 None => Err(self.unsupported_node(h, &other)),
             },
         }
+    }
+
+    /// A `min` or `max` ([`Gen::extremum_spec`]); a `min` by a clamp is read
+    /// through its UNSIGNED_INVERT, no stage of its own.
+    fn extremum_src(
+        &mut self,
+        h: Handle<Expr>,
+        fun: MathFunction,
+        args: &[Handle<Expr>],
+        part: Part,
+        sat: bool,
+    ) -> R<Src> {
+        if fun == MathFunction::Min && !self.both_scalar_compared(args) {
+            let scalar = self.scalar(h, part);
+            if let Some(s) = self.min_by_clamp(args[0], args[1], part, scalar, self.m.span(h))? {
+                return Ok(s);
+            }
+        }
+        self.materialise(h, part, sat)
     }
 
     /// The value of a per-object node (constants and uniforms at their
