@@ -106,7 +106,7 @@ pub(super) type Memo = HashMap<Handle<Expr>, Option<V>>;
 /// A lookup, for its choice of λ: the texture and the coordinates' node.
 pub type LookupKey = (u32, Handle<Expr>);
 
-/// The value each mipmapped lookup takes ([`Evaluator::lod_choices`]).
+/// The value each mipmapped lookup takes (`Evaluator::lod_choices`).
 #[derive(Clone, Debug, Default)]
 pub struct LodChoices {
     /// The choice of a lookup not in `of`.
