@@ -105,6 +105,7 @@ mod three_way_new_user20;
 mod three_way_new_user21;
 mod three_way_new_user22;
 mod three_way_new_user23;
+mod three_way_new_user24;
 mod three_way_overlap;
 mod three_way_probes;
 mod vertex_programs_public;

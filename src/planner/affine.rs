@@ -104,8 +104,14 @@ impl Builder<'_> {
     }
     /// The RGB of `h` (`h` itself when it has no alpha).
     pub fn rgb(&mut self, h: Handle<Expr>) -> Option<Handle<Expr>> {
-        match self.ty(h) {
-            Ty::Rgba => self.node(Expr::Swizzle { value: h, pattern: [0, 1, 2, 0], len: 3, ty: Ty::Rgb }),
+        match (self.ty(h), &self.module.exprs[h]) {
+            (Ty::Rgba, Expr::Constant(c)) => {
+                let c = Constant::new(Ty::Rgb, &c.values()[..3]);
+                self.node(Expr::Constant(c))
+            }
+            (Ty::Rgba, _) => {
+                self.node(Expr::Swizzle { value: h, pattern: [0, 1, 2, 0], len: 3, ty: Ty::Rgb })
+            }
             _ => Some(h),
         }
     }
@@ -202,6 +208,15 @@ fn decompose(
                 // A splat keeps affinity; the coefficient stays a scalar.
                 let (m, s) = decompose(b, value, x, memo, cache)?;
                 Some((m, b.node(Expr::Convert { value: s, to })?))
+            }
+            Expr::Swizzle { value, pattern: [0, 1, 2, _], len: 3, ty: Ty::Rgb }
+                if b.ty(value) == Ty::Rgba =>
+            {
+                // `(X·m + s).rgb` is `X.rgb·m.rgb + s.rgb`: the colour of a
+                // framebuffer read (`C δπx.rgb`), as alpha blending's
+                // `(Cs − Cd)·As + Cd` writes it.
+                let (m, s) = decompose(b, value, x, memo, cache)?;
+                Some((b.rgb(m)?, b.rgb(s)?))
             }
             Expr::Convert { value, to: Ty::Rgba } if matches!(b.ty(value), Ty::Rgb | Ty::Vec3) => {
                 // `rgba(X·m + s, 1)`: X written with alpha 1, modulated by

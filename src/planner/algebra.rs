@@ -59,12 +59,10 @@ pub const MAX_TERMS: usize = 12;
 /// The canonical form, in the words of a plan's reason.
 pub const CANONICAL: &str = "with tuples read by channel, lerps and sums inside δ written out";
 
-/// A form with sums of interpolants merged into one δ, in the words of a
-/// plan's reason.
+/// A form with sums of interpolants merged into one δ, in a reason's words.
 const MERGED: &str = "with sums of interpolants merged into one δ";
 
-/// A form with its constant scale applied last, in the words of a plan's
-/// reason.
+/// A form with its constant scale applied last, in a reason's words.
 const SCALED: &str = "with its constant scale applied last";
 
 /// The forms of a multiplied-out `sum` with a constant scale past 1
@@ -440,8 +438,10 @@ fn simplify(m: &mut Module, h: Handle<Expr>, span: Span, channels: bool) -> Opti
             let product = binary(m, BinaryOp::Mul, x, y, span)?;
             node(m, Expr::Convert { value: product, to: Ty::Rgba }, span)
         }
-        Expr::Math { fun: MathFunction::Mix, args } if m.info(args[2]).ty == Ty::Scalar => {
-            // lerp(a, b, f) = a·(1 − f) + b·f (as `ir::eval` defines it).
+        Expr::Math { fun: MathFunction::Mix, args }
+            if matches!(m.info(args[2]).ty, Ty::Scalar | Ty::Rgb | Ty::Rgba) =>
+        {
+            // lerp(a, b, f) = a·(1 − f) + b·f (as `ir::eval` defines it; per channel for a colour f).
             let one = node(m, Expr::Constant(crate::ir::Constant::scalar(1.0)), span)?;
             let keep = binary(m, BinaryOp::Sub, one, args[2], span)?;
             let a = binary(m, BinaryOp::Mul, args[0], keep, span)?;

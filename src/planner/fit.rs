@@ -409,8 +409,18 @@ fn stage_result_clamped(module: &Module, value: Handle<Expr>) -> Result<(), Over
     let mut exempt = Vec::new();
     let mut roots = vec![value];
     for &h in &nodes {
-        if let Expr::Math { fun: MathFunction::Saturate, args } = &module.exprs[h] {
-            roots.extend(args.iter().copied());
+        match &module.exprs[h] {
+            Expr::Math { fun: MathFunction::Saturate, args } => roots.extend(args.iter().copied()),
+            // `a + b − ½` is one ADD_SIGNED stage (ARB_texture_env_combine):
+            // its sum, read nowhere else, is no stage's result.
+            Expr::Binary { op: BinaryOp::Sub, lhs, rhs }
+                if module.is_constant(*rhs, 0.5)
+                    && matches!(module.exprs[*lhs], Expr::Binary { op: BinaryOp::Add, .. })
+                    && nodes.iter().all(|&n| n == h || !module.exprs[n].operands().contains(lhs)) =>
+            {
+                exempt.push(*lhs);
+            }
+            _ => {}
         }
     }
     while let Some(mut root) = roots.pop() {

@@ -294,6 +294,11 @@ pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<F
             form.value = x;
             return Ok(form);
         }
+        if let Some(x) = src_alpha_choice(m, coef, offset) {
+            form.blend = BlendMode::AlphaBlend;
+            form.value = x;
+            return Ok(form);
+        }
         if uses(m, coef, ra) {
             return Err(unsupported("the framebuffer's alpha scales its own colour").with_help(MIX_HELP));
         }
@@ -384,6 +389,70 @@ fn dst_alpha_choice(
         None
     }
 }
+/// `coef·C + offset` as alpha blending, `(1 − a)·C + a·c` with `a` a
+/// scalar and `c` a colour not reading `C` (GL_SRC_ALPHA,
+/// GL_ONE_MINUS_SRC_ALPHA): the source `rgba(c, a)`. This is the
+/// PlayStation 2's `(Cs − Cd)·As + Cd` and Direct3D's `lerp(Cd, Cs, As)`
+/// multiplied out. The statement's alpha must be the destination's kept
+/// (`coef`'s alpha 1, `offset`'s 0): the blend writes colour only.
+fn src_alpha_choice(m: &mut Module, coef: Handle<Expr>, offset: Handle<Expr>) -> Option<Handle<Expr>> {
+    let Expr::Compose { ty: ir::Ty::Rgba, components: ref o } = m.exprs[offset] else { return None };
+    let [c_a, zero] = o[..] else { return None };
+    let Expr::Binary { op: BinaryOp::Mul, lhs, rhs } = m.exprs[c_a] else { return None };
+    let scalar = |h: Handle<Expr>| m.info(h).ty == ir::Ty::Scalar;
+    let (c, a) = if scalar(rhs) {
+        (lhs, rhs)
+    } else if scalar(lhs) {
+        (rhs, lhs)
+    } else {
+        return None;
+    };
+    // The colour's coefficient `1 − a`, its alpha's 1: as built, or folded
+    // into a constant where `a` is one (`(Cs − Cd)·½ + Cd`).
+    let one_minus_a = match &m.exprs[coef] {
+        Expr::Compose { ty: ir::Ty::Rgba, components: k } if k.len() == 2 => {
+            m.is_constant(k[1], 1.0) && affine_in(m, k[0], a) == Some((-1.0, 1.0))
+        }
+        Expr::Constant(k) => {
+            let q = affine_in(m, a, coef).map(|(_, q)| 1.0 - q);
+            k.ty == ir::Ty::Rgba && k.values()[3] == 1.0 && k.values()[..3].iter().all(|x| Some(*x) == q)
+        }
+        _ => false,
+    };
+    if !one_minus_a || !m.is_constant(zero, 0.0) || m.info(c).ty != ir::Ty::Rgb {
+        return None;
+    }
+    Builder { module: m }.node(Expr::Compose { ty: ir::Ty::Rgba, components: vec![c, a] })
+}
+
+/// `h = p·a + q` with constants `p`, `q` the same in every channel:
+/// `(p, q)`; `None` where `h` is built of anything but `a`, constants,
+/// sums, differences, negations, constant scales and splats.
+fn affine_in(m: &Module, h: Handle<Expr>, a: Handle<Expr>) -> Option<(f64, f64)> {
+    if h == a {
+        return Some((1.0, 0.0));
+    }
+    match &m.exprs[h] {
+        Expr::Constant(c) => {
+            let v = c.values();
+            v.iter().all(|x| *x == v[0]).then_some((0.0, v[0]))
+        }
+        Expr::Convert { value, .. } if m.info(*value).ty == ir::Ty::Scalar => affine_in(m, *value, a),
+        Expr::Unary { op: crate::ir::UnaryOp::Neg, value } => affine_in(m, *value, a).map(|(p, q)| (-p, -q)),
+        Expr::Binary { op, lhs, rhs } => {
+            let ((p1, q1), (p2, q2)) = (affine_in(m, *lhs, a)?, affine_in(m, *rhs, a)?);
+            match op {
+                BinaryOp::Add => Some((p1 + p2, q1 + q2)),
+                BinaryOp::Sub => Some((p1 - p2, q1 - q2)),
+                BinaryOp::Mul if p1 == 0.0 => Some((q1 * p2, q1 * q2)),
+                BinaryOp::Mul if p2 == 0.0 => Some((p1 * q2, q1 * q2)),
+                _ => None,
+            }
+        }
+        _ => None,
+    }
+}
+
 /// `h = ra · x` (either order): `x`.
 pub(super) fn alpha_factor(m: &Module, h: Handle<Expr>, ra: Handle<Expr>) -> Option<Handle<Expr>> {
     match m.exprs[h] {

@@ -1,0 +1,114 @@
+//! Held-out user programs of the twenty-fourth session
+//! (`tests/data/heldout_twentyfourth/`), written as a porting engineer
+//! would write the fixed-function set-ups of other hardware: the Nintendo
+//! 64's colour combiner `(A − B)·C + D` in one and two cycles, Direct3D's
+//! texture-stage operations (ADDSIGNED, ADDSIGNED2X, MODULATE4X,
+//! MODULATEALPHA_ADDCOLOR, MODULATEINVALPHA_ADDCOLOR, MULTIPLYADD, LERP),
+//! NV_texture_env_combine4's `A·B + C·D`, the PlayStation 2's alpha blend
+//! `(Cs − Cd)·As + Cd` (by the source alpha, additive, and by a fixed
+//! alpha), the first PlayStation's semi-transparency modes, the
+//! Dreamcast's MODULATE_ALPHA, the Xbox final combiner's fog and GL's
+//! separate colour and alpha combine. Each renders alike on the CPU, wgpu
+//! and the independent reference on every target its header names, and is
+//! refused where its header says
+//! (`three_way_heldout::renders_alike_everywhere_in`).
+
+use crate::three_way_heldout::{held_out_everywhere_in, program_in};
+use shadec::diag::{Diagnostic, Severity};
+
+held_out_everywhere_in!("heldout_twentyfourth":
+    combine4,
+    d3d_addsigned,
+    d3d_addsigned2x,
+    d3d_lerp3,
+    d3d_modalpha_addcolor,
+    d3d_modinvalpha_addcolor,
+    d3d_multiplyadd,
+    dc_modulate_alpha,
+    gouraud_alpha_replace,
+    modulate4x,
+    n64_env_decal,
+    n64_lerp_shade,
+    n64_prim_env,
+    n64_two_cycle,
+    ps1_quarter_add,
+    ps1_subtract,
+    ps2_additive,
+    ps2_alpha_blend,
+    ps2_fix_half,
+    xbox_final_fog,
+);
+
+/// The program of this session's folder ([`program_in`]).
+fn program(name: &str) -> String {
+    program_in("heldout_twentyfourth", name)
+}
+
+/// The diagnostics of `source` on `target` that are errors or
+/// approximations: none for a program the target computes exactly.
+fn inexact(source: &str, target: &str) -> Vec<Diagnostic> {
+    shadec::verdict::check(source, Some(target))
+        .unwrap()
+        .diagnostics
+        .into_iter()
+        .filter(|d| {
+            d.severity == Severity::Error
+                || d.code == "approximation" && !d.message.contains("`range_compression`")
+        })
+        .collect()
+}
+
+/// The blend of each pass of `source`'s plan on `target`, by name.
+fn blends(source: &str, target: &str) -> Vec<&'static str> {
+    let profile = shadec::profile::Profile::resolve(target).unwrap();
+    let judged = shadec::verdict::compile(source, &profile, &Default::default()).unwrap();
+    judged.planned.plan.passes.iter().map(|p| p.blend.name()).collect()
+}
+
+/// The PlayStation 2's `(Cs − Cd)·As + Cd` over a lit surface is GL's
+/// alpha blending (GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA) of `rgba(Cs, As)`:
+/// two passes on a GeForce 256, exact. Before, the colour read as
+/// `C δπx.rgb` hid the blend ("the framebuffer's colour is used
+/// non-linearly"), and the two statements were fused with the lit term per
+/// vertex, 10.9/255 from the meaning; with the read seen, the blend was a
+/// modulation and an addition, three passes. Also with a fixed alpha ½
+/// (the GS's FIX register), which folds into a constant coefficient.
+#[test]
+fn a_blend_by_the_source_alpha_written_as_arithmetic_is_alpha_blending() {
+    for name in ["ps2_alpha_blend", "ps2_fix_half"] {
+        let source = program(name);
+        assert_eq!(inexact(&source, "geforce256"), [], "{name}");
+        assert_eq!(blends(&source, "geforce256"), ["replace", "alpha_blend"], "{name}");
+    }
+    // A coefficient that is not one minus the added term's weight is no
+    // alpha blend: the modulation and the addition stay.
+    let other = program("ps2_fix_half").replace(") * 0.5 + C", ") * 0.5 + 0.9 * C");
+    assert_ne!(blends(&other, "geforce256").last(), Some(&"alpha_blend"), "{other}");
+}
+
+/// `lerp(a, b, f)` by a colour `f` — Direct3D's D3DTOP_LERP with the third
+/// texture a splat mask — is `a·(1 − f) + b·f` channel by channel, two
+/// passes of two texture units each on a GeForce 256. Before, only a
+/// scalar weight was written out, and the lerp of three textures was
+/// refused ("a part that cannot be divided further needs 3 texture units")
+/// though the same value written `a + (b − a)·f` planned.
+#[test]
+fn a_lerp_by_a_colour_weight_is_written_out_per_channel() {
+    let source = program("d3d_lerp3");
+    assert_eq!(inexact(&source, "geforce256"), [], "{source}");
+    assert_eq!(blends(&source, "geforce256").len(), 2);
+}
+
+/// `a + b − ½` is one ADD_SIGNED stage of the texture environment
+/// (ARB_texture_env_combine; Direct3D's D3DTOP_ADDSIGNED), which clamps
+/// only its result: a detail texture added signed plans on `multitexture`
+/// exactly, as `⊕[add_signed]` does. Before, the sum `a + b` (up to 2)
+/// was judged a stage's result the environment clamps, and refused. Any
+/// other offset is still such a sum.
+#[test]
+fn a_signed_add_written_as_arithmetic_is_one_texture_environment_stage() {
+    let source = program("d3d_addsigned");
+    assert_eq!(inexact(&source, "multitexture"), [], "{source}");
+    let quarter = source.replace("− 0.5", "− 0.25");
+    assert!(inexact(&quarter, "multitexture").iter().any(|d| d.severity == Severity::Error), "{quarter}");
+}
