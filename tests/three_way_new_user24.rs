@@ -112,3 +112,16 @@ fn a_signed_add_written_as_arithmetic_is_one_texture_environment_stage() {
     let quarter = source.replace("− 0.5", "− 0.25");
     assert!(inexact(&quarter, "multitexture").iter().any(|d| d.severity == Severity::Error), "{quarter}");
 }
+
+/// `saturate(C − 0.5·T)` into an 8-bit framebuffer is the blend
+/// GL_FUNC_REVERSE_SUBTRACT (EXT_blend_subtract) with GL's own clamp of
+/// the blended result (OpenGL 1.2.1 §4.1.8): two exact passes on a GeForce
+/// 256, as the same statement without `saturate` planned. Before, the
+/// `saturate` hid the framebuffer read from the blend, and the pair was
+/// fused with the lit term per vertex.
+#[test]
+fn a_saturate_of_a_blend_is_the_framebuffer_s_own_clamp() {
+    let source = program("ps1_subtract");
+    assert_eq!(inexact(&source, "geforce256"), [], "{source}");
+    assert_eq!(blends(&source, "geforce256"), ["replace", "reverse_subtract"]);
+}

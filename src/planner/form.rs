@@ -275,6 +275,13 @@ pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<F
     if !uses(m, v, r) && !uses(m, v, ra) {
         return Ok(form);
     }
+    // `saturate(C·m + s)` into a fixed-point framebuffer is the clamp GL
+    // applies to what it blends there anyway (OpenGL 1.2.1 §4.1.8).
+    let v = match m.exprs[v] {
+        Expr::Math { fun: ir::MathFunction::Saturate, ref args } if !float_framebuffer(m, st) => args[0],
+        _ => v,
+    };
+    form.value = v;
     if form.channels == "a" {
         return Err(unsupported("an alpha write that reads the framebuffer").with_help(ALPHA_HELP));
     }
