@@ -20,11 +20,19 @@ held_out_everywhere_in!("heldout_twentyfourth":
     combine4,
     d3d_addsigned,
     d3d_addsigned2x,
+    d3d_blendfactoralpha,
     d3d_lerp3,
     d3d_modalpha_addcolor,
+    d3d_modcolor_addalpha,
     d3d_modinvalpha_addcolor,
     d3d_multiplyadd,
+    d3d_premultiplied,
     dc_modulate_alpha,
+    gba_alpha_blend,
+    gba_brighten,
+    gba_darken,
+    gba_uneven_blend,
+    genesis_highlight,
     gouraud_alpha_replace,
     modulate4x,
     n64_env_decal,
@@ -36,6 +44,12 @@ held_out_everywhere_in!("heldout_twentyfourth":
     ps2_additive,
     ps2_alpha_blend,
     ps2_fix_half,
+    pvr_offset,
+    q3_filter_2x,
+    q3_soft_add,
+    q3_three_stages,
+    snes_half_add,
+    tev_stage,
     xbox_final_fog,
 );
 
@@ -124,4 +138,40 @@ fn a_saturate_of_a_blend_is_the_framebuffer_s_own_clamp() {
     let source = program("ps1_subtract");
     assert_eq!(inexact(&source, "geforce256"), [], "{source}");
     assert_eq!(blends(&source, "geforce256"), ["replace", "reverse_subtract"]);
+}
+
+/// Quake III's filter stage `blendFunc GL_DST_COLOR GL_SRC_COLOR`,
+/// `2·C·T`, written with the colour read as `C δπx.rgb`: the blender's 2×
+/// modulate of `T` (GL_DST_COLOR, GL_SRC_COLOR), exact. Before, the
+/// coefficient `rgba(2·T, 1)` was halved as a whole (`rgba(2·T, 1)·½`,
+/// whose constant 2 no combiner holds), and the pair fell back per vertex.
+#[test]
+fn a_doubled_modulation_of_the_colour_read_is_the_blender_s_2x_modulate() {
+    let source = program("q3_filter_2x");
+    assert_eq!(inexact(&source, "geforce256"), [], "{source}");
+    assert_eq!(blends(&source, "geforce256"), ["replace", "modulate_2x"]);
+}
+
+/// The SNES's halved colour math `(C + T)/2` is affine in `C` through the
+/// division (`C·½ + T/2`): a modulation and an addition, exact; and the
+/// Game Boy Advance's uneven blend `saturate(¾·T + ½·C)` through the
+/// `saturate` under the widening to rgba. Before, both were "used
+/// non-linearly" and fell back per vertex.
+#[test]
+fn a_halved_or_clamped_sum_with_the_colour_read_is_a_blend() {
+    for name in ["snes_half_add", "gba_uneven_blend"] {
+        let source = program(name);
+        assert_eq!(inexact(&source, "geforce256"), [], "{name}");
+        assert_eq!(blends(&source, "geforce256"), ["replace", "modulate", "add"], "{name}");
+    }
+}
+
+/// A GameCube TEV stage `2·(konst + lerp(a, b, c) − ¼)`: the two
+/// constants in one register, so the lerp is one general combiner and the
+/// sum with its scale the second — a GeForce 256's two. Before, the
+/// constants took a combiner each and the pass needed three.
+#[test]
+fn constants_of_one_sum_share_one_combiner_register() {
+    let source = program("tev_stage");
+    assert_eq!(inexact(&source, "geforce256"), [], "{source}");
 }

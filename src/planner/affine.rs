@@ -200,6 +200,11 @@ fn decompose(
                 let (m, s) = decompose(b, inner, x, memo, cache)?;
                 Some((b.mul(m, k)?, b.mul(s, k)?))
             }
+            Expr::Binary { op: BinaryOp::Div, lhs, rhs } if !contains(b.module, rhs, x, memo) => {
+                // `(C + T)/2`: the SNES's halved colour math.
+                let (m, s) = decompose(b, lhs, x, memo, cache)?;
+                Some((b.binary(BinaryOp::Div, m, rhs)?, b.binary(BinaryOp::Div, s, rhs)?))
+            }
             Expr::Unary { op: UnaryOp::Neg, value } => {
                 let (m, s) = decompose(b, value, x, memo, cache)?;
                 Some((b.neg(m)?, b.neg(s)?))

@@ -255,6 +255,14 @@ pub(super) fn halved(module: &mut Module, v: Handle<Expr>) -> Option<Handle<Expr
             return b.node(Expr::Compose { ty: Ty::Rgba, components: vec![colour, alpha] });
         }
     }
+    // `rgba(2·x, 1)`, an affine coefficient of a colour read (`2·C.rgb·T`):
+    // each part halved, `rgba(x, ½)`.
+    if let Expr::Compose { ty: Ty::Rgba, ref components } = module.exprs[v] {
+        if let [colour, alpha] = components[..] {
+            let (colour, alpha) = (halved(module, colour)?, halved(module, alpha)?);
+            return Builder { module }.node(Expr::Compose { ty: Ty::Rgba, components: vec![colour, alpha] });
+        }
+    }
     if let Expr::Binary { op: BinaryOp::Mul, lhs, rhs }
     | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs } = module.exprs[v]
     {

@@ -239,6 +239,21 @@ pub fn whole_form(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result
     Ok(form)
 }
 
+/// `v` without a `saturate` at its top (under a widening to rgba).
+fn without_saturate(m: &mut Module, v: Handle<Expr>) -> Handle<Expr> {
+    match m.exprs[v] {
+        Expr::Math { fun: ir::MathFunction::Saturate, ref args } => args[0],
+        Expr::Convert { value, to } => match m.exprs[value] {
+            Expr::Math { fun: ir::MathFunction::Saturate, ref args } => {
+                let inner = args[0];
+                Builder { module: m }.node(Expr::Convert { value: inner, to }).unwrap_or(v)
+            }
+            _ => v,
+        },
+        _ => v,
+    }
+}
+
 /// How the framebuffer's alpha may weigh its own colour.
 const MIX_HELP: &str = "blending reads the framebuffer's alpha only to choose between its colour and another, \
                  `(α C)·(C) + (1 − α C)·f` or `(α C)·f + (1 − α C)·(C)`, with `f` not reading `C`: render the \
@@ -277,10 +292,7 @@ pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<F
     }
     // `saturate(C·m + s)` into a fixed-point framebuffer is the clamp GL
     // applies to what it blends there anyway (OpenGL 1.2.1 §4.1.8).
-    let v = match m.exprs[v] {
-        Expr::Math { fun: ir::MathFunction::Saturate, ref args } if !float_framebuffer(m, st) => args[0],
-        _ => v,
-    };
+    let v = if float_framebuffer(m, st) { v } else { without_saturate(m, v) };
     form.value = v;
     if form.channels == "a" {
         return Err(unsupported("an alpha write that reads the framebuffer").with_help(ALPHA_HELP));

@@ -27,7 +27,9 @@ pub(super) fn desugar(module: &Module, value: Handle<Expr>) -> R<Option<(Module,
         module.info(*h).freq.is_sample() && crate::lowering::reciprocal_of_divisor(module, *h).is_some()
     };
     let banded = |h: &Handle<Expr>| module.info(*h).freq.is_sample() && band(module, *h).is_some();
-    if !reach.iter().any(|h| is_combine(h) || floats_a_scale(h) || by_constant(h) || banded(h)) {
+    let gathers = |h: &Handle<Expr>| constants_gathered(module, &module.exprs[*h]).is_some();
+    if !reach.iter().any(|h| is_combine(h) || floats_a_scale(h) || by_constant(h) || banded(h) || gathers(h))
+    {
         return Ok(None);
     }
     let mut m = module.clone();
@@ -80,12 +82,17 @@ pub(super) fn desugar(module: &Module, value: Handle<Expr>) -> R<Option<(Module,
                 let floor = intern(&mut m, floor, span)?;
                 intern(&mut m, Expr::Math { fun: MathFunction::Min, args: vec![floor, args[2]] }, span)?
             }
-            e => match scale_to_float(&m, &e) {
-                Some((k, y, z)) => {
+            e => match (constants_gathered(&m, &e), scale_to_float(&m, &e)) {
+                // `(k + x) − c` = `x + (k − c)`: one constant register.
+                (Some((x, k)), _) => {
+                    let k = intern(&mut m, Expr::Constant(k), span)?;
+                    intern(&mut m, Expr::Binary { op: BinaryOp::Add, lhs: x, rhs: k }, span)?
+                }
+                (None, Some((k, y, z))) => {
                     let inner = intern(&mut m, Expr::Binary { op: BinaryOp::Mul, lhs: y, rhs: z }, span)?;
                     intern(&mut m, Expr::Binary { op: BinaryOp::Mul, lhs: k, rhs: inner }, span)?
                 }
-                None => intern(&mut m, e, span)?,
+                (None, None) => intern(&mut m, e, span)?,
             },
         };
         if new != h {
@@ -94,6 +101,31 @@ pub(super) fn desugar(module: &Module, value: Handle<Expr>) -> R<Option<(Module,
     }
     let v = map.get(&value).copied().unwrap_or(value);
     Ok(Some((m, v)))
+}
+
+/// `(k + x) ± c` or `(x + k) ± c` with constants `k` and `c` of one width
+/// (or a scalar, splat): `(x, k ± c)`, both constants in one register — a
+/// GameCube TEV stage's konst colour and bias, `2·(konst + lerp(…) − ¼)`,
+/// in the two general combiners of a GeForce 256 (Kilgard 2000, Section
+/// 4.2: a sum of a register and a constant is one portion's `AB + CD`).
+fn constants_gathered(m: &Module, e: &Expr) -> Option<(Handle<Expr>, Constant)> {
+    let Expr::Binary { op: op @ (BinaryOp::Add | BinaryOp::Sub), lhs, rhs } = *e else { return None };
+    let Expr::Constant(c) = &m.exprs[rhs] else { return None };
+    let Expr::Binary { op: BinaryOp::Add, lhs: a, rhs: b } = m.exprs[lhs] else { return None };
+    let (x, k) = match (&m.exprs[a], &m.exprs[b]) {
+        (Expr::Constant(k), _) => (b, k),
+        (_, Expr::Constant(k)) => (a, k),
+        _ => return None,
+    };
+    let (kv, cv) = (k.values(), c.values());
+    if kv.len() != cv.len() && kv.len() != 1 && cv.len() != 1 {
+        return None;
+    }
+    let ty = if kv.len() >= cv.len() { k.ty } else { c.ty };
+    let at = |v: &[f64], i: usize| if v.len() == 1 { v[0] } else { v[i] };
+    let sign = if op == BinaryOp::Sub { -1.0 } else { 1.0 };
+    let sum: Vec<f64> = (0..kv.len().max(cv.len())).map(|i| at(kv, i) + sign * at(cv, i)).collect();
+    Some((x, Constant::new(ty, &sum)))
 }
 
 /// `clamp(x, lo, hi)` at `h` with constant bounds other than 0 and 1 (those
