@@ -218,7 +218,8 @@ pub fn render_three(
     };
     // fixed9 models the hardware, whose texture environment clamps every ⊕
     // (`texture_env_clamps`): the reference reads ⊕ as GL does there.
-    let options = shadec::oracle::Options { clamp_texture_env: precision == Precision::Fixed9 };
+    let options =
+        shadec::oracle::Options { clamp_texture_env: precision == Precision::Fixed9, ..Default::default() };
     let picture = shadec::oracle::render_with(&module, &program, scene, &assets, (W, H), options)
         .map_err(|e| e.to_string())?;
     let rgba8 = |p: &[[f64; 4]]| -> Vec<u8> {
@@ -227,7 +228,7 @@ pub fn render_three(
     let oracle = rgba8(&picture.pixels);
     let (oracle_low, oracle_high) = (rgba8(&picture.low), rgba8(&picture.high));
     let (oracle_unclamped, oracle_unclamped_range) = if options.clamp_texture_env && texture_env_clamps {
-        let options = shadec::oracle::Options { clamp_texture_env: false };
+        let options = shadec::oracle::Options { clamp_texture_env: false, ..Default::default() };
         let p = shadec::oracle::render_with(&module, &program, scene, &assets, (W, H), options)
             .map_err(|e| e.to_string())?;
         (Some(rgba8(&p.pixels)), Some((rgba8(&p.low), rgba8(&p.high))))

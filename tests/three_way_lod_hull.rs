@@ -1,4 +1,4 @@
-//! The reference's level-of-detail hull (`oracle/hull.rs`): every
+//! The reference's level-of-detail hull (`oracle/hull/`): every
 //! minified lookup chooses its λ on its own (GL §3.8.8), for any number of
 //! lookups, and the hull holds every such choice — where the range over
 //! renders of the lookups' extremes (`oracle::render_enumerated`, the
@@ -49,6 +49,14 @@ impl Compiled {
         .unwrap();
         assert!(p.hull_refused.is_none(), "{:?}", p.hull_refused);
         p
+    }
+
+    /// The hull on intervals alone, every read of a lookup and each of its
+    /// channels as if apart (`oracle::Options::interval_hull`): the
+    /// reference's hull before its affine forms.
+    fn interval_hull(&self) -> Picture {
+        let options = oracle::Options { interval_hull: true, ..Default::default() };
+        oracle::render_with(&self.module, &self.program, &self.scene, &self.assets, (W, H), options).unwrap()
     }
 
     fn enumerated(&self) -> Picture {
@@ -175,6 +183,31 @@ fn the_hull_holds_every_enumerated_combination() {
     }
 }
 
+/// `p` with `pixels` (one render of the reference's, as an implementation
+/// would draw it) in the CPU's place and no wgpu, compared against the
+/// range of `range` (the reference's own, as `render_three` made it, where
+/// `None`).
+fn as_cpu(p: &Pictures, pixels: &[[f64; 4]], range: Option<&Picture>) -> Pictures {
+    let (oracle_low, oracle_high) = match range {
+        Some(r) => (rgba8(&r.low), rgba8(&r.high)),
+        None => (p.oracle_low.clone(), p.oracle_high.clone()),
+    };
+    Pictures {
+        cpu: rgba8(pixels),
+        gpu: None,
+        oracle: p.oracle.clone(),
+        covered: p.covered.clone(),
+        wide: p.wide.clone(),
+        oracle_low,
+        oracle_high,
+        oracle_unclamped: None,
+        oracle_unclamped_range: None,
+        gpu_refused: None,
+        rules: p.rules.clone(),
+        ..*p
+    }
+}
+
 /// The hull is tight enough to tell a render whose λ is a level off
 /// (every lookup's eq. 3.17 λ plus one, `LodChoices::bias`): put in the
 /// CPU's place, it fails the three-way verdict, where the render at eq.
@@ -184,25 +217,100 @@ fn a_render_a_level_off_falls_outside_the_hull() {
     let c = compiled(FOUR);
     let g = crate::common::gpu::gpu();
     let p = render_three(&format!("{HEAD}{FOUR}"), "wgsl", &c.scene, Precision::F32, g.as_ref()).unwrap();
-    let pr = &p;
-    let as_cpu = |bias: f64| {
-        let chosen = c.chosen(&LodChoices { bias, ..Default::default() });
-        Pictures {
-            cpu: rgba8(&chosen.pixels),
-            gpu: None,
-            oracle: p.oracle.clone(),
-            covered: p.covered.clone(),
-            wide: p.wide.clone(),
-            oracle_low: p.oracle_low.clone(),
-            oracle_high: p.oracle_high.clone(),
-            oracle_unclamped: None,
-            oracle_unclamped_range: None,
-            gpu_refused: None,
-            rules: p.rules.clone(),
-            ..*pr
-        }
-    };
-    verdict(&as_cpu(0.0)).unwrap();
-    let off = verdict(&as_cpu(1.0));
+    let biased = |bias: f64| c.chosen(&LodChoices { bias, ..Default::default() }).pixels;
+    verdict(&as_cpu(&p, &biased(0.0), None)).unwrap();
+    let off = verdict(&as_cpu(&p, &biased(1.0), None));
     assert!(off.is_err(), "a render a level off passed");
+}
+
+/// A minified lookup read twice (`4·x·(1 − x)`, non-monotone in x) and a
+/// value taken away from itself (`x − x + y`).
+const TWICE: &str = "C δπx ← 4 * (A δu x) * ((1, 1, 1) - (A δu x));\n";
+const MINUS: &str = "C δπx ← (A δu x) - (A δu x) + (B δu x);\n";
+
+/// The average and the greatest width of a hull (the widest colour
+/// channel, in 255ths) over the covered pixels where it is not one value.
+fn widths(p: &Picture) -> (f64, f64) {
+    let w: Vec<f64> = (0..p.pixels.len())
+        .filter(|&i| p.covered[i])
+        .map(|i| (0..3).map(|k| p.high[i][k] - p.low[i][k]).fold(0.0, f64::max) * 255.0)
+        .filter(|&w| w > 1e-9)
+        .collect();
+    (w.iter().sum::<f64>() / w.len().max(1) as f64, w.iter().copied().fold(0.0, f64::max))
+}
+
+/// Affine forms keep what a lookup's reads and its channels share — its
+/// λ, one noise symbol per piece of its interval: the hull lies inside
+/// the interval hull (the reference's before) on every pixel of every
+/// program, and where a lookup is read twice it is under 0.6 of its
+/// average width. The four lookups share nothing (a product of two, and a
+/// dependent lookup bounded by its coordinates' box): the same width.
+#[test]
+fn the_affine_hull_lies_inside_the_interval_hull_and_narrows_where_reads_are_shared() {
+    for body in [FOUR, TWICE, MINUS] {
+        let c = compiled(body);
+        let (hull, intervals) = (c.hull(), c.interval_hull());
+        for (name, p) in [("least", &hull.low), ("greatest", &hull.high)] {
+            let off = outside(p, &intervals.low, &intervals.high, &hull.covered, 1e-9);
+            assert_eq!(off, 0, "{body}: the {name} outside the interval hull on {off} pixels");
+        }
+        let ((avg, max), (iavg, imax)) = (widths(&hull), widths(&intervals));
+        eprintln!("{body}: width {avg:.2}/255 on average, {max:.0} at most; intervals {iavg:.2}, {imax:.0}");
+        if body != FOUR {
+            assert!(avg < 0.6 * iavg, "{body}: {avg:.2} against {iavg:.2} on intervals");
+        }
+    }
+}
+
+/// A render whose every λ is half a level too coarse, or a quarter too
+/// fine (`LodChoices::bias`), put in the CPU's place, fails the three-way
+/// verdict on a lookup read twice, where the interval hull (the
+/// reference's before) held it: an implementation's λ error of half a
+/// level or less is told. The render at eq. 3.17's λ passes both.
+#[test]
+fn a_render_half_a_level_off_falls_outside_the_affine_hull_not_the_interval_hull() {
+    let c = compiled(TWICE);
+    let g = crate::common::gpu::gpu();
+    let p = render_three(&format!("{HEAD}{TWICE}"), "wgsl", &c.scene, Precision::F32, g.as_ref()).unwrap();
+    verdict(&p).unwrap();
+    let intervals = c.interval_hull();
+    let biased = |bias: f64| c.chosen(&LodChoices { bias, ..Default::default() }).pixels;
+    verdict(&as_cpu(&p, &biased(0.0), None)).unwrap();
+    verdict(&as_cpu(&p, &biased(0.0), Some(&intervals))).unwrap();
+    for bias in [0.5, -0.25] {
+        let told = verdict(&as_cpu(&p, &biased(bias), None));
+        assert!(told.is_err(), "a render {bias} level off passed");
+        let before = verdict(&as_cpu(&p, &biased(bias), Some(&intervals)));
+        assert!(before.is_ok(), "the interval hull told a render {bias} level off: {before:?}");
+    }
+}
+
+/// A cube-map lookup at a direction that moves with a minified lookup's λ
+/// (a dependent lookup, Pipeline Grammar, eq. (8)).
+const CUBE: &str = "texture Env : cube rgb8 bilinear = normalize_cube(16);\n\
+    C δπx ← Env (vec3(expand((A δu x).rgb)) + (0.2, 0.5, 1));\n";
+
+/// A cube-map lookup at a moving direction is bounded by the hull (every
+/// face the direction's box may select, over the (s, t) it spans there:
+/// `sampling::Cube::box_hull`), where the reference fell back to the
+/// renders of the lookups' extremes: each such render lies inside it on
+/// every pixel not left out, and the CPU and wgpu agree with it.
+#[test]
+fn a_cube_map_lookup_at_a_moving_direction_is_bounded_by_the_hull() {
+    let c = compiled(CUBE);
+    let hull = c.hull();
+    let seen: Vec<bool> = (0..hull.pixels.len()).map(|i| hull.covered[i] && !hull.latitude[i]).collect();
+    let ranged = (0..seen.len()).filter(|&i| seen[i] && hull.low[i] != hull.high[i]).count();
+    eprintln!("{ranged} of {} pixels ranged, width {:?}", seen.iter().filter(|&&s| s).count(), widths(&hull));
+    assert!(ranged >= 50, "{ranged} pixels ranged");
+    // The extremes a render may pick for each lookup (the ends of its λ
+    // interval and two levels between).
+    for k in 1..=4 {
+        let p = c.chosen(&LodChoices { default: k, ..Default::default() });
+        let off = outside(&p.pixels, &hull.low, &hull.high, &seen, 1e-9);
+        assert_eq!(off, 0, "choice {k}: {off} pixels outside the hull");
+    }
+    let g = crate::common::gpu::gpu();
+    let p = render_three(&format!("{HEAD}{CUBE}"), "wgsl", &c.scene, Precision::F32, g.as_ref()).unwrap();
+    verdict(&p).unwrap();
 }

@@ -20,8 +20,10 @@
 //!   per-quad derivatives) bounds each pixel by its hull
 //!   ([`Picture::low`], [`Picture::high`]) over every lookup's λ, each
 //!   lookup's on its own, for any number of lookups: the sample evaluated
-//!   again on intervals (`hull`), a dependent lookup bounded by the texels
-//!   its coordinates' box reaches; where that cannot be computed, the
+//!   again in affine arithmetic (Comba and Stolfi 1993), intersected with
+//!   intervals (`hull`), a dependent lookup bounded by the texels its
+//!   coordinates' box reaches, a cube-map lookup at a moving direction by
+//!   every face its box may select; where that cannot be computed, the
 //!   range over renders of the lookups' extremes ([`render_enumerated`]);
 //! - `ops`: the arithmetic and the ⊕ modes, written again from the
 //!   language's definition and GL's texture environment (Table 3.22);
@@ -162,7 +164,7 @@ pub struct Picture {
     /// The greatest, as [`Picture::low`].
     pub high: Vec<[f64; 4]>,
     /// Why `low..=high` is not the hull of every sample over every
-    /// lookup's λ (`hull.rs`) but the range over renders of the lookups'
+    /// lookup's λ (`hull/`) but the range over renders of the lookups'
     /// extreme choices ([`render_enumerated`]); `None` where it is the hull.
     pub hull_refused: Option<Unsupported>,
 }
@@ -175,6 +177,11 @@ pub struct Options {
     /// The language keeps ⊕ unclamped (docs/language.md, "⊕ modes"); the
     /// hardware the fixed9 renders model clamps it.
     pub clamp_texture_env: bool,
+    /// Take the level-of-detail hull on intervals alone — every read of a
+    /// lookup and each of its channels as if apart, as the reference did
+    /// before its affine forms (`hull/`): a baseline to measure the forms
+    /// against, never tighter.
+    pub interval_hull: bool,
 }
 
 /// Renders `module` (the lowered `program`) for `scene` at `width × height`.
@@ -194,7 +201,7 @@ pub fn render(
 /// Where a mipmapped lookup's value moves with λ inside the latitude GL
 /// §3.8.8 gives an implementation, [`Picture::low`] and [`Picture::high`]
 /// bound each pixel by its hull over every lookup's λ, each lookup's on
-/// its own, for any number of lookups (`hull.rs`: the sample evaluated on
+/// its own, for any number of lookups (`hull/`: the sample evaluated in affine arithmetic and on
 /// intervals, in the same render). Where the hull cannot be computed
 /// ([`Picture::hull_refused`]), the range over renders of the lookups'
 /// extreme choices ([`render_enumerated`]).
@@ -343,7 +350,7 @@ fn dependent_lookups(m: &Module) -> std::collections::HashSet<crate::ir::Handle<
 /// One render with every mipmapped lookup at its choice in `choices`
 /// (`Evaluator::lod_choices`); where some lookup's choice mattered, the
 /// lookups minified. With `hull`, `low` and `high` are each pixel's hull
-/// over the λ choices (`hull.rs`), or, where it cannot be computed,
+/// over the λ choices (`hull/`), or, where it cannot be computed,
 /// the pixels, with [`Picture::hull_refused`] saying why.
 #[allow(clippy::too_many_arguments)]
 fn render_choice(
@@ -384,6 +391,7 @@ fn render_choice(
         hull,
         hull_refused: None,
         clamp_texture_env: options.clamp_texture_env,
+        interval_hull: options.interval_hull,
         target: 0,
     };
     let mut latitude = vec![false; (width * height) as usize];
@@ -581,7 +589,7 @@ fn run(
     Ok(())
 }
 
-/// The hull of `value` at sample `at` (`hull.rs`; `memo` its nominal
+/// The hull of `value` at sample `at` (`hull/`; `memo` its nominal
 /// values), the blend's `source` clamped as GL clamps it; `None`, with the
 /// hull turned off and the reason kept, where it cannot be computed.
 fn sample_hull(
@@ -594,10 +602,8 @@ fn sample_hull(
     let mut ranges = hull::Ranges::new();
     let mut range = || -> Result<Option<hull::R>, Unsupported> {
         if let Some(s) = source {
-            if let Some((lo, hi)) = ev.range(s, at, 0, &mut ranges, memo)? {
-                let clamp = |v: [f64; 4]| v.map(|x| x.clamp(0.0, 1.0));
-                ranges.insert(s, Some((clamp(lo), clamp(hi))));
-            }
+            ev.range(s, at, 0, &mut ranges, memo)?;
+            ranges.clamp_unit(s);
         }
         ev.range(value, at, 0, &mut ranges, memo)
     };

@@ -54,7 +54,7 @@ pub struct Store {
     pub stencil: Vec<u8>,
     /// The least and greatest value each pixel's colour may take over the
     /// level-of-detail choices GL §3.8.8 leaves to an implementation (the
-    /// hull, `hull.rs`), stored as `color` is; kept while
+    /// hull, `hull/`), stored as `color` is; kept while
     /// [`Evaluator::hull`] is on.
     pub low: Vec<V>,
     pub high: Vec<V>,
@@ -88,13 +88,15 @@ pub struct Evaluator<'a> {
     /// The lookups whose λ interval was computed (minified at some fragment).
     pub lod_seen: std::cell::RefCell<std::collections::BTreeSet<LookupKey>>,
     /// Whether each sample also carries its hull over the level-of-detail
-    /// choices (`hull.rs`); turned off, with the reason in
+    /// choices (`hull/`); turned off, with the reason in
     /// [`Evaluator::hull_refused`], where it cannot be computed.
     pub hull: bool,
     pub hull_refused: Option<Unsupported>,
     /// `⊕` results clamped to [0, 1], as GL's texture environment clamps
     /// them ([`super::Options::clamp_texture_env`]).
     pub clamp_texture_env: bool,
+    /// The hull on intervals alone ([`super::Options::interval_hull`]).
+    pub interval_hull: bool,
     /// The framebuffer the statement being run writes: whose stored depth
     /// a pixel `xs` of a screen pass carries (`π⁻¹ xs` undoes the camera
     /// at that depth; docs/shadow-maps.md).

@@ -247,6 +247,33 @@ impl Image {
         at.into_iter().map(|l| self.sample(u, v, l)).collect()
     }
 
+    /// The filtered texels at (u, v) at the ends of the pieces of λ's
+    /// interval `[lo, hi]` on which the texel is affine in λ, in λ's
+    /// order: `LINEAR_MIPMAP_LINEAR` blends two levels linearly in λ
+    /// (eq. 3.20), so its pieces end at `lo`, every integer λ between (past
+    /// the last level too, where the texel stays) and `hi`;
+    /// `*_MIPMAP_NEAREST` steps from level to level (d = ⌈λ + ½⌉ − 1), so
+    /// its path is each level chosen, in order. One texel where it does not
+    /// move with λ (no mipmaps, or λ ≤ 0 throughout: magnified).
+    pub fn lod_path(&self, u: f64, v: f64, lo: f64, hi: f64) -> Vec<V> {
+        let last = self.levels.len() - 1;
+        if last == 0 || !lo.is_finite() || !hi.is_finite() || hi <= 0.0 || hi <= lo {
+            return vec![self.sample(u, v, lo)];
+        }
+        let lo = lo.max(0.0);
+        match self.filter {
+            Filter::Trilinear => {
+                let inner = (0..).map(|k| lo.floor() + 1.0 + f64::from(k)).take_while(|&l| l < hi);
+                std::iter::once(lo).chain(inner).chain([hi]).map(|l| self.sample(u, v, l)).collect()
+            }
+            Filter::Nearest | Filter::Bilinear => {
+                let level = |l: f64| if l > 0.5 { (l + 0.5).ceil() - 1.0 } else { 0.0 };
+                let (a, b) = (level(lo) as usize, level(hi) as usize);
+                (a..=b.max(a)).map(|d| self.sample(u, v, d as f64)).collect()
+            }
+        }
+    }
+
     /// The filtered texel at (u, v) for level of detail `lambda`.
     pub fn sample(&self, u: f64, v: f64, lambda: f64) -> V {
         let last = self.levels.len() - 1;
@@ -319,6 +346,75 @@ impl Cube {
         let size = f64::from(image.levels[0].width);
         let edge = |x: f64| x * size < 1.0 || (1.0 - x) * size < 1.0;
         (image.sample(s, t, 0.0), edge(s) || edge(t))
+    }
+
+    /// The least and greatest texel a lookup may read at any direction in
+    /// the box `r` (an interval per axis), and whether the box reaches
+    /// within a texel of a face edge (where implementations differ:
+    /// [`Cube::sample`]). Every face some direction of the box may select
+    /// by Table 3.19 (its axis's sign possible and its size not surely
+    /// below another axis's) is read over the box of (s, t) that
+    /// `(sc/|ma| + 1)/2`, `(tc/|ma| + 1)/2` span there, each within
+    /// [0, 1] (|sc|, |tc| ≤ |ma| on the face), at level 0 with the face's
+    /// filter ([`Image::footprint_hull`]: exact over the box).
+    pub fn box_hull(&self, r: [(f64, f64); 3]) -> (V, V, bool) {
+        let size = |(a, b): (f64, f64)| -> (f64, f64) {
+            if a <= 0.0 && b >= 0.0 {
+                (0.0, a.abs().max(b.abs()))
+            } else {
+                (a.abs().min(b.abs()), a.abs().max(b.abs()))
+            }
+        };
+        let neg = |(a, b): (f64, f64)| (-b, -a);
+        let (mut low, mut high, mut edge) = ([f64::INFINITY; 4], [f64::NEG_INFINITY; 4], false);
+        // (axis, sign, sc's interval, tc's) per face, Table 3.19.
+        let [x, y, z] = r;
+        let faces = [
+            (0, 1.0, neg(z), neg(y)),
+            (0, -1.0, z, neg(y)),
+            (1, 1.0, x, z),
+            (1, -1.0, x, neg(z)),
+            (2, 1.0, x, neg(y)),
+            (2, -1.0, neg(x), neg(y)),
+        ];
+        for (face, &(axis, sign, sc, tc)) in faces.iter().enumerate() {
+            let a = r[axis];
+            let possible = if sign > 0.0 { a.1 >= 0.0 } else { a.0 <= 0.0 };
+            let ma = size(if sign > 0.0 { (a.0.max(0.0), a.1) } else { (a.0, a.1.min(0.0)) });
+            let others = (0..3).filter(|&k| k != axis).map(|k| size(r[k]).0).fold(0.0, f64::max);
+            if !possible || ma.1 < others || ma.1.is_nan() || ma.1 <= 0.0 {
+                continue;
+            }
+            let coordinate = |c: (f64, f64)| -> (f64, f64) {
+                let q = if ma.0 > 0.0 {
+                    let v = [c.0 / ma.0, c.0 / ma.1, c.1 / ma.0, c.1 / ma.1];
+                    v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| (l.min(x), h.max(x)))
+                } else {
+                    (-1.0, 1.0)
+                };
+                (0.5 * (q.0.clamp(-1.0, 1.0) + 1.0), 0.5 * (q.1.clamp(-1.0, 1.0) + 1.0))
+            };
+            let (s, t) = (coordinate(sc), coordinate(tc));
+            let image = &self.faces[face];
+            let n = f64::from(image.levels[0].width);
+            let near = |(a, b): (f64, f64)| a * n < 1.0 || (1.0 - b) * n < 1.0;
+            edge |= near(s) || near(t);
+            let (lo, hi) = image.footprint_hull(s, t, 0.0, 0.0);
+            for c in 0..4 {
+                (low[c], high[c]) = (low[c].min(lo[c]), high[c].max(hi[c]));
+            }
+        }
+        // The zero direction reads +x's centre ([`cube_face`]).
+        if r.iter().all(|a| a.0 <= 0.0 && a.1 >= 0.0) {
+            let (v, _) = self.sample([0.0; 3]);
+            for c in 0..4 {
+                (low[c], high[c]) = (low[c].min(v[c]), high[c].max(v[c]));
+            }
+        }
+        if low.iter().zip(&high).any(|(l, h)| l.is_nan() || h.is_nan() || l > h) {
+            return ([f64::NEG_INFINITY; 4], [f64::INFINITY; 4], true);
+        }
+        (low, high, edge)
     }
 }
 
@@ -458,6 +554,70 @@ mod tests {
         assert!((repeat.sample(0.0, 0.25, 0.25)[0] - 0.5).abs() < 1e-12);
         let nearest = Volume { filter: Filter::Nearest, ..v };
         assert_eq!(nearest.sample(0.9, 0.1, 0.6)[0], 5.0);
+    }
+
+    /// The path of a texel over λ's pieces holds its value at every λ of
+    /// the interval: each λ's texel is the path's at its piece's start
+    /// plus that piece's change scaled by how far λ has run through it.
+    #[test]
+    fn lod_path_ends_its_pieces_where_the_texel_bends() {
+        for filter in [Filter::Trilinear, Filter::Bilinear] {
+            let t = image(filter);
+            let (lo, hi) = (0.3, 2.6);
+            let path = t.lod_path(0.3, 0.55, lo, hi);
+            let ends: Vec<f64> = match filter {
+                Filter::Trilinear => vec![lo, 1.0, 2.0, hi],
+                _ => vec![0.0, 1.0, 2.0, 3.0],
+            };
+            assert_eq!(path.len(), ends.len(), "{filter:?}");
+            for k in 0..=100 {
+                let l = lo + (hi - lo) * f64::from(k) / 100.0;
+                let v = t.sample(0.3, 0.55, l)[0];
+                let j = match filter {
+                    Filter::Trilinear => ends.windows(2).position(|w| l <= w[1]).unwrap_or(0),
+                    _ => ends.iter().rposition(|&d| d == 0.0 || l > d - 0.5).unwrap_or(0),
+                };
+                let expected = match filter {
+                    Filter::Trilinear => {
+                        let f = (l - ends[j]) / (ends[j + 1] - ends[j]);
+                        path[j][0] + f * (path[j + 1][0] - path[j][0])
+                    }
+                    _ => path[j][0],
+                };
+                assert!((v - expected).abs() < 1e-12, "{filter:?} λ {l}: {v} against {expected}");
+            }
+        }
+    }
+
+    /// Every direction in a box that crosses a face edge reads a texel
+    /// within the box's hull, and the box is said to reach an edge.
+    #[test]
+    fn a_cube_box_hull_holds_every_direction_in_the_box() {
+        let face = |k: usize| {
+            let texels = (0..64).map(|i| [f64::from((i * 7 + k as u32 * 13) % 17) / 16.0; 4]).collect();
+            Image {
+                levels: vec![Level { width: 8, height: 8, texels }],
+                wrap: Wrap::ClampToEdge,
+                filter: Filter::Bilinear,
+            }
+        };
+        let cube = Cube { faces: (0..6).map(face).collect() };
+        let b = [(0.6, 1.0), (-0.3, 0.9), (0.2, 0.5)];
+        let (lo, hi, edge) = cube.box_hull(b);
+        assert!(edge);
+        for i in 0..=20 {
+            for j in 0..=20 {
+                for k in 0..=4 {
+                    let r = [
+                        b[0].0 + (b[0].1 - b[0].0) * f64::from(i) / 20.0,
+                        b[1].0 + (b[1].1 - b[1].0) * f64::from(j) / 20.0,
+                        b[2].0 + (b[2].1 - b[2].0) * f64::from(k) / 4.0,
+                    ];
+                    let v = cube.sample(r).0[0];
+                    assert!(lo[0] <= v && v <= hi[0], "{r:?}: {v} outside {}..{}", lo[0], hi[0]);
+                }
+            }
+        }
     }
 
     /// Trilinear: the ends and every integer λ between them; a

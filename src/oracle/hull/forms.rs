@@ -1,0 +1,200 @@
+//! The language's operations on affine forms (`affine.rs`), where they
+//! are affine in their operands or a product of them: `ops::compute`'s
+//! arithmetic with the noise symbols kept. Every other operation — and
+//! a clamp, `min`, `max` or selection the operands' ranges leave open —
+//! is taken on intervals (`interval.rs`) and its result given fresh
+//! symbols (`mod.rs`).
+
+use super::affine::{Affine, Form, Symbols};
+use crate::ir::{BinaryOp, Expr, MathFunction, Module, Ty, UnaryOp};
+use crate::parser::ast::CombineMode;
+
+/// Whether every lane of `f` is one value.
+pub fn is_point(f: &Form) -> bool {
+    f.iter().all(Affine::is_constant)
+}
+
+fn lanes(f: impl FnMut(usize) -> Affine) -> Form {
+    std::array::from_fn(f)
+}
+
+fn splat(a: Affine) -> Form {
+    [a.clone(), a.clone(), a.clone(), a]
+}
+
+fn constant(x: f64) -> Affine {
+    Affine::constant(x)
+}
+
+/// `f` laid out for `ty` (`ops::shape`): a scalar splatted, lanes past
+/// the width zero.
+pub fn shape(ty: Ty, f: Form) -> Form {
+    match ty.width() {
+        1 => splat(f[0].clone()),
+        w @ 2..=4 => {
+            let mut f = f;
+            for lane in f.iter_mut().skip(w) {
+                *lane = constant(0.0);
+            }
+            f
+        }
+        _ => splat(constant(f64::NAN)),
+    }
+}
+
+/// `Σ aᶜ·bᶜ` over the first `width` lanes.
+fn dot(a: &Form, b: &Form, width: usize, s: &mut Symbols) -> Affine {
+    (0..width.min(4)).fold(constant(0.0), |sum, c| sum.add(&a[c].mul(&b[c], s.fresh())))
+}
+
+/// A computing node on forms, where it is affine or a product; `None`
+/// where it is not (the caller takes it on intervals). `Some(None)` for
+/// `c ? a` with `c` surely false (the destination kept).
+pub fn compute(m: &Module, e: &Expr, ty: Ty, o: &[Form], s: &mut Symbols) -> Option<Option<Form>> {
+    let f = match e {
+        Expr::Unary { op: UnaryOp::Neg, .. } => lanes(|c| o[0][c].scale(-1.0, 0.0)),
+        Expr::Binary { op, lhs, .. } => binary(*op, &o[0], &o[1], m.info(*lhs).ty.width(), s)?,
+        Expr::Combine { mode, lhs, .. } => {
+            let widened = matches!(&m.exprs[*lhs], Expr::Convert { value, to: Ty::Rgba } if m.info(*value).ty == Ty::Rgb);
+            texture_env(*mode, ty.width(), &o[0], &o[1], widened, s)
+        }
+        Expr::Math { fun, .. } => math(*fun, o, s)?,
+        Expr::Swizzle { pattern, len, .. } => {
+            let mut f: Form = Default::default();
+            for (k, &i) in pattern[..*len as usize].iter().enumerate() {
+                f[k] = o[0][usize::from(i) & 3].clone();
+            }
+            f
+        }
+        Expr::Compose { components, .. } => {
+            let all: Vec<&Affine> = components
+                .iter()
+                .zip(o)
+                .flat_map(|(h, v)| v[..m.info(*h).ty.width().min(4)].iter())
+                .collect();
+            lanes(|i| all.get(i).map_or(constant(0.0), |a| (*a).clone()))
+        }
+        Expr::Convert { value, to } => {
+            let mut f = o[0].clone();
+            if m.info(*value).ty == Ty::Rgb && *to == Ty::Rgba {
+                f[3] = constant(1.0);
+            }
+            f
+        }
+        Expr::Select { reject, .. } => {
+            let (lo, hi) = o[0][0].range();
+            match (lo > 0.0 || hi < 0.0, lo == 0.0 && hi == 0.0, reject) {
+                (true, _, _) => o[1].clone(),
+                (false, true, Some(_)) => o[2].clone(),
+                (false, true, None) => return Some(None),
+                _ => return None,
+            }
+        }
+        _ => return None,
+    };
+    Some(Some(shape(ty, f)))
+}
+
+fn binary(op: BinaryOp, a: &Form, b: &Form, width: usize, s: &mut Symbols) -> Option<Form> {
+    Some(match op {
+        BinaryOp::Dot => splat(dot(a, b, width, s)),
+        BinaryOp::Add => lanes(|c| a[c].add(&b[c])),
+        BinaryOp::Sub => lanes(|c| a[c].sub(&b[c])),
+        BinaryOp::Mul => lanes(|c| a[c].mul(&b[c], s.fresh())),
+        BinaryOp::Div if b.iter().all(|l| l.is_constant() && l.center != 0.0) => {
+            lanes(|c| a[c].scale(1.0 / b[c].center, 0.0))
+        }
+        _ => return None,
+    })
+}
+
+/// A lane's value where the ranges decide which of `candidates` (each
+/// with the condition that picks it) it is; `None` where they do not.
+fn decided<'f>(candidates: &[(bool, &'f Affine)]) -> Option<&'f Affine> {
+    candidates.iter().find(|c| c.0).map(|c| c.1)
+}
+
+fn math(fun: MathFunction, o: &[Form], s: &mut Symbols) -> Option<Form> {
+    use MathFunction::*;
+    let a = &o[0];
+    let each = |f: &dyn Fn(&Affine) -> Affine| lanes(|c| f(&a[c]));
+    // max(x, y) per lane where one surely is not below the other.
+    let larger = |x: &Affine, y: &Affine| {
+        let (p, q) = (x.range(), y.range());
+        decided(&[(p.0 >= q.1, x), (q.0 >= p.1, y)]).cloned()
+    };
+    let smaller = |x: &Affine, y: &Affine| {
+        let (p, q) = (x.range(), y.range());
+        decided(&[(p.1 <= q.0, x), (q.1 <= p.0, y)]).cloned()
+    };
+    let every = |f: &mut dyn FnMut(usize) -> Option<Affine>| -> Option<Form> {
+        let v: [Option<Affine>; 4] = std::array::from_fn(f);
+        v.iter().all(Option::is_some).then(|| v.map(Option::unwrap_or_default))
+    };
+    Some(match fun {
+        Expand => each(&|x| x.scale(2.0, -1.0)),
+        HalfBias => each(&|x| x.scale(1.0, -0.5)),
+        Compress => each(&|x| x.scale(0.5, 0.5)),
+        Max => every(&mut |c| larger(&a[c], &o[1][c]))?,
+        Min => every(&mut |c| smaller(&a[c], &o[1][c]))?,
+        Clamp => every(&mut |c| smaller(&larger(&a[c], &o[1][c])?, &o[2][c]))?,
+        Saturate => every(&mut |c| smaller(&larger(&a[c], &constant(0.0))?, &constant(1.0)))?,
+        Abs => every(&mut |c| {
+            let (lo, hi) = a[c].range();
+            decided(&[(lo >= 0.0, &a[c])]).cloned().or_else(|| (hi <= 0.0).then(|| a[c].scale(-1.0, 0.0)))
+        })?,
+        Mix => lanes(|c| a[c].add(&o[1][c].sub(&a[c]).mul(&o[2][c], s.fresh()))),
+        Reflect => {
+            let twice = dot(&o[1], a, 3, s).scale(2.0, 0.0);
+            lanes(|c| a[c].sub(&twice.mul(&o[1][c], s.fresh())))
+        }
+        Cross => {
+            let mut term =
+                |i: usize, j: usize| a[i].mul(&o[1][j], s.fresh()).sub(&a[j].mul(&o[1][i], s.fresh()));
+            let (c0, c1, c2) = (term(1, 2), term(2, 0), term(0, 1));
+            [c0, c1, c2, constant(0.0)]
+        }
+        _ => return None,
+    })
+}
+
+/// `t ⊕[mode] f` on forms (`ops::texture_env`, GL 1.2.1 Table 3.22 and
+/// the combine extension, unclamped): products and sums of the operands.
+fn texture_env(mode: CombineMode, width: usize, t: &Form, f: &Form, widened: bool, s: &mut Symbols) -> Form {
+    let alpha = width == 4;
+    let at = if alpha { t[3].clone() } else { constant(1.0) };
+    let with_alpha = |mut c: Form, a: Affine| {
+        if alpha {
+            c[3] = a;
+        }
+        c
+    };
+    let blend =
+        |c: usize, s: &mut Symbols| t[c].mul(&at, s.fresh()).add(&f[c].mul(&at.scale(-1.0, 1.0), s.fresh()));
+    match mode {
+        CombineMode::Modulate => lanes(|c| t[c].mul(&f[c], s.fresh())),
+        CombineMode::Add => lanes(|c| t[c].add(&f[c])),
+        CombineMode::AddSigned => lanes(|c| t[c].linear(1.0, &f[c], 1.0, -0.5)),
+        CombineMode::Subtract => lanes(|c| t[c].sub(&f[c])),
+        CombineMode::Decal => {
+            let rgb = lanes(|c| blend(c, s));
+            with_alpha(rgb, f[3].clone())
+        }
+        CombineMode::Interpolate => lanes(|c| blend(c, s)),
+        CombineMode::Blend => {
+            let rgb = lanes(|c| f[c].mul(&t[c].scale(-1.0, 1.0), s.fresh()));
+            with_alpha(rgb, t[3].mul(&f[3], s.fresh()))
+        }
+        CombineMode::Replace => with_alpha(t.clone(), if widened { f[3].clone() } else { t[3].clone() }),
+        CombineMode::Dot3Rgb | CombineMode::Dot3Rgba => {
+            let n = if width == 1 { 1 } else { 3 };
+            let centred = |x: &Form| lanes(|c| x[c].scale(1.0, -0.5));
+            let d = dot(&centred(t), &centred(f), n, s).scale(4.0, 0.0);
+            if mode == CombineMode::Dot3Rgb {
+                with_alpha(splat(d), t[3].mul(&f[3], s.fresh()))
+            } else {
+                splat(d)
+            }
+        }
+    }
+}
