@@ -13,6 +13,7 @@ pub mod generators;
 pub mod lanes;
 pub mod sampling;
 pub mod solid;
+pub mod texels8;
 pub mod unit;
 
 use std::path::Path;
