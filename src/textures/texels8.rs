@@ -131,8 +131,6 @@ fn filtered8<const N: usize>(
 /// lanes `0..n` are below its length.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-// The tail's loop indexes the lanes of several arrays, as above.
-#[allow(clippy::needless_range_loop)]
 #[allow(clippy::type_complexity, reason = "one footprint's three lane arrays")]
 unsafe fn bilinear_paired8<const N: usize>(
     texels: &[[u8; 4]],
