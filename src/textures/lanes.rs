@@ -14,7 +14,6 @@
 //! a few per cent of the lookups) is handed to the one-lane code.
 
 use super::sampling::{Filter, Level, Texture2D, TextureCube, Wrap};
-use super::texels8::{bilinear_lanes8, Texels8};
 use super::unit::{self, LodChoice, WeightChoice};
 
 /// `v` clamped to ±1e9, or 0 where not finite (the texture unit's rule
@@ -61,14 +60,7 @@ fn lerp(a: [f32; 4], b: [f32; 4], w: f32) -> [f32; 4] {
 /// Bilinear filtering of four texels with weights (ax, ay), as
 /// [`unit::sample_cube_with`] and `Level::sample_bilinear` combine them.
 #[inline(always)]
-pub(super) fn bilinear4(
-    t00: [f32; 4],
-    t10: [f32; 4],
-    t01: [f32; 4],
-    t11: [f32; 4],
-    ax: f32,
-    ay: f32,
-) -> [f32; 4] {
+fn bilinear4(t00: [f32; 4], t10: [f32; 4], t01: [f32; 4], t11: [f32; 4], ax: f32, ay: f32) -> [f32; 4] {
     let top = lerp(t00, t10, ax);
     let bottom = lerp(t01, t11, ax);
     lerp(top, bottom, ay)
@@ -552,14 +544,6 @@ impl<const N: usize> Footprints2d<N> {
     /// filtered, into `out`.
     #[inline(always)]
     pub fn fetch(&self, t: &Texture2D, n: usize, out: &mut [[f32; N]; 4]) {
-        self.fetch_with(t, None, n, out)
-    }
-
-    /// [`Footprints2d::fetch`], a batch on one level reading `bytes`
-    /// (`t`'s texels as [`Texels8::of`] gives them, which must be `t`'s)
-    /// where given: the same values from a quarter of the memory.
-    #[inline(always)]
-    pub fn fetch_with(&self, t: &Texture2D, bytes: Option<&Texels8>, n: usize, out: &mut [[f32; N]; 4]) {
         let n = n.min(N);
         let (level0, level1, fa, fb) = (&self.level0, &self.level1, &self.fa, &self.fb);
         if !self.trilinear || self.single[..n].iter().all(|&one| one) {
@@ -567,9 +551,6 @@ impl<const N: usize> Footprints2d<N> {
             // level's bilinear sample, as below).
             let first = level0[0];
             if level0[..n].iter().all(|&k| k == first) {
-                if let Some(b) = bytes {
-                    return bilinear_lanes8(b.level(first as usize), (&fa.at, &fa.ax, &fa.ay), n, out);
-                }
                 return fetch_one_level(&t.levels[first as usize], fa, n, out);
             }
             for lane in 0..n {
@@ -616,7 +597,7 @@ fn fetch_one_level<const N: usize>(level: &Level, f: &Footprints<N>, n: usize, o
 #[allow(clippy::needless_range_loop)]
 #[allow(clippy::type_complexity, reason = "one footprint's three lane arrays")]
 #[inline(always)]
-pub(super) fn bilinear_lanes<const N: usize>(
+fn bilinear_lanes<const N: usize>(
     texels: &[[f32; 4]],
     (at, ax, ay): (&[[u32; N]; 4], &[f32; N], &[f32; N]),
     n: usize,

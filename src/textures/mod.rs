@@ -13,7 +13,6 @@ pub mod generators;
 pub mod lanes;
 pub mod sampling;
 pub mod solid;
-pub mod texels8;
 pub mod unit;
 
 use std::path::Path;

@@ -46,7 +46,6 @@ use crate::ir::{self, BinaryOp, Expr, MathFunction, UnaryOp};
 use crate::parser::ast::CombineMode;
 use crate::renderer::raster::{quad_lod_lanes, Vary};
 use crate::renderer::{Fragment, FragmentResult, BATCH};
-use crate::textures::texels8::Texels8;
 use crate::textures::{lanes as texture_lanes, unit, Texture};
 
 /// How a compiled pass's ops are dispatched (for the measurement that
@@ -161,10 +160,6 @@ pub(in crate::renderer) struct LaneProgram {
     levels: Vec<Option<texture_lanes::Levels>>,
     /// Per texture, a bound cube map's faces bordered by their seams.
     cubes: Vec<Option<texture_lanes::CubeBorders>>,
-    /// Per texture, a bound `rgba8` 2-D texture's texels as bytes, which
-    /// its footprints on one level read (a quarter of the f32 texels'
-    /// memory, the same values).
-    bytes: Vec<Option<Texels8>>,
     n_slots: usize,
     id: u64,
 }
@@ -238,19 +233,12 @@ impl LaneProgram {
                 _ => None,
             })
             .collect();
-        let bytes = (0..n_textures)
-            .map(|k| match bound(k) {
-                Some(Texture::Flat(t)) if !plain() => Texels8::of(t),
-                _ => None,
-            })
-            .collect();
         LaneProgram {
             ops,
             closures,
             splats,
             levels,
             cubes,
-            bytes,
             n_slots: p.n_slots,
             id: PROGRAMS.fetch_add(1, Ordering::Relaxed),
         }
@@ -463,11 +451,10 @@ impl FragmentProgram<'_> {
                 let l = &*shared;
                 let same = (l.coords, l.coords_ty, l.lod_from) == (s.ops[0], coords_ty, lod_from);
                 let levels = lp.levels.get(texture as usize).and_then(Option::as_ref);
-                let bytes = lp.bytes.get(texture as usize).and_then(Option::as_ref);
                 if l.valid && same && !plain() && l.f.fits_levels(levels, filter) {
                     #[cfg(test)]
                     tests::SHARED.fetch_add(1, Ordering::Relaxed);
-                    l.f.fetch_with(t, bytes, n, texel);
+                    l.f.fetch(t, n, texel);
                     return canonical(texel, width_of(s.ty), 0b1111);
                 }
                 let half = [0.5f32; BATCH];
@@ -486,7 +473,7 @@ impl FragmentProgram<'_> {
                 shared.valid = shared.f.refill_with(levels, t, (c0, v, &lod), filter, self.latitude);
                 if shared.valid {
                     (shared.coords, shared.coords_ty, shared.lod_from) = (s.ops[0], coords_ty, lod_from);
-                    shared.f.fetch_with(t, bytes, n, texel);
+                    shared.f.fetch(t, n, texel);
                 } else {
                     // Lane by lane: the lanes do not cover this lookup.
                     texture_lanes::sample_2d_lanes(t, c0, v, &lod, n, filter, self.latitude, texel)

@@ -45,36 +45,28 @@ fn kilgard_on_wgsl(
 /// footprints, results written only in the components read and the cube
 /// lookups reading their faces bordered by the seams, as plain, with
 /// every lookup computing its own footprints, every result in all four
-/// components, the cube's seam lanes through the one-lane code and the
-/// `rgba8` texels read as f32; and the sharing and the byte reads did
-/// happen.
+/// components and the cube's seam lanes through the one-lane code; and
+/// the sharing did happen.
 #[test]
 fn shared_footprints_and_demanded_components_render_the_plain_frame_bit_for_bit() {
     let (scene, assets, program, planned) = kilgard_on_wgsl();
-    // 160×120 minifies the 2-D textures (two levels a lane); 640×480
-    // magnifies most of them (one level a batch: the bytes' path).
-    for (w, h) in [(160, 120), (640, 480)] {
-        let render = || {
-            let renderer = PlanRenderer::new(&planned, &program, &scene, &assets).unwrap();
-            renderer.render(Precision::F32, w, h, &mut |_, _| {}).unwrap()
-        };
-        let before = SHARED.load(Ordering::Relaxed);
-        let bytes_before = crate::textures::texels8::READS.load(Ordering::Relaxed);
-        let fast = render();
-        assert!(SHARED.load(Ordering::Relaxed) > before, "{w}×{h}: no lookup shared footprints");
-        let bytes = crate::textures::texels8::READS.load(Ordering::Relaxed) - bytes_before;
-        assert!(w < 640 || bytes > 0, "{w}×{h}: no footprint read the rgba8 texels as bytes");
-        PLAIN.store(true, Ordering::Relaxed);
-        let plain = std::panic::catch_unwind(std::panic::AssertUnwindSafe(render));
-        PLAIN.store(false, Ordering::Relaxed);
-        let plain = plain.unwrap();
-        let bits = |f: &crate::renderer::plan::Frame| {
-            f.image.to_rgba_f32().into_iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>()
-        };
-        assert!(fast.stats.written > 1000, "{:?}", fast.stats);
-        assert!(bits(&fast) == bits(&plain), "{w}×{h}: the frames differ");
-        assert_eq!((fast.stats, fast.nonfinite), (plain.stats, plain.nonfinite));
-    }
+    let render = || {
+        let renderer = PlanRenderer::new(&planned, &program, &scene, &assets).unwrap();
+        renderer.render(Precision::F32, 160, 120, &mut |_, _| {}).unwrap()
+    };
+    let before = SHARED.load(Ordering::Relaxed);
+    let fast = render();
+    assert!(SHARED.load(Ordering::Relaxed) > before, "no lookup shared footprints");
+    PLAIN.store(true, Ordering::Relaxed);
+    let plain = std::panic::catch_unwind(std::panic::AssertUnwindSafe(render));
+    PLAIN.store(false, Ordering::Relaxed);
+    let plain = plain.unwrap();
+    let bits = |f: &crate::renderer::plan::Frame| {
+        f.image.to_rgba_f32().into_iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>()
+    };
+    assert!(fast.stats.written > 1000, "{:?}", fast.stats);
+    assert_eq!(bits(&fast), bits(&plain));
+    assert_eq!((fast.stats, fast.nonfinite), (plain.stats, plain.nonfinite));
 }
 
 /// `x^k` over the lanes ([`super::power_lanes`]) is the interpreter's
