@@ -237,28 +237,41 @@ fn decompose(
                 rhs: incoming,
             } if !contains(b.module, tex, x, memo) => {
                 let (m, s) = decompose(b, incoming, x, memo, cache)?;
-                let at = b.alpha(tex)?;
-                let one = b.constant(Ty::Scalar, 1.0)?;
-                // Result = Cf·k + c, per channel.
-                let (k, c) = if mode == CombineMode::Decal {
-                    let k_rgb = b.one_minus(at)?;
-                    let k = b.color(ty, k_rgb, one)?;
-                    let ct = b.rgb(tex)?;
-                    let c_rgb = b.mul(ct, at)?;
-                    let zero = b.constant(Ty::Scalar, 0.0)?;
-                    (k, b.color(ty, c_rgb, zero)?)
-                } else {
-                    let ct = b.rgb(tex)?;
-                    let k_rgb = b.one_minus(ct)?;
-                    (b.color(ty, k_rgb, at)?, b.constant(ty, 0.0)?)
-                };
-                let mk = b.mul(m, k)?;
-                let sk = b.mul(s, k)?;
-                Some((mk, b.add(sk, c)?))
+                over_incoming(b, ty, mode, tex, (m, s))
             }
             _ => None,
         }
     };
     cache.insert(e, r);
     r
+}
+
+/// `tex ⊕[mode] (X·m + s)` for a decal or blend `mode` as `X·(m·k) +
+/// (s·k + c)`: the environment is `Cf·k + c` per channel in the incoming
+/// colour (the module's doc).
+fn over_incoming(
+    b: &mut Builder,
+    ty: Ty,
+    mode: CombineMode,
+    tex: Handle<Expr>,
+    (m, s): Pair,
+) -> Option<Pair> {
+    let at = b.alpha(tex)?;
+    let one = b.constant(Ty::Scalar, 1.0)?;
+    // Result = Cf·k + c, per channel.
+    let (k, c) = if mode == CombineMode::Decal {
+        let k_rgb = b.one_minus(at)?;
+        let k = b.color(ty, k_rgb, one)?;
+        let ct = b.rgb(tex)?;
+        let c_rgb = b.mul(ct, at)?;
+        let zero = b.constant(Ty::Scalar, 0.0)?;
+        (k, b.color(ty, c_rgb, zero)?)
+    } else {
+        let ct = b.rgb(tex)?;
+        let k_rgb = b.one_minus(ct)?;
+        (b.color(ty, k_rgb, at)?, b.constant(ty, 0.0)?)
+    };
+    let mk = b.mul(m, k)?;
+    let sk = b.mul(s, k)?;
+    Some((mk, b.add(sk, c)?))
 }

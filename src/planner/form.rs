@@ -239,6 +239,19 @@ pub fn whole_form(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result
     Ok(form)
 }
 
+/// `T ⊕[decal] C` of an rgba `T` reading neither the colour `r` nor the
+/// alpha `ra` of the framebuffer: alpha blending of `T`.
+fn decal_over(
+    m: &Module,
+    v: Handle<Expr>,
+    r: Handle<Expr>,
+    ra: Option<Handle<Expr>>,
+) -> Option<Handle<Expr>> {
+    let Expr::Combine { mode: CombineMode::Decal, lhs, rhs } = m.exprs[v] else { return None };
+    let reads = |x: Handle<Expr>| split::depends_on(m, lhs, x);
+    (rhs == r && m.info(lhs).ty == ir::Ty::Rgba && !reads(r) && !ra.is_some_and(reads)).then_some(lhs)
+}
+
 /// `v` without a `saturate` at its top (under a widening to rgba).
 fn without_saturate(m: &mut Module, v: Handle<Expr>) -> Handle<Expr> {
     match m.exprs[v] {
@@ -298,23 +311,18 @@ pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<F
         return Err(unsupported("an alpha write that reads the framebuffer").with_help(ALPHA_HELP));
     }
     if let Some(r) = r.filter(|r| split::depends_on(m, v, *r)) {
-        // `T ⊕[decal] C`: alpha blending.
-        if let Expr::Combine { mode: CombineMode::Decal, lhs, rhs } = m.exprs[v] {
-            if rhs == r && m.info(lhs).ty == ir::Ty::Rgba && !uses(m, lhs, Some(r)) && !uses(m, lhs, ra) {
-                form.blend = BlendMode::AlphaBlend;
-                form.value = lhs;
-                return Ok(form);
-            }
+        if let Some(lhs) = decal_over(m, v, r, ra) {
+            form.blend = BlendMode::AlphaBlend;
+            form.value = lhs;
+            return Ok(form);
         }
         let (coef, offset) =
             affine::affine(&mut Builder { module: m }, v, r).ok_or_else(|| non_linear(st))?;
-        if let Some((blend, x)) = ra.and_then(|ra| dst_alpha_choice(m, coef, offset, ra)) {
+        let choice = ra
+            .and_then(|ra| dst_alpha_choice(m, coef, offset, ra))
+            .or_else(|| src_alpha_choice(m, coef, offset).map(|x| (BlendMode::AlphaBlend, x)));
+        if let Some((blend, x)) = choice {
             form.blend = blend;
-            form.value = x;
-            return Ok(form);
-        }
-        if let Some(x) = src_alpha_choice(m, coef, offset) {
-            form.blend = BlendMode::AlphaBlend;
             form.value = x;
             return Ok(form);
         }
