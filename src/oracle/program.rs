@@ -496,24 +496,10 @@ impl<'a> Evaluator<'a> {
             let g = self.shifted(f, dx, dy);
             Ok(uv(self.operand(coords, At::Fragment(g), lod_depth + 1, &mut Memo::new())?, cty))
         };
-        let d = |a: [f64; 2], b: [f64; 2]| [b[0] - a[0], b[1] - a[1]];
-        let (right, below) = (at_offset(1.0, 0.0)?, at_offset(0.0, 1.0)?);
-        let lambda = image.lod(d([u, v], right), d([u, v], below)) + self.lod_choices.bias;
+        let sets =
+            quad_derivative_sets(f.pixel, at_offset, |a: [f64; 2], b: [f64; 2]| [b[0] - a[0], b[1] - a[1]])?;
+        let lambda = image.lod(sets[0].0, sets[0].1) + self.lod_choices.bias;
         let value = image.sample(u, v, lambda);
-        let (qx, qy) = (-f64::from(f.pixel.0 & 1), -f64::from(f.pixel.1 & 1));
-        let q = [
-            at_offset(qx, qy)?,
-            at_offset(qx + 1.0, qy)?,
-            at_offset(qx, qy + 1.0)?,
-            at_offset(qx + 1.0, qy + 1.0)?,
-        ];
-        let row = if qy == 0.0 { (q[0], q[1]) } else { (q[2], q[3]) };
-        let column = if qx == 0.0 { (q[0], q[2]) } else { (q[1], q[3]) };
-        let sets = [
-            (d([u, v], right), d([u, v], below)),
-            (d(q[0], q[1]), d(q[0], q[2])),
-            (d(row.0, row.1), d(column.0, column.1)),
-        ];
         let (mut lo, mut hi) = (lambda, lambda);
         for (dx, dy) in sets {
             let (a, b) = image.lod_bounds(dx, dy);
@@ -548,6 +534,34 @@ impl<'a> Evaluator<'a> {
 /// piecewise-linear log₂ (`(e − 1) + m` for `m·2ᵉ`, as fixed-function
 /// hardware and llvmpipe take it) is low by up to 0.086.
 pub const LOG2_SLACK: f64 = 0.1;
+
+/// The derivative pairs GL §3.8.8 lets an implementation take a lookup's λ
+/// from at the fragment of `pixel`: the forward differences at the
+/// fragment itself, those of its 2×2 quad's first fragment, and the
+/// quad's row and column through the fragment. `at_offset` gives the
+/// coordinates at a pixel offset (`(0, 0)` the fragment's own), `d` the
+/// difference of two.
+pub(super) fn quad_derivative_sets<P: Copy, D, E>(
+    pixel: (u32, u32),
+    at_offset: impl Fn(f64, f64) -> Result<P, E>,
+    d: impl Fn(P, P) -> D,
+) -> Result<[(D, D); 3], E> {
+    let (here, right, below) = (at_offset(0.0, 0.0)?, at_offset(1.0, 0.0)?, at_offset(0.0, 1.0)?);
+    let (qx, qy) = (-f64::from(pixel.0 & 1), -f64::from(pixel.1 & 1));
+    let q = [
+        at_offset(qx, qy)?,
+        at_offset(qx + 1.0, qy)?,
+        at_offset(qx, qy + 1.0)?,
+        at_offset(qx + 1.0, qy + 1.0)?,
+    ];
+    let row = if qy == 0.0 { (q[0], q[1]) } else { (q[2], q[3]) };
+    let column = if qx == 0.0 { (q[0], q[2]) } else { (q[1], q[3]) };
+    Ok([
+        (d(here, right), d(here, below)),
+        (d(q[0], q[1]), d(q[0], q[2])),
+        (d(row.0, row.1), d(column.0, column.1)),
+    ])
+}
 
 /// How many extremes of a lookup's λ interval a render can pick
 /// ([`Evaluator::lod_choices`] 1..=LOD_CHOICES): the two ends and two

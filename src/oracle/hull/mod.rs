@@ -391,21 +391,7 @@ impl Evaluator<'_> {
             Ok(uv_box(&r.unwrap_or(point([f64::NAN; 4])), cty))
         };
         let d = |a: [I; 2], b: [I; 2]| [sub(b[0], a[0]), sub(b[1], a[1])];
-        let (right, below) = (at_offset(1.0, 0.0)?, at_offset(0.0, 1.0)?);
-        let (qx, qy) = (-f64::from(f.pixel.0 & 1), -f64::from(f.pixel.1 & 1));
-        let q = [
-            at_offset(qx, qy)?,
-            at_offset(qx + 1.0, qy)?,
-            at_offset(qx, qy + 1.0)?,
-            at_offset(qx + 1.0, qy + 1.0)?,
-        ];
-        let row = if qy == 0.0 { (q[0], q[1]) } else { (q[2], q[3]) };
-        let column = if qx == 0.0 { (q[0], q[2]) } else { (q[1], q[3]) };
-        let sets = [
-            (d(here, right), d(here, below)),
-            (d(q[0], q[1]), d(q[0], q[2])),
-            (d(row.0, row.1), d(column.0, column.1)),
-        ];
+        let sets = super::program::quad_derivative_sets(f.pixel, at_offset, d)?;
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
         for (dx, dy) in sets {
             let (a, b) = image.lod_bounds_within(dx, dy);
