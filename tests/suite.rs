@@ -62,6 +62,7 @@ mod roundtrip;
 mod shadow_map;
 mod shadow_mask;
 mod shadow_volumes;
+mod shared_values;
 mod signed_textures;
 mod solid_mapping;
 mod specialize_lights;

@@ -104,6 +104,7 @@
 //! a node shared by two statements (Kilgard's `Tn δu x`) is the same handle.
 
 pub mod arena;
+mod chain;
 pub mod declared;
 pub mod dump;
 pub mod eval;

@@ -14,11 +14,35 @@ use crate::ir::{BinaryOp, Expr, Handle, MathFunction, Module};
 use crate::parser::ast::TextureFormat;
 use crate::pipeline::ApproximationCost;
 use crate::span::Span;
+use rustc_hash::FxHashMap;
 
 /// `x`'s per-vertex counterpart: every `δ v` in it replaced by `v`;
 /// `None` when `x` reads anything per sample but interpolants (a texture,
-/// a framebuffer, the pixel).
+/// a framebuffer, the pixel). Each node is rewritten once (a value read
+/// twice is one node: `let a₁ = a₀·a₀; …` visited as a tree doubles per
+/// level).
 pub fn at_vertex(m: &mut Module, x: Handle<Expr>) -> Option<Handle<Expr>> {
+    at_vertex_once(m, x, &mut FxHashMap::default())
+}
+
+fn at_vertex_once(
+    m: &mut Module,
+    x: Handle<Expr>,
+    done: &mut FxHashMap<Handle<Expr>, Option<Handle<Expr>>>,
+) -> Option<Handle<Expr>> {
+    if let Some(r) = done.get(&x) {
+        return *r;
+    }
+    let r = at_vertex_node(m, x, done);
+    done.insert(x, r);
+    r
+}
+
+fn at_vertex_node(
+    m: &mut Module,
+    x: Handle<Expr>,
+    done: &mut FxHashMap<Handle<Expr>, Option<Handle<Expr>>>,
+) -> Option<Handle<Expr>> {
     let info = m.info(x);
     if !info.freq.is_sample() {
         return Some(x);
@@ -35,16 +59,9 @@ pub fn at_vertex(m: &mut Module, x: Handle<Expr>) -> Option<Handle<Expr>> {
         // triangle: the smoothing Section 4.5 suggests against popping.
         | Expr::Select { reject: Some(_), .. } => {
             let e = m.exprs[x].clone();
-            let mut ok = true;
             let mut ops = Vec::new();
             for o in e.operands() {
-                match at_vertex(m, o) {
-                    Some(v) => ops.push(v),
-                    None => ok = false,
-                }
-            }
-            if !ok {
-                return None;
+                ops.push(at_vertex_once(m, o, done)?);
             }
             let mut it = ops.into_iter();
             // One rewritten operand per operand, in order (`operands`).
@@ -55,7 +72,7 @@ pub fn at_vertex(m: &mut Module, x: Handle<Expr>) -> Option<Handle<Expr>> {
             if m.textures[*texture as usize].tabulates == Some(crate::ir::Tabulated::Normalize) =>
         {
             let (texture, coords) = (*texture, *coords);
-            let v = at_vertex(m, coords)?;
+            let v = at_vertex_once(m, coords, done)?;
             normalized_texel(m, texture, v, m.span(x))
         }
         _ => None,
@@ -278,14 +295,7 @@ fn linear_terms(m: &mut Module, h: Handle<Expr>) -> Option<Vec<Vec<Handle<Expr>>
 
 /// The factors of a product rooted at `h` (`[h]` for anything else).
 fn product_of(m: &Module, h: Handle<Expr>) -> Vec<Handle<Expr>> {
-    match m.exprs[h] {
-        Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => {
-            let mut a = product_of(m, lhs);
-            a.extend(product_of(m, rhs));
-            a
-        }
-        _ => vec![h],
-    }
+    m.chain_operands(h, |e| matches!(e, Expr::Binary { op: BinaryOp::Mul, .. }))
 }
 
 /// The sum, `lerp` or scaled sum at `h` ([`linear_terms`]) with the terms

@@ -566,36 +566,19 @@ fn tuple(m: &Module, h: Handle<Expr>) -> bool {
 
 /// The terms of a sum (`+`, `⊕[add]`) rooted at `h`; `[h]` for anything else.
 fn sum_terms(m: &Module, h: Handle<Expr>) -> Vec<Handle<Expr>> {
-    let mut out = Vec::new();
-    let mut stack = vec![h];
-    while let Some(x) = stack.pop() {
-        match m.exprs[x] {
-            Expr::Binary { op: BinaryOp::Add, lhs, rhs }
-            | Expr::Combine { mode: CombineMode::Add, lhs, rhs } => {
-                stack.push(rhs);
-                stack.push(lhs);
-            }
-            _ => out.push(x),
-        }
-    }
-    out
+    m.chain_operands(h, |e| {
+        matches!(e, Expr::Binary { op: BinaryOp::Add, .. } | Expr::Combine { mode: CombineMode::Add, .. })
+    })
 }
 
 /// The factors of a product (`*`, `⊕` modulate) rooted at `h`; `[h]` else.
 fn product_factors(m: &Module, h: Handle<Expr>) -> Vec<Handle<Expr>> {
-    let mut out = Vec::new();
-    let mut stack = vec![h];
-    while let Some(x) = stack.pop() {
-        match m.exprs[x] {
-            Expr::Binary { op: BinaryOp::Mul, lhs, rhs }
-            | Expr::Combine { mode: CombineMode::Modulate, lhs, rhs } => {
-                stack.push(rhs);
-                stack.push(lhs);
-            }
-            _ => out.push(x),
-        }
-    }
-    out
+    m.chain_operands(h, |e| {
+        matches!(
+            e,
+            Expr::Binary { op: BinaryOp::Mul, .. } | Expr::Combine { mode: CombineMode::Modulate, .. }
+        )
+    })
 }
 
 /// `h` as a sum of products, each term its factors in the order written;
@@ -622,7 +605,13 @@ fn expansion(m: &Module, h: Handle<Expr>, max: usize) -> Option<Vec<Vec<Handle<E
         if out.len() * sub.len() > max {
             return None;
         }
-        out = out.iter().flat_map(|a| sub.iter().map(move |b| [a.clone(), b.clone()].concat())).collect();
+        if let [one] = &sub[..] {
+            // A factor that is no sum: appended in place (a long product
+            // copied per factor was quadratic in its length).
+            out.iter_mut().for_each(|a| a.extend_from_slice(one));
+        } else {
+            out = out.iter().flat_map(|a| sub.iter().map(move |b| [a.clone(), b.clone()].concat())).collect();
+        }
     }
     Some(out)
 }

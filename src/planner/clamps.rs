@@ -359,17 +359,7 @@ pub(super) fn halved_terms(module: &mut Module, v: Handle<Expr>) -> Option<Handl
 /// The factors of a product, left to right, and the index of its first
 /// positive scalar constant (`None` without one).
 fn factors_with_constant(module: &Module, v: Handle<Expr>) -> Option<(Vec<Handle<Expr>>, usize)> {
-    let mut factors = Vec::new();
-    let mut stack = vec![v];
-    while let Some(x) = stack.pop() {
-        match module.exprs[x] {
-            Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => {
-                stack.push(rhs);
-                stack.push(lhs);
-            }
-            _ => factors.push(x),
-        }
-    }
+    let factors = module.chain_operands(v, |e| matches!(e, Expr::Binary { op: BinaryOp::Mul, .. }));
     let k = factors.iter().position(
         |&f| matches!(&module.exprs[f], Expr::Constant(c) if c.ty == Ty::Scalar && c.components[0] > 0.0),
     )?;

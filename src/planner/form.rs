@@ -581,6 +581,9 @@ pub(super) fn plan_form(
         Some(p) => p.iter().cloned().collect(),
         None => {
             let o = overflow.unwrap_or_else(no_split);
+            if splitter.out_of_budget() {
+                return Err(search_stopped(o));
+            }
             return Err(if cache.clamp_refusals > clamp_refusals {
                 Overflow { resource: format!("{o}, {CLAMPED_BETWEEN_PASSES}"), need: 0, have: 0, ..o }
             } else {
@@ -606,6 +609,26 @@ pub(super) fn plan_form(
 /// it to say so first when every form was refused so.
 pub(super) const CLAMPED_BETWEEN_PASSES: &str =
     "and the splits that fit would store a value outside [0, 1] between passes, where the 8-bit framebuffer's clamp changes it";
+
+/// The refusal of a value whose search for a split stopped at its budget
+/// ([`super::split::SEARCH_BUDGET`]), with what the user can change.
+fn search_stopped(o: Overflow) -> Overflow {
+    Overflow {
+        resource: format!(
+            "{o}, and the search for a split stopped after checking {} candidate passes without finding one \
+             (a value nested and shared this many levels deep offers more splits than that)",
+            super::split::SEARCH_BUDGET
+        ),
+        need: 0,
+        have: 0,
+        help: Some(
+            "write the levels as statements, each blending onto what the framebuffer holds \
+             (`C δπx ← …;` then `C δπx ← lerp(C δπx, (C δπx) * T δu x, 0.5);`), or target wgsl"
+                .into(),
+        ),
+        ..o
+    }
+}
 
 /// The refusal of a value no split fits.
 fn no_split() -> Overflow {

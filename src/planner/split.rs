@@ -77,10 +77,31 @@ pub struct SplitCache {
     /// The 8-bit temporaries that hold `saturate(x)` as `x` clamped by
     /// the store: what they end with may leave [0, 1].
     pub clamped_temps: FxHashSet<u32>,
+    /// Candidate passes checked against the target so far (each a code
+    /// generation on the combiner targets), for [`SEARCH_BUDGET`].
+    pub checked: std::cell::Cell<usize>,
+    /// `checked` when the planner began the statements it plans now: their
+    /// forms and splits share one budget.
+    pub statement_began: usize,
 }
+
+/// The most candidate passes the search for one statement (or one run of
+/// statements fused) checks against the target, over all its forms. A value nested and shared many levels deep (`let a₁ = lerp(a₀,
+/// a₀·T1, ½); let a₂ = lerp(a₁, a₁·T2, ½); …`) offers a number of splits
+/// that grows by a factor per level: seven levels took 9 s on geforce3,
+/// ten did not end (seven levels check 400 000 candidates over all
+/// forms). Past the budget the search answers no value it
+/// has not answered before, and a statement it leaves without a plan is
+/// refused saying so. The largest search among the examples and the test
+/// programs checks 59 000 candidates (a deferred two-lobe program on
+/// geforce256); the budget is about 10 s of search on the project's
+/// machine.
+pub const SEARCH_BUDGET: usize = 400_000;
 
 pub struct Splitter<'a> {
     pub module: &'a mut Module,
+    /// `cache.checked` when the planner began the statement ([`SEARCH_BUDGET`]).
+    checked_from: usize,
     fit: &'a dyn FitCheck,
     exhaustive: bool,
     cache: &'a mut SplitCache,
@@ -97,7 +118,8 @@ impl<'a> Splitter<'a> {
         position: Handle<Expr>,
         storage: Storage,
     ) -> Splitter<'a> {
-        Splitter { module, fit, exhaustive: false, cache, position, storage }
+        let checked_from = cache.statement_began;
+        Splitter { module, checked_from, fit, exhaustive: false, cache, position, storage }
     }
 
     /// The brute-force variant the optimality test compares against.
@@ -116,7 +138,13 @@ impl<'a> Splitter<'a> {
     }
 
     fn fits(&self, h: Handle<Expr>) -> Result<(), Overflow> {
+        self.cache.checked.set(self.cache.checked.get() + 1);
         self.fit.fits(self.module, h)
+    }
+
+    /// Whether this search has checked its [`SEARCH_BUDGET`] of candidates.
+    pub fn out_of_budget(&self) -> bool {
+        !self.exhaustive && self.cache.checked.get() - self.checked_from > SEARCH_BUDGET
     }
 
     /// The cheapest plan writing `e` with `mode`, or `None` when no split
@@ -139,8 +167,12 @@ impl<'a> Splitter<'a> {
                 return r.clone();
             }
         }
+        if self.out_of_budget() {
+            return None;
+        }
         let r = self.search(mode, e, depth);
-        if !self.exhaustive {
+        // A search the budget cut short is no verdict on `e`.
+        if !self.exhaustive && !self.out_of_budget() {
             self.cache.memo.insert((mode, e, self.position), (r.clone(), depth));
         }
         r
@@ -251,7 +283,11 @@ impl<'a> Splitter<'a> {
     // ---- chain split ----------------------------------------------------
 
     fn chain_op(&self, h: Handle<Expr>) -> Option<ChainOp> {
-        match &self.module.exprs[h] {
+        Self::op_of(&self.module.exprs[h])
+    }
+
+    fn op_of(e: &Expr) -> Option<ChainOp> {
+        match e {
             Expr::Binary { op: BinaryOp::Add, .. } | Expr::Combine { mode: CombineMode::Add, .. } => {
                 Some(ChainOp::Add)
             }
@@ -264,13 +300,7 @@ impl<'a> Splitter<'a> {
 
     /// The operands of a maximal sum or product rooted at `e`.
     fn flatten(&self, e: Handle<Expr>, op: ChainOp, out: &mut Vec<Handle<Expr>>) {
-        if self.chain_op(e) == Some(op) {
-            for o in self.module.operands(e) {
-                self.flatten(o, op, out);
-            }
-        } else {
-            out.push(e);
-        }
+        out.extend(self.module.chain_operands(e, |x| Self::op_of(x) == Some(op)));
     }
 
     /// One node for the sum or product of `ops`, in their order.
@@ -306,6 +336,9 @@ impl<'a> Splitter<'a> {
         };
         let mut ops = Vec::new();
         self.flatten(e, op, &mut ops);
+        if ops.len() < 2 {
+            return None; // a chain too long written out ([`Module::chain_operands`])
+        }
         let what = if op == ChainOp::Add { "sum" } else { "product" };
         let n = ops.len();
         let why = |k: usize, groups: usize, blend: BlendMode| {
@@ -341,10 +374,13 @@ impl<'a> Splitter<'a> {
         // where no grouping of the rest fits, the rest planned on its own
         // as well: a sum of several terms that each take several passes
         // (issue 34) renders each into a temporary and adds it.
+        let mut heads_tried = FxHashSet::default();
         for i in 0..n {
             // Checked before the others are gathered: gathering them
-            // for every operand made a long chain quadratic.
-            if self.fits(ops[i]).is_ok() {
+            // for every operand made a long chain quadratic. An operand
+            // repeated (a value squared, `a·a`) is the same head with the
+            // same others: tried once.
+            if self.fits(ops[i]).is_ok() || !heads_tried.insert(ops[i]) {
                 continue; // then it is just a group of a plain partition
             }
             let others: Vec<Handle<Expr>> =

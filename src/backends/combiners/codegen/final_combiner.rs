@@ -46,13 +46,7 @@ impl Gen<'_> {
     }
 
     pub(super) fn flatten(&self, h: Handle<Expr>, op: BinaryOp, out: &mut Vec<Handle<Expr>>) {
-        match self.expr(h) {
-            Expr::Binary { op: o, lhs, rhs } if *o == op => {
-                self.flatten(*lhs, op, out);
-                self.flatten(*rhs, op, out);
-            }
-            _ => out.push(h),
-        }
+        out.extend(self.m.chain_operands(h, |e| matches!(e, Expr::Binary { op: o, .. } if *o == op)));
     }
 
     pub(super) fn nonneg_unit(&self, h: Handle<Expr>) -> bool {
