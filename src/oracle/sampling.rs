@@ -557,8 +557,10 @@ impl Paraboloid {
         };
         let sum = r.iter().fold((0.0, 0.0), |s, &a| (s.0 + square(a).0, s.1 + square(a).1));
         let len = (sum.0.sqrt(), sum.1.sqrt());
+        // A box that may hold the zero direction (or a length not a number).
+        let zero = len.0.is_nan() || len.0 <= 0.0;
         let unit = |(a, b): (f64, f64)| -> (f64, f64) {
-            if !(len.0 > 0.0) {
+            if zero {
                 return (-1.0, 1.0);
             }
             let v = [a / len.0, a / len.1, b / len.0, b / len.1];
@@ -590,7 +592,7 @@ impl Paraboloid {
             read(&self.back, (1.0 - z.1.min(0.0), 1.0 - z.0));
         }
         // The zero direction reads the front face at (0, 0, 1).
-        if !(len.0 > 0.0) {
+        if zero {
             let v = self.sample([0.0, 0.0, 1.0]);
             for c in 0..4 {
                 (low[c], high[c]) = (low[c].min(v[c]), high[c].max(v[c]));

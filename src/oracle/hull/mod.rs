@@ -20,7 +20,11 @@
 //! run through piece j: one noise symbol per piece, shared by the
 //! lookup's four channels and by every read of it (the same texture at
 //! the same coordinates takes the same λ). Sums and scalings are exact on
-//! forms, products add one fresh symbol (`forms.rs`); every other
+//! forms, products add one fresh symbol (`forms.rs`); `sqrt`, `rsqrt`, a
+//! power by a constant, `length`, `normalize`, and a clamp, `min`, `max`
+//! or `abs` the ranges leave open become their Chebyshev line over the
+//! argument's range plus one fresh symbol for its error
+//! (`functions.rs`); every other
 //! operation is taken on the intervals of its operands' forms
 //! (`interval.rs`: monotone functions at their ends, products at their
 //! corners, clamps, comparisons decided or left open) and its result
@@ -30,8 +34,10 @@
 //! its λ interval — from the intervals of its coordinates' derivatives —
 //! selects; a cube-map lookup at a moving direction by the texels of
 //! every face the direction's box may select, over the box of (s, t) it
-//! spans there (`sampling::Cube::box_hull`). What cannot be bounded so
-//! (a 3-D, environment or baked lookup at moving coordinates, a
+//! spans there (`sampling::Cube::box_hull`); a 3-D or dual-paraboloid
+//! lookup at moving coordinates by the texels of their box
+//! (`Volume::box_hull`, `Paraboloid::box_hull`). What cannot be bounded so
+//! (a baked lookup at moving coordinates, a
 //! framebuffer read at a moving position, a condition that moves and
 //! keeps the destination) is [`Unsupported`], and the caller falls back
 //! to rendering the combinations.
