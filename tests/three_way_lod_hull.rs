@@ -29,7 +29,10 @@ struct Compiled {
 }
 
 fn compiled(body: &str) -> Compiled {
-    let scene = scene("kilgard_torus.ron");
+    compiled_in(body, scene("kilgard_torus.ron"))
+}
+
+fn compiled_in(body: &str, scene: shadec::scene::Scene) -> Compiled {
     let assets = scene.build().unwrap();
     let profile = Profile::resolve("wgsl").unwrap();
     let c = shadec::driver::compile(&format!("{HEAD}{body}"), &profile, &Default::default()).unwrap();
@@ -313,4 +316,122 @@ fn a_cube_map_lookup_at_a_moving_direction_is_bounded_by_the_hull() {
     let g = crate::common::gpu::gpu();
     let p = render_three(&format!("{HEAD}{CUBE}"), "wgsl", &c.scene, Precision::F32, g.as_ref()).unwrap();
     verdict(&p).unwrap();
+}
+
+/// A minified normal map renormalized (`normalize`, then each channel
+/// back to [0, 1]), and Blinn 1977's highlight on it beside a diffuse term
+/// (`normalize`, dot products and a power of 16 on one normal), and a
+/// display gamma (a power of 1/2.2) less a share of the value it raises:
+/// one-variable functions of lookups whose channels and reads share λ.
+const RENORMALIZED: &str = "C δπx ← compress(normalize(expand((A δu x).rgb)));\n";
+const BLINN: &str = "let n = normalize(vec3(0.5 * expand((A δu x).rgb)) + (0, 0, 1));\n\
+    C δπx ← rgb(1, 1, 1) * (0.6 * max(0, n · (0.36, 0.48, 0.8)) + max(0, n · (0, 0.6, 0.8))^16);\n";
+const GAMMA: &str = "C δπx ← 2 * ((A δu x)^(1 / 2.2) - 0.6 * (A δu x));\n";
+
+/// `normalize`, `length`, `sqrt`, `rsqrt` and powers by a constant stay on
+/// affine forms (a Chebyshev line over the argument's range and one error
+/// symbol, Stolfi and de Figueiredo 1997): every render of the lookups'
+/// extremes lies inside the hull on every pixel, the hull inside the
+/// interval hull, and under 0.6 of its average width.
+#[test]
+fn one_variable_functions_keep_what_their_argument_shares() {
+    for body in [RENORMALIZED, BLINN, GAMMA] {
+        let c = compiled(body);
+        let (hull, intervals) = (c.hull(), c.interval_hull());
+        for (name, p) in [("least", &hull.low), ("greatest", &hull.high)] {
+            let off = outside(p, &intervals.low, &intervals.high, &hull.covered, 1e-9);
+            assert_eq!(off, 0, "{body}: the {name} outside the interval hull on {off} pixels");
+        }
+        for k in 1..=4 {
+            let p = c.chosen(&LodChoices { default: k, ..Default::default() });
+            let off = outside(&p.pixels, &hull.low, &hull.high, &hull.covered, 1e-9);
+            assert_eq!(off, 0, "{body}: choice {k}: {off} pixels outside the hull");
+        }
+        for bias in [-1.0, -0.5, -0.25, 0.25, 0.5, 1.0] {
+            let p = c.chosen(&LodChoices { bias, ..Default::default() });
+            let off = outside(&p.pixels, &hull.low, &hull.high, &hull.covered, 2.0 / 255.0);
+            let before = outside(&p.pixels, &intervals.low, &intervals.high, &hull.covered, 2.0 / 255.0);
+            eprintln!("{body}: bias {bias}: {off} pixels outside by more than 2/255 ({before} on intervals)");
+        }
+        let ((avg, max), (iavg, imax)) = (widths(&hull), widths(&intervals));
+        eprintln!("{body}: width {avg:.2}/255 on average, {max:.0} at most; intervals {iavg:.2}, {imax:.0}");
+        assert!(avg < 0.6 * iavg, "{body}: {avg:.2} against {iavg:.2} on intervals");
+    }
+}
+
+/// A render whose every λ is off by a part of a level
+/// (`LodChoices::bias`), put in the CPU's place, fails the three-way
+/// verdict against the hull of a renormalized normal map (half a level
+/// too coarse) and of a gamma less its argument (half a level too fine,
+/// three quarters too coarse), where against the interval hull — which
+/// took `normalize` and powers as the reference did before, on intervals
+/// — it passed. The render at eq. 3.17's λ passes both.
+#[test]
+fn a_render_off_in_lambda_falls_outside_the_hull_of_a_function_not_the_interval_hull() {
+    for (body, biases) in [(RENORMALIZED, &[0.5][..]), (GAMMA, &[-0.5, 0.75][..])] {
+        let c = compiled(body);
+        let g = crate::common::gpu::gpu();
+        let p = render_three(&format!("{HEAD}{body}"), "wgsl", &c.scene, Precision::F32, g.as_ref()).unwrap();
+        verdict(&p).unwrap();
+        let intervals = c.interval_hull();
+        let biased = |bias: f64| c.chosen(&LodChoices { bias, ..Default::default() }).pixels;
+        verdict(&as_cpu(&p, &biased(0.0), None)).unwrap();
+        verdict(&as_cpu(&p, &biased(0.0), Some(&intervals))).unwrap();
+        for &bias in biases {
+            let told = verdict(&as_cpu(&p, &biased(bias), None));
+            assert!(told.is_err(), "{body}: a render {bias} level off passed");
+            let before = verdict(&as_cpu(&p, &biased(bias), Some(&intervals)));
+            assert!(before.is_ok(), "{body}: the interval hull told a render {bias} level off: {before:?}");
+        }
+    }
+}
+
+/// A 3-D texture rendered by a statement, and a scene's dual-paraboloid
+/// map, each looked up at coordinates that move with a minified lookup's
+/// λ (a dependent lookup, Pipeline Grammar, eq. (8)).
+const VOLUME: &str = "vector P : position in object;\n\
+    texture V : 3d rgba8 bilinear clamp;\n\
+    shader f : s → c = rgb(s.x, 0.3 + 0.6 * s.y, fract(3 * s.x + s.y));\n\
+    V δu ← f s δu;\n\
+    C δπx ← V vec3((A δu x).rgb);\n";
+const PARABOLOID: &str = "texture Env : cube rgb8 bilinear clamp = image(\"sky.png\");\n\
+    C δπx ← Env (vec3(expand((A δu x).rgb)) + (0.2, 0.5, 1));\n";
+
+/// The torus with a scene texture `Env`: a dual-paraboloid map of the
+/// procedural sky, 32² per face.
+fn paraboloid_scene() -> shadec::scene::Scene {
+    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron"))
+        .unwrap()
+        .replace(
+            "    objects: [",
+            "    textures: { \"Env\": DualParaboloid(size: 32, sun: (0.3, 0.8, 0.5)) },\n    objects: [",
+        );
+    assert!(text.contains("DualParaboloid"), "the torus scene changed its layout");
+    shadec::scene::Scene::parse(&text, std::path::Path::new("/nonexistent-shadec-scene/env.ron")).unwrap()
+}
+
+/// A 3-D and an environment lookup at moving coordinates are bounded by
+/// the hull (the texels of the coordinates' box: `Volume::box_hull`,
+/// `Paraboloid::box_hull`), where the reference fell back to the renders
+/// of the lookups' extremes: each such render lies inside it on every
+/// covered pixel, and the CPU and wgpu agree with it.
+#[test]
+fn volume_and_environment_lookups_at_moving_coordinates_are_bounded_by_the_hull() {
+    for (body, sc) in [(VOLUME, scene("kilgard_torus.ron")), (PARABOLOID, paraboloid_scene())] {
+        let c = compiled_in(body, sc);
+        let hull = c.hull();
+        let seen: Vec<bool> = (0..hull.pixels.len()).map(|i| hull.covered[i] && !hull.latitude[i]).collect();
+        let ranged = (0..seen.len()).filter(|&i| seen[i] && hull.low[i] != hull.high[i]).count();
+        let n = seen.iter().filter(|&&s| s).count();
+        eprintln!("{body}: {ranged} of {n} pixels ranged, width {:?}", widths(&hull));
+        assert!(ranged >= 50, "{body}: {ranged} pixels ranged");
+        for k in 1..=4 {
+            let p = c.chosen(&LodChoices { default: k, ..Default::default() });
+            let off = outside(&p.pixels, &hull.low, &hull.high, &seen, 1e-9);
+            assert_eq!(off, 0, "{body}: choice {k}: {off} pixels outside the hull");
+        }
+        let g = crate::common::gpu::gpu();
+        let p = render_three(&format!("{HEAD}{body}"), "wgsl", &c.scene, Precision::F32, g.as_ref()).unwrap();
+        verdict(&p).unwrap();
+    }
 }

@@ -471,6 +471,38 @@ impl Volume {
         }
         out
     }
+
+    /// The least and greatest texel a lookup may read at any (s, t, r) in
+    /// the box `c` (an interval per axis): every texel the box's
+    /// footprint covers, with its LINEAR neighbours, wrapped as
+    /// [`Volume::sample`] wraps. A filtered value is a convex combination
+    /// of those texels, so it lies within. A box not finite reads all.
+    pub fn box_hull(&self, c: [(f64, f64); 3]) -> (V, V) {
+        let linear = self.filter != Filter::Nearest;
+        let sizes = [self.width, self.height, self.depth];
+        let span = |a: usize| -> (i64, i64) {
+            let (n, (lo, hi)) = (f64::from(sizes[a]), c[a]);
+            let (lo, hi) = if linear { (lo * n - 0.5, hi * n + 0.5) } else { (lo * n, hi * n) };
+            if !(lo.is_finite() && hi.is_finite()) || hi - lo >= n {
+                (0, i64::from(sizes[a]) - 1)
+            } else {
+                (lo.floor() as i64, hi.floor() as i64)
+            }
+        };
+        let (si, sj, sk) = (span(0), span(1), span(2));
+        let (mut low, mut high) = ([f64::INFINITY; 4], [f64::NEG_INFINITY; 4]);
+        for k in sk.0..=sk.1 {
+            for j in sj.0..=sj.1 {
+                for i in si.0..=si.1 {
+                    let t = self.texel(i, j, k);
+                    for ch in 0..4 {
+                        (low[ch], high[ch]) = (low[ch].min(t[ch]), high[ch].max(t[ch]));
+                    }
+                }
+            }
+        }
+        (low, high)
+    }
 }
 
 /// A dual-paraboloid environment map (Heidrich & Seidel 1999, Section
@@ -504,6 +536,69 @@ impl Paraboloid {
         let [x, y, z] = if len > 0.0 { r.map(|c| c / len) } else { [0.0, 0.0, 1.0] };
         let (image, denom) = if z >= 0.0 { (&self.front, 1.0 + z) } else { (&self.back, 1.0 - z) };
         image.sample(0.5 * (x / denom + 1.0), 0.5 * (y / denom + 1.0), 0.0)
+    }
+
+    /// The least and greatest texel a lookup may read at any direction in
+    /// the box `r` (an interval per axis): the unit direction's box (each
+    /// axis over the box's least and greatest length, within [−1, 1]),
+    /// then on each face its z may select (front where z ≥ 0) the box of
+    /// `(x, y)/(1 ± z)` [`Paraboloid::sample`] reads, at level 0
+    /// ([`Image::footprint_hull`]: every texel of the box's footprint).
+    pub fn box_hull(&self, r: [(f64, f64); 3]) -> (V, V) {
+        let whole = |(a, b): (f64, f64)| !(a.is_finite() && b.is_finite());
+        let r = if r.iter().any(|&a| whole(a)) { [(-1.0, 1.0); 3] } else { r };
+        let square = |(a, b): (f64, f64)| {
+            let (p, q) = (a * a, b * b);
+            if a <= 0.0 && b >= 0.0 {
+                (0.0, p.max(q))
+            } else {
+                (p.min(q), p.max(q))
+            }
+        };
+        let sum = r.iter().fold((0.0, 0.0), |s, &a| (s.0 + square(a).0, s.1 + square(a).1));
+        let len = (sum.0.sqrt(), sum.1.sqrt());
+        // A box that may hold the zero direction (or a length not a number).
+        let zero = len.0.is_nan() || len.0 <= 0.0;
+        let unit = |(a, b): (f64, f64)| -> (f64, f64) {
+            if zero {
+                return (-1.0, 1.0);
+            }
+            let v = [a / len.0, a / len.1, b / len.0, b / len.1];
+            let (lo, hi) =
+                v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &x| (l.min(x), h.max(x)));
+            (lo.clamp(-1.0, 1.0), hi.clamp(-1.0, 1.0))
+        };
+        let [x, y, z] = r.map(unit);
+        let (mut low, mut high) = ([f64::INFINITY; 4], [f64::NEG_INFINITY; 4]);
+        let mut read = |image: &Image, denom: (f64, f64)| {
+            // (c/denom + 1)/2 over c in `c` and denom in [1, 2]: monotone
+            // in each, at the corners.
+            let coordinate = |c: (f64, f64)| {
+                let v = [c.0 / denom.0, c.0 / denom.1, c.1 / denom.0, c.1 / denom.1].map(|q| 0.5 * (q + 1.0));
+                let (lo, hi) =
+                    v.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &q| (l.min(q), h.max(q)));
+                // Widened past the rounding of `sample`'s own division.
+                (lo - 1e-9, hi + 1e-9)
+            };
+            let (lo, hi) = image.footprint_hull(coordinate(x), coordinate(y), 0.0, 0.0);
+            for c in 0..4 {
+                (low[c], high[c]) = (low[c].min(lo[c]), high[c].max(hi[c]));
+            }
+        };
+        if z.1 >= 0.0 {
+            read(&self.front, (1.0 + z.0.max(0.0), 1.0 + z.1));
+        }
+        if z.0 < 0.0 {
+            read(&self.back, (1.0 - z.1.min(0.0), 1.0 - z.0));
+        }
+        // The zero direction reads the front face at (0, 0, 1).
+        if zero {
+            let v = self.sample([0.0, 0.0, 1.0]);
+            for c in 0..4 {
+                (low[c], high[c]) = (low[c].min(v[c]), high[c].max(v[c]));
+            }
+        }
+        (low, high)
     }
 }
 
@@ -616,6 +711,59 @@ mod tests {
                     let v = cube.sample(r).0[0];
                     assert!(lo[0] <= v && v <= hi[0], "{r:?}: {v} outside {}..{}", lo[0], hi[0]);
                 }
+            }
+        }
+    }
+
+    /// 21 points along each axis of box `b`.
+    fn grid(b: [(f64, f64); 3]) -> impl Iterator<Item = [f64; 3]> {
+        let at = move |a: usize, k: u32| b[a].0 + (b[a].1 - b[a].0) * f64::from(k) / 20.0;
+        (0..21 * 21 * 21).map(move |i| [at(0, i % 21), at(1, (i / 21) % 21), at(2, i / 441)])
+    }
+
+    /// Every (s, t, r) in a box reads a texel of a volume within the box's
+    /// hull, for both filters and wraps; a box outside [0, 1] wraps.
+    #[test]
+    fn a_volume_box_hull_holds_every_point_in_the_box() {
+        let texels = (0..64u32).map(|i| [f64::from((i * 7) % 17) / 16.0; 4]).collect();
+        for (filter, wrap) in [(Filter::Bilinear, Wrap::ClampToEdge), (Filter::Nearest, Wrap::Repeat)] {
+            let v = Volume { width: 4, height: 4, depth: 4, texels: Vec::clone(&texels), wrap, filter };
+            let b = [(0.1, 0.45), (0.7, 1.2), (-0.2, 0.3)];
+            let (lo, hi) = v.box_hull(b);
+            for p in grid(b) {
+                // The trilinear weights' rounding: a part in 10¹⁵.
+                let x = v.sample(p[0], p[1], p[2])[0];
+                assert!(
+                    lo[0] - 1e-12 <= x && x <= hi[0] + 1e-12,
+                    "{filter:?} {p:?}: {x} outside {}..{}",
+                    lo[0],
+                    hi[0]
+                );
+            }
+        }
+    }
+
+    /// Every direction in a box, on either side of z = 0, reads a texel of
+    /// a dual-paraboloid map within the box's hull; a box near +z reads
+    /// less than the whole front face.
+    #[test]
+    fn a_paraboloid_box_hull_holds_every_direction_in_the_box() {
+        let face = |k: u32| {
+            let texels = (0..256u32).map(|i| [f64::from((i * 7 + k * 5) % 23) / 22.0; 4]).collect();
+            Image {
+                levels: vec![Level { width: 16, height: 16, texels }],
+                wrap: Wrap::ClampToEdge,
+                filter: Filter::Bilinear,
+            }
+        };
+        let map = Paraboloid { front: face(0), back: face(1) };
+        let (lo, hi) = map.box_hull([(-0.05, 0.05), (0.0, 0.1), (0.9, 1.1)]);
+        assert!(hi[0] - lo[0] < 1.0, "the whole face");
+        for b in [[(-0.05, 0.05), (0.0, 0.1), (0.9, 1.1)], [(0.3, 0.9), (-0.6, 0.2), (-0.4, 0.5)]] {
+            let (lo, hi) = map.box_hull(b);
+            for r in grid(b) {
+                let x = map.sample(r)[0];
+                assert!(lo[0] <= x && x <= hi[0], "{r:?}: {x} outside {}..{}", lo[0], hi[0]);
             }
         }
     }

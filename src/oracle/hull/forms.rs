@@ -1,11 +1,15 @@
 //! The language's operations on affine forms (`affine.rs`), where they
 //! are affine in their operands or a product of them: `ops::compute`'s
-//! arithmetic with the noise symbols kept. Every other operation — and
+//! arithmetic with the noise symbols kept, and the one-variable functions
+//! `functions.rs` linearizes (`sqrt`, `rsqrt`, powers by a constant,
+//! `length`, `normalize`). Every other operation — and
 //! a clamp, `min`, `max` or selection the operands' ranges leave open —
 //! is taken on intervals (`interval.rs`) and its result given fresh
 //! symbols (`mod.rs`).
 
 use super::affine::{Affine, Form, Symbols};
+use super::functions;
+use super::interval::{self, lane, I, R};
 use crate::ir::{BinaryOp, Expr, MathFunction, Module, Ty, UnaryOp};
 use crate::parser::ast::CombineMode;
 
@@ -47,18 +51,43 @@ fn dot(a: &Form, b: &Form, width: usize, s: &mut Symbols) -> Affine {
     (0..width.min(4)).fold(constant(0.0), |sum, c| sum.add(&a[c].mul(&b[c], s.fresh())))
 }
 
-/// A computing node on forms, where it is affine or a product; `None`
-/// where it is not (the caller takes it on intervals). `Some(None)` for
-/// `c ? a` with `c` surely false (the destination kept).
-pub fn compute(m: &Module, e: &Expr, ty: Ty, o: &[Form], s: &mut Symbols) -> Option<Option<Form>> {
+/// A computing node on forms, where it is affine, a product or a function
+/// `functions.rs` linearizes over the operands' ranges `r` (each the
+/// intersection of its form's range and its interval); `None` where it
+/// is not (the caller takes it on intervals). `Some(None)` for `c ? a`
+/// with `c` surely false (the destination kept).
+pub fn compute(m: &Module, e: &Expr, ty: Ty, o: &[Form], r: &[R], s: &mut Symbols) -> Option<Option<Form>> {
     let f = match e {
         Expr::Unary { op: UnaryOp::Neg, .. } => lanes(|c| o[0][c].scale(-1.0, 0.0)),
+        Expr::Binary { op: BinaryOp::Pow, lhs, .. } => {
+            power(&o[0], &o[1], &r[0], m.info(*lhs).ty.width(), s)?
+        }
         Expr::Binary { op, lhs, .. } => binary(*op, &o[0], &o[1], m.info(*lhs).ty.width(), s)?,
         Expr::Combine { mode, lhs, .. } => {
             let widened = matches!(&m.exprs[*lhs], Expr::Convert { value, to: Ty::Rgba } if m.info(*value).ty == Ty::Rgb);
             texture_env(*mode, ty.width(), &o[0], &o[1], widened, s)
         }
-        Expr::Math { fun, .. } => math(*fun, o, s)?,
+        Expr::Math { fun: MathFunction::Sqrt | MathFunction::Rsqrt, args } => {
+            let (width, root) =
+                (m.info(args[0]).ty.width(), matches!(e, Expr::Math { fun: MathFunction::Sqrt, .. }));
+            every_lane(width, &mut |c| {
+                let range = lane(&r[0], c);
+                if root {
+                    functions::sqrt(&o[0][c], range, s)
+                } else {
+                    functions::rsqrt(&o[0][c], range, s)
+                }
+            })?
+        }
+        Expr::Math { fun: MathFunction::Length, args } => {
+            let width = m.info(args[0]).ty.width();
+            let (d, range) = squared_length(&o[0], &r[0], width, s);
+            splat(functions::sqrt(&d, range, s)?)
+        }
+        Expr::Math { fun: MathFunction::Normalize, args } => {
+            normalize(&o[0], &r[0], m.info(args[0]).ty.width(), s)?
+        }
+        Expr::Math { fun, .. } => math(*fun, o, r, s)?,
         Expr::Swizzle { pattern, len, .. } => {
             let mut f: Form = Default::default();
             for (k, &i) in pattern[..*len as usize].iter().enumerate() {
@@ -95,6 +124,45 @@ pub fn compute(m: &Module, e: &Expr, ty: Ty, o: &[Form], s: &mut Symbols) -> Opt
     Some(Some(shape(ty, f)))
 }
 
+/// `f(c)` for each lane `c` below `width` (the lanes past it 0, as
+/// `shape` leaves them); `None` where a lane has none.
+fn every_lane(width: usize, f: &mut dyn FnMut(usize) -> Option<Affine>) -> Option<Form> {
+    let mut out: Form = Default::default();
+    for (c, lane) in out.iter_mut().enumerate().take(width.clamp(1, 4)) {
+        *lane = f(c)?;
+    }
+    Some(out)
+}
+
+/// `x^p` lane by lane, where the exponent `p` is one value on each lane
+/// (`functions::pow` over the lane's range `r`).
+fn power(x: &Form, p: &Form, r: &R, width: usize, s: &mut Symbols) -> Option<Form> {
+    every_lane(width, &mut |c| {
+        let p = &p[c];
+        p.is_constant().then_some(())?;
+        functions::pow(&x[c], lane(r, c), p.center, s)
+    })
+}
+
+/// `x·x` over the first `width` lanes and its range: the form's, within
+/// the sum of the lanes' squares on the intervals `r` (never below 0).
+fn squared_length(x: &Form, r: &R, width: usize, s: &mut Symbols) -> (Affine, I) {
+    let d = dot(x, x, width, s);
+    let squares =
+        (0..width.min(4)).fold((0.0, 0.0), |sum, c| interval::add(sum, interval::square(lane(r, c))));
+    let (lo, hi) = d.range();
+    (d, (lo.max(squares.0), hi.min(squares.1)))
+}
+
+/// `normalize(x)` as `x·rsqrt(x·x)`, lane by lane (each product one more
+/// symbol); `None` where `x·x` may be 0 (`normalize(0) = 0` is not
+/// continuous there).
+fn normalize(x: &Form, r: &R, width: usize, s: &mut Symbols) -> Option<Form> {
+    let (d, range) = squared_length(x, r, width, s);
+    let inverse = functions::rsqrt(&d, range, s)?;
+    every_lane(width, &mut |c| Some(x[c].mul(&inverse, s.fresh())))
+}
+
 fn binary(op: BinaryOp, a: &Form, b: &Form, width: usize, s: &mut Symbols) -> Option<Form> {
     Some(match op {
         BinaryOp::Dot => splat(dot(a, b, width, s)),
@@ -114,7 +182,22 @@ fn decided<'f>(candidates: &[(bool, &'f Affine)]) -> Option<&'f Affine> {
     candidates.iter().find(|c| c.0).map(|c| c.1)
 }
 
-fn math(fun: MathFunction, o: &[Form], s: &mut Symbols) -> Option<Form> {
+/// `max(x, k)` (`low`) or `min(x, k)` of lane `c` where one operand is a
+/// constant `k` and the ranges leave the choice open: the other clamped
+/// on one side (`functions::clamped`).
+fn one_sided(o: &[Form], r: &[R], c: usize, low: bool, s: &mut Symbols) -> Option<Affine> {
+    let (x, k, range) = if o[1][c].is_constant() {
+        (&o[0][c], o[1][c].center, lane(&r[0], c))
+    } else if o[0][c].is_constant() {
+        (&o[1][c], o[0][c].center, lane(&r[1], c))
+    } else {
+        return None;
+    };
+    let ends = if low { (k, f64::INFINITY) } else { (f64::NEG_INFINITY, k) };
+    functions::clamped(x, range, ends, s)
+}
+
+fn math(fun: MathFunction, o: &[Form], r: &[R], s: &mut Symbols) -> Option<Form> {
     use MathFunction::*;
     let a = &o[0];
     let each = |f: &dyn Fn(&Affine) -> Affine| lanes(|c| f(&a[c]));
@@ -131,17 +214,30 @@ fn math(fun: MathFunction, o: &[Form], s: &mut Symbols) -> Option<Form> {
         let v: [Option<Affine>; 4] = std::array::from_fn(f);
         v.iter().all(Option::is_some).then(|| v.map(Option::unwrap_or_default))
     };
+    // A clamp between constant ends the ranges leave open.
+    let clamped = |c: usize, ends: I, s: &mut Symbols| functions::clamped(&a[c], lane(&r[0], c), ends, s);
+    let ends =
+        |c: usize| (o[1][c].is_constant() && o[2][c].is_constant()).then(|| (o[1][c].center, o[2][c].center));
     Some(match fun {
         Expand => each(&|x| x.scale(2.0, -1.0)),
         HalfBias => each(&|x| x.scale(1.0, -0.5)),
         Compress => each(&|x| x.scale(0.5, 0.5)),
-        Max => every(&mut |c| larger(&a[c], &o[1][c]))?,
-        Min => every(&mut |c| smaller(&a[c], &o[1][c]))?,
-        Clamp => every(&mut |c| smaller(&larger(&a[c], &o[1][c])?, &o[2][c]))?,
-        Saturate => every(&mut |c| smaller(&larger(&a[c], &constant(0.0))?, &constant(1.0)))?,
+        Max => every(&mut |c| larger(&a[c], &o[1][c]).or_else(|| one_sided(o, r, c, true, s)))?,
+        Min => every(&mut |c| smaller(&a[c], &o[1][c]).or_else(|| one_sided(o, r, c, false, s)))?,
+        Clamp => every(&mut |c| {
+            let low = larger(&a[c], &o[1][c]);
+            low.and_then(|x| smaller(&x, &o[2][c])).or_else(|| clamped(c, ends(c)?, s))
+        })?,
+        Saturate => every(&mut |c| {
+            let low = larger(&a[c], &constant(0.0));
+            low.and_then(|x| smaller(&x, &constant(1.0))).or_else(|| clamped(c, (0.0, 1.0), s))
+        })?,
         Abs => every(&mut |c| {
             let (lo, hi) = a[c].range();
-            decided(&[(lo >= 0.0, &a[c])]).cloned().or_else(|| (hi <= 0.0).then(|| a[c].scale(-1.0, 0.0)))
+            decided(&[(lo >= 0.0, &a[c])])
+                .cloned()
+                .or_else(|| (hi <= 0.0).then(|| a[c].scale(-1.0, 0.0)))
+                .or_else(|| functions::abs(&a[c], lane(&r[0], c), s))
         })?,
         Mix => lanes(|c| a[c].add(&o[1][c].sub(&a[c]).mul(&o[2][c], s.fresh()))),
         Reflect => {

@@ -62,7 +62,7 @@ pub(super) fn div(a: I, b: I) -> I {
     }
 }
 
-fn square(a: I) -> I {
+pub(super) fn square(a: I) -> I {
     if a.0 >= 0.0 {
         (a.0 * a.0, a.1 * a.1)
     } else if a.1 <= 0.0 {

@@ -20,7 +20,11 @@
 //! run through piece j: one noise symbol per piece, shared by the
 //! lookup's four channels and by every read of it (the same texture at
 //! the same coordinates takes the same λ). Sums and scalings are exact on
-//! forms, products add one fresh symbol (`forms.rs`); every other
+//! forms, products add one fresh symbol (`forms.rs`); `sqrt`, `rsqrt`, a
+//! power by a constant, `length`, `normalize`, and a clamp, `min`, `max`
+//! or `abs` the ranges leave open become their Chebyshev line over the
+//! argument's range plus one fresh symbol for its error
+//! (`functions.rs`); every other
 //! operation is taken on the intervals of its operands' forms
 //! (`interval.rs`: monotone functions at their ends, products at their
 //! corners, clamps, comparisons decided or left open) and its result
@@ -30,8 +34,10 @@
 //! its λ interval — from the intervals of its coordinates' derivatives —
 //! selects; a cube-map lookup at a moving direction by the texels of
 //! every face the direction's box may select, over the box of (s, t) it
-//! spans there (`sampling::Cube::box_hull`). What cannot be bounded so
-//! (a 3-D, environment or baked lookup at moving coordinates, a
+//! spans there (`sampling::Cube::box_hull`); a 3-D or dual-paraboloid
+//! lookup at moving coordinates by the texels of their box
+//! (`Volume::box_hull`, `Paraboloid::box_hull`). What cannot be bounded so
+//! (a baked lookup at moving coordinates, a
 //! framebuffer read at a moving position, a condition that moves and
 //! keeps the destination) is [`Unsupported`], and the caller falls back
 //! to rendering the combinations.
@@ -42,6 +48,7 @@
 
 mod affine;
 mod forms;
+mod functions;
 mod interval;
 
 use std::collections::HashMap;
@@ -191,6 +198,12 @@ impl Evaluator<'_> {
                 let key = (*texture, *coords);
                 Some(match &self.textures[*texture as usize] {
                     Tex::Cube(cube) if !is_point(&c.form) => self.cube_hull(cube, &c, ty, ranges),
+                    Tex::Volume(volume) if !is_point(&c.form) => {
+                        ranges.fresh(&volume.box_hull(direction_box(&c)), ty)
+                    }
+                    Tex::Paraboloid(map) if !is_point(&c.form) => {
+                        ranges.fresh(&map.box_hull(direction_box(&c)), ty)
+                    }
                     Tex::Flat(image) => {
                         self.lookup_form(h, Some(image), key, &c, at, lod_depth, ranges, values)?
                     }
@@ -276,8 +289,8 @@ impl Evaluator<'_> {
         }
         let bounds: Vec<R> = operands.iter().map(Hull::range).collect();
         let forms: Vec<Form> = operands.into_iter().map(|o| o.form).collect();
-        let affine =
-            (!self.interval_hull).then(|| forms::compute(self.m, e, ty, &forms, &mut ranges.symbols));
+        let affine = (!self.interval_hull)
+            .then(|| forms::compute(self.m, e, ty, &forms, &bounds, &mut ranges.symbols));
         let r = match affine.flatten() {
             Some(Some(form)) => {
                 let bounds = interval::compute(self.m, e, ty, &bounds).ok().flatten();
@@ -296,8 +309,7 @@ impl Evaluator<'_> {
     /// of every face its box may select (`Cube::box_hull`), the sample
     /// marked latitude where the box nears a face edge.
     fn cube_hull(&self, cube: &Cube, c: &Hull, ty: Ty, ranges: &mut Ranges) -> Hull {
-        let r = c.range();
-        let (lo, hi, edge) = cube.box_hull([lane(&r, 0), lane(&r, 1), lane(&r, 2)]);
+        let (lo, hi, edge) = cube.box_hull(direction_box(c));
         if edge {
             self.latitude.set(true);
         }
@@ -362,9 +374,9 @@ impl Evaluator<'_> {
             }
             _ if is_point(&c.form) => Ok(Hull::point(nominal()?)),
             (Some(image), _) => Ok(ranges.fresh(&image.footprint_hull(here[0], here[1], 0.0, 0.0), ty)),
-            (None, _) => Err(Unsupported::new(
-                "a 3-D, environment or baked lookup at coordinates that move with a level of detail",
-            )),
+            (None, _) => {
+                Err(Unsupported::new("a baked lookup at coordinates that move with a level of detail"))
+            }
         }
     }
 
@@ -402,6 +414,13 @@ impl Evaluator<'_> {
         let hi = if hi.is_nan() { f64::INFINITY } else { hi + slack };
         Ok((lo, hi.min(image.levels.len() as f64)))
     }
+}
+
+/// The box of a lookup's first three coordinates (a direction, or a 3-D
+/// texture's (s, t, r)) over hull `c`.
+fn direction_box(c: &Hull) -> [I; 3] {
+    let r = c.range();
+    [lane(&r, 0), lane(&r, 1), lane(&r, 2)]
 }
 
 /// A minified lookup at one point `(u, v)` whose λ lies in `lambda`: the
