@@ -1626,14 +1626,47 @@ fn a_scalar_widened_to_rgba_has_its_scale_taken_out() {
 }
 
 /// `C·mix(T2, T1, a)²` on geforce256: exact as written, refused multiplied
-/// out. Found by the property at 5 000 cases (seed 200). Left: the
-/// hand-written cross terms are not planned as the written square is.
+/// out. Found by the property at 5 000 cases (seed 200). As written, the
+/// square lies in [0, 1] and is its own clamp: multiplied out into an
+/// 8-bit temporary, clamped there, then modulated in. Written out by hand
+/// its four terms' hulls add to 4, so the value was not taken for one in
+/// [0, 1]; its form factored back, `mix(T2, T1, a)·mix(T2, T1, a)`, says
+/// it is, and now the value's range is the narrowest of its forms'.
 #[test]
-#[ignore = "left: exact as written, refused multiplied out on geforce256"]
 fn the_square_of_a_lerp_multiplied_out_plans_as_written() {
     let m = || lerp(Colour::Texture(2), Colour::Texture(1), None);
     let c = mul(m(), m());
     both_exact(&c, Written::Multiplied, "geforce256");
+    both_plan(&c, Written::Multiplied, "geforce256", true);
+    fine_verdicts_agree(&c, Written::Multiplied);
+}
+
+/// `C·mix(mix(T1, T2, a), T0², a)` on geforce256: exact as written, refused
+/// multiplied out (found by the property at 5 000 cases, seed 7) — the
+/// same family: in [0, 1] as its lerps read back say, not as its terms'
+/// hulls added do.
+#[test]
+fn nested_lerps_of_a_square_multiplied_out_are_their_own_clamp() {
+    let t = |i| Colour::Texture(i);
+    let c = lerp(lerp(t(1), t(2), None), mul(t(0), t(0)), None);
+    both_exact(&c, Written::Multiplied, "geforce256");
+    both_plan(&c, Written::Multiplied, "geforce256", true);
+    fine_verdicts_agree(&c, Written::Multiplied);
+}
+
+/// `C·(2·T1⁴)` on geforce256: exact as written (`T1·T1` squared in the
+/// second general combiner, doubled by its output scale), refused
+/// multiplied out, `2·T1·T1·T1·T1`: its square took the 2 as `√2` inside,
+/// `(T1·T1·√2)²`, whose half leaves the [−1, 1] the combiners clamp to,
+/// and the product in a row needs three combiners. The square with the
+/// scale applied last, `(T1·T1)²·2`, is a form too now. Found by the
+/// property at 5 000 cases (seed 200).
+#[test]
+fn a_power_scaled_past_one_is_squared_with_its_scale_last() {
+    let t1 = || Colour::Texture(1);
+    let c = mul(Colour::Number(20), mul(mul(t1(), t1()), mul(t1(), t1())));
+    both_exact(&c, Written::Multiplied, "geforce256");
+    both_plan(&c, Written::Multiplied, "geforce256", true);
     fine_verdicts_agree(&c, Written::Multiplied);
 }
 

@@ -162,8 +162,13 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
     }
     // A product whose factors all repeat, as the square it is: `x·2·y·x·2·y`
     // = `(x·y·2)²`, one squaring of what the first factors computed.
-    let square = squared(m, h);
-    push(&mut out, square, "with its repeated factors squared");
+    // Also with a constant past 1 applied last (`2·T1·T1·T1·T1` =
+    // `(T1·T1)²·2`, the combiners' output scale), where `√2·T1·T1` would
+    // leave the [−1, 1] the general combiners clamp to.
+    for scale_last in [false, true] {
+        let square = squared(m, h, scale_last);
+        push(&mut out, square, "with its repeated factors squared");
+    }
     // Each form so far (and the value) with its sums of interpolants
     // merged back into one δ where an 8-bit interpolant holds the sum.
     let merged: Vec<Option<Handle<Expr>>> =
@@ -187,11 +192,13 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
 /// constants' product `k > 0` as `√k` scaled in last: `T4·2·T0·T4·2·T0` =
 /// `(T4·T0·2)²`, what a texture environment computes in three stages (the
 /// second squares the first's result) where the product as written takes
-/// one stage a factor. Under an rgba conversion too. `None` for another
-/// value.
-fn squared(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
+/// one stage a factor. With `scale_last`, `k > 1` multiplies the square
+/// instead (`2·T1⁴` = `(T1·T1)²·2`: two general combiners, the second
+/// with its output scale; `(T1·T1·√2)²` leaves [−1, 1] in between).
+/// Under an rgba conversion too. `None` for another value.
+fn squared(m: &mut Module, h: Handle<Expr>, scale_last: bool) -> Option<Handle<Expr>> {
     if let Expr::Convert { value, to: Ty::Rgba } = m.exprs[h] {
-        let inner = squared(m, value)?;
+        let inner = squared(m, value, scale_last)?;
         return node(m, Expr::Convert { value: inner, to: Ty::Rgba }, m.span(h));
     }
     let factors = product_factors(m, h);
@@ -209,7 +216,7 @@ fn squared(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
             },
         }
     }
-    if counted.is_empty() || counted.iter().any(|(_, n)| n % 2 != 0) || k <= 0.0 {
+    if counted.is_empty() || counted.iter().any(|(_, n)| n % 2 != 0) || k <= 0.0 || (scale_last && k <= 1.0) {
         return None;
     }
     let span = m.span(h);
@@ -223,11 +230,15 @@ fn squared(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
         }
     }
     let mut half = half?;
-    if k != 1.0 {
+    if k != 1.0 && !scale_last {
         let root = node(m, Expr::Constant(crate::ir::Constant::scalar(k.sqrt())), span)?;
         half = binary(m, BinaryOp::Mul, half, root, span)?;
     }
-    let square = binary(m, BinaryOp::Mul, half, half, span)?;
+    let mut square = binary(m, BinaryOp::Mul, half, half, span)?;
+    if scale_last {
+        let scale = node(m, Expr::Constant(crate::ir::Constant::scalar(k)), span)?;
+        square = binary(m, BinaryOp::Mul, square, scale, span)?;
+    }
     (m.info(square).ty == m.info(h).ty).then_some(square)
 }
 

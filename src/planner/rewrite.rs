@@ -203,7 +203,10 @@ fn clamped_source_forms(m: &mut Module, v: Handle<Expr>, max: usize) -> Vec<(Han
 /// the form exactly, the store clamping what its bound says it may exceed
 /// (`C ⊕ mix(T0, T1, a)²` on a 2-unit target: the square multiplied out
 /// into a temporary, then modulated in, as its expansion written by hand
-/// plans). The value as written, and values already clamped, give none.
+/// plans). The value is in [0, 1] where its own bound or the bound of any
+/// of its `forms` says so (the square written out by hand: its form
+/// factored back into `mix(T0, T1, a)·mix(T0, T1, a)` is bounded by 1).
+/// The value as written, and values already clamped, give none.
 fn own_clamp_forms(m: &mut Module, v: Handle<Expr>, forms: &[Candidate]) -> Vec<Candidate> {
     let unit = |i: ir::Interval| i.lo >= 0.0 && i.hi <= 1.0;
     let clamped = |m: &Module, h: Handle<Expr>| {
@@ -213,7 +216,11 @@ fn own_clamp_forms(m: &mut Module, v: Handle<Expr>, forms: &[Candidate]) -> Vec<
         };
         matches!(m.exprs[x], Expr::Math { fun: ir::MathFunction::Saturate, .. })
     };
-    if !unit(m.info(v).interval) || clamped(m, v) {
+    // The value's range is the narrowest of its forms' (each equal to it):
+    // `mix(T2, T1, a)²` lies in [0, 1], its four terms written out by hand
+    // have hulls adding to 4, and the program may be written either way.
+    let in_unit = unit(m.info(v).interval) || forms.iter().any(|c| unit(m.info(c.0).interval));
+    if !in_unit || clamped(m, v) {
         return Vec::new();
     }
     let mut out = Vec::new();
