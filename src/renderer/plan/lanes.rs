@@ -45,7 +45,7 @@ use crate::ir::Ty;
 use crate::ir::{self, BinaryOp, Expr, MathFunction, UnaryOp};
 use crate::parser::ast::CombineMode;
 use crate::renderer::raster::{quad_lod_lanes, Vary};
-use crate::renderer::{Fragment, FragmentResult, BATCH};
+use crate::renderer::{Fragment, FragmentLanes, FragmentResult, BATCH};
 use crate::textures::{lanes as texture_lanes, unit, Texture};
 
 /// How a compiled pass's ops are dispatched (for the measurement that
@@ -387,7 +387,7 @@ impl FragmentProgram<'_> {
     pub(super) fn shade_compiled(
         &self,
         lp: &LaneProgram,
-        fragments: &[Fragment],
+        fragments: &FragmentLanes,
         varyings: Vary,
         out: &mut [[f32; 4]],
         results: &mut [FragmentResult],
@@ -432,7 +432,7 @@ impl FragmentProgram<'_> {
         &self,
         i: usize,
         r: &mut [Lanes],
-        (fragments, varyings): (&[Fragment], Vary),
+        (fragments, varyings): (&FragmentLanes, Vary),
         lp: &LaneProgram,
         shared: &mut SharedLookup,
     ) {
@@ -463,7 +463,8 @@ impl FragmentProgram<'_> {
                 if let Some(k) = lod_from.filter(|_| t.levels.len() > 1) {
                     let size = (t.width(), t.height());
                     let left = quad_lod_lanes(fragments, varyings, k, size, &mut lod);
-                    for (lane, fragment) in fragments.iter().enumerate().filter(|&(l, _)| left[l]) {
+                    for lane in (0..n).filter(|&l| left[l]) {
+                        let fragment = fragments.fragment(lane);
                         let vary = [0, 1, 2, 3].map(|j| varyings.get(lane, 4 * k + j));
                         let d = |j| fragment.quad_derivatives(4 * k + j, vary[j]);
                         let (du, dv) = uv_derivatives(coords_ty, &vary, d);
@@ -524,7 +525,7 @@ fn run(
     p: &FragmentProgram,
     lp: &LaneProgram,
     r: &mut [Lanes],
-    batch: (&[Fragment], Vary),
+    batch: (&FragmentLanes, Vary),
     shared: &mut SharedLookup,
     outputs: (&mut [[f32; 4]], &mut [FragmentResult]),
 ) {
@@ -543,7 +544,7 @@ unsafe fn run_avx2(
     p: &FragmentProgram,
     lp: &LaneProgram,
     r: &mut [Lanes],
-    batch: (&[Fragment], Vary),
+    batch: (&FragmentLanes, Vary),
     shared: &mut SharedLookup,
     outputs: (&mut [[f32; 4]], &mut [FragmentResult]),
 ) {
@@ -555,7 +556,7 @@ fn run_body(
     p: &FragmentProgram,
     lp: &LaneProgram,
     r: &mut [Lanes],
-    batch: (&[Fragment], Vary),
+    batch: (&FragmentLanes, Vary),
     shared: &mut SharedLookup,
     (out, results): (&mut [[f32; 4]], &mut [FragmentResult]),
 ) {
@@ -571,7 +572,7 @@ fn run_body(
                 for lane in 0..n {
                     // The fragment's own varyings, as the one-lane code takes them.
                     varyings.lane_into(lane, &mut vary);
-                    p.scalar_lane(i as usize, r, &fragments[lane], &vary, lane, &mut discard[lane]);
+                    p.scalar_lane(i as usize, r, &fragments.fragment(lane), &vary, lane, &mut discard[lane]);
                 }
             }
             Op::Sample(i) => p.sample_lanes(i as usize, r, (fragments, varyings), lp, shared),
