@@ -569,10 +569,10 @@ fn run_body(
         match *op {
             Op::Scalar(i) => {
                 vary.resize(varyings.per, 0.0);
-                for (lane, d) in discard.iter_mut().enumerate().take(n) {
+                for lane in 0..n {
                     // The fragment's own varyings, as the one-lane code takes them.
                     varyings.lane_into(lane, &mut vary);
-                    p.scalar_lane(i as usize, r, &fragments.fragment(lane), &vary, lane, d);
+                    p.scalar_lane(i as usize, r, &fragments.fragment(lane), &vary, lane, &mut discard[lane]);
                 }
             }
             Op::Sample(i) => p.sample_lanes(i as usize, r, (fragments, varyings), lp, shared),
