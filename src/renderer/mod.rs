@@ -14,7 +14,6 @@
 //! owned by the tile's worker.
 
 pub mod adaptive;
-mod fragment_lanes;
 mod framebuffer;
 pub mod lights;
 pub mod plan;
@@ -28,7 +27,6 @@ pub use crate::pipeline::{
     StencilOp, StencilState,
 };
 pub use adaptive::{draw_adaptive, image_error, AdaptiveSettings, AdaptiveStats, EdgeMode, ImageError};
-pub use fragment_lanes::FragmentLanes;
 pub use framebuffer::{quantize_unorm8, ColorFormat, Framebuffer, TILE};
 pub use raster::{Fragment, SUBPIXEL_BITS};
 
@@ -106,12 +104,12 @@ pub trait FragmentStage: Sync {
     }
 
     /// [`FragmentStage::shade_batch`] with the varyings stored by component
-    /// and the fragments as lanes (the tiled rasterizer's batches): value
-    /// `c` of fragment `i` at `rows[c * row + i]`, `per` values a fragment.
-    /// The default copies them out by fragment ([`shade_rows_by_fragment`]).
+    /// (the tiled rasterizer's batches): value `c` of fragment `i` at
+    /// `rows[c * row + i]`, `per` values a fragment. The default copies them
+    /// out by fragment ([`shade_rows_by_fragment`]).
     fn shade_batch_rows(
         &self,
-        fragments: &FragmentLanes,
+        fragments: &[Fragment],
         (rows, per, row): (&[f32], usize, usize),
         out: &mut [[f32; 4]],
         results: &mut [FragmentResult],
@@ -167,20 +165,19 @@ pub fn shade_each<S: FragmentStage + ?Sized>(
 /// the varyings copied out by fragment first.
 pub fn shade_rows_by_fragment<S: FragmentStage + ?Sized>(
     stage: &S,
-    fragments: &FragmentLanes,
+    fragments: &[Fragment],
     (rows, per, row): (&[f32], usize, usize),
     out: &mut [[f32; 4]],
     results: &mut [FragmentResult],
 ) {
     let n = fragments.len();
-    let fragments: Vec<Fragment> = (0..n).map(|i| fragments.fragment(i)).collect();
     let mut varyings = vec![0.0f32; n * per];
     for (i, v) in varyings.chunks_exact_mut(per.max(1)).enumerate().take(n) {
         for (c, x) in v.iter_mut().enumerate() {
             *x = rows[c * row + i];
         }
     }
-    stage.shade_batch(&fragments, &varyings, out, results)
+    stage.shade_batch(fragments, &varyings, out, results)
 }
 
 /// The most fragments [`FragmentStage::shade_batch`] receives at once.

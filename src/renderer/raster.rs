@@ -15,8 +15,7 @@
 
 use rayon::prelude::*;
 
-use super::fragment_lanes::{FragmentLanes, LANE_ROOM};
-use super::{CullMode, Pass, RenderError, BATCH};
+use super::{CullMode, Pass, RenderError};
 
 /// Sub-pixel precision of snapped vertex positions.
 pub const SUBPIXEL_BITS: u32 = 8;
@@ -130,76 +129,79 @@ impl<'v> Vary<'v> {
 }
 
 /// λ of a 2-D lookup for each of `fragments` (lanes `0..fragments.len()`
-/// of `lod`, those past it −∞; of one triangle or of several, each lane
-/// with its own triangle's gradients) whose coordinates (u, v) are the
-/// first two components of varying `k` (`varyings`: stored by fragment or
-/// by component), on a texture whose level 0 is `width`×`height`:
-/// [`Fragment::quad_derivatives`] of u and v and
-/// [`crate::textures::unit::quad_lod`] as fixed-length loops over the lanes
-/// (vector code), the same formulas in the same order, so the same values
-/// bit for bit. The quad offsets and 1/w are the batch's own lanes
-/// ([`FragmentLanes`]), read as vectors. Returns the lanes it leaves to the
-/// one-lane code: those whose 1/w degenerates (`quad_derivatives`'
-/// fallback), or whose varying has no gradients.
+/// of `lod`; of one triangle or of several, each lane with its own
+/// triangle's gradients) whose coordinates (u, v) are the first two
+/// components of varying `k` (`varyings`: stored by fragment or by component), on a texture
+/// whose level 0 is `width`×`height`: [`Fragment::quad_derivatives`] of u
+/// and v and [`crate::textures::unit::quad_lod`] as fixed-length loops over
+/// the lanes (vector code), the same formulas in the same order, so the
+/// same values bit for bit. Returns the lanes it leaves to the one-lane
+/// code: those whose 1/w degenerates (`quad_derivatives`' fallback), or
+/// whose varying has no gradients.
 // Indexed loops over several lane arrays at once are the form that vectorises.
 #[allow(clippy::needless_range_loop)]
 #[inline(always)]
-pub(crate) fn quad_lod_lanes(
-    fragments: &FragmentLanes,
+pub(crate) fn quad_lod_lanes<const N: usize>(
+    fragments: &[Fragment],
     varyings: Vary,
     k: usize,
     (width, height): (u32, u32),
-    lod: &mut [f32; BATCH],
-) -> [bool; BATCH] {
-    const N: usize = BATCH;
+    lod: &mut [f32; N],
+) -> [bool; N] {
     let n = fragments.len().min(N);
     let mut one_lane = [false; N];
-    let (mut u, mut v) = ([0.0f32; N], [0.0; N]);
+    let (mut ox, mut oy, mut inv_w, mut u, mut v) = ([0.0f32; N], [0.0; N], [1.0; N], [0.0; N], [0.0; N]);
     // Each lane's gradients of 1/w, u and v: x and y.
     let (mut gq, mut gu, mut gv) = ([[0.0f32; N]; 2], [[0.0f32; N]; 2], [[0.0f32; N]; 2]);
     // A batch of one triangle's fragments (most, where triangles cover
     // more than a batch's pixels in a tile): its gradients once, as splats.
-    if let Some(g) = fragments.one_triangle() {
+    let first = fragments.first().map(|f| f.gradients);
+    if let Some(g) = first.filter(|&g| fragments[..n].iter().all(|f| std::ptr::eq(f.gradients, g))) {
         let m = (g.len() / 2).saturating_sub(1);
         if 4 * k + 1 >= m {
             one_lane[..n].fill(true);
-            lod.fill(f32::NEG_INFINITY);
-            return one_lane;
-        }
-        let [[gqx, gqy], [gux, guy], [gvx, gvy]] = [&mut gq, &mut gu, &mut gv];
-        let splats = [
-            (gqx, 2 * m),
-            (gqy, 2 * m + 1),
-            (gux, 8 * k),
-            (guy, 8 * k + 1),
-            (gvx, 8 * k + 2),
-            (gvy, 8 * k + 3),
-        ];
-        for (lanes, at) in splats {
-            lanes.fill(g[at]);
+        } else {
+            for (lane, f) in fragments[..n].iter().enumerate() {
+                (ox[lane], oy[lane]) = (-((f.x & 1) as f32), -((f.y & 1) as f32));
+                inv_w[lane] = f.inv_w;
+            }
+            // The coordinates' rows copied where the varyings are stored by component.
+            for (lanes, c) in [(&mut u, 4 * k), (&mut v, 4 * k + 1)] {
+                match varyings.row(c, n) {
+                    Some(row) => lanes[..n].copy_from_slice(row),
+                    None => (0..n).for_each(|lane| lanes[lane] = varyings.get(lane, c)),
+                }
+            }
+            let [[gqx, gqy], [gux, guy], [gvx, gvy]] = [&mut gq, &mut gu, &mut gv];
+            let splats = [
+                (gqx, 2 * m),
+                (gqy, 2 * m + 1),
+                (gux, 8 * k),
+                (guy, 8 * k + 1),
+                (gvx, 8 * k + 2),
+                (gvy, 8 * k + 3),
+            ];
+            for (lanes, at) in splats {
+                lanes[..n].fill(g[at]);
+            }
         }
     } else {
-        for lane in 0..n {
-            let g = fragments.triangles[fragments.triangle[lane] as usize].0;
+        for (lane, f) in fragments[..n].iter().enumerate() {
+            let g = f.gradients;
             let m = (g.len() / 2).saturating_sub(1);
             if 4 * k + 1 >= m {
                 one_lane[lane] = true;
                 continue;
             }
+            // Offsets of the quad's top-left pixel from this one.
+            (ox[lane], oy[lane]) = (-((f.x & 1) as f32), -((f.y & 1) as f32));
+            inv_w[lane] = f.inv_w;
+            (u[lane], v[lane]) = (varyings.get(lane, 4 * k), varyings.get(lane, 4 * k + 1));
             (gq[0][lane], gq[1][lane]) = (g[2 * m], g[2 * m + 1]);
             (gu[0][lane], gu[1][lane], gv[0][lane], gv[1][lane]) =
                 (g[8 * k], g[8 * k + 1], g[8 * k + 2], g[8 * k + 3]);
         }
     }
-    // The coordinates' rows copied where the varyings are stored by component.
-    for (lanes, c) in [(&mut u, 4 * k), (&mut v, 4 * k + 1)] {
-        match varyings.row(c, n) {
-            Some(row) => lanes[..n].copy_from_slice(row),
-            None => (0..n).for_each(|lane| lanes[lane] = varyings.get(lane, c)),
-        }
-    }
-    let lane_row = |a: &[f32; LANE_ROOM]| a.first_chunk::<N>().copied().unwrap_or([0.0; N]);
-    let (ox, oy, inv_w) = (lane_row(&fragments.ox), lane_row(&fragments.oy), lane_row(&fragments.inv_w));
     let (mut q, mut qr, mut qb) = ([0.0f32; N], [0.0f32; N], [0.0f32; N]);
     for l in 0..N {
         q[l] = inv_w[l] + gq[0][l] * ox[l] + gq[1][l] * oy[l];
@@ -211,8 +213,7 @@ pub(crate) fn quad_lod_lanes(
     for l in 0..N {
         let (ux, vx, uy, vy) = (ux[l] * w, vx[l] * h, uy[l] * w, vy[l] * h);
         let rho2 = (ux * ux + vx * vx).max(uy * uy + vy * vy);
-        // Lanes past the batch's fragments (their 1/w anything) at level 0.
-        lod[l] = if l >= n || !rho2.is_finite() || rho2 <= 0.0 {
+        lod[l] = if !rho2.is_finite() || rho2 <= 0.0 {
             f32::NEG_INFINITY
         } else {
             0.5 * crate::textures::unit::piecewise_log2(rho2)
@@ -750,13 +751,12 @@ mod tests {
             let varyings: Vec<f32> = (0..n * per).map(|_| r() * 4.0).collect();
             let (w, h) = if round % 3 == 0 { (256, 64) } else { (16, 16) };
             let mut lod = [0.0f32; 32];
-            let lanes = FragmentLanes::from_fragments(&fragments);
-            let left = quad_lod_lanes(&lanes, Vary::by_fragment(&varyings, per), k, (w, h), &mut lod);
+            let left = quad_lod_lanes(&fragments, Vary::by_fragment(&varyings, per), k, (w, h), &mut lod);
             // The same varyings stored by component (the scan loop's rows): the same lanes.
             let rows: Vec<f32> = (0..per * n).map(|i| varyings[(i % n) * per + i / n]).collect();
             let mut by_rows = [0.0f32; 32];
             let left_rows =
-                quad_lod_lanes(&lanes, Vary::by_component(&rows, per, n), k, (w, h), &mut by_rows);
+                quad_lod_lanes(&fragments, Vary::by_component(&rows, per, n), k, (w, h), &mut by_rows);
             assert_eq!(left_rows, left, "round {round}");
             let bits = |l: &[f32]| l.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert!(bits(&by_rows[..n]) == bits(&lod[..n]), "round {round}");
@@ -790,8 +790,7 @@ mod tests {
             .collect();
         let varyings = vec![1.0f32; 9 * per];
         let mut lod = [7.0f32; 32];
-        let lanes = FragmentLanes::from_fragments(&fragments);
-        let left = quad_lod_lanes(&lanes, Vary::by_fragment(&varyings, per), 2, (8, 8), &mut lod);
+        let left = quad_lod_lanes(&fragments, Vary::by_fragment(&varyings, per), 2, (8, 8), &mut lod);
         assert_eq!(left.iter().filter(|&&l| l).count(), 9);
     }
 }

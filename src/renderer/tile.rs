@@ -5,7 +5,6 @@
 
 use rayon::prelude::*;
 
-use super::fragment_lanes::{FragmentLanes, LANE_ROOM};
 use super::framebuffer::{ColorTile, TileBuffers, Writer, TILE};
 use super::raster::{Fragment, PassSetup, Tri, SUB};
 use super::{CompareFunc, DrawStats, FragmentResult, Framebuffer, Pass, StencilOp, BATCH};
@@ -171,7 +170,7 @@ pub(crate) fn interpolate(vary: &[f32], n: usize, p: [f32; 3], out: &mut [f32]) 
 /// several: at most one per pixel (`pending`: a bit per pixel of each of
 /// the tile's rows), so that each writes its own pixel.
 struct Batch<'a> {
-    fragments: FragmentLanes<'a>,
+    fragments: Vec<Fragment<'a>>,
     pixels: Vec<(usize, f32)>,
     /// The varyings by component: value `c` of fragment `i` at
     /// `c * ROW + i` (a span's lanes are stored eight at a time, so a row
@@ -351,7 +350,7 @@ fn raster_tile_batched_body<const AVX2: bool>(
     let func = pass.state.depth.func;
     let writer = Writer::of(&pass.state.blend);
     let mut batch = Batch {
-        fragments: FragmentLanes::default(),
+        fragments: Vec::with_capacity(BATCH),
         pixels: Vec::with_capacity(BATCH),
         rows: vec![0.0; ROW * n],
         per: n,
@@ -402,14 +401,15 @@ fn raster_tile_batched_body<const AVX2: bool>(
                         }
                     }
                     let taken = &PACK[take as usize % (1 << SPAN)][..take.count_ones() as usize];
-                    let z = &span.z;
-                    push_lanes::<AVX2>(
-                        &mut batch.fragments,
-                        (x, y),
-                        &span,
-                        take,
-                        (gradients, tri.front_facing),
-                    );
+                    let (z, q) = (&span.z, &span.q);
+                    batch.fragments.extend(taken.iter().map(|&j| Fragment {
+                        x: (x + j as i32) as u32,
+                        y: y as u32,
+                        depth: z[j as usize % SPAN],
+                        front_facing: tri.front_facing,
+                        inv_w: q[j as usize % SPAN],
+                        gradients,
+                    }));
                     batch.pixels.extend(taken.iter().map(|&j| (at + j as usize, z[j as usize % SPAN])));
                     // The lanes taken lie within the tile's row (bit + k ≤ TILE).
                     batch.pending[row] |= u64::from(take) << bit;
@@ -427,38 +427,6 @@ fn raster_tile_batched_body<const AVX2: bool>(
 
 /// Pixels of a row the scan loop takes together.
 const SPAN: usize = 8;
-const _: () = assert!(BATCH + SPAN <= LANE_ROOM, "a span's stores past a batch's last lane");
-
-/// The lanes of `span` (the pixels from (x, y) on) that `take` sets, added
-/// to the batch's `lanes` as fragments of the triangle of `gradients` and
-/// facing `front_facing`: each array's eight lanes packed by one
-/// permutation ([`compress`]) and stored past its last lane (where
-/// [`FragmentLanes`] has room), rather than a [`Fragment`] pushed each.
-#[inline(always)]
-fn push_lanes<'a, const AVX2: bool>(
-    lanes: &mut FragmentLanes<'a>,
-    (x, y): (i32, i32),
-    span: &Span,
-    take: u32,
-    (gradients, front_facing): (&'a [f32], bool),
-) {
-    let len = lanes.len;
-    let t = lanes.triangle_of(gradients, front_facing);
-    let xs: [u32; SPAN] = std::array::from_fn(|j| (x + j as i32) as u32);
-    let ox: [f32; SPAN] = std::array::from_fn(|j| -((xs[j] & 1) as f32));
-    for (from, to) in [(&span.z, &mut lanes.depth), (&span.q, &mut lanes.inv_w), (&ox, &mut lanes.ox)] {
-        if let Some(to) = to[len..].first_chunk_mut::<SPAN>() {
-            compress::<AVX2>(from, take, to);
-        }
-    }
-    if let Some(to) = lanes.x[len..].first_chunk_mut::<SPAN>() {
-        compress_u32::<AVX2>(&xs, take, to);
-    }
-    lanes.y[len..len + SPAN].fill(y as u32);
-    lanes.oy[len..len + SPAN].fill(-((y & 1) as f32));
-    lanes.triangle[len..len + SPAN].fill(t);
-    lanes.len += take.count_ones() as usize;
-}
 
 /// The length of a batch's row of varyings ([`Batch::rows`]).
 const ROW: usize = BATCH + SPAN;
@@ -511,29 +479,6 @@ fn compress<const AVX2: bool>(v: &[f32; SPAN], mask: u32, out: &mut [f32; SPAN])
         unsafe {
             let idx = _mm256_loadu_si256(pack.as_ptr() as *const __m256i);
             _mm256_storeu_ps(out.as_mut_ptr(), _mm256_permutevar8x32_ps(_mm256_loadu_ps(v.as_ptr()), idx));
-        }
-        return;
-    }
-    for (o, &j) in out.iter_mut().zip(pack) {
-        *o = v[j as usize];
-    }
-}
-
-/// [`compress`] of integer lanes.
-#[inline(always)]
-fn compress_u32<const AVX2: bool>(v: &[u32; SPAN], mask: u32, out: &mut [u32; SPAN]) {
-    let pack = &PACK[mask as usize & ((1 << SPAN) - 1)];
-    #[cfg(target_arch = "x86_64")]
-    if AVX2 {
-        use std::arch::x86_64::{
-            __m256i, _mm256_loadu_si256, _mm256_permutevar8x32_epi32, _mm256_storeu_si256,
-        };
-        // SAFETY: only compiled into `raster_tile_batched_avx2`, whose CPU
-        // has AVX2; eight lanes of each array.
-        unsafe {
-            let idx = _mm256_loadu_si256(pack.as_ptr() as *const __m256i);
-            let packed = _mm256_permutevar8x32_epi32(_mm256_loadu_si256(v.as_ptr() as *const __m256i), idx);
-            _mm256_storeu_si256(out.as_mut_ptr() as *mut __m256i, packed);
         }
         return;
     }

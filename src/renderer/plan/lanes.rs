@@ -45,7 +45,7 @@ use crate::ir::Ty;
 use crate::ir::{self, BinaryOp, Expr, MathFunction, UnaryOp};
 use crate::parser::ast::CombineMode;
 use crate::renderer::raster::{quad_lod_lanes, Vary};
-use crate::renderer::{Fragment, FragmentLanes, FragmentResult, BATCH};
+use crate::renderer::{Fragment, FragmentResult, BATCH};
 use crate::textures::{lanes as texture_lanes, unit, Texture};
 
 /// How a compiled pass's ops are dispatched (for the measurement that
@@ -387,7 +387,7 @@ impl FragmentProgram<'_> {
     pub(super) fn shade_compiled(
         &self,
         lp: &LaneProgram,
-        fragments: &FragmentLanes,
+        fragments: &[Fragment],
         varyings: Vary,
         out: &mut [[f32; 4]],
         results: &mut [FragmentResult],
@@ -432,7 +432,7 @@ impl FragmentProgram<'_> {
         &self,
         i: usize,
         r: &mut [Lanes],
-        (fragments, varyings): (&FragmentLanes, Vary),
+        (fragments, varyings): (&[Fragment], Vary),
         lp: &LaneProgram,
         shared: &mut SharedLookup,
     ) {
@@ -463,8 +463,7 @@ impl FragmentProgram<'_> {
                 if let Some(k) = lod_from.filter(|_| t.levels.len() > 1) {
                     let size = (t.width(), t.height());
                     let left = quad_lod_lanes(fragments, varyings, k, size, &mut lod);
-                    for lane in (0..n).filter(|&l| left[l]) {
-                        let fragment = fragments.fragment(lane);
+                    for (lane, fragment) in fragments.iter().enumerate().filter(|&(l, _)| left[l]) {
                         let vary = [0, 1, 2, 3].map(|j| varyings.get(lane, 4 * k + j));
                         let d = |j| fragment.quad_derivatives(4 * k + j, vary[j]);
                         let (du, dv) = uv_derivatives(coords_ty, &vary, d);
@@ -525,7 +524,7 @@ fn run(
     p: &FragmentProgram,
     lp: &LaneProgram,
     r: &mut [Lanes],
-    batch: (&FragmentLanes, Vary),
+    batch: (&[Fragment], Vary),
     shared: &mut SharedLookup,
     outputs: (&mut [[f32; 4]], &mut [FragmentResult]),
 ) {
@@ -544,7 +543,7 @@ unsafe fn run_avx2(
     p: &FragmentProgram,
     lp: &LaneProgram,
     r: &mut [Lanes],
-    batch: (&FragmentLanes, Vary),
+    batch: (&[Fragment], Vary),
     shared: &mut SharedLookup,
     outputs: (&mut [[f32; 4]], &mut [FragmentResult]),
 ) {
@@ -556,7 +555,7 @@ fn run_body(
     p: &FragmentProgram,
     lp: &LaneProgram,
     r: &mut [Lanes],
-    batch: (&FragmentLanes, Vary),
+    batch: (&[Fragment], Vary),
     shared: &mut SharedLookup,
     (out, results): (&mut [[f32; 4]], &mut [FragmentResult]),
 ) {
@@ -572,7 +571,7 @@ fn run_body(
                 for lane in 0..n {
                     // The fragment's own varyings, as the one-lane code takes them.
                     varyings.lane_into(lane, &mut vary);
-                    p.scalar_lane(i as usize, r, &fragments.fragment(lane), &vary, lane, &mut discard[lane]);
+                    p.scalar_lane(i as usize, r, &fragments[lane], &vary, lane, &mut discard[lane]);
                 }
             }
             Op::Sample(i) => p.sample_lanes(i as usize, r, (fragments, varyings), lp, shared),

@@ -12,7 +12,7 @@ use crate::backends::combiners::{PixelEmulator, PixelRegisters};
 use crate::ir::{self, eval::Value, Expr, FbChannel, Frequency, Handle, Module, TextureId, Ty};
 use crate::pipeline::{Geometry, PassInterface, RenderTarget};
 use crate::renderer::raster::Vary;
-use crate::renderer::{Fragment, FragmentLanes, FragmentResult, FragmentStage, Framebuffer, RenderError};
+use crate::renderer::{Fragment, FragmentResult, FragmentStage, Framebuffer, RenderError};
 use crate::scene::bind::{self, BoundObject, BoundTexture, ExactFunction};
 use crate::textures::{generators, unit, Filter, Texture, Texture2D, Wrap};
 
@@ -915,8 +915,7 @@ impl FragmentStage for FragmentProgram<'_> {
     ) {
         if let (true, Some(lp)) = (self.batched, &self.lanes) {
             let per = varyings.len().checked_div(fragments.len()).unwrap_or(0);
-            let lanes = FragmentLanes::from_fragments(fragments);
-            self.shade_compiled(lp, &lanes, Vary::by_fragment(varyings, per), out, results)
+            self.shade_compiled(lp, fragments, Vary::by_fragment(varyings, per), out, results)
         } else if self.batched {
             self.shade_lanes(fragments, varyings, out, results)
         } else {
@@ -926,7 +925,7 @@ impl FragmentStage for FragmentProgram<'_> {
 
     fn shade_batch_rows(
         &self,
-        fragments: &FragmentLanes,
+        fragments: &[Fragment],
         (rows, per, row): (&[f32], usize, usize),
         out: &mut [[f32; 4]],
         results: &mut [FragmentResult],
