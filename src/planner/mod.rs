@@ -645,9 +645,6 @@ fn choose(
     let mut k = 0;
     while k < live.len() {
         let run = fusable_run(m, &live[k..], &prepared.per_light);
-        for cache in [&mut fits.cache, &mut fits.compiler_cache] {
-            cache.statement_began = cache.checked.get();
-        }
         match plan_run(m, profile, search, fits, &run, &prepared.names) {
             Ok(v) => chosen.extend(v),
             Err(d) => diags.push(d),

@@ -28,6 +28,10 @@ pub(super) fn planned_or_rewritten(
     rewrites: &mut HashMap<usize, String>,
     fused_forms: bool,
 ) -> Result<(Form, Vec<Piece>), Result<Unplanned, Diagnostic>> {
+    // The statement's forms and splits share one search budget.
+    for cache in [&mut fits.cache, &mut fits.compiler_cache] {
+        cache.statement_began = cache.checked.get();
+    }
     let single = stmts.len() == 1;
     let as_written = candidate(m, search, fits, baked, stmts, value, storage_of(profile));
     if !single && as_written.is_err() && fused_forms {
