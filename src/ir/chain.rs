@@ -23,7 +23,7 @@ pub const CHAIN_LIMIT: usize = 1 << 16;
 impl Module {
     /// The operands of the maximal chain rooted at `h` whose links
     /// `is_link` accepts, in order (`[h]` where `h` is not a link, or where
-    /// the chain written out is longer than [`CHAIN_LIMIT`] and than its
+    /// the chain written out is longer than `CHAIN_LIMIT` and than its
     /// graph: module docs).
     pub fn chain_operands(&self, h: Handle<Expr>, is_link: impl Fn(&Expr) -> bool) -> Vec<Handle<Expr>> {
         if !is_link(&self.exprs[h]) {
