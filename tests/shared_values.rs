@@ -67,3 +67,33 @@ fn layers_nested_twelve_deep_plan_on_geforce3() {
         assert!(compile(&src, target).is_ok(), "{target}");
     }
 }
+
+#[test]
+fn a_lookup_doubled_forty_times_plans_on_every_target() {
+    // `a + a` forty times over is `2⁴⁰·T0`: counted, one term a blending
+    // pass doubles at a time. Written out, seventeen doublings did not
+    // end in a minute on geforce256 (every pair of 2¹⁶ terms was tried
+    // as a lerp), and past 2¹⁶ terms the sum was refused.
+    let src = repeated("T0 δu x", "$ + $", 40);
+    for target in TARGETS {
+        let plan = compile(&src, target).unwrap_or_else(|d| panic!("{target}: {d:?}"));
+        assert!(plan.passes.len() <= 41, "{target}: {} passes", plan.passes.len());
+    }
+}
+
+#[test]
+fn a_sum_repeating_its_terms_plans_counted_not_written_out() {
+    // Eight doublings written out are 256 terms, 128 passes of `T0 + T0`
+    // on geforce256; counted, `256·T0`, a pass per doubling at most.
+    let src = repeated("T0 δu x", "$ + $", 8);
+    for target in ["geforce256", "geforce3"] {
+        let plan = compile(&src, target).expect(target);
+        assert!(plan.passes.len() <= 9, "{target}: {} passes", plan.passes.len());
+    }
+    // Three of one lookup, `3·T0`: one pass, as `3 * T0 δu x` is, where
+    // written out the sum took two (on geforce256 and geforce3).
+    let src = "texture T0 : 2d rgba8;\nC δπx ← T0 δu x + T0 δu x + T0 δu x;\n";
+    for target in ["geforce256", "geforce3"] {
+        assert_eq!(compile(src, target).expect(target).passes.len(), 1, "{target}");
+    }
+}

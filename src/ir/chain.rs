@@ -57,6 +57,47 @@ impl Module {
         }
         out
     }
+
+    /// The distinct operands of the maximal chain rooted at `h` whose
+    /// links `is_link` accepts, each with how often it occurs written out,
+    /// in the order written (`[(h, 1)]` where `h` is not a link): `a + a`
+    /// doubled forty times is `[(a, 2⁴⁰)]`, counted over the graph's nodes
+    /// without writing out its 2⁴⁰ terms. `None` where a count is past
+    /// what an `f64` holds.
+    pub fn chain_counted(
+        &self,
+        h: Handle<Expr>,
+        is_link: impl Fn(&Expr) -> bool,
+    ) -> Option<Vec<(Handle<Expr>, f64)>> {
+        // The chain's links in post-order, its operands in the order written.
+        let (mut post, mut operands) = (Vec::new(), Vec::new());
+        let mut seen = rustc_hash::FxHashSet::default();
+        let mut stack = vec![(h, false)];
+        while let Some((x, expanded)) = stack.pop() {
+            if expanded {
+                post.push(x);
+            } else if seen.insert(x) {
+                if is_link(&self.exprs[x]) {
+                    stack.push((x, true));
+                    stack.extend(self.exprs[x].operands().into_iter().rev().map(|o| (o, false)));
+                } else {
+                    operands.push(x);
+                }
+            }
+        }
+        // Parents before children: each link passes its count to its operands.
+        let mut count: FxHashMap<Handle<Expr>, f64> = FxHashMap::default();
+        count.insert(h, 1.0);
+        for &x in post.iter().rev() {
+            let c = count.get(&x).copied().unwrap_or(0.0);
+            for o in self.exprs[x].operands() {
+                *count.entry(o).or_insert(0.0) += c;
+            }
+        }
+        let counted: Vec<(Handle<Expr>, f64)> =
+            operands.into_iter().map(|o| (o, count.get(&o).copied().unwrap_or(1.0))).collect();
+        counted.iter().all(|(_, k)| k.is_finite()).then_some(counted)
+    }
 }
 
 #[cfg(test)]
@@ -104,5 +145,23 @@ mod tests {
         let m = squares(40);
         let v = m.statements[0].value;
         assert_eq!(m.chain_operands(v, is_mul), vec![v]);
+        // Counted: the one lookup, 2⁴⁰ times.
+        let counted = m.chain_counted(v, is_mul).expect("finite");
+        assert_eq!(counted.len(), 1);
+        assert_eq!(counted[0].1, 2f64.powi(40));
+        assert!(!is_mul(&m.exprs[counted[0].0]));
+    }
+
+    #[test]
+    fn counted_operands_keep_their_written_order() {
+        let m = module(
+            "texture A : 2d rgba8;\ntexture B : 2d rgba8;\ntexture D : 2d rgba8;\n\
+             let ab = A δu x + B δu x;\nC δπx ← (ab + D δu x) + ab;\n",
+        );
+        let v = m.statements[0].value;
+        let is_add = |e: &Expr| matches!(e, Expr::Binary { op: BinaryOp::Add, .. });
+        let written = m.chain_operands(v, is_add);
+        let counted = m.chain_counted(v, is_add).expect("finite");
+        assert_eq!(counted, vec![(written[0], 2.0), (written[1], 2.0), (written[2], 1.0)]);
     }
 }

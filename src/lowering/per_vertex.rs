@@ -224,14 +224,7 @@ fn vertex_terms_grouped(m: &mut Module, h: Handle<Expr>) -> Handle<Expr> {
 /// vertex), where at least two are computable and one is not; `None`
 /// else or when ill-typed.
 fn regrouped(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
-    let mut terms = Vec::new();
-    let mut stack = vec![h];
-    while let Some(x) = stack.pop() {
-        match m.exprs[x] {
-            Expr::Binary { op: BinaryOp::Add, lhs, rhs } => stack.extend([rhs, lhs]),
-            _ => terms.push(x),
-        }
-    }
+    let terms = m.chain_operands(h, |e| matches!(e, Expr::Binary { op: BinaryOp::Add, .. }));
     let (vertex, others): (Vec<_>, Vec<_>) =
         terms.into_iter().partition(|t| m.info(*t).freq.is_sample() && at_vertex(m, *t).is_some());
     if vertex.len() < 2 || others.is_empty() {

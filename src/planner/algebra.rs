@@ -48,9 +48,11 @@ mod clamp;
 mod delta;
 mod factored;
 mod lerps;
+mod repeated_terms;
 use factored::Terms;
 pub use factored::{factor, factor_nth, lerps_recovered, product_by_groups, product_of_sums};
 pub use lerps::lerps_of_sums_split;
+pub use repeated_terms::{repeated_terms_counted, repeats_a_term};
 
 /// At most this many terms in a multiplied-out form: beyond it the search
 /// over their groupings is greedy, and the form is not worth its passes.
@@ -116,6 +118,10 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
     };
     let canon = canonical(m, h);
     push(&mut out, canon, CANONICAL);
+    // A sum of repeated terms as each term times its count (`a + a`
+    // doubled forty times is `2⁴⁰·a`, one value blending scales).
+    let collected = repeated_terms_counted(m, h);
+    push(&mut out, collected, "with like terms collected");
     // Also with a channel of an interpolated tuple read as its own
     // interpolant (`(δ v).r` = `δ(v.r)`): a form, not the statement's
     // rewrite, since some plans need the tuple's one interpolant.

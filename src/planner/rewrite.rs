@@ -51,6 +51,12 @@ pub(super) fn planned_or_rewritten(
             Some(split::cost(m, fits.fit(baked), pieces)),
             format!("as written it takes {} passes through a temporary", pieces.len()),
         ),
+        // A sum repeating a term (`a + a` doubled) as written takes a
+        // pass per pair of terms, counted (`2ⁿ·a`) one per doubling.
+        Ok((_, pieces)) if single && pieces.len() > 1 && algebra::repeats_a_term(m, value) => (
+            Some(split::cost(m, fits.fit(baked), pieces)),
+            format!("as written it takes {} passes", pieces.len()),
+        ),
         Err(Unplanned::Overflow(o)) if single => (None, format!("as written it {o}")),
         _ => return as_written.map_err(Ok),
     };

@@ -253,19 +253,44 @@ fn same_terms(a: &mut [Vec<Handle<Expr>>], b: &mut [Vec<Handle<Expr>>]) -> bool 
     a == b
 }
 
-/// `x·(1 − f) + y·f` as `lerp(x, y, f)`, one operation the texture
-/// environment and the combiners compute whole (Pipeline Grammar, Section
-/// 3.6: interpolate); `None` for other sums.
-fn relerp(m: &mut Module, terms: &[Vec<Handle<Expr>>], span: Span) -> Option<Handle<Expr>> {
-    let [a, b] = terms else { return None };
-    let weight = |m: &Module, h: Handle<Expr>| match m.exprs[h] {
+/// `f` where `h` is `1 − f` of a scalar `f`: the weight of a lerp's first
+/// operand.
+fn weight(m: &Module, h: Handle<Expr>) -> Option<Handle<Expr>> {
+    match m.exprs[h] {
         Expr::Binary { op: BinaryOp::Sub, lhs, rhs }
             if m.is_constant(lhs, 1.0) && m.info(rhs).ty == Ty::Scalar =>
         {
             Some(rhs)
         }
         _ => None,
-    };
+    }
+}
+
+/// The pairs `(i, j)`, `i < j`, of `terms` of which one holds a weight
+/// `1 − f` ([`weight`], its first) and the other `f`: the only pairs
+/// [`relerp`] can join, in the order of all pairs. Found from the terms
+/// with a weight, so a long sum without one (`a + a` doubled sixteen times
+/// is 65 536 terms) costs one pass over it, not one per pair.
+fn lerp_pairs(m: &Module, terms: &[Vec<Handle<Expr>>]) -> Vec<(usize, usize)> {
+    let mut pairs = Vec::new();
+    for (i, t) in terms.iter().enumerate() {
+        let Some(f) = t.iter().find_map(|h| weight(m, *h)) else { continue };
+        for (j, other) in terms.iter().enumerate() {
+            if j != i && other.contains(&f) {
+                pairs.push((i.min(j), i.max(j)));
+            }
+        }
+    }
+    pairs.sort_unstable();
+    pairs.dedup();
+    pairs
+}
+
+/// `x·(1 − f) + y·f` as `lerp(x, y, f)`, one operation the texture
+/// environment and the combiners compute whole (Pipeline Grammar, Section
+/// 3.6: interpolate); `None` for other sums.
+fn relerp(m: &mut Module, terms: &[Vec<Handle<Expr>>], span: Span) -> Option<Handle<Expr>> {
+    let [a, b] = terms else { return None };
     let (keep, take) = [(a, b), (b, a)].into_iter().find_map(|(x, y)| {
         let f = x.iter().find_map(|h| weight(m, *h))?;
         y.contains(&f).then_some((x, y))
@@ -311,14 +336,12 @@ pub fn lerps_recovered(m: &mut Module, h: Handle<Expr>) -> Option<Handle<Expr>> 
     }
     let mut found = false;
     'pairs: loop {
-        for i in 0..terms.len() {
-            for j in i + 1..terms.len() {
-                let Some(mix) = relerp(m, &[terms[i].clone(), terms[j].clone()], span) else { continue };
-                terms[i] = product_factors(m, mix);
-                terms.remove(j);
-                found = true;
-                continue 'pairs;
-            }
+        for (i, j) in lerp_pairs(m, &terms) {
+            let Some(mix) = relerp(m, &[terms[i].clone(), terms[j].clone()], span) else { continue };
+            terms[i] = product_factors(m, mix);
+            terms.remove(j);
+            found = true;
+            continue 'pairs;
         }
         break;
     }
