@@ -122,6 +122,10 @@ pub fn forms(m: &mut Module, h: Handle<Expr>, max_terms: usize) -> Vec<Form> {
     // doubled forty times is `2⁴⁰·a`, one value blending scales).
     let collected = repeated_terms_counted(m, h);
     push(&mut out, collected, "with like terms collected");
+    // And its counts kept outside δ (`δ(2⁴⁰·l)` = `2⁴⁰·δl`): GL clamps what
+    // it interpolates as a colour to [0, 1].
+    let counted_out = collected.and_then(|c| delta::scales_outside(m, c));
+    push(&mut out, counted_out, "with like terms collected");
     // Also with a channel of an interpolated tuple read as its own
     // interpolant (`(δ v).r` = `δ(v.r)`): a form, not the statement's
     // rewrite, since some plans need the tuple's one interpolant.

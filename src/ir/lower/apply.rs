@@ -349,12 +349,23 @@ impl<'a> Lowerer<'a> {
                 return Err(());
             }
         };
+        let key = (std::ptr::from_ref(s) as usize, bundle.members.clone(), bundle.site, self.under_delta);
+        if let Some(&(h, distributed)) = self.inlined.get(&key) {
+            self.distributed |= distributed;
+            return Ok(h);
+        }
         let saved = std::mem::take(&mut self.locals);
+        let outer_distributed = std::mem::replace(&mut self.distributed, false);
         self.locals.push((s.input.key(), Value::Bundle(bundle.clone())));
         self.bundles.push(bundle);
         let r = self.nested(&s.name.key(), span, |l| l.shader_body(s, span));
         self.bundles.pop();
         self.locals = saved;
+        let distributed = std::mem::replace(&mut self.distributed, outer_distributed);
+        self.distributed |= distributed;
+        if let Ok(h) = r {
+            self.inlined.insert(key, (h, distributed));
+        }
         r
     }
 

@@ -70,6 +70,7 @@ fn lower_here(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
         sample: None,
         statement_freq: None,
         let_cache: HashMap::new(),
+        inlined: HashMap::new(),
         used: Default::default(),
         locals: Vec::new(),
         bundles: Vec::new(),
@@ -89,7 +90,7 @@ fn lower_here(program: &ast::Program) -> (Module, Vec<Diagnostic>) {
 }
 
 /// Where a shading-parameter bundle is evaluated.
-#[derive(Clone, Copy, Debug, PartialEq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 enum BundleSite {
     Vertex(VertexId),
     Interpolated(VertexId, Frequency),
@@ -135,6 +136,10 @@ enum Global<'a> {
 
 type Res<T> = Result<T, ()>;
 
+/// A shader's declaration (by address), the bundle it is applied to, and
+/// the depth of δ it is applied under.
+type InlineKey = (usize, Vec<VectorId>, BundleSite, usize);
+
 /// A bundle's vertex stream and the index `δu x` that replaces `δu`.
 type SurfaceVertex = (VertexId, Handle<Expr>);
 
@@ -153,6 +158,11 @@ struct Lowerer<'a> {
     used: std::collections::HashSet<String>,
     /// Values of global `let`s in the current statement.
     let_cache: HashMap<String, Value>,
+    /// Shaders inlined in the current statement: a shader applied twice to
+    /// one bundle is one value (`p₁ s = p₀ s · p₀ s`, and so on: twenty
+    /// such shaders inlined `2²⁰` bodies before). With whether the body
+    /// distributed a δ. Keyed by the declaration, the bundle and the δ depth.
+    inlined: HashMap<InlineKey, (Handle<Expr>, bool)>,
     /// Shader locals, innermost last; a `None` name marks a scope boundary.
     locals: Vec<(String, Value)>,
     /// The bundle the shader being inlined was applied to.
@@ -227,6 +237,7 @@ impl<'a> Lowerer<'a> {
             match &item.kind {
                 ItemKind::Shader(s) if !self.used.contains(&s.name.key()) => {
                     self.let_cache.clear();
+                    self.inlined.clear();
                     self.sample = Some(Frequency::Texel);
                     self.statement_freq = Some(Frequency::Texel);
                     let members = match self.globals.get(&s.input.key()) {
@@ -238,6 +249,7 @@ impl<'a> Lowerer<'a> {
                 }
                 ItemKind::Let(l) if !self.used.contains(&l.name.key()) => {
                     self.let_cache.clear();
+                    self.inlined.clear();
                     self.sample = Some(Frequency::Fragment);
                     self.statement_freq = Some(Frequency::Fragment);
                     let _ = self.let_value(l);

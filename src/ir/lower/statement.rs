@@ -7,6 +7,7 @@ use super::*;
 impl<'a> Lowerer<'a> {
     pub(super) fn statement(&mut self, st: &'a ast::Statement) {
         self.let_cache.clear();
+        self.inlined.clear();
         let _ = self.statement_inner(st);
         if let Some(Global::Framebuffer(id)) = self.globals.get(&st.target.table.key()).copied() {
             self.written.insert(id);
