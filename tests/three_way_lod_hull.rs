@@ -95,7 +95,13 @@ impl Compiled {
 
 /// How many of the pixels `compared` marks have a channel of `p` more than
 /// `by` outside `low..=high` (in [0, 1]).
-pub(crate) fn outside(p: &[[f64; 4]], low: &[[f64; 4]], high: &[[f64; 4]], compared: &[bool], by: f64) -> usize {
+pub(crate) fn outside(
+    p: &[[f64; 4]],
+    low: &[[f64; 4]],
+    high: &[[f64; 4]],
+    compared: &[bool],
+    by: f64,
+) -> usize {
     (0..p.len())
         .filter(|&i| compared[i] && (0..4).any(|c| p[i][c] < low[i][c] - by || p[i][c] > high[i][c] + by))
         .count()

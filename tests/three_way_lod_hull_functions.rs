@@ -131,7 +131,8 @@ fn a_baked_table_at_moving_coordinates_is_bounded_by_the_hull() {
         );
         let c = compiled(&body);
         let hull = c.hull();
-        let ranged = (0..hull.pixels.len()).filter(|&i| hull.covered[i] && hull.low[i] != hull.high[i]).count();
+        let ranged =
+            (0..hull.pixels.len()).filter(|&i| hull.covered[i] && hull.low[i] != hull.high[i]).count();
         let enumerated = c.enumerated();
         eprintln!(
             "{wrap}: {ranged} pixels ranged, width {:?}; the renders of the extremes {:?}",

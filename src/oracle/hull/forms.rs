@@ -60,9 +60,7 @@ fn dot(a: &Form, b: &Form, width: usize, s: &mut Symbols) -> Affine {
 pub fn compute(m: &Module, e: &Expr, ty: Ty, o: &[Form], r: &[R], s: &mut Symbols) -> Option<Option<Form>> {
     let f = match e {
         Expr::Unary { op: UnaryOp::Neg, .. } => lanes(|c| o[0][c].scale(-1.0, 0.0)),
-        Expr::Binary { op: BinaryOp::Pow, lhs, .. } => {
-            power(&o[0], &o[1], r, m.info(*lhs).ty.width(), s)?
-        }
+        Expr::Binary { op: BinaryOp::Pow, lhs, .. } => power(&o[0], &o[1], r, m.info(*lhs).ty.width(), s)?,
         Expr::Binary { op, lhs, .. } => binary(*op, &o[0], &o[1], m.info(*lhs).ty.width(), s)?,
         Expr::Combine { mode, lhs, .. } => {
             let widened = matches!(&m.exprs[*lhs], Expr::Convert { value, to: Ty::Rgba } if m.info(*value).ty == Ty::Rgb);
@@ -189,7 +187,8 @@ pub(super) fn two_sided(x: (&Affine, I), y: (&Affine, I), low: bool, s: &mut Sym
     let range = if lo.max(apart.0) <= hi.min(apart.1) { (lo.max(apart.0), hi.min(apart.1)) } else { apart };
     let ends = if low { (0.0, f64::INFINITY) } else { (f64::NEG_INFINITY, 0.0) };
     let f = y.0.add(&functions::clamped(&d, range, ends, s)?);
-    let bounds = if low { (x.1 .0.max(y.1 .0), x.1 .1.max(y.1 .1)) } else { (x.1 .0.min(y.1 .0), x.1 .1.min(y.1 .1)) };
+    let bounds =
+        if low { (x.1 .0.max(y.1 .0), x.1 .1.max(y.1 .1)) } else { (x.1 .0.min(y.1 .0), x.1 .1.min(y.1 .1)) };
     let (lo, hi) = f.range();
     let within = (lo.max(bounds.0), hi.min(bounds.1));
     Some((f, if within.0 <= within.1 { within } else { bounds }))

@@ -263,8 +263,8 @@ fn math(fun: MathFunction, o: &[R], width: usize) -> Result<R, Unsupported> {
 /// lanes: `g(x, ρ) = x/√(x² + ρ)`, `ρ` the sum of the other lanes'
 /// squares, never decreases in `x` (`∂g/∂x = ρ/(x² + ρ)^(3/2)`; at `ρ = 0`
 /// it is `sign x`, with `g(0, 0) = 0` as the language defines
-/// `normalize(0)`) and is monotone in `ρ` for each `x` (falling where `x
-/// > 0`, rising where `x < 0`): its least lies at the lane's least and an
+/// `normalize(0)`) and is monotone in `ρ` for each `x` (falling where
+/// `x > 0`, rising where `x < 0`): its least lies at the lane's least and an
 /// end of `ρ`, its greatest at the lane's greatest and an end of `ρ` —
 /// whether or not the length may reach 0.
 pub(super) fn normalized(a: &R, c: usize, width: usize) -> I {

@@ -347,7 +347,8 @@ impl Evaluator<'_> {
         let uv = texel_coordinates(c, cty, repeat, &mut ranges.symbols);
         let centre = |a: &Affine| a.center.clamp(0.0, 1.0);
         let at = At::Texel([centre(&uv[0]), centre(&uv[1])]);
-        let mut inner = Ranges { symbols: std::mem::take(&mut ranges.symbols), texel: Some(uv), ..Ranges::new() };
+        let mut inner =
+            Ranges { symbols: std::mem::take(&mut ranges.symbols), texel: Some(uv), ..Ranges::new() };
         let r = self.form(value, at, 0, &mut inner, &mut Memo::new());
         ranges.symbols = inner.symbols;
         Ok(r?.unwrap_or(Hull::point([f64::NAN; 4])))

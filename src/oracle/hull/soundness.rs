@@ -124,9 +124,9 @@ proptest! {
         let r = ([lo[0], lo[1], lo[2], 0.0], [hi[0], hi[1], hi[2], 0.0]);
         let p: [f64; 3] = std::array::from_fn(|k| lo[k] + t[k] * w[k]);
         let n = (p[0] * p[0] + p[1] * p[1] + p[2] * p[2]).sqrt();
-        for c in 0..3 {
+        for (c, x) in p.into_iter().enumerate() {
             let (l, h) = interval::normalized(&r, c, 3);
-            let v = if n == 0.0 { 0.0 } else { p[c] / n };
+            let v = if n == 0.0 { 0.0 } else { x / n };
             prop_assert!(l - 1e-12 <= v && v <= h + 1e-12, "lane {c}: {v} outside {l}..{h} on {r:?}");
         }
         let x = a + t[0] * width;
