@@ -63,7 +63,8 @@ fn holds_every_extreme(body: &str, c: &Compiled, hull: &Picture) {
 /// greater — and under 0.85 of it where a lookup is read twice or
 /// through two functions (the normal of `max(n·L, n·H)`, the argument
 /// beside `smoothstep`, `log` and the fog's factor) — and the CPU and
-/// wgpu inside it.
+/// wgpu inside it. `sin` and `cos` were [−1, 1] on intervals, whatever
+/// their argument.
 #[test]
 fn functions_of_moving_values_keep_what_their_arguments_share() {
     let shared = [LARGER, SMOOTH, FOG, LOGGED];
@@ -93,9 +94,10 @@ fn functions_of_moving_values_keep_what_their_arguments_share() {
 /// A render whose every λ is off by a part of a level, put in the CPU's
 /// place, fails the three-way verdict against the hull of `smoothstep`
 /// (half a level too coarse), of the fog and of the tone curve (a quarter
-/// too fine), where against the interval hull — which takes these
-/// functions as the reference did before, on intervals — it passed; the
-/// render at eq. 3.17's λ passes both.
+/// too fine), where against the interval hull it passed; the render at
+/// eq. 3.17's λ passes both. (The hull before these functions took forms
+/// passed the `smoothstep` and tone-curve renders too; it told the fog's,
+/// its factor's one symbol shared by both reads.)
 #[test]
 fn a_render_off_in_lambda_falls_outside_the_hull_of_a_function_of_a_lookup_not_the_interval_hull() {
     for (body, bias) in [(SMOOTH, 0.5), (FOG, -0.25), (LOGGED, -0.25)] {
