@@ -338,10 +338,14 @@ const GAMMA: &str = "C δπx ← 2 * ((A δu x)^(1 / 2.2) - 0.6 * (A δu x));\n"
 /// affine forms (a Chebyshev line over the argument's range and one error
 /// symbol, Stolfi and de Figueiredo 1997): every render of the lookups'
 /// extremes lies inside the hull on every pixel, the hull inside the
-/// interval hull, and under 0.6 of its average width.
+/// interval hull, and under 0.6 of its average width — under 0.9 for the
+/// renormalized map and Blinn's highlight, whose `normalize` on
+/// intervals takes the corners of each channel and the other channels'
+/// squared length (`interval::normalized`; 24.8/255 and 21.9 on average
+/// before, 16.1 and 7.6 now).
 #[test]
 fn one_variable_functions_keep_what_their_argument_shares() {
-    for body in [RENORMALIZED, BLINN, GAMMA] {
+    for (body, ratio) in [(RENORMALIZED, 0.9), (BLINN, 0.9), (GAMMA, 0.6)] {
         let c = compiled(body);
         let (hull, intervals) = (c.hull(), c.interval_hull());
         for (name, p) in [("least", &hull.low), ("greatest", &hull.high)] {
@@ -361,7 +365,7 @@ fn one_variable_functions_keep_what_their_argument_shares() {
         }
         let ((avg, max), (iavg, imax)) = (widths(&hull), widths(&intervals));
         eprintln!("{body}: width {avg:.2}/255 on average, {max:.0} at most; intervals {iavg:.2}, {imax:.0}");
-        assert!(avg < 0.6 * iavg, "{body}: {avg:.2} against {iavg:.2} on intervals");
+        assert!(avg < ratio * iavg, "{body}: {avg:.2} against {iavg:.2} on intervals");
     }
 }
 
@@ -370,11 +374,13 @@ fn one_variable_functions_keep_what_their_argument_shares() {
 /// verdict against the hull of a renormalized normal map (half a level
 /// too coarse) and of a gamma less its argument (half a level too fine,
 /// three quarters too coarse), where against the interval hull — which
-/// took `normalize` and powers as the reference did before, on intervals
-/// — it passed. The render at eq. 3.17's λ passes both.
+/// takes powers as the reference did before, on intervals — the gamma's
+/// passed. (The renormalized map's is told by the interval hull too since
+/// `normalize` on intervals takes the corners of each channel and the
+/// others' squared length.) The render at eq. 3.17's λ passes both.
 #[test]
 fn a_render_off_in_lambda_falls_outside_the_hull_of_a_function_not_the_interval_hull() {
-    for (body, biases) in [(RENORMALIZED, &[0.5][..]), (GAMMA, &[-0.5, 0.75][..])] {
+    for (body, biases, apart) in [(RENORMALIZED, &[0.5][..], false), (GAMMA, &[-0.5, 0.75][..], true)] {
         let c = compiled(body);
         let g = crate::common::gpu::gpu();
         let p = render_three(&format!("{HEAD}{body}"), "wgsl", &c.scene, Precision::F32, g.as_ref()).unwrap();
@@ -387,7 +393,10 @@ fn a_render_off_in_lambda_falls_outside_the_hull_of_a_function_not_the_interval_
             let told = verdict(&as_cpu(&p, &biased(bias), None));
             assert!(told.is_err(), "{body}: a render {bias} level off passed");
             let before = verdict(&as_cpu(&p, &biased(bias), Some(&intervals)));
-            assert!(before.is_ok(), "{body}: the interval hull told a render {bias} level off: {before:?}");
+            assert!(
+                before.is_ok() || !apart,
+                "{body}: the interval hull told a render {bias} level off: {before:?}"
+            );
         }
     }
 }
