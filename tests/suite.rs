@@ -97,6 +97,7 @@ mod three_way_heldout16;
 mod three_way_heldout17;
 mod three_way_heldout18;
 mod three_way_lod_hull;
+mod three_way_lod_hull_functions;
 mod three_way_new_user;
 mod three_way_new_user16;
 mod three_way_new_user17;

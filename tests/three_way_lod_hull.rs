@@ -11,7 +11,7 @@ use shadec::profile::Profile;
 
 use crate::three_way::{render_three, scene, verdict, Pictures, H, PIXEL_TOLERANCE, W};
 
-const HEAD: &str = "texture A : 2d rgb8 mipmap trilinear repeat = image(\"missing-a.png\");\n\
+pub(crate) const HEAD: &str = "texture A : 2d rgb8 mipmap trilinear repeat = image(\"missing-a.png\");\n\
     texture B : 2d rgb8 mipmap trilinear repeat = image(\"missing-b.png\");\n\
     texture D : 2d rgb8 mipmap trilinear repeat = image(\"missing-d.png\");\n\
     framebuffer C : rgba8, depth;\n";
@@ -21,18 +21,18 @@ const HEAD: &str = "texture A : 2d rgb8 mipmap trilinear repeat = image(\"missin
 /// eq. (8)).
 const FOUR: &str = "C δπx ← (A δu x) * (B δ(3 * (u x))) + 0.5 * (D δ((u x) + 0.05 * (B δ(5 * (u x))).rg));\n";
 
-struct Compiled {
-    module: shadec::ir::Module,
-    program: shadec::parser::ast::Program,
-    scene: shadec::scene::Scene,
-    assets: shadec::scene::SceneAssets,
+pub(crate) struct Compiled {
+    pub(crate) module: shadec::ir::Module,
+    pub(crate) program: shadec::parser::ast::Program,
+    pub(crate) scene: shadec::scene::Scene,
+    pub(crate) assets: shadec::scene::SceneAssets,
 }
 
-fn compiled(body: &str) -> Compiled {
+pub(crate) fn compiled(body: &str) -> Compiled {
     compiled_in(body, scene("kilgard_torus.ron"))
 }
 
-fn compiled_in(body: &str, scene: shadec::scene::Scene) -> Compiled {
+pub(crate) fn compiled_in(body: &str, scene: shadec::scene::Scene) -> Compiled {
     let assets = scene.build().unwrap();
     let profile = Profile::resolve("wgsl").unwrap();
     let c = shadec::driver::compile(&format!("{HEAD}{body}"), &profile, &Default::default()).unwrap();
@@ -40,7 +40,7 @@ fn compiled_in(body: &str, scene: shadec::scene::Scene) -> Compiled {
 }
 
 impl Compiled {
-    fn hull(&self) -> Picture {
+    pub(crate) fn hull(&self) -> Picture {
         let p = oracle::render_with(
             &self.module,
             &self.program,
@@ -57,12 +57,12 @@ impl Compiled {
     /// The hull on intervals alone, every read of a lookup and each of its
     /// channels as if apart (`oracle::Options::interval_hull`): the
     /// reference's hull before its affine forms.
-    fn interval_hull(&self) -> Picture {
+    pub(crate) fn interval_hull(&self) -> Picture {
         let options = oracle::Options { interval_hull: true, ..Default::default() };
         oracle::render_with(&self.module, &self.program, &self.scene, &self.assets, (W, H), options).unwrap()
     }
 
-    fn enumerated(&self) -> Picture {
+    pub(crate) fn enumerated(&self) -> Picture {
         oracle::render_enumerated(
             &self.module,
             &self.program,
@@ -74,7 +74,7 @@ impl Compiled {
         .unwrap()
     }
 
-    fn chosen(&self, choices: &LodChoices) -> Picture {
+    pub(crate) fn chosen(&self, choices: &LodChoices) -> Picture {
         let size = (W, H);
         oracle::render_chosen(
             &self.module,
@@ -95,7 +95,13 @@ impl Compiled {
 
 /// How many of the pixels `compared` marks have a channel of `p` more than
 /// `by` outside `low..=high` (in [0, 1]).
-fn outside(p: &[[f64; 4]], low: &[[f64; 4]], high: &[[f64; 4]], compared: &[bool], by: f64) -> usize {
+pub(crate) fn outside(
+    p: &[[f64; 4]],
+    low: &[[f64; 4]],
+    high: &[[f64; 4]],
+    compared: &[bool],
+    by: f64,
+) -> usize {
     (0..p.len())
         .filter(|&i| compared[i] && (0..4).any(|c| p[i][c] < low[i][c] - by || p[i][c] > high[i][c] + by))
         .count()
@@ -190,7 +196,7 @@ fn the_hull_holds_every_enumerated_combination() {
 /// would draw it) in the CPU's place and no wgpu, compared against the
 /// range of `range` (the reference's own, as `render_three` made it, where
 /// `None`).
-fn as_cpu(p: &Pictures, pixels: &[[f64; 4]], range: Option<&Picture>) -> Pictures {
+pub(crate) fn as_cpu(p: &Pictures, pixels: &[[f64; 4]], range: Option<&Picture>) -> Pictures {
     let (oracle_low, oracle_high) = match range {
         Some(r) => (rgba8(&r.low), rgba8(&r.high)),
         None => (p.oracle_low.clone(), p.oracle_high.clone()),
@@ -233,7 +239,7 @@ const MINUS: &str = "C δπx ← (A δu x) - (A δu x) + (B δu x);\n";
 
 /// The average and the greatest width of a hull (the widest colour
 /// channel, in 255ths) over the covered pixels where it is not one value.
-fn widths(p: &Picture) -> (f64, f64) {
+pub(crate) fn widths(p: &Picture) -> (f64, f64) {
     let w: Vec<f64> = (0..p.pixels.len())
         .filter(|&i| p.covered[i])
         .map(|i| (0..3).map(|k| p.high[i][k] - p.low[i][k]).fold(0.0, f64::max) * 255.0)
@@ -332,10 +338,14 @@ const GAMMA: &str = "C δπx ← 2 * ((A δu x)^(1 / 2.2) - 0.6 * (A δu x));\n"
 /// affine forms (a Chebyshev line over the argument's range and one error
 /// symbol, Stolfi and de Figueiredo 1997): every render of the lookups'
 /// extremes lies inside the hull on every pixel, the hull inside the
-/// interval hull, and under 0.6 of its average width.
+/// interval hull, and under 0.6 of its average width — under 0.9 for the
+/// renormalized map and Blinn's highlight, whose `normalize` on
+/// intervals takes the corners of each channel and the other channels'
+/// squared length (`interval::normalized`; 24.8/255 and 21.9 on average
+/// before, 16.1 and 7.6 now).
 #[test]
 fn one_variable_functions_keep_what_their_argument_shares() {
-    for body in [RENORMALIZED, BLINN, GAMMA] {
+    for (body, ratio) in [(RENORMALIZED, 0.9), (BLINN, 0.9), (GAMMA, 0.6)] {
         let c = compiled(body);
         let (hull, intervals) = (c.hull(), c.interval_hull());
         for (name, p) in [("least", &hull.low), ("greatest", &hull.high)] {
@@ -355,7 +365,7 @@ fn one_variable_functions_keep_what_their_argument_shares() {
         }
         let ((avg, max), (iavg, imax)) = (widths(&hull), widths(&intervals));
         eprintln!("{body}: width {avg:.2}/255 on average, {max:.0} at most; intervals {iavg:.2}, {imax:.0}");
-        assert!(avg < 0.6 * iavg, "{body}: {avg:.2} against {iavg:.2} on intervals");
+        assert!(avg < ratio * iavg, "{body}: {avg:.2} against {iavg:.2} on intervals");
     }
 }
 
@@ -364,11 +374,13 @@ fn one_variable_functions_keep_what_their_argument_shares() {
 /// verdict against the hull of a renormalized normal map (half a level
 /// too coarse) and of a gamma less its argument (half a level too fine,
 /// three quarters too coarse), where against the interval hull — which
-/// took `normalize` and powers as the reference did before, on intervals
-/// — it passed. The render at eq. 3.17's λ passes both.
+/// takes powers as the reference did before, on intervals — the gamma's
+/// passed. (The renormalized map's is told by the interval hull too since
+/// `normalize` on intervals takes the corners of each channel and the
+/// others' squared length.) The render at eq. 3.17's λ passes both.
 #[test]
 fn a_render_off_in_lambda_falls_outside_the_hull_of_a_function_not_the_interval_hull() {
-    for (body, biases) in [(RENORMALIZED, &[0.5][..]), (GAMMA, &[-0.5, 0.75][..])] {
+    for (body, biases, apart) in [(RENORMALIZED, &[0.5][..], false), (GAMMA, &[-0.5, 0.75][..], true)] {
         let c = compiled(body);
         let g = crate::common::gpu::gpu();
         let p = render_three(&format!("{HEAD}{body}"), "wgsl", &c.scene, Precision::F32, g.as_ref()).unwrap();
@@ -381,7 +393,10 @@ fn a_render_off_in_lambda_falls_outside_the_hull_of_a_function_not_the_interval_
             let told = verdict(&as_cpu(&p, &biased(bias), None));
             assert!(told.is_err(), "{body}: a render {bias} level off passed");
             let before = verdict(&as_cpu(&p, &biased(bias), Some(&intervals)));
-            assert!(before.is_ok(), "{body}: the interval hull told a render {bias} level off: {before:?}");
+            assert!(
+                before.is_ok() || !apart,
+                "{body}: the interval hull told a render {bias} level off: {before:?}"
+            );
         }
     }
 }
@@ -399,7 +414,7 @@ const PARABOLOID: &str = "texture Env : cube rgb8 bilinear clamp = image(\"sky.p
 
 /// The torus with a scene texture `Env`: a dual-paraboloid map of the
 /// procedural sky, 32² per face.
-fn paraboloid_scene() -> shadec::scene::Scene {
+pub(crate) fn paraboloid_scene() -> shadec::scene::Scene {
     let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/scenes/kilgard_torus.ron"))
         .unwrap()
         .replace(

@@ -1,11 +1,12 @@
 //! The language's operations on affine forms (`affine.rs`), where they
 //! are affine in their operands or a product of them: `ops::compute`'s
-//! arithmetic with the noise symbols kept, and the one-variable functions
-//! `functions.rs` linearizes (`sqrt`, `rsqrt`, powers by a constant,
-//! `length`, `normalize`). Every other operation — and
-//! a clamp, `min`, `max` or selection the operands' ranges leave open —
-//! is taken on intervals (`interval.rs`) and its result given fresh
-//! symbols (`mod.rs`).
+//! arithmetic with the noise symbols kept, and the functions
+//! `functions.rs` linearizes (`sqrt`, `rsqrt`, powers, `length`,
+//! `normalize`, `exp`, `log`, `sin`, `cos`, `smoothstep`, and `min`,
+//! `max`, `clamp` and `abs` the operands' ranges leave open). Every other
+//! operation — a selection the ranges leave open, a `normalize` whose
+//! length may reach 0 — is taken on intervals (`interval.rs`) and its
+//! result given fresh symbols (`mod.rs`).
 
 use super::affine::{Affine, Form, Symbols};
 use super::functions;
@@ -59,9 +60,7 @@ fn dot(a: &Form, b: &Form, width: usize, s: &mut Symbols) -> Affine {
 pub fn compute(m: &Module, e: &Expr, ty: Ty, o: &[Form], r: &[R], s: &mut Symbols) -> Option<Option<Form>> {
     let f = match e {
         Expr::Unary { op: UnaryOp::Neg, .. } => lanes(|c| o[0][c].scale(-1.0, 0.0)),
-        Expr::Binary { op: BinaryOp::Pow, lhs, .. } => {
-            power(&o[0], &o[1], &r[0], m.info(*lhs).ty.width(), s)?
-        }
+        Expr::Binary { op: BinaryOp::Pow, lhs, .. } => power(&o[0], &o[1], r, m.info(*lhs).ty.width(), s)?,
         Expr::Binary { op, lhs, .. } => binary(*op, &o[0], &o[1], m.info(*lhs).ty.width(), s)?,
         Expr::Combine { mode, lhs, .. } => {
             let widened = matches!(&m.exprs[*lhs], Expr::Convert { value, to: Ty::Rgba } if m.info(*value).ty == Ty::Rgb);
@@ -86,6 +85,10 @@ pub fn compute(m: &Module, e: &Expr, ty: Ty, o: &[Form], r: &[R], s: &mut Symbol
         }
         Expr::Math { fun: MathFunction::Normalize, args } => {
             normalize(&o[0], &r[0], m.info(args[0]).ty.width(), s)?
+        }
+        Expr::Math { fun: fun @ (MathFunction::Exp | MathFunction::Log | MathFunction::Sin), .. }
+        | Expr::Math { fun: fun @ (MathFunction::Cos | MathFunction::Smoothstep), .. } => {
+            every_lane(ty.width(), &mut |c| transcendental(*fun, o, r, c, s))?
         }
         Expr::Math { fun, .. } => math(*fun, o, r, s)?,
         Expr::Swizzle { pattern, len, .. } => {
@@ -134,14 +137,61 @@ fn every_lane(width: usize, f: &mut dyn FnMut(usize) -> Option<Affine>) -> Optio
     Some(out)
 }
 
-/// `x^p` lane by lane, where the exponent `p` is one value on each lane
-/// (`functions::pow` over the lane's range `r`).
-fn power(x: &Form, p: &Form, r: &R, width: usize, s: &mut Symbols) -> Option<Form> {
+/// `x^p` lane by lane: where the exponent `p` is one value on the lane,
+/// `functions::pow` over the lane's range `r`; where it moves too and
+/// `x` stays above 0, `exp(p·ln x)` (as GLSL defines `pow`), each
+/// function its line and the product its rest — three fresh symbols.
+pub(super) fn power(x: &Form, p: &Form, r: &[R], width: usize, s: &mut Symbols) -> Option<Form> {
     every_lane(width, &mut |c| {
-        let p = &p[c];
-        p.is_constant().then_some(())?;
-        functions::pow(&x[c], lane(r, c), p.center, s)
+        let (p, range) = (&p[c], lane(&r[0], c));
+        if p.is_constant() {
+            return functions::pow(&x[c], range, p.center, s);
+        }
+        let ln = functions::log(&x[c], range, s)?;
+        let ln_range = (range.0.ln(), range.1.ln());
+        let y = p.mul(&ln, s.fresh());
+        let (lo, hi) = y.range();
+        let corners = interval::mul(lane(&r[1], c), ln_range);
+        functions::exp(&y, (lo.max(corners.0), hi.min(corners.1)), s)
     })
+}
+
+/// `exp`, `log`, `sin`, `cos` of lane `c`, and `smoothstep` between
+/// edges that are one value on it: `functions.rs`'s lines over the lane's
+/// range.
+fn transcendental(fun: MathFunction, o: &[Form], r: &[R], c: usize, s: &mut Symbols) -> Option<Affine> {
+    let (x, range) = (&o[0][c], lane(&r[0], c));
+    match fun {
+        MathFunction::Exp => functions::exp(x, range, s),
+        MathFunction::Log => functions::log(x, range, s),
+        MathFunction::Sin => functions::sin(x, range, s),
+        MathFunction::Cos => functions::cos(x, range, s),
+        MathFunction::Smoothstep => {
+            let (e0, e1) = (&o[0][c], &o[1][c]);
+            (e0.is_constant() && e1.is_constant()).then_some(())?;
+            functions::smoothstep(&o[2][c], lane(&r[2], c), (e0.center, e1.center), s)
+        }
+        _ => None,
+    }
+}
+
+/// `max(x, y)` (`low`) or `min(x, y)` of two values that both move, the
+/// ranges leaving the choice open: `y + max(x − y, 0)` (or `min`), the
+/// difference on forms — its symbols shared, so `max(x, x + 0.1)` is
+/// exact — and clamped on one side (`functions::clamped`) over its range
+/// within the intervals' difference. With the range it takes: its form's
+/// within the operands' maxima (minima).
+pub(super) fn two_sided(x: (&Affine, I), y: (&Affine, I), low: bool, s: &mut Symbols) -> Option<(Affine, I)> {
+    let d = x.0.sub(y.0);
+    let ((lo, hi), apart) = (d.range(), interval::sub(x.1, y.1));
+    let range = if lo.max(apart.0) <= hi.min(apart.1) { (lo.max(apart.0), hi.min(apart.1)) } else { apart };
+    let ends = if low { (0.0, f64::INFINITY) } else { (f64::NEG_INFINITY, 0.0) };
+    let f = y.0.add(&functions::clamped(&d, range, ends, s)?);
+    let bounds =
+        if low { (x.1 .0.max(y.1 .0), x.1 .1.max(y.1 .1)) } else { (x.1 .0.min(y.1 .0), x.1 .1.min(y.1 .1)) };
+    let (lo, hi) = f.range();
+    let within = (lo.max(bounds.0), hi.min(bounds.1));
+    Some((f, if within.0 <= within.1 { within } else { bounds }))
 }
 
 /// `x·x` over the first `width` lanes and its range: the form's, within
@@ -218,15 +268,24 @@ fn math(fun: MathFunction, o: &[Form], r: &[R], s: &mut Symbols) -> Option<Form>
     let clamped = |c: usize, ends: I, s: &mut Symbols| functions::clamped(&a[c], lane(&r[0], c), ends, s);
     let ends =
         |c: usize| (o[1][c].is_constant() && o[2][c].is_constant()).then(|| (o[1][c].center, o[2][c].center));
+    let operand = |k: usize, c: usize| (&o[k][c], lane(&r[k], c));
     Some(match fun {
         Expand => each(&|x| x.scale(2.0, -1.0)),
         HalfBias => each(&|x| x.scale(1.0, -0.5)),
         Compress => each(&|x| x.scale(0.5, 0.5)),
-        Max => every(&mut |c| larger(&a[c], &o[1][c]).or_else(|| one_sided(o, r, c, true, s)))?,
-        Min => every(&mut |c| smaller(&a[c], &o[1][c]).or_else(|| one_sided(o, r, c, false, s)))?,
+        Max | Min => every(&mut |c| {
+            let low = fun == Max;
+            let decided = if low { larger(&a[c], &o[1][c]) } else { smaller(&a[c], &o[1][c]) };
+            let both = |s: &mut Symbols| two_sided(operand(0, c), operand(1, c), low, s).map(|f| f.0);
+            decided.or_else(|| one_sided(o, r, c, low, s)).or_else(|| both(s))
+        })?,
         Clamp => every(&mut |c| {
             let low = larger(&a[c], &o[1][c]);
-            low.and_then(|x| smaller(&x, &o[2][c])).or_else(|| clamped(c, ends(c)?, s))
+            let moving = |s: &mut Symbols| {
+                let (f, range) = two_sided(operand(0, c), operand(1, c), true, s)?;
+                two_sided((&f, range), operand(2, c), false, s).map(|f| f.0)
+            };
+            low.and_then(|x| smaller(&x, &o[2][c])).or_else(|| clamped(c, ends(c)?, s)).or_else(|| moving(s))
         })?,
         Saturate => every(&mut |c| {
             let low = larger(&a[c], &constant(0.0));

@@ -24,7 +24,7 @@ fn chebyshev(
     x: &Affine,
     (a, b): I,
     f: impl Fn(f64) -> f64,
-    stationary: impl Fn(f64) -> [f64; 2],
+    stationary: impl Fn(f64) -> Vec<f64>,
     s: &mut Symbols,
 ) -> Option<Affine> {
     if x.is_constant() {
@@ -39,9 +39,11 @@ fn chebyshev(
         let u = if u.is_nan() { a } else { u.clamp(a, b) };
         f(u) - slope * u
     };
-    let [u, w] = stationary(slope);
-    let errors = [fa - slope * a, fb - slope * b, error(u), error(w)];
-    let (lo, hi) = errors.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), &e| (l.min(e), h.max(e)));
+    let errors = [fa - slope * a, fb - slope * b].into_iter().chain(stationary(slope).into_iter().map(error));
+    let (lo, hi) = errors.fold((f64::INFINITY, f64::NEG_INFINITY), |(l, h), e| (l.min(e), h.max(e)));
+    if !(lo.is_finite() && hi.is_finite()) {
+        return None;
+    }
     // The rounding of the f64 arithmetic above: far below any width the
     // reference reports.
     let slack = 1e-9 * (hi - lo) + 1e-12 * (fa.abs() + fb.abs() + (slope * a).abs() + (slope * b).abs());
@@ -63,7 +65,7 @@ pub fn sqrt(x: &Affine, range: I, s: &mut Symbols) -> Option<Affine> {
         return None;
     }
     // f′(u) = 1/(2√u) = α.
-    chebyshev(x, range, f64::sqrt, |slope| [0.25 / (slope * slope), f64::NAN], s)
+    chebyshev(x, range, f64::sqrt, |slope| vec![0.25 / (slope * slope)], s)
 }
 
 /// `1/√x` for `x` in `range` (convex; `None` unless the range is above 0).
@@ -72,7 +74,7 @@ pub fn rsqrt(x: &Affine, range: I, s: &mut Symbols) -> Option<Affine> {
         return None;
     }
     // f′(u) = −½·u^(−3/2) = α.
-    chebyshev(x, range, |t| t.sqrt().recip(), |slope| [(-2.0 * slope).powf(-2.0 / 3.0), f64::NAN], s)
+    chebyshev(x, range, |t| t.sqrt().recip(), |slope| vec![(-2.0 * slope).powf(-2.0 / 3.0)], s)
 }
 
 /// `x^p` for a constant `p` and `x` in `range`, where the power is
@@ -89,7 +91,7 @@ pub fn pow(x: &Affine, range: I, p: f64, s: &mut Symbols) -> Option<Affine> {
         return None;
     }
     // f′(u) = p·u^(p−1) = α.
-    chebyshev(x, range, |t| t.powf(p), |slope| [(slope / p).powf(1.0 / (p - 1.0)), f64::NAN], s)
+    chebyshev(x, range, |t| t.powf(p), |slope| vec![(slope / p).powf(1.0 / (p - 1.0))], s)
 }
 
 /// `x` clamped to `[low, high]` (either end may be infinite: `max(x,
@@ -101,12 +103,91 @@ pub fn clamped(x: &Affine, range: I, (low, high): I, s: &mut Symbols) -> Option<
     if low.is_nan() || high.is_nan() || low > high {
         return None;
     }
-    chebyshev(x, range, |t| t.max(low).min(high), |_| [low, high], s)
+    chebyshev(x, range, |t| t.max(low).min(high), |_| vec![low, high], s)
 }
 
 /// `|x|` for `x` in `range`: convex, its kink at 0.
 pub fn abs(x: &Affine, range: I, s: &mut Symbols) -> Option<Affine> {
-    chebyshev(x, range, f64::abs, |_| [0.0, f64::NAN], s)
+    chebyshev(x, range, f64::abs, |_| vec![0.0], s)
+}
+
+/// `eˣ` for `x` in `range` (convex; `f′(u) = eᵘ = α`).
+pub fn exp(x: &Affine, range: I, s: &mut Symbols) -> Option<Affine> {
+    chebyshev(x, range, f64::exp, |slope| vec![slope.ln()], s)
+}
+
+/// `ln x` for `x` in `range` (concave; `None` unless the range is above
+/// 0; `f′(u) = 1/u = α`).
+pub fn log(x: &Affine, range: I, s: &mut Symbols) -> Option<Affine> {
+    if range.0 <= 0.0 {
+        return None;
+    }
+    chebyshev(x, range, f64::ln, |slope| vec![slope.recip()], s)
+}
+
+/// The widest range `sin` and `cos` are linearized over: four turns (the
+/// line is no better than [−1, 1] well before).
+const TURNS: f64 = 4.0 * std::f64::consts::TAU;
+
+/// Every `u + 2πk` in `(a, b)` widened by a turn, for each `u` of
+/// `roots` (`NaN` ones dropped): the points of a periodic function where
+/// its derivative takes one value.
+fn periodic(roots: [f64; 2], (a, b): I) -> Vec<f64> {
+    let tau = std::f64::consts::TAU;
+    let (first, last) = ((a / tau).floor() - 1.0, (b / tau).ceil() + 1.0);
+    let turns = (last - first).max(0.0) as usize;
+    roots
+        .into_iter()
+        .filter(|u| u.is_finite())
+        .flat_map(|u| (0..=turns).map(move |k| u + tau * (first + k as f64)))
+        .collect()
+}
+
+/// `sin x` for `x` in `range`, no wider than four turns: neither convex
+/// nor concave across a multiple of π, so the line's error is taken at
+/// every point of the range where `cos u = α` (`±acos α` a turn apart),
+/// not only one.
+pub fn sin(x: &Affine, range: I, s: &mut Symbols) -> Option<Affine> {
+    if range.1 - range.0 > TURNS {
+        return None;
+    }
+    chebyshev(x, range, f64::sin, |slope| periodic([slope.acos(), -slope.acos()], range), s)
+}
+
+/// `cos x` for `x` in `range`, no wider than four turns: its error at
+/// every point where `−sin u = α`.
+pub fn cos(x: &Affine, range: I, s: &mut Symbols) -> Option<Affine> {
+    if range.1 - range.0 > TURNS {
+        return None;
+    }
+    chebyshev(
+        x,
+        range,
+        f64::cos,
+        |slope| periodic([(-slope).asin(), std::f64::consts::PI - (-slope).asin()], range),
+        s,
+    )
+}
+
+/// `smoothstep(e₀, e₁, x)` for constant edges and `x` in `range`:
+/// `t²(3 − 2t)` of `t = (x − e₀)/(e₁ − e₀)` clamped to [0, 1], continuous
+/// with its derivative; the line's error is taken at the edges and where
+/// `6t(1 − t)/(e₁ − e₀) = α`, `t = ½ ± √(¼ − α(e₁ − e₀)/6)`. `None` for
+/// equal edges (the quotient is not a number).
+pub fn smoothstep(x: &Affine, range: I, (e0, e1): I, s: &mut Symbols) -> Option<Affine> {
+    let span = e1 - e0;
+    if span == 0.0 || !span.is_finite() || !e0.is_finite() {
+        return None;
+    }
+    let f = move |v: f64| {
+        let t = ((v - e0) / span).clamp(0.0, 1.0);
+        t * t * (3.0 - 2.0 * t)
+    };
+    let stationary = move |slope: f64| {
+        let root = (0.25 - slope * span / 6.0).sqrt();
+        [0.5 - root, 0.5 + root].into_iter().map(|t| e0 + t * span).chain([e0, e1]).collect()
+    };
+    chebyshev(x, range, f, stationary, s)
 }
 
 #[cfg(test)]

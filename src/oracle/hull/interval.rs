@@ -5,6 +5,8 @@
 //! The hull falls back to it (`mod.rs`) where an operation is not affine
 //! in its operands (`affine.rs`).
 
+use std::f64::consts::{FRAC_PI_2, PI, TAU};
+
 use super::super::ops::{self, V};
 use super::super::program::uv;
 use super::super::Unsupported;
@@ -194,10 +196,7 @@ fn math(fun: MathFunction, o: &[R], width: usize) -> Result<R, Unsupported> {
         increasing(s, f64::sqrt)
     };
     Ok(match fun {
-        Normalize => {
-            let n = length();
-            lanes(|c| if c >= width || n.0 <= 0.0 { (-1.0, 1.0) } else { div(lane(a, c), n) })
-        }
+        Normalize => lanes(|c| if c >= width.min(4) { (-1.0, 1.0) } else { normalized(a, c, width) }),
         Length => splat(length()),
         Cross => {
             let (x, y) = (a, &o[1]);
@@ -225,7 +224,8 @@ fn math(fun: MathFunction, o: &[R], width: usize) -> Result<R, Unsupported> {
         Rsqrt => each(&|x| (x.1.sqrt().recip(), x.0.sqrt().recip())),
         Exp => each(&|x| increasing(x, f64::exp)),
         Log => each(&|x| increasing(x, f64::ln)),
-        Sin | Cos => each(&|_| (-1.0, 1.0)),
+        Sin => each(&|x| wave(x, f64::sin, FRAC_PI_2)),
+        Cos => each(&|x| wave(x, f64::cos, 0.0)),
         Floor => each(&|x| increasing(x, f64::floor)),
         Fract => {
             each(&|x| if x.0.floor() == x.1.floor() { increasing(x, |v| v - v.floor()) } else { (0.0, 1.0) })
@@ -257,6 +257,42 @@ fn math(fun: MathFunction, o: &[R], width: usize) -> Result<R, Unsupported> {
         }),
         Smoothstep => return Err(Unsupported::new("a smoothstep whose edges move with a level of detail")),
     })
+}
+
+/// Lane `c` of `normalize(x)` over the box `a` of its first `width`
+/// lanes: `g(x, ρ) = x/√(x² + ρ)`, `ρ` the sum of the other lanes'
+/// squares, never decreases in `x` (`∂g/∂x = ρ/(x² + ρ)^(3/2)`; at `ρ = 0`
+/// it is `sign x`, with `g(0, 0) = 0` as the language defines
+/// `normalize(0)`) and is monotone in `ρ` for each `x` (falling where
+/// `x > 0`, rising where `x < 0`): its least lies at the lane's least and an
+/// end of `ρ`, its greatest at the lane's greatest and an end of `ρ` —
+/// whether or not the length may reach 0.
+pub(super) fn normalized(a: &R, c: usize, width: usize) -> I {
+    let rest = (0..width.min(4)).filter(|&k| k != c).fold(constant(0.0), |s, k| add(s, square(lane(a, k))));
+    let g = |x: f64, rho: f64| {
+        let n = (x * x + rho).sqrt();
+        if n == 0.0 {
+            0.0
+        } else {
+            x / n
+        }
+    };
+    let x = lane(a, c);
+    (g(x.0, rest.0).min(g(x.0, rest.1)), g(x.1, rest.0).max(g(x.1, rest.1)))
+}
+
+/// `sin` or `cos` (`f`, its crest at `crest`, its trough half a turn
+/// before) over `x`: its ends, and ±1 where the interval holds a crest or
+/// a trough (plus any number of turns); [−1, 1] for an interval a turn or
+/// wider, or not finite.
+pub(super) fn wave(x: I, f: fn(f64) -> f64, crest: f64) -> I {
+    let narrow = x.1 - x.0 < TAU;
+    if !narrow {
+        return (-1.0, 1.0);
+    }
+    let holds = |u: f64| u + TAU * ((x.0 - u) / TAU).ceil() <= x.1;
+    let (lo, hi) = hull_of([f(x.0), f(x.1)]);
+    (if holds(crest - PI) { -1.0 } else { lo }, if holds(crest) { 1.0 } else { hi })
 }
 
 /// `t ⊕[mode] f` on intervals (`ops::texture_env`; `replace` is monotone

@@ -21,10 +21,12 @@
 //! lookup's four channels and by every read of it (the same texture at
 //! the same coordinates takes the same λ). Sums and scalings are exact on
 //! forms, products add one fresh symbol (`forms.rs`); `sqrt`, `rsqrt`, a
-//! power by a constant, `length`, `normalize`, and a clamp, `min`, `max`
-//! or `abs` the ranges leave open become their Chebyshev line over the
+//! power by a constant, `length`, `normalize`, `exp`, `log`, `sin`, `cos`,
+//! `smoothstep` between constant edges, and a clamp, `min`, `max` or
+//! `abs` the ranges leave open — of two moving values too, as one plus a
+//! clamp of their difference — become their Chebyshev line over the
 //! argument's range plus one fresh symbol for its error
-//! (`functions.rs`); every other
+//! (`functions.rs`; a moving exponent `exp(y·ln x)`); every other
 //! operation is taken on the intervals of its operands' forms
 //! (`interval.rs`: monotone functions at their ends, products at their
 //! corners, clamps, comparisons decided or left open) and its result
@@ -36,8 +38,9 @@
 //! every face the direction's box may select, over the box of (s, t) it
 //! spans there (`sampling::Cube::box_hull`); a 3-D or dual-paraboloid
 //! lookup at moving coordinates by the texels of their box
-//! (`Volume::box_hull`, `Paraboloid::box_hull`). What cannot be bounded so
-//! (a baked lookup at moving coordinates, a
+//! (`Volume::box_hull`, `Paraboloid::box_hull`); a baked lookup at moving
+//! coordinates by its table's function evaluated on their forms
+//! (`Evaluator::baked_form`). What cannot be bounded so (a
 //! framebuffer read at a moving position, a condition that moves and
 //! keeps the destination) is [`Unsupported`], and the caller falls back
 //! to rendering the combinations.
@@ -50,6 +53,8 @@ mod affine;
 mod forms;
 mod functions;
 mod interval;
+#[cfg(test)]
+mod soundness;
 
 use std::collections::HashMap;
 
@@ -74,6 +79,9 @@ pub struct Ranges {
     /// the interval (its bits) and the piece: the same texture read at the
     /// same coordinates takes one λ.
     pieces: HashMap<(LookupKey, [u64; 2], usize), u32>,
+    /// `δu`'s form where a baked table's texel statement is evaluated at
+    /// coordinates that move (`Evaluator::baked_form`).
+    texel: Option<Form>,
 }
 
 impl Ranges {
@@ -204,6 +212,9 @@ impl Evaluator<'_> {
                     Tex::Paraboloid(map) if !is_point(&c.form) => {
                         ranges.fresh(&map.box_hull(direction_box(&c)), ty)
                     }
+                    Tex::Baked(value) if !is_point(&c.form) => {
+                        self.baked_form(*texture, *value, &c, self.m.info(*coords).ty, ranges)?
+                    }
                     Tex::Flat(image) => {
                         self.lookup_form(h, Some(image), key, &c, at, lod_depth, ranges, values)?
                     }
@@ -243,6 +254,7 @@ impl Evaluator<'_> {
                 }
                 self.value(h, at, lod_depth, values)?.map(Hull::point)
             }
+            Expr::TexelCoord if ranges.texel.is_some() => ranges.texel.clone().map(Hull::of_form),
             Expr::Constant(_)
             | Expr::Interpolate { .. }
             | Expr::Pixel { .. }
@@ -314,6 +326,32 @@ impl Evaluator<'_> {
             self.latitude.set(true);
         }
         ranges.fresh(&(lo, hi), ty)
+    }
+
+    /// A baked lookup (`bake(f)`, the table's ideal: Pipeline Grammar's
+    /// texture shading, eq. (13)) at coordinates of hull `c` (of type
+    /// `cty`) that move: its texel statement `value` evaluated on forms,
+    /// `δu` the coordinates' form taken where the table's wrap takes it
+    /// (`texel_coordinates`) — so the table's function of its coordinates
+    /// keeps what they share with the rest of the program, as if it were
+    /// written in place.
+    fn baked_form(
+        &self,
+        texture: u32,
+        value: Handle<Expr>,
+        c: &Hull,
+        cty: Ty,
+        ranges: &mut Ranges,
+    ) -> Result<Hull, Unsupported> {
+        let repeat = self.m.textures[texture as usize].sampling.wrap == crate::textures::Wrap::Repeat;
+        let uv = texel_coordinates(c, cty, repeat, &mut ranges.symbols);
+        let centre = |a: &Affine| a.center.clamp(0.0, 1.0);
+        let at = At::Texel([centre(&uv[0]), centre(&uv[1])]);
+        let mut inner =
+            Ranges { symbols: std::mem::take(&mut ranges.symbols), texel: Some(uv), ..Ranges::new() };
+        let r = self.form(value, at, 0, &mut inner, &mut Memo::new());
+        ranges.symbols = inner.symbols;
+        Ok(r?.unwrap_or(Hull::point([f64::NAN; 4])))
     }
 
     /// The hull a colour or alpha read of framebuffer `fb` at `p` (the
@@ -414,6 +452,37 @@ impl Evaluator<'_> {
         let hi = if hi.is_nan() { f64::INFINITY } else { hi + slack };
         Ok((lo, hi.min(image.levels.len() as f64)))
     }
+}
+
+/// `δu`'s form for a baked lookup at coordinates of hull `c` (type
+/// `cty`, `program::uv`): each of (u, v) its coordinate's form, less the
+/// whole turns where the table repeats and its range lies within one turn
+/// (GL §3.8.7: REPEAT keeps the fraction), clamped to [0, 1] where it
+/// clamps; a fresh symbol over [0, 1] where a repeated range crosses a
+/// turn, and over the box where the coordinates are a projected position.
+fn texel_coordinates(c: &Hull, cty: Ty, repeat: bool, s: &mut Symbols) -> Form {
+    let range = c.range();
+    let boxed = uv_box(&range, cty);
+    let coordinate = |k: usize, s: &mut Symbols| -> Affine {
+        let (form, (lo, hi)) = match (cty, k) {
+            (Ty::Position, _) => (Affine::interval(boxed[k], s.fresh()), boxed[k]),
+            (Ty::Scalar, 1) => (Affine::constant(0.5), (0.5, 0.5)),
+            _ => (c.form[k].clone(), lane(&range, k)),
+        };
+        if repeat && lo.floor() == hi.floor() {
+            form.scale(1.0, -lo.floor())
+        } else if repeat {
+            Affine::interval((0.0, 1.0), s.fresh())
+        } else if lo >= 0.0 && hi <= 1.0 {
+            form
+        } else {
+            functions::clamped(&form, (lo, hi), (0.0, 1.0), s)
+                .unwrap_or_else(|| Affine::interval((lo.clamp(0.0, 1.0), hi.clamp(0.0, 1.0)), s.fresh()))
+        }
+    };
+    let u = coordinate(0, s);
+    let v = coordinate(1, s);
+    [u, v, Affine::constant(0.0), Affine::constant(0.0)]
 }
 
 /// The box of a lookup's first three coordinates (a direction, or a 3-D
