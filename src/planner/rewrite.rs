@@ -292,9 +292,9 @@ pub(super) fn cannot_split(
         };
         return not_exact_through_clamps(st, profile, &whole, span, tried);
     }
-    // A `max` or `min` of two computed values in the part refused (not a
+    // A `max` or `min` of two computed values in the statement (not a
     // `max(0, N·L)`): the help says whether the blender could split it.
-    let min_max = m.reachable(&[o.at.unwrap_or(st.value)]).into_iter().any(|h| match &m.exprs[h] {
+    let min_max = m.reachable(&[st.value]).into_iter().any(|h| match &m.exprs[h] {
         Expr::Math { fun: ir::MathFunction::Max | ir::MathFunction::Min, args } => {
             args.iter().all(|&a| !matches!(m.exprs[a], Expr::Constant(_)))
         }
