@@ -457,7 +457,10 @@ fn capabilities(module: &Module, profile: &Profile, st: &Statement, u: &Usage, o
         // A `max`/`min` of texels is what GL's MIN/MAX blend equations
         // would split across passes: the help says the target lacks them.
         let min_max = u.arithmetic.iter().any(|&h| {
-            matches!(module.exprs[h], Expr::Math { fun: crate::ir::MathFunction::Max | crate::ir::MathFunction::Min, .. })
+            matches!(
+                module.exprs[h],
+                Expr::Math { fun: crate::ir::MathFunction::Max | crate::ir::MathFunction::Min, .. }
+            )
         });
         let blend = if min_max && !profile.blend_modes.iter().any(|b| b == "max") {
             format!("; a `max` or `min` would split across passes with the MIN/MAX blend equations (EXT_blend_minmax), which {name} does not have")

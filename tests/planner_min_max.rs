@@ -167,9 +167,8 @@ fn a_combiner_profile_without_min_max_refuses_with_a_true_help() {
     let profile = Profile::from_ron(&text, "geforce256-no-minmax.ron").unwrap();
     assert!(!profile.blend_modes.iter().any(|b| b == "max"));
     let source = program("brightest_of_three");
-    let refused = shadec::driver::compile(&source, &profile, &Default::default())
-        .err()
-        .expect("no MAX blend: refused");
+    let refused =
+        shadec::driver::compile(&source, &profile, &Default::default()).err().expect("no MAX blend: refused");
     let help = refused[0].help.clone().unwrap_or_default();
     assert!(
         help.contains("a `max` or `min` splits only with the MIN/MAX blend equations (EXT_blend_minmax)"),

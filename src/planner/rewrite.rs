@@ -399,7 +399,8 @@ pub(super) fn cannot_split_as_written(
 /// (`min_max`) and the blender lacks them, it says so.
 fn blending_splits(profile: &Profile, min_max: bool) -> String {
     if storage_of(profile).min_max {
-        "framebuffer blending can only split sums, products, `max` and `min` (and affine ⊕ chains)".to_string()
+        "framebuffer blending can only split sums, products, `max` and `min` (and affine ⊕ chains)"
+            .to_string()
     } else if min_max {
         format!(
             "framebuffer blending can only split sums and products (and affine ⊕ chains): a `max` or `min` splits only with the MIN/MAX blend equations (EXT_blend_minmax), which {} does not have",

@@ -369,8 +369,12 @@ impl<'a> Splitter<'a> {
             (BlendMode::DstAlphaModulate, ChainOp::Mul) => (BlendMode::DstAlphaModulate, BlendMode::Modulate),
             // GL_MAX / GL_MIN (EXT_blend_minmax), where the blender has them:
             // exact through the clamps, which commute with both.
-            (BlendMode::Replace | BlendMode::Max, ChainOp::Max) if self.storage.min_max => (mode, BlendMode::Max),
-            (BlendMode::Replace | BlendMode::Min, ChainOp::Min) if self.storage.min_max => (mode, BlendMode::Min),
+            (BlendMode::Replace | BlendMode::Max, ChainOp::Max) if self.storage.min_max => {
+                (mode, BlendMode::Max)
+            }
+            (BlendMode::Replace | BlendMode::Min, ChainOp::Min) if self.storage.min_max => {
+                (mode, BlendMode::Min)
+            }
             _ => return None,
         };
         let mut ops = Vec::new();
