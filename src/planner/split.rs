@@ -352,6 +352,28 @@ impl<'a> Splitter<'a> {
         Some(acc)
     }
 
+    /// The blends of a chain's first pass and of the others, written with
+    /// `mode`: a sum adds, a product modulates, a `max` or `min` takes GL's
+    /// MAX or MIN equation (EXT_blend_minmax) where the blender has it —
+    /// exact through the clamps, which commute with both.
+    fn chain_modes(&self, mode: BlendMode, op: ChainOp) -> Option<(BlendMode, BlendMode)> {
+        Some(match (mode, op) {
+            (BlendMode::Replace, ChainOp::Add) => (BlendMode::Replace, BlendMode::Add),
+            (BlendMode::Replace, ChainOp::Mul) => (BlendMode::Replace, BlendMode::Modulate),
+            (BlendMode::Add, ChainOp::Add) => (BlendMode::Add, BlendMode::Add),
+            (BlendMode::Modulate, ChainOp::Mul) => (BlendMode::Modulate, BlendMode::Modulate),
+            (BlendMode::DstAlphaAdd, ChainOp::Add) => (BlendMode::DstAlphaAdd, BlendMode::DstAlphaAdd),
+            (BlendMode::DstAlphaModulate, ChainOp::Mul) => (BlendMode::DstAlphaModulate, BlendMode::Modulate),
+            (BlendMode::Replace | BlendMode::Max, ChainOp::Max) if self.storage.min_max => {
+                (mode, BlendMode::Max)
+            }
+            (BlendMode::Replace | BlendMode::Min, ChainOp::Min) if self.storage.min_max => {
+                (mode, BlendMode::Min)
+            }
+            _ => return None,
+        })
+    }
+
     fn chain_split(
         &mut self,
         mode: BlendMode,
@@ -360,23 +382,7 @@ impl<'a> Splitter<'a> {
         overflow: &Overflow,
     ) -> Option<Vec<Piece>> {
         let op = self.chain_op(e)?;
-        let (first, rest) = match (mode, op) {
-            (BlendMode::Replace, ChainOp::Add) => (BlendMode::Replace, BlendMode::Add),
-            (BlendMode::Replace, ChainOp::Mul) => (BlendMode::Replace, BlendMode::Modulate),
-            (BlendMode::Add, ChainOp::Add) => (BlendMode::Add, BlendMode::Add),
-            (BlendMode::Modulate, ChainOp::Mul) => (BlendMode::Modulate, BlendMode::Modulate),
-            (BlendMode::DstAlphaAdd, ChainOp::Add) => (BlendMode::DstAlphaAdd, BlendMode::DstAlphaAdd),
-            (BlendMode::DstAlphaModulate, ChainOp::Mul) => (BlendMode::DstAlphaModulate, BlendMode::Modulate),
-            // GL_MAX / GL_MIN (EXT_blend_minmax), where the blender has them:
-            // exact through the clamps, which commute with both.
-            (BlendMode::Replace | BlendMode::Max, ChainOp::Max) if self.storage.min_max => {
-                (mode, BlendMode::Max)
-            }
-            (BlendMode::Replace | BlendMode::Min, ChainOp::Min) if self.storage.min_max => {
-                (mode, BlendMode::Min)
-            }
-            _ => return None,
-        };
+        let (first, rest) = self.chain_modes(mode, op)?;
         let mut ops = Vec::new();
         self.flatten(e, op, &mut ops);
         if ops.len() < 2 {
