@@ -454,10 +454,23 @@ fn capabilities(module: &Module, profile: &Profile, st: &Statement, u: &Usage, o
         ));
     }
     if profile.fragment == FragmentStage::TextureEnv && !u.arithmetic.is_empty() {
+        // A `max`/`min` of texels is what GL's MIN/MAX blend equations
+        // would split across passes: the help says the target lacks them.
+        let min_max = u.arithmetic.iter().any(|&h| {
+            matches!(
+                module.exprs[h],
+                Expr::Math { fun: crate::ir::MathFunction::Max | crate::ir::MathFunction::Min, .. }
+            )
+        });
+        let blend = if min_max && !profile.blend_modes.iter().any(|b| b == "max") {
+            format!("; a `max` or `min` would split across passes with the MIN/MAX blend equations (EXT_blend_minmax), which {name} does not have")
+        } else {
+            String::new()
+        };
         out.push(missing(
             format!("per-{} arithmetic beyond the texture environment", if st.freq == crate::ir::Frequency::Texel { "texel" } else { "fragment" }),
             &u.arithmetic,
-            "the OpenGL 1.2.1 texture environment only combines texels (⊕); compute this per vertex (`δ p s x`) or target geforce256/geforce3/wgsl",
+            &format!("the OpenGL 1.2.1 texture environment only combines texels (⊕); compute this per vertex (`δ p s x`) or target geforce256/geforce3/wgsl{blend}"),
         ));
     }
 }

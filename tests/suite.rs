@@ -50,6 +50,7 @@ mod lsp_robust;
 mod one_verdict;
 mod planner;
 mod planner_algebra;
+mod planner_min_max;
 mod planner_split;
 mod raster_fill;
 mod raster_interp;

@@ -242,6 +242,14 @@ pub enum BlendMode {
     /// `C ← Cα · f + (1 − Cα) · C` (GL_DST_ALPHA, GL_ONE_MINUS_DST_ALPHA):
     /// the same choice the other way round, f where the mask is set.
     DstAlphaLerp,
+    /// `C ← max(C, f)` (GL_MAX, EXT_blend_minmax, factors ignored; the GL
+    /// 1.2 imaging subset, which the GeForce 256 and GeForce3 have): a
+    /// `max` of more terms than a pass computes, one pass per group. On an
+    /// 8-bit framebuffer it is exact: max of values clamped to [0, 1] is
+    /// the clamp of their max.
+    Max,
+    /// `C ← min(C, f)` (GL_MIN, EXT_blend_minmax), as [`BlendMode::Max`].
+    Min,
 }
 
 impl BlendMode {
@@ -263,6 +271,8 @@ impl BlendMode {
             BlendMode::DstAlphaLerp => {
                 B::factors(super::BlendFactor::DstAlpha, super::BlendFactor::OneMinusDstAlpha)
             }
+            BlendMode::Max => B { equation: super::BlendEquation::Max, ..B::ADD },
+            BlendMode::Min => B { equation: super::BlendEquation::Min, ..B::ADD },
         }
     }
 
@@ -279,6 +289,8 @@ impl BlendMode {
             BlendMode::AlphaBlend => "alpha_blend",
             BlendMode::DstAlphaMix => "dst_alpha_mix",
             BlendMode::DstAlphaLerp => "dst_alpha_lerp",
+            BlendMode::Max => "max",
+            BlendMode::Min => "min",
         }
     }
 }

@@ -31,7 +31,9 @@ use crate::pipeline::BlendMode;
 ///   GL_DST_COLOR, GL_SRC_COLOR, which every target has);
 /// - `modulate m`, `1 ≤ m ≤ 2`: whatever `h` is — scaling up what the
 ///   framebuffer clamped is scaling before the clamp (`4·T0·T1·T2` on a
-///   2-unit target: `T0·T1`, then 2× modulate by `T2`, then by 1).
+///   2-unit target: `T0·T1`, then 2× modulate by `T2`, then by 1);
+/// - `max v`, `min v` (GL_MAX, GL_MIN): always — the clamp is monotone, so
+///   `max(min(1, h), min(1, v))` is `min(1, max(h, v))` (and alike at 0).
 ///
 /// Otherwise — `(diffuse + specular) · decal` with the sum above 1, a sum
 /// whose first pass may be negative — the later pass reads a clamped value:
@@ -135,6 +137,11 @@ fn exact_blend(blend: BlendMode, b: Interval, v: Interval, subtract: bool) -> Op
         BlendMode::Modulate => (v.hi <= 2.0
             && (v.lo >= 1.0 || (b.hi <= 1.0 && (v.lo >= 0.0 || b.lo >= 0.0))))
             .then(|| crate::ir::valid::mul(b, v)),
+        // GL clamps the source to [0, 1] as the store clamps what is held,
+        // and max (min) of the clamped values is the clamp of their max
+        // (min): exact whatever either holds.
+        BlendMode::Max => Some(Interval { lo: b.lo.max(v.lo), hi: b.hi.max(v.hi) }),
+        BlendMode::Min => Some(Interval { lo: b.lo.min(v.lo), hi: b.hi.min(v.hi) }),
         // The alpha blends: both in [0, 1], the result too.
         _ => (unit(b) && unit(v)).then_some(Interval::UNSIGNED),
     }

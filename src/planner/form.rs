@@ -542,6 +542,7 @@ pub(super) fn storage_of(profile: &Profile) -> Storage {
         float_temps: profile.float_textures,
         float_main: false,
         subtract: profile.blend_modes.iter().any(|b| b == "subtract"),
+        min_max: ["min", "max"].iter().all(|m| profile.blend_modes.iter().any(|b| b == m)),
     }
 }
 

@@ -76,6 +76,10 @@ pub struct Storage {
     /// The blender subtracts (`C ← C − s`, EXT_blend_subtract): a term
     /// below zero is taken off there ([`signed_terms`]).
     pub subtract: bool,
+    /// The blender takes the larger or smaller of the framebuffer and the
+    /// source (`C ← max(C, s)`, `C ← min(C, s)`: GL_MAX and GL_MIN,
+    /// EXT_blend_minmax): a `max` or `min` chain splits across passes.
+    pub min_max: bool,
 }
 
 impl Storage {

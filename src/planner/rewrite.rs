@@ -298,7 +298,15 @@ pub(super) fn cannot_split(
         };
         return not_exact_through_clamps(st, profile, &whole, span, tried);
     }
-    let d = cannot_split_as_written(st, profile, o, span);
+    // A `max` or `min` of two computed values in the statement (not a
+    // `max(0, N·L)`): the help says whether the blender could split it.
+    let min_max = m.reachable(&[st.value]).into_iter().any(|h| match &m.exprs[h] {
+        Expr::Math { fun: ir::MathFunction::Max | ir::MathFunction::Min, args } => {
+            args.iter().all(|&a| !matches!(m.exprs[a], Expr::Constant(_)))
+        }
+        _ => false,
+    });
+    let d = cannot_split_as_written(st, profile, o, span, min_max);
     if tried.is_empty() {
         return d;
     }
@@ -370,7 +378,9 @@ pub(super) fn cannot_split_as_written(
     profile: &Profile,
     o: &Overflow,
     span: Span,
+    min_max: bool,
 ) -> Diagnostic {
+    let splits = blending_splits(profile, min_max);
     Diagnostic::error(
         "cannot-split",
         format!("no split of this statement fits {}: a part that cannot be divided further {o}", profile.name),
@@ -380,11 +390,29 @@ pub(super) fn cannot_split_as_written(
     .with_label(span, "this part".to_string())
     .with_help(if let Some(help) = o.help.as_deref().filter(|h| !h.is_empty()) {
         // The code generator's own advice for the part, then the splits'.
-        format!("{help}; framebuffer blending can only split sums and products (and affine ⊕ chains) of parts that fit")
+        format!("{help}; {splits} of parts that fit")
     } else if o.have == 0 {
         // Nothing the target has (`length` per fragment), not too little.
-        "framebuffer blending can only split sums and products (and affine ⊕ chains); compute the part per vertex, bake it into a lookup texture (`= bake(f)`), or target `wgsl`".to_string()
+        format!("{splits}; compute the part per vertex, bake it into a lookup texture (`= bake(f)`), or target `wgsl`")
     } else {
-        format!("framebuffer blending can only split sums and products (and affine ⊕ chains); compute the part per vertex, bake it into a lookup texture, or target a profile with more {}", o.resource)
+        format!("{splits}; compute the part per vertex, bake it into a lookup texture, or target a profile with more {}", o.resource)
     })
+}
+
+/// What framebuffer blending splits on `profile`: sums and products, and
+/// `max`/`min` chains where its blender has GL's MIN and MAX equations
+/// (EXT_blend_minmax). Where the statement has a `max` or `min`
+/// (`min_max`) and the blender lacks them, it says so.
+fn blending_splits(profile: &Profile, min_max: bool) -> String {
+    if storage_of(profile).min_max {
+        "framebuffer blending can only split sums, products, `max` and `min` (and affine ⊕ chains)"
+            .to_string()
+    } else if min_max {
+        format!(
+            "framebuffer blending can only split sums and products (and affine ⊕ chains): a `max` or `min` splits only with the MIN/MAX blend equations (EXT_blend_minmax), which {} does not have",
+            profile.name
+        )
+    } else {
+        "framebuffer blending can only split sums and products (and affine ⊕ chains)".to_string()
+    }
 }

@@ -8,10 +8,12 @@
 //! one pass it is one pass. Otherwise three moves are tried, recursively:
 //!
 //! 1. **Chain split.** `e` is a sum or a product of operands `o₁ … oₙ`
-//!    (`+`, `⊕[add]`; `*`, `⊕`): partition the operands into groups that
-//!    each fit a pass; the first group replaces (or is itself planned
-//!    recursively, the *head*), the others are added or modulated in —
-//!    multipass rendering, Pipeline Grammar, eq. (9).
+//!    (`+`, `⊕[add]`; `*`, `⊕`), or a `max` or `min` of them: partition
+//!    the operands into groups that each fit a pass; the first group
+//!    replaces (or is itself planned recursively, the *head*), the others
+//!    are added or modulated in — multipass rendering, Pipeline Grammar,
+//!    eq. (9) — or blended by GL's MAX or MIN equation (EXT_blend_minmax),
+//!    where the target's blender has them.
 //! 2. **Affine peel.** `e = X·m + s` for a sub-value `X` (`affine.rs`):
 //!    render `X` first, then modulate by `m` and add `s` (one pass each, or
 //!    none when `m = 1` / `s = 0`); `T ⊕[decal] X` is `X` then one
@@ -35,7 +37,7 @@ use super::clamps::constant_factor;
 pub use super::clamps::{exact_through_clamps, lerp_bound, signed_terms};
 use super::piece::fastest;
 pub use super::piece::{add, cost, Cost, Dest, FitCheck, Overflow, Piece, Pieces, Storage};
-use crate::ir::{BinaryOp, Expr, Handle, Module, Texture, Ty};
+use crate::ir::{BinaryOp, Expr, Handle, MathFunction, Module, Texture, Ty};
 use crate::parser::ast::{CombineMode, TextureFormat, TextureKind};
 use crate::pipeline::BlendMode;
 use crate::span::Span;
@@ -51,6 +53,23 @@ const MAX_DEPTH: usize = 8;
 enum ChainOp {
     Add,
     Mul,
+    /// `max(a, b)`: associative and commutative like a sum, blended by
+    /// GL_MAX (EXT_blend_minmax).
+    Max,
+    /// `min(a, b)`, blended by GL_MIN.
+    Min,
+}
+
+impl ChainOp {
+    /// What the chain is called in a pass's reason.
+    fn what(self) -> &'static str {
+        match self {
+            ChainOp::Add => "sum",
+            ChainOp::Mul => "product",
+            ChainOp::Max => "max",
+            ChainOp::Min => "min",
+        }
+    }
 }
 
 /// A plan memoized with the depth its search started at.
@@ -268,7 +287,13 @@ impl<'a> Splitter<'a> {
             return None;
         }
         let op = self.chain_op(value)?;
-        if !matches!((mode, op), (BlendMode::Add, ChainOp::Add) | (BlendMode::Modulate, ChainOp::Mul)) {
+        if !matches!(
+            (mode, op),
+            (BlendMode::Add, ChainOp::Add)
+                | (BlendMode::Modulate, ChainOp::Mul)
+                | (BlendMode::Max, ChainOp::Max)
+                | (BlendMode::Min, ChainOp::Min)
+        ) {
             return None;
         }
         let mut ops = Vec::new();
@@ -297,6 +322,8 @@ impl<'a> Splitter<'a> {
             Expr::Binary { op: BinaryOp::Mul, .. } | Expr::Combine { mode: CombineMode::Modulate, .. } => {
                 Some(ChainOp::Mul)
             }
+            Expr::Math { fun: MathFunction::Max, args } if args.len() == 2 => Some(ChainOp::Max),
+            Expr::Math { fun: MathFunction::Min, args } if args.len() == 2 => Some(ChainOp::Min),
             _ => None,
         }
     }
@@ -306,7 +333,7 @@ impl<'a> Splitter<'a> {
         out.extend(self.module.chain_operands(e, |x| Self::op_of(x) == Some(op)));
     }
 
-    /// One node for the sum or product of `ops`, in their order.
+    /// One node for the sum, product, `max` or `min` of `ops`, in their order.
     fn build_chain(&mut self, op: ChainOp, ops: &[Handle<Expr>]) -> Option<Handle<Expr>> {
         let mut acc = ops[0];
         for &o in &ops[1..] {
@@ -314,10 +341,37 @@ impl<'a> Splitter<'a> {
             let (bin, comb) = match op {
                 ChainOp::Add => (BinaryOp::Add, CombineMode::Add),
                 ChainOp::Mul => (BinaryOp::Mul, CombineMode::Modulate),
+                ChainOp::Max | ChainOp::Min => {
+                    let fun = if op == ChainOp::Max { MathFunction::Max } else { MathFunction::Min };
+                    acc = b.node(Expr::Math { fun, args: vec![acc, o] })?;
+                    continue;
+                }
             };
             acc = b.binary(bin, acc, o).or_else(|| b.node(Expr::Combine { mode: comb, lhs: acc, rhs: o }))?;
         }
         Some(acc)
+    }
+
+    /// The blends of a chain's first pass and of the others, written with
+    /// `mode`: a sum adds, a product modulates, a `max` or `min` takes GL's
+    /// MAX or MIN equation (EXT_blend_minmax) where the blender has it —
+    /// exact through the clamps, which commute with both.
+    fn chain_modes(&self, mode: BlendMode, op: ChainOp) -> Option<(BlendMode, BlendMode)> {
+        Some(match (mode, op) {
+            (BlendMode::Replace, ChainOp::Add) => (BlendMode::Replace, BlendMode::Add),
+            (BlendMode::Replace, ChainOp::Mul) => (BlendMode::Replace, BlendMode::Modulate),
+            (BlendMode::Add, ChainOp::Add) => (BlendMode::Add, BlendMode::Add),
+            (BlendMode::Modulate, ChainOp::Mul) => (BlendMode::Modulate, BlendMode::Modulate),
+            (BlendMode::DstAlphaAdd, ChainOp::Add) => (BlendMode::DstAlphaAdd, BlendMode::DstAlphaAdd),
+            (BlendMode::DstAlphaModulate, ChainOp::Mul) => (BlendMode::DstAlphaModulate, BlendMode::Modulate),
+            (BlendMode::Replace | BlendMode::Max, ChainOp::Max) if self.storage.min_max => {
+                (mode, BlendMode::Max)
+            }
+            (BlendMode::Replace | BlendMode::Min, ChainOp::Min) if self.storage.min_max => {
+                (mode, BlendMode::Min)
+            }
+            _ => return None,
+        })
     }
 
     fn chain_split(
@@ -328,21 +382,13 @@ impl<'a> Splitter<'a> {
         overflow: &Overflow,
     ) -> Option<Vec<Piece>> {
         let op = self.chain_op(e)?;
-        let (first, rest) = match (mode, op) {
-            (BlendMode::Replace, ChainOp::Add) => (BlendMode::Replace, BlendMode::Add),
-            (BlendMode::Replace, ChainOp::Mul) => (BlendMode::Replace, BlendMode::Modulate),
-            (BlendMode::Add, ChainOp::Add) => (BlendMode::Add, BlendMode::Add),
-            (BlendMode::Modulate, ChainOp::Mul) => (BlendMode::Modulate, BlendMode::Modulate),
-            (BlendMode::DstAlphaAdd, ChainOp::Add) => (BlendMode::DstAlphaAdd, BlendMode::DstAlphaAdd),
-            (BlendMode::DstAlphaModulate, ChainOp::Mul) => (BlendMode::DstAlphaModulate, BlendMode::Modulate),
-            _ => return None,
-        };
+        let (first, rest) = self.chain_modes(mode, op)?;
         let mut ops = Vec::new();
         self.flatten(e, op, &mut ops);
         if ops.len() < 2 {
             return None; // a chain too long written out ([`Module::chain_operands`])
         }
-        let what = if op == ChainOp::Add { "sum" } else { "product" };
+        let what = op.what();
         let n = ops.len();
         let why = |k: usize, groups: usize, blend: BlendMode| {
             format!(
@@ -452,7 +498,7 @@ impl<'a> Splitter<'a> {
         match op {
             ChainOp::Add => groups.sort_by_key(|&g| u8::from(info(g).lo < 0.0) + u8::from(info(g).hi <= 0.0)),
             ChainOp::Mul if self.storage.clamps(Dest::Main) => groups.sort_by_key(|&g| info(g).hi > 1.0),
-            ChainOp::Mul => {}
+            ChainOp::Mul | ChainOp::Max | ChainOp::Min => {}
         }
     }
 
