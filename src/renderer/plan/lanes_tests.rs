@@ -155,3 +155,77 @@ fn forwarded_copies_give_the_values_of_the_copies_bit_for_bit() {
     assert!(fast.stats.written > 500, "{:?}", fast.stats);
     assert!(bits(&fast) == bits(&plain), "the frames differ");
 }
+
+/// One λ per triangle of a batch ([`super::triangle_lod_lanes`]): every
+/// lane of a run of one triangle's fragments takes the one-lane quad λ
+/// (`quad_derivatives`, `unit::quad_lod`) of the run's first fragment, bit
+/// for bit, each run from its own triangle's gradients; varyings stored
+/// by fragment or by component give the same; a run whose first 1/w is 0
+/// takes the one-lane fallback's λ. (With λ per pixel, as before, the
+/// lanes after each run's first differ: the test fails.)
+#[test]
+fn one_lod_per_triangle_run_is_its_first_fragments_quad_lod() {
+    use crate::ir::Ty;
+    use crate::renderer::raster::Vary;
+    use crate::renderer::{Fragment, BATCH};
+    use crate::textures::unit;
+    let per = 8;
+    // Two varyings of four components, then 1/w's gradients; three triangles.
+    let grads: Vec<Vec<f32>> = (0..3)
+        .map(|t| {
+            (0..2 * per + 2)
+                .map(|i| if i >= 2 * per { 0.003 * (t + 1) as f32 } else { 0.02 * (i + t) as f32 })
+                .collect()
+        })
+        .collect();
+    for (n, runs, k, inv_w0) in [(32, [0, 10, 25], 1, 0.4), (29, [0, 1, 3], 0, 0.0), (7, [0, 7, 7], 1, 0.3)] {
+        let triangle = |i: usize| runs.iter().rposition(|&s| i >= s).unwrap_or(0);
+        let fragments: Vec<Fragment> = (0..n)
+            .map(|i| Fragment {
+                x: (i * 3 % 17) as u32,
+                y: (i / 5) as u32,
+                depth: 0.5,
+                front_facing: true,
+                inv_w: if i == 0 { inv_w0 } else { 0.2 + 0.01 * i as f32 },
+                gradients: &grads[triangle(i)],
+            })
+            .collect();
+        let varyings: Vec<f32> = (0..n * per).map(|i| 0.1 + 0.37 * (i % 13) as f32).collect();
+        let rows: Vec<f32> = (0..per * n).map(|i| varyings[(i % n) * per + i / n]).collect();
+        let (w, h) = (256, 64);
+        let mut lod = [f32::NAN; BATCH];
+        super::triangle_lod_lanes(
+            (&fragments, Vary::by_fragment(&varyings, per)),
+            (k, Ty::Vec2),
+            (w, h),
+            &mut lod,
+        );
+        let mut by_rows = [f32::NAN; BATCH];
+        super::triangle_lod_lanes(
+            (&fragments, Vary::by_component(&rows, per, n)),
+            (k, Ty::Vec2),
+            (w, h),
+            &mut by_rows,
+        );
+        let bits = |l: &[f32]| l.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+        assert_eq!(bits(&lod[..n]), bits(&by_rows[..n]), "batch of {n}");
+        let mut seen = Vec::new();
+        for (lane, f) in fragments.iter().enumerate() {
+            let s = runs[triangle(lane)];
+            let first = &fragments[s];
+            let vary = &varyings[s * per + 4 * k..];
+            let (du, dv) =
+                (first.quad_derivatives(4 * k, vary[0]), first.quad_derivatives(4 * k + 1, vary[1]));
+            let one = unit::quad_lod(w, h, [du[0], dv[0]], [du[1], dv[1]]);
+            assert_eq!(one.to_bits(), lod[lane].to_bits(), "batch of {n}, lane {lane}: {one} {}", lod[lane]);
+            assert!(std::ptr::eq(f.gradients, first.gradients));
+            if !seen.contains(&one.to_bits()) {
+                seen.push(one.to_bits());
+            }
+        }
+        // Each run its own λ (three triangles' gradients, or two runs).
+        let distinct_runs = runs.iter().filter(|&&s| s < n).collect::<std::collections::BTreeSet<_>>().len();
+        assert_eq!(seen.len(), distinct_runs, "batch of {n}: {seen:?}");
+        assert!(lod[n..].iter().all(|x| x.is_nan()), "lanes past the batch written");
+    }
+}
