@@ -128,6 +128,131 @@ impl<'v> Vary<'v> {
     }
 }
 
+/// λ of a 2-D lookup for each of `fragments` (lanes `0..fragments.len()`
+/// of `lod`; of one triangle or of several, each lane with its own
+/// triangle's gradients) whose coordinates (u, v) are the first two
+/// components of varying `k` (`varyings`: stored by fragment or by component), on a texture
+/// whose level 0 is `width`×`height`: [`Fragment::quad_derivatives`] of u
+/// and v and [`crate::textures::unit::quad_lod`] as fixed-length loops over
+/// the lanes (vector code), the same formulas in the same order, so the
+/// same values bit for bit. Returns the lanes it leaves to the one-lane
+/// code: those whose 1/w degenerates (`quad_derivatives`' fallback), or
+/// whose varying has no gradients.
+// Indexed loops over several lane arrays at once are the form that vectorises.
+#[allow(clippy::needless_range_loop)]
+#[inline(always)]
+pub(crate) fn quad_lod_lanes<const N: usize>(
+    fragments: &[Fragment],
+    varyings: Vary,
+    k: usize,
+    (width, height): (u32, u32),
+    lod: &mut [f32; N],
+) -> [bool; N] {
+    let n = fragments.len().min(N);
+    let mut one_lane = [false; N];
+    let (mut ox, mut oy, mut inv_w, mut u, mut v) = ([0.0f32; N], [0.0; N], [1.0; N], [0.0; N], [0.0; N]);
+    // Each lane's gradients of 1/w, u and v: x and y.
+    let (mut gq, mut gu, mut gv) = ([[0.0f32; N]; 2], [[0.0f32; N]; 2], [[0.0f32; N]; 2]);
+    // A batch of one triangle's fragments (most, where triangles cover
+    // more than a batch's pixels in a tile): its gradients once, as splats.
+    let first = fragments.first().map(|f| f.gradients);
+    if let Some(g) = first.filter(|&g| fragments[..n].iter().all(|f| std::ptr::eq(f.gradients, g))) {
+        let m = (g.len() / 2).saturating_sub(1);
+        if 4 * k + 1 >= m {
+            one_lane[..n].fill(true);
+        } else {
+            for (lane, f) in fragments[..n].iter().enumerate() {
+                (ox[lane], oy[lane]) = (-((f.x & 1) as f32), -((f.y & 1) as f32));
+                inv_w[lane] = f.inv_w;
+            }
+            // The coordinates' rows copied where the varyings are stored by component.
+            for (lanes, c) in [(&mut u, 4 * k), (&mut v, 4 * k + 1)] {
+                match varyings.row(c, n) {
+                    Some(row) => lanes[..n].copy_from_slice(row),
+                    None => (0..n).for_each(|lane| lanes[lane] = varyings.get(lane, c)),
+                }
+            }
+            let [[gqx, gqy], [gux, guy], [gvx, gvy]] = [&mut gq, &mut gu, &mut gv];
+            let splats = [
+                (gqx, 2 * m),
+                (gqy, 2 * m + 1),
+                (gux, 8 * k),
+                (guy, 8 * k + 1),
+                (gvx, 8 * k + 2),
+                (gvy, 8 * k + 3),
+            ];
+            for (lanes, at) in splats {
+                lanes[..n].fill(g[at]);
+            }
+        }
+    } else {
+        for (lane, f) in fragments[..n].iter().enumerate() {
+            let g = f.gradients;
+            let m = (g.len() / 2).saturating_sub(1);
+            if 4 * k + 1 >= m {
+                one_lane[lane] = true;
+                continue;
+            }
+            // Offsets of the quad's top-left pixel from this one.
+            (ox[lane], oy[lane]) = (-((f.x & 1) as f32), -((f.y & 1) as f32));
+            inv_w[lane] = f.inv_w;
+            (u[lane], v[lane]) = (varyings.get(lane, 4 * k), varyings.get(lane, 4 * k + 1));
+            (gq[0][lane], gq[1][lane]) = (g[2 * m], g[2 * m + 1]);
+            (gu[0][lane], gu[1][lane], gv[0][lane], gv[1][lane]) =
+                (g[8 * k], g[8 * k + 1], g[8 * k + 2], g[8 * k + 3]);
+        }
+    }
+    let (mut q, mut qr, mut qb) = ([0.0f32; N], [0.0f32; N], [0.0f32; N]);
+    for l in 0..N {
+        q[l] = inv_w[l] + gq[0][l] * ox[l] + gq[1][l] * oy[l];
+        (qr[l], qb[l]) = (q[l] + gq[0][l], q[l] + gq[1][l]);
+    }
+    let quad = QuadLanes { ox, oy, inv_w, q, qr, qb };
+    let ([ux, uy], [vx, vy]) = (quad.derivatives(&gu, &u), quad.derivatives(&gv, &v));
+    let (w, h) = (width as f32, height as f32);
+    for l in 0..N {
+        let (ux, vx, uy, vy) = (ux[l] * w, vx[l] * h, uy[l] * w, vy[l] * h);
+        let rho2 = (ux * ux + vx * vx).max(uy * uy + vy * vy);
+        lod[l] = if !rho2.is_finite() || rho2 <= 0.0 {
+            f32::NEG_INFINITY
+        } else {
+            0.5 * crate::textures::unit::piecewise_log2(rho2)
+        };
+    }
+    for l in 0..n {
+        one_lane[l] |= quad.inv_w[l] == 0.0 || quad.q[l] <= 0.0 || quad.qr[l] <= 0.0 || quad.qb[l] <= 0.0;
+    }
+    one_lane
+}
+
+/// The lanes of [`quad_lod_lanes`]: each lane's offsets to its quad's
+/// top-left pixel, its 1/w, and 1/w at that pixel and its right and lower
+/// neighbours.
+struct QuadLanes<const N: usize> {
+    ox: [f32; N],
+    oy: [f32; N],
+    inv_w: [f32; N],
+    q: [f32; N],
+    qr: [f32; N],
+    qb: [f32; N],
+}
+
+impl<const N: usize> QuadLanes<N> {
+    /// [`Fragment::quad_derivatives`] of a varying whose gradients are
+    /// `g` (x and y) and values `value`, per lane.
+    #[inline(always)]
+    fn derivatives(&self, g: &[[f32; N]; 2], value: &[f32; N]) -> [[f32; N]; 2] {
+        let mut d = [[0.0f32; N]; 2];
+        for l in 0..N {
+            let (ax, ay) = (g[0][l], g[1][l]);
+            let a = value[l] * self.inv_w[l] + ax * self.ox[l] + ay * self.oy[l];
+            let at = a / self.q[l];
+            (d[0][l], d[1][l]) = ((a + ax) / self.qr[l] - at, (a + ay) / self.qb[l] - at);
+        }
+        d
+    }
+}
+
 impl Fragment<'_> {
     /// The varyings at the pixel (ox, oy) away from this one, into `out`,
     /// interpolated perspective-correctly from this triangle's planes (as
@@ -584,5 +709,88 @@ mod tests {
             assert!(extent <= 32768.0, "size {size}: extent {extent}");
             assert!(g >= 1.0);
         }
+    }
+
+    /// [`quad_lod_lanes`] is `quad_derivatives` and `quad_lod` lane by
+    /// lane, bit for bit: pixels at every quad position, 1/w near zero,
+    /// zero and negative (the one-lane fallback), partial batches, a
+    /// varying without gradients, fragments of two triangles.
+    #[test]
+    fn quad_lod_lanes_are_the_one_lane_code_bit_for_bit() {
+        use crate::textures::unit;
+        let mut x = 0x9e37_79b9u32;
+        let mut r = move || {
+            x ^= x << 13;
+            x ^= x >> 17;
+            x ^= x << 5;
+            (x >> 8) as f32 / (1u32 << 23) as f32 - 1.0
+        };
+        let per = 12;
+        let (mut compared, mut mixed_compared) = (0, 0);
+        for round in 0..200 {
+            // Three varyings of four components, then 1/w's gradients.
+            let g: Vec<f32> = (0..2 * 12 + 2).map(|i| r() * if i >= 24 { 0.02 } else { 0.5 }).collect();
+            let other: Vec<f32> = g.iter().map(|v| v * 1.5).collect();
+            let n = 32 - round % 7;
+            let k = round % 2;
+            let fragments: Vec<Fragment> = (0..n)
+                .map(|i| Fragment {
+                    x: (i * 7 + round) as u32,
+                    y: (i / 3 + round) as u32,
+                    depth: 0.5,
+                    front_facing: true,
+                    inv_w: match i % 11 {
+                        0 => 0.0,
+                        1 => -0.01,
+                        2 => 1e-30,
+                        _ => r().abs() * 0.5,
+                    },
+                    gradients: if round % 10 == 9 && i == 5 { &other } else { &g },
+                })
+                .collect();
+            let varyings: Vec<f32> = (0..n * per).map(|_| r() * 4.0).collect();
+            let (w, h) = if round % 3 == 0 { (256, 64) } else { (16, 16) };
+            let mut lod = [0.0f32; 32];
+            let left = quad_lod_lanes(&fragments, Vary::by_fragment(&varyings, per), k, (w, h), &mut lod);
+            // The same varyings stored by component (the scan loop's rows): the same lanes.
+            let rows: Vec<f32> = (0..per * n).map(|i| varyings[(i % n) * per + i / n]).collect();
+            let mut by_rows = [0.0f32; 32];
+            let left_rows =
+                quad_lod_lanes(&fragments, Vary::by_component(&rows, per, n), k, (w, h), &mut by_rows);
+            assert_eq!(left_rows, left, "round {round}");
+            let bits = |l: &[f32]| l.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert!(bits(&by_rows[..n]) == bits(&lod[..n]), "round {round}");
+            for (lane, f) in fragments.iter().enumerate() {
+                let vary = &varyings[lane * per + 4 * k..];
+                let (du, dv) = (f.quad_derivatives(4 * k, vary[0]), f.quad_derivatives(4 * k + 1, vary[1]));
+                let one = unit::quad_lod(w, h, [du[0], dv[0]], [du[1], dv[1]]);
+                // The one-lane lanes: 1/w = 0 or a quad whose 1/w reaches 0 (small
+                // or negative 1/w here); a batch of two triangles is lanes too.
+                assert!(left[lane] || f.inv_w != 0.0, "round {round} lane {lane}");
+                assert!(!left[lane] || f.inv_w < 0.1, "round {round} lane {lane}");
+                if left[lane] {
+                    continue;
+                }
+                compared += 1;
+                mixed_compared += (round % 10 == 9) as u32;
+                assert_eq!(
+                    one.to_bits(),
+                    lod[lane].to_bits(),
+                    "round {round} lane {lane}: {one} {}",
+                    lod[lane]
+                );
+            }
+        }
+        assert!(compared > 3000, "{compared} lanes as lanes");
+        assert!(mixed_compared > 40, "{mixed_compared} lanes of two-triangle batches as lanes");
+        // A varying past the gradients (k = 2: components 8, 9 of 4 components' gradients).
+        let g = [0.1f32; 2 * 4 + 2];
+        let fragments: Vec<Fragment> = (0..9)
+            .map(|i| Fragment { x: i, y: 1, depth: 0.0, front_facing: true, inv_w: 0.5, gradients: &g })
+            .collect();
+        let varyings = vec![1.0f32; 9 * per];
+        let mut lod = [7.0f32; 32];
+        let left = quad_lod_lanes(&fragments, Vary::by_fragment(&varyings, per), 2, (8, 8), &mut lod);
+        assert_eq!(left.iter().filter(|&&l| l).count(), 9);
     }
 }

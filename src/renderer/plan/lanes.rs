@@ -44,7 +44,7 @@ use super::{uv_derivatives, FragmentProgram, Kernel, Leaf, RegisterOp, Source, S
 use crate::ir::Ty;
 use crate::ir::{self, BinaryOp, Expr, MathFunction, UnaryOp};
 use crate::parser::ast::CombineMode;
-use crate::renderer::raster::Vary;
+use crate::renderer::raster::{quad_lod_lanes, Vary};
 use crate::renderer::{Fragment, FragmentResult, BATCH};
 use crate::textures::{lanes as texture_lanes, unit, Texture};
 
@@ -461,12 +461,14 @@ impl FragmentProgram<'_> {
                 let v = if coords_ty == Ty::Scalar { &half } else { c1 };
                 let mut lod = [f32::NEG_INFINITY; BATCH];
                 if let Some(k) = lod_from.filter(|_| t.levels.len() > 1) {
-                    triangle_lod_lanes(
-                        (fragments, varyings),
-                        (k, coords_ty),
-                        (t.width(), t.height()),
-                        &mut lod,
-                    );
+                    let size = (t.width(), t.height());
+                    let left = quad_lod_lanes(fragments, varyings, k, size, &mut lod);
+                    for (lane, fragment) in fragments.iter().enumerate().filter(|&(l, _)| left[l]) {
+                        let vary = [0, 1, 2, 3].map(|j| varyings.get(lane, 4 * k + j));
+                        let d = |j| fragment.quad_derivatives(4 * k + j, vary[j]);
+                        let (du, dv) = uv_derivatives(coords_ty, &vary, d);
+                        lod[lane] = unit::quad_lod(t.width(), t.height(), [du[0], dv[0]], [du[1], dv[1]]);
+                    }
                 }
                 shared.valid = shared.f.refill_with(levels, t, (c0, v, &lod), filter, self.latitude);
                 if shared.valid {
@@ -512,38 +514,6 @@ impl FragmentProgram<'_> {
         for (c, x) in v.into_iter().enumerate() {
             r[s.slot as usize * 4 + c][lane] = x as f32;
         }
-    }
-}
-
-/// λ of a 2-D lookup whose coordinates are varying `k` (of type
-/// `coords_ty`) on a texture whose level 0 is `size`, into `lod`: **one λ
-/// per triangle of the batch** (each run of one triangle's fragments, the
-/// scan loop batching them triangle by triangle), the quad λ
-/// ([`Fragment::quad_derivatives`], [`unit::quad_lod`]) of the run's first
-/// fragment. A GPU takes one λ per 2×2 quad; within one triangle's run of
-/// at most [`BATCH`] pixels of a tile λ moves by about the log of 1/w's
-/// ratio across them, and where the texture is magnified (λ ≤ 0, most of
-/// Kilgard's torus from 1024² on) every λ chooses the same level. The `f32` mode
-/// is held to the exact reference with a stated tolerance
-/// (`tests/render_batch.rs`), not to the per-pixel λ bit for bit; per pixel
-/// it was ~9 % of a frame (BENCHMARKS.md, exec14).
-#[inline(always)]
-fn triangle_lod_lanes(
-    (fragments, varyings): (&[Fragment], Vary),
-    (k, coords_ty): (usize, Ty),
-    (width, height): (u32, u32),
-    lod: &mut [f32; BATCH],
-) {
-    let n = fragments.len().min(BATCH);
-    let mut start = 0;
-    while start < n {
-        let (first, g) = (&fragments[start], fragments[start].gradients);
-        let run = fragments[start + 1..n].iter().take_while(|f| std::ptr::eq(f.gradients, g)).count() + 1;
-        let vary = [0, 1, 2, 3].map(|j| varyings.get(start, 4 * k + j));
-        let d = |j| first.quad_derivatives(4 * k + j, vary[j]);
-        let (du, dv) = uv_derivatives(coords_ty, &vary, d);
-        lod[start..start + run].fill(unit::quad_lod(width, height, [du[0], dv[0]], [du[1], dv[1]]));
-        start += run;
     }
 }
 
