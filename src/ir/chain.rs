@@ -104,11 +104,7 @@ impl Module {
 mod tests {
     use crate::ir::{BinaryOp, Expr};
 
-    fn module(src: &str) -> crate::ir::Module {
-        let (program, diags) = crate::parser::check(src);
-        assert!(diags.iter().all(|d| !d.is_error()), "{diags:?}");
-        crate::ir::lower(&program).0
-    }
+    use crate::ir::lower::lowered as module;
 
     fn is_mul(e: &Expr) -> bool {
         matches!(e, Expr::Binary { op: BinaryOp::Mul, .. })

@@ -235,11 +235,7 @@ fn is_hilo_texel(m: &Module, h: Handle<Expr>) -> bool {
 mod tests {
     use super::*;
 
-    fn module(src: &str) -> Module {
-        let (program, diags) = crate::parser::check(src);
-        assert!(diags.iter().all(|d| !d.is_error()), "{diags:?}");
-        crate::ir::lower(&program).0
-    }
+    use crate::ir::lower::lowered as module;
 
     const HEAD: &str = "vector L : light(0) in tangent;\nvector H : half(0) in tangent;\n\
         texture Nh : 2d signed16 = bumps(4);\ntexture T : 2d rgba8 clamp = exponent_table(8);\nlet n = Nh δu x;\n";

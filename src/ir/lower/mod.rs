@@ -28,6 +28,15 @@ mod statement;
 
 use bake::*;
 
+/// The module of `src`, which must check without errors: what unit tests
+/// of the passes over a module start from.
+#[cfg(test)]
+pub fn lowered(src: &str) -> Module {
+    let (program, diags) = crate::parser::check(src);
+    assert!(diags.iter().all(|d| !d.is_error()), "{diags:?}");
+    lower(&program).0
+}
+
 /// Lowers a checked program. Never panics; what cannot be lowered is a
 /// diagnostic, and the statement it belongs to is left out of the module.
 pub fn lower(program: &ast::Program) -> (Module, Vec<Diagnostic>) {

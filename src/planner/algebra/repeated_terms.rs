@@ -102,11 +102,7 @@ fn counted_sum(
 mod tests {
     use super::*;
 
-    fn module(src: &str) -> Module {
-        let (program, diags) = crate::parser::check(src);
-        assert!(diags.iter().all(|d| !d.is_error()), "{diags:?}");
-        crate::ir::lower(&program).0
-    }
+    use crate::ir::lower::lowered as module;
 
     #[test]
     fn a_sum_doubled_forty_times_is_one_term_scaled() {
