@@ -74,6 +74,7 @@ mod three_way_generated;
 mod three_way_realistic;
 mod three_way_reference_covers;
 mod three_way_rendered;
+mod vertex_colour_clamp;
 mod vertex_programs;
 mod vertex_programs_corpus;
 mod vertex_programs_render;

@@ -1,0 +1,146 @@
+//! What GL's fixed-function fragment stages read of an interpolated value,
+//! and what its texture environment computes at all.
+//!
+//! - GL clamps a vertex colour to [0, 1] **at the vertex** (OpenGL 1.2.1,
+//!   Section 2.13.9; NV_vertex_program's `o[COL0]` alike), before it is
+//!   interpolated. A clamp does not commute with interpolation (vertices
+//!   at 8 and 0 give ½ between them, the meaning min(1, 4) = 1), so a
+//!   fragment stage that clamps what it reads does not mend it. Before,
+//!   the register combiners took such a value as the primary colour where
+//!   the reader clamped: `δ 8·max(0, N·L)` rendered 93-103/255 from its
+//!   meaning on geforce3, and modulated by a texture (`⊕`, whose operands
+//!   the language keeps unclamped) 152/255 on geforce256 and geforce3.
+//! - The OpenGL 1.2.1 texture environment (`multitexture`) is a chain:
+//!   each unit combines the colour of the unit before with its own texel
+//!   by one mode (Section 3.8.9). Before, one stage was counted per
+//!   operation, so `2·T0`, `16777216·T0`, `T0 − T1` and `T0 − ½` each
+//!   planned as one pass its modes (modulate, decal, blend, add, replace)
+//!   cannot compute.
+
+use shadec::numerics::Precision;
+use shadec::pipeline::Planned;
+use shadec::profile::Profile;
+use shadec::renderer::plan::{compare, PlanRenderer};
+
+use crate::planner_algebra::scene;
+
+const LIT: &str = "vector N : normal;\nvector L : light(0);\n";
+const BASE: &str = "texture T : 2d = image(\"base.png\");\ntexture T1 : 2d = image(\"detail.png\");\n";
+
+fn compile(source: &str, target: &str) -> Result<Planned, Vec<shadec::diag::Diagnostic>> {
+    let profile = Profile::builtin(target).unwrap();
+    shadec::driver::compile(source, &profile, &Default::default()).map(|c| c.planned)
+}
+
+/// `source` planned on `target` and rendered in `precision` on the torus,
+/// against the program's meaning (exact): the largest difference in 255ths.
+fn from_meaning(source: &str, target: &str, precision: Precision) -> f32 {
+    let sc = scene("kilgard_torus.ron");
+    let planned = compile(source, target).unwrap_or_else(|e| panic!("refused on {target}: {e:#?}"));
+    let profile = Profile::builtin(target).unwrap();
+    crate::differential::validate_plan(&planned, &profile).unwrap_or_else(|e| panic!("{target}: {e}"));
+    let (program, _) = shadec::parser::check(source);
+    let (written, _) = shadec::ir::lower(&program);
+    let meaning = shadec::meaning::plan(&written, sc.lights.len()).unwrap();
+    let assets = sc.build().unwrap();
+    let render = |planned: &Planned, precision| {
+        PlanRenderer::new(planned, &program, &sc, &assets)
+            .and_then(|r| r.render(precision, 128, 128, &mut |_, _| {}))
+            .unwrap()
+            .image
+    };
+    let image = render(&planned, precision);
+    let lit = image.to_rgba8().chunks_exact(4).filter(|p| p[..3].iter().any(|&c| c > 8)).count();
+    assert!(lit > 100, "{target}: {lit} lit pixels");
+    compare(&render(&meaning, Precision::Exact), &image).max_abs * 255.0
+}
+
+/// Every interpolated colour or scalar of every pass of `source` on `target` stays in [0, 1].
+fn interpolants_in_unit_range(source: &str, target: &str) {
+    let planned = compile(source, target).unwrap_or_else(|e| panic!("refused on {target}: {e:#?}"));
+    for (k, pass) in planned.plan.passes.iter().enumerate() {
+        for &h in &pass.vertex.interpolants {
+            let info = planned.module.info(shadec::ir::Handle::new(h as usize));
+            if info.ty.width() > 1 && !info.ty.is_color() {
+                continue; // texture coordinates
+            }
+            let i = info.interval;
+            assert!(
+                i.lo >= 0.0 && i.hi <= 1.0,
+                "{target} pass {}: interpolant in [{}, {}]",
+                k + 1,
+                i.lo,
+                i.hi
+            );
+        }
+    }
+}
+
+#[test]
+fn an_interpolated_value_past_one_is_not_clamped_at_the_vertex_on_the_combiners() {
+    let source = format!("{LIT}shader p : s → scalar = 8 * max(0, N·L);\nC δπx ← δ p s x;\n");
+    for target in ["geforce256", "geforce3"] {
+        interpolants_in_unit_range(&source, target);
+        let e = from_meaning(&source, target, Precision::Fixed9);
+        assert!(e <= 6.0, "{target}: fixed9 {e:.1}/255 from the meaning");
+    }
+}
+
+#[test]
+fn a_modulated_interpolant_past_one_is_not_clamped_at_the_vertex() {
+    let source =
+        format!("{LIT}{BASE}shader p : s → scalar = 8 * max(0, N·L);\nC δπx ← (δ p s x) ⊕ (T δu x);\n");
+    for target in ["geforce256", "geforce3"] {
+        interpolants_in_unit_range(&source, target);
+        for precision in [Precision::F32, Precision::Fixed9] {
+            let e = from_meaning(&source, target, precision);
+            assert!(e <= 6.0, "{target}: {precision:?} {e:.1}/255 from the meaning");
+        }
+    }
+}
+
+fn multitexture(value: &str) -> Result<Planned, Vec<shadec::diag::Diagnostic>> {
+    compile(&format!("{BASE}C δπx ← {value};\n"), "multitexture")
+}
+
+/// A scale past 1 is no texture-environment stage of OpenGL 1.2.1 (no
+/// `RGB_SCALE`, a constant colour clamped to [0, 1]): `2·T` is the texel
+/// then a doubling blend, not one pass.
+#[test]
+fn multitexture_scales_past_one_by_the_blender_not_in_one_stage() {
+    let planned = multitexture("2 * (T δu x)").unwrap_or_else(|e| panic!("{e:#?}"));
+    let blends: Vec<_> = planned.plan.passes.iter().map(|p| p.blend.name()).collect();
+    assert!(planned.plan.passes.len() >= 2, "one pass of the texture environment: {blends:?}");
+    let source = format!("{BASE}C δπx ← 2 * (T δu x);\n");
+    let e = from_meaning(&source, "multitexture", Precision::Fixed9);
+    assert!(e <= 3.0, "fixed9 {e:.1}/255 from the meaning");
+    let planned = multitexture("16777216 * (T δu x)").unwrap_or_else(|e| panic!("{e:#?}"));
+    assert!(planned.plan.passes.len() > 1, "2²⁴·T in one pass");
+}
+
+/// GL 1.2.1's modes (modulate, decal, blend, add, replace) subtract
+/// nothing, and its blend equations neither (EXT_blend_subtract is
+/// optional): a difference is refused, located, naming the mode.
+#[test]
+fn multitexture_refuses_a_difference_naming_the_missing_mode() {
+    for value in ["(T δu x) - (T1 δu x)", "(T δu x) - 0.5"] {
+        let e = multitexture(value).err().unwrap_or_else(|| panic!("`{value}` planned on multitexture"));
+        let text = format!("{e:?}");
+        assert!(text.contains("`subtract`"), "{value}: {text}");
+        assert!(
+            e[0].primary.span.start as usize >= BASE.len(),
+            "{value}: located in the statement: {:?}",
+            e[0].primary.span
+        );
+    }
+}
+
+/// Chains the environment runs stay one pass: each unit's texel over the
+/// unit before, the chain started by a constant colour in [0, 1].
+#[test]
+fn multitexture_chains_stay_one_pass() {
+    for value in ["(T δu x) * (T1 δu x) * 0.5", "(T δu x) + (T1 δu x)", "(T δu x) ⊕ (T1 δu x)"] {
+        let planned = multitexture(value).unwrap_or_else(|e| panic!("{value}: {e:#?}"));
+        assert_eq!(planned.plan.passes.len(), 1, "{value}");
+    }
+}
