@@ -197,13 +197,7 @@ impl ProfileFit<'_> {
                 wide_vertex_colour(module, &u)?;
                 wide_scalar_colour(module, &u, value)?;
                 stage_result_clamped(module, value)?;
-                let ops = super::texture_env::stages(module, value, &p.texture_env_modes).map_err(|n| Overflow {
-                    resource: format!("computes {}", n.what),
-                    need: 0,
-                    have: 0,
-                    at: Some(n.at),
-                    help: Some("each texture unit combines the colour of the unit before it with its own texture by one mode (OpenGL 1.2.1, Section 3.8.9); geforce256, geforce3 and wgsl compute more per pass".into()),
-                })?;
+                let ops = combines(module, value);
                 let have = (p.texture_units as usize).max(1);
                 if ops > have {
                     over("texture-environment stages", ops, have, None)
@@ -213,6 +207,18 @@ impl ProfileFit<'_> {
             }
         }
     }
+}
+
+/// ⊕ and arithmetic nodes per sample: one texture-environment stage each.
+fn combines(module: &Module, value: Handle<Expr>) -> usize {
+    module
+        .reachable(&[value])
+        .into_iter()
+        .filter(|h| {
+            module.info(*h).freq.is_sample()
+                && matches!(module.exprs[*h], Expr::Combine { .. } | Expr::Binary { .. })
+        })
+        .count()
 }
 
 /// Framebuffers a pass reads (at a position other than a blend's own):

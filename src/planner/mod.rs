@@ -44,7 +44,6 @@ pub mod specialize;
 pub mod split;
 mod stencil;
 pub mod storage;
-mod texture_env;
 
 use rustc_hash::FxHashMap as HashMap;
 
