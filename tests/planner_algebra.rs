@@ -1839,8 +1839,7 @@ fn channel_ranges_sampled(planned: &Planned, stretch: f64) -> Vec<String> {
                     }
                 };
                 let lanes = if info.ty.width() == 1 { 1 } else { info.ty.width().min(4) };
-                for i in 0..lanes {
-                    let (x, c) = (v[i], info.channels[i]);
+                for (i, (&x, c)) in v.iter().zip(info.channels).enumerate().take(lanes) {
                     if !x.is_nan() && (x < c.lo - 1e-9 || x > c.hi + 1e-9) {
                         out.push(format!(
                             "sample {sample}: %{} = {e:?} lane {i}: {x} outside {c:?}",

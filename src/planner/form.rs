@@ -311,12 +311,8 @@ pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<F
         return Err(unsupported("an alpha write that reads the framebuffer").with_help(ALPHA_HELP));
     }
     if let Some(r) = r.filter(|r| split::depends_on(m, v, *r)) {
-        if let Some(lhs) = decal_over(m, v, r, ra) {
-            form.blend = BlendMode::AlphaBlend;
-            form.value = lhs;
-            return Ok(form);
-        }
-        if let Some((blend, x)) = min_max_blend(m, v, r, ra) {
+        let decal = decal_over(m, v, r, ra).map(|lhs| (BlendMode::AlphaBlend, lhs));
+        if let Some((blend, x)) = decal.or_else(|| min_max_blend(m, v, r, ra)) {
             form.blend = blend;
             form.value = x;
             return Ok(form);
