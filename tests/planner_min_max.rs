@@ -178,3 +178,47 @@ fn a_combiner_profile_without_min_max_refuses_with_a_true_help() {
     let sum = source.replace("max(max(L0 δu x, L1 δu x), L2 δu x)", "L0 δu x + L1 δu x + L2 δu x");
     assert!(shadec::driver::compile(&sum, &profile, &Default::default()).is_ok());
 }
+
+/// Light maps kept brightest and darkest by statements that blend what
+/// `C` holds: `C ← L0·L1; C ← max(C, L2); C ← min(L0, C)`.
+const BLENDED_BY_STATEMENTS: &str = "\
+texture L0 : 2d rgb8 bilinear repeat = image(\"examples/lightmap.png\");
+texture L1 : 2d rgb8 bilinear repeat = image(\"examples/decal.png\");
+texture L2 : 2d rgb8 bilinear repeat = image(\"examples/layer.png\");
+C δπx ← L0 δu x * L1 δu x;
+C δπx ← max(C δπx, L2 δu x);
+C δπx ← min(L0 δu x, C δπx);
+";
+
+/// A statement that writes the blend itself, `C ← max(C, f)` (`min`, the
+/// framebuffer's colour either operand), is GL's MAX (MIN) blend equation
+/// of `f` where the blender has it, as a `max` chain split across passes
+/// is. Refused before on every target: "the framebuffer's colour is used
+/// non-linearly" (blending computes `C·m + s`). Each statement its own
+/// pass on geforce256 (`replace`, `max`, `min`: its two units hold no two
+/// of them fused), rendering the program's meaning; refused on
+/// multitexture, which has no MIN/MAX blend equations.
+#[test]
+fn a_statement_writing_max_of_the_framebuffer_plans_as_the_max_blend() {
+    let sc = scene("kilgard_torus.ron");
+    let (program, _) = shadec::parser::check(BLENDED_BY_STATEMENTS);
+    let (written, _) = shadec::ir::lower(&program);
+    let meaning = shadec::meaning::plan(&written, sc.lights.len()).unwrap();
+    for target in ["geforce256", "geforce3", "wgsl"] {
+        let planned = compile(BLENDED_BY_STATEMENTS, target).unwrap_or_else(|e| panic!("{target}: {e:#?}"));
+        let profile = Profile::builtin(target).unwrap();
+        crate::differential::validate_plan(&planned, &profile).unwrap_or_else(|e| panic!("{target}: {e}"));
+        assert!(planned.plan.approximations.is_empty(), "{target}: exact");
+        let e = compare(
+            &f32_render(&meaning, BLENDED_BY_STATEMENTS, &sc),
+            &f32_render(&planned, BLENDED_BY_STATEMENTS, &sc),
+        );
+        assert!(e.max_abs <= 2.0 / 255.0, "{target}: {:.1}/255 from the meaning", e.max_abs * 255.0);
+    }
+    assert_eq!(blends(BLENDED_BY_STATEMENTS, "geforce256"), ["replace", "max", "min"]);
+    let planned = compile(BLENDED_BY_STATEMENTS, "geforce256").unwrap();
+    let equations: Vec<_> = planned.plan.passes.iter().map(|p| p.state.blend.equation).collect();
+    use shadec::pipeline::BlendEquation as E;
+    assert_eq!(equations[1..], [E::Max, E::Min]);
+    assert!(compile(BLENDED_BY_STATEMENTS, "multitexture").is_err(), "no MIN/MAX blend equations");
+}

@@ -43,7 +43,127 @@ use crate::pipeline::BlendMode;
 /// with must be in [0, 1] too, unless it is one of `clamped_temps`, which
 /// hold `saturate(x)` as `x` clamped by the store. A float target clamps
 /// nothing.
+///
+/// Every blend equation works channel by channel (OpenGL 1.2.1 §4.1.6),
+/// and so do the clamps, so `h` is tracked per channel from each value's
+/// channel ranges ([`crate::ir::ExprInfo::channels`]): coloured terms added
+/// one pass each — `0.4·δl₀ + 0.4·δl₁` with light 0 red and light 1
+/// green, `0.36 + 0.12` in red, `0.16 + 0.36` in green — are bounded by
+/// their sum in each channel, where the hulls (0.36 + 0.36 in every
+/// channel) may pass 1 when the terms never do. A channel a value does not
+/// have (an rgb value's alpha) is left as it was: which pass writes alpha
+/// is the split's (the first, with the value's alpha 1), and an rgb
+/// temporary is read back as rgb. The planner's first search of a
+/// statement keeps one range for all channels, their hull, as before the
+/// channels were followed; a statement it refuses at the clamps is
+/// searched again channel by channel (`Storage::by_channel`).
 pub fn exact_through_clamps(
+    module: &Module,
+    pieces: &[Piece],
+    storage: Storage,
+    clamped_temps: &FxHashSet<u32>,
+) -> bool {
+    if !storage.by_channel {
+        return exact_through_hulls(module, pieces, storage, clamped_temps);
+    }
+    let mut held: HashMap<Dest, Lanes> = HashMap::default();
+    for p in pieces {
+        if !storage.clamps(p.dest) {
+            continue;
+        }
+        let info = module.info(p.value);
+        let own = info.channels.map(|c| meet(c, info.interval));
+        let read = read_range(module, p.value, &held, storage);
+        let b = held.get(&p.dest).copied().unwrap_or([Interval::UNSIGNED; 4]);
+        let mut after = b;
+        for i in 0..lanes(info.ty) {
+            let v = read.map_or(own[i], |r| meet(own[i], r[i]));
+            let Some(a) = exact_blend(p.blend, b[i], v, storage.subtract) else { return false };
+            after[i] = p.holds.map_or(a, |h| meet(a, h));
+        }
+        held.insert(p.dest, after);
+    }
+    held.iter().all(|(d, l)| match d {
+        Dest::Main => true,
+        Dest::Temp(t) => clamped_temps.contains(t) || l.iter().all(|i| i.lo >= 0.0 && i.hi <= 1.0),
+    })
+}
+
+/// The range of each channel (red, green, blue, alpha) of what a target
+/// holds or a value is.
+type Lanes = [Interval; 4];
+
+/// The channels a value of type `ty` writes: a scalar splats into all four.
+fn lanes(ty: Ty) -> usize {
+    match ty.width() {
+        1 => 4,
+        w => w.min(4),
+    }
+}
+
+/// The intersection of two ranges of one value (each a bound of it).
+fn meet(a: Interval, b: Interval) -> Interval {
+    Interval { lo: a.lo.max(b.lo), hi: a.hi.min(b.hi) }
+}
+
+/// The range of a temporary's read-back (`temp{id}` looked up, its rgb
+/// or a channel, scaled by a constant, widened, saturated) from what the
+/// split's earlier pieces left in it, channel by channel, where that is
+/// tighter than a texture's [0, 1]: a product halved into a temporary
+/// (`½·E·F·G`) holds at most ½, so what it is added to may hold ½ more
+/// and stay in [0, 1] (`C ← C·(A·B·D + E·F·G)` on a 2-unit target: the sum
+/// halved into one temporary, its second product through another). `None`
+/// for any other value.
+fn read_range(
+    module: &Module,
+    v: Handle<Expr>,
+    held: &HashMap<Dest, Lanes>,
+    storage: Storage,
+) -> Option<Lanes> {
+    match &module.exprs[v] {
+        Expr::Lookup { texture, .. } => {
+            let name = &module.textures.get(*texture as usize)?.name;
+            let id: u32 = name.strip_prefix("temp")?.parse().ok()?;
+            let dest = Dest::Temp(id);
+            let h = *held.get(&dest)?;
+            Some(if storage.clamps(dest) { h.map(|i| meet(i, Interval::UNSIGNED)) } else { h })
+        }
+        Expr::Swizzle { value, pattern, len, .. } => {
+            let r = read_range(module, *value, held, storage)?;
+            let lane = |i: usize| r[usize::from(pattern[i]).min(3)];
+            // One channel read splats into all four, as a scalar does.
+            Some(std::array::from_fn(|i| if *len == 1 { lane(0) } else { lane(i) }))
+        }
+        Expr::Convert { value, to: Ty::Rgba } => {
+            let r = read_range(module, *value, held, storage)?;
+            // An rgb value widened: alpha 1. Otherwise each channel may be 1.
+            Some(match module.info(*value).ty {
+                Ty::Rgb | Ty::Vec3 => [r[0], r[1], r[2], Interval::point(1.0)],
+                _ => r.map(|i| Interval { lo: i.lo.min(1.0), hi: i.hi.max(1.0) }),
+            })
+        }
+        Expr::Math { fun: crate::ir::MathFunction::Saturate, args } => {
+            let r = read_range(module, args[0], held, storage)?;
+            Some(r.map(|i| Interval { lo: i.lo.clamp(0.0, 1.0), hi: i.hi.clamp(0.0, 1.0) }))
+        }
+        Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => {
+            let constant = |h: Handle<Expr>| matches!(module.exprs[h], Expr::Constant(_));
+            let (k, x) = if constant(*lhs) { (*lhs, *rhs) } else { (*rhs, *lhs) };
+            if !constant(k) {
+                return None;
+            }
+            let r = read_range(module, x, held, storage)?;
+            let kc = module.info(k).channels;
+            Some(std::array::from_fn(|i| crate::ir::valid::mul(kc[i], r[i])))
+        }
+        _ => None,
+    }
+}
+
+/// [`exact_through_clamps`] with one range for all four channels of
+/// each value, their hull: the planner's first search, which every plan
+/// before the channels were followed came from.
+fn exact_through_hulls(
     module: &Module,
     pieces: &[Piece],
     storage: Storage,
@@ -54,7 +174,7 @@ pub fn exact_through_clamps(
         if !storage.clamps(p.dest) {
             continue;
         }
-        let v = read_range(module, p.value, &held, storage).map_or(module.info(p.value).interval, |r| {
+        let v = read_hull(module, p.value, &held, storage).map_or(module.info(p.value).interval, |r| {
             let own = module.info(p.value).interval;
             Interval { lo: own.lo.max(r.lo), hi: own.hi.min(r.hi) }
         });
@@ -80,7 +200,7 @@ pub fn exact_through_clamps(
 /// (`C ← C·(A·B·D + E·F·G)` on a 2-unit target: the sum halved into one
 /// temporary, its second product through another). `None` for any other
 /// value.
-fn read_range(
+fn read_hull(
     module: &Module,
     v: Handle<Expr>,
     held: &HashMap<Dest, Interval>,
@@ -94,13 +214,13 @@ fn read_range(
             let h = *held.get(&dest)?;
             Some(if storage.clamps(dest) { Interval { lo: h.lo.max(0.0), hi: h.hi.min(1.0) } } else { h })
         }
-        Expr::Swizzle { value, .. } => read_range(module, *value, held, storage),
+        Expr::Swizzle { value, .. } => read_hull(module, *value, held, storage),
         Expr::Convert { value, to: Ty::Rgba } => {
-            let r = read_range(module, *value, held, storage)?;
+            let r = read_hull(module, *value, held, storage)?;
             Some(Interval { lo: r.lo.min(1.0), hi: r.hi.max(1.0) })
         }
         Expr::Math { fun: crate::ir::MathFunction::Saturate, args } => {
-            let r = read_range(module, args[0], held, storage)?;
+            let r = read_hull(module, args[0], held, storage)?;
             Some(Interval { lo: r.lo.clamp(0.0, 1.0), hi: r.hi.clamp(0.0, 1.0) })
         }
         Expr::Binary { op: BinaryOp::Mul, lhs, rhs } => {
@@ -109,7 +229,7 @@ fn read_range(
             if !constant(k) {
                 return None;
             }
-            let r = read_range(module, x, held, storage)?;
+            let r = read_hull(module, x, held, storage)?;
             Some(crate::ir::valid::mul(module.info(k).interval, r))
         }
         _ => None,

@@ -79,7 +79,12 @@ fn through_a_copy(m: &mut Module, st: &Statement) -> Option<(Statement, Statemen
             matches!(m.exprs[*h], Expr::FramebufferRead { framebuffer, channel: FbChannel::Color | FbChannel::Alpha, .. } if framebuffer == id)
         })
         .collect();
-    if own.is_empty() || form::classify(m, st, st.value).is_ok() {
+    // A `max`/`min` of its own colour is a blend only where the blender
+    // has the MIN/MAX equations, which this pass does not know: it reads
+    // the copy, as before there was that blend, on every target.
+    let blended = form::classify(m, st, st.value)
+        .is_ok_and(|f| !matches!(f.blend, crate::pipeline::BlendMode::Max | crate::pipeline::BlendMode::Min));
+    if own.is_empty() || blended {
         return None;
     }
     let copy_id = add_copy_framebuffer(m, id);

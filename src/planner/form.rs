@@ -311,9 +311,10 @@ pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<F
         return Err(unsupported("an alpha write that reads the framebuffer").with_help(ALPHA_HELP));
     }
     if let Some(r) = r.filter(|r| split::depends_on(m, v, *r)) {
-        if let Some(lhs) = decal_over(m, v, r, ra) {
-            form.blend = BlendMode::AlphaBlend;
-            form.value = lhs;
+        let decal = decal_over(m, v, r, ra).map(|lhs| (BlendMode::AlphaBlend, lhs));
+        if let Some((blend, x)) = decal.or_else(|| min_max_blend(m, v, r, ra)) {
+            form.blend = blend;
+            form.value = x;
             return Ok(form);
         }
         let (coef, offset) =
@@ -375,6 +376,43 @@ pub fn classify(m: &mut Module, st: &Statement, value: Handle<Expr>) -> Result<F
             .with_help("give the alpha you mean: `rgba((α C δπx) * c, α C δπx)` keeps the alpha (one blend by destination alpha), or write the colour and the alpha in two statements")),
         None => Err(unsupported("the framebuffer's alpha is used other than as a factor")),
     }
+}
+
+/// `max(C, f)` (`min(C, f)`, `max(C, f, g)`: a chain with the
+/// framebuffer's colour `r` one operand) with the others not reading the
+/// framebuffer: GL's MAX (MIN) blend equation of the others' `max`
+/// (EXT_blend_minmax; WebGPU's `max` operation), `C ← max(C, f)` with the
+/// factors ignored — not affine in `C`, so no `C·m + s` blend computes it.
+/// The blend and `f`; the planner refuses it where the target's blender
+/// lacks the equation (`Storage::min_max`).
+fn min_max_blend(
+    m: &mut Module,
+    v: Handle<Expr>,
+    r: Handle<Expr>,
+    ra: Option<Handle<Expr>>,
+) -> Option<(BlendMode, Handle<Expr>)> {
+    let (fun, blend) = match &m.exprs[v] {
+        Expr::Math { fun: ir::MathFunction::Max, args } if args.len() == 2 => {
+            (ir::MathFunction::Max, BlendMode::Max)
+        }
+        Expr::Math { fun: ir::MathFunction::Min, args } if args.len() == 2 => {
+            (ir::MathFunction::Min, BlendMode::Min)
+        }
+        _ => return None,
+    };
+    let link = |e: &Expr| matches!(e, Expr::Math { fun: f, args } if *f == fun && args.len() == 2);
+    let mut ops = m.chain_operands(v, link);
+    let at = ops.iter().position(|&o| o == r)?;
+    ops.remove(at);
+    let reads = |x: Handle<Expr>| ops.iter().any(|&o| split::depends_on(m, o, x));
+    if ops.is_empty() || reads(r) || ra.is_some_and(reads) {
+        return None;
+    }
+    let mut acc = ops[0];
+    for &o in &ops[1..] {
+        acc = Builder { module: m }.node(Expr::Math { fun, args: vec![acc, o] })?;
+    }
+    (m.info(acc).ty == m.info(v).ty).then_some((blend, acc))
 }
 
 /// `rgba(α·x, α)` or `rgba(α·x, α·y)` with α the destination alpha `ra`:
@@ -543,6 +581,7 @@ pub(super) fn storage_of(profile: &Profile) -> Storage {
         float_main: false,
         subtract: profile.blend_modes.iter().any(|b| b == "subtract"),
         min_max: ["min", "max"].iter().all(|m| profile.blend_modes.iter().any(|b| b == m)),
+        by_channel: false,
     }
 }
 
@@ -568,10 +607,50 @@ pub(super) fn plan_form(
     if form.channels == "stencil" {
         return stencil_pieces(m, form);
     }
+    if matches!(form.blend, BlendMode::Max | BlendMode::Min) && !storage.min_max {
+        return Err(Overflow {
+            resource: "has no MIN/MAX blend equations (EXT_blend_minmax), which `max(C, f)` and `min(C, f)` \
+                       of the framebuffer's colour need"
+                .into(),
+            need: 0,
+            have: 0,
+            at: None,
+            help: None,
+        });
+    }
     let storage = Storage { float_main: storage.float_temps && float_framebuffer(m, st), ..storage };
     if let Some(one) = gl_clamped_pass(m, fit, form, storage) {
         return Ok(one);
     }
+    let refusals = cache.clamp_refusals;
+    match split_form(m, fit, cache, st, form, storage, search) {
+        // Every blend equation and clamp works channel by channel (OpenGL
+        // 1.2.1 §4.1.6): where the hulls refused the splits at the clamps,
+        // the search again with each channel's range (a sum of coloured
+        // lights halved into a temporary, its red and green bounded
+        // apart). A second search, not the first: the plans that the
+        // first finds stay what they were, and its results are not mixed
+        // with the second's (the memo is forgotten before and after).
+        Err(o) if cache.clamp_refusals > refusals && !storage.by_channel => {
+            cache.forget_plans();
+            let again = split_form(m, fit, cache, st, form, Storage { by_channel: true, ..storage }, search);
+            cache.forget_plans();
+            again.map_err(|_| o)
+        }
+        r => r,
+    }
+}
+
+/// [`plan_form`]'s search for a split of `form` with `storage`'s clamps.
+fn split_form(
+    m: &mut Module,
+    fit: &dyn FitCheck,
+    cache: &mut SplitCache,
+    st: &Statement,
+    form: &Form,
+    storage: Storage,
+    search: Search,
+) -> Result<Vec<Piece>, Overflow> {
     let overflow = fit.fits(m, form.value).err();
     let clamp_refusals = cache.clamp_refusals;
     let mut splitter = Splitter::new(m, fit, cache, st.index, storage);

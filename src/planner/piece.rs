@@ -80,6 +80,11 @@ pub struct Storage {
     /// source (`C ← max(C, s)`, `C ← min(C, s)`: GL_MAX and GL_MIN,
     /// EXT_blend_minmax): a `max` or `min` chain splits across passes.
     pub min_max: bool,
+    /// The clamps between passes are followed channel by channel
+    /// ([`super::split::exact_through_clamps`]): the planner's second
+    /// search of a statement whose splits its first, on the channels'
+    /// hull, refused at the clamps.
+    pub by_channel: bool,
 }
 
 impl Storage {

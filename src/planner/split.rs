@@ -104,6 +104,14 @@ pub struct SplitCache {
     pub statement_began: usize,
 }
 
+impl SplitCache {
+    /// Forgets the plans found (the memo), keeping the temporaries named:
+    /// a search under other rules for the clamps starts afresh.
+    pub(super) fn forget_plans(&mut self) {
+        self.memo.clear();
+    }
+}
+
 /// The most candidate passes the search for one statement (or one group of
 /// statements fused) checks against the target, over all its forms.
 ///
