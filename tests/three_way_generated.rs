@@ -103,6 +103,12 @@ impl Function {
     }
 
     fn text(&self, x: &str, y: &str, s: &str) -> String {
+        // `max`, `min` and `clamp` take operands of one type: a 16-bit
+        // texture's lookup is rgba, the others' rgb.
+        let (x, y) = match self {
+            Function::Max | Function::Min | Function::Clamp => (format!("({x}).rgb"), format!("({y}).rgb")),
+            _ => (x.to_string(), y.to_string()),
+        };
         match self {
             Function::Max => format!("max({x}, {y})"),
             Function::Min => format!("min({x}, {y})"),
@@ -759,15 +765,14 @@ fn generated_programs_with_functions_of_moving_values_agree() {
         std::env::var("SHADEC_THREE_WAY_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(FUNCTION_CASES);
     let config = Config { cases, failure_persistence: None, ..Config::default() };
     let mut runner = TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &seed));
-    let strategy = (program_drawing(true), function(), colour_drawing(true), scalar()).prop_map(
-        |(mut p, f, y, s)| {
+    let strategy =
+        (program_drawing(true), function(), colour_drawing(true), scalar()).prop_map(|(mut p, f, y, s)| {
             for t in &mut p.textures {
                 t.mipmap = true;
             }
             p.first = Colour::Function(f, Box::new(p.first), Box::new(y), s);
             p
-        },
-    );
+        });
     let reached = std::cell::RefCell::new([0usize; 8]);
     let taken = std::cell::RefCell::new(std::collections::BTreeMap::<&str, usize>::new());
     let result = runner.run(&strategy, |p| {
@@ -1097,4 +1102,24 @@ fn generated_programs_with_normal_maps_and_clipped_triangles_agree() {
         panic!("{e}");
     }
     enough_compared_in_run("generated programs with normal maps and clipped triangles");
+}
+
+/// Found by the generated programs of functions (a random seed): a
+/// statement computed per vertex on geforce3 (`exp`, which no combiner
+/// computes), then the colour doubled by a texture — the blender's 2×
+/// modulate (GL_DST_COLOR, GL_SRC_COLOR) of the texture halved. The CPU
+/// and the reference agree within 2/255; wgpu differs from both on about
+/// 46 % of the torus's pixels, by up to 241/255, and is the odd one out.
+/// With a plain modulate, or the first statement per fragment, the three
+/// agree; geforce256 agrees too. Not yet explained.
+#[test]
+#[ignore = "wgpu is the odd one out on geforce3 (a 2× modulate after a per-vertex pass); not yet fixed"]
+fn a_doubled_modulation_after_a_per_vertex_pass_agrees_on_geforce3() {
+    let source = "vector N : normal;\nvector L0 : light(0);\nconst kd : rgb = (0.8, 0.6, 0.4);\n\
+        shader g(k: scalar = 0.7) : s → c = k * kd * max(0, N·L0);\n\
+        texture T0 : 2d rgb8 bilinear repeat = image(\"missing-0.png\");\n\
+        framebuffer C : rgba8, depth;\nC δπx ← exp(-1 * (δ g s x));\nC δπx ← (C δπx) * (2 * (T0 δu x));\n";
+    let gpu = crate::common::gpu::gpu();
+    let p = render_three(source, "geforce3", &scene(SCENES[0]), Precision::Fixed9, gpu.as_ref()).unwrap();
+    fixed9_agreement(&p, &mut 0).unwrap();
 }
