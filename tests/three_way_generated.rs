@@ -1123,3 +1123,21 @@ fn a_doubled_modulation_after_a_per_vertex_pass_agrees_on_geforce3() {
     let p = render_three(source, "geforce3", &scene(SCENES[0]), Precision::Fixed9, gpu.as_ref()).unwrap();
     fixed9_agreement(&p, &mut 0).unwrap();
 }
+
+/// Found by the generated programs of functions (drawing `smoothstep`
+/// between moving edges, which changed the fixed seed's sample): on wgsl,
+/// in f32, a uniform replacing a lookup's `exp` (`I ⊕[replace] exp(−T)`,
+/// the colour `I` and the alpha `exp(−T.a)`) under `cos`. The CPU and the
+/// reference agree exactly; wgpu differs from both by up to 70/255 on
+/// every pixel. Without the `exp` the three agree. Not yet explained.
+#[test]
+#[ignore = "wgpu is the odd one out on wgsl (cos of a replace over exp); not yet fixed"]
+fn a_replace_over_an_exponential_under_a_cosine_agrees_on_wgsl() {
+    let source = "uniform I : rgb = (0.9, 0.9, 0.8);\n\
+        texture T0 : 2d rgba16 mipmap repeat = image(\"missing-0.png\");\n\
+        framebuffer C : rgba8, depth;\n\
+        C δπx ← 0.5 + 0.5 * cos(5 * ((I) ⊕[replace] (exp(-1 * ((T0 δu x))))));\n";
+    let gpu = crate::common::gpu::gpu();
+    let p = render_three(source, "wgsl", &scene(SCENES[0]), Precision::F32, gpu.as_ref()).unwrap();
+    agreement(&p).unwrap();
+}
