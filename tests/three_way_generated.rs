@@ -56,6 +56,85 @@ enum Colour {
     Lerp(&'static str, Box<Colour>, Box<Colour>, Scalar),
     Combine(&'static str, Box<Colour>, Box<Colour>),
     Saturate(Box<Colour>),
+    /// A function of one or two moving values ([`Function`]; drawn by
+    /// [`colour_drawing`] with functions only): the first colour its
+    /// argument, the second the other value of `max`/`min` or the ends of
+    /// `clamp`, the scalar a moving exponent.
+    Function(Function, Box<Colour>, Box<Colour>, Scalar),
+}
+
+/// The functions realistic programs take of minified lookups, each
+/// written so its value stays in [0, 1] and its argument where the
+/// function is defined: Blinn 1977's `max` of two terms, `min`, a clamp
+/// between moving ends, exponential fog `exp(−k·x)`, a tone curve
+/// `½·ln(1 + k·x)`, ripples `½ + ½·sin(k·x)` and `cos`, `smoothstep`
+/// between constant edges, and a gloss map's moving exponent
+/// `(0.2 + 0.8·x)^(1 + 4·s)`.
+#[derive(Clone, Debug)]
+enum Function {
+    Max,
+    Min,
+    Clamp,
+    Exp(u8),
+    Log(u8),
+    Sin(u8),
+    Cos(u8),
+    /// The edges in tenths.
+    Smoothstep(u8, u8),
+    Pow,
+}
+
+/// The names [`Function`]s are counted by.
+const FUNCTIONS: &[&str] = &["max", "min", "clamp", "exp", "log", "sin", "cos", "smoothstep", "pow"];
+
+impl Function {
+    fn name(&self) -> &'static str {
+        match self {
+            Function::Max => "max",
+            Function::Min => "min",
+            Function::Clamp => "clamp",
+            Function::Exp(_) => "exp",
+            Function::Log(_) => "log",
+            Function::Sin(_) => "sin",
+            Function::Cos(_) => "cos",
+            Function::Smoothstep(..) => "smoothstep",
+            Function::Pow => "pow",
+        }
+    }
+
+    fn text(&self, x: &str, y: &str, s: &str) -> String {
+        // `max`, `min` and `clamp` take operands of one type: a 16-bit
+        // texture's lookup is rgba, the others' rgb.
+        let (x, y) = match self {
+            Function::Max | Function::Min | Function::Clamp => (format!("({x}).rgb"), format!("({y}).rgb")),
+            _ => (x.to_string(), y.to_string()),
+        };
+        match self {
+            Function::Max => format!("max({x}, {y})"),
+            Function::Min => format!("min({x}, {y})"),
+            Function::Clamp => format!("clamp({x}, 0.5 * ({y}), 0.5 * ({y}) + 0.3)"),
+            Function::Exp(k) => format!("exp(-{k} * ({x}))"),
+            Function::Log(k) => format!("0.5 * log(1 + {k} * saturate({x}))"),
+            Function::Sin(k) => format!("0.5 + 0.5 * sin({k} * ({x}))"),
+            Function::Cos(k) => format!("0.5 + 0.5 * cos({k} * ({x}))"),
+            Function::Smoothstep(e0, e1) => format!("smoothstep(0.{e0}, 0.{e1}, {x})"),
+            Function::Pow => format!("(0.2 + 0.8 * saturate({x}))^(1 + 4 * {s})"),
+        }
+    }
+}
+
+fn function() -> impl Strategy<Value = Function> {
+    prop_oneof![
+        Just(Function::Max),
+        Just(Function::Min),
+        Just(Function::Clamp),
+        (1u8..=3).prop_map(Function::Exp),
+        (1u8..=4).prop_map(Function::Log),
+        (2u8..=6).prop_map(Function::Sin),
+        (2u8..=6).prop_map(Function::Cos),
+        (0u8..=4, 5u8..=9).prop_map(|(e0, e1)| Function::Smoothstep(e0, e1)),
+        Just(Function::Pow),
+    ]
 }
 
 #[derive(Clone, Debug)]
@@ -89,6 +168,13 @@ fn scalar() -> impl Strategy<Value = Scalar> {
 }
 
 fn colour() -> impl Strategy<Value = Colour> {
+    colour_drawing(false)
+}
+
+/// [`colour`], and with `functions` the [`Function`]s of moving values
+/// besides (a strategy apart, so that the fixed seeds of the runs without
+/// them draw what they drew before).
+fn colour_drawing(functions: bool) -> BoxedStrategy<Colour> {
     let leaf = prop_oneof![
         5 => (0..N_TEXTURES).prop_map(Colour::Texture),
         1 => Just(Colour::Cookie),
@@ -99,7 +185,10 @@ fn colour() -> impl Strategy<Value = Colour> {
         1 => Just(Colour::TwoLightsPerVertex),
         1 => Just(Colour::Let),
     ];
-    leaf.prop_recursive(3, 10, 3, |inner| {
+    leaf.prop_recursive(3, 10, 3, move |inner| {
+        if functions {
+            return with_functions(inner);
+        }
         let b = |c| Box::new(c);
         prop_oneof![
             3 => (scalar(), inner.clone()).prop_map(move |(s, c)| Colour::Scaled(s, b(c))),
@@ -111,7 +200,27 @@ fn colour() -> impl Strategy<Value = Colour> {
             2 => (prop::sample::select(MODES), inner.clone(), inner.clone()).prop_map(move |(m, x, y)| Colour::Combine(m, b(x), b(y))),
             1 => inner.prop_map(move |c| Colour::Saturate(b(c))),
         ]
+        .boxed()
     })
+    .boxed()
+}
+
+/// The recursive step of [`colour_drawing`] with [`Function`]s.
+fn with_functions(inner: BoxedStrategy<Colour>) -> BoxedStrategy<Colour> {
+    let b = |c| Box::new(c);
+    prop_oneof![
+            3 => (scalar(), inner.clone()).prop_map(move |(s, c)| Colour::Scaled(s, b(c))),
+            3 => (inner.clone(), inner.clone()).prop_map(move |(x, y)| Colour::Mul(b(x), b(y))),
+            1 => (inner.clone(), inner.clone(), inner.clone()).prop_map(move |(x, y, z)| Colour::MulSum(b(x), b(y), b(z))),
+            1 => (inner.clone(), inner.clone()).prop_map(move |(x, y)| Colour::Add(b(x), b(y))),
+            1 => (prop_oneof![Just("lerp"), Just("mix")], inner.clone(), inner.clone(), scalar())
+                .prop_map(move |(f, x, y, t)| Colour::Lerp(f, b(x), b(y), t)),
+            2 => (prop::sample::select(MODES), inner.clone(), inner.clone()).prop_map(move |(m, x, y)| Colour::Combine(m, b(x), b(y))),
+            3 => (function(), inner.clone(), inner.clone(), scalar())
+                .prop_map(move |(f, x, y, s)| Colour::Function(f, b(x), b(y), s)),
+            1 => inner.prop_map(move |c| Colour::Saturate(b(c))),
+    ]
+    .boxed()
 }
 
 #[derive(Clone, Debug)]
@@ -141,6 +250,12 @@ fn texture() -> impl Strategy<Value = Texture> {
 }
 
 pub(crate) fn program() -> impl Strategy<Value = Program> {
+    program_drawing(false)
+}
+
+/// [`program`], its colours drawn by [`colour_drawing`].
+fn program_drawing(functions: bool) -> impl Strategy<Value = Program> {
+    let colour = move || colour_drawing(functions);
     (
         prop::collection::vec(texture(), N_TEXTURES),
         colour(),
@@ -194,6 +309,7 @@ impl Colour {
             Colour::Lerp(f, a, b, t) => format!("{f}({}, {}, {})", a.text(p), b.text(p), t.text(p)),
             Colour::Combine(m, a, b) => format!("({}) ⊕[{m}] ({})", a.text(p), b.text(p)),
             Colour::Saturate(c) => format!("saturate({})", c.text(p)),
+            Colour::Function(f, x, y, s) => f.text(&x.text(p), &y.text(p), &s.text(p)),
         }
     }
 
@@ -201,9 +317,11 @@ impl Colour {
         match self {
             Colour::Let => true,
             Colour::Scaled(_, c) | Colour::Saturate(c) => c.uses_let(),
-            Colour::Mul(a, b) | Colour::Add(a, b) | Colour::Lerp(_, a, b, _) | Colour::Combine(_, a, b) => {
-                a.uses_let() || b.uses_let()
-            }
+            Colour::Mul(a, b)
+            | Colour::Add(a, b)
+            | Colour::Lerp(_, a, b, _)
+            | Colour::Combine(_, a, b)
+            | Colour::Function(_, a, b, _) => a.uses_let() || b.uses_let(),
             Colour::MulSum(a, b, c) => a.uses_let() || b.uses_let() || c.uses_let(),
             _ => false,
         }
@@ -242,7 +360,8 @@ impl Colour {
                 Colour::Mul(a, b)
                 | Colour::Add(a, b)
                 | Colour::Lerp(_, a, b, _)
-                | Colour::Combine(_, a, b) => a.any(f) || b.any(f),
+                | Colour::Combine(_, a, b)
+                | Colour::Function(_, a, b, _) => a.any(f) || b.any(f),
                 Colour::MulSum(a, b, c) => a.any(f) || b.any(f) || c.any(f),
                 _ => false,
             }
@@ -343,8 +462,10 @@ impl Program {
 
 thread_local! {
     /// This thread's generated renders: (renders, thin ones, pixels
-    /// compared, pixels in the frames).
-    static TALLY: std::cell::Cell<(usize, usize, usize, usize)> = const { std::cell::Cell::new((0, 0, 0, 0)) };
+    /// compared, pixels in the frames, pixels compared against a range
+    /// wider than `three_way::LOD_RANGE`).
+    static TALLY: std::cell::Cell<(usize, usize, usize, usize, usize)> =
+        const { std::cell::Cell::new((0, 0, 0, 0, 0)) };
 }
 
 /// Counts a generated render toward its run's compared fraction; a render
@@ -352,8 +473,9 @@ thread_local! {
 fn tally(p: &Pictures) {
     let thin = usize::from(p.enough_compared().is_err());
     TALLY.with(|t| {
-        let (n, k, c, f) = t.get();
-        t.set((n + 1, k + thin, c + p.compared(), f + p.covered.len()));
+        let (n, k, c, f, w) = t.get();
+        let wide = p.wide.iter().filter(|&&w| w).count();
+        t.set((n + 1, k + thin, c + p.compared(), f + p.covered.len(), w + wide));
     });
 }
 
@@ -361,9 +483,13 @@ fn tally(p: &Pictures) {
 /// all its frames together, and no more than a tenth of its renders thin
 /// (a small scene, or a minified lookup whose λ range a product widens).
 fn enough_compared_in_run(what: &str) {
-    let (n, thin, compared, frames) = TALLY.with(|t| t.replace((0, 0, 0, 0)));
+    let (n, thin, compared, frames, wide) = TALLY.with(|t| t.replace((0, 0, 0, 0, 0)));
     let fraction = compared as f64 / frames.max(1) as f64;
-    eprintln!("{what}: {n} renders, {thin} thin, {:.1} % of their frames compared", 100.0 * fraction);
+    eprintln!(
+        "{what}: {n} renders, {thin} thin, {:.1} % of their frames compared ({wide} pixels against a wide \
+         range)",
+        100.0 * fraction
+    );
     assert!(
         fraction >= crate::three_way::MIN_COMPARED,
         "{what}: {:.1} % of the frames compared",
@@ -599,6 +725,79 @@ fn generated_programs_agree_on_three_executors() {
     enough_compared_in_run("generated programs");
     // The sample reaches the combiner targets, not only wgsl.
     assert!(r[1] > 0 && r[2] > 0, "no generated program planned on a combiner target: {r:?}");
+}
+
+/// How many programs of functions of moving values CI runs from its seed.
+const FUNCTION_CASES: u32 = 48;
+/// The fewest programs of each of [`FUNCTIONS`] the fixed seed's sample
+/// must have agree.
+const MIN_PER_FUNCTION: usize = 3;
+
+impl Program {
+    /// Which of [`FUNCTIONS`] this program's statements take.
+    fn functions(&self) -> Vec<&'static str> {
+        let colours: Vec<&Colour> =
+            [Some(&self.first), self.more.as_ref().map(|m| &m.1)].into_iter().flatten().collect();
+        let takes = |name: &str| {
+            let f = |c: &Colour| matches!(c, Colour::Function(f, ..) if f.name() == name);
+            colours.iter().any(|c| c.any(&f) || (c.uses_let() && self.binding.any(&f)))
+        };
+        FUNCTIONS.iter().copied().filter(|name| takes(name)).collect()
+    }
+}
+
+/// Generated programs whose colours take [`Function`]s of moving values —
+/// `max`, `min` and `clamp` of two generated colours, `exp`, `log`, `sin`,
+/// `cos`, `smoothstep` and a power to a generated scalar — every texture
+/// mipmapped, so that the lookups under them move with λ and the
+/// reference bounds them by its level-of-detail hull (`oracle/hull/`):
+/// the three executors agree, wgsl in f32 and the combiner targets in
+/// fixed9 where they plan. Each program's first statement is such a
+/// function at its root; more are drawn inside.
+/// `SHADEC_THREE_WAY_CASES` and `SHADEC_THREE_WAY_RANDOM` apply here too.
+#[test]
+fn generated_programs_with_functions_of_moving_values_agree() {
+    let gpu = crate::common::gpu::gpu();
+    let random = std::env::var("SHADEC_THREE_WAY_RANDOM").is_ok_and(|v| v == "1");
+    let seed: [u8; 32] = if random { rand_seed() } else { [17; 32] };
+    eprintln!("three-way seed (functions of moving values): {seed:?}");
+    let cases =
+        std::env::var("SHADEC_THREE_WAY_CASES").ok().and_then(|v| v.parse().ok()).unwrap_or(FUNCTION_CASES);
+    let config = Config { cases, failure_persistence: None, ..Config::default() };
+    let mut runner = TestRunner::new_with_rng(config, TestRng::from_seed(RngAlgorithm::ChaCha, &seed));
+    let strategy =
+        (program_drawing(true), function(), colour_drawing(true), scalar()).prop_map(|(mut p, f, y, s)| {
+            for t in &mut p.textures {
+                t.mipmap = true;
+            }
+            p.first = Colour::Function(f, Box::new(p.first), Box::new(y), s);
+            p
+        });
+    let reached = std::cell::RefCell::new([0usize; 8]);
+    let taken = std::cell::RefCell::new(std::collections::BTreeMap::<&str, usize>::new());
+    let result = runner.run(&strategy, |p| {
+        check(&p, gpu.as_ref(), &mut reached.borrow_mut()).map_err(TestCaseError::fail)?;
+        for name in p.functions() {
+            *taken.borrow_mut().entry(name).or_default() += 1;
+        }
+        Ok(())
+    });
+    if let Err(e) = result {
+        panic!("{e}");
+    }
+    let (r, taken) = (reached.borrow(), taken.take());
+    eprintln!(
+        "{cases} programs of functions agree: wgsl {}, geforce3 {}, geforce256 {}; by function: {taken:?}",
+        r[0], r[1], r[2]
+    );
+    enough_compared_in_run("generated programs with functions of moving values");
+    assert_eq!(r[0], cases as usize, "every program renders on wgsl");
+    if cases >= FUNCTION_CASES && !random {
+        for name in FUNCTIONS {
+            let n = taken.get(name).copied().unwrap_or(0);
+            assert!(n >= MIN_PER_FUNCTION, "{n} generated programs taking `{name}` agree: {taken:?}");
+        }
+    }
 }
 
 fn rand_seed() -> [u8; 32] {
@@ -903,4 +1102,50 @@ fn generated_programs_with_normal_maps_and_clipped_triangles_agree() {
         panic!("{e}");
     }
     enough_compared_in_run("generated programs with normal maps and clipped triangles");
+}
+
+/// Found by the generated programs of functions (a random seed): a
+/// statement computed per vertex on geforce3 (`exp`, which no combiner
+/// computes: a vertex program), then the colour doubled by a texture —
+/// the blender's 2× modulate (GL_DST_COLOR, GL_SRC_COLOR) of the texture
+/// halved. The CPU and the reference agree within 2/255; wgpu differs
+/// from both on about 46 % of the torus's pixels, by up to 241/255, in a
+/// speckle of pixels showing the first pass's colour alone — most likely
+/// the second pass failing its depth test there, its clip position
+/// computed other than the vertex program's (NV_vertex_program does not make a program's
+/// position invariant with the fixed-function one unless it asks for
+/// `NV_position_invariant`). With a plain modulate, or the first
+/// statement per fragment, the three agree; geforce256 agrees too.
+/// Not yet fixed: whether the plan or wgpu's vertex stages should make
+/// the two positions agree is open.
+#[test]
+#[ignore = "wgpu is the odd one out on geforce3 (a pass after a vertex program's fails its depth test); not yet fixed"]
+fn a_doubled_modulation_after_a_per_vertex_pass_agrees_on_geforce3() {
+    let source = "vector N : normal;\nvector L0 : light(0);\nconst kd : rgb = (0.8, 0.6, 0.4);\n\
+        shader g(k: scalar = 0.7) : s → c = k * kd * max(0, N·L0);\n\
+        texture T0 : 2d rgb8 bilinear repeat = image(\"missing-0.png\");\n\
+        framebuffer C : rgba8, depth;\nC δπx ← exp(-1 * (δ g s x));\nC δπx ← (C δπx) * (2 * (T0 δu x));\n";
+    let gpu = crate::common::gpu::gpu();
+    let p = render_three(source, "geforce3", &scene(SCENES[0]), Precision::Fixed9, gpu.as_ref()).unwrap();
+    fixed9_agreement(&p, &mut 0).unwrap();
+}
+
+/// Found by the generated programs of functions (drawing `smoothstep`
+/// between moving edges, which changed the fixed seed's sample): on wgsl,
+/// in f32, a uniform rgb colour replacing a lookup's `exp`
+/// (`I ⊕[replace] exp(−T)`) under `cos`. GL's `replace` keeps the
+/// fragment's alpha for an RGB texture (Table 3.22), as the CPU and the
+/// reference read the widened `I`; the WGSL backend took the widening's
+/// alpha 1, and wgpu differed from both by 70/255 on every pixel (the
+/// alpha `½ + ½·cos 5` against `½ + ½·cos(5·e^−T.a)`). Fixed in the
+/// backend's `combine`.
+#[test]
+fn a_replace_over_an_exponential_under_a_cosine_agrees_on_wgsl() {
+    let source = "uniform I : rgb = (0.9, 0.9, 0.8);\n\
+        texture T0 : 2d rgba16 mipmap repeat = image(\"missing-0.png\");\n\
+        framebuffer C : rgba8, depth;\n\
+        C δπx ← 0.5 + 0.5 * cos(5 * ((I) ⊕[replace] (exp(-1 * ((T0 δu x))))));\n";
+    let gpu = crate::common::gpu::gpu();
+    let p = render_three(source, "wgsl", &scene(SCENES[0]), Precision::F32, gpu.as_ref()).unwrap();
+    agreement(&p).unwrap();
 }

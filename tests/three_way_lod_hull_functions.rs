@@ -169,3 +169,66 @@ fn normalize_where_the_length_may_reach_zero_is_bounded() {
         assert_eq!(off, 0, "{body}: the {name} outside the interval hull on {off} pixels");
     }
 }
+
+/// A soft threshold at a moving level: `smoothstep` between edges that
+/// move with a lookup, a constant distance apart (the quotient affine in
+/// `x − e₀`) or a moving one (through the span's reciprocal).
+const EDGES: [&str; 2] = [
+    "let a = A δu x;\nC δπx ← smoothstep(0.5 * a, 0.5 * a + 0.4, B δ(3 * (u x)));\n",
+    "let a = A δu x;\nC δπx ← smoothstep(0.3 * a, 0.5 + 0.4 * a, B δ(3 * (u x)));\n",
+];
+/// A gloss map's moving exponent over a base that reaches 0 (a clamped
+/// channel, as `max(0, n·H)` is), less a share of the base.
+const GLOSS_FROM_ZERO: &str = "let h = max(0, 2 * (A δu x).r - 0.6);\n\
+    C δπx ← rgb(1, 1, 1) * 2 * (h^(1 + 4 * (B δ(3 * (u x))).g) - 0.5 * h);\n";
+
+/// `smoothstep` between moving edges is bounded by the hull (it refused,
+/// falling back to the renders of the lookups' extremes): every such
+/// render lies inside it, and the CPU and wgpu agree with it.
+#[test]
+fn smoothstep_between_moving_edges_is_bounded_by_the_hull() {
+    for body in EDGES {
+        let c = compiled(body);
+        let (hull, intervals) = (c.hull(), c.interval_hull());
+        holds_every_extreme(body, &c, &hull);
+        let enumerated = c.enumerated();
+        eprintln!(
+            "{body}: width {:?}, {:.0} in all; intervals {:?}, {:.0}; the renders of the extremes {:?}",
+            widths(&hull),
+            total(&hull),
+            widths(&intervals),
+            total(&intervals),
+            widths(&enumerated)
+        );
+        assert!(total(&hull) > 0.0, "{body}: nothing ranged");
+        let g = crate::common::gpu::gpu();
+        let p = render_three(&format!("{HEAD}{body}"), "wgsl", &c.scene, Precision::F32, g.as_ref()).unwrap();
+        verdict(&p).unwrap();
+    }
+}
+
+/// A power to a moving exponent whose base reaches 0 keeps the base's
+/// symbols (`functions::pow_over_exponents`), where it took the corners
+/// of intervals: every render of the extremes inside, the hull inside the
+/// interval hull and narrower in all.
+#[test]
+fn a_moving_exponent_over_a_base_reaching_zero_keeps_the_base_s_symbols() {
+    let body = GLOSS_FROM_ZERO;
+    let c = compiled(body);
+    let (hull, intervals) = (c.hull(), c.interval_hull());
+    holds_every_extreme(body, &c, &hull);
+    for (name, p) in [("least", &hull.low), ("greatest", &hull.high)] {
+        let off = outside(p, &intervals.low, &intervals.high, &hull.covered, 1e-9);
+        assert_eq!(off, 0, "{body}: the {name} outside the interval hull on {off} pixels");
+    }
+    let (sum, isum) = (total(&hull), total(&intervals));
+    eprintln!(
+        "{body}: width {:?}, {sum:.0} in all; intervals {:?}, {isum:.0}",
+        widths(&hull),
+        widths(&intervals)
+    );
+    assert!(sum < isum, "{body}: {sum:.0} against {isum:.0} on intervals");
+    let g = crate::common::gpu::gpu();
+    let p = render_three(&format!("{HEAD}{body}"), "wgsl", &c.scene, Precision::F32, g.as_ref()).unwrap();
+    verdict(&p).unwrap();
+}

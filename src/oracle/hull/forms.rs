@@ -140,12 +140,18 @@ fn every_lane(width: usize, f: &mut dyn FnMut(usize) -> Option<Affine>) -> Optio
 /// `x^p` lane by lane: where the exponent `p` is one value on the lane,
 /// `functions::pow` over the lane's range `r`; where it moves too and
 /// `x` stays above 0, `exp(p·ln x)` (as GLSL defines `pow`), each
-/// function its line and the product its rest — three fresh symbols.
+/// function its line and the product its rest — three fresh symbols;
+/// where `x` may reach 0 (`max(0, n·H)^gloss`), the power to the
+/// exponent's middle and how far the ends move it
+/// (`functions::pow_over_exponents`).
 pub(super) fn power(x: &Form, p: &Form, r: &[R], width: usize, s: &mut Symbols) -> Option<Form> {
     every_lane(width, &mut |c| {
         let (p, range) = (&p[c], lane(&r[0], c));
         if p.is_constant() {
             return functions::pow(&x[c], range, p.center, s);
+        }
+        if range.0 <= 0.0 {
+            return functions::pow_over_exponents(&x[c], range, within(p, lane(&r[1], c)), s);
         }
         let ln = functions::log(&x[c], range, s)?;
         let ln_range = (range.0.ln(), range.1.ln());
@@ -159,7 +165,13 @@ pub(super) fn power(x: &Form, p: &Form, r: &[R], width: usize, s: &mut Symbols) 
 /// `exp`, `log`, `sin`, `cos` of lane `c`, and `smoothstep` between
 /// edges that are one value on it: `functions.rs`'s lines over the lane's
 /// range.
-fn transcendental(fun: MathFunction, o: &[Form], r: &[R], c: usize, s: &mut Symbols) -> Option<Affine> {
+pub(super) fn transcendental(
+    fun: MathFunction,
+    o: &[Form],
+    r: &[R],
+    c: usize,
+    s: &mut Symbols,
+) -> Option<Affine> {
     let (x, range) = (&o[0][c], lane(&r[0], c));
     match fun {
         MathFunction::Exp => functions::exp(x, range, s),
@@ -168,11 +180,57 @@ fn transcendental(fun: MathFunction, o: &[Form], r: &[R], c: usize, s: &mut Symb
         MathFunction::Cos => functions::cos(x, range, s),
         MathFunction::Smoothstep => {
             let (e0, e1) = (&o[0][c], &o[1][c]);
-            (e0.is_constant() && e1.is_constant()).then_some(())?;
-            functions::smoothstep(&o[2][c], lane(&r[2], c), (e0.center, e1.center), s)
+            if e0.is_constant() && e1.is_constant() {
+                return functions::smoothstep(&o[2][c], lane(&r[2], c), (e0.center, e1.center), s);
+            }
+            let quotient =
+                moving_quotient((&o[2][c], lane(&r[2], c)), (e0, lane(&r[0], c)), (e1, lane(&r[1], c)), s)?;
+            functions::smoothstep(&quotient.0, quotient.1, (0.0, 1.0), s)
         }
         _ => None,
     }
+}
+
+/// The range of form `f` within the interval `i`, or `i` where they do
+/// not meet (rounding).
+fn within(f: &Affine, i: I) -> I {
+    let (lo, hi) = f.range();
+    let r = (lo.max(i.0), hi.min(i.1));
+    if r.0 <= r.1 {
+        r
+    } else {
+        i
+    }
+}
+
+/// `t = (x − e₀)/(e₁ − e₀)` of `smoothstep(e₀, e₁, x)` whose edges move
+/// (each with its range), and its range: the numerator and the span on
+/// forms, so what `x` and the edges share cancels (edges a constant
+/// distance apart make `t` affine in `x − e₀`, exactly); a moving span
+/// through its reciprocal's Chebyshev line (`x^−1`) and a product.
+/// `None` unless the span stays above 0 (GLSL leaves the result
+/// undefined where the edges meet or cross).
+fn moving_quotient(
+    x: (&Affine, I),
+    e0: (&Affine, I),
+    e1: (&Affine, I),
+    s: &mut Symbols,
+) -> Option<(Affine, I)> {
+    let span = e1.0.sub(e0.0);
+    let span_range = within(&span, interval::sub(e1.1, e0.1));
+    if !(span_range.0 > 0.0 && span_range.1.is_finite()) {
+        return None;
+    }
+    let d = x.0.sub(e0.0);
+    let d_range = within(&d, interval::sub(x.1, e0.1));
+    let t = if span.is_constant() {
+        d.scale(span.center.recip(), 0.0)
+    } else {
+        let inverse = functions::pow(&span, span_range, -1.0, s)?;
+        d.mul(&inverse, s.fresh())
+    };
+    let range = within(&t, interval::div(d_range, span_range));
+    Some((t, range))
 }
 
 /// `max(x, y)` (`low`) or `min(x, y)` of two values that both move, the

@@ -94,6 +94,40 @@ pub fn pow(x: &Affine, range: I, p: f64, s: &mut Symbols) -> Option<Affine> {
     chebyshev(x, range, |t| t.powf(p), |slope| vec![(slope / p).powf(1.0 / (p - 1.0))], s)
 }
 
+/// `x^p` for `x` in `range` (at least 0, reaching it: `ln x` has no
+/// line there) and an exponent that moves within `exponents`, above 0:
+/// the Chebyshev line of `x^m` at the middle exponent `m`, and one fresh
+/// symbol for how far `x^p` may lie from `x^m` — for each `x` the power
+/// is monotone in `p`, so between `x^p₀ − x^m` and `x^p₁ − x^m`, and
+/// `|u^a − u^b|` is greatest over the range at its ends or where its
+/// derivative vanishes, `u = (a/b)^(1/(b − a))`. `x`'s symbols pass
+/// through; the exponent's do not. `None` for an exponent that may reach
+/// 0 or is not finite.
+pub fn pow_over_exponents(x: &Affine, range: I, (p0, p1): I, s: &mut Symbols) -> Option<Affine> {
+    if !(range.0 >= 0.0 && p0 > 0.0 && p1.is_finite() && p0 <= p1) {
+        return None;
+    }
+    let m = 0.5 * (p0 + p1);
+    let line = pow(x, range, m, s)?;
+    let apart = |a: f64, b: f64| {
+        let (a, b) = (a.min(b), a.max(b));
+        let inner = if b > a { (a / b).powf((b - a).recip()) } else { range.0 };
+        [range.0, range.1, inner.clamp(range.0, range.1)]
+            .into_iter()
+            .map(|u| (u.powf(a) - u.powf(b)).abs())
+            .fold(0.0, f64::max)
+    };
+    let error = apart(p0, m).max(apart(m, p1));
+    if !error.is_finite() {
+        return None;
+    }
+    let mut out = line;
+    if error > 0.0 {
+        out.terms.push((s.fresh(), error * (1.0 + 1e-9) + 1e-12));
+    }
+    Some(out)
+}
+
 /// `x` clamped to `[low, high]` (either end may be infinite: `max(x,
 /// low)`, `min(x, high)`) for `x` in `range`: linear between its two
 /// kinks, so its Chebyshev line's error is largest at the range's ends

@@ -187,7 +187,7 @@ fn binary(op: BinaryOp, a: &R, b: &R, width: usize) -> Result<R, Unsupported> {
     })
 }
 
-fn math(fun: MathFunction, o: &[R], width: usize) -> Result<R, Unsupported> {
+pub(super) fn math(fun: MathFunction, o: &[R], width: usize) -> Result<R, Unsupported> {
     use MathFunction::*;
     let a = &o[0];
     let each = |f: &dyn Fn(I) -> I| lanes(|c| f(lane(a, c)));
@@ -255,7 +255,23 @@ fn math(fun: MathFunction, o: &[R], width: usize) -> Result<R, Unsupported> {
             };
             hull_of([f(x.0), f(x.1)])
         }),
-        Smoothstep => return Err(Unsupported::new("a smoothstep whose edges move with a level of detail")),
+        // Moving edges, surely ordered (`e₀ < e₁` on every corner): the
+        // clamped quotient never decreases in `x` and never increases in
+        // either edge, so its extremes lie at two corners. Edges that may
+        // meet or cross leave GLSL's result undefined; [0, 1] holds what
+        // the formula gives for any ordered or reversed pair.
+        Smoothstep => lanes(|c| {
+            let (e0, e1, x) = (lane(a, c), lane(&o[1], c), lane(&o[2], c));
+            let f = |e0: f64, e1: f64, v: f64| {
+                let t = ((v - e0) / (e1 - e0)).clamp(0.0, 1.0);
+                t * t * (3.0 - 2.0 * t)
+            };
+            if e0.1 < e1.0 {
+                hull_of([f(e0.1, e1.1, x.0), f(e0.0, e1.0, x.1)])
+            } else {
+                (0.0, 1.0)
+            }
+        }),
     })
 }
 

@@ -12,6 +12,7 @@ use proptest::prelude::*;
 
 use super::affine::{Affine, Symbols};
 use super::{forms, functions, interval};
+use crate::ir::MathFunction;
 
 /// An argument `x = c + r₀·ε₀ + r₁·ε₁` (two symbols shared with whatever
 /// else names them) and its range.
@@ -108,6 +109,43 @@ proptest! {
         let r = [base.range(), y.range()].map(|i| ([i.0; 4], [i.1; 4]));
         let p = forms::power(&o[0], &o[1], &r, 1, &mut s);
         prop_assert!(p.is_some());
+        within(&p.unwrap_or_default()[0], &e, tb.powf(ty))?;
+    }
+
+    /// `smoothstep` between moving edges — a moving span, and edges a
+    /// constant distance apart — on forms and on intervals, and a power
+    /// of a base reaching 0 to a moving exponent.
+    #[test]
+    fn moving_edges_and_exponents_hold_their_value(
+        c in -1.0..1.0f64, r0 in 0.0..1.0f64, r1 in -1.0..1.0f64,
+        d in -1.0..1.0f64, k0 in -0.5..0.5f64, k2 in 0.0..0.5f64, gap in 0.0..1.0f64, e in eps(),
+    ) {
+        let x = argument(c, r0, r1);
+        let e0 = Affine { center: d, terms: vec![(0, k0), (2, k2)] };
+        let moving = e0.add(&Affine { center: gap + 0.3, terms: vec![(1, 0.25 * gap), (2, -0.1)] });
+        let mut s = symbols();
+        let step = |v: f64, a: f64, b: f64| { let u = ((v - a) / (b - a)).clamp(0.0, 1.0); u * u * (3.0 - 2.0 * u) };
+        for e1 in [moving, e0.scale(1.0, 0.4)] {
+            let (tx, t0, t1) = (at(&x, &e).0, at(&e0, &e).0, at(&e1, &e).0);
+            let o = [&e0, &e1, &x].map(|a| std::array::from_fn(|_| a.clone()));
+            let r = [e0.range(), e1.range(), x.range()].map(|i| ([i.0; 4], [i.1; 4]));
+            let f = forms::transcendental(MathFunction::Smoothstep, &o, &r, 0, &mut s);
+            prop_assert!(f.is_some(), "no smoothstep between {e0:?} and {e1:?}");
+            within(&f.unwrap_or_default(), &e, step(tx, t0, t1))?;
+            let i = interval::math(MathFunction::Smoothstep, &r, 1);
+            prop_assert!(i.is_ok());
+            let (lo, hi) = interval::lane(&i.unwrap_or_default(), 0);
+            let truth = step(tx, t0, t1);
+            prop_assert!(lo - 1e-12 <= truth && truth <= hi + 1e-12, "{truth} outside {lo}..{hi}");
+        }
+        // pow(b, y) for b in [0, h], reaching 0, and y in [1, 3] ± 0.75.
+        let base = x.scale(0.5, -0.5 * x.range().0);
+        let y = Affine { center: 2.0 + d, terms: vec![(0, 0.5 * k0), (2, k2)] };
+        let (tb, ty) = (at(&base, &e).0.max(0.0), at(&y, &e).0);
+        let o = [std::array::from_fn(|_| base.clone()), std::array::from_fn(|_| y.clone())];
+        let r = [(0.0, base.range().1), y.range()].map(|i| ([i.0; 4], [i.1; 4]));
+        let p = forms::power(&o[0], &o[1], &r, 1, &mut s);
+        prop_assert!(p.is_some(), "no power of {base:?} to {y:?}");
         within(&p.unwrap_or_default()[0], &e, tb.powf(ty))?;
     }
 

@@ -169,7 +169,14 @@ impl Gen<'_> {
             Expr::Combine { mode, lhs, rhs } => {
                 let (x, y) = (b.val(*lhs)?, b.val(*rhs)?);
                 let (tx, ty) = (m.info(*lhs).ty, m.info(*rhs).ty);
-                Computed::arith(self.combine(b, *mode, x, tx, y, ty, m.info(n).ty)?)
+                // An rgb texture widened to rgba is still an RGB texture
+                // to GL's `replace` (Table 3.22: the fragment's alpha
+                // kept), as `ir::eval::combine` and the reference read it.
+                let widened = match &m.exprs[*lhs] {
+                    Expr::Convert { value, to: Ty::Rgba } => m.info(*value).ty == Ty::Rgb,
+                    _ => false,
+                };
+                Computed::arith(self.combine(b, *mode, (x, tx, widened), y, ty, m.info(n).ty)?)
             }
             Expr::Math { fun, args } => self.math_call(b, n, *fun, args)?,
             Expr::Swizzle { value, pattern, len, .. } => self.swizzle(b, *value, pattern, *len)?,
@@ -641,8 +648,7 @@ impl Gen<'_> {
         &mut self,
         b: &mut Body,
         mode: CombineMode,
-        x: NH,
-        tx: Ty,
+        (x, tx, widened): (NH, Ty, bool),
         y: NH,
         ty_y: Ty,
         out: Ty,
@@ -698,7 +704,7 @@ impl Gen<'_> {
                         let rgb = self.binop(b, B::Multiply, cf, omct);
                         (rgb, self.binop(b, B::Multiply, af, at))
                     }
-                    CombineMode::Replace => (ct, if tx == Ty::Rgba { at } else { af }),
+                    CombineMode::Replace => (ct, if tx == Ty::Rgba && !widened { at } else { af }),
                     CombineMode::Dot3Rgb | CombineMode::Dot3Rgba => {
                         self.combine_dot3(b, mode, [ct, cf], [at, af], cw)?
                     }
