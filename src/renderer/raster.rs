@@ -138,13 +138,6 @@ impl<'v> Vary<'v> {
 /// same values bit for bit. Returns the lanes it leaves to the one-lane
 /// code: those whose 1/w degenerates (`quad_derivatives`' fallback), or
 /// whose varying has no gradients.
-///
-/// `level0_enough`: the caller's lookup treats every λ < 0 alike (level 0,
-/// as GL's magnification or a trilinear λ below the first level), so where
-/// [`QuadLanes::below_zero`] proves every lane's λ < 0 for a batch of one
-/// triangle, the λs are not computed (−∞ in their place, no lane left):
-/// the lookup's texels are those of the per-pixel λ, without its six
-/// divisions and logarithm a lane.
 // Indexed loops over several lane arrays at once are the form that vectorises.
 #[allow(clippy::needless_range_loop)]
 #[inline(always)]
@@ -154,10 +147,8 @@ pub(crate) fn quad_lod_lanes<const N: usize>(
     k: usize,
     (width, height): (u32, u32),
     lod: &mut [f32; N],
-    level0_enough: bool,
 ) -> [bool; N] {
     let n = fragments.len().min(N);
-    let mut one_triangle = None;
     let mut one_lane = [false; N];
     let (mut ox, mut oy, mut inv_w, mut u, mut v) = ([0.0f32; N], [0.0; N], [1.0; N], [0.0; N], [0.0; N]);
     // Each lane's gradients of 1/w, u and v: x and y.
@@ -193,7 +184,6 @@ pub(crate) fn quad_lod_lanes<const N: usize>(
             for (lanes, at) in splats {
                 lanes[..n].fill(g[at]);
             }
-            one_triangle = Some([g[8 * k], g[8 * k + 1], g[8 * k + 2], g[8 * k + 3], g[2 * m], g[2 * m + 1]]);
         }
     } else {
         for (lane, f) in fragments[..n].iter().enumerate() {
@@ -218,12 +208,6 @@ pub(crate) fn quad_lod_lanes<const N: usize>(
         (qr[l], qb[l]) = (q[l] + gq[0][l], q[l] + gq[1][l]);
     }
     let quad = QuadLanes { ox, oy, inv_w, q, qr, qb };
-    if let Some(g) = one_triangle.filter(|_| level0_enough && n > 0) {
-        if quad.inv_w[..n].iter().all(|&w| w != 0.0) && quad.below_zero(g, (&u, &v), (width, height), n) {
-            lod.fill(f32::NEG_INFINITY);
-            return one_lane;
-        }
-    }
     let ([ux, uy], [vx, vy]) = (quad.derivatives(&gu, &u), quad.derivatives(&gv, &v));
     let (w, h) = (width as f32, height as f32);
     for l in 0..N {
@@ -254,81 +238,6 @@ struct QuadLanes<const N: usize> {
 }
 
 impl<const N: usize> QuadLanes<N> {
-    /// Whether every lane's quad λ (as [`QuadLanes::derivatives`] and
-    /// [`crate::textures::unit::quad_lod`] compute it in `f32`) is below 0,
-    /// for the coordinates (`u`, `v`) of one triangle whose gradients are
-    /// `g` = [du/dx, du/dy, dv/dx, dv/dy (of u/w, v/w), d(1/w)/dx,
-    /// d(1/w)/dy], on a `width`×`height` level 0 — by a bound, not the
-    /// λs: no division, no logarithm. Lanes `0..n` (the batch's fragments).
-    ///
-    /// Each lane's derivative is d = fl(fl(s/r) − fl(a/q)) with s = fl(a
-    /// + g), r = fl(q + gq) (r: the right or the lower neighbour's 1/w).
-    /// For any constant c, s·q − a·r = (g − c·gq)·q − (a − c·q)·gq +
-    /// e₁·q − a·e₂ (|e₁| ≤ ε|s|, |e₂| ≤ ε·r, ε = 2⁻²⁴), so
-    /// |d| ≤ (1 + ε)·(|g − c·gq|/r + |a − c·q|·|gq|/(q·r) + 2ε·(|s|/r + |a|/q)):
-    /// with c the first lane's coordinate, |a − c·q| is 1/w times the
-    /// coordinate's spread over the batch, and the bound keeps the
-    /// cancellation of the two quotients that the triangle inequality alone
-    /// would lose. With the batch's largest |a − c·q| and |a| and its
-    /// smallest q and r (lane maxima and minima: vector code), in `f64`,
-    /// every lane's (w·du)² + (h·dv)² ≤ ½ in both directions (slack 2⁻²⁰
-    /// for the roundings of the bound's own `f32` terms), so the `f32` ρ²
-    /// (a few more roundings of 2⁻²⁴) is below 1 and λ = ½·log₂ ρ² below 0.
-    /// A value that is not finite, or a 1/w below 2⁻³⁰, anywhere fails the bound.
-    // Indexed loops over several lane arrays at once are the form that vectorises.
-    #[allow(clippy::needless_range_loop)]
-    #[inline(always)]
-    fn below_zero(
-        &self,
-        g: [f32; 6],
-        (u, v): (&[f32; N], &[f32; N]),
-        (width, height): (u32, u32),
-        n: usize,
-    ) -> bool {
-        let [gux, guy, gvx, gvy, gqx, gqy] = g;
-        let (cu, cv) = (u[0], v[0]);
-        // Per lane of 8 (vector registers): the maxima of |a − c·q| and |a|
-        // (u, v), the minima of q, r (x), r (y), and 0 unless some value is
-        // not finite (NaN·0, ∞·0: NaN).
-        let (mut most, mut least, mut finite) = ([[0.0f32; 8]; 4], [[f32::INFINITY; 8]; 3], [0.0f32; 8]);
-        for l in 0..N {
-            // `derivatives`' a, the same expression (so the same value).
-            let au = u[l] * self.inv_w[l] + gux * self.ox[l] + guy * self.oy[l];
-            let av = v[l] * self.inv_w[l] + gvx * self.ox[l] + gvy * self.oy[l];
-            let (q, qr, qb) = (self.q[l], self.qr[l], self.qb[l]);
-            let lane = [(au - cu * q).abs(), (av - cv * q).abs(), au.abs(), av.abs()];
-            let live = l < n;
-            for (m, x) in most.iter_mut().zip(lane) {
-                m[l % 8] = if live && x > m[l % 8] { x } else { m[l % 8] };
-            }
-            for (m, x) in least.iter_mut().zip([q, qr, qb]) {
-                m[l % 8] = if live && x < m[l % 8] { x } else { m[l % 8] };
-            }
-            let sum = lane[0] + lane[1] + lane[2] + lane[3] + q + qr + qb;
-            finite[l % 8] += if live { sum * 0.0 } else { 0.0 };
-        }
-        let max = |x: [f32; 8]| f64::from(x.into_iter().fold(0.0f32, f32::max));
-        let min = |x: [f32; 8]| f64::from(x.into_iter().fold(f32::INFINITY, f32::min));
-        let [tu, tv, au, av] = most.map(max);
-        let [q, rx, ry] = least.map(min);
-        let slack = 2f64.powi(-20);
-        // The bound on |d| of a coordinate (spread t, largest |a|, constant c,
-        // gradient gc) in the direction whose neighbour's smallest 1/w is r.
-        let d = |(t, a, c, gc): (f64, f64, f32, f32), gq: f32, r: f64| {
-            let (gq, c, gc) = (f64::from(gq), f64::from(c), f64::from(gc));
-            let spread = (gc - c * gq).abs() / r + (t + slack * a) * gq.abs() / (q * r);
-            (spread + slack * ((a + gc.abs()) / r + a / q)) * (1.0 + slack)
-        };
-        let (w, h) = (f64::from(width), f64::from(height));
-        let rho2 = |du: f64, dv: f64| (w * du).powi(2) + (h * dv).powi(2);
-        let x = rho2(d((tu, au, cu, gux), gqx, rx), d((tv, av, cv, gvx), gqx, rx));
-        let y = rho2(d((tu, au, cu, guy), gqy, ry), d((tv, av, cv, gvy), gqy, ry));
-        // Every comparison is false for a NaN; 1/w at least 2⁻³⁰ keeps the
-        // f64 terms far from underflow.
-        let floor = 2f64.powi(-30);
-        finite == [0.0; 8] && q >= floor && rx >= floor && ry >= floor && x <= 0.5 && y <= 0.5
-    }
-
     /// [`Fragment::quad_derivatives`] of a varying whose gradients are
     /// `g` (x and y) and values `value`, per lane.
     #[inline(always)]
@@ -842,13 +751,12 @@ mod tests {
             let varyings: Vec<f32> = (0..n * per).map(|_| r() * 4.0).collect();
             let (w, h) = if round % 3 == 0 { (256, 64) } else { (16, 16) };
             let mut lod = [0.0f32; 32];
-            let left =
-                quad_lod_lanes(&fragments, Vary::by_fragment(&varyings, per), k, (w, h), &mut lod, false);
+            let left = quad_lod_lanes(&fragments, Vary::by_fragment(&varyings, per), k, (w, h), &mut lod);
             // The same varyings stored by component (the scan loop's rows): the same lanes.
             let rows: Vec<f32> = (0..per * n).map(|i| varyings[(i % n) * per + i / n]).collect();
             let mut by_rows = [0.0f32; 32];
             let left_rows =
-                quad_lod_lanes(&fragments, Vary::by_component(&rows, per, n), k, (w, h), &mut by_rows, false);
+                quad_lod_lanes(&fragments, Vary::by_component(&rows, per, n), k, (w, h), &mut by_rows);
             assert_eq!(left_rows, left, "round {round}");
             let bits = |l: &[f32]| l.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
             assert!(bits(&by_rows[..n]) == bits(&lod[..n]), "round {round}");
@@ -882,81 +790,7 @@ mod tests {
             .collect();
         let varyings = vec![1.0f32; 9 * per];
         let mut lod = [7.0f32; 32];
-        let left = quad_lod_lanes(&fragments, Vary::by_fragment(&varyings, per), 2, (8, 8), &mut lod, false);
+        let left = quad_lod_lanes(&fragments, Vary::by_fragment(&varyings, per), 2, (8, 8), &mut lod);
         assert_eq!(left.iter().filter(|&&l| l).count(), 9);
-    }
-
-    /// With `level0_enough`, [`quad_lod_lanes`] gives every lane the λ it
-    /// gives without, except that a batch whose λs [`QuadLanes::below_zero`]
-    /// proves all below 0 gets −∞ in their place: batches of one triangle
-    /// (1/w and the coordinates interpolated from its planes, 2×2 quads at
-    /// every position) from 8× magnified to 2× minified, the bound taken on
-    /// most of the magnified ones and on none with a λ ≥ 0.
-    #[test]
-    fn quad_lod_below_zero_is_taken_only_where_every_lambda_is_below_zero() {
-        let mut x = 0x2545_f491u32;
-        let mut r = move || {
-            x ^= x << 13;
-            x ^= x >> 17;
-            x ^= x << 5;
-            (x >> 8) as f32 / (1u32 << 23) as f32 - 1.0
-        };
-        let per = 4;
-        let (mut taken, mut all_below, mut below_one, mut close) = (0, 0, 0, 0);
-        for round in 0..2000 {
-            // u/w, v/w and 1/w affine in x, y: 1/w from 0.2 to 1, the
-            // coordinates over [-4, 4] (repeating textures).
-            let scale = 2f32.powf(-5.0 + 4.0 * (round % 100) as f32 / 100.0) / 64.0;
-            let q0 = 0.2 + 0.8 * r().abs();
-            let (qx, qy) = (0.1 * scale * r() * q0, 0.1 * scale * r() * q0);
-            let plane = |c: [f32; 3], x: f32, y: f32| c[0] + c[1] * x + c[2] * y;
-            let qc = [q0, qx, qy];
-            let uc = [4.0 * r() * q0, scale * r() * q0, scale * r() * q0];
-            let vc = [4.0 * r() * q0, scale * r() * q0, scale * r() * q0];
-            let g = [uc[1], uc[2], vc[1], vc[2], 0.0, 0.0, 0.0, 0.0, qx, qy];
-            let n = 32 - round % 5;
-            let (x0, y0) = ((round * 13 % 60) as u32, (round * 7 % 50) as u32);
-            let at: Vec<(u32, u32)> = (0..n as u32).map(|i| (x0 + i % 9, y0 + i / 9)).collect();
-            let fragments: Vec<Fragment> = at
-                .iter()
-                .map(|&(x, y)| Fragment {
-                    x,
-                    y,
-                    depth: 0.5,
-                    front_facing: true,
-                    inv_w: plane(qc, x as f32, y as f32),
-                    gradients: &g,
-                })
-                .collect();
-            let varyings: Vec<f32> = at
-                .iter()
-                .flat_map(|&(x, y)| {
-                    let q = plane(qc, x as f32, y as f32);
-                    [plane(uc, x as f32, y as f32) / q, plane(vc, x as f32, y as f32) / q, 0.0, 0.0]
-                })
-                .collect();
-            let (w, h) = if round % 2 == 0 { (256, 256) } else { (512, 128) };
-            let vary = Vary::by_fragment(&varyings, per);
-            let (mut each, mut bound) = ([0.0f32; 32], [0.0f32; 32]);
-            let left = quad_lod_lanes(&fragments, vary, 0, (w, h), &mut each, false);
-            let left_bound = quad_lod_lanes(&fragments, vary, 0, (w, h), &mut bound, true);
-            assert_eq!(left, left_bound, "round {round}");
-            let largest = each[..n].iter().fold(f32::NEG_INFINITY, |m, &l| m.max(l));
-            let shortcut = bound[..n] != each[..n];
-            if shortcut {
-                taken += 1;
-                assert!(largest < 0.0, "round {round}: the bound taken with a λ of {largest}");
-                assert!(bound.iter().all(|&l| l == f32::NEG_INFINITY), "round {round}");
-            } else {
-                let bits = |l: &[f32]| l.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
-                assert_eq!(bits(&bound), bits(&each), "round {round}");
-            }
-            all_below += (largest < 0.0) as u32;
-            below_one += (largest < -1.0) as u32;
-            close += (largest >= -0.25 && largest < 0.0) as u32;
-        }
-        assert!(all_below > 500 && close > 20, "{all_below} batches below 0, {close} just below");
-        assert!(taken * 10 >= below_one * 9, "the bound taken on {taken} of {below_one} batches below -1");
-        assert!(taken < all_below, "{taken} of {all_below}: the bound is not every λ");
     }
 }

@@ -472,14 +472,6 @@ impl<const N: usize> Footprints2d<N> {
         self.refill_with(Levels::of(t).as_ref(), t, (u, v, lod), filter, latitude)
     }
 
-    /// Whether [`Footprints2d::refill_with`] covers a lookup of a texture
-    /// whose levels are `levels` with `filter` and `latitude`: then its
-    /// footprints take every λ < 0 (and −∞) alike, level 0 alone.
-    #[inline(always)]
-    pub fn covers(levels: Option<&Levels>, filter: Filter, latitude: unit::Latitude) -> bool {
-        levels.is_some() && filter != Filter::Nearest && latitude == unit::Latitude::MODEL
-    }
-
     /// [`Footprints2d::refill`] with `t`'s levels computed before
     /// (`levels`: [`Levels::of`] of `t`, which must be `t`'s).
     // Indexed loops over several lane arrays at once are the form that vectorises.
@@ -494,7 +486,8 @@ impl<const N: usize> Footprints2d<N> {
         latitude: unit::Latitude,
     ) -> bool {
         debug_assert!(levels.copied() == Levels::of(t), "the levels of another texture");
-        let Some(s) = levels.copied().filter(|_| Self::covers(levels, filter, latitude)) else {
+        let covered = filter != Filter::Nearest && latitude == unit::Latitude::MODEL;
+        let Some(s) = levels.copied().filter(|_| covered) else {
             self.filter = Filter::Nearest;
             return false;
         };

@@ -462,14 +462,7 @@ impl FragmentProgram<'_> {
                 let mut lod = [f32::NEG_INFINITY; BATCH];
                 if let Some(k) = lod_from.filter(|_| t.levels.len() > 1) {
                     let size = (t.width(), t.height());
-                    // The footprints below take every λ < 0 as level 0 alike.
-                    let level0_enough = !plain()
-                        && texture_lanes::Footprints2d::<BATCH>::covers(levels, filter, self.latitude);
-                    let left = quad_lod_lanes(fragments, varyings, k, size, &mut lod, level0_enough);
-                    #[cfg(test)]
-                    if level0_enough && lod[0] == f32::NEG_INFINITY && !left[..n].contains(&true) {
-                        tests::LOD_BELOW_ZERO.fetch_add(1, Ordering::Relaxed);
-                    }
+                    let left = quad_lod_lanes(fragments, varyings, k, size, &mut lod);
                     for (lane, fragment) in fragments.iter().enumerate().filter(|&(l, _)| left[l]) {
                         let vary = [0, 1, 2, 3].map(|j| varyings.get(lane, 4 * k + j));
                         let d = |j| fragment.quad_derivatives(4 * k + j, vary[j]);
@@ -932,8 +925,7 @@ fn splat_first(out: &mut [Lanes], width: u8, keep: u8) {
 }
 
 /// Whether the lane code runs plain: every result written in all four
-/// components, every lookup computing its own footprints and its λ lane by
-/// lane (no bound that every λ is below 0) and a cube's
+/// components, every lookup computing its own footprints and a cube's
 /// seam lanes going through the one-lane code — never,
 /// except in this module's test that renders both ways.
 #[inline(always)]

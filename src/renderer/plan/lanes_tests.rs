@@ -25,10 +25,6 @@ pub(super) fn record(ops: &[super::Op]) {
 /// Lookups that fetched through another's footprints.
 pub(super) static SHARED: AtomicU64 = AtomicU64::new(0);
 
-/// Lookups whose λs were all −∞ with the bound allowed: mostly batches the
-/// bound proved magnified (`raster::quad_lod_lanes`).
-pub(super) static LOD_BELOW_ZERO: AtomicU64 = AtomicU64::new(0);
-
 /// Kilgard's program planned on wgsl, with the torus scene built.
 fn kilgard_on_wgsl(
 ) -> (Scene, crate::scene::SceneAssets, crate::parser::ast::Program, crate::pipeline::Planned) {
@@ -158,31 +154,4 @@ fn forwarded_copies_give_the_values_of_the_copies_bit_for_bit() {
     };
     assert!(fast.stats.written > 500, "{:?}", fast.stats);
     assert!(bits(&fast) == bits(&plain), "the frames differ");
-}
-
-/// Kilgard's torus at 640×480, where most of it is magnified: the same
-/// frame bit for bit with the λs of the batches a bound proves below 0
-/// left out (level 0 alone) as plain, with every lane's λ computed; and
-/// the bound was taken.
-#[test]
-fn magnified_batches_without_their_lambdas_render_the_plain_frame_bit_for_bit() {
-    let (scene, assets, program, planned) = kilgard_on_wgsl();
-    let render = || {
-        let renderer = PlanRenderer::new(&planned, &program, &scene, &assets).unwrap();
-        renderer.render(Precision::F32, 640, 480, &mut |_, _| {}).unwrap()
-    };
-    let before = LOD_BELOW_ZERO.load(Ordering::Relaxed);
-    let fast = render();
-    let taken = LOD_BELOW_ZERO.load(Ordering::Relaxed) - before;
-    assert!(taken > 500, "the bound taken on {taken} lookups");
-    PLAIN.store(true, Ordering::Relaxed);
-    let plain = std::panic::catch_unwind(std::panic::AssertUnwindSafe(render));
-    PLAIN.store(false, Ordering::Relaxed);
-    let plain = plain.unwrap();
-    let bits = |f: &crate::renderer::plan::Frame| {
-        f.image.to_rgba_f32().into_iter().flat_map(|p| p.map(f32::to_bits)).collect::<Vec<_>>()
-    };
-    assert!(fast.stats.written > 100_000, "{:?}", fast.stats);
-    assert_eq!(bits(&fast), bits(&plain));
-    assert_eq!((fast.stats, fast.nonfinite), (plain.stats, plain.nonfinite));
 }
