@@ -171,8 +171,7 @@ impl ProfileFit<'_> {
                 // The combiners read an interpolated colour as the primary
                 // or secondary colour, clamped at the vertex as GL clamps it
                 // (NV_vertex_program, Section 2.14.1.5, on geforce3 alike).
-                wide_vertex_colour(module, &u)?;
-                wide_scalar_colour(module, &u, value)?;
+                wide_vertex_colour(module, &u, &combine_operands(module, value))?;
                 let shader = super::hilo::texture_shader_nodes(module, value, p);
                 let ops = combiner_operations_except(module, value, &shader).map_err(|h| Overflow {
                     resource: format!("{} per fragment", operation_name(module, h)),
@@ -194,7 +193,7 @@ impl ProfileFit<'_> {
                 }
             }
             FragmentStage::TextureEnv => {
-                wide_vertex_colour(module, &u)?;
+                wide_vertex_colour(module, &u, &[])?;
                 wide_scalar_colour(module, &u, value)?;
                 stage_result_clamped(module, value)?;
                 let ops = combines(module, value);
@@ -207,18 +206,6 @@ impl ProfileFit<'_> {
             }
         }
     }
-}
-
-/// ⊕ and arithmetic nodes per sample: one texture-environment stage each.
-fn combines(module: &Module, value: Handle<Expr>) -> usize {
-    module
-        .reachable(&[value])
-        .into_iter()
-        .filter(|h| {
-            module.info(*h).freq.is_sample()
-                && matches!(module.exprs[*h], Expr::Combine { .. } | Expr::Binary { .. })
-        })
-        .count()
 }
 
 /// Framebuffers a pass reads (at a position other than a blend's own):
@@ -324,14 +311,26 @@ fn combiner_operations_except(
     Ok(n)
 }
 
+/// ⊕ and arithmetic nodes per sample: one texture-environment stage each.
+fn combines(module: &Module, value: Handle<Expr>) -> usize {
+    module
+        .reachable(&[value])
+        .into_iter()
+        .filter(|h| {
+            module.info(*h).freq.is_sample()
+                && matches!(module.exprs[*h], Expr::Combine { .. } | Expr::Binary { .. })
+        })
+        .count()
+}
+
 /// GL clamps a vertex colour to [0, 1] (OpenGL 1.2.1, Section 2.13.9):
 /// the texture environment and the register combiners read an
 /// interpolated colour that may leave it clamped, not as the program
-/// means. Its refusal, located. A `⊕`'s incoming colour is no exception:
-/// the language's `⊕` keeps its operands unclamped (docs/language.md), so
-/// `(δ 8·max(0, N·L)) ⊕ T` clamped per vertex was 10 dB from its meaning.
-fn wide_vertex_colour(module: &Module, u: &Usage) -> Result<(), Overflow> {
-    let wide = u.interpolants.iter().copied().find(|h| {
+/// means. Its refusal, located. `exempt`: interpolants a `⊕` the program
+/// writes takes as its incoming colour, which the language's `⊕` (GL's
+/// texture environment, docs/language.md) reads clamped anyway.
+fn wide_vertex_colour(module: &Module, u: &Usage, exempt: &[Handle<Expr>]) -> Result<(), Overflow> {
+    let wide = u.interpolants.iter().copied().filter(|h| !exempt.contains(h)).find(|h| {
         let i = module.info(*h);
         i.ty.is_color() && (i.interval.lo < 0.0 || i.interval.hi > 1.0)
     });
@@ -353,9 +352,8 @@ fn wide_vertex_colour(module: &Module, u: &Usage) -> Result<(), Overflow> {
     })
 }
 
-/// A scalar interpolant the texture environment or the register combiners
-/// read as a value (not a lookup's coordinate) is a vertex colour's
-/// channel there (the primary colour's alpha on the combiners), which GL
+/// A scalar interpolant the texture environment reads as a value (not a
+/// lookup's coordinate) is a vertex colour's channel there, which GL
 /// clamps to [0, 1] as it clamps the colour (OpenGL 1.2.1, Section
 /// 2.13.9): `δ(1.2·max(0, N·L))` is read as `min(1, …)`, not as the
 /// program means. Its refusal, located, as [`wide_vertex_colour`]'s.
@@ -474,6 +472,25 @@ fn exempt_partial_sums(module: &Module, root: Handle<Expr>, exempt: &mut Vec<Han
             }
         }
     }
+}
+
+/// The interpolants a `⊕` takes directly as an operand (through a
+/// widening to rgba): GL's incoming fragment colour.
+fn combine_operands(module: &Module, value: Handle<Expr>) -> Vec<Handle<Expr>> {
+    let through = |h: Handle<Expr>| match module.exprs[h] {
+        Expr::Convert { value, .. } => value,
+        _ => h,
+    };
+    module
+        .reachable(&[value])
+        .into_iter()
+        .filter_map(|h| match module.exprs[h] {
+            Expr::Combine { lhs, rhs, .. } => Some([through(lhs), through(rhs)]),
+            _ => None,
+        })
+        .flatten()
+        .filter(|h| matches!(module.exprs[*h], Expr::Interpolate { .. }))
+        .collect()
 }
 
 /// `h`'s range as a refusal prints it, `[0, 1.8]` (`∞` where unbounded).

@@ -178,11 +178,7 @@ pub(super) fn scaled_modulate(
 /// program means its value unclamped, and the combiners compute it so
 /// (registers hold [−1, 1], the sums reordered to stay there).
 pub(super) fn written_arithmetic(m: &Module, o: Handle<Expr>) -> bool {
-    match m.exprs[o] {
-        // Widened to rgba, `(0.1 + δd) ⊕ T`, it is the same sum.
-        Expr::Convert { value, .. } => written_arithmetic(m, value),
-        _ => m.info(o).freq.is_sample() && matches!(m.exprs[o], Expr::Binary { .. } | Expr::Unary { .. }),
-    }
+    m.info(o).freq.is_sample() && matches!(m.exprs[o], Expr::Binary { .. } | Expr::Unary { .. })
 }
 
 /// `h` clamped to [0, 1] where its range leaves it (see [`combine_expr`]).

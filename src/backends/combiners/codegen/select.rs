@@ -61,7 +61,7 @@ impl Gen<'_> {
             Expr::Lookup { .. } | Expr::FramebufferRead { channel: FbChannel::Color | FbChannel::Alpha, .. } if self.units.contains(&h) || matches!(self.expr(h), Expr::Lookup { .. }) => {
                 self.texture_src(h, part, span)
             }
-            Expr::Interpolate { .. } => self.interpolant_src(h, part),
+            Expr::Interpolate { .. } => self.interpolant_src(h, part, sat),
             Expr::Swizzle { value, pattern, len, .. } => self.swizzle_src(h, value, &pattern, len, sat, span),
             Expr::Convert { value, to } => self.convert_src(value, to, part, sat, span),
             Expr::Compose { .. } => match self.part_node(h, part) {
@@ -222,17 +222,16 @@ impl Gen<'_> {
     }
 
     /// `δ v` in the primary or secondary colour (Kilgard 2000, Table 2): unsigned,
-    /// so a value in [0, 1] only (GL clamps it at the vertex, OpenGL 1.2.1, Section 2.13.9).
-    pub(super) fn interpolant_src(&mut self, h: Handle<Expr>, part: Part) -> R<Src> {
+    /// so a value in [0, 1] (or clamped by its consumer) only.
+    pub(super) fn interpolant_src(&mut self, h: Handle<Expr>, part: Part, sat: bool) -> R<Src> {
         let span = self.m.span(h);
         let info = self.m.info(h);
         if info.interval.hi > 1.0
             && info.interval.lo >= 0.0
             && matches!(info.ty, Ty::Rgb | Ty::Rgba | Ty::Scalar)
+            && !sat
         {
-            // GL clamps vertex colours to [0, 1] at the vertex: a consumer
-            // clamping the fragment does not mend it, as a clamp does not
-            // commute with interpolation (vertices at 8 and 0 give ½, not 1).
+            // GL clamps vertex colours to [0, 1]: exact only where the consumer clamps too.
             return Err(self.range(h));
         }
         // A vector range-compressed into [0, 1] (Kilgard's `L·0.5 + 0.5`
