@@ -33,7 +33,7 @@ fn program(name: &str) -> String {
     program_in("min_max", name)
 }
 
-fn compile(source: &str, target: &str) -> Result<Planned, Vec<shadec::diag::Diagnostic>> {
+pub(crate) fn compile(source: &str, target: &str) -> Result<Planned, Vec<shadec::diag::Diagnostic>> {
     let profile = Profile::builtin(target).unwrap();
     shadec::driver::compile(source, &profile, &Default::default()).map(|c| c.planned)
 }

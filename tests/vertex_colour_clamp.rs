@@ -24,14 +24,10 @@ use shadec::profile::Profile;
 use shadec::renderer::plan::{compare, PlanRenderer};
 
 use crate::planner_algebra::scene;
+use crate::planner_min_max::compile;
 
 const LIT: &str = "vector N : normal;\nvector L : light(0);\n";
 const BASE: &str = "texture T : 2d = image(\"base.png\");\ntexture T1 : 2d = image(\"detail.png\");\n";
-
-fn compile(source: &str, target: &str) -> Result<Planned, Vec<shadec::diag::Diagnostic>> {
-    let profile = Profile::builtin(target).unwrap();
-    shadec::driver::compile(source, &profile, &Default::default()).map(|c| c.planned)
-}
 
 /// `source` planned on `target` and rendered in `precision` on the torus,
 /// against the program's meaning (exact): the largest difference in 255ths.
